@@ -1,0 +1,81 @@
+"""Slicer feature comments -> one canonical feature name.
+
+Each slicer names its extrusion roles differently; the planner selects strokes by the
+canonical names below (`--features sparse_infill,solid_infill`)."""
+from __future__ import annotations
+
+SPARSE_INFILL = "sparse_infill"
+SOLID_INFILL = "solid_infill"
+TOP_SOLID_INFILL = "top_solid_infill"
+BRIDGE_INFILL = "bridge_infill"
+PERIMETER = "perimeter"
+EXTERNAL_PERIMETER = "external_perimeter"
+OVERHANG_PERIMETER = "overhang_perimeter"
+GAP_FILL = "gap_fill"
+SKIRT = "skirt"
+SUPPORT = "support"
+SUPPORT_INTERFACE = "support_interface"
+IRONING = "ironing"
+WIPE_TOWER = "wipe_tower"
+CUSTOM = "custom"
+TRAVEL = "travel"          # any XY move without extrusion, whatever the comment says
+OTHER = "other"
+
+ALL = (SPARSE_INFILL, SOLID_INFILL, TOP_SOLID_INFILL, BRIDGE_INFILL, PERIMETER,
+       EXTERNAL_PERIMETER, OVERHANG_PERIMETER, GAP_FILL, SKIRT, SUPPORT, SUPPORT_INTERFACE,
+       IRONING, WIPE_TOWER, CUSTOM, TRAVEL, OTHER)
+DEFAULT_SELECTED = (SPARSE_INFILL, SOLID_INFILL)
+
+# lower-cased slicer names -> canonical.  PrusaSlicer/SuperSlicer ";TYPE:", OrcaSlicer and
+# Bambu Studio ";TYPE:" and "; FEATURE:", Cura ";TYPE:", Simplify3D "; feature ".
+_NAMES = {
+    # PrusaSlicer / SuperSlicer
+    "internal infill": SPARSE_INFILL, "solid infill": SOLID_INFILL,
+    "top solid infill": TOP_SOLID_INFILL, "bridge infill": BRIDGE_INFILL,
+    "internal bridge infill": BRIDGE_INFILL, "perimeter": PERIMETER,
+    "external perimeter": EXTERNAL_PERIMETER, "overhang perimeter": OVERHANG_PERIMETER,
+    "gap fill": GAP_FILL, "skirt": SKIRT, "skirt/brim": SKIRT, "brim": SKIRT,
+    "support material": SUPPORT, "support material interface": SUPPORT_INTERFACE,
+    "ironing": IRONING, "wipe tower": WIPE_TOWER, "custom": CUSTOM,
+    # OrcaSlicer / Bambu Studio
+    "sparse infill": SPARSE_INFILL, "internal solid infill": SOLID_INFILL,
+    "bottom surface": SOLID_INFILL, "top surface": TOP_SOLID_INFILL, "bridge": BRIDGE_INFILL,
+    "outer wall": EXTERNAL_PERIMETER, "inner wall": PERIMETER, "overhang wall": OVERHANG_PERIMETER,
+    "gap infill": GAP_FILL, "support": SUPPORT, "support interface": SUPPORT_INTERFACE,
+    "support transition": SUPPORT, "prime tower": WIPE_TOWER,
+    # Cura
+    "fill": SPARSE_INFILL, "skin": SOLID_INFILL, "wall-outer": EXTERNAL_PERIMETER,
+    "wall-inner": PERIMETER, "support-interface": SUPPORT_INTERFACE, "prime-tower": WIPE_TOWER,
+    # Simplify3D
+    "infill": SPARSE_INFILL, "solid layer": SOLID_INFILL, "outer perimeter": EXTERNAL_PERIMETER,
+    "inner perimeter": PERIMETER, "gap fill ": GAP_FILL,
+}
+
+_PREFIXES = (";type:", "; feature:", ";feature:", "; feature ")
+_LAYER_MARKERS = (";layer_change", ";layer:", "; change_layer", ";layer_change")
+
+
+def feature_from_comment(comment: str) -> str | None:
+    """Canonical feature named by a comment line, or None if the comment names none."""
+    c = comment.strip().lower()
+    for p in _PREFIXES:
+        if c.startswith(p):
+            name = c[len(p):].strip()
+            return _NAMES.get(name, OTHER)
+    return None
+
+
+def is_layer_change(comment: str) -> bool:
+    c = comment.strip().lower()
+    return c.startswith(_LAYER_MARKERS)
+
+
+def parse_feature_list(text: str) -> tuple[str, ...]:
+    """'sparse_infill,solid_infill' -> tuple; 'all' -> every feature. Raises ValueError."""
+    if text.strip().lower() == "all":
+        return ALL
+    out = tuple(t.strip().lower().replace("-", "_").replace(" ", "_") for t in text.split(",") if t.strip())
+    bad = [t for t in out if t not in ALL]
+    if bad:
+        raise ValueError(f"unknown feature(s) {', '.join(bad)}; choose from {', '.join(ALL)}")
+    return out

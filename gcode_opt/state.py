@@ -38,15 +38,16 @@ class Limits:
 class Move:
     """One motion line as the firmware sees it."""
     __slots__ = ("idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e", "v", "accel",
-                 "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum")
+                 "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch")
 
     def __init__(self, idx, kind, x0, y0, z0, x1, y1, z1, e, v, accel, feature, layer, lim,
-                 arc=None, has_f=False, e_rel=True, xyz_rel=False, checksum=False):
+                 arc=None, has_f=False, e_rel=True, xyz_rel=False, checksum=False, inch=False):
         self.idx, self.kind = idx, kind
         self.x0, self.y0, self.z0, self.x1, self.y1, self.z1 = x0, y0, z0, x1, y1, z1
         self.e, self.v, self.accel = e, v, accel
         self.feature, self.layer, self.lim, self.arc = feature, layer, lim, arc
         self.has_f, self.e_rel, self.xyz_rel, self.checksum = has_f, e_rel, xyz_rel, checksum
+        self.inch = inch                  # written in inches (G20): we leave such lines alone
 
     @property
     def length_d(self) -> float:
@@ -235,7 +236,7 @@ class MachineState:
             accel = self.accel_for(de > 0.0, True)
         ftr = self.feature if (de > 0.0 or kind == EONLY) else feat.TRAVEL
         return Move(idx, kind, x0, y0, z0, x, y, z, de, self.v, accel, ftr, self.layer,
-                    self.lim, None, has_f, self.e_relative, not self.abs_xyz, checksum)
+                    self.lim, None, has_f, self.e_relative, not self.abs_xyz, checksum, self.inch)
 
     def _arc(self, idx, raw, code, cw, checksum):
         p = params_of(code)
@@ -255,7 +256,8 @@ class MachineState:
         self.e += de
         ftr = self.feature if de > 0.0 else feat.TRAVEL
         return Move(idx, ARC, x0, y0, z0, x, y, z, de, self.v, self.accel_for(de > 0.0, True),
-                    ftr, self.layer, self.lim, arc, has_f, self.e_relative, not self.abs_xyz, checksum)
+                    ftr, self.layer, self.lim, arc, has_f, self.e_relative, not self.abs_xyz, checksum,
+                    self.inch)
 
     def _other(self, idx, raw, cmd, code):
         prof = self.profile
@@ -322,6 +324,8 @@ class MachineState:
                 return None
             self.retracted = retract
             d = prof.fw_retract_length_d
+            if d <= 0.0:
+                return None
             return Move(idx, EONLY, self.x, self.y, self.z, self.x, self.y, self.z,
                         -d if retract else d, prof.fw_retract_speed_v, self.accel_retract,
                         self.feature, self.layer, self.lim, None, False, True, False, False)

@@ -1,0 +1,151 @@
+"""Emit: write one re-timed stroke as G-code text.
+
+The block replaces the stroke's original lines and is fenced by two marker comments so
+that a reader (or `verify.py`) can tell our lines from the slicer's:
+
+    ; gcode-opt begin: <n> segments, T=<s>, beta=<s^2>
+    SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0     (Klipper: its smoothing would cap the law)
+    M204 S<a_1>                                   (flavour's print-acceleration command)
+    G1 X.. Y.. E.. F..                            (segment 1)
+    ...
+    M204 S<accel before>  /  SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=<before>  /  G1 F<feed before>
+    ; gcode-opt end
+
+Original vertices keep their original coordinate and E text; new points are
+interpolated inside the original move they split, in integer units of the file's own
+precision, so cumulative E at every original vertex is exactly the original's.
+"""
+from __future__ import annotations
+
+import math
+
+from .words import decimals, param_texts, split_comment, strip_checksum
+
+BEGIN = "; gcode-opt begin"
+END = "; gcode-opt end"
+
+
+def accel_command(flavour: str, accel_a: float, extruding: bool, round_up: bool = True) -> str:
+    """The flavour's command for the acceleration of printing (or travel) moves.  Segment
+    accelerations are rounded up so a ramp reaches its knot rather than falling short."""
+    a = _num(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 1) if round_up else _num(accel_a, 3)
+    if flavour in ("klipper", "marlin-legacy"):
+        return f"M204 S{a}"
+    return f"M204 {'P' if extruding else 'T'}{a}"
+
+
+def _num(x: float, dec: int) -> str:
+    s = f"{x:.{dec}f}"
+    if "." in s:
+        s = s.rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def _units(text: str, dec: int) -> int:
+    """Exact integer value of a decimal text in units of 10^-dec."""
+    neg = text.startswith("-")
+    t = text.lstrip("+-")
+    whole, _, frac = t.partition(".")
+    frac = (frac + "0" * dec)[:dec]
+    v = int(whole or "0") * 10 ** dec + int(frac or "0")
+    return -v if neg else v
+
+
+def _fmt_units(u: int, dec: int) -> str:
+    return _num(u / 10 ** dec, dec)
+
+
+class StrokeText:
+    """What emission needs from the original lines of one stroke."""
+
+    def __init__(self, raws, x_start_text, y_start_text, e_start_units):
+        self.raws = raws
+        self.codes, self.comments = [], []
+        xs, ys, es = [], [], []
+        xt, yt = x_start_text, y_start_text
+        for raw in raws:
+            body = raw.rstrip("\r\n")
+            code, comment = split_comment(body)
+            code, _ = strip_checksum(code)
+            p = param_texts(code)
+            xt = p.get("X", xt)
+            yt = p.get("Y", yt)
+            xs.append(xt)
+            ys.append(yt)
+            es.append(p.get("E", "0"))
+            self.comments.append(comment)
+        self.x_texts, self.y_texts, self.e_texts = xs, ys, es
+        self.dec_xy = max([decimals(t) for t in xs + ys] + [3])
+        self.dec_e = max([decimals(t) for t in es] + [5])
+        self.e_start_units = e_start_units
+        self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
+
+
+def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text, e_rel, flavour,
+                accel_restore, mcr_restore, feed_restore_v, extruding=True, header=""):
+    """Text of the block replacing the stroke.  s, v: knots (mm, mm/s) including every
+    original vertex (ends_d); accels (mm/s^2) and feeds (mm/s): one per segment."""
+    nl = st.newline
+    dxy, de = st.dec_xy, st.dec_e
+    out = [f"{BEGIN}{header}{nl}"]
+    if flavour == "klipper":
+        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}")
+    # integer units of every original vertex
+    xu = [_units(x0_text, dxy)] + [_units(t, dxy) for t in st.x_texts]
+    yu = [_units(y0_text, dxy)] + [_units(t, dxy) for t in st.y_texts]
+    if e_rel:
+        e_move_u = [_units(t, de) for t in st.e_texts]
+    else:
+        ev = [st.e_start_units] + [_units(t, de) for t in st.e_texts]
+        e_move_u = [ev[i + 1] - ev[i] for i in range(len(st.e_texts))]
+    starts_d = [0.0] + list(ends_d[:-1])
+    move = 0
+    e_done_u = 0                         # units extruded so far inside the current move
+    e_abs_u = st.e_start_units
+    last_accel = None
+    k_total = len(s) - 1
+    for k in range(1, k_total + 1):
+        # which original move does this segment end in?  (vertices are knots)
+        if s[k] > ends_d[move] + 1e-9 * max(1.0, ends_d[-1]):
+            raise AssertionError("a knot skipped an original vertex")   # would lose its E
+        d_move = ends_d[move] - starts_d[move]
+        frac = 1.0 if d_move <= 0 else min(1.0, max(0.0, (s[k] - starts_d[move]) / d_move))
+        at_vertex = abs(s[k] - ends_d[move]) <= 1e-9 * max(1.0, ends_d[-1])
+        if at_vertex:
+            xt, yt = st.x_texts[move], st.y_texts[move]
+            e_target_u = e_move_u[move]
+            comment = st.comments[move]
+        else:
+            xt = _fmt_units(round(xu[move] + (xu[move + 1] - xu[move]) * frac), dxy)
+            yt = _fmt_units(round(yu[move] + (yu[move + 1] - yu[move]) * frac), dxy)
+            e_target_u = round(e_move_u[move] * frac)
+            comment = ""
+        de_u = e_target_u - e_done_u
+        e_done_u = e_target_u
+        e_abs_u += de_u
+        a = accels[k - 1]
+        cmd = accel_command(flavour, a, extruding)
+        if cmd != last_accel:
+            out.append(cmd + nl)
+            last_accel = cmd
+        f = _num(math.ceil(feeds[k - 1] * 600.0 - 1e-6) / 10.0, 1)   # never below the knot speed
+        if e_rel:
+            e_txt = _fmt_units(de_u, de)
+        elif at_vertex:
+            e_txt = st.e_texts[move]
+        else:
+            e_txt = _fmt_units(e_abs_u, de)
+        words = f"G1 X{xt} Y{yt}"
+        if extruding:
+            words += f" E{e_txt}"
+        out.append(f"{words} F{f}{(' ' + comment) if comment else ''}{nl}")
+        if at_vertex:
+            e_done_u = 0
+            if move < len(ends_d) - 1:
+                move += 1
+    out.append(accel_command(flavour, accel_restore, extruding, round_up=False) + nl)
+    if flavour == "klipper":
+        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
+    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
+    out.append(f"{END}{nl}")
+    return "".join(out)

@@ -1,0 +1,205 @@
+"""Junction-speed laws of the firmwares we model.
+
+All functions work on plain floats (unit direction vectors, mm, mm/s, mm/s^2) so the
+planner's inner loop can call them without building objects.  Squared speeds end in
+``_v2``.  ``INF`` means "this law sets no limit" (the caller takes the min with the
+nominal speeds and the reachability limit).
+
+Sources (read to learn the semantics, re-written here):
+  * Klipper klippy/toolhead.py ``Move.calc_junction`` (square_corner_velocity turned into
+    a junction deviation, plus the "circle must touch the moves no further than mid-move"
+    centripetal limits) and klippy/kinematics/extruder.py ``calc_junction``
+    (instantaneous_corner_velocity on the change of the extrusion ratio).
+  * Marlin 2 src/module/planner.cpp junction deviation, with JD_HANDLE_SMALL_SEGMENTS and
+    its fast acos approximation (the default build), and ``limit_value_by_axis_maximum``.
+  * Marlin 1.1 / Prusa-Firmware classic jerk (``safe_speed`` and the per-axis jerk on the
+    exit/entry speed difference, with Marlin's "axis reversal" rule and the
+    "not coasting -> use safe speed" rule).
+"""
+from __future__ import annotations
+
+import math
+
+INF = float("inf")
+SQRT2_M1 = math.sqrt(2.0) - 1.0
+MINIMUM_PLANNER_SPEED = 0.05      # mm/s, Marlin Configuration_adv.h default
+KLIPPER_INSTANT_CORNER_V = 1.0    # mm/s, Klipper [extruder] instantaneous_corner_velocity default
+
+
+# ---------------------------------------------------------------- Klipper -------------
+def klipper_junction_deviation(scv: float, accel: float) -> float:
+    """Klipper toolhead._calc_junction_deviation: scv^2 (sqrt2 - 1) / max_accel."""
+    return scv * scv * SQRT2_M1 / accel
+
+
+def klipper_corner_v2(pux, puy, puz, p_jd, p_accel, p_delta_v2,
+                      ux, uy, uz, jd, accel, delta_v2) -> float:
+    """Squared speed allowed by Klipper's approximated centripetal velocity at the junction
+    of a previous move (unit vector pu, its junction_deviation/accel/delta_v2) and this
+    move.  INF for a straight continuation; 0 for an exact reversal."""
+    cos_theta = -(ux * pux + uy * puy + uz * puz)
+    s2 = 0.5 * (1.0 - cos_theta)
+    c2 = 0.5 * (1.0 + cos_theta)
+    sin_d2 = math.sqrt(s2) if s2 > 0.0 else 0.0
+    cos_d2 = math.sqrt(c2) if c2 > 0.0 else 0.0
+    one_m = 1.0 - sin_d2
+    if one_m > 0.0 and cos_d2 > 0.0:
+        r_jd = sin_d2 / one_m
+        v2 = r_jd * jd * accel
+        pv2 = r_jd * p_jd * p_accel
+        if pv2 < v2:
+            v2 = pv2
+        qt = 0.25 * sin_d2 / cos_d2
+        c = delta_v2 * qt
+        if c < v2:
+            v2 = c
+        c = p_delta_v2 * qt
+        if c < v2:
+            v2 = c
+        return v2
+    return INF
+
+
+def klipper_extruder_v2(p_er: float, er: float, icv: float = KLIPPER_INSTANT_CORNER_V) -> float:
+    """Klipper extruder.calc_junction: the extrusion ratio (E mm per path mm) may change
+    abruptly only by instantaneous_corner_velocity / v."""
+    diff = er - p_er
+    if diff:
+        return (icv / abs(diff)) ** 2
+    return INF
+
+
+# ---------------------------------------------------------------- limits -------------
+def axis_limited(value: float, ux: float, uy: float, uz: float,
+                 cx: float, cy: float, cz: float) -> float:
+    """Largest value <= value such that value*|u_i| <= c_i on each axis (Marlin's
+    limit_value_by_axis_maximum, Klipper limited_cartesian check_move)."""
+    a = abs(ux)
+    if a > 0.0 and value * a > cx:
+        value = cx / a
+    a = abs(uy)
+    if a > 0.0 and value * a > cy:
+        value = cy / a
+    a = abs(uz)
+    if a > 0.0 and value * a > cz:
+        value = cz / a
+    return value
+
+
+# ---------------------------------------------------------------- Marlin JD ----------
+def _marlin_fast_acos_neg(cos_theta: float) -> float:
+    """Marlin's MinMax polynomial for acos(-cos_theta) (error +-0.033 rad; bottoms out
+    at ~0.0328 rad for a straight continuation, which avoids a division by zero)."""
+    neg = -1.0 if cos_theta < 0.0 else 1.0
+    t = neg * cos_theta
+    asinx = (0.032843707 + t * (-1.451838349 + t * (29.66153956 + t * (-131.1123477
+             + t * (262.8130562 + t * (-242.7199627 + t * 84.31466202))))))
+    return math.pi / 2.0 + neg * asinx
+
+
+def marlin_jd_v2(pux, puy, puz, ux, uy, uz, d, accel, jd, cx, cy, cz) -> float:
+    """Marlin 2 junction deviation: max squared entry speed of this block (length d,
+    acceleration accel) after a block of unit vector pu.  cx/cy/cz: per-axis accel caps
+    (M201).  Includes JD_HANDLE_SMALL_SEGMENTS (blocks < 1 mm turning < 45 deg, i.e. the
+    'octagon' case, are limited to d*a/theta).  INF = no limit from this law."""
+    cos_theta = -(pux * ux + puy * uy + puz * uz)
+    if cos_theta > 0.999999:                  # 0 deg acute junction: reversal
+        return MINIMUM_PLANNER_SPEED * MINIMUM_PLANNER_SPEED
+    jx, jy, jz = ux - pux, uy - puy, uz - puz
+    jn = math.sqrt(jx * jx + jy * jy + jz * jz)
+    if jn > 0.0:
+        ja = axis_limited(accel, jx / jn, jy / jn, jz / jn, cx, cy, cz)
+    else:                                     # straight: Marlin's NaN vector leaves accel as is
+        ja = accel
+    s = 0.5 * (1.0 - cos_theta)
+    sin_d2 = math.sqrt(s) if s > 0.0 else 0.0
+    one_m = 1.0 - sin_d2
+    v2 = ja * jd * sin_d2 / one_m if one_m > 0.0 else INF
+    if d < 1.0 and cos_theta < -0.7071067812:
+        theta = _marlin_fast_acos_neg(cos_theta)
+        lim = d * ja / theta
+        if lim < v2:
+            v2 = lim
+    return v2
+
+
+# ---------------------------------------------------------------- classic jerk -------
+def marlin_safe_speed(ux, uy, uz, nominal, jx, jy, jz) -> float:
+    """Speed from which the block may start (or stop) instantly: Marlin 1.1 safe_speed
+    on the XYZ axes (an axis whose speed exceeds its jerk limits the block)."""
+    safe = nominal
+    limited = False
+    for comp, maxj in ((abs(ux) * nominal, jx), (abs(uy) * nominal, jy), (abs(uz) * nominal, jz)):
+        if comp > maxj:
+            if limited:
+                mjerk = maxj * nominal
+                if comp * safe > mjerk:
+                    safe = mjerk / comp
+            else:
+                limited = True
+                safe = maxj
+    return safe
+
+
+def marlin_jerk_junction_v(pux, puy, puz, p_nominal, p_safe, ux, uy, uz, nominal, safe,
+                           jx, jy, jz) -> float:
+    """Marlin 1.1 classic-jerk junction speed (mm/s, not squared) between a previous block
+    (unit vector pu, nominal speed, safe speed) and this block."""
+    vmax = nominal if nominal < p_nominal else p_nominal
+    smaller = vmax / p_nominal
+    v_factor = 1.0
+    limited = False
+    for pv, cv, maxj in ((pux * p_nominal, ux * nominal, jx), (puy * p_nominal, uy * nominal, jy),
+                         (puz * p_nominal, uz * nominal, jz)):
+        v_exit = pv * smaller
+        v_entry = cv
+        if limited:
+            v_exit *= v_factor
+            v_entry *= v_factor
+        if v_exit > v_entry:
+            jerk = (v_exit - v_entry) if (v_entry > 0.0 or v_exit < 0.0) else max(v_exit, -v_entry)
+        else:
+            jerk = (v_entry - v_exit) if (v_entry < 0.0 or v_exit > 0.0) else max(-v_exit, v_entry)
+        if jerk > maxj:
+            v_factor *= maxj / jerk
+            limited = True
+    if limited:
+        vmax *= v_factor
+    thr = vmax * 0.99
+    if p_safe > thr and safe > thr:           # not coasting: Marlin restarts from safe speed
+        vmax = safe
+    return vmax
+
+
+# ---------------------------------------------------------------- what a junction needs ---
+def accel_to_pass_junction(junction: str, v: float, pu, u, d: float, jd: float = 0.0) -> float:
+    """Smallest acceleration a move of length d along u must carry so that the
+    firmware's junction law still allows speed v where it meets a move along pu.
+
+    Klipper's centripetal term (2 d a tan(theta/2)/4) and Marlin's junction deviation
+    (a * jd * R, and d*a/theta for blocks < 1 mm) both scale with the move's own
+    acceleration: a re-timed segment that ramps gently would otherwise drag the corner
+    speed of its neighbour down.  Classic jerk does not depend on it (returns 0).  pu
+    or u None (a stop on that side), v = 0 or a straight continuation need nothing."""
+    if v <= 0.0 or pu is None or u is None or junction == "jerk":
+        return 0.0
+    pux, puy = pu
+    ux, uy = u
+    cos_theta = -(ux * pux + uy * puy)
+    if cos_theta <= -0.999999:                 # straight on: only Marlin's < 1 mm rule
+        if junction == "jd" and d < 1.0:
+            return v * v * _marlin_fast_acos_neg(-0.999999) / d
+        return 0.0
+    sin_d2 = math.sqrt(max(0.5 * (1.0 - cos_theta), 0.0))
+    cos_d2 = math.sqrt(max(0.5 * (1.0 + cos_theta), 0.0))
+    v2 = v * v
+    if junction == "scv":
+        if cos_d2 <= 0.0:                      # reversal: the junction is a stop anyway
+            return 0.0
+        return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2)
+    # Marlin junction deviation (the per-axis cap on the junction acceleration is left
+    # out: it only matters near the machine's M201 limits, which the caller caps at)
+    per_a = jd * sin_d2 / (1.0 - sin_d2) if sin_d2 < 1.0 else INF
+    if d < 1.0 and cos_theta < -0.7071067812:
+        per_a = min(per_a, d / _marlin_fast_acos_neg(cos_theta))
+    return v2 / per_a if per_a > 0 else INF

@@ -1,0 +1,550 @@
+"""Optimal law of motion on a circular arc (MATH.md, circle case).
+
+Minimises J = (m/2)∫|v|²dt + (αm²/2)∫|a|²dt along an arc of radius R swept through Φ in time T.
+With the angle φ(t), β = αm and τ = t/T the Euler–Lagrange equation φ'''' = (1/β + 6φ̇²)φ̈ becomes
+
+    φ'''' = (γ² + 6φ'²) φ''          (' = d/dτ, γ = T/√β)
+
+so the law depends only on (Φ, γ, u0 = ω0·T, u1 = ω1·T); R cancels.  Since 6φ'²φ'' = (2φ'³)',
+the angular velocity w = φ' obeys the autonomous second-order problem
+
+    w'' = γ² w + 2 w³ + C,   w(0) = u0,  w(1) = u1,  ∫₀¹ w dτ = Φ        (C unknown)
+
+which is what we solve.  Two regimes, both vectorised over a batch of arcs:
+
+* "layers": when the boundary layers (rate λ = √(γ² + 6 w_c²), w_c the cruise value) cannot
+  see each other (tail e^{-λ} below 1e-14), each end is the exact half-line solution of
+  w'' = F'(w), which is elementary (a sinh in 1/(w - w_c)); only the scalar w_c is solved for.
+* "cheb": otherwise Chebyshev collocation of w with Newton, N chosen from λ and checked
+  a posteriori on the decay of the Chebyshev coefficients (N doubled if needed).
+
+The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the solution is unique.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# ---------------------------------------------------------------------------------------------
+# Chebyshev machinery on τ ∈ [0, 1] (nodes τ_j = (1 - cos(πj/N))/2, so τ_0 = 0, τ_N = 1)
+# ---------------------------------------------------------------------------------------------
+
+_CHEB_CACHE: dict[int, dict] = {}
+_TAIL_TOL = 1e-11          # accepted |last Chebyshev coefficients| / scale of w
+_LAYER_TAIL_TOL = 1e-14    # accepted neglected layer interaction / scale of w
+_N_LADDER = (24, 32, 48, 64, 96, 128, 192, 256, 384, 512)
+
+
+def _cheb_setup(n: int) -> dict:
+    """Differentiation matrices, Clenshaw–Curtis weights, value->coefficient map (cached)."""
+    if n in _CHEB_CACHE:
+        return _CHEB_CACHE[n]
+    j = np.arange(n + 1)
+    x = -np.cos(np.pi * j / n)                  # ascending on [-1, 1]
+    tau = (1.0 + x) / 2.0
+    c = np.ones(n + 1)
+    c[0] = c[-1] = 2.0
+    c *= (-1.0) ** j
+    dx = x[:, None] - x[None, :]
+    d = np.outer(c, 1.0 / c) / (dx + np.eye(n + 1))
+    d -= np.diag(d.sum(axis=1))                 # negative-sum trick for accuracy
+    d_tau = 2.0 * d                             # dτ = dx/2
+    d2_tau = d_tau @ d_tau
+    # Clenshaw–Curtis weights on [-1, 1] (Trefethen, Spectral Methods in MATLAB, clencurt)
+    theta = np.pi * j / n
+    w = np.zeros(n + 1)
+    v = np.ones(n - 1)
+    if n % 2 == 0:
+        w[0] = w[n] = 1.0 / (n * n - 1)
+        for k in range(1, n // 2):
+            v -= 2.0 * np.cos(2 * k * theta[1:-1]) / (4 * k * k - 1)
+        v -= np.cos(n * theta[1:-1]) / (n * n - 1)
+    else:
+        w[0] = w[n] = 1.0 / (n * n)
+        for k in range(1, (n - 1) // 2 + 1):
+            v -= 2.0 * np.cos(2 * k * theta[1:-1]) / (4 * k * k - 1)
+    w[1:-1] = 2.0 * v / n
+    vand = np.polynomial.chebyshev.chebvander(x, n)
+    out = dict(x=x, tau=tau, d=d_tau, d2=d2_tau, q=w / 2.0, to_coef=np.linalg.inv(vand))
+    _CHEB_CACHE[n] = out
+    return out
+
+
+def _clenshaw(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Σ_k coef[b, k] T_k(x[b, :]) for every arc b (coef (B, K), x (B, M))."""
+    b1 = np.zeros_like(x)
+    b2 = np.zeros_like(x)
+    for k in range(coef.shape[1] - 1, 0, -1):
+        b1, b2 = 2.0 * x * b1 - b2 + coef[:, k:k + 1], b1
+    return x * b1 - b2 + coef[:, 0:1]
+
+
+def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
+    """Collocation Newton for w'' = γ²w + 2w³ + C on N+1 nodes; returns (w nodes, C, ok)."""
+    cs = _cheb_setup(n)
+    d2, q = cs["d2"], cs["q"]
+    nb = phi.size
+    w = w_start.copy()
+    w[:, 0], w[:, -1] = u0, u1
+    cc = np.zeros(nb)
+    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
+
+    def residual(w, cc, ia):
+        r = w @ d2[1:-1].T - gam2[ia, None] * w[:, 1:-1] - 2.0 * w[:, 1:-1] ** 3 - cc[:, None]
+        return np.concatenate([r, (w @ q - phi[ia])[:, None]], axis=1)
+
+    jac = np.zeros((nb, n, n))
+    ok = np.zeros(nb, dtype=bool)
+    res = residual(w, cc, np.arange(nb))
+    res_norm = np.abs(res).max(axis=1)
+    for _ in range(max_iter):
+        act = ~ok
+        if not act.any():
+            break
+        ia = np.nonzero(act)[0]
+        wa = w[ia]
+        ja = jac[: ia.size]
+        ja[:, : n - 1, : n - 1] = d2[1:-1, 1:-1]
+        idx = np.arange(n - 1)
+        ja[:, idx, idx] -= gam2[ia, None] + 6.0 * wa[:, 1:-1] ** 2
+        ja[:, : n - 1, n - 1] = -1.0
+        ja[:, n - 1, : n - 1] = q[1:-1]
+        ja[:, n - 1, n - 1] = 0.0
+        step = np.linalg.solve(ja, -res[ia][..., None])[..., 0]
+        # damped Newton: halve the step until the residual does not grow (convex problem,
+        # so full steps are taken near the solution)
+        lam = np.ones(ia.size)
+        for _ in range(30):
+            wt = wa.copy()
+            wt[:, 1:-1] += lam[:, None] * step[:, : n - 1]
+            ct = cc[ia] + lam * step[:, n - 1]
+            rt = residual(wt, ct, ia)
+            rn = np.abs(rt).max(axis=1)
+            bad = (rn > res_norm[ia] * (1.0 - 1e-4 * lam)) & (lam > 1e-6) & \
+                  (np.abs(step[:, : n - 1]).max(axis=1) * lam > 1e-13 * scale[ia])
+            if not bad.any():
+                break
+            lam = np.where(bad, lam / 2.0, lam)
+        w[ia], cc[ia], res[ia], res_norm[ia] = wt, ct, rt, rn
+        small = np.abs(lam[:, None] * step[:, : n - 1]).max(axis=1) <= 1e-13 * scale[ia]
+        ok[ia[small & (lam == 1.0)]] = True
+    return w, cc, ok
+
+
+def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
+    """Chebyshev regime; per-arc N from the layer rate, escalated until the tail is small."""
+    nb = phi.size
+    coef = [None] * nb
+    cvals = np.zeros(nb)
+    # N ≈ √(28 λ) resolves e^{-λτ} to ~1e-12 (Bessel-coefficient decay); start there
+    need = 12.0 + 1.6 * np.sqrt(28.0 * np.maximum(lam_est, 1.0))
+    start = np.searchsorted(_N_LADDER, need).clip(0, len(_N_LADDER) - 1)
+    pending = np.arange(nb)
+    level = start.copy()
+    w_guess: dict[int, np.ndarray] = {}
+    while pending.size:
+        next_pending = []
+        for lv in np.unique(level[pending]):
+            ia = pending[level[pending] == lv]
+            n = _N_LADDER[lv]
+            cs = _cheb_setup(n)
+            w0 = np.empty((ia.size, n + 1))
+            for k, i in enumerate(ia):       # warm start: previous level, else constant cruise
+                if i in w_guess:
+                    w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
+                else:
+                    w0[k] = phi[i]
+            w, cc, ok = _newton_cheb(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
+            c = w @ cs["to_coef"].T
+            scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
+            tail = np.abs(c[:, -3:]).max(axis=1) / scale
+            good = ok & (tail <= _TAIL_TOL)
+            for k, i in enumerate(ia):
+                if good[k] or lv == len(_N_LADDER) - 1:
+                    if not good[k]:
+                        raise RuntimeError(
+                            f"circle law did not converge (Φ={phi[i]}, γ²={gam2[i]}, u0={u0[i]},"
+                            f" u1={u1[i]}, tail={tail[k]:.1e}, newton_ok={ok[k]})")
+                    coef[i] = c[k]
+                    cvals[i] = cc[k]
+                else:
+                    w_guess[i] = c[k] if ok[k] else None
+                    if w_guess[i] is None:
+                        del w_guess[i]
+                    level[i] = lv + 1
+                    next_pending.append(i)
+        pending = np.array(next_pending, dtype=int)
+    return coef, cvals
+
+
+# ---------------------------------------------------------------------------------------------
+# Boundary-layer regime: exact half-line solutions
+# ---------------------------------------------------------------------------------------------
+# With d = w - w_c and F(w) = γ²w²/2 + w⁴/2 + C w, F'(w_c) = 0:  w' = -d √Q(d),
+# Q(d) = d² + 4 w_c d + c,  c = γ² + 6 w_c² (= λ²).  1/d satisfies a linear ODE, giving
+#     d(σ) = d0 e^{-λσ} / [ -ρ e^{-λσ} + A + B e^{-2λσ} ],  ρ = 2 w_c d0 / c,
+#     A = (1 + ρ + q)/2,  B = (1 + ρ - q)/2,  q = √Q(d0)/λ           (σ = distance from the end)
+# and ∫₀^σ d = asinh((d0 + 2w_c)/k) - asinh((d(σ) + 2w_c)/k),  k = √(γ² + 2 w_c²).
+
+
+def _asinh_diff(a, b):
+    """asinh(a) - asinh(b) without cancellation when a ≈ b."""
+    sa, sb = np.sqrt(1.0 + a * a), np.sqrt(1.0 + b * b)
+    same = a * b > 0
+    denom = np.where(same, a * sb + b * sa, 1.0)
+    arg = np.where(same, (a - b) * (a + b) / denom, a * sb - b * sa)
+    return np.arcsinh(arg)
+
+
+def _layer_coeffs(d0, wc, gam2):
+    c = gam2 + 6.0 * wc * wc
+    lam = np.sqrt(c)
+    rho = 2.0 * wc * d0 / c
+    q = np.sqrt(np.maximum(d0 * d0 + 4.0 * wc * d0 + c, 0.0)) / lam
+    s1 = 1.0 + rho
+    num = d0 * d0 * (gam2 + 2.0 * wc * wc) / (c * c)     # = q² - s1², exact form
+    a_inf = np.where(s1 >= 0, (s1 + q) / 2.0, num / (2.0 * np.where(s1 >= 0, 1.0, q - s1)))
+    b_inf = np.where(s1 <= 0, (s1 - q) / 2.0, -num / (2.0 * np.where(s1 <= 0, 1.0, q + s1)))
+    return lam, rho, a_inf, b_inf
+
+
+def _layer_d(sig, d0, wc, gam2):
+    """Deviation d(σ) of one layer at distance σ ≥ 0 from its end (broadcasts)."""
+    lam, rho, a_inf, b_inf = _layer_coeffs(d0, wc, gam2)
+    e = np.exp(-lam * sig)
+    return d0 * e / (-rho * e + a_inf + b_inf * e * e)
+
+
+def _layer_int(d0, d, wc, gam2):
+    """∫₀^σ d dσ' given d = d(σ)."""
+    k = np.sqrt(gam2 + 2.0 * wc * wc)
+    return _asinh_diff((d0 + 2.0 * wc) / k, (d + 2.0 * wc) / k)
+
+
+def _layers_total(wc, phi, gam2, u0, u1):
+    """∫₀¹ w dτ - Φ for the composite layer solution with cruise value w_c."""
+    dl0, dr0 = u0 - wc, u1 - wc
+    dl1 = _layer_d(1.0, dl0, wc, gam2)
+    dr1 = _layer_d(1.0, dr0, wc, gam2)
+    return wc + _layer_int(dl0, dl1, wc, gam2) + _layer_int(dr0, dr1, wc, gam2) - phi
+
+
+def _solve_layers_batch(phi, gam2, u0, u1):
+    """Cruise value w_c (safeguarded Newton/bisection; the residual is increasing in w_c)."""
+    span = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
+    lo, hi = np.minimum.reduce([phi, u0, u1]) - span, np.maximum.reduce([phi, u0, u1]) + span
+    for _ in range(60):             # make sure the bracket holds (the layer integrals are O(log))
+        glo, ghi = _layers_total(lo, phi, gam2, u0, u1), _layers_total(hi, phi, gam2, u0, u1)
+        bad_lo, bad_hi = glo > 0, ghi < 0
+        if not (bad_lo.any() or bad_hi.any()):
+            break
+        lo = np.where(bad_lo, lo - 2.0 * span, lo)
+        hi = np.where(bad_hi, hi + 2.0 * span, hi)
+        span = np.where(bad_lo | bad_hi, 2.0 * span, span)
+    wc = phi.astype(float).copy()
+    wc = np.clip(wc, lo, hi)
+    for _ in range(100):
+        g = _layers_total(wc, phi, gam2, u0, u1)
+        lo = np.where(g < 0, wc, lo)
+        hi = np.where(g > 0, wc, hi)
+        h = 1e-7 * (np.abs(wc) + 1e-3 * span)
+        dg = (_layers_total(wc + h, phi, gam2, u0, u1) - g) / h
+        new = wc - g / np.where(dg > 0, dg, np.inf)
+        outside = ~((new > lo) & (new < hi)) | ~np.isfinite(new)
+        new = np.where(outside, 0.5 * (lo + hi), new)
+        done = np.abs(new - wc) <= 1e-15 * span
+        wc = new
+        if done.all():
+            break
+    return wc
+
+
+# ---------------------------------------------------------------------------------------------
+# Public batch object
+# ---------------------------------------------------------------------------------------------
+
+_GL_CACHE: dict[int, tuple] = {}
+
+
+def _gauss(n):
+    if n not in _GL_CACHE:
+        x, w = np.polynomial.legendre.leggauss(n)
+        _GL_CACHE[n] = ((x + 1) / 2, w / 2)
+    return _GL_CACHE[n]
+
+
+def _graded_grid(h, levels):
+    """Gauss nodes/weights on [0,1]: geometric panels (ratio 2) from each end up to h, one
+    middle panel.  h: (B,) layer width in τ.  Resolves layers down to h·2^-levels."""
+    gx, gw = _gauss(10)
+    edges = h[:, None] * np.concatenate([[0.0], 2.0 ** -np.arange(levels, -1, -1.0)])[None, :]
+    a, b = edges[:, :-1], edges[:, 1:]
+    xl = (a[..., None] + (b - a)[..., None] * gx).reshape(h.size, -1)
+    wl = ((b - a)[..., None] * gw).reshape(h.size, -1)
+    mx, mw = _gauss(24)
+    xm = h[:, None] + (1 - 2 * h)[:, None] * mx
+    wm = (1 - 2 * h)[:, None] * mw
+    xs = np.concatenate([xl, xm, 1.0 - xl[:, ::-1]], axis=1)
+    ws = np.concatenate([wl, wm, wl[:, ::-1]], axis=1)
+    return xs, ws
+
+
+@dataclass
+class CircleBatch:
+    """Optimal laws for B arcs.  Angles in rad, t in s, R in mm (or any length unit).
+
+    phi_total (B,), T_t (B,), beta_s2 (B,), w0/w1 (B,) end angular speeds (rad/s), R_d (B,)."""
+    phi_total: np.ndarray
+    T_t: np.ndarray
+    beta_s2: np.ndarray
+    w0: np.ndarray
+    w1: np.ndarray
+    R_d: np.ndarray
+    regime: np.ndarray          # True: "layers", False: "cheb"
+    wc: np.ndarray              # cruise value (layers regime; dimensionless)
+    cc: np.ndarray              # the constant C (dimensionless)
+    coef: np.ndarray            # (B, K) Chebyshev coefficients of w(τ), zero-padded (0 for layers)
+
+    def __len__(self):
+        return self.phi_total.size
+
+    def __getitem__(self, i) -> "CircleLaw":
+        return CircleLaw(self, int(i))
+
+    @property
+    def gamma(self):
+        return self.T_t / np.sqrt(self.beta_s2)
+
+    # -- dimensionless evaluation: φ, w = φ', w', w'' at τ (B, M) --------------------------
+    def eval_tau(self, tau: np.ndarray, idx=None):
+        idx = np.arange(len(self)) if idx is None else np.asarray(idx)
+        tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:]).copy()
+        out = [np.empty_like(tau) for _ in range(4)]
+        gam2 = self.gamma[idx] ** 2
+        lay = self.regime[idx]
+        if lay.any():
+            k = np.nonzero(lay)[0]
+            r = self._eval_layers(tau[k], idx[k], gam2[k])
+            for o, v in zip(out, r):
+                o[k] = v
+        if (~lay).any():
+            k = np.nonzero(~lay)[0]
+            r = self._eval_cheb(tau[k], idx[k], gam2[k])
+            for o, v in zip(out, r):
+                o[k] = v
+        return out
+
+    def _eval_layers(self, tau, idx, gam2):
+        wc = self.wc[idx][:, None]
+        g2 = gam2[:, None]
+        u0, u1 = self.w0[idx] * self.T_t[idx], self.w1[idx] * self.T_t[idx]
+        dl0, dr0 = (u0[:, None] - wc), (u1[:, None] - wc)
+        dl = _layer_d(tau, dl0, wc, g2)
+        dr = _layer_d(1.0 - tau, dr0, wc, g2)
+        dr_full = _layer_d(1.0, dr0, wc, g2)
+        phi = wc * tau + _layer_int(dl0, dl, wc, g2) + (_layer_int(dr0, dr_full, wc, g2)
+                                                        - _layer_int(dr0, dr, wc, g2))
+        w = wc + dl + dr
+        c = g2 + 6.0 * wc * wc
+
+        def dp(d):   # d' (in σ) and d''
+            return -d * np.sqrt(np.maximum(d * d + 4.0 * wc * d + c, 0.0)), \
+                d * (c + 6.0 * wc * d + 2.0 * d * d)
+        dl1, dl2 = dp(dl)
+        dr1, dr2 = dp(dr)
+        return phi, w, dl1 - dr1, dl2 + dr2
+
+    def _eval_cheb(self, tau, idx, gam2):
+        from numpy.polynomial import chebyshev as C
+        x = 2.0 * tau - 1.0
+        coef = self.coef[idx]
+        nz = np.nonzero(np.any(coef != 0, axis=0))[0]
+        coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
+        wcoef = coef
+        dcoef = C.chebder(coef, axis=1, scl=2.0)
+        pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+        w = _clenshaw(wcoef, x)
+        w1 = _clenshaw(dcoef, x)
+        phi = _clenshaw(pcoef, x)
+        w2 = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
+        return phi, w, w1, w2
+
+    # -- dimensional quantities ------------------------------------------------------------
+    def eval(self, t_t, idx=None):
+        """φ (rad), φ̇ (rad/s), φ̈ (rad/s²) at times t (s); t shape (M,) or (B, M)."""
+        idx = np.arange(len(self)) if idx is None else np.asarray(idx)
+        T = self.T_t[idx][:, None]
+        phi, w, w1, _ = self.eval_tau(np.asarray(t_t, float) / T, idx)
+        return phi, w / T, w1 / T ** 2
+
+    def hamiltonian(self, t_t, idx=None):
+        """H = ½ṡ² + β(½s̈² − ṡ s⃛ + (3/2)κ²ṡ⁴) (mm²/s²); constant along an exact solution."""
+        idx = np.arange(len(self)) if idx is None else np.asarray(idx)
+        T, R = self.T_t[idx][:, None], self.R_d[idx][:, None]
+        beta = self.beta_s2[idx][:, None]
+        _, w, w1, w2 = self.eval_tau(np.asarray(t_t, float) / T, idx)
+        sd, sdd, sddd = R * w / T, R * w1 / T ** 2, R * w2 / T ** 3
+        return 0.5 * sd ** 2 + beta * (0.5 * sdd ** 2 - sd * sddd + 1.5 * sd ** 4 / R ** 2)
+
+    def _quad_grid(self):
+        """Per-arc quadrature nodes in τ resolving the layers (and their weights)."""
+        gam2 = self.gamma ** 2
+        u0, u1 = self.w0 * self.T_t, self.w1 * self.T_t
+        wmax = np.maximum.reduce([np.abs(self.phi_total), np.abs(u0), np.abs(u1)])
+        lam_min = np.sqrt(gam2 + 6.0 * np.where(self.regime, self.wc ** 2, 0.0))
+        h = np.minimum(0.5, 30.0 / np.maximum(lam_min, 1e-300))
+        # finest panel must resolve the steepest scale 1/(λ + |d0|)
+        levels = int(np.clip(np.ceil(np.log2(np.max(20.0 * h * (lam_min + 2 * wmax)))), 2, 40))
+        return _graded_grid(h, levels)
+
+    def integrals(self):
+        """(∫ṡ² dt  [mm²/s],  ∫|a|² dt  [mm²/s³]) with |a|² = R²(φ̈² + φ̇⁴)."""
+        tau, wq = self._quad_grid()
+        _, w, w1, _ = self.eval_tau(tau)
+        T, R = self.T_t, self.R_d
+        i_v = (wq * w * w).sum(axis=1)
+        i_a = (wq * (w1 * w1 + w ** 4)).sum(axis=1)
+        return R ** 2 * i_v / T, R ** 2 * i_a / T ** 3
+
+    def cost(self, m=1.0):
+        """J = (m/2)(∫|v|² + β∫|a|²)."""
+        iv, ia = self.integrals()
+        return 0.5 * m * (iv + self.beta_s2 * ia)
+
+    def _extremum(self, which):
+        """max/min over τ of f ∈ {w (speed), g = w'² + w⁴ (|a|²)} by grid + Newton polish."""
+        tau, _ = self._quad_grid()
+        tau = np.concatenate([np.zeros((len(self), 1)), tau, np.ones((len(self), 1))], axis=1)
+        gam2 = (self.gamma ** 2)[:, None]
+
+        def f_and_derivs(tt):
+            _, w, w1, w2 = self.eval_tau(tt)
+            w3 = (gam2 + 6.0 * w * w) * w1
+            if which in ("vmax", "vmin"):
+                return w * np.sign(self.phi_total + (self.phi_total == 0))[:, None], \
+                    w1 * np.sign(self.phi_total + (self.phi_total == 0))[:, None], \
+                    w2 * np.sign(self.phi_total + (self.phi_total == 0))[:, None]
+            g = w1 * w1 + w ** 4
+            g1 = 2 * w1 * w2 + 4 * w ** 3 * w1
+            g2 = 2 * w2 * w2 + 2 * w1 * w3 + 12 * w * w * w1 * w1 + 4 * w ** 3 * w2
+            return g, g1, g2
+        f, _, _ = f_and_derivs(tau)
+        sgn = -1.0 if which == "vmin" else 1.0
+        k = np.argmax(sgn * f, axis=1)
+        rows = np.arange(len(self))
+        best = f[rows, k]
+        t0 = tau[rows, k][:, None]
+        lo = tau[rows, np.maximum(k - 1, 0)][:, None]
+        hi = tau[rows, np.minimum(k + 1, tau.shape[1] - 1)][:, None]
+        for _ in range(6):                      # Newton on f' = 0 inside the grid cell
+            _, f1, f2 = f_and_derivs(t0)
+            step = np.where(f2 != 0, -f1 / np.where(f2 != 0, f2, 1.0), 0.0)
+            t0 = np.clip(t0 + step, lo, hi)
+        fb = f_and_derivs(t0)[0][:, 0]
+        return np.where(sgn * fb > sgn * best, fb, best)
+
+    def peak_speed(self):
+        """max |ṡ| (mm/s)."""
+        return self.R_d * np.abs(self._extremum("vmax")) / self.T_t
+
+    def min_speed(self):
+        """min ṡ along the arc (mm/s, signed along the direction of travel)."""
+        return self.R_d * self._extremum("vmin") / self.T_t
+
+    def peak_accel(self):
+        """max |a| (mm/s²) including the centripetal part R φ̇²."""
+        return self.R_d * np.sqrt(self._extremum("amax")) / self.T_t ** 2
+
+
+@dataclass
+class CircleLaw:
+    """One arc of a CircleBatch (same methods, scalars / 1-D arrays)."""
+    batch: CircleBatch
+    i: int
+
+    phi_total = property(lambda self: float(self.batch.phi_total[self.i]))
+    T = property(lambda self: float(self.batch.T_t[self.i]))
+    beta = property(lambda self: float(self.batch.beta_s2[self.i]))
+    R = property(lambda self: float(self.batch.R_d[self.i]))
+    regime = property(lambda self: "layers" if self.batch.regime[self.i] else "cheb")
+
+    def eval(self, t_t):
+        """(φ, φ̇, φ̈) at times t (s)."""
+        t = np.atleast_1d(np.asarray(t_t, float))
+        out = self.batch.eval(t[None, :], [self.i])
+        return tuple(o[0].reshape(np.shape(t_t)) for o in out)
+
+    def eval_s(self, t_t):
+        """(s mm, ṡ mm/s, s̈ mm/s²) along the arc."""
+        return tuple(self.R * v for v in self.eval(t_t))
+
+    def hamiltonian(self, t_t):
+        t = np.atleast_1d(np.asarray(t_t, float))
+        return self.batch.hamiltonian(t[None, :], [self.i])[0].reshape(np.shape(t_t))
+
+    def _sub(self):
+        b = self.batch
+        i = slice(self.i, self.i + 1)
+        return CircleBatch(b.phi_total[i], b.T_t[i], b.beta_s2[i], b.w0[i], b.w1[i], b.R_d[i],
+                           b.regime[i], b.wc[i], b.cc[i], b.coef[i])
+
+    def integrals(self):
+        iv, ia = self._sub().integrals()
+        return float(iv[0]), float(ia[0])
+
+    def cost(self, m=1.0):
+        return float(self._sub().cost(m)[0])
+
+    def peak_speed(self):
+        return float(self._sub().peak_speed()[0])
+
+    def min_speed(self):
+        return float(self._sub().min_speed()[0])
+
+    def peak_accel(self):
+        return float(self._sub().peak_accel()[0])
+
+
+def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
+    """Vectorised solve for B arcs.
+
+    phi_total: swept angle (rad, any size incl. several turns), T: duration (s),
+    beta = α·m (s²), w0/w1: end angular speeds (rad/s), R: radius (mm).  Broadcast to (B,)."""
+    phi, T_t, beta_s2, w0, w1, R_d = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(v, float)) for v in (phi_total, T, beta, w0, w1, R)))
+    phi, T_t, beta_s2, w0, w1, R_d = (a.copy() for a in (phi, T_t, beta_s2, w0, w1, R_d))
+    if np.any(T_t <= 0) or np.any(beta_s2 <= 0):
+        raise ValueError("T and beta must be positive")
+    gam2 = T_t * T_t / beta_s2
+    u0, u1 = w0 * T_t, w1 * T_t
+    nb = phi.size
+    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
+
+    # layer regime first: accept where the neglected interaction of the two layers is tiny
+    wc = _solve_layers_batch(phi, gam2, u0, u1)
+    tail = np.maximum(np.abs(_layer_d(1.0, u0 - wc, wc, gam2)),
+                      np.abs(_layer_d(1.0, u1 - wc, wc, gam2)))
+    lam = np.sqrt(gam2 + 6.0 * wc * wc)
+    regime = (tail * (1.0 + lam) <= _LAYER_TAIL_TOL * scale) & np.isfinite(wc)
+
+    coef = np.zeros((nb, 1))
+    cc = -gam2 * wc - 2.0 * wc ** 3
+    rest = np.nonzero(~regime)[0]
+    if rest.size:
+        # local rate at the ends (steep end layers need more nodes)
+        q0 = np.sqrt(np.abs((u0 - wc) ** 2 + 4 * wc * (u0 - wc)) + lam ** 2)
+        q1 = np.sqrt(np.abs((u1 - wc) ** 2 + 4 * wc * (u1 - wc)) + lam ** 2)
+        lam_est = np.maximum.reduce([lam, q0, q1])[rest]
+        cf, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est)
+        coef = np.zeros((nb, max(c.size for c in cf)))   # zero-padded to the largest N
+        for k, i in enumerate(rest):
+            coef[i, : cf[k].size] = cf[k]
+        cc[rest] = cv
+    return CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
+
+
+def solve_circle(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleLaw:
+    """Optimal law on one arc: swept angle phi_total (rad), duration T (s), β = αm (s²),
+    end angular speeds w0, w1 (rad/s), radius R (mm; only scales s = Rφ)."""
+    return solve_circles(phi_total, T, beta, w0, w1, R)[0]

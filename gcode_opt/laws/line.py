@@ -1,0 +1,299 @@
+"""Energy/inertia-optimal law of motion along a straight stroke.
+
+Problem (see /work/shared/MATH.md): s(t) on [0, T] minimising
+
+    J = (m/2) ∫ ṡ² dt + (α m²/2) ∫ s̈² dt,      β = α m  [s²],
+
+with s(0) = 0, s(T) = L, ṡ(0) = v0, ṡ(T) = v1.  Euler–Lagrange: s'''' = s̈/β.
+Dimensionless stiffness γ = T/√β (β = inf ⇒ γ = 0, the cubic Hermite).
+
+Formulation used here (τ = t/T, x = τ − 1/2, u = ds/dτ in mm):
+integrating the EL equation once gives u'' = γ²(u − const), so
+
+    u(τ) = w̄ + A·g(τ) − δ·h(τ),     w̄ = T(v0+v1)/2,  δ = T(v0−v1)/2,  A = L − w̄,
+
+with two normalised shape functions
+    g: even about τ = 1/2, g(0) = g(1) = 0, ∫g = 1   (rest-to-rest speed profile, = P')
+    h: odd,               h(0) = −1, h(1) = 1       (h ∝ sinh(γx); ∫h = 0)
+and s(τ) = w̄τ + A·G(τ) − δ·Hs(τ) with G = ∫g = P (rest-to-rest law), Hs = ∫h.
+This is the requested L·P + v0T·H0 + v1T·H1 split, regrouped into even/odd parts
+(H0 = (τ − P − Hs)/2, H1 = (τ − P + Hs)/2): parity makes the cross terms of ∫u², ∫u'² vanish,
+so the integrals are diagonal quadratic forms with one γ-coefficient per shape.
+
+Stability.  Two closed forms of every shape quantity, switched at γ = GAMMA_SWITCH:
+  * γ < GAMMA_SWITCH: hyperbolic forms written with shc(z) = sinh(z)/z and positive-term power
+    series (_n, _m, _s1).  The only cancelling combination, N = cosh(γ/2) − (2/γ)sinh(γ/2)
+    (the D of MATH.md times e^{γ/2}/2), is summed as a series in γ² with positive terms, so there
+    is no cancellation at all, and γ = 0 (β = inf) is evaluated exactly, not as a limit.
+  * γ ≥ GAMMA_SWITCH: the same expressions multiplied through by e^{−γ/2}: only decaying
+    exponentials and expm1, so nothing overflows up to γ = inf-ish (tested to 1e9).  The residual
+    cancellation in D = 1 + e^{−γ} + 2 expm1(−γ)/γ is a factor ~12/γ², harmless above the switch.
+"""
+from __future__ import annotations
+
+from math import factorial
+
+import numpy as np
+
+__all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH"]
+
+# Switch between the series/hyperbolic and the exponential forms.  Measured against mpmath
+# (80 digits) for each branch alone: the exponential branch's integral coefficient ∫g² − 1
+# has relative error 1e-10 at γ = 0.1, 2e-14 at γ = 1, 2e-15 at γ = 2, 2e-16 from γ = 4 on
+# (cancellation ~12/γ² in D plus a factor ~50 → ~6 in its numerator between γ = 2 and 4); the
+# series branch is at 2e-16..4e-16 for every quantity up to γ = 12 with 24 terms (all terms
+# positive, the truncation error at γ = 4 is < 1e-25).  So switch at 4, well inside both.
+GAMMA_SWITCH = 4.0
+_NTERMS = 24  # series length: last term at γ = 4 is < 1e-25 of the first for every series
+
+
+def _series_coeffs(fn):
+    return np.array([fn(j) for j in range(_NTERMS)], dtype=float)
+
+
+# n(γ) = N/γ²  = Σ_j γ^{2j} 2(j+1) / (4^{j+1} (2j+3)!),   n(0) = 1/12
+_N_COEF = _series_coeffs(lambda j: 2 * (j + 1) / (4 ** (j + 1) * factorial(2 * j + 3)))
+# m(γ) = M/γ⁴, M = sinh(γ)/γ + 1 − 8 sinh²(γ/2)/γ² = Σ_j γ^{2j} (2j+2)/(2j+6)!,  m(0) = 1/360
+_M_COEF = _series_coeffs(lambda j: (2 * j + 2) / factorial(2 * j + 6))
+# S1(z) = (sinh z − z)/z³ = Σ_j z^{2j}/(2j+3)!,  S1(0) = 1/6
+_S1_COEF = _series_coeffs(lambda j: 1.0 / factorial(2 * j + 3))
+
+
+def _horner(coef, z2):
+    """Σ coef[j] z2^j (all coef > 0 and z2 ≥ 0 here: no cancellation)."""
+    out = np.full_like(z2, coef[-1])
+    for c in coef[-2::-1]:
+        out = out * z2 + c
+    return out
+
+
+def _shc(z):
+    """sinh(z)/z, = 1 at z = 0 (np.sinh is relatively accurate for small z)."""
+    z = np.asarray(z, dtype=float)
+    safe = np.where(z == 0.0, 1.0, z)
+    return np.where(z == 0.0, 1.0, np.sinh(safe) / safe)
+
+
+def _s1(z):
+    """(sinh z − z)/z³ for |z| ≤ GAMMA_SWITCH, by its positive series."""
+    return _horner(_S1_COEF, np.asarray(z, dtype=float) ** 2)
+
+
+# --------------------------------------------------------------------------------------------
+# γ-only coefficients (one value per law)
+# --------------------------------------------------------------------------------------------
+def _gamma_coeffs(gamma):
+    """Per-law constants of both branches; each branch is fed a γ clipped to its own range
+    so that the unused branch never overflows or divides by zero."""
+    gs = np.minimum(gamma, GAMMA_SWITCH)       # small branch argument, in [0, switch]
+    gl = np.maximum(gamma, GAMMA_SWITCH)       # large branch argument, ≥ switch
+    small = gamma < GAMMA_SWITCH
+
+    # --- small branch: n = N/γ², m = M/γ⁴, shc(γ/2)
+    n = _horner(_N_COEF, gs * gs)
+    m = _horner(_M_COEF, gs * gs)
+    sh2 = _shc(gs / 2)
+    # --- large branch: everything times e^{−γ/2} (or e^{−γ})
+    E = np.exp(-gl)
+    em = np.expm1(-gl)                          # e^{−γ} − 1  (< 0)
+    q = -em / gl                                # ∫ e^{−γτ} dτ
+    Dn = 1.0 + E - 2.0 * q                      # = 2 e^{−γ/2} N
+    one_m_E2 = -np.expm1(-2.0 * gl)
+
+    c = {"small": small, "gs": gs, "gl": gl, "n": n, "sh2": sh2, "em": em, "Dn": Dn, "E": E}
+    # Integral coefficients: Ig1 = ∫g² − 1 = ∫(g−1)²,  Igp = ∫g'²,  Ih = ∫h²,  Ihp = ∫h'²
+    c["Ig1"] = np.where(small, m / (2 * n * n),
+                        (one_m_E2 / gl + 2 * E - 4 * q * q) / Dn**2)
+    c["Igp"] = np.where(small, _s1(gs) / (2 * n * n),
+                        gl * (one_m_E2 - 2 * gl * E) / Dn**2)
+    c["Ih"] = np.where(small, 2 * _s1(gs) / sh2**2,
+                       (one_m_E2 / gl - 2 * E) / em**2)
+    c["Ihp"] = np.where(small, 2 * (_shc(gs) + 1) / sh2**2,
+                        gl * (one_m_E2 + 2 * gl * E) / em**2)
+    # κ/γ with κ = N/sinh(γ/2): an interior extremum of u sits at tanh(γx) = (B/A)κ.
+    c["kappa_over_gamma"] = np.where(small, 2 * n / sh2, Dn / (-em * gl))
+    return c
+
+
+def _shapes(c, tau):
+    """(G, g, g', Hs, h, h') at τ ∈ [0, 1] (broadcast with the law shape)."""
+    x = tau - 0.5
+    small = c["small"]
+    # --- small γ: hyperbolic forms, no cancellation (products/ratios of shc and series)
+    gs, n, sh2 = c["gs"], c["n"], c["sh2"]
+    pa, pb = _shc(gs * tau / 2), _shc(gs * (1 - tau) / 2)
+    shx = _shc(gs * x)
+    bub = tau * (1 - tau) * pa * pb             # = 4 sinh(γτ/2) sinh(γ(1−τ)/2)/γ²
+    g_s = bub / (2 * n)
+    gp_s = -x * shx / n
+    G_s = 0.5 + (x * _shc(gs / 4) ** 2 / 8 - x**3 * _s1(gs * x)) / n
+    h_s = 2 * x * shx / sh2
+    hp_s = 2 * np.cosh(gs * x) / sh2
+    Hs_s = -bub / sh2
+    # --- large γ: decaying exponentials only
+    gl, em, Dn, E = c["gl"], c["em"], c["Dn"], c["E"]
+    e0, e1 = np.expm1(-gl * tau), np.expm1(-gl * (1 - tau))   # both in (−1, 0]
+    diff = e0 - e1                               # e^{−γτ} − e^{−γ(1−τ)}, no cancellation
+    g_l = e0 * e1 / Dn
+    gp_l = gl * diff / Dn
+    G_l = 0.5 + (x * (1 + E) + diff / gl) / Dn
+    h_l = diff / em
+    hp_l = gl * (e0 + e1 + 2) / (-em)
+    Hs_l = e0 * e1 / (gl * em)
+    w = lambda a, b: np.where(small, a, b)  # noqa: E731
+    return w(G_s, G_l), w(g_s, g_l), w(gp_s, gp_l), w(Hs_s, Hs_l), w(h_s, h_l), w(hp_s, hp_l)
+
+
+def _atanhc(r):
+    """atanh(r)/r for |r| < 1 (1 at r = 0); inf for |r| ≥ 1."""
+    r = np.asarray(r, dtype=float)
+    inside = np.abs(r) < 1
+    rs = np.where(inside & (r != 0), r, 0.5)
+    return np.where(r == 0, 1.0, np.where(inside, np.arctanh(rs) / rs, np.inf))
+
+
+class LineLaw:
+    """Optimal straight-line law; all attributes are broadcast numpy arrays.
+
+    Units: L [mm], T [s], beta [s²], v0, v1 [mm/s].  Parameters broadcast together; eval(t)
+    broadcasts t against them with numpy rules, e.g. scalars + t of shape (k,), or parameters of
+    shape (n, 1) (see `expand_dims`) + t of shape (n, k).
+    """
+
+    def __init__(self, L, T, beta, v0=0.0, v1=0.0):
+        L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float)
+                                                   for a in (L, T, beta, v0, v1)))
+        if not (np.all(T > 0) and np.all(np.isfinite(T))):
+            raise ValueError("T must be finite and > 0")
+        if not np.all(beta > 0):                   # inf allowed (γ = 0), 0/nan not
+            raise ValueError("beta must be > 0 (np.inf allowed)")
+        if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+            raise ValueError("L, v0, v1 must be finite")
+        self.L, self.T, self.beta, self.v0, self.v1 = L, T, beta, v0, v1
+        self.gamma = T / np.sqrt(beta)                          # dimensionless, 0 for beta=inf
+        self._c = _gamma_coeffs(self.gamma)
+        self._wbar = T * (v0 + v1) / 2                          # mm
+        self._delta = T * (v0 - v1) / 2                         # mm
+        self._A = L - self._wbar                                # mm
+
+    @property
+    def shape(self):
+        return self.L.shape
+
+    def expand_dims(self):
+        """Same laws with a trailing axis (params (..., 1)) for eval on per-law grids (..., k)."""
+        return LineLaw(self.L[..., None], self.T[..., None], self.beta[..., None],
+                       self.v0[..., None], self.v1[..., None])
+
+    # ---------------------------------------------------------------- evaluation
+    def eval(self, t):
+        """(s [mm], ṡ [mm/s], s̈ [mm/s²]) at t [s]; t is clamped to [0, T].
+
+        t broadcasts against the law parameters: one law (scalars) × t (k,) → (k,);
+        n laws with params (n, 1) (`expand_dims()`) × t (n, k) → (n, k)."""
+        T = self.T
+        tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
+        G, g, gp, Hs, h, hp = _shapes(self._c, tau)
+        wbar, A, d = self._wbar, self._A, self._delta
+        s = wbar * tau + A * G - d * Hs
+        v = (wbar + A * g - d * h) / T
+        a = (A * gp - d * hp) / T**2
+        return s, v, a
+
+    # ---------------------------------------------------------------- closed-form integrals
+    def integrals(self):
+        """(∫ṡ² dt [mm²/s], ∫s̈² dt [mm²/s³]) over [0, T], closed form.
+
+        ∫u²dτ = L² + A²(∫g² − 1) + δ²∫h²,  ∫u'²dτ = A²∫g'² + δ²∫h'²  (parity kills cross terms;
+        ∫g = 1 turns w̄² + 2w̄A + A² into L²)."""
+        c, T, A, d = self._c, self.T, self._A, self._delta
+        int_v2 = (self.L**2 + A**2 * c["Ig1"] + d**2 * c["Ih"]) / T
+        int_a2 = (A**2 * c["Igp"] + d**2 * c["Ihp"]) / T**3
+        return int_v2, int_a2
+
+    def cost(self, m):
+        """J = m/2 ∫ṡ² + β m/2 ∫s̈²  (= α m²/2 ∫s̈²); inf for β = inf unless s̈ ≡ 0."""
+        int_v2, int_a2 = self.integrals()
+        with np.errstate(invalid="ignore"):
+            acc_term = np.where(int_a2 == 0, 0.0, self.beta * int_a2)
+        return 0.5 * np.asarray(m, dtype=float) * (int_v2 + acc_term)
+
+    # ---------------------------------------------------------------- extrema
+    def _critical_t(self):
+        """t [s] of the (at most one) interior stationary point of ṡ, or an endpoint.
+
+        u' = A g' − δ h' ∝ −A sinh(γx)/N − δ cosh(γx)/sinh(γ/2) vanishes only at
+        tanh(γx*) = r := (−δ/A)κ: tanh is monotone, so there is at most one.  Written as
+        x* = (−δ/A)(κ/γ)·atanh(r)/r so that γ → 0 (x* = −δ/(6A)) needs no special case.
+        Any fallback (nan → centre, |r| ≥ 1 → end) is still a point of [0, T], so using
+        its speed as a candidate can never overstate the extremum."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = -self._delta / self._A
+            r = rho * self._c["kappa_over_gamma"] * self.gamma
+            x = rho * self._c["kappa_over_gamma"] * _atanhc(r)
+            x = np.where(np.abs(r) >= 1, np.sign(r) * 0.5, x)
+        x = np.clip(np.nan_to_num(x, nan=0.0), -0.5, 0.5)
+        return (x + 0.5) * self.T
+
+    def _speed_candidates(self):
+        zero = np.zeros_like(self.T)
+        v_start = self.eval(zero)[1]
+        v_end = self.eval(self.T)[1]
+        v_crit = self.eval(self._critical_t())[1]
+        return v_start, v_end, v_crit
+
+    def peak_speed(self):
+        """max ṡ over [0, T] [mm/s]: endpoints and the closed-form interior stationary point."""
+        return np.maximum.reduce(self._speed_candidates())
+
+    def min_speed(self):
+        """min ṡ over [0, T] [mm/s]; < 0 means the law reverses (invalid print move)."""
+        return np.minimum.reduce(self._speed_candidates())
+
+    def peak_accel(self):
+        """max |s̈| over [0, T] [mm/s²], attained at an endpoint.
+
+        Proof: (u')'' = γ² u'.  At an interior maximum of u' with u' > 0 we would need
+        (u')'' ≤ 0 < γ²u'; symmetrically for a negative minimum; for γ = 0 u' is linear."""
+        a0 = self.eval(np.zeros_like(self.T))[2]
+        a1 = self.eval(self.T)[2]
+        return np.maximum(np.abs(a0), np.abs(a1))
+
+
+def line_law(L, T, beta, v0=0.0, v1=0.0) -> LineLaw:
+    """Optimal law for stroke L [mm] in T [s] with β = α m [s²] (np.inf ⇒ cubic Hermite) and
+    end speeds v0, v1 [mm/s]; all arguments broadcast."""
+    return LineLaw(L, T, beta, v0, v1)
+
+
+def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
+    """t [s] with s(t) = s_targets [mm] (broadcast with the law), for monotone laws.
+
+    Safeguarded Newton: a bracket [lo, hi] with s(lo) ≤ target ≤ s(hi) is kept; a Newton step
+    leaving the bracket (or with ṡ ≤ 0) is replaced by bisection, so convergence is guaranteed
+    (≤ ~60 bisections to machine resolution) and quadratic near simple roots.  Targets outside
+    [0, L] are clamped.  If min_speed() < 0 the result is *a* root, not necessarily the first."""
+    T = law.T
+    lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
+    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
+    shape = np.broadcast_shapes(target.shape, T.shape)
+    target = np.broadcast_to(target, shape)
+    sgn = np.where(law.L < 0, -1.0, 1.0)           # make f increasing for L < 0 too
+    lo = np.zeros(shape)
+    hi = np.broadcast_to(T, shape).copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
+    scale = np.maximum(np.abs(law.L), 1e-300)
+    for _ in range(max_iter):
+        s, v, _a = law.eval(t)
+        f = sgn * (s - target)
+        lo = np.where(f <= 0, t, lo)
+        hi = np.where(f >= 0, t, hi)
+        done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
+        if np.all(done):
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_newton = t - f / (sgn * v)
+        ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
+        t = np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi)))
+    return t

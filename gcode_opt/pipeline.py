@@ -1,0 +1,304 @@
+"""The whole job, in three streamed passes over the file.
+
+  1. analyse: read -> machine state -> strokes, with the firmware model playing the
+     original file alongside: each stroke learns the speeds the original reaches at its
+     ends, its duration and its inertia norm.
+  2. plan (in memory, a few numbers per stroke) and rewrite: read again, copy every line
+     that is not in a re-timed stroke byte for byte, replace re-timed strokes by segments;
+     written to a temporary file in the target's folder, then renamed into place.
+  3. measure: the firmware model plays the re-timed file; before/after figures come from
+     the same model on both files.
+Memory holds a few floats per stroke, never the file's lines.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from . import features as feat
+from .emit import StrokeText, emit_stroke
+from .firmware.simulate import simulate_events
+from .plan import PlanInput, plan_auto, plan_fixed_alpha
+from .profile import Profile
+from .segments import SegmentRules, plan_segments
+from .state import MachineState, events, read_lines
+from .strokes import group_strokes
+
+
+class Options:
+    def __init__(self, alpha="auto", features=feat.DEFAULT_SELECTED, overshoot_r=0.25,
+                 max_slowdown_r=0.03, max_segments=10, min_length_d=2.0, progress=None):
+        self.alpha = alpha                  # "auto" or a float in s^2/kg
+        self.features = tuple(features)
+        self.overshoot_r = overshoot_r      # allowed peak speed above the slicer's F
+        self.max_slowdown_r = max_slowdown_r  # print-time budget, fraction of the whole file
+        self.max_segments = max_segments
+        self.min_length_d = min_length_d
+        self.progress = progress            # Progress or None
+
+
+class Progress:
+    """A one-line progress bar on stderr, only when stderr is a terminal."""
+
+    def __init__(self, total_bytes, enabled=None):
+        self.total = max(total_bytes, 1)
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.done = 0
+        self.phase = ""
+        self._last = 0.0
+
+    def start(self, phase):
+        self.phase, self.done = phase, 0
+
+    def advance(self, nbytes):
+        self.done += nbytes
+        if self.enabled:
+            now = time.monotonic()
+            if now - self._last > 0.2:
+                self._last = now
+                r = min(self.done / self.total, 1.0)
+                bar = "#" * int(r * 30)
+                sys.stderr.write(f"\r{self.phase:<10} [{bar:<30}] {r * 100:5.1f}%")
+                sys.stderr.flush()
+
+    def finish(self):
+        if self.enabled:
+            sys.stderr.write("\r" + " " * 60 + "\r")
+            sys.stderr.flush()
+
+
+def _counted(it, progress):
+    if progress is None:
+        yield from it
+        return
+    for item in it:
+        progress.advance(len(item[1]))
+        yield item
+
+
+# ---------------------------------------------------------------- pass 1: analyse
+def analyse(path, profile: Profile, opts: Options):
+    """Strokes of the original file with the firmware model's figures for each."""
+    strokes = []
+    owner = {}          # line idx -> stroke still waiting for that line's record
+    early = {}          # records that arrived before their stroke closed
+
+    def apply(st, r):
+        if r.idx == st.first_idx:
+            st.v0 = r.start_v
+        if r.idx == st.last_idx:
+            st.v1 = r.end_v
+        st.time_t += r.time_t
+        st.int_a2 += r.int_a2
+        st.int_v2 += r.int_v2
+
+    pending_idx = set()
+
+    def feed():
+        for item in group_strokes(_counted(events(path, profile), opts.progress), opts.features,
+                                  opts.min_length_d):
+            if item[0] == "line":
+                _, idx, raw, ev = item
+                pending_idx.add(idx)
+                yield idx, raw, ev
+            else:
+                st = item[1]
+                strokes.append(st)
+                for i in range(st.first_idx, st.last_idx + 1):
+                    r = early.pop(i, None)
+                    if r is not None:
+                        apply(st, r)
+                    else:
+                        owner[i] = st
+                # records of lines before this point that no stroke claimed are garbage
+                pending_idx.clear()
+                early.clear()
+
+    def on_line(r):
+        st = owner.pop(r.idx, None)
+        if st is not None:
+            apply(st, r)
+        elif r.idx in pending_idx:
+            early[r.idx] = r
+
+    sim = simulate_events(feed(), profile, on_line=on_line)
+    return strokes, sim
+
+
+def plan_inputs(strokes, profile: Profile, opts: Options) -> PlanInput:
+    n = len(strokes)
+    L = np.array([s.length_d for s in strokes])
+    ux = np.array([s.ux for s in strokes])
+    uy = np.array([s.uy for s in strokes])
+    v_feed = np.array([s.v_feed for s in strokes])
+    v_lim = np.array([min(s.lim.v_max, profile.max_velocity_v) for s in strokes])
+    area = math.pi * (profile.filament_diameter_d / 2) ** 2
+    e_mm = np.array([s.e_per_mm for s in strokes])
+    v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
+    v_cap = np.minimum(np.minimum(v_feed * (1 + opts.overshoot_r), v_lim), v_flow)
+    v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
+    # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
+    ax = np.array([s.lim.ax_max for s in strokes])
+    ay = np.array([s.lim.ay_max for s in strokes])
+    with np.errstate(divide="ignore"):
+        a_axis = np.minimum(np.where(abs(ux) > 1e-12, ax / abs(ux), np.inf),
+                            np.where(abs(uy) > 1e-12, ay / abs(uy), np.inf))
+    a_cap = np.minimum(np.array([s.accel for s in strokes]), a_axis)
+    m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
+    m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
+    seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
+    return PlanInput(L, [s.v0 for s in strokes], [s.v1 for s in strokes], v_cap, a_cap,
+                     [s.time_t for s in strokes], [s.int_a2 for s in strokes], m2 / m,
+                     np.full(n, 3 * seg_t))
+
+
+def plan_strokes(strokes, pin, profile, opts, budget_t):
+    """Law per stroke (plan.py), then its segments as the firmware will execute them
+    (segments.py).  The segments' predicted time, not the law's, is what the print takes:
+    the budget is re-spent once with the difference taken off, and a stroke whose
+    segments would not beat the original trapezoid is left alone."""
+    rules = SegmentRules.for_profile(profile, opts.max_segments)
+
+    def run(budget):
+        plan = plan_auto(pin, budget) if opts.alpha == "auto" else plan_fixed_alpha(pin, float(opts.alpha))
+        plan.segs = [None] * len(strokes)
+        plan.t_pred = pin.T_orig.copy()
+        plan.a2_pred = pin.I_orig.copy()
+        for i in np.flatnonzero(plan.retime):
+            seg = plan_segments(strokes[i], plan.T[i], plan.beta[i], rules)
+            if seg is None or seg.int_a2 >= strokes[i].int_a2:
+                plan.retime[i] = False
+                plan.reason[i] = "segments would not beat the original"
+                continue
+            plan.segs[i] = seg
+            plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+        return plan
+
+    plan = run(budget_t)
+    excess = float(np.sum(plan.t_pred - plan.T, where=plan.retime))
+    if opts.alpha == "auto" and excess > 0:
+        plan = run(max(budget_t - excess, 0.0))
+    return plan
+
+
+# ---------------------------------------------------------------- pass 2: rewrite
+def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
+    """Copy the file to out_fh, re-timed strokes replaced.  Returns the output line
+    range of each re-timed stroke: list of (out_first, out_last, stroke_index)."""
+    chosen = {strokes[i].first_idx: i for i in np.flatnonzero(plan.retime)}
+    st = MachineState(profile, path)
+    out_ranges = []
+    out_line = 0
+    buf = None
+    cur = None
+    for idx, raw in _counted(read_lines(path), opts.progress):
+        if buf is None and idx in chosen:
+            i = chosen[idx]
+            cur = (i, strokes[i], st.x, st.y, st.e, st.accel_for(True, True), st.lim.mcr)
+            buf = []
+        if buf is not None:
+            buf.append(raw)
+            st.step(idx, raw)
+            if idx == cur[1].last_idx:
+                i, s, x0, y0, e0, accel0, mcr0 = cur
+                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile)
+                out_fh.write(text)
+                n_out = text.count("\n")
+                out_ranges.append((out_line, out_line + n_out - 1, i))
+                out_line += n_out
+                buf = None
+            continue
+        st.step(idx, raw)
+        out_fh.write(raw)
+        out_line += 1
+    if buf:                       # file ended inside a stroke (cannot happen: strokes close)
+        out_fh.write("".join(buf))
+    return out_ranges
+
+
+def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
+    """G-code text replacing one stroke, from its segment plan `seg`."""
+    dec = 8
+    st_text = StrokeText(raws, f"{x0:.{dec}f}", f"{y0:.{dec}f}", 0)
+    st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
+    beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
+    header = (f": replaces {len(raws)} lines, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
+              f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
+    return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=f"{x0:.{dec}f}",
+                       y0_text=f"{y0:.{dec}f}", e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
+                       mcr_restore=mcr0, feed_restore_v=s.v_feed, extruding=s.feature != feat.TRAVEL,
+                       header=header)
+
+
+# ---------------------------------------------------------------- pass 3: measure
+def measure(path, profile, out_ranges, opts):
+    """Firmware model on the re-timed file; per re-timed stroke (time, int a^2)."""
+    n = len(out_ranges)
+    t = np.zeros(n)
+    a2 = np.zeros(n)
+    v2 = np.zeros(n)
+    firsts = [r[0] for r in out_ranges]
+    pos = [0]
+
+    def on_line(r):
+        k = pos[0]
+        while k < n and r.idx > out_ranges[k][1]:
+            k += 1
+        pos[0] = k
+        if k < n and out_ranges[k][0] <= r.idx:
+            t[k] += r.time_t
+            a2[k] += r.int_a2
+            v2[k] += r.int_v2
+
+    del firsts
+    ev = _counted(events(path, profile), opts.progress)
+    sim = simulate_events(ev, profile, on_line=on_line)
+    return sim, t, a2, v2
+
+
+# ---------------------------------------------------------------- the job
+def process(in_path, out_path, profile: Profile, opts: Options):
+    """Re-time in_path into out_path (may be the same path: atomic replace).  Returns
+    the summary dict."""
+    t_start = time.monotonic()
+    size = os.path.getsize(in_path)
+    prog = opts.progress
+    if prog:
+        prog.start("analyse")
+    strokes, sim0 = analyse(in_path, profile, opts)
+    pin = plan_inputs(strokes, profile, opts)
+    plan = plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
+    if prog:
+        prog.start("rewrite")
+    out_dir = os.path.dirname(os.path.abspath(out_path)) or "."
+    fd, tmp = tempfile.mkstemp(prefix=".gcode-opt-", suffix=".tmp", dir=out_dir)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+            out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
+            fh.flush()
+            os.fsync(fh.fileno())
+        if prog:
+            prog.start("measure")
+        sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+        if os.path.exists(out_path):
+            os.chmod(tmp, os.stat(out_path).st_mode & 0o7777)
+        else:
+            os.chmod(tmp, 0o644)
+        os.replace(tmp, out_path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    finally:
+        if prog:
+            prog.finish()
+    from .summary import build_summary
+    return build_summary(in_path, out_path, size, profile, opts, strokes, pin, plan, sim0, sim1,
+                         out_ranges, t1, a21, v21, time.monotonic() - t_start)

@@ -1,0 +1,59 @@
+"""The JSON summary of one run: what was re-timed, and what it did, as the firmware model
+executes the original and the re-timed file.  Keys are stable (README documents them)."""
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+
+
+def _ratio(after, before):
+    return None if not before else after / before - 1.0
+
+
+def build_summary(in_path, out_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
+                  out_ranges, t_after, a2_after, v2_after, elapsed_t):
+    idx = np.array([r[2] for r in out_ranges], dtype=int)
+    T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
+    I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
+    V0 = np.array([strokes[i].int_v2 for i in idx]) if len(idx) else np.zeros(0)
+    per_stroke = []
+    for k, i in enumerate(idx):
+        s = strokes[i]
+        per_stroke.append({
+            "line": s.first_idx + 1, "lines": s.n_moves, "out_line": out_ranges[k][0] + 1,
+            "feature": s.feature, "layer": s.layer, "length_mm": round(s.length_d, 4),
+            "v0_mm_s": round(s.v0, 3), "v1_mm_s": round(s.v1, 3), "feed_mm_s": round(s.v_feed, 3),
+            "time_s": {"before": T0[k], "law": float(plan.T[i]), "after": float(t_after[k])},
+            "int_a2": {"before": I0[k], "law": float(plan.I_law[i]), "after": float(a2_after[k])},
+            "beta_s2": None if not np.isfinite(plan.beta[i]) else float(plan.beta[i]),
+        })
+    reasons = Counter(str(r) for r in plan.reason)
+    law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
+    law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
+    with open(out_path, "rb") as fh:
+        lines_after = sum(1 for _ in fh)
+    import os
+    size_after = os.path.getsize(out_path)
+    return {
+        "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
+        "options": {"alpha": opts.alpha, "features": list(opts.features), "overshoot": opts.overshoot_r,
+                    "max_slowdown": opts.max_slowdown_r, "max_segments": opts.max_segments},
+        "strokes": {"candidates": len(strokes), "retimed": int(len(idx)),
+                    "not_retimed": {k: v for k, v in reasons.items() if k != "retimed"}},
+        "print_time_s": {"before": sim0.time_t, "after": sim1.time_t,
+                         "change": _ratio(sim1.time_t, sim0.time_t)},
+        "retimed_strokes": {
+            "time_s": {"before": float(T0.sum()), "law": law_T, "after": float(t_after.sum())},
+            "int_a2": {"before": float(I0.sum()), "law": law_I, "after": float(a2_after.sum()),
+                       "change": _ratio(float(a2_after.sum()), float(I0.sum()))},
+            "int_v2": {"before": float(V0.sum()), "after": float(v2_after.sum())},
+            "firmware_vs_law": {"time": _ratio(float(t_after.sum()), law_T),
+                                "int_a2": _ratio(float(a2_after.sum()), law_I)},
+        },
+        "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
+                       "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2)},
+        "file": {"bytes_before": size_before, "bytes_after": size_after, "lines_after": lines_after},
+        "elapsed_s": elapsed_t,
+        "per_stroke": per_stroke,
+    }

@@ -1,0 +1,142 @@
+"""End to end on real slicer output: process, then check the invariants with verify.py and
+the physics with the firmware model (both independent of the emitter)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from gcode_opt.firmware.simulate import simulate_file
+from gcode_opt.pipeline import Options, process
+from gcode_opt.profile import load_profile
+from gcode_opt.verify import Violation, verify
+
+SAMPLES = "sample_gcode/"
+REAL = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_gyroid.gcode", "prusa-mk3s"),
+        ("prusa_absolute_e.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "voron24"),
+        ("cura_box.gcode", "ender3")]
+
+
+@pytest.fixture(scope="module")
+def processed(tmp_path_factory):
+    d = tmp_path_factory.mktemp("out")
+    out = {}
+    for name, prof in REAL:
+        dst = str(d / name)
+        s = process(SAMPLES + name, dst, load_profile(prof), Options())
+        out[name] = (dst, s, prof)
+    return out
+
+
+@pytest.mark.parametrize("name,prof", REAL)
+def test_invariants_hold_on_real_files(processed, name, prof):
+    dst, s, _ = processed[name]
+    res = verify(SAMPLES + name, dst, load_profile(prof))
+    assert res["blocks"] == s["strokes"]["retimed"]
+    assert s["strokes"]["retimed"] > 0, "nothing was re-timed on a real file"
+
+
+@pytest.mark.parametrize("name,prof", REAL)
+def test_no_new_full_stops_and_time_within_budget(processed, name, prof):
+    _, s, _ = processed[name]
+    wf = s["whole_file"]
+    assert wf["after"]["full_stops"] <= wf["before"]["full_stops"]
+    # budget: 3 % of the file's print time, plus a little for the firmware-vs-law mismatch
+    assert s["print_time_s"]["after"] <= s["print_time_s"]["before"] * 1.045
+
+
+@pytest.mark.parametrize("name,prof", REAL)
+def test_firmware_follows_the_law(processed, name, prof):
+    """The firmware model, playing the emitted segments, must reproduce the law's own
+    figures: otherwise the emission is wrong (the model is tested on its own)."""
+    _, s, _ = processed[name]
+    rs = s["retimed_strokes"]
+    assert abs(rs["firmware_vs_law"]["time"]) < 0.10
+    assert abs(rs["firmware_vs_law"]["int_a2"]) < 0.10
+
+
+def test_mk3s_rectilinear_reduction(processed):
+    """Issue 2's bar: >= 35 % less int|a|^2 dt on the re-timed strokes, <= +5 % print time."""
+    _, s, _ = processed["prusa_mk3s_rectilinear.gcode"]
+    assert s["retimed_strokes"]["int_a2"]["change"] <= -0.35
+    assert s["print_time_s"]["change"] <= 0.05
+
+
+def test_summary_figures_match_an_independent_simulation(processed):
+    dst, s, prof = processed["prusa_mk3s_rectilinear.gcode"]
+    before = simulate_file(SAMPLES + "prusa_mk3s_rectilinear.gcode", load_profile(prof))
+    after = simulate_file(dst, load_profile(prof))
+    assert s["print_time_s"]["before"] == pytest.approx(before.time_t, rel=1e-12)
+    assert s["print_time_s"]["after"] == pytest.approx(after.time_t, rel=1e-12)
+
+
+def test_verify_catches_a_tampered_file(processed, tmp_path):
+    dst, _, prof = processed["prusa_mk3s_rectilinear.gcode"]
+    with open(dst) as fh:
+        lines = fh.readlines()
+    # drop some filament inside the first block
+    i = next(k for k, l in enumerate(lines) if l.startswith("; gcode-opt begin"))
+    j = next(k for k in range(i, len(lines)) if lines[k].startswith("G1 ") and " E" in lines[k])
+    head, _, tail = lines[j].partition(" E")
+    num, _, rest = tail.partition(" ")
+    lines[j] = f"{head} E{float(num) * 0.5:.5f} {rest}"
+    bad = tmp_path / "bad.gcode"
+    bad.write_text("".join(lines))
+    with pytest.raises(Violation):
+        verify(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(bad), load_profile(prof))
+    # and a changed comment elsewhere
+    lines = open(dst).readlines()
+    k = next(k for k, l in enumerate(lines) if l.startswith(";TYPE:"))
+    lines[k] = ";TYPE:Changed\n"
+    bad.write_text("".join(lines))
+    with pytest.raises(Violation):
+        verify(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(bad), load_profile(prof))
+
+
+def test_in_place_is_atomic_and_failure_leaves_input(tmp_path, monkeypatch):
+    src = tmp_path / "in.gcode"
+    shutil.copy(SAMPLES + "prusa_klipper.gcode", src)
+    original = src.read_bytes()
+    import gcode_opt.pipeline as pl
+
+    def boom(*a, **k):
+        raise RuntimeError("simulated failure while measuring")
+    monkeypatch.setattr(pl, "measure", boom)
+    with pytest.raises(RuntimeError):
+        process(str(src), str(src), load_profile("voron24"), Options())
+    assert src.read_bytes() == original
+    assert [p.name for p in tmp_path.iterdir()] == ["in.gcode"]     # no temp file left behind
+
+
+def test_cli_in_place_like_a_slicer(tmp_path):
+    src = tmp_path / "print.gcode"
+    shutil.copy(SAMPLES + "prusa_mk3s_rectilinear.gcode", src)
+    js = tmp_path / "s.json"
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", "--profile", "prusa-mk3s",
+                        "--json", str(js), str(src)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(js.read_text())
+    assert s["strokes"]["retimed"] > 0
+    verify(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(src), load_profile("prusa-mk3s"))
+
+
+def test_cli_errors_name_the_file(tmp_path):
+    bad = tmp_path / "bad.gcode"
+    bad.write_text("G21\nG90\nG1 X1 Y1\nG2 X5 Y5 E1\n")
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(bad), "-o", str(tmp_path / "o.gcode")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "bad.gcode:4" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(tmp_path / "missing.gcode")],
+                       capture_output=True, text=True)
+    assert r.returncode != 0 and "missing.gcode" in r.stderr
+
+
+@pytest.mark.parametrize("edge", sorted(f for f in os.listdir(SAMPLES + "edge") if f.endswith(".gcode")))
+def test_edge_files_process_and_verify(tmp_path, edge):
+    prof = load_profile("generic-klipper")
+    dst = tmp_path / edge
+    process(SAMPLES + "edge/" + edge, str(dst), prof, Options(min_length_d=0.5))
+    verify(SAMPLES + "edge/" + edge, str(dst), prof)

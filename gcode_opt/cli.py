@@ -86,6 +86,8 @@ def build_parser():
                         "minimum segment time and planner buffer; default %(default)s)")
     p.add_argument("--min-length", type=float, default=2.0, help="shortest stroke to re-time, mm (default %(default)s)")
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
+    p.add_argument("--report", metavar="REPORT.html",
+                   help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
 
     s = sub.add_parser("simulate", help="play a file through the firmware model",
@@ -96,6 +98,8 @@ def build_parser():
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
 
     sub.add_parser("profiles", help="list the bundled printer profiles")
+    from .report.commands import register        # report, law, figures
+    register(sub)
     return ap
 
 
@@ -113,7 +117,13 @@ def cmd_process(a):
     prog = None if a.quiet else Progress(os.path.getsize(a.input))
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
-    summary = process(a.input, out, prof, opts)
+    hook = None
+    if a.report:
+        from .report.html import write_report
+
+        def hook(orig, new, summary):
+            write_report(orig, new, prof, summary, a.report)
+    summary = process(a.input, out, prof, opts, before_replace=hook)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(summary, fh, indent=1)
@@ -174,7 +184,8 @@ def main(argv=None):
         return 2
     from .state import GcodeError
     try:
-        return {"process": cmd_process, "simulate": cmd_simulate, "profiles": cmd_profiles}[a.cmd](a)
+        return a.func(a) if hasattr(a, "func") else {"process": cmd_process, "simulate": cmd_simulate,
+                                                      "profiles": cmd_profiles}[a.cmd](a)
     except GcodeError as e:
         sys.stderr.write(f"gcode-opt: {e}\n")
         return 2

@@ -262,9 +262,10 @@ def measure(path, profile, out_ranges, opts):
 
 
 # ---------------------------------------------------------------- the job
-def process(in_path, out_path, profile: Profile, opts: Options):
+def process(in_path, out_path, profile: Profile, opts: Options, before_replace=None):
     """Re-time in_path into out_path (may be the same path: atomic replace).  Returns
-    the summary dict."""
+    the summary dict.  before_replace(in_path, new_path, summary), if given, runs while
+    both files still exist (the report compares them); if it raises, nothing is replaced."""
     t_start = time.monotonic()
     size = os.path.getsize(in_path)
     prog = opts.progress
@@ -285,6 +286,11 @@ def process(in_path, out_path, profile: Profile, opts: Options):
         if prog:
             prog.start("measure")
         sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+        from .summary import build_summary
+        summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
+                                out_ranges, t1, a21, v21, time.monotonic() - t_start)
+        if before_replace is not None:
+            before_replace(in_path, tmp, summary)
         if os.path.exists(out_path):
             os.chmod(tmp, os.stat(out_path).st_mode & 0o7777)
         else:
@@ -299,6 +305,4 @@ def process(in_path, out_path, profile: Profile, opts: Options):
     finally:
         if prog:
             prog.finish()
-    from .summary import build_summary
-    return build_summary(in_path, out_path, size, profile, opts, strokes, pin, plan, sim0, sim1,
-                         out_ranges, t1, a21, v21, time.monotonic() - t_start)
+    return summary

@@ -2,6 +2,7 @@
 executes the original and the re-timed file.  Keys are stable (README documents them)."""
 from __future__ import annotations
 
+import os
 from collections import Counter
 
 import numpy as np
@@ -11,7 +12,7 @@ def _ratio(after, before):
     return None if not before else after / before - 1.0
 
 
-def build_summary(in_path, out_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
+def build_summary(in_path, out_path, written_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
                   out_ranges, t_after, a2_after, v2_after, elapsed_t):
     idx = np.array([r[2] for r in out_ranges], dtype=int)
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
@@ -31,10 +32,9 @@ def build_summary(in_path, out_path, size_before, profile, opts, strokes, pin, p
     reasons = Counter(str(r) for r in plan.reason)
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
-    with open(out_path, "rb") as fh:
+    with open(written_path, "rb") as fh:
         lines_after = sum(1 for _ in fh)
-    import os
-    size_after = os.path.getsize(out_path)
+    size_after = os.path.getsize(written_path)
     return {
         "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
         "options": {"alpha": opts.alpha, "features": list(opts.features), "overshoot": opts.overshoot_r,
@@ -52,7 +52,8 @@ def build_summary(in_path, out_path, size_before, profile, opts, strokes, pin, p
                                 "int_a2": _ratio(float(a2_after.sum()), law_I)},
         },
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
-                       "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2)},
+                       "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),
+                       "corner_dv2_change": _ratio(sim1.corner_dv2, sim0.corner_dv2)},
         "file": {"bytes_before": size_before, "bytes_after": size_after, "lines_after": lines_after},
         "elapsed_s": elapsed_t,
         "per_stroke": per_stroke,

@@ -23,7 +23,7 @@ import numpy as np
 from . import features as feat
 from .emit import StrokeText, emit_stroke
 from .firmware.simulate import simulate_events
-from .plan import PlanInput, plan_auto, plan_fixed_alpha
+from .plan import PlanInput, candidates_auto, plan_auto, plan_fixed_alpha
 from .profile import Profile
 from .segments import SegmentRules, plan_segments
 from .state import MachineState, events, read_lines
@@ -163,14 +163,16 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     the budget is re-spent once with the difference taken off, and a stroke whose
     segments would not beat the original trapezoid is left alone."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
+    cands = candidates_auto(pin) if opts.alpha == "auto" and len(strokes) else None
 
     def run(budget):
-        plan = plan_auto(pin, budget) if opts.alpha == "auto" else plan_fixed_alpha(pin, float(opts.alpha))
+        plan = plan_auto(pin, budget, cands) if opts.alpha == "auto" else plan_fixed_alpha(pin, float(opts.alpha))
         plan.segs = [None] * len(strokes)
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
-        for i in np.flatnonzero(plan.retime):
-            seg = plan_segments(strokes[i], plan.T[i], plan.beta[i], rules)
+        idx = np.flatnonzero(plan.retime)
+        segs = plan_segments([strokes[i] for i in idx], plan.T[idx], plan.beta[idx], rules)
+        for i, seg in zip(idx, segs):
             if seg is None or seg.int_a2 >= strokes[i].int_a2:
                 plan.retime[i] = False
                 plan.reason[i] = "segments would not beat the original"

@@ -58,7 +58,7 @@ def _feasible(law, v_cap, a_cap):
             & (law.min_speed() >= -1e-9 * (1 + v_cap)))
 
 
-def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=48):
+def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
     """gamma_v: the smallest gamma (largest beta) whose peak speed <= v_cap.  Peak speed
     falls monotonically as gamma grows (the law flattens towards constant speed)."""
     lo = np.full(np.broadcast(L, T).shape, np.log(GAMMA_LO))
@@ -115,12 +115,13 @@ def allocate(T, I, T_orig, I_orig, budget_t):
     return choose(hi)[0], hi
 
 
-def plan_auto(p: PlanInput, budget_t: float) -> Plan:
+def plan_auto(p: PlanInput, budget_t: float, cands=None) -> Plan:
+    """cands: candidates_auto(p), when the caller plans the same strokes twice."""
     n = len(p.L)
     plan = Plan(n)
     if n == 0:
         return plan
-    T, beta, I, KE = candidates_auto(p)
+    T, beta, I, KE = candidates_auto(p) if cands is None else cands
     j, lam = allocate(T, I, p.T_orig, p.I_orig, budget_t)
     plan.lam = lam
     k = T.shape[1]

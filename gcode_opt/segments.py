@@ -27,41 +27,68 @@ def segment_count(T, L, n_max, t_seg_min_t, min_seg_d=MIN_SEG_D):
     return max(n, 0)
 
 
-def knots(stroke, T, beta, n, edge0_d=0.0, edge1_d=0.0):
-    """Knot distances s_k (mm from stroke start) and speeds v_k (mm/s), k = 0..K, with
-    s_0 = 0, s_K = L, every original vertex included, law knots too close to a vertex
-    dropped.
+def law_knots(strokes, T, beta, n):
+    """Knots of many strokes at once (one vectorised law evaluation): for stroke i, the
+    distances s (mm) and speeds v (mm/s) at n_i + 1 instants evenly spaced in time, plus
+    every interior original vertex (law knots too close to a vertex dropped), with
+    s_0 = 0, s_K = L and the end speeds exact.  Returns a list of (s, v)."""
+    m = len(strokes)
+    if m == 0:
+        return []
+    L = np.array([st.length_d for st in strokes])
+    v0 = np.array([st.v0 for st in strokes])
+    v1 = np.array([st.v1 for st in strokes])
+    T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
+    j = np.arange(n.max() + 1)
+    tau = np.minimum(j[None, :] / n[:, None], 1.0)
+    law = line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
+    s_all, v_all, _ = law.eval(tau * T[:, None])
+    # interior vertices of multi-move strokes: one vectorised inversion s -> t
+    owner, verts = [], []
+    for i, st in enumerate(strokes):
+        if st.n_moves > 1:
+            owner += [i] * (st.n_moves - 1)
+            verts += st.ends_d[:-1]
+    vv = {}
+    if verts:
+        owner_a, verts_a = np.array(owner), np.array(verts)
+        vl = line_law(L[owner_a], T[owner_a], beta[owner_a], v0[owner_a], v1[owner_a])
+        _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float))
+        for k, i in enumerate(owner):
+            vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
+    out = []
+    for i in range(m):
+        s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
+        if i in vv:
+            vs = np.array([p[0] for p in vv[i]])
+            min_gap = min(MIN_SEG_D, L[i] / (4 * n[i]))
+            gap = np.min(np.abs(s[:, None] - vs[None, :]), axis=1)
+            keep = np.ones(len(s), bool)
+            keep[1:-1] = gap[1:-1] >= min_gap
+            s = np.concatenate([s[keep], vs])
+            v = np.concatenate([v[keep], [p[1] for p in vv[i]]])
+            order = np.argsort(s, kind="stable")
+            s, v = s[order], v[order]
+        s[0], s[-1] = 0.0, L[i]
+        v = np.maximum(v, 0.0)
+        v[0], v[-1] = v0[i], v1[i]
+        out.append((s, v))
+    return out
 
-    edge0_d / edge1_d > 0 add a lead-in / lead-out: a short segment run at the corner
-    speed itself (v0 / v1, no speed change) that can carry whatever acceleration the
-    firmware's junction law needs to keep that corner speed, at no cost in int a^2; the
-    law is played on the rest of the stroke."""
-    L = stroke.length_d
-    law = line_law(L, T, beta, stroke.v0, stroke.v1)
-    t = np.linspace(0.0, T, n + 1)
-    s_law, _, _ = law.eval(t)
-    s_law = np.asarray(s_law, float)
-    verts = np.asarray(stroke.ends_d[:-1], float)          # interior original vertices
-    min_gap = min(MIN_SEG_D, L / (4 * max(n, 1)))
-    keep = np.ones(len(s_law), bool)
-    if len(verts):
-        gap = np.min(np.abs(s_law[:, None] - verts[None, :]), axis=1)
-        keep[1:-1] &= gap[1:-1] >= min_gap
-    s = np.sort(np.concatenate([s_law[keep], verts]), kind="stable")
-    s[0], s[-1] = 0.0, L
-    t_all = np.asarray(time_of_distance(law, s), float)
-    _, v, _ = law.eval(t_all)
-    v = np.maximum(np.asarray(v, float), 0.0)
-    v[0], v[-1] = stroke.v0, stroke.v1
+
+def with_edges(s, v, edge0_d=0.0, edge1_d=0.0):
+    """Add a lead-in / lead-out: a short segment run at the corner speed itself (v_0 /
+    v_K, no speed change) that can carry whatever acceleration the firmware's junction
+    law needs to keep that corner speed, at no cost in int a^2."""
     if edge0_d > 0.0:
-        edge0_d = min(edge0_d, 0.4 * s[1])
-        s = np.concatenate([[0.0, edge0_d], s[1:]])
-        v = np.concatenate([[stroke.v0, stroke.v0], v[1:]])
+        e = min(edge0_d, 0.4 * s[1])
+        s = np.concatenate([[0.0, e], s[1:]])
+        v = np.concatenate([[v[0], v[0]], v[1:]])
     if edge1_d > 0.0:
-        edge1_d = min(edge1_d, 0.4 * (L - s[-2]))
-        s = np.concatenate([s[:-1], [L - edge1_d, L]])
-        v = np.concatenate([v[:-1], [stroke.v1, stroke.v1]])
-    return s, v, None, law
+        e = min(edge1_d, 0.4 * (s[-1] - s[-2]))
+        s = np.concatenate([s[:-1], [s[-1] - e, s[-1]]])
+        v = np.concatenate([v[:-1], [v[-1], v[-1]]])
+    return s, v
 
 
 def segment_feeds(v, v_feed, step_v=np.inf):
@@ -127,12 +154,21 @@ class SegmentPlan:
         self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
 
 
-def plan_segments(stroke, T, beta, rules: SegmentRules):
-    """Segments that make the firmware play the law (L, T, beta, v0, v1) on this stroke,
-    or None when the stroke is too short or quick for at least two segments."""
-    n = segment_count(T, stroke.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
-    if n < 2:
-        return None
+def plan_segments(strokes, T, beta, rules: SegmentRules):
+    """Segments that make the firmware play each stroke's law (L, T, beta, v0, v1): a
+    list with a SegmentPlan, or None where the stroke is too short or quick for two."""
+    n = np.array([segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
+                  for st, t in zip(strokes, T)], dtype=int)
+    ok = np.flatnonzero(n >= 2)
+    plans = [None] * len(strokes)
+    knots = law_knots([strokes[i] for i in ok], np.asarray(T)[ok], np.asarray(beta)[ok], n[ok])
+    for i, (sk, vk) in zip(ok, knots):
+        plans[i] = _finish(strokes[i], sk, vk, rules)
+    return plans
+
+
+def _finish(stroke, sk, vk, rules):
+    """Accelerations (incl. what the corners need) and feeds for one stroke's knots."""
     u = (stroke.ux, stroke.uy)
     # a corner slower than FULL_STOP_V is a halt already: not worth an acceleration spike
     v0 = stroke.v0 if stroke.v0 >= FULL_STOP_V else 0.0
@@ -143,7 +179,6 @@ def plan_segments(stroke, T, beta, rules: SegmentRules):
         return (accel_to_pass_junction(rules.junction, v0, stroke.prev_u, u, sk[1] - sk[0], jd),
                 accel_to_pass_junction(rules.junction, v1, u, stroke.next_u, sk[-1] - sk[-2], jd))
 
-    sk, vk, _, _ = knots(stroke, T, beta, n)
     acc = ramp_accels(sk, vk)
     need0, need1 = needs(sk)
     # Klipper's and Marlin's corner speeds scale with the entering block's acceleration:
@@ -152,7 +187,7 @@ def plan_segments(stroke, T, beta, rules: SegmentRules):
     if need0 > acc[0] or need1 > acc[-1]:
         e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05)) if need0 > acc[0] else 0.0
         e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05)) if need1 > acc[-1] else 0.0
-        sk, vk, _, _ = knots(stroke, T, beta, n, e0, e1)
+        sk, vk = with_edges(sk, vk, e0, e1)
         acc = ramp_accels(sk, vk)
         need0, need1 = needs(sk)
     acc[0] = max(acc[0], min(need0, stroke.accel))

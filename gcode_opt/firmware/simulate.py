@@ -81,9 +81,10 @@ class SimResult:
 class _Sim:
     """Builds blocks from moves, runs the planner, integrates what it plans."""
 
-    def __init__(self, profile, on_line):
+    def __init__(self, profile, on_line, on_block=None):
         self.prof = profile
         self.on_line = on_line
+        self.on_block = on_block
         self.res = SimResult()
         self.klipper_limits = profile.block_buffer <= 0
         self.model = profile.junction
@@ -299,6 +300,8 @@ class _Sim:
         rec.int_v2 += v2
         self.prev = b
         self.prev_t = t
+        if self.on_block is not None:
+            self.on_block(b)
 
     def _close(self):
         rec = self.rec
@@ -308,9 +311,15 @@ class _Sim:
                 self.on_line(rec)
 
 
-def simulate_events(event_iter, profile, on_line=None) -> SimResult:
-    """Play (idx, raw, event) triples (as ``state.events`` yields them)."""
-    sim = _Sim(profile, on_line)
+def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResult:
+    """Play (idx, raw, event) triples (as ``state.events`` yields them).
+
+    ``on_block(b)``, if given, sees every planned block in execution order, after its
+    line's figures were accumulated: a ``planner.Block`` with ``idx`` (0-based source
+    line), ``kind``, ``first`` (first block of its line), ``d`` (mm), unit vector
+    ``ux, uy, uz``, ``start_v, cruise_v, end_v`` (mm/s), ``accel`` (mm/s^2) and the
+    trapezoid's ``accel_t, cruise_t, decel_t`` (s).  Read it, don't keep it changing."""
+    sim = _Sim(profile, on_line, on_block)
     move = sim.move
     barrier = sim.barrier
     Move, Barrier = st.Move, st.Barrier
@@ -326,5 +335,5 @@ def simulate_events(event_iter, profile, on_line=None) -> SimResult:
     return sim.res
 
 
-def simulate_file(path, profile, on_line=None) -> SimResult:
-    return simulate_events(st.events(path, profile), profile, on_line)
+def simulate_file(path, profile, on_line=None, on_block=None) -> SimResult:
+    return simulate_events(st.events(path, profile), profile, on_line, on_block)

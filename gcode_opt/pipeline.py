@@ -182,9 +182,14 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         return plan
 
     plan = run(budget_t)
-    excess = float(np.sum(plan.t_pred - plan.T, where=plan.retime))
-    if opts.alpha == "auto" and excess > 0:
-        plan = run(max(budget_t - excess, 0.0))
+    if opts.alpha == "auto":
+        budget = budget_t
+        for _ in range(3):                # the set of strokes changes with the budget: iterate
+            over = float(np.sum(plan.t_pred - pin.T_orig, where=plan.retime)) - budget_t
+            if over <= 1e-3 * budget_t + 1e-9:
+                break
+            budget -= over
+            plan = run(budget)
     return plan
 
 

@@ -1,0 +1,377 @@
+"""The report's figures, from the firmware model playing the original and the processed file.
+
+``build_report(orig_path, new_path, profile, summary=None)`` returns ``(data, ctx)``:
+``data`` is the JSON-ready dict (keys documented in the README, schema "gcode-opt-report/1"),
+``ctx`` keeps the two traces and the fences for the plots.  Everything is re-derived from the
+two files on disk (fences pair each re-timed block with the original lines it replaced); the
+pipeline's summary, when given, only adds what the files cannot tell (candidates, reasons a
+stroke was skipped, the law's own time and int a^2, the options).
+
+Units: mm, s; int_a2 in mm^2/s^3, int_v2 in mm^2/s; energies in J*s (kg m^2/s).
+"""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+
+import numpy as np
+
+from .. import state as st
+from .fences import parse_fences
+from .trace import count_lines, trace_file
+
+SCHEMA = "gcode-opt-report/1"
+MM2_TO_M2 = 1e-6
+DEFAULT_BUDGET_R = 0.03          # the CLI's default --max-slowdown, used when no summary says otherwise
+SEGMENT_RATE_WARN_R = 0.8        # warn at this fraction of the profile's max_segment_rate
+OVERSHOOT_EPS_R = 1e-3           # speed above F by less than this is rounding
+CURVE_MAX_TURN_DEG = 30.0        # polyline vertices turning less than this belong to one curve
+CURVE_MIN_MOVES = 6
+CURVE_MIN_LENGTH_D = 5.0
+
+
+def ratio(after, before):
+    """after/before - 1, None when before is 0 or missing."""
+    if before is None or after is None or not before:
+        return None
+    return after / before - 1.0
+
+
+def bac(before, after, **extra):
+    d = {"before": before, "after": after, "change": ratio(after, before)}
+    d.update(extra)
+    return d
+
+
+def mass_kg(profile, ux, uy):
+    return profile.moving_mass_x_kg * ux * ux + profile.moving_mass_y_kg * uy * uy
+
+
+def _finite(x):
+    return x is not None and isinstance(x, (int, float)) and math.isfinite(x)
+
+
+class Context:
+    """What the plots need beyond the JSON: both traces, the fences, the summary."""
+
+    def __init__(self, tr0, tr1, fences, summary, profile):
+        self.tr0, self.tr1, self.fences, self.summary, self.profile = tr0, tr1, fences, summary, profile
+        # original line -> output line for lines outside fences
+        self._starts = np.array([f.orig_first for f in fences], dtype=int)
+        self._shift = np.cumsum([0] + [(f.out_last - f.out_first + 1) - f.n_orig for f in fences])
+
+    def out_line_of(self, orig_idx):
+        """0-based output line of an original line that no fence replaced."""
+        k = int(np.searchsorted(self._starts, orig_idx, side="right"))
+        return orig_idx + int(self._shift[k])
+
+
+# --------------------------------------------------------------------------- per stroke
+def _stroke_rows(tr0, tr1, fences, summary, profile):
+    by_line = {}
+    if summary:
+        by_line = {p["line"]: p for p in summary.get("per_stroke", [])}
+    min_seg_t = profile.min_segment_time_t
+    rows = []
+    for f in fences:
+        o0, o1 = f.orig_first, f.orig_last
+        m0 = tr0.moves.get(o0)
+        length = sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves)
+        if m0 is not None and length > 0:
+            ux, uy = (m0.x1 - m0.x0), (m0.y1 - m0.y0)
+            n = math.hypot(ux, uy) or 1.0
+            ux, uy = ux / n, uy / n
+        else:
+            ux, uy = 1.0, 0.0
+        sl = tr1.block_range(f.out_first, f.out_last)
+        seg_t = (tr1.blocks["accel_t"][sl] + tr1.blocks["cruise_t"][sl] + tr1.blocks["decel_t"][sl])
+        t_after = tr1.line_sum(f.out_first, f.out_last, "time_t")
+        segments = f.segments or int(sl.stop - sl.start)
+        sp = by_line.get(o0 + 1)
+        beta = f.marker_beta_s2
+        if sp is not None:
+            beta = sp.get("beta_s2")
+            beta = math.inf if beta is None else beta
+        feed = m0.v if m0 is not None else 0.0
+        peak_after = tr1.line_max(f.out_first, f.out_last, "peak_v")
+        row = {
+            "line": o0 + 1, "lines": f.n_orig, "out_line": f.out_first + 1,
+            "out_lines": f.out_last - f.out_first + 1, "segments": segments,
+            "feature": m0.feature if m0 is not None else "?", "layer": m0.layer if m0 is not None else -1,
+            "length_mm": length, "feed_mm_s": feed,
+            "v0_mm_s": tr0.lines[o0].start_v if o0 in tr0.lines else 0.0,
+            "v1_mm_s": tr0.lines[o1].end_v if o1 in tr0.lines else 0.0,
+            "mass_kg": mass_kg(profile, ux, uy),
+            "beta_s2": beta if _finite(beta) else None,
+            "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
+            "int_a2_mm2_s3": {"before": tr0.line_sum(o0, o1, "int_a2"),
+                              "after": tr1.line_sum(f.out_first, f.out_last, "int_a2")},
+            "int_v2_mm2_s": {"before": tr0.line_sum(o0, o1, "int_v2"),
+                             "after": tr1.line_sum(f.out_first, f.out_last, "int_v2")},
+            "peak_v_mm_s": {"before": tr0.line_max(o0, o1, "peak_v"), "after": peak_after},
+            "peak_a_mm_s2": {"before": tr0.line_max(o0, o1, "peak_a"),
+                             "after": tr1.line_max(f.out_first, f.out_last, "peak_a")},
+            "overshoot": ratio(peak_after, feed) if feed > 0 else None,
+            "segment_rate_hz": segments / t_after if t_after > 0 else None,
+            "shortest_segment_s": float(seg_t.min()) if len(seg_t) else None,
+            "below_min_segment_time": int(np.sum(seg_t < min_seg_t)) if min_seg_t > 0 else 0,
+        }
+        if sp is not None:
+            row["time_s"]["law"] = sp["time_s"]["law"]
+            row["int_a2_mm2_s3"]["law"] = sp["int_a2"]["law"]
+        rows.append(row)
+    return rows
+
+
+def _group(rows, key):
+    acc = defaultdict(lambda: {"strokes": 0, "length_mm": 0.0, "tb": 0.0, "ta": 0.0, "ab": 0.0, "aa": 0.0})
+    for r in rows:
+        g = acc[r[key]]
+        g["strokes"] += 1
+        g["length_mm"] += r["length_mm"]
+        g["tb"] += r["time_s"]["before"]
+        g["ta"] += r["time_s"]["after"]
+        g["ab"] += r["int_a2_mm2_s3"]["before"]
+        g["aa"] += r["int_a2_mm2_s3"]["after"]
+    out = []
+    for k in sorted(acc):
+        g = acc[k]
+        out.append({key: k, "strokes": g["strokes"], "length_mm": g["length_mm"],
+                    "time_s": bac(g["tb"], g["ta"]), "int_a2_mm2_s3": bac(g["ab"], g["aa"])})
+    return out
+
+
+# --------------------------------------------------------------------------- whole file
+def _kinetic_whole(tr, profile):
+    b = tr.blocks
+    if not len(b["d"]):
+        return 0.0
+    d = np.maximum(b["d"], 1e-12)
+    ux, uy = (b["x1"] - b["x0"]) / d, (b["y1"] - b["y0"]) / d
+    return float(0.5 * np.sum(mass_kg(profile, ux, uy) * b["v2_int"]) * MM2_TO_M2)
+
+
+def _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path):
+    import os
+    r0, r1 = tr0.res, tr1.res
+    sb = lambda k: float(sum(r[k]["before"] for r in rows))   # noqa: E731
+    sa = lambda k: float(sum(r[k]["after"] for r in rows))    # noqa: E731
+    kin_b = sum(0.5 * r["mass_kg"] * r["int_v2_mm2_s"]["before"] for r in rows) * MM2_TO_M2
+    kin_a = sum(0.5 * r["mass_kg"] * r["int_v2_mm2_s"]["after"] for r in rows) * MM2_TO_M2
+    with_beta = [r for r in rows if r["beta_s2"] is not None]
+    J = None
+    if with_beta:
+        def j(side):
+            return sum(0.5 * r["mass_kg"] * (r["int_v2_mm2_s"][side] + r["beta_s2"] * r["int_a2_mm2_s3"][side])
+                       for r in with_beta) * MM2_TO_M2
+        J = bac(j("before"), j("after"), strokes=len(with_beta))
+    law = None
+    if summary and rows and all("law" in r["time_s"] for r in rows):
+        law = {"time_s": float(sum(r["time_s"]["law"] for r in rows)),
+               "int_a2_mm2_s3": float(sum(r["int_a2_mm2_s3"]["law"] for r in rows))}
+    bytes_b, bytes_a = os.path.getsize(orig_path), os.path.getsize(new_path)
+    lines_a = tr1.n_lines
+    st_sum = (summary or {}).get("strokes", {})
+    return {
+        "print_time_s": bac(r0.time_t, r1.time_t),
+        "retimed_time_s": bac(sb("time_s"), sa("time_s"), law=law["time_s"] if law else None),
+        "int_a2_retimed_mm2_s3": bac(sb("int_a2_mm2_s3"), sa("int_a2_mm2_s3"),
+                                     law=law["int_a2_mm2_s3"] if law else None),
+        "int_a2_whole_mm2_s3": bac(r0.int_a2, r1.int_a2),
+        "int_v2_retimed_mm2_s": bac(sb("int_v2_mm2_s"), sa("int_v2_mm2_s")),
+        "kinetic_retimed_J_s": bac(kin_b, kin_a),
+        "kinetic_whole_J_s": bac(_kinetic_whole(tr0, profile), _kinetic_whole(tr1, profile)),
+        "J_retimed_J_s": J,
+        "peak_speed_mm_s": bac(r0.peak_v, r1.peak_v),
+        "peak_accel_mm_s2": bac(r0.peak_a, r1.peak_a),
+        "peak_speed_retimed_mm_s": bac(max((r["peak_v_mm_s"]["before"] for r in rows), default=0.0),
+                                       max((r["peak_v_mm_s"]["after"] for r in rows), default=0.0)),
+        "peak_accel_retimed_mm_s2": bac(max((r["peak_a_mm_s2"]["before"] for r in rows), default=0.0),
+                                        max((r["peak_a_mm_s2"]["after"] for r in rows), default=0.0)),
+        "strokes": {"retimed": len(rows), "candidates": st_sum.get("candidates"),
+                    "not_retimed": st_sum.get("not_retimed")},
+        "file": {"bytes": bac(bytes_b, bytes_a), "lines": bac(lines_before, lines_a)},
+        "corners": bac(r0.corners, r1.corners),
+        "corner_dv2_mm2_s2": bac(r0.corner_dv2, r1.corner_dv2),
+        "full_stops": bac(r0.full_stops, r1.full_stops),
+        "short_segments": bac(r0.short_segments, r1.short_segments),
+    }
+
+
+# --------------------------------------------------------------------------- warnings
+def _warn(out, code, level, message, rows=()):
+    out.append({"code": code, "level": level, "message": message, "count": len(rows) if rows else None,
+                "lines": [r["line"] for r in list(rows)[:10]]})
+
+
+def _warnings(rows, head, summary, profile):
+    w = []
+    opts = (summary or {}).get("options") or {}
+    budget = opts.get("max_slowdown", DEFAULT_BUDGET_R)
+    allowed = opts.get("overshoot")
+    pt = head["print_time_s"]["change"]
+    if pt is not None and pt > budget + 1e-9:
+        _warn(w, "print_time_over_budget", "warning",
+              f"print time grows by {pt * 100:.2f} %, more than the {budget * 100:g} % time budget "
+              f"(--max-slowdown)")
+    slow = sorted((r for r in rows if (ratio(r["time_s"]["after"], r["time_s"]["before"]) or 0) > budget),
+                  key=lambda r: -(r["time_s"]["after"] / r["time_s"]["before"]))
+    if slow:
+        worst = slow[0]
+        _warn(w, "strokes_stretched", "info",
+              f"{len(slow)} re-timed strokes take more than {budget * 100:g} % longer than before "
+              f"(worst: line {worst['line']}, "
+              f"{ratio(worst['time_s']['after'], worst['time_s']['before']) * 100:+.1f} %)", slow)
+    rate_lim = profile.max_segment_rate
+    fast = sorted((r for r in rows if r["segment_rate_hz"] and r["segment_rate_hz"] >= SEGMENT_RATE_WARN_R * rate_lim),
+                  key=lambda r: -r["segment_rate_hz"])
+    if fast:
+        _warn(w, "segment_rate_near_limit", "warning",
+              f"{len(fast)} re-timed strokes send segments at >= {SEGMENT_RATE_WARN_R * 100:.0f} % of the "
+              f"firmware's {rate_lim:g} segments/s (max {fast[0]['segment_rate_hz']:.0f}/s at line "
+              f"{fast[0]['line']}): the planner may starve and stutter", fast)
+    short = [r for r in rows if r["below_min_segment_time"]]
+    if short:
+        _warn(w, "segments_below_min_time", "warning",
+              f"{len(short)} re-timed strokes have segments shorter than the firmware's minimum segment "
+              f"time {profile.min_segment_time_t * 1000:g} ms (Marlin slows such moves when its buffer runs low)",
+              short)
+    over = sorted((r for r in rows if r["overshoot"] is not None and r["overshoot"] > OVERSHOOT_EPS_R),
+                  key=lambda r: -r["overshoot"])
+    if over:
+        lim = f" (allowed: --overshoot {allowed * 100:g} %)" if allowed is not None else ""
+        _warn(w, "speed_overshoot", "info",
+              f"{len(over)} re-timed strokes run faster than the slicer's F, by up to "
+              f"{over[0]['overshoot'] * 100:.1f} % (line {over[0]['line']}){lim}", over)
+    worse = [r for r in rows if r["int_a2_mm2_s3"]["after"] > r["int_a2_mm2_s3"]["before"] * (1 + 1e-9)]
+    if worse:
+        _warn(w, "int_a2_increased", "warning",
+              f"{len(worse)} re-timed strokes have a larger int|a|^2 dt after than before", worse)
+    fs = head["full_stops"]
+    if fs["after"] > fs["before"]:
+        _warn(w, "more_full_stops", "warning",
+              f"full stops grow from {fs['before']} to {fs['after']}")
+    if summary is not None and summary.get("strokes", {}).get("retimed") not in (None, len(rows)):
+        _warn(w, "summary_mismatch", "warning",
+              f"the summary counts {summary['strokes']['retimed']} re-timed strokes, the processed file "
+              f"has {len(rows)} fenced blocks")
+    return w
+
+
+# --------------------------------------------------------------------------- pictures' subjects
+def _curved_runs(tr):
+    """(first_idx, last_idx, length) of the longest smooth polyline of extruding moves."""
+    best = None
+    cos_max = math.cos(math.radians(CURVE_MAX_TURN_DEG))
+    run = []
+
+    def close():
+        nonlocal best
+        if len(run) >= CURVE_MIN_MOVES:
+            turns = 0
+            for a, b in zip(run, run[1:]):
+                turns += 1 if (a[1] * b[1] + a[2] * b[2]) < 0.99999 else 0
+            length = sum(r[3] for r in run)
+            if turns >= len(run) // 2 and length >= CURVE_MIN_LENGTH_D and (best is None or length > best[2]):
+                best = (run[0][0], run[-1][0], length)
+        run.clear()
+
+    prev_idx = None
+    for idx in sorted(tr.moves):
+        m = tr.moves[idx]
+        ok = m.kind == st.LINE and m.e > 0 and m.z0 == m.z1
+        d = math.hypot(m.x1 - m.x0, m.y1 - m.y0) if ok else 0.0
+        if not ok or d <= 0:
+            close()
+            prev_idx = None
+            continue
+        u = (idx, (m.x1 - m.x0) / d, (m.y1 - m.y0) / d, d, m.feature, m.v)
+        if run and (prev_idx != idx - 1 or run[-1][4] != m.feature or run[-1][5] != m.v
+                    or run[-1][1] * u[1] + run[-1][2] * u[2] < cos_max):
+            close()
+        run.append(u)
+        prev_idx = idx
+    close()
+    return best
+
+
+def _representatives(rows, tr0):
+    reps = []
+    if rows:
+        long_r = max(rows, key=lambda r: r["length_mm"])
+        short_r = min(rows, key=lambda r: r["length_mm"])
+        for role, r in (("long line", long_r), ("short line", short_r)):
+            reps.append({"role": role, "line": r["line"], "lines": r["lines"], "retimed": True,
+                         "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"],
+                         "note": ""})
+            if long_r is short_r:
+                break
+    arcs = [m for m in tr0.moves.values() if m.kind == st.ARC]
+    if arcs:
+        a = max(arcs, key=lambda m: m.length_d)
+        reps.append({"role": "arc", "line": a.idx + 1, "lines": 1, "retimed": False, "length_mm": a.length_d,
+                     "feature": a.feature, "layer": a.layer,
+                     "note": "arcs (G2/G3) are not re-timed by this version; firmware profile, unchanged "
+                             "in the output, against the optimal circle law at the same duration"})
+    else:
+        reps.append({"role": "arc", "line": None, "note": "the file has no arcs (G2/G3)"})
+    c = _curved_runs(tr0)
+    if c:
+        m = tr0.moves[c[0]]
+        reps.append({"role": "curve", "line": c[0] + 1, "lines": c[1] - c[0] + 1, "retimed": False,
+                     "length_mm": c[2], "feature": m.feature, "layer": m.layer,
+                     "note": "curved polylines are not re-timed by this version; firmware profile, unchanged "
+                             "in the output, against the optimal law along the same curve at the same duration"})
+    else:
+        reps.append({"role": "curve", "line": None,
+                     "note": "the file has no curved stroke (a smooth polyline of at least "
+                             f"{CURVE_MIN_MOVES} moves, turns under {CURVE_MAX_TURN_DEG:g} deg)"})
+    return reps
+
+
+def _map_layer(rows, tr0, layer=None):
+    if layer is None:
+        gain = defaultdict(float)          # the layer where re-timing removed the most int a^2
+        for r in rows:
+            gain[r["layer"]] += r["int_a2_mm2_s3"]["before"] - r["int_a2_mm2_s3"]["after"]
+        if gain:
+            layer = min(gain, key=lambda k: (-gain[k], k))
+        else:
+            layers = sorted({m.layer for m in tr0.moves.values()})
+            layer = layers[len(layers) // 2] if layers else 0
+    zs = [m.z0 for m in tr0.moves.values() if m.layer == layer and m.e > 0]
+    in_layer = [r for r in rows if r["layer"] == layer]
+    return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
+            "int_a2_retimed_mm2_s3": bac(float(sum(r["int_a2_mm2_s3"]["before"] for r in in_layer)),
+                                         float(sum(r["int_a2_mm2_s3"]["after"] for r in in_layer)))}
+
+
+# --------------------------------------------------------------------------- entry point
+def build_report(orig_path, new_path, profile, summary=None, layer=None):
+    fences, n_orig = parse_fences(new_path)
+    lines_before = count_lines(orig_path)
+    if n_orig != lines_before:
+        raise ValueError(f"{new_path} does not come from {orig_path}: its fences account for {n_orig} "
+                         f"original lines, the original has {lines_before}")
+    tr0 = trace_file(orig_path, profile)
+    tr1 = trace_file(new_path, profile)
+    rows = _stroke_rows(tr0, tr1, fences, summary, profile)
+    head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
+    data = {
+        "schema": SCHEMA,
+        "original": str(orig_path), "processed": str(new_path),
+        "profile": profile.name, "flavour": profile.flavour,
+        "mass_kg": {"x": profile.moving_mass_x_kg, "y": profile.moving_mass_y_kg},
+        "limits": {"max_segment_rate_hz": profile.max_segment_rate,
+                   "min_segment_time_s": profile.min_segment_time_t},
+        "options": (summary or {}).get("options"),
+        "headline": head,
+        "by_feature": _group(rows, "feature"),
+        "by_layer": _group(rows, "layer"),
+        "warnings": _warnings(rows, head, summary, profile),
+        "representative": _representatives(rows, tr0),
+        "layer_map": _map_layer(rows, tr0, layer),
+        "whole_file": {"before": tr0.res.as_dict(), "after": tr1.res.as_dict()},
+        "per_stroke": rows,
+    }
+    return data, Context(tr0, tr1, fences, summary, profile)

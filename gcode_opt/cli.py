@@ -57,7 +57,8 @@ def _fraction(text):
 
 
 def build_parser():
-    ap = argparse.ArgumentParser(prog="gcode-opt", description=__doc__.split("(")[0].strip(),
+    ap = argparse.ArgumentParser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
+                                 "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--version", action="version", version=f"gcode-opt {__version__}")
     sub = ap.add_subparsers(dest="cmd", metavar="COMMAND")
@@ -66,8 +67,9 @@ def build_parser():
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="IN.gcode")
     p.add_argument("-o", "--output", metavar="OUT.gcode", help="write here (default: rewrite IN in place)")
-    p.add_argument("--profile", default="generic-klipper",
-                   help="printer profile name (see `gcode-opt profiles`) or a .toml file (default: %(default)s)")
+    p.add_argument("--profile", default="auto",
+                   help="printer profile name (see `gcode-opt profiles`) or a .toml file. 'auto' (default) "
+                        "reads the slicer's printer_model / flavour comments and falls back to generic-klipper")
     p.add_argument("--alpha", type=_alpha, default="auto",
                    help="weight of the inertia term, s^2/kg (beta = alpha*m is a time^2: the law's boundary "
                         "layers are sqrt(beta) long). 'auto' (default) picks per stroke the law with the "
@@ -94,7 +96,7 @@ def build_parser():
                        description="Plan a whole file the way a constant-acceleration lookahead firmware does "
                                    "and report print time, int|a|^2 dt, peak speed and acceleration, full stops.")
     s.add_argument("input", metavar="FILE.gcode")
-    s.add_argument("--profile", default="generic-klipper")
+    s.add_argument("--profile", default="auto", help="as for process (default: auto)")
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
 
     sub.add_parser("profiles", help="list the bundled printer profiles")
@@ -103,8 +105,13 @@ def build_parser():
     return ap
 
 
-def _load_profile(name):
+def _load_profile(name, path=None, quiet=False):
     from .profile import load_profile
+    if name == "auto":
+        from .detect import detect_profile
+        name, why = detect_profile(path)
+        if not quiet:
+            sys.stderr.write(f"gcode-opt: profile {name} ({why}; choose another with --profile)\n")
     return load_profile(name)
 
 
@@ -112,7 +119,7 @@ def cmd_process(a):
     from .pipeline import Options, Progress, process
     if not os.path.isfile(a.input):
         raise SystemExit(f"gcode-opt: {a.input}: no such file")
-    prof = _load_profile(a.profile)
+    prof = _load_profile(a.profile, a.input, a.quiet)
     out = a.output or a.input
     prog = None if a.quiet else Progress(os.path.getsize(a.input))
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
@@ -155,7 +162,7 @@ def cmd_simulate(a):
     from .firmware.simulate import simulate_file
     if not os.path.isfile(a.input):
         raise SystemExit(f"gcode-opt: {a.input}: no such file")
-    res = simulate_file(a.input, _load_profile(a.profile))
+    res = simulate_file(a.input, _load_profile(a.profile, a.input, a.json))
     d = res.as_dict()
     if a.json:
         print(json.dumps(d, indent=1))

@@ -140,3 +140,33 @@ def test_edge_files_process_and_verify(tmp_path, edge):
     dst = tmp_path / edge
     process(SAMPLES + "edge/" + edge, str(dst), prof, Options(min_length_d=0.5))
     verify(SAMPLES + "edge/" + edge, str(dst), prof)
+
+
+@pytest.mark.parametrize("prof,expect,forbid", [
+    ("generic-klipper", ["M204 S", "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0"], ["M204 P"]),
+    ("generic-marlin", ["M204 P"], ["SET_VELOCITY_LIMIT", "M204 S"]),
+    ("prusa-mk3s", ["M204 S"], ["SET_VELOCITY_LIMIT", "M204 P"]),
+])
+def test_acceleration_commands_follow_the_flavour(tmp_path, prof, expect, forbid):
+    dst = tmp_path / "o.gcode"
+    process(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(dst), load_profile(prof), Options())
+    blocks, inside = [], False
+    for line in open(dst):
+        if line.startswith("; gcode-opt begin"):
+            inside = True
+        elif line.startswith("; gcode-opt end"):
+            inside = False
+        elif inside:
+            blocks.append(line)
+    text = "".join(blocks)
+    assert all(e in text for e in expect) and not any(f in text for f in forbid)
+    verify(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(dst), load_profile(prof))
+
+
+def test_fixed_alpha_end_to_end(tmp_path):
+    dst = tmp_path / "o.gcode"
+    s = process(SAMPLES + "prusa_klipper.gcode", str(dst), load_profile("voron24"), Options(alpha=0.002))
+    assert s["strokes"]["retimed"] > 0
+    assert all(p["beta_s2"] is not None for p in s["per_stroke"])
+    verify(SAMPLES + "prusa_klipper.gcode", str(dst), load_profile("voron24"))
+    assert abs(s["retimed_strokes"]["firmware_vs_law"]["time"]) < 0.10

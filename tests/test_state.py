@@ -139,3 +139,12 @@ def test_edge_feature_files_give_sparse_infill():
         ftrs = {e.feature for _, _, e in events(EDGE + name + ".gcode", load_profile("generic-klipper"))
                 if isinstance(e, Move) and e.e > 0}
         assert feat.SPARSE_INFILL in ftrs, name
+
+
+@pytest.mark.parametrize("name,expected", [
+    ("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "generic-marlin"),
+    ("cura_box.gcode", "generic-marlin"), ("edge/klipper_macros.gcode", "generic-klipper"),
+])
+def test_profile_detection(name, expected):
+    from gcode_opt.detect import detect_profile
+    assert detect_profile("sample_gcode/" + name)[0] == expected

@@ -53,28 +53,15 @@ def command_of(code: str) -> str:
     return s.split(None, 1)[0].upper()
 
 
-def params_of(code: str) -> dict[str, float]:
-    """Letter parameters of a classic command, letters upper-cased, first word skipped."""
-    out: dict[str, float] = {}
-    first = True
-    for letter, num in _WORD.findall(code):
-        if first:
-            first = False
-            continue
-        out[letter.upper()] = float(num)
-    return out
-
-
 def param_texts(code: str) -> dict[str, str]:
-    """Like params_of but keeps the number's text (to copy a value without re-rounding)."""
-    out: dict[str, str] = {}
-    first = True
-    for letter, num in _WORD.findall(code):
-        if first:
-            first = False
-            continue
-        out[letter.upper()] = num
-    return out
+    """Letter parameters of a classic command as the number's text (to copy a value
+    without re-rounding), letters upper-cased, the command word itself skipped."""
+    return {letter.upper(): num for letter, num in _WORD.findall(code)[1:]}
+
+
+def params_of(code: str) -> dict[str, float]:
+    """Letter parameters of a classic command as floats."""
+    return {letter.upper(): float(num) for letter, num in _WORD.findall(code)[1:]}
 
 
 def keyvals_of(code: str) -> dict[str, str]:

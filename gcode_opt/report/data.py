@@ -77,12 +77,16 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
         o0, o1 = f.orig_first, f.orig_last
         m0 = tr0.moves.get(o0)
         length = sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves)
-        if m0 is not None and length > 0:
+        is_arc = m0 is not None and m0.kind == st.ARC
+        if is_arc:                              # mass along the arc: mean over its tangents
+            th = m0.arc.theta0 + m0.arc.sweep * np.linspace(0.0, 1.0, 65)
+            m_kg = float(np.mean(mass_kg(profile, np.sin(th), np.cos(th))))
+        elif m0 is not None and length > 0:
             ux, uy = (m0.x1 - m0.x0), (m0.y1 - m0.y0)
             n = math.hypot(ux, uy) or 1.0
-            ux, uy = ux / n, uy / n
+            m_kg = mass_kg(profile, ux / n, uy / n)
         else:
-            ux, uy = 1.0, 0.0
+            m_kg = mass_kg(profile, 1.0, 0.0)
         sl = tr1.block_range(f.out_first, f.out_last)
         seg_t = (tr1.blocks["accel_t"][sl] + tr1.blocks["cruise_t"][sl] + tr1.blocks["decel_t"][sl])
         t_after = tr1.line_sum(f.out_first, f.out_last, "time_t")
@@ -97,11 +101,12 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
         row = {
             "line": o0 + 1, "lines": f.n_orig, "out_line": f.out_first + 1,
             "out_lines": f.out_last - f.out_first + 1, "segments": segments,
+            "kind": "arc" if is_arc else "line",
             "feature": m0.feature if m0 is not None else "?", "layer": m0.layer if m0 is not None else -1,
             "length_mm": length, "feed_mm_s": feed,
             "v0_mm_s": tr0.lines[o0].start_v if o0 in tr0.lines else 0.0,
             "v1_mm_s": tr0.lines[o1].end_v if o1 in tr0.lines else 0.0,
-            "mass_kg": mass_kg(profile, ux, uy),
+            "mass_kg": m_kg,
             "beta_s2": beta if _finite(beta) else None,
             "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
             "int_a2_mm2_s3": {"before": tr0.line_sum(o0, o1, "int_a2"),
@@ -114,7 +119,9 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
             "overshoot": ratio(peak_after, feed) if feed > 0 else None,
             "segment_rate_hz": segments / t_after if t_after > 0 else None,
             "shortest_segment_s": float(seg_t.min()) if len(seg_t) else None,
-            "below_min_segment_time": int(np.sum(seg_t < min_seg_t)) if min_seg_t > 0 else 0,
+            # the firmware's own test (Marlin DEFAULT_MINSEGMENTTIME): length / nominal speed
+            "below_min_segment_time": int(np.sum(tr1.blocks["d"][sl] < min_seg_t * tr1.blocks["nominal_v"][sl]))
+            if min_seg_t > 0 else 0,
         }
         if sp is not None:
             row["time_s"]["law"] = sp["time_s"]["law"]
@@ -234,7 +241,8 @@ def _warnings(rows, head, summary, profile):
     if short:
         _warn(w, "segments_below_min_time", "warning",
               f"{len(short)} re-timed strokes have segments shorter than the firmware's minimum segment "
-              f"time {profile.min_segment_time_t * 1000:g} ms (Marlin slows such moves when its buffer runs low)",
+              f"time {profile.min_segment_time_t * 1000:g} ms (length / F; Marlin slows such moves down when its "
+              f"planner buffer runs low, e.g. while the host or SD card stalls)",
               short)
     over = sorted((r for r in rows if r["overshoot"] is not None and r["overshoot"] > OVERSHOOT_EPS_R),
                   key=lambda r: -r["overshoot"])
@@ -297,21 +305,27 @@ def _curved_runs(tr):
 
 def _representatives(rows, tr0):
     reps = []
-    if rows:
-        long_r = max(rows, key=lambda r: r["length_mm"])
-        short_r = min(rows, key=lambda r: r["length_mm"])
+    lines = [r for r in rows if r["kind"] == "line"]
+    if lines:
+        long_r = max(lines, key=lambda r: r["length_mm"])
+        short_r = min(lines, key=lambda r: r["length_mm"])
         for role, r in (("long line", long_r), ("short line", short_r)):
             reps.append({"role": role, "line": r["line"], "lines": r["lines"], "retimed": True,
                          "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"],
                          "note": ""})
             if long_r is short_r:
                 break
+    arc_rows = [r for r in rows if r["kind"] == "arc"]
     arcs = [m for m in tr0.moves.values() if m.kind == st.ARC]
-    if arcs:
+    if arc_rows:
+        r = max(arc_rows, key=lambda r: r["length_mm"])
+        reps.append({"role": "arc", "line": r["line"], "lines": r["lines"], "retimed": True,
+                     "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
+    elif arcs:
         a = max(arcs, key=lambda m: m.length_d)
         reps.append({"role": "arc", "line": a.idx + 1, "lines": 1, "retimed": False, "length_mm": a.length_d,
                      "feature": a.feature, "layer": a.layer,
-                     "note": "arcs (G2/G3) are not re-timed by this version; firmware profile, unchanged "
+                     "note": "no arc (G2/G3) was re-timed; firmware profile, unchanged "
                              "in the output, against the optimal circle law at the same duration"})
     else:
         reps.append({"role": "arc", "line": None, "note": "the file has no arcs (G2/G3)"})
@@ -368,6 +382,7 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None):
         "headline": head,
         "by_feature": _group(rows, "feature"),
         "by_layer": _group(rows, "layer"),
+        "by_kind": _group(rows, "kind"),
         "warnings": _warnings(rows, head, summary, profile),
         "representative": _representatives(rows, tr0),
         "layer_map": _map_layer(rows, tr0, layer),

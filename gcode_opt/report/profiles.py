@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 
-from .. import state as st
 from ..laws.line import line_law
 from .trace import profile_points
 
@@ -53,11 +52,20 @@ def stroke_curves(rep, data, ctx):
         T = row["time_s"].get("law") or f.marker_time_s
         beta = row["beta_s2"] if row["beta_s2"] is not None else math.inf
         if T and math.isfinite(T):
-            law = line_law(row["length_mm"], T, beta, row["v0_mm_s"], row["v1_mm_s"])
-            t = np.linspace(0.0, T, N_LAW)
-            _, v, a = law.eval(t)
             btxt = "∞ (min ∫a²)" if not math.isfinite(beta) else f"{beta:.3g} s²"
-            curves.append(_series(t, v, a, f"optimal law (planned), β = {btxt}"))
+            if row.get("kind") == "arc":
+                try:
+                    law = _arc_law(m0, T, beta if math.isfinite(beta) else 1e6 * T * T,
+                                   row["v0_mm_s"], row["v1_mm_s"])
+                    law["label"] = f"optimal circle law (planned), β = {btxt}"
+                    curves.append(law)
+                except Exception:
+                    pass
+            else:
+                law = line_law(row["length_mm"], T, beta, row["v0_mm_s"], row["v1_mm_s"])
+                t = np.linspace(0.0, T, N_LAW)
+                _, v, a = law.eval(t)
+                curves.append(_series(t, v, a, f"optimal law (planned), β = {btxt}"))
         title = (f"{rep['role']}: line {rep['line']}, {row['length_mm']:.1f} mm {row['feature']}, "
                  f"layer {row['layer']}")
         return {"title": title, "note": rep.get("note", ""), "curves": curves, "feed_v": feed}
@@ -106,7 +114,3 @@ def _curve_law(tr, o0, o1, T, beta, v0, v1):
     s = _series(t, v, a, f"optimal law along the curve, same T, β = {beta:.3g} s²")
     s["a_n"] = np.abs(k.kappa(s_)) * v * v
     return s
-
-
-def is_arc(move):
-    return move.kind == st.ARC

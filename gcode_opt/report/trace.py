@@ -15,7 +15,7 @@ from .. import state as st
 from ..firmware.simulate import simulate_events
 
 BLOCK_FIELDS = ("idx", "x0", "y0", "x1", "y1", "d", "start_v", "cruise_v", "end_v", "accel",
-                "accel_t", "cruise_t", "decel_t", "v2_int")
+                "accel_t", "cruise_t", "decel_t", "v2_int", "nominal_v")
 
 
 class Trace:
@@ -72,7 +72,7 @@ def trace_file(path, profile) -> Trace:
         v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
             + b.cruise_t * cv * cv
         for k, v in zip(BLOCK_FIELDS, (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel,
-                                       b.accel_t, b.cruise_t, b.decel_t, v2)):
+                                       b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)):
             cols[k].append(v)
 
     res = simulate_events(feed(), profile, on_line=on_line, on_block=on_block)

@@ -149,3 +149,67 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
     out.append(f"{END}{nl}")
     return "".join(out)
+
+
+def emit_arc(raw, x0_text, y0_text, e_start, arc, s, accels, feeds, *, e_rel, flavour, accel_restore,
+             mcr_restore, feed_restore_v, header=""):
+    """Text replacing one G2/G3 (I/J form) by sub-arcs ending at arc lengths s[1:] (s[-1] =
+    the arc's length).  Every sub-arc keeps the original centre exactly (in integer units of
+    the file's precision: I/J = centre - the sub-arc's own rounded start); interior end
+    points are on the circle, rounded; the last one is the original end text.  E is split
+    in proportion to arc length in integer units, exact at the end."""
+    body = raw.rstrip("\r\n")
+    nl = raw[len(body):] or "\n"
+    code, comment = split_comment(body)
+    code, _ = strip_checksum(code)
+    p = param_texts(code)
+    cw = arc.sweep < 0
+    x1t, y1t = p.get("X", x0_text), p.get("Y", y0_text)
+    it, jt = p.get("I", "0"), p.get("J", "0")
+    dxy = max([decimals(t) for t in (x1t, y1t, it, jt) if t is not x0_text and t is not y0_text] + [3])
+    de = max(decimals(p.get("E", "0")), 5)
+    x0u, y0u = _units(x0_text, dxy), _units(y0_text, dxy)
+    cxu, cyu = x0u + _units(it, dxy), y0u + _units(jt, dxy)
+    scale = 10 ** dxy
+    e_start_u = int(round(e_start * 10 ** de))
+    e_total_u = _units(p.get("E", "0"), de) if e_rel else _units(p.get("E", "0"), de) - e_start_u
+    S = s[-1]
+    out = [f"{BEGIN}{header}{nl}"]
+    if flavour == "klipper":
+        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}")
+    cmd = "G2" if cw else "G3"
+    sxu, syu = x0u, y0u
+    e_done_u = 0
+    last_accel = None
+    n = len(s) - 1
+    for k in range(1, n + 1):
+        if k == n:
+            xt, yt = x1t, y1t
+            exu, eyu = _units(x1t, dxy), _units(y1t, dxy)
+            e_u = e_total_u
+        else:
+            th = arc.theta0 + arc.sweep * s[k] / S
+            exu = round((arc.cx + arc.r * math.cos(th)) * scale)
+            eyu = round((arc.cy + arc.r * math.sin(th)) * scale)
+            xt, yt = _fmt_units(exu, dxy), _fmt_units(eyu, dxy)
+            e_u = round(e_total_u * s[k] / S)
+        de_u = e_u - e_done_u
+        e_done_u = e_u
+        cmd_a = accel_command(flavour, accels[k - 1], True)
+        if cmd_a != last_accel:
+            out.append(cmd_a + nl)
+            last_accel = cmd_a
+        f = _num(math.ceil(feeds[k - 1] * 600.0 - 1e-6) / 10.0, 1)
+        e_txt = _fmt_units(de_u, de) if e_rel else _fmt_units(e_start_u + e_u, de)
+        if k == n and not e_rel:
+            e_txt = p.get("E")
+        words = (f"{cmd} X{xt} Y{yt} I{_fmt_units(cxu - sxu, dxy)} J{_fmt_units(cyu - syu, dxy)} "
+                 f"E{e_txt} F{f}")
+        out.append(f"{words}{(' ' + comment) if (comment and k == n) else ''}{nl}")
+        sxu, syu = exu, eyu
+    out.append(accel_command(flavour, accel_restore, True, round_up=False) + nl)
+    if flavour == "klipper":
+        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
+    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
+    out.append(f"{END}{nl}")
+    return "".join(out)

@@ -20,14 +20,15 @@ import time
 
 import numpy as np
 
+from . import arcs
 from . import features as feat
-from .emit import StrokeText, emit_stroke
+from .emit import StrokeText, emit_arc, emit_stroke
 from .firmware.simulate import simulate_events
 from .plan import PlanInput, candidates_auto, plan_auto, plan_fixed_alpha
 from .profile import Profile
 from .segments import SegmentRules, plan_segments
 from .state import MachineState, events, read_lines
-from .strokes import group_strokes
+from .strokes import K_ARC, K_LINE, group_strokes
 
 
 class Options:
@@ -94,7 +95,7 @@ def analyse(path, profile: Profile, opts: Options):
         if r.idx == st.last_idx:
             st.v1 = r.end_v
         st.time_t += r.time_t
-        st.int_a2 += r.int_a2
+        st.int_a2 += r.int_a2 + r.int_a2_j     # junction halves: vertices of curves, sub-arc ends
         st.int_v2 += r.int_v2
 
     pending_idx = set()
@@ -152,9 +153,19 @@ def plan_inputs(strokes, profile: Profile, opts: Options) -> PlanInput:
     m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
     m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
     seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
-    return PlanInput(L, [s.v0 for s in strokes], [s.v1 for s in strokes], v_cap, a_cap,
-                     [s.time_t for s in strokes], [s.int_a2 for s in strokes], m2 / m,
-                     np.full(n, 3 * seg_t))
+    pin = PlanInput(L, [s.v0 for s in strokes], [s.v1 for s in strokes], v_cap, a_cap,
+                    [s.time_t for s in strokes], [s.int_a2 for s in strokes], m2 / m,
+                    np.full(n, 3 * seg_t))
+    pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
+    arc_rows = [i for i, s in enumerate(strokes) if s.kind == K_ARC]
+    if arc_rows:
+        arcs.adjust_plan_inputs(pin, strokes, arc_rows, profile)
+    return pin
+
+
+def _rows_by_kind(strokes):
+    kinds = np.array([s.kind for s in strokes], dtype=object)
+    return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC)}
 
 
 def plan_strokes(strokes, pin, profile, opts, budget_t):
@@ -163,15 +174,36 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     the budget is re-spent once with the difference taken off, and a stroke whose
     segments would not beat the original trapezoid is left alone."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
-    cands = candidates_auto(pin) if opts.alpha == "auto" and len(strokes) else None
+    rows = _rows_by_kind(strokes)
+    cands = None
+    if opts.alpha == "auto" and len(strokes):
+        cands = candidates_auto(pin)
+        if rows[K_ARC].size:
+            ca = arcs.candidates_arc(pin, rows[K_ARC], strokes)
+            for full, part in zip(cands, ca):
+                full[rows[K_ARC]] = part
+    fixed = None
+    if opts.alpha != "auto":
+        fixed = plan_fixed_alpha(pin, float(opts.alpha))
+        if rows[K_ARC].size:
+            arcs.fixed_alpha_arc(fixed, pin, rows[K_ARC], strokes, float(opts.alpha))
 
     def run(budget):
-        plan = plan_auto(pin, budget, cands) if opts.alpha == "auto" else plan_fixed_alpha(pin, float(opts.alpha))
+        plan = plan_auto(pin, budget, cands) if opts.alpha == "auto" else fixed.copy()
         plan.segs = [None] * len(strokes)
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
-        segs = plan_segments([strokes[i] for i in idx], plan.T[idx], plan.beta[idx], rules)
+        is_arc = np.array([strokes[i].kind == K_ARC for i in idx], bool)
+        segs = [None] * len(idx)
+        li, ai = idx[~is_arc], idx[is_arc]
+        for k, seg in zip(np.flatnonzero(~is_arc),
+                          plan_segments([strokes[i] for i in li], plan.T[li], plan.beta[li], rules)):
+            segs[k] = seg
+        for k, seg in zip(np.flatnonzero(is_arc),
+                          arcs.plan_arc_segments([strokes[i] for i in ai], plan.T[ai], plan.beta[ai], rules,
+                                                 profile)):
+            segs[k] = seg
         for i, seg in zip(idx, segs):
             if seg is None or seg.int_a2 >= strokes[i].int_a2:
                 plan.retime[i] = False
@@ -231,6 +263,13 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
 def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
     """G-code text replacing one stroke, from its segment plan `seg`."""
     dec = 8
+    if s.kind == K_ARC:
+        beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
+        header = (f": replaces {len(raws)} lines, {len(seg.s) - 1} sub-arcs, T={seg.time_t:.4f}s "
+                  f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
+        return emit_arc(raws[0], f"{x0:.{dec}f}", f"{y0:.{dec}f}", e0, s.arc, seg.s, seg.accel, seg.feed,
+                        e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0, mcr_restore=mcr0,
+                        feed_restore_v=s.v_feed, header=header)
     st_text = StrokeText(raws, f"{x0:.{dec}f}", f"{y0:.{dec}f}", 0)
     st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
     beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
@@ -259,7 +298,7 @@ def measure(path, profile, out_ranges, opts):
         pos[0] = k
         if k < n and out_ranges[k][0] <= r.idx:
             t[k] += r.time_t
-            a2[k] += r.int_a2
+            a2[k] += r.int_a2 + r.int_a2_j
             v2[k] += r.int_v2
 
     del firsts

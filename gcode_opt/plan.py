@@ -52,6 +52,13 @@ class Plan:
         self.reason = np.array(["" for _ in range(n)], dtype=object)
         self.lam = 0.0
 
+    def copy(self) -> "Plan":
+        p = Plan(0)
+        for k in ("retime", "T", "beta", "I_law", "KE_law", "reason"):
+            setattr(p, k, getattr(self, k).copy())
+        p.lam = self.lam
+        return p
+
 
 def _feasible(law, v_cap, a_cap):
     return ((law.peak_speed() <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))

@@ -12,8 +12,12 @@ from __future__ import annotations
 import math
 
 from .state import ARC, LINE
+from .words import param_texts, split_comment, strip_checksum
 
 COLLINEAR_SIN = 1e-3      # |sin| of the turn below which two moves are one line (0.06 deg)
+
+# Stroke.kind
+K_LINE, K_ARC, K_CURVE = "line", "arc", "curve"
 
 
 class Stroke:
@@ -21,9 +25,12 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u")
+                 "prev_u", "next_u", "kind", "arc", "pts")
 
     def __init__(self, m):
+        self.kind = K_LINE
+        self.arc = None              # state.Arc of an arc stroke
+        self.pts = None              # curve strokes: list of (x, y) vertices, start included
         self.first_idx = self.last_idx = m.idx
         self.x0, self.y0, self.z = m.x0, m.y0, m.z0
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
@@ -42,8 +49,31 @@ class Stroke:
     def n_moves(self) -> int:
         return self.last_idx - self.first_idx + 1
 
+    @classmethod
+    def of_arc(cls, m):
+        """A G2/G3 move on its own: path length S = R |sweep| (no Z change)."""
+        st = cls.__new__(cls)
+        st.kind, st.arc, st.pts = K_ARC, m.arc, None
+        st.first_idx = st.last_idx = m.idx
+        st.x0, st.y0, st.z = m.x0, m.y0, m.z0
+        a = m.arc
+        sgn = 1.0 if a.sweep > 0 else -1.0
+        st.ux, st.uy = -math.sin(a.theta0) * sgn, math.cos(a.theta0) * sgn   # start tangent
+        st.length_d = a.length_d
+        st.ends_d = [a.length_d]
+        st.e_per_move = [m.e]
+        st.v_feed, st.accel = m.v, m.accel
+        st.feature, st.layer, st.e_rel = m.feature, m.layer, m.e_rel
+        st.lim = m.lim
+        st.e_per_mm = m.e / a.length_d
+        st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
+        st.prev_u = st.next_u = None
+        return st
+
     def try_extend(self, m) -> bool:
         """Append move m if it continues this stroke in a straight line."""
+        if self.kind != K_LINE:
+            return False
         if (m.idx != self.last_idx + 1 or m.v != self.v_feed or m.accel != self.accel
                 or m.feature != self.feature or m.z0 != self.z or m.z1 != self.z or m.e_rel != self.e_rel):
             return False
@@ -68,6 +98,18 @@ def eligible(m, selected: frozenset) -> bool:
     return (m.kind == LINE and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
             and m.z0 == m.z1 and (m.x1 != m.x0 or m.y1 != m.y0)
             and (m.e > 0.0 or (m.e == 0.0 and m.feature == "travel")))
+
+
+def eligible_arc(m, raw, selected: frozenset) -> bool:
+    """A G2/G3 we may re-time: selected feature, I/J form (the centre is in the file's
+    text, so sub-arcs can keep it exactly), absolute XY in mm, no checksum, no Z change,
+    extruding, at least 1 mm long."""
+    if not (m.kind == ARC and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
+            and m.z0 == m.z1 and m.e > 0.0 and m.arc.length_d >= 1.0):
+        return False
+    code, _ = strip_checksum(split_comment(raw)[0])
+    p = param_texts(code)
+    return ("I" in p or "J" in p) and "R" not in p and "Z" not in p
 
 
 def _direction(ev, at_end):
@@ -116,6 +158,9 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0):
             cur = None
         if is_move and eligible(ev, selected):
             cur = Stroke(ev)
+            cur.prev_u = last_u
+        elif is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
+            cur = Stroke.of_arc(ev)          # closes at the next line: try_extend refuses
             cur.prev_u = last_u
         if is_move:
             last_u = _direction(ev, True)

@@ -22,13 +22,25 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     for k, i in enumerate(idx):
         s = strokes[i]
         per_stroke.append({
-            "line": s.first_idx + 1, "lines": s.n_moves, "out_line": out_ranges[k][0] + 1,
+            "line": s.first_idx + 1, "lines": s.n_moves, "kind": getattr(s, "kind", "line"), "out_line": out_ranges[k][0] + 1,
             "feature": s.feature, "layer": s.layer, "length_mm": round(s.length_d, 4),
             "v0_mm_s": round(s.v0, 3), "v1_mm_s": round(s.v1, 3), "feed_mm_s": round(s.v_feed, 3),
             "time_s": {"before": T0[k], "law": float(plan.T[i]), "after": float(t_after[k])},
             "int_a2": {"before": I0[k], "law": float(plan.I_law[i]), "after": float(a2_after[k])},
             "beta_s2": None if not np.isfinite(plan.beta[i]) else float(plan.beta[i]),
         })
+    by_kind = {}
+    for k, i in enumerate(idx):
+        kind = getattr(strokes[i], "kind", "line")
+        g = by_kind.setdefault(kind, {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
+                                      "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}})
+        g["retimed"] += 1
+        for key, vals in (("time_s", (T0[k], plan.T[i], t_after[k])), ("int_a2", (I0[k], plan.I_law[i], a2_after[k]))):
+            for name, v in zip(("before", "law", "after"), vals):
+                g[key][name] += float(v)
+    for g in by_kind.values():
+        g["int_a2"]["change"] = _ratio(g["int_a2"]["after"], g["int_a2"]["before"])
+        g["time_s"]["change"] = _ratio(g["time_s"]["after"], g["time_s"]["before"])
     reasons = Counter(str(r) for r in plan.reason)
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
@@ -50,6 +62,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
             "int_v2": {"before": float(V0.sum()), "after": float(v2_after.sum())},
             "firmware_vs_law": {"time": _ratio(float(t_after.sum()), law_T),
                                 "int_a2": _ratio(float(a2_after.sum()), law_I)},
+            "by_kind": by_kind,
         },
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
                        "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),

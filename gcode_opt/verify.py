@@ -17,7 +17,7 @@ import re
 
 from .emit import BEGIN, END
 from .profile import Profile
-from .state import EONLY, MachineState, read_lines
+from .state import ARC, EONLY, MachineState, read_lines
 
 _REPLACES = re.compile(r"replaces (\d+) lines")
 
@@ -41,7 +41,7 @@ def _walk(st, lines, first_idx):
             if ev.kind == EONLY:
                 raise Violation(f"line {first_idx + k + 1}: E-only move inside a re-timed run")
             e_cum += ev.e
-            pts.append((ev.x0, ev.y0, ev.x1, ev.y1, ev.z1, e_cum, ev.e))
+            pts.append((ev.x0, ev.y0, ev.x1, ev.y1, ev.z1, e_cum, ev.e, ev.kind, ev.arc))
     return pts
 
 
@@ -78,7 +78,10 @@ def verify(orig_path: str, out_path: str, profile: Profile, tol_d: float = 1e-3,
             pn = _walk(sn, block, n_idx + 1)
             if len(po) != count:
                 raise Violation(f"{orig_path}:{first_o + 1}: replaced run has non-motion lines")
-            checked_vertices += _compare_paths(po, pn, tol_d, tol_e, out_path, n_idx)
+            if len(po) == 1 and po[0][7] == ARC:
+                checked_vertices += _compare_arc(po[0], pn, tol_d, tol_e, out_path, n_idx)
+            else:
+                checked_vertices += _compare_paths(po, pn, tol_d, tol_e, out_path, n_idx)
             if abs((so.e - e_before_o) - (sn.e - e_before_n)) > tol_e:
                 raise Violation(f"{out_path}:{n_idx + 1}: filament differs over the block")
             if (_state_key(so) != _state_key(sn) or abs(so.x - sn.x) > 1e-9 or abs(so.y - sn.y) > 1e-9
@@ -105,13 +108,15 @@ def verify(orig_path: str, out_path: str, profile: Profile, tol_d: float = 1e-3,
 def _compare_paths(po, pn, tol_d, tol_e, path, line_idx):
     """Original polyline po vs new polyline pn (tuples x0,y0,x1,y1,z,e_cum,e)."""
     j = 0
-    for (ax, ay, bx, by, z, e_cum, e) in po:
+    if any(p[7] == ARC for p in po) or any(p[7] == ARC for p in pn):
+        raise Violation(f"{path}:{line_idx + 1}: arc inside a re-timed polyline block")
+    for (ax, ay, bx, by, z, e_cum, e, *_) in po:
         seg_d = math.hypot(bx - ax, by - ay)
         rate = e / seg_d if seg_d > 0 else 0.0
         while True:
             if j >= len(pn):
                 raise Violation(f"{path}:{line_idx + 1}: original vertex ({bx:.3f},{by:.3f}) never reached")
-            px0, py0, px, py, pz, pe_cum, pe = pn[j]
+            px0, py0, px, py, pz, pe_cum, pe = pn[j][:7]
             j += 1
             if pz != z:
                 raise Violation(f"{path}:{line_idx + 1}: Z changed inside a block")
@@ -132,3 +137,38 @@ def _compare_paths(po, pn, tol_d, tol_e, path, line_idx):
     if j != len(pn):
         raise Violation(f"{path}:{line_idx + 1}: block moves past the original run's end")
     return len(po)
+
+
+def _compare_arc(o, pn, tol_d, tol_e, path, line_idx):
+    """One original G2/G3 vs its sub-arcs: all arcs turning the same way about the same
+    centre (to the file's rounding), end points on the circle, the same total sweep, E per
+    mm of each sub-arc equal to the original's, cumulative E exact at the end."""
+    ax, ay, bx, by, z, e_cum, e, _, arc = o
+    rate = e / arc.length_d if arc.length_d > 0 else 0.0
+    where = f"{path}:{line_idx + 1}"
+    sweep = 0.0
+    for (px0, py0, px, py, pz, pe_cum, pe, kind, a) in pn:
+        if kind != ARC:
+            raise Violation(f"{where}: a re-timed arc contains a non-arc move")
+        if pz != z:
+            raise Violation(f"{where}: Z changed inside a block")
+        if (a.sweep > 0) != (arc.sweep > 0):
+            raise Violation(f"{where}: sub-arc turns the other way")
+        if math.hypot(a.cx - arc.cx, a.cy - arc.cy) > tol_d:
+            raise Violation(f"{where}: sub-arc centre ({a.cx:.4f},{a.cy:.4f}) is not the original's "
+                            f"({arc.cx:.4f},{arc.cy:.4f})")
+        off = abs(math.hypot(px - arc.cx, py - arc.cy) - arc.r)
+        if off > tol_d and (px, py) != (bx, by):
+            raise Violation(f"{where}: sub-arc end ({px:.4f},{py:.4f}) is {off:.4f} mm off the circle")
+        sweep += a.sweep
+        if a.length_d > 0.05:
+            tol_rate = (abs(rate) * 1.5 * tol_d + tol_e) / a.length_d
+            if abs(pe / a.length_d - rate) > tol_rate:
+                raise Violation(f"{where}: extrusion {pe / a.length_d:.6f} mm/mm vs original {rate:.6f}")
+    if abs(sweep - arc.sweep) > 2.0 * tol_d / arc.r + 1e-9 * abs(arc.sweep):
+        raise Violation(f"{where}: sub-arcs sweep {sweep:.6f} rad, original {arc.sweep:.6f}")
+    if (pn[-1][2], pn[-1][3]) != (bx, by):
+        raise Violation(f"{where}: sub-arcs end at ({pn[-1][2]:.4f},{pn[-1][3]:.4f}), not ({bx:.4f},{by:.4f})")
+    if abs(pn[-1][5] - e_cum) > tol_e:
+        raise Violation(f"{where}: cumulative E at the arc's end is {pn[-1][5]:.6f}, original {e_cum:.6f}")
+    return len(pn)

@@ -13,6 +13,10 @@
 #                                 start/end macros and RatRig-like accelerations, box,
 #                                 cubic 20 %. PrusaSlicer 2.5 has no "klipper" flavor,
 #                                 so gcode_flavor = marlin2 (see prusa_klipper.ini).
+#   prusa_concentric.gcode        same printer, the 30 mm cylinder, concentric 15 %.
+#   prusa_concentric_arcs.gcode   prusa_concentric.gcode with arcs fitted by arc_fit.py
+#   prusa_gyroid_arcs.gcode       prusa_gyroid.gcode with arcs fitted by arc_fit.py
+#                                 (arc_fit.py is OUR converter, not a slicer: see README)
 #   cura_box.gcode                CuraEngine 4.13, Creality Ender-3 definition, the box,
 #                                 0.2 mm layers, cubic 20 %, absolute E (Cura default),
 #                                 acceleration control switched on (see CURA_SETTINGS).
@@ -127,6 +131,14 @@ prusa prusa_absolute_e.gcode box_20x20x3 \
     --load "$HERE/prusa_absolute_e.ini" --fill-pattern rectilinear --fill-density 20%
 prusa prusa_klipper.gcode box_40x40x3 \
     --load "$HERE/prusa_klipper.ini"
+prusa prusa_concentric.gcode cylinder_d30x3 \
+    --fill-pattern concentric --fill-density 15%
+
+# ------------------------------------------------- arcs (our own converter) ---
+# No slicer here emits G2/G3: arc_fit.py (ArcWelder-like, in this folder) fits arcs to
+# runs of G1 points of the real PrusaSlicer output above.
+python3 "$HERE/arc_fit.py" "$HERE/prusa_concentric.gcode" "$HERE/prusa_concentric_arcs.gcode"
+python3 "$HERE/arc_fit.py" "$HERE/prusa_gyroid.gcode" "$HERE/prusa_gyroid_arcs.gcode"
 
 # -------------------------------------------------------------- CuraEngine ---
 find_cura_resources() {
@@ -209,7 +221,8 @@ for s in "${CURA_SETTINGS[@]}"; do cura_args+=(-s "$s"); done
 echo "wrote cura_box.gcode"
 
 # ------------------------------------------------------------------ report ---
-for f in prusa_mk3s_rectilinear prusa_gyroid prusa_absolute_e prusa_klipper cura_box; do
+for f in prusa_mk3s_rectilinear prusa_gyroid prusa_absolute_e prusa_klipper prusa_concentric \
+         prusa_concentric_arcs prusa_gyroid_arcs cura_box; do
     printf '%-32s %8d bytes %6d lines\n' "$f.gcode" \
         "$(wc -c <"$HERE/$f.gcode")" "$(wc -l <"$HERE/$f.gcode")"
 done

@@ -1,0 +1,282 @@
+"""Arc strokes: re-time a G2/G3 with the circle law and emit it as sub-arcs.
+
+Plan.  One arc = one stroke, path length S = R |sweep|.  The law is the optimal circle law
+(laws/circle.py, batched): φ(t) with end speeds v0/R, v1/R from the firmware model of the
+original.  Candidates over T (a subset of plan.T_RATIOS, the other columns are inf so the
+global allocation of plan.py sees one table), with β at each T the largest one whose
+*line* law (same S, T, v0, v1) keeps the peak speed under v_cap: the circle law of the same
+β has no higher peak (its 6κ²ṡ²s̈ term flattens the profile; checked on the solved law,
+infeasible candidates dropped, one retry at β/4).  ∫|a|² of the law includes the centripetal
+part (s̈² + ṡ⁴/R²), as does the firmware model's figure for the original (chord junctions).
+
+Firmware facts (firmware/junction.py, simulate.py): G2/G3 are cut into chords of about
+profile.arc_segment_d; the chord junctions are limited by
+  * Klipper: v² <= 2 c a tan(θ/2)/... ~ a R (centripetal term, scales with the move's
+    acceleration a) and v² <= R_jd scv² (√2-1) (independent of a);
+  * Marlin JD: v² <= a jd R_jd and, chords < 1 mm, v² <= c a / θ ~ a R;
+  * classic jerk: v 2 sin(θ/2) <= jerk per axis (independent of a).
+So a sub-arc must carry an acceleration >= its peak v²/R (x margin) on Klipper/JD, and its
+speed must stay under the accel-independent caps everywhere.  The price: the firmware ramps
+such a sub-arc at that acceleration, faster than the law's tangential acceleration, which
+adds a |Δv| per sub-arc to ∫|a|² (predict_arc accounts for it; the planner compares the
+prediction with the original and keeps the original where the arc would not gain).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .firmware.junction import SQRT2_M1, accel_to_pass_junction
+from .firmware.simulate import FULL_STOP_V
+from .laws.circle import solve_circles
+from .plan import SPEED_TOL_R, T_RATIOS, _largest_beta_under_speed_cap
+from .segments import SegmentPlan, segment_feeds
+
+ARC_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
+ARC_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in ARC_T_RATIOS])
+GAMMA_MIN = 0.1            # beta <= (T/GAMMA_MIN)^2: the circle solver needs a finite beta
+CHORD_MARGIN = 1.05        # sub-arc accel >= margin x what the chord junctions need
+MIN_SUBARC_D = 2.0         # mm: a sub-arc spans at least ~2 firmware chords
+CAP_MARGIN = 0.95          # on the accel-independent chord caps
+
+
+def chord_d(S, profile):
+    """Chord length the firmware cuts an arc of length S into (simulate.py's rule)."""
+    seg = profile.arc_segment_d
+    n = np.maximum(np.floor(S / seg), 1.0) if seg > 0 else np.ones_like(S)
+    return S / n
+
+
+def _turn_dirs(theta):
+    """Unit directions of two chords turning by theta (pu, u) for accel_to_pass_junction."""
+    return (1.0, 0.0), (math.cos(theta), math.sin(theta))
+
+
+def chord_need_per_v2(junction, c, R, jd):
+    """Acceleration per v² that the chord junctions of an arc (chord c, radius R) need."""
+    pu, u = _turn_dirs(min(c / R, math.pi / 2))
+    return accel_to_pass_junction(junction, 1.0, pu, u, c, jd)
+
+
+def chord_speed_cap(profile, lim, c, R):
+    """Speed cap (mm/s) at the chord junctions that no acceleration lifts."""
+    theta = min(c / R, math.pi / 2)
+    if profile.junction == "jerk":
+        return CAP_MARGIN * min(lim.jerk_x, lim.jerk_y) / max(2.0 * math.sin(theta / 2.0), 1e-12)
+    if profile.junction == "scv":
+        sin_d2 = math.cos(theta / 2.0)              # junction angle = pi - theta
+        r_jd = sin_d2 / max(1.0 - sin_d2, 1e-300)
+        return CAP_MARGIN * math.sqrt(r_jd * lim.scv * lim.scv * SQRT2_M1)
+    return math.inf
+
+
+def adjust_plan_inputs(pin, strokes, rows, profile):
+    """Arc rows of a PlanInput: direction-averaged masses and caps, chord caps."""
+    mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    for i in rows:
+        st = strokes[i]
+        a = st.arc
+        # mean of cos^2 over the swept angles (the velocity is tangent: angle + 90 deg)
+        th0, sw = a.theta0, a.sweep
+        if abs(sw) > 1e-9:
+            c2 = 0.5 - (math.sin(2 * (th0 + sw)) - math.sin(2 * th0)) / (4.0 * sw)
+        else:
+            c2 = 0.5
+        c2 = min(max(c2, 0.0), 1.0)      # <ux^2> = <sin^2 th> = 1 - <cos^2 th>
+        ux2 = 1.0 - c2
+        uy2 = c2
+        m = mx * ux2 + my * uy2
+        m2 = mx * mx * ux2 + my * my * uy2
+        pin.mass_r[i] = m2 / m
+        pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+        c = float(chord_d(np.array(st.length_d), profile))
+        cap = chord_speed_cap(profile, st.lim, c, a.r)
+        per_v2 = chord_need_per_v2(profile.junction, c, a.r, st.lim.jd)
+        if per_v2 > 0:
+            cap = min(cap, math.sqrt(pin.a_cap[i] / (CHORD_MARGIN * per_v2)))
+        pin.v_cap[i] = min(pin.v_cap[i], cap)
+
+
+def _solve(S, R, T, beta, v0, v1):
+    law = solve_circles(S / R, T, beta, v0 / R, v1 / R, R)
+    return law
+
+
+def _feasible(law, v_cap, a_cap):
+    return ((law.peak_speed() <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))
+            & (law.min_speed() >= -1e-9 * (1 + v_cap)))
+
+
+def candidates_arc(pin, rows, strokes, k_cols=len(T_RATIOS)):
+    """(T, beta, I, KE) rows for the arc strokes `rows` (shape (n, len(T_RATIOS))), inf
+    where no candidate was computed or it breaks a limit."""
+    rows = np.asarray(rows, int)
+    n = rows.size
+    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
+    I = np.full((n, k_cols), np.inf)
+    KE = np.full((n, k_cols), np.nan)
+    beta = np.full((n, k_cols), np.inf)
+    if n == 0:
+        return T, beta, I, KE
+    R = np.array([strokes[i].arc.r for i in rows])
+    S, v0, v1 = pin.L[rows], pin.v0[rows], pin.v1[rows]
+    vc, ac = pin.v_cap[rows], pin.a_cap[rows]
+    cols = ARC_COLS
+    Tc = T[:, cols]
+    bb = lambda a: np.broadcast_to(a[:, None], Tc.shape).ravel()
+    Sf, Rf, v0f, v1f, vcf, acf = map(bb, (S, R, v0, v1, vc, ac))
+    Tf = Tc.ravel()
+    bl = _largest_beta_under_speed_cap(Sf, Tf, v0f, v1f, vcf)
+    bl = np.minimum(bl, (Tf / GAMMA_MIN) ** 2)
+    ok_v = (v0f <= vcf * (1 + SPEED_TOL_R)) & (v1f <= vcf * (1 + SPEED_TOL_R)) \
+        & (Tf >= bb(pin.t_seg_min[rows])) & (Sf / Tf <= vcf)
+    If = np.full(Tf.shape, np.inf)
+    KEf = np.full(Tf.shape, np.nan)
+    betaf = bl.copy()
+    todo = np.flatnonzero(ok_v)
+    for attempt in range(2):
+        if todo.size == 0:
+            break
+        law = _solve(Sf[todo], Rf[todo], Tf[todo], betaf[todo], v0f[todo], v1f[todo])
+        ok = _feasible(law, vcf[todo], acf[todo])
+        iv, ia = law.integrals()
+        If[todo[ok]] = ia[ok]
+        KEf[todo[ok]] = iv[ok]
+        todo = todo[~ok]
+        betaf[todo] *= 0.25
+    I[:, cols] = If.reshape(Tc.shape)
+    KE[:, cols] = KEf.reshape(Tc.shape)
+    beta[:, cols] = betaf.reshape(Tc.shape)
+    return T, beta, I, KE
+
+
+# ------------------------------------------------------------------ segments
+def arc_knots(strokes, T, beta, n, profile=None):
+    """Knots (s, v) of each arc's law at n_i + 1 instants evenly spaced in time."""
+    m = len(strokes)
+    if m == 0:
+        return []
+    R = np.array([st.arc.r for st in strokes])
+    S = np.array([st.length_d for st in strokes])
+    v0 = np.array([st.v0 for st in strokes])
+    v1 = np.array([st.v1 for st in strokes])
+    T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
+    law = _solve(S, R, T, beta, v0, v1)
+    j = np.arange(n.max() + 1)
+    tau = np.minimum(j[None, :] / n[:, None], 1.0)
+    phi, w, _ = law.eval(tau * T[:, None])
+    dense = np.linspace(0.0, 1.0, 257)[None, :] * T[:, None]
+    phi_d, w_d, _ = law.eval(dense)
+    c0 = chord_d(S, profile) if profile is not None else np.zeros(m)
+    out = []
+    for i in range(m):
+        s = R[i] * phi[i, :n[i] + 1]
+        v = np.maximum(R[i] * w[i, :n[i] + 1], 0.0)
+        s[0], s[-1] = 0.0, S[i]
+        if c0[i] > 0 and S[i] >= 4.0 * c0[i]:
+            # first and last sub-arcs = the original's first and last firmware chords, so
+            # the junctions with the neighbouring moves see the original's geometry (at a
+            # near-reversal, e.g. a wipe, a few degrees decide whether the machine stops)
+            inner = s[(s > 1.5 * c0[i]) & (s < S[i] - 1.5 * c0[i])]
+            s = np.concatenate([[0.0, c0[i]], inner, [S[i] - c0[i], S[i]]])
+            v = np.maximum(np.interp(s, R[i] * phi_d[i], R[i] * w_d[i]), 0.0)
+        v[0], v[-1] = v0[i], v1[i]
+        out.append((s, v))
+    return out
+
+
+def predict_arc(s, v, a, R):
+    """Firmware execution of sub-arcs (ramp at a_k over |Δv|, cruise the rest): time and
+    ∫|a|² = tangential Σ a_k |Δv_k| + centripetal ∫ v⁴/R² dt."""
+    d = np.diff(s)
+    va, vb = v[:-1], v[1:]
+    vmax = np.maximum(va, vb)
+    a = np.maximum(a, 1e-12)
+    ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
+    cruise_d = np.maximum(d - ramp_d, 0.0)
+    t = np.abs(vb - va) / a + cruise_d / np.maximum(vmax, 1e-9)
+    cent = (np.abs(vb ** 5 - va ** 5) / (5.0 * a) + vmax ** 3 * cruise_d) / (R * R)
+    return float(np.sum(t)), float(np.sum(a * np.abs(vb - va)) + np.sum(cent))
+
+
+def plan_arc_segments(strokes, T, beta, rules, profile):
+    """SegmentPlan per arc stroke (None where the arc is too short for two sub-arcs)."""
+    n = []
+    for st, t in zip(strokes, T):
+        k = min(rules.n_max, int(st.length_d / MIN_SUBARC_D), int(t / rules.seg_t) if rules.seg_t > 0 else 99)
+        n.append(max(k, 0))
+    n = np.array(n, int)
+    ok = np.flatnonzero(n >= 2)
+    plans = [None] * len(strokes)
+    knots = arc_knots([strokes[i] for i in ok], np.asarray(T)[ok], np.asarray(beta)[ok], n[ok], profile)
+    for i, (sk, vk) in zip(ok, knots):
+        plans[i] = finish_arc(strokes[i], sk, vk, rules, profile)
+    return plans
+
+
+def finish_arc(st, sk, vk, rules, profile):
+    R = st.arc.r
+    d = np.diff(sk)
+    acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
+    c = chord_d(d, profile)                         # each sub-arc is cut on its own
+    c_nb = np.maximum(c, np.maximum(np.concatenate([[c[0]], c[:-1]]), np.concatenate([c[1:], [c[-1]]])))
+    vmax = np.maximum(vk[:-1], vk[1:])
+    jd = st.lim.jd
+    for k in range(len(d)):
+        pu, u = _turn_dirs(min(c_nb[k] / R, math.pi / 2))
+        need = CHORD_MARGIN * accel_to_pass_junction(rules.junction, vmax[k], pu, u, c[k], jd)
+        acc[k] = max(acc[k], min(need, st.accel))
+    if profile.block_buffer > 0:
+        # a finite-lookahead planner (Marlin) must be able to stop within the blocks it
+        # knows: ~(B - 3) chords ahead.  The firmware cuts the arc into chords whatever we
+        # do, so every sub-arc needs a_floor = v_max^2 / (2 D_window) or the planner
+        # crawls (a law at near-constant speed would otherwise get ~0.1 mm/s^2).
+        window_d = max(profile.block_buffer - 3, 1) * float(np.min(c))
+        a_floor = 1.1 * float(np.max(vk)) ** 2 / (2.0 * window_d)
+        acc = np.maximum(acc, min(a_floor, st.accel))
+    # the arc's own ends: the junction with the neighbouring moves
+    v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
+    v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
+    # directions of the first and last firmware chords (not the tangents: at a near-reversal
+    # such as a wipe the few degrees between them decide the junction speed)
+    sgn = 1.0 if st.arc.sweep > 0 else -1.0
+    tha = st.arc.theta0 + sgn * c[0] / (2.0 * R)
+    thb = st.arc.theta0 + st.arc.sweep - sgn * c[-1] / (2.0 * R)
+    u_start = (-math.sin(tha) * sgn, math.cos(tha) * sgn)
+    u_end = (-math.sin(thb) * sgn, math.cos(thb) * sgn)
+    acc[0] = max(acc[0], min(CHORD_MARGIN * accel_to_pass_junction(rules.junction, v0, st.prev_u, u_start, c[0], jd),
+                             st.accel))
+    acc[-1] = max(acc[-1], min(CHORD_MARGIN * accel_to_pass_junction(rules.junction, v1, u_end, st.next_u, c[-1], jd),
+                               st.accel))
+    step_v = np.inf
+    if rules.junction == "jerk":
+        step_v = 0.5 * min(st.lim.jerk_x, st.lim.jerk_y)
+    feeds = segment_feeds(vk, st.v_feed, step_v)
+    t_pred, a2_pred = predict_arc(sk, vk, acc, R)
+    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def fixed_alpha_arc(plan, pin, rows, strokes, alpha):
+    """--alpha A on arcs: beta = A * mass_r, T = the shortest candidate meeting the limits."""
+    rows = np.asarray(rows, int)
+    if rows.size == 0:
+        return
+    ratios = np.array(sorted(ARC_T_RATIOS))
+    R = np.array([strokes[i].arc.r for i in rows])
+    n, k = rows.size, ratios.size
+    bb = lambda a: np.broadcast_to(np.asarray(a)[:, None], (n, k)).ravel()
+    Tf = (pin.T_orig[rows, None] * ratios[None, :]).ravel()
+    beta = bb(alpha * pin.mass_r[rows])
+    law = _solve(bb(pin.L[rows]), bb(R), Tf, beta, bb(pin.v0[rows]), bb(pin.v1[rows]))
+    ok = (_feasible(law, bb(pin.v_cap[rows]), bb(pin.a_cap[rows])) & (Tf >= bb(pin.t_seg_min[rows]))).reshape(n, k)
+    iv, ia = (x.reshape(n, k) for x in law.integrals())
+    first = np.argmax(ok, axis=1)
+    any_ok = ok.any(axis=1)
+    r = np.arange(n)
+    plan.retime[rows] = any_ok
+    plan.T[rows] = np.where(any_ok, Tf.reshape(n, k)[r, first], pin.T_orig[rows])
+    plan.beta[rows] = np.where(any_ok, alpha * pin.mass_r[rows], np.inf)
+    plan.I_law[rows] = np.where(any_ok, ia[r, first], pin.I_orig[rows])
+    plan.KE_law[rows] = np.where(any_ok, iv[r, first], np.nan)
+    plan.reason[rows] = np.where(any_ok, "retimed", "no law within limits")

@@ -319,19 +319,29 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         prog.start("analyse")
     strokes, sim0 = analyse(in_path, profile, opts)
     pin = plan_inputs(strokes, profile, opts)
-    plan = plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
-    if prog:
-        prog.start("rewrite")
+    budget_t = opts.max_slowdown_r * sim0.time_t
     out_dir = os.path.dirname(os.path.abspath(out_path)) or "."
     fd, tmp = tempfile.mkstemp(prefix=".gcode-opt-", suffix=".tmp", dir=out_dir)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
-            out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
-            fh.flush()
-            os.fsync(fh.fileno())
-        if prog:
-            prog.start("measure")
-        sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+        # The plan budgets with the segments' predicted times; the firmware model has the
+        # last word.  If the written file overruns the budget, plan once more with the
+        # overrun taken off (one more rewrite + measure, only then).
+        for attempt in range(2):
+            plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+            if prog:
+                prog.start("rewrite")
+            with open(tmp, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+                out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
+                fh.flush()
+                os.fsync(fh.fileno())
+            if prog:
+                prog.start("measure")
+            sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+            over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
+            if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
+                break
+            budget_t -= 1.2 * over_t
         from .summary import build_summary
         summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
                                 out_ranges, t1, a21, v21, time.monotonic() - t_start)

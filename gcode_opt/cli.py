@@ -166,11 +166,19 @@ def cmd_simulate(a):
     d = res.as_dict()
     if a.json:
         print(json.dumps(d, indent=1))
-    else:
-        for k, v in d.items():
-            if k == "stop_lines":
-                v = ", ".join(str(x) for x in v[:20]) + (" ..." if len(v) > 20 else "")
-            print(f"{k:<18} {v}")
+        return 0
+    stops = ", ".join(str(x) for x in d["stop_lines"][:12]) + (" ..." if len(d["stop_lines"]) > 12 else "")
+    rows = [("print time", f"{d['time_t']:.1f} s ({d['time_t'] / 60:.1f} min, of which dwell {d['barrier_dwell_t']:.1f} s)"),
+            ("int |a|^2 dt", f"{d['int_a2']:.4g} mm^2/s^3 (tangential {d['int_a2_t']:.4g})"),
+            ("int |v|^2 dt", f"{d['int_v2']:.4g} mm^2/s"),
+            ("peak speed", f"{d['peak_v']:.1f} mm/s"),
+            ("peak acceleration", f"{d['peak_a']:.0f} mm/s^2"),
+            ("moves / blocks", f"{d['n_moves']} / {d['n_blocks']}"),
+            ("corners (> 30 deg)", f"{d['corners']}, sum dv^2 {d['corner_dv2']:.4g} mm^2/s^2"),
+            ("full stops", f"{d['full_stops']}" + (f" (lines {stops})" if stops else "")),
+            ("short segments", f"{d['short_segments']} (shorter than the firmware's minimum segment time)")]
+    for k, v in rows:
+        print(f"{k:<20} {v}")
     return 0
 
 

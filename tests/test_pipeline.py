@@ -170,3 +170,15 @@ def test_fixed_alpha_end_to_end(tmp_path):
     assert all(p["beta_s2"] is not None for p in s["per_stroke"])
     verify(SAMPLES + "prusa_klipper.gcode", str(dst), load_profile("voron24"))
     assert abs(s["retimed_strokes"]["firmware_vs_law"]["time"]) < 0.10
+
+
+@pytest.mark.parametrize("prof", ["prusa-mk4", "bambu-x1c", "generic-marlin", "generic-klipper"])
+def test_every_profile_keeps_the_invariants_and_follows_the_law(tmp_path, prof):
+    dst = tmp_path / "o.gcode"
+    s = process(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(dst), load_profile(prof), Options())
+    verify(SAMPLES + "prusa_mk3s_rectilinear.gcode", str(dst), load_profile(prof))
+    rs = s["retimed_strokes"]
+    assert s["strokes"]["retimed"] > 0 and rs["int_a2"]["change"] < -0.3
+    assert abs(rs["firmware_vs_law"]["time"]) < 0.10 and abs(rs["firmware_vs_law"]["int_a2"]) < 0.10
+    assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]
+    assert s["print_time_s"]["change"] <= 0.031

@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from . import arcs
+from . import curves
 from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
 from .firmware.simulate import simulate_events
@@ -28,12 +29,12 @@ from .plan import PlanInput, candidates_auto, plan_auto, plan_fixed_alpha
 from .profile import Profile
 from .segments import SegmentRules, plan_segments
 from .state import MachineState, events, read_lines
-from .strokes import K_ARC, K_LINE, group_strokes
+from .strokes import K_ARC, K_CURVE, K_LINE, group_strokes
 
 
 class Options:
     def __init__(self, alpha="auto", features=feat.DEFAULT_SELECTED, overshoot_r=0.25,
-                 max_slowdown_r=0.03, max_segments=10, min_length_d=2.0, progress=None):
+                 max_slowdown_r=0.03, max_segments=10, min_length_d=2.0, progress=None, max_turn_deg=30.0):
         self.alpha = alpha                  # "auto" or a float in s^2/kg
         self.features = tuple(features)
         self.overshoot_r = overshoot_r      # allowed peak speed above the slicer's F
@@ -41,6 +42,7 @@ class Options:
         self.max_segments = max_segments
         self.min_length_d = min_length_d
         self.progress = progress            # Progress or None
+        self.max_turn_deg = max_turn_deg    # polyline vertices turning <= this are inside a curve (0: no curves)
 
 
 class Progress:
@@ -99,10 +101,11 @@ def analyse(path, profile: Profile, opts: Options):
         st.int_v2 += r.int_v2
 
     pending_idx = set()
+    split = curves.vertex_splitter(profile) if opts.max_turn_deg > 0 else None
 
     def feed():
         for item in group_strokes(_counted(events(path, profile), opts.progress), opts.features,
-                                  opts.min_length_d):
+                                  opts.min_length_d, opts.max_turn_deg, split):
             if item[0] == "line":
                 _, idx, raw, ev = item
                 pending_idx.add(idx)
@@ -116,9 +119,13 @@ def analyse(path, profile: Profile, opts: Options):
                         apply(st, r)
                     else:
                         owner[i] = st
-                # records of lines before this point that no stroke claimed are garbage
-                pending_idx.clear()
-                early.clear()
+                    pending_idx.discard(i)
+                # records of lines up to this stroke's end that no stroke claimed are garbage;
+                # several strokes can close at once (a run split into strokes), in file order,
+                # so the lines after this one must keep their early records
+                for i in [i for i in pending_idx if i <= st.last_idx]:
+                    pending_idx.discard(i)
+                    early.pop(i, None)
 
     def on_line(r):
         st = owner.pop(r.idx, None)
@@ -160,12 +167,15 @@ def plan_inputs(strokes, profile: Profile, opts: Options) -> PlanInput:
     arc_rows = [i for i, s in enumerate(strokes) if s.kind == K_ARC]
     if arc_rows:
         arcs.adjust_plan_inputs(pin, strokes, arc_rows, profile)
+    curve_rows = [i for i, s in enumerate(strokes) if s.kind == K_CURVE]
+    if curve_rows:
+        curves.adjust_plan_inputs(pin, strokes, curve_rows, profile)
     return pin
 
 
 def _rows_by_kind(strokes):
     kinds = np.array([s.kind for s in strokes], dtype=object)
-    return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC)}
+    return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC, K_CURVE)}
 
 
 def plan_strokes(strokes, pin, profile, opts, budget_t):
@@ -182,11 +192,17 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             ca = arcs.candidates_arc(pin, rows[K_ARC], strokes)
             for full, part in zip(cands, ca):
                 full[rows[K_ARC]] = part
+        if rows[K_CURVE].size:
+            cc = curves.candidates_curve(pin, rows[K_CURVE], strokes, profile)
+            for full, part in zip(cands, cc):
+                full[rows[K_CURVE]] = part
     fixed = None
     if opts.alpha != "auto":
         fixed = plan_fixed_alpha(pin, float(opts.alpha))
         if rows[K_ARC].size:
             arcs.fixed_alpha_arc(fixed, pin, rows[K_ARC], strokes, float(opts.alpha))
+        if rows[K_CURVE].size:
+            curves.fixed_alpha_curve(fixed, pin, rows[K_CURVE], strokes, profile, float(opts.alpha))
 
     def run(budget):
         plan = plan_auto(pin, budget, cands) if opts.alpha == "auto" else fixed.copy()
@@ -194,16 +210,20 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
-        is_arc = np.array([strokes[i].kind == K_ARC for i in idx], bool)
+        kind = np.array([strokes[i].kind for i in idx], dtype=object)
         segs = [None] * len(idx)
-        li, ai = idx[~is_arc], idx[is_arc]
-        for k, seg in zip(np.flatnonzero(~is_arc),
-                          plan_segments([strokes[i] for i in li], plan.T[li], plan.beta[li], rules)):
-            segs[k] = seg
-        for k, seg in zip(np.flatnonzero(is_arc),
-                          arcs.plan_arc_segments([strokes[i] for i in ai], plan.T[ai], plan.beta[ai], rules,
-                                                 profile)):
-            segs[k] = seg
+        planners = {
+            K_LINE: lambda sts, T, b: plan_segments(sts, T, b, rules),
+            K_ARC: lambda sts, T, b: arcs.plan_arc_segments(sts, T, b, rules, profile),
+            K_CURVE: lambda sts, T, b: curves.plan_curve_segments(sts, T, b, rules, profile),
+        }
+        for k_name, fn in planners.items():
+            ks = np.flatnonzero(kind == k_name)
+            if ks.size == 0:
+                continue
+            ii = idx[ks]
+            for k, seg in zip(ks, fn([strokes[i] for i in ii], plan.T[ii], plan.beta[ii])):
+                segs[k] = seg
         for i, seg in zip(idx, segs):
             if seg is None or seg.int_a2 >= strokes[i].int_a2:
                 plan.retime[i] = False

@@ -25,12 +25,13 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u", "kind", "arc", "pts")
+                 "prev_u", "next_u", "kind", "arc", "pts", "curv")
 
     def __init__(self, m):
         self.kind = K_LINE
         self.arc = None              # state.Arc of an arc stroke
         self.pts = None              # curve strokes: list of (x, y) vertices, start included
+        self.curv = None             # curve strokes: cached curves.CurveGeom
         self.first_idx = self.last_idx = m.idx
         self.x0, self.y0, self.z = m.x0, m.y0, m.z0
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
@@ -53,7 +54,7 @@ class Stroke:
     def of_arc(cls, m):
         """A G2/G3 move on its own: path length S = R |sweep| (no Z change)."""
         st = cls.__new__(cls)
-        st.kind, st.arc, st.pts = K_ARC, m.arc, None
+        st.kind, st.arc, st.pts, st.curv = K_ARC, m.arc, None, None
         st.first_idx = st.last_idx = m.idx
         st.x0, st.y0, st.z = m.x0, m.y0, m.z0
         a = m.arc
@@ -68,6 +69,25 @@ class Stroke:
         st.e_per_mm = m.e / a.length_d
         st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
         st.prev_u = st.next_u = None
+        return st
+
+    @classmethod
+    def of_curve(cls, moves):
+        """A chain of adjacent G1 moves (one feature, feed, accel, Z) that turns at its
+        vertices by at most the curve threshold: one smooth curve, kind K_CURVE."""
+        st = cls(moves[0])
+        st.kind = K_CURVE
+        st.pts = [(moves[0].x0, moves[0].y0)]
+        st.length_d = 0.0
+        st.ends_d, st.e_per_move = [], []
+        for m in moves:
+            d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
+            st.length_d += d
+            st.ends_d.append(st.length_d)
+            st.e_per_move.append(m.e)
+            st.e_per_mm = max(st.e_per_mm, m.e / d)
+            st.pts.append((m.x1, m.y1))
+        st.last_idx = moves[-1].idx
         return st
 
     def try_extend(self, m) -> bool:
@@ -127,45 +147,115 @@ def _direction(ev, at_end):
     return (dx / d, dy / d) if d > 0 else None
 
 
-def group_strokes(event_iter, selected, min_length_d: float = 0.0):
+def _unit(m):
+    dx, dy = m.x1 - m.x0, m.y1 - m.y0
+    d = math.hypot(dx, dy)
+    return dx / d, dy / d
+
+
+def _continues(pm, m) -> bool:
+    """m may follow pm in one stroke: the next line, same feed, acceleration, feature, Z, E mode."""
+    return (m.idx == pm.idx + 1 and m.v == pm.v and m.accel == pm.accel and m.feature == pm.feature
+            and m.z0 == pm.z1 and m.z1 == pm.z1 and m.e_rel == pm.e_rel)
+
+
+def _collinear(pu, u) -> bool:
+    return abs(pu[0] * u[1] - pu[1] * u[0]) <= COLLINEAR_SIN and pu[0] * u[0] + pu[1] * u[1] > 0.0
+
+
+def _partition(run, curves: bool):
+    """Strokes of one run of adjacent compatible moves: one curve stroke if curves are on,
+    the run has >= 3 moves and at least one vertex turns by more than the collinear
+    tolerance; else straight strokes (a new one wherever the direction changes)."""
+    if curves and len(run) >= 3:
+        dirs = [_unit(m) for m in run]
+        if any(not _collinear(a, b) for a, b in zip(dirs[:-1], dirs[1:])):
+            return [(0, Stroke.of_curve(run))]
+    out = []
+    cur = Stroke(run[0])
+    k0 = 0
+    for k in range(1, len(run)):
+        if not cur.try_extend(run[k]):
+            out.append((k0, cur))
+            cur, k0 = Stroke(run[k]), k
+    out.append((k0, cur))
+    return out
+
+
+def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
+                  split_vertex=None):
     """Consume (idx, raw, event) triples; yield them on unchanged, and collect strokes.
 
     Yields ("line", idx, raw, event) for every line and ("stroke", stroke) when a stroke
-    closes (after its last line has been yielded).  Strokes shorter than min_length_d are
-    dropped.  Keeping it a generator lets the firmware model run on the same stream.
-    A stroke's next_u is filled in when the next move arrives.
+    closes (after its last line has been yielded; several strokes may close at once, in
+    file order).  Strokes shorter than min_length_d are dropped.  Keeping it a generator
+    lets the firmware model run on the same stream.  A stroke's next_u is filled in when
+    the next move arrives.
+
+    max_turn_deg > 0 turns curve strokes on: a run of adjacent compatible eligible G1 moves
+    whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move), if
+    given, does not reject: a vertex whose firmware speed cap no acceleration lifts is
+    below the feed) is one curve stroke when it really turns (strokes._partition).
     """
     selected = frozenset(selected)
-    cur = None
+    curves = max_turn_deg > 0.0
+    min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
+    run = []               # moves of the open run
+    run_prev_u = None      # direction of the move before the run
+    arc = None             # an arc stroke waiting to close (at the next line)
     last_u = None          # direction of the last move; None after a stop
     waiting = None         # closed stroke still waiting for the next move's direction
+
+    def close(next_u_known, next_u):
+        """Strokes of the open run / arc; the last one's next_u as given (or waiting)."""
+        nonlocal run, arc
+        out = []
+        if arc is not None:
+            out = [arc]
+            arc = None
+        elif run:
+            parts = _partition(run, curves)
+            for j, (k0, st) in enumerate(parts):
+                st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
+                if j + 1 < len(parts):
+                    st.next_u = _unit(run[parts[j + 1][0]])
+                out.append(st)
+            run = []
+        out = [st for st in out if st.length_d >= min_length_d]
+        if out and next_u_known:
+            out[-1].next_u = next_u
+        return out
+
     for idx, raw, ev in event_iter:
         is_move = ev is not None and hasattr(ev, "kind")
         if waiting is not None and ev is not None:
             waiting.next_u = _direction(ev, False) if is_move else None
             waiting = None
-        if cur is not None:
-            if is_move and eligible(ev, selected) and cur.try_extend(ev):
-                last_u = (cur.ux, cur.uy)
+        ok = is_move and eligible(ev, selected)
+        if run and ok and _continues(run[-1], ev):
+            pu, u = _unit(run[-1]), _unit(ev)
+            if _collinear(pu, u) or (pu[0] * u[0] + pu[1] * u[1] >= min_cos
+                                     and (split_vertex is None or not split_vertex(run[-1], ev))):
+                run.append(ev)
+                last_u = u
                 yield "line", idx, raw, ev
                 continue
-            if cur.length_d >= min_length_d:
-                if is_move:
-                    cur.next_u = _direction(ev, False)
-                elif ev is None:
-                    waiting = cur
-                yield "stroke", cur
-            cur = None
-        if is_move and eligible(ev, selected):
-            cur = Stroke(ev)
-            cur.prev_u = last_u
+        if run or arc is not None:
+            done = close(is_move, _direction(ev, False) if is_move else None)
+            if done and ev is None:
+                waiting = done[-1]
+            for st in done:
+                yield "stroke", st
+        if ok:
+            run = [ev]
+            run_prev_u = last_u
         elif is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
-            cur = Stroke.of_arc(ev)          # closes at the next line: try_extend refuses
-            cur.prev_u = last_u
+            arc = Stroke.of_arc(ev)          # closes at the next line
+            arc.prev_u = last_u
         if is_move:
             last_u = _direction(ev, True)
         elif ev is not None:           # a Barrier: the planner stops
             last_u = None
         yield "line", idx, raw, ev
-    if cur is not None and cur.length_d >= min_length_d:
-        yield "stroke", cur
+    for st in close(False, None):
+        yield "stroke", st

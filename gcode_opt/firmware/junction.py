@@ -196,6 +196,8 @@ def accel_to_pass_junction(junction: str, v: float, pu, u, d: float, jd: float =
     if junction == "scv":
         if cos_d2 <= 0.0:                      # reversal: the junction is a stop anyway
             return 0.0
+        if sin_d2 <= 0.0:                      # exact reversal: no acceleration passes v > 0
+            return INF
         return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2)
     # Marlin junction deviation (the per-axis cap on the junction acceleration is left
     # out: it only matters near the machine's M201 limits, which the caller caps at)

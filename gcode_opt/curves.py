@@ -1,0 +1,379 @@
+"""Curve strokes: re-time a chain of short G1 segments that is one smooth curve.
+
+A curve stroke (strokes.py, kind K_CURVE) is a run of adjacent G1 lines of one feature,
+feed, acceleration and Z whose every vertex turns by <= max_turn_deg (30 deg, the firmware
+model's corner threshold) and at least one by more than the collinear tolerance.  Gyroid and
+concentric infill, curved walls.
+
+Law.  The optimal law on a curve obeys the arc-length Euler-Lagrange equation with κ(s)
+(MATH.md; laws/curve.py solves it exactly, but at 0.05-1.4 s per curve).  Here the law is
+the circle law (laws/circle.py, batched, < 1 ms) at the curve's effective constant
+curvature κ_eff = sqrt(mean κ²) (κ(s) from curvature_from_polyline): it has the right
+mean normal term 6κ²ṡ²s̈ and drops only 3κκ'ṡ⁴ (the pull to go slower where the curve
+tightens).  Its figures are then computed on the TRUE κ(s): ∫|a|² = ∫(s̈² + κ(s)²ṡ⁴)dt and
+peak |a| = max sqrt(s̈² + κ²ṡ⁴); tests/test_curve_strokes.py compares its J with the exact
+optimum of solve_curve on real chains (the gap is well under 1 %).
+
+Firmware facts at a vertex turning by θ (firmware/junction.py):
+  * caps no acceleration lifts: classic jerk (v 2 sin(θ/2) per axis <= jerk) and Klipper's
+    square-corner velocity (v² <= R_jd scv² (√2-1));
+  * caps that scale with the segments' acceleration (Klipper's centripetal term 2 d a qt,
+    Marlin JD a jd R_jd and d a / θ below 1 mm): met by raising the segment's acceleration,
+    up to the acceleration in force, beyond which they are caps too.
+A vertex whose cap (x CAP_MARGIN) is below the feed splits the chain (vertex_splitter):
+the original slows there too, and both pieces start/end at the original's speed.  Inside a
+curve the law's peak speed stays under the lowest vertex cap (adjust_plan_inputs).
+
+Emission: every original vertex is a knot (no new points), each G1 gets the ramp
+acceleration |v_k² - v_{k-1}²| / (2 d_k) raised to what the junction law needs at its
+vertices and to the finite-buffer floor of a Marlin planner (as arcs.py), and its own F.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .firmware.junction import (SQRT2_M1, accel_to_pass_junction, klipper_corner_v2,
+                                marlin_jd_v2, marlin_jerk_junction_v)
+from .firmware.simulate import CORNER_COS, FULL_STOP_V
+from .laws.circle import solve_circles
+from .laws.curve import curvature_from_polyline
+from .plan import SPEED_TOL_R, T_RATIOS, _largest_beta_under_speed_cap
+from .segments import SegmentPlan, segment_feeds
+
+CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
+CURVE_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CURVE_T_RATIOS])
+GAMMA_MIN = 0.1            # beta <= (T/GAMMA_MIN)^2: the circle solver needs a finite beta
+CAP_MARGIN = 0.95          # on every vertex speed cap
+ACCEL_MARGIN = 1.05        # segment accel >= margin x what its junctions need
+JERK_F_STEP_R = 0.15       # classic jerk: feeds of neighbouring segments differ by <= this x jerk,
+                           # and the vertex caps are computed with the rest of the jerk budget
+SMOOTH_MIN_D = 0.2         # mm: the smallest curvature smoothing width
+MAX_R_OVER_S = 1e3         # κ_eff floor: R_eff <= this x S (a nearly straight chain)
+
+
+# ------------------------------------------------------------------ vertex caps
+def _accel_in_force(profile, lim, accel, u):
+    """The move's acceleration after the per-axis caps (as simulate.py)."""
+    a0 = accel if accel > 0 else profile.default_accel_a
+    a = a0
+    if abs(u[0]) > 0 and a * abs(u[0]) > lim.ax_max:
+        a = lim.ax_max / abs(u[0])
+    if abs(u[1]) > 0 and a * abs(u[1]) > lim.ay_max:
+        a = lim.ay_max / abs(u[1])
+    return a0, a
+
+
+def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next):
+    """Highest speed (mm/s) the firmware allows at the vertex between a move along pu
+    (length d_prev) and one along u (d_next), both at the acceleration in force (the most
+    a re-timed segment may carry).  Exact firmware junction laws."""
+    junction = profile.junction
+    if junction == "jerk":
+        big = 1e6
+        j = 1.0 - JERK_F_STEP_R
+        return marlin_jerk_junction_v(pu[0], pu[1], 0.0, big, 0.0, u[0], u[1], 0.0, big, 0.0,
+                                      j * lim.jerk_x, j * lim.jerk_y, 1.0)
+    a0p, ap = _accel_in_force(profile, lim, accel, pu)
+    a0, a = _accel_in_force(profile, lim, accel, u)
+    if junction == "scv":
+        jdp = lim.scv * lim.scv * SQRT2_M1 / a0p
+        jd = lim.scv * lim.scv * SQRT2_M1 / a0
+        v2 = klipper_corner_v2(pu[0], pu[1], 0.0, jdp, ap, 2.0 * d_prev * ap,
+                               u[0], u[1], 0.0, jd, a, 2.0 * d_next * a)
+    else:
+        v2 = marlin_jd_v2(pu[0], pu[1], 0.0, u[0], u[1], 0.0, d_next, a, lim.jd,
+                          lim.ax_max, lim.ay_max, 1e9)
+    return math.sqrt(v2) if math.isfinite(v2) else math.inf
+
+
+def vertex_splitter(profile):
+    """split(prev_move, move) for strokes.group_strokes: True where the vertex's speed cap
+    (x CAP_MARGIN) is below the feed -- the firmware slows there whatever we do."""
+    def split(pm, m):
+        pu = _u(pm)
+        u = _u(m)
+        cap = vertex_cap(profile, m.lim, m.accel, pu, u, _d(pm), _d(m))
+        return CAP_MARGIN * cap < m.v
+    return split
+
+
+def _u(m):
+    dx, dy = m.x1 - m.x0, m.y1 - m.y0
+    d = math.hypot(dx, dy)
+    return dx / d, dy / d
+
+
+def _d(m):
+    return math.hypot(m.x1 - m.x0, m.y1 - m.y0)
+
+
+# ------------------------------------------------------------------ geometry
+class CurveGeom:
+    """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s)."""
+    __slots__ = ("pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "cap", "cos_end")
+
+    def __init__(self, st, profile):
+        pts = np.asarray(st.pts, float)
+        seg = np.diff(pts, axis=0)
+        d = np.hypot(seg[:, 0], seg[:, 1])
+        self.pts, self.d = pts, d
+        self.u = seg / d[:, None]
+        self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
+        self.s_v = np.concatenate([[0.0], np.cumsum(d)])
+        # smoothing over one median segment: wider kernels flatten the gyroid's curvature
+        # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
+        # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
+        pc = curvature_from_polyline(pts, smooth_d=max(float(np.median(d)), SMOOTH_MIN_D))
+        self.kappa_v = np.interp(self.s_v, pc.s_d, pc.kappa_v)
+        S = self.s_v[-1]
+        mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
+        k2 = float(np.sum(mid * d) / S)
+        self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
+        caps = [vertex_cap(profile, st.lim, st.accel, tuple(self.u[k]), tuple(self.u[k + 1]),
+                           d[k], d[k + 1]) for k in range(len(d) - 1)]
+        self.cap = CAP_MARGIN * min(caps) if caps else math.inf
+        # turns at the two ends (None: a stop or a corner): the firmware model counts half
+        # of each end junction's normal term in the stroke, as it did for the original
+        self.cos_end = [None, None]
+        for j, (a, b) in enumerate(((st.prev_u, tuple(self.u[0])), (tuple(self.u[-1]), st.next_u))):
+            if a is not None and b is not None:
+                c = a[0] * b[0] + a[1] * b[1]
+                self.cos_end[j] = c if c >= CORNER_COS else None
+
+    def end_terms(self, v0, v1):
+        """Half the normal term of the two end junctions, at the end speeds: (1-cos) v³/d."""
+        out = 0.0
+        for c, v, d in ((self.cos_end[0], v0, self.d[0]), (self.cos_end[1], v1, self.d[-1])):
+            if c is not None:
+                out += (1.0 - c) * v ** 3 / d
+        return out
+
+    def kappa(self, s):
+        return np.interp(s, self.s_v, self.kappa_v)
+
+
+def geom(st, profile):
+    if st.curv is None:
+        st.curv = CurveGeom(st, profile)
+    return st.curv
+
+
+def adjust_plan_inputs(pin, strokes, rows, profile):
+    """Curve rows of a PlanInput: length-weighted direction masses, the per-axis
+    acceleration cap of a turning path, the vertex speed caps."""
+    mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    for i in rows:
+        st = strokes[i]
+        g = geom(st, profile)
+        w = g.d / g.d.sum()
+        ux2 = float(np.sum(w * g.u[:, 0] ** 2))
+        uy2 = 1.0 - ux2
+        pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
+        pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+        pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+
+
+# ------------------------------------------------------------------ law
+def _solve(strokes, rows_geo, S, T, beta, v0, v1):
+    R = 1.0 / np.array([g.kappa_eff for g in rows_geo])
+    return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
+
+
+def true_figures(law, R, geos):
+    """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
+    speed, peak |a|, min speed) per law."""
+    tau, wq = law._quad_grid()
+    phi, w, w1, _ = law.eval_tau(tau)
+    T = law.T_t[:, None]
+    s = R[:, None] * phi
+    v = R[:, None] * w / T
+    at = R[:, None] * w1 / T ** 2
+    kap = np.empty_like(s)
+    for k, g in enumerate(geos):
+        kap[k] = g.kappa(s[k])
+    a2 = at * at + kap * kap * v ** 4
+    iv = law.T_t * np.sum(wq * v * v, axis=1)
+    ia = law.T_t * np.sum(wq * a2, axis=1)
+    ia = ia + np.array([g.end_terms(a, b) for g, a, b in zip(geos, R * law.w0, R * law.w1)])
+    # peaks on a uniform grid too (the quadrature grid is graded towards the ends)
+    tu = np.broadcast_to(np.linspace(0.0, 1.0, 129)[None, :], (len(geos), 129))
+    phu, wu, w1u, _ = law.eval_tau(tu)
+    su, vu, au = R[:, None] * phu, R[:, None] * wu / T, R[:, None] * w1u / T ** 2
+    ku = np.empty_like(su)
+    for k, g in enumerate(geos):
+        ku[k] = g.kappa(su[k])
+    a2u = au * au + ku * ku * vu ** 4
+    peak_v = np.maximum(np.max(v, axis=1), np.max(vu, axis=1))
+    min_v = np.minimum(np.min(v, axis=1), np.min(vu, axis=1))
+    peak_a = np.sqrt(np.maximum(np.max(a2, axis=1), np.max(a2u, axis=1)))
+    return iv, ia, peak_v, peak_a, min_v
+
+
+def candidates_curve(pin, rows, strokes, profile, k_cols=len(T_RATIOS)):
+    """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
+    where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt."""
+    rows = np.asarray(rows, int)
+    n = rows.size
+    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
+    I = np.full((n, k_cols), np.inf)
+    KE = np.full((n, k_cols), np.nan)
+    beta = np.full((n, k_cols), np.inf)
+    if n == 0:
+        return T, beta, I, KE
+    geos = [geom(strokes[i], profile) for i in rows]
+    S, v0, v1 = pin.L[rows], pin.v0[rows], pin.v1[rows]
+    vc, ac = pin.v_cap[rows], pin.a_cap[rows]
+    cols = CURVE_COLS
+    Tc = T[:, cols]
+    kc = len(cols)
+    bb = lambda a: np.broadcast_to(np.asarray(a)[:, None], Tc.shape).ravel()
+    Sf, v0f, v1f, vcf, acf = map(bb, (S, v0, v1, vc, ac))
+    gf = [g for g in geos for _ in range(kc)]
+    Tf = Tc.ravel()
+    bl = _largest_beta_under_speed_cap(Sf, Tf, v0f, v1f, vcf)
+    bl = np.minimum(bl, (Tf / GAMMA_MIN) ** 2)
+    ok_v = (v0f <= vcf * (1 + SPEED_TOL_R)) & (v1f <= vcf * (1 + SPEED_TOL_R)) \
+        & (Tf >= bb(pin.t_seg_min[rows])) & (Sf / Tf <= vcf)
+    If = np.full(Tf.shape, np.inf)
+    KEf = np.full(Tf.shape, np.nan)
+    betaf = bl.copy()
+    todo = np.flatnonzero(ok_v)
+    for _ in range(2):
+        if todo.size == 0:
+            break
+        gs = [gf[k] for k in todo]
+        law, R = _solve(None, gs, Sf[todo], Tf[todo], betaf[todo], v0f[todo], v1f[todo])
+        iv, ia, pv, pa, mv = true_figures(law, R, gs)
+        ok = (pv <= vcf[todo] * (1 + SPEED_TOL_R)) & (pa <= acf[todo] * (1 + SPEED_TOL_R)) \
+            & (mv >= -1e-9 * (1 + vcf[todo]))
+        If[todo[ok]] = ia[ok]
+        KEf[todo[ok]] = iv[ok]
+        todo = todo[~ok]
+        betaf[todo] *= 0.25
+    I[:, cols] = If.reshape(Tc.shape)
+    KE[:, cols] = KEf.reshape(Tc.shape)
+    beta[:, cols] = betaf.reshape(Tc.shape)
+    return T, beta, I, KE
+
+
+def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):
+    """--alpha A on curves: beta = A * mass_r, T = the shortest candidate meeting the limits."""
+    rows = np.asarray(rows, int)
+    if rows.size == 0:
+        return
+    ratios = np.array(sorted(CURVE_T_RATIOS))
+    geos = [geom(strokes[i], profile) for i in rows]
+    n, k = rows.size, ratios.size
+    bb = lambda a: np.broadcast_to(np.asarray(a)[:, None], (n, k)).ravel()
+    gf = [g for g in geos for _ in range(k)]
+    Tf = (pin.T_orig[rows, None] * ratios[None, :]).ravel()
+    beta = bb(alpha * pin.mass_r[rows])
+    law, R = _solve(None, gf, bb(pin.L[rows]), Tf, beta, bb(pin.v0[rows]), bb(pin.v1[rows]))
+    iv, ia, pv, pa, mv = true_figures(law, R, gf)
+    vc = bb(pin.v_cap[rows])
+    ok = ((pv <= vc * (1 + SPEED_TOL_R)) & (pa <= bb(pin.a_cap[rows]) * (1 + SPEED_TOL_R))
+          & (mv >= -1e-9 * (1 + vc)) & (Tf >= bb(pin.t_seg_min[rows]))).reshape(n, k)
+    iv, ia = iv.reshape(n, k), ia.reshape(n, k)
+    first = np.argmax(ok, axis=1)
+    any_ok = ok.any(axis=1)
+    r = np.arange(n)
+    plan.retime[rows] = any_ok
+    plan.T[rows] = np.where(any_ok, Tf.reshape(n, k)[r, first], pin.T_orig[rows])
+    plan.beta[rows] = np.where(any_ok, alpha * pin.mass_r[rows], np.inf)
+    plan.I_law[rows] = np.where(any_ok, ia[r, first], pin.I_orig[rows])
+    plan.KE_law[rows] = np.where(any_ok, iv[r, first], np.nan)
+    plan.reason[rows] = np.where(any_ok, "retimed", "no law within limits")
+
+
+# ------------------------------------------------------------------ segments
+def curve_knots(strokes, T, beta, profile):
+    """Speeds of each curve's law at its original vertices: list of (s, v), s = [0, ends_d]."""
+    m = len(strokes)
+    if m == 0:
+        return []
+    geos = [geom(st, profile) for st in strokes]
+    S = np.array([st.length_d for st in strokes])
+    v0 = np.array([st.v0 for st in strokes])
+    v1 = np.array([st.v1 for st in strokes])
+    T, beta = np.asarray(T, float), np.asarray(beta, float)
+    law, R = _solve(None, geos, S, T, beta, v0, v1)
+    tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (m, 513))
+    phi, w, _, _ = law.eval_tau(tau)
+    out = []
+    for i, (st, g) in enumerate(zip(strokes, geos)):
+        sd = R[i] * phi[i]
+        vd = np.maximum(R[i] * w[i] / T[i], 0.0)
+        s = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
+        v = np.interp(s, np.maximum.accumulate(sd), vd)
+        v[0], v[-1] = v0[i], v1[i]
+        out.append((s, v))
+    return out
+
+
+def predict_curve(s, v, a, cos_turn, cos_end0=None, cos_end1=None):
+    """Firmware execution of the curve's G1 segments: each ramps at a_k over |Δv| and
+    cruises the rest (time, tangential Σ a_k |Δv_k|), plus the normal term the firmware
+    model counts at every vertex turning <= 30 deg: (2 v sin(θ/2))² / ((t_k + t_{k+1})/2),
+    and half of it at the curve's two ends (the other half belongs to the neighbour)."""
+    d = np.diff(s)
+    va, vb = v[:-1], v[1:]
+    vmax = np.maximum(va, vb)
+    a = np.maximum(a, 1e-12)
+    ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
+    t = np.abs(vb - va) / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    a2 = float(np.sum(a * np.abs(vb - va)))
+    vi = v[1:-1]
+    dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
+    tj = 0.5 * (t[:-1] + t[1:])
+    a2 += float(np.sum(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0)))
+    for c, vv, tt in ((cos_end0, v[0], t[0]), (cos_end1, v[-1], t[-1])):
+        if c is not None and c >= CORNER_COS:
+            a2 += 0.5 * 2.0 * vv * vv * (1.0 - c) / max(tt, 1e-12)
+    return float(np.sum(t)), a2
+
+
+def plan_curve_segments(strokes, T, beta, rules, profile):
+    """SegmentPlan per curve stroke (knots = the original vertices)."""
+    plans = [None] * len(strokes)
+    knots = curve_knots(strokes, T, beta, profile)
+    for i, (sk, vk) in enumerate(knots):
+        plans[i] = finish_curve(strokes[i], sk, vk, rules, profile)
+    return plans
+
+
+def finish_curve(st, sk, vk, rules, profile):
+    g = geom(st, profile)
+    d = np.diff(sk)
+    n = len(d)
+    acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
+    jd = st.lim.jd
+    a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+    v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
+    v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
+    vj = vk.copy()
+    vj[0], vj[-1] = v0, v1
+    u = [tuple(x) for x in g.u]
+    pus = [st.prev_u] + u[:-1]            # direction before each segment's start vertex
+    nus = u[1:] + [st.next_u]             # direction after each segment's end vertex
+    for k in range(n):
+        need = accel_to_pass_junction(rules.junction, vj[k], pus[k], u[k], d[k], jd)
+        if rules.junction == "scv":       # Klipper: both moves' accelerations bound the junction
+            need = max(need, accel_to_pass_junction("scv", vj[k + 1], u[k], nus[k], d[k], jd))
+        acc[k] = max(acc[k], min(ACCEL_MARGIN * need, a_top))
+    if profile.block_buffer > 0:
+        # a finite-lookahead planner must be able to stop within the blocks it knows
+        nb = max(profile.block_buffer - 3, 1)
+        ext = np.concatenate([d, np.full(nb, d[-1])])
+        window = np.convolve(ext, np.ones(nb), "valid")[:n]
+        vmax = np.maximum(vk[:-1], vk[1:])
+        acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), a_top))
+    step_v = np.inf
+    if rules.junction == "jerk":
+        step_v = JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
+    feeds = segment_feeds(vk, st.v_feed, step_v)
+    c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
+    c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
+    t_pred, a2_pred = predict_curve(sk, vk, acc, g.cos_turn, c0, c1)
+    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)

@@ -86,6 +86,10 @@ def build_parser():
     p.add_argument("--segments", type=int, default=10,
                    help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
                         "minimum segment time and planner buffer; default %(default)s)")
+    p.add_argument("--max-turn", type=float, default=30.0, metavar="DEG",
+                   help="a run of G1 lines whose every vertex turns by at most DEG degrees is one smooth curve, "
+                        "re-timed as a whole (gyroid, concentric infill); 0 re-times straight runs only "
+                        "(default %(default)s)")
     p.add_argument("--min-length", type=float, default=2.0, help="shortest stroke to re-time, mm (default %(default)s)")
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
     p.add_argument("--report", metavar="REPORT.html",
@@ -124,6 +128,7 @@ def cmd_process(a):
     prog = None if a.quiet else Progress(os.path.getsize(a.input))
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
+    opts.max_turn_deg = a.max_turn
     hook = None
     if a.report:
         from .report.html import write_report

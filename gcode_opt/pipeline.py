@@ -205,7 +205,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             curves.fixed_alpha_curve(fixed, pin, rows[K_CURVE], strokes, profile, float(opts.alpha))
 
     def run(budget):
-        plan = plan_auto(pin, budget, cands) if opts.alpha == "auto" else fixed.copy()
+        plan = (plan_auto(pin, budget, cands, [rows[k] for k in (K_LINE, K_ARC, K_CURVE)])
+                if opts.alpha == "auto" else fixed.copy())
         plan.segs = [None] * len(strokes)
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()

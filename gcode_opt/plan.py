@@ -122,15 +122,26 @@ def allocate(T, I, T_orig, I_orig, budget_t):
     return choose(hi)[0], hi
 
 
-def plan_auto(p: PlanInput, budget_t: float, cands=None) -> Plan:
-    """cands: candidates_auto(p), when the caller plans the same strokes twice."""
+def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
+    """cands: candidates_auto(p), when the caller plans the same strokes twice.
+
+    groups: index arrays (lines, arcs, curves...).  Each group gets the share of the
+    budget its strokes take of the print time and spends it on itself, so one kind of
+    stroke is never made faster and stiffer to pay for another."""
     n = len(p.L)
     plan = Plan(n)
     if n == 0:
         return plan
     T, beta, I, KE = candidates_auto(p) if cands is None else cands
-    j, lam = allocate(T, I, p.T_orig, p.I_orig, budget_t)
-    plan.lam = lam
+    groups = [g for g in (groups or [np.arange(n)]) if len(g)]
+    total_t = sum(float(p.T_orig[g].sum()) for g in groups)
+    j = np.zeros(n, dtype=int)
+    lam = []
+    for g in groups:
+        share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
+        j[g], lam_g = allocate(T[g], I[g], p.T_orig[g], p.I_orig[g], share)
+        lam.append(lam_g)
+    plan.lam = max(lam) if lam else 0.0
     k = T.shape[1]
     rows = np.arange(n)
     use = j < k

@@ -182,3 +182,22 @@ def test_every_profile_keeps_the_invariants_and_follows_the_law(tmp_path, prof):
     assert abs(rs["firmware_vs_law"]["time"]) < 0.10 and abs(rs["firmware_vs_law"]["int_a2"]) < 0.10
     assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]
     assert s["print_time_s"]["change"] <= 0.031
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_concentric.gcode", "voron24"),
+                                       ("prusa_concentric_arcs.gcode", "prusa-mk3s"),
+                                       ("prusa_gyroid_arcs.gcode", "voron24")])
+def test_curves_and_arcs_meet_issue_4s_bar_with_default_options(tmp_path, name, prof):
+    """>= 40 % less int|a|^2 dt on the re-timed curved strokes (arcs and polyline curves),
+    as the firmware model executes them, at <= +5 % print time, no new full stops."""
+    dst = tmp_path / name
+    s = process(SAMPLES + name, str(dst), load_profile(prof), Options())
+    verify(SAMPLES + name, str(dst), load_profile(prof))
+    kinds = s["retimed_strokes"]["by_kind"]
+    curved = [k for k in ("arc", "curve") if k in kinds and kinds[k]["retimed"] >= 5]
+    assert curved, kinds.keys()
+    before = sum(kinds[k]["int_a2"]["before"] for k in curved)
+    after = sum(kinds[k]["int_a2"]["after"] for k in curved)
+    assert after <= 0.60 * before
+    assert s["print_time_s"]["change"] <= 0.05
+    assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]

@@ -185,8 +185,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     segments would not beat the original trapezoid is left alone."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     rows = _rows_by_kind(strokes)
-    cands = None
-    if opts.alpha == "auto" and len(strokes):
+    cands, fixed = getattr(pin, "cached", (None, None))   # the same strokes planned again: reuse
+    if cands is None and opts.alpha == "auto" and len(strokes):
         cands = candidates_auto(pin)
         if rows[K_ARC].size:
             ca = arcs.candidates_arc(pin, rows[K_ARC], strokes)
@@ -196,13 +196,13 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             cc = curves.candidates_curve(pin, rows[K_CURVE], strokes, profile)
             for full, part in zip(cands, cc):
                 full[rows[K_CURVE]] = part
-    fixed = None
-    if opts.alpha != "auto":
+    if fixed is None and opts.alpha != "auto":
         fixed = plan_fixed_alpha(pin, float(opts.alpha))
         if rows[K_ARC].size:
             arcs.fixed_alpha_arc(fixed, pin, rows[K_ARC], strokes, float(opts.alpha))
         if rows[K_CURVE].size:
             curves.fixed_alpha_curve(fixed, pin, rows[K_CURVE], strokes, profile, float(opts.alpha))
+    pin.cached = (cands, fixed)
 
     def run(budget):
         plan = (plan_auto(pin, budget, cands, [rows[k] for k in (K_LINE, K_ARC, K_CURVE)])

@@ -30,7 +30,7 @@ import numpy as np
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
 from .laws.circle import solve_circles
-from .plan import SPEED_TOL_R, T_RATIOS, _largest_beta_under_speed_cap
+from .plan import SPEED_TOL_R, T_RATIOS, candidate_table
 from .segments import SegmentPlan, segment_feeds
 
 ARC_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
@@ -112,43 +112,20 @@ def candidates_arc(pin, rows, strokes, k_cols=len(T_RATIOS)):
     """(T, beta, I, KE) rows for the arc strokes `rows` (shape (n, len(T_RATIOS))), inf
     where no candidate was computed or it breaks a limit."""
     rows = np.asarray(rows, int)
-    n = rows.size
-    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
-    I = np.full((n, k_cols), np.inf)
-    KE = np.full((n, k_cols), np.nan)
-    beta = np.full((n, k_cols), np.inf)
-    if n == 0:
-        return T, beta, I, KE
-    R = np.array([strokes[i].arc.r for i in rows])
-    S, v0, v1 = pin.L[rows], pin.v0[rows], pin.v1[rows]
-    vc, ac = pin.v_cap[rows], pin.a_cap[rows]
-    cols = ARC_COLS
-    Tc = T[:, cols]
-    bb = lambda a: np.broadcast_to(a[:, None], Tc.shape).ravel()
-    Sf, Rf, v0f, v1f, vcf, acf = map(bb, (S, R, v0, v1, vc, ac))
-    Tf = Tc.ravel()
-    bl = _largest_beta_under_speed_cap(Sf, Tf, v0f, v1f, vcf)
-    bl = np.minimum(bl, (Tf / GAMMA_MIN) ** 2)
-    ok_v = (v0f <= vcf * (1 + SPEED_TOL_R)) & (v1f <= vcf * (1 + SPEED_TOL_R)) \
-        & (Tf >= bb(pin.t_seg_min[rows])) & (Sf / Tf <= vcf)
-    If = np.full(Tf.shape, np.inf)
-    KEf = np.full(Tf.shape, np.nan)
-    betaf = bl.copy()
-    todo = np.flatnonzero(ok_v)
-    for attempt in range(2):
-        if todo.size == 0:
-            break
-        law = _solve(Sf[todo], Rf[todo], Tf[todo], betaf[todo], v0f[todo], v1f[todo])
-        ok = _feasible(law, vcf[todo], acf[todo])
+    k = len(ARC_COLS)
+
+    def flat(x):
+        return np.repeat(np.asarray(x), k)
+
+    R, S = flat([strokes[i].arc.r for i in rows]), flat(pin.L[rows])
+    v0, v1, vc, ac = (flat(x[rows]) for x in (pin.v0, pin.v1, pin.v_cap, pin.a_cap))
+
+    def solve_figures(idx, T, beta):
+        law = _solve(S[idx], R[idx], T, beta, v0[idx], v1[idx])
         iv, ia = law.integrals()
-        If[todo[ok]] = ia[ok]
-        KEf[todo[ok]] = iv[ok]
-        todo = todo[~ok]
-        betaf[todo] *= 0.25
-    I[:, cols] = If.reshape(Tc.shape)
-    KE[:, cols] = KEf.reshape(Tc.shape)
-    beta[:, cols] = betaf.reshape(Tc.shape)
-    return T, beta, I, KE
+        return iv, ia, _feasible(law, vc[idx], ac[idx])
+
+    return candidate_table(pin, rows, ARC_COLS, solve_figures, GAMMA_MIN)
 
 
 # ------------------------------------------------------------------ segments

@@ -39,7 +39,7 @@ from .firmware.junction import (SQRT2_M1, accel_to_pass_junction, klipper_corner
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
-from .plan import SPEED_TOL_R, T_RATIOS, _largest_beta_under_speed_cap
+from .plan import SPEED_TOL_R, T_RATIOS, candidate_table
 from .segments import SegmentPlan, segment_feeds
 
 CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
@@ -215,47 +215,19 @@ def candidates_curve(pin, rows, strokes, profile, k_cols=len(T_RATIOS)):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt."""
     rows = np.asarray(rows, int)
-    n = rows.size
-    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
-    I = np.full((n, k_cols), np.inf)
-    KE = np.full((n, k_cols), np.nan)
-    beta = np.full((n, k_cols), np.inf)
-    if n == 0:
-        return T, beta, I, KE
-    geos = [geom(strokes[i], profile) for i in rows]
-    S, v0, v1 = pin.L[rows], pin.v0[rows], pin.v1[rows]
-    vc, ac = pin.v_cap[rows], pin.a_cap[rows]
-    cols = CURVE_COLS
-    Tc = T[:, cols]
-    kc = len(cols)
-    bb = lambda a: np.broadcast_to(np.asarray(a)[:, None], Tc.shape).ravel()
-    Sf, v0f, v1f, vcf, acf = map(bb, (S, v0, v1, vc, ac))
-    gf = [g for g in geos for _ in range(kc)]
-    Tf = Tc.ravel()
-    bl = _largest_beta_under_speed_cap(Sf, Tf, v0f, v1f, vcf)
-    bl = np.minimum(bl, (Tf / GAMMA_MIN) ** 2)
-    ok_v = (v0f <= vcf * (1 + SPEED_TOL_R)) & (v1f <= vcf * (1 + SPEED_TOL_R)) \
-        & (Tf >= bb(pin.t_seg_min[rows])) & (Sf / Tf <= vcf)
-    If = np.full(Tf.shape, np.inf)
-    KEf = np.full(Tf.shape, np.nan)
-    betaf = bl.copy()
-    todo = np.flatnonzero(ok_v)
-    for _ in range(2):
-        if todo.size == 0:
-            break
-        gs = [gf[k] for k in todo]
-        law, R = _solve(None, gs, Sf[todo], Tf[todo], betaf[todo], v0f[todo], v1f[todo])
+    k = len(CURVE_COLS)
+    geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
+    S, v0, v1, vc, ac = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1, pin.v_cap, pin.a_cap))
+
+    def solve_figures(idx, T, beta):
+        gs = [geos[q] for q in idx]
+        law, R = _solve(None, gs, S[idx], T, beta, v0[idx], v1[idx])
         iv, ia, pv, pa, mv = true_figures(law, R, gs)
-        ok = (pv <= vcf[todo] * (1 + SPEED_TOL_R)) & (pa <= acf[todo] * (1 + SPEED_TOL_R)) \
-            & (mv >= -1e-9 * (1 + vcf[todo]))
-        If[todo[ok]] = ia[ok]
-        KEf[todo[ok]] = iv[ok]
-        todo = todo[~ok]
-        betaf[todo] *= 0.25
-    I[:, cols] = If.reshape(Tc.shape)
-    KE[:, cols] = KEf.reshape(Tc.shape)
-    beta[:, cols] = betaf.reshape(Tc.shape)
-    return T, beta, I, KE
+        ok = ((pv <= vc[idx] * (1 + SPEED_TOL_R)) & (pa <= ac[idx] * (1 + SPEED_TOL_R))
+              & (mv >= -1e-9 * (1 + vc[idx])))
+        return iv, ia, ok
+
+    return candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
 
 
 def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):

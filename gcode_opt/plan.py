@@ -181,3 +181,47 @@ def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:
     plan.KE_law = np.where(ok_hi, KE, np.nan)
     plan.reason = np.where(ok_hi, "retimed", "no law within limits")
     return plan
+
+
+def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
+    """Candidates of curved strokes (arcs, curves), shared by arcs.py and curves.py.
+
+    For strokes `rows` and the duration columns `cols` of T_RATIOS: beta starts at the
+    largest the line law allows under the speed cap (capped at (T/gamma_min)^2: the
+    curved laws need a finite weight), then solve_figures(flat_idx, T, beta) -> (int_v2,
+    int_a2, ok) solves the true law; a candidate that breaks a limit is retried once at
+    beta/4 (a flatter law).  Returns (T, beta, I, KE) of shape (n, len(T_RATIOS)), inf
+    where nothing was computed or nothing met the limits."""
+    rows = np.asarray(rows, int)
+    n, k_all = rows.size, len(T_RATIOS)
+    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
+    I = np.full((n, k_all), np.inf)
+    KE = np.full((n, k_all), np.nan)
+    beta = np.full((n, k_all), np.inf)
+    if n == 0:
+        return T, beta, I, KE
+    Tc = T[:, cols]
+
+    def flat(a):
+        return np.broadcast_to(np.asarray(a)[:, None], Tc.shape).ravel()
+
+    S, v0, v1, vc = (flat(a[rows]) for a in (pin.L, pin.v0, pin.v1, pin.v_cap))
+    Tf = Tc.ravel()
+    betaf = np.minimum(_largest_beta_under_speed_cap(S, Tf, v0, v1, vc), (Tf / gamma_min) ** 2)
+    ok_v = ((v0 <= vc * (1 + SPEED_TOL_R)) & (v1 <= vc * (1 + SPEED_TOL_R))
+            & (Tf >= flat(pin.t_seg_min[rows])) & (S / Tf <= vc))
+    If = np.full(Tf.shape, np.inf)
+    KEf = np.full(Tf.shape, np.nan)
+    todo = np.flatnonzero(ok_v)
+    for _ in range(2):
+        if todo.size == 0:
+            break
+        iv, ia, ok = solve_figures(todo, Tf[todo], betaf[todo])
+        If[todo[ok]] = ia[ok]
+        KEf[todo[ok]] = iv[ok]
+        todo = todo[~ok]
+        betaf[todo] *= 0.25
+    I[:, cols] = If.reshape(Tc.shape)
+    KE[:, cols] = KEf.reshape(Tc.shape)
+    beta[:, cols] = betaf.reshape(Tc.shape)
+    return T, beta, I, KE

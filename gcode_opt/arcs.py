@@ -30,7 +30,7 @@ import numpy as np
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
 from .laws.circle import solve_circles
-from .plan import SPEED_TOL_R, T_RATIOS, candidate_table
+from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, segment_feeds
 
 ARC_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
@@ -248,12 +248,4 @@ def fixed_alpha_arc(plan, pin, rows, strokes, alpha):
     law = _solve(bb(pin.L[rows]), bb(R), Tf, beta, bb(pin.v0[rows]), bb(pin.v1[rows]))
     ok = (_feasible(law, bb(pin.v_cap[rows]), bb(pin.a_cap[rows])) & (Tf >= bb(pin.t_seg_min[rows]))).reshape(n, k)
     iv, ia = (x.reshape(n, k) for x in law.integrals())
-    first = np.argmax(ok, axis=1)
-    any_ok = ok.any(axis=1)
-    r = np.arange(n)
-    plan.retime[rows] = any_ok
-    plan.T[rows] = np.where(any_ok, Tf.reshape(n, k)[r, first], pin.T_orig[rows])
-    plan.beta[rows] = np.where(any_ok, alpha * pin.mass_r[rows], np.inf)
-    plan.I_law[rows] = np.where(any_ok, ia[r, first], pin.I_orig[rows])
-    plan.KE_law[rows] = np.where(any_ok, iv[r, first], np.nan)
-    plan.reason[rows] = np.where(any_ok, "retimed", "no law within limits")
+    take_shortest_feasible(plan, pin, rows, alpha, Tf.reshape(n, k), ok, iv, ia)

@@ -39,7 +39,7 @@ from .firmware.junction import (SQRT2_M1, accel_to_pass_junction, klipper_corner
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
-from .plan import SPEED_TOL_R, T_RATIOS, candidate_table
+from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, segment_feeds
 
 CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
@@ -247,16 +247,7 @@ def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):
     vc = bb(pin.v_cap[rows])
     ok = ((pv <= vc * (1 + SPEED_TOL_R)) & (pa <= bb(pin.a_cap[rows]) * (1 + SPEED_TOL_R))
           & (mv >= -1e-9 * (1 + vc)) & (Tf >= bb(pin.t_seg_min[rows]))).reshape(n, k)
-    iv, ia = iv.reshape(n, k), ia.reshape(n, k)
-    first = np.argmax(ok, axis=1)
-    any_ok = ok.any(axis=1)
-    r = np.arange(n)
-    plan.retime[rows] = any_ok
-    plan.T[rows] = np.where(any_ok, Tf.reshape(n, k)[r, first], pin.T_orig[rows])
-    plan.beta[rows] = np.where(any_ok, alpha * pin.mass_r[rows], np.inf)
-    plan.I_law[rows] = np.where(any_ok, ia[r, first], pin.I_orig[rows])
-    plan.KE_law[rows] = np.where(any_ok, iv[r, first], np.nan)
-    plan.reason[rows] = np.where(any_ok, "retimed", "no law within limits")
+    take_shortest_feasible(plan, pin, rows, alpha, Tf.reshape(n, k), ok, iv.reshape(n, k), ia.reshape(n, k))
 
 
 # ------------------------------------------------------------------ segments

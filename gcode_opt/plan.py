@@ -225,3 +225,17 @@ def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
     KE[:, cols] = KEf.reshape(Tc.shape)
     beta[:, cols] = betaf.reshape(Tc.shape)
     return T, beta, I, KE
+
+
+def take_shortest_feasible(plan: Plan, pin: PlanInput, rows, alpha, T, ok, int_v2, int_a2):
+    """--alpha A on curved strokes: of the candidate durations T (n, k; ascending along
+    k), keep each stroke's shortest one meeting the limits (ok), with its law's figures."""
+    first = np.argmax(ok, axis=1)
+    any_ok = ok.any(axis=1)
+    r = np.arange(len(rows))
+    plan.retime[rows] = any_ok
+    plan.T[rows] = np.where(any_ok, T[r, first], pin.T_orig[rows])
+    plan.beta[rows] = np.where(any_ok, alpha * pin.mass_r[rows], np.inf)
+    plan.I_law[rows] = np.where(any_ok, int_a2[r, first], pin.I_orig[rows])
+    plan.KE_law[rows] = np.where(any_ok, int_v2[r, first], np.nan)
+    plan.reason[rows] = np.where(any_ok, "retimed", "no law within limits")

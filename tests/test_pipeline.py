@@ -201,3 +201,15 @@ def test_curves_and_arcs_meet_issue_4s_bar_with_default_options(tmp_path, name, 
     assert after <= 0.60 * before
     assert s["print_time_s"]["change"] <= 0.05
     assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]
+
+
+def test_fixed_alpha_on_arcs_and_curves(tmp_path):
+    dst = tmp_path / "o.gcode"
+    name = "prusa_concentric_arcs.gcode"
+    s = process(SAMPLES + name, str(dst), load_profile("prusa-mk3s"), Options(alpha=0.002))
+    verify(SAMPLES + name, str(dst), load_profile("prusa-mk3s"))
+    kinds = s["retimed_strokes"]["by_kind"]
+    assert kinds["arc"]["retimed"] > 0 and kinds["line"]["retimed"] > 0
+    assert all(p["beta_s2"] is not None for p in s["per_stroke"])
+    assert abs(s["retimed_strokes"]["firmware_vs_law"]["time"]) < 0.10
+    assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]

@@ -12,6 +12,10 @@ import time
 import numpy as np
 from scipy.integrate import solve_bvp
 
+import os as _os
+import sys as _sys
+_sys.path.insert(0, _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), ".."))
+
 from gcode_opt.laws.circle import solve_circle, solve_circles
 
 DEFAULT_BETA_S2 = 1e-4      # β = α·m; √β = 10 ms boundary layers

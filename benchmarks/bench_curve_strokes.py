@@ -11,6 +11,10 @@ import time
 
 import numpy as np
 
+import os as _os
+import sys as _sys
+_sys.path.insert(0, _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), ".."))
+
 from gcode_opt import curves
 from gcode_opt.pipeline import Options, analyse, plan_inputs
 from gcode_opt.profile import load_profile

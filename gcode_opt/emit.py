@@ -81,6 +81,17 @@ class StrokeText:
         self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
 
 
+def _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl):
+    """Lines that end every block: the original's acceleration, Klipper's cruise ratio
+    and the modal F back in force, then the end marker."""
+    out = [accel_command(flavour, accel_restore, extruding, round_up=False) + nl]
+    if flavour == "klipper":
+        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
+    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
+    out.append(f"{END}{nl}")
+    return out
+
+
 def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text, e_rel, flavour,
                 accel_restore, mcr_restore, feed_restore_v, extruding=True, header=""):
     """Text of the block replacing the stroke.  s, v: knots (mm, mm/s) including every
@@ -143,11 +154,7 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
             e_done_u = 0
             if move < len(ends_d) - 1:
                 move += 1
-    out.append(accel_command(flavour, accel_restore, extruding, round_up=False) + nl)
-    if flavour == "klipper":
-        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
-    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
-    out.append(f"{END}{nl}")
+    out += _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
     return "".join(out)
 
 
@@ -207,9 +214,5 @@ def emit_arc(raw, x0_text, y0_text, e_start, arc, s, accels, feeds, *, e_rel, fl
                  f"E{e_txt} F{f}")
         out.append(f"{words}{(' ' + comment) if (comment and k == n) else ''}{nl}")
         sxu, syu = exu, eyu
-    out.append(accel_command(flavour, accel_restore, True, round_up=False) + nl)
-    if flavour == "klipper":
-        out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
-    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
-    out.append(f"{END}{nl}")
+    out += _closing(flavour, accel_restore, True, mcr_restore, feed_restore_v, nl)
     return "".join(out)

@@ -61,6 +61,23 @@ def _save(fig, out_dir, name):
     return path
 
 
+
+def _rates_figure(t, laws, trap, v_label, a_label, title, out_dir, name):
+    """Speed and acceleration side by side: each law (alpha, _, rate, rate'), and the trapezoid."""
+    fig, (av, aa) = plt.subplots(1, 2, figsize=(12, 4.5))
+    for (al, _, rate, drate), col in zip(laws, COLORS):
+        av.plot(t, rate, color=col, label=_label(al))
+        aa.plot(t, drate, color=col, label=_label(al))
+    av.plot(t, trap[1], label="trapezoid, ramps T/4", **TRAP)
+    aa.plot(t, trap[2], label="trapezoid, ramps T/4", **TRAP)
+    _finish(av, "t (s)", v_label)
+    _finish(aa, "t (s)", a_label)
+    av.legend(fontsize=9)
+    aa.legend(fontsize=9)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return _save(fig, out_dir, name)
+
 def _finish(ax, xlabel, ylabel):
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
@@ -93,19 +110,9 @@ def fig_line(out_dir):
                  fontsize=10)
     ax.legend()
     p1 = _save(fig, out_dir, NAMES[0])
-    fig, (av, aa) = plt.subplots(1, 2, figsize=(12, 4.5))
-    for (al, _, vx, ax_) , col in zip(laws, COLORS):
-        av.plot(t, vx, color=col, label=_label(al))
-        aa.plot(t, ax_, color=col, label=_label(al))
-    av.plot(t, trap[1], label="trapezoid, ramps T/4", **TRAP)
-    aa.plot(t, trap[2], label="trapezoid, ramps T/4", **TRAP)
-    _finish(av, "t (s)", "vx (length unit / s)")
-    _finish(aa, "t (s)", "ax (length unit / s²)")
-    av.legend(fontsize=9)
-    aa.legend(fontsize=9)
-    fig.suptitle("Fig. 2 – velocity and acceleration along Ox, straight line, optimal law", fontsize=11)
-    fig.tight_layout()
-    return [p1, _save(fig, out_dir, NAMES[1])]
+    return [p1, _rates_figure(t, laws, trap, "vx (length unit / s)", "ax (length unit / s²)",
+                              "Fig. 2 – velocity and acceleration along Ox, straight line, optimal law",
+                              out_dir, NAMES[1])]
 
 
 # --------------------------------------------------------------------------- semicircle (3, 4)
@@ -130,19 +137,9 @@ def fig_semicircle(out_dir):
     ax.set_title("Fig. 3 – rotation angle φ(t) on a semicircle, 0 → π; T = 1 s, m = 1 kg", fontsize=10)
     ax.legend()
     p1 = _save(fig, out_dir, NAMES[2])
-    fig, (av, aa) = plt.subplots(1, 2, figsize=(12, 4.5))
-    for (al, _, w, wd), col in zip(laws, COLORS):
-        av.plot(t, w, color=col, label=_label(al))
-        aa.plot(t, wd, color=col, label=_label(al))
-    av.plot(t, trap[1], label="trapezoid, ramps T/4", **TRAP)
-    aa.plot(t, trap[2], label="trapezoid, ramps T/4", **TRAP)
-    _finish(av, "t (s)", "angular velocity φ̇ (rad/s)")
-    _finish(aa, "t (s)", "angular acceleration φ̈ (rad/s²)")
-    av.legend(fontsize=9)
-    aa.legend(fontsize=9)
-    fig.suptitle("Fig. 4 – angular velocity and acceleration on the semicircle, optimal law", fontsize=11)
-    fig.tight_layout()
-    return [p1, _save(fig, out_dir, NAMES[3])]
+    return [p1, _rates_figure(t, laws, trap, "angular velocity φ̇ (rad/s)", "angular acceleration φ̈ (rad/s²)",
+                              "Fig. 4 – angular velocity and acceleration on the semicircle, optimal law",
+                              out_dir, NAMES[3])]
 
 
 # --------------------------------------------------------------------------- ellipse (5, 6, 7)

@@ -56,7 +56,9 @@ class Progress:
         self._last = 0.0
 
     def start(self, phase):
-        self.phase, self.done = phase, 0
+        if self.phase:
+            self._draw(1.0)                 # finish the previous phase's bar
+        self.phase, self.done, self._last = phase, 0, 0.0
 
     def advance(self, nbytes):
         self.done += nbytes
@@ -64,13 +66,16 @@ class Progress:
             now = time.monotonic()
             if now - self._last > 0.2:
                 self._last = now
-                r = min(self.done / self.total, 1.0)
-                bar = "#" * int(r * 30)
-                sys.stderr.write(f"\r{self.phase:<10} [{bar:<30}] {r * 100:5.1f}%")
-                sys.stderr.flush()
+                self._draw(min(self.done / self.total, 1.0))
+
+    def _draw(self, r):
+        if self.enabled:
+            sys.stderr.write(f"\r{self.phase:<10} [{'#' * int(r * 30):<30}] {r * 100:5.1f}%")
+            sys.stderr.flush()
 
     def finish(self):
         if self.enabled:
+            self._draw(1.0)
             sys.stderr.write("\r" + " " * 60 + "\r")
             sys.stderr.flush()
 

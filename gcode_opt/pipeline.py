@@ -264,7 +264,9 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
     for idx, raw in _counted(read_lines(path), opts.progress):
         if buf is None and idx in chosen:
             i = chosen[idx]
-            cur = (i, strokes[i], st.x, st.y, st.e, st.accel_for(True, True), st.lim.mcr)
+            # the acceleration to restore is the one of this stroke's kind (print vs travel)
+            cur = (i, strokes[i], st.x, st.y, st.e, st.accel_for(strokes[i].feature != feat.TRAVEL, True),
+                   st.lim.mcr)
             buf = []
         if buf is not None:
             buf.append(raw)

@@ -213,3 +213,18 @@ def test_fixed_alpha_on_arcs_and_curves(tmp_path):
     assert all(p["beta_s2"] is not None for p in s["per_stroke"])
     assert abs(s["retimed_strokes"]["firmware_vs_law"]["time"]) < 0.10
     assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]
+
+
+def test_travel_strokes_restore_the_travel_acceleration(tmp_path):
+    """Marlin 2: print (P) and travel (T) accelerations differ; a re-timed travel must set and
+    restore T, never touch P (verify compares both after every block)."""
+    src = tmp_path / "t.gcode"
+    src.write_text("G21\nG90\nM83\nM204 P1000 T2500\nG1 Z0.2 F600\n;TYPE:Internal infill\n"
+                   "G1 X40 Y0 E1.5 F3000\nG0 X40 Y60 F9000\nG1 X0 Y60 E1.5 F3000\nG0 X0 Y0 F9000\n")
+    dst = tmp_path / "o.gcode"
+    prof = load_profile("generic-marlin")
+    s = process(str(src), str(dst), prof, Options(features=("travel",), min_length_d=1.0))
+    assert s["strokes"]["retimed"] >= 1
+    text = dst.read_text()
+    assert "M204 T2500" in text and "M204 P" not in text.replace("M204 P1000 T2500", "")
+    verify(str(src), str(dst), prof)

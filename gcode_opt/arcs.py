@@ -108,7 +108,7 @@ def _feasible(law, v_cap, a_cap):
             & (law.min_speed() >= -1e-9 * (1 + v_cap)))
 
 
-def candidates_arc(pin, rows, strokes, k_cols=len(T_RATIOS)):
+def candidates_arc(pin, rows, strokes):
     """(T, beta, I, KE) rows for the arc strokes `rows` (shape (n, len(T_RATIOS))), inf
     where no candidate was computed or it breaks a limit."""
     rows = np.asarray(rows, int)

@@ -211,7 +211,7 @@ def true_figures(law, R, geos):
     return iv, ia, peak_v, peak_a, min_v
 
 
-def candidates_curve(pin, rows, strokes, profile, k_cols=len(T_RATIOS)):
+def candidates_curve(pin, rows, strokes, profile):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt."""
     rows = np.asarray(rows, int)

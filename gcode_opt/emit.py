@@ -60,7 +60,7 @@ class StrokeText:
 
     def __init__(self, raws, x_start_text, y_start_text, e_start_units):
         self.raws = raws
-        self.codes, self.comments = [], []
+        self.comments = []
         xs, ys, es = [], [], []
         xt, yt = x_start_text, y_start_text
         for raw in raws:

@@ -316,7 +316,6 @@ def measure(path, profile, out_ranges, opts):
     t = np.zeros(n)
     a2 = np.zeros(n)
     v2 = np.zeros(n)
-    firsts = [r[0] for r in out_ranges]
     pos = [0]
 
     def on_line(r):
@@ -329,7 +328,6 @@ def measure(path, profile, out_ranges, opts):
             a2[k] += r.int_a2 + r.int_a2_j
             v2[k] += r.int_v2
 
-    del firsts
     ev = _counted(events(path, profile), opts.progress)
     sim = simulate_events(ev, profile, on_line=on_line)
     return sim, t, a2, v2
@@ -355,7 +353,7 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         # The plan budgets with the segments' predicted times; the firmware model has the
         # last word.  If the written file overruns the budget, plan once more with the
         # overrun taken off (one more rewrite + measure, only then).
-        for attempt in range(2):
+        for _ in range(2):
             plan = plan_strokes(strokes, pin, profile, opts, budget_t)
             if prog:
                 prog.start("rewrite")

@@ -129,13 +129,11 @@ def cmd_process(a):
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
     opts.max_turn_deg = a.max_turn
-    hook = None
-    if a.report:
-        from .report.html import write_report
 
-        def hook(orig, new, summary):
-            write_report(orig, new, prof, summary, a.report)
-    summary = process(a.input, out, prof, opts, before_replace=hook)
+    def write_report_hook(orig, new, summary):        # runs while both files exist
+        from .report.html import write_report
+        write_report(orig, new, prof, summary, a.report)
+    summary = process(a.input, out, prof, opts, before_replace=write_report_hook if a.report else None)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(summary, fh, indent=1)

@@ -12,7 +12,7 @@ import math
 
 from . import features as feat
 from .profile import Profile
-from .words import command_of, keyvals_of, params_of, split_comment, strip_checksum
+from .words import command_of, keyvals_of, params_of, strip_checksum
 
 # Move.kind
 LINE = 0      # straight XY(Z) move, with or without E

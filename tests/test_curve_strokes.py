@@ -2,7 +2,6 @@
 smooth curve (gyroid / concentric infill) re-timed with the curvature law, every original
 vertex kept.  Invariants by verify.py, physics by the firmware model playing the output,
 the law's accuracy against the exact curvature-law solve (laws/curve.py)."""
-import math
 
 import numpy as np
 import pytest

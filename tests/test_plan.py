@@ -1,6 +1,5 @@
 """The planner's choices, checked against the law's own figures (not the planner's code)."""
 import numpy as np
-import pytest
 
 from gcode_opt.laws.line import line_law
 from gcode_opt.plan import PlanInput, candidates_auto, plan_auto, plan_fixed_alpha

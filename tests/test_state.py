@@ -5,7 +5,7 @@ import pytest
 
 from gcode_opt import features as feat
 from gcode_opt.profile import load_profile
-from gcode_opt.state import ARC, EONLY, LINE, Barrier, MachineState, Move, events
+from gcode_opt.state import ARC, EONLY, MachineState, Move, events
 
 EDGE = "sample_gcode/edge/"
 

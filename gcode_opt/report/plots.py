@@ -111,7 +111,7 @@ def _layer_segments(tr, layer):
     if not sel.any():
         return np.zeros((0, 2, 2)), np.zeros(0)
     x0, y0, x1, y1, d = b["x0"][sel], b["y0"][sel], b["x1"][sel], b["y1"][sel], b["d"][sel]
-    sv, cv, ev = b["start_v"][sel], b["cruise_v"][sel], b["end_v"][sel]
+    sv, cv = b["start_v"][sel], b["cruise_v"][sel]
     at, ct = b["accel_t"][sel], b["cruise_t"][sel]
     acc = b["accel"][sel]
     dd = np.maximum(d, 1e-12)

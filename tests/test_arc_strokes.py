@@ -4,6 +4,7 @@ playing the output agrees with the law and adds no full stop.  The arc files are
 PrusaSlicer output with arcs fitted by sample_gcode/arc_fit.py (no slicer here emits G2/G3)."""
 import numpy as np
 import pytest
+from conftest import process_cases
 
 from gcode_opt import arcs
 from gcode_opt.pipeline import Options, analyse, plan_inputs, process
@@ -19,12 +20,7 @@ CASES = [("prusa_concentric_arcs.gcode", p, f) for p in ("prusa-mk3s", "voron24"
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    d = tmp_path_factory.mktemp("arcs")
-    out = {}
-    for name, prof, feats in CASES:
-        dst = str(d / f"{prof}-{len(feats)}-{name}")
-        out[(name, prof, feats)] = (dst, process(S + name, dst, load_profile(prof), Options(features=feats)))
-    return out
+    return process_cases(tmp_path_factory.mktemp("arcs"), CASES)
 
 
 @pytest.mark.parametrize("name,prof,feats", CASES)

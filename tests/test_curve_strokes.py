@@ -5,12 +5,13 @@ the law's accuracy against the exact curvature-law solve (laws/curve.py)."""
 
 import numpy as np
 import pytest
+from conftest import process_cases
 
 from gcode_opt import curves
 from gcode_opt.firmware.simulate import simulate_file
 from gcode_opt.laws.circle import solve_circles
 from gcode_opt.laws.curve import curvature_from_polyline, solve_curve
-from gcode_opt.pipeline import Options, analyse, plan_inputs, process
+from gcode_opt.pipeline import Options, analyse, plan_inputs
 from gcode_opt.profile import load_profile
 from gcode_opt.verify import verify
 
@@ -23,12 +24,7 @@ CASES = [(f, p, feats) for f in ("prusa_gyroid.gcode", "prusa_concentric.gcode")
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    d = tmp_path_factory.mktemp("curves")
-    out = {}
-    for name, prof, feats in CASES:
-        dst = str(d / f"{prof}-{len(feats)}-{name}")
-        out[(name, prof, feats)] = (dst, process(S + name, dst, load_profile(prof), Options(features=feats)))
-    return out
+    return process_cases(tmp_path_factory.mktemp("curves"), CASES)
 
 
 @pytest.mark.parametrize("name,prof,feats", CASES)

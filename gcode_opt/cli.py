@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 
@@ -30,18 +31,48 @@ filament and every other line are unchanged.  Without -o the file is rewritten i
 (atomically: on any error the input is left untouched)."""
 
 
-def _alpha(text):
-    if text == "auto":
-        return "auto"
+class UserError(Exception):
+    """A mistake in the command line or its files: exit 2, one line, no traceback."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with the program's one error form: `gcode-opt: message` (exit 2)."""
+
+    def error(self, message):
+        self.print_usage(sys.stderr)
+        if message.startswith("argument "):        # "argument --x: why" -> "--x: why"
+            message = message[len("argument "):]
+        self.exit(2, f"gcode-opt: {message}\n")
+
+
+def _number(text, what):
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError("expected 'auto' or a number in s^2/kg")
-    if v <= 0:
-        raise argparse.ArgumentTypeError("alpha must be > 0 (s^2/kg)")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number ({what})") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number ({what})")
     return v
 
 
+def _typed(name):
+    def deco(fn):
+        fn.__name__ = name      # argparse names the type in its messages: no Python names leak
+        return fn
+    return deco
+
+
+@_typed("alpha")
+def _alpha(text):
+    if text == "auto":
+        return "auto"
+    v = _number(text, "expected 'auto' or a number in s^2/kg")
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"{text}: alpha must be > 0 (s^2/kg)")
+    return v
+
+
+@_typed("features")
 def _features(text):
     try:
         return feat.parse_feature_list(text)
@@ -49,18 +80,56 @@ def _features(text):
         raise argparse.ArgumentTypeError(str(e))
 
 
+@_typed("fraction")
 def _fraction(text):
-    v = float(text.rstrip("%")) / (100.0 if text.endswith("%") else 1.0)
+    """0.25 or 25%; a bare number above 1 is refused (3 would mean +300 %)."""
+    pct = text.strip().endswith("%")
+    v = _number(text.strip().rstrip("%").strip(), "a fraction such as 0.03, or a percentage such as 3%")
+    if pct:
+        v /= 100.0
     if v < 0:
-        raise argparse.ArgumentTypeError("must be >= 0")
+        raise argparse.ArgumentTypeError(f"{text}: must be >= 0")
+    if v > 1:
+        hint = f"; did you mean {text.strip()}%?" if not pct else ""
+        raise argparse.ArgumentTypeError(f"{text}: a fraction above 1 means more than +100 %{hint} "
+                                         "(give 0.03 or 3%)")
+    return v
+
+
+@_typed("count")
+def _segments(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 1") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text}: must be >= 1")
+    return v
+
+
+@_typed("angle")
+def _max_turn(text):
+    v = _number(text, "degrees")
+    if not 0 <= v < 90:
+        raise argparse.ArgumentTypeError(f"{text}: must be in [0, 90) degrees")
+    return v
+
+
+@_typed("length")
+def _length(text):
+    v = _number(text, "mm")
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{text}: must be >= 0 mm")
     return v
 
 
 def build_parser():
-    ap = argparse.ArgumentParser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
+    ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--version", action="version", version=f"gcode-opt {__version__}")
+    ap.add_argument("--debug", action="store_true",
+                    help="show a Python traceback on errors (may also be given after the command)")
     sub = ap.add_subparsers(dest="cmd", metavar="COMMAND")
 
     p = sub.add_parser("process", help="re-time a G-code file", description=PROCESS_HELP,
@@ -83,14 +152,14 @@ def build_parser():
     p.add_argument("--max-slowdown", type=_fraction, default=0.03,
                    help="print-time budget the auto law may spend, as a fraction of the whole file's "
                         "print time (default %(default)s = 3%%)")
-    p.add_argument("--segments", type=int, default=10,
+    p.add_argument("--segments", type=_segments, default=10,
                    help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
                         "minimum segment time and planner buffer; default %(default)s)")
-    p.add_argument("--max-turn", type=float, default=30.0, metavar="DEG",
+    p.add_argument("--max-turn", type=_max_turn, default=30.0, metavar="DEG",
                    help="a run of G1 lines whose every vertex turns by at most DEG degrees is one smooth curve, "
                         "re-timed as a whole (gyroid, concentric infill); 0 re-times straight runs only "
                         "(default %(default)s)")
-    p.add_argument("--min-length", type=float, default=2.0, help="shortest stroke to re-time, mm (default %(default)s)")
+    p.add_argument("--min-length", type=_length, default=2.0, help="shortest stroke to re-time, mm (default %(default)s)")
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
     p.add_argument("--report", metavar="REPORT.html",
                    help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")
@@ -119,27 +188,80 @@ def _load_profile(name, path=None, quiet=False):
     return load_profile(name)
 
 
+def check_input(path):
+    """Refuse what cannot be read as G-code before any work (UserError 'PATH: why')."""
+    if os.path.isdir(path):
+        raise UserError(f"{path}: is a directory, not a G-code file")
+    if not os.path.exists(path):
+        raise UserError(f"{path}: no such file")
+    if not os.access(path, os.R_OK):
+        raise UserError(f"{path}: not readable (permission denied)")
+    try:
+        from .inputcheck import check_input as deep_check      # binary, NUL bytes, empty (issue 7)
+    except ImportError:
+        return
+    deep_check(path)
+
+
+def check_outputs(pairs):
+    """(path, what) for each output; folder exists and is writable, path is not a folder."""
+    from .outfile import OutputError, check_writable
+    seen = {}
+    for path, what in pairs:
+        if not path:
+            continue
+        try:
+            check_writable(path, what)
+        except OutputError as e:
+            raise UserError(str(e)) from None
+        real = os.path.realpath(path)
+        if real in seen:
+            raise UserError(f"{path}: named both as the {seen[real]} and the {what}")
+        seen[real] = what
+
+
 def cmd_process(a):
     from .pipeline import Options, Progress, process
-    if not os.path.isfile(a.input):
-        raise SystemExit(f"gcode-opt: {a.input}: no such file")
-    prof = _load_profile(a.profile, a.input, a.quiet)
+    check_input(a.input)
     out = a.output or a.input
+    check_outputs([(out, "output" if a.output else "output (the input, rewritten in place)"),
+                   (a.report, "report"), (a.json, "summary")])
+    prof = _load_profile(a.profile, a.input, a.quiet)
     prog = None if a.quiet else Progress(os.path.getsize(a.input))
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
     opts.max_turn_deg = a.max_turn
+    report_error = []
 
     def write_report_hook(orig, new, summary):        # runs while both files exist
-        from .report.html import write_report
-        write_report(orig, new, prof, summary, a.report)
+        try:                                          # a failed report never costs the G-code output
+            from .report.html import write_report
+            write_report(orig, new, prof, summary, a.report)
+        except Exception as e:                        # noqa: BLE001 - reported after the output is in place
+            if a.debug:
+                import traceback
+                traceback.print_exc()
+            report_error.append(f"{a.report}: report not written: {e.strerror if isinstance(e, OSError) and e.strerror else e}")
     summary = process(a.input, out, prof, opts, before_replace=write_report_hook if a.report else None)
+    rc = 0
     if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(summary, fh, indent=1)
-    if not a.quiet:
+        try:
+            with open(a.json, "w") as fh:
+                json.dump(summary, fh, indent=1)
+        except OSError as e:
+            report_error.append(f"{a.json}: summary not written: {e.strerror or e}")
+    if summary.get("unchanged"):
+        where = a.input if out == a.input else f"{a.input} copied unchanged to {out}"
+        sys.stderr.write(f"gcode-opt: {summary['unchanged']}; {where}"
+                         + ("" if out != a.input else " left unchanged") + "\n")
+        if a.report:
+            report_error.append(f"{a.report}: no report: nothing was re-timed")
+    elif not a.quiet:
         sys.stderr.write(format_summary(summary) + "\n")
-    return 0
+    for msg in report_error:
+        sys.stderr.write(f"gcode-opt: {msg}; {out} was written\n")
+        rc = 1
+    return rc
 
 
 def format_summary(s):
@@ -163,8 +285,7 @@ def format_summary(s):
 
 def cmd_simulate(a):
     from .firmware.simulate import simulate_file
-    if not os.path.isfile(a.input):
-        raise SystemExit(f"gcode-opt: {a.input}: no such file")
+    check_input(a.input)
     res = simulate_file(a.input, _load_profile(a.profile, a.input, a.json))
     d = res.as_dict()
     if a.json:
@@ -194,22 +315,74 @@ def cmd_profiles(a):
     return 0
 
 
+EXIT_USER = 2          # user error or refused input
+EXIT_FAIL = 1          # the output could not be written (disk full, size limit), or an internal error
+SIGNAL_EXIT = {"SIGINT": 130, "SIGTERM": 143, "SIGHUP": 129}
+
+
+def _dispatch(a):
+    if hasattr(a, "func"):
+        return a.func(a)
+    return {"process": cmd_process, "simulate": cmd_simulate, "profiles": cmd_profiles}[a.cmd](a)
+
+
+def _left(a):
+    """What an interrupted or failed run did to the user's file, for the one-line message."""
+    from .outfile import COMMITTED
+    src = getattr(a, "input", None)
+    if src is None:
+        return ""
+    out = getattr(a, "output", None) or src
+    if os.path.realpath(out) in COMMITTED:
+        return f"; {out} was already written"
+    return f"; {src} left unchanged" if out == src else f"; {src} left unchanged, {out} not written"
+
+
 def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv                      # accepted anywhere, not only before the command
+    argv = [x for x in argv if x != "--debug"]
     ap = build_parser()
     a = ap.parse_args(argv)
+    a.debug = debug
     if not a.cmd:
         ap.print_help()
-        return 2
+        return EXIT_USER
+    from .outfile import Interrupted, OutputError, install_signal_handlers
+    from .profile import ProfileError
     from .state import GcodeError
     try:
-        return a.func(a) if hasattr(a, "func") else {"process": cmd_process, "simulate": cmd_simulate,
-                                                      "profiles": cmd_profiles}[a.cmd](a)
-    except GcodeError as e:
-        sys.stderr.write(f"gcode-opt: {e}\n")
-        return 2
-    except ValueError as e:
-        sys.stderr.write(f"gcode-opt: {e}\n")
-        return 2
+        from .inputcheck import InputRefused
+    except ImportError:                            # helper A's module not there yet
+        InputRefused = GcodeError
+    install_signal_handlers()
+
+    def fail(code, msg):
+        if debug:
+            import traceback
+            traceback.print_exc()
+        sys.stderr.write(f"gcode-opt: {msg}\n")
+        return code
+    try:
+        return _dispatch(a)
+    except KeyboardInterrupt:
+        return fail(SIGNAL_EXIT["SIGINT"], "interrupted" + _left(a))
+    except Interrupted as e:
+        import signal
+        name = signal.Signals(e.signum).name
+        return fail(SIGNAL_EXIT.get(name, 128 + e.signum), f"interrupted by {name}" + _left(a))
+    except OutputError as e:                       # raised while writing: disk full, ulimit -f
+        return fail(EXIT_FAIL if "cannot write" in str(e) else EXIT_USER, str(e) + _left(a))
+    except (UserError, ProfileError, GcodeError, InputRefused) as e:
+        return fail(EXIT_USER, str(e))
+    except ValueError as e:                        # a refusal raised deeper down, already 'FILE:LINE: why'
+        return fail(EXIT_USER, str(e))
+    except OSError as e:
+        where = e.filename or getattr(a, "input", "")
+        return fail(EXIT_FAIL, f"{where}: {e.strerror or e}" + _left(a))
+    except Exception as e:                         # noqa: BLE001 - a bug: one line, traceback on --debug
+        return fail(EXIT_FAIL, f"internal error: {type(e).__name__}: {e} (run again with --debug for the "
+                               "traceback, and please report it)" + _left(a))
 
 
 if __name__ == "__main__":

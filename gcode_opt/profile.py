@@ -2,11 +2,31 @@
 
 Profiles are TOML files in the repository's `profiles/` folder (installed as the
 package `gcode_opt.profiles`).  `load_profile("prusa-mk3s")` finds a bundled one by
-name; a path to a .toml file works too.  Every field has a unit in its name."""
+name; a path to a .toml file works too.  Every field has a unit in its name.
+
+A profile file is checked against SCHEMA before use: each key lives in one table
+([firmware], [limits], [machine]; `name` and `sources` at the top), has a type and a
+range, and a few keys are required.  An error names the file and the key:
+`my.toml: max_accel_a = -1000: must be > 0 mm/s^2` (ProfileError, a ValueError).
+
+Required, because a wrong guess changes what is written or what the firmware does:
+  flavour, junction      -- decide which commands are written (M204 forms, SET_VELOCITY_LIMIT)
+                            and how corners are modelled; a guessed flavour wrote Klipper
+                            commands into Marlin files
+  max_velocity_v, max_accel_a -- cap every speed and acceleration written
+  the parameter of the chosen junction model (square_corner_velocity_v for scv,
+  junction_deviation_d for jd, jerk_xy_v for jerk) -- sets the corner speeds the plan
+                            relies on
+Optional, with a stated default: default_accel_a = max_accel_a (Klipper starts at
+max_accel; Marlin caps the accel in force by M201 anyway), travel_accel_a and
+retract_accel_a = default_accel_a; the rest take the dataclass defaults below, which only
+refine the model (masses, hotend flow, segment rate, arc chord, ...)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
+import re
 from dataclasses import dataclass, field
 from importlib import resources
 
@@ -17,6 +37,10 @@ except ModuleNotFoundError:  # pragma: no cover - 3.10
 
 FLAVOURS = ("klipper", "marlin2", "marlin-legacy", "rrf")
 JUNCTION_MODELS = ("scv", "jd", "jerk")
+
+
+class ProfileError(ValueError):
+    """A profile that cannot be used; the message starts with the file (and key)."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +84,148 @@ class Profile:
         return mx * ux * ux + my * uy * uy, mx * mx * ux * ux + my * my * uy * uy
 
 
+# ---------------------------------------------------------------- schema
+# key -> (table, kind, lo, lo_open, hi, hi_open, unit); table "" = top level.
+# kind: "num" (finite int or float, not bool), "int" (whole number, not bool), "str", "strs",
+# or a tuple of allowed strings.  lo/hi None = unbounded on that side.
+_POS = (0.0, True, None, False)          # > 0
+_NONNEG = (0.0, False, None, False)      # >= 0
+SCHEMA = {
+    "name": ("", "str", None, False, None, False, ""),
+    "sources": ("", "strs", None, False, None, False, ""),
+    "flavour": ("firmware", FLAVOURS, None, False, None, False, ""),
+    "junction": ("firmware", JUNCTION_MODELS, None, False, None, False, ""),
+    "square_corner_velocity_v": ("firmware", "num", *_NONNEG, "mm/s"),
+    "minimum_cruise_ratio_r": ("firmware", "num", 0.0, False, 1.0, True, ""),
+    "junction_deviation_d": ("firmware", "num", *_POS, "mm"),
+    "jerk_xy_v": ("firmware", "num", *_NONNEG, "mm/s"),
+    "block_buffer": ("firmware", "int", 0, False, 100000, False, "moves"),
+    "min_segment_time_t": ("firmware", "num", 0.0, False, 1.0, False, "s"),
+    "max_segment_rate": ("firmware", "num", *_POS, "segments/s"),
+    # a chord of 1e-9 mm cut one arc into ~1e10 pieces: the run never ended
+    "arc_segment_d": ("firmware", "num", 0.01, False, 10.0, False, "mm"),
+    "fw_retract_length_d": ("firmware", "num", *_NONNEG, "mm"),
+    "fw_retract_speed_v": ("firmware", "num", *_POS, "mm/s"),
+    "max_velocity_v": ("limits", "num", *_POS, "mm/s"),
+    "max_accel_a": ("limits", "num", *_POS, "mm/s^2"),
+    "default_accel_a": ("limits", "num", *_POS, "mm/s^2"),
+    "travel_accel_a": ("limits", "num", *_POS, "mm/s^2"),
+    "retract_accel_a": ("limits", "num", *_POS, "mm/s^2"),
+    "max_z_velocity_v": ("limits", "num", *_POS, "mm/s"),
+    "max_z_accel_a": ("limits", "num", *_POS, "mm/s^2"),
+    "max_e_velocity_v": ("limits", "num", *_POS, "mm/s"),
+    "moving_mass_x_kg": ("machine", "num", *_POS, "kg"),
+    "moving_mass_y_kg": ("machine", "num", *_POS, "kg"),
+    "filament_diameter_d": ("machine", "num", 0.1, False, 10.0, False, "mm"),
+    "max_volumetric_flow": ("machine", "num", *_POS, "mm^3/s"),
+}
+TABLES = ("firmware", "limits", "machine")
+REQUIRED = ("flavour", "junction", "max_velocity_v", "max_accel_a")
+JUNCTION_KEY = {"scv": "square_corner_velocity_v", "jd": "junction_deviation_d", "jerk": "jerk_xy_v"}
+assert set(SCHEMA) | {"name"} == {f.name for f in dataclasses.fields(Profile)}
+
+
+def _toml_text(v):
+    """A value as it reads in TOML (the user's own spelling, near enough)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v + '"'
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if v != v else ("inf" if v > 0 else "-inf")
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, list):
+        return "[...]"
+    return repr(v)
+
+
+def _range_text(lo, lo_open, hi, hi_open, unit):
+    u = f" {unit}" if unit else ""
+    if hi is None:
+        return f"must be {'>' if lo_open else '>='} {lo:g}{u}"
+    return (f"must be in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{u}")
+
+
+def _check(key, v):
+    """Error text for value v of key, or None."""
+    _, kind, lo, lo_open, hi, hi_open, unit = SCHEMA[key]
+    if isinstance(kind, tuple):
+        if not isinstance(v, str) or v not in kind:
+            return f"must be one of {', '.join(kind)}"
+        return None
+    if kind == "str":
+        return None if isinstance(v, str) and v.strip() else "must be a non-empty string"
+    if kind == "strs":
+        ok = isinstance(v, list) and all(isinstance(s, str) for s in v)
+        return None if ok else "must be a list of strings"
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        what = ("true/false" if isinstance(v, bool) else "a string" if isinstance(v, str)
+                else "a table" if isinstance(v, dict) else "a list" if isinstance(v, list) else type(v).__name__)
+        return f"must be a number{' in ' + unit if unit else ''}, not {what}"
+    if kind == "int" and not isinstance(v, int):
+        return "must be a whole number"
+    if not math.isfinite(v):
+        return "must be a finite number"
+    bad_lo = lo is not None and (v <= lo if lo_open else v < lo)
+    bad_hi = hi is not None and (v >= hi if hi_open else v > hi)
+    return _range_text(lo, lo_open, hi, hi_open, unit) if bad_lo or bad_hi else None
+
+
+def profile_from_dict(data: dict, name: str, where: str | None = None) -> Profile:
+    """Validate a parsed profile TOML against SCHEMA and build the Profile.  `where`
+    (the file, for messages) defaults to name + '.toml'."""
+    where = where or f"{name}.toml"
+
+    def err(msg):
+        return ProfileError(f"{where}: {msg}")
+
+    if not data:
+        raise err("empty profile; it needs at least " + ", ".join(REQUIRED))
+    flat: dict = {}
+    for k, v in data.items():
+        if k in TABLES:
+            if not isinstance(v, dict):
+                raise err(f"{k} must be a table ([{k}])")
+            items = v.items()
+            table = k
+        elif isinstance(v, dict):
+            raise err(f"unknown table [{k}]; tables are " + ", ".join(f"[{t}]" for t in TABLES))
+        else:
+            items, table = ((k, v),), ""
+        for key, val in items:
+            spec = SCHEMA.get(key)
+            if spec is None:
+                raise err(f"unknown key {key}" + (f" in [{table}]" if table else "")
+                          + f"; known: {', '.join(sorted(SCHEMA))}")
+            if spec[0] != table:
+                home = f"under [{spec[0]}]" if spec[0] else "at the top of the file"
+                raise err(f"{key} belongs {home}, not " + (f"under [{table}]" if table else "at the top"))
+            msg = _check(key, val)
+            if msg:
+                raise err(f"{key} = {_toml_text(val)}: {msg}")
+            flat[key] = val
+    missing = [k for k in REQUIRED if k not in flat]
+    if not missing and JUNCTION_KEY[flat["junction"]] not in flat:
+        missing.append(JUNCTION_KEY[flat["junction"]])
+    if missing:
+        raise err("missing " + ", ".join(f"{k} (under [{SCHEMA[k][0]}])" for k in missing)
+                  + "; no default is assumed for these")
+    flat.setdefault("name", name)
+    flat.setdefault("default_accel_a", flat["max_accel_a"])
+    flat.setdefault("travel_accel_a", flat["default_accel_a"])
+    flat.setdefault("retract_accel_a", flat["default_accel_a"])
+    for k in ("block_buffer",):
+        if k in flat:
+            flat[k] = int(flat[k])
+    for k, (table, kind, *_rest) in SCHEMA.items():
+        if kind == "num" and k in flat:
+            flat[k] = float(flat[k])
+    if "sources" in flat:
+        flat["sources"] = tuple(flat["sources"])
+    return Profile(**flat)
+
+
 def _bundled_dir():
     """profiles/ of the repository, installed as package data `gcode_opt.profiles`."""
     try:
@@ -80,39 +246,44 @@ def profile_names() -> list[str]:
     return sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml"))
 
 
-def profile_from_dict(data: dict, name: str) -> Profile:
-    known = {f.name for f in dataclasses.fields(Profile)}
-    flat: dict = {}
-    for k, v in data.items():
-        if isinstance(v, dict):          # [firmware], [limits], [machine] tables are flattened
-            flat.update(v)
-        else:
-            flat[k] = v
-    flat.setdefault("name", name)
-    unknown = sorted(set(flat) - known)
-    if unknown:
-        raise ValueError(f"profile {name}: unknown key(s) {', '.join(unknown)}; "
-                         f"known: {', '.join(sorted(known))}")
-    if "sources" in flat:
-        flat["sources"] = tuple(flat["sources"])
-    prof = Profile(**flat)
-    if prof.flavour not in FLAVOURS:
-        raise ValueError(f"profile {name}: flavour {prof.flavour!r} not one of {FLAVOURS}")
-    if prof.junction not in JUNCTION_MODELS:
-        raise ValueError(f"profile {name}: junction {prof.junction!r} not one of {JUNCTION_MODELS}")
-    return prof
+def _parse(text: str, where: str) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        msg = str(e)
+        line = ""
+        m = re.search(r"\(at line (\d+), column \d+\)", msg)
+        if m:
+            line = ":" + m.group(1)
+            msg = msg[:m.start()].strip()
+        raise ProfileError(f"{where}{line}: not valid TOML: {msg}") from None
 
 
 def load_profile(name_or_path: str) -> Profile:
     """A bundled profile by name ('prusa-mk3s') or a TOML file by path."""
-    if name_or_path.endswith(".toml") or os.sep in name_or_path:
-        with open(name_or_path, "rb") as fh:
-            data = tomllib.load(fh)
-        return profile_from_dict(data, os.path.basename(name_or_path)[:-5])
+    if name_or_path.endswith(".toml") or os.sep in name_or_path or (os.altsep and os.altsep in name_or_path):
+        where = name_or_path
+        if os.path.isdir(name_or_path):
+            raise ProfileError(f"{where}: is a directory, not a profile file")
+        try:
+            with open(name_or_path, "rb") as fh:
+                raw = fh.read()
+        except FileNotFoundError:
+            raise ProfileError(f"{where}: no such profile file; bundled profiles: "
+                               f"{', '.join(profile_names()) or 'none'}") from None
+        except OSError as e:
+            raise ProfileError(f"{where}: cannot read: {e.strerror or e}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ProfileError(f"{where}: not a text (UTF-8) file") from None
+        base = os.path.basename(name_or_path)
+        return profile_from_dict(_parse(text, where), base[:-5] if base.endswith(".toml") else base, where)
     d = _bundled_dir()
     if d is not None:
         p = d / f"{name_or_path}.toml"
         if p.is_file():
-            return profile_from_dict(tomllib.loads(p.read_text()), name_or_path)
-    raise ValueError(f"no profile named {name_or_path!r}; bundled: {', '.join(profile_names()) or 'none'}"
-                     " (or give a path to a .toml file)")
+            where = str(p)
+            return profile_from_dict(_parse(p.read_text(encoding="utf-8"), where), name_or_path, where)
+    raise ProfileError(f"no profile named {name_or_path!r}; bundled: {', '.join(profile_names()) or 'none'}"
+                       " (or give a path to a .toml file)")

@@ -335,56 +335,75 @@ def measure(path, profile, out_ranges, opts):
 
 # ---------------------------------------------------------------- the job
 def process(in_path, out_path, profile: Profile, opts: Options, before_replace=None):
-    """Re-time in_path into out_path (may be the same path: atomic replace).  Returns
-    the summary dict.  before_replace(in_path, new_path, summary), if given, runs while
-    both files still exist (the report compares them); if it raises, nothing is replaced."""
+    """Re-time in_path into out_path (may be the same path: atomic replace, see outfile.py).
+    Returns the summary dict.  before_replace(in_path, new_path, summary), if given, runs
+    while both files still exist (the report compares them); if it raises, nothing is
+    replaced.  A file the firmware model sees no move in is not rewritten: the summary
+    says "unchanged" (with -o elsewhere, the input is copied there)."""
+    from .outfile import AtomicOutput, OutputError, describe
     t_start = time.monotonic()
     size = os.path.getsize(in_path)
     prog = opts.progress
     if prog:
         prog.start("analyse")
     strokes, sim0 = analyse(in_path, profile, opts)
+    if sim0.n_moves == 0:
+        if prog:
+            prog.finish()
+        return _unchanged(in_path, out_path, profile, "no moves to re-time")
     pin = plan_inputs(strokes, profile, opts)
     budget_t = opts.max_slowdown_r * sim0.time_t
-    out_dir = os.path.dirname(os.path.abspath(out_path)) or "."
-    fd, tmp = tempfile.mkstemp(prefix=".gcode-opt-", suffix=".tmp", dir=out_dir)
-    os.close(fd)
     try:
-        # The plan budgets with the segments' predicted times; the firmware model has the
-        # last word.  If the written file overruns the budget, plan once more with the
-        # overrun taken off (one more rewrite + measure, only then).
-        for _ in range(2):
-            plan = plan_strokes(strokes, pin, profile, opts, budget_t)
-            if prog:
-                prog.start("rewrite")
-            with open(tmp, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
-                out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
-                fh.flush()
-                os.fsync(fh.fileno())
-            if prog:
-                prog.start("measure")
-            sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
-            over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
-            if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
-                break
-            budget_t -= 1.2 * over_t
-        from .summary import build_summary
-        summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
-                                out_ranges, t1, a21, v21, time.monotonic() - t_start)
-        if before_replace is not None:
-            before_replace(in_path, tmp, summary)
-        if os.path.exists(out_path):
-            os.chmod(tmp, os.stat(out_path).st_mode & 0o7777)
-        else:
-            os.chmod(tmp, 0o644)
-        os.replace(tmp, out_path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+        with AtomicOutput(out_path) as out:
+            tmp = out.tmp
+            # The plan budgets with the segments' predicted times; the firmware model has the
+            # last word.  If the written file overruns the budget, plan once more with the
+            # overrun taken off (one more rewrite + measure, only then).
+            for _ in range(2):
+                plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+                if prog:
+                    prog.start("rewrite")
+                try:
+                    with open(tmp, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+                        out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
+                        fh.flush()
+                        os.fsync(fh.fileno())
+                except OSError as e:         # disk full, ulimit -f: say so, keep the input
+                    if e.filename not in (None, tmp):
+                        raise
+                    raise OutputError(describe(e, out_path)) from None
+                if prog:
+                    prog.start("measure")
+                sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+                over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
+                if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
+                    break
+                budget_t -= 1.2 * over_t
+            from .summary import build_summary
+            summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
+                                    out_ranges, t1, a21, v21, time.monotonic() - t_start)
+            if before_replace is not None:
+                before_replace(in_path, tmp, summary)
+            out.commit()
     finally:
         if prog:
             prog.finish()
     return summary
+
+
+def _unchanged(in_path, out_path, profile, why):
+    """Summary of a file left as it is; with out_path elsewhere the input is copied there."""
+    import shutil
+
+    from .outfile import AtomicOutput, OutputError, describe, target_of
+    if target_of(out_path) != target_of(in_path):
+        with AtomicOutput(out_path) as out:
+            try:
+                shutil.copyfile(in_path, out.tmp)
+            except OSError as e:
+                if e.filename not in (None, out.tmp):
+                    raise
+                raise OutputError(describe(e, out_path)) from None
+            out.commit()
+    return {"input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
+            "unchanged": why, "strokes": {"candidates": 0, "retimed": 0, "not_retimed": {}}}

@@ -221,3 +221,72 @@ def test_arc_file_report(tmp_path):
     alts = [i.get("alt", "") for i in page.imgs]
     assert any(a.startswith("arc:") for a in alts)
     assert all(math.isfinite(r["time_s"]["after"]) for r in d["per_stroke"])
+
+
+# --------------------------------------------------------------------------- one story (issue 7 item 10)
+MIXED = os.path.join(ROOT, "sample_gcode", "prusa_gyroid_arcs.gcode")     # lines, curves and arcs
+
+
+@pytest.fixture(scope="module")
+def story(tmp_path_factory):
+    """process --json --report, then `report` on the same pair with no --profile and no summary."""
+    d = tmp_path_factory.mktemp("story")
+    out, summ, html = str(d / "o.gcode"), str(d / "s.json"), str(d / "r.html")
+    assert main(["process", MIXED, "-o", out, "--json", summ, "--report", html, "-q"]) == 0
+    rjson = str(d / "r.json")
+    assert main(["report", MIXED, out, "-o", str(d / "r2.html"), "--json", rjson]) == 0
+    with open(summ) as fh, open(rjson) as fr:
+        return {"dir": d, "out": out, "summary": json.load(fh), "report": json.load(fr), "html": html}
+
+
+def test_report_resolves_the_profile_like_process(story):
+    assert story["report"]["profile"] == story["summary"]["profile"] == "prusa-mk3s"   # printer_model = MK3S
+
+
+def test_report_headline_equals_process_summary(story):
+    s, h = story["summary"], story["report"]["headline"]
+    assert h["print_time_s"]["before"] == pytest.approx(s["print_time_s"]["before"], rel=1e-12)
+    assert h["print_time_s"]["after"] == pytest.approx(s["print_time_s"]["after"], rel=1e-12)
+    assert h["int_a2_whole_mm2_s3"]["before"] == pytest.approx(s["whole_file"]["before"]["int_a2"], rel=1e-12)
+    assert h["int_a2_whole_mm2_s3"]["after"] == pytest.approx(s["whole_file"]["after"]["int_a2"], rel=1e-12)
+    rt = s["retimed_strokes"]
+    for side in ("before", "after"):
+        assert h["int_a2_retimed_mm2_s3"][side] == pytest.approx(rt["int_a2"][side], rel=1e-9)
+        assert h["retimed_time_s"][side] == pytest.approx(rt["time_s"][side], rel=1e-9)
+    assert h["strokes"]["retimed"] == s["strokes"]["retimed"]
+
+
+def test_report_classifies_strokes_as_process(story):
+    s, r = story["summary"], story["report"]
+    kinds_s = {p["line"]: p["kind"] for p in s["per_stroke"]}
+    kinds_r = {p["line"]: p["kind"] for p in r["per_stroke"]}
+    assert kinds_r == kinds_s
+    assert {"line", "curve", "arc"} <= set(kinds_s.values())          # the sample exercises all three
+    by_kind = {g["kind"]: g for g in r["by_kind"]}
+    for kind, g in s["retimed_strokes"]["by_kind"].items():
+        assert by_kind[kind]["strokes"] == g["retimed"]
+        assert by_kind[kind]["int_a2_mm2_s3"]["before"] == pytest.approx(g["int_a2"]["before"], rel=1e-9)
+        assert by_kind[kind]["int_a2_mm2_s3"]["after"] == pytest.approx(g["int_a2"]["after"], rel=1e-9)
+
+
+def test_report_kind_fallback_without_header_kind(story, tmp_path):
+    """A processed file whose headers carry no kind= (older versions): the report tells lines,
+    curves and arcs apart from the original moves, the same way."""
+    import re
+    stripped = tmp_path / "old.gcode"
+    with open(story["out"], encoding="utf-8") as fh:
+        text = fh.read()
+    assert "kind=" in text
+    stripped.write_text(re.sub(r" kind=\w+,", "", text), encoding="utf-8")
+    data, _ = build_report(MIXED, str(stripped), load_profile("prusa-mk3s"))
+    kinds = {p["line"]: p["kind"] for p in story["summary"]["per_stroke"]}
+    assert {p["line"]: p["kind"] for p in data["per_stroke"]} == kinds
+
+
+def test_no_stale_curve_caption(story):
+    with open(story["html"], encoding="utf-8") as fh:
+        page = fh.read()
+    assert "not re-timed by this version" not in page
+    rep = next(r for r in story["report"]["representative"] if r["role"] == "curve")
+    assert rep["retimed"] and rep["line"] in [p["line"] for p in story["summary"]["per_stroke"]
+                                              if p["kind"] == "curve"]

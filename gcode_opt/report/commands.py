@@ -53,7 +53,9 @@ def register(sub):
                        description=REPORT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("original", metavar="ORIGINAL.gcode")
     r.add_argument("processed", metavar="PROCESSED.gcode")
-    r.add_argument("--profile", default="generic-klipper", help="printer profile (default: %(default)s)")
+    r.add_argument("--profile", default="auto",
+                   help="printer profile, resolved as `process` does: 'auto' (default) reads the original "
+                        "file's printer_model / flavour comments and falls back to generic-klipper")
     r.add_argument("-o", "--output", metavar="REPORT.html", help="HTML file (default: PROCESSED.report.html)")
     r.add_argument("--json", metavar="REPORT.json", help="also write the figures as JSON")
     r.add_argument("--summary", metavar="SUMMARY.json",
@@ -93,17 +95,22 @@ def register(sub):
 def cmd_report(a):
     import json
 
-    from ..profile import load_profile
+    from ..cli import UserError, _load_profile, check_input, check_outputs
     from .html import write_report
     for p in (a.original, a.processed):
-        if not os.path.isfile(p):
-            raise SystemExit(f"gcode-opt: {p}: no such file")
+        check_input(p)
+    out = a.output or (os.path.splitext(a.processed)[0] + ".report.html")
+    check_outputs([(out, "report"), (a.json, "report JSON")])
     summary = None
     if a.summary:
-        with open(a.summary) as fh:
-            summary = json.load(fh)
-    out = a.output or (os.path.splitext(a.processed)[0] + ".report.html")
-    data = write_report(a.original, a.processed, load_profile(a.profile), summary, out, a.json, a.layer)
+        check_input(a.summary)
+        try:
+            with open(a.summary) as fh:
+                summary = json.load(fh)
+        except (ValueError, UnicodeDecodeError) as e:
+            raise UserError(f"{a.summary}: not a summary written by `process --json` ({e})") from None
+    prof = _load_profile(a.profile, a.original)       # the same profile `process` chose for this file
+    data = write_report(a.original, a.processed, prof, summary, out, a.json, a.layer)
     h = data["headline"]
     sys.stderr.write(f"gcode-opt: report written to {out}"
                      + (f" and {a.json}" if a.json else "")

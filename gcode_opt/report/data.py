@@ -67,6 +67,30 @@ class Context:
 
 
 # --------------------------------------------------------------------------- per stroke
+KINDS = ("line", "curve", "arc")
+STRAIGHT_COS = 0.99999            # consecutive moves closer than this in direction are one straight line
+
+
+def stroke_kind(fence, summary_row, tr0):
+    """line | curve | arc, as the pipeline classified the stroke: the block header's kind=
+    (written by the pipeline), else the summary's, else from the original moves (an arc move;
+    a run whose direction turns is a curve; a straight run is a line)."""
+    for k in (fence.kind, (summary_row or {}).get("kind")):
+        if k in KINDS:
+            return k
+    o0, o1 = fence.orig_first, fence.orig_last
+    moves = [tr0.moves[i] for i in range(o0, o1 + 1) if i in tr0.moves]
+    if any(m.kind == st.ARC for m in moves):
+        return "arc"
+    dirs = []
+    for m in moves:
+        d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
+        if d > 0:
+            dirs.append(((m.x1 - m.x0) / d, (m.y1 - m.y0) / d))
+    turns = any(a[0] * b[0] + a[1] * b[1] < STRAIGHT_COS for a, b in zip(dirs, dirs[1:]))
+    return "curve" if turns else "line"
+
+
 def _stroke_rows(tr0, tr1, fences, summary, profile):
     by_line = {}
     if summary:
@@ -77,21 +101,24 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
         o0, o1 = f.orig_first, f.orig_last
         m0 = tr0.moves.get(o0)
         length = sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves)
-        is_arc = m0 is not None and m0.kind == st.ARC
-        if is_arc:                              # mass along the arc: mean over its tangents
+        sp = by_line.get(o0 + 1)
+        kind = stroke_kind(f, sp, tr0)
+        if kind == "arc" and m0 is not None and m0.kind == st.ARC:   # mass along the arc: mean over tangents
             th = m0.arc.theta0 + m0.arc.sweep * np.linspace(0.0, 1.0, 65)
             m_kg = float(np.mean(mass_kg(profile, np.sin(th), np.cos(th))))
-        elif m0 is not None and length > 0:
-            ux, uy = (m0.x1 - m0.x0), (m0.y1 - m0.y0)
-            n = math.hypot(ux, uy) or 1.0
-            m_kg = mass_kg(profile, ux / n, uy / n)
+        elif length > 0:                        # lines and curves: length-weighted over the moves
+            m_kg = 0.0
+            for i in range(o0, o1 + 1):
+                m = tr0.moves.get(i)
+                if m is not None and m.length_d > 0:
+                    d = math.hypot(m.x1 - m.x0, m.y1 - m.y0) or 1.0
+                    m_kg += mass_kg(profile, (m.x1 - m.x0) / d, (m.y1 - m.y0) / d) * m.length_d / length
         else:
             m_kg = mass_kg(profile, 1.0, 0.0)
         sl = tr1.block_range(f.out_first, f.out_last)
         seg_t = (tr1.blocks["accel_t"][sl] + tr1.blocks["cruise_t"][sl] + tr1.blocks["decel_t"][sl])
         t_after = tr1.line_sum(f.out_first, f.out_last, "time_t")
         segments = f.segments or int(sl.stop - sl.start)
-        sp = by_line.get(o0 + 1)
         beta = f.marker_beta_s2
         if sp is not None:
             beta = sp.get("beta_s2")
@@ -101,7 +128,7 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
         row = {
             "line": o0 + 1, "lines": f.n_orig, "out_line": f.out_first + 1,
             "out_lines": f.out_last - f.out_first + 1, "segments": segments,
-            "kind": "arc" if is_arc else "line",
+            "kind": kind,
             "feature": m0.feature if m0 is not None else "?", "layer": m0.layer if m0 is not None else -1,
             "length_mm": length, "feed_mm_s": feed,
             "v0_mm_s": tr0.lines[o0].start_v if o0 in tr0.lines else 0.0,
@@ -109,8 +136,11 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
             "mass_kg": m_kg,
             "beta_s2": beta if _finite(beta) else None,
             "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
-            "int_a2_mm2_s3": {"before": tr0.line_sum(o0, o1, "int_a2"),
-                              "after": tr1.line_sum(f.out_first, f.out_last, "int_a2")},
+            # the junction halves belong to the stroke (vertices inside a curve, sub-arc ends),
+            # as the pipeline's summary counts them
+            "int_a2_mm2_s3": {"before": tr0.line_sum(o0, o1, "int_a2") + tr0.line_sum(o0, o1, "int_a2_j"),
+                              "after": tr1.line_sum(f.out_first, f.out_last, "int_a2")
+                              + tr1.line_sum(f.out_first, f.out_last, "int_a2_j")},
             "int_v2_mm2_s": {"before": tr0.line_sum(o0, o1, "int_v2"),
                              "after": tr1.line_sum(f.out_first, f.out_last, "int_v2")},
             "peak_v_mm_s": {"before": tr0.line_max(o0, o1, "peak_v"), "after": peak_after},
@@ -329,13 +359,19 @@ def _representatives(rows, tr0):
                              "in the output, against the optimal circle law at the same duration"})
     else:
         reps.append({"role": "arc", "line": None, "note": "the file has no arcs (G2/G3)"})
-    c = _curved_runs(tr0)
-    if c:
+    curve_rows = [r for r in rows if r["kind"] == "curve"]
+    c = None if curve_rows else _curved_runs(tr0)
+    if curve_rows:
+        r = max(curve_rows, key=lambda r: r["length_mm"])
+        reps.append({"role": "curve", "line": r["line"], "lines": r["lines"], "retimed": True,
+                     "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
+    elif c:
         m = tr0.moves[c[0]]
         reps.append({"role": "curve", "line": c[0] + 1, "lines": c[1] - c[0] + 1, "retimed": False,
                      "length_mm": c[2], "feature": m.feature, "layer": m.layer,
-                     "note": "curved polylines are not re-timed by this version; firmware profile, unchanged "
-                             "in the output, against the optimal law along the same curve at the same duration"})
+                     "note": "no curve was re-timed in this file (not a selected feature, or no law beat the "
+                             "original within the budget); firmware profile, unchanged in the output, against "
+                             "the optimal law along the same curve at the same duration"})
     else:
         reps.append({"role": "curve", "line": None,
                      "note": "the file has no curved stroke (a smooth polyline of at least "

@@ -2,7 +2,7 @@
 
 The emitter fences every re-timed stroke:
 
-    ; gcode-opt begin: replaces N lines, K segments, T=...s (was ...s), beta=...s^2
+    ; gcode-opt begin: replaces N lines, kind=line|curve|arc, K segments, T=...s (was ...s), beta=...s^2
     ...
     ; gcode-opt end
 
@@ -24,6 +24,8 @@ _SEGMENTS = re.compile(r"(\d+)\s+segments")
 _T = re.compile(r"\bT=" + _NUM + "s")
 _WAS = re.compile(r"\(was\s+" + _NUM + "s\\)")
 _BETA = re.compile(r"beta=" + _NUM + "s")
+_KIND = re.compile(r"\bkind=(\w+)")
+_SUBARCS = re.compile(r"(\d+)\s+sub-arcs")
 
 
 @dataclass
@@ -35,6 +37,7 @@ class Fence:
     segments: int           # segments announced by the marker (0 if absent)
     marker_time_s: float    # T= of the marker (nan if absent)
     marker_beta_s2: float   # beta= of the marker (inf for the cubic, nan if absent)
+    kind: str | None = None  # kind= of the marker (line, curve, arc); None in older files
 
     @property
     def orig_last(self) -> int:
@@ -63,9 +66,10 @@ def parse_fences(path) -> tuple[list[Fence], int]:
                     m = _REPLACES.search(raw)
                     if not m:
                         raise ValueError(f"{path}:{i + 1}: gcode-opt begin marker without 'replaces N lines'")
-                    seg = _SEGMENTS.search(raw)
+                    seg = _SEGMENTS.search(raw) or _SUBARCS.search(raw)
+                    kind = _KIND.search(raw)
                     cur = Fence(i, -1, orig, int(m.group(1)), int(seg.group(1)) if seg else 0,
-                                _num(_T, raw), _num(_BETA, raw))
+                                _num(_T, raw), _num(_BETA, raw), kind.group(1) if kind else None)
                 else:
                     orig += 1
             elif raw.startswith(END):

@@ -61,6 +61,14 @@ def stroke_curves(rep, data, ctx):
                     curves.append(law)
                 except Exception:
                     pass
+            elif row.get("kind") == "curve":
+                try:
+                    law = _curve_law(tr0, o0, o1, T, beta if math.isfinite(beta) else 1e6 * T * T,
+                                     row["v0_mm_s"], row["v1_mm_s"])
+                    law["label"] = f"optimal law along the curve (planned), β = {btxt}"
+                    curves.append(law)
+                except Exception:            # a law that does not converge is not drawn
+                    pass
             else:
                 law = line_law(row["length_mm"], T, beta, row["v0_mm_s"], row["v1_mm_s"])
                 t = np.linspace(0.0, T, N_LAW)

@@ -255,7 +255,7 @@ def cmd_process(a):
         sys.stderr.write(f"gcode-opt: {summary['unchanged']}; {where}"
                          + ("" if out != a.input else " left unchanged") + "\n")
         if a.report:
-            report_error.append(f"{a.report}: no report: nothing was re-timed")
+            sys.stderr.write(f"gcode-opt: {a.report}: no report written: nothing to compare\n")
     elif not a.quiet:
         sys.stderr.write(format_summary(summary) + "\n")
     for msg in report_error:
@@ -348,14 +348,14 @@ def main(argv=None):
     if not a.cmd:
         ap.print_help()
         return EXIT_USER
-    from .outfile import Interrupted, OutputError, install_signal_handlers
+    from .outfile import Interrupted, OutputError, install_signal_handlers, restore_signal_handlers
     from .profile import ProfileError
     from .state import GcodeError
     try:
         from .inputcheck import InputRefused
     except ImportError:                            # helper A's module not there yet
         InputRefused = GcodeError
-    install_signal_handlers()
+    saved = install_signal_handlers()
 
     def fail(code, msg):
         if debug:
@@ -383,6 +383,8 @@ def main(argv=None):
     except Exception as e:                         # noqa: BLE001 - a bug: one line, traceback on --debug
         return fail(EXIT_FAIL, f"internal error: {type(e).__name__}: {e} (run again with --debug for the "
                                "traceback, and please report it)" + _left(a))
+    finally:
+        restore_signal_handlers(saved)
 
 
 if __name__ == "__main__":

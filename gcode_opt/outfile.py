@@ -48,14 +48,25 @@ class Interrupted(BaseException):
         self.signum = signum
 
 
-def install_signal_handlers():
+def install_signal_handlers() -> dict:
+    """Returns the previous handlers, for restore_signal_handlers (main() may run inside
+    another program, e.g. the test runner)."""
     def handler(signum, frame):
         raise Interrupted(signum)
-    for name in ("SIGTERM", "SIGHUP"):
+    saved = {}
+    for name, h in (("SIGTERM", handler), ("SIGHUP", handler), ("SIGXFSZ", signal.SIG_IGN)):
         if hasattr(signal, name):
-            signal.signal(getattr(signal, name), handler)
-    if hasattr(signal, "SIGXFSZ"):
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            sig = getattr(signal, name)
+            try:
+                saved[sig] = signal.signal(sig, h)
+            except ValueError:           # not the main thread: leave signals to the host program
+                break
+    return saved
+
+
+def restore_signal_handlers(saved: dict):
+    for sig, h in saved.items():
+        signal.signal(sig, h if h is not None else signal.SIG_DFL)
 
 
 def target_of(path: str) -> str:

@@ -1,0 +1,95 @@
+"""Long mutation-fuzz campaign over the real samples (issue 7): N cases, counts per outcome.
+
+    python benchmarks/fuzz_campaign.py [--cases 5000] [--seed 1] [--minutes M] [--save DIR]
+
+Each case: a window of a sample, 1-3 random mutations (tests/test_fuzz.py's engine), a random
+bundled profile, default features or `all`; processed in-process by the CLI. Prints the count
+of cases, ok, refused cleanly, tracebacks, silent corruptions (verify fails or a bad written
+value), hangs and other failures, the refusal reasons seen most, and saves each failing input
+to --save (default fuzz-failures/) as CASE.gcode plus CASE.txt (profile, features, mutations,
+what failed).  Exit 1 when any case failed.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import random
+import re
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from test_fuzz import FAILURES, OK, REFUSED, build_case, check_case, random_ops, seeds  # noqa: E402
+
+GROUPS = {"tracebacks": ("traceback",), "silent corruptions": ("corruption", "bad-value", "accepted-nonfinite"),
+          "hangs": ("hang",), "other failures": ("bad-exit", "bad-message", "input-changed", "temp-left")}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=5000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--minutes", type=float, default=None, help="stop after this much wall time")
+    ap.add_argument("--save", default="fuzz-failures")
+    a = ap.parse_args(argv)
+    from gcode_opt.profile import profile_names
+    profiles = list(profile_names())
+    texts = seeds()
+    names = sorted(texts)
+    r = random.Random(a.seed)
+    counts = collections.Counter()
+    reasons = collections.Counter()
+    by_mutation = collections.defaultdict(collections.Counter)
+    slowest = (0.0, None)
+    t0 = time.monotonic()
+    save = Path(a.save)
+    n = 0
+    for n in range(1, a.cases + 1):
+        name, prof, all_ = r.choice(names), r.choice(profiles), r.random() < 0.5
+        ops = random_ops(r)
+        data = build_case(texts[name], ops)
+        t = time.monotonic()
+        cat, detail = check_case(data, prof, all_)
+        dt = time.monotonic() - t
+        slowest = max(slowest, (dt, n))
+        counts[cat] += 1
+        for op, _ in ops:
+            by_mutation[op][cat] += 1
+        if cat == REFUSED:
+            reasons[re.sub(r"^:\d+", ":N", detail)[:70]] += 1
+        elif cat != OK:
+            save.mkdir(parents=True, exist_ok=True)
+            (save / f"case{n:05d}.gcode").write_bytes(data)
+            (save / f"case{n:05d}.txt").write_text(
+                f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nmutations: {ops!r}\n"
+                f"outcome: {cat}\n{detail}\n")
+            print(f"case {n}: {cat}: {detail.splitlines()[-1] if detail else ''} [{name} {prof} "
+                  f"{'all' if all_ else 'default'} {ops}]", flush=True)
+        if n % 250 == 0:
+            print(f"... {n} cases, {time.monotonic() - t0:.0f} s, {dict(counts)}", flush=True)
+        if a.minutes and time.monotonic() - t0 > 60 * a.minutes:
+            break
+    wall = time.monotonic() - t0
+    print(f"\ncases               {n}  ({wall:.0f} s wall, {wall / max(n, 1):.2f} s per case, "
+          f"slowest {slowest[0]:.1f} s: case {slowest[1]})")
+    print(f"ok                  {counts[OK]}")
+    print(f"refused cleanly     {counts[REFUSED]}")
+    for g, cats in GROUPS.items():
+        print(f"{g:<19} {sum(counts[c] for c in cats)}" + "".join(f"  {c} {counts[c]}" for c in cats if counts[c]))
+    print("\nmost frequent refusals:")
+    for why, k in reasons.most_common(12):
+        print(f"  {k:5d}  {why}")
+    print("\nper mutation (cases containing it): ok / refused / failed")
+    for op in sorted(by_mutation):
+        c = by_mutation[op]
+        print(f"  {op:<12} {c[OK]:5d} {c[REFUSED]:5d} {sum(c[f] for f in FAILURES):5d}")
+    return 1 if any(counts[f] for f in FAILURES) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

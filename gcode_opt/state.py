@@ -9,10 +9,11 @@ mm/s^2.  The flavour decides how M204 and G90/M83 are read, as the firmware woul
 from __future__ import annotations
 
 import math
+import re
 
 from . import features as feat
 from .profile import Profile
-from .words import command_of, keyvals_of, params_of, strip_checksum
+from .words import WordError, command_of, keyvals_of, params_of, strict_number, strip_checksum
 
 # Move.kind
 LINE = 0      # straight XY(Z) move, with or without E
@@ -62,13 +63,25 @@ class Move:
 
 
 class Arc:
-    """G2/G3 geometry: centre, radius, start angle, signed sweep (rad, + = CCW)."""
-    __slots__ = ("cx", "cy", "r", "theta0", "sweep", "length_d", "cw")
+    """G2/G3 geometry: centre, radius, start angle, signed sweep (rad, + = CCW).
 
-    def __init__(self, cx, cy, r, theta0, sweep, dz):
+    end_off_d: how far (mm) the end point is from the circle through the start; a
+    firmware sweeps the start's circle and then goes straight to the end.  off_circle:
+    beyond ARC_END_TOL, so the arc is not the circle a law would re-time (left alone)."""
+    __slots__ = ("cx", "cy", "r", "theta0", "sweep", "length_d", "cw", "end_off_d", "off_circle")
+
+    def __init__(self, cx, cy, r, theta0, sweep, dz, end_off_d=0.0):
         self.cx, self.cy, self.r, self.theta0, self.sweep = cx, cy, r, theta0, sweep
         self.cw = sweep < 0
         self.length_d = math.hypot(r * abs(sweep), dz)
+        self.end_off_d = end_off_d
+        self.off_circle = end_off_d > arc_end_tol_d(r)
+
+
+def arc_end_tol_d(r_d: float) -> float:
+    """Tolerance on |r_end - r_start| (mm): a slicer rounds end and centre to 0.001 mm,
+    so 0.005 mm (or 0.1 % of a large radius) is rounding, anything more is a bad arc."""
+    return max(0.005, 1e-3 * r_d)
 
 
 class Barrier:
@@ -87,6 +100,19 @@ class GcodeError(ValueError):
 
 
 _G1_WORDS = frozenset("XYZEF")
+# the slicer's own "G1 X.. Y.. E.. F..": this regex leaves float() only the characters
+# "+-.0123456789", where float() accepts exactly the strict number grammar (and raises on
+# "1.2.3", "1-2", "."), so the fast path reads what the strict tokenizer would
+_fast_match = re.compile(r"G[01](?:[ \t]+[XYZEF][-+.0-9]+)*[ \t\r\n]*").fullmatch
+
+# Ranges beyond any printer: a value outside is a damaged file, refused with its line.
+MAX_POS_D = 1e5        # |X|,|Y|,|Z|,|I|,|J|,|R| in mm (100 m)
+MAX_E_D = 1e7          # |E| in mm: 10 km of filament (~30 kg of 1.75 mm), more than any
+                       # print; at 5 decimals that is 1e12 units, exact in a float64
+MAX_F = 1e7            # F in mm/min (167 m/s)
+MAX_ACCEL_A = 1e6      # mm/s^2 (100 g; the fastest printers stay below 1e5)
+MAX_VELOCITY_V = 1e5   # mm/s
+MAX_DWELL_T = 1e6      # s (11 days)
 _WAITS = {"M109", "M190", "M400", "M0", "M1", "M600", "M191", "M116", "G29", "G80", "G34", "M226"}
 
 
@@ -108,7 +134,8 @@ def arc_from_words(x0, y0, x1, y1, p, cw, dz):
         # centre is left of the chord for CCW short arcs; R<0 asks for the long way round
         sgn = (1.0 if not cw else -1.0) * (1.0 if r_signed > 0 else -1.0)
         cx, cy = mx - sgn * h * dy / chord, my + sgn * h * dx / chord
-    else:
+        r = math.hypot(x0 - cx, y0 - cy)    # R below half the chord: firmwares centre the
+    else:                                   # arc on the chord's midpoint
         return None
     if r == 0.0:
         return None
@@ -121,7 +148,7 @@ def arc_from_words(x0, y0, x1, y1, p, cw, dz):
     else:
         if sweep <= 1e-12:
             sweep += 2 * math.pi
-    return Arc(cx, cy, r, t0, sweep, dz)
+    return Arc(cx, cy, r, t0, sweep, dz, abs(math.hypot(x1 - cx, y1 - cy) - r))
 
 
 class MachineState:
@@ -130,6 +157,7 @@ class MachineState:
     def __init__(self, profile: Profile, path: str = "<input>"):
         self.profile, self.path = profile, path
         self.flavour = profile.flavour
+        self._one_accel = self.flavour in ("klipper", "marlin-legacy")   # one accel for every XY move
         self.x = self.y = self.z = 0.0
         self.e = 0.0                      # logical E (absolute reading)
         self.abs_xyz = True               # G90
@@ -138,6 +166,7 @@ class MachineState:
         self.v = 25.0                     # modal feed, mm/s (Marlin's power-on 1500 mm/min)
         self.feature = feat.OTHER
         self.layer = 0
+        self.warnings = []                # (idx, text): lines left alone that a user should know of
         self.retracted = False
         self.accel_print = profile.default_accel_a    # M204 P (Klipper: the single accel)
         self.accel_travel = profile.travel_accel_a    # M204 T (Marlin 2 / RRF)
@@ -161,6 +190,8 @@ class MachineState:
 
     # ---- one line -------------------------------------------------------------------
     def step(self, idx: int, raw: str):
+        if idx == 0 and raw[:1] == "\ufeff":       # a UTF-8 BOM is encoding, not G-code
+            raw = raw[1:]
         i = raw.find(";")
         code = raw if i < 0 else raw[:i]
         toks = code.split()
@@ -174,22 +205,27 @@ class MachineState:
                     self.layer += 1
             return None
         t0 = toks[0]
-        # fast path: the slicer's own "G1 X.. Y.. E.. F.." (~95 % of a file)
-        if (t0 == "G1" or t0 == "G0") and "*" not in code:
+        # fast path: the slicer's own "G1 X.. Y.. E.. F.." (~95 % of a file), proven strict
+        if (t0 == "G1" or t0 == "G0") and _fast_match(code) is not None:
             try:
                 p = {t[0]: float(t[1:]) for t in toks[1:]}
             except ValueError:
-                p = None
-            if p is None or not p.keys() <= _G1_WORDS:
-                p = params_of(code)
-            return self._linear(idx, raw, p, False)
-        code, checksum = strip_checksum(code)
-        cmd = command_of(code)
-        if cmd in ("G1", "G0"):
-            return self._linear(idx, raw, params_of(code), checksum)
-        if cmd in ("G2", "G3"):
-            return self._arc(idx, raw, code, cmd == "G2", checksum)
-        return self._other(idx, raw, cmd, code)
+                p = None                           # "X1.2.3": the strict path says why
+            if p is not None and len(p) == len(toks) - 1:     # else a word given twice
+                return self._linear(idx, raw, p, False)
+        try:
+            code, checksum = strip_checksum(code)
+            cmd = command_of(code)
+            if cmd in ("G1", "G0"):
+                return self._linear(idx, raw, params_of(code), checksum)
+            if cmd in ("G2", "G3"):
+                return self._arc(idx, raw, code, cmd == "G2", checksum)
+            return self._other(idx, raw, cmd, code)
+        except WordError as e:
+            raise GcodeError(self.path, idx, raw, str(e)) from None
+
+    def _error(self, idx, raw, why):
+        return GcodeError(self.path, idx, raw, why)
 
     def _mm(self, v: float) -> float:
         return v * 25.4 if self.inch else v
@@ -210,38 +246,70 @@ class MachineState:
             de = 0.0
         else:
             de = ev if (self.e_rel_flag or not self.abs_xyz) else ev - self.e
-        return x, y, z, de
+        return x, y, z, de, ev
 
-    def _feed(self, p):
+    def _check_target(self, idx, raw, x, y, z, ev):
+        """Positions and E within what any printer can mean (after G20 and G91)."""
+        b = MAX_POS_D
+        if not (-b <= x <= b and -b <= y <= b and -b <= z <= b):
+            raise self._error(idx, raw, f"position beyond {b:g} mm: X{x:g} Y{y:g} Z{z:g}")
+        if ev is not None and not -MAX_E_D <= ev <= MAX_E_D:
+            raise self._error(idx, raw, f"E beyond {MAX_E_D:g} mm")
+
+    def _feed(self, idx, raw, p):
         if "F" in p:
-            f = self._mm(p["F"]) / 60.0
-            if f > 0.0:
-                self.v = f
+            f_text = p["F"]
+            if not f_text <= MAX_F:
+                raise self._error(idx, raw, f"F beyond {MAX_F:g} mm/min")
+            if f_text <= 0.0:
+                if self.flavour in ("klipper", "rrf"):   # Klipper: "Invalid speed"
+                    raise self._error(idx, raw, "F must be above 0 (the firmware rejects it or "
+                                                "crawls at its minimum speed)")
+                return True                    # Marlin, Prusa-Firmware: F<=0 keeps the last feed
+            self.v = self._mm(f_text) / 60.0
             return True
         return False
 
     def _linear(self, idx, raw, p, checksum):
-        has_f = self._feed(p)
-        x, y, z, de = self._target(p)
+        # _target and accel_for inlined: this runs for ~95 % of a file's lines
+        has_f = "F" in p and self._feed(idx, raw, p)
+        if self.inch:
+            p = {k: v * 25.4 for k, v in p.items()}
         x0, y0, z0 = self.x, self.y, self.z
+        abs_xyz = self.abs_xyz
+        if abs_xyz:
+            x, y, z = p.get("X", x0), p.get("Y", y0), p.get("Z", z0)
+        else:
+            x, y, z = x0 + p.get("X", 0.0), y0 + p.get("Y", 0.0), z0 + p.get("Z", 0.0)
+        e_rel = self.e_rel_flag or not abs_xyz
+        ev = p.get("E")
+        de = 0.0 if ev is None else (ev if e_rel else ev - self.e)
+        b = MAX_POS_D
+        if not (-b <= x <= b and -b <= y <= b and -b <= z <= b) or (ev is not None and not -MAX_E_D <= ev <= MAX_E_D):
+            self._check_target(idx, raw, x, y, z, ev)
         self.x, self.y, self.z = x, y, z
         self.e += de
         if x == x0 and y == y0 and z == z0:
             if de == 0.0:
                 return None
-            kind = EONLY
-            accel = self.accel_for(False, False)
+            return Move(idx, EONLY, x0, y0, z0, x, y, z, de, self.v, self.accel_retract, self.feature,
+                        self.layer, self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch)
+        if de > 0.0:
+            accel, ftr = self.accel_print, self.feature
         else:
-            kind = LINE
-            accel = self.accel_for(de > 0.0, True)
-        ftr = self.feature if (de > 0.0 or kind == EONLY) else feat.TRAVEL
-        return Move(idx, kind, x0, y0, z0, x, y, z, de, self.v, accel, ftr, self.layer,
-                    self.lim, None, has_f, self.e_relative, not self.abs_xyz, checksum, self.inch)
+            accel = self.accel_print if self._one_accel else self.accel_travel
+            ftr = feat.TRAVEL
+        return Move(idx, LINE, x0, y0, z0, x, y, z, de, self.v, accel, ftr, self.layer,
+                    self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch)
 
     def _arc(self, idx, raw, code, cw, checksum):
         p = params_of(code)
-        has_f = self._feed(p)
-        x, y, z, de = self._target(p)
+        for k in "IJR":
+            if k in p and not abs(self._mm(p[k])) <= MAX_POS_D:
+                raise self._error(idx, raw, f"{k} beyond {MAX_POS_D:g} mm")
+        has_f = self._feed(idx, raw, p)
+        x, y, z, de, ev = self._target(p)
+        self._check_target(idx, raw, x, y, z, ev)
         x0, y0, z0 = self.x, self.y, self.z
         if "I" in p or "J" in p:
             p = dict(p)
@@ -252,6 +320,9 @@ class MachineState:
         arc = arc_from_words(x0, y0, x, y, p, cw, z - z0)
         if arc is None:
             raise GcodeError(self.path, idx, raw, "arc without I/J or R, or with zero radius")
+        if arc.off_circle:
+            self.warnings.append((idx, f"arc end {arc.end_off_d:.3f} mm off its circle (r {arc.r:.3f} mm): "
+                                       "left as written, not re-timed"))
         self.x, self.y, self.z = x, y, z
         self.e += de
         ftr = self.feature if de > 0.0 else feat.TRAVEL
@@ -261,17 +332,22 @@ class MachineState:
 
     def _other(self, idx, raw, cmd, code):
         prof = self.profile
+        fl = self.flavour
         if cmd == "G92":
             p = params_of(code)
             if not p:                      # bare G92: all axes to zero
                 self.x = self.y = self.z = self.e = 0.0
-            if "X" in p: self.x = self._mm(p["X"])
-            if "Y" in p: self.y = self._mm(p["Y"])
-            if "Z" in p: self.z = self._mm(p["Z"])
-            if "E" in p: self.e = self._mm(p["E"])
+            x = self._mm(p["X"]) if "X" in p else self.x
+            y = self._mm(p["Y"]) if "Y" in p else self.y
+            z = self._mm(p["Z"]) if "Z" in p else self.z
+            ev = self._mm(p["E"]) if "E" in p else None
+            self._check_target(idx, raw, x, y, z, ev)
+            self.x, self.y, self.z = x, y, z
+            if ev is not None:
+                self.e = ev
         elif cmd == "G90":
             self.abs_xyz = True
-            if self.flavour == "marlin2":  # Marlin 2: G90 also makes E absolute
+            if fl == "marlin2":            # Marlin 2: G90 also makes E absolute
                 self.e_rel_flag = False
         elif cmd == "G91":
             self.abs_xyz = False
@@ -284,37 +360,13 @@ class MachineState:
         elif cmd == "G21":
             self.inch = False
         elif cmd == "M204":
-            self._m204(params_of(code))
-        elif cmd == "M201":
-            p = params_of(code)
-            kw = {}
-            if "X" in p: kw["ax_max"] = p["X"]
-            if "Y" in p: kw["ay_max"] = p["Y"]
-            if kw: self.lim = self.lim.replace(**kw)
-        elif cmd == "M203":
-            p = params_of(code)
-            vals = [p[a] for a in ("X", "Y") if a in p]
-            if vals:
-                v = min(vals) / (60.0 if self.flavour == "rrf" else 1.0)   # RRF: mm/min
-                self.lim = self.lim.replace(v_max=v)
-        elif cmd == "M205":
-            p = params_of(code)
-            kw = {}
-            if "X" in p: kw["jerk_x"] = p["X"]
-            if "Y" in p: kw["jerk_y"] = p["Y"]
-            if "J" in p: kw["jd"] = p["J"]
-            if kw: self.lim = self.lim.replace(**kw)
+            self._m204(idx, raw, params_of(code))
+        elif cmd in ("M201", "M203", "M205"):
+            if fl != "klipper":            # Klipper: "Unknown command", nothing changes
+                self._limits_m(idx, raw, cmd, params_of(code))
         elif cmd == "SET_VELOCITY_LIMIT":
-            kv = keyvals_of(code)
-            kw = {}
-            try:
-                if "VELOCITY" in kv: kw["v_max"] = float(kv["VELOCITY"])
-                if "SQUARE_CORNER_VELOCITY" in kv: kw["scv"] = float(kv["SQUARE_CORNER_VELOCITY"])
-                if "MINIMUM_CRUISE_RATIO" in kv: kw["mcr"] = float(kv["MINIMUM_CRUISE_RATIO"])
-                if "ACCEL" in kv: self.accel_print = self.accel_travel = float(kv["ACCEL"])
-            except ValueError:
-                pass                       # a macro variable such as ACCEL={x}: leave as is
-            if kw: self.lim = self.lim.replace(**kw)
+            if fl == "klipper":            # other firmwares do not know it
+                self._set_velocity_limit(idx, raw, code)
         elif cmd == "G10" or cmd == "G11":
             p = params_of(code)
             if set(p) - {"S"}:             # G10 L2 P1 X0 (RRF offsets) is not a retraction
@@ -332,6 +384,8 @@ class MachineState:
         elif cmd == "G4":
             p = params_of(code)
             t = p.get("P", 0.0) / 1000.0 + p.get("S", 0.0)
+            if min(p.get("P", 0.0), p.get("S", 0.0)) < 0.0 or not t <= MAX_DWELL_T:
+                raise self._error(idx, raw, f"dwell must be between 0 and {MAX_DWELL_T:g} s")
             return Barrier(idx, t, "G4 dwell")
         elif cmd == "G28":
             return Barrier(idx, 0.0, "G28 home")
@@ -339,15 +393,31 @@ class MachineState:
             return Barrier(idx, 0.0, cmd)
         return None
 
-    def _m204(self, p):
+    def _positive(self, idx, raw, cmd, letter, value, top, unit):
+        """A limit a firmware needs above 0 (Klipper rejects 0; Marlin, Prusa-Firmware and
+        RepRapFirmware take it and then divide by it or never accelerate)."""
+        if not 0.0 < value <= top:
+            raise self._error(idx, raw, f"{cmd} {letter} must be above 0 and at most {top:g} {unit}")
+        return value
+
+    def _m204(self, idx, raw, p):
         fl = self.flavour
         if fl == "klipper":
+            # toolhead.cmd_M204: S (> 0) wins; else P and T (each > 0 if given), both needed
             if "S" in p:
-                self.accel_print = p["S"]
-            elif "P" in p and "T" in p:
-                self.accel_print = min(p["P"], p["T"])
+                self.accel_print = self._positive(idx, raw, "M204", "S", p["S"], MAX_ACCEL_A, "mm/s^2")
+            else:
+                for k in "PT":
+                    if k in p:
+                        self._positive(idx, raw, "M204", k, p[k], MAX_ACCEL_A, "mm/s^2")
+                if "P" in p and "T" in p:
+                    self.accel_print = min(p["P"], p["T"])
             self.accel_travel = self.accel_print
-        elif fl == "marlin-legacy":        # Prusa-Firmware MK3: S = all moves, T = retract
+            return
+        for k in "SPTR":
+            if k in p:
+                self._positive(idx, raw, "M204", k, p[k], MAX_ACCEL_A, "mm/s^2")
+        if fl == "marlin-legacy":          # Prusa-Firmware MK3: S = all moves, T = retract
             if "S" in p:
                 self.accel_print = self.accel_travel = p["S"]
                 if "T" in p:
@@ -361,6 +431,67 @@ class MachineState:
             if "P" in p: self.accel_print = p["P"]
             if "T" in p: self.accel_travel = p["T"]
             if "R" in p: self.accel_retract = p["R"]
+
+    def _limits_m(self, idx, raw, cmd, p):
+        """M201 / M203 / M205 as Marlin 2, Prusa-Firmware and RepRapFirmware read them."""
+        fl = self.flavour
+        kw = {}
+        if cmd == "M201":
+            if "X" in p: kw["ax_max"] = self._positive(idx, raw, cmd, "X", p["X"], MAX_ACCEL_A, "mm/s^2")
+            if "Y" in p: kw["ay_max"] = self._positive(idx, raw, cmd, "Y", p["Y"], MAX_ACCEL_A, "mm/s^2")
+        elif cmd == "M203":
+            per_s = 60.0 if fl == "rrf" else 1.0               # RRF: mm/min
+            vals = [self._positive(idx, raw, cmd, a, p[a] / per_s, MAX_VELOCITY_V, "mm/s")
+                    for a in ("X", "Y") if a in p]
+            if vals:
+                kw["v_max"] = min(vals)
+        else:
+            for a, key in (("X", "jerk_x"), ("Y", "jerk_y")):
+                if a in p:
+                    if not 0.0 <= p[a] <= MAX_VELOCITY_V:
+                        raise self._error(idx, raw, f"M205 {a} (jerk) must be between 0 and "
+                                                    f"{MAX_VELOCITY_V:g} mm/s")
+                    kw[key] = p[a]
+            if "J" in p and fl == "marlin2":
+                if 0.01 <= p["J"] <= 0.3:  # Marlin 2 answers "?J out of range" and keeps its value
+                    kw["jd"] = p["J"]
+                else:
+                    self.warnings.append((idx, "M205 J outside 0.01..0.3 mm: Marlin ignores it"))
+        if kw:
+            self.lim = self.lim.replace(**kw)
+
+    def _set_velocity_limit(self, idx, raw, code):
+        """Klipper's toolhead.cmd_SET_VELOCITY_LIMIT rules: VELOCITY and ACCEL above 0,
+        SQUARE_CORNER_VELOCITY at least 0, MINIMUM_CRUISE_RATIO in [0, 1)."""
+        kv = keyvals_of(code)
+        vals = {}
+        for key in ("VELOCITY", "ACCEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO"):
+            text = kv.get(key)
+            if text is None or "{" in text or "}" in text:
+                continue                   # a macro expression such as ACCEL={x}: not ours to read
+            try:
+                vals[key] = strict_number(text)
+            except WordError as e:
+                raise self._error(idx, raw, f"{key}: {e}") from None
+        v = vals.get("VELOCITY")
+        if v is not None and not 0.0 < v <= MAX_VELOCITY_V:
+            raise self._error(idx, raw, f"VELOCITY must be above 0 and at most {MAX_VELOCITY_V:g} mm/s")
+        a = vals.get("ACCEL")
+        if a is not None and not 0.0 < a <= MAX_ACCEL_A:
+            raise self._error(idx, raw, f"ACCEL must be above 0 and at most {MAX_ACCEL_A:g} mm/s^2")
+        scv = vals.get("SQUARE_CORNER_VELOCITY")
+        if scv is not None and not 0.0 <= scv <= MAX_VELOCITY_V:
+            raise self._error(idx, raw, "SQUARE_CORNER_VELOCITY must be at least 0 "
+                                        f"and at most {MAX_VELOCITY_V:g} mm/s")
+        mcr = vals.get("MINIMUM_CRUISE_RATIO")
+        if mcr is not None and not 0.0 <= mcr < 1.0:
+            raise self._error(idx, raw, "MINIMUM_CRUISE_RATIO must be at least 0 and below 1")
+        kw = {}
+        if v is not None: kw["v_max"] = v
+        if scv is not None: kw["scv"] = scv
+        if mcr is not None: kw["mcr"] = mcr
+        if a is not None: self.accel_print = self.accel_travel = a
+        if kw: self.lim = self.lim.replace(**kw)
 
 
 def read_lines(path: str):

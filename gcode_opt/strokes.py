@@ -123,9 +123,10 @@ def eligible(m, selected: frozenset) -> bool:
 def eligible_arc(m, raw, selected: frozenset) -> bool:
     """A G2/G3 we may re-time: selected feature, I/J form (the centre is in the file's
     text, so sub-arcs can keep it exactly), absolute XY in mm, no checksum, no Z change,
-    extruding, at least 1 mm long."""
+    extruding, at least 1 mm long, its end on its circle (else a firmware ends it with a
+    straight jump the law does not know of: state.Arc.off_circle)."""
     if not (m.kind == ARC and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
-            and m.z0 == m.z1 and m.e > 0.0 and m.arc.length_d >= 1.0):
+            and m.z0 == m.z1 and m.e > 0.0 and m.arc.length_d >= 1.0 and not m.arc.off_circle):
         return False
     code, _ = strip_checksum(split_comment(raw)[0])
     p = param_texts(code)

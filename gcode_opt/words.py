@@ -1,19 +1,35 @@
-"""Tokenise one G-code line.
+"""Tokenise one G-code line: one strict tokenizer for the reader and the emitter.
 
-Fast path first: a slicer file is ~95 % G0/G1 lines, so the split is a single regex
-scan over the code part; unknown commands are named but their parameters are not parsed
-until somebody asks.  The raw text is never rebuilt from tokens: lines we do not
-re-time are written back byte for byte by the caller.
+A number is ASCII `[-+]?(digits[.digits] | .digits)` and nothing else: no exponent, no
+inf/nan, no '_', no non-ASCII digit.  Firmwares disagree on anything looser (`Y2e1` is
+Y=20 for a strtod-based parser, Y=2 E=1 for Klipper), so a line we must read that holds
+anything else raises `WordError`; the caller names the file and line.  Lines we do not
+read (unknown commands) are never parsed.  The raw text is never rebuilt from tokens:
+lines we do not re-time are written back byte for byte by the caller.
 """
 from __future__ import annotations
 
 import re
 
-# letter + number, spaces optional ("G1X10Y10E.5" is legal and common in hand edits)
-_WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-_KEYVAL = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\"[^\"]*\"|'[^']*'|\S+)")
-_LINE_NUMBER = re.compile(r"^\s*[Nn]\d+\s*")
-_CLASSIC = re.compile(r"^([A-Za-z])\s*(\d+(?:\.\d+)?)")
+_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+_WS = "[ \t\r\n\v\f]"
+# a classic command's whole code part: command word, then letter+number words (spaces
+# optional: "G1X10Y10E.5" is legal), no number followed by what strtod reads as an exponent
+_STRICT = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?"
+                     rf"(?:{_WS}*[A-Za-z][ \t]*{_NUM}(?![eE][-+]?[0-9]))*{_WS}*")
+_LOOSE = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:{_WS}*[A-Za-z][ \t]*{_NUM})*{_WS}*")
+_EXP_AT = re.compile(r"[eE]([-+]?[0-9]+)")
+_WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUM})")
+_KEYVAL = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
+_NUM_ONLY = re.compile(_NUM)
+_LINE_NUMBER = re.compile(rf"{_WS}*[Nn][0-9]+{_WS}*")
+_CLASSIC = re.compile(r"([A-Za-z])[ \t]*([0-9]+(?:\.[0-9]+)?)")
+_DIGITS = frozenset("0123456789")
+_EXPONENT = re.compile(rf"{_NUM}[eE][-+]?[0-9]")
+
+
+class WordError(ValueError):
+    """A line whose words cannot be read unambiguously; str is the reason."""
 
 
 def split_comment(raw: str) -> tuple[str, str]:
@@ -40,33 +56,97 @@ def strip_checksum(code: str) -> tuple[str, bool]:
 
 
 def command_of(code: str) -> str:
-    """'G1', 'M204', 'M862.3', 'T0' for classic words (Klipper's rule: a letter then a
-    digit); the upper-cased first token for extended commands ('SET_VELOCITY_LIMIT');
+    """'G1', 'M204', 'M862.3', 'T0' for classic words (Klipper's rule: a letter then an
+    ASCII digit); the upper-cased first token for extended commands ('SET_VELOCITY_LIMIT');
     '' for an empty line.  'G01' is normalised to 'G1'."""
     s = code.lstrip()
     if not s:
         return ""
-    if s[0].isalpha() and s[1:2].isdigit():
+    if s[0].isalpha() and s[1:2] in _DIGITS:
         m = _CLASSIC.match(s)
         whole, _, frac = m.group(2).partition(".")
         return s[0].upper() + str(int(whole)) + ("." + frac if frac else "")
     return s.split(None, 1)[0].upper()
 
 
+def _why(code: str) -> str:
+    """The reason a classic command's code part failed _STRICT (for the error message)."""
+    if not code.isascii():
+        bad = next(c for c in code if not c.isascii())
+        return f"non-ASCII character {bad!r} (or a byte that is not UTF-8)"
+    s = code.lstrip()
+    m = _CLASSIC.match(s)
+    tokens = s[m.end() if m else 0:].split()
+    for tok in tokens:
+        if _EXPONENT.search(tok):
+            return f"number with an exponent in {tok!r} (firmwares read it differently)"
+    for tok in tokens:
+        low = tok.lower()
+        if "inf" in low or "nan" in low:
+            return f"non-finite number {tok!r}"
+    for tok in tokens:
+        rest = tok
+        while rest:
+            m = _WORD.match(rest)
+            if m is None:
+                if rest[0].isalpha() and (len(rest) == 1 or rest[1].isalpha()):
+                    return f"parameter {rest[0].upper()} without a number in {tok!r}"
+                return f"unreadable parameter {tok!r}"
+            rest = rest[m.end():]
+    return "unreadable parameters"
+
+
+def _refuse_exponents(code: str) -> None:
+    """'Y2e1' is Y=2 E=1 for Klipper and Marlin 2 but Y=20 for a strtod reader
+    (Prusa-Firmware): refused, unless both readings agree (mantissa or exponent 0, as in
+    the compact 'J0e0.587' = J0 E0.587)."""
+    for m in _WORD.finditer(code):
+        x = _EXP_AT.match(code, m.end())
+        if x is not None and float(m.group(2)) != 0.0 and int(x.group(1)) != 0:
+            raise WordError(f"number with an exponent {m.group(0) + x.group(0)!r} (firmwares read it "
+                            "differently: write the E word apart)")
+
+
+def _pairs(code: str) -> list:
+    """(LETTER, number text) of every parameter after the command word; WordError if the
+    code part is not strictly letter+number words or names a parameter twice (Klipper
+    keeps the last, Marlin the first)."""
+    if _STRICT.fullmatch(code) is None:
+        if _LOOSE.fullmatch(code) is None:
+            raise WordError(_why(code))
+        _refuse_exponents(code)
+    pairs = [(letter.upper(), num) for letter, num in _WORD.findall(code)[1:]]
+    if len({p[0] for p in pairs}) != len(pairs):
+        seen = set()
+        for letter, _ in pairs:
+            if letter in seen:
+                raise WordError(f"parameter {letter} given twice")
+            seen.add(letter)
+    return pairs
+
+
 def param_texts(code: str) -> dict[str, str]:
     """Letter parameters of a classic command as the number's text (to copy a value
     without re-rounding), letters upper-cased, the command word itself skipped."""
-    return {letter.upper(): num for letter, num in _WORD.findall(code)[1:]}
+    return dict(_pairs(code))
 
 
 def params_of(code: str) -> dict[str, float]:
-    """Letter parameters of a classic command as floats."""
-    return {letter.upper(): float(num) for letter, num in _WORD.findall(code)[1:]}
+    """Letter parameters of a classic command as floats (finite unless the text has
+    more than 308 digits: the caller checks ranges)."""
+    return {letter: float(num) for letter, num in _pairs(code)}
 
 
 def keyvals_of(code: str) -> dict[str, str]:
-    """KEY=VALUE parameters of an extended command, keys upper-cased."""
+    """KEY=VALUE parameters of an extended command, keys upper-cased, quotes removed."""
     return {k.upper(): v.strip("\"'") for k, v in _KEYVAL.findall(code)}
+
+
+def strict_number(text: str) -> float:
+    """A KEY=VALUE value as a float, by the same number grammar; WordError otherwise."""
+    if _NUM_ONLY.fullmatch(text) is None:
+        raise WordError(f"unreadable number {text!r}")
+    return float(text)
 
 
 def decimals(num_text: str) -> int:

@@ -1,0 +1,130 @@
+"""One strict tokenizer for the reader and the emitter (issue 7: `G1 X60 Y2e1 E0.3` was
+modelled as Y=20 by the reader's float() and written as Y=2 E=1 by the emitter)."""
+import os
+import subprocess
+import sys
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as hs
+
+from gcode_opt.profile import load_profile
+from gcode_opt.state import GcodeError, MachineState, Move
+from gcode_opt.words import WordError, command_of, param_texts, params_of, strict_number
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _strict_ok(text):
+    """The number grammar written out by hand: [-+]? then ASCII digits with at most one
+    '.', at least one digit."""
+    body = text[1:] if text[:1] in "+-" else text
+    digits = [c for c in body if c != "."]
+    return (body.count(".") <= 1 and len(digits) >= 1
+            and all(c in "0123456789" for c in digits))
+
+
+@pytest.mark.parametrize("line,why", [
+    ("G1 X60 Y2e1 E0.3", "exponent"),          # the issue's reproducer
+    ("G1 X10E5", "exponent"),                  # Prusa-Firmware's strtod reads X=1e6
+    ("G1 X1E-3 Y2", "exponent"),
+    ("G1 X1 Yinf", "non-finite"),
+    ("G1 XInfinity", "non-finite"),
+    ("G1 X1 YNaN", "non-finite"),
+    ("G1 X1_0", "unreadable"),                 # float() would read 10
+    ("G1 X\u0661", "non-ASCII"),               # an Arabic-Indic one
+    ("G1 X1\u00a0Y2", "non-ASCII"),            # a no-break space between words
+    ("G1 X1 Y2\udcff", "non-ASCII"),           # a byte that is not UTF-8 (surrogateescape)
+    ("G1 X Y2", "without a number"),
+    ("G1 X1 X2", "twice"),
+    ("G1 X1.2.3", "unreadable"),
+    ("G1 X--1", "unreadable"),
+    ("G1 X1,5", "unreadable"),
+    ("G2 X10 Y0 I5e1 J0", "exponent"),
+    ("M204 S1e3", "exponent"),
+])
+def test_bad_words_raise(line, why):
+    with pytest.raises(WordError, match=why):
+        params_of(line)
+    with pytest.raises(WordError):
+        param_texts(line)
+
+
+@pytest.mark.parametrize("line,expected", [
+    ("G1X10Y10E.5", {"X": 10.0, "Y": 10.0, "E": 0.5}),
+    ("g1 x3 y4 e.5", {"X": 3.0, "Y": 4.0, "E": 0.5}),
+    ("G1\tX1\tY2\r\n", {"X": 1.0, "Y": 2.0}),
+    ("G1 X+1 Y-.8 E5.", {"X": 1.0, "Y": -0.8, "E": 5.0}),
+    ("G1 X 10", {"X": 10.0}),                                # space between letter and number
+    ("g3x180y130i5j0e0.587f1800",                             # compact: 0e0 reads 0 either way
+     {"X": 180.0, "Y": 130.0, "I": 5.0, "J": 0.0, "E": 0.587, "F": 1800.0}),
+    ("G1 X5e0.5", {"X": 5.0, "E": 0.5}),                     # exponent 0: same either way
+])
+def test_good_words(line, expected):
+    assert params_of(line) == expected
+
+
+def test_command_word_is_ascii_only():
+    assert command_of("G\u0661 X1") != "G1"      # int() would read the Arabic digit as 1
+    assert command_of("G01 X1") == "G1" and command_of("g1x1") == "G1"
+    assert command_of("set_velocity_limit accel=1") == "SET_VELOCITY_LIMIT"
+
+
+def test_strict_number():
+    assert strict_number("3000") == 3000.0 and strict_number("-.5") == -0.5
+    for bad in ("1e3", "inf", "nan", "1_0", "\u0661", "", "0x10"):
+        with pytest.raises(WordError):
+            strict_number(bad)
+
+
+def test_reproducer_refused_by_the_reader_with_file_and_line():
+    prof = load_profile("generic-klipper")
+    st = MachineState(prof, "part.gcode")
+    st.step(0, "G1 X50 Y2 F3000\n")
+    with pytest.raises(GcodeError) as ei:
+        st.step(1, "G1 X60 Y2e1 E0.3\n")
+    assert str(ei.value).startswith("part.gcode:2: number with an exponent")
+    assert "'G1 X60 Y2e1 E0.3'" in str(ei.value)
+
+
+def test_cli_refuses_and_leaves_the_input_alone(tmp_path):
+    src = tmp_path / "bad.gcode"
+    data = b"G90\nM83\nG1 X10 Y10 F3000\nG1 X60 Y2e1 E0.3\n"
+    src.write_bytes(data)
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(src), "-q"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 2
+    assert f"{src}:4: number with an exponent" in r.stderr and "Traceback" not in r.stderr
+    assert src.read_bytes() == data
+
+
+# Words from an alphabet that holds every trap float() falls into
+_ALPHABET = "0123456789..--+eEXYZEFinfa_ \t\u0661\u00a0"
+
+
+@settings(max_examples=400, deadline=None)
+@given(hs.text(alphabet=_ALPHABET, min_size=0, max_size=24))
+def test_reader_and_emitter_read_the_same(tail):
+    """Whatever the reader (fast path included) accepts, the emitter's param_texts reads
+    identically, and every number text is in the strict grammar."""
+    raw = "G1 " + tail + "\n"
+    st = MachineState(load_profile("generic-klipper"), "f.gcode")
+    st.x = st.y = st.z = 0.0
+    try:
+        ev = st.step(5, raw)
+    except GcodeError:
+        try:
+            texts = param_texts(raw)
+        except WordError:
+            return                           # the reader and the tokenizer both refuse it
+        vals = {k: float(t) for k, t in texts.items()}    # readable: a range must be the reason
+        assert (any(abs(v) > 1e5 for k, v in vals.items() if k in "XYZ") or abs(vals.get("E", 0.0)) > 1e7
+                or not 0.0 < vals.get("F", 1.0) <= 1e7), raw
+        return
+    texts = param_texts(raw)
+    for t in texts.values():
+        assert _strict_ok(t), (raw, t)
+    if isinstance(ev, Move):
+        assert ev.x1 == float(texts.get("X", "0")) and ev.y1 == float(texts.get("Y", "0"))
+        assert ev.z1 == float(texts.get("Z", "0"))
+        assert ev.e == float(texts.get("E", "0"))

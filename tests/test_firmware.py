@@ -349,3 +349,67 @@ def test_line_records_add_up(tmp_path):
     assert sum(r.int_v2 for r in recs) == approx(res.int_v2)
     assert [r.idx for r in recs] == sorted(r.idx for r in recs)
     assert res.as_dict()["n_moves"] == 6
+
+
+def test_klipper_m204_is_not_capped_by_max_accel(tmp_path):
+    # Klipper's M204 S sets the toolhead's max_accel itself: 6000 on a 3000 printer is 6000.
+    # 100 mm at 100 mm/s rest to rest: t = d/v + v/a = 1 + 100/6000.
+    # Marlin caps the accel in force by the per-axis maximum (M201 / max_accel_a): a = 3000,
+    # and brakes to its MINIMUM_PLANNER_SPEED 0.05 mm/s: accel 100/3000 s over 10000/6000 mm,
+    # decel 99.95/3000 s over (10000 - 0.0025)/6000 mm, the rest cruised at 100 mm/s.
+    text = "M204 S6000\nG1 X100 F6000\n"
+    res, _ = run(tmp_path, text, klipper(max_accel_a=3000.0))
+    assert res.time_t == approx(1.0 + 100.0 / 6000.0)
+    res, _ = run(tmp_path, text, marlin(max_accel_a=3000.0))
+    cruise_d = 100.0 - 10000.0 / 6000.0 - (10000.0 - 0.0025) / 6000.0
+    assert res.time_t == approx(100.0 / 3000.0 + cruise_d / 100.0 + 99.95 / 3000.0)
+
+
+def test_klipper_z_scales_accel_and_speed(tmp_path):
+    # cartesian check_move: a move with Z gets accel <= max_z_accel * d/|dz| and speed <=
+    # max_z_velocity * d/|dz|.  X30 Z40: d = 50, d/|dz| = 1.25.  max_z_accel 100 -> 125;
+    # asked 10 mm/s (max_z_velocity 1000 does not bind): t = 50/10 + 10/125 = 5.08 s.
+    prof = klipper(max_z_accel_a=100.0, max_z_velocity_v=1000.0)
+    res, _ = run(tmp_path, "G1 X30 Z40 F600\n", prof)
+    assert res.time_t == approx(5.08)
+    # max_z_velocity 4 -> speed cap 5 mm/s: t = 50/5 + 5/125 = 10.04 s
+    res, _ = run(tmp_path, "G1 X30 Z40 F600\n", klipper(max_z_accel_a=100.0, max_z_velocity_v=4.0))
+    assert res.time_t == approx(10.04)
+
+
+def test_arc_chord_count_is_bounded():
+    # firmware rule floor(length / segment), at least 1 ...
+    assert simmod.arc_chords(20 * math.pi, 2 * math.pi, 1.0) == 62
+    assert simmod.arc_chords(0.4, 0.1, 1.0) == 1
+    # ... but never more than ceil(|sweep| / 1 mrad): 6284 a turn, 1571 a quarter
+    assert simmod.arc_chords(2 * math.pi * 1e5, 2 * math.pi, 1.0) == 6284
+    assert simmod.arc_chords(2 * math.pi * 1e5, -math.pi / 2, 1.0) == 1571
+    assert simmod.arc_chords(20 * math.pi, 2 * math.pi, 1e-9) == 6284
+    assert simmod.arc_chords(float("nan"), float("nan"), 1.0) == 6284
+    assert simmod.arc_chords(float("inf"), 2 * math.pi, 1.0) == 6284
+
+
+def test_huge_arc_is_played_in_bounded_time(tmp_path):
+    # A full circle of radius 1e5 mm (the largest the reader takes) at 100 mm/s, a = 1e6:
+    # a firmware would cut 628 318 chords; the model cuts 6284, each turning by 1 mrad:
+    # Klipper's corner limit there is ~1.8 scv / 1e-3 = 9100 mm/s and the centripetal one
+    # sqrt(r a) >> 100, so the speed is 100 throughout: t = n 2 r sin(pi/n) / v + v/a.
+    n, r, v = 6284, 1e5, 100.0
+    res, _ = run(tmp_path, "G1 F6000\nG2 X0 Y0 I100000 J0\n", klipper(default_accel_a=1e6))
+    assert res.n_blocks == n
+    assert res.time_t == approx(n * 2 * r * math.sin(math.pi / n) / v + v / 1e6, rel=1e-9)
+
+
+def test_bounded_arc_cut_agrees_with_firmware_cut(tmp_path, monkeypatch):
+    # Quarter arc of radius 2000 mm at 150 mm/s, a = 3000, then a line: the firmware's
+    # 3141 chords of 1 mm against the model's 1571 of 2 mm.  Same time and int a^2 to
+    # (chord turn)^2 / 24 ~ 4e-8 (the chords' length), so within 1e-6.
+    text = "G1 X0 Y0 F9000\nG2 X2000 Y2000 I2000 J0\nG1 X2100 Y2000\n"
+    prof = klipper(default_accel_a=3000.0, minimum_cruise_ratio_r=0.5)
+    res, _ = run(tmp_path, text, prof)
+    assert res.n_blocks == 1571 + 1
+    monkeypatch.setattr(simmod, "ARC_MIN_TURN", 1e-12)
+    fw, _ = run(tmp_path, text, prof)
+    assert fw.n_blocks == 3141 + 1
+    assert res.time_t == approx(fw.time_t, rel=1e-6)
+    assert res.int_a2_t == approx(fw.int_a2_t, rel=1e-6)

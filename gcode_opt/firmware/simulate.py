@@ -37,6 +37,27 @@ MAX_STOP_LINES = 100
 KLIPPER_CHUNK = 512       # lazy-flush the Klipper queue every this many new moves
 
 
+ARC_MIN_TURN = 1e-3       # rad: the model never cuts an arc into chords turning less than this
+
+
+def arc_chords(length_d: float, sweep: float, segment_d: float) -> int:
+    """How many chords the model plays a G2/G3 as.
+
+    Klipper's gcode_arcs and Marlin's plan_arc cut floor(length / segment) chords (at
+    least 1), however many that is: a 1e5 mm radius would give 6e5 chords a turn.  Past
+    r = segment / ARC_MIN_TURN (1 m for 1 mm chords) each chord turns by < 1 mrad, where no
+    junction law binds (Klipper's scv corner speed ~ 1.8 scv / turn = 9000 mm/s, Marlin's
+    jd and jerk likewise), and the centripetal limit sqrt(r a) does not depend on the
+    chord count; so the model cuts those by angle instead: at most ceil(|sweep| / 1 mrad),
+    6284 chords a turn, whatever the radius or the segment length."""
+    turn = abs(sweep) if abs(sweep) <= 2.0 * math.pi else 2.0 * math.pi   # NaN too
+    n_max = math.ceil(turn / ARC_MIN_TURN)
+    n = length_d / segment_d if segment_d > 0.0 else 1.0
+    if not n <= n_max:                        # also NaN
+        n = n_max
+    return max(1, int(n))
+
+
 class LineRecord:
     """What one moving source line did (arc chords aggregated into their line)."""
     __slots__ = ("idx", "start_v", "end_v", "peak_v", "time_t", "int_a2", "int_a2_j",
@@ -87,6 +108,7 @@ class _Sim:
         self.on_block = on_block
         self.res = SimResult()
         self.klipper_limits = profile.block_buffer <= 0
+        self.klipper_fw = profile.flavour == "klipper"
         self.model = profile.junction
         self.jerk_z = getattr(profile, "jerk_z_v", 0.4)
         self.icv = getattr(profile, "instantaneous_corner_velocity_v", KLIPPER_INSTANT_CORNER_V)
@@ -151,9 +173,7 @@ class _Sim:
             self._block(mv, True, mv.x1 - mv.x0, mv.y1 - mv.y0, mv.z1 - mv.z0, mv.e)
             return
         arc = mv.arc
-        n = int(math.floor(arc.length_d / self.prof.arc_segment_d)) if self.prof.arc_segment_d > 0 else 1
-        if n < 1:
-            n = 1
+        n = arc_chords(arc.length_d, arc.sweep, self.prof.arc_segment_d)
         cx, cy, r, t0, sw = arc.cx, arc.cy, arc.r, arc.theta0, arc.sweep
         dz = (mv.z1 - mv.z0) / n
         de = mv.e / n
@@ -181,8 +201,17 @@ class _Sim:
         a0 = mv.accel
         if not a0 > 0.0:                          # M204 S0 or garbage: the profile's default
             a0 = prof.default_accel_a
-        self.caps = caps = (lim.ax_max, lim.ay_max, prof.max_z_accel_a)
-        a = axis_limited(a0, ux, uy, uz, caps[0], caps[1], caps[2])
+        if self.klipper_fw:
+            # Klipper: M204 / SET_VELOCITY_LIMIT set the toolhead's max_accel itself, uncapped
+            # (no per-axis XY limit; M201 is an unknown command); only Z scales it down
+            a = a0
+            if uz:
+                az = prof.max_z_accel_a / abs(uz)
+                if az < a:
+                    a = az
+        else:
+            self.caps = caps = (lim.ax_max, lim.ay_max, prof.max_z_accel_a)
+            a = axis_limited(a0, ux, uy, uz, caps[0], caps[1], caps[2])
         if self.klipper_limits:                   # Klipper: one toolhead speed, Z scaled
             v = mv.v if mv.v < lim.v_max else lim.v_max
             if uz:
@@ -197,7 +226,10 @@ class _Sim:
         else:
             jd = lim.jd
             mcr_a = a
-        b = Block(mv.idx, mv.kind, first, d, ux, uy, uz, de * inv, a, jd, v, mcr_a)
+        # E per path mm as the extruder sees it: M221's flow factor scales E (Klipper's
+        # extruder junction limit reads it); state.Move carries it as flow_r when known
+        er = de * inv * getattr(mv, "flow_r", 1.0) if de else 0.0
+        b = Block(mv.idx, mv.kind, first, d, ux, uy, uz, er, a, jd, v, mcr_a)
         if self.model == "jerk":
             self.jerk = (lim.jerk_x, lim.jerk_y, self.jerk_z)
             b.safe_v = marlin_safe_speed(ux, uy, uz, v, lim.jerk_x, lim.jerk_y, self.jerk_z)

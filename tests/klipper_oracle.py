@@ -1,0 +1,106 @@
+"""Real Klipper as a test oracle (a helper module for the tests, not a test file).
+
+`../shared/klipper/klipper_motion.py` (beside the repository; env KLIPPER_ORACLE names
+another path) runs Klipper's own host planner in batch mode on a file and prints JSON:
+its motion time, the integral of |a|^2 over its trapezoids, full stops and every G-code
+error with its line.  `run_oracle(path, profile)` runs it with the profile's limits
+(results cached per (file content, options) for the session); `oracle_or_skip()` skips
+a test, saying why, only when the oracle is absent.
+
+`model_metrics(path, profile)` gives the firmware model's figures under the oracle's
+definitions (sum of the XYZ trapezoids' durations; sum of a^2 (accel_t + decel_t) over
+them, XY-projected or not; a full stop = a move ending and the next starting below
+1e-6 mm/s), and `oracle_machine(profile)` the profile as the oracle's printer.cfg has
+it (its Z limits are fixed there), so that the model plays the same machine.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gcode_opt.firmware.simulate import simulate_file
+
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_ORACLE = REPO.parent / "shared" / "klipper" / "klipper_motion.py"
+ORACLE_Z_VELOCITY_V = 20.0      # shared/klipper/printer.cfg [printer] max_z_velocity (not an option)
+ORACLE_Z_ACCEL_A = 500.0        # shared/klipper/printer.cfg [printer] max_z_accel
+STOP_V = 1e-6                   # klipper_motion.py: a move ending and the next starting below this
+
+_cache: dict = {}
+
+
+def oracle_path() -> Path:
+    return Path(os.environ.get("KLIPPER_ORACLE") or DEFAULT_ORACLE)
+
+
+def oracle_or_skip() -> Path:
+    p = oracle_path()
+    if not p.is_file():
+        pytest.skip(f"Klipper oracle absent: no {p} (set KLIPPER_ORACLE to klipper_motion.py)")
+    return p
+
+
+def oracle_options(profile, start=None) -> tuple:
+    """klipper_motion.py options for a profile; start = (x, y, z) sets --start."""
+    opts = ("--accel", repr(float(profile.default_accel_a)),
+            "--scv", repr(float(profile.square_corner_velocity_v)),
+            "--max-velocity", repr(float(profile.max_velocity_v)),
+            "--mcr", repr(float(profile.minimum_cruise_ratio_r)))
+    if start is not None:
+        opts += ("--start", ",".join(repr(float(c)) for c in start))
+    return opts
+
+
+def run_oracle(path, profile, start=None) -> dict:
+    """The oracle's JSON for this file under the profile's limits (cached)."""
+    exe = oracle_or_skip()
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    opts = oracle_options(profile, start)
+    key = (str(exe), digest, opts)
+    if key not in _cache:
+        proc = subprocess.run([sys.executable, str(exe), str(path), *opts],
+                              capture_output=True, text=True, timeout=900)
+        if proc.returncode not in (0, 1) or not proc.stdout.strip():
+            raise RuntimeError(f"Klipper oracle failed (exit {proc.returncode}) on {path}: "
+                               f"{proc.stderr.strip()[-2000:]}")
+        _cache[key] = json.loads(proc.stdout)
+    return _cache[key]
+
+
+def oracle_machine(profile):
+    """The profile on the oracle's printer: same XY limits, the oracle's fixed Z limits."""
+    return dataclasses.replace(profile, max_z_velocity_v=ORACLE_Z_VELOCITY_V,
+                               max_z_accel_a=ORACLE_Z_ACCEL_A)
+
+
+def model_metrics(path, profile) -> dict:
+    """The firmware model's figures with the oracle's definitions (see module doc)."""
+    acc = {"motion_time_s": 0.0, "int_a2_xy": 0.0, "int_a2_xyz": 0.0,
+           "n_internal_full_stops": 0, "n_trapq_moves": 0}
+    last = [None]
+
+    def on_block(b):
+        ta = b.accel_t + b.decel_t
+        a2 = b.accel * b.accel * ta
+        acc["motion_time_s"] += b.accel_t + b.cruise_t + b.decel_t
+        acc["int_a2_xyz"] += a2
+        acc["int_a2_xy"] += a2 * (b.ux * b.ux + b.uy * b.uy)
+        acc["n_trapq_moves"] += 1
+        if last[0] is not None and last[0] < STOP_V and b.start_v < STOP_V:
+            acc["n_internal_full_stops"] += 1
+        last[0] = b.end_v
+
+    res = simulate_file(str(path), profile, on_block=on_block)
+    acc["sim"] = res
+    return acc
+
+
+def rel_diff(model: float, oracle: float) -> float:
+    return (model - oracle) / oracle if oracle else (0.0 if model == 0 else float("inf"))

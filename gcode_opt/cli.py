@@ -388,4 +388,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # run the imported module's main, not this __main__ copy: one set of exception classes
+    from gcode_opt.cli import main as _main
+    sys.exit(_main())

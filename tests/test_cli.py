@@ -190,6 +190,12 @@ def test_as_a_program(tmp_path):
     r = subprocess.run([sys.executable, "-m", "gcode_opt.cli", "process", p, "--max-slowdown", "3"],
                        capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert r.returncode == 2 and "Traceback" not in r.stderr and "did you mean 3%?" in r.stderr
+    # errors raised from the sub-command modules (report, law) are the same classes as main's
+    for args in (["report", p, SAMPLE], ["law", "--gcode", p, "--line-number", "3", "--beta", "0.1"],
+                 ["law", "--line", "0,0,1,1", "--beta", "0.1", "-o", str(tmp_path / "no" / "t.csv")]):
+        r = subprocess.run([sys.executable, "-m", "gcode_opt.cli", *args], capture_output=True, text=True,
+                           cwd=ROOT, timeout=60)
+        assert r.returncode == 2 and r.stderr.startswith("gcode-opt: ") and "internal error" not in r.stderr, args
 
 
 def test_binary_input_refused(capsys, tmp_path):

@@ -119,7 +119,11 @@ def cmd_report(a):
 
 
 def cmd_law(a):
+    from ..cli import check_input, check_outputs
     from .law_table import law_table_from_args, write_table
+    if a.gcode:
+        check_input(a.gcode)
+    check_outputs([(a.output, "table")])
     table = law_table_from_args(a)
     write_table(table, a.format, a.output)
     return 0

@@ -148,3 +148,155 @@ def test_edge_feature_files_give_sparse_infill():
 def test_profile_detection(name, expected):
     from gcode_opt.detect import detect_profile
     assert detect_profile("sample_gcode/" + name)[0] == expected
+
+
+# ---- issue 7: strict reading, ranges, flavour-faithful limits, odd arcs, encodings ----------
+
+from gcode_opt.state import GcodeError  # noqa: E402
+
+
+def refuse(text, flavour="klipper", match=None):
+    with pytest.raises(GcodeError, match=match) as ei:
+        run(text, flavour)
+    return str(ei.value)
+
+
+def test_fast_path_and_strict_path_read_alike():
+    spaced = "M83\nG1 X10 Y5 E0.5 F600\nG1 X-.5 Y+3. E.25\n"
+    glued = "M83\nG1X10Y5E0.5F600\nG1X-.5Y+3.E.25\n"        # not the fast path
+    a = [(m.x1, m.y1, m.e, m.v) for m in moves(run(spaced)[1])]
+    b = [(m.x1, m.y1, m.e, m.v) for m in moves(run(glued)[1])]
+    assert a == b == [(10.0, 5.0, 0.5, 10.0), (-0.5, 3.0, 0.25, 10.0)]
+
+
+@pytest.mark.parametrize("text,match", [
+    ("G1 X100000.001", "position beyond"),
+    ("G1 Y-100001", "position beyond"),
+    ("G1 X" + "9" * 400, "position beyond"),                # float() of it is inf
+    ("G91\nG1 X60000\nG1 X60000", "position beyond"),       # relative moves add up
+    ("G20\nG1 X4000", "position beyond"),                   # 4000 in = 101600 mm
+    ("G92 X200000", "position beyond"),
+    ("G1 X1 E10000001", "E beyond"),
+    ("G2 X10 Y0 I200000 J0", "I beyond"),
+    ("G1 X1 F10000001", "F beyond"),
+    ("G4 P-5", "dwell"),
+])
+def test_ranges_refused(text, match):
+    msg = refuse(text, match=match)
+    assert msg.startswith(f"<input>:{text.count(chr(10)) + 1}: ")   # the last line is the bad one
+
+
+def test_ranges_at_the_bound_accepted():
+    _, evs = run("G1 X100000 Y-100000 Z0.2 F600\nG1 X1 E10000000\n")
+    m = moves(evs)
+    assert (m[0].x1, m[0].y1) == (1e5, -1e5) and m[1].e == 1e7
+
+
+@pytest.mark.parametrize("flavour,refused", [("klipper", True), ("rrf", True),
+                                             ("marlin2", False), ("marlin-legacy", False)])
+def test_f_zero_or_negative(flavour, refused):
+    text = "G1 X1 F600\nG1 X2 F0\nG1 X3 F-100\n"
+    if refused:
+        assert "F must be above 0" in refuse(text, flavour)
+    else:                                  # Marlin, Prusa-Firmware: F<=0 keeps the last feed
+        _, evs = run(text, flavour)
+        assert [m.v for m in moves(evs)] == [10.0, 10.0, 10.0]
+
+
+def test_klipper_ignores_m201_m203_m205_marlin_applies_them():
+    text = "M201 X500 Y700\nM203 X100 Y120\nM205 X5 Y6 J0.05\nG1 X1 F600\n"
+    st, _ = run(text, "klipper")
+    base = MachineState(dataclasses_replace_flavour("klipper")).lim
+    assert (st.lim.ax_max, st.lim.ay_max, st.lim.v_max, st.lim.jd, st.lim.jerk_x) == \
+        (base.ax_max, base.ay_max, base.v_max, base.jd, base.jerk_x)
+    st, _ = run(text, "marlin2")
+    assert (st.lim.ax_max, st.lim.ay_max, st.lim.v_max, st.lim.jerk_x, st.lim.jerk_y, st.lim.jd) == \
+        (500, 700, 100, 5, 6, 0.05)
+    st, _ = run("M203 X6000 Y9000\n", "rrf")              # RepRapFirmware: mm/min
+    assert st.lim.v_max == 100
+
+
+def dataclasses_replace_flavour(flavour):
+    import dataclasses
+    return dataclasses.replace(load_profile("generic-klipper"), flavour=flavour, fw_retract_length_d=0.8)
+
+
+def test_klipper_m204_rules():
+    # toolhead.cmd_M204: S > 0 wins (P, T then unread); P alone is ignored; any read value <= 0 raises
+    st, _ = run("M204 S1000\nM204 P2000\n", "klipper")
+    assert st.accel_print == 1000
+    st, _ = run("M204 S1500 P0\n", "klipper")
+    assert st.accel_print == 1500
+    assert "M204 S must be above 0" in refuse("M204 S0\n", "klipper")
+    assert "M204 P must be above 0" in refuse("M204 P0 T1000\n", "klipper")
+    assert "M204 T must be above 0" in refuse("M204 T-5\n", "klipper")
+    refuse("M204 S-1000\n", "klipper")
+
+
+@pytest.mark.parametrize("flavour", ["marlin2", "marlin-legacy", "rrf"])
+@pytest.mark.parametrize("line", ["M204 S0", "M204 P0", "M204 T-1", "M204 R0", "M201 X0", "M201 Y-100",
+                                  "M203 X0", "M205 X-1"])
+def test_marlin_rrf_nonpositive_limits_refused(flavour, line):
+    assert "must be" in refuse(line + "\n", flavour)
+
+
+def test_marlin2_m205_j_out_of_range_ignored_with_warning():
+    st, _ = run("M205 J0.5\n", "marlin2")
+    assert st.lim.jd == load_profile("generic-klipper").junction_deviation_d
+    assert st.warnings and st.warnings[0][0] == 0 and "J" in st.warnings[0][1]
+
+
+@pytest.mark.parametrize("line,match", [
+    ("SET_VELOCITY_LIMIT ACCEL=0", "ACCEL must be above 0"),
+    ("SET_VELOCITY_LIMIT VELOCITY=-1", "VELOCITY must be above 0"),
+    ("SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY=-0.1", "SQUARE_CORNER_VELOCITY"),
+    ("SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=1", "MINIMUM_CRUISE_RATIO"),
+    ("SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=-0.5", "MINIMUM_CRUISE_RATIO"),
+    ("SET_VELOCITY_LIMIT ACCEL=1e3", "ACCEL: unreadable number"),
+    ("SET_VELOCITY_LIMIT ACCEL=inf", "ACCEL: unreadable number"),
+])
+def test_set_velocity_limit_refused(line, match):
+    refuse(line + "\n", "klipper", match=match)
+
+
+def test_set_velocity_limit_accepted_forms():
+    st, _ = run("SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY=0 MINIMUM_CRUISE_RATIO=0.99 ACCEL=2000\n"
+                "SET_VELOCITY_LIMIT ACCEL={params.A} VELOCITY=300\n", "klipper")   # macro tolerated
+    assert (st.lim.scv, st.lim.mcr, st.accel_print, st.lim.v_max) == (0, 0.99, 2000, 300)
+    st, _ = run("SET_VELOCITY_LIMIT ACCEL=2000 VELOCITY=1\n", "marlin2")      # unknown to Marlin
+    assert st.accel_print == load_profile("generic-klipper").default_accel_a and st.lim.v_max != 1
+
+
+def test_motion_and_read_commands_refuse_garbage_unknown_commands_do_not():
+    assert "exponent" in refuse("G92 E1e2\n")
+    assert "non-ASCII" in refuse("G1 X1 Y2\udcff\n")                  # a non-UTF-8 byte in code
+    _, evs = run("M117 Y2e1 inf \udcff\nM862.3 P \"MK3S\"\nG1 X1 ; caf\udce9\n")
+    assert evs[:2] == [None, None] and moves(evs)[0].x1 == 1
+
+
+def test_bom_on_line_one_is_not_part_of_the_command():
+    st, evs = run("\ufeffG1 X10 Y5 F600\nG1 X20\n")
+    m = moves(evs)
+    assert (m[0].x1, m[0].y1) == (10, 5) and m[1].x0 == 10
+
+
+def test_arc_end_off_its_circle_is_warned_and_not_retimed():
+    from gcode_opt.strokes import K_ARC, group_strokes
+    # start (100,100), centre (110,100): r 10; end (110,110.5) is 0.5 mm outside
+    text = "M83\n;TYPE:Internal infill\nG1 X100 Y100 F600\nG2 X110 Y110.5 I10 J0 E0.5\n" \
+           "G1 X100 Y100\nG2 X110 Y110 I10 J0 E0.5\n"
+    st, evs = run(text)
+    arcs = [m for m in moves(evs) if m.kind == ARC]
+    assert arcs[0].arc.off_circle and arcs[0].arc.end_off_d == pytest.approx(0.5)
+    assert not arcs[1].arc.off_circle and arcs[1].arc.end_off_d == pytest.approx(0.0, abs=1e-12)
+    assert st.warnings == [(3, st.warnings[0][1])] and "off its circle" in st.warnings[0][1]
+    triples = [(i, raw + "\n", ev) for i, (raw, ev) in enumerate(zip(text.strip("\n").split("\n"), evs))]
+    strokes = [x[1] for x in group_strokes(iter(triples), {feat.SPARSE_INFILL}) if x[0] == "stroke"]
+    assert [(s.kind, s.first_idx) for s in strokes if s.kind == K_ARC] == [(K_ARC, 5)]
+
+
+def test_arc_r_below_half_chord_is_a_half_circle_on_the_chord():
+    # chord 20 mm, R 5: Marlin centres it on the chord's midpoint (h^2 < 0 -> h = 0)
+    _, evs = run("G1 X0 Y0\nG2 X20 Y0 R5\n")
+    a = moves(evs)[-1].arc
+    assert (a.cx, a.cy, a.r) == (10, 0, 10) and abs(a.sweep) == pytest.approx(math.pi)

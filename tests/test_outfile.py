@@ -280,3 +280,33 @@ def test_failed_report_keeps_the_output(tmp_path, monkeypatch, capsys):
     line = _one_line(capsys.readouterr().err)
     assert line == f"gcode-opt: {rep}: report not written: Input/output error; {out} was written"
     _no_tmp(tmp_path)
+
+
+def test_signal_during_hard_link_copy_is_held_back(tmp_path):
+    """SIGTERM arriving in the middle of the copy over a hard-linked file: the copy completes
+    (never half a file), then the signal is delivered."""
+    a = tmp_path / "a.gcode"
+    a.write_bytes(b"old\n" * 1000)
+    os.link(a, tmp_path / "b.gcode")
+    code = ("import os, signal, sys\nfrom gcode_opt import outfile\n"
+            "outfile.install_signal_handlers()\n"
+            "o = outfile.AtomicOutput(sys.argv[1]); o.__enter__()\n"
+            "open(o.tmp, 'wb').write(b'new\\n' * 300000)\n"
+            "orig_open = open\n"
+            "class Slow:\n"
+            "    def __init__(s, f): s.f = f; s.n = 0\n"
+            "    def __getattr__(s, k): return getattr(s.f, k)\n"
+            "    def __enter__(s): return s\n"
+            "    def __exit__(s, *e): s.f.close()\n"
+            "    def write(s, b):\n"
+            "        s.n += 1\n"
+            "        if s.n == 1: os.kill(os.getpid(), signal.SIGTERM)   # mid-copy\n"
+            "        return s.f.write(b)\n"
+            "outfile.open = lambda p, m='r', *a: Slow(orig_open(p, m, *a)) if m == 'r+b' else orig_open(p, m, *a)\n"
+            "try:\n    o.commit()\nexcept outfile.Interrupted:\n"
+            "    print('interrupted after commit:', o.committed, o.target in outfile.COMMITTED)\n")
+    r = subprocess.run([sys.executable, "-c", code, str(a)], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert "interrupted after commit: True True" in r.stdout, r.stdout + r.stderr
+    assert a.read_bytes() == b"new\n" * 300000 == (tmp_path / "b.gcode").read_bytes()
+    assert os.stat(a).st_nlink == 2
+    _no_tmp(tmp_path)

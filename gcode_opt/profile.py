@@ -87,37 +87,48 @@ class Profile:
 # ---------------------------------------------------------------- schema
 # key -> (table, kind, lo, lo_open, hi, hi_open, unit); table "" = top level.
 # kind: "num" (finite int or float, not bool), "int" (whole number, not bool), "str", "strs",
-# or a tuple of allowed strings.  lo/hi None = unbounded on that side.
-_POS = (0.0, True, None, False)          # > 0
-_NONNEG = (0.0, False, None, False)      # >= 0
+# or a tuple of allowed strings.  lo/hi None = unbounded on that side.  The upper bounds are
+# far above any printer; they stop a typo (an extra 000, m for mm) from reaching the planner
+# as a number whose square overflows.
+V_MAX, A_MAX = 1e4, 1e6                  # mm/s, mm/s^2
+
+
+def _pos(hi):
+    return (0.0, True, hi, False)        # (0, hi]
+
+
+def _nonneg(hi):
+    return (0.0, False, hi, False)       # [0, hi]
+
+
 SCHEMA = {
     "name": ("", "str", None, False, None, False, ""),
     "sources": ("", "strs", None, False, None, False, ""),
     "flavour": ("firmware", FLAVOURS, None, False, None, False, ""),
     "junction": ("firmware", JUNCTION_MODELS, None, False, None, False, ""),
-    "square_corner_velocity_v": ("firmware", "num", *_NONNEG, "mm/s"),
+    "square_corner_velocity_v": ("firmware", "num", *_nonneg(V_MAX), "mm/s"),
     "minimum_cruise_ratio_r": ("firmware", "num", 0.0, False, 1.0, True, ""),
-    "junction_deviation_d": ("firmware", "num", *_POS, "mm"),
-    "jerk_xy_v": ("firmware", "num", *_NONNEG, "mm/s"),
+    "junction_deviation_d": ("firmware", "num", *_pos(10.0), "mm"),
+    "jerk_xy_v": ("firmware", "num", *_nonneg(V_MAX), "mm/s"),
     "block_buffer": ("firmware", "int", 0, False, 100000, False, "moves"),
     "min_segment_time_t": ("firmware", "num", 0.0, False, 1.0, False, "s"),
-    "max_segment_rate": ("firmware", "num", *_POS, "segments/s"),
+    "max_segment_rate": ("firmware", "num", *_pos(1e6), "segments/s"),
     # a chord of 1e-9 mm cut one arc into ~1e10 pieces: the run never ended
     "arc_segment_d": ("firmware", "num", 0.01, False, 10.0, False, "mm"),
-    "fw_retract_length_d": ("firmware", "num", *_NONNEG, "mm"),
-    "fw_retract_speed_v": ("firmware", "num", *_POS, "mm/s"),
-    "max_velocity_v": ("limits", "num", *_POS, "mm/s"),
-    "max_accel_a": ("limits", "num", *_POS, "mm/s^2"),
-    "default_accel_a": ("limits", "num", *_POS, "mm/s^2"),
-    "travel_accel_a": ("limits", "num", *_POS, "mm/s^2"),
-    "retract_accel_a": ("limits", "num", *_POS, "mm/s^2"),
-    "max_z_velocity_v": ("limits", "num", *_POS, "mm/s"),
-    "max_z_accel_a": ("limits", "num", *_POS, "mm/s^2"),
-    "max_e_velocity_v": ("limits", "num", *_POS, "mm/s"),
-    "moving_mass_x_kg": ("machine", "num", *_POS, "kg"),
-    "moving_mass_y_kg": ("machine", "num", *_POS, "kg"),
+    "fw_retract_length_d": ("firmware", "num", *_nonneg(100.0), "mm"),
+    "fw_retract_speed_v": ("firmware", "num", *_pos(V_MAX), "mm/s"),
+    "max_velocity_v": ("limits", "num", *_pos(V_MAX), "mm/s"),
+    "max_accel_a": ("limits", "num", *_pos(A_MAX), "mm/s^2"),
+    "default_accel_a": ("limits", "num", *_pos(A_MAX), "mm/s^2"),
+    "travel_accel_a": ("limits", "num", *_pos(A_MAX), "mm/s^2"),
+    "retract_accel_a": ("limits", "num", *_pos(A_MAX), "mm/s^2"),
+    "max_z_velocity_v": ("limits", "num", *_pos(V_MAX), "mm/s"),
+    "max_z_accel_a": ("limits", "num", *_pos(A_MAX), "mm/s^2"),
+    "max_e_velocity_v": ("limits", "num", *_pos(V_MAX), "mm/s"),
+    "moving_mass_x_kg": ("machine", "num", *_pos(1000.0), "kg"),
+    "moving_mass_y_kg": ("machine", "num", *_pos(1000.0), "kg"),
     "filament_diameter_d": ("machine", "num", 0.1, False, 10.0, False, "mm"),
-    "max_volumetric_flow": ("machine", "num", *_POS, "mm^3/s"),
+    "max_volumetric_flow": ("machine", "num", *_pos(1e4), "mm^3/s"),
 }
 TABLES = ("firmware", "limits", "machine")
 REQUIRED = ("flavour", "junction", "max_velocity_v", "max_accel_a")
@@ -140,11 +151,18 @@ def _toml_text(v):
     return repr(v)
 
 
-def _range_text(lo, lo_open, hi, hi_open, unit):
+# keys whose whole interval is the message; the others name the side that was crossed
+_INTERVAL = {"minimum_cruise_ratio_r", "arc_segment_d", "filament_diameter_d", "block_buffer",
+             "min_segment_time_t"}
+
+
+def _range_text(key, below, lo, lo_open, hi, hi_open, unit):
     u = f" {unit}" if unit else ""
-    if hi is None:
+    if key in _INTERVAL and hi is not None:
+        return f"must be in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{u}"
+    if below:
         return f"must be {'>' if lo_open else '>='} {lo:g}{u}"
-    return (f"must be in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{u}")
+    return f"must be {'<' if hi_open else '<='} {hi:g}{u} (far above any printer: a typo?)"
 
 
 def _check(key, v):
@@ -169,7 +187,7 @@ def _check(key, v):
         return "must be a finite number"
     bad_lo = lo is not None and (v <= lo if lo_open else v < lo)
     bad_hi = hi is not None and (v >= hi if hi_open else v > hi)
-    return _range_text(lo, lo_open, hi, hi_open, unit) if bad_lo or bad_hi else None
+    return _range_text(key, bad_lo, lo, lo_open, hi, hi_open, unit) if bad_lo or bad_hi else None
 
 
 def profile_from_dict(data: dict, name: str, where: str | None = None) -> Profile:

@@ -185,6 +185,8 @@ def test_minimal_profile_loads_with_stated_defaults(tmp_path):
     ("flavour", "firmware", '"smoothie"', 'flavour = "smoothie": must be one of klipper, marlin2, marlin-legacy, rrf'),
     ("junction", "firmware", "1", "junction = 1: must be one of scv, jd, jerk"),
     ("filament_diameter_d", "machine", "0", "filament_diameter_d = 0: must be in [0.1, 10] mm"),
+    ("max_accel_a", "limits", "1e300", "max_accel_a = 1e+300: must be <= 1e+06 mm/s^2 (far above any printer: a typo?)"),
+    ("max_velocity_v", "limits", "3e5", "max_velocity_v = 300000.0: must be <= 10000 mm/s (far above any printer: a typo?)"),
 ])
 def test_bad_value_names_file_and_key(tmp_path, key, table, val, why):
     with pytest.raises(ValueError) as ei:

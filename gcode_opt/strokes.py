@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from .state import ARC, LINE
+from .state import ARC, LINE, MAX_POS_D
 from .words import param_texts, split_comment, strip_checksum
 
 COLLINEAR_SIN = 1e-3      # |sin| of the turn below which two moves are one line (0.06 deg)
@@ -124,9 +124,13 @@ def eligible_arc(m, raw, selected: frozenset) -> bool:
     """A G2/G3 we may re-time: selected feature, I/J form (the centre is in the file's
     text, so sub-arcs can keep it exactly), absolute XY in mm, no checksum, no Z change,
     extruding, at least 1 mm long, its end on its circle (else a firmware ends it with a
-    straight jump the law does not know of: state.Arc.off_circle)."""
+    straight jump the law does not know of: state.Arc.off_circle), and its whole circle
+    1 mm inside the reader's position range (its sub-arcs must read back)."""
     if not (m.kind == ARC and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
             and m.z0 == m.z1 and m.e > 0.0 and m.arc.length_d >= 1.0 and not m.arc.off_circle):
+        return False
+    a = m.arc        # sub-arc ends are rounded points of the circle: keep them inside the range
+    if abs(a.cx) + a.r > MAX_POS_D - 1.0 or abs(a.cy) + a.r > MAX_POS_D - 1.0:
         return False
     code, _ = strip_checksum(split_comment(raw)[0])
     p = param_texts(code)

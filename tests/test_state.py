@@ -300,3 +300,17 @@ def test_arc_r_below_half_chord_is_a_half_circle_on_the_chord():
     _, evs = run("G1 X0 Y0\nG2 X20 Y0 R5\n")
     a = moves(evs)[-1].arc
     assert (a.cx, a.cy, a.r) == (10, 0, 10) and abs(a.sweep) == pytest.approx(math.pi)
+
+
+def test_arc_whose_circle_reaches_the_range_is_read_but_not_retimed():
+    # reproducer: re-timed sub-arcs of this circle (|cx| + r = 1e5) were rounded to points
+    # 1e-5 mm beyond the range, and the output's read-back refused them
+    from gcode_opt.strokes import eligible_arc
+    sel = {feat.SPARSE_INFILL}
+    text = "M83\n;TYPE:Internal infill\nG1 X0 Y0 F6000\nG3 X50000 Y50000 I50000 J0 E1\n" \
+           "G1 X0 Y0\nG3 X10 Y10 I10 J0 E1\n"
+    _, evs = run(text)
+    big, small = [m for m in moves(evs) if m.kind == ARC]
+    assert big.arc.r == 50000 and not big.arc.off_circle
+    assert not eligible_arc(big, "G3 X50000 Y50000 I50000 J0 E1\n", sel)
+    assert eligible_arc(small, "G3 X10 Y10 I10 J0 E1\n", sel)

@@ -241,7 +241,8 @@ def cmd_process(a):
             if a.debug:
                 import traceback
                 traceback.print_exc()
-            report_error.append(f"{a.report}: report not written: {e.strerror if isinstance(e, OSError) and e.strerror else e}")
+            why = e.strerror if isinstance(e, OSError) and e.strerror else e
+            report_error.append(f"{a.report}: report not written: {why}")
     summary = process(a.input, out, prof, opts, before_replace=write_report_hook if a.report else None)
     rc = 0
     if a.json:

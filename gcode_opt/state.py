@@ -4,7 +4,15 @@
 a `Move` (the toolhead or the extruder moves), a `Barrier` (the planner must come to a
 stop: homing, dwell, waits), or None (the line only changes modal state or is unknown).
 Positions are logical coordinates in mm (after G20 and G92), speeds mm/s, accelerations
-mm/s^2.  The flavour decides how M204 and G90/M83 are read, as the firmware would.
+mm/s^2.  The flavour decides how M204, M201/M203/M205, SET_VELOCITY_LIMIT, F<=0 and
+G90/M83 are read, as the firmware would (Klipper ignores M201/M203/M205).
+
+A line the state must read (G0-G3, G92, M204, M201/M203/M205, G4, G10/G11,
+SET_VELOCITY_LIMIT) is read by the strict tokenizer (words.py) and range-checked; what a
+printer would reject or misread raises GcodeError naming the file and line.  Unknown
+commands are never parsed.  `MachineState.warnings` collects (idx, text) for lines left
+as written that a user should hear of (an arc whose end is off its circle, an M205 J
+Marlin ignores).
 """
 from __future__ import annotations
 

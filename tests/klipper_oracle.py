@@ -104,3 +104,58 @@ def model_metrics(path, profile) -> dict:
 
 def rel_diff(model: float, oracle: float) -> float:
     return (model - oracle) / oracle if oracle else (0.0 if model == 0 else float("inf"))
+
+
+def random_klipper_file(seed: int, n: int = 400) -> str:
+    """A random G-code file of what Klipper plans: lines from 0.05 to 40 mm (reversals
+    included), F changes, M204 S and SET_VELOCITY_LIMIT (ACCEL, VELOCITY,
+    SQUARE_CORNER_VELOCITY incl. 0, MINIMUM_CRUISE_RATIO), retract/unretract, G4/M400, Z
+    moves, I/J arcs of 0.5..40 mm radius (helical, with and without E); within 200 mm."""
+    import math
+    import random
+    rnd = random.Random(seed)
+    out = ["G21", "G90", "M83", "G1 F3000", "G1 X100 Y100 Z0.2"]
+    x = y = 100.0
+    z = 0.2
+    for _ in range(n):
+        k = rnd.random()
+        if k < 0.04:
+            out.append(f"M204 S{rnd.choice([500, 1000, 2500, 4000, 7000])}")
+        elif k < 0.07:
+            out.append("SET_VELOCITY_LIMIT " + rnd.choice([
+                f"ACCEL={rnd.choice([800, 3000, 6000])}", f"VELOCITY={rnd.choice([80, 150, 300, 500])}",
+                f"SQUARE_CORNER_VELOCITY={rnd.choice([0, 1, 5, 12])}",
+                f"MINIMUM_CRUISE_RATIO={rnd.choice([0, 0.3, 0.5, 0.9])}"]))
+        elif k < 0.09:
+            d = rnd.choice([0.5, 1.0])
+            out += [f"G1 E-{d} F2400", f"G1 E{d}"]
+        elif k < 0.10:
+            out.append(rnd.choice(["G4 P100", "M400", "G4 P0"]))
+        elif k < 0.13:
+            z += 0.2
+            out.append(f"G1 Z{z:.2f} F{rnd.choice([600, 1200, 6000])}")
+        elif k < 0.20:
+            rad = rnd.choice([0.5, 2, 5, 15, 40])
+            th0 = rnd.uniform(0, 2 * math.pi)
+            cx, cy = x - rad * math.cos(th0), y - rad * math.sin(th0)
+            sw = rnd.uniform(0.2, 6.0) * rnd.choice([-1, 1])
+            ex, ey = cx + rad * math.cos(th0 + sw), cy + rad * math.sin(th0 + sw)
+            if not (5 < ex < 195 and 5 < ey < 195):
+                continue
+            e = f" E{rnd.uniform(0.01, 2):.4f}" if rnd.random() < 0.7 else ""
+            zz = ""
+            if rnd.random() < 0.1:
+                z += 0.1
+                zz = f" Z{z:.2f}"
+            out.append(f"{'G3' if sw > 0 else 'G2'} X{ex:.4f} Y{ey:.4f} I{cx - x:.4f} J{cy - y:.4f}"
+                       f"{zz}{e} F{rnd.choice([1200, 3000, 9000])}")
+            x, y = float(f"{ex:.4f}"), float(f"{ey:.4f}")
+        else:
+            step = rnd.choice([0.05, 0.3, 1, 3, 10, 40])
+            nx = min(max(x + rnd.uniform(-step, step), 1), 199)
+            ny = min(max(y + rnd.uniform(-step, step), 1), 199)
+            e = f" E{rnd.uniform(0.001, 0.1) * step:.5f}" if rnd.random() < 0.7 else ""
+            f = f" F{rnd.choice([600, 1800, 3600, 7200, 12000, 30000])}" if rnd.random() < 0.3 else ""
+            out.append(f"G1 X{nx:.3f} Y{ny:.3f}{e}{f}")
+            x, y = float(f"{nx:.3f}"), float(f"{ny:.3f}")
+    return "\n".join(out) + "\n"

@@ -213,6 +213,21 @@ def test_model_replays_klipper_exactly(tmp_path, sample):
     assert m["sim"].int_a2_t == pytest.approx(o["int_a2_xyz"], rel=1e-9)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2] + [pytest.param(s, marks=pytest.mark.slow) for s in range(3, 40)])
+def test_model_replays_klipper_on_random_files(tmp_path, seed):
+    # random lines, arcs, accel / velocity / scv / mcr changes, retractions, dwells, Z moves
+    path = tmp_path / f"random{seed}.gcode"
+    path.write_text(ko.random_klipper_file(seed))
+    prof = load_profile("voron24")
+    o = ko.run_oracle(path, prof)
+    m = ko.model_metrics(path, ko.oracle_machine(prof))
+    assert o["errors"] == []
+    assert m["n_trapq_moves"] == o["n_trapq_moves"]
+    assert m["n_internal_full_stops"] == o["n_internal_full_stops"]
+    assert m["motion_time_s"] == pytest.approx(o["motion_time_s"], rel=1e-9)
+    assert m["int_a2_xyz"] == pytest.approx(o["int_a2_xyz"], rel=1e-9)
+
+
 def test_m204_above_max_accel_and_m201_as_klipper_reads_them(tmp_path):
     # Klipper's M204 sets max_accel itself (no cap at the config's max_accel) and M201 is an
     # unknown command: 6000 mm/s^2 on a 3000 mm/s^2 printer, with an M201 X500 Y500 before.

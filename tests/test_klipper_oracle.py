@@ -262,6 +262,27 @@ def test_arcs_as_klipper_cuts_them(tmp_path):
     assert m["int_a2_xyz"] == pytest.approx(o["int_a2_xyz"], rel=1e-9)
 
 
+def test_bounded_arc_cut_agrees_with_klipper(tmp_path):
+    # r = 5000 mm, 0.18 rad (900 mm): Klipper cuts floor(900.0..) = 900 chords of 1 mm, the
+    # model ceil(180.0..) = 181 of ~5 mm (its 1 mrad bound; the end rounded to 0.1 um makes
+    # the sweep a hair above 0.18).  The chords' turn is far from any junction limit, so only
+    # their length differs, by (turn)^2 / 24 (~4e-8); int a^2 moves with the accel phases
+    # at the arc's ends (the first chord is 5 mm, not 1 mm, with mcr 0.5).
+    import math
+    r, sw = 5000.0, 0.18
+    ex, ey = -4500.0 + r * math.cos(sw), r * math.sin(sw)
+    text = f"G21\nG90\nM83\nG1 X500 Y0 F9000\nG3 X{ex:.4f} Y{ey:.4f} I-5000 J0 E20 F9000\nG1 X500 Y0 E1\n"
+    path = tmp_path / "bigarc.gcode"
+    path.write_text(text)
+    prof = load_profile("voron24")
+    o = ko.run_oracle(path, prof)
+    m = ko.model_metrics(path, ko.oracle_machine(prof))
+    assert o["errors"] == []
+    assert (m["n_trapq_moves"], o["n_trapq_moves"]) == (1 + 181 + 1, 1 + 900 + 1)
+    assert m["motion_time_s"] == pytest.approx(o["motion_time_s"], rel=1e-6)
+    assert m["int_a2_xyz"] == pytest.approx(o["int_a2_xyz"], rel=1e-4)
+
+
 @pytest.mark.parametrize("start", [(0.0, 0.0, 0.0), (50.0, 40.0, 0.2)])
 def test_first_move_from_start_position(tmp_path, start):
     # The model starts at the origin (as the oracle does by default); a file that sets its

@@ -19,6 +19,13 @@ the line itself when the junction is inside an arc); for chords of a circle this
 exactly the centripetal integral (v^2/R)^2 t.  A sharper turn is a corner: the firmware
 takes it as a velocity jump, whose "int a^2" depends only on how the model smears it, so
 corners are reported apart, as their count and sum of dv^2 (mm^2/s^2).
+
+Klipper (flavour "klipper", block_buffer 0) is played as klippy's toolhead does it: M204 /
+SET_VELOCITY_LIMIT ACCEL set the accel uncapped (no per-axis XY limit), Z scales accel and
+speed, chords as gcode_arcs cuts them (see arc_chords).  tests/test_klipper_oracle.py checks
+it against the real Klipper planner: the same trapezoids to 1e-9.  ``int_a2_t`` is that
+planner's sum of a^2 (accel_t + decel_t) over the XYZ moves (the oracle's int_a2_xyz; its
+int_a2_xy weights each move by its XY share).
 """
 from __future__ import annotations
 

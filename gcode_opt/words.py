@@ -110,7 +110,10 @@ def _refuse_exponents(code: str) -> None:
 def _pairs(code: str) -> list:
     """(LETTER, number text) of every parameter after the command word; WordError if the
     code part is not strictly letter+number words or names a parameter twice (Klipper
-    keeps the last, Marlin the first)."""
+    keeps the last, Marlin the first).  A leading BOM is the file's encoding mark (the
+    reader drops it on line 1 only)."""
+    if code[:1] == "\ufeff":
+        code = code[1:]
     if _STRICT.fullmatch(code) is None:
         if _LOOSE.fullmatch(code) is None:
             raise WordError(_why(code))

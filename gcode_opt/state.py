@@ -75,7 +75,7 @@ class Arc:
 
     end_off_d: how far (mm) the end point is from the circle through the start; a
     firmware sweeps the start's circle and then goes straight to the end.  off_circle:
-    beyond ARC_END_TOL, so the arc is not the circle a law would re-time (left alone)."""
+    beyond arc_end_tol_d(r), so the arc is not the circle a law would re-time (left alone)."""
     __slots__ = ("cx", "cy", "r", "theta0", "sweep", "length_d", "cw", "end_off_d", "off_circle")
 
     def __init__(self, cx, cy, r, theta0, sweep, dz, end_off_d=0.0):
@@ -107,7 +107,6 @@ class GcodeError(ValueError):
         super().__init__(f"{path}:{idx + 1}: {why}: {raw.rstrip()!r}")
 
 
-_G1_WORDS = frozenset("XYZEF")
 # the slicer's own "G1 X.. Y.. E.. F..": this regex leaves float() only the characters
 # "+-.0123456789", where float() accepts exactly the strict number grammar (and raises on
 # "1.2.3", "1-2", "."), so the fast path reads what the strict tokenizer would

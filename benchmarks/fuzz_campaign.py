@@ -44,6 +44,7 @@ def main(argv=None):
     r = random.Random(a.seed)
     counts = collections.Counter()
     reasons = collections.Counter()
+    seen = collections.Counter()          # failures by message shape: print the first few of each
     by_mutation = collections.defaultdict(collections.Counter)
     slowest = (0.0, None)
     t0 = time.monotonic()
@@ -68,8 +69,14 @@ def main(argv=None):
             (save / f"case{n:05d}.txt").write_text(
                 f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nmutations: {ops!r}\n"
                 f"outcome: {cat}\n{detail}\n")
-            print(f"case {n}: {cat}: {detail.splitlines()[-1] if detail else ''} [{name} {prof} "
-                  f"{'all' if all_ else 'default'} {ops}]", flush=True)
+            last = detail.splitlines()[-1] if detail else ""
+            if re.match(r"(SyntaxError|ImportError|ModuleNotFoundError|IndentationError)\b", last):
+                sys.exit(f"case {n}: the code under test does not import ({last}): campaign stopped")
+            key = re.sub(r"[-\d.]+", "#", f"{cat}: {last}")[:100]
+            seen[key] += 1
+            if seen[key] <= 3:
+                print(f"case {n}: {cat}: {last[:300]} [{name} {prof} {'all' if all_ else 'default'} {ops}]",
+                      flush=True)
         if n % 250 == 0:
             print(f"... {n} cases, {time.monotonic() - t0:.0f} s, {dict(counts)}", flush=True)
         if a.minutes and time.monotonic() - t0 > 60 * a.minutes:
@@ -81,6 +88,10 @@ def main(argv=None):
     print(f"refused cleanly     {counts[REFUSED]}")
     for g, cats in GROUPS.items():
         print(f"{g:<19} {sum(counts[c] for c in cats)}" + "".join(f"  {c} {counts[c]}" for c in cats if counts[c]))
+    if seen:
+        print("\nfailures by kind:")
+        for key, k in seen.most_common():
+            print(f"  {k:5d}  {key}")
     print("\nmost frequent refusals:")
     for why, k in reasons.most_common(12):
         print(f"  {k:5d}  {why}")

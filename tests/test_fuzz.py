@@ -439,7 +439,8 @@ def run_cli(argv, hang_t=HANG_T):
     return rc, err.getvalue(), tb
 
 
-def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | None = None) -> tuple[str, str]:
+def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | None = None,
+               hang_t: float = HANG_T) -> tuple[str, str]:
     """Run one case; (category, detail). category is OK, REFUSED or one of FAILURES."""
     import warnings
     from gcode_opt.profile import load_profile
@@ -453,7 +454,7 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
         argv = ["process", inp, "-o", out, "-q", "--profile", profile] + (["--features", "all"] if features_all else [])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rc, err, tb = run_cli(argv)
+            rc, err, tb = run_cli(argv, hang_t)
         if rc == "hang":
             return "hang", tb.strip().splitlines()[-1] if tb else ""
         if rc == "exception":

@@ -53,9 +53,9 @@ def accel_problems(path) -> list[str]:
     return bad
 
 
-def run_case(case, tmp_path, oracle=False):
+def run_case(case, tmp_path, oracle=False, hang_t=120.0):
     f, prof, all_ = case
-    cat, detail = check_case(f.read_bytes(), prof, all_, str(tmp_path))
+    cat, detail = check_case(f.read_bytes(), prof, all_, str(tmp_path), hang_t)
     if (f.name, prof) in EXPECTED_REFUSALS:
         assert cat == "refused", (cat, detail)
         return
@@ -112,4 +112,5 @@ def test_corpus(name, features_all, tmp_path):
     path = CORPUS / name
     if not path.is_file():
         pytest.skip(f"no corpus file {path}: run `bash sample_gcode/make_corpus.sh {CORPUS}`")
-    run_case((path, CORPUS_RUNS[name], features_all), tmp_path, oracle=path.stat().st_size < 3_000_000)
+    run_case((path, CORPUS_RUNS[name], features_all), tmp_path, oracle=path.stat().st_size < 3_000_000,
+             hang_t=1800.0)

@@ -28,10 +28,10 @@ import math
 import numpy as np
 
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
-from .firmware.simulate import FULL_STOP_V
+from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V
 from .laws.circle import solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import SegmentPlan, segment_feeds
+from .segments import SegmentPlan, hold_cruise_accels, segment_feeds
 
 ARC_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
 ARC_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in ARC_T_RATIOS])
@@ -41,10 +41,15 @@ MIN_SUBARC_D = 2.0         # mm: a sub-arc spans at least ~2 firmware chords
 CAP_MARGIN = 0.95          # on the accel-independent chord caps
 
 
-def chord_d(S, profile):
-    """Chord length the firmware cuts an arc of length S into (simulate.py's rule)."""
+def chord_d(S, profile, R=None):
+    """Chord length the firmware cuts an arc of length S (radius R) into: simulate.py's
+    rule (arc_chords), floor(S / arc_segment_d) chords, at most one per ARC_MIN_TURN rad
+    (a huge radius is not cut into millions of chords)."""
     seg = profile.arc_segment_d
+    S = np.asarray(S, float)
     n = np.maximum(np.floor(S / seg), 1.0) if seg > 0 else np.ones_like(S)
+    if R is not None:
+        n = np.minimum(n, np.maximum(np.ceil(S / (np.asarray(R, float) * ARC_MIN_TURN)), 1.0))
     return S / n
 
 
@@ -90,7 +95,7 @@ def adjust_plan_inputs(pin, strokes, rows, profile):
         m2 = mx * mx * ux2 + my * my * uy2
         pin.mass_r[i] = m2 / m
         pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
-        c = float(chord_d(np.array(st.length_d), profile))
+        c = float(chord_d(np.array(st.length_d), profile, a.r))
         cap = chord_speed_cap(profile, st.lim, c, a.r)
         per_v2 = chord_need_per_v2(profile.junction, c, a.r, st.lim.jd)
         if per_v2 > 0:
@@ -145,7 +150,7 @@ def arc_knots(strokes, T, beta, n, profile=None):
     phi, w, _ = law.eval(tau * T[:, None])
     dense = np.linspace(0.0, 1.0, 257)[None, :] * T[:, None]
     phi_d, w_d, _ = law.eval(dense)
-    c0 = chord_d(S, profile) if profile is not None else np.zeros(m)
+    c0 = chord_d(S, profile, R) if profile is not None else np.zeros(m)
     out = []
     for i in range(m):
         s = R[i] * phi[i, :n[i] + 1]
@@ -196,7 +201,7 @@ def finish_arc(st, sk, vk, rules, profile):
     R = st.arc.r
     d = np.diff(sk)
     acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
-    c = chord_d(d, profile)                         # each sub-arc is cut on its own
+    c = chord_d(d, profile, R)                      # each sub-arc is cut on its own
     c_nb = np.maximum(c, np.maximum(np.concatenate([[c[0]], c[:-1]]), np.concatenate([c[1:], [c[-1]]])))
     vmax = np.maximum(vk[:-1], vk[1:])
     jd = st.lim.jd
@@ -229,6 +234,7 @@ def finish_arc(st, sk, vk, rules, profile):
     step_v = np.inf
     if rules.junction == "jerk":
         step_v = 0.5 * min(st.lim.jerk_x, st.lim.jerk_y)
+    acc = hold_cruise_accels(acc, st.accel)
     feeds = segment_feeds(vk, st.v_feed, step_v)
     t_pred, a2_pred = predict_arc(sk, vk, acc, R)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)

@@ -40,7 +40,7 @@ from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import SegmentPlan, segment_feeds
+from .segments import SegmentPlan, hold_cruise_accels, segment_feeds
 
 CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
 CURVE_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CURVE_T_RATIOS])
@@ -335,6 +335,7 @@ def finish_curve(st, sk, vk, rules, profile):
     step_v = np.inf
     if rules.junction == "jerk":
         step_v = JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
+    acc = hold_cruise_accels(acc, a_top)
     feeds = segment_feeds(vk, st.v_feed, step_v)
     c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
     c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))

@@ -28,10 +28,19 @@ END = "; gcode-opt end"
 def accel_command(flavour: str, accel_a: float, extruding: bool, round_up: bool = True) -> str:
     """The flavour's command for the acceleration of printing (or travel) moves.  Segment
     accelerations are rounded up so a ramp reaches its knot rather than falling short."""
-    a = _num(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 1) if round_up else _num(accel_a, 3)
+    if not (math.isfinite(accel_a) and accel_a > 0.0):
+        raise ValueError(f"acceleration {accel_a!r} is not a positive number")   # M204 S0 stops Klipper
+    a = _num(max(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 0.1), 1) if round_up else _num(max(accel_a, 1e-3), 3)
     if flavour in ("klipper", "marlin-legacy"):
         return f"M204 S{a}"
     return f"M204 {'P' if extruding else 'T'}{a}"
+
+
+def _feed_text(feed_v: float) -> str:
+    """F (mm/min) of a segment, rounded up: never below the knot speed, never 0."""
+    if not (math.isfinite(feed_v) and feed_v > 0.0):
+        raise ValueError(f"feed {feed_v!r} is not a positive number")
+    return _num(max(math.ceil(feed_v * 600.0 - 1e-6) / 10.0, 0.1), 1)
 
 
 def _num(x: float, dec: int) -> str:
@@ -139,7 +148,7 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         if cmd != last_accel:
             out.append(cmd + nl)
             last_accel = cmd
-        f = _num(math.ceil(feeds[k - 1] * 600.0 - 1e-6) / 10.0, 1)   # never below the knot speed
+        f = _feed_text(feeds[k - 1])
         if e_rel:
             e_txt = _fmt_units(de_u, de)
         elif at_vertex:
@@ -206,7 +215,7 @@ def emit_arc(raw, x0_text, y0_text, e_start, arc, s, accels, feeds, *, e_rel, fl
         if cmd_a != last_accel:
             out.append(cmd_a + nl)
             last_accel = cmd_a
-        f = _num(math.ceil(feeds[k - 1] * 600.0 - 1e-6) / 10.0, 1)
+        f = _feed_text(feeds[k - 1])
         e_txt = _fmt_units(de_u, de) if e_rel else _fmt_units(e_start_u + e_u, de)
         if k == n and not e_rel:
             e_txt = p.get("E")

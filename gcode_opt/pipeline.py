@@ -25,11 +25,14 @@ from . import curves
 from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
 from .firmware.simulate import simulate_events
-from .plan import PlanInput, candidates_auto, plan_auto, plan_fixed_alpha
+from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
+                   plan_fixed_alpha, scatter_candidates)
 from .profile import Profile
 from .segments import SegmentRules, plan_segments
 from .state import MachineState, events, read_lines
 from .strokes import K_ARC, K_CURVE, K_LINE, group_strokes
+from .validate import BlockInvalid, Geometry, validate_block
+from .words import param_texts, split_comment, strip_checksum
 
 
 class Options:
@@ -145,36 +148,38 @@ def analyse(path, profile: Profile, opts: Options):
 
 def plan_inputs(strokes, profile: Profile, opts: Options) -> PlanInput:
     n = len(strokes)
-    L = np.array([s.length_d for s in strokes])
-    ux = np.array([s.ux for s in strokes])
-    uy = np.array([s.uy for s in strokes])
-    v_feed = np.array([s.v_feed for s in strokes])
-    v_lim = np.array([min(s.lim.v_max, profile.max_velocity_v) for s in strokes])
-    area = math.pi * (profile.filament_diameter_d / 2) ** 2
-    e_mm = np.array([s.e_per_mm for s in strokes])
-    v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
-    v_cap = np.minimum(np.minimum(v_feed * (1 + opts.overshoot_r), v_lim), v_flow)
-    v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
-    # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
-    ax = np.array([s.lim.ax_max for s in strokes])
-    ay = np.array([s.lim.ay_max for s in strokes])
-    with np.errstate(divide="ignore"):
+    with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
+        L = np.array([s.length_d for s in strokes], float)
+        ux = np.array([s.ux for s in strokes], float)
+        uy = np.array([s.uy for s in strokes], float)
+        v_feed = np.array([s.v_feed for s in strokes], float)
+        v_lim = np.array([min(s.lim.v_max, profile.max_velocity_v) for s in strokes], float)
+        area = math.pi * (profile.filament_diameter_d / 2) ** 2
+        e_mm = np.array([s.e_per_mm for s in strokes], float)
+        v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
+        v_cap = np.minimum(np.minimum(v_feed * (1 + opts.overshoot_r), v_lim), v_flow)
+        v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
+        # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
+        ax = np.array([s.lim.ax_max for s in strokes], float)
+        ay = np.array([s.lim.ay_max for s in strokes], float)
         a_axis = np.minimum(np.where(abs(ux) > 1e-12, ax / abs(ux), np.inf),
                             np.where(abs(uy) > 1e-12, ay / abs(uy), np.inf))
-    a_cap = np.minimum(np.array([s.accel for s in strokes]), a_axis)
-    m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
-    m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
-    seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
-    pin = PlanInput(L, [s.v0 for s in strokes], [s.v1 for s in strokes], v_cap, a_cap,
-                    [s.time_t for s in strokes], [s.int_a2 for s in strokes], m2 / m,
-                    np.full(n, 3 * seg_t))
+        a_cap = np.minimum(np.array([s.accel for s in strokes], float), a_axis)
+        m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
+        m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
+        seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
+        pin = PlanInput(L, np.array([s.v0 for s in strokes], float), np.array([s.v1 for s in strokes], float),
+                        v_cap, a_cap, np.array([s.time_t for s in strokes], float),
+                        np.array([s.int_a2 for s in strokes], float), m2 / m, np.full(n, 3 * seg_t))
     pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
+    failed = {}
     arc_rows = [i for i, s in enumerate(strokes) if s.kind == K_ARC]
-    if arc_rows:
-        arcs.adjust_plan_inputs(pin, strokes, arc_rows, profile)
+    isolate(lambda r: arcs.adjust_plan_inputs(pin, strokes, r, profile), arc_rows, "planning", failed)
     curve_rows = [i for i, s in enumerate(strokes) if s.kind == K_CURVE]
-    if curve_rows:
-        curves.adjust_plan_inputs(pin, strokes, curve_rows, profile)
+    isolate(lambda r: curves.adjust_plan_inputs(pin, strokes, r, profile), curve_rows, "planning", failed)
+    pin.fault = input_faults(pin)             # reason per stroke, "" = fine
+    for i, why in failed.items():
+        pin.fault[i] = why
     return pin
 
 
@@ -183,54 +188,113 @@ def _rows_by_kind(strokes):
     return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC, K_CURVE)}
 
 
+def _candidates(strokes, pin, profile, opts, rows, failed):
+    """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
+    isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
+    n = len(strokes)
+    ok = {k: np.array([i for i in r if i not in failed], int) for k, r in rows.items()}
+    if opts.alpha == "auto":
+        pieces = isolate(lambda r: candidates_auto(pin.take(r)), ok[K_LINE], "planning", failed)
+        pieces += isolate(lambda r: arcs.candidates_arc(pin, r, strokes), ok[K_ARC], "planning", failed)
+        pieces += isolate(lambda r: curves.candidates_curve(pin, r, strokes, profile), ok[K_CURVE],
+                          "planning", failed)
+        T, beta, I, KE, nonfinite = scatter_candidates(n, pieces, pin.T_orig[:, None] * T_RATIOS[None, :])
+        for i in nonfinite:
+            failed.setdefault(int(i), "error: planning (non-finite)")
+        I[nonfinite] = np.inf
+        return (T, beta, I, KE), None
+    alpha = float(opts.alpha)
+    fixed = Plan(n)
+    fixed.T = pin.T_orig.copy()
+    fixed.I_law = pin.I_orig.copy()
+    fixed.reason[:] = "no law within limits"
+    for sub, p in isolate(lambda r: plan_fixed_alpha(pin.take(r), alpha), ok[K_LINE], "planning", failed):
+        fixed.put(sub, p)
+    isolate(lambda r: arcs.fixed_alpha_arc(fixed, pin, r, strokes, alpha), ok[K_ARC], "planning", failed)
+    isolate(lambda r: curves.fixed_alpha_curve(fixed, pin, r, strokes, profile, alpha), ok[K_CURVE],
+            "planning", failed)
+    return None, fixed
+
+
+def _plan_fault(plan):
+    """Rows of a plan chosen for re-timing whose figures are not finite numbers."""
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(plan.T) | ~(plan.T > 0) | ~np.isfinite(plan.I_law) | np.isnan(plan.beta)
+    return plan.retime & bad
+
+
+def seg_fault(seg):
+    """Why a segment plan must not be written ("" = fine): every knot, speed, acceleration
+    and feed finite, knots strictly increasing, accelerations and feeds above 0."""
+    try:
+        s, v, a, f = (np.asarray(x, float) for x in (seg.s, seg.v, seg.accel, seg.feed))
+    except (TypeError, ValueError):
+        return "error: segments (malformed)"
+    if not (np.isfinite(s).all() and np.isfinite(v).all() and np.isfinite(a).all() and np.isfinite(f).all()
+            and math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
+        return "error: segments (non-finite)"
+    if len(s) < 2 or a.size != len(s) - 1 or f.size != len(s) - 1:
+        return "error: segments (malformed)"
+    if not (np.diff(s) > 0).all():
+        return "error: segments (knots not increasing)"
+    if not ((a > 0).all() and (f > 0).all() and (v >= 0).all()):
+        return "error: segments (acceleration, feed or speed not above 0)"
+    return ""
+
+
 def plan_strokes(strokes, pin, profile, opts, budget_t):
     """Law per stroke (plan.py), then its segments as the firmware will execute them
     (segments.py).  The segments' predicted time, not the law's, is what the print takes:
     the budget is re-spent once with the difference taken off, and a stroke whose
-    segments would not beat the original trapezoid is left alone."""
+    segments would not beat the original trapezoid is left alone.
+
+    Fault isolation: a stroke whose inputs are not finite, whose planning or segmenting
+    raises, or whose plan holds a non-finite number keeps its original lines, with the
+    reason in plan.reason (the summary counts them)."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     rows = _rows_by_kind(strokes)
-    cands, fixed = getattr(pin, "cached", (None, None))   # the same strokes planned again: reuse
-    if cands is None and opts.alpha == "auto" and len(strokes):
-        cands = candidates_auto(pin)
-        if rows[K_ARC].size:
-            ca = arcs.candidates_arc(pin, rows[K_ARC], strokes)
-            for full, part in zip(cands, ca):
-                full[rows[K_ARC]] = part
-        if rows[K_CURVE].size:
-            cc = curves.candidates_curve(pin, rows[K_CURVE], strokes, profile)
-            for full, part in zip(cands, cc):
-                full[rows[K_CURVE]] = part
-    if fixed is None and opts.alpha != "auto":
-        fixed = plan_fixed_alpha(pin, float(opts.alpha))
-        if rows[K_ARC].size:
-            arcs.fixed_alpha_arc(fixed, pin, rows[K_ARC], strokes, float(opts.alpha))
-        if rows[K_CURVE].size:
-            curves.fixed_alpha_curve(fixed, pin, rows[K_CURVE], strokes, profile, float(opts.alpha))
-    pin.cached = (cands, fixed)
+    cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
+    if cached is None:
+        fault = getattr(pin, "fault", None)
+        failed = {} if fault is None else {i: str(r) for i, r in enumerate(fault) if r}
+        cands, fixed = _candidates(strokes, pin, profile, opts, rows, failed) if len(strokes) else (None, None)
+        cached = pin.cached = (cands, fixed, failed)
+    cands, fixed, failed = cached
+    failed_rows = np.array(sorted(failed), int)
 
     def run(budget):
         plan = (plan_auto(pin, budget, cands, [rows[k] for k in (K_LINE, K_ARC, K_CURVE)])
                 if opts.alpha == "auto" else fixed.copy())
+        plan.retime[failed_rows] = False
+        for i in failed_rows:
+            plan.reason[i] = failed[i]
+        bad = _plan_fault(plan)
+        plan.retime[bad] = False
+        plan.reason[bad] = "error: planning (non-finite)"
         plan.segs = [None] * len(strokes)
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
         kind = np.array([strokes[i].kind for i in idx], dtype=object)
-        segs = [None] * len(idx)
+        segs = {}
+        seg_failed = {}
         planners = {
             K_LINE: lambda sts, T, b: plan_segments(sts, T, b, rules),
             K_ARC: lambda sts, T, b: arcs.plan_arc_segments(sts, T, b, rules, profile),
             K_CURVE: lambda sts, T, b: curves.plan_curve_segments(sts, T, b, rules, profile),
         }
         for k_name, fn in planners.items():
-            ks = np.flatnonzero(kind == k_name)
-            if ks.size == 0:
+            ii = idx[kind == k_name]
+            for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
+                                    ii, "segments", seg_failed):
+                segs.update(zip(sub.tolist(), res))
+        for i in idx:
+            seg = segs.get(int(i))
+            why = seg_failed.get(int(i)) or ("" if seg is None else seg_fault(seg))
+            if why:
+                plan.retime[i] = False
+                plan.reason[i] = why
                 continue
-            ii = idx[ks]
-            for k, seg in zip(ks, fn([strokes[i] for i in ii], plan.T[ii], plan.beta[ii])):
-                segs[k] = seg
-        for i, seg in zip(idx, segs):
             if seg is None or seg.int_a2 >= strokes[i].int_a2:
                 plan.retime[i] = False
                 plan.reason[i] = "segments would not beat the original"
@@ -254,7 +318,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 # ---------------------------------------------------------------- pass 2: rewrite
 def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
     """Copy the file to out_fh, re-timed strokes replaced.  Returns the output line
-    range of each re-timed stroke: list of (out_first, out_last, stroke_index)."""
+    range of each re-timed stroke: list of (out_first, out_last, stroke_index).
+
+    Each block is validated (validate.py) before it is written; a block whose emission
+    raises or fails validation is replaced by the stroke's original lines, and the
+    stroke counted with the reason (plan.retime/plan.reason updated)."""
     chosen = {strokes[i].first_idx: i for i in np.flatnonzero(plan.retime)}
     st = MachineState(profile, path)
     out_ranges = []
@@ -273,11 +341,27 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
             st.step(idx, raw)
             if idx == cur[1].last_idx:
                 i, s, x0, y0, e0, accel0, mcr0 = cur
-                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile)
-                out_fh.write(text)
-                n_out = text.count("\n")
-                out_ranges.append((out_line, out_line + n_out - 1, i))
-                out_line += n_out
+                try:
+                    with np.errstate(all="ignore"):
+                        text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0,
+                                             profile)
+                    _validate(text, s, buf, x0, y0, accel0, profile)
+                except BlockInvalid as e:
+                    text = None
+                    plan.reason[i] = str(e)
+                except Exception as e:        # noqa: BLE001 -- this stroke's failure only
+                    text = None
+                    plan.reason[i] = f"error: emission ({type(e).__name__})"
+                if text is None:
+                    plan.retime[i] = False
+                    plan.segs[i] = None
+                    out_fh.write("".join(buf))
+                    out_line += len(buf)
+                else:
+                    out_fh.write(text)
+                    n_out = text.count("\n")
+                    out_ranges.append((out_line, out_line + n_out - 1, i))
+                    out_line += n_out
                 buf = None
             continue
         st.step(idx, raw)
@@ -288,20 +372,33 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
     return out_ranges
 
 
+def _validate(text, s, raws, x0, y0, accel0, profile):
+    """validate.py on one block; the path is the original's own (its raw X/Y words)."""
+    pts = [(x0, y0)]
+    for raw in raws:
+        p = param_texts(strip_checksum(split_comment(raw.rstrip("\r\n"))[0])[0])
+        pts.append((float(p.get("X", pts[-1][0])), float(p.get("Y", pts[-1][1]))))
+    arc = None if s.kind != K_ARC else (s.arc.cx, s.arc.cy, s.arc.r, s.arc.theta0, s.arc.sweep)
+    # a restore of the acceleration the slicer had in force is as acceptable as the original line
+    accel_max_a = max(profile.max_accel_a, accel0) if math.isfinite(accel0) else profile.max_accel_a
+    validate_block(text, profile.flavour, accel_max_a, Geometry([pts[0], pts[-1]] if arc else pts, arc),
+                   extruding=s.feature != feat.TRAVEL, kind=s.kind)
+
+
 def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
-    """G-code text replacing one stroke, from its segment plan `seg`."""
+    """G-code text replacing one stroke, from its segment plan `seg`.  The header names
+    the kind (line, curve, arc) after "replaces N lines" (verify.py and the report read it)."""
     dec = 8
+    beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
     if s.kind == K_ARC:
-        beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
-        header = (f": replaces {len(raws)} lines, {len(seg.s) - 1} sub-arcs, T={seg.time_t:.4f}s "
+        header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} sub-arcs, T={seg.time_t:.4f}s "
                   f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
         return emit_arc(raws[0], f"{x0:.{dec}f}", f"{y0:.{dec}f}", e0, s.arc, seg.s, seg.accel, seg.feed,
                         e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0, mcr_restore=mcr0,
                         feed_restore_v=s.v_feed, header=header)
     st_text = StrokeText(raws, f"{x0:.{dec}f}", f"{y0:.{dec}f}", 0)
     st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
-    beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
-    header = (f": replaces {len(raws)} lines, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
+    header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
               f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
     return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=f"{x0:.{dec}f}",
                        y0_text=f"{y0:.{dec}f}", e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,

@@ -40,6 +40,76 @@ class PlanInput:
         self.t_seg_min = np.asarray(t_seg_min)    # shortest duration a re-timed stroke may have
 
 
+    def take(self, rows) -> "PlanInput":
+        """The same arrays for the strokes `rows` only (fault isolation retries)."""
+        rows = np.asarray(rows, int)
+        return PlanInput(self.L[rows], self.v0[rows], self.v1[rows], self.v_cap[rows], self.a_cap[rows],
+                         self.T_orig[rows], self.I_orig[rows], self.mass_r[rows], self.t_seg_min[rows])
+
+
+def input_faults(p: PlanInput):
+    """Reason per stroke ("" = fine) for plan inputs no law can be built on: non-finite
+    or out-of-range lengths, speeds, caps, durations, norms or masses."""
+    with np.errstate(invalid="ignore"):
+        finite = np.ones(len(p.L), bool)
+        for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap, p.T_orig, p.I_orig, p.mass_r, p.t_seg_min):
+            finite &= np.isfinite(np.asarray(a, float))
+        in_range = ((p.L > 0) & (p.v0 >= 0) & (p.v1 >= 0) & (p.v_cap > 0) & (p.a_cap > 0) & (p.T_orig > 0)
+                    & (p.I_orig >= 0) & (p.mass_r > 0))
+    return np.where(~finite, "error: non-finite plan input",
+                    np.where(~in_range, "error: plan input out of range", "")).astype(object)
+
+
+def isolate(fn, rows, stage, failed):
+    """Run fn(sub_rows) on all `rows` at once (vectorised); on an exception, retry the
+    two halves, down to single rows, so one failing stroke drops only itself.  numpy
+    warnings are silenced (non-finite results are checked by the callers).  Records
+    failed[row] = "error: <stage> (<exception>)"; returns [(sub_rows, fn's result)]."""
+    rows = np.asarray(rows, int)
+    pieces = []
+
+    def run(sub):
+        try:
+            with np.errstate(all="ignore"):
+                pieces.append((sub, fn(sub)))
+        except Exception as e:            # noqa: BLE001 -- any failure is this stroke's, not the file's
+            if sub.size <= 1:
+                for r in sub:
+                    failed[int(r)] = f"error: {stage} ({type(e).__name__})"
+                return
+            half = sub.size // 2
+            run(sub[:half])
+            run(sub[half:])
+
+    if rows.size:
+        run(rows)
+    return pieces
+
+
+def scatter_candidates(n, pieces, T_fill, at=None):
+    """(T, beta, I, KE) of shape (n, k) from isolate() pieces of candidate tables; rows
+    not computed (failed) are infeasible.  A candidate with a non-finite T, beta = nan,
+    or a finite I with a non-finite KE is infeasible too: nothing non-finite is chosen;
+    the rows holding one are returned last (the caller counts them as failed).
+    T_fill (n, k): durations of rows no piece covers.  at: maps a piece's rows to output
+    rows (default: identity)."""
+    k = T_fill.shape[1]
+    T = np.full((n, k), np.nan)
+    beta = np.full((n, k), np.inf)
+    I = np.full((n, k), np.inf)
+    KE = np.full((n, k), np.nan)
+    for sub, (t, b, i, ke) in pieces:
+        r = sub if at is None else at(sub)
+        T[r], beta[r], I[r], KE[r] = t, b, i, ke
+    covered = np.zeros(n, bool)
+    for sub, _ in pieces:
+        covered[sub if at is None else at(sub)] = True
+    bad = ~np.isfinite(T) | np.isnan(beta) | np.isnan(I) | (np.isfinite(I) & ~np.isfinite(KE))
+    I[bad] = np.inf
+    T = np.where(np.isfinite(T), T, T_fill)
+    return T, beta, I, KE, np.flatnonzero(covered & bad.any(axis=1))
+
+
 class Plan:
     """Chosen law per stroke: retime mask, T, beta and the law's own figures."""
 
@@ -51,6 +121,11 @@ class Plan:
         self.KE_law = np.zeros(n)         # int v^2 dt
         self.reason = np.array(["" for _ in range(n)], dtype=object)
         self.lam = 0.0
+
+    def put(self, rows, other: "Plan"):
+        """Rows `rows` of this plan from `other` (a plan of len(rows) strokes)."""
+        for k in ("retime", "T", "beta", "I_law", "KE_law", "reason"):
+            getattr(self, k)[rows] = getattr(other, k)
 
     def copy(self) -> "Plan":
         p = Plan(0)

@@ -91,6 +91,34 @@ def with_edges(s, v, edge0_d=0.0, edge1_d=0.0):
     return s, v
 
 
+MIN_FEED_V = 0.1         # mm/s: F of a segment whose two knots are (near) stops; F0 is not a feed
+CRUISE_A = 1e-6          # mm/s^2: below this a segment's ramp acceleration is a cruise's 0
+
+
+def hold_cruise_accels(acc, a_own):
+    """Accelerations to write for segments whose ramp acceleration is ~0 (constant speed).
+
+    A cruise segment's acceleration changes nothing in its own motion (no speed change),
+    but it must be > 0 (Klipper rejects `M204 S0`: a print from SD stops there) and the
+    firmware's junction limits scale with it (Klipper's centripetal term, Marlin JD's
+    a * jd): a tiny value would slow the corners around it.  So a cruise keeps the previous
+    segment's acceleration (no extra M204 line), the next one's at the stroke's start, and
+    the stroke's own when the whole stroke cruises.  NaN stays NaN (a fault, caught)."""
+    acc = np.asarray(acc, float).copy()
+    cruise = acc <= CRUISE_A
+    if not cruise.any():
+        return acc
+    if cruise.all():
+        acc[:] = a_own
+        return acc
+    idx = np.where(cruise, 0, np.arange(acc.size))
+    np.maximum.accumulate(idx, out=idx)              # last non-cruise at or before k
+    first = int(np.argmax(~cruise))
+    held = acc[idx]
+    held[:first] = acc[first]
+    return np.where(cruise, held, acc)
+
+
 def segment_feeds(v, v_feed, step_v=np.inf):
     """Feedrate (mm/s) of each segment: at least the faster of its two knot speeds (the
     ramp is set by the acceleration, F only caps it), and smooth from segment to segment.
@@ -100,7 +128,7 @@ def segment_feeds(v, v_feed, step_v=np.inf):
     (planner.cpp, v_exit vs v_entry).  So with `step_v` finite, F is the tent envelope
     max_j(need_j - step_v*|k-j|), with the slicer's feed at both ends, so neighbouring
     F differ by <= step_v and the stroke meets its neighbours at their original F."""
-    need = np.maximum(v[:-1], v[1:])
+    need = np.maximum(np.maximum(v[:-1], v[1:]), MIN_FEED_V)
     if not np.isfinite(step_v):
         return need
     n = len(need)
@@ -199,6 +227,7 @@ def _finish(stroke, sk, vk, rules):
     step_v = np.inf
     if rules.junction == "jerk":         # per-axis jerk limit -> limit on the change of F
         step_v = 0.9 * min(stroke.lim.jerk_x, stroke.lim.jerk_y) / max(abs(stroke.ux), abs(stroke.uy))
+    acc = hold_cruise_accels(acc, stroke.accel)
     feeds = segment_feeds(vk, stroke.v_feed, step_v)
     t_pred, a2_pred = predict(sk, vk, acc)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)

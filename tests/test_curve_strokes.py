@@ -37,12 +37,12 @@ def test_curves_verify_keep_vertices_no_new_stops(runs, name, prof, feats):
     lines = open(dst).read().split("\n")
     n_curve_blocks = 0
     for k, line in enumerate(lines):
-        if line.startswith("; gcode-opt begin") and "segments" in line:
+        if line.startswith("; gcode-opt begin") and "kind=curve" in line:
             n_rep = int(line.split("replaces ")[1].split()[0])
-            n_seg = int(line.split(", ")[1].split()[0])
-            if n_seg == n_rep and n_rep >= 3:
-                n_curve_blocks += 1
-    assert n_curve_blocks >= g["retimed"]
+            n_seg = int(line.split("kind=curve, ")[1].split()[0])
+            assert n_seg == n_rep and n_rep >= 3, line
+            n_curve_blocks += 1
+    assert n_curve_blocks == g["retimed"]
     wf = s["whole_file"]
     assert wf["after"]["full_stops"] <= wf["before"]["full_stops"]
     assert s["print_time_s"]["after"] <= s["print_time_s"]["before"] * 1.045

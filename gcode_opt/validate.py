@@ -1,0 +1,169 @@
+"""Output validator: every line of a re-timed block is one the firmware accepts.
+
+Run by pipeline.rewrite() on each block before it is written; a block that fails is
+replaced by the stroke's original lines (and counted by reason).  Independent of the
+emitter: it re-reads the text with its own strict grammar.
+
+What each firmware parses (why the rules are what they are):
+  * numbers: Marlin's parser.value_float() cuts a value at 'E'/'e' before strtof (so
+    `Y2e1` is Y2 then an E word); Prusa-Firmware's code_value() is strtod (2e1 = 20);
+    Klipper splits words at letters (Y2 E1).  Only plain decimals mean the same to all:
+    [-]digits[.digits] or [-].digits, finite, no exponent, no inf/nan, no leading '+'.
+  * Marlin and Prusa-Firmware read commands into a MAX_CMD_SIZE = 96 byte buffer: a
+    longer code part would be cut.
+  * acceleration: Klipper's M204 rejects S <= 0 ("S must be above 0.0", a print from SD
+    stops there); Marlin 2 / RRF take M204 P (print) / T (travel); Prusa's Marlin 1.x
+    (marlin-legacy) takes M204 S.  SET_VELOCITY_LIMIT is Klipper's, with known keys.
+  * G1/G2/G3 carry X Y I J E F only (Z never changes inside a stroke), F > 0.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+BEGIN = "; gcode-opt begin"
+END = "; gcode-opt end"
+
+NUM = re.compile(r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
+WORD = re.compile(r"([A-Za-z])(.*)\Z")
+MAX_CMD_BYTES = {"marlin2": 96, "marlin-legacy": 96}
+SVL_KEYS = ("VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO")
+MAX_DECIMALS = 8            # our own texts never have more; the firmwares parse any
+
+
+class BlockInvalid(ValueError):
+    """A re-timed block the firmware might reject or misread; str() is the reason."""
+
+
+def _num(text, what):
+    if not NUM.match(text):
+        raise BlockInvalid(f"validator: {what} not a plain decimal")
+    if len(text.partition(".")[2]) > MAX_DECIMALS:
+        raise BlockInvalid(f"validator: {what} has too many decimals")
+    v = float(text)
+    if not math.isfinite(v):
+        raise BlockInvalid(f"validator: {what} not finite")
+    return v
+
+
+class Geometry:
+    """Where the block's points may lie: a polyline (lines, curves) or an arc."""
+
+    def __init__(self, pts=None, arc=None, tol_d=2e-3):
+        self.pts = None if pts is None else [(float(x), float(y)) for x, y in pts]
+        self.arc = arc              # (cx, cy, r, theta0, sweep); pts: the original's own points
+        self.tol_d = tol_d
+
+    def off_path(self, x, y):
+        """Distance (mm) from (x, y) to the original path."""
+        if self.arc is not None:
+            # the original's own end text may sit off its circle by the slicer's rounding
+            for px, py in self.pts or ():
+                if math.hypot(x - px, y - py) <= self.tol_d:
+                    return 0.0
+            cx, cy, r, th0, sw = self.arc
+            ang = math.atan2(y - cy, x - cx)
+            # angle along the sweep, in [0, |sweep|] when on the arc
+            rel = (ang - th0) * (1 if sw >= 0 else -1) % (2 * math.pi)
+            if rel <= abs(sw) + 1e-9:
+                return abs(math.hypot(x - cx, y - cy) - r)
+            ends = [(cx + r * math.cos(th0), cy + r * math.sin(th0)),
+                    (cx + r * math.cos(th0 + sw), cy + r * math.sin(th0 + sw))]
+            return min(math.hypot(x - ex, y - ey) for ex, ey in ends)
+        best = math.inf
+        p = self.pts
+        for (ax, ay), (bx, by) in zip(p[:-1], p[1:]):
+            dx, dy = bx - ax, by - ay
+            dd = dx * dx + dy * dy
+            t = 0.0 if dd <= 0 else min(1.0, max(0.0, ((x - ax) * dx + (y - ay) * dy) / dd))
+            best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+        return best
+
+
+def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geometry | None = None,
+                   extruding: bool = True, kind: str | None = None) -> None:
+    """Raise BlockInvalid (reason in its message) unless every line of the block is well
+    formed for `flavour`, every value is finite and in range (F > 0, 0 < accel <=
+    accel_max_a + the 0.1 of the emitter's rounding) and every point is on the path."""
+    lines = text.splitlines()
+    if len(lines) < 2 or not lines[0].startswith(BEGIN + ": replaces ") or lines[-1] != END:
+        raise BlockInvalid("validator: block not fenced")
+    if kind is not None and f"kind={kind}" not in lines[0]:
+        raise BlockInvalid("validator: header does not name the kind")
+    limit = MAX_CMD_BYTES.get(flavour)
+    for line in lines[1:-1]:
+        code = line.split(";", 1)[0].strip()
+        if not code:
+            raise BlockInvalid("validator: empty or comment line inside a block")
+        if limit is not None and len(code.encode()) > limit:
+            raise BlockInvalid("validator: line longer than the firmware's command buffer")
+        toks = code.split()
+        cmd = toks[0].upper()
+        if cmd != toks[0]:
+            raise BlockInvalid("validator: lower-case command")
+        if cmd in ("G1", "G2", "G3"):
+            _check_move(cmd, toks[1:], geometry)
+        elif cmd == "M204":
+            _check_m204(toks[1:], flavour, accel_max_a, extruding)
+        elif cmd == "SET_VELOCITY_LIMIT":
+            _check_svl(toks[1:], flavour, accel_max_a)
+        else:
+            raise BlockInvalid(f"validator: command {cmd} not allowed in a block")
+
+
+def _check_move(cmd, words, geometry):
+    seen = {}
+    allowed = "XYEF" if cmd == "G1" else "XYIJEF"
+    for w in words:
+        m = WORD.match(w)
+        if not m or m.group(1) not in allowed:
+            raise BlockInvalid(f"validator: {cmd} word {w[:1] or '?'} not allowed")
+        if m.group(1) in seen:
+            raise BlockInvalid(f"validator: {cmd} word {m.group(1)} repeated")
+        seen[m.group(1)] = _num(m.group(2), f"{cmd} {m.group(1)}")
+    if "F" in seen and seen["F"] <= 0:
+        raise BlockInvalid("validator: F not above 0")
+    if cmd != "G1" and not ({"I", "J"} & seen.keys()):
+        raise BlockInvalid("validator: arc without I/J")
+    if cmd != "G1" and not ({"X", "Y"} <= seen.keys()):
+        raise BlockInvalid("validator: arc without its end point")
+    if ("X" in seen) != ("Y" in seen):
+        raise BlockInvalid("validator: point without both X and Y")
+    if "X" in seen and geometry is not None:
+        if geometry.off_path(seen["X"], seen["Y"]) > geometry.tol_d:
+            raise BlockInvalid("validator: point off the original path")
+    if "X" not in seen and "E" in seen:
+        raise BlockInvalid("validator: extrusion without a move")
+
+
+def _check_m204(words, flavour, accel_max_a, extruding):
+    if len(words) != 1:
+        raise BlockInvalid("validator: M204 takes one value")
+    m = WORD.match(words[0])
+    letter = m.group(1) if m else ""
+    want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
+    if letter != want:
+        raise BlockInvalid(f"validator: M204 {letter or '?'} is not the {flavour} form")
+    a = _num(m.group(2), "M204 value")
+    if not 0.0 < a <= accel_max_a + 0.1 + 1e-9:
+        raise BlockInvalid("validator: M204 value out of range")
+
+
+def _check_svl(words, flavour, accel_max_a):
+    if flavour != "klipper":
+        raise BlockInvalid("validator: SET_VELOCITY_LIMIT is Klipper's")
+    if not words:
+        raise BlockInvalid("validator: SET_VELOCITY_LIMIT without a key")
+    for w in words:
+        key, eq, val = w.partition("=")
+        if not eq or key.upper() not in SVL_KEYS:
+            raise BlockInvalid("validator: SET_VELOCITY_LIMIT key unknown")
+        v = _num(val, key)
+        if key.upper() == "MINIMUM_CRUISE_RATIO":
+            if not 0.0 <= v < 1.0:
+                raise BlockInvalid("validator: MINIMUM_CRUISE_RATIO out of range")
+        elif key.upper() in ("ACCEL", "ACCEL_TO_DECEL"):
+            if not 0.0 < v <= accel_max_a + 0.1 + 1e-9:
+                raise BlockInvalid("validator: SET_VELOCITY_LIMIT accel out of range")
+        elif v <= 0.0:
+            raise BlockInvalid("validator: SET_VELOCITY_LIMIT value not above 0")

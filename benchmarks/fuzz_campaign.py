@@ -36,6 +36,7 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--minutes", type=float, default=None, help="stop after this much wall time")
     ap.add_argument("--save", default="fuzz-failures")
+    ap.add_argument("--only", help="comma-separated mutation names to draw from (default: all)")
     a = ap.parse_args(argv)
     from gcode_opt.profile import profile_names
     profiles = list(profile_names())
@@ -52,7 +53,8 @@ def main(argv=None):
     n = 0
     for n in range(1, a.cases + 1):
         name, prof, all_ = r.choice(names), r.choice(profiles), r.random() < 0.5
-        ops = random_ops(r)
+        ops = random_ops(r) if not a.only else [(r.choice(a.only.split(",")), r.randrange(1 << 31))
+                                                for _ in range(r.randint(1, 2))]
         data = build_case(texts[name], ops)
         t = time.monotonic()
         cat, detail = check_case(data, prof, all_)

@@ -312,10 +312,33 @@ def m_feature(r, L):
                                                 b";TYPE:Bridge infill\n", b";TYPE:\n", b";TYPE:Custom\n")))
 
 
+def m_scale(r, L):
+    """Valid but extreme geometry or speed: every X/Y (about the first point), or every F, scaled."""
+    letters, k = r.choice(((b"XY", 0.01), (b"XY", 0.1), (b"XY", 3.0), (b"F", 0.01), (b"F", 20.0), (b"E", 50.0)))
+    pat = re.compile(rb"([%s])(-?\d*\.?\d+)" % letters)
+    x0 = y0 = None
+    for i in _motions(L):
+        code, sep, comment = L[i].partition(b";")
+
+        def sub(m):
+            nonlocal x0, y0
+            v = float(m.group(2))
+            if m.group(1) == b"X":
+                x0 = v if x0 is None else x0
+                v = x0 + (v - x0) * k
+            elif m.group(1) == b"Y":
+                y0 = v if y0 is None else y0
+                v = y0 + (v - y0) * k
+            else:
+                v *= k
+            return m.group(1) + (b"%.5f" % v).rstrip(b"0").rstrip(b".")
+        L[i] = pat.sub(sub, code) + sep + comment
+
+
 MUTATIONS = {f.__name__[2:]: f for f in (
     m_delete, m_duplicate, m_swap, m_digit_flip, m_number, m_truncate, m_mode, m_bad_arc, m_checksum, m_tool,
     m_accel, m_feed, m_crlf, m_bom, m_tabs, m_non_utf8, m_nul, m_long_line, m_case_space, m_binary, m_coords,
-    m_value, m_feature)}
+    m_value, m_feature, m_scale)}
 WEIGHTS = {"binary": 0.2, "long_line": 0.3, "value": 2.0}   # relative draw weights (default 1)
 
 
@@ -436,6 +459,8 @@ def run_cli(argv, hang_t=HANG_T):
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
+    if rc in (130, 143) or (rc == "exception" and "KeyboardInterrupt" in tb):
+        raise KeyboardInterrupt     # the user stopped the run (the CLI turns Ctrl-C into an exit code)
     return rc, err.getvalue(), tb
 
 

@@ -21,7 +21,7 @@ import re
 
 from . import features as feat
 from .profile import Profile
-from .words import WordError, command_of, keyvals_of, params_of, strict_number, strip_checksum
+from .words import WordError, command_of, command_text, keyvals_of, params_of, strict_number, strip_checksum
 
 # Move.kind
 LINE = 0      # straight XY(Z) move, with or without E
@@ -47,16 +47,19 @@ class Limits:
 class Move:
     """One motion line as the firmware sees it."""
     __slots__ = ("idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e", "v", "accel",
-                 "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch")
+                 "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch",
+                 "flow_r")
 
     def __init__(self, idx, kind, x0, y0, z0, x1, y1, z1, e, v, accel, feature, layer, lim,
-                 arc=None, has_f=False, e_rel=True, xyz_rel=False, checksum=False, inch=False):
+                 arc=None, has_f=False, e_rel=True, xyz_rel=False, checksum=False, inch=False,
+                 flow_r=1.0):
         self.idx, self.kind = idx, kind
         self.x0, self.y0, self.z0, self.x1, self.y1, self.z1 = x0, y0, z0, x1, y1, z1
         self.e, self.v, self.accel = e, v, accel
         self.feature, self.layer, self.lim, self.arc = feature, layer, lim, arc
         self.has_f, self.e_rel, self.xyz_rel, self.checksum = has_f, e_rel, xyz_rel, checksum
         self.inch = inch                  # written in inches (G20): we leave such lines alone
+        self.flow_r = flow_r              # M221 flow factor: the extruder moves e * flow_r
 
     @property
     def length_d(self) -> float:
@@ -120,6 +123,7 @@ MAX_F = 1e7            # F in mm/min (167 m/s)
 MAX_ACCEL_A = 1e6      # mm/s^2 (100 g; the fastest printers stay below 1e5)
 MAX_VELOCITY_V = 1e5   # mm/s
 MAX_DWELL_T = 1e6      # s (11 days)
+_CLASSIC_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ")
 _WAITS = {"M109", "M190", "M400", "M0", "M1", "M600", "M191", "M116", "G29", "G80", "G34", "M226"}
 
 
@@ -174,6 +178,9 @@ class MachineState:
         self.feature = feat.OTHER
         self.layer = 0
         self.warnings = []                # (idx, text): lines left alone that a user should know of
+        self.flow_r = 1.0                 # M221 S/100 (Klipper's extrude_factor)
+        self.pa_t = 0.0                   # Klipper pressure advance (s), config default 0
+        self.pa_smooth_t = 0.040          # Klipper pressure_advance_smooth_time default
         self.retracted = False
         self.accel_print = profile.default_accel_a    # M204 P (Klipper: the single accel)
         self.accel_travel = profile.travel_accel_a    # M204 T (Marlin 2 / RRF)
@@ -223,6 +230,8 @@ class MachineState:
         try:
             code, checksum = strip_checksum(code)
             cmd = command_of(code)
+            if self.flavour == "klipper" and cmd[:1] in _CLASSIC_LETTERS and command_text(code) != cmd:
+                return None                # Klipper does not normalise 'G01': an unknown command
             if cmd in ("G1", "G0"):
                 return self._linear(idx, raw, params_of(code), checksum)
             if cmd in ("G2", "G3"):
@@ -300,14 +309,15 @@ class MachineState:
             if de == 0.0:
                 return None
             return Move(idx, EONLY, x0, y0, z0, x, y, z, de, self.v, self.accel_retract, self.feature,
-                        self.layer, self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch)
+                        self.layer, self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch,
+                        self.flow_r)
         if de > 0.0:
             accel, ftr = self.accel_print, self.feature
         else:
             accel = self.accel_print if self._one_accel else self.accel_travel
             ftr = feat.TRAVEL
         return Move(idx, LINE, x0, y0, z0, x, y, z, de, self.v, accel, ftr, self.layer,
-                    self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch)
+                    self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch, self.flow_r)
 
     def _arc(self, idx, raw, code, cw, checksum):
         p = params_of(code)
@@ -335,7 +345,7 @@ class MachineState:
         ftr = self.feature if de > 0.0 else feat.TRAVEL
         return Move(idx, ARC, x0, y0, z0, x, y, z, de, self.v, self.accel_for(de > 0.0, True),
                     ftr, self.layer, self.lim, arc, has_f, self.e_relative, not self.abs_xyz, checksum,
-                    self.inch)
+                    self.inch, self.flow_r)
 
     def _other(self, idx, raw, cmd, code):
         prof = self.profile
@@ -371,6 +381,11 @@ class MachineState:
         elif cmd in ("M201", "M203", "M205"):
             if fl != "klipper":            # Klipper: "Unknown command", nothing changes
                 self._limits_m(idx, raw, cmd, params_of(code))
+        elif cmd == "M221":
+            self._m221(idx, raw, params_of(code))
+        elif cmd == "SET_PRESSURE_ADVANCE":
+            if fl == "klipper" and self._set_pressure_advance(idx, raw, code):
+                return Barrier(idx, 0.0, "SET_PRESSURE_ADVANCE flush")
         elif cmd == "SET_VELOCITY_LIMIT":
             if fl == "klipper":            # other firmwares do not know it
                 self._set_velocity_limit(idx, raw, code)
@@ -466,6 +481,44 @@ class MachineState:
                     self.warnings.append((idx, "M205 J outside 0.01..0.3 mm: Marlin ignores it"))
         if kw:
             self.lim = self.lim.replace(**kw)
+
+    def _m221(self, idx, raw, p):
+        """Flow factor.  Klipper: S above 0, 100 without S; Marlin / Prusa / RRF take S0
+        (no extrusion) and report without S."""
+        if "S" not in p:
+            if self.flavour == "klipper":
+                self.flow_r = 1.0
+            return
+        s_pct = p["S"]
+        low_ok = s_pct > 0.0 if self.flavour == "klipper" else s_pct >= 0.0
+        if not (low_ok and s_pct <= 1e4):
+            raise self._error(idx, raw, "M221 S (flow %) must be above 0 and at most 10000"
+                              if self.flavour == "klipper" else "M221 S (flow %) must be between 0 and 10000")
+        self.flow_r = s_pct / 100.0
+
+    def _set_pressure_advance(self, idx, raw, code) -> bool:
+        """Klipper's extruder._set_pressure_advance: ADVANCE >= 0, SMOOTH_TIME in [0, 0.2];
+        True when the effective smooth time changes (Klipper then flushes: a full stop)."""
+        kv = keyvals_of(code)
+        vals = {}
+        for key in ("ADVANCE", "SMOOTH_TIME"):
+            text = kv.get(key)
+            if text is None or "{" in text or "}" in text:
+                continue
+            try:
+                vals[key] = strict_number(text)
+            except WordError as e:
+                raise self._error(idx, raw, f"{key}: {e}") from None
+        pa = vals.get("ADVANCE", self.pa_t)
+        smooth = vals.get("SMOOTH_TIME", self.pa_smooth_t)
+        if not 0.0 <= pa <= 1e3:
+            raise self._error(idx, raw, "ADVANCE must be at least 0")
+        if not 0.0 <= smooth <= 0.2:
+            raise self._error(idx, raw, "SMOOTH_TIME must be between 0 and 0.2 s")
+        old = self.pa_smooth_t if self.pa_t else 0.0
+        new = smooth if pa else 0.0
+        self.pa_t, self.pa_smooth_t = pa, smooth
+        return new != old
 
     def _set_velocity_limit(self, idx, raw, code):
         """Klipper's toolhead.cmd_SET_VELOCITY_LIMIT rules: VELOCITY and ACCEL above 0,

@@ -69,6 +69,16 @@ def command_of(code: str) -> str:
     return s.split(None, 1)[0].upper()
 
 
+def command_text(code: str) -> str:
+    """The command word as written, upper-cased ('G01' stays 'G01'): Klipper looks its
+    handler up by this text, so 'G01' is an unknown command there."""
+    s = code.lstrip()
+    m = _CLASSIC.match(s)
+    if m is None or not s[0].isalpha() or s[1:2] not in _DIGITS:
+        return command_of(code)
+    return s[0].upper() + m.group(2)
+
+
 def _why(code: str) -> str:
     """The reason a classic command's code part failed _STRICT (for the error message)."""
     if not code.isascii():

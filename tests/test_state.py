@@ -314,3 +314,34 @@ def test_arc_whose_circle_reaches_the_range_is_read_but_not_retimed():
     assert big.arc.r == 50000 and not big.arc.off_circle
     assert not eligible_arc(big, "G3 X50000 Y50000 I50000 J0 E1\n", sel)
     assert eligible_arc(small, "G3 X10 Y10 I10 J0 E1\n", sel)
+
+
+def test_klipper_does_not_normalise_g01_marlin_does():
+    # Klipper looks its handler up by the text 'G01': unknown command, the move is skipped
+    _, evs = run("G1 X1 Y1\nG01 X5 Y5\nG1 X9\n", "klipper")
+    assert evs[1] is None and moves(evs)[-1].x0 == 1
+    _, evs = run("G1 X1 Y1\nG01 X5 Y5\nG1 X9\n", "marlin2")
+    assert moves(evs)[1].x1 == 5 and moves(evs)[-1].x0 == 5
+
+
+def test_klipper_pressure_advance_flush_is_a_barrier():
+    # extruder._set_pressure_advance flushes when the effective smooth time changes:
+    # PA 0 -> 0.04 (smooth 0 -> 0.04 s), same PA again (no change), SMOOTH_TIME change, PA -> 0
+    _, evs = run("SET_PRESSURE_ADVANCE ADVANCE=0.04\nSET_PRESSURE_ADVANCE ADVANCE=0.05\n"
+                 "SET_PRESSURE_ADVANCE SMOOTH_TIME=0.02\nSET_PRESSURE_ADVANCE ADVANCE=0\n"
+                 "SET_PRESSURE_ADVANCE ADVANCE={pa}\n", "klipper")
+    assert [type(e).__name__ for e in evs] == ["Barrier", "NoneType", "Barrier", "Barrier", "NoneType"]
+    _, evs = run("SET_PRESSURE_ADVANCE ADVANCE=0.04\n", "marlin2")       # unknown to Marlin
+    assert evs == [None]
+    refuse("SET_PRESSURE_ADVANCE SMOOTH_TIME=0.3\n", "klipper", match="SMOOTH_TIME")
+    refuse("SET_PRESSURE_ADVANCE ADVANCE=-1\n", "klipper", match="ADVANCE")
+
+
+def test_m221_flow_factor_on_moves():
+    _, evs = run("M83\nG1 X1 E1\nM221 S50\nG1 X2 E1\nM221\nG1 X3 E1\n", "klipper")
+    assert [m.flow_r for m in moves(evs)] == [1.0, 0.5, 1.0]          # Klipper: no S = 100 %
+    assert [m.e for m in moves(evs)] == [1, 1, 1]                     # E stays as written
+    _, evs = run("M83\nM221 S0\nG1 X1 E1\nM221\nG1 X2 E1\n", "marlin2")
+    assert [m.flow_r for m in moves(evs)] == [0.0, 0.0]               # Marlin: S0 = no flow, bare M221 reports
+    refuse("M221 S0\n", "klipper", match="M221")
+    refuse("M221 S-5\n", "marlin2", match="M221")

@@ -3,7 +3,8 @@
     python benchmarks/fuzz_campaign.py [--cases 5000] [--seed 1] [--minutes M] [--save DIR]
 
 Each case: a window of a sample, 1-3 random mutations (tests/test_fuzz.py's engine), a random
-bundled profile, default features or `all`; processed in-process by the CLI. Prints the count
+bundled profile, default features or `all`, `-o OUT` or (1 in 4) in place; processed in-process
+by the CLI (a hang bound per case). Prints the count
 of cases, ok, refused cleanly, tracebacks, silent corruptions (verify fails or a bad written
 value), hangs and other failures, the refusal reasons seen most, and saves each failing input
 to --save (default fuzz-failures/) as CASE.gcode plus CASE.txt (profile, features, mutations,
@@ -52,12 +53,12 @@ def main(argv=None):
     save = Path(a.save)
     n = 0
     for n in range(1, a.cases + 1):
-        name, prof, all_ = r.choice(names), r.choice(profiles), r.random() < 0.5
+        name, prof, all_, in_place = r.choice(names), r.choice(profiles), r.random() < 0.5, r.random() < 0.25
         ops = random_ops(r) if not a.only else [(r.choice(a.only.split(",")), r.randrange(1 << 31))
                                                 for _ in range(r.randint(1, 2))]
         data = build_case(texts[name], ops)
         t = time.monotonic()
-        cat, detail = check_case(data, prof, all_)
+        cat, detail = check_case(data, prof, all_, in_place=in_place)
         dt = time.monotonic() - t
         slowest = max(slowest, (dt, n))
         counts[cat] += 1
@@ -69,7 +70,7 @@ def main(argv=None):
             save.mkdir(parents=True, exist_ok=True)
             (save / f"case{n:05d}.gcode").write_bytes(data)
             (save / f"case{n:05d}.txt").write_text(
-                f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nmutations: {ops!r}\n"
+                f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nin place: {in_place}\nmutations: {ops!r}\n"
                 f"outcome: {cat}\n{detail}\n")
             last = detail.splitlines()[-1] if detail else ""
             if re.match(r"(SyntaxError|ImportError|ModuleNotFoundError|IndentationError)\b", last):
@@ -77,8 +78,8 @@ def main(argv=None):
             key = re.sub(r"[-\d.]+", "#", f"{cat}: {last}")[:100]
             seen[key] += 1
             if seen[key] <= 3:
-                print(f"case {n}: {cat}: {last[:300]} [{name} {prof} {'all' if all_ else 'default'} {ops}]",
-                      flush=True)
+                where = f"{name} {prof} {'all' if all_ else 'default'}{' in-place' if in_place else ''}"
+                print(f"case {n}: {cat}: {last[:300]} [{where} {ops}]", flush=True)
         if n % 250 == 0:
             print(f"... {n} cases, {time.monotonic() - t0:.0f} s, {dict(counts)}", flush=True)
         if a.minutes and time.monotonic() - t0 > 60 * a.minutes:

@@ -465,18 +465,22 @@ def run_cli(argv, hang_t=HANG_T):
 
 
 def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | None = None,
-               hang_t: float = HANG_T) -> tuple[str, str]:
-    """Run one case; (category, detail). category is OK, REFUSED or one of FAILURES."""
+               hang_t: float = HANG_T, in_place: bool = False) -> tuple[str, str]:
+    """Run one case; (category, detail). category is OK, REFUSED or one of FAILURES.
+    in_place: no -o (the way slicers call it): the input is rewritten, or left as it was."""
     import warnings
     from gcode_opt.profile import load_profile
     from gcode_opt.verify import verify
     own = work_dir is None
     d = tempfile.mkdtemp(prefix="fuzz-") if own else work_dir
+    orig = None
     try:
-        inp, out = os.path.join(d, "in.gcode"), os.path.join(d, "out.gcode")
+        inp = os.path.join(d, "in.gcode")
+        out = inp if in_place else os.path.join(d, "out.gcode")
         with open(inp, "wb") as fh:
             fh.write(data)
-        argv = ["process", inp, "-o", out, "-q", "--profile", profile] + (["--features", "all"] if features_all else [])
+        argv = (["process", inp] + ([] if in_place else ["-o", out]) + ["-q", "--profile", profile]
+                + (["--features", "all"] if features_all else []))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rc, err, tb = run_cli(argv, hang_t)
@@ -484,9 +488,10 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
             return "hang", tb.strip().splitlines()[-1] if tb else ""
         if rc == "exception":
             return "traceback", "\n".join(tb.strip().splitlines()[-4:])
-        with open(inp, "rb") as fh:
-            if fh.read() != data:
-                return "input-changed", f"exit {rc}"
+        if not in_place or rc != 0:
+            with open(inp, "rb") as fh:
+                if fh.read() != data:
+                    return "input-changed", f"exit {rc}"
         extra = sorted(set(os.listdir(d)) - {"in.gcode", "out.gcode"})
         if extra:
             return "temp-left", f"exit {rc}: {extra}"
@@ -494,17 +499,21 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
             msg = err.strip().splitlines()[-1] if err.strip() else ""
             if not re.match(r"gcode-opt: " + re.escape(inp) + r"(:\d+)?: \S", msg):
                 return "bad-message", f"exit 2 with {err.strip()[-300:]!r}"
-            if os.path.exists(out):
+            if not in_place and os.path.exists(out):
                 return "bad-exit", "exit 2 but an output was written"
             return REFUSED, msg[len("gcode-opt: ") + len(inp):][:160]
         if rc != 0:
             return "bad-exit", f"exit {rc}: {err.strip()[-300:]!r}"
         if not os.path.exists(out):
             return "bad-exit", "exit 0 without an output"
+        if in_place:                            # the original, to verify the rewritten file against
+            fd, orig = tempfile.mkstemp(suffix=".gcode", prefix="fuzz-orig-")
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                verify(inp, out, load_profile(profile))
+                verify(orig or inp, out, load_profile(profile))
         except AssertionError as e:
             return "corruption", f"verify: {str(e)[:300]}"
         except Exception as e:
@@ -514,6 +523,8 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
             return bad
         return OK, ""
     finally:
+        if orig:
+            os.unlink(orig)
         if own:
             shutil.rmtree(d, ignore_errors=True)
 
@@ -561,13 +572,13 @@ except ImportError:                                      # pragma: no cover
 
 if given is not None:
     _SEEDS = seeds()
-    _case = st.tuples(st.sampled_from(sorted(_SEEDS)), st.sampled_from(_profiles()), st.booleans(),
+    _case = st.tuples(st.sampled_from(sorted(_SEEDS)), st.sampled_from(_profiles()), st.booleans(), st.booleans(),
                       st.lists(st.tuples(st.sampled_from(sorted(MUTATIONS)), st.integers(0, (1 << 31) - 1)),
                                min_size=1, max_size=3))
 
     def _assert_case(case):
-        name, prof, all_, ops = case
-        cat, detail = check_case(build_case(_SEEDS[name], ops), prof, all_)
+        name, prof, all_, in_place, ops = case
+        cat, detail = check_case(build_case(_SEEDS[name], ops), prof, all_, in_place=in_place)
         assert cat in (OK, REFUSED), f"{cat}: {detail}\n  case: {case!r}"
 
     @settings(max_examples=50, deadline=None, derandomize=True, database=None,

@@ -122,6 +122,19 @@ def test_model_agrees_with_klipper_on_output(outputs, sample, prof_name, feature
     _agree(out, prof, f"{out.name}")
 
 
+@pytest.mark.parametrize("sample,prof_name,features", CASES)
+def test_model_replays_klipper_exactly_on_output(outputs, sample, prof_name, features):
+    # beyond the contract: the written file is read as Klipper reads it, to the last move
+    prof = load_profile(prof_name)
+    out = outputs(sample, prof_name, features)
+    o = ko.run_oracle(out, prof)
+    m = ko.model_metrics(out, ko.oracle_machine(prof))
+    assert o["errors"] == []
+    assert m["n_trapq_moves"] == o["n_trapq_moves"]
+    assert m["motion_time_s"] == pytest.approx(o["motion_time_s"], rel=1e-9)
+    assert m["int_a2_xy"] == pytest.approx(o["int_a2_xy"], rel=1e-9)
+
+
 # ---------------------------------------------------------------- edge files ------------
 EDGE = sorted(p.name for p in (REPO / "sample_gcode" / "edge").glob("*.gcode"))
 EDGE_SUBSET = ["klipper_macros.gcode", "m204_variants.gcode", "firmware_retraction.gcode"]
@@ -158,16 +171,7 @@ def test_edge_output_klipper_errors_and_stops(edge_outputs, sample, prof_name, f
     assert after["n_internal_full_stops"] <= before["n_internal_full_stops"]
 
 
-_EDGE_STATE = {
-    "formatting.gcode": "Klipper reads G01 as an unknown command (skips the move): state.py",
-    "klipper_macros.gcode": "SET_PRESSURE_ADVANCE from 0 changes the smooth time: Klipper "
-                            "flushes (a full stop); state.py makes no Barrier of it",
-}
-
-
-@pytest.mark.parametrize("sample", [
-    pytest.param(s, marks=[pytest.mark.xfail(strict=True, reason=_EDGE_STATE[s])] if s in _EDGE_STATE else [])
-    for s in EDGE])
+@pytest.mark.parametrize("sample", EDGE)
 def test_model_replays_klipper_on_edge_file(tmp_path, sample):
     prof = load_profile("voron24")
     path = REPO / "sample_gcode" / "edge" / sample
@@ -189,17 +193,9 @@ def test_model_replays_klipper_on_edge_file(tmp_path, sample):
 # ---------------------------------------------------------------- exactness -------------
 # Beyond the 1 % / 3 % contract: where the model reads a file as Klipper does, it replays
 # Klipper's planner exactly (same moves, same trapezoids), arcs and mcr included.
-def _strip(src: Path, dst: Path, prefixes):
-    lines = src.read_text().splitlines(keepends=True)
-    dst.write_text("".join(ln for ln in lines if not ln.startswith(prefixes)))
-    return dst
-
-
-@pytest.mark.parametrize("sample", ["prusa_klipper.gcode", "prusa_gyroid_arcs.gcode"])
-def test_model_replays_klipper_exactly(tmp_path, sample):
-    # M221 (flow factor) is left out: it changes Klipper's extruder junction limit and the
-    # model learns it only from state.py (see test_m221_flow_factor_in_extruder_junction)
-    path = _strip(REPO / "sample_gcode" / sample, tmp_path / sample, ("M221",))
+@pytest.mark.parametrize("sample", SAMPLES)
+def test_model_replays_klipper_exactly(sample):
+    path = REPO / "sample_gcode" / sample
     prof = load_profile("voron24")
     o = ko.run_oracle(path, prof)
     m = ko.model_metrics(path, ko.oracle_machine(prof))
@@ -298,8 +294,6 @@ def test_first_move_from_start_position(tmp_path, start):
     assert m["motion_time_s"] == pytest.approx(o["motion_time_s"], rel=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="needs state.py (helper A) to give Move.flow_r from "
-                                       "M221 S (Klipper's extrude_factor)")
 def test_m221_flow_factor_in_extruder_junction(tmp_path):
     # Klipper's extruder junction limit is instantaneous_corner_velocity / |change of E per
     # mm|, with E scaled by M221: halving the flow doubles the allowed junction speed here.

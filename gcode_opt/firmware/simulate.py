@@ -234,8 +234,8 @@ class _Sim:
             jd = lim.jd
             mcr_a = a
         # E per path mm as the extruder sees it: M221's flow factor scales E (Klipper's
-        # extruder junction limit reads it); state.Move carries it as flow_r when known
-        er = de * inv * getattr(mv, "flow_r", 1.0) if de else 0.0
+        # extruder junction limit reads it)
+        er = de * inv * mv.flow_r if de else 0.0
         b = Block(mv.idx, mv.kind, first, d, ux, uy, uz, er, a, jd, v, mcr_a)
         if self.model == "jerk":
             self.jerk = (lim.jerk_x, lim.jerk_y, self.jerk_z)

@@ -27,7 +27,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from test_fuzz import FAILURES, OK, REFUSED, build_case, check_case, random_ops, seeds  # noqa: E402
 
-GROUPS = {"tracebacks": ("traceback",), "silent corruptions": ("corruption", "bad-value", "accepted-nonfinite"),
+GROUPS = {"tracebacks": ("traceback",),
+          "silent corruptions": ("corruption", "bad-value", "accepted-nonfinite", "invalid-block"),
           "hangs": ("hang",), "other failures": ("bad-exit", "bad-message", "input-changed", "temp-left")}
 
 
@@ -75,7 +76,7 @@ def main(argv=None):
             last = detail.splitlines()[-1] if detail else ""
             if re.match(r"(SyntaxError|ImportError|ModuleNotFoundError|IndentationError)\b", last):
                 sys.exit(f"case {n}: the code under test does not import ({last}): campaign stopped")
-            key = re.sub(r"[-\d.]+", "#", f"{cat}: {last}")[:100]
+            key = re.sub(r"[-\d.]+", "#", re.sub(r"\S*/(?:in|out)\.gcode", "FILE", f"{cat}: {last}"))[:100]
             seen[key] += 1
             if seen[key] <= 3:
                 where = f"{name} {prof} {'all' if all_ else 'default'}{' in-place' if in_place else ''}"

@@ -5,7 +5,8 @@ lines kept) damaged by one to three mutations, processed by the CLI in-process. 
 passes when either
   * exit 0: the output verifies against the input (toolpath, E, untouched lines), no
     written (re-timed) line carries a non-finite number, F <= 0 or an acceleration <= 0,
-    and no motion line of the output carries a non-finite number; or
+    no motion line of the output carries a non-finite number, and every block passes the
+    flavour's validator (gcode_opt.validate, run here on the written file); or
   * exit 2 with `gcode-opt: IN:LINE: why` (or `gcode-opt: IN: why` for a whole file),
 and in both cases the input is byte-identical, no temporary file is left behind, nothing
 escapes as an exception, and it ends within HANG_T seconds.
@@ -361,7 +362,7 @@ def random_ops(r: random.Random, k_max: int = 3):
 # ------------------------------------------------------------- the property ---
 OK, REFUSED = "ok", "refused"
 FAILURES = ("traceback", "hang", "bad-exit", "bad-message", "input-changed", "temp-left", "corruption",
-            "bad-value", "accepted-nonfinite")
+            "bad-value", "accepted-nonfinite", "invalid-block")
 
 
 class Hang(BaseException):
@@ -432,6 +433,42 @@ def scan_output(path: str) -> tuple[str, str] | None:
                     return "bad-value", f"output line {n}: {why}: {line.strip()[:120]!r}"
             elif _MOTION.match(line.encode("utf-8", "surrogateescape")) and _NONFINITE.search(line.split(";")[0]):
                 return "accepted-nonfinite", f"output line {n}: {line.strip()[:120]!r}"
+    return None
+
+
+_ACCEL_VALUE = re.compile(r"^\s*(?:M204\b[^;]*?[SPT]|SET_VELOCITY_LIMIT\b[^;]*?\bACCEL=)(\d+\.?\d*)", re.I | re.M)
+
+
+def validator_problem(inp: str, out: str, profile) -> str | None:
+    """The product's own per-flavour validator (gcode_opt.validate), run independently on every
+    block of the output: flavour's command forms, plain decimals, 0 < accel <= the largest of the
+    profile's maximum and start-up values and of what the input itself commands."""
+    try:
+        from gcode_opt.validate import BlockInvalid, validate_block
+    except ImportError:                                  # pragma: no cover - older trees
+        return None
+    from gcode_opt.emit import BEGIN, END
+    with open(inp, encoding="utf-8", errors="surrogateescape") as fh:
+        commanded = [float(v) for v in _ACCEL_VALUE.findall(fh.read())]
+    # restoring what was in force is fair: the profile's start-up values or what the file commands
+    accel_max_a = max([profile.max_accel_a, profile.default_accel_a, profile.travel_accel_a] + commanded)
+    block = None
+    with open(out, encoding="utf-8", errors="surrogateescape", newline="") as fh:
+        for n, line in enumerate(fh, 1):
+            if line.startswith(BEGIN):
+                block, first = [line.rstrip("\r\n")], n
+            elif block is not None:
+                block.append(line.rstrip("\r\n"))
+                if line.startswith(END):
+                    text = "\n".join(block)
+                    block = None
+                    try:
+                        validate_block(text, profile.flavour, accel_max_a, None, extruding=True)
+                    except BlockInvalid as e:
+                        try:                             # a travel block takes Marlin 2's M204 T form
+                            validate_block(text, profile.flavour, accel_max_a, None, extruding=False)
+                        except BlockInvalid:
+                            return f"block at output line {first}: {e}"
     return None
 
 
@@ -521,6 +558,9 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
         bad = scan_output(out)
         if bad:
             return bad
+        why = validator_problem(orig or inp, out, load_profile(profile))
+        if why:
+            return "invalid-block", why
         return OK, ""
     finally:
         if orig:

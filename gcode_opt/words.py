@@ -18,6 +18,7 @@ _WS = "[ \t\r\n\v\f]"
 _STRICT = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?"
                      rf"(?:{_WS}*[A-Za-z][ \t]*{_NUM}(?![eE][-+]?[0-9]))*{_WS}*")
 _LOOSE = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:{_WS}*[A-Za-z][ \t]*{_NUM})*{_WS}*")
+_spaced = re.compile(r"[ \t]*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:[ \t]+[A-Za-z][-+.0-9]+)*[ \t\r\n]*").fullmatch
 _EXP_AT = re.compile(r"[eE]([-+]?[0-9]+)")
 _WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUM})")
 _KEYVAL = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
@@ -117,37 +118,52 @@ def _refuse_exponents(code: str) -> None:
                             "differently: write the E word apart)")
 
 
-def _pairs(code: str) -> list:
-    """(LETTER, number text) of every parameter after the command word; WordError if the
-    code part is not strictly letter+number words or names a parameter twice (Klipper
+def _text(num: str) -> str:
+    float(num)                 # ValueError unless the text is a number ("1.2.3", "1-2", ".")
+    return num
+
+
+def _words(code: str, conv) -> dict:
+    """{LETTER: conv(number text)} of every parameter after the command word; WordError if
+    the code part is not strictly letter+number words or names a parameter twice (Klipper
     keeps the last, Marlin the first).  A leading BOM is the file's encoding mark (the
     reader drops it on line 1 only)."""
     if code[:1] == "\ufeff":
         code = code[1:]
-    if _STRICT.fullmatch(code) is None:
-        if _LOOSE.fullmatch(code) is None:
-            raise WordError(_why(code))
-        _refuse_exponents(code)
-    pairs = [(letter.upper(), num) for letter, num in _WORD.findall(code)[1:]]
-    if len({p[0] for p in pairs}) != len(pairs):
-        seen = set()
-        for letter, _ in pairs:
-            if letter in seen:
-                raise WordError(f"parameter {letter} given twice")
-            seen.add(letter)
-    return pairs
+    if _spaced(code) is not None:
+        # the usual spaced words: split them; a number text here holds only "+-.0-9", where
+        # float() accepts exactly the strict grammar
+        toks = code.split()
+        try:
+            out = {t[0].upper(): conv(t[1:]) for t in toks[1:]}
+        except ValueError:
+            raise WordError(_why(code)) from None
+        n = len(toks) - 1
+    else:
+        if _STRICT.fullmatch(code) is None:
+            if _LOOSE.fullmatch(code) is None:
+                raise WordError(_why(code))
+            _refuse_exponents(code)
+        found = _WORD.findall(code)[1:]
+        out = {letter.upper(): conv(num) for letter, num in found}
+        n = len(found)
+    if len(out) != n:                      # a letter twice: name it
+        letters = [letter.upper() for letter, _ in _WORD.findall(code)[1:]]
+        twice = next(c for i, c in enumerate(letters) if c in letters[:i])
+        raise WordError(f"parameter {twice} given twice")
+    return out
 
 
 def param_texts(code: str) -> dict[str, str]:
     """Letter parameters of a classic command as the number's text (to copy a value
     without re-rounding), letters upper-cased, the command word itself skipped."""
-    return dict(_pairs(code))
+    return _words(code, _text)
 
 
 def params_of(code: str) -> dict[str, float]:
     """Letter parameters of a classic command as floats (finite unless the text has
     more than 308 digits: the caller checks ranges)."""
-    return {letter: float(num) for letter, num in _pairs(code)}
+    return _words(code, float)
 
 
 def keyvals_of(code: str) -> dict[str, str]:

@@ -561,9 +561,12 @@ def read_lines(path: str):
             yield idx, raw
 
 
-def events(path: str, profile: Profile):
-    """Yield (idx, raw, event) for every line of the file: event is Move, Barrier or None."""
+def events(path: str, profile: Profile, warnings: list | None = None):
+    """Yield (idx, raw, event) for every line of the file: event is Move, Barrier or None.
+    Give `warnings` (a list) to collect the reader's (idx, text) warnings into it."""
     st = MachineState(profile, path)
+    if warnings is not None:
+        st.warnings = warnings
     step = st.step
     for idx, raw in read_lines(path):
         yield idx, raw, step(idx, raw)

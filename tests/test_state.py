@@ -345,3 +345,11 @@ def test_m221_flow_factor_on_moves():
     assert [m.flow_r for m in moves(evs)] == [0.0, 0.0]               # Marlin: S0 = no flow, bare M221 reports
     refuse("M221 S0\n", "klipper", match="M221")
     refuse("M221 S-5\n", "marlin2", match="M221")
+
+
+def test_events_hands_out_the_warnings(tmp_path):
+    f = tmp_path / "a.gcode"
+    f.write_text("G1 X110 Y100\nG3 X100 Y110.2 I-10 J0 E0.5\n")
+    got = []
+    n = sum(1 for _ in events(str(f), load_profile("generic-klipper"), warnings=got))
+    assert n == 2 and [w[0] for w in got] == [1] and "0.200 mm off its circle" in got[0][1]

@@ -136,3 +136,20 @@ def test_bom_line_reads_alike_in_reader_and_emitter():
     raw = "\ufeffG1 X10 Y5 E0.5\n"
     assert param_texts(raw) == {"X": "10", "Y": "5", "E": "0.5"}
     assert command_of("\ufeffG1 X10") != "G1"     # mid-file, a BOM line stays an unknown command
+
+
+def test_non_utf8_comment_bytes_pass_through_crlf_bom_tabs(tmp_path):
+    src = tmp_path / "latin1.gcode"
+    body = (b"\xef\xbb\xbfG21\r\nG90\r\nM83\r\n; caf\xe9 \xb0C \xff\r\nM204 S1000\r\n;TYPE:Internal infill\r\n"
+            b"G1 X10 Y10 F6000\r\n"
+            + b"".join(b"G1\tX%d Y%d E0.5 F3000 ; \xe9\r\n" % (10 + 40 * (i % 2), 10 + 2 * i) for i in range(1, 12))
+            + b"G1 X60 Y40 ; fin \xe0\r\n")
+    src.write_bytes(body)
+    out = tmp_path / "out.gcode"
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(src), "-o", str(out), "-q",
+                        "--profile", "generic-klipper"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    data = out.read_bytes()
+    assert data.startswith(b"\xef\xbb\xbfG21\r\n") and b"; caf\xe9 \xb0C \xff\r\n" in data
+    assert data.endswith(b"G1 X60 Y40 ; fin \xe0\r\n")
+    assert data.count(b"; gcode-opt begin") >= 1 and data.count(b"; \xe9\r\n") == 11   # re-timed, comments kept

@@ -3,7 +3,7 @@
 The block replaces the stroke's original lines and is fenced by two marker comments so
 that a reader (or `verify.py`) can tell our lines from the slicer's:
 
-    ; gcode-opt begin: <n> segments, T=<s>, beta=<s^2>
+    ; gcode-opt begin: replaces <m> lines, kind=line|curve|arc, <n> segments, T=<s>, beta=<s^2>
     SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0     (Klipper: its smoothing would cap the law)
     M204 S<a_1>                                   (flavour's print-acceleration command)
     G1 X.. Y.. E.. F..                            (segment 1)

@@ -311,8 +311,9 @@ def test_m221_flow_factor_in_extruder_junction(tmp_path):
 
 @pytest.mark.parametrize("text", [
     pytest.param("G90\nM83\nG1 X50 Y50 F6000\nG28\nG1 X10 Y10 F6000\nG1 X60 Y10\n", id="G28-sets-0",
-                 marks=pytest.mark.xfail(strict=True, reason="state.py keeps the position across G28 "
-                                         "(the oracle, as a printer homed at 0, sets the axes to 0)")),
+                 marks=pytest.mark.xfail(strict=True, reason="state.py keeps the position across G28; "
+                                         "the oracle sets the homed axes to 0 (a real printer: to its "
+                                         "position_endstop, which a profile does not give yet)")),
     pytest.param("G90\nM83\nM220 S50\nG1 X50 Y50 F6000\nG1 X100 Y10\n", id="M220-speed-factor",
                  marks=pytest.mark.xfail(strict=True, reason="state.py ignores M220 (Klipper and "
                                          "Marlin scale F by it)")),

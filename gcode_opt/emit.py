@@ -30,7 +30,12 @@ def accel_command(flavour: str, accel_a: float, extruding: bool, round_up: bool 
     accelerations are rounded up so a ramp reaches its knot rather than falling short."""
     if not (math.isfinite(accel_a) and accel_a > 0.0):
         raise ValueError(f"acceleration {accel_a!r} is not a positive number")   # M204 S0 stops Klipper
-    a = _num(max(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 0.1), 1) if round_up else _num(max(accel_a, 1e-3), 3)
+    if round_up:
+        a = _num(max(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 0.1), 1)
+    else:                                 # a restore: the value in force, not a rounded one
+        a = _num(accel_a, 3 if accel_a >= 1.0 else 8)
+        if a == "0":
+            raise ValueError(f"acceleration {accel_a!r} has no plain decimal text")
     if flavour in ("klipper", "marlin-legacy"):
         return f"M204 S{a}"
     return f"M204 {'P' if extruding else 'T'}{a}"
@@ -48,6 +53,13 @@ def _num(x: float, dec: int) -> str:
     if "." in s:
         s = s.rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
+
+
+def _start_decimals(text: str) -> int:
+    """Decimals a start-point text really carries (the pipeline writes it with 8 digits:
+    trailing zeros are not precision).  Capped at 6: past that it is float noise."""
+    frac = text.partition(".")[2].rstrip("0")
+    return min(len(frac), 6)
 
 
 def _units(text: str, dec: int) -> int:
@@ -84,7 +96,10 @@ class StrokeText:
             es.append(p.get("E", "0"))
             self.comments.append(comment)
         self.x_texts, self.y_texts, self.e_texts = xs, ys, es
-        self.dec_xy = max([decimals(t) for t in xs + ys] + [3])
+        # the start point's precision counts too (a 4-decimal start, 3-decimal end: new
+        # points rounded to 3 decimals would be up to 0.0015 mm off the segment)
+        self.dec_xy = max([decimals(t) for t in xs + ys] + [_start_decimals(x_start_text),
+                                                            _start_decimals(y_start_text), 3])
         self.dec_e = max([decimals(t) for t in es] + [5])
         self.e_start_units = e_start_units
         self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
@@ -182,7 +197,8 @@ def emit_arc(raw, x0_text, y0_text, e_start, arc, s, accels, feeds, *, e_rel, fl
     cw = arc.sweep < 0
     x1t, y1t = p.get("X", x0_text), p.get("Y", y0_text)
     it, jt = p.get("I", "0"), p.get("J", "0")
-    dxy = max([decimals(t) for t in (x1t, y1t, it, jt) if t is not x0_text and t is not y0_text] + [3])
+    dxy = max([decimals(t) for t in (x1t, y1t, it, jt) if t is not x0_text and t is not y0_text]
+              + [_start_decimals(x0_text), _start_decimals(y0_text), 3])
     de = max(decimals(p.get("E", "0")), 5)
     x0u, y0u = _units(x0_text, dxy), _units(y0_text, dxy)
     cxu, cyu = x0u + _units(it, dxy), y0u + _units(jt, dxy)

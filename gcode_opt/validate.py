@@ -59,7 +59,7 @@ class Geometry:
         if self.arc is not None:
             # the original's own end text may sit off its circle by the slicer's rounding
             for px, py in self.pts or ():
-                if math.hypot(x - px, y - py) <= self.tol_d:
+                if math.hypot(x - px, y - py) <= 1e-6:
                     return 0.0
             cx, cy, r, th0, sw = self.arc
             ang = math.atan2(y - cy, x - cx)
@@ -112,7 +112,7 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
 
 
 def _check_move(cmd, words, geometry):
-    seen = {}
+    seen, texts = {}, {}
     allowed = "XYEF" if cmd == "G1" else "XYIJEF"
     for w in words:
         m = WORD.match(w)
@@ -121,6 +121,7 @@ def _check_move(cmd, words, geometry):
         if m.group(1) in seen:
             raise BlockInvalid(f"validator: {cmd} word {m.group(1)} repeated")
         seen[m.group(1)] = _num(m.group(2), f"{cmd} {m.group(1)}")
+        texts[m.group(1)] = m.group(2)
     if "F" in seen and seen["F"] <= 0:
         raise BlockInvalid("validator: F not above 0")
     if cmd != "G1" and not ({"I", "J"} & seen.keys()):
@@ -130,7 +131,10 @@ def _check_move(cmd, words, geometry):
     if ("X" in seen) != ("Y" in seen):
         raise BlockInvalid("validator: point without both X and Y")
     if "X" in seen and geometry is not None:
-        if geometry.off_path(seen["X"], seen["Y"]) > geometry.tol_d:
+        # a new point is the path's point rounded to the digits it is written with
+        dec = max(len(texts["X"].partition(".")[2]), len(texts["Y"].partition(".")[2]))
+        tol = min(geometry.tol_d, 0.75 * 10.0 ** -dec) + 1e-7
+        if geometry.off_path(seen["X"], seen["Y"]) > tol:
             raise BlockInvalid("validator: point off the original path")
     if "X" not in seen and "E" in seen:
         raise BlockInvalid("validator: extrusion without a move")

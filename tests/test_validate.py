@@ -114,3 +114,18 @@ def test_arc_rules(line, why):
     with pytest.raises(BlockInvalid, match=why):
         _check([hdr, "M204 S1000", line, "G2 X10 Y-10 I7.071 J7.071 E0.3 F3000", "M204 S3000", "G1 F4800", END],
                geo=ARC)
+
+
+def test_point_tolerance_follows_the_digits_written():
+    """tests/cases/four_decimal_coordinates.gcode: a 4-decimal start and a 3-decimal end;
+    a new point rounded to 3 decimals was 0.0012 mm off the segment (verify caught it)."""
+    geo = Geometry([(98.1079, 100.4936), (99.965, 98.108)])
+    hdr = HDR
+    a, b = (98.1079, 100.4936), (99.965, 98.108)
+    t = 0.03
+    x, y = a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])
+    good = f"G1 X{x:.4f} Y{y:.4f} E0.01 F600"
+    _check([hdr, "M204 S500", good, "G1 X99.965 Y98.108 E0.01 F600", "M204 S1000", "G1 F3000", END], geo=geo)
+    with pytest.raises(BlockInvalid, match="off the original path"):
+        _check([hdr, "M204 S500", "G1 X98.166 Y100.417 E0.01 F600", "G1 X99.965 Y98.108 E0.01 F600",
+                "M204 S1000", "G1 F3000", END], geo=geo)

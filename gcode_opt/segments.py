@@ -19,6 +19,7 @@ from .laws.line import line_law, time_of_distance
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
 EDGE_T = 0.01            # s: ... and no longer than this at that speed (a slow lead-in costs time)
+MIN_EDGE_D = 0.02        # mm: no room for a lead-in this long: none (a sliver is 0/0 for its ramp)
 
 
 def segment_count(T, L, n_max, t_seg_min_t, min_seg_d=MIN_SEG_D):
@@ -195,6 +196,17 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     return plans
 
 
+def _accel_top(stroke):
+    """The highest acceleration a segment of this stroke may carry: the one in force,
+    capped by the per-axis limits along its direction (plan_inputs' a_cap)."""
+    a = stroke.accel
+    if abs(stroke.ux) > 1e-12:
+        a = min(a, stroke.lim.ax_max / abs(stroke.ux))
+    if abs(stroke.uy) > 1e-12:
+        a = min(a, stroke.lim.ay_max / abs(stroke.uy))
+    return a
+
+
 def _finish(stroke, sk, vk, rules):
     """Accelerations (incl. what the corners need) and feeds for one stroke's knots."""
     u = (stroke.ux, stroke.uy)
@@ -215,6 +227,13 @@ def _finish(stroke, sk, vk, rules):
     if need0 > acc[0] or need1 > acc[-1]:
         e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05)) if need0 > acc[0] else 0.0
         e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05)) if need1 > acc[-1] else 0.0
+        # a lead-in squeezes the first ramp into a shorter segment: keep its acceleration
+        # within what the machine allows (Marlin caps M204 at M201's limit: the ramp would
+        # fall short of its knot)
+        a_top = _accel_top(stroke)
+        e0 = min(e0, 0.99 * max(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.0))
+        e1 = min(e1, 0.99 * max(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top), 0.0))
+        e0, e1 = (e if e >= MIN_EDGE_D else 0.0 for e in (e0, e1))   # no sliver segments
         sk, vk = with_edges(sk, vk, e0, e1)
         acc = ramp_accels(sk, vk)
         need0, need1 = needs(sk)

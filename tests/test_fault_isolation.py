@@ -238,3 +238,27 @@ def test_cruise_segments_carry_a_positive_acceleration_and_follow_the_law(tmp_pa
     simulate_file(str(out), profile, on_line=on_line)
     assert t[0] == pytest.approx(T, rel=0.01)
     assert a2[0] <= 1e-3 * st.int_a2 + 1e-6      # no ramp inside the block
+
+
+def _faults(s):
+    return {k: v for k, v in s["strokes"]["not_retimed"].items() if k.startswith(("error", "validator"))}
+
+
+def test_lead_in_never_squeezes_a_ramp_above_the_machine_limit(tmp_path):
+    """Reproducer (random arc fuzz): a lead-in at the corner speed shortened the first ramp of
+    a 1.4 mm line: 563 mm/s^2 on a 500 mm/s^2 machine (the validator threw the block out)."""
+    prof = load_profile("ender3")
+    s, dst = _run(tmp_path, "ender3", REG + "leadin_squeezed_ramp.gcode")
+    assert _faults(s) == {}
+    assert s["strokes"]["retimed"] == 3
+    accels = [float(line.split()[1][1:]) for line in open(dst) if line.startswith("M204 ")]
+    assert accels and max(accels) <= prof.max_accel_a + 0.1
+
+
+@pytest.mark.parametrize("prof", ["voron24", "prusa-mk3s", "ender3", "generic-marlin"])
+@pytest.mark.parametrize("name", ["kernel_underflow.gcode", "leadin_squeezed_ramp.gcode", "leadin_sliver.gcode"])
+def test_regressions_process_without_faults(tmp_path, prof, name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s, _ = _run(tmp_path, prof, REG + name)
+    assert _faults(s) == {}

@@ -262,3 +262,16 @@ def test_regressions_process_without_faults(tmp_path, prof, name):
         warnings.simplefilter("error")
         s, _ = _run(tmp_path, prof, REG + name)
     assert _faults(s) == {}
+
+
+def test_fixed_alpha_on_a_real_file_writes_no_m204_s0(tmp_path):
+    """Real reproducer: the bundled rectilinear sample, voron24, --alpha 0.001 wrote
+    `M204 S0` before the cruise-acceleration fix (real Klipper: "S must be above 0.0")."""
+    from klipper_oracle import run_oracle
+    prof = load_profile("voron24")
+    src = S + "prusa_mk3s_rectilinear.gcode"
+    s, dst = _run(tmp_path, "voron24", src, alpha=0.001)
+    assert s["strokes"]["retimed"] > 100 and _faults(s) == {}
+    accels = [float(line.split()[1][1:]) for line in open(dst) if line.startswith("M204 ")]
+    assert min(accels) > 0
+    assert run_oracle(str(dst), prof)["errors"] == []

@@ -373,16 +373,24 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
 
 
 def _validate(text, s, raws, x0, y0, accel0, profile):
-    """validate.py on one block; the path is the original's own (its raw X/Y words)."""
+    """validate.py on one block; the path and the filament are the original's own (its raw
+    X/Y/E words)."""
     pts = [(x0, y0)]
+    e_words = []
     for raw in raws:
         p = param_texts(strip_checksum(split_comment(raw.rstrip("\r\n"))[0])[0])
         pts.append((float(p.get("X", pts[-1][0])), float(p.get("Y", pts[-1][1]))))
+        if "E" in p:
+            e_words.append(float(p["E"]))
+    extruding = s.feature != feat.TRAVEL
+    e_check = None
+    if extruding and e_words:
+        e_check = (True, math.fsum(e_words)) if s.e_rel else (False, e_words[-1])
     arc = None if s.kind != K_ARC else (s.arc.cx, s.arc.cy, s.arc.r, s.arc.theta0, s.arc.sweep)
     # a restore of the acceleration the slicer had in force is as acceptable as the original line
     accel_max_a = max(profile.max_accel_a, accel0) if math.isfinite(accel0) else profile.max_accel_a
     validate_block(text, profile.flavour, accel_max_a, Geometry([pts[0], pts[-1]] if arc else pts, arc),
-                   extruding=s.feature != feat.TRAVEL, kind=s.kind)
+                   extruding=extruding, kind=s.kind, e_check=e_check)
 
 
 def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):

@@ -29,6 +29,7 @@ WORD = re.compile(r"([A-Za-z])(.*)\Z")
 MAX_CMD_BYTES = {"marlin2": 96, "marlin-legacy": 96}
 SVL_KEYS = ("VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO")
 MAX_DECIMALS = 8            # our own texts never have more; the firmwares parse any
+E_TOL = 1e-7                # relative: E is split in integer units of the file's precision, exactly
 
 
 class BlockInvalid(ValueError):
@@ -81,16 +82,21 @@ class Geometry:
 
 
 def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geometry | None = None,
-                   extruding: bool = True, kind: str | None = None) -> None:
+                   extruding: bool = True, kind: str | None = None, e_check=None) -> None:
     """Raise BlockInvalid (reason in its message) unless every line of the block is well
     formed for `flavour`, every value is finite and in range (F > 0, 0 < accel <=
-    accel_max_a + the 0.1 of the emitter's rounding) and every point is on the path."""
+    accel_max_a + the 0.1 of the emitter's rounding) and every point is on the path.
+
+    e_check = (e_rel, e_value): the filament the block must lay, as the original did: with
+    relative E the sum of its E words equals e_value (the original's sum), with absolute E
+    its last E word equals e_value (the original's last)."""
     lines = text.splitlines()
     if len(lines) < 2 or not lines[0].startswith(BEGIN + ": replaces ") or lines[-1] != END:
         raise BlockInvalid("validator: block not fenced")
     if kind is not None and f"kind={kind}" not in lines[0]:
         raise BlockInvalid("validator: header does not name the kind")
     limit = MAX_CMD_BYTES.get(flavour)
+    e_words = []
     for line in lines[1:-1]:
         code = line.split(";", 1)[0].strip()
         if not code:
@@ -102,13 +108,20 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         if cmd != toks[0]:
             raise BlockInvalid("validator: lower-case command")
         if cmd in ("G1", "G2", "G3"):
-            _check_move(cmd, toks[1:], geometry)
+            e = _check_move(cmd, toks[1:], geometry)
+            if e is not None:
+                e_words.append(e)
         elif cmd == "M204":
             _check_m204(toks[1:], flavour, accel_max_a, extruding)
         elif cmd == "SET_VELOCITY_LIMIT":
             _check_svl(toks[1:], flavour, accel_max_a)
         else:
             raise BlockInvalid(f"validator: command {cmd} not allowed in a block")
+    if e_check is not None:
+        e_rel, e_value = e_check
+        got = math.fsum(e_words) if e_rel else (e_words[-1] if e_words else None)
+        if got is None or abs(got - e_value) > E_TOL * (1.0 + abs(e_value)):
+            raise BlockInvalid("validator: filament differs from the original's")
 
 
 def _check_move(cmd, words, geometry):
@@ -138,6 +151,7 @@ def _check_move(cmd, words, geometry):
             raise BlockInvalid("validator: point off the original path")
     if "X" not in seen and "E" in seen:
         raise BlockInvalid("validator: extrusion without a move")
+    return seen.get("E")
 
 
 def _check_m204(words, flavour, accel_max_a, extruding):

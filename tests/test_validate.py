@@ -129,3 +129,17 @@ def test_point_tolerance_follows_the_digits_written():
     with pytest.raises(BlockInvalid, match="off the original path"):
         _check([hdr, "M204 S500", "G1 X98.166 Y100.417 E0.01 F600", "G1 X99.965 Y98.108 E0.01 F600",
                 "M204 S1000", "G1 F3000", END], geo=geo)
+
+
+def test_filament_must_match_the_original():
+    # relative E: the block's E words sum to the original's (0.18 + 0.187 + 0.374 = 0.741)
+    _check(GOOD["klipper"], e_check=(True, 0.741))
+    with pytest.raises(BlockInvalid, match="filament"):
+        _check(GOOD["klipper"], e_check=(True, 0.742))
+    # absolute E: the last E word is the original's last
+    lines = [HDR, "M204 S1000", "G1 X15 Y10 E10.5 F3000", "G1 X30 Y10 E11.25 F3000", "M204 S3000", "G1 F4800", END]
+    _check(lines, e_check=(False, 11.25))
+    with pytest.raises(BlockInvalid, match="filament"):
+        _check(lines, e_check=(False, 11.5))
+    with pytest.raises(BlockInvalid, match="filament"):          # no E at all where the original extruded
+        _check([HDR, "M204 S1000", "G1 X30 Y10 F3000", "M204 S3000", "G1 F4800", END], e_check=(True, 0.5))

@@ -48,11 +48,11 @@ class Move:
     """One motion line as the firmware sees it."""
     __slots__ = ("idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e", "v", "accel",
                  "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch",
-                 "flow_r")
+                 "flow_r", "speed_r")
 
     def __init__(self, idx, kind, x0, y0, z0, x1, y1, z1, e, v, accel, feature, layer, lim,
                  arc=None, has_f=False, e_rel=True, xyz_rel=False, checksum=False, inch=False,
-                 flow_r=1.0):
+                 flow_r=1.0, speed_r=1.0):
         self.idx, self.kind = idx, kind
         self.x0, self.y0, self.z0, self.x1, self.y1, self.z1 = x0, y0, z0, x1, y1, z1
         self.e, self.v, self.accel = e, v, accel
@@ -60,6 +60,8 @@ class Move:
         self.has_f, self.e_rel, self.xyz_rel, self.checksum = has_f, e_rel, xyz_rel, checksum
         self.inch = inch                  # written in inches (G20): we leave such lines alone
         self.flow_r = flow_r              # M221 flow factor: the extruder moves e * flow_r
+        self.speed_r = speed_r            # M220 speed factor, already applied to v: F written in such
+                                          # a stroke would be scaled again by the firmware
 
     @property
     def length_d(self) -> float:
@@ -179,6 +181,7 @@ class MachineState:
         self.layer = 0
         self.warnings = []                # (idx, text): lines left alone that a user should know of
         self.flow_r = 1.0                 # M221 S/100 (Klipper's extrude_factor)
+        self.speed_r = 1.0                # M220 S/100: every move's F is scaled by it (Klipper, Marlin, RRF)
         self.pa_t = 0.0                   # Klipper pressure advance (s), config default 0
         self.pa_smooth_t = 0.040          # Klipper pressure_advance_smooth_time default
         self.retracted = False
@@ -308,16 +311,17 @@ class MachineState:
         if x == x0 and y == y0 and z == z0:
             if de == 0.0:
                 return None
-            return Move(idx, EONLY, x0, y0, z0, x, y, z, de, self.v, self.accel_retract, self.feature,
+            return Move(idx, EONLY, x0, y0, z0, x, y, z, de, self.v * self.speed_r, self.accel_retract, self.feature,
                         self.layer, self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch,
-                        self.flow_r)
+                        self.flow_r, self.speed_r)
         if de > 0.0:
             accel, ftr = self.accel_print, self.feature
         else:
             accel = self.accel_print if self._one_accel else self.accel_travel
             ftr = feat.TRAVEL
-        return Move(idx, LINE, x0, y0, z0, x, y, z, de, self.v, accel, ftr, self.layer,
-                    self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch, self.flow_r)
+        return Move(idx, LINE, x0, y0, z0, x, y, z, de, self.v * self.speed_r, accel, ftr, self.layer,
+                    self.lim, None, has_f, e_rel, not abs_xyz, checksum, self.inch, self.flow_r,
+                    self.speed_r)
 
     def _arc(self, idx, raw, code, cw, checksum):
         p = params_of(code)
@@ -343,9 +347,9 @@ class MachineState:
         self.x, self.y, self.z = x, y, z
         self.e += de
         ftr = self.feature if de > 0.0 else feat.TRAVEL
-        return Move(idx, ARC, x0, y0, z0, x, y, z, de, self.v, self.accel_for(de > 0.0, True),
+        return Move(idx, ARC, x0, y0, z0, x, y, z, de, self.v * self.speed_r, self.accel_for(de > 0.0, True),
                     ftr, self.layer, self.lim, arc, has_f, self.e_relative, not self.abs_xyz, checksum,
-                    self.inch, self.flow_r)
+                    self.inch, self.flow_r, self.speed_r)
 
     def _other(self, idx, raw, cmd, code):
         prof = self.profile
@@ -383,6 +387,8 @@ class MachineState:
                 self._limits_m(idx, raw, cmd, params_of(code))
         elif cmd == "M221":
             self._m221(idx, raw, params_of(code))
+        elif cmd == "M220":
+            self._m220(idx, raw, params_of(code))
         elif cmd == "SET_PRESSURE_ADVANCE":
             if fl == "klipper" and self._set_pressure_advance(idx, raw, code):
                 return Barrier(idx, 0.0, "SET_PRESSURE_ADVANCE flush")
@@ -481,6 +487,18 @@ class MachineState:
                     self.warnings.append((idx, "M205 J outside 0.01..0.3 mm: Marlin ignores it"))
         if kw:
             self.lim = self.lim.replace(**kw)
+
+    def _m220(self, idx, raw, p):
+        """Speed factor.  Klipper: S above 0 (100 without S); Marlin / Prusa / RRF report
+        without S.  Both scale the F of every later move, the current one included."""
+        if "S" not in p:
+            if self.flavour == "klipper":
+                self.speed_r = 1.0
+            return
+        s_pct = p["S"]
+        if not 0.0 < s_pct <= 1e4:
+            raise self._error(idx, raw, "M220 S (speed %) must be above 0 and at most 10000")
+        self.speed_r = s_pct / 100.0
 
     def _m221(self, idx, raw, p):
         """Flow factor.  Klipper: S above 0, 100 without S; Marlin / Prusa / RRF take S0

@@ -314,9 +314,9 @@ def test_m221_flow_factor_in_extruder_junction(tmp_path):
                  marks=pytest.mark.xfail(strict=True, reason="state.py keeps the position across G28; "
                                          "the oracle sets the homed axes to 0 (a real printer: to its "
                                          "position_endstop, which a profile does not give yet)")),
-    pytest.param("G90\nM83\nM220 S50\nG1 X50 Y50 F6000\nG1 X100 Y10\n", id="M220-speed-factor",
-                 marks=pytest.mark.xfail(strict=True, reason="state.py ignores M220 (Klipper and "
-                                         "Marlin scale F by it)")),
+    pytest.param("G90\nM83\nM220 S50\nG1 X50 Y50 F6000\nG1 X100 Y10\n", id="M220-speed-factor"),
+    pytest.param("G90\nM83\nG1 X50 Y50 F6000\nM220 S150\nG1 X100 Y10\nM220\nG1 X10 Y90\n",
+                 id="M220-mid-file-and-reset"),
 ])
 def test_state_reads_as_klipper(tmp_path, text):
     # small files where the reading of one command decides the motion

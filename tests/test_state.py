@@ -353,3 +353,21 @@ def test_events_hands_out_the_warnings(tmp_path):
     got = []
     n = sum(1 for _ in events(str(f), load_profile("generic-klipper"), warnings=got))
     assert n == 2 and [w[0] for w in got] == [1] and "0.200 mm off its circle" in got[0][1]
+
+
+def test_m220_scales_moves_and_keeps_them_out_of_retiming(tmp_path):
+    # M220 scales every later move's F in the firmware; a re-timed segment's F would be scaled
+    # again, so such strokes are not candidates (the firmware-model side is checked against
+    # real Klipper in test_klipper_oracle.py::test_state_reads_as_klipper)
+    from gcode_opt.state import MachineState
+    from gcode_opt.strokes import eligible
+    from gcode_opt.profile import load_profile
+    st = MachineState(load_profile("voron24"), "t.gcode")
+    moves = [st.step(i, line) for i, line in enumerate(
+        ["G90", "M83", "G1 X0 Y0 F6000", "M220 S50", "G1 X50 Y0 E1", "M220 S100", "G1 X99 Y0 E1"])]
+    half, full = moves[4], moves[6]
+    assert half.v == pytest.approx(50.0) and full.v == pytest.approx(100.0)
+    assert not eligible(half, frozenset({"other"} | {half.feature}))
+    assert eligible(full, frozenset({full.feature}))
+    with pytest.raises(Exception, match="M220"):
+        st.step(7, "M220 S0")

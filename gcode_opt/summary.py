@@ -8,6 +8,9 @@ from collections import Counter
 import numpy as np
 
 
+FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
+
+
 def _ratio(after, before):
     return None if not before else after / before - 1.0
 
@@ -52,7 +55,10 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "options": {"alpha": opts.alpha, "features": list(opts.features), "overshoot": opts.overshoot_r,
                     "max_slowdown": opts.max_slowdown_r, "max_segments": opts.max_segments},
         "strokes": {"candidates": len(strokes), "retimed": int(len(idx)),
-                    "not_retimed": {k: v for k, v in reasons.items() if k != "retimed"}},
+                    "not_retimed": {k: v for k, v in reasons.items() if k != "retimed"},
+                    # the part of not_retimed that is a fault kept out of the file (planning,
+                    # segments or emission raised, a non-finite number, the validator refused)
+                    "faults": sum(v for k, v in reasons.items() if k.startswith(FAULT_PREFIXES))},
         "print_time_s": {"before": sim0.time_t, "after": sim1.time_t,
                          "change": _ratio(sim1.time_t, sim0.time_t)},
         "retimed_strokes": {

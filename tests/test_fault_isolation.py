@@ -53,6 +53,7 @@ def _run(tmp_path, prof="voron24", src=SAMPLE, **kw):
 
 def _check_one_dropped(s, baseline, reason):
     assert s["strokes"]["not_retimed"].get(reason) == 1, s["strokes"]["not_retimed"]
+    assert s["strokes"]["faults"] == 1 and baseline["strokes"]["faults"] == 0
     assert s["strokes"]["retimed"] == baseline["strokes"]["retimed"] - 1
 
 
@@ -105,6 +106,7 @@ def test_segment_planner_exception_and_nan_drop_only_their_strokes(tmp_path, mon
     assert nr.get("error: segments (ZeroDivisionError)") == 1, nr
     assert nr.get("error: segments (non-finite)") == 1, nr
     assert s["strokes"]["retimed"] == baseline["strokes"]["retimed"] - 2
+    assert s["strokes"]["faults"] == 2
 
 
 @pytest.mark.parametrize("bad,reason", [

@@ -258,7 +258,8 @@ def test_lead_in_never_squeezes_a_ramp_above_the_machine_limit(tmp_path):
 
 
 @pytest.mark.parametrize("prof", ["voron24", "prusa-mk3s", "ender3", "generic-marlin"])
-@pytest.mark.parametrize("name", ["kernel_underflow.gcode", "leadin_squeezed_ramp.gcode", "leadin_sliver.gcode"])
+@pytest.mark.parametrize("name", ["kernel_underflow.gcode", "leadin_squeezed_ramp.gcode", "leadin_sliver.gcode",
+                                  "firmware_retraction_gyroid.gcode"])
 def test_regressions_process_without_faults(tmp_path, prof, name):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -277,3 +278,18 @@ def test_fixed_alpha_on_a_real_file_writes_no_m204_s0(tmp_path):
     accels = [float(line.split()[1][1:]) for line in open(dst) if line.startswith("M204 ")]
     assert min(accels) > 0
     assert run_oracle(str(dst), prof)["errors"] == []
+
+
+@pytest.mark.parametrize("feats", [("sparse_infill", "solid_infill"), ("all",)])
+def test_firmware_retraction_gyroid_real_klipper_accepts(tmp_path, feats):
+    """A cut of a real PrusaSlicer gyroid cylinder with firmware retraction (G10/G11):
+    re-timed curves, and real Klipper finds no error and no new full stop."""
+    from gcode_opt import features as feat
+    from klipper_oracle import run_oracle
+    prof = load_profile("voron24")
+    src = REG + "firmware_retraction_gyroid.gcode"
+    s, dst = _run(tmp_path, "voron24", src, features=feat.ALL if feats == ("all",) else feats)
+    assert s["retimed_strokes"]["by_kind"]["curve"]["retimed"] >= 5 and _faults(s) == {}
+    before, after = run_oracle(src, prof), run_oracle(str(dst), prof)
+    assert after["errors"] == []
+    assert after["n_internal_full_stops"] <= before["n_internal_full_stops"]

@@ -262,9 +262,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     cands, fixed, failed = cached
     failed_rows = np.array(sorted(failed), int)
 
+    # failed strokes stay out of the budget's allocation (their figures may be NaN)
+    groups = [np.setdiff1d(rows[k], failed_rows) for k in (K_LINE, K_ARC, K_CURVE)]
+
     def run(budget):
-        plan = (plan_auto(pin, budget, cands, [rows[k] for k in (K_LINE, K_ARC, K_CURVE)])
-                if opts.alpha == "auto" else fixed.copy())
+        plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
         plan.retime[failed_rows] = False
         for i in failed_rows:
             plan.reason[i] = failed[i]

@@ -293,3 +293,23 @@ def test_firmware_retraction_gyroid_real_klipper_accepts(tmp_path, feats):
     before, after = run_oracle(src, prof), run_oracle(str(dst), prof)
     assert after["errors"] == []
     assert after["n_internal_full_stops"] <= before["n_internal_full_stops"]
+
+
+def test_non_finite_stroke_figures_fail_that_stroke_only(tmp_path, monkeypatch, baseline):
+    """A NaN in one stroke's original figures (time, |a|^2) must not poison the budget's
+    allocation over the whole file."""
+    target = _victim_length(baseline)
+    real = pipeline.analyse
+
+    def poisoned(path, profile, opts):
+        strokes, sim = real(path, profile, opts)
+        for st in strokes:
+            if _is_victim(st.length_d, target):
+                st.time_t = math.nan
+        return strokes, sim
+
+    monkeypatch.setattr(pipeline, "analyse", poisoned)
+    s, _ = _run(tmp_path)
+    _check_one_dropped(s, baseline, "error: non-finite plan input")
+    # the time budget (3 %) still holds: a NaN in the allocation had spent +32 %
+    assert s["print_time_s"]["change"] <= Options().max_slowdown_r + 0.002

@@ -208,9 +208,13 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     if n == 0:
         return plan
     T, beta, I, KE = candidates_auto(p) if cands is None else cands
-    groups = [g for g in (groups or [np.arange(n)]) if len(g)]
+    # a stroke whose original figures are not finite takes no part in the allocation (a
+    # NaN there would silence the budget for the whole file): it keeps its original
+    fine = np.isfinite(p.T_orig) & np.isfinite(p.I_orig)
+    groups = [g[fine[g]] for g in (groups or [np.arange(n)])]
+    groups = [g for g in groups if len(g)]
     total_t = sum(float(p.T_orig[g].sum()) for g in groups)
-    j = np.zeros(n, dtype=int)
+    j = np.full(n, T.shape[1], dtype=int)      # rows in no group keep their original
     lam = []
     for g in groups:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0

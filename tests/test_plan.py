@@ -64,3 +64,19 @@ def test_fixed_alpha_picks_the_shortest_feasible_duration():
                 & (law.min_speed() >= -1e-9))
     assert feasible(plan.T).all()
     assert not feasible(plan.T * 0.995).any()
+
+
+def test_a_nan_stroke_neither_is_chosen_nor_lifts_the_budget():
+    """Issue 7: one stroke with a NaN original time kept the budget bisection from
+    converging (every comparison with NaN is False), so the whole file got lambda = 0."""
+    p = _inputs([5.0, 12.0, 30.0, 60.0, 8.0, 45.0])
+    budget = 0.01 * float(p.T_orig.sum())
+    ref = plan_auto(p, budget)
+    assert ref.lam > 0                                          # the budget binds
+    q = _inputs([5.0, 12.0, 30.0, 60.0, 8.0, 45.0, 20.0])
+    cands = candidates_auto(q)
+    q.T_orig[-1] = np.nan                                       # the firmware model's figure, poisoned
+    got = plan_auto(q, budget, cands)
+    assert not got.retime[-1]
+    assert got.retime[:-1].tolist() == ref.retime.tolist() and np.allclose(got.T[:-1], ref.T)
+    assert float(np.sum(got.T[:-1] - q.T_orig[:-1])) <= budget * (1 + 1e-9)

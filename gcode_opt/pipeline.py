@@ -9,6 +9,12 @@
   3. measure: the firmware model plays the re-timed file; before/after figures come from
      the same model on both files.
 Memory holds a few floats per stroke, never the file's lines.
+
+One bad stroke never aborts the file: planning and segmenting run vectorised, and a batch
+that raises is retried in halves down to the stroke at fault (plan.isolate); a stroke with
+a non-finite input, candidate, plan or segment, or whose block raises while it is written
+or fails the output validator (validate.py), keeps its original lines, counted by reason
+in the summary (strokes.not_retimed, strokes.faults).
 """
 from __future__ import annotations
 

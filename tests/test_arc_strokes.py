@@ -110,3 +110,24 @@ def test_edge_arcs_all_features(tmp_path):
                                                                                       "external_perimeter")))
     verify(S + "edge/arcs.gcode", str(dst), prof)
     assert s["retimed_strokes"]["by_kind"]["arc"]["retimed"] >= 3     # incl. full circles
+
+
+@pytest.mark.parametrize("prof", ["voron24", "prusa-mk3s", "ender3"])
+def test_huge_radius_arcs_plan_quickly(tmp_path, prof):
+    """Issue 7 ("an arc with a huge radius -> hang"): a 20 mm arc and a full circle of
+    R = 40 m.  Cutting them into arc_segment_d chords gave ~250 000 chords to model; the
+    chords are now at most one per mrad (firmware.simulate.arc_chords, arcs.chord_d)."""
+    import time
+    src = tmp_path / "huge_r.gcode"
+    src.write_text("\n".join([
+        "G21", "G90", "M83", "M204 S1000", "G1 Z0.2 F720", "G1 X100 Y100 F10800", ";TYPE:Internal infill",
+        "G1 X120 Y100 E0.748 F4800", "G2 X140 Y100 I10 J-40000 E0.748 F4800", "G1 X160 Y100 E0.748 F4800",
+        "G2 X160 Y100 I0 J-40000 E9400 F4800", "G1 X170 Y100 E0.748 F4800"]) + "\n")
+    dst = tmp_path / "out.gcode"
+    t0 = time.monotonic()
+    s = process(str(src), str(dst), load_profile(prof), Options())
+    assert time.monotonic() - t0 < 30.0
+    assert s["strokes"]["faults"] == 0
+    assert verify(str(src), str(dst), load_profile(prof))["blocks"] == s["strokes"]["retimed"]
+    c = arcs.chord_d(np.array([2 * np.pi * 40000.0]), load_profile(prof), 40000.0)
+    assert c[0] == pytest.approx(40.0, rel=1e-3)          # 1 mrad chords of a 40 m circle

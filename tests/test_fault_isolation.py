@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from gcode_opt import pipeline, segments
+from gcode_opt import pipeline, schedule
 from gcode_opt.emit import accel_command
 from gcode_opt.firmware.simulate import simulate_file
 from gcode_opt.laws.curve import curvature_from_polyline
@@ -59,21 +59,21 @@ def _check_one_dropped(s, baseline, reason):
 
 def test_planning_exception_drops_only_its_stroke(tmp_path, monkeypatch, baseline):
     target = _victim_length(baseline)
-    real = pipeline.candidates_auto
+    real = schedule.candidates_auto
 
     def flaky(pin):
         if any(_is_victim(L, target) for L in pin.L):
             raise FloatingPointError("injected")
         return real(pin)
 
-    monkeypatch.setattr(pipeline, "candidates_auto", flaky)
+    monkeypatch.setattr(schedule, "candidates_auto", flaky)
     s, _ = _run(tmp_path)
     _check_one_dropped(s, baseline, "error: planning (FloatingPointError)")
 
 
 def test_non_finite_candidate_drops_only_its_stroke(tmp_path, monkeypatch, baseline):
     target = _victim_length(baseline)
-    real = pipeline.candidates_auto
+    real = schedule.candidates_auto
 
     def poisoned(pin):
         T, beta, I, KE = real(pin)
@@ -81,14 +81,14 @@ def test_non_finite_candidate_drops_only_its_stroke(tmp_path, monkeypatch, basel
         I[[_is_victim(L, target) for L in pin.L], 3] = np.nan
         return T, beta, I, KE
 
-    monkeypatch.setattr(pipeline, "candidates_auto", poisoned)
+    monkeypatch.setattr(schedule, "candidates_auto", poisoned)
     s, _ = _run(tmp_path)
     _check_one_dropped(s, baseline, "error: planning (non-finite)")
 
 
 def test_segment_planner_exception_and_nan_drop_only_their_strokes(tmp_path, monkeypatch, baseline):
     t_raise, t_nan = _victim_length(baseline, 0), _victim_length(baseline, 1)
-    real = pipeline.plan_segments
+    real = schedule.plan_segments
 
     def flaky(sts, T, b, rules):
         if any(_is_victim(st.length_d, t_raise) for st in sts):
@@ -100,7 +100,7 @@ def test_segment_planner_exception_and_nan_drop_only_their_strokes(tmp_path, mon
                 seg.accel[1] = np.nan
         return out
 
-    monkeypatch.setattr(pipeline, "plan_segments", flaky)
+    monkeypatch.setattr(schedule, "plan_segments", flaky)
     s, _ = _run(tmp_path)
     nr = s["strokes"]["not_retimed"]
     assert nr.get("error: segments (ZeroDivisionError)") == 1, nr
@@ -219,7 +219,7 @@ def test_cruise_segments_carry_a_positive_acceleration_and_follow_the_law(tmp_pa
     seg, = plan_segments([st], [T], [1e-12], rules)       # beta -> 0: the constant-speed law
     assert seg is not None and len(seg.accel) >= 2
     assert np.all(seg.accel > 0) and np.all(np.isfinite(seg.accel))
-    assert pipeline.seg_fault(seg) == ""
+    assert schedule.seg_fault(seg) == ""
     lines = open(src).read().split("\n")
     raws = [line + "\n" for line in lines[st.first_idx:st.last_idx + 1]]
     text = pipeline._stroke_block(st, raws, seg, 1e-12, st.x0, st.y0, 0.0, 3000.0, 0.5, profile)

@@ -1,0 +1,198 @@
+"""The file's plan: from the strokes the analyse pass found to the law and the segments
+of each one that is re-timed.
+
+  plan_inputs   per-stroke limits (speed cap from F, overshoot, machine and hotend flow;
+                acceleration cap per axis; segment time), arcs and curves adjusting theirs;
+  plan_strokes  candidates per kind of stroke (lines: plan.py; arcs: arcs.py; curves:
+                curves.py), the time budget spent across them (plan.plan_auto), then the
+                segments each chosen stroke will be played as, and the budget re-spent once
+                with the segments' predicted times.
+
+Faults stay with their stroke: a batch that raises is retried in halves down to the stroke
+at fault (plan.isolate); a non-finite candidate, plan or segment drops that stroke only,
+with its reason.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import arcs
+from . import curves
+from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
+                   plan_fixed_alpha, scatter_candidates)
+from .profile import Profile
+from .segments import SegmentRules, plan_segments
+from .strokes import K_ARC, K_CURVE, K_LINE
+
+
+def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
+    n = len(strokes)
+    with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
+        L = np.array([s.length_d for s in strokes], float)
+        ux = np.array([s.ux for s in strokes], float)
+        uy = np.array([s.uy for s in strokes], float)
+        v_feed = np.array([s.v_feed for s in strokes], float)
+        v_lim = np.array([min(s.lim.v_max, profile.max_velocity_v) for s in strokes], float)
+        area = math.pi * (profile.filament_diameter_d / 2) ** 2
+        e_mm = np.array([s.e_per_mm for s in strokes], float)
+        v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
+        v_cap = np.minimum(np.minimum(v_feed * (1 + opts.overshoot_r), v_lim), v_flow)
+        v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
+        # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
+        ax = np.array([s.lim.ax_max for s in strokes], float)
+        ay = np.array([s.lim.ay_max for s in strokes], float)
+        a_axis = np.minimum(np.where(abs(ux) > 1e-12, ax / abs(ux), np.inf),
+                            np.where(abs(uy) > 1e-12, ay / abs(uy), np.inf))
+        a_cap = np.minimum(np.array([s.accel for s in strokes], float), a_axis)
+        m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
+        m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
+        seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
+        pin = PlanInput(L, np.array([s.v0 for s in strokes], float), np.array([s.v1 for s in strokes], float),
+                        v_cap, a_cap, np.array([s.time_t for s in strokes], float),
+                        np.array([s.int_a2 for s in strokes], float), m2 / m, np.full(n, 3 * seg_t))
+    pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
+    failed = {}
+    arc_rows = [i for i, s in enumerate(strokes) if s.kind == K_ARC]
+    isolate(lambda r: arcs.adjust_plan_inputs(pin, strokes, r, profile), arc_rows, "planning", failed)
+    curve_rows = [i for i, s in enumerate(strokes) if s.kind == K_CURVE]
+    isolate(lambda r: curves.adjust_plan_inputs(pin, strokes, r, profile), curve_rows, "planning", failed)
+    pin.fault = input_faults(pin)             # reason per stroke, "" = fine
+    for i, why in failed.items():
+        pin.fault[i] = why
+    return pin
+
+
+def _rows_by_kind(strokes):
+    kinds = np.array([s.kind for s in strokes], dtype=object)
+    return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC, K_CURVE)}
+
+
+def _candidates(strokes, pin, profile, opts, rows, failed):
+    """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
+    isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
+    n = len(strokes)
+    ok = {k: np.array([i for i in r if i not in failed], int) for k, r in rows.items()}
+    if opts.alpha == "auto":
+        pieces = isolate(lambda r: candidates_auto(pin.take(r)), ok[K_LINE], "planning", failed)
+        pieces += isolate(lambda r: arcs.candidates_arc(pin, r, strokes), ok[K_ARC], "planning", failed)
+        pieces += isolate(lambda r: curves.candidates_curve(pin, r, strokes, profile), ok[K_CURVE],
+                          "planning", failed)
+        T, beta, I, KE, nonfinite = scatter_candidates(n, pieces, pin.T_orig[:, None] * T_RATIOS[None, :])
+        for i in nonfinite:
+            failed.setdefault(int(i), "error: planning (non-finite)")
+        I[nonfinite] = np.inf
+        return (T, beta, I, KE), None
+    alpha = float(opts.alpha)
+    fixed = Plan(n)
+    fixed.T = pin.T_orig.copy()
+    fixed.I_law = pin.I_orig.copy()
+    fixed.reason[:] = "no law within limits"
+    for sub, p in isolate(lambda r: plan_fixed_alpha(pin.take(r), alpha), ok[K_LINE], "planning", failed):
+        fixed.put(sub, p)
+    isolate(lambda r: arcs.fixed_alpha_arc(fixed, pin, r, strokes, alpha), ok[K_ARC], "planning", failed)
+    isolate(lambda r: curves.fixed_alpha_curve(fixed, pin, r, strokes, profile, alpha), ok[K_CURVE],
+            "planning", failed)
+    return None, fixed
+
+
+def _plan_fault(plan):
+    """Rows of a plan chosen for re-timing whose figures are not finite numbers."""
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(plan.T) | ~(plan.T > 0) | ~np.isfinite(plan.I_law) | np.isnan(plan.beta)
+    return plan.retime & bad
+
+
+def seg_fault(seg):
+    """Why a segment plan must not be written ("" = fine): every knot, speed, acceleration
+    and feed finite, knots strictly increasing, accelerations and feeds above 0."""
+    try:
+        s, v, a, f = (np.asarray(x, float) for x in (seg.s, seg.v, seg.accel, seg.feed))
+    except (TypeError, ValueError):
+        return "error: segments (malformed)"
+    if not (np.isfinite(s).all() and np.isfinite(v).all() and np.isfinite(a).all() and np.isfinite(f).all()
+            and math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
+        return "error: segments (non-finite)"
+    if len(s) < 2 or a.size != len(s) - 1 or f.size != len(s) - 1:
+        return "error: segments (malformed)"
+    if not (np.diff(s) > 0).all():
+        return "error: segments (knots not increasing)"
+    if not ((a > 0).all() and (f > 0).all() and (v >= 0).all()):
+        return "error: segments (acceleration, feed or speed not above 0)"
+    return ""
+
+
+def plan_strokes(strokes, pin, profile, opts, budget_t):
+    """Law per stroke (plan.py), then its segments as the firmware will execute them
+    (segments.py).  The segments' predicted time, not the law's, is what the print takes:
+    the budget is re-spent once with the difference taken off, and a stroke whose
+    segments would not beat the original trapezoid is left alone.
+
+    Fault isolation: a stroke whose inputs are not finite, whose planning or segmenting
+    raises, or whose plan holds a non-finite number keeps its original lines, with the
+    reason in plan.reason (the summary counts them)."""
+    rules = SegmentRules.for_profile(profile, opts.max_segments)
+    rows = _rows_by_kind(strokes)
+    cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
+    if cached is None:
+        fault = getattr(pin, "fault", None)
+        failed = {} if fault is None else {i: str(r) for i, r in enumerate(fault) if r}
+        cands, fixed = _candidates(strokes, pin, profile, opts, rows, failed) if len(strokes) else (None, None)
+        cached = pin.cached = (cands, fixed, failed)
+    cands, fixed, failed = cached
+    failed_rows = np.array(sorted(failed), int)
+
+    # failed strokes stay out of the budget's allocation (their figures may be NaN)
+    groups = [np.setdiff1d(rows[k], failed_rows) for k in (K_LINE, K_ARC, K_CURVE)]
+
+    def run(budget):
+        plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
+        plan.retime[failed_rows] = False
+        for i in failed_rows:
+            plan.reason[i] = failed[i]
+        bad = _plan_fault(plan)
+        plan.retime[bad] = False
+        plan.reason[bad] = "error: planning (non-finite)"
+        plan.segs = [None] * len(strokes)
+        plan.t_pred = pin.T_orig.copy()
+        plan.a2_pred = pin.I_orig.copy()
+        idx = np.flatnonzero(plan.retime)
+        kind = np.array([strokes[i].kind for i in idx], dtype=object)
+        segs = {}
+        seg_failed = {}
+        planners = {
+            K_LINE: lambda sts, T, b: plan_segments(sts, T, b, rules),
+            K_ARC: lambda sts, T, b: arcs.plan_arc_segments(sts, T, b, rules, profile),
+            K_CURVE: lambda sts, T, b: curves.plan_curve_segments(sts, T, b, rules, profile),
+        }
+        for k_name, fn in planners.items():
+            ii = idx[kind == k_name]
+            for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
+                                    ii, "segments", seg_failed):
+                segs.update(zip(sub.tolist(), res))
+        for i in idx:
+            seg = segs.get(int(i))
+            why = seg_failed.get(int(i)) or ("" if seg is None else seg_fault(seg))
+            if why:
+                plan.retime[i] = False
+                plan.reason[i] = why
+                continue
+            if seg is None or seg.int_a2 >= strokes[i].int_a2:
+                plan.retime[i] = False
+                plan.reason[i] = "segments would not beat the original"
+                continue
+            plan.segs[i] = seg
+            plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+        return plan
+
+    plan = run(budget_t)
+    if opts.alpha == "auto":
+        budget = budget_t
+        for _ in range(3):                # the set of strokes changes with the budget: iterate
+            over = float(np.sum(plan.t_pred - pin.T_orig, where=plan.retime)) - budget_t
+            if over <= 1e-3 * budget_t + 1e-9:
+                break
+            budget -= over
+            plan = run(budget)
+    return plan

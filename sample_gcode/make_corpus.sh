@@ -27,7 +27,7 @@
 # fetched exactly as make_samples.sh does (see its header).
 #
 # USAGE:   bash sample_gcode/make_corpus.sh [OUT_DIR]
-# Takes a few minutes on 2 cores (the gyroid plate dominates). Existing files are kept
+# Takes ~30 s on 2 cores (plus a one-time 25 MB download of the Cura definitions). Existing files are kept
 # unless FORCE=1 (slicing is deterministic apart from the date line).
 set -euo pipefail
 

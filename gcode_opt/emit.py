@@ -55,6 +55,15 @@ def _num(x: float, dec: int) -> str:
     return "0" if s in ("-0", "") else s
 
 
+def _exact_text(x: float) -> str:
+    """Plain decimal text of a value in force (12 significant digits, never an exponent):
+    a restore must give back the slicer's F0.1884, not F0.188.  The value went through
+    /60 and *60, so 12 digits drop that float noise and keep every digit a slicer writes."""
+    if not (math.isfinite(x) and x > 0.0):
+        raise ValueError(f"feed {x!r} is not a positive number")
+    return _num(x, max(12 - (math.floor(math.log10(x)) + 1), 0))
+
+
 def _start_decimals(text: str) -> int:
     """Decimals a start-point text really carries (the pipeline writes it with 8 digits:
     trailing zeros are not precision).  Capped at 6: past that it is float noise."""
@@ -111,7 +120,7 @@ def _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
     out = [accel_command(flavour, accel_restore, extruding, round_up=False) + nl]
     if flavour == "klipper":
         out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_num(mcr_restore, 3)}{nl}")
-    out.append(f"G1 F{_num(feed_restore_v * 60.0, 3)}{nl}")
+    out.append(f"G1 F{_exact_text(feed_restore_v * 60.0)}{nl}")
     out.append(f"{END}{nl}")
     return out
 

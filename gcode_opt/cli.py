@@ -179,13 +179,27 @@ def build_parser():
 
 
 def _load_profile(name, path=None, quiet=False):
+    """auto: limits from the slicer's settings (file, SLIC3R_* variables) on the closest bundled
+    profile, each value's source on stderr.  A named profile wins; where the file's limits differ
+    from it, one warning line each (also under -q: the user chose against the file)."""
     from .profile import load_profile
     if name == "auto":
-        from .detect import detect_profile
-        name, why = detect_profile(path)
+        from .detect import auto_profile
+        auto = auto_profile(path)
         if not quiet:
-            sys.stderr.write(f"gcode-opt: profile {name} ({why}; choose another with --profile)\n")
-    return load_profile(name)
+            sys.stderr.write(auto.describe() + "\n")
+            sys.stderr.flush()
+        return auto.profile
+    prof = load_profile(name)
+    if path:
+        from .detect import conflicts
+        try:
+            warnings = conflicts(prof, path)
+        except OSError:                  # unreadable input: check_input reports it
+            warnings = []
+        if warnings:
+            sys.stderr.write("\n".join(warnings) + "\n")
+    return prof
 
 
 def check_input(path):

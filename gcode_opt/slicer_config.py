@@ -1,0 +1,120 @@
+"""What the slicer says about the machine: its settings block, Cura's header, SLIC3R_* variables.
+
+PrusaSlicer, SuperSlicer, OrcaSlicer and Bambu Studio end a G-code file with every setting
+as a comment (`; machine_max_acceleration_x = 1000,960`).  PrusaSlicer (and its forks)
+also hands each setting to a post-processing script as an environment variable named
+`SLIC3R_` + the key in upper case, with the same serialised value (ConfigBase::setenv_).
+Cura writes `;FLAVOR:Marlin` in its header and, when the GUI saves a file, its changed
+settings as `;SETTING_3 {json}` lines at the very end (JSON cut into 80-character pieces).
+
+`read_settings(path)` returns every key found with the place it came from; the file wins
+over the environment (the environment may belong to another slicer run), the environment
+fills what the file lacks (a file whose comments were stripped)."""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass, field
+
+HEAD_BYTES = 16384
+TAIL_BYTES = 262144          # a PrusaSlicer/Orca config block with long custom G-code is ~50-100 kB
+
+_KEY_VALUE = re.compile(r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?(.*?)\s*$", re.M)
+_CURA_FLAVOR = re.compile(r"^;FLAVOR:(.*?)\s*$", re.M)
+_CURA_SETTING = re.compile(r"^;SETTING_3 (.*?)\r?$", re.M)
+_CURA_VALUE = re.compile(r"^\s*([a-z][a-z0-9_]*)\s*=\s*(.*?)\s*$", re.M)
+
+
+@dataclass
+class SlicerSettings:
+    values: dict = field(default_factory=dict)     # key -> raw text as the slicer serialised it
+    where: dict = field(default_factory=dict)      # key -> "file" | "SLIC3R_KEY" | "Cura ;SETTING_3" | "Cura ;FLAVOR"
+    slicer: str = ""                               # "prusaslicer-like", "cura" or ""
+    head: str = ""                                 # the file's first lines (Cura's start G-code comments)
+
+    def get(self, key):
+        return self.values.get(key)
+
+    def number(self, key):
+        """First number of a value ('1000,960' -> 1000.0: normal mode before silent), or None."""
+        raw = self.values.get(key)
+        if raw is None:
+            return None
+        first = raw.split(",")[0].strip().rstrip("%")
+        try:
+            v = float(first)
+        except ValueError:
+            return None
+        return v if v == v and abs(v) != float("inf") else None
+
+    def source(self, key):
+        w = self.where.get(key, "")
+        return key if w == "file" else f"{w}" if w.startswith("SLIC3R_") else f"{key}, {w}"
+
+
+def _head_tail(path):
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        head = fh.read(min(size, HEAD_BYTES))
+        fh.seek(max(size - TAIL_BYTES, 0))          # may overlap the head on a small file: harmless
+        tail = fh.read()
+    dec = lambda b: b.decode("utf-8", "replace").replace("\r\n", "\n")   # noqa: E731
+    return dec(head), dec(tail)
+
+
+def _cura_settings(tail):
+    """key -> value of the [values] sections in Cura's ;SETTING_3 block ({} if none or unreadable)."""
+    pieces = _CURA_SETTING.findall(tail)
+    if not pieces:
+        return {}
+    try:
+        blob = json.loads("".join(pieces))
+    except ValueError:
+        return {}
+    texts = []
+    if isinstance(blob, dict):
+        for v in blob.values():
+            texts.extend(v if isinstance(v, list) else [v])
+    out = {}
+    for text in texts:
+        if not isinstance(text, str):
+            continue
+        section = ""
+        for line in text.splitlines():
+            s = line.strip()
+            if s.startswith("[") and s.endswith("]"):
+                section = s[1:-1]
+                continue
+            m = _CURA_VALUE.match(line)
+            if m and section in ("values", "general"):
+                out.setdefault(m.group(1), m.group(2))      # global first, extruders after
+    return out
+
+
+def read_settings(path: str, environ=None) -> SlicerSettings:
+    environ = os.environ if environ is None else environ
+    head, tail = _head_tail(path)
+    st = SlicerSettings(head=head)
+    for key, val in _KEY_VALUE.findall(tail):
+        st.values[key] = val                    # the last block wins (it is the file's own)
+        st.where[key] = "file"
+    if st.values:
+        st.slicer = "prusaslicer-like"
+    m = _CURA_FLAVOR.search(head)
+    if m:
+        st.slicer = st.slicer or "cura"
+        st.values.setdefault("cura_flavor", m.group(1))
+        st.where.setdefault("cura_flavor", "Cura ;FLAVOR")
+    for key, val in _cura_settings(tail).items():
+        if key not in st.values:
+            st.values[key] = val
+            st.where[key] = "Cura ;SETTING_3"
+    for name, val in environ.items():
+        if name.startswith("SLIC3R_") and not name.startswith("SLIC3R_PP_"):
+            key = name[len("SLIC3R_"):].lower()
+            if key not in st.values:
+                st.values[key] = val
+                st.where[key] = name
+                st.slicer = st.slicer or "prusaslicer-like"
+    return st

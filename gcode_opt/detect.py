@@ -221,6 +221,8 @@ def auto_profile(path: str, environ=None) -> AutoProfile:
         notes.append("machine_limits_usage = time_estimate_only: the slicer does not send these limits to the "
                      "printer; check they match its firmware")
     taken.update(slicer_limits(st, flavour))
+    if junction != "jerk":                   # classic jerk is not this firmware's cornering model
+        taken.pop("jerk_xy_v", None)
     values = {f.name: getattr(base, f.name) for f in dataclasses.fields(Profile)}
     values.update({k: v for k, (v, _src) in taken.items()})
     values["junction"] = junction
@@ -247,7 +249,7 @@ def conflicts(prof: Profile, path: str, environ=None) -> list[str]:
         stated = {"flavour": (ours, why), **stated}
     out = []
     for k in _COMPARED:
-        if k not in stated:
+        if k not in stated or (k == "jerk_xy_v" and prof.junction != "jerk"):
             continue
         v, src = stated[k]
         mine = getattr(prof, k)

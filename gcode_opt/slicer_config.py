@@ -23,6 +23,8 @@ TAIL_BYTES = 262144          # a PrusaSlicer/Orca config block with long custom 
 _KEY_VALUE = re.compile(r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?(.*?)\s*$", re.M)
 _CURA_FLAVOR = re.compile(r"^;FLAVOR:(.*?)\s*$", re.M)
 _CURA_SETTING = re.compile(r"^;SETTING_3 (.*?)\r?$", re.M)
+_CURA_ESCAPE = re.compile(r"\\\\|\\n|\\r")
+_CURA_UNESCAPE = {"\\\\": "\\", "\\n": "\n", "\\r": "\r"}
 _CURA_VALUE = re.compile(r"^\s*([a-z][a-z0-9_]*)\s*=\s*(.*?)\s*$", re.M)
 
 
@@ -68,8 +70,10 @@ def _cura_settings(tail):
     pieces = _CURA_SETTING.findall(tail)
     if not pieces:
         return {}
+    # GCodeWriter escapes '\\', newline and CR in the JSON before cutting it; undo that in one pass
+    joined = _CURA_ESCAPE.sub(lambda m: _CURA_UNESCAPE[m.group(0)], "".join(pieces))
     try:
-        blob = json.loads("".join(pieces))
+        blob = json.loads(joined, strict=False)
     except ValueError:
         return {}
     texts = []

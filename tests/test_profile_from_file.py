@@ -7,6 +7,7 @@ The numbers below are read by hand from each sample's closing config block (Prus
 hand-written profile is the bundled profile's TOML, read here with tomllib."""
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -118,3 +119,87 @@ def test_auto_equals_hand_written_profile_mk3s(tmp_path):
 @pytest.mark.parametrize("name", ["prusa_klipper.gcode", "cura_box.gcode"])
 def test_auto_equals_hand_written_profile(tmp_path, name):
     _same_figures(tmp_path, name)
+
+
+# ---------------------------------------------------------------- PrusaSlicer's calling convention
+PP_DIR = "Dünn Ordner's prints"          # a space, a non-ASCII letter and a quote in the path
+
+
+def _posix_command(script, gcode):
+    """The command line PrusaSlicer runs on Linux/macOS (PostProcessor.cpp run_script): the
+    post_process line as the user wrote it, then the G-code path in single quotes, each ' as '\\''
+    -- handed to `$SHELL -c`."""
+    return script + " '" + gcode.replace("'", "'\\''") + "'"
+
+
+def test_run_as_prusaslicer_gui_does(tmp_path):
+    """The GUI copies the G-code to NAME.gcode.pp, sets every setting as SLIC3R_<KEY> plus
+    SLIC3R_PP_HOST / SLIC3R_PP_OUTPUT_NAME, and runs the script with the copy's path last.
+    Here the copy's settings comments are stripped (the ;TYPE: feature comments stay), so the
+    profile can only come from the variables."""
+    folder = tmp_path / PP_DIR
+    bindir = folder / "bin dir"
+    bindir.mkdir(parents=True)
+    exe = bindir / "gcode-opt"
+    exe.write_text(f"#!/bin/sh\nexec {sys.executable} -m gcode_opt \"$@\"\n")
+    exe.chmod(0o755)
+    final = folder / "Würfel 20 mm.gcode"
+    pp = folder / "Würfel 20 mm.gcode.pp"
+    text = open(os.path.join(SAMPLES, "prusa_absolute_e.gcode"), encoding="utf-8").read()
+    pp.write_text("".join(ln for ln in text.splitlines(True) if not re.match(r"; [a-z_0-9]+ = ", ln)),
+                  encoding="utf-8")
+    before = pp.read_bytes()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("SLIC3R_")}
+    env.update({"SLIC3R_PRINTER_MODEL": "MK3S", "SLIC3R_GCODE_FLAVOR": "marlin",
+                "SLIC3R_MACHINE_MAX_ACCELERATION_X": "1000,960", "SLIC3R_MACHINE_MAX_ACCELERATION_Y": "1000,960",
+                "SLIC3R_MACHINE_MAX_FEEDRATE_X": "200,100", "SLIC3R_MACHINE_MAX_FEEDRATE_Y": "200,100",
+                "SLIC3R_PP_HOST": "File", "SLIC3R_PP_OUTPUT_NAME": str(final), "PYTHONPATH": ROOT})
+    script = "'" + str(exe).replace("'", "'\\''") + "' process --profile auto"   # the user quotes the program
+    proc = subprocess.run(["/bin/sh", "-c", _posix_command(script, str(pp))], env=env, cwd=str(tmp_path),
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.startswith("gcode-opt: profile prusa-mk3s + file (printer_model = MK3S (SLIC3R_PRINTER_MODEL)")
+    assert "max_accel_a 1000 (SLIC3R_MACHINE_MAX_ACCELERATION_" in proc.stderr
+    after = pp.read_bytes()
+    assert after != before and b"; gcode-opt begin:" in after       # changed in place, under the .pp name
+    assert sorted(p.name for p in folder.iterdir()) == ["Würfel 20 mm.gcode.pp", "bin dir"]   # no stray files
+
+
+@pytest.mark.slow
+def test_real_prusaslicer_runs_gcode_opt(tmp_path):
+    """PrusaSlicer itself (the CLI: same run_script and variables, no .pp copy) slices a cube
+    into a folder with spaces and non-ASCII letters and runs gcode-opt as its post-processor."""
+    import shutil
+    ps = shutil.which("prusa-slicer")
+    if not ps:
+        pytest.skip("prusa-slicer not installed")
+    folder = tmp_path / PP_DIR
+    bindir = folder / "bin dir"
+    bindir.mkdir(parents=True)
+    exe = bindir / "gcode-opt"
+    exe.write_text(f"#!/bin/sh\nenv | grep '^SLIC3R_PP_OUTPUT_NAME=' > \"$(dirname \"$0\")/env.txt\"\n"
+                   f"exec {sys.executable} -m gcode_opt \"$@\"\n")
+    exe.chmod(0o755)
+    stl = tmp_path / "cube.stl"
+    quads = [((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)),
+             ((0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)), ((1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)),
+             ((1, 1, 0), (1, 1, 1), (0, 1, 1), (0, 1, 0)), ((0, 1, 0), (0, 1, 1), (0, 0, 1), (0, 0, 0))]
+    facets = []
+    for q in quads:
+        for tri in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
+            facets.append(" facet normal 0 0 0\n  outer loop\n" + "".join(
+                f"   vertex {x * 20} {y * 20} {z * 4}\n" for x, y, z in tri) + "  endloop\n endfacet\n")
+    stl.write_text("solid c\n" + "".join(facets) + "endsolid c\n")
+    ini = tmp_path / "pp.ini"
+    ini.write_text("post_process = '" + str(exe).replace("'", "'\\''") + "' process --profile auto\n",
+                   encoding="utf-8")
+    out = folder / "Würfel 20 mm.gcode"
+    env = {k: v for k, v in os.environ.items() if not k.startswith("SLIC3R_")}
+    env["PYTHONPATH"] = ROOT
+    proc = subprocess.run([ps, "--load", os.path.join(SAMPLES, "prusa_mk3s.ini"), "--load", str(ini),
+                           "--export-gcode", "--output", str(out), str(stl)], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    body = out.read_text(encoding="utf-8")
+    assert "; gcode-opt begin:" in body and "; printer_model = MK3S" in body
+    assert (bindir / "env.txt").read_text(encoding="utf-8").strip() == f"SLIC3R_PP_OUTPUT_NAME={out}"

@@ -178,14 +178,15 @@ def build_parser():
     return ap
 
 
-def _load_profile(name, path=None, quiet=False):
+def _load_profile(name, path=None, quiet=False, metadata=None):
     """auto: limits from the slicer's settings (file, SLIC3R_* variables) on the closest bundled
     profile, each value's source on stderr.  A named profile wins; where the file's limits differ
-    from it, one warning line each (also under -q: the user chose against the file)."""
+    from it, one warning line each (also under -q: the user chose against the file).  metadata:
+    settings read from the file elsewhere (a .bgcode's slicer-metadata block)."""
     from .profile import load_profile
     if name == "auto":
         from .detect import auto_profile
-        auto = auto_profile(path)
+        auto = auto_profile(path, metadata=metadata)
         if not quiet:
             sys.stderr.write(auto.describe() + "\n")
             sys.stderr.flush()
@@ -194,7 +195,7 @@ def _load_profile(name, path=None, quiet=False):
     if path:
         from .detect import conflicts
         try:
-            warnings = conflicts(prof, path)
+            warnings = conflicts(prof, path, metadata=metadata)
         except OSError:                  # unreadable input: check_input reports it
             warnings = []
         if warnings:

@@ -129,15 +129,16 @@ def slicer_limits(st: SlicerSettings, flavour: str) -> dict:
     usage = (st.get("machine_limits_usage") or "").strip()
     if usage != "ignore":
         for key, got in (("max_accel_a", _pair_min(st, "machine_max_acceleration_x", "machine_max_acceleration_y")),
-                         ("max_velocity_v", _pair_min(st, "machine_max_feedrate_x", "machine_max_feedrate_y")),
+                         ("max_velocity_v", _pair_min(st, "machine_max_feedrate_x", "machine_max_feedrate_y")
+                          or _pair_min(st, "machine_max_speed_x", "machine_max_speed_y")),   # Orca/Bambu name
                          ("jerk_xy_v", _pair_min(st, "machine_max_jerk_x", "machine_max_jerk_y")
                           or _one(st, "machine_max_jerk_xy")),
                          ("default_accel_a", _one(st, "machine_max_acceleration_extruding", "machine_acceleration")),
                          ("retract_accel_a", _one(st, "machine_max_acceleration_retracting")),
                          ("travel_accel_a", _one(st, "machine_max_acceleration_travel")),
-                         ("max_z_velocity_v", _one(st, "machine_max_feedrate_z")),
+                         ("max_z_velocity_v", _one(st, "machine_max_feedrate_z", "machine_max_speed_z")),
                          ("max_z_accel_a", _one(st, "machine_max_acceleration_z")),
-                         ("max_e_velocity_v", _one(st, "machine_max_feedrate_e"))):
+                         ("max_e_velocity_v", _one(st, "machine_max_feedrate_e", "machine_max_speed_e"))):
             if got:
                 out[key] = got
         if flavour == "marlin-legacy" and "default_accel_a" in out:
@@ -150,8 +151,9 @@ def slicer_limits(st: SlicerSettings, flavour: str) -> dict:
             out[key] = got
     fw = (st.get("use_firmware_retraction") or st.get("machine_firmware_retract") or "").strip().lower()
     if fw in ("1", "true"):
-        for key, k in (("fw_retract_length_d", "retract_length"), ("fw_retract_speed_v", "retract_speed")):
-            got = _one(st, k)
+        for key, ks in (("fw_retract_length_d", ("retract_length", "retraction_length")),   # Prusa, Orca/Bambu
+                        ("fw_retract_speed_v", ("retract_speed", "retraction_speed"))):
+            got = _one(st, *ks)
             if got:
                 out[key] = (got[0], got[1] + " with firmware retraction")
     return out
@@ -191,8 +193,10 @@ def _fmt(v):
     return f"{v:g}" if isinstance(v, float) else str(v)
 
 
-def auto_profile(path: str, environ=None) -> AutoProfile:
-    st = read_settings(path, environ)
+def auto_profile(path: str, environ=None, metadata=None) -> AutoProfile:
+    """environ: the SLIC3R_* variables (default os.environ); metadata: the file's settings read
+    elsewhere (a .bgcode's slicer-metadata block), see slicer_config.read_settings."""
+    st = read_settings(path, environ, metadata)
     base_name, why = choose_base(st)
     base = load_profile(base_name)
     ours, fwhy = _flavour(st)
@@ -240,9 +244,9 @@ _COMPARED = ("flavour", "max_accel_a", "max_velocity_v", "jerk_xy_v", "default_a
              "max_volumetric_flow")
 
 
-def conflicts(prof: Profile, path: str, environ=None) -> list[str]:
+def conflicts(prof: Profile, path: str, environ=None, metadata=None) -> list[str]:
     """One line per limit where the file's slicer settings differ from a profile the user named."""
-    st = read_settings(path, environ)
+    st = read_settings(path, environ, metadata)
     ours, why = _flavour(st)
     stated = slicer_limits(st, ours if ours and ours != "marlin" else prof.flavour)
     if ours and ours != "marlin":

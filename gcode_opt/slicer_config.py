@@ -96,13 +96,19 @@ def _cura_settings(tail):
     return out
 
 
-def read_settings(path: str, environ=None) -> SlicerSettings:
+def read_settings(path: str, environ=None, metadata=None) -> SlicerSettings:
+    """`metadata`: key -> value the caller read elsewhere from the same file (a binary G-code's
+    slicer-metadata block); it counts as the file's own, after the text's config block."""
     environ = os.environ if environ is None else environ
     head, tail = _head_tail(path)
     st = SlicerSettings(head=head)
     for key, val in _KEY_VALUE.findall(tail):
         st.values[key] = val                    # the last block wins (it is the file's own)
         st.where[key] = "file"
+    for key, val in (metadata or {}).items():
+        if key not in st.values:
+            st.values[key] = str(val)
+            st.where[key] = "file"
     if st.values:
         st.slicer = "prusaslicer-like"
     m = _CURA_FLAVOR.search(head)

@@ -176,3 +176,21 @@ def test_cli_prints_sources_and_quiet_suppresses(tmp_path):
     assert "gcode-opt: profile" not in quiet.stderr
     named = run("--profile", "prusa-mk4", "--json")
     assert "warning: the file says max_accel_a 1000" in named.stderr
+
+
+def test_orca_bambu_key_names(tmp_path):
+    """OrcaSlicer/Bambu Studio name the feedrate limits machine_max_speed_* and the retraction
+    retraction_length/_speed (as in a Bambu Studio X1C file's config block)."""
+    f = _file(tmp_path, MOVES + "; CONFIG_BLOCK_START\n" + "".join(f"; {k} = {v}\n" for k, v in (
+        ("gcode_flavor", "marlin"), ("machine_max_acceleration_x", "20000,20000"),
+        ("machine_max_acceleration_y", "20000,20000"), ("machine_max_speed_x", "500,200"),
+        ("machine_max_speed_y", "500,200"), ("machine_max_speed_z", "20,20"), ("machine_max_speed_e", "30,30"),
+        ("printer_model", "Bambu Lab X1 Carbon"), ("use_firmware_retraction", "1"),
+        ("retraction_length", "0.8"), ("retraction_speed", "30"))) + "; CONFIG_BLOCK_END\n")
+    a = auto_profile(f, environ={})
+    assert a.base == "bambu-x1c"
+    p = a.profile
+    assert (p.max_accel_a, p.max_velocity_v, p.max_z_velocity_v, p.max_e_velocity_v) == (20000.0, 500.0, 20.0, 30.0)
+    assert (p.fw_retract_length_d, p.fw_retract_speed_v) == (0.8, 30.0)
+    assert a.taken["max_velocity_v"][1] == "machine_max_speed_x/y"
+    assert p.flavour == "marlin-legacy"               # 'marlin' in these slicers writes M204 S as PrusaSlicer's does

@@ -1,75 +1,170 @@
-"""End-to-end speed on the largest bundled sample, measured in one run:
+"""Speed and memory of `gcode-opt process`, per phase and end to end, in CPU time.
 
-  * bare loop: read every line, split it, write it to a temp file (the file's I/O);
-  * gcode-opt's reader alone (words + machine state);
-  * the firmware model alone (one simulation of the file);
-  * the whole `process` job (analyse + plan + rewrite + measure = 2 simulations).
+    python benchmarks/bench_pipeline.py [FILE.gcode ...] [--profile NAME] [--runs N] [--json OUT]
 
-    python benchmarks/bench_pipeline.py [FILE.gcode] [--profile NAME]
+Default files: the largest bundled sample, and the two large plates of
+sample_gcode/make_large.sh if they are in its cache folder (make them with
+`bash sample_gcode/make_large.sh`).
 
-Prints lines/s and each figure's ratio to the bare loop (best of 3; compare ratios)."""
+Every case runs in a fresh subprocess, so the peak RSS it reports is its own
+(getrusage ru_maxrss, imports included; the figure after the imports is given apart).
+Inside that subprocess the case and a bare read-split-write loop over the same file
+alternate N times; each is timed in CPU seconds (time.process_time, not wall clock: a
+shared machine's load does not count) and the median is kept.  So every ratio to the bare
+loop is measured in the same run, on the same file, under the same load.
+
+Cases (each includes the ones above it, the phase is the difference):
+  read+state   words + machine state over every line (state.events)
+  strokes      + stroke grouping (strokes.group_strokes, curve vertex splitter)
+  analyse      + the firmware model on the original (pipeline.analyse: pass 1)
+  process      the whole job; its phases plan, rewrite, measure (= the firmware model on
+               the output; read+state of the output included) and summary come from
+               summary["timing_s"], the CPU seconds pipeline.process measures itself.
+"""
 from __future__ import annotations
 
 import argparse
 import glob
+import json
 import os
+import resource
+import statistics
+import subprocess
 import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-
-from gcode_opt.firmware.simulate import simulate_file  # noqa: E402
-from gcode_opt.pipeline import Options, process  # noqa: E402
-from gcode_opt.profile import load_profile  # noqa: E402
-from gcode_opt.state import events  # noqa: E402
-
 HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, "..")
+LARGE_DIR = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "gcode-opt-large")
+CASES = ("bare", "read+state", "strokes", "analyse", "process")
 
 
-def best_of(fn, runs=3):
-    ts = []
+def _peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0     # Linux: kB
+
+
+def bare_loop(path, out):
+    """The file's own I/O: read every line, split it, write it."""
+    with open(path, newline="") as fi, open(out, "w", newline="") as fo:
+        for raw in fi:
+            raw.split()
+            fo.write(raw)
+
+
+def run_case(case, path, profile_name, runs):
+    """In this (fresh) process: `runs` alternations of the case and the bare loop."""
+    sys.path.insert(0, ROOT)
+    from gcode_opt import curves
+    from gcode_opt.pipeline import Options, analyse, process
+    from gcode_opt.profile import load_profile
+    from gcode_opt.state import events
+    from gcode_opt.strokes import group_strokes
+    rss_import = _peak_mb()
+    prof = load_profile(profile_name)
+    tmpdir = tempfile.mkdtemp(prefix="bench-")
+    out = os.path.join(tmpdir, "out.gcode")
+    opts = Options()
+    timing = []
+
+    def fn():
+        if case == "read+state":
+            for _ in events(path, prof):
+                pass
+        elif case == "strokes":
+            split = curves.vertex_splitter(prof) if opts.max_turn_deg > 0 else None
+            for _ in group_strokes(events(path, prof), opts.features, opts.min_length_d, opts.max_turn_deg,
+                                   split):
+                pass
+        elif case == "analyse":
+            analyse(path, prof, opts)
+        elif case == "process":
+            s = process(path, out, prof, opts)
+            timing.append(dict(s.get("timing_s", {}), rewrite_passes=s.get("rewrite_passes")))
+
+    t_case, t_bare = [], []
     for _ in range(runs):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return min(ts)
+        t0 = time.process_time()
+        bare_loop(path, out)
+        t_bare.append(time.process_time() - t0)
+        if case != "bare":
+            t0 = time.process_time()
+            fn()
+            t_case.append(time.process_time() - t0)
+    for f in os.listdir(tmpdir):
+        os.unlink(os.path.join(tmpdir, f))
+    os.rmdir(tmpdir)
+    res = {"case": case, "cpu_s": statistics.median(t_case) if t_case else statistics.median(t_bare),
+           "cpu_runs_s": t_case or t_bare, "bare_cpu_s": statistics.median(t_bare),
+           "peak_rss_mb": _peak_mb(), "rss_after_import_mb": rss_import}
+    if timing:
+        res["timing_s"] = {k: statistics.median([t[k] for t in timing]) for k in timing[0]
+                           if timing[0][k] is not None}
+    return res
+
+
+def measure_file(path, profile_name, runs):
+    with open(path, newline="") as fh:
+        n = sum(1 for _ in fh)
+    rows = {}
+    for case in CASES:
+        r = subprocess.run([sys.executable, os.path.abspath(__file__), "--case", case, "--profile", profile_name,
+                            "--runs", str(runs if case != "process" else max(1, runs)), path],
+                           capture_output=True, text=True, check=True)
+        rows[case] = json.loads(r.stdout.strip().splitlines()[-1])
+    return n, rows
+
+
+def phases(n, rows):
+    """(phase, CPU s, ratio to the bare loop of that same subprocess, peak RSS MB) rows."""
+    bare = rows["bare"]["bare_cpu_s"]
+    out = [("bare read-split-write loop", bare, 1.0, rows["bare"]["peak_rss_mb"])]
+    prev = 0.0
+    for case, name in (("read+state", "read + machine state"), ("strokes", "stroke grouping"),
+                       ("analyse", "firmware model on the original")):
+        t = rows[case]["cpu_s"]
+        out.append((name, t - prev, (t - prev) / rows[case]["bare_cpu_s"], rows[case]["peak_rss_mb"]))
+        prev = t
+    p = rows["process"]
+    ts = p.get("timing_s", {})
+    for key, name in (("plan", "planning"), ("rewrite", "rewrite"), ("measure", "firmware model on the output"),
+                      ("summary", "summary")):
+        if key in ts:
+            out.append((name, ts[key], ts[key] / p["bare_cpu_s"], p["peak_rss_mb"]))
+    out.append(("process, end to end", p["cpu_s"], p["cpu_s"] / p["bare_cpu_s"], p["peak_rss_mb"]))
+    return out
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("file", nargs="?")
+    ap.add_argument("files", nargs="*")
     ap.add_argument("--profile", default="prusa-mk3s")
+    ap.add_argument("--runs", type=int, default=3, help="alternations per case (median kept)")
+    ap.add_argument("--case", choices=CASES, help=argparse.SUPPRESS)    # internal: one case, JSON out
+    ap.add_argument("--json", help="write every figure to this file")
     a = ap.parse_args()
-    path = a.file or max(glob.glob(os.path.join(HERE, "..", "sample_gcode", "*.gcode")), key=os.path.getsize)
-    prof = load_profile(a.profile)
-    with open(path, newline="") as fh:
-        n = sum(1 for _ in fh)
-    tmpdir = tempfile.mkdtemp()
-    out = os.path.join(tmpdir, "out.gcode")
-
-    def bare():
-        with open(path, newline="") as fi, open(out, "w", newline="") as fo:
-            for raw in fi:
-                raw.split()
-                fo.write(raw)
-
-    def reader():
-        for _ in events(path, prof):
-            pass
-
-    def model():
-        simulate_file(path, prof)
-
-    def job():
-        process(path, out, prof, Options())
-
-    rows = [("bare read-split-write loop", best_of(bare)), ("reader (words + machine state)", best_of(reader)),
-            ("firmware model (1 simulation)", best_of(model)), ("gcode-opt process (end to end)", best_of(job))]
-    t_bare = rows[0][1]
-    print(f"{os.path.relpath(path)}: {n} lines, {os.path.getsize(path) / 1e6:.2f} MB, profile {a.profile}")
-    for name, t in rows:
-        print(f"  {name:<34} {n / t:>11,.0f} lines/s   x{t / t_bare:7.1f} the bare loop   ({t * 1e3:7.1f} ms)")
+    if a.case:
+        print(json.dumps(run_case(a.case, a.files[0], a.profile, a.runs)))
+        return
+    files = a.files or ([max(glob.glob(os.path.join(ROOT, "sample_gcode", "*.gcode")), key=os.path.getsize)]
+                        + sorted(glob.glob(os.path.join(LARGE_DIR, "plate_*.gcode"))))
+    report = []
+    for path in files:
+        n, rows = measure_file(path, a.profile, a.runs)
+        ph = phases(n, rows)
+        print(f"{os.path.relpath(path)}: {n:,} lines, {os.path.getsize(path) / 1e6:.2f} MB, profile {a.profile}, "
+              f"median of {a.runs} (CPU time)")
+        print(f"  {'phase':<32} {'CPU s':>8} {'lines/s':>12} {'x bare':>8} {'peak RSS MB':>12}")
+        for name, t, r, rss in ph:
+            lps = n / t if t > 0 else float("inf")
+            print(f"  {name:<32} {t:8.3f} {lps:12,.0f} {r:8.1f} {rss:12.1f}")
+        print(f"  (RSS after the imports: {rows['read+state']['rss_after_import_mb']:.1f} MB; "
+              f"rewrite+measure passes: {rows['process'].get('timing_s', {}).get('rewrite_passes')})")
+        report.append({"file": path, "lines": n, "cases": rows,
+                       "phases": [{"phase": p, "cpu_s": t, "x_bare": r, "peak_rss_mb": m} for p, t, r, m in ph]})
+    if a.json:
+        with open(a.json, "w") as fh:
+            json.dump(report, fh, indent=1)
 
 
 if __name__ == "__main__":

@@ -112,10 +112,24 @@ def analyse(path, profile: Profile, opts: Options):
 
     pending_idx = set()
     split = curves.vertex_splitter(profile) if opts.max_turn_deg > 0 else None
+    state = MachineState(profile, path)
+    e_before = [0.0]       # logical E before the line the stream is at (the generators are lazy)
+
+    def read():
+        step = state.step
+        for idx, raw in read_lines(path):
+            e_before[0] = state.e
+            yield idx, raw, step(idx, raw)
+
+    def start_state():
+        """What rewrite needs where a run of moves starts (it copies the file without
+        re-reading it): E before the line, and the accelerations and cruise ratio in force
+        (a G0-G3 line leaves those as they were, so the state after it is the one before)."""
+        return e_before[0], state.accel_for(True, True), state.accel_for(False, True), state.lim.mcr
 
     def feed():
-        for item in group_strokes(_counted(events(path, profile), opts.progress), opts.features,
-                                  opts.min_length_d, opts.max_turn_deg, split):
+        for item in group_strokes(_counted(read(), opts.progress), opts.features,
+                                  opts.min_length_d, opts.max_turn_deg, split, start_state):
             if item[0] == "line":
                 _, idx, raw, ev = item
                 pending_idx.add(idx)
@@ -156,52 +170,49 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
     Each block is validated (validate.py) before it is written; a block whose emission
     raises or fails validation is replaced by the stroke's original lines, and the
     stroke counted with the reason (plan.retime/plan.reason updated)."""
-    chosen = {strokes[i].first_idx: i for i in np.flatnonzero(plan.retime)}
-    st = MachineState(profile, path)
+    from itertools import islice
+    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
     out_ranges = []
     out_line = 0
-    buf = None
-    cur = None
-    for idx, raw in _counted(read_lines(path), opts.progress):
-        if buf is None and idx in chosen:
-            i = chosen[idx]
-            # the acceleration to restore is the one of this stroke's kind (print vs travel)
-            cur = (i, strokes[i], st.x, st.y, st.e, st.accel_for(strokes[i].feature != feat.TRAVEL, True),
-                   st.lim.mcr)
-            buf = []
-        if buf is not None:
-            buf.append(raw)
-            st.step(idx, raw)
-            if idx == cur[1].last_idx:
-                i, s, x0, y0, e0, accel0, mcr0 = cur
-                try:
-                    with np.errstate(all="ignore"):
-                        text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0,
-                                             profile)
-                    _validate(text, s, buf, x0, y0, accel0, profile)
-                except BlockInvalid as e:
-                    text = None
-                    plan.reason[i] = str(e)
-                except Exception as e:        # noqa: BLE001 -- this stroke's failure only
-                    text = None
-                    plan.reason[i] = f"error: emission ({type(e).__name__})"
-                if text is None:
-                    plan.retime[i] = False
-                    plan.segs[i] = None
-                    out_fh.write("".join(buf))
-                    out_line += len(buf)
-                else:
-                    out_fh.write(text)
-                    n_out = text.count("\n")
-                    out_ranges.append((out_line, out_line + n_out - 1, i))
-                    out_line += n_out
-                buf = None
-            continue
-        st.step(idx, raw)
-        out_fh.write(raw)
-        out_line += 1
-    if buf:                       # file ended inside a stroke (cannot happen: strokes close)
-        out_fh.write("".join(buf))
+    pos = 0                       # next line of the input to copy
+    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+        lines = iter(fh)
+        write = out_fh.write
+        for i in order:
+            s = strokes[i]
+            n_copy = s.first_idx - pos
+            if n_copy < 0:        # overlapping strokes cannot happen: keep the original
+                plan.retime[i], plan.segs[i], plan.reason[i] = False, None, "error: emission (overlap)"
+                continue
+            # untouched lines: copied as they are, in bulk (no tokenising, no state)
+            out_fh.writelines(islice(lines, n_copy))
+            out_line += n_copy
+            buf = list(islice(lines, s.n_moves))
+            pos = s.first_idx + len(buf)
+            e0, accel0, mcr0 = s.start_state
+            x0, y0 = s.x0, s.y0
+            try:
+                with np.errstate(all="ignore"):
+                    text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile)
+                _validate(text, s, buf, x0, y0, accel0, profile)
+            except BlockInvalid as e:
+                text = None
+                plan.reason[i] = str(e)
+            except Exception as e:        # noqa: BLE001 -- this stroke's failure only
+                text = None
+                plan.reason[i] = f"error: emission ({type(e).__name__})"
+            if text is None:
+                plan.retime[i] = False
+                plan.segs[i] = None
+                write("".join(buf))
+                out_line += len(buf)
+            else:
+                write(text)
+                n_out = text.count("\n")
+                out_ranges.append((out_line, out_line + n_out - 1, i))
+                out_line += n_out
+        for chunk in iter(lambda: fh.read(1 << 20), ""):   # the rest of the file, in bulk
+            write(chunk)
     return out_ranges
 
 
@@ -280,16 +291,19 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
     says "unchanged" (with -o elsewhere, the input is copied there)."""
     from .outfile import AtomicOutput, OutputError, describe
     t_start = time.monotonic()
+    timing = _Timing()
     size = os.path.getsize(in_path)
     prog = opts.progress
     if prog:
         prog.start("analyse")
     strokes, sim0 = analyse(in_path, profile, opts)
+    timing.lap("analyse")
     if sim0.n_moves == 0:
         if prog:
             prog.finish()
         return _unchanged(in_path, out_path, profile, "no moves to re-time")
     pin = plan_inputs(strokes, profile, opts)
+    timing.lap("plan")
     budget_t = opts.max_slowdown_r * sim0.time_t
     try:
         with AtomicOutput(out_path) as out:
@@ -299,6 +313,7 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             # overrun taken off (one more rewrite + measure, only then).
             for _ in range(2):
                 plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+                timing.lap("plan")
                 if prog:
                     prog.start("rewrite")
                 try:
@@ -310,9 +325,12 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
                     if e.filename not in (None, tmp):
                         raise
                     raise OutputError(describe(e, out_path)) from None
+                timing.lap("rewrite")
                 if prog:
                     prog.start("measure")
                 sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+                timing.lap("measure")
+                timing.passes += 1
                 over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
                 if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
                     break
@@ -320,6 +338,9 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             from .summary import build_summary
             summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
                                     out_ranges, t1, a21, v21, time.monotonic() - t_start)
+            timing.lap("summary")
+            summary["timing_s"] = timing.as_dict()
+            summary["rewrite_passes"] = timing.passes
             if before_replace is not None:
                 before_replace(in_path, tmp, summary)
             out.commit()
@@ -327,6 +348,30 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         if prog:
             prog.finish()
     return summary
+
+
+class _Timing:
+    """CPU seconds per phase of process() (summary["timing_s"]): analyse = read + machine
+    state + strokes + firmware model on the original (one stream); plan; rewrite; measure =
+    firmware model on the output; summary.  A re-plan adds to plan, rewrite and measure
+    (summary["rewrite_passes"] counts the rewrite+measure passes)."""
+
+    PHASES = ("analyse", "plan", "rewrite", "measure", "summary")
+
+    def __init__(self):
+        self.t = dict.fromkeys(self.PHASES, 0.0)
+        self.passes = 0
+        self._t0 = self._last = time.process_time()
+
+    def lap(self, phase):
+        now = time.process_time()
+        self.t[phase] += now - self._last
+        self._last = now
+
+    def as_dict(self):
+        d = dict(self.t)
+        d["total"] = self._last - self._t0
+        return d
 
 
 def _unchanged(in_path, out_path, profile, why):

@@ -25,7 +25,7 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u", "kind", "arc", "pts", "curv")
+                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state")
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -45,6 +45,7 @@ class Stroke:
         self.e_per_mm = m.e / d
         self.v0 = self.v1 = self.time_t = self.int_a2 = self.int_v2 = 0.0
         self.prev_u = self.next_u = None     # XY directions of the neighbouring moves (None: a stop)
+        self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
 
     @property
     def n_moves(self) -> int:
@@ -69,6 +70,7 @@ class Stroke:
         st.e_per_mm = m.e / a.length_d
         st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
         st.prev_u = st.next_u = None
+        st.start_state = None
         return st
 
     @classmethod
@@ -189,8 +191,22 @@ def _partition(run, curves: bool):
     return out
 
 
+def _run_length(run) -> float:
+    """Path length of a run, summed as Stroke sums it (so no stroke of the run is longer)."""
+    total = 0.0
+    hypot = math.hypot
+    for m in run:
+        total += hypot(m.x1 - m.x0, m.y1 - m.y0)
+    return total
+
+
+def _kind_state(st, e0, ss):
+    """(E before the stroke, the acceleration its kind of move uses, cruise ratio)."""
+    return e0, (ss[2] if st.feature == "travel" else ss[1]), ss[3]
+
+
 def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
-                  split_vertex=None):
+                  split_vertex=None, start_state=None):
     """Consume (idx, raw, event) triples; yield them on unchanged, and collect strokes.
 
     Yields ("line", idx, raw, event) for every line and ("stroke", stroke) when a stroke
@@ -203,6 +219,12 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move), if
     given, does not reject: a vertex whose firmware speed cap no acceleration lifts is
     below the feed) is one curve stroke when it really turns (strokes._partition).
+
+    start_state(), if given, is called when a run or an arc stroke starts (the reader has
+    just read its first line) and must return (E before that line, acceleration of printing
+    moves, of travel moves, cruise ratio) in force; each stroke gets
+    ``start_state = (E before its first line, the acceleration of its kind, cruise ratio)``
+    (a stroke inside a run: E summed along the run, as the reader sums it).
     """
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
@@ -212,6 +234,7 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     arc = None             # an arc stroke waiting to close (at the next line)
     last_u = None          # direction of the last move; None after a stop
     waiting = None         # closed stroke still waiting for the next move's direction
+    run_start = None       # start_state() where the open run began
 
     def close(next_u_known, next_u):
         """Strokes of the open run / arc; the last one's next_u as given (or waiting)."""
@@ -220,12 +243,20 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
         if arc is not None:
             out = [arc]
             arc = None
+        elif run and min_length_d > 0.0 and _run_length(run) < min_length_d:
+            run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
         elif run:
             parts = _partition(run, curves)
+            e_k, k_done = (run_start[0] if run_start else 0.0), 0
             for j, (k0, st) in enumerate(parts):
                 st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
                 if j + 1 < len(parts):
                     st.next_u = _unit(run[parts[j + 1][0]])
+                if run_start is not None:
+                    for m in run[k_done:k0]:      # the reader's own sum, in its order
+                        e_k += m.e
+                    k_done = k0
+                    st.start_state = _kind_state(st, e_k, run_start)
                 out.append(st)
             run = []
         out = [st for st in out if st.length_d >= min_length_d]
@@ -256,9 +287,13 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
         if ok:
             run = [ev]
             run_prev_u = last_u
+            run_start = start_state() if start_state is not None else None
         elif is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
             arc = Stroke.of_arc(ev)          # closes at the next line
             arc.prev_u = last_u
+            if start_state is not None:
+                ss = start_state()
+                arc.start_state = _kind_state(arc, ss[0], ss)
         if is_move:
             last_u = _direction(ev, True)
         elif ev is not None:           # a Barrier: the planner stops

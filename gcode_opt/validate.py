@@ -54,6 +54,20 @@ class Geometry:
         self.pts = None if pts is None else [(float(x), float(y)) for x, y in pts]
         self.arc = arc              # (cx, cy, r, theta0, sweep); pts: the original's own points
         self.tol_d = tol_d
+        self._k = 0                 # polyline segment the last point was found on
+
+    def on_path(self, x, y, tol_d) -> bool:
+        """(x, y) within tol_d of the original path.  A block's points come in path order:
+        the polyline is searched from the segment of the last point on, then (only if that
+        fails) whole, so the answer is off_path(x, y) <= tol_d at a few segments' cost."""
+        p = self.pts
+        if self.arc is not None or p is None or len(p) < 2:
+            return self.off_path(x, y) <= tol_d
+        for k in range(self._k, len(p) - 1):
+            if _seg_dist(x, y, p[k], p[k + 1]) <= tol_d:
+                self._k = k
+                return True
+        return self.off_path(x, y) <= tol_d
 
     def off_path(self, x, y):
         """Distance (mm) from (x, y) to the original path."""
@@ -73,12 +87,18 @@ class Geometry:
             return min(math.hypot(x - ex, y - ey) for ex, ey in ends)
         best = math.inf
         p = self.pts
-        for (ax, ay), (bx, by) in zip(p[:-1], p[1:]):
-            dx, dy = bx - ax, by - ay
-            dd = dx * dx + dy * dy
-            t = 0.0 if dd <= 0 else min(1.0, max(0.0, ((x - ax) * dx + (y - ay) * dy) / dd))
-            best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+        for a, b in zip(p[:-1], p[1:]):
+            best = min(best, _seg_dist(x, y, a, b))
         return best
+
+
+def _seg_dist(x, y, a, b):
+    """Distance (mm) from (x, y) to the segment a-b."""
+    ax, ay = a
+    dx, dy = b[0] - ax, b[1] - ay
+    dd = dx * dx + dy * dy
+    t = 0.0 if dd <= 0 else min(1.0, max(0.0, ((x - ax) * dx + (y - ay) * dy) / dd))
+    return math.hypot(x - ax - t * dx, y - ay - t * dy)
 
 
 def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geometry | None = None,
@@ -147,7 +167,7 @@ def _check_move(cmd, words, geometry):
         # a new point is the path's point rounded to the digits it is written with
         dec = max(len(texts["X"].partition(".")[2]), len(texts["Y"].partition(".")[2]))
         tol = min(geometry.tol_d, 0.75 * 10.0 ** -dec) + 1e-7
-        if geometry.off_path(seen["X"], seen["Y"]) > tol:
+        if not geometry.on_path(seen["X"], seen["Y"], tol):
             raise BlockInvalid("validator: point off the original path")
     if "X" not in seen and "E" in seen:
         raise BlockInvalid("validator: extrusion without a move")

@@ -33,7 +33,9 @@ def _no_tmp(folder):
 
 
 def _one_line(err):
-    lines = [x for x in err.splitlines() if x.strip() and not x.startswith("gcode-opt: profile ")]
+    # the profile block (`gcode-opt: profile ...` and its indented value lines) is not the message
+    lines = [x for x in err.splitlines()
+             if x.strip() and not x.startswith("gcode-opt: profile ") and not x.startswith("  ")]
     assert "Traceback" not in err
     assert len(lines) == 1, err
     return lines[0]

@@ -235,20 +235,50 @@ def check_outputs(pairs):
         seen[real] = what
 
 
+def _binary_input(path):
+    """The BinaryJob of a Prusa binary G-code input (decoded to a temporary text), or None for
+    text.  Checks the input either way (UserError / InputRefused 'PATH: why')."""
+    try:
+        with open(path, "rb") as fh:
+            binary = fh.read(4) == b"GCDE"
+    except OSError:
+        binary = False                                # check_input says why
+    if not binary:
+        check_input(path)
+        return None
+    from .bgcode_job import BinaryJob
+    from .inputcheck import check_input as deep_check
+    deep_check(path, binary_gcode=True)
+    return BinaryJob(path, path)
+
+
 def cmd_process(a):
     from .pipeline import Options, Progress, process
-    check_input(a.input)
     out = a.output or a.input
+    job = _binary_input(a.input)                      # .bgcode: decoded, every checksum verified
+    try:
+        return _process(a, out, job, Options, Progress, process)
+    finally:
+        if job is not None:
+            job.close()
+
+
+def _process(a, out, job, Options, Progress, process):
     check_outputs([(out, "output" if a.output else "output (the input, rewritten in place)"),
                    (a.report, "report"), (a.json, "summary")])
-    prof = _load_profile(a.profile, a.input, a.quiet)
-    prog = None if a.quiet else Progress(os.path.getsize(a.input))
+    src, dst, metadata = a.input, out, None
+    if job is not None:                               # the pipeline works on the decoded text
+        job.out_path = out
+        src, dst, metadata = job.src, job.dst, job.settings
+    prof = _load_profile(a.profile, src, a.quiet, metadata=metadata)
+    prog = None if a.quiet else Progress(os.path.getsize(src))
     opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
     opts.max_turn_deg = a.max_turn
     report_error = []
+    pending = []
 
-    def write_report_hook(orig, new, summary):        # runs while both files exist
+    def write_report(orig, new, summary):
         try:                                          # a failed report never costs the G-code output
             from .report.html import write_report
             write_report(orig, new, prof, summary, a.report)
@@ -258,7 +288,23 @@ def cmd_process(a):
                 traceback.print_exc()
             why = e.strerror if isinstance(e, OSError) and e.strerror else e
             report_error.append(f"{a.report}: report not written: {why}")
-    summary = process(a.input, out, prof, opts, before_replace=write_report_hook if a.report else None)
+
+    def write_report_hook(orig, new, summary):        # runs while both files exist
+        if job is None:
+            write_report(orig, new, summary)
+        else:                                         # the .bgcode is written after the pipeline
+            pending.append((orig, new, summary))
+    hook = write_report_hook if a.report else None
+    if job is None:
+        summary = process(a.input, out, prof, opts, before_replace=hook)
+    else:
+        summary = job.run(lambda: process(src, dst, prof, opts, before_replace=hook))
+        summary = job.finish(summary)                 # encoded, read back, put in place atomically
+        if not a.quiet:
+            for w in job.warnings:
+                sys.stderr.write(f"gcode-opt: {w}\n")
+        for orig, _tmp, summ in pending:           # the pipeline's temporary text is job.dst now
+            write_report(orig, job.dst, summ)
     rc = 0
     if a.json:
         try:
@@ -301,8 +347,14 @@ def format_summary(s):
 
 def cmd_simulate(a):
     from .firmware.simulate import simulate_file
-    check_input(a.input)
-    res = simulate_file(a.input, _load_profile(a.profile, a.input, a.json))
+    job = _binary_input(a.input)                      # .bgcode: its decoded G-code is simulated
+    try:
+        src = a.input if job is None else job.src
+        res = job.run(lambda: simulate_file(src, _load_profile(a.profile, src, a.json, metadata=job.settings))) \
+            if job is not None else simulate_file(src, _load_profile(a.profile, src, a.json))
+    finally:
+        if job is not None:
+            job.close()
     d = res.as_dict()
     if a.json:
         print(json.dumps(d, indent=1))

@@ -4,6 +4,8 @@
 `FILE: what it is and what to do`) for a directory, a missing or unreadable file, an
 empty file, a Prusa binary G-code (.bgcode) and any other binary file (NUL bytes, or
 mostly bytes that text never holds, in the first 64 KB).  It reads at most HEAD_BYTES.
+`check_input(path, binary_gcode=True)` (process, simulate: they decode .bgcode) lets a
+.bgcode through after a look at its file header, and returns "bgcode" (else "text").
 Whether the text moves the printer at all is decided later, by the pipeline.
 """
 from __future__ import annotations
@@ -26,8 +28,9 @@ class InputRefused(ValueError):
         super().__init__(f"{path}: {what}")
 
 
-def check_input(path) -> None:
-    """Raise InputRefused unless `path` is a readable, non-empty, text (ASCII G-code) file."""
+def check_input(path, binary_gcode: bool = False) -> str:
+    """Raise InputRefused unless `path` is a readable, non-empty, text (ASCII G-code) file, or
+    (binary_gcode) a file that starts as a binary G-code does.  Returns "text" or "bgcode"."""
     try:
         st = os.stat(path)
     except FileNotFoundError:
@@ -44,12 +47,32 @@ def check_input(path) -> None:
     if not head:
         raise InputRefused(path, "the file is empty: nothing to process (did the slicer finish writing it?)")
     if head.startswith(BGCODE_MAGIC):
-        raise InputRefused(path, "Prusa binary G-code (.bgcode): not supported yet; export ASCII G-code "
-                                 "(PrusaSlicer: Printer Settings > General > Firmware > Supports binary "
-                                 "G-code off) or convert it with libbgcode's bgcode tool")
+        if not binary_gcode:
+            raise InputRefused(path, "Prusa binary G-code (.bgcode): this command reads ASCII G-code only "
+                                     "(`gcode-opt process` and `simulate` read .bgcode); export ASCII G-code "
+                                     "(PrusaSlicer: Printer Settings > General > Firmware > Supports binary "
+                                     "G-code off) or convert it with libbgcode's bgcode tool")
+        why = _not_bgcode(head)
+        if why:
+            raise InputRefused(path, f"starts like a Prusa binary G-code (.bgcode) but {why}")
+        return "bgcode"
     why = _not_text(head)
     if why:
         raise InputRefused(path, f"not a text file ({why}): gcode-opt reads ASCII G-code only")
+    return "text"
+
+
+def _not_bgcode(head: bytes) -> str:
+    """Why this head is not a binary G-code file header gcode-opt reads, or ''."""
+    if len(head) < 10:
+        return f"is only {len(head)} bytes long (a header alone is 10)"
+    version = int.from_bytes(head[4:8], "little")
+    checksum_type = int.from_bytes(head[8:10], "little")
+    if version != 1:
+        return f"has version {version}; gcode-opt reads version 1"
+    if checksum_type not in (0, 1):
+        return f"has an unknown checksum type {checksum_type} (0 none, 1 CRC32)"
+    return ""
 
 
 def _not_text(head: bytes) -> str:

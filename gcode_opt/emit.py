@@ -82,7 +82,16 @@ def _units(text: str, dec: int) -> int:
 
 
 def _fmt_units(u: int, dec: int) -> str:
-    return _num(u / 10 ** dec, dec)
+    """_num(u / 10**dec, dec) done in integers (the same text, without float formatting)."""
+    if dec <= 0:
+        return str(u)
+    digits = str(-u if u < 0 else u)
+    if len(digits) <= dec:
+        digits = "0" * (dec + 1 - len(digits)) + digits
+    whole, frac = digits[:-dec], digits[-dec:].rstrip("0")
+    if u < 0 and (whole != "0" or frac):
+        whole = "-" + whole
+    return f"{whole}.{frac}" if frac else whole
 
 
 class StrokeText:
@@ -90,8 +99,9 @@ class StrokeText:
 
     def __init__(self, raws, x_start_text, y_start_text, e_start_units):
         self.raws = raws
+        self.x_start_text, self.y_start_text = x_start_text, y_start_text
         self.comments = []
-        xs, ys, es = [], [], []
+        xs, ys, es, given = [], [], [], []
         xt, yt = x_start_text, y_start_text
         for raw in raws:
             body = raw.rstrip("\r\n")
@@ -103,8 +113,10 @@ class StrokeText:
             xs.append(xt)
             ys.append(yt)
             es.append(p.get("E", "0"))
+            given.append("E" in p)
             self.comments.append(comment)
         self.x_texts, self.y_texts, self.e_texts = xs, ys, es
+        self.e_given = given          # the line has an E word (the validator sums those)
         # the start point's precision counts too (a 4-decimal start, 3-decimal end: new
         # points rounded to 3 decimals would be up to 0.0015 mm off the segment)
         self.dec_xy = max([decimals(t) for t in xs + ys] + [_start_decimals(x_start_text),

@@ -193,8 +193,11 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
             x0, y0 = s.x0, s.y0
             try:
                 with np.errstate(all="ignore"):
-                    text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile)
-                _validate(text, s, buf, x0, y0, accel0, profile)
+                    # the original lines read once, for the emitter and the validator
+                    parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
+                    text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile,
+                                         parsed)
+                _validate(text, s, buf, x0, y0, accel0, profile, parsed)
             except BlockInvalid as e:
                 text = None
                 plan.reason[i] = str(e)
@@ -216,16 +219,25 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
     return out_ranges
 
 
-def _validate(text, s, raws, x0, y0, accel0, profile):
+def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
     """validate.py on one block; the path and the filament are the original's own (its raw
-    X/Y/E words)."""
+    X/Y/E words; `parsed`, the emitter's StrokeText of the same lines, saves reading them
+    twice)."""
     pts = [(x0, y0)]
     e_words = []
-    for raw in raws:
-        p = param_texts(strip_checksum(split_comment(raw.rstrip("\r\n"))[0])[0])
-        pts.append((float(p.get("X", pts[-1][0])), float(p.get("Y", pts[-1][1]))))
-        if "E" in p:
-            e_words.append(float(p["E"]))
+    if parsed is not None:
+        x_start, y_start = parsed.x_start_text, parsed.y_start_text
+        for xt, yt, et, has_e in zip(parsed.x_texts, parsed.y_texts, parsed.e_texts, parsed.e_given):
+            # a line without X keeps the text before it: the start's (x0 itself) or a word's
+            pts.append((x0 if xt is x_start else float(xt), y0 if yt is y_start else float(yt)))
+            if has_e:
+                e_words.append(float(et))
+    else:
+        for raw in raws:
+            p = param_texts(strip_checksum(split_comment(raw.rstrip("\r\n"))[0])[0])
+            pts.append((float(p.get("X", pts[-1][0])), float(p.get("Y", pts[-1][1]))))
+            if "E" in p:
+                e_words.append(float(p["E"]))
     extruding = s.feature != feat.TRAVEL
     e_check = None
     if extruding and e_words:
@@ -237,7 +249,7 @@ def _validate(text, s, raws, x0, y0, accel0, profile):
                    extruding=extruding, kind=s.kind, e_check=e_check)
 
 
-def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
+def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=None):
     """G-code text replacing one stroke, from its segment plan `seg`.  The header names
     the kind (line, curve, arc) after "replaces N lines" (verify.py and the report read it)."""
     dec = 8
@@ -248,7 +260,7 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
         return emit_arc(raws[0], f"{x0:.{dec}f}", f"{y0:.{dec}f}", e0, s.arc, seg.s, seg.accel, seg.feed,
                         e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0, mcr_restore=mcr0,
                         feed_restore_v=s.v_feed, header=header)
-    st_text = StrokeText(raws, f"{x0:.{dec}f}", f"{y0:.{dec}f}", 0)
+    st_text = parsed if parsed is not None else _stroke_text(raws, x0, y0)
     st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
     header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
               f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
@@ -256,6 +268,12 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile):
                        y0_text=f"{y0:.{dec}f}", e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
                        mcr_restore=mcr0, feed_restore_v=s.v_feed, extruding=s.feature != feat.TRAVEL,
                        header=header)
+
+
+def _stroke_text(raws, x0, y0):
+    """The emitter's reading of a stroke's original lines (StrokeText), start point
+    written with 8 decimals as _stroke_block writes it."""
+    return StrokeText(raws, f"{x0:.8f}", f"{y0:.8f}", 0)
 
 
 # ---------------------------------------------------------------- pass 3: measure

@@ -115,6 +115,7 @@ class GcodeError(ValueError):
 # the slicer's own "G1 X.. Y.. E.. F..": this regex leaves float() only the characters
 # "+-.0123456789", where float() accepts exactly the strict number grammar (and raises on
 # "1.2.3", "1-2", "."), so the fast path reads what the strict tokenizer would
+_fast_m204 = re.compile(r"M204(?:[ \t]+[SPTR][-+.0-9]+)*[ \t\r\n]*").fullmatch
 _fast_match = re.compile(r"G[01](?:[ \t]+[XYZEF][-+.0-9]+)*[ \t\r\n]*").fullmatch
 
 # Ranges beyond any printer: a value outside is a damaged file, refused with its line.
@@ -230,6 +231,14 @@ class MachineState:
                 p = None                           # "X1.2.3": the strict path says why
             if p is not None and len(p) == len(toks) - 1:     # else a word given twice
                 return self._linear(idx, raw, p, False)
+        elif t0 == "M204" and _fast_m204(code) is not None:    # every segment of a re-timed block
+            try:
+                p = {t[0]: float(t[1:]) for t in toks[1:]}
+            except ValueError:
+                p = None
+            if p is not None and len(p) == len(toks) - 1:
+                self._m204(idx, raw, p)
+                return None
         try:
             code, checksum = strip_checksum(code)
             cmd = command_of(code)

@@ -26,6 +26,8 @@ END = "; gcode-opt end"
 
 NUM = re.compile(r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
 WORD = re.compile(r"([A-Za-z])(.*)\Z")
+_N8 = r"(-?(?:\d+(?:\.\d{0,8})?|\.\d{1,8}))"     # NUM with at most MAX_DECIMALS decimals
+_G1_PLAIN = re.compile(rf"G1 X{_N8} Y{_N8}(?: E{_N8})? F{_N8}").fullmatch
 MAX_CMD_BYTES = {"marlin2": 96, "marlin-legacy": 96}
 SVL_KEYS = ("VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO")
 MAX_DECIMALS = 8            # our own texts never have more; the firmwares parse any
@@ -127,7 +129,12 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         cmd = toks[0].upper()
         if cmd != toks[0]:
             raise BlockInvalid("validator: lower-case command")
-        if cmd in ("G1", "G2", "G3"):
+        if cmd == "G1":
+            m = _G1_PLAIN(code)
+            e = _check_plain_g1(m, geometry) if m is not None else _check_move(cmd, toks[1:], geometry)
+            if e is not None:
+                e_words.append(e)
+        elif cmd in ("G2", "G3"):
             e = _check_move(cmd, toks[1:], geometry)
             if e is not None:
                 e_words.append(e)
@@ -142,6 +149,24 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         got = math.fsum(e_words) if e_rel else (e_words[-1] if e_words else None)
         if got is None or abs(got - e_value) > E_TOL * (1.0 + abs(e_value)):
             raise BlockInvalid("validator: filament differs from the original's")
+
+
+def _check_plain_g1(m, geometry):
+    """_check_move for the emitter's own form "G1 X Y [E] F" (_G1_PLAIN matched: the
+    words, their order and the plain-decimal grammar with at most 8 decimals are proven)."""
+    xt, yt, et, ft = m.group(1, 2, 3, 4)
+    x, y, f = float(xt), float(yt), float(ft)
+    e = None if et is None else float(et)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(f) and (e is None or math.isfinite(e))):
+        raise BlockInvalid("validator: G1 value not finite")
+    if f <= 0:
+        raise BlockInvalid("validator: F not above 0")
+    if geometry is not None:
+        dec = max(len(xt.partition(".")[2]), len(yt.partition(".")[2]))
+        tol = min(geometry.tol_d, 0.75 * 10.0 ** -dec) + 1e-7
+        if not geometry.on_path(x, y, tol):
+            raise BlockInvalid("validator: point off the original path")
+    return e
 
 
 def _check_move(cmd, words, geometry):

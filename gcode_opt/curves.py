@@ -185,8 +185,16 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
 
 def true_figures(law, R, geos):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
-    speed, peak |a|, min speed) per law."""
-    tau, wq = law._quad_grid()
+    speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
+    evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded."""
+    tau_all, wq_all = law._quad_grid()
+    out = np.empty((5, len(geos)))
+    for sl in law.row_chunks():
+        out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau_all[sl], wq_all[sl])
+    return tuple(out)
+
+
+def _true_figures_rows(law, R, geos, tau, wq):
     phi, w, w1, _ = law.eval_tau(tau)
     T = law.T_t[:, None]
     s = R[:, None] * phi

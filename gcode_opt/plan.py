@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .laws.line import line_law
+from .laws.line import end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
 T_RATIOS = np.array([0.70, 0.75, 0.80, 0.85, 0.90, 0.93, 0.96, 0.98, 1.0, 1.01, 1.02, 1.03,
                      1.04, 1.05, 1.07, 1.10, 1.13, 1.16, 1.20, 1.25, 1.30, 1.40, 1.50])
 GAMMA_LO, GAMMA_HI = 1e-4, 1e6          # gamma = T/sqrt(beta): cubic ... constant speed
 SPEED_TOL_R = 1e-6                      # relative slack when comparing with a cap
+CANDIDATE_CHUNK = 2048                  # strokes per batch of line candidates (bounded memory)
 
 
 class PlanInput:
@@ -142,23 +143,46 @@ def _feasible(law, v_cap, a_cap):
 
 def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
     """gamma_v: the smallest gamma (largest beta) whose peak speed <= v_cap.  Peak speed
-    falls monotonically as gamma grows (the law flattens towards constant speed)."""
-    lo = np.full(np.broadcast(L, T).shape, np.log(GAMMA_LO))
+    falls monotonically as gamma grows (the law flattens towards constant speed).
+
+    Bisection on log gamma; each step evaluates only the law's interior extremum
+    (line.interior_speed, one gamma branch per law): the end speeds do not depend on
+    beta and are computed once.  Same comparisons, same answer, bit for bit, as
+    evaluating the whole law's peak_speed() at every step."""
+    L, T, v0, v1, v_cap = np.broadcast_arrays(*(np.asarray(a, float) for a in (L, T, v0, v1, v_cap)))
+    lo = np.full(L.shape, np.log(GAMMA_LO))
     hi = np.full_like(lo, np.log(GAMMA_HI))
-    cubic_ok = line_law(L, T, np.inf, v0, v1).peak_speed() <= v_cap * (1 + SPEED_TOL_R)
+    cap = v_cap * (1 + SPEED_TOL_R)
+    v_end = np.maximum(*end_speeds(L, T, v0, v1))
+    cubic_ok = np.maximum(v_end, interior_speed(L, T, np.inf, v0, v1)) <= cap
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
         g = np.exp(mid)
-        ok = line_law(L, T, (T / g) ** 2, v0, v1).peak_speed() <= v_cap * (1 + SPEED_TOL_R)
+        ok = np.maximum(v_end, interior_speed(L, T, (T / g) ** 2, v0, v1)) <= cap
         hi = np.where(ok, mid, hi)
         lo = np.where(ok, lo, mid)
     gamma = np.exp(hi)
     return np.where(cubic_ok, np.inf, (T / gamma) ** 2)
 
 
-def candidates_auto(p: PlanInput):
+def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
     """For each stroke and each candidate T: the best beta and its int a^2 (inf if no
-    law with that T meets the limits).  Returns (T, beta, I, KE) of shape (n, k)."""
+    law with that T meets the limits).  Returns (T, beta, I, KE) of shape (n, k).
+
+    Computed `chunk` strokes at a time: every step is per candidate, so the tables are
+    the same as in one piece, and the temporaries stay a few MB whatever the file."""
+    n = len(p.L)
+    if n <= chunk:
+        return _candidates_auto(p)
+    out = [np.empty((n, len(T_RATIOS))) for _ in range(4)]
+    for a in range(0, n, chunk):
+        rows = np.arange(a, min(a + chunk, n))
+        for o, piece in zip(out, _candidates_auto(p.take(rows))):
+            o[rows] = piece
+    return tuple(out)
+
+
+def _candidates_auto(p: PlanInput):
     T = p.T_orig[:, None] * T_RATIOS[None, :]
     L, v0, v1 = p.L[:, None], p.v0[:, None], p.v1[:, None]
     v_cap, a_cap = p.v_cap[:, None], p.a_cap[:, None]

@@ -73,11 +73,32 @@ def _cheb_setup(n: int) -> dict:
 
 def _clenshaw(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Σ_k coef[b, k] T_k(x[b, :]) for every arc b (coef (B, K), x (B, M))."""
+    x2 = 2.0 * x
     b1 = np.zeros_like(x)
     b2 = np.zeros_like(x)
     for k in range(coef.shape[1] - 1, 0, -1):
-        b1, b2 = 2.0 * x * b1 - b2 + coef[:, k:k + 1], b1
+        t = x2 * b1                   # same operations, in the same order, as 2x·b1 − b2 + c
+        t -= b2
+        t += coef[:, k:k + 1]
+        b1, b2 = t, b1
     return x * b1 - b2 + coef[:, 0:1]
+
+
+def _clenshaw_rows(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """_clenshaw with each arc's zero padding dropped: arcs are grouped by their own number
+    of coefficients (a few N of the ladder), so an arc solved on 24 nodes no longer pays
+    for the batch's largest N.  Trailing zero coefficients leave the recurrence at exactly
+    0, so the result is the same, bit for bit."""
+    nz = coef != 0
+    length = np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
+    kinds = np.unique(length)
+    if kinds.size == 1:
+        return _clenshaw(coef[:, : kinds[0]], x)
+    out = np.empty(x.shape)
+    for K in kinds:
+        r = np.flatnonzero(length == K)
+        out[r] = _clenshaw(coef[r, :K], x[r])
+    return out
 
 
 def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
@@ -132,6 +153,28 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
     return w, cc, ok
 
 
+EVAL_CHUNK = 512           # arcs per evaluation on a grid (CircleBatch.row_chunks)
+_NEWTON_BYTES = 20e6       # Jacobians (arcs, N, N) held at once by one Newton batch
+
+
+def _newton_chunked(n, phi, gam2, u0, u1, w_start):
+    """_newton_cheb over chunks of arcs, so memory stays bounded on large files.  Each
+    arc's iteration is its own (flags, steps, damping per arc); only the batched BLAS
+    calls may round differently with the batch size (~1e-16 relative), so batches that
+    fit in _NEWTON_BYTES (every bundled sample's) run whole, as before."""
+    nb = phi.size
+    chunk = max(64, int(_NEWTON_BYTES / (8.0 * n * n)))
+    if nb <= chunk:
+        return _newton_cheb(n, phi, gam2, u0, u1, w_start)
+    w = np.empty_like(w_start)
+    cc = np.empty(nb)
+    ok = np.empty(nb, dtype=bool)
+    for a in range(0, nb, chunk):
+        r = slice(a, a + chunk)
+        w[r], cc[r], ok[r] = _newton_cheb(n, phi[r], gam2[r], u0[r], u1[r], w_start[r])
+    return w, cc, ok
+
+
 def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
     """Chebyshev regime; per-arc N from the layer rate, escalated until the tail is small."""
     nb = phi.size
@@ -155,7 +198,7 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
                     w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
                 else:
                     w0[k] = phi[i]
-            w, cc, ok = _newton_cheb(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
+            w, cc, ok = _newton_chunked(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
             c = w @ cs["to_coef"].T
             scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
             tail = np.abs(c[:, -3:]).max(axis=1) / scale
@@ -316,6 +359,17 @@ class CircleBatch:
     def gamma(self):
         return self.T_t / np.sqrt(self.beta_s2)
 
+    def rows(self, sl) -> "CircleBatch":
+        """The arcs `sl` (a slice) as a batch of their own (views, no copy)."""
+        return CircleBatch(self.phi_total[sl], self.T_t[sl], self.beta_s2[sl], self.w0[sl], self.w1[sl],
+                           self.R_d[sl], self.regime[sl], self.wc[sl], self.cc[sl], self.coef[sl])
+
+    def row_chunks(self):
+        """Slices of at most EVAL_CHUNK arcs: evaluations on (arcs, grid) arrays go chunk by
+        chunk so that memory does not grow with the batch.  Every evaluation is per arc, so
+        the figures are the same as in one piece, bit for bit."""
+        return [slice(a, a + EVAL_CHUNK) for a in range(0, len(self), EVAL_CHUNK)]
+
     # -- dimensionless evaluation: φ, w = φ', w', w'' at τ (B, M) --------------------------
     def eval_tau(self, tau: np.ndarray, idx=None):
         idx = np.arange(len(self)) if idx is None else np.asarray(idx)
@@ -364,9 +418,9 @@ class CircleBatch:
         wcoef = coef
         dcoef = C.chebder(coef, axis=1, scl=2.0)
         pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
-        w = _clenshaw(wcoef, x)
-        w1 = _clenshaw(dcoef, x)
-        phi = _clenshaw(pcoef, x)
+        w = _clenshaw_rows(wcoef, x)
+        w1 = _clenshaw_rows(dcoef, x)
+        phi = _clenshaw_rows(pcoef, x)
         w2 = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
         return phi, w, w1, w2
 
@@ -400,11 +454,14 @@ class CircleBatch:
 
     def integrals(self):
         """(∫ṡ² dt  [mm²/s],  ∫|a|² dt  [mm²/s³]) with |a|² = R²(φ̈² + φ̇⁴)."""
-        tau, wq = self._quad_grid()
-        _, w, w1, _ = self.eval_tau(tau)
+        tau_all, wq_all = self._quad_grid()      # one grid for the whole batch, as before
+        i_v, i_a = np.empty(len(self)), np.empty(len(self))
+        for sl in self.row_chunks():
+            tau, wq = tau_all[sl], wq_all[sl]
+            _, w, w1, _ = self.rows(sl).eval_tau(tau)
+            i_v[sl] = (wq * w * w).sum(axis=1)
+            i_a[sl] = (wq * (w1 * w1 + w ** 4)).sum(axis=1)
         T, R = self.T_t, self.R_d
-        i_v = (wq * w * w).sum(axis=1)
-        i_a = (wq * (w1 * w1 + w ** 4)).sum(axis=1)
         return R ** 2 * i_v / T, R ** 2 * i_a / T ** 3
 
     def cost(self, m=1.0):
@@ -414,7 +471,13 @@ class CircleBatch:
 
     def _extremum(self, which):
         """max/min over τ of f ∈ {w (speed), g = w'² + w⁴ (|a|²)} by grid + Newton polish."""
-        tau, _ = self._quad_grid()
+        tau, _ = self._quad_grid()               # one grid for the whole batch, as before
+        out = np.empty(len(self))
+        for sl in self.row_chunks():
+            out[sl] = self.rows(sl)._extremum_on(which, tau[sl])
+        return out
+
+    def _extremum_on(self, which, tau):
         tau = np.concatenate([np.zeros((len(self), 1)), tau, np.ones((len(self), 1))], axis=1)
         gam2 = (self.gamma ** 2)[:, None]
 

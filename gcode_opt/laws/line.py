@@ -35,7 +35,7 @@ from math import factorial
 
 import numpy as np
 
-__all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH"]
+__all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH", "interior_speed", "end_speeds"]
 
 # Switch between the series/hyperbolic and the exponential forms.  Measured against mpmath
 # (80 digits) for each branch alone: the exponential branch's integral coefficient ∫g² − 1
@@ -236,6 +236,11 @@ class LineLaw:
         return (x + 0.5) * self.T
 
     def _speed_candidates(self):
+        if getattr(self, "_speeds", None) is None:     # peak_speed and min_speed share them
+            self._speeds = self._compute_speed_candidates()
+        return self._speeds
+
+    def _compute_speed_candidates(self):
         zero = np.zeros_like(self.T)
         v_start = self.eval(zero)[1]
         v_end = self.eval(self.T)[1]
@@ -258,6 +263,74 @@ class LineLaw:
         a0 = self.eval(np.zeros_like(self.T))[2]
         a1 = self.eval(self.T)[2]
         return np.maximum(np.abs(a0), np.abs(a1))
+
+
+def interior_speed(L, T, beta, v0, v1):
+    """The speed at the interior stationary point of the law (L, T, beta, v0, v1) [mm/s]:
+    LineLaw(...)._speed_candidates()[2], bit for bit, at a fraction of the cost.
+
+    Only what that one value needs is computed (the γ-coefficient κ/γ and the two shapes
+    g, h at one τ), and each law only in its own γ branch; the expressions are the same
+    as in _gamma_coeffs/_shapes, in the same order, so the rounding is the same.  The
+    planner's bisection on β calls this 32 times per candidate: the end speeds do not
+    depend on β (g = 0 and h = ∓1 exactly at the ends), so they are not recomputed."""
+    L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1)))
+    if not (np.all(T > 0) and np.all(np.isfinite(T))):
+        raise ValueError("T must be finite and > 0")
+    if not np.all(beta > 0):
+        raise ValueError("beta must be > 0 (np.inf allowed)")
+    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+        raise ValueError("L, v0, v1 must be finite")
+    gamma = T / np.sqrt(beta)
+    wbar = T * (v0 + v1) / 2
+    delta = T * (v0 - v1) / 2
+    A = L - wbar
+    out = np.empty(gamma.shape)
+    small = gamma < GAMMA_SWITCH
+    for branch in (small, ~small):
+        if not branch.any():
+            continue
+        g_, T_, wbar_, d_, A_ = gamma[branch], T[branch], wbar[branch], delta[branch], A[branch]
+        if branch is small:
+            n = _horner(_N_COEF, g_ * g_)
+            sh2 = _shc(g_ / 2)
+            kog = 2 * n / sh2
+        else:
+            E = np.exp(-g_)
+            em = np.expm1(-g_)
+            q = -em / g_
+            Dn = 1.0 + E - 2.0 * q
+            kog = Dn / (-em * g_)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = -d_ / A_
+            r = rho * kog * g_
+            x = rho * kog * _atanhc(r)
+            x = np.where(np.abs(r) >= 1, np.sign(r) * 0.5, x)
+        x = np.clip(np.nan_to_num(x, nan=0.0), -0.5, 0.5)
+        tau = np.clip(((x + 0.5) * T_) / T_, 0.0, 1.0)
+        x = tau - 0.5
+        if branch is small:
+            pa, pb = _shc(g_ * tau / 2), _shc(g_ * (1 - tau) / 2)
+            shx = _shc(g_ * x)
+            bub = tau * (1 - tau) * pa * pb
+            g = bub / (2 * n)
+            h = 2 * x * shx / sh2
+        else:
+            e0, e1 = np.expm1(-g_ * tau), np.expm1(-g_ * (1 - tau))
+            g = e0 * e1 / Dn
+            h = (e0 - e1) / em
+        out[branch] = (wbar_ + A_ * g - d_ * h) / T_
+    return out
+
+
+def end_speeds(L, T, v0, v1):
+    """(ṡ(0), ṡ(T)) of any law on (L, T, v0, v1), as LineLaw.eval computes them: g = 0 and
+    h = −1, +1 exactly at τ = 0, 1 in both branches, so they do not depend on β."""
+    L, T, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, v0, v1)))
+    wbar = T * (v0 + v1) / 2
+    delta = T * (v0 - v1) / 2
+    A = L - wbar
+    return (wbar + A * 0.0 - delta * -1.0) / T, (wbar + A * 0.0 - delta * 1.0) / T
 
 
 def line_law(L, T, beta, v0=0.0, v1=0.0) -> LineLaw:

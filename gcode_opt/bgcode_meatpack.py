@@ -12,6 +12,9 @@ gives the text libbgcode's reader gives:
   * other lines lose their comment and surrounding blanks; empty lines are dropped;
   * a line holding a G word ('G' then a digit) loses its spaces and has e/x/g upper-cased;
     the reader puts a space back before every parameter letter of a line starting with G.
+    (libbgcode also rewrites a '*' line checksum, into a form its own reader cannot give
+    back; slicers write none, and here such a line is packed as it is, so that it too
+    decodes to itself.)
 So decode(encode(decode(x))) == decode(x): the text a printer runs is a fixed point, and
 gcode-opt works on the decoded text.  Written from the MeatPack description and libbgcode's
 documented behaviour (github.com/prusa3d/libbgcode), with its own implementation.
@@ -244,14 +247,7 @@ def _line_text(line: bytes, keep_comments: bool):
         return None
     g = body.find(b"G")
     if 0 <= g < len(body) - 1 and body[g + 1] in _DIGITS:       # the first G starts a G word
-        body = body.translate(_UPPER, b" ")
-        if b"*" in body:                         # libbgcode's checksum rewrite, kept as it is
-            body = body.replace(b"*", b"")
-            x = 0
-            for ch in body:
-                x ^= ch
-            body += b"*" + str(x).encode()
-        body += b"\n"
+        body = body.translate(_UPPER, b" ") + b"\n"
     if not body.endswith(b"\n"):
         body += b"\n"
     return (False, body)

@@ -204,8 +204,11 @@ def unpack(b: Block, name: str = "<bgcode>") -> bytes:
     try:
         if b.compression == COMP_NONE:
             out = b.data
-        elif b.compression == COMP_DEFLATE:
-            out = zlib.decompress(b.data)
+        elif b.compression == COMP_DEFLATE:                 # never more than the header says
+            d = zlib.decompressobj()
+            out = d.decompress(b.data, b.uncompressed_size + 1)
+            if not d.eof and len(out) <= b.uncompressed_size:
+                raise zlib.error("incomplete deflate stream")
         else:
             out = heatshrink.decode(b.data, 11 if b.compression == COMP_HEATSHRINK_11_4 else 12,
                                     b.uncompressed_size)

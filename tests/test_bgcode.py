@@ -427,3 +427,36 @@ def test_line_checksum_survives_a_round_trip(tmp_path):
     p = tmp_path / "c.bgcode"
     p.write_bytes(bgcode.encode_file(f, text))
     assert text in _libbgcode_text(pybgcode, p, tmp_path)
+
+
+def test_pure_python_codecs_read_and_write_every_format(monkeypatch):
+    # a machine without the optional C binding: the same files, the same texts
+    monkeypatch.setattr(hs, "_hs2", None)
+    for path in CUTS:
+        f = bgcode.read(path)
+        text = bgcode.gcode_text(f)
+        assert text in ref_text(path)
+        assert bgcode.gcode_text(bgcode.parse(bgcode.encode_file(f, text + b"M107\n"))) == text + b"M107\n"
+
+
+def test_deflate_block_larger_than_its_header_says_is_refused():
+    f = bgcode.read(os.path.join(FIX, "cut_deflate_plain.bgcode"))
+    b = f.gcode_blocks()[0]
+    liar = bgcode.Block(b.type, b.compression, 100, b.compressed_size, b.params, b.data, b.raw, b.offset, b.index)
+    with pytest.raises(bgcode.BGCodeError, match="header says 100"):
+        bgcode.unpack(liar, "x.bgcode")
+
+
+@pytest.mark.slow
+def test_whole_sample_round_trip(tmp_path):
+    # the whole PrusaSlicer sample (two G-code blocks), as libbgcode wrote it (~6 s)
+    src = tmp_path / "sample.bgcode"
+    shutil.copy(os.path.join(FIX, "sample.bgcode"), src)
+    out = tmp_path / "out.bgcode"
+    assert main(["process", str(src), "-o", str(out), "-q", "--profile", "prusa-mk3s", "--json",
+                 str(tmp_path / "s.json")]) == 0
+    s = json.loads((tmp_path / "s.json").read_text())
+    f, g = bgcode.read(str(src)), bgcode.read(str(out))
+    assert [b.raw for b in g.blocks if b.type != bgcode.GCODE] == [b.raw for b in f.blocks if b.type != bgcode.GCODE]
+    counts = verify(_decoded(src, tmp_path, "o.gcode"), _decoded(out, tmp_path, "n.gcode"), load_profile("prusa-mk3s"))
+    assert counts["blocks"] == s["strokes"]["retimed"] == 1281

@@ -320,6 +320,11 @@ def _process(a, out, job, Options, Progress, process):
             sys.stderr.write(f"gcode-opt: {a.report}: no report written: nothing to compare\n")
     elif not a.quiet:
         sys.stderr.write(format_summary(summary) + "\n")
+        b = summary.get("bgcode")
+        if b:
+            sys.stderr.write(f"  binary G-code      {b['bytes_before']} -> {b['bytes_after']} bytes "
+                             f"({b['gcode_encoding']}, {b['gcode_compression']}; "
+                             f"{b['blocks_kept']} metadata/thumbnail blocks kept byte for byte)\n")
     for msg in report_error:
         sys.stderr.write(f"gcode-opt: {msg}; {out} was written\n")
         rc = 1
@@ -350,8 +355,10 @@ def cmd_simulate(a):
     job = _binary_input(a.input)                      # .bgcode: its decoded G-code is simulated
     try:
         src = a.input if job is None else job.src
-        res = job.run(lambda: simulate_file(src, _load_profile(a.profile, src, a.json, metadata=job.settings))) \
-            if job is not None else simulate_file(src, _load_profile(a.profile, src, a.json))
+        if job is None:
+            res = simulate_file(src, _load_profile(a.profile, src, a.json))
+        else:
+            res = job.run(lambda: simulate_file(src, _load_profile(a.profile, src, a.json, metadata=job.settings)))
     finally:
         if job is not None:
             job.close()

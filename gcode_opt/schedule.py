@@ -123,6 +123,47 @@ def seg_fault(seg):
     return ""
 
 
+class SegmentCache:
+    """Segment plans already made for a stroke at a given (T, beta): each re-plan of the
+    budget changes the law of some strokes only, and only those are segmented again.
+
+    Lines are planned one law at a time (every step of plan_segments is per stroke), so a
+    line's plan is reused whenever its (T, beta) is the one it was made for.  Arcs and
+    curves solve their laws in one batch, whose rounding depends on the batch (~1e-16):
+    their plans are reused only when the whole batch is the same, so that the result is
+    always the one a fresh run would give.  Kept for the last run only."""
+
+    def __init__(self):
+        self.lines = {}          # row -> (T, beta, seg or None, why)
+        self.batch = {}          # kind -> (key, {row: seg}, {row: why})
+
+    @staticmethod
+    def _key(rows, T, beta):
+        return rows.tobytes() + T[rows].tobytes() + beta[rows].tobytes()
+
+    def lookup(self, kind, rows, T, beta):
+        if kind != K_LINE:
+            key, segs, bad = self.batch.get(kind, (None, {}, {}))
+            return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
+        got, bad = {}, {}
+        for i in rows.tolist():
+            hit = self.lines.get(i)
+            if hit is not None and hit[0] == T[i] and hit[1] == beta[i]:
+                if hit[3]:
+                    bad[i] = hit[3]
+                else:
+                    got[i] = hit[2]
+        return got, bad
+
+    def store(self, kind, rows, T, beta, segs, bad):
+        if kind != K_LINE:
+            if rows.size:
+                self.batch[kind] = (self._key(rows, T, beta), segs, bad)
+            return
+        for i in rows.tolist():
+            self.lines[i] = (float(T[i]), float(beta[i]), segs.get(i), bad.get(i, ""))
+
+
 def plan_strokes(strokes, pin, profile, opts, budget_t):
     """Law per stroke (plan.py), then its segments as the firmware will execute them
     (segments.py).  The segments' predicted time, not the law's, is what the print takes:
@@ -142,6 +183,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         cached = pin.cached = (cands, fixed, failed)
     cands, fixed, failed = cached
     failed_rows = np.array(sorted(failed), int)
+    seg_cache = getattr(pin, "seg_cache", None)
+    if seg_cache is None:
+        seg_cache = pin.seg_cache = SegmentCache()
 
     # failed strokes stay out of the budget's allocation (their figures may be NaN)
     groups = [np.setdiff1d(rows[k], failed_rows) for k in (K_LINE, K_ARC, K_CURVE)]
@@ -168,9 +212,17 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         }
         for k_name, fn in planners.items():
             ii = idx[kind == k_name]
+            got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
+            segs.update(got)
+            seg_failed.update(bad)
+            todo = np.array([i for i in ii.tolist() if i not in got and i not in bad], int)
+            new, new_bad = {}, {}
             for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
-                                    ii, "segments", seg_failed):
-                segs.update(zip(sub.tolist(), res))
+                                    todo, "segments", new_bad):
+                new.update(zip(sub.tolist(), res))
+            seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad)
+            segs.update(new)
+            seg_failed.update(new_bad)
         for i in idx:
             seg = segs.get(int(i))
             why = seg_failed.get(int(i)) or ("" if seg is None else seg_fault(seg))

@@ -18,6 +18,7 @@ becomes MeatPack-with-comments: the `; gcode-opt begin/end` markers are comments
 """
 from __future__ import annotations
 
+import re
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -244,17 +245,19 @@ def settings(f: BGCode) -> dict:
 
 # ----------------------------------------------------------------------------- write
 def _split_text(text: bytes, limit: int = GCODE_BLOCK_TEXT):
-    """Chunks of whole lines, each at most `limit` bytes (a longer line gets a chunk of its own)."""
+    """Chunks of whole lines, each at most `limit` bytes (a longer line gets a chunk of its own).
+    An empty line starts a chunk: MeatPack keeps an empty line only as a block's first."""
     chunks = []
-    start = 0
-    n = len(text)
-    while start < n:
-        end = min(start + limit, n)
-        if end < n:
-            cut = text.rfind(b"\n", start, end)
-            end = cut + 1 if cut >= start else (text.find(b"\n", end) + 1 or n)
-        chunks.append(text[start:end])
-        start = end
+    cuts = [m.end() for m in re.finditer(b"\n(?=\n)", text)]
+    for a, b in zip([0] + cuts, cuts + [len(text)]):
+        start = a
+        while start < b:
+            end = min(start + limit, b)
+            if end < b:
+                cut = text.rfind(b"\n", start, end)
+                end = cut + 1 if cut >= start else (text.find(b"\n", end, b) + 1 or b)
+            chunks.append(text[start:end])
+            start = end
     return chunks
 
 

@@ -16,7 +16,8 @@ gives the text libbgcode's reader gives:
     back; slicers write none, and here such a line is packed as it is, so that it too
     decodes to itself.)
 So decode(encode(decode(x))) == decode(x): the text a printer runs is a fixed point, and
-gcode-opt works on the decoded text.  Written from the MeatPack description and libbgcode's
+gcode-opt works on the decoded text.  (Empty lines collapse inside a block; only a block's
+first line may be empty: bgcode.py starts a new block at each empty line.)  Written from the MeatPack description and libbgcode's
 documented behaviour (github.com/prusa3d/libbgcode), with its own implementation.
 """
 from __future__ import annotations
@@ -239,8 +240,8 @@ def _line_text(line: bytes, keep_comments: bool):
         return None
     if line[:1] == b";":
         return (True, line) if keep_comments else None
-    if line[:1] in (b"\n", b"\r") or len(line) < 2:
-        return None
+    if line[:1] == b"\n" or len(line) < 2:       # (libbgcode also drops a line starting with '\r',
+        return None                               # which its reader can give: kept here)
     semi = line.find(b";")
     body = (line if semi < 0 else line[:semi]).strip(b" \t")
     if not body:
@@ -288,6 +289,8 @@ def encode(text: bytes, keep_comments: bool = True) -> bytes:
     parts = bytes(text).split(b"\n")           # lines end at '\n' only, as libbgcode splits them
     lines = [p + b"\n" for p in parts[:-1]] + ([parts[-1]] if parts[-1] else [])
     items = [x for x in (_line_text(ln, keep_comments) for ln in lines) if x is not None]
+    if text[:1] == b"\n":                        # the reader gives a block's leading empty line
+        items.insert(0, (False, b"\n"))
     packed = iter(_pack([t for raw, t in items if not raw]))
     out = [_cmd(CMD_ENABLE_PACKING), _cmd(CMD_ENABLE_NO_SPACES)]
     packing = True

@@ -460,3 +460,25 @@ def test_whole_sample_round_trip(tmp_path):
     assert [b.raw for b in g.blocks if b.type != bgcode.GCODE] == [b.raw for b in f.blocks if b.type != bgcode.GCODE]
     counts = verify(_decoded(src, tmp_path, "o.gcode"), _decoded(out, tmp_path, "n.gcode"), load_profile("prusa-mk3s"))
     assert counts["blocks"] == s["strokes"]["retimed"] == 1281
+
+
+def _through_writer(text):
+    blocks = bgcode.gcode_blocks(text, bgcode.COMP_NONE, bgcode.ENC_MEATPACK_COMMENTS, 0)
+    head = b"GCDE" + struct.pack("<IH", 1, 0)
+    meta = [bgcode._pack_block(t, 0, b"\0\0", b"k=v\n", 0) for t in (3, 4, 2)]
+    return bgcode.gcode_text(bgcode.parse(head + b"".join(meta + blocks))) if blocks else b""
+
+
+def test_any_decoded_text_is_written_back_exactly():
+    # whatever libbgcode's reader can give (here: our reader on arbitrary text's encoding,
+    # including blank lines at block starts, lines starting with '\r', tabs, lowercase), the
+    # writer gives back byte for byte: the read-back check of `process` can always hold
+    rnd = random.Random(5)
+    for _ in range(1500):
+        text = bytes(rnd.choice(b"G1 XYZEF;\n\t*.-0123456789abcxeg\r\xc3") for _ in range(rnd.randint(1, 40)))
+        decoded = mp.decode(mp.encode(text + b"\n"))
+        assert _through_writer(decoded) == decoded, text
+    # two blocks whose texts meet at a blank line, and a block starting with one
+    assert _through_writer(b"G1 X1\n\nM107\n") == b"G1 X1\n\nM107\n"
+    assert _through_writer(b"\nG1 X1\n") == b"\nG1 X1\n"
+    assert _through_writer(b"\rZ\n\r\n") == b"\rZ\n\r\n"

@@ -157,3 +157,63 @@ def test_peaks_and_symmetry():
     assert law.min_speed() == pytest.approx(0.0, abs=1e-9)
     moving = solve_circle(np.pi, 1.0, 0.01, 2.0, 2.0, R=5.0)
     assert moving.min_speed() == pytest.approx(5.0 * moving.eval(t)[1].min(), rel=1e-7)
+
+
+# ------------------------------------------------------------------ bounded-memory paths
+def _mixed_batch(n=40, seed=5):
+    rng = np.random.default_rng(seed)
+    phi = rng.uniform(0.1, 4 * np.pi, n)
+    gam = 10 ** rng.uniform(-1.0, 2.5, n)
+    u0 = phi * rng.uniform(0, 1.5, n) * (rng.random(n) < 0.7)
+    u1 = phi * rng.uniform(0, 1.5, n) * (rng.random(n) < 0.7)
+    T = 10 ** rng.uniform(-2, 0.3, n)
+    return solve_circles(phi, T, (T / gam) ** 2, u0 / T, u1 / T, R=rng.uniform(0.5, 100, n))
+
+
+def test_clenshaw_per_row_length_is_numpys_chebval():
+    """Rows padded with zeros to different lengths, evaluated per row group: the same
+    values as numpy's chebval of each row's own coefficients."""
+    from numpy.polynomial import chebyshev as C
+
+    from gcode_opt.laws.circle import _clenshaw_rows
+    rng = np.random.default_rng(1)
+    lengths = [1, 3, 25, 33, 33, 49, 65]
+    coef = np.zeros((len(lengths), 66))
+    for i, k in enumerate(lengths):
+        coef[i, :k] = rng.normal(size=k) / (1 + np.arange(k)) ** 2
+    x = rng.uniform(-1, 1, (len(lengths), 50))
+    got = _clenshaw_rows(coef, x)
+    for i, k in enumerate(lengths):
+        np.testing.assert_allclose(got[i], C.chebval(x[i], coef[i, :k]), rtol=1e-13, atol=1e-14)
+
+
+def test_chunked_evaluation_gives_the_same_figures(monkeypatch):
+    """integrals and extrema evaluated a few arcs at a time: the same numbers, bit for bit."""
+    import gcode_opt.laws.circle as circle
+    batch = _mixed_batch()
+    assert batch.regime.any() and not batch.regime.all()
+    whole = [batch.integrals(), batch.peak_speed(), batch.min_speed(), batch.peak_accel()]
+    monkeypatch.setattr(circle, "EVAL_CHUNK", 3)
+    assert len(batch.row_chunks()) > 10
+    chunked = [batch.integrals(), batch.peak_speed(), batch.min_speed(), batch.peak_accel()]
+    for a, b in zip(whole, chunked):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_newton_in_chunks_solves_the_same_laws(monkeypatch):
+    """Collocation Newton over chunks of arcs: the same laws up to rounding (each arc's
+    iteration is its own; only the batched BLAS may round differently)."""
+    import gcode_opt.laws.circle as circle
+    monkeypatch.setattr(circle, "_NEWTON_BYTES", 1.0)     # chunks of the 64-arc floor
+    rng = np.random.default_rng(9)
+    n = 150                                               # > 64: several chunks
+    phi = rng.uniform(0.1, 4 * np.pi, n)
+    T = 10 ** rng.uniform(-2, 0.3, n)
+    beta = (T / 10 ** rng.uniform(-1.0, 1.2, n)) ** 2      # small γ: collocation regime
+    chunked = solve_circles(phi, T, beta, 0.0, 0.0, R=1.0)
+    monkeypatch.setattr(circle, "_NEWTON_BYTES", 1e12)
+    one = solve_circles(phi, T, beta, 0.0, 0.0, R=1.0)
+    assert (~one.regime).sum() > 64
+    t = np.linspace(0, 1, 33)[None, :] * T[:, None]
+    for a, b in zip(chunked.eval(t), one.eval(t)):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())

@@ -150,3 +150,20 @@ def test_constant_curvature_law_is_near_the_exact_optimum(prof, name):
     assert gaps.size >= 3
     assert gaps.min() >= -2e-4          # quadrature of a spline κ(s) on two different grids
     assert gaps.max() < 0.05
+
+
+def test_curve_candidates_in_evaluation_chunks_are_the_same(monkeypatch):
+    """The curves' figures (true κ(s)) evaluated a few laws at a time on the batch's grid:
+    the same candidate tables, bit for bit, as in one piece."""
+    import gcode_opt.laws.circle as circle
+    prof = load_profile("prusa-mk3s")
+    opts = Options(features=INFILL)
+    strokes, _ = analyse(S + "prusa_concentric.gcode", prof, opts)
+    pin = plan_inputs(strokes, prof, opts)
+    rows = np.array([i for i, s in enumerate(strokes) if s.kind == "curve"])
+    whole = curves.candidates_curve(pin, rows, strokes, prof)
+    monkeypatch.setattr(circle, "EVAL_CHUNK", 5)
+    chunked = curves.candidates_curve(pin, rows, strokes, prof)
+    assert np.isfinite(whole[2]).sum() > 50
+    for a, b in zip(whole, chunked):
+        assert np.array_equal(a, b, equal_nan=True)

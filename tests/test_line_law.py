@@ -12,7 +12,7 @@ import pytest
 from numpy.polynomial import chebyshev as C
 from scipy.integrate import solve_bvp
 
-from gcode_opt.laws.line import line_law, time_of_distance
+from gcode_opt.laws.line import GAMMA_SWITCH, line_law, time_of_distance
 
 END_SPEEDS = [(0.0, 0.0), (0.3, 1.7), (2.0, 0.0), (1.0, 1.0)]   # (v0, v1) for L = T = 1
 
@@ -376,3 +376,40 @@ def test_vectorised_1e5_laws():
     one = line_law(1.0, 1.0, 0.01)                       # one law, many t
     assert one.eval(np.linspace(0, 1, 1000))[0].shape == (1000,)
     assert np.ndim(one.peak_speed()) == 0
+
+
+# ------------------------------------------------------------------ planner's fast paths
+def _random_laws(n, seed):
+    rng = np.random.default_rng(seed)
+    L = rng.uniform(0.05, 300.0, n)
+    T = L / rng.uniform(2.0, 400.0, n) * rng.uniform(0.5, 2.0, n)
+    v0 = rng.uniform(0.0, 250.0, n) * (rng.random(n) < 0.8)
+    v1 = rng.uniform(0.0, 250.0, n) * (rng.random(n) < 0.7)
+    gamma = np.exp(rng.uniform(np.log(1e-4), np.log(1e6), n))     # both branches, and the switch
+    gamma[:20] = GAMMA_SWITCH * (1 + np.linspace(-1e-12, 1e-12, 20))
+    beta = (T / gamma) ** 2
+    beta[20:40] = np.inf
+    return L, T, beta, v0, v1
+
+
+def test_interior_speed_is_the_laws_own_bit_for_bit():
+    """The bisection's lean speed equals the full law's interior-extremum speed exactly
+    (same rounding), and the end speeds do not depend on beta."""
+    from gcode_opt.laws.line import end_speeds, interior_speed
+    L, T, beta, v0, v1 = _random_laws(20000, 3)
+    law = line_law(L, T, beta, v0, v1)
+    vs, ve, vc = law._speed_candidates()
+    assert np.array_equal(interior_speed(L, T, beta, v0, v1), vc)
+    es, ee = end_speeds(L, T, v0, v1)
+    assert np.array_equal(es, vs) and np.array_equal(ee, ve)
+    # and they are the end speeds asked for (independent of the law's formulas)
+    assert np.allclose(es, v0, rtol=1e-12, atol=1e-9) and np.allclose(ee, v1, rtol=1e-12, atol=1e-9)
+
+
+def test_interior_speed_refuses_what_the_law_refuses():
+    from gcode_opt.laws.line import interior_speed
+    for bad in ((1.0, 0.0, 1.0), (1.0, 1.0, 0.0), (np.nan, 1.0, 1.0), (1.0, np.inf, 1.0)):
+        with pytest.raises(ValueError):
+            interior_speed(*bad, 0.0, 0.0)
+        with pytest.raises(ValueError):
+            line_law(*bad, 0.0, 0.0)

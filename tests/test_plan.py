@@ -80,3 +80,73 @@ def test_a_nan_stroke_neither_is_chosen_nor_lifts_the_budget():
     assert not got.retime[-1]
     assert got.retime[:-1].tolist() == ref.retime.tolist() and np.allclose(got.T[:-1], ref.T)
     assert float(np.sum(got.T[:-1] - q.T_orig[:-1])) <= budget * (1 + 1e-9)
+
+
+# ------------------------------------------------------------------ fast paths, same answers
+def test_largest_beta_matches_an_independent_root_find():
+    """The bisection (lean speed evaluations) lands on the root of peak_speed = cap found by
+    brentq on the full law's peak_speed, within the bisection's resolution."""
+    from scipy.optimize import brentq
+
+    from gcode_opt.plan import GAMMA_HI, GAMMA_LO, SPEED_TOL_R, _largest_beta_under_speed_cap
+    rng = np.random.default_rng(7)
+    n = 60
+    L = rng.uniform(1.0, 100.0, n)
+    v0, v1 = rng.uniform(0.0, 60.0, n), rng.uniform(0.0, 60.0, n)
+    v_cap = np.maximum(v0, v1) * rng.uniform(1.05, 1.6, n) + 1.0
+    T = L / (v_cap * rng.uniform(0.75, 0.97, n))
+    beta = _largest_beta_under_speed_cap(L, T, v0, v1, v_cap)
+    checked = 0
+    for i in range(n):
+        def excess(lg):
+            return float(line_law(L[i], T[i], (T[i] / np.exp(lg)) ** 2, v0[i], v1[i]).peak_speed()) \
+                - v_cap[i] * (1 + SPEED_TOL_R)
+        if excess(np.log(GAMMA_LO)) <= 0:          # even the cubic fits: beta = inf
+            assert np.isinf(beta[i])
+            continue
+        assert excess(np.log(GAMMA_HI)) <= 0
+        lg_ref = brentq(excess, np.log(GAMMA_LO), np.log(GAMMA_HI), xtol=1e-13, rtol=1e-15)
+        lg = np.log(T[i] / np.sqrt(beta[i]))
+        assert lg_ref - 1e-12 <= lg <= lg_ref + 1e-8      # on the feasible side, within 2^-32 of the range
+        checked += 1
+    assert checked > n // 3
+
+
+def test_candidates_in_chunks_are_the_same_tables():
+    p = _inputs(np.linspace(1.0, 150.0, 37))
+    whole = candidates_auto(p, chunk=10 ** 6)
+    chunked = candidates_auto(p, chunk=5)
+    for a, b in zip(whole, chunked):
+        assert np.array_equal(a, b, equal_nan=True)
+
+
+def test_replans_reuse_segments_and_give_a_fresh_runs_plan(monkeypatch):
+    """plan_strokes re-spends the budget a few times; segments reused from an earlier run
+    (SegmentCache) must be exactly those a fresh segmentation gives."""
+    from gcode_opt import schedule
+    from gcode_opt.pipeline import Options, analyse
+    from gcode_opt.profile import load_profile
+    prof, opts = load_profile("prusa-mk3s"), Options()
+    strokes, sim = analyse("sample_gcode/prusa_gyroid.gcode", prof, opts)
+    budget = opts.max_slowdown_r * sim.time_t
+    cached = schedule.plan_strokes(strokes, schedule.plan_inputs(strokes, prof, opts), prof, opts, budget)
+    hits = []
+    real = schedule.SegmentCache.lookup
+
+    def counting(self, kind, rows, T, beta):
+        got, bad = real(self, kind, rows, T, beta)
+        hits.append(len(got) + len(bad))
+        return got, bad
+    monkeypatch.setattr(schedule.SegmentCache, "lookup", counting)
+    schedule.plan_strokes(strokes, schedule.plan_inputs(strokes, prof, opts), prof, opts, budget)
+    assert sum(hits) > 0                                  # the cache is used on this file
+    monkeypatch.setattr(schedule.SegmentCache, "lookup", lambda self, *a: ({}, {}))
+    fresh = schedule.plan_strokes(strokes, schedule.plan_inputs(strokes, prof, opts), prof, opts, budget)
+    assert np.array_equal(cached.retime, fresh.retime)
+    assert np.array_equal(cached.T, fresh.T) and np.array_equal(cached.beta, fresh.beta)
+    for a, b in zip(cached.segs, fresh.segs):
+        assert (a is None) == (b is None)
+        if a is not None:
+            for k in ("s", "v", "accel", "feed"):
+                assert np.array_equal(getattr(a, k), getattr(b, k))
+            assert a.time_t == b.time_t and a.int_a2 == b.int_a2

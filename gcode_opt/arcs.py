@@ -147,24 +147,26 @@ def arc_knots(strokes, T, beta, n, profile=None):
     law = _solve(S, R, T, beta, v0, v1)
     j = np.arange(n.max() + 1)
     tau = np.minimum(j[None, :] / n[:, None], 1.0)
-    phi, w, _ = law.eval(tau * T[:, None])
-    dense = np.linspace(0.0, 1.0, 257)[None, :] * T[:, None]
-    phi_d, w_d, _ = law.eval(dense)
     c0 = chord_d(S, profile, R) if profile is not None else np.zeros(m)
     out = []
-    for i in range(m):
-        s = R[i] * phi[i, :n[i] + 1]
-        v = np.maximum(R[i] * w[i, :n[i] + 1], 0.0)
-        s[0], s[-1] = 0.0, S[i]
-        if c0[i] > 0 and S[i] >= 4.0 * c0[i]:
-            # first and last sub-arcs = the original's first and last firmware chords, so
-            # the junctions with the neighbouring moves see the original's geometry (at a
-            # near-reversal, e.g. a wipe, a few degrees decide whether the machine stops)
-            inner = s[(s > 1.5 * c0[i]) & (s < S[i] - 1.5 * c0[i])]
-            s = np.concatenate([[0.0, c0[i]], inner, [S[i] - c0[i], S[i]]])
-            v = np.maximum(np.interp(s, R[i] * phi_d[i], R[i] * w_d[i]), 0.0)
-        v[0], v[-1] = v0[i], v1[i]
-        out.append((s, v))
+    for sl in law.row_chunks():                  # evaluated by chunks: bounded memory
+        sub = law.rows(sl)
+        phi, w, _ = sub.eval(tau[sl] * T[sl, None])
+        dense = np.linspace(0.0, 1.0, 257)[None, :] * T[sl, None]
+        phi_d, w_d, _ = sub.eval(dense)
+        for k, i in enumerate(range(m)[sl]):
+            s = R[i] * phi[k, :n[i] + 1]
+            v = np.maximum(R[i] * w[k, :n[i] + 1], 0.0)
+            s[0], s[-1] = 0.0, S[i]
+            if c0[i] > 0 and S[i] >= 4.0 * c0[i]:
+                # first and last sub-arcs = the original's first and last firmware chords, so
+                # the junctions with the neighbouring moves see the original's geometry (at a
+                # near-reversal, e.g. a wipe, a few degrees decide whether the machine stops)
+                inner = s[(s > 1.5 * c0[i]) & (s < S[i] - 1.5 * c0[i])]
+                s = np.concatenate([[0.0, c0[i]], inner, [S[i] - c0[i], S[i]]])
+                v = np.maximum(np.interp(s, R[i] * phi_d[k], R[i] * w_d[k]), 0.0)
+            v[0], v[-1] = v0[i], v1[i]
+            out.append((s, v))
     return out
 
 

@@ -272,16 +272,19 @@ def curve_knots(strokes, T, beta, profile):
     v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
     law, R = _solve(None, geos, S, T, beta, v0, v1)
-    tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (m, 513))
-    phi, w, _, _ = law.eval_tau(tau)
     out = []
-    for i, (st, g) in enumerate(zip(strokes, geos)):
-        sd = R[i] * phi[i]
-        vd = np.maximum(R[i] * w[i] / T[i], 0.0)
-        s = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
-        v = np.interp(s, np.maximum.accumulate(sd), vd)
-        v[0], v[-1] = v0[i], v1[i]
-        out.append((s, v))
+    for sl in law.row_chunks():                  # evaluated by chunks: bounded memory
+        sub = law.rows(sl)
+        tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (len(sub), 513))
+        phi, w, _, _ = sub.eval_tau(tau)
+        for k, i in enumerate(range(m)[sl]):
+            st = strokes[i]
+            sd = R[i] * phi[k]
+            vd = np.maximum(R[i] * w[k] / T[i], 0.0)
+            s = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
+            v = np.interp(s, np.maximum.accumulate(sd), vd)
+            v[0], v[-1] = v0[i], v1[i]
+            out.append((s, v))
     return out
 
 

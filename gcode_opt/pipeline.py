@@ -3,9 +3,11 @@
   1. analyse: read -> machine state -> strokes, with the firmware model playing the
      original file alongside: each stroke learns the speeds the original reaches at its
      ends, its duration and its inertia norm.
-  2. plan (in memory, a few numbers per stroke) and rewrite: read again, copy every line
-     that is not in a re-timed stroke byte for byte, replace re-timed strokes by segments;
-     written to a temporary file in the target's folder, then renamed into place.
+  2. plan (in memory, a few numbers per stroke) and rewrite: read again, copy the line
+     ranges between re-timed strokes in bulk, byte for byte (no tokenising, no machine
+     state: analyse recorded what a block needs at its stroke's start), replace re-timed
+     strokes by segments; written to a temporary file in the target's folder, then
+     renamed into place.
   3. measure: the firmware model plays the re-timed file; before/after figures come from
      the same model on both files.
 Memory holds a few floats per stroke, never the file's lines.
@@ -189,9 +191,9 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
             out_line += n_copy
             buf = list(islice(lines, s.n_moves))
             pos = s.first_idx + len(buf)
-            e0, accel0, mcr0 = s.start_state
             x0, y0 = s.x0, s.y0
             try:
+                e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
                 with np.errstate(all="ignore"):
                     # the original lines read once, for the emitter and the validator
                     parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)

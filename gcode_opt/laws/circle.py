@@ -447,6 +447,18 @@ class CircleBatch:
 
     def _quad_grid(self):
         """Per-arc quadrature nodes in τ resolving the layers (and their weights)."""
+        return _graded_grid(*self._grid_plan())
+
+    def grid_chunks(self):
+        """(slice, τ nodes, weights) per chunk of arcs: the batch's _quad_grid, built chunk
+        by chunk (each arc's nodes depend on its own layer width and the batch's number of
+        levels only), so the (arcs, nodes) arrays are never held for the whole batch."""
+        h, levels = self._grid_plan()
+        for sl in self.row_chunks():
+            yield (sl,) + _graded_grid(h[sl], levels)
+
+    def _grid_plan(self):
+        """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch."""
         gam2 = self.gamma ** 2
         u0, u1 = self.w0 * self.T_t, self.w1 * self.T_t
         wmax = np.maximum.reduce([np.abs(self.phi_total), np.abs(u0), np.abs(u1)])
@@ -454,14 +466,12 @@ class CircleBatch:
         h = np.minimum(0.5, 30.0 / np.maximum(lam_min, 1e-300))
         # finest panel must resolve the steepest scale 1/(λ + |d0|)
         levels = int(np.clip(np.ceil(np.log2(np.max(20.0 * h * (lam_min + 2 * wmax)))), 2, 40))
-        return _graded_grid(h, levels)
+        return h, levels
 
     def integrals(self):
         """(∫ṡ² dt  [mm²/s],  ∫|a|² dt  [mm²/s³]) with |a|² = R²(φ̈² + φ̇⁴)."""
-        tau_all, wq_all = self._quad_grid()      # one grid for the whole batch, as before
         i_v, i_a = np.empty(len(self)), np.empty(len(self))
-        for sl in self.row_chunks():
-            tau, wq = tau_all[sl], wq_all[sl]
+        for sl, tau, wq in self.grid_chunks():   # the batch's grid, chunk by chunk
             _, w, w1, _ = self.rows(sl).eval_tau(tau)
             i_v[sl] = (wq * w * w).sum(axis=1)
             i_a[sl] = (wq * (w1 * w1 + w ** 4)).sum(axis=1)
@@ -475,10 +485,9 @@ class CircleBatch:
 
     def _extremum(self, which):
         """max/min over τ of f ∈ {w (speed), g = w'² + w⁴ (|a|²)} by grid + Newton polish."""
-        tau, _ = self._quad_grid()               # one grid for the whole batch, as before
         out = np.empty(len(self))
-        for sl in self.row_chunks():
-            out[sl] = self.rows(sl)._extremum_on(which, tau[sl])
+        for sl, tau, _ in self.grid_chunks():    # the batch's grid, chunk by chunk
+            out[sl] = self.rows(sl)._extremum_on(which, tau)
         return out
 
     def _extremum_on(self, which, tau):

@@ -11,6 +11,17 @@ import numpy as np
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
 
 
+def count_lines(path) -> int:
+    """Lines of a file as iterating it in binary counts them (a last line without a
+    newline counts), read in 1 MB chunks."""
+    n, last = 0, b"\n"
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            n += chunk.count(b"\n")
+            last = chunk[-1:]
+    return n + (last != b"\n")
+
+
 def _ratio(after, before):
     return None if not before else after / before - 1.0
 
@@ -47,8 +58,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     reasons = Counter(str(r) for r in plan.reason)
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
-    with open(written_path, "rb") as fh:
-        lines_after = sum(1 for _ in fh)
+    lines_before = count_lines(in_path)
+    lines_after = count_lines(written_path)
     size_after = os.path.getsize(written_path)
     return {
         "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
@@ -73,7 +84,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
                        "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),
                        "corner_dv2_change": _ratio(sim1.corner_dv2, sim0.corner_dv2)},
-        "file": {"bytes_before": size_before, "bytes_after": size_after, "lines_after": lines_after},
+        "file": {"bytes_before": size_before, "bytes_after": size_after, "lines_before": lines_before,
+                 "lines_after": lines_after},
         "elapsed_s": elapsed_t,
         "per_stroke": per_stroke,
     }

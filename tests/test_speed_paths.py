@@ -162,3 +162,12 @@ def test_process_reports_cpu_time_per_phase(tmp_path):
     assert math.isclose(sum(t[k] for k in phases), t["total"], rel_tol=1e-9, abs_tol=1e-9)
     assert t["total"] <= spent + 1e-6
     assert s["rewrite_passes"] in (1, 2)
+
+
+@pytest.mark.parametrize("data", [b"", b"a", b"a\n", b"a\nb", b"a\r\nb\r\n", b"\n\n", b"x" * (3 << 20) + b"\ny"])
+def test_line_count_is_the_count_of_binary_iteration(tmp_path, data):
+    from gcode_opt.summary import count_lines
+    f = tmp_path / "f"
+    f.write_bytes(data)
+    with open(f, "rb") as fh:
+        assert count_lines(str(f)) == sum(1 for _ in fh)

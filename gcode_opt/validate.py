@@ -27,6 +27,7 @@ END = "; gcode-opt end"
 NUM = re.compile(r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
 WORD = re.compile(r"([A-Za-z])(.*)\Z")
 _N8 = r"(-?(?:\d+(?:\.\d{0,8})?|\.\d{1,8}))"     # NUM with at most MAX_DECIMALS decimals
+_M204_PLAIN = re.compile(rf"M204 ([A-Za-z]){_N8}").fullmatch
 _G1_PLAIN = re.compile(rf"G1 X{_N8} Y{_N8}(?: E{_N8})? F{_N8}").fullmatch
 MAX_CMD_BYTES = {"marlin2": 96, "marlin-legacy": 96}
 SVL_KEYS = ("VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO")
@@ -139,7 +140,11 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
             if e is not None:
                 e_words.append(e)
         elif cmd == "M204":
-            _check_m204(toks[1:], flavour, accel_max_a, extruding)
+            m = _M204_PLAIN(code)
+            if m is not None:            # one word, its letter and number proven: the value checks
+                _check_m204_value(m.group(1), float(m.group(2)), flavour, accel_max_a, extruding)
+            else:
+                _check_m204(toks[1:], flavour, accel_max_a, extruding)
         elif cmd == "SET_VELOCITY_LIMIT":
             _check_svl(toks[1:], flavour, accel_max_a)
         else:
@@ -207,7 +212,15 @@ def _check_m204(words, flavour, accel_max_a, extruding):
     want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
     if letter != want:
         raise BlockInvalid(f"validator: M204 {letter or '?'} is not the {flavour} form")
-    a = _num(m.group(2), "M204 value")
+    _check_m204_value(letter, _num(m.group(2), "M204 value"), flavour, accel_max_a, extruding)
+
+
+def _check_m204_value(letter, a, flavour, accel_max_a, extruding):
+    want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
+    if letter != want:
+        raise BlockInvalid(f"validator: M204 {letter or '?'} is not the {flavour} form")
+    if not math.isfinite(a):
+        raise BlockInvalid("validator: M204 value not finite")
     if not 0.0 < a <= accel_max_a + 0.1 + 1e-9:
         raise BlockInvalid("validator: M204 value out of range")
 

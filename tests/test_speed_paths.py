@@ -171,3 +171,22 @@ def test_line_count_is_the_count_of_binary_iteration(tmp_path, data):
     f.write_bytes(data)
     with open(f, "rb") as fh:
         assert count_lines(str(f)) == sum(1 for _ in fh)
+
+
+@pytest.mark.parametrize("m204", ["M204 S1000", "M204 P1000", "M204 T1000", "M204 S0", "M204 S-5", "M204 S3000.1",
+                                  "M204 S3000.2", "M204 S1e3", "M204 S1.123456789", "M204 s1000", "M204 S" + "9" * 400,
+                                  "M204 S1000 P1000", "M204 X1000"])
+@pytest.mark.parametrize("flavour,extruding", [("klipper", True), ("marlin2", True), ("marlin2", False),
+                                               ("marlin-legacy", True)])
+def test_validator_m204_fast_path_gives_the_generic_verdict(m204, flavour, extruding, monkeypatch):
+    def verdict():
+        text = f"{validate.BEGIN}: replaces 1 lines, kind=line\n{m204}\nG1 X10 Y2 E1 F100\n{validate.END}\n"
+        try:
+            validate.validate_block(text, flavour, 3000.0, None, extruding=extruding)
+            return "ok"
+        except validate.BlockInvalid as e:
+            return "invalid" if "not finite" not in str(e) else "not finite"
+
+    fast = verdict()
+    monkeypatch.setattr(validate, "_M204_PLAIN", lambda code: None)
+    assert fast == verdict()

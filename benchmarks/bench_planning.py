@@ -4,14 +4,16 @@ Usage: PYTHONPATH=. python benchmarks/bench_planning.py [file.gcode ...] [--prof
        [--runs N] [--end-to-end]
 For each file: analyse once (not timed here: the per-line half), then N runs (default 3) of
 plan_inputs + plan_strokes with every phase wrapped in a CPU timer (time.process_time):
-  inputs    plan_inputs (limits, arc and curve geometry)
+  inputs    plan_inputs (limits; each curve's geometry is built by the first run and kept
+            on its stroke, so use >= 3 runs: the median is then a later run's)
   line      line candidates (plan.candidates_auto)
   arc       arc candidates (arcs.candidates_arc)
   curve     curve candidates (curves.candidates_curve)
   alloc     the time budget's allocation (plan.plan_auto, every re-plan)
   seg-*     segment planning per kind (every re-plan)
 Prints the median over runs, in ms per stroke of the phase's kind and in total ms, and the
-peak RSS (resource.getrusage, the whole process: it includes analyse).  --end-to-end also
+peak RSS (resource.getrusage, the whole process: it includes analyse; give one file per
+process for a per-file figure).  --end-to-end also
 times pipeline.process on the file (median CPU time, lines/s).
 """
 from __future__ import annotations

@@ -240,7 +240,8 @@ def story(tmp_path_factory):
 
 
 def test_report_resolves_the_profile_like_process(story):
-    assert story["report"]["profile"] == story["summary"]["profile"] == "prusa-mk3s"   # printer_model = MK3S
+    # printer_model = MK3S: the bundled prusa-mk3s, with the limits the file states ("+file")
+    assert story["report"]["profile"] == story["summary"]["profile"] == "prusa-mk3s+file"
 
 
 def test_report_headline_equals_process_summary(story):

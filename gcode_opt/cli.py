@@ -164,6 +164,8 @@ def build_parser():
     p.add_argument("--report", metavar="REPORT.html",
                    help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
+    p.add_argument("--profile-time", action="store_true",
+                   help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
 
     s = sub.add_parser("simulate", help="play a file through the firmware model",
                        description="Plan a whole file the way a constant-acceleration lookahead firmware does "
@@ -322,7 +324,14 @@ def _process(a, out, job, Options, Progress, process):
         if a.report:
             sys.stderr.write(f"gcode-opt: {a.report}: no report written: nothing to compare\n")
     elif not a.quiet:
+        _print_warnings(a.input, summary)
         sys.stderr.write(format_summary(summary) + "\n")
+        faults = summary["strokes"].get("faults", 0)
+        if faults:
+            sys.stderr.write(f"  kept as sliced     {faults} stroke(s) after a fault in planning, segments or the "
+                             "output check (reasons in --json: strokes.not_retimed)\n")
+    if a.profile_time and summary.get("timing_s"):
+        sys.stderr.write(format_timing(summary) + "\n")
         b = summary.get("bgcode")
         if b:
             sys.stderr.write(f"  binary G-code      {b['bytes_before']} -> {b['bytes_after']} bytes "
@@ -332,6 +341,28 @@ def _process(a, out, job, Options, Progress, process):
         sys.stderr.write(f"gcode-opt: {msg}; {out} was written\n")
         rc = 1
     return rc
+
+
+MAX_SHOWN_WARNINGS = 10
+
+
+def _print_warnings(path, summary):
+    """The reader's warnings, each naming its line (the first few; all are counted)."""
+    w = summary.get("warnings") or {}
+    for item in w.get("first", [])[:MAX_SHOWN_WARNINGS]:
+        sys.stderr.write(f"gcode-opt: {path}:{item['line']}: warning: {item['text']}\n")
+    more = w.get("count", 0) - min(len(w.get("first", [])), MAX_SHOWN_WARNINGS)
+    if more > 0:
+        sys.stderr.write(f"gcode-opt: {path}: {more} more warning(s) (--json lists the first 100)\n")
+
+
+def format_timing(s):
+    t = s["timing_s"]
+    phases = ", ".join(f"{k} {v:.2f}" for k, v in t.items() if k != "total")
+    lines = s.get("file", {}).get("lines_before")
+    rate = f" = {lines / t['total'] / 1000:.1f} k lines/s" if lines and t.get("total") else ""
+    return (f"  CPU time (s)       {phases} ({s.get('rewrite_passes', 1)} rewrite pass(es)); "
+            f"total {t.get('total', 0.0):.2f}{rate}")
 
 
 def format_summary(s):

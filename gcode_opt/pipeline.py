@@ -50,6 +50,7 @@ class Options:
         self.min_length_d = min_length_d
         self.progress = progress            # Progress or None
         self.max_turn_deg = max_turn_deg    # polyline vertices turning <= this are inside a curve (0: no curves)
+        self.reader_warnings = []           # (idx, text) the reader noted in the analyse pass
 
 
 class Progress:
@@ -115,6 +116,7 @@ def analyse(path, profile: Profile, opts: Options):
     pending_idx = set()
     split = curves.vertex_splitter(profile) if opts.max_turn_deg > 0 else None
     state = MachineState(profile, path)
+    state.warnings = opts.reader_warnings = []     # arcs off their circle, ignored M205 J, ...
     e_before = [0.0]       # logical E before the line the stream is at (the generators are lazy)
 
     def read():
@@ -361,6 +363,7 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             timing.lap("summary")
             summary["timing_s"] = timing.as_dict()
             summary["rewrite_passes"] = timing.passes
+            summary["warnings"] = _warnings_json(opts.reader_warnings)
             if before_replace is not None:
                 before_replace(in_path, tmp, summary)
             out.commit()
@@ -410,3 +413,12 @@ def _unchanged(in_path, out_path, profile, why):
             out.commit()
     return {"input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
             "unchanged": why, "strokes": {"candidates": 0, "retimed": 0, "not_retimed": {}}}
+
+
+MAX_WARNINGS = 100
+
+
+def _warnings_json(warnings):
+    """The reader's warnings for the summary: the first MAX_WARNINGS as {line, text}, and the count."""
+    return {"count": len(warnings),
+            "first": [{"line": idx + 1, "text": text} for idx, text in warnings[:MAX_WARNINGS]]}

@@ -14,6 +14,8 @@ import math
 from .state import ARC, LINE, MAX_POS_D
 from .words import param_texts, split_comment, strip_checksum
 
+MIN_FEED_V = 1.0          # mm/s: slower moves are left alone -- segment feeds are written to 0.1 mm/s
+                          # and a firmware's minimum feed is of that order, so a law could not be played
 COLLINEAR_SIN = 1e-3      # |sin| of the turn below which two moves are one line (0.06 deg)
 
 # Stroke.kind
@@ -118,7 +120,7 @@ def eligible(m, selected: frozenset) -> bool:
     """A move we may re-time: a plain straight XY line, constant Z, absolute XYZ in mm (G21),
     no checksum (renumbering checksummed lines is the host's job), selected feature."""
     return (m.kind == LINE and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
-            and m.speed_r == 1.0
+            and m.speed_r == 1.0 and m.v >= MIN_FEED_V
             and m.z0 == m.z1 and (m.x1 != m.x0 or m.y1 != m.y0)
             and (m.e > 0.0 or (m.e == 0.0 and m.feature == "travel")))
 
@@ -130,7 +132,7 @@ def eligible_arc(m, raw, selected: frozenset) -> bool:
     straight jump the law does not know of: state.Arc.off_circle), and its whole circle
     1 mm inside the reader's position range (its sub-arcs must read back)."""
     if not (m.kind == ARC and m.feature in selected and not m.checksum and not m.xyz_rel and not m.inch
-            and m.speed_r == 1.0
+            and m.speed_r == 1.0 and m.v >= MIN_FEED_V
             and m.z0 == m.z1 and m.e > 0.0 and m.arc.length_d >= 1.0 and not m.arc.off_circle):
         return False
     a = m.arc        # sub-arc ends are rounded points of the circle: keep them inside the range

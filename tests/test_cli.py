@@ -207,3 +207,17 @@ def test_binary_input_refused(capsys, tmp_path):
     assert rc == 2 and len(lines) == 1 and lines[0].startswith(f"gcode-opt: {p}")
     assert p.read_bytes() == data
     _clean(tmp_path)
+
+
+def test_reader_warnings_name_their_line_and_reach_the_summary(capsys, tmp_path):
+    # edge/arc_variants.gcode line 13: an arc whose end is 0.05 mm off its circle (left as written)
+    src = os.path.join(ROOT, "sample_gcode", "edge", "arc_variants.gcode")
+    out, js = tmp_path / "o.gcode", tmp_path / "s.json"
+    rc = main(["process", src, "-o", str(out), "--json", str(js), "--profile-time"])
+    err = capsys.readouterr().err
+    assert rc == 0 and "Traceback" not in err
+    assert f"gcode-opt: {src}:13: warning: arc end 0.050 mm off its circle" in err
+    assert "CPU time (s)" in err and "analyse" in err
+    import json
+    w = json.loads(js.read_text())["warnings"]
+    assert w["count"] == 1 and w["first"][0]["line"] == 13

@@ -228,3 +228,17 @@ def test_travel_strokes_restore_the_travel_acceleration(tmp_path):
     text = dst.read_text()
     assert "M204 T2500" in text and "M204 P" not in text.replace("M204 P1000 T2500", "")
     verify(str(src), str(dst), prof)
+
+
+def test_strokes_slower_than_1_mm_s_are_left_alone(tmp_path):
+    # a fuzz case (tests/cases/feed_restore_rounded.gcode) re-timed an F0.1884 mm/min stroke at
+    # F6, 30x the slicer's feed: segment feeds are written to 0.1 mm/s, so such strokes stay as sliced
+    from gcode_opt.profile import load_profile
+    body = "".join(f"G1 X{10 + 20 * (i % 2)} Y{10 + i} E0.5\n" for i in range(1, 12))
+    for feed, expect_blocks in ((30, False), (3000, True)):       # 0.5 mm/s, 50 mm/s
+        src = tmp_path / f"slow{feed}.gcode"
+        src.write_text(f"G90\nM83\nG1 X10 Y10 F3000\n;TYPE:Internal infill\nG1 F{feed}\n" + body)
+        dst = tmp_path / f"out{feed}.gcode"
+        summary = process(str(src), str(dst), load_profile("generic-klipper"), Options())
+        assert ("; gcode-opt begin" in dst.read_text()) == expect_blocks
+        assert (summary["strokes"]["candidates"] > 0) == expect_blocks

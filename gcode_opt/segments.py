@@ -19,6 +19,7 @@ from .laws.line import line_law, time_of_distance
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
 EDGE_T = 0.01            # s: ... and no longer than this at that speed (a slow lead-in costs time)
+KNOT_CHUNK = 1024         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
 MIN_EDGE_D = 0.02        # mm: no room for a lead-in this long: none (a sliver is 0/0 for its ramp)
 
 
@@ -190,9 +191,12 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
                   for st, t in zip(strokes, T)], dtype=int)
     ok = np.flatnonzero(n >= 2)
     plans = [None] * len(strokes)
-    knots = law_knots([strokes[i] for i in ok], np.asarray(T)[ok], np.asarray(beta)[ok], n[ok])
-    for i, (sk, vk) in zip(ok, knots):
-        plans[i] = _finish(strokes[i], sk, vk, rules)
+    T, beta = np.asarray(T), np.asarray(beta)
+    for a in range(0, ok.size, KNOT_CHUNK):       # bounded memory; every step is per stroke
+        rows = ok[a:a + KNOT_CHUNK]
+        knots = law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
+        for i, (sk, vk) in zip(rows, knots):
+            plans[i] = _finish(strokes[i], sk, vk, rules)
     return plans
 
 

@@ -150,3 +150,28 @@ def test_replans_reuse_segments_and_give_a_fresh_runs_plan(monkeypatch):
             for k in ("s", "v", "accel", "feed"):
                 assert np.array_equal(getattr(a, k), getattr(b, k))
             assert a.time_t == b.time_t and a.int_a2 == b.int_a2
+
+
+def test_segments_in_knot_chunks_are_the_same(monkeypatch):
+    """plan_segments evaluates the knots of a few strokes at a time: the same plans."""
+    from gcode_opt import schedule, segments
+    from gcode_opt.pipeline import Options, analyse
+    from gcode_opt.profile import load_profile
+    prof, opts = load_profile("prusa-mk3s"), Options()
+    strokes, _ = analyse("sample_gcode/prusa_absolute_e.gcode", prof, opts)
+    pin = schedule.plan_inputs(strokes, prof, opts)
+    lines = [s for s in strokes if s.kind == "line"]
+    rows = [i for i, s in enumerate(strokes) if s.kind == "line"]
+    T, beta, I, _ = candidates_auto(pin.take(rows))
+    j = np.argmax(np.isfinite(I), axis=1)                 # some feasible law per stroke
+    Tj, bj = T[np.arange(len(rows)), j], beta[np.arange(len(rows)), j]
+    rules = segments.SegmentRules.for_profile(prof, opts.max_segments)
+    whole = segments.plan_segments(lines, Tj, bj, rules)
+    monkeypatch.setattr(segments, "KNOT_CHUNK", 7)
+    chunked = segments.plan_segments(lines, Tj, bj, rules)
+    assert sum(p is not None for p in whole) > 100
+    for a, b in zip(whole, chunked):
+        assert (a is None) == (b is None)
+        if a is not None:
+            for k in ("s", "v", "accel", "feed"):
+                assert np.array_equal(getattr(a, k), getattr(b, k))

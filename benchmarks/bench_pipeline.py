@@ -3,8 +3,8 @@
     python benchmarks/bench_pipeline.py [FILE.gcode ...] [--profile NAME] [--runs N] [--json OUT]
 
 Default files: the largest bundled sample, and the two large plates of
-sample_gcode/make_large.sh if they are in its cache folder (make them with
-`bash sample_gcode/make_large.sh`).
+sample_gcode/make_corpus.sh (plate_gyroid 461 k lines, plate_rectilinear 186 k lines) if they
+are in its cache folder (make them with `bash sample_gcode/make_corpus.sh`).
 
 Every case runs in a fresh subprocess, so the peak RSS it reports is its own
 (getrusage ru_maxrss, imports included; the figure after the imports is given apart).
@@ -36,7 +36,7 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
-LARGE_DIR = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "gcode-opt-large")
+LARGE_DIR = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "gcode-opt-corpus")
 CASES = ("bare", "read+state", "strokes", "analyse", "process")
 
 

@@ -99,6 +99,14 @@ def test_atomic_output_removes_tmp_on_error(tmp_path):
     _no_tmp(tmp_path)
 
 
+def _default_signals():
+    """In the child: the default dispositions, as at a terminal.  A shell that runs a job in
+    the background without job control (CI may) makes it ignore SIGINT, and Python then
+    keeps ignoring it -- rightly; the test is about what happens when the signal arrives."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _wait_for_tmp(proc, folder, timeout_t=60.0):
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout_t:
@@ -115,7 +123,7 @@ def test_signal_during_rewrite_leaves_input_intact(tmp_path, sig, code):
     src = _copy(tmp_path, src=BIG)
     before = _bytes(src)
     proc = subprocess.Popen(CLI + ["process", src, "--profile", "prusa-mk3s", "-q"], cwd=ROOT,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_signals)
     assert _wait_for_tmp(proc, tmp_path), "the temporary file never appeared"
     os.kill(proc.pid, sig)
     _, err = proc.communicate(timeout=60)
@@ -130,7 +138,8 @@ def test_signal_before_any_output(tmp_path):
     """SIGTERM during the analysis (after the profile line, before any output): same message."""
     src = _copy(tmp_path, src=BIG)
     before = _bytes(src)
-    proc = subprocess.Popen(CLI + ["process", src], cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(CLI + ["process", src], cwd=ROOT, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_signals)
     first = proc.stderr.readline()           # --profile auto says what it chose, then the work starts
     assert first.startswith("gcode-opt: profile prusa-mk3s"), first
     os.kill(proc.pid, signal.SIGTERM)

@@ -84,7 +84,9 @@ def _why(code: str) -> str:
     """The reason a classic command's code part failed _STRICT (for the error message)."""
     if not code.isascii():
         bad = next(c for c in code if not c.isascii())
-        return f"non-ASCII character {bad!r} (or a byte that is not UTF-8)"
+        if 0xDC80 <= ord(bad) <= 0xDCFF:      # a byte that is not UTF-8, kept by surrogateescape
+            return f"byte 0x{ord(bad) - 0xDC00:02x} that is not UTF-8 text"
+        return f"non-ASCII character {bad!r}"
     s = code.lstrip()
     m = _CLASSIC.match(s)
     tokens = s[m.end() if m else 0:].split()

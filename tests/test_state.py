@@ -271,7 +271,7 @@ def test_set_velocity_limit_accepted_forms():
 
 def test_motion_and_read_commands_refuse_garbage_unknown_commands_do_not():
     assert "exponent" in refuse("G92 E1e2\n")
-    assert "non-ASCII" in refuse("G1 X1 Y2\udcff\n")                  # a non-UTF-8 byte in code
+    assert "byte 0xff that is not UTF-8" in refuse("G1 X1 Y2\udcff\n")  # a non-UTF-8 byte in code
     _, evs = run("M117 Y2e1 inf \udcff\nM862.3 P \"MK3S\"\nG1 X1 ; caf\udce9\n")
     assert evs[:2] == [None, None] and moves(evs)[0].x1 == 1
 

@@ -34,7 +34,7 @@ def _strict_ok(text):
     ("G1 X1_0", "unreadable"),                 # float() would read 10
     ("G1 X\u0661", "non-ASCII"),               # an Arabic-Indic one
     ("G1 X1\u00a0Y2", "non-ASCII"),            # a no-break space between words
-    ("G1 X1 Y2\udcff", "non-ASCII"),           # a byte that is not UTF-8 (surrogateescape)
+    ("G1 X1 Y2\udcff", "byte 0xff that is not UTF-8"),   # read with surrogateescape
     ("G1 X Y2", "without a number"),
     ("G1 X1 X2", "twice"),
     ("G1 X1.2.3", "unreadable"),

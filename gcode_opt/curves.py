@@ -92,9 +92,8 @@ def vertex_splitter(profile):
     """split(prev_move, move) for strokes.group_strokes: True where the vertex's speed cap
     (x CAP_MARGIN) is below the feed -- the firmware slows there whatever we do."""
     def split(pm, m):
-        try:
-            with np.errstate(all="ignore"):
-                cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), _d(pm), _d(m))
+        try:       # plain floats: a zero length or a bad root raises here, inf/NaN compare False below
+            cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), _d(pm), _d(m))
         except (ArithmeticError, ValueError):   # a degenerate vertex: end the curve there
             return True
         return not CAP_MARGIN * cap >= m.v      # NaN: split too

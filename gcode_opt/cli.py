@@ -325,6 +325,9 @@ def _process(a, out, job, Options, Progress, process):
             sys.stderr.write(f"gcode-opt: {a.report}: no report written: nothing to compare\n")
     elif not a.quiet:
         _print_warnings(a.input, summary)
+        fi = summary.get("features") or {}
+        if fi.get("note"):                            # a file without feature comments: say what that selects
+            sys.stderr.write(f"gcode-opt: {a.input}: features {','.join(fi['selected'])}: {fi['note']}\n")
         sys.stderr.write(format_summary(summary) + "\n")
         faults = summary["strokes"].get("faults", 0)
         if faults:

@@ -79,3 +79,15 @@ def parse_feature_list(text: str) -> tuple[str, ...]:
     if bad:
         raise ValueError(f"unknown feature(s) {', '.join(bad)}; choose from {', '.join(ALL)}")
     return out
+
+
+def selection_info(comments_seen: bool, selected) -> dict:
+    """What the feature selection could act on (summary["features"]): without any feature
+    comment every extruding move is `other` (state.py's start value), so a selection
+    that does not name `other` re-times no extrusion -- say so."""
+    selected = tuple(selected)
+    info = {"source": "comments" if comments_seen else "none", "selected": list(selected)}
+    if not comments_seen and OTHER not in selected:
+        info["note"] = ("no feature comments in the file, so every extruding move is 'other', which is "
+                        "not selected: no extrusion is re-timed (--features all re-times every move)")
+    return info

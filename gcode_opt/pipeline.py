@@ -119,10 +119,14 @@ def analyse(path, profile: Profile, opts: Options):
     state.warnings = opts.reader_warnings = []     # arcs off their circle, ignored M205 J, ...
     e_before = [0.0]       # logical E before the line the stream is at (the generators are lazy)
 
+    seen = [False]         # a slicer feature comment (";TYPE:", "; FEATURE:", ...) was read
+
     def read():
         step = state.step
         for idx, raw in read_lines(path):
             e_before[0] = state.e
+            if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
+                seen[0] = True
             yield idx, raw, step(idx, raw)
 
     def start_state():
@@ -163,6 +167,7 @@ def analyse(path, profile: Profile, opts: Options):
             early[r.idx] = r
 
     sim = simulate_events(feed(), profile, on_line=on_line)
+    opts.feature_info = feat.selection_info(seen[0], opts.features)
     return strokes, sim
 
 

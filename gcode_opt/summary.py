@@ -87,5 +87,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "file": {"bytes_before": size_before, "bytes_after": size_after, "lines_before": lines_before,
                  "lines_after": lines_after},
         "elapsed_s": elapsed_t,
+        # where the feature labels came from (the file's comments, or none: see features.selection_info)
+        "features": getattr(opts, "feature_info", None),
         "per_stroke": per_stroke,
     }

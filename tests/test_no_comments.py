@@ -63,3 +63,43 @@ def test_file_with_comments_is_silent(capsys, tmp_path):
     assert rc == 0
     assert s["features"] == {"source": "comments", "selected": ["sparse_infill", "solid_infill"]}
     assert "no feature comments" not in err
+
+
+# ---- the geometric fallback (classify.py), checked against the slicer's own comments
+PERIMETERS = {"perimeter", "external_perimeter", "overhang_perimeter", "skirt"}
+INFILL = {"sparse_infill", "solid_infill"}
+
+
+def _moves(path):
+    from gcode_opt.profile import load_profile
+    from gcode_opt.state import MachineState, Move, read_lines
+    st = MachineState(load_profile("generic-klipper"), path)
+    for idx, raw in read_lines(path):
+        ev = st.step(idx, raw)
+        for m in (ev if isinstance(ev, list) else [ev]):
+            if isinstance(m, Move):
+                yield m
+
+
+@pytest.mark.parametrize("name", ["prusa_mk3s_rectilinear.gcode", "prusa_gyroid.gcode"])
+def test_loops_are_the_perimeters(name):
+    from gcode_opt.classify import LOOP, run_label, runs
+    conf = {}
+    for r in runs(_moves(os.path.join(ROOT, "sample_gcode", name))):
+        lab = run_label(r)
+        for m in r:
+            conf[(m.feature, lab)] = conf.get((m.feature, lab), 0) + 1
+    per = sum(v for (f, lab), v in conf.items() if f in PERIMETERS)
+    inf = sum(v for (f, lab), v in conf.items() if f in INFILL)
+    assert per > 100 and inf > 100
+    assert sum(v for (f, lab), v in conf.items() if f in PERIMETERS and lab != LOOP) == 0
+    assert sum(v for (f, lab), v in conf.items() if f in INFILL and lab == LOOP) == 0
+
+
+def test_seam_gap_is_why_the_tolerance_is_not_0_05():
+    # PrusaSlicer leaves a 0.06 mm seam gap: at 0.05 mm no perimeter would close
+    from gcode_opt.classify import LOOP, run_label, runs
+    rs = [r for r in runs(_moves(os.path.join(ROOT, "sample_gcode", "prusa_mk3s_rectilinear.gcode")))
+          if r[0].feature == "external_perimeter"]
+    assert rs and all(run_label(r) == LOOP for r in rs)
+    assert not any(run_label(r, tol_d=0.05) == LOOP for r in rs)

@@ -359,9 +359,15 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
                 timing.lap("measure")
                 timing.passes += 1
                 over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
-                if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
+                departed = _departures(plan, out_ranges, t1)
+                if departed:               # the firmware would not play these as planned: keep them as sliced
+                    failed = pin.cached[2]
+                    for i in departed:
+                        failed[i] = "firmware model departs from the plan"
+                elif opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
                     break
-                budget_t -= 1.2 * over_t
+                if over_t > 0.0:
+                    budget_t -= 1.2 * over_t
             from .summary import build_summary
             summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
                                     out_ranges, t1, a21, v21, time.monotonic() - t_start)
@@ -376,6 +382,17 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         if prog:
             prog.finish()
     return summary
+
+
+DEPART_R, DEPART_T = 1.5, 0.05     # a re-timed stroke the model plays > 1.5 x its plan + 50 ms
+
+
+def _departures(plan, out_ranges, t1):
+    """Strokes whose measured time in the written file is far from their plan's: the
+    segments did not make the firmware follow the law (seen on a purge line whose first
+    segment's acceleration the firmware could not use)."""
+    return [i for k, (_, _, i) in enumerate(out_ranges)
+            if t1[k] > DEPART_R * plan.t_pred[i] + DEPART_T]
 
 
 class _Timing:

@@ -242,3 +242,18 @@ def test_strokes_slower_than_1_mm_s_are_left_alone(tmp_path):
         summary = process(str(src), str(dst), load_profile("generic-klipper"), Options())
         assert ("; gcode-opt begin" in dst.read_text()) == expect_blocks
         assert (summary["strokes"]["candidates"] > 0) == expect_blocks
+
+
+def test_a_stroke_the_firmware_would_not_follow_is_kept_as_sliced(tmp_path):
+    # edge/no_feature_comments.gcode with every feature: its purge line (G1 X60 E9 F1000) was
+    # planned at 5.1 s and played by the firmware model in 14.4 s, the whole print +25 % for a
+    # 3 % budget.  Strokes the model plays far from their plan are restored and re-planned.
+    from gcode_opt import features as feat
+    from gcode_opt.profile import load_profile
+    dst = tmp_path / "out.gcode"
+    s = process(SAMPLES + "edge/no_feature_comments.gcode", str(dst), load_profile("generic-klipper"),
+                Options(features=feat.ALL))
+    assert s["print_time_s"]["change"] <= 0.03 + 1e-3
+    assert s["strokes"]["not_retimed"].get("firmware model departs from the plan", 0) >= 1
+    for st in s["per_stroke"]:        # what stays re-timed is played close to its plan
+        assert st["time_s"]["after"] <= 1.5 * st["time_s"]["law"] * 1.1 + 0.05

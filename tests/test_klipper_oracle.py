@@ -46,10 +46,8 @@ def _cases(pairs, slow):
 CASES = _cases(SUBSET, False) + _cases([c for c in FULL if c not in SUBSET], True)
 
 
-@pytest.fixture(scope="module")
-def outputs(tmp_path_factory):
-    """Lazily processed outputs, shared by the tests of this module."""
-    root = tmp_path_factory.mktemp("klipper-oracle")
+def _lazy_outputs(root, folder):
+    """get(sample, profile, features): the processed file, made once per module."""
     done = {}
 
     def get(sample, prof_name, features):
@@ -58,10 +56,16 @@ def outputs(tmp_path_factory):
             dst = root / f"{prof_name}-{features}-{sample}"
             feats = FEATURES[features]
             opts = Options() if feats is None else Options(features=feats)
-            process(str(REPO / "sample_gcode" / sample), str(dst), load_profile(prof_name), opts)
+            process(str(folder / sample), str(dst), load_profile(prof_name), opts)
             done[key] = dst
         return done[key]
     return get
+
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory):
+    """Lazily processed outputs, shared by the tests of this module."""
+    return _lazy_outputs(tmp_path_factory.mktemp("klipper-oracle"), REPO / "sample_gcode")
 
 
 def _agree(path, prof, what):
@@ -145,19 +149,7 @@ EDGE_CASES = [pytest.param(s, p, f, marks=[] if (s in EDGE_SUBSET and p == "voro
 
 @pytest.fixture(scope="module")
 def edge_outputs(tmp_path_factory):
-    root = tmp_path_factory.mktemp("klipper-oracle-edge")
-    done = {}
-
-    def get(sample, prof_name, features):
-        key = (sample, prof_name, features)
-        if key not in done:
-            dst = root / f"{prof_name}-{features}-{sample}"
-            feats = FEATURES[features]
-            opts = Options() if feats is None else Options(features=feats)
-            process(str(REPO / "sample_gcode" / "edge" / sample), str(dst), load_profile(prof_name), opts)
-            done[key] = dst
-        return done[key]
-    return get
+    return _lazy_outputs(tmp_path_factory.mktemp("klipper-oracle-edge"), REPO / "sample_gcode" / "edge")
 
 
 @pytest.mark.parametrize("sample,prof_name,features", EDGE_CASES)

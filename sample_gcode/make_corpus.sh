@@ -79,20 +79,7 @@ fi
 if ! command -v "$CURA" >/dev/null 2>&1; then
     echo "make_corpus.sh: '$CURA' not found: Cura files skipped" >&2
 else
-    find_cura_resources() {
-        local cache="${XDG_CACHE_HOME:-$HOME/.cache}/gcode-opt-cura-resources"
-        for d in "${CURA_RESOURCES:-}" /usr/share/cura/resources "$cache/usr/share/cura/resources"; do
-            if [ -n "$d" ] && [ -f "$d/definitions/fdmprinter.def.json" ]; then
-                echo "$d"; return 0
-            fi
-        done
-        echo "Cura definitions not found; fetching them from the Debian 'cura' package" >&2
-        mkdir -p "$cache"
-        (cd "$WORK" && apt-get download cura >&2)
-        dpkg-deb --fsys-tarfile "$WORK"/cura_*.deb |
-            tar -x -C "$cache" ./usr/share/cura/resources/definitions ./usr/share/cura/resources/extruders
-        echo "$cache/usr/share/cura/resources"
-    }
+    . "$HERE/cura_resources.sh"
     CURA_RES="$(find_cura_resources)"
     export CURA_ENGINE_SEARCH_PATH="$CURA_RES/definitions:$CURA_RES/extruders"
     # make_samples.sh's Ender-3 "Standard Quality" settings (formulas evaluated by hand),

@@ -255,8 +255,9 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     plan.I_law = np.where(use, I[rows, jj], p.I_orig)
     plan.KE_law = np.where(use, KE[rows, jj], np.nan)
     none_ok = ~np.isfinite(I).any(axis=1)
-    plan.reason = np.where(use, "retimed",
-                           np.where(none_ok, "no law within limits", "original is better within the time budget"))
+    plan.reason = np.where(use, "retimed",     # object: later reasons must not be cut to this width
+                           np.where(none_ok, "no law within limits", "original is better within the time budget")
+                           ).astype(object)
     return plan
 
 
@@ -282,7 +283,7 @@ def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:
     plan.beta = np.where(ok_hi, beta, np.inf)
     plan.I_law = np.where(ok_hi, I, p.I_orig)
     plan.KE_law = np.where(ok_hi, KE, np.nan)
-    plan.reason = np.where(ok_hi, "retimed", "no law within limits")
+    plan.reason = np.where(ok_hi, "retimed", "no law within limits").astype(object)
     return plan
 
 

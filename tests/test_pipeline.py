@@ -257,3 +257,13 @@ def test_a_stroke_the_firmware_would_not_follow_is_kept_as_sliced(tmp_path):
     assert s["strokes"]["not_retimed"].get("firmware model departs from the plan", 0) >= 1
     for st in s["per_stroke"]:        # what stays re-timed is played close to its plan
         assert st["time_s"]["after"] <= 1.5 * st["time_s"]["law"] * 1.1 + 0.05
+
+
+def test_reasons_are_not_cut_to_the_width_of_the_first_ones(tmp_path):
+    # plan.reason was a fixed-width string array: under a fixed alpha its width was that of
+    # "no law within limits", so later reasons were cut to 20 characters
+    from gcode_opt import features as feat
+    from gcode_opt.profile import load_profile
+    s = process(SAMPLES + "edge/no_feature_comments.gcode", str(tmp_path / "o.gcode"),
+                load_profile("generic-klipper"), Options(features=feat.ALL, alpha=0.01))
+    assert "firmware model departs from the plan" in s["strokes"]["not_retimed"]

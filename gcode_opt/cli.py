@@ -205,21 +205,6 @@ def _load_profile(name, path=None, quiet=False, metadata=None):
     return prof
 
 
-def check_input(path):
-    """Refuse what cannot be read as G-code before any work (UserError 'PATH: why')."""
-    if os.path.isdir(path):
-        raise UserError(f"{path}: is a directory, not a G-code file")
-    if not os.path.exists(path):
-        raise UserError(f"{path}: no such file")
-    if not os.access(path, os.R_OK):
-        raise UserError(f"{path}: not readable (permission denied)")
-    try:
-        from .inputcheck import check_input as deep_check      # binary, NUL bytes, empty (issue 7)
-    except ImportError:
-        return
-    deep_check(path)
-
-
 def check_outputs(pairs):
     """(path, what) for each output; folder exists and is writable, path is not a folder."""
     from .outfile import OutputError, check_writable
@@ -240,17 +225,10 @@ def check_outputs(pairs):
 def _binary_input(path):
     """The BinaryJob of a Prusa binary G-code input (decoded to a temporary text), or None for
     text.  Checks the input either way (UserError / InputRefused 'PATH: why')."""
-    try:
-        with open(path, "rb") as fh:
-            binary = fh.read(4) == b"GCDE"
-    except OSError:
-        binary = False                                # check_input says why
-    if not binary:
-        check_input(path)
+    from .inputcheck import check_input
+    if check_input(path, binary_gcode=True) == "text":   # missing, folder, empty, binary: refused here
         return None
     from .bgcode_job import BinaryJob
-    from .inputcheck import check_input as deep_check
-    deep_check(path, binary_gcode=True)
     return BinaryJob(path, path)
 
 
@@ -463,10 +441,7 @@ def main(argv=None):
     from .outfile import Interrupted, OutputError, install_signal_handlers, restore_signal_handlers
     from .profile import ProfileError
     from .state import GcodeError
-    try:
-        from .inputcheck import InputRefused
-    except ImportError:                            # helper A's module not there yet
-        InputRefused = GcodeError
+    from .inputcheck import InputRefused
     saved = install_signal_handlers()
 
     def fail(code, msg):

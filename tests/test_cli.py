@@ -56,7 +56,7 @@ def test_missing_input(capsys, tmp_path):
 
 def test_directory_input(capsys, tmp_path):
     rc, lines = _run(capsys, ["process", str(tmp_path)])
-    assert rc == 2 and lines == [f"gcode-opt: {tmp_path}: is a directory, not a G-code file"]
+    assert rc == 2 and lines == [f"gcode-opt: {tmp_path}: is a directory: give a G-code file"]
 
 
 @pytest.mark.parametrize("prof,expect", [

@@ -95,7 +95,8 @@ def register(sub):
 def cmd_report(a):
     import json
 
-    from ..cli import UserError, _load_profile, check_input, check_outputs
+    from ..cli import UserError, _load_profile, check_outputs
+    from ..inputcheck import check_input
     from .html import write_report
     for p in (a.original, a.processed):
         check_input(p)
@@ -119,7 +120,8 @@ def cmd_report(a):
 
 
 def cmd_law(a):
-    from ..cli import check_input, check_outputs
+    from ..cli import check_outputs
+    from ..inputcheck import check_input
     from .law_table import law_table_from_args, write_table
     if a.gcode:
         check_input(a.gcode)

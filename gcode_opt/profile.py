@@ -5,7 +5,7 @@ package `gcode_opt.profiles`).  `load_profile("prusa-mk3s")` finds a bundled one
 name; a path to a .toml file works too.  Every field has a unit in its name.
 
 A profile file is checked against SCHEMA before use: each key lives in one table
-([firmware], [limits], [machine]; `name` and `sources` at the top), has a type and a
+([firmware], [limits], [machine], [resonance]; `name` and `sources` at the top), has a type and a
 range, and a few keys are required.  An error names the file and the key:
 `my.toml: max_accel_a = -1000: must be > 0 mm/s^2` (ProfileError, a ValueError).
 
@@ -20,7 +20,14 @@ Required, because a wrong guess changes what is written or what the firmware doe
 Optional, with a stated default: default_accel_a = max_accel_a (Klipper starts at
 max_accel; Marlin caps the accel in force by M201 anyway), travel_accel_a and
 retract_accel_a = default_accel_a; the rest take the dataclass defaults below, which only
-refine the model (masses, hotend flow, segment rate, arc chord, ...)."""
+refine the model (masses, hotend flow, segment rate, arc chord, ...).
+
+[resonance] (optional; only the ringing figures read it): the frame's resonance per axis
+and the input shaper the firmware runs.  Defaults when absent: freq_x_hz = freq_y_hz = 50
+(ESTIMATE: mid of the 30-100 Hz Klipper's docs, Measuring_Resonances.md, give for common
+printers), damping_r = 0.1 (Klipper's DEFAULT_DAMPING_RATIO, "a good all-round value" per
+its docs), shaper = "none", shaper_freq_x/y_hz = the resonance's (a shaper tuned at f),
+shaper_damping_r = 0.1 (Klipper's [input_shaper] damping_ratio_x/y default)."""
 from __future__ import annotations
 
 import dataclasses
@@ -36,6 +43,7 @@ except ModuleNotFoundError:  # pragma: no cover - 3.10
     import tomli as tomllib
 
 FLAVOURS = ("klipper", "marlin2", "marlin-legacy", "rrf")
+SHAPERS = ("none", "zv", "mzv", "ei")
 JUNCTION_MODELS = ("scv", "jd", "jerk")
 
 
@@ -74,6 +82,14 @@ class Profile:
     max_volumetric_flow: float = 15.0   # mm^3/s, hotend melt limit
     fw_retract_length_d: float = 0.8    # mm, G10/G11 firmware retraction
     fw_retract_speed_v: float = 35.0    # mm/s
+    # resonance (ringing figures only; see the module docstring for the defaults' sources)
+    freq_x_hz: float = 50.0             # X resonance (Klipper's shaper calibration gives it)
+    freq_y_hz: float = 50.0             # Y resonance
+    damping_r: float = 0.1              # damping ratio zeta of both axes
+    shaper: str = "none"                # input shaper in force: none / zv / mzv / ei
+    shaper_freq_x_hz: float = 0.0       # shaper frequencies; 0 = tuned at freq_x_hz / freq_y_hz
+    shaper_freq_y_hz: float = 0.0
+    shaper_damping_r: float = 0.1       # the shaper's design damping (Klipper damping_ratio_x/y)
     sources: tuple[str, ...] = field(default_factory=tuple)   # where the numbers come from
 
     def moving_mass_kg(self, ux: float, uy: float) -> tuple[float, float]:
@@ -129,8 +145,17 @@ SCHEMA = {
     "moving_mass_y_kg": ("machine", "num", *_pos(1000.0), "kg"),
     "filament_diameter_d": ("machine", "num", 0.1, False, 10.0, False, "mm"),
     "max_volumetric_flow": ("machine", "num", *_pos(1e4), "mm^3/s"),
+    # 1 Hz .. 1 kHz brackets every printer frame; zeta < 1 keeps the oscillator underdamped
+    # (the exact solution the ringing model uses), Klipper's EI shaper is defined to 0.4
+    "freq_x_hz": ("resonance", "num", 1.0, False, 1000.0, False, "Hz"),
+    "freq_y_hz": ("resonance", "num", 1.0, False, 1000.0, False, "Hz"),
+    "damping_r": ("resonance", "num", 0.0, True, 1.0, True, ""),
+    "shaper": ("resonance", SHAPERS, None, False, None, False, ""),
+    "shaper_freq_x_hz": ("resonance", "num", 1.0, False, 1000.0, False, "Hz"),
+    "shaper_freq_y_hz": ("resonance", "num", 1.0, False, 1000.0, False, "Hz"),
+    "shaper_damping_r": ("resonance", "num", 0.0, True, 0.4, False, ""),
 }
-TABLES = ("firmware", "limits", "machine")
+TABLES = ("firmware", "limits", "machine", "resonance")
 REQUIRED = ("flavour", "junction", "max_velocity_v", "max_accel_a")
 JUNCTION_KEY = {"scv": "square_corner_velocity_v", "jd": "junction_deviation_d", "jerk": "jerk_xy_v"}
 assert set(SCHEMA) | {"name"} == {f.name for f in dataclasses.fields(Profile)}
@@ -153,7 +178,8 @@ def _toml_text(v):
 
 # keys whose whole interval is the message; the others name the side that was crossed
 _INTERVAL = {"minimum_cruise_ratio_r", "arc_segment_d", "filament_diameter_d", "block_buffer",
-             "min_segment_time_t"}
+             "min_segment_time_t", "freq_x_hz", "freq_y_hz", "damping_r", "shaper_freq_x_hz",
+             "shaper_freq_y_hz", "shaper_damping_r"}
 
 
 def _range_text(key, below, lo, lo_open, hi, hi_open, unit):
@@ -233,6 +259,8 @@ def profile_from_dict(data: dict, name: str, where: str | None = None) -> Profil
     flat.setdefault("default_accel_a", flat["max_accel_a"])
     flat.setdefault("travel_accel_a", flat["default_accel_a"])
     flat.setdefault("retract_accel_a", flat["default_accel_a"])
+    for ax in ("x", "y"):                    # a shaper tuned at the resonance unless told
+        flat.setdefault(f"shaper_freq_{ax}_hz", flat.get(f"freq_{ax}_hz", getattr(Profile, f"freq_{ax}_hz")))
     for k in ("block_buffer",):
         if k in flat:
             flat[k] = int(flat[k])

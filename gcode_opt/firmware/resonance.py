@@ -1,0 +1,212 @@
+"""The frame's resonance, solved exactly: a damped oscillator per axis driven by the
+commanded motion, and the input shaper that filters that motion.
+
+Each axis follows x'' = w^2 (x_c - x) + 2 z w (x_c' - x').  The error e = x - x_c obeys
+e'' + 2 z w e' + w^2 e = -a_c(t).  The firmware commands piecewise-constant accelerations
+(trapezoid phases) and jumps the velocity at every junction (Klipper's square corner
+velocity, Marlin's junction deviation / jerk): a jump dv is an impulse, e' jumps by -dv.
+Within a piece of constant a_c the error is the quasi-static lag -a_c/w^2 plus a free
+damped oscillation r(t) -- the *ringing*.  At a piece boundary e is continuous, so r jumps
+by da/w^2 (ramp excitation); at a junction r' jumps by -dv (corner excitation).  Between
+events r is
+
+    r(t) = Re(c exp(lam (t - t_k))),  lam = -s + i wd,  s = z w,  wd = w sqrt(1 - z^2),
+
+with one complex amplitude c per event: everything below is closed-form (no time step).
+The response is linear in the jumps, so the ramp and corner parts are solved apart and
+sum to the whole; an input shaper sum A_i x_c(t - t_i) shapes the error the same way,
+sum A_i e(t - t_i), so the shaped ringing is the same solve over the events repeated at
+t_k + t_i with weights A_i.
+
+Units: seconds, mm, mm/s, mm/s^2; frequencies in Hz.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+CHUNK_DECAY = 300.0      # exp(300) ~ 1e130: cumulative sums restart before float64 overflows
+
+
+# ---------------------------------------------------------------- input shapers
+def shaper_pulses(kind: str, freq_hz: float, damping_r: float = 0.1):
+    """(A, T): pulse weights (sum 1) and times (s), centred so sum A_i T_i = 0 as Klipper's
+    kin_shaper.c shift_pulses does (the shaper delays nothing, only smooths).  Definitions
+    of klippy/extras/shaper_defs.py (ZV, MZV = its n=3, t=0.75 form, EI at 5 % tolerance)."""
+    if kind == "none":
+        return np.ones(1), np.zeros(1)
+    z = damping_r
+    df = math.sqrt(1.0 - z * z)
+    t_d = 1.0 / (freq_hz * df)
+    if kind == "zv":
+        k = math.exp(-z * math.pi / df)
+        a, t = [1.0, k], [0.0, 0.5 * t_d]
+    elif kind == "mzv":
+        k = math.exp(-0.75 * z * math.pi / df)
+        a1 = 1.0 - 1.0 / math.sqrt(2.0)
+        a, t = [a1, (math.sqrt(2.0) - 1.0) * k, a1 * k * k], [0.0, 0.375 * t_d, 0.75 * t_d]
+    elif kind == "ei":
+        v_tol = 0.05
+        a1 = 0.24968 + 0.24961 * v_tol + ((0.80008 + 1.23328 * v_tol)
+                                          + (0.49599 + 3.17316 * v_tol) * z) * z
+        a3 = 0.25149 + 0.21474 * v_tol + ((-0.83249 + 1.41498 * v_tol)
+                                          + (0.85181 - 4.90094 * v_tol) * z) * z
+        t2 = 0.4999 + (((0.46159 + 8.57843 * v_tol) * v_tol)
+                       + (((4.26169 - 108.644 * v_tol) * v_tol)
+                          + ((1.75601 + 336.989 * v_tol) * v_tol) * z) * z) * z
+        a, t = [a1, 1.0 - a1 - a3, a3], [0.0, t2 * t_d, t_d]
+    else:
+        raise ValueError(f"unknown input shaper {kind!r}")
+    a = np.asarray(a, float)
+    a = a / a.sum()
+    t = np.asarray(t, float)
+    return a, t - float(np.dot(a, t))
+
+
+# ---------------------------------------------------------------- the oscillator
+class Oscillator:
+    """One axis: natural frequency freq_hz, damping ratio damping_r (0 < z < 1)."""
+
+    def __init__(self, freq_hz: float, damping_r: float):
+        if not (freq_hz > 0.0 and 0.0 < damping_r < 1.0):
+            raise ValueError("need freq_hz > 0 and 0 < damping_r < 1")
+        self.w = 2.0 * math.pi * freq_hz
+        self.z = damping_r
+        self.s = damping_r * self.w
+        self.wd = self.w * math.sqrt(1.0 - damping_r * damping_r)
+        self.lam = complex(-self.s, self.wd)
+
+    def jump_amplitude(self, dr, drp):
+        """Complex amplitude of the free response started by r += dr, r' += drp."""
+        return dr - 1j * (drp + self.s * dr) / self.wd
+
+    def amplitudes(self, t_ev, dc):
+        """c_k: the response's amplitude just after event k (events sorted by time), the
+        sum over j <= k of dc_j exp(lam (t_k - t_j)).  A cumulative sum of dc_j
+        exp(-lam (t_j - t0)), restarted every CHUNK_DECAY / s seconds (carrying the
+        amplitude) so the growing exponential stays finite; each partial sum is dominated by
+        its latest terms, so the rounding stays relative to what is still ringing."""
+        n = len(t_ev)
+        c = np.empty(n, complex)
+        if n == 0:
+            return c
+        lam = self.lam
+        span = CHUNK_DECAY / self.s
+        start = 0
+        carry, t_carry = 0j, float(t_ev[0])
+        while start < n:
+            t0 = float(t_ev[start])
+            stop = int(np.searchsorted(t_ev, t0 + span, side="right"))
+            if stop <= start:
+                stop = start + 1
+            tt = t_ev[start:stop] - t0
+            g = np.cumsum(dc[start:stop] * np.exp(-lam * tt))
+            c0 = carry * np.exp(lam * (t0 - t_carry))
+            c[start:stop] = (c0 + g) * np.exp(lam * tt)
+            carry, t_carry = c[stop - 1], float(t_ev[stop - 1])
+            start = stop
+        return c
+
+    def integral_r2(self, c, dur):
+        """Exact integral of r(t)^2 over each piece [0, dur] (dur may be inf)."""
+        s, lam = self.s, self.lam
+        fin = np.isfinite(dur)
+        d = np.where(fin, dur, 0.0)
+        decay2 = np.where(fin, np.exp(-2.0 * s * d), 0.0)
+        osc2 = np.where(fin, np.exp(2.0 * lam * d), 0.0)
+        return np.abs(c) ** 2 * (1.0 - decay2) / (4.0 * s) + np.real(c * c * (osc2 - 1.0) / (4.0 * lam))
+
+    def peak_abs_r(self, c, dur):
+        """Exact max |r| over each piece [0, dur): the larger of the start, the end and the
+        first extremum inside (later extrema are smaller by exp(-s pi / wd) each, and |r| is
+        monotonic between extrema)."""
+        lam, wd = self.lam, self.wd
+        fin = np.isfinite(dur)
+        d = np.where(fin, dur, 0.0)
+        best = np.abs(c.real)
+        end = np.abs(np.real(c * np.exp(lam * d)))
+        best = np.maximum(best, np.where(fin, end, 0.0))
+        phi = np.angle(lam * c)
+        tau = np.mod(0.5 * math.pi - phi, math.pi) / wd
+        inside = (tau < d) | ~fin
+        ext = np.abs(np.real(c * np.exp(lam * tau)))
+        return np.maximum(best, np.where(inside, ext, 0.0))
+
+    def evaluate(self, t_ev, c, t):
+        """r at times t (exact), 0 before the first event."""
+        k = np.searchsorted(t_ev, t, side="right") - 1
+        kk = np.maximum(k, 0)
+        r = np.real(c[kk] * np.exp(self.lam * (t - t_ev[kk])))
+        return np.where(k >= 0, r, 0.0)
+
+
+class Response:
+    """The ringing of one axis for one set of jumps: event times, amplitudes, pieces."""
+
+    def __init__(self, osc: Oscillator, t_ev, dr, drp):
+        order = np.argsort(t_ev, kind="stable")
+        self.osc = osc
+        self.t_ev = np.asarray(t_ev, float)[order]
+        dc = osc.jump_amplitude(np.asarray(dr, float)[order], np.asarray(drp, float)[order])
+        self.c = osc.amplitudes(self.t_ev, dc)
+        self.dur = np.append(np.diff(self.t_ev), np.inf)    # the last rings down at rest
+
+    def int_r2(self) -> float:
+        return float(self.osc.integral_r2(self.c, self.dur).sum())
+
+    def peak(self) -> float:
+        return float(self.osc.peak_abs_r(self.c, self.dur).max()) if len(self.c) else 0.0
+
+    def at(self, t):
+        return self.osc.evaluate(self.t_ev, self.c, np.asarray(t, float))
+
+
+def shaped_events(t_ev, jumps, a_pulse, t_pulse):
+    """The events of the shaped command: each event repeated at t + T_i, jumps times A_i."""
+    t = (t_ev[None, :] + t_pulse[:, None]).ravel()
+    return t, [(a_pulse[:, None] * j[None, :]).ravel() for j in jumps]
+
+
+# ---------------------------------------------------------------- path smoothing
+def smoothing(t0, x0, v0, a0, pulses, samples=4):
+    """Distance between the shaped and the unshaped commanded XY position.
+
+    The command is piecewise quadratic: piece k starts at t0[k] with position x0[k] (n x 2),
+    velocity v0[k] and constant acceleration a0[k]; before t0[0] and after the last piece's
+    start it must be at rest (callers add rest pieces at both ends).  pulses = ((A_x, T_x),
+    (A_y, T_y)), each axis shaped by its own shaper.  Returns (rms_d, max_d): the RMS over
+    [t0[0], t0[-1]] exact (the difference is a quadratic on every piece between the merged
+    breakpoints, its square integrated in closed form), the max from `samples` points per
+    merged piece (pieces last milliseconds)."""
+    shifts = [t0 + ti for a_p, t_p in pulses for ti in t_p]
+    brk = np.unique(np.concatenate(shifts + [t0]))
+    brk = brk[(brk >= t0[0]) & (brk <= t0[-1])]
+    T = np.diff(brk)
+    s_m = brk[:-1]
+    p = np.zeros((len(s_m), 2))
+    q = np.zeros_like(p)
+    acc = np.zeros_like(p)
+    for ax, (a_p, t_p) in enumerate(pulses):
+        for ai, ti in list(zip(a_p, t_p)) + [(-1.0, 0.0)]:
+            tt = s_m - ti
+            # the piece is found at the merged piece's middle: at its start, rounding of
+            # (t0 + ti) - ti could pick the piece before and carry its velocity along
+            k = np.clip(np.searchsorted(t0, tt + 0.5 * T, side="right") - 1, 0, len(t0) - 1)
+            tau = tt - t0[k]
+            p[:, ax] += ai * (x0[k, ax] + v0[k, ax] * tau + 0.5 * a0[k, ax] * tau * tau)
+            q[:, ax] += ai * (v0[k, ax] + a0[k, ax] * tau)
+            acc[:, ax] += ai * a0[k, ax]
+    pp, pq, qq = (p * p).sum(1), (p * q).sum(1), (q * q).sum(1)
+    ps, qs, ss = (p * acc).sum(1), (q * acc).sum(1), (acc * acc).sum(1)
+    integral = (pp * T + pq * T ** 2 + (qq + ps) * T ** 3 / 3.0 + qs * T ** 4 / 4.0
+                + ss * T ** 5 / 20.0)
+    total_t = float(T.sum())
+    rms = math.sqrt(max(float(integral.sum()), 0.0) / total_t) if total_t > 0 else 0.0
+    mx = 0.0
+    for j in range(samples):
+        tau = (T * j / samples)[:, None]
+        d = p + q * tau + 0.5 * acc * tau * tau
+        if len(d):
+            mx = max(mx, float(np.sqrt((d * d).sum(1)).max()))
+    return rms, mx

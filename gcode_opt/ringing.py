@@ -1,0 +1,246 @@
+"""Ringing of a G-code file: the firmware model's commanded motion through the resonance
+model (firmware/resonance.py).
+
+``trace(path, profile)`` plays the file with the firmware model and returns the commanded
+XY motion as pieces of constant acceleration (three per planned block: accelerate, cruise,
+decelerate; one per rest: E-only moves and dwells), with the velocity jump at each piece's
+start.  ``figures(path, profile)`` gives, per axis, RMS and peak ringing (micrometres) and
+their parts excited by the ramps (acceleration steps), the corners (junctions turning more
+than 30 degrees, the firmware model's corner threshold, and the jumps into and out of rest)
+and the gentle turns (junctions of curves cut into segments); with an input shaper in the
+profile, the ringing of the shaped motion and the shaper's path smoothing.
+
+What is modelled: X and Y of the toolhead as the firmware commands them (Z and E are not);
+each axis a linear damped oscillator with the profile's [resonance] frequency and damping;
+the machine at rest before the file starts and after it ends (the last ring-down counts).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from . import state as st
+from .firmware.resonance import Oscillator, Response, shaped_events, shaper_pulses, smoothing
+from .firmware.simulate import CORNER_COS, simulate_events
+
+UM = 1000.0               # mm -> micrometres
+NONE, CORNER, TURN = 0, 1, 2
+PARTS = ("ramp", "corner", "turn")
+
+
+class Trace:
+    """Commanded XY motion, one row per piece (numpy arrays of equal length n):
+    t0 (s) start, dur (s), acc (n x 2, mm/s^2), vel (n x 2, mm/s, at the start, after the
+    jump), dv (n x 2, the velocity jump at the start), da (n x 2, the acceleration step at
+    the start), pos (n x 2, mm, relative to the first move's start), s (mm of path at the
+    start), speed (mm/s at the start), tan_a (mm/s^2 along the path), cls (NONE / CORNER /
+    TURN: what kind of velocity jump starts the piece), idx (0-based source line, -1 for
+    rests).  The first and the last three pieces are the machine idle (1 s) before and after
+    the file; time 0 is the file's start."""
+
+    def __init__(self, rows):
+        self.__dict__.update(rows)
+
+    @property
+    def total_t(self) -> float:
+        return float(self.dur[3:-3].sum())
+
+    def __len__(self):
+        return len(self.t0)
+
+
+def trace(path, profile) -> Trace:
+    """Play the file (firmware/simulate.py) and collect its commanded motion."""
+    items = []                              # per block or rest: 12 numbers
+    add = items.append
+
+    def on_block(b):
+        add((b.ux, b.uy, b.start_v, b.cruise_v, b.end_v, b.accel, b.accel_t, b.cruise_t,
+             b.decel_t, 1.0 if b.after_stop else 0.0, b.idx, 1.0))
+
+    def rest(dt):
+        if dt > 0.0:
+            add((0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, 0.0, 1.0, -1, 0.0))
+
+    def on_line(rec):
+        if rec.kind == st.EONLY:
+            rest(rec.time_t)
+
+    def events():
+        for item in st.events(path, profile):
+            yield item
+            # resumed only after the simulator took the barrier: its blocks are flushed
+            ev = item[2]
+            if type(ev) is st.Barrier:
+                rest(ev.dwell_t)
+
+    simulate_events(events(), profile, on_line, on_block)
+    return trace_from_items(items)
+
+
+def trace_from_items(items) -> Trace:
+    """Build the pieces from (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t,
+    decel_t, after_stop, idx, is_block) rows (rests: is_block 0, cruise_t = duration)."""
+    m = np.array(items, float).reshape(-1, 12)
+    idle = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, -1, 0.0]])
+    m = np.vstack([idle, m, idle])          # at rest before and after (1 s each, not counted)
+    ux, uy, sv, cv, ev, a, at, ct, dt, after, idx, isb = m.T
+    nb = len(m)
+    dur = np.stack([at, ct, dt], 1).ravel()
+    speed = np.stack([sv, cv, cv], 1).ravel()
+    tan_a = np.stack([a, 0.0 * a, -a], 1).ravel()
+    u = np.repeat(np.stack([ux, uy], 1), 3, axis=0)
+    vel = speed[:, None] * u
+    acc = tan_a[:, None] * u
+    end_speed = speed + tan_a * dur
+    vel_end = end_speed[:, None] * u
+    t0 = np.concatenate([[-1.0], np.cumsum(dur)[:-1] - 1.0])   # file starts at t = 0
+    ds = speed * dur + 0.5 * tan_a * dur * dur
+    s = np.concatenate([[0.0], np.cumsum(ds)[:-1]])
+    disp = ds[:, None] * u
+    pos = np.vstack([[0.0, 0.0], np.cumsum(disp, axis=0)[:-1]])
+    n = 3 * nb
+    # velocity jumps: only where a block or a rest begins (inside a block the speed is
+    # continuous; take it exactly so rounding does not ring)
+    starts = np.zeros(n, bool)
+    starts[::3] = True
+    prev_end = np.vstack([[0.0, 0.0], vel_end[:-1]])
+    dv = np.where(starts[:, None], vel - prev_end, 0.0)
+    prev_acc = np.vstack([[0.0, 0.0], acc[:-1]])
+    da = acc - prev_acc
+    # a junction is a gentle turn when consecutive blocks are both moving and turn < 30 deg
+    cls = np.zeros(n, np.int8)
+    cos_turn = np.concatenate([[-1.0], ux[1:] * ux[:-1] + uy[1:] * uy[:-1]])
+    moving_pair = np.concatenate([[False], (isb[1:] > 0) & (isb[:-1] > 0) & (after[1:] == 0)])
+    gentle = moving_pair & (cos_turn >= CORNER_COS)
+    cls[::3] = np.where(gentle, TURN, CORNER)
+    # an axis-parallel pair (e.g. pure Z) has cos 0 with no XY turn: its XY jump is 0 anyway
+    return Trace(dict(t0=t0, dur=dur, acc=acc, vel=vel, dv=dv, da=da, pos=pos, s=s,
+                      speed=speed, tan_a=tan_a, cls=cls, idx=np.repeat(idx, 3).astype(np.int64)))
+
+
+def model_of(profile):
+    """The resonance and shaper in force, as the profile states them."""
+    fx = getattr(profile, "freq_x_hz", 50.0)
+    fy = getattr(profile, "freq_y_hz", 50.0)
+    sfx = getattr(profile, "shaper_freq_x_hz", 0.0) or fx
+    sfy = getattr(profile, "shaper_freq_y_hz", 0.0) or fy
+    return dict(freq_x_hz=fx, freq_y_hz=fy, damping_r=getattr(profile, "damping_r", 0.1),
+                shaper=getattr(profile, "shaper", "none"), shaper_freq_x_hz=sfx,
+                shaper_freq_y_hz=sfy, shaper_damping_r=getattr(profile, "shaper_damping_r", 0.1))
+
+
+def responses(tr: Trace, model: dict, shaper: str | None = None):
+    """{axis: {part: Response}} for parts 'all', 'ramp', 'corner', 'turn'."""
+    shaper = model["shaper"] if shaper is None else shaper
+    out = {}
+    for ax, name in enumerate("xy"):
+        osc = Oscillator(model[f"freq_{name}_hz"], model["damping_r"])
+        w2 = osc.w * osc.w
+        ramp_r = tr.da[:, ax] / w2
+        corner_rp = np.where(tr.cls == CORNER, -tr.dv[:, ax], 0.0)
+        turn_rp = np.where(tr.cls == TURN, -tr.dv[:, ax], 0.0)
+        zero = np.zeros_like(ramp_r)
+        jumps = {"all": (ramp_r, -tr.dv[:, ax]), "ramp": (ramp_r, zero),
+                 "corner": (zero, corner_rp), "turn": (zero, turn_rp)}
+        a_p, t_p = shaper_pulses(shaper, model[f"shaper_freq_{name}_hz"], model["shaper_damping_r"])
+        out[name] = {}
+        for part, (dr, drp) in jumps.items():
+            t_ev, (dr_s, drp_s) = shaped_events(tr.t0, (dr, drp), a_p, t_p)
+            out[name][part] = Response(osc, t_ev, dr_s, drp_s)
+    return out
+
+
+def _axis_figures(resp: dict, total_t: float) -> dict:
+    d = {}
+    for part in ("all",) + PARTS:
+        r = resp[part]
+        key = "" if part == "all" else "_" + part
+        d["rms" + key + "_um"] = math.sqrt(max(r.int_r2(), 0.0) / total_t) * UM if total_t > 0 else 0.0
+        d["peak" + key + "_um"] = r.peak() * UM
+    return d
+
+
+def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
+    shaper = model["shaper"] if shaper is None else shaper
+    total_t = tr.total_t
+    res = responses(tr, model, shaper)
+    out = {"model": dict(model, shaper=shaper), "time_s": total_t}
+    for name in "xy":
+        out[name] = _axis_figures(res[name], total_t)
+    # the XY error vector: RMS adds in squares; its peak is at least the larger axis'
+    xy = {}
+    for key in ("rms_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
+        xy[key] = math.hypot(out["x"][key], out["y"][key])
+    xy["peak_um"] = max(out["x"]["peak_um"], out["y"]["peak_um"])
+    out["xy"] = xy
+    if shaper != "none":
+        pulses = [shaper_pulses(shaper, model[f"shaper_freq_{a}_hz"], model["shaper_damping_r"])
+                  for a in "xy"]
+        rms_d, max_d = smoothing(tr.t0, tr.pos, tr.vel, tr.acc, pulses)
+        out["smoothing"] = {"rms_um": rms_d * UM, "max_um": max_d * UM}
+    return out
+
+
+def figures(path, profile, shaper: str | None = None) -> dict:
+    """Ringing figures of one file (for the summary JSON, `simulate` and the report):
+    {"model": {...}, "time_s", "x": {...}, "y": {...}, "xy": {...}[, "smoothing": {...}]}
+    with rms_um / peak_um and their _ramp / _corner / _turn parts per axis.  `shaper`
+    overrides the profile's ("none" for the unshaped machine)."""
+    return figures_of_trace(trace(path, profile), model_of(profile), shaper)
+
+
+def with_shaper(profile, shaper: str):
+    """The profile with another input shaper (tuned where the profile says)."""
+    return dataclasses.replace(profile, shaper=shaper)
+
+
+# ---------------------------------------------------------------- a stretch for plots
+def time_at_s(tr: Trace, s_d):
+    """Times at which the commanded motion reaches path distance s_d (first reach)."""
+    s_d = np.asarray(s_d, float)
+    k = np.clip(np.searchsorted(tr.s, s_d, side="right") - 1, 0, len(tr) - 1)
+    v, a, rem = tr.speed[k], tr.tan_a[k], s_d - tr.s[k]
+    disc = np.maximum(v * v + 2.0 * a * rem, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = np.where(np.abs(a) > 1e-12, (np.sqrt(disc) - v) / np.where(a == 0, 1, a),
+                       rem / np.where(v > 0, v, np.inf))
+    return tr.t0[k] + np.clip(np.nan_to_num(tau), 0.0, tr.dur[k])
+
+
+def s_at_t(tr: Trace, t):
+    t = np.asarray(t, float)
+    k = np.clip(np.searchsorted(tr.t0, t, side="right") - 1, 0, len(tr) - 1)
+    tau = np.clip(t - tr.t0[k], 0.0, tr.dur[k])
+    return tr.s[k] + tr.speed[k] * tau + 0.5 * tr.tan_a[k] * tau * tau
+
+
+def busiest_stretch(tr: Trace, model: dict, length_d: float = 50.0) -> float:
+    """Start (mm of path) of the stretch of length_d where this trace rings most (by the
+    exact integral of |r|^2 over time, binned by path distance)."""
+    res = responses(tr, model)
+    e = np.zeros(len(tr))
+    for name in "xy":
+        r = res[name]["all"]
+        per = r.osc.integral_r2(r.c, r.dur)
+        k = np.clip(np.searchsorted(tr.t0, r.t_ev, side="right") - 1, 0, len(tr) - 1)
+        np.add.at(e, k, per)
+    total_s = float(tr.s[-1])
+    if total_s <= length_d:
+        return 0.0
+    bins = np.floor(tr.s / (0.5 * length_d)).astype(np.int64)
+    per_bin = np.bincount(bins, weights=e)
+    win = per_bin[:-1] + per_bin[1:] if len(per_bin) > 1 else per_bin
+    return float(np.argmax(win) * 0.5 * length_d)
+
+
+def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
+            shaper: str | None = None):
+    """(s_d, rx_um, ry_um): the ringing sampled (exactly) at n instants evenly spaced in
+    time over the part of the path [s0_d, s0_d + length_d]."""
+    t_a, t_b = time_at_s(tr, [s0_d, s0_d + length_d])
+    t = np.linspace(t_a, t_b, n)
+    res = responses(tr, model, shaper)
+    return s_at_t(tr, t), res["x"]["all"].at(t) * UM, res["y"]["all"].at(t) * UM

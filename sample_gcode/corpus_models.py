@@ -1,7 +1,8 @@
-"""ASCII STL models for make_corpus.sh (no downloads): boxes, cylinders, and shapes
-with bridges and overhangs (an arch, a box with a window, a flared hull).
+"""ASCII STL models for make_corpus.sh and make_samples.sh (no downloads): boxes, cylinders,
+shapes with bridges and overhangs (an arch, a box with a window, a flared hull), and a
+small Benchy-like boat with curved perimeters (benchy_like).
 
-    python3 corpus_models.py OUT_DIR
+    python3 corpus_models.py OUT_DIR [NAME ...]      (default: every model)
 Every solid is closed and outward-oriented, centred on (0, 0), standing on z = 0."""
 import math
 import sys
@@ -134,6 +135,34 @@ def hull(length_d=60, beam_d=24, depth_d=20, n=64, layers=12):
     return loft(rings)
 
 
+def benchy_like(length_d=40, beam_d=16, hull_h=8, n=96):
+    """A small Benchy-like boat: a flared hull with a pointed bow and a round stern (curved
+    perimeters on every layer), a cabin with round corners on the deck and a chimney on it.
+    The three parts touch at z = hull_h and at the cabin's top (between layer planes)."""
+    def hull_ring(s):
+        # x = L/2 cos t, y = B/2 sin t sin(t/2): y ~ (L/2 - x) near t = 0, a pointed bow
+        return [(s * length_d / 2 * math.cos(t), s * beam_d / 2 * math.sin(t) * math.sin(t / 2))
+                for t in (2 * math.pi * i / n for i in range(n))]
+    rings = []
+    for k in range(9):
+        z = hull_h * k / 8
+        rings.append((z, hull_ring(0.72 + 0.28 * math.sin(0.5 * math.pi * k / 8))))
+    tris = loft(rings)
+
+    def rounded_rect(cx, sx, sy, r, m=12):
+        pts = []
+        for qx, qy, a0 in ((1, 1, 0.0), (-1, 1, 0.5 * math.pi), (-1, -1, math.pi), (1, -1, 1.5 * math.pi)):
+            ox, oy = cx + qx * (sx / 2 - r), qy * (sy / 2 - r)
+            pts += [(ox + r * math.cos(a0 + 0.5 * math.pi * j / m), oy + r * math.sin(a0 + 0.5 * math.pi * j / m))
+                    for j in range(m + 1)]
+        return pts
+    cab_top = hull_h + 6
+    tris += loft([(hull_h, rounded_rect(-3, 14, 9, 2.5)), (cab_top, rounded_rect(-3.5, 12, 8, 2.0))])
+    chim = [(-6 + 2 * math.cos(2 * math.pi * i / 48), 2 * math.sin(2 * math.pi * i / 48)) for i in range(48)]
+    tris += loft([(cab_top, chim), (cab_top + 4, chim)])
+    return tris
+
+
 MODELS = {
     "box_30x30x20": lambda: box(30, 30, 20),
     "box_50x20x15": lambda: box(50, 20, 15),
@@ -144,9 +173,11 @@ MODELS = {
     "arch": arch,
     "window_box": window_box,
     "hull": hull,
+    "benchy_like": benchy_like,
+    "cylinder_d40x4": lambda: cylinder(40, 4),
 }
 
 if __name__ == "__main__":
-    out = sys.argv[1]
-    for name, make in MODELS.items():
-        _write(f"{out}/{name}.stl", name, make())
+    out, names = sys.argv[1], sys.argv[2:] or list(MODELS)     # python3 corpus_models.py DIR [NAME ...]
+    for name in names:
+        _write(f"{out}/{name}.stl", name, MODELS[name]())

@@ -39,14 +39,17 @@ MODES = (("original", None), ("default", []), ("--features all", ["--features", 
 _FW_ENDS = {}            # id(stroke) -> the firmware's own (v0, v1), for the prototype
 
 
-def _install_corner_prototype(budget_r):
-    """Wire corners.end_speeds into this process' pipeline (see the module docstring)."""
+def corner_prototype(budget_r):
+    """(plan_inputs, finish): the pipeline's plan_inputs and segments._finish with
+    corners.end_speeds wired in (see the module docstring); install with
+    _install_corner_prototype or a test's monkeypatch."""
     import numpy as np
 
-    from gcode_opt import corners, pipeline, segments as sg
+    from gcode_opt import corners, schedule, segments as sg
     from gcode_opt.plan import input_faults
 
-    plain_inputs = pipeline.plan_inputs
+    plain_inputs = schedule.plan_inputs
+    plain_finish = sg._finish
 
     def plan_inputs(strokes, profile, opts):
         pin = plain_inputs(strokes, profile, opts)
@@ -59,8 +62,6 @@ def _install_corner_prototype(budget_r):
         fault = input_faults(pin)
         pin.fault = np.where(pin.fault != "", pin.fault, fault).astype(object)
         return pin
-
-    plain_finish = sg._finish
 
     def finish(stroke, sk, vk, rules):
         fw0, fw1 = _FW_ENDS.get(id(stroke), (stroke.v0, stroke.v1))
@@ -84,8 +85,12 @@ def _install_corner_prototype(budget_r):
             feed[-1] = max(stroke.v1, sg.MIN_FEED_V)
         return sg.SegmentPlan(plan.s, plan.v, plan.accel, feed, plan.time_t, plan.int_a2, plan.shape)
 
-    pipeline.plan_inputs = plan_inputs
-    sg._finish = finish
+    return plan_inputs, finish
+
+
+def _install_corner_prototype(budget_r):
+    from gcode_opt import pipeline, segments as sg
+    pipeline.plan_inputs, sg._finish = corner_prototype(budget_r)
 
 
 def process_here(src, out, prof_name, slowdown_r, features_all):

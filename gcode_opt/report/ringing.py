@@ -1,0 +1,73 @@
+"""The report's ringing: figures of the original and the processed file, and a plot of the
+ringing along a representative stretch of the path (gcode_opt/ringing.py's exact model).
+
+    d = ringing_data(original, processed, profile)    # JSON-ready dict
+    png = ringing_plot(d)                              # PNG bytes
+
+The stretch is the `length_d` mm of path where the original rings most (its exact ringing
+energy binned by path distance); both files are drawn over the same path distances (the
+path is unchanged), each sampled at its own instants, so the x axis is where on the print
+the toolhead is, not when.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import ringing as rg
+from .plots import COLORS, plt, png_bytes
+
+STRETCH_D = 40.0          # mm of path drawn
+SAMPLES = 3000            # instants per file over the stretch
+
+
+def _change(b, a):
+    return None if not b else a / b - 1.0
+
+
+def headline(before: dict, after: dict) -> dict:
+    """RMS and peak of the XY ringing vector, before / after / change, plus the parts."""
+    out = {}
+    for key in ("rms_um", "peak_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
+        b, a = before["xy"][key], after["xy"][key]
+        out[key] = {"before": b, "after": a, "change": _change(b, a)}
+    if "smoothing" in before:
+        out["smoothing_rms_um"] = {"before": before["smoothing"]["rms_um"],
+                                   "after": after["smoothing"]["rms_um"]}
+    return out
+
+
+def ringing_data(original, processed, profile, length_d: float = STRETCH_D, from_d=None) -> dict:
+    """Figures of both files (the profile's shaper in force) and the sampled stretch (from
+    path distance from_d mm; default where the original rings most)."""
+    model = rg.model_of(profile)
+    tr0, tr1 = rg.trace(original, profile), rg.trace(processed, profile)
+    f0, f1 = rg.figures_of_trace(tr0, model), rg.figures_of_trace(tr1, model)
+    s0 = rg.busiest_stretch(tr0, model, length_d) if from_d is None else float(from_d)
+    st = {}
+    for tag, tr in (("before", tr0), ("after", tr1)):
+        s, rx, ry = rg.stretch(tr, model, s0, length_d, SAMPLES)
+        st[tag] = {"s_mm": s.tolist(), "x_um": rx.tolist(), "y_um": ry.tolist()}
+    return {"model": model, "before": f0, "after": f1, "headline": headline(f0, f1),
+            "stretch": {"from_mm": s0, "length_mm": length_d, **st}}
+
+
+def ringing_plot(d: dict) -> bytes:
+    fig, axes = plt.subplots(2, 1, figsize=(12, 5.2), sharex=True)
+    m = d["model"]
+    for ax, name in zip(axes, "xy"):
+        for tag in ("before", "after"):
+            s = d["stretch"][tag]
+            f = d[tag][name]
+            ax.plot(np.asarray(s["s_mm"]), np.asarray(s[f"{name}_um"]), lw=0.9, color=COLORS[tag],
+                    label=f"{'original' if tag == 'before' else 'processed'}: RMS {f['rms_um']:.2f} µm "
+                          f"(ramps {f['rms_ramp_um']:.2f}, corners {f['rms_corner_um']:.2f}), "
+                          f"peak {f['peak_um']:.1f} µm")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_ylabel(f"{name.upper()} ringing (µm)")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("path distance (mm): the stretch where the original rings most")
+    shaper = m["shaper"] if m["shaper"] != "none" else "no input shaper"
+    axes[0].set_title(f"Ringing (error minus its quasi-static lag) at {m['freq_x_hz']:g} / "
+                      f"{m['freq_y_hz']:g} Hz, damping {m['damping_r']:g}, {shaper}; "
+                      "RMS and peak over the whole file")
+    return png_bytes(fig)

@@ -265,3 +265,13 @@ def test_resonance_schema_refuses(tmp_path, line, msg):
 def test_resonance_key_in_wrong_table(tmp_path):
     with pytest.raises(ProfileError, match=r"freq_x_hz belongs under \[resonance\]"):
         load_profile(_write(tmp_path, "freq_x_hz = 50.0\n"))
+
+
+def test_smoothing_in_chunks_is_the_same(monkeypatch):
+    from gcode_opt.firmware import resonance
+    tr = ringing.trace_from_items(_items("prusa_klipper.gcode", "voron24", 500, 40))
+    pulses = [shaper_pulses("mzv", 50.0, 0.1), shaper_pulses("zv", 45.0, 0.1)]
+    whole = smoothing(tr.t0, tr.pos, tr.vel, tr.acc, pulses)
+    monkeypatch.setattr(resonance, "SMOOTH_CHUNK", 7)
+    parts = resonance.smoothing(tr.t0, tr.pos, tr.vel, tr.acc, pulses)
+    assert parts[0] == pytest.approx(whole[0], rel=1e-12) and parts[1] == whole[1]

@@ -135,6 +135,8 @@ class Oscillator:
 
     def evaluate(self, t_ev, c, t):
         """r at times t (exact), 0 before the first event."""
+        if len(c) == 0:
+            return np.zeros(np.shape(t))
         k = np.searchsorted(t_ev, t, side="right") - 1
         kk = np.maximum(k, 0)
         r = np.real(c[kk] * np.exp(self.lam * (t - t_ev[kk])))
@@ -169,6 +171,9 @@ def shaped_events(t_ev, jumps, a_pulse, t_pulse):
 
 
 # ---------------------------------------------------------------- path smoothing
+SMOOTH_CHUNK = 1 << 18   # merged pieces evaluated at once (bounded memory on large files)
+
+
 def smoothing(t0, x0, v0, a0, pulses, samples=4):
     """Distance between the shaped and the unshaped commanded XY position.
 
@@ -181,7 +186,19 @@ def smoothing(t0, x0, v0, a0, pulses, samples=4):
     merged piece (pieces last milliseconds)."""
     shifts = [t0 + ti for a_p, t_p in pulses for ti in t_p]
     brk = np.unique(np.concatenate(shifts + [t0]))
+    del shifts
     brk = brk[(brk >= t0[0]) & (brk <= t0[-1])]
+    integral, total_t, mx = 0.0, float(brk[-1] - brk[0]) if len(brk) else 0.0, 0.0
+    for c0 in range(0, max(len(brk) - 1, 0), SMOOTH_CHUNK):
+        b = brk[c0:c0 + SMOOTH_CHUNK + 1]
+        i, m = _smoothing_chunk(t0, x0, v0, a0, pulses, b, samples)
+        integral += i
+        mx = max(mx, m)
+    rms = math.sqrt(max(integral, 0.0) / total_t) if total_t > 0 else 0.0
+    return rms, mx
+
+
+def _smoothing_chunk(t0, x0, v0, a0, pulses, brk, samples):
     T = np.diff(brk)
     s_m = brk[:-1]
     p = np.zeros((len(s_m), 2))
@@ -201,12 +218,10 @@ def smoothing(t0, x0, v0, a0, pulses, samples=4):
     ps, qs, ss = (p * acc).sum(1), (q * acc).sum(1), (acc * acc).sum(1)
     integral = (pp * T + pq * T ** 2 + (qq + ps) * T ** 3 / 3.0 + qs * T ** 4 / 4.0
                 + ss * T ** 5 / 20.0)
-    total_t = float(T.sum())
-    rms = math.sqrt(max(float(integral.sum()), 0.0) / total_t) if total_t > 0 else 0.0
     mx = 0.0
     for j in range(samples):
         tau = (T * j / samples)[:, None]
         d = p + q * tau + 0.5 * acc * tau * tau
         if len(d):
             mx = max(mx, float(np.sqrt((d * d).sum(1)).max()))
-    return rms, mx
+    return float(integral.sum()), mx

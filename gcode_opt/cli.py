@@ -143,8 +143,9 @@ def build_parser():
                    help="weight of the inertia term, s^2/kg (beta = alpha*m is a time^2: the law's boundary "
                         "layers are sqrt(beta) long). 'auto' (default) picks per stroke the law with the "
                         "least int|a|^2 dt that fits the limits and the time budget")
-    p.add_argument("--features", type=_features, default=feat.DEFAULT_SELECTED,
-                   help="comma-separated features to re-time (default: sparse_infill,solid_infill; 'all'; "
+    p.add_argument("--features", type=_features, default=None,
+                   help="comma-separated features to re-time (default: sparse_infill,solid_infill; in a file "
+                        "without feature comments every extruding move, 'other'; 'all'; "
                         f"choices: {', '.join(feat.ALL)})")
     p.add_argument("--overshoot", type=_fraction, default=0.25,
                    help="how far the law's peak speed may exceed the slicer's F, e.g. 0.25 or 25%% "
@@ -255,7 +256,10 @@ def _process(a, out, job, Options, Progress, process):
         src, dst, metadata = job.src, job.dst, job.settings
     prof = _load_profile(a.profile, src, a.quiet, metadata=metadata)
     prog = None if a.quiet else Progress(os.path.getsize(src))
-    opts = Options(alpha=a.alpha, features=a.features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
+    features, features_why = (a.features, None) if a.features is not None else feat.default_selection(src)
+    if features_why and not a.quiet:
+        sys.stderr.write(f"gcode-opt: {a.input}: {features_why}\n")
+    opts = Options(alpha=a.alpha, features=features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
     opts.max_turn_deg = a.max_turn
     report_error = []
@@ -289,6 +293,9 @@ def _process(a, out, job, Options, Progress, process):
         for orig, _tmp, summ in pending:           # the pipeline's temporary text is job.dst now
             write_report(orig, job.dst, summ)
     rc = 0
+    fi = summary.get("features")
+    if isinstance(fi, dict) and features_why:         # the no-comments default was applied: say why
+        fi["why"] = features_why
     if a.json:
         try:
             with open(a.json, "w") as fh:
@@ -353,8 +360,9 @@ def format_summary(s):
     def pct(x):
         return "n/a" if x is None else f"{x * 100:+.1f}%"
 
-    lines = [
-        f"gcode-opt: {s['output']} ({s['profile']}, {s['flavour']})",
+    lines = [f"gcode-opt: {s['output']} ({s['profile']}, {s['flavour']})"]
+    lines += format_coverage(s.get("coverage"), pct)
+    lines += [
         f"  strokes re-timed   {s['strokes']['retimed']} of {s['strokes']['candidates']}",
         f"  int|a|^2 dt        {rs['int_a2']['before']:.4g} -> {rs['int_a2']['after']:.4g} mm^2/s^3 on re-timed strokes "
         f"({pct(rs['int_a2']['change'])}); whole file {pct(s['whole_file']['int_a2_change'])}",
@@ -363,6 +371,40 @@ def format_summary(s):
         f"  full stops         {s['whole_file']['before']['full_stops']} -> {s['whole_file']['after']['full_stops']}",
     ]
     return "\n".join(lines)
+
+
+MAX_SHOWN_REASONS = 6
+MIN_SHOWN_SHARE = 0.005       # reasons below 0.5 % of both int|a|^2 dt and time are summed up
+
+
+def format_coverage(cov, pct):
+    """The headline lines: the whole file's change, the share re-timed, and what was left and why."""
+    if not cov:
+        return []
+
+    def share(x):
+        return "n/a" if x is None else f"{x * 100:.1f}%"
+    wf, rt = cov["whole_file"], cov["retimed"]
+    out = [f"  whole file         int|a|^2 dt {pct(wf['int_a2_change'])}, print time {pct(wf['time_change'])} "
+           "(firmware model)",
+           f"  re-timed           {share(rt['int_a2_share'])} of the file's int|a|^2 dt, {share(rt['time_share'])} of "
+           f"its print time ({rt['strokes']} strokes)"]
+    left = cov.get("left") or {}
+    shown, rest_a2, rest_t, n_rest = [], 0.0, 0.0, 0
+    for why, g in left.items():
+        a2, t = g.get("int_a2_share") or 0.0, g.get("time_share") or 0.0
+        if len(shown) < MAX_SHOWN_REASONS and max(a2, t) >= MIN_SHOWN_SHARE:
+            shown.append((why, g, a2, t))
+        else:
+            rest_a2, rest_t, n_rest = rest_a2 + a2, rest_t + t, n_rest + 1
+    if shown or n_rest:
+        out.append("  left as sliced     share of int|a|^2 dt / of print time, by reason:")
+    for why, g, a2, t in shown:
+        count = f" ({g['count']} {g['unit']})" if g.get("count") and g.get("unit") else ""
+        out.append(f"    {a2 * 100:5.1f}% / {t * 100:5.1f}%  {why}{count}")
+    if n_rest:
+        out.append(f"    {rest_a2 * 100:5.1f}% / {rest_t * 100:5.1f}%  {n_rest} other reason(s) (--json: coverage.left)")
+    return out
 
 
 def cmd_simulate(a):

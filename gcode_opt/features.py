@@ -4,6 +4,8 @@ Each slicer names its extrusion roles differently; the planner selects strokes b
 canonical names below (`--features sparse_infill,solid_infill`)."""
 from __future__ import annotations
 
+import re
+
 SPARSE_INFILL = "sparse_infill"
 SOLID_INFILL = "solid_infill"
 TOP_SOLID_INFILL = "top_solid_infill"
@@ -79,6 +81,41 @@ def parse_feature_list(text: str) -> tuple[str, ...]:
     if bad:
         raise ValueError(f"unknown feature(s) {', '.join(bad)}; choose from {', '.join(ALL)}")
     return out
+
+
+# What a file without feature comments re-times by default (issue 9 item 4): every extruding
+# move is `other` there (state.py's start value), so `other` selects all extrusion --
+# infill, perimeters and skirt alike -- and never travel.  Measured (firmware model, default
+# options, README "Files without feature comments"): this beats both doing nothing (0 %) and
+# classify.py's open runs; zero overshoot instead re-times almost nothing.
+NO_COMMENTS_SELECTED = (OTHER,)
+NO_COMMENTS_WHY = ("no feature comments in the file: re-timing every extruding move (perimeters and skirt "
+                   "included, never travel), the default for such files; --features chooses otherwise")
+
+# a full-line comment that feature_from_comment() reads as a feature (any case)
+_FEATURE_LINE_B = re.compile(rb"^[ \t]*(?:;type:|; ?feature:|; feature )", re.IGNORECASE | re.MULTILINE)
+
+
+def has_feature_comments(path, chunk_b: int = 1 << 22) -> bool:
+    """True if any line of the file is a slicer feature comment (what analyse's `seen` flag
+    would find), read in 4 MB chunks; stops at the first (near the top in a sliced file)."""
+    tail = b""
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(chunk_b), b""):
+            buf = tail + chunk
+            if _FEATURE_LINE_B.search(buf):
+                return True
+            cut = buf.rfind(b"\n")                   # keep the last partial line for the next chunk
+            tail = buf[cut + 1:] if cut >= 0 else buf[-256:]
+    return False
+
+
+def default_selection(path):
+    """(features, why) the CLI uses when --features is not given: the slicer's infill where
+    the file names its features, all extrusion where it names none (why says so; else None)."""
+    if has_feature_comments(path):
+        return DEFAULT_SELECTED, None
+    return NO_COMMENTS_SELECTED, NO_COMMENTS_WHY
 
 
 def selection_info(comments_seen: bool, selected) -> dict:

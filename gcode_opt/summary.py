@@ -26,6 +26,79 @@ def _ratio(after, before):
     return None if not before else after / before - 1.0
 
 
+# why moves outside every candidate stroke were left (coverage["left"]); the keys say it
+NOT_CANDIDATE = "not a candidate: feature not selected, travel, shorter than --min-length or not re-timable"
+DWELL = "dwell and waits (G4, M109/M190 heating, M400)"
+
+
+def _share(part, whole):
+    return None if not whole else part / whole
+
+
+def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
+    """The whole-file headline (issue 9 item 5): what share of the original file's
+    int|a|^2 dt and print time the re-timed strokes carried, what the whole file gained,
+    and what was left as sliced, by reason -- each with its count and its share of the
+    original's int|a|^2 dt and time (firmware model on the original).
+
+    Candidates not re-timed are counted by plan.reason.  The moves outside every candidate
+    stroke are what the original's totals leave after the candidates and the dwells: by
+    feature when the analyse pass totalled the original by feature (opts.by_feature:
+    feature -> [moves, time_t, int_a2] over every moving line), else as one bucket."""
+    total_a2, total_t = float(sim0.int_a2), float(sim0.time_t)
+    n = len(strokes)
+    T0 = np.nan_to_num(np.asarray(pin.T_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
+    I0 = np.nan_to_num(np.asarray(pin.I_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
+    retimed = np.zeros(n, dtype=bool)
+    retimed[np.asarray(idx, dtype=int)] = True
+    left = {}
+
+    def add(reason, count, unit, a2, t):
+        g = left.setdefault(reason, {"count": 0, "unit": unit, "int_a2": 0.0, "time_s": 0.0})
+        g["count"] += int(count)
+        g["int_a2"] += float(a2)
+        g["time_s"] += float(t)
+
+    reasons = np.array([str(r) for r in plan.reason[:n]], dtype=object)
+    for r in sorted(set(reasons[~retimed])):
+        m = (reasons == r) & ~retimed
+        add(r or "not planned", m.sum(), "strokes", I0[m].sum(), T0[m].sum())
+    dwell_t = float(getattr(sim0, "barrier_dwell_t", 0.0) or 0.0)
+    by_feature = getattr(opts, "by_feature", None)
+    if by_feature:
+        selected = set(getattr(opts, "features", ()) or ())
+        feats = np.array([s.feature for s in strokes], dtype=object)
+        for f, (moves, t, a2) in sorted(by_feature.items()):
+            m = feats == f                                        # candidates of this feature
+            moves -= sum(s.n_moves for s, k in zip(strokes, m) if k)
+            t, a2 = t - float(T0[m].sum()), a2 - float(I0[m].sum())
+            if moves <= 0 and t <= 1e-9 * total_t:
+                continue
+            why = (f"feature not selected: {f}" if f not in selected else
+                   f"{f}: selected, in no stroke (shorter than --min-length, sharp corners, not re-timable)")
+            add(why, max(moves, 0), "moves", max(a2, 0.0), max(t, 0.0))
+    else:
+        rest_a2 = max(total_a2 - float(I0.sum()), 0.0)
+        rest_t = max(total_t - float(T0.sum()) - dwell_t, 0.0)
+        if rest_a2 > 0.0 or rest_t > 0.0:
+            add(NOT_CANDIDATE, 0, "moves", rest_a2, rest_t)
+    if dwell_t > 0.0:
+        add(DWELL, 0, "", 0.0, dwell_t)
+    for g in left.values():
+        g["int_a2_share"] = _share(g["int_a2"], total_a2)
+        g["time_share"] = _share(g["time_s"], total_t)
+    left = dict(sorted(left.items(), key=lambda kv: (-(kv[1]["int_a2_share"] or 0.0), -(kv[1]["time_share"] or 0.0))))
+    a2_in, t_in = float(I0[retimed].sum()), float(T0[retimed].sum())
+    return {
+        "int_a2_before": total_a2, "time_s_before": total_t,
+        "retimed": {"strokes": int(retimed.sum()), "int_a2_share": _share(a2_in, total_a2),
+                    "time_share": _share(t_in, total_t)},
+        "whole_file": {"int_a2_change": _ratio(float(sim1.int_a2), total_a2),
+                       "time_change": _ratio(float(sim1.time_t), total_t)},
+        "left": left,
+    }
+
+
 def build_summary(in_path, out_path, written_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
                   out_ranges, t_after, a2_after, v2_after, elapsed_t):
     idx = np.array([r[2] for r in out_ranges], dtype=int)
@@ -81,6 +154,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
                                 "int_a2": _ratio(float(a2_after.sum()), law_I)},
             "by_kind": by_kind,
         },
+        # the headline: share of the file re-timed, the whole file's change, what was left and why
+        "coverage": coverage(strokes, pin, plan, sim0, sim1, idx, opts),
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
                        "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),
                        "corner_dv2_change": _ratio(sim1.corner_dv2, sim0.corner_dv2)},

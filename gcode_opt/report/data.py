@@ -396,6 +396,50 @@ def _map_layer(rows, tr0, layer=None):
                                          float(sum(r["int_a2_mm2_s3"]["after"] for r in in_layer)))}
 
 
+# --------------------------------------------------------------------------- coverage
+def _coverage(tr0, tr1, fences, summary):
+    """The whole-file lead (issue 9 item 5), from the report's own trace of the original:
+    the share of its int|a|^2 dt and time in the lines that were re-timed (the fences), and
+    the rest by feature (an XY move without extrusion is travel), each with its share; the
+    pipeline's reasons for candidates left as sliced come from the summary when given."""
+    inside = set()
+    for f in fences:
+        inside.update(range(f.orig_first, f.orig_last + 1))
+    total_a2, total_t = tr0.res.int_a2, tr0.res.time_t
+    a2_in = t_in = 0.0
+    rest = {}
+    for idx, rec in tr0.lines.items():
+        a2, t = rec.int_a2 + rec.int_a2_j, rec.time_t
+        if idx in inside:
+            a2_in += a2
+            t_in += t
+            continue
+        m = tr0.moves.get(idx)
+        f = "other" if m is None else ("travel" if not m.e > 0.0 else m.feature)
+        g = rest.setdefault(f, [0, 0.0, 0.0])
+        g[0] += 1
+        g[1] += a2
+        g[2] += t
+    selected = set(((summary or {}).get("options") or {}).get("features") or ())
+    left = [{"feature": f, "moves": n, "selected": (f in selected) if selected else None,
+             "int_a2_share": ratio_share(a2, total_a2), "time_share": ratio_share(t, total_t)}
+            for f, (n, a2, t) in rest.items()]
+    left.sort(key=lambda g: -(g["int_a2_share"] or 0.0))
+    cov = (summary or {}).get("coverage") or {}
+    return {
+        "whole_file": {"int_a2_change": ratio(tr1.res.int_a2, total_a2), "time_change": ratio(tr1.res.time_t, total_t)},
+        "retimed": {"strokes": len(fences), "int_a2_share": ratio_share(a2_in, total_a2),
+                    "time_share": ratio_share(t_in, total_t)},
+        "left_by_feature": left,
+        "left_by_reason": cov.get("left"),
+        "features": (summary or {}).get("features"),
+    }
+
+
+def ratio_share(part, whole):
+    return None if not whole else float(part) / float(whole)
+
+
 # --------------------------------------------------------------------------- entry point
 def build_report(orig_path, new_path, profile, summary=None, layer=None):
     fences, n_orig = parse_fences(new_path)
@@ -415,6 +459,7 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None):
         "limits": {"max_segment_rate_hz": profile.max_segment_rate,
                    "min_segment_time_s": profile.min_segment_time_t},
         "options": (summary or {}).get("options"),
+        "coverage": _coverage(tr0, tr1, fences, summary),
         "headline": head,
         "by_feature": _group(rows, "feature"),
         "by_layer": _group(rows, "layer"),

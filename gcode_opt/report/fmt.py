@@ -6,7 +6,7 @@ import math
 _SUP = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 UNITS = {"s": "s", "mm2_s3": "mm²/s³", "mm2_s": "mm²/s", "J_s": "J·s", "mm_s": "mm/s", "mm_s2": "mm/s²",
-         "mm2_s2": "mm²/s²", "mm": "mm", "count": "", "bytes": "B", "pct": "", "s2": "s²", "hz": "/s"}
+         "mm2_s2": "mm²/s²", "mm": "mm", "count": "", "bytes": "B", "pct": "", "share": "", "s2": "s²", "hz": "/s"}
 
 
 def sig(v: float, n: int = 4) -> str:
@@ -29,6 +29,8 @@ def fmt(v, unit: str) -> str:
         return "n/a"
     if unit == "pct":
         return f"{v * 100:+.1f} %"
+    if unit == "share":                     # a part of a whole, unsigned
+        return f"{v * 100:.1f} %"
     if unit in ("count", "bytes"):
         txt = f"{int(v):,}"
     else:

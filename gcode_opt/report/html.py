@@ -102,9 +102,12 @@ def _headline_html(data):
 
 def _kpis(data):
     h = data["headline"]
-    items = [("print time", "headline.print_time_s.change", "pct"),
+    # the whole file leads (issue 9): its change, and how much of it was re-timed
+    items = [("∫|a|² dt whole file", "headline.int_a2_whole_mm2_s3.change", "pct"),
+             ("print time", "headline.print_time_s.change", "pct"),
+             ("of the file's ∫|a|² dt re-timed", "coverage.retimed.int_a2_share", "share"),
+             ("of its print time re-timed", "coverage.retimed.time_share", "share"),
              ("∫|a|² dt on re-timed strokes", "headline.int_a2_retimed_mm2_s3.change", "pct"),
-             ("∫|a|² dt whole file", "headline.int_a2_whole_mm2_s3.change", "pct"),
              ("strokes re-timed", "headline.strokes.retimed", "count")]
     out = []
     for label, key, unit in items:
@@ -112,6 +115,53 @@ def _kpis(data):
         out.append(f'<div class="kpi"><b data-key="{key}" data-unit="{unit}" data-value="{json.dumps(v)}">'
                    f"{_h.escape(fmt(v, unit))}</b>{_h.escape(label)}</div>")
     del h
+    return "".join(out)
+
+
+def _share_txt(v):
+    return fmt(v, "share")
+
+
+def _share_td(key, v):
+    if "." in key.split(".", 2)[-1]:          # a reason with a dot cannot be a data-key path
+        return f'<td class="num">{_share_txt(v)}</td>'
+    return (f'<td class="num" data-key="{_h.escape(key)}" data-unit="share" data-value="{json.dumps(v)}">'
+            f"{_share_txt(v)}</td>")
+
+
+def _coverage_html(data):
+    """What was re-timed and what was left, and why: the report's lead."""
+    c = data.get("coverage")
+    if not c:
+        return ""
+    rt = c["retimed"]
+    out = [f"<p>Re-timed: {rt['strokes']:,} strokes holding <b>{_share_txt(rt['int_a2_share'])}</b> of the "
+           f"original file's ∫|a|² dt and <b>{_share_txt(rt['time_share'])}</b> of its print time.</p>"]
+    fi = c.get("features") or {}
+    if fi.get("why") or fi.get("note"):
+        out.append(f"<p class=note>Features: {_h.escape(fi.get('why') or fi.get('note'))}</p>")
+    by_reason = c.get("left_by_reason")
+    if by_reason:
+        out.append("<table><tr><th>Left as sliced, because</th><th>Count</th><th>Share of ∫|a|² dt</th>"
+                   "<th>Share of print time</th></tr>")
+        for why, g in by_reason.items():
+            k = f"coverage.left_by_reason.{why}"
+            count = f"{g['count']:,} {g['unit']}" if g.get("count") else ""
+            out.append(f"<tr><td>{_h.escape(why)}</td><td class=num>{_h.escape(count)}</td>"
+                       f"{_share_td(k + '.int_a2_share', g.get('int_a2_share'))}"
+                       f"{_share_td(k + '.time_share', g.get('time_share'))}</tr>")
+        out.append("</table>")
+    left = c.get("left_by_feature") or []
+    if left:
+        out.append("<table><tr><th>Not re-timed, by feature</th><th>Moves</th><th>Share of ∫|a|² dt</th>"
+                   "<th>Share of print time</th></tr>")
+        for i, g in enumerate(left):
+            sel = {True: " (selected)", False: " (not selected)"}.get(g.get("selected"), "")
+            k = f"coverage.left_by_feature.{i}"
+            out.append(f"<tr><td>{_h.escape(g['feature'] + sel)}</td><td class=num>{g['moves']:,}</td>"
+                       f"{_share_td(k + '.int_a2_share', g['int_a2_share'])}"
+                       f"{_share_td(k + '.time_share', g['time_share'])}</tr>")
+        out.append("</table>")
     return "".join(out)
 
 
@@ -181,6 +231,7 @@ def render_html(data, ctx) -> str:
             f"({_h.escape(data['flavour'])}) · moving mass X {data['mass_kg']['x']:g} kg, "
             f"Y {data['mass_kg']['y']:g} kg · gcode-opt {__version__}</p>",
             _kpis(data),
+            "<h2>The whole file: what was re-timed, what was left and why</h2>", _coverage_html(data),
             "<h2>Warnings</h2>", _warnings_html(data),
             "<h2>Headline</h2>",
             "<p class=note>All figures come from the firmware model (constant-acceleration lookahead planner "

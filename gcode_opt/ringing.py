@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from array import array
 
 import numpy as np
 
@@ -53,8 +54,8 @@ class Trace:
 
 def trace(path, profile) -> Trace:
     """Play the file (firmware/simulate.py) and collect its commanded motion."""
-    items = []                              # per block or rest: 12 numbers
-    add = items.append
+    items = array("d")                      # per block or rest: 12 numbers, flat
+    add = items.extend
 
     def on_block(b):
         add((b.ux, b.uy, b.start_v, b.cruise_v, b.end_v, b.accel, b.accel_t, b.cruise_t,
@@ -76,14 +77,16 @@ def trace(path, profile) -> Trace:
             if type(ev) is st.Barrier:
                 rest(ev.dwell_t)
 
-    simulate_events(events(), profile, on_line, on_block)
-    return trace_from_items(items)
+    res = simulate_events(events(), profile, on_line, on_block)
+    tr = trace_from_items(items)
+    tr.sim = res                             # the firmware model's SimResult of the same pass
+    return tr
 
 
 def trace_from_items(items) -> Trace:
     """Build the pieces from (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t,
     decel_t, after_stop, idx, is_block) rows (rests: is_block 0, cruise_t = duration)."""
-    m = np.array(items, float).reshape(-1, 12)
+    m = np.asarray(items, float).reshape(-1, 12)
     idle = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, -1, 0.0]])
     m = np.vstack([idle, m, idle])          # at rest before and after (1 s each, not counted)
     ux, uy, sv, cv, ev, a, at, ct, dt, after, idx, isb = m.T
@@ -132,44 +135,62 @@ def model_of(profile):
                 shaper_freq_y_hz=sfy, shaper_damping_r=getattr(profile, "shaper_damping_r", 0.1))
 
 
-def responses(tr: Trace, model: dict, shaper: str | None = None):
-    """{axis: {part: Response}} for parts 'all', 'ramp', 'corner', 'turn'."""
+def _jumps(tr: Trace, model: dict, name: str, ax: int, part: str):
+    """(dr, drp): the ringing's jumps at the pieces' starts for one axis and part."""
+    w = 2.0 * math.pi * model[f"freq_{name}_hz"]
+    if part == "ramp":
+        return tr.da[:, ax] / (w * w), None
+    if part == "all":
+        return tr.da[:, ax] / (w * w), -tr.dv[:, ax]
+    cls = CORNER if part == "corner" else TURN
+    return None, np.where(tr.cls == cls, -tr.dv[:, ax], 0.0)
+
+
+def response(tr: Trace, model: dict, name: str, part: str = "all", shaper: str | None = None):
+    """The Response of axis name ('x'/'y') to the jumps of `part` ('all', 'ramp', 'corner',
+    'turn'), through the shaper (the model's unless given).  Events whose jumps are both
+    zero are left out (the free decay runs on across them)."""
     shaper = model["shaper"] if shaper is None else shaper
-    out = {}
-    for ax, name in enumerate("xy"):
-        osc = Oscillator(model[f"freq_{name}_hz"], model["damping_r"])
-        w2 = osc.w * osc.w
-        ramp_r = tr.da[:, ax] / w2
-        corner_rp = np.where(tr.cls == CORNER, -tr.dv[:, ax], 0.0)
-        turn_rp = np.where(tr.cls == TURN, -tr.dv[:, ax], 0.0)
-        zero = np.zeros_like(ramp_r)
-        jumps = {"all": (ramp_r, -tr.dv[:, ax]), "ramp": (ramp_r, zero),
-                 "corner": (zero, corner_rp), "turn": (zero, turn_rp)}
-        a_p, t_p = shaper_pulses(shaper, model[f"shaper_freq_{name}_hz"], model["shaper_damping_r"])
-        out[name] = {}
-        for part, (dr, drp) in jumps.items():
-            t_ev, (dr_s, drp_s) = shaped_events(tr.t0, (dr, drp), a_p, t_p)
-            out[name][part] = Response(osc, t_ev, dr_s, drp_s)
-    return out
+    ax = "xy".index(name)
+    osc = Oscillator(model[f"freq_{name}_hz"], model["damping_r"])
+    dr, drp = _jumps(tr, model, name, ax, part)
+    keep = np.zeros(len(tr), bool)
+    for j in (dr, drp):
+        if j is not None:
+            keep |= j != 0.0
+    t = tr.t0[keep]
+    zero = np.zeros(len(t))
+    dr = zero if dr is None else dr[keep]
+    drp = zero if drp is None else drp[keep]
+    a_p, t_p = shaper_pulses(shaper, model[f"shaper_freq_{name}_hz"], model["shaper_damping_r"])
+    t_ev, (dr_s, drp_s) = shaped_events(t, (dr, drp), a_p, t_p)
+    return Response(osc, t_ev, dr_s, drp_s)
 
 
-def _axis_figures(resp: dict, total_t: float) -> dict:
+def responses(tr: Trace, model: dict, shaper: str | None = None):
+    """{axis: {part: Response}} for parts 'all', 'ramp', 'corner', 'turn' (all in memory at
+    once: for plots and tests; figures_of_trace solves one at a time)."""
+    return {name: {part: response(tr, model, name, part, shaper) for part in ("all",) + PARTS}
+            for name in "xy"}
+
+
+def _axis_figures(tr: Trace, model: dict, name: str, shaper: str, total_t: float) -> dict:
     d = {}
     for part in ("all",) + PARTS:
-        r = resp[part]
+        r = response(tr, model, name, part, shaper)
         key = "" if part == "all" else "_" + part
         d["rms" + key + "_um"] = math.sqrt(max(r.int_r2(), 0.0) / total_t) * UM if total_t > 0 else 0.0
         d["peak" + key + "_um"] = r.peak() * UM
+        del r
     return d
 
 
 def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
     shaper = model["shaper"] if shaper is None else shaper
     total_t = tr.total_t
-    res = responses(tr, model, shaper)
     out = {"model": dict(model, shaper=shaper), "time_s": total_t}
     for name in "xy":
-        out[name] = _axis_figures(res[name], total_t)
+        out[name] = _axis_figures(tr, model, name, shaper, total_t)
     # the XY error vector: RMS adds in squares; its peak is at least the larger axis'
     xy = {}
     for key in ("rms_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
@@ -190,6 +211,19 @@ def figures(path, profile, shaper: str | None = None) -> dict:
     with rms_um / peak_um and their _ramp / _corner / _turn parts per axis.  `shaper`
     overrides the profile's ("none" for the unshaped machine)."""
     return figures_of_trace(trace(path, profile), model_of(profile), shaper)
+
+
+def compare(before: dict, after: dict) -> dict:
+    """Before / after / change of the XY ringing (RMS, peak, the parts, the shaper's
+    smoothing): the summary's and the report's headline."""
+    out = {}
+    for key in ("rms_um", "peak_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
+        b, a = before["xy"][key], after["xy"][key]
+        out[key] = {"before": b, "after": a, "change": (a / b - 1.0) if b else None}
+    if "smoothing" in before and "smoothing" in after:
+        out["smoothing_rms_um"] = {"before": before["smoothing"]["rms_um"],
+                                   "after": after["smoothing"]["rms_um"]}
+    return out
 
 
 def with_shaper(profile, shaper: str):
@@ -220,10 +254,9 @@ def s_at_t(tr: Trace, t):
 def busiest_stretch(tr: Trace, model: dict, length_d: float = 50.0) -> float:
     """Start (mm of path) of the stretch of length_d where this trace rings most (by the
     exact integral of |r|^2 over time, binned by path distance)."""
-    res = responses(tr, model)
     e = np.zeros(len(tr))
     for name in "xy":
-        r = res[name]["all"]
+        r = response(tr, model, name)
         per = r.osc.integral_r2(r.c, r.dur)
         k = np.clip(np.searchsorted(tr.t0, r.t_ev, side="right") - 1, 0, len(tr) - 1)
         np.add.at(e, k, per)
@@ -242,5 +275,6 @@ def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
     time over the part of the path [s0_d, s0_d + length_d]."""
     t_a, t_b = time_at_s(tr, [s0_d, s0_d + length_d])
     t = np.linspace(t_a, t_b, n)
-    res = responses(tr, model, shaper)
-    return s_at_t(tr, t), res["x"]["all"].at(t) * UM, res["y"]["all"].at(t) * UM
+    rx = response(tr, model, "x", shaper=shaper).at(t)
+    ry = response(tr, model, "y", shaper=shaper).at(t)
+    return s_at_t(tr, t), rx * UM, ry * UM

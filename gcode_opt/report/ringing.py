@@ -20,20 +20,7 @@ STRETCH_D = 40.0          # mm of path drawn
 SAMPLES = 3000            # instants per file over the stretch
 
 
-def _change(b, a):
-    return None if not b else a / b - 1.0
-
-
-def headline(before: dict, after: dict) -> dict:
-    """RMS and peak of the XY ringing vector, before / after / change, plus the parts."""
-    out = {}
-    for key in ("rms_um", "peak_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
-        b, a = before["xy"][key], after["xy"][key]
-        out[key] = {"before": b, "after": a, "change": _change(b, a)}
-    if "smoothing" in before:
-        out["smoothing_rms_um"] = {"before": before["smoothing"]["rms_um"],
-                                   "after": after["smoothing"]["rms_um"]}
-    return out
+headline = rg.compare      # before / after / change of RMS, peak, parts, smoothing
 
 
 def ringing_data(original, processed, profile, length_d: float = STRETCH_D, from_d=None) -> dict:

@@ -31,7 +31,7 @@ from .firmware.junction import SQRT2_M1, accel_to_pass_junction
 from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V
 from .laws.circle import solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import SegmentPlan, hold_cruise_accels, segment_feeds
+from .segments import SegmentPlan, hold_cruise_accels, least_a2_trapezoid, segment_feeds
 
 ARC_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
 ARC_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in ARC_T_RATIOS])
@@ -170,9 +170,12 @@ def arc_knots(strokes, T, beta, n, profile=None):
     return out
 
 
-def predict_arc(s, v, a, R):
+def predict_arc(s, v, a, R, feed=None):
     """Firmware execution of sub-arcs (ramp at a_k over |Δv|, cruise the rest): time and
-    ∫|a|² = tangential Σ a_k |Δv_k| + centripetal ∫ v⁴/R² dt."""
+    ∫|a|² = tangential Σ a_k |Δv_k| + centripetal ∫ v⁴/R² dt.  With `feed`, a sub-arc may
+    cruise above both its knot speeds: up at a_k to min(F_k, its triangle peak), cruise, down."""
+    if feed is not None:
+        return _predict_arc_peaked(s, v, a, R, np.asarray(feed, float))
     d = np.diff(s)
     va, vb = v[:-1], v[1:]
     vmax = np.maximum(va, vb)
@@ -182,6 +185,18 @@ def predict_arc(s, v, a, R):
     t = np.abs(vb - va) / a + cruise_d / np.maximum(vmax, 1e-9)
     cent = (np.abs(vb ** 5 - va ** 5) / (5.0 * a) + vmax ** 3 * cruise_d) / (R * R)
     return float(np.sum(t)), float(np.sum(a * np.abs(vb - va)) + np.sum(cent))
+
+
+def _predict_arc_peaked(s, v, a, R, feed):
+    d = np.diff(s)
+    va, vb = v[:-1], v[1:]
+    a = np.maximum(a, 1e-12)
+    vt = np.sqrt(np.maximum((2.0 * a * d + va * va + vb * vb) / 2.0, 0.0))
+    pk = np.maximum(np.minimum(feed, vt), np.maximum(va, vb))
+    cruise_d = np.maximum(d - (2.0 * pk * pk - va * va - vb * vb) / (2.0 * a), 0.0)
+    t = (2.0 * pk - va - vb) / a + cruise_d / np.maximum(pk, 1e-9)
+    cent = ((2.0 * pk ** 5 - va ** 5 - vb ** 5) / (5.0 * a) + pk ** 3 * cruise_d) / (R * R)
+    return float(np.sum(t)), float(np.sum(a * (2.0 * pk - va - vb)) + np.sum(cent))
 
 
 def plan_arc_segments(strokes, T, beta, rules, profile):
@@ -196,7 +211,65 @@ def plan_arc_segments(strokes, T, beta, rules, profile):
     knots = arc_knots([strokes[i] for i in ok], np.asarray(T)[ok], np.asarray(beta)[ok], n[ok], profile)
     for i, (sk, vk) in zip(ok, knots):
         plans[i] = finish_arc(strokes[i], sk, vk, rules, profile)
+    # too short for two sub-arcs, or sub-arcs that would not beat the original: one sub-arc
+    # played as the least-int-a^2 trapezoid of the same duration, when that beats the original
+    short = np.array([i for i, p in enumerate(plans) if p is None or not p.int_a2 < strokes[i].int_a2], int)
+    if short.size:
+        sts = [strokes[i] for i in short]
+        law = _solve(np.array([s.length_d for s in sts]), np.array([s.arc.r for s in sts]), np.asarray(T, float)[short],
+                     np.asarray(beta, float)[short], np.array([s.v0 for s in sts]), np.array([s.v1 for s in sts]))
+        peaks = np.asarray(law.peak_speed(), float)
+        for i, st, t, pk in zip(short.tolist(), sts, np.asarray(T, float)[short], peaks):
+            p = arc_trapezoid(st, float(t), float(pk), rules, profile)
+            if p is not None and p.int_a2 < st.int_a2 and (plans[i] is None or p.int_a2 < plans[i].int_a2):
+                plans[i] = p
     return plans
+
+
+def arc_trapezoid(st, T, v_peak, rules, profile):
+    """One sub-arc (the G2/G3 itself with its own F and acceleration) that the firmware
+    plays as the trapezoid of duration <= T with the least int a^2 (segments.
+    least_a2_trapezoid), no faster than the planned law's peak v_peak; its acceleration
+    covers its chord junctions at the peak (x CHORD_MARGIN), the junctions with the
+    neighbouring moves and, under a finite Marlin buffer, a stop within the buffer."""
+    R, S, jd = st.arc.r, st.length_d, st.lim.jd
+    v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
+    v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
+    c = float(chord_d(np.array(S), profile, R))
+    per_v2 = CHORD_MARGIN * chord_need_per_v2(rules.junction, c, R, jd)
+    sgn = 1.0 if st.arc.sweep > 0 else -1.0
+    tha = st.arc.theta0 + sgn * c / (2.0 * R)
+    thb = st.arc.theta0 + st.arc.sweep - sgn * c / (2.0 * R)
+    u_start = (-math.sin(tha) * sgn, math.cos(tha) * sgn)
+    u_end = (-math.sin(thb) * sgn, math.cos(thb) * sgn)
+    a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+    # the original passed its corners with at most a_top (the firmware caps M204 per axis)
+    need_ends = min(max(CHORD_MARGIN * accel_to_pass_junction(rules.junction, v0, st.prev_u, u_start, c, jd),
+                        CHORD_MARGIN * accel_to_pass_junction(rules.junction, v1, u_end, st.next_u, c, jd)),
+                    a_top)
+    window_d = max(profile.block_buffer - 3, 1) * c if profile.block_buffer > 0 else math.inf
+    v_lo, v_hi = 0.0, v_peak
+    if rules.junction == "jerk":       # F within the jerk of the slicer's F (finish_arc's step)
+        step_v = 0.5 * min(st.lim.jerk_x, st.lim.jerk_y)
+        v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)
+
+    def a_min(vp):
+        return np.maximum(np.maximum(per_v2 * vp * vp, need_ends), 1.1 * vp * vp / (2.0 * window_d))
+
+    def centripetal(vp, a):        # int v^4/R^2 dt of the trapezoid (full cruise at vp)
+        cruise_d = np.maximum(S - (2 * vp * vp - v0 * v0 - v1 * v1) / (2 * a), 0.0)
+        return ((2 * vp ** 5 - v0 ** 5 - v1 ** 5) / (5 * a) + vp ** 3 * cruise_d) / (R * R)
+
+    got = least_a2_trapezoid(S, T, v0, v1, v_lo, v_hi, a_top, a_min, centripetal)
+    if got is None:
+        return None
+    vp, a, _, _ = got
+    s = np.array([0.0, S])
+    v = np.array([v0, v1])
+    acc = hold_cruise_accels(np.array([a]), st.accel)
+    feed = np.array([vp])
+    t_pred, a2_pred = predict_arc(s, v, acc, R, feed)
+    return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid")
 
 
 def finish_arc(st, sk, vk, rules, profile):

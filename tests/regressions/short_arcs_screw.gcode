@@ -1,0 +1,48 @@
+; regression (issue 9 item 2): short infill arcs (2-4 mm, R 2-7 mm) between short lines, two layers of a
+; real PrusaSlicer 2.5 M12 screw (helper L's model, sample_gcode/arc_fit.py), cut: too short for two sub-arcs,
+; they were kept as 'segments would not beat the original' (~1e5 mm^2/s^3 each at 4000 mm/s^2); now one
+; sub-arc each, played as the least-int-a^2 trapezoid of the planned duration
+G21
+G90
+M83
+G1 Z10.4 F720
+G1 X124.416 Y100.703 F15000
+G1 E1 F2400
+M204 P4000
+;TYPE:Internal infill
+;WIDTH:0.45
+G1 F900
+G3 X126.813 Y101.276 I0.268 J4.18 E0.08461
+G1 X124.761 Y108.936 E.26842
+G2 X126.486 Y108.674 I-0.149 J-6.789 E0.05919
+G1 X126.871 Y108.533 E.01388
+G1 X127.191 Y108.305 E.0133
+G1 X121.681 Y102.795 E.26375
+G2 X121.022 Y105.25 I5.41 J2.768 E0.08667
+G1 X128.674 Y103.2 E.26812
+G3 X129.251 Y105.593 I-3.487 J2.107 E0.08461
+M204 P3000
+G1 Z10.6 F15000
+;AFTER_LAYER_CHANGE
+;10.6
+
+; printing object screw.stl id:0 copy 0
+G1 X121.154 Y108.364
+G1 E1 F2400
+G1 X122.382 Y107.923 F15000
+G1 E1 F2400
+M204 P4000
+;TYPE:Internal infill
+;WIDTH:0.45
+G1 F900
+G1 X123.083 Y108.402 E.02875
+G2 X124.119 Y108.898 I2.091 J-3.038 E0.039
+G1 X124.616 Y108.93 E.01687
+G1 X126.75 Y100.967 E.27905
+G3 X128.788 Y103.316 I-1.95 J3.75 E0.10776
+G1 X121.083 Y105.381 E.27002
+G1 X121.035 Y105.014 E.01252
+G3 X121.756 Y102.67 I6.017 J0.568 E0.08356
+G1 X127.554 Y108.468 E.27753
+G2 X128.878 Y106.395 I-2.566 J-3.098 E0.08462
+M204 P3000

@@ -39,7 +39,7 @@ MODES = (("original", None), ("default", []), ("--features all", ["--features", 
 _FW_ENDS = {}            # id(stroke) -> the firmware's own (v0, v1), for the prototype
 
 
-def corner_prototype(budget_r):
+def corner_prototype(budget_r, budget_t=None):
     """(plan_inputs, finish): the pipeline's plan_inputs and segments._finish with
     corners.end_speeds wired in (see the module docstring); install with
     _install_corner_prototype or a test's monkeypatch."""
@@ -53,8 +53,8 @@ def corner_prototype(budget_r):
 
     def plan_inputs(strokes, profile, opts):
         pin = plain_inputs(strokes, profile, opts)
-        v0n, v1n = corners.end_speeds(strokes, pin, profile, opts,
-                                      budget_t=budget_r * float(np.nansum(pin.T_orig)))
+        bt = budget_t if budget_t is not None else budget_r * float(np.nansum(pin.T_orig))
+        v0n, v1n = corners.end_speeds(strokes, pin, profile, opts, budget_t=bt)
         for st, a, b in zip(strokes, v0n, v1n):
             _FW_ENDS[id(st)] = (st.v0, st.v1)
             st.v0, st.v1 = float(a), float(b)
@@ -88,9 +88,9 @@ def corner_prototype(budget_r):
     return plan_inputs, finish
 
 
-def _install_corner_prototype(budget_r):
+def _install_corner_prototype(budget_r, budget_t=None):
     from gcode_opt import pipeline, segments as sg
-    pipeline.plan_inputs, sg._finish = corner_prototype(budget_r)
+    pipeline.plan_inputs, sg._finish = corner_prototype(budget_r, budget_t)
 
 
 def process_here(src, out, prof_name, slowdown_r, features_all):
@@ -132,8 +132,10 @@ def main(argv=None):
     ap.add_argument("--freq", type=float, default=50.0, help="resonance of both axes, Hz")
     ap.add_argument("--damping", type=float, default=0.1, help="damping ratio")
     ap.add_argument("--keep", help="write the processed files here (default: a temporary folder)")
-    ap.add_argument("--corners", type=float, default=0.0,
-                    help="also the corner prototype, spending this fraction of the strokes' time")
+    ap.add_argument("--corners", default="0",
+                    help="also the corner prototype, spending this fraction of the strokes' time; "
+                         "'auto': the corners' share of the original's ringing energy times the "
+                         "--slowdown budget (corners.corner_share)")
     ap.add_argument("--slowdown", type=float, default=0.03,
                     help="the corner rows' print-time budget (Options.max_slowdown_r; default 0.03)")
     ap.add_argument("--only", help="one sample (name without .gcode)")
@@ -141,9 +143,8 @@ def main(argv=None):
                     help="features the corner rows re-time")
     a = ap.parse_args(argv)
     modes = MODES
-    if a.corners > 0:
-        _install_corner_prototype(a.corners)
-        modes = MODES + ((f"corners {a.corners:g}, budget {a.slowdown:g}, {a.corner_features}", "corners"),)
+    if a.corners != "0":
+        modes = MODES + ((f"corners {a.corners}, budget {a.slowdown:g}, {a.corner_features}", "corners"),)
     print(f"Resonance {a.freq:g} Hz both axes, damping {a.damping:g}. Ratios in brackets are to the "
           "original without shaper.\n")
     print("| sample | file | shaper | RMS ringing um (/ original) | ramp / corner / turn um | "
@@ -162,6 +163,13 @@ def main(argv=None):
             for mode, extra in modes:
                 path = src
                 if extra == "corners":
+                    if a.corners == "auto":
+                        from gcode_opt.corners import corner_share
+                        tr0 = ringing.trace(src, prof)
+                        share = corner_share(ringing.figures_of_trace(tr0, ringing.model_of(prof), "none"))
+                        _install_corner_prototype(0.0, share * a.slowdown * tr0.sim.time_t)
+                    else:
+                        _install_corner_prototype(float(a.corners))
                     path = os.path.join(out_dir, f"{name}.corners.gcode")
                     process_here(src, path, prof_name, a.slowdown, a.corner_features == "all")
                 elif extra is not None:

@@ -93,6 +93,16 @@ def end_time_cost(v, v_orig, v_top, a):
     return np.maximum(ramp, 0.0) + edge
 
 
+def corner_share(figures: dict) -> float:
+    """The corners' share of a file's ringing energy (ringing.figures of the original:
+    corner / (ramp + corner + turn), squares of the RMS parts).  A budget split in this
+    proportion between the laws (ramps) and the corners is a heuristic: the planner prices
+    laws by J, not by ringing, so the two marginal returns are not compared directly."""
+    xy = figures["xy"]
+    r, c, t = xy["rms_ramp_um"] ** 2, xy["rms_corner_um"] ** 2, xy["rms_turn_um"] ** 2
+    return c / (r + c + t) if r + c + t > 0 else 0.0
+
+
 def end_speeds(strokes, pin, profile, opts, budget_t=None):
     """(v0_new, v1_new): start and end speed per stroke, <= the originals (pin.v0, pin.v1,
     the firmware's junction speeds), lowered at sharp corners where the time budget buys

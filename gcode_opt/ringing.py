@@ -226,6 +226,29 @@ def compare(before: dict, after: dict) -> dict:
     return out
 
 
+def summary(original, processed, profile) -> dict:
+    """The summary JSON's "ringing": both files' figures (the profile's shaper in force)
+    and their comparison.  Two more firmware-model passes (one per file)."""
+    before, after = figures(original, profile), figures(processed, profile)
+    return {"model": before["model"], "before": before, "after": after,
+            "change": compare(before, after)}
+
+
+def text_rows(fig: dict) -> list:
+    """(label, text) rows for `gcode-opt simulate`'s table."""
+    m, xy = fig["model"], fig["xy"]
+    rows = [("ringing RMS / peak",
+             f"{xy['rms_um']:.2f} / {xy['peak_um']:.1f} um XY (X {fig['x']['rms_um']:.2f}, "
+             f"Y {fig['y']['rms_um']:.2f}) at {m['freq_x_hz']:g} / {m['freq_y_hz']:g} Hz, "
+             f"damping {m['damping_r']:g}, shaper {m['shaper']}"),
+            ("ringing excited by", f"ramps {xy['rms_ramp_um']:.2f}, corners {xy['rms_corner_um']:.2f}, "
+                                   f"gentle turns {xy['rms_turn_um']:.2f} um RMS")]
+    if "smoothing" in fig:
+        rows.append(("shaper smoothing", f"{fig['smoothing']['rms_um']:.1f} um RMS, "
+                                         f"{fig['smoothing']['max_um']:.0f} um max"))
+    return rows
+
+
 def with_shaper(profile, shaper: str):
     """The profile with another input shaper (tuned where the profile says)."""
     return dataclasses.replace(profile, shaper=shaper)

@@ -39,3 +39,12 @@ def test_busiest_stretch_is_where_the_ringing_is():
     e = np.array([r2[(s >= a) & (s < a + L)].sum() for a in starts])
     chosen = r2[(s >= s0) & (s < s0 + L)].sum()
     assert chosen >= 0.9 * e.max()
+
+
+def test_summary_and_text_rows():
+    p = load_profile("voron24")
+    s = rg.summary(SRC, SRC, p)
+    assert s["change"]["rms_um"]["change"] == 0.0 and s["before"] == s["after"]
+    rows = rg.text_rows(rg.figures(SRC, rg.with_shaper(p, "ei")))
+    assert [r[0] for r in rows] == ["ringing RMS / peak", "ringing excited by", "shaper smoothing"]
+    assert "shaper ei" in rows[0][1]

@@ -68,7 +68,7 @@ def _bundled(name):
     with open(os.path.join(ROOT, "profiles", name + ".toml"), "rb") as fh:
         data = tomllib.load(fh)
     flat = {k: v for k, v in data.items() if not isinstance(v, dict)}
-    for t in ("firmware", "limits", "machine"):
+    for t in ("firmware", "limits", "machine", "resonance"):
         flat.update(data.get(t, {}))
     return flat
 

@@ -263,6 +263,6 @@ def test_bundled_profile_keys_in_their_tables(name):
     except ModuleNotFoundError:  # pragma: no cover - 3.10
         import tomli as tomllib
     data = tomllib.loads((PROFILES_DIR / f"{name}.toml").read_text())
-    assert set(data) <= {"name", "sources", "firmware", "limits", "machine"}
+    assert set(data) <= {"name", "sources", "firmware", "limits", "machine", "resonance"}
     assert {"flavour", "junction"} <= set(data["firmware"])
     assert {"max_velocity_v", "max_accel_a"} <= set(data["limits"])

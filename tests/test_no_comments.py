@@ -38,8 +38,10 @@ def test_edge_files_are_what_they_claim():
         assert sum(1 for line in fh if line.startswith("G1 ") and " E" in line and "E-" not in line) > 100
 
 
-def test_no_comments_default_selection_is_said(capsys, tmp_path):
-    rc, err, s = _run(capsys, tmp_path, NO_COMMENTS)
+def test_no_comments_infill_selection_is_said(capsys, tmp_path):
+    # an explicit infill-only selection is obeyed on a comment-less file (the default
+    # there re-times every extruding move: tests/test_cli_no_comments.py), and said
+    rc, err, s = _run(capsys, tmp_path, NO_COMMENTS, "--features", "sparse_infill,solid_infill")
     assert rc == 0
     assert s["features"]["source"] == "none"
     assert s["features"]["selected"] == ["sparse_infill", "solid_infill"]

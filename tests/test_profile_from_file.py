@@ -41,6 +41,10 @@ EXPECT = {
     "prusa_concentric_arcs.gcode": ("prusa-mk3s", MK3S_FILE),
     "prusa_gyroid_arcs.gcode": ("prusa-mk3s", MK3S_FILE),
     "prusa_klipper.gcode": ("generic-klipper", KLIPPER_FILE),     # printer_notes: "Klipper-based printer"
+    "prusa_gyroid_fullspeed.gcode": ("prusa-mk3s", MK3S_FILE),
+    "prusa_benchy_like.gcode": ("prusa-mk3s", MK3S_FILE),
+    "prusa_gyroid_fullspeed_klipper.gcode": ("generic-klipper", KLIPPER_FILE),
+    "prusa_klipper_no_comments.gcode": ("generic-klipper", KLIPPER_FILE),
     "cura_box.gcode": ("ender3", {}),                              # CuraEngine CLI writes no limits
 }
 

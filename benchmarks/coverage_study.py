@@ -2,7 +2,8 @@
 rest is left, and what re-timing perimeters buys and costs.
 
     python benchmarks/coverage_study.py FILE.gcode [...] [--features LIST] [--profile P]
-                                        [--overshoot R] [--by-feature] [--policy] [--json OUT.json]
+                                        [--overshoot R] [--by-feature] [--policy] [--min-length D]
+                                        [--json OUT.json]
 
 Per file: the firmware model's whole-file ∫|a|²dt and print time before/after (pipeline.
 process, the written file measured), the strokes re-timed, the reasons left, each with its
@@ -53,9 +54,9 @@ def _per_feature_caps(real_plan_inputs):
 
 
 def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r=0.25, by_feature=False,
-          out_path=None, policy=False):
+          out_path=None, policy=False, min_length_d=2.0):
     profile = _profile(profile_name, path)
-    opts = Options(features=features, overshoot_r=overshoot_r)
+    opts = Options(features=features, overshoot_r=overshoot_r, min_length_d=min_length_d)
     seen = {}
     real = summary_mod.build_summary
     real_pi = pipeline.plan_inputs
@@ -85,14 +86,16 @@ def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r
     cov = coverage(strokes, plan, w0["int_a2"], w0["time_t"], outside)
     over = defaultdict(float)      # feature -> largest F above the slicer's, as a ratio
     kinds = defaultdict(int)
+    segs = getattr(plan, "segs", None) or [None] * len(strokes)
     for i, st in enumerate(strokes):
-        seg = plan.segs[i] if plan.retime[i] else None
+        seg = segs[i] if plan.retime[i] else None
         if seg is None:
             continue
         kinds[f"{st.feature}/{st.kind}"] += 1
         if st.v_feed > 0:
             over[st.feature] = max(over[st.feature], float(np.max(seg.feed)) / st.v_feed - 1.0)
     return {"file": os.path.basename(path), "profile": profile.name, "features": list(features),
+            "min_length_d": min_length_d,
             "overshoot": overshoot_r if not policy else f"{overshoot_r} (per feature)",
             "int_a2_change": s["whole_file"]["int_a2_change"], "time_change": s["print_time_s"]["change"],
             "retimed": s["strokes"]["retimed"], "candidates": s["strokes"]["candidates"],
@@ -101,7 +104,8 @@ def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r
 
 
 def format_study(r):
-    out = [f"{r['file']} ({r['profile']}, features {','.join(r['features'])}, overshoot {r['overshoot']}): "
+    out = [f"{r['file']} ({r['profile']}, features {','.join(r['features'])}, overshoot {r['overshoot']}, "
+           f"min length {r['min_length_d']} mm): "
            f"whole file int|a|^2 {r['int_a2_change'] * 100:+.1f}%, time {r['time_change'] * 100:+.2f}%, "
            f"re-timed {r['retimed']} of {r['candidates']}, full stops {r['full_stops'][0]} -> {r['full_stops'][1]}"]
     out.append("  re-timed: " + ", ".join(f"{k} {v}" for k, v in sorted(r["retimed_by"].items())))
@@ -122,12 +126,13 @@ def main(argv=None):
     ap.add_argument("--by-feature", action="store_true")
     ap.add_argument("--policy", action="store_true",
                     help="per-feature overshoot (coverage.feature_overshoot_r) instead of --overshoot for all")
+    ap.add_argument("--min-length", type=float, default=2.0, help="shortest stroke (mm), as process --min-length")
     ap.add_argument("--json")
     a = ap.parse_args(argv)
     fts = feat.ALL if a.features == "all" else tuple(a.features.split(","))
     res = []
     for f in a.files:
-        r = study(f, a.profile, fts, a.overshoot, a.by_feature, policy=a.policy)
+        r = study(f, a.profile, fts, a.overshoot, a.by_feature, policy=a.policy, min_length_d=a.min_length)
         print(format_study(r), flush=True)
         res.append(r)
     if a.json:

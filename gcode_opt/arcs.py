@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
-from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V
+from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V, arc_chords
 from .laws.circle import solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, hold_cruise_accels, least_a2_trapezoid, segment_feeds
@@ -101,6 +101,10 @@ def adjust_plan_inputs(pin, strokes, rows, profile):
         if per_v2 > 0:
             cap = min(cap, math.sqrt(pin.a_cap[i] / (CHORD_MARGIN * per_v2)))
         pin.v_cap[i] = min(pin.v_cap[i], cap)
+        if max(st.v0, st.v1) > pin.v_cap[i]:      # no law fits: the same arc, gentler
+            if not hasattr(pin, "arc_gentle"):
+                pin.arc_gentle = {}
+            pin.arc_gentle[int(i)] = [o[1:] for o in gentle_options(st, profile) if o[2] < st.int_a2]
 
 
 def _solve(S, R, T, beta, v0, v1):
@@ -130,7 +134,93 @@ def candidates_arc(pin, rows, strokes):
         iv, ia = law.integrals()
         return iv, ia, _feasible(law, vc[idx], ac[idx])
 
-    return candidate_table(pin, rows, ARC_COLS, solve_figures, GAMMA_MIN)
+    T, beta, I, KE = candidate_table(pin, rows, ARC_COLS, solve_figures, GAMMA_MIN)
+    gentle = getattr(pin, "arc_gentle", None) or {}
+    for r, i in enumerate(rows.tolist()):
+        got = gentle.get(i)
+        if not got or np.isfinite(I[r]).any():
+            continue
+        for j, (t_g, i_g, ke_g) in enumerate(got[:len(T_RATIOS)]):   # beta = inf marks them
+            T[r, j], I[r, j], KE[r, j], beta[r, j] = t_g, i_g, ke_g, np.inf
+    return T, beta, I, KE
+
+
+# ------------------------------------------------------------------ gentler arcs
+GENTLE_STEPS = 8            # accelerations tried: a_orig / 2^k, k = 0..7, and the least that works
+
+
+def gentle_figures(st, profile, a, junction=None):
+    """Time and int|a|^2 dt of the arc played as it is (the slicer's F) at acceleration a,
+    as the firmware plays its chords (cut as simulate.arc_chords, Klipper's cruise ratio 0
+    inside a block): chord junctions at min(the acceleration-independent cap, the one
+    that scales with a), forward/backward passes at a, a trapezoid per chord, plus the
+    centripetal v^4/R^2.  None when the arc could no longer be entered at v0 or left at
+    v1 (the neighbouring moves would change)."""
+    junction = junction or profile.junction
+    S, R = st.length_d, st.arc.r
+    n = arc_chords(S, st.arc.sweep, profile.arc_segment_d)
+    c = S / n
+    v0, v1, F = st.v0, st.v1, st.v_feed
+    vj2 = math.inf
+    if n > 1:
+        cap = chord_speed_cap(profile, st.lim, c, R) / CAP_MARGIN
+        per_v2 = chord_need_per_v2(junction, c, R, st.lim.jd)
+        vj2 = min(cap * cap, a / per_v2 if per_v2 > 0 else math.inf, F * F)
+    J2 = np.full(n + 1, vj2)
+    J2[0], J2[-1] = v0 * v0, v1 * v1
+    for k in range(n - 1, -1, -1):              # backward: able to brake to the next junction
+        J2[k] = min(J2[k], J2[k + 1] + 2 * a * c)
+    for k in range(n):                         # forward: able to reach it
+        J2[k + 1] = min(J2[k + 1], J2[k] + 2 * a * c)
+    if J2[0] < v0 * v0 * (1 - 1e-9) or J2[-1] < v1 * v1 * (1 - 1e-9):
+        return None
+    Ja, Jb = np.sqrt(J2[:-1]), np.sqrt(J2[1:])
+    pk = np.maximum(np.minimum(F, np.sqrt((2 * a * c + J2[:-1] + J2[1:]) / 2)), np.maximum(Ja, Jb))
+    cruise_d = np.maximum(c - (2 * pk * pk - J2[:-1] - J2[1:]) / (2 * a), 0.0)
+    t = (2 * pk - Ja - Jb) / a + cruise_d / np.maximum(pk, 1e-9)
+    cent = ((2 * pk ** 5 - Ja ** 5 - Jb ** 5) / (5 * a) + pk ** 3 * cruise_d) / (R * R)
+    return float(t.sum()), float(np.sum(a * (2 * pk - Ja - Jb)) + cent.sum()), float(np.sum(pk * pk * c / np.maximum(pk, 1e-9)))
+
+
+def gentle_options(st, profile):
+    """[(a, time_t, int_a2, int_v2~)] for the arc at the slicer's F and gentler
+    accelerations: the arcs no law fits (their chord junctions cap the speed below an end
+    speed, e.g. gyroid fitted with arcs of ~2 mm radius: the firmware brakes at full
+    acceleration into every chord junction and speeds up again).  Each a must still pass
+    the arc's corners with the neighbouring moves."""
+    a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+    if not (a_top > 0 and st.v_feed > 0 and st.length_d > 0):
+        return []
+    c = float(chord_d(np.array(st.length_d), profile, st.arc.r))
+    sgn = 1.0 if st.arc.sweep > 0 else -1.0
+    tha = st.arc.theta0 + sgn * c / (2.0 * st.arc.r)
+    thb = st.arc.theta0 + st.arc.sweep - sgn * c / (2.0 * st.arc.r)
+    u_start = (-math.sin(tha) * sgn, math.cos(tha) * sgn)
+    u_end = (-math.sin(thb) * sgn, math.cos(thb) * sgn)
+    need = max(accel_to_pass_junction(profile.junction, st.v0, st.prev_u, u_start, c, st.lim.jd),
+               accel_to_pass_junction(profile.junction, st.v1, u_end, st.next_u, c, st.lim.jd))
+    out = []
+    for k in range(GENTLE_STEPS):
+        a = a_top / 2 ** k
+        if a < CHORD_MARGIN * need:
+            break
+        got = gentle_figures(st, profile, a)
+        if got is None:
+            break
+        out.append((a,) + got)
+    return out
+
+
+def gentle_plan(st, profile, T):
+    """The gentle_options entry whose time is T (the plan chose it) as a SegmentPlan: one
+    sub-arc, the slicer's F, its own acceleration."""
+    opts = gentle_options(st, profile)
+    if not opts:
+        return None
+    a, t, i2, _ = min(opts, key=lambda o: abs(o[1] - T))
+    acc = hold_cruise_accels(np.array([a]), st.accel)
+    return SegmentPlan(np.array([0.0, st.length_d]), np.array([st.v0, st.v1]), acc, np.array([st.v_feed]),
+                       t, i2, "gentle")
 
 
 # ------------------------------------------------------------------ segments
@@ -200,11 +290,13 @@ def _predict_arc_peaked(s, v, a, R, feed):
 
 
 def plan_arc_segments(strokes, T, beta, rules, profile):
-    """SegmentPlan per arc stroke (None where the arc is too short for two sub-arcs)."""
+    """SegmentPlan per arc stroke (None where no plan beats the original).  beta = inf
+    marks the same arc at a gentler acceleration (candidates_arc): gentle_plan."""
     n = []
-    for st, t in zip(strokes, T):
+    gentle = ~np.isfinite(np.asarray(beta, float))
+    for st, t, vy in zip(strokes, T, gentle):
         k = min(rules.n_max, int(st.length_d / MIN_SUBARC_D), int(t / rules.seg_t) if rules.seg_t > 0 else 99)
-        n.append(max(k, 0))
+        n.append(0 if vy else max(k, 0))
     n = np.array(n, int)
     ok = np.flatnonzero(n >= 2)
     plans = [None] * len(strokes)
@@ -213,7 +305,11 @@ def plan_arc_segments(strokes, T, beta, rules, profile):
         plans[i] = finish_arc(strokes[i], sk, vk, rules, profile)
     # too short for two sub-arcs, or sub-arcs that would not beat the original: one sub-arc
     # played as the least-int-a^2 trapezoid of the same duration, when that beats the original
-    short = np.array([i for i, p in enumerate(plans) if p is None or not p.int_a2 < strokes[i].int_a2], int)
+    for i in np.flatnonzero(gentle).tolist():
+        p = gentle_plan(strokes[i], profile, float(np.asarray(T, float)[i]))
+        plans[i] = p if p is not None and p.int_a2 < strokes[i].int_a2 else None
+    short = np.array([i for i, p in enumerate(plans)
+                      if not gentle[i] and (p is None or not p.int_a2 < strokes[i].int_a2)], int)
     if short.size:
         sts = [strokes[i] for i in short]
         law = _solve(np.array([s.length_d for s in sts]), np.array([s.arc.r for s in sts]), np.asarray(T, float)[short],

@@ -20,6 +20,7 @@ in the summary (strokes.not_retimed, strokes.faults).
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import sys
@@ -30,7 +31,7 @@ import numpy as np
 from . import curves
 from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
-from .firmware.simulate import simulate_events
+from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .state import MachineState, events, read_lines
@@ -172,13 +173,17 @@ def analyse(path, profile: Profile, opts: Options):
 
 
 # ---------------------------------------------------------------- pass 2: rewrite
-def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
+def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digests=None, reuse=None):
     """Copy the file to out_fh, re-timed strokes replaced.  Returns the output line
     range of each re-timed stroke: list of (out_first, out_last, stroke_index).
 
     Each block is validated (validate.py) before it is written; a block whose emission
     raises or fails validation is replaced by the stroke's original lines, and the
-    stroke counted with the reason (plan.retime/plan.reason updated)."""
+    stroke counted with the reason (plan.retime/plan.reason updated).  `digests` (a dict),
+    if given, receives a digest of each written block's text by stroke index (a second
+    pass re-measures only the blocks whose text changed).  `reuse` (a _Reuse of the first
+    pass's file) gives the blocks whose segment plan is the one the first pass wrote: they
+    are copied from that file, not emitted and validated again."""
     from itertools import islice
     order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
     out_ranges = []
@@ -199,6 +204,15 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
             buf = list(islice(lines, s.n_moves))
             pos = s.first_idx + len(buf)
             x0, y0 = s.x0, s.y0
+            text = None if reuse is None else reuse.block(i, plan.segs[i], plan.beta[i])
+            if text is not None:  # the first pass wrote this very block (and validated it)
+                write(text)
+                if digests is not None:
+                    digests[i] = reuse.digests[i]
+                n_out = text.count("\n")
+                out_ranges.append((out_line, out_line + n_out - 1, i))
+                out_line += n_out
+                continue
             try:
                 e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
                 with np.errstate(all="ignore"):
@@ -220,12 +234,53 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options):
                 out_line += len(buf)
             else:
                 write(text)
+                if digests is not None:
+                    digests[i] = _digest(text)
                 n_out = text.count("\n")
                 out_ranges.append((out_line, out_line + n_out - 1, i))
                 out_line += n_out
         for chunk in iter(lambda: fh.read(1 << 20), ""):   # the rest of the file, in bulk
             write(chunk)
     return out_ranges
+
+
+class _Reuse:
+    """The blocks a first rewrite wrote, read back from its file in order: block(i, seg,
+    beta) is stroke i's text if the first pass wrote it from this same segment plan (the
+    same object: schedule's SegmentCache hands the plan back when the stroke's law is
+    unchanged) and beta, else None.  The text is a function of the stroke, its plan and
+    beta only (_stroke_block)."""
+
+    def __init__(self, path, out_ranges, segs, beta, digests):
+        self.fh = open(path, "r", encoding="utf-8", errors="surrogateescape", newline="")
+        self.lines = enumerate(self.fh)
+        self.pos = -1
+        self.blocks = {i: (a, z, segs[i], float(beta[i])) for a, z, i in out_ranges}
+        self.digests = digests
+
+    def block(self, i, seg, beta):
+        got = self.blocks.get(i)
+        if got is None or seg is None or got[2] is not seg:
+            return None
+        a, z, _, beta1 = got
+        if not (beta1 == beta or (math.isinf(beta1) and math.isinf(beta))) or a <= self.pos:
+            return None
+        from itertools import islice
+        for self.pos, _ in self.lines:
+            if self.pos >= a - 1:
+                break
+        if self.pos != a - 1:
+            return None
+        text = "".join(raw for _, raw in islice(self.lines, z - a + 1))
+        self.pos = z
+        return text
+
+    def close(self):
+        self.fh.close()
+
+
+def _digest(text):
+    return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=16).digest()
 
 
 def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
@@ -286,12 +341,10 @@ def _stroke_text(raws, x0, y0):
 
 
 # ---------------------------------------------------------------- pass 3: measure
-def measure(path, profile, out_ranges, opts):
-    """Firmware model on the re-timed file; per re-timed stroke (time, int a^2)."""
+def _per_stroke(out_ranges, t, a2, v2):
+    """on_line for the firmware model on a re-timed file: each line's record added to the
+    re-timed stroke (out_ranges, in file order) whose block holds the line."""
     n = len(out_ranges)
-    t = np.zeros(n)
-    a2 = np.zeros(n)
-    v2 = np.zeros(n)
     pos = [0]
 
     def on_line(r):
@@ -303,10 +356,111 @@ def measure(path, profile, out_ranges, opts):
             t[k] += r.time_t
             a2[k] += r.int_a2 + r.int_a2_j
             v2[k] += r.int_v2
+    return on_line
 
-    ev = _counted(events(path, profile), opts.progress)
-    sim = simulate_events(ev, profile, on_line=on_line)
-    return sim, t, a2, v2
+
+def measure(path, profile, out_ranges, opts, watch=None):
+    """Firmware model on the re-timed file; per re-timed stroke (time, int a^2, int v^2).
+    With `watch` (every stroke's output lines, sorted), also the Ledger a second pass
+    re-measures from (remeasure); else None."""
+    n = len(out_ranges)
+    t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
+    on_line = _per_stroke(out_ranges, t, a2, v2)
+    if watch is None:
+        sim = simulate_events(_counted(events(path, profile), opts.progress), profile, on_line=on_line)
+        return sim, t, a2, v2, None
+    sim, led = simulate_ledger(path, profile, watch, on_line=on_line,
+                               lines=_counted(read_lines(path), opts.progress))
+    return sim, t, a2, v2, led
+
+
+def stroke_lines(strokes, order, out_ranges):
+    """First and last output line of every stroke (arrays by stroke index): a re-timed
+    stroke's block, or its original lines where they were copied.  None if the ranges are
+    not in file order (then nothing can be re-measured in part)."""
+    n = len(strokes)
+    first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    block = {i: (a, z) for a, z, i in out_ranges}
+    off = 0                   # output line - input line, between blocks
+    prev_last = -1
+    for i in order:
+        s = strokes[i]
+        r = block.get(i)
+        if r is None:
+            a, z = s.first_idx + off, s.last_idx + off
+        else:
+            a, z = r
+            if a != s.first_idx + off:
+                return None
+            off += (z - a) - (s.last_idx - s.first_idx)
+        if a <= prev_last or z < a:
+            return None
+        first[i], last[i], prev_last = a, z, z
+    return first, last
+
+
+LAST_REMEASURE = {}      # what the last remeasure played (lines of the first pass's file): for the benchmark
+
+
+def remeasure(path, profile, strokes, order, led, lines1, lines2, changed, out_ranges1, fig1, out_ranges2, opts):
+    """The firmware model on a second rewrite that differs from the first only in the
+    strokes `changed` (bool by stroke index): each changed stroke's stretch, from the stop
+    before it to the stop after it, is played again (firmware.simulate.replay_runs); the
+    rest of the figures are the first pass's.  Returns what measure returns, or None when
+    the files do not line up as the ledger says (the caller then measures the whole file)."""
+    if not led.ok or len(led.lo) != len(order) or len(led.hi) != len(order):
+        return None
+    first1, last1 = lines1
+    first2, last2 = lines2
+    # runs of ledger stretches holding a changed stroke (order = the ledger's watch order)
+    runs = []                 # [lo, hi, delta lines]
+    for w, i in enumerate(order):
+        if not changed[i]:
+            continue
+        lo, hi = led.lo[w], led.hi[w]
+        d = int((last2[i] - first2[i]) - (last1[i] - first1[i]))
+        if runs and lo < runs[-1][1]:
+            runs[-1][1] = max(runs[-1][1], hi)
+            runs[-1][2] += d
+        else:
+            runs.append([lo, hi, d])
+    # every stroke outside the runs must sit where the first pass had it, shifted by the
+    # runs before it
+    r, off = 0, 0
+    for w, i in enumerate(order):
+        while r < len(runs) and led.lo[w] >= runs[r][1]:
+            off += runs[r][2]
+            r += 1
+        if r < len(runs) and runs[r][0] <= led.lo[w] and led.hi[w] <= runs[r][1]:
+            continue
+        if changed[i] or first2[i] - first1[i] != off or last2[i] - last1[i] != off:
+            return None
+    spans, off = [], 0
+    for lo, hi, d in runs:
+        spans.append((lo, hi, led.line[lo] + 1 + off, led.line[hi] + off + d))
+        off += d
+    n = len(out_ranges2)
+    t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
+    try:
+        sim, played = replay_runs(path, profile, led, spans, on_line=_per_stroke(out_ranges2, t, a2, v2))
+    except ReplayMismatch:
+        return None
+    LAST_REMEASURE["played_lines"] = sum(led.line[hi] - led.line[lo] for lo, hi in played)
+    # the strokes outside the stretches played keep the first pass's figures
+    k1 = {i: k for k, (_, _, i) in enumerate(out_ranges1)}
+    pos = {i: w for w, i in enumerate(order)}
+    los = np.array([lo for lo, _ in played], np.int64)
+    his = np.array([hi for _, hi in played], np.int64)
+    for k, (_, _, i) in enumerate(out_ranges2):
+        w = pos[i]
+        r = int(np.searchsorted(his, led.hi[w]))     # the first stretch ending at or after it
+        if r < len(his) and los[r] <= led.lo[w]:
+            continue
+        j = k1.get(i)
+        if j is None:
+            return None
+        t[k], a2[k], v2[k] = fig1[0][j], fig1[1][j], fig1[2][j]
+    return sim, t, a2, v2, led
 
 
 # ---------------------------------------------------------------- the job
@@ -337,25 +491,54 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             tmp = out.tmp
             # The plan budgets with the segments' predicted times; the firmware model has the
             # last word.  If the written file overruns the budget, plan once more with the
-            # overrun taken off (one more rewrite + measure, only then).
-            for _ in range(2):
+            # overrun taken off (one more rewrite; the firmware model plays again only the
+            # stretches around the blocks that changed: remeasure).
+            order = sorted(range(len(strokes)), key=lambda i: strokes[i].first_idx)
+            first = None              # the first pass: _FirstPass
+            for pass_i in range(2):
                 plan = plan_strokes(strokes, pin, profile, opts, budget_t)
                 timing.lap("plan")
                 if prog:
                     prog.start("rewrite")
+                digests = {}
+                # a second pass copies the blocks it shares with the first from the first's
+                # file, so it writes beside it and then takes its place
+                dest = tmp if first is None else tmp + ".pass2"
+                reuse = None
                 try:
-                    with open(tmp, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
-                        out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts)
+                    if first is not None:
+                        reuse = _Reuse(tmp, first.out_ranges, first.segs, first.beta, first.digests)
+                    with open(dest, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+                        out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts, digests, reuse)
                         fh.flush()
                         os.fsync(fh.fileno())
+                    if reuse is not None:
+                        reuse.close()
+                        os.replace(dest, tmp)
                 except OSError as e:         # disk full, ulimit -f: say so, keep the input
-                    if e.filename not in (None, tmp):
+                    if e.filename not in (None, tmp, dest):
                         raise
                     raise OutputError(describe(e, out_path)) from None
+                finally:
+                    if reuse is not None:
+                        reuse.close()
+                        if os.path.exists(dest):
+                            os.unlink(dest)
                 timing.lap("rewrite")
                 if prog:
                     prog.start("measure")
-                sim1, t1, a21, v21 = measure(tmp, profile, out_ranges, opts)
+                lines = stroke_lines(strokes, order, out_ranges)
+                got = None
+                if first is not None and first.lines is not None and lines is not None and first.led is not None:
+                    changed = np.array([plan.retime[i] != first.retime[i] or digests.get(i) != first.digests.get(i)
+                                        for i in range(len(strokes))], bool)
+                    got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,
+                                    first.out_ranges, first.figures, out_ranges, opts)
+                if got is None:
+                    watch = None if lines is None or pass_i else [(int(lines[0][i]), int(lines[1][i])) for i in order]
+                    got = measure(tmp, profile, out_ranges, opts, watch)
+                sim1, t1, a21, v21, led = got
+                first = _FirstPass(plan, digests, lines, out_ranges, (t1, a21, v21), led)
                 timing.lap("measure")
                 timing.passes += 1
                 over_t = (sim1.time_t - sim0.time_t) - opts.max_slowdown_r * sim0.time_t
@@ -368,6 +551,11 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
                     break
                 if over_t > 0.0:
                     budget_t -= 1.2 * over_t
+            # what only the passes needed (the first pass's ledger, the segment plans and
+            # their cache, the candidate tables) goes before the summary is built
+            first = None
+            plan.segs = None
+            pin.seg_cache = pin.cached = None
             from .summary import build_summary
             summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
                                     out_ranges, t1, a21, v21, time.monotonic() - t_start)
@@ -382,6 +570,18 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         if prog:
             prog.finish()
     return summary
+
+
+class _FirstPass:
+    """What the second pass reuses of the first: which strokes it re-timed with which
+    segment plan and beta, the digests of its blocks, every stroke's output lines, the
+    re-timed strokes' output ranges and firmware-model figures, and the model's Ledger."""
+
+    def __init__(self, plan, digests, lines, out_ranges, figures, led):
+        self.retime = plan.retime.copy()
+        self.segs = list(plan.segs)
+        self.beta = plan.beta.copy()
+        self.digests, self.lines, self.out_ranges, self.figures, self.led = digests, lines, out_ranges, figures, led
 
 
 DEPART_R, DEPART_T = 1.5, 0.05     # a re-timed stroke the model plays > 1.5 x its plan + 50 ms

@@ -17,6 +17,7 @@ Marlin ignores).
 from __future__ import annotations
 
 import math
+import operator
 import re
 
 from . import features as feat
@@ -36,6 +37,15 @@ class Limits:
     def __init__(self, v_max, ax_max, ay_max, scv, mcr, jd, jerk_x, jerk_y):
         self.v_max, self.ax_max, self.ay_max = v_max, ax_max, ay_max
         self.scv, self.mcr, self.jd, self.jerk_x, self.jerk_y = scv, mcr, jd, jerk_x, jerk_y
+
+    def _values(self):
+        return tuple(getattr(self, s) for s in Limits.__slots__)
+
+    def __eq__(self, other):          # by value: two readers that read the same lines agree
+        return type(other) is Limits and self._values() == other._values()
+
+    def __hash__(self):
+        return hash(self._values())
 
     def replace(self, **kw) -> "Limits":
         new = Limits(*(getattr(self, s) for s in Limits.__slots__))
@@ -192,6 +202,20 @@ class MachineState:
         self.lim = Limits(profile.max_velocity_v, profile.max_accel_a, profile.max_accel_a,
                           profile.square_corner_velocity_v, profile.minimum_cruise_ratio_r,
                           profile.junction_deviation_d, profile.jerk_xy_v, profile.jerk_xy_v)
+
+    # ---- a copy of what the lines changed (the firmware model replays from it) --------
+    MODAL = ("x", "y", "z", "e", "abs_xyz", "e_rel_flag", "inch", "v", "feature", "layer", "flow_r",
+             "speed_r", "pa_t", "pa_smooth_t", "retracted", "accel_print", "accel_travel",
+             "accel_retract", "lim")
+
+    def snapshot(self) -> tuple:
+        """Every attribute a line can change, as a tuple (Limits is copy-on-write, so
+        sharing it is safe).  restore(snapshot) puts the state back where it was."""
+        return _get_modal(self)
+
+    def restore(self, snap: tuple) -> None:
+        for name, value in zip(MachineState.MODAL, snap):
+            setattr(self, name, value)
 
     # ---- derived modal values -------------------------------------------------------
     @property
@@ -579,6 +603,9 @@ class MachineState:
         if mcr is not None: kw["mcr"] = mcr
         if a is not None: self.accel_print = self.accel_travel = a
         if kw: self.lim = self.lim.replace(**kw)
+
+
+_get_modal = operator.attrgetter(*MachineState.MODAL)
 
 
 def read_lines(path: str):

@@ -5,8 +5,10 @@ by line, plain float formatting, the validator's generic grammar, the reader's s
 tokenizer, stroke grouping without the short-run shortcut.
 """
 import math
+import os
 import random
 
+import numpy as np
 import pytest
 
 from gcode_opt import curves, emit, state, validate
@@ -190,3 +192,218 @@ def test_validator_m204_fast_path_gives_the_generic_verdict(m204, flavour, extru
     fast = verdict()
     monkeypatch.setattr(validate, "_M204_PLAIN", lambda code: None)
     assert fast == verdict()
+
+
+# ---------------------------------------------------------------- partial re-measure (issue 8)
+from gcode_opt import pipeline  # noqa: E402
+from gcode_opt.firmware import simulate as fsim  # noqa: E402
+
+CORPUS = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "gcode-opt-corpus")
+
+
+def _same_result(got, want, rel=1e-9):
+    """SimResult figures: counts and stop lines exact, sums to `rel` (a splice adds them in
+    another order), peaks exact (a max)."""
+    a, b = got.as_dict(), want.as_dict()
+    assert a.keys() == b.keys()
+    for k, v in b.items():
+        if isinstance(v, float) and k not in ("peak_v", "peak_a"):
+            assert a[k] == pytest.approx(v, rel=rel, abs=1e-300), k
+        else:
+            assert a[k] == v, k
+
+
+def _split_some_moves(src, dst, every):
+    """A copy of src with every `every`-th plain extruding "G1 X Y E" cut in two lines at
+    its middle (relative E: the halves carry the E between them, to the last decimal);
+    returns how many."""
+    n = 0
+    with open(src, newline="") as fi, open(dst, "w", newline="") as fo:
+        st = MachineState(load_profile("prusa-mk3s"), src)
+        k = 0
+        for idx, raw in enumerate(fi):
+            x0, y0 = st.x, st.y
+            ev = st.step(idx, raw)
+            toks = raw.split(";")[0].split()
+            if (ev is not None and type(ev) is state.Move and ev.kind == state.LINE and ev.e > 0 and ev.e_rel
+                    and len(toks) == 4 and toks[0] == "G1" and [t[0] for t in toks[1:]] == ["X", "Y", "E"]):
+                k += 1
+                if k % every == 0:
+                    xm, ym = 0.5 * (x0 + ev.x1), 0.5 * (y0 + ev.y1)
+                    units = round(ev.e * 1e5)          # the slicer's 5 decimals, cut in two exactly
+                    fo.write(f"G1 X{xm:.4f} Y{ym:.4f} E{units // 2 / 1e5:.5f}\n")
+                    fo.write(f"G1 X{ev.x1:.4f} Y{ev.y1:.4f} E{(units - units // 2) / 1e5:.5f}\n")
+                    n += 1
+                    continue
+            fo.write(raw)
+    return n
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_gyroid.gcode", "voron24"),
+                                       ("prusa_mk3s_rectilinear.gcode", "ender3")])
+def test_replayed_stretches_give_the_full_pass(name, prof, tmp_path):
+    """A file changed inside some lines (moves cut in two: more lines, other junctions),
+    measured by replaying only the stretches around the changes from a ledger of the
+    original, gives what the firmware model gives on the whole changed file."""
+    profile = load_profile(prof)
+    src = SAMPLES + name
+    dst = str(tmp_path / "changed.gcode")
+    n_split = _split_some_moves(src, dst, 300)
+    assert n_split > 5
+    # the changes, as line ranges of both files: every split line becomes two
+    old_ranges, new_ranges = [], []
+    with open(src, newline="") as fa:
+        old = fa.readlines()
+    with open(dst, newline="") as fb:
+        new = fb.readlines()
+    i = j = 0
+    while i < len(old):
+        if old[i] == new[j]:
+            i, j = i + 1, j + 1
+        else:
+            old_ranges.append((i, i))
+            new_ranges.append((j, j + 1))
+            i, j = i + 1, j + 2
+    assert len(old_ranges) == n_split and j == len(new)
+    res1, led = fsim.simulate_ledger(src, profile, old_ranges)
+    _same_result(res1, fsim.simulate_file(src, profile), rel=0.0)      # the ledger pass is the plain pass
+    # stretches: the ledger's stops around each change, merged, renumbered into the new file
+    runs, shift = [], 0
+    for w, ((a, _), (b, z)) in enumerate(zip(old_ranges, new_ranges)):
+        lo, hi = led.lo[w], led.hi[w]
+        if runs and lo < runs[-1][1]:
+            runs[-1][1] = max(runs[-1][1], hi)
+            runs[-1][2] += 1
+        else:
+            runs.append([lo, hi, 1])
+    spans = []
+    for lo, hi, d in runs:
+        spans.append((lo, hi, led.line[lo] + 1 + shift, led.line[hi] + shift + d))
+        shift += d
+    assert len(spans) > 2
+    got, played = fsim.replay_runs(dst, profile, led, spans)
+    _same_result(got, fsim.simulate_file(dst, profile))
+    n_played = sum(led.line[hi] - led.line[lo] for lo, hi in played)
+    print(f"played {n_played} of {len(old)} lines")
+    assert n_played < 0.8 * len(old)        # the point: most of the file is not played again
+
+
+def test_replay_goes_on_while_the_reader_state_differs(tmp_path):
+    """A change that leaves the reader in another state after its stretch (here an M221
+    the original did not have: every later extruding move's E is scaled) is played on past that
+    stretch's stop until the states agree (here: the end of the file), and still gives the
+    full pass's figures."""
+    profile = load_profile("prusa-mk3s")
+    src = SAMPLES + "prusa_gyroid.gcode"
+    with open(src, newline="") as fh:
+        lines = fh.readlines()
+    k = next(i for i in range(len(lines) // 2, len(lines)) if lines[i].startswith("G1 X") and " E" in lines[i])
+    res1, led = fsim.simulate_ledger(src, profile, [(k, k)])
+    lines[k] = lines[k] + "M221 S90\n"     # a flow factor (the file has 95) that stays after the stretch
+    dst = tmp_path / "f.gcode"
+    dst.write_text("".join(lines))
+    lo, hi = led.lo[0], led.hi[0]
+    got, played = fsim.replay_runs(str(dst), profile, led, [(lo, hi, led.line[lo] + 1, led.line[hi] + 1)])
+    assert played[0][1] > hi            # played on past the stop after the change
+    _same_result(got, fsim.simulate_file(str(dst), profile))
+
+
+def _check_remeasure(monkeypatch, path, prof):
+    """Run process; in its second pass, compare the partial re-measure with a full
+    measure of the same written file."""
+    seen = []
+    real = pipeline.remeasure
+
+    def both(path_, profile, strokes, order, led, lines1, lines2, changed, or1, fig1, or2, opts):
+        got = real(path_, profile, strokes, order, led, lines1, lines2, changed, or1, fig1, or2, opts)
+        full = pipeline.measure(path_, profile, or2, opts)
+        assert got is not None
+        _same_result(got[0], full[0])
+        for x, y in zip(got[1:4], full[1:4]):
+            assert np.array_equal(x, y)          # per stroke: the same additions, bit for bit
+        seen.append((int(changed.sum()), len(changed)))
+        return got
+    monkeypatch.setattr(pipeline, "remeasure", both)
+    s = process(path, path + ".P.out", load_profile(prof), Options())
+    os.unlink(path + ".P.out")
+    return s, seen
+
+
+def test_second_pass_measures_only_what_changed(monkeypatch, tmp_path):
+    """prusa_gyroid re-plans (2 passes): the second measure, spliced from the first pass's
+    ledger, equals a full firmware-model pass on the written file."""
+    src = tmp_path / "g.gcode"
+    src.write_bytes(open(SAMPLES + "prusa_gyroid.gcode", "rb").read())
+    s, seen = _check_remeasure(monkeypatch, str(src), "prusa-mk3s")
+    assert s["rewrite_passes"] == 2 and len(seen) == 1
+    changed, total = seen[0]
+    assert 0 < changed < total
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["plate_gyroid.gcode", "plate_rectilinear.gcode"])
+def test_second_pass_measure_on_the_plates(monkeypatch, tmp_path, name):
+    path = os.path.join(CORPUS, name)
+    if not os.path.exists(path):
+        pytest.skip("make it with sample_gcode/make_corpus.sh")
+    src = tmp_path / name
+    os.symlink(path, src)
+    s, seen = _check_remeasure(monkeypatch, str(src), "prusa-mk3s")
+    assert len(seen) == s["rewrite_passes"] - 1
+
+
+CONSTANT = {"profile", "path", "flavour", "_one_accel", "warnings"}     # set once, never by a line
+
+
+@pytest.mark.parametrize("name", ["edge/m204_variants.gcode", "edge/relative_g91.gcode", "edge/g92_resets.gcode",
+                                  "edge/inches_g20.gcode", "edge/klipper_macros.gcode",
+                                  "edge/firmware_retraction.gcode", "prusa_gyroid_arcs.gcode"])
+@pytest.mark.parametrize("prof", ["prusa-mk3s", "voron24", "ender3"])
+def test_reader_snapshot_restores_everything_a_line_changes(name, prof):
+    """A reader restored from a snapshot taken half-way reads the rest of the file exactly
+    as the reader that went on: same events, same state at the end.  And the snapshot
+    names every attribute the reader has besides the ones fixed at construction."""
+    profile = load_profile(prof)
+    with open(SAMPLES + name, newline="") as fh:
+        lines = fh.readlines()
+
+    def ev_tuple(ev):
+        if ev is None:
+            return None
+        return tuple(getattr(ev, a) if a not in ("lim", "arc") else
+                     (None if getattr(ev, a) is None else tuple(getattr(getattr(ev, a), s)
+                                                                for s in type(getattr(ev, a)).__slots__))
+                     for a in type(ev).__slots__)
+
+    for cut in (len(lines) // 3, len(lines) // 2, 2 * len(lines) // 3):
+        a = MachineState(profile, name)
+        for idx in range(cut):
+            a.step(idx, lines[idx])
+        assert set(vars(a)) - CONSTANT == set(MachineState.MODAL)
+        b = MachineState(profile, name)
+        b.restore(a.snapshot())
+        for idx in range(cut, len(lines)):
+            assert ev_tuple(a.step(idx, lines[idx])) == ev_tuple(b.step(idx, lines[idx])), idx
+        assert a.snapshot() == b.snapshot()
+
+
+def test_second_pass_copies_unchanged_blocks_as_it_would_write_them(monkeypatch, tmp_path):
+    """The second rewrite copies the blocks whose segment plan the first wrote from the
+    first's file: the output is byte for byte the one a full re-emission writes."""
+    profile = load_profile("prusa-mk3s")
+    src = SAMPLES + "prusa_gyroid.gcode"
+    calls = {"hit": 0}
+    real = pipeline._Reuse.block
+
+    def counted(self, i, seg, beta):
+        got = real(self, i, seg, beta)
+        calls["hit"] += got is not None
+        return got
+    monkeypatch.setattr(pipeline._Reuse, "block", counted)
+    s1 = process(src, str(tmp_path / "reused.gcode"), profile, Options())
+    assert s1["rewrite_passes"] == 2 and calls["hit"] > 100
+    monkeypatch.setattr(pipeline._Reuse, "block", lambda self, i, seg, beta: None)
+    s2 = process(src, str(tmp_path / "emitted.gcode"), profile, Options())
+    assert s2["rewrite_passes"] == 2
+    assert (tmp_path / "reused.gcode").read_bytes() == (tmp_path / "emitted.gcode").read_bytes()
+    assert sorted(os.listdir(tmp_path)) == ["emitted.gcode", "reused.gcode"]     # no .pass2 left behind

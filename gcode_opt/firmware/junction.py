@@ -126,43 +126,79 @@ def marlin_jd_v2(pux, puy, puz, ux, uy, uz, d, accel, jd, cx, cy, cz) -> float:
 # ---------------------------------------------------------------- classic jerk -------
 def marlin_safe_speed(ux, uy, uz, nominal, jx, jy, jz) -> float:
     """Speed from which the block may start (or stop) instantly: Marlin 1.1 safe_speed
-    on the XYZ axes (an axis whose speed exceeds its jerk limits the block)."""
+    on the XYZ axes (an axis whose speed exceeds its jerk limits the block).  The loop
+    over the axes is written out (this runs once per block of the firmware model)."""
     safe = nominal
     limited = False
-    for comp, maxj in ((abs(ux) * nominal, jx), (abs(uy) * nominal, jy), (abs(uz) * nominal, jz)):
-        if comp > maxj:
-            if limited:
-                mjerk = maxj * nominal
-                if comp * safe > mjerk:
-                    safe = mjerk / comp
-            else:
-                limited = True
-                safe = maxj
+    comp = abs(ux) * nominal
+    if comp > jx:
+        limited = True
+        safe = jx
+    comp = abs(uy) * nominal
+    if comp > jy:
+        if limited:
+            mjerk = jy * nominal
+            if comp * safe > mjerk:
+                safe = mjerk / comp
+        else:
+            limited = True
+            safe = jy
+    comp = abs(uz) * nominal
+    if comp > jz:
+        if limited:
+            mjerk = jz * nominal
+            if comp * safe > mjerk:
+                safe = mjerk / comp
+        else:
+            safe = jz
     return safe
 
 
 def marlin_jerk_junction_v(pux, puy, puz, p_nominal, p_safe, ux, uy, uz, nominal, safe,
                            jx, jy, jz) -> float:
     """Marlin 1.1 classic-jerk junction speed (mm/s, not squared) between a previous block
-    (unit vector pu, nominal speed, safe speed) and this block."""
+    (unit vector pu, nominal speed, safe speed) and this block.  The loop over the axes is
+    written out; each axis's arithmetic is Marlin's, in Marlin's order."""
     vmax = nominal if nominal < p_nominal else p_nominal
     smaller = vmax / p_nominal
     v_factor = 1.0
     limited = False
-    for pv, cv, maxj in ((pux * p_nominal, ux * nominal, jx), (puy * p_nominal, uy * nominal, jy),
-                         (puz * p_nominal, uz * nominal, jz)):
-        v_exit = pv * smaller
-        v_entry = cv
-        if limited:
-            v_exit *= v_factor
-            v_entry *= v_factor
-        if v_exit > v_entry:
-            jerk = (v_exit - v_entry) if (v_entry > 0.0 or v_exit < 0.0) else max(v_exit, -v_entry)
-        else:
-            jerk = (v_entry - v_exit) if (v_entry < 0.0 or v_exit > 0.0) else max(-v_exit, v_entry)
-        if jerk > maxj:
-            v_factor *= maxj / jerk
-            limited = True
+    # X
+    v_exit = pux * p_nominal * smaller
+    v_entry = ux * nominal
+    if v_exit > v_entry:
+        jerk = (v_exit - v_entry) if (v_entry > 0.0 or v_exit < 0.0) else max(v_exit, -v_entry)
+    else:
+        jerk = (v_entry - v_exit) if (v_entry < 0.0 or v_exit > 0.0) else max(-v_exit, v_entry)
+    if jerk > jx:
+        v_factor *= jx / jerk
+        limited = True
+    # Y
+    v_exit = puy * p_nominal * smaller
+    v_entry = uy * nominal
+    if limited:
+        v_exit *= v_factor
+        v_entry *= v_factor
+    if v_exit > v_entry:
+        jerk = (v_exit - v_entry) if (v_entry > 0.0 or v_exit < 0.0) else max(v_exit, -v_entry)
+    else:
+        jerk = (v_entry - v_exit) if (v_entry < 0.0 or v_exit > 0.0) else max(-v_exit, v_entry)
+    if jerk > jy:
+        v_factor *= jy / jerk
+        limited = True
+    # Z
+    v_exit = puz * p_nominal * smaller
+    v_entry = uz * nominal
+    if limited:
+        v_exit *= v_factor
+        v_entry *= v_factor
+    if v_exit > v_entry:
+        jerk = (v_exit - v_entry) if (v_entry > 0.0 or v_exit < 0.0) else max(v_exit, -v_entry)
+    else:
+        jerk = (v_entry - v_exit) if (v_entry < 0.0 or v_exit > 0.0) else max(-v_exit, v_entry)
+    if jerk > jz:
+        v_factor *= jz / jerk
+        limited = True
     if limited:
         vmax *= v_factor
     thr = vmax * 0.99

@@ -134,6 +134,13 @@ class _Sim:
         self.prev = None          # last planned kinematic block (None after a stop)
         self.prev_t = 0.0
         self.rec = None           # open LineRecord
+        self.max_stop_lines = MAX_STOP_LINES
+
+    def empty(self) -> bool:
+        """Nothing planned is waiting: what comes next cannot change what came before."""
+        pl = self.planner
+        waiting = pl.queue if isinstance(pl, KlipperPlanner) else pl.buf
+        return not waiting and self.rec is None and self.prev is None
 
     # ---- junction laws --------------------------------------------------------------
     def _junction_fn(self):
@@ -196,6 +203,7 @@ class _Sim:
             px, py = x, y
 
     def _block(self, mv, first, dx, dy, dz, de):
+        # axis_limited and marlin_safe_speed written out: this runs once per block
         d = math.sqrt(dx * dx + dy * dy + dz * dz)
         if d < 1e-9:
             if de and first:
@@ -208,26 +216,45 @@ class _Sim:
         a0 = mv.accel
         if not a0 > 0.0:                          # M204 S0 or garbage: the profile's default
             a0 = prof.default_accel_a
+        aux, auy = abs(ux), abs(uy)
+        auz = abs(uz)
         if self.klipper_fw:
             # Klipper: M204 / SET_VELOCITY_LIMIT set the toolhead's max_accel itself, uncapped
             # (no per-axis XY limit; M201 is an unknown command); only Z scales it down
             a = a0
             if uz:
-                az = prof.max_z_accel_a / abs(uz)
+                az = prof.max_z_accel_a / auz
                 if az < a:
                     a = az
         else:
-            self.caps = caps = (lim.ax_max, lim.ay_max, prof.max_z_accel_a)
-            a = axis_limited(a0, ux, uy, uz, caps[0], caps[1], caps[2])
+            cx, cy, cz = lim.ax_max, lim.ay_max, prof.max_z_accel_a
+            self.caps = (cx, cy, cz)
+            a = a0                                # axis_limited(a0, u, caps)
+            if aux > 0.0 and a * aux > cx:
+                a = cx / aux
+            if auy > 0.0 and a * auy > cy:
+                a = cy / auy
+            if auz > 0.0 and a * auz > cz:
+                a = cz / auz
+        v_max = lim.v_max
         if self.klipper_limits:                   # Klipper: one toolhead speed, Z scaled
-            v = mv.v if mv.v < lim.v_max else lim.v_max
+            v = mv.v if mv.v < v_max else v_max
             if uz:
-                vz = prof.max_z_velocity_v / abs(uz)
+                vz = prof.max_z_velocity_v / auz
                 if vz < v:
                     v = vz
         else:                                     # Marlin: per-axis M203 caps
-            v = axis_limited(mv.v, ux, uy, uz, lim.v_max, lim.v_max, prof.max_z_velocity_v)
-        if self.model == "scv":
+            v = mv.v
+            if aux > 0.0 and v * aux > v_max:
+                v = v_max / aux
+            if auy > 0.0 and v * auy > v_max:
+                v = v_max / auy
+            if auz > 0.0:
+                cz = prof.max_z_velocity_v
+                if v * auz > cz:
+                    v = cz / auz
+        model = self.model
+        if model == "scv":
             jd = lim.scv * lim.scv * SQRT2_M1 / a0
             mcr_a = a0 * (1.0 - lim.mcr)
         else:
@@ -237,9 +264,33 @@ class _Sim:
         # extruder junction limit reads it)
         er = de * inv * mv.flow_r if de else 0.0
         b = Block(mv.idx, mv.kind, first, d, ux, uy, uz, er, a, jd, v, mcr_a)
-        if self.model == "jerk":
-            self.jerk = (lim.jerk_x, lim.jerk_y, self.jerk_z)
-            b.safe_v = marlin_safe_speed(ux, uy, uz, v, lim.jerk_x, lim.jerk_y, self.jerk_z)
+        if model == "jerk":
+            jx, jy, jz = lim.jerk_x, lim.jerk_y, self.jerk_z
+            self.jerk = (jx, jy, jz)
+            safe = v                              # marlin_safe_speed(u, v, jerk)
+            limited = False
+            comp = aux * v
+            if comp > jx:
+                limited = True
+                safe = jx
+            comp = auy * v
+            if comp > jy:
+                if limited:
+                    mjerk = jy * v
+                    if comp * safe > mjerk:
+                        safe = mjerk / comp
+                else:
+                    limited = True
+                    safe = jy
+            comp = auz * v
+            if comp > jz:
+                if limited:
+                    mjerk = jz * v
+                    if comp * safe > mjerk:
+                        safe = mjerk / comp
+                else:
+                    safe = jz
+            b.safe_v = safe
         if self.min_seg_t > 0.0 and d < self.min_seg_t * v:
             self.res.short_segments += 1
         self.planner.add(b)
@@ -276,13 +327,17 @@ class _Sim:
     def _emit(self, b):
         res = self.res
         a = b.accel
-        at, ct, dt = b.accel_t, b.cruise_t, b.decel_t
+        at = b.accel_t
+        ct = b.cruise_t
+        dt = b.decel_t
         t = at + ct + dt
-        sv, cv, ev = b.start_v, b.cruise_v, b.end_v
+        sv = b.start_v
+        cv = b.cruise_v
+        ev = b.end_v
         ta = at + dt
         a2 = a * a * ta
-        v2 = (at * (sv * sv + sv * cv + cv * cv) + dt * (ev * ev + ev * cv + cv * cv)) / 3.0 \
-            + ct * cv * cv
+        cv2 = cv * cv
+        v2 = (at * (sv * sv + sv * cv + cv2) + dt * (ev * ev + ev * cv + cv2)) / 3.0 + ct * cv * cv
         pa = a if ta > 0.0 else 0.0
         res.n_blocks += 1
         res.time_t += t
@@ -297,7 +352,7 @@ class _Sim:
         if p is not None and not b.after_stop:
             if sv < self.stop_thr:
                 res.full_stops += 1
-                if len(res.stop_lines) < MAX_STOP_LINES:
+                if len(res.stop_lines) < self.max_stop_lines:
                     res.stop_lines.append(b.idx + 1)
             cos_turn = p.ux * b.ux + p.uy * b.uy + p.uz * b.uz
             dv2 = 2.0 * sv * sv * (1.0 - cos_turn)
@@ -376,3 +431,268 @@ def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResu
 
 def simulate_file(path, profile, on_line=None, on_block=None) -> SimResult:
     return simulate_events(st.events(path, profile), profile, on_line, on_block)
+
+
+# ---------------------------------------------------------------- replaying a part of a file
+# The model stands empty after every stop (an E-only move, a barrier, the end of the file):
+# what follows depends on nothing before it but the reader's modal state.  A file that
+# differs from one already played only inside some line ranges is therefore played again
+# only from the stop before each changed range to the stop after it, the reader restored
+# from a snapshot taken there, and the result spliced into the first pass's figures.
+
+_SUMS = ("time_t", "int_a2", "int_a2_t", "int_v2", "n_moves", "n_blocks", "full_stops",
+         "short_segments", "barrier_dwell_t", "corners", "corner_dv2")
+_N_SUMS = len(_SUMS)
+_INT_SUMS = frozenset(("n_moves", "n_blocks", "full_stops", "short_segments", "corners"))
+
+
+class Ledger:
+    """What a full pass recorded around its watched line ranges: for each range, the stop
+    before it (``lo``) and the stop after it (``hi``), as indices into ``line`` (the stop's
+    line; -1 before the file) with the reader's snapshot there, the running sums of the
+    SimResult there, and the peak speed and acceleration of the stretch ending there.
+    ``stop_lines`` holds every full stop's line (1-based), not only the first 100.
+    ``ok`` is False when a watched range held a stop (its replay could not start empty)."""
+
+    def __init__(self):
+        from array import array
+        self.line = array("q")
+        self.state = []
+        self.sums = array("d")
+        self.peak_v = array("d")
+        self.peak_a = array("d")
+        self.lo = array("q")
+        self.hi = array("q")
+        self.stop_lines = []
+        self.n_lines = 0
+        self.ok = True
+        self.res = None
+
+    def _commit(self, line, state, sums, peak_v, peak_a):
+        self.line.append(line)
+        self.state.append(state)
+        self.sums.extend(sums)
+        self.peak_v.append(peak_v)
+        self.peak_a.append(peak_a)
+        return len(self.line) - 1
+
+    def sums_at(self, j):
+        return self.sums[j * _N_SUMS:(j + 1) * _N_SUMS]
+
+
+def _sums(res):
+    return (res.time_t, res.int_a2, res.int_a2_t, res.int_v2, res.n_moves, res.n_blocks, res.full_stops,
+            res.short_segments, res.barrier_dwell_t, res.corners, res.corner_dv2)
+
+
+def _play(lines, state, sim, watch, led):
+    """Step (idx, raw) lines through the reader `state` and the model `sim`.  With `led`,
+    record the stops around the sorted, disjoint line ranges `watch` [(first, last), ...]."""
+    Move, Barrier, EONLY = st.Move, st.Barrier, st.EONLY
+    step, move, barrier = state.step, sim.move, sim.barrier
+    res = sim.res
+    if led is None:
+        for idx, raw in lines:
+            ev = step(idx, raw)
+            if ev is not None:
+                cls = type(ev)
+                if cls is Move:
+                    move(ev)
+                elif cls is Barrier:
+                    barrier(ev)
+        return
+    snap = state.snapshot
+    n_w = len(watch)
+    wi = 0
+    next_first = watch[0][0] if n_w else -2
+    pending = []              # watched ranges started, waiting for the stop after them
+    carry_v = carry_a = 0.0   # peaks since the last committed stop, up to the last stop
+    last = (-1, snap(), _sums(res))
+    last_j = -1               # index of `last` in the ledger, -1 = not committed
+    idx = -1
+    for idx, raw in lines:
+        if idx == next_first:
+            if last_j < 0:
+                last_j = led._commit(last[0], last[1], last[2], carry_v, carry_a)
+                carry_v = carry_a = 0.0
+            led.lo.append(last_j)
+            pending.append(wi)
+            wi += 1
+            next_first = watch[wi][0] if wi < n_w else -2
+        ev = step(idx, raw)
+        if ev is None:
+            continue
+        cls = type(ev)
+        if cls is Move:
+            move(ev)
+            if ev.kind != EONLY:
+                continue
+        elif cls is Barrier:
+            barrier(ev)
+        else:
+            continue
+        # the model stands empty after this line
+        if res.peak_v > carry_v:
+            carry_v = res.peak_v
+        if res.peak_a > carry_a:
+            carry_a = res.peak_a
+        res.peak_v = res.peak_a = 0.0
+        last = (idx, snap(), _sums(res))
+        last_j = -1
+        if pending:
+            if watch[pending[-1]][1] >= idx:        # a stop inside a watched range
+                led.ok = False
+            last_j = led._commit(idx, last[1], last[2], carry_v, carry_a)
+            carry_v = carry_a = 0.0
+            led.hi.extend([last_j] * len(pending))
+            pending = []
+    led.n_lines = idx + 1
+    sim.stop()
+    carry_v, carry_a = max(carry_v, res.peak_v), max(carry_a, res.peak_a)
+    end_j = led._commit(led.n_lines - 1, snap(), _sums(res), carry_v, carry_a)
+    led.hi.extend([end_j] * len(pending))
+    if wi < n_w:              # ranges past the end of the file: nothing to replay from
+        led.ok = False
+    res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0
+    res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
+
+
+def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None):
+    """simulate_file that also returns a Ledger of the stops around the sorted, disjoint
+    line ranges `watch` [(first, last), ...] (0-based, inclusive), for replay_runs.
+    `lines`: the file's (idx, raw) lines if the caller reads them (read_lines(path))."""
+    state = st.MachineState(profile, path)
+    state.warnings = []
+    sim = _Sim(profile, on_line, on_block)
+    sim.max_stop_lines = math.inf
+    led = Ledger()
+    _play(st.read_lines(path) if lines is None else lines, state, sim, watch, led)
+    res = sim.res
+    led.stop_lines = res.stop_lines
+    res.stop_lines = led.stop_lines[:MAX_STOP_LINES]
+    led.res = res
+    return res, led
+
+
+class ReplayMismatch(Exception):
+    """A replayed stretch did not end as the full pass did (not empty, or another reader
+    state): the splice would not be the full pass's result."""
+
+
+E_TOL_D = 1e-9     # mm of filament: a logical E summed in another order (a re-timed block
+                   # cuts a stroke's E into other pieces) differs by rounding only; the
+                   # file writes E to 1e-5 mm, so 1e-9 mm is no difference a line can make
+_E = st.MachineState.MODAL.index("e")
+
+
+def _same_state(a, b):
+    """Two reader snapshots that make every later line read the same: equal, but the
+    logical E to E_TOL_D."""
+    return a[:_E] == b[:_E] and a[_E + 1:] == b[_E + 1:] and abs(a[_E] - b[_E]) <= E_TOL_D
+
+
+def replay_runs(path, profile, led, runs, on_line=None, on_block=None):
+    """The firmware model on `path`, a file that equals the one `led` was recorded on
+    except inside `runs` [(lo, hi, first, last), ...]: ledger stop indices lo < hi, and the
+    new file's lines first..last that replace the old lines line[lo]+1..line[hi] (sorted,
+    disjoint).  Plays those lines only, each stretch from the reader snapshot at lo, and
+    checks that it ends empty; where the reader's state there is not the recorded one (an F
+    the old lines did not leave, say; the logical E is compared to E_TOL_D, as the file's
+    own E words are read with the same rounding), the stretch goes on to the next recorded stop,
+    and so on, until both agree (or the file ends).  Then splices: the sums of the full
+    pass minus the old stretches plus the new ones (equal to a full pass to rounding,
+    ~1e-15 relative), the peaks of the stretches kept and played, every full stop's line
+    renumbered.  Returns (SimResult, [(lo, hi), ...] the stretches played).
+    Raises ReplayMismatch if the files do not line up as `runs` says."""
+    if not led.ok:
+        raise ReplayMismatch("the ledger has a stop inside a watched range")
+    out = SimResult()
+    tot = list(_sums(led.res))
+    peak_v, peak_a = [], []
+    stop_lines = []
+    played = []
+    kept_from = 0             # first ledger stretch (by its end index) not yet accounted for
+    old_stop = led.stop_lines
+    si = 0                    # next old stop line to consider
+    shift = 0                 # new line - old line, outside the runs
+    n_sums = _N_SUMS
+    end = len(led.line) - 1   # the end of the file
+    queue = list(runs)
+    queue.reverse()
+    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+        lines = enumerate(fh)
+        pos = -1              # last line read
+
+        def upto(last):
+            nonlocal pos
+            if pos >= last:
+                return
+            for idx, raw in lines:
+                pos = idx
+                yield idx, raw
+                if idx >= last:
+                    return
+
+        while queue:
+            lo, hi, first, last = queue.pop()
+            # stretches kept before this run: their peaks, their full stops (renumbered)
+            for j in range(kept_from, lo + 1):
+                peak_v.append(led.peak_v[j])
+                peak_a.append(led.peak_a[j])
+            lo_line = led.line[lo]
+            while si < len(old_stop) and old_stop[si] - 1 <= lo_line:
+                stop_lines.append(old_stop[si] + shift)
+                si += 1
+            if first - 1 != lo_line + shift or pos > first - 1:
+                raise ReplayMismatch(f"run at old line {lo_line + 1} does not start where the new file has it")
+            for _ in upto(first - 1):
+                pass
+            if pos != first - 1:
+                raise ReplayMismatch(f"the new file ends before line {first + 1}")
+            state = st.MachineState(profile, path)
+            state.warnings = []
+            state.restore(led.state[lo])
+            sim = _Sim(profile, on_line, on_block)
+            sim.max_stop_lines = math.inf
+            while True:
+                _play(upto(last), state, sim, None, None)
+                if hi == end:
+                    sim.stop()
+                if pos != last or not sim.empty():
+                    raise ReplayMismatch(f"replay of lines {first + 1}-{last + 1} did not end empty")
+                if hi == end or _same_state(state.snapshot(), led.state[hi]):
+                    break
+                # not where the full pass was: go on to the next recorded stop
+                after = last - led.line[hi]          # new line - old line after this run
+                hi += 1
+                last = led.line[hi] + after
+                if queue and hi > queue[-1][0]:      # into the next run: take it in
+                    _, hi2, _, last2 = queue.pop()
+                    if hi2 >= hi:
+                        hi, last = hi2, last2
+                    else:
+                        last = led.line[hi] + (last2 - led.line[hi2])
+            r = sim.res
+            old_lo, old_hi = led.sums_at(lo), led.sums_at(hi)
+            new = _sums(r)
+            for k in range(n_sums):
+                tot[k] += new[k] - (old_hi[k] - old_lo[k])
+            peak_v.append(r.peak_v)
+            peak_a.append(r.peak_a)
+            hi_line = led.line[hi]
+            while si < len(old_stop) and old_stop[si] - 1 <= hi_line:
+                si += 1
+            stop_lines.extend(r.stop_lines)
+            shift = last - hi_line
+            kept_from = hi + 1
+            played.append((lo, hi))
+    for j in range(kept_from, len(led.line)):
+        peak_v.append(led.peak_v[j])
+        peak_a.append(led.peak_a[j])
+    stop_lines.extend(s + shift for s in old_stop[si:])
+    for name, value in zip(_SUMS, tot):
+        setattr(out, name, int(round(value)) if name in _INT_SUMS else value)
+    out.peak_v = max(peak_v) if peak_v else 0.0
+    out.peak_a = max(peak_a) if peak_a else 0.0
+    out.stop_lines = stop_lines[:MAX_STOP_LINES]
+    return out, played

@@ -23,7 +23,8 @@ from array import array
 import numpy as np
 
 from . import state as st
-from .firmware.resonance import Oscillator, Response, shaped_events, shaper_pulses, smoothing
+from .firmware.resonance import (Oscillator, Response, _smoothing_chunk, shaped_events,
+                                 shaper_pulses, smoothing)
 from .firmware.simulate import CORNER_COS, simulate_events
 
 UM = 1000.0               # mm -> micrometres
@@ -52,45 +53,101 @@ class Trace:
         return len(self.t0)
 
 
-def trace(path, profile) -> Trace:
-    """Play the file (firmware/simulate.py) and collect its commanded motion."""
-    items = array("d")                      # per block or rest: 12 numbers, flat
-    add = items.extend
+ROW = 12                  # numbers per block or rest in the firmware model's stream
+IDLE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, -1, 0.0)   # 1 s at rest
 
-    def on_block(b):
-        add((b.ux, b.uy, b.start_v, b.cruise_v, b.end_v, b.accel, b.accel_t, b.cruise_t,
-             b.decel_t, 1.0 if b.after_stop else 0.0, b.idx, 1.0))
 
-    def rest(dt):
-        if dt > 0.0:
-            add((0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, 0.0, 1.0, -1, 0.0))
+def _block_row(b):
+    return (b.ux, b.uy, b.start_v, b.cruise_v, b.end_v, b.accel, b.accel_t, b.cruise_t,
+            b.decel_t, 1.0 if b.after_stop else 0.0, b.idx, 1.0)
+
+
+def _rest_row(dt_t):
+    return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt_t, 0.0, 1.0, -1, 0.0)
+
+
+def hooks(sink):
+    """(on_line, on_block, on_barrier_dwell) that feed `sink` (a Collector, or anything with
+    on_block(b) and rest(dt_t)) from a firmware-model pass: E-only moves and dwells are
+    rests.  on_barrier_dwell(dwell_t) must be called once the simulator took the Barrier
+    (wrap_events does it)."""
+    eonly = st.EONLY
 
     def on_line(rec):
-        if rec.kind == st.EONLY:
-            rest(rec.time_t)
+        if rec.kind == eonly:
+            sink.rest(rec.time_t)
+    return on_line, sink.on_block, sink.rest
 
-    def events():
-        for item in st.events(path, profile):
-            yield item
-            # resumed only after the simulator took the barrier: its blocks are flushed
-            ev = item[2]
-            if type(ev) is st.Barrier:
-                rest(ev.dwell_t)
 
-    res = simulate_events(events(), profile, on_line, on_block)
-    tr = trace_from_items(items)
+def wrap_events(event_iter, on_barrier_dwell):
+    """The (idx, raw, event) stream, calling on_barrier_dwell(dwell_t) after each Barrier:
+    the generator resumes only after the simulator took it, so its blocks are flushed."""
+    Barrier = st.Barrier
+    for item in event_iter:
+        yield item
+        ev = item[2]
+        if type(ev) is Barrier:
+            on_barrier_dwell(ev.dwell_t)
+
+
+def play(path, profile, sink, on_line=None):
+    """One firmware-model pass over the file feeding `sink`; returns the SimResult.
+    on_line, if given, sees every LineRecord too."""
+    ring_line, on_block, on_dwell = hooks(sink)
+    if on_line is not None:
+        def both(rec, _a=on_line, _b=ring_line):
+            _a(rec)
+            _b(rec)
+    else:
+        both = ring_line
+    return simulate_events(wrap_events(st.events(path, profile), on_dwell), profile, both, on_block)
+
+
+class _Rows:
+    """Whole-trace sink: every row kept (for plots and tests)."""
+
+    def __init__(self):
+        self.items = array("d")
+
+    def on_block(self, b):
+        self.items.extend(_block_row(b))
+
+    def rest(self, dt_t):
+        if dt_t > 0.0:
+            self.items.extend(_rest_row(dt_t))
+
+
+def trace(path, profile) -> Trace:
+    """Play the file (firmware/simulate.py) and collect its whole commanded motion (memory
+    grows with the file: ~0.4 kB per block; figures() streams instead)."""
+    rows = _Rows()
+    res = play(path, profile, rows)
+    tr = trace_from_items(rows.items)
     tr.sim = res                             # the firmware model's SimResult of the same pass
     return tr
+
+
+class _Carry:
+    """Where the pieces built so far end: what the next rows' pieces continue from (the
+    machine at rest at the origin, 1 s before the file, to start)."""
+
+    def __init__(self):
+        self.t, self.s = -1.0, 0.0
+        self.pos, self.vel_end, self.acc = np.zeros(2), np.zeros(2), np.zeros(2)
+        self.ux = self.uy = self.isb = 0.0
 
 
 def trace_from_items(items) -> Trace:
     """Build the pieces from (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t,
     decel_t, after_stop, idx, is_block) rows (rests: is_block 0, cruise_t = duration)."""
-    m = np.asarray(items, float).reshape(-1, 12)
-    idle = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, -1, 0.0]])
-    m = np.vstack([idle, m, idle])          # at rest before and after (1 s each, not counted)
+    m = np.asarray(items, float).reshape(-1, ROW)
+    idle = np.array([IDLE])
+    return _pieces(np.vstack([idle, m, idle]), _Carry())   # at rest before and after (1 s each, not counted)
+
+
+def _pieces(m, c: _Carry) -> Trace:
+    """The pieces of rows m (k x 12) following on from c; c moves to their end."""
     ux, uy, sv, cv, ev, a, at, ct, dt, after, idx, isb = m.T
-    nb = len(m)
     dur = np.stack([at, ct, dt], 1).ravel()
     speed = np.stack([sv, cv, cv], 1).ravel()
     tan_a = np.stack([a, 0.0 * a, -a], 1).ravel()
@@ -99,27 +156,34 @@ def trace_from_items(items) -> Trace:
     acc = tan_a[:, None] * u
     end_speed = speed + tan_a * dur
     vel_end = end_speed[:, None] * u
-    t0 = np.concatenate([[-1.0], np.cumsum(dur)[:-1] - 1.0])   # file starts at t = 0
+    cs = np.cumsum(dur)
+    t0 = c.t + np.concatenate([[0.0], cs[:-1]])              # the file starts at t = 0
     ds = speed * dur + 0.5 * tan_a * dur * dur
-    s = np.concatenate([[0.0], np.cumsum(ds)[:-1]])
-    disp = ds[:, None] * u
-    pos = np.vstack([[0.0, 0.0], np.cumsum(disp, axis=0)[:-1]])
-    n = 3 * nb
+    cs_s = np.cumsum(ds)
+    s = c.s + np.concatenate([[0.0], cs_s[:-1]])
+    cs_p = np.cumsum(ds[:, None] * u, axis=0)
+    pos = c.pos + np.vstack([[0.0, 0.0], cs_p[:-1]])
+    n = len(dur)
     # velocity jumps: only where a block or a rest begins (inside a block the speed is
     # continuous; take it exactly so rounding does not ring)
     starts = np.zeros(n, bool)
     starts[::3] = True
-    prev_end = np.vstack([[0.0, 0.0], vel_end[:-1]])
+    prev_end = np.vstack([c.vel_end, vel_end[:-1]])
     dv = np.where(starts[:, None], vel - prev_end, 0.0)
-    prev_acc = np.vstack([[0.0, 0.0], acc[:-1]])
-    da = acc - prev_acc
+    da = acc - np.vstack([c.acc, acc[:-1]])
     # a junction is a gentle turn when consecutive blocks are both moving and turn < 30 deg
     cls = np.zeros(n, np.int8)
-    cos_turn = np.concatenate([[-1.0], ux[1:] * ux[:-1] + uy[1:] * uy[:-1]])
-    moving_pair = np.concatenate([[False], (isb[1:] > 0) & (isb[:-1] > 0) & (after[1:] == 0)])
+    pux, puy, pisb = np.concatenate([[c.ux], ux[:-1]]), np.concatenate([[c.uy], uy[:-1]]), \
+        np.concatenate([[c.isb], isb[:-1]])
+    cos_turn = ux * pux + uy * puy
+    moving_pair = (isb > 0) & (pisb > 0) & (after == 0)
     gentle = moving_pair & (cos_turn >= CORNER_COS)
     cls[::3] = np.where(gentle, TURN, CORNER)
     # an axis-parallel pair (e.g. pure Z) has cos 0 with no XY turn: its XY jump is 0 anyway
+    c.t, c.s = c.t + float(cs[-1]), c.s + float(cs_s[-1])
+    c.pos = c.pos + cs_p[-1]
+    c.vel_end, c.acc = vel_end[-1].copy(), acc[-1].copy()
+    c.ux, c.uy, c.isb = float(ux[-1]), float(uy[-1]), float(isb[-1])
     return Trace(dict(t0=t0, dur=dur, acc=acc, vel=vel, dv=dv, da=da, pos=pos, s=s,
                       speed=speed, tan_a=tan_a, cls=cls, idx=np.repeat(idx, 3).astype(np.int64)))
 
@@ -175,34 +239,229 @@ def responses(tr: Trace, model: dict, shaper: str | None = None):
 
 
 def _axis_figures(tr: Trace, model: dict, name: str, shaper: str, total_t: float) -> dict:
-    d = {}
+    got = {}
     for part in ("all",) + PARTS:
         r = response(tr, model, name, part, shaper)
-        key = "" if part == "all" else "_" + part
-        d["rms" + key + "_um"] = math.sqrt(max(r.int_r2(), 0.0) / total_t) * UM if total_t > 0 else 0.0
-        d["peak" + key + "_um"] = r.peak() * UM
+        got[part] = (r.int_r2(), r.peak())
         del r
+    return _axis_dict(got, total_t)
+
+
+def _axis_dict(got: dict, total_t: float) -> dict:
+    """{part: (int r^2 dt, peak |r|)} -> rms / peak (micrometres) per part."""
+    d = {}
+    for part in ("all",) + PARTS:
+        i_r2, peak = got[part]
+        key = "" if part == "all" else "_" + part
+        d["rms" + key + "_um"] = math.sqrt(max(i_r2, 0.0) / total_t) * UM if total_t > 0 else 0.0
+        d["peak" + key + "_um"] = peak * UM
     return d
 
 
-def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
-    shaper = model["shaper"] if shaper is None else shaper
-    total_t = tr.total_t
+def _assemble(model: dict, shaper: str, total_t: float, axes: dict, smooth=None) -> dict:
     out = {"model": dict(model, shaper=shaper), "time_s": total_t}
-    for name in "xy":
-        out[name] = _axis_figures(tr, model, name, shaper, total_t)
+    out.update(axes)
     # the XY error vector: RMS adds in squares; its peak is at least the larger axis'
     xy = {}
     for key in ("rms_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
         xy[key] = math.hypot(out["x"][key], out["y"][key])
     xy["peak_um"] = max(out["x"]["peak_um"], out["y"]["peak_um"])
     out["xy"] = xy
-    if shaper != "none":
-        pulses = [shaper_pulses(shaper, model[f"shaper_freq_{a}_hz"], model["shaper_damping_r"])
-                  for a in "xy"]
-        rms_d, max_d = smoothing(tr.t0, tr.pos, tr.vel, tr.acc, pulses)
+    if smooth is not None:
+        rms_d, max_d = smooth
         out["smoothing"] = {"rms_um": rms_d * UM, "max_um": max_d * UM}
     return out
+
+
+def _pulses(model: dict, shaper: str):
+    return [shaper_pulses(shaper, model[f"shaper_freq_{a}_hz"], model["shaper_damping_r"]) for a in "xy"]
+
+
+def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
+    shaper = model["shaper"] if shaper is None else shaper
+    total_t = tr.total_t
+    axes = {name: _axis_figures(tr, model, name, shaper, total_t) for name in "xy"}
+    smooth = smoothing(tr.t0, tr.pos, tr.vel, tr.acc, _pulses(model, shaper)) if shaper != "none" else None
+    return _assemble(model, shaper, total_t, axes, smooth)
+
+
+# ---------------------------------------------------------------- streaming, bounded memory
+CHUNK_BLOCKS = 16384      # blocks turned into pieces and solved at once
+STREAM_SMOOTH = 1 << 16   # merged pieces of the shaper smoothing evaluated at once
+
+
+class _Stream:
+    """The ringing of one axis and part, solved chunk by chunk: events (shaped) wait until
+    no later chunk can bring an earlier one; the amplitude after the last solved event and
+    its time carry the oscillator across chunks (its piece's length is known only when the
+    next event is)."""
+
+    def __init__(self, osc: Oscillator, pulses):
+        self.osc, (self.a_p, self.t_p) = osc, pulses
+        self.t = np.zeros(0)
+        self.dr, self.drp = np.zeros(0), np.zeros(0)
+        self.t_last, self.c_last = None, 0j
+        self.int_r2, self.peak = 0.0, 0.0
+
+    def add(self, t, dr, drp, horizon_t):
+        """Unshaped events (time, dr, drp); solve every event earlier than horizon_t."""
+        t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
+        t_all = np.concatenate([self.t, t_s])
+        order = np.argsort(t_all, kind="stable")
+        t_all = t_all[order]
+        dr_all = np.concatenate([self.dr, dr_s])[order]
+        drp_all = np.concatenate([self.drp, drp_s])[order]
+        k = int(np.searchsorted(t_all, horizon_t, side="left"))
+        self._solve(t_all[:k], dr_all[:k], drp_all[:k])
+        self.t, self.dr, self.drp = t_all[k:], dr_all[k:], drp_all[k:]
+
+    def _solve(self, t, dr, drp):
+        if len(t) == 0:
+            return
+        osc = self.osc
+        dc = osc.jump_amplitude(dr, drp)
+        if self.t_last is not None:        # the carried amplitude starts the cumulative sum
+            t = np.concatenate([[self.t_last], t])
+            dc = np.concatenate([[self.c_last], dc])
+        c = osc.amplitudes(t, dc)
+        if len(c) > 1:
+            dur = np.diff(t)
+            self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
+            self.peak = max(self.peak, float(osc.peak_abs_r(c[:-1], dur).max()))
+        self.t_last, self.c_last = float(t[-1]), complex(c[-1])
+
+    def finish(self):
+        self._solve(self.t, self.dr, self.drp)
+        self.t = np.zeros(0)
+        if self.t_last is not None:        # the last rings down at rest
+            c, inf = np.array([self.c_last]), np.array([np.inf])
+            self.int_r2 += float(self.osc.integral_r2(c, inf)[0])
+            self.peak = max(self.peak, float(self.osc.peak_abs_r(c, inf)[0]))
+            self.t_last = None
+        return self.int_r2, self.peak
+
+
+class _SmoothStream:
+    """resonance.smoothing over a window of pieces: the merged pieces between breakpoints
+    (piece starts, shifted by every pulse time) are integrated once every breakpoint up to
+    them is known, i.e. below the pieces' end plus the earliest (negative) pulse time; the
+    window keeps the pieces later merged pieces still look up (back to the latest pulse
+    time)."""
+
+    def __init__(self, pulses):
+        self.pulses = pulses
+        ts = np.concatenate([t_p for _a, t_p in pulses] + [np.zeros(1)])
+        self.t_min, self.t_max = float(ts.min()), float(ts.max())
+        self.win = None
+        self.lo = self.t_first = None
+        self.integral, self.max_d = 0.0, 0.0
+
+    def add(self, tr: Trace, t_end: float, final: bool):
+        new = (tr.t0, tr.pos, tr.vel, tr.acc)
+        if self.win is None:
+            self.win = new
+            self.lo = self.t_first = float(tr.t0[0])
+        else:
+            self.win = tuple(np.concatenate([w, x]) for w, x in zip(self.win, new))
+        t0, x0, v0, a0 = self.win
+        brk = np.unique(np.concatenate([t0 + ti for _a, t_p in self.pulses for ti in t_p]
+                                       + [t0, [self.lo]]))
+        if final:
+            self.t_last = float(t0[-1])
+            brk = brk[(brk >= self.lo) & (brk <= self.t_last)]
+        else:
+            brk = brk[(brk >= self.lo) & (brk < t_end + self.t_min)]
+        for c0 in range(0, max(len(brk) - 1, 0), STREAM_SMOOTH):
+            i, m = _smoothing_chunk(t0, x0, v0, a0, self.pulses, brk[c0:c0 + STREAM_SMOOTH + 1], 4)
+            self.integral += i
+            self.max_d = max(self.max_d, m)
+        if len(brk):
+            self.lo = float(brk[-1])
+        k = max(int(np.searchsorted(t0, self.lo - self.t_max, side="right")) - 2, 0)
+        self.win = tuple(w[k:] for w in self.win)
+
+    def result(self):
+        total_t = self.t_last - self.t_first
+        return (math.sqrt(max(self.integral, 0.0) / total_t) if total_t > 0 else 0.0), self.max_d
+
+
+class Collector:
+    """Ringing figures of a firmware-model pass in bounded memory.
+
+    Feed it the pass's planned blocks (on_block) and its rests (rest: E-only moves and
+    dwells), in execution order -- hooks() / wrap_events() / play() do that -- then call
+    figures(): the same dict as figures_of_trace on the whole trace.  Every chunk_blocks
+    rows are turned into pieces and solved; what crosses to the next chunk is the pieces'
+    end state, each axis' and part's oscillator amplitude, the shaped events not yet due
+    and the shaper smoothing's window: memory does not grow with the file."""
+
+    def __init__(self, profile=None, shaper: str | None = None, chunk_blocks: int = CHUNK_BLOCKS,
+                 model: dict | None = None):
+        self.model = model_of(profile) if model is None else model
+        self.shaper = self.model["shaper"] if shaper is None else shaper
+        self.limit = ROW * max(int(chunk_blocks), 1)
+        pulses = _pulses(self.model, self.shaper)
+        self.streams = {}
+        for ax, name in enumerate("xy"):
+            osc = Oscillator(self.model[f"freq_{name}_hz"], self.model["damping_r"])
+            for part in ("all",) + PARTS:
+                self.streams[name, part] = _Stream(osc, pulses[ax])
+        self.horizon = {name: float(pulses[ax][1].min()) for ax, name in enumerate("xy")}
+        self.smooth = _SmoothStream(pulses) if self.shaper != "none" else None
+        self.carry = _Carry()
+        self.rows = array("d", IDLE)       # at rest 1 s before the file (not counted)
+        self.skip_first = True
+        self.time_t = 0.0
+        self.chunks = 0                    # chunks solved (tests force many)
+        self.result = None
+
+    def on_block(self, b):
+        self.rows.extend(_block_row(b))
+        if len(self.rows) >= self.limit:
+            self._flush(False)
+
+    def rest(self, dt_t):
+        if dt_t > 0.0:
+            self.rows.extend(_rest_row(dt_t))
+            if len(self.rows) >= self.limit:
+                self._flush(False)
+
+    def _flush(self, final: bool):
+        m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
+        self.rows = array("d")
+        if not len(m):
+            return
+        counted = m[1 if self.skip_first else 0:len(m) - 1 if final else len(m)]
+        self.time_t += float(counted[:, 6:9].sum())
+        self.skip_first = False
+        self.chunks += 1
+        tr = _pieces(m, self.carry)
+        for ax, name in enumerate("xy"):
+            horizon_t = np.inf if final else self.carry.t + self.horizon[name]
+            for part in ("all",) + PARTS:
+                dr, drp = _jumps(tr, self.model, name, ax, part)
+                keep = np.zeros(len(tr), bool)
+                for j in (dr, drp):
+                    if j is not None:
+                        keep |= j != 0.0
+                zero = np.zeros(int(keep.sum()))
+                self.streams[name, part].add(tr.t0[keep], zero if dr is None else dr[keep],
+                                             zero if drp is None else drp[keep], horizon_t)
+        if self.smooth is not None:
+            self.smooth.add(tr, self.carry.t, final)
+
+    def figures(self) -> dict:
+        """The figures (the pass must be over: the machine is put at rest after it)."""
+        if self.result is None:
+            self.rows.extend(IDLE)         # at rest 1 s after the file: the last ring-down
+            self._flush(True)
+            axes = {name: _axis_dict({part: self.streams[name, part].finish()
+                                      for part in ("all",) + PARTS}, self.time_t)
+                    for name in "xy"}
+            smooth = self.smooth.result() if self.smooth is not None else None
+            self.result = _assemble(self.model, self.shaper, self.time_t, axes, smooth)
+            self.streams = self.smooth = None
+        return self.result
 
 
 def figures(path, profile, shaper: str | None = None) -> dict:
@@ -210,7 +469,9 @@ def figures(path, profile, shaper: str | None = None) -> dict:
     {"model": {...}, "time_s", "x": {...}, "y": {...}, "xy": {...}[, "smoothing": {...}]}
     with rms_um / peak_um and their _ramp / _corner / _turn parts per axis.  `shaper`
     overrides the profile's ("none" for the unshaped machine)."""
-    return figures_of_trace(trace(path, profile), model_of(profile), shaper)
+    col = Collector(profile, shaper)
+    play(path, profile, col)
+    return col.figures()
 
 
 def compare(before: dict, after: dict) -> dict:

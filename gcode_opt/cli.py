@@ -164,14 +164,20 @@ def build_parser():
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
     p.add_argument("--report", metavar="REPORT.html",
                    help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")
+    p.add_argument("--no-ringing", action="store_true",
+                   help="skip the ringing figures (the frame's resonance driven by the original and the written "
+                        "file, per axis, before/after: the summary's 'ringing', one summary line, the report's "
+                        "ringing section); they cost a firmware-model pass over each file")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
     p.add_argument("--profile-time", action="store_true",
                    help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
 
     s = sub.add_parser("simulate", help="play a file through the firmware model",
                        description="Plan a whole file the way a constant-acceleration lookahead firmware does "
-                                   "and report print time, int|a|^2 dt, peak speed and acceleration, full stops.")
+                                   "and report print time, int|a|^2 dt, peak speed and acceleration, full stops, "
+                                   "and the ringing the frame's resonance gives (the profile's [resonance] table).")
     s.add_argument("input", metavar="FILE.gcode")
+    s.add_argument("--no-ringing", action="store_true", help="skip the ringing figures")
     s.add_argument("--profile", default="auto", help="as for process (default: auto)")
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
 
@@ -262,13 +268,14 @@ def _process(a, out, job, Options, Progress, process):
     opts = Options(alpha=a.alpha, features=features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
                    max_segments=a.segments, min_length_d=a.min_length, progress=prog)
     opts.max_turn_deg = a.max_turn
+    opts.ringing = not a.no_ringing                   # the pipeline's passes feed ringing collectors
     report_error = []
     pending = []
 
     def write_report(orig, new, summary):
         try:                                          # a failed report never costs the G-code output
             from .report.html import write_report
-            write_report(orig, new, prof, summary, a.report)
+            write_report(orig, new, prof, summary, a.report, ringing=opts.ringing)
         except Exception as e:                        # noqa: BLE001 - reported after the output is in place
             if a.debug:
                 import traceback
@@ -277,11 +284,15 @@ def _process(a, out, job, Options, Progress, process):
             report_error.append(f"{a.report}: report not written: {why}")
 
     def write_report_hook(orig, new, summary):        # runs while both files exist
+        if opts.ringing and "ringing" not in summary:
+            add_ringing(summary, orig, new, prof, a.debug)
+        if not a.report:
+            return
         if job is None:
             write_report(orig, new, summary)
         else:                                         # the .bgcode is written after the pipeline
             pending.append((orig, new, summary))
-    hook = write_report_hook if a.report else None
+    hook = write_report_hook if a.report or opts.ringing else None
     if job is None:
         summary = process(a.input, out, prof, opts, before_replace=hook)
     else:
@@ -331,6 +342,20 @@ def _process(a, out, job, Options, Progress, process):
     return rc
 
 
+def add_ringing(summary, orig, new, prof, debug=False):
+    """summary["ringing"] from one firmware-model pass over each file, where the pipeline
+    did not already give it; a failure here never costs the output (a note instead)."""
+    try:
+        from .ringing import summary as ringing_summary
+        summary["ringing"] = ringing_summary(orig, new, prof)
+        summary["per_stroke"] = summary.pop("per_stroke", [])
+    except Exception as e:                            # noqa: BLE001 - the G-code output comes first
+        if debug:
+            import traceback
+            traceback.print_exc()
+        summary["ringing_error"] = f"{type(e).__name__}: {e}"
+
+
 MAX_SHOWN_WARNINGS = 10
 
 
@@ -370,6 +395,11 @@ def format_summary(s):
         f"  firmware vs law    time {pct(rs['firmware_vs_law']['time'])}, int|a|^2 {pct(rs['firmware_vs_law']['int_a2'])}",
         f"  full stops         {s['whole_file']['before']['full_stops']} -> {s['whole_file']['after']['full_stops']}",
     ]
+    if s.get("ringing"):
+        from .ringing import headline_text
+        lines.append(f"  ringing            {headline_text(s['ringing'])}")
+    elif s.get("ringing_error"):
+        lines.append(f"  ringing            not computed: {s['ringing_error']}")
     return "\n".join(lines)
 
 
@@ -410,16 +440,28 @@ def format_coverage(cov, pct):
 def cmd_simulate(a):
     from .firmware.simulate import simulate_file
     job = _binary_input(a.input)                      # .bgcode: its decoded G-code is simulated
+    fig = []
+
+    def run(src, prof):
+        if a.no_ringing:
+            return simulate_file(src, prof)
+        from .ringing import Collector, play
+        col = Collector(prof)                         # rides on the same firmware-model pass
+        res = play(src, prof, col)
+        fig.append(col.figures())
+        return res
     try:
         src = a.input if job is None else job.src
         if job is None:
-            res = simulate_file(src, _load_profile(a.profile, src, a.json))
+            res = run(src, _load_profile(a.profile, src, a.json))
         else:
-            res = job.run(lambda: simulate_file(src, _load_profile(a.profile, src, a.json, metadata=job.settings)))
+            res = job.run(lambda: run(src, _load_profile(a.profile, src, a.json, metadata=job.settings)))
     finally:
         if job is not None:
             job.close()
     d = res.as_dict()
+    if fig:
+        d["ringing"] = fig[0]
     if a.json:
         print(json.dumps(d, indent=1))
         return 0
@@ -433,6 +475,9 @@ def cmd_simulate(a):
             ("corners (> 30 deg)", f"{d['corners']}, sum dv^2 {d['corner_dv2']:.4g} mm^2/s^2"),
             ("full stops", f"{d['full_stops']}" + (f" (lines {stops})" if stops else "")),
             ("short segments", f"{d['short_segments']} (shorter than the firmware's minimum segment time)")]
+    if fig:
+        from .ringing import text_rows
+        rows += text_rows(fig[0])
     for k, v in rows:
         print(f"{k:<20} {v}")
     return 0

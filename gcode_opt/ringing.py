@@ -103,8 +103,9 @@ def play(path, profile, sink, on_line=None):
     return simulate_events(wrap_events(st.events(path, profile), on_dwell), profile, both, on_block)
 
 
-class _Rows:
-    """Whole-trace sink: every row kept (for plots and tests)."""
+class Rows:
+    """Whole-trace sink: every row kept (12 floats a block; trace_from_items(rows.items)
+    makes the pieces), for plots and tests."""
 
     def __init__(self):
         self.items = array("d")
@@ -120,7 +121,7 @@ class _Rows:
 def trace(path, profile) -> Trace:
     """Play the file (firmware/simulate.py) and collect its whole commanded motion (memory
     grows with the file: ~0.4 kB per block; figures() streams instead)."""
-    rows = _Rows()
+    rows = Rows()
     res = play(path, profile, rows)
     tr = trace_from_items(rows.items)
     tr.sim = res                             # the firmware model's SimResult of the same pass
@@ -474,25 +475,61 @@ def figures(path, profile, shaper: str | None = None) -> dict:
     return col.figures()
 
 
+def _change(b, a):
+    return {"before": b, "after": a, "change": (a / b - 1.0) if b else None}
+
+
 def compare(before: dict, after: dict) -> dict:
     """Before / after / change of the XY ringing (RMS, peak, the parts, the shaper's
-    smoothing): the summary's and the report's headline."""
+    smoothing) and, under "x" / "y", of each axis: the summary's and the report's
+    headline."""
     out = {}
     for key in ("rms_um", "peak_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
-        b, a = before["xy"][key], after["xy"][key]
-        out[key] = {"before": b, "after": a, "change": (a / b - 1.0) if b else None}
+        out[key] = _change(before["xy"][key], after["xy"][key])
+    for ax in "xy":
+        out[ax] = {key: _change(before[ax][key], after[ax][key]) for key in AXIS_KEYS}
     if "smoothing" in before and "smoothing" in after:
         out["smoothing_rms_um"] = {"before": before["smoothing"]["rms_um"],
                                    "after": after["smoothing"]["rms_um"]}
+        out["smoothing_max_um"] = {"before": before["smoothing"]["max_um"],
+                                   "after": after["smoothing"]["max_um"]}
     return out
+
+
+AXIS_KEYS = tuple(f"{m}{p}_um" for m in ("rms", "peak") for p in ("", "_ramp", "_corner", "_turn"))
+
+
+def summary_of(before: dict, after: dict) -> dict:
+    """The summary JSON's "ringing" from the two files' figures (same model and shaper)."""
+    if before["model"] != after["model"]:
+        raise ValueError("ringing before and after were figured with different models")
+    return {"model": before["model"], "before": before, "after": after,
+            "change": compare(before, after)}
 
 
 def summary(original, processed, profile) -> dict:
     """The summary JSON's "ringing": both files' figures (the profile's shaper in force)
     and their comparison.  Two more firmware-model passes (one per file)."""
-    before, after = figures(original, profile), figures(processed, profile)
-    return {"model": before["model"], "before": before, "after": after,
-            "change": compare(before, after)}
+    return summary_of(figures(original, profile), figures(processed, profile))
+
+
+def headline_text(r: dict) -> str:
+    """One line for the CLI summary from summary_of's dict."""
+    c, m = r["change"], r["model"]
+
+    def pct(x):
+        return "n/a" if x is None else f"{x * 100:+.0f} %"
+    shaper = "no input shaper" if m["shaper"] == "none" else \
+        f"{m['shaper'].upper()} shaper at {m['shaper_freq_x_hz']:g} / {m['shaper_freq_y_hz']:g} Hz"
+    text = (f"RMS {c['rms_um']['before']:.2f} -> {c['rms_um']['after']:.2f} um ({pct(c['rms_um']['change'])}), "
+            f"peak {c['peak_um']['before']:.1f} -> {c['peak_um']['after']:.1f} um ({pct(c['peak_um']['change'])}); "
+            f"X {c['x']['rms_um']['before']:.2f} -> {c['x']['rms_um']['after']:.2f}, "
+            f"Y {c['y']['rms_um']['before']:.2f} -> {c['y']['rms_um']['after']:.2f} um RMS "
+            f"(resonance {m['freq_x_hz']:g} / {m['freq_y_hz']:g} Hz, damping {m['damping_r']:g}, {shaper})")
+    if "smoothing_rms_um" in c:
+        sm = c["smoothing_rms_um"]
+        text += f"; shaper smoothing {sm['before']:.1f} -> {sm['after']:.1f} um RMS"
+    return text
 
 
 def text_rows(fig: dict) -> list:

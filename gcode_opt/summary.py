@@ -99,8 +99,19 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
     }
 
 
+def ringing_section(before, after):
+    """The "ringing" key from the ringing figures of the original and the written file
+    (gcode_opt.ringing.figures / Collector.figures, the same model): model, before, after
+    (per axis rms/peak and their ramp / corner / gentle-turn parts, the shaper's smoothing
+    if one is set) and change (XY and per axis)."""
+    from .ringing import summary_of
+    return summary_of(before, after)
+
+
 def build_summary(in_path, out_path, written_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
-                  out_ranges, t_after, a2_after, v2_after, elapsed_t):
+                  out_ranges, t_after, a2_after, v2_after, elapsed_t, ringing=None):
+    """ringing: None, or (before, after) ringing figure dicts (the firmware-model passes over
+    the original and the written file fed ringing.Collector): the summary's "ringing" key."""
     idx = np.array([r[2] for r in out_ranges], dtype=int)
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
@@ -134,7 +145,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     lines_before = count_lines(in_path)
     lines_after = count_lines(written_path)
     size_after = os.path.getsize(written_path)
-    return {
+    out = {
         "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
         "options": {"alpha": opts.alpha, "features": list(opts.features), "overshoot": opts.overshoot_r,
                     "max_slowdown": opts.max_slowdown_r, "max_segments": opts.max_segments},
@@ -166,3 +177,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "features": getattr(opts, "feature_info", None),
         "per_stroke": per_stroke,
     }
+    if ringing is not None:                        # ahead of the long per-stroke list
+        out["ringing"] = ringing_section(*ringing)
+        out["per_stroke"] = out.pop("per_stroke")
+    return out

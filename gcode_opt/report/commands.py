@@ -61,6 +61,7 @@ def register(sub):
     r.add_argument("--summary", metavar="SUMMARY.json",
                    help="the summary `process --json` wrote: adds candidates, skip reasons, the law's figures")
     r.add_argument("--layer", type=int, help="layer to draw from above (default: the one that gained most)")
+    r.add_argument("--no-ringing", action="store_true", help="leave out the ringing section")
     r.set_defaults(func=cmd_report)
 
     g = sub.add_parser("law", help="table of the optimal law of motion along a path (CSV/JSON)",
@@ -111,7 +112,7 @@ def cmd_report(a):
         except (ValueError, UnicodeDecodeError) as e:
             raise UserError(f"{a.summary}: not a summary written by `process --json` ({e})") from None
     prof = _load_profile(a.profile, a.original)       # the same profile `process` chose for this file
-    data = write_report(a.original, a.processed, prof, summary, out, a.json, a.layer)
+    data = write_report(a.original, a.processed, prof, summary, out, a.json, a.layer, not a.no_ringing)
     h = data["headline"]
     sys.stderr.write(f"gcode-opt: report written to {out}"
                      + (f" and {a.json}" if a.json else "")

@@ -440,17 +440,35 @@ def ratio_share(part, whole):
     return None if not whole else float(part) / float(whole)
 
 
+def _ringing(orig_path, new_path, profile, tr0, tr1, summary):
+    """The ringing section: figures (the summary's when it has them) and the stretch plot's
+    samples, over the commanded motion of the report's own passes."""
+    from .. import ringing as rg
+    from .ringing import ringing_data
+    traces = (rg.trace_from_items(tr0.ring_rows), rg.trace_from_items(tr1.ring_rows))
+    tr0.ring_rows = tr1.ring_rows = None
+    return ringing_data(orig_path, new_path, profile, figures=(summary or {}).get("ringing"), traces=traces)
+
+
 # --------------------------------------------------------------------------- entry point
-def build_report(orig_path, new_path, profile, summary=None, layer=None):
+def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing=True):
+    """ringing: add the ringing section (figures from the summary's "ringing" when it has
+    them, the stretch from the report's own firmware-model passes)."""
     fences, n_orig = parse_fences(new_path)
     lines_before = count_lines(orig_path)
     if n_orig != lines_before:
         raise ValueError(f"{new_path} does not come from {orig_path}: its fences account for {n_orig} "
                          f"original lines, the original has {lines_before}")
-    tr0 = trace_file(orig_path, profile)
-    tr1 = trace_file(new_path, profile)
+    tr0 = trace_file(orig_path, profile, ringing=ringing)
+    tr1 = trace_file(new_path, profile, ringing=ringing)
     rows = _stroke_rows(tr0, tr1, fences, summary, profile)
     head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
+    ring = None
+    if ringing:
+        ring = _ringing(orig_path, new_path, profile, tr0, tr1, summary)
+        h = ring["headline"]
+        head["ringing_rms_um"] = bac(h["rms_um"]["before"], h["rms_um"]["after"])
+        head["ringing_peak_um"] = bac(h["peak_um"]["before"], h["peak_um"]["after"])
     data = {
         "schema": SCHEMA,
         "original": str(orig_path), "processed": str(new_path),
@@ -468,6 +486,8 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None):
         "representative": _representatives(rows, tr0),
         "layer_map": _map_layer(rows, tr0, layer),
         "whole_file": {"before": tr0.res.as_dict(), "after": tr1.res.as_dict()},
-        "per_stroke": rows,
     }
+    if ring is not None:
+        data["ringing"] = ring
+    data["per_stroke"] = rows
     return data, Context(tr0, tr1, fences, summary, profile)

@@ -6,7 +6,8 @@ import math
 _SUP = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 UNITS = {"s": "s", "mm2_s3": "mm²/s³", "mm2_s": "mm²/s", "J_s": "J·s", "mm_s": "mm/s", "mm_s2": "mm/s²",
-         "mm2_s2": "mm²/s²", "mm": "mm", "count": "", "bytes": "B", "pct": "", "share": "", "s2": "s²", "hz": "/s"}
+         "mm2_s2": "mm²/s²", "mm": "mm", "count": "", "bytes": "B", "pct": "", "share": "", "s2": "s²", "hz": "/s",
+         "um": "µm"}
 
 
 def sig(v: float, n: int = 4) -> str:

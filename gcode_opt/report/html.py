@@ -37,6 +37,8 @@ HEADLINE_ROWS = [
     ("Time of the re-timed strokes", "retimed_time_s", "s", ""),
     ("∫|a|² dt, re-timed strokes", "int_a2_retimed_mm2_s3", "mm2_s3", "the inertia norm the law lowers"),
     ("∫|a|² dt, whole file", "int_a2_whole_mm2_s3", "mm2_s3", "includes direction changes on curves"),
+    ("Ringing RMS, whole file (XY)", "ringing_rms_um", "um", "what shows on the print as ghosting: see Ringing"),
+    ("Peak ringing, whole file (XY)", "ringing_peak_um", "um", ""),
     ("Kinetic-energy integral m/2 ∫|v|² dt, re-timed strokes", "kinetic_retimed_J_s", "J_s",
      "m = the profile's moving mass along each stroke"),
     ("Kinetic-energy integral m/2 ∫|v|² dt, whole file", "kinetic_whole_J_s", "J_s", ""),
@@ -79,6 +81,8 @@ def _headline_html(data):
     h = data["headline"]
     out = ['<table><tr><th>Quantity</th><th>Before</th><th>After</th><th>Change</th><th>Note</th></tr>']
     for label, key, unit, note in HEADLINE_ROWS:
+        if key.startswith("ringing_") and key not in h:     # run without the ringing figures
+            continue
         if _get(h, key) is None:
             out.append(f"<tr><td>{_h.escape(label)}</td><td colspan=3 class=note>n/a</td>"
                        f"<td class=note>{_h.escape(note or 'needs a finite β: not known for these strokes')}</td></tr>")
@@ -109,6 +113,8 @@ def _kpis(data):
              ("of its print time re-timed", "coverage.retimed.time_share", "share"),
              ("∫|a|² dt on re-timed strokes", "headline.int_a2_retimed_mm2_s3.change", "pct"),
              ("strokes re-timed", "headline.strokes.retimed", "count")]
+    if "ringing_rms_um" in h:
+        items.insert(2, ("ringing RMS (frame resonance)", "headline.ringing_rms_um.change", "pct"))
     out = []
     for label, key, unit in items:
         v = _get(data, key)
@@ -207,6 +213,46 @@ def _group_html(data, name, label):
     return "\n".join(out)
 
 
+RINGING_ROWS = [("RMS", "rms_um"), ("peak", "peak_um"), ("RMS excited by the ramps", "rms_ramp_um"),
+                ("RMS excited by the corners", "rms_corner_um"),
+                ("RMS excited by the gentle turns", "rms_turn_um")]
+
+
+def _ringing_html(data, plot_png):
+    """Ringing before/after per axis and for the XY vector, its parts, the shaper's
+    smoothing, and the stretch plot."""
+    r = data.get("ringing")
+    if not r:
+        return ""
+    m = r["model"]
+    shaper = "no input shaper" if m["shaper"] == "none" else \
+        f"the {m['shaper'].upper()} input shaper tuned at {m['shaper_freq_x_hz']:g} / {m['shaper_freq_y_hz']:g} Hz"
+    out = [f"<p class=note>Each axis modelled as a damped oscillator (resonance {m['freq_x_hz']:g} Hz X, "
+           f"{m['freq_y_hz']:g} Hz Y, damping ratio {m['damping_r']:g}: the profile's [resonance] table) driven "
+           f"by the motion the firmware model commands, with {_h.escape(shaper)}; ringing = the toolhead's "
+           "error minus its quasi-static lag, solved exactly. RMS over the print time, peak over the whole "
+           "file. Ramps: the trapezoids' acceleration steps; corners: velocity jumps at turns over 30° and "
+           "into/out of rest; gentle turns: vertices of curves cut into segments.</p>",
+           "<table><tr><th>Ringing</th><th>Axis</th><th>Before</th><th>After</th><th>Change</th></tr>"]
+    for label, key in RINGING_ROWS:
+        for ax, axis_label in (("", "XY"), ("x.", "X"), ("y.", "Y")):
+            k = f"ringing.headline.{ax}{key}"
+            out.append(f"<tr><td>{_h.escape(label)}</td><td>{axis_label}</td>{_cell(data, k + '.before', 'um')}"
+                       f"{_cell(data, k + '.after', 'um')}{_cell(data, k + '.change', 'pct')}</tr>")
+    for key, label in (("smoothing_rms_um", "shaper smoothing, RMS"), ("smoothing_max_um", "shaper smoothing, max")):
+        if key in r["headline"]:
+            k = f"ringing.headline.{key}"
+            out.append(f"<tr><td>{label}</td><td>XY</td>{_cell(data, k + '.before', 'um')}"
+                       f"{_cell(data, k + '.after', 'um')}<td></td></tr>")
+    out.append("</table>")
+    st = r["stretch"]
+    out.append(f"<p class=note>The plot: the {st['length_mm']:g} mm of path from {st['from_mm']:.1f} mm where "
+               "the original rings most; both files over the same path distances (the path is unchanged).</p>")
+    if plot_png is not None:
+        out.append(_img(plot_png, "ringing along the stretch where the original rings most"))
+    return "\n".join(out)
+
+
 def _warnings_html(data):
     ws = data["warnings"]
     if not ws:
@@ -236,7 +282,11 @@ def render_html(data, ctx) -> str:
             "<h2>Headline</h2>",
             "<p class=note>All figures come from the firmware model (constant-acceleration lookahead planner "
             "of the profile) playing the original and the processed file. Change = after/before − 1.</p>",
-            _headline_html(data), "<h3>Strokes</h3>", _strokes_html(data),
+            _headline_html(data), "<h3>Strokes</h3>", _strokes_html(data)]
+    if data.get("ringing"):
+        from .ringing import ringing_plot
+        body += ["<h2>Ringing</h2>", _ringing_html(data, ringing_plot(data["ringing"]))]
+    body += [
             "<h2>Per feature type and per layer</h2>",
             _img(plots.reduction_chart(data), "int a^2 before and after per feature and per layer"),
             "<h3>Per feature type</h3>", _group_html(data, "by_feature", "Feature"),
@@ -274,10 +324,10 @@ def render_html(data, ctx) -> str:
             f"<style>{CSS}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
 
-def write_report(orig_path, new_path, profile, summary, html_path, json_path=None, layer=None):
+def write_report(orig_path, new_path, profile, summary, html_path, json_path=None, layer=None, ringing=True):
     """Build the report of orig_path -> new_path; write HTML (and JSON if json_path).
-    Returns the report dict."""
-    data, ctx = build_report(orig_path, new_path, profile, summary, layer)
+    Returns the report dict.  ringing=False leaves the ringing section out."""
+    data, ctx = build_report(orig_path, new_path, profile, summary, layer, ringing)
     if summary is not None and summary.get("output"):
         data["processed"] = summary["output"]       # the path the user will find it at
     text = render_html(data, ctx)

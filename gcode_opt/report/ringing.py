@@ -23,12 +23,18 @@ SAMPLES = 3000            # instants per file over the stretch
 headline = rg.compare      # before / after / change of RMS, peak, parts, smoothing
 
 
-def ringing_data(original, processed, profile, length_d: float = STRETCH_D, from_d=None) -> dict:
+def ringing_data(original, processed, profile, length_d: float = STRETCH_D, from_d=None,
+                 figures=None, traces=None) -> dict:
     """Figures of both files (the profile's shaper in force) and the sampled stretch (from
-    path distance from_d mm; default where the original rings most)."""
+    path distance from_d mm; default where the original rings most).  figures: the
+    summary's "ringing" (its before / after are used when figured with this profile's
+    model); traces: both files' ringing.Trace when a pass already made them."""
     model = rg.model_of(profile)
-    tr0, tr1 = rg.trace(original, profile), rg.trace(processed, profile)
-    f0, f1 = rg.figures_of_trace(tr0, model), rg.figures_of_trace(tr1, model)
+    tr0, tr1 = traces if traces is not None else (rg.trace(original, profile), rg.trace(processed, profile))
+    if figures and figures.get("model") == model and "before" in figures and "after" in figures:
+        f0, f1 = figures["before"], figures["after"]
+    else:
+        f0, f1 = rg.figures_of_trace(tr0, model), rg.figures_of_trace(tr1, model)
     s0 = rg.busiest_stretch(tr0, model, length_d) if from_d is None else float(from_d)
     st = {}
     for tag, tr in (("before", tr0), ("after", tr1)):

@@ -44,7 +44,14 @@ class Trace:
         return float(max(vals)) if vals else 0.0
 
 
-def trace_file(path, profile) -> Trace:
+def trace_file(path, profile, ringing=False) -> Trace:
+    """ringing: also keep the rows of the commanded motion ringing.py solves (Trace.ring_rows,
+    from the same firmware-model pass)."""
+    from .. import ringing as rg
+    ring = rg.Rows() if ringing else None
+    ring_line = ring_block = None
+    if ring is not None:
+        ring_line, ring_block, ring_dwell = rg.hooks(ring)
     lines = {}
     moves = {}
     cols = {k: array("d") for k in BLOCK_FIELDS}
@@ -60,6 +67,8 @@ def trace_file(path, profile) -> Trace:
 
     def on_line(rec):
         lines[rec.idx] = rec
+        if ring_line is not None:
+            ring_line(rec)
 
     def on_block(b):
         if b.first:
@@ -74,11 +83,16 @@ def trace_file(path, profile) -> Trace:
         for k, v in zip(BLOCK_FIELDS, (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel,
                                        b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)):
             cols[k].append(v)
+        if ring_block is not None:
+            ring_block(b)
 
-    res = simulate_events(feed(), profile, on_line=on_line, on_block=on_block)
+    events = feed() if ring is None else rg.wrap_events(feed(), ring_dwell)
+    res = simulate_events(events, profile, on_line=on_line, on_block=on_block)
     blocks = {k: np.frombuffer(v, dtype=float).copy() if len(v) else np.zeros(0) for k, v in cols.items()}
     blocks["idx"] = blocks["idx"].astype(int)
-    return Trace(res, lines, moves, blocks, count[0])
+    tr = Trace(res, lines, moves, blocks, count[0])
+    tr.ring_rows = ring.items if ring is not None else None
+    return tr
 
 
 def count_lines(path) -> int:

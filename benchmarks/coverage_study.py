@@ -65,6 +65,18 @@ def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r
         seen["strokes"], seen["plan"] = a[6], a[8]
         return real(*a, **k)
 
+    real_rw = pipeline.rewrite
+    over = defaultdict(float)      # feature -> largest F above the slicer's, as a ratio (last pass)
+
+    def rewrite(path_, fh, strokes, plan, *a, **k):     # segments are freed after the rewrite
+        over.clear()
+        for i, st in enumerate(strokes):
+            seg = plan.segs[i] if plan.retime[i] else None
+            if seg is not None and st.v_feed > 0:
+                over[st.feature] = max(over[st.feature], float(np.max(seg.feed)) / st.v_feed - 1.0)
+        return real_rw(path_, fh, strokes, plan, *a, **k)
+
+    pipeline.rewrite = rewrite
     summary_mod.build_summary = capture
     if policy:
         pipeline.plan_inputs = _per_feature_caps(real_pi)
@@ -78,22 +90,17 @@ def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r
     finally:
         summary_mod.build_summary = real
         pipeline.plan_inputs = real_pi
+        pipeline.rewrite = real_rw
         if tmp:
             os.unlink(tmp)
     strokes, plan = seen["strokes"], seen["plan"]
     w0 = s["whole_file"]["before"]
     outside = feature_figures(path, profile, strokes) if by_feature else None
     cov = coverage(strokes, plan, w0["int_a2"], w0["time_t"], outside)
-    over = defaultdict(float)      # feature -> largest F above the slicer's, as a ratio
     kinds = defaultdict(int)
-    segs = getattr(plan, "segs", None) or [None] * len(strokes)
     for i, st in enumerate(strokes):
-        seg = segs[i] if plan.retime[i] else None
-        if seg is None:
-            continue
-        kinds[f"{st.feature}/{st.kind}"] += 1
-        if st.v_feed > 0:
-            over[st.feature] = max(over[st.feature], float(np.max(seg.feed)) / st.v_feed - 1.0)
+        if plan.retime[i]:
+            kinds[f"{st.feature}/{st.kind}"] += 1
     return {"file": os.path.basename(path), "profile": profile.name, "features": list(features),
             "min_length_d": min_length_d,
             "overshoot": overshoot_r if not policy else f"{overshoot_r} (per feature)",

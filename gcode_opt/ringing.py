@@ -427,6 +427,13 @@ class Collector:
             if len(self.rows) >= self.limit:
                 self._flush(False)
 
+    def add_rows(self, items):
+        """Rows already collected (Rows.items, an array('d')), in order."""
+        for i in range(0, len(items), self.limit):
+            self.rows.extend(items[i:i + self.limit])
+            if len(self.rows) >= self.limit:
+                self._flush(False)
+
     def _flush(self, final: bool):
         m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
         self.rows = array("d")
@@ -599,3 +606,86 @@ def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
     rx = response(tr, model, "x", shaper=shaper).at(t)
     ry = response(tr, model, "y", shaper=shaper).at(t)
     return s_at_t(tr, t), rx * UM, ry * UM
+
+
+# ---------------------------------------------------------------- the stretch from kept rows
+# The report keeps each file's rows (12 numbers a block) and solves only windows of them:
+# the ringing before a window has decayed below exp(-HISTORY) of itself once HISTORY / s
+# seconds (s = damping x 2 pi f) lie between, so a window starts that far back.
+HISTORY = 36.0
+
+
+class RowTable:
+    """Rows (as Rows.items, with the idle rows at both ends added) and where each row starts
+    in time and path distance: windows of pieces without building the whole trace."""
+
+    def __init__(self, items, model: dict, shaper: str | None = None):
+        m = np.asarray(items, float).reshape(-1, ROW)
+        idle = np.array([IDLE])
+        self.m = np.vstack([idle, m, idle])
+        self.model = model
+        self.shaper = model["shaper"] if shaper is None else shaper
+        ux, uy, sv, cv, ev, a, at, ct, dt = self.m[:, :9].T
+        dur = at + ct + dt
+        ds = sv * at + 0.5 * a * at * at + cv * ct + cv * dt - 0.5 * a * dt * dt
+        self.t = -1.0 + np.concatenate([[0.0], np.cumsum(dur)[:-1]])
+        self.s = np.concatenate([[0.0], np.cumsum(ds)[:-1]])
+        ts = np.concatenate([t_p for _a, t_p in _pulses(model, self.shaper)])
+        self.span_t = float(ts.max() - ts.min())
+        s_min = min(2.0 * math.pi * model[f"freq_{a}_hz"] * model["damping_r"] for a in "xy")
+        self.history_t = HISTORY / s_min + self.span_t
+
+    def __len__(self):
+        return len(self.m)
+
+    def carry_at(self, r: int) -> _Carry:
+        """The pieces' state where row r starts (position left at 0: windows are for ringing)."""
+        c = _Carry()
+        c.t, c.s = float(self.t[r]), float(self.s[r])
+        if r > 0:
+            ux, uy, _sv, cv, _ev, a, _at, _ct, dt, _after, _idx, isb = self.m[r - 1]
+            u = np.array([ux, uy])
+            c.vel_end, c.acc = (cv - a * dt) * u, -a * u
+            c.ux, c.uy, c.isb = float(ux), float(uy), float(isb)
+        return c
+
+    def window(self, t_a: float, t_b: float):
+        """(Trace, t_own): the pieces of the rows from history_t before t_a to the shaper's
+        span after t_b -- the ringing at times in [t_a, t_b] is that of the whole file."""
+        r0 = max(int(np.searchsorted(self.t, t_a - self.history_t, side="right")) - 1, 0)
+        r1 = min(int(np.searchsorted(self.t, t_b + self.span_t, side="right")) + 2, len(self.m))
+        return _pieces(self.m[r0:r1], self.carry_at(r0))
+
+
+def busiest_stretch_rows(rt: RowTable, length_d: float = 50.0, chunk_rows: int = CHUNK_BLOCKS) -> float:
+    """busiest_stretch over a RowTable, window by window (bounded memory): each window's
+    events earlier than its own rows' start are history, those after their end lookahead."""
+    total_s = float(rt.s[-1])
+    if total_s <= length_d:
+        return 0.0
+    bin_d = 0.5 * length_d
+    per_bin = np.zeros(int(total_s // bin_d) + 2)
+    n = len(rt)
+    for r0 in range(0, n, chunk_rows):
+        r1 = min(r0 + chunk_rows, n)
+        t_own_a = float(rt.t[r0])
+        t_own_b = float(rt.t[r1]) if r1 < n else np.inf
+        tr = rt.window(t_own_a, float(rt.t[min(r1, n - 1)]))
+        for name in "xy":
+            r = response(tr, rt.model, name, shaper=rt.shaper)
+            own = (r.t_ev >= t_own_a) & (r.t_ev < t_own_b)
+            if r1 < n:
+                own &= np.isfinite(r.dur)
+            per = r.osc.integral_r2(r.c[own], r.dur[own])
+            k = np.clip(np.searchsorted(tr.t0, r.t_ev[own], side="right") - 1, 0, len(tr) - 1)
+            np.add.at(per_bin, np.floor(tr.s[k] / bin_d).astype(np.int64), per)
+    win = per_bin[:-1] + per_bin[1:] if len(per_bin) > 1 else per_bin
+    return float(np.argmax(win) * bin_d)
+
+
+def stretch_rows(rt: RowTable, s0_d: float, length_d: float, n: int = 4000):
+    """stretch() over a RowTable: only the window around the stretch is solved."""
+    r_a = max(int(np.searchsorted(rt.s, s0_d, side="right")) - 1, 0)
+    r_b = min(int(np.searchsorted(rt.s, s0_d + length_d, side="right")), len(rt) - 1)
+    tr = rt.window(float(rt.t[r_a]), float(rt.t[r_b]))
+    return stretch(tr, rt.model, s0_d, length_d, n, rt.shaper)

@@ -99,3 +99,27 @@ def test_figures_twice_is_the_same():
     col = rg.Collector(p, "zv", chunk_blocks=10)
     rg.play(path, p, col)
     assert col.figures() is col.figures()
+
+
+@pytest.mark.parametrize("shaper", ["none", "mzv"])
+def test_stretch_from_kept_rows_equals_whole_trace(case, shaper):
+    """The report's bounded-memory stretch: the busiest window found window by window and
+    the ringing sampled over only the stretch's window equal the whole-trace functions."""
+    import numpy as np
+    path, p, tr = case
+    rows = rg.Rows()
+    rg.play(path, p, rows)
+    model = dict(rg.model_of(p), shaper=shaper)
+    rt = rg.RowTable(rows.items, model)
+    s_ref = rg.busiest_stretch(tr, model, 40.0)
+    for chunk in (37, 5000):
+        assert rg.busiest_stretch_rows(rt, 40.0, chunk) == s_ref
+    s_a, x_a, y_a = rg.stretch(tr, model, s_ref, 40.0, 400)
+    s_b, x_b, y_b = rg.stretch_rows(rt, s_ref, 40.0, 400)
+    assert np.max(np.abs(x_a)) > 1.0                      # the stretch does ring
+    assert np.allclose(s_b, s_a, rtol=0, atol=1e-8)
+    assert np.allclose(x_b, x_a, rtol=0, atol=1e-5 * np.max(np.abs(x_a)))
+    assert np.allclose(y_b, y_a, rtol=0, atol=1e-5 * np.max(np.abs(x_a)))
+    col = rg.Collector(model=model, chunk_blocks=100)
+    col.add_rows(rows.items)
+    _assert_same(col.figures(), rg.figures_of_trace(tr, rg.model_of(p), shaper))

@@ -443,11 +443,10 @@ def ratio_share(part, whole):
 def _ringing(orig_path, new_path, profile, tr0, tr1, summary):
     """The ringing section: figures (the summary's when it has them) and the stretch plot's
     samples, over the commanded motion of the report's own passes."""
-    from .. import ringing as rg
-    from .ringing import ringing_data
-    traces = (rg.trace_from_items(tr0.ring_rows), rg.trace_from_items(tr1.ring_rows))
+    from .ringing import ringing_data_rows
+    rows0, rows1 = tr0.ring_rows, tr1.ring_rows
     tr0.ring_rows = tr1.ring_rows = None
-    return ringing_data(orig_path, new_path, profile, figures=(summary or {}).get("ringing"), traces=traces)
+    return ringing_data_rows(rows0, rows1, profile, figures=(summary or {}).get("ringing"))
 
 
 # --------------------------------------------------------------------------- entry point

@@ -9,8 +9,13 @@
      strokes by segments; written to a temporary file in the target's folder, then
      renamed into place.
   3. measure: the firmware model plays the re-timed file; before/after figures come from
-     the same model on both files.
-Memory holds a few floats per stroke, never the file's lines.
+     the same model on both files.  It records where it stood empty (after each stop: an
+     E-only move, a barrier) with the reader's state there (firmware.simulate.Ledger).
+When the written file overruns the time budget, the budget is re-spent and the file
+written once more: blocks whose segment plan did not change are copied from the first
+file, and the firmware model plays only the stretches, stop to stop, that hold a block
+whose text changed; the rest of its figures are the first pass's (remeasure).
+Memory holds a few floats per stroke and per stop, never the file's lines.
 
 One bad stroke never aborts the file: planning and segmenting run vectorised, and a batch
 that raises is retried in halves down to the stroke at fault (plan.isolate); a stroke with

@@ -238,29 +238,58 @@ class MarlinPlanner:
         return c if c < r else r
 
     def _execute(self, end_v2):
+        # _reverse(i + 1, end_v2) and _set_trapezoid written out: this runs once per block
         buf = self.buf
         i = self.head
         b = buf[i]
         e = self.entry_v2
         if e is None:
             e = self._reverse(i, end_v2)
-        if i + 1 < len(buf):
-            x = self._reverse(i + 1, end_v2)
+        n = len(buf)
+        if i + 1 < n:
+            x = INF                             # _reverse(i + 1, end_v2)
+            acc = 0.0
+            for k in range(i + 1, n):
+                bk = buf[k]
+                c = bk.max_start_v2 + acc
+                if c < x:
+                    x = c
+                acc += bk.delta_v2
+                if acc >= x:
+                    break
+            else:
+                c = end_v2 + acc
+                if c < x:
+                    x = c
         else:
             x = end_v2
-        f = e + b.delta_v2
+        dv2 = b.delta_v2
+        f = e + dv2
         if f < x:
             x = f
-        if x < e - b.delta_v2:          # cannot happen with a consistent plan; stay physical
-            x = e - b.delta_v2
-        c = (e + x + b.delta_v2) * 0.5
+        if x < e - dv2:                     # cannot happen with a consistent plan; stay physical
+            x = e - dv2
+        c = (e + x + dv2) * 0.5
         if b.v2max < c:
             c = b.v2max
         if c < e:
             c = e
         if c < x:
             c = x
-        _set_trapezoid(b, e, c, x)
+        # _set_trapezoid(b, e, c, x)
+        half_inv_a = 0.5 / b.accel
+        accel_d = (c - e) * half_inv_a
+        decel_d = (c - x) * half_inv_a
+        cruise_d = b.d - accel_d - decel_d
+        if cruise_d < 0.0:                  # rounding only
+            cruise_d = 0.0
+        sv = math.sqrt(e) if e > 0.0 else 0.0
+        cv = math.sqrt(c)
+        ev = math.sqrt(x) if x > 0.0 else 0.0
+        b.start_v, b.cruise_v, b.end_v = sv, cv, ev
+        b.accel_t = accel_d / ((sv + cv) * 0.5) if accel_d > 0.0 else 0.0
+        b.cruise_t = cruise_d / cv
+        b.decel_t = decel_d / ((ev + cv) * 0.5) if decel_d > 0.0 else 0.0
         self.entry_v2 = x
         self.head = i + 1
         self.out(b)

@@ -10,6 +10,12 @@ than 30 degrees, the firmware model's corner threshold, and the jumps into and o
 and the gentle turns (junctions of curves cut into segments); with an input shaper in the
 profile, the ringing of the shaped motion and the shaper's path smoothing.
 
+``figures`` streams: a ``Collector`` rides on one firmware-model pass (``play``, or
+``hooks`` + ``wrap_events`` beside a pass's own callbacks) and solves the pieces 16 k blocks
+at a time, carrying each oscillator's state across chunks, so memory does not grow with
+the file; ``trace`` keeps the whole motion (plots, tests); the report draws its stretch
+from kept rows (``RowTable``: 12 numbers a block) solving only windows of them.
+
 What is modelled: X and Y of the toolhead as the firmware commands them (Z and E are not);
 each axis a linear damped oscillator with the profile's [resonance] frequency and damping;
 the machine at rest before the file starts and after it ends (the last ring-down counts).

@@ -123,3 +123,25 @@ def test_stretch_from_kept_rows_equals_whole_trace(case, shaper):
     col = rg.Collector(model=model, chunk_blocks=100)
     col.add_rows(rows.items)
     _assert_same(col.figures(), rg.figures_of_trace(tr, rg.model_of(p), shaper))
+
+
+def test_collector_on_the_analyse_pass(monkeypatch):
+    """The lines proposed for pipeline.analyse (hooks + wrap_events beside its own on_line)
+    give the original's figures from the analyse pass itself: its event stream (strokes
+    grouped, barriers, E-only moves) is the one ringing.figures plays."""
+    from gcode_opt import pipeline
+    path, p = os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), load_profile("prusa-mk3s")
+    col = rg.Collector(p, chunk_blocks=500)
+    plain = pipeline.simulate_events
+
+    def riding(events, profile, on_line=None, on_block=None):
+        ring_line, ring_block, ring_dwell = rg.hooks(col)
+
+        def both(r):
+            on_line(r)
+            ring_line(r)
+        return plain(rg.wrap_events(events, ring_dwell), profile, on_line=both, on_block=ring_block)
+    monkeypatch.setattr(pipeline, "simulate_events", riding)
+    strokes, sim = pipeline.analyse(path, p, pipeline.Options())
+    assert strokes
+    _assert_same(col.figures(), rg.figures(path, p))

@@ -60,16 +60,16 @@ def test_summary_has_ringing_per_axis_before_after(processed):
     assert "smoothing" not in r["before"]                   # the profile sets no shaper
 
 
-def test_summary_line_and_no_ringing(tmp_path, capsys):
-    out = str(tmp_path / "o.gcode")
-    assert main(["process", SAMPLE, "-o", out, "--profile", PROFILE]) == 0
-    err = capsys.readouterr().err
-    line = [x for x in err.splitlines() if x.strip().startswith("ringing")]
-    assert len(line) == 1 and "RMS" in line[0] and "no input shaper" in line[0]
-    summ = str(tmp_path / "s.json")
+def test_summary_line_and_no_ringing(processed, tmp_path, capsys):
+    from gcode_opt.cli import format_summary
+    line = [x for x in format_summary(processed["summary"]).splitlines() if x.strip().startswith("ringing")]
+    r = processed["before"]["xy"]
+    assert len(line) == 1 and f"RMS {r['rms_um']:.2f} -> " in line[0] and "no input shaper" in line[0]
+    out, summ = str(tmp_path / "o.gcode"), str(tmp_path / "s.json")
     assert main(["process", SAMPLE, "-o", out, "--profile", PROFILE, "--no-ringing", "--json", summ]) == 0
     err = capsys.readouterr().err
-    assert not any(x.strip().startswith("ringing") for x in err.splitlines())
+    assert "whole file" in err                                   # the summary was printed ...
+    assert not any(x.strip().startswith("ringing") for x in err.splitlines())    # ... without ringing
     with open(summ) as fh:
         s = json.load(fh)
     assert "ringing" not in s and "ringing_error" not in s and "coverage" in s

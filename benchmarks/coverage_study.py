@@ -8,7 +8,8 @@ rest is left, and what re-timing perimeters buys and costs.
 Per file: the firmware model's whole-file ∫|a|²dt and print time before/after (pipeline.
 process, the written file measured), the strokes re-timed, the reasons left, each with its
 count and its share of the ORIGINAL file's ∫|a|²dt and time (gcode_opt.coverage), and per
-feature the speed above the slicer's F the output asks for (max segment F / slicer F - 1).
+feature the highest planned speed above the slicer's F, as a ratio (a law's knot speeds; a
+one-move trapezoid's F).
 --by-feature splits the motion outside every candidate by feature (one more model pass);
 --policy caps each feature's speed by coverage.feature_overshoot_r (patched in after
 schedule.plan_inputs, as the lead will wire it there).
@@ -73,7 +74,10 @@ def study(path, profile_name="auto", features=feat.DEFAULT_SELECTED, overshoot_r
         for i, st in enumerate(strokes):
             seg = plan.segs[i] if plan.retime[i] else None
             if seg is not None and st.v_feed > 0:
-                over[st.feature] = max(over[st.feature], float(np.max(seg.feed)) / st.v_feed - 1.0)
+                # a law's segments reach their knot speeds (F only caps: under classic jerk
+                # it is raised towards the neighbours'); a one-move trapezoid cruises at F
+                top = np.max(seg.feed) if getattr(seg, "shape", "law") != "law" else np.max(seg.v)
+                over[st.feature] = max(over[st.feature], float(top) / st.v_feed - 1.0)
         return real_rw(path_, fh, strokes, plan, *a, **k)
 
     pipeline.rewrite = rewrite

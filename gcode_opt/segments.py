@@ -315,9 +315,9 @@ def least_a2_trapezoid(L, T, v0, v1, v_lo, v_hi, a_max, a_min_fn=None, extra_fn=
     For a peak vp the slowest ramp that still takes T is a = G / (T - L/vp) with
     G = ((vp - v0)^2 + (vp - v1)^2) / (2 vp) (the time the ramps lose against cruising at
     vp, times a); a_min_fn(vp) may raise it (what the junctions need), which only makes
-    the move quicker; extra_fn(vp, a) adds to the cost (an arc's centripetal part).  vp is
-    searched in [max(v_lo, v0, v1, L/T), v_hi] (a grid dense near its low end, refined
-    twice around the best point), with a <= a_max and the ramps fitting in L.  At
+    the move quicker, and so does the least a whose ramps fit in L; extra_fn(vp, a) adds
+    to the cost (an arc's centripetal part).  vp is searched in [max(v_lo, v0, v1, L/T),
+    v_hi] (a grid dense near its low end, refined twice around the best point), a <= a_max.  At
     rest-to-rest the optimum is the 1/3 - 1/3 - 1/3 trapezoid, vp = 1.5 L/T, whose
     13.5 L^2/T^3 is within 12.5 % of the optimal law's 12 L^2/T^3.
     Returns (vp, a, time_t, int_a2) or None."""
@@ -332,7 +332,8 @@ def least_a2_trapezoid(L, T, v0, v1, v_lo, v_hi, a_max, a_min_fn=None, extra_fn=
         a = np.where(np.isfinite(a) & (a > 0), a, np.where(G <= 1e-12, 2 * CRUISE_A, np.inf))
         if a_min_fn is not None:
             a = np.maximum(a, a_min_fn(vp))
-        fits = (a <= a_max) & ((2.0 * vp * vp - v0 * v0 - v1 * v1) / (2.0 * a) <= L * (1 + 1e-9))
+        a = np.maximum(a, (2.0 * vp * vp - v0 * v0 - v1 * v1) / (2.0 * L))   # the ramps fit in L (quicker still)
+        fits = a <= a_max
         c = a * (2.0 * vp - v0 - v1) + (0.0 if extra_fn is None else extra_fn(vp, a))
         return a, np.where(fits, c, np.inf)
 
@@ -353,6 +354,7 @@ def least_a2_trapezoid(L, T, v0, v1, v_lo, v_hi, a_max, a_min_fn=None, extra_fn=
 
 def trapezoid_knot_speeds(s, L, vp, a, v0, v1):
     """Speed of the one-move trapezoid at distances s (its knots)."""
+    s = np.clip(s, 0.0, L)
     return np.minimum(np.minimum(np.sqrt(v0 * v0 + 2.0 * a * s), np.sqrt(v1 * v1 + 2.0 * a * (L - s))), vp)
 
 
@@ -385,6 +387,15 @@ def line_trapezoids(strokes, T, beta, rules: SegmentRules):
 
 
 def _line_trapezoid(st, T, v_peak, rules):
+    """The better of: lead-in / lead-out at the corner speeds carrying what the corners
+    need, or none and the whole move carrying it (a lead-in at a slow corner can take
+    most of a short stroke's time)."""
+    got = [p for p in (_line_trapezoid_edges(st, T, v_peak, rules, True),
+                       _line_trapezoid_edges(st, T, v_peak, rules, False)) if p is not None]
+    return min(got, key=lambda p: p.int_a2) if got else None
+
+
+def _line_trapezoid_edges(st, T, v_peak, rules, edges):
     u = (st.ux, st.uy)
     v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
     v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
@@ -394,10 +405,11 @@ def _line_trapezoid(st, T, v_peak, rules):
         step_v = 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
         v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)
     # lead-in / lead-out at the corner speeds where the corner needs more than a gentle ramp
-    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05), 0.25 * L) if v0 > 0 else 0.0
-    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05), 0.25 * L) if v1 > 0 else 0.0
-    need0 = accel_to_pass_junction(rules.junction, v0, st.prev_u, u, e0 or L, jd) if v0 > 0 else 0.0
-    need1 = accel_to_pass_junction(rules.junction, v1, u, st.next_u, e1 or L, jd) if v1 > 0 else 0.0
+    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05), 0.25 * L) if v0 > 0 and edges else 0.0
+    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05), 0.25 * L) if v1 > 0 and edges else 0.0
+    d0, d1 = st.ends_d[0], L - (st.ends_d[-2] if len(st.ends_d) > 1 else 0.0)   # first, last move
+    need0 = accel_to_pass_junction(rules.junction, v0, st.prev_u, u, e0 or d0, jd) if v0 > 0 else 0.0
+    need1 = accel_to_pass_junction(rules.junction, v1, u, st.next_u, e1 or d1, jd) if v1 > 0 else 0.0
     e0 = e0 if need0 > 0.0 and e0 >= MIN_EDGE_D else 0.0
     e1 = e1 if need1 > 0.0 and e1 >= MIN_EDGE_D else 0.0
     t_edges = (e0 / v0 if e0 else 0.0) + (e1 / v1 if e1 else 0.0)

@@ -252,8 +252,8 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digest
 class _Reuse:
     """The blocks a first rewrite wrote, read back from its file in order: block(i, seg,
     beta) is stroke i's text if the first pass wrote it from this same segment plan (the
-    same object: schedule's SegmentCache hands the plan back when the stroke's law is
-    unchanged) and beta, else None.  The text is a function of the stroke, its plan and
+    same object, which schedule's SegmentCache hands back when a line's law is unchanged,
+    or the same numbers) and beta, else None.  The text is a function of the stroke, its plan and
     beta only (_stroke_block)."""
 
     def __init__(self, path, out_ranges, segs, beta, digests):
@@ -263,9 +263,24 @@ class _Reuse:
         self.blocks = {i: (a, z, segs[i], float(beta[i])) for a, z, i in out_ranges}
         self.digests = digests
 
+    @staticmethod
+    def _same_plan(a, b):
+        """The same segment plan: the same object, or (arcs and curves are solved in batches,
+        so a re-plan makes new objects) the same numbers, bit for bit, in every field the
+        emitter reads."""
+        if a is b:
+            return True
+        if a is None or b is None or type(a) is not type(b) or a.time_t != b.time_t:
+            return False
+        for f in ("s", "v", "accel", "feed"):
+            x, y = getattr(a, f, None), getattr(b, f, None)
+            if (x is None) != (y is None) or (x is not None and not np.array_equal(x, y)):
+                return False
+        return True
+
     def block(self, i, seg, beta):
         got = self.blocks.get(i)
-        if got is None or seg is None or got[2] is not seg:
+        if got is None or not self._same_plan(got[2], seg):
             return None
         a, z, _, beta1 = got
         if not (beta1 == beta or (math.isinf(beta1) and math.isinf(beta))) or a <= self.pos:

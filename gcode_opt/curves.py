@@ -54,7 +54,7 @@ MAX_R_OVER_S = 1e3         # κ_eff floor: R_eff <= this x S (a nearly straight 
 
 
 # ------------------------------------------------------------------ vertex caps
-def _accel_in_force(profile, lim, accel, u):
+def accel_in_force(profile, lim, accel, u):
     """The move's acceleration after the per-axis caps (as simulate.py)."""
     a0 = accel if accel > 0 else profile.default_accel_a
     a = a0
@@ -65,18 +65,19 @@ def _accel_in_force(profile, lim, accel, u):
     return a0, a
 
 
-def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next):
+def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next, jerk_r=1.0 - JERK_F_STEP_R):
     """Highest speed (mm/s) the firmware allows at the vertex between a move along pu
     (length d_prev) and one along u (d_next), both at the acceleration in force (the most
-    a re-timed segment may carry).  Exact firmware junction laws."""
+    a re-timed segment may carry).  Exact firmware junction laws; classic jerk with the
+    share jerk_r of the jerk (the rest is for the change of F between the two moves)."""
     junction = profile.junction
     if junction == "jerk":
         big = 1e6
-        j = 1.0 - JERK_F_STEP_R
+        j = jerk_r
         return marlin_jerk_junction_v(pu[0], pu[1], 0.0, big, 0.0, u[0], u[1], 0.0, big, 0.0,
                                       j * lim.jerk_x, j * lim.jerk_y, 1.0)
-    a0p, ap = _accel_in_force(profile, lim, accel, pu)
-    a0, a = _accel_in_force(profile, lim, accel, u)
+    a0p, ap = accel_in_force(profile, lim, accel, pu)
+    a0, a = accel_in_force(profile, lim, accel, u)
     if junction == "scv":
         jdp = lim.scv * lim.scv * SQRT2_M1 / a0p
         jd = lim.scv * lim.scv * SQRT2_M1 / a0
@@ -96,7 +97,7 @@ def vertex_splitter(profile):
             cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), _d(pm), _d(m))
         except (ArithmeticError, ValueError):   # a degenerate vertex: end the curve there
             return True
-        return not CAP_MARGIN * cap >= m.v      # NaN: split too
+        return not cap > 0.0                    # NaN or a stop: split too (a capped vertex is a chain's)
     return split
 
 
@@ -113,7 +114,8 @@ def _d(m):
 # ------------------------------------------------------------------ geometry
 class CurveGeom:
     """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s)."""
-    __slots__ = ("pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "cap", "cos_end")
+    __slots__ = ("pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
+                 "chain_caps")
 
     def __init__(self, st, profile):
         pts = np.asarray(st.pts, float)
@@ -134,6 +136,8 @@ class CurveGeom:
         self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
         caps = [vertex_cap(profile, st.lim, st.accel, tuple(self.u[k]), tuple(self.u[k + 1]),
                            d[k], d[k + 1]) for k in range(len(d) - 1)]
+        self.caps = np.array(caps, float)        # per interior vertex
+        self.chain_caps = None                    # chains.py: the caps a chain's law meets
         self.cap = CAP_MARGIN * min(caps) if caps else math.inf
         # turns at the two ends (None: a stop or a corner): the firmware model counts half
         # of each end junction's normal term in the stroke, as it did for the original
@@ -161,9 +165,10 @@ def geom(st, profile):
     return st.curv
 
 
-def adjust_plan_inputs(pin, strokes, rows, profile):
+def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     """Curve rows of a PlanInput: length-weighted direction masses, the per-axis
-    acceleration cap of a turning path, the vertex speed caps."""
+    acceleration cap of a turning path, the vertex speed caps (cap_peak: the law's peak
+    stays under the lowest; a chain's law meets each at its own vertex instead)."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
     for i in rows:
         st = strokes[i]
@@ -173,7 +178,8 @@ def adjust_plan_inputs(pin, strokes, rows, profile):
         uy2 = 1.0 - ux2
         pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
         pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
-        pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+        if cap_peak:
+            pin.v_cap[i] = min(pin.v_cap[i], g.cap)
 
 
 # ------------------------------------------------------------------ law
@@ -317,16 +323,19 @@ def plan_curve_segments(strokes, T, beta, rules, profile):
     return plans
 
 
-def finish_curve(st, sk, vk, rules, profile):
-    g = geom(st, profile)
-    d = np.diff(sk)
+def junction_accels(st, g, vk, acc, rules, profile, vmax=None):
+    """Segment accelerations `acc` raised to what the firmware's junction law needs to
+    pass each original vertex at the knot speed vk (x ACCEL_MARGIN), and to the floor a
+    finite-lookahead planner needs to stop within the blocks it knows (vmax: each
+    segment's top speed, default the faster knot); never above the acceleration in force."""
+    d = g.d
     n = len(d)
-    acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
+    acc = np.array(acc, float)
     jd = st.lim.jd
     a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
     v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
     v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
-    vj = vk.copy()
+    vj = np.array(vk, float)
     vj[0], vj[-1] = v0, v1
     u = [tuple(x) for x in g.u]
     pus = [st.prev_u] + u[:-1]            # direction before each segment's start vertex
@@ -341,8 +350,18 @@ def finish_curve(st, sk, vk, rules, profile):
         nb = max(profile.block_buffer - 3, 1)
         ext = np.concatenate([d, np.full(nb, d[-1])])
         window = np.convolve(ext, np.ones(nb), "valid")[:n]
-        vmax = np.maximum(vk[:-1], vk[1:])
+        if vmax is None:
+            vmax = np.maximum(vk[:-1], vk[1:])
         acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), a_top))
+    return acc
+
+
+def finish_curve(st, sk, vk, rules, profile):
+    g = geom(st, profile)
+    d = np.diff(sk)
+    acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
+    a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+    acc = junction_accels(st, g, vk, acc, rules, profile)
     step_v = np.inf
     if rules.junction == "jerk":
         step_v = JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)

@@ -4,9 +4,12 @@ of each one that is re-timed.
   plan_inputs   per-stroke limits (speed cap from F, overshoot, machine and hotend flow;
                 acceleration cap per axis; segment time), arcs and curves adjusting theirs;
   plan_strokes  candidates per kind of stroke (lines: plan.py; arcs: arcs.py; curves:
-                curves.py), the time budget spent across them (plan.plan_auto), then the
-                segments each chosen stroke will be played as, and the budget re-spent once
-                with the segments' predicted times.
+                curves.py; chains: chains.py), the time budget spent across them
+                (plan.plan_auto), then the segments each chosen stroke will be played as,
+                and the budget re-spent once with the segments' predicted times.
+
+Kinds are a registry (KINDS: kind -> Kind with adjust_inputs / candidates / fixed_alpha /
+segments): the planner below is generic over them.
 
 Faults stay with their stroke: a batch that raises is retried in halves down to the stroke
 at fault (plan.isolate); a non-finite candidate, plan or segment drops that stroke only,
@@ -19,12 +22,47 @@ import math
 import numpy as np
 
 from . import arcs
+from . import chains
 from . import curves
 from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha, scatter_candidates)
 from .profile import Profile
 from .segments import SegmentRules, plan_segments
-from .strokes import K_ARC, K_CURVE, K_LINE
+from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
+
+
+class Kind:
+    """What the planner needs of one kind of stroke (each callable takes the stroke rows
+    of that kind; None = nothing to do):
+      adjust_inputs(pin, strokes, rows, profile)            its PlanInput rows
+      candidates(pin, rows, strokes, profile, rules)        (T, beta, I, KE) tables
+      fixed_alpha(plan, pin, rows, strokes, profile, alpha, rules)   --alpha A, into plan
+      segments(strokes, T, beta, rules, profile)            a SegmentPlan per stroke
+    batch: segment plans depend on the whole batch (solved together; SegmentCache)."""
+
+    def __init__(self, candidates, fixed_alpha, segments, adjust_inputs=None, batch=True):
+        self.candidates, self.fixed_alpha, self.segments = candidates, fixed_alpha, segments
+        self.adjust_inputs, self.batch = adjust_inputs, batch
+
+
+def _fixed_lines(plan, pin, rows, strokes, profile, alpha, rules):
+    plan.put(rows, plan_fixed_alpha(pin.take(rows), alpha))
+
+
+KINDS = {
+    K_LINE: Kind(lambda pin, r, sts, prof, rules: candidates_auto(pin.take(r)), _fixed_lines,
+                 lambda sts, T, b, rules, prof: plan_segments(sts, T, b, rules), batch=False),
+    K_ARC: Kind(lambda pin, r, sts, prof, rules: arcs.candidates_arc(pin, r, sts),
+                lambda plan, pin, r, sts, prof, alpha, rules: arcs.fixed_alpha_arc(plan, pin, r, sts, alpha),
+                lambda sts, T, b, rules, prof: arcs.plan_arc_segments(sts, T, b, rules, prof),
+                lambda pin, sts, r, prof: arcs.adjust_plan_inputs(pin, sts, r, prof)),
+    K_CURVE: Kind(lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof),
+                  lambda plan, pin, r, sts, prof, alpha, rules:
+                  curves.fixed_alpha_curve(plan, pin, r, sts, prof, alpha),
+                  curves.plan_curve_segments, curves.adjust_plan_inputs),
+    K_CHAIN: Kind(chains.candidates_chain, chains.fixed_alpha_chain, chains.plan_chain_segments,
+                  chains.adjust_plan_inputs),
+}
 
 
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
@@ -54,10 +92,14 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
                         np.array([s.int_a2 for s in strokes], float), m2 / m, np.full(n, 3 * seg_t))
     pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
     failed = {}
-    arc_rows = [i for i, s in enumerate(strokes) if s.kind == K_ARC]
-    isolate(lambda r: arcs.adjust_plan_inputs(pin, strokes, r, profile), arc_rows, "planning", failed)
-    curve_rows = [i for i, s in enumerate(strokes) if s.kind == K_CURVE]
-    isolate(lambda r: curves.adjust_plan_inputs(pin, strokes, r, profile), curve_rows, "planning", failed)
+    # a curve whose vertices cap the speed below its feed is a chain
+    isolate(lambda r: chains.classify(strokes, r, profile),
+            [i for i, s in enumerate(strokes) if s.kind == K_CURVE], "planning", failed)
+    kinds = [chains.plan_kind(s) for s in strokes]
+    for k, kind in KINDS.items():
+        if kind.adjust_inputs is not None:
+            rows = [i for i in range(n) if kinds[i] == k and i not in failed]
+            isolate(lambda r: kind.adjust_inputs(pin, strokes, r, profile), rows, "planning", failed)
     pin.fault = input_faults(pin)             # reason per stroke, "" = fine
     for i, why in failed.items():
         pin.fault[i] = why
@@ -65,8 +107,8 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
 
 
 def _rows_by_kind(strokes):
-    kinds = np.array([s.kind for s in strokes], dtype=object)
-    return {k: np.flatnonzero(kinds == k) for k in (K_LINE, K_ARC, K_CURVE)}
+    kinds = np.array([chains.plan_kind(s) for s in strokes], dtype=object)
+    return {k: np.flatnonzero(kinds == k) for k in KINDS}
 
 
 def _candidates(strokes, pin, profile, opts, rows, failed):
@@ -74,11 +116,12 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
     n = len(strokes)
     ok = {k: np.array([i for i in r if i not in failed], int) for k, r in rows.items()}
+    rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
-        pieces = isolate(lambda r: candidates_auto(pin.take(r)), ok[K_LINE], "planning", failed)
-        pieces += isolate(lambda r: arcs.candidates_arc(pin, r, strokes), ok[K_ARC], "planning", failed)
-        pieces += isolate(lambda r: curves.candidates_curve(pin, r, strokes, profile), ok[K_CURVE],
-                          "planning", failed)
+        pieces = []
+        for k, kind in KINDS.items():
+            pieces += isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k], "planning",
+                              failed)
         T, beta, I, KE, nonfinite = scatter_candidates(n, pieces, pin.T_orig[:, None] * T_RATIOS[None, :])
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")
@@ -89,11 +132,9 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     fixed.T = pin.T_orig.copy()
     fixed.I_law = pin.I_orig.copy()
     fixed.reason[:] = "no law within limits"
-    for sub, p in isolate(lambda r: plan_fixed_alpha(pin.take(r), alpha), ok[K_LINE], "planning", failed):
-        fixed.put(sub, p)
-    isolate(lambda r: arcs.fixed_alpha_arc(fixed, pin, r, strokes, alpha), ok[K_ARC], "planning", failed)
-    isolate(lambda r: curves.fixed_alpha_curve(fixed, pin, r, strokes, profile, alpha), ok[K_CURVE],
-            "planning", failed)
+    for k, kind in KINDS.items():
+        isolate(lambda r: kind.fixed_alpha(fixed, pin, r, strokes, profile, alpha, rules), ok[k], "planning",
+                failed)
     return None, fixed
 
 
@@ -142,7 +183,7 @@ class SegmentCache:
         return rows.tobytes() + T[rows].tobytes() + beta[rows].tobytes()
 
     def lookup(self, kind, rows, T, beta):
-        if kind != K_LINE:
+        if KINDS[kind].batch:
             key, segs, bad = self.batch.get(kind, (None, {}, {}))
             return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
         got, bad = {}, {}
@@ -156,7 +197,7 @@ class SegmentCache:
         return got, bad
 
     def store(self, kind, rows, T, beta, segs, bad):
-        if kind != K_LINE:
+        if KINDS[kind].batch:
             if rows.size:
                 self.batch[kind] = (self._key(rows, T, beta), segs, bad)
             return
@@ -188,7 +229,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         seg_cache = pin.seg_cache = SegmentCache()
 
     # failed strokes stay out of the budget's allocation (their figures may be NaN)
-    groups = [np.setdiff1d(rows[k], failed_rows) for k in (K_LINE, K_ARC, K_CURVE)]
+    groups = [np.setdiff1d(rows[k], failed_rows) for k in KINDS]
 
     def run(budget):
         plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
@@ -202,15 +243,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
-        kind = np.array([strokes[i].kind for i in idx], dtype=object)
+        kind = np.array([chains.plan_kind(strokes[i]) for i in idx], dtype=object)
         segs = {}
         seg_failed = {}
-        planners = {
-            K_LINE: lambda sts, T, b: plan_segments(sts, T, b, rules),
-            K_ARC: lambda sts, T, b: arcs.plan_arc_segments(sts, T, b, rules, profile),
-            K_CURVE: lambda sts, T, b: curves.plan_curve_segments(sts, T, b, rules, profile),
-        }
-        for k_name, fn in planners.items():
+        for k_name, kind_of in KINDS.items():
+            fn = (lambda k: lambda sts, T, b: k.segments(sts, T, b, rules, profile))(kind_of)
             ii = idx[kind == k_name]
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
             segs.update(got)

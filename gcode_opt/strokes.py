@@ -18,8 +18,8 @@ MIN_FEED_V = 1.0          # mm/s: slower moves are left alone -- segment feeds a
                           # and a firmware's minimum feed is of that order, so a law could not be played
 COLLINEAR_SIN = 1e-3      # |sin| of the turn below which two moves are one line (0.06 deg)
 
-# Stroke.kind
-K_LINE, K_ARC, K_CURVE = "line", "arc", "curve"
+# Stroke.kind (a chain is a curve whose vertices cap the speed below its feed: chains.py)
+K_LINE, K_ARC, K_CURVE, K_CHAIN = "line", "arc", "curve", "chain"
 
 
 class Stroke:
@@ -27,13 +27,14 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state")
+                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T")
 
     def __init__(self, m):
         self.kind = K_LINE
         self.arc = None              # state.Arc of an arc stroke
         self.pts = None              # curve strokes: list of (x, y) vertices, start included
         self.curv = None             # curve strokes: cached curves.CurveGeom
+        self.chain_T = None          # chain strokes: {predicted duration: the law's} (chains.py)
         self.first_idx = self.last_idx = m.idx
         self.x0, self.y0, self.z = m.x0, m.y0, m.z0
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
@@ -57,7 +58,7 @@ class Stroke:
     def of_arc(cls, m):
         """A G2/G3 move on its own: path length S = R |sweep| (no Z change)."""
         st = cls.__new__(cls)
-        st.kind, st.arc, st.pts, st.curv = K_ARC, m.arc, None, None
+        st.kind, st.arc, st.pts, st.curv, st.chain_T = K_ARC, m.arc, None, None, None
         st.first_idx = st.last_idx = m.idx
         st.x0, st.y0, st.z = m.x0, m.y0, m.z0
         a = m.arc

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import process_cases
 
-from gcode_opt import curves
+from gcode_opt import chains, curves
 from gcode_opt.firmware.simulate import simulate_file
 from gcode_opt.laws.circle import solve_circles
 from gcode_opt.laws.curve import curvature_from_polyline, solve_curve
@@ -112,7 +112,8 @@ def _exact_gap(prof_name, name, n_max=5):
     opts = Options(features=INFILL)
     strokes, _ = analyse(S + name, prof, opts)
     pin = plan_inputs(strokes, prof, opts)
-    rows = np.array([i for i, s in enumerate(strokes) if s.kind == "curve"])
+    # curves proper: a chain (a curve with a vertex capped below F) has its own law
+    rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == "curve"])
     T, beta, I, KE = curves.candidates_curve(pin, rows, strokes, prof)
     j = curves.CURVE_COLS[2]                                  # T = T_orig
     gaps = []
@@ -160,7 +161,7 @@ def test_curve_candidates_in_evaluation_chunks_are_the_same(monkeypatch):
     opts = Options(features=INFILL)
     strokes, _ = analyse(S + "prusa_concentric.gcode", prof, opts)
     pin = plan_inputs(strokes, prof, opts)
-    rows = np.array([i for i, s in enumerate(strokes) if s.kind == "curve"])
+    rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == "curve"])
     whole = curves.candidates_curve(pin, rows, strokes, prof)
     monkeypatch.setattr(circle, "EVAL_CHUNK", 5)
     chunked = curves.candidates_curve(pin, rows, strokes, prof)

@@ -117,7 +117,9 @@ def _exact_gap(prof_name, name, n_max=5):
     T, beta, I, KE = curves.candidates_curve(pin, rows, strokes, prof)
     j = curves.CURVE_COLS[2]                                  # T = T_orig
     gaps = []
-    order = sorted((k for k in range(rows.size) if np.isfinite(I[k, j])),
+    # the longest curves of at most 40 moves: since chains no longer cut the gyroid's runs,
+    # curves of hundreds of moves remain, on which the exact solver takes minutes
+    order = sorted((k for k in range(rows.size) if np.isfinite(I[k, j]) and strokes[rows[k]].n_moves <= 40),
                    key=lambda k: -strokes[rows[k]].n_moves)
     for k in order:
         st = strokes[rows[k]]
@@ -141,7 +143,10 @@ def _exact_gap(prof_name, name, n_max=5):
     return np.array(gaps)
 
 
-@pytest.mark.parametrize("prof,name", [("prusa-mk3s", "prusa_gyroid.gcode"), ("voron24", "prusa_gyroid.gcode"),
+@pytest.mark.parametrize("prof,name", [("prusa-mk3s", "prusa_gyroid.gcode"),
+                                       # slow: on one of its curves (7.2 mm, 16 moves) the exact
+                                       # solver's continuation takes ~1 min
+                                       pytest.param("voron24", "prusa_gyroid.gcode", marks=pytest.mark.slow),
                                        ("voron24", "prusa_concentric.gcode")])
 def test_constant_curvature_law_is_near_the_exact_optimum(prof, name):
     """The production law (circle law at κ_eff, figures on the true κ(s)) against the exact

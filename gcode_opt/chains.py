@@ -103,8 +103,15 @@ def _problems(strokes, T, beta, profile):
     return out
 
 
+SOLVE_CHUNK = 256           # chains solved in one batch (bounded memory on files of 10^4 chains)
+
+
 def solve(strokes, T, beta, profile):
-    return solve_chains(_problems(strokes, T, beta, profile))
+    out = []
+    for a in range(0, len(strokes), SOLVE_CHUNK):
+        sl = slice(a, a + SOLVE_CHUNK)
+        out += solve_chains(_problems(strokes[sl], T[sl], beta[sl], profile))
+    return out
 
 
 # ------------------------------------------------------------------ segments
@@ -269,12 +276,19 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     """Per (stroke, T): feasible?, predicted time and ∫|a|², the law's ∫ṡ².  Each stroke
     remembers which law T gave which predicted time (law_T)."""
     sts = [strokes[i] for i in rows]
-    laws = solve(sts, T, beta, profile)
     ok = np.zeros(len(sts), bool)
     tp = np.array(T, float)
     ia = np.full(len(sts), np.inf)
     iv = np.full(len(sts), np.nan)
-    for k, (st, law) in enumerate(zip(sts, laws)):
+    for a in range(0, len(sts), SOLVE_CHUNK):      # the laws of one chunk at a time
+        _figures_chunk(sts, rows, pin, T, beta, profile, rules, a, ok, tp, ia, iv)
+    return ok, tp, ia, iv
+
+
+def _figures_chunk(sts, rows, pin, T, beta, profile, rules, a, ok, tp, ia, iv):
+    sl = slice(a, a + SOLVE_CHUNK)
+    laws = solve_chains(_problems(sts[sl], T[sl], beta[sl], profile))
+    for k, (st, law) in enumerate(zip(sts[sl], laws), start=a):
         i = rows[k]
         if not (law.converged and law.min_v >= -1e-9 * (1 + pin.v_cap[i])
                 and law.peak_v <= pin.v_cap[i] * (1 + SPEED_TOL_R) and T[k] >= pin.t_seg_min[i]):
@@ -284,7 +298,6 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
             continue
         ok[k], tp[k], ia[k], iv[k] = True, seg.time_t, seg.int_a2, law.iv
         st.chain_T[float(seg.time_t)] = float(T[k])
-    return ok, tp, ia, iv
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

@@ -89,15 +89,25 @@ def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next, jerk_r=1.0 - JERK_F_S
     return math.sqrt(v2) if math.isfinite(v2) else math.inf
 
 
+CHAIN_SEG_D = 2.0          # mm: a capped vertex next to a longer segment cuts the run
+
+
 def vertex_splitter(profile):
     """split(prev_move, move) for strokes.group_strokes: True where the vertex's speed cap
-    (x CAP_MARGIN) is below the feed -- the firmware slows there whatever we do."""
+    (x CAP_MARGIN) is below the feed -- the firmware slows there whatever we do -- and one
+    of its two segments is longer than CHAIN_SEG_D: the pieces are then re-timed on their
+    own (a long straight segment as a line, many knots), better than one firmware move per
+    segment.  A capped vertex between short segments stays inside: that run is a chain
+    (chains.py: gyroid, honeycomb at full speed)."""
     def split(pm, m):
         try:       # plain floats: a zero length or a bad root raises here, inf/NaN compare False below
-            cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), _d(pm), _d(m))
+            dp, dn = _d(pm), _d(m)
+            cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), dp, dn)
         except (ArithmeticError, ValueError):   # a degenerate vertex: end the curve there
             return True
-        return not cap > 0.0                    # NaN or a stop: split too (a capped vertex is a chain's)
+        if not cap > 0.0:                       # NaN or a stop
+            return True
+        return CAP_MARGIN * cap < m.v and max(dp, dn) > CHAIN_SEG_D
     return split
 
 

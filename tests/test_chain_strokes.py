@@ -44,7 +44,7 @@ def run(tmp_path_factory):
 
 def test_mk3s_gyroid_chains_lose_a_third_of_their_inertia(run):
     src, dst, prof, s, ch = run(MK3S)
-    assert len(ch) >= 300
+    assert len(ch) >= 250
     # the chains are a small share of the time and a third of the file's ∫|a|²dt
     a2_all = sum(c.int_a2 for c in ch.values())
     assert a2_all > 0.25 * s["whole_file"]["before"]["int_a2"]

@@ -133,7 +133,7 @@ def phases(n, rows):
     p = rows["process"]
     ts = p.get("timing_s", {})
     for key, name in (("plan", "planning"), ("rewrite", "rewrite"), ("measure", "firmware model on the output"),
-                      ("summary", "summary")):
+                      ("ringing", "ringing of the output"), ("summary", "summary")):
         if key in ts:
             out.append((name, ts[key], ts[key] / p["bare_cpu_s"], p["peak_rss_mb"]))
     out.append(("process, end to end", p["cpu_s"], p["cpu_s"] / p["bare_cpu_s"], p["peak_rss_mb"]))

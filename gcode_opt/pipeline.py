@@ -39,7 +39,7 @@ from .emit import StrokeText, emit_arc, emit_stroke
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
-from .state import MachineState, events, read_lines
+from .state import MachineState, Move, events, read_lines
 from .strokes import K_ARC, group_strokes
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -57,6 +57,8 @@ class Options:
         self.progress = progress            # Progress or None
         self.max_turn_deg = max_turn_deg    # polyline vertices turning <= this are inside a curve (0: no curves)
         self.reader_warnings = []           # (idx, text) the reader noted in the analyse pass
+        self.ringing = True                 # resonance figures before/after in the summary (ringing.py)
+        self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
 
 
 class Progress:
@@ -126,6 +128,8 @@ def analyse(path, profile: Profile, opts: Options):
     e_before = [0.0]       # logical E before the line the stream is at (the generators are lazy)
 
     seen = [False]         # a slicer feature comment (";TYPE:", "; FEATURE:", ...) was read
+    by_feature = opts.by_feature = {}   # the original's moves, time and int a^2 by feature (summary)
+    feat_of = {}           # line idx -> feature of a move whose record has not come yet
 
     def read():
         step = state.step
@@ -133,7 +137,10 @@ def analyse(path, profile: Profile, opts: Options):
             e_before[0] = state.e
             if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
                 seen[0] = True
-            yield idx, raw, step(idx, raw)
+            ev = step(idx, raw)
+            if type(ev) is Move:
+                feat_of[idx] = ev.feature
+            yield idx, raw, ev
 
     def start_state():
         """What rewrite needs where a run of moves starts (it copies the file without
@@ -166,13 +173,35 @@ def analyse(path, profile: Profile, opts: Options):
                     early.pop(i, None)
 
     def on_line(r):
+        f = feat_of.pop(r.idx, None)
+        if f is not None:
+            tot = by_feature.get(f)
+            if tot is None:
+                tot = by_feature[f] = [0, 0.0, 0.0]
+            tot[0] += 1
+            tot[1] += r.time_t
+            tot[2] += r.int_a2 + r.int_a2_j
         st = owner.pop(r.idx, None)
         if st is not None:
             apply(st, r)
         elif r.idx in pending_idx:
             early[r.idx] = r
 
-    sim = simulate_events(feed(), profile, on_line=on_line)
+    opts.ringing_before = None
+    if getattr(opts, "ringing", True):
+        # the original's ringing rides on this pass (streamed: bounded memory)
+        from . import ringing as rg
+        ring = rg.Collector(profile)
+        ring_line, ring_block, ring_dwell = rg.hooks(ring)
+
+        def on_line_both(r):
+            on_line(r)
+            ring_line(r)
+        sim = simulate_events(rg.wrap_events(feed(), ring_dwell), profile, on_line=on_line_both,
+                              on_block=ring_block)
+        opts.ringing_before = ring.figures()
+    else:
+        sim = simulate_events(feed(), profile, on_line=on_line)
     opts.feature_info = feat.selection_info(seen[0], opts.features)
     return strokes, sim
 
@@ -576,9 +605,13 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             first = None
             plan.segs = None
             pin.seg_cache = pin.cached = None
+            ringing, ringing_error = _ringing_after(tmp, profile, opts)
+            timing.lap("ringing")
             from .summary import build_summary
             summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
-                                    out_ranges, t1, a21, v21, time.monotonic() - t_start)
+                                    out_ranges, t1, a21, v21, time.monotonic() - t_start, ringing=ringing)
+            if ringing_error:
+                summary["ringing_error"] = ringing_error
             timing.lap("summary")
             summary["timing_s"] = timing.as_dict()
             summary["rewrite_passes"] = timing.passes
@@ -590,6 +623,20 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
         if prog:
             prog.finish()
     return summary
+
+
+def _ringing_after(written, profile, opts):
+    """(before, after) ringing figures, or None: the original's came with the analyse pass,
+    the written file's take one more firmware-model pass (the measure passes may have played
+    only the stretches that changed).  A failure costs the figures, never the output."""
+    before = getattr(opts, "ringing_before", None)
+    if before is None:
+        return None, None
+    try:
+        from . import ringing as rg
+        return (before, rg.figures(written, profile)), None
+    except Exception as e:          # noqa: BLE001 - the G-code output comes first
+        return None, f"{type(e).__name__}: {e}"
 
 
 class _FirstPass:
@@ -621,7 +668,7 @@ class _Timing:
     firmware model on the output; summary.  A re-plan adds to plan, rewrite and measure
     (summary["rewrite_passes"] counts the rewrite+measure passes)."""
 
-    PHASES = ("analyse", "plan", "rewrite", "measure", "summary")
+    PHASES = ("analyse", "plan", "rewrite", "measure", "ringing", "summary")
 
     def __init__(self):
         self.t = dict.fromkeys(self.PHASES, 0.0)

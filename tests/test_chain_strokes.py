@@ -59,7 +59,7 @@ def test_mk3s_gyroid_chains_lose_a_third_of_their_inertia(run):
     assert verify(str(src), str(dst), prof)["blocks"] == s["strokes"]["retimed"]
 
 
-@pytest.mark.parametrize("name", [MK3S, KLIPPER])
+@pytest.mark.parametrize("name", [MK3S, pytest.param(KLIPPER, marks=pytest.mark.slow)])
 def test_firmware_model_plays_the_chains_as_predicted(run, name):
     """The figures the planner predicted for each chain's segments (summary 'law') are
     what the firmware model measures on the written file, stroke by stroke."""

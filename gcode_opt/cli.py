@@ -160,7 +160,9 @@ def build_parser():
                    help="a run of G1 lines whose every vertex turns by at most DEG degrees is one smooth curve, "
                         "re-timed as a whole (gyroid, concentric infill); 0 re-times straight runs only "
                         "(default %(default)s)")
-    p.add_argument("--min-length", type=_length, default=2.0, help="shortest stroke to re-time, mm (default %(default)s)")
+    p.add_argument("--min-length", type=_length, default=0.2,
+                   help="shortest stroke to re-time, mm (default %(default)s: a stroke too short for two segments "
+                        "is played as one move with its own feed and acceleration)")
     p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
     p.add_argument("--report", metavar="REPORT.html",
                    help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")

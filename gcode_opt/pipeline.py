@@ -47,7 +47,7 @@ from .words import param_texts, split_comment, strip_checksum
 
 class Options:
     def __init__(self, alpha="auto", features=feat.DEFAULT_SELECTED, overshoot_r=0.25,
-                 max_slowdown_r=0.03, max_segments=10, min_length_d=2.0, progress=None, max_turn_deg=30.0):
+                 max_slowdown_r=0.03, max_segments=10, min_length_d=0.2, progress=None, max_turn_deg=30.0):
         self.alpha = alpha                  # "auto" or a float in s^2/kg
         self.features = tuple(features)
         self.overshoot_r = overshoot_r      # allowed peak speed above the slicer's F

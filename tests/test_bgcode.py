@@ -282,17 +282,18 @@ def test_process_bgcode_in_place_with_report(tmp_path, capsys):
 
 
 def test_meatpack_without_comments(tmp_path, capsys):
-    # encoding 1 drops every comment, ;TYPE: included: by default nothing is selected and the
-    # file keeps its bytes; --features all re-times it, written back with comments kept
+    # encoding 1 drops every comment, ;TYPE: included: an infill-only selection finds nothing
+    # and the file keeps its bytes; the default for a comment-less file (every extruding
+    # move) re-times it, written back with comments kept
     src = tmp_path / "part.bgcode"
     shutil.copy(os.path.join(FIX, "cut_hs11_meatpack.bgcode"), src)
     before = src.read_bytes()
-    assert main(["process", str(src), "--profile", "prusa-mk3s"]) == 0
+    assert main(["process", str(src), "--profile", "prusa-mk3s", "--features", "sparse_infill,solid_infill"]) == 0
     assert "stored without comments (MeatPack)" in capsys.readouterr().err
     assert src.read_bytes() == before
     out = tmp_path / "o.bgcode"
-    assert main(["process", str(src), "-o", str(out), "-q", "--profile", "prusa-mk3s",
-                 "--features", "all"]) == 0
+    assert main(["process", str(src), "-o", str(out), "--profile", "prusa-mk3s"]) == 0
+    assert "no feature comments" in capsys.readouterr().err
     g = bgcode.read(str(out))
     assert {b.encoding for b in g.gcode_blocks()} == {bgcode.ENC_MEATPACK_COMMENTS}
     counts = verify(_decoded(src, tmp_path, "o.gcode"), _decoded(out, tmp_path, "n.gcode"), load_profile("prusa-mk3s"))

@@ -15,6 +15,14 @@ cost dt_e(v_e) (model below).  end_speeds minimises sum k_e v_e^2 + lam sum dt_e
 on a grid of speeds, lam set by bisection so the time spent is the budget: every end gets
 the speed where one more second buys the same energy everywhere.
 
+In the product (`--corners R`, Options.corner_budget_r; schedule.plan_inputs calls
+lower_corners): the corners may spend R x --max-slowdown x the strokes' original time.
+That time is not on top of --max-slowdown: the planner budgets every stroke's law against
+its original time, so what slower ends cost comes out of the same budget and the laws get
+the rest.  Only line strokes are lowered (segments.py writes their lead-in / lead-out at the
+corner speed); arcs, curves and chains keep their ends, and so does a line end that meets
+one of them (the junction is one speed for both sides).
+
 The firmware's junction speed stays an upper bound (v_e <= the original's); speeds never go
 below MIN_CORNER_V (no new full stops: the firmware model counts < 0.5 mm/s as a stop, and
 segment feeds are written to 0.1 mm/s).
@@ -32,6 +40,8 @@ EDGE_D = 0.05            # mm: the lead-in / lead-out a slowed end needs at leas
 EDGE_T = 0.01            # s: ... or this long at the corner speed, whichever is longer
 GRID = 48                # corner speeds tried per end, geometric between MIN_CORNER_V and the original
 BUDGET_R = 0.02          # default: 2 % of the strokes' original time
+END_COST_R = 0.25        # one slowed end costs at most this share of its stroke's original time
+                         # (the planner's candidates stop at 1.5 x: a stroke slowed beyond has no law)
 
 
 def _unit(x, y):
@@ -103,11 +113,22 @@ def corner_share(figures: dict) -> float:
     return c / (r + c + t) if r + c + t > 0 else 0.0
 
 
-def end_speeds(strokes, pin, profile, opts, budget_t=None):
+def _tops(strokes, pin):
+    """(v_top, a): per stroke, the speed its ramps reach and their acceleration, for the
+    time model (end_time_cost)."""
+    v0, v1 = np.asarray(pin.v0, float), np.asarray(pin.v1, float)
+    v_top = np.maximum(np.minimum(np.asarray(pin.v_cap, float), np.array([s.v_feed for s in strokes], float)),
+                       np.maximum(v0, v1))
+    return v_top, np.asarray(pin.a_cap, float)
+
+
+def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=None, pairs=None):
     """(v0_new, v1_new): start and end speed per stroke, <= the originals (pin.v0, pin.v1,
     the firmware's junction speeds), lowered at sharp corners where the time budget buys
     the most ringing energy.  budget_t: seconds to spend (default: opts.corner_slowdown_r,
-    else BUDGET_R, times the strokes' original time)."""
+    else BUDGET_R, times the strokes' original time).  allow0 / allow1: bool per stroke,
+    which starts / ends may be lowered (default all).  pairs: (a, b) strokes whose a's end
+    is b's start (junctions()): one speed for both."""
     v0 = np.asarray(pin.v0, float)
     v1 = np.asarray(pin.v1, float)
     n = len(v0)
@@ -117,23 +138,48 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None):
         r = getattr(opts, "corner_slowdown_r", BUDGET_R)
         budget_t = r * float(np.nansum(pin.T_orig))
     k0, k1 = corner_weights(strokes, profile)
-    v_top = np.maximum(np.minimum(np.asarray(pin.v_cap, float), np.array([s.v_feed for s in strokes])),
-                       np.maximum(v0, v1))
-    a = np.asarray(pin.a_cap, float)
+    v_top, a = _tops(strokes, pin)
     ok = np.isfinite(v0) & np.isfinite(v1) & np.isfinite(v_top) & (a > 0) & np.isfinite(a)
     ends_v = np.concatenate([v0, v1])
     ends_k = np.concatenate([k0, k1])
     ends_top = np.concatenate([v_top, v_top])
     ends_a = np.concatenate([a, a])
+    t_orig = np.asarray(getattr(pin, "T_orig", np.full(n, np.inf)), float)
+    ends_tmax = END_COST_R * np.concatenate([t_orig, t_orig])
     live = np.concatenate([ok, ok]) & (ends_k > 0) & (ends_v > MIN_CORNER_V)
+    if allow0 is not None:
+        live &= np.concatenate([np.asarray(allow0, bool), np.asarray(allow1, bool)])
+    # a junction shared by two strokes (a's end, b's start) is one speed: one decision,
+    # priced with both sides' time; its energy once (one velocity jump)
+    mate = np.full(2 * n, -1)
+    for a_i, b_i in pairs or ():
+        e, f = n + a_i, b_i
+        if live[e] and live[f]:
+            mate[e] = f
+            live[f] = False           # decided with e
+        else:
+            live[e] = live[f] = False
     out = ends_v.copy()
     idx = np.flatnonzero(live)
     if idx.size and budget_t > 0:
-        vo, k, top, aa = ends_v[idx], ends_k[idx], ends_top[idx], ends_a[idx]
+        m = mate[idx]
+        paired = m >= 0
+        mi = np.where(paired, m, idx)
+        vo = np.where(paired, np.minimum(ends_v[idx], ends_v[mi]), ends_v[idx])
+        k = ends_k[idx]
         g = np.linspace(0.0, 1.0, GRID)[None, :]
         grid = MIN_CORNER_V * (vo[:, None] / MIN_CORNER_V) ** g        # ..., vo (last: keep)
-        cost_t = end_time_cost(grid, vo[:, None], top[:, None], aa[:, None])
+
+        def side(e):
+            c = end_time_cost(grid, ends_v[e][:, None], ends_top[e][:, None], ends_a[e][:, None])
+            return c, c > ends_tmax[e][:, None]
+        cost_t, too_slow = side(idx)
+        c2, slow2 = side(mi)
+        cost_t = np.where(paired[:, None], cost_t + c2, cost_t)
+        too_slow = too_slow | (paired[:, None] & slow2)
         energy = k[:, None] * grid * grid
+        too_slow[:, -1] = False                                          # keeping costs ~nothing
+        energy = np.where(too_slow, np.inf, energy)
 
         def pick(lam):
             j = np.argmin(energy + lam * cost_t, axis=1)
@@ -154,4 +200,74 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None):
                 hi = mid
         j, _ = pick(hi)
         out[idx] = grid[np.arange(idx.size), j]
+        out[mi[paired]] = out[idx[paired]]
     return np.minimum(out[:n], v0), np.minimum(out[n:], v1)
+
+
+def _end_point(st):
+    """XY where a stroke ends (None: not known)."""
+    if st.kind == "arc" and st.arc is not None:
+        a = st.arc
+        th = a.theta0 + a.sweep
+        return a.cx + a.r * math.cos(th), a.cy + a.r * math.sin(th)
+    if st.pts:
+        return st.pts[-1]
+    return st.x0 + st.ux * st.length_d, st.y0 + st.uy * st.length_d
+
+
+JOIN_D = 1e-3            # mm: one stroke's end and the next's start are the same point (digits written)
+
+
+def junctions(strokes):
+    """(a, b) index pairs: stroke a ends where stroke b starts, b the next stroke in file
+    order and entered from a's direction (no move between them: a connector would move the
+    point, an E-only move makes b's start a stop)."""
+    order = sorted(range(len(strokes)), key=lambda i: strokes[i].first_idx)
+    out = []
+    for a, b in zip(order, order[1:]):
+        sa, sb = strokes[a], strokes[b]
+        if sb.prev_u is None or sa.next_u is None or sb.first_idx <= sa.last_idx:
+            continue
+        p = _end_point(sa)
+        tol = JOIN_D + (getattr(sa.arc, "end_off_d", 0.0) if sa.kind == "arc" and sa.arc is not None else 0.0)
+        if p is None or math.hypot(p[0] - sb.x0, p[1] - sb.y0) > tol:
+            continue
+        t_end = end_tangents(sa)[1]
+        if abs(t_end[0] * sb.prev_u[0] + t_end[1] * sb.prev_u[1] - 1.0) > 1e-3:
+            continue
+        out.append((a, b))
+    return out
+
+
+def lower_corners(strokes, pin, profile, opts, kinds):
+    """Lower line strokes' end speeds at sharp corners (Options.corner_budget_r > 0):
+    strokes' v0 / v1 and pin.v0 / pin.v1 become the chosen speeds, v0_fw / v1_fw keep the
+    firmware's (segments.py writes the lead-in / lead-out for the difference).  Both sides
+    of a junction between two strokes get one speed.  Returns the
+    number of ends lowered."""
+    r = float(getattr(opts, "corner_budget_r", 0.0) or 0.0)
+    n = len(strokes)
+    if r <= 0.0 or n == 0:
+        return 0
+    line = np.array([k == "line" for k in kinds], bool)
+    allow0, allow1 = line.copy(), line.copy()
+    pairs = junctions(strokes)
+    for a, b in pairs:              # a junction with an arc / curve / chain keeps its speed
+        if not (line[a] and line[b]):
+            allow1[a] = allow0[b] = False
+    with np.errstate(invalid="ignore"):
+        t_orig = np.asarray(pin.T_orig, float)
+        budget_t = r * float(getattr(opts, "max_slowdown_r", 0.03)) * float(np.sum(t_orig[np.isfinite(t_orig)]))
+    v0_fw = np.asarray(pin.v0, float).copy()
+    v1_fw = np.asarray(pin.v1, float).copy()
+    v0, v1 = end_speeds(strokes, pin, profile, opts, budget_t=budget_t, allow0=allow0, allow1=allow1,
+                        pairs=pairs)
+    v0, v1 = np.minimum(v0, v0_fw), np.minimum(v1, v1_fw)
+    lowered = 0
+    for i, st in enumerate(strokes):
+        if v0[i] < v0_fw[i] or v1[i] < v1_fw[i]:
+            st.v0_fw, st.v1_fw = float(v0_fw[i]), float(v1_fw[i])
+            st.v0, st.v1 = float(v0[i]), float(v1[i])
+            lowered += int(v0[i] < v0_fw[i]) + int(v1[i] < v1_fw[i])
+    pin.v0, pin.v1 = v0, v1
+    return lowered

@@ -1,8 +1,9 @@
 """The file's plan: from the strokes the analyse pass found to the law and the segments
 of each one that is re-timed.
 
-  plan_inputs   per-stroke limits (speed cap from F, overshoot, machine and hotend flow;
-                acceleration cap per axis; segment time), arcs and curves adjusting theirs;
+  plan_inputs   per-stroke limits (speed cap from F, overshoot per feature, machine and
+                hotend flow; acceleration cap per axis; segment time), arcs and curves
+                adjusting theirs; slower corners (corners.py) when opts.corner_budget_r > 0;
   plan_strokes  candidates per kind of stroke (lines: plan.py; arcs: arcs.py; curves:
                 curves.py; chains: chains.py), the time budget spent across them
                 (plan.plan_auto), then the segments each chosen stroke will be played as,
@@ -23,7 +24,9 @@ import numpy as np
 
 from . import arcs
 from . import chains
+from . import corners
 from . import curves
+from .coverage import feature_overshoot_r
 from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha, scatter_candidates)
 from .profile import Profile
@@ -76,7 +79,8 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         area = math.pi * (profile.filament_diameter_d / 2) ** 2
         e_mm = np.array([s.e_per_mm for s in strokes], float)
         v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
-        v_cap = np.minimum(np.minimum(v_feed * (1 + opts.overshoot_r), v_lim), v_flow)
+        over_r = np.array([feature_overshoot_r(s.feature, opts) for s in strokes], float)
+        v_cap = np.minimum(np.minimum(v_feed * (1 + over_r), v_lim), v_flow)
         v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
         # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
         ax = np.array([s.lim.ax_max for s in strokes], float)
@@ -100,6 +104,11 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         if kind.adjust_inputs is not None:
             rows = [i for i in range(n) if kinds[i] == k and i not in failed]
             isolate(lambda r: kind.adjust_inputs(pin, strokes, r, profile), rows, "planning", failed)
+    # --corners R: lower line strokes' end speeds at sharp corners (corners.py); off by default
+    try:                                      # computed first, then set: a failure changes nothing
+        corners.lower_corners(strokes, pin, profile, opts, kinds)
+    except Exception:                         # noqa: BLE001 -- the corners stay the firmware's
+        pass
     pin.fault = input_faults(pin)             # reason per stroke, "" = fine
     for i, why in failed.items():
         pin.fault[i] = why

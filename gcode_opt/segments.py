@@ -260,12 +260,16 @@ def _finish(stroke, sk, vk, rules):
 
     acc = ramp_accels(sk, vk)
     need0, need1 = needs(sk)
+    slow0, slow1 = slowed_ends(stroke)
+    e0 = e1 = 0.0
     # Klipper's and Marlin's corner speeds scale with the entering block's acceleration:
     # a gently ramping first segment would slow the corner.  A lead-in at the corner speed
-    # carries the acceleration the corner needs without changing speed.
-    if need0 > acc[0] or need1 > acc[-1]:
-        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05)) if need0 > acc[0] else 0.0
-        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05)) if need1 > acc[-1] else 0.0
+    # carries the acceleration the corner needs without changing speed.  An end slowed
+    # below the firmware's junction speed (corners.py) needs one too: its feed, the corner
+    # speed, is what makes the firmware slow down there.
+    if need0 > acc[0] or need1 > acc[-1] or slow0 or slow1:
+        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05)) if need0 > acc[0] or slow0 else 0.0
+        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05)) if need1 > acc[-1] or slow1 else 0.0
         # a lead-in squeezes the first ramp into a shorter segment: keep its acceleration
         # within what the machine allows (Marlin caps M204 at M201's limit: the ramp would
         # fall short of its knot)
@@ -289,8 +293,22 @@ def _finish(stroke, sk, vk, rules):
         step_v = 0.9 * min(stroke.lim.jerk_x, stroke.lim.jerk_y) / max(abs(stroke.ux), abs(stroke.uy))
     acc = hold_cruise_accels(acc, stroke.accel)
     feeds = segment_feeds(vk, stroke.v_feed, step_v)
+    if slow0 or slow1:
+        if (slow0 and not e0) or (slow1 and not e1):
+            return None                   # no room for the lead-in / lead-out: not as planned
+        if slow0:
+            feeds[0] = max(stroke.v0, MIN_FEED_V)
+        if slow1:
+            feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def slowed_ends(stroke):
+    """(start, end): is that end's speed below the firmware's own junction speed (lowered
+    by corners.py: Stroke.v0_fw / v1_fw)?"""
+    fw0, fw1 = getattr(stroke, "v0_fw", None), getattr(stroke, "v1_fw", None)
+    return (fw0 is not None and stroke.v0 < fw0 - 1e-9, fw1 is not None and stroke.v1 < fw1 - 1e-9)
 
 
 # ------------------------------------------------------- one-move trapezoids (short strokes)
@@ -389,9 +407,10 @@ def line_trapezoids(strokes, T, beta, rules: SegmentRules):
 def _line_trapezoid(st, T, v_peak, rules):
     """The better of: lead-in / lead-out at the corner speeds carrying what the corners
     need, or none and the whole move carrying it (a lead-in at a slow corner can take
-    most of a short stroke's time)."""
+    most of a short stroke's time).  A slowed end (corners.py) always has its edge."""
+    slow = any(slowed_ends(st))
     got = [p for p in (_line_trapezoid_edges(st, T, v_peak, rules, True),
-                       _line_trapezoid_edges(st, T, v_peak, rules, False)) if p is not None]
+                       None if slow else _line_trapezoid_edges(st, T, v_peak, rules, False)) if p is not None]
     return min(got, key=lambda p: p.int_a2) if got else None
 
 
@@ -410,8 +429,11 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges):
     d0, d1 = st.ends_d[0], L - (st.ends_d[-2] if len(st.ends_d) > 1 else 0.0)   # first, last move
     need0 = accel_to_pass_junction(rules.junction, v0, st.prev_u, u, e0 or d0, jd) if v0 > 0 else 0.0
     need1 = accel_to_pass_junction(rules.junction, v1, u, st.next_u, e1 or d1, jd) if v1 > 0 else 0.0
-    e0 = e0 if need0 > 0.0 and e0 >= MIN_EDGE_D else 0.0
-    e1 = e1 if need1 > 0.0 and e1 >= MIN_EDGE_D else 0.0
+    slow0, slow1 = slowed_ends(st)
+    if (slow0 and e0 < MIN_EDGE_D) or (slow1 and e1 < MIN_EDGE_D):
+        return None                       # a slowed end without its edge would not be slowed
+    e0 = e0 if (need0 > 0.0 or slow0) and e0 >= MIN_EDGE_D else 0.0
+    e1 = e1 if (need1 > 0.0 or slow1) and e1 >= MIN_EDGE_D else 0.0
     t_edges = (e0 / v0 if e0 else 0.0) + (e1 / v1 if e1 else 0.0)
     Lm = L - e0 - e1
     if Lm <= 0 or T - t_edges <= 0:

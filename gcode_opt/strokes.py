@@ -27,7 +27,8 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T")
+                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T",
+                 "v0_fw", "v1_fw")
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -48,6 +49,7 @@ class Stroke:
         self.e_per_mm = m.e / d
         self.v0 = self.v1 = self.time_t = self.int_a2 = self.int_v2 = 0.0
         self.prev_u = self.next_u = None     # XY directions of the neighbouring moves (None: a stop)
+        self.v0_fw = self.v1_fw = None       # the firmware's own end speeds when corners.py lowered v0/v1
         self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
 
     @property
@@ -73,6 +75,7 @@ class Stroke:
         st.e_per_mm = m.e / a.length_d
         st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
         st.prev_u = st.next_u = None
+        st.v0_fw = st.v1_fw = None
         st.start_state = None
         return st
 

@@ -3,15 +3,12 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import types
 
 import numpy as np
 import pytest
 
 from gcode_opt import corners, ringing
-from gcode_opt.firmware.simulate import simulate_file
-from gcode_opt.profile import load_profile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLES = os.path.join(ROOT, "sample_gcode")
@@ -106,35 +103,4 @@ def test_lower_corner_speed_rings_less():
     assert ratio == pytest.approx(0.5, rel=0.05)    # total times differ slightly
     assert lo["xy"]["rms_corner_um"] < hi["xy"]["rms_corner_um"]
 
-
-@pytest.mark.slow
-def test_prototype_makes_the_firmware_slow_at_corners(tmp_path, monkeypatch):
-    """~10 s: the rectilinear sample through the pipeline with corners wired in as
-    benchmarks/ringing_table.py does; the firmware model on the written file plays the
-    corners slower (smaller velocity jumps), within +5 % time, without new full stops."""
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    try:
-        import ringing_table as rt
-    finally:
-        sys.path.pop(0)
-    from gcode_opt import features as feat
-    from gcode_opt import pipeline
-    from gcode_opt import segments as sg
-    plan_inputs, finish = rt.corner_prototype(0.05)
-    monkeypatch.setattr(pipeline, "plan_inputs", plan_inputs)
-    monkeypatch.setattr(sg, "_finish", finish)
-    prof = load_profile("prusa-mk3s")
-    src = os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode")
-    out = str(tmp_path / "out.gcode")
-    s = pipeline.process(src, out, prof, pipeline.Options(max_slowdown_r=0.05,
-                                                           features=feat.parse_feature_list("all")))
-    assert s["whole_file"]["after"]["full_stops"] <= s["whole_file"]["before"]["full_stops"]
-    t0, t1 = simulate_file(src, prof).time_t, simulate_file(out, prof).time_t
-    assert t1 <= 1.05 * t0
-    a, b = ringing.trace(src, prof), ringing.trace(out, prof)
-    jump2 = [float((tr.dv[tr.cls == ringing.CORNER] ** 2).sum()) for tr in (a, b)]
-    assert jump2[1] < 0.5 * jump2[0]
-    fa = ringing.figures_of_trace(a, ringing.model_of(prof))
-    fb = ringing.figures_of_trace(b, ringing.model_of(prof))
-    assert fb["xy"]["rms_um"] <= 0.6 * fa["xy"]["rms_um"]          # issue 10's target, 50 Hz, 0.1
-    assert fb["xy"]["peak_um"] < fa["xy"]["peak_um"]
+# The pipeline with slower corners (the product path, Options.corner_budget_r): test_corners_product.py.

@@ -9,6 +9,8 @@ plan_inputs + plan_strokes with every phase wrapped in a CPU timer (time.process
   line      line candidates (plan.candidates_auto)
   arc       arc candidates (arcs.candidates_arc)
   curve     curve candidates (curves.candidates_curve)
+  chain     chain candidates (chains.candidates_chain; a chain is a curve whose vertices
+            cap the speed below F, counted apart from the curves here)
   alloc     the time budget's allocation (plan.plan_auto, every re-plan)
   seg-*     segment planning per kind (every re-plan)
 Prints the median over runs, in ms per stroke of the phase's kind and in total ms, and the
@@ -28,10 +30,10 @@ import time
 _HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(_HERE, ".."))
 
-from gcode_opt import arcs, curves, schedule  # noqa: E402
+from gcode_opt import arcs, chains, curves, schedule  # noqa: E402
 from gcode_opt.pipeline import Options, analyse, process  # noqa: E402
 from gcode_opt.profile import load_profile  # noqa: E402
-from gcode_opt.strokes import K_ARC, K_CURVE, K_LINE  # noqa: E402
+from gcode_opt.strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE  # noqa: E402
 
 DEFAULT_FILES = ["sample_gcode/prusa_concentric.gcode", "sample_gcode/prusa_gyroid.gcode",
                  "sample_gcode/prusa_mk3s_rectilinear.gcode"]
@@ -55,6 +57,10 @@ class Timers:
         setattr(owner, name, timed)
         return lambda: setattr(owner, name, fn)
 
+    def wrap_kind(self, kind, name, phase):
+        """A registry entry (schedule.KINDS) holds its functions itself: wrap them there."""
+        return self.wrap(schedule.KINDS[kind], name, phase)
+
 
 def _profile(name, path):
     if name == "auto":
@@ -69,6 +75,8 @@ def plan_phases(path, prof, opts, runs):
     count = {k: sum(1 for s in strokes if s.kind == k) for k in (K_LINE, K_ARC, K_CURVE)}
     per_run = []
     for _ in range(runs):
+        for st in strokes:            # chains keep their last segment plan: start afresh
+            st.chain_T = None
         tm = Timers()
         undo = [tm.wrap(schedule, "candidates_auto", "line"),
                 tm.wrap(arcs, "candidates_arc", "arc"),
@@ -76,7 +84,9 @@ def plan_phases(path, prof, opts, runs):
                 tm.wrap(schedule, "plan_auto", "alloc"),
                 tm.wrap(schedule, "plan_segments", "seg-line"),
                 tm.wrap(arcs, "plan_arc_segments", "seg-arc"),
-                tm.wrap(curves, "plan_curve_segments", "seg-curve")]
+                tm.wrap_kind(K_CURVE, "segments", "seg-curve"),
+                tm.wrap_kind(K_CHAIN, "candidates", "chain"),
+                tm.wrap_kind(K_CHAIN, "segments", "seg-chain")]
         try:
             t0 = time.process_time()
             pin = schedule.plan_inputs(strokes, prof, opts)
@@ -88,6 +98,8 @@ def plan_phases(path, prof, opts, runs):
             for u in undo:
                 u()
         per_run.append(tm.t)
+    count[K_CURVE] -= sum(1 for s in strokes if chains.plan_kind(s) == K_CHAIN)
+    count[K_CHAIN] = sum(1 for s in strokes if chains.plan_kind(s) == K_CHAIN)
     med = {k: statistics.median(r.get(k, 0.0) for r in per_run) for k in per_run[0]}
     return med, count, len(strokes), int(plan.retime.sum())
 
@@ -118,7 +130,7 @@ def main(argv):
         e2e = True
     files = argv[1:] or DEFAULT_FILES
     kind_of = {"line": K_LINE, "arc": K_ARC, "curve": K_CURVE, "seg-line": K_LINE, "seg-arc": K_ARC,
-               "seg-curve": K_CURVE}
+               "seg-curve": K_CURVE, "chain": K_CHAIN, "seg-chain": K_CHAIN}
     for f in files:
         prof, name = _profile(prof_name, f)
         opts = Options()
@@ -126,10 +138,12 @@ def main(argv):
             n_lines = sum(1 for _ in fh)
         med, count, n, n_re = plan_phases(f, prof, opts, runs)
         print(f"{f} ({name}): {n_lines} lines, {n} strokes "
-              f"(line {count[K_LINE]}, arc {count[K_ARC]}, curve {count[K_CURVE]}), {n_re} re-timed; "
+              f"(line {count[K_LINE]}, arc {count[K_ARC]}, curve {count[K_CURVE]}, chain {count[K_CHAIN]}), "
+              f"{n_re} re-timed; "
               f"median of {runs} runs, CPU")
         print(f"  {'phase':<13}{'total ms':>10}{'ms/stroke':>11}")
-        for ph in ("inputs", "line", "arc", "curve", "alloc", "seg-line", "seg-arc", "seg-curve", "plan_strokes"):
+        for ph in ("inputs", "line", "arc", "curve", "chain", "alloc", "seg-line", "seg-arc", "seg-curve",
+                   "seg-chain", "plan_strokes"):
             k = kind_of.get(ph)
             per = count[k] if k else n
             ms = 1e3 * med.get(ph, 0.0)

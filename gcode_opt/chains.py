@@ -44,7 +44,7 @@ from .plan import SPEED_TOL_R, T_RATIOS
 from .segments import SegmentPlan, SegmentRules, hold_cruise_accels
 from .strokes import K_CHAIN, K_CURVE
 
-CHAIN_T_RATIOS = (0.98, 1.0, 1.01, 1.02, 1.03, 1.05, 1.07, 1.10, 1.16, 1.25)
+CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
 CHAIN_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CHAIN_T_RATIOS])
 GAMMA_MIN = 0.1            # beta = (T / GAMMA_MIN)^2: the law is the min-∫a² one up to a 1 % speed term
 MIN_FEED_V = 0.1           # mm/s: F of a segment between two (near) stops
@@ -106,7 +106,19 @@ def _problems(strokes, T, beta, profile):
 SOLVE_CHUNK = 256           # chains solved in one batch (bounded memory on files of 10^4 chains)
 
 
+class _KeptLaw:
+    """What emission needs of a candidate's law (finish_chain): its speeds and times at
+    the vertices and its duration.  Kept on the stroke (st.chain_T[("law", T, beta)]) so that the
+    chosen candidate is emitted without solving its law again."""
+    __slots__ = ("vert_v", "vert_t", "problem")
+
+    def __init__(self, vert_v, vert_t, T):
+        self.vert_v, self.vert_t = vert_v, vert_t
+        self.problem = ChainProblem((), (), 0.0, T, 0.0, 0.0, 0.0)
+
+
 def solve(strokes, T, beta, profile):
+    """Laws of chains at law durations T (solved together, SOLVE_CHUNK at a time)."""
     out = []
     for a in range(0, len(strokes), SOLVE_CHUNK):
         sl = slice(a, a + SOLVE_CHUNK)
@@ -175,24 +187,58 @@ def finish_chain(st, law, rules, profile):
     """SegmentPlan of one chain from its law, and whether its own ramps fit the
     acceleration limit (before what the junctions need is added; a ramp that does not
     is played at the limit, slower than the law: the prediction says how much)."""
+    return finish_chains(st, [law], rules, profile)[0]
+
+
+def finish_chains(st, laws, rules, profile):
+    """finish_chain for several laws of the same chain (its candidates), as rows of one
+    (k, n) batch: the per-call overhead of numpy on ~20-segment chains is shared."""
     g = curves.geom(st, profile)
     d = g.d
+    k, n = len(laws), d.size
     sk = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
-    vk = np.concatenate([[st.v0], law.vert_v, [st.v1]])
-    tk = np.diff(np.concatenate([[0.0], law.vert_t, [law.problem.T]]))
+    vk = np.empty((k, n + 1))
+    vk[:, 0], vk[:, -1] = st.v0, st.v1
+    tk = np.empty((k, n + 1))
+    tk[:, 0] = 0.0
+    for r, law in enumerate(laws):
+        vk[r, 1:-1] = law.vert_v
+        tk[r, 1:-1] = law.vert_t
+        tk[r, -1] = law.problem.T
+    tk = np.diff(tk, axis=1)
     a_top = _a_top(st)
-    acc, feed = shape_segments(d, np.maximum(tk, 1e-12), vk[:-1], vk[1:], a_top,
+    acc, feed = shape_segments(np.broadcast_to(d, (k, n)).ravel(), np.maximum(tk, 1e-12).ravel(),
+                               vk[:, :-1].ravel(), vk[:, 1:].ravel(), a_top,
                                trapezoid=rules.junction != "jerk")
-    fits = bool(np.all(acc <= a_top * (1 + SPEED_TOL_R)))
+    acc, feed = acc.reshape(k, n), feed.reshape(k, n)
+    fits = np.all(acc <= a_top * (1 + SPEED_TOL_R), axis=1)
     acc = np.minimum(acc, a_top)
-    acc = curves.junction_accels(st, g, vk, acc, rules, profile, vmax=feed)
-    acc = hold_cruise_accels(acc, a_top)
     step_v = np.inf
     if rules.junction == "jerk":
         step_v = curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
-    feed = tent_feeds(feed, st.v_feed, step_v)
-    t_pred, a2_pred = predict_chain(st, g, acc, feed, profile)
-    return SegmentPlan(sk, vk, acc, feed, t_pred, a2_pred), fits
+    for r in range(k):
+        acc[r] = hold_cruise_accels(_junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r]), a_top)
+        feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
+    t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
+    return [(SegmentPlan(sk, vk[r], acc[r], feed[r], float(t_pred[r]), float(a2_pred[r])), bool(fits[r]))
+            for r in range(k)]
+
+
+def _junction_accels(st, g, vk, acc, rules, profile, vmax):
+    """curves.junction_accels; under classic jerk its per-vertex loop raises nothing (the
+    jerk law does not scale with the acceleration), so only the finite-lookahead floor is
+    applied, over arrays (tests/test_chain_strokes.py compares the two)."""
+    if rules.junction != "jerk":
+        return curves.junction_accels(st, g, vk, acc, rules, profile, vmax=vmax)
+    acc = np.array(acc, float)
+    if profile.block_buffer > 0:
+        d, n = g.d, g.d.size
+        a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+        nb = max(profile.block_buffer - 3, 1)
+        ext = np.concatenate([d, np.full(nb, d[-1])])
+        window = np.convolve(ext, np.ones(nb), "valid")[:n]
+        acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), a_top))
+    return acc
 
 
 def _junction_v(profile, lim, pu, u, dp, dn, ap, an, fp, fn):
@@ -217,26 +263,87 @@ def _junction_v(profile, lim, pu, u, dp, dn, ap, an, fp, fn):
     return math.sqrt(v2) if math.isfinite(v2) else math.inf
 
 
+def _safe_speed(ux, uy, nominal, jx, jy):
+    """marlin_safe_speed over arrays (z = 0: its axis never limits)."""
+    safe = nominal.copy()
+    cx = np.abs(ux) * nominal
+    lx = cx > jx
+    safe[lx] = jx
+    cy = np.abs(uy) * nominal
+    ly = cy > jy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        both = np.where(cy * safe > jy * nominal, jy * nominal / cy, safe)
+    return np.where(ly, np.where(lx, both, jy), safe)
+
+
+def _axis_jerk(v_exit, v_entry):
+    up = np.where((v_entry > 0.0) | (v_exit < 0.0), v_exit - v_entry, np.maximum(v_exit, -v_entry))
+    dn = np.where((v_entry < 0.0) | (v_exit > 0.0), v_entry - v_exit, np.maximum(-v_exit, v_entry))
+    return np.where(v_exit > v_entry, up, dn)
+
+
+def _jerk_junction_v(pu, u, p_nom, nom, jx, jy):
+    """marlin_jerk_junction_v over arrays of junctions (z = 0), each axis's arithmetic in
+    its order (tests/test_chain_strokes.py compares it with the scalar law)."""
+    p_safe, safe = _safe_speed(pu[:, 0], pu[:, 1], p_nom, jx, jy), _safe_speed(u[:, 0], u[:, 1], nom, jx, jy)
+    vmax = np.minimum(nom, p_nom)
+    smaller = vmax / p_nom
+    with np.errstate(divide="ignore", invalid="ignore"):
+        jerk = _axis_jerk(pu[:, 0] * p_nom * smaller, u[:, 0] * nom)
+        limited = jerk > jx
+        vf = np.where(limited, jx / jerk, 1.0)
+        v_exit, v_entry = pu[:, 1] * p_nom * smaller, u[:, 1] * nom
+        v_exit, v_entry = np.where(limited, v_exit * vf, v_exit), np.where(limited, v_entry * vf, v_entry)
+        jerk = _axis_jerk(v_exit, v_entry)
+        ly = jerk > jy
+        vf = np.where(ly, vf * (jy / jerk), vf)
+    limited |= ly
+    vmax = np.where(limited, vmax * vf, vmax)
+    thr = vmax * 0.99
+    return np.where((p_safe > thr) & (safe > thr), safe, vmax)
+
+
+def _lookahead_v2(v2, reach):
+    """The firmware's lookahead on squared junction speeds v2 (..., n + 1) over moves that
+    gain reach = 2 a d each (..., n), along the last axis: forward, what the ramps reach;
+    backward, what they can brake from (the min-plus scans
+    v2[k] = min(v2[k], v2[k-1] + reach[k-1]) as prefix minima)."""
+    z = np.zeros(reach.shape[:-1] + (1,))
+    c = np.concatenate([z, np.cumsum(reach, axis=-1)], axis=-1)
+    v2 = np.minimum(v2, np.minimum.accumulate(v2 - c, axis=-1) + c)
+    r = np.concatenate([z, np.cumsum(reach[..., ::-1], axis=-1)], axis=-1)[..., ::-1]   # reach to the end
+    return np.minimum(v2, (np.minimum.accumulate((v2 - r)[..., ::-1], axis=-1) + r[..., ::-1])[..., ::-1])
+
+
 def predict_chain(st, g, acc, feed, profile):
     """(time, ∫|a|²dt) of the firmware playing the chain's segments: junction speeds from
     its junction law, the feeds and its lookahead; trapezoids; normal vertex terms."""
+    t, a2 = predict_chains(st, g, np.atleast_2d(acc), np.atleast_2d(feed), profile)
+    return float(t[0]), float(a2[0])
+
+
+def predict_chains(st, g, acc, feed, profile):
+    """predict_chain for rows of (k, n) accelerations and feeds of the same chain."""
     d = g.d
-    n = d.size
+    k, n = acc.shape
     lim = st.lim
-    v = np.empty(n + 1)
-    v[0] = st.v0
-    v[-1] = st.v1
-    for k in range(1, n):
-        vj = _junction_v(profile, lim, tuple(g.u[k - 1]), tuple(g.u[k]), d[k - 1], d[k],
-                         acc[k - 1], acc[k], feed[k - 1], feed[k])
-        v[k] = min(vj, feed[k - 1], feed[k])
-    v2 = v * v
+    v = np.empty((k, n + 1))
+    v[:, 0] = st.v0
+    v[:, -1] = st.v1
+    if profile.junction == "jerk":
+        fp, fn = feed[:, :-1].ravel(), feed[:, 1:].ravel()
+        vj = _jerk_junction_v(np.tile(g.u[:-1], (k, 1)), np.tile(g.u[1:], (k, 1)), fp, fn,
+                              lim.jerk_x, lim.jerk_y)
+        v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(k, n - 1)
+    else:
+        for r in range(k):
+            for j in range(1, n):
+                vj = _junction_v(profile, lim, tuple(g.u[j - 1]), tuple(g.u[j]), d[j - 1], d[j],
+                                 acc[r, j - 1], acc[r, j], feed[r, j - 1], feed[r, j])
+                v[r, j] = min(vj, feed[r, j - 1], feed[r, j])
     reach = 2.0 * acc * d
-    for k in range(1, n + 1):               # forward: what the ramps reach
-        v2[k] = min(v2[k], v2[k - 1] + reach[k - 1])
-    for k in range(n - 1, -1, -1):          # backward: what they can brake from
-        v2[k] = min(v2[k], v2[k + 1] + reach[k])
-    va2, vb2 = v2[:-1], v2[1:]
+    v2 = _lookahead_v2(v * v, reach)
+    va2, vb2 = v2[:, :-1], v2[:, 1:]
     peak2 = np.minimum(feed * feed, 0.5 * (reach + va2 + vb2))
     peak2 = np.maximum(peak2, np.maximum(va2, vb2))
     pk, va, vb = np.sqrt(peak2), np.sqrt(va2), np.sqrt(vb2)
@@ -245,17 +352,17 @@ def predict_chain(st, g, acc, feed, profile):
     dn_d = (peak2 - vb2) / (2.0 * a)
     cruise_d = np.maximum(d - up_d - dn_d, 0.0)
     t = (pk - va) / a + (pk - vb) / a + cruise_d / np.maximum(pk, 1e-9)
-    a2 = float(np.sum(a * ((pk - va) + (pk - vb))))
-    vi = va[1:]
-    tj = 0.5 * (t[:-1] + t[1:])
+    a2 = np.sum(a * ((pk - va) + (pk - vb)), axis=1)
+    vi = va[:, 1:]
+    tj = 0.5 * (t[:, :-1] + t[:, 1:])
     dv2 = 2.0 * vi * vi * (1.0 - g.cos_turn)
-    a2 += float(np.sum(np.where(g.cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0)))
+    a2 = a2 + np.sum(np.where(g.cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1)
     c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
     c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
-    for c, vv, tt in ((c0, va[0], t[0]), (c1, vb[-1], t[-1])):
+    for c, vv, tt in ((c0, va[:, 0], t[:, 0]), (c1, vb[:, -1], t[:, -1])):
         if c is not None and c >= CORNER_COS:
-            a2 += 0.5 * 2.0 * vv * vv * (1.0 - c) / max(tt, 1e-12)
-    return float(np.sum(t)), a2
+            a2 = a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12)
+    return np.sum(t, axis=1), a2
 
 
 def law_T(st, T):
@@ -265,39 +372,77 @@ def law_T(st, T):
 
 
 def plan_chain_segments(strokes, T, beta, rules, profile):
-    """SegmentPlan per chain stroke (knots = the original vertices)."""
+    """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
+    candidates' laws (st.chain_T[("law", T, beta)], _KeptLaw): the chosen one is emitted
+    without solving it again; and its last plan (st.chain_T["seg"]): a re-plan of the
+    budget that leaves its (T, beta) alone reuses it."""
     T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
-    laws = solve(strokes, T, np.asarray(beta, float), profile)
-    return [finish_chain(st, law, rules, profile)[0] for st, law in zip(strokes, laws)]
+    beta = np.asarray(beta, float)
+    out = [None] * len(strokes)
+    todo = []
+    key = (rules.junction, rules.n_max, rules.seg_t, rules.min_seg_d, id(profile))
+    for k, (st, t, b) in enumerate(zip(strokes, T, beta)):
+        hit = st.chain_T.get("seg")
+        if hit is not None and hit[0] == (float(t), float(b)) + key:
+            out[k] = hit[1]
+        else:
+            todo.append(k)
+    # the candidate's own law when this (T, beta) is one of the candidates, else solved
+    laws = {k: strokes[k].chain_T.get(("law", float(T[k]), float(beta[k]))) for k in todo}
+    cold = [k for k in todo if laws[k] is None]
+    laws.update(zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)))
+    for k in todo:
+        st = strokes[k]
+        out[k] = finish_chain(st, laws[k], rules, profile)[0]
+        st.chain_T["seg"] = ((float(T[k]), float(beta[k])) + key, out[k])
+    return out
 
 
 # ------------------------------------------------------------------ candidates
 def _figures(strokes, rows, pin, T, beta, profile, rules):
-    """Per (stroke, T): feasible?, predicted time and ∫|a|², the law's ∫ṡ².  Each stroke
-    remembers which law T gave which predicted time (law_T)."""
-    sts = [strokes[i] for i in rows]
-    ok = np.zeros(len(sts), bool)
+    """Per (stroke, T) of the (n, k) tables T, beta (columns in increasing T): feasible?,
+    predicted time and ∫|a|², the law's ∫ṡ².  Each stroke remembers which law T gave which
+    predicted time (law_T) and the law's binding set and vertex times (_warm).  Column by
+    column, each law warm-started from its neighbour's (the one nearest 1 x T_orig first,
+    cold): the binding set moves little between close durations."""
+    n, k = T.shape
+    ok = np.zeros((n, k), bool)
     tp = np.array(T, float)
-    ia = np.full(len(sts), np.inf)
-    iv = np.full(len(sts), np.nan)
-    for a in range(0, len(sts), SOLVE_CHUNK):      # the laws of one chunk at a time
-        _figures_chunk(sts, rows, pin, T, beta, profile, rules, a, ok, tp, ia, iv)
+    ia = np.full((n, k), np.inf)
+    iv = np.full((n, k), np.nan)
+    mid = int(np.argmin(np.abs(T[0] / pin.T_orig[rows[0]] - 1.0))) if n else 0
+    order = [mid] + list(range(mid + 1, k)) + list(range(mid - 1, -1, -1))
+    prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
+    for a in range(0, n, SOLVE_CHUNK):      # the laws of one chunk of chains at a time
+        sl = slice(a, min(a + SOLVE_CHUNK, n))
+        sts = [strokes[i] for i in rows[sl]]
+        laws = {}
+        for c in order:
+            init_B = init_t = None
+            if c in prev:
+                src, scale = laws[prev[c]], T[sl, c] / T[sl, prev[c]]
+                init_B = [lw.binding for lw in src]
+                init_t = [lw.vert_t * r for lw, r in zip(src, scale)]
+            laws[c] = solve_chains(_problems(sts, T[sl, c], beta[sl, c], profile), init_B, init_t)
+        for j, st in enumerate(sts, start=a):     # all candidates of a chain in one batch
+            i = rows[j]
+            cols = [c for c in range(k) if _usable(laws[c][j - a], pin, i, T[j, c])]
+            if not cols:
+                continue
+            for c, (seg, _) in zip(cols, finish_chains(st, [laws[c][j - a] for c in cols], rules, profile)):
+                if not (np.isfinite(seg.int_a2) and np.isfinite(seg.time_t) and seg.time_t > 0):
+                    continue
+                law = laws[c][j - a]
+                ok[j, c], tp[j, c], ia[j, c], iv[j, c] = True, seg.time_t, seg.int_a2, law.iv
+                st.chain_T[float(seg.time_t)] = float(T[j, c])
+                st.chain_T[("law", float(T[j, c]), float(beta[j, c]))] = _KeptLaw(law.vert_v, law.vert_t,
+                                                                               float(T[j, c]))
     return ok, tp, ia, iv
 
 
-def _figures_chunk(sts, rows, pin, T, beta, profile, rules, a, ok, tp, ia, iv):
-    sl = slice(a, a + SOLVE_CHUNK)
-    laws = solve_chains(_problems(sts[sl], T[sl], beta[sl], profile))
-    for k, (st, law) in enumerate(zip(sts[sl], laws), start=a):
-        i = rows[k]
-        if not (law.converged and law.min_v >= -1e-9 * (1 + pin.v_cap[i])
-                and law.peak_v <= pin.v_cap[i] * (1 + SPEED_TOL_R) and T[k] >= pin.t_seg_min[i]):
-            continue
-        seg, _ = finish_chain(st, law, rules, profile)
-        if not (np.isfinite(seg.int_a2) and np.isfinite(seg.time_t) and seg.time_t > 0):
-            continue
-        ok[k], tp[k], ia[k], iv[k] = True, seg.time_t, seg.int_a2, law.iv
-        st.chain_T[float(seg.time_t)] = float(T[k])
+def _usable(law, pin, i, T):
+    return (law.converged and law.min_v >= -1e-9 * (1 + pin.v_cap[i])
+            and law.peak_v <= pin.v_cap[i] * (1 + SPEED_TOL_R) and T >= pin.t_seg_min[i])
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):
@@ -312,15 +457,13 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     beta = np.full((n, k_all), np.inf)
     if n == 0:
         return T, beta, I, KE
-    k = len(CHAIN_COLS)
-    Tc = T[:, CHAIN_COLS].ravel()
+    Tc = T[:, CHAIN_COLS]
     bc = (Tc / GAMMA_MIN) ** 2
-    rr = np.repeat(rows, k)
-    ok, tp, ia, iv = _figures(strokes, rr, pin, Tc, bc, profile, rules)
-    T[:, CHAIN_COLS] = tp.reshape(n, k)
-    I[:, CHAIN_COLS] = np.where(ok, ia, np.inf).reshape(n, k)
-    KE[:, CHAIN_COLS] = iv.reshape(n, k)
-    beta[:, CHAIN_COLS] = bc.reshape(n, k)
+    ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    T[:, CHAIN_COLS] = tp
+    I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
+    KE[:, CHAIN_COLS] = iv
+    beta[:, CHAIN_COLS] = bc
     return T, beta, I, KE
 
 
@@ -333,8 +476,7 @@ def fixed_alpha_chain(plan, pin, rows, strokes, profile, alpha, rules=None):
         return
     ratios = np.array(sorted(CHAIN_T_RATIOS))
     n, k = rows.size, ratios.size
-    Tf = (pin.T_orig[rows, None] * ratios[None, :]).ravel()
-    bf = np.repeat(alpha * pin.mass_r[rows], k)
-    ok, tp, ia, iv = _figures(strokes, np.repeat(rows, k), pin, Tf, bf, profile, rules)
-    take_shortest_feasible(plan, pin, rows, alpha, tp.reshape(n, k), ok.reshape(n, k),
-                           iv.reshape(n, k), ia.reshape(n, k))
+    Tf = pin.T_orig[rows, None] * ratios[None, :]
+    bf = np.repeat(alpha * pin.mass_r[rows, None], k, axis=1)
+    ok, tp, ia, iv = _figures(strokes, rows, pin, Tf, bf, profile, rules)
+    take_shortest_feasible(plan, pin, rows, alpha, tp, ok, iv, ia)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from gcode_opt.laws.chain import solve_chain
+from gcode_opt.laws.chain import ChainProblem, solve_chain, solve_chains
 from gcode_opt.laws.line import line_law
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
@@ -199,3 +199,52 @@ def test_twenty_four_real_chains_match_oracle():
         j_law, j_or, _ = check_chain(pts, caps, v0, v1, T, beta)
         worst = max(worst, abs(j_law - j_or) / j_or)
     assert worst <= 0.01, worst
+
+
+# ------------------------------------------------------------------ warm starts and batches (issue 8)
+def _synthetic_chains(n_chains, seed=7):
+    """Chains of 6-20 segments of 0.4-1.0 mm, caps 15-45 mm/s, run at a mean 45 mm/s: most
+    caps bind, some do not."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n_chains):
+        n = int(rng.integers(6, 21))
+        d = rng.uniform(0.4, 1.0, n)
+        s = np.cumsum(d)
+        out.append(ChainProblem(s[:-1], rng.uniform(15.0, 45.0, n - 1), s[-1], s[-1] / 45.0,
+                                (s[-1] / 45.0 / 0.1) ** 2, rng.uniform(10, 30), rng.uniform(10, 30)))
+    return out
+
+
+def _same_law(a, b, rtol):
+    assert a.converged and b.converged
+    assert abs(a.J - b.J) <= rtol * abs(b.J)
+    np.testing.assert_allclose(a.vert_v, b.vert_v, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(a.vert_t, b.vert_t, rtol=1e-6, atol=1e-12)
+
+
+def test_a_chains_law_does_not_depend_on_its_batch():
+    """Each chain is solved alone and in a batch with others (whose Newton and active-set
+    steps take longer): the same law (converged chains leave the batch)."""
+    probs = _synthetic_chains(12)
+    together = solve_chains(probs)
+    assert sum(lw.binding.size for lw in together) > 0
+    for pr, lw in zip(probs, together):
+        _same_law(lw, solve_chains([pr])[0], 1e-12)
+
+
+def test_warm_start_from_a_nearby_duration_gives_the_cold_law():
+    """The candidates are solved warm from the neighbouring duration's binding set and
+    vertex times (chains._figures); the law must be the one a cold start finds, also when
+    the binding set changes between the two durations."""
+    probs = _synthetic_chains(12, seed=11)
+    near = solve_chains(probs)
+    changed = 0
+    for ratio in (1.02, 1.25):
+        far = [ChainProblem(p.s_v, p.c_v, p.S, p.T * ratio, p.beta * ratio ** 2, p.v0, p.v1) for p in probs]
+        cold = solve_chains(far)
+        warm = solve_chains(far, [lw.binding for lw in near], [lw.vert_t * ratio for lw in near])
+        for w, c, n0 in zip(warm, cold, near):
+            _same_law(w, c, 1e-9)
+            changed += not np.array_equal(c.binding, n0.binding)
+    assert changed > 0          # the check covered binding sets that move with T

@@ -141,3 +141,67 @@ def test_real_klipper_accepts_and_agrees_on_chains(run):
     d_o = o1["int_a2_xy"] / o0["int_a2_xy"] - 1
     d_m = m1["int_a2_xy"] / m0["int_a2_xy"] - 1
     assert abs(d_o - d_m) <= 0.03, (d_o, d_m)
+
+
+# ------------------------------------------------------------------ the prediction's vector forms (issue 8)
+def test_vector_jerk_junction_is_marlins_scalar_law():
+    """chains._jerk_junction_v over arrays against firmware/junction.py's scalar Marlin
+    law, junction by junction: gyroid-like turns, reversals, axis-aligned moves, feeds that
+    coast (one side slower) and level ones."""
+    from gcode_opt.firmware.junction import marlin_jerk_junction_v, marlin_safe_speed
+    rng = np.random.default_rng(3)
+    n = 4000
+    a0 = rng.uniform(0, 2 * np.pi, n)
+    turn = np.where(rng.random(n) < 0.7, rng.normal(0, 0.3, n), rng.uniform(-np.pi, np.pi, n))
+    a0[:200] = np.round(a0[:200] / (np.pi / 2)) * (np.pi / 2)        # axis-aligned
+    turn[:100] = 0.0
+    pu = np.c_[np.cos(a0), np.sin(a0)]
+    u = np.c_[np.cos(a0 + turn), np.sin(a0 + turn)]
+    fp = rng.uniform(1.0, 150.0, n)
+    fn = np.where(rng.random(n) < 0.3, fp, rng.uniform(1.0, 150.0, n))
+    jx, jy = 8.0, 10.0
+    got = chains._jerk_junction_v(pu, u, fp, fn, jx, jy)
+    want = np.array([marlin_jerk_junction_v(pu[k, 0], pu[k, 1], 0.0, fp[k],
+                                            marlin_safe_speed(pu[k, 0], pu[k, 1], 0.0, fp[k], jx, jy, 1.0),
+                                            u[k, 0], u[k, 1], 0.0, fn[k],
+                                            marlin_safe_speed(u[k, 0], u[k, 1], 0.0, fn[k], jx, jy, 1.0),
+                                            jx, jy, 1.0) for k in range(n)])
+    np.testing.assert_allclose(got, want, rtol=1e-14, atol=0)
+
+
+def test_lookahead_scans_are_the_sequential_passes():
+    """chains._lookahead_v2 (prefix minima) against the forward and backward passes written
+    as the firmware's loop."""
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 7, 60):
+        v2 = rng.uniform(0, 3000, n + 1)
+        v2[rng.random(n + 1) < 0.2] = 0.0
+        reach = 2 * rng.uniform(100, 1500, n) * rng.uniform(0.1, 1.5, n)
+        want = v2.copy()
+        for k in range(1, n + 1):
+            want[k] = min(want[k], want[k - 1] + reach[k - 1])
+        for k in range(n - 1, -1, -1):
+            want[k] = min(want[k], want[k + 1] + reach[k])
+        np.testing.assert_allclose(chains._lookahead_v2(v2, reach), want, rtol=1e-12, atol=1e-9)
+
+
+def test_jerk_junction_accels_shortcut_is_curves_law():
+    """Under classic jerk chains._junction_accels skips curves.junction_accels' per-vertex
+    loop (the jerk law needs no acceleration): the same accelerations on real chains."""
+    from gcode_opt import curves
+    from gcode_opt.segments import SegmentRules
+    path = SAMPLES / MK3S
+    prof = auto_profile(str(path)).profile
+    assert prof.junction == "jerk" and prof.block_buffer > 0
+    rules = SegmentRules.for_profile(prof, 10)
+    rng = np.random.default_rng(2)
+    sts = list(_chain_lines(path, prof).values())[:40]
+    assert len(sts) == 40
+    for st in sts:
+        g = curves.geom(st, prof)
+        n = g.d.size
+        vk = rng.uniform(5.0, 80.0, n + 1)
+        acc = rng.uniform(0.0, 1200.0, n)
+        feed = np.maximum(vk[:-1], vk[1:]) * rng.uniform(1.0, 1.3, n)
+        want = curves.junction_accels(st, g, vk, acc, rules, prof, vmax=feed)
+        np.testing.assert_array_equal(chains._junction_accels(st, g, vk, acc, rules, prof, feed), want)

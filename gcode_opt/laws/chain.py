@@ -83,45 +83,64 @@ def _J(L, T, beta, va, vb):
 
 def _share_time(L, beta, va, vb, owner, T_total, T_init):
     """Durations T_j of all pieces with J_j'(T_j) = -λ_c per chain c and Σ_c T_j = T_total[c]
-    (Newton on the KKT system).  Returns (T_j, λ_c, converged per chain)."""
+    (Newton on the KKT system).  Returns (T_j, λ_c, converged per chain).  A chain that has
+    converged is frozen (its pieces leave the batch): each chain's iterates are its own,
+    whatever else is in the batch, and the batch shrinks as chains converge."""
     n_c = T_total.size
     T = T_init.copy()
     lam = np.zeros(n_c)
-    first = True
     conv = np.zeros(n_c, bool)
+    fresh = np.ones(n_c, bool)
+    n_p = np.bincount(owner, None, n_c)
     for _ in range(MAX_NEWTON):
-        h = FD_H_R * T
-        jm, j0, jp = _J(L, T - h, beta, va, vb), _J(L, T, beta, va, vb), _J(L, T + h, beta, va, vb)
+        ix = np.flatnonzero(~conv[owner])
+        if ix.size == 0:
+            break
+        o, Ti, Li, bi, ai, ci = owner[ix], T[ix], L[ix], beta[ix], va[ix], vb[ix]
+        h = FD_H_R * Ti
+        jm, j0, jp = _J(Li, Ti - h, bi, ai, ci), _J(Li, Ti, bi, ai, ci), _J(Li, Ti + h, bi, ai, ci)
         d1 = (jp - jm) / (2.0 * h)
         d2 = (jp - 2.0 * j0 + jm) / (h * h)
-        d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (T * T) + 1e-300)
+        d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)
         inv = 1.0 / d2
-        s_inv = np.bincount(owner, inv, n_c)
-        if first:              # λ that best matches the current slopes
-            lam = -np.bincount(owner, d1 * inv, n_c) / s_inv
-            first = False
-        r = d1 + lam[owner]
-        e = T_total - np.bincount(owner, T, n_c)
-        dlam = -(e + np.bincount(owner, r * inv, n_c)) / s_inv
-        dT = -(r + dlam[owner]) * inv
-        scale = np.maximum(np.abs(lam), np.bincount(owner, np.abs(d1), n_c) / np.bincount(owner, None, n_c))
-        rr = np.bincount(owner, np.abs(r), n_c)
-        conv = (rr <= NEWTON_TOL_R * scale * np.bincount(owner, None, n_c)) & (np.abs(e) <= 1e-12 * T_total)
-        if conv.all():
-            break
+        s_inv = np.bincount(o, inv, n_c)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lam0 = -np.bincount(o, d1 * inv, n_c) / s_inv
+        lam = np.where(fresh & ~conv, lam0, lam)   # λ that best matches the first slopes
+        fresh[:] = False
+        r = d1 + lam[o]
+        e = T_total - np.bincount(o, Ti, n_c)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dlam = -(e + np.bincount(o, r * inv, n_c)) / s_inv
+            scale = np.maximum(np.abs(lam), np.bincount(o, np.abs(d1), n_c) / n_p)
+        dT = -(r + dlam[o]) * inv
+        rr = np.bincount(o, np.abs(r), n_c)
+        now = (~conv) & (rr <= NEWTON_TOL_R * scale * n_p) & (np.abs(e) <= 1e-12 * T_total)
+        conv |= now
+        move = ~now[o]
         # damped: no piece may lose more than half or gain more than its duration in a step
-        step = np.clip(dT, -0.5 * T, T)
-        T = T + step
-        lam = lam + dlam
+        step = np.clip(dT, -0.5 * Ti, Ti)
+        T[ix[move]] = Ti[move] + step[move]
+        lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
     return T, lam, conv
 
 
-def solve_chains(problems, init_binding=None):
-    """ChainLaw of every ChainProblem, solved together (pieces of all chains in one batch)."""
+def solve_chains(problems, init_binding=None, init_vert_t=None):
+    """ChainLaw of every ChainProblem, solved together (pieces of all chains in one batch).
+    Warm start (optional, per chain, None = cold): init_binding, the binding set to start
+    from; init_vert_t, vertex times of a nearby law (scaled by the caller to the problem's
+    T, e.g. x T / T_nearby): the first
+    guess of the pieces' durations.  Each active-set step starts from the previous law's
+    vertex times."""
     m = len(problems)
     B = [None] * m
+    vts = [None] * m
+    if init_vert_t is not None:
+        for c, (pr, vt) in enumerate(zip(problems, init_vert_t)):
+            if vt is not None and vt.size == pr.s_v.size:
+                vts[c] = np.asarray(vt, float)
     for c, pr in enumerate(problems):
-        if init_binding is not None:
+        if init_binding is not None and init_binding[c] is not None:
             B[c] = np.asarray(init_binding[c], int)
         else:       # a cap below the mean speed is (nearly always) met: start with those
             B[c] = np.flatnonzero(pr.c_v < pr.S / pr.T)
@@ -131,35 +150,36 @@ def solve_chains(problems, init_binding=None):
     for it in range(MAX_ACTIVE_ITERS):
         if not active:
             break
-        res = _solve_fixed([problems[c] for c in active], [B[c] for c in active])
+        res = _solve_fixed([problems[c] for c in active], [B[c] for c in active], [vts[c] for c in active])
         nxt = []
         for c, law in zip(active, res):
             pr = problems[c]
             out[c] = law
             Bc = B[c]
-            nb = np.setdiff1d(np.arange(pr.s_v.size), Bc)
-            viol = nb[law.vert_v[nb] > pr.c_v[nb] * (1 + CAP_TOL_R) + 1e-12]
-            key = Bc.tobytes()
-            seen[c].add(key)
-            if viol.size:
-                newB = np.union1d(Bc, viol)
+            bound = np.zeros(pr.s_v.size, bool)
+            bound[Bc] = True
+            viol = ~bound & (law.vert_v > pr.c_v * (1 + CAP_TOL_R) + 1e-12)
+            seen[c].add(Bc.tobytes())
+            if viol.any():
+                newB = np.flatnonzero(bound | viol)
             else:
                 mu = _multipliers(law, Bc)
-                neg = Bc[mu < 0]
-                if neg.size == 0:
-                    law.converged = law.converged and True
+                neg = mu < 0
+                if not neg.any():
                     continue
-                newB = np.setdiff1d(Bc, neg)
+                newB = Bc[~neg]
                 if newB.tobytes() in seen[c]:          # cycling: release only the worst
-                    newB = np.setdiff1d(Bc, Bc[[int(np.argmin(mu))]])
+                    newB = np.delete(Bc, int(np.argmin(mu)))
             if newB.tobytes() in seen[c]:
                 law.converged = False
                 continue
             B[c] = newB
+            vts[c] = law.vert_t
             nxt.append(c)
         active = nxt
     for c in active:
         out[c].converged = False
+    _law_figures(out)
     return out
 
 
@@ -179,10 +199,12 @@ class _Pieces:
     __slots__ = ("L", "T", "beta", "v0", "v1", "a0", "a1")
 
 
-def _solve_fixed(problems, Bs):
-    """Laws for fixed binding sets (all chains' pieces in one Newton batch)."""
+def _solve_fixed(problems, Bs, vts=None):
+    """Laws for fixed binding sets (all chains' pieces in one Newton batch); vts: per chain
+    vertex times of a nearby law (None: time shared as a constant speed would share it)."""
+    vts = vts or [None] * len(problems)
     L, va, vb, beta, owner, T0, knots = [], [], [], [], [], [], []
-    for c, (pr, B) in enumerate(zip(problems, Bs)):
+    for c, (pr, B, vt) in enumerate(zip(problems, Bs, vts)):
         ks, kv = _pieces_of(pr, B)
         Lc = np.diff(ks)
         knots.append((ks, kv))
@@ -191,18 +213,18 @@ def _solve_fixed(problems, Bs):
         vb.append(kv[1:])
         beta.append(np.full(Lc.size, pr.beta))
         owner.append(np.full(Lc.size, c))
-        # start: time shared as a constant speed would share it
-        T0.append(pr.T * Lc / pr.S)
+        t0 = None
+        if vt is not None:          # start: the nearby law's vertex times at the knots
+            t0 = np.diff(np.concatenate([[0.0], vt[B], [pr.T]]))
+            if not np.all(t0 > 1e-6 * pr.T):
+                t0 = None
+        T0.append(pr.T * Lc / pr.S if t0 is None else t0)   # else: as a constant speed would
     L, va, vb, beta, owner, T0 = (np.concatenate(x) for x in (L, va, vb, beta, owner, T0))
     T_total = np.array([pr.T for pr in problems])
     Tj, lam, conv = _share_time(L, beta, va, vb, owner, T_total, T0)
-    # figures per piece, then per chain
     law = LineLaw(L, Tj, beta, va, vb)
-    iv, ia = law.integrals()
-    pv, mv = law.peak_speed(), law.min_speed()
     a0 = law.eval(np.zeros_like(Tj))[2]          # s̈ at both ends of every piece
     a1 = law.eval(Tj)[2]
-    pa = np.maximum(np.abs(a0), np.abs(a1))      # a line law's |s̈| peaks at an end
     starts = np.concatenate([[0], np.cumsum([len(k[0]) - 1 for k in knots])])
     out = []
     for c, pr in enumerate(problems):
@@ -217,13 +239,28 @@ def _solve_fixed(problems, Bs):
         p.L, p.T, p.beta, p.v0, p.v1 = L[sl], Tj[sl], beta[sl], va[sl], vb[sl]
         p.a0, p.a1 = a0[sl], a1[sl]
         lw.pieces = p
-        lw.iv, lw.ia = float(np.sum(iv[sl])), float(np.sum(ia[sl]))
-        lw.peak_v, lw.min_v, lw.peak_a = float(np.max(pv[sl])), float(np.min(mv[sl])), float(np.max(pa[sl]))
         lw.converged = bool(conv[c])
         lw.lam = float(lam[c])
         out.append(lw)
     _vertex_speeds(out)
     return out
+
+
+def _law_figures(laws):
+    """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
+    steps before them), all pieces in one batch."""
+    if not laws:
+        return
+    cat = np.concatenate
+    ps = [lw.pieces for lw in laws]
+    law = LineLaw(*(cat([getattr(p, f) for p in ps]) for f in ("L", "T", "beta", "v0", "v1")))
+    iv, ia = law.integrals()
+    pv, mv = law.peak_speed(), law.min_speed()
+    starts = np.concatenate([[0], np.cumsum([p.L.size for p in ps])])
+    for lw, p, a, b in zip(laws, ps, starts[:-1], starts[1:]):
+        lw.iv, lw.ia = float(np.sum(iv[a:b])), float(np.sum(ia[a:b]))
+        lw.peak_v, lw.min_v = float(np.max(pv[a:b])), float(np.min(mv[a:b]))
+        lw.peak_a = max(float(np.max(np.abs(p.a0))), float(np.max(np.abs(p.a1))))  # a line law's |s̈| peaks at an end
 
 
 def _vertex_speeds(laws):

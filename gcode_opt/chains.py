@@ -282,10 +282,12 @@ def _axis_jerk(v_exit, v_entry):
     return np.where(v_exit > v_entry, up, dn)
 
 
-def _jerk_junction_v(pu, u, p_nom, nom, jx, jy):
+def _jerk_junction_v(pu, u, p_nom, nom, jx, jy, p_safe=None, safe=None):
     """marlin_jerk_junction_v over arrays of junctions (z = 0), each axis's arithmetic in
-    its order (tests/test_chain_strokes.py compares it with the scalar law)."""
-    p_safe, safe = _safe_speed(pu[:, 0], pu[:, 1], p_nom, jx, jy), _safe_speed(u[:, 0], u[:, 1], nom, jx, jy)
+    its order (tests/test_chain_strokes.py compares it with the scalar law); the moves'
+    safe speeds (_safe_speed) may be given."""
+    if p_safe is None:
+        p_safe, safe = _safe_speed(pu[:, 0], pu[:, 1], p_nom, jx, jy), _safe_speed(u[:, 0], u[:, 1], nom, jx, jy)
     vmax = np.minimum(nom, p_nom)
     smaller = vmax / p_nom
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -332,8 +334,9 @@ def predict_chains(st, g, acc, feed, profile):
     v[:, -1] = st.v1
     if profile.junction == "jerk":
         fp, fn = feed[:, :-1].ravel(), feed[:, 1:].ravel()
+        safe = _safe_speed(g.u[:, 0], g.u[:, 1], feed, lim.jerk_x, lim.jerk_y)   # once per move
         vj = _jerk_junction_v(np.tile(g.u[:-1], (k, 1)), np.tile(g.u[1:], (k, 1)), fp, fn,
-                              lim.jerk_x, lim.jerk_y)
+                              lim.jerk_x, lim.jerk_y, safe[:, :-1].ravel(), safe[:, 1:].ravel())
         v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(k, n - 1)
     else:
         for r in range(k):

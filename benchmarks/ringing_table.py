@@ -91,7 +91,9 @@ def main(argv=None):
     a = ap.parse_args(argv)
     modes = MODES
     if a.corners != "0":
-        modes = MODES + ((f"corners {a.corners}, budget {a.slowdown:g}, {a.corner_features}", "corners"),)
+        same = ["--max-slowdown", repr(a.slowdown)] + (["--features", "all"] if a.corner_features == "all" else [])
+        modes = MODES + ((f"no corners, budget {a.slowdown:g}, {a.corner_features}", same),
+                         (f"corners {a.corners}, budget {a.slowdown:g}, {a.corner_features}", "corners"))
     print(f"Resonance {a.freq:g} Hz both axes, damping {a.damping:g}. Ratios in brackets are to the "
           "original without shaper.\n")
     print("| sample | file | shaper | RMS ringing um (/ original) | ramp / corner / turn um | "
@@ -118,7 +120,7 @@ def main(argv=None):
                     path = os.path.join(out_dir, f"{name}.corners.gcode")
                     process_here(src, path, prof_name, a.slowdown, a.corner_features == "all", float(r))
                 elif extra is not None:
-                    path = os.path.join(out_dir, f"{name}.{'all' if extra else 'def'}.gcode")
+                    path = os.path.join(out_dir, f"{name}.{len(extra)}.gcode")
                     process(src, path, prof_name, extra)
                 figs = measure(path, prof)
                 if base is None:

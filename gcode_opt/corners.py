@@ -16,7 +16,8 @@ on a grid of speeds, lam set by bisection so the time spent is the budget: every
 the speed where one more second buys the same energy everywhere.
 
 In the product (`--corners R`, Options.corner_budget_r; schedule.plan_inputs calls
-lower_corners): the corners may spend R x --max-slowdown x the strokes' original time.
+lower_corners): the corners may spend R x --max-slowdown x the strokes' original time;
+`--corners auto`: R = the corners' share of the original's ringing energy (corner_share).
 That time is not on top of --max-slowdown: the planner budgets every stroke's law against
 its original time, so what slower ends cost comes out of the same budget and the laws get
 the rest.  Only line strokes are lowered (segments.py writes their lead-in / lead-out at the
@@ -239,13 +240,30 @@ def junctions(strokes):
     return out
 
 
+AUTO_FALLBACK_R = 0.5    # --corners auto without the original's ringing figures (--no-ringing)
+
+
+def budget_share(opts) -> float:
+    """Options.corner_budget_r as a number: 0 = off; "auto" = the corners' share of the
+    original's ringing energy (corner_share of opts.ringing_before, which the pipeline's
+    analyse pass fills), AUTO_FALLBACK_R without it."""
+    r = getattr(opts, "corner_budget_r", 0.0) or 0.0
+    if r == "auto":
+        fig = getattr(opts, "ringing_before", None)
+        try:
+            return corner_share(fig) if fig else AUTO_FALLBACK_R
+        except (KeyError, TypeError):
+            return AUTO_FALLBACK_R
+    return max(float(r), 0.0)
+
+
 def lower_corners(strokes, pin, profile, opts, kinds):
     """Lower line strokes' end speeds at sharp corners (Options.corner_budget_r > 0):
     strokes' v0 / v1 and pin.v0 / pin.v1 become the chosen speeds, v0_fw / v1_fw keep the
     firmware's (segments.py writes the lead-in / lead-out for the difference).  Both sides
     of a junction between two strokes get one speed.  Returns the
     number of ends lowered."""
-    r = float(getattr(opts, "corner_budget_r", 0.0) or 0.0)
+    r = budget_share(opts)
     n = len(strokes)
     if r <= 0.0 or n == 0:
         return 0

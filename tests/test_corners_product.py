@@ -213,3 +213,31 @@ def test_klipper_accepts_lowered_corners(tmp_path):
     assert abs(ko.rel_diff(m["motion_time_s"], after["motion_time_s"])) <= 0.01
     # the corners were lowered in what Klipper plays: its motion time grew less than the budget
     assert after["motion_time_s"] <= (1 + SLOWDOWN_R) * before["motion_time_s"] * 1.01
+
+
+def test_overshoot_per_feature(planned):
+    """plan_inputs caps the peak speed at F for the features where overshoot shows
+    (coverage.NO_OVERSHOOT: outer walls, top and bridge infill, ironing), at F x 1.25 elsewhere
+    (machine and flow limits permitting)."""
+    from gcode_opt.coverage import NO_OVERSHOOT
+    prof, plain, pin0, _, _ = planned
+    feed = np.array([s.v_feed for s in plain])
+    no = np.array([s.feature in NO_OVERSHOOT for s in plain])
+    assert no.any() and (~no).any()
+    assert np.all(pin0.v_cap[no] <= feed[no] * (1 + 1e-12))
+    lim = np.array([min(s.lim.v_max, prof.max_velocity_v) for s in plain])
+    free = ~no & (feed * 1.25 < lim)
+    assert free.any()
+    assert np.any(pin0.v_cap[free] > feed[free] * 1.2)
+
+
+def test_budget_share_auto():
+    """--corners auto: the corners' share of the original's ringing energy (squares of the
+    RMS parts), a fixed share without figures, 0 when off."""
+    figs = {"xy": {"rms_ramp_um": 3.0, "rms_corner_um": 4.0, "rms_turn_um": 0.0}}
+    assert corners.budget_share(types.SimpleNamespace(corner_budget_r="auto", ringing_before=figs)) == \
+        pytest.approx(16.0 / 25.0)
+    assert corners.budget_share(types.SimpleNamespace(corner_budget_r="auto", ringing_before=None)) == \
+        corners.AUTO_FALLBACK_R
+    assert corners.budget_share(types.SimpleNamespace()) == 0.0
+    assert corners.budget_share(types.SimpleNamespace(corner_budget_r=0.4)) == 0.4

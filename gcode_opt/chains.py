@@ -305,6 +305,36 @@ def _jerk_junction_v(pu, u, p_nom, nom, jx, jy, p_safe=None, safe=None):
     return np.where((p_safe > thr) & (safe > thr), safe, vmax)
 
 
+def _accel_in_force(profile, lim, acc, u):
+    """curves.accel_in_force over (k, n) accelerations of moves along u (n, 2)."""
+    a0 = np.where(acc > 0, acc, profile.default_accel_a)
+    ux, uy = np.abs(u[:, 0]), np.abs(u[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where((ux > 0) & (a0 * ux > lim.ax_max), lim.ax_max / ux, a0)
+        a = np.where((uy > 0) & (a * uy > lim.ay_max), lim.ay_max / uy, a)
+    return a0, a
+
+
+def _scv_junction_v(profile, lim, u, d, acc):
+    """Klipper's junction speed (klipper_corner_v2 at the moves' accelerations in force,
+    as _junction_v) at the n - 1 interior vertices of (k, n) accelerations acc."""
+    a0, a = _accel_in_force(profile, lim, acc, u)
+    jd = lim.scv * lim.scv * SQRT2_M1 / a0
+    dv2 = 2.0 * d * a
+    pu, un = u[:-1], u[1:]
+    cos_t = -(un[:, 0] * pu[:, 0] + un[:, 1] * pu[:, 1] + 0.0)
+    s2, c2 = 0.5 * (1.0 - cos_t), 0.5 * (1.0 + cos_t)
+    sin_d2 = np.sqrt(np.maximum(s2, 0.0))
+    cos_d2 = np.sqrt(np.maximum(c2, 0.0))
+    one_m = 1.0 - sin_d2
+    ok = (one_m > 0.0) & (cos_d2 > 0.0)
+    r_jd = sin_d2 / np.where(ok, one_m, 1.0)
+    qt = 0.25 * sin_d2 / np.where(ok, cos_d2, 1.0)
+    v2 = np.minimum(r_jd * jd[:, 1:] * a[:, 1:], r_jd * jd[:, :-1] * a[:, :-1])
+    v2 = np.minimum(np.minimum(v2, dv2[:, 1:] * qt), dv2[:, :-1] * qt)
+    return np.where(ok, np.sqrt(np.maximum(v2, 0.0)), np.inf)
+
+
 def _lookahead_v2(v2, reach):
     """The firmware's lookahead on squared junction speeds v2 (..., n + 1) over moves that
     gain reach = 2 a d each (..., n), along the last axis: forward, what the ramps reach;
@@ -338,6 +368,9 @@ def predict_chains(st, g, acc, feed, profile):
         vj = _jerk_junction_v(np.tile(g.u[:-1], (k, 1)), np.tile(g.u[1:], (k, 1)), fp, fn,
                               lim.jerk_x, lim.jerk_y, safe[:, :-1].ravel(), safe[:, 1:].ravel())
         v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(k, n - 1)
+    elif profile.junction == "scv":
+        vj = _scv_junction_v(profile, lim, g.u, d, acc)
+        v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
     else:
         for r in range(k):
             for j in range(1, n):

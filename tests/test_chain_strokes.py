@@ -205,3 +205,24 @@ def test_jerk_junction_accels_shortcut_is_curves_law():
         feed = np.maximum(vk[:-1], vk[1:]) * rng.uniform(1.0, 1.3, n)
         want = curves.junction_accels(st, g, vk, acc, rules, prof, vmax=feed)
         np.testing.assert_array_equal(chains._junction_accels(st, g, vk, acc, rules, prof, feed), want)
+
+
+def test_vector_scv_junction_is_the_scalar_law():
+    """chains._scv_junction_v (Klipper, arrays) against chains._junction_v, which calls
+    firmware/junction.py's klipper_corner_v2 vertex by vertex, on a real chain of the
+    Klipper sample with random accelerations (some 0: the default acceleration)."""
+    from gcode_opt import curves
+    path = SAMPLES / KLIPPER
+    prof = auto_profile(str(path)).profile
+    assert prof.junction == "scv"
+    rng = np.random.default_rng(4)
+    for st in list(_chain_lines(path, prof).values())[:10]:
+        g = curves.geom(st, prof)
+        n = g.d.size
+        acc = rng.uniform(0.0, 6000.0, (3, n))
+        acc[0, ::4] = 0.0
+        got = chains._scv_junction_v(prof, st.lim, g.u, g.d, acc)
+        for r in range(3):
+            want = [chains._junction_v(prof, st.lim, tuple(g.u[j - 1]), tuple(g.u[j]), g.d[j - 1], g.d[j],
+                                       acc[r, j - 1], acc[r, j], 1e9, 1e9) for j in range(1, n)]
+            np.testing.assert_allclose(got[r], want, rtol=1e-14)

@@ -211,15 +211,16 @@ def _solve_fixed(problems, Bs, vts=None):
         L.append(Lc)
         va.append(kv[:-1])
         vb.append(kv[1:])
-        beta.append(np.full(Lc.size, pr.beta))
-        owner.append(np.full(Lc.size, c))
         t0 = None
         if vt is not None:          # start: the nearby law's vertex times at the knots
             t0 = np.diff(np.concatenate([[0.0], vt[B], [pr.T]]))
             if not np.all(t0 > 1e-6 * pr.T):
                 t0 = None
         T0.append(pr.T * Lc / pr.S if t0 is None else t0)   # else: as a constant speed would
-    L, va, vb, beta, owner, T0 = (np.concatenate(x) for x in (L, va, vb, beta, owner, T0))
+    sizes = [x.size for x in L]
+    owner = np.repeat(np.arange(len(problems)), sizes)
+    beta = np.repeat([pr.beta for pr in problems], sizes)
+    L, va, vb, T0 = (np.concatenate(x) for x in (L, va, vb, T0))
     T_total = np.array([pr.T for pr in problems])
     Tj, lam, conv = _share_time(L, beta, va, vb, owner, T_total, T0)
     law = LineLaw(L, Tj, beta, va, vb)

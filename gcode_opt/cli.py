@@ -81,6 +81,10 @@ def _features(text):
 
 
 @_typed("fraction")
+def _corners(text):
+    return "auto" if text.strip().lower() == "auto" else _fraction(text)
+
+
 def _fraction(text):
     """0.25 or 25%; a bare number above 1 is refused (3 would mean +300 %)."""
     pct = text.strip().endswith("%")
@@ -153,6 +157,10 @@ def build_parser():
     p.add_argument("--max-slowdown", type=_fraction, default=0.03,
                    help="print-time budget the auto law may spend, as a fraction of the whole file's "
                         "print time (default %(default)s = 3%%)")
+    p.add_argument("--corners", type=_corners, default=0.0, metavar="R",
+                   help="slower corners, less ringing: the share of the --max-slowdown budget spent lowering line "
+                        "strokes' speeds at sharp corners (e.g. 0.7 or 70%%), or 'auto' (the corners' share of the "
+                        "original's ringing); default 0 = off. See README, Ringing")
     p.add_argument("--segments", type=_segments, default=10,
                    help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
                         "minimum segment time and planner buffer; default %(default)s)")
@@ -265,10 +273,9 @@ def _process(a, out, job, Options, Progress, process):
     prof = _load_profile(a.profile, src, a.quiet, metadata=metadata)
     prog = None if a.quiet else Progress(os.path.getsize(src))
     features, features_why = (a.features, None) if a.features is not None else feat.default_selection(src)
-    if features_why and not a.quiet:
-        sys.stderr.write(f"gcode-opt: {a.input}: {features_why}\n")
     opts = Options(alpha=a.alpha, features=features, overshoot_r=a.overshoot, max_slowdown_r=a.max_slowdown,
-                   max_segments=a.segments, min_length_d=a.min_length, progress=prog)
+                   max_segments=a.segments, min_length_d=a.min_length, progress=prog,
+                   corner_budget_r=a.corners)
     opts.max_turn_deg = a.max_turn
     opts.ringing = not a.no_ringing                   # the pipeline's passes feed ringing collectors
     report_error = []
@@ -309,6 +316,8 @@ def _process(a, out, job, Options, Progress, process):
     fi = summary.get("features")
     if isinstance(fi, dict) and features_why:         # the no-comments default was applied: say why
         fi["why"] = features_why
+        if not a.quiet:                               # (a file with no move to re-time: nothing to say)
+            sys.stderr.write(f"gcode-opt: {a.input}: {features_why}\n")
     if a.json:
         try:
             with open(a.json, "w") as fh:

@@ -47,7 +47,8 @@ from .words import param_texts, split_comment, strip_checksum
 
 class Options:
     def __init__(self, alpha="auto", features=feat.DEFAULT_SELECTED, overshoot_r=0.25,
-                 max_slowdown_r=0.03, max_segments=10, min_length_d=0.2, progress=None, max_turn_deg=30.0):
+                 max_slowdown_r=0.03, max_segments=10, min_length_d=0.2, progress=None, max_turn_deg=30.0,
+                 corner_budget_r=0.0):
         self.alpha = alpha                  # "auto" or a float in s^2/kg
         self.features = tuple(features)
         self.overshoot_r = overshoot_r      # allowed peak speed above the slicer's F
@@ -58,6 +59,7 @@ class Options:
         self.max_turn_deg = max_turn_deg    # polyline vertices turning <= this are inside a curve (0: no curves)
         self.reader_warnings = []           # (idx, text) the reader noted in the analyse pass
         self.ringing = True                 # resonance figures before/after in the summary (ringing.py)
+        self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
 
 

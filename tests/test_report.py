@@ -103,11 +103,14 @@ def test_html_numbers_match_json(run):
 def test_json_matches_pipeline_summary(run):
     s, d = run["summary"], run["data"]
     h = d["headline"]
+    # the report plays the files itself; the pipeline's second pass splices its sums in
+    # another order (pipeline.py, partial re-measure): equal to rounding
+    same = dict(rel=1e-12)
     assert h["print_time_s"]["before"] == s["print_time_s"]["before"]
-    assert h["print_time_s"]["after"] == s["print_time_s"]["after"]
+    assert h["print_time_s"]["after"] == pytest.approx(s["print_time_s"]["after"], **same)
     assert h["int_a2_whole_mm2_s3"]["before"] == s["whole_file"]["before"]["int_a2"]
-    assert h["int_a2_whole_mm2_s3"]["after"] == s["whole_file"]["after"]["int_a2"]
-    assert h["corner_dv2_mm2_s2"]["after"] == s["whole_file"]["after"]["corner_dv2"]
+    assert h["int_a2_whole_mm2_s3"]["after"] == pytest.approx(s["whole_file"]["after"]["int_a2"], **same)
+    assert h["corner_dv2_mm2_s2"]["after"] == pytest.approx(s["whole_file"]["after"]["corner_dv2"], **same)
     assert h["strokes"]["retimed"] == s["strokes"]["retimed"] == len(d["per_stroke"])
     assert h["file"]["bytes"]["after"] == s["file"]["bytes_after"]
     assert h["file"]["lines"]["after"] == s["file"]["lines_after"]

@@ -158,7 +158,7 @@ def test_process_reports_cpu_time_per_phase(tmp_path):
                 Options())
     spent = time.process_time() - t0
     t = s["timing_s"]
-    phases = ("analyse", "plan", "rewrite", "measure", "summary")
+    phases = ("analyse", "plan", "rewrite", "measure", "ringing", "summary")
     assert set(t) == set(phases) | {"total"}
     assert all(t[k] >= 0.0 for k in t)
     assert math.isclose(sum(t[k] for k in phases), t["total"], rel_tol=1e-9, abs_tol=1e-9)

@@ -40,8 +40,8 @@ from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marli
                                 marlin_safe_speed)
 from .firmware.simulate import CORNER_COS
 from .laws.chain import ChainProblem, solve_chains
-from .plan import SPEED_TOL_R, T_RATIOS
-from .segments import SegmentPlan, SegmentRules, hold_cruise_accels
+from .plan import SPEED_TOL_R, T_RATIOS, empty_table
+from .segments import SegmentPlan, SegmentRules, hold_cruise_accels, tent_feeds
 from .strokes import K_CHAIN, K_CURVE
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
@@ -169,18 +169,6 @@ def shape_segments(d, t, va, vb, a_top=np.inf, trapezoid=True):
         acc[b] = np.where(take, a[r, j], tri_a[b])
         feed[b] = np.where(take, F[r, j], peak[b])
     return acc, np.maximum(feed, MIN_FEED_V)
-
-
-def tent_feeds(need, v_feed, step_v):
-    """Feeds >= need whose neighbours differ by <= step_v, the slicer's feed at both ends
-    (as segments.segment_feeds, on per-segment needs: a triangle's F is its peak)."""
-    if not np.isfinite(step_v):
-        return need
-    n = len(need)
-    k = np.arange(n)
-    pad = np.concatenate([[v_feed + step_v], need, [v_feed + step_v]])
-    j = np.arange(-1, n + 1)
-    return np.max(pad[None, :] - step_v * np.abs(k[:, None] - j[None, :]), axis=1)
 
 
 def finish_chain(st, law, rules, profile):
@@ -485,12 +473,8 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     """(T, beta, I, KE) for the chain strokes `rows`, shape (n, len(T_RATIOS)); inf where no
     candidate was computed or it breaks a limit.  I is the firmware's predicted ∫|a|²dt."""
     rules = rules or SegmentRules.for_profile(profile, 10)
-    rows = np.asarray(rows, int)
-    n, k_all = rows.size, len(T_RATIOS)
-    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
-    I = np.full((n, k_all), np.inf)
-    KE = np.full((n, k_all), np.nan)
-    beta = np.full((n, k_all), np.inf)
+    rows, T, beta, I, KE = empty_table(pin, rows)
+    n = rows.size
     if n == 0:
         return T, beta, I, KE
     Tc = T[:, CHAIN_COLS]
@@ -511,7 +495,7 @@ def fixed_alpha_chain(plan, pin, rows, strokes, profile, alpha, rules=None):
     if rows.size == 0:
         return
     ratios = np.array(sorted(CHAIN_T_RATIOS))
-    n, k = rows.size, ratios.size
+    k = ratios.size
     Tf = pin.T_orig[rows, None] * ratios[None, :]
     bf = np.repeat(alpha * pin.mass_r[rows, None], k, axis=1)
     ok, tp, ia, iv = _figures(strokes, rows, pin, Tf, bf, profile, rules)

@@ -287,6 +287,15 @@ def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:
     return plan
 
 
+def empty_table(pin: PlanInput, rows):
+    """(rows, T, beta, I, KE) of shape (n, len(T_RATIOS)): every duration of T_RATIOS, no
+    candidate yet (I inf, beta inf, KE nan) -- the kinds fill the columns they compute."""
+    rows = np.asarray(rows, int)
+    n, k_all = rows.size, len(T_RATIOS)
+    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
+    return rows, T, np.full((n, k_all), np.inf), np.full((n, k_all), np.inf), np.full((n, k_all), np.nan)
+
+
 def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
     """Candidates of curved strokes (arcs, curves), shared by arcs.py and curves.py.
 
@@ -296,12 +305,8 @@ def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
     int_a2, ok) solves the true law; a candidate that breaks a limit is retried once at
     beta/4 (a flatter law).  Returns (T, beta, I, KE) of shape (n, len(T_RATIOS)), inf
     where nothing was computed or nothing met the limits."""
-    rows = np.asarray(rows, int)
-    n, k_all = rows.size, len(T_RATIOS)
-    T = pin.T_orig[rows, None] * T_RATIOS[None, :]
-    I = np.full((n, k_all), np.inf)
-    KE = np.full((n, k_all), np.nan)
-    beta = np.full((n, k_all), np.inf)
+    rows, T, beta, I, KE = empty_table(pin, rows)
+    n = rows.size
     if n == 0:
         return T, beta, I, KE
     Tc = T[:, cols]

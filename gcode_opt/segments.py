@@ -130,7 +130,12 @@ def segment_feeds(v, v_feed, step_v=np.inf):
     (planner.cpp, v_exit vs v_entry).  So with `step_v` finite, F is the tent envelope
     max_j(need_j - step_v*|k-j|), with the slicer's feed at both ends, so neighbouring
     F differ by <= step_v and the stroke meets its neighbours at their original F."""
-    need = np.maximum(np.maximum(v[:-1], v[1:]), MIN_FEED_V)
+    return tent_feeds(np.maximum(np.maximum(v[:-1], v[1:]), MIN_FEED_V), v_feed, step_v)
+
+
+def tent_feeds(need, v_feed, step_v):
+    """Feeds >= need (per segment) whose neighbours differ by <= step_v, the slicer's feed
+    at both ends: the tent envelope max_j(need_j - step_v |k - j|)."""
     if not np.isfinite(step_v):
         return need
     n = len(need)

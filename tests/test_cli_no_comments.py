@@ -5,7 +5,6 @@ is checked against an independent line scan."""
 from __future__ import annotations
 
 import json
-import os
 import re
 from pathlib import Path
 

@@ -8,7 +8,6 @@ a real cut of a screw whose short arcs were left alone before (firmware model an
 Klipper), and the coverage figures (shares add up to the whole file)."""
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np

@@ -32,9 +32,8 @@ from __future__ import annotations
 import math
 
 from .. import state as st
-from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, axis_limited, klipper_corner_v2,
-                       klipper_extruder_v2, marlin_jd_v2, marlin_jerk_junction_v,
-                       marlin_safe_speed)
+from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, klipper_corner_v2, klipper_extruder_v2,
+                       marlin_jd_v2, marlin_jerk_junction_v)
 from .planner import Block, KlipperPlanner, MarlinPlanner
 
 CORNER_COS = math.cos(math.radians(30.0))   # turns sharper than 30 deg are corners

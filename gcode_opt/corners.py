@@ -91,14 +91,15 @@ def corner_weights(strokes, profile):
     return k0, k1
 
 
-def end_time_cost(v, v_orig, v_top, a):
+def end_time_cost(v, v_orig, v_top, a, edge_min_d=EDGE_D):
     """Seconds an end slowed from v_orig to v costs: the longer ramp between the top speed
     v_top and the end at acceleration a ((v_top - v)^2 - (v_top - v_orig)^2) / (2 a v_top),
-    plus the lead-in / lead-out the firmware plays at v (EDGE_D or EDGE_T long) instead of
-    passing that stretch at about v_orig."""
+    plus the lead-in / lead-out the firmware plays at v (edge_min_d or EDGE_T long) instead of
+    passing that stretch at about v_orig.  edge_min_d: at least EDGE_D, and what the firmware
+    needs not to drop the move (segments.SegmentRules.min_edge_d)."""
     v = np.minimum(v, v_orig)
     ramp = ((v_top - v) ** 2 - (v_top - v_orig) ** 2) / (2.0 * a * v_top)
-    edge_d = np.maximum(EDGE_D, v * EDGE_T)
+    edge_d = np.maximum(np.maximum(EDGE_D, edge_min_d), v * EDGE_T)
     slowed = v < v_orig * (1.0 - 1e-9)
     edge = np.where(slowed, edge_d / np.maximum(v, 1e-9) - edge_d / np.maximum(v_orig, 1e-9), 0.0)
     return np.maximum(ramp, 0.0) + edge
@@ -145,6 +146,10 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=N
     ends_k = np.concatenate([k0, k1])
     ends_top = np.concatenate([v_top, v_top])
     ends_a = np.concatenate([a, a])
+    # the shortest lead-in / lead-out the firmware keeps along each stroke (Profile.min_move_d)
+    min_move_d = float(getattr(profile, "min_move_d", 0.0))
+    axis_r = np.array([max(abs(s.ux), abs(s.uy), 1e-12) for s in strokes], float)
+    ends_edge = np.maximum(EDGE_D, np.concatenate([min_move_d / axis_r] * 2))
     t_orig = np.asarray(getattr(pin, "T_orig", np.full(n, np.inf)), float)
     ends_tmax = END_COST_R * np.concatenate([t_orig, t_orig])
     live = np.concatenate([ok, ok]) & (ends_k > 0) & (ends_v > MIN_CORNER_V)
@@ -172,7 +177,8 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=N
         grid = MIN_CORNER_V * (vo[:, None] / MIN_CORNER_V) ** g        # ..., vo (last: keep)
 
         def side(e):
-            c = end_time_cost(grid, ends_v[e][:, None], ends_top[e][:, None], ends_a[e][:, None])
+            c = end_time_cost(grid, ends_v[e][:, None], ends_top[e][:, None], ends_a[e][:, None],
+                              ends_edge[e][:, None])
             return c, c > ends_tmax[e][:, None]
         cost_t, too_slow = side(idx)
         c2, slow2 = side(mi)

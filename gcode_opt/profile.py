@@ -75,6 +75,9 @@ class Profile:
     min_segment_time_t: float = 0.0     # s, Marlin DEFAULT_MINSEGMENTTIME
     max_segment_rate: float = 1000.0    # segments (moves) per second the firmware sustains
     arc_segment_d: float = 1.0          # mm, chord length used to cut G2/G3
+    steps_per_mm_xy: float = 80.0       # X/Y motor steps per mm (Marlin M92; 1.8 deg, GT2 20T, 16 microsteps)
+    min_move_steps: int = -1            # a move with fewer steps on every axis is dropped (joined with the
+                                        # next move) by the firmware; -1 = the flavour's (min_move_d)
     # machine
     moving_mass_x_kg: float = 0.5       # mass the X motor accelerates
     moving_mass_y_kg: float = 0.5       # mass the Y motor accelerates (the bed on a bed-slinger)
@@ -98,6 +101,20 @@ class Profile:
         its own mass)."""
         mx, my = self.moving_mass_x_kg, self.moving_mass_y_kg
         return mx * ux * ux + my * uy * uy, mx * mx * ux * ux + my * my * uy * uy
+
+    @property
+    def min_move_d(self) -> float:
+        """The shortest X or Y travel (mm) of a move the firmware executes as its own block;
+        a shorter one it drops and joins with the next move, so a lead-in there would not
+        slow its corner and a lead-out's distance would cut the next corner.  Marlin 2
+        (planner.cpp: `step_event_count < MIN_STEPS_PER_SEGMENT` (6) returns) and
+        Prusa-Firmware 3.x (`step_event_count <= dropsegments` (5)) drop moves under 6
+        steps; Klipper and RepRapFirmware queue any move.  One step of margin: the step
+        count is taken between rounded step positions."""
+        steps = self.min_move_steps
+        if steps < 0:
+            steps = 6 if self.flavour in ("marlin2", "marlin-legacy") else 0
+        return (steps + 1) / self.steps_per_mm_xy if steps > 0 else 0.0
 
 
 # ---------------------------------------------------------------- schema
@@ -131,6 +148,8 @@ SCHEMA = {
     "max_segment_rate": ("firmware", "num", *_pos(1e6), "segments/s"),
     # a chord of 1e-9 mm cut one arc into ~1e10 pieces: the run never ended
     "arc_segment_d": ("firmware", "num", 0.01, False, 10.0, False, "mm"),
+    "steps_per_mm_xy": ("firmware", "num", *_pos(1e5), "steps/mm"),
+    "min_move_steps": ("firmware", "int", -1, False, 1000, False, "steps"),
     "fw_retract_length_d": ("firmware", "num", *_nonneg(100.0), "mm"),
     "fw_retract_speed_v": ("firmware", "num", *_pos(V_MAX), "mm/s"),
     "max_velocity_v": ("limits", "num", *_pos(V_MAX), "mm/s"),

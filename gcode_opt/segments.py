@@ -189,8 +189,15 @@ def ramp_accels(s, v):
 class SegmentRules:
     """What the firmware needs from segments (from the printer profile)."""
 
-    def __init__(self, junction, n_max, seg_t, min_seg_d):
+    def __init__(self, junction, n_max, seg_t, min_seg_d, min_move_d=0.0):
         self.junction, self.n_max, self.seg_t, self.min_seg_d = junction, n_max, seg_t, min_seg_d
+        self.min_move_d = min_move_d     # shortest X/Y travel of a move the firmware keeps (Profile.min_move_d)
+
+    def min_edge_d(self, ux, uy):
+        """The shortest lead-in / lead-out along direction (ux, uy): MIN_EDGE_D, and long
+        enough that the firmware does not drop it (a dropped lead-in does not slow its
+        corner; a dropped lead-out is joined with the next move and cuts the corner)."""
+        return max(MIN_EDGE_D, self.min_move_d / max(abs(ux), abs(uy), 1e-12))
 
     @classmethod
     def for_profile(cls, profile, max_segments):
@@ -200,7 +207,7 @@ class SegmentRules:
         seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
         # Marlin's JD caps straight runs of blocks shorter than 1 mm at v^2 = d a / 0.033
         min_d = 1.0 if profile.junction == "jd" else MIN_SEG_D
-        return cls(profile.junction, n_max, seg_t, min_d)
+        return cls(profile.junction, n_max, seg_t, min_d, getattr(profile, "min_move_d", 0.0))
 
 
 class SegmentPlan:
@@ -273,15 +280,18 @@ def _finish(stroke, sk, vk, rules):
     # below the firmware's junction speed (corners.py) needs one too: its feed, the corner
     # speed, is what makes the firmware slow down there.
     if need0 > acc[0] or need1 > acc[-1] or slow0 or slow1:
-        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05)) if need0 > acc[0] or slow0 else 0.0
-        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05)) if need1 > acc[-1] or slow1 else 0.0
+        e_min = rules.min_edge_d(*u)
+        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05, e_min)) if need0 > acc[0] or slow0 else 0.0
+        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05, e_min)) if need1 > acc[-1] or slow1 else 0.0
         # a lead-in squeezes the first ramp into a shorter segment: keep its acceleration
         # within what the machine allows (Marlin caps M204 at M201's limit: the ramp would
         # fall short of its knot)
         a_top = _accel_top(stroke)
+        if e0 or e1:
+            sk, vk = _room_for_edges(sk, vk, e0, e1, a_top, stroke.ends_d)
         e0 = min(e0, 0.99 * max(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.0))
         e1 = min(e1, 0.99 * max(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top), 0.0))
-        e0, e1 = (e if e >= MIN_EDGE_D else 0.0 for e in (e0, e1))   # no sliver segments
+        e0, e1 = (e if e >= e_min else 0.0 for e in (e0, e1))   # no sliver the firmware would drop
         sk, vk = with_edges(sk, vk, e0, e1)
         acc = ramp_accels(sk, vk)
         need0, need1 = needs(sk)
@@ -307,6 +317,28 @@ def _finish(stroke, sk, vk, rules):
             feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def _room_for_edges(sk, vk, e0, e1, a_top, vertices_d):
+    """Knots with room for a lead-in of e0 / lead-out of e1 mm: the first (last) segment
+    must hold the edge and its ramp at no more than a_top.  Where it cannot, the law knot
+    next to the end is dropped (the ramp then runs to the knot after it, the chord of v^2
+    over both segments); original vertices stay.  A slowed corner's longer lead-in (the
+    firmware's shortest kept move, Profile.min_move_d) needs this on steep law starts."""
+    def room0(sk, vk):
+        return sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top)
+
+    def room1(sk, vk):
+        return sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top)
+
+    def vertex(d):
+        return any(abs(d - v) < 1e-9 for v in vertices_d)
+
+    while e0 and len(sk) > 3 and room0(sk, vk) < e0 / 0.99 and not vertex(sk[1]):
+        sk, vk = np.delete(sk, 1), np.delete(vk, 1)
+    while e1 and len(sk) > 3 and room1(sk, vk) < e1 / 0.99 and not vertex(sk[-2]):
+        sk, vk = np.delete(sk, -2), np.delete(vk, -2)
+    return sk, vk
 
 
 def slowed_ends(stroke):
@@ -429,16 +461,17 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges):
         step_v = 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
         v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)
     # lead-in / lead-out at the corner speeds where the corner needs more than a gentle ramp
-    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05), 0.25 * L) if v0 > 0 and edges else 0.0
-    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05), 0.25 * L) if v1 > 0 and edges else 0.0
+    e_min = rules.min_edge_d(*u)
+    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05, e_min), 0.25 * L) if v0 > 0 and edges else 0.0
+    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05, e_min), 0.25 * L) if v1 > 0 and edges else 0.0
     d0, d1 = st.ends_d[0], L - (st.ends_d[-2] if len(st.ends_d) > 1 else 0.0)   # first, last move
     need0 = accel_to_pass_junction(rules.junction, v0, st.prev_u, u, e0 or d0, jd) if v0 > 0 else 0.0
     need1 = accel_to_pass_junction(rules.junction, v1, u, st.next_u, e1 or d1, jd) if v1 > 0 else 0.0
     slow0, slow1 = slowed_ends(st)
-    if (slow0 and e0 < MIN_EDGE_D) or (slow1 and e1 < MIN_EDGE_D):
+    if (slow0 and e0 < e_min) or (slow1 and e1 < e_min):
         return None                       # a slowed end without its edge would not be slowed
-    e0 = e0 if (need0 > 0.0 or slow0) and e0 >= MIN_EDGE_D else 0.0
-    e1 = e1 if (need1 > 0.0 or slow1) and e1 >= MIN_EDGE_D else 0.0
+    e0 = e0 if (need0 > 0.0 or slow0) and e0 >= e_min else 0.0
+    e1 = e1 if (need1 > 0.0 or slow1) and e1 >= e_min else 0.0
     t_edges = (e0 / v0 if e0 else 0.0) + (e1 / v1 if e1 else 0.0)
     Lm = L - e0 - e1
     if Lm <= 0 or T - t_edges <= 0:

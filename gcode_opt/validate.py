@@ -15,6 +15,11 @@ What each firmware parses (why the rules are what they are):
     stops there); Marlin 2 / RRF take M204 P (print) / T (travel); Prusa's Marlin 1.x
     (marlin-legacy) takes M204 S.  SET_VELOCITY_LIMIT is Klipper's, with known keys.
   * G1/G2/G3 carry X Y I J E F only (Z never changes inside a stroke), F > 0.
+  * short moves: Marlin 2 drops a move of fewer than MIN_STEPS_PER_SEGMENT (6) steps and
+    Prusa-Firmware one of at most dropsegments (5), joining its distance with the next
+    move; Klipper and RRF keep any.  A block's move shorter than the profile's
+    min_move_d in X and in Y (and than the original's own shortest move, which the
+    firmware treats alike in both files) would move the next move's start.
 """
 from __future__ import annotations
 
@@ -105,14 +110,18 @@ def _seg_dist(x, y, a, b):
 
 
 def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geometry | None = None,
-                   extruding: bool = True, kind: str | None = None, e_check=None) -> None:
+                   extruding: bool = True, kind: str | None = None, e_check=None,
+                   min_move_d: float = 0.0) -> None:
     """Raise BlockInvalid (reason in its message) unless every line of the block is well
     formed for `flavour`, every value is finite and in range (F > 0, 0 < accel <=
     accel_max_a + the 0.1 of the emitter's rounding) and every point is on the path.
 
     e_check = (e_rel, e_value): the filament the block must lay, as the original did: with
     relative E the sum of its E words equals e_value (the original's sum), with absolute E
-    its last E word equals e_value (the original's last)."""
+    its last E word equals e_value (the original's last).
+
+    min_move_d: no move may travel less than this in both X and Y (Profile.min_move_d),
+    unless the original has a move as short (geometry's polyline)."""
     lines = text.splitlines()
     if len(lines) < 2 or not lines[0].startswith(BEGIN + ": replaces ") or lines[-1] != END:
         raise BlockInvalid("validator: block not fenced")
@@ -120,6 +129,7 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         raise BlockInvalid("validator: header does not name the kind")
     limit = MAX_CMD_BYTES.get(flavour)
     e_words = []
+    short = _ShortMoves(geometry, min_move_d) if min_move_d > 0 and geometry is not None else None
     for line in lines[1:-1]:
         code = line.split(";", 1)[0].strip()
         if not code:
@@ -135,10 +145,14 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
             e = _check_plain_g1(m, geometry) if m is not None else _check_move(cmd, toks[1:], geometry)
             if e is not None:
                 e_words.append(e)
+            if short is not None:
+                short.check(code)
         elif cmd in ("G2", "G3"):
             e = _check_move(cmd, toks[1:], geometry)
             if e is not None:
                 e_words.append(e)
+            if short is not None:
+                short.check(code)
         elif cmd == "M204":
             m = _M204_PLAIN(code)
             if m is not None:            # one word, its letter and number proven: the value checks
@@ -154,6 +168,33 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         got = math.fsum(e_words) if e_rel else (e_words[-1] if e_words else None)
         if got is None or abs(got - e_value) > E_TOL * (1.0 + abs(e_value)):
             raise BlockInvalid("validator: filament differs from the original's")
+
+
+class _ShortMoves:
+    """Tracks the block's position (from the geometry's start) and rejects a move the
+    firmware would drop (validate_block's min_move_d)."""
+
+    def __init__(self, geometry, min_move_d):
+        pts = geometry.pts or []
+        self.x, self.y = pts[0] if pts else (None, None)
+        floor = min_move_d
+        if geometry.arc is None and len(pts) > 2:   # the original's own shortest move passes too
+            own = min(max(abs(b[0] - a[0]), abs(b[1] - a[1])) for a, b in zip(pts, pts[1:]))
+            floor = min(floor, own * (1.0 - 1e-9))
+        self.floor = floor
+
+    def check(self, code):
+        x = y = None
+        for w in code.split()[1:]:
+            if w[0] == "X":
+                x = float(w[1:])
+            elif w[0] == "Y":
+                y = float(w[1:])
+        if x is None or y is None:
+            return
+        if self.x is not None and max(abs(x - self.x), abs(y - self.y)) < self.floor:
+            raise BlockInvalid("validator: move shorter than the firmware keeps (min_move_d)")
+        self.x, self.y = x, y
 
 
 def _check_plain_g1(m, geometry):

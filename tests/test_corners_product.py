@@ -182,16 +182,18 @@ def test_written_file_within_budget_and_invariants(written):
 
 def test_written_file_rings_less(written):
     """Issue 10's measure at 50 Hz, zeta 0.1 (the profile's): the corners' velocity jumps
-    (squared, summed) fall to < 0.55 of the original's, the RMS ringing to <= 0.72 (measured
-    0.45 and 0.67 at --corners 1; 0.89 without slower corners)."""
+    (squared, summed) fall to < 0.6 of the original's, the RMS ringing to <= 0.78, its
+    corner part to < 0.78 (measured 0.52, 0.73 and 0.71 at --corners 1 with lead-ins long
+    enough that Prusa-Firmware keeps them, 7 steps; 0.45 / 0.67 / 0.66 before, with 0.05 mm
+    lead-ins the firmware drops; 0.89 RMS without slower corners)."""
     prof, out, _ = written
     a, b = ringing.trace(RECT, prof), ringing.trace(out, prof)
     jump2 = [float((tr.dv[tr.cls == ringing.CORNER] ** 2).sum()) for tr in (a, b)]
-    assert jump2[1] < 0.55 * jump2[0]
+    assert jump2[1] < 0.6 * jump2[0]
     model = ringing.model_of(prof)
     fa, fb = ringing.figures_of_trace(a, model), ringing.figures_of_trace(b, model)
-    assert fb["xy"]["rms_um"] <= 0.72 * fa["xy"]["rms_um"]
-    assert fb["xy"]["rms_corner_um"] < 0.75 * fa["xy"]["rms_corner_um"]
+    assert fb["xy"]["rms_um"] <= 0.78 * fa["xy"]["rms_um"]
+    assert fb["xy"]["rms_corner_um"] < 0.78 * fa["xy"]["rms_corner_um"]
 
 
 def test_klipper_accepts_lowered_corners(tmp_path):

@@ -28,7 +28,7 @@ class Stroke:
                  "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
                  "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T",
-                 "v0_fw", "v1_fw")
+                 "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -50,6 +50,7 @@ class Stroke:
         self.v0 = self.v1 = self.time_t = self.int_a2 = self.int_v2 = 0.0
         self.prev_u = self.next_u = None     # XY directions of the neighbouring moves (None: a stop)
         self.v0_fw = self.v1_fw = None       # the firmware's own end speeds when corners.py lowered v0/v1
+        self.corner_cmd0 = self.corner_cmd1 = False   # that lowered end is set by a junction command
         self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
 
     @property
@@ -76,6 +77,7 @@ class Stroke:
         st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
         st.prev_u = st.next_u = None
         st.v0_fw = st.v1_fw = None
+        st.corner_cmd0 = st.corner_cmd1 = False
         st.start_state = None
         return st
 

@@ -91,18 +91,19 @@ def corner_weights(strokes, profile):
     return k0, k1
 
 
-def end_time_cost(v, v_orig, v_top, a, edge_min_d=EDGE_D):
+def end_time_cost(v, v_orig, v_top, a, edge_min_d=EDGE_D, edge=True):
     """Seconds an end slowed from v_orig to v costs: the longer ramp between the top speed
     v_top and the end at acceleration a ((v_top - v)^2 - (v_top - v_orig)^2) / (2 a v_top),
     plus the lead-in / lead-out the firmware plays at v (edge_min_d or EDGE_T long) instead of
     passing that stretch at about v_orig.  edge_min_d: at least EDGE_D, and what the firmware
-    needs not to drop the move (segments.SegmentRules.min_edge_d)."""
+    needs not to drop the move (segments.SegmentRules.min_edge_d).  edge False (per end):
+    the corner is slowed by a junction command instead (junction_commands), no lead-in."""
     v = np.minimum(v, v_orig)
     ramp = ((v_top - v) ** 2 - (v_top - v_orig) ** 2) / (2.0 * a * v_top)
     edge_d = np.maximum(np.maximum(EDGE_D, edge_min_d), v * EDGE_T)
     slowed = v < v_orig * (1.0 - 1e-9)
-    edge = np.where(slowed, edge_d / np.maximum(v, 1e-9) - edge_d / np.maximum(v_orig, 1e-9), 0.0)
-    return np.maximum(ramp, 0.0) + edge
+    edge_cost = np.where(slowed, edge_d / np.maximum(v, 1e-9) - edge_d / np.maximum(v_orig, 1e-9), 0.0)
+    return np.maximum(ramp, 0.0) + np.where(edge, edge_cost, 0.0)
 
 
 def corner_share(figures: dict) -> float:
@@ -124,13 +125,15 @@ def _tops(strokes, pin):
     return v_top, np.asarray(pin.a_cap, float)
 
 
-def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=None, pairs=None):
+def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=None, pairs=None,
+               cmd0=None, cmd1=None):
     """(v0_new, v1_new): start and end speed per stroke, <= the originals (pin.v0, pin.v1,
     the firmware's junction speeds), lowered at sharp corners where the time budget buys
     the most ringing energy.  budget_t: seconds to spend (default: opts.corner_slowdown_r,
     else BUDGET_R, times the strokes' original time).  allow0 / allow1: bool per stroke,
     which starts / ends may be lowered (default all).  pairs: (a, b) strokes whose a's end
-    is b's start (junctions()): one speed for both."""
+    is b's start (junctions()): one speed for both.  cmd0 / cmd1: bool per stroke, that
+    end is slowed by a junction command (no lead-in to pay for)."""
     v0 = np.asarray(pin.v0, float)
     v1 = np.asarray(pin.v1, float)
     n = len(v0)
@@ -150,6 +153,9 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=N
     min_move_d = float(getattr(profile, "min_move_d", 0.0))
     axis_r = np.array([max(abs(s.ux), abs(s.uy), 1e-12) for s in strokes], float)
     ends_edge = np.maximum(EDGE_D, np.concatenate([min_move_d / axis_r] * 2))
+    ends_lead = np.ones(2 * n, bool)         # the end pays for a lead-in / lead-out
+    if cmd0 is not None:
+        ends_lead = ~np.concatenate([np.asarray(cmd0, bool), np.asarray(cmd1, bool)])
     t_orig = np.asarray(getattr(pin, "T_orig", np.full(n, np.inf)), float)
     ends_tmax = END_COST_R * np.concatenate([t_orig, t_orig])
     live = np.concatenate([ok, ok]) & (ends_k > 0) & (ends_v > MIN_CORNER_V)
@@ -178,7 +184,7 @@ def end_speeds(strokes, pin, profile, opts, budget_t=None, allow0=None, allow1=N
 
         def side(e):
             c = end_time_cost(grid, ends_v[e][:, None], ends_top[e][:, None], ends_a[e][:, None],
-                              ends_edge[e][:, None])
+                              ends_edge[e][:, None], ends_lead[e][:, None])
             return c, c > ends_tmax[e][:, None]
         cost_t, too_slow = side(idx)
         c2, slow2 = side(mi)
@@ -263,6 +269,59 @@ def budget_share(opts) -> float:
     return max(float(r), 0.0)
 
 
+# ------------------------------------------------------------ junction commands
+CMD_MARGIN_R = 0.98      # the commanded corner speed a little under the chosen one (rounding)
+
+
+def junction_command_capable(profile) -> bool:
+    """Can one junction be slowed by a command before the move after it, with no lead-in?
+    Klipper: SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY (each move keeps the junction
+    deviation in force when it is queued; toolhead.py takes the smaller of the two moves').
+    Marlin 1.x / Prusa-Firmware classic jerk: M205 X Y (the jerk in force when the move is
+    planned; Prusa-Firmware's M205 does not wait for the queue).  Marlin 2 JD is left out
+    (M205 J only takes 0.01-0.3 mm), and so is RepRapFirmware (M566)."""
+    return ((profile.junction == "scv" and profile.flavour == "klipper")
+            or (profile.junction == "jerk" and profile.flavour in ("marlin-legacy", "marlin2")))
+
+
+def junction_commands(stroke, flavour, junction):
+    """(before, after): the command written before the stroke's first move so that the
+    firmware passes the junction into it at no more than stroke.v0, and the one restoring
+    the value in force after that move; None when the stroke's start is not slowed that way.
+
+    Klipper: v^2 = R_jd scv^2 (sqrt2 - 1), R_jd = sin(t/2) / (1 - sin(t/2)), t the angle
+    between the moves' directions (toolhead.py calc_junction, the junction deviation taken
+    with the accel it was computed for).  Classic jerk: each axis' velocity change
+    |v u_a - v pu_a| (max(|u_a|, |pu_a|) v where the axis reverses) must stay within the
+    jerk, so v = J / max_a m_a.  The firmware model plays the written commands (state.py
+    reads M205 and SET_VELOCITY_LIMIT) and checks the corner against the plan."""
+    if not getattr(stroke, "corner_cmd0", False) or stroke.prev_u is None:
+        return None
+    v_c = CMD_MARGIN_R * stroke.v0
+    pu, u = stroke.prev_u, (stroke.ux, stroke.uy)
+    lim = stroke.lim
+    if junction == "scv" and flavour == "klipper":
+        cos_t = -(pu[0] * u[0] + pu[1] * u[1])
+        sin_d2 = math.sqrt(max(0.5 * (1.0 - cos_t), 0.0))
+        if not 0.0 < sin_d2 < 1.0:
+            return None
+        r_jd = sin_d2 / (1.0 - sin_d2)
+        scv_c = v_c / math.sqrt(r_jd * (math.sqrt(2.0) - 1.0))
+        if not (math.isfinite(scv_c) and 0.0 < scv_c < lim.scv):
+            return None
+        return (f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={scv_c:.3f}",
+                f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={lim.scv:.6g}")
+    if junction == "jerk":
+        m = 0.0
+        for a, b in ((pu[0], u[0]), (pu[1], u[1])):
+            m = max(m, abs(b - a) if a * b >= 0.0 else max(abs(a), abs(b)))
+        j_c = v_c * m
+        if not (math.isfinite(j_c) and 0.001 <= j_c < min(lim.jerk_x, lim.jerk_y)):
+            return None
+        return (f"M205 X{j_c:.3f} Y{j_c:.3f}", f"M205 X{lim.jerk_x:.6g} Y{lim.jerk_y:.6g}")
+    return None
+
+
 def lower_corners(strokes, pin, profile, opts, kinds):
     """Lower line strokes' end speeds at sharp corners (Options.corner_budget_r > 0):
     strokes' v0 / v1 and pin.v0 / pin.v1 become the chosen speeds, v0_fw / v1_fw keep the
@@ -284,14 +343,30 @@ def lower_corners(strokes, pin, profile, opts, kinds):
         budget_t = r * float(getattr(opts, "max_slowdown_r", 0.03)) * float(np.sum(t_orig[np.isfinite(t_orig)]))
     v0_fw = np.asarray(pin.v0, float).copy()
     v1_fw = np.asarray(pin.v1, float).copy()
+    # a start is slowed by a junction command where the firmware takes one; an end, when the
+    # next stroke's start command sets that same junction (a pair)
+    # (a stroke the planner then leaves as sliced writes its own move behind the command:
+    # schedule._keep_slowed_corners)
+    cmd0 = allow0 & junction_command_capable(profile) & np.array([s.prev_u is not None for s in strokes], bool)
+    cmd1 = np.zeros(n, bool)
+    nxt = {}
+    for a, b in pairs:
+        if allow1[a] and cmd0[b]:
+            cmd1[a] = True
+            nxt[a] = b
     v0, v1 = end_speeds(strokes, pin, profile, opts, budget_t=budget_t, allow0=allow0, allow1=allow1,
-                        pairs=pairs)
+                        pairs=pairs, cmd0=cmd0, cmd1=cmd1)
     v0, v1 = np.minimum(v0, v0_fw), np.minimum(v1, v1_fw)
     lowered = 0
+    pin.corner_next = {}
     for i, st in enumerate(strokes):
         if v0[i] < v0_fw[i] or v1[i] < v1_fw[i]:
             st.v0_fw, st.v1_fw = float(v0_fw[i]), float(v1_fw[i])
             st.v0, st.v1 = float(v0[i]), float(v1[i])
+            st.corner_cmd0 = bool(cmd0[i] and v0[i] < v0_fw[i])
+            st.corner_cmd1 = bool(cmd1[i] and v1[i] < v1_fw[i])
+            if st.corner_cmd1:
+                pin.corner_next[i] = nxt[i]        # the stroke whose command sets this end
             lowered += int(v0[i] < v0_fw[i]) + int(v1[i] < v1_fw[i])
     pin.v0, pin.v1 = v0, v1
     return lowered

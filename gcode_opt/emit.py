@@ -143,9 +143,11 @@ def _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
 
 
 def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text, e_rel, flavour,
-                accel_restore, mcr_restore, feed_restore_v, extruding=True, header=""):
+                accel_restore, mcr_restore, feed_restore_v, extruding=True, header="", first_cmds=None):
     """Text of the block replacing the stroke.  s, v: knots (mm, mm/s) including every
-    original vertex (ends_d); accels (mm/s^2) and feeds (mm/s): one per segment."""
+    original vertex (ends_d); accels (mm/s^2) and feeds (mm/s): one per segment.
+    first_cmds: (before, after) lines around the first move (a junction command that
+    slows the corner into the stroke, and the value in force back: corners.py)."""
     nl = st.newline
     dxy, de = st.dec_xy, st.dec_e
     # Python floats, not numpy scalars: the same IEEE numbers, a fraction of the per-use cost
@@ -205,7 +207,11 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         words = f"G1 X{xt} Y{yt}"
         if extruding:
             words += f" E{e_txt}"
+        if k == 1 and first_cmds:
+            out.append(first_cmds[0] + nl)
         out.append(f"{words} F{f}{(' ' + comment) if comment else ''}{nl}")
+        if k == 1 and first_cmds:
+            out.append(first_cmds[1] + nl)
         if at_vertex:
             e_done_u = 0
             if move < len(ends_d) - 1:

@@ -30,7 +30,7 @@ from .coverage import feature_overshoot_r
 from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha, scatter_candidates)
 from .profile import Profile
-from .segments import SegmentRules, plan_segments
+from .segments import SegmentRules, plan_segments, slowed_original
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
 
 
@@ -286,15 +286,112 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             plan.segs[i] = seg
             plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+        _keep_slowed_corners(plan, strokes, rules)
+        _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
 
     plan = run(budget_t)
     if opts.alpha == "auto":
-        budget = budget_t
-        for _ in range(3):                # the set of strokes changes with the budget: iterate
-            over = float(np.sum(plan.t_pred - pin.T_orig, where=plan.retime)) - budget_t
-            if over <= 1e-3 * budget_t + 1e-9:
-                break
-            budget -= over
-            plan = run(budget)
+        plan = _fit_budget(run, plan, pin, budget_t)
     return plan
+
+
+# why a stroke is left as sliced, for which its corner slowed by a command is still written
+AS_SLICED = ("original is better within the time budget", "no law within limits",
+             "segments would not beat the original")
+
+
+def _keep_slowed_corners(plan, strokes, rules):
+    """A line stroke the planner leaves as sliced whose start corners.py slowed with a
+    junction command keeps that corner: its own move is written behind the command
+    (segments.slowed_original).  Its time counts in the budget like a re-timed stroke's;
+    what the corner cost was priced in corners.py's share of the budget."""
+    for i in np.flatnonzero(~plan.retime).tolist():
+        st = strokes[i]
+        if not st.corner_cmd0 or plan.reason[i] not in AS_SLICED or chains.plan_kind(st) != K_LINE:
+            continue
+        try:
+            seg = slowed_original(st, rules)
+        except Exception:                     # noqa: BLE001 -- the stroke stays as sliced
+            seg = None
+        if seg is None or seg_fault(seg) or not seg.first_cmds:
+            continue
+        plan.retime[i] = True
+        plan.reason[i] = "retimed"
+        plan.segs[i] = seg
+        plan.T[i], plan.beta[i], plan.I_law[i] = seg.time_t, np.inf, seg.int_a2
+        plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+
+
+def _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache):
+    """A stroke whose lowered end was to be set by the next stroke's junction command
+    (corners.py: Stroke.corner_cmd1) gets its own lead-out when that next stroke is left
+    as sliced or writes no command: otherwise the firmware would pass the corner at its
+    own junction speed.  The change holds for the later plans of this run (their budget
+    sees it); a stroke whose lead-out does not fit is left as sliced."""
+    nxt = getattr(pin, "corner_next", None)
+    if not nxt:
+        return
+    todo = True
+    while todo:                  # a stroke left as sliced here may be another's next: again
+        todo = False
+        for a, b in nxt.items():
+            if strokes[a].corner_cmd1 and plan.retime[a]:
+                seg_b = plan.segs[b] if plan.retime[b] else None
+                if seg_b is None or not getattr(seg_b, "first_cmds", None):
+                    _own_lead_out(plan, strokes, pin, rules, seg_cache, a)
+                    todo = True
+
+
+def _own_lead_out(plan, strokes, pin, rules, seg_cache, a):
+    """Stroke a's segments with its own lead-out at its lowered end, or a left as sliced."""
+    st = strokes[a]
+    st.corner_cmd1 = False
+    seg_cache.lines.pop(a, None)
+    try:
+        seg = KINDS[K_LINE].segments([st], plan.T[[a]], plan.beta[[a]], rules, None)[0]
+    except Exception:                         # noqa: BLE001 -- the stroke stays as sliced
+        seg = None
+    why = "segments would not beat the original" if seg is None else seg_fault(seg)
+    if why or seg.int_a2 >= st.int_a2:
+        plan.retime[a] = False
+        plan.reason[a] = why or "segments would not beat the original"
+        plan.segs[a] = None
+        plan.t_pred[a], plan.a2_pred[a] = pin.T_orig[a], pin.I_orig[a]
+        return
+    plan.segs[a] = seg
+    plan.t_pred[a], plan.a2_pred[a] = seg.time_t, seg.int_a2
+
+
+REPLANS = 5              # law budgets tried after the first, at most
+FULL_R = 0.02            # a plan spending within 2 % below the budget is taken
+
+
+def _fit_budget(run, plan, pin, budget_t):
+    """The laws' budget whose segments' predicted time fills budget_t.  The segments cost
+    more than their laws (lead-ins, firmware junctions), so the first plan may overspend:
+    step the laws' budget down by the overspend (the set of strokes changes with it) and,
+    once one plan is within the budget, bisect between the last over and the best within.
+    A plain step-down overshot: on Marlin JD profiles, whose lead-ins cost most, three
+    steps ended at 40 % of the budget spent and 366 strokes left as sliced."""
+    tol = 1e-3 * budget_t + 1e-9
+
+    def spent(p):
+        return float(np.sum(p.t_pred - pin.T_orig, where=p.retime))
+
+    s = spent(plan)
+    if s <= budget_t + tol:
+        return plan
+    b, hi_b, best = budget_t, budget_t, None      # best: (law budget, plan, spent) within
+    for _ in range(REPLANS):
+        b = b - (s - budget_t) if best is None else 0.5 * (best[0] + hi_b)
+        plan = run(b)
+        s = spent(plan)
+        if s > budget_t + tol:
+            hi_b = b
+            continue
+        if best is None or s > best[2]:
+            best = (b, plan, s)
+        if s >= budget_t * (1.0 - FULL_R):
+            break
+    return plan if best is None else best[1]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .corners import junction_commands
 from .firmware.junction import accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import line_law, time_of_distance
@@ -21,6 +22,10 @@ EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
 EDGE_T = 0.01            # s: ... and no longer than this at that speed (a slow lead-in costs time)
 KNOT_CHUNK = 1024         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
 MIN_EDGE_D = 0.02        # mm: no room for a lead-in this long: none (a sliver is 0/0 for its ramp)
+ROUND_D = 0.002          # mm: what writing X/Y to 3 decimals may take off a short move
+EDGE_MIN_V = 1.0         # mm/s: a corner slower than this (2 x the model's full-stop threshold) is passed
+                         # without a lead-in: the accel it needs is nil, and the lead-in at ~0.5 mm/s,
+                         # made long enough for the firmware to keep it, ended below the stop threshold
 
 
 def segment_count(T, L, n_max, t_seg_min_t, min_seg_d=MIN_SEG_D):
@@ -189,15 +194,19 @@ def ramp_accels(s, v):
 class SegmentRules:
     """What the firmware needs from segments (from the printer profile)."""
 
-    def __init__(self, junction, n_max, seg_t, min_seg_d, min_move_d=0.0):
+    def __init__(self, junction, n_max, seg_t, min_seg_d, min_move_d=0.0, flavour=""):
         self.junction, self.n_max, self.seg_t, self.min_seg_d = junction, n_max, seg_t, min_seg_d
         self.min_move_d = min_move_d     # shortest X/Y travel of a move the firmware keeps (Profile.min_move_d)
+        self.flavour = flavour           # which junction command the firmware takes (corners.junction_commands)
 
     def min_edge_d(self, ux, uy):
         """The shortest lead-in / lead-out along direction (ux, uy): MIN_EDGE_D, and long
         enough that the firmware does not drop it (a dropped lead-in does not slow its
         corner; a dropped lead-out is joined with the next move and cuts the corner)."""
-        return max(MIN_EDGE_D, self.min_move_d / max(abs(ux), abs(uy), 1e-12))
+        if self.min_move_d <= 0.0:
+            return MIN_EDGE_D
+        # + the rounding of the written coordinates (3 decimals in the slicers' files)
+        return max(MIN_EDGE_D, (self.min_move_d + ROUND_D) / max(abs(ux), abs(uy), 1e-12))
 
     @classmethod
     def for_profile(cls, profile, max_segments):
@@ -207,18 +216,19 @@ class SegmentRules:
         seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
         # Marlin's JD caps straight runs of blocks shorter than 1 mm at v^2 = d a / 0.033
         min_d = 1.0 if profile.junction == "jd" else MIN_SEG_D
-        return cls(profile.junction, n_max, seg_t, min_d, getattr(profile, "min_move_d", 0.0))
+        return cls(profile.junction, n_max, seg_t, min_d, getattr(profile, "min_move_d", 0.0), profile.flavour)
 
 
 class SegmentPlan:
     """Knots, per-segment acceleration and feed, and the firmware's predicted figures.
     shape: "law" (segments follow the planned law) or "trapezoid" (one move, or collinear
     moves sharing one F and acceleration, played as the least-int-a^2 trapezoid)."""
-    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape")
+    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape", "first_cmds")
 
-    def __init__(self, s, v, accel, feed, time_t, int_a2, shape="law"):
+    def __init__(self, s, v, accel, feed, time_t, int_a2, shape="law", first_cmds=None):
         self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
         self.shape = shape
+        self.first_cmds = first_cmds     # (before, after) the first move: a junction command (corners.py)
 
 
 def plan_segments(strokes, T, beta, rules: SegmentRules):
@@ -270,6 +280,10 @@ def _finish(stroke, sk, vk, rules):
         return (accel_to_pass_junction(rules.junction, v0, stroke.prev_u, u, sk[1] - sk[0], jd),
                 accel_to_pass_junction(rules.junction, v1, u, stroke.next_u, sk[-1] - sk[-2], jd))
 
+    if rules.min_move_d > 0.0:
+        # time-even knots crowd where the law is slow (into a stop, at a corner slowed to
+        # ~1 mm/s by a command): no segment the firmware would drop
+        sk, vk = _merge_short(sk, vk, rules.min_edge_d(*u), stroke.ends_d)
     acc = ramp_accels(sk, vk)
     need0, need1 = needs(sk)
     slow0, slow1 = slowed_ends(stroke)
@@ -281,16 +295,20 @@ def _finish(stroke, sk, vk, rules):
     # speed, is what makes the firmware slow down there.
     if need0 > acc[0] or need1 > acc[-1] or slow0 or slow1:
         e_min = rules.min_edge_d(*u)
-        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05, e_min)) if need0 > acc[0] or slow0 else 0.0
-        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05, e_min)) if need1 > acc[-1] or slow1 else 0.0
+        # (a corner slowed by a junction command needs neither: the command sets it)
+        e0 = min(EDGE_D, max(stroke.v0 * EDGE_T, 0.05, e_min)) if (
+            need0 > acc[0] and v0 >= EDGE_MIN_V and not stroke.corner_cmd0) or slow0 else 0.0
+        e1 = min(EDGE_D, max(stroke.v1 * EDGE_T, 0.05, e_min)) if (
+            need1 > acc[-1] and v1 >= EDGE_MIN_V and not stroke.corner_cmd1) or slow1 else 0.0
         # a lead-in squeezes the first ramp into a shorter segment: keep its acceleration
         # within what the machine allows (Marlin caps M204 at M201's limit: the ramp would
         # fall short of its knot)
         a_top = _accel_top(stroke)
-        if e0 or e1:
-            sk, vk = _room_for_edges(sk, vk, e0, e1, a_top, stroke.ends_d)
-        e0 = min(e0, 0.99 * max(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.0))
-        e1 = min(e1, 0.99 * max(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top), 0.0))
+        if slow0 or slow1:            # a slowed end must have its edge: make room for it
+            sk, vk = _room_for_edges(sk, vk, e0 if slow0 else 0.0, e1 if slow1 else 0.0, a_top, stroke.ends_d)
+        e0 = min(e0, 0.99 * max(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.0), 0.4 * sk[1])
+        e1 = min(e1, 0.99 * max(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top), 0.0),
+                 0.4 * (sk[-1] - sk[-2]))
         e0, e1 = (e if e >= e_min else 0.0 for e in (e0, e1))   # no sliver the firmware would drop
         sk, vk = with_edges(sk, vk, e0, e1)
         acc = ramp_accels(sk, vk)
@@ -316,7 +334,29 @@ def _finish(stroke, sk, vk, rules):
         if slow1:
             feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
-    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred, first_cmds=_first_cmds(stroke, rules))
+
+
+def _merge_short(sk, vk, min_d, vertices_d):
+    """Knots with no segment shorter than min_d (a move the firmware would drop: Profile.
+    min_move_d): a law knot too close to the one kept before it is dropped (the ramp runs
+    on to the next); original vertices and the ends stay.  Time-even knots crowd where the
+    law is slow, next to a corner slowed to ~1 mm/s."""
+    if len(sk) < 3 or float(np.min(np.diff(sk))) >= min_d:
+        return sk, vk
+    vert = np.zeros(len(sk), bool)
+    vert[0] = vert[-1] = True
+    for d in vertices_d:
+        vert |= np.abs(sk - d) < 1e-9
+    keep = [0]
+    for k in range(1, len(sk)):
+        if vert[k] or sk[k] - sk[keep[-1]] >= min_d * (1.0 - 1e-9):
+            keep.append(k)
+    # the last segment too short: drop the law knot before the end, if it is one
+    if len(keep) > 2 and sk[keep[-1]] - sk[keep[-2]] < min_d * (1.0 - 1e-9) and not vert[keep[-2]]:
+        del keep[-2]
+    keep = np.array(keep)
+    return sk[keep], vk[keep]
 
 
 def _room_for_edges(sk, vk, e0, e1, a_top, vertices_d):
@@ -325,11 +365,13 @@ def _room_for_edges(sk, vk, e0, e1, a_top, vertices_d):
     next to the end is dropped (the ramp then runs to the knot after it, the chord of v^2
     over both segments); original vertices stay.  A slowed corner's longer lead-in (the
     firmware's shortest kept move, Profile.min_move_d) needs this on steep law starts."""
+    # with_edges takes at most 0.4 of the end segment for the edge
     def room0(sk, vk):
-        return sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top)
+        return min(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.4 * 0.99 * sk[1])
 
     def room1(sk, vk):
-        return sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top)
+        return min(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top),
+                   0.4 * 0.99 * (sk[-1] - sk[-2]))
 
     def vertex(d):
         return any(abs(d - v) < 1e-9 for v in vertices_d)
@@ -343,9 +385,18 @@ def _room_for_edges(sk, vk, e0, e1, a_top, vertices_d):
 
 def slowed_ends(stroke):
     """(start, end): is that end's speed below the firmware's own junction speed (lowered
-    by corners.py: Stroke.v0_fw / v1_fw)?"""
+    by corners.py: Stroke.v0_fw / v1_fw) and does it need a lead-in / lead-out to be
+    played so (not when a junction command slows it: Stroke.corner_cmd0 / corner_cmd1)?"""
     fw0, fw1 = getattr(stroke, "v0_fw", None), getattr(stroke, "v1_fw", None)
-    return (fw0 is not None and stroke.v0 < fw0 - 1e-9, fw1 is not None and stroke.v1 < fw1 - 1e-9)
+    return (fw0 is not None and stroke.v0 < fw0 - 1e-9 and not getattr(stroke, "corner_cmd0", False),
+            fw1 is not None and stroke.v1 < fw1 - 1e-9 and not getattr(stroke, "corner_cmd1", False))
+
+
+def _first_cmds(stroke, rules):
+    """The junction command around the stroke's first move (corners.junction_commands)."""
+    if not getattr(stroke, "corner_cmd0", False):
+        return None
+    return junction_commands(stroke, rules.flavour, rules.junction)
 
 
 # ------------------------------------------------------- one-move trapezoids (short strokes)
@@ -451,30 +502,46 @@ def _line_trapezoid(st, T, v_peak, rules):
     return min(got, key=lambda p: p.int_a2) if got else None
 
 
-def _line_trapezoid_edges(st, T, v_peak, rules, edges):
+def slowed_original(st, rules: SegmentRules):
+    """A line stroke the planner leaves as sliced whose start corner.py lowered with a
+    junction command (Stroke.corner_cmd0): its own move(s) (the slicer's F, the
+    acceleration in force) behind that command, so the corner is played slower as
+    chosen.  None where it would need a lead-in / lead-out (slowed_ends), whose time the
+    corner was not priced with."""
+    if not getattr(st, "corner_cmd0", False) or any(slowed_ends(st)):
+        return None
+    return _line_trapezoid_edges(st, np.inf, st.v_feed, rules, True, fixed_a=_accel_top(st))
+
+
+def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
+    """fixed_a: the move's own acceleration, v_peak its feed (slowed_original), instead of
+    the least-int a^2 trapezoid of duration T."""
     u = (st.ux, st.uy)
     v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
     v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
     L, jd, a_top = st.length_d, st.lim.jd, _accel_top(st)
     v_lo, v_hi = 0.0, v_peak
-    if rules.junction == "jerk":       # F within the jerk of the slicer's F at both ends (segment_feeds)
+    if rules.junction == "jerk" and fixed_a is None:   # F within the jerk of the slicer's F (segment_feeds)
         step_v = 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
         v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)
     # lead-in / lead-out at the corner speeds where the corner needs more than a gentle ramp
     e_min = rules.min_edge_d(*u)
-    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05, e_min), 0.25 * L) if v0 > 0 and edges else 0.0
-    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05, e_min), 0.25 * L) if v1 > 0 and edges else 0.0
+    slow0, slow1 = slowed_ends(st)
+    cmd0, cmd1 = getattr(st, "corner_cmd0", False), getattr(st, "corner_cmd1", False)
+    e0 = min(EDGE_D, max(v0 * EDGE_T, 0.05, e_min), 0.25 * L) if (
+        (v0 >= EDGE_MIN_V and not cmd0) or slow0) and edges else 0.0
+    e1 = min(EDGE_D, max(v1 * EDGE_T, 0.05, e_min), 0.25 * L) if (
+        (v1 >= EDGE_MIN_V and not cmd1) or slow1) and edges else 0.0
     d0, d1 = st.ends_d[0], L - (st.ends_d[-2] if len(st.ends_d) > 1 else 0.0)   # first, last move
     need0 = accel_to_pass_junction(rules.junction, v0, st.prev_u, u, e0 or d0, jd) if v0 > 0 else 0.0
     need1 = accel_to_pass_junction(rules.junction, v1, u, st.next_u, e1 or d1, jd) if v1 > 0 else 0.0
-    slow0, slow1 = slowed_ends(st)
     if (slow0 and e0 < e_min) or (slow1 and e1 < e_min):
         return None                       # a slowed end without its edge would not be slowed
     e0 = e0 if (need0 > 0.0 or slow0) and e0 >= e_min else 0.0
     e1 = e1 if (need1 > 0.0 or slow1) and e1 >= e_min else 0.0
     t_edges = (e0 / v0 if e0 else 0.0) + (e1 / v1 if e1 else 0.0)
     Lm = L - e0 - e1
-    if Lm <= 0 or T - t_edges <= 0:
+    if Lm <= 0 or T - t_edges <= 0 or (fixed_a is not None and not fixed_a > 0):
         return None
     # Marlin JD: collinear blocks shorter than 1 mm cap v^2 at d a / 0.033
     if rules.junction == "jd" and (min(np.diff([0.0] + list(st.ends_d))) < rules.min_seg_d or
@@ -484,10 +551,15 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges):
     if not e0 and need0 > 0 or not e1 and need1 > 0:    # the original passed them with at most a_top
         floor_a = min(max(need0 if not e0 else 0.0, need1 if not e1 else 0.0), a_top)
         a_min = lambda vp: np.full_like(vp, floor_a)
-    got = least_a2_trapezoid(Lm, T - t_edges, v0, v1, v_lo, v_hi, a_top, a_min)
-    if got is None:
-        return None
-    vp, a, _, _ = got
+    if fixed_a is not None:
+        vp, a = v_peak, fixed_a
+        if a_min is not None:
+            a = max(a, float(a_min(np.array([vp]))[0]))
+    else:
+        got = least_a2_trapezoid(Lm, T - t_edges, v0, v1, v_lo, v_hi, a_top, a_min)
+        if got is None:
+            return None
+        vp, a, _, _ = got
     # knots: the edges, every original vertex, the ends
     inner = np.array([d for d in st.ends_d[:-1] if e0 < d < L - e1], float)
     s = np.concatenate([[0.0], [e0] if e0 else [], inner, [L - e1] if e1 else [], [L]])
@@ -510,4 +582,4 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges):
                 return None             # a raised ramp would not be the planned trapezoid
     acc = hold_cruise_accels(acc, st.accel)
     t_pred, a2_pred = predict_peaked(s, v, acc, feed)
-    return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid")
+    return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid", _first_cmds(st, rules))

@@ -161,6 +161,8 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
                 _check_m204(toks[1:], flavour, accel_max_a, extruding)
         elif cmd == "SET_VELOCITY_LIMIT":
             _check_svl(toks[1:], flavour, accel_max_a)
+        elif cmd == "M205":
+            _check_m205(toks[1:], flavour)
         else:
             raise BlockInvalid(f"validator: command {cmd} not allowed in a block")
     if e_check is not None:
@@ -264,6 +266,23 @@ def _check_m204_value(letter, a, flavour, accel_max_a, extruding):
         raise BlockInvalid("validator: M204 value not finite")
     if not 0.0 < a <= accel_max_a + 0.1 + 1e-9:
         raise BlockInvalid("validator: M204 value out of range")
+
+
+MAX_JERK_V = 100.0          # mm/s: no classic-jerk firmware is set near this
+
+
+def _check_m205(words, flavour):
+    """A classic-jerk junction command (corners.junction_commands): M205 X<j> Y<j>, both
+    words, values in (0, MAX_JERK_V].  Marlin 2 and Prusa-Firmware apply it to the moves
+    planned after it without waiting for the queue; Klipper ignores M205 (not written)."""
+    if flavour not in ("marlin2", "marlin-legacy"):
+        raise BlockInvalid("validator: M205 is not read by this firmware")
+    if len(words) != 2 or words[0][:1] != "X" or words[1][:1] != "Y":
+        raise BlockInvalid("validator: M205 takes X and Y")
+    for w in words:
+        v = _num(w[1:], "M205 " + w[0])
+        if not 0.0 < v <= MAX_JERK_V:
+            raise BlockInvalid("validator: M205 jerk out of range")
 
 
 def _check_svl(words, flavour, accel_max_a):

@@ -111,7 +111,8 @@ def test_validator_lets_the_originals_own_short_move_pass():
 
 @pytest.mark.parametrize("sample,profile,extra", [
     ("cura_box", "ender3", {}),                                        # Marlin 2 JD: corner lead-ins
-    ("prusa_mk3s_rectilinear", "prusa-mk3s", {"corner_budget_r": 1.0}),  # slower corners' lead-ins
+    ("prusa_mk3s_rectilinear", "prusa-mk3s", {"corner_budget_r": 1.0}),  # slower corners, M205
+    ("prusa_gyroid", "ender3", {"corner_budget_r": 0.5}),   # laws ramping into stops, JD lead-ins
 ])
 def test_no_written_move_is_dropped_by_the_firmware(tmp_path, sample, profile, extra):
     src = os.path.join(SAMPLES, sample + ".gcode")

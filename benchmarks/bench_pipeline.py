@@ -18,8 +18,10 @@ Cases (each includes the ones above it, the phase is the difference):
   strokes      + stroke grouping (strokes.group_strokes, curve vertex splitter)
   analyse      + the firmware model on the original (pipeline.analyse: pass 1)
   process      the whole job; its phases plan, rewrite, measure (= the firmware model on
-               the output; read+state of the output included) and summary come from
-               summary["timing_s"], the CPU seconds pipeline.process measures itself.
+               the output, read+state of the output and the ringing Collector riding on it
+               included), ringing (a pass of its own only when the last measure played a
+               part of the file) and summary come from summary["timing_s"], the CPU seconds
+               pipeline.process measures itself.
 """
 from __future__ import annotations
 
@@ -132,8 +134,9 @@ def phases(n, rows):
         prev = t
     p = rows["process"]
     ts = p.get("timing_s", {})
-    for key, name in (("plan", "planning"), ("rewrite", "rewrite"), ("measure", "firmware model on the output"),
-                      ("ringing", "ringing of the output"), ("summary", "summary")):
+    for key, name in (("plan", "planning"), ("rewrite", "rewrite"),
+                      ("measure", "firmware model on the output (+ ringing)"),
+                      ("ringing", "ringing pass of its own"), ("summary", "summary")):
         if key in ts:
             out.append((name, ts[key], ts[key] / p["bare_cpu_s"], p["peak_rss_mb"]))
     out.append(("process, end to end", p["cpu_s"], p["cpu_s"] / p["bare_cpu_s"], p["peak_rss_mb"]))

@@ -106,15 +106,26 @@ def _problems(strokes, T, beta, profile):
 SOLVE_CHUNK = 256           # chains solved in one batch (bounded memory on files of 10^4 chains)
 
 
-class _KeptLaw:
-    """What emission needs of a candidate's law (finish_chain): its speeds and times at
-    the vertices and its duration.  Kept on the stroke (st.chain_T[("law", T, beta)]) so that the
-    chosen candidate is emitted without solving its law again."""
-    __slots__ = ("vert_v", "vert_t", "problem")
+class _KeptPlans:
+    """The segment plans the candidate table made of a chain's candidate laws (finish_chains'
+    arrays, one row per candidate) under the rules `key`: plan_chain_segments takes the
+    chosen candidate's row as it is (finish_chain would make the same plan again).  Kept on
+    the stroke (st.chain_T[("law", T, beta)] = (_KeptPlans, its row)), so that the
+    chosen candidate is emitted without solving or finishing its law again."""
+    __slots__ = ("key", "sk", "vk", "acc", "feed", "t_pred", "a2_pred")
 
-    def __init__(self, vert_v, vert_t, T):
-        self.vert_v, self.vert_t = vert_v, vert_t
-        self.problem = ChainProblem((), (), 0.0, T, 0.0, 0.0, 0.0)
+    def __init__(self, key, sk, vk, acc, feed, t_pred, a2_pred):
+        self.key, self.sk, self.vk, self.acc, self.feed = key, sk, vk, acc, feed
+        self.t_pred, self.a2_pred = t_pred, a2_pred
+
+    def plan(self, r):
+        return SegmentPlan(self.sk, self.vk[r], self.acc[r], self.feed[r], float(self.t_pred[r]),
+                           float(self.a2_pred[r]))
+
+
+def _rules_key(rules, profile):
+    """What a chain's SegmentPlan depends on besides its law (plan_chain_segments' cache key)."""
+    return (rules.junction, rules.n_max, rules.seg_t, rules.min_seg_d, id(profile))
 
 
 def solve(strokes, T, beta, profile):
@@ -181,6 +192,12 @@ def finish_chain(st, law, rules, profile):
 def finish_chains(st, laws, rules, profile):
     """finish_chain for several laws of the same chain (its candidates), as rows of one
     (k, n) batch: the per-call overhead of numpy on ~20-segment chains is shared."""
+    kept, fits = _finish_rows(st, laws, rules, profile)
+    return [(kept.plan(r), bool(fits[r])) for r in range(len(laws))]
+
+
+def _finish_rows(st, laws, rules, profile):
+    """finish_chains as arrays: (_KeptPlans, fits per row)."""
     g = curves.geom(st, profile)
     d = g.d
     k, n = len(laws), d.size
@@ -204,18 +221,24 @@ def finish_chains(st, laws, rules, profile):
     step_v = np.inf
     if rules.junction == "jerk":
         step_v = curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
-    for r in range(k):
-        acc[r] = hold_cruise_accels(_junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r]), a_top)
-        feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
+        # its floor is row by row arithmetic on the feeds as shaped: every row at once
+        acc = _junction_accels(st, g, vk, acc, rules, profile, feed)
+        for r in range(k):
+            acc[r] = hold_cruise_accels(acc[r], a_top)
+            feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
+    else:
+        for r in range(k):
+            acc[r] = hold_cruise_accels(_junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r]), a_top)
+            feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
-    return [(SegmentPlan(sk, vk[r], acc[r], feed[r], float(t_pred[r]), float(a2_pred[r])), bool(fits[r]))
-            for r in range(k)]
+    return _KeptPlans(_rules_key(rules, profile), sk, vk, acc, feed, t_pred, a2_pred), fits
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):
     """curves.junction_accels; under classic jerk its per-vertex loop raises nothing (the
     jerk law does not scale with the acceleration), so only the finite-lookahead floor is
-    applied, over arrays (tests/test_chain_strokes.py compares the two)."""
+    applied, over arrays (tests/test_chain_strokes.py compares the two): acc and vmax may
+    then be (k, n), k candidates of the chain at once."""
     if rules.junction != "jerk":
         return curves.junction_accels(st, g, vk, acc, rules, profile, vmax=vmax)
     acc = np.array(acc, float)
@@ -397,28 +420,34 @@ def law_T(st, T):
 
 def plan_chain_segments(strokes, T, beta, rules, profile):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
-    candidates' laws (st.chain_T[("law", T, beta)], _KeptLaw): the chosen one is emitted
-    without solving it again; and its last plan (st.chain_T["seg"]): a re-plan of the
+    candidates' plans (st.chain_T[("law", T, beta)], _KeptPlans): the chosen one is emitted
+    without solving or finishing its law again; and its last plan (st.chain_T["seg"]): a re-plan of the
     budget that leaves its (T, beta) alone reuses it."""
     T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
     todo = []
-    key = (rules.junction, rules.n_max, rules.seg_t, rules.min_seg_d, id(profile))
+    key = _rules_key(rules, profile)
     for k, (st, t, b) in enumerate(zip(strokes, T, beta)):
         hit = st.chain_T.get("seg")
         if hit is not None and hit[0] == (float(t), float(b)) + key:
             out[k] = hit[1]
         else:
             todo.append(k)
-    # the candidate's own law when this (T, beta) is one of the candidates, else solved
-    laws = {k: strokes[k].chain_T.get(("law", float(T[k]), float(beta[k]))) for k in todo}
-    cold = [k for k in todo if laws[k] is None]
-    laws.update(zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)))
+    # the candidate table's plan when this (T, beta) is one of the candidates (under the
+    # same rules), else the law solved and finished
+    cold = []
     for k in todo:
         st = strokes[k]
-        out[k] = finish_chain(st, laws[k], rules, profile)[0]
-        st.chain_T["seg"] = ((float(T[k]), float(beta[k])) + key, out[k])
+        hit = st.chain_T.get(("law", float(T[k]), float(beta[k])))
+        if hit is not None and hit[0].key == key:
+            out[k] = hit[0].plan(hit[1])
+        else:
+            cold.append(k)
+    for k, law in zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)):
+        out[k] = finish_chain(strokes[k], law, rules, profile)[0]
+    for k in todo:
+        strokes[k].chain_T["seg"] = ((float(T[k]), float(beta[k])) + key, out[k])
     return out
 
 
@@ -453,14 +482,14 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
             cols = [c for c in range(k) if _usable(laws[c][j - a], pin, i, T[j, c])]
             if not cols:
                 continue
-            for c, (seg, _) in zip(cols, finish_chains(st, [laws[c][j - a] for c in cols], rules, profile)):
-                if not (np.isfinite(seg.int_a2) and np.isfinite(seg.time_t) and seg.time_t > 0):
+            kept, _ = _finish_rows(st, [laws[c][j - a] for c in cols], rules, profile)
+            for r, c in enumerate(cols):
+                time_t, int_a2 = float(kept.t_pred[r]), float(kept.a2_pred[r])
+                if not (np.isfinite(int_a2) and np.isfinite(time_t) and time_t > 0):
                     continue
-                law = laws[c][j - a]
-                ok[j, c], tp[j, c], ia[j, c], iv[j, c] = True, seg.time_t, seg.int_a2, law.iv
-                st.chain_T[float(seg.time_t)] = float(T[j, c])
-                st.chain_T[("law", float(T[j, c]), float(beta[j, c]))] = _KeptLaw(law.vert_v, law.vert_t,
-                                                                               float(T[j, c]))
+                ok[j, c], tp[j, c], ia[j, c], iv[j, c] = True, time_t, int_a2, laws[c][j - a].iv
+                st.chain_T[time_t] = float(T[j, c])
+                st.chain_T[("law", float(T[j, c]), float(beta[j, c]))] = (kept, r)
     return ok, tp, ia, iv
 
 

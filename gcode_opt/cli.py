@@ -177,7 +177,7 @@ def build_parser():
     p.add_argument("--no-ringing", action="store_true",
                    help="skip the ringing figures (the frame's resonance driven by the original and the written "
                         "file, per axis, before/after: the summary's 'ringing', one summary line, the report's "
-                        "ringing section); they cost a firmware-model pass over each file")
+                        "ringing section); they ride on the firmware model's passes over both files")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
     p.add_argument("--profile-time", action="store_true",
                    help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
@@ -355,10 +355,14 @@ def _process(a, out, job, Options, Progress, process):
 
 def add_ringing(summary, orig, new, prof, debug=False):
     """summary["ringing"] from one firmware-model pass over each file, where the pipeline
-    did not already give it; a failure here never costs the output (a note instead)."""
+    did not already give it; a failure here never costs the output (a note instead).  A
+    written file that is the original byte for byte is played once: no change."""
     try:
-        from .ringing import summary as ringing_summary
-        summary["ringing"] = ringing_summary(orig, new, prof)
+        from .pipeline import same_bytes
+        from .ringing import figures, summary_of
+        before = figures(orig, prof)
+        after = before if same_bytes(orig, new) else figures(new, prof)
+        summary["ringing"] = summary_of(before, after)
         summary["per_stroke"] = summary.pop("per_stroke", [])
     except Exception as e:                            # noqa: BLE001 - the G-code output comes first
         if debug:

@@ -11,6 +11,9 @@
   3. measure: the firmware model plays the re-timed file; before/after figures come from
      the same model on both files.  It records where it stood empty (after each stop: an
      E-only move, a barrier) with the reader's state there (firmware.simulate.Ledger).
+     The ringing figures ride on the passes over both files (ringing.Collector): the
+     original's on analyse, the written file's on the last measure pass that played all
+     of it (else, after a second pass that played only what changed, a pass of their own).
 When the written file overruns the time budget, the budget is re-spent and the file
 written once more: blocks whose segment plan did not change are copied from the first
 file, and the firmware model plays only the stretches, stop to stop, that hold a block
@@ -410,18 +413,31 @@ def _per_stroke(out_ranges, t, a2, v2):
     return on_line
 
 
-def measure(path, profile, out_ranges, opts, watch=None):
+def measure(path, profile, out_ranges, opts, watch=None, ring=None):
     """Firmware model on the re-timed file; per re-timed stroke (time, int a^2, int v^2).
     With `watch` (every stroke's output lines, sorted), also the Ledger a second pass
-    re-measures from (remeasure); else None."""
+    re-measures from (remeasure); else None.  `ring`, a ringing.Collector, rides on the
+    pass (the written file's ringing without a pass of its own)."""
     n = len(out_ranges)
     t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
     on_line = _per_stroke(out_ranges, t, a2, v2)
+    on_block = on_dwell = None
+    if ring is not None:
+        from . import ringing as rg
+        ring_line, on_block, on_dwell = rg.hooks(ring)
+
+        def on_line(r, _a=on_line, _b=ring_line):
+            _a(r)
+            _b(r)
     if watch is None:
-        sim = simulate_events(_counted(events(path, profile), opts.progress), profile, on_line=on_line)
+        evs = _counted(events(path, profile), opts.progress)
+        if ring is not None:
+            from . import ringing as rg
+            evs = rg.wrap_events(evs, on_dwell)
+        sim = simulate_events(evs, profile, on_line=on_line, on_block=on_block)
         return sim, t, a2, v2, None
-    sim, led = simulate_ledger(path, profile, watch, on_line=on_line,
-                               lines=_counted(read_lines(path), opts.progress))
+    sim, led = simulate_ledger(path, profile, watch, on_line=on_line, on_block=on_block,
+                               lines=_counted(read_lines(path), opts.progress), on_barrier=on_dwell)
     return sim, t, a2, v2, led
 
 
@@ -585,9 +601,12 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
                                         for i in range(len(strokes))], bool)
                     got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,
                                     first.out_ranges, first.figures, out_ranges, opts)
+                ring_after = None     # the written file's ringing, when this pass played all of it
                 if got is None:
                     watch = None if lines is None or pass_i else [(int(lines[0][i]), int(lines[1][i])) for i in order]
-                    got = measure(tmp, profile, out_ranges, opts, watch)
+                    ring = _ring_collector(profile, opts)
+                    got = measure(tmp, profile, out_ranges, opts, watch, ring)
+                    ring_after = ring
                 sim1, t1, a21, v21, led = got
                 first = _FirstPass(plan, digests, lines, out_ranges, (t1, a21, v21), led)
                 timing.lap("measure")
@@ -607,7 +626,11 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             first = None
             plan.segs = None
             pin.seg_cache = pin.cached = None
-            ringing, ringing_error = _ringing_after(tmp, profile, opts)
+            for st in strokes:        # curve geometry (rebuilt on demand) and chains' candidate plans
+                st.curv = None
+                if st.chain_T:        # ({} still marks a chain: chains.plan_kind)
+                    st.chain_T = {}
+            ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
             timing.lap("ringing")
             from .summary import build_summary
             summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
@@ -627,18 +650,39 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
     return summary
 
 
-def _ringing_after(written, profile, opts):
-    """(before, after) ringing figures, or None: the original's came with the analyse pass,
-    the written file's take one more firmware-model pass (the measure passes may have played
-    only the stretches that changed).  A failure costs the figures, never the output."""
+def _ring_collector(profile, opts):
+    """A ringing Collector to ride on a full measure pass, or None (--no-ringing, or the
+    original's figures failed: then the written file's are not wanted either)."""
+    if getattr(opts, "ringing_before", None) is None:
+        return None
+    from . import ringing as rg
+    return rg.Collector(profile)
+
+
+def _ringing_after(written, profile, opts, ring=None, original=None):
+    """(before, after) ringing figures, or None: the original's came with the analyse pass;
+    the written file's came with the last measure pass if it played the whole file (`ring`,
+    its Collector), else (a second pass played only the stretches that changed) they take
+    one more firmware-model pass, unless the written file is the original byte for byte.
+    A failure costs the figures, never the output."""
     before = getattr(opts, "ringing_before", None)
     if before is None:
         return None, None
     try:
+        if ring is not None:
+            return (before, ring.figures()), None
+        if original is not None and same_bytes(original, written):
+            return (before, before), None
         from . import ringing as rg
         return (before, rg.figures(written, profile)), None
     except Exception as e:          # noqa: BLE001 - the G-code output comes first
         return None, f"{type(e).__name__}: {e}"
+
+
+def same_bytes(a, b):
+    """Two files with the same bytes (sizes first: a re-timed file seldom keeps its size)."""
+    import filecmp
+    return os.path.getsize(a) == os.path.getsize(b) and filecmp.cmp(a, b, shallow=False)
 
 
 class _FirstPass:

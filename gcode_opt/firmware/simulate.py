@@ -484,11 +484,17 @@ def _sums(res):
             res.short_segments, res.barrier_dwell_t, res.corners, res.corner_dv2)
 
 
-def _play(lines, state, sim, watch, led):
+def _play(lines, state, sim, watch, led, on_barrier=None):
     """Step (idx, raw) lines through the reader `state` and the model `sim`.  With `led`,
-    record the stops around the sorted, disjoint line ranges `watch` [(first, last), ...]."""
+    record the stops around the sorted, disjoint line ranges `watch` [(first, last), ...].
+    on_barrier(dwell_t), if given, is called once the model took a Barrier (its blocks
+    flushed), as ringing.wrap_events does: a ringing Collector can ride on the pass."""
     Move, Barrier, EONLY = st.Move, st.Barrier, st.EONLY
     step, move, barrier = state.step, sim.move, sim.barrier
+    if on_barrier is not None:
+        def barrier(ev, _take=sim.barrier):
+            _take(ev)
+            on_barrier(ev.dwell_t)
     res = sim.res
     if led is None:
         for idx, raw in lines:
@@ -556,16 +562,17 @@ def _play(lines, state, sim, watch, led):
     res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
 
 
-def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None):
+def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None, on_barrier=None):
     """simulate_file that also returns a Ledger of the stops around the sorted, disjoint
     line ranges `watch` [(first, last), ...] (0-based, inclusive), for replay_runs.
-    `lines`: the file's (idx, raw) lines if the caller reads them (read_lines(path))."""
+    `lines`: the file's (idx, raw) lines if the caller reads them (read_lines(path));
+    on_barrier(dwell_t): called after each Barrier (see _play)."""
     state = st.MachineState(profile, path)
     state.warnings = []
     sim = _Sim(profile, on_line, on_block)
     sim.max_stop_lines = math.inf
     led = Ledger()
-    _play(st.read_lines(path) if lines is None else lines, state, sim, watch, led)
+    _play(st.read_lines(path) if lines is None else lines, state, sim, watch, led, on_barrier)
     res = sim.res
     led.stop_lines = res.stop_lines
     res.stop_lines = led.stop_lines[:MAX_STOP_LINES]

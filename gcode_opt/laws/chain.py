@@ -69,13 +69,6 @@ class ChainLaw:
         return self.knot_t[j] + tl, v
 
 
-def _pieces_of(pr, B):
-    """Knot positions and end speeds of the pieces of chain pr for binding set B."""
-    ks = np.concatenate([[0.0], pr.s_v[B], [pr.S]])
-    kv = np.concatenate([[pr.v0], pr.c_v[B], [pr.v1]])
-    return ks, kv
-
-
 def _J(L, T, beta, va, vb):
     iv, ia = LineLaw(L, T, beta, va, vb).integrals()
     return iv + beta * ia
@@ -98,7 +91,9 @@ def _share_time(L, beta, va, vb, owner, T_total, T_init):
             break
         o, Ti, Li, bi, ai, ci = owner[ix], T[ix], L[ix], beta[ix], va[ix], vb[ix]
         h = FD_H_R * Ti
-        jm, j0, jp = _J(Li, Ti - h, bi, ai, ci), _J(Li, Ti, bi, ai, ci), _J(Li, Ti + h, bi, ai, ci)
+        n_i = Ti.size              # the three durations in one batch (numpy calls shared)
+        jm, j0, jp = np.split(_J(np.tile(Li, 3), np.concatenate([Ti - h, Ti, Ti + h]), np.tile(bi, 3),
+                                 np.tile(ai, 3), np.tile(ci, 3)), [n_i, 2 * n_i])
         d1 = (jp - jm) / (2.0 * h)
         d2 = (jp - 2.0 * j0 + jm) / (h * h)
         d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)
@@ -131,120 +126,238 @@ def solve_chains(problems, init_binding=None, init_vert_t=None):
     from; init_vert_t, vertex times of a nearby law (scaled by the caller to the problem's
     T, e.g. x T / T_nearby): the first
     guess of the pieces' durations.  Each active-set step starts from the previous law's
-    vertex times."""
+    vertex times.
+
+    The active set is held as flat arrays over all chains' vertices and pieces (_Flat), so
+    an active-set step costs a few numpy calls for the whole batch, not a few per chain;
+    each chain's arithmetic is the same, element by element, as a chain solved alone."""
     m = len(problems)
-    B = [None] * m
-    vts = [None] * m
-    if init_vert_t is not None:
-        for c, (pr, vt) in enumerate(zip(problems, init_vert_t)):
-            if vt is not None and vt.size == pr.s_v.size:
-                vts[c] = np.asarray(vt, float)
+    if m == 0:
+        return []
+    fl = _Flat(problems)
+    bound = np.zeros(fl.sv.size, bool)
+    vt = np.zeros(fl.sv.size)            # vertex times of the warm start / the last law
+    warm = np.zeros(m, bool)
     for c, pr in enumerate(problems):
+        a, b = fl.voff[c], fl.voff[c + 1]
+        if init_vert_t is not None and init_vert_t[c] is not None and init_vert_t[c].size == pr.s_v.size:
+            vt[a:b] = init_vert_t[c]
+            warm[c] = True
         if init_binding is not None and init_binding[c] is not None:
-            B[c] = np.asarray(init_binding[c], int)
+            bound[a + np.asarray(init_binding[c], int)] = True
         else:       # a cap below the mean speed is (nearly always) met: start with those
-            B[c] = np.flatnonzero(pr.c_v < pr.S / pr.T)
-    active = list(range(m))
+            bound[a:b] = pr.c_v < pr.S / pr.T
+    active = np.arange(m)
     out = [None] * m
     seen = [set() for _ in range(m)]
     for it in range(MAX_ACTIVE_ITERS):
-        if not active:
+        if active.size == 0:
             break
-        res = _solve_fixed([problems[c] for c in active], [B[c] for c in active], [vts[c] for c in active])
+        st = fl.solve_fixed(active, bound, vt, warm)
+        vi, rank = st.vi, st.rank
+        # a vertex over its cap joins the binding set; else a binding vertex whose
+        # multiplier is negative leaves it
+        viol = ~bound[vi] & (st.vert_v > fl.cv[vi] * (1 + CAP_TOL_R) + 1e-12)
+        any_viol = np.bincount(rank[viol], None, active.size) > 0
+        mu = st.multipliers()             # per binding vertex of the batch, in vertex order
+        neg = mu < 0
+        bvi = vi[bound[vi]]               # the batch's binding vertices (flat indices)
+        brank = rank[bound[vi]]
+        any_neg = np.bincount(brank[neg], None, active.size) > 0
+        b_ends = np.cumsum(np.bincount(brank, None, active.size)).astype(int)
         nxt = []
-        for c, law in zip(active, res):
-            pr = problems[c]
-            out[c] = law
-            Bc = B[c]
-            bound = np.zeros(pr.s_v.size, bool)
-            bound[Bc] = True
-            viol = ~bound & (law.vert_v > pr.c_v * (1 + CAP_TOL_R) + 1e-12)
-            seen[c].add(Bc.tobytes())
-            if viol.any():
-                newB = np.flatnonzero(bound | viol)
-            else:
-                mu = _multipliers(law, Bc)
-                neg = mu < 0
-                if not neg.any():
-                    continue
-                newB = Bc[~neg]
-                if newB.tobytes() in seen[c]:          # cycling: release only the worst
-                    newB = np.delete(Bc, int(np.argmin(mu)))
-            if newB.tobytes() in seen[c]:
-                law.converged = False
+        done = []
+        for r, c in enumerate(active.tolist()):
+            a, b = fl.voff[c], fl.voff[c + 1]
+            key = bound[a:b].tobytes()
+            seen[c].add(key)
+            if any_viol[r]:
+                new = bound[a:b] | viol[st.voff[r]:st.voff[r + 1]]
+            elif not any_neg[r]:
+                done.append((r, c, None))
                 continue
-            B[c] = newB
-            vts[c] = law.vert_t
-            nxt.append(c)
-        active = nxt
-    for c in active:
-        out[c].converged = False
+            else:
+                lo, hi = (b_ends[r - 1] if r else 0), b_ends[r]     # its binding vertices in mu
+                new = bound[a:b].copy()
+                new[bvi[lo:hi][neg[lo:hi]] - a] = False
+                if new.tobytes() in seen[c]:          # cycling: release only the worst
+                    new = bound[a:b].copy()
+                    new[bvi[lo + int(np.argmin(mu[lo:hi]))] - a] = False
+            if new.tobytes() in seen[c]:
+                done.append((r, c, False))
+                continue
+            nxt.append((r, c, new))
+        for r, c, conv in done:
+            out[c] = st.law(r, c, bound)
+            if conv is False:
+                out[c].converged = False
+        for r, c, new in nxt:
+            a, b = fl.voff[c], fl.voff[c + 1]
+            if it == MAX_ACTIVE_ITERS - 1:        # out of steps: the last law, not converged
+                out[c] = st.law(r, c, bound)
+                out[c].converged = False
+                continue
+            bound[a:b] = new
+            vt[a:b] = st.vert_t[st.voff[r]:st.voff[r + 1]]
+            warm[c] = True
+        active = np.array([c for _, c, _ in nxt], int)
     _law_figures(out)
     return out
 
 
-def _multipliers(law, Bc):
-    """Each binding vertex's multiplier, up to a positive factor: s̈ just after minus s̈
-    just before, relative to the chain's acceleration scale (>= 0 for a cap that holds the
-    law down: a point constraint ṡ <= c bends the speed into a valley).  0 unless negative."""
-    p = law.pieces
-    a_start, a_end = p.a0, p.a1
-    jump = a_start[1:] - a_end[:-1]
-    scale = max(float(np.max(np.abs(a_start))), float(np.max(np.abs(a_end))), 1e-9)
-    mu = jump / scale
-    return np.where(mu < -MU_TOL_R, mu, 0.0)
+class _Flat:
+    """The chains of one solve_chains call as flat arrays: vertex positions sv and caps cv
+    (chain c's at voff[c]:voff[c + 1]), lengths S, durations T, weights beta, end speeds."""
+
+    def __init__(self, problems):
+        self.problems = problems
+        nv = np.array([pr.s_v.size for pr in problems], int)
+        self.voff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        self.nv = nv
+        self.sv = np.concatenate([pr.s_v for pr in problems])
+        self.cv = np.concatenate([pr.c_v for pr in problems])
+        self.S = np.array([pr.S for pr in problems])
+        self.T = np.array([pr.T for pr in problems])
+        self.beta = np.array([pr.beta for pr in problems])
+        self.v0 = np.array([pr.v0 for pr in problems])
+        self.v1 = np.array([pr.v1 for pr in problems])
+        # a vertex's piece is the count of binding vertices up to it (searchsorted on the
+        # knots) when the vertices are strictly inside (0, S) and increasing
+        self.ch = ch = np.repeat(np.arange(len(problems)), nv)      # chain of each vertex
+        inner = np.ones(self.sv.size, bool)
+        inner[self.voff[1:-1]] = False             # first vertex of a chain: no predecessor
+        with np.errstate(invalid="ignore"):
+            self.monotone = bool(np.all(self.sv > 0.0) and np.all(self.sv < self.S[ch])
+                                 and np.all((np.diff(self.sv, prepend=0.0) > 0.0) | ~inner))
+
+    def solve_fixed(self, active, bound, vt, warm):
+        """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
+        their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
+        times vt, else time shared as a constant speed would share it."""
+        na = active.size
+        nv = self.nv[active]
+        on = np.zeros(self.S.size, bool)
+        on[active] = True
+        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
+        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
+        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
+        ne = nv + 2
+        eoff = np.concatenate([[0], np.cumsum(ne)]).astype(int)
+        E = int(eoff[-1])
+        es, ev, et = np.empty(E), np.empty(E), np.empty(E)
+        keep = np.empty(E, bool)
+        first, last = eoff[:-1], eoff[1:] - 1
+        es[first], es[last] = 0.0, self.S[active]
+        ev[first], ev[last] = self.v0[active], self.v1[active]
+        et[first], et[last] = 0.0, self.T[active]
+        keep[first] = keep[last] = True
+        pos = np.arange(vi.size) + 2 * rank + 1
+        es[pos], ev[pos], et[pos] = self.sv[vi], self.cv[vi], vt[vi]
+        keep[pos] = bound[vi]
+        ks, kv, kt0 = es[keep], ev[keep], et[keep]
+        nk = np.bincount(np.repeat(np.arange(na), ne)[keep], None, na)
+        koff = np.concatenate([[0], np.cumsum(nk)]).astype(int)
+        npc = nk - 1                                   # pieces per chain
+        owner = np.repeat(np.arange(na), npc)
+        p0 = np.flatnonzero(np.isin(np.arange(ks.size), koff[1:] - 1, invert=True))   # piece start knots
+        L = ks[p0 + 1] - ks[p0]
+        va, vb = kv[p0], kv[p0 + 1]
+        Tc, Sc = self.T[active], self.S[active]
+        T0 = Tc[owner] * L / Sc[owner]                # as a constant speed would share it
+        w = warm[active]
+        if w.any():                # the nearby law's vertex times at the knots, if all ahead
+            t0 = kt0[p0 + 1] - kt0[p0]
+            good = np.bincount(owner, ~(t0 > 1e-6 * Tc[owner]), na) == 0
+            use = (w & good)[owner]
+            T0 = np.where(use, t0, T0)
+        beta = self.beta[active][owner]
+        Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
+        law = LineLaw(L, Tj, beta, va, vb)
+        a0 = law.eval(np.zeros_like(Tj))[2]            # s̈ at both ends of every piece
+        a1 = law.eval(Tj)[2]
+        # knot times: each chain's cumulative sum of its own pieces (row by row)
+        poff = koff[:-1] - np.arange(na)
+        local = np.arange(Tj.size) - poff[owner]
+        P = int(npc.max()) if na else 0
+        grid = np.zeros((na, P))
+        grid[owner, local] = Tj
+        kt = np.zeros(ks.size)
+        kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
+        # speed and time at every vertex, in its piece
+        bv = bound[vi]
+        if self.monotone:              # binding vertices up to it in its chain
+            cnt = np.cumsum(bv)
+            j = cnt - np.concatenate([[0], cnt])[bvoff[:-1]][rank]
+        else:
+            j = np.empty(vi.size, int)
+            for r in range(na):
+                sl = slice(bvoff[r], bvoff[r + 1])
+                kc = ks[koff[r]:koff[r + 1]]
+                j[sl] = np.clip(np.searchsorted(kc, self.sv[vi[sl]], side="right") - 1, 0, kc.size - 2)
+        kj = koff[:-1][rank] + j
+        v, t = self.cv[vi].copy(), kt[kj]              # exact at the binding vertices (piece ends)
+        free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
+        kf = kj[free]                                  # element's Newton is its own: the batch's
+        pj = kf - rank[free]                           # make-up changes no figure)
+        vlaw = LineLaw(L[pj], Tj[pj], beta[pj], va[pj], vb[pj])
+        tl = time_of_distance(vlaw, self.sv[vi[free]] - ks[kf])
+        v[free] = vlaw.eval(tl)[1]
+        t[free] = kt[kf] + tl
+        return _Step(self, active, vi, rank, bvoff, v, t,
+                     ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+
+
+class _Step:
+    """One active-set step's laws (solve_fixed), flat; law(r, c) makes chain c's ChainLaw
+    (r: its place in the step)."""
+
+    def __init__(self, fl, active, vi, rank, voff, vert_v, vert_t, ks, kv, kt, koff, L, Tj, beta, va, vb,
+                 a0, a1, owner, lam, conv):
+        self.fl, self.active, self.vi, self.rank, self.voff = fl, active, vi, rank, voff
+        self.vert_v, self.vert_t = vert_v, vert_t
+        self.ks, self.kv, self.kt, self.koff = ks, kv, kt, koff
+        self.L, self.Tj, self.beta, self.va, self.vb, self.a0, self.a1 = L, Tj, beta, va, vb, a0, a1
+        self.owner, self.lam, self.conv = owner, lam, conv
+
+    def multipliers(self):
+        """Each binding vertex's multiplier (as _multipliers), all chains at once: s̈ just
+        after minus s̈ just before, over the chain's acceleration scale; 0 unless negative."""
+        na = self.active.size
+        o = self.owner
+        scale = np.zeros(na)
+        np.maximum.at(scale, o, np.abs(self.a0))
+        np.maximum.at(scale, o, np.abs(self.a1))
+        scale = np.maximum(scale, 1e-9)
+        same = o[1:] == o[:-1]                          # consecutive pieces of one chain
+        jump = (self.a0[1:] - self.a1[:-1])[same]
+        mu = jump / scale[o[1:][same]]
+        return np.where(mu < -MU_TOL_R, mu, 0.0)
+
+    def law(self, r, c, bound):
+        """Chain c's ChainLaw (r: its place in the step; bound: the binding mask solved for)."""
+        pr = self.fl.problems[c]
+        k0, k1 = self.koff[r], self.koff[r + 1]
+        p0, p1 = k0 - r, k1 - r - 1
+        v0, v1 = self.voff[r], self.voff[r + 1]
+        lw = ChainLaw()
+        lw.problem = pr
+        lw.binding = np.flatnonzero(bound[self.fl.voff[c]:self.fl.voff[c + 1]])
+        lw.knot_s, lw.knot_v = self.ks[k0:k1], self.kv[k0:k1]
+        lw.knot_t = self.kt[k0:k1]
+        p = _Pieces()
+        sl = slice(p0, p1)
+        p.L, p.T, p.beta, p.v0, p.v1 = self.L[sl], self.Tj[sl], self.beta[sl], self.va[sl], self.vb[sl]
+        p.a0, p.a1 = self.a0[sl], self.a1[sl]
+        lw.pieces = p
+        lw.converged = bool(self.conv[r])
+        lw.lam = float(self.lam[r])
+        lw.vert_v, lw.vert_t = self.vert_v[v0:v1].copy(), self.vert_t[v0:v1].copy()
+        return lw
 
 
 class _Pieces:
     __slots__ = ("L", "T", "beta", "v0", "v1", "a0", "a1")
-
-
-def _solve_fixed(problems, Bs, vts=None):
-    """Laws for fixed binding sets (all chains' pieces in one Newton batch); vts: per chain
-    vertex times of a nearby law (None: time shared as a constant speed would share it)."""
-    vts = vts or [None] * len(problems)
-    L, va, vb, beta, owner, T0, knots = [], [], [], [], [], [], []
-    for c, (pr, B, vt) in enumerate(zip(problems, Bs, vts)):
-        ks, kv = _pieces_of(pr, B)
-        Lc = np.diff(ks)
-        knots.append((ks, kv))
-        L.append(Lc)
-        va.append(kv[:-1])
-        vb.append(kv[1:])
-        t0 = None
-        if vt is not None:          # start: the nearby law's vertex times at the knots
-            t0 = np.diff(np.concatenate([[0.0], vt[B], [pr.T]]))
-            if not np.all(t0 > 1e-6 * pr.T):
-                t0 = None
-        T0.append(pr.T * Lc / pr.S if t0 is None else t0)   # else: as a constant speed would
-    sizes = [x.size for x in L]
-    owner = np.repeat(np.arange(len(problems)), sizes)
-    beta = np.repeat([pr.beta for pr in problems], sizes)
-    L, va, vb, T0 = (np.concatenate(x) for x in (L, va, vb, T0))
-    T_total = np.array([pr.T for pr in problems])
-    Tj, lam, conv = _share_time(L, beta, va, vb, owner, T_total, T0)
-    law = LineLaw(L, Tj, beta, va, vb)
-    a0 = law.eval(np.zeros_like(Tj))[2]          # s̈ at both ends of every piece
-    a1 = law.eval(Tj)[2]
-    starts = np.concatenate([[0], np.cumsum([len(k[0]) - 1 for k in knots])])
-    out = []
-    for c, pr in enumerate(problems):
-        sl = slice(starts[c], starts[c + 1])
-        ks, kv = knots[c]
-        lw = ChainLaw()
-        lw.problem = pr
-        lw.binding = Bs[c]
-        lw.knot_s, lw.knot_v = ks, kv
-        lw.knot_t = np.concatenate([[0.0], np.cumsum(Tj[sl])])
-        p = _Pieces()
-        p.L, p.T, p.beta, p.v0, p.v1 = L[sl], Tj[sl], beta[sl], va[sl], vb[sl]
-        p.a0, p.a1 = a0[sl], a1[sl]
-        lw.pieces = p
-        lw.converged = bool(conv[c])
-        lw.lam = float(lam[c])
-        out.append(lw)
-    _vertex_speeds(out)
-    return out
 
 
 def _law_figures(laws):
@@ -258,37 +371,16 @@ def _law_figures(laws):
     iv, ia = law.integrals()
     pv, mv = law.peak_speed(), law.min_speed()
     starts = np.concatenate([[0], np.cumsum([p.L.size for p in ps])])
-    for lw, p, a, b in zip(laws, ps, starts[:-1], starts[1:]):
+    # extremes of every law at once (exact in any order); the sums law by law, as np.sum
+    # rounds them (every law has a piece: reduceat's indices increase)
+    first = starts[:-1]
+    peak_v, min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)
+    a0, a1 = cat([p.a0 for p in ps]), cat([p.a1 for p in ps])
+    pa0, pa1 = np.maximum.reduceat(np.abs(a0), first).tolist(), np.maximum.reduceat(np.abs(a1), first).tolist()
+    for k, (lw, a, b) in enumerate(zip(laws, first, starts[1:])):
         lw.iv, lw.ia = float(np.sum(iv[a:b])), float(np.sum(ia[a:b]))
-        lw.peak_v, lw.min_v = float(np.max(pv[a:b])), float(np.min(mv[a:b]))
-        lw.peak_a = max(float(np.max(np.abs(p.a0))), float(np.max(np.abs(p.a1))))  # a line law's |s̈| peaks at an end
-
-
-def _vertex_speeds(laws):
-    """Speed and time of every law at every interior vertex (binding ones: the cap, exactly)."""
-    Ls, Ts, bs, v0s, v1s, tgt, t0s, who = [], [], [], [], [], [], [], []
-    for c, lw in enumerate(laws):
-        pr = lw.problem
-        j = np.clip(np.searchsorted(lw.knot_s, pr.s_v, side="right") - 1, 0, len(lw.knot_s) - 2)
-        p = lw.pieces
-        Ls.append(p.L[j]); Ts.append(p.T[j]); bs.append(p.beta[j]); v0s.append(p.v0[j]); v1s.append(p.v1[j])
-        tgt.append(pr.s_v - lw.knot_s[j]); t0s.append(lw.knot_t[j]); who.append(np.full(j.size, c))
-    if not laws:
-        return
-    cat = np.concatenate
-    law = LineLaw(cat(Ls), cat(Ts), cat(bs), cat(v0s), cat(v1s))
-    tl = time_of_distance(law, cat(tgt))
-    _, v, _ = law.eval(tl)
-    t = cat(t0s) + tl
-    who = cat(who)
-    for c, lw in enumerate(laws):
-        sel = who == c
-        vv, tt = v[sel].copy(), t[sel].copy()
-        B = lw.binding
-        if B.size:             # exact at the binding vertices (piece ends)
-            vv[B] = lw.problem.c_v[B]
-            tt[B] = lw.knot_t[1:-1]
-        lw.vert_v, lw.vert_t = vv, tt
+        lw.peak_v, lw.min_v = float(peak_v[k]), float(min_v[k])
+        lw.peak_a = max(pa0[k], pa1[k])  # a line law's |s̈| peaks at an end
 
 
 def solve_chain(s_v, c_v, S, T, beta, v0, v1):

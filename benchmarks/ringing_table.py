@@ -33,7 +33,7 @@ from gcode_opt import ringing  # noqa: E402
 from gcode_opt.profile import load_profile  # noqa: E402
 
 SAMPLES = (("prusa_mk3s_rectilinear", "prusa-mk3s"), ("prusa_gyroid", "prusa-mk3s"),
-           ("prusa_klipper", "voron24"), ("cura_box", "ender3"))
+           ("prusa_klipper", "voron24"), ("cura_box", "ender3"), ("prusa_gyroid_fullspeed_klipper", "voron24"))
 MODES = (("original", None), ("default", []), ("--features all", ["--features", "all"]))
 
 

@@ -298,7 +298,7 @@ def junction_commands(stroke, flavour, junction):
     if not getattr(stroke, "corner_cmd0", False) or stroke.prev_u is None:
         return None
     v_c = CMD_MARGIN_R * stroke.v0
-    pu, u = stroke.prev_u, (stroke.ux, stroke.uy)
+    pu, u = stroke.prev_u, end_tangents(stroke)[0]
     lim = stroke.lim
     if junction == "scv" and flavour == "klipper":
         cos_t = -(pu[0] * u[0] + pu[1] * u[1])
@@ -311,7 +311,7 @@ def junction_commands(stroke, flavour, junction):
             return None
         return (f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={scv_c:.3f}",
                 f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={lim.scv:.6g}")
-    if junction == "jerk":
+    if junction == "jerk" and flavour in ("marlin-legacy", "marlin2"):
         m = 0.0
         for a, b in ((pu[0], u[0]), (pu[1], u[1])):
             m = max(m, abs(b - a) if a * b >= 0.0 else max(abs(a), abs(b)))
@@ -323,7 +323,8 @@ def junction_commands(stroke, flavour, junction):
 
 
 def lower_corners(strokes, pin, profile, opts, kinds):
-    """Lower line strokes' end speeds at sharp corners (Options.corner_budget_r > 0):
+    """Lower strokes' end speeds at sharp corners (Options.corner_budget_r > 0): lines'
+    starts and ends, curves' and chains' starts where a junction command can do it:
     strokes' v0 / v1 and pin.v0 / pin.v1 become the chosen speeds, v0_fw / v1_fw keep the
     firmware's (segments.py writes the lead-in / lead-out for the difference).  Both sides
     of a junction between two strokes get one speed.  Returns the
@@ -333,10 +334,13 @@ def lower_corners(strokes, pin, profile, opts, kinds):
     if r <= 0.0 or n == 0:
         return 0
     line = np.array([k == "line" for k in kinds], bool)
-    allow0, allow1 = line.copy(), line.copy()
+    # curves and chains have no lead-in: their start is slowed only by a junction command
+    capable = junction_command_capable(profile)
+    curvy = np.array([k in ("curve", "chain") for k in kinds], bool) & capable
+    allow0, allow1 = line | curvy, line.copy()
     pairs = junctions(strokes)
-    for a, b in pairs:              # a junction with an arc / curve / chain keeps its speed
-        if not (line[a] and line[b]):
+    for a, b in pairs:              # a junction after an arc / curve / chain keeps its speed
+        if not (line[a] and (line[b] or curvy[b])):
             allow1[a] = allow0[b] = False
     with np.errstate(invalid="ignore"):
         t_orig = np.asarray(pin.T_orig, float)
@@ -347,7 +351,8 @@ def lower_corners(strokes, pin, profile, opts, kinds):
     # next stroke's start command sets that same junction (a pair)
     # (a stroke the planner then leaves as sliced writes its own move behind the command:
     # schedule._keep_slowed_corners)
-    cmd0 = allow0 & junction_command_capable(profile) & np.array([s.prev_u is not None for s in strokes], bool)
+    cmd0 = allow0 & capable & np.array([s.prev_u is not None for s in strokes], bool)
+    allow0 &= line | cmd0
     cmd1 = np.zeros(n, bool)
     nxt = {}
     for a, b in pairs:

@@ -26,6 +26,7 @@ from . import arcs
 from . import chains
 from . import corners
 from . import curves
+from .corners import junction_commands
 from .coverage import feature_overshoot_r
 from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha, scatter_candidates)
@@ -286,6 +287,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             plan.segs[i] = seg
             plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+        _commands_for_curves(plan, strokes, rules)
         _keep_slowed_corners(plan, strokes, rules)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
@@ -294,6 +296,24 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     if opts.alpha == "auto":
         plan = _fit_budget(run, plan, pin, budget_t)
     return plan
+
+
+def _commands_for_curves(plan, strokes, rules):
+    """A curve or chain whose start corners.py slowed gets its junction command on its
+    segment plan (lines' plans carry theirs from segments.py); where none can be written
+    its law, planned from the slower start, is not written either."""
+    for i in np.flatnonzero(plan.retime).tolist():
+        st, seg = strokes[i], plan.segs[i]
+        if not st.corner_cmd0 or seg is None or seg.first_cmds or chains.plan_kind(st) == K_LINE:
+            continue
+        cmds = junction_commands(st, rules.flavour, rules.junction)
+        if cmds is None:
+            plan.retime[i] = False
+            plan.reason[i] = "no junction command for its slower corner"
+            plan.segs[i] = None
+            plan.t_pred[i], plan.a2_pred[i] = strokes[i].time_t, strokes[i].int_a2
+            continue
+        seg.first_cmds = cmds
 
 
 # why a stroke is left as sliced, for which its corner slowed by a command is still written

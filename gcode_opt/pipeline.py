@@ -364,7 +364,8 @@ def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
     # a restore of the acceleration the slicer had in force is as acceptable as the original line
     accel_max_a = max(profile.max_accel_a, accel0) if math.isfinite(accel0) else profile.max_accel_a
     validate_block(text, profile.flavour, accel_max_a, Geometry([pts[0], pts[-1]] if arc else pts, arc),
-                   extruding=extruding, kind=s.kind, e_check=e_check)
+                   extruding=extruding, kind=s.kind, e_check=e_check,
+                   min_move_d=getattr(profile, "min_move_d", 0.0))
 
 
 def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=None):
@@ -385,7 +386,7 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=
     return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=f"{x0:.{dec}f}",
                        y0_text=f"{y0:.{dec}f}", e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
                        mcr_restore=mcr0, feed_restore_v=s.v_feed, extruding=s.feature != feat.TRAVEL,
-                       header=header)
+                       header=header, first_cmds=getattr(seg, "first_cmds", None))
 
 
 def _stroke_text(raws, x0, y0):

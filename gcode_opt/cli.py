@@ -158,9 +158,12 @@ def build_parser():
                    help="print-time budget the auto law may spend, as a fraction of the whole file's "
                         "print time (default %(default)s = 3%%)")
     p.add_argument("--corners", type=_corners, default=0.0, metavar="R",
-                   help="slower corners, less ringing: the share of the --max-slowdown budget spent lowering line "
-                        "strokes' speeds at sharp corners (e.g. 0.7 or 70%%), or 'auto' (the corners' share of the "
-                        "original's ringing); default 0 = off. See README, Ringing")
+                   help="slower corners, less ringing (ghosting): the share of the --max-slowdown budget spent "
+                        "lowering speeds at sharp corners (e.g. 0.7 or 70%%), or 'auto' (the corners' share of the "
+                        "original's ringing; the usual choice). Written as a junction command the firmware applies "
+                        "to that corner only (M205 X Y on Prusa/Marlin classic jerk, SET_VELOCITY_LIMIT "
+                        "SQUARE_CORNER_VELOCITY on Klipper), else a short lead-in. Costs part of the int|a|^2 gain; "
+                        "default 0 = off. See README, Ringing")
     p.add_argument("--segments", type=_segments, default=10,
                    help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
                         "minimum segment time and planner buffer; default %(default)s)")

@@ -223,11 +223,12 @@ class SegmentPlan:
     """Knots, per-segment acceleration and feed, and the firmware's predicted figures.
     shape: "law" (segments follow the planned law) or "trapezoid" (one move, or collinear
     moves sharing one F and acceleration, played as the least-int-a^2 trapezoid)."""
-    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape", "first_cmds")
+    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape", "first_cmds", "fault")
 
     def __init__(self, s, v, accel, feed, time_t, int_a2, shape="law", first_cmds=None):
         self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
         self.shape = shape
+        self.fault = None                # schedule.seg_fault's verdict, once made
         self.first_cmds = first_cmds     # (before, after) the first move: a junction command (corners.py)
 
 

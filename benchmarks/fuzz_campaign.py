@@ -38,6 +38,7 @@ def main(argv=None):
     ap.add_argument("--minutes", type=float, default=None, help="stop after this much wall time")
     ap.add_argument("--save", default="fuzz-failures")
     ap.add_argument("--only", help="comma-separated mutation names to draw from (default: all)")
+    ap.add_argument("--corners", help="pass --corners R in half the cases (slower corners: junction commands)")
     a = ap.parse_args(argv)
     from gcode_opt.profile import profile_names
     profiles = list(profile_names())
@@ -57,8 +58,9 @@ def main(argv=None):
         ops = random_ops(r) if not a.only else [(r.choice(a.only.split(",")), r.randrange(1 << 31))
                                                 for _ in range(r.randint(1, 2))]
         data = build_case(texts[name], ops)
+        extra = ("--corners", a.corners) if a.corners and r.random() < 0.5 else ()
         t = time.monotonic()
-        cat, detail = check_case(data, prof, all_, in_place=in_place)
+        cat, detail = check_case(data, prof, all_, in_place=in_place, extra=extra)
         dt = time.monotonic() - t
         slowest = max(slowest, (dt, n))
         counts[cat] += 1
@@ -70,7 +72,8 @@ def main(argv=None):
             save.mkdir(parents=True, exist_ok=True)
             (save / f"case{n:05d}.gcode").write_bytes(data)
             (save / f"case{n:05d}.txt").write_text(
-                f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nin place: {in_place}\nmutations: {ops!r}\n"
+                f"seed window: {name}\nprofile: {prof}\nfeatures all: {all_}\nin place: {in_place}\nextra: {extra}\n"
+                f"mutations: {ops!r}\n"
                 f"outcome: {cat}\n{detail}\n")
             last = detail.splitlines()[-1] if detail else ""
             if re.match(r"(SyntaxError|ImportError|ModuleNotFoundError|IndentationError)\b", last):

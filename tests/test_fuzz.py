@@ -502,9 +502,10 @@ def run_cli(argv, hang_t=HANG_T):
 
 
 def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | None = None,
-               hang_t: float = HANG_T, in_place: bool = False) -> tuple[str, str]:
+               hang_t: float = HANG_T, in_place: bool = False, extra=()) -> tuple[str, str]:
     """Run one case; (category, detail). category is OK, REFUSED or one of FAILURES.
-    in_place: no -o (the way slicers call it): the input is rewritten, or left as it was."""
+    in_place: no -o (the way slicers call it): the input is rewritten, or left as it was.
+    extra: more CLI arguments (e.g. --corners auto)."""
     import warnings
     from gcode_opt.profile import load_profile
     from gcode_opt.verify import verify
@@ -517,7 +518,7 @@ def check_case(data: bytes, profile: str, features_all: bool, work_dir: str | No
         with open(inp, "wb") as fh:
             fh.write(data)
         argv = (["process", inp] + ([] if in_place else ["-o", out]) + ["-q", "--profile", profile]
-                + (["--features", "all"] if features_all else []))
+                + (["--features", "all"] if features_all else []) + list(extra))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rc, err, tb = run_cli(argv, hang_t)

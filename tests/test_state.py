@@ -1,5 +1,6 @@
 """Reader and machine state on hand-written edge cases (expected values worked out by hand)."""
 import math
+import os
 
 import pytest
 
@@ -102,6 +103,29 @@ def test_checksums_lowercase_nospace_and_crlf():
     assert [(e.x1, e.y1) for e in m] == [(1, 2), (3, 4), (5, 6), (7, 8)]
     assert m[0].checksum and not m[1].checksum
     assert [e.e for e in m[1:]] == [0.5, 0.5, 0.5]
+
+
+@pytest.mark.parametrize("text", ["M83\nG1 X1 Y2 E.1 F600\rM204 S800\nG1 X3 Y4 E.1\n",
+                                  "M83\n;WIPE_END\rG1 X1 Y2 E.1\nG1 X3 Y4 E.1\n"])
+def test_lone_cr_is_refused_naming_the_line(text):
+    """A CR without LF ends a line for Marlin and Prusa-Firmware (the reader splits there
+    too) but not for Klipper, which reads the two as one line: the firmwares disagree on
+    what the file does, and a block written with that line's ending would be a single
+    comment line to Klipper (found by the fuzz campaign: written files that broke the
+    invariants)."""
+    msg = refuse(text, "marlin-legacy", match="carriage return")      # a reader that splits at LF
+    assert ":2:" in msg
+    import dataclasses
+    import tempfile
+    prof = dataclasses.replace(load_profile("generic-klipper"), flavour="marlin-legacy")
+    with tempfile.NamedTemporaryFile("w", suffix=".gcode", newline="", delete=False) as fh:
+        fh.write(text)
+    try:                                      # the product's reader splits at the CR itself
+        with pytest.raises(GcodeError, match="carriage return") as ei:
+            list(events(fh.name, prof))
+        assert ":2:" in str(ei.value)
+    finally:
+        os.unlink(fh.name)
 
 
 def test_firmware_retraction_and_barriers():

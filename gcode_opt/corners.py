@@ -273,15 +273,23 @@ def budget_share(opts) -> float:
 CMD_MARGIN_R = 0.98      # the commanded corner speed a little under the chosen one (rounding)
 
 
+def _command_kind(flavour, junction):
+    """Which junction command slows one junction, written before the move after it with no
+    lead-in: "scv" (Klipper: SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY; each move keeps
+    the junction deviation in force when it is queued, toolhead.py takes the smaller of
+    the two moves'), "jerk" (Marlin 1.x / Prusa-Firmware classic jerk: M205 X Y, the jerk
+    in force when the move is planned; Prusa-Firmware's M205 does not wait for the queue),
+    or None: Marlin 2 JD (M205 J only takes 0.01-0.3 mm), RepRapFirmware (M566)."""
+    if junction == "scv" and flavour == "klipper":
+        return "scv"
+    if junction == "jerk" and flavour in ("marlin-legacy", "marlin2"):
+        return "jerk"
+    return None
+
+
 def junction_command_capable(profile) -> bool:
-    """Can one junction be slowed by a command before the move after it, with no lead-in?
-    Klipper: SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY (each move keeps the junction
-    deviation in force when it is queued; toolhead.py takes the smaller of the two moves').
-    Marlin 1.x / Prusa-Firmware classic jerk: M205 X Y (the jerk in force when the move is
-    planned; Prusa-Firmware's M205 does not wait for the queue).  Marlin 2 JD is left out
-    (M205 J only takes 0.01-0.3 mm), and so is RepRapFirmware (M566)."""
-    return ((profile.junction == "scv" and profile.flavour == "klipper")
-            or (profile.junction == "jerk" and profile.flavour in ("marlin-legacy", "marlin2")))
+    """Can one junction be slowed by a command before the move after it (_command_kind)?"""
+    return _command_kind(profile.flavour, profile.junction) is not None
 
 
 def junction_commands(stroke, flavour, junction):
@@ -300,7 +308,8 @@ def junction_commands(stroke, flavour, junction):
     v_c = CMD_MARGIN_R * stroke.v0
     pu, u = stroke.prev_u, end_tangents(stroke)[0]
     lim = stroke.lim
-    if junction == "scv" and flavour == "klipper":
+    kind = _command_kind(flavour, junction)
+    if kind == "scv":
         cos_t = -(pu[0] * u[0] + pu[1] * u[1])
         sin_d2 = math.sqrt(max(0.5 * (1.0 - cos_t), 0.0))
         if not 0.0 < sin_d2 < 1.0:
@@ -311,7 +320,7 @@ def junction_commands(stroke, flavour, junction):
             return None
         return (f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={scv_c:.3f}",
                 f"SET_VELOCITY_LIMIT SQUARE_CORNER_VELOCITY={lim.scv:.6g}")
-    if junction == "jerk" and flavour in ("marlin-legacy", "marlin2"):
+    if kind == "jerk":
         m = 0.0
         for a, b in ((pu[0], u[0]), (pu[1], u[1])):
             m = max(m, abs(b - a) if a * b >= 0.0 else max(abs(a), abs(b)))

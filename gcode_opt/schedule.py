@@ -301,7 +301,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             plan.segs[i] = seg
             plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
-        _commands_for_curves(plan, strokes, rules)
+        _attach_commands(plan, strokes, pin, rules)
         _keep_slowed_corners(plan, strokes, rules)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
@@ -312,22 +312,31 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     return plan
 
 
-def _commands_for_curves(plan, strokes, rules):
-    """A curve or chain whose start corners.py slowed gets its junction command on its
-    segment plan (lines' plans carry theirs from segments.py); where none can be written
-    its law, planned from the slower start, is not written either."""
+def _command_for(seg, st, rules):
+    """Put stroke st's junction command (corners.junction_commands) on its segment plan
+    when corners.py slowed its start that way; False when none can be written (its plan,
+    made from the slower start, must not be written either)."""
+    if not st.corner_cmd0 or seg.first_cmds:
+        return True
+    cmds = junction_commands(st, rules.flavour, rules.junction)
+    seg.first_cmds = cmds
+    return cmds is not None
+
+
+def _as_sliced(plan, pin, i, why):
+    plan.retime[i] = False
+    plan.reason[i] = why
+    plan.segs[i] = None
+    plan.t_pred[i], plan.a2_pred[i] = pin.T_orig[i], pin.I_orig[i]
+
+
+def _attach_commands(plan, strokes, pin, rules):
+    """Every re-timed stroke whose start corners.py slowed by a junction command gets it
+    (lines, curves and chains alike); one that cannot is left as sliced."""
     for i in np.flatnonzero(plan.retime).tolist():
-        st, seg = strokes[i], plan.segs[i]
-        if not st.corner_cmd0 or seg is None or seg.first_cmds or chains.plan_kind(st) == K_LINE:
-            continue
-        cmds = junction_commands(st, rules.flavour, rules.junction)
-        if cmds is None:
-            plan.retime[i] = False
-            plan.reason[i] = "no junction command for its slower corner"
-            plan.segs[i] = None
-            plan.t_pred[i], plan.a2_pred[i] = strokes[i].time_t, strokes[i].int_a2
-            continue
-        seg.first_cmds = cmds
+        seg = plan.segs[i]
+        if seg is not None and not _command_for(seg, strokes[i], rules):
+            _as_sliced(plan, pin, i, "no junction command for its slower corner")
 
 
 # why a stroke is left as sliced, for which its corner slowed by a command is still written
@@ -348,7 +357,7 @@ def _keep_slowed_corners(plan, strokes, rules):
             seg = slowed_original(st, rules)
         except Exception:                     # noqa: BLE001 -- the stroke stays as sliced
             seg = None
-        if seg is None or seg_fault(seg) or not seg.first_cmds:
+        if seg is None or seg_fault(seg) or not _command_for(seg, st, rules):
             continue
         plan.retime[i] = True
         plan.reason[i] = "retimed"
@@ -387,11 +396,12 @@ def _own_lead_out(plan, strokes, pin, rules, seg_cache, a):
     except Exception:                         # noqa: BLE001 -- the stroke stays as sliced
         seg = None
     why = "segments would not beat the original" if seg is None else seg_fault(seg)
-    if why or seg.int_a2 >= st.int_a2:
-        plan.retime[a] = False
-        plan.reason[a] = why or "segments would not beat the original"
-        plan.segs[a] = None
-        plan.t_pred[a], plan.a2_pred[a] = pin.T_orig[a], pin.I_orig[a]
+    if not why and seg.int_a2 >= st.int_a2:
+        why = "segments would not beat the original"
+    if not why and not _command_for(seg, st, rules):
+        why = "no junction command for its slower corner"
+    if why:
+        _as_sliced(plan, pin, a, why)
         return
     plan.segs[a] = seg
     plan.t_pred[a], plan.a2_pred[a] = seg.time_t, seg.int_a2

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .corners import junction_commands
 from .firmware.junction import accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import line_law, time_of_distance
@@ -229,7 +228,7 @@ class SegmentPlan:
         self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
         self.shape = shape
         self.fault = None                # schedule.seg_fault's verdict, once made
-        self.first_cmds = first_cmds     # (before, after) the first move: a junction command (corners.py)
+        self.first_cmds = first_cmds     # (before, after) the first move: a junction command (schedule.py)
 
 
 def plan_segments(strokes, T, beta, rules: SegmentRules):
@@ -307,9 +306,8 @@ def _finish(stroke, sk, vk, rules):
         a_top = _accel_top(stroke)
         if slow0 or slow1:            # a slowed end must have its edge: make room for it
             sk, vk = _room_for_edges(sk, vk, e0 if slow0 else 0.0, e1 if slow1 else 0.0, a_top, stroke.ends_d)
-        e0 = min(e0, 0.99 * max(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.0), 0.4 * sk[1])
-        e1 = min(e1, 0.99 * max(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top), 0.0),
-                 0.4 * (sk[-1] - sk[-2]))
+        e0 = min(e0, 0.99 * max(_ramp_room(sk[1], vk[0], vk[1], a_top), 0.0), 0.4 * sk[1])
+        e1 = min(e1, 0.99 * max(_ramp_room(sk[-1] - sk[-2], vk[-2], vk[-1], a_top), 0.0), 0.4 * (sk[-1] - sk[-2]))
         e0, e1 = (e if e >= e_min else 0.0 for e in (e0, e1))   # no sliver the firmware would drop
         sk, vk = with_edges(sk, vk, e0, e1)
         acc = ramp_accels(sk, vk)
@@ -335,7 +333,22 @@ def _finish(stroke, sk, vk, rules):
         if slow1:
             feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
-    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred, first_cmds=_first_cmds(stroke, rules))
+    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def _ramp_room(d, va, vb, a_top):
+    """What a segment of length d ramping from va to vb at no more than a_top leaves for
+    an edge (lead-in / lead-out at the end speed)."""
+    return d - abs(vb ** 2 - va ** 2) / (2.0 * a_top)
+
+
+def _vertex_mask(sk, vertices_d):
+    """Which knots are the ends or original vertices (they stay knots)."""
+    vert = np.zeros(len(sk), bool)
+    vert[0] = vert[-1] = True
+    for d in vertices_d:
+        vert |= np.abs(sk - d) < 1e-9
+    return vert
 
 
 def _merge_short(sk, vk, min_d, vertices_d):
@@ -345,10 +358,7 @@ def _merge_short(sk, vk, min_d, vertices_d):
     law is slow, next to a corner slowed to ~1 mm/s."""
     if len(sk) < 3 or float(np.min(np.diff(sk))) >= min_d:
         return sk, vk
-    vert = np.zeros(len(sk), bool)
-    vert[0] = vert[-1] = True
-    for d in vertices_d:
-        vert |= np.abs(sk - d) < 1e-9
+    vert = _vertex_mask(sk, vertices_d)
     keep = [0]
     for k in range(1, len(sk)):
         if vert[k] or sk[k] - sk[keep[-1]] >= min_d * (1.0 - 1e-9):
@@ -368,11 +378,10 @@ def _room_for_edges(sk, vk, e0, e1, a_top, vertices_d):
     firmware's shortest kept move, Profile.min_move_d) needs this on steep law starts."""
     # with_edges takes at most 0.4 of the end segment for the edge
     def room0(sk, vk):
-        return min(sk[1] - abs(vk[1] ** 2 - vk[0] ** 2) / (2.0 * a_top), 0.4 * 0.99 * sk[1])
+        return min(_ramp_room(sk[1], vk[0], vk[1], a_top), 0.4 * 0.99 * sk[1])
 
     def room1(sk, vk):
-        return min(sk[-1] - sk[-2] - abs(vk[-1] ** 2 - vk[-2] ** 2) / (2.0 * a_top),
-                   0.4 * 0.99 * (sk[-1] - sk[-2]))
+        return min(_ramp_room(sk[-1] - sk[-2], vk[-2], vk[-1], a_top), 0.4 * 0.99 * (sk[-1] - sk[-2]))
 
     def vertex(d):
         return any(abs(d - v) < 1e-9 for v in vertices_d)
@@ -391,13 +400,6 @@ def slowed_ends(stroke):
     fw0, fw1 = getattr(stroke, "v0_fw", None), getattr(stroke, "v1_fw", None)
     return (fw0 is not None and stroke.v0 < fw0 - 1e-9 and not getattr(stroke, "corner_cmd0", False),
             fw1 is not None and stroke.v1 < fw1 - 1e-9 and not getattr(stroke, "corner_cmd1", False))
-
-
-def _first_cmds(stroke, rules):
-    """The junction command around the stroke's first move (corners.junction_commands)."""
-    if not getattr(stroke, "corner_cmd0", False):
-        return None
-    return junction_commands(stroke, rules.flavour, rules.junction)
 
 
 # ------------------------------------------------------- one-move trapezoids (short strokes)
@@ -504,11 +506,11 @@ def _line_trapezoid(st, T, v_peak, rules):
 
 
 def slowed_original(st, rules: SegmentRules):
-    """A line stroke the planner leaves as sliced whose start corner.py lowered with a
+    """A line stroke the planner leaves as sliced whose start corners.py lowered with a
     junction command (Stroke.corner_cmd0): its own move(s) (the slicer's F, the
-    acceleration in force) behind that command, so the corner is played slower as
-    chosen.  None where it would need a lead-in / lead-out (slowed_ends), whose time the
-    corner was not priced with."""
+    acceleration in force), to be written behind that command (schedule.py attaches it),
+    so the corner is played slower as chosen.  None where it would need a lead-in /
+    lead-out (slowed_ends), whose time the corner was not priced with."""
     if not getattr(st, "corner_cmd0", False) or any(slowed_ends(st)):
         return None
     return _line_trapezoid_edges(st, np.inf, st.v_feed, rules, True, fixed_a=_accel_top(st))
@@ -583,4 +585,4 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
                 return None             # a raised ramp would not be the planned trapezoid
     acc = hold_cruise_accels(acc, st.accel)
     t_pred, a2_pred = predict_peaked(s, v, acc, feed)
-    return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid", _first_cmds(st, rules))
+    return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid")

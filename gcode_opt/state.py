@@ -235,11 +235,10 @@ class MachineState:
         if idx == 0 and raw[:1] == "\ufeff":       # a UTF-8 BOM is encoding, not G-code
             raw = raw[1:]
         if "\r" in raw and (raw[-1:] == "\r" or "\r" in raw.rstrip("\r\n")):
-            # a lone CR ends this line (read_lines splits there, as Marlin and Prusa-Firmware
-            # do; a reader splitting at LF only leaves it inside); Klipper splits at LF only
-            # and reads it and the next line as one: the
-            # firmwares disagree, and a block written with this line's ending would be one
-            # comment line to Klipper
+            # a lone CR: read_lines ends a line there, as Marlin and Prusa-Firmware do (a
+            # reader splitting at LF only leaves it inside); Klipper splits at LF only and
+            # reads the two as one line.  The firmwares disagree, and a block written with
+            # this line's ending would be one comment line to Klipper
             raise GcodeError(self.path, idx, raw, "a carriage return (CR) without a line feed ends or cuts "
                              "this line: Marlin and Prusa-Firmware read what follows it as a new line, Klipper "
                              "does not; the file's line endings are damaged (convert them, e.g. with "

@@ -142,17 +142,17 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
             raise BlockInvalid("validator: lower-case command")
         if cmd == "G1":
             m = _G1_PLAIN(code)
-            e = _check_plain_g1(m, geometry) if m is not None else _check_move(cmd, toks[1:], geometry)
+            e, x, y = _check_plain_g1(m, geometry) if m is not None else _check_move(cmd, toks[1:], geometry)
             if e is not None:
                 e_words.append(e)
             if short is not None:
-                short.check(code)
+                short.check(x, y)
         elif cmd in ("G2", "G3"):
-            e = _check_move(cmd, toks[1:], geometry)
+            e, x, y = _check_move(cmd, toks[1:], geometry)
             if e is not None:
                 e_words.append(e)
             if short is not None:
-                short.check(code)
+                short.check(x, y)
         elif cmd == "M204":
             m = _M204_PLAIN(code)
             if m is not None:            # one word, its letter and number proven: the value checks
@@ -185,14 +185,10 @@ class _ShortMoves:
             floor = min(floor, own * (1.0 - 1e-9))
         self.floor = floor
 
-    def check(self, code):
-        x = y = None
-        for w in code.split()[1:]:
-            if w[0] == "X":
-                x = float(w[1:])
-            elif w[0] == "Y":
-                y = float(w[1:])
-        if x is None or y is None:
+    def check(self, x, y):
+        """(x, y): the move's end point, None when it has none (the checks before made sure
+        a move has both or neither)."""
+        if x is None:
             return
         if self.x is not None and max(abs(x - self.x), abs(y - self.y)) < self.floor:
             raise BlockInvalid("validator: move shorter than the firmware keeps (min_move_d)")
@@ -201,7 +197,8 @@ class _ShortMoves:
 
 def _check_plain_g1(m, geometry):
     """_check_move for the emitter's own form "G1 X Y [E] F" (_G1_PLAIN matched: the
-    words, their order and the plain-decimal grammar with at most 8 decimals are proven)."""
+    words, their order and the plain-decimal grammar with at most 8 decimals are proven).
+    Returns (E, X, Y) as _check_move does."""
     xt, yt, et, ft = m.group(1, 2, 3, 4)
     x, y, f = float(xt), float(yt), float(ft)
     e = None if et is None else float(et)
@@ -214,7 +211,7 @@ def _check_plain_g1(m, geometry):
         tol = min(geometry.tol_d, 0.75 * 10.0 ** -dec) + 1e-7
         if not geometry.on_path(x, y, tol):
             raise BlockInvalid("validator: point off the original path")
-    return e
+    return e, x, y
 
 
 def _check_move(cmd, words, geometry):
@@ -244,7 +241,7 @@ def _check_move(cmd, words, geometry):
             raise BlockInvalid("validator: point off the original path")
     if "X" not in seen and "E" in seen:
         raise BlockInvalid("validator: extrusion without a move")
-    return seen.get("E")
+    return seen.get("E"), seen.get("X"), seen.get("Y")
 
 
 def _check_m204(words, flavour, accel_max_a, extruding):

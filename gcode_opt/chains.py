@@ -41,7 +41,7 @@ from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marli
 from .firmware.simulate import CORNER_COS
 from .laws.chain import ChainProblem, solve_chains
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
-from .segments import SegmentPlan, SegmentRules, hold_cruise_accels, tent_feeds
+from .segments import SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
 from .strokes import K_CHAIN, K_CURVE
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
@@ -62,8 +62,7 @@ def vertex_caps(st, profile):
     g = curves.geom(st, profile)
     if g.chain_caps is None:
         if profile.junction == "jerk":
-            caps = np.array([curves.vertex_cap(profile, st.lim, st.accel, tuple(g.u[k]), tuple(g.u[k + 1]),
-                                               g.d[k], g.d[k + 1], jerk_r=1.0) for k in range(len(g.d) - 1)])
+            caps = curves.vertex_caps(profile, st.lim, st.accel, g.u, g.d, jerk_r=1.0)
         else:
             caps = g.caps
         g.chain_caps = CHAIN_CAP_MARGIN * caps
@@ -223,13 +222,11 @@ def _finish_rows(st, laws, rules, profile):
         step_v = curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
         # its floor is row by row arithmetic on the feeds as shaped: every row at once
         acc = _junction_accels(st, g, vk, acc, rules, profile, feed)
+    else:       # row by row: each row's junction accelerations from its own feeds as shaped
         for r in range(k):
-            acc[r] = hold_cruise_accels(acc[r], a_top)
-            feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
-    else:
-        for r in range(k):
-            acc[r] = hold_cruise_accels(_junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r]), a_top)
-            feed[r] = tent_feeds(feed[r], st.v_feed, step_v)
+            acc[r] = _junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r])
+    acc = hold_cruise_accels_rows(acc, a_top)
+    feed = tent_feeds_rows(feed, st.v_feed, step_v)
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
     return _KeptPlans(_rules_key(rules, profile), sk, vk, acc, feed, t_pred, a2_pred), fits
 

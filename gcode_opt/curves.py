@@ -34,8 +34,8 @@ import math
 
 import numpy as np
 
-from .firmware.junction import (SQRT2_M1, accel_to_pass_junction, klipper_corner_v2,
-                                marlin_jd_v2, marlin_jerk_junction_v)
+from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
+                                klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
@@ -87,6 +87,100 @@ def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next, jerk_r=1.0 - JERK_F_S
         v2 = marlin_jd_v2(pu[0], pu[1], 0.0, u[0], u[1], 0.0, d_next, a, lim.jd,
                           lim.ax_max, lim.ay_max, 1e9)
     return math.sqrt(v2) if math.isfinite(v2) else math.inf
+
+
+def vertex_caps(profile, lim, accel, u, d, jerk_r=1.0 - JERK_F_STEP_R):
+    """vertex_cap at every interior vertex of a polyline with unit directions u (n, 2)
+    and segment lengths d (n,), as an array (n - 1,): the same arithmetic elementwise in
+    the same order, so the same bits (tests/test_speed_plan_caps.py).  A non-finite
+    input takes the scalar loop (its exceptions and NaN handling are the reference)."""
+    u = np.asarray(u, float)
+    d = np.asarray(d, float)
+    if not (np.isfinite(u).all() and np.isfinite(d).all()):
+        return np.array([vertex_cap(profile, lim, accel, tuple(u[k]), tuple(u[k + 1]), d[k], d[k + 1], jerk_r)
+                         for k in range(len(d) - 1)], float)
+    pux, puy, ux, uy = u[:-1, 0], u[:-1, 1], u[1:, 0], u[1:, 1]
+    with np.errstate(all="ignore"):
+        if profile.junction == "jerk":
+            return _jerk_caps(pux, puy, ux, uy, jerk_r * lim.jerk_x, jerk_r * lim.jerk_y)
+        a0 = accel if accel > 0 else profile.default_accel_a
+        ap, a = _accel_in_force_v(a0, lim, pux, puy), _accel_in_force_v(a0, lim, ux, uy)
+        if profile.junction == "scv":
+            v2 = _klipper_v2(pux, puy, lim.scv * lim.scv * SQRT2_M1 / a0, ap, 2.0 * d[:-1] * ap,
+                             ux, uy, a, 2.0 * d[1:] * a)
+        else:
+            v2 = _marlin_jd_v2(pux, puy, ux, uy, d[1:], a, lim.jd, lim.ax_max, lim.ay_max)
+        return np.where(np.isfinite(v2), np.sqrt(v2), math.inf)
+
+
+def _pmax(a, b):
+    """Python's max(a, b) elementwise (b if b > a else a)."""
+    return np.where(b > a, b, a)
+
+
+def _jerk_caps(pux, puy, ux, uy, jx, jy):
+    """marlin_jerk_junction_v with nominal = p_nominal = big, no safe speeds, z = 0."""
+    big = 1e6
+
+    def axis_jerk(v_exit, v_entry):
+        return np.where(v_exit > v_entry,
+                        np.where((v_entry > 0.0) | (v_exit < 0.0), v_exit - v_entry, _pmax(v_exit, -v_entry)),
+                        np.where((v_entry < 0.0) | (v_exit > 0.0), v_entry - v_exit, _pmax(-v_exit, v_entry)))
+    jerk = axis_jerk(pux * big * 1.0, ux * big)
+    lim_x = jerk > jx
+    vf = np.where(lim_x, 1.0 * (jx / jerk), 1.0)
+    ex, en = puy * big * 1.0, uy * big
+    ex, en = np.where(lim_x, ex * vf, ex), np.where(lim_x, en * vf, en)
+    jerk = axis_jerk(ex, en)
+    lim_y = jerk > jy
+    vf = np.where(lim_y, vf * (jy / jerk), vf)
+    return np.where(lim_x | lim_y, big * vf, big)    # the z axis moves 0: no limit, and
+                                                      # p_safe = 0 never is "not coasting"
+
+
+def _accel_in_force_v(a0, lim, ux, uy):
+    a = np.full(ux.shape, a0)
+    ax, ay = np.abs(ux), np.abs(uy)
+    a = np.where((ax > 0) & (a * ax > lim.ax_max), lim.ax_max / ax, a)
+    return np.where((ay > 0) & (a * ay > lim.ay_max), lim.ay_max / ay, a)
+
+
+def _klipper_v2(pux, puy, jd, p_accel, p_delta_v2, ux, uy, accel, delta_v2):
+    """klipper_corner_v2 with z = 0 and p_jd = jd (one acceleration in force)."""
+    cos_theta = -(ux * pux + uy * puy + 0.0 * 0.0)
+    s2, c2 = 0.5 * (1.0 - cos_theta), 0.5 * (1.0 + cos_theta)
+    sin_d2 = np.where(s2 > 0.0, np.sqrt(s2), 0.0)
+    cos_d2 = np.where(c2 > 0.0, np.sqrt(c2), 0.0)
+    one_m = 1.0 - sin_d2
+    r_jd = sin_d2 / one_m
+    v2 = r_jd * jd * accel
+    v2 = np.where(r_jd * jd * p_accel < v2, r_jd * jd * p_accel, v2)
+    qt = 0.25 * sin_d2 / cos_d2
+    v2 = np.where(delta_v2 * qt < v2, delta_v2 * qt, v2)
+    v2 = np.where(p_delta_v2 * qt < v2, p_delta_v2 * qt, v2)
+    return np.where((one_m > 0.0) & (cos_d2 > 0.0), v2, math.inf)
+
+
+def _marlin_jd_v2(pux, puy, ux, uy, d, accel, jd, cx, cy):
+    """marlin_jd_v2 with z = 0 and cz = 1e9."""
+    cos_theta = -(pux * ux + puy * uy + 0.0 * 0.0)
+    jx, jy = ux - pux, uy - puy
+    jn = np.sqrt(jx * jx + jy * jy + 0.0 * 0.0)
+    ax, ay = np.abs(jx / jn), np.abs(jy / jn)
+    ja = np.where((ax > 0.0) & (accel * ax > cx), cx / ax, accel)
+    ja = np.where((ay > 0.0) & (ja * ay > cy), cy / ay, ja)
+    ja = np.where(jn > 0.0, ja, accel)
+    s = 0.5 * (1.0 - cos_theta)
+    sin_d2 = np.where(s > 0.0, np.sqrt(s), 0.0)
+    one_m = 1.0 - sin_d2
+    v2 = np.where(one_m > 0.0, ja * jd * sin_d2 / one_m, math.inf)
+    neg = np.where(cos_theta < 0.0, -1.0, 1.0)
+    t = neg * cos_theta
+    asinx = (0.032843707 + t * (-1.451838349 + t * (29.66153956 + t * (-131.1123477
+             + t * (262.8130562 + t * (-242.7199627 + t * 84.31466202))))))
+    lim = d * ja / (math.pi / 2.0 + neg * asinx)
+    v2 = np.where((d < 1.0) & (cos_theta < -0.7071067812) & (lim < v2), lim, v2)
+    return np.where(cos_theta > 0.999999, MINIMUM_PLANNER_SPEED * MINIMUM_PLANNER_SPEED, v2)
 
 
 CHAIN_SEG_D = 2.0          # mm: a capped vertex next to a longer segment cuts the run
@@ -144,11 +238,9 @@ class CurveGeom:
         mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
         k2 = float(np.sum(mid * d) / S)
         self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
-        caps = [vertex_cap(profile, st.lim, st.accel, tuple(self.u[k]), tuple(self.u[k + 1]),
-                           d[k], d[k + 1]) for k in range(len(d) - 1)]
-        self.caps = np.array(caps, float)        # per interior vertex
+        self.caps = vertex_caps(profile, st.lim, st.accel, self.u, d)    # per interior vertex
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
-        self.cap = CAP_MARGIN * min(caps) if caps else math.inf
+        self.cap = CAP_MARGIN * min(self.caps.tolist()) if self.caps.size else math.inf
         # turns at the two ends (None: a stop or a corner): the firmware model counts half
         # of each end junction's normal term in the stroke, as it did for the original
         self.cos_end = [None, None]

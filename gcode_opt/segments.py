@@ -125,6 +125,38 @@ def hold_cruise_accels(acc, a_own):
     return np.where(cruise, held, acc)
 
 
+def hold_cruise_accels_rows(acc, a_own):
+    """hold_cruise_accels of every row of acc (k, n), at once; the same numbers row by row
+    (tests/test_speed_plan_rows.py)."""
+    acc = np.array(acc, float)
+    cruise = acc <= CRUISE_A
+    if not cruise.any():
+        return acc
+    k, n = acc.shape
+    idx = np.where(cruise, 0, np.arange(n)[None, :])
+    np.maximum.accumulate(idx, axis=1, out=idx)      # last non-cruise at or before each
+    first = np.argmax(~cruise, axis=1)
+    r = np.arange(k)[:, None]
+    held = np.where(np.arange(n)[None, :] < first[:, None], acc[r[:, 0], first][:, None], acc[r, idx])
+    out = np.where(cruise, held, acc)
+    out[cruise.all(axis=1)] = a_own
+    return out
+
+
+def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
+    """tent_feeds of every row of need (k, n): one (k, n, n + 2) envelope when it is small
+    enough, else row by row.  A max of the same differences: the same numbers."""
+    if not np.isfinite(step_v):
+        return need
+    k, n = need.shape
+    if k * n * (n + 2) > max_cells:
+        return np.array([tent_feeds(row, v_feed, step_v) for row in need]).reshape(k, n)
+    side = np.full((k, 1), v_feed + step_v)
+    pad = np.concatenate([side, need, side], axis=1)
+    dist = step_v * np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
+    return np.max(pad[:, None, :] - dist[None, :, :], axis=2)
+
+
 def segment_feeds(v, v_feed, step_v=np.inf):
     """Feedrate (mm/s) of each segment: at least the faster of its two knot speeds (the
     ramp is set by the acceleration, F only caps it), and smooth from segment to segment.

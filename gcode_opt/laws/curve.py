@@ -231,12 +231,23 @@ def split_at_corners(points, max_turn_deg=30.0):
     return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
-@dataclass
 class PolylineCurvature:
-    """Smoothed signed curvature of a polyline as a function of arc length s (mm)."""
-    s_d: np.ndarray            # arc length at the vertices
-    kappa_v: np.ndarray        # smoothed curvature at the vertices (1/mm)
-    spline: CubicSpline
+    """Smoothed signed curvature of a polyline as a function of arc length s (mm).  The
+    cubic spline through the vertex values is built on first use: curves.py reads only
+    the vertex values (building 2·10⁴ scipy splines took ~4 s on a gyroid plate)."""
+    __slots__ = ("s_d", "kappa_v", "_spline")
+
+    def __init__(self, s_d, kappa_v):
+        _check_spline_input(s_d, kappa_v)
+        self.s_d = s_d                 # arc length at the vertices
+        self.kappa_v = kappa_v         # smoothed curvature at the vertices (1/mm)
+        self._spline = None
+
+    @property
+    def spline(self) -> CubicSpline:
+        if self._spline is None:
+            self._spline = CubicSpline(self.s_d, self.kappa_v)
+        return self._spline
 
     @property
     def length_d(self):
@@ -250,6 +261,17 @@ class PolylineCurvature:
 
     def d2kappa_ds2(self, s):
         return self.spline(np.clip(s, 0.0, self.length_d), 2)
+
+
+def _check_spline_input(x, y):
+    """Raise the ValueError scipy's CubicSpline(x, y) would (its input checks), now that
+    the spline is built lazily: a bad stroke still fails where it did (fault isolation)."""
+    if x.size < 2:
+        raise ValueError("`x` must contain at least 2 elements.")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("`x` and `y` must contain only finite values.")
+    if not (np.diff(x) > 0).all():
+        raise ValueError("`x` must be strictly increasing sequence.")
 
 
 def curvature_from_polyline(points, smooth_d=None) -> PolylineCurvature:
@@ -270,7 +292,7 @@ def curvature_from_polyline(points, smooth_d=None) -> PolylineCurvature:
     s_d = np.concatenate([[0.0], np.cumsum(length_d)])
     if len(points) < 3:
         z = np.zeros(len(points))
-        return PolylineCurvature(s_d, z, CubicSpline(s_d, z))
+        return PolylineCurvature(s_d, z)
     if smooth_d is None:
         smooth_d = max(3.0 * float(np.median(length_d)), 0.5)
     s_v = s_d[1:-1]                              # interior vertices carry the turning
@@ -299,4 +321,4 @@ def curvature_from_polyline(points, smooth_d=None) -> PolylineCurvature:
         return out
 
     kappa_v = smooth(turn, s_d)
-    return PolylineCurvature(s_d, kappa_v, CubicSpline(s_d, kappa_v))
+    return PolylineCurvature(s_d, kappa_v)

@@ -83,44 +83,70 @@ def _s1(z):
 # γ-only coefficients (one value per law)
 # --------------------------------------------------------------------------------------------
 def _gamma_coeffs(gamma):
-    """Per-law constants of both branches; each branch is fed a γ clipped to its own range
-    so that the unused branch never overflows or divides by zero."""
-    gs = np.minimum(gamma, GAMMA_SWITCH)       # small branch argument, in [0, switch]
-    gl = np.maximum(gamma, GAMMA_SWITCH)       # large branch argument, ≥ switch
+    """Per-law constants, each law in its own branch only (the other branch's numbers are
+    not computed: the chains' laws are all at γ = 0.1).  Each branch is fed a γ clipped to
+    its own range as before, so every value is the two-branch np.where's, bit for bit
+    (tests/test_speed_plan_line.py)."""
+    gamma = np.asarray(gamma, dtype=float)
     small = gamma < GAMMA_SWITCH
+    ns = int(np.count_nonzero(small))
+    if ns == small.size:                       # one branch: no gather/scatter
+        return _small_coeffs(np.minimum(gamma, GAMMA_SWITCH), small)
+    if ns == 0:
+        return _large_coeffs(np.maximum(gamma, GAMMA_SWITCH), small)
+    cs = _small_coeffs(np.minimum(gamma[small], GAMMA_SWITCH), None)
+    cl = _large_coeffs(np.maximum(gamma[~small], GAMMA_SWITCH), None)
+    c = {"small": small}
+    for k in _OUT_KEYS:                        # per-law outputs: scattered back
+        v = np.empty(gamma.shape)
+        v[small], v[~small] = cs[k], cl[k]
+        c[k] = v
+    for k, fill in (("gs", 0.0), ("n", 1.0), ("sh2", 1.0)):   # branch inputs of _shapes, placed
+        v = np.full(gamma.shape, fill)
+        v[small] = cs[k]
+        c[k] = v
+    for k, fill in (("gl", GAMMA_SWITCH), ("em", -1.0), ("Dn", 1.0), ("E", 0.0)):
+        v = np.full(gamma.shape, fill)
+        v[~small] = cl[k]
+        c[k] = v
+    return c
 
-    # --- small branch: n = N/γ², m = M/γ⁴, shc(γ/2)
+
+_OUT_KEYS = ("Ig1", "Igp", "Ih", "Ihp", "kappa_over_gamma")
+
+
+def _small_coeffs(gs, small):
+    """Small branch: n = N/γ², m = M/γ⁴, shc(γ/2) (γ in [0, switch])."""
     n = _horner(_N_COEF, gs * gs)
     m = _horner(_M_COEF, gs * gs)
     sh2 = _shc(gs / 2)
-    # --- large branch: everything times e^{−γ/2} (or e^{−γ})
+    # Integral coefficients: Ig1 = ∫g² − 1 = ∫(g−1)²,  Igp = ∫g'²,  Ih = ∫h²,  Ihp = ∫h'²
+    c = {"small": small, "gs": gs, "n": n, "sh2": sh2,
+         "Ig1": m / (2 * n * n), "Igp": _s1(gs) / (2 * n * n), "Ih": 2 * _s1(gs) / sh2**2,
+         "Ihp": 2 * (_shc(gs) + 1) / sh2**2,
+         # κ/γ with κ = N/sinh(γ/2): an interior extremum of u sits at tanh(γx) = (B/A)κ.
+         "kappa_over_gamma": 2 * n / sh2}
+    return c
+
+
+def _large_coeffs(gl, small):
+    """Large branch (γ ≥ switch): everything times e^{−γ/2} (or e^{−γ})."""
     E = np.exp(-gl)
     em = np.expm1(-gl)                          # e^{−γ} − 1  (< 0)
     q = -em / gl                                # ∫ e^{−γτ} dτ
     Dn = 1.0 + E - 2.0 * q                      # = 2 e^{−γ/2} N
     one_m_E2 = -np.expm1(-2.0 * gl)
-
-    c = {"small": small, "gs": gs, "gl": gl, "n": n, "sh2": sh2, "em": em, "Dn": Dn, "E": E}
-    # Integral coefficients: Ig1 = ∫g² − 1 = ∫(g−1)²,  Igp = ∫g'²,  Ih = ∫h²,  Ihp = ∫h'²
-    c["Ig1"] = np.where(small, m / (2 * n * n),
-                        (one_m_E2 / gl + 2 * E - 4 * q * q) / Dn**2)
-    c["Igp"] = np.where(small, _s1(gs) / (2 * n * n),
-                        gl * (one_m_E2 - 2 * gl * E) / Dn**2)
-    c["Ih"] = np.where(small, 2 * _s1(gs) / sh2**2,
-                       (one_m_E2 / gl - 2 * E) / em**2)
-    c["Ihp"] = np.where(small, 2 * (_shc(gs) + 1) / sh2**2,
-                        gl * (one_m_E2 + 2 * gl * E) / em**2)
-    # κ/γ with κ = N/sinh(γ/2): an interior extremum of u sits at tanh(γx) = (B/A)κ.
-    c["kappa_over_gamma"] = np.where(small, 2 * n / sh2, Dn / (-em * gl))
-    return c
+    return {"small": small, "gl": gl, "em": em, "Dn": Dn, "E": E,
+            "Ig1": (one_m_E2 / gl + 2 * E - 4 * q * q) / Dn**2,
+            "Igp": gl * (one_m_E2 - 2 * gl * E) / Dn**2,
+            "Ih": (one_m_E2 / gl - 2 * E) / em**2,
+            "Ihp": gl * (one_m_E2 + 2 * gl * E) / em**2,
+            "kappa_over_gamma": Dn / (-em * gl)}
 
 
-def _shapes(c, tau):
-    """(G, g, g', Hs, h, h') at τ ∈ [0, 1] (broadcast with the law shape)."""
+def _shapes_small(gs, n, sh2, tau):
+    """Small γ: hyperbolic forms, no cancellation (products/ratios of shc and series)."""
     x = tau - 0.5
-    small = c["small"]
-    # --- small γ: hyperbolic forms, no cancellation (products/ratios of shc and series)
-    gs, n, sh2 = c["gs"], c["n"], c["sh2"]
     pa, pb = _shc(gs * tau / 2), _shc(gs * (1 - tau) / 2)
     shx = _shc(gs * x)
     bub = tau * (1 - tau) * pa * pb             # = 4 sinh(γτ/2) sinh(γ(1−τ)/2)/γ²
@@ -130,8 +156,12 @@ def _shapes(c, tau):
     h_s = 2 * x * shx / sh2
     hp_s = 2 * np.cosh(gs * x) / sh2
     Hs_s = -bub / sh2
-    # --- large γ: decaying exponentials only
-    gl, em, Dn, E = c["gl"], c["em"], c["Dn"], c["E"]
+    return G_s, g_s, gp_s, Hs_s, h_s, hp_s
+
+
+def _shapes_large(gl, em, Dn, E, tau):
+    """Large γ: decaying exponentials only."""
+    x = tau - 0.5
     e0, e1 = np.expm1(-gl * tau), np.expm1(-gl * (1 - tau))   # both in (−1, 0]
     diff = e0 - e1                               # e^{−γτ} − e^{−γ(1−τ)}, no cancellation
     g_l = e0 * e1 / Dn
@@ -140,8 +170,31 @@ def _shapes(c, tau):
     h_l = diff / em
     hp_l = gl * (e0 + e1 + 2) / (-em)
     Hs_l = e0 * e1 / (gl * em)
-    w = lambda a, b: np.where(small, a, b)  # noqa: E731
-    return w(G_s, G_l), w(g_s, g_l), w(gp_s, gp_l), w(Hs_s, Hs_l), w(h_s, h_l), w(hp_s, hp_l)
+    return G_l, g_l, gp_l, Hs_l, h_l, hp_l
+
+
+def _shapes(c, tau):
+    """(G, g, g', Hs, h, h') at τ ∈ [0, 1] (broadcast with the law shape), each element
+    in its law's branch only."""
+    tau = np.asarray(tau, dtype=float)
+    small = c["small"]
+    shape = np.broadcast_shapes(tau.shape, small.shape)
+    bc = lambda a: np.broadcast_to(a, shape)    # noqa: E731
+    if small.all():
+        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau))
+    if not small.any():
+        return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau))
+    sm = bc(small)
+    lg = ~sm
+    ts, tl = bc(tau)[sm], bc(tau)[lg]
+    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts)
+    out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl)
+    res = []
+    for a, b in zip(out_s, out_l):
+        v = np.empty(shape)
+        v[sm], v[lg] = a, b
+        res.append(v)
+    return tuple(res)
 
 
 def _atanhc(r):

@@ -62,7 +62,9 @@ def vertex_caps(st, profile):
     g = curves.geom(st, profile)
     if g.chain_caps is None:
         if profile.junction == "jerk":
-            caps = curves.vertex_caps(profile, st.lim, st.accel, g.u, g.d, jerk_r=1.0)
+            caps = g.caps_jerk1
+            if caps is None:
+                caps = curves.vertex_caps(profile, st.lim, st.accel, g.u, g.d, jerk_r=1.0)
         else:
             caps = g.caps
         g.chain_caps = CHAIN_CAP_MARGIN * caps
@@ -72,6 +74,7 @@ def vertex_caps(st, profile):
 def classify(strokes, rows, profile):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
     caps a curve's peak) is below the feed become chains."""
+    curves.build_geoms([strokes[i] for i in rows if strokes[i].kind == K_CURVE], profile, jerk1=True)
     for i in rows:
         st = strokes[i]
         if st.kind == K_CURVE:

@@ -92,25 +92,65 @@ def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next, jerk_r=1.0 - JERK_F_S
 def vertex_caps(profile, lim, accel, u, d, jerk_r=1.0 - JERK_F_STEP_R):
     """vertex_cap at every interior vertex of a polyline with unit directions u (n, 2)
     and segment lengths d (n,), as an array (n - 1,): the same arithmetic elementwise in
-    the same order, so the same bits (tests/test_speed_plan_caps.py).  A non-finite
-    input takes the scalar loop (its exceptions and NaN handling are the reference)."""
+    the same order, so the same bits (tests/test_speed_plan_caps.py).  An input the
+    vectorised form does not take as the scalar one does (non-finite, a negative square)
+    takes the scalar loop (its exceptions and NaN handling are the reference)."""
     u = np.asarray(u, float)
     d = np.asarray(d, float)
-    if not (np.isfinite(u).all() and np.isfinite(d).all()):
+    caps = None
+    if np.isfinite(u).all() and np.isfinite(d).all():
+        caps = _caps_flat(profile, _lim_fields(lim, accel), u, d, jerk_r)
+    if caps is None:
         return np.array([vertex_cap(profile, lim, accel, tuple(u[k]), tuple(u[k + 1]), d[k], d[k + 1], jerk_r)
                          for k in range(len(d) - 1)], float)
+    return caps
+
+
+_LIM_FIELDS = ("ax_max", "ay_max", "scv", "jd", "jerk_x", "jerk_y")
+
+
+def _lim_fields(lim, accel):
+    return {**{f: getattr(lim, f) for f in _LIM_FIELDS}, "accel": accel}
+
+
+def _caps_flat(profile, p, u, d, jerk_r):
+    """The caps at the vertices between u[k] and u[k + 1]; p: the limits (and the stroke's
+    acceleration) per vertex or scalars.  None where the scalar law would raise (a negative
+    squared speed: math.sqrt raises)."""
     pux, puy, ux, uy = u[:-1, 0], u[:-1, 1], u[1:, 0], u[1:, 1]
     with np.errstate(all="ignore"):
         if profile.junction == "jerk":
-            return _jerk_caps(pux, puy, ux, uy, jerk_r * lim.jerk_x, jerk_r * lim.jerk_y)
-        a0 = accel if accel > 0 else profile.default_accel_a
-        ap, a = _accel_in_force_v(a0, lim, pux, puy), _accel_in_force_v(a0, lim, ux, uy)
+            return _jerk_caps(pux, puy, ux, uy, jerk_r * p["jerk_x"], jerk_r * p["jerk_y"])
+        accel = p["accel"]
+        a0 = np.where(accel > 0, accel, profile.default_accel_a)
+        ap = _accel_in_force_v(a0, p["ax_max"], p["ay_max"], pux, puy)
+        a = _accel_in_force_v(a0, p["ax_max"], p["ay_max"], ux, uy)
         if profile.junction == "scv":
-            v2 = _klipper_v2(pux, puy, lim.scv * lim.scv * SQRT2_M1 / a0, ap, 2.0 * d[:-1] * ap,
+            v2 = _klipper_v2(pux, puy, p["scv"] * p["scv"] * SQRT2_M1 / a0, ap, 2.0 * d[:-1] * ap,
                              ux, uy, a, 2.0 * d[1:] * a)
         else:
-            v2 = _marlin_jd_v2(pux, puy, ux, uy, d[1:], a, lim.jd, lim.ax_max, lim.ay_max)
+            v2 = _marlin_jd_v2(pux, puy, ux, uy, d[1:], a, p["jd"], p["ax_max"], p["ay_max"])
+        if (v2 < 0.0).any():
+            return None
         return np.where(np.isfinite(v2), np.sqrt(v2), math.inf)
+
+
+def batch_caps(strokes, profile, us, ds, jerk_r):
+    """vertex_caps of several strokes (directions us[i], lengths ds[i]) in one vectorised
+    pass over all their vertices (the same bits as stroke by stroke); None if an input
+    is not finite (then stroke by stroke)."""
+    n = np.array([x.size for x in ds], int)
+    u, d = np.concatenate(us), np.concatenate(ds)
+    if not (np.isfinite(u).all() and np.isfinite(d).all()) or u.shape[0] < 2 or (n < 1).any():
+        return None
+    p = {f: np.repeat(np.array([getattr(st.lim, f) for st in strokes], float), n)[:-1] for f in _LIM_FIELDS}
+    p["accel"] = np.repeat(np.array([st.accel for st in strokes], float), n)[:-1]
+    caps = _caps_flat(profile, p, u, d, jerk_r)
+    if caps is None:
+        return None
+    keep = np.ones(caps.size, bool)
+    keep[np.cumsum(n)[:-1] - 1] = False            # the vertex between two strokes
+    return np.split(caps[keep], np.cumsum(np.maximum(n - 1, 0))[:-1])
 
 
 def _pmax(a, b):
@@ -138,11 +178,11 @@ def _jerk_caps(pux, puy, ux, uy, jx, jy):
                                                       # p_safe = 0 never is "not coasting"
 
 
-def _accel_in_force_v(a0, lim, ux, uy):
-    a = np.full(ux.shape, a0)
+def _accel_in_force_v(a0, ax_max, ay_max, ux, uy):
+    a = np.broadcast_to(a0, ux.shape)
     ax, ay = np.abs(ux), np.abs(uy)
-    a = np.where((ax > 0) & (a * ax > lim.ax_max), lim.ax_max / ax, a)
-    return np.where((ay > 0) & (a * ay > lim.ay_max), lim.ay_max / ay, a)
+    a = np.where((ax > 0) & (a * ax > ax_max), ax_max / ax, a)
+    return np.where((ay > 0) & (a * ay > ay_max), ay_max / ay, a)
 
 
 def _klipper_v2(pux, puy, jd, p_accel, p_delta_v2, ux, uy, accel, delta_v2):
@@ -219,14 +259,14 @@ def _d(m):
 class CurveGeom:
     """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s)."""
     __slots__ = ("pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
-                 "chain_caps")
+                 "chain_caps", "caps_jerk1")
 
-    def __init__(self, st, profile):
-        pts = np.asarray(st.pts, float)
-        seg = np.diff(pts, axis=0)
-        d = np.hypot(seg[:, 0], seg[:, 1])
+    def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None):
+        """seg: (pts, d, u) from _segments; caps: the vertex caps (build_geoms computes
+        them for many strokes at once); caps_jerk1: classic jerk's caps at the whole jerk
+        (chains.vertex_caps), if computed."""
+        pts, d, self.u = seg if seg is not None else _segments(st)
         self.pts, self.d = pts, d
-        self.u = seg / d[:, None]
         self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
         self.s_v = np.concatenate([[0.0], np.cumsum(d)])
         # smoothing over one median segment: wider kernels flatten the gyroid's curvature
@@ -238,7 +278,10 @@ class CurveGeom:
         mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
         k2 = float(np.sum(mid * d) / S)
         self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
-        self.caps = vertex_caps(profile, st.lim, st.accel, self.u, d)    # per interior vertex
+        if caps is None:
+            caps = vertex_caps(profile, st.lim, st.accel, self.u, d)
+        self.caps = caps                          # per interior vertex
+        self.caps_jerk1 = caps_jerk1
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
         self.cap = CAP_MARGIN * min(self.caps.tolist()) if self.caps.size else math.inf
         # turns at the two ends (None: a stop or a corner): the firmware model counts half
@@ -261,10 +304,33 @@ class CurveGeom:
         return np.interp(s, self.s_v, self.kappa_v)
 
 
+def _segments(st):
+    pts = np.asarray(st.pts, float)
+    seg = np.diff(pts, axis=0)
+    d = np.hypot(seg[:, 0], seg[:, 1])
+    return pts, d, seg / d[:, None]
+
+
 def geom(st, profile):
     if st.curv is None:
         st.curv = CurveGeom(st, profile)
     return st.curv
+
+
+def build_geoms(strokes, profile, jerk1=False):
+    """geom() of every stroke in `strokes` (those without one), their vertex caps computed
+    in one vectorised pass (per stroke they cost ~50 µs of numpy calls for ~14 vertices);
+    jerk1: classic jerk's caps at the whole jerk too (chains.vertex_caps).  A stroke whose
+    geometry raises raises here, as geom() would (the strokes before it keep theirs)."""
+    todo = [st for st in strokes if st.curv is None]
+    if not todo:
+        return
+    segs = [_segments(st) for st in todo]
+    us, ds = [s[2] for s in segs], [s[1] for s in segs]
+    caps = batch_caps(todo, profile, us, ds, 1.0 - JERK_F_STEP_R)
+    caps1 = batch_caps(todo, profile, us, ds, 1.0) if caps is not None and jerk1 and profile.junction == "jerk" else None
+    for k, (st, sg) in enumerate(zip(todo, segs)):
+        st.curv = CurveGeom(st, profile, sg, None if caps is None else caps[k], None if caps1 is None else caps1[k])
 
 
 def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):

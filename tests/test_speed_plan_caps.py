@@ -49,3 +49,30 @@ def test_vertex_caps_non_finite_takes_scalar_path():
     want = [curves.vertex_cap(prof, lim, 1000.0, tuple(u[k]), tuple(u[k + 1]), d[k], d[k + 1]) for k in range(2)]
     got = curves.vertex_caps(prof, lim, 1000.0, u, d)
     assert np.asarray(want, float).tobytes() == got.tobytes()
+
+
+class _St:
+    def __init__(self, lim, accel):
+        self.lim, self.accel = lim, accel
+
+
+@pytest.mark.parametrize("junction", ["scv", "jd", "jerk"])
+def test_batch_caps_equal_stroke_by_stroke(junction):
+    """Strokes of different limits, accelerations and lengths (1 segment too) in one pass."""
+    rng = np.random.default_rng(7)
+    prof = dataclasses.replace(load_profile("generic-marlin"), junction=junction)
+    sts, us, ds = [], [], []
+    for k, n in enumerate((1, 2, 14, 3, 40, 1, 9)):
+        u, d = _polyline(rng, n)
+        lim = Limits(300.0, rng.uniform(500, 9000), rng.uniform(500, 9000), rng.uniform(2, 9), 0.5,
+                     rng.uniform(0.01, 0.1), rng.uniform(5, 12), rng.uniform(5, 12))
+        sts.append(_St(lim, [0.0, 800.0, 2500.0][k % 3]))
+        us.append(u)
+        ds.append(d)
+    for jerk_r in (0.85, 1.0):
+        got = curves.batch_caps(sts, prof, us, ds, jerk_r)
+        assert len(got) == len(sts)
+        for st, u, d, g in zip(sts, us, ds, got):
+            want = np.array([curves.vertex_cap(prof, st.lim, st.accel, tuple(u[k]), tuple(u[k + 1]), d[k], d[k + 1],
+                                               jerk_r) for k in range(len(d) - 1)], float)
+            assert g.tobytes() == want.tobytes()

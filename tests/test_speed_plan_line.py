@@ -122,3 +122,18 @@ def test_line_law_figures_mixed_batch_equal_one_by_one():
         assert _same(i1, iv[k]) and _same(a1, ia[k])
         for x, y in zip(one.eval(0.37 * T[k]), (s[k], v[k], a[k])):
             assert _same(x, y)
+
+
+@pytest.mark.parametrize("kind", ["chain", "mixed", "large"])
+def test_repeated_gammas_bitwise(kind):
+    """A batch with few distinct γ (each computed once) gives the reference's bits."""
+    rng = np.random.default_rng(11)
+    base = _gammas(rng, kind, 12)
+    g = rng.choice(base, size=(40, 7))
+    with np.errstate(all="ignore"):
+        got, ref = line._gamma_coeffs(g), _gamma_coeffs_ref(g)
+        for k in ("Ig1", "Igp", "Ih", "Ihp", "kappa_over_gamma"):
+            assert _same(got[k], ref[k]), k
+        tau = rng.random((40, 7))
+        for a, b in zip(line._shapes(got, tau), _shapes_ref(ref, tau)):
+            assert _same(a, b)

@@ -88,6 +88,13 @@ def _gamma_coeffs(gamma):
     its own range as before, so every value is the two-branch np.where's, bit for bit
     (tests/test_speed_plan_line.py)."""
     gamma = np.asarray(gamma, dtype=float)
+    if gamma.size >= _UNIQUE_MIN and np.isfinite(gamma).all():
+        # a batch of chain pieces shares a few γ (β = (T/0.1)²): each distinct γ once
+        u, inv = np.unique(gamma, return_inverse=True)
+        if u.size * 4 <= gamma.size:
+            cu = _gamma_coeffs(u)
+            inv = inv.reshape(gamma.shape)
+            return {k: v[inv] for k, v in cu.items()}
     small = gamma < GAMMA_SWITCH
     ns = int(np.count_nonzero(small))
     if ns == small.size:                       # one branch: no gather/scatter
@@ -112,6 +119,7 @@ def _gamma_coeffs(gamma):
     return c
 
 
+_UNIQUE_MIN = 64               # laws in a batch from which distinct γ are looked for
 _OUT_KEYS = ("Ig1", "Igp", "Ih", "Ihp", "kappa_over_gamma")
 
 

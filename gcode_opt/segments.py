@@ -59,7 +59,7 @@ def law_knots(strokes, T, beta, n):
     if verts:
         owner_a, verts_a = np.array(owner), np.array(verts)
         vl = line_law(L[owner_a], T[owner_a], beta[owner_a], v0[owner_a], v1[owner_a])
-        _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float))
+        _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float), "v")
         for k, i in enumerate(owner):
             vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
     out = []

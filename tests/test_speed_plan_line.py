@@ -137,3 +137,23 @@ def test_repeated_gammas_bitwise(kind):
         tau = rng.random((40, 7))
         for a, b in zip(line._shapes(got, tau), _shapes_ref(ref, tau)):
             assert _same(a, b)
+
+
+@pytest.mark.parametrize("kind", ["chain", "mixed", "large"])
+def test_eval_parts_equal_full_eval(kind):
+    """eval(t, want) computes only s, v or a: each the full eval's, bit for bit."""
+    rng = np.random.default_rng(13)
+    n = 60
+    T = rng.uniform(0.01, 1.0, n)
+    g = _gammas(rng, kind, n)
+    g = np.where(np.isfinite(g) & (g > 0), g, 0.5)
+    with np.errstate(over="ignore"):        # γ = 1e-300: β = inf (the cubic Hermite)
+        law = LineLaw(rng.uniform(0.1, 50.0, n), T, (T / g) ** 2, rng.uniform(0, 100, n), rng.uniform(0, 100, n))
+    for t in (rng.random(n) * T, np.zeros(n), T):
+        full = law.eval(t)
+        for want in ("s", "v", "a", "sv", "va"):
+            part = law.eval(t, want)
+            for k, q in enumerate("sva"):
+                assert (part[k] is None) == (q not in want)
+                if q in want:
+                    assert _same(part[k], full[k])

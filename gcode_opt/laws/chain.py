@@ -65,7 +65,7 @@ class ChainLaw:
         p = self.pieces
         law = LineLaw(p.L[j], p.T[j], p.beta[j], p.v0[j], p.v1[j])
         tl = time_of_distance(law, s - self.knot_s[j])
-        _, v, _ = law.eval(tl)
+        _, v, _ = law.eval(tl, "v")
         return self.knot_t[j] + tl, v
 
 
@@ -274,8 +274,8 @@ class _Flat:
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = LineLaw(L, Tj, beta, va, vb)
-        a0 = law.eval(np.zeros_like(Tj))[2]            # s̈ at both ends of every piece
-        a1 = law.eval(Tj)[2]
+        a0 = law.eval(np.zeros_like(Tj), "a")[2]       # s̈ at both ends of every piece
+        a1 = law.eval(Tj, "a")[2]
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
         local = np.arange(Tj.size) - poff[owner]
@@ -302,7 +302,7 @@ class _Flat:
         pj = kf - rank[free]                           # make-up changes no figure)
         vlaw = LineLaw(L[pj], Tj[pj], beta[pj], va[pj], vb[pj])
         tl = time_of_distance(vlaw, self.sv[vi[free]] - ks[kf])
-        v[free] = vlaw.eval(tl)[1]
+        v[free] = vlaw.eval(tl, "v")[1]
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)

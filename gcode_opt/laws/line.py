@@ -152,53 +152,74 @@ def _large_coeffs(gl, small):
             "kappa_over_gamma": Dn / (-em * gl)}
 
 
-def _shapes_small(gs, n, sh2, tau):
-    """Small γ: hyperbolic forms, no cancellation (products/ratios of shc and series)."""
+def _shapes_small(gs, n, sh2, tau, want):
+    """Small γ: hyperbolic forms, no cancellation (products/ratios of shc and series).
+    want: which of the six shapes to compute ("G", "g", "gp", "Hs", "h", "hp"; None for
+    the others)."""
     x = tau - 0.5
-    pa, pb = _shc(gs * tau / 2), _shc(gs * (1 - tau) / 2)
-    shx = _shc(gs * x)
-    bub = tau * (1 - tau) * pa * pb             # = 4 sinh(γτ/2) sinh(γ(1−τ)/2)/γ²
-    g_s = bub / (2 * n)
-    gp_s = -x * shx / n
-    G_s = 0.5 + (x * _shc(gs / 4) ** 2 / 8 - x**3 * _s1(gs * x)) / n
-    h_s = 2 * x * shx / sh2
-    hp_s = 2 * np.cosh(gs * x) / sh2
-    Hs_s = -bub / sh2
+    G_s = g_s = gp_s = Hs_s = h_s = hp_s = None
+    if "g" in want or "Hs" in want:
+        pa, pb = _shc(gs * tau / 2), _shc(gs * (1 - tau) / 2)
+        bub = tau * (1 - tau) * pa * pb             # = 4 sinh(γτ/2) sinh(γ(1−τ)/2)/γ²
+        g_s = bub / (2 * n)
+        Hs_s = -bub / sh2
+    if "gp" in want or "h" in want:
+        shx = _shc(gs * x)
+        gp_s = -x * shx / n
+        h_s = 2 * x * shx / sh2
+    if "G" in want:
+        G_s = 0.5 + (x * _shc(gs / 4) ** 2 / 8 - x**3 * _s1(gs * x)) / n
+    if "hp" in want:
+        hp_s = 2 * np.cosh(gs * x) / sh2
     return G_s, g_s, gp_s, Hs_s, h_s, hp_s
 
 
-def _shapes_large(gl, em, Dn, E, tau):
+def _shapes_large(gl, em, Dn, E, tau, want):
     """Large γ: decaying exponentials only."""
     x = tau - 0.5
     e0, e1 = np.expm1(-gl * tau), np.expm1(-gl * (1 - tau))   # both in (−1, 0]
     diff = e0 - e1                               # e^{−γτ} − e^{−γ(1−τ)}, no cancellation
-    g_l = e0 * e1 / Dn
-    gp_l = gl * diff / Dn
-    G_l = 0.5 + (x * (1 + E) + diff / gl) / Dn
-    h_l = diff / em
-    hp_l = gl * (e0 + e1 + 2) / (-em)
-    Hs_l = e0 * e1 / (gl * em)
+    G_l = g_l = gp_l = Hs_l = h_l = hp_l = None
+    if "g" in want:
+        g_l = e0 * e1 / Dn
+    if "gp" in want:
+        gp_l = gl * diff / Dn
+    if "G" in want:
+        G_l = 0.5 + (x * (1 + E) + diff / gl) / Dn
+    if "h" in want:
+        h_l = diff / em
+    if "hp" in want:
+        hp_l = gl * (e0 + e1 + 2) / (-em)
+    if "Hs" in want:
+        Hs_l = e0 * e1 / (gl * em)
     return G_l, g_l, gp_l, Hs_l, h_l, hp_l
 
 
-def _shapes(c, tau):
+ALL_SHAPES = ("G", "g", "gp", "Hs", "h", "hp")
+_WANT = {"s": ("G", "Hs"), "v": ("g", "h"), "a": ("gp", "hp")}
+
+
+def _shapes(c, tau, want=ALL_SHAPES):
     """(G, g, g', Hs, h, h') at τ ∈ [0, 1] (broadcast with the law shape), each element
-    in its law's branch only."""
+    in its law's branch only; the shapes not in `want` are None (not computed)."""
     tau = np.asarray(tau, dtype=float)
     small = c["small"]
     shape = np.broadcast_shapes(tau.shape, small.shape)
-    bc = lambda a: np.broadcast_to(a, shape)    # noqa: E731
+    bc = lambda a: None if a is None else np.broadcast_to(a, shape)    # noqa: E731
     if small.all():
-        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau))
+        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want))
     if not small.any():
-        return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau))
+        return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau, want))
     sm = bc(small)
     lg = ~sm
     ts, tl = bc(tau)[sm], bc(tau)[lg]
-    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts)
-    out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl)
+    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts, want)
+    out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl, want)
     res = []
     for a, b in zip(out_s, out_l):
+        if a is None:
+            res.append(None)
+            continue
         v = np.empty(shape)
         v[sm], v[lg] = a, b
         res.append(v)
@@ -247,18 +268,19 @@ class LineLaw:
                        self.v0[..., None], self.v1[..., None])
 
     # ---------------------------------------------------------------- evaluation
-    def eval(self, t):
-        """(s [mm], ṡ [mm/s], s̈ [mm/s²]) at t [s]; t is clamped to [0, T].
+    def eval(self, t, want="sva"):
+        """(s [mm], ṡ [mm/s], s̈ [mm/s²]) at t [s]; t is clamped to [0, T].  want: which of
+        s, v, a to compute (None for the others; the same numbers as all three).
 
         t broadcasts against the law parameters: one law (scalars) × t (k,) → (k,);
         n laws with params (n, 1) (`expand_dims()`) × t (n, k) → (n, k)."""
         T = self.T
         tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
-        G, g, gp, Hs, h, hp = _shapes(self._c, tau)
+        G, g, gp, Hs, h, hp = _shapes(self._c, tau, sum((_WANT[w] for w in want), ()))
         wbar, A, d = self._wbar, self._A, self._delta
-        s = wbar * tau + A * G - d * Hs
-        v = (wbar + A * g - d * h) / T
-        a = (A * gp - d * hp) / T**2
+        s = wbar * tau + A * G - d * Hs if "s" in want else None
+        v = (wbar + A * g - d * h) / T if "v" in want else None
+        a = (A * gp - d * hp) / T**2 if "a" in want else None
         return s, v, a
 
     # ---------------------------------------------------------------- closed-form integrals
@@ -303,9 +325,9 @@ class LineLaw:
 
     def _compute_speed_candidates(self):
         zero = np.zeros_like(self.T)
-        v_start = self.eval(zero)[1]
-        v_end = self.eval(self.T)[1]
-        v_crit = self.eval(self._critical_t())[1]
+        v_start = self.eval(zero, "v")[1]
+        v_end = self.eval(self.T, "v")[1]
+        v_crit = self.eval(self._critical_t(), "v")[1]
         return v_start, v_end, v_crit
 
     def peak_speed(self):
@@ -321,8 +343,8 @@ class LineLaw:
 
         Proof: (u')'' = γ² u'.  At an interior maximum of u' with u' > 0 we would need
         (u')'' ≤ 0 < γ²u'; symmetrically for a negative minimum; for γ = 0 u' is linear."""
-        a0 = self.eval(np.zeros_like(self.T))[2]
-        a1 = self.eval(self.T)[2]
+        a0 = self.eval(np.zeros_like(self.T), "a")[2]
+        a1 = self.eval(self.T, "a")[2]
         return np.maximum(np.abs(a0), np.abs(a1))
 
 
@@ -419,7 +441,7 @@ def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
         t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
     scale = np.maximum(np.abs(law.L), 1e-300)
     for _ in range(max_iter):
-        s, v, _a = law.eval(t)
+        s, v, _a = law.eval(t, "sv")
         f = sgn * (s - target)
         lo = np.where(f <= 0, t, lo)
         hi = np.where(f >= 0, t, hi)

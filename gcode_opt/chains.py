@@ -148,8 +148,8 @@ TRAP_GRID = np.linspace(0.0, 1.0, 33)[1:]    # cruise speeds tried between d/t a
 
 
 def shape_segments(d, t, va, vb, a_top=np.inf, trapezoid=True):
-    """Per segment (length d, duration t, end speeds va -> vb): the firmware acceleration
-    and feed that play it in that time.  A pure ramp where that takes at least t (F = the
+    """Per segment (length d, duration t, end speeds va -> vb; a_top one value or one per
+    segment): the firmware acceleration and feed that play it in that time.  A pure ramp where that takes at least t (F = the
     faster end).  Else a bump: the trapezoid up to F, cruise, down, whose ∫a²dt =
     a (2F - va - vb) is least among those taking t with a <= a_top, where
     a(F) = ((F - va)² + (F - vb)²) / (2 (F t - d)), d/t < F <= P; P is the triangle's peak
@@ -174,7 +174,8 @@ def shape_segments(d, t, va, vb, a_top=np.inf, trapezoid=True):
         x, y = va[b][:, None], vb[b][:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
             a = ((F - x) ** 2 + (F - y) ** 2) / (2.0 * (F * tt[b][:, None] - d[b][:, None]))
-            cost = np.where((a > 0) & (a <= a_top), a * (2.0 * F - x - y), np.inf)
+            at = a_top if np.ndim(a_top) == 0 else np.asarray(a_top, float)[b][:, None]   # per segment
+        cost = np.where((a > 0) & (a <= at), a * (2.0 * F - x - y), np.inf)
         j = np.argmin(cost, axis=1)
         r = np.arange(b.size)
         tri_cost = tri_a[b] * (2.0 * peak[b] - va[b] - vb[b])
@@ -232,6 +233,89 @@ def _finish_rows(st, laws, rules, profile):
     feed = tent_feeds_rows(feed, st.v_feed, step_v)
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
     return _KeptPlans(_rules_key(rules, profile), sk, vk, acc, feed, t_pred, a2_pred), fits
+
+
+GROUP_JUNCTIONS = ("jerk", "scv")   # junction laws whose finishing runs over groups of chains
+
+
+def _window(g, profile):
+    """The distance a finite-lookahead planner sees from each segment on (its block_buffer
+    - 3 blocks), kept on the chain's geometry."""
+    d, n = g.d, g.d.size
+    nb = max(profile.block_buffer - 3, 1)
+    ext = np.concatenate([d, np.full(nb, d[-1])])
+    return np.convolve(ext, np.ones(nb), "valid")[:n]
+
+
+def finish_groups(items, rules, profile):
+    """_finish_rows of many chains: [(stroke, laws)] -> [(_KeptPlans, fits)].  Under the
+    junction laws whose vertex speeds are array arithmetic (GROUP_JUNCTIONS), chains with
+    the same number of segments are finished together, their candidate rows stacked: the
+    numpy calls are shared by ~10² chains instead of paid per chain.  Every row's numbers
+    are its own (elementwise arithmetic, row sums over the same n): the same as chain by
+    chain (tests/test_speed_plan_rows.py)."""
+    out = [None] * len(items)
+    if rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+        for q, (st, laws) in enumerate(items):
+            out[q] = _finish_rows(st, laws, rules, profile)
+        return out
+    by_n = {}
+    for q, (st, laws) in enumerate(items):
+        by_n.setdefault(curves.geom(st, profile).d.size, []).append(q)
+    for qs in by_n.values():
+        for q, res in zip(qs, _finish_group([items[q] for q in qs], rules, profile)):
+            out[q] = res
+    return out
+
+
+def _finish_group(items, rules, profile):
+    """_finish_rows of chains with the same number of segments, rows stacked."""
+    sts = [st for st, _ in items]
+    gs = [curves.geom(st, profile) for st in sts]
+    ks = [len(laws) for _, laws in items]
+    n = gs[0].d.size
+    R = sum(ks)
+    own = np.repeat(np.arange(len(items)), ks)               # the chain of each row
+    d = np.stack([g.d for g in gs])[own]
+    vk = np.empty((R, n + 1))
+    tk = np.empty((R, n + 1))
+    r = 0
+    for st, laws in items:
+        for law in laws:
+            vk[r, 0], vk[r, -1] = st.v0, st.v1
+            vk[r, 1:-1] = law.vert_v
+            tk[r, 0] = 0.0
+            tk[r, 1:-1] = law.vert_t
+            tk[r, -1] = law.problem.T
+            r += 1
+    tk = np.diff(tk, axis=1)
+    a_top = np.array([_a_top(st) for st in sts], float)[own]
+    acc, feed = shape_segments(d.ravel(), np.maximum(tk, 1e-12).ravel(), vk[:, :-1].ravel(), vk[:, 1:].ravel(),
+                               np.repeat(a_top, n), trapezoid=rules.junction != "jerk")
+    acc, feed = acc.reshape(R, n), feed.reshape(R, n)
+    fits = np.all(acc <= (a_top * (1 + SPEED_TOL_R))[:, None], axis=1)
+    acc = np.minimum(acc, a_top[:, None])
+    step_v = np.inf
+    if rules.junction == "jerk":
+        step_v = (curves.JERK_F_STEP_R * np.array([min(st.lim.jerk_x, st.lim.jerk_y) for st in sts], float))[own]
+        if profile.block_buffer > 0:       # _junction_accels under classic jerk: the lookahead floor
+            window = np.stack([_window(g, profile) for g in gs])[own]
+            acc = np.maximum(acc, np.minimum(1.1 * feed ** 2 / (2.0 * window), a_top[:, None]))
+    else:       # row by row: each row's junction accelerations from its own feeds as shaped
+        for r in range(R):
+            c = own[r]
+            acc[r] = _junction_accels(sts[c], gs[c], vk[r], acc[r], rules, profile, feed[r])
+    acc = hold_cruise_accels_rows(acc, a_top)
+    feed = tent_feeds_rows(feed, np.array([st.v_feed for st in sts], float)[own], step_v)
+    t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)
+    key = _rules_key(rules, profile)
+    res = []
+    ends = np.cumsum(ks)
+    for c, st in enumerate(sts):
+        sl = slice(ends[c] - ks[c], ends[c])
+        sk = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
+        res.append((_KeptPlans(key, sk, vk[sl], acc[sl], feed[sl], t_pred[sl], a2_pred[sl]), fits[sl]))
+    return res
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):
@@ -358,6 +442,91 @@ def _lookahead_v2(v2, reach):
     return np.minimum(v2, (np.minimum.accumulate((v2 - r)[..., ::-1], axis=-1) + r[..., ::-1])[..., ::-1])
 
 
+def _safe_speed_rows(ux, uy, nominal, jx, jy):
+    """_safe_speed with the jerks per row (broadcast): the same arithmetic."""
+    cx = np.abs(ux) * nominal
+    lx = cx > jx
+    safe = np.where(lx, jx, nominal)
+    cy = np.abs(uy) * nominal
+    ly = cy > jy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        both = np.where(cy * safe > jy * nominal, jy * nominal / cy, safe)
+    return np.where(ly, np.where(lx, both, jy), safe)
+
+
+def _scv_junction_v_rows(profile, scv, ax, ay, u, d, acc):
+    """_scv_junction_v for stacked rows of chains: u (R, n, 2), d and acc (R, n), the
+    limits per row (R, 1)."""
+    a0 = np.where(acc > 0, acc, profile.default_accel_a)
+    ux, uy = np.abs(u[:, :, 0]), np.abs(u[:, :, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where((ux > 0) & (a0 * ux > ax), ax / ux, a0)
+        a = np.where((uy > 0) & (a * uy > ay), ay / uy, a)
+    jd = scv * scv * SQRT2_M1 / a0
+    dv2 = 2.0 * d * a
+    pu, un = u[:, :-1], u[:, 1:]
+    cos_t = -(un[:, :, 0] * pu[:, :, 0] + un[:, :, 1] * pu[:, :, 1] + 0.0)
+    s2, c2 = 0.5 * (1.0 - cos_t), 0.5 * (1.0 + cos_t)
+    sin_d2 = np.sqrt(np.maximum(s2, 0.0))
+    cos_d2 = np.sqrt(np.maximum(c2, 0.0))
+    one_m = 1.0 - sin_d2
+    ok = (one_m > 0.0) & (cos_d2 > 0.0)
+    r_jd = sin_d2 / np.where(ok, one_m, 1.0)
+    qt = 0.25 * sin_d2 / np.where(ok, cos_d2, 1.0)
+    v2 = np.minimum(r_jd * jd[:, 1:] * a[:, 1:], r_jd * jd[:, :-1] * a[:, :-1])
+    v2 = np.minimum(np.minimum(v2, dv2[:, 1:] * qt), dv2[:, :-1] * qt)
+    return np.where(ok, np.sqrt(np.maximum(v2, 0.0)), np.inf)
+
+
+def _predict_group(sts, gs, own, d, acc, feed, profile):
+    """predict_chains for stacked rows of chains with the same number of segments (own:
+    the chain of each row; d (R, n) their lengths); the same arithmetic row by row."""
+    R, n = acc.shape
+    u = np.stack([g.u for g in gs])[own]
+    v = np.empty((R, n + 1))
+    v[:, 0] = np.array([st.v0 for st in sts], float)[own]
+    v[:, -1] = np.array([st.v1 for st in sts], float)[own]
+    lim = lambda f: np.array([getattr(st.lim, f) for st in sts], float)[own][:, None]   # noqa: E731
+    if profile.junction == "jerk":
+        jx, jy = lim("jerk_x"), lim("jerk_y")
+        fp, fn = feed[:, :-1].ravel(), feed[:, 1:].ravel()
+        safe = _safe_speed_rows(u[:, :, 0], u[:, :, 1], feed, jx, jy)   # once per move
+        jxv, jyv = np.repeat(jx[:, 0], n - 1), np.repeat(jy[:, 0], n - 1)
+        vj = _jerk_junction_v(u[:, :-1].reshape(-1, 2), u[:, 1:].reshape(-1, 2), fp, fn,
+                              jxv, jyv, safe[:, :-1].ravel(), safe[:, 1:].ravel())
+        v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(R, n - 1)
+    else:
+        vj = _scv_junction_v_rows(profile, lim("scv"), lim("ax_max"), lim("ay_max"), u, d, acc)
+        v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
+    reach = 2.0 * acc * d
+    v2 = _lookahead_v2(v * v, reach)
+    va2, vb2 = v2[:, :-1], v2[:, 1:]
+    peak2 = np.minimum(feed * feed, 0.5 * (reach + va2 + vb2))
+    peak2 = np.maximum(peak2, np.maximum(va2, vb2))
+    pk, va, vb = np.sqrt(peak2), np.sqrt(va2), np.sqrt(vb2)
+    a = np.maximum(acc, 1e-12)
+    up_d = (peak2 - va2) / (2.0 * a)
+    dn_d = (peak2 - vb2) / (2.0 * a)
+    cruise_d = np.maximum(d - up_d - dn_d, 0.0)
+    t = (pk - va) / a + (pk - vb) / a + cruise_d / np.maximum(pk, 1e-9)
+    a2 = np.sum(a * ((pk - va) + (pk - vb)), axis=1)
+    vi = va[:, 1:]
+    tj = 0.5 * (t[:, :-1] + t[:, 1:])
+    cos_turn = np.stack([g.cos_turn for g in gs])[own]
+    dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
+    a2 = a2 + np.sum(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1)
+    for end, (vv, tt) in enumerate(((va[:, 0], t[:, 0]), (vb[:, -1], t[:, -1]))):
+        c = np.full(len(sts), np.nan)          # per chain, as predict_chains: None (nan) or the cosine
+        for q, (st, g) in enumerate(zip(sts, gs)):
+            w = st.prev_u if end == 0 else st.next_u
+            if w is not None:
+                c[q] = float(np.dot(w, g.u[0])) if end == 0 else float(np.dot(g.u[-1], w))
+        c = c[own]
+        on = c >= CORNER_COS                     # nan compares False
+        a2 = np.where(on, a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12), a2)
+    return np.sum(t, axis=1), a2
+
+
 def predict_chain(st, g, acc, feed, profile):
     """(time, ∫|a|²dt) of the firmware playing the chain's segments: junction speeds from
     its junction law, the feeds and its lookahead; trapezoids; normal vertex terms."""
@@ -477,12 +646,13 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
                 init_B = [lw.binding for lw in src]
                 init_t = [lw.vert_t * r for lw, r in zip(src, scale)]
             laws[c] = solve_chains(_problems(sts, T[sl, c], beta[sl, c], profile), init_B, init_t)
-        for j, st in enumerate(sts, start=a):     # all candidates of a chain in one batch
-            i = rows[j]
-            cols = [c for c in range(k) if _usable(laws[c][j - a], pin, i, T[j, c])]
-            if not cols:
-                continue
-            kept, _ = _finish_rows(st, [laws[c][j - a] for c in cols], rules, profile)
+        todo = []                                  # all candidates of a chain in one batch
+        for j, st in enumerate(sts, start=a):
+            cols = [c for c in range(k) if _usable(laws[c][j - a], pin, rows[j], T[j, c])]
+            if cols:
+                todo.append((j, st, cols))
+        done = finish_groups([(st, [laws[c][j - a] for c in cols]) for j, st, cols in todo], rules, profile)
+        for (j, st, cols), (kept, _) in zip(todo, done):
             for r, c in enumerate(cols):
                 time_t, int_a2 = float(kept.t_pred[r]), float(kept.a2_pred[r])
                 if not (np.isfinite(int_a2) and np.isfinite(time_t) and time_t > 0):

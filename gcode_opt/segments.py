@@ -139,22 +139,32 @@ def hold_cruise_accels_rows(acc, a_own):
     r = np.arange(k)[:, None]
     held = np.where(np.arange(n)[None, :] < first[:, None], acc[r[:, 0], first][:, None], acc[r, idx])
     out = np.where(cruise, held, acc)
-    out[cruise.all(axis=1)] = a_own
+    whole = cruise.all(axis=1)                     # a_own: one value, or one per row
+    out[whole] = a_own if np.ndim(a_own) == 0 else np.asarray(a_own, float)[whole][:, None]
     return out
 
 
 def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
-    """tent_feeds of every row of need (k, n): one (k, n, n + 2) envelope when it is small
-    enough, else row by row.  A max of the same differences: the same numbers."""
-    if not np.isfinite(step_v):
-        return need
+    """tent_feeds of every row of need (k, n): (rows, n, n + 2) envelopes of at most
+    max_cells cells at a time.  A max of the same differences: the same numbers.  v_feed
+    and step_v: one value, or one per row (rows of several chains)."""
+    if np.ndim(step_v) == 0 and np.ndim(v_feed) == 0:
+        if not np.isfinite(step_v):
+            return need
     k, n = need.shape
-    if k * n * (n + 2) > max_cells:
-        return np.array([tent_feeds(row, v_feed, step_v) for row in need]).reshape(k, n)
-    side = np.full((k, 1), v_feed + step_v)
-    pad = np.concatenate([side, need, side], axis=1)
-    dist = step_v * np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
-    return np.max(pad[:, None, :] - dist[None, :, :], axis=2)
+    step = np.broadcast_to(np.asarray(step_v, float), (k,))
+    vf = np.broadcast_to(np.asarray(v_feed, float), (k,))
+    out = np.array(need, float)
+    live = np.flatnonzero(np.isfinite(step))        # an infinite step leaves the row as it is
+    ar = np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
+    per = max(1, max_cells // max(n * (n + 2), 1))
+    for a in range(0, live.size, per):
+        r = live[a:a + per]
+        side = (vf[r] + step[r])[:, None]
+        pad = np.concatenate([side, need[r], side], axis=1)
+        dist = step[r][:, None, None] * ar[None, :, :]
+        out[r] = np.max(pad[:, None, :] - dist, axis=2)
+    return out
 
 
 def segment_feeds(v, v_feed, step_v=np.inf):

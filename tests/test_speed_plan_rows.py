@@ -34,3 +34,22 @@ def test_hold_cruise_accels_rows_equal_per_row(n):
     assert got.tobytes() == want.tobytes()
     none = rng.uniform(100.0, 3000.0, (3, n))
     assert hold_cruise_accels_rows(none, 1.0).tobytes() == none.tobytes()
+
+
+def test_rows_with_values_per_row():
+    """Rows of several chains: feed, jerk step and own acceleration per row."""
+    rng = np.random.default_rng(21)
+    need = rng.uniform(5.0, 120.0, (9, 11))
+    v_feed = rng.uniform(40.0, 90.0, 9)
+    step_v = rng.uniform(0.5, 3.0, 9)
+    step_v[4] = np.inf                                     # that row stays as it is
+    got = tent_feeds_rows(need, v_feed, step_v, max_cells=300)   # a few rows per block
+    for r in range(9):
+        assert got[r].tobytes() == tent_feeds(need[r], v_feed[r], step_v[r]).tobytes()
+    acc = rng.uniform(100.0, 3000.0, (9, 11))
+    acc[rng.random((9, 11)) < 0.4] = 0.0
+    acc[2] = acc[7] = 0.0
+    a_own = rng.uniform(500.0, 4000.0, 9)
+    got = hold_cruise_accels_rows(acc, a_own)
+    for r in range(9):
+        assert got[r].tobytes() == hold_cruise_accels(acc[r], a_own[r]).tobytes()

@@ -55,6 +55,12 @@ def _num(x: float, dec: int) -> str:
     return "0" if s in ("-0", "") else s
 
 
+def _num1(x: float) -> str:
+    """_num(x, 1) for x >= 0.1 (a rounded-up accel or feed): one decimal, ".0" dropped."""
+    s = f"{x:.1f}"
+    return s[:-2] if s[-1] == "0" else s
+
+
 def _exact_text(x: float) -> str:
     """Plain decimal text of a value in force (12 significant digits, never an exponent):
     a restore must give back the slicer's F0.1884, not F0.188.  The value went through
@@ -72,7 +78,19 @@ def _start_decimals(text: str) -> int:
 
 
 def _units(text: str, dec: int) -> int:
-    """Exact integer value of a decimal text in units of 10^-dec."""
+    """Exact integer value of a decimal text in units of 10^-dec (digits past dec cut)."""
+    # one int() of the digits with the point taken out: the texts are the strict
+    # tokenizer's numbers; anything else takes the long way below
+    whole, _, frac = text.partition(".")
+    n = len(frac)
+    digits = whole + frac if n <= dec else whole + frac[:dec]
+    if digits.isascii() and (digits.isdigit() or (digits[1:].isdigit() and digits[0] in "+-")):
+        v = int(digits)
+        return v * 10 ** (dec - n) if n < dec else v
+    return _units_slow(text, dec)
+
+
+def _units_slow(text: str, dec: int) -> int:
     neg = text.startswith("-")
     t = text.lstrip("+-")
     whole, _, frac = t.partition(".")
@@ -170,6 +188,8 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     last_accel = None
     last_a = None
     k_total = len(s) - 1
+    accel_word = accel_command(flavour, 1.0, extruding)[:-1]      # "M204 S" / "M204 P" / "M204 T"
+    isfinite, ceil = math.isfinite, math.ceil
     tol_d = 1e-9 * max(1.0, ends_d[-1])
     for k in range(1, k_total + 1):
         # which original move does this segment end in?  (vertices are knots)
@@ -192,12 +212,18 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         e_abs_u += de_u
         a = accels[k - 1]
         if a != last_a:                  # the same value gives the same command
-            cmd = accel_command(flavour, a, extruding)
+            if not (isfinite(a) and a > 0.0):
+                accel_command(flavour, a, extruding)     # raises, saying why
+            # accel_command(flavour, a, extruding) written out: once per segment
+            cmd = accel_word + _num1(max(ceil(a * 10.0 - 1e-9) / 10.0, 0.1))
             last_a = a
             if cmd != last_accel:
                 out.append(cmd + nl)
                 last_accel = cmd
-        f = _feed_text(feeds[k - 1])
+        f = feeds[k - 1]                 # _feed_text written out
+        if not (isfinite(f) and f > 0.0):
+            _feed_text(f)                # raises, saying why
+        f = _num1(max(ceil(f * 600.0 - 1e-6) / 10.0, 0.1))
         if e_rel:
             e_txt = _fmt_units(de_u, de)
         elif at_vertex:

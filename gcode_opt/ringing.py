@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from array import array
+from itertools import chain
 
 import numpy as np
 
@@ -66,6 +68,11 @@ IDLE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, -1, 0.0)   # 1 s at re
 def _block_row(b):
     return (b.ux, b.uy, b.start_v, b.cruise_v, b.end_v, b.accel, b.accel_t, b.cruise_t,
             b.decel_t, 1.0 if b.after_stop else 0.0, b.idx, 1.0)
+
+
+# a block's row but its last number (1.0): the same values _block_row reads, in its order
+_BLOCK_FIELDS = operator.attrgetter("ux", "uy", "start_v", "cruise_v", "end_v", "accel", "accel_t",
+                                    "cruise_t", "decel_t", "after_stop", "idx")
 
 
 def _rest_row(dt_t):
@@ -334,7 +341,7 @@ class _Stream:
         if len(c) > 1:
             dur = np.diff(t)
             self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
-            self.peak = max(self.peak, float(osc.peak_abs_r(c[:-1], dur).max()))
+            self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
 
     def finish(self):
@@ -417,32 +424,57 @@ class Collector:
         self.smooth = _SmoothStream(pulses) if self.shaper != "none" else None
         self.carry = _Carry()
         self.rows = array("d", IDLE)       # at rest 1 s before the file (not counted)
+        self.pend = []                     # blocks not yet in rows (on_block)
+        self.room = (self.limit - len(self.rows)) // ROW   # blocks until rows are full
         self.skip_first = True
         self.time_t = 0.0
         self.chunks = 0                    # chunks solved (tests force many)
         self.result = None
 
     def on_block(self, b):
-        self.rows.extend(_block_row(b))
-        if len(self.rows) >= self.limit:
+        # the block is kept as it is (the planner is done with it) and turned into its row
+        # with the others in _drain: one C-level pass instead of a tuple built per block
+        pend = self.pend
+        pend.append(b)
+        if len(pend) >= self.room:
             self._flush(False)
+
+    def _drain(self):
+        """The pending blocks' rows (_block_row of each) appended to rows, in order."""
+        pend = self.pend
+        n = len(pend)
+        if n:
+            m = np.empty((n, ROW))
+            m[:, :ROW - 1] = np.fromiter(chain.from_iterable(map(_BLOCK_FIELDS, pend)), float,
+                                         n * (ROW - 1)).reshape(n, ROW - 1)
+            m[:, ROW - 1] = 1.0
+            self.rows.frombytes(m.tobytes())
+            pend.clear()
+        self.room = (self.limit - len(self.rows)) // ROW
 
     def rest(self, dt_t):
         if dt_t > 0.0:
+            self._drain()
             self.rows.extend(_rest_row(dt_t))
             if len(self.rows) >= self.limit:
                 self._flush(False)
+            else:
+                self.room -= 1
 
     def add_rows(self, items):
         """Rows already collected (Rows.items, an array('d')), in order."""
+        self._drain()
         for i in range(0, len(items), self.limit):
             self.rows.extend(items[i:i + self.limit])
             if len(self.rows) >= self.limit:
                 self._flush(False)
+        self._drain()
 
     def _flush(self, final: bool):
+        self._drain()
         m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
         self.rows = array("d")
+        self.room = self.limit // ROW
         if not len(m):
             return
         counted = m[1 if self.skip_first else 0:len(m) - 1 if final else len(m)]
@@ -467,6 +499,7 @@ class Collector:
     def figures(self) -> dict:
         """The figures (the pass must be over: the machine is put at rest after it)."""
         if self.result is None:
+            self._drain()
             self.rows.extend(IDLE)         # at rest 1 s after the file: the last ring-down
             self._flush(True)
             axes = {name: _axis_dict({part: self.streams[name, part].finish()

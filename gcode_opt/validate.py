@@ -131,6 +131,24 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
     e_words = []
     short = _ShortMoves(geometry, min_move_d) if min_move_d > 0 and geometry is not None else None
     for line in lines[1:-1]:
+        # the emitter's own plain lines (no comment, no spaces around: the line is its own
+        # code part) take the same checks without the general path's splitting
+        m = _G1_PLAIN(line)
+        if m is not None:
+            if limit is not None and len(line.encode()) > limit:
+                raise BlockInvalid("validator: line longer than the firmware's command buffer")
+            e, x, y = _check_plain_g1(m, geometry)
+            if e is not None:
+                e_words.append(e)
+            if short is not None:
+                short.check(x, y)
+            continue
+        m = _M204_PLAIN(line)
+        if m is not None:
+            if limit is not None and len(line.encode()) > limit:
+                raise BlockInvalid("validator: line longer than the firmware's command buffer")
+            _check_m204_value(m.group(1), float(m.group(2)), flavour, accel_max_a, extruding)
+            continue
         code = line.split(";", 1)[0].strip()
         if not code:
             raise BlockInvalid("validator: empty or comment line inside a block")

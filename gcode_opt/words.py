@@ -137,7 +137,10 @@ def _words(code: str, conv) -> dict:
         # float() accepts exactly the strict grammar
         toks = code.split()
         try:
-            out = {t[0].upper(): conv(t[1:]) for t in toks[1:]}
+            if conv is _text:          # _text inlined: float() only checks the text
+                out = {t[0].upper(): t[1:] for t in toks[1:] if float(t[1:]) or True}
+            else:
+                out = {t[0].upper(): conv(t[1:]) for t in toks[1:]}
         except ValueError:
             raise WordError(_why(code)) from None
         n = len(toks) - 1

@@ -40,9 +40,9 @@ class Block:
         self.jd = jd                    # junction deviation (Klipper: from scv; Marlin: M205 J)
         self.nominal_v = nominal_v      # requested speed after the speed caps
         self.v2max = nominal_v * nominal_v
-        self.delta_v2 = 2.0 * d * accel
+        self.delta_v2 = dv2 = 2.0 * d * accel
         m = 2.0 * d * mcr_accel
-        self.mcr_delta_v2 = m if m < self.delta_v2 else self.delta_v2
+        self.mcr_delta_v2 = m if m < dv2 else dv2
         self.max_start_v2 = 0.0
         self.max_mcr_start_v2 = 0.0
         self.safe_v = 0.0

@@ -133,6 +133,15 @@ class Oscillator:
         ext = np.abs(np.real(c * np.exp(lam * tau)))
         return np.maximum(best, np.where(inside, ext, 0.0))
 
+    def max_abs_r(self, c, dur) -> float:
+        """peak_abs_r(c, dur).max() (c not empty), the same number at a fraction of the cost:
+        on a piece |r| <= |c| (it only decays), so a piece whose |c| is below the largest
+        start |Re c| cannot hold the peak and is not solved (a 1e-9 margin covers rounding;
+        a NaN is kept)."""
+        lo = np.abs(c.real).max()
+        keep = ~(np.abs(c) * (1.0 + 1e-9) < lo)
+        return float(np.maximum(lo, self.peak_abs_r(c[keep], dur[keep]).max()))
+
     def evaluate(self, t_ev, c, t):
         """r at times t (exact), 0 before the first event."""
         if len(c) == 0:

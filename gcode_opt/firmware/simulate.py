@@ -121,6 +121,7 @@ class _Sim:
         self.caps = (profile.max_accel_a, profile.max_accel_a, profile.max_z_accel_a)
         self.jerk = (profile.jerk_xy_v, profile.jerk_xy_v, self.jerk_z)
         self.min_seg_t = profile.min_segment_time_t
+        self._lim = None          # the Limits caps and jerk were last taken from
         out = self._emit
         if profile.block_buffer > 0:
             # a ring buffer of B slots holds B-1 blocks, the executing one included
@@ -171,6 +172,13 @@ class _Sim:
                                            b.ux, b.uy, b.uz, b.nominal_v, b.safe_v, jx, jy, jz)
                 return v * v
         return junction
+
+    def _set_lim(self, lim):
+        # the per-axis accel caps and jerks the junction laws read: one tuple per Limits
+        # object (copy-on-write, so identity is enough), not one per block
+        self._lim = lim
+        self.caps = (lim.ax_max, lim.ay_max, self.prof.max_z_accel_a)
+        self.jerk = (lim.jerk_x, lim.jerk_y, self.jerk_z)
 
     def _start_v2(self, b):
         return b.safe_v * b.safe_v
@@ -226,8 +234,9 @@ class _Sim:
                 if az < a:
                     a = az
         else:
-            cx, cy, cz = lim.ax_max, lim.ay_max, prof.max_z_accel_a
-            self.caps = (cx, cy, cz)
+            if lim is not self._lim:              # caps and jerk change with the Limits only
+                self._set_lim(lim)
+            cx, cy, cz = self.caps
             a = a0                                # axis_limited(a0, u, caps)
             if aux > 0.0 and a * aux > cx:
                 a = cx / aux
@@ -264,8 +273,9 @@ class _Sim:
         er = de * inv * mv.flow_r if de else 0.0
         b = Block(mv.idx, mv.kind, first, d, ux, uy, uz, er, a, jd, v, mcr_a)
         if model == "jerk":
-            jx, jy, jz = lim.jerk_x, lim.jerk_y, self.jerk_z
-            self.jerk = (jx, jy, jz)
+            if lim is not self._lim:
+                self._set_lim(lim)
+            jx, jy, jz = self.jerk
             safe = v                              # marlin_safe_speed(u, v, jerk)
             limited = False
             comp = aux * v

@@ -157,3 +157,22 @@ def test_eval_parts_equal_full_eval(kind):
                 assert (part[k] is None) == (q not in want)
                 if q in want:
                     assert _same(part[k], full[k])
+
+
+def test_take_equals_new_laws():
+    """law.take(idx) evaluates as LineLaw(L[idx], ...) does, bit for bit."""
+    rng = np.random.default_rng(17)
+    n = 80
+    T = rng.uniform(0.01, 1.0, n)
+    g = rng.choice([0.05, 0.1, 2.0, 3.999, 4.0, 9.0], n)
+    L, v0, v1 = rng.uniform(0.1, 50.0, n), rng.uniform(0, 100, n), rng.uniform(0, 100, n)
+    law = LineLaw(L, T, (T / g) ** 2, v0, v1)
+    for idx in (rng.integers(0, n, 200), np.flatnonzero(g < 1.0), np.array([], int)):
+        got = law.take(idx)
+        want = LineLaw(L[idx], T[idx], ((T / g) ** 2)[idx], v0[idx], v1[idx])
+        t = rng.random(idx.size) * T[idx]
+        for a, b in zip(got.eval(t), want.eval(t)):
+            assert _same(a, b)
+        for a, b in zip(got.integrals(), want.integrals()):
+            assert _same(a, b)
+        assert _same(got.peak_speed(), want.peak_speed())

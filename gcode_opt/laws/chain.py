@@ -300,7 +300,7 @@ class _Flat:
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's
         pj = kf - rank[free]                           # make-up changes no figure)
-        vlaw = LineLaw(L[pj], Tj[pj], beta[pj], va[pj], vb[pj])
+        vlaw = law.take(pj)                            # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
         tl = time_of_distance(vlaw, self.sv[vi[free]] - ks[kf])
         v[free] = vlaw.eval(tl, "v")[1]
         t[free] = kt[kf] + tl

@@ -88,13 +88,6 @@ def _gamma_coeffs(gamma):
     its own range as before, so every value is the two-branch np.where's, bit for bit
     (tests/test_speed_plan_line.py)."""
     gamma = np.asarray(gamma, dtype=float)
-    if gamma.size >= _UNIQUE_MIN and np.isfinite(gamma).all():
-        # a batch of chain pieces shares a few γ (β = (T/0.1)²): each distinct γ once
-        u, inv = np.unique(gamma, return_inverse=True)
-        if u.size * 4 <= gamma.size:
-            cu = _gamma_coeffs(u)
-            inv = inv.reshape(gamma.shape)
-            return {k: v[inv] for k, v in cu.items()}
     small = gamma < GAMMA_SWITCH
     ns = int(np.count_nonzero(small))
     if ns == small.size:                       # one branch: no gather/scatter
@@ -119,7 +112,6 @@ def _gamma_coeffs(gamma):
     return c
 
 
-_UNIQUE_MIN = 64               # laws in a batch from which distinct γ are looked for
 _OUT_KEYS = ("Ig1", "Igp", "Ih", "Ihp", "kappa_over_gamma")
 
 
@@ -128,9 +120,10 @@ def _small_coeffs(gs, small):
     n = _horner(_N_COEF, gs * gs)
     m = _horner(_M_COEF, gs * gs)
     sh2 = _shc(gs / 2)
+    s1 = _s1(gs)
     # Integral coefficients: Ig1 = ∫g² − 1 = ∫(g−1)²,  Igp = ∫g'²,  Ih = ∫h²,  Ihp = ∫h'²
     c = {"small": small, "gs": gs, "n": n, "sh2": sh2,
-         "Ig1": m / (2 * n * n), "Igp": _s1(gs) / (2 * n * n), "Ih": 2 * _s1(gs) / sh2**2,
+         "Ig1": m / (2 * n * n), "Igp": s1 / (2 * n * n), "Ih": 2 * s1 / sh2**2,
          "Ihp": 2 * (_shc(gs) + 1) / sh2**2,
          # κ/γ with κ = N/sinh(γ/2): an interior extremum of u sits at tanh(γx) = (B/A)κ.
          "kappa_over_gamma": 2 * n / sh2}
@@ -257,6 +250,15 @@ class LineLaw:
         self._wbar = T * (v0 + v1) / 2                          # mm
         self._delta = T * (v0 - v1) / 2                         # mm
         self._A = L - self._wbar                                # mm
+
+    def take(self, idx):
+        """The laws idx (an index array into 1-D laws), their γ-coefficients taken, not
+        computed again (each is a function of its own law's γ only: the same numbers)."""
+        out = object.__new__(LineLaw)
+        for f in ("L", "T", "beta", "v0", "v1", "gamma", "_wbar", "_delta", "_A"):
+            setattr(out, f, getattr(self, f)[idx])
+        out._c = {k: v[idx] for k, v in self._c.items()}
+        return out
 
     @property
     def shape(self):

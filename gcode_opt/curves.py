@@ -272,7 +272,7 @@ class CurveGeom:
         # smoothing over one median segment: wider kernels flatten the gyroid's curvature
         # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
         # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
-        pc = curvature_from_polyline(pts, smooth_d=max(float(np.median(d)), SMOOTH_MIN_D))
+        pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
         self.kappa_v = np.interp(self.s_v, pc.s_d, pc.kappa_v)
         S = self.s_v[-1]
         mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
@@ -302,6 +302,19 @@ class CurveGeom:
 
     def kappa(self, s):
         return np.interp(s, self.s_v, self.kappa_v)
+
+
+def _median(x):
+    """float(np.median(x)) for finite x, by one partition (np.median's own steps: the
+    middle element, or the mean of the two middle ones; tests/test_speed_plan_caps.py)."""
+    n = x.size
+    if n == 0 or not np.isfinite(x).all():
+        return float(np.median(x))
+    k = n // 2
+    if n % 2:
+        return float(np.partition(x, k)[k])
+    p = np.partition(x, [k - 1, k])
+    return float((p[k - 1] + p[k]) / 2.0)
 
 
 def _segments(st):

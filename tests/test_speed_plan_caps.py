@@ -76,3 +76,13 @@ def test_batch_caps_equal_stroke_by_stroke(junction):
             want = np.array([curves.vertex_cap(prof, st.lim, st.accel, tuple(u[k]), tuple(u[k + 1]), d[k], d[k + 1],
                                                jerk_r) for k in range(len(d) - 1)], float)
             assert g.tobytes() == want.tobytes()
+
+
+def test_median_equals_numpy():
+    rng = np.random.default_rng(23)
+    for n in range(1, 120):
+        for _ in range(5):
+            x = rng.uniform(0.001, 3.0, n) * 10.0 ** rng.uniform(-3, 3)
+            if rng.random() < 0.5:
+                x = np.round(x, 3)                 # ties, as slicers' rounded lengths
+            assert curves._median(x) == float(np.median(x))

@@ -107,6 +107,8 @@ def run_case(case, path, profile_name, runs):
     if timing:
         res["timing_s"] = {k: statistics.median([t[k] for t in timing]) for k in timing[0]
                            if timing[0][k] is not None}
+    if getattr(opts, "peak_rss_mb", None):        # the process's running peak at the end of each phase
+        res["peak_rss_by_phase_mb"] = opts.peak_rss_mb
     return res
 
 
@@ -134,11 +136,12 @@ def phases(n, rows):
         prev = t
     p = rows["process"]
     ts = p.get("timing_s", {})
+    peak = p.get("peak_rss_by_phase_mb") or {}
     for key, name in (("plan", "planning"), ("rewrite", "rewrite"),
                       ("measure", "firmware model on the output (+ ringing)"),
                       ("ringing", "ringing pass of its own"), ("summary", "summary")):
         if key in ts:
-            out.append((name, ts[key], ts[key] / p["bare_cpu_s"], p["peak_rss_mb"]))
+            out.append((name, ts[key], ts[key] / p["bare_cpu_s"], peak.get(key) or p["peak_rss_mb"]))
     out.append(("process, end to end", p["cpu_s"], p["cpu_s"] / p["bare_cpu_s"], p["peak_rss_mb"]))
     return out
 

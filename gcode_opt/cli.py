@@ -344,7 +344,7 @@ def _process(a, out, job, Options, Progress, process):
             sys.stderr.write(f"  kept as sliced     {faults} stroke(s) after a fault in planning, segments or the "
                              "output check (reasons in --json: strokes.not_retimed)\n")
     if a.profile_time and summary.get("timing_s"):
-        sys.stderr.write(format_timing(summary) + "\n")
+        sys.stderr.write(format_timing(summary, opts.peak_rss_mb) + "\n")
         b = summary.get("bgcode")
         if b:
             sys.stderr.write(f"  binary G-code      {b['bytes_before']} -> {b['bytes_after']} bytes "
@@ -387,13 +387,18 @@ def _print_warnings(path, summary):
         sys.stderr.write(f"gcode-opt: {path}: {more} more warning(s) (--json lists the first 100)\n")
 
 
-def format_timing(s):
+def format_timing(s, peak_mb=None):
+    """The --profile-time line(s): CPU seconds per phase; with peak_mb ({phase: MB}, the
+    process's peak RSS at the end of each phase), a second line of those peaks."""
     t = s["timing_s"]
     phases = ", ".join(f"{k} {v:.2f}" for k, v in t.items() if k != "total")
     lines = s.get("file", {}).get("lines_before")
     rate = f" = {lines / t['total'] / 1000:.1f} k lines/s" if lines and t.get("total") else ""
-    return (f"  CPU time (s)       {phases} ({s.get('rewrite_passes', 1)} rewrite pass(es)); "
-            f"total {t.get('total', 0.0):.2f}{rate}")
+    out = (f"  CPU time (s)       {phases} ({s.get('rewrite_passes', 1)} rewrite pass(es)); "
+           f"total {t.get('total', 0.0):.2f}{rate}")
+    if peak_mb and all(v is not None for v in peak_mb.values()):
+        out += "\n  peak RSS (MB)      " + ", ".join(f"{k} {v:.0f}" for k, v in peak_mb.items())
+    return out
 
 
 def format_summary(s):

@@ -64,6 +64,7 @@ class Options:
         self.ringing = True                 # resonance figures before/after in the summary (ringing.py)
         self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
+        self.peak_rss_mb = None             # process: {phase: peak RSS (MB) at its end} (--profile-time)
 
 
 class Progress:
@@ -640,6 +641,7 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
                 summary["ringing_error"] = ringing_error
             timing.lap("summary")
             summary["timing_s"] = timing.as_dict()
+            opts.peak_rss_mb = dict(timing.peak_mb)       # --profile-time prints it (not in the JSON)
             summary["rewrite_passes"] = timing.passes
             summary["warnings"] = _warnings_json(opts.reader_warnings)
             if before_replace is not None:
@@ -719,6 +721,7 @@ class _Timing:
 
     def __init__(self):
         self.t = dict.fromkeys(self.PHASES, 0.0)
+        self.peak_mb = {}          # the process's peak RSS (MB) at the end of each phase
         self.passes = 0
         self._t0 = self._last = time.process_time()
 
@@ -726,11 +729,23 @@ class _Timing:
         now = time.process_time()
         self.t[phase] += now - self._last
         self._last = now
+        self.peak_mb[phase] = peak_rss_mb()
 
     def as_dict(self):
         d = dict(self.t)
         d["total"] = self._last - self._t0
         return d
+
+
+def peak_rss_mb():
+    """The process's peak resident set so far, MB (ru_maxrss: KiB on Linux, bytes on
+    macOS); None where the resource module is missing (Windows)."""
+    try:
+        import resource
+    except ImportError:
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1 << 20 if sys.platform == "darwin" else 1 << 10)
 
 
 def _unchanged(in_path, out_path, profile, why):

@@ -306,10 +306,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
 
-    plan = run(budget_t)
-    if opts.alpha == "auto":
-        plan = _fit_budget(run, plan, pin, budget_t)
-    return plan
+    if opts.alpha != "auto":
+        return run(budget_t)
+    return _fit_budget(run, pin, budget_t)
 
 
 def _command_for(seg, st, rules):
@@ -411,24 +410,30 @@ REPLANS = 5              # law budgets tried after the first, at most
 FULL_R = 0.05            # a plan spending within 5 % below the budget is taken
 
 
-def _fit_budget(run, plan, pin, budget_t):
+def _fit_budget(run, pin, budget_t):
     """The laws' budget whose segments' predicted time fills budget_t.  The segments cost
     more than their laws (lead-ins, firmware junctions), so the first plan may overspend:
     step the laws' budget down by the overspend (the set of strokes changes with it) and,
     once one plan is within the budget, bisect between the last over and the best within.
     A plain step-down overshot: on Marlin JD profiles, whose lead-ins cost most, three
-    steps ended at 40 % of the budget spent and 366 strokes left as sliced."""
+    steps ended at 40 % of the budget spent and 366 strokes left as sliced.
+
+    At most two plans live at once, the best within the budget and the one being made: a
+    plan over the budget is dropped before the next is made (each holds a segment plan per
+    re-timed stroke, and arcs' and curves' are new objects on every re-plan)."""
     tol = 1e-3 * budget_t + 1e-9
 
     def spent(p):
         return float(np.sum(p.t_pred - pin.T_orig, where=p.retime))
 
+    plan = run(budget_t)
     s = spent(plan)
     if s <= budget_t + tol:
         return plan
     b, hi_b, best = budget_t, budget_t, None      # best: (law budget, plan, spent) within
     for _ in range(REPLANS):
         b = b - (s - budget_t) if best is None else 0.5 * (best[0] + hi_b)
+        plan = None                               # over the budget, or held by best
         plan = run(b)
         s = spent(plan)
         if s > budget_t + tol:

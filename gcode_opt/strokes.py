@@ -10,6 +10,7 @@ and ends at those same speeds, so the moves around the stroke are planned as bef
 from __future__ import annotations
 
 import math
+from array import array
 
 from .state import ARC, LINE, MAX_POS_D
 from .words import param_texts, split_comment, strip_checksum
@@ -22,10 +23,47 @@ COLLINEAR_SIN = 1e-3      # |sin| of the turn below which two moves are one line
 K_LINE, K_ARC, K_CURVE, K_CHAIN = "line", "arc", "curve", "chain"
 
 
+class Points:
+    """A curve stroke's vertices, (x, y) pairs packed in one array of doubles: 16 bytes a
+    vertex where a list of tuples of floats took ~110 (every stroke is kept for the whole
+    run; the gyroid plate has ~10 vertices a stroke).  Reads like the list of tuples it
+    replaces: len, truth, p[k] and iteration give (x, y) tuples of floats; np.asarray
+    gives the (n, 2) float array."""
+    __slots__ = ("xy",)
+
+    def __init__(self, xy=()):
+        self.xy = array("d", xy)
+
+    def append(self, p):
+        self.xy.extend(p)
+
+    def __len__(self):
+        return len(self.xy) >> 1
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[j] for j in range(*k.indices(len(self)))]
+        n = len(self)
+        if k < 0:
+            k += n
+        if not 0 <= k < n:
+            raise IndexError("vertex index out of range")
+        return self.xy[2 * k], self.xy[2 * k + 1]
+
+    def __iter__(self):
+        it = iter(self.xy)
+        return zip(it, it)
+
+    def __array__(self, dtype=None, copy=None):
+        import numpy as np
+        return np.array(self.xy, dtype=float if dtype is None else dtype).reshape(-1, 2)
+
+
 class Stroke:
-    """Geometry and original timing of one straight stroke (original file's figures)."""
+    """Geometry and original timing of one straight stroke (original file's figures).
+    Every stroke lives for the whole run: slots, and ends_d an array of doubles."""
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
-                 "e_per_move", "v_feed", "accel", "feature", "layer", "e_rel",
+                 "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
                  "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T",
                  "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
@@ -33,7 +71,7 @@ class Stroke:
     def __init__(self, m):
         self.kind = K_LINE
         self.arc = None              # state.Arc of an arc stroke
-        self.pts = None              # curve strokes: list of (x, y) vertices, start included
+        self.pts = None              # curve strokes: Points, (x, y) vertices, start included
         self.curv = None             # curve strokes: cached curves.CurveGeom
         self.chain_T = None          # chain strokes: {predicted duration: the law's} (chains.py)
         self.first_idx = self.last_idx = m.idx
@@ -41,8 +79,7 @@ class Stroke:
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
         self.ux, self.uy = (m.x1 - m.x0) / d, (m.y1 - m.y0) / d
         self.length_d = d
-        self.ends_d = [d]            # distance from stroke start to each original vertex
-        self.e_per_move = [m.e]
+        self.ends_d = array("d", (d,))   # distance from stroke start to each original vertex
         self.v_feed, self.accel = m.v, m.accel
         self.feature, self.layer, self.e_rel = m.feature, m.layer, m.e_rel
         self.lim = m.lim
@@ -68,8 +105,7 @@ class Stroke:
         sgn = 1.0 if a.sweep > 0 else -1.0
         st.ux, st.uy = -math.sin(a.theta0) * sgn, math.cos(a.theta0) * sgn   # start tangent
         st.length_d = a.length_d
-        st.ends_d = [a.length_d]
-        st.e_per_move = [m.e]
+        st.ends_d = array("d", (a.length_d,))
         st.v_feed, st.accel = m.v, m.accel
         st.feature, st.layer, st.e_rel = m.feature, m.layer, m.e_rel
         st.lim = m.lim
@@ -87,16 +123,16 @@ class Stroke:
         vertices by at most the curve threshold: one smooth curve, kind K_CURVE."""
         st = cls(moves[0])
         st.kind = K_CURVE
-        st.pts = [(moves[0].x0, moves[0].y0)]
+        xy = [moves[0].x0, moves[0].y0]
         st.length_d = 0.0
-        st.ends_d, st.e_per_move = [], []
+        ends = []
         for m in moves:
             d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
             st.length_d += d
-            st.ends_d.append(st.length_d)
-            st.e_per_move.append(m.e)
+            ends.append(st.length_d)
             st.e_per_mm = max(st.e_per_mm, m.e / d)
-            st.pts.append((m.x1, m.y1))
+            xy += (m.x1, m.y1)
+        st.pts, st.ends_d = Points(xy), array("d", ends)
         st.last_idx = moves[-1].idx
         return st
 
@@ -117,7 +153,6 @@ class Stroke:
         self.last_idx = m.idx
         self.length_d += d
         self.ends_d.append(self.length_d)
-        self.e_per_move.append(m.e)
         self.e_per_mm = max(self.e_per_mm, m.e / d)
         return True
 

@@ -155,14 +155,30 @@ def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
     cap = v_cap * (1 + SPEED_TOL_R)
     v_end = np.maximum(*end_speeds(L, T, v0, v1))
     cubic_ok = np.maximum(v_end, interior_speed(L, T, np.inf, v0, v1)) <= cap
+    # a law whose cubic (beta = inf) is under the cap takes beta = inf whatever the
+    # bisection finds: it is left out of it (unless a beta it would try underflows to 0,
+    # which makes interior_speed raise: then it stays in, so the same rows raise)
+    with np.errstate(all="ignore"):
+        skip = cubic_ok & ((T / (2.0 * GAMMA_HI)) ** 2 > 0.0)
+    if skip.any():
+        gamma = np.full(L.shape, np.inf)
+        b = ~skip
+        if b.any():
+            gamma[b] = np.exp(_bisect_log_gamma(L[b], T[b], v0[b], v1[b], cap[b], v_end[b], lo[b], hi[b], iters))
+    else:
+        gamma = np.exp(_bisect_log_gamma(L, T, v0, v1, cap, v_end, lo, hi, iters))
+    return np.where(cubic_ok, np.inf, (T / gamma) ** 2)
+
+
+def _bisect_log_gamma(L, T, v0, v1, cap, v_end, lo, hi, iters):
+    """The upper end of the bisection bracket on log gamma (each row's own steps)."""
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
         g = np.exp(mid)
         ok = np.maximum(v_end, interior_speed(L, T, (T / g) ** 2, v0, v1)) <= cap
         hi = np.where(ok, mid, hi)
         lo = np.where(ok, lo, mid)
-    gamma = np.exp(hi)
-    return np.where(cubic_ok, np.inf, (T / gamma) ** 2)
+    return hi
 
 
 def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):

@@ -129,7 +129,8 @@ class StrokeText:
         for raw in raws:
             body = raw.rstrip("\r\n")
             code, comment = split_comment(body)
-            code, _ = strip_checksum(code)
+            if code[:1] != "G" or "*" in code:     # else there is no N word or checksum to drop
+                code, _ = strip_checksum(code)
             p = param_texts(code)
             xt = p.get("X", xt)
             yt = p.get("Y", yt)

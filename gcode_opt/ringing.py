@@ -301,6 +301,7 @@ def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
 
 # ---------------------------------------------------------------- streaming, bounded memory
 CHUNK_BLOCKS = 16384      # blocks turned into pieces and solved at once
+PEND_BLOCKS = 1024        # planned blocks a Collector keeps before it writes their rows
 STREAM_SMOOTH = 1 << 16   # merged pieces of the shaper smoothing evaluated at once
 
 
@@ -425,7 +426,7 @@ class Collector:
         self.carry = _Carry()
         self.rows = array("d", IDLE)       # at rest 1 s before the file (not counted)
         self.pend = []                     # blocks not yet in rows (on_block)
-        self.room = (self.limit - len(self.rows)) // ROW   # blocks until rows are full
+        self.room = 0                      # blocks on_block takes before _drain
         self.skip_first = True
         self.time_t = 0.0
         self.chunks = 0                    # chunks solved (tests force many)
@@ -437,7 +438,9 @@ class Collector:
         pend = self.pend
         pend.append(b)
         if len(pend) >= self.room:
-            self._flush(False)
+            self._drain()
+            if len(self.rows) >= self.limit:
+                self._flush(False)
 
     def _drain(self):
         """The pending blocks' rows (_block_row of each) appended to rows, in order."""
@@ -450,7 +453,8 @@ class Collector:
             m[:, ROW - 1] = 1.0
             self.rows.frombytes(m.tobytes())
             pend.clear()
-        self.room = (self.limit - len(self.rows)) // ROW
+        # blocks until the rows are full, at most PEND_BLOCKS (bounded memory)
+        self.room = min((self.limit - len(self.rows)) // ROW, PEND_BLOCKS)
 
     def rest(self, dt_t):
         if dt_t > 0.0:
@@ -459,7 +463,7 @@ class Collector:
             if len(self.rows) >= self.limit:
                 self._flush(False)
             else:
-                self.room -= 1
+                self.room = min((self.limit - len(self.rows)) // ROW, PEND_BLOCKS)
 
     def add_rows(self, items):
         """Rows already collected (Rows.items, an array('d')), in order."""
@@ -474,7 +478,7 @@ class Collector:
         self._drain()
         m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
         self.rows = array("d")
-        self.room = self.limit // ROW
+        self.room = min(self.limit // ROW, PEND_BLOCKS)
         if not len(m):
             return
         counted = m[1 if self.skip_first else 0:len(m) - 1 if final else len(m)]

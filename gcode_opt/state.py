@@ -258,15 +258,19 @@ class MachineState:
         t0 = toks[0]
         # fast path: the slicer's own "G1 X.. Y.. E.. F.." (~95 % of a file), proven strict
         if (t0 == "G1" or t0 == "G0") and _fast_match(code) is not None:
+            p = {}                                 # a loop, not a dict comprehension: cheaper here
             try:
-                p = {t[0]: float(t[1:]) for t in toks[1:]}
+                for t in toks[1:]:
+                    p[t[0]] = float(t[1:])
             except ValueError:
                 p = None                           # "X1.2.3": the strict path says why
             if p is not None and len(p) == len(toks) - 1:     # else a word given twice
                 return self._linear(idx, raw, p, False)
         elif t0 == "M204" and _fast_m204(code) is not None:    # every segment of a re-timed block
+            p = {}
             try:
-                p = {t[0]: float(t[1:]) for t in toks[1:]}
+                for t in toks[1:]:
+                    p[t[0]] = float(t[1:])
             except ValueError:
                 p = None
             if p is not None and len(p) == len(toks) - 1:
@@ -332,8 +336,16 @@ class MachineState:
         return False
 
     def _linear(self, idx, raw, p, checksum):
-        # _target and accel_for inlined: this runs for ~95 % of a file's lines
-        has_f = "F" in p and self._feed(idx, raw, p)
+        # _target, accel_for and _feed's usual case inlined: this runs for ~95 % of a file's lines
+        if "F" in p:
+            f_text = p["F"]
+            if 0.0 < f_text <= MAX_F and not self.inch:
+                self.v = f_text / 60.0
+                has_f = True
+            else:
+                has_f = self._feed(idx, raw, p)
+        else:
+            has_f = False
         if self.inch:
             p = {k: v * 25.4 for k, v in p.items()}
         x0, y0, z0 = self.x, self.y, self.z
@@ -620,8 +632,7 @@ _get_modal = operator.attrgetter(*MachineState.MODAL)
 def read_lines(path: str):
     """Yield (idx, raw_line_with_ending).  Streams; keeps CRLF/LF as written."""
     with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
-        for idx, raw in enumerate(fh):
-            yield idx, raw
+        yield from enumerate(fh)
 
 
 def events(path: str, profile: Profile, warnings: list | None = None):

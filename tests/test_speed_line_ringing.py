@@ -70,13 +70,16 @@ class _Both:
         self.rows.rest(dt_t)
 
 
-@pytest.mark.parametrize("name,prof,chunk", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 37),
-                                             ("prusa_klipper.gcode", "voron24", 1),
-                                             ("prusa_klipper.gcode", "voron24", 500)])
-def test_collector_rows_in_bulk_equal_rows_one_by_one(name, prof, chunk):
+@pytest.mark.parametrize("name,prof,chunk,pend", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 37, None),
+                                                  ("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 37, 7),
+                                                  ("prusa_klipper.gcode", "voron24", 1, None),
+                                                  ("prusa_klipper.gcode", "voron24", 500, 64)])
+def test_collector_rows_in_bulk_equal_rows_one_by_one(name, prof, chunk, pend, monkeypatch):
     """The rows the Collector solves, chunk by chunk, are the Rows sink's (_block_row of
     each block, _rest_row of each rest) between the idle second before and after, bit for
     bit; every chunk but the first and the last holds exactly chunk_blocks rows."""
+    if pend is not None:                       # fewer pending blocks than a chunk holds
+        monkeypatch.setattr(rg, "PEND_BLOCKS", pend)
     path, p = os.path.join(SAMPLES, name), load_profile(prof)
     col, rows = _Spy(p, chunk_blocks=chunk), rg.Rows()
     rg.play(path, p, _Both(col, rows))

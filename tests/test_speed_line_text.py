@@ -139,3 +139,14 @@ def test_param_texts(code, ok):
     else:
         with pytest.raises(WordError, match=ok):
             param_texts(code)
+
+
+def test_stroke_text_drops_line_numbers_and_checksums():
+    """StrokeText skips strip_checksum only where it has nothing to drop."""
+    raws = ["N10 G1 X1 Y2 E.5*45\n", "  G1 X2 Y3 E0.5 ; c\n", "G1 X3*12\n", "G1 Y4 E1\r\n", "n7 G1 X5\n"]
+    st = StrokeText(raws, "0", "0", 0)
+    assert st.x_texts == ["1", "2", "3", "3", "5"]
+    assert st.y_texts == ["2", "3", "3", "4", "4"]
+    assert st.e_texts == [".5", "0.5", "0", "1", "0"]
+    assert st.e_given == [True, True, False, True, False]
+    assert st.comments == ["", "; c", "", "", ""]

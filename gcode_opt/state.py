@@ -497,7 +497,7 @@ class MachineState:
             self.accel_travel = self.accel_print
             return
         for k in "SPTR":
-            if k in p:
+            if k in p and not 0.0 < p[k] <= MAX_ACCEL_A:    # _positive's test, its message on failure
                 self._positive(idx, raw, "M204", k, p[k], MAX_ACCEL_A, "mm/s^2")
         if fl == "marlin-legacy":          # Prusa-Firmware MK3: S = all moves, T = retract
             if "S" in p:

@@ -72,7 +72,13 @@ class Geometry:
         if self.arc is not None or p is None or len(p) < 2:
             return self.off_path(x, y) <= tol_d
         for k in range(self._k, len(p) - 1):
-            if _seg_dist(x, y, p[k], p[k + 1]) <= tol_d:
+            # _seg_dist(x, y, p[k], p[k + 1]) written out: once per point and segment tried
+            ax, ay = p[k]
+            bx, by = p[k + 1]
+            dx, dy = bx - ax, by - ay
+            dd = dx * dx + dy * dy
+            t = 0.0 if dd <= 0 else min(1.0, max(0.0, ((x - ax) * dx + (y - ay) * dy) / dd))
+            if math.hypot(x - ax - t * dx, y - ay - t * dy) <= tol_d:
                 self._k = k
                 return True
         return self.off_path(x, y) <= tol_d

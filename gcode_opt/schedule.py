@@ -196,28 +196,46 @@ class SegmentCache:
     line's plan is reused whenever its (T, beta) is the one it was made for.  Arcs and
     curves solve their laws in one batch, whose rounding depends on the batch (~1e-16):
     their plans are reused only when the whole batch is the same, so that the result is
-    always the one a fresh run would give.  Kept for the last run only."""
+    always the one a fresh run would give.  Kept for the last run only.
+
+    A line's entry is a row of two float arrays (T, beta; NaN: none) and of a list of
+    plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines)."""
 
     def __init__(self):
-        self.lines = {}          # row -> (T, beta, seg or None, why)
-        self.batch = {}          # kind -> (key, {row: seg}, {row: why})
+        self.line_T = np.zeros(0)       # row -> the T its line plan was made for (NaN: none)
+        self.line_beta = np.zeros(0)
+        self.line_seg = []              # row -> that segment plan, or None
+        self.line_why = {}              # row -> why segmenting it failed (failures only)
+        self.batch = {}                 # kind -> (key, {row: seg}, {row: why})
 
     @staticmethod
     def _key(rows, T, beta):
         return rows.tobytes() + T[rows].tobytes() + beta[rows].tobytes()
+
+    def _grow(self, n):
+        k = len(self.line_seg)
+        if n > k:
+            self.line_T = np.concatenate([self.line_T, np.full(n - k, np.nan)])
+            self.line_beta = np.concatenate([self.line_beta, np.full(n - k, np.nan)])
+            self.line_seg += [None] * (n - k)
 
     def lookup(self, kind, rows, T, beta):
         if KINDS[kind].batch:
             key, segs, bad = self.batch.get(kind, (None, {}, {}))
             return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
         got, bad = {}, {}
-        for i in rows.tolist():
-            hit = self.lines.get(i)
-            if hit is not None and hit[0] == T[i] and hit[1] == beta[i]:
-                if hit[3]:
-                    bad[i] = hit[3]
+        rows_l = rows.tolist()
+        if not rows_l:
+            return got, bad
+        self._grow(max(rows_l) + 1)
+        hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
+        for i, h in zip(rows_l, hit.tolist()):
+            if h:
+                why = self.line_why.get(i)
+                if why:
+                    bad[i] = why
                 else:
-                    got[i] = hit[2]
+                    got[i] = self.line_seg[i]
         return got, bad
 
     def store(self, kind, rows, T, beta, segs, bad):
@@ -225,8 +243,26 @@ class SegmentCache:
             if rows.size:
                 self.batch[kind] = (self._key(rows, T, beta), segs, bad)
             return
-        for i in rows.tolist():
-            self.lines[i] = (float(T[i]), float(beta[i]), segs.get(i), bad.get(i, ""))
+        rows_l = rows.tolist()
+        if not rows_l:
+            return
+        self._grow(max(rows_l) + 1)
+        self.line_T[rows] = T[rows]
+        self.line_beta[rows] = beta[rows]
+        for i in rows_l:
+            self.line_seg[i] = segs.get(i)
+            why = bad.get(i, "")
+            if why:
+                self.line_why[i] = why
+            else:
+                self.line_why.pop(i, None)
+
+    def forget_line(self, i):
+        """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
+        if i < len(self.line_seg):
+            self.line_T[i] = self.line_beta[i] = np.nan
+            self.line_seg[i] = None
+            self.line_why.pop(i, None)
 
 
 def plan_strokes(strokes, pin, profile, opts, budget_t):
@@ -389,7 +425,7 @@ def _own_lead_out(plan, strokes, pin, rules, seg_cache, a):
     """Stroke a's segments with its own lead-out at its lowered end, or a left as sliced."""
     st = strokes[a]
     st.corner_cmd1 = False
-    seg_cache.lines.pop(a, None)
+    seg_cache.forget_line(a)
     try:
         seg = KINDS[K_LINE].segments([st], plan.T[[a]], plan.beta[[a]], rules, None)[0]
     except Exception:                         # noqa: BLE001 -- the stroke stays as sliced

@@ -65,7 +65,7 @@ class Stroke:
     __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
                  "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "prev_u", "next_u", "kind", "arc", "pts", "curv", "start_state", "chain_T",
+                 "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "start_state", "chain_T",
                  "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
 
     def __init__(self, m):
@@ -89,6 +89,26 @@ class Stroke:
         self.v0_fw = self.v1_fw = None       # the firmware's own end speeds when corners.py lowered v0/v1
         self.corner_cmd0 = self.corner_cmd1 = False   # that lowered end is set by a junction command
         self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
+
+    # the XY directions of the neighbouring moves, (x, y) or None: kept as four floats (a
+    # tuple each took ~70 bytes more a stroke)
+    @property
+    def prev_u(self):
+        x = self._pux
+        return None if x is None else (x, self._puy)
+
+    @prev_u.setter
+    def prev_u(self, u):
+        self._pux, self._puy = (None, None) if u is None else u
+
+    @property
+    def next_u(self):
+        x = self._nux
+        return None if x is None else (x, self._nuy)
+
+    @next_u.setter
+    def next_u(self, u):
+        self._nux, self._nuy = (None, None) if u is None else u
 
     @property
     def n_moves(self) -> int:

@@ -119,3 +119,49 @@ def test_profile_time_prints_peak_rss_per_phase(capsys, tmp_path):
     # a Python process with numpy loaded holds more than 20 MB, and less than 2 GB on this file
     assert all(20.0 < v < 2000.0 for v in got.values())
     assert list(got.values()) == sorted(got.values())         # a running peak
+
+
+def test_segment_cache_lines_hit_only_the_law_they_were_made_for():
+    """Random stores and look-ups against a dict of (T, beta) per row (the old form): a
+    line's plan comes back only for the very (T, beta) it was made for; a failure comes
+    back as its reason; NaN never matches; forget_line drops the row."""
+    rng = np.random.default_rng(3)
+    cache = schedule.SegmentCache()
+    oracle = {}
+    n = 40
+    vals = np.array([0.5, 1.0, 1.5, np.inf, np.nan])
+    for step in range(60):
+        rows = np.sort(rng.choice(n, size=rng.integers(0, 12), replace=False))
+        T = rng.choice(vals[:3], size=n)
+        beta = rng.choice(vals, size=n)
+        got, bad = cache.lookup("line", rows, T, beta)
+        want_got, want_bad = {}, {}
+        for i in rows.tolist():
+            h = oracle.get(i)
+            if h is not None and h[0] == T[i] and h[1] == beta[i]:
+                (want_bad if h[3] else want_got)[i] = h[3] or h[2]
+        assert got.keys() == want_got.keys() and all(got[i] is want_got[i] for i in got)
+        assert bad == want_bad
+        todo = np.array([i for i in rows.tolist() if i not in got and i not in bad], int)
+        segs = {i: object() for i in todo.tolist() if rng.random() < 0.7}
+        fails = {i: "error: segments (x)" for i in todo.tolist() if i not in segs and rng.random() < 0.5}
+        cache.store("line", todo, T, beta, segs, fails)
+        for i in todo.tolist():
+            oracle[i] = (float(T[i]), float(beta[i]), segs.get(i), fails.get(i, ""))
+        if step % 7 == 3 and len(rows):
+            a = int(rows[0])
+            cache.forget_line(a)
+            oracle.pop(a, None)
+
+
+def test_trim_heap_gives_pages_back_or_does_nothing(monkeypatch):
+    """glibc's malloc_trim after planning; where the C library has none, a no-op."""
+    import ctypes
+
+    from gcode_opt import pipeline
+    pipeline.trim_heap()                       # this machine: glibc
+
+    def no_libc(*a, **k):
+        raise OSError("no C library")
+    monkeypatch.setattr(ctypes, "CDLL", no_libc)
+    assert pipeline.trim_heap() is None

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .line import LineLaw, time_of_distance
+from .line import LineLaw, _gamma_coeffs, time_of_distance
 
 CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
@@ -74,6 +74,31 @@ def _J(L, T, beta, va, vb):
     return iv + beta * ia
 
 
+def _J3(L, Tm, T0, Tp, beta, va, vb):
+    """_J at the three durations Tm, T0, Tp of the same pieces, in one batch: each
+    element's arithmetic is LineLaw's (__init__, integrals), and what does not depend on
+    T (√β, v0 ± v1, L²) is computed once instead of three times.  Raises LineLaw's
+    ValueError, in its order, on bad inputs."""
+    n = T0.size
+    T = np.concatenate([Tm, T0, Tp])
+    if not (np.all(T > 0) and np.all(np.isfinite(T))):
+        raise ValueError("T must be finite and > 0")
+    if not np.all(beta > 0):
+        raise ValueError("beta must be > 0 (np.inf allowed)")
+    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
+        raise ValueError("L, v0, v1 must be finite")
+    tile = lambda a: np.concatenate([a, a, a])          # noqa: E731
+    gamma = T / tile(np.sqrt(beta))
+    c = _gamma_coeffs(gamma)
+    A = tile(L) - T * tile(va + vb) / 2
+    d = T * tile(va - vb) / 2
+    iv = (tile(L**2) + A**2 * c["Ig1"] + d**2 * c["Ih"]) / T
+    ia = (A**2 * c["Igp"] + d**2 * c["Ihp"]) / T**3
+    b3 = tile(beta)
+    J = iv + b3 * ia
+    return J[:n], J[n:2 * n], J[2 * n:]
+
+
 def _share_time(L, beta, va, vb, owner, T_total, T_init):
     """Durations T_j of all pieces with J_j'(T_j) = -λ_c per chain c and Σ_c T_j = T_total[c]
     (Newton on the KKT system).  Returns (T_j, λ_c, converged per chain).  A chain that has
@@ -91,9 +116,7 @@ def _share_time(L, beta, va, vb, owner, T_total, T_init):
             break
         o, Ti, Li, bi, ai, ci = owner[ix], T[ix], L[ix], beta[ix], va[ix], vb[ix]
         h = FD_H_R * Ti
-        n_i = Ti.size              # the three durations in one batch (numpy calls shared)
-        jm, j0, jp = np.split(_J(np.tile(Li, 3), np.concatenate([Ti - h, Ti, Ti + h]), np.tile(bi, 3),
-                                 np.tile(ai, 3), np.tile(ci, 3)), [n_i, 2 * n_i])
+        jm, j0, jp = _J3(Li, Ti - h, Ti, Ti + h, bi, ai, ci)
         d1 = (jp - jm) / (2.0 * h)
         d2 = (jp - 2.0 * j0 + jm) / (h * h)
         d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)

@@ -22,6 +22,8 @@ The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the sol
 """
 from __future__ import annotations
 
+import contextlib
+import ctypes
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,7 +121,14 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
         r = w @ d2[1:-1].T - gam2[ia, None] * w[:, 1:-1] - 2.0 * w[:, 1:-1] ** 3 - cc[:, None]
         return np.concatenate([r, (w @ q - phi[ia])[:, None]], axis=1)
 
+    # Jacobians: all but the diagonal are the same for every arc and iterate (solve does
+    # not write its input), so they are written once; each step writes the diagonal only
     jac = np.zeros((nb, n, n))
+    jac[:, : n - 1, : n - 1] = d2[1:-1, 1:-1]
+    jac[:, : n - 1, n - 1] = -1.0
+    jac[:, n - 1, : n - 1] = q[1:-1]
+    idx = np.arange(n - 1)
+    d2_diag = d2[1:-1, 1:-1][idx, idx]
     ok = np.zeros(nb, dtype=bool)
     res = residual(w, cc, np.arange(nb))
     res_norm = np.abs(res).max(axis=1)
@@ -130,12 +139,7 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
         ia = np.nonzero(act)[0]
         wa = w[ia]
         ja = jac[: ia.size]
-        ja[:, : n - 1, : n - 1] = d2[1:-1, 1:-1]
-        idx = np.arange(n - 1)
-        ja[:, idx, idx] -= gam2[ia, None] + 6.0 * wa[:, 1:-1] ** 2
-        ja[:, : n - 1, n - 1] = -1.0
-        ja[:, n - 1, : n - 1] = q[1:-1]
-        ja[:, n - 1, n - 1] = 0.0
+        ja[:, idx, idx] = d2_diag - (gam2[ia, None] + 6.0 * wa[:, 1:-1] ** 2)
         step = np.linalg.solve(ja, -res[ia][..., None])[..., 0]
         # damped Newton: halve the step until the residual does not grow (convex problem,
         # so full steps are taken near the solution)
@@ -159,6 +163,59 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
 
 EVAL_CHUNK = 512           # arcs per evaluation on a grid (CircleBatch.row_chunks)
 _NEWTON_BYTES = 20e6       # Jacobians (arcs, N, N) held at once by one Newton batch
+
+
+_OPENBLAS_FNS = (("scipy_openblas_get_num_threads64_", "scipy_openblas_set_num_threads64_"),
+                 ("scipy_openblas_get_num_threads", "scipy_openblas_set_num_threads"),
+                 ("openblas_get_num_threads64_", "openblas_set_num_threads64_"),
+                 ("openblas_get_num_threads", "openblas_set_num_threads"))
+_blas_threads_fns: list = []       # [(get, set)] once looked up; [None] if not found
+
+
+def _openblas_thread_fns():
+    """(get, set) of the number of threads of the OpenBLAS numpy has loaded (Linux: found
+    in /proc/self/maps), or None (another BLAS or platform: then nothing is changed)."""
+    if not _blas_threads_fns:
+        found = None
+        try:
+            with open("/proc/self/maps") as fh:
+                paths = {ln.split(None, 5)[5].strip() for ln in fh
+                         if "openblas" in ln.lower() and len(ln.split(None, 5)) == 6}
+            for path in sorted(paths):
+                lib = ctypes.CDLL(path)
+                for get_name, set_name in _OPENBLAS_FNS:
+                    if hasattr(lib, get_name) and hasattr(lib, set_name):
+                        get_fn, set_fn = getattr(lib, get_name), getattr(lib, set_name)
+                        get_fn.restype, get_fn.argtypes = ctypes.c_int, []
+                        set_fn.restype, set_fn.argtypes = None, [ctypes.c_int]
+                        found = (get_fn, set_fn)
+                        break
+                if found:
+                    break
+        except (OSError, IndexError, ValueError):
+            found = None
+        _blas_threads_fns.append(found)
+    return _blas_threads_fns[0]
+
+
+@contextlib.contextmanager
+def blas_one_thread():
+    """OpenBLAS on one thread inside the block, its count restored after.  The Newton
+    batches solve thousands of 32 x 32 systems (np.linalg.solve, one LAPACK call each):
+    OpenBLAS's threads only add synchronisation there, ~2x the CPU time (and more wall
+    time when the other core is busy).  The same LAPACK routines run, and their results
+    were the same bits with 1 and 2 threads (tests/test_speed_plan2_circle.py)."""
+    fns = _openblas_thread_fns()
+    if fns is None:
+        yield
+        return
+    get_fn, set_fn = fns
+    before = get_fn()
+    set_fn(1)
+    try:
+        yield
+    finally:
+        set_fn(before)
 
 
 def _newton_chunked(n, phi, gam2, u0, u1, w_start):
@@ -202,8 +259,9 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
                     w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
                 else:
                     w0[k] = phi[i]
-            w, cc, ok = _newton_chunked(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
-            c = w @ cs["to_coef"].T
+            with blas_one_thread():
+                w, cc, ok = _newton_chunked(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
+                c = w @ cs["to_coef"].T
             scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
             tail = np.abs(c[:, -3:]).max(axis=1) / scale
             good = ok & (tail <= _TAIL_TOL)

@@ -60,18 +60,40 @@ _S1_COEF = _series_coeffs(lambda j: 1.0 / factorial(2 * j + 3))
 
 
 def _horner(coef, z2):
-    """Σ coef[j] z2^j (all coef > 0 and z2 ≥ 0 here: no cancellation)."""
+    """Σ coef[j] z2^j (all coef > 0 and z2 ≥ 0 here: no cancellation).  In place: the
+    same product then sum per term as out * z2 + c, without two new arrays a term."""
     out = np.full_like(z2, coef[-1])
     for c in coef[-2::-1]:
-        out = out * z2 + c
-    return out
+        np.multiply(out, z2, out=out)
+        np.add(out, c, out=out)
+    return out[()]
+
+
+# n, m and S1 of _small_coeffs as one (3, ...) Horner pass: each row is _horner's
+# arithmetic on the same z2 (γ² = gs * gs = gs ** 2 bitwise: numpy squares by x * x)
+_NMS_COEF = np.stack([_N_COEF, _M_COEF, _S1_COEF], axis=1)        # (terms, 3)
+
+
+def _horner_nms(z2):
+    """(n, m, S1) series at z2 (= _horner of each coefficient set), one pass."""
+    z2 = np.asarray(z2, dtype=float)
+    col = (3,) + (1,) * z2.ndim
+    out = np.empty((3,) + z2.shape)
+    out[...] = _NMS_COEF[-1].reshape(col)
+    for c in _NMS_COEF[-2::-1]:
+        np.multiply(out, z2, out=out)
+        np.add(out, c.reshape(col), out=out)
+    return out[0], out[1], out[2]
 
 
 def _shc(z):
     """sinh(z)/z, = 1 at z = 0 (np.sinh is relatively accurate for small z)."""
     z = np.asarray(z, dtype=float)
-    safe = np.where(z == 0.0, 1.0, z)
-    return np.where(z == 0.0, 1.0, np.sinh(safe) / safe)
+    zero = z == 0.0
+    if z.ndim and not zero.any():          # no 0: the quotient as the np.where below has it
+        return np.sinh(z) / z
+    safe = np.where(zero, 1.0, z)
+    return np.where(zero, 1.0, np.sinh(safe) / safe)
 
 
 def _s1(z):
@@ -117,10 +139,9 @@ _OUT_KEYS = ("Ig1", "Igp", "Ih", "Ihp", "kappa_over_gamma")
 
 def _small_coeffs(gs, small):
     """Small branch: n = N/γ², m = M/γ⁴, shc(γ/2) (γ in [0, switch])."""
-    n = _horner(_N_COEF, gs * gs)
-    m = _horner(_M_COEF, gs * gs)
+    n, m, s1 = _horner_nms(gs * gs)
+    n = n.copy()            # kept by the law: not a view holding m's and S1's rows alive
     sh2 = _shc(gs / 2)
-    s1 = _s1(gs)
     # Integral coefficients: Ig1 = ∫g² − 1 = ∫(g−1)²,  Igp = ∫g'²,  Ih = ∫h²,  Ihp = ∫h'²
     c = {"small": small, "gs": gs, "n": n, "sh2": sh2,
          "Ig1": m / (2 * n * n), "Igp": s1 / (2 * n * n), "Ih": 2 * s1 / sh2**2,
@@ -442,6 +463,8 @@ def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
     with np.errstate(divide="ignore", invalid="ignore"):
         t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
     scale = np.maximum(np.abs(law.L), 1e-300)
+    if len(shape) == 1 and law.L.shape == shape:
+        return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter)
     for _ in range(max_iter):
         s, v, _a = law.eval(t, "sv")
         f = sgn * (s - target)
@@ -455,3 +478,31 @@ def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
         ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
         t = np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi)))
     return t
+
+
+def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
+    """time_of_distance's iteration for 1-D laws, one target each, on the elements not done
+    only: a done element's t no longer moves (its f is unchanged and its bracket only
+    shrinks, so it stays done), and every step is elementwise, so each t is the same."""
+    T = law.T
+    out = t.copy()
+    idx = np.arange(t.size)
+    for _ in range(max_iter):
+        s, v, _a = law.eval(t, "sv")
+        f = sgn * (s - target)
+        lo = np.where(f <= 0, t, lo)
+        hi = np.where(f >= 0, t, hi)
+        done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
+        if np.all(done):
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_newton = t - f / (sgn * v)
+        ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
+        t = np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi)))
+        out[idx] = t
+        if done.any():                     # the rest go on alone
+            keep = np.flatnonzero(~done)
+            idx, t, lo, hi = idx[keep], t[keep], lo[keep], hi[keep]
+            target, sgn, scale, T = target[keep], sgn[keep], scale[keep], T[keep]
+            law = law.take(keep)
+    return out

@@ -32,6 +32,7 @@ table holds these predicted figures, so the budget is spent on what the firmware
 from __future__ import annotations
 
 import math
+from array import array
 
 import numpy as np
 
@@ -68,6 +69,7 @@ def vertex_caps(st, profile):
         else:
             caps = g.caps
         g.chain_caps = CHAIN_CAP_MARGIN * caps
+        g.caps_jerk1 = None         # read only to make chain_caps
     return g.chain_caps
 
 
@@ -80,7 +82,7 @@ def classify(strokes, rows, profile):
         if st.kind == K_CURVE:
             caps = curves.geom(st, profile).caps
             if caps.size and curves.CAP_MARGIN * float(np.min(caps)) < st.v_feed:
-                st.chain_T = {}          # the mark of a chain (plan_kind)
+                st.chain_T = ChainMemo()     # the mark of a chain (plan_kind)
 
 
 def plan_kind(st):
@@ -112,17 +114,77 @@ class _KeptPlans:
     """The segment plans the candidate table made of a chain's candidate laws (finish_chains'
     arrays, one row per candidate) under the rules `key`: plan_chain_segments takes the
     chosen candidate's row as it is (finish_chain would make the same plan again).  Kept on
-    the stroke (st.chain_T[("law", T, beta)] = (_KeptPlans, its row)), so that the
-    chosen candidate is emitted without solving or finishing its law again."""
-    __slots__ = ("key", "sk", "vk", "acc", "feed", "t_pred", "a2_pred")
+    the stroke (ChainMemo.put), so that the chosen candidate is emitted without solving or
+    finishing its law again.  Its rows are lo..lo+k of arrays shared by the chains finished
+    together (`base`: vk, acc, feed, t_pred, a2_pred), not views of its own: ~10^4 chains
+    on a plate, five views and a knot array each cost more than their numbers."""
+    __slots__ = ("key", "ends_d", "base", "lo", "k")
 
-    def __init__(self, key, sk, vk, acc, feed, t_pred, a2_pred):
-        self.key, self.sk, self.vk, self.acc, self.feed = key, sk, vk, acc, feed
-        self.t_pred, self.a2_pred = t_pred, a2_pred
+    def __init__(self, key, ends_d, base, lo=0, k=None):
+        self.key, self.ends_d, self.base, self.lo = key, ends_d, base, lo
+        self.k = base[0].shape[0] - lo if k is None else k
+
+    def _rows(self, j):
+        return self.base[j][self.lo:self.lo + self.k]
+
+    sk = property(lambda self: np.concatenate([[0.0], np.asarray(self.ends_d, float)]))
+    vk = property(lambda self: self._rows(0))
+    acc = property(lambda self: self._rows(1))
+    feed = property(lambda self: self._rows(2))
+    t_pred = property(lambda self: self._rows(3))
+    a2_pred = property(lambda self: self._rows(4))
 
     def plan(self, r):
-        return SegmentPlan(self.sk, self.vk[r], self.acc[r], self.feed[r], float(self.t_pred[r]),
-                           float(self.a2_pred[r]))
+        vk, acc, feed, t_pred, a2_pred = self.base
+        q = self.lo + r
+        return SegmentPlan(self.sk, vk[q], acc[q], feed[q], float(t_pred[q]), float(a2_pred[q]))
+
+
+class ChainMemo:
+    """A chain stroke's memory (st.chain_T; not None marks a chain: plan_kind).  What a
+    dict {predicted duration: law duration, ("law", T, beta): (_KeptPlans, row), "seg": ...}
+    held: its candidates as rows (t_pred, law T, beta, row) of one array of doubles, newest
+    first so that .index finds the latest write as the dict would; the last plan made and
+    what it was made for.  ~0.4 kB a chain instead of ~1.8 kB."""
+    __slots__ = ("figs", "kept", "seg_T", "seg_beta", "seg_key", "seg")
+
+    def __init__(self):
+        self.figs = self.kept = None
+        self.seg_T = self.seg_beta = self.seg_key = None
+        self.seg = None         # the SegmentPlan of the last plan_chain_segments (for seg_T, seg_beta, seg_key)
+
+    def put(self, time_t, T, beta, kept, r):
+        if self.figs is None:
+            self.figs, self.kept = array("d"), []
+        self.figs[0:0] = array("d", (time_t, T, beta, r))
+        self.kept.insert(0, kept)
+
+    def _find(self, x, col):
+        """Index of the newest row whose column col equals x, from each match of x in figs."""
+        figs, j = self.figs, 0
+        while True:
+            try:
+                j = figs.index(x, j)
+            except ValueError:
+                return None
+            if j % 4 == col:
+                return j // 4
+            j += 1
+
+    def law_of(self, time_t):
+        """The law duration that gave predicted duration time_t, or time_t."""
+        q = None if self.figs is None else self._find(time_t, 0)
+        return time_t if q is None else self.figs[4 * q + 1]
+
+    def plan_of(self, T, beta):
+        """(_KeptPlans, row) of the candidate (T, beta), or None."""
+        if self.figs is None:
+            return None
+        figs = self.figs
+        for q in range(len(self.kept)):
+            if figs[4 * q + 1] == T and figs[4 * q + 2] == beta:
+                return self.kept[q], int(figs[4 * q + 3])
+        return None
 
 
 def _rules_key(rules, profile):
@@ -232,7 +294,7 @@ def _finish_rows(st, laws, rules, profile):
     acc = hold_cruise_accels_rows(acc, a_top)
     feed = tent_feeds_rows(feed, st.v_feed, step_v)
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
-    return _KeptPlans(_rules_key(rules, profile), sk, vk, acc, feed, t_pred, a2_pred), fits
+    return _KeptPlans(_rules_key(rules, profile), st.ends_d, (vk, acc, feed, t_pred, a2_pred)), fits
 
 
 GROUP_JUNCTIONS = ("jerk", "scv")   # junction laws whose finishing runs over groups of chains
@@ -310,11 +372,11 @@ def _finish_group(items, rules, profile):
     t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)
     key = _rules_key(rules, profile)
     res = []
-    ends = np.cumsum(ks)
-    for c, st in enumerate(sts):
-        sl = slice(ends[c] - ks[c], ends[c])
-        sk = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
-        res.append((_KeptPlans(key, sk, vk[sl], acc[sl], feed[sl], t_pred[sl], a2_pred[sl]), fits[sl]))
+    base = (vk, acc, feed, t_pred, a2_pred)
+    lo = 0
+    for st, k in zip(sts, ks):
+        res.append((_KeptPlans(key, st.ends_d, base, lo, k), fits[lo:lo + k]))
+        lo += k
     return res
 
 
@@ -584,13 +646,13 @@ def predict_chains(st, g, acc, feed, profile):
 def law_T(st, T):
     """The law's duration behind a candidate's predicted duration T (the candidate tables
     hold what the firmware takes; plan.T is one of them)."""
-    return (st.chain_T or {}).get(float(T), float(T))
+    return float(T) if st.chain_T is None else st.chain_T.law_of(float(T))
 
 
 def plan_chain_segments(strokes, T, beta, rules, profile):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
-    candidates' plans (st.chain_T[("law", T, beta)], _KeptPlans): the chosen one is emitted
-    without solving or finishing its law again; and its last plan (st.chain_T["seg"]): a re-plan of the
+    candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
+    without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
     budget that leaves its (T, beta) alone reuses it."""
     T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
     beta = np.asarray(beta, float)
@@ -598,9 +660,9 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     todo = []
     key = _rules_key(rules, profile)
     for k, (st, t, b) in enumerate(zip(strokes, T, beta)):
-        hit = st.chain_T.get("seg")
-        if hit is not None and hit[0] == (float(t), float(b)) + key:
-            out[k] = hit[1]
+        memo = st.chain_T
+        if memo.seg is not None and memo.seg_T == float(t) and memo.seg_beta == float(b) and memo.seg_key == key:
+            out[k] = memo.seg
         else:
             todo.append(k)
     # the candidate table's plan when this (T, beta) is one of the candidates (under the
@@ -608,7 +670,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     cold = []
     for k in todo:
         st = strokes[k]
-        hit = st.chain_T.get(("law", float(T[k]), float(beta[k])))
+        hit = st.chain_T.plan_of(float(T[k]), float(beta[k]))
         if hit is not None and hit[0].key == key:
             out[k] = hit[0].plan(hit[1])
         else:
@@ -616,7 +678,8 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     for k, law in zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)):
         out[k] = finish_chain(strokes[k], law, rules, profile)[0]
     for k in todo:
-        strokes[k].chain_T["seg"] = ((float(T[k]), float(beta[k])) + key, out[k])
+        memo = strokes[k].chain_T
+        memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = float(T[k]), float(beta[k]), key, out[k]
     return out
 
 
@@ -658,8 +721,7 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
                 if not (np.isfinite(int_a2) and np.isfinite(time_t) and time_t > 0):
                     continue
                 ok[j, c], tp[j, c], ia[j, c], iv[j, c] = True, time_t, int_a2, laws[c][j - a].iv
-                st.chain_T[time_t] = float(T[j, c])
-                st.chain_T[("law", float(T[j, c]), float(beta[j, c]))] = (kept, r)
+                st.chain_T.put(time_t, float(T[j, c]), float(beta[j, c]), kept, r)
     return ok, tp, ia, iv
 
 

@@ -258,7 +258,7 @@ def _d(m):
 # ------------------------------------------------------------------ geometry
 class CurveGeom:
     """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s)."""
-    __slots__ = ("pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
+    __slots__ = ("_pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
                  "chain_caps", "caps_jerk1")
 
     def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None):
@@ -266,7 +266,7 @@ class CurveGeom:
         them for many strokes at once); caps_jerk1: classic jerk's caps at the whole jerk
         (chains.vertex_caps), if computed."""
         pts, d, self.u = seg if seg is not None else _segments(st)
-        self.pts, self.d = pts, d
+        self._pts, self.d = st.pts, d     # the stroke's own vertices: pts is read by tests only
         self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
         self.s_v = np.concatenate([[0.0], np.cumsum(d)])
         # smoothing over one median segment: wider kernels flatten the gyroid's curvature
@@ -291,6 +291,11 @@ class CurveGeom:
             if a is not None and b is not None:
                 c = a[0] * b[0] + a[1] * b[1]
                 self.cos_end[j] = c if c >= CORNER_COS else None
+
+    @property
+    def pts(self):
+        """The vertices as _segments takes them, (n+1, 2) (an array per curve held ~10 MB on a plate)."""
+        return np.asarray(self._pts, float)
 
     def end_terms(self, v0, v1):
         """Half the normal term of the two end junctions, at the end speeds: (1-cos) v³/d."""

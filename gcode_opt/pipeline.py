@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-from . import curves
+from . import chains, curves
 from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
@@ -631,8 +631,8 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
             pin.seg_cache = pin.cached = None
             for st in strokes:        # curve geometry (rebuilt on demand) and chains' candidate plans
                 st.curv = None
-                if st.chain_T:        # ({} still marks a chain: chains.plan_kind)
-                    st.chain_T = {}
+                if st.chain_T is not None:    # (an empty memo still marks a chain: chains.plan_kind)
+                    st.chain_T = chains.ChainMemo()
             trim_heap()
             ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
             timing.lap("ringing")

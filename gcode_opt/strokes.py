@@ -73,7 +73,7 @@ class Stroke:
         self.arc = None              # state.Arc of an arc stroke
         self.pts = None              # curve strokes: Points, (x, y) vertices, start included
         self.curv = None             # curve strokes: cached curves.CurveGeom
-        self.chain_T = None          # chain strokes: {predicted duration: the law's} (chains.py)
+        self.chain_T = None          # chain strokes: chains.ChainMemo (its candidates, law durations)
         self.first_idx = self.last_idx = m.idx
         self.x0, self.y0, self.z = m.x0, m.y0, m.z0
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)

@@ -20,7 +20,6 @@ from typing import Callable
 
 import numpy as np
 from numpy.polynomial import chebyshev as C
-from scipy.interpolate import CubicSpline
 
 from .circle import _cheb_setup, _clenshaw, _gauss
 
@@ -244,7 +243,9 @@ class PolylineCurvature:
         self._spline = None
 
     @property
-    def spline(self) -> CubicSpline:
+    def spline(self) -> "CubicSpline":
+        # scipy.interpolate costs ~40 MB and ~0.5 s to import; the default run never calls this
+        from scipy.interpolate import CubicSpline
         if self._spline is None:
             self._spline = CubicSpline(self.s_d, self.kappa_v)
         return self._spline

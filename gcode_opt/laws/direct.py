@@ -13,7 +13,6 @@ from typing import Callable
 
 import numpy as np
 from numpy.polynomial import Chebyshev, Polynomial
-from scipy.optimize import least_squares
 
 # path(p) -> (r1, r2, r3): first three derivatives of r wrt p, each (n, 2)
 PathDerivs = Callable[[np.ndarray], tuple]
@@ -127,6 +126,8 @@ def minimise_law(path: PathDerivs, p0: float, p1: float, T: float, beta: float,
               + 2 * r2[..., None] * pd_ * bv + r1[..., None] * ba)
         return np.concatenate([(sv[..., None] * dv).reshape(-1, n_basis),
                                (sa[..., None] * da).reshape(-1, n_basis)])
+
+    from scipy.optimize import least_squares  # here: the default run never minimises directly
 
     c0 = np.zeros(n_basis) if coef0 is None else np.asarray(coef0, float)
     res = least_squares(residual, c0, jac=jacobian, method="lm", xtol=1e-15, ftol=1e-15,

@@ -185,23 +185,36 @@ def tent_feeds(need, v_feed, step_v):
     if not np.isfinite(step_v):
         return need
     n = len(need)
-    k = np.arange(n)
+    dist = _TENT_DIST.get(n)
+    if dist is None:                      # |k - j|, k segments, j = -1..n (the ends)
+        dist = _TENT_DIST[n] = np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
     pad = np.concatenate([[v_feed + step_v], need, [v_feed + step_v]])
-    j = np.arange(-1, n + 1)
-    return np.max(pad[None, :] - step_v * np.abs(k[:, None] - j[None, :]), axis=1)
+    return np.maximum.reduce(pad[None, :] - step_v * dist, axis=1)
+
+
+_TENT_DIST: dict[int, np.ndarray] = {}    # tent_feeds' distance matrices by segment count
+
+
+def _diff(x):
+    """np.diff of a 1-D array (the same subtraction), without its per-call overhead:
+    the segment planner calls it a few times per stroke on ~10 knots."""
+    x = np.asarray(x)
+    return x[1:] - x[:-1]
 
 
 def predict(s, v, a):
     """How a constant-acceleration firmware executes the segments (s, v knots; a per
     segment): each ramps at a_k over |dv| (a_k may exceed the ramp's need) and cruises
     the rest.  Returns (time_t, int_a2) -- the figures to weigh against the original."""
-    d = np.diff(s)
-    dv = np.abs(np.diff(v))
+    s, v = np.asarray(s), np.asarray(v)
+    d = _diff(s)
+    dv = np.abs(_diff(v))
     vmax = np.maximum(v[:-1], v[1:])
     a = np.maximum(a, 1e-12)
-    ramp_d = np.abs(np.diff(v * v)) / (2.0 * a)
+    ramp_d = np.abs(_diff(v * v)) / (2.0 * a)
     t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
-    return float(np.sum(t)), float(np.sum(a * dv))
+    # np.add.reduce is what np.sum runs on a 1-D array (the same pairwise sum)
+    return float(np.add.reduce(t)), float(np.add.reduce(a * dv))
 
 
 ROUND_TURN_D = 0.003      # mm: knots are written to ~3 decimals; the turn they add at a knot <= this / segment
@@ -215,7 +228,7 @@ def rounding_junction_accels(s, v):
     theta there (both segments' d a).  A near-cruise segment of a law ramps at ~0.1 mm/s^2:
     without this floor the firmware crawls at ~3 mm/s through such knots (seen on a real
     screw: 0.23 s planned, 0.87 s played)."""
-    d = np.diff(s)
+    d = _diff(s)
     need = np.zeros(d.size)
     if d.size < 2:
         return need
@@ -228,8 +241,9 @@ def rounding_junction_accels(s, v):
 
 def ramp_accels(s, v):
     """a_k that makes segment k one ramp from v_{k-1} to v_k."""
-    d = np.diff(s)
-    return np.abs(np.diff(v * v)) / (2.0 * d)
+    d = _diff(s)
+    v = np.asarray(v)
+    return np.abs(_diff(v * v)) / (2.0 * d)
 
 
 class SegmentRules:

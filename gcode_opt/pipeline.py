@@ -538,7 +538,18 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
     Returns the summary dict.  before_replace(in_path, new_path, summary), if given, runs
     while both files still exist (the report compares them); if it raises, nothing is
     replaced.  A file the firmware model sees no move in is not rewritten: the summary
-    says "unchanged" (with -o elsewhere, the input is copied there)."""
+    says "unchanged" (with -o elsewhere, the input is copied there).
+
+    OpenBLAS runs on one thread for the whole job: its calls here are many small ones
+    (the circle law's 32 x 32 solves, the chains' small products), where a second thread
+    only adds synchronisation (~2x their CPU) and takes the core the slicer may need;
+    the results are the same bits (laws/circle.blas_one_thread)."""
+    from .laws.circle import blas_one_thread
+    with blas_one_thread():
+        return _process(in_path, out_path, profile, opts, before_replace)
+
+
+def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=None):
     from .outfile import AtomicOutput, OutputError, describe
     t_start = time.monotonic()
     timing = _Timing()

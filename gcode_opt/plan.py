@@ -48,6 +48,17 @@ class PlanInput:
                          self.T_orig[rows], self.I_orig[rows], self.mass_r[rows], self.t_seg_min[rows])
 
 
+def _reasons(n, default, *cases):
+    """A reason per stroke, as an object array: `default`, then each (mask, text) in turn,
+    a later one where masks overlap.  (np.where on strings builds fixed-width unicode
+    arrays, 4 bytes a character a stroke, twice: a transient of tens of MB on a plate.)"""
+    out = np.empty(n, dtype=object)
+    out[:] = default
+    for mask, text in cases:
+        out[np.asarray(mask, bool)] = text
+    return out
+
+
 def input_faults(p: PlanInput):
     """Reason per stroke ("" = fine) for plan inputs no law can be built on: non-finite
     or out-of-range lengths, speeds, caps, durations, norms or masses."""
@@ -57,8 +68,8 @@ def input_faults(p: PlanInput):
             finite &= np.isfinite(np.asarray(a, float))
         in_range = ((p.L > 0) & (p.v0 >= 0) & (p.v1 >= 0) & (p.v_cap > 0) & (p.a_cap > 0) & (p.T_orig > 0)
                     & (p.I_orig >= 0) & (p.mass_r > 0))
-    return np.where(~finite, "error: non-finite plan input",
-                    np.where(~in_range, "error: plan input out of range", "")).astype(object)
+    return _reasons(len(finite), "", (~in_range, "error: plan input out of range"),
+                    (~finite, "error: non-finite plan input"))
 
 
 def isolate(fn, rows, stage, failed):
@@ -271,9 +282,8 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     plan.I_law = np.where(use, I[rows, jj], p.I_orig)
     plan.KE_law = np.where(use, KE[rows, jj], np.nan)
     none_ok = ~np.isfinite(I).any(axis=1)
-    plan.reason = np.where(use, "retimed",     # object: later reasons must not be cut to this width
-                           np.where(none_ok, "no law within limits", "original is better within the time budget")
-                           ).astype(object)
+    plan.reason = _reasons(n, "original is better within the time budget",
+                           (none_ok, "no law within limits"), (use, "retimed"))
     return plan
 
 
@@ -299,7 +309,7 @@ def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:
     plan.beta = np.where(ok_hi, beta, np.inf)
     plan.I_law = np.where(ok_hi, I, p.I_orig)
     plan.KE_law = np.where(ok_hi, KE, np.nan)
-    plan.reason = np.where(ok_hi, "retimed", "no law within limits").astype(object)
+    plan.reason = _reasons(len(ok_hi), "no law within limits", (ok_hi, "retimed"))
     return plan
 
 

@@ -560,6 +560,24 @@ def _predict_group(sts, gs, own, d, acc, feed, profile):
     else:
         vj = _scv_junction_v_rows(profile, lim("scv"), lim("ax_max"), lim("ay_max"), u, d, acc)
         v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
+    va, vb, t, a2 = _trapezoid_rows(v, acc, d, feed, np.stack([g.cos_turn for g in gs])[own])
+    for end, (vv, tt) in enumerate(((va[:, 0], t[:, 0]), (vb[:, -1], t[:, -1]))):
+        c = np.full(len(sts), np.nan)          # per chain, as predict_chains: None (nan) or the cosine
+        for q, (st, g) in enumerate(zip(sts, gs)):
+            w = st.prev_u if end == 0 else st.next_u
+            if w is not None:
+                c[q] = float(np.dot(w, g.u[0])) if end == 0 else float(np.dot(g.u[-1], w))
+        c = c[own]
+        on = c >= CORNER_COS                     # nan compares False
+        a2 = np.where(on, a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12), a2)
+    return np.sum(t, axis=1), a2
+
+
+def _trapezoid_rows(v, acc, d, feed, cos_turn):
+    """The firmware's trapezoids over rows of a chain's segments, from the junction speed
+    caps v (k, n+1): lookahead, then per segment entry/exit speed, duration and the ∫|a|²dt
+    of its ramps plus the normal term at each interior vertex turning enough to count
+    (cos_turn (n-1,) or (k, n-1)).  Returns (va, vb, t, a2), a2 per row."""
     reach = 2.0 * acc * d
     v2 = _lookahead_v2(v * v, reach)
     va2, vb2 = v2[:, :-1], v2[:, 1:]
@@ -574,19 +592,9 @@ def _predict_group(sts, gs, own, d, acc, feed, profile):
     a2 = np.sum(a * ((pk - va) + (pk - vb)), axis=1)
     vi = va[:, 1:]
     tj = 0.5 * (t[:, :-1] + t[:, 1:])
-    cos_turn = np.stack([g.cos_turn for g in gs])[own]
     dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
     a2 = a2 + np.sum(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1)
-    for end, (vv, tt) in enumerate(((va[:, 0], t[:, 0]), (vb[:, -1], t[:, -1]))):
-        c = np.full(len(sts), np.nan)          # per chain, as predict_chains: None (nan) or the cosine
-        for q, (st, g) in enumerate(zip(sts, gs)):
-            w = st.prev_u if end == 0 else st.next_u
-            if w is not None:
-                c[q] = float(np.dot(w, g.u[0])) if end == 0 else float(np.dot(g.u[-1], w))
-        c = c[own]
-        on = c >= CORNER_COS                     # nan compares False
-        a2 = np.where(on, a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12), a2)
-    return np.sum(t, axis=1), a2
+    return va, vb, t, a2
 
 
 def predict_chain(st, g, acc, feed, profile):
@@ -619,22 +627,7 @@ def predict_chains(st, g, acc, feed, profile):
                 vj = _junction_v(profile, lim, tuple(g.u[j - 1]), tuple(g.u[j]), d[j - 1], d[j],
                                  acc[r, j - 1], acc[r, j], feed[r, j - 1], feed[r, j])
                 v[r, j] = min(vj, feed[r, j - 1], feed[r, j])
-    reach = 2.0 * acc * d
-    v2 = _lookahead_v2(v * v, reach)
-    va2, vb2 = v2[:, :-1], v2[:, 1:]
-    peak2 = np.minimum(feed * feed, 0.5 * (reach + va2 + vb2))
-    peak2 = np.maximum(peak2, np.maximum(va2, vb2))
-    pk, va, vb = np.sqrt(peak2), np.sqrt(va2), np.sqrt(vb2)
-    a = np.maximum(acc, 1e-12)
-    up_d = (peak2 - va2) / (2.0 * a)
-    dn_d = (peak2 - vb2) / (2.0 * a)
-    cruise_d = np.maximum(d - up_d - dn_d, 0.0)
-    t = (pk - va) / a + (pk - vb) / a + cruise_d / np.maximum(pk, 1e-9)
-    a2 = np.sum(a * ((pk - va) + (pk - vb)), axis=1)
-    vi = va[:, 1:]
-    tj = 0.5 * (t[:, :-1] + t[:, 1:])
-    dv2 = 2.0 * vi * vi * (1.0 - g.cos_turn)
-    a2 = a2 + np.sum(np.where(g.cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1)
+    va, vb, t, a2 = _trapezoid_rows(v, acc, d, feed, g.cos_turn)
     c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
     c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
     for c, vv, tt in ((c0, va[:, 0], t[:, 0]), (c1, vb[:, -1], t[:, -1])):

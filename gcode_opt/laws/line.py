@@ -466,18 +466,27 @@ def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
     if len(shape) == 1 and law.L.shape == shape:
         return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter)
     for _ in range(max_iter):
-        s, v, _a = law.eval(t, "sv")
-        f = sgn * (s - target)
-        lo = np.where(f <= 0, t, lo)
-        hi = np.where(f >= 0, t, hi)
-        done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
-        if np.all(done):
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        if done is None:
             break
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_newton = t - f / (sgn * v)
-        ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
-        t = np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi)))
     return t
+
+
+def _tod_step(law, t, target, sgn, lo, hi, scale, T):
+    """One safeguarded Newton step of time_of_distance: the bracket [lo, hi] shrunk to t,
+    then Newton where it stays inside, else bisection.  done is None when every element
+    has converged (t, lo, hi as they were then)."""
+    s, v, _a = law.eval(t, "sv")
+    f = sgn * (s - target)
+    lo = np.where(f <= 0, t, lo)
+    hi = np.where(f >= 0, t, hi)
+    done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
+    if np.all(done):
+        return t, lo, hi, None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_newton = t - f / (sgn * v)
+    ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
+    return np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi))), lo, hi, done
 
 
 def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
@@ -488,17 +497,9 @@ def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
     out = t.copy()
     idx = np.arange(t.size)
     for _ in range(max_iter):
-        s, v, _a = law.eval(t, "sv")
-        f = sgn * (s - target)
-        lo = np.where(f <= 0, t, lo)
-        hi = np.where(f >= 0, t, hi)
-        done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
-        if np.all(done):
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        if done is None:
             break
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_newton = t - f / (sgn * v)
-        ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
-        t = np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi)))
         out[idx] = t
         if done.any():                     # the rest go on alone
             keep = np.flatnonzero(~done)

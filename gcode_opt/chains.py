@@ -266,7 +266,6 @@ def _finish_rows(st, laws, rules, profile):
     g = curves.geom(st, profile)
     d = g.d
     k, n = len(laws), d.size
-    sk = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
     vk = np.empty((k, n + 1))
     vk[:, 0], vk[:, -1] = st.v0, st.v1
     tk = np.empty((k, n + 1))
@@ -421,11 +420,11 @@ def _junction_v(profile, lim, pu, u, dp, dn, ap, an, fp, fn):
 
 
 def _safe_speed(ux, uy, nominal, jx, jy):
-    """marlin_safe_speed over arrays (z = 0: its axis never limits)."""
-    safe = nominal.copy()
+    """marlin_safe_speed over arrays (z = 0: its axis never limits); the jerks one value
+    or one per row (broadcast)."""
     cx = np.abs(ux) * nominal
     lx = cx > jx
-    safe[lx] = jx
+    safe = np.where(lx, jx, nominal)
     cy = np.abs(uy) * nominal
     ly = cy > jy
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -462,24 +461,21 @@ def _jerk_junction_v(pu, u, p_nom, nom, jx, jy, p_safe=None, safe=None):
     return np.where((p_safe > thr) & (safe > thr), safe, vmax)
 
 
-def _accel_in_force(profile, lim, acc, u):
-    """curves.accel_in_force over (k, n) accelerations of moves along u (n, 2)."""
-    a0 = np.where(acc > 0, acc, profile.default_accel_a)
-    ux, uy = np.abs(u[:, 0]), np.abs(u[:, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.where((ux > 0) & (a0 * ux > lim.ax_max), lim.ax_max / ux, a0)
-        a = np.where((uy > 0) & (a * uy > lim.ay_max), lim.ay_max / uy, a)
-    return a0, a
-
-
-def _scv_junction_v(profile, lim, u, d, acc):
+def _scv_junction_v(profile, u, d, acc, scv, ax_max, ay_max):
     """Klipper's junction speed (klipper_corner_v2 at the moves' accelerations in force,
-    as _junction_v) at the n - 1 interior vertices of (k, n) accelerations acc."""
-    a0, a = _accel_in_force(profile, lim, acc, u)
-    jd = lim.scv * lim.scv * SQRT2_M1 / a0
+    as _junction_v) at the interior vertices of moves along u (..., n, 2) of lengths d and
+    accelerations acc (..., n): one chain's k candidates (u (n, 2), acc (k, n), scalar
+    limits) or stacked rows of chains (u (R, n, 2), limits (R, 1)).  Elementwise: the
+    same bits either way."""
+    a0 = np.where(acc > 0, acc, profile.default_accel_a)     # curves.accel_in_force
+    ux, uy = np.abs(u[..., 0]), np.abs(u[..., 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where((ux > 0) & (a0 * ux > ax_max), ax_max / ux, a0)
+        a = np.where((uy > 0) & (a * uy > ay_max), ay_max / uy, a)
+    jd = scv * scv * SQRT2_M1 / a0
     dv2 = 2.0 * d * a
-    pu, un = u[:-1], u[1:]
-    cos_t = -(un[:, 0] * pu[:, 0] + un[:, 1] * pu[:, 1] + 0.0)
+    pu, un = u[..., :-1, :], u[..., 1:, :]
+    cos_t = -(un[..., 0] * pu[..., 0] + un[..., 1] * pu[..., 1] + 0.0)
     s2, c2 = 0.5 * (1.0 - cos_t), 0.5 * (1.0 + cos_t)
     sin_d2 = np.sqrt(np.maximum(s2, 0.0))
     cos_d2 = np.sqrt(np.maximum(c2, 0.0))
@@ -487,8 +483,8 @@ def _scv_junction_v(profile, lim, u, d, acc):
     ok = (one_m > 0.0) & (cos_d2 > 0.0)
     r_jd = sin_d2 / np.where(ok, one_m, 1.0)
     qt = 0.25 * sin_d2 / np.where(ok, cos_d2, 1.0)
-    v2 = np.minimum(r_jd * jd[:, 1:] * a[:, 1:], r_jd * jd[:, :-1] * a[:, :-1])
-    v2 = np.minimum(np.minimum(v2, dv2[:, 1:] * qt), dv2[:, :-1] * qt)
+    v2 = np.minimum(r_jd * jd[..., 1:] * a[..., 1:], r_jd * jd[..., :-1] * a[..., :-1])
+    v2 = np.minimum(np.minimum(v2, dv2[..., 1:] * qt), dv2[..., :-1] * qt)
     return np.where(ok, np.sqrt(np.maximum(v2, 0.0)), np.inf)
 
 
@@ -504,42 +500,6 @@ def _lookahead_v2(v2, reach):
     return np.minimum(v2, (np.minimum.accumulate((v2 - r)[..., ::-1], axis=-1) + r[..., ::-1])[..., ::-1])
 
 
-def _safe_speed_rows(ux, uy, nominal, jx, jy):
-    """_safe_speed with the jerks per row (broadcast): the same arithmetic."""
-    cx = np.abs(ux) * nominal
-    lx = cx > jx
-    safe = np.where(lx, jx, nominal)
-    cy = np.abs(uy) * nominal
-    ly = cy > jy
-    with np.errstate(divide="ignore", invalid="ignore"):
-        both = np.where(cy * safe > jy * nominal, jy * nominal / cy, safe)
-    return np.where(ly, np.where(lx, both, jy), safe)
-
-
-def _scv_junction_v_rows(profile, scv, ax, ay, u, d, acc):
-    """_scv_junction_v for stacked rows of chains: u (R, n, 2), d and acc (R, n), the
-    limits per row (R, 1)."""
-    a0 = np.where(acc > 0, acc, profile.default_accel_a)
-    ux, uy = np.abs(u[:, :, 0]), np.abs(u[:, :, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.where((ux > 0) & (a0 * ux > ax), ax / ux, a0)
-        a = np.where((uy > 0) & (a * uy > ay), ay / uy, a)
-    jd = scv * scv * SQRT2_M1 / a0
-    dv2 = 2.0 * d * a
-    pu, un = u[:, :-1], u[:, 1:]
-    cos_t = -(un[:, :, 0] * pu[:, :, 0] + un[:, :, 1] * pu[:, :, 1] + 0.0)
-    s2, c2 = 0.5 * (1.0 - cos_t), 0.5 * (1.0 + cos_t)
-    sin_d2 = np.sqrt(np.maximum(s2, 0.0))
-    cos_d2 = np.sqrt(np.maximum(c2, 0.0))
-    one_m = 1.0 - sin_d2
-    ok = (one_m > 0.0) & (cos_d2 > 0.0)
-    r_jd = sin_d2 / np.where(ok, one_m, 1.0)
-    qt = 0.25 * sin_d2 / np.where(ok, cos_d2, 1.0)
-    v2 = np.minimum(r_jd * jd[:, 1:] * a[:, 1:], r_jd * jd[:, :-1] * a[:, :-1])
-    v2 = np.minimum(np.minimum(v2, dv2[:, 1:] * qt), dv2[:, :-1] * qt)
-    return np.where(ok, np.sqrt(np.maximum(v2, 0.0)), np.inf)
-
-
 def _predict_group(sts, gs, own, d, acc, feed, profile):
     """predict_chains for stacked rows of chains with the same number of segments (own:
     the chain of each row; d (R, n) their lengths); the same arithmetic row by row."""
@@ -552,13 +512,13 @@ def _predict_group(sts, gs, own, d, acc, feed, profile):
     if profile.junction == "jerk":
         jx, jy = lim("jerk_x"), lim("jerk_y")
         fp, fn = feed[:, :-1].ravel(), feed[:, 1:].ravel()
-        safe = _safe_speed_rows(u[:, :, 0], u[:, :, 1], feed, jx, jy)   # once per move
+        safe = _safe_speed(u[:, :, 0], u[:, :, 1], feed, jx, jy)   # once per move
         jxv, jyv = np.repeat(jx[:, 0], n - 1), np.repeat(jy[:, 0], n - 1)
         vj = _jerk_junction_v(u[:, :-1].reshape(-1, 2), u[:, 1:].reshape(-1, 2), fp, fn,
                               jxv, jyv, safe[:, :-1].ravel(), safe[:, 1:].ravel())
         v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(R, n - 1)
     else:
-        vj = _scv_junction_v_rows(profile, lim("scv"), lim("ax_max"), lim("ay_max"), u, d, acc)
+        vj = _scv_junction_v(profile, u, d, acc, lim("scv"), lim("ax_max"), lim("ay_max"))
         v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
     va, vb, t, a2 = _trapezoid_rows(v, acc, d, feed, np.stack([g.cos_turn for g in gs])[own])
     for end, (vv, tt) in enumerate(((va[:, 0], t[:, 0]), (vb[:, -1], t[:, -1]))):
@@ -619,7 +579,7 @@ def predict_chains(st, g, acc, feed, profile):
                               lim.jerk_x, lim.jerk_y, safe[:, :-1].ravel(), safe[:, 1:].ravel())
         v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(k, n - 1)
     elif profile.junction == "scv":
-        vj = _scv_junction_v(profile, lim, g.u, d, acc)
+        vj = _scv_junction_v(profile, g.u, d, acc, lim.scv, lim.ax_max, lim.ay_max)
         v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
     else:
         for r in range(k):

@@ -543,8 +543,8 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
     OpenBLAS runs on one thread for the whole job: its calls here are many small ones
     (the circle law's 32 x 32 solves, the chains' small products), where a second thread
     only adds synchronisation (~2x their CPU) and takes the core the slicer may need;
-    the results are the same bits (laws/circle.blas_one_thread)."""
-    from .laws.circle import blas_one_thread
+    the results are the same bits (blas.py)."""
+    from .blas import blas_one_thread
     with blas_one_thread():
         return _process(in_path, out_path, profile, opts, before_replace)
 

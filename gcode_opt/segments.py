@@ -156,7 +156,7 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
     vf = np.broadcast_to(np.asarray(v_feed, float), (k,))
     out = np.array(need, float)
     live = np.flatnonzero(np.isfinite(step))        # an infinite step leaves the row as it is
-    ar = np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
+    ar = _tent_dist(n)
     per = max(1, max_cells // max(n * (n + 2), 1))
     for a in range(0, live.size, per):
         r = live[a:a + per]
@@ -185,14 +185,20 @@ def tent_feeds(need, v_feed, step_v):
     if not np.isfinite(step_v):
         return need
     n = len(need)
-    dist = _TENT_DIST.get(n)
-    if dist is None:                      # |k - j|, k segments, j = -1..n (the ends)
-        dist = _TENT_DIST[n] = np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
+    dist = _tent_dist(n)
     pad = np.concatenate([[v_feed + step_v], need, [v_feed + step_v]])
     return np.maximum.reduce(pad[None, :] - step_v * dist, axis=1)
 
 
 _TENT_DIST: dict[int, np.ndarray] = {}    # tent_feeds' distance matrices by segment count
+
+
+def _tent_dist(n):
+    """|k - j| for k segments and j = -1..n (the ends), cached by n."""
+    dist = _TENT_DIST.get(n)
+    if dist is None:
+        dist = _TENT_DIST[n] = np.abs(np.arange(n)[:, None] - np.arange(-1, n + 1)[None, :])
+    return dist
 
 
 def _diff(x):

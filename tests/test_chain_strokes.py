@@ -221,7 +221,7 @@ def test_vector_scv_junction_is_the_scalar_law():
         n = g.d.size
         acc = rng.uniform(0.0, 6000.0, (3, n))
         acc[0, ::4] = 0.0
-        got = chains._scv_junction_v(prof, st.lim, g.u, g.d, acc)
+        got = chains._scv_junction_v(prof, g.u, g.d, acc, st.lim.scv, st.lim.ax_max, st.lim.ay_max)
         for r in range(3):
             want = [chains._junction_v(prof, st.lim, tuple(g.u[j - 1]), tuple(g.u[j]), g.d[j - 1], g.d[j],
                                        acc[r, j - 1], acc[r, j], 1e9, 1e9) for j in range(1, n)]

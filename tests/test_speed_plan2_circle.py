@@ -5,6 +5,7 @@ here as the reference; the new one must give the same bits, with one thread or t
 import numpy as np
 import pytest
 
+from gcode_opt import blas
 from gcode_opt.laws import circle
 
 
@@ -81,7 +82,7 @@ def test_newton_same_bits_as_start_commit(n, seed):
     for got in (circle._newton_cheb(n, phi, gam2, u0, u1, w0),):
         for a, b in zip(got, ref):
             _same(a, b)
-    with circle.blas_one_thread():
+    with blas.blas_one_thread():
         got1 = circle._newton_cheb(n, phi, gam2, u0, u1, w0)
     for a, b in zip(got1, ref):
         _same(a, b)
@@ -111,25 +112,25 @@ def _no_change():
 
 
 def test_blas_one_thread_restores_count():
-    fns = circle._openblas_thread_fns()
+    fns = blas._openblas_thread_fns()
     if fns is None:
         pytest.skip("numpy is not on a loaded OpenBLAS here")
     get_fn, set_fn = fns
     before = get_fn()
-    with circle.blas_one_thread():
+    with blas.blas_one_thread():
         assert get_fn() == 1
-        with circle.blas_one_thread():
+        with blas.blas_one_thread():
             assert get_fn() == 1
         assert get_fn() == 1
     assert get_fn() == before
     with pytest.raises(KeyError):
-        with circle.blas_one_thread():
+        with blas.blas_one_thread():
             raise KeyError("x")
     assert get_fn() == before
 
 
 def test_blas_one_thread_no_openblas(monkeypatch):
-    monkeypatch.setattr(circle, "_blas_threads_fns", [None])
-    with circle.blas_one_thread():
+    monkeypatch.setattr(blas, "_blas_threads_fns", [None])
+    with blas.blas_one_thread():
         x = np.linalg.solve(np.eye(3) * 2.0, np.ones(3))
     assert np.array_equal(x, np.full(3, 0.5))

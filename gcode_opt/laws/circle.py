@@ -22,11 +22,11 @@ The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the sol
 """
 from __future__ import annotations
 
-import contextlib
-import ctypes
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..blas import blas_one_thread
 
 # ---------------------------------------------------------------------------------------------
 # Chebyshev machinery on τ ∈ [0, 1] (nodes τ_j = (1 - cos(πj/N))/2, so τ_0 = 0, τ_N = 1)
@@ -163,59 +163,6 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
 
 EVAL_CHUNK = 512           # arcs per evaluation on a grid (CircleBatch.row_chunks)
 _NEWTON_BYTES = 20e6       # Jacobians (arcs, N, N) held at once by one Newton batch
-
-
-_OPENBLAS_FNS = (("scipy_openblas_get_num_threads64_", "scipy_openblas_set_num_threads64_"),
-                 ("scipy_openblas_get_num_threads", "scipy_openblas_set_num_threads"),
-                 ("openblas_get_num_threads64_", "openblas_set_num_threads64_"),
-                 ("openblas_get_num_threads", "openblas_set_num_threads"))
-_blas_threads_fns: list = []       # [(get, set)] once looked up; [None] if not found
-
-
-def _openblas_thread_fns():
-    """(get, set) of the number of threads of the OpenBLAS numpy has loaded (Linux: found
-    in /proc/self/maps), or None (another BLAS or platform: then nothing is changed)."""
-    if not _blas_threads_fns:
-        found = None
-        try:
-            with open("/proc/self/maps") as fh:
-                paths = {ln.split(None, 5)[5].strip() for ln in fh
-                         if "openblas" in ln.lower() and len(ln.split(None, 5)) == 6}
-            for path in sorted(paths):
-                lib = ctypes.CDLL(path)
-                for get_name, set_name in _OPENBLAS_FNS:
-                    if hasattr(lib, get_name) and hasattr(lib, set_name):
-                        get_fn, set_fn = getattr(lib, get_name), getattr(lib, set_name)
-                        get_fn.restype, get_fn.argtypes = ctypes.c_int, []
-                        set_fn.restype, set_fn.argtypes = None, [ctypes.c_int]
-                        found = (get_fn, set_fn)
-                        break
-                if found:
-                    break
-        except (OSError, IndexError, ValueError):
-            found = None
-        _blas_threads_fns.append(found)
-    return _blas_threads_fns[0]
-
-
-@contextlib.contextmanager
-def blas_one_thread():
-    """OpenBLAS on one thread inside the block, its count restored after.  The Newton
-    batches solve thousands of 32 x 32 systems (np.linalg.solve, one LAPACK call each):
-    OpenBLAS's threads only add synchronisation there, ~2x the CPU time (and more wall
-    time when the other core is busy).  The same LAPACK routines run, and their results
-    were the same bits with 1 and 2 threads (tests/test_speed_plan2_circle.py)."""
-    fns = _openblas_thread_fns()
-    if fns is None:
-        yield
-        return
-    get_fn, set_fn = fns
-    before = get_fn()
-    set_fn(1)
-    try:
-        yield
-    finally:
-        set_fn(before)
 
 
 def _newton_chunked(n, phi, gam2, u0, u1, w_start):

@@ -41,6 +41,7 @@ from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, hold_cruise_accels, segment_feeds
+from .strokes import Points
 
 CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
 CURVE_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CURVE_T_RATIOS])
@@ -150,7 +151,9 @@ def batch_caps(strokes, profile, us, ds, jerk_r):
         return None
     keep = np.ones(caps.size, bool)
     keep[np.cumsum(n)[:-1] - 1] = False            # the vertex between two strokes
-    return np.split(caps[keep], np.cumsum(np.maximum(n - 1, 0))[:-1])
+    caps = caps[keep]
+    ends = np.cumsum(np.maximum(n - 1, 0)).tolist()
+    return [caps[a:b] for a, b in zip([0] + ends[:-1], ends)]     # np.split's views, less overhead
 
 
 def _pmax(a, b):
@@ -261,25 +264,18 @@ class CurveGeom:
     __slots__ = ("_pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
                  "chain_caps", "caps_jerk1")
 
-    def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None):
+    def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None):
         """seg: (pts, d, u) from _segments; caps: the vertex caps (build_geoms computes
         them for many strokes at once); caps_jerk1: classic jerk's caps at the whole jerk
-        (chains.vertex_caps), if computed."""
-        pts, d, self.u = seg if seg is not None else _segments(st)
-        self._pts, self.d = st.pts, d     # the stroke's own vertices: pts is read by tests only
-        self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
-        self.s_v = np.concatenate([[0.0], np.cumsum(d)])
-        # smoothing over one median segment: wider kernels flatten the gyroid's curvature
-        # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
-        # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
-        pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
-        self.kappa_v = np.interp(self.s_v, pc.s_d, pc.kappa_v)
-        S = self.s_v[-1]
-        mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
-        k2 = float(np.sum(mid * d) / S)
-        self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
+        (chains.vertex_caps), if computed; parts: (d, u, cos_turn, s_v, kappa_v, kappa_eff)
+        as _batch_parts computes them for many strokes at once (the same bits)."""
+        self._pts = st.pts                # the stroke's own vertices: pts is read by tests only
+        if parts is not None:
+            self.d, self.u, self.cos_turn, self.s_v, self.kappa_v, self.kappa_eff = parts
+        else:
+            self._own_parts(st, seg)
         if caps is None:
-            caps = vertex_caps(profile, st.lim, st.accel, self.u, d)
+            caps = vertex_caps(profile, st.lim, st.accel, self.u, self.d)
         self.caps = caps                          # per interior vertex
         self.caps_jerk1 = caps_jerk1
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
@@ -291,6 +287,21 @@ class CurveGeom:
             if a is not None and b is not None:
                 c = a[0] * b[0] + a[1] * b[1]
                 self.cos_end[j] = c if c >= CORNER_COS else None
+
+    def _own_parts(self, st, seg):
+        pts, d, self.u = seg if seg is not None else _segments(st)
+        self.d = d
+        self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
+        self.s_v = np.concatenate([[0.0], np.cumsum(d)])
+        # smoothing over one median segment: wider kernels flatten the gyroid's curvature
+        # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
+        # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
+        pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
+        self.kappa_v = np.interp(self.s_v, pc.s_d, pc.kappa_v)
+        S = self.s_v[-1]
+        mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
+        k2 = float(np.sum(mid * d) / S)
+        self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
 
     @property
     def pts(self):
@@ -337,18 +348,95 @@ def geom(st, profile):
 
 def build_geoms(strokes, profile, jerk1=False):
     """geom() of every stroke in `strokes` (those without one), their vertex caps computed
-    in one vectorised pass (per stroke they cost ~50 µs of numpy calls for ~14 vertices);
-    jerk1: classic jerk's caps at the whole jerk too (chains.vertex_caps).  A stroke whose
-    geometry raises raises here, as geom() would (the strokes before it keep theirs)."""
+    in one vectorised pass (per stroke they cost ~50 µs of numpy calls for ~14 vertices)
+    and their segments and curvature batched over strokes of one vertex count
+    (_batch_parts); jerk1: classic jerk's caps at the whole jerk too (chains.vertex_caps).
+    A stroke whose geometry raises raises here, as geom() would (the strokes before it
+    keep theirs)."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return
-    segs = [_segments(st) for st in todo]
-    us, ds = [s[2] for s in segs], [s[1] for s in segs]
+    parts = _batch_parts(todo)
+    segs = [None if p is not None else _segments(st) for st, p in zip(todo, parts)]
+    us = [p[1] if p is not None else s[2] for p, s in zip(parts, segs)]
+    ds = [p[0] if p is not None else s[1] for p, s in zip(parts, segs)]
     caps = batch_caps(todo, profile, us, ds, 1.0 - JERK_F_STEP_R)
     caps1 = batch_caps(todo, profile, us, ds, 1.0) if caps is not None and jerk1 and profile.junction == "jerk" else None
-    for k, (st, sg) in enumerate(zip(todo, segs)):
-        st.curv = CurveGeom(st, profile, sg, None if caps is None else caps[k], None if caps1 is None else caps1[k])
+    for k, (st, sg, pa) in enumerate(zip(todo, segs, parts)):
+        st.curv = CurveGeom(st, profile, sg, None if caps is None else caps[k], None if caps1 is None else caps1[k],
+                            pa)
+
+
+_GEOM_BLOCK = 1 << 20       # elements (strokes x vertices x vertices) of one batched kernel block
+_GEOM_MAX_PTS = 512         # curvature_from_polyline smooths in one window up to this many vertices
+
+
+def _xy(st):
+    p = st.pts
+    return np.frombuffer(p.xy, float) if isinstance(p, Points) else np.asarray(p, float).ravel()
+
+
+def _batch_parts(todo):
+    """CurveGeom's (d, u, cos_turn, s_v, kappa_v, kappa_eff) of the strokes `todo`, computed
+    for all strokes of one vertex count at once with CurveGeom's arithmetic elementwise in
+    the same order (the same bits: tests/test_speed_curve3_geom.py), or None for a stroke
+    this form does not take as the per-stroke path does (a duplicate point, non-finite
+    numbers, fewer than 3 or more than _GEOM_MAX_PTS vertices: CurveGeom's own path,
+    which raises where it raises).  ~10x faster than stroke by stroke on a gyroid plate."""
+    parts = [None] * len(todo)
+    npts = np.array([len(st.pts) for st in todo], int)
+    order = np.argsort(npts, kind="stable")
+    for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
+        npt = int(npts[grp[0]]) if grp.size else 0
+        if npt < 3 or npt > _GEOM_MAX_PTS:
+            continue
+        step = max(1, _GEOM_BLOCK // (npt * npt))
+        for a in range(0, grp.size, step):
+            idx = grp[a:a + step]
+            with np.errstate(all="ignore"):
+                block = _parts_block(np.concatenate([_xy(todo[i]) for i in idx]).reshape(idx.size, npt, 2))
+            for k, i in enumerate(idx):
+                if block[-1][k]:
+                    parts[i] = tuple(x[k] for x in block[:-1])
+    return parts
+
+
+def _parts_block(pts):
+    """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
+    m = pts.shape[0]
+    seg = pts[:, 1:] - pts[:, :-1]                           # _segments
+    d = np.hypot(seg[..., 0], seg[..., 1])
+    u = seg / d[..., None]
+    cos_turn = np.einsum("bij,bij->bi", u[:, :-1], u[:, 1:])
+    s_v = np.empty(d.shape[:1] + (d.shape[1] + 1,))
+    s_v[:, 0] = 0.0
+    np.cumsum(d, axis=1, out=s_v[:, 1:])
+    good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (np.diff(s_v, axis=1) > 0.0).all(axis=1)
+    n = d.shape[1]                                          # _median
+    k = n // 2
+    if n % 2:
+        med = np.partition(d, k, axis=1)[:, k]
+    else:
+        p = np.partition(d, [k - 1, k], axis=1)
+        med = (p[:, k - 1] + p[:, k]) / 2.0
+    smooth_d = _pmax(med, SMOOTH_MIN_D)
+    # curvature_from_polyline(pts, smooth_d): its one window covers every interior vertex
+    heading = np.arctan2(seg[..., 1], seg[..., 0])
+    turn = np.angle(np.exp(1j * np.diff(heading, axis=1)))
+    s_i = s_v[:, 1:-1]
+    ell = 0.5 * (d[:, :-1] + d[:, 1:])
+    z2 = ((s_v[:, :, None] - s_i[:, None, :]) / smooth_d[:, None, None]) ** 2
+    kern = np.exp(-0.5 * (z2 - z2.min(axis=2, keepdims=True)))
+    kappa_v = np.empty(s_v.shape)
+    for b in range(m):                 # one matrix-vector product per stroke, as there
+        kappa_v[b] = (kern[b] @ turn[b]) / (kern[b] @ ell[b])
+    good &= np.isfinite(kappa_v).all(axis=1)
+    # np.interp(s_v, s_d, kappa_v) at its own nodes is kappa_v itself
+    S = s_v[:, -1]
+    mid = 0.5 * (kappa_v[:, :-1] ** 2 + kappa_v[:, 1:] ** 2)
+    k2 = np.sum(mid * d, axis=1) / S
+    kappa_eff = _pmax(np.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
+    return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
 
 
 def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
@@ -356,16 +444,31 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     acceleration cap of a turning path, the vertex speed caps (cap_peak: the law's peak
     stays under the lowest; a chain's law meets each at its own vertex instead)."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
-    for i in rows:
+    gs = [geom(strokes[i], profile) for i in rows]
+    for i, g, ux2 in zip(rows, gs, _ux2_rows(gs)):
         st = strokes[i]
-        g = geom(st, profile)
-        w = g.d / g.d.sum()
-        ux2 = float(np.sum(w * g.u[:, 0] ** 2))
         uy2 = 1.0 - ux2
         pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
         pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
         if cap_peak:
             pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+
+
+def _ux2_rows(gs):
+    """float(np.sum(w * g.u[:, 0] ** 2)), w = g.d / g.d.sum(), of every geometry in gs,
+    for all of one segment count at once (row sums of a C-contiguous block add in the
+    same order as the 1-D sums: the same bits)."""
+    out = [0.0] * len(gs)
+    by_n = {}
+    for k, g in enumerate(gs):
+        by_n.setdefault(g.d.size, []).append(k)
+    for ks in by_n.values():
+        d = np.stack([gs[k].d for k in ks])
+        ux = np.stack([gs[k].u[:, 0] for k in ks])
+        w = d / d.sum(axis=1, keepdims=True)
+        for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
+            out[k] = x
+    return out
 
 
 # ------------------------------------------------------------------ law

@@ -222,11 +222,73 @@ def _candidates_auto(p: PlanInput):
 
 def allocate(T, I, T_orig, I_orig, budget_t):
     """Pick one candidate per stroke (or the original: column -1 of the extended arrays)
-    minimising sum I + lambda sum T with sum (T - T_orig) <= budget_t."""
+    minimising sum I + lambda sum T with sum (T - T_orig) <= budget_t.
+
+    Bisection on lambda (80 halvings), each step the choice of every stroke.  A stroke's
+    choice is the lower envelope of its candidates' lines I + lambda T: once it is the same
+    at both ends of the bracket with a clear margin there (the margin to the next
+    candidate is concave in lambda, so it is least at an end), it is that one inside the
+    whole bracket, and later steps take it as known instead of computing it again.  Each
+    step's total time is still summed over every stroke as before: the same choices, the
+    same sums, the same bits as evaluating every stroke at every step (_allocate_all)."""
     Tx = np.concatenate([T, T_orig[:, None]], axis=1)
     Ix = np.concatenate([I, I_orig[:, None]], axis=1)
     finite = np.isfinite(Ix)
+    n, k = Ix.shape
+    rows = np.arange(n)
+    # the margin test needs costs that add two non-negative terms (no cancellation)
+    if n == 0 or k < 2 or not (np.all(Ix[finite] >= 0.0) and np.all(Tx >= 0.0)):
+        return _allocate_all(Tx, Ix, finite, T_orig, budget_t)
 
+    def spent(j):
+        return float(np.sum(Tx[rows, j] - T_orig))
+
+    def choices(lam, r):
+        """Choice and margin to the next candidate of rows r at lam (margin inf where only
+        one candidate is finite or none is: then the choice cannot change)."""
+        cost = np.where(finite[r], Ix[r] + lam * Tx[r], np.inf)
+        j = np.argmin(cost, axis=1)
+        two = np.partition(cost, 1, axis=1)
+        c1, c2 = two[:, 0], two[:, 1]
+        with np.errstate(invalid="ignore"):
+            margin = np.where(np.isinf(c2), np.inf, c2 - c1)
+        return j, margin, MARGIN_R * (np.abs(c1) + np.abs(c2))
+
+    j_lo, m_lo, _ = choices(0.0, rows)
+    if spent(j_lo) <= budget_t:
+        return j_lo, 0.0
+    lo, hi = 0.0, 1.0
+    while True:
+        j_hi, m_hi, tol_hi = choices(hi, rows)
+        if not (spent(j_hi) > budget_t and hi < 1e30):
+            break
+        hi *= 10.0
+    J = j_hi.copy()               # every stroke's choice; those of `act` are the bracket's ends'
+    act = rows
+    for _ in range(80):
+        # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
+        # at most the top end's, tol_hi, which both margins must clear
+        keep = (j_lo != j_hi) | ~(m_lo > tol_hi) | ~(m_hi > tol_hi)
+        if not keep.all():        # settled: J holds their choice for the rest of the bisection
+            act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
+        mid = 0.5 * (lo + hi)
+        j_mid, m_mid, tol_mid = choices(mid, act)
+        J[act] = j_mid
+        if spent(J) > budget_t:
+            lo, j_lo, m_lo = mid, j_mid, m_mid
+        else:
+            hi, j_hi, m_hi, tol_hi = mid, j_mid, m_mid, tol_mid
+    J[act] = j_hi
+    return J, hi
+
+
+MARGIN_R = 1e-9     # a choice whose cost is below the next one's by more than this (relative)
+                    # is beyond the rounding of I + lambda T (~1e-16): it cannot flip
+
+
+def _allocate_all(Tx, Ix, finite, T_orig, budget_t):
+    """allocate's bisection evaluating every stroke at every step (the reference; used when
+    a cost could cancel)."""
     def choose(lam):
         cost = np.where(finite, Ix + lam * Tx, np.inf)
         j = np.argmin(cost, axis=1)

@@ -40,7 +40,7 @@ from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
 from .firmware.simulate import CORNER_COS
-from .laws.chain import ChainProblem, solve_chains
+from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
 from .segments import SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
 from .strokes import K_CHAIN, K_CURVE
@@ -107,7 +107,7 @@ def _problems(strokes, T, beta, profile):
     return out
 
 
-SOLVE_CHUNK = 256           # chains solved in one batch (bounded memory on files of 10^4 chains)
+SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 
 
 class _KeptPlans:
@@ -158,6 +158,15 @@ class ChainMemo:
             self.figs, self.kept = array("d"), []
         self.figs[0:0] = array("d", (time_t, T, beta, r))
         self.kept.insert(0, kept)
+
+    def put_rows(self, rows, kept):
+        """put(*row, kept) for every row of rows (q, 4), in order (the last one newest)."""
+        if self.figs is None:
+            self.figs, self.kept = array("d"), []
+        new = array("d")
+        new.frombytes(np.ascontiguousarray(rows[::-1], float).tobytes())
+        self.figs[0:0] = new
+        self.kept[0:0] = [kept] * rows.shape[0]
 
     def _find(self, x, col):
         """Index of the newest row whose column col equals x, from each match of x in figs."""
@@ -263,9 +272,8 @@ def finish_chains(st, laws, rules, profile):
 
 def _finish_rows(st, laws, rules, profile):
     """finish_chains as arrays: (_KeptPlans, fits per row)."""
-    g = curves.geom(st, profile)
-    d = g.d
-    k, n = len(laws), d.size
+    n = curves.geom(st, profile).d.size
+    k = len(laws)
     vk = np.empty((k, n + 1))
     vk[:, 0], vk[:, -1] = st.v0, st.v1
     tk = np.empty((k, n + 1))
@@ -274,6 +282,14 @@ def _finish_rows(st, laws, rules, profile):
         vk[r, 1:-1] = law.vert_v
         tk[r, 1:-1] = law.vert_t
         tk[r, -1] = law.problem.T
+    return _finish_rows_arrays(st, vk, tk, rules, profile)
+
+
+def _finish_rows_arrays(st, vk, tk, rules, profile):
+    """_finish_rows from the laws' speeds vk and times tk at the knots (k, n + 1)."""
+    g = curves.geom(st, profile)
+    d = g.d
+    k, n = vk.shape[0], d.size
     tk = np.diff(tk, axis=1)
     a_top = _a_top(st)
     acc, feed = shape_segments(np.broadcast_to(d, (k, n)).ravel(), np.maximum(tk, 1e-12).ravel(),
@@ -336,8 +352,6 @@ def _finish_group(items, rules, profile):
     ks = [len(laws) for _, laws in items]
     n = gs[0].d.size
     R = sum(ks)
-    own = np.repeat(np.arange(len(items)), ks)               # the chain of each row
-    d = np.stack([g.d for g in gs])[own]
     vk = np.empty((R, n + 1))
     tk = np.empty((R, n + 1))
     r = 0
@@ -349,6 +363,16 @@ def _finish_group(items, rules, profile):
             tk[r, 1:-1] = law.vert_t
             tk[r, -1] = law.problem.T
             r += 1
+    return _finish_stacked(sts, gs, ks, vk, tk, rules, profile)
+
+
+def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
+    """_finish_group from the rows' knot speeds vk and times tk (R, n + 1), ks[q] rows of
+    chain sts[q] after each other."""
+    n = gs[0].d.size
+    R = vk.shape[0]
+    own = np.repeat(np.arange(len(sts)), ks)               # the chain of each row
+    d = np.stack([g.d for g in gs])[own]
     tk = np.diff(tk, axis=1)
     a_top = np.array([_a_top(st) for st in sts], float)[own]
     acc, feed = shape_segments(d.ravel(), np.maximum(tk, 1e-12).ravel(), vk[:, :-1].ravel(), vk[:, 1:].ravel(),
@@ -640,9 +664,10 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
 def _figures(strokes, rows, pin, T, beta, profile, rules):
     """Per (stroke, T) of the (n, k) tables T, beta (columns in increasing T): feasible?,
     predicted time and ∫|a|², the law's ∫ṡ².  Each stroke remembers which law T gave which
-    predicted time (law_T) and the law's binding set and vertex times (_warm).  Column by
-    column, each law warm-started from its neighbour's (the one nearest 1 x T_orig first,
-    cold): the binding set moves little between close durations."""
+    predicted time (law_T) and the plans of its candidates (ChainMemo).  Column by column,
+    each law warm-started from its neighbour's (the one nearest 1 x T_orig first, cold):
+    the binding set moves little between close durations.  The laws stay flat arrays
+    (laws/chain.FlatLaws), SOLVE_CHUNK chains at a time, and are finished from them."""
     n, k = T.shape
     ok = np.zeros((n, k), bool)
     tp = np.array(T, float)
@@ -654,33 +679,94 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     for a in range(0, n, SOLVE_CHUNK):      # the laws of one chunk of chains at a time
         sl = slice(a, min(a + SOLVE_CHUNK, n))
         sts = [strokes[i] for i in rows[sl]]
-        laws = {}
+        base = _flat_chains(sts, profile)
+        m, nv = len(sts), base.sv.size
+        res = {}
         for c in order:
-            init_B = init_t = None
+            fl = base.with_T(T[sl, c], beta[sl, c])
             if c in prev:
-                src, scale = laws[prev[c]], T[sl, c] / T[sl, prev[c]]
-                init_B = [lw.binding for lw in src]
-                init_t = [lw.vert_t * r for lw, r in zip(src, scale)]
-            laws[c] = solve_chains(_problems(sts, T[sl, c], beta[sl, c], profile), init_B, init_t)
-        todo = []                                  # all candidates of a chain in one batch
-        for j, st in enumerate(sts, start=a):
-            cols = [c for c in range(k) if _usable(laws[c][j - a], pin, rows[j], T[j, c])]
-            if cols:
-                todo.append((j, st, cols))
-        done = finish_groups([(st, [laws[c][j - a] for c in cols]) for j, st, cols in todo], rules, profile)
-        for (j, st, cols), (kept, _) in zip(todo, done):
-            for r, c in enumerate(cols):
-                time_t, int_a2 = float(kept.t_pred[r]), float(kept.a2_pred[r])
-                if not (np.isfinite(int_a2) and np.isfinite(time_t) and time_t > 0):
-                    continue
-                ok[j, c], tp[j, c], ia[j, c], iv[j, c] = True, time_t, int_a2, laws[c][j - a].iv
-                st.chain_T.put(time_t, float(T[j, c]), float(beta[j, c]), kept, r)
+                src = res[prev[c]]
+                vt = src.vert_t * (T[sl, c] / T[sl, prev[c]])[fl.ch]
+                res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool))
+            else:
+                res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool))
+        v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
+        use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
+                        & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
+                        for c in range(k)], axis=1)
+        for j, c, t, a2, plans in _finish_table(sts, base, res, use, T[sl], rules, profile):
+            good = np.isfinite(a2) & np.isfinite(t) & (t > 0)
+            J, C = a + j[good], c[good]
+            ok[J, C], tp[J, C], ia[J, C] = True, t[good], a2[good]
+            for q in np.unique(C).tolist():
+                on = C == q
+                iv[J[on], q] = res[q].iv[j[good][on]]
+            _remember(sts, j, c, t, good, T[sl], beta[sl], plans)
     return ok, tp, ia, iv
 
 
-def _usable(law, pin, i, T):
-    return (law.converged and law.min_v >= -1e-9 * (1 + pin.v_cap[i])
-            and law.peak_v <= pin.v_cap[i] * (1 + SPEED_TOL_R) and T >= pin.t_seg_min[i])
+def _flat_chains(sts, profile):
+    """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
+    gs = [curves.geom(st, profile) for st in sts]
+    caps = [vertex_caps(st, profile) for st in sts]
+    return _Flat.of_arrays(np.concatenate([g.s_v[1:-1] for g in gs]), np.concatenate(caps),
+                           np.array([c.size for c in caps], int),
+                           np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
+                           np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
+
+
+def _finish_table(sts, base, res, use, T, rules, profile):
+    """finish_groups of the candidate table's rows: chain j's usable columns c (use (m, k))
+    from the flat laws res[c].  Yields, per group of chains finished together, its rows'
+    (chain j, column c, predicted time, predicted ∫|a|²) and the _KeptPlans of each chain
+    of the group."""
+    gs = [curves.geom(st, profile) for st in sts]
+    nseg = np.array([g.d.size for g in gs], int)
+    has = use.any(axis=1)
+    grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
+    if grouped:
+        keys = np.unique(nseg[has])
+        groups = [np.flatnonzero(has & (nseg == q)) for q in keys.tolist()]
+    else:
+        groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
+    v0, v1 = base.v0, base.v1
+    for J in groups:
+        n = int(nseg[J[0]])
+        rj, rc = np.nonzero(use[J])                 # rows: chain by chain, columns ascending
+        j = J[rj]
+        R = j.size
+        vk = np.empty((R, n + 1))
+        tk = np.empty((R, n + 1))
+        vk[:, 0], vk[:, -1] = v0[j], v1[j]
+        tk[:, 0] = 0.0
+        tk[:, -1] = T[j, rc]
+        for c in np.unique(rc).tolist():
+            q = rc == c
+            ix = base.voff[j[q]][:, None] + np.arange(n - 1)
+            vk[q, 1:-1] = res[c].vert_v[ix]
+            tk[q, 1:-1] = res[c].vert_t[ix]
+        ks = np.bincount(rj, None, J.size)
+        if grouped:
+            done = _finish_stacked([sts[i] for i in J], [gs[i] for i in J], ks, vk, tk, rules, profile)
+        else:
+            done = [_finish_rows_arrays(sts[J[0]], vk, tk, rules, profile)]
+        t = np.concatenate([kept.t_pred for kept, _ in done])
+        a2 = np.concatenate([kept.a2_pred for kept, _ in done])
+        yield j, rc, t, a2, [kept for kept, _ in done]
+
+
+def _remember(sts, j, c, t, good, T, beta, plans):
+    """Each chain's memo (ChainMemo.put_rows) of its good rows: predicted time, law T, beta,
+    and its row in its _KeptPlans; rows of one chain are consecutive in j."""
+    cut = np.flatnonzero(np.diff(j)) + 1
+    starts = np.concatenate([[0], cut])
+    ends = np.concatenate([cut, [j.size]])
+    tab = np.stack([t, T[j, c], beta[j, c], np.zeros(j.size)], axis=1)
+    for kept, a, b in zip(plans, starts.tolist(), ends.tolist()):
+        tab[a:b, 3] = np.arange(b - a)
+        g = good[a:b]
+        if g.any():
+            sts[j[a]].chain_T.put_rows(tab[a:b][g], kept)
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

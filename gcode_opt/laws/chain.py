@@ -149,17 +149,13 @@ def solve_chains(problems, init_binding=None, init_vert_t=None):
     from; init_vert_t, vertex times of a nearby law (scaled by the caller to the problem's
     T, e.g. x T / T_nearby): the first
     guess of the pieces' durations.  Each active-set step starts from the previous law's
-    vertex times.
-
-    The active set is held as flat arrays over all chains' vertices and pieces (_Flat), so
-    an active-set step costs a few numpy calls for the whole batch, not a few per chain;
-    each chain's arithmetic is the same, element by element, as a chain solved alone."""
+    vertex times.  The work is solve_flat's; this makes one ChainLaw per chain of it."""
     m = len(problems)
     if m == 0:
         return []
     fl = _Flat(problems)
     bound = np.zeros(fl.sv.size, bool)
-    vt = np.zeros(fl.sv.size)            # vertex times of the warm start / the last law
+    vt = np.zeros(fl.sv.size)            # vertex times of the warm start
     warm = np.zeros(m, bool)
     for c, pr in enumerate(problems):
         a, b = fl.voff[c], fl.voff[c + 1]
@@ -170,61 +166,86 @@ def solve_chains(problems, init_binding=None, init_vert_t=None):
             bound[a + np.asarray(init_binding[c], int)] = True
         else:       # a cap below the mean speed is (nearly always) met: start with those
             bound[a:b] = pr.c_v < pr.S / pr.T
+    res = solve_flat(fl, bound, vt, warm)
+    return [res.law(c) for c in range(m)]
+
+
+def cold_binding(fl):
+    """The cold start's binding set: every vertex whose cap is below its chain's mean speed
+    S/T (such a cap is nearly always met)."""
+    return fl.cv < (fl.S / fl.T)[fl.ch]
+
+
+def solve_flat(fl, bound, vt, warm):
+    """The laws of all chains of fl (a _Flat) as flat arrays (FlatLaws), from the binding
+    masks bound (flat over the vertices; changed in place to the final ones), the warm
+    start's vertex times vt and warm (per chain: start from vt, else time shared as a
+    constant speed would share it).
+
+    The active set is held as flat arrays over all chains' vertices and pieces, and its
+    bookkeeping (which vertex joins or leaves, has this binding set been seen) is done for
+    all chains at once: an active-set step costs a few numpy calls for the whole batch,
+    not a few per chain; each chain's arithmetic is the same, element by element, as a
+    chain solved alone."""
+    m = fl.S.size
+    res = FlatLaws(fl)
     active = np.arange(m)
-    out = [None] * m
-    seen = [set() for _ in range(m)]
+    hist = []        # the binding masks of the steps so far: a chain is active from step 0 to its end
+    vt = vt.copy()
+    warm = warm.copy()
     for it in range(MAX_ACTIVE_ITERS):
         if active.size == 0:
             break
+        na = active.size
         st = fl.solve_fixed(active, bound, vt, warm)
         vi, rank = st.vi, st.rank
+        bv = bound[vi]
+        hist.append(bound.copy())
         # a vertex over its cap joins the binding set; else a binding vertex whose
         # multiplier is negative leaves it
-        viol = ~bound[vi] & (st.vert_v > fl.cv[vi] * (1 + CAP_TOL_R) + 1e-12)
-        any_viol = np.bincount(rank[viol], None, active.size) > 0
+        viol = ~bv & (st.vert_v > fl.cv[vi] * (1 + CAP_TOL_R) + 1e-12)
+        any_viol = np.bincount(rank[viol], None, na) > 0
         mu = st.multipliers()             # per binding vertex of the batch, in vertex order
         neg = mu < 0
-        bvi = vi[bound[vi]]               # the batch's binding vertices (flat indices)
-        brank = rank[bound[vi]]
-        any_neg = np.bincount(brank[neg], None, active.size) > 0
-        b_ends = np.cumsum(np.bincount(brank, None, active.size)).astype(int)
-        nxt = []
-        done = []
-        for r, c in enumerate(active.tolist()):
-            a, b = fl.voff[c], fl.voff[c + 1]
-            key = bound[a:b].tobytes()
-            seen[c].add(key)
-            if any_viol[r]:
-                new = bound[a:b] | viol[st.voff[r]:st.voff[r + 1]]
-            elif not any_neg[r]:
-                done.append((r, c, None))
-                continue
-            else:
-                lo, hi = (b_ends[r - 1] if r else 0), b_ends[r]     # its binding vertices in mu
-                new = bound[a:b].copy()
-                new[bvi[lo:hi][neg[lo:hi]] - a] = False
-                if new.tobytes() in seen[c]:          # cycling: release only the worst
-                    new = bound[a:b].copy()
-                    new[bvi[lo + int(np.argmin(mu[lo:hi]))] - a] = False
-            if new.tobytes() in seen[c]:
-                done.append((r, c, False))
-                continue
-            nxt.append((r, c, new))
-        for r, c, conv in done:
-            out[c] = st.law(r, c, bound)
-            if conv is False:
-                out[c].converged = False
-        for r, c, new in nxt:
-            a, b = fl.voff[c], fl.voff[c + 1]
-            if it == MAX_ACTIVE_ITERS - 1:        # out of steps: the last law, not converged
-                out[c] = st.law(r, c, bound)
-                out[c].converged = False
-                continue
-            bound[a:b] = new
-            vt[a:b] = st.vert_t[st.voff[r]:st.voff[r + 1]]
-            warm[c] = True
-        active = np.array([c for _, c, _ in nxt], int)
-    _law_figures(out)
+        brank = rank[bv]
+        any_neg = np.bincount(brank[neg], None, na) > 0
+        new = bv | viol
+        rel = ~any_viol & any_neg          # release the vertices of negative multiplier
+        bpos = np.flatnonzero(bv)          # the binding vertices' places in vi
+        off = neg & rel[brank]
+        new[bpos[off]] = False
+        again = rel & _seen(hist, vi, new, rank, na)
+        if again.any():                    # cycling: release only the worst
+            order = np.lexsort((mu, brank))          # per chain, the least mu first (argmin's tie rule)
+            first = order[np.r_[True, brank[order][1:] != brank[order][:-1]]]
+            worst = first[again[brank[first]]]
+            back = again[rank]
+            new[back] = bv[back]
+            new[bpos[worst]] = False
+        moving = any_viol | any_neg
+        cyc = moving & _seen(hist, vi, new, rank, na)
+        done = ~moving | cyc
+        if it == MAX_ACTIVE_ITERS - 1:        # out of steps: the last law, not converged
+            cyc = cyc | moving
+            done = np.ones(na, bool)
+        res.take(st, done, cyc)
+        go = ~done
+        gv = go[rank]
+        bound[vi[gv]] = new[gv]
+        vt[vi[gv]] = st.vert_t[gv]
+        warm[active[go]] = True
+        active = active[go]
+    res.close(bound)
+    return res
+
+
+def _seen(hist, vi, new, rank, na):
+    """Per chain of the step: is its binding mask `new` (over the step's vertices vi) one
+    of the masks of its steps so far (hist: the whole binding mask at each step; a chain
+    is active in every step from the first to its last)?"""
+    out = np.zeros(na, bool)
+    for h in hist:
+        out |= np.bincount(rank, h[vi] != new, na) == 0
     return out
 
 
@@ -234,19 +255,35 @@ class _Flat:
 
     def __init__(self, problems):
         self.problems = problems
-        nv = np.array([pr.s_v.size for pr in problems], int)
+        self._setup(np.concatenate([pr.s_v for pr in problems]), np.concatenate([pr.c_v for pr in problems]),
+                    np.array([pr.s_v.size for pr in problems], int),
+                    *(np.array([getattr(pr, f) for pr in problems]) for f in ("S", "T", "beta", "v0", "v1")))
+
+    @classmethod
+    def of_arrays(cls, sv, cv, nv, S, T, beta, v0, v1):
+        """The chains given as flat arrays (no ChainProblem objects: FlatLaws.law gives
+        laws whose problem is None)."""
+        self = object.__new__(cls)
+        self.problems = None
+        self._setup(np.asarray(sv, float), np.asarray(cv, float), np.asarray(nv, int),
+                    *(np.asarray(a, float) for a in (S, T, beta, v0, v1)))
+        return self
+
+    def with_T(self, T, beta):
+        """The same chains at durations T and weights beta."""
+        out = object.__new__(_Flat)
+        out.__dict__.update(self.__dict__)
+        out.T, out.beta = np.asarray(T, float), np.asarray(beta, float)
+        return out
+
+    def _setup(self, sv, cv, nv, S, T, beta, v0, v1):
         self.voff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
         self.nv = nv
-        self.sv = np.concatenate([pr.s_v for pr in problems])
-        self.cv = np.concatenate([pr.c_v for pr in problems])
-        self.S = np.array([pr.S for pr in problems])
-        self.T = np.array([pr.T for pr in problems])
-        self.beta = np.array([pr.beta for pr in problems])
-        self.v0 = np.array([pr.v0 for pr in problems])
-        self.v1 = np.array([pr.v1 for pr in problems])
+        self.sv, self.cv = sv, cv
+        self.S, self.T, self.beta, self.v0, self.v1 = S, T, beta, v0, v1
         # a vertex's piece is the count of binding vertices up to it (searchsorted on the
         # knots) when the vertices are strictly inside (0, S) and increasing
-        self.ch = ch = np.repeat(np.arange(len(problems)), nv)      # chain of each vertex
+        self.ch = ch = np.repeat(np.arange(S.size), nv)      # chain of each vertex
         inner = np.ones(self.sv.size, bool)
         inner[self.voff[1:-1]] = False             # first vertex of a chain: no predecessor
         with np.errstate(invalid="ignore"):
@@ -357,26 +394,90 @@ class _Step:
         mu = jump / scale[o[1:][same]]
         return np.where(mu < -MU_TOL_R, mu, 0.0)
 
-    def law(self, r, c, bound):
-        """Chain c's ChainLaw (r: its place in the step; bound: the binding mask solved for)."""
-        pr = self.fl.problems[c]
-        k0, k1 = self.koff[r], self.koff[r + 1]
-        p0, p1 = k0 - r, k1 - r - 1
-        v0, v1 = self.voff[r], self.voff[r + 1]
+class FlatLaws:
+    """solve_flat's laws, flat: per vertex (in fl's order) bound (the binding masks solved
+    for), vert_v, vert_t; per chain conv, lam and the figures iv, ia, peak_v, min_v,
+    peak_a; the pieces (L, T, beta, v0, v1, a0, a1) chain after chain (chain c's at
+    poff[c]:poff[c + 1]) and their knots (ks, kv, kt at koff[c]:koff[c + 1]).  Each chain's
+    numbers are those of the active-set step that ended it (take)."""
+
+    def __init__(self, fl):
+        self.fl = fl
+        m, nv = fl.S.size, fl.sv.size
+        self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
+        self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
+        self._parts = []
+
+    def take(self, st, done, cyc):
+        """Keep the laws of the step st's chains `done` (cyc: ended by cycling or out of
+        steps: not converged)."""
+        if not done.any():
+            return
+        dv = done[st.rank]
+        self.vert_v[st.vi[dv]] = st.vert_v[dv]
+        self.vert_t[st.vi[dv]] = st.vert_t[dv]
+        c = st.active[done]
+        self.conv[c] = st.conv[done] & ~cyc[done]
+        self.lam[c] = st.lam[done]
+        pd = done[st.owner]
+        nk = np.diff(st.koff)
+        kd = np.repeat(done, nk)
+        self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
+                            st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
+
+    def close(self, bound):
+        """Every chain taken: pieces and knots in chain order, the figures (_flat_figures)."""
+        cat = [np.concatenate(x) for x in zip(*self._parts)]
+        del self._parts
+        po, ko = np.argsort(cat[0], kind="stable"), np.argsort(cat[8], kind="stable")
+        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[1:8])
+        self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
+        m = self.fl.S.size
+        self.poff = np.concatenate([[0], np.cumsum(np.bincount(cat[0], None, m))]).astype(int)
+        self.koff = self.poff + np.arange(m + 1)          # a chain's knots: its pieces + 1
+        self.bound = bound
+        _flat_figures(self)
+
+    def law(self, c):
+        """Chain c's ChainLaw."""
+        fl = self.fl
+        k0, k1 = self.koff[c], self.koff[c + 1]
+        p0, p1 = self.poff[c], self.poff[c + 1]
+        v0, v1 = fl.voff[c], fl.voff[c + 1]
         lw = ChainLaw()
-        lw.problem = pr
-        lw.binding = np.flatnonzero(bound[self.fl.voff[c]:self.fl.voff[c + 1]])
-        lw.knot_s, lw.knot_v = self.ks[k0:k1], self.kv[k0:k1]
-        lw.knot_t = self.kt[k0:k1]
+        lw.problem = fl.problems[c] if fl.problems is not None else None
+        lw.binding = np.flatnonzero(self.bound[v0:v1])
+        lw.knot_s, lw.knot_v, lw.knot_t = self.ks[k0:k1], self.kv[k0:k1], self.kt[k0:k1]
         p = _Pieces()
         sl = slice(p0, p1)
-        p.L, p.T, p.beta, p.v0, p.v1 = self.L[sl], self.Tj[sl], self.beta[sl], self.va[sl], self.vb[sl]
+        p.L, p.T, p.beta, p.v0, p.v1 = self.L[sl], self.T[sl], self.beta[sl], self.v0[sl], self.v1[sl]
         p.a0, p.a1 = self.a0[sl], self.a1[sl]
         lw.pieces = p
-        lw.converged = bool(self.conv[r])
-        lw.lam = float(self.lam[r])
+        lw.converged = bool(self.conv[c])
+        lw.lam = float(self.lam[c])
         lw.vert_v, lw.vert_t = self.vert_v[v0:v1].copy(), self.vert_t[v0:v1].copy()
+        lw.iv, lw.ia = float(self.iv[c]), float(self.ia[c])
+        lw.peak_v, lw.min_v, lw.peak_a = float(self.peak_v[c]), float(self.min_v[c]), float(self.peak_a[c])
         return lw
+
+
+def _flat_figures(res):
+    """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
+    steps before them), all pieces in one batch; each chain's sums as np.sum of its own
+    pieces rounds them (row sums of the chains with the same number of pieces)."""
+    law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
+    iv, ia = law.integrals()
+    pv, mv = law.peak_speed(), law.min_speed()
+    first = res.poff[:-1]
+    res.peak_v, res.min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)
+    pa0, pa1 = np.maximum.reduceat(np.abs(res.a0), first), np.maximum.reduceat(np.abs(res.a1), first)
+    res.peak_a = np.where(pa1 > pa0, pa1, pa0)        # as max(pa0, pa1)
+    npc = np.diff(res.poff)
+    res.iv, res.ia = np.empty(npc.size), np.empty(npc.size)
+    for k in np.unique(npc).tolist():
+        c = np.flatnonzero(npc == k)
+        ix = first[c][:, None] + np.arange(k)
+        res.iv[c], res.ia[c] = np.sum(iv[ix], axis=1), np.sum(ia[ix], axis=1)
 
 
 class _Pieces:

@@ -74,13 +74,36 @@ def _horner(coef, z2):
 _NMS_COEF = np.stack([_N_COEF, _M_COEF, _S1_COEF], axis=1)        # (terms, 3)
 
 
+# Terms of _horner_nms a batch needs: with K terms kept, the last kept term is at most
+# 2^-60 of the first for every z2 <= _NMS_ZMAX[K] in all three series (the terms decrease
+# fast: ~z2 / (16 j^2)), plus one term more.  What the dropped terms add moves the last kept
+# partial sums, but reaches the result only as a change of 2^-60 of its ulp: a rounding
+# differs with a chance of that order per value, i.e. the values are the full series' in
+# practice (tests/test_speed_chain3_horner.py; the chains' laws, all at γ <= 0.1, need 7 of the 24 terms).
+_NMS_ZMAX = np.array([0.0] + [min((2.0 ** -60 * col[0] / col[k - 1]) ** (1.0 / (k - 1)) if k > 1 else 0.0
+                                  for col in _NMS_COEF.T) for k in range(1, _NTERMS + 1)])
+
+
+def _nms_terms(z2):
+    """How many terms of the (n, m, S1) series the batch z2 needs (_NMS_ZMAX)."""
+    if z2.size == 0:
+        return _NTERMS
+    zmax = float(np.max(z2))
+    if not zmax >= 0.0:                    # nan
+        return _NTERMS
+    k = int(np.searchsorted(_NMS_ZMAX, zmax, side="left"))   # least k with zmax <= _NMS_ZMAX[k]
+    return min(k + 1, _NTERMS)
+
+
 def _horner_nms(z2):
-    """(n, m, S1) series at z2 (= _horner of each coefficient set), one pass."""
+    """(n, m, S1) series at z2 (= _horner of each coefficient set), one pass; the terms
+    that cannot move the result are left out (_nms_terms)."""
     z2 = np.asarray(z2, dtype=float)
+    coef = _NMS_COEF[:_nms_terms(z2)]
     col = (3,) + (1,) * z2.ndim
     out = np.empty((3,) + z2.shape)
-    out[...] = _NMS_COEF[-1].reshape(col)
-    for c in _NMS_COEF[-2::-1]:
+    out[...] = coef[-1].reshape(col)
+    for c in coef[-2::-1]:
         np.multiply(out, z2, out=out)
         np.add(out, c.reshape(col), out=out)
     return out[0], out[1], out[2]

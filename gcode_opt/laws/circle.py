@@ -35,7 +35,7 @@ from ..blas import blas_one_thread
 _CHEB_CACHE: dict[int, dict] = {}
 _TAIL_TOL = 1e-11          # accepted |last Chebyshev coefficients| / scale of w
 _LAYER_TAIL_TOL = 1e-14    # accepted neglected layer interaction / scale of w
-_N_LADDER = (24, 32, 48, 64, 96, 128, 192, 256, 384, 512)
+_N_LADDER = (16, 20, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512)
 
 
 def _cheb_setup(n: int) -> dict:
@@ -107,6 +107,82 @@ def _clenshaw_rows(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     return out
 
 
+_GEMM_ROWS = 32            # series evaluated by BLAS calls of exactly this many rows
+_GEMM_OK: list = []        # [bool]: this BLAS gives a row the same bits wherever it sits in such a call
+
+
+def _gemm_rows_invariant():
+    """Whether a (_GEMM_ROWS, K) @ (K, M) product gives each row the same bits whatever its
+    position and the other rows (true of OpenBLAS, whose small-matrix kernels accumulate
+    each element in order; checked once, on this machine's BLAS)."""
+    if not _GEMM_OK:
+        rng = np.random.default_rng(0)
+        same = True
+        for k, m in ((1, 3), (5, 40), (21, 129), (33, 184), (65, 97)):
+            v = rng.normal(size=(k, m))
+            a = rng.normal(size=(1, _GEMM_ROWS, k))
+            ref = (a @ v)[0, 0]                     # the stacked form _series_values uses
+            for shift in range(1, 2 * _GEMM_ROWS):
+                b = rng.normal(size=(3, _GEMM_ROWS, k))
+                b.reshape(-1, k)[shift] = a[0, 0]
+                same &= bool(np.array_equal((b @ v).reshape(-1, m)[shift], ref))
+        _GEMM_OK.append(same)
+    return _GEMM_OK[0]
+
+
+def _rows_matmul(a, b):
+    """a (B, K) @ b (K, M) by BLAS calls of _GEMM_ROWS rows each (zero rows pad the last),
+    so each row's bits do not depend on the other rows: a law solved in a batch is the
+    one solved alone, bit for bit.  Plain a @ b where this BLAS does not allow it."""
+    if not _gemm_rows_invariant():
+        return a @ b
+    nb = a.shape[0]
+    nblk = -(-nb // _GEMM_ROWS)
+    if nblk * _GEMM_ROWS != nb:
+        pad = np.zeros((nblk * _GEMM_ROWS, a.shape[1]))
+        pad[:nb] = a
+        a = pad
+    return (a.reshape(nblk, _GEMM_ROWS, -1) @ b).reshape(nblk * _GEMM_ROWS, -1)[:nb]
+
+
+def _row_lengths(coef):
+    """Each row's own number of coefficients (trailing zeros dropped; at least 1)."""
+    nz = coef != 0
+    return np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
+
+
+def _series_values(coefs, x):
+    """[_clenshaw_rows(c, x) for c in coefs], Chebyshev series c (B, K_c) at x (B, M).
+    Rows of x that are one grid (the usual case: a batch's quadrature or uniform grid is
+    the same for every arc whose layers are wider than the arc) are evaluated as matrix
+    products with the Chebyshev values at that grid (BLAS, ~5x faster than the
+    recurrence; the same sums in another order, ~1e-16 relative).  Each row goes through
+    BLAS calls of a fixed shape (_GEMM_ROWS rows of its own number of coefficients), so
+    its bits do not depend on which rows share its chunk (chunked evaluation gives the
+    same figures); if this BLAS does not give a row the same bits at every position of
+    such a call, everything goes by Clenshaw."""
+    if not _gemm_rows_invariant() or x.shape[0] == 0:
+        return [_clenshaw_rows(c, x) for c in coefs]
+    if (x == x[:1]).all():
+        groups = [np.arange(x.shape[0])]
+    else:
+        by_grid: dict[bytes, list] = {}
+        for i in range(x.shape[0]):
+            by_grid.setdefault(x[i].tobytes(), []).append(i)
+        groups = [np.array(r) for r in by_grid.values()]
+    out = [np.empty(x.shape) for _ in coefs]
+    kmax = max(c.shape[1] for c in coefs)
+    for r in groups:
+        vand_t = np.ascontiguousarray(np.polynomial.chebyshev.chebvander(x[r[0]], kmax - 1).T)   # (K, M)
+        for o, c in zip(out, coefs):
+            cr = c[r]
+            length = _row_lengths(cr)
+            for k in np.unique(length):
+                rk = np.flatnonzero(length == k)
+                o[r[rk]] = _rows_matmul(cr[rk, :k], vand_t[:k])
+    return out
+
+
 def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
     """Collocation Newton for w'' = γ²w + 2w³ + C on N+1 nodes; returns (w nodes, C, ok)."""
     cs = _cheb_setup(n)
@@ -161,6 +237,91 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
     return w, cc, ok
 
 
+def _eig_setup(n):
+    """Eigenvectors of the interior second-derivative block (real, negative, distinct
+    eigenvalues; the eigenvector matrix is well conditioned, cond ~2 up to N = 128), or
+    None if this LAPACK says otherwise (then _precond_cheb is not used)."""
+    cs = _cheb_setup(n)
+    if "eig" not in cs:
+        lam, v = np.linalg.eig(cs["d2"][1:-1, 1:-1])
+        eg = None
+        if np.isfinite(lam).all() and not np.iscomplexobj(lam) and (lam < 0).all() and np.linalg.cond(v) < 1e3:
+            vinv = np.linalg.inv(v)
+            eg = dict(lam=lam, v_t=np.ascontiguousarray(v.T), vinv_t=np.ascontiguousarray(vinv.T),
+                      qv=cs["q"][1:-1] @ v, e=vinv.sum(axis=1))
+        cs["eig"] = eg
+    return cs["eig"]
+
+
+_PRECOND_TOL = 1e-16       # last step / scale of w at which the preconditioned iteration stops,
+_PRECOND_FLOOR = 1e-13     # or at which it stops once steps no longer shrink (rounding floor;
+                           # Newton's own acceptance)
+_PRECOND_ITER = 40
+_PRECOND_SLOW_R = 0.7      # a step ratio above this after a few steps: left to Newton
+
+
+def _precond_cheb(n, phi, gam2, u0, u1, w_start):
+    """The collocation equations of _newton_cheb solved by a preconditioned fixed-point
+    iteration: each step is the Newton step with the Jacobian's diagonal γ² + 6w² replaced
+    by its mid-range value ḡ, whose inverse is diagonal in the eigenbasis of the second-
+    derivative block (two small matrix products per step instead of an LU of (N, N) per
+    arc).  The contraction factor is ≤ (half the range of 6w²) / (π² + ḡ) < 1; on the
+    gentle laws of curves and arcs it is ~0.1, so ~15 cheap steps replace ~4 LU solves.
+    The fixed point is the same collocation solution (the residual is computed exactly).
+    Returns (w nodes, C, ok); arcs not converged (a slow contraction: steep layers) have
+    ok False and are left to _newton_cheb."""
+    cs = _cheb_setup(n)
+    eg = _eig_setup(n)
+    nb = phi.size
+    w = w_start.copy()
+    w[:, 0], w[:, -1] = u0, u1
+    cc = np.zeros(nb)
+    ok = np.zeros(nb, dtype=bool)
+    if eg is None or nb == 0:
+        return w, cc, ok
+    # row-wise products only (_rows_matmul, sums along rows): an arc's iteration is its own,
+    # bit for bit, whatever the batch
+    d2_t = np.ascontiguousarray(cs["d2"][1:-1].T)
+    q, lam_e, qv, e = cs["q"], eg["lam"], eg["qv"], eg["e"]
+    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
+    act = np.arange(nb)
+    last = np.full(nb, np.inf)
+    for it in range(_PRECOND_ITER):
+        wa, ca = w[act], cc[act]
+        wi = wa[:, 1:-1]
+        g2 = gam2[act]
+        w2 = wi * wi
+        r1 = _rows_matmul(wa, d2_t) - g2[:, None] * wi - 2.0 * wi * w2 - ca[:, None]
+        r2 = (wa * q).sum(axis=1) - phi[act]
+        den = lam_e[None, :] - (g2 + 3.0 * (w2.max(axis=1) + w2.min(axis=1)))[:, None]
+        b = -_rows_matmul(r1, eg["vinv_t"])
+        dc = (-r2 - ((b / den) * qv).sum(axis=1)) / ((qv * e) / den).sum(axis=1)
+        dw = _rows_matmul((b + dc[:, None] * e) / den, eg["v_t"])
+        w[act, 1:-1] = wi + dw
+        cc[act] = ca + dc
+        step = np.abs(dw).max(axis=1)
+        # done: at the rounding floor of the residual (steps no longer shrink), or below it
+        slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
+        done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
+        ok[act[done]] = True
+        keep = ~done & np.isfinite(step) & ~slow
+        last[act] = step
+        act = act[keep]
+        if act.size == 0:
+            break
+    return w, cc, ok
+
+
+def _solve_nodes(n, phi, gam2, u0, u1, w_start):
+    """Collocation solution on N+1 nodes: the preconditioned iteration, then Newton (from
+    the same start) for the arcs it leaves."""
+    w, cc, ok = _precond_cheb(n, phi, gam2, u0, u1, w_start)
+    rest = np.flatnonzero(~ok)
+    if rest.size:
+        w[rest], cc[rest], ok[rest] = _newton_chunked(n, phi[rest], gam2[rest], u0[rest], u1[rest], w_start[rest])
+    return w, cc, ok
+
+
 EVAL_CHUNK = 512           # arcs per evaluation on a grid (CircleBatch.row_chunks)
 _NEWTON_BYTES = 20e6       # Jacobians (arcs, N, N) held at once by one Newton batch
 
@@ -184,16 +345,20 @@ def _newton_chunked(n, phi, gam2, u0, u1, w_start):
 
 
 def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
-    """Chebyshev regime; per-arc N from the layer rate, escalated until the tail is small."""
+    """Chebyshev regime; per-arc N from the layer rate, escalated until the tail is small.
+    Returns (arcs, coefficients) blocks, one per N that accepted arcs, and C per arc."""
     nb = phi.size
-    coef = [None] * nb
+    blocks = []
     cvals = np.zeros(nb)
-    # N ≈ √(28 λ) resolves e^{-λτ} to ~1e-12 (Bessel-coefficient decay); start there
-    need = 12.0 + 1.6 * np.sqrt(28.0 * np.maximum(lam_est, 1.0))
+    # N ≈ √(28 λ) resolves e^{-λτ} to ~1e-12 (Bessel-coefficient decay); start there.  The
+    # margin (5) gives tails ~1e-15 at the gyroid's λ ≈ 3 (N = 20, not 32: the same laws to
+    # ~1e-14, the Newton's own rounding, at 1/3 of the cost); the tail test below escalates
+    need = 5.0 + 1.6 * np.sqrt(28.0 * np.maximum(lam_est, 1.0))
     start = np.searchsorted(_N_LADDER, need).clip(0, len(_N_LADDER) - 1)
     pending = np.arange(nb)
     level = start.copy()
     w_guess: dict[int, np.ndarray] = {}
+    top = len(_N_LADDER) - 1
     while pending.size:
         next_pending = []
         for lv in np.unique(level[pending]):
@@ -201,33 +366,35 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
             n = _N_LADDER[lv]
             cs = _cheb_setup(n)
             w0 = np.empty((ia.size, n + 1))
-            for k, i in enumerate(ia):       # warm start: previous level, else constant cruise
-                if i in w_guess:
-                    w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
-                else:
-                    w0[k] = phi[i]
+            w0[:] = phi[ia, None]                # warm start: previous level, else constant cruise
+            if w_guess:
+                for k, i in enumerate(ia.tolist()):
+                    if i in w_guess:
+                        w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
             with blas_one_thread():
-                w, cc, ok = _newton_chunked(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
-                c = w @ cs["to_coef"].T
+                w, cc, ok = _solve_nodes(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
+                c = _rows_matmul(w, cs["to_coef"].T)
             scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
             tail = np.abs(c[:, -3:]).max(axis=1) / scale
             good = ok & (tail <= _TAIL_TOL)
-            for k, i in enumerate(ia):
-                if good[k] or lv == len(_N_LADDER) - 1:
-                    if not good[k]:
-                        raise RuntimeError(
-                            f"circle law did not converge (Φ={phi[i]}, γ²={gam2[i]}, u0={u0[i]},"
-                            f" u1={u1[i]}, tail={tail[k]:.1e}, newton_ok={ok[k]})")
-                    coef[i] = c[k]
-                    cvals[i] = cc[k]
+            if lv == top and not good.all():
+                k = int(np.argmin(good))
+                i = ia[k]
+                raise RuntimeError(
+                    f"circle law did not converge (Φ={phi[i]}, γ²={gam2[i]}, u0={u0[i]},"
+                    f" u1={u1[i]}, tail={tail[k]:.1e}, newton_ok={ok[k]})")
+            blocks.append((ia[good], c[good]))
+            cvals[ia[good]] = cc[good]
+            for k in np.flatnonzero(~good).tolist():
+                i = int(ia[k])
+                if ok[k]:
+                    w_guess[i] = c[k]
                 else:
-                    w_guess[i] = c[k] if ok[k] else None
-                    if w_guess[i] is None:
-                        del w_guess[i]
-                    level[i] = lv + 1
-                    next_pending.append(i)
-        pending = np.array(next_pending, dtype=int)
-    return coef, cvals
+                    w_guess.pop(i, None)
+            level[ia[~good]] = lv + 1
+            next_pending.append(ia[~good])
+        pending = np.concatenate(next_pending)
+    return blocks, cvals
 
 
 # ---------------------------------------------------------------------------------------------
@@ -427,9 +594,7 @@ class CircleBatch:
         wcoef = coef
         dcoef = C.chebder(coef, axis=1, scl=2.0)
         pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
-        w = _clenshaw_rows(wcoef, x)
-        w1 = _clenshaw_rows(dcoef, x)
-        phi = _clenshaw_rows(pcoef, x)
+        w, w1, phi = _series_values((wcoef, dcoef, pcoef), x)
         w2 = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
         return phi, w, w1, w2
 
@@ -617,10 +782,10 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
         q0 = np.sqrt(np.abs((u0 - wc) ** 2 + 4 * wc * (u0 - wc)) + lam ** 2)
         q1 = np.sqrt(np.abs((u1 - wc) ** 2 + 4 * wc * (u1 - wc)) + lam ** 2)
         lam_est = np.maximum.reduce([lam, q0, q1])[rest]
-        cf, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est)
-        coef = np.zeros((nb, max(c.size for c in cf)))   # zero-padded to the largest N
-        for k, i in enumerate(rest):
-            coef[i, : cf[k].size] = cf[k]
+        blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est)
+        coef = np.zeros((nb, max(c.shape[1] for _, c in blocks)))   # zero-padded to the largest N
+        for ia, c in blocks:
+            coef[rest[ia], : c.shape[1]] = c
         cc[rest] = cv
     return CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
 

@@ -159,14 +159,16 @@ class ChainMemo:
         self.figs[0:0] = array("d", (time_t, T, beta, r))
         self.kept.insert(0, kept)
 
-    def put_rows(self, rows, kept):
-        """put(*row, kept) for every row of rows (q, 4), in order (the last one newest)."""
-        if self.figs is None:
-            self.figs, self.kept = array("d"), []
+    def put_rows(self, buf, k, kept):
+        """put(*row, kept) for k rows given as the bytes buf of a (k, 4) array of doubles,
+        newest first (the order puts leave them in)."""
         new = array("d")
-        new.frombytes(np.ascontiguousarray(rows[::-1], float).tobytes())
-        self.figs[0:0] = new
-        self.kept[0:0] = [kept] * rows.shape[0]
+        new.frombytes(buf)
+        if self.figs is None:
+            self.figs, self.kept = new, [kept] * k
+        else:
+            self.figs[0:0] = new
+            self.kept[0:0] = [kept] * k
 
     def _find(self, x, col):
         """Index of the newest row whose column col equals x, from each match of x in figs."""
@@ -758,15 +760,21 @@ def _finish_table(sts, base, res, use, T, rules, profile):
 def _remember(sts, j, c, t, good, T, beta, plans):
     """Each chain's memo (ChainMemo.put_rows) of its good rows: predicted time, law T, beta,
     and its row in its _KeptPlans; rows of one chain are consecutive in j."""
-    cut = np.flatnonzero(np.diff(j)) + 1
-    starts = np.concatenate([[0], cut])
-    ends = np.concatenate([cut, [j.size]])
-    tab = np.stack([t, T[j, c], beta[j, c], np.zeros(j.size)], axis=1)
-    for kept, a, b in zip(plans, starts.tolist(), ends.tolist()):
-        tab[a:b, 3] = np.arange(b - a)
-        g = good[a:b]
-        if g.any():
-            sts[j[a]].chain_T.put_rows(tab[a:b][g], kept)
+    R = j.size
+    first = np.r_[True, j[1:] != j[:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(R), 0))      # each row's chain's first row
+    tab = np.stack([t, T[j, c], beta[j, c], (np.arange(R) - start).astype(float)], axis=1)
+    # the good rows, each chain's newest (last) first: one buffer, a slice per chain
+    q = np.flatnonzero(good)
+    q = q[np.lexsort((-q, j[q]))]
+    buf = np.ascontiguousarray(tab[q]).tobytes()
+    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
+    lo = 0
+    for kept, jj in zip(plans, j[first].tolist()):
+        k = int(cnt[jj])
+        if k:
+            sts[jj].chain_T.put_rows(buf[32 * lo:32 * (lo + k)], k, kept)
+            lo += k
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

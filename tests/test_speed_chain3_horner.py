@@ -47,3 +47,32 @@ def test_chain_piece_integrals_same_bits(monkeypatch):
     want = LineLaw(*args).integrals()
     for a, b in zip(got, want):
         assert a.tobytes() == b.tobytes()
+
+
+def test_s1_fewer_terms_same_bits():
+    rng = np.random.default_rng(11)
+    for zmax in (0.05, 0.5, 2.0):
+        z = np.concatenate([[zmax, -zmax, 0.0], zmax * rng.uniform(-1, 1, 200_000)])
+        want = np.full(z.shape, _NMS_COEF[-1, 2])
+        for c in _NMS_COEF[-2::-1, 2]:
+            want = want * (z * z) + c
+        got = line._s1(z)
+        assert line._nms_terms(z * z, line._S1_ZMAX) < _NTERMS
+        assert got.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("gamma", [0.0, 0.01, 0.1, 3.99, 4.0, 50.0, "mixed"])
+def test_end_accels_are_evals_bits(gamma):
+    """LineLaw.end_accels (closed-form g'(0), h'(0)) gives eval(0 / T, "a")'s bits, in
+    either γ branch and in a batch of both."""
+    rng = np.random.default_rng(3)
+    n = 5000
+    T = rng.uniform(0.003, 0.2, n)
+    if gamma == "mixed":
+        beta = (T / rng.uniform(0.0, 12.0, n)) ** 2
+    else:
+        beta = np.full(n, np.inf) if gamma == 0.0 else (T / gamma) ** 2
+    law = LineLaw(rng.uniform(0.05, 5.0, n), T, beta, rng.uniform(0, 90, n), rng.uniform(0, 90, n))
+    a0, a1 = law.end_accels()
+    assert a0.tobytes() == law.eval(np.zeros(n), "a")[2].tobytes()
+    assert a1.tobytes() == law.eval(T, "a")[2].tobytes()

@@ -334,8 +334,7 @@ class _Flat:
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = LineLaw(L, Tj, beta, va, vb)
-        a0 = law.eval(np.zeros_like(Tj), "a")[2]       # s̈ at both ends of every piece
-        a1 = law.eval(Tj, "a")[2]
+        a0, a1 = law.end_accels()                      # s̈ at both ends of every piece
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
         local = np.arange(Tj.size) - poff[owner]

@@ -80,18 +80,24 @@ _NMS_COEF = np.stack([_N_COEF, _M_COEF, _S1_COEF], axis=1)        # (terms, 3)
 # partial sums, but reaches the result only as a change of 2^-60 of its ulp: a rounding
 # differs with a chance of that order per value, i.e. the values are the full series' in
 # practice (tests/test_speed_chain3_horner.py; the chains' laws, all at γ <= 0.1, need 7 of the 24 terms).
-_NMS_ZMAX = np.array([0.0] + [min((2.0 ** -60 * col[0] / col[k - 1]) ** (1.0 / (k - 1)) if k > 1 else 0.0
-                                  for col in _NMS_COEF.T) for k in range(1, _NTERMS + 1)])
+def _zmax_table(coef):
+    """_NMS_ZMAX for the coefficient columns coef (terms, k)."""
+    return np.array([0.0] + [min((2.0 ** -60 * col[0] / col[k - 1]) ** (1.0 / (k - 1)) if k > 1 else 0.0
+                                 for col in coef.T) for k in range(1, _NTERMS + 1)])
 
 
-def _nms_terms(z2):
-    """How many terms of the (n, m, S1) series the batch z2 needs (_NMS_ZMAX)."""
+_NMS_ZMAX = _zmax_table(_NMS_COEF)
+_S1_ZMAX = _zmax_table(_S1_COEF[:, None])
+
+
+def _nms_terms(z2, table=_NMS_ZMAX):
+    """How many terms of the (n, m, S1) series (or those of `table`) the batch z2 needs."""
     if z2.size == 0:
         return _NTERMS
     zmax = float(np.max(z2))
     if not zmax >= 0.0:                    # nan
         return _NTERMS
-    k = int(np.searchsorted(_NMS_ZMAX, zmax, side="left"))   # least k with zmax <= _NMS_ZMAX[k]
+    k = int(np.searchsorted(table, zmax, side="left"))   # least k with zmax <= table[k]
     return min(k + 1, _NTERMS)
 
 
@@ -120,8 +126,10 @@ def _shc(z):
 
 
 def _s1(z):
-    """(sinh z − z)/z³ for |z| ≤ GAMMA_SWITCH, by its positive series."""
-    return _horner(_S1_COEF, np.asarray(z, dtype=float) ** 2)
+    """(sinh z − z)/z³ for |z| ≤ GAMMA_SWITCH, by its positive series (the terms its batch
+    needs, as _horner_nms)."""
+    z2 = np.asarray(z, dtype=float) ** 2
+    return _horner(_S1_COEF[:_nms_terms(z2, _S1_ZMAX)], z2)
 
 
 # --------------------------------------------------------------------------------------------
@@ -242,7 +250,7 @@ def _shapes(c, tau, want=ALL_SHAPES):
     tau = np.asarray(tau, dtype=float)
     small = c["small"]
     shape = np.broadcast_shapes(tau.shape, small.shape)
-    bc = lambda a: None if a is None else np.broadcast_to(a, shape)    # noqa: E731
+    bc = lambda a: a if a is None or a.shape == shape else np.broadcast_to(a, shape)    # noqa: E731
     if small.all():
         return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want))
     if not small.any():
@@ -383,6 +391,27 @@ class LineLaw:
     def min_speed(self):
         """min ṡ over [0, T] [mm/s]; < 0 means the law reverses (invalid print move)."""
         return np.minimum.reduce(self._speed_candidates())
+
+    def end_accels(self):
+        """(s̈(0), s̈(T)) [mm/s²] from the γ-coefficients alone (what eval(0 / T, "a")
+        computes, to rounding): g'(0) = -g'(1) and h'(0) = h'(1) in closed form,
+        small branch g'(0) = shc(γ/2) / (2n), h' = 2 cosh(γ/2) / shc(γ/2); large branch
+        g'(0) = -γ (e^-γ - 1) / Dn, h' = γ (e^-γ + 1) / (1 - e^-γ)."""
+        c = self._c
+        small = c["small"]
+        gp0 = hp = None
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            if small.any():
+                gp0 = 0.5 * c["sh2"] / c["n"]
+                hp = 2.0 * np.cosh(0.5 * c["gs"]) / c["sh2"]
+            if not small.all():
+                gl, em = c["gl"], c["em"]
+                gp0_l, hp_l = -gl * em / c["Dn"], gl * (em + 2.0) / (-em)
+                gp0 = gp0_l if gp0 is None else np.where(small, gp0, gp0_l)
+                hp = hp_l if hp is None else np.where(small, hp, hp_l)
+        T2 = self.T * self.T
+        A, d = self._A, self._delta
+        return (A * gp0 - d * hp) / T2, (-A * gp0 - d * hp) / T2
 
     def peak_accel(self):
         """max |s̈| over [0, T] [mm/s²], attained at an endpoint.

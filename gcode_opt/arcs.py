@@ -344,7 +344,9 @@ def arc_trapezoid(st, T, v_peak, rules, profile):
                         CHORD_MARGIN * accel_to_pass_junction(rules.junction, v1, u_end, st.next_u, c, jd)),
                     a_top)
     window_d = max(profile.block_buffer - 3, 1) * c if profile.block_buffer > 0 else math.inf
-    v_lo, v_hi = 0.0, v_peak
+    # the law starts and ends at v0 and v1, so its peak is at least both: a peak at an end,
+    # rounded one ulp below it, must not leave no trapezoid (the choice hung on rounding)
+    v_lo, v_hi = 0.0, max(v_peak, v0, v1)
     if rules.junction == "jerk":       # F within the jerk of the slicer's F (finish_arc's step)
         step_v = 0.5 * min(st.lim.jerk_x, st.lim.jerk_y)
         v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)

@@ -492,32 +492,44 @@ def true_figures(law, R, geos):
     return tuple(out)
 
 
+_UNIFORM_TAU = np.linspace(0.0, 1.0, 129)
+
+
 def _true_figures_rows(law, R, geos, tau, wq):
-    phi, w, w1, _ = law.eval_tau(tau)
+    m = tau.shape[1]
+    # the quadrature grid and a uniform one for the peaks (the quadrature grid is graded
+    # towards the ends), evaluated in one piece
+    tu = np.broadcast_to(_UNIFORM_TAU[None, :], (len(geos), _UNIFORM_TAU.size))
+    phi, w, w1, _ = law.eval_tau(np.concatenate([tau, tu], axis=1))
     T = law.T_t[:, None]
     s = R[:, None] * phi
     v = R[:, None] * w / T
     at = R[:, None] * w1 / T ** 2
-    # peaks on a uniform grid too (the quadrature grid is graded towards the ends)
-    tu = np.broadcast_to(np.linspace(0.0, 1.0, 129)[None, :], (len(geos), 129))
-    phu, wu, w1u, _ = law.eval_tau(tu)
-    su, vu, au = R[:, None] * phu, R[:, None] * wu / T, R[:, None] * w1u / T ** 2
-    # κ(s) on both grids: one interpolation per law (np.interp's compiled core: the same bits
-    # as g.kappa, a third of the calls' overhead)
-    both = np.concatenate([s, su], axis=1)
-    kk = np.empty_like(both)
-    for k, g in enumerate(geos):
-        kk[k] = _interp(both[k], g.s_v, g.kappa_v, None, None)
-    kap, ku = kk[:, :s.shape[1]], kk[:, s.shape[1]:]
-    a2 = at * at + kap * kap * v ** 4
-    iv = law.T_t * np.sum(wq * v * v, axis=1)
-    ia = law.T_t * np.sum(wq * a2, axis=1)
+    kap = _kappa_rows(geos, s)
+    v2 = v * v
+    kv2 = kap * v2
+    a2 = at * at + kv2 * kv2
+    iv = law.T_t * np.sum(wq * v2[:, :m], axis=1)
+    ia = law.T_t * np.sum(wq * a2[:, :m], axis=1)
     ia = ia + np.array([g.end_terms(a, b) for g, a, b in zip(geos, R * law.w0, R * law.w1)])
-    a2u = au * au + ku * ku * vu ** 4
-    peak_v = np.maximum(np.max(v, axis=1), np.max(vu, axis=1))
-    min_v = np.minimum(np.min(v, axis=1), np.min(vu, axis=1))
-    peak_a = np.sqrt(np.maximum(np.max(a2, axis=1), np.max(a2u, axis=1)))
-    return iv, ia, peak_v, peak_a, min_v
+    return iv, ia, np.max(v, axis=1), np.sqrt(np.max(a2, axis=1)), np.min(v, axis=1)
+
+
+def _kappa_rows(geos, s):
+    """g.kappa(s[k]) for every row k (geos[k] = g): one interpolation (np.interp's compiled
+    core, the same bits) per run of rows of one geometry (a stroke's candidate durations
+    are adjacent rows)."""
+    out = np.empty_like(s)
+    n = len(geos)
+    a = 0
+    while a < n:
+        g = geos[a]
+        b = a + 1
+        while b < n and geos[b] is g:
+            b += 1
+        out[a:b] = _interp(s[a:b].ravel(), g.s_v, g.kappa_v, None, None).reshape(b - a, -1)
+        a = b
+    return out
 
 
 def candidates_curve(pin, rows, strokes, profile):

@@ -312,10 +312,18 @@ def _precond_cheb(n, phi, gam2, u0, u1, w_start):
     return w, cc, ok
 
 
+_PRECOND_CHUNK = 4096      # arcs per preconditioned iteration (bounded memory; the same bits)
+
+
 def _solve_nodes(n, phi, gam2, u0, u1, w_start):
-    """Collocation solution on N+1 nodes: the preconditioned iteration, then Newton (from
-    the same start) for the arcs it leaves."""
-    w, cc, ok = _precond_cheb(n, phi, gam2, u0, u1, w_start)
+    """Collocation solution on N+1 nodes: the preconditioned iteration (by chunks of arcs),
+    then Newton (from the same start) for the arcs it leaves."""
+    w = np.empty_like(w_start)
+    cc = np.empty(phi.size)
+    ok = np.empty(phi.size, dtype=bool)
+    for a in range(0, phi.size, _PRECOND_CHUNK):
+        r = slice(a, a + _PRECOND_CHUNK)
+        w[r], cc[r], ok[r] = _precond_cheb(n, phi[r], gam2[r], u0[r], u1[r], w_start[r])
     rest = np.flatnonzero(~ok)
     if rest.size:
         w[rest], cc[rest], ok[rest] = _newton_chunked(n, phi[rest], gam2[rest], u0[rest], u1[rest], w_start[rest])
@@ -463,18 +471,21 @@ def _solve_layers_batch(phi, gam2, u0, u1):
         span = np.where(bad_lo | bad_hi, 2.0 * span, span)
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
+    act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
     for _ in range(100):
-        g = _layers_total(wc, phi, gam2, u0, u1)
-        lo = np.where(g < 0, wc, lo)
-        hi = np.where(g > 0, wc, hi)
-        h = 1e-7 * (np.abs(wc) + 1e-3 * span)
-        dg = (_layers_total(wc + h, phi, gam2, u0, u1) - g) / h
-        new = wc - g / np.where(dg > 0, dg, np.inf)
-        outside = ~((new > lo) & (new < hi)) | ~np.isfinite(new)
-        new = np.where(outside, 0.5 * (lo + hi), new)
-        done = np.abs(new - wc) <= 1e-15 * span
-        wc = new
-        if done.all():
+        x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
+        g = _layers_total(x, p_, g2, a0, a1)
+        lo[act] = lo_a = np.where(g < 0, x, lo[act])
+        hi[act] = hi_a = np.where(g > 0, x, hi[act])
+        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+        dg = (_layers_total(x + h, p_, g2, a0, a1) - g) / h
+        new = x - g / np.where(dg > 0, dg, np.inf)
+        outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
+        new = np.where(outside, 0.5 * (lo_a + hi_a), new)
+        done = np.abs(new - x) <= 1e-15 * sp
+        wc[act] = new
+        act = act[~done]
+        if act.size == 0:
             break
     return wc
 

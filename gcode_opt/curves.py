@@ -432,9 +432,9 @@ def _parts_block(pts):
     ell = 0.5 * (d[:, :-1] + d[:, 1:])
     z2 = ((s_v[:, :, None] - s_i[:, None, :]) / smooth_d[:, None, None]) ** 2
     kern = np.exp(-0.5 * (z2 - z2.min(axis=2, keepdims=True)))
-    kappa_v = np.empty(s_v.shape)
-    for b in range(m):                 # one matrix-vector product per stroke, as there
-        kappa_v[b] = (kern[b] @ turn[b]) / (kern[b] @ ell[b])
+    # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
+    # per-stroke path's kern @ turn (same shapes and strides), so the same bits
+    kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]
     good &= np.isfinite(kappa_v).all(axis=1)
     # np.interp(s_v, s_d, kappa_v) at its own nodes is kappa_v itself
     S = s_v[:, -1]

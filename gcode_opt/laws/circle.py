@@ -15,8 +15,11 @@ which is what we solve.  Two regimes, both vectorised over a batch of arcs:
 * "layers": when the boundary layers (rate λ = √(γ² + 6 w_c²), w_c the cruise value) cannot
   see each other (tail e^{-λ} below 1e-14), each end is the exact half-line solution of
   w'' = F'(w), which is elementary (a sinh in 1/(w - w_c)); only the scalar w_c is solved for.
-* "cheb": otherwise Chebyshev collocation of w with Newton, N chosen from λ and checked
-  a posteriori on the decay of the Chebyshev coefficients (N doubled if needed).
+* "cheb": otherwise Chebyshev collocation of w, N chosen from λ and checked a posteriori
+  on the decay of the Chebyshev coefficients (N raised if needed).  The collocation
+  equations are solved by a preconditioned fixed-point iteration (the Newton step with the
+  Jacobian's diagonal at its mid-range value, diagonal in the eigenbasis of the second-
+  derivative block: small matrix products, no LU), Newton where that contracts slowly.
 
 The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the solution is unique.
 """

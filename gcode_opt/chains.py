@@ -107,6 +107,7 @@ def _problems(strokes, T, beta, profile):
     return out
 
 
+FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, see _finish_table)
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 
 
@@ -689,9 +690,9 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
             if c in prev:
                 src = res[prev[c]]
                 vt = src.vert_t * (T[sl, c] / T[sl, prev[c]])[fl.ch]
-                res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool))
+                res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool), pieces=False)
             else:
-                res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool))
+                res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
@@ -726,9 +727,13 @@ def _finish_table(sts, base, res, use, T, rules, profile):
     nseg = np.array([g.d.size for g in gs], int)
     has = use.any(axis=1)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
-    if grouped:
-        keys = np.unique(nseg[has])
-        groups = [np.flatnonzero(has & (nseg == q)) for q in keys.tolist()]
+    if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
+        groups = []
+        rows = use.sum(axis=1)
+        for q in np.unique(nseg[has]).tolist():
+            J = np.flatnonzero(has & (nseg == q))
+            cut = np.cumsum(rows[J]) // FINISH_ROWS          # nondecreasing
+            groups += np.split(J, np.flatnonzero(np.diff(cut)) + 1)
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
     v0, v1 = base.v0, base.v1
@@ -742,8 +747,10 @@ def _finish_table(sts, base, res, use, T, rules, profile):
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = T[j, rc]
-        for c in np.unique(rc).tolist():
+        for c in range(use.shape[1]):
             q = rc == c
+            if not q.any():
+                continue
             ix = base.voff[j[q]][:, None] + np.arange(n - 1)
             vk[q, 1:-1] = res[c].vert_v[ix]
             tk[q, 1:-1] = res[c].vert_t[ix]

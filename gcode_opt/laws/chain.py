@@ -34,7 +34,8 @@ CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
 MAX_ACTIVE_ITERS = 40
 MAX_NEWTON = 60
-FD_H_R = 1e-4             # relative step of the central differences on T
+FD_H_R = 1e-4             # relative step of the forward difference of J' on T (first Newton step)
+SECANT_MIN_R = 1e-7       # a piece whose T moved less than this (relative) keeps its last J''
 NEWTON_TOL_R = 1e-8       # |J_j' + λ| per piece, relative to the chain's slope scale
 
 
@@ -176,7 +177,7 @@ def cold_binding(fl):
     return fl.cv < (fl.S / fl.T)[fl.ch]
 
 
-def solve_flat(fl, bound, vt, warm):
+def solve_flat(fl, bound, vt, warm, pieces=True):
     """The laws of all chains of fl (a _Flat) as flat arrays (FlatLaws), from the binding
     masks bound (flat over the vertices; changed in place to the final ones), the warm
     start's vertex times vt and warm (per chain: start from vt, else time shared as a
@@ -186,7 +187,9 @@ def solve_flat(fl, bound, vt, warm):
     bookkeeping (which vertex joins or leaves, has this binding set been seen) is done for
     all chains at once: an active-set step costs a few numpy calls for the whole batch,
     not a few per chain; each chain's arithmetic is the same, element by element, as a
-    chain solved alone."""
+    chain solved alone.  pieces False: the laws' pieces and knots are dropped once their
+    figures are made (FlatLaws.law is then not available; a plate's candidate table
+    needs only the vertices and figures)."""
     m = fl.S.size
     res = FlatLaws(fl)
     active = np.arange(m)
@@ -235,7 +238,7 @@ def solve_flat(fl, bound, vt, warm):
         vt[vi[gv]] = st.vert_t[gv]
         warm[active[go]] = True
         active = active[go]
-    res.close(bound)
+    res.close(bound, pieces)
     return res
 
 
@@ -424,8 +427,9 @@ class FlatLaws:
         self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
                             st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
 
-    def close(self, bound):
-        """Every chain taken: pieces and knots in chain order, the figures (_flat_figures)."""
+    def close(self, bound, pieces=True):
+        """Every chain taken: pieces and knots in chain order, the figures (_flat_figures);
+        pieces False: then drop the pieces and knots."""
         cat = [np.concatenate(x) for x in zip(*self._parts)]
         del self._parts
         po, ko = np.argsort(cat[0], kind="stable"), np.argsort(cat[8], kind="stable")
@@ -436,6 +440,9 @@ class FlatLaws:
         self.koff = self.poff + np.arange(m + 1)          # a chain's knots: its pieces + 1
         self.bound = bound
         _flat_figures(self)
+        if not pieces:
+            for f in ("L", "T", "beta", "v0", "v1", "a0", "a1", "ks", "kv", "kt", "poff", "koff"):
+                delattr(self, f)
 
     def law(self, c):
         """Chain c's ChainLaw."""

@@ -17,7 +17,10 @@ precision, so cumulative E at every original vertex is exactly the original's.
 """
 from __future__ import annotations
 
+import functools
 import math
+import operator
+import re
 
 from .words import decimals, param_texts, split_comment, strip_checksum
 
@@ -123,9 +126,26 @@ class StrokeText:
     def __init__(self, raws, x_start_text, y_start_text, e_start_units):
         self.raws = raws
         self.x_start_text, self.y_start_text = x_start_text, y_start_text
+        got = _plain_moves(raws)
+        if got is not None:      # every line "G1 X Y [E] [;comment]": one regex over the stroke
+            xs, ys, es, given, self.comments, self.values = got
+        else:
+            self.values = None        # (x, y, given e) floats of a plain stroke
+            xs, ys, es, given = self._read_lines(raws, x_start_text, y_start_text)
+        self.x_texts, self.y_texts, self.e_texts = xs, ys, es
+        self.e_given = given          # the line has an E word (the validator sums those)
+        # the start point's precision counts too (a 4-decimal start, 3-decimal end: new
+        # points rounded to 3 decimals would be up to 0.0015 mm off the segment)
+        self.dec_xy = max(_decimals_at_least(xs + ys, 3), _start_decimals(x_start_text),
+                          _start_decimals(y_start_text))
+        self.dec_e = _decimals_at_least(es, 5)
+        self.e_start_units = e_start_units
+        self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
+
+    def _read_lines(self, raws, xt, yt):
+        """The general reading (any line the strict tokenizer takes): word by word."""
         self.comments = []
         xs, ys, es, given = [], [], [], []
-        xt, yt = x_start_text, y_start_text
         for raw in raws:
             body = raw.rstrip("\r\n")
             code, comment = split_comment(body)
@@ -139,15 +159,56 @@ class StrokeText:
             es.append(p.get("E", "0"))
             given.append("E" in p)
             self.comments.append(comment)
-        self.x_texts, self.y_texts, self.e_texts = xs, ys, es
-        self.e_given = given          # the line has an E word (the validator sums those)
-        # the start point's precision counts too (a 4-decimal start, 3-decimal end: new
-        # points rounded to 3 decimals would be up to 0.0015 mm off the segment)
-        self.dec_xy = max([decimals(t) for t in xs + ys] + [_start_decimals(x_start_text),
-                                                            _start_decimals(y_start_text), 3])
-        self.dec_e = max([decimals(t) for t in es] + [5])
-        self.e_start_units = e_start_units
-        self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
+        return xs, ys, es, given
+
+
+# a stroke's usual line, "G1 X<n> Y<n> [E<n>]" and an optional comment, as the strict
+# tokenizer reads it (words.py: the code part before ';', trailing blanks and the line
+# end dropped).  The pattern starts at the line's "\n" (a literal prefix: found fast); a
+# number is any run of [-.0-9] here, and the plain-decimal grammar is float()'s check:
+# over those characters float() takes exactly words.py's numbers (without '+')
+_MOVE_LINES = re.compile(r"\nG1 X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)").findall
+_MOVE_XYE = re.compile(r"\nG1 X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)").findall    # the commonest
+_ends_nl = operator.methodcaller("endswith", "\n")
+
+
+def _plain_moves(raws):
+    """(x texts, y texts, e texts, e given, comments, (x values, y values, given e values))
+    when every line of raws is a plain "G1 X Y [E]" line ending in "\n" (then the n
+    matches are the n lines), else None."""
+    n = len(raws)
+    text = "".join(raws)
+    if n == 0 or text.count("\n") != n or not all(map(_ends_nl, raws)):
+        return None
+    text = "\n" + text
+    found = _MOVE_XYE(text)
+    if len(found) == n:
+        xs, ys, es = map(list, zip(*found))
+        given, comments = [True] * n, [""] * n
+    else:
+        found = _MOVE_LINES(text)
+        if len(found) != n:
+            return None
+        xs, ys, es, comments = map(list, zip(*found))
+        given = [e != "" for e in es]
+        es = [e or "0" for e in es]
+    try:                         # the number grammar (the values are the validator's path)
+        values = (list(map(float, xs)), list(map(float, ys)),
+                  list(map(float, es)) if all(given) else [float(e) for e, g in zip(es, given) if g])
+    except ValueError:           # "1.2.3", "-": the general reading says why
+        return None
+    return xs, ys, es, given, comments, values
+
+
+_MORE_DECIMALS = {d: re.compile(r"\.[0-9]{%d}" % (d + 1)).search for d in (3, 5)}
+
+
+def _decimals_at_least(texts, least: int) -> int:
+    """max([decimals(t) for t in texts] + [least]) for number texts (their only '.' is
+    the decimal point): one search of the joined texts finds whether any has more."""
+    if _MORE_DECIMALS[least](" ".join(texts)) is None:
+        return least
+    return max(max(map(decimals, texts)), least)
 
 
 def _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl):
@@ -161,6 +222,39 @@ def _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
     return out
 
 
+@functools.lru_cache(maxsize=256)
+def _closing_text(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl):
+    """"".join(_closing(...)), cached: a print restores the same few values block after
+    block (a value that raises is not cached: it raises each time)."""
+    return "".join(_closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl))
+
+
+_TENTHS_MAX = 1 << 50         # below this an integer k and float(k) / 10 print alike
+
+
+def _tenths(k: int) -> str:
+    """_num1(k / 10) for an integer k >= 1 (below _TENTHS_MAX): k / 10 is within half an
+    ulp of the decimal k/10, so its one-decimal text is k's digits with the point put in."""
+    q, r = divmod(k, 10)
+    return f"{q}.{r}" if r else str(q)
+
+
+def _canon(text: str) -> str:
+    """_fmt_units(_units(text, dec), dec) for a number text with at most dec decimals
+    (dec >= 1): the same value written without leading or trailing zeros."""
+    if text[:1] == "." and text[-1:] != "0" and text[1:].isdigit():   # PrusaSlicer's E.0123
+        return "0" + text
+    neg = text[:1] == "-"
+    whole, _, frac = text.lstrip("+-").partition(".")
+    whole = whole.lstrip("0") or "0"
+    frac = frac.rstrip("0")
+    if frac:
+        whole = f"{whole}.{frac}"
+    elif whole == "0":
+        return "0"
+    return "-" + whole if neg else whole
+
+
 def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text, e_rel, flavour,
                 accel_restore, mcr_restore, feed_restore_v, extruding=True, header="", first_cmds=None):
     """Text of the block replacing the stroke.  s, v: knots (mm, mm/s) including every
@@ -170,81 +264,116 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     nl = st.newline
     dxy, de = st.dec_xy, st.dec_e
     # Python floats, not numpy scalars: the same IEEE numbers, a fraction of the per-use cost
-    s, accels, feeds = _floats(s), _floats(accels), _floats(feeds)
+    s, accels, feeds, ends_d = _floats(s), _floats(accels), _floats(feeds), _floats(ends_d)
     out = [f"{BEGIN}{header}{nl}"]
     if flavour == "klipper":
         out.append(f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}")
-    # integer units of every original vertex
-    xu = [_units(x0_text, dxy)] + [_units(t, dxy) for t in st.x_texts]
-    yu = [_units(y0_text, dxy)] + [_units(t, dxy) for t in st.y_texts]
-    if e_rel:
-        e_move_u = [_units(t, de) for t in st.e_texts]
-    else:
-        ev = [st.e_start_units] + [_units(t, de) for t in st.e_texts]
-        e_move_u = [ev[i + 1] - ev[i] for i in range(len(st.e_texts))]
-    starts_d = [0.0] + list(ends_d[:-1])
+    append = out.append
+    x_texts, y_texts, e_texts, comments = st.x_texts, st.y_texts, st.e_texts, st.comments
+    # integer units of the start point (a vertex's own units are taken when a new point
+    # is put inside its move: _move_units); the start's text is checked here as before
+    start_u = (_units(x0_text, dxy), _units(y0_text, dxy))
+    n_moves = len(ends_d)
     move = 0
+    mu = None                            # _move_units of the current move, once needed
     e_done_u = 0                         # units extruded so far inside the current move
-    e_abs_u = st.e_start_units
+    e_again_u = 0                        # absolute E: the last move's E per walk past the end
     last_accel = None
     last_a = None
     k_total = len(s) - 1
     accel_word = accel_command(flavour, 1.0, extruding)[:-1]      # "M204 S" / "M204 P" / "M204 T"
     isfinite, ceil = math.isfinite, math.ceil
     tol_d = 1e-9 * max(1.0, ends_d[-1])
+    end_d = ends_d[0]
+    start_d = 0.0
+    n_head = len(out)
     for k in range(1, k_total + 1):
         # which original move does this segment end in?  (vertices are knots)
-        if s[k] > ends_d[move] + tol_d:
+        sk = s[k]
+        if sk > end_d + tol_d:
             raise AssertionError("a knot skipped an original vertex")   # would lose its E
-        d_move = ends_d[move] - starts_d[move]
-        frac = 1.0 if d_move <= 0 else min(1.0, max(0.0, (s[k] - starts_d[move]) / d_move))
-        at_vertex = abs(s[k] - ends_d[move]) <= tol_d
+        at_vertex = abs(sk - end_d) <= tol_d
         if at_vertex:
-            xt, yt = st.x_texts[move], st.y_texts[move]
-            e_target_u = e_move_u[move]
-            comment = st.comments[move]
+            xt, yt = x_texts[move], y_texts[move]
+            comment = comments[move]
+            if not e_rel:
+                e_txt = e_texts[move]
+            elif e_done_u == 0:          # the move's E, as _fmt_units(_units(text)) writes it
+                e_txt = e_texts[move]
+                e_txt = "0" + e_txt if e_txt[:1] == "." and e_txt[-1] != "0" else _canon(e_txt)
+            else:                        # the move's E less what its new points laid
+                e_txt = _fmt_units(_units(e_texts[move], de) - e_done_u, de)
         else:
-            xt = _fmt_units(round(xu[move] + (xu[move + 1] - xu[move]) * frac), dxy)
-            yt = _fmt_units(round(yu[move] + (yu[move + 1] - yu[move]) * frac), dxy)
-            e_target_u = round(e_move_u[move] * frac)
+            d_move = end_d - start_d
+            frac = 1.0 if d_move <= 0 else min(1.0, max(0.0, (sk - start_d) / d_move))
+            if mu is None:
+                mu = _move_units(st, move, start_u, dxy, de, e_rel)
+            x_a, x_b, y_a, y_b, e_move_u, e_before_u = mu
+            xt = _fmt_units(round(x_a + (x_b - x_a) * frac), dxy)
+            yt = _fmt_units(round(y_a + (y_b - y_a) * frac), dxy)
+            e_target_u = round(e_move_u * frac)
+            e_txt = _fmt_units(e_target_u - e_done_u if e_rel else e_before_u + e_again_u + e_target_u, de)
+            e_done_u = e_target_u
             comment = ""
-        de_u = e_target_u - e_done_u
-        e_done_u = e_target_u
-        e_abs_u += de_u
         a = accels[k - 1]
         if a != last_a:                  # the same value gives the same command
             if not (isfinite(a) and a > 0.0):
                 accel_command(flavour, a, extruding)     # raises, saying why
             # accel_command(flavour, a, extruding) written out: once per segment
-            cmd = accel_word + _num1(max(ceil(a * 10.0 - 1e-9) / 10.0, 0.1))
+            ka = ceil(a * 10.0 - 1e-9)
+            if 1 < ka < _TENTHS_MAX:     # _tenths(ka) written out
+                q, r = divmod(ka, 10)
+                cmd = f"{accel_word}{q}.{r}{nl}" if r else f"{accel_word}{q}{nl}"
+            else:
+                cmd = f"{accel_word}{_tenths(1) if ka <= 1 else _num1(ka / 10.0)}{nl}"
             last_a = a
             if cmd != last_accel:
-                out.append(cmd + nl)
+                append(cmd)
                 last_accel = cmd
         f = feeds[k - 1]                 # _feed_text written out
         if not (isfinite(f) and f > 0.0):
             _feed_text(f)                # raises, saying why
-        f = _num1(max(ceil(f * 600.0 - 1e-6) / 10.0, 0.1))
-        if e_rel:
-            e_txt = _fmt_units(de_u, de)
-        elif at_vertex:
-            e_txt = st.e_texts[move]
+        kf = ceil(f * 600.0 - 1e-6)
+        if 1 < kf < _TENTHS_MAX:
+            q, r = divmod(kf, 10)
+            f = f"{q}.{r}" if r else str(q)
         else:
-            e_txt = _fmt_units(e_abs_u, de)
-        words = f"G1 X{xt} Y{yt}"
-        if extruding:
-            words += f" E{e_txt}"
-        if k == 1 and first_cmds:
-            out.append(first_cmds[0] + nl)
-        out.append(f"{words} F{f}{(' ' + comment) if comment else ''}{nl}")
-        if k == 1 and first_cmds:
-            out.append(first_cmds[1] + nl)
+            f = _tenths(1) if kf <= 1 else _num1(kf / 10.0)
+        if not extruding:
+            append(f"G1 X{xt} Y{yt} F{f}{(' ' + comment) if comment else ''}{nl}")
+        elif comment:
+            append(f"G1 X{xt} Y{yt} E{e_txt} F{f} {comment}{nl}")
+        else:
+            append(f"G1 X{xt} Y{yt} E{e_txt} F{f}{nl}")
         if at_vertex:
             e_done_u = 0
-            if move < len(ends_d) - 1:
+            if move < n_moves - 1:
                 move += 1
-    out += _closing(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
+                start_d, end_d = end_d, ends_d[move]
+            elif not e_rel:              # knots past the end walk the last move again, its E on top
+                e_again_u += (mu or _move_units(st, move, start_u, dxy, de, e_rel))[4]
+            mu = None
+    if first_cmds and k_total >= 1:
+        # around the first move, after its acceleration (the first segment always writes one)
+        out[n_head + 2:n_head + 2] = [first_cmds[1] + nl]
+        out[n_head + 1:n_head + 1] = [first_cmds[0] + nl]
+    append(_closing_text(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl))
     return "".join(out)
+
+
+def _move_units(st, move, start_u, dxy, de, e_rel):
+    """Integer units of one original move, for points put inside it: its start and end
+    X and Y, its E (units it lays) and, with absolute E, the E before it."""
+    if move == 0:
+        x_a, y_a = start_u
+    else:
+        x_a, y_a = _units(st.x_texts[move - 1], dxy), _units(st.y_texts[move - 1], dxy)
+    x_b, y_b = _units(st.x_texts[move], dxy), _units(st.y_texts[move], dxy)
+    e_u = _units(st.e_texts[move], de)
+    if e_rel:
+        return x_a, x_b, y_a, y_b, e_u, 0
+    e_before_u = st.e_start_units if move == 0 else _units(st.e_texts[move - 1], de)
+    return x_a, x_b, y_a, y_b, e_u - e_before_u, e_before_u
 
 
 def emit_arc(raw, x0_text, y0_text, e_start, arc, s, accels, feeds, *, e_rel, flavour, accel_restore,

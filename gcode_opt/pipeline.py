@@ -229,7 +229,7 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digest
     out_ranges = []
     out_line = 0
     pos = 0                       # next line of the input to copy
-    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh, np.errstate(all="ignore"):
         lines = iter(fh)
         write = out_fh.write
         for i in order:
@@ -255,11 +255,10 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digest
                 continue
             try:
                 e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
-                with np.errstate(all="ignore"):
-                    # the original lines read once, for the emitter and the validator
-                    parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
-                    text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile,
-                                         parsed)
+                # the original lines read once, for the emitter and the validator (numpy's
+                # warnings are off around the whole loop: errstate costs more than a block)
+                parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
+                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile, parsed)
                 _validate(text, s, buf, x0, y0, accel0, profile, parsed)
             except BlockInvalid as e:
                 text = None
@@ -344,7 +343,12 @@ def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
     twice)."""
     pts = [(x0, y0)]
     e_words = []
-    if parsed is not None:
+    geometry = None
+    if parsed is not None and parsed.values is not None and s.kind != K_ARC:
+        # every line has its own X and Y (emit._plain_moves): their values, read there
+        xs, ys, e_words = parsed.values
+        geometry = Geometry.polyline([float(x0)] + xs, [float(y0)] + ys)
+    elif parsed is not None:
         x_start, y_start = parsed.x_start_text, parsed.y_start_text
         for xt, yt, et, has_e in zip(parsed.x_texts, parsed.y_texts, parsed.e_texts, parsed.e_given):
             # a line without X keeps the text before it: the start's (x0 itself) or a word's
@@ -364,7 +368,9 @@ def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
     arc = None if s.kind != K_ARC else (s.arc.cx, s.arc.cy, s.arc.r, s.arc.theta0, s.arc.sweep)
     # a restore of the acceleration the slicer had in force is as acceptable as the original line
     accel_max_a = max(profile.max_accel_a, accel0) if math.isfinite(accel0) else profile.max_accel_a
-    validate_block(text, profile.flavour, accel_max_a, Geometry([pts[0], pts[-1]] if arc else pts, arc),
+    if geometry is None:
+        geometry = Geometry([pts[0], pts[-1]] if arc else pts, arc)
+    validate_block(text, profile.flavour, accel_max_a, geometry,
                    extruding=extruding, kind=s.kind, e_check=e_check,
                    min_move_d=getattr(profile, "min_move_d", 0.0))
 
@@ -373,7 +379,7 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=
     """G-code text replacing one stroke, from its segment plan `seg`.  The header names
     the kind (line, curve, arc) after "replaces N lines" (verify.py and the report read it)."""
     dec = 8
-    beta_txt = "inf" if not np.isfinite(beta) else f"{beta:.4g}"
+    beta_txt = "inf" if not math.isfinite(beta) else f"{beta:.4g}"
     if s.kind == K_ARC:
         header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} sub-arcs, T={seg.time_t:.4f}s "
                   f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")

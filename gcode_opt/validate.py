@@ -24,6 +24,7 @@ What each firmware parses (why the rules are what they are):
 from __future__ import annotations
 
 import math
+import operator
 import re
 
 BEGIN = "; gcode-opt begin"
@@ -63,6 +64,17 @@ class Geometry:
         self.arc = arc              # (cx, cy, r, theta0, sweep); pts: the original's own points
         self.tol_d = tol_d
         self._k = 0                 # polyline segment the last point was found on
+        self._walk = False          # _fast_ok's view of the polyline, made on first use
+
+    @classmethod
+    def polyline(cls, xs, ys, tol_d=2e-3):
+        """Geometry(list(zip(xs, ys))) for lists of Python floats (the vertices, start first),
+        without copying them point by point."""
+        g = cls(None, None, tol_d)
+        g.pts = list(zip(xs, ys))
+        if len(xs) >= 2 and max(map(abs, xs)) < 1e150 and max(map(abs, ys)) < 1e150:
+            g._walk = (xs, ys)      # _polyline_walk's answer, known here
+        return g
 
     def on_path(self, x, y, tol_d) -> bool:
         """(x, y) within tol_d of the original path.  A block's points come in path order:
@@ -106,6 +118,21 @@ class Geometry:
         return best
 
 
+def _polyline_walk(geometry):
+    """(xs, ys) of a polyline's vertices for _fast_ok, or None (an arc, fewer than two
+    points, or coordinates so large that a segment's squared length could overflow: there
+    a vertex need not be at distance 0 from its own segment by _seg_dist's arithmetic)."""
+    if geometry._walk is False:
+        p = geometry.pts
+        walk = None
+        if geometry.arc is None and p is not None and len(p) >= 2:
+            xs, ys = [q[0] for q in p], [q[1] for q in p]
+            if max(map(abs, xs)) < 1e150 and max(map(abs, ys)) < 1e150:
+                walk = (xs, ys)
+        geometry._walk = walk
+    return geometry._walk
+
+
 def _seg_dist(x, y, a, b):
     """Distance (mm) from (x, y) to the segment a-b."""
     ax, ay = a
@@ -128,6 +155,9 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
 
     min_move_d: no move may travel less than this in both X and Y (Profile.min_move_d),
     unless the original has a move as short (geometry's polyline)."""
+    if _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min_move_d):
+        return
+    # the general reading, line by line: any block _fast_ok does not pass (its reason)
     lines = text.splitlines()
     if len(lines) < 2 or not lines[0].startswith(BEGIN + ": replaces ") or lines[-1] != END:
         raise BlockInvalid("validator: block not fenced")
@@ -194,6 +224,146 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
         got = math.fsum(e_words) if e_rel else (e_words[-1] if e_words else None)
         if got is None or abs(got - e_value) > E_TOL * (1.0 + abs(e_value)):
             raise BlockInvalid("validator: filament differs from the original's")
+
+
+# _fast_ok: the block as the emitter writes it.  Each pattern starts at a line's "\n" (a
+# literal prefix the regex engine finds fast) and ends before the next.  A number is a run
+# of [-.0-9] there (ASCII: a character is a byte, for the command-buffer check); float()
+# then takes exactly the plain decimals among those, and _LONG_FRACTION finds one with
+# more than MAX_DECIMALS: the two together are _N8's grammar
+_C = r"([-.0-9]+)"
+_FAST_MOVES = re.compile(rf"\nG1 X{_C} Y{_C}(?: E{_C})? F{_C}(?=\n)").findall
+_FAST_FEEDS = re.compile(rf"\nG1 F{_C}(?=\n)").findall
+_FAST_M204 = {c: re.compile(rf"\nM204 {c}{_C}(?=\n)").findall for c in "SPT"}
+_FAST_MCR = re.compile(rf"\nSET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_C}(?=\n)").findall
+_LONG_FRACTION = re.compile(r"\.[0-9]{%d}" % (MAX_DECIMALS + 1)).search
+# line breaks of str.splitlines other than "\n": without them its lines are split("\n")'s
+_OTHER_BREAKS = re.compile("[\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]").search
+_END_LINE = "\n" + END + "\n"
+_INF = math.inf
+
+
+def _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min_move_d) -> bool:
+    """True when the block certainly passes validate_block's line-by-line checks: every line
+    is one the emitter writes (a plain "G1 X Y [E] F" move, "G1 F", the flavour's M204,
+    Klipper's cruise ratio) and passes the same tests, taken a column at a time.  False
+    says nothing: the caller reads the block the general way (which then finds the reason,
+    or passes).  Only a pass is final, so every check here is the general one's or stricter."""
+    if not text.endswith(_END_LINE):
+        return False
+    i = text.find("\n")
+    head = text[:i]
+    if not head.startswith(BEGIN + ": replaces ") or (kind is not None and f"kind={kind}" not in head) \
+            or _OTHER_BREAKS(head) is not None:
+        return False
+    # "\n" line "\n" line ... "\n": when every line below has a shape (none holds a line
+    # break), text.splitlines() is [head] + these lines + [END]
+    body = text[i:len(text) - len(END) - 1]
+    if _LONG_FRACTION(body) is not None:
+        return False
+    moves = _FAST_MOVES(body)
+    feeds = _FAST_FEEDS(body)
+    want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
+    accels = _FAST_M204[want](body)
+    ratios = _FAST_MCR(body) if flavour == "klipper" else ()
+    if len(moves) + len(feeds) + len(accels) + len(ratios) != body.count("\n") - 1:
+        return False                               # a line of another shape
+    limit = MAX_CMD_BYTES.get(flavour)
+    if limit is not None and max(map(len, body.split("\n"))) > limit:
+        return False
+    try:                      # ValueError: a number text that is not a plain decimal
+        return _fast_values(moves, feeds, accels, ratios, accel_max_a, geometry, e_check, min_move_d)
+    except ValueError:
+        return False
+
+
+def _fast_values(moves, feeds, accels, ratios, accel_max_a, geometry, e_check, min_move_d) -> bool:
+    """_fast_ok's checks of the numbers (float() raising ValueError on a text that is not one)."""
+    if accels:
+        v = list(map(float, accels))
+        hi = max(v)
+        if not (min(v) > 0.0 and hi <= accel_max_a + 0.1 + 1e-9 and hi < _INF):
+            return False
+    if feeds:
+        v = list(map(float, feeds))
+        if not (min(v) > 0.0 and max(v) < _INF):
+            return False
+    if ratios:
+        v = list(map(float, ratios))
+        if not (min(v) >= 0.0 and max(v) < 1.0):
+            return False
+    e_words = []
+    if moves:
+        xts, yts, ets, fts = zip(*moves)
+        v = list(map(float, fts))
+        if not (min(v) > 0.0 and max(v) < _INF):
+            return False
+        xs, ys = list(map(float, xts)), list(map(float, yts))
+        if not (max(xs) < _INF and min(xs) > -_INF and max(ys) < _INF and min(ys) > -_INF):
+            return False
+        e_words = list(map(float, filter(None, ets)))
+        if e_words and not (max(e_words) < _INF and min(e_words) > -_INF):
+            return False
+        if geometry is not None and not _fast_path_ok(geometry, xs, ys, xts, yts, min_move_d):
+            return False
+    if e_check is not None:
+        e_rel, e_value = e_check
+        got = math.fsum(e_words) if e_rel else (e_words[-1] if e_words else None)
+        if got is None or abs(got - e_value) > E_TOL * (1.0 + abs(e_value)):
+            return False
+    return True
+
+
+def _tol(geometry, xt, yt):
+    """_check_plain_g1's tolerance for a point written with these texts."""
+    dec = max(len(xt.partition(".")[2]), len(yt.partition(".")[2]))
+    return min(geometry.tol_d, 0.75 * 10.0 ** -dec) + 1e-7
+
+
+def _fast_path_ok(geometry, xs, ys, xts, yts, min_move_d) -> bool:
+    """Every point on the path (Geometry.on_path with _check_plain_g1's tolerance) and no
+    move shorter than _ShortMoves allows.  A point equal to the next original vertex is at
+    distance 0 from the segment it ends (_seg_dist's arithmetic: t = dd / dd = 1, then
+    (x - ax) - dx = 0); another is tried on the segment being walked, then on all of them."""
+    walk = _polyline_walk(geometry)
+    pts = geometry.pts or []
+    if walk is None:              # an arc: the general point test
+        for x, y, xt, yt in zip(xs, ys, xts, yts):
+            if not geometry.on_path(x, y, _tol(geometry, xt, yt)):
+                return False
+    else:
+        px, py = walk
+        nv = len(px)
+        j = 1                     # the next original vertex
+        hypot = math.hypot
+        tol_least = min(geometry.tol_d, 0.75 * 10.0 ** -MAX_DECIMALS) + 1e-7   # any point's tolerance >= this
+        for x, y, xt, yt in zip(xs, ys, xts, yts):
+            if j < nv and x == px[j] and y == py[j]:
+                j += 1
+                continue
+            k = j - 1 if j < nv else nv - 2
+            ax, ay = px[k], py[k]
+            dx, dy = px[k + 1] - ax, py[k + 1] - ay
+            dd = dx * dx + dy * dy
+            t = 0.0 if dd <= 0 else min(1.0, max(0.0, ((x - ax) * dx + (y - ay) * dy) / dd))
+            d = hypot(x - ax - t * dx, y - ay - t * dy)
+            if d > tol_least:
+                tol = _tol(geometry, xt, yt)
+                if d > tol and not any(_seg_dist(x, y, a, b) <= tol for a, b in zip(pts[:-1], pts[1:])):
+                    return False
+    if min_move_d > 0.0 and xs:
+        # _ShortMoves.check on every move, from the path's start: gap = max(|dx|, |dy|)
+        if pts:
+            x_prev, y_prev = [pts[0][0]] + xs[:-1], [pts[0][1]] + ys[:-1]
+            x_next, y_next = xs, ys
+        else:                     # (no start: the first point only sets the position)
+            x_prev, y_prev, x_next, y_next = xs[:-1], ys[:-1], xs[1:], ys[1:]
+        gaps = list(map(max, map(abs, map(operator.sub, x_next, x_prev)),
+                        map(abs, map(operator.sub, y_next, y_prev))))
+        if gaps and min(gaps) < min_move_d:
+            if min(gaps) < _ShortMoves(geometry, min_move_d).floor:
+                return False
+    return True
 
 
 class _ShortMoves:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .line import LineLaw, _gamma_coeffs, time_of_distance
+from .line import LineLaw, _gamma_coeffs, end_speeds, time_of_distance
 
 CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
@@ -473,6 +473,9 @@ def _flat_figures(res):
     pieces rounds them (row sums of the chains with the same number of pieces)."""
     law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
     iv, ia = law.integrals()
+    # the speed candidates of LineLaw._speed_candidates: the ends as eval has them
+    # (end_speeds), the interior stationary point evaluated
+    law._speeds = end_speeds(res.L, res.T, res.v0, res.v1) + (law.eval(law._critical_t(), "v")[1],)
     pv, mv = law.peak_speed(), law.min_speed()
     first = res.poff[:-1]
     res.peak_v, res.min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)

@@ -372,7 +372,7 @@ def build_geoms(strokes, profile, jerk1=False):
                             pa)
 
 
-_GEOM_BLOCK = 1 << 20       # elements (strokes x vertices x vertices) of one batched kernel block
+_GEOM_BLOCK = 1 << 18       # elements (strokes x vertices x vertices) of one batched kernel block (~2 MB)
 _GEOM_MAX_PTS = 512         # curvature_from_polyline smooths in one window up to this many vertices
 
 

@@ -265,6 +265,16 @@ class SegmentCache:
             self.line_why.pop(i, None)
 
 
+GAIN_TOL_R = 1e-9       # a plan within this of the original's int a^2 gains nothing but rounding
+
+
+def beats(a2_plan, a2_orig) -> bool:
+    """Segments whose int a^2 is below the original's by more than rounding: a constant-
+    speed stroke's segments can equal the original exactly, and then whether the last bit
+    falls below decided if the stroke was rewritten, for no gain."""
+    return a2_plan < a2_orig * (1.0 - GAIN_TOL_R)
+
+
 def plan_strokes(strokes, pin, profile, opts, budget_t):
     """Law per stroke (plan.py), then its segments as the firmware will execute them
     (segments.py).  The segments' predicted time, not the law's, is what the print takes:
@@ -331,7 +341,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 plan.retime[i] = False
                 plan.reason[i] = why
                 continue
-            if seg is None or seg.int_a2 >= strokes[i].int_a2:
+            if seg is None or not beats(seg.int_a2, strokes[i].int_a2):
                 plan.retime[i] = False
                 plan.reason[i] = "segments would not beat the original"
                 continue
@@ -431,7 +441,7 @@ def _own_lead_out(plan, strokes, pin, rules, seg_cache, a):
     except Exception:                         # noqa: BLE001 -- the stroke stays as sliced
         seg = None
     why = "segments would not beat the original" if seg is None else seg_fault(seg)
-    if not why and seg.int_a2 >= st.int_a2:
+    if not why and not beats(seg.int_a2, st.int_a2):
         why = "segments would not beat the original"
     if not why and not _command_for(seg, st, rules):
         why = "no junction command for its slower corner"

@@ -12,3 +12,29 @@ def process_cases(tmp_dir, cases):
         dst = str(tmp_dir / f"{prof}-{len(feats)}-{name}")
         out[(name, prof, feats)] = (dst, process(SAMPLES + name, dst, load_profile(prof), Options(features=feats)))
     return out
+
+
+# ---------------------------------------------------------------- the firmware model's two cores
+# The firmware model's own tests run on both cores: the compiled one (firmware/_core.c,
+# skipped where it is not built) and the pure-Python one, which every install keeps.
+import pytest  # noqa: E402
+
+from gcode_opt.firmware import simulate as _fw_sim  # noqa: E402
+
+FW_CORE_MODULES = {"test_firmware", "test_klipper_oracle"}
+
+
+def pytest_generate_tests(metafunc):
+    if metafunc.module.__name__.rsplit(".", 1)[-1] in FW_CORE_MODULES:
+        metafunc.fixturenames.append("fw_core")
+        metafunc.parametrize("fw_core", ["c", "python"], indirect=True)
+
+
+@pytest.fixture
+def fw_core(request):
+    """Plays the firmware model on request.param ("c" or "python") for one test."""
+    if request.param == "c" and _fw_sim._core is None:
+        pytest.skip("the compiled firmware-model core is not built here (pip install . with a C compiler)")
+    old = _fw_sim.use_core(request.param)
+    yield request.param
+    _fw_sim.use_core(old)

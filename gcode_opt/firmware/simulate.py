@@ -26,10 +26,16 @@ speed, chords as gcode_arcs cuts them (see arc_chords).  tests/test_klipper_orac
 it against the real Klipper planner: the same trapezoids to 1e-9.  ``int_a2_t`` is that
 planner's sum of a^2 (accel_t + decel_t) over the XYZ moves (the oracle's int_a2_xyz; its
 int_a2_xy weights each move by its XY share).
+
+Two cores play the model: ``_Sim`` below, and its compiled twin ``_gcode_opt_fwcore.Sim``
+(firmware/_core.c, built at install when a C compiler is there: setup.py), which gives
+the same bits (tests/test_fwcore_bits.py) in a twentieth of the time.  ``CORE`` says which one plays
+("c" or "python"); GCODE_OPT_PURE_PYTHON=1 in the environment forces the Python one.
 """
 from __future__ import annotations
 
 import math
+import os
 
 from .. import state as st
 from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, klipper_corner_v2, klipper_extruder_v2,
@@ -414,6 +420,72 @@ class _Sim:
                 self.on_line(rec)
 
 
+# ---------------------------------------------------------------- which core plays
+def _load_core():
+    """The compiled core (module _gcode_opt_fwcore, built from firmware/_core.c), set up
+    with this module's classes; None if it is not built, if it was built from another
+    _core.c than the one beside this file (a stale build), or if GCODE_OPT_PURE_PYTHON
+    asks for the Python model.  CORE_WHY says why not."""
+    global CORE_WHY, _CLineRecord, _CSimResult
+    if os.environ.get("GCODE_OPT_PURE_PYTHON", "") not in ("", "0"):
+        CORE_WHY = "GCODE_OPT_PURE_PYTHON is set"
+        return None
+    try:
+        import _gcode_opt_fwcore as core
+    except ImportError:
+        CORE_WHY = "the compiled core is not built (pip install . with a C compiler builds it)"
+        return None
+    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_core.c")
+    if os.path.exists(src):
+        import hashlib
+        with open(src, "rb") as fh:
+            if hashlib.sha256(fh.read()).hexdigest() != core.SOURCE_SHA256:
+                CORE_WHY = (f"the compiled core at {core.__file__} was built from another _core.c "
+                            "(pip install . rebuilds it)")
+                return None
+
+    class _CLineRecord(core.LineRecord):
+        __slots__ = ()
+        as_dict = LineRecord.as_dict
+        __repr__ = LineRecord.__repr__
+
+    class _CSimResult(core.SimResult):
+        __slots__ = ()
+        as_dict = SimResult.as_dict
+        __repr__ = SimResult.__repr__
+
+    core.setup(st.Move, st.Arc, st.Limits, st.Barrier, _CLineRecord, _CSimResult,
+               {"LINE": st.LINE, "ARC": st.ARC, "EONLY": st.EONLY})
+    CORE_WHY = ""
+    return core
+
+
+CORE_WHY = ""
+_core = _load_core()
+CORE = "c" if _core is not None else "python"     # which core plays (--profile-time, summary)
+
+
+def use_core(name: str) -> str:
+    """Make `name` ("c" or "python") the core later passes play; returns the previous one
+    (tests run the model on both)."""
+    global CORE
+    if name not in ("c", "python") or (name == "c" and _core is None):
+        raise ValueError(f"no {name!r} firmware-model core here")
+    old, CORE = CORE, name
+    return old
+
+
+def new_sim(profile, on_line, on_block=None):
+    """A model pass (move, barrier, stop, empty, res, max_stop_lines) on the core in use."""
+    if CORE == "c":
+        # the constants as they are now, as _Sim reads them (tests change some)
+        from . import planner
+        return _core.Sim(profile, on_line, on_block,
+                         (CORNER_COS, FULL_STOP_V, SQRT2_M1, planner.MINIMUM_PLANNER_SPEED,
+                          KLIPPER_INSTANT_CORNER_V, ARC_MIN_TURN, KLIPPER_CHUNK, MAX_STOP_LINES))
+    return _Sim(profile, on_line, on_block)
+
+
 def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResult:
     """Play (idx, raw, event) triples (as ``state.events`` yields them).
 
@@ -422,7 +494,7 @@ def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResu
     line), ``kind``, ``first`` (first block of its line), ``d`` (mm), unit vector
     ``ux, uy, uz``, ``start_v, cruise_v, end_v`` (mm/s), ``accel`` (mm/s^2) and the
     trapezoid's ``accel_t, cruise_t, decel_t`` (s).  Read it, don't keep it changing."""
-    sim = _Sim(profile, on_line, on_block)
+    sim = new_sim(profile, on_line, on_block)
     move = sim.move
     barrier = sim.barrier
     Move, Barrier = st.Move, st.Barrier
@@ -579,7 +651,7 @@ def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=Non
     on_barrier(dwell_t): called after each Barrier (see _play)."""
     state = st.MachineState(profile, path)
     state.warnings = []
-    sim = _Sim(profile, on_line, on_block)
+    sim = new_sim(profile, on_line, on_block)
     sim.max_stop_lines = math.inf
     led = Ledger()
     _play(st.read_lines(path) if lines is None else lines, state, sim, watch, led, on_barrier)
@@ -668,7 +740,7 @@ def replay_runs(path, profile, led, runs, on_line=None, on_block=None):
             state = st.MachineState(profile, path)
             state.warnings = []
             state.restore(led.state[lo])
-            sim = _Sim(profile, on_line, on_block)
+            sim = new_sim(profile, on_line, on_block)
             sim.max_stop_lines = math.inf
             while True:
                 _play(upto(last), state, sim, None, None)

@@ -1,0 +1,1613 @@
+/* Compiled core of the firmware model (firmware/simulate.py _Sim, planner.py, junction.py).
+ *
+ * The same model as the Python code, statement for statement: every double operation is
+ * the one Python does, in the same order, so the results are the same bits (build with
+ * -ffp-contract=off, no -ffast-math: see setup.py).  Python's float errors are kept:
+ * a division by zero raises ZeroDivisionError, math.sqrt of a negative and math.cos/sin
+ * of an infinity raise ValueError, float ** 2 that overflows raises OverflowError.
+ * tests/test_fwcore_*.py compare this core with the Python one bit for bit.
+ *
+ * Moves, Arcs and Limits are read through their __slots__ offsets (taken once, in
+ * setup()); any other object through getattr.  Blocks live in C arrays; a Python Block
+ * is made only for on_block, a LineRecord only for on_line. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <structmember.h>
+#include <math.h>
+#include <string.h>
+
+/* ---------------------------------------------------------------- constants */
+/* Move.kind values (setup); the model's constants come with each Sim (simulate.new_sim
+ * reads them from the modules when the pass starts, as _Sim does) */
+static long K_LINE = 0, K_ARC = 1, K_EONLY = 2;
+static int configured = 0;
+
+/* ---------------------------------------------------------------- slot access */
+enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_LIM, MV_ARC,
+       MV_FLOW_R, MV_N };
+static const char *MOVE_NAMES[MV_N] = {"idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e",
+                                      "v", "accel", "lim", "arc", "flow_r"};
+enum { A_CX, A_CY, A_R, A_THETA0, A_SWEEP, A_LENGTH, A_N };
+static const char *ARC_NAMES[A_N] = {"cx", "cy", "r", "theta0", "sweep", "length_d"};
+enum { L_VMAX, L_AXMAX, L_AYMAX, L_SCV, L_MCR, L_JD, L_JERKX, L_JERKY, L_N };
+static const char *LIM_NAMES[L_N] = {"v_max", "ax_max", "ay_max", "scv", "mcr", "jd", "jerk_x",
+                                     "jerk_y"};
+
+typedef struct {
+    PyTypeObject *type;       /* objects of exactly this type are read by offset */
+    Py_ssize_t *off;          /* per attribute: slot offset, or -1 (getattr) */
+    PyObject **name;          /* interned names */
+    int n;
+} SlotMap;
+
+static Py_ssize_t move_off[MV_N], arc_off[A_N], lim_off[L_N], bar_off[1];
+static PyObject *move_name[MV_N], *arc_name[A_N], *lim_name[L_N], *bar_name[1];
+static SlotMap MOVE_MAP = {NULL, move_off, move_name, MV_N};
+static SlotMap ARC_MAP = {NULL, arc_off, arc_name, A_N};
+static SlotMap LIM_MAP = {NULL, lim_off, lim_name, L_N};
+static SlotMap BAR_MAP = {NULL, bar_off, bar_name, 1};
+static PyTypeObject *REC_TYPE = NULL, *RES_TYPE = NULL;
+
+static int map_init(SlotMap *m, PyObject *type, const char **names)
+{
+    if (!PyType_Check(type)) {
+        PyErr_SetString(PyExc_TypeError, "setup: expected a class");
+        return -1;
+    }
+    Py_INCREF(type);
+    Py_XSETREF(m->type, (PyTypeObject *)type);
+    for (int i = 0; i < m->n; i++) {
+        PyObject *nm = PyUnicode_InternFromString(names[i]);
+        if (nm == NULL)
+            return -1;
+        Py_XSETREF(m->name[i], nm);
+        m->off[i] = -1;
+        PyObject *d = PyObject_GetAttr(type, nm);
+        if (d == NULL) {
+            PyErr_Clear();
+            continue;
+        }
+        if (Py_TYPE(d) == &PyMemberDescr_Type) {
+            PyMemberDef *md = ((PyMemberDescrObject *)d)->d_member;
+            if (md->type == T_OBJECT_EX)
+                m->off[i] = md->offset;
+        }
+        Py_DECREF(d);
+    }
+    return 0;
+}
+
+/* New reference to attribute i of o. */
+static PyObject *get_obj(SlotMap *m, PyObject *o, int i)
+{
+    if (Py_TYPE(o) == m->type && m->off[i] >= 0) {
+        PyObject *v = *(PyObject **)((char *)o + m->off[i]);
+        if (v == NULL) {
+            PyErr_Format(PyExc_AttributeError, "'%.50s' object has no attribute '%U'",
+                         Py_TYPE(o)->tp_name, m->name[i]);
+            return NULL;
+        }
+        Py_INCREF(v);
+        return v;
+    }
+    return PyObject_GetAttr(o, m->name[i]);
+}
+
+static int get_d(SlotMap *m, PyObject *o, int i, double *out)
+{
+    if (Py_TYPE(o) == m->type && m->off[i] >= 0) {
+        PyObject *v = *(PyObject **)((char *)o + m->off[i]);
+        if (v != NULL && PyFloat_CheckExact(v)) {
+            *out = PyFloat_AS_DOUBLE(v);
+            return 0;
+        }
+    }
+    PyObject *v = get_obj(m, o, i);
+    if (v == NULL)
+        return -1;
+    double x = PyFloat_AsDouble(v);
+    Py_DECREF(v);
+    if (x == -1.0 && PyErr_Occurred())
+        return -1;
+    *out = x;
+    return 0;
+}
+
+static int get_ll(SlotMap *m, PyObject *o, int i, long long *out)
+{
+    PyObject *v = get_obj(m, o, i);
+    if (v == NULL)
+        return -1;
+    long long x = PyLong_AsLongLong(v);
+    Py_DECREF(v);
+    if (x == -1 && PyErr_Occurred())
+        return -1;
+    *out = x;
+    return 0;
+}
+
+/* ---------------------------------------------------------------- Python's float errors */
+static int zerodiv(void)
+{
+    PyErr_SetString(PyExc_ZeroDivisionError, "float division by zero");
+    return -1;
+}
+static int domain(void)
+{
+    PyErr_SetString(PyExc_ValueError, "math domain error");
+    return -1;
+}
+#define DIV(out, a, b) do { double b_ = (b); if (b_ == 0.0) return zerodiv(); (out) = (a) / b_; } while (0)
+#define SQRT(out, x) do { double x_ = (x); if (x_ < 0.0) return domain(); (out) = sqrt(x_); } while (0)
+static inline double pymax(double a, double b) { return b > a ? b : a; }
+static inline double pymin(double a, double b) { return b < a ? b : a; }
+
+/* ---------------------------------------------------------------- Block (planner.Block) */
+typedef struct {
+    long long idx;
+    int kind;
+    char first, after_stop;
+    double d, ux, uy, uz, er, accel, jd, nominal_v, v2max, delta_v2, mcr_delta_v2, max_start_v2,
+        max_mcr_start_v2, safe_v, start_v, cruise_v, end_v, accel_t, cruise_t, decel_t;
+} BlockData;
+
+typedef struct {
+    PyObject_HEAD
+    BlockData b;
+} BlockObject;
+
+#define BOFF(f) (offsetof(BlockObject, b) + offsetof(BlockData, f))
+static PyMemberDef Block_members[] = {
+    {"idx", T_LONGLONG, BOFF(idx), 0, NULL},
+    {"kind", T_INT, BOFF(kind), 0, NULL},
+    {"first", T_BOOL, BOFF(first), 0, NULL},
+    {"d", T_DOUBLE, BOFF(d), 0, NULL},
+    {"ux", T_DOUBLE, BOFF(ux), 0, NULL},
+    {"uy", T_DOUBLE, BOFF(uy), 0, NULL},
+    {"uz", T_DOUBLE, BOFF(uz), 0, NULL},
+    {"er", T_DOUBLE, BOFF(er), 0, NULL},
+    {"accel", T_DOUBLE, BOFF(accel), 0, NULL},
+    {"jd", T_DOUBLE, BOFF(jd), 0, NULL},
+    {"nominal_v", T_DOUBLE, BOFF(nominal_v), 0, NULL},
+    {"v2max", T_DOUBLE, BOFF(v2max), 0, NULL},
+    {"delta_v2", T_DOUBLE, BOFF(delta_v2), 0, NULL},
+    {"mcr_delta_v2", T_DOUBLE, BOFF(mcr_delta_v2), 0, NULL},
+    {"max_start_v2", T_DOUBLE, BOFF(max_start_v2), 0, NULL},
+    {"max_mcr_start_v2", T_DOUBLE, BOFF(max_mcr_start_v2), 0, NULL},
+    {"safe_v", T_DOUBLE, BOFF(safe_v), 0, NULL},
+    {"after_stop", T_BOOL, BOFF(after_stop), 0, NULL},
+    {"start_v", T_DOUBLE, BOFF(start_v), 0, NULL},
+    {"cruise_v", T_DOUBLE, BOFF(cruise_v), 0, NULL},
+    {"end_v", T_DOUBLE, BOFF(end_v), 0, NULL},
+    {"accel_t", T_DOUBLE, BOFF(accel_t), 0, NULL},
+    {"cruise_t", T_DOUBLE, BOFF(cruise_t), 0, NULL},
+    {"decel_t", T_DOUBLE, BOFF(decel_t), 0, NULL},
+    {NULL}
+};
+
+static PyTypeObject BlockType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.Block",
+    .tp_doc = "A planned block (planner.Block's fields), as on_block sees it.",
+    .tp_basicsize = sizeof(BlockObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_members = Block_members,
+};
+
+/* ---------------------------------------------------------------- LineRecord */
+typedef struct {
+    long long idx;
+    int kind;
+    double start_v, end_v, peak_v, time_t, int_a2, int_a2_j, int_v2, peak_a;
+} RecData;
+
+typedef struct {
+    PyObject_HEAD
+    RecData r;
+} RecObject;
+
+#define ROFF(f) (offsetof(RecObject, r) + offsetof(RecData, f))
+static PyMemberDef Rec_members[] = {
+    {"idx", T_LONGLONG, ROFF(idx), 0, NULL},
+    {"kind", T_INT, ROFF(kind), 0, NULL},
+    {"start_v", T_DOUBLE, ROFF(start_v), 0, NULL},
+    {"end_v", T_DOUBLE, ROFF(end_v), 0, NULL},
+    {"peak_v", T_DOUBLE, ROFF(peak_v), 0, NULL},
+    {"time_t", T_DOUBLE, ROFF(time_t), 0, NULL},
+    {"int_a2", T_DOUBLE, ROFF(int_a2), 0, NULL},
+    {"int_a2_j", T_DOUBLE, ROFF(int_a2_j), 0, NULL},
+    {"int_v2", T_DOUBLE, ROFF(int_v2), 0, NULL},
+    {"peak_a", T_DOUBLE, ROFF(peak_a), 0, NULL},
+    {NULL}
+};
+
+static PyTypeObject RecType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.LineRecord",
+    .tp_doc = "What one moving source line did (simulate.LineRecord's fields).",
+    .tp_basicsize = sizeof(RecObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE,
+    .tp_members = Rec_members,
+    .tp_new = PyType_GenericNew,
+};
+
+/* ---------------------------------------------------------------- SimResult */
+typedef struct {
+    PyObject_HEAD
+    double time_t, int_a2, int_a2_t, int_v2, peak_v, peak_a, barrier_dwell_t, corner_dv2;
+    long long n_moves, n_blocks, full_stops, short_segments, corners;
+    PyObject *stop_lines;
+} ResObject;
+
+static PyMemberDef Res_members[] = {
+    {"time_t", T_DOUBLE, offsetof(ResObject, time_t), 0, NULL},
+    {"int_a2", T_DOUBLE, offsetof(ResObject, int_a2), 0, NULL},
+    {"int_a2_t", T_DOUBLE, offsetof(ResObject, int_a2_t), 0, NULL},
+    {"int_v2", T_DOUBLE, offsetof(ResObject, int_v2), 0, NULL},
+    {"peak_v", T_DOUBLE, offsetof(ResObject, peak_v), 0, NULL},
+    {"peak_a", T_DOUBLE, offsetof(ResObject, peak_a), 0, NULL},
+    {"n_moves", T_LONGLONG, offsetof(ResObject, n_moves), 0, NULL},
+    {"n_blocks", T_LONGLONG, offsetof(ResObject, n_blocks), 0, NULL},
+    {"full_stops", T_LONGLONG, offsetof(ResObject, full_stops), 0, NULL},
+    {"stop_lines", T_OBJECT_EX, offsetof(ResObject, stop_lines), 0, NULL},
+    {"short_segments", T_LONGLONG, offsetof(ResObject, short_segments), 0, NULL},
+    {"barrier_dwell_t", T_DOUBLE, offsetof(ResObject, barrier_dwell_t), 0, NULL},
+    {"corners", T_LONGLONG, offsetof(ResObject, corners), 0, NULL},
+    {"corner_dv2", T_DOUBLE, offsetof(ResObject, corner_dv2), 0, NULL},
+    {NULL}
+};
+
+static int Res_init(ResObject *self, PyObject *args, PyObject *kw)
+{
+    if ((args != NULL && PyTuple_GET_SIZE(args)) || (kw != NULL && PyDict_GET_SIZE(kw))) {
+        PyErr_SetString(PyExc_TypeError, "SimResult() takes no arguments");
+        return -1;
+    }
+    self->time_t = self->int_a2 = self->int_a2_t = self->int_v2 = 0.0;
+    self->peak_v = self->peak_a = self->barrier_dwell_t = self->corner_dv2 = 0.0;
+    self->n_moves = self->n_blocks = self->full_stops = self->short_segments = self->corners = 0;
+    PyObject *l = PyList_New(0);
+    if (l == NULL)
+        return -1;
+    Py_XSETREF(self->stop_lines, l);
+    return 0;
+}
+
+static int Res_traverse(ResObject *self, visitproc visit, void *arg)
+{
+    Py_VISIT(self->stop_lines);
+    return 0;
+}
+
+static int Res_clear(ResObject *self)
+{
+    Py_CLEAR(self->stop_lines);
+    return 0;
+}
+
+static void Res_dealloc(ResObject *self)
+{
+    /* a Python subclass's subtype_dealloc drops the reference to its type */
+    PyObject_GC_UnTrack(self);
+    Res_clear(self);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyTypeObject ResType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.SimResult",
+    .tp_doc = "The firmware model's figures of a pass (simulate.SimResult's fields).",
+    .tp_basicsize = sizeof(ResObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_members = Res_members,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Res_init,
+    .tp_traverse = (traverseproc)Res_traverse,
+    .tp_clear = (inquiry)Res_clear,
+    .tp_dealloc = (destructor)Res_dealloc,
+};
+
+/* ---------------------------------------------------------------- Sim */
+enum { J_SCV, J_JD, J_JERK, J_OTHER };   /* J_OTHER: _Sim's else-branch (jerk junction, no safe speed) */
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *on_line, *on_block;
+    ResObject *res;
+    PyObject *max_stop_lines;         /* as set (100 or inf) */
+    double max_stop_d;
+    /* constants (simulate.py, junction.py, planner.py) */
+    double corner_cos, sqrt2_m1, mps, arc_min_turn;
+    /* profile */
+    int klipper_limits, klipper_fw, model, marlin;
+    double jerk_z, icv, min_seg_t, arc_segment_d, default_accel, max_z_accel, max_z_v, max_e_v;
+    double caps[3], jerk[3];
+    PyObject *lim;                    /* the Limits caps and jerk were last taken from */
+    double stop_thr;
+    /* planner: Klipper's queue q[0..n) / Marlin's buf q[0..n) with head */
+    BlockData *q;
+    Py_ssize_t n, cap, head;
+    Py_ssize_t chunk, next_try, window;
+    double prev_cruise;
+    int has_last;                     /* Marlin: last added block (a copy) */
+    BlockData last;
+    int has_entry;
+    double entry_v2;
+    double *info;                     /* Klipper flush: start, cruise, next_start per move */
+    char *info_c;                     /* cruise set (else None) */
+    Py_ssize_t info_cap;
+    /* accumulator */
+    int has_prev;
+    double prev_ux, prev_uy, prev_uz, prev_t;
+    int has_rec;
+    RecData rec;
+    int busy;                         /* inside move/barrier/stop: a callback may not re-enter */
+} SimObject;
+
+static int sim_emit(SimObject *s, BlockData *b);
+
+static double getattr_d(PyObject *o, const char *name, double dflt, int use_dflt, int *err)
+{
+    PyObject *v = PyObject_GetAttrString(o, name);
+    if (v == NULL) {
+        if (use_dflt && PyErr_ExceptionMatches(PyExc_AttributeError)) {
+            PyErr_Clear();
+            return dflt;
+        }
+        *err = 1;
+        return 0.0;
+    }
+    double x = PyFloat_AsDouble(v);
+    Py_DECREF(v);
+    if (x == -1.0 && PyErr_Occurred())
+        *err = 1;
+    return x;
+}
+
+static int Sim_init(SimObject *s, PyObject *args, PyObject *kw)
+{
+    static char *kwlist[] = {"profile", "on_line", "on_block", "consts", NULL};
+    PyObject *prof, *on_line, *on_block = Py_None;
+    double full_stop_v, klipper_icv;
+    Py_ssize_t chunk, max_stop_lines;
+    if (!configured) {
+        PyErr_SetString(PyExc_RuntimeError, "_gcode_opt_fwcore: setup() was not called");
+        return -1;
+    }
+    if (s->busy) {
+        PyErr_SetString(PyExc_RuntimeError, "the firmware model was re-entered from its own callback");
+        return -1;
+    }
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOO(ddddddnn):Sim", kwlist, &prof, &on_line,
+                                     &on_block, &s->corner_cos, &full_stop_v, &s->sqrt2_m1,
+                                     &s->mps, &klipper_icv, &s->arc_min_turn, &chunk,
+                                     &max_stop_lines))
+        return -1;
+    Py_INCREF(on_line);
+    Py_XSETREF(s->on_line, on_line);
+    Py_INCREF(on_block);
+    Py_XSETREF(s->on_block, on_block);
+    PyObject *res = PyObject_CallNoArgs((PyObject *)RES_TYPE);
+    if (res == NULL)
+        return -1;
+    if (!PyObject_TypeCheck(res, &ResType)) {
+        Py_DECREF(res);
+        PyErr_SetString(PyExc_TypeError, "setup: the result class must derive from _core.SimResult");
+        return -1;
+    }
+    Py_XSETREF(s->res, (ResObject *)res);
+    PyObject *msl = PyLong_FromSsize_t(max_stop_lines);
+    if (msl == NULL)
+        return -1;
+    Py_XSETREF(s->max_stop_lines, msl);
+    s->max_stop_d = (double)max_stop_lines;
+
+    int err = 0;
+    PyObject *o = PyObject_GetAttrString(prof, "block_buffer");
+    if (o == NULL)
+        return -1;
+    long bb = PyLong_AsLong(o);
+    Py_DECREF(o);
+    if (bb == -1 && PyErr_Occurred())
+        return -1;
+    o = PyObject_GetAttrString(prof, "flavour");
+    if (o == NULL)
+        return -1;
+    s->klipper_fw = PyUnicode_Check(o) && PyUnicode_CompareWithASCIIString(o, "klipper") == 0;
+    Py_DECREF(o);
+    o = PyObject_GetAttrString(prof, "junction");
+    if (o == NULL)
+        return -1;
+    if (PyUnicode_Check(o) && PyUnicode_CompareWithASCIIString(o, "scv") == 0)
+        s->model = J_SCV;
+    else if (PyUnicode_Check(o) && PyUnicode_CompareWithASCIIString(o, "jd") == 0)
+        s->model = J_JD;
+    else if (PyUnicode_Check(o) && PyUnicode_CompareWithASCIIString(o, "jerk") == 0)
+        s->model = J_JERK;
+    else
+        s->model = J_OTHER;
+    Py_DECREF(o);
+    s->klipper_limits = bb <= 0;
+    s->marlin = bb > 0;
+    s->jerk_z = getattr_d(prof, "jerk_z_v", 0.4, 1, &err);
+    s->icv = getattr_d(prof, "instantaneous_corner_velocity_v", klipper_icv, 1, &err);
+    double max_accel = getattr_d(prof, "max_accel_a", 0, 0, &err);
+    s->max_z_accel = getattr_d(prof, "max_z_accel_a", 0, 0, &err);
+    double jerk_xy = getattr_d(prof, "jerk_xy_v", 0, 0, &err);
+    s->min_seg_t = getattr_d(prof, "min_segment_time_t", 0, 0, &err);
+    s->arc_segment_d = getattr_d(prof, "arc_segment_d", 0, 0, &err);
+    s->default_accel = getattr_d(prof, "default_accel_a", 0, 0, &err);
+    s->max_z_v = getattr_d(prof, "max_z_velocity_v", 0, 0, &err);
+    s->max_e_v = getattr_d(prof, "max_e_velocity_v", 0, 0, &err);
+    if (err)
+        return -1;
+    s->caps[0] = s->caps[1] = max_accel;
+    s->caps[2] = s->max_z_accel;
+    s->jerk[0] = s->jerk[1] = jerk_xy;
+    s->jerk[2] = s->jerk_z;
+    Py_CLEAR(s->lim);
+    s->n = s->head = 0;
+    s->chunk = chunk;
+    s->next_try = chunk;
+    s->prev_cruise = 0.0;
+    s->has_last = s->has_entry = 0;
+    if (s->marlin) {
+        /* a ring buffer of B slots holds B-1 blocks, the executing one included */
+        long w = bb - 1;
+        s->window = w < 1 ? 1 : w;
+        s->stop_thr = pymax(s->mps * (1.0 + 1e-6), full_stop_v);
+    } else {
+        s->window = 0;
+        s->stop_thr = pymax(1e-6, full_stop_v);
+    }
+    s->has_prev = 0;
+    s->prev_t = 0.0;
+    s->has_rec = 0;
+    s->busy = 0;
+    return 0;
+}
+
+static int Sim_traverse(SimObject *s, visitproc visit, void *arg)
+{
+    Py_VISIT(s->on_line);
+    Py_VISIT(s->on_block);
+    Py_VISIT(s->res);
+    Py_VISIT(s->max_stop_lines);
+    Py_VISIT(s->lim);
+    return 0;
+}
+
+static int Sim_clear(SimObject *s)
+{
+    Py_CLEAR(s->on_line);
+    Py_CLEAR(s->on_block);
+    Py_CLEAR(s->res);
+    Py_CLEAR(s->max_stop_lines);
+    Py_CLEAR(s->lim);
+    return 0;
+}
+
+static void Sim_dealloc(SimObject *s)
+{
+    PyObject_GC_UnTrack(s);
+    Sim_clear(s);
+    PyMem_Free(s->q);
+    PyMem_Free(s->info);
+    PyMem_Free(s->info_c);
+    Py_TYPE(s)->tp_free((PyObject *)s);
+}
+
+/* ---- junction laws (junction.py) ------------------------------------------------ */
+static int klipper_corner_v2(double pux, double puy, double puz, double p_jd, double p_accel,
+                             double p_delta_v2, double ux, double uy, double uz, double jd,
+                             double accel, double delta_v2, double *out)
+{
+    double cos_theta = -(ux * pux + uy * puy + uz * puz);
+    double s2 = 0.5 * (1.0 - cos_theta);
+    double c2 = 0.5 * (1.0 + cos_theta);
+    double sin_d2 = s2 > 0.0 ? sqrt(s2) : 0.0;
+    double cos_d2 = c2 > 0.0 ? sqrt(c2) : 0.0;
+    double one_m = 1.0 - sin_d2;
+    if (one_m > 0.0 && cos_d2 > 0.0) {
+        double r_jd, qt, c;
+        DIV(r_jd, sin_d2, one_m);
+        double v2 = r_jd * jd * accel;
+        double pv2 = r_jd * p_jd * p_accel;
+        if (pv2 < v2)
+            v2 = pv2;
+        DIV(qt, 0.25 * sin_d2, cos_d2);
+        c = delta_v2 * qt;
+        if (c < v2)
+            v2 = c;
+        c = p_delta_v2 * qt;
+        if (c < v2)
+            v2 = c;
+        *out = v2;
+        return 0;
+    }
+    *out = Py_HUGE_VAL;
+    return 0;
+}
+
+static int klipper_extruder_v2(double p_er, double er, double icv, double *out)
+{
+    double diff = er - p_er;
+    if (diff != 0.0) {
+        double x;
+        DIV(x, icv, fabs(diff));
+        double r = pow(x, 2.0);
+        if (isinf(r) && isfinite(x)) {           /* float.__pow__ overflow */
+            PyErr_SetString(PyExc_OverflowError, "(34, 'Numerical result out of range')");
+            return -1;
+        }
+        *out = r;
+        return 0;
+    }
+    *out = Py_HUGE_VAL;
+    return 0;
+}
+
+static int axis_limited(double value, double ux, double uy, double uz, double cx, double cy,
+                        double cz, double *out)
+{
+    double a = fabs(ux);
+    if (a > 0.0 && value * a > cx)
+        DIV(value, cx, a);
+    a = fabs(uy);
+    if (a > 0.0 && value * a > cy)
+        DIV(value, cy, a);
+    a = fabs(uz);
+    if (a > 0.0 && value * a > cz)
+        DIV(value, cz, a);
+    *out = value;
+    return 0;
+}
+
+static double marlin_fast_acos_neg(double cos_theta)
+{
+    double neg = cos_theta < 0.0 ? -1.0 : 1.0;
+    double t = neg * cos_theta;
+    double asinx = (0.032843707 + t * (-1.451838349 + t * (29.66153956 + t * (-131.1123477
+                    + t * (262.8130562 + t * (-242.7199627 + t * 84.31466202))))));
+    return M_PI / 2.0 + neg * asinx;
+}
+
+static int marlin_jd_v2(double mps, double pux, double puy, double puz, double ux, double uy, double uz,
+                        double d, double accel, double jd, double cx, double cy, double cz,
+                        double *out)
+{
+    double cos_theta = -(pux * ux + puy * uy + puz * uz);
+    if (cos_theta > 0.999999) {                  /* 0 deg acute junction: reversal */
+        *out = mps * mps;
+        return 0;
+    }
+    double jx = ux - pux, jy = uy - puy, jz = uz - puz;
+    double jn = sqrt(jx * jx + jy * jy + jz * jz);
+    double ja;
+    if (jn > 0.0) {
+        double a1, a2, a3;
+        DIV(a1, jx, jn);
+        DIV(a2, jy, jn);
+        DIV(a3, jz, jn);
+        if (axis_limited(accel, a1, a2, a3, cx, cy, cz, &ja) < 0)
+            return -1;
+    }
+    else
+        ja = accel;
+    double s = 0.5 * (1.0 - cos_theta);
+    double sin_d2 = s > 0.0 ? sqrt(s) : 0.0;
+    double one_m = 1.0 - sin_d2;
+    double v2;
+    if (one_m > 0.0)
+        DIV(v2, ja * jd * sin_d2, one_m);
+    else
+        v2 = Py_HUGE_VAL;
+    if (d < 1.0 && cos_theta < -0.7071067812) {
+        double theta = marlin_fast_acos_neg(cos_theta), lim;
+        DIV(lim, d * ja, theta);
+        if (lim < v2)
+            v2 = lim;
+    }
+    *out = v2;
+    return 0;
+}
+
+/* Python's max(v_exit, -v_entry) etc. in marlin_jerk_junction_v */
+#define JERK_OF(jerk, v_exit, v_entry) do {                                               \
+    if ((v_exit) > (v_entry))                                                             \
+        (jerk) = ((v_entry) > 0.0 || (v_exit) < 0.0) ? ((v_exit) - (v_entry))               \
+                                                   : pymax((v_exit), -(v_entry));         \
+    else                                                                                  \
+        (jerk) = ((v_entry) < 0.0 || (v_exit) > 0.0) ? ((v_entry) - (v_exit))               \
+                                                   : pymax(-(v_exit), (v_entry));         \
+} while (0)
+
+static int marlin_jerk_junction_v(double pux, double puy, double puz, double p_nominal,
+                                  double p_safe, double ux, double uy, double uz, double nominal,
+                                  double safe, double jx, double jy, double jz, double *out)
+{
+    double vmax = nominal < p_nominal ? nominal : p_nominal;
+    double smaller, f;
+    DIV(smaller, vmax, p_nominal);
+    double v_factor = 1.0;
+    int limited = 0;
+    double v_exit, v_entry, jerk;
+    /* X */
+    v_exit = pux * p_nominal * smaller;
+    v_entry = ux * nominal;
+    JERK_OF(jerk, v_exit, v_entry);
+    if (jerk > jx) {
+        DIV(f, jx, jerk);
+        v_factor *= f;
+        limited = 1;
+    }
+    /* Y */
+    v_exit = puy * p_nominal * smaller;
+    v_entry = uy * nominal;
+    if (limited) {
+        v_exit *= v_factor;
+        v_entry *= v_factor;
+    }
+    JERK_OF(jerk, v_exit, v_entry);
+    if (jerk > jy) {
+        DIV(f, jy, jerk);
+        v_factor *= f;
+        limited = 1;
+    }
+    /* Z */
+    v_exit = puz * p_nominal * smaller;
+    v_entry = uz * nominal;
+    if (limited) {
+        v_exit *= v_factor;
+        v_entry *= v_factor;
+    }
+    JERK_OF(jerk, v_exit, v_entry);
+    if (jerk > jz) {
+        DIV(f, jz, jerk);
+        v_factor *= f;
+        limited = 1;
+    }
+    if (limited)
+        vmax *= v_factor;
+    double thr = vmax * 0.99;
+    if (p_safe > thr && safe > thr)             /* not coasting: Marlin restarts from safe speed */
+        vmax = safe;
+    *out = vmax;
+    return 0;
+}
+
+static int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
+{
+    if (s->model == J_SCV) {
+        double v2, e2;
+        if (klipper_corner_v2(p->ux, p->uy, p->uz, p->jd, p->accel, p->delta_v2,
+                              b->ux, b->uy, b->uz, b->jd, b->accel, b->delta_v2, &v2) < 0)
+            return -1;
+        if (b->er != p->er) {
+            if (klipper_extruder_v2(p->er, b->er, s->icv, &e2) < 0)
+                return -1;
+            if (e2 < v2)
+                v2 = e2;
+        }
+        *out = v2;
+        return 0;
+    }
+    if (s->model == J_JD)
+        return marlin_jd_v2(s->mps, p->ux, p->uy, p->uz, b->ux, b->uy, b->uz, b->d, b->accel, b->jd,
+                            s->caps[0], s->caps[1], s->caps[2], out);
+    double v;
+    if (marlin_jerk_junction_v(p->ux, p->uy, p->uz, p->nominal_v, p->safe_v, b->ux, b->uy, b->uz,
+                               b->nominal_v, b->safe_v, s->jerk[0], s->jerk[1], s->jerk[2], &v) < 0)
+        return -1;
+    *out = v * v;
+    return 0;
+}
+
+/* ---- planners (planner.py) -------------------------------------------------------- */
+static int set_trapezoid(BlockData *b, double start_v2, double cruise_v2, double end_v2)
+{
+    double half_inv_a;
+    DIV(half_inv_a, 0.5, b->accel);
+    double accel_d = (cruise_v2 - start_v2) * half_inv_a;
+    double decel_d = (cruise_v2 - end_v2) * half_inv_a;
+    double cruise_d = b->d - accel_d - decel_d;
+    if (cruise_d < 0.0)                          /* rounding only */
+        cruise_d = 0.0;
+    double sv = 0.0, cv, ev = 0.0;
+    if (start_v2 > 0.0)
+        SQRT(sv, start_v2);
+    SQRT(cv, cruise_v2);
+    if (end_v2 > 0.0)
+        SQRT(ev, end_v2);
+    b->start_v = sv;
+    b->cruise_v = cv;
+    b->end_v = ev;
+    if (accel_d > 0.0)
+        DIV(b->accel_t, accel_d, (sv + cv) * 0.5);
+    else
+        b->accel_t = 0.0;
+    DIV(b->cruise_t, cruise_d, cv);
+    if (decel_d > 0.0)
+        DIV(b->decel_t, decel_d, (ev + cv) * 0.5);
+    else
+        b->decel_t = 0.0;
+    return 0;
+}
+
+static int grow_queue(SimObject *s)
+{
+    if (s->n < s->cap)
+        return 0;
+    Py_ssize_t cap = s->cap ? 2 * s->cap : 1024;
+    BlockData *q = PyMem_Realloc(s->q, (size_t)cap * sizeof(BlockData));
+    if (q == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    s->q = q;
+    s->cap = cap;
+    return 0;
+}
+
+/* KlipperPlanner.flush: the number of moves committed, or -1 on error. */
+static Py_ssize_t klipper_flush(SimObject *s, int lazy)
+{
+    BlockData *q = s->q;
+    Py_ssize_t n = s->n, flush_count = n;
+    int update = lazy;
+    if (n > s->info_cap) {
+        Py_ssize_t cap = n + n / 2 + 16;
+        double *info = PyMem_Realloc(s->info, (size_t)cap * 3 * sizeof(double));
+        if (info == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        s->info = info;
+        char *ic = PyMem_Realloc(s->info_c, (size_t)cap);
+        if (ic == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        s->info_c = ic;
+        s->info_cap = cap;
+    }
+    double *info = s->info;
+    char *info_c = s->info_c;
+    double next_start = 0.0, next_mcr = 0.0, peak = 0.0;
+    Py_ssize_t pending = 0;
+    for (Py_ssize_t i = n - 1; i >= 0; i--) {
+        BlockData *m = &q[i];
+        double reach = next_start + m->delta_v2;
+        double start = m->max_start_v2;
+        if (reach < start)
+            start = reach;
+        int has_cruise = 0;
+        double cruise = 0.0;
+        pending += 1;
+        double reach_mcr = next_mcr + m->mcr_delta_v2;
+        double mcr = m->max_mcr_start_v2;
+        if (reach_mcr < mcr)
+            mcr = reach_mcr;
+        if (mcr < reach_mcr) {
+            /* this move can accelerate */
+            if (mcr + m->mcr_delta_v2 > next_mcr || pending > 1) {
+                if (update && peak != 0.0) {
+                    flush_count = i + pending;
+                    update = 0;
+                }
+                peak = (mcr + reach_mcr) * 0.5;
+            }
+            cruise = (start + reach) * 0.5;
+            if (m->v2max < cruise)
+                cruise = m->v2max;
+            if (peak < cruise)
+                cruise = peak;
+            has_cruise = 1;
+            pending = 0;
+        }
+        info[3 * i] = start;
+        info[3 * i + 1] = cruise;
+        info[3 * i + 2] = next_start;
+        info_c[i] = (char)has_cruise;
+        next_start = start;
+        next_mcr = mcr;
+    }
+    if (update || !flush_count)
+        return 0;
+    double prev_cruise = s->prev_cruise;
+    for (Py_ssize_t i = 0; i < flush_count; i++) {
+        BlockData *m = &q[i];
+        double start = info[3 * i];
+        double cruise = info[3 * i + 1];
+        if (!info_c[i])                 /* can't accelerate: carries the previous cruise */
+            cruise = prev_cruise < start ? prev_cruise : start;
+        double end = info[3 * i + 2];
+        if (set_trapezoid(m, start < cruise ? start : cruise, cruise, end < cruise ? end : cruise) < 0)
+            return -1;
+        prev_cruise = cruise;
+        if (sim_emit(s, m) < 0)
+            return -1;
+    }
+    s->prev_cruise = prev_cruise;
+    memmove(q, q + flush_count, (size_t)(n - flush_count) * sizeof(BlockData));
+    s->n = n - flush_count;
+    return flush_count;
+}
+
+static int klipper_add(SimObject *s, BlockData *b)
+{
+    if (s->n) {
+        BlockData *p = &s->q[s->n - 1];
+        double v2;
+        if (junction(s, p, b, &v2) < 0)
+            return -1;
+        double lim = p->max_start_v2 + p->delta_v2;
+        if (b->v2max < lim)
+            lim = b->v2max;
+        if (p->v2max < lim)
+            lim = p->v2max;
+        if (v2 < lim)
+            lim = v2;
+        b->max_start_v2 = lim;
+        double m = p->max_mcr_start_v2 + p->mcr_delta_v2;
+        b->max_mcr_start_v2 = m < lim ? m : lim;
+        b->after_stop = 0;
+    }
+    if (grow_queue(s) < 0)
+        return -1;
+    s->q[s->n++] = *b;
+    if (s->n >= s->next_try) {
+        Py_ssize_t k = klipper_flush(s, 1);
+        if (k < 0)
+            return -1;
+        s->next_try = k ? s->n + s->chunk : 2 * s->n;
+    }
+    return 0;
+}
+
+static int klipper_stop(SimObject *s)
+{
+    if (s->n && klipper_flush(s, 0) < 0)
+        return -1;
+    s->next_try = s->chunk;
+    s->prev_cruise = 0.0;
+    return 0;
+}
+
+static double marlin_reverse(SimObject *s, Py_ssize_t j, double end_v2)
+{
+    double r = Py_HUGE_VAL, sum = 0.0, c;
+    for (Py_ssize_t k = j; k < s->n; k++) {
+        BlockData *bk = &s->q[k];
+        c = bk->max_start_v2 + sum;
+        if (c < r)
+            r = c;
+        sum += bk->delta_v2;
+        if (sum >= r)
+            return r;
+    }
+    c = end_v2 + sum;
+    return c < r ? c : r;
+}
+
+static int marlin_execute(SimObject *s, double end_v2)
+{
+    Py_ssize_t i = s->head, n = s->n;
+    BlockData *b = &s->q[i];
+    double e = s->has_entry ? s->entry_v2 : marlin_reverse(s, i, end_v2);
+    double x = i + 1 < n ? marlin_reverse(s, i + 1, end_v2) : end_v2;
+    double dv2 = b->delta_v2;
+    double f = e + dv2;
+    if (f < x)
+        x = f;
+    if (x < e - dv2)                 /* cannot happen with a consistent plan; stay physical */
+        x = e - dv2;
+    double c = (e + x + dv2) * 0.5;
+    if (b->v2max < c)
+        c = b->v2max;
+    if (c < e)
+        c = e;
+    if (c < x)
+        c = x;
+    if (set_trapezoid(b, e, c, x) < 0)
+        return -1;
+    s->entry_v2 = x;
+    s->has_entry = 1;
+    s->head = i + 1;
+    return sim_emit(s, b);
+}
+
+static int marlin_add(SimObject *s, BlockData *b)
+{
+    if (s->has_last) {
+        BlockData *p = &s->last;
+        double v2;
+        if (junction(s, p, b, &v2) < 0)
+            return -1;
+        if (b->v2max < v2)
+            v2 = b->v2max;
+        if (p->v2max < v2)
+            v2 = p->v2max;
+        b->max_start_v2 = v2;
+        b->after_stop = 0;
+    }
+    else
+        b->max_start_v2 = s->model == J_JERK ? b->safe_v * b->safe_v : 0.0;
+    s->last = *b;
+    s->has_last = 1;
+    if (grow_queue(s) < 0)
+        return -1;
+    s->q[s->n++] = *b;
+    if (s->n - s->head >= s->window) {
+        if (marlin_execute(s, s->mps * s->mps) < 0)
+            return -1;
+        if (s->head > 4096) {
+            memmove(s->q, s->q + s->head, (size_t)(s->n - s->head) * sizeof(BlockData));
+            s->n -= s->head;
+            s->head = 0;
+        }
+    }
+    return 0;
+}
+
+static int marlin_stop(SimObject *s)
+{
+    /* the buffer drains: the last block ends at MINIMUM_PLANNER_SPEED, as in Marlin */
+    while (s->head < s->n)
+        if (marlin_execute(s, s->mps * s->mps) < 0)
+            return -1;
+    s->n = s->head = 0;
+    s->has_last = 0;
+    s->has_entry = 0;
+    return 0;
+}
+
+/* ---- blocks -> integrals (_Sim._emit, _close) --------------------------------------- */
+static int call_on_line(SimObject *s, RecData *r)
+{
+    if (s->on_line == Py_None)
+        return 0;
+    RecObject *o = (RecObject *)REC_TYPE->tp_alloc(REC_TYPE, 0);
+    if (o == NULL)
+        return -1;
+    o->r = *r;
+    PyObject *x = PyObject_CallOneArg(s->on_line, (PyObject *)o);
+    Py_DECREF(o);
+    if (x == NULL)
+        return -1;
+    Py_DECREF(x);
+    return 0;
+}
+
+static int sim_close(SimObject *s)
+{
+    if (s->has_rec) {
+        s->has_rec = 0;
+        return call_on_line(s, &s->rec);
+    }
+    return 0;
+}
+
+static int append_stop_line(SimObject *s, long long line)
+{
+    PyObject *sl = s->res->stop_lines;
+    if (sl == NULL) {
+        PyErr_SetString(PyExc_AttributeError, "'SimResult' object has no attribute 'stop_lines'");
+        return -1;
+    }
+    Py_ssize_t len = PyObject_Length(sl);
+    if (len < 0)
+        return -1;
+    if (!((double)len < s->max_stop_d))
+        return 0;
+    PyObject *v = PyLong_FromLongLong(line);
+    if (v == NULL)
+        return -1;
+    int rc;
+    if (PyList_CheckExact(sl))
+        rc = PyList_Append(sl, v);
+    else {
+        PyObject *x = PyObject_CallMethod(sl, "append", "O", v);
+        rc = x == NULL ? -1 : 0;
+        Py_XDECREF(x);
+    }
+    Py_DECREF(v);
+    return rc;
+}
+
+static int sim_emit(SimObject *s, BlockData *b)
+{
+    ResObject *res = s->res;
+    double a = b->accel, at = b->accel_t, ct = b->cruise_t, dt = b->decel_t;
+    double t = at + ct + dt;
+    double sv = b->start_v, cv = b->cruise_v, ev = b->end_v;
+    double ta = at + dt;
+    double a2 = a * a * ta;
+    double cv2 = cv * cv;
+    double v2 = (at * (sv * sv + sv * cv + cv2) + dt * (ev * ev + ev * cv + cv2)) / 3.0 + ct * cv * cv;
+    double pa = ta > 0.0 ? a : 0.0;
+    res->n_blocks += 1;
+    res->time_t += t;
+    res->int_a2_t += a2;
+    res->int_a2 += a2;
+    res->int_v2 += v2;
+    if (cv > res->peak_v)
+        res->peak_v = cv;
+    double jterm = 0.0, na = 0.0;
+    if (s->has_prev && !b->after_stop) {
+        if (sv < s->stop_thr) {
+            res->full_stops += 1;
+            if (append_stop_line(s, b->idx + 1) < 0)
+                return -1;
+        }
+        double cos_turn = s->prev_ux * b->ux + s->prev_uy * b->uy + s->prev_uz * b->uz;
+        double dv2 = 2.0 * sv * sv * (1.0 - cos_turn);
+        if (cos_turn < s->corner_cos) {
+            res->corners += 1;
+            res->corner_dv2 += dv2;
+        }
+        else if (dv2 > 0.0) {
+            double tj = 0.5 * (s->prev_t + t);
+            DIV(jterm, dv2, tj);
+            DIV(na, sqrt(dv2), tj);
+            res->int_a2 += jterm;
+            if (na > res->peak_a)
+                res->peak_a = na;
+        }
+    }
+    if (pa > res->peak_a)
+        res->peak_a = pa;
+    RecData *rec = &s->rec;
+    if (s->has_rec && b->idx == rec->idx) {
+        rec->int_a2 += jterm;
+        if (na > rec->peak_a)
+            rec->peak_a = na;
+    }
+    else {
+        if (s->has_rec) {
+            rec->int_a2_j += 0.5 * jterm;
+            if (na > rec->peak_a)
+                rec->peak_a = na;
+            s->has_rec = 0;
+            if (call_on_line(s, rec) < 0)
+                return -1;
+        }
+        s->has_rec = 1;
+        rec->idx = b->idx;
+        rec->kind = b->kind;
+        rec->end_v = rec->peak_v = 0.0;
+        rec->time_t = rec->int_a2 = rec->int_v2 = 0.0;
+        rec->start_v = sv;
+        rec->int_a2_j = 0.5 * jterm;
+        rec->peak_a = na;
+    }
+    rec->end_v = ev;
+    if (cv > rec->peak_v)
+        rec->peak_v = cv;
+    if (pa > rec->peak_a)
+        rec->peak_a = pa;
+    rec->time_t += t;
+    rec->int_a2 += a2;
+    rec->int_v2 += v2;
+    s->has_prev = 1;
+    s->prev_ux = b->ux;
+    s->prev_uy = b->uy;
+    s->prev_uz = b->uz;
+    s->prev_t = t;
+    if (s->on_block != Py_None) {
+        BlockObject *o = PyObject_New(BlockObject, &BlockType);
+        if (o == NULL)
+            return -1;
+        o->b = *b;
+        PyObject *x = PyObject_CallOneArg(s->on_block, (PyObject *)o);
+        Py_DECREF(o);
+        if (x == NULL)
+            return -1;
+        Py_DECREF(x);
+    }
+    return 0;
+}
+
+static int sim_stop(SimObject *s)
+{
+    if ((s->marlin ? marlin_stop(s) : klipper_stop(s)) < 0)
+        return -1;
+    if (sim_close(s) < 0)
+        return -1;
+    s->has_prev = 0;
+    return 0;
+}
+
+/* ---- moves -> blocks (_Sim.move, _block, _eonly) ----------------------------------- */
+typedef struct {
+    PyObject *ev;                 /* borrowed */
+    long long idx;
+    int kind;
+    double e, v, accel, flow_r;
+    PyObject *lim;                /* new reference */
+    double v_max, scv, mcr, jd;   /* lim's, read per block as _block does */
+} MoveData;
+
+static int set_lim(SimObject *s, PyObject *lim)
+{
+    double ax, ay, jx, jy;
+    if (get_d(&LIM_MAP, lim, L_AXMAX, &ax) < 0 || get_d(&LIM_MAP, lim, L_AYMAX, &ay) < 0
+        || get_d(&LIM_MAP, lim, L_JERKX, &jx) < 0 || get_d(&LIM_MAP, lim, L_JERKY, &jy) < 0)
+        return -1;
+    Py_INCREF(lim);
+    Py_XSETREF(s->lim, lim);
+    s->caps[0] = ax;
+    s->caps[1] = ay;
+    s->caps[2] = s->max_z_accel;
+    s->jerk[0] = jx;
+    s->jerk[1] = jy;
+    s->jerk[2] = s->jerk_z;
+    return 0;
+}
+
+static int sim_eonly(SimObject *s, PyObject *mv)
+{
+    /* rest-to-rest trapezoid of the extruder alone; the toolhead stands still */
+    if (sim_stop(s) < 0)
+        return -1;
+    double e, v, a, t;
+    long long idx;
+    if (get_d(&MOVE_MAP, mv, MV_E, &e) < 0)
+        return -1;
+    double d = fabs(e);
+    if (get_d(&MOVE_MAP, mv, MV_V, &v) < 0)
+        return -1;
+    v = pymin(v, s->max_e_v);
+    if (get_d(&MOVE_MAP, mv, MV_ACCEL, &a) < 0)
+        return -1;
+    if (d <= 0.0 || v <= 0.0 || a <= 0.0)
+        t = 0.0;
+    else if (v * v <= a * d) {
+        double t1, t2;
+        DIV(t1, d, v);
+        DIV(t2, v, a);
+        t = t1 + t2;
+    }
+    else {
+        double q, r;
+        DIV(q, d, a);
+        SQRT(r, q);
+        t = 2.0 * r;
+    }
+    s->res->time_t += t;
+    if (get_ll(&MOVE_MAP, mv, MV_IDX, &idx) < 0)
+        return -1;
+    RecData rec;
+    memset(&rec, 0, sizeof(rec));
+    rec.idx = idx;
+    rec.kind = (int)K_EONLY;
+    rec.time_t = t;
+    return call_on_line(s, &rec);
+}
+
+static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy, double dz,
+                     double de)
+{
+    double d = sqrt(dx * dx + dy * dy + dz * dz);
+    if (d < 1e-9) {
+        if (de != 0.0 && first)
+            return sim_eonly(s, m->ev);
+        return 0;
+    }
+    double inv;
+    DIV(inv, 1.0, d);
+    double ux = dx * inv, uy = dy * inv, uz = dz * inv;
+    PyObject *lim = m->lim;
+    double a0 = m->accel;
+    if (!(a0 > 0.0))                      /* M204 S0 or garbage: the profile's default */
+        a0 = s->default_accel;
+    double aux = fabs(ux), auy = fabs(uy), auz = fabs(uz);
+    double a;
+    if (s->klipper_fw) {
+        a = a0;
+        if (uz != 0.0) {
+            double az;
+            DIV(az, s->max_z_accel, auz);
+            if (az < a)
+                a = az;
+        }
+    }
+    else {
+        if (lim != s->lim && set_lim(s, lim) < 0)
+            return -1;
+        double cx = s->caps[0], cy = s->caps[1], cz = s->caps[2];
+        a = a0;
+        if (aux > 0.0 && a * aux > cx)
+            DIV(a, cx, aux);
+        if (auy > 0.0 && a * auy > cy)
+            DIV(a, cy, auy);
+        if (auz > 0.0 && a * auz > cz)
+            DIV(a, cz, auz);
+    }
+    double v_max, v;
+    if (get_d(&LIM_MAP, lim, L_VMAX, &v_max) < 0)
+        return -1;
+    if (s->klipper_limits) {
+        v = m->v < v_max ? m->v : v_max;
+        if (uz != 0.0) {
+            double vz;
+            DIV(vz, s->max_z_v, auz);
+            if (vz < v)
+                v = vz;
+        }
+    }
+    else {
+        v = m->v;
+        if (aux > 0.0 && v * aux > v_max)
+            DIV(v, v_max, aux);
+        if (auy > 0.0 && v * auy > v_max)
+            DIV(v, v_max, auy);
+        if (auz > 0.0) {
+            double cz = s->max_z_v;
+            if (v * auz > cz)
+                DIV(v, cz, auz);
+        }
+    }
+    double jd, mcr_a;
+    if (s->model == J_SCV) {
+        double scv, mcr;
+        if (get_d(&LIM_MAP, lim, L_SCV, &scv) < 0 || get_d(&LIM_MAP, lim, L_MCR, &mcr) < 0)
+            return -1;
+        DIV(jd, scv * scv * s->sqrt2_m1, a0);
+        mcr_a = a0 * (1.0 - mcr);
+    }
+    else {
+        if (get_d(&LIM_MAP, lim, L_JD, &jd) < 0)
+            return -1;
+        mcr_a = a;
+    }
+    double er = de != 0.0 ? de * inv * m->flow_r : 0.0;
+    BlockData b;
+    b.idx = m->idx;
+    b.kind = m->kind;
+    b.first = (char)first;
+    b.d = d;
+    b.ux = ux;
+    b.uy = uy;
+    b.uz = uz;
+    b.er = er;
+    b.accel = a;
+    b.jd = jd;
+    b.nominal_v = v;
+    b.v2max = v * v;
+    double dv2 = 2.0 * d * a;
+    b.delta_v2 = dv2;
+    double mm = 2.0 * d * mcr_a;
+    b.mcr_delta_v2 = mm < dv2 ? mm : dv2;
+    b.max_start_v2 = b.max_mcr_start_v2 = b.safe_v = 0.0;
+    b.after_stop = 1;
+    b.start_v = b.cruise_v = b.end_v = b.accel_t = b.cruise_t = b.decel_t = 0.0;
+    if (s->model == J_JERK) {
+        if (lim != s->lim && set_lim(s, lim) < 0)
+            return -1;
+        double jx = s->jerk[0], jy = s->jerk[1], jz = s->jerk[2];
+        double safe = v, comp, mjerk;
+        int limited = 0;
+        comp = aux * v;
+        if (comp > jx) {
+            limited = 1;
+            safe = jx;
+        }
+        comp = auy * v;
+        if (comp > jy) {
+            if (limited) {
+                mjerk = jy * v;
+                if (comp * safe > mjerk)
+                    DIV(safe, mjerk, comp);
+            }
+            else {
+                limited = 1;
+                safe = jy;
+            }
+        }
+        comp = auz * v;
+        if (comp > jz) {
+            if (limited) {
+                mjerk = jz * v;
+                if (comp * safe > mjerk)
+                    DIV(safe, mjerk, comp);
+            }
+            else
+                safe = jz;
+        }
+        b.safe_v = safe;
+    }
+    if (s->min_seg_t > 0.0 && d < s->min_seg_t * v)
+        s->res->short_segments += 1;
+    return s->marlin ? marlin_add(s, &b) : klipper_add(s, &b);
+}
+
+/* simulate.arc_chords */
+static int arc_chords(double length_d, double sweep, double segment_d, double arc_min_turn,
+                      Py_ssize_t *out)
+{
+    double turn = fabs(sweep) <= 2.0 * M_PI ? fabs(sweep) : 2.0 * M_PI;
+    double n_max = ceil(turn / arc_min_turn);
+    double n = segment_d > 0.0 ? length_d / segment_d : 1.0;
+    if (!(n <= n_max))
+        n = n_max;
+    if (isinf(n)) {
+        PyErr_SetString(PyExc_OverflowError, "cannot convert float infinity to integer");
+        return -1;
+    }
+    double k = trunc(n);
+    *out = k < 1.0 ? 1 : (Py_ssize_t)k;
+    return 0;
+}
+
+static int enter(SimObject *s)
+{
+    if (s->busy) {
+        PyErr_SetString(PyExc_RuntimeError, "the firmware model was re-entered from its own callback");
+        return -1;
+    }
+    s->busy = 1;
+    return 0;
+}
+
+static PyObject *Sim_move_body(SimObject *s, PyObject *mv);
+
+static PyObject *Sim_move(SimObject *s, PyObject *mv)
+{
+    if (enter(s) < 0)
+        return NULL;
+    PyObject *r = Sim_move_body(s, mv);
+    s->busy = 0;
+    return r;
+}
+
+static PyObject *Sim_move_body(SimObject *s, PyObject *mv)
+{
+    MoveData m;
+    m.ev = mv;
+    m.lim = NULL;
+    PyObject *arc = NULL;
+    long long kind;
+    s->res->n_moves += 1;
+    if (get_ll(&MOVE_MAP, mv, MV_KIND, &kind) < 0)
+        return NULL;
+    if (kind == K_EONLY) {
+        if (sim_eonly(s, mv) < 0)
+            return NULL;
+        Py_RETURN_NONE;
+    }
+    double x0, y0, z0, x1, y1, z1;
+    if (get_ll(&MOVE_MAP, mv, MV_IDX, &m.idx) < 0
+        || get_d(&MOVE_MAP, mv, MV_X0, &x0) < 0 || get_d(&MOVE_MAP, mv, MV_Y0, &y0) < 0
+        || get_d(&MOVE_MAP, mv, MV_Z0, &z0) < 0 || get_d(&MOVE_MAP, mv, MV_X1, &x1) < 0
+        || get_d(&MOVE_MAP, mv, MV_Y1, &y1) < 0 || get_d(&MOVE_MAP, mv, MV_Z1, &z1) < 0
+        || get_d(&MOVE_MAP, mv, MV_E, &m.e) < 0 || get_d(&MOVE_MAP, mv, MV_V, &m.v) < 0
+        || get_d(&MOVE_MAP, mv, MV_ACCEL, &m.accel) < 0
+        || get_d(&MOVE_MAP, mv, MV_FLOW_R, &m.flow_r) < 0)
+        return NULL;
+    m.kind = (int)kind;
+    m.lim = get_obj(&MOVE_MAP, mv, MV_LIM);
+    if (m.lim == NULL)
+        return NULL;
+    int rc;
+    if (kind == K_LINE)
+        rc = sim_block(s, &m, 1, x1 - x0, y1 - y0, z1 - z0, m.e);
+    else {
+        double cx, cy, r, t0, sw, length_d;
+        Py_ssize_t n;
+        rc = -1;
+        arc = get_obj(&MOVE_MAP, mv, MV_ARC);
+        if (arc == NULL || get_d(&ARC_MAP, arc, A_LENGTH, &length_d) < 0
+            || get_d(&ARC_MAP, arc, A_SWEEP, &sw) < 0
+            || arc_chords(length_d, sw, s->arc_segment_d, s->arc_min_turn, &n) < 0
+            || get_d(&ARC_MAP, arc, A_CX, &cx) < 0 || get_d(&ARC_MAP, arc, A_CY, &cy) < 0
+            || get_d(&ARC_MAP, arc, A_R, &r) < 0 || get_d(&ARC_MAP, arc, A_THETA0, &t0) < 0)
+            goto done;
+        double dn = (double)n;
+        double dz = (z1 - z0) / dn;
+        double de = m.e / dn;
+        double px = x0, py = y0, x, y;
+        for (Py_ssize_t i = 1; i <= n; i++) {
+            if (i == n) {
+                x = x1;
+                y = y1;
+            }
+            else {
+                double th = t0 + sw * (double)i / dn;
+                if (isinf(th)) {
+                    domain();
+                    goto done;
+                }
+                x = cx + r * cos(th);
+                y = cy + r * sin(th);
+            }
+            if (sim_block(s, &m, i == 1, x - px, y - py, dz, de) < 0)
+                goto done;
+            px = x;
+            py = y;
+        }
+        rc = 0;
+    }
+done:
+    Py_XDECREF(arc);
+    Py_XDECREF(m.lim);
+    if (rc < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Sim_stop(SimObject *s, PyObject *noarg)
+{
+    if (enter(s) < 0)
+        return NULL;
+    int rc = sim_stop(s);
+    s->busy = 0;
+    if (rc < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
+{
+    if (enter(s) < 0)
+        return NULL;
+    int rc = sim_stop(s);
+    s->busy = 0;
+    if (rc < 0)
+        return NULL;
+    double dw;
+    if (get_d(&BAR_MAP, ev, 0, &dw) < 0)
+        return NULL;
+    s->res->time_t += dw;
+    s->res->barrier_dwell_t += dw;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
+{
+    /* nothing planned is waiting: what comes next cannot change what came before */
+    return PyBool_FromLong(s->n == 0 && !s->has_rec && !s->has_prev);
+}
+
+static PyObject *Sim_get_msl(SimObject *s, void *c)
+{
+    Py_INCREF(s->max_stop_lines);
+    return s->max_stop_lines;
+}
+
+static int Sim_set_msl(SimObject *s, PyObject *v, void *c)
+{
+    if (v == NULL) {
+        PyErr_SetString(PyExc_AttributeError, "max_stop_lines cannot be deleted");
+        return -1;
+    }
+    double d = PyFloat_AsDouble(v);
+    if (d == -1.0 && PyErr_Occurred())
+        return -1;
+    Py_INCREF(v);
+    Py_XSETREF(s->max_stop_lines, v);
+    s->max_stop_d = d;
+    return 0;
+}
+
+static PyObject *Sim_get_res(SimObject *s, void *c)
+{
+    Py_INCREF(s->res);
+    return (PyObject *)s->res;
+}
+
+static PyGetSetDef Sim_getset[] = {
+    {"max_stop_lines", (getter)Sim_get_msl, (setter)Sim_set_msl, "full stops listed at most", NULL},
+    {"res", (getter)Sim_get_res, NULL, "the SimResult this pass fills", NULL},
+    {NULL}
+};
+
+static PyMemberDef Sim_members[] = {
+    {"on_line", T_OBJECT, offsetof(SimObject, on_line), READONLY, NULL},
+    {"on_block", T_OBJECT, offsetof(SimObject, on_block), READONLY, NULL},
+    {NULL}
+};
+
+static PyMethodDef Sim_methods[] = {
+    {"move", (PyCFunction)Sim_move, METH_O, "Play one state.Move."},
+    {"barrier", (PyCFunction)Sim_barrier, METH_O, "Bring the machine to rest, then dwell."},
+    {"stop", (PyCFunction)Sim_stop, METH_NOARGS, "Bring the machine to rest."},
+    {"empty", (PyCFunction)Sim_empty, METH_NOARGS, "Nothing planned is waiting."},
+    {NULL}
+};
+
+static PyTypeObject SimType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.Sim",
+    .tp_doc = "Sim(profile, on_line, on_block=None): simulate._Sim in C.",
+    .tp_basicsize = sizeof(SimObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Sim_init,
+    .tp_traverse = (traverseproc)Sim_traverse,
+    .tp_clear = (inquiry)Sim_clear,
+    .tp_dealloc = (destructor)Sim_dealloc,
+    .tp_methods = Sim_methods,
+    .tp_members = Sim_members,
+    .tp_getset = Sim_getset,
+};
+
+/* ---------------------------------------------------------------- module */
+static int const_l(PyObject *c, const char *k, long *out)
+{
+    PyObject *v = PyDict_GetItemString(c, k);
+    if (v == NULL) {
+        PyErr_Format(PyExc_KeyError, "setup: constant %s missing", k);
+        return -1;
+    }
+    *out = PyLong_AsLong(v);
+    return (*out == -1 && PyErr_Occurred()) ? -1 : 0;
+}
+
+static PyObject *mod_setup(PyObject *self, PyObject *args)
+{
+    PyObject *move_t, *arc_t, *lim_t, *bar_t, *rec_t, *res_t, *c;
+    if (!PyArg_ParseTuple(args, "OOOOOOO!:setup", &move_t, &arc_t, &lim_t, &bar_t, &rec_t, &res_t,
+                          &PyDict_Type, &c))
+        return NULL;
+    if (!PyType_Check(rec_t) || !PyType_IsSubtype((PyTypeObject *)rec_t, &RecType)
+        || !PyType_Check(res_t) || !PyType_IsSubtype((PyTypeObject *)res_t, &ResType)) {
+        PyErr_SetString(PyExc_TypeError, "setup: record and result classes must derive from "
+                                         "_core.LineRecord and _core.SimResult");
+        return NULL;
+    }
+    if (map_init(&MOVE_MAP, move_t, MOVE_NAMES) < 0 || map_init(&ARC_MAP, arc_t, ARC_NAMES) < 0
+        || map_init(&LIM_MAP, lim_t, LIM_NAMES) < 0)
+        return NULL;
+    static const char *bar_names[1] = {"dwell_t"};
+    if (map_init(&BAR_MAP, bar_t, bar_names) < 0)
+        return NULL;
+    if (const_l(c, "LINE", &K_LINE) < 0 || const_l(c, "ARC", &K_ARC) < 0
+        || const_l(c, "EONLY", &K_EONLY) < 0)
+        return NULL;
+    Py_INCREF(rec_t);
+    Py_XSETREF(REC_TYPE, (PyTypeObject *)rec_t);
+    Py_INCREF(res_t);
+    Py_XSETREF(RES_TYPE, (PyTypeObject *)res_t);
+    configured = 1;
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef mod_methods[] = {
+    {"setup", mod_setup, METH_VARARGS,
+     "setup(Move, Arc, Limits, Barrier, LineRecord subclass, SimResult subclass, constants)"},
+    {NULL}
+};
+
+static struct PyModuleDef core_module = {
+    PyModuleDef_HEAD_INIT, "_gcode_opt_fwcore",
+    "Compiled core of the firmware model (gcode_opt/firmware/_core.c; see simulate.py).", -1,
+    mod_methods,
+};
+
+#ifndef FWCORE_SOURCE_SHA256
+#define FWCORE_SOURCE_SHA256 ""
+#endif
+
+PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
+{
+    if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
+        || PyType_Ready(&SimType) < 0)
+        return NULL;
+    PyObject *m = PyModule_Create(&core_module);
+    if (m == NULL)
+        return NULL;
+    Py_INCREF(&BlockType);
+    Py_INCREF(&RecType);
+    Py_INCREF(&ResType);
+    Py_INCREF(&SimType);
+    if (PyModule_AddObject(m, "Block", (PyObject *)&BlockType) < 0
+        || PyModule_AddObject(m, "LineRecord", (PyObject *)&RecType) < 0
+        || PyModule_AddObject(m, "SimResult", (PyObject *)&ResType) < 0
+        || PyModule_AddObject(m, "Sim", (PyObject *)&SimType) < 0
+        || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

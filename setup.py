@@ -1,0 +1,42 @@
+"""Build the optional compiled core of the firmware model (gcode_opt/firmware/_core.c).
+
+Everything else is in pyproject.toml.  The extension is optional: without a C compiler
+(or Python headers) the build prints a warning, skips it, and the install goes on; the
+package then runs its pure-Python model (simulate.CORE == "python").
+
+It is a top-level module, _gcode_opt_fwcore, not one inside the package: a source tree
+that shadows the installed package (python -m pytest from the checkout, as CI runs it)
+still finds the installed core.  The build records the SHA-256 of the C source it was
+made from; simulate.py does not use a core built from another _core.c than the one
+beside it (a stale build).
+
+The core must give the same bits as the Python model, so every double operation has to
+be the one Python does: no fused multiply-add (-ffp-contract=off; gcc contracts by
+default on arm64), no -ffast-math, and sin/cos called as the separate libm functions
+Python's math module calls (-fno-builtin-sin/cos: gcc would merge them into sincos)."""
+import hashlib
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+UNIX_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fno-builtin-sin", "-fno-builtin-cos"]
+MSVC_FLAGS = ["/O2", "/fp:precise"]
+
+
+class BuildExt(build_ext):
+    def build_extensions(self):
+        flags = MSVC_FLAGS if self.compiler.compiler_type == "msvc" else UNIX_FLAGS
+        for ext in self.extensions:
+            ext.extra_compile_args = list(flags)
+        super().build_extensions()
+
+
+SOURCE = "gcode_opt/firmware/_core.c"
+SHA256 = hashlib.sha256(Path(__file__).resolve().parent.joinpath(SOURCE).read_bytes()).hexdigest()
+
+setup(
+    ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
+                           define_macros=[("FWCORE_SOURCE_SHA256", f'"{SHA256}"')])],
+    cmdclass={"build_ext": BuildExt},
+)

@@ -154,3 +154,24 @@ def test_active_set_cut_short_is_each_chains_own(iters, monkeypatch):
     if iters == 1:                       # ... and a law cut short is the first step's: cold binding set
         for pr, lw in zip(probs, together):
             assert np.array_equal(lw.binding, np.flatnonzero(pr.c_v < pr.S / pr.T))
+
+
+def test_forced_release_and_cycling_follow_the_per_chain_rules(monkeypatch):
+    """Every binding vertex is made to want release (a negative multiplier growing with its
+    position), so the active set releases, re-adds the violators and cycles: the vectorised
+    bookkeeping (release, 'seen before', release only the worst, give up unconverged)
+    must give each chain the per-chain reference's law (tests/test_speed_chains.py)."""
+    import test_speed_chains as ref
+
+    def forced(self):
+        inner = np.ones(self.ks.size, bool)
+        inner[self.koff[:-1]] = inner[self.koff[1:] - 1] = False
+        return -(1.0 + self.ks[inner])
+
+    monkeypatch.setattr(chain_law._Step, "multipliers", forced)
+    monkeypatch.setattr(ref, "_multipliers", lambda law, Bc: -(1.0 + law.knot_s[1:-1]))
+    probs = _synthetic_chains(30, seed=5)
+    got, want = chain_law.solve_chains(probs), ref.ref_solve_chains(probs)
+    assert sum(not lw.converged for lw in want) >= 10       # the rules gave up on many
+    for a, b in zip(got, want, strict=True):
+        ref._same(a, b)

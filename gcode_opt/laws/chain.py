@@ -34,8 +34,7 @@ CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
 MAX_ACTIVE_ITERS = 40
 MAX_NEWTON = 60
-FD_H_R = 1e-4             # relative step of the forward difference of J' on T (first Newton step)
-SECANT_MIN_R = 1e-7       # a piece whose T moved less than this (relative) keeps its last J''
+FD_H_R = 1e-4             # relative step of the central differences on T
 NEWTON_TOL_R = 1e-8       # |J_j' + λ| per piece, relative to the chain's slope scale
 
 

@@ -281,7 +281,8 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     last_accel = None
     last_a = None
     k_total = len(s) - 1
-    accel_word = accel_command(flavour, 1.0, extruding)[:-1]      # "M204 S" / "M204 P" / "M204 T"
+    # accel_command's word: "M204 S" / "M204 P" / "M204 T"
+    accel_word = "M204 S" if flavour in ("klipper", "marlin-legacy") else ("M204 P" if extruding else "M204 T")
     isfinite, ceil = math.isfinite, math.ceil
     tol_d = 1e-9 * max(1.0, ends_d[-1])
     end_d = ends_d[0]

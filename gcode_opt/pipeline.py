@@ -390,8 +390,9 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=
     st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
     header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
               f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
-    return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=f"{x0:.{dec}f}",
-                       y0_text=f"{y0:.{dec}f}", e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
+    # the start's text as _stroke_text wrote it (the same f"{x0:.8f}")
+    return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=st_text.x_start_text,
+                       y0_text=st_text.y_start_text, e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
                        mcr_restore=mcr0, feed_restore_v=s.v_feed, extruding=s.feature != feat.TRAVEL,
                        header=header, first_cmds=getattr(seg, "first_cmds", None))
 

@@ -39,6 +39,7 @@ import numpy as np
 from . import chains, curves
 from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
+from .firmware import simulate as fwsim
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
@@ -661,6 +662,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 summary["ringing_error"] = ringing_error
             timing.lap("summary")
             summary["timing_s"] = timing.as_dict()
+            summary["firmware_core"] = fwsim.CORE     # "c" or "python": which firmware model played
             opts.peak_rss_mb = dict(timing.peak_mb)       # --profile-time prints it (not in the JSON)
             summary["rewrite_passes"] = timing.passes
             summary["warnings"] = _warnings_json(opts.reader_warnings)

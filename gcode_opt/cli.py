@@ -548,7 +548,7 @@ def main(argv=None):
     if not a.cmd:
         ap.print_help()
         return EXIT_USER
-    from .outfile import Interrupted, OutputError, install_signal_handlers, restore_signal_handlers
+    from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
     from .profile import ProfileError
     from .state import GcodeError
     from .inputcheck import InputRefused
@@ -581,6 +581,7 @@ def main(argv=None):
         return fail(EXIT_FAIL, f"internal error: {type(e).__name__}: {e} (run again with --debug for the "
                                "traceback, and please report it)" + _left(a))
     finally:
+        discard_pending()
         restore_signal_handlers(saved)
 
 

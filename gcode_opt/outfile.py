@@ -30,6 +30,23 @@ import tempfile
 TMP_PREFIX = ".gcode-opt-"
 TMP_SUFFIX = ".tmp"
 COMMITTED: list[str] = []      # targets replaced in this process (an interrupt after this is not "unchanged")
+PENDING: set[str] = set()      # temporary files made and not yet put in place or removed
+
+
+def _discard(tmp):
+    try:
+        os.unlink(tmp)
+    except OSError:
+        pass
+    PENDING.discard(tmp)
+
+
+def discard_pending() -> None:
+    """Remove every temporary file still pending: main() calls it on its way out, so an
+    interrupt that lands between a file's creation and its with block (or inside its
+    cleanup) leaves nothing behind either."""
+    for tmp in list(PENDING):
+        _discard(tmp)
 _DEFERRED = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 
@@ -115,19 +132,25 @@ class AtomicOutput:
 
     def __enter__(self):
         folder = os.path.dirname(self.target) or "."
+        # the file is made and registered with the signals held back: a signal in between
+        # would leave a file that neither __exit__ (the with block has not begun) nor
+        # discard_pending knows of
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED) if _DEFERRED else None
         try:
-            fd, self.tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder)
-        except OSError as e:
-            raise OutputError(describe(e, self.path)) from None
-        os.close(fd)
+            try:
+                fd, self.tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder)
+            except OSError as e:
+                raise OutputError(describe(e, self.path)) from None
+            PENDING.add(self.tmp)
+            os.close(fd)
+        finally:
+            if old is not None:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)   # a held-back signal fires here
         return self
 
     def __exit__(self, et, ev, tb):
         if self.tmp and not self.committed:
-            try:
-                os.unlink(self.tmp)
-            except OSError:
-                pass
+            _discard(self.tmp)
         return False
 
     def commit(self):
@@ -163,6 +186,7 @@ class AtomicOutput:
         else:
             os.chmod(self.tmp, 0o666 & ~_umask())
         os.replace(self.tmp, self.target)
+        PENDING.discard(self.tmp)
         self.tmp = None
 
     def _copy_over(self):
@@ -182,5 +206,5 @@ class AtomicOutput:
             dst.truncate(size)
             dst.flush()
             os.fsync(dst.fileno())
-        os.unlink(self.tmp)
+        _discard(self.tmp)
         self.tmp = None

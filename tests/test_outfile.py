@@ -321,3 +321,35 @@ def test_signal_during_hard_link_copy_is_held_back(tmp_path):
     assert a.read_bytes() == b"new\n" * 300000 == (tmp_path / "b.gcode").read_bytes()
     assert os.stat(a).st_nlink == 2
     _no_tmp(tmp_path)
+
+
+def test_interrupt_between_the_temporary_file_and_its_with_block(tmp_path, monkeypatch, capsys):
+    """A signal can land after the temporary file is made and before the with block begins
+    (so __exit__ never runs): main() still removes it on its way out (outfile.PENDING).
+    Seen once in CI as a SIGHUP that left a .gcode-opt-*.tmp behind."""
+    import gcode_opt.cli as cli
+    src = _copy(tmp_path)
+
+    def dispatch(a):
+        outfile.AtomicOutput(src).__enter__()     # made, registered, never entered
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli, "_dispatch", dispatch)
+    assert main(["process", src, "-q"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    _no_tmp(tmp_path)
+    assert not outfile.PENDING
+
+
+def test_a_committed_or_discarded_file_leaves_pending(tmp_path):
+    out = str(tmp_path / "o.gcode")
+    with outfile.AtomicOutput(out) as o:
+        assert o.tmp in outfile.PENDING
+        with open(o.tmp, "w") as fh:
+            fh.write("G1 X1\n")
+        o.commit()
+    assert not outfile.PENDING and _bytes(out) == b"G1 X1\n"
+    with pytest.raises(RuntimeError):
+        with outfile.AtomicOutput(out) as o:
+            raise RuntimeError
+    assert not outfile.PENDING
+    _no_tmp(tmp_path)

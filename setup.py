@@ -1,4 +1,6 @@
-"""Build the optional compiled core of the firmware model (gcode_opt/firmware/_core.c).
+"""Build the optional compiled core of the firmware model (gcode_opt/firmware/_core.c)
+and the compiled fast path of the reader (gcode_opt/_reader.c, module _gcode_opt_reader,
+used by state.py under the same rules: optional, top-level, SHA-256 checked, same bits).
 
 Everything else is in pyproject.toml.  The extension is optional: without a C compiler
 (or Python headers) the build prints a warning, skips it, and the install goes on; the
@@ -32,11 +34,18 @@ class BuildExt(build_ext):
         super().build_extensions()
 
 
+def _sha256(source):
+    return hashlib.sha256(Path(__file__).resolve().parent.joinpath(source).read_bytes()).hexdigest()
+
+
 SOURCE = "gcode_opt/firmware/_core.c"
-SHA256 = hashlib.sha256(Path(__file__).resolve().parent.joinpath(SOURCE).read_bytes()).hexdigest()
+SHA256 = _sha256(SOURCE)
+READER_SOURCE = "gcode_opt/_reader.c"
 
 setup(
     ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
-                           define_macros=[("FWCORE_SOURCE_SHA256", f'"{SHA256}"')])],
+                           define_macros=[("FWCORE_SOURCE_SHA256", f'"{SHA256}"')]),
+                 Extension("_gcode_opt_reader", [READER_SOURCE], optional=True,
+                           define_macros=[("READER_SOURCE_SHA256", f'"{_sha256(READER_SOURCE)}"')])],
     cmdclass={"build_ext": BuildExt},
 )

@@ -231,7 +231,9 @@ class MachineState:
         return self.accel_print if extruding else self.accel_travel
 
     # ---- one line -------------------------------------------------------------------
-    def step(self, idx: int, raw: str):
+    def _step_python(self, idx: int, raw: str):
+        """Read one line: Move, Barrier or None (step is this, or the compiled fast path
+        that falls back to it; see use_reader)."""
         if idx == 0 and raw[:1] == "\ufeff":       # a UTF-8 BOM is encoding, not G-code
             raw = raw[1:]
         if "\r" in raw and (raw[-1:] == "\r" or "\r" in raw.rstrip("\r\n")):
@@ -288,6 +290,8 @@ class MachineState:
             return self._other(idx, raw, cmd, code)
         except WordError as e:
             raise GcodeError(self.path, idx, raw, str(e)) from None
+
+    step = _step_python                    # use_reader below puts the compiled fast path here
 
     def _error(self, idx, raw, why):
         return GcodeError(self.path, idx, raw, why)
@@ -627,6 +631,56 @@ class MachineState:
 
 
 _get_modal = operator.attrgetter(*MachineState.MODAL)
+
+
+# ---------------------------------------------------------------- which reader plays
+def _load_reader():
+    """The compiled fast path of step (module _gcode_opt_reader, built from _reader.c),
+    set up with this module's classes; None if it is not built, if it was built from
+    another _reader.c than the one beside this file (a stale build), or if
+    GCODE_OPT_PURE_PYTHON asks for Python.  CORE_WHY says why not."""
+    global CORE_WHY
+    import os
+    if os.environ.get("GCODE_OPT_PURE_PYTHON", "") not in ("", "0"):
+        CORE_WHY = "GCODE_OPT_PURE_PYTHON is set"
+        return None
+    try:
+        import _gcode_opt_reader as core
+    except ImportError:
+        CORE_WHY = "the compiled reader is not built (pip install . with a C compiler builds it)"
+        return None
+    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_reader.c")
+    if os.path.exists(src):
+        import hashlib
+        with open(src, "rb") as fh:
+            if hashlib.sha256(fh.read()).hexdigest() != core.SOURCE_SHA256:
+                CORE_WHY = (f"the compiled reader at {core.__file__} was built from another _reader.c "
+                            "(pip install . rebuilds it)")
+                return None
+    core.setup(Move, MachineState, feat.TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)
+    CORE_WHY = ""
+    return core
+
+
+CORE_WHY = ""
+_reader = _load_reader()
+_C_STEP = _reader.make_method() if _reader is not None else None
+CORE = "python"
+
+
+def use_reader(name: str) -> str:
+    """Make `name` ("c": the compiled fast path for G0/G1 and M204 lines, everything else
+    by _step_python; or "python") MachineState.step; returns the previous one.  Tests
+    read on both; a state's bound step keeps the reader it was taken with."""
+    global CORE
+    if name not in ("c", "python") or (name == "c" and _C_STEP is None):
+        raise ValueError(f"no {name!r} reader here")
+    old, CORE = CORE, name
+    MachineState.step = _C_STEP if name == "c" else MachineState._step_python
+    return old
+
+
+use_reader("c" if _C_STEP is not None else "python")
 
 
 def read_lines(path: str):

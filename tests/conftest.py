@@ -38,3 +38,32 @@ def fw_core(request):
     old = _fw_sim.use_core(request.param)
     yield request.param
     _fw_sim.use_core(old)
+
+
+# ---------------------------------------------------------------- the reader's two paths
+# The reader's own tests run on both: the compiled fast path (_reader.c, skipped where it
+# is not built) with Python behind it, and the pure-Python step.
+from gcode_opt import state as _state  # noqa: E402
+
+READER_MODULES = {"test_state", "test_words_strict", "test_no_comments"}
+READER_FUNCTIONS = {"test_reader_m204_fast_path_is_the_strict_reading",       # test_speed_paths
+                    "test_reader_snapshot_restores_everything_a_line_changes"}
+_fw_generate_tests = pytest_generate_tests
+
+
+def pytest_generate_tests(metafunc):  # noqa: F811 -- extends the firmware model's hook above
+    _fw_generate_tests(metafunc)
+    if (metafunc.module.__name__.rsplit(".", 1)[-1] in READER_MODULES
+            or metafunc.function.__name__ in READER_FUNCTIONS):
+        metafunc.fixturenames.append("reader")
+        metafunc.parametrize("reader", ["c", "python"], indirect=True)
+
+
+@pytest.fixture
+def reader(request):
+    """Reads with request.param ("c" or "python") for one test."""
+    if request.param == "c" and _state._C_STEP is None:
+        pytest.skip(f"the compiled reader is not used here ({_state.CORE_WHY})")
+    old = _state.use_reader(request.param)
+    yield request.param
+    _state.use_reader(old)

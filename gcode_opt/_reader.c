@@ -1,0 +1,558 @@
+/* Compiled fast path of the G-code reader (state.MachineState.step); see state.py.
+ *
+ * It reads the two line shapes the Python step() already fast-paths -- the slicer's own
+ * "G0/G1 X.. Y.. Z.. E.. F.." and "M204 S.. P.. T.. R.." -- and gives exactly what Python
+ * gives: the same Move (fields read and written by __slots__ offset, the same objects
+ * where Python passes objects through, the same doubles where it computes), the same
+ * MachineState changes (written to the instance dict, as Python's setattr does).  Every
+ * other line, and every case where Python leaves its fast path or raises (a lone CR, a
+ * BOM, a word float() refuses, a word given twice, F out of range, G20, a target out of
+ * range, a state attribute of an unusual type), goes to the Python step unchanged
+ * (MachineState._step_python), before this code has changed anything: errors and their
+ * texts stay Python's.
+ *
+ * Numbers are Python's float(): PyOS_string_to_double on the whole token (the grammar
+ * leaves only "+-.0123456789", where float() and PyOS_string_to_double agree). */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <structmember.h>
+#include <string.h>
+
+/* ---------------------------------------------------------------- set up from state.py */
+enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_FEATURE,
+       MV_LAYER, MV_LIM, MV_ARC, MV_HAS_F, MV_E_REL, MV_XYZ_REL, MV_CHECKSUM, MV_INCH, MV_FLOW_R,
+       MV_SPEED_R, MV_N };
+static const char *MOVE_NAMES[MV_N] = {
+    "idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e", "v", "accel", "feature", "layer", "lim",
+    "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch", "flow_r", "speed_r"};
+static Py_ssize_t move_off[MV_N];
+
+/* MachineState attributes read or written here */
+enum { S_X, S_Y, S_Z, S_E, S_ABS, S_EREL, S_INCH, S_V, S_FEATURE, S_LAYER, S_FLOW, S_SPEED,
+       S_ACC_PRINT, S_ACC_TRAVEL, S_ACC_RETRACT, S_LIM, S_ONE, S_N };
+static const char *STATE_NAMES[S_N] = {
+    "x", "y", "z", "e", "abs_xyz", "e_rel_flag", "inch", "v", "feature", "layer", "flow_r",
+    "speed_r", "accel_print", "accel_travel", "accel_retract", "lim", "_one_accel"};
+static PyObject *state_name[S_N];
+
+static PyTypeObject *MOVE_TYPE = NULL, *STATE_TYPE = NULL;
+static PyObject *TRAVEL = NULL;                 /* features.TRAVEL */
+static PyObject *LINE_K = NULL, *EONLY_K = NULL; /* state.LINE, state.EONLY */
+static PyObject *NAME_SLOW = NULL, *NAME_M204 = NULL, *NAME_FLAVOUR = NULL;
+static double MAX_POS_D = 0.0, MAX_E_D = 0.0, MAX_F = 0.0, MAX_ACCEL_A = 0.0;
+static int READY = 0;
+
+static PyObject *setup(PyObject *self, PyObject *args)
+{
+    PyObject *move, *state, *travel, *line_k, *eonly_k;
+    double pos, e, f, acc;
+    if (!PyArg_ParseTuple(args, "O!O!OOOdddd", &PyType_Type, &move, &PyType_Type, &state, &travel,
+                          &line_k, &eonly_k, &pos, &e, &f, &acc))
+        return NULL;
+    for (int i = 0; i < MV_N; i++) {
+        PyObject *d = PyObject_GetAttrString(move, MOVE_NAMES[i]);
+        if (d == NULL)
+            return NULL;
+        int ok = Py_TYPE(d) == &PyMemberDescr_Type
+                 && ((PyMemberDescrObject *)d)->d_member->type == T_OBJECT_EX;
+        if (ok)
+            move_off[i] = ((PyMemberDescrObject *)d)->d_member->offset;
+        Py_DECREF(d);
+        if (!ok) {
+            PyErr_Format(PyExc_TypeError, "Move.%s is not a slot", MOVE_NAMES[i]);
+            return NULL;
+        }
+    }
+    for (int i = 0; i < S_N; i++) {
+        PyObject *nm = PyUnicode_InternFromString(STATE_NAMES[i]);
+        if (nm == NULL)
+            return NULL;
+        Py_XSETREF(state_name[i], nm);
+    }
+    Py_XSETREF(NAME_SLOW, PyUnicode_InternFromString("_step_python"));
+    Py_XSETREF(NAME_M204, PyUnicode_InternFromString("_m204"));
+    Py_XSETREF(NAME_FLAVOUR, PyUnicode_InternFromString("flavour"));
+    if (NAME_SLOW == NULL || NAME_M204 == NULL || NAME_FLAVOUR == NULL)
+        return NULL;
+    Py_INCREF(move);
+    Py_XSETREF(MOVE_TYPE, (PyTypeObject *)move);
+    Py_INCREF(state);
+    Py_XSETREF(STATE_TYPE, (PyTypeObject *)state);
+    Py_INCREF(travel);
+    Py_XSETREF(TRAVEL, travel);
+    Py_INCREF(line_k);
+    Py_XSETREF(LINE_K, line_k);
+    Py_INCREF(eonly_k);
+    Py_XSETREF(EONLY_K, eonly_k);
+    MAX_POS_D = pos;
+    MAX_E_D = e;
+    MAX_F = f;
+    MAX_ACCEL_A = acc;
+    READY = 1;
+    Py_RETURN_NONE;
+}
+
+/* ---------------------------------------------------------------- the line */
+static inline int is_num_char(unsigned char c)
+{
+    return (c >= '0' && c <= '9') || c == '.' || c == '-' || c == '+';
+}
+
+/* Python's float() of s[0:n] (only "+-.0-9" characters): 0 and *out, or -1 (no error left). */
+static int to_double(const char *s, Py_ssize_t n, double *out)
+{
+    char buf[64];
+    char *b = buf;
+    if (n >= (Py_ssize_t)sizeof(buf)) {
+        b = PyMem_Malloc(n + 1);
+        if (b == NULL) {
+            PyErr_Clear();
+            return -1;
+        }
+    }
+    memcpy(b, s, n);
+    b[n] = '\0';
+    double v = PyOS_string_to_double(b, NULL, NULL);  /* whole string; overflow gives +-inf */
+    if (b != buf)
+        PyMem_Free(b);
+    if (v == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+#define MAXW 16
+typedef struct {
+    int n;
+    char letter[MAXW];
+    double val[MAXW];
+} Words;
+
+/* The words after a 4- or 2-character command, as the fast regexes of state.py accept them:
+ *   CMD(?:[ \t]+[letters][-+.0-9]+)*[ \t\r\n]*  (fullmatch over code = s[0:n])
+ * and each value through float(); -1 if the line is not of that shape, a value is not a
+ * number, a letter comes twice (Python's len(p) check) or there are too many words. */
+static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, const char *letters, Words *w)
+{
+    w->n = 0;
+    for (;;) {
+        Py_ssize_t j = k;
+        while (j < n && (s[j] == ' ' || s[j] == '\t'))
+            j++;
+        if (j > k && j < n && strchr(letters, s[j]) != NULL && s[j] != '\0') {
+            char c = (char)s[j];
+            Py_ssize_t a = ++j;
+            while (j < n && is_num_char(s[j]))
+                j++;
+            if (j == a)
+                return -1;
+            for (int i = 0; i < w->n; i++)
+                if (w->letter[i] == c)
+                    return -1;
+            if (w->n == MAXW)
+                return -1;
+            if (to_double((const char *)s + a, j - a, &w->val[w->n]) < 0)
+                return -1;
+            w->letter[w->n++] = c;
+            k = j;
+            continue;
+        }
+        while (j < n && (s[j] == ' ' || s[j] == '\t' || s[j] == '\r' || s[j] == '\n'))
+            j++;
+        return j == n ? 0 : -1;
+    }
+}
+
+static inline int word(const Words *w, char c, double *out)
+{
+    for (int i = 0; i < w->n; i++)
+        if (w->letter[i] == c) {
+            *out = w->val[i];
+            return 1;
+        }
+    return 0;
+}
+
+/* Borrowed attribute of the state (its instance dict), NULL if absent. */
+#define GET(i) PyDict_GetItemWithError(dict, state_name[i])
+
+static PyObject *slow(PyObject *self, PyObject *idx, PyObject *raw)
+{
+    PyObject *args[3] = {self, idx, raw};
+    return PyObject_VectorcallMethod(NAME_SLOW, args, 3 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+}
+
+static inline int exact_float(PyObject *o, double *out)
+{
+    if (o == NULL || !PyFloat_CheckExact(o))
+        return 0;
+    *out = PyFloat_AS_DOUBLE(o);
+    return 1;
+}
+
+static PyObject *new_move(PyObject **val)
+{
+    PyObject *m = MOVE_TYPE->tp_alloc(MOVE_TYPE, 0);
+    if (m == NULL)
+        return NULL;
+    for (int i = 0; i < MV_N; i++) {
+        Py_INCREF(val[i]);
+        *(PyObject **)((char *)m + move_off[i]) = val[i];
+    }
+    return m;
+}
+
+/* G0/G1 of the fast shape: state._linear(idx, raw, p, False) as Python runs it.
+ * Returns a new reference, or NULL with *fallback set (nothing changed) or an error. */
+static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fallback)
+{
+    *fallback = 1;
+    PyObject *o_x = GET(S_X), *o_y = GET(S_Y), *o_z = GET(S_Z), *o_e = GET(S_E);
+    PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH);
+    PyObject *o_v = GET(S_V), *o_speed = GET(S_SPEED), *o_one = GET(S_ONE);
+    PyObject *o_feature = GET(S_FEATURE), *o_layer = GET(S_LAYER), *o_flow = GET(S_FLOW);
+    PyObject *o_ap = GET(S_ACC_PRINT), *o_at = GET(S_ACC_TRAVEL), *o_ar = GET(S_ACC_RETRACT);
+    PyObject *o_lim = GET(S_LIM);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+        return NULL;
+    }
+    double x0, y0, z0, e, v, speed;
+    if (!exact_float(o_x, &x0) || !exact_float(o_y, &y0) || !exact_float(o_z, &z0)
+        || !exact_float(o_e, &e) || !exact_float(o_v, &v) || !exact_float(o_speed, &speed))
+        return NULL;
+    if (o_inch != Py_False || (o_abs != Py_True && o_abs != Py_False)
+        || (o_erel != Py_True && o_erel != Py_False) || (o_one != Py_True && o_one != Py_False)
+        || !o_feature || !o_layer || !o_flow || !o_ap || !o_at || !o_ar || !o_lim)
+        return NULL;
+    double f = 0.0, px = 0.0, py = 0.0, pz = 0.0, ev = 0.0;
+    int has_f = word(w, 'F', &f);
+    if (has_f) {
+        if (!(0.0 < f && f <= MAX_F))
+            return NULL;                   /* _feed decides (or raises) */
+        v = f / 60.0;
+    }
+    int has_x = word(w, 'X', &px), has_y = word(w, 'Y', &py), has_z = word(w, 'Z', &pz);
+    int has_e = word(w, 'E', &ev);
+    int abs_xyz = o_abs == Py_True;
+    double x, y, z;
+    if (abs_xyz) {
+        x = has_x ? px : x0;
+        y = has_y ? py : y0;
+        z = has_z ? pz : z0;
+    } else {
+        x = x0 + (has_x ? px : 0.0);
+        y = y0 + (has_y ? py : 0.0);
+        z = z0 + (has_z ? pz : 0.0);
+    }
+    int e_rel = o_erel == Py_True || !abs_xyz;
+    double de = !has_e ? 0.0 : (e_rel ? ev : ev - e);
+    const double b = MAX_POS_D;
+    if (!(-b <= x && x <= b && -b <= y && y <= b && -b <= z && z <= b)
+        || (has_e && !(-MAX_E_D <= ev && ev <= MAX_E_D)))
+        return NULL;                       /* _check_target raises */
+    *fallback = 0;
+
+    /* the objects Python would hold: a value taken from p is a new float, a value kept is
+     * the state's own object, a sum is a new float */
+    PyObject *nx = NULL, *ny = NULL, *nz = NULL, *ne = NULL, *nv = NULL, *nde = NULL, *vs = NULL;
+    PyObject *res = NULL;
+    nx = (abs_xyz && !has_x) ? (Py_INCREF(o_x), o_x) : PyFloat_FromDouble(x);
+    ny = (abs_xyz && !has_y) ? (Py_INCREF(o_y), o_y) : PyFloat_FromDouble(y);
+    nz = (abs_xyz && !has_z) ? (Py_INCREF(o_z), o_z) : PyFloat_FromDouble(z);
+    ne = PyFloat_FromDouble(e + de);
+    nv = has_f ? PyFloat_FromDouble(v) : (Py_INCREF(o_v), o_v);
+    if (!nx || !ny || !nz || !ne || !nv)
+        goto done;
+    /* keep the old objects alive while the dict lets go of them */
+    Py_INCREF(o_x);
+    Py_INCREF(o_y);
+    Py_INCREF(o_z);
+    Py_INCREF(o_v);
+    PyObject *ox = o_x, *oy = o_y, *oz = o_z, *ov = o_v;
+    Py_INCREF(o_feature);
+    Py_INCREF(o_layer);
+    Py_INCREF(o_flow);
+    Py_INCREF(o_ap);
+    Py_INCREF(o_at);
+    Py_INCREF(o_ar);
+    Py_INCREF(o_lim);
+    Py_INCREF(o_speed);
+    int err = 0;
+    if (has_f)
+        err |= PyDict_SetItem(dict, state_name[S_V], nv) < 0;
+    err |= PyDict_SetItem(dict, state_name[S_X], nx) < 0;
+    err |= PyDict_SetItem(dict, state_name[S_Y], ny) < 0;
+    err |= PyDict_SetItem(dict, state_name[S_Z], nz) < 0;
+    err |= PyDict_SetItem(dict, state_name[S_E], ne) < 0;
+    if (!err) {
+        if (x == x0 && y == y0 && z == z0 && de == 0.0) {
+            res = Py_None;
+            Py_INCREF(res);
+        } else {
+            nde = PyFloat_FromDouble(de);
+            vs = PyFloat_FromDouble(v * speed);
+            if (nde && vs) {
+                PyObject *val[MV_N];
+                int eonly = x == x0 && y == y0 && z == z0;
+                val[MV_IDX] = idx;
+                val[MV_X0] = ox;
+                val[MV_Y0] = oy;
+                val[MV_Z0] = oz;
+                val[MV_X1] = nx;
+                val[MV_Y1] = ny;
+                val[MV_Z1] = nz;
+                val[MV_E] = nde;
+                val[MV_V] = vs;
+                val[MV_LAYER] = o_layer;
+                val[MV_LIM] = o_lim;
+                val[MV_ARC] = Py_None;
+                val[MV_HAS_F] = has_f ? Py_True : Py_False;
+                val[MV_E_REL] = e_rel ? Py_True : Py_False;
+                val[MV_XYZ_REL] = abs_xyz ? Py_False : Py_True;
+                val[MV_CHECKSUM] = Py_False;
+                val[MV_INCH] = o_inch;
+                val[MV_FLOW_R] = o_flow;
+                val[MV_SPEED_R] = o_speed;
+                if (eonly) {
+                    val[MV_KIND] = EONLY_K;
+                    val[MV_ACCEL] = o_ar;
+                    val[MV_FEATURE] = o_feature;
+                } else if (de > 0.0) {
+                    val[MV_KIND] = LINE_K;
+                    val[MV_ACCEL] = o_ap;
+                    val[MV_FEATURE] = o_feature;
+                } else {
+                    val[MV_KIND] = LINE_K;
+                    val[MV_ACCEL] = o_one == Py_True ? o_ap : o_at;
+                    val[MV_FEATURE] = TRAVEL;
+                }
+                res = new_move(val);
+            }
+        }
+    }
+    Py_DECREF(ox);
+    Py_DECREF(oy);
+    Py_DECREF(oz);
+    Py_DECREF(ov);
+    Py_DECREF(o_feature);
+    Py_DECREF(o_layer);
+    Py_DECREF(o_flow);
+    Py_DECREF(o_ap);
+    Py_DECREF(o_at);
+    Py_DECREF(o_ar);
+    Py_DECREF(o_lim);
+    Py_DECREF(o_speed);
+done:
+    Py_XDECREF(nx);
+    Py_XDECREF(ny);
+    Py_XDECREF(nz);
+    Py_XDECREF(ne);
+    Py_XDECREF(nv);
+    Py_XDECREF(nde);
+    Py_XDECREF(vs);
+    return res;
+}
+
+/* state._m204(idx, raw, p) with p the words as Python's fast path builds it. */
+static int m204_python(PyObject *self, PyObject *idx, PyObject *raw, const Words *w)
+{
+    PyObject *p = PyDict_New();
+    if (p == NULL)
+        return -1;
+    for (int i = 0; i < w->n; i++) {
+        char key[2] = {w->letter[i], '\0'};
+        PyObject *v = PyFloat_FromDouble(w->val[i]);
+        if (v == NULL || PyDict_SetItemString(p, key, v) < 0) {
+            Py_XDECREF(v);
+            Py_DECREF(p);
+            return -1;
+        }
+        Py_DECREF(v);
+    }
+    PyObject *margs[4] = {self, idx, raw, p};
+    PyObject *r = PyObject_VectorcallMethod(NAME_M204, margs, 4 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+    Py_DECREF(p);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    return 0;
+}
+
+/* state._m204 where every value given is in (0, MAX_ACCEL_A] and the flavour is one it
+ * knows: 1 when done, 0 to let Python do it (it raises or reads another flavour), -1 on
+ * error.  The values stored are the p values Python would store (one object where Python
+ * stores the same p[k] twice). */
+static int m204(PyObject *dict, const Words *w)
+{
+    PyObject *fl = PyDict_GetItemWithError(dict, NAME_FLAVOUR);
+    if (fl == NULL || !PyUnicode_CheckExact(fl)) {
+        PyErr_Clear();
+        return 0;
+    }
+    int klipper = PyUnicode_CompareWithASCIIString(fl, "klipper") == 0;
+    int legacy = PyUnicode_CompareWithASCIIString(fl, "marlin-legacy") == 0;
+    if (!klipper && !legacy && PyUnicode_CompareWithASCIIString(fl, "marlin2") != 0
+        && PyUnicode_CompareWithASCIIString(fl, "rrf") != 0)
+        return 0;
+    double val;
+    PyObject *o[4] = {NULL, NULL, NULL, NULL};     /* S P T R as floats, if given */
+    const char *keys = "SPTR";
+    int rc = -1;
+    for (int i = 0; i < w->n; i++) {
+        val = w->val[i];
+        if (!(0.0 < val && val <= MAX_ACCEL_A))
+            return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
+    }
+    for (int k = 0; k < 4; k++)
+        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL)
+            goto out;
+    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
+    PyObject *print = NULL, *travel = NULL, *retract = NULL;
+    if (klipper) {
+        if (S)
+            print = S;
+        else if (P && T)
+            print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
+        else {
+            print = PyDict_GetItemWithError(dict, state_name[S_ACC_PRINT]);
+            if (print == NULL) {
+                if (PyErr_Occurred())
+                    goto out;
+                rc = 0;                /* no attribute: Python's AttributeError */
+                goto out;
+            }
+        }
+        travel = print;
+    } else if (legacy) {
+        if (S) {
+            print = travel = S;
+            if (T)
+                retract = T;
+        } else {
+            if (P)
+                print = travel = P;
+            if (R)
+                retract = R;
+        }
+    } else {
+        if (S)
+            print = travel = S;
+        if (P)
+            print = P;
+        if (T)
+            travel = T;
+        if (R)
+            retract = R;
+    }
+    Py_XINCREF(print);             /* print may be the dict's own object */
+    if ((print && PyDict_SetItem(dict, state_name[S_ACC_PRINT], print) < 0)
+        || (travel && PyDict_SetItem(dict, state_name[S_ACC_TRAVEL], travel) < 0)
+        || (retract && PyDict_SetItem(dict, state_name[S_ACC_RETRACT], retract) < 0)) {
+        Py_XDECREF(print);
+        goto out;
+    }
+    Py_XDECREF(print);
+    rc = 1;
+out:
+    for (int k = 0; k < 4; k++)
+        Py_XDECREF(o[k]);
+    return rc;
+}
+
+/* step(self, idx, raw): the Move, None, or what MachineState._step_python returns. */
+static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3)
+        return PyErr_Format(PyExc_TypeError, "step() takes 3 arguments (%zd given)", nargs);
+    PyObject *self = args[0], *idx = args[1], *raw = args[2];
+    if (!READY || Py_TYPE(self) != STATE_TYPE || !PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+        return slow(self, idx, raw);       /* not ASCII: the BOM, or anything unusual */
+    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+    Py_ssize_t n = PyUnicode_GET_LENGTH(raw);
+    if (n < 2)
+        return slow(self, idx, raw);
+    /* a CR anywhere but in the trailing run of CR/LF, or a CR last: Python raises */
+    Py_ssize_t t = n;
+    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
+        t--;
+    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
+        return slow(self, idx, raw);
+    const unsigned char *semi = memchr(s, ';', n);
+    Py_ssize_t code_n = semi ? semi - s : n;
+    Words w;
+    if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
+        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+            return slow(self, idx, raw);
+        PyObject *dict = PyObject_GenericGetDict(self, NULL);
+        if (dict == NULL) {
+            PyErr_Clear();
+            return slow(self, idx, raw);
+        }
+        int fallback;
+        PyObject *res = linear(dict, idx, &w, &fallback);
+        Py_DECREF(dict);
+        if (res == NULL && fallback)
+            return slow(self, idx, raw);
+        return res;
+    }
+    if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
+        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+            return slow(self, idx, raw);
+        PyObject *dict = PyObject_GenericGetDict(self, NULL);
+        if (dict == NULL)
+            return NULL;
+        int done = m204(dict, &w);
+        Py_DECREF(dict);
+        if (done < 0)
+            return NULL;
+        if (!done && m204_python(self, idx, raw, &w) < 0)
+            return NULL;
+        Py_RETURN_NONE;
+    }
+    return slow(self, idx, raw);
+}
+
+/* An instance method (binds like a Python function) calling step. */
+static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,
+                               "step(self, idx, raw): read one line (compiled fast path)."};
+
+static PyObject *make_method(PyObject *module, PyObject *unused)
+{
+    PyObject *f = PyCFunction_New(&step_def, NULL);
+    if (f == NULL)
+        return NULL;
+    PyObject *m = PyInstanceMethod_New(f);
+    Py_DECREF(f);
+    return m;
+}
+
+static PyMethodDef mod_methods[] = {
+    {"setup", setup, METH_VARARGS,
+     "setup(Move, MachineState, TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)"},
+    {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL, "step(state, idx, raw)"},
+    {"make_method", make_method, METH_NOARGS, "step as a method for MachineState"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef reader_module = {
+    PyModuleDef_HEAD_INIT, "_gcode_opt_reader",
+    "Compiled fast path of the G-code reader (gcode_opt/_reader.c; see state.py).", -1, mod_methods,
+};
+
+#ifndef READER_SOURCE_SHA256
+#define READER_SOURCE_SHA256 ""
+#endif
+
+PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
+{
+    PyObject *m = PyModule_Create(&reader_module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddStringConstant(m, "SOURCE_SHA256", READER_SOURCE_SHA256) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -245,7 +245,11 @@ def allocate(T, I, T_orig, I_orig, budget_t):
 
     def choices(lam, r):
         """Choice and margin to the next candidate of rows r at lam (margin inf where only
-        one candidate is finite or none is: then the choice cannot change)."""
+        one candidate is finite or none is: then the choice cannot change).  By blocks of
+        rows, so that the cost matrices stay small (row-wise: the same numbers)."""
+        if len(r) > ALLOCATE_ROWS:
+            parts = [choices(lam, r[a:a + ALLOCATE_ROWS]) for a in range(0, len(r), ALLOCATE_ROWS)]
+            return tuple(np.concatenate(x) for x in zip(*parts))
         cost = np.where(finite[r], Ix[r] + lam * Tx[r], np.inf)
         j = np.argmin(cost, axis=1)
         two = np.partition(cost, 1, axis=1)
@@ -282,6 +286,7 @@ def allocate(T, I, T_orig, I_orig, budget_t):
     return J, hi
 
 
+ALLOCATE_ROWS = 4096    # rows of a cost matrix in allocate (~0.7 MB a matrix of 21 columns)
 MARGIN_R = 1e-9     # a choice whose cost is below the next one's by more than this (relative)
                     # is beyond the rounding of I + lambda T (~1e-16): it cannot flip
 

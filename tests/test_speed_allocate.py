@@ -102,3 +102,15 @@ def test_negative_or_nan_costs_take_the_reference_path():
     I[::17, 2] = np.nan
     for b in (0.0, 0.2, 2.0):
         _same((T, I, T_orig, I_orig, b))
+
+
+def test_blocks_of_rows_give_the_same_choices(monkeypatch):
+    """choices() by blocks of ALLOCATE_ROWS rows (bounded temporaries): the same result as
+    one block, and as the reference."""
+    T, I, T_orig, I_orig, total_t = _tables("prusa_gyroid_fullspeed.gcode", "prusa-mk3s")
+    args = (T, I, T_orig, I_orig, 0.03 * total_t)
+    one = plan_mod.allocate(*args)
+    monkeypatch.setattr(plan_mod, "ALLOCATE_ROWS", 37)
+    small = plan_mod.allocate(*args)
+    assert np.array_equal(one[0], small[0]) and one[1] == small[1]
+    _same(args)

@@ -2,6 +2,9 @@
 
     python benchmarks/bench_pipeline.py [FILE.gcode ...] [--profile NAME] [--runs N] [--json OUT]
 
+--pure runs every case in pure Python (GCODE_OPT_PURE_PYTHON=1); the heading names the cores
+that ran (compiled "c" or "python").
+
 Default files: the largest bundled sample, and the two large plates of
 sample_gcode/make_corpus.sh (plate_gyroid 461 k lines, plate_rectilinear 186 k lines) if they
 are in its cache folder (make them with `bash sample_gcode/make_corpus.sh`).
@@ -109,17 +112,28 @@ def run_case(case, path, profile_name, runs):
                            if timing[0][k] is not None}
     if getattr(opts, "peak_rss_mb", None):        # the process's running peak at the end of each phase
         res["peak_rss_by_phase_mb"] = opts.peak_rss_mb
+    res["cores"] = _cores()
     return res
 
 
-def measure_file(path, profile_name, runs):
+def _cores():
+    """Which code ran the per-line parts: the compiled cores ("c") or pure Python."""
+    from gcode_opt import state
+    from gcode_opt.firmware import simulate
+    return {"firmware model": simulate.CORE, "reader": getattr(state, "CORE", "python")}
+
+
+def measure_file(path, profile_name, runs, pure=False):
     with open(path, newline="") as fh:
         n = sum(1 for _ in fh)
     rows = {}
+    env = dict(os.environ)
+    if pure:
+        env["GCODE_OPT_PURE_PYTHON"] = "1"
     for case in CASES:
         r = subprocess.run([sys.executable, os.path.abspath(__file__), "--case", case, "--profile", profile_name,
                             "--runs", str(runs if case != "process" else max(1, runs)), path],
-                           capture_output=True, text=True, check=True)
+                           capture_output=True, text=True, check=True, env=env)
         rows[case] = json.loads(r.stdout.strip().splitlines()[-1])
     return n, rows
 
@@ -153,6 +167,8 @@ def main():
     ap.add_argument("--runs", type=int, default=3, help="alternations per case (median kept)")
     ap.add_argument("--case", choices=CASES, help=argparse.SUPPRESS)    # internal: one case, JSON out
     ap.add_argument("--json", help="write every figure to this file")
+    ap.add_argument("--pure", action="store_true",
+                    help="pure Python (GCODE_OPT_PURE_PYTHON=1): the figures without the compiled cores")
     a = ap.parse_args()
     if a.case:
         print(json.dumps(run_case(a.case, a.files[0], a.profile, a.runs)))
@@ -161,10 +177,11 @@ def main():
                         + sorted(glob.glob(os.path.join(LARGE_DIR, "plate_*.gcode"))))
     report = []
     for path in files:
-        n, rows = measure_file(path, a.profile, a.runs)
+        n, rows = measure_file(path, a.profile, a.runs, a.pure)
         ph = phases(n, rows)
+        cores = ", ".join(f"{k} {v}" for k, v in rows["process"].get("cores", {}).items())
         print(f"{os.path.relpath(path)}: {n:,} lines, {os.path.getsize(path) / 1e6:.2f} MB, profile {a.profile}, "
-              f"median of {a.runs} (CPU time)")
+              f"median of {a.runs} (CPU time); cores: {cores}")
         print(f"  {'phase':<32} {'CPU s':>8} {'lines/s':>12} {'x bare':>8} {'peak RSS MB':>12}")
         for name, t, r, rss in ph:
             lps = n / t if t > 0 else float("inf")

@@ -176,7 +176,7 @@ def mutate(rng, line):
         elif k == 3:
             s = s + " " + rng.choice("XYZEFSPTR") + rng.choice(["1", "-2.5", "0", "3000"])
         elif k == 4:
-            s = s + " " + rng.choice("XYZE") + "9" * rng.choice([5, 17, 40, 309, 330])
+            s = s + " " + rng.choice("XYZE") + "9" * rng.choice([5, 17, 40, 5, 17, 40, 330])
         elif k == 5:
             s = s[:pos] + "\t" + s[pos:]
         elif k == 6:

@@ -641,22 +641,11 @@ def _load_reader():
     GCODE_OPT_PURE_PYTHON asks for Python.  CORE_WHY says why not."""
     global CORE_WHY
     import os
-    if os.environ.get("GCODE_OPT_PURE_PYTHON", "") not in ("", "0"):
-        CORE_WHY = "GCODE_OPT_PURE_PYTHON is set"
+    from .native import load
+    core, CORE_WHY = load("_gcode_opt_reader", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_reader.c"),
+                          "reader")
+    if core is None:
         return None
-    try:
-        import _gcode_opt_reader as core
-    except ImportError:
-        CORE_WHY = "the compiled reader is not built (pip install . with a C compiler builds it)"
-        return None
-    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_reader.c")
-    if os.path.exists(src):
-        import hashlib
-        with open(src, "rb") as fh:
-            if hashlib.sha256(fh.read()).hexdigest() != core.SOURCE_SHA256:
-                CORE_WHY = (f"the compiled reader at {core.__file__} was built from another _reader.c "
-                            "(pip install . rebuilds it)")
-                return None
     core.setup(Move, MachineState, feat.TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)
     CORE_WHY = ""
     return core

@@ -219,8 +219,10 @@ def test_reader_warnings_name_their_line_and_reach_the_summary(capsys, tmp_path)
     assert f"gcode-opt: {src}:13: warning: arc end 0.050 mm off its circle" in err
     assert "CPU time (s)" in err and "analyse" in err
     import json
+    from gcode_opt import state
     from gcode_opt.firmware import simulate
-    assert f"firmware model core {simulate.CORE}" in err      # which core played, c or python
+    assert f"cores: firmware model {simulate.CORE}, reader {state.CORE}" in err     # c or python
     assert json.loads(js.read_text())["firmware_core"] == simulate.CORE
+    assert json.loads(js.read_text())["reader_core"] == state.CORE
     w = json.loads(js.read_text())["warnings"]
     assert w["count"] == 1 and w["first"][0]["line"] == 13

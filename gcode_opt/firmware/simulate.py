@@ -427,22 +427,11 @@ def _load_core():
     _core.c than the one beside this file (a stale build), or if GCODE_OPT_PURE_PYTHON
     asks for the Python model.  CORE_WHY says why not."""
     global CORE_WHY, _CLineRecord, _CSimResult
-    if os.environ.get("GCODE_OPT_PURE_PYTHON", "") not in ("", "0"):
-        CORE_WHY = "GCODE_OPT_PURE_PYTHON is set"
+    from ..native import load
+    core, CORE_WHY = load("_gcode_opt_fwcore", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_core.c"),
+                          "core")
+    if core is None:
         return None
-    try:
-        import _gcode_opt_fwcore as core
-    except ImportError:
-        CORE_WHY = "the compiled core is not built (pip install . with a C compiler builds it)"
-        return None
-    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_core.c")
-    if os.path.exists(src):
-        import hashlib
-        with open(src, "rb") as fh:
-            if hashlib.sha256(fh.read()).hexdigest() != core.SOURCE_SHA256:
-                CORE_WHY = (f"the compiled core at {core.__file__} was built from another _core.c "
-                            "(pip install . rebuilds it)")
-                return None
 
     class _CLineRecord(core.LineRecord):
         __slots__ = ()

@@ -230,15 +230,15 @@ def allocate(T, I, T_orig, I_orig, budget_t):
     candidate is concave in lambda, so it is least at an end), it is that one inside the
     whole bracket, and later steps take it as known instead of computing it again.  Each
     step's total time is still summed over every stroke as before: the same choices, the
-    same sums, the same bits as evaluating every stroke at every step (_allocate_all)."""
+    same sums, the same bits as evaluating every stroke at every step."""
     Tx = np.concatenate([T, T_orig[:, None]], axis=1)
     Ix = np.concatenate([I, I_orig[:, None]], axis=1)
     finite = np.isfinite(Ix)
     n, k = Ix.shape
     rows = np.arange(n)
-    # the margin test needs costs that add two non-negative terms (no cancellation)
-    if n == 0 or k < 2 or not (np.all(Ix[finite] >= 0.0) and np.all(Tx >= 0.0)):
-        return _allocate_all(Tx, Ix, finite, T_orig, budget_t)
+    # the margin test needs costs that add two non-negative terms (no cancellation);
+    # otherwise every stroke is evaluated at every step
+    settle = bool(np.all(Ix[finite] >= 0.0) and np.all(Tx >= 0.0))
 
     def spent(j):
         return float(np.sum(Tx[rows, j] - T_orig))
@@ -252,6 +252,8 @@ def allocate(T, I, T_orig, I_orig, budget_t):
             return tuple(np.concatenate(x) for x in zip(*parts))
         cost = np.where(finite[r], Ix[r] + lam * Tx[r], np.inf)
         j = np.argmin(cost, axis=1)
+        if k < 2:                 # one candidate: it cannot change
+            return j, np.full(len(r), np.inf), np.zeros(len(r))
         two = np.partition(cost, 1, axis=1)
         c1, c2 = two[:, 0], two[:, 1]
         with np.errstate(invalid="ignore"):
@@ -273,7 +275,7 @@ def allocate(T, I, T_orig, I_orig, budget_t):
         # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
         # at most the top end's, tol_hi, which both margins must clear
         keep = (j_lo != j_hi) | ~(m_lo > tol_hi) | ~(m_hi > tol_hi)
-        if not keep.all():        # settled: J holds their choice for the rest of the bisection
+        if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
             act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
         mid = 0.5 * (lo + hi)
         j_mid, m_mid, tol_mid = choices(mid, act)
@@ -289,30 +291,6 @@ def allocate(T, I, T_orig, I_orig, budget_t):
 ALLOCATE_ROWS = 4096    # rows of a cost matrix in allocate (~0.7 MB a matrix of 21 columns)
 MARGIN_R = 1e-9     # a choice whose cost is below the next one's by more than this (relative)
                     # is beyond the rounding of I + lambda T (~1e-16): it cannot flip
-
-
-def _allocate_all(Tx, Ix, finite, T_orig, budget_t):
-    """allocate's bisection evaluating every stroke at every step (the reference; used when
-    a cost could cancel)."""
-    def choose(lam):
-        cost = np.where(finite, Ix + lam * Tx, np.inf)
-        j = np.argmin(cost, axis=1)
-        rows = np.arange(len(j))
-        return j, float(np.sum(Tx[rows, j] - T_orig))
-
-    j, dt = choose(0.0)
-    if dt <= budget_t:
-        return j, 0.0
-    lo, hi = 0.0, 1.0
-    while choose(hi)[1] > budget_t and hi < 1e30:
-        hi *= 10.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        if choose(mid)[1] > budget_t:
-            lo = mid
-        else:
-            hi = mid
-    return choose(hi)[0], hi
 
 
 def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:

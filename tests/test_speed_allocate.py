@@ -1,7 +1,7 @@
 """plan.allocate settles strokes whose choice cannot change inside the bisection's bracket
-and evaluates only the others; _allocate_all evaluates every stroke at every step (the
-reference, kept in plan.py for costs that could cancel, and copied here as it was before
-the change).  Both must give the same choices and the same lambda, bit for bit."""
+and evaluates only the others (every stroke at every step where costs could cancel);
+_reference below is allocate as it was before that change.  Both must give the same
+choices and the same lambda, bit for bit."""
 import os
 
 import numpy as np
@@ -114,3 +114,12 @@ def test_blocks_of_rows_give_the_same_choices(monkeypatch):
     small = plan_mod.allocate(*args)
     assert np.array_equal(one[0], small[0]) and one[1] == small[1]
     _same(args)
+
+
+def test_no_candidate_columns_and_no_strokes():
+    rng = np.random.default_rng(5)
+    T_orig = rng.uniform(0.1, 1.0, 50)
+    I_orig = rng.uniform(0.0, 1.0, 50)
+    for b in (0.0, -1.0):
+        _same((np.empty((50, 0)), np.empty((50, 0)), T_orig, I_orig, b))
+        _same((np.empty((0, 4)), np.empty((0, 4)), np.empty(0), np.empty(0), b))

@@ -631,41 +631,19 @@ static int marlin_jerk_junction_v(double pux, double puy, double puz, double p_n
     DIV(smaller, vmax, p_nominal);
     double v_factor = 1.0;
     int limited = 0;
-    double v_exit, v_entry, jerk;
-    /* X */
-    v_exit = pux * p_nominal * smaller;
-    v_entry = ux * nominal;
-    JERK_OF(jerk, v_exit, v_entry);
-    if (jerk > jx) {
-        DIV(f, jx, jerk);
-        v_factor *= f;
-        limited = 1;
-    }
-    /* Y */
-    v_exit = puy * p_nominal * smaller;
-    v_entry = uy * nominal;
-    if (limited) {
-        v_exit *= v_factor;
-        v_entry *= v_factor;
-    }
-    JERK_OF(jerk, v_exit, v_entry);
-    if (jerk > jy) {
-        DIV(f, jy, jerk);
-        v_factor *= f;
-        limited = 1;
-    }
-    /* Z */
-    v_exit = puz * p_nominal * smaller;
-    v_entry = uz * nominal;
-    if (limited) {
-        v_exit *= v_factor;
-        v_entry *= v_factor;
-    }
-    JERK_OF(jerk, v_exit, v_entry);
-    if (jerk > jz) {
-        DIV(f, jz, jerk);
-        v_factor *= f;
-        limited = 1;
+    const double pu[3] = {pux, puy, puz}, u[3] = {ux, uy, uz}, jmax[3] = {jx, jy, jz};
+    for (int k = 0; k < 3; k++) {               /* X, Y, Z in turn, as the Python law */
+        double v_exit = pu[k] * p_nominal * smaller, v_entry = u[k] * nominal, jerk;
+        if (limited) {
+            v_exit *= v_factor;
+            v_entry *= v_factor;
+        }
+        JERK_OF(jerk, v_exit, v_entry);
+        if (jerk > jmax[k]) {
+            DIV(f, jmax[k], jerk);
+            v_factor *= f;
+            limited = 1;
+        }
     }
     if (limited)
         vmax *= v_factor;

@@ -9,7 +9,7 @@ import pytest
 
 from gcode_opt import chains
 from gcode_opt.laws.chain import (CAP_TOL_R, FD_H_R, MAX_ACTIVE_ITERS, MAX_NEWTON, MU_TOL_R, NEWTON_TOL_R,
-                                  ChainLaw, ChainProblem, _J, _law_figures, _Pieces, solve_chains)
+                                  ChainLaw, ChainProblem, _Pieces, solve_chains)
 from gcode_opt.laws.line import LineLaw, time_of_distance
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
@@ -20,6 +20,35 @@ SAMPLES = "sample_gcode/"
 
 
 # ---------------------------------------------------------------- the reference (commit 1950734)
+# (_J and _law_figures stood in laws/chain.py; only this reference uses them now)
+def _J(L, T, beta, va, vb):
+    iv, ia = LineLaw(L, T, beta, va, vb).integrals()
+    return iv + beta * ia
+
+
+def _law_figures(laws):
+    """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
+    steps before them), all pieces in one batch."""
+    if not laws:
+        return
+    cat = np.concatenate
+    ps = [lw.pieces for lw in laws]
+    law = LineLaw(*(cat([getattr(p, f) for p in ps]) for f in ("L", "T", "beta", "v0", "v1")))
+    iv, ia = law.integrals()
+    pv, mv = law.peak_speed(), law.min_speed()
+    starts = np.concatenate([[0], np.cumsum([p.L.size for p in ps])])
+    # extremes of every law at once (exact in any order); the sums law by law, as np.sum
+    # rounds them (every law has a piece: reduceat's indices increase)
+    first = starts[:-1]
+    peak_v, min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)
+    a0, a1 = cat([p.a0 for p in ps]), cat([p.a1 for p in ps])
+    pa0, pa1 = np.maximum.reduceat(np.abs(a0), first).tolist(), np.maximum.reduceat(np.abs(a1), first).tolist()
+    for k, (lw, a, b) in enumerate(zip(laws, first, starts[1:])):
+        lw.iv, lw.ia = float(np.sum(iv[a:b])), float(np.sum(ia[a:b]))
+        lw.peak_v, lw.min_v = float(peak_v[k]), float(min_v[k])
+        lw.peak_a = max(pa0[k], pa1[k])  # a line law's |s̈| peaks at an end
+
+
 def _pieces_of(pr, B):
     """Knot positions and end speeds of the pieces of chain pr for binding set B."""
     ks = np.concatenate([[0.0], pr.s_v[B], [pr.S]])

@@ -69,13 +69,8 @@ class ChainLaw:
         return self.knot_t[j] + tl, v
 
 
-def _J(L, T, beta, va, vb):
-    iv, ia = LineLaw(L, T, beta, va, vb).integrals()
-    return iv + beta * ia
-
-
 def _J3(L, Tm, T0, Tp, beta, va, vb):
-    """_J at the three durations Tm, T0, Tp of the same pieces, in one batch: each
+    """J = ∫ṡ² + β∫s̈² (LineLaw.integrals) at the three durations Tm, T0, Tp of the same pieces, in one batch: each
     element's arithmetic is LineLaw's (__init__, integrals), and what does not depend on
     T (√β, v0 ± v1, L²) is computed once instead of three times.  Raises LineLaw's
     ValueError, in its order, on bad inputs."""
@@ -490,29 +485,6 @@ def _flat_figures(res):
 
 class _Pieces:
     __slots__ = ("L", "T", "beta", "v0", "v1", "a0", "a1")
-
-
-def _law_figures(laws):
-    """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
-    steps before them), all pieces in one batch."""
-    if not laws:
-        return
-    cat = np.concatenate
-    ps = [lw.pieces for lw in laws]
-    law = LineLaw(*(cat([getattr(p, f) for p in ps]) for f in ("L", "T", "beta", "v0", "v1")))
-    iv, ia = law.integrals()
-    pv, mv = law.peak_speed(), law.min_speed()
-    starts = np.concatenate([[0], np.cumsum([p.L.size for p in ps])])
-    # extremes of every law at once (exact in any order); the sums law by law, as np.sum
-    # rounds them (every law has a piece: reduceat's indices increase)
-    first = starts[:-1]
-    peak_v, min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)
-    a0, a1 = cat([p.a0 for p in ps]), cat([p.a1 for p in ps])
-    pa0, pa1 = np.maximum.reduceat(np.abs(a0), first).tolist(), np.maximum.reduceat(np.abs(a1), first).tolist()
-    for k, (lw, a, b) in enumerate(zip(laws, first, starts[1:])):
-        lw.iv, lw.ia = float(np.sum(iv[a:b])), float(np.sum(ia[a:b]))
-        lw.peak_v, lw.min_v = float(peak_v[k]), float(min_v[k])
-        lw.peak_a = max(pa0[k], pa1[k])  # a line law's |s̈| peaks at an end
 
 
 def solve_chain(s_v, c_v, S, T, beta, v0, v1):

@@ -70,8 +70,8 @@ class ChainLaw:
 
 
 def _J3(L, Tm, T0, Tp, beta, va, vb):
-    """J = ∫ṡ² + β∫s̈² (LineLaw.integrals) at the three durations Tm, T0, Tp of the same pieces, in one batch: each
-    element's arithmetic is LineLaw's (__init__, integrals), and what does not depend on
+    """J = ∫ṡ² + β∫s̈² (LineLaw.integrals) at the three durations Tm, T0, Tp of the same
+    pieces, in one batch: each element's arithmetic is LineLaw's (__init__, integrals), and what does not depend on
     T (√β, v0 ± v1, L²) is computed once instead of three times.  Raises LineLaw's
     ValueError, in its order, on bad inputs."""
     n = T0.size

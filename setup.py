@@ -41,11 +41,14 @@ def _sha256(source):
 SOURCE = "gcode_opt/firmware/_core.c"
 SHA256 = _sha256(SOURCE)
 READER_SOURCE = "gcode_opt/_reader.c"
+CHAIN_SOURCE = "gcode_opt/laws/_chaincore.c"   # the chains' Newton steps (laws/chain.py), same rules
 
 setup(
     ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
                            define_macros=[("FWCORE_SOURCE_SHA256", f'"{SHA256}"')]),
                  Extension("_gcode_opt_reader", [READER_SOURCE], optional=True,
-                           define_macros=[("READER_SOURCE_SHA256", f'"{_sha256(READER_SOURCE)}"')])],
+                           define_macros=[("READER_SOURCE_SHA256", f'"{_sha256(READER_SOURCE)}"')]),
+                 Extension("_gcode_opt_chaincore", [CHAIN_SOURCE], optional=True,
+                           define_macros=[("CHAINCORE_SOURCE_SHA256", f'"{_sha256(CHAIN_SOURCE)}"')])],
     cmdclass={"build_ext": BuildExt},
 )

@@ -26,9 +26,21 @@ same J (piecewise-linear v(s), SLSQP with the cap inequalities) on real gyroid c
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from .line import LineLaw, _gamma_coeffs, end_speeds, time_of_distance
+from .. import native
+from .line import _NMS_COEF, _NMS_ZMAX, LineLaw, _gamma_coeffs, end_speeds, time_of_distance
+
+# The compiled Newton steps of _share_time (_chaincore.c, module _gcode_opt_chaincore):
+# optional, the same bits as the numpy code (tests/test_speed_chain_core.py)
+CORE_MOD, CORE_WHY = native.load("_gcode_opt_chaincore",
+                                 os.path.join(os.path.dirname(os.path.abspath(__file__)), "_chaincore.c"),
+                                 "chain core")
+CORE = "c" if CORE_MOD is not None else "python"
+_COEF_C = np.ascontiguousarray(_NMS_COEF)
+_ZMAX_C = np.ascontiguousarray(_NMS_ZMAX)
 
 CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
@@ -94,7 +106,56 @@ def _J3(L, Tm, T0, Tp, beta, va, vb):
     return J[:n], J[n:2 * n], J[2 * n:]
 
 
-def _share_time(L, beta, va, vb, owner, T_total, T_init):
+def _share_time(L, beta, va, vb, owner, T_total, T_init, core=None):
+    """_share_time_numpy, its steps compiled when the chain core is there (core: the
+    module; None = CORE_MOD); the numpy code where the core declines."""
+    core = CORE_MOD if core is None else core
+    if core:
+        out = _share_time_core(core, L, beta, va, vb, owner, T_total, T_init)
+        if out is not None:
+            return out
+    return _share_time_numpy(L, beta, va, vb, owner, T_total, T_init)
+
+
+def _share_time_core(core, L, beta, va, vb, owner, T_total, T_init):
+    """_share_time_numpy's iteration with each Newton step's arithmetic in C (share_step)
+    and only numpy's sinh and ** 3 (SIMD versions on some machines, not libm's) called here,
+    on the arguments share_args wrote.  None (the numpy code runs instead, from the start)
+    where that code would raise or leave the series branch of the line law."""
+    n_c = T_total.size
+    P = T_init.size
+    if P == 0 or not (np.all(beta > 0) and np.all(np.isfinite(L)) and np.all(np.isfinite(va))
+                      and np.all(np.isfinite(vb))):
+        return None
+    if np.any(np.diff(owner) < 0):
+        return None
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    L, beta, T_total = f(L), f(beta), f(T_total)
+    vs, vd = f(va + vb), f(va - vb)
+    npc = np.bincount(owner, None, n_c)
+    poff = np.zeros(n_c + 1, np.int64)
+    np.cumsum(npc, out=poff[1:])
+    npc = npc.astype(float)
+    sqb = np.sqrt(beta)
+    T = np.array(T_init, float)
+    lam = np.zeros(n_c)
+    conv = np.zeros(n_c, np.uint8)
+    Tall, args = np.empty(3 * P), np.empty(6 * P)
+    d1, inv = np.empty(P), np.empty(P)
+    for it in range(MAX_NEWTON):
+        m, k = core.share_args(T, sqb, poff, conv, Tall, args, _ZMAX_C)
+        if m < 0:
+            return None
+        if m == 0:
+            break
+        sh = np.sinh(args[:6 * m])
+        T3 = Tall[:3 * m] ** 3
+        core.share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, it == 0, m, k, Tall, T3, args, sh,
+                        _COEF_C, npc, d1, inv)
+    return T, lam, conv.astype(bool)
+
+
+def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
     """Durations T_j of all pieces with J_j'(T_j) = -λ_c per chain c and Σ_c T_j = T_total[c]
     (Newton on the KKT system).  Returns (T_j, λ_c, converged per chain).  A chain that has
     converged is frozen (its pieces leave the batch): each chain's iterates are its own,

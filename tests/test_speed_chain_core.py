@@ -105,3 +105,48 @@ def test_pure_python_switch_and_stale_build_check(tmp_path):
     other.write_text("/* another source */\n")
     mod, why = native.load("_gcode_opt_chaincore", str(other), "chain core")
     assert mod is None and "another _chaincore.c" in why
+
+
+def _tod_batches(monkeypatch, prof):
+    sts, T0, profile = _chain_problems(prof)
+    calls = []
+    orig = lc._times_and_speeds
+
+    def rec(law, x, core=None):
+        calls.append((law, np.array(x)))
+        return orig(law, x, core)
+    monkeypatch.setattr(lc, "_times_and_speeds", rec)
+    T = T0 * 1.05
+    lc.solve_chains(chains._problems(sts, T, (T / chains.GAMMA_MIN) ** 2, profile))
+    return calls
+
+
+@pytest.mark.parametrize("prof", ["prusa-mk3s", "voron24"])
+def test_time_of_distance_core_equals_numpy_on_real_batches(prof, monkeypatch):
+    calls = _tod_batches(monkeypatch, prof)
+    assert len(calls) >= 3 and sum(x.size for _, x in calls) > 500
+    for law, x in calls:
+        got = lc._tod_core(lc.CORE_MOD, law, x)
+        want_t = lc.time_of_distance(law, x)
+        want_v = law.eval(want_t, "v")[1]
+        assert np.array_equal(_bits(got[0]), _bits(want_t)) and np.array_equal(_bits(got[1]), _bits(want_v))
+
+
+def test_time_of_distance_core_out_of_steps_and_edges(monkeypatch):
+    from gcode_opt.laws.line import LineLaw, time_of_distance
+    calls = _tod_batches(monkeypatch, "prusa-mk3s")
+    law, x = max(calls, key=lambda c: c[1].size)
+    for it in (1, 2, 3):          # stopped early: the laws still going are evaluated where they stopped
+        got = lc._tod_core(lc.CORE_MOD, law, x, max_iter=it)
+        want_t = time_of_distance(law, x, max_iter=it)
+        assert np.array_equal(_bits(got[0]), _bits(want_t))
+        assert np.array_equal(_bits(got[1]), _bits(law.eval(want_t, "v")[1]))
+    # targets at and beyond the ends (clamped), a reversed law (L < 0), a zero-length one
+    L = np.array([1.0, 1.0, 1.0, -0.8, 0.0, 0.6])
+    T = np.array([0.02, 0.02, 0.02, 0.03, 0.01, 0.015])
+    law = LineLaw(L, T, (T / 0.1) ** 2, np.array([40, 40, 40, 10, 5, 0.0]), np.array([30, 30, 30, 20, 5, 30.0]))
+    x = np.array([0.0, 1.0, 1.7, -0.3, 0.0, 0.2])
+    got = lc._tod_core(lc.CORE_MOD, law, x)
+    want_t = time_of_distance(law, x)
+    assert np.array_equal(_bits(got[0]), _bits(want_t))
+    assert np.array_equal(_bits(got[1]), _bits(law.eval(want_t, "v")[1]))

@@ -108,26 +108,38 @@ static PyObject *share_args(PyObject *self, PyObject *a) {
     return Py_BuildValue("(ni)", m, k);
 }
 
-/* J = ∫ṡ² + β∫s̈² of one piece at duration t (_J3's arithmetic, element by element) */
-static inline double piece_J(double L, double beta, double vs, double vd, double t, double t3,
-                             double z_half, double sh_half, double z_full, double sh_full,
-                             const double *coef, int k) {
-    double z2 = z_full * z_full;
-    double n = coef[3 * (k - 1)], mm = coef[3 * (k - 1) + 1], s1 = coef[3 * (k - 1) + 2];
-    for (int i = k - 2; i >= 0; i--) {
-        n = n * z2; n = n + coef[3 * i];
-        mm = mm * z2; mm = mm + coef[3 * i + 1];
-        s1 = s1 * z2; s1 = s1 + coef[3 * i + 2];
+/* J = ∫ṡ² + β∫s̈² of one piece at its three durations t[q] (_J3's arithmetic, element
+   by element; the three are independent: written side by side so that they overlap) */
+static inline void piece_J3(double L, double beta, double vs, double vd, const double *t, const double *t3,
+                            const double *z_half, const double *sh_half, const double *z_full,
+                            const double *sh_full, const double *coef, int k, double *J) {
+    double n[3], mm[3], s1[3], z2[3];
+    for (int q = 0; q < 3; q++) {
+        z2[q] = z_full[q] * z_full[q];
+        n[q] = coef[3 * (k - 1)];
+        mm[q] = coef[3 * (k - 1) + 1];
+        s1[q] = coef[3 * (k - 1) + 2];
     }
-    double sh2 = z_half == 0.0 ? 1.0 : sh_half / z_half;
-    double shg = z_full == 0.0 ? 1.0 : sh_full / z_full;
-    double n2 = (2 * n) * n, sq = sh2 * sh2;
-    double Ig1 = mm / n2, Igp = s1 / n2, Ih = (2 * s1) / sq, Ihp = (2 * (shg + 1)) / sq;
-    double A = L - (t * vs) / 2, d = (t * vd) / 2;
-    double AA = A * A, dd = d * d;
-    double iv = ((L * L + AA * Ig1) + dd * Ih) / t;
-    double ia = (AA * Igp + dd * Ihp) / t3;
-    return iv + beta * ia;
+    for (int i = k - 2; i >= 0; i--) {
+        double cn = coef[3 * i], cm = coef[3 * i + 1], cs = coef[3 * i + 2];
+        for (int q = 0; q < 3; q++) {
+            n[q] = n[q] * z2[q]; n[q] = n[q] + cn;
+            mm[q] = mm[q] * z2[q]; mm[q] = mm[q] + cm;
+            s1[q] = s1[q] * z2[q]; s1[q] = s1[q] + cs;
+        }
+    }
+    for (int q = 0; q < 3; q++) {
+        double sh2 = z_half[q] == 0.0 ? 1.0 : sh_half[q] / z_half[q];
+        double shg = z_full[q] == 0.0 ? 1.0 : sh_full[q] / z_full[q];
+        double n2 = (2 * n[q]) * n[q], sq = sh2 * sh2;
+        double Ig1 = mm[q] / n2, Igp = s1[q] / n2, Ih = (2 * s1[q]) / sq, Ihp = (2 * (shg + 1)) / sq;
+        double tq = t[q];
+        double A = L - (tq * vs) / 2, d = (tq * vd) / 2;
+        double AA = A * A, dd = d * d;
+        double iv = ((L * L + AA * Ig1) + dd * Ih) / tq;
+        double ia = (AA * Igp + dd * Ihp) / t3[q];
+        J[q] = iv + beta * ia;
+    }
 }
 
 /* share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, first, m, k, Tall, T3, args, sh,
@@ -168,12 +180,13 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
         Py_ssize_t j0 = j;
         double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
         for (int64_t p = p0; p < p1; p++, j++) {
-            double J[3];
+            double J[3], t[3], t3[3], zh[3], shh[3], zf[3], shf[3];
             for (int q = 0; q < 3; q++) {
                 Py_ssize_t i = q * m + j;
-                J[q] = piece_J(L[p], beta[p], vs[p], vd[p], Tall[i], T3[i], args[i], sh[i],
-                               args[3 * m + i], sh[3 * m + i], coef, k);
+                t[q] = Tall[i]; t3[q] = T3[i]; zh[q] = args[i]; shh[q] = sh[i];
+                zf[q] = args[3 * m + i]; shf[q] = sh[3 * m + i];
             }
+            piece_J3(L[p], beta[p], vs[p], vd[p], t, t3, zh, shh, zf, shf, coef, k, J);
             double Ti = T[p], h = FD_H_R * Ti;
             double d1 = (J[2] - J[0]) / (2.0 * h);
             double d2 = ((J[2] - 2.0 * J[1]) + J[0]) / (h * h);
@@ -222,9 +235,157 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
     return PyLong_FromSsize_t(moving);
 }
 
+
+/* tod_args(t, T, gs, act, na, args, xb, zmax) -> k
+   time_of_distance's step on the active laws act[:na]: τ = clip(t / T, 0, 1), x = τ - 1/2;
+   args = [γτ/2, γ(1 - τ)/2, γx, γ/4] (4 na) for np.sinh, xb = x (for ** 3); k = the S1
+   series' terms the batch needs (_s1: _nms_terms over (γx)² with the S1 table). */
+static PyObject *tod_args(PyObject *self, PyObject *a) {
+    PyObject *ot, *oT, *ogs, *oact, *oargs, *oxb, *ozmax;
+    Py_ssize_t na;
+    if (!PyArg_ParseTuple(a, "OOOOnOOO", &ot, &oT, &ogs, &oact, &na, &oargs, &oxb, &ozmax)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nz;
+    double *t = get(&b, ot, 8, 0, NULL);
+    double *T = t ? get(&b, oT, 8, 0, NULL) : NULL;
+    double *gs = T ? get(&b, ogs, 8, 0, NULL) : NULL;
+    int64_t *act = gs ? get(&b, oact, 8, 0, NULL) : NULL;
+    double *args = act ? get(&b, oargs, 8, 1, NULL) : NULL;
+    double *xb = args ? get(&b, oxb, 8, 1, NULL) : NULL;
+    double *zmax = xb ? get(&b, ozmax, 8, 0, &nz) : NULL;
+    if (!zmax) { release(&b); return NULL; }
+    double zm = -1.0;
+    int nan = 0;
+    for (Py_ssize_t j = 0; j < na; j++) {
+        int64_t i = act[j];
+        double tau = t[i] / T[i];
+        if (!isnan(tau)) {                /* np.clip: nan stays */
+            tau = tau > 0.0 ? tau : 0.0;
+            tau = tau < 1.0 ? tau : 1.0;
+        }
+        double x = tau - 0.5, g = gs[i];
+        args[j] = (g * tau) / 2;
+        args[na + j] = (g * (1 - tau)) / 2;
+        double z = g * x;
+        args[2 * na + j] = z;
+        args[3 * na + j] = g / 4;
+        xb[j] = x;
+        double z2 = z * z;
+        if (isnan(z2)) nan = 1;
+        else if (z2 > zm) zm = z2;
+    }
+    release(&b);
+    int k = NTERMS;
+    if (na > 0 && !nan) {
+        Py_ssize_t i = 0;
+        while (i < nz && zmax[i] < zm) i++;
+        k = (int)(i + 1 < NTERMS ? i + 1 : NTERMS);
+    }
+    return PyLong_FromLong(k);
+}
+
+static inline double shc(double z, double s) { return z == 0.0 ? 1.0 : s / z; }
+
+/* tod_step(t, T, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, na, args, sh, x3,
+   k, s1coef, out, vout) -> laws still active (act compacted in place), 0 when all are done
+   (then nothing is written, as _tod_rows breaks).  One step of _tod_step / _tod_rows: s and
+   ṡ at t as LineLaw.eval(t, "sv") (series branch), the bracket, done, Newton or bisection;
+   out[i] = the new t; vout[i] = ṡ at the t a law ended on (eval(t, "v") there). */
+static PyObject *tod_step(PyObject *self, PyObject *a) {
+    PyObject *o[21];
+    Py_ssize_t na;
+    int k;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOnOOOiOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &na, &o[13], &o[14], &o[15], &k, &o[16],
+                          &o[17], &o[18]))
+        return NULL;
+    Bufs b = {.n = 0};
+    double *t = get(&b, o[0], 8, 1, NULL);
+    double *T = t ? get(&b, o[1], 8, 0, NULL) : NULL;
+    double *n = T ? get(&b, o[2], 8, 0, NULL) : NULL;
+    double *sh2 = n ? get(&b, o[3], 8, 0, NULL) : NULL;
+    double *wbar = sh2 ? get(&b, o[4], 8, 0, NULL) : NULL;
+    double *A = wbar ? get(&b, o[5], 8, 0, NULL) : NULL;
+    double *dl = A ? get(&b, o[6], 8, 0, NULL) : NULL;
+    double *target = dl ? get(&b, o[7], 8, 0, NULL) : NULL;
+    double *sgn = target ? get(&b, o[8], 8, 0, NULL) : NULL;
+    double *lo = sgn ? get(&b, o[9], 8, 1, NULL) : NULL;
+    double *hi = lo ? get(&b, o[10], 8, 1, NULL) : NULL;
+    double *scale = hi ? get(&b, o[11], 8, 0, NULL) : NULL;
+    int64_t *act = scale ? get(&b, o[12], 8, 1, NULL) : NULL;
+    double *args = act ? get(&b, o[13], 8, 0, NULL) : NULL;
+    double *sh = args ? get(&b, o[14], 8, 0, NULL) : NULL;
+    double *x3 = sh ? get(&b, o[15], 8, 0, NULL) : NULL;
+    double *coef = x3 ? get(&b, o[16], 8, 0, NULL) : NULL;
+    double *out = coef ? get(&b, o[17], 8, 1, NULL) : NULL;
+    double *vout = out ? get(&b, o[18], 8, 1, NULL) : NULL;
+    if (!vout) { release(&b); return NULL; }
+    const double eps4 = 4 * DBL_EPSILON;
+    /* first pass: done of every law (all done: nothing written) */
+    double *newt = PyMem_Malloc((na ? na : 1) * sizeof(double));
+    unsigned char *dn = PyMem_Malloc(na ? na : 1);
+    double *vv = PyMem_Malloc((na ? na : 1) * sizeof(double));
+    if (!newt || !dn || !vv) {
+        PyMem_Free(newt); PyMem_Free(dn); PyMem_Free(vv); release(&b);
+        return PyErr_NoMemory();
+    }
+    Py_ssize_t ndone = 0;
+    for (Py_ssize_t j = 0; j < na; j++) {
+        int64_t i = act[j];
+        double ti = t[i], x = 0.0;
+        double tau = ti / T[i];
+        if (!isnan(tau)) {
+            tau = tau > 0.0 ? tau : 0.0;
+            tau = tau < 1.0 ? tau : 1.0;
+        }
+        x = tau - 0.5;
+        double pa = shc(args[j], sh[j]), pb = shc(args[na + j], sh[na + j]);
+        double bub = ((tau * (1 - tau)) * pa) * pb;
+        double g = bub / (2 * n[i]);
+        double Hs = (-bub) / sh2[i];
+        double shx = shc(args[2 * na + j], sh[2 * na + j]);
+        double h = ((2 * x) * shx) / sh2[i];
+        double z = args[2 * na + j], z2 = z * z;
+        double s1 = coef[k - 1];
+        for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
+        double s4 = shc(args[3 * na + j], sh[3 * na + j]);
+        double G = 0.5 + (((x * (s4 * s4)) / 8) - x3[j] * s1) / n[i];
+        double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
+        double v = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];
+        double f = sgn[i] * (s - target[i]);
+        if (f <= 0) lo[i] = ti;
+        if (f >= 0) hi[i] = ti;
+        int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
+        dn[j] = (unsigned char)done;
+        vv[j] = v;
+        if (done) { ndone++; newt[j] = ti; continue; }
+        double sv = sgn[i] * v;
+        double tn = ti - f / sv;
+        int ok = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
+        newt[j] = ok ? tn : 0.5 * (lo[i] + hi[i]);
+    }
+    Py_ssize_t keep = 0;
+    if (ndone < na) {
+        for (Py_ssize_t j = 0; j < na; j++) {
+            int64_t i = act[j];
+            t[i] = newt[j];
+            out[i] = newt[j];
+            if (dn[j]) vout[i] = vv[j];
+            else act[keep++] = i;
+        }
+    } else {
+        for (Py_ssize_t j = 0; j < na; j++) vout[act[j]] = vv[j];
+    }
+    PyMem_Free(newt); PyMem_Free(dn); PyMem_Free(vv);
+    release(&b);
+    return PyLong_FromSsize_t(keep);
+}
+
 static PyMethodDef methods[] = {
     {"share_args", share_args, METH_VARARGS, "the active pieces' durations and np.sinh arguments"},
     {"share_step", share_step, METH_VARARGS, "one Newton step of _share_time"},
+    {"tod_args", tod_args, METH_VARARGS, "time_of_distance's np.sinh and ** 3 arguments"},
+    {"tod_step", tod_step, METH_VARARGS, "one step of time_of_distance"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

@@ -31,7 +31,7 @@ import os
 import numpy as np
 
 from .. import native
-from .line import _NMS_COEF, _NMS_ZMAX, LineLaw, _gamma_coeffs, end_speeds, time_of_distance
+from .line import _NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _gamma_coeffs, end_speeds, time_of_distance
 
 # The compiled Newton steps of _share_time (_chaincore.c, module _gcode_opt_chaincore):
 # optional, the same bits as the numpy code (tests/test_speed_chain_core.py)
@@ -41,6 +41,7 @@ CORE_MOD, CORE_WHY = native.load("_gcode_opt_chaincore",
 CORE = "c" if CORE_MOD is not None else "python"
 _COEF_C = np.ascontiguousarray(_NMS_COEF)
 _ZMAX_C = np.ascontiguousarray(_NMS_ZMAX)
+_S1_COEF_C, _S1_ZMAX_C = np.ascontiguousarray(_S1_COEF), np.ascontiguousarray(_S1_ZMAX)
 
 CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
@@ -197,6 +198,58 @@ def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
         T[ix[move]] = Ti[move] + step[move]
         lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
     return T, lam, conv
+
+
+def _times_and_speeds(law, s_targets, core=None):
+    """(t, ṡ(t)) where the 1-D laws `law` reach s_targets: time_of_distance, then
+    law.eval(t, "v"); the steps compiled when the chain core is there (core: the module;
+    None = CORE_MOD) and every law is in the series branch, else the numpy code."""
+    core = CORE_MOD if core is None else core
+    if core and law.L.ndim == 1 and law.L.size and bool(law._c["small"].all()):
+        out = _tod_core(core, law, s_targets)
+        if out is not None:
+            return out
+    tl = time_of_distance(law, s_targets)
+    return tl, law.eval(tl, "v")[1]
+
+
+def _tod_core(core, law, s_targets, max_iter=200):
+    """time_of_distance's safeguarded Newton (_tod_rows) with each step's arithmetic in C
+    (tod_step; np.sinh and ** 3 on the arguments tod_args wrote stay numpy's), and the
+    speed at the t each law ends on, which that step has already computed (what
+    eval(t, "v") gives: the same operations).  None where the numpy code must run."""
+    T = law.T
+    lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
+    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
+    if target.shape != T.shape:
+        return None
+    target = np.ascontiguousarray(target)
+    sgn = np.where(law.L < 0, -1.0, 1.0)
+    lo = np.zeros(T.shape)
+    hi = T.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
+    scale = np.maximum(np.abs(law.L), 1e-300)
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    c = law._c
+    T, gs, n, sh2, wbar, A, dl = (f(a) for a in (T, c["gs"], c["n"], c["sh2"], law._wbar, law._A, law._delta))
+    N = T.size
+    out, vout = t.copy(), np.empty(N)
+    act = np.arange(N, dtype=np.int64)
+    na = N
+    args, xb = np.empty(4 * N), np.empty(N)
+    for _ in range(max_iter):
+        k = core.tod_args(t, T, gs, act, na, args, xb, _S1_ZMAX_C)
+        sh = np.sinh(args[:4 * na])
+        x3 = xb[:na] ** 3
+        na = core.tod_step(t, T, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, na, args, sh, x3, k,
+                           _S1_COEF_C, out, vout)
+        if na == 0:
+            break
+    else:                      # out of steps: the last t of the laws still going, not evaluated yet
+        rest = act[:na]
+        vout[rest] = law.take(rest).eval(out[rest], "v")[1]
+    return out, vout
 
 
 def solve_chains(problems, init_binding=None, init_vert_t=None):
@@ -418,8 +471,7 @@ class _Flat:
         kf = kj[free]                                  # element's Newton is its own: the batch's
         pj = kf - rank[free]                           # make-up changes no figure)
         vlaw = law.take(pj)                            # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
-        tl = time_of_distance(vlaw, self.sv[vi[free]] - ks[kf])
-        v[free] = vlaw.eval(tl, "v")[1]
+        tl, v[free] = _times_and_speeds(vlaw, self.sv[vi[free]] - ks[kf])
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)

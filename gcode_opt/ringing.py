@@ -159,8 +159,10 @@ def trace_from_items(items) -> Trace:
     return _pieces(np.vstack([idle, m, idle]), _Carry())   # at rest before and after (1 s each, not counted)
 
 
-def _pieces(m, c: _Carry) -> Trace:
-    """The pieces of rows m (k x 12) following on from c; c moves to their end."""
+def _pieces(m, c: _Carry, full: bool = True) -> Trace:
+    """The pieces of rows m (k x 12) following on from c; c moves to their end.  Without
+    `full`, no pos, s, idx (None; c's pos and s left behind): the ringing needs only t0,
+    dv, da, cls (and vel, acc)."""
     ux, uy, sv, cv, ev, a, at, ct, dt, after, idx, isb = m.T
     dur = np.stack([at, ct, dt], 1).ravel()
     speed = np.stack([sv, cv, cv], 1).ravel()
@@ -172,11 +174,12 @@ def _pieces(m, c: _Carry) -> Trace:
     vel_end = end_speed[:, None] * u
     cs = np.cumsum(dur)
     t0 = c.t + np.concatenate([[0.0], cs[:-1]])              # the file starts at t = 0
-    ds = speed * dur + 0.5 * tan_a * dur * dur
-    cs_s = np.cumsum(ds)
-    s = c.s + np.concatenate([[0.0], cs_s[:-1]])
-    cs_p = np.cumsum(ds[:, None] * u, axis=0)
-    pos = c.pos + np.vstack([[0.0, 0.0], cs_p[:-1]])
+    if full:
+        ds = speed * dur + 0.5 * tan_a * dur * dur
+        cs_s = np.cumsum(ds)
+        s = c.s + np.concatenate([[0.0], cs_s[:-1]])
+        cs_p = np.cumsum(ds[:, None] * u, axis=0)
+        pos = c.pos + np.vstack([[0.0, 0.0], cs_p[:-1]])
     n = len(dur)
     # velocity jumps: only where a block or a rest begins (inside a block the speed is
     # continuous; take it exactly so rounding does not ring)
@@ -194,10 +197,14 @@ def _pieces(m, c: _Carry) -> Trace:
     gentle = moving_pair & (cos_turn >= CORNER_COS)
     cls[::3] = np.where(gentle, TURN, CORNER)
     # an axis-parallel pair (e.g. pure Z) has cos 0 with no XY turn: its XY jump is 0 anyway
-    c.t, c.s = c.t + float(cs[-1]), c.s + float(cs_s[-1])
-    c.pos = c.pos + cs_p[-1]
+    c.t = c.t + float(cs[-1])
     c.vel_end, c.acc = vel_end[-1].copy(), acc[-1].copy()
     c.ux, c.uy, c.isb = float(ux[-1]), float(uy[-1]), float(isb[-1])
+    if not full:
+        return Trace(dict(t0=t0, dur=dur, acc=acc, vel=vel, dv=dv, da=da, pos=None, s=None,
+                          speed=speed, tan_a=tan_a, cls=cls, idx=None))
+    c.s = c.s + float(cs_s[-1])
+    c.pos = c.pos + cs_p[-1]
     return Trace(dict(t0=t0, dur=dur, acc=acc, vel=vel, dv=dv, da=da, pos=pos, s=s,
                       speed=speed, tan_a=tan_a, cls=cls, idx=np.repeat(idx, 3).astype(np.int64)))
 
@@ -322,10 +329,11 @@ class _Stream:
         """Unshaped events (time, dr, drp); solve every event earlier than horizon_t."""
         t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
         t_all = np.concatenate([self.t, t_s])
-        order = np.argsort(t_all, kind="stable")
-        t_all = t_all[order]
-        dr_all = np.concatenate([self.dr, dr_s])[order]
-        drp_all = np.concatenate([self.drp, drp_s])[order]
+        dr_all = np.concatenate([self.dr, dr_s])
+        drp_all = np.concatenate([self.drp, drp_s])
+        if not (t_all[:-1] <= t_all[1:]).all():     # in order already (no shaper): the sort keeps it
+            order = np.argsort(t_all, kind="stable")
+            t_all, dr_all, drp_all = t_all[order], dr_all[order], drp_all[order]
         k = int(np.searchsorted(t_all, horizon_t, side="left"))
         self._solve(t_all[:k], dr_all[:k], drp_all[:k])
         self.t, self.dr, self.drp = t_all[k:], dr_all[k:], drp_all[k:]
@@ -341,7 +349,8 @@ class _Stream:
         c = osc.amplitudes(t, dc)
         if len(c) > 1:
             dur = np.diff(t)
-            self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
+            i_r2 = osc.integral_r2_fin if np.isfinite(dur).all() else osc.integral_r2
+            self.int_r2 += float(i_r2(c[:-1], dur).sum())
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
 
@@ -427,6 +436,15 @@ class Collector:
         self.rows = array("d", IDLE)       # at rest 1 s before the file (not counted)
         self.pend = []                     # blocks not yet in rows (on_block)
         self.room = 0                      # blocks on_block takes before _drain
+        # the compiled firmware core writes the rows itself into a RowSink (no Block object
+        # per block): the rows wait there, in the same order, and reach rows in _drain
+        self.sink = None
+        sink_type = _row_sink_type()
+        if sink_type is not None:
+            self.sink = sink_type(self.limit // ROW, self._full)
+            self.sink.put(self.rows)
+            self.rows = array("d")
+            self.on_block, self.rest = self.sink, self.sink.rest
         self.skip_first = True
         self.time_t = 0.0
         self.chunks = 0                    # chunks solved (tests force many)
@@ -442,8 +460,15 @@ class Collector:
             if len(self.rows) >= self.limit:
                 self._flush(False)
 
+    def _full(self):
+        # the sink holds a chunk's rows (it calls this once it does)
+        self._flush(False)
+
     def _drain(self):
         """The pending blocks' rows (_block_row of each) appended to rows, in order."""
+        if self.sink is not None:
+            self.rows.frombytes(self.sink.take())
+            return
         pend = self.pend
         n = len(pend)
         if n:
@@ -473,11 +498,16 @@ class Collector:
             if len(self.rows) >= self.limit:
                 self._flush(False)
         self._drain()
+        if self.sink is not None:          # what is left waits in the sink, as rows would
+            self.sink.put(self.rows)
+            self.rows = array("d")
 
     def _flush(self, final: bool):
         self._drain()
         m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
         self.rows = array("d")
+        if self.sink is not None and final:
+            self.sink = None                # nothing more comes (and no cycle is left)
         self.room = min(self.limit // ROW, PEND_BLOCKS)
         if not len(m):
             return
@@ -485,18 +515,21 @@ class Collector:
         self.time_t += float(counted[:, 6:9].sum())
         self.skip_first = False
         self.chunks += 1
-        tr = _pieces(m, self.carry)
+        tr = _pieces(m, self.carry, self.smooth is not None)
         for ax, name in enumerate("xy"):
             horizon_t = np.inf if final else self.carry.t + self.horizon[name]
+            # the jumps of _jumps, each made once for the parts that share it: ramp and
+            # all take da / w^2, all, corner and turn -dv (where it is not 0, the same
+            # values as np.where(cls == ..., -dv, 0))
+            dr, drp = _jumps(tr, self.model, name, ax, "all")
+            ramp, jump = dr != 0.0, drp != 0.0
+            keeps = {"all": ramp | jump, "ramp": ramp, "corner": jump & (tr.cls == CORNER),
+                     "turn": jump & (tr.cls == TURN)}
             for part in ("all",) + PARTS:
-                dr, drp = _jumps(tr, self.model, name, ax, part)
-                keep = np.zeros(len(tr), bool)
-                for j in (dr, drp):
-                    if j is not None:
-                        keep |= j != 0.0
+                keep = keeps[part]
                 zero = np.zeros(int(keep.sum()))
-                self.streams[name, part].add(tr.t0[keep], zero if dr is None else dr[keep],
-                                             zero if drp is None else drp[keep], horizon_t)
+                self.streams[name, part].add(tr.t0[keep], dr[keep] if part in ("all", "ramp") else zero,
+                                             drp[keep] if part != "ramp" else zero, horizon_t)
         if self.smooth is not None:
             self.smooth.add(tr, self.carry.t, final)
 
@@ -513,6 +546,16 @@ class Collector:
             self.result = _assemble(self.model, self.shaper, self.time_t, axes, smooth)
             self.streams = self.smooth = None
         return self.result
+
+
+def _row_sink_type():
+    """The compiled firmware core's RowSink, or None (pure Python, or a core without it)."""
+    from .firmware import simulate
+    core = simulate._core
+    return getattr(core, "RowSink", None) if core is not None and USE_SINK else None
+
+
+USE_SINK = True           # tests turn it off: the Python rows (pend, _drain) for reference
 
 
 def figures(path, profile, shaper: str | None = None) -> dict:

@@ -9,7 +9,8 @@
  *
  * Moves, Arcs and Limits are read through their __slots__ offsets (taken once, in
  * setup()); any other object through getattr.  Blocks live in C arrays; a Python Block
- * is made only for on_block, a LineRecord only for on_line. */
+ * is made only for on_block (none when on_block is a RowSink: the ringing's rows are
+ * written straight into it), a LineRecord only for on_line. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <structmember.h>
@@ -192,6 +193,206 @@ static PyTypeObject BlockType = {
     .tp_basicsize = sizeof(BlockObject),
     .tp_flags = Py_TPFLAGS_DEFAULT,
     .tp_members = Block_members,
+};
+
+/* ---------------------------------------------------------------- RowSink (ringing.py) */
+/* The ringing Collector's rows (ringing.ROW = 12 numbers a block or rest: _block_row,
+ * _rest_row): a Sim whose on_block is a RowSink writes each planned block's row here
+ * without making a Block object; called with a block (the Python model's path), it reads
+ * the same attributes.  Once it holds `cap` rows or more it calls flush(), which must take
+ * them (take()). */
+#define SINK_ROW 12
+typedef struct {
+    PyObject_HEAD
+    double *buf;
+    Py_ssize_t n, alloc, cap;         /* rows held, rows allocated, rows that call flush */
+    PyObject *flush;
+} SinkObject;
+
+static int sink_reserve(SinkObject *k, Py_ssize_t rows)
+{
+    if (k->n + rows <= k->alloc)
+        return 0;
+    Py_ssize_t want = k->alloc * 2 > k->n + rows ? k->alloc * 2 : k->n + rows + 16;
+    double *nb = PyMem_Realloc(k->buf, (size_t)want * SINK_ROW * sizeof(double));
+    if (nb == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    k->buf = nb;
+    k->alloc = want;
+    return 0;
+}
+
+/* one row in; flush() once cap rows are held */
+static int sink_push(SinkObject *k, const double *row)
+{
+    if (sink_reserve(k, 1) < 0)
+        return -1;
+    memcpy(k->buf + k->n * SINK_ROW, row, SINK_ROW * sizeof(double));
+    k->n++;
+    if (k->n >= k->cap) {
+        PyObject *x = PyObject_CallNoArgs(k->flush);
+        if (x == NULL)
+            return -1;
+        Py_DECREF(x);
+        if (k->n >= k->cap) {
+            PyErr_SetString(PyExc_RuntimeError, "RowSink: flush() did not take the rows");
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* _block_row(b): (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t, decel_t,
+ * after_stop, idx, 1.0) */
+static int sink_block(SinkObject *k, const BlockData *b)
+{
+    double row[SINK_ROW] = {b->ux, b->uy, b->start_v, b->cruise_v, b->end_v, b->accel, b->accel_t,
+                            b->cruise_t, b->decel_t, b->after_stop ? 1.0 : 0.0, (double)b->idx, 1.0};
+    return sink_push(k, row);
+}
+
+static int Sink_init(SinkObject *k, PyObject *args, PyObject *kw)
+{
+    static char *kwlist[] = {"cap", "flush", NULL};
+    Py_ssize_t cap;
+    PyObject *flush;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "nO:RowSink", kwlist, &cap, &flush))
+        return -1;
+    if (cap < 1) {
+        PyErr_SetString(PyExc_ValueError, "RowSink: cap must be >= 1");
+        return -1;
+    }
+    k->cap = cap;
+    k->n = 0;
+    Py_INCREF(flush);
+    Py_XSETREF(k->flush, flush);
+    return sink_reserve(k, cap + 1);
+}
+
+static const char *SINK_FIELDS[SINK_ROW - 1] = {"ux", "uy", "start_v", "cruise_v", "end_v", "accel",
+                                                "accel_t", "cruise_t", "decel_t", "after_stop", "idx"};
+
+/* sink(block): the block's row, read by attribute (float() of each, as ringing._drain) */
+static PyObject *Sink_call(SinkObject *k, PyObject *args, PyObject *kw)
+{
+    PyObject *b;
+    if (!PyArg_ParseTuple(args, "O:RowSink", &b))
+        return NULL;
+    double row[SINK_ROW];
+    for (int i = 0; i < SINK_ROW - 1; i++) {
+        PyObject *v = PyObject_GetAttrString(b, SINK_FIELDS[i]);
+        if (v == NULL)
+            return NULL;
+        row[i] = PyFloat_AsDouble(v);
+        Py_DECREF(v);
+        if (row[i] == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    row[SINK_ROW - 1] = 1.0;
+    if (sink_push(k, row) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+/* rest(dt_t): a rest row (_rest_row) when dt_t > 0 */
+static PyObject *Sink_rest(SinkObject *k, PyObject *arg)
+{
+    double dt = PyFloat_AsDouble(arg);
+    if (dt == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (dt > 0.0) {
+        double row[SINK_ROW] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, 0.0, 1.0, -1.0, 0.0};
+        if (sink_push(k, row) < 0)
+            return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+/* put(data): whole rows (bytes of doubles) appended as they are, flush() not called */
+static PyObject *Sink_put(SinkObject *k, PyObject *arg)
+{
+    Py_buffer v;
+    if (PyObject_GetBuffer(arg, &v, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t rows = v.len / (Py_ssize_t)(SINK_ROW * sizeof(double));
+    if (rows * (Py_ssize_t)(SINK_ROW * sizeof(double)) != v.len) {
+        PyBuffer_Release(&v);
+        PyErr_SetString(PyExc_ValueError, "RowSink.put: not whole rows of 12 doubles");
+        return NULL;
+    }
+    if (sink_reserve(k, rows) < 0) {
+        PyBuffer_Release(&v);
+        return NULL;
+    }
+    memcpy(k->buf + k->n * SINK_ROW, v.buf, (size_t)v.len);
+    k->n += rows;
+    PyBuffer_Release(&v);
+    Py_RETURN_NONE;
+}
+
+/* take(): the rows held (bytes), and the sink empty */
+static PyObject *Sink_take(SinkObject *k, PyObject *noarg)
+{
+    PyObject *b = PyBytes_FromStringAndSize((const char *)k->buf,
+                                            k->n * (Py_ssize_t)(SINK_ROW * sizeof(double)));
+    if (b != NULL)
+        k->n = 0;
+    return b;
+}
+
+static PyObject *Sink_len(SinkObject *k, void *c)
+{
+    return PyLong_FromSsize_t(k->n);
+}
+
+static int Sink_traverse(SinkObject *k, visitproc visit, void *arg)
+{
+    Py_VISIT(k->flush);
+    return 0;
+}
+
+static int Sink_clear(SinkObject *k)
+{
+    Py_CLEAR(k->flush);
+    return 0;
+}
+
+static void Sink_dealloc(SinkObject *k)
+{
+    PyObject_GC_UnTrack(k);
+    Sink_clear(k);
+    PyMem_Free(k->buf);
+    Py_TYPE(k)->tp_free((PyObject *)k);
+}
+
+static PyMethodDef Sink_methods[] = {
+    {"rest", (PyCFunction)Sink_rest, METH_O, "A rest of dt_t seconds (if > 0)."},
+    {"put", (PyCFunction)Sink_put, METH_O, "Whole rows appended, flush() not called."},
+    {"take", (PyCFunction)Sink_take, METH_NOARGS, "The rows held (bytes); the sink empties."},
+    {NULL}
+};
+
+static PyGetSetDef Sink_getset[] = {
+    {"rows", (getter)Sink_len, NULL, "rows held", NULL},
+    {NULL}
+};
+
+static PyTypeObject SinkType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.RowSink",
+    .tp_doc = "RowSink(cap, flush): the ringing rows of a pass (see ringing.Collector).",
+    .tp_basicsize = sizeof(SinkObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Sink_init,
+    .tp_call = (ternaryfunc)Sink_call,
+    .tp_traverse = (traverseproc)Sink_traverse,
+    .tp_clear = (inquiry)Sink_clear,
+    .tp_dealloc = (destructor)Sink_dealloc,
+    .tp_methods = Sink_methods,
+    .tp_getset = Sink_getset,
 };
 
 /* ---------------------------------------------------------------- LineRecord */
@@ -1072,6 +1273,8 @@ static int sim_emit(SimObject *s, BlockData *b)
     s->prev_uy = b->uy;
     s->prev_uz = b->uz;
     s->prev_t = t;
+    if (Py_IS_TYPE(s->on_block, &SinkType))
+        return sink_block((SinkObject *)s->on_block, b);
     if (s->on_block != Py_None) {
         BlockObject *o = PyObject_New(BlockObject, &BlockType);
         if (o == NULL)
@@ -1570,7 +1773,7 @@ static struct PyModuleDef core_module = {
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
-        || PyType_Ready(&SimType) < 0)
+        || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
@@ -1579,10 +1782,12 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
     Py_INCREF(&RecType);
     Py_INCREF(&ResType);
     Py_INCREF(&SimType);
+    Py_INCREF(&SinkType);
     if (PyModule_AddObject(m, "Block", (PyObject *)&BlockType) < 0
         || PyModule_AddObject(m, "LineRecord", (PyObject *)&RecType) < 0
         || PyModule_AddObject(m, "SimResult", (PyObject *)&ResType) < 0
         || PyModule_AddObject(m, "Sim", (PyObject *)&SimType) < 0
+        || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
         Py_DECREF(m);
         return NULL;

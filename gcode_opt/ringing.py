@@ -417,7 +417,11 @@ class Collector:
     figures(): the same dict as figures_of_trace on the whole trace.  Every chunk_blocks
     rows are turned into pieces and solved; what crosses to the next chunk is the pieces'
     end state, each axis' and part's oscillator amplitude, the shaped events not yet due
-    and the shaper smoothing's window: memory does not grow with the file."""
+    and the shaper smoothing's window: memory does not grow with the file.
+
+    Where the compiled firmware core is built, on_block is its RowSink: the core's model
+    writes each block's row into it without a Block object (the Python model calls it
+    with the block); the chunks are cut at the same rows as the Python rows cut them."""
 
     def __init__(self, profile=None, shaper: str | None = None, chunk_blocks: int = CHUNK_BLOCKS,
                  model: dict | None = None):
@@ -451,6 +455,11 @@ class Collector:
         self.result = None
 
     def on_block(self, b):
+        # (with a RowSink the instance's on_block is the sink itself; this is for a call
+        # through the class)
+        if self.sink is not None:
+            self.sink(b)
+            return
         # the block is kept as it is (the planner is done with it) and turned into its row
         # with the others in _drain: one C-level pass instead of a tuple built per block
         pend = self.pend
@@ -482,6 +491,9 @@ class Collector:
         self.room = min((self.limit - len(self.rows)) // ROW, PEND_BLOCKS)
 
     def rest(self, dt_t):
+        if self.sink is not None:
+            self.sink.rest(dt_t)
+            return
         if dt_t > 0.0:
             self._drain()
             self.rows.extend(_rest_row(dt_t))

@@ -228,8 +228,9 @@ def test_edge_files(tmp_path):
 
 
 def test_add_rows_then_blocks_keep_the_chunks():
-    """add_rows (ready rows) then blocks and rests: rows left over by add_rows wait in the
-    sink, so the next chunk is cut where the Python rows cut it."""
+    """add_rows (ready rows) then blocks and rests (some through the class' methods): rows
+    left over by add_rows wait in the sink, so the next chunk is cut where the Python rows
+    cut it."""
     p = load_profile("prusa-mk3s")
     rows = rg.Rows()
     rg.play(os.path.join(SAMPLES, "prusa_klipper.gcode"), p, rows)
@@ -241,10 +242,11 @@ def test_add_rows_then_blocks_keep_the_chunks():
         col.add_rows(items[:half])
         for i in range(half, len(items), rg.ROW):
             row = items[i:i + rg.ROW]
+            cls = rg.Collector if (i // rg.ROW) % 3 == 0 else None    # now and then through the class
             if row[11] == 0.0:
-                col.rest(row[7])
+                cls.rest(col, row[7]) if cls else col.rest(row[7])
             else:
-                col.on_block(_FakeBlock(row))
+                cls.on_block(col, _FakeBlock(row)) if cls else col.on_block(_FakeBlock(row))
         got[kind] = (col.figures(), col.chunks)
     assert _bits(got["new"][0]) == _bits(got["ref"][0])
     assert got["new"][1] == got["ref"][1]

@@ -33,6 +33,7 @@ import math
 import os
 import sys
 import time
+from collections import deque
 
 import numpy as np
 
@@ -44,8 +45,8 @@ from .firmware import simulate as fwsim
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
-from .state import MachineState, Move, events, read_lines
-from .strokes import K_ARC, group_strokes
+from .state import Barrier, MachineState, Move, events, read_lines
+from .strokes import K_ARC, NOT_OPEN, group_lines
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
 
@@ -115,21 +116,17 @@ def _counted(it, progress):
 
 # ---------------------------------------------------------------- pass 1: analyse
 def analyse(path, profile: Profile, opts: Options):
-    """Strokes of the original file with the firmware model's figures for each."""
+    """Strokes of the original file with the firmware model's figures for each.
+
+    The model plays each line as it is read, before the strokes see it.  Its records (one
+    a moving line, in file order) go to strokes by index ranges: strokes close in file
+    order, so a record goes to the oldest closed stroke still due, or waits (early) while
+    its line is in the run still open, or belongs to no stroke."""
     strokes = []
-    owner = {}          # line idx -> stroke still waiting for that line's record
-    early = {}          # records that arrived before their stroke closed
+    due = deque()       # closed strokes, in file order, whose last line's record has not come
+    early = deque()     # records of lines in the open run (or of one that closed), in file order
+    opened = [NOT_OPEN]  # group_lines: first line of the run / arc stroke still open
 
-    def apply(st, r):
-        if r.idx == st.first_idx:
-            st.v0 = r.start_v
-        if r.idx == st.last_idx:
-            st.v1 = r.end_v
-        st.time_t += r.time_t
-        st.int_a2 += r.int_a2 + r.int_a2_j     # junction halves: vertices of curves, sub-arc ends
-        st.int_v2 += r.int_v2
-
-    pending_idx = set()
     split = curves.vertex_splitter(profile) if opts.max_turn_deg > 0 else None
     state = MachineState(profile, path)
     state.warnings = opts.reader_warnings = []     # arcs off their circle, ignored M205 J, ...
@@ -137,18 +134,7 @@ def analyse(path, profile: Profile, opts: Options):
 
     seen = [False]         # a slicer feature comment (";TYPE:", "; FEATURE:", ...) was read
     by_feature = opts.by_feature = {}   # the original's moves, time and int a^2 by feature (summary)
-    feat_of = {}           # line idx -> feature of a move whose record has not come yet
-
-    def read():
-        step = state.step
-        for idx, raw in read_lines(path):
-            e_before[0] = state.e
-            if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
-                seen[0] = True
-            ev = step(idx, raw)
-            if type(ev) is Move:
-                feat_of[idx] = ev.feature
-            yield idx, raw, ev
+    feat_at = deque()      # (idx, feature) of each move whose feature is not the move's before
 
     def start_state():
         """What rewrite needs where a run of moves starts (it copies the file without
@@ -156,45 +142,68 @@ def analyse(path, profile: Profile, opts: Options):
         (a G0-G3 line leaves those as they were, so the state after it is the one before)."""
         return e_before[0], state.accel_for(True, True), state.accel_for(False, True), state.lim.mcr
 
-    def feed():
-        for item in group_strokes(_counted(read(), opts.progress), opts.features,
-                                  opts.min_length_d, opts.max_turn_deg, split, start_state):
-            if item[0] == "line":
-                _, idx, raw, ev = item
-                pending_idx.add(idx)
-                yield idx, raw, ev
-            else:
-                st = item[1]
-                strokes.append(st)
-                for i in range(st.first_idx, st.last_idx + 1):
-                    r = early.pop(i, None)
-                    if r is not None:
-                        apply(st, r)
-                    else:
-                        owner[i] = st
-                    pending_idx.discard(i)
-                # records of lines up to this stroke's end that no stroke claimed are garbage;
-                # several strokes can close at once (a run split into strokes), in file order,
-                # so the lines after this one must keep their early records
-                for i in [i for i in pending_idx if i <= st.last_idx]:
-                    pending_idx.discard(i)
-                    early.pop(i, None)
+    def on_stroke(st):
+        """A stroke closed: the records of its lines that came already are early's first
+        (those before it belong to no stroke)."""
+        strokes.append(st)
+        lo, hi = st.first_idx, st.last_idx
+        while early and early[0].idx < lo:
+            early.popleft()
+        got = -1
+        while early and early[0].idx <= hi:
+            r = early.popleft()
+            apply(st, r)
+            got = r.idx
+        if got < hi:
+            due.append(st)
+
+    def apply(st, r):
+        i = r.idx
+        if i == st.first_idx:
+            st.v0 = r.start_v
+        if i == st.last_idx:
+            st.v1 = r.end_v
+        st.time_t += r.time_t
+        st.int_a2 += r.int_a2 + r.int_a2_j     # junction halves: vertices of curves, sub-arc ends
+        st.int_v2 += r.int_v2
+
+    tally = [NOT_OPEN, None]   # feat_at's first line (NOT_OPEN: none), the totals of the feature before
 
     def on_line(r):
-        f = feat_of.pop(r.idx, None)
-        if f is not None:
+        i = r.idx
+        if i >= tally[0]:
+            while feat_at and feat_at[0][0] <= i:
+                f = feat_at.popleft()[1]
             tot = by_feature.get(f)
             if tot is None:
                 tot = by_feature[f] = [0, 0.0, 0.0]
-            tot[0] += 1
-            tot[1] += r.time_t
-            tot[2] += r.int_a2 + r.int_a2_j
-        st = owner.pop(r.idx, None)
-        if st is not None:
-            apply(st, r)
-        elif r.idx in pending_idx:
-            early[r.idx] = r
+            tally[0] = feat_at[0][0] if feat_at else NOT_OPEN
+            tally[1] = tot
+        tot = tally[1]
+        tot[0] += 1
+        tot[1] += r.time_t
+        tot[2] += r.int_a2 + r.int_a2_j
+        while due:
+            st = due[0]
+            if st.last_idx < i:         # its last lines had no record
+                due.popleft()
+                continue
+            if st.first_idx <= i:           # apply(st, r) written out: most records come here
+                if i == st.first_idx:
+                    st.v0 = r.start_v
+                st.time_t += r.time_t
+                st.int_a2 += r.int_a2 + r.int_a2_j
+                st.int_v2 += r.int_v2
+                if i == st.last_idx:
+                    st.v1 = r.end_v
+                    due.popleft()
+            return
+        if i >= opened[0]:
+            while early and early[0].idx < opened[0]:   # of a run that closed with no stroke
+                early.popleft()
+            early.append(r)
 
+    ring = None
     opts.ringing_before = None
     if getattr(opts, "ringing", True):
         # the original's ringing rides on this pass (streamed: bounded memory)
@@ -205,13 +214,47 @@ def analyse(path, profile: Profile, opts: Options):
         def on_line_both(r):
             on_line(r)
             ring_line(r)
-        sim = simulate_events(rg.wrap_events(feed(), ring_dwell), profile, on_line=on_line_both,
-                              on_block=ring_block)
-        opts.ringing_before = ring.figures()
+        sim = fwsim.new_sim(profile, on_line_both, ring_block)
     else:
-        sim = simulate_events(feed(), profile, on_line=on_line)
+        sim = fwsim.new_sim(profile, on_line)
+
+    def read():
+        """The file's (idx, raw, event), each played by the model as it is read (what
+        simulate_events and, with ringing, ringing.wrap_events do)."""
+        step = state.step
+        move, barrier = sim.move, sim.barrier
+        last_f = None
+        with reader.open_text(path) as fh:
+            lines = enumerate(fh)           # read_lines without its generator layer
+            if opts.progress is not None:
+                lines = _counted(lines, opts.progress)
+            for idx, raw in lines:
+                e_before[0] = state.e
+                if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
+                    seen[0] = True
+                ev = step(idx, raw)
+                cls = type(ev)
+                if cls is Move:
+                    if ev.feature != last_f:
+                        last_f = ev.feature
+                        if not feat_at:
+                            tally[0] = idx
+                        feat_at.append((idx, last_f))
+                    move(ev)
+                elif cls is Barrier:
+                    barrier(ev)
+                    if ring is not None:
+                        ring_dwell(ev.dwell_t)
+                yield idx, raw, ev
+
+    for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
+                         start_state, opened):
+        pass
+    sim.stop()
+    if ring is not None:
+        opts.ringing_before = ring.figures()
     opts.feature_info = feat.selection_info(seen[0], opts.features)
-    return strokes, sim
+    return strokes, sim.res
 
 
 # ---------------------------------------------------------------- pass 2: rewrite

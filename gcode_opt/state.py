@@ -672,9 +672,14 @@ def use_reader(name: str) -> str:
 use_reader("c" if _C_STEP is not None else "python")
 
 
+def open_text(path: str):
+    """The file as read_lines reads it (iterate it for the lines with their endings)."""
+    return open(path, "r", encoding="utf-8", errors="surrogateescape", newline="")
+
+
 def read_lines(path: str):
     """Yield (idx, raw_line_with_ending).  Streams; keeps CRLF/LF as written."""
-    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+    with open_text(path) as fh:
         yield from enumerate(fh)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from array import array
 
-from .state import ARC, LINE, MAX_POS_D
+from .state import ARC, LINE, MAX_POS_D, Barrier, Move
 from .words import param_texts, split_comment, strip_checksum
 
 MIN_FEED_V = 1.0          # mm/s: slower moves are left alone -- segment feeds are written to 0.1 mm/s
@@ -85,7 +85,8 @@ class Stroke:
         self.lim = m.lim
         self.e_per_mm = m.e / d
         self.v0 = self.v1 = self.time_t = self.int_a2 = self.int_v2 = 0.0
-        self.prev_u = self.next_u = None     # XY directions of the neighbouring moves (None: a stop)
+        # prev_u = next_u = None: XY directions of the neighbouring moves (None: a stop)
+        self._pux = self._puy = self._nux = self._nuy = None
         self.v0_fw = self.v1_fw = None       # the firmware's own end speeds when corners.py lowered v0/v1
         self.corner_cmd0 = self.corner_cmd1 = False   # that lowered end is set by a junction command
         self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
@@ -138,20 +139,25 @@ class Stroke:
         return st
 
     @classmethod
-    def of_curve(cls, moves):
+    def of_curve(cls, moves, ds=None):
         """A chain of adjacent G1 moves (one feature, feed, accel, Z) that turns at its
-        vertices by at most the curve threshold: one smooth curve, kind K_CURVE."""
+        vertices by at most the curve threshold: one smooth curve, kind K_CURVE.  ds: the
+        moves' XY lengths, if known (math.hypot of each, as here)."""
         st = cls(moves[0])
         st.kind = K_CURVE
         xy = [moves[0].x0, moves[0].y0]
-        st.length_d = 0.0
+        if ds is None:
+            ds = [math.hypot(m.x1 - m.x0, m.y1 - m.y0) for m in moves]
+        length_d, e_per_mm = 0.0, st.e_per_mm
         ends = []
-        for m in moves:
-            d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
-            st.length_d += d
-            ends.append(st.length_d)
-            st.e_per_mm = max(st.e_per_mm, m.e / d)
+        for m, d in zip(moves, ds):
+            length_d += d
+            ends.append(length_d)
+            q = m.e / d
+            if q > e_per_mm:          # max(e_per_mm, q)
+                e_per_mm = q
             xy += (m.x1, m.y1)
+        st.length_d, st.e_per_mm = length_d, e_per_mm
         st.pts, st.ends_d = Points(xy), array("d", ends)
         st.last_idx = moves[-1].idx
         return st
@@ -276,7 +282,7 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     closes (after its last line has been yielded; several strokes may close at once, in
     file order).  Strokes shorter than min_length_d are dropped.  Keeping it a generator
     lets the firmware model run on the same stream.  A stroke's next_u is filled in when
-    the next move arrives.
+    the next move arrives.  group_lines does the work (this wraps it).
 
     max_turn_deg > 0 turns curve strokes on: a run of adjacent compatible eligible G1 moves
     whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move), if
@@ -289,27 +295,68 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     ``start_state = (E before its first line, the acceleration of its kind, cruise ratio)``
     (a stroke inside a run: E summed along the run, as the reader sums it).
     """
+    closed = []
+    for idx, raw, ev in group_lines(event_iter, selected, closed.append, min_length_d, max_turn_deg,
+                                    split_vertex, start_state):
+        if closed:
+            for st in closed:
+                yield "stroke", st
+            closed.clear()
+        yield "line", idx, raw, ev
+    for st in closed:
+        yield "stroke", st
+
+
+NOT_OPEN = 1 << 62        # group_lines' opened[0] when no run or arc is open
+
+
+def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
+                split_vertex=None, start_state=None, opened=None):
+    """group_strokes without the tagged items: yields the (idx, raw, event) triples on
+    unchanged and hands each stroke to on_stroke(stroke) as it closes (before the triple of
+    the line that closed it; the last ones after the last triple).  opened, a one-item
+    list if given, holds the first line of the run or arc stroke still open (NOT_OPEN if
+    none): a line before it is either in a stroke already handed over or in none.
+
+    The common line, a G1 continuing the open run, is tested first and least: the run's
+    feed, acceleration, feature, Z and E mode are its first move's (equality carries along
+    the run), the last move's direction and the run's length are kept as it grows."""
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
+    hypot = math.hypot
     run = []               # moves of the open run
+    run_d = []             # their XY lengths
+    run_len = 0.0          # their sum, in order (as _run_length sums it)
+    turned = False         # a vertex of the run is not collinear (a curve if curves are on)
     run_prev_u = None      # direction of the move before the run
     arc = None             # an arc stroke waiting to close (at the next line)
     last_u = None          # direction of the last move; None after a stop
     waiting = None         # closed stroke still waiting for the next move's direction
     run_start = None       # start_state() where the open run began
+    r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
+    r_last = -2            # idx of the run's last move
+    pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
+    if opened is None:
+        opened = [NOT_OPEN]
+    else:
+        opened[0] = NOT_OPEN
 
     def close(next_u_known, next_u):
-        """Strokes of the open run / arc; the last one's next_u as given (or waiting)."""
+        """Hand over the strokes of the open run / arc; the last one's next_u as given (or
+        waiting); returns the last one handed over (None if none)."""
         nonlocal run, arc
         out = []
         if arc is not None:
             out = [arc]
             arc = None
-        elif run and min_length_d > 0.0 and _run_length(run) < min_length_d:
+        elif run and min_length_d > 0.0 and run_len < min_length_d:
             run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
         elif run:
-            parts = _partition(run, curves)
+            if curves and turned and len(run) >= 3:
+                parts = [(0, Stroke.of_curve(run, run_d))]
+            else:
+                parts = _partition(run, False)
             e_k, k_done = (run_start[0] if run_start else 0.0), 0
             for j, (k0, st) in enumerate(parts):
                 st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
@@ -322,45 +369,85 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
                     st.start_state = _kind_state(st, e_k, run_start)
                 out.append(st)
             run = []
+        opened[0] = NOT_OPEN
         out = [st for st in out if st.length_d >= min_length_d]
         if out and next_u_known:
             out[-1].next_u = next_u
-        return out
+        for st in out:
+            on_stroke(st)
+        return out[-1] if out else None
 
     for idx, raw, ev in event_iter:
-        is_move = ev is not None and hasattr(ev, "kind")
-        if waiting is not None and ev is not None:
-            waiting.next_u = _direction(ev, False) if is_move else None
-            waiting = None
-        ok = is_move and eligible(ev, selected)
-        if run and ok and _continues(run[-1], ev):
-            pu, u = _unit(run[-1]), _unit(ev)
-            if _collinear(pu, u) or (pu[0] * u[0] + pu[1] * u[1] >= min_cos
-                                     and (split_vertex is None or not split_vertex(run[-1], ev))):
-                run.append(ev)
-                last_u = u
-                yield "line", idx, raw, ev
-                continue
+        cls = type(ev)
+        if run and cls is Move:
+            # a G1 continuing the run: what eligible() and _continues() ask, less what
+            # equality with the run's first move already proves (feature selected, feed
+            # >= MIN_FEED_V, z0 == z1)
+            if (ev.idx == r_last + 1 and ev.v == r_v and ev.accel == r_accel and ev.feature == r_feature
+                    and ev.z0 == r_z and ev.z1 == r_z and ev.e_rel == r_erel and ev.kind == LINE
+                    and not ev.checksum and not ev.xyz_rel and not ev.inch and ev.speed_r == 1.0
+                    and (ev.x1 != ev.x0 or ev.y1 != ev.y0) and (ev.e > 0.0 or (ev.e == 0.0 and r_travel))):
+                dx, dy = ev.x1 - ev.x0, ev.y1 - ev.y0
+                d = hypot(dx, dy)
+                ux, uy = dx / d, dy / d         # _unit(ev); (lux, luy) is _unit(pm)
+                dot = lux * ux + luy * uy
+                if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # _collinear
+                    take = True
+                elif dot >= min_cos and (split_vertex is None or not split_vertex(pm, ev)):
+                    take = turned = True
+                else:
+                    take = False
+                if take:
+                    run.append(ev)
+                    run_d.append(d)
+                    run_len += d
+                    r_last = ev.idx
+                    pm, lux, luy = ev, ux, uy
+                    yield idx, raw, ev
+                    continue
+                ok = True
+            else:
+                ok = eligible(ev, selected)
+            is_move = True
+            last_u = (lux, luy)
+        else:
+            if run:
+                last_u = (lux, luy)
+            is_move = cls is Move or (ev is not None and cls is not Barrier and hasattr(ev, "kind"))
+            if waiting is not None and ev is not None:
+                waiting.next_u = _direction(ev, False) if is_move else None
+                waiting = None
+            ok = is_move and eligible(ev, selected)
         if run or arc is not None:
-            done = close(is_move, _direction(ev, False) if is_move else None)
-            if done and ev is None:
-                waiting = done[-1]
-            for st in done:
-                yield "stroke", st
+            last = close(is_move, _direction(ev, False) if is_move else None)
+            if last is not None and ev is None:
+                waiting = last
         if ok:
             run = [ev]
+            dx, dy = ev.x1 - ev.x0, ev.y1 - ev.y0
+            d = hypot(dx, dy)
+            run_d = [d]
+            run_len = d
+            turned = False
             run_prev_u = last_u
             run_start = start_state() if start_state is not None else None
-        elif is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
-            arc = Stroke.of_arc(ev)          # closes at the next line
-            arc.prev_u = last_u
-            if start_state is not None:
-                ss = start_state()
-                arc.start_state = _kind_state(arc, ss[0], ss)
-        if is_move:
-            last_u = _direction(ev, True)
-        elif ev is not None:           # a Barrier: the planner stops
-            last_u = None
-        yield "line", idx, raw, ev
-    for st in close(False, None):
-        yield "stroke", st
+            r_v, r_accel, r_feature, r_z, r_erel = ev.v, ev.accel, ev.feature, ev.z1, ev.e_rel
+            r_travel = ev.feature == "travel"
+            r_last = ev.idx
+            opened[0] = idx
+            pm, lux, luy = ev, dx / d, dy / d     # _direction(ev, True) of an eligible line
+            last_u = (lux, luy)
+        else:
+            if is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
+                arc = Stroke.of_arc(ev)          # closes at the next line
+                arc.prev_u = last_u
+                if start_state is not None:
+                    ss = start_state()
+                    arc.start_state = _kind_state(arc, ss[0], ss)
+                opened[0] = idx
+            if is_move:
+                last_u = _direction(ev, True)
+            elif ev is not None:           # a Barrier: the planner stops
+                last_u = None
+        yield idx, raw, ev
+    close(False, None)

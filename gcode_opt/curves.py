@@ -145,6 +145,17 @@ def batch_caps(strokes, profile, us, ds, jerk_r):
     """vertex_caps of several strokes (directions us[i], lengths ds[i]) in one vectorised
     pass over all their vertices (the same bits as stroke by stroke); None if an input
     is not finite (then stroke by stroke)."""
+    got = _caps_flat_rows(strokes, profile, us, ds, jerk_r)
+    if got is None:
+        return None
+    caps, starts = got
+    n = [x.size for x in ds]
+    return [caps[a:a + max(k - 1, 0)] for a, k in zip(starts, n)]     # np.split's views, less overhead
+
+
+def _caps_flat_rows(strokes, profile, us, ds, jerk_r):
+    """batch_caps' caps as one flat array and each stroke's first cap in it (a list of
+    ints), or None."""
     n = np.array([x.size for x in ds], int)
     u, d = np.concatenate(us), np.concatenate(ds)
     if not (np.isfinite(u).all() and np.isfinite(d).all()) or u.shape[0] < 2 or (n < 1).any():
@@ -158,7 +169,7 @@ def batch_caps(strokes, profile, us, ds, jerk_r):
     keep[np.cumsum(n)[:-1] - 1] = False            # the vertex between two strokes
     caps = caps[keep]
     ends = np.cumsum(np.maximum(n - 1, 0)).tolist()
-    return [caps[a:b] for a, b in zip([0] + ends[:-1], ends)]     # np.split's views, less overhead
+    return caps, [0] + ends[:-1]
 
 
 def _pmax(a, b):
@@ -265,48 +276,80 @@ def _d(m):
 
 # ------------------------------------------------------------------ geometry
 class CurveGeom:
-    """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s)."""
-    __slots__ = ("_pts", "d", "u", "cos_turn", "s_v", "kappa_v", "kappa_eff", "caps", "cap", "cos_end",
-                 "chain_caps", "caps_jerk1")
+    """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s).
+
+    Compact: the arrays are rows of blocks shared by many strokes (_batch_parts' blocks,
+    build_geoms' flat caps), each made into a view when read.  A view kept per field and
+    stroke cost ~110 bytes, ~0.8 kB a curve in all (~16 MB on the gyroid plate), more
+    than its numbers."""
+    __slots__ = ("_pts", "_b", "_k", "_cb", "_c0", "_cb1", "_c1", "kappa_eff", "cap", "cos_end",
+                 "chain_caps")
 
     def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None):
-        """seg: (pts, d, u) from _segments; caps: the vertex caps (build_geoms computes
-        them for many strokes at once); caps_jerk1: classic jerk's caps at the whole jerk
-        (chains.vertex_caps), if computed; parts: (d, u, cos_turn, s_v, kappa_v, kappa_eff)
-        as _batch_parts computes them for many strokes at once (the same bits)."""
+        """seg: (pts, d, u) from _segments; parts: (block, row) of _batch_parts (the same
+        bits for many strokes at once); caps, caps_jerk1: the vertex caps (classic jerk's
+        at the whole jerk: chains.vertex_caps), an array or (flat array, first cap) as
+        build_geoms computes them for many strokes at once; caps None: computed here."""
         self._pts = st.pts                # the stroke's own vertices: pts is read by tests only
         if parts is not None:
-            self.d, self.u, self.cos_turn, self.s_v, self.kappa_v, self.kappa_eff = parts
+            self._b, self._k = parts
+            self.kappa_eff = self._b[5][self._k]
         else:
             self._own_parts(st, seg)
         if caps is None:
             caps = vertex_caps(profile, st.lim, st.accel, self.u, self.d)
-        self.caps = caps                          # per interior vertex
-        self.caps_jerk1 = caps_jerk1
+        self._cb, self._c0 = caps if isinstance(caps, tuple) else (caps, 0)
+        self._cb1, self._c1 = caps_jerk1 if isinstance(caps_jerk1, tuple) else (caps_jerk1, 0)
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
-        self.cap = CAP_MARGIN * min(self.caps.tolist()) if self.caps.size else math.inf
+        caps = self.caps
+        self.cap = CAP_MARGIN * min(caps.tolist()) if caps.size else math.inf
         # turns at the two ends (None: a stop or a corner): the firmware model counts half
         # of each end junction's normal term in the stroke, as it did for the original
-        self.cos_end = [None, None]
-        for j, (a, b) in enumerate(((st.prev_u, tuple(self.u[0])), (tuple(self.u[-1]), st.next_u))):
+        u = self.u
+        cos_end = [None, None]
+        for j, (a, b) in enumerate(((st.prev_u, tuple(u[0])), (tuple(u[-1]), st.next_u))):
             if a is not None and b is not None:
                 c = a[0] * b[0] + a[1] * b[1]
-                self.cos_end[j] = c if c >= CORNER_COS else None
+                cos_end[j] = c if c >= CORNER_COS else None
+        self.cos_end = _NO_ENDS if cos_end == [None, None] else tuple(cos_end)
+
+    d = property(lambda self: self._b[0][self._k], doc="segment lengths (n,)")
+    u = property(lambda self: self._b[1][self._k], doc="segment unit directions (n, 2)")
+    cos_turn = property(lambda self: self._b[2][self._k], doc="cosine of each interior vertex's turn (n - 1,)")
+    s_v = property(lambda self: self._b[3][self._k], doc="arc length at each vertex (n + 1,)")
+    kappa_v = property(lambda self: self._b[4][self._k], doc="smoothed curvature at each vertex (n + 1,)")
+
+    @property
+    def caps(self):
+        """The vertex speed caps (mm/s), per interior vertex."""
+        c0 = self._c0
+        return self._cb[c0:c0 + self._b[0].shape[1] - 1]
+
+    @property
+    def caps_jerk1(self):
+        """Classic jerk's caps at the whole jerk, if build_geoms computed them (chains)."""
+        c1 = self._c1
+        return None if self._cb1 is None else self._cb1[c1:c1 + self._b[0].shape[1] - 1]
+
+    @caps_jerk1.setter
+    def caps_jerk1(self, caps):
+        self._cb1, self._c1 = caps, 0
 
     def _own_parts(self, st, seg):
-        pts, d, self.u = seg if seg is not None else _segments(st)
-        self.d = d
-        self.cos_turn = np.einsum("ij,ij->i", self.u[:-1], self.u[1:])
-        self.s_v = np.concatenate([[0.0], np.cumsum(d)])
+        pts, d, u = seg if seg is not None else _segments(st)
+        cos_turn = np.einsum("ij,ij->i", u[:-1], u[1:])
+        s_v = np.concatenate([[0.0], np.cumsum(d)])
         # smoothing over one median segment: wider kernels flatten the gyroid's curvature
         # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
         # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
         pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
-        self.kappa_v = np.interp(self.s_v, pc.s_d, pc.kappa_v)
-        S = self.s_v[-1]
-        mid = 0.5 * (self.kappa_v[:-1] ** 2 + self.kappa_v[1:] ** 2)
+        kappa_v = np.interp(s_v, pc.s_d, pc.kappa_v)
+        S = s_v[-1]
+        mid = 0.5 * (kappa_v[:-1] ** 2 + kappa_v[1:] ** 2)
         k2 = float(np.sum(mid * d) / S)
         self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
+        self._b = (d[None], u[None], cos_turn[None], s_v[None], kappa_v[None])   # a block of one row
+        self._k = 0
 
     @property
     def pts(self):
@@ -323,6 +366,9 @@ class CurveGeom:
 
     def kappa(self, s):
         return np.interp(s, self.s_v, self.kappa_v)
+
+
+_NO_ENDS = (None, None)     # CurveGeom.cos_end of a curve between stops or corners (shared)
 
 
 def _median(x):
@@ -353,7 +399,7 @@ def geom(st, profile):
 
 def build_geoms(strokes, profile, jerk1=False):
     """geom() of every stroke in `strokes` (those without one), their vertex caps computed
-    in one vectorised pass (per stroke they cost ~50 µs of numpy calls for ~14 vertices)
+    in vectorised passes (per stroke they cost ~50 µs of numpy calls for ~14 vertices)
     and their segments and curvature batched over strokes of one vertex count
     (_batch_parts); jerk1: classic jerk's caps at the whole jerk too (chains.vertex_caps).
     A stroke whose geometry raises raises here, as geom() would (the strokes before it
@@ -363,13 +409,35 @@ def build_geoms(strokes, profile, jerk1=False):
         return
     parts = _batch_parts(todo)
     segs = [None if p is not None else _segments(st) for st, p in zip(todo, parts)]
-    us = [p[1] if p is not None else s[2] for p, s in zip(parts, segs)]
-    ds = [p[0] if p is not None else s[1] for p, s in zip(parts, segs)]
-    caps = batch_caps(todo, profile, us, ds, 1.0 - JERK_F_STEP_R)
-    caps1 = batch_caps(todo, profile, us, ds, 1.0) if caps is not None and jerk1 and profile.junction == "jerk" else None
-    for k, (st, sg, pa) in enumerate(zip(todo, segs, parts)):
-        st.curv = CurveGeom(st, profile, sg, None if caps is None else caps[k], None if caps1 is None else caps1[k],
-                            pa)
+    caps, caps1 = [None] * len(todo), [None] * len(todo)
+    # the caps by chunks of strokes (CAPS_CHUNK vertices): their temporaries, ~20 arrays
+    # of a double per vertex, were ~40 MB at once on the gyroid plate; elementwise, so the
+    # same bits (a chunk whose input the vectorised form does not take: stroke by stroke)
+    nv = np.cumsum([s[1].size if p is None else p[0][0].shape[1] for p, s in zip(parts, segs)])
+    cut = np.flatnonzero(np.diff(nv // CAPS_CHUNK)) + 1
+    for lo, hi in zip([0] + cut.tolist(), cut.tolist() + [len(todo)]):
+        sts = todo[lo:hi]
+        us = [_part(parts[k], 1) if parts[k] is not None else segs[k][2] for k in range(lo, hi)]
+        ds = [_part(parts[k], 0) if parts[k] is not None else segs[k][1] for k in range(lo, hi)]
+        got = _caps_flat_rows(sts, profile, us, ds, 1.0 - JERK_F_STEP_R)
+        if got is None:
+            continue
+        caps[lo:hi] = [(got[0], a) for a in got[1]]
+        if jerk1 and profile.junction == "jerk":
+            got = _caps_flat_rows(sts, profile, us, ds, 1.0)
+            if got is not None:
+                caps1[lo:hi] = [(got[0], a) for a in got[1]]
+    for st, sg, pa, c, c1 in zip(todo, segs, parts, caps, caps1):
+        st.curv = CurveGeom(st, profile, sg, c, c1, pa)
+
+
+CAPS_CHUNK = 1 << 15        # vertices of one batched caps pass (build_geoms)
+
+
+def _part(part, j):
+    """Field j of a stroke's row of a _batch_parts block."""
+    block, k = part
+    return block[j][k]
 
 
 _GEOM_BLOCK = 1 << 18       # elements (strokes x vertices x vertices) of one batched kernel block (~2 MB)
@@ -384,10 +452,12 @@ def _xy(st):
 def _batch_parts(todo):
     """CurveGeom's (d, u, cos_turn, s_v, kappa_v, kappa_eff) of the strokes `todo`, computed
     for all strokes of one vertex count at once with CurveGeom's arithmetic elementwise in
-    the same order (the same bits: tests/test_speed_curve3_geom.py), or None for a stroke
-    this form does not take as the per-stroke path does (a duplicate point, non-finite
-    numbers, fewer than 3 or more than _GEOM_MAX_PTS vertices: CurveGeom's own path,
-    which raises where it raises).  ~10x faster than stroke by stroke on a gyroid plate."""
+    the same order (the same bits: tests/test_speed_curve3_geom.py): per stroke (block,
+    row), block those six for a block of strokes (row k of each is this stroke's), or
+    None for a stroke this form does not take as the per-stroke path does (a duplicate
+    point, non-finite numbers, fewer than 3 or more than _GEOM_MAX_PTS vertices:
+    CurveGeom's own path, which raises where it raises).  ~10x faster than stroke by
+    stroke on a gyroid plate."""
     parts = [None] * len(todo)
     npts = np.array([len(st.pts) for st in todo], int)
     order = np.argsort(npts, kind="stable")
@@ -400,15 +470,15 @@ def _batch_parts(todo):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
                 block = _parts_block(np.concatenate([_xy(todo[i]) for i in idx]).reshape(idx.size, npt, 2))
-            for k, i in enumerate(idx):
-                if block[-1][k]:
-                    parts[i] = tuple(x[k] for x in block[:-1])
+            good, block = block[-1].tolist(), block[:-1]
+            for k, i in enumerate(idx.tolist()):
+                if good[k]:
+                    parts[i] = (block, k)
     return parts
 
 
 def _parts_block(pts):
     """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
-    m = pts.shape[0]
     seg = pts[:, 1:] - pts[:, :-1]                           # _segments
     d = np.hypot(seg[..., 0], seg[..., 1])
     u = seg / d[..., None]
@@ -457,6 +527,7 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
         pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
         if cap_peak:
             pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+            g.caps_jerk1 = None           # read by chains only (chains.vertex_caps): not a chain
 
 
 def _ux2_rows(gs):
@@ -572,6 +643,9 @@ def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):
 
 
 # ------------------------------------------------------------------ segments
+KNOT_ROWS = 128            # curve laws evaluated at once on curve_knots' grid
+
+
 def curve_knots(strokes, T, beta, profile):
     """Speeds of each curve's law at its original vertices: list of (s, v), s = [0, ends_d]."""
     m = len(strokes)
@@ -584,7 +658,9 @@ def curve_knots(strokes, T, beta, profile):
     T, beta = np.asarray(T, float), np.asarray(beta, float)
     law, R = _solve(None, geos, S, T, beta, v0, v1)
     out = []
-    for sl in law.row_chunks():                  # evaluated by chunks: bounded memory
+    # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
+    # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws
+    for sl in [slice(a, a + KNOT_ROWS) for a in range(0, m, KNOT_ROWS)]:
         sub = law.rows(sl)
         tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (len(sub), 513))
         phi, w, _, _ = sub.eval_tau(tau)

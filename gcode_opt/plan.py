@@ -79,8 +79,11 @@ def isolate(fn, rows, stage, failed):
     failed[row] = "error: <stage> (<exception>)"; returns [(sub_rows, fn's result)]."""
     rows = np.asarray(rows, int)
     pieces = []
-
-    def run(sub):
+    # a stack, not a recursive closure: a closure that calls itself is a reference cycle,
+    # which held every piece (the candidate tables) until the next full garbage collection
+    todo = [rows] if rows.size else []
+    while todo:
+        sub = todo.pop()
         try:
             with np.errstate(all="ignore"):
                 pieces.append((sub, fn(sub)))
@@ -88,38 +91,103 @@ def isolate(fn, rows, stage, failed):
             if sub.size <= 1:
                 for r in sub:
                     failed[int(r)] = f"error: {stage} ({type(e).__name__})"
-                return
+                continue
             half = sub.size // 2
-            run(sub[:half])
-            run(sub[half:])
-
-    if rows.size:
-        run(rows)
+            todo += [sub[half:], sub[:half]]      # the first half next, as the recursion did
     return pieces
 
 
-def scatter_candidates(n, pieces, T_fill, at=None):
-    """(T, beta, I, KE) of shape (n, k) from isolate() pieces of candidate tables; rows
-    not computed (failed) are infeasible.  A candidate with a non-finite T, beta = nan,
-    or a finite I with a non-finite KE is infeasible too: nothing non-finite is chosen;
-    the rows holding one are returned last (the caller counts them as failed).
-    T_fill (n, k): durations of rows no piece covers.  at: maps a piece's rows to output
-    rows (default: identity)."""
-    k = T_fill.shape[1]
-    T = np.full((n, k), np.nan)
-    beta = np.full((n, k), np.inf)
-    I = np.full((n, k), np.inf)
-    KE = np.full((n, k), np.nan)
-    for sub, (t, b, i, ke) in pieces:
-        r = sub if at is None else at(sub)
-        T[r], beta[r], I[r], KE[r] = t, b, i, ke
-    covered = np.zeros(n, bool)
-    for sub, _ in pieces:
-        covered[sub if at is None else at(sub)] = True
-    bad = ~np.isfinite(T) | np.isnan(beta) | np.isnan(I) | (np.isfinite(I) & ~np.isfinite(KE))
-    I[bad] = np.inf
-    T = np.where(np.isfinite(T), T, T_fill)
-    return T, beta, I, KE, np.flatnonzero(covered & bad.any(axis=1))
+class Candidates:
+    """The candidate tables (T, beta, I, KE), (n, k) by stroke and duration column, kept
+    as their feasible entries only: those with a finite I, the only ones the allocation
+    can choose (~17 % of the gyroid plate's, whose four dense tables held 24 MB to the end
+    of the run).  mask (n, k): which; vals (4, nnz): their T, beta, I, KE in row-major
+    order; start (n + 1,): each row's first; t_pos (n,): every duration of the row's dense
+    T >= 0 (what plan.allocate's test for costs that cannot cancel read of the others).
+    Iterating gives the dense tables (T: the infeasible entries are T_orig x T_RATIOS)."""
+    __slots__ = ("mask", "vals", "start", "t_pos", "T_orig")
+
+    def __init__(self, mask, vals, t_pos, T_orig):
+        self.mask, self.vals, self.t_pos, self.T_orig = mask, vals, t_pos, T_orig
+        self.start = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
+
+    @property
+    def shape(self):
+        return self.mask.shape
+
+    @classmethod
+    def of_tables(cls, T, beta, I, KE, T_orig=None):
+        """From dense tables as candidates_auto gives them."""
+        T, beta, I, KE = (np.asarray(x, float) for x in (T, beta, I, KE))
+        mask = np.isfinite(I)
+        return cls(mask, np.stack([T[mask], beta[mask], I[mask], KE[mask]]), (T >= 0.0).all(axis=1), T_orig)
+
+    @staticmethod
+    def piece(sub, tables, T_orig):
+        """One isolate() piece (rows sub, its (T, beta, I, KE)) kept sparse: (sub, mask,
+        vals, t_pos, bad rows).  A candidate with a non-finite T, beta = nan, or a finite
+        I with a non-finite KE is infeasible, and its whole row (the caller counts that
+        stroke as failed: nothing non-finite is chosen)."""
+        t, b, i, ke = (np.asarray(x, float) for x in tables)
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(t) | np.isnan(b) | np.isnan(i) | (np.isfinite(i) & ~np.isfinite(ke))
+            bad_row = bad.any(axis=1)             # the caller drops the whole row (failed)
+            mask = np.isfinite(i) & ~bad & ~bad_row[:, None]
+            t_fill = T_orig[sub, None] * T_RATIOS[None, :]
+            t_pos = (np.where(np.isfinite(t), t, t_fill) >= 0.0).all(axis=1)
+        return sub, mask, np.stack([t[mask], b[mask], i[mask], ke[mask]]), t_pos, bad_row
+
+    @classmethod
+    def of_pieces(cls, n, pieces, T_orig):
+        """The tables of n strokes from Candidates.piece()s of disjoint rows; rows no piece
+        covers are infeasible.  Returns (Candidates, rows holding a non-finite candidate,
+        sorted).  tests/test_memory_plan.py compares them with the dense tables."""
+        k = len(T_RATIOS)
+        mask = np.zeros((n, k), bool)
+        t_pos = ((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1)
+        for sub, m, _, tp, _ in pieces:
+            mask[sub], t_pos[sub] = m, tp
+        out = cls(mask, np.empty((4, 0)), t_pos, T_orig)
+        out.vals = np.empty((4, int(out.start[-1])))
+        for sub, m, v, _, _ in pieces:
+            out.vals[:, out._positions(sub, m)] = v
+        bad = [sub[b] for sub, _, _, _, b in pieces]
+        return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
+
+    def __iter__(self):
+        n, k = self.mask.shape
+        T = np.zeros((n, k)) if self.T_orig is None else self.T_orig[:, None] * T_RATIOS[None, :]
+        beta, I, KE = np.full((n, k), np.inf), np.full((n, k), np.inf), np.full((n, k), np.nan)
+        for a, v in zip((T, beta, I, KE), self.vals):
+            a[self.mask] = v
+        return iter((T, beta, I, KE))
+
+    def allocation_tables(self, rows, T_orig, I_orig):
+        """allocate's (Tx, Ix, finite, settle) for the strokes rows: durations and costs with
+        the original as the last column; an infeasible entry's T is 0 (never read)."""
+        n, k = rows.size, self.mask.shape[1]
+        m = np.zeros((n, k + 1), bool)
+        m[:, :k] = self.mask[rows]
+        pos = self._positions(rows, m[:, :k])
+        Tx = np.zeros((n, k + 1))
+        Ix = np.full((n, k + 1), np.inf)
+        Tx[m] = self.vals[0, pos]          # row-major, as m's True entries
+        Ix[m] = self.vals[2, pos]
+        Tx[:, k], Ix[:, k] = T_orig, I_orig
+        finite = np.isfinite(Ix)
+        settle = bool(np.all(Ix[finite] >= 0.0) and np.all(self.t_pos[rows]) and np.all(Tx[:, k] >= 0.0))
+        return Tx, Ix, finite, settle
+
+    def _positions(self, rows, mask_rows):
+        """Indices into vals of the True entries of mask_rows (= mask[rows]), row-major."""
+        cnt = mask_rows.sum(axis=1)
+        first = np.cumsum(cnt) - cnt
+        return np.repeat(self.start[rows] - first, cnt) + np.arange(int(cnt.sum()))
+
+    def at(self, rows, cols):
+        """(T, beta, I, KE) of the feasible entries (rows[q], cols[q])."""
+        before = np.cumsum(self.mask[rows], axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
+        return self.vals[:, self.start[rows] + before]
 
 
 class Plan:
@@ -234,11 +302,17 @@ def allocate(T, I, T_orig, I_orig, budget_t):
     Tx = np.concatenate([T, T_orig[:, None]], axis=1)
     Ix = np.concatenate([I, I_orig[:, None]], axis=1)
     finite = np.isfinite(Ix)
-    n, k = Ix.shape
-    rows = np.arange(n)
     # the margin test needs costs that add two non-negative terms (no cancellation);
     # otherwise every stroke is evaluated at every step
     settle = bool(np.all(Ix[finite] >= 0.0) and np.all(Tx >= 0.0))
+    return _allocate(Tx, Ix, finite, T_orig, budget_t, settle)
+
+
+def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
+    """allocate on its extended tables (the original as the last column); settle: the
+    costs cannot cancel (every finite I and every T >= 0), so the margin test holds."""
+    n, k = Ix.shape
+    rows = np.arange(n)
 
     def spent(j):
         return float(np.sum(Tx[rows, j] - T_orig))
@@ -303,30 +377,38 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     plan = Plan(n)
     if n == 0:
         return plan
-    T, beta, I, KE = candidates_auto(p) if cands is None else cands
+    if cands is None:
+        cands = candidates_auto(p)
+    if not isinstance(cands, Candidates):
+        cands = Candidates.of_tables(*cands)
     # a stroke whose original figures are not finite takes no part in the allocation (a
     # NaN there would silence the budget for the whole file): it keeps its original
     fine = np.isfinite(p.T_orig) & np.isfinite(p.I_orig)
     groups = [g[fine[g]] for g in (groups or [np.arange(n)])]
     groups = [g for g in groups if len(g)]
     total_t = sum(float(p.T_orig[g].sum()) for g in groups)
-    j = np.full(n, T.shape[1], dtype=int)      # rows in no group keep their original
+    k = cands.shape[1]
+    j = np.full(n, k, dtype=int)      # rows in no group keep their original
     lam = []
     for g in groups:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
-        j[g], lam_g = allocate(T[g], I[g], p.T_orig[g], p.I_orig[g], share)
+        # the extended tables of the group only, made from the feasible entries: the dense
+        # tables, their copies for the group and the extended ones were ~30 MB at once
+        Tx, Ix, finite, settle = cands.allocation_tables(g, p.T_orig[g], p.I_orig[g])
+        j[g], lam_g = _allocate(Tx, Ix, finite, p.T_orig[g], share, settle)
+        del Tx, Ix, finite
         lam.append(lam_g)
     plan.lam = max(lam) if lam else 0.0
-    k = T.shape[1]
-    rows = np.arange(n)
     use = j < k
-    jj = np.minimum(j, k - 1)
+    got = np.zeros((4, n))
+    got[2:] = np.nan
+    got[:, use] = cands.at(np.flatnonzero(use), j[use])
     plan.retime = use
-    plan.T = np.where(use, T[rows, jj], p.T_orig)
-    plan.beta = np.where(use, beta[rows, jj], np.inf)
-    plan.I_law = np.where(use, I[rows, jj], p.I_orig)
-    plan.KE_law = np.where(use, KE[rows, jj], np.nan)
-    none_ok = ~np.isfinite(I).any(axis=1)
+    plan.T = np.where(use, got[0], p.T_orig)
+    plan.beta = np.where(use, got[1], np.inf)
+    plan.I_law = np.where(use, got[2], p.I_orig)
+    plan.KE_law = np.where(use, got[3], np.nan)
+    none_ok = ~cands.mask.any(axis=1)
     plan.reason = _reasons(n, "original is better within the time budget",
                            (none_ok, "no law within limits"), (use, "retimed"))
     return plan

@@ -28,8 +28,8 @@ from . import corners
 from . import curves
 from .corners import junction_commands
 from .coverage import feature_overshoot_r
-from .plan import (T_RATIOS, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
-                   plan_fixed_alpha, scatter_candidates)
+from .plan import (Candidates, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
+                   plan_fixed_alpha)
 from .profile import Profile
 from .segments import SegmentRules, plan_segments, slowed_original
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
@@ -129,14 +129,14 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
         pieces = []
-        for k, kind in KINDS.items():
-            pieces += isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k], "planning",
-                              failed)
-        T, beta, I, KE, nonfinite = scatter_candidates(n, pieces, pin.T_orig[:, None] * T_RATIOS[None, :])
+        for k, kind in KINDS.items():     # each kind's tables kept sparse as soon as made
+            pieces += [Candidates.piece(sub, tables, pin.T_orig) for sub, tables in
+                       isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k], "planning",
+                               failed)]
+        cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")
-        I[nonfinite] = np.inf
-        return (T, beta, I, KE), None
+        return cands, None
     alpha = float(opts.alpha)
     fixed = Plan(n)
     fixed.T = pin.T_orig.copy()

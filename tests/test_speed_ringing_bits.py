@@ -3,10 +3,13 @@ planned block's row straight into a RowSink (no Block object, no attrgetter), th
 Collector's chunk work skips what its figures do not read (path length and position
 without a shaper), makes each axis' jumps once for its four parts, sorts events only when
 they are out of order, and integrates r^2 over finite pieces without masks and with the
-real part of the complex quotient only (Oscillator.integral_r2_fin).
+real part of the complex quotient only (Oscillator.integral_r2_fin); the complex
+exponentials np.exp(-lam t), np.exp(lam t), np.exp(2 lam d) come from the core (ring_exps,
+ring_exp: libm's exp, cos, sin, as numpy's complex exp; cos and sin shared by the pair),
+each complex factor checked against numpy on a probe before use.
 
 Reference: the c8abe7b code of the chunk work (_pieces, _Stream.add/_solve, the _flush
-loop), copied below, fed by the Python rows (ringing.USE_SINK off: pend + _drain).  The
+loop, Oscillator.amplitudes; integral_r2 is unchanged), copied below, fed by the Python rows (ringing.USE_SINK off: pend + _drain).  The
 figures must be equal (==, every float bit for bit) on real files, with and without input
 shapers, on hand-made files with rests, dwells and barriers, and with chunks forced small."""
 import math
@@ -17,6 +20,7 @@ import numpy as np
 import pytest
 
 from gcode_opt import ringing as rg
+from gcode_opt.firmware import resonance as res
 from gcode_opt.firmware import simulate as fw
 from gcode_opt.firmware.resonance import Oscillator, shaped_events
 from gcode_opt.profile import load_profile
@@ -26,6 +30,8 @@ SAMPLES = os.path.join(os.path.dirname(__file__), "..", "sample_gcode")
 CORPUS = os.path.expanduser("~/.cache/gcode-opt-corpus")
 HAS_SINK = fw._core is not None and hasattr(fw._core, "RowSink")
 need_sink = pytest.mark.skipif(not HAS_SINK, reason="the compiled firmware core is not built here")
+HAS_EXPS = fw._core is not None and hasattr(fw._core, "ring_exps")
+need_exps = pytest.mark.skipif(not HAS_EXPS, reason="the compiled firmware core is not built here")
 
 
 # ---------------------------------------------------------------- the c8abe7b chunk work
@@ -67,6 +73,29 @@ def _ref_pieces(m, c):
                          speed=speed, tan_a=tan_a, cls=cls, idx=np.repeat(idx, 3).astype(np.int64)))
 
 
+def _ref_amplitudes(osc, t_ev, dc):
+    n = len(t_ev)
+    c = np.empty(n, complex)
+    if n == 0:
+        return c
+    lam = osc.lam
+    span = res.CHUNK_DECAY / osc.s
+    start = 0
+    carry, t_carry = 0j, float(t_ev[0])
+    while start < n:
+        t0 = float(t_ev[start])
+        stop = int(np.searchsorted(t_ev, t0 + span, side="right"))
+        if stop <= start:
+            stop = start + 1
+        tt = t_ev[start:stop] - t0
+        g = np.cumsum(dc[start:stop] * np.exp(-lam * tt))
+        c0 = carry * np.exp(lam * (t0 - t_carry))
+        c[start:stop] = (c0 + g) * np.exp(lam * tt)
+        carry, t_carry = c[stop - 1], float(t_ev[stop - 1])
+        start = stop
+    return c
+
+
 class _RefStream(rg._Stream):
     def add(self, t, dr, drp, horizon_t):
         t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
@@ -87,7 +116,7 @@ class _RefStream(rg._Stream):
         if self.t_last is not None:
             t = np.concatenate([[self.t_last], t])
             dc = np.concatenate([[self.c_last], dc])
-        c = osc.amplitudes(t, dc)
+        c = _ref_amplitudes(osc, t, dc)
         if len(c) > 1:
             dur = np.diff(t)
             self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
@@ -366,3 +395,88 @@ def test_sink_is_used_where_the_core_is():
     if HAS_SINK:
         assert on_block is col.sink and on_dwell == col.sink.rest
     assert math.isfinite(col.figures()["time_s"])
+
+
+# ---------------------------------------------------------------- the compiled exponentials
+@need_exps
+@pytest.mark.parametrize("seed", range(3))
+def test_ring_exps_are_numpys(seed):
+    """Every bit (signed zeros too) of np.exp(-lam t), np.exp(lam t) and
+    np.exp(2 lam t) on times from 0 to past a restart's span, for oscillators of any
+    damping; a time that is not finite stops the kernel (False)."""
+    rng = np.random.default_rng(seed)
+    core = fw._core
+    for _ in range(6):
+        osc = Oscillator(float(rng.uniform(10.0, 150.0)), float(rng.uniform(0.005, 0.99)))
+        span = res.CHUNK_DECAY / osc.s
+        t = np.concatenate([[0.0, 5e-324, 1e-300, 1e-15], rng.uniform(0.0, span, 30000),
+                            rng.exponential(1e-3, 3000), np.geomspace(1e-9, 1e3, 500)])
+        e1, e2, e3 = (np.empty(len(t), complex) for _ in range(3))
+        assert core.ring_exps(t, osc.s, osc.wd, e1, e2)
+        q = 2.0 * osc.lam
+        assert core.ring_exp(t, q.real, q.imag, e3)
+        with np.errstate(over="ignore", invalid="ignore"):    # past the span exp(s t) overflows
+            assert e1.tobytes() == np.exp(-osc.lam * t).tobytes()
+            assert e2.tobytes() == np.exp(osc.lam * t).tobytes()
+            assert e3.tobytes() == np.exp(q * t).tobytes()
+    for bad in (np.inf, np.nan, -np.inf):
+        t = np.array([0.1, bad, 0.2])
+        assert not core.ring_exps(t, 3.0, 30.0, np.empty(3, complex), np.empty(3, complex))
+        assert not core.ring_exp(t, -6.0, 60.0, np.empty(3, complex))
+    with pytest.raises(ValueError):
+        core.ring_exp(np.zeros(3), 1.0, 1.0, np.empty(2, complex))
+
+
+def test_amplitudes_and_integral_with_and_without_the_core(monkeypatch):
+    """Oscillator.amplitudes and integral_r2_fin with the core's exponentials equal the
+    c8abe7b amplitudes and integral_r2, with restarts short and long (numpy works a
+    restart of 16384 events or more in place: those keep numpy's expressions), and with
+    a probe that fails (numpy's exponentials then)."""
+    rng = np.random.default_rng(3)
+    osc = Oscillator(50.0, 0.1)
+    span = res.CHUNK_DECAY / osc.s
+    for n_per in (1, 3, 200, 16383, 16384, 20000):
+        n = 3 * n_per
+        t = np.sort(np.concatenate([k * span * 1.0001 + rng.uniform(0.0, span, n_per) for k in range(3)]))
+        dc = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 1e-3
+        want = _ref_amplitudes(osc, t, dc)
+        for use in (True, False):
+            monkeypatch.setattr(res, "USE_KERNEL", use)
+            assert osc.amplitudes(t, dc).tobytes() == want.tobytes(), (n_per, use)
+            dur = np.diff(t)
+            assert osc.integral_r2_fin(want[:-1], dur).tobytes() == osc.integral_r2(want[:-1], dur).tobytes()
+    monkeypatch.setattr(res, "USE_KERNEL", True)
+    monkeypatch.setattr(res, "_KERNEL_OK", {("pair", osc.s, osc.wd): False})
+    t = np.cumsum(rng.exponential(1e-3, 5000))
+    dc = rng.standard_normal(5000) + 0j
+    assert osc.amplitudes(t, dc).tobytes() == _ref_amplitudes(osc, t, dc).tobytes()
+
+
+@need_exps
+def test_a_probe_that_fails_leaves_numpy(monkeypatch):
+    """A core whose exponentials differ from numpy's on the probe is not used: the
+    figures stay numpy's."""
+    real = fw._core
+
+    class Off:
+        """The core with a ring_exps / ring_exp one ulp off."""
+
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        def ring_exps(self, t, s, wd, e1, e2):
+            ok = real.ring_exps(t, s, wd, e1, e2)
+            e1.view(np.int64)[::2] += 1
+            return ok
+
+        def ring_exp(self, t, a, b, out):
+            ok = real.ring_exp(t, a, b, out)
+            out.view(np.int64)[1::2] += 1
+            return ok
+    monkeypatch.setattr(fw, "_core", Off())
+    monkeypatch.setattr(res, "_KERNEL_OK", {})
+    path, p = os.path.join(SAMPLES, "prusa_klipper.gcode"), load_profile("voron24")
+    ref, _ = _figures(path, p, RefCollector(p))
+    got, _ = _figures(path, p, rg.Collector(p))
+    assert _bits(got) == _bits(ref)
+    assert res._KERNEL_OK and not any(res._KERNEL_OK.values())

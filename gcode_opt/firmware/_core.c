@@ -12,6 +12,9 @@
  * is made only for on_block (none when on_block is a RowSink: the ringing's rows are
  * written straight into it), a LineRecord only for on_line. */
 #define PY_SSIZE_T_CLEAN
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE               /* sincos (glibc): cos and sin of one argument at once */
+#endif
 #include <Python.h>
 #include <structmember.h>
 #include <math.h>
@@ -1754,9 +1757,113 @@ static PyObject *mod_setup(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* ---------------------------------------------------------------- ringing (resonance.py) */
+/* ring_exps(tt, s, wd, e1, e2): for each tt[i] >= 0, e1[i] = np.exp(-lam tt[i]) and
+ * e2[i] = np.exp(lam tt[i]) with lam = -s + i wd, as numpy makes them: the argument is the
+ * complex product (s - i wd)(tt + 0i), whose parts are s tt + 0 and 0 - wd tt (exact: the
+ * other products are zeros), and numpy's complex exp is libm's, exp(x) (cos y, sin y).  The
+ * two share cos and sin of wd tt (cos is even, sin odd).  e1 and e2 are complex128 buffers
+ * of len(tt).  Returns False, leaving the rest, at a tt that is not finite (numpy's
+ * special cases are not copied).  resonance.py uses it only after it gave numpy's bits on a
+ * probe for the oscillator at hand. */
+#if defined(__GLIBC__)
+#define RING_SINCOS 1
+#endif
+static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, b1, b2;
+    double s, wd;
+    if (!PyArg_ParseTuple(args, "y*ddw*w*:ring_exps", &tb, &s, &wd, &b1, &b2))
+        return NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (b1.len != 2 * n * (Py_ssize_t)sizeof(double) || b2.len != b1.len) {
+        PyErr_SetString(PyExc_ValueError, "ring_exps: e1 and e2 must hold len(tt) complex numbers");
+        goto done;
+    }
+    const double *tt = (const double *)tb.buf;
+    double *o1 = (double *)b1.buf, *o2 = (double *)b2.buf;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double t = tt[i];
+        if (!isfinite(t)) {
+            ok = 0;
+            break;
+        }
+        double x1 = s * t + 0.0, x2 = -s * t;
+        double y2 = wd * t, y1 = 0.0 - y2;
+        double ex1 = exp(x1), ex2 = exp(x2);
+        double cs, sn;
+#ifdef RING_SINCOS
+        sincos(y2, &sn, &cs);
+#else
+        cs = cos(y2);
+        sn = sin(y2);
+#endif
+        double sn1 = y2 != 0.0 ? -sn : y1;
+        o1[2 * i] = ex1 * cs;
+        o1[2 * i + 1] = ex1 * sn1;
+        o2[2 * i] = ex2 * cs;
+        o2[2 * i + 1] = ex2 * sn;
+    }
+    ret = PyBool_FromLong(ok);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&b1);
+    PyBuffer_Release(&b2);
+    return ret;
+}
+
+/* ring_exp(t, a, b, out): out[i] = np.exp(complex(a, b) * t[i]) for real t[i], as numpy
+ * makes it: the product with t + 0i is (a t - b 0, a 0 + b t) (numpy's complex product; its
+ * zero terms are exact, so a fused multiply-add gives the same), then libm's exp, cos, sin.
+ * False, leaving the rest, at a t that is not finite. */
+static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, ob;
+    double a, b;
+    if (!PyArg_ParseTuple(args, "y*ddw*:ring_exp", &tb, &a, &b, &ob))
+        return NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (ob.len != 2 * n * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "ring_exp: out must hold len(t) complex numbers");
+        goto done;
+    }
+    const double *tt = (const double *)tb.buf;
+    double *o = (double *)ob.buf;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double t = tt[i];
+        if (!isfinite(t)) {
+            ok = 0;
+            break;
+        }
+        double x = a * t - b * 0.0, y = a * 0.0 + b * t;
+        double ex = exp(x), cs, sn;
+#ifdef RING_SINCOS
+        sincos(y, &sn, &cs);
+#else
+        cs = cos(y);
+        sn = sin(y);
+#endif
+        o[2 * i] = ex * cs;
+        o[2 * i + 1] = ex * sn;
+    }
+    ret = PyBool_FromLong(ok);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&ob);
+    return ret;
+}
+
 static PyMethodDef mod_methods[] = {
     {"setup", mod_setup, METH_VARARGS,
      "setup(Move, Arc, Limits, Barrier, LineRecord subclass, SimResult subclass, constants)"},
+    {"ring_exp", mod_ring_exp, METH_VARARGS,
+     "ring_exp(t, a, b, out): np.exp(complex(a, b) * t) for a real array t"},
+    {"ring_exps", mod_ring_exps, METH_VARARGS,
+     "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}
 };
 

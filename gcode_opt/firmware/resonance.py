@@ -27,6 +27,55 @@ import math
 import numpy as np
 
 CHUNK_DECAY = 300.0      # exp(300) ~ 1e130: cumulative sums restart before float64 overflows
+# numpy works a binary operation in place on a temporary operand of this many bytes or
+# more (its temporary elision), and its complex product in place takes another loop with
+# other last bits: a restart this long keeps numpy's own expressions
+ELIDE_BYTES = 256 * 1024
+
+
+# ---------------------------------------------------------------- compiled exponentials
+# np.exp of the complex products the ringing takes, from the compiled firmware core
+# (_core.c ring_exps / ring_exp: libm's exp, cos, sin as numpy's complex exp calls them,
+# cos and sin shared by exp(-lam t) and exp(lam t)).  Used for a complex factor only once
+# the core gave numpy's bits on a probe of times for it; else, or without the core, numpy.
+_KERNEL_OK = {}
+USE_KERNEL = True        # tests turn it off: numpy's exponentials for reference
+
+
+def _core():
+    from . import simulate
+    return simulate._core if USE_KERNEL and simulate._core is not None \
+        and hasattr(simulate._core, "ring_exps") else None
+
+
+def _probe(span):
+    t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
+                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
+    return np.concatenate([t, t * (1.0 + 2.0 ** -52), np.random.default_rng(7).uniform(0.0, span, 2000)])
+
+
+def _kernel_for(key, span):
+    """The core if it gives numpy's bits for complex factor key ('pair', s, wd) or
+    ('one', a, b) on times up to span (checked once per factor), else None."""
+    core = _core()
+    if core is None:
+        return None
+    ok = _KERNEL_OK.get(key)
+    if ok is None:
+        t = _probe(span)
+        got = np.empty(len(t), complex)
+        if key[0] == "pair":
+            _kind, s, wd = key
+            lam = complex(-s, wd)
+            got2 = np.empty(len(t), complex)
+            ok = bool(core.ring_exps(t, s, wd, got, got2)) \
+                and got.tobytes() == np.exp(-lam * t).tobytes() \
+                and got2.tobytes() == np.exp(lam * t).tobytes()
+        else:
+            _kind, a, b = key
+            ok = bool(core.ring_exp(t, a, b, got)) and got.tobytes() == np.exp(complex(a, b) * t).tobytes()
+        _KERNEL_OK[key] = ok
+    return core if ok else None
 
 
 # ---------------------------------------------------------------- input shapers
@@ -93,6 +142,8 @@ class Oscillator:
             return c
         lam = self.lam
         span = CHUNK_DECAY / self.s
+        core = _kernel_for(("pair", self.s, self.wd), span)
+        short = ELIDE_BYTES // 16             # restarts numpy works out of place
         start = 0
         carry, t_carry = 0j, float(t_ev[0])
         while start < n:
@@ -101,6 +152,16 @@ class Oscillator:
             if stop <= start:
                 stop = start + 1
             tt = t_ev[start:stop] - t0
+            if core is not None and stop - start < short:
+                # np.exp(-lam tt), np.exp(lam tt) by the core; the products as numpy's
+                e_dn, e_up = np.empty(stop - start, complex), np.empty(stop - start, complex)
+                if core.ring_exps(tt, self.s, self.wd, e_dn, e_up):
+                    g = np.cumsum(dc[start:stop] * e_dn)
+                    c0 = carry * np.exp(lam * (t0 - t_carry))
+                    c[start:stop] = (c0 + g) * e_up
+                    carry, t_carry = c[stop - 1], float(t_ev[stop - 1])
+                    start = stop
+                    continue
             g = np.cumsum(dc[start:stop] * np.exp(-lam * tt))
             c0 = carry * np.exp(lam * (t0 - t_carry))
             c[start:stop] = (c0 + g) * np.exp(lam * tt)
@@ -123,7 +184,15 @@ class Oscillator:
         (Smith's, as in its complex divide loop; tests/test_speed_ringing.py checks it)."""
         s, lam = self.s, self.lam
         decay2 = np.exp(-2.0 * s * dur)
-        osc2 = np.exp(2.0 * lam * dur)
+        q = 2.0 * lam
+        core = _kernel_for(("one", q.real, q.imag), 1e4)
+        osc2 = None
+        if core is not None:
+            osc2 = np.empty(len(dur), complex)
+            if not core.ring_exp(np.ascontiguousarray(dur), q.real, q.imag, osc2):
+                osc2 = None
+        if osc2 is None:
+            osc2 = np.exp(q * dur)
         y = c * c * (osc2 - 1.0)
         return np.abs(c) ** 2 * (1.0 - decay2) / (4.0 * s) + _real_quotient(y, 4.0 * lam)
 

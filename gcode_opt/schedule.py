@@ -318,6 +318,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
         kind = np.array([chains.plan_kind(strokes[i]) for i in idx], dtype=object)
+        _rebuild_geometry(strokes, idx, kind, profile)
         segs = {}
         seg_failed = {}
         for k_name, kind_of in KINDS.items():
@@ -355,6 +356,21 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     if opts.alpha != "auto":
         return run(budget_t)
     return _fit_budget(run, pin, budget_t)
+
+
+def _rebuild_geometry(strokes, idx, kind, profile):
+    """The curve geometry of the strokes idx to segment that has none (the pipeline may
+    drop it between passes: ~17 MB on the gyroid plate), made in one batch as
+    plan_inputs made it (the same bits), not stroke by stroke (~2 s on that plate).  A
+    stroke whose geometry raises makes it where isolate() catches it, in its kind's
+    segments."""
+    for k, jerk1 in ((K_CURVE, False), (K_CHAIN, True)):
+        todo = [strokes[i] for i in idx[kind == k].tolist() if strokes[i].curv is None]
+        if todo:
+            try:
+                curves.build_geoms(todo, profile, jerk1=jerk1)
+            except Exception:                 # noqa: BLE001 -- the stroke at fault, in isolate()
+                pass
 
 
 def _command_for(seg, st, rules):

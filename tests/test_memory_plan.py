@@ -209,3 +209,30 @@ def test_batched_caps_by_chunks_are_the_same(monkeypatch):
     monkeypatch.setattr(curves, "CAPS_CHUNK", 7)
     curves.build_geoms(sts, prof, jerk1=True)
     assert [(st.curv.caps.tobytes(), st.curv.caps_jerk1.tobytes()) for st in sts] == want
+
+
+def test_a_replan_without_curve_geometry_rebuilds_it_in_a_batch_and_plans_the_same():
+    """The pipeline may drop the curve geometry between passes (st.curv = None): a second
+    plan_strokes rebuilds it in one batch (rows of shared blocks) and writes the very
+    segments the first one did."""
+    prof = load_profile("prusa-mk3s")
+    opts = pl.Options()
+    strokes, sim0 = pl.analyse(os.path.join(SAMPLES, "prusa_gyroid.gcode"), prof, opts)
+    pin = sc.plan_inputs(strokes, prof, opts)
+    budget = 0.03 * sim0.time_t
+    first = sc.plan_strokes(strokes, pin, prof, opts, budget)
+    kinds = [chains.plan_kind(st) for st in strokes]
+    assert {"curve", "chain"} <= {k for k, r in zip(kinds, first.retime) if r}
+    for st in strokes:
+        st.curv = None
+    pin.seg_cache = None                      # segment every stroke again
+    again = sc.plan_strokes(strokes, pin, prof, opts, budget)
+    assert np.array_equal(first.retime, again.retime)
+    for a, b in zip(first.segs, again.segs):
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert all(_bits(getattr(a, f)) == _bits(getattr(b, f)) for f in ("s", "v", "accel", "feed"))
+            assert a.time_t == b.time_t and a.int_a2 == b.int_a2
+    rebuilt = [st.curv for st, r in zip(strokes, again.retime) if r and st.kind == "curve"]
+    assert rebuilt and all(g is not None for g in rebuilt)
+    assert len({id(g.d.base) for g in rebuilt}) < len(rebuilt)          # batched: blocks shared

@@ -451,19 +451,41 @@ def _stroke_text(raws, x0, y0):
 # ---------------------------------------------------------------- pass 3: measure
 def _per_stroke(out_ranges, t, a2, v2):
     """on_line for the firmware model on a re-timed file: each line's record added to the
-    re-timed stroke (out_ranges, in file order) whose block holds the line."""
+    re-timed stroke (out_ranges, in file order) whose block holds the line.  The records
+    come in file order: the stroke being played is summed in floats (the same additions in
+    the same order as into t[k], a2[k], v2[k]) and written out when the records leave it;
+    call on_line.flush() after the pass for the last one."""
     n = len(out_ranges)
-    pos = [0]
+    k, lo, hi = 0, -1, -1          # the stroke the records are at, its output lines
+    live = False                   # a record was added to it
+    s_t = s_a2 = s_v2 = 0.0
+
+    def flush():
+        nonlocal live
+        if live:
+            t[k], a2[k], v2[k] = s_t, s_a2, s_v2
+            live = False
 
     def on_line(r):
-        k = pos[0]
-        while k < n and r.idx > out_ranges[k][1]:
-            k += 1
-        pos[0] = k
-        if k < n and out_ranges[k][0] <= r.idx:
-            t[k] += r.time_t
-            a2[k] += r.int_a2 + r.int_a2_j
-            v2[k] += r.int_v2
+        nonlocal k, lo, hi, live, s_t, s_a2, s_v2
+        i = r.idx
+        if i > hi:
+            if live:
+                t[k], a2[k], v2[k] = s_t, s_a2, s_v2
+                live = False
+            while k < n and i > out_ranges[k][1]:
+                k += 1
+            if k >= n:
+                lo = hi = NOT_OPEN
+                return
+            lo, hi = out_ranges[k][0], out_ranges[k][1]
+            s_t = s_a2 = s_v2 = 0.0
+        if lo <= i:
+            live = True
+            s_t += r.time_t
+            s_a2 += r.int_a2 + r.int_a2_j
+            s_v2 += r.int_v2
+    on_line.flush = flush
     return on_line
 
 
@@ -474,7 +496,7 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
     pass (the written file's ringing without a pass of its own)."""
     n = len(out_ranges)
     t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
-    on_line = _per_stroke(out_ranges, t, a2, v2)
+    on_line = per_stroke = _per_stroke(out_ranges, t, a2, v2)
     on_block = on_dwell = None
     if ring is not None:
         from . import ringing as rg
@@ -489,9 +511,11 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
             from . import ringing as rg
             evs = rg.wrap_events(evs, on_dwell)
         sim = simulate_events(evs, profile, on_line=on_line, on_block=on_block)
+        per_stroke.flush()
         return sim, t, a2, v2, None
     sim, led = simulate_ledger(path, profile, watch, on_line=on_line, on_block=on_block,
                                lines=_counted(read_lines(path), opts.progress), on_barrier=on_dwell)
+    per_stroke.flush()
     return sim, t, a2, v2, led
 
 
@@ -563,7 +587,9 @@ def remeasure(path, profile, strokes, order, led, lines1, lines2, changed, out_r
     n = len(out_ranges2)
     t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
     try:
-        sim, played = replay_runs(path, profile, led, spans, on_line=_per_stroke(out_ranges2, t, a2, v2))
+        per_stroke = _per_stroke(out_ranges2, t, a2, v2)
+        sim, played = replay_runs(path, profile, led, spans, on_line=per_stroke)
+        per_stroke.flush()
     except ReplayMismatch:
         return None
     LAST_REMEASURE["played_lines"] = sum(led.line[hi] - led.line[lo] for lo, hi in played)

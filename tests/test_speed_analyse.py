@@ -419,3 +419,49 @@ def test_group_strokes_is_the_reference(min_d, turn):
                     out.append(("stroke", _stroke_bits(item[1])))
             return out
         assert tagged(_ref_group_strokes) == tagged(group_strokes)
+
+
+_RECORDLESS = """M201 X1000 Y1000
+M204 P1000 T1500
+G21
+G90
+M83
+;TYPE:Internal infill
+G1 X10 Y10 F6000
+G1 X20 Y10 E0.5
+G1 X30 Y10 E0.5
+G1 X40 Y10 F9000
+G1 X40.0000000001 Y10
+G1 X50 Y20
+G1 X60 Y30
+G1 X60 Y30.0000000001
+G1 X60.0000000001 Y30.0000000002
+;a comment
+G1 X70 Y30
+G1 X80 Y30
+G1 X80.0000000001 Y30
+G4 P100
+G1 X90 Y40 E1.0
+"""
+
+
+@pytest.mark.parametrize("features", [feat.DEFAULT_SELECTED, feat.ALL])
+def test_analyse_is_the_reference_where_lines_have_no_record(tmp_path, features):
+    """Travel strokes (features incl. travel) whose last lines move < 1e-9 mm: the model
+    takes them without a record, so the stroke waits for a record that never comes."""
+    f = tmp_path / "recordless.gcode"
+    f.write_text(_RECORDLESS)
+    strokes = _same(str(f), "prusa-mk3s", features=features)
+    if features == feat.ALL:
+        assert any(s.feature == "travel" and s.n_moves >= 2 for s in strokes)
+
+
+def test_analyse_with_a_progress_bar_is_the_reference():
+    """opts.progress counts the bytes read (a bar that is not drawn)."""
+    path = SAMPLES + "prusa_gyroid.gcode"
+    profile = load_profile("prusa-mk3s")
+    o1, o2 = pl.Options(), pl.Options(progress=pl.Progress(1, enabled=False))
+    s1, _ = _ref_analyse(path, profile, o1)
+    s2, _ = pl.analyse(path, profile, o2)
+    assert [_stroke_bits(s) for s in s1] == [_stroke_bits(s) for s in s2]
+    assert o2.progress.done == os.path.getsize(path)

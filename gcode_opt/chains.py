@@ -141,61 +141,146 @@ class _KeptPlans:
         return SegmentPlan(self.sk, vk[q], acc[q], feed[q], float(t_pred[q]), float(a2_pred[q]))
 
 
+class _KeptLaws:
+    """What the candidate table keeps of a chain's candidate laws instead of their
+    _KeptPlans: each row's knot speeds vk (n + 1), segment durations dt (n) and predicted
+    figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished together
+    (base = (vk, dt, t_pred, a2_pred)).  The accelerations and feeds of the candidate
+    chosen are made again from them (_replay: the same arithmetic, row by row, as the
+    table's): those of every candidate, which the table held until the rewrite, were 2/3
+    of the chains' memory."""
+    __slots__ = ("key", "base", "lo", "k")
+
+    def __init__(self, key, base, lo, k):
+        self.key, self.base, self.lo, self.k = key, base, lo, k
+
+    def row(self, r):
+        """(vk, dt, predicted time, predicted ∫|a|²) of row r."""
+        q = self.lo + r
+        b = self.base
+        return b[0][q], b[1][q], float(b[2][q]), float(b[3][q])
+
+    def plan(self, r, st, rules, profile):
+        """The SegmentPlan of row r (chain st), as _replay makes it."""
+        return _replay([(st, self, r)], rules, profile)[0]
+
+
+def _replay(items, rules, profile):
+    """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
+    finished again (_finish_stacked_dt by groups of the same number of segments, as the
+    table did, or _finish_rows_dt chain by chain); row by row the table's numbers."""
+    out = [None] * len(items)
+    grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
+    gs = [curves.geom(st, profile) for st, _, _ in items]
+    sk = lambda st: np.concatenate([[0.0], np.asarray(st.ends_d, float)])   # noqa: E731
+    if not grouped:
+        for q, (st, kept, r) in enumerate(items):
+            vk, dt, t, a2 = kept.row(r)
+            acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
+            out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
+        return out
+    by_n = {}
+    for q, g in enumerate(gs):
+        by_n.setdefault(g.d.size, []).append(q)
+    for qs in by_n.values():
+        for a in range(0, len(qs), FINISH_ROWS):
+            Q = qs[a:a + FINISH_ROWS]
+            rows = [items[q][1].row(items[q][2]) for q in Q]
+            vk, dt = np.stack([x[0] for x in rows]), np.stack([x[1] for x in rows])
+            sts = [items[q][0] for q in Q]
+            acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
+                                                    profile, predict=False)
+            for i, q in enumerate(Q):
+                out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], rows[i][2], rows[i][3])
+    return out
+
+
 class ChainMemo:
     """A chain stroke's memory (st.chain_T; not None marks a chain: plan_kind).  What a
     dict {predicted duration: law duration, ("law", T, beta): (_KeptPlans, row), "seg": ...}
-    held: its candidates as rows (t_pred, law T, beta, row) of one array of doubles, newest
+    held: its candidates as rows (t_pred, law T, beta, row) of an array of doubles, newest
     first so that .index finds the latest write as the dict would; the last plan made and
-    what it was made for.  ~0.4 kB a chain instead of ~1.8 kB."""
-    __slots__ = ("figs", "kept", "seg_T", "seg_beta", "seg_key", "seg")
+    what it was made for.  The candidate table's rows of all the chains finished together
+    are one array (put_shared: this chain's are rows at..at+n of it) and a chain's rows
+    share one kept plan (kept: that object; a list, one per row, once put mixes them):
+    ~0.25 kB a chain (a dict held ~1.8 kB)."""
+    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg")
 
     def __init__(self):
         self.figs = self.kept = None
+        self.at = self.n = 0
         self.seg_T = self.seg_beta = self.seg_key = None
         self.seg = None         # the SegmentPlan of the last plan_chain_segments (for seg_T, seg_beta, seg_key)
 
-    def put(self, time_t, T, beta, kept, r):
+    def _kept(self, q):
+        return self.kept[q] if isinstance(self.kept, list) else self.kept
+
+    def _own(self):
+        """This chain's rows as its own array and kept list (before a put mixes in others)."""
         if self.figs is None:
-            self.figs, self.kept = array("d"), []
-        self.figs[0:0] = array("d", (time_t, T, beta, r))
-        self.kept.insert(0, kept)
+            return array("d"), []
+        figs = self.figs[4 * self.at:4 * (self.at + self.n)]
+        return figs, [self._kept(q) for q in range(self.n)]
+
+    def _set(self, figs, kept, at, n):
+        self.figs, self.kept, self.at, self.n = figs, kept, at, n
+
+    def put(self, time_t, T, beta, kept, r):
+        figs, ks = self._own()
+        figs[0:0] = array("d", (time_t, T, beta, r))
+        ks.insert(0, kept)
+        self._set(figs, ks, 0, len(ks))
 
     def put_rows(self, buf, k, kept):
         """put(*row, kept) for k rows given as the bytes buf of a (k, 4) array of doubles,
         newest first (the order puts leave them in)."""
         new = array("d")
         new.frombytes(buf)
+        self.put_shared(new, 0, k, kept)
+
+    def put_shared(self, figs, at, k, kept):
+        """put_rows of the k rows at..at+k of figs (an array of doubles, 4 a row, shared
+        with other chains), all of kept."""
         if self.figs is None:
-            self.figs, self.kept = new, [kept] * k
-        else:
-            self.figs[0:0] = new
-            self.kept[0:0] = [kept] * k
+            self._set(figs, kept, at, k)
+            return
+        old, ks = self._own()
+        new = figs[4 * at:4 * (at + k)]
+        new.extend(old)
+        self._set(new, [kept] * k + ks, 0, k + len(ks))
 
     def _find(self, x, col):
         """Index of the newest row whose column col equals x, from each match of x in figs."""
-        figs, j = self.figs, 0
+        figs, a = self.figs, 4 * self.at
+        j, stop = a, a + 4 * self.n
         while True:
             try:
-                j = figs.index(x, j)
+                j = figs.index(x, j, stop)
             except ValueError:
                 return None
-            if j % 4 == col:
-                return j // 4
+            if (j - a) % 4 == col:
+                return (j - a) // 4
             j += 1
+
+    def rows(self):
+        """[(t_pred, law T, beta, row, kept)], newest first."""
+        f, a = self.figs, 4 * self.at
+        return [(f[a + 4 * q], f[a + 4 * q + 1], f[a + 4 * q + 2], f[a + 4 * q + 3], self._kept(q))
+                for q in range(self.n)]
 
     def law_of(self, time_t):
         """The law duration that gave predicted duration time_t, or time_t."""
         q = None if self.figs is None else self._find(time_t, 0)
-        return time_t if q is None else self.figs[4 * q + 1]
+        return time_t if q is None else self.figs[4 * (self.at + q) + 1]
 
     def plan_of(self, T, beta):
         """(_KeptPlans, row) of the candidate (T, beta), or None."""
         if self.figs is None:
             return None
-        figs = self.figs
-        for q in range(len(self.kept)):
-            if figs[4 * q + 1] == T and figs[4 * q + 2] == beta:
-                return self.kept[q], int(figs[4 * q + 3])
+        figs, a = self.figs, 4 * self.at
+        for q in range(self.n):
+            if figs[a + 4 * q + 1] == T and figs[a + 4 * q + 2] == beta:
+                return self._kept(q), int(figs[a + 4 * q + 3])
         return None
 
 
@@ -290,10 +375,16 @@ def _finish_rows(st, laws, rules, profile):
 
 def _finish_rows_arrays(st, vk, tk, rules, profile):
     """_finish_rows from the laws' speeds vk and times tk at the knots (k, n + 1)."""
+    acc, feed, t_pred, a2_pred, fits = _finish_rows_dt(st, vk, np.diff(tk, axis=1), rules, profile)
+    return _KeptPlans(_rules_key(rules, profile), st.ends_d, (vk, acc, feed, t_pred, a2_pred)), fits
+
+
+def _finish_rows_dt(st, vk, tk, rules, profile, predict=True):
+    """_finish_rows_arrays' numbers (acc, feed, t_pred, a2_pred, fits) from the knot speeds vk
+    (k, n + 1) and the segments' durations tk (k, n)."""
     g = curves.geom(st, profile)
     d = g.d
     k, n = vk.shape[0], d.size
-    tk = np.diff(tk, axis=1)
     a_top = _a_top(st)
     acc, feed = shape_segments(np.broadcast_to(d, (k, n)).ravel(), np.maximum(tk, 1e-12).ravel(),
                                vk[:, :-1].ravel(), vk[:, 1:].ravel(), a_top,
@@ -311,8 +402,10 @@ def _finish_rows_arrays(st, vk, tk, rules, profile):
             acc[r] = _junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r])
     acc = hold_cruise_accels_rows(acc, a_top)
     feed = tent_feeds_rows(feed, st.v_feed, step_v)
+    if not predict:
+        return acc, feed, None, None, fits
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
-    return _KeptPlans(_rules_key(rules, profile), st.ends_d, (vk, acc, feed, t_pred, a2_pred)), fits
+    return acc, feed, t_pred, a2_pred, fits
 
 
 GROUP_JUNCTIONS = ("jerk", "scv")   # junction laws whose finishing runs over groups of chains
@@ -325,6 +418,19 @@ def _window(g, profile):
     nb = max(profile.block_buffer - 3, 1)
     ext = np.concatenate([d, np.full(nb, d[-1])])
     return np.convolve(ext, np.ones(nb), "valid")[:n]
+
+
+def _windows(gs, profile):
+    """_window of chains with the same number of segments, stacked (m, n): one np.convolve
+    over their extended lengths laid end to end, each window read where its chain's own
+    "valid" outputs fall (the same dot of the same nb terms in the same order)."""
+    n, m = gs[0].d.size, len(gs)
+    nb = max(profile.block_buffer - 3, 1)
+    ext = np.empty((m, n + nb))
+    ext[:, :n] = np.stack([g.d for g in gs])
+    ext[:, n:] = ext[:, n - 1:n]
+    conv = np.convolve(ext.ravel(), np.ones(nb), "valid")
+    return conv[(np.arange(m) * (n + nb))[:, None] + np.arange(n)]
 
 
 def finish_groups(items, rules, profile):
@@ -372,11 +478,24 @@ def _finish_group(items, rules, profile):
 def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
     """_finish_group from the rows' knot speeds vk and times tk (R, n + 1), ks[q] rows of
     chain sts[q] after each other."""
+    own = np.repeat(np.arange(len(sts)), ks)               # the chain of each row
+    acc, feed, t_pred, a2_pred, fits = _finish_stacked_dt(sts, gs, own, vk, np.diff(tk, axis=1), rules, profile)
+    key = _rules_key(rules, profile)
+    res = []
+    base = (vk, acc, feed, t_pred, a2_pred)
+    lo = 0
+    for st, k in zip(sts, ks):
+        res.append((_KeptPlans(key, st.ends_d, base, lo, k), fits[lo:lo + k]))
+        lo += k
+    return res
+
+
+def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
+    """_finish_stacked's numbers (acc, feed, t_pred, a2_pred, fits) from the rows' knot
+    speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row."""
     n = gs[0].d.size
     R = vk.shape[0]
-    own = np.repeat(np.arange(len(sts)), ks)               # the chain of each row
     d = np.stack([g.d for g in gs])[own]
-    tk = np.diff(tk, axis=1)
     a_top = np.array([_a_top(st) for st in sts], float)[own]
     acc, feed = shape_segments(d.ravel(), np.maximum(tk, 1e-12).ravel(), vk[:, :-1].ravel(), vk[:, 1:].ravel(),
                                np.repeat(a_top, n), trapezoid=rules.junction != "jerk")
@@ -387,7 +506,7 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
     if rules.junction == "jerk":
         step_v = (curves.JERK_F_STEP_R * np.array([min(st.lim.jerk_x, st.lim.jerk_y) for st in sts], float))[own]
         if profile.block_buffer > 0:       # _junction_accels under classic jerk: the lookahead floor
-            window = np.stack([_window(g, profile) for g in gs])[own]
+            window = _windows(gs, profile)[own]
             acc = np.maximum(acc, np.minimum(1.1 * feed ** 2 / (2.0 * window), a_top[:, None]))
     else:       # row by row: each row's junction accelerations from its own feeds as shaped
         for r in range(R):
@@ -395,15 +514,10 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
             acc[r] = _junction_accels(sts[c], gs[c], vk[r], acc[r], rules, profile, feed[r])
     acc = hold_cruise_accels_rows(acc, a_top)
     feed = tent_feeds_rows(feed, np.array([st.v_feed for st in sts], float)[own], step_v)
+    if not predict:                  # (the caller has the figures: _replay)
+        return acc, feed, None, None, fits
     t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)
-    key = _rules_key(rules, profile)
-    res = []
-    base = (vk, acc, feed, t_pred, a2_pred)
-    lo = 0
-    for st, k in zip(sts, ks):
-        res.append((_KeptPlans(key, st.ends_d, base, lo, k), fits[lo:lo + k]))
-        lo += k
-    return res
+    return acc, feed, t_pred, a2_pred, fits
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):
@@ -647,14 +761,19 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
             todo.append(k)
     # the candidate table's plan when this (T, beta) is one of the candidates (under the
     # same rules), else the law solved and finished
-    cold = []
+    cold, lazy = [], []
     for k in todo:
         st = strokes[k]
         hit = st.chain_T.plan_of(float(T[k]), float(beta[k]))
         if hit is not None and hit[0].key == key:
-            out[k] = hit[0].plan(hit[1])
+            if isinstance(hit[0], _KeptLaws):
+                lazy.append((k, hit))
+            else:
+                out[k] = hit[0].plan(hit[1])
         else:
             cold.append(k)
+    for (k, _), plan in zip(lazy, _replay([(strokes[k], kept, r) for k, (kept, r) in lazy], rules, profile)):
+        out[k] = plan
     for k, law in zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)):
         out[k] = finish_chain(strokes[k], law, rules, profile)[0]
     for k in todo:
@@ -670,15 +789,14 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     predicted time (law_T) and the plans of its candidates (ChainMemo).  Column by column,
     each law warm-started from its neighbour's (the one nearest 1 x T_orig first, cold):
     the binding set moves little between close durations.  The laws stay flat arrays
-    (laws/chain.FlatLaws), SOLVE_CHUNK chains at a time, and are finished from them."""
+    (laws/chain.FlatLaws), SOLVE_CHUNK chains at a time; their rows are finished by
+    groups of the same number of segments gathered over the chunks (_Finisher)."""
     n, k = T.shape
-    ok = np.zeros((n, k), bool)
-    tp = np.array(T, float)
-    ia = np.full((n, k), np.inf)
-    iv = np.full((n, k), np.nan)
+    tab = _Table(n, k, T)
     mid = int(np.argmin(np.abs(T[0] / pin.T_orig[rows[0]] - 1.0))) if n else 0
     order = [mid] + list(range(mid + 1, k)) + list(range(mid - 1, -1, -1))
     prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
+    fin = _Finisher(tab, rules, profile)
     for a in range(0, n, SOLVE_CHUNK):      # the laws of one chunk of chains at a time
         sl = slice(a, min(a + SOLVE_CHUNK, n))
         sts = [strokes[i] for i in rows[sl]]
@@ -697,15 +815,102 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
                         for c in range(k)], axis=1)
-        for j, c, t, a2, plans in _finish_table(sts, base, res, use, T[sl], rules, profile):
-            good = np.isfinite(a2) & np.isfinite(t) & (t > 0)
-            J, C = a + j[good], c[good]
-            ok[J, C], tp[J, C], ia[J, C] = True, t[good], a2[good]
-            for q in np.unique(C).tolist():
-                on = C == q
-                iv[J[on], q] = res[q].iv[j[good][on]]
-            _remember(sts, j, c, t, good, T[sl], beta[sl], plans)
-    return ok, tp, ia, iv
+        for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
+            fin.add(_Rows(a, sts, T[sl], beta[sl], *item))
+        del res
+    fin.flush()
+    return tab.ok, tab.tp, tab.ia, tab.iv
+
+
+class _Table:
+    """The candidate table _figures fills: feasible?, predicted time and ∫|a|², ∫ṡ²."""
+
+    def __init__(self, n, k, T):
+        self.ok = np.zeros((n, k), bool)
+        self.tp = np.array(T, float)
+        self.ia = np.full((n, k), np.inf)
+        self.iv = np.full((n, k), np.nan)
+
+
+class _Rows:
+    """Candidate rows of chains with the same number of segments n from one chunk (chains
+    sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
+    knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "n")
+
+    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv):
+        self.a, self.sts, self.T, self.beta = a, sts, T, beta
+        self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
+        self.n = dt.shape[1]
+
+
+FINISH_CELLS = 1 << 20       # a finishing batch's rows x n x (n + 2) (tent_feeds_rows' envelopes): 8 MB
+
+
+def _batch_rows(n):
+    """The rows of a finishing batch of chains of n segments: FINISH_ROWS, fewer where the
+    classic-jerk feed envelopes (rows, n, n + 2) would outgrow the caches."""
+    return max(1, min(FINISH_ROWS, FINISH_CELLS // (n * (n + 2))))
+
+
+class _Finisher:
+    """Finishes candidate rows (_Rows) into the table and the chains' memos.  Under the
+    junction laws of GROUP_JUNCTIONS rows of the same segment count wait until a batch of
+    FINISH_ROWS rows is full, over the chunks of chains (the finishing's numpy calls are
+    paid per batch: ~10^2 rows instead of ~10^1); each row's numbers are its own (row by
+    row arithmetic: tests/test_speed_plan_groups.py), so the batch does not change them.
+    Else chain by chain, at once."""
+
+    def __init__(self, tab, rules, profile):
+        self.tab, self.rules, self.profile = tab, rules, profile
+        self.key = _rules_key(rules, profile)
+        self.grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
+        self.wait = {}                 # n -> [_Rows], their row count
+
+    def add(self, r):
+        if not self.grouped:
+            self._finish([r])
+            return
+        rs, cnt = self.wait.get(r.n, ([], 0))
+        if rs and cnt + r.rj.size > _batch_rows(r.n):
+            self._finish(rs)
+            rs, cnt = [], 0
+        rs.append(r)
+        self.wait[r.n] = (rs, cnt + r.rj.size)
+
+    def flush(self):
+        for rs, _ in self.wait.values():
+            self._finish(rs)
+        self.wait = {}
+
+    def _finish(self, rs):
+        profile, rules = self.profile, self.rules
+        if self.grouped:
+            sts = [r.sts[j] for r in rs for j in r.J.tolist()]
+            gs = [curves.geom(st, profile) for st in sts]
+            off = np.cumsum([0] + [r.J.size for r in rs])
+            own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
+            vk = rs[0].vk if len(rs) == 1 else np.concatenate([r.vk for r in rs])
+            dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
+            _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile)
+            del vk, dt
+        else:
+            r = rs[0]
+            _, _, t, a2, _ = _finish_rows_dt(r.sts[int(r.J[0])], r.vk, r.dt, rules, profile)
+        tab = self.tab
+        lo = 0
+        for r in rs:
+            R = r.rj.size
+            tr, a2r = t[lo:lo + R], a2[lo:lo + R]
+            lo += R
+            j = r.J[r.rj]
+            good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
+            J, C = r.a + j[good], r.rc[good]
+            tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
+            kb = (r.vk, r.dt, tr, a2r)
+            first = np.concatenate([[0], np.cumsum(r.ks)]).tolist()
+            plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q]) for q in range(r.J.size)]
+            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans)
 
 
 def _flat_chains(sts, profile):
@@ -718,15 +923,16 @@ def _flat_chains(sts, profile):
                            np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
 
 
-def _finish_table(sts, base, res, use, T, rules, profile):
-    """finish_groups of the candidate table's rows: chain j's usable columns c (use (m, k))
-    from the flat laws res[c].  Yields, per group of chains finished together, its rows'
-    (chain j, column c, predicted time, predicted ∫|a|²) and the _KeptPlans of each chain
-    of the group."""
+def _table_rows(sts, base, res, use, T, profile, grouped):
+    """The candidate table's rows of one chunk: chain j's usable columns c (use (m, k))
+    from the flat laws res[c], as (J, rj, rc, vk, dt, ks, iv) per group of chains (_Rows):
+    under grouped finishing the chains of one segment count, at most FINISH_ROWS rows a
+    group, else one chain a group.  Each row keeps its knot speeds and segment durations
+    (_KeptLaws: the accelerations and feeds are made again for the candidate chosen,
+    _replay)."""
     gs = [curves.geom(st, profile) for st in sts]
     nseg = np.array([g.d.size for g in gs], int)
     has = use.any(axis=1)
-    grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
         groups = []
         rows = use.sum(axis=1)
@@ -744,6 +950,7 @@ def _finish_table(sts, base, res, use, T, rules, profile):
         R = j.size
         vk = np.empty((R, n + 1))
         tk = np.empty((R, n + 1))
+        iv = np.empty(R)
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = T[j, rc]
@@ -754,19 +961,14 @@ def _finish_table(sts, base, res, use, T, rules, profile):
             ix = base.voff[j[q]][:, None] + np.arange(n - 1)
             vk[q, 1:-1] = res[c].vert_v[ix]
             tk[q, 1:-1] = res[c].vert_t[ix]
-        ks = np.bincount(rj, None, J.size)
-        if grouped:
-            done = _finish_stacked([sts[i] for i in J], [gs[i] for i in J], ks, vk, tk, rules, profile)
-        else:
-            done = [_finish_rows_arrays(sts[J[0]], vk, tk, rules, profile)]
-        t = np.concatenate([kept.t_pred for kept, _ in done])
-        a2 = np.concatenate([kept.a2_pred for kept, _ in done])
-        yield j, rc, t, a2, [kept for kept, _ in done]
+            iv[q] = res[c].iv[j[q]]
+        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), iv
 
 
 def _remember(sts, j, c, t, good, T, beta, plans):
-    """Each chain's memo (ChainMemo.put_rows) of its good rows: predicted time, law T, beta,
-    and its row in its _KeptPlans; rows of one chain are consecutive in j."""
+    """Each chain's memo (ChainMemo.put_shared: one array for the batch) of its good rows:
+    predicted time, law T, beta, and its row in its kept plans; rows of one chain are
+    consecutive in j."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
     start = np.maximum.accumulate(np.where(first, np.arange(R), 0))      # each row's chain's first row
@@ -774,13 +976,14 @@ def _remember(sts, j, c, t, good, T, beta, plans):
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
-    buf = np.ascontiguousarray(tab[q]).tobytes()
+    figs = array("d")
+    figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
     lo = 0
     for kept, jj in zip(plans, j[first].tolist()):
         k = int(cnt[jj])
         if k:
-            sts[jj].chain_T.put_rows(buf[32 * lo:32 * (lo + k)], k, kept)
+            sts[jj].chain_T.put_shared(figs, lo, k, kept)
             lo += k
 
 

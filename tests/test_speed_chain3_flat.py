@@ -83,17 +83,22 @@ def _chains(prof_name):
     return _CACHE[prof_name]
 
 
-def _memo_rows(strokes, rows):
-    """Every chain's memory as plain data: its rows and, per row, its kept plan's arrays."""
+def _memo_rows(strokes, rows, rules, prof):
+    """Every chain's memory as plain data: its rows and, per row, the plan its kept plans
+    give (a _KeptPlans holds it; a _KeptLaws makes it again from the row's law)."""
     out = []
     for i in rows.tolist():
-        m = strokes[i].chain_T
+        st = strokes[i]
+        m = st.chain_T
         if m.figs is None:
             out.append(None)
             continue
-        plans = [(kp.key[:4], np.asarray(kp.ends_d, float).tobytes(),
-                  tuple(np.ascontiguousarray(kp._rows(q)).tobytes() for q in range(5))) for kp in m.kept]
-        out.append((m.figs.tobytes(), plans))
+        rows = []
+        for t, T, b, r, kp in m.rows():
+            p = kp.plan(int(r), st, rules, prof) if isinstance(kp, chains._KeptLaws) else kp.plan(int(r))
+            rows.append((t, T, b, r, kp.key[:4], p.s.tobytes(), p.v.tobytes(), p.accel.tobytes(),
+                         p.feed.tobytes(), p.time_t, p.int_a2))
+        out.append(rows)
     return out
 
 
@@ -101,7 +106,7 @@ def _run(figures, strokes, rows, pin, prof, rules, Tc, bc):
     for i in rows.tolist():
         strokes[i].chain_T = chains.ChainMemo()
     tab = figures(strokes, rows, pin, Tc, bc, prof, rules)
-    return tab, _memo_rows(strokes, rows)
+    return tab, _memo_rows(strokes, rows, rules, prof)
 
 
 @pytest.mark.parametrize("prof_name,junction", [("prusa-mk3s", None), ("voron24", None), ("prusa-mk3s", "jd")])

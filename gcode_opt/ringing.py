@@ -83,7 +83,14 @@ def hooks(sink):
     """(on_line, on_block, on_barrier_dwell) that feed `sink` (a Collector, or anything with
     on_block(b) and rest(dt_t)) from a firmware-model pass: E-only moves and dwells are
     rests.  on_barrier_dwell(dwell_t) must be called once the simulator took the Barrier
-    (wrap_events does it)."""
+    (wrap_events does it).
+
+    A Collector with a RowSink gets the sink's own hooks: the compiled model writes the
+    rests into the sink itself (where these hooks would), and then its line() and dwell()
+    do nothing; played by the Python model, they write them."""
+    rows = getattr(sink, "sink", None)
+    if rows is not None:
+        return rows.line, rows, rows.dwell
     eonly = st.EONLY
 
     def on_line(rec):
@@ -94,7 +101,14 @@ def hooks(sink):
 
 def wrap_events(event_iter, on_barrier_dwell):
     """The (idx, raw, event) stream, calling on_barrier_dwell(dwell_t) after each Barrier:
-    the generator resumes only after the simulator took it, so its blocks are flushed."""
+    the generator resumes only after the simulator took it, so its blocks are flushed.
+    When on_barrier_dwell is a RowSink's dwell and the compiled model writes that sink's
+    rests (known once the pass began: the model exists before the first event is taken),
+    the events pass through untouched."""
+    rows = getattr(on_barrier_dwell, "__self__", None)
+    if rows is not None and getattr(rows, "sim_rests", False):
+        yield from event_iter
+        return
     Barrier = st.Barrier
     for item in event_iter:
         yield item
@@ -448,7 +462,8 @@ class Collector:
             self.sink = sink_type(self.limit // ROW, self._full)
             self.sink.put(self.rows)
             self.rows = array("d")
-            self.on_block, self.rest = self.sink, self.sink.rest
+            # (rest: dwell, which leaves the rests to a compiled model that writes them)
+            self.on_block, self.rest = self.sink, self.sink.dwell
         self.skip_first = True
         self.time_t = 0.0
         self.chunks = 0                    # chunks solved (tests force many)
@@ -492,7 +507,7 @@ class Collector:
 
     def rest(self, dt_t):
         if self.sink is not None:
-            self.sink.rest(dt_t)
+            self.sink.dwell(dt_t)
             return
         if dt_t > 0.0:
             self._drain()

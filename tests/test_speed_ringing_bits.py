@@ -24,6 +24,7 @@ from gcode_opt.firmware import resonance as res
 from gcode_opt.firmware import simulate as fw
 from gcode_opt.firmware.resonance import Oscillator, shaped_events
 from gcode_opt.profile import load_profile
+from gcode_opt import state as st
 from gcode_opt.state import read_lines
 
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "sample_gcode")
@@ -353,30 +354,36 @@ def test_row_sink_rows_and_flush():
 
 
 @need_sink
-def test_sim_writes_block_rows_into_the_sink():
-    """The C model writes the rows of the blocks it would hand to on_block: the same as
-    _block_row of the Block objects (compiled and Python model), in order, with the
-    flush at every cap rows."""
-    path = os.path.join(SAMPLES, "prusa_klipper.gcode")
+def test_sim_writes_block_rows_into_the_sink(tmp_path):
+    """The C model writes the rows of the blocks it would hand to on_block, and the rests
+    of E-only moves and dwells where ringing.hooks' on_line and wrap_events put them: the
+    rows a Rows sink gets through the Python hooks, in order, with the flush at every cap
+    rows; the sink's line() and dwell() then do nothing.  Played by the Python model, the
+    sink's line() and dwell() write the rests."""
+    path = str(tmp_path / "dwell.gcode")
+    _dwell_file(os.path.join(SAMPLES, "prusa_klipper.gcode"), path, every=17, eonly_every=13)
     p = load_profile("voron24")
     for core in ("c", "python"):
         old = fw.use_core(core)
         try:
-            want = array("d")
-            fw.simulate_file(path, p, on_block=lambda b: want.extend(rg._block_row(b)))
+            rows = rg.Rows()
+            rg.play(path, p, rows)
+            want = rows.items
             got, chunks = array("d"), []
 
             def flush():
                 chunks.append(sink.rows)
                 got.frombytes(sink.take())
             sink = fw._core.RowSink(97, flush)
-            fw.simulate_file(path, p, on_block=sink)
+            fw.simulate_events(rg.wrap_events(st.events(path, p), sink.dwell), p, sink.line, sink)
+            assert sink.sim_rests == (core == "c")
             got.frombytes(sink.take())
         finally:
             fw.use_core(old)
-        assert len(want) > 1000 * rg.ROW
-        assert got.tobytes() == want.tobytes()
-        assert chunks == [97] * (len(want) // rg.ROW // 97)
+        m = np.frombuffer(want, float).reshape(-1, rg.ROW)
+        assert len(m) > 1000 and (m[:, 11] == 0.0).sum() > 60        # rests among the blocks
+        assert got.tobytes() == want.tobytes(), core
+        assert chunks == [97] * (len(m) // 97)
 
 
 # ---------------------------------------------------------------- the corpus plate
@@ -393,7 +400,7 @@ def test_sink_is_used_where_the_core_is():
     assert (col.sink is not None) == HAS_SINK
     ring_line, on_block, on_dwell = rg.hooks(col)
     if HAS_SINK:
-        assert on_block is col.sink and on_dwell == col.sink.rest
+        assert on_block is col.sink and on_dwell == col.sink.dwell and ring_line == col.sink.line
     assert math.isfinite(col.figures()["time_s"])
 
 

@@ -203,13 +203,17 @@ static PyTypeObject BlockType = {
  * _rest_row): a Sim whose on_block is a RowSink writes each planned block's row here
  * without making a Block object; called with a block (the Python model's path), it reads
  * the same attributes.  Once it holds `cap` rows or more it calls flush(), which must take
- * them (take()). */
+ * them (take()).  A compiled Sim that writes into it also writes its rests (an E-only
+ * move's time, when its record is made; a barrier's dwell, once the barrier is taken: where
+ * ringing.hooks' on_line and wrap_events put them); the sink's own line() and dwell() then
+ * do nothing (sim_rests), so a pass gets each rest once whichever model plays it. */
 #define SINK_ROW 12
 typedef struct {
     PyObject_HEAD
     double *buf;
     Py_ssize_t n, alloc, cap;         /* rows held, rows allocated, rows that call flush */
     PyObject *flush;
+    int sim_rests;                    /* a compiled Sim writes the rests too */
 } SinkObject;
 
 static int sink_reserve(SinkObject *k, Py_ssize_t rows)
@@ -313,6 +317,52 @@ static PyObject *Sink_rest(SinkObject *k, PyObject *arg)
     Py_RETURN_NONE;
 }
 
+static int sink_rest(SinkObject *k, double dt)
+{
+    if (!(dt > 0.0))
+        return 0;
+    double row[SINK_ROW] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dt, 0.0, 1.0, -1.0, 0.0};
+    return sink_push(k, row);
+}
+
+/* dwell(dt_t): rest(dt_t) unless a compiled Sim writes the rests */
+static PyObject *Sink_dwell(SinkObject *k, PyObject *arg)
+{
+    double dt = PyFloat_AsDouble(arg);
+    if (dt == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (!k->sim_rests && sink_rest(k, dt) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+/* line(rec): an E-only move's rest (rec.kind == EONLY: rest(rec.time_t)) unless a
+ * compiled Sim writes the rests */
+static PyObject *Sink_line(SinkObject *k, PyObject *rec)
+{
+    if (k->sim_rests)
+        Py_RETURN_NONE;
+    PyObject *v = PyObject_GetAttrString(rec, "kind");
+    if (v == NULL)
+        return NULL;
+    long kind = PyLong_AsLong(v);
+    Py_DECREF(v);
+    if (kind == -1 && PyErr_Occurred())
+        return NULL;
+    if (kind != K_EONLY)
+        Py_RETURN_NONE;
+    v = PyObject_GetAttrString(rec, "time_t");
+    if (v == NULL)
+        return NULL;
+    double dt = PyFloat_AsDouble(v);
+    Py_DECREF(v);
+    if (dt == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (sink_rest(k, dt) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 /* put(data): whole rows (bytes of doubles) appended as they are, flush() not called */
 static PyObject *Sink_put(SinkObject *k, PyObject *arg)
 {
@@ -373,12 +423,20 @@ static void Sink_dealloc(SinkObject *k)
 static PyMethodDef Sink_methods[] = {
     {"rest", (PyCFunction)Sink_rest, METH_O, "A rest of dt_t seconds (if > 0)."},
     {"put", (PyCFunction)Sink_put, METH_O, "Whole rows appended, flush() not called."},
+    {"dwell", (PyCFunction)Sink_dwell, METH_O, "rest(dt_t) unless a compiled Sim writes the rests."},
+    {"line", (PyCFunction)Sink_line, METH_O, "An E-only record's rest unless a compiled Sim writes the rests."},
     {"take", (PyCFunction)Sink_take, METH_NOARGS, "The rows held (bytes); the sink empties."},
     {NULL}
 };
 
+static PyObject *Sink_sim_rests(SinkObject *k, void *c)
+{
+    return PyBool_FromLong(k->sim_rests);
+}
+
 static PyGetSetDef Sink_getset[] = {
     {"rows", (getter)Sink_len, NULL, "rows held", NULL},
+    {"sim_rests", (getter)Sink_sim_rests, NULL, "a compiled Sim writes the rests", NULL},
     {NULL}
 };
 
@@ -591,6 +649,8 @@ static int Sim_init(SimObject *s, PyObject *args, PyObject *kw)
     Py_XSETREF(s->on_line, on_line);
     Py_INCREF(on_block);
     Py_XSETREF(s->on_block, on_block);
+    if (Py_IS_TYPE(on_block, &SinkType))
+        ((SinkObject *)on_block)->sim_rests = 1;
     PyObject *res = PyObject_CallNoArgs((PyObject *)RES_TYPE);
     if (res == NULL)
         return -1;
@@ -1147,17 +1207,20 @@ static int marlin_stop(SimObject *s)
 /* ---- blocks -> integrals (_Sim._emit, _close) --------------------------------------- */
 static int call_on_line(SimObject *s, RecData *r)
 {
-    if (s->on_line == Py_None)
-        return 0;
-    RecObject *o = (RecObject *)REC_TYPE->tp_alloc(REC_TYPE, 0);
-    if (o == NULL)
-        return -1;
-    o->r = *r;
-    PyObject *x = PyObject_CallOneArg(s->on_line, (PyObject *)o);
-    Py_DECREF(o);
-    if (x == NULL)
-        return -1;
-    Py_DECREF(x);
+    if (s->on_line != Py_None) {
+        RecObject *o = (RecObject *)REC_TYPE->tp_alloc(REC_TYPE, 0);
+        if (o == NULL)
+            return -1;
+        o->r = *r;
+        PyObject *x = PyObject_CallOneArg(s->on_line, (PyObject *)o);
+        Py_DECREF(o);
+        if (x == NULL)
+            return -1;
+        Py_DECREF(x);
+    }
+    /* the ringing's rest for an E-only move, after the record's callback (ringing.hooks) */
+    if (r->kind == K_EONLY && Py_IS_TYPE(s->on_block, &SinkType))
+        return sink_rest((SinkObject *)s->on_block, r->time_t);
     return 0;
 }
 
@@ -1644,6 +1707,9 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
         return NULL;
     s->res->time_t += dw;
     s->res->barrier_dwell_t += dw;
+    /* the ringing's rest for the dwell, once the barrier is taken (ringing.wrap_events) */
+    if (Py_IS_TYPE(s->on_block, &SinkType) && sink_rest((SinkObject *)s->on_block, dw) < 0)
+        return NULL;
     Py_RETURN_NONE;
 }
 

@@ -14,6 +14,10 @@ of the step.  Sums per chain are bincount's: from 0.0, in the order of the piece
 #include <stdint.h>
 #include <string.h>
 
+#if defined(_MSC_VER) && !defined(restrict)
+#define restrict __restrict
+#endif
+
 #define FD_H_R 1e-4
 #define NEWTON_TOL_R 1e-8
 #define GAMMA_SWITCH 4.0
@@ -108,37 +112,65 @@ static PyObject *share_args(PyObject *self, PyObject *a) {
     return Py_BuildValue("(ni)", m, k);
 }
 
-/* J = ∫ṡ² + β∫s̈² of one piece at its three durations t[q] (_J3's arithmetic, element
-   by element; the three are independent: written side by side so that they overlap) */
-static inline void piece_J3(double L, double beta, double vs, double vd, const double *t, const double *t3,
-                            const double *z_half, const double *sh_half, const double *z_full,
-                            const double *sh_full, const double *coef, int k, double *J) {
-    double n[3], mm[3], s1[3], z2[3];
-    for (int q = 0; q < 3; q++) {
-        z2[q] = z_full[q] * z_full[q];
-        n[q] = coef[3 * (k - 1)];
-        mm[q] = coef[3 * (k - 1) + 1];
-        s1[q] = coef[3 * (k - 1) + 2];
+/* Vector clones where gcc can make them (x86-64 Linux): the loops of j_batch are
+   elementwise, so SIMD lanes do each element's operations in its order (the AVX2 target
+   has no FMA; -ffp-contract=off anyway): the same bits as one element at a time. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define VEC_CLONES __attribute__((target_clones("avx2", "default"), optimize("O3", "no-trapping-math")))
+#else
+#define VEC_CLONES
+#endif
+
+/* _J3's last steps for m pieces at one of their three durations: J from the durations t,
+   t3 = t ** 3, the np.sinh arguments γ/2 (zh) and γ (zf) and values (shh, shf), the
+   series n, mm, s1 at γ², and the pieces' L, β, v0 + v1, v0 - v1. */
+VEC_CLONES static void j_final(Py_ssize_t m, const double *restrict t, const double *restrict t3,
+                               const double *restrict zh, const double *restrict shh, const double *restrict zf,
+                               const double *restrict shf, const double *restrict nn, const double *restrict mm,
+                               const double *restrict s1, const double *restrict Lc, const double *restrict bc,
+                               const double *restrict vsc, const double *restrict vdc, double *restrict J) {
+    for (Py_ssize_t j = 0; j < m; j++) {
+        double sh2 = shh[j] / zh[j], shg = shf[j] / zf[j];
+        sh2 = zh[j] == 0.0 ? 1.0 : sh2;                  /* _shc: 1 at z = 0 */
+        shg = zf[j] == 0.0 ? 1.0 : shg;
+        double n = nn[j], n2 = (2 * n) * n, sq = sh2 * sh2;
+        double Ig1 = mm[j] / n2, Igp = s1[j] / n2, Ih = (2 * s1[j]) / sq, Ihp = (2 * (shg + 1)) / sq;
+        double tj = t[j], L = Lc[j];
+        double A = L - (tj * vsc[j]) / 2, d = (tj * vdc[j]) / 2;
+        double AA = A * A, dd = d * d;
+        double iv = ((L * L + AA * Ig1) + dd * Ih) / tj;
+        double ia = (AA * Igp + dd * Ihp) / t3[j];
+        J[j] = iv + bc[j] * ia;
     }
-    for (int i = k - 2; i >= 0; i--) {
-        double cn = coef[3 * i], cm = coef[3 * i + 1], cs = coef[3 * i + 2];
-        for (int q = 0; q < 3; q++) {
-            n[q] = n[q] * z2[q]; n[q] = n[q] + cn;
-            mm[q] = mm[q] * z2[q]; mm[q] = mm[q] + cm;
-            s1[q] = s1[q] * z2[q]; s1[q] = s1[q] + cs;
+}
+
+/* The n, m, S1 series (_horner_nms with its k terms) at z² for the M values z. */
+VEC_CLONES static void j_series(Py_ssize_t M, int k, const double *restrict z, const double *restrict coef,
+                                double *restrict nb, double *restrict mb, double *restrict sb) {
+    double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
+    for (Py_ssize_t i = 0; i < M; i++) { nb[i] = c0; mb[i] = c1; sb[i] = c2; }
+    for (int t = k - 2; t >= 0; t--) {
+        double a0 = coef[3 * t], a1 = coef[3 * t + 1], a2 = coef[3 * t + 2];
+        for (Py_ssize_t i = 0; i < M; i++) {
+            double z2 = z[i] * z[i];
+            double x = nb[i] * z2, y = mb[i] * z2, w = sb[i] * z2;
+            nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
         }
     }
+}
+
+/* J = ∫ṡ² + β∫s̈² (_J3's arithmetic, element by element) of the 3 m durations Tall of the
+   m active pieces (L, β, v0 + v1, v0 - v1 of piece j in Lc[j], bc[j], vsc[j], vdc[j]);
+   nb, mb, sb: scratch of 3 m for the n, m, S1 series. */
+static void j_batch(Py_ssize_t m, int k, const double *Tall, const double *T3, const double *args,
+                    const double *sh, const double *Lc, const double *bc, const double *vsc,
+                    const double *vdc, const double *coef, double *J, double *nb, double *mb, double *sb) {
+    Py_ssize_t M = 3 * m;
+    j_series(M, k, args + M, coef, nb, mb, sb);
     for (int q = 0; q < 3; q++) {
-        double sh2 = z_half[q] == 0.0 ? 1.0 : sh_half[q] / z_half[q];
-        double shg = z_full[q] == 0.0 ? 1.0 : sh_full[q] / z_full[q];
-        double n2 = (2 * n[q]) * n[q], sq = sh2 * sh2;
-        double Ig1 = mm[q] / n2, Igp = s1[q] / n2, Ih = (2 * s1[q]) / sq, Ihp = (2 * (shg + 1)) / sq;
-        double tq = t[q];
-        double A = L - (tq * vs) / 2, d = (tq * vd) / 2;
-        double AA = A * A, dd = d * d;
-        double iv = ((L * L + AA * Ig1) + dd * Ih) / tq;
-        double ia = (AA * Igp + dd * Ihp) / t3[q];
-        J[q] = iv + beta * ia;
+        Py_ssize_t o = q * m;
+        j_final(m, Tall + o, T3 + o, args + o, sh + o, args + M + o, sh + M + o, nb + o, mb + o, sb + o,
+                Lc, bc, vsc, vdc, J + o);
     }
 }
 
@@ -174,19 +206,24 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
     double *invb = d1b ? get(&b, o[16], 8, 1, NULL) : NULL;
     if (!invb) { release(&b); return NULL; }
     Py_ssize_t n_c = nc1 - 1, j = 0, moving = 0;
+    double *work = PyMem_Malloc((size_t)(m > 0 ? m : 1) * 16 * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *Lc = work, *bc = work + m, *vsc = work + 2 * m, *vdc = work + 3 * m, *Jb = work + 4 * m;
+    for (Py_ssize_t c = 0; c < n_c; c++) {              /* the active pieces, compact */
+        if (conv[c]) continue;
+        for (int64_t p = poff[c]; p < poff[c + 1]; p++, j++) {
+            Lc[j] = L[p]; bc[j] = beta[p]; vsc[j] = vs[p]; vdc[j] = vd[p];
+        }
+    }
+    j_batch(m, k, Tall, T3, args, sh, Lc, bc, vsc, vdc, coef, Jb, work + 7 * m, work + 10 * m, work + 13 * m);
+    j = 0;
     for (Py_ssize_t c = 0; c < n_c; c++) {
         if (conv[c]) continue;
         int64_t p0 = poff[c], p1 = poff[c + 1];
         Py_ssize_t j0 = j;
         double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
         for (int64_t p = p0; p < p1; p++, j++) {
-            double J[3], t[3], t3[3], zh[3], shh[3], zf[3], shf[3];
-            for (int q = 0; q < 3; q++) {
-                Py_ssize_t i = q * m + j;
-                t[q] = Tall[i]; t3[q] = T3[i]; zh[q] = args[i]; shh[q] = sh[i];
-                zf[q] = args[3 * m + i]; shf[q] = sh[3 * m + i];
-            }
-            piece_J3(L[p], beta[p], vs[p], vd[p], t, t3, zh, shh, zf, shf, coef, k, J);
+            double J[3] = {Jb[j], Jb[m + j], Jb[2 * m + j]};
             double Ti = T[p], h = FD_H_R * Ti;
             double d1 = (J[2] - J[0]) / (2.0 * h);
             double d2 = ((J[2] - 2.0 * J[1]) + J[0]) / (h * h);
@@ -231,6 +268,7 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
         }
         lam[c] = l + nan_to_num(dlam);
     }
+    PyMem_Free(work);
     release(&b);
     return PyLong_FromSsize_t(moving);
 }

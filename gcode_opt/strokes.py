@@ -231,24 +231,10 @@ def _unit(m):
     return dx / d, dy / d
 
 
-def _continues(pm, m) -> bool:
-    """m may follow pm in one stroke: the next line, same feed, acceleration, feature, Z, E mode."""
-    return (m.idx == pm.idx + 1 and m.v == pm.v and m.accel == pm.accel and m.feature == pm.feature
-            and m.z0 == pm.z1 and m.z1 == pm.z1 and m.e_rel == pm.e_rel)
-
-
-def _collinear(pu, u) -> bool:
-    return abs(pu[0] * u[1] - pu[1] * u[0]) <= COLLINEAR_SIN and pu[0] * u[0] + pu[1] * u[1] > 0.0
-
-
-def _partition(run, curves: bool):
-    """Strokes of one run of adjacent compatible moves: one curve stroke if curves are on,
-    the run has >= 3 moves and at least one vertex turns by more than the collinear
-    tolerance; else straight strokes (a new one wherever the direction changes)."""
-    if curves and len(run) >= 3:
-        dirs = [_unit(m) for m in run]
-        if any(not _collinear(a, b) for a, b in zip(dirs[:-1], dirs[1:])):
-            return [(0, Stroke.of_curve(run))]
+def _straight_parts(run):
+    """Straight strokes of one run of adjacent compatible moves that is not a curve (curves
+    off, fewer than 3 moves, or no vertex turning by more than the collinear tolerance): a
+    new stroke wherever the direction drifts (Stroke.try_extend); [(first move, stroke)]."""
     out = []
     cur = Stroke(run[0])
     k0 = 0
@@ -258,15 +244,6 @@ def _partition(run, curves: bool):
             cur, k0 = Stroke(run[k]), k
     out.append((k0, cur))
     return out
-
-
-def _run_length(run) -> float:
-    """Path length of a run, summed as Stroke sums it (so no stroke of the run is longer)."""
-    total = 0.0
-    hypot = math.hypot
-    for m in run:
-        total += hypot(m.x1 - m.x0, m.y1 - m.y0)
-    return total
 
 
 def _kind_state(st, e0, ss):
@@ -287,7 +264,8 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     max_turn_deg > 0 turns curve strokes on: a run of adjacent compatible eligible G1 moves
     whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move), if
     given, does not reject: a vertex whose firmware speed cap no acceleration lifts is
-    below the feed) is one curve stroke when it really turns (strokes._partition).
+    below the feed) is one curve stroke when it really turns (a vertex turns by more than
+    COLLINEAR_SIN); else straight strokes (_straight_parts).
 
     start_state(), if given, is called when a run or an arc stroke starts (the reader has
     just read its first line) and must return (E before that line, acceleration of printing
@@ -327,7 +305,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     hypot = math.hypot
     run = []               # moves of the open run
     run_d = []             # their XY lengths
-    run_len = 0.0          # their sum, in order (as _run_length sums it)
+    run_len = 0.0          # their sum, in order (as Stroke sums it: no stroke of the run is longer)
     turned = False         # a vertex of the run is not collinear (a curve if curves are on)
     run_prev_u = None      # direction of the move before the run
     arc = None             # an arc stroke waiting to close (at the next line)
@@ -356,7 +334,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             if curves and turned and len(run) >= 3:
                 parts = [(0, Stroke.of_curve(run, run_d))]
             else:
-                parts = _partition(run, False)
+                parts = _straight_parts(run)
             e_k, k_done = (run_start[0] if run_start else 0.0), 0
             for j, (k0, st) in enumerate(parts):
                 st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
@@ -380,7 +358,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     for idx, raw, ev in event_iter:
         cls = type(ev)
         if run and cls is Move:
-            # a G1 continuing the run: what eligible() and _continues() ask, less what
+            # a G1 continuing the run (the next line; the feed, acceleration, feature, Z
+            # and E mode of the move before) and eligible() itself, less what
             # equality with the run's first move already proves (feature selected, feed
             # >= MIN_FEED_V, z0 == z1)
             if (ev.idx == r_last + 1 and ev.v == r_v and ev.accel == r_accel and ev.feature == r_feature
@@ -391,7 +370,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 d = hypot(dx, dy)
                 ux, uy = dx / d, dy / d         # _unit(ev); (lux, luy) is _unit(pm)
                 dot = lux * ux + luy * uy
-                if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # _collinear
+                if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # collinear
                     take = True
                 elif dot >= min_cos and (split_vertex is None or not split_vertex(pm, ev)):
                     take = turned = True

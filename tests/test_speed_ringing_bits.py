@@ -181,12 +181,12 @@ def _figures(path, profile, col):
     return col.figures(), res
 
 
-def _assert_same_figures(path, profile, shaper=None, chunk=rg.CHUNK_BLOCKS, core="c"):
-    old = fw.use_core(core)
+def _assert_same_figures(path, profile, shaper=None, chunk=rg.CHUNK_BLOCKS, core=None):
+    old = fw.use_core(core or fw.CORE)
     try:
         ref, ref_res = _figures(path, profile, RefCollector(profile, shaper, chunk_blocks=chunk))
         col = rg.Collector(profile, shaper, chunk_blocks=chunk)
-        assert (col.sink is not None) == (core == "c" or HAS_SINK)
+        assert (col.sink is not None) == HAS_SINK
         got, got_res = _figures(path, profile, col)
     finally:
         fw.use_core(old)
@@ -487,3 +487,20 @@ def test_a_probe_that_fails_leaves_numpy(monkeypatch):
     got, _ = _figures(path, p, rg.Collector(p))
     assert _bits(got) == _bits(ref)
     assert res._KERNEL_OK and not any(res._KERNEL_OK.values())
+
+
+@pytest.mark.parametrize("name,prof,shaper", [("prusa_gyroid.gcode", "prusa-mk3s", None),
+                                              ("prusa_klipper.gcode", "voron24", "ei")])
+def test_pure_python_chunk_work(monkeypatch, name, prof, shaper):
+    """Without the compiled core's sink and exponentials (what GCODE_OPT_PURE_PYTHON=1
+    leaves): Python rows, numpy's exponentials, the same figures."""
+    monkeypatch.setattr(rg, "USE_SINK", False)
+    monkeypatch.setattr(res, "USE_KERNEL", False)
+    monkeypatch.setattr(res, "_KERNEL_OK", {})
+    path, p = os.path.join(SAMPLES, name), load_profile(prof)
+    ref, _ = _figures(path, p, RefCollector(p, shaper))
+    col = rg.Collector(p, shaper)
+    assert col.sink is None
+    got, _ = _figures(path, p, col)
+    assert _bits(got) == _bits(ref)
+    assert res._KERNEL_OK == {}

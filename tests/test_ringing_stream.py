@@ -125,23 +125,26 @@ def test_stretch_from_kept_rows_equals_whole_trace(case, shaper):
     _assert_same(col.figures(), rg.figures_of_trace(tr, rg.model_of(p), shaper))
 
 
-def test_collector_on_the_analyse_pass(monkeypatch):
-    """The lines proposed for pipeline.analyse (hooks + wrap_events beside its own on_line)
-    give the original's figures from the analyse pass itself: its event stream (strokes
-    grouped, barriers, E-only moves) is the one ringing.figures plays."""
+def test_collector_on_the_analyse_pass(tmp_path):
+    """pipeline.analyse plays the original once and the ringing rides on that pass
+    (opts.ringing_before): exactly the figures ringing.figures gets from a pass of its
+    own, on a file with dwells (barriers) and E-only moves (rests)."""
     from gcode_opt import pipeline
-    path, p = os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), load_profile("prusa-mk3s")
-    col = rg.Collector(p, chunk_blocks=500)
-    plain = pipeline.simulate_events
-
-    def riding(events, profile, on_line=None, on_block=None):
-        ring_line, ring_block, ring_dwell = rg.hooks(col)
-
-        def both(r):
-            on_line(r)
-            ring_line(r)
-        return plain(rg.wrap_events(events, ring_dwell), profile, on_line=both, on_block=ring_block)
-    monkeypatch.setattr(pipeline, "simulate_events", riding)
-    strokes, sim = pipeline.analyse(path, p, pipeline.Options())
-    assert strokes
-    _assert_same(col.figures(), rg.figures(path, p))
+    from gcode_opt.state import read_lines
+    src, p = os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), load_profile("prusa-mk3s")
+    path = str(tmp_path / "dwell.gcode")
+    n = 0
+    with open(path, "w", newline="") as fo:
+        for _, raw in read_lines(src):
+            if raw.startswith("G1 "):
+                n += 1
+                if n % 53 == 0:
+                    fo.write("G4 P150\n")
+                if n % 41 == 0:
+                    fo.write("G1 E-0.5 F2400\nG1 E0.5 F2400\n")
+            fo.write(raw)
+    opts = pipeline.Options()
+    strokes, sim = pipeline.analyse(path, p, opts)
+    assert strokes and sim.barrier_dwell_t > 1.0
+    assert opts.ringing_before == rg.figures(path, p)
+    assert opts.ringing_before["xy"]["rms_um"] > 0.5

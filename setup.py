@@ -1,6 +1,8 @@
 """Build the optional compiled core of the firmware model (gcode_opt/firmware/_core.c)
 and the compiled fast path of the reader (gcode_opt/_reader.c, module _gcode_opt_reader,
-used by state.py under the same rules: optional, top-level, SHA-256 checked, same bits).
+used by state.py under the same rules: optional, top-level, SHA-256 checked, same bits),
+and the chains' Newton steps (gcode_opt/laws/_chaincore.c, module _gcode_opt_chaincore,
+used by laws/chain.py under the same rules).
 
 Everything else is in pyproject.toml.  The extension is optional: without a C compiler
 (or Python headers) the build prints a warning, skips it, and the install goes on; the

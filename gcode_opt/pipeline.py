@@ -214,7 +214,11 @@ def analyse(path, profile: Profile, opts: Options):
         def on_line_both(r):
             on_line(r)
             ring_line(r)
-        sim = fwsim.new_sim(profile, on_line_both, ring_block)
+        sim = fwsim.new_sim(profile, on_line, ring_block)
+        if not getattr(getattr(ring_dwell, "__self__", None), "sim_rests", False):
+            # not the compiled model writing the rests into the Collector's sink itself
+            # (see ringing.wrap_events): the hooks write them, E-only records through on_line
+            sim = fwsim.new_sim(profile, on_line_both, ring_block)
     else:
         sim = fwsim.new_sim(profile, on_line)
 

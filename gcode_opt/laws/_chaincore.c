@@ -276,7 +276,7 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
 
 /* tod_args(t, T, gs, act, na, args, xb, zmax) -> k
    time_of_distance's step on the active laws act[:na]: τ = clip(t / T, 0, 1), x = τ - 1/2;
-   args = [γτ/2, γ(1 - τ)/2, γx, γ/4] (4 na) for np.sinh, xb = x (for ** 3); k = the S1
+   args = [γτ/2, γ(1 - τ)/2, γx] (3 na) for np.sinh, xb = x (for ** 3); k = the S1
    series' terms the batch needs (_s1: _nms_terms over (γx)² with the S1 table). */
 static PyObject *tod_args(PyObject *self, PyObject *a) {
     PyObject *ot, *oT, *ogs, *oact, *oargs, *oxb, *ozmax;
@@ -306,7 +306,6 @@ static PyObject *tod_args(PyObject *self, PyObject *a) {
         args[na + j] = (g * (1 - tau)) / 2;
         double z = g * x;
         args[2 * na + j] = z;
-        args[3 * na + j] = g / 4;
         xb[j] = x;
         double z2 = z * z;
         if (isnan(z2)) nan = 1;
@@ -325,7 +324,8 @@ static PyObject *tod_args(PyObject *self, PyObject *a) {
 static inline double shc(double z, double s) { return z == 0.0 ? 1.0 : s / z; }
 
 /* tod_step(t, T, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, na, args, sh, x3,
-   k, s1coef, out, vout) -> laws still active (act compacted in place), 0 when all are done
+   k, s1coef, out, vout, q4, sh4) -> laws still active (q4 = γ/4 and sh4 = np.sinh(q4) of
+   every law: the same at every step) (act compacted in place), 0 when all are done
    (then nothing is written, as _tod_rows breaks).  One step of _tod_step / _tod_rows: s and
    ṡ at t as LineLaw.eval(t, "sv") (series branch), the bracket, done, Newton or bisection;
    out[i] = the new t; vout[i] = ṡ at the t a law ended on (eval(t, "v") there). */
@@ -333,9 +333,9 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
     PyObject *o[21];
     Py_ssize_t na;
     int k;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOnOOOiOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOnOOOiOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
                           &o[8], &o[9], &o[10], &o[11], &o[12], &na, &o[13], &o[14], &o[15], &k, &o[16],
-                          &o[17], &o[18]))
+                          &o[17], &o[18], &o[19], &o[20]))
         return NULL;
     Bufs b = {.n = 0};
     double *t = get(&b, o[0], 8, 1, NULL);
@@ -357,7 +357,9 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
     double *coef = x3 ? get(&b, o[16], 8, 0, NULL) : NULL;
     double *out = coef ? get(&b, o[17], 8, 1, NULL) : NULL;
     double *vout = out ? get(&b, o[18], 8, 1, NULL) : NULL;
-    if (!vout) { release(&b); return NULL; }
+    double *q4 = vout ? get(&b, o[19], 8, 0, NULL) : NULL;
+    double *sh4 = q4 ? get(&b, o[20], 8, 0, NULL) : NULL;
+    if (!sh4) { release(&b); return NULL; }
     const double eps4 = 4 * DBL_EPSILON;
     /* first pass: done of every law (all done: nothing written) */
     double *newt = PyMem_Malloc((na ? na : 1) * sizeof(double));
@@ -386,7 +388,7 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
         double z = args[2 * na + j], z2 = z * z;
         double s1 = coef[k - 1];
         for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
-        double s4 = shc(args[3 * na + j], sh[3 * na + j]);
+        double s4 = shc(q4[i], sh4[i]);
         double G = 0.5 + (((x * (s4 * s4)) / 8) - x3[j] * s1) / n[i];
         double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
         double v = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];

@@ -237,13 +237,15 @@ def _tod_core(core, law, s_targets, max_iter=200):
     out, vout = t.copy(), np.empty(N)
     act = np.arange(N, dtype=np.int64)
     na = N
-    args, xb = np.empty(4 * N), np.empty(N)
+    args, xb = np.empty(3 * N), np.empty(N)
+    q4 = gs / 4                        # the shapes' shc(γ/4): the same at every step
+    sh4 = np.sinh(q4)
     for _ in range(max_iter):
         k = core.tod_args(t, T, gs, act, na, args, xb, _S1_ZMAX_C)
-        sh = np.sinh(args[:4 * na])
+        sh = np.sinh(args[:3 * na])
         x3 = xb[:na] ** 3
         na = core.tod_step(t, T, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, na, args, sh, x3, k,
-                           _S1_COEF_C, out, vout)
+                           _S1_COEF_C, out, vout, q4, sh4)
         if na == 0:
             break
     else:                      # out of steps: the last t of the laws still going, not evaluated yet

@@ -688,6 +688,12 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                         if os.path.exists(dest):
                             os.unlink(dest)
                 timing.lap("rewrite")
+                # the curve geometry is planning's alone: measure peaks above planning with
+                # it still held (~9 MB on the gyroid plate); a re-plan rebuilds it in one
+                # batch (schedule._rebuild_geometry, the same bits)
+                for st in strokes:
+                    st.curv = None
+                trim_heap()
                 if prog:
                     prog.start("measure")
                 lines = stroke_lines(strokes, order, out_ranges)

@@ -252,10 +252,13 @@ def vertex_splitter(profile):
     own (a long straight segment as a line, many knots), better than one firmware move per
     segment.  A capped vertex between short segments stays inside: that run is a chain
     (chains.py: gyroid, honeycomb at full speed)."""
-    def split(pm, m):
+    def split(pm, m, dp=None, dn=None, pu=None, u=None):
+        # dp, dn, pu, u: the two moves' lengths and unit directions when the caller has
+        # them (strokes.group_lines, the same hypot and divisions as _d and _u)
         try:       # plain floats: a zero length or a bad root raises here, inf/NaN compare False below
-            dp, dn = _d(pm), _d(m)
-            cap = vertex_cap(profile, m.lim, m.accel, _u(pm), _u(m), dp, dn)
+            if dp is None:
+                dp, dn, pu, u = _d(pm), _d(m), _u(pm), _u(m)
+            cap = vertex_cap(profile, m.lim, m.accel, pu, u, dp, dn)
         except (ArithmeticError, ValueError):   # a degenerate vertex: end the curve there
             return True
         if not cap > 0.0:                       # NaN or a stop

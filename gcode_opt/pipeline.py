@@ -42,6 +42,7 @@ from . import features as feat
 from .emit import StrokeText, emit_arc, emit_stroke
 from . import state as reader
 from .firmware import simulate as fwsim
+from .laws import chain as chain_law
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
@@ -744,6 +745,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             summary["timing_s"] = timing.as_dict()
             summary["firmware_core"] = fwsim.CORE     # "c" or "python": which firmware model played
             summary["reader_core"] = reader.CORE      # and which reader read the common lines
+            summary["chain_core"] = chain_law.CORE    # and which code solved the chains' Newton steps
             opts.peak_rss_mb = dict(timing.peak_mb)       # --profile-time prints it (not in the JSON)
             summary["rewrite_passes"] = timing.passes
             summary["warnings"] = _warnings_json(opts.reader_warnings)

@@ -221,8 +221,10 @@ def test_reader_warnings_name_their_line_and_reach_the_summary(capsys, tmp_path)
     import json
     from gcode_opt import state
     from gcode_opt.firmware import simulate
-    assert f"cores: firmware model {simulate.CORE}, reader {state.CORE}" in err     # c or python
+    from gcode_opt.laws import chain as chain_law
+    assert f"cores: firmware model {simulate.CORE}, reader {state.CORE}, chains {chain_law.CORE}" in err   # c or python
     assert json.loads(js.read_text())["firmware_core"] == simulate.CORE
     assert json.loads(js.read_text())["reader_core"] == state.CORE
+    assert json.loads(js.read_text())["chain_core"] == chain_law.CORE
     w = json.loads(js.read_text())["warnings"]
     assert w["count"] == 1 and w["first"][0]["line"] == 13

@@ -683,21 +683,28 @@ def predict_curve(s, v, a, cos_turn, cos_end0=None, cos_end1=None):
     cruises the rest (time, tangential Σ a_k |Δv_k|), plus the normal term the firmware
     model counts at every vertex turning <= 30 deg: (2 v sin(θ/2))² / ((t_k + t_{k+1})/2),
     and half of it at the curve's two ends (the other half belongs to the neighbour)."""
-    d = np.diff(s)
+    # np.add.reduce is what np.sum runs on a 1-D array (the same pairwise sum), and
+    # x[1:] - x[:-1] np.diff's subtraction, without their per-call overhead (~7 knots)
+    s, v = np.asarray(s), np.asarray(v)
+    d = s[1:] - s[:-1]
     va, vb = v[:-1], v[1:]
     vmax = np.maximum(va, vb)
     a = np.maximum(a, 1e-12)
     ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
-    t = np.abs(vb - va) / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
-    a2 = float(np.sum(a * np.abs(vb - va)))
+    dv = np.abs(vb - va)
+    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    a2 = float(_add(a * dv))
     vi = v[1:-1]
     dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
     tj = 0.5 * (t[:-1] + t[1:])
-    a2 += float(np.sum(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0)))
+    a2 += float(_add(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0)))
     for c, vv, tt in ((cos_end0, v[0], t[0]), (cos_end1, v[-1], t[-1])):
         if c is not None and c >= CORNER_COS:
             a2 += 0.5 * 2.0 * vv * vv * (1.0 - c) / max(tt, 1e-12)
-    return float(np.sum(t)), a2
+    return float(_add(t)), a2
+
+
+_add = np.add.reduce
 
 
 def plan_curve_segments(strokes, T, beta, rules, profile):
@@ -721,16 +728,23 @@ def junction_accels(st, g, vk, acc, rules, profile, vmax=None):
     a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
     v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
     v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
-    vj = np.array(vk, float)
-    vj[0], vj[-1] = v0, v1
-    u = [tuple(x) for x in g.u]
-    pus = [st.prev_u] + u[:-1]            # direction before each segment's start vertex
-    nus = u[1:] + [st.next_u]             # direction after each segment's end vertex
-    for k in range(n):
-        need = accel_to_pass_junction(rules.junction, vj[k], pus[k], u[k], d[k], jd)
-        if rules.junction == "scv":       # Klipper: both moves' accelerations bound the junction
-            need = max(need, accel_to_pass_junction("scv", vj[k + 1], u[k], nus[k], d[k], jd))
-        acc[k] = max(acc[k], min(ACCEL_MARGIN * need, a_top))
+    if rules.junction == "jerk":
+        # accel_to_pass_junction needs 0.0 at every vertex: the loop below would set
+        # acc[k] = max(acc[k], z), which changes only an acc[k] below z
+        z = min(ACCEL_MARGIN * 0.0, a_top)
+        if (acc < z).any():
+            acc = np.array([max(x, z) for x in acc.tolist()])
+    else:
+        vj = np.array(vk, float)
+        vj[0], vj[-1] = v0, v1
+        u = [tuple(x) for x in g.u]
+        pus = [st.prev_u] + u[:-1]            # direction before each segment's start vertex
+        nus = u[1:] + [st.next_u]             # direction after each segment's end vertex
+        for k in range(n):
+            need = accel_to_pass_junction(rules.junction, vj[k], pus[k], u[k], d[k], jd)
+            if rules.junction == "scv":       # Klipper: both moves' accelerations bound the junction
+                need = max(need, accel_to_pass_junction("scv", vj[k + 1], u[k], nus[k], d[k], jd))
+            acc[k] = max(acc[k], min(ACCEL_MARGIN * need, a_top))
     if profile.block_buffer > 0:
         # a finite-lookahead planner must be able to stop within the blocks it knows
         nb = max(profile.block_buffer - 3, 1)
@@ -744,8 +758,9 @@ def junction_accels(st, g, vk, acc, rules, profile, vmax=None):
 
 def finish_curve(st, sk, vk, rules, profile):
     g = geom(st, profile)
-    d = np.diff(sk)
-    acc = np.abs(np.diff(vk * vk)) / (2.0 * d)
+    d = sk[1:] - sk[:-1]                  # np.diff's subtraction, without its overhead
+    v2 = vk * vk
+    acc = np.abs(v2[1:] - v2[:-1]) / (2.0 * d)
     a_top = min(st.accel, st.lim.ax_max, st.lim.ay_max)
     acc = junction_accels(st, g, vk, acc, rules, profile)
     step_v = np.inf

@@ -310,12 +310,79 @@ def allocate(T, I, T_orig, I_orig, budget_t):
 
 def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
     """allocate on its extended tables (the original as the last column); settle: the
-    costs cannot cancel (every finite I and every T >= 0), so the margin test holds."""
+    costs cannot cancel (every finite I and every T >= 0), so the margin test holds.
+
+    Where every T is finite and >= 0 ("plain"), Ix's entries that are not finite are set
+    to inf in place: inf + lambda T is then the inf the choice gave them (lambda is
+    finite), and the cost needs no mask.  Then the rows with at most NARROW_COLS finite
+    candidates (most: a line has its original and ~5 laws of 24 columns) are costed on
+    narrow tables holding their finite entries first, in column order: the same costs,
+    the same least (argmin's first, mapped back to its column) and the same second least
+    (the rest are inf in both), so the same choices and margins."""
     n, k = Ix.shape
     rows = np.arange(n)
+    plain = bool(n and np.isfinite(Tx).all() and Tx.min() >= 0.0)
+    narrow = None
+    if plain:
+        Ix[~finite] = np.inf
+        narrow = _narrow_tables(Tx, Ix, finite)
+    # each stroke's T - T_orig at its current choice, kept row by row as choices change:
+    # the same array, so the same sum, as taking every row's again at each step
+    dT = np.empty(n)
 
-    def spent(j):
-        return float(np.sum(Tx[rows, j] - T_orig))
+    def take(j, r):
+        dT[r] = Tx[r, j] - T_orig[r]
+
+    def spent():
+        return float(np.sum(dT))
+
+    def dense(lam, r):
+        m = len(r)
+        if not plain:
+            cost = np.where(finite[r], Ix[r] + lam * Tx[r], np.inf)
+        elif m and r[-1] - r[0] + 1 == m:          # a run of rows: views, not copies
+            cost = Ix[r[0]:r[0] + m] + lam * Tx[r[0]:r[0] + m]
+        else:
+            cost = Ix[r] + lam * Tx[r]
+        j = np.argmin(cost, axis=1)
+        if k < 2:                 # one candidate: it cannot change
+            return j, np.full(m, np.inf), np.zeros(m)
+        ar = np.arange(m)
+        c1 = cost[ar, j]
+        if np.isnan(c1).any():    # argmin stops at a NaN: sort as before
+            two = np.partition(cost, 1, axis=1)
+            c1, c2 = two[:, 0], two[:, 1]
+        else:                     # the second least: the least once the least is taken out
+            cost[ar, j] = np.inf
+            c2 = np.min(cost, axis=1)
+        return j, c1, c2
+
+    def thin(lam, r):
+        """dense() of rows r, all narrow; None where a least cost is inf (no finite
+        candidate, or an overflow: argmin's first inf may be another column)."""
+        is_n, pos, col, Tn, In = narrow
+        p = pos[r]
+        cost = In[p] + lam * Tn[p]
+        jn = np.argmin(cost, axis=1)
+        ar = np.arange(len(r))
+        c1 = cost[ar, jn]
+        if np.isinf(c1).any():
+            return None
+        cost[ar, jn] = np.inf
+        return col[p, jn].astype(np.intp), c1, np.min(cost, axis=1)
+
+    def block(lam, r):
+        if narrow is not None:
+            nr = narrow[0][r]
+            if nr.all():
+                got = thin(lam, r)
+                if got is not None:
+                    return got
+            elif nr.any():
+                a, b = thin(lam, r[nr]), dense(lam, r[~nr])
+                if a is not None:
+                    return tuple(_merge(nr, x, y) for x, y in zip(a, b))
+        return dense(lam, r)
 
     def choices(lam, r):
         """Choice and margin to the next candidate of rows r at lam (margin inf where only
@@ -324,23 +391,22 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
         if len(r) > ALLOCATE_ROWS:
             parts = [choices(lam, r[a:a + ALLOCATE_ROWS]) for a in range(0, len(r), ALLOCATE_ROWS)]
             return tuple(np.concatenate(x) for x in zip(*parts))
-        cost = np.where(finite[r], Ix[r] + lam * Tx[r], np.inf)
-        j = np.argmin(cost, axis=1)
-        if k < 2:                 # one candidate: it cannot change
-            return j, np.full(len(r), np.inf), np.zeros(len(r))
-        two = np.partition(cost, 1, axis=1)
-        c1, c2 = two[:, 0], two[:, 1]
+        j, c1, c2 = block(lam, r)
+        if k < 2:
+            return j, c1, c2
         with np.errstate(invalid="ignore"):
             margin = np.where(np.isinf(c2), np.inf, c2 - c1)
         return j, margin, MARGIN_R * (np.abs(c1) + np.abs(c2))
 
     j_lo, m_lo, _ = choices(0.0, rows)
-    if spent(j_lo) <= budget_t:
+    take(j_lo, rows)
+    if spent() <= budget_t:
         return j_lo, 0.0
     lo, hi = 0.0, 1.0
     while True:
         j_hi, m_hi, tol_hi = choices(hi, rows)
-        if not (spent(j_hi) > budget_t and hi < 1e30):
+        take(j_hi, rows)
+        if not (spent() > budget_t and hi < 1e30):
             break
         hi *= 10.0
     J = j_hi.copy()               # every stroke's choice; those of `act` are the bracket's ends'
@@ -354,12 +420,42 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
         mid = 0.5 * (lo + hi)
         j_mid, m_mid, tol_mid = choices(mid, act)
         J[act] = j_mid
-        if spent(J) > budget_t:
+        take(j_mid, act)
+        if spent() > budget_t:
             lo, j_lo, m_lo = mid, j_mid, m_mid
         else:
             hi, j_hi, m_hi, tol_hi = mid, j_mid, m_mid, tol_mid
     J[act] = j_hi
     return J, hi
+
+
+NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
+
+
+def _narrow_tables(Tx, Ix, finite):
+    """(is_narrow per row, row -> narrow row, narrow column -> column, T, I) of the rows
+    with at most NARROW_COLS finite entries, those first in column order; None when
+    there are none or the tables are no wider (a stroke's T and I are its own row's)."""
+    n, k = Ix.shape
+    w = max(NARROW_COLS, 2)
+    if k <= w:
+        return None
+    is_n = finite.sum(axis=1) <= w
+    if not is_n.any():
+        return None
+    col = np.argsort(~finite[is_n], axis=1, kind="stable")[:, :w]
+    Tn = np.take_along_axis(Tx[is_n], col, axis=1)
+    In = np.take_along_axis(Ix[is_n], col, axis=1)
+    pos = np.full(n, -1)
+    pos[is_n] = np.arange(int(is_n.sum()))
+    return is_n, pos, col.astype(np.int16 if k < 2 ** 15 else np.intp), Tn, In
+
+
+def _merge(mask, a, b):
+    """One array of mask's length: a where mask, b elsewhere."""
+    out = np.empty(mask.size, np.result_type(a, b))
+    out[mask], out[~mask] = a, b
+    return out
 
 
 ALLOCATE_ROWS = 4096    # rows of a cost matrix in allocate (~0.7 MB a matrix of 21 columns)

@@ -239,6 +239,44 @@ def _tenths(k: int) -> str:
     return f"{q}.{r}" if r else str(q)
 
 
+# texts by value: a block's feeds and accelerations repeat across a print (the gyroid plate:
+# 335 k feeds, 3.5 k texts).  Bounded: a full table is emptied and refilled.
+_CACHE_MAX = 1 << 16
+_FEED_TEXTS: dict = {}           # feed (mm/s, float) -> F text
+_ACCEL_CMDS: dict = {}           # (M204 word, line end) -> {ceil(10 a): command line}
+
+
+def _feed_segment_text(f: float) -> str:
+    """_feed_text(f) (raising as it does), remembered in _FEED_TEXTS.  Equal floats have one
+    text (0.0 == -0.0 raises: never stored)."""
+    if not (math.isfinite(f) and f > 0.0):
+        _feed_text(f)                # raises, saying why
+    kf = math.ceil(f * 600.0 - 1e-6)
+    if 1 < kf < _TENTHS_MAX:         # _tenths(kf) written out
+        q, r = divmod(kf, 10)
+        text = f"{q}.{r}" if r else str(q)
+    else:
+        text = _tenths(1) if kf <= 1 else _num1(kf / 10.0)
+    if len(_FEED_TEXTS) >= _CACHE_MAX:
+        _FEED_TEXTS.clear()
+    _FEED_TEXTS[f] = text
+    return text
+
+
+def _accel_cmd_text(ka: int, accel_word: str, nl: str, table: dict) -> str:
+    """The command line of an acceleration rounded up to ka tenths (accel_command's text),
+    remembered in table."""
+    if 1 < ka < _TENTHS_MAX:         # _tenths(ka) written out
+        q, r = divmod(ka, 10)
+        cmd = f"{accel_word}{q}.{r}{nl}" if r else f"{accel_word}{q}{nl}"
+    else:
+        cmd = f"{accel_word}{_tenths(1) if ka <= 1 else _num1(ka / 10.0)}{nl}"
+    if len(table) >= _CACHE_MAX:
+        table.clear()
+    table[ka] = cmd
+    return cmd
+
+
 def _canon(text: str) -> str:
     """_fmt_units(_units(text, dec), dec) for a number text with at most dec decimals
     (dec >= 1): the same value written without leading or trailing zeros."""
@@ -284,6 +322,12 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     # accel_command's word: "M204 S" / "M204 P" / "M204 T"
     accel_word = "M204 S" if flavour in ("klipper", "marlin-legacy") else ("M204 P" if extruding else "M204 T")
     isfinite, ceil = math.isfinite, math.ceil
+    feed_texts = _FEED_TEXTS
+    accel_cmds = _ACCEL_CMDS.get((accel_word, nl))
+    if accel_cmds is None:
+        if len(_ACCEL_CMDS) >= 64:       # a print has one or two (word, line end) pairs
+            _ACCEL_CMDS.clear()
+        accel_cmds = _ACCEL_CMDS[(accel_word, nl)] = {}
     tol_d = 1e-9 * max(1.0, ends_d[-1])
     end_d = ends_d[0]
     start_d = 0.0
@@ -322,24 +366,16 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
                 accel_command(flavour, a, extruding)     # raises, saying why
             # accel_command(flavour, a, extruding) written out: once per segment
             ka = ceil(a * 10.0 - 1e-9)
-            if 1 < ka < _TENTHS_MAX:     # _tenths(ka) written out
-                q, r = divmod(ka, 10)
-                cmd = f"{accel_word}{q}.{r}{nl}" if r else f"{accel_word}{q}{nl}"
-            else:
-                cmd = f"{accel_word}{_tenths(1) if ka <= 1 else _num1(ka / 10.0)}{nl}"
+            cmd = accel_cmds.get(ka)
+            if cmd is None:
+                cmd = _accel_cmd_text(ka, accel_word, nl, accel_cmds)
             last_a = a
             if cmd != last_accel:
                 append(cmd)
                 last_accel = cmd
-        f = feeds[k - 1]                 # _feed_text written out
-        if not (isfinite(f) and f > 0.0):
-            _feed_text(f)                # raises, saying why
-        kf = ceil(f * 600.0 - 1e-6)
-        if 1 < kf < _TENTHS_MAX:
-            q, r = divmod(kf, 10)
-            f = f"{q}.{r}" if r else str(q)
-        else:
-            f = _tenths(1) if kf <= 1 else _num1(kf / 10.0)
+        f = feed_texts.get(feeds[k - 1])      # _feed_text, cached by value (a print has few)
+        if f is None:
+            f = _feed_segment_text(feeds[k - 1])
         if not extruding:
             append(f"G1 X{xt} Y{yt} F{f}{(' ' + comment) if comment else ''}{nl}")
         elif comment:

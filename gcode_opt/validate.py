@@ -277,17 +277,40 @@ def _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min
         return False
 
 
+# number texts already found good, by what they were checked for: float(text) is a function
+# of the text, so a text seen to pass passes again, without its float() (a print's blocks
+# repeat few F and M204 texts: the gyroid plate's 335 k F words are 3.5 k texts).  Bounded:
+# a full set is emptied and refilled
+_GOOD_MAX = 1 << 16
+_GOOD_FEEDS: set = set()         # plain decimals with 0 < value < inf (F)
+_GOOD_ACCELS: dict = {}          # accel_max_a -> plain decimals with 0 < value <= accel_max_a + 0.1
+
+
+def _remember(good: set, texts) -> None:
+    if len(good) >= _GOOD_MAX:
+        good.clear()
+    good.update(texts)
+
+
 def _fast_values(moves, feeds, accels, ratios, accel_max_a, geometry, e_check, min_move_d) -> bool:
     """_fast_ok's checks of the numbers (float() raising ValueError on a text that is not one)."""
     if accels:
-        v = list(map(float, accels))
-        hi = max(v)
-        if not (min(v) > 0.0 and hi <= accel_max_a + 0.1 + 1e-9 and hi < _INF):
-            return False
-    if feeds:
+        good = _GOOD_ACCELS.get(accel_max_a)
+        if good is None or not good.issuperset(accels):
+            v = list(map(float, accels))
+            hi = max(v)
+            if not (min(v) > 0.0 and hi <= accel_max_a + 0.1 + 1e-9 and hi < _INF):
+                return False
+            if good is None:
+                if len(_GOOD_ACCELS) >= 64:      # a few limits a print (the profile's, the slicer's)
+                    _GOOD_ACCELS.clear()
+                good = _GOOD_ACCELS[accel_max_a] = set()
+            _remember(good, accels)
+    if feeds and not _GOOD_FEEDS.issuperset(feeds):
         v = list(map(float, feeds))
         if not (min(v) > 0.0 and max(v) < _INF):
             return False
+        _remember(_GOOD_FEEDS, feeds)
     if ratios:
         v = list(map(float, ratios))
         if not (min(v) >= 0.0 and max(v) < 1.0):
@@ -295,9 +318,11 @@ def _fast_values(moves, feeds, accels, ratios, accel_max_a, geometry, e_check, m
     e_words = []
     if moves:
         xts, yts, ets, fts = zip(*moves)
-        v = list(map(float, fts))
-        if not (min(v) > 0.0 and max(v) < _INF):
-            return False
+        if not _GOOD_FEEDS.issuperset(fts):
+            v = list(map(float, fts))
+            if not (min(v) > 0.0 and max(v) < _INF):
+                return False
+            _remember(_GOOD_FEEDS, fts)
         xs, ys = list(map(float, xts)), list(map(float, yts))
         if not (max(xs) < _INF and min(xs) > -_INF and max(ys) < _INF and min(ys) > -_INF):
             return False

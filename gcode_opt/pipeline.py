@@ -189,14 +189,9 @@ def analyse(path, profile: Profile, opts: Options):
             if st.last_idx < i:         # its last lines had no record
                 due.popleft()
                 continue
-            if st.first_idx <= i:           # apply(st, r) written out: most records come here
-                if i == st.first_idx:
-                    st.v0 = r.start_v
-                st.time_t += r.time_t
-                st.int_a2 += r.int_a2 + r.int_a2_j
-                st.int_v2 += r.int_v2
+            if st.first_idx <= i:
+                apply(st, r)
                 if i == st.last_idx:
-                    st.v1 = r.end_v
                     due.popleft()
             return
         if i >= opened[0]:

@@ -263,8 +263,8 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
 
     max_turn_deg > 0 turns curve strokes on: a run of adjacent compatible eligible G1 moves
     whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move, their
-    lengths, their unit directions), if given, does not reject: a vertex whose firmware speed cap no acceleration lifts is
-    below the feed) is one curve stroke when it really turns (a vertex turns by more than
+    lengths, their unit directions), if given, does not reject: a vertex whose firmware
+    speed cap no acceleration lifts is below the feed) is one curve stroke when it really turns (a vertex turns by more than
     COLLINEAR_SIN); else straight strokes (_straight_parts).
 
     start_state(), if given, is called when a run or an arc stroke starts (the reader has
@@ -372,7 +372,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 dot = lux * ux + luy * uy
                 if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # collinear
                     take = True
-                elif dot >= min_cos and (split_vertex is None or not split_vertex(pm, ev, run_d[-1], d, (lux, luy), (ux, uy))):
+                elif dot >= min_cos and (split_vertex is None
+                                         or not split_vertex(pm, ev, run_d[-1], d, (lux, luy), (ux, uy))):
                     take = turned = True
                 else:
                     take = False

@@ -34,7 +34,7 @@ def accel_command(flavour: str, accel_a: float, extruding: bool, round_up: bool 
     if not (math.isfinite(accel_a) and accel_a > 0.0):
         raise ValueError(f"acceleration {accel_a!r} is not a positive number")   # M204 S0 stops Klipper
     if round_up:
-        a = _num(max(math.ceil(accel_a * 10.0 - 1e-9) / 10.0, 0.1), 1)
+        a = _tenths_up(math.ceil(accel_a * 10.0 - 1e-9))
     else:                                 # a restore: the value in force, not a rounded one
         a = _num(accel_a, 3 if accel_a >= 1.0 else 8)
         if a == "0":
@@ -48,7 +48,7 @@ def _feed_text(feed_v: float) -> str:
     """F (mm/min) of a segment, rounded up: never below the knot speed, never 0."""
     if not (math.isfinite(feed_v) and feed_v > 0.0):
         raise ValueError(f"feed {feed_v!r} is not a positive number")
-    return _num(max(math.ceil(feed_v * 600.0 - 1e-6) / 10.0, 0.1), 1)
+    return _tenths_up(math.ceil(feed_v * 600.0 - 1e-6))
 
 
 def _num(x: float, dec: int) -> str:
@@ -239,6 +239,14 @@ def _tenths(k: int) -> str:
     return f"{q}.{r}" if r else str(q)
 
 
+def _tenths_up(k: int) -> str:
+    """_num(max(k / 10, 0.1), 1) for an integer k (a value rounded up to k tenths): the
+    text of the feeds and accelerations the emitter writes."""
+    if k <= 1:
+        return "0.1"
+    return _tenths(k) if k < _TENTHS_MAX else _num1(k / 10.0)
+
+
 # texts by value: a block's feeds and accelerations repeat across a print (the gyroid plate:
 # 335 k feeds, 3.5 k texts).  Bounded: a full table is emptied and refilled.
 _CACHE_MAX = 1 << 16
@@ -247,30 +255,19 @@ _ACCEL_CMDS: dict = {}           # (M204 word, line end) -> {ceil(10 a): command
 
 
 def _feed_segment_text(f: float) -> str:
-    """_feed_text(f) (raising as it does), remembered in _FEED_TEXTS.  Equal floats have one
-    text (0.0 == -0.0 raises: never stored)."""
-    if not (math.isfinite(f) and f > 0.0):
-        _feed_text(f)                # raises, saying why
-    kf = math.ceil(f * 600.0 - 1e-6)
-    if 1 < kf < _TENTHS_MAX:         # _tenths(kf) written out
-        q, r = divmod(kf, 10)
-        text = f"{q}.{r}" if r else str(q)
-    else:
-        text = _tenths(1) if kf <= 1 else _num1(kf / 10.0)
+    """_feed_text(f), remembered in _FEED_TEXTS (a feed it refuses raises and is never
+    stored; 0.0 == -0.0 is refused, so equal keys have one text)."""
+    text = _feed_text(f)
     if len(_FEED_TEXTS) >= _CACHE_MAX:
         _FEED_TEXTS.clear()
     _FEED_TEXTS[f] = text
     return text
 
 
-def _accel_cmd_text(ka: int, accel_word: str, nl: str, table: dict) -> str:
-    """The command line of an acceleration rounded up to ka tenths (accel_command's text),
-    remembered in table."""
-    if 1 < ka < _TENTHS_MAX:         # _tenths(ka) written out
-        q, r = divmod(ka, 10)
-        cmd = f"{accel_word}{q}.{r}{nl}" if r else f"{accel_word}{q}{nl}"
-    else:
-        cmd = f"{accel_word}{_tenths(1) if ka <= 1 else _num1(ka / 10.0)}{nl}"
+def _accel_cmd_text(ka: int, accel_a: float, flavour: str, extruding: bool, nl: str, table: dict) -> str:
+    """accel_command's line for accel_a (rounded up to ka tenths: its text is a function
+    of ka), remembered in table by ka."""
+    cmd = accel_command(flavour, accel_a, extruding) + nl
     if len(table) >= _CACHE_MAX:
         table.clear()
     table[ka] = cmd
@@ -364,11 +361,10 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         if a != last_a:                  # the same value gives the same command
             if not (isfinite(a) and a > 0.0):
                 accel_command(flavour, a, extruding)     # raises, saying why
-            # accel_command(flavour, a, extruding) written out: once per segment
-            ka = ceil(a * 10.0 - 1e-9)
+            ka = ceil(a * 10.0 - 1e-9)   # accel_command's rounding: its text is ka's
             cmd = accel_cmds.get(ka)
             if cmd is None:
-                cmd = _accel_cmd_text(ka, accel_word, nl, accel_cmds)
+                cmd = _accel_cmd_text(ka, a, flavour, extruding, nl, accel_cmds)
             last_a = a
             if cmd != last_accel:
                 append(cmd)

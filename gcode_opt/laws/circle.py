@@ -554,6 +554,11 @@ class CircleBatch:
         return CircleBatch(self.phi_total[sl], self.T_t[sl], self.beta_s2[sl], self.w0[sl], self.w1[sl],
                            self.R_d[sl], self.regime[sl], self.wc[sl], self.cc[sl], self.coef[sl])
 
+    def take(self, idx) -> "CircleBatch":
+        """The arcs idx (integer array) as a batch of their own (copies)."""
+        return CircleBatch(self.phi_total[idx], self.T_t[idx], self.beta_s2[idx], self.w0[idx], self.w1[idx],
+                           self.R_d[idx], self.regime[idx], self.wc[idx], self.cc[idx], self.coef[idx])
+
     def row_chunks(self):
         """Slices of at most EVAL_CHUNK arcs: evaluations on (arcs, grid) arrays go chunk by
         chunk so that memory does not grow with the batch.  Every evaluation is per arc, so
@@ -561,25 +566,27 @@ class CircleBatch:
         return [slice(a, a + EVAL_CHUNK) for a in range(0, len(self), EVAL_CHUNK)]
 
     # -- dimensionless evaluation: φ, w = φ', w', w'' at τ (B, M) --------------------------
-    def eval_tau(self, tau: np.ndarray, idx=None):
+    def eval_tau(self, tau: np.ndarray, idx=None, w2=True):
+        """(φ, w, w', w'') at τ; w2=False: w'' is not computed (None), the other three are
+        the same numbers (the curve planner reads φ, w, w' only: w'' cost a cube per point)."""
         idx = np.arange(len(self)) if idx is None else np.asarray(idx)
         tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:]).copy()
-        out = [np.empty_like(tau) for _ in range(4)]
+        out = [np.empty_like(tau) for _ in range(4 if w2 else 3)]
         gam2 = self.gamma[idx] ** 2
         lay = self.regime[idx]
         if lay.any():
             k = np.nonzero(lay)[0]
-            r = self._eval_layers(tau[k], idx[k], gam2[k])
+            r = self._eval_layers(tau[k], idx[k], gam2[k], w2)
             for o, v in zip(out, r):
                 o[k] = v
         if (~lay).any():
             k = np.nonzero(~lay)[0]
-            r = self._eval_cheb(tau[k], idx[k], gam2[k])
+            r = self._eval_cheb(tau[k], idx[k], gam2[k], w2)
             for o, v in zip(out, r):
                 o[k] = v
-        return out
+        return out if w2 else out + [None]
 
-    def _eval_layers(self, tau, idx, gam2):
+    def _eval_layers(self, tau, idx, gam2, w2=True):
         wc = self.wc[idx][:, None]
         g2 = gam2[:, None]
         u0, u1 = self.w0[idx] * self.T_t[idx], self.w1[idx] * self.T_t[idx]
@@ -592,14 +599,15 @@ class CircleBatch:
         w = wc + dl + dr
         c = g2 + 6.0 * wc * wc
 
-        def dp(d):   # d' (in σ) and d''
-            return -d * np.sqrt(np.maximum(d * d + 4.0 * wc * d + c, 0.0)), \
-                d * (c + 6.0 * wc * d + 2.0 * d * d)
-        dl1, dl2 = dp(dl)
-        dr1, dr2 = dp(dr)
-        return phi, w, dl1 - dr1, dl2 + dr2
+        def dp(d):   # d' (in σ)
+            return -d * np.sqrt(np.maximum(d * d + 4.0 * wc * d + c, 0.0))
 
-    def _eval_cheb(self, tau, idx, gam2):
+        def dpp(d):  # d''
+            return d * (c + 6.0 * wc * d + 2.0 * d * d)
+        w1 = dp(dl) - dp(dr)
+        return phi, w, w1, (dpp(dl) + dpp(dr) if w2 else None)
+
+    def _eval_cheb(self, tau, idx, gam2, w2=True):
         from numpy.polynomial import chebyshev as C
         x = 2.0 * tau - 1.0
         coef = self.coef[idx]
@@ -609,8 +617,9 @@ class CircleBatch:
         dcoef = C.chebder(coef, axis=1, scl=2.0)
         pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
         w, w1, phi = _series_values((wcoef, dcoef, pcoef), x)
-        w2 = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
-        return phi, w, w1, w2
+        if not w2:
+            return phi, w, w1, None
+        return phi, w, w1, gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
 
     # -- dimensional quantities ------------------------------------------------------------
     def eval(self, t_t, idx=None):
@@ -633,13 +642,21 @@ class CircleBatch:
         """Per-arc quadrature nodes in τ resolving the layers (and their weights)."""
         return _graded_grid(*self._grid_plan())
 
-    def grid_chunks(self):
+    def grid_chunks(self, idx=None):
         """(slice, τ nodes, weights) per chunk of arcs: the batch's _quad_grid, built chunk
         by chunk (each arc's nodes depend on its own layer width and the batch's number of
-        levels only), so the (arcs, nodes) arrays are never held for the whole batch."""
+        levels only), so the (arcs, nodes) arrays are never held for the whole batch.
+        idx: only these arcs (an integer array; chunks of EVAL_CHUNK of them, each given
+        as its index array), on the whole batch's grid: the same nodes as without idx."""
         h, levels = self._grid_plan()
-        for sl in self.row_chunks():
-            yield (sl,) + _graded_grid(h[sl], levels)
+        if idx is None:
+            for sl in self.row_chunks():
+                yield (sl,) + _graded_grid(h[sl], levels)
+            return
+        idx = np.asarray(idx, int)
+        for a in range(0, idx.size, EVAL_CHUNK):
+            r = idx[a:a + EVAL_CHUNK]
+            yield (r,) + _graded_grid(h[r], levels)
 
     def _grid_plan(self):
         """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch."""

@@ -265,7 +265,9 @@ def group_strokes(event_iter, selected, min_length_d: float = 0.0, max_turn_deg:
     whose every vertex turns by <= max_turn_deg (and that split_vertex(prev_move, move, their
     lengths, their unit directions), if given, does not reject: a vertex whose firmware
     speed cap no acceleration lifts is below the feed) is one curve stroke when it really turns (a vertex turns by more than
-    COLLINEAR_SIN); else straight strokes (_straight_parts).
+    COLLINEAR_SIN); else straight strokes (_straight_parts).  A split_vertex carrying
+    short_bounds(lim, accel, min_cos) (vertex_filter.splitter) is not called at a vertex whose
+    two lengths lie in the bounds it returns: there it is proven False.
 
     start_state(), if given, is called when a run or an arc stroke starts (the reader has
     just read its first line) and must return (E before that line, acceleration of printing
@@ -315,6 +317,10 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
     r_last = -2            # idx of the run's last move
     pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
+    # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
+    # lengths at which split_vertex is proven False, kept for one (limits, acceleration)
+    f_bounds = getattr(split_vertex, "short_bounds", None)
+    f_lim, f_accel, f_lo, f_hi = None, None, 1.0, 0.0
     if opened is None:
         opened = [NOT_OPEN]
     else:
@@ -372,9 +378,19 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 dot = lux * ux + luy * uy
                 if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # collinear
                     take = True
-                elif dot >= min_cos and (split_vertex is None
-                                         or not split_vertex(pm, ev, run_d[-1], d, (lux, luy), (ux, uy))):
-                    take = turned = True
+                elif dot >= min_cos:
+                    if split_vertex is None:
+                        take = turned = True
+                    else:
+                        dp = run_d[-1]
+                        if ev.lim is not f_lim or r_accel != f_accel:    # (rarely) other limits
+                            f_lim, f_accel = ev.lim, r_accel
+                            f_lo, f_hi = f_bounds(f_lim, f_accel, min_cos) if f_bounds else (1.0, 0.0)
+                        # lengths in the filter's bounds prove split False (vertex_filter.py)
+                        take = ((f_lo <= d <= f_hi and f_lo <= dp <= f_hi)
+                                or not split_vertex(pm, ev, dp, d, (lux, luy), (ux, uy)))
+                        if take:
+                            turned = True
                 else:
                     take = False
                 if take:

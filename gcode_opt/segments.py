@@ -156,11 +156,6 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
     vf = np.broadcast_to(np.asarray(v_feed, float), (k,))
     out = np.array(need, float)
     live = np.flatnonzero(np.isfinite(step))        # an infinite step leaves the row as it is
-    if live.size * n >= TENT_OFFSETS_CELLS:
-        sub, st = out[live], step[live]
-        if (sub > 0.0).all() and (st > 0.0).all():
-            out[live] = _tent_by_offsets(sub, vf[live], st)
-            return out
     ar = _tent_dist(n)
     per = max(1, max_cells // max(n * (n + 2), 1))
     for a in range(0, live.size, per):
@@ -169,33 +164,6 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
         pad = np.concatenate([side, need[r], side], axis=1)
         dist = step[r][:, None, None] * ar[None, :, :]
         out[r] = np.max(pad[:, None, :] - dist, axis=2)
-    return out
-
-
-TENT_OFFSETS_CELLS = 1500   # rows x segments from which _tent_by_offsets is the faster (~2-3x at 10^4-10^5)
-
-
-def _tent_by_offsets(need, v_feed, step):
-    """tent_feeds_rows' envelope max_j(pad_j - step |k - j|) one offset d = |k - j| at a
-    time, on (rows, n) arrays instead of a (rows, n, n + 2) one: the same differences
-    (step * d, then pad_j minus it), and a max is exact whatever its order.  Only for
-    need > 0 and step > 0 (then no max is a zero, whose sign the order could pick;
-    NaN is excluded too)."""
-    n = need.shape[1]
-    side = (v_feed + step)[:, None]
-    pad = np.concatenate([side, need, side], axis=1)     # pad[:, j + 1]: j = -1 .. n
-    out = need.copy()                                    # d = 0: need - step * 0 = need
-    tmp = np.empty_like(need)
-    st = step[:, None]
-    for d in range(1, n + 1):
-        s = st * d
-        c = min(n, n - d + 1)                            # j = k + d <= n: k < c
-        if c > 0:
-            np.subtract(pad[:, d + 1:d + 1 + c], s, out=tmp[:, :c])
-            np.maximum(out[:, :c], tmp[:, :c], out=out[:, :c])
-        c = n - d + 1                                    # j = k - d >= -1: k >= d - 1
-        np.subtract(pad[:, :c], s, out=tmp[:, :c])
-        np.maximum(out[:, d - 1:], tmp[:, :c], out=out[:, d - 1:])
     return out
 
 

@@ -288,11 +288,13 @@ class CurveGeom:
     __slots__ = ("_pts", "_b", "_k", "_cb", "_c0", "_cb1", "_c1", "kappa_eff", "cap", "cos_end",
                  "chain_caps")
 
-    def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None):
+    def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None, cap=None, cos_end=None):
         """seg: (pts, d, u) from _segments; parts: (block, row) of _batch_parts (the same
         bits for many strokes at once); caps, caps_jerk1: the vertex caps (classic jerk's
         at the whole jerk: chains.vertex_caps), an array or (flat array, first cap) as
-        build_geoms computes them for many strokes at once; caps None: computed here."""
+        build_geoms computes them for many strokes at once; caps None: computed here.
+        cap, cos_end: those fields as build_geoms computes them for many strokes (the
+        same numbers, _ends_rows); None: computed here."""
         self._pts = st.pts                # the stroke's own vertices: pts is read by tests only
         if parts is not None:
             self._b, self._k = parts
@@ -304,8 +306,13 @@ class CurveGeom:
         self._cb, self._c0 = caps if isinstance(caps, tuple) else (caps, 0)
         self._cb1, self._c1 = caps_jerk1 if isinstance(caps_jerk1, tuple) else (caps_jerk1, 0)
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
-        caps = self.caps
-        self.cap = CAP_MARGIN * min(caps.tolist()) if caps.size else math.inf
+        if cap is None:
+            caps = self.caps
+            cap = CAP_MARGIN * min(caps.tolist()) if caps.size else math.inf
+        self.cap = cap
+        if cos_end is not None:
+            self.cos_end = cos_end
+            return
         # turns at the two ends (None: a stop or a corner): the firmware model counts half
         # of each end junction's normal term in the stroke, as it did for the original
         u = self.u
@@ -413,6 +420,7 @@ def build_geoms(strokes, profile, jerk1=False):
     parts = _batch_parts(todo)
     segs = [None if p is not None else _segments(st) for st, p in zip(todo, parts)]
     caps, caps1 = [None] * len(todo), [None] * len(todo)
+    cap, ends = [None] * len(todo), [None] * len(todo)      # CurveGeom's cap and cos_end, in batches
     # the caps by chunks of strokes (CAPS_CHUNK vertices): their temporaries, ~20 arrays
     # of a double per vertex, were ~40 MB at once on the gyroid plate; elementwise, so the
     # same bits (a chunk whose input the vectorised form does not take: stroke by stroke)
@@ -426,12 +434,51 @@ def build_geoms(strokes, profile, jerk1=False):
         if got is None:
             continue
         caps[lo:hi] = [(got[0], a) for a in got[1]]
+        cap[lo:hi] = _cap_rows(got[0], got[1], [x.size for x in ds])
+        ends[lo:hi] = _ends_rows(sts, us)
         if jerk1 and profile.junction == "jerk":
             got = _caps_flat_rows(sts, profile, us, ds, 1.0)
             if got is not None:
                 caps1[lo:hi] = [(got[0], a) for a in got[1]]
-    for st, sg, pa, c, c1 in zip(todo, segs, parts, caps, caps1):
-        st.curv = CurveGeom(st, profile, sg, c, c1, pa)
+    for st, sg, pa, c, c1, cp, ce in zip(todo, segs, parts, caps, caps1, cap, ends):
+        st.curv = CurveGeom(st, profile, sg, c, c1, pa, cp, ce)
+
+
+def _cap_rows(flat, starts, n_seg):
+    """CurveGeom.cap of strokes whose caps are flat[starts[k]:][:n_seg[k] - 1]: CAP_MARGIN x
+    their least (inf if none), or [None] * len(starts) (computed per stroke) when a cap is
+    NaN (Python's min skips it where np.minimum does not) or <= 0 (the sign of a zero)."""
+    if not (flat > 0.0).all():
+        return [None] * len(starts)
+    nv = np.maximum(np.asarray(n_seg, int) - 1, 0)
+    has = nv > 0
+    least = [math.inf] * len(starts)
+    if has.any():
+        got = np.minimum.reduceat(flat, np.asarray(starts, int)[has]).tolist() if flat.size else []
+        for k, m in zip(np.flatnonzero(has).tolist(), got):
+            least[k] = CAP_MARGIN * m
+    return least
+
+
+def _ends_rows(sts, us):
+    """CurveGeom.cos_end of the strokes sts (unit directions us): the same products and
+    sums as CurveGeom's per stroke (each a numpy float64), in arrays."""
+    m = len(sts)
+    first = np.array([u[0] for u in us], float).reshape(m, 2)
+    last = np.array([u[-1] for u in us], float).reshape(m, 2)
+    nan2 = (math.nan, math.nan)
+    pu = [st.prev_u for st in sts]
+    nu = [st.next_u for st in sts]
+    p = np.array([nan2 if x is None else x for x in pu], float).reshape(m, 2)
+    q = np.array([nan2 if x is None else x for x in nu], float).reshape(m, 2)
+    c0 = p[:, 0] * first[:, 0] + p[:, 1] * first[:, 1]
+    c1 = last[:, 0] * q[:, 0] + last[:, 1] * q[:, 1]
+    out = []
+    for a, b, x, y in zip(pu, nu, c0, c1):
+        e0 = x if a is not None and x >= CORNER_COS else None
+        e1 = y if b is not None and y >= CORNER_COS else None
+        out.append(_NO_ENDS if e0 is None and e1 is None else (e0, e1))
+    return out
 
 
 CAPS_CHUNK = 1 << 15        # vertices of one batched caps pass (build_geoms)

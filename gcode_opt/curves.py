@@ -749,12 +749,14 @@ def curve_knots(strokes, T, beta, profile):
         sub = law.rows(sl)
         tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (len(sub), 513))
         phi, w, _, _ = sub.eval_tau(tau, w2=False)
+        # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
+        # chunk (elementwise, and an exact max: the same numbers as law by law)
+        Rc = R[sl, None]
+        s_run = np.maximum.accumulate(Rc * phi, axis=1)
+        vd = np.maximum(Rc * w / T[sl, None], 0.0)
         for k, i in enumerate(range(m)[sl]):
-            st = strokes[i]
-            sd = R[i] * phi[k]
-            vd = np.maximum(R[i] * w[k] / T[i], 0.0)
-            s = np.concatenate([[0.0], np.asarray(st.ends_d, float)])
-            v = np.interp(s, np.maximum.accumulate(sd), vd)
+            s = np.concatenate([[0.0], np.asarray(strokes[i].ends_d, float)])
+            v = _interp(s, s_run[k], vd[k], None, None)      # np.interp's core, the same bits
             v[0], v[-1] = v0[i], v1[i]
             out.append((s, v))
     return out

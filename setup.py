@@ -2,7 +2,8 @@
 and the compiled fast path of the reader (gcode_opt/_reader.c, module _gcode_opt_reader,
 used by state.py under the same rules: optional, top-level, SHA-256 checked, same bits),
 and the chains' Newton steps (gcode_opt/laws/_chaincore.c, module _gcode_opt_chaincore,
-used by laws/chain.py under the same rules).
+used by laws/chain.py under the same rules), and the rewrite's per-line work
+(gcode_opt/_emit.c, module _gcode_opt_emit, used by emit.py and validate.py, same rules).
 
 Everything else is in pyproject.toml.  The extension is optional: without a C compiler
 (or Python headers) the build prints a warning, skips it, and the install goes on; the
@@ -44,6 +45,7 @@ SOURCE = "gcode_opt/firmware/_core.c"
 SHA256 = _sha256(SOURCE)
 READER_SOURCE = "gcode_opt/_reader.c"
 CHAIN_SOURCE = "gcode_opt/laws/_chaincore.c"   # the chains' Newton steps (laws/chain.py), same rules
+EMIT_SOURCE = "gcode_opt/_emit.c"               # the rewrite's emitter and validator passes (emit.py, validate.py)
 
 setup(
     ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
@@ -51,6 +53,8 @@ setup(
                  Extension("_gcode_opt_reader", [READER_SOURCE], optional=True,
                            define_macros=[("READER_SOURCE_SHA256", f'"{_sha256(READER_SOURCE)}"')]),
                  Extension("_gcode_opt_chaincore", [CHAIN_SOURCE], optional=True,
-                           define_macros=[("CHAINCORE_SOURCE_SHA256", f'"{_sha256(CHAIN_SOURCE)}"')])],
+                           define_macros=[("CHAINCORE_SOURCE_SHA256", f'"{_sha256(CHAIN_SOURCE)}"')]),
+                 Extension("_gcode_opt_emit", [EMIT_SOURCE], optional=True,
+                           define_macros=[("EMIT_SOURCE_SHA256", f'"{_sha256(EMIT_SOURCE)}"')])],
     cmdclass={"build_ext": BuildExt},
 )

@@ -20,9 +20,19 @@ from __future__ import annotations
 import functools
 import math
 import operator
+import os
 import re
 
+from . import native
 from .words import decimals, param_texts, split_comment, strip_checksum
+
+# The compiled rewrite core (_emit.c, module _gcode_opt_emit): optional, the same texts as
+# the Python code below, which runs where it is missing or declines a case
+# (tests/test_speed_rewrite_core.py)
+CORE_MOD, CORE_WHY = native.load("_gcode_opt_emit",
+                                 os.path.join(os.path.dirname(os.path.abspath(__file__)), "_emit.c"),
+                                 "emit core")
+CORE = "c" if CORE_MOD is not None else "python"
 
 BEGIN = "; gcode-opt begin"
 END = "; gcode-opt end"
@@ -126,7 +136,17 @@ class StrokeText:
     def __init__(self, raws, x_start_text, y_start_text, e_start_units):
         self.raws = raws
         self.x_start_text, self.y_start_text = x_start_text, y_start_text
-        got = _plain_moves(raws)
+        got = NotImplemented
+        if CORE_MOD is not None:  # the compiled reading, its decimals too
+            got = CORE_MOD.plain_moves(raws, x_start_text, y_start_text)
+            if got is not None and got is not NotImplemented:
+                (self.x_texts, self.y_texts, self.e_texts, self.e_given, self.comments, self.values,
+                 self.dec_xy, self.dec_e) = got
+                self.e_start_units = e_start_units
+                self.newline = raws[0][len(raws[0].rstrip("\r\n")):] or "\n"
+                return
+        if got is NotImplemented:
+            got = _plain_moves_py(raws)
         if got is not None:      # every line "G1 X Y [E] [;comment]": one regex over the stroke
             xs, ys, es, given, self.comments, self.values = got
         else:
@@ -173,6 +193,15 @@ _ends_nl = operator.methodcaller("endswith", "\n")
 
 
 def _plain_moves(raws):
+    """_plain_moves_py(raws), by the compiled core when it takes the lines (ASCII str in a list)."""
+    if CORE_MOD is not None:
+        got = CORE_MOD.plain_moves(raws, "", "")
+        if got is not NotImplemented:
+            return got if got is None else got[:6]
+    return _plain_moves_py(raws)
+
+
+def _plain_moves_py(raws):
     """(x texts, y texts, e texts, e given, comments, (x values, y values, given e values))
     when every line of raws is a plain "G1 X Y [E]" line ending in "\n" (then the n
     matches are the n lines), else None."""
@@ -296,6 +325,11 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
     original vertex (ends_d); accels (mm/s^2) and feeds (mm/s): one per segment.
     first_cmds: (before, after) lines around the first move (a junction command that
     slows the corner into the stroke, and the value in force back: corners.py)."""
+    if CORE_MOD is not None:
+        text = _emit_core(st, ends_d, s, accels, feeds, x0_text, y0_text, e_rel, flavour, accel_restore,
+                          mcr_restore, feed_restore_v, extruding, header, first_cmds)
+        if text is not None:
+            return text
     nl = st.newline
     dxy, de = st.dec_xy, st.dec_e
     # Python floats, not numpy scalars: the same IEEE numbers, a fraction of the per-use cost
@@ -392,6 +426,28 @@ def emit_stroke(st: StrokeText, ends_d, s, v, accels, feeds, *, x0_text, y0_text
         out[n_head + 1:n_head + 1] = [first_cmds[0] + nl]
     append(_closing_text(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl))
     return "".join(out)
+
+
+def _emit_core(st, ends_d, s, accels, feeds, x0_text, y0_text, e_rel, flavour, accel_restore,
+               mcr_restore, feed_restore_v, extruding, header, first_cmds):
+    """emit_stroke's text by the compiled core, or None: the core declined (the Python loop
+    then writes it, or raises saying why), or a piece made here raised (the Python loop
+    raises it in its own order)."""
+    nl = st.newline
+    try:
+        closing = _closing_text(flavour, accel_restore, extruding, mcr_restore, feed_restore_v, nl)
+        before = after = None
+        if first_cmds and len(s) >= 2:
+            before, after = first_cmds[0] + nl, first_cmds[1] + nl
+        head = f"{BEGIN}{header}{nl}"
+        if flavour == "klipper":
+            head += f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}"
+        word = "M204 S" if flavour in ("klipper", "marlin-legacy") else ("M204 P" if extruding else "M204 T")
+        return CORE_MOD.emit_body(head, st.x_texts, st.y_texts, st.e_texts, st.comments, s, accels, feeds, ends_d,
+                                  st.dec_xy, st.dec_e, e_rel, extruding, st.e_start_units, x0_text, y0_text,
+                                  word, nl, before, after, closing)
+    except Exception:             # noqa: BLE001 -- the Python loop gives the exception
+        return None
 
 
 def _move_units(st, move, start_u, dxy, de, e_rel):

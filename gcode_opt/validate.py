@@ -25,7 +25,16 @@ from __future__ import annotations
 
 import math
 import operator
+import os
 import re
+
+from . import native
+
+# The compiled column pass (_emit.c, module _gcode_opt_emit): optional; it passes only the
+# blocks _fast_ok's Python checks certainly pass, else they run (tests/test_speed_rewrite_core.py)
+_CORE_MOD, _ = native.load("_gcode_opt_emit",
+                           os.path.join(os.path.dirname(os.path.abspath(__file__)), "_emit.c"), "emit core")
+_FAST_BODY = None if _CORE_MOD is None else _CORE_MOD.fast_body
 
 BEGIN = "; gcode-opt begin"
 END = "; gcode-opt end"
@@ -60,21 +69,26 @@ class Geometry:
     """Where the block's points may lie: a polyline (lines, curves) or an arc."""
 
     def __init__(self, pts=None, arc=None, tol_d=2e-3):
-        self.pts = None if pts is None else [(float(x), float(y)) for x, y in pts]
+        self._pts = None if pts is None else [(float(x), float(y)) for x, y in pts]
         self.arc = arc              # (cx, cy, r, theta0, sweep); pts: the original's own points
         self.tol_d = tol_d
         self._k = 0                 # polyline segment the last point was found on
         self._walk = False          # _fast_ok's view of the polyline, made on first use
+        self._xy = None             # polyline(): the vertices' (xs, ys), pts made from them when read
 
     @classmethod
     def polyline(cls, xs, ys, tol_d=2e-3):
         """Geometry(list(zip(xs, ys))) for lists of Python floats (the vertices, start first),
-        without copying them point by point."""
+        without copying them point by point (pts is made only if read)."""
         g = cls(None, None, tol_d)
-        g.pts = list(zip(xs, ys))
-        if len(xs) >= 2 and max(map(abs, xs)) < 1e150 and max(map(abs, ys)) < 1e150:
-            g._walk = (xs, ys)      # _polyline_walk's answer, known here
+        g._xy = (xs, ys)
         return g
+
+    @property
+    def pts(self):
+        if self._pts is None and self._xy is not None:
+            self._pts = list(zip(*self._xy))
+        return self._pts
 
     def on_path(self, x, y, tol_d) -> bool:
         """(x, y) within tol_d of the original path.  A block's points come in path order:
@@ -126,7 +140,7 @@ def _polyline_walk(geometry):
         p = geometry.pts
         walk = None
         if geometry.arc is None and p is not None and len(p) >= 2:
-            xs, ys = [q[0] for q in p], [q[1] for q in p]
+            xs, ys = geometry._xy or ([q[0] for q in p], [q[1] for q in p])
             if max(map(abs, xs)) < 1e150 and max(map(abs, ys)) < 1e150:
                 walk = (xs, ys)
         geometry._walk = walk
@@ -256,6 +270,9 @@ def _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min
     if not head.startswith(BEGIN + ": replaces ") or (kind is not None and f"kind={kind}" not in head) \
             or _OTHER_BREAKS(head) is not None:
         return False
+    want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
+    if _FAST_BODY is not None and _fast_core(text, i, flavour, want, accel_max_a, geometry, e_check, min_move_d):
+        return True
     # "\n" line "\n" line ... "\n": when every line below has a shape (none holds a line
     # break), text.splitlines() is [head] + these lines + [END]
     body = text[i:len(text) - len(END) - 1]
@@ -263,7 +280,6 @@ def _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min
         return False
     moves = _FAST_MOVES(body)
     feeds = _FAST_FEEDS(body)
-    want = "S" if flavour in ("klipper", "marlin-legacy") else ("P" if extruding else "T")
     accels = _FAST_M204[want](body)
     ratios = _FAST_MCR(body) if flavour == "klipper" else ()
     if len(moves) + len(feeds) + len(accels) + len(ratios) != body.count("\n") - 1:
@@ -275,6 +291,30 @@ def _fast_ok(text, flavour, accel_max_a, geometry, extruding, kind, e_check, min
         return _fast_values(moves, feeds, accels, ratios, accel_max_a, geometry, e_check, min_move_d)
     except ValueError:
         return False
+
+
+def _fast_core(text, i, flavour, want, accel_max_a, geometry, e_check, min_move_d) -> bool:
+    """The compiled column pass over text[i:] less its end line (the same checks as the
+    code below _fast_ok's head checks; it reads the text itself): True certainly passes,
+    False says nothing (the core declined: an arc, a value near its limit, ...)."""
+    px = py = None
+    if geometry is not None:
+        # a polyline's vertices (the core declines coordinates _polyline_walk refuses)
+        walk = geometry._xy if geometry.arc is None else None
+        if walk is None:
+            walk = _polyline_walk(geometry)
+            if walk is None:
+                return False
+        px, py = walk
+    e_mode, e_value = 0, 0.0
+    if e_check is not None:
+        e_rel, e_value = e_check
+        if type(e_value) is not float:
+            return False
+        e_mode = 1 if e_rel else 2
+    return _FAST_BODY(text, i, len(text) - len(END) - 1, want, flavour == "klipper", MAX_CMD_BYTES.get(flavour, 0),
+                      accel_max_a, px, py, geometry.tol_d if geometry is not None else 0.0, e_mode, e_value,
+                      min_move_d) is True
 
 
 # number texts already found good, by what they were checked for: float(text) is a function

@@ -16,6 +16,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <structmember.h>
+#include <float.h>
 #include <string.h>
 
 /* ---------------------------------------------------------------- set up from state.py */
@@ -41,6 +42,83 @@ static PyObject *LINE_K = NULL, *EONLY_K = NULL; /* state.LINE, state.EONLY */
 static PyObject *NAME_SLOW = NULL, *NAME_M204 = NULL, *NAME_FLAVOUR = NULL;
 static double MAX_POS_D = 0.0, MAX_E_D = 0.0, MAX_F = 0.0, MAX_ACCEL_A = 0.0;
 static int READY = 0;
+
+/* The comment prefixes _step_python acts on (features._PREFIXES and _LAYER_MARKERS, read at
+ * setup): a comment-only line starting with none of them (lowercased) changes nothing, as
+ * feature_from_comment and is_layer_change test startswith on comment.strip().lower() (the
+ * strip takes only trailing whitespace off a comment that starts with ';').  Any other
+ * comment line goes to Python. */
+#define MAX_MARKS 32
+static char *MARKS[MAX_MARKS];
+static int N_MARKS = -1;          /* -1: not read (every comment line goes to Python) */
+
+static int read_marks(void)
+{
+    for (int i = 0; i < N_MARKS; i++)
+        PyMem_Free(MARKS[i]);
+    N_MARKS = -1;
+    PyObject *mod = PyImport_ImportModule("gcode_opt.features");
+    if (mod == NULL)
+        return -1;
+    int n = 0, ok = 1;
+    static const char *names[2] = {"_PREFIXES", "_LAYER_MARKERS"};
+    for (int j = 0; j < 2 && ok; j++) {
+        PyObject *t = PyObject_GetAttrString(mod, names[j]);
+        if (t == NULL || !PyTuple_Check(t)) {
+            PyErr_Clear();
+            Py_XDECREF(t);
+            ok = 0;
+            break;
+        }
+        for (Py_ssize_t k = 0; k < PyTuple_GET_SIZE(t) && ok; k++) {
+            PyObject *m = PyTuple_GET_ITEM(t, k);
+            const char *c = PyUnicode_Check(m) && PyUnicode_IS_ASCII(m) ? PyUnicode_AsUTF8(m) : NULL;
+            if (c == NULL || n == MAX_MARKS || (MARKS[n] = PyMem_Malloc(strlen(c) + 1)) == NULL) {
+                PyErr_Clear();
+                ok = 0;
+                break;
+            }
+            strcpy(MARKS[n++], c);
+        }
+        Py_DECREF(t);
+    }
+    Py_DECREF(mod);
+    if (!ok) {                    /* not the shape this code knows: comments stay Python's */
+        for (int i = 0; i < n; i++)
+            PyMem_Free(MARKS[i]);
+        return 0;
+    }
+    N_MARKS = n;
+    return 0;
+}
+
+/* s[0:n] lowercased starts with one of MARKS (or they are unknown) */
+static int marked(const unsigned char *s, Py_ssize_t n)
+{
+    if (N_MARKS < 0)
+        return 1;
+    for (int i = 0; i < N_MARKS; i++) {
+        const char *m = MARKS[i];
+        Py_ssize_t j = 0;
+        while (m[j] != '\0' && j < n) {
+            unsigned char c = s[j];
+            if (c >= 'A' && c <= 'Z')
+                c = (unsigned char)(c - 'A' + 'a');
+            if (c != (unsigned char)m[j])
+                break;
+            j++;
+        }
+        if (m[j] == '\0')
+            return 1;
+    }
+    return 0;
+}
+
+/* str.split()'s whitespace among ASCII characters */
+static inline int is_split_space(unsigned char c)
+{
+    return c == ' ' || (c >= '\t' && c <= '\r') || (c >= 0x1c && c <= 0x1f);
+}
 
 static PyObject *setup(PyObject *self, PyObject *args)
 {
@@ -88,6 +166,8 @@ static PyObject *setup(PyObject *self, PyObject *args)
     MAX_E_D = e;
     MAX_F = f;
     MAX_ACCEL_A = acc;
+    if (read_marks() < 0)
+        return NULL;
     READY = 1;
     Py_RETURN_NONE;
 }
@@ -98,9 +178,55 @@ static inline int is_num_char(unsigned char c)
     return (c >= '0' && c <= '9') || c == '.' || c == '-' || c == '+';
 }
 
+/* Clinger's fast path: s[0:n] = [+-]digits[.digits] (a digit at least) with at most 19
+ * digits making m < 2^53 and at most 22 after the point is m / 10^k, both exact doubles,
+ * and one IEEE division rounds it correctly: the bits of Python's float() (correctly
+ * rounded too), without PyOS_string_to_double's cost (it sets the x87 control word on
+ * every call).  1 and *out, or 0 (not that shape: to_double's general path decides). */
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
+#define FAST_DECIMAL 1
+static const double POW10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
+                                 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+static int fast_decimal(const char *s, Py_ssize_t n, double *out)
+{
+    Py_ssize_t i = 0;
+    int neg = 0;
+    if (i < n && (s[i] == '+' || s[i] == '-'))
+        neg = s[i++] == '-';
+    unsigned long long m = 0;
+    int digits = 0, frac = -1;          /* frac: digits after the point, -1 before it */
+    for (; i < n; i++) {
+        char c = s[i];
+        if (c >= '0' && c <= '9') {
+            if (++digits > 19)
+                return 0;
+            m = m * 10u + (unsigned)(c - '0');
+            if (frac >= 0)
+                frac++;
+        }
+        else if (c == '.' && frac < 0)
+            frac = 0;
+        else
+            return 0;
+    }
+    if (digits == 0 || m > (1ull << 53) || frac > 22)
+        return 0;
+    double v = (double)m;
+    if (frac > 0)
+        v = v / POW10[frac];
+    *out = neg ? -v : v;
+    return 1;
+}
+#endif
+
 /* Python's float() of s[0:n] (only "+-.0-9" characters): 0 and *out, or -1 (no error left). */
 static int to_double(const char *s, Py_ssize_t n, double *out)
 {
+#ifdef FAST_DECIMAL
+    if (fast_decimal(s, n, out))
+        return 0;
+#endif
     char buf[64];
     char *b = buf;
     if (n >= (Py_ssize_t)sizeof(buf)) {
@@ -472,7 +598,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return slow(self, idx, raw);       /* not ASCII: the BOM, or anything unusual */
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
     Py_ssize_t n = PyUnicode_GET_LENGTH(raw);
-    if (n < 2)
+    if (n < 1)
         return slow(self, idx, raw);
     /* a CR anywhere but in the trailing run of CR/LF, or a CR last: Python raises */
     Py_ssize_t t = n;
@@ -482,6 +608,17 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return slow(self, idx, raw);
     const unsigned char *semi = memchr(s, ';', n);
     Py_ssize_t code_n = semi ? semi - s : n;
+    Py_ssize_t k = 0;
+    while (k < code_n && is_split_space(s[k]))
+        k++;
+    if (k == code_n) {
+        /* no command: a blank line changes nothing; a comment only if it is marked */
+        if (semi != NULL && marked(semi, n - code_n))
+            return slow(self, idx, raw);
+        Py_RETURN_NONE;
+    }
+    if (n < 2)
+        return slow(self, idx, raw);
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_words(s, code_n, 2, "XYZEF", &w) < 0)

@@ -43,10 +43,10 @@ from .emit import StrokeText, emit_arc, emit_stroke
 from . import state as reader
 from .firmware import simulate as fwsim
 from .laws import chain as chain_law
-from .firmware.simulate import ReplayMismatch, replay_runs, simulate_events, simulate_ledger
+from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
-from .state import Barrier, MachineState, Move, events, read_lines
+from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, NOT_OPEN, group_lines
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -489,32 +489,45 @@ def _per_stroke(out_ranges, t, a2, v2):
     return on_line
 
 
+def _stroke_sums(out_ranges, t, a2, v2, also=None):
+    """_per_stroke as the compiled core's StrokeSums (the same sums, in C, no LineRecord
+    made unless also(rec) is given), or None where the Python model plays."""
+    if fwsim.CORE != "c" or not hasattr(fwsim._core, "StrokeSums"):
+        return None
+    lo = np.fromiter((r[0] for r in out_ranges), np.int64, len(out_ranges))
+    hi = np.fromiter((r[1] for r in out_ranges), np.int64, len(out_ranges))
+    return fwsim._core.StrokeSums(lo, hi, t, a2, v2, also)
+
+
 def measure(path, profile, out_ranges, opts, watch=None, ring=None):
     """Firmware model on the re-timed file; per re-timed stroke (time, int a^2, int v^2).
     With `watch` (every stroke's output lines, sorted), also the Ledger a second pass
     re-measures from (remeasure); else None.  `ring`, a ringing.Collector, rides on the
-    pass (the written file's ringing without a pass of its own)."""
+    pass (the written file's ringing without a pass of its own).  With the compiled core
+    the file is read in chunks and played in C (Sim.play), the per-stroke sums too."""
     n = len(out_ranges)
     t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
-    on_line = per_stroke = _per_stroke(out_ranges, t, a2, v2)
-    on_block = on_dwell = None
+    ring_line = on_block = on_dwell = None
     if ring is not None:
         from . import ringing as rg
         ring_line, on_block, on_dwell = rg.hooks(ring)
-
-        def on_line(r, _a=on_line, _b=ring_line):
-            _a(r)
-            _b(r)
+    # a compiled Sim writes a RowSink's rests itself: the sink's line() does nothing then
+    sink_rests = on_block is not None and type(on_block) is getattr(fwsim._core, "RowSink", None)
+    on_line = per_stroke = _stroke_sums(out_ranges, t, a2, v2, None if sink_rests else ring_line)
+    progress = opts.progress.advance if opts.progress is not None else None
+    if per_stroke is None:
+        on_line = per_stroke = _per_stroke(out_ranges, t, a2, v2)
+        if ring_line is not None:
+            def on_line(r, _a=per_stroke, _b=ring_line):
+                _a(r)
+                _b(r)
     if watch is None:
-        evs = _counted(events(path, profile), opts.progress)
-        if ring is not None:
-            from . import ringing as rg
-            evs = rg.wrap_events(evs, on_dwell)
-        sim = simulate_events(evs, profile, on_line=on_line, on_block=on_block)
+        sim = simulate_file(path, profile, on_line=on_line, on_block=on_block, on_barrier=on_dwell,
+                            progress=progress)
         per_stroke.flush()
         return sim, t, a2, v2, None
     sim, led = simulate_ledger(path, profile, watch, on_line=on_line, on_block=on_block,
-                               lines=_counted(read_lines(path), opts.progress), on_barrier=on_dwell)
+                               on_barrier=on_dwell, progress=progress)
     per_stroke.flush()
     return sim, t, a2, v2, led
 
@@ -587,7 +600,7 @@ def remeasure(path, profile, strokes, order, led, lines1, lines2, changed, out_r
     n = len(out_ranges2)
     t, a2, v2 = np.zeros(n), np.zeros(n), np.zeros(n)
     try:
-        per_stroke = _per_stroke(out_ranges2, t, a2, v2)
+        per_stroke = _stroke_sums(out_ranges2, t, a2, v2) or _per_stroke(out_ranges2, t, a2, v2)
         sim, played = replay_runs(path, profile, led, spans, on_line=per_stroke)
         per_stroke.flush()
     except ReplayMismatch:

@@ -493,6 +493,235 @@ static PyTypeObject RecType = {
     .tp_new = PyType_GenericNew,
 };
 
+/* ---------------------------------------------------------------- StrokeSums */
+/* StrokeSums(lo, hi, t, a2, v2, also=None): pipeline._per_stroke in C, an on_line the
+ * compiled Sim feeds without making a LineRecord.  lo, hi: the re-timed strokes' first and
+ * last output lines (int64 buffers, in file order); t, a2, v2: float64 buffers written at
+ * k when the records leave stroke k (flush() for the last one).  The records come in file
+ * order and are summed as _per_stroke sums them (s_a2 += int_a2 + int_a2_j: the same
+ * additions, in the same order, so the same bits).  also(rec), if not None, sees each
+ * record after it was summed (a LineRecord is made for it then). */
+#define SUMS_NOT_OPEN (1LL << 62)      /* strokes.NOT_OPEN: past the last stroke */
+typedef struct {
+    PyObject_HEAD
+    long long *lo, *hi;
+    Py_ssize_t n, k;
+    long long cur_lo, cur_hi;
+    int live, has_buf;
+    double s_t, s_a2, s_v2;
+    Py_buffer bt, ba, bv;
+    PyObject *also;
+} SumsObject;
+
+static void sums_add(SumsObject *k, long long i, double time_t, double int_a2, double int_a2_j,
+                     double int_v2)
+{
+    if (!k->has_buf)
+        return;                        /* not initialised: nothing to sum into */
+    double *t = (double *)k->bt.buf, *a2 = (double *)k->ba.buf, *v2 = (double *)k->bv.buf;
+    if (i > k->cur_hi) {
+        if (k->live) {
+            t[k->k] = k->s_t;
+            a2[k->k] = k->s_a2;
+            v2[k->k] = k->s_v2;
+            k->live = 0;
+        }
+        while (k->k < k->n && i > k->hi[k->k])
+            k->k++;
+        if (k->k >= k->n) {
+            k->cur_lo = k->cur_hi = SUMS_NOT_OPEN;
+            return;
+        }
+        k->cur_lo = k->lo[k->k];
+        k->cur_hi = k->hi[k->k];
+        k->s_t = k->s_a2 = k->s_v2 = 0.0;
+    }
+    if (k->cur_lo <= i) {
+        k->live = 1;
+        k->s_t += time_t;
+        k->s_a2 += int_a2 + int_a2_j;
+        k->s_v2 += int_v2;
+    }
+}
+
+static int sums_buf(PyObject *o, Py_buffer *b, Py_ssize_t n, const char *what)
+{
+    if (PyObject_GetBuffer(o, b, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (b->itemsize != 8 || b->format == NULL || strcmp(b->format, "d") != 0
+        || b->len < n * (Py_ssize_t)sizeof(double)) {
+        PyBuffer_Release(b);
+        PyErr_Format(PyExc_ValueError, "StrokeSums: %s must be a float64 buffer of len(lo)", what);
+        return -1;
+    }
+    return 0;
+}
+
+static int sums_index(PyObject *o, long long **out, Py_ssize_t *n)
+{
+    Py_buffer b;
+    if (PyObject_GetBuffer(o, &b, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (b.itemsize != 8 || b.format == NULL || (strcmp(b.format, "q") != 0 && strcmp(b.format, "l") != 0)) {
+        PyBuffer_Release(&b);
+        PyErr_SetString(PyExc_ValueError, "StrokeSums: lo and hi must be int64 buffers");
+        return -1;
+    }
+    *n = b.len / 8;
+    *out = PyMem_Malloc(b.len > 0 ? (size_t)b.len : 1);
+    if (*out == NULL) {
+        PyBuffer_Release(&b);
+        PyErr_NoMemory();
+        return -1;
+    }
+    memcpy(*out, b.buf, (size_t)b.len);
+    PyBuffer_Release(&b);
+    return 0;
+}
+
+static void sums_release(SumsObject *k)
+{
+    if (k->has_buf) {
+        PyBuffer_Release(&k->bt);
+        PyBuffer_Release(&k->ba);
+        PyBuffer_Release(&k->bv);
+        k->has_buf = 0;
+    }
+    PyMem_Free(k->lo);
+    PyMem_Free(k->hi);
+    k->lo = k->hi = NULL;
+}
+
+static int Sums_init(SumsObject *k, PyObject *args, PyObject *kw)
+{
+    static char *kwlist[] = {"lo", "hi", "t", "a2", "v2", "also", NULL};
+    PyObject *lo, *hi, *t, *a2, *v2, *also = Py_None;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "OOOOO|O:StrokeSums", kwlist, &lo, &hi, &t, &a2, &v2,
+                                     &also))
+        return -1;
+    sums_release(k);
+    Py_ssize_t n, n_hi;
+    if (sums_index(lo, &k->lo, &n) < 0 || sums_index(hi, &k->hi, &n_hi) < 0)
+        return -1;
+    if (n_hi != n) {
+        PyErr_SetString(PyExc_ValueError, "StrokeSums: lo and hi differ in length");
+        return -1;
+    }
+    if (sums_buf(t, &k->bt, n, "t") < 0)
+        return -1;
+    if (sums_buf(a2, &k->ba, n, "a2") < 0) {
+        PyBuffer_Release(&k->bt);
+        return -1;
+    }
+    if (sums_buf(v2, &k->bv, n, "v2") < 0) {
+        PyBuffer_Release(&k->bt);
+        PyBuffer_Release(&k->ba);
+        return -1;
+    }
+    k->has_buf = 1;
+    k->n = n;
+    k->k = 0;
+    k->cur_lo = k->cur_hi = -1;
+    k->live = 0;
+    k->s_t = k->s_a2 = k->s_v2 = 0.0;
+    Py_INCREF(also);
+    Py_XSETREF(k->also, also);
+    return 0;
+}
+
+/* sums(rec): one record by attribute (a record the Python model made, say) */
+static PyObject *Sums_call(SumsObject *k, PyObject *args, PyObject *kw)
+{
+    static const char *names[5] = {"idx", "time_t", "int_a2", "int_a2_j", "int_v2"};
+    PyObject *rec;
+    if (!PyArg_ParseTuple(args, "O:StrokeSums", &rec))
+        return NULL;
+    if (!k->has_buf) {
+        PyErr_SetString(PyExc_RuntimeError, "StrokeSums: not initialised");
+        return NULL;
+    }
+    long long i = 0;
+    double f[4];
+    for (int j = 0; j < 5; j++) {
+        PyObject *v = PyObject_GetAttrString(rec, names[j]);
+        if (v == NULL)
+            return NULL;
+        if (j == 0)
+            i = PyLong_AsLongLong(v);
+        else
+            f[j - 1] = PyFloat_AsDouble(v);
+        Py_DECREF(v);
+        if (PyErr_Occurred())
+            return NULL;
+    }
+    sums_add(k, i, f[0], f[1], f[2], f[3]);
+    if (k->also != Py_None) {
+        PyObject *x = PyObject_CallOneArg(k->also, rec);
+        if (x == NULL)
+            return NULL;
+        Py_DECREF(x);
+    }
+    Py_RETURN_NONE;
+}
+
+/* flush(): write out the stroke the records are at (after the pass) */
+static PyObject *Sums_flush(SumsObject *k, PyObject *noarg)
+{
+    if (k->has_buf && k->live) {
+        ((double *)k->bt.buf)[k->k] = k->s_t;
+        ((double *)k->ba.buf)[k->k] = k->s_a2;
+        ((double *)k->bv.buf)[k->k] = k->s_v2;
+        k->live = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static int Sums_traverse(SumsObject *k, visitproc visit, void *arg)
+{
+    Py_VISIT(k->also);
+    return 0;
+}
+
+static int Sums_clear(SumsObject *k)
+{
+    Py_CLEAR(k->also);
+    return 0;
+}
+
+static void Sums_dealloc(SumsObject *k)
+{
+    PyObject_GC_UnTrack(k);
+    Sums_clear(k);
+    sums_release(k);
+    Py_TYPE(k)->tp_free((PyObject *)k);
+}
+
+static PyMethodDef Sums_methods[] = {
+    {"flush", (PyCFunction)Sums_flush, METH_NOARGS, "Write out the stroke the records are at."},
+    {NULL}
+};
+
+static PyMemberDef Sums_members[] = {
+    {"also", T_OBJECT, offsetof(SumsObject, also), READONLY, NULL},
+    {NULL}
+};
+
+static PyTypeObject SumsType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.StrokeSums",
+    .tp_doc = "StrokeSums(lo, hi, t, a2, v2, also=None): pipeline._per_stroke in C.",
+    .tp_basicsize = sizeof(SumsObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Sums_init,
+    .tp_call = (ternaryfunc)Sums_call,
+    .tp_traverse = (traverseproc)Sums_traverse,
+    .tp_clear = (inquiry)Sums_clear,
+    .tp_dealloc = (destructor)Sums_dealloc,
+    .tp_methods = Sums_methods,
+    .tp_members = Sums_members,
+};
+
 /* ---------------------------------------------------------------- SimResult */
 typedef struct {
     PyObject_HEAD
@@ -1207,12 +1436,19 @@ static int marlin_stop(SimObject *s)
 /* ---- blocks -> integrals (_Sim._emit, _close) --------------------------------------- */
 static int call_on_line(SimObject *s, RecData *r)
 {
-    if (s->on_line != Py_None) {
+    PyObject *fn = s->on_line;
+    if (Py_IS_TYPE(fn, &SumsType)) {
+        /* per-stroke sums without a LineRecord; also(rec) only if asked */
+        SumsObject *k = (SumsObject *)fn;
+        sums_add(k, r->idx, r->time_t, r->int_a2, r->int_a2_j, r->int_v2);
+        fn = k->also;
+    }
+    if (fn != Py_None) {
         RecObject *o = (RecObject *)REC_TYPE->tp_alloc(REC_TYPE, 0);
         if (o == NULL)
             return -1;
         o->r = *r;
-        PyObject *x = PyObject_CallOneArg(s->on_line, (PyObject *)o);
+        PyObject *x = PyObject_CallOneArg(fn, (PyObject *)o);
         Py_DECREF(o);
         if (x == NULL)
             return -1;
@@ -1713,6 +1949,94 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
     Py_RETURN_NONE;
 }
 
+/* play(lines, start, idx0, step, until, stops, on_barrier): simulate._play's loop over
+ * lines[start:] (a list of str, lines[j] the file's line idx0 + j): ev = step(idx, raw),
+ * a Move played (move), a Barrier taken (barrier, then on_barrier(ev.dwell_t) unless
+ * None), anything else passed over.  Returns (j, stopped) where it stopped: before the
+ * line whose idx == until (not read), after a line that left the model standing empty
+ * (an E-only Move or a Barrier) when `stops` is true (stopped True), or at len(lines). */
+static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7)
+        return PyErr_Format(PyExc_TypeError, "play() takes 7 arguments (%zd given)", nargs);
+    PyObject *lines = args[0], *step = args[3], *on_barrier = args[6];
+    if (!PyList_CheckExact(lines)) {
+        PyErr_SetString(PyExc_TypeError, "play: lines must be a list of str");
+        return NULL;
+    }
+    Py_ssize_t i = PyLong_AsSsize_t(args[1]);
+    long long idx0 = PyLong_AsLongLong(args[2]);
+    long long until = PyLong_AsLongLong(args[4]);
+    int stops = PyObject_IsTrue(args[5]);
+    if (PyErr_Occurred() || stops < 0)
+        return NULL;
+    if (i < 0)
+        i = 0;
+    int stopped = 0;
+    PyObject *call[3];
+    for (; i < PyList_GET_SIZE(lines); i++) {
+        long long idx = idx0 + (long long)i;
+        if (idx == until)
+            break;
+        PyObject *raw = PyList_GET_ITEM(lines, i);
+        PyObject *io = PyLong_FromLongLong(idx);
+        if (io == NULL)
+            return NULL;
+        Py_INCREF(raw);                /* the callbacks could change the list */
+        call[0] = NULL;
+        call[1] = io;
+        call[2] = raw;
+        PyObject *ev = PyObject_Vectorcall(step, call + 1, 2 | PY_VECTORCALL_ARGUMENTS_OFFSET, NULL);
+        Py_DECREF(io);
+        Py_DECREF(raw);
+        if (ev == NULL)
+            return NULL;
+        PyObject *r = NULL;
+        if (Py_TYPE(ev) == MOVE_MAP.type) {
+            if (enter(s) < 0)
+                goto fail;
+            r = Sim_move_body(s, ev);
+            s->busy = 0;
+            if (r == NULL)
+                goto fail;
+            Py_DECREF(r);
+            if (stops) {
+                long long kind;
+                if (get_ll(&MOVE_MAP, ev, MV_KIND, &kind) < 0)
+                    goto fail;
+                stopped = kind == K_EONLY;
+            }
+        }
+        else if (Py_TYPE(ev) == BAR_MAP.type) {
+            r = Sim_barrier(s, ev);
+            if (r == NULL)
+                goto fail;
+            Py_DECREF(r);
+            if (on_barrier != Py_None) {
+                PyObject *dw = get_obj(&BAR_MAP, ev, 0);
+                if (dw == NULL)
+                    goto fail;
+                r = PyObject_CallOneArg(on_barrier, dw);
+                Py_DECREF(dw);
+                if (r == NULL)
+                    goto fail;
+                Py_DECREF(r);
+            }
+            stopped = stops;
+        }
+        Py_DECREF(ev);
+        if (stopped) {
+            i++;
+            break;
+        }
+        continue;
+    fail:
+        Py_DECREF(ev);
+        return NULL;
+    }
+    return Py_BuildValue("(nO)", i, stopped ? Py_True : Py_False);
+}
+
 static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
 {
     /* nothing planned is waiting: what comes next cannot change what came before */
@@ -1763,6 +2087,8 @@ static PyMethodDef Sim_methods[] = {
     {"barrier", (PyCFunction)Sim_barrier, METH_O, "Bring the machine to rest, then dwell."},
     {"stop", (PyCFunction)Sim_stop, METH_NOARGS, "Bring the machine to rest."},
     {"empty", (PyCFunction)Sim_empty, METH_NOARGS, "Nothing planned is waiting."},
+    {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
+     "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
     {NULL}
 };
 
@@ -1946,7 +2272,7 @@ static struct PyModuleDef core_module = {
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
-        || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0)
+        || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0 || PyType_Ready(&SumsType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
@@ -1956,11 +2282,13 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
     Py_INCREF(&ResType);
     Py_INCREF(&SimType);
     Py_INCREF(&SinkType);
+    Py_INCREF(&SumsType);
     if (PyModule_AddObject(m, "Block", (PyObject *)&BlockType) < 0
         || PyModule_AddObject(m, "LineRecord", (PyObject *)&RecType) < 0
         || PyModule_AddObject(m, "SimResult", (PyObject *)&ResType) < 0
         || PyModule_AddObject(m, "Sim", (PyObject *)&SimType) < 0
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
+        || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
         Py_DECREF(m);
         return NULL;

@@ -499,8 +499,49 @@ def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResu
     return sim.res
 
 
-def simulate_file(path, profile, on_line=None, on_block=None) -> SimResult:
-    return simulate_events(st.events(path, profile), profile, on_line, on_block)
+def simulate_file(path, profile, on_line=None, on_block=None, on_barrier=None, progress=None) -> SimResult:
+    """simulate_events over the file's lines (state.events), read in chunks and played by the
+    compiled loop (Sim.play) where the compiled core plays.  on_barrier(dwell_t), if given,
+    is called once the model took a Barrier (as ringing.wrap_events does); progress(n), if
+    given, is told the characters read (per chunk, or per line in pure Python)."""
+    state = st.MachineState(profile, path)
+    sim = new_sim(profile, on_line, on_block)
+    if hasattr(sim, "play"):
+        _play_chunks(read_chunks(path, progress), state, sim, None, None, on_barrier)
+    else:
+        _play(_counted(st.read_lines(path), progress), state, sim, None, None, on_barrier)
+    sim.stop()
+    return sim.res
+
+
+# ---------------------------------------------------------------- the file in chunks
+CHUNK_HINT = 1 << 16      # characters a chunk of lines is read in (~2 k lines): the compiled
+                          # loop leaves C once a chunk, memory stays flat
+
+
+def read_chunks(path, progress=None):
+    """The file's lines as read_lines reads them (the same splitting, endings kept), in
+    lists: (idx of the first, [raw, ...]).  progress(n) is told each chunk's characters."""
+    with st.open_text(path) as fh:
+        idx0 = 0
+        while True:
+            lines = fh.readlines(CHUNK_HINT)
+            if not lines:
+                return
+            if progress is not None:
+                progress(sum(map(len, lines)))
+            yield idx0, lines
+            idx0 += len(lines)
+
+
+def _counted(lines, progress):
+    """(idx, raw) lines, progress(len(raw)) told before each is yielded."""
+    if progress is None:
+        yield from lines
+        return
+    for item in lines:
+        progress(len(item[1]))
+        yield item
 
 
 # ---------------------------------------------------------------- replaying a part of a file
@@ -633,17 +674,86 @@ def _play(lines, state, sim, watch, led, on_barrier=None):
     res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
 
 
-def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None, on_barrier=None):
+def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
+    """_play on (idx0, [raw, ...]) chunks (read_chunks) with a compiled Sim: its play() runs
+    the loop, leaving C only where _play's ledger does something (a watched range's first
+    line, a line after which the model stands empty); the same steps in the same order."""
+    play, step = sim.play, state.step
+    res = sim.res
+    if led is None:
+        for idx0, lines in chunks:
+            play(lines, 0, idx0, step, -2, False, on_barrier)
+        return
+    snap = state.snapshot
+    n_w = len(watch)
+    wi = 0
+    next_first = watch[0][0] if n_w else -2
+    pending = []              # watched ranges started, waiting for the stop after them
+    carry_v = carry_a = 0.0   # peaks since the last committed stop, up to the last stop
+    last = (-1, snap(), _sums(res))
+    last_j = -1               # index of `last` in the ledger, -1 = not committed
+    n_lines = 0
+    for idx0, lines in chunks:
+        n = len(lines)
+        n_lines = idx0 + n
+        i = 0
+        while i < n:
+            i, stopped = play(lines, i, idx0, step, next_first, True, on_barrier)
+            if stopped:
+                # the model stands empty after line idx0 + i - 1
+                idx = idx0 + i - 1
+                if res.peak_v > carry_v:
+                    carry_v = res.peak_v
+                if res.peak_a > carry_a:
+                    carry_a = res.peak_a
+                res.peak_v = res.peak_a = 0.0
+                last = (idx, snap(), _sums(res))
+                last_j = -1
+                if pending:
+                    if watch[pending[-1]][1] >= idx:        # a stop inside a watched range
+                        led.ok = False
+                    last_j = led._commit(idx, last[1], last[2], carry_v, carry_a)
+                    carry_v = carry_a = 0.0
+                    led.hi.extend([last_j] * len(pending))
+                    pending = []
+            elif i < n:
+                # line idx0 + i (not read yet) is the first of watched range wi
+                if last_j < 0:
+                    last_j = led._commit(last[0], last[1], last[2], carry_v, carry_a)
+                    carry_v = carry_a = 0.0
+                led.lo.append(last_j)
+                pending.append(wi)
+                wi += 1
+                next_first = watch[wi][0] if wi < n_w else -2
+    led.n_lines = n_lines
+    sim.stop()
+    carry_v, carry_a = max(carry_v, res.peak_v), max(carry_a, res.peak_a)
+    end_j = led._commit(led.n_lines - 1, snap(), _sums(res), carry_v, carry_a)
+    led.hi.extend([end_j] * len(pending))
+    if wi < n_w:              # ranges past the end of the file: nothing to replay from
+        led.ok = False
+    res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0
+    res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
+
+
+def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None, on_barrier=None,
+                    progress=None):
     """simulate_file that also returns a Ledger of the stops around the sorted, disjoint
     line ranges `watch` [(first, last), ...] (0-based, inclusive), for replay_runs.
     `lines`: the file's (idx, raw) lines if the caller reads them (read_lines(path));
+    else the file is read here, in chunks played by the compiled loop where the compiled
+    core plays (progress(n), if given, is told the characters read);
     on_barrier(dwell_t): called after each Barrier (see _play)."""
     state = st.MachineState(profile, path)
     state.warnings = []
     sim = new_sim(profile, on_line, on_block)
     sim.max_stop_lines = math.inf
     led = Ledger()
-    _play(st.read_lines(path) if lines is None else lines, state, sim, watch, led, on_barrier)
+    if lines is None and hasattr(sim, "play"):
+        _play_chunks(read_chunks(path, progress), state, sim, watch, led, on_barrier)
+    else:
+        lines = _counted(st.read_lines(path), progress) if lines is None else lines
+        _play(lines, state, sim, watch, led, on_barrier)
     res = sim.res
     led.stop_lines = res.stop_lines
     res.stop_lines = led.stop_lines[:MAX_STOP_LINES]

@@ -144,7 +144,6 @@ class Stroke:
         vertices by at most the curve threshold: one smooth curve, kind K_CURVE.  ds: the
         moves' XY lengths, if known (math.hypot of each, as here)."""
         st = cls(moves[0])
-        st.kind = K_CURVE
         xy = [moves[0].x0, moves[0].y0]
         if ds is None:
             ds = [math.hypot(m.x1 - m.x0, m.y1 - m.y0) for m in moves]
@@ -157,10 +156,17 @@ class Stroke:
             if q > e_per_mm:          # max(e_per_mm, q)
                 e_per_mm = q
             xy += (m.x1, m.y1)
-        st.length_d, st.e_per_mm = length_d, e_per_mm
-        st.pts, st.ends_d = Points(xy), array("d", ends)
-        st.last_idx = moves[-1].idx
-        return st
+        return st._curve(moves, xy, ends, e_per_mm)
+
+    def _curve(self, moves, xy, ends, e_per_mm):
+        """This stroke of moves[0] made the curve of all moves: xy the start and every
+        move's end, ends their lengths summed in order, e_per_mm the first move's E per mm
+        or a larger one's (of_curve's loop; group_lines sums them as it reads the moves)."""
+        self.kind = K_CURVE
+        self.length_d, self.e_per_mm = ends[-1], e_per_mm
+        self.pts, self.ends_d = Points(xy), array("d", ends)
+        self.last_idx = moves[-1].idx
+        return self
 
     def try_extend(self, m) -> bool:
         """Append move m if it continues this stroke in a straight line."""
@@ -306,8 +312,11 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
     hypot = math.hypot
     run = []               # moves of the open run
-    run_d = []             # their XY lengths
-    run_len = 0.0          # their sum, in order (as Stroke sums it: no stroke of the run is longer)
+    run_len = 0.0          # their XY lengths summed, in order (as Stroke sums them: no stroke of the run is longer)
+    run_ends = []          # run_len after each move
+    run_xy = []            # the run's start and every move's end, x y x y ... (Stroke._curve's)
+    r_epm = 0.0            # the first move's E per mm or a larger one's (Stroke._curve's)
+    ld = 0.0               # XY length of the run's last move
     turned = False         # a vertex of the run is not collinear (a curve if curves are on)
     run_prev_u = None      # direction of the move before the run
     arc = None             # an arc stroke waiting to close (at the next line)
@@ -338,7 +347,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
         elif run:
             if curves and turned and len(run) >= 3:
-                parts = [(0, Stroke.of_curve(run, run_d))]
+                parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm))]
             else:
                 parts = _straight_parts(run)
             e_k, k_done = (run_start[0] if run_start else 0.0), 0
@@ -372,7 +381,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     and ev.z0 == r_z and ev.z1 == r_z and ev.e_rel == r_erel and ev.kind == LINE
                     and not ev.checksum and not ev.xyz_rel and not ev.inch and ev.speed_r == 1.0
                     and (ev.x1 != ev.x0 or ev.y1 != ev.y0) and (ev.e > 0.0 or (ev.e == 0.0 and r_travel))):
-                dx, dy = ev.x1 - ev.x0, ev.y1 - ev.y0
+                x1, y1 = ev.x1, ev.y1
+                dx, dy = x1 - ev.x0, y1 - ev.y0
                 d = hypot(dx, dy)
                 ux, uy = dx / d, dy / d         # _unit(ev); (lux, luy) is _unit(pm)
                 dot = lux * ux + luy * uy
@@ -382,23 +392,26 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     if split_vertex is None:
                         take = turned = True
                     else:
-                        dp = run_d[-1]
                         if ev.lim is not f_lim or r_accel != f_accel:    # (rarely) other limits
                             f_lim, f_accel = ev.lim, r_accel
                             f_lo, f_hi = f_bounds(f_lim, f_accel, min_cos) if f_bounds else (1.0, 0.0)
                         # lengths in the filter's bounds prove split False (vertex_filter.py)
-                        take = ((f_lo <= d <= f_hi and f_lo <= dp <= f_hi)
-                                or not split_vertex(pm, ev, dp, d, (lux, luy), (ux, uy)))
+                        take = ((f_lo <= d <= f_hi and f_lo <= ld <= f_hi)
+                                or not split_vertex(pm, ev, ld, d, (lux, luy), (ux, uy)))
                         if take:
                             turned = True
                 else:
                     take = False
                 if take:
                     run.append(ev)
-                    run_d.append(d)
                     run_len += d
-                    r_last = ev.idx
-                    pm, lux, luy = ev, ux, uy
+                    run_ends.append(run_len)
+                    run_xy += (x1, y1)
+                    q = ev.e / d
+                    if q > r_epm:
+                        r_epm = q
+                    r_last += 1                     # ev.idx
+                    pm, lux, luy, ld = ev, ux, uy, d
                     yield idx, raw, ev
                     continue
                 ok = True
@@ -420,10 +433,13 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 waiting = last
         if ok:
             run = [ev]
-            dx, dy = ev.x1 - ev.x0, ev.y1 - ev.y0
+            x0, y0, x1, y1 = ev.x0, ev.y0, ev.x1, ev.y1
+            dx, dy = x1 - x0, y1 - y0
             d = hypot(dx, dy)
-            run_d = [d]
-            run_len = d
+            run_len = ld = d
+            run_ends = [d]
+            run_xy = [x0, y0, x1, y1]
+            r_epm = ev.e / d
             turned = False
             run_prev_u = last_u
             run_start = start_state() if start_state is not None else None

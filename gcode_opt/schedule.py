@@ -384,6 +384,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # gyroid at full speed: chains -34 %, whole file -35 %; one budget: -75 %, -47 %, same
     # time).  No stroke ends stiffer than its original: plan_strokes leaves such a one as sliced.
     groups = [np.setdiff1d(np.concatenate([rows[k] for k in KINDS]), failed_rows)]
+    # each stroke's plan_kind, as _rows_by_kind found it (only plan_inputs' chains.classify
+    # changes it): read by every re-plan for the strokes it segments
+    kind_by_row = np.empty(len(strokes), dtype=object)
+    for k, r in rows.items():
+        kind_by_row[r] = k
 
     def run(budget):
         plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
@@ -397,7 +402,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         plan.t_pred = pin.T_orig.copy()
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
-        kind = np.array([chains.plan_kind(strokes[i]) for i in idx], dtype=object)
+        kind = kind_by_row[idx]
         _rebuild_geometry(strokes, idx, kind, profile)
         segs = {}
         seg_failed = {}

@@ -330,6 +330,62 @@ static PyObject *new_move(PyObject **val)
     return m;
 }
 
+/* The doubles state._linear(idx, raw, p, False) computes for a G0/G1 of the fast shape,
+ * from the state's x y z e v speed_r and modes: shared by linear() (which makes the Move
+ * and writes the state) and the firmware core's fused loop (fused_line), so both give the
+ * same bits.  o->fallback: Python decides (F out of range: _feed; a target out of range:
+ * _check_target raises). */
+typedef struct {
+    double x0, y0, z0, e, v, speed;
+    int abs_xyz, e_rel_flag, one;
+} LinIn;
+
+typedef struct {
+    int fallback, has_f, has_x, has_y, has_z, e_rel;
+    double x, y, z, de, v;            /* the target, E moved, the feed (mm/s) now in force */
+} LinOut;
+
+static void linear_calc(const LinIn *in, const Words *w, LinOut *o)
+{
+    o->fallback = 1;
+    double f = 0.0, px = 0.0, py = 0.0, pz = 0.0, ev = 0.0;
+    double v = in->v;
+    o->has_f = word(w, 'F', &f);
+    if (o->has_f) {
+        if (!(0.0 < f && f <= MAX_F))
+            return;                        /* _feed decides (or raises) */
+        v = f / 60.0;
+    }
+    int has_x = word(w, 'X', &px), has_y = word(w, 'Y', &py), has_z = word(w, 'Z', &pz);
+    int has_e = word(w, 'E', &ev);
+    double x, y, z;
+    if (in->abs_xyz) {
+        x = has_x ? px : in->x0;
+        y = has_y ? py : in->y0;
+        z = has_z ? pz : in->z0;
+    } else {
+        x = in->x0 + (has_x ? px : 0.0);
+        y = in->y0 + (has_y ? py : 0.0);
+        z = in->z0 + (has_z ? pz : 0.0);
+    }
+    int e_rel = in->e_rel_flag || !in->abs_xyz;
+    double de = !has_e ? 0.0 : (e_rel ? ev : ev - in->e);
+    const double b = MAX_POS_D;
+    if (!(-b <= x && x <= b && -b <= y && y <= b && -b <= z && z <= b)
+        || (has_e && !(-MAX_E_D <= ev && ev <= MAX_E_D)))
+        return;                            /* _check_target raises */
+    o->fallback = 0;
+    o->has_x = has_x;
+    o->has_y = has_y;
+    o->has_z = has_z;
+    o->e_rel = e_rel;
+    o->x = x;
+    o->y = y;
+    o->z = z;
+    o->de = de;
+    o->v = v;
+}
+
 /* G0/G1 of the fast shape: state._linear(idx, raw, p, False) as Python runs it.
  * Returns a new reference, or NULL with *fallback set (nothing changed) or an error. */
 static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fallback)
@@ -345,40 +401,25 @@ static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fall
         PyErr_Clear();
         return NULL;
     }
-    double x0, y0, z0, e, v, speed;
-    if (!exact_float(o_x, &x0) || !exact_float(o_y, &y0) || !exact_float(o_z, &z0)
-        || !exact_float(o_e, &e) || !exact_float(o_v, &v) || !exact_float(o_speed, &speed))
+    LinIn in;
+    if (!exact_float(o_x, &in.x0) || !exact_float(o_y, &in.y0) || !exact_float(o_z, &in.z0)
+        || !exact_float(o_e, &in.e) || !exact_float(o_v, &in.v) || !exact_float(o_speed, &in.speed))
         return NULL;
     if (o_inch != Py_False || (o_abs != Py_True && o_abs != Py_False)
         || (o_erel != Py_True && o_erel != Py_False) || (o_one != Py_True && o_one != Py_False)
         || !o_feature || !o_layer || !o_flow || !o_ap || !o_at || !o_ar || !o_lim)
         return NULL;
-    double f = 0.0, px = 0.0, py = 0.0, pz = 0.0, ev = 0.0;
-    int has_f = word(w, 'F', &f);
-    if (has_f) {
-        if (!(0.0 < f && f <= MAX_F))
-            return NULL;                   /* _feed decides (or raises) */
-        v = f / 60.0;
-    }
-    int has_x = word(w, 'X', &px), has_y = word(w, 'Y', &py), has_z = word(w, 'Z', &pz);
-    int has_e = word(w, 'E', &ev);
-    int abs_xyz = o_abs == Py_True;
-    double x, y, z;
-    if (abs_xyz) {
-        x = has_x ? px : x0;
-        y = has_y ? py : y0;
-        z = has_z ? pz : z0;
-    } else {
-        x = x0 + (has_x ? px : 0.0);
-        y = y0 + (has_y ? py : 0.0);
-        z = z0 + (has_z ? pz : 0.0);
-    }
-    int e_rel = o_erel == Py_True || !abs_xyz;
-    double de = !has_e ? 0.0 : (e_rel ? ev : ev - e);
-    const double b = MAX_POS_D;
-    if (!(-b <= x && x <= b && -b <= y && y <= b && -b <= z && z <= b)
-        || (has_e && !(-MAX_E_D <= ev && ev <= MAX_E_D)))
-        return NULL;                       /* _check_target raises */
+    in.abs_xyz = o_abs == Py_True;
+    in.e_rel_flag = o_erel == Py_True;
+    in.one = o_one == Py_True;
+    LinOut lo;
+    linear_calc(&in, w, &lo);
+    if (lo.fallback)
+        return NULL;
+    double x0 = in.x0, y0 = in.y0, z0 = in.z0, e = in.e, speed = in.speed;
+    double x = lo.x, y = lo.y, z = lo.z, de = lo.de, v = lo.v;
+    int has_f = lo.has_f, has_x = lo.has_x, has_y = lo.has_y, has_z = lo.has_z;
+    int abs_xyz = in.abs_xyz, e_rel = lo.e_rel;
     *fallback = 0;
 
     /* the objects Python would hold: a value taken from p is a new float, a value kept is
@@ -652,6 +693,247 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     return slow(self, idx, raw);
 }
 
+/* ---------------------------------------------------------------- the firmware core's fused loop
+ * The compiled firmware core's Sim.play reads a chunk of lines through these functions
+ * (a capsule, _C_API) instead of calling step() line by line: a G0/G1 or M204 of the fast
+ * shape, a blank or unmarked comment line, is read here as step() reads it, but the Move
+ * is handed over as doubles (FusedMove) and the state's x y z e v live in C (Session)
+ * until a line step() would hand to Python, or the chunk's end: then they are written
+ * back (the values step() would have left).  The doubles are linear_calc's, the ones
+ * linear() puts into the Move, so the model gets the same bits. */
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+typedef struct {
+    int kind;                         /* 0 a line, 1 E only */
+    double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
+    PyObject *lim;                    /* borrowed: the state's Limits */
+} FusedMove;
+
+typedef struct {
+    PyObject *state, *dict;           /* new references */
+    int live;                         /* in holds the state (read at load, kept since) */
+    int dirty, dirty_v;               /* x y z e (and v) changed since load */
+    LinIn in;
+    double ap, at, ar, flow;          /* the Move's accel objects and flow_r, as the model reads them */
+    PyObject *lim;                    /* borrowed from dict */
+} Session;
+
+/* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
+static int num_double(PyObject *o, double *out)
+{
+    if (o != NULL && PyFloat_CheckExact(o)) {
+        *out = PyFloat_AS_DOUBLE(o);
+        return 1;
+    }
+    if (o != NULL && PyLong_CheckExact(o)) {
+        double d = PyLong_AsDouble(o);
+        if (d == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            return 0;
+        }
+        *out = d;
+        return 1;
+    }
+    return 0;
+}
+
+static int sess_accels(Session *ss)
+{
+    PyObject *dict = ss->dict;
+    return num_double(GET(S_ACC_PRINT), &ss->ap) && num_double(GET(S_ACC_TRAVEL), &ss->at)
+           && num_double(GET(S_ACC_RETRACT), &ss->ar);
+}
+
+/* read the state as linear() would (live only where linear() would not fall back for it) */
+static void sess_load(Session *ss)
+{
+    PyObject *dict = ss->dict;
+    ss->live = ss->dirty = ss->dirty_v = 0;
+    PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH), *o_one = GET(S_ONE);
+    ss->lim = GET(S_LIM);
+    int ok = exact_float(GET(S_X), &ss->in.x0) && exact_float(GET(S_Y), &ss->in.y0)
+             && exact_float(GET(S_Z), &ss->in.z0) && exact_float(GET(S_E), &ss->in.e)
+             && exact_float(GET(S_V), &ss->in.v) && exact_float(GET(S_SPEED), &ss->in.speed)
+             && o_inch == Py_False && (o_abs == Py_True || o_abs == Py_False)
+             && (o_erel == Py_True || o_erel == Py_False) && (o_one == Py_True || o_one == Py_False)
+             && GET(S_FEATURE) != NULL && GET(S_LAYER) != NULL && ss->lim != NULL
+             && num_double(GET(S_FLOW), &ss->flow) && sess_accels(ss);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+        ok = 0;
+    }
+    if (!ok)
+        return;
+    ss->in.abs_xyz = o_abs == Py_True;
+    ss->in.e_rel_flag = o_erel == Py_True;
+    ss->in.one = o_one == Py_True;
+    ss->live = 1;
+}
+
+/* write x y z e (v) back where fused lines moved them; the session is no longer live */
+static int sess_flush(Session *ss)
+{
+    int rc = 0;
+    if (ss->live && ss->dirty) {
+        const int keys[5] = {S_X, S_Y, S_Z, S_E, S_V};
+        const double vals[5] = {ss->in.x0, ss->in.y0, ss->in.z0, ss->in.e, ss->in.v};
+        for (int i = 0; i < (ss->dirty_v ? 5 : 4) && rc == 0; i++) {
+            PyObject *f = PyFloat_FromDouble(vals[i]);
+            if (f == NULL || PyDict_SetItem(ss->dict, state_name[keys[i]], f) < 0)
+                rc = -1;
+            Py_XDECREF(f);
+        }
+    }
+    ss->live = ss->dirty = ss->dirty_v = 0;
+    return rc;
+}
+
+/* a session on `state` (an instance of MachineState), or NULL (error) */
+static void *fused_open(PyObject *state)
+{
+    if (!READY || Py_TYPE(state) != STATE_TYPE) {
+        PyErr_SetString(PyExc_TypeError, "fused reader: not a MachineState");
+        return NULL;
+    }
+    PyObject *dict = PyObject_GenericGetDict(state, NULL);
+    if (dict == NULL)
+        return NULL;
+    Session *ss = PyMem_Calloc(1, sizeof(Session));
+    if (ss == NULL) {
+        Py_DECREF(dict);
+        PyErr_NoMemory();
+        return NULL;
+    }
+    Py_INCREF(state);
+    ss->state = state;
+    ss->dict = dict;
+    return ss;
+}
+
+/* write back and free; -1 if the write-back failed (an error is set) */
+static int fused_close(void *p)
+{
+    Session *ss = p;
+    PyObject *et, *ev, *tb;
+    PyErr_Fetch(&et, &ev, &tb);           /* closing after an error keeps that error */
+    int rc = sess_flush(ss);
+    if (et != NULL) {
+        if (rc < 0)
+            PyErr_Clear();
+        PyErr_Restore(et, ev, tb);
+        rc = -1;
+    }
+    Py_DECREF(ss->dict);
+    Py_DECREF(ss->state);
+    PyMem_Free(ss);
+    return rc;
+}
+
+/* One line: 0 read (no move), 1 read with a move in *out, 2 not read here (the state is
+ * written back: call step()), -1 error. */
+static int fused_line(void *p, PyObject *raw, FusedMove *out)
+{
+    Session *ss = p;
+    if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+        goto other;
+    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+    Py_ssize_t n = PyUnicode_GET_LENGTH(raw);
+    if (n < 1)
+        goto other;
+    Py_ssize_t t = n;
+    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
+        t--;
+    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
+        goto other;
+    const unsigned char *semi = memchr(s, ';', n);
+    Py_ssize_t code_n = semi ? semi - s : n;
+    Py_ssize_t k = 0;
+    while (k < code_n && is_split_space(s[k]))
+        k++;
+    if (k == code_n) {
+        if (semi != NULL && marked(semi, n - code_n))
+            goto other;
+        return 0;
+    }
+    if (n < 2)
+        goto other;
+    Words w;
+    if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
+        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+            goto other;
+        if (!ss->live) {
+            sess_load(ss);
+            if (!ss->live)
+                goto other;
+        }
+        LinOut lo;
+        linear_calc(&ss->in, &w, &lo);
+        if (lo.fallback)
+            goto other;
+        LinIn *in = &ss->in;
+        double x0 = in->x0, y0 = in->y0, z0 = in->z0;
+        in->x0 = lo.x;
+        in->y0 = lo.y;
+        in->z0 = lo.z;
+        in->e = in->e + lo.de;
+        if (lo.has_f) {
+            in->v = lo.v;
+            ss->dirty_v = 1;
+        }
+        ss->dirty = 1;
+        int eonly = lo.x == x0 && lo.y == y0 && lo.z == z0;
+        if (eonly && lo.de == 0.0)
+            return 0;
+        out->x0 = x0;
+        out->y0 = y0;
+        out->z0 = z0;
+        out->x1 = lo.x;
+        out->y1 = lo.y;
+        out->z1 = lo.z;
+        out->e = lo.de;
+        out->v = lo.v * in->speed;
+        out->flow_r = ss->flow;
+        out->lim = ss->lim;
+        if (eonly) {
+            out->kind = 1;
+            out->accel = ss->ar;
+        } else {
+            out->kind = 0;
+            out->accel = lo.de > 0.0 ? ss->ap : (in->one ? ss->ap : ss->at);
+        }
+        return 1;
+    }
+    if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
+        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+            goto other;
+        int done = m204(ss->dict, &w);
+        if (done < 0)
+            return -1;
+        if (!done)
+            goto other;
+        if (ss->live && !sess_accels(ss)) {   /* not numbers the model reads: leave the session */
+            PyErr_Clear();
+            if (sess_flush(ss) < 0)
+                return -1;
+        }
+        return 0;
+    }
+other:
+    return sess_flush(ss) < 0 ? -1 : 2;
+}
+
+typedef struct {
+    const char *layout;               /* FUSED_LAYOUT: the core checks it is its own */
+    size_t move_size;
+    PyCFunction step;                 /* the C step: a state whose step is it can be read here */
+    void *(*open)(PyObject *state);
+    int (*line)(void *session, PyObject *raw, FusedMove *out);
+    int (*close)(void *session);
+} ReaderAPI;
+
+static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
+static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
+                                     fused_open, fused_line, fused_close};
+
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,
                                "step(self, idx, raw): read one line (compiled fast path)."};
@@ -687,6 +969,12 @@ PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
     PyObject *m = PyModule_Create(&reader_module);
     if (m == NULL)
         return NULL;
+    PyObject *cap = PyCapsule_New((void *)&READER_API, "_gcode_opt_reader._C_API", NULL);
+    if (cap == NULL || PyModule_AddObject(m, "_C_API", cap) < 0) {
+        Py_XDECREF(cap);
+        Py_DECREF(m);
+        return NULL;
+    }
     if (PyModule_AddStringConstant(m, "SOURCE_SHA256", READER_SOURCE_SHA256) < 0) {
         Py_DECREF(m);
         return NULL;

@@ -1628,21 +1628,12 @@ static int set_lim(SimObject *s, PyObject *lim)
     return 0;
 }
 
-static int sim_eonly(SimObject *s, PyObject *mv)
+/* rest-to-rest trapezoid of the extruder alone (the toolhead stands still), after the stop */
+static int eonly_rest(SimObject *s, long long idx, double e, double v, double a)
 {
-    /* rest-to-rest trapezoid of the extruder alone; the toolhead stands still */
-    if (sim_stop(s) < 0)
-        return -1;
-    double e, v, a, t;
-    long long idx;
-    if (get_d(&MOVE_MAP, mv, MV_E, &e) < 0)
-        return -1;
+    double t;
     double d = fabs(e);
-    if (get_d(&MOVE_MAP, mv, MV_V, &v) < 0)
-        return -1;
     v = pymin(v, s->max_e_v);
-    if (get_d(&MOVE_MAP, mv, MV_ACCEL, &a) < 0)
-        return -1;
     if (d <= 0.0 || v <= 0.0 || a <= 0.0)
         t = 0.0;
     else if (v * v <= a * d) {
@@ -1658,8 +1649,6 @@ static int sim_eonly(SimObject *s, PyObject *mv)
         t = 2.0 * r;
     }
     s->res->time_t += t;
-    if (get_ll(&MOVE_MAP, mv, MV_IDX, &idx) < 0)
-        return -1;
     RecData rec;
     memset(&rec, 0, sizeof(rec));
     rec.idx = idx;
@@ -1668,13 +1657,32 @@ static int sim_eonly(SimObject *s, PyObject *mv)
     return call_on_line(s, &rec);
 }
 
+static int sim_eonly_vals(SimObject *s, long long idx, double e, double v, double a)
+{
+    if (sim_stop(s) < 0)
+        return -1;
+    return eonly_rest(s, idx, e, v, a);
+}
+
+static int sim_eonly(SimObject *s, PyObject *mv)
+{
+    if (sim_stop(s) < 0)
+        return -1;
+    double e, v, a;
+    long long idx;
+    if (get_d(&MOVE_MAP, mv, MV_E, &e) < 0 || get_d(&MOVE_MAP, mv, MV_V, &v) < 0
+        || get_d(&MOVE_MAP, mv, MV_ACCEL, &a) < 0 || get_ll(&MOVE_MAP, mv, MV_IDX, &idx) < 0)
+        return -1;
+    return eonly_rest(s, idx, e, v, a);
+}
+
 static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy, double dz,
                      double de)
 {
     double d = sqrt(dx * dx + dy * dy + dz * dz);
     if (d < 1e-9) {
-        if (de != 0.0 && first)
-            return sim_eonly(s, m->ev);
+        if (de != 0.0 && first)         /* the move's own E, feed and accel (_eonly(mv)) */
+            return sim_eonly_vals(s, m->idx, m->e, m->v, m->accel);
         return 0;
     }
     double inv;
@@ -1949,6 +1957,75 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
     Py_RETURN_NONE;
 }
 
+/* The reader's fused loop (_reader.c, capsule _gcode_opt_reader._C_API; use_reader()):
+ * where `step` is the compiled reader's step bound to its MachineState, play() reads the
+ * common lines through it and plays their moves from doubles, with no Move object and no
+ * state dict traffic per line.  The layout string must be the reader's own. */
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+typedef struct {
+    int kind;                         /* 0 a line, 1 E only */
+    double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
+    PyObject *lim;                    /* borrowed */
+} FusedMove;
+
+typedef struct {
+    const char *layout;
+    size_t move_size;
+    PyCFunction step;
+    void *(*open)(PyObject *state);
+    int (*line)(void *session, PyObject *raw, FusedMove *out);
+    int (*close)(void *session);
+} ReaderAPI;
+
+static const ReaderAPI *READER = NULL;
+static PyObject *READER_CAPSULE = NULL;   /* keeps the reader module's capsule alive */
+
+/* The session for `step`, NULL if play() must call step line by line: not the compiled
+ * reader's step, or callbacks that are not the core's own (a Python on_line or on_block
+ * could read the state while its x y z e v are held in C). *err on error. */
+static void *fused_session(SimObject *s, PyObject *step, int *err)
+{
+    *err = 0;
+    if (READER == NULL || !PyMethod_Check(step))
+        return NULL;
+    PyObject *fn = PyMethod_GET_FUNCTION(step);
+    if (!PyCFunction_Check(fn) || PyCFunction_GET_FUNCTION(fn) != READER->step)
+        return NULL;
+    if (!(s->on_line == Py_None
+          || (Py_IS_TYPE(s->on_line, &SumsType) && ((SumsObject *)s->on_line)->also == Py_None))
+        || !(s->on_block == Py_None || Py_IS_TYPE(s->on_block, &SinkType)))
+        return NULL;
+    void *ss = READER->open(PyMethod_GET_SELF(step));
+    if (ss == NULL)
+        *err = 1;
+    return ss;
+}
+
+/* a FusedMove played as Sim_move_body plays the Move the reader would have made */
+static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
+{
+    if (enter(s) < 0)
+        return -1;
+    s->res->n_moves += 1;
+    int rc;
+    if (fm->kind == 1)
+        rc = sim_eonly_vals(s, idx, fm->e, fm->v, fm->accel);
+    else {
+        MoveData m;
+        m.ev = NULL;
+        m.idx = idx;
+        m.kind = (int)K_LINE;
+        m.e = fm->e;
+        m.v = fm->v;
+        m.accel = fm->accel;
+        m.flow_r = fm->flow_r;
+        m.lim = fm->lim;
+        rc = sim_block(s, &m, 1, fm->x1 - fm->x0, fm->y1 - fm->y0, fm->z1 - fm->z0, m.e);
+    }
+    s->busy = 0;
+    return rc;
+}
+
 /* play(lines, start, idx0, step, until, stops, on_barrier): simulate._play's loop over
  * lines[start:] (a list of str, lines[j] the file's line idx0 + j): ev = step(idx, raw),
  * a Move played (move), a Barrier taken (barrier, then on_barrier(ev.dwell_t) unless
@@ -1972,16 +2049,40 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     if (i < 0)
         i = 0;
-    int stopped = 0;
+    int stopped = 0, err;
     PyObject *call[3];
+    void *ss = fused_session(s, step, &err);
+    if (err)
+        return NULL;
     for (; i < PyList_GET_SIZE(lines); i++) {
         long long idx = idx0 + (long long)i;
         if (idx == until)
             break;
         PyObject *raw = PyList_GET_ITEM(lines, i);
+        if (ss != NULL) {
+            FusedMove fm;
+            Py_INCREF(raw);
+            int got = READER->line(ss, raw, &fm);
+            Py_DECREF(raw);
+            if (got < 0)
+                goto fail_ss;
+            if (got == 0)
+                continue;
+            if (got == 1) {
+                if (play_fused(s, idx, &fm) < 0)
+                    goto fail_ss;
+                if (stops && fm.kind == 1) {
+                    i++;
+                    stopped = 1;
+                    break;
+                }
+                continue;
+            }
+            /* got == 2: the state is written back; step() reads this line */
+        }
         PyObject *io = PyLong_FromLongLong(idx);
         if (io == NULL)
-            return NULL;
+            goto fail_ss;
         Py_INCREF(raw);                /* the callbacks could change the list */
         call[0] = NULL;
         call[1] = io;
@@ -1990,7 +2091,7 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         Py_DECREF(io);
         Py_DECREF(raw);
         if (ev == NULL)
-            return NULL;
+            goto fail_ss;
         PyObject *r = NULL;
         if (Py_TYPE(ev) == MOVE_MAP.type) {
             if (enter(s) < 0)
@@ -2032,9 +2133,15 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         continue;
     fail:
         Py_DECREF(ev);
-        return NULL;
+        goto fail_ss;
     }
+    if (ss != NULL && READER->close(ss) < 0)
+        return NULL;
     return Py_BuildValue("(nO)", i, stopped ? Py_True : Py_False);
+fail_ss:
+    if (ss != NULL)
+        READER->close(ss);            /* writes the state back, keeps the error */
+    return NULL;
 }
 
 static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
@@ -2249,7 +2356,32 @@ done:
     return ret;
 }
 
+/* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if
+ * its layout is not this core's */
+static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
+{
+    if (cap == Py_None) {
+        READER = NULL;
+        Py_CLEAR(READER_CAPSULE);
+        Py_RETURN_FALSE;
+    }
+    const ReaderAPI *api = PyCapsule_GetPointer(cap, "_gcode_opt_reader._C_API");
+    if (api == NULL)
+        return NULL;
+    if (strcmp(api->layout, FUSED_LAYOUT) != 0 || api->move_size != sizeof(FusedMove)) {
+        READER = NULL;
+        Py_CLEAR(READER_CAPSULE);
+        Py_RETURN_FALSE;
+    }
+    Py_INCREF(cap);
+    Py_XSETREF(READER_CAPSULE, cap);
+    READER = api;
+    Py_RETURN_TRUE;
+}
+
 static PyMethodDef mod_methods[] = {
+    {"use_reader", mod_use_reader, METH_O,
+     "use_reader(the reader's _C_API capsule, or None): Sim.play reads common lines through it"},
     {"setup", mod_setup, METH_VARARGS,
      "setup(Move, Arc, Limits, Barrier, LineRecord subclass, SimResult subclass, constants)"},
     {"ring_exp", mod_ring_exp, METH_VARARGS,

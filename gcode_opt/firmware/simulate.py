@@ -445,8 +445,19 @@ def _load_core():
 
     core.setup(st.Move, st.Arc, st.Limits, st.Barrier, _CLineRecord, _CSimResult,
                {"LINE": st.LINE, "ARC": st.ARC, "EONLY": st.EONLY})
+    if hasattr(core, "use_reader"):
+        # Sim.play reads the common lines through the compiled reader's fused loop
+        core.use_reader(getattr(st._reader, "_C_API", None))
     CORE_WHY = ""
     return core
+
+
+def use_fused(on: bool) -> bool:
+    """Let Sim.play read the common lines through the compiled reader's fused loop (the
+    default where both are built), or make it call the reader's step line by line (tests
+    compare the two); returns whether the fused loop is now in use."""
+    cap = getattr(st._reader, "_C_API", None) if on else None
+    return bool(_core.use_reader(cap)) if _core is not None and hasattr(_core, "use_reader") else False
 
 
 CORE_WHY = ""

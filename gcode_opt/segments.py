@@ -157,6 +157,9 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
     out = np.array(need, float)
     live = np.flatnonzero(np.isfinite(step))        # an infinite step leaves the row as it is
     ar = _tent_dist(n)
+    if live.size and (step[live] > 0.0).all():
+        _tent_by_step(out, need, vf, step, live, ar, min(max_cells, TENT_CELLS))
+        return out
     per = max(1, max_cells // max(n * (n + 2), 1))
     for a in range(0, live.size, per):
         r = live[a:a + per]
@@ -165,6 +168,35 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
         dist = step[r][:, None, None] * ar[None, :, :]
         out[r] = np.max(pad[:, None, :] - dist, axis=2)
     return out
+
+
+TENT_CELLS = 1 << 19        # cells of one envelope block of _tent_by_step (4 MB)
+
+
+def _tent_by_step(out, need, vf, step, live, ar, max_cells):
+    """tent_feeds_rows' envelopes of rows `live` into out: rows of one step (all > 0)
+    share their distance matrix step x |k - j| (the same products as each row's own),
+    subtracted into one reused block (~2x faster on the gyroid plate's chains).  Steps
+    are grouped by value: a step of 0 or -0 (which np.unique would take as one) goes the
+    per-row way in tent_feeds_rows."""
+    n = need.shape[1]
+    steps = step[live]
+    if (steps == steps[0]).all():
+        groups = [(live, steps[0])]
+    else:
+        uniq, inv = np.unique(steps, return_inverse=True)
+        groups = [(live[inv == q], uniq[q]) for q in range(uniq.size)]
+    per = max(1, max_cells // max(n * (n + 2), 1))
+    block = np.empty((min(per, live.size), n, n + 2))
+    for rows, st in groups:
+        dist = st * ar
+        for a in range(0, rows.size, per):
+            r = rows[a:a + per]
+            side = (vf[r] + step[r])[:, None]
+            pad = np.concatenate([side, need[r], side], axis=1)
+            b = block[:r.size]
+            np.subtract(pad[:, None, :], dist[None, :, :], out=b)
+            out[r] = np.max(b, axis=2)
 
 
 def segment_feeds(v, v_feed, step_v=np.inf):

@@ -348,9 +348,18 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
         elif run:
             if curves and turned and len(run) >= 3:
                 parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm))]
+            elif len(run) == 1:
+                parts = [(0, Stroke(run[0]))]
             else:
                 parts = _straight_parts(run)
             e_k, k_done = (run_start[0] if run_start else 0.0), 0
+            if len(parts) == 1:           # the loop below for one stroke (most runs)
+                st = parts[0][1]
+                st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
+                if run_start is not None:
+                    st.start_state = _kind_state(st, e_k, run_start)
+                parts = ()
+                out.append(st)
             for j, (k0, st) in enumerate(parts):
                 st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
                 if j + 1 < len(parts):
@@ -458,7 +467,12 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     arc.start_state = _kind_state(arc, ss[0], ss)
                 opened[0] = idx
             if is_move:
-                last_u = _direction(ev, True)
+                if ev.kind == ARC:
+                    last_u = _direction(ev, True)
+                else:                      # _direction(ev, True) of a line
+                    dx, dy = ev.x1 - ev.x0, ev.y1 - ev.y0
+                    d = hypot(dx, dy)
+                    last_u = (dx / d, dy / d) if d > 0 else None
             elif ev is not None:           # a Barrier: the planner stops
                 last_u = None
         yield idx, raw, ev

@@ -140,6 +140,20 @@ static int buf_grow(Buf *b, Py_ssize_t more)
     return 0;
 }
 
+static Buf EMIT_BUF = {NULL, 0, 0};            /* emit_text's buffer, reused (the GIL is held) */
+
+/* give emit_text's buffer back for the next block (a huge one is freed) */
+static void keep_buf(Buf *b)
+{
+    if (b->cap > (1 << 22)) {
+        PyMem_Free(b->p);
+        b->p = NULL;
+        b->cap = 0;
+    }
+    b->n = 0;
+    EMIT_BUF = *b;
+}
+
 static inline int put(Buf *b, const char *s, Py_ssize_t n)
 {
     if (buf_grow(b, n) < 0)
@@ -423,11 +437,12 @@ static int put_canon(Buf *b, const char *t, Py_ssize_t m)
     return 0;
 }
 
-/* a sequence of doubles: a list of floats (copied) or a 1-D C-contiguous float64 buffer
-   (a numpy array: its items are the floats its tolist() gives) */
+/* a sequence of doubles: a list of floats (copied), or the bytes of native doubles
+   (emit._doubles: a float64 array's tobytes(); its items are the floats its tolist()
+   gives).  Not the buffer protocol: numpy keeps a buffer's format and shape with the
+   array until it dies, and the plan's arrays live to the end of the run (~7 MB of RSS on
+   the rectilinear plate). */
 typedef struct {
-    Py_buffer view;
-    int has_view;
     double *own;
     const double *d;
     Py_ssize_t n;
@@ -435,8 +450,6 @@ typedef struct {
 
 static void fseq_release(FSeq *f)
 {
-    if (f->has_view) PyBuffer_Release(&f->view);
-    f->has_view = 0;
     PyMem_Free(f->own);
     f->own = NULL;
 }
@@ -458,17 +471,15 @@ static int fseq_get(PyObject *o, FSeq *f)
         f->n = n;
         return 0;
     }
-    if (!PyObject_CheckBuffer(o) || PyObject_GetBuffer(o, &f->view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
-        PyErr_Clear();
-        return -1;
+    if (PyBytes_CheckExact(o) && PyBytes_GET_SIZE(o) % sizeof(double) == 0) {
+        f->n = PyBytes_GET_SIZE(o) / (Py_ssize_t)sizeof(double);
+        f->own = PyMem_Malloc((f->n ? f->n : 1) * sizeof(double));
+        if (f->own == NULL) return -1;
+        memcpy(f->own, PyBytes_AS_STRING(o), f->n * sizeof(double));
+        f->d = f->own;
+        return 0;
     }
-    f->has_view = 1;
-    const char *fmt = f->view.format ? f->view.format : "B";
-    if (fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') fmt++;
-    if (f->view.ndim != 1 || f->view.itemsize != sizeof(double) || strcmp(fmt, "d") != 0) return -1;
-    f->d = (const double *)f->view.buf;
-    f->n = f->view.shape[0];
-    return 0;
+    return -1;
 }
 
 typedef struct { int64_t x_a, x_b, y_a, y_b, e_move, e_before; } MoveUnits;
@@ -564,7 +575,10 @@ static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject 
     double end_last = ends->d[n_moves - 1];
     double tol_d = 1e-9 * (end_last > 1.0 ? end_last : 1.0);
     double end_d = ends->d[0], start_d = 0.0;
-    Buf b = {NULL, 0, 0};
+    /* one buffer for every block, kept between calls (a block's text is built there and
+       copied once into its str): no growing allocations per block to fragment the heap */
+    Buf b = EMIT_BUF;
+    b.n = 0;
     Py_ssize_t move = 0;
     int have_mu = 0;
     MoveUnits mu;
@@ -694,13 +708,13 @@ static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject 
     PyObject *res = PyUnicode_New(b.n, 127);
     if (res != NULL)
         memcpy(PyUnicode_DATA(res), b.p, b.n);
-    PyMem_Free(b.p);
+    keep_buf(&b);
     return res;
 decline:
-    PyMem_Free(b.p);
+    keep_buf(&b);
     Py_RETURN_NONE;
 fail:
-    PyMem_Free(b.p);
+    keep_buf(&b);
     return PyErr_NoMemory();
 }
 

@@ -23,6 +23,8 @@ import operator
 import os
 import re
 
+import numpy as np
+
 from . import native
 from .words import decimals, param_texts, split_comment, strip_checksum
 
@@ -443,11 +445,23 @@ def _emit_core(st, ends_d, s, accels, feeds, x0_text, y0_text, e_rel, flavour, a
         if flavour == "klipper":
             head += f"SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0{nl}"
         word = "M204 S" if flavour in ("klipper", "marlin-legacy") else ("M204 P" if extruding else "M204 T")
+        s, accels, feeds, ends_d = _doubles(s), _doubles(accels), _doubles(feeds), _doubles(ends_d)
         return CORE_MOD.emit_body(head, st.x_texts, st.y_texts, st.e_texts, st.comments, s, accels, feeds, ends_d,
                                   st.dec_xy, st.dec_e, e_rel, extruding, st.e_start_units, x0_text, y0_text,
                                   word, nl, before, after, closing)
     except Exception:             # noqa: BLE001 -- the Python loop gives the exception
         return None
+
+
+_F64 = np.dtype(np.float64)
+
+
+def _doubles(xs):
+    """What the core reads as a sequence of doubles: a 1-D float64 array's bytes (its items
+    are the floats of its tolist()), else _floats(xs)."""
+    if getattr(xs, "dtype", None) is _F64 and xs.ndim == 1:
+        return xs.tobytes()
+    return _floats(xs)
 
 
 def _move_units(st, move, start_u, dxy, de, e_rel):

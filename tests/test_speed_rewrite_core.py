@@ -443,3 +443,40 @@ def test_pure_python_asked_leaves_the_core_out():
     env = dict(os.environ, GCODE_OPT_PURE_PYTHON="1")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.startswith("python True GCODE_OPT_PURE_PYTHON")
+
+
+def test_core_reads_plan_arrays_without_keeping_anything():
+    """The plan's float64 arrays reach the core as their bytes (the same doubles as their
+    tolist()), not through the buffer protocol: numpy would keep a buffer's format and
+    shape with each array until it dies, and the plan's arrays live to the end of the run.
+    Emitting from 2000 live plans leaves no traced memory behind."""
+    import tracemalloc
+    rng = np.random.default_rng(5)
+    a = rng.uniform(100, 3000, 17)
+    assert emit._doubles(a) == a.tobytes() and np.frombuffer(emit._doubles(a)).tolist() == a.tolist()
+    assert emit._doubles(a[::2]) == a[::2].tobytes()                  # a strided view: its own items
+    assert emit._doubles(a.astype(np.float32)) == a.astype(np.float32).tolist()   # the list path
+    assert emit._doubles(a.astype(">f8")) == a.tolist()
+    raws = ["G1 X10.5 Y20 E.5\n", "G1 X12 Y20 E1\n"]
+    plans = []
+    for _ in range(2000):
+        s = np.array([0.0, 0.25, 0.5, 1.0, 2.0])
+        plans.append((np.array([0.5, 2.0]), s, rng.uniform(100, 3000, 4), rng.uniform(10, 200, 4)))
+    kw = dict(x0_text="10.00000000", y0_text="20.00000000", e_rel=True, flavour="klipper", accel_restore=1000.0,
+              mcr_restore=0.0, feed_restore_v=30.0, extruding=True, header=": h", first_cmds=None)
+    st = emit.StrokeText(raws, "10.00000000", "20.00000000", 0)
+    emit.emit_stroke(st, *plans[0][:2], None, *plans[0][2:], **kw)        # warm: caches, code paths
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        for ends, s, acc, feeds in plans:
+            assert emit._emit_core(st, ends, s, acc, feeds, kw["x0_text"], kw["y0_text"], True, "klipper", 1000.0,
+                                   0.0, 30.0, True, ": h", None) is not None
+        grown = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    assert grown < 20_000, grown
+    # an array handed over as it is: the core does not read it (declines)
+    assert CORE.emit_body("h\n", st.x_texts, st.y_texts, st.e_texts, st.comments, plans[0][1], plans[0][2].tobytes(),
+                          plans[0][3].tobytes(), plans[0][0].tobytes(), st.dec_xy, st.dec_e, True, True, 0,
+                          "10.00000000", "20.00000000", "M204 S", "\n", None, None, "end\n") is None

@@ -33,7 +33,8 @@ import numpy as np
 from . import state as st
 from .firmware.resonance import (Oscillator, Response, _smoothing_chunk, shaped_events,
                                  shaper_pulses, smoothing)
-from .firmware.simulate import CORNER_COS, simulate_events
+from .firmware import simulate as fwsim
+from .firmware.simulate import CORNER_COS, simulate_file
 
 UM = 1000.0               # mm -> micrometres
 NONE, CORNER, TURN = 0, 1, 2
@@ -119,15 +120,20 @@ def wrap_events(event_iter, on_barrier_dwell):
 
 def play(path, profile, sink, on_line=None):
     """One firmware-model pass over the file feeding `sink`; returns the SimResult.
-    on_line, if given, sees every LineRecord too."""
+    on_line, if given, sees every LineRecord too.  Read in chunks (simulate_file); where
+    the compiled model writes a RowSink's rests itself (its line() then does nothing) and
+    no on_line is asked for, the model gets no Python callback per record, so its play()
+    reads the common lines through the reader's fused loop."""
     ring_line, on_block, on_dwell = hooks(sink)
     if on_line is not None:
         def both(rec, _a=on_line, _b=ring_line):
             _a(rec)
             _b(rec)
+    elif on_block is not None and type(on_block) is _row_sink_type() and fwsim.CORE == "c":
+        both = None
     else:
         both = ring_line
-    return simulate_events(wrap_events(st.events(path, profile), on_dwell), profile, both, on_block)
+    return simulate_file(path, profile, both, on_block, on_barrier=on_dwell)
 
 
 class Rows:

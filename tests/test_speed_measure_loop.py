@@ -494,3 +494,53 @@ def test_stroke_sums_refuses_bad_buffers():
         fw._core.StrokeSums(lo, hi[:1], np.zeros(2), np.zeros(2), np.zeros(2))
     with pytest.raises(ValueError):
         fw._core.StrokeSums(lo.astype(np.int32), hi, np.zeros(2), np.zeros(2), np.zeros(2))
+
+
+# ---------------------------------------------------------------- the other passes
+def _per_line_chunks(chunks, state, sim, watch, led, on_barrier=None):
+    """_play_chunks replaced by the 9bb98a8 per-line loop over the same lines."""
+    _ref_play(((i0 + j, raw) for i0, chunk in chunks for j, raw in enumerate(chunk)), state, sim, watch, led,
+              on_barrier)
+
+
+@needs_core
+@pytest.mark.parametrize("name,prof", [("prusa_gyroid", "prusa-mk3s"),
+                                       pytest.param("prusa_gyroid_arcs", "voron24", marks=pytest.mark.slow)])
+def test_second_pass_remeasure_same_bits(tmp_path, name, prof, monkeypatch):
+    """A file the time budget rewrites twice: the second pass's remeasure plays the changed
+    stretches in chunks (replay_runs), and the written file's ringing takes a pass of its
+    own (ringing.play, read in chunks with no per-record callback): the same output and
+    the same summary as with the per-line loop everywhere."""
+    src = os.path.join(SAMPLES, name + ".gcode")
+    got = []
+    for per_line in (True, False):
+        with monkeypatch.context() as m:
+            if per_line:
+                m.setattr(fw, "_play_chunks", _per_line_chunks)
+            out = str(tmp_path / f"out_{per_line}.gcode")
+            pl.LAST_REMEASURE.clear()
+            summary = pl.process(src, out, load_profile(prof), pl.Options())
+            played = pl.LAST_REMEASURE.get("played_lines", 0)
+        summary.pop("timing_s")
+        summary.pop("elapsed_s", None)
+        summary.pop("output")                  # the file name
+        with open(out, "rb") as fh:
+            got.append((fh.read(), bits(summary)))
+        assert summary["rewrite_passes"] == 2 and played > 0
+        assert summary.get("ringing") and "ringing_error" not in summary
+    assert got[0] == got[1]
+
+
+@needs_core
+@pytest.mark.parametrize("shaper", [None, "none"])
+def test_ringing_play_same_bits(shaper, monkeypatch):
+    """ringing.play (a pass of its own: figures()) in chunks with no per-record callback,
+    against the per-line loop with the sink's line() hook."""
+    path = os.path.join(SAMPLES, "prusa_gyroid_fullspeed.gcode")
+    profile = load_profile("prusa-mk3s")
+    new = rg.figures(path, profile, shaper)
+    col = rg.Collector(profile, shaper)
+    ring_line, on_block, on_dwell = rg.hooks(col)
+    fw.simulate_events(rg.wrap_events(st.events(path, profile), on_dwell), profile, ring_line, on_block)
+    assert bits(new) == bits(col.figures())
+    assert new["x"]["rms_um"] > 0

@@ -100,7 +100,7 @@ def test_numbers_are_float(seed, monkeypatch):
     toks = EDGE + [_number(rng) for _ in range(3000)]
     for tok in toks:
         lines.append(f"G1 X{tok} Y{_number(rng)} E{_number(rng)}\n")
-        lines.append(f"G1 X1 Y2\n")
+        lines.append("G1 X1 Y2\n")
         if rng.random() < 0.1:
             lines.append(f"M204 S{tok} T{_number(rng)}\n")
     compare(lines, prof, cnt.py)

@@ -545,6 +545,20 @@ def read_chunks(path, progress=None):
             idx0 += len(lines)
 
 
+def _chunked(lines, n=2048):
+    """(idx, raw) lines of consecutive idx as (idx of the first, [raw, ...]) chunks of n."""
+    buf, idx0 = [], 0
+    for idx, raw in lines:
+        if not buf:
+            idx0 = idx
+        buf.append(raw)
+        if len(buf) == n:
+            yield idx0, buf
+            buf = []
+    if buf:
+        yield idx0, buf
+
+
 def _counted(lines, progress):
     """(idx, raw) lines, progress(len(raw)) told before each is yielded."""
     if progress is None:
@@ -853,7 +867,10 @@ def replay_runs(path, profile, led, runs, on_line=None, on_block=None):
             sim = new_sim(profile, on_line, on_block)
             sim.max_stop_lines = math.inf
             while True:
-                _play(upto(last), state, sim, None, None)
+                if hasattr(sim, "play"):
+                    _play_chunks(_chunked(upto(last)), state, sim, None, None)
+                else:
+                    _play(upto(last), state, sim, None, None)
                 if hi == end:
                     sim.stop()
                 if pos != last or not sim.empty():

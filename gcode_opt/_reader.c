@@ -710,6 +710,7 @@ typedef struct {
 
 typedef struct {
     PyObject *state, *dict;           /* new references */
+    int off;                          /* not a MachineState step() reads: every line goes to step() */
     int live;                         /* in holds the state (read at load, kept since) */
     int dirty, dirty_v;               /* x y z e (and v) changed since load */
     LinIn in;
@@ -787,20 +788,22 @@ static int sess_flush(Session *ss)
     return rc;
 }
 
-/* a session on `state` (an instance of MachineState), or NULL (error) */
+/* a session on `state`, or NULL (error); one that reads no line itself (off) unless the
+ * state is a MachineState step() reads (not a subclass: step() hands those to Python) */
 static void *fused_open(PyObject *state)
 {
-    if (!READY || Py_TYPE(state) != STATE_TYPE) {
-        PyErr_SetString(PyExc_TypeError, "fused reader: not a MachineState");
-        return NULL;
-    }
-    PyObject *dict = PyObject_GenericGetDict(state, NULL);
-    if (dict == NULL)
-        return NULL;
     Session *ss = PyMem_Calloc(1, sizeof(Session));
     if (ss == NULL) {
-        Py_DECREF(dict);
         PyErr_NoMemory();
+        return NULL;
+    }
+    if (!READY || Py_TYPE(state) != STATE_TYPE) {
+        ss->off = 1;
+        return ss;
+    }
+    PyObject *dict = PyObject_GenericGetDict(state, NULL);
+    if (dict == NULL) {
+        PyMem_Free(ss);
         return NULL;
     }
     Py_INCREF(state);
@@ -822,8 +825,8 @@ static int fused_close(void *p)
         PyErr_Restore(et, ev, tb);
         rc = -1;
     }
-    Py_DECREF(ss->dict);
-    Py_DECREF(ss->state);
+    Py_XDECREF(ss->dict);
+    Py_XDECREF(ss->state);
     PyMem_Free(ss);
     return rc;
 }
@@ -833,6 +836,8 @@ static int fused_close(void *p)
 static int fused_line(void *p, PyObject *raw, FusedMove *out)
 {
     Session *ss = p;
+    if (ss->off)
+        return 2;
     if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         goto other;
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);

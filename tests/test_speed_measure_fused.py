@@ -209,3 +209,22 @@ def test_fused_is_used():
         xs = seen[1::2]
         lag[fused] = sum(1 for a, b in zip(xs, xs[1:]) if a == b)
     assert lag[True] > 10 * (lag[False] + 1)
+
+
+def test_fused_with_a_state_subclass():
+    """A MachineState subclass (the compiled step hands its every line to Python): play()
+    reads it line by line, the same bits."""
+    class Sub(st.MachineState):
+        pass
+
+    path = os.path.join(SAMPLES, "prusa_klipper.gcode")
+    profile = load_profile("voron24")
+    lines = _lines(path)
+    got = []
+    for cls in (st.MachineState, Sub):
+        state = cls(profile, path)
+        sim = fw.new_sim(profile, None, None)
+        fw._play_chunks([(0, lines)], state, sim, None, None)
+        sim.stop()
+        got.append((res_bits(sim.res), bits(state.snapshot())))
+    assert got[0] == got[1]

@@ -420,10 +420,12 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad)
             segs.update(new)
             seg_failed.update(new_bad)
-        settle_faults([segs.get(i) for i in idx.tolist()])
-        for i in idx:
-            seg = segs.get(int(i))
-            why = seg_failed.get(int(i)) or ("" if seg is None else seg_fault(seg))
+        idx_l = idx.tolist()
+        settle_faults([segs.get(i) for i in idx_l])
+        put, t_put, a2_put = [], [], []      # the kept plans' figures, set in one go below
+        for i in idx_l:
+            seg = segs.get(i)
+            why = seg_failed.get(i) or ("" if seg is None else seg_fault(seg))
             if why:
                 plan.retime[i] = False
                 plan.reason[i] = why
@@ -433,7 +435,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 plan.reason[i] = "segments would not beat the original"
                 continue
             plan.segs[i] = seg
-            plan.t_pred[i], plan.a2_pred[i] = seg.time_t, seg.int_a2
+            put.append(i)
+            t_put.append(seg.time_t)
+            a2_put.append(seg.int_a2)
+        plan.t_pred[put] = np.array(t_put, float)
+        plan.a2_pred[put] = np.array(a2_put, float)
         _attach_commands(plan, strokes, pin, rules)
         _keep_slowed_corners(plan, strokes, rules)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)

@@ -329,7 +329,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
     # lengths at which split_vertex is proven False, kept for one (limits, acceleration)
     f_bounds = getattr(split_vertex, "short_bounds", None)
-    f_lim, f_accel, f_lo, f_hi = None, None, 1.0, 0.0
+    f_lim, f_accel, f_lo, f_hi = None, None, 1.0, 0.0     # (a run of another acceleration clears f_lim)
+    coll = COLLINEAR_SIN
     if opened is None:
         opened = [NOT_OPEN]
     else:
@@ -395,13 +396,14 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 d = hypot(dx, dy)
                 ux, uy = dx / d, dy / d         # _unit(ev); (lux, luy) is _unit(pm)
                 dot = lux * ux + luy * uy
-                if abs(lux * uy - luy * ux) <= COLLINEAR_SIN and dot > 0.0:      # collinear
+                cross = lux * uy - luy * ux
+                if -coll <= cross <= coll and dot > 0.0:      # collinear: |cross| <= COLLINEAR_SIN
                     take = True
                 elif dot >= min_cos:
                     if split_vertex is None:
                         take = turned = True
                     else:
-                        if ev.lim is not f_lim or r_accel != f_accel:    # (rarely) other limits
+                        if ev.lim is not f_lim:        # (rarely) other limits or acceleration
                             f_lim, f_accel = ev.lim, r_accel
                             f_lo, f_hi = f_bounds(f_lim, f_accel, min_cos) if f_bounds else (1.0, 0.0)
                         # lengths in the filter's bounds prove split False (vertex_filter.py)
@@ -453,6 +455,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             run_prev_u = last_u
             run_start = start_state() if start_state is not None else None
             r_v, r_accel, r_feature, r_z, r_erel = ev.v, ev.accel, ev.feature, ev.z1, ev.e_rel
+            if r_accel != f_accel:
+                f_lim = None
             r_travel = ev.feature == "travel"
             r_last = ev.idx
             opened[0] = idx

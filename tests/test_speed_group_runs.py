@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from array import array
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
@@ -45,7 +46,7 @@ LIM2 = Limits(300.0, 1000.0, 1000.0, 5.0, 0.5, 0.013, 0.0, 8.0)     # no X jerk:
 FEATS = [feat.SPARSE_INFILL, feat.SOLID_INFILL, feat.PERIMETER, feat.TRAVEL]
 
 _step = hs.tuples(
-    hs.sampled_from(["move"] * 12 + ["none", "barrier", "feed", "feature", "z", "lim", "gap"]),
+    hs.sampled_from(["move"] * 12 + ["none", "barrier", "feed", "feature", "z", "lim", "gap", "accel"]),
     hs.one_of(hs.floats(-40.0, 40.0), hs.sampled_from([0.0, 0.01, 0.06, 29.9, 30.0, 31.0, 90.0, 180.0])),
     hs.one_of(hs.floats(1e-4, 3.0), hs.sampled_from([1e-7, 1e-6, 0.2, 2.0, 2.0000001, 2.5])),
     hs.one_of(hs.floats(-0.05, 0.2), hs.sampled_from([0.0, 1e-300, 0.05])))
@@ -73,6 +74,8 @@ def _stream(steps):
                 z += 0.2
             elif kind == "lim":
                 lim = LIM2 if lim is LIM else LIM
+            elif kind == "accel":       # 5e-324: every cap 0 under jd and scv, nothing proven
+                accel = 5e-324 if accel == 1000.0 else 1000.0
             heading += math.radians(turn_deg)
             x1, y1 = x + d * math.cos(heading), y + d * math.sin(heading)
             e_mv = 0.0 if feature == feat.TRAVEL and e < 0.02 else e
@@ -110,3 +113,43 @@ def test_of_curve_is_the_reference(steps, given_ds):
     moves = [ev for _, _, ev in _stream([("move",) + s[1:] for s in steps])]
     ds = [math.hypot(m.x1 - m.x0, m.y1 - m.y0) for m in moves] if given_ds else None
     assert _stroke_bits(Stroke.of_curve(moves, ds)) == _stroke_bits(_ref_of_curve(moves, ds))
+
+
+def _moves(points, accels=None, lim=LIM):
+    """(idx, raw, Move) triples along the points, one per segment, printing sparse infill."""
+    out = []
+    for k, ((x0, y0), (x1, y1)) in enumerate(zip(points[:-1], points[1:])):
+        a = accels[k] if accels else 1000.0
+        out.append((k, "G1", Move(k, LINE, x0, y0, 0.2, x1, y1, 0.2, 0.05, 80.0, a, FEATS[0], 0, lim)))
+    return out
+
+
+def _zigzag(n, x=0.0):
+    pts = [(x, 0.0)]
+    for k in range(n):
+        pts.append((pts[-1][0] + 0.5, 0.1 if k % 2 == 0 else 0.0))
+    return pts
+
+
+def test_group_strokes_where_the_acceleration_changes_is_the_reference():
+    """A run at 1000 mm/s^2 then one at 5e-324 (every jd cap 0: each vertex splits) under the
+    same limits: the filter's bounds of the first run must not serve the second."""
+    pts = _zigzag(8)
+    stream = _moves(pts, accels=[1000.0] * 4 + [5e-324] * 4)
+    profile = load_profile("ender3")
+    ref = _tagged(_ref_group_strokes, stream, feat.DEFAULT_SELECTED, 0.0, 30.0, curves.vertex_splitter(profile))
+    assert _tagged(group_strokes, stream, feat.DEFAULT_SELECTED, 0.0, 30.0, vertex_filter.splitter(profile)) == ref
+    assert sum(1 for item in ref if item[0] == "stroke") >= 4
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_group_strokes_at_the_collinear_tolerance_is_the_reference(sign):
+    """A vertex whose cross product is exactly +-COLLINEAR_SIN: collinear (|cross| <= it)."""
+    dy = sign * 0.0010000005000003751
+    u = (1.0 / math.hypot(1.0, dy), dy / math.hypot(1.0, dy))
+    assert 1.0 * u[1] - 0.0 * u[0] == sign * 1e-3
+    stream = _moves([(0.0, 0.0), (1.0, 0.0), (2.0, dy), (3.0, 2 * dy), (4.0, 3 * dy)])
+    profile = load_profile("prusa-mk3s")
+    for split in (None, vertex_filter.splitter(profile)):
+        ref = _tagged(_ref_group_strokes, stream, feat.DEFAULT_SELECTED, 0.0, 30.0, split)
+        assert _tagged(group_strokes, stream, feat.DEFAULT_SELECTED, 0.0, 30.0, split) == ref

@@ -90,6 +90,10 @@ class Geometry:
             self._pts = list(zip(*self._xy))
         return self._pts
 
+    @pts.setter
+    def pts(self, pts):
+        self._pts, self._xy, self._walk = pts, None, False
+
     def on_path(self, x, y, tol_d) -> bool:
         """(x, y) within tol_d of the original path.  A block's points come in path order:
         the polyline is searched from the segment of the last point on, then (only if that

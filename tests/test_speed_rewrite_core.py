@@ -480,3 +480,15 @@ def test_core_reads_plan_arrays_without_keeping_anything():
     assert CORE.emit_body("h\n", st.x_texts, st.y_texts, st.e_texts, st.comments, plans[0][1], plans[0][2].tobytes(),
                           plans[0][3].tobytes(), plans[0][0].tobytes(), st.dec_xy, st.dec_e, True, True, 0,
                           "10.00000000", "20.00000000", "M204 S", "\n", None, None, "end\n") is None
+
+
+def test_polyline_points_made_when_read():
+    """Geometry.polyline keeps the vertex lists (the core reads them); pts is made from them
+    when read, and a pts set afterwards is the path the checks walk."""
+    g = Geometry.polyline([0.0, 1.0, 3.0], [0.0, 2.0, 2.0])
+    assert g._pts is None and g.pts == [(0.0, 0.0), (1.0, 2.0), (3.0, 2.0)]
+    assert validate._polyline_walk(g) == ([0.0, 1.0, 3.0], [0.0, 2.0, 2.0])
+    g.pts = [(5.0, 5.0), (6.0, 6.0)]
+    assert validate._polyline_walk(g) == ([5.0, 6.0], [5.0, 6.0])
+    assert Geometry.polyline([0.0, 1e151], [0.0, 1.0]).pts == [(0.0, 0.0), (1e151, 1.0)]
+    assert validate._polyline_walk(Geometry.polyline([0.0, 1e151], [0.0, 1.0])) is None

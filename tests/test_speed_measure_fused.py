@@ -228,3 +228,32 @@ def test_fused_with_a_state_subclass():
         sim.stop()
         got.append((res_bits(sim.res), bits(state.snapshot())))
     assert got[0] == got[1]
+
+
+@pytest.mark.parametrize("prof", sorted(PROFILES))
+def test_fused_accel_per_kind_of_move(tmp_path, prof):
+    """Travel, printing and E-only moves with three different accelerations in force (the
+    profile's, then M204's): the fused loop gives each move the one the reader gives it
+    (Klipper and legacy Marlin: one accel for every XY move; Marlin 2 / RRF: P and T)."""
+    profile = dataclasses.replace(PROFILES[prof](), default_accel_a=1100.0, travel_accel_a=2300.0,
+                                  retract_accel_a=700.0)
+    rng = random.Random(5)
+    lines = ["G90\n", "M83\n", "G1 Z0.2 F600\n"]
+    for i in range(400):
+        x, y = rng.uniform(0, 200), rng.uniform(0, 200)
+        r = rng.random()
+        if r < 0.3:
+            lines.append(f"G1 X{x:.3f} Y{y:.3f} F{rng.choice((3000, 9000))}\n")      # travel
+        elif r < 0.7:
+            lines.append(f"G1 X{x:.3f} Y{y:.3f} E{rng.uniform(0.01, 1):.5f}\n")        # printing
+        elif r < 0.8:
+            lines.append(f"G1 E{rng.choice(('-0.8', '0.8'))} F2100\n")                 # E only
+        elif r < 0.85 and i > 200:
+            lines.append(rng.choice(["M204 P800 T1500\n", "M204 S900\n", "M204 T1700\n", "M204 R600\n"]))
+        else:
+            lines.append(f"G1 X{x:.3f} Y{y:.3f} E-0.1\n")                               # retracting move
+    path = str(tmp_path / "accels.gcode")
+    with open(path, "w") as fh:
+        fh.writelines(lines)
+    ref = _run(path, profile, 0, None)
+    assert _run(path, profile, 64, True) == ref

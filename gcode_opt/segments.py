@@ -340,8 +340,13 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     for a in range(0, ok.size, KNOT_CHUNK):       # bounded memory; every step is per stroke
         rows = ok[a:a + KNOT_CHUNK]
         knots = law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
-        for i, (sk, vk) in zip(rows, knots):
-            plans[i] = _finish(strokes[i], sk, vk, rules)
+        pending = []
+        for i, (sk, vk) in zip(rows.tolist(), knots):
+            got = _finish(strokes[i], sk, vk, rules, defer=True)
+            if got is not None:
+                pending.append((i, got))
+        for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
+            plans[i] = plan
     short = [i for i, p in enumerate(plans) if p is None or not p.int_a2 < strokes[i].int_a2]
     if short:
         rows = np.array(short, int)
@@ -362,8 +367,10 @@ def _accel_top(stroke):
     return a
 
 
-def _finish(stroke, sk, vk, rules):
-    """Accelerations (incl. what the corners need) and feeds for one stroke's knots."""
+def _finish(stroke, sk, vk, rules, defer=False):
+    """Accelerations (incl. what the corners need) and feeds for one stroke's knots.
+    defer: up to the accelerations only, (stroke, sk, vk, acc, step_v, slow0, slow1) for
+    _finish_feeds_and_figures, which makes the feeds and figures of many at once."""
     u = (stroke.ux, stroke.uy)
     # a corner slower than FULL_STOP_V is a halt already: not worth an acceleration spike
     v0 = stroke.v0 if stroke.v0 >= FULL_STOP_V else 0.0
@@ -418,6 +425,10 @@ def _finish(stroke, sk, vk, rules):
     if rules.junction == "jerk":         # per-axis jerk limit -> limit on the change of F
         step_v = 0.9 * min(stroke.lim.jerk_x, stroke.lim.jerk_y) / max(abs(stroke.ux), abs(stroke.uy))
     acc = hold_cruise_accels(acc, stroke.accel)
+    if defer:
+        if (slow0 and not e0) or (slow1 and not e1):
+            return None                   # (as below)
+        return stroke, sk, vk, acc, step_v, slow0, slow1
     feeds = segment_feeds(vk, stroke.v_feed, step_v)
     if slow0 or slow1:
         if (slow0 and not e0) or (slow1 and not e1):
@@ -428,6 +439,47 @@ def _finish(stroke, sk, vk, rules):
             feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def _finish_feeds_and_figures(pending):
+    """The rest of _finish for many strokes (its defer=True results): segment_feeds, the
+    slowed ends' feeds and predict, for all strokes of one knot count at once (the same
+    elementwise arithmetic, tent_feeds_rows' exact maxima, per-row sums in the 1-D sums'
+    order); a SegmentPlan each, in order.  The accelerations are each stroke's own array."""
+    out = [None] * len(pending)
+    by_k = {}
+    for q, p in enumerate(pending):
+        by_k.setdefault(p[1].size, []).append(q)
+    for qs in by_k.values():
+        grp = [pending[q] for q in qs]
+        S = np.stack([p[1] for p in grp])
+        V = np.stack([p[2] for p in grp])
+        A = np.stack([p[3] for p in grp])
+        need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+        feeds = tent_feeds_rows(need, np.array([p[0].v_feed for p in grp], float),
+                                np.array([p[4] for p in grp], float))
+        t_pred, a2_pred = _predict_rows(S, V, A)
+        for q, (st, sk, vk, acc, _, slow0, slow1), f, t, a2 in zip(qs, grp, feeds, t_pred, a2_pred):
+            if slow0:
+                f[0] = max(st.v0, MIN_FEED_V)
+            if slow1:
+                f[-1] = max(st.v1, MIN_FEED_V)
+            out[q] = SegmentPlan(sk, vk, acc, f, t, a2)
+    return out
+
+
+def _predict_rows(S, V, A):
+    """predict() of every row of knots S, V (m, K) and accelerations A (m, K - 1): the
+    same operations, each row's sums added in np.add.reduce's 1-D order (numpy's
+    pairwise sum runs per row): two lists of floats."""
+    d = S[:, 1:] - S[:, :-1]
+    dv = np.abs(V[:, 1:] - V[:, :-1])
+    vmax = np.maximum(V[:, :-1], V[:, 1:])
+    a = np.maximum(A, 1e-12)
+    v2 = V * V
+    ramp_d = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * a)
+    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    return np.add.reduce(t, axis=1).tolist(), np.add.reduce(a * dv, axis=1).tolist()
 
 
 def _ramp_room(d, va, vb, a_top):

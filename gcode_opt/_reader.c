@@ -1,8 +1,8 @@
 /* Compiled fast path of the G-code reader (state.MachineState.step); see state.py.
  *
  * It reads the two line shapes the Python step() already fast-paths -- the slicer's own
- * "G0/G1 X.. Y.. Z.. E.. F.." and "M204 S.. P.. T.. R.." -- and gives exactly what Python
- * gives: the same Move (fields read and written by __slots__ offset, the same objects
+ * "G0/G1 X.. Y.. Z.. E.. F.." and "M204 S.. P.. T.. R.." -- and blank lines and comments
+ * no feature or layer marker starts, and gives exactly what Python gives: the same Move (fields read and written by __slots__ offset, the same objects
  * where Python passes objects through, the same doubles where it computes), the same
  * MachineState changes (written to the instance dict, as Python's setattr does).  Every
  * other line, and every case where Python leaves its fast path or raises (a lone CR, a
@@ -12,7 +12,10 @@
  * texts stay Python's.
  *
  * Numbers are Python's float(): PyOS_string_to_double on the whole token (the grammar
- * leaves only "+-.0123456789", where float() and PyOS_string_to_double agree). */
+ * leaves only "+-.0123456789", where float() and PyOS_string_to_double agree), or the
+ * same bits by an exact fast path (fast_decimal).  The firmware core's Sim.play reads
+ * through fused_line (the capsule _C_API) the same lines the same way, without Move
+ * objects. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <structmember.h>

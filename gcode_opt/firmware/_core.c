@@ -10,7 +10,10 @@
  * Moves, Arcs and Limits are read through their __slots__ offsets (taken once, in
  * setup()); any other object through getattr.  Blocks live in C arrays; a Python Block
  * is made only for on_block (none when on_block is a RowSink: the ringing's rows are
- * written straight into it), a LineRecord only for on_line. */
+ * written straight into it), a LineRecord only for on_line (none when on_line is a
+ * StrokeSums: the per-stroke sums are taken here).  Sim.play runs simulate._play's loop
+ * over a chunk of lines, through the compiled reader's fused loop where it can (see
+ * use_reader). */
 #define PY_SSIZE_T_CLEAN
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE               /* sincos (glibc): cos and sin of one argument at once */

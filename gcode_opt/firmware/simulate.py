@@ -1,6 +1,6 @@
 """Firmware model: play a G-code file as a constant-acceleration lookahead firmware would.
 
-``simulate_file(path, profile)`` reads the file with ``state.events`` and returns a
+``simulate_file(path, profile)`` reads the file (as ``state.events`` does) and returns a
 ``SimResult``: print time, the integral of |a|^2 over time (tangential accelerations of
 the trapezoids plus the direction changes at junctions), the integral of |v|^2, peaks,
 full stops, and one ``LineRecord`` per moving source line through ``on_line``.
@@ -31,6 +31,14 @@ Two cores play the model: ``_Sim`` below, and its compiled twin ``_gcode_opt_fwc
 (firmware/_core.c, built at install when a C compiler is there: setup.py), which gives
 the same bits (tests/test_fwcore_bits.py) in a twentieth of the time.  ``CORE`` says which one plays
 ("c" or "python"); GCODE_OPT_PURE_PYTHON=1 in the environment forces the Python one.
+
+With the compiled core, simulate_file, simulate_ledger and replay_runs read the file in
+chunks (read_chunks) and its Sim.play runs the per-line loop in C (_play_chunks: Python
+only where the ledger records a stop or a watched range's start).  Where the model's
+callbacks are the core's own (StrokeSums, the ringing's RowSink) and the compiled reader
+is built, play() reads the common lines through the reader's fused loop (_reader.c
+fused_line: the move as doubles, the reader's x y z e v held in C meanwhile); the same
+bits as the per-line loop _play (tests/test_speed_measure_loop.py, _fused.py).
 """
 from __future__ import annotations
 

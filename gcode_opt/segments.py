@@ -369,8 +369,9 @@ def _accel_top(stroke):
 
 def _finish(stroke, sk, vk, rules, defer=False):
     """Accelerations (incl. what the corners need) and feeds for one stroke's knots.
-    defer: up to the accelerations only, (stroke, sk, vk, acc, step_v, slow0, slow1) for
-    _finish_feeds_and_figures, which makes the feeds and figures of many at once."""
+    defer: up to the accelerations only (before hold_cruise_accels), (stroke, sk, vk, acc,
+    step_v, slow0, slow1) for _finish_feeds_and_figures, which holds the cruises' accelerations
+    and makes the feeds and figures of many at once."""
     u = (stroke.ux, stroke.uy)
     # a corner slower than FULL_STOP_V is a halt already: not worth an acceleration spike
     v0 = stroke.v0 if stroke.v0 >= FULL_STOP_V else 0.0
@@ -424,11 +425,11 @@ def _finish(stroke, sk, vk, rules, defer=False):
     step_v = np.inf
     if rules.junction == "jerk":         # per-axis jerk limit -> limit on the change of F
         step_v = 0.9 * min(stroke.lim.jerk_x, stroke.lim.jerk_y) / max(abs(stroke.ux), abs(stroke.uy))
-    acc = hold_cruise_accels(acc, stroke.accel)
-    if defer:
+    if defer:                             # hold_cruise_accels too in _finish_feeds_and_figures
         if (slow0 and not e0) or (slow1 and not e1):
             return None                   # (as below)
         return stroke, sk, vk, acc, step_v, slow0, slow1
+    acc = hold_cruise_accels(acc, stroke.accel)
     feeds = segment_feeds(vk, stroke.v_feed, step_v)
     if slow0 or slow1:
         if (slow0 and not e0) or (slow1 and not e1):
@@ -443,9 +444,9 @@ def _finish(stroke, sk, vk, rules, defer=False):
 
 def _finish_feeds_and_figures(pending):
     """The rest of _finish for many strokes (its defer=True results): segment_feeds, the
-    slowed ends' feeds and predict, for all strokes of one knot count at once (the same
-    elementwise arithmetic, tent_feeds_rows' exact maxima, per-row sums in the 1-D sums'
-    order); a SegmentPlan each, in order.  The accelerations are each stroke's own array."""
+    slowed ends' feeds and predict, after hold_cruise_accels (hold_cruise_accels_rows), for
+    all strokes of one knot count at once (the same elementwise arithmetic, exact maxima,
+    per-row sums in the 1-D sums' order); a SegmentPlan each, in order."""
     out = [None] * len(pending)
     by_k = {}
     for q, p in enumerate(pending):
@@ -454,12 +455,12 @@ def _finish_feeds_and_figures(pending):
         grp = [pending[q] for q in qs]
         S = np.stack([p[1] for p in grp])
         V = np.stack([p[2] for p in grp])
-        A = np.stack([p[3] for p in grp])
+        A = hold_cruise_accels_rows(np.stack([p[3] for p in grp]), np.array([p[0].accel for p in grp], float))
         need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
         feeds = tent_feeds_rows(need, np.array([p[0].v_feed for p in grp], float),
                                 np.array([p[4] for p in grp], float))
         t_pred, a2_pred = _predict_rows(S, V, A)
-        for q, (st, sk, vk, acc, _, slow0, slow1), f, t, a2 in zip(qs, grp, feeds, t_pred, a2_pred):
+        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2 in zip(qs, grp, A, feeds, t_pred, a2_pred):
             if slow0:
                 f[0] = max(st.v0, MIN_FEED_V)
             if slow1:
@@ -502,7 +503,7 @@ def _merge_short(sk, vk, min_d, vertices_d):
     min_move_d): a law knot too close to the one kept before it is dropped (the ramp runs
     on to the next); original vertices and the ends stay.  Time-even knots crowd where the
     law is slow, next to a corner slowed to ~1 mm/s."""
-    if len(sk) < 3 or float(np.min(np.diff(sk))) >= min_d:
+    if len(sk) < 3 or float((sk[1:] - sk[:-1]).min()) >= min_d:     # np.min(np.diff(sk)), less overhead
         return sk, vk
     vert = _vertex_mask(sk, vertices_d)
     keep = [0]

@@ -67,7 +67,7 @@ EDGES = ["0", "-0", "-0.0", "0.", ".0", "-.0", ".5", "-.5", "5.", "0.1", "0.3", 
 
 def test_decimal_value_is_float():
     """The core's number reading (the Clinger fast path up to 15 digits, float()'s own
-    routine past it) gives float()'s bits on 150 k random texts and the edges: halves,
+    routine past it) gives float()'s bits on 80 k random texts and the edges: halves,
     2^53 +- 1, 15 and 16 digits, -0, overflow, underflow, long fractions."""
     dv = CORE.decimal_value
     rng = random.Random(41)

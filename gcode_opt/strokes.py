@@ -359,18 +359,18 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
                 if run_start is not None:
                     st.start_state = _kind_state(st, e_k, run_start)
-                parts = ()
                 out.append(st)
-            for j, (k0, st) in enumerate(parts):
-                st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
-                if j + 1 < len(parts):
-                    st.next_u = _unit(run[parts[j + 1][0]])
-                if run_start is not None:
-                    for m in run[k_done:k0]:      # the reader's own sum, in its order
-                        e_k += m.e
-                    k_done = k0
-                    st.start_state = _kind_state(st, e_k, run_start)
-                out.append(st)
+            else:
+                for j, (k0, st) in enumerate(parts):
+                    st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
+                    if j + 1 < len(parts):
+                        st.next_u = _unit(run[parts[j + 1][0]])
+                    if run_start is not None:
+                        for m in run[k_done:k0]:      # the reader's own sum, in its order
+                            e_k += m.e
+                        k_done = k0
+                        st.start_state = _kind_state(st, e_k, run_start)
+                    out.append(st)
             run = []
         opened[0] = NOT_OPEN
         out = [st for st in out if st.length_d >= min_length_d]

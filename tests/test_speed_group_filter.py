@@ -130,7 +130,7 @@ _length = hs.one_of(hs.sampled_from([5e-324, 1e-300, 1e-7, 1e-6, 1.0000001e-6, 0
                     hs.floats(0.0, 3.0, allow_subnormal=True))
 
 
-@settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(junction=hs.sampled_from(["jerk", "scv", "jd"]), theta0=hs.floats(-4.0, 4.0),
        turn_deg=hs.one_of(hs.sampled_from([0.0, 1e-9, 0.06, 0.0573, 30.0, 60.0, -60.0, 90.0, 179.9, 180.0]),
                           hs.floats(-180.0, 180.0)),

@@ -130,7 +130,7 @@ def test_fused_ledger_same_bits(name, prof, hint):
     rng = random.Random(hint)
     watch, line = [], 0
     while line < n:
-        line += rng.choice((0, 1, 2, 9, 80))
+        line += rng.choice((0, 1, 2, 9, 80, 300))
         last = line + rng.choice((0, 1, 3, 30, 200))
         watch.append((line, last))
         line = last + 1

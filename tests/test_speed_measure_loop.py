@@ -262,18 +262,19 @@ def test_ledger_pass_same_bits(written, name, hint, monkeypatch):
 
 
 @needs_core
+@pytest.mark.parametrize("gaps", [(0, 1, 1, 2, 5, 40), (50, 120, 400)])
 @pytest.mark.parametrize("hint", [1, 100])
-def test_ledger_edges_on_every_line(hint, monkeypatch):
+def test_ledger_edges_on_every_line(hint, gaps, monkeypatch):
     """Watched ranges starting at every kind of line of a raw sample (right after a stop,
-    on an E-only line, on a barrier, one-line ranges, a stop inside a range): the ledger
-    the same as the per-line loop's."""
+    on an E-only line, on a barrier, one-line ranges, a stop inside a range), dense or far
+    apart (several stops between two ranges): the ledger the same as the per-line loop's."""
     path = os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode")
     profile = load_profile("prusa-mk3s")
     n = _n_lines(path)
     rng = random.Random(7)
     watch, line = [], 0
     while line < n:
-        line += rng.choice((0, 1, 1, 2, 5, 40))
+        line += rng.choice(gaps)
         last = line + rng.choice((0, 0, 1, 3, 30))
         watch.append((line, last))
         line = last + 1

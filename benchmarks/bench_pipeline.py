@@ -120,9 +120,10 @@ def _cores():
     """Which code ran the per-line parts: the compiled cores ("c") or pure Python."""
     from gcode_opt import state
     from gcode_opt.firmware import simulate
+    from gcode_opt import emit
     from gcode_opt.laws import chain
     return {"firmware model": simulate.CORE, "reader": getattr(state, "CORE", "python"),
-            "chains": getattr(chain, "CORE", "python")}
+            "chains": getattr(chain, "CORE", "python"), "rewrite": getattr(emit, "CORE", "python")}
 
 
 def measure_file(path, profile_name, runs, pure=False):

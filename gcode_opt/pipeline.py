@@ -37,8 +37,9 @@ from collections import deque
 
 import numpy as np
 
-from . import chains, curves
+from . import chains, vertex_filter
 from . import features as feat
+from . import emit as emit_mod
 from .emit import StrokeText, emit_arc, emit_stroke
 from . import state as reader
 from .firmware import simulate as fwsim
@@ -128,7 +129,7 @@ def analyse(path, profile: Profile, opts: Options):
     early = deque()     # records of lines in the open run (or of one that closed), in file order
     opened = [NOT_OPEN]  # group_lines: first line of the run / arc stroke still open
 
-    split = curves.vertex_splitter(profile) if opts.max_turn_deg > 0 else None
+    split = vertex_filter.splitter(profile) if opts.max_turn_deg > 0 else None
     state = MachineState(profile, path)
     state.warnings = opts.reader_warnings = []     # arcs off their circle, ignored M205 J, ...
     e_before = [0.0]       # logical E before the line the stream is at (the generators are lazy)
@@ -754,6 +755,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             summary["firmware_core"] = fwsim.CORE     # "c" or "python": which firmware model played
             summary["reader_core"] = reader.CORE      # and which reader read the common lines
             summary["chain_core"] = chain_law.CORE    # and which code solved the chains' Newton steps
+            summary["emit_core"] = emit_mod.CORE      # and which code read, wrote and checked the blocks
             opts.peak_rss_mb = dict(timing.peak_mb)       # --profile-time prints it (not in the JSON)
             summary["rewrite_passes"] = timing.passes
             summary["warnings"] = _warnings_json(opts.reader_warnings)

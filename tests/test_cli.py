@@ -222,9 +222,12 @@ def test_reader_warnings_name_their_line_and_reach_the_summary(capsys, tmp_path)
     from gcode_opt import state
     from gcode_opt.firmware import simulate
     from gcode_opt.laws import chain as chain_law
-    assert f"cores: firmware model {simulate.CORE}, reader {state.CORE}, chains {chain_law.CORE}" in err   # c or python
+    from gcode_opt import emit
+    assert (f"cores: firmware model {simulate.CORE}, reader {state.CORE}, chains {chain_law.CORE}, "
+            f"rewrite {emit.CORE}") in err   # c or python
     assert json.loads(js.read_text())["firmware_core"] == simulate.CORE
     assert json.loads(js.read_text())["reader_core"] == state.CORE
     assert json.loads(js.read_text())["chain_core"] == chain_law.CORE
+    assert json.loads(js.read_text())["emit_core"] == emit.CORE
     w = json.loads(js.read_text())["warnings"]
     assert w["count"] == 1 and w["first"][0]["line"] == 13

@@ -17,7 +17,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_gcode" / "prusa_gyroid.gcode"
-CORES = ("_gcode_opt_fwcore", "_gcode_opt_reader", "_gcode_opt_chaincore")
+CORES = ("_gcode_opt_fwcore", "_gcode_opt_reader", "_gcode_opt_chaincore", "_gcode_opt_emit")
 
 # Run the CLI with the compiled cores unimportable (what a build without a compiler leaves).
 NO_CORES = """
@@ -50,7 +50,7 @@ def test_build_without_compiler_skips_the_cores(tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     assert _built(tmp_path) == []
-    # each of the three optional extensions was tried and skipped, not silently left out
+    # each of the four optional extensions was tried and skipped, not silently left out
     text = r.stdout + r.stderr
     for mod in CORES:
         assert mod in text, text
@@ -67,9 +67,9 @@ def _process(tmp_path, tag, code_args):
 
 def test_run_without_cores_writes_the_same_bytes(tmp_path):
     with_, s_with = _process(tmp_path, "default", ["-m", "gcode_opt"])
-    if (s_with["firmware_core"], s_with["reader_core"], s_with["chain_core"]) == ("python", "python", "python"):
+    if (s_with["firmware_core"], s_with["reader_core"], s_with["chain_core"], s_with["emit_core"]) == ("python",) * 4:
         pytest.skip("the cores are not built here either: the two runs would take the same path")
     without, s_without = _process(tmp_path, "nocores", ["-c", NO_CORES])
-    assert (s_without["firmware_core"], s_without["reader_core"], s_without["chain_core"]) == \
-        ("python", "python", "python")
+    assert (s_without["firmware_core"], s_without["reader_core"], s_without["chain_core"], s_without["emit_core"]) == \
+        ("python",) * 4
     assert without == with_

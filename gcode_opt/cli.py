@@ -322,9 +322,10 @@ def _process(a, out, job, Options, Progress, process):
         if not a.quiet:                               # (a file with no move to re-time: nothing to say)
             sys.stderr.write(f"gcode-opt: {a.input}: {features_why}\n")
     if a.json:
+        from .summary import dump_json
         try:
             with open(a.json, "w") as fh:
-                json.dump(summary, fh, indent=1)
+                dump_json(summary, fh)
         except OSError as e:
             report_error.append(f"{a.json}: summary not written: {e.strerror or e}")
     if summary.get("unchanged"):

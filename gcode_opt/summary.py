@@ -181,3 +181,21 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         out["ringing"] = ringing_section(*ringing)
         out["per_stroke"] = out.pop("per_stroke")
     return out
+
+
+def dump_json(summary: dict, fh) -> None:
+    """Write `summary` as JSON: indented as json.dump(indent=1) writes it, except that a
+    top-level list of rows (per_stroke) has one compact row a line.  json's indenting
+    encoder is pure Python: on the gyroid plate's 35 k per-stroke rows it took ~0.8 s CPU,
+    the compact (C) encoder row by row ~0.1 s.  json.load reads the same object back."""
+    import json
+    fh.write("{")
+    sep = "\n "
+    for k, v in summary.items():
+        fh.write(sep + json.dumps(k) + ": ")
+        if isinstance(v, list) and len(v) > 1 and all(isinstance(r, (dict, list)) for r in v):
+            fh.write("[\n  " + ",\n  ".join(json.dumps(r) for r in v) + "\n ]")
+        else:
+            fh.write(json.dumps(v, indent=1).replace("\n", "\n "))
+        sep = ",\n "
+    fh.write("\n}" if summary else "}")

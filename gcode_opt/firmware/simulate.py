@@ -651,24 +651,12 @@ def _play(lines, state, sim, watch, led, on_barrier=None):
                 elif cls is Barrier:
                     barrier(ev)
         return
-    snap = state.snapshot
-    n_w = len(watch)
-    wi = 0
-    next_first = watch[0][0] if n_w else -2
-    pending = []              # watched ranges started, waiting for the stop after them
-    carry_v = carry_a = 0.0   # peaks since the last committed stop, up to the last stop
-    last = (-1, snap(), _sums(res))
-    last_j = -1               # index of `last` in the ledger, -1 = not committed
+    w = _LedgerWriter(led, watch, state, res)
+    next_first = w.next_first
     idx = -1
     for idx, raw in lines:
         if idx == next_first:
-            if last_j < 0:
-                last_j = led._commit(last[0], last[1], last[2], carry_v, carry_a)
-                carry_v = carry_a = 0.0
-            led.lo.append(last_j)
-            pending.append(wi)
-            wi += 1
-            next_first = watch[wi][0] if wi < n_w else -2
+            next_first = w.range_starts()
         ev = step(idx, raw)
         if ev is None:
             continue
@@ -681,30 +669,71 @@ def _play(lines, state, sim, watch, led, on_barrier=None):
             barrier(ev)
         else:
             continue
-        # the model stands empty after this line
-        if res.peak_v > carry_v:
-            carry_v = res.peak_v
-        if res.peak_a > carry_a:
-            carry_a = res.peak_a
+        w.stopped(idx)             # the model stands empty after this line
+    w.finish(idx + 1, sim)
+
+
+class _LedgerWriter:
+    """What _play and _play_chunks record into a Ledger around the watched ranges: told
+    where a watched range starts and where the model stands empty, it commits the stop
+    before each range and the stop after it, with the peaks of the stretch between."""
+
+    def __init__(self, led, watch, state, res):
+        self.led, self.watch, self.snap, self.res = led, watch, state.snapshot, res
+        self.n_w = len(watch)
+        self.wi = 0
+        self.next_first = watch[0][0] if self.n_w else -2   # first line of the next watched range
+        self.pending = []          # watched ranges started, waiting for the stop after them
+        self.carry_v = self.carry_a = 0.0   # peaks since the last committed stop, up to the last stop
+        self.last = (-1, self.snap(), _sums(res))
+        self.last_j = -1           # index of `last` in the ledger, -1 = not committed
+
+    def range_starts(self):
+        """The next line to play is the first of watched range wi: returns the first line
+        of the range after it (-2: none)."""
+        led = self.led
+        if self.last_j < 0:
+            last = self.last
+            self.last_j = led._commit(last[0], last[1], last[2], self.carry_v, self.carry_a)
+            self.carry_v = self.carry_a = 0.0
+        led.lo.append(self.last_j)
+        self.pending.append(self.wi)
+        self.wi += 1
+        self.next_first = self.watch[self.wi][0] if self.wi < self.n_w else -2
+        return self.next_first
+
+    def stopped(self, idx):
+        """The model stands empty after line idx."""
+        res = self.res
+        if res.peak_v > self.carry_v:
+            self.carry_v = res.peak_v
+        if res.peak_a > self.carry_a:
+            self.carry_a = res.peak_a
         res.peak_v = res.peak_a = 0.0
-        last = (idx, snap(), _sums(res))
-        last_j = -1
+        self.last = (idx, self.snap(), _sums(res))
+        self.last_j = -1
+        pending = self.pending
         if pending:
-            if watch[pending[-1]][1] >= idx:        # a stop inside a watched range
+            led = self.led
+            if self.watch[pending[-1]][1] >= idx:        # a stop inside a watched range
                 led.ok = False
-            last_j = led._commit(idx, last[1], last[2], carry_v, carry_a)
-            carry_v = carry_a = 0.0
-            led.hi.extend([last_j] * len(pending))
-            pending = []
-    led.n_lines = idx + 1
-    sim.stop()
-    carry_v, carry_a = max(carry_v, res.peak_v), max(carry_a, res.peak_a)
-    end_j = led._commit(led.n_lines - 1, snap(), _sums(res), carry_v, carry_a)
-    led.hi.extend([end_j] * len(pending))
-    if wi < n_w:              # ranges past the end of the file: nothing to replay from
-        led.ok = False
-    res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0
-    res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
+            self.last_j = led._commit(idx, self.last[1], self.last[2], self.carry_v, self.carry_a)
+            self.carry_v = self.carry_a = 0.0
+            led.hi.extend([self.last_j] * len(pending))
+            self.pending = []
+
+    def finish(self, n_lines, sim):
+        """The file ended after n_lines lines: the model stopped, the last stop committed."""
+        led, res = self.led, self.res
+        led.n_lines = n_lines
+        sim.stop()
+        carry_v, carry_a = max(self.carry_v, res.peak_v), max(self.carry_a, res.peak_a)
+        end_j = led._commit(led.n_lines - 1, self.snap(), _sums(res), carry_v, carry_a)
+        led.hi.extend([end_j] * len(self.pending))
+        if self.wi < self.n_w:    # ranges past the end of the file: nothing to replay from
+            led.ok = False
+        res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0
+        res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
 
 
 def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
@@ -712,19 +741,12 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
     the loop, leaving C only where _play's ledger does something (a watched range's first
     line, a line after which the model stands empty); the same steps in the same order."""
     play, step = sim.play, state.step
-    res = sim.res
     if led is None:
         for idx0, lines in chunks:
             play(lines, 0, idx0, step, -2, False, on_barrier)
         return
-    snap = state.snapshot
-    n_w = len(watch)
-    wi = 0
-    next_first = watch[0][0] if n_w else -2
-    pending = []              # watched ranges started, waiting for the stop after them
-    carry_v = carry_a = 0.0   # peaks since the last committed stop, up to the last stop
-    last = (-1, snap(), _sums(res))
-    last_j = -1               # index of `last` in the ledger, -1 = not committed
+    w = _LedgerWriter(led, watch, state, sim.res)
+    next_first = w.next_first
     n_lines = 0
     for idx0, lines in chunks:
         n = len(lines)
@@ -733,40 +755,10 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
         while i < n:
             i, stopped = play(lines, i, idx0, step, next_first, True, on_barrier)
             if stopped:
-                # the model stands empty after line idx0 + i - 1
-                idx = idx0 + i - 1
-                if res.peak_v > carry_v:
-                    carry_v = res.peak_v
-                if res.peak_a > carry_a:
-                    carry_a = res.peak_a
-                res.peak_v = res.peak_a = 0.0
-                last = (idx, snap(), _sums(res))
-                last_j = -1
-                if pending:
-                    if watch[pending[-1]][1] >= idx:        # a stop inside a watched range
-                        led.ok = False
-                    last_j = led._commit(idx, last[1], last[2], carry_v, carry_a)
-                    carry_v = carry_a = 0.0
-                    led.hi.extend([last_j] * len(pending))
-                    pending = []
-            elif i < n:
-                # line idx0 + i (not read yet) is the first of watched range wi
-                if last_j < 0:
-                    last_j = led._commit(last[0], last[1], last[2], carry_v, carry_a)
-                    carry_v = carry_a = 0.0
-                led.lo.append(last_j)
-                pending.append(wi)
-                wi += 1
-                next_first = watch[wi][0] if wi < n_w else -2
-    led.n_lines = n_lines
-    sim.stop()
-    carry_v, carry_a = max(carry_v, res.peak_v), max(carry_a, res.peak_a)
-    end_j = led._commit(led.n_lines - 1, snap(), _sums(res), carry_v, carry_a)
-    led.hi.extend([end_j] * len(pending))
-    if wi < n_w:              # ranges past the end of the file: nothing to replay from
-        led.ok = False
-    res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0
-    res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
+                w.stopped(idx0 + i - 1)    # the model stands empty after line idx0 + i - 1
+            elif i < n:                    # line idx0 + i (not read yet) starts a watched range
+                next_first = w.range_starts()
+    w.finish(n_lines, sim)
 
 
 def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None, on_barrier=None,

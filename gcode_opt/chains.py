@@ -40,6 +40,7 @@ from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
 from .firmware.simulate import CORNER_COS
+from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
 from .segments import SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
@@ -401,11 +402,29 @@ def _finish_rows_dt(st, vk, tk, rules, profile, predict=True):
         for r in range(k):
             acc[r] = _junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r])
     acc = hold_cruise_accels_rows(acc, a_top)
-    feed = tent_feeds_rows(feed, st.v_feed, step_v)
+    feed = _tent_rows(feed, st.v_feed, step_v)
     if not predict:
         return acc, feed, None, None, fits
     t_pred, a2_pred = predict_chains(st, g, acc, feed, profile)
     return acc, feed, t_pred, a2_pred, fits
+
+
+def _tent_rows(need, v_feed, step_v, core=None):
+    """segments.tent_feeds_rows(need, v_feed, step_v), by the chain core's tent_rows (the
+    same differences, their maximum: the same bits) when every value is finite and > 0
+    (classic jerk's chains: positive feeds and steps); else (an infinite step: the feeds
+    as they are; a nan, a 0) by tent_feeds_rows.  core: the module (None = the chain core
+    if it is there, False = never)."""
+    core = _chain_law.CORE_MOD if core is None else core
+    if core and need.ndim == 2 and need.size:
+        k = need.shape[0]
+        need_c = np.ascontiguousarray(need, float)
+        vf = np.ascontiguousarray(np.broadcast_to(np.asarray(v_feed, float), (k,)))
+        step = np.ascontiguousarray(np.broadcast_to(np.asarray(step_v, float), (k,)))
+        out = np.empty(need_c.shape)
+        if core.tent_rows(need_c, vf, step, out):
+            return out
+    return tent_feeds_rows(need, v_feed, step_v)
 
 
 GROUP_JUNCTIONS = ("jerk", "scv")   # junction laws whose finishing runs over groups of chains
@@ -513,7 +532,7 @@ def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
             c = own[r]
             acc[r] = _junction_accels(sts[c], gs[c], vk[r], acc[r], rules, profile, feed[r])
     acc = hold_cruise_accels_rows(acc, a_top)
-    feed = tent_feeds_rows(feed, np.array([st.v_feed for st in sts], float)[own], step_v)
+    feed = _tent_rows(feed, np.array([st.v_feed for st in sts], float)[own], step_v)
     if not predict:                  # (the caller has the figures: _replay)
         return acc, feed, None, None, fits
     t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)

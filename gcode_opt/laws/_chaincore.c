@@ -421,7 +421,96 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
     return PyLong_FromSsize_t(keep);
 }
 
+/* tent_rows(need, vf, step, out) -> True, or False (nothing meaningful written) where a
+   value is not finite and > 0.  segments.tent_feeds_rows' envelope of every row of need
+   (R, n): out[r, k] = max over j = -1..n of pad[r, j] - step[r] * |k - j|, pad = need[r]
+   with vf[r] + step[r] at both ends (j = -1, n).  Each difference is numpy's (one product
+   of the step and the integer distance, one subtraction); with every input finite and
+   > 0 no difference is a nan or a -0, so their maximum is one value whatever the order
+   numpy's reduction takes them in: the same bits. */
+static PyObject *tent_rows(PyObject *self, PyObject *a) {
+    PyObject *oneed, *ovf, *ostep, *oout;
+    if (!PyArg_ParseTuple(a, "OOOO", &oneed, &ovf, &ostep, &oout)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t N, R, Rs, No;
+    double *need = get(&b, oneed, 8, 0, &N);
+    double *vf = need ? get(&b, ovf, 8, 0, &R) : NULL;
+    double *step = vf ? get(&b, ostep, 8, 0, &Rs) : NULL;
+    double *out = step ? get(&b, oout, 8, 1, &No) : NULL;
+    if (!out) { release(&b); return NULL; }
+    if (Rs != R || No != N || R <= 0 || N % R) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tent_rows: shapes");
+        return NULL;
+    }
+    Py_ssize_t n = N / R;
+    int ok = 1;
+    for (Py_ssize_t r = 0; r < R && ok; r++) {
+        double side = vf[r] + step[r];
+        ok = isfinite(vf[r]) && vf[r] > 0 && isfinite(step[r]) && step[r] > 0 && isfinite(side);
+    }
+    for (Py_ssize_t i = 0; i < N && ok; i++) ok = isfinite(need[i]) && need[i] > 0;
+    if (ok) {
+        for (Py_ssize_t r = 0; r < R; r++) {
+            const double *p = need + r * n;
+            double st = step[r], side = vf[r] + st;
+            for (Py_ssize_t k = 0; k < n; k++) {
+                double m = side - st * (double)(k + 1);          /* j = -1 */
+                double e = side - st * (double)(n - k);          /* j = n */
+                if (e > m) m = e;
+                for (Py_ssize_t j = 0; j < n; j++) {
+                    double c = p[j] - st * (double)(k > j ? k - j : j - k);
+                    if (c > m) m = c;
+                }
+                out[r * n + k] = m;
+            }
+        }
+    }
+    release(&b);
+    return PyBool_FromLong(ok);
+}
+
+/* piece_cumsum(x, off, out): out[p] = x[off[c]] + ... + x[p] for the pieces p of each
+   chain c (off[c]:off[c + 1]), summed from the chain's first piece in order: what
+   np.cumsum along the rows of solve_fixed's (chains, pieces) grid gives (accumulate:
+   out[0] = x[0], out[i] = out[i - 1] + x[i]; the zeros after a chain's pieces come
+   later and are not read). */
+static PyObject *piece_cumsum(PyObject *self, PyObject *a) {
+    PyObject *ox, *ooff, *oout;
+    if (!PyArg_ParseTuple(a, "OOO", &ox, &ooff, &oout)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nc1, Po;
+    double *x = get(&b, ox, 8, 0, &P);
+    int64_t *off = x ? get(&b, ooff, 8, 0, &nc1) : NULL;
+    double *out = off ? get(&b, oout, 8, 1, &Po) : NULL;
+    if (!out) { release(&b); return NULL; }
+    if (Po != P || nc1 < 1 || off[0] != 0 || off[nc1 - 1] != P) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "piece_cumsum: offsets");
+        return NULL;
+    }
+    for (Py_ssize_t c = 0; c + 1 < nc1; c++) {
+        int64_t p0 = off[c], p1 = off[c + 1];
+        if (p1 < p0 || p1 > P) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "piece_cumsum: offsets");
+            return NULL;
+        }
+        if (p1 == p0) continue;
+        double s = x[p0];
+        out[p0] = s;
+        for (int64_t p = p0 + 1; p < p1; p++) {
+            s = s + x[p];
+            out[p] = s;
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
+    {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
+    {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_args", share_args, METH_VARARGS, "the active pieces' durations and np.sinh arguments"},
     {"share_step", share_step, METH_VARARGS, "one Newton step of _share_time"},
     {"tod_args", tod_args, METH_VARARGS, "time_of_distance's np.sinh and ** 3 arguments"},

@@ -31,7 +31,9 @@ import os
 import numpy as np
 
 from .. import native
-from .line import _NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _gamma_coeffs, end_speeds, time_of_distance
+from .line import GAMMA_SWITCH as _GAMMA_SWITCH
+from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _gamma_coeffs, _nms_terms, _shc, end_speeds,
+                   time_of_distance)
 
 # The compiled Newton steps of _share_time (_chaincore.c, module _gcode_opt_chaincore):
 # optional, the same bits as the numpy code (tests/test_speed_chain_core.py)
@@ -301,7 +303,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
     figures are made (FlatLaws.law is then not available; a plate's candidate table
     needs only the vertices and figures)."""
     m = fl.S.size
-    res = FlatLaws(fl)
+    res = FlatLaws(fl, pieces)
     active = np.arange(m)
     hist = []        # the binding masks of the steps so far: a chain is active from step 0 to its end
     vt = vt.copy()
@@ -429,11 +431,13 @@ class _Flat:
         es[pos], ev[pos], et[pos] = self.sv[vi], self.cv[vi], vt[vi]
         keep[pos] = bound[vi]
         ks, kv, kt0 = es[keep], ev[keep], et[keep]
-        nk = np.bincount(np.repeat(np.arange(na), ne)[keep], None, na)
+        nk = np.add.reduceat(keep.astype(np.int64), eoff[:-1]) if na else np.zeros(0, np.int64)   # knots a chain
         koff = np.concatenate([[0], np.cumsum(nk)]).astype(int)
         npc = nk - 1                                   # pieces per chain
         owner = np.repeat(np.arange(na), npc)
-        p0 = np.flatnonzero(np.isin(np.arange(ks.size), koff[1:] - 1, invert=True))   # piece start knots
+        start = np.ones(ks.size, bool)                 # piece start knots: all but each chain's last
+        start[koff[1:] - 1] = False
+        p0 = np.flatnonzero(start)
         L = ks[p0 + 1] - ks[p0]
         va, vb = kv[p0], kv[p0 + 1]
         Tc, Sc = self.T[active], self.S[active]
@@ -446,16 +450,21 @@ class _Flat:
             T0 = np.where(use, t0, T0)
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
-        law = LineLaw(L, Tj, beta, va, vb)
+        law = _step_law(L, Tj, beta, va, vb)
         a0, a1 = law.end_accels()                      # s̈ at both ends of every piece
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
-        local = np.arange(Tj.size) - poff[owner]
-        P = int(npc.max()) if na else 0
-        grid = np.zeros((na, P))
-        grid[owner, local] = Tj
         kt = np.zeros(ks.size)
-        kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
+        if CORE_MOD is not None and Tj.dtype == np.float64:    # the same sums, chain by chain in C
+            pc = np.empty(Tj.size)
+            CORE_MOD.piece_cumsum(np.ascontiguousarray(Tj), np.append(poff, Tj.size).astype(np.int64), pc)
+            kt[p0 + 1] = pc
+        else:
+            local = np.arange(Tj.size) - poff[owner]
+            P = int(npc.max()) if na else 0
+            grid = np.zeros((na, P))
+            grid[owner, local] = Tj
+            kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
         # speed and time at every vertex, in its piece
         bv = bound[vi]
         if self.monotone:              # binding vertices up to it in its chain
@@ -477,6 +486,43 @@ class _Flat:
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+
+
+def _step_law(L, T, beta, va, vb):
+    """LineLaw(L, T, beta, va, vb) for solve_fixed, which reads of it only end_accels and,
+    on the free vertices' pieces (take), time_of_distance and eval(t, "v"): with every law
+    in the series branch (γ < GAMMA_SWITCH: the chains' γ is ~0.1) only what those read
+    of the series branch (γ, shc(γ/2), n, the branch mark), each by LineLaw's own
+    operations: n by _horner_nms' recurrence on its first coefficient set with the same
+    number of terms (the whole batch's _nms_terms), so the same bits.  The coefficients
+    of the integrals and extrema (shc(γ), m, S1, ...) are not made: such a law (_c["lite"])
+    has no integrals, peak_speed, _critical_t.  Else (bad inputs: LineLaw raises; a law
+    in the other branch) the whole LineLaw."""
+    L, T, beta, va, vb = (np.asarray(a, dtype=float) for a in (L, T, beta, va, vb))
+    if (L.ndim != 1 or not (L.shape == T.shape == beta.shape == va.shape == vb.shape)
+            or not (np.all(T > 0) and np.all(np.isfinite(T))) or not np.all(beta > 0)
+            or not (np.all(np.isfinite(L)) and np.all(np.isfinite(va)) and np.all(np.isfinite(vb)))):
+        return LineLaw(L, T, beta, va, vb)
+    gamma = T / np.sqrt(beta)
+    small = gamma < _GAMMA_SWITCH
+    if not small.all():
+        return LineLaw(L, T, beta, va, vb)
+    gs = np.minimum(gamma, _GAMMA_SWITCH)
+    z2 = gs * gs
+    coef = _NMS_COEF[:_nms_terms(z2), 0]
+    n = np.empty(z2.shape)
+    n[...] = coef[-1]
+    for c in coef[-2::-1]:
+        np.multiply(n, z2, out=n)
+        np.add(n, c, out=n)
+    law = object.__new__(LineLaw)
+    law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, va, vb
+    law.gamma = gamma
+    law._c = {"small": small, "gs": gs, "n": n, "sh2": _shc(gs / 2), "lite": np.ones(L.shape, bool)}
+    law._wbar = T * (va + vb) / 2
+    law._delta = T * (va - vb) / 2
+    law._A = L - law._wbar
+    return law
 
 
 class _Step:
@@ -512,8 +558,8 @@ class FlatLaws:
     poff[c]:poff[c + 1]) and their knots (ks, kv, kt at koff[c]:koff[c + 1]).  Each chain's
     numbers are those of the active-set step that ended it (take)."""
 
-    def __init__(self, fl):
-        self.fl = fl
+    def __init__(self, fl, pieces=True):
+        self.fl, self.pieces = fl, pieces
         m, nv = fl.S.size, fl.sv.size
         self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
         self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
@@ -533,25 +579,33 @@ class FlatLaws:
         pd = done[st.owner]
         nk = np.diff(st.koff)
         kd = np.repeat(done, nk)
+        if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
+            self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
+            return
         self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
                             st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
 
     def close(self, bound, pieces=True):
         """Every chain taken: pieces and knots in chain order, the figures (_flat_figures);
-        pieces False: then drop the pieces and knots."""
+        pieces False (FlatLaws(fl, False)): only the figures the candidate table reads (iv,
+        peak_v, min_v; ia and peak_a are None), then drop the pieces."""
         cat = [np.concatenate(x) for x in zip(*self._parts)]
         del self._parts
-        po, ko = np.argsort(cat[0], kind="stable"), np.argsort(cat[8], kind="stable")
-        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[1:8])
-        self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
+        po = np.argsort(cat[0], kind="stable")
         m = self.fl.S.size
         self.poff = np.concatenate([[0], np.cumsum(np.bincount(cat[0], None, m))]).astype(int)
-        self.koff = self.poff + np.arange(m + 1)          # a chain's knots: its pieces + 1
         self.bound = bound
-        _flat_figures(self)
-        if not pieces:
-            for f in ("L", "T", "beta", "v0", "v1", "a0", "a1", "ks", "kv", "kt", "poff", "koff"):
+        if not (pieces and self.pieces):
+            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[1:6])
+            _flat_figures(self, full=False)
+            for f in ("L", "T", "beta", "v0", "v1", "poff"):
                 delattr(self, f)
+            return
+        ko = np.argsort(cat[8], kind="stable")
+        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[1:8])
+        self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
+        self.koff = self.poff + np.arange(m + 1)          # a chain's knots: its pieces + 1
+        _flat_figures(self)
 
     def law(self, c):
         """Chain c's ChainLaw."""
@@ -576,10 +630,11 @@ class FlatLaws:
         return lw
 
 
-def _flat_figures(res):
+def _flat_figures(res, full=True):
     """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
-    pieces rounds them (row sums of the chains with the same number of pieces)."""
+    pieces rounds them (row sums of the chains with the same number of pieces).  full
+    False: ∫s̈² and peak |s̈| are not made (None)."""
     law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
     iv, ia = law.integrals()
     # the speed candidates of LineLaw._speed_candidates: the ends as eval has them
@@ -588,14 +643,19 @@ def _flat_figures(res):
     pv, mv = law.peak_speed(), law.min_speed()
     first = res.poff[:-1]
     res.peak_v, res.min_v = np.maximum.reduceat(pv, first), np.minimum.reduceat(mv, first)
-    pa0, pa1 = np.maximum.reduceat(np.abs(res.a0), first), np.maximum.reduceat(np.abs(res.a1), first)
-    res.peak_a = np.where(pa1 > pa0, pa1, pa0)        # as max(pa0, pa1)
     npc = np.diff(res.poff)
-    res.iv, res.ia = np.empty(npc.size), np.empty(npc.size)
+    res.iv = np.empty(npc.size)
+    res.ia = res.peak_a = None
+    if full:
+        pa0, pa1 = np.maximum.reduceat(np.abs(res.a0), first), np.maximum.reduceat(np.abs(res.a1), first)
+        res.peak_a = np.where(pa1 > pa0, pa1, pa0)        # as max(pa0, pa1)
+        res.ia = np.empty(npc.size)
     for k in np.unique(npc).tolist():
         c = np.flatnonzero(npc == k)
         ix = first[c][:, None] + np.arange(k)
-        res.iv[c], res.ia[c] = np.sum(iv[ix], axis=1), np.sum(ia[ix], axis=1)
+        res.iv[c] = np.sum(iv[ix], axis=1)
+        if full:
+            res.ia[c] = np.sum(ia[ix], axis=1)
 
 
 class _Pieces:

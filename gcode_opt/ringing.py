@@ -369,8 +369,10 @@ class _Stream:
         c = osc.amplitudes(t, dc)
         if len(c) > 1:
             dur = np.diff(t)
-            i_r2 = osc.integral_r2_fin if np.isfinite(dur).all() else osc.integral_r2
-            self.int_r2 += float(i_r2(c[:-1], dur).sum())
+            if np.isfinite(dur).all():
+                self.int_r2 += osc.integral_r2_fin_sum(c[:-1], dur)
+            else:
+                self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
 

@@ -2359,6 +2359,255 @@ done:
     return ret;
 }
 
+/* ring_amps(t_ev, dc, s, wd, span, short_n, start, carry, t_carry, c, fused): resonance.py's
+ * Oscillator.amplitudes restart loop from event `start`, done here while each restart is
+ * shorter than short_n events and its times finite; returns the event it stopped at (the
+ * caller does that restart with numpy, then calls again).  Each restart: stop by numpy's
+ * searchsorted(t_ev, t0 + span, 'right') (its binary search, NaN last), tt = t_ev - t0,
+ * e_dn / e_up as ring_exps, c0 = carry * exp(lam (t0 - t_carry)) (CPython's complex times
+ * float, libm's exp as numpy's complex exp takes it, numpy's scalar complex product), the
+ * products dc e_dn and (c0 + g) e_up as numpy's contiguous complex-multiply loop makes them
+ * (fused = 1: its SIMD loop, re = fma(ar, br, -(ai bi)), im = fma(ar, bi, ai br); 0: the
+ * plain formula), g the running sum (the cumsum's first term copied).  resonance.py uses it
+ * only after it gave the numpy loop's bits on a probe. */
+static inline void ring_cmul(int fused, double ar, double ai, double br, double bi,
+                             double *re, double *im)
+{
+    if (fused) {
+        *re = fma(ar, br, -(ai * bi));
+        *im = fma(ar, bi, ai * br);
+    } else {
+        *re = ar * br - ai * bi;
+        *im = ar * bi + ai * br;
+    }
+}
+
+static inline int ring_less(double a, double b)     /* numpy's sort order: NaN last */
+{
+    return a < b || (b != b && a == a);
+}
+
+static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, db, cb;
+    double s, wd, span, t_carry;
+    Py_complex carry;
+    Py_ssize_t short_n, start;
+    int fused;
+    if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
+                          &start, &carry, &t_carry, &cb, &fused))
+        return NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (db.len != 2 * n * (Py_ssize_t)sizeof(double) || cb.len != db.len || start < 0 || start > n) {
+        PyErr_SetString(PyExc_ValueError, "ring_amps: dc and c must hold len(t_ev) complex numbers");
+        goto done;
+    }
+    const double *t = (const double *)tb.buf, *dc = (const double *)db.buf;
+    double *c = (double *)cb.buf;
+    double cr = carry.real, ci = carry.imag;
+    while (start < n) {
+        double t0 = t[start];
+        if (!isfinite(t0))
+            break;
+        double key = t0 + span;
+        Py_ssize_t lo = 0, hi = n;
+        while (lo < hi) {
+            Py_ssize_t mid = lo + ((hi - lo) >> 1);
+            if (!ring_less(key, t[mid]))
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        Py_ssize_t stop = lo <= start ? start + 1 : lo;
+        if (stop - start >= short_n)
+            break;
+        int fin = 1;
+        for (Py_ssize_t i = start; i < stop; i++)
+            if (!isfinite(t[i] - t0)) {
+                fin = 0;
+                break;
+            }
+        double dt = t0 - t_carry;
+        if (!fin || !isfinite(dt))
+            break;
+        double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
+        double ex = exp(x), cs, sn;
+#ifdef RING_SINCOS
+        sincos(y, &sn, &cs);
+#else
+        cs = cos(y);
+        sn = sin(y);
+#endif
+        double er = ex * cs, ei = ex * sn;
+        double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
+        double gr = 0.0, gi = 0.0;
+        for (Py_ssize_t i = start; i < stop; i++) {
+            double tt = t[i] - t0;
+            double x1 = s * tt + 0.0, x2 = -s * tt;
+            double y2 = wd * tt, y1 = 0.0 - y2;
+            double ex1 = exp(x1), ex2 = exp(x2), c2, s2;
+#ifdef RING_SINCOS
+            sincos(y2, &s2, &c2);
+#else
+            c2 = cos(y2);
+            s2 = sin(y2);
+#endif
+            double s1 = y2 != 0.0 ? -s2 : y1;
+            double pr, pi;
+            ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
+            if (i == start) {
+                gr = pr;
+                gi = pi;
+            } else {
+                gr = gr + pr;
+                gi = gi + pi;
+            }
+            ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
+        }
+        cr = c[2 * (stop - 1)];
+        ci = c[2 * (stop - 1) + 1];
+        t_carry = t[stop - 1];
+        start = stop;
+    }
+    ret = PyLong_FromSsize_t(start);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&cb);
+    return ret;
+}
+
+/* ring_jumps(dr, drp, s, wd, out): resonance.py's Oscillator.jump_amplitude,
+ * dr - 1j (drp + s dr) / wd, as numpy makes it: x = drp + s dr, 1j x by its fused complex
+ * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
+ * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
+ * after it gave numpy's bits on a probe. */
+static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
+{
+    Py_buffer rb, pb, ob;
+    double s, wd;
+    if (!PyArg_ParseTuple(args, "y*y*ddw*:ring_jumps", &rb, &pb, &s, &wd, &ob))
+        return NULL;
+    Py_ssize_t n = rb.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (pb.len != rb.len || ob.len != 2 * rb.len) {
+        PyErr_SetString(PyExc_ValueError, "ring_jumps: drp and out must match dr");
+        goto done;
+    }
+    const double *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
+    double *o = (double *)ob.buf;
+    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double x = drp[i] + s * dr[i];
+        double zr, zi;
+        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
+        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
+        o[2 * i] = dr[i] - wr;
+        o[2 * i + 1] = 0.0 - wi;
+    }
+    ret = Py_None;
+    Py_INCREF(ret);
+done:
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&pb);
+    PyBuffer_Release(&ob);
+    return ret;
+}
+
+/* numpy's pairwise sum of n doubles (its float add reduction: 8 partial sums in blocks of
+ * at most 128, halves above; the reduction starts from -0.0) */
+static double ring_pairwise(const double *a, Py_ssize_t n)
+{
+    if (n < 8) {
+        double res = -0.0;
+        for (Py_ssize_t i = 0; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        double r[8];
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++)
+            r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++)
+                r[j] += a[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return ring_pairwise(a, n2) + ring_pairwise(a + n2, n - n2);
+}
+
+/* ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): resonance.py's
+ * float(Oscillator.integral_r2_fin(c, dur).sum()) with decay2 = np.exp(-2 s dur) made by
+ * numpy: osc2 = exp((qr + i qi) dur) as ring_exp, y = (c c)(osc2 - 1) by numpy's complex
+ * product (its fused loop, as ring_amps), |c| by numpy's complex absolute (its SIMD loop:
+ * larger * sqrt(fma(r, r, 1)), r = smaller / larger), then |c|^2 (1 - decay2) / four_s plus
+ * the real part of y / (4 lam) by _real_quotient's steps (rat, scl: its scalars;
+ * real_major: its first branch), summed as numpy sums (work: n doubles of room).  None,
+ * leaving the sum to numpy, where a number is not finite.  resonance.py uses it only after
+ * it gave numpy's bits on a probe. */
+static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
+{
+    Py_buffer cb, db, eb, wb;
+    double qr, qi, four_s, rat, scl;
+    int real_major;
+    if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
+                          &rat, &scl, &real_major, &wb))
+        return NULL;
+    Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (cb.len != 2 * db.len || eb.len != db.len || wb.len != db.len) {
+        PyErr_SetString(PyExc_ValueError, "ring_int_r2: c, dur, decay2, work of one length");
+        goto done;
+    }
+    const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
+    const double *decay2 = (const double *)eb.buf;
+    double *v = (double *)wb.buf;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
+        if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || !isfinite(decay2[i])) {
+            ok = 0;
+            break;
+        }
+        double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
+        double ex = exp(x), cs, sn;
+#ifdef RING_SINCOS
+        sincos(y, &sn, &cs);
+#else
+        cs = cos(y);
+        sn = sin(y);
+#endif
+        double c2r, c2i, yr, yi;
+        ring_cmul(1, cr, ci, cr, ci, &c2r, &c2i);
+        ring_cmul(1, c2r, c2i, ex * cs - 1.0, ex * sn - 0.0, &yr, &yi);
+        double ar = fabs(cr), ai = fabs(ci);
+        double big = ar > ai ? ar : ai, small = ai < ar ? ai : ar;
+        double ratio = big == 0.0 ? 0.0 : small / big;
+        double a = sqrt(fma(ratio, ratio, 1.0)) * big;
+        double q = real_major ? (yr + yi * rat) * scl : (yr * rat + yi) * scl;
+        v[i] = a * a * (1.0 - decay2[i]) / four_s + q;
+    }
+    if (ok)
+        ret = PyFloat_FromDouble(-0.0 + ring_pairwise(v, n));
+    else {
+        ret = Py_None;
+        Py_INCREF(ret);
+    }
+done:
+    PyBuffer_Release(&cb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&eb);
+    PyBuffer_Release(&wb);
+    return ret;
+}
+
 /* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if
  * its layout is not this core's */
 static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
@@ -2389,6 +2638,12 @@ static PyMethodDef mod_methods[] = {
      "setup(Move, Arc, Limits, Barrier, LineRecord subclass, SimResult subclass, constants)"},
     {"ring_exp", mod_ring_exp, METH_VARARGS,
      "ring_exp(t, a, b, out): np.exp(complex(a, b) * t) for a real array t"},
+    {"ring_amps", mod_ring_amps, METH_VARARGS,
+     "ring_amps(t_ev, dc, s, wd, span, short_n, start, carry, t_carry, c, fused): amplitudes' restarts"},
+    {"ring_int_r2", mod_ring_int_r2, METH_VARARGS,
+     "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
+    {"ring_jumps", mod_ring_jumps, METH_VARARGS,
+     "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

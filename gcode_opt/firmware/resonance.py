@@ -78,6 +78,123 @@ def _kernel_for(key, span):
     return core if ok else None
 
 
+_AMPS_MODE = {}
+USE_AMPS = True          # tests turn it off: amplitudes' restarts by numpy (with ring_exps)
+
+
+def _amps_numpy(osc, t_ev, dc):
+    global USE_AMPS
+    keep, USE_AMPS = USE_AMPS, False
+    try:
+        return osc.amplitudes(t_ev, dc)
+    finally:
+        USE_AMPS = keep
+
+
+def _amps_mode(core, s, wd, span):
+    """The core's ring_amps mode (True: numpy's fused-multiply-add complex product, False:
+    the plain one) that gives amplitudes' numpy bits for this oscillator on a probe of
+    events (restarts, gaps, zeros), else None (checked once per oscillator)."""
+    if not USE_AMPS or not hasattr(core, "ring_amps"):
+        return None
+    key = (s, wd, span)
+    if key not in _AMPS_MODE:
+        rng = np.random.default_rng(11)
+        gaps = rng.exponential(span / 300.0, 4000) * (rng.uniform(size=4000) < 0.9)
+        gaps[rng.uniform(size=4000) < 0.01] *= 400.0       # long pauses: restarts apart
+        t_ev = np.cumsum(gaps)
+        dc = rng.normal(size=4000) + 1j * rng.normal(size=4000)
+        dc[rng.uniform(size=4000) < 0.1] = 0.0
+        dc.real[rng.uniform(size=4000) < 0.1] = -0.0
+        osc = Oscillator.__new__(Oscillator)
+        osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
+        want = _amps_numpy(osc, t_ev, dc).tobytes()
+        _AMPS_MODE[key] = None
+        for mode in (True, False):
+            got = np.empty(len(t_ev), complex)
+            end = core.ring_amps(t_ev, dc, s, wd, span, 1 << 30, 0, 0j, float(t_ev[0]), got, mode)
+            if end == len(t_ev) and got.tobytes() == want:
+                _AMPS_MODE[key] = mode
+                break
+    return _AMPS_MODE[key]
+
+
+_JUMPS_OK = {}
+USE_JUMPS = True         # tests turn it off: jump_amplitude by numpy
+
+
+def _jumps_core(s, wd):
+    """The core if its ring_jumps gives jump_amplitude's numpy bits for this oscillator on
+    a probe (zeros of both signs, large and small jumps; once per oscillator), else None."""
+    core = _core()
+    if core is None or not USE_JUMPS or not hasattr(core, "ring_jumps"):
+        return None
+    ok = _JUMPS_OK.get((s, wd))
+    if ok is None:
+        rng = np.random.default_rng(17)
+        n = 20000
+        dr = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
+        drp = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
+        for a in (dr, drp):
+            a[rng.uniform(size=n) < 0.2] = 0.0
+            a[rng.uniform(size=n) < 0.1] = -0.0
+        drp[:100] = -s * dr[:100]                   # drp + s dr exactly 0
+        want = (dr - 1j * (drp + s * dr) / wd).tobytes()
+        got = np.empty(n, complex)
+        core.ring_jumps(dr, drp, s, wd, got)
+        ok = _JUMPS_OK[(s, wd)] = got.tobytes() == want
+    return core if ok else None
+
+
+_INT_R2_OK = {}
+USE_INT_R2 = True        # tests turn it off: integral_r2_fin's sum by numpy
+
+
+def _int_r2_args(s, lam):
+    """ring_int_r2's scalars: 2 lam's parts, 4 s, and _real_quotient's for 4 lam."""
+    q, d = 2.0 * lam, 4.0 * lam
+    qr, qi = d.real, d.imag
+    if abs(qr) >= abs(qi):
+        rat = qi / qr
+        return q.real, q.imag, 4.0 * s, rat, 1.0 / (qr + qi * rat), True
+    rat = qr / qi
+    return q.real, q.imag, 4.0 * s, rat, 1.0 / (qi + qr * rat), False
+
+
+def _int_r2_core(s, wd):
+    """The core if its ring_int_r2 gives float(integral_r2_fin(c, dur).sum())'s numpy bits
+    for this oscillator on a probe (checked once per oscillator), else None."""
+    core = _core()
+    if core is None or not USE_INT_R2 or not hasattr(core, "ring_int_r2"):
+        return None
+    lam = complex(-s, wd)
+    q = 2.0 * lam
+    if _kernel_for(("one", q.real, q.imag), 1e4) is None:
+        return None
+    ok = _INT_R2_OK.get((s, wd))
+    if ok is None:
+        osc = Oscillator.__new__(Oscillator)
+        osc.s, osc.wd, osc.lam = s, wd, lam
+        rng = np.random.default_rng(13)
+        ok = True
+        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000, 4097, 5003, 20011) * 3:
+            c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
+                + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
+            c[rng.uniform(size=n) < 0.05] = 0.0
+            c.imag[rng.uniform(size=n) < 0.05] = 0.0
+            dur = rng.exponential(0.5 / s, n) * (rng.uniform(size=n) < 0.95)
+            want = osc.integral_r2_fin(c, dur)
+            decay2 = np.exp(-2.0 * s * dur)
+            work = np.empty(n)                # the core leaves each piece's integral there
+            got = core.ring_int_r2(c, dur, decay2, *_int_r2_args(s, lam), work)
+            if got is None or work.tobytes() != want.tobytes() \
+                    or np.float64(got).tobytes() != np.float64(float(want.sum())).tobytes():
+                ok = False
+                break
+        _INT_R2_OK[(s, wd)] = ok
+    return core if ok else None
+
+
 # ---------------------------------------------------------------- input shapers
 def shaper_pulses(kind: str, freq_hz: float, damping_r: float = 0.1):
     """(A, T): pulse weights (sum 1) and times (s), centred so sum A_i T_i = 0 as Klipper's
@@ -128,6 +245,12 @@ class Oscillator:
 
     def jump_amplitude(self, dr, drp):
         """Complex amplitude of the free response started by r += dr, r' += drp."""
+        core = _jumps_core(self.s, self.wd) if type(dr) is np.ndarray and type(drp) is np.ndarray \
+            and dr.dtype == drp.dtype == np.float64 and dr.shape == drp.shape and dr.ndim == 1 else None
+        if core is not None:
+            out = np.empty(len(dr), complex)
+            core.ring_jumps(np.ascontiguousarray(dr), np.ascontiguousarray(drp), self.s, self.wd, out)
+            return out
         return dr - 1j * (drp + self.s * dr) / self.wd
 
     def amplitudes(self, t_ev, dc):
@@ -144,9 +267,19 @@ class Oscillator:
         span = CHUNK_DECAY / self.s
         core = _kernel_for(("pair", self.s, self.wd), span)
         short = ELIDE_BYTES // 16             # restarts numpy works out of place
+        fused = _amps_mode(core, self.s, self.wd, span) if core is not None else None
         start = 0
         carry, t_carry = 0j, float(t_ev[0])
         while start < n:
+            if fused is not None:
+                # the short restarts in the core (the same steps, numpy's bits)
+                got = core.ring_amps(t_ev, dc, self.s, self.wd, span, short, start, carry,
+                                     t_carry, c, fused)
+                if got > start:
+                    start = got
+                    carry, t_carry = c[start - 1], float(t_ev[start - 1])
+                    if start >= n:
+                        break
             t0 = float(t_ev[start])
             stop = int(np.searchsorted(t_ev, t0 + span, side="right"))
             if stop <= start:
@@ -195,6 +328,18 @@ class Oscillator:
             osc2 = np.exp(q * dur)
         y = c * c * (osc2 - 1.0)
         return np.abs(c) ** 2 * (1.0 - decay2) / (4.0 * s) + _real_quotient(y, 4.0 * lam)
+
+    def integral_r2_fin_sum(self, c, dur) -> float:
+        """float(integral_r2_fin(c, dur).sum()), the same bits: in one pass of the core
+        (ring_int_r2) once it gave numpy's bits on a probe for this oscillator; numpy's
+        real exponential (its own SIMD loop) stays numpy's."""
+        core = _int_r2_core(self.s, self.wd)
+        if core is not None and len(dur):
+            decay2 = np.exp(-2.0 * self.s * dur)
+            got = core.ring_int_r2(c, dur, decay2, *_int_r2_args(self.s, self.lam), np.empty(len(dur)))
+            if got is not None:
+                return got
+        return float(self.integral_r2_fin(c, dur).sum())
 
     def peak_abs_r(self, c, dur):
         """Exact max |r| over each piece [0, dur): the larger of the start, the end and the

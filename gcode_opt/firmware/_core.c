@@ -2370,6 +2370,14 @@ done:
  * (fused = 1: its SIMD loop, re = fma(ar, br, -(ai bi)), im = fma(ar, bi, ai br); 0: the
  * plain formula), g the running sum (the cumsum's first term copied).  resonance.py uses it
  * only after it gave the numpy loop's bits on a probe. */
+/* The loops below call fma() per product: a clone of each built for FMA hardware does it
+ * in one instruction (the same exact result; glibc picks the clone at load time). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define RING_CLONES __attribute__((target_clones("fma", "default")))
+#else
+#define RING_CLONES
+#endif
+
 static inline void ring_cmul(int fused, double ar, double ai, double br, double bi,
                              double *re, double *im)
 {
@@ -2387,7 +2395,7 @@ static inline int ring_less(double a, double b)     /* numpy's sort order: NaN l
     return a < b || (b != b && a == a);
 }
 
-static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
+RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
 {
     Py_buffer tb, db, cb;
     double s, wd, span, t_carry;
@@ -2483,7 +2491,7 @@ done:
  * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
  * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
  * after it gave numpy's bits on a probe. */
-static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
+RING_CLONES static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
 {
     Py_buffer rb, pb, ob;
     double s, wd;
@@ -2552,7 +2560,7 @@ static double ring_pairwise(const double *a, Py_ssize_t n)
  * real_major: its first branch), summed as numpy sums (work: n doubles of room).  None,
  * leaving the sum to numpy, where a number is not finite.  resonance.py uses it only after
  * it gave numpy's bits on a probe. */
-static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
+RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
 {
     Py_buffer cb, db, eb, wb;
     double qr, qi, four_s, rat, scl;

@@ -183,6 +183,25 @@ def test_ring_amps_is_the_numpy_restart_loop(seed):
 
 
 @need_core
+def test_ring_amps_events_at_one_time():
+    """Runs of events at one time (blocks without cruise) reuse the previous event's
+    exponentials: the same bits as computing them, next to times that differ by one ulp
+    or only in the sign of zero."""
+    rng = np.random.default_rng(21)
+    for osc in _oscillators(rng, 3):
+        span = res.CHUNK_DECAY / osc.s
+        base = np.cumsum(rng.exponential(span / 500.0, 700))
+        t = np.repeat(base, rng.integers(1, 5, len(base)))
+        t[5:9] = np.nextafter(t[5], np.inf)
+        t = np.sort(np.concatenate([[-0.0, 0.0, 0.0, -0.0], t]))
+        dc = rng.standard_normal(len(t)) + 1j * rng.standard_normal(len(t))
+        want = _ref_amplitudes(osc, t, dc)
+        got = np.empty(len(t), complex)
+        assert CORE.ring_amps(t, dc, osc.s, osc.wd, span, 1 << 30, 0, 0j, float(t[0]), got, True) == len(t)
+        assert got.tobytes() == want.tobytes()
+
+
+@need_core
 def test_ring_amps_stops_at_long_and_non_finite_restarts():
     """It hands back the start of a restart of short_n events or more and of one with a
     time that is not finite, having written only the restarts before it."""
@@ -276,6 +295,26 @@ def test_ring_int_r2_is_the_numpy_sum(seed):
             decay2 = np.exp(-2.0 * osc.s * dur)
             got = CORE.ring_int_r2(c, dur, decay2, *res._int_r2_args(osc.s, osc.lam), np.empty(n))
             assert _bits(got) == _bits(_ref_sum(osc, c, dur)), (osc.s, n)
+
+
+@need_core
+def test_ring_int_r2_pieces_of_one_length():
+    """Zero-length pieces and runs of one length reuse exp and sincos: the same bits as
+    computing them, next to -0.0 and lengths one ulp apart."""
+    rng = np.random.default_rng(23)
+    for osc in _oscillators(rng, 3):
+        n = 3000
+        c, _ = _c_dur(rng, osc.s, n)
+        pool = np.array([0.0, -0.0, 1e-3, np.nextafter(1e-3, 1.0), 0.25 / osc.s, 5e-324])
+        dur = np.where(rng.uniform(size=n) < 0.7, pool[rng.integers(0, len(pool), n)],
+                       rng.exponential(0.5 / osc.s, n))
+        dur[:6] = [0.0, 0.0, -0.0, 0.0, 1e-3, 1e-3]
+        decay2 = np.exp(-2.0 * osc.s * dur)
+        work = np.empty(n)
+        got = CORE.ring_int_r2(c, dur, decay2, *res._int_r2_args(osc.s, osc.lam), work)
+        want = _ref_integral_r2_fin(osc, c, dur)
+        assert work.tobytes() == want.tobytes()
+        assert _bits(got) == _bits(float(want.sum()))
 
 
 @need_core

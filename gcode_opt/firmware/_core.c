@@ -2450,18 +2450,28 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
         double gr = 0.0, gi = 0.0;
+        /* events at one time (a block without cruise: its cruise piece lasts 0) have the
+         * same tt: their exponentials are the previous event's (same bits in, same out) */
+        uint64_t tt_prev = 0;
+        double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0, s1 = 0.0;
         for (Py_ssize_t i = start; i < stop; i++) {
             double tt = t[i] - t0;
-            double x1 = s * tt + 0.0, x2 = -s * tt;
-            double y2 = wd * tt, y1 = 0.0 - y2;
-            double ex1 = exp(x1), ex2 = exp(x2), c2, s2;
+            uint64_t tt_bits;
+            memcpy(&tt_bits, &tt, sizeof tt_bits);
+            if (i == start || tt_bits != tt_prev) {
+                double x1 = s * tt + 0.0, x2 = -s * tt;
+                double y2 = wd * tt, y1 = 0.0 - y2;
+                ex1 = exp(x1);
+                ex2 = exp(x2);
 #ifdef RING_SINCOS
-            sincos(y2, &s2, &c2);
+                sincos(y2, &s2, &c2);
 #else
-            c2 = cos(y2);
-            s2 = sin(y2);
+                c2 = cos(y2);
+                s2 = sin(y2);
 #endif
-            double s1 = y2 != 0.0 ? -s2 : y1;
+                s1 = y2 != 0.0 ? -s2 : y1;
+                tt_prev = tt_bits;
+            }
             double pr, pi;
             ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
             if (i == start) {
@@ -2578,20 +2588,43 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
     int ok = 1;
+    /* pieces of one length (0: events at one time) share exp and sincos: the previous
+     * piece's and the last zero-length piece's are kept (same bits in, same out) */
+    uint64_t d_prev = 0, zero_bits;
+    double zero = 0.0;
+    memcpy(&zero_bits, &zero, sizeof zero_bits);
+    int have_prev = 0, have_zero = 0;
+    double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
         if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || !isfinite(decay2[i])) {
             ok = 0;
             break;
         }
-        double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
-        double ex = exp(x), cs, sn;
+        uint64_t d_bits;
+        memcpy(&d_bits, &t, sizeof d_bits);
+        if (have_zero && d_bits == zero_bits) {
+            ex = ex0;
+            cs = cs0;
+            sn = sn0;
+        } else if (!have_prev || d_bits != d_prev) {
+            double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
+            ex = exp(x);
 #ifdef RING_SINCOS
-        sincos(y, &sn, &cs);
+            sincos(y, &sn, &cs);
 #else
-        cs = cos(y);
-        sn = sin(y);
+            cs = cos(y);
+            sn = sin(y);
 #endif
+            if (d_bits == zero_bits) {
+                ex0 = ex;
+                cs0 = cs;
+                sn0 = sn;
+                have_zero = 1;
+            }
+        }
+        d_prev = d_bits;
+        have_prev = 1;
         double c2r, c2i, yr, yi;
         ring_cmul(1, cr, ci, cr, ci, &c2r, &c2i);
         ring_cmul(1, c2r, c2i, ex * cs - 1.0, ex * sn - 0.0, &yr, &yi);

@@ -141,8 +141,11 @@ def test_ring_jumps_is_numpys(seed):
         for n in (0, 1, 17, 5000):
             dr, drp = _dr_drp(rng, n, osc.s)
             got = np.empty(n, complex)
-            CORE.ring_jumps(dr, drp, osc.s, osc.wd, got)
+            assert CORE.ring_jumps(dr, drp, osc.s, osc.wd, got)
             assert got.tobytes() == _ref_jump_amplitude(osc, dr, drp).tobytes(), (osc.s, n)
+    for bad in (np.nan, np.inf, -np.inf):         # not finite: left to numpy
+        assert not CORE.ring_jumps(np.array([1.0, bad]), np.zeros(2), 3.0, 30.0, np.empty(2, complex))
+        assert not CORE.ring_jumps(np.zeros(2), np.array([bad, 1.0]), 3.0, 30.0, np.empty(2, complex))
     with pytest.raises(ValueError):
         CORE.ring_jumps(np.zeros(3), np.zeros(2), 1.0, 2.0, np.empty(3, complex))
 
@@ -156,6 +159,9 @@ def test_jump_amplitude_same_bits(monkeypatch):
         assert osc.jump_amplitude(dr, drp).tobytes() == want.tobytes()
         assert osc.jump_amplitude(dr[::2], drp[::2]).tobytes() == want[::2].tobytes()
         assert complex(osc.jump_amplitude(0.25, -3.0)) == complex(_ref_jump_amplitude(osc, 0.25, -3.0))
+        dr[7], drp[9] = np.nan, np.inf
+        with np.errstate(invalid="ignore"):
+            assert osc.jump_amplitude(dr, drp).tobytes() == _ref_jump_amplitude(osc, dr, drp).tobytes()
     osc = Oscillator(61.0, 0.07)
     monkeypatch.setattr(res, "_JUMPS_OK", {(osc.s, osc.wd): False})
     dr, drp = _dr_drp(rng, 100, osc.s)
@@ -217,6 +223,9 @@ def test_ring_amps_stops_at_long_and_non_finite_restarts():
     t2[-1] = np.inf
     got = np.empty(len(t), complex)
     assert CORE.ring_amps(t2, dc, osc.s, osc.wd, span, 1000, 0, 0j, 0.0, got, True) == 50
+    dc2 = dc.copy()
+    dc2[12] = complex(1.0, np.nan)
+    assert CORE.ring_amps(t, dc2, osc.s, osc.wd, span, 1000, 0, 0j, 0.0, got, True) == 10
     with pytest.raises(ValueError):
         CORE.ring_amps(t, dc[:-1], osc.s, osc.wd, span, 10, 0, 0j, 0.0, got, True)
 
@@ -237,6 +246,9 @@ def test_amplitudes_same_bits(seed):
             assert osc.amplitudes(t, dc).tobytes() == _ref_amplitudes(osc, t, dc).tobytes(), n_per
         t, dc = _events(rng, span, 5000)
         assert osc.amplitudes(t, dc).tobytes() == _ref_amplitudes(osc, t, dc).tobytes()
+        dc[30] = complex(np.inf, 0.0)
+        with np.errstate(invalid="ignore", over="ignore"):
+            assert osc.amplitudes(t, dc).tobytes() == _ref_amplitudes(osc, t, dc).tobytes()
         t[-3:] = [np.inf, np.inf, np.nan]
         with np.errstate(invalid="ignore", over="ignore"):
             assert osc.amplitudes(t, dc).tobytes() == _ref_amplitudes(osc, t, dc).tobytes()

@@ -2362,7 +2362,7 @@ done:
 /* ring_amps(t_ev, dc, s, wd, span, short_n, start, carry, t_carry, c, fused): resonance.py's
  * Oscillator.amplitudes restart loop from event `start`, done here while each restart is
  * shorter than short_n events and its times finite; returns the event it stopped at (the
- * caller does that restart with numpy, then calls again).  Each restart: stop by numpy's
+ * caller does that restart with numpy, then calls again; so too for a dc that is not finite).  Each restart: stop by numpy's
  * searchsorted(t_ev, t0 + span, 'right') (its binary search, NaN last), tt = t_ev - t0,
  * e_dn / e_up as ring_exps, c0 = carry * exp(lam (t0 - t_carry)) (CPython's complex times
  * float, libm's exp as numpy's complex exp takes it, numpy's scalar complex product), the
@@ -2430,9 +2430,9 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
         Py_ssize_t stop = lo <= start ? start + 1 : lo;
         if (stop - start >= short_n)
             break;
-        int fin = 1;
+        int fin = 1;        /* NaN's bits are not copied: such a restart is numpy's */
         for (Py_ssize_t i = start; i < stop; i++)
-            if (!isfinite(t[i] - t0)) {
+            if (!isfinite(t[i] - t0) || !isfinite(dc[2 * i]) || !isfinite(dc[2 * i + 1])) {
                 fin = 0;
                 break;
             }
@@ -2496,7 +2496,8 @@ done:
     return ret;
 }
 
-/* ring_jumps(dr, drp, s, wd, out): resonance.py's Oscillator.jump_amplitude,
+/* ring_jumps(dr, drp, s, wd, out) -> False (out partly written) at a jump that is not
+ * finite, else True: resonance.py's Oscillator.jump_amplitude,
  * dr - 1j (drp + s dr) / wd, as numpy makes it: x = drp + s dr, 1j x by its fused complex
  * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
  * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
@@ -2516,7 +2517,12 @@ RING_CLONES static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
     const double *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
     double *o = (double *)ob.buf;
     double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
+    int ok = 1;
     for (Py_ssize_t i = 0; i < n; i++) {
+        if (!isfinite(dr[i]) || !isfinite(drp[i])) {    /* NaN's bits are not copied */
+            ok = 0;
+            break;
+        }
         double x = drp[i] + s * dr[i];
         double zr, zi;
         ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
@@ -2524,8 +2530,7 @@ RING_CLONES static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
         o[2 * i] = dr[i] - wr;
         o[2 * i + 1] = 0.0 - wi;
     }
-    ret = Py_None;
-    Py_INCREF(ret);
+    ret = PyBool_FromLong(ok);
 done:
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);

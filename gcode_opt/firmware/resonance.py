@@ -141,8 +141,7 @@ def _jumps_core(s, wd):
         drp[:100] = -s * dr[:100]                   # drp + s dr exactly 0
         want = (dr - 1j * (drp + s * dr) / wd).tobytes()
         got = np.empty(n, complex)
-        core.ring_jumps(dr, drp, s, wd, got)
-        ok = _JUMPS_OK[(s, wd)] = got.tobytes() == want
+        ok = _JUMPS_OK[(s, wd)] = bool(core.ring_jumps(dr, drp, s, wd, got)) and got.tobytes() == want
     return core if ok else None
 
 
@@ -249,8 +248,8 @@ class Oscillator:
             and dr.dtype == drp.dtype == np.float64 and dr.shape == drp.shape and dr.ndim == 1 else None
         if core is not None:
             out = np.empty(len(dr), complex)
-            core.ring_jumps(np.ascontiguousarray(dr), np.ascontiguousarray(drp), self.s, self.wd, out)
-            return out
+            if core.ring_jumps(np.ascontiguousarray(dr), np.ascontiguousarray(drp), self.s, self.wd, out):
+                return out
         return dr - 1j * (drp + self.s * dr) / self.wd
 
     def amplitudes(self, t_ev, dc):

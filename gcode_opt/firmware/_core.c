@@ -2371,8 +2371,9 @@ done:
  * plain formula), g the running sum (the cumsum's first term copied).  resonance.py uses it
  * only after it gave the numpy loop's bits on a probe. */
 /* The loops below call fma() per product: a clone of each built for FMA hardware does it
- * in one instruction (the same exact result; glibc picks the clone at load time). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+ * in one instruction (the same exact result; glibc's ifunc picks the clone at load time,
+ * so only with glibc: musl has no ifunc). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__)
 #define RING_CLONES __attribute__((target_clones("fma", "default")))
 #else
 #define RING_CLONES

@@ -632,6 +632,32 @@ out:
     return rc;
 }
 
+/* What kind of line s[0..n) is, for step() and fused_line(): SHAPE_PYTHON (the Python
+ * reader must read it: a stray CR, which Python rejects, or a marked comment), SHAPE_NOTHING
+ * (a blank line, or a comment no marker starts: it changes nothing), or SHAPE_CODE (a command;
+ * *code_n: the length before any ';'). */
+enum { SHAPE_PYTHON, SHAPE_NOTHING, SHAPE_CODE };
+
+static int line_shape(const unsigned char *s, Py_ssize_t n, Py_ssize_t *code_n)
+{
+    if (n < 1)
+        return SHAPE_PYTHON;
+    /* a CR anywhere but in the trailing run of CR/LF, or a CR last: Python raises */
+    Py_ssize_t t = n;
+    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
+        t--;
+    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
+        return SHAPE_PYTHON;
+    const unsigned char *semi = memchr(s, ';', n);
+    *code_n = semi ? semi - s : n;
+    Py_ssize_t k = 0;
+    while (k < *code_n && is_split_space(s[k]))
+        k++;
+    if (k == *code_n)      /* no command: a blank line changes nothing; a comment only if it is marked */
+        return (semi != NULL && marked(semi, n - *code_n)) ? SHAPE_PYTHON : SHAPE_NOTHING;
+    return n < 2 ? SHAPE_PYTHON : SHAPE_CODE;
+}
+
 /* step(self, idx, raw): the Move, None, or what MachineState._step_python returns. */
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -641,28 +667,13 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     if (!READY || Py_TYPE(self) != STATE_TYPE || !PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         return slow(self, idx, raw);       /* not ASCII: the BOM, or anything unusual */
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
-    Py_ssize_t n = PyUnicode_GET_LENGTH(raw);
-    if (n < 1)
+    Py_ssize_t code_n = 0;
+    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    case SHAPE_PYTHON:
         return slow(self, idx, raw);
-    /* a CR anywhere but in the trailing run of CR/LF, or a CR last: Python raises */
-    Py_ssize_t t = n;
-    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
-        t--;
-    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
-        return slow(self, idx, raw);
-    const unsigned char *semi = memchr(s, ';', n);
-    Py_ssize_t code_n = semi ? semi - s : n;
-    Py_ssize_t k = 0;
-    while (k < code_n && is_split_space(s[k]))
-        k++;
-    if (k == code_n) {
-        /* no command: a blank line changes nothing; a comment only if it is marked */
-        if (semi != NULL && marked(semi, n - code_n))
-            return slow(self, idx, raw);
+    case SHAPE_NOTHING:
         Py_RETURN_NONE;
     }
-    if (n < 2)
-        return slow(self, idx, raw);
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
@@ -844,26 +855,13 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
     if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         goto other;
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
-    Py_ssize_t n = PyUnicode_GET_LENGTH(raw);
-    if (n < 1)
+    Py_ssize_t code_n = 0;
+    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    case SHAPE_PYTHON:
         goto other;
-    Py_ssize_t t = n;
-    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
-        t--;
-    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
-        goto other;
-    const unsigned char *semi = memchr(s, ';', n);
-    Py_ssize_t code_n = semi ? semi - s : n;
-    Py_ssize_t k = 0;
-    while (k < code_n && is_split_space(s[k]))
-        k++;
-    if (k == code_n) {
-        if (semi != NULL && marked(semi, n - code_n))
-            goto other;
+    case SHAPE_NOTHING:
         return 0;
     }
-    if (n < 2)
-        goto other;
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_words(s, code_n, 2, "XYZEF", &w) < 0)

@@ -123,7 +123,10 @@ def analyse(path, profile: Profile, opts: Options):
     The model plays each line as it is read, before the strokes see it.  Its records (one
     a moving line, in file order) go to strokes by index ranges: strokes close in file
     order, so a record goes to the oldest closed stroke still due, or waits (early) while
-    its line is in the run still open, or belongs to no stroke."""
+    its line is in the run still open, or belongs to no stroke.  With the compiled model
+    the records go into its RecordLog instead (no Python call a record), which sums them
+    per stroke and per feature after the pass, in the same order (_apply_log)."""
+    log = _record_log()
     strokes = []
     due = deque()       # closed strokes, in file order, whose last line's record has not come
     early = deque()     # records of lines in the open run (or of one that closed), in file order
@@ -148,6 +151,8 @@ def analyse(path, profile: Profile, opts: Options):
         """A stroke closed: the records of its lines that came already are early's first
         (those before it belong to no stroke)."""
         strokes.append(st)
+        if log is not None:       # summed after the pass
+            return
         lo, hi = st.first_idx, st.last_idx
         while early and early[0].idx < lo:
             early.popleft()
@@ -200,6 +205,8 @@ def analyse(path, profile: Profile, opts: Options):
                 early.popleft()
             early.append(r)
 
+    if log is not None:
+        on_line = log
     ring = None
     opts.ringing_before = None
     if getattr(opts, "ringing", True):
@@ -252,10 +259,53 @@ def analyse(path, profile: Profile, opts: Options):
                          start_state, opened):
         pass
     sim.stop()
+    if log is not None:
+        _apply_log(log, strokes, feat_at, by_feature)
     if ring is not None:
         opts.ringing_before = ring.figures()
     opts.feature_info = feat.selection_info(seen[0], opts.features)
     return strokes, sim.res
+
+
+def _record_log():
+    """The compiled model's RecordLog for the analyse pass, or None (the Python model, or a
+    core without it: analyse's per-record on_line then)."""
+    if fwsim.CORE != "c" or not hasattr(fwsim._core, "RecordLog"):
+        return None
+    return fwsim._core.RecordLog()
+
+
+def _apply_log(log, strokes, feat_at, by_feature):
+    """What analyse's on_line and apply() do record by record, from the RecordLog: each
+    stroke's v0 (the record at its first line), v1 (at its last line) and its records'
+    time, int a^2 and int v^2 summed in file order; the feature tally (feat_at: (line,
+    feature) where the moves' feature changes) per feature, in the order the features'
+    first records came (by_feature is filled in that order, as on_line fills it)."""
+    n = len(strokes)
+    lo = np.fromiter((s.first_idx for s in strokes), np.int64, n)
+    hi = np.fromiter((s.last_idx for s in strokes), np.int64, n)
+    if n and not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1])):
+        raise AssertionError("strokes out of file order")     # group_lines closes them in order
+    got = np.zeros(n, np.int64)
+    v0, v1, t, a2, v2 = (np.zeros(n) for _ in range(5))
+    log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
+    for s, g, a, b, x, y, z in zip(strokes, got.tolist(), v0.tolist(), v1.tolist(), t.tolist(), a2.tolist(),
+                                   v2.tolist()):
+        if g & 1:
+            s.v0 = a
+        if g & 2:
+            s.v1 = b
+        s.time_t, s.int_a2, s.int_v2 = x, y, z
+    ids = {}
+    starts = np.fromiter((i for i, _ in feat_at), np.int64, len(feat_at))
+    fid = np.fromiter((ids.setdefault(f, len(ids)) for _, f in feat_at), np.int64, len(feat_at))
+    nf = len(ids)
+    count, first = np.zeros(nf, np.int64), np.full(nf, -1, np.int64)
+    ft, fa2 = np.zeros(nf), np.zeros(nf)
+    log.feature_sums(starts, fid, count, ft, fa2, first)
+    feats = list(ids)
+    for k in sorted((k for k in range(nf) if first[k] >= 0), key=lambda k: first[k]):
+        by_feature[feats[k]] = [int(count[k]), float(ft[k]), float(fa2[k])]
 
 
 # ---------------------------------------------------------------- pass 2: rewrite

@@ -725,6 +725,230 @@ static PyTypeObject SumsType = {
     .tp_members = Sums_members,
 };
 
+/* ---------------------------------------------------------------- RecordLog */
+/* RecordLog(): an on_line the compiled Sim feeds without making a LineRecord, for the
+ * analyse pass (pipeline.analyse).  It keeps each record's idx, start_v, end_v, time_t,
+ * int_a2 + int_a2_j (the one addition pipeline.apply makes) and int_v2, in file order.
+ * After the pass, stroke_sums() and feature_sums() take the sums pipeline.analyse's
+ * on_line/apply take, over the same records in the same order (the same bits). */
+#define LOG_COLS 5
+typedef struct {
+    PyObject_HEAD
+    long long *idx;
+    double *v;                         /* LOG_COLS a record: start_v end_v time_t a2 v2 */
+    Py_ssize_t n, cap;
+} LogObject;
+
+static int log_add(LogObject *k, const RecData *r)
+{
+    if (k->n == k->cap) {
+        Py_ssize_t cap = k->cap ? 2 * k->cap : 4096;
+        long long *idx = PyMem_Realloc(k->idx, (size_t)cap * sizeof(long long));
+        if (idx == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        k->idx = idx;
+        double *v = PyMem_Realloc(k->v, (size_t)cap * LOG_COLS * sizeof(double));
+        if (v == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        k->v = v;
+        k->cap = cap;
+    }
+    double *row = k->v + k->n * LOG_COLS;
+    k->idx[k->n] = r->idx;
+    row[0] = r->start_v;
+    row[1] = r->end_v;
+    row[2] = r->time_t;
+    row[3] = r->int_a2 + r->int_a2_j;
+    row[4] = r->int_v2;
+    k->n++;
+    return 0;
+}
+
+/* a C-contiguous buffer of n items of format fmt ("q" or "d"), writable if asked */
+static int log_buf(PyObject *o, Py_buffer *b, Py_ssize_t n, const char *fmt, int writable, const char *what)
+{
+    if (PyObject_GetBuffer(o, b, (writable ? PyBUF_WRITABLE : 0) | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    /* numpy's int64 is "l" on LP64 platforms, "q" elsewhere; a native-order prefix is fine */
+    const char *f = b->format;
+    if (f != NULL && (*f == '@' || *f == '=' || *f == '<'))
+        f++;
+    int ok_fmt = f != NULL && f[0] != 0 && f[1] == 0
+                 && (fmt[0] == 'd' ? f[0] == 'd' : (f[0] == 'q' || f[0] == 'l'));
+    if (b->itemsize != 8 || !ok_fmt || b->len != n * 8) {
+        PyBuffer_Release(b);
+        PyErr_Format(PyExc_ValueError, "RecordLog: %s must be a buffer of %zd '%s' items", what, n, fmt);
+        return -1;
+    }
+    return 0;
+}
+
+/* stroke_sums(lo, hi, got, v0, v1, t, a2, v2): strokes lo[k]..hi[k] (int64 lines, in file
+ * order, disjoint); for each, over the records of its lines in file order, what
+ * pipeline.analyse's apply() does: v0 the record at lo's start_v (got bit 1), v1 the record
+ * at hi's end_v (got bit 2), t, a2, v2 sums from 0.0.  All outputs are written. */
+static PyObject *Log_stroke_sums(LogObject *k, PyObject *args)
+{
+    PyObject *o[8];
+    if (!PyArg_ParseTuple(args, "OOOOOOOO:stroke_sums", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7]))
+        return NULL;
+    Py_ssize_t n = PyObject_Length(o[0]);
+    if (n < 0)
+        return NULL;
+    static const char *names[8] = {"lo", "hi", "got", "v0", "v1", "t", "a2", "v2"};
+    Py_buffer b[8];
+    int nb = 0;
+    for (; nb < 8; nb++)
+        if (log_buf(o[nb], &b[nb], n, nb < 3 ? "q" : "d", nb >= 2, names[nb]) < 0)
+            goto fail;
+    const long long *lo = b[0].buf, *hi = b[1].buf;
+    long long *got = b[2].buf;
+    double *v0 = b[3].buf, *v1 = b[4].buf, *t = b[5].buf, *a2 = b[6].buf, *v2 = b[7].buf;
+    Py_ssize_t j = 0;
+    for (Py_ssize_t q = 0; q < n; q++) {
+        while (j < k->n && k->idx[j] < lo[q])
+            j++;
+        double s_t = 0.0, s_a2 = 0.0, s_v2 = 0.0;
+        long long g = 0;
+        double w0 = 0.0, w1 = 0.0;
+        for (; j < k->n && k->idx[j] <= hi[q]; j++) {
+            const double *row = k->v + j * LOG_COLS;
+            if (k->idx[j] == lo[q]) {
+                w0 = row[0];
+                g |= 1;
+            }
+            if (k->idx[j] == hi[q]) {
+                w1 = row[1];
+                g |= 2;
+            }
+            s_t += row[2];
+            s_a2 += row[3];
+            s_v2 += row[4];
+        }
+        got[q] = g;
+        v0[q] = w0;
+        v1[q] = w1;
+        t[q] = s_t;
+        a2[q] = s_a2;
+        v2[q] = s_v2;
+    }
+    for (int q = 0; q < 8; q++)
+        PyBuffer_Release(&b[q]);
+    Py_RETURN_NONE;
+fail:
+    for (int q = 0; q < nb; q++)
+        PyBuffer_Release(&b[q]);
+    return NULL;
+}
+
+/* feature_sums(starts, ids, count, t, a2, first): the feature tally of pipeline.analyse's
+ * on_line.  starts (int64, ascending): the lines where the moves' feature changes, ids
+ * (int64) that feature's number there; a record belongs to the last start at or before its
+ * line (none before the first: skipped).  Per feature number f (count, t, a2, first:
+ * buffers of n_features items, zeroed by the caller, first at -1): records, their time_t
+ * and a2 summed from 0.0 in file order, and the position of its first record. */
+static PyObject *Log_feature_sums(LogObject *k, PyObject *args)
+{
+    PyObject *o[6];
+    if (!PyArg_ParseTuple(args, "OOOOOO:feature_sums", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5]))
+        return NULL;
+    Py_ssize_t m = PyObject_Length(o[0]), nf = PyObject_Length(o[2]);
+    if (m < 0 || nf < 0)
+        return NULL;
+    static const char *names[6] = {"starts", "ids", "count", "t", "a2", "first"};
+    const char *fmts[6] = {"q", "q", "q", "d", "d", "q"};
+    Py_ssize_t lens[6] = {m, m, nf, nf, nf, nf};
+    Py_buffer b[6];
+    int nb = 0;
+    for (; nb < 6; nb++)
+        if (log_buf(o[nb], &b[nb], lens[nb], fmts[nb], nb >= 2, names[nb]) < 0)
+            goto fail;
+    const long long *starts = b[0].buf, *ids = b[1].buf;
+    long long *count = b[2].buf, *first = b[5].buf;
+    double *t = b[3].buf, *a2 = b[4].buf;
+    for (Py_ssize_t q = 0; q < m; q++)
+        if (ids[q] < 0 || ids[q] >= nf) {
+            PyErr_SetString(PyExc_ValueError, "RecordLog: a feature number out of range");
+            goto fail;
+        }
+    Py_ssize_t p = -1;
+    for (Py_ssize_t j = 0; j < k->n; j++) {
+        long long i = k->idx[j];
+        while (p + 1 < m && starts[p + 1] <= i)
+            p++;
+        if (p < 0)
+            continue;
+        long long f = ids[p];
+        const double *row = k->v + j * LOG_COLS;
+        if (first[f] < 0)
+            first[f] = j;
+        count[f] += 1;
+        t[f] += row[2];
+        a2[f] += row[3];
+    }
+    for (int q = 0; q < 6; q++)
+        PyBuffer_Release(&b[q]);
+    Py_RETURN_NONE;
+fail:
+    for (int q = 0; q < nb; q++)
+        PyBuffer_Release(&b[q]);
+    return NULL;
+}
+
+static PyObject *Log_call(LogObject *k, PyObject *args, PyObject *kw)
+{
+    /* a Python caller handing a LineRecord (the Python model never does: analyse gives
+     * a RecordLog only to the compiled Sim, which calls log_add itself) */
+    PyObject *rec;
+    if (!PyArg_ParseTuple(args, "O!:RecordLog", &RecType, &rec))
+        return NULL;
+    if (log_add(k, &((RecObject *)rec)->r) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+static void Log_dealloc(LogObject *k)
+{
+    PyMem_Free(k->idx);
+    PyMem_Free(k->v);
+    Py_TYPE(k)->tp_free((PyObject *)k);
+}
+
+static PyObject *Log_len(LogObject *k, void *c)
+{
+    return PyLong_FromSsize_t(k->n);
+}
+
+static PyMethodDef Log_methods[] = {
+    {"stroke_sums", (PyCFunction)Log_stroke_sums, METH_VARARGS,
+     "stroke_sums(lo, hi, got, v0, v1, t, a2, v2): pipeline.analyse's apply() per stroke."},
+    {"feature_sums", (PyCFunction)Log_feature_sums, METH_VARARGS,
+     "feature_sums(starts, ids, count, t, a2, first): pipeline.analyse's feature tally."},
+    {NULL}
+};
+
+static PyGetSetDef Log_getset[] = {
+    {"rows", (getter)Log_len, NULL, "records held", NULL},
+    {NULL}
+};
+
+static PyTypeObject LogType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.RecordLog",
+    .tp_doc = "RecordLog(): the analyse pass's records, summed per stroke and feature after it.",
+    .tp_basicsize = sizeof(LogObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_call = (ternaryfunc)Log_call,
+    .tp_dealloc = (destructor)Log_dealloc,
+    .tp_methods = Log_methods,
+    .tp_getset = Log_getset,
+};
+
 /* ---------------------------------------------------------------- SimResult */
 typedef struct {
     PyObject_HEAD
@@ -1440,7 +1664,11 @@ static int marlin_stop(SimObject *s)
 static int call_on_line(SimObject *s, RecData *r)
 {
     PyObject *fn = s->on_line;
-    if (Py_IS_TYPE(fn, &SumsType)) {
+    if (Py_IS_TYPE(fn, &LogType)) {
+        if (log_add((LogObject *)fn, r) < 0)
+            return -1;
+        fn = Py_None;
+    } else if (Py_IS_TYPE(fn, &SumsType)) {
         /* per-stroke sums without a LineRecord; also(rec) only if asked */
         SumsObject *k = (SumsObject *)fn;
         sums_add(k, r->idx, r->time_t, r->int_a2, r->int_a2_j, r->int_v2);
@@ -2709,7 +2937,8 @@ static struct PyModuleDef core_module = {
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
-        || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0 || PyType_Ready(&SumsType) < 0)
+        || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0 || PyType_Ready(&SumsType) < 0
+        || PyType_Ready(&LogType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
@@ -2720,12 +2949,14 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
     Py_INCREF(&SimType);
     Py_INCREF(&SinkType);
     Py_INCREF(&SumsType);
+    Py_INCREF(&LogType);
     if (PyModule_AddObject(m, "Block", (PyObject *)&BlockType) < 0
         || PyModule_AddObject(m, "LineRecord", (PyObject *)&RecType) < 0
         || PyModule_AddObject(m, "SimResult", (PyObject *)&ResType) < 0
         || PyModule_AddObject(m, "Sim", (PyObject *)&SimType) < 0
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
+        || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
         Py_DECREF(m);
         return NULL;

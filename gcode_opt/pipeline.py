@@ -107,15 +107,6 @@ class Progress:
             sys.stderr.flush()
 
 
-def _counted(it, progress):
-    if progress is None:
-        yield from it
-        return
-    for item in it:
-        progress.advance(len(item[1]))
-        yield item
-
-
 # ---------------------------------------------------------------- pass 1: analyse
 def analyse(path, profile: Profile, opts: Options):
     """Strokes of the original file with the firmware model's figures for each.
@@ -205,8 +196,7 @@ def analyse(path, profile: Profile, opts: Options):
                 early.popleft()
             early.append(r)
 
-    if log is not None:
-        on_line = log
+    records = on_line if log is None else log     # what the model hands each record to
     ring = None
     opts.ringing_before = None
     if getattr(opts, "ringing", True):
@@ -216,15 +206,15 @@ def analyse(path, profile: Profile, opts: Options):
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
 
         def on_line_both(r):
-            on_line(r)
+            records(r)
             ring_line(r)
-        sim = fwsim.new_sim(profile, on_line, ring_block)
+        sim = fwsim.new_sim(profile, records, ring_block)
         if not getattr(getattr(ring_dwell, "__self__", None), "sim_rests", False):
             # not the compiled model writing the rests into the Collector's sink itself
             # (see ringing.wrap_events): the hooks write them, E-only records through on_line
             sim = fwsim.new_sim(profile, on_line_both, ring_block)
     else:
-        sim = fwsim.new_sim(profile, on_line)
+        sim = fwsim.new_sim(profile, records)
 
     def read():
         """The file's (idx, raw, event), each played by the model as it is read (what
@@ -235,7 +225,7 @@ def analyse(path, profile: Profile, opts: Options):
         with reader.open_text(path) as fh:
             lines = enumerate(fh)           # read_lines without its generator layer
             if opts.progress is not None:
-                lines = _counted(lines, opts.progress)
+                lines = fwsim._counted(lines, opts.progress.advance)
             for idx, raw in lines:
                 e_before[0] = state.e
                 if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:

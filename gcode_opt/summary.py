@@ -186,8 +186,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
 def dump_json(summary: dict, fh) -> None:
     """Write `summary` as JSON: indented as json.dump(indent=1) writes it, except that a
     top-level list of rows (per_stroke) has one compact row a line.  json's indenting
-    encoder is pure Python: on the gyroid plate's 35 k per-stroke rows it took ~0.8 s CPU,
-    the compact (C) encoder row by row ~0.1 s.  json.load reads the same object back."""
+    encoder is pure Python: the gyroid plate's 11 MB summary took 0.59 s CPU, written this
+    way (the C encoder, row by row) 0.23 s.  json.load reads the same object back."""
     import json
     fh.write("{")
     sep = "\n "

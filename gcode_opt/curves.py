@@ -41,7 +41,7 @@ from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import (MIN_FEED_V, SegmentPlan, hold_cruise_accels, hold_cruise_accels_rows, segment_feeds,
-                       tent_feeds_rows)
+                       segment_times, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -771,13 +771,7 @@ def predict_curve(s, v, a, cos_turn, cos_end0=None, cos_end1=None):
     # np.add.reduce is what np.sum runs on a 1-D array (the same pairwise sum), and
     # x[1:] - x[:-1] np.diff's subtraction, without their per-call overhead (~7 knots)
     s, v = np.asarray(s), np.asarray(v)
-    d = s[1:] - s[:-1]
-    va, vb = v[:-1], v[1:]
-    vmax = np.maximum(va, vb)
-    a = np.maximum(a, 1e-12)
-    ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
-    dv = np.abs(vb - va)
-    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    t, a, dv = segment_times(s, v, a)
     a2 = float(_add(a * dv))
     vi = v[1:-1]
     dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
@@ -865,13 +859,7 @@ def _jerk_junction_rows(sts, gs, V, acc, a_top, profile):
 def _predict_rows(S, V, A, cos_turn, c0, c1):
     """predict_curve of every row (the same operations; row sums in the 1-D sums' order),
     as two lists (time_t float, int_a2 float or numpy float64, as predict_curve's)."""
-    d = S[:, 1:] - S[:, :-1]
-    va, vb = V[:, :-1], V[:, 1:]
-    vmax = np.maximum(va, vb)
-    a = np.maximum(A, 1e-12)
-    ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
-    dv = np.abs(vb - va)
-    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    t, a, dv = segment_times(S, V, A)
     s1 = _add(a * dv, axis=1).tolist()
     vi = V[:, 1:-1]
     dv2 = 2.0 * vi * vi * (1.0 - cos_turn)

@@ -244,15 +244,23 @@ def predict(s, v, a):
     """How a constant-acceleration firmware executes the segments (s, v knots; a per
     segment): each ramps at a_k over |dv| (a_k may exceed the ramp's need) and cruises
     the rest.  Returns (time_t, int_a2) -- the figures to weigh against the original."""
-    s, v = np.asarray(s), np.asarray(v)
-    d = _diff(s)
-    dv = np.abs(_diff(v))
-    vmax = np.maximum(v[:-1], v[1:])
-    a = np.maximum(a, 1e-12)
-    ramp_d = np.abs(_diff(v * v)) / (2.0 * a)
-    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    t, a, dv = segment_times(np.asarray(s), np.asarray(v), a)
     # np.add.reduce is what np.sum runs on a 1-D array (the same pairwise sum)
     return float(np.add.reduce(t)), float(np.add.reduce(a * dv))
+
+
+def segment_times(s, v, a):
+    """Per segment of knots s, v (along the last axis: one stroke, or rows of strokes) and
+    accelerations a: (t, a, |dv|), the time a constant-acceleration firmware takes (ramp at
+    a over |dv|, cruise the rest at the faster knot's speed), a floored at 1e-12.  The one
+    formula of predict, segments._predict_rows, curves.predict_curve and _predict_rows."""
+    d = s[..., 1:] - s[..., :-1]
+    va, vb = v[..., :-1], v[..., 1:]
+    dv = np.abs(vb - va)
+    vmax = np.maximum(va, vb)
+    a = np.maximum(a, 1e-12)
+    ramp_d = np.abs(vb * vb - va * va) / (2.0 * a)
+    return dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9), a, dv
 
 
 ROUND_TURN_D = 0.003      # mm: knots are written to ~3 decimals; the turn they add at a knot <= this / segment
@@ -473,13 +481,7 @@ def _predict_rows(S, V, A):
     """predict() of every row of knots S, V (m, K) and accelerations A (m, K - 1): the
     same operations, each row's sums added in np.add.reduce's 1-D order (numpy's
     pairwise sum runs per row): two lists of floats."""
-    d = S[:, 1:] - S[:, :-1]
-    dv = np.abs(V[:, 1:] - V[:, :-1])
-    vmax = np.maximum(V[:, :-1], V[:, 1:])
-    a = np.maximum(A, 1e-12)
-    v2 = V * V
-    ramp_d = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * a)
-    t = dv / a + np.maximum(d - ramp_d, 0.0) / np.maximum(vmax, 1e-9)
+    t, a, dv = segment_times(S, V, A)
     return np.add.reduce(t, axis=1).tolist(), np.add.reduce(a * dv, axis=1).tolist()
 
 

@@ -31,7 +31,7 @@ from itertools import chain
 import numpy as np
 
 from . import state as st
-from .firmware.resonance import (Oscillator, Response, _smoothing_chunk, shaped_events,
+from .firmware.resonance import (Oscillator, Response, RingMemo, _smoothing_chunk, shaped_events,
                                  shaper_pulses, smoothing)
 from .firmware import simulate as fwsim
 from .firmware.simulate import CORNER_COS, simulate_file
@@ -338,12 +338,15 @@ class _Stream:
     its time carry the oscillator across chunks (its piece's length is known only when the
     next event is)."""
 
-    def __init__(self, osc: Oscillator, pulses):
+    def __init__(self, osc: Oscillator, pulses, memo=None, lead=False):
         self.osc, (self.a_p, self.t_p) = osc, pulses
         self.t = np.zeros(0)
         self.dr, self.drp = np.zeros(0), np.zeros(0)
         self.t_last, self.c_last = None, 0j
         self.int_r2, self.peak = 0.0, 0.0
+        # the exponentials shared with the streams of the same oscillator (resonance.RingMemo;
+        # lead: this stream's go into it, for the others)
+        self.memo, self.lead = memo, lead
 
     def add(self, t, dr, drp, horizon_t):
         """Unshaped events (time, dr, drp); solve every event earlier than horizon_t."""
@@ -366,11 +369,12 @@ class _Stream:
         if self.t_last is not None:        # the carried amplitude starts the cumulative sum
             t = np.concatenate([[self.t_last], t])
             dc = np.concatenate([[self.c_last], dc])
-        c = osc.amplitudes(t, dc)
+        memo, lead = self.memo, self.lead
+        c = osc.amplitudes(t, dc, memo, lead)
         if len(c) > 1:
             dur = np.diff(t)
             if np.isfinite(dur).all():
-                self.int_r2 += osc.integral_r2_fin_sum(c[:-1], dur)
+                self.int_r2 += osc.integral_r2_fin_sum(c[:-1], dur, memo, lead, t[:-1])
             else:
                 self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
@@ -452,10 +456,15 @@ class Collector:
         self.limit = ROW * max(int(chunk_blocks), 1)
         pulses = _pulses(self.model, self.shaper)
         self.streams = {}
+        memos = {}                         # one RingMemo per part and oscillator
         for ax, name in enumerate("xy"):
             osc = Oscillator(self.model[f"freq_{name}_hz"], self.model["damping_r"])
             for part in ("all",) + PARTS:
-                self.streams[name, part] = _Stream(osc, pulses[ax])
+                # X's stream keeps its exponentials for Y's of the same part: the two axes
+                # share most events, and their restarts start at the same events (a stream's
+                # restarts run on from its own last event, so two parts' seldom meet)
+                memo = memos.setdefault((osc.s, osc.wd, part), RingMemo())
+                self.streams[name, part] = _Stream(osc, pulses[ax], memo, ax == 0)
         self.horizon = {name: float(pulses[ax][1].min()) for ax, name in enumerate("xy")}
         self.smooth = _SmoothStream(pulses) if self.shaper != "none" else None
         self.carry = _Carry()

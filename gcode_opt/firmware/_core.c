@@ -2624,6 +2624,85 @@ static inline int ring_less(double a, double b)     /* numpy's sort order: NaN l
     return a < b || (b != b && a == a);
 }
 
+/* The memo (optional, ring_amps' last five arguments): the exponentials another call made,
+ * for its events mt (sorted) in restarts starting at mt0 (NaN: not made there), mv = (exp(s tt),
+ * exp(-s tt), cos(wd tt), sin(wd tt)) per event; an event here at the same time in a restart
+ * that starts at the same time has the same tt = t - t0, bit for bit, so the same
+ * exponentials: they are taken from the memo instead of libm (the ringing's parts and axes
+ * share most events).  This call's own go to ot0 / ov (len(t_ev) each, 4 numbers an event
+ * in ov; ot0 left as the caller set it where numpy makes the restart). */
+typedef struct {
+    Py_buffer mt, mt0, mv, ot0, ov;
+    int have_m, have_o;
+} RingMemo;
+
+static void ring_memo_release(RingMemo *m)
+{
+    if (m->have_m) {
+        PyBuffer_Release(&m->mt);
+        PyBuffer_Release(&m->mt0);
+        PyBuffer_Release(&m->mv);
+    }
+    if (m->have_o) {
+        PyBuffer_Release(&m->ot0);
+        PyBuffer_Release(&m->ov);
+    }
+    m->have_m = m->have_o = 0;
+}
+
+/* m: the memo from memo_t, memo_t0, memo_v (all None: no memo) and out_t0, out_v (None: not
+ * kept) with per values an event; -1 with an exception on a wrong length */
+static int ring_memo_get(RingMemo *m, PyObject *mt, PyObject *mt0, PyObject *mv, PyObject *ot0,
+                         PyObject *ov, Py_ssize_t n, Py_ssize_t per)
+{
+    m->have_m = m->have_o = 0;
+    if (mt != Py_None) {
+        if (PyObject_GetBuffer(mt, &m->mt, PyBUF_SIMPLE) < 0)
+            return -1;
+        if (PyObject_GetBuffer(mt0, &m->mt0, PyBUF_SIMPLE) < 0) {
+            PyBuffer_Release(&m->mt);
+            return -1;
+        }
+        if (PyObject_GetBuffer(mv, &m->mv, PyBUF_SIMPLE) < 0) {
+            PyBuffer_Release(&m->mt);
+            PyBuffer_Release(&m->mt0);
+            return -1;
+        }
+        m->have_m = 1;
+        if (m->mt0.len != m->mt.len || m->mv.len != per * m->mt.len) {
+            PyErr_SetString(PyExc_ValueError, "ring memo: lengths differ");
+            ring_memo_release(m);
+            return -1;
+        }
+    }
+    if (ot0 != Py_None) {
+        if (PyObject_GetBuffer(ot0, &m->ot0, PyBUF_WRITABLE) < 0) {
+            ring_memo_release(m);
+            return -1;
+        }
+        if (PyObject_GetBuffer(ov, &m->ov, PyBUF_WRITABLE) < 0) {
+            PyBuffer_Release(&m->ot0);
+            ring_memo_release(m);
+            return -1;
+        }
+        m->have_o = 1;
+        if (m->ot0.len != n * (Py_ssize_t)sizeof(double) || m->ov.len != per * m->ot0.len) {
+            PyErr_SetString(PyExc_ValueError, "ring memo: out_t0 / out_v lengths");
+            ring_memo_release(m);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static inline int ring_same(double a, double b)      /* the same bits */
+{
+    uint64_t x, y;
+    memcpy(&x, &a, sizeof x);
+    memcpy(&y, &b, sizeof y);
+    return x == y;
+}
+
 RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
 {
     Py_buffer tb, db, cb;
@@ -2631,11 +2710,25 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
     Py_complex carry;
     Py_ssize_t short_n, start;
     int fused;
-    if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
-                          &start, &carry, &t_carry, &cb, &fused))
+    PyObject *mt = Py_None, *mt0 = Py_None, *mv = Py_None, *ot0 = Py_None, *ov = Py_None;
+    RingMemo memo;
+    if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p|OOOOO:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
+                          &start, &carry, &t_carry, &cb, &fused, &mt, &mt0, &mv, &ot0, &ov))
         return NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
     PyObject *ret = NULL;
+    if (ring_memo_get(&memo, mt, mt0, mv, ot0, ov, n, 4) < 0) {
+        PyBuffer_Release(&tb);
+        PyBuffer_Release(&db);
+        PyBuffer_Release(&cb);
+        return NULL;
+    }
+    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
+    const double *m_t0 = memo.have_m ? (const double *)memo.mt0.buf : NULL;
+    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
+    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0, m_j = 0;
+    double *o_t0 = memo.have_o ? (double *)memo.ot0.buf : NULL;
+    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
     if (db.len != 2 * n * (Py_ssize_t)sizeof(double) || cb.len != db.len || start < 0 || start > n) {
         PyErr_SetString(PyExc_ValueError, "ring_amps: dc and c must hold len(t_ev) complex numbers");
         goto done;
@@ -2688,18 +2781,42 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
             uint64_t tt_bits;
             memcpy(&tt_bits, &tt, sizeof tt_bits);
             if (i == start || tt_bits != tt_prev) {
-                double x1 = s * tt + 0.0, x2 = -s * tt;
                 double y2 = wd * tt, y1 = 0.0 - y2;
-                ex1 = exp(x1);
-                ex2 = exp(x2);
+                int got = 0;
+                if (m_n) {      /* the memo's event at this time in a restart from t0 */
+                    double ti = t[i];
+                    while (m_j < m_n && m_t[m_j] < ti)
+                        m_j++;
+                    for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                        if (ring_same(m_t0[k], t0)) {
+                            ex1 = m_v[4 * k];
+                            ex2 = m_v[4 * k + 1];
+                            c2 = m_v[4 * k + 2];
+                            s2 = m_v[4 * k + 3];
+                            got = 1;
+                            break;
+                        }
+                }
+                if (!got) {
+                    double x1 = s * tt + 0.0, x2 = -s * tt;
+                    ex1 = exp(x1);
+                    ex2 = exp(x2);
 #ifdef RING_SINCOS
-                sincos(y2, &s2, &c2);
+                    sincos(y2, &s2, &c2);
 #else
-                c2 = cos(y2);
-                s2 = sin(y2);
+                    c2 = cos(y2);
+                    s2 = sin(y2);
 #endif
+                }
                 s1 = y2 != 0.0 ? -s2 : y1;
                 tt_prev = tt_bits;
+            }
+            if (o_t0) {
+                o_t0[i] = t0;
+                o_v[4 * i] = ex1;
+                o_v[4 * i + 1] = ex2;
+                o_v[4 * i + 2] = c2;
+                o_v[4 * i + 3] = s2;
             }
             double pr, pi;
             ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
@@ -2719,6 +2836,7 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
     }
     ret = PyLong_FromSsize_t(start);
 done:
+    ring_memo_release(&memo);
     PyBuffer_Release(&tb);
     PyBuffer_Release(&db);
     PyBuffer_Release(&cb);
@@ -2804,16 +2922,48 @@ static double ring_pairwise(const double *a, Py_ssize_t n)
  * real_major: its first branch), summed as numpy sums (work: n doubles of room).  None,
  * leaving the sum to numpy, where a number is not finite.  resonance.py uses it only after
  * it gave numpy's bits on a probe. */
+/* ring_int_r2's memo (optional, its last five arguments): ts, the pieces' start times
+ * (sorted); memo_ts, memo_dur, memo_v: another call's pieces, their lengths and (exp(qr dur),
+ * cos(qi dur), sin(qi dur)) each; a piece here with the start and the length (bits) of one
+ * there takes its numbers (the same argument: the same exponentials).  out_v (3 numbers a
+ * piece, or None) receives this call's. */
 RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
 {
-    Py_buffer cb, db, eb, wb;
+    Py_buffer cb, db, eb, wb, sb;
     double qr, qi, four_s, rat, scl;
     int real_major;
-    if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
-                          &rat, &scl, &real_major, &wb))
+    PyObject *ts = Py_None, *mt = Py_None, *md = Py_None, *mv = Py_None, *ov = Py_None;
+    RingMemo memo;
+    if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*|OOOOO:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
+                          &rat, &scl, &real_major, &wb, &ts, &mt, &md, &mv, &ov))
         return NULL;
     Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
     PyObject *ret = NULL;
+    int have_ts = 0;
+    memo.have_m = memo.have_o = 0;
+    if (ts != Py_None) {
+        if (PyObject_GetBuffer(ts, &sb, PyBUF_SIMPLE) < 0)
+            goto fail;
+        have_ts = 1;
+        /* (the memo's out part: out_v, with ts as its times) */
+        if (ring_memo_get(&memo, mt, md, mv, Py_None, Py_None, n, 3) < 0)
+            goto fail;
+        if (ov != Py_None) {
+            if (PyObject_GetBuffer(ov, &memo.ov, PyBUF_WRITABLE) < 0)
+                goto fail;
+            memo.have_o = 2;        /* ov only (ring_memo_release: see below) */
+        }
+        if (sb.len != db.len || (memo.have_o && memo.ov.len != 3 * db.len)) {
+            PyErr_SetString(PyExc_ValueError, "ring_int_r2: ts, out_v lengths");
+            goto fail;
+        }
+    }
+    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
+    const double *m_d = memo.have_m ? (const double *)memo.mt0.buf : NULL;
+    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
+    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0, m_j = 0;
+    const double *t_s = have_ts ? (const double *)sb.buf : NULL;
+    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
     if (cb.len != 2 * db.len || eb.len != db.len || wb.len != db.len) {
         PyErr_SetString(PyExc_ValueError, "ring_int_r2: c, dur, decay2, work of one length");
         goto done;
@@ -2842,14 +2992,30 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
             cs = cs0;
             sn = sn0;
         } else if (!have_prev || d_bits != d_prev) {
-            double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
-            ex = exp(x);
+            int got = 0;
+            if (m_n) {      /* the memo's piece from this start, of this length */
+                double ti = t_s[i];
+                while (m_j < m_n && m_t[m_j] < ti)
+                    m_j++;
+                for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                    if (ring_same(m_d[k], t)) {
+                        ex = m_v[3 * k];
+                        cs = m_v[3 * k + 1];
+                        sn = m_v[3 * k + 2];
+                        got = 1;
+                        break;
+                    }
+            }
+            if (!got) {
+                double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
+                ex = exp(x);
 #ifdef RING_SINCOS
-            sincos(y, &sn, &cs);
+                sincos(y, &sn, &cs);
 #else
-            cs = cos(y);
-            sn = sin(y);
+                cs = cos(y);
+                sn = sin(y);
 #endif
+            }
             if (d_bits == zero_bits) {
                 ex0 = ex;
                 cs0 = cs;
@@ -2859,6 +3025,11 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
         }
         d_prev = d_bits;
         have_prev = 1;
+        if (o_v) {
+            o_v[3 * i] = ex;
+            o_v[3 * i + 1] = cs;
+            o_v[3 * i + 2] = sn;
+        }
         double c2r, c2i, yr, yi;
         ring_cmul(1, cr, ci, cr, ci, &c2r, &c2i);
         ring_cmul(1, c2r, c2i, ex * cs - 1.0, ex * sn - 0.0, &yr, &yi);
@@ -2876,11 +3047,21 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
         Py_INCREF(ret);
     }
 done:
+    if (memo.have_o == 2) {
+        PyBuffer_Release(&memo.ov);
+        memo.have_o = 0;
+    }
+    ring_memo_release(&memo);
+    if (have_ts)
+        PyBuffer_Release(&sb);
     PyBuffer_Release(&cb);
     PyBuffer_Release(&db);
     PyBuffer_Release(&eb);
     PyBuffer_Release(&wb);
     return ret;
+fail:
+    ret = NULL;
+    goto done;
 }
 
 /* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if

@@ -194,6 +194,20 @@ def _int_r2_core(s, wd):
     return core if ok else None
 
 
+USE_MEMO = True          # tests turn it off: every exponential from libm
+
+
+class RingMemo:
+    """The exponentials one stream's last amplitudes / integral_r2_fin_sum call made, for
+    the next calls of streams of the same oscillator (the ringing's parts and axes share
+    most of their events and pieces; ringing.Collector): amps = (event times, each
+    event's restart start (NaN: numpy made it), 4 numbers an event), pieces = (start
+    times, lengths, 3 numbers a piece), each for the oscillator key (s, wd[, span])."""
+
+    def __init__(self):
+        self.key = self.amps = self.key_p = self.pieces = None
+
+
 # ---------------------------------------------------------------- input shapers
 def shaper_pulses(kind: str, freq_hz: float, damping_r: float = 0.1):
     """(A, T): pulse weights (sum 1) and times (s), centred so sum A_i T_i = 0 as Klipper's
@@ -252,12 +266,16 @@ class Oscillator:
                 return out
         return dr - 1j * (drp + self.s * dr) / self.wd
 
-    def amplitudes(self, t_ev, dc):
+    def amplitudes(self, t_ev, dc, memo=None, keep=False):
         """c_k: the response's amplitude just after event k (events sorted by time), the
         sum over j <= k of dc_j exp(lam (t_k - t_j)).  A cumulative sum of dc_j
         exp(-lam (t_j - t0)), restarted every CHUNK_DECAY / s seconds (carrying the
         amplitude) so the growing exponential stays finite; each partial sum is dominated by
-        its latest terms, so the rounding stays relative to what is still ringing."""
+        its latest terms, so the rounding stays relative to what is still ringing.
+
+        memo (a RingMemo of this oscillator), with the core: the exponentials of an event
+        at the time and in a restart from the time of one the memo holds are taken from
+        it (the same tt, the same numbers); keep: this call's go into the memo."""
         n = len(t_ev)
         c = np.empty(n, complex)
         if n == 0:
@@ -267,13 +285,18 @@ class Oscillator:
         core = _kernel_for(("pair", self.s, self.wd), span)
         short = ELIDE_BYTES // 16             # restarts numpy works out of place
         fused = _amps_mode(core, self.s, self.wd, span) if core is not None else None
+        extra = ()
+        if fused is not None and memo is not None and USE_MEMO:
+            got = memo.amps if memo.key == (self.s, self.wd, span) else None
+            out = (np.full(n, np.nan), np.empty(4 * n)) if keep else (None, None)
+            extra = (got or (None, None, None)) + out
         start = 0
         carry, t_carry = 0j, float(t_ev[0])
         while start < n:
             if fused is not None:
                 # the short restarts in the core (the same steps, numpy's bits)
                 got = core.ring_amps(t_ev, dc, self.s, self.wd, span, short, start, carry,
-                                     t_carry, c, fused)
+                                     t_carry, c, fused, *extra)
                 if got > start:
                     start = got
                     carry, t_carry = c[start - 1], float(t_ev[start - 1])
@@ -299,6 +322,8 @@ class Oscillator:
             c[start:stop] = (c0 + g) * np.exp(lam * tt)
             carry, t_carry = c[stop - 1], float(t_ev[stop - 1])
             start = stop
+        if keep and extra:
+            memo.key, memo.amps = (self.s, self.wd, span), (t_ev, extra[3], extra[4])
         return c
 
     def integral_r2(self, c, dur):
@@ -328,15 +353,24 @@ class Oscillator:
         y = c * c * (osc2 - 1.0)
         return np.abs(c) ** 2 * (1.0 - decay2) / (4.0 * s) + _real_quotient(y, 4.0 * lam)
 
-    def integral_r2_fin_sum(self, c, dur) -> float:
+    def integral_r2_fin_sum(self, c, dur, memo=None, keep=False, ts=None) -> float:
         """float(integral_r2_fin(c, dur).sum()), the same bits: in one pass of the core
         (ring_int_r2) once it gave numpy's bits on a probe for this oscillator; numpy's
-        real exponential (its own SIMD loop) stays numpy's."""
+        real exponential (its own SIMD loop) stays numpy's.  memo (a RingMemo of this
+        oscillator) and ts (the pieces' start times): a piece from the start and of the
+        length of one the memo holds takes its exponentials (the same argument, the same
+        numbers); keep: this call's go into the memo."""
         core = _int_r2_core(self.s, self.wd)
         if core is not None and len(dur):
             decay2 = np.exp(-2.0 * self.s * dur)
-            got = core.ring_int_r2(c, dur, decay2, *_int_r2_args(self.s, self.lam), np.empty(len(dur)))
+            extra = ()
+            if memo is not None and ts is not None and USE_MEMO:
+                got = memo.pieces if memo.key_p == (self.s, self.wd) else None
+                extra = (ts,) + (got or (None, None, None)) + ((np.empty(3 * len(dur)),) if keep else (None,))
+            got = core.ring_int_r2(c, dur, decay2, *_int_r2_args(self.s, self.lam), np.empty(len(dur)), *extra)
             if got is not None:
+                if keep and extra:
+                    memo.key_p, memo.pieces = (self.s, self.wd), (ts, dur, extra[4])
                 return got
         return float(self.integral_r2_fin(c, dur).sum())
 

@@ -3064,6 +3064,120 @@ fail:
     goto done;
 }
 
+/* ring_events(m, c_t, c_vx, c_vy, c_ax, c_ay, c_ux, c_uy, c_isb, w2x, w2y, corner_cos,
+ * t_out, dr_out, drp_out): ringing.py's _pieces (without positions) of the rows m (12
+ * doubles a row) following on from the carry (its t, vel_end, acc, ux, uy, isb), and
+ * Collector._flush's events of each axis and part from them, in one pass: every number by
+ * the same operations as the numpy code, in its order (plain double arithmetic, no fused
+ * multiply-add: setup.py's flags; this function has no FMA clone).  Per axis (x: 0, y: 1)
+ * the events of "all" (dr = da / w2 != 0 or drp = -dv != 0), "ramp" (dr != 0), "corner"
+ * and "turn" (drp != 0 at a junction of that class): times into t_out (8 n doubles an axis:
+ * all at 0, ramp at 3n, corner at 6n, turn at 7n; n rows), dr of all and ramp into dr_out
+ * (6 n an axis: 0, 3n), drp of all, corner and turn into drp_out (5 n an axis: 0, 3n, 4n).
+ * Returns (counts: 8 ints, x's four parts then y's, the new carry: t, vel_end x, y, acc x,
+ * y, ux, uy, isb). */
+static PyObject *mod_ring_events(PyObject *self, PyObject *args)
+{
+    Py_buffer mb, tb, rb, pb;
+    double c_t, pvx, pvy, pax, pay, pux, puy, pisb, w2[2], corner_cos;
+    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
+                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
+    if (mb.len != rows * 12 * (Py_ssize_t)sizeof(double) || tb.len != 16 * rows * (Py_ssize_t)sizeof(double)
+        || rb.len != 12 * rows * (Py_ssize_t)sizeof(double) || pb.len != 10 * rows * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "ring_events: m is not whole rows, or the outputs' lengths");
+        goto done;
+    }
+    const double *m = (const double *)mb.buf;
+    double *t_out = (double *)tb.buf, *dr_out = (double *)rb.buf, *drp_out = (double *)pb.buf;
+    Py_ssize_t n = rows;
+    Py_ssize_t cnt[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};
+    double *T[2][4], *DR[2][2], *DP[2][3];
+    for (int a = 0; a < 2; a++) {
+        T[a][0] = t_out + a * 8 * n;
+        T[a][1] = T[a][0] + 3 * n;
+        T[a][2] = T[a][0] + 6 * n;
+        T[a][3] = T[a][0] + 7 * n;
+        DR[a][0] = dr_out + a * 6 * n;
+        DR[a][1] = DR[a][0] + 3 * n;
+        DP[a][0] = drp_out + a * 5 * n;
+        DP[a][1] = DP[a][0] + 3 * n;
+        DP[a][2] = DP[a][0] + 4 * n;
+    }
+    double cs = 0.0;               /* np.cumsum(dur) up to the piece before */
+    double t_end = c_t;
+    for (Py_ssize_t r = 0; r < rows; r++) {
+        const double *q = m + 12 * r;
+        double ux = q[0], uy = q[1], sv = q[2], cv = q[3], a = q[5];
+        double after = q[9], isb = q[11];
+        double u[2] = {ux, uy};
+        for (int p = 0; p < 3; p++) {
+            Py_ssize_t k = 3 * r + p;
+            double dur = q[6 + p];
+            double speed = p == 0 ? sv : cv;
+            double ta = p == 0 ? a : (p == 1 ? 0.0 * a : -a);
+            /* t0 = c.t + concatenate([[0.0], cs[:-1]]) */
+            double t0 = c_t + (k == 0 ? 0.0 : cs);
+            cs = k == 0 ? dur : cs + dur;
+            double es = speed + ta * dur;          /* end_speed = speed + tan_a * dur */
+            double vel[2], acc[2], dv[2], da[2];
+            int cls = 0;                           /* NONE */
+            if (p == 0) {
+                double cos_turn = ux * pux + uy * puy;
+                int moving = isb > 0 && pisb > 0 && after == 0;
+                cls = moving && cos_turn >= corner_cos ? 2 : 1;      /* TURN : CORNER */
+            }
+            double pv[2] = {pvx, pvy}, pa[2] = {pax, pay};
+            for (int x = 0; x < 2; x++) {
+                vel[x] = speed * u[x];
+                acc[x] = ta * u[x];
+                dv[x] = p == 0 ? vel[x] - pv[x] : 0.0;
+                da[x] = acc[x] - pa[x];
+            }
+            for (int x = 0; x < 2; x++) {
+                double dr = da[x] / w2[x], drp = -dv[x];
+                int ramp = dr != 0.0, jump = drp != 0.0;
+                if (ramp || jump) {
+                    Py_ssize_t j = cnt[x][0]++;
+                    T[x][0][j] = t0;
+                    DR[x][0][j] = dr;
+                    DP[x][0][j] = drp;
+                }
+                if (ramp) {
+                    Py_ssize_t j = cnt[x][1]++;
+                    T[x][1][j] = t0;
+                    DR[x][1][j] = dr;
+                }
+                if (jump && (cls == 1 || cls == 2)) {
+                    int part = cls == 1 ? 2 : 3;
+                    Py_ssize_t j = cnt[x][part]++;
+                    T[x][part][j] = t0;
+                    DP[x][part - 1][j] = drp;
+                }
+            }
+            pvx = es * ux;                          /* vel_end = end_speed * u */
+            pvy = es * uy;
+            pax = acc[0];
+            pay = acc[1];
+        }
+        pux = ux;
+        puy = uy;
+        pisb = isb;
+    }
+    if (rows)
+        t_end = c_t + cs;
+    ret = Py_BuildValue("(nnnnnnnn)dddddddd", cnt[0][0], cnt[0][1], cnt[0][2], cnt[0][3], cnt[1][0], cnt[1][1],
+                        cnt[1][2], cnt[1][3], t_end, pvx, pvy, pax, pay, pux, puy, pisb);
+done:
+    PyBuffer_Release(&mb);
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&pb);
+    return ret;
+}
+
 /* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if
  * its layout is not this core's */
 static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
@@ -3098,6 +3212,8 @@ static PyMethodDef mod_methods[] = {
      "ring_amps(t_ev, dc, s, wd, span, short_n, start, carry, t_carry, c, fused): amplitudes' restarts"},
     {"ring_int_r2", mod_ring_int_r2, METH_VARARGS,
      "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
+    {"ring_events", mod_ring_events, METH_VARARGS,
+     "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out): the ringing's events"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,

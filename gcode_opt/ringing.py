@@ -347,10 +347,16 @@ class _Stream:
         # the exponentials shared with the streams of the same oscillator (resonance.RingMemo;
         # lead: this stream's go into it, for the others)
         self.memo, self.lead = memo, lead
+        # no shaper (one pulse, weight 1.0 at time 0.0): shaped_events is t + 0.0 and the
+        # jumps times 1.0, i.e. the jumps themselves
+        self.plain = len(self.a_p) == 1 and float(self.a_p[0]) == 1.0 and float(self.t_p[0]) == 0.0
 
     def add(self, t, dr, drp, horizon_t):
         """Unshaped events (time, dr, drp); solve every event earlier than horizon_t."""
-        t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
+        if self.plain:
+            t_s, dr_s, drp_s = t + 0.0, dr, drp
+        else:
+            t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
         t_all = np.concatenate([self.t, t_s])
         dr_all = np.concatenate([self.dr, dr_s])
         drp_all = np.concatenate([self.drp, drp_s])
@@ -547,8 +553,12 @@ class Collector:
             self.rows = array("d")
 
     def _flush(self, final: bool):
-        self._drain()
-        m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
+        if self.sink is not None and not len(self.rows):
+            # the sink's rows as they are (its bytes, read only: not copied twice more)
+            m = np.frombuffer(self.sink.take(), float).reshape(-1, ROW)
+        else:
+            self._drain()
+            m = np.frombuffer(self.rows, float).reshape(-1, ROW).copy()
         self.rows = array("d")
         if self.sink is not None and final:
             self.sink = None                # nothing more comes (and no cycle is left)

@@ -156,3 +156,30 @@ def test_figures_with_and_without(monkeypatch, name, prof, chunk):
 def test_without_the_core_or_with_a_shaper_none(monkeypatch):
     monkeypatch.setattr(rg, "USE_EVENTS", False)
     assert rg._events(np.zeros((3, 12)), _Carry(), MODELS[0]) is None
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_plain_stream_skips_shaped_events(seed):
+    """Without a shaper a stream takes t + 0.0 and the jumps as they are: the same events
+    as shaped_events makes (weight 1.0, time 0.0), the same sums; with a shaper it shapes."""
+    from gcode_opt.firmware.resonance import Oscillator, shaper_pulses
+    rng = np.random.default_rng(seed)
+    osc = Oscillator(50.0, 0.1)
+    for shaper in ("none", "zv"):
+        pulses = shaper_pulses(shaper, 50.0)
+        a, b = rg._Stream(osc, pulses), rg._Stream(osc, pulses)
+        assert a.plain == (shaper == "none")
+        b.plain = False
+        t0 = 0.0
+        for _ in range(5):
+            n = int(rng.integers(0, 400))
+            t = t0 + np.cumsum(rng.exponential(0.01, n) * (rng.uniform(size=n) > 0.3))
+            if n:
+                t[0] = rng.choice([t[0], -0.0, 0.0]) if t0 == 0.0 else t[0]
+            dr = rng.normal(size=n) * (rng.uniform(size=n) > 0.2)
+            drp = -(rng.normal(size=n) * (rng.uniform(size=n) > 0.5))
+            for s in (a, b):
+                s.add(t, dr, drp, (t[-1] if n else t0) - 0.005)
+            t0 = t[-1] if n else t0
+        got, want = a.finish(), b.finish()
+        assert np.float64(got).tobytes() == np.float64(want).tobytes()

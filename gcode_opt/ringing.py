@@ -569,29 +569,33 @@ class Collector:
         self.time_t += float(counted[:, 6:9].sum())
         self.skip_first = False
         self.chunks += 1
-        if self.smooth is None:        # (without a shaper the events are all a chunk needs)
-            got = _events(m, self.carry, self.model)
-            if got is not None:
-                for ax, name in enumerate("xy"):
-                    horizon_t = np.inf if final else self.carry.t + self.horizon[name]
-                    for part in ("all",) + PARTS:
-                        self.streams[name, part].add(*got[name, part], horizon_t)
-                return
-        tr = _pieces(m, self.carry, self.smooth is not None)
-        for ax, name in enumerate("xy"):
-            horizon_t = np.inf if final else self.carry.t + self.horizon[name]
-            # the jumps of _jumps, each made once for the parts that share it: ramp and
-            # all take da / w^2, all, corner and turn -dv (where it is not 0, the same
-            # values as np.where(cls == ..., -dv, 0))
-            dr, drp = _jumps(tr, self.model, name, ax, "all")
-            ramp, jump = dr != 0.0, drp != 0.0
-            keeps = {"all": ramp | jump, "ramp": ramp, "corner": jump & (tr.cls == CORNER),
-                     "turn": jump & (tr.cls == TURN)}
-            for part in ("all",) + PARTS:
-                keep = keeps[part]
-                zero = np.zeros(int(keep.sum()))
-                self.streams[name, part].add(tr.t0[keep], dr[keep] if part in ("all", "ramp") else zero,
-                                             drp[keep] if part != "ramp" else zero, horizon_t)
+        got = _events(m, self.carry, self.model) if self.smooth is None else None
+        if got is None:             # (without a shaper the core's events are all a chunk needs)
+            tr = _pieces(m, self.carry, self.smooth is not None)
+            got = {}
+            for ax, name in enumerate("xy"):
+                # the jumps of _jumps, each made once for the parts that share it: ramp and
+                # all take da / w^2, all, corner and turn -dv (where it is not 0, the same
+                # values as np.where(cls == ..., -dv, 0))
+                dr, drp = _jumps(tr, self.model, name, ax, "all")
+                ramp, jump = dr != 0.0, drp != 0.0
+                keeps = {"all": ramp | jump, "ramp": ramp, "corner": jump & (tr.cls == CORNER),
+                         "turn": jump & (tr.cls == TURN)}
+                for part in ("all",) + PARTS:
+                    keep = keeps[part]
+                    zero = np.zeros(int(keep.sum()))
+                    got[name, part] = (tr.t0[keep], dr[keep] if part in ("all", "ramp") else zero,
+                                       drp[keep] if part != "ramp" else zero)
+                del dr, drp, ramp, jump, keeps
+        # (the carry is at the chunk's end now)
+        horizon = {name: np.inf if final else self.carry.t + self.horizon[name] for name in "xy"}
+        # part by part, X then Y (the streams are independent: any order gives the same
+        # sums): Y takes X's exponentials of the part (RingMemo), which then go
+        for part in ("all",) + PARTS:
+            for name in "xy":
+                self.streams[name, part].add(*got.pop((name, part)), horizon[name])
+            for name in "xy":
+                self.streams[name, part].memo.clear()
         if self.smooth is not None:
             self.smooth.add(tr, self.carry.t, final)
 

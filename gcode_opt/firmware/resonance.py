@@ -207,6 +207,9 @@ class RingMemo:
     def __init__(self):
         self.key = self.amps = self.key_p = self.pieces = None
 
+    def clear(self):
+        self.key = self.amps = self.key_p = self.pieces = None
+
 
 # ---------------------------------------------------------------- input shapers
 def shaper_pulses(kind: str, freq_hz: float, damping_r: float = 0.1):

@@ -357,15 +357,19 @@ class _Stream:
             t_s, dr_s, drp_s = t + 0.0, dr, drp
         else:
             t_s, (dr_s, drp_s) = shaped_events(t, (dr, drp), self.a_p, self.t_p)
-        t_all = np.concatenate([self.t, t_s])
-        dr_all = np.concatenate([self.dr, dr_s])
-        drp_all = np.concatenate([self.drp, drp_s])
+        if len(self.t):
+            t_all = np.concatenate([self.t, t_s])
+            dr_all = np.concatenate([self.dr, dr_s])
+            drp_all = np.concatenate([self.drp, drp_s])
+        else:                   # nothing waits: the new events as they are (the same numbers)
+            t_all, dr_all, drp_all = t_s, dr_s, drp_s
         if not (t_all[:-1] <= t_all[1:]).all():     # in order already (no shaper): the sort keeps it
             order = np.argsort(t_all, kind="stable")
             t_all, dr_all, drp_all = t_all[order], dr_all[order], drp_all[order]
         k = int(np.searchsorted(t_all, horizon_t, side="left"))
         self._solve(t_all[:k], dr_all[:k], drp_all[:k])
-        self.t, self.dr, self.drp = t_all[k:], dr_all[k:], drp_all[k:]
+        # what waits is copied: a few events, not a view holding the chunk's arrays
+        self.t, self.dr, self.drp = t_all[k:].copy(), dr_all[k:].copy(), drp_all[k:].copy()
 
     def _solve(self, t, dr, drp):
         if len(t) == 0:

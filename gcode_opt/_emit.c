@@ -163,6 +163,15 @@ static inline int put(Buf *b, const char *s, Py_ssize_t n)
     return 0;
 }
 
+/* a str of n ASCII bytes (PyUnicode_FromStringAndSize without its UTF-8 decoding) */
+static inline PyObject *ascii_str(const char *p, Py_ssize_t n)
+{
+    PyObject *o = PyUnicode_New(n, 127);
+    if (o != NULL)
+        memcpy(PyUnicode_DATA(o), p, n);
+    return o;
+}
+
 /* ---------------------------------------------------------------- plain_moves */
 
 /* emit._start_decimals(text) for an ASCII text: the decimals, trailing zeros cut, at most 6 */
@@ -251,12 +260,12 @@ static PyObject *plain_moves(PyObject *self, PyObject *args)
         if (dec_y > dec_xy) dec_xy = dec_y;
         if (dec_e1 > dec_e) dec_e = dec_e1;
         PyObject *t;
-        if (!(t = PyUnicode_FromStringAndSize(p + xa, xn))) goto done;
+        if (!(t = ascii_str(p + xa, xn))) goto done;
         PyList_SET_ITEM(xs, k, t);
-        if (!(t = PyUnicode_FromStringAndSize(p + ya, yn))) goto done;
+        if (!(t = ascii_str(p + ya, yn))) goto done;
         PyList_SET_ITEM(ys, k, t);
         if (en) {
-            if (!(t = PyUnicode_FromStringAndSize(p + ea, en))) goto done;
+            if (!(t = ascii_str(p + ea, en))) goto done;
         } else {
             t = zero;
             Py_INCREF(t);
@@ -266,7 +275,7 @@ static PyObject *plain_moves(PyObject *self, PyObject *args)
         Py_INCREF(t);
         PyList_SET_ITEM(given, k, t);
         if (cn) {
-            if (!(t = PyUnicode_FromStringAndSize(p + ca, cn))) goto done;
+            if (!(t = ascii_str(p + ca, cn))) goto done;
         } else {
             t = empty;
             Py_INCREF(t);

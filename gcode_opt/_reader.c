@@ -715,12 +715,23 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * until a line step() would hand to Python, or the chunk's end: then they are written
  * back (the values step() would have left).  The doubles are linear_calc's, the ones
  * linear() puts into the Move, so the model gets the same bits. */
-#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
+    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | peek commit move"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
     PyObject *lim;                    /* borrowed: the state's Limits */
 } FusedMove;
+
+/* A line move as the analyse pass's run loop reads it (fused_peek): the FusedMove, the
+ * state's e and v after the line, and what the Move would hold besides */
+typedef struct {
+    FusedMove fm;
+    double e1, v1, speed;             /* the state's e and v after the line; Move.speed_r */
+    int has_f, e_rel, xyz_rel;
+    PyObject *feature, *accel;        /* borrowed: the Move's feature and accel objects */
+} RunMove;
 
 typedef struct {
     PyObject *state, *dict;           /* new references */
@@ -730,6 +741,8 @@ typedef struct {
     LinIn in;
     double ap, at, ar, flow;          /* the Move's accel objects and flow_r, as the model reads them */
     PyObject *lim;                    /* borrowed from dict */
+    /* borrowed from dict (fused_move's): the accel objects, feature, layer, flow_r, speed_r */
+    PyObject *o_ap, *o_at, *o_ar, *o_feature, *o_layer, *o_flow, *o_speed;
 } Session;
 
 /* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
@@ -754,8 +767,10 @@ static int num_double(PyObject *o, double *out)
 static int sess_accels(Session *ss)
 {
     PyObject *dict = ss->dict;
-    return num_double(GET(S_ACC_PRINT), &ss->ap) && num_double(GET(S_ACC_TRAVEL), &ss->at)
-           && num_double(GET(S_ACC_RETRACT), &ss->ar);
+    ss->o_ap = GET(S_ACC_PRINT);
+    ss->o_at = GET(S_ACC_TRAVEL);
+    ss->o_ar = GET(S_ACC_RETRACT);
+    return num_double(ss->o_ap, &ss->ap) && num_double(ss->o_at, &ss->at) && num_double(ss->o_ar, &ss->ar);
 }
 
 /* read the state as linear() would (live only where linear() would not fall back for it) */
@@ -770,8 +785,9 @@ static void sess_load(Session *ss)
              && exact_float(GET(S_V), &ss->in.v) && exact_float(GET(S_SPEED), &ss->in.speed)
              && o_inch == Py_False && (o_abs == Py_True || o_abs == Py_False)
              && (o_erel == Py_True || o_erel == Py_False) && (o_one == Py_True || o_one == Py_False)
-             && GET(S_FEATURE) != NULL && GET(S_LAYER) != NULL && ss->lim != NULL
-             && num_double(GET(S_FLOW), &ss->flow) && sess_accels(ss);
+             && (ss->o_feature = GET(S_FEATURE)) != NULL && (ss->o_layer = GET(S_LAYER)) != NULL
+             && ss->lim != NULL && (ss->o_speed = GET(S_SPEED)) != NULL
+             && num_double(ss->o_flow = GET(S_FLOW), &ss->flow) && sess_accels(ss);
     if (PyErr_Occurred()) {
         PyErr_Clear();
         ok = 0;
@@ -927,6 +943,113 @@ other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
 
+/* The analyse pass's run loop (the firmware core's Sim.run_lines) reads a line in two steps:
+ * fused_peek reads a G0/G1 of the fast shape whose move is a line (not E only, not None)
+ * as fused_line reads it, changing nothing (1, *rm filled; 0 any other line, -1 error),
+ * and fused_commit then makes the state step() would leave, if the loop takes the line;
+ * fused_move makes the Move step() would have made (a new reference): the same values in
+ * every slot (floats as new objects, the state's own objects where step() passes them). */
+static int fused_peek(void *p, PyObject *raw, RunMove *rm)
+{
+    Session *ss = p;
+    if (ss->off || !PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+        return 0;
+    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+    Py_ssize_t code_n = 0;
+    if (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n) != SHAPE_CODE)
+        return 0;
+    Words w;
+    if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
+        || read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        return 0;
+    if (!ss->live) {
+        sess_load(ss);
+        if (!ss->live)
+            return 0;
+    }
+    LinIn *in = &ss->in;
+    LinOut lo;
+    linear_calc(in, &w, &lo);
+    if (lo.fallback || (lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0))
+        return 0;                      /* Python decides, an E-only move or None */
+    FusedMove *out = &rm->fm;
+    out->kind = 0;
+    out->x0 = in->x0;
+    out->y0 = in->y0;
+    out->z0 = in->z0;
+    out->x1 = lo.x;
+    out->y1 = lo.y;
+    out->z1 = lo.z;
+    out->e = lo.de;
+    out->v = lo.v * in->speed;
+    out->flow_r = ss->flow;
+    out->lim = ss->lim;
+    rm->e1 = in->e + lo.de;
+    rm->v1 = lo.v;
+    rm->speed = in->speed;
+    rm->has_f = lo.has_f;
+    rm->e_rel = lo.e_rel;
+    rm->xyz_rel = !in->abs_xyz;
+    if (lo.de > 0.0) {                 /* linear()'s choice of accel and feature */
+        out->accel = ss->ap;
+        rm->accel = ss->o_ap;
+        rm->feature = ss->o_feature;
+    } else {
+        out->accel = in->one ? ss->ap : ss->at;
+        rm->accel = in->one ? ss->o_ap : ss->o_at;
+        rm->feature = TRAVEL;
+    }
+    return 1;
+}
+
+static void fused_commit(void *p, const RunMove *rm)
+{
+    Session *ss = p;
+    LinIn *in = &ss->in;
+    in->x0 = rm->fm.x1;
+    in->y0 = rm->fm.y1;
+    in->z0 = rm->fm.z1;
+    in->e = rm->e1;
+    if (rm->has_f) {
+        in->v = rm->v1;
+        ss->dirty_v = 1;
+    }
+    ss->dirty = 1;
+}
+
+static PyObject *fused_move(void *p, long long idx, const RunMove *rm)
+{
+    Session *ss = p;
+    const FusedMove *fm = &rm->fm;
+    PyObject *val[MV_N], *res = NULL;
+    const double d[8] = {fm->x0, fm->y0, fm->z0, fm->x1, fm->y1, fm->z1, fm->e, fm->v};
+    const int k[8] = {MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V};
+    PyObject *o[9] = {NULL};
+    for (int i = 0; i < 8; i++)
+        if ((o[i] = val[k[i]] = PyFloat_FromDouble(d[i])) == NULL)
+            goto done;
+    if ((o[8] = val[MV_IDX] = PyLong_FromLongLong(idx)) == NULL)
+        goto done;
+    val[MV_KIND] = LINE_K;
+    val[MV_ACCEL] = rm->accel;
+    val[MV_FEATURE] = rm->feature;
+    val[MV_LAYER] = ss->o_layer;
+    val[MV_LIM] = ss->lim;
+    val[MV_ARC] = Py_None;
+    val[MV_HAS_F] = rm->has_f ? Py_True : Py_False;
+    val[MV_E_REL] = rm->e_rel ? Py_True : Py_False;
+    val[MV_XYZ_REL] = rm->xyz_rel ? Py_True : Py_False;
+    val[MV_CHECKSUM] = Py_False;
+    val[MV_INCH] = Py_False;           /* sess_load: the state's inch is False */
+    val[MV_FLOW_R] = ss->o_flow;
+    val[MV_SPEED_R] = ss->o_speed;
+    res = new_move(val);
+done:
+    for (int i = 0; i < 9; i++)
+        Py_XDECREF(o[i]);
+    return res;
+}
+
 typedef struct {
     const char *layout;               /* FUSED_LAYOUT: the core checks it is its own */
     size_t move_size;
@@ -934,11 +1057,16 @@ typedef struct {
     void *(*open)(PyObject *state);
     int (*line)(void *session, PyObject *raw, FusedMove *out);
     int (*close)(void *session);
+    size_t run_move_size;
+    int (*peek)(void *session, PyObject *raw, RunMove *rm);
+    void (*commit)(void *session, const RunMove *rm);
+    PyObject *(*move)(void *session, long long idx, const RunMove *rm);
 } ReaderAPI;
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
-                                     fused_open, fused_line, fused_close};
+                                     fused_open, fused_line, fused_close,
+                                     sizeof(RunMove), fused_peek, fused_commit, fused_move};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

@@ -216,17 +216,26 @@ def analyse(path, profile: Profile, opts: Options):
     else:
         sim = fwsim.new_sim(profile, records)
 
+    cur = [[], 0, 0]       # the chunk being read: its lines, the next one's position, the first's idx
+
     def read():
         """The file's (idx, raw, event), each played by the model as it is read (what
-        simulate_events and, with ringing, ringing.wrap_events do)."""
+        simulate_events and, with ringing, ringing.wrap_events do).  Read in chunks (as
+        read_chunks reads them: the progress told a chunk at a time); a line read is
+        cur[1]'s, which group_lines' fast (the model's run_lines) moves past the lines it
+        reads itself (those are not yielded: the moves of a run's common lines, played)."""
         step = state.step
         move, barrier = sim.move, sim.barrier
         last_f = None
-        with reader.open_text(path) as fh:
-            lines = enumerate(fh)           # read_lines without its generator layer
-            if opts.progress is not None:
-                lines = fwsim._counted(lines, opts.progress.advance)
-            for idx, raw in lines:
+        prog = opts.progress.advance if opts.progress is not None else None
+        for idx0, lines in fwsim.read_chunks(path, prog):
+            cur[0], cur[2] = lines, idx0
+            n = len(lines)
+            i = cur[1] = 0
+            while i < n:
+                cur[1] = i + 1
+                raw = lines[i]
+                idx = idx0 + i
                 e_before[0] = state.e
                 if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
                     seen[0] = True
@@ -244,9 +253,14 @@ def analyse(path, profile: Profile, opts: Options):
                     if ring is not None:
                         ring_dwell(ev.dwell_t)
                 yield idx, raw, ev
+                i = cur[1]
 
+    # the compiled model reads a run's common lines itself (Sim.run_lines: the reader's
+    # fused loop, its records into the RecordLog): no Python a line there
+    from functools import partial
+    fast = partial(sim.run_lines, cur, state.step) if log is not None and hasattr(sim, "run_lines") else None
     for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
-                         start_state, opened):
+                         start_state, opened, fast):
         pass
     sim.stop()
     if log is not None:

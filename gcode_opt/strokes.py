@@ -297,7 +297,7 @@ NOT_OPEN = 1 << 62        # group_lines' opened[0] when no run or arc is open
 
 
 def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
-                split_vertex=None, start_state=None, opened=None):
+                split_vertex=None, start_state=None, opened=None, fast=None):
     """group_strokes without the tagged items: yields the (idx, raw, event) triples on
     unchanged and hands each stroke to on_stroke(stroke) as it closes (before the triple of
     the line that closed it; the last ones after the last triple).  opened, a one-item
@@ -306,7 +306,14 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
 
     The common line, a G1 continuing the open run, is tested first and least: the run's
     feed, acceleration, feature, Z and E mode are its first move's (equality carries along
-    the run), the last move's direction and the run's length are kept as it grows."""
+    the run), the last move's direction and the run's length are kept as it grows.
+
+    fast, if given (pipeline.analyse: the compiled model's Sim.run_lines with the reader's
+    chunk), is called whenever the open run has grown by a line: it reads the lines that
+    follow as long as this code would take them into the run without asking Python (the
+    test below, the vertex filter's bounds), appending their moves to the run as this code
+    does, and returns (lines taken, run_len, r_epm, ld, lux, luy, turned), 0 (none taken)
+    or None (it cannot: not called again).  Those lines are not yielded."""
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
@@ -423,6 +430,16 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                         r_epm = q
                     r_last += 1                     # ev.idx
                     pm, lux, luy, ld = ev, ux, uy, d
+                    if fast is not None:            # the lines that follow, in C
+                        got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux,
+                                   luy, ld, run_len, r_epm, turned, min_cos, coll, split_vertex is not None,
+                                   f_lim, f_lo, f_hi)
+                        if got:
+                            n, run_len, r_epm, ld, lux, luy, turned = got
+                            r_last += n
+                            pm = run[-1]
+                        elif got is None:
+                            fast = None
                     yield idx, raw, ev
                     continue
                 ok = True
@@ -462,6 +479,15 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             opened[0] = idx
             pm, lux, luy = ev, dx / d, dy / d     # _direction(ev, True) of an eligible line
             last_u = (lux, luy)
+            if fast is not None:                  # the lines that follow, in C
+                got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux, luy, ld,
+                           run_len, r_epm, turned, min_cos, coll, split_vertex is not None, f_lim, f_lo, f_hi)
+                if got:
+                    n, run_len, r_epm, ld, lux, luy, turned = got
+                    r_last += n
+                    pm = run[-1]
+                elif got is None:
+                    fast = None
         else:
             if is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
                 arc = Stroke.of_arc(ev)          # closes at the next line

@@ -2192,12 +2192,21 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * where `step` is the compiled reader's step bound to its MachineState, play() reads the
  * common lines through it and plays their moves from doubles, with no Move object and no
  * state dict traffic per line.  The layout string must be the reader's own. */
-#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
+    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | peek commit move"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
     PyObject *lim;                    /* borrowed */
 } FusedMove;
+
+typedef struct {                      /* _reader.c's: see fused_peek there */
+    FusedMove fm;
+    double e1, v1, speed;
+    int has_f, e_rel, xyz_rel;
+    PyObject *feature, *accel;        /* borrowed */
+} RunMove;
 
 typedef struct {
     const char *layout;
@@ -2206,6 +2215,10 @@ typedef struct {
     void *(*open)(PyObject *state);
     int (*line)(void *session, PyObject *raw, FusedMove *out);
     int (*close)(void *session);
+    size_t run_move_size;
+    int (*peek)(void *session, PyObject *raw, RunMove *rm);
+    void (*commit)(void *session, const RunMove *rm);
+    PyObject *(*move)(void *session, long long idx, const RunMove *rm);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2222,7 +2235,7 @@ static void *fused_session(SimObject *s, PyObject *step, int *err)
     PyObject *fn = PyMethod_GET_FUNCTION(step);
     if (!PyCFunction_Check(fn) || PyCFunction_GET_FUNCTION(fn) != READER->step)
         return NULL;
-    if (!(s->on_line == Py_None
+    if (!(s->on_line == Py_None || Py_IS_TYPE(s->on_line, &LogType)
           || (Py_IS_TYPE(s->on_line, &SumsType) && ((SumsObject *)s->on_line)->also == Py_None))
         || !(s->on_block == Py_None || Py_IS_TYPE(s->on_block, &SinkType)))
         return NULL;
@@ -2375,6 +2388,170 @@ fail_ss:
     return NULL;
 }
 
+/* run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy,
+ *           ld, run_len, r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi):
+ * strokes.group_lines' common line in C, for pipeline.analyse.  cur = [lines, i, idx0]
+ * (lines[i] the file's line idx0 + i, the next to read).  While the next line is a G0/G1
+ * of the reader's fast shape whose move continues the open run and group_lines would take
+ * it without asking Python (its fast test: the feed, acceleration, feature, Z and E mode
+ * of the run (v accel feature z e_rel: the run's first move's), eligible() less what that
+ * equality proves (travel: the run's feature is travel); collinear with the last move
+ * (lux, luy) within coll, or turning with dot >= min_cos when split is false, or when the
+ * move's limits are f_lim and both lengths (ld: the last move's) lie in [f_lo, f_hi]), it
+ * reads the line (the reader's state held in C), plays its move in this model (as play()
+ * does), appends the Move step() would have made to run, the move's end to run_xy and the
+ * run's length to run_ends, as group_lines does.  It stops before any other line (Python
+ * reads it) and at the chunk's end, sets cur[1] and returns (n lines taken, run_len,
+ * r_epm, ld, lux, luy, turned), 0 when it took none, None when it cannot read lines here
+ * (the reader's step is not the compiled one, or the callbacks are not the core's own).
+ * The lengths are math.hypot's (called: it is not libm's), the rest the same double
+ * operations in the same order as group_lines. */
+static PyObject *HYPOT = NULL;            /* math.hypot */
+
+static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 23)
+        return PyErr_Format(PyExc_TypeError, "run_lines() takes 23 arguments (%zd given)", nargs);
+    PyObject *cur = args[0], *step = args[1], *run = args[2], *run_ends = args[3], *run_xy = args[4];
+    PyObject *o_v = args[5], *o_accel = args[6], *feature = args[7], *o_z = args[8];
+    PyObject *f_lim = args[20];
+    if (!PyList_CheckExact(cur) || PyList_GET_SIZE(cur) != 3 || !PyList_CheckExact(run)
+        || !PyList_CheckExact(run_ends) || !PyList_CheckExact(run_xy)) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: cur, run, run_ends and run_xy must be lists");
+        return NULL;
+    }
+    PyObject *lines = PyList_GET_ITEM(cur, 0);
+    if (!PyList_CheckExact(lines)) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: cur[0] must be a list of str");
+        return NULL;
+    }
+    Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
+    long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
+    int e_rel = PyObject_IsTrue(args[9]), travel = PyObject_IsTrue(args[10]);
+    double lux = PyFloat_AsDouble(args[11]), luy = PyFloat_AsDouble(args[12]);
+    double ld = PyFloat_AsDouble(args[13]), run_len = PyFloat_AsDouble(args[14]);
+    double r_epm = PyFloat_AsDouble(args[15]);
+    int turned = PyObject_IsTrue(args[16]);
+    double min_cos = PyFloat_AsDouble(args[17]), coll = PyFloat_AsDouble(args[18]);
+    int split = PyObject_IsTrue(args[19]);
+    double f_lo = PyFloat_AsDouble(args[21]), f_hi = PyFloat_AsDouble(args[22]);
+    if (PyErr_Occurred() || e_rel < 0 || travel < 0 || turned < 0 || split < 0)
+        return NULL;
+    if (HYPOT == NULL) {
+        PyObject *math = PyImport_ImportModule("math");
+        if (math == NULL)
+            return NULL;
+        HYPOT = PyObject_GetAttrString(math, "hypot");
+        Py_DECREF(math);
+        if (HYPOT == NULL)
+            return NULL;
+    }
+    int err;
+    void *ss = fused_session(s, step, &err);
+    if (err)
+        return NULL;
+    if (ss == NULL)
+        Py_RETURN_NONE;
+    /* the run's feed, acceleration and Z compared as Python compares floats (an object of
+     * another type: no line is taken) */
+    int ok = PyFloat_CheckExact(o_v) && PyFloat_CheckExact(o_accel) && PyFloat_CheckExact(o_z);
+    double v = ok ? PyFloat_AS_DOUBLE(o_v) : 0.0, accel = ok ? PyFloat_AS_DOUBLE(o_accel) : 0.0;
+    double z = ok ? PyFloat_AS_DOUBLE(o_z) : 0.0;
+    Py_ssize_t i = i0 < 0 ? 0 : i0;
+    for (; ok && i < PyList_GET_SIZE(lines); i++) {
+        PyObject *raw = PyList_GET_ITEM(lines, i);
+        RunMove rm;
+        const FusedMove *fm = &rm.fm;
+        int got = READER->peek(ss, raw, &rm);
+        if (got < 0)
+            goto fail;
+        if (got == 0)
+            break;
+        /* the run's feed, acceleration, feature, Z and E mode; eligible() */
+        if (!(fm->v == v && PyFloat_CheckExact(rm.accel) && PyFloat_AS_DOUBLE(rm.accel) == accel))
+            break;
+        if (rm.feature != feature) {
+            int eq = PyObject_RichCompareBool(rm.feature, feature, Py_EQ);
+            if (eq < 0)
+                goto fail;
+            if (!eq)
+                break;
+        }
+        if (!(fm->z0 == z && fm->z1 == z && rm.e_rel == e_rel && !rm.xyz_rel && rm.speed == 1.0
+              && (fm->x1 != fm->x0 || fm->y1 != fm->y0) && (fm->e > 0.0 || (fm->e == 0.0 && travel))))
+            break;
+        double dx = fm->x1 - fm->x0, dy = fm->y1 - fm->y0;
+        PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
+        if (hx != NULL && hy != NULL) {
+            PyObject *ha[2] = {hx, hy};
+            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+        }
+        Py_XDECREF(hx);
+        Py_XDECREF(hy);
+        if (h == NULL)
+            goto fail;
+        double d = PyFloat_AsDouble(h);
+        Py_DECREF(h);
+        if (d == -1.0 && PyErr_Occurred())
+            goto fail;
+        if (d == 0.0)
+            break;                     /* Python's division raises */
+        double ux = dx / d, uy = dy / d;
+        double dot = lux * ux + luy * uy;
+        double cross = lux * uy - luy * ux;
+        int turn = 0;
+        if (-coll <= cross && cross <= coll && dot > 0.0)
+            ;
+        else if (dot >= min_cos) {
+            if (split && !(fm->lim == f_lim && f_lo <= d && d <= f_hi && f_lo <= ld && ld <= f_hi))
+                break;                 /* Python finds the bounds or asks split_vertex */
+            turn = 1;
+        }
+        else
+            break;
+        /* taken: the reader's state, the model, the run */
+        long long idx = idx0 + (long long)i;
+        READER->commit(ss, &rm);
+        if (play_fused(s, idx, fm) < 0)
+            goto fail;
+        PyObject *mv = READER->move(ss, idx, &rm);
+        if (mv == NULL)
+            goto fail;
+        int bad = PyList_Append(run, mv) < 0;
+        Py_DECREF(mv);
+        run_len += d;
+        PyObject *t[3] = {PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1), PyFloat_FromDouble(run_len)};
+        bad |= t[0] == NULL || t[1] == NULL || t[2] == NULL;
+        if (!bad)
+            bad = PyList_Append(run_xy, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
+                  || PyList_Append(run_ends, t[2]) < 0;
+        for (int k = 0; k < 3; k++)
+            Py_XDECREF(t[k]);
+        if (bad)
+            goto fail;
+        double q = fm->e / d;
+        if (q > r_epm)
+            r_epm = q;
+        lux = ux;
+        luy = uy;
+        ld = d;
+        turned |= turn;
+    }
+    if (READER->close(ss) < 0)
+        return NULL;
+    PyObject *io = PyLong_FromSsize_t(i);
+    if (io == NULL)
+        return NULL;
+    PyList_SetItem(cur, 1, io);        /* steals io */
+    if (i == i0)
+        return PyLong_FromLong(0);
+    return Py_BuildValue("(ndddddN)", i - i0, run_len, r_epm, ld, lux, luy,
+                         PyBool_FromLong(turned));
+fail:
+    READER->close(ss);                 /* writes the state back, keeps the error */
+    return NULL;
+}
+
 static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
 {
     /* nothing planned is waiting: what comes next cannot change what came before */
@@ -2425,6 +2602,9 @@ static PyMethodDef Sim_methods[] = {
     {"barrier", (PyCFunction)Sim_barrier, METH_O, "Bring the machine to rest, then dwell."},
     {"stop", (PyCFunction)Sim_stop, METH_NOARGS, "Bring the machine to rest."},
     {"empty", (PyCFunction)Sim_empty, METH_NOARGS, "Nothing planned is waiting."},
+    {"run_lines", (PyCFunction)(void (*)(void))Sim_run_lines, METH_FASTCALL,
+     "run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy, ld, run_len, "
+     "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi): group_lines' common lines (pipeline.analyse)"},
     {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
      "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
     {NULL}
@@ -2895,7 +3075,8 @@ static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
     const ReaderAPI *api = PyCapsule_GetPointer(cap, "_gcode_opt_reader._C_API");
     if (api == NULL)
         return NULL;
-    if (strcmp(api->layout, FUSED_LAYOUT) != 0 || api->move_size != sizeof(FusedMove)) {
+    if (strcmp(api->layout, FUSED_LAYOUT) != 0 || api->move_size != sizeof(FusedMove)
+        || api->run_move_size != sizeof(RunMove)) {
         READER = NULL;
         Py_CLEAR(READER_CAPSULE);
         Py_RETURN_FALSE;

@@ -717,7 +717,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * linear() puts into the Move, so the model gets the same bits. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit move"
+    " | peek commit move 2"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -943,12 +943,14 @@ other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
 
-/* The analyse pass's run loop (the firmware core's Sim.run_lines) reads a line in two steps:
- * fused_peek reads a G0/G1 of the fast shape whose move is a line (not E only, not None)
- * as fused_line reads it, changing nothing (1, *rm filled; 0 any other line, -1 error),
- * and fused_commit then makes the state step() would leave, if the loop takes the line;
- * fused_move makes the Move step() would have made (a new reference): the same values in
- * every slot (floats as new objects, the state's own objects where step() passes them). */
+/* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in
+ * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing
+ * nothing: 1 with *rm filled (rm->fm.kind 0 a line, 1 E only, 2 no move: a line step()
+ * returns None for, its state change only), 2 a blank or unmarked comment line (step()
+ * returns None, nothing changes), 0 any other line, -1 error; fused_commit then makes the
+ * state step() would leave, if the loop takes the line; fused_move makes the Move step()
+ * would have made of a line (a new reference): the same values in every slot (floats as
+ * new objects, the state's own objects where step() passes them). */
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
     Session *ss = p;
@@ -956,8 +958,12 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
         return 0;
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
     Py_ssize_t code_n = 0;
-    if (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n) != SHAPE_CODE)
+    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    case SHAPE_PYTHON:
         return 0;
+    case SHAPE_NOTHING:
+        return 2;
+    }
     Words w;
     if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
         || read_words(s, code_n, 2, "XYZEF", &w) < 0)
@@ -970,10 +976,11 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     LinIn *in = &ss->in;
     LinOut lo;
     linear_calc(in, &w, &lo);
-    if (lo.fallback || (lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0))
-        return 0;                      /* Python decides, an E-only move or None */
+    if (lo.fallback)
+        return 0;                      /* Python decides */
+    int eonly = lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0;
     FusedMove *out = &rm->fm;
-    out->kind = 0;
+    out->kind = eonly ? (lo.de == 0.0 ? 2 : 1) : 0;
     out->x0 = in->x0;
     out->y0 = in->y0;
     out->z0 = in->z0;
@@ -990,7 +997,11 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     rm->has_f = lo.has_f;
     rm->e_rel = lo.e_rel;
     rm->xyz_rel = !in->abs_xyz;
-    if (lo.de > 0.0) {                 /* linear()'s choice of accel and feature */
+    if (eonly) {                       /* linear()'s choice of accel and feature */
+        out->accel = ss->ar;
+        rm->accel = ss->o_ar;
+        rm->feature = ss->o_feature;
+    } else if (lo.de > 0.0) {
         out->accel = ss->ap;
         rm->accel = ss->o_ap;
         rm->feature = ss->o_feature;

@@ -48,7 +48,7 @@ from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simul
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .state import Barrier, MachineState, Move
-from .strokes import K_ARC, NOT_OPEN, group_lines
+from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
 
@@ -217,6 +217,7 @@ def analyse(path, profile: Profile, opts: Options):
         sim = fwsim.new_sim(profile, records)
 
     cur = [[], 0, 0]       # the chunk being read: its lines, the next one's position, the first's idx
+    last_f = [None]        # the feature of the last move read
 
     def read():
         """The file's (idx, raw, event), each played by the model as it is read (what
@@ -226,7 +227,6 @@ def analyse(path, profile: Profile, opts: Options):
         reads itself (those are not yielded: the moves of a run's common lines, played)."""
         step = state.step
         move, barrier = sim.move, sim.barrier
-        last_f = None
         prog = opts.progress.advance if opts.progress is not None else None
         for idx0, lines in fwsim.read_chunks(path, prog):
             cur[0], cur[2] = lines, idx0
@@ -242,11 +242,11 @@ def analyse(path, profile: Profile, opts: Options):
                 ev = step(idx, raw)
                 cls = type(ev)
                 if cls is Move:
-                    if ev.feature != last_f:
-                        last_f = ev.feature
+                    if ev.feature != last_f[0]:
+                        last_f[0] = f = ev.feature
                         if not feat_at:
                             tally[0] = idx
-                        feat_at.append((idx, last_f))
+                        feat_at.append((idx, f))
                     move(ev)
                 elif cls is Barrier:
                     barrier(ev)
@@ -256,11 +256,15 @@ def analyse(path, profile: Profile, opts: Options):
                 i = cur[1]
 
     # the compiled model reads a run's common lines itself (Sim.run_lines: the reader's
-    # fused loop, its records into the RecordLog): no Python a line there
+    # fused loop, its records into the RecordLog), and the lines between runs that change
+    # nothing but the model (Sim.gap_lines): no Python a line there
     from functools import partial
-    fast = partial(sim.run_lines, cur, state.step) if log is not None and hasattr(sim, "run_lines") else None
+    fast = gap = None
+    if log is not None and hasattr(sim, "run_lines"):
+        fast = partial(sim.run_lines, cur, state.step)
+        gap = partial(sim.gap_lines, cur, state.step, last_f, frozenset(opts.features), "travel", MIN_FEED_V)
     for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
-                         start_state, opened, fast):
+                         start_state, opened, fast, gap):
         pass
     sim.stop()
     if log is not None:

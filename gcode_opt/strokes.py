@@ -297,7 +297,7 @@ NOT_OPEN = 1 << 62        # group_lines' opened[0] when no run or arc is open
 
 
 def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
-                split_vertex=None, start_state=None, opened=None, fast=None):
+                split_vertex=None, start_state=None, opened=None, fast=None, gap=None):
     """group_strokes without the tagged items: yields the (idx, raw, event) triples on
     unchanged and hands each stroke to on_stroke(stroke) as it closes (before the triple of
     the line that closed it; the last ones after the last triple).  opened, a one-item
@@ -313,7 +313,14 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     follow as long as this code would take them into the run without asking Python (the
     test below, the vertex filter's bounds), appending their moves to the run as this code
     does, and returns (lines taken, run_len, r_epm, ld, lux, luy, turned), 0 (none taken)
-    or None (it cannot: not called again).  Those lines are not yielded."""
+    or None (it cannot: not called again).  Those lines are not yielded.
+
+    gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u
+    after a line that leaves no run or arc stroke open and no stroke waiting for the next
+    move's direction: it reads the lines that follow as long as this code would do nothing
+    with them but set last_u (blank and unmarked comment lines, moves eligible() refuses:
+    see gap_lines for the rest) and returns (lines read, last_u after them), 0 (none read)
+    or None (it cannot: not called again).  Those lines are not yielded either."""
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
@@ -505,5 +512,11 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     last_u = (dx / d, dy / d) if d > 0 else None
             elif ev is not None:           # a Barrier: the planner stops
                 last_u = None
+        if gap is not None and not run and arc is None and waiting is None:
+            got = gap(last_u)               # the lines that follow, in C
+            if got:
+                last_u = got[1]
+            elif got is None:
+                gap = None
         yield idx, raw, ev
     close(False, None)

@@ -2194,7 +2194,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * state dict traffic per line.  The layout string must be the reader's own. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit move"
+    " | peek commit move 2"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2408,6 +2408,20 @@ fail_ss:
  * operations in the same order as group_lines. */
 static PyObject *HYPOT = NULL;            /* math.hypot */
 
+static int get_hypot(void)
+{
+    if (HYPOT == NULL) {
+        PyObject *math = PyImport_ImportModule("math");
+        if (math == NULL)
+            return -1;
+        HYPOT = PyObject_GetAttrString(math, "hypot");
+        Py_DECREF(math);
+        if (HYPOT == NULL)
+            return -1;
+    }
+    return 0;
+}
+
 static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 23)
@@ -2437,15 +2451,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     double f_lo = PyFloat_AsDouble(args[21]), f_hi = PyFloat_AsDouble(args[22]);
     if (PyErr_Occurred() || e_rel < 0 || travel < 0 || turned < 0 || split < 0)
         return NULL;
-    if (HYPOT == NULL) {
-        PyObject *math = PyImport_ImportModule("math");
-        if (math == NULL)
-            return NULL;
-        HYPOT = PyObject_GetAttrString(math, "hypot");
-        Py_DECREF(math);
-        if (HYPOT == NULL)
-            return NULL;
-    }
+    if (get_hypot() < 0)
+        return NULL;
     int err;
     void *ss = fused_session(s, step, &err);
     if (err)
@@ -2465,8 +2472,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         int got = READER->peek(ss, raw, &rm);
         if (got < 0)
             goto fail;
-        if (got == 0)
-            break;
+        if (got != 1 || fm->kind != 0)
+            break;                     /* not a line move: Python reads it */
         /* the run's feed, acceleration, feature, Z and E mode; eligible() */
         if (!(fm->v == v && PyFloat_CheckExact(rm.accel) && PyFloat_AS_DOUBLE(rm.accel) == accel))
             break;
@@ -2552,6 +2559,143 @@ fail:
     return NULL;
 }
 
+/* gap_lines(cur, step, last_f, selected, travel, min_feed_v, last_u): what pipeline.analyse
+ * and strokes.group_lines do with a line while no run or arc stroke is open and no stroke
+ * waits for the next move's direction, for the lines that change nothing there but the
+ * model and last_u, in C.  cur as run_lines'; last_f a one-item list, the feature of the
+ * last move read (analyse's); selected the features selected (a frozenset); travel the
+ * travel feature's name; min_feed_v strokes.MIN_FEED_V; last_u group_lines' (the last
+ * move's direction where it leaves, None: a stop).  While the next line is a blank or
+ * unmarked comment line (nothing to do), a G0/G1 of the reader's fast shape that moves
+ * nothing (its state change), or makes a line or E-only move of the feature last_f[0]
+ * that eligible() refuses, it reads the line (the reader's state held in C) and plays its
+ * move in this model; it stops before any other line (Python reads it) and at the chunk's
+ * end, sets cur[1] and returns (n lines read, last_u after them), 0 when it read none,
+ * None when it cannot read lines here (as run_lines).  last_u: the last move's direction
+ * (_direction(ev, True): math.hypot, then the divisions; None for a zero length, an
+ * E-only move), or the one given when no move was read. */
+static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7)
+        return PyErr_Format(PyExc_TypeError, "gap_lines() takes 7 arguments (%zd given)", nargs);
+    PyObject *cur = args[0], *step = args[1], *last_f = args[2], *selected = args[3];
+    PyObject *travel = args[4], *last_u = args[6];
+    double min_feed_v = PyFloat_AsDouble(args[5]);
+    if (min_feed_v == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (!PyList_CheckExact(cur) || PyList_GET_SIZE(cur) != 3 || !PyList_CheckExact(last_f)
+        || PyList_GET_SIZE(last_f) != 1 || !PyFrozenSet_CheckExact(selected)) {
+        PyErr_SetString(PyExc_TypeError, "gap_lines: cur and last_f must be lists, selected a frozenset");
+        return NULL;
+    }
+    PyObject *lines = PyList_GET_ITEM(cur, 0);
+    if (!PyList_CheckExact(lines)) {
+        PyErr_SetString(PyExc_TypeError, "gap_lines: cur[0] must be a list of str");
+        return NULL;
+    }
+    Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
+    long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
+    if (PyErr_Occurred())
+        return NULL;
+    if (get_hypot() < 0)
+        return NULL;
+    PyObject *feature = PyList_GET_ITEM(last_f, 0);
+    Py_INCREF(feature);
+    /* eligible()'s feature tests, for a move of the feature last_f[0]: the same answers
+     * for any feature equal to it */
+    int sel = PySet_Contains(selected, feature);
+    int is_travel = sel < 0 ? -1 : PyObject_RichCompareBool(feature, travel, Py_EQ);
+    if (sel < 0 || is_travel < 0) {
+        Py_DECREF(feature);
+        return NULL;
+    }
+    int err;
+    void *ss = fused_session(s, step, &err);
+    if (err || ss == NULL) {
+        Py_DECREF(feature);
+        if (err)
+            return NULL;
+        Py_RETURN_NONE;
+    }
+    int moved = 0, last_kind = 0;       /* a move was read; the last one's kind */
+    double ldx = 0.0, ldy = 0.0;        /* the last line move's dx dy */
+    Py_ssize_t i = i0 < 0 ? 0 : i0;
+    for (; i < PyList_GET_SIZE(lines); i++) {
+        PyObject *raw = PyList_GET_ITEM(lines, i);
+        RunMove rm;
+        const FusedMove *fm = &rm.fm;
+        int got = READER->peek(ss, raw, &rm);
+        if (got < 0)
+            goto fail;
+        if (got == 0)
+            break;
+        if (got == 2)
+            continue;                  /* None: nothing to do */
+        if (fm->kind != 2) {
+            /* a move: of the feature before (else analyse notes the change), and refused */
+            if (rm.feature != feature) {
+                int eq = PyObject_RichCompareBool(rm.feature, feature, Py_EQ);
+                if (eq < 0)
+                    goto fail;
+                if (!eq)
+                    break;
+            }
+            if (fm->kind == 0 && sel && !rm.xyz_rel && rm.speed == 1.0 && fm->v >= min_feed_v
+                && fm->z0 == fm->z1 && (fm->x1 != fm->x0 || fm->y1 != fm->y0)
+                && (fm->e > 0.0 || (fm->e == 0.0 && is_travel)))
+                break;                 /* eligible: a run starts (Python) */
+        }
+        READER->commit(ss, &rm);
+        if (fm->kind == 2)
+            continue;
+        if (play_fused(s, idx0 + (long long)i, fm) < 0)
+            goto fail;
+        moved = 1;
+        last_kind = fm->kind;
+        ldx = fm->x1 - fm->x0;
+        ldy = fm->y1 - fm->y0;
+    }
+    Py_DECREF(feature);
+    feature = NULL;
+    if (READER->close(ss) < 0)
+        return NULL;
+    PyObject *io = PyLong_FromSsize_t(i);
+    if (io == NULL)
+        return NULL;
+    PyList_SetItem(cur, 1, io);        /* steals io */
+    if (i == i0)
+        return PyLong_FromLong(0);
+    PyObject *u;
+    if (!moved) {
+        u = last_u;
+        Py_INCREF(u);
+    } else if (last_kind == 1)
+        u = Py_NewRef(Py_None);
+    else {
+        PyObject *hx = PyFloat_FromDouble(ldx), *hy = PyFloat_FromDouble(ldy), *h = NULL;
+        if (hx != NULL && hy != NULL) {
+            PyObject *ha[2] = {hx, hy};
+            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+        }
+        Py_XDECREF(hx);
+        Py_XDECREF(hy);
+        if (h == NULL)
+            return NULL;
+        double d = PyFloat_AsDouble(h);
+        Py_DECREF(h);
+        if (d == -1.0 && PyErr_Occurred())
+            return NULL;
+        u = d > 0 ? Py_BuildValue("(dd)", ldx / d, ldy / d) : Py_NewRef(Py_None);
+        if (u == NULL)
+            return NULL;
+    }
+    return Py_BuildValue("(nN)", i - i0, u);
+fail:
+    Py_XDECREF(feature);
+    READER->close(ss);                 /* writes the state back, keeps the error */
+    return NULL;
+}
+
 static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
 {
     /* nothing planned is waiting: what comes next cannot change what came before */
@@ -2605,6 +2749,8 @@ static PyMethodDef Sim_methods[] = {
     {"run_lines", (PyCFunction)(void (*)(void))Sim_run_lines, METH_FASTCALL,
      "run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy, ld, run_len, "
      "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi): group_lines' common lines (pipeline.analyse)"},
+    {"gap_lines", (PyCFunction)(void (*)(void))Sim_gap_lines, METH_FASTCALL,
+     "gap_lines(cur, step, last_f, selected, travel, min_feed_v, last_u): analyse's lines between runs"},
     {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
      "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
     {NULL}

@@ -717,7 +717,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * linear() puts into the Move, so the model gets the same bits. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit move 2"
+    " | peek commit 3"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -741,8 +741,7 @@ typedef struct {
     LinIn in;
     double ap, at, ar, flow;          /* the Move's accel objects and flow_r, as the model reads them */
     PyObject *lim;                    /* borrowed from dict */
-    /* borrowed from dict (fused_move's): the accel objects, feature, layer, flow_r, speed_r */
-    PyObject *o_ap, *o_at, *o_ar, *o_feature, *o_layer, *o_flow, *o_speed;
+    PyObject *o_ap, *o_at, *o_ar, *o_feature;   /* borrowed from dict: fused_peek's Move objects */
 } Session;
 
 /* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
@@ -785,9 +784,8 @@ static void sess_load(Session *ss)
              && exact_float(GET(S_V), &ss->in.v) && exact_float(GET(S_SPEED), &ss->in.speed)
              && o_inch == Py_False && (o_abs == Py_True || o_abs == Py_False)
              && (o_erel == Py_True || o_erel == Py_False) && (o_one == Py_True || o_one == Py_False)
-             && (ss->o_feature = GET(S_FEATURE)) != NULL && (ss->o_layer = GET(S_LAYER)) != NULL
-             && ss->lim != NULL && (ss->o_speed = GET(S_SPEED)) != NULL
-             && num_double(ss->o_flow = GET(S_FLOW), &ss->flow) && sess_accels(ss);
+             && (ss->o_feature = GET(S_FEATURE)) != NULL && GET(S_LAYER) != NULL && ss->lim != NULL
+             && num_double(GET(S_FLOW), &ss->flow) && sess_accels(ss);
     if (PyErr_Occurred()) {
         PyErr_Clear();
         ok = 0;
@@ -948,9 +946,7 @@ other:
  * nothing: 1 with *rm filled (rm->fm.kind 0 a line, 1 E only, 2 no move: a line step()
  * returns None for, its state change only), 2 a blank or unmarked comment line (step()
  * returns None, nothing changes), 0 any other line, -1 error; fused_commit then makes the
- * state step() would leave, if the loop takes the line; fused_move makes the Move step()
- * would have made of a line (a new reference): the same values in every slot (floats as
- * new objects, the state's own objects where step() passes them). */
+ * state step() would leave, if the loop takes the line. */
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
     Session *ss = p;
@@ -1028,39 +1024,6 @@ static void fused_commit(void *p, const RunMove *rm)
     ss->dirty = 1;
 }
 
-static PyObject *fused_move(void *p, long long idx, const RunMove *rm)
-{
-    Session *ss = p;
-    const FusedMove *fm = &rm->fm;
-    PyObject *val[MV_N], *res = NULL;
-    const double d[8] = {fm->x0, fm->y0, fm->z0, fm->x1, fm->y1, fm->z1, fm->e, fm->v};
-    const int k[8] = {MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V};
-    PyObject *o[9] = {NULL};
-    for (int i = 0; i < 8; i++)
-        if ((o[i] = val[k[i]] = PyFloat_FromDouble(d[i])) == NULL)
-            goto done;
-    if ((o[8] = val[MV_IDX] = PyLong_FromLongLong(idx)) == NULL)
-        goto done;
-    val[MV_KIND] = LINE_K;
-    val[MV_ACCEL] = rm->accel;
-    val[MV_FEATURE] = rm->feature;
-    val[MV_LAYER] = ss->o_layer;
-    val[MV_LIM] = ss->lim;
-    val[MV_ARC] = Py_None;
-    val[MV_HAS_F] = rm->has_f ? Py_True : Py_False;
-    val[MV_E_REL] = rm->e_rel ? Py_True : Py_False;
-    val[MV_XYZ_REL] = rm->xyz_rel ? Py_True : Py_False;
-    val[MV_CHECKSUM] = Py_False;
-    val[MV_INCH] = Py_False;           /* sess_load: the state's inch is False */
-    val[MV_FLOW_R] = ss->o_flow;
-    val[MV_SPEED_R] = ss->o_speed;
-    res = new_move(val);
-done:
-    for (int i = 0; i < 9; i++)
-        Py_XDECREF(o[i]);
-    return res;
-}
-
 typedef struct {
     const char *layout;               /* FUSED_LAYOUT: the core checks it is its own */
     size_t move_size;
@@ -1071,13 +1034,12 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
-    PyObject *(*move)(void *session, long long idx, const RunMove *rm);
 } ReaderAPI;
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
                                      fused_open, fused_line, fused_close,
-                                     sizeof(RunMove), fused_peek, fused_commit, fused_move};
+                                     sizeof(RunMove), fused_peek, fused_commit};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

@@ -158,14 +158,15 @@ class Stroke:
             xy += (m.x1, m.y1)
         return st._curve(moves, xy, ends, e_per_mm)
 
-    def _curve(self, moves, xy, ends, e_per_mm):
+    def _curve(self, moves, xy, ends, e_per_mm, last_idx=None):
         """This stroke of moves[0] made the curve of all moves: xy the start and every
         move's end, ends their lengths summed in order, e_per_mm the first move's E per mm
-        or a larger one's (of_curve's loop; group_lines sums them as it reads the moves)."""
+        or a larger one's (of_curve's loop; group_lines sums them as it reads the moves);
+        last_idx the last move's line if given (else moves[-1].idx)."""
         self.kind = K_CURVE
         self.length_d, self.e_per_mm = ends[-1], e_per_mm
         self.pts, self.ends_d = Points(xy), array("d", ends)
-        self.last_idx = moves[-1].idx
+        self.last_idx = moves[-1].idx if last_idx is None else last_idx
         return self
 
     def try_extend(self, m) -> bool:
@@ -252,6 +253,17 @@ def _straight_parts(run):
     return out
 
 
+def _read_move(run, k, run_xy, z, v, accel, feature, e_rel):
+    """The Move the reader made of run[k], a line of the run the model's Sim.run_lines read
+    (group_lines' fast): run[k] is that move's E; its ends are run_xy's, its Z, feed,
+    acceleration, feature and E mode the run's (equal to the bit: run_lines takes no other
+    line), the rest the run's first move's (only G0/G1 lines are between: none changes
+    them); has_f is not kept (None)."""
+    m0, j = run[0], 2 * k
+    return Move(m0.idx + k, LINE, run_xy[j], run_xy[j + 1], z, run_xy[j + 2], run_xy[j + 3], z, run[k], v, accel,
+                feature, m0.layer, m0.lim, None, None, e_rel, False, False, False, m0.flow_r, m0.speed_r)
+
+
 def _kind_state(st, e0, ss):
     """(E before the stroke, the acceleration its kind of move uses, cruise ratio)."""
     return e0, (ss[2] if st.feature == "travel" else ss[1]), ss[3]
@@ -312,8 +324,10 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     chunk), is called whenever the open run has grown by a line: it reads the lines that
     follow as long as this code would take them into the run without asking Python (the
     test below, the vertex filter's bounds), appending their moves to the run as this code
-    does, and returns (lines taken, run_len, r_epm, ld, lux, luy, turned), 0 (none taken)
-    or None (it cannot: not called again).  Those lines are not yielded.
+    does (each such move kept in run as its E alone, a float: _read_move makes the Move
+    where one is needed), and returns (lines taken, run_len, r_epm, ld, lux, luy,
+    turned), 0 (none taken) or None (it cannot: not called again).  Those lines are not
+    yielded.
 
     gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u
     after a line that leaves no run or arc stroke open and no stroke waiting for the next
@@ -339,6 +353,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     run_start = None       # start_state() where the open run began
     r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
     r_last = -2            # idx of the run's last move
+    lazy = False           # fast read lines of the open run: their moves are floats in run
     pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
     # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
     # lengths at which split_vertex is proven False, kept for one (limits, acceleration)
@@ -362,10 +377,13 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
         elif run:
             if curves and turned and len(run) >= 3:
-                parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm))]
+                parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last))]
             elif len(run) == 1:
                 parts = [(0, Stroke(run[0]))]
             else:
+                if lazy:
+                    run = [_read_move(run, k, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
+                           if type(m) is float else m for k, m in enumerate(run)]
                 parts = _straight_parts(run)
             e_k, k_done = (run_start[0] if run_start else 0.0), 0
             if len(parts) == 1:           # the loop below for one stroke (most runs)
@@ -421,6 +439,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                             f_lim, f_accel = ev.lim, r_accel
                             f_lo, f_hi = f_bounds(f_lim, f_accel, min_cos) if f_bounds else (1.0, 0.0)
                         # lengths in the filter's bounds prove split False (vertex_filter.py)
+                        if not (f_lo <= d <= f_hi and f_lo <= ld <= f_hi) and type(pm) is float:
+                            pm = _read_move(run, len(run) - 1, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
                         take = ((f_lo <= d <= f_hi and f_lo <= ld <= f_hi)
                                 or not split_vertex(pm, ev, ld, d, (lux, luy), (ux, uy)))
                         if take:
@@ -444,7 +464,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                         if got:
                             n, run_len, r_epm, ld, lux, luy, turned = got
                             r_last += n
-                            pm = run[-1]
+                            pm, lazy = run[-1], True
                         elif got is None:
                             fast = None
                     yield idx, raw, ev
@@ -468,6 +488,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 waiting = last
         if ok:
             run = [ev]
+            lazy = False
             x0, y0, x1, y1 = ev.x0, ev.y0, ev.x1, ev.y1
             dx, dy = x1 - x0, y1 - y0
             d = hypot(dx, dy)
@@ -492,7 +513,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 if got:
                     n, run_len, r_epm, ld, lux, luy, turned = got
                     r_last += n
-                    pm = run[-1]
+                    pm, lazy = run[-1], True
                 elif got is None:
                     fast = None
         else:

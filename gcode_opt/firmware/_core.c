@@ -2194,7 +2194,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * state dict traffic per line.  The layout string must be the reader's own. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit move 2"
+    " | peek commit 3"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2218,7 +2218,6 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
-    PyObject *(*move)(void *session, long long idx, const RunMove *rm);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2399,14 +2398,20 @@ fail_ss:
  * (lux, luy) within coll, or turning with dot >= min_cos when split is false, or when the
  * move's limits are f_lim and both lengths (ld: the last move's) lie in [f_lo, f_hi]), it
  * reads the line (the reader's state held in C), plays its move in this model (as play()
- * does), appends the Move step() would have made to run, the move's end to run_xy and the
- * run's length to run_ends, as group_lines does.  It stops before any other line (Python
+ * does), appends the move's E (a float: the rest of the Move step() would have made is
+ * the run's, strokes._read_move) to run, its end to run_xy and the run's length to
+ * run_ends, as group_lines does.  It stops before any other line (Python
  * reads it) and at the chunk's end, sets cur[1] and returns (n lines taken, run_len,
  * r_epm, ld, lux, luy, turned), 0 when it took none, None when it cannot read lines here
  * (the reader's step is not the compiled one, or the callbacks are not the core's own).
  * The lengths are math.hypot's (called: it is not libm's), the rest the same double
  * operations in the same order as group_lines. */
 static PyObject *HYPOT = NULL;            /* math.hypot */
+
+static inline int same_bits(double a, double b)
+{
+    return memcmp(&a, &b, sizeof(double)) == 0;
+}
 
 static int get_hypot(void)
 {
@@ -2474,8 +2479,11 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             goto fail;
         if (got != 1 || fm->kind != 0)
             break;                     /* not a line move: Python reads it */
-        /* the run's feed, acceleration, feature, Z and E mode; eligible() */
-        if (!(fm->v == v && PyFloat_CheckExact(rm.accel) && PyFloat_AS_DOUBLE(rm.accel) == accel))
+        /* the run's feed, acceleration, feature, Z and E mode; eligible().  The feed,
+         * acceleration and Z to the bit: the move is kept as its E alone, the rest is the
+         * run's (strokes._read_move) */
+        double acc = PyFloat_CheckExact(rm.accel) ? PyFloat_AS_DOUBLE(rm.accel) : NAN;
+        if (!(same_bits(fm->v, v) && same_bits(acc, accel) && same_bits(fm->z0, z) && same_bits(fm->z1, z)))
             break;
         if (rm.feature != feature) {
             int eq = PyObject_RichCompareBool(rm.feature, feature, Py_EQ);
@@ -2484,7 +2492,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             if (!eq)
                 break;
         }
-        if (!(fm->z0 == z && fm->z1 == z && rm.e_rel == e_rel && !rm.xyz_rel && rm.speed == 1.0
+        if (!(rm.e_rel == e_rel && !rm.xyz_rel && rm.speed == 1.0
               && (fm->x1 != fm->x0 || fm->y1 != fm->y0) && (fm->e > 0.0 || (fm->e == 0.0 && travel))))
             break;
         double dx = fm->x1 - fm->x0, dy = fm->y1 - fm->y0;
@@ -2521,18 +2529,14 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         READER->commit(ss, &rm);
         if (play_fused(s, idx, fm) < 0)
             goto fail;
-        PyObject *mv = READER->move(ss, idx, &rm);
-        if (mv == NULL)
-            goto fail;
-        int bad = PyList_Append(run, mv) < 0;
-        Py_DECREF(mv);
         run_len += d;
-        PyObject *t[3] = {PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1), PyFloat_FromDouble(run_len)};
-        bad |= t[0] == NULL || t[1] == NULL || t[2] == NULL;
+        PyObject *t[4] = {PyFloat_FromDouble(fm->e), PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1),
+                          PyFloat_FromDouble(run_len)};
+        int bad = t[0] == NULL || t[1] == NULL || t[2] == NULL || t[3] == NULL;
         if (!bad)
-            bad = PyList_Append(run_xy, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
-                  || PyList_Append(run_ends, t[2]) < 0;
-        for (int k = 0; k < 3; k++)
+            bad = PyList_Append(run, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
+                  || PyList_Append(run_xy, t[2]) < 0 || PyList_Append(run_ends, t[3]) < 0;
+        for (int k = 0; k < 4; k++)
             Py_XDECREF(t[k]);
         if (bad)
             goto fail;

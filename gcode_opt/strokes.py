@@ -369,42 +369,55 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
         """Hand over the strokes of the open run / arc; the last one's next_u as given (or
         waiting); returns the last one handed over (None if none)."""
         nonlocal run, arc
-        out = []
+        opened[0] = NOT_OPEN
         if arc is not None:
-            out = [arc]
-            arc = None
-        elif run and min_length_d > 0.0 and run_len < min_length_d:
+            st, arc = arc, None
+        elif not run:
+            return None
+        elif min_length_d > 0.0 and run_len < min_length_d:
             run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
-        elif run:
+            return None
+        else:
             if curves and turned and len(run) >= 3:
-                parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last))]
+                st = Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last)
             elif len(run) == 1:
-                parts = [(0, Stroke(run[0]))]
+                st = Stroke(run[0])
             else:
                 if lazy:
                     run = [_read_move(run, k, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
                            if type(m) is float else m for k, m in enumerate(run)]
                 parts = _straight_parts(run)
-            e_k, k_done = (run_start[0] if run_start else 0.0), 0
-            if len(parts) == 1:           # the loop below for one stroke (most runs)
+                if len(parts) > 1:
+                    return close_parts(parts, next_u_known, next_u)
                 st = parts[0][1]
-                st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
-                if run_start is not None:
-                    st.start_state = _kind_state(st, e_k, run_start)
-                out.append(st)
-            else:
-                for j, (k0, st) in enumerate(parts):
-                    st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
-                    if j + 1 < len(parts):
-                        st.next_u = _unit(run[parts[j + 1][0]])
-                    if run_start is not None:
-                        for m in run[k_done:k0]:      # the reader's own sum, in its order
-                            e_k += m.e
-                        k_done = k0
-                        st.start_state = _kind_state(st, e_k, run_start)
-                    out.append(st)
+            # one stroke (most runs): what close_parts does for it
+            st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
+            if run_start is not None:
+                st.start_state = _kind_state(st, run_start[0], run_start)
             run = []
-        opened[0] = NOT_OPEN
+        if st.length_d < min_length_d:
+            return None
+        if next_u_known:
+            st._nux, st._nuy = (None, None) if next_u is None else next_u        # next_u
+        on_stroke(st)
+        return st
+
+    def close_parts(parts, next_u_known, next_u):
+        """close() for a run of straight strokes [(first move, stroke)]."""
+        nonlocal run
+        out = []
+        e_k, k_done = (run_start[0] if run_start else 0.0), 0
+        for j, (k0, st) in enumerate(parts):
+            st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
+            if j + 1 < len(parts):
+                st.next_u = _unit(run[parts[j + 1][0]])
+            if run_start is not None:
+                for m in run[k_done:k0]:      # the reader's own sum, in its order
+                    e_k += m.e
+                k_done = k0
+                st.start_state = _kind_state(st, e_k, run_start)
+            out.append(st)
+        run = []
         out = [st for st in out if st.length_d >= min_length_d]
         if out and next_u_known:
             out[-1].next_u = next_u
@@ -470,10 +483,14 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     yield idx, raw, ev
                     continue
                 ok = True
+                is_move = True
+                last_u = (lux, luy)
+                close(True, (ux, uy))               # (ux, uy): _direction(ev, False)
             else:
                 ok = eligible(ev, selected)
-            is_move = True
-            last_u = (lux, luy)
+                is_move = True
+                last_u = (lux, luy)
+                close(True, _direction(ev, False))
         else:
             if run:
                 last_u = (lux, luy)
@@ -482,10 +499,10 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 waiting.next_u = _direction(ev, False) if is_move else None
                 waiting = None
             ok = is_move and eligible(ev, selected)
-        if run or arc is not None:
-            last = close(is_move, _direction(ev, False) if is_move else None)
-            if last is not None and ev is None:
-                waiting = last
+            if run or arc is not None:
+                last = close(is_move, _direction(ev, False) if is_move else None)
+                if last is not None and ev is None:
+                    waiting = last
         if ok:
             run = [ev]
             lazy = False

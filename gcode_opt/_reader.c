@@ -717,7 +717,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * linear() puts into the Move, so the model gets the same bits. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit 3"
+    " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -945,8 +945,9 @@ other:
  * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing
  * nothing: 1 with *rm filled (rm->fm.kind 0 a line, 1 E only, 2 no move: a line step()
  * returns None for, its state change only), 2 a blank or unmarked comment line (step()
- * returns None, nothing changes), 0 any other line, -1 error; fused_commit then makes the
- * state step() would leave, if the loop takes the line. */
+ * returns None, nothing changes), 3 an M204 line (nothing read: fused_line reads it), 0 any
+ * other line, -1 error; fused_commit then makes the state step() would leave, if the loop
+ * takes the line. */
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
     Session *ss = p;
@@ -961,6 +962,8 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
         return 2;
     }
     Words w;
+    if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
+        return 3;
     if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
         || read_words(s, code_n, 2, "XYZEF", &w) < 0)
         return 0;

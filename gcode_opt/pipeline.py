@@ -262,7 +262,8 @@ def analyse(path, profile: Profile, opts: Options):
     fast = gap = None
     if log is not None and hasattr(sim, "run_lines"):
         fast = partial(sim.run_lines, cur, state.step)
-        gap = partial(sim.gap_lines, cur, state.step, last_f, frozenset(opts.features), "travel", MIN_FEED_V)
+        gap = partial(sim.gap_lines, cur, state.step, last_f, frozenset(opts.features), "travel", MIN_FEED_V,
+                      feat_at)
     for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
                          start_state, opened, fast, gap):
         pass

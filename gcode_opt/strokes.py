@@ -329,12 +329,13 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     turned), 0 (none taken) or None (it cannot: not called again).  Those lines are not
     yielded.
 
-    gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u
-    after a line that leaves no run or arc stroke open and no stroke waiting for the next
-    move's direction: it reads the lines that follow as long as this code would do nothing
-    with them but set last_u (blank and unmarked comment lines, moves eligible() refuses:
-    see gap_lines for the rest) and returns (lines read, last_u after them), 0 (none read)
-    or None (it cannot: not called again).  Those lines are not yielded either."""
+    gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u and
+    whether a stroke waits for the next move's direction after a line that leaves no run
+    or arc stroke open: it reads the lines that follow as long as this code would do
+    nothing with them but set last_u (blank and unmarked comment lines, lines that make no
+    move, moves eligible() refuses unless a stroke waits: see gap_lines for the rest) and
+    returns (lines read, last_u after them), 0 (none read) or None (it cannot: not called
+    again).  Those lines are not yielded either."""
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
@@ -550,8 +551,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     last_u = (dx / d, dy / d) if d > 0 else None
             elif ev is not None:           # a Barrier: the planner stops
                 last_u = None
-        if gap is not None and not run and arc is None and waiting is None:
-            got = gap(last_u)               # the lines that follow, in C
+        if gap is not None and not run and arc is None:
+            got = gap(last_u, waiting is not None)      # the lines that follow, in C
             if got:
                 last_u = got[1]
             elif got is None:

@@ -2194,7 +2194,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * state dict traffic per line.  The layout string must be the reader's own. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
-    " | peek commit 3"
+    " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2563,29 +2563,34 @@ fail:
     return NULL;
 }
 
-/* gap_lines(cur, step, last_f, selected, travel, min_feed_v, last_u): what pipeline.analyse
- * and strokes.group_lines do with a line while no run or arc stroke is open and no stroke
- * waits for the next move's direction, for the lines that change nothing there but the
- * model and last_u, in C.  cur as run_lines'; last_f a one-item list, the feature of the
- * last move read (analyse's); selected the features selected (a frozenset); travel the
- * travel feature's name; min_feed_v strokes.MIN_FEED_V; last_u group_lines' (the last
- * move's direction where it leaves, None: a stop).  While the next line is a blank or
- * unmarked comment line (nothing to do), a G0/G1 of the reader's fast shape that moves
- * nothing (its state change), or makes a line or E-only move of the feature last_f[0]
- * that eligible() refuses, it reads the line (the reader's state held in C) and plays its
- * move in this model; it stops before any other line (Python reads it) and at the chunk's
- * end, sets cur[1] and returns (n lines read, last_u after them), 0 when it read none,
- * None when it cannot read lines here (as run_lines).  last_u: the last move's direction
- * (_direction(ev, True): math.hypot, then the divisions; None for a zero length, an
- * E-only move), or the one given when no move was read. */
+/* gap_lines(cur, step, last_f, selected, travel, min_feed_v, feat_at, last_u, waiting):
+ * what pipeline.analyse and strokes.group_lines do with a line while no run or arc stroke
+ * is open, for the lines that change nothing there but the reader's state, the model,
+ * analyse's feature notes and last_u, in C.  cur as run_lines'; last_f a one-item list,
+ * the feature of the last move read; feat_at analyse's (a move of another feature:
+ * last_f[0] = its feature and feat_at.append((line, feature)), as analyse's read() does;
+ * its tally, which only its Python records' on_line reads, is not kept); selected the features
+ * selected (a frozenset); travel the travel feature's name; min_feed_v strokes.MIN_FEED_V;
+ * last_u group_lines' (the last move's direction where it leaves, None: a stop); waiting
+ * true while a closed stroke waits for the next move's direction (group_lines' waiting).
+ * While the next line is a blank or unmarked comment line (nothing to do), an M204 the
+ * reader's fused loop reads, a G0/G1 of the reader's fast shape that moves nothing (its
+ * state change) or, unless waiting, makes a line or E-only move that eligible() refuses,
+ * it reads the line (the reader's state held in C) and plays its move in this model; it
+ * stops before any other line (Python reads it) and at the chunk's end, sets cur[1] and
+ * returns (n lines read, last_u after them), 0 when it read none, None when it cannot
+ * read lines here (as run_lines).  last_u: the last move's direction (_direction(ev,
+ * True): math.hypot, then the divisions; None for a zero length, an E-only move), or the
+ * one given when no move was read. */
 static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 7)
-        return PyErr_Format(PyExc_TypeError, "gap_lines() takes 7 arguments (%zd given)", nargs);
+    if (nargs != 9)
+        return PyErr_Format(PyExc_TypeError, "gap_lines() takes 9 arguments (%zd given)", nargs);
     PyObject *cur = args[0], *step = args[1], *last_f = args[2], *selected = args[3];
-    PyObject *travel = args[4], *last_u = args[6];
+    PyObject *travel = args[4], *feat_at = args[6], *last_u = args[7];
     double min_feed_v = PyFloat_AsDouble(args[5]);
-    if (min_feed_v == -1.0 && PyErr_Occurred())
+    int waiting = PyObject_IsTrue(args[8]);
+    if ((min_feed_v == -1.0 && PyErr_Occurred()) || waiting < 0)
         return NULL;
     if (!PyList_CheckExact(cur) || PyList_GET_SIZE(cur) != 3 || !PyList_CheckExact(last_f)
         || PyList_GET_SIZE(last_f) != 1 || !PyFrozenSet_CheckExact(selected)) {
@@ -2599,9 +2604,7 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     }
     Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
     long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
-    if (PyErr_Occurred())
-        return NULL;
-    if (get_hypot() < 0)
+    if (PyErr_Occurred() || get_hypot() < 0)
         return NULL;
     PyObject *feature = PyList_GET_ITEM(last_f, 0);
     Py_INCREF(feature);
@@ -2626,6 +2629,7 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     Py_ssize_t i = i0 < 0 ? 0 : i0;
     for (; i < PyList_GET_SIZE(lines); i++) {
         PyObject *raw = PyList_GET_ITEM(lines, i);
+        long long idx = idx0 + (long long)i;
         RunMove rm;
         const FusedMove *fm = &rm.fm;
         int got = READER->peek(ss, raw, &rm);
@@ -2635,24 +2639,64 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             break;
         if (got == 2)
             continue;                  /* None: nothing to do */
+        if (got == 3) {                /* an M204: the fused loop reads it (None), or Python */
+            FusedMove m204;
+            Py_INCREF(raw);
+            int r = READER->line(ss, raw, &m204);
+            Py_DECREF(raw);
+            if (r < 0)
+                goto fail;
+            if (r != 0)
+                break;
+            continue;
+        }
         if (fm->kind != 2) {
-            /* a move: of the feature before (else analyse notes the change), and refused */
-            if (rm.feature != feature) {
-                int eq = PyObject_RichCompareBool(rm.feature, feature, Py_EQ);
+            if (waiting)
+                break;                 /* the move whose direction the stroke waits for */
+            /* a move eligible() refuses (of its own feature: the feature before, or a new one) */
+            PyObject *f = rm.feature;
+            int changed = 0, f_sel = sel, f_travel = is_travel;
+            if (f != feature) {
+                int eq = PyObject_RichCompareBool(f, feature, Py_EQ);
                 if (eq < 0)
                     goto fail;
-                if (!eq)
-                    break;
+                if (!eq) {
+                    changed = 1;
+                    f_sel = PySet_Contains(selected, f);
+                    f_travel = f_sel < 0 ? -1 : PyObject_RichCompareBool(f, travel, Py_EQ);
+                    if (f_sel < 0 || f_travel < 0)
+                        goto fail;
+                }
             }
-            if (fm->kind == 0 && sel && !rm.xyz_rel && rm.speed == 1.0 && fm->v >= min_feed_v
+            if (fm->kind == 0 && f_sel && !rm.xyz_rel && rm.speed == 1.0 && fm->v >= min_feed_v
                 && fm->z0 == fm->z1 && (fm->x1 != fm->x0 || fm->y1 != fm->y0)
-                && (fm->e > 0.0 || (fm->e == 0.0 && is_travel)))
+                && (fm->e > 0.0 || (fm->e == 0.0 && f_travel)))
                 break;                 /* eligible: a run starts (Python) */
+            if (changed) {             /* analyse's note of the new feature */
+                PyObject *io = PyLong_FromLongLong(idx);
+                if (io == NULL)
+                    goto fail;
+                PyObject *note = PyTuple_Pack(2, io, f);
+                Py_DECREF(io);
+                if (note == NULL)
+                    goto fail;
+                PyObject *r = PyObject_CallMethod(feat_at, "append", "(O)", note);
+                Py_DECREF(note);
+                if (r == NULL)
+                    goto fail;
+                Py_DECREF(r);
+                Py_INCREF(f);
+                PyList_SetItem(last_f, 0, f);           /* steals */
+                Py_INCREF(f);
+                Py_SETREF(feature, f);
+                sel = f_sel;
+                is_travel = f_travel;
+            }
         }
         READER->commit(ss, &rm);
         if (fm->kind == 2)
             continue;
-        if (play_fused(s, idx0 + (long long)i, fm) < 0)
+        if (play_fused(s, idx, fm) < 0)
             goto fail;
         moved = 1;
         last_kind = fm->kind;
@@ -2754,7 +2798,8 @@ static PyMethodDef Sim_methods[] = {
      "run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy, ld, run_len, "
      "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi): group_lines' common lines (pipeline.analyse)"},
     {"gap_lines", (PyCFunction)(void (*)(void))Sim_gap_lines, METH_FASTCALL,
-     "gap_lines(cur, step, last_f, selected, travel, min_feed_v, last_u): analyse's lines between runs"},
+     "gap_lines(cur, step, last_f, selected, travel, min_feed_v, feat_at, last_u, waiting): "
+     "analyse's lines between runs"},
     {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
      "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
     {NULL}

@@ -2464,6 +2464,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         return NULL;
     if (ss == NULL)
         Py_RETURN_NONE;
+    Py_INCREF(lines);                  /* the model's callbacks run Python: keep the chunk */
     /* the run's feed, acceleration and Z compared as Python compares floats (an object of
      * another type: no line is taken) */
     int ok = PyFloat_CheckExact(o_v) && PyFloat_CheckExact(o_accel) && PyFloat_CheckExact(o_z);
@@ -2548,6 +2549,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         ld = d;
         turned |= turn;
     }
+    Py_DECREF(lines);
     if (READER->close(ss) < 0)
         return NULL;
     PyObject *io = PyLong_FromSsize_t(i);
@@ -2559,6 +2561,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     return Py_BuildValue("(ndddddN)", i - i0, run_len, r_epm, ld, lux, luy,
                          PyBool_FromLong(turned));
 fail:
+    Py_DECREF(lines);
     READER->close(ss);                 /* writes the state back, keeps the error */
     return NULL;
 }
@@ -2624,6 +2627,7 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             return NULL;
         Py_RETURN_NONE;
     }
+    Py_INCREF(lines);                  /* the model's callbacks run Python: keep the chunk */
     int moved = 0, last_kind = 0;       /* a move was read; the last one's kind */
     double ldx = 0.0, ldy = 0.0;        /* the last line move's dx dy */
     Py_ssize_t i = i0 < 0 ? 0 : i0;
@@ -2704,7 +2708,7 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         ldy = fm->y1 - fm->y0;
     }
     Py_DECREF(feature);
-    feature = NULL;
+    Py_DECREF(lines);
     if (READER->close(ss) < 0)
         return NULL;
     PyObject *io = PyLong_FromSsize_t(i);
@@ -2739,7 +2743,8 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     }
     return Py_BuildValue("(nN)", i - i0, u);
 fail:
-    Py_XDECREF(feature);
+    Py_DECREF(feature);
+    Py_DECREF(lines);
     READER->close(ss);                 /* writes the state back, keeps the error */
     return NULL;
 }

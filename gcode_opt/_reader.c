@@ -715,12 +715,23 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * until a line step() would hand to Python, or the chunk's end: then they are written
  * back (the values step() would have left).  The doubles are linear_calc's, the ones
  * linear() puts into the Move, so the model gets the same bits. */
-#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
+    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
     PyObject *lim;                    /* borrowed: the state's Limits */
 } FusedMove;
+
+/* A line move as the analyse pass's run loop reads it (fused_peek): the FusedMove, the
+ * state's e and v after the line, and what the Move would hold besides */
+typedef struct {
+    FusedMove fm;
+    double e1, v1, speed;             /* the state's e and v after the line; Move.speed_r */
+    int has_f, e_rel, xyz_rel;
+    PyObject *feature, *accel;        /* borrowed: the Move's feature and accel objects */
+} RunMove;
 
 typedef struct {
     PyObject *state, *dict;           /* new references */
@@ -730,6 +741,7 @@ typedef struct {
     LinIn in;
     double ap, at, ar, flow;          /* the Move's accel objects and flow_r, as the model reads them */
     PyObject *lim;                    /* borrowed from dict */
+    PyObject *o_ap, *o_at, *o_ar, *o_feature;   /* borrowed from dict: fused_peek's Move objects */
 } Session;
 
 /* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
@@ -754,8 +766,10 @@ static int num_double(PyObject *o, double *out)
 static int sess_accels(Session *ss)
 {
     PyObject *dict = ss->dict;
-    return num_double(GET(S_ACC_PRINT), &ss->ap) && num_double(GET(S_ACC_TRAVEL), &ss->at)
-           && num_double(GET(S_ACC_RETRACT), &ss->ar);
+    ss->o_ap = GET(S_ACC_PRINT);
+    ss->o_at = GET(S_ACC_TRAVEL);
+    ss->o_ar = GET(S_ACC_RETRACT);
+    return num_double(ss->o_ap, &ss->ap) && num_double(ss->o_at, &ss->at) && num_double(ss->o_ar, &ss->ar);
 }
 
 /* read the state as linear() would (live only where linear() would not fall back for it) */
@@ -770,7 +784,7 @@ static void sess_load(Session *ss)
              && exact_float(GET(S_V), &ss->in.v) && exact_float(GET(S_SPEED), &ss->in.speed)
              && o_inch == Py_False && (o_abs == Py_True || o_abs == Py_False)
              && (o_erel == Py_True || o_erel == Py_False) && (o_one == Py_True || o_one == Py_False)
-             && GET(S_FEATURE) != NULL && GET(S_LAYER) != NULL && ss->lim != NULL
+             && (ss->o_feature = GET(S_FEATURE)) != NULL && GET(S_LAYER) != NULL && ss->lim != NULL
              && num_double(GET(S_FLOW), &ss->flow) && sess_accels(ss);
     if (PyErr_Occurred()) {
         PyErr_Clear();
@@ -927,6 +941,92 @@ other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
 
+/* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in
+ * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing
+ * nothing: 1 with *rm filled (rm->fm.kind 0 a line, 1 E only, 2 no move: a line step()
+ * returns None for, its state change only), 2 a blank or unmarked comment line (step()
+ * returns None, nothing changes), 3 an M204 line (nothing read: fused_line reads it), 0 any
+ * other line, -1 error; fused_commit then makes the state step() would leave, if the loop
+ * takes the line. */
+static int fused_peek(void *p, PyObject *raw, RunMove *rm)
+{
+    Session *ss = p;
+    if (ss->off || !PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+        return 0;
+    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+    Py_ssize_t code_n = 0;
+    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    case SHAPE_PYTHON:
+        return 0;
+    case SHAPE_NOTHING:
+        return 2;
+    }
+    Words w;
+    if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
+        return 3;
+    if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
+        || read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        return 0;
+    if (!ss->live) {
+        sess_load(ss);
+        if (!ss->live)
+            return 0;
+    }
+    LinIn *in = &ss->in;
+    LinOut lo;
+    linear_calc(in, &w, &lo);
+    if (lo.fallback)
+        return 0;                      /* Python decides */
+    int eonly = lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0;
+    FusedMove *out = &rm->fm;
+    out->kind = eonly ? (lo.de == 0.0 ? 2 : 1) : 0;
+    out->x0 = in->x0;
+    out->y0 = in->y0;
+    out->z0 = in->z0;
+    out->x1 = lo.x;
+    out->y1 = lo.y;
+    out->z1 = lo.z;
+    out->e = lo.de;
+    out->v = lo.v * in->speed;
+    out->flow_r = ss->flow;
+    out->lim = ss->lim;
+    rm->e1 = in->e + lo.de;
+    rm->v1 = lo.v;
+    rm->speed = in->speed;
+    rm->has_f = lo.has_f;
+    rm->e_rel = lo.e_rel;
+    rm->xyz_rel = !in->abs_xyz;
+    if (eonly) {                       /* linear()'s choice of accel and feature */
+        out->accel = ss->ar;
+        rm->accel = ss->o_ar;
+        rm->feature = ss->o_feature;
+    } else if (lo.de > 0.0) {
+        out->accel = ss->ap;
+        rm->accel = ss->o_ap;
+        rm->feature = ss->o_feature;
+    } else {
+        out->accel = in->one ? ss->ap : ss->at;
+        rm->accel = in->one ? ss->o_ap : ss->o_at;
+        rm->feature = TRAVEL;
+    }
+    return 1;
+}
+
+static void fused_commit(void *p, const RunMove *rm)
+{
+    Session *ss = p;
+    LinIn *in = &ss->in;
+    in->x0 = rm->fm.x1;
+    in->y0 = rm->fm.y1;
+    in->z0 = rm->fm.z1;
+    in->e = rm->e1;
+    if (rm->has_f) {
+        in->v = rm->v1;
+        ss->dirty_v = 1;
+    }
+    ss->dirty = 1;
+}
+
 typedef struct {
     const char *layout;               /* FUSED_LAYOUT: the core checks it is its own */
     size_t move_size;
@@ -934,11 +1034,15 @@ typedef struct {
     void *(*open)(PyObject *state);
     int (*line)(void *session, PyObject *raw, FusedMove *out);
     int (*close)(void *session);
+    size_t run_move_size;
+    int (*peek)(void *session, PyObject *raw, RunMove *rm);
+    void (*commit)(void *session, const RunMove *rm);
 } ReaderAPI;
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
-                                     fused_open, fused_line, fused_close};
+                                     fused_open, fused_line, fused_close,
+                                     sizeof(RunMove), fused_peek, fused_commit};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

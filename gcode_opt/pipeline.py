@@ -48,7 +48,7 @@ from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simul
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .state import Barrier, MachineState, Move
-from .strokes import K_ARC, NOT_OPEN, group_lines
+from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
 
@@ -216,38 +216,67 @@ def analyse(path, profile: Profile, opts: Options):
     else:
         sim = fwsim.new_sim(profile, records)
 
+    cur = [[], 0, 0]       # the chunk being read: its lines, the next one's position, the first's idx
+    last_f = [None]        # the feature of the last move read
+
     def read():
         """The file's (idx, raw, event), each played by the model as it is read (what
-        simulate_events and, with ringing, ringing.wrap_events do)."""
+        simulate_events and, with ringing, ringing.wrap_events do).  Read in chunks (as
+        read_chunks reads them: the progress told a chunk at a time); a line read is
+        cur[1]'s, which group_lines' fast (the model's run_lines) moves past the lines it
+        reads itself (those are not yielded: the moves of a run's common lines, played)."""
         step = state.step
         move, barrier = sim.move, sim.barrier
-        last_f = None
-        with reader.open_text(path) as fh:
-            lines = enumerate(fh)           # read_lines without its generator layer
-            if opts.progress is not None:
-                lines = fwsim._counted(lines, opts.progress.advance)
-            for idx, raw in lines:
+        prog = opts.progress.advance if opts.progress is not None else None
+        for idx0, lines in fwsim.read_chunks(path, prog):
+            cur[0], cur[2] = lines, idx0
+            n = len(lines)
+            i = cur[1] = 0
+            while i < n:
+                cur[1] = i + 1
+                raw = lines[i]
+                idx = idx0 + i
                 e_before[0] = state.e
                 if not seen[0] and raw.lstrip()[:1] == ";" and feat.feature_from_comment(raw) is not None:
                     seen[0] = True
                 ev = step(idx, raw)
                 cls = type(ev)
                 if cls is Move:
-                    if ev.feature != last_f:
-                        last_f = ev.feature
+                    if ev.feature != last_f[0]:
+                        last_f[0] = f = ev.feature
                         if not feat_at:
                             tally[0] = idx
-                        feat_at.append((idx, last_f))
+                        feat_at.append((idx, f))
                     move(ev)
                 elif cls is Barrier:
                     barrier(ev)
                     if ring is not None:
                         ring_dwell(ev.dwell_t)
                 yield idx, raw, ev
+                i = cur[1]
 
-    for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
-                         start_state, opened):
-        pass
+    # the compiled model reads a run's common lines itself (Sim.run_lines: the reader's
+    # fused loop, its records into the RecordLog), and the lines between runs that change
+    # nothing but the model (Sim.gap_lines): no Python a line there
+    from functools import partial
+    fast = gap = None
+    if log is not None and hasattr(sim, "run_lines"):
+        fast = partial(sim.run_lines, cur, state.step)
+        gap = partial(sim.gap_lines, cur, state.step, last_f, frozenset(opts.features), "travel", MIN_FEED_V,
+                      feat_at)
+    # the pass makes no reference cycles a line: the cyclic collector would only walk the
+    # strokes it keeps (~50 k objects on the gyroid plate, ~0.05 s of the pass); it runs
+    # again, as before, once the strokes are made
+    import gc
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
+                             start_state, opened, fast, gap):
+            pass
+    finally:
+        if collecting:
+            gc.enable()
     sim.stop()
     if log is not None:
         _apply_log(log, strokes, feat_at, by_feature)

@@ -158,14 +158,15 @@ class Stroke:
             xy += (m.x1, m.y1)
         return st._curve(moves, xy, ends, e_per_mm)
 
-    def _curve(self, moves, xy, ends, e_per_mm):
+    def _curve(self, moves, xy, ends, e_per_mm, last_idx=None):
         """This stroke of moves[0] made the curve of all moves: xy the start and every
         move's end, ends their lengths summed in order, e_per_mm the first move's E per mm
-        or a larger one's (of_curve's loop; group_lines sums them as it reads the moves)."""
+        or a larger one's (of_curve's loop; group_lines sums them as it reads the moves);
+        last_idx the last move's line if given (else moves[-1].idx)."""
         self.kind = K_CURVE
         self.length_d, self.e_per_mm = ends[-1], e_per_mm
         self.pts, self.ends_d = Points(xy), array("d", ends)
-        self.last_idx = moves[-1].idx
+        self.last_idx = moves[-1].idx if last_idx is None else last_idx
         return self
 
     def try_extend(self, m) -> bool:
@@ -252,6 +253,17 @@ def _straight_parts(run):
     return out
 
 
+def _read_move(run, k, run_xy, z, v, accel, feature, e_rel):
+    """The Move the reader made of run[k], a line of the run the model's Sim.run_lines read
+    (group_lines' fast): run[k] is that move's E; its ends are run_xy's, its Z, feed,
+    acceleration, feature and E mode the run's (equal to the bit: run_lines takes no other
+    line), the rest the run's first move's (only G0/G1 lines are between: none changes
+    them); has_f is not kept (None)."""
+    m0, j = run[0], 2 * k
+    return Move(m0.idx + k, LINE, run_xy[j], run_xy[j + 1], z, run_xy[j + 2], run_xy[j + 3], z, run[k], v, accel,
+                feature, m0.layer, m0.lim, None, None, e_rel, False, False, False, m0.flow_r, m0.speed_r)
+
+
 def _kind_state(st, e0, ss):
     """(E before the stroke, the acceleration its kind of move uses, cruise ratio)."""
     return e0, (ss[2] if st.feature == "travel" else ss[1]), ss[3]
@@ -297,7 +309,7 @@ NOT_OPEN = 1 << 62        # group_lines' opened[0] when no run or arc is open
 
 
 def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_turn_deg: float = 0.0,
-                split_vertex=None, start_state=None, opened=None):
+                split_vertex=None, start_state=None, opened=None, fast=None, gap=None):
     """group_strokes without the tagged items: yields the (idx, raw, event) triples on
     unchanged and hands each stroke to on_stroke(stroke) as it closes (before the triple of
     the line that closed it; the last ones after the last triple).  opened, a one-item
@@ -306,7 +318,24 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
 
     The common line, a G1 continuing the open run, is tested first and least: the run's
     feed, acceleration, feature, Z and E mode are its first move's (equality carries along
-    the run), the last move's direction and the run's length are kept as it grows."""
+    the run), the last move's direction and the run's length are kept as it grows.
+
+    fast, if given (pipeline.analyse: the compiled model's Sim.run_lines with the reader's
+    chunk), is called whenever the open run has grown by a line: it reads the lines that
+    follow as long as this code would take them into the run without asking Python (the
+    test below, the vertex filter's bounds), appending their moves to the run as this code
+    does (each such move kept in run as its E alone, a float: _read_move makes the Move
+    where one is needed), and returns (lines taken, run_len, r_epm, ld, lux, luy,
+    turned), 0 (none taken) or None (it cannot: not called again).  Those lines are not
+    yielded.
+
+    gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u and
+    whether a stroke waits for the next move's direction after a line that leaves no run
+    or arc stroke open: it reads the lines that follow as long as this code would do
+    nothing with them but set last_u (blank and unmarked comment lines, lines that make no
+    move, moves eligible() refuses unless a stroke waits: see gap_lines for the rest) and
+    returns (lines read, last_u after them), 0 (none read) or None (it cannot: not called
+    again).  Those lines are not yielded either."""
     selected = frozenset(selected)
     curves = max_turn_deg > 0.0
     min_cos = math.cos(math.radians(max_turn_deg)) if curves else 2.0
@@ -325,6 +354,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     run_start = None       # start_state() where the open run began
     r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
     r_last = -2            # idx of the run's last move
+    lazy = False           # fast read lines of the open run: their moves are floats in run
     pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
     # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
     # lengths at which split_vertex is proven False, kept for one (limits, acceleration)
@@ -340,39 +370,55 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
         """Hand over the strokes of the open run / arc; the last one's next_u as given (or
         waiting); returns the last one handed over (None if none)."""
         nonlocal run, arc
-        out = []
-        if arc is not None:
-            out = [arc]
-            arc = None
-        elif run and min_length_d > 0.0 and run_len < min_length_d:
-            run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
-        elif run:
-            if curves and turned and len(run) >= 3:
-                parts = [(0, Stroke(run[0])._curve(run, run_xy, run_ends, r_epm))]
-            elif len(run) == 1:
-                parts = [(0, Stroke(run[0]))]
-            else:
-                parts = _straight_parts(run)
-            e_k, k_done = (run_start[0] if run_start else 0.0), 0
-            if len(parts) == 1:           # the loop below for one stroke (most runs)
-                st = parts[0][1]
-                st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
-                if run_start is not None:
-                    st.start_state = _kind_state(st, e_k, run_start)
-                out.append(st)
-            else:
-                for j, (k0, st) in enumerate(parts):
-                    st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
-                    if j + 1 < len(parts):
-                        st.next_u = _unit(run[parts[j + 1][0]])
-                    if run_start is not None:
-                        for m in run[k_done:k0]:      # the reader's own sum, in its order
-                            e_k += m.e
-                        k_done = k0
-                        st.start_state = _kind_state(st, e_k, run_start)
-                    out.append(st)
-            run = []
         opened[0] = NOT_OPEN
+        if arc is not None:
+            st, arc = arc, None
+        elif not run:
+            return None
+        elif min_length_d > 0.0 and run_len < min_length_d:
+            run = []          # every stroke of it would be dropped: build none (most runs of gyroid)
+            return None
+        else:
+            if curves and turned and len(run) >= 3:
+                st = Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last)
+            elif len(run) == 1:
+                st = Stroke(run[0])
+            else:
+                if lazy:
+                    run = [_read_move(run, k, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
+                           if type(m) is float else m for k, m in enumerate(run)]
+                parts = _straight_parts(run)
+                if len(parts) > 1:
+                    return close_parts(parts, next_u_known, next_u)
+                st = parts[0][1]
+            # one stroke (most runs): what close_parts does for it
+            st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
+            if run_start is not None:
+                st.start_state = _kind_state(st, run_start[0], run_start)
+            run = []
+        if st.length_d < min_length_d:
+            return None
+        if next_u_known:
+            st._nux, st._nuy = (None, None) if next_u is None else next_u        # next_u
+        on_stroke(st)
+        return st
+
+    def close_parts(parts, next_u_known, next_u):
+        """close() for a run of straight strokes [(first move, stroke)]."""
+        nonlocal run
+        out = []
+        e_k, k_done = (run_start[0] if run_start else 0.0), 0
+        for j, (k0, st) in enumerate(parts):
+            st.prev_u = run_prev_u if k0 == 0 else _unit(run[k0 - 1])
+            if j + 1 < len(parts):
+                st.next_u = _unit(run[parts[j + 1][0]])
+            if run_start is not None:
+                for m in run[k_done:k0]:      # the reader's own sum, in its order
+                    e_k += m.e
+                k_done = k0
+                st.start_state = _kind_state(st, e_k, run_start)
+            out.append(st)
+        run = []
         out = [st for st in out if st.length_d >= min_length_d]
         if out and next_u_known:
             out[-1].next_u = next_u
@@ -407,6 +453,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                             f_lim, f_accel = ev.lim, r_accel
                             f_lo, f_hi = f_bounds(f_lim, f_accel, min_cos) if f_bounds else (1.0, 0.0)
                         # lengths in the filter's bounds prove split False (vertex_filter.py)
+                        if not (f_lo <= d <= f_hi and f_lo <= ld <= f_hi) and type(pm) is float:
+                            pm = _read_move(run, len(run) - 1, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
                         take = ((f_lo <= d <= f_hi and f_lo <= ld <= f_hi)
                                 or not split_vertex(pm, ev, ld, d, (lux, luy), (ux, uy)))
                         if take:
@@ -423,13 +471,27 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                         r_epm = q
                     r_last += 1                     # ev.idx
                     pm, lux, luy, ld = ev, ux, uy, d
+                    if fast is not None:            # the lines that follow, in C
+                        got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux,
+                                   luy, ld, run_len, r_epm, turned, min_cos, coll, split_vertex is not None,
+                                   f_lim, f_lo, f_hi)
+                        if got:
+                            n, run_len, r_epm, ld, lux, luy, turned = got
+                            r_last += n
+                            pm, lazy = run[-1], True
+                        elif got is None:
+                            fast = None
                     yield idx, raw, ev
                     continue
                 ok = True
+                is_move = True
+                last_u = (lux, luy)
+                close(True, (ux, uy))               # (ux, uy): _direction(ev, False)
             else:
                 ok = eligible(ev, selected)
-            is_move = True
-            last_u = (lux, luy)
+                is_move = True
+                last_u = (lux, luy)
+                close(True, _direction(ev, False))
         else:
             if run:
                 last_u = (lux, luy)
@@ -438,12 +500,13 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 waiting.next_u = _direction(ev, False) if is_move else None
                 waiting = None
             ok = is_move and eligible(ev, selected)
-        if run or arc is not None:
-            last = close(is_move, _direction(ev, False) if is_move else None)
-            if last is not None and ev is None:
-                waiting = last
+            if run or arc is not None:
+                last = close(is_move, _direction(ev, False) if is_move else None)
+                if last is not None and ev is None:
+                    waiting = last
         if ok:
             run = [ev]
+            lazy = False
             x0, y0, x1, y1 = ev.x0, ev.y0, ev.x1, ev.y1
             dx, dy = x1 - x0, y1 - y0
             d = hypot(dx, dy)
@@ -462,6 +525,15 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             opened[0] = idx
             pm, lux, luy = ev, dx / d, dy / d     # _direction(ev, True) of an eligible line
             last_u = (lux, luy)
+            if fast is not None:                  # the lines that follow, in C
+                got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux, luy, ld,
+                           run_len, r_epm, turned, min_cos, coll, split_vertex is not None, f_lim, f_lo, f_hi)
+                if got:
+                    n, run_len, r_epm, ld, lux, luy, turned = got
+                    r_last += n
+                    pm, lazy = run[-1], True
+                elif got is None:
+                    fast = None
         else:
             if is_move and ev.kind == ARC and eligible_arc(ev, raw, selected):
                 arc = Stroke.of_arc(ev)          # closes at the next line
@@ -479,5 +551,11 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     last_u = (dx / d, dy / d) if d > 0 else None
             elif ev is not None:           # a Barrier: the planner stops
                 last_u = None
+        if gap is not None and not run and arc is None:
+            got = gap(last_u, waiting is not None)      # the lines that follow, in C
+            if got:
+                last_u = got[1]
+            elif got is None:
+                gap = None
         yield idx, raw, ev
     close(False, None)

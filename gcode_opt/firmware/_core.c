@@ -2192,12 +2192,21 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * where `step` is the compiled reader's step bound to its MachineState, play() reads the
  * common lines through it and plays their moves from doubles, with no Move object and no
  * state dict traffic per line.  The layout string must be the reader's own. */
-#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim"
+#define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
+    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
     PyObject *lim;                    /* borrowed */
 } FusedMove;
+
+typedef struct {                      /* _reader.c's: see fused_peek there */
+    FusedMove fm;
+    double e1, v1, speed;
+    int has_f, e_rel, xyz_rel;
+    PyObject *feature, *accel;        /* borrowed */
+} RunMove;
 
 typedef struct {
     const char *layout;
@@ -2206,6 +2215,9 @@ typedef struct {
     void *(*open)(PyObject *state);
     int (*line)(void *session, PyObject *raw, FusedMove *out);
     int (*close)(void *session);
+    size_t run_move_size;
+    int (*peek)(void *session, PyObject *raw, RunMove *rm);
+    void (*commit)(void *session, const RunMove *rm);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2222,7 +2234,7 @@ static void *fused_session(SimObject *s, PyObject *step, int *err)
     PyObject *fn = PyMethod_GET_FUNCTION(step);
     if (!PyCFunction_Check(fn) || PyCFunction_GET_FUNCTION(fn) != READER->step)
         return NULL;
-    if (!(s->on_line == Py_None
+    if (!(s->on_line == Py_None || Py_IS_TYPE(s->on_line, &LogType)
           || (Py_IS_TYPE(s->on_line, &SumsType) && ((SumsObject *)s->on_line)->also == Py_None))
         || !(s->on_block == Py_None || Py_IS_TYPE(s->on_block, &SinkType)))
         return NULL;
@@ -2375,6 +2387,368 @@ fail_ss:
     return NULL;
 }
 
+/* run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy,
+ *           ld, run_len, r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi):
+ * strokes.group_lines' common line in C, for pipeline.analyse.  cur = [lines, i, idx0]
+ * (lines[i] the file's line idx0 + i, the next to read).  While the next line is a G0/G1
+ * of the reader's fast shape whose move continues the open run and group_lines would take
+ * it without asking Python (its fast test: the feed, acceleration, feature, Z and E mode
+ * of the run (v accel feature z e_rel: the run's first move's), eligible() less what that
+ * equality proves (travel: the run's feature is travel); collinear with the last move
+ * (lux, luy) within coll, or turning with dot >= min_cos when split is false, or when the
+ * move's limits are f_lim and both lengths (ld: the last move's) lie in [f_lo, f_hi]), it
+ * reads the line (the reader's state held in C), plays its move in this model (as play()
+ * does), appends the move's E (a float: the rest of the Move step() would have made is
+ * the run's, strokes._read_move) to run, its end to run_xy and the run's length to
+ * run_ends, as group_lines does.  It stops before any other line (Python
+ * reads it) and at the chunk's end, sets cur[1] and returns (n lines taken, run_len,
+ * r_epm, ld, lux, luy, turned), 0 when it took none, None when it cannot read lines here
+ * (the reader's step is not the compiled one, or the callbacks are not the core's own).
+ * The lengths are math.hypot's (called: it is not libm's), the rest the same double
+ * operations in the same order as group_lines. */
+static PyObject *HYPOT = NULL;            /* math.hypot */
+
+static inline int same_bits(double a, double b)
+{
+    return memcmp(&a, &b, sizeof(double)) == 0;
+}
+
+static int get_hypot(void)
+{
+    if (HYPOT == NULL) {
+        PyObject *math = PyImport_ImportModule("math");
+        if (math == NULL)
+            return -1;
+        HYPOT = PyObject_GetAttrString(math, "hypot");
+        Py_DECREF(math);
+        if (HYPOT == NULL)
+            return -1;
+    }
+    return 0;
+}
+
+static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 23)
+        return PyErr_Format(PyExc_TypeError, "run_lines() takes 23 arguments (%zd given)", nargs);
+    PyObject *cur = args[0], *step = args[1], *run = args[2], *run_ends = args[3], *run_xy = args[4];
+    PyObject *o_v = args[5], *o_accel = args[6], *feature = args[7], *o_z = args[8];
+    PyObject *f_lim = args[20];
+    if (!PyList_CheckExact(cur) || PyList_GET_SIZE(cur) != 3 || !PyList_CheckExact(run)
+        || !PyList_CheckExact(run_ends) || !PyList_CheckExact(run_xy)) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: cur, run, run_ends and run_xy must be lists");
+        return NULL;
+    }
+    PyObject *lines = PyList_GET_ITEM(cur, 0);
+    if (!PyList_CheckExact(lines)) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: cur[0] must be a list of str");
+        return NULL;
+    }
+    Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
+    long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
+    int e_rel = PyObject_IsTrue(args[9]), travel = PyObject_IsTrue(args[10]);
+    double lux = PyFloat_AsDouble(args[11]), luy = PyFloat_AsDouble(args[12]);
+    double ld = PyFloat_AsDouble(args[13]), run_len = PyFloat_AsDouble(args[14]);
+    double r_epm = PyFloat_AsDouble(args[15]);
+    int turned = PyObject_IsTrue(args[16]);
+    double min_cos = PyFloat_AsDouble(args[17]), coll = PyFloat_AsDouble(args[18]);
+    int split = PyObject_IsTrue(args[19]);
+    double f_lo = PyFloat_AsDouble(args[21]), f_hi = PyFloat_AsDouble(args[22]);
+    if (PyErr_Occurred() || e_rel < 0 || travel < 0 || turned < 0 || split < 0)
+        return NULL;
+    if (get_hypot() < 0)
+        return NULL;
+    int err;
+    void *ss = fused_session(s, step, &err);
+    if (err)
+        return NULL;
+    if (ss == NULL)
+        Py_RETURN_NONE;
+    Py_INCREF(lines);                  /* the model's callbacks run Python: keep the chunk */
+    /* the run's feed, acceleration and Z compared as Python compares floats (an object of
+     * another type: no line is taken) */
+    int ok = PyFloat_CheckExact(o_v) && PyFloat_CheckExact(o_accel) && PyFloat_CheckExact(o_z);
+    double v = ok ? PyFloat_AS_DOUBLE(o_v) : 0.0, accel = ok ? PyFloat_AS_DOUBLE(o_accel) : 0.0;
+    double z = ok ? PyFloat_AS_DOUBLE(o_z) : 0.0;
+    Py_ssize_t i = i0 < 0 ? 0 : i0;
+    for (; ok && i < PyList_GET_SIZE(lines); i++) {
+        PyObject *raw = PyList_GET_ITEM(lines, i);
+        RunMove rm;
+        const FusedMove *fm = &rm.fm;
+        int got = READER->peek(ss, raw, &rm);
+        if (got < 0)
+            goto fail;
+        if (got != 1 || fm->kind != 0)
+            break;                     /* not a line move: Python reads it */
+        /* the run's feed, acceleration, feature, Z and E mode; eligible().  The feed,
+         * acceleration and Z to the bit: the move is kept as its E alone, the rest is the
+         * run's (strokes._read_move) */
+        double acc = PyFloat_CheckExact(rm.accel) ? PyFloat_AS_DOUBLE(rm.accel) : NAN;
+        if (!(same_bits(fm->v, v) && same_bits(acc, accel) && same_bits(fm->z0, z) && same_bits(fm->z1, z)))
+            break;
+        if (rm.feature != feature) {
+            int eq = PyObject_RichCompareBool(rm.feature, feature, Py_EQ);
+            if (eq < 0)
+                goto fail;
+            if (!eq)
+                break;
+        }
+        if (!(rm.e_rel == e_rel && !rm.xyz_rel && rm.speed == 1.0
+              && (fm->x1 != fm->x0 || fm->y1 != fm->y0) && (fm->e > 0.0 || (fm->e == 0.0 && travel))))
+            break;
+        double dx = fm->x1 - fm->x0, dy = fm->y1 - fm->y0;
+        PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
+        if (hx != NULL && hy != NULL) {
+            PyObject *ha[2] = {hx, hy};
+            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+        }
+        Py_XDECREF(hx);
+        Py_XDECREF(hy);
+        if (h == NULL)
+            goto fail;
+        double d = PyFloat_AsDouble(h);
+        Py_DECREF(h);
+        if (d == -1.0 && PyErr_Occurred())
+            goto fail;
+        if (d == 0.0)
+            break;                     /* Python's division raises */
+        double ux = dx / d, uy = dy / d;
+        double dot = lux * ux + luy * uy;
+        double cross = lux * uy - luy * ux;
+        int turn = 0;
+        if (-coll <= cross && cross <= coll && dot > 0.0)
+            ;
+        else if (dot >= min_cos) {
+            if (split && !(fm->lim == f_lim && f_lo <= d && d <= f_hi && f_lo <= ld && ld <= f_hi))
+                break;                 /* Python finds the bounds or asks split_vertex */
+            turn = 1;
+        }
+        else
+            break;
+        /* taken: the reader's state, the model, the run */
+        long long idx = idx0 + (long long)i;
+        READER->commit(ss, &rm);
+        if (play_fused(s, idx, fm) < 0)
+            goto fail;
+        run_len += d;
+        PyObject *t[4] = {PyFloat_FromDouble(fm->e), PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1),
+                          PyFloat_FromDouble(run_len)};
+        int bad = t[0] == NULL || t[1] == NULL || t[2] == NULL || t[3] == NULL;
+        if (!bad)
+            bad = PyList_Append(run, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
+                  || PyList_Append(run_xy, t[2]) < 0 || PyList_Append(run_ends, t[3]) < 0;
+        for (int k = 0; k < 4; k++)
+            Py_XDECREF(t[k]);
+        if (bad)
+            goto fail;
+        double q = fm->e / d;
+        if (q > r_epm)
+            r_epm = q;
+        lux = ux;
+        luy = uy;
+        ld = d;
+        turned |= turn;
+    }
+    Py_DECREF(lines);
+    if (READER->close(ss) < 0)
+        return NULL;
+    PyObject *io = PyLong_FromSsize_t(i);
+    if (io == NULL)
+        return NULL;
+    PyList_SetItem(cur, 1, io);        /* steals io */
+    if (i == i0)
+        return PyLong_FromLong(0);
+    return Py_BuildValue("(ndddddN)", i - i0, run_len, r_epm, ld, lux, luy,
+                         PyBool_FromLong(turned));
+fail:
+    Py_DECREF(lines);
+    READER->close(ss);                 /* writes the state back, keeps the error */
+    return NULL;
+}
+
+/* gap_lines(cur, step, last_f, selected, travel, min_feed_v, feat_at, last_u, waiting):
+ * what pipeline.analyse and strokes.group_lines do with a line while no run or arc stroke
+ * is open, for the lines that change nothing there but the reader's state, the model,
+ * analyse's feature notes and last_u, in C.  cur as run_lines'; last_f a one-item list,
+ * the feature of the last move read; feat_at analyse's (a move of another feature:
+ * last_f[0] = its feature and feat_at.append((line, feature)), as analyse's read() does;
+ * its tally, which only its Python records' on_line reads, is not kept); selected the features
+ * selected (a frozenset); travel the travel feature's name; min_feed_v strokes.MIN_FEED_V;
+ * last_u group_lines' (the last move's direction where it leaves, None: a stop); waiting
+ * true while a closed stroke waits for the next move's direction (group_lines' waiting).
+ * While the next line is a blank or unmarked comment line (nothing to do), an M204 the
+ * reader's fused loop reads, a G0/G1 of the reader's fast shape that moves nothing (its
+ * state change) or, unless waiting, makes a line or E-only move that eligible() refuses,
+ * it reads the line (the reader's state held in C) and plays its move in this model; it
+ * stops before any other line (Python reads it) and at the chunk's end, sets cur[1] and
+ * returns (n lines read, last_u after them), 0 when it read none, None when it cannot
+ * read lines here (as run_lines).  last_u: the last move's direction (_direction(ev,
+ * True): math.hypot, then the divisions; None for a zero length, an E-only move), or the
+ * one given when no move was read. */
+static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9)
+        return PyErr_Format(PyExc_TypeError, "gap_lines() takes 9 arguments (%zd given)", nargs);
+    PyObject *cur = args[0], *step = args[1], *last_f = args[2], *selected = args[3];
+    PyObject *travel = args[4], *feat_at = args[6], *last_u = args[7];
+    double min_feed_v = PyFloat_AsDouble(args[5]);
+    int waiting = PyObject_IsTrue(args[8]);
+    if ((min_feed_v == -1.0 && PyErr_Occurred()) || waiting < 0)
+        return NULL;
+    if (!PyList_CheckExact(cur) || PyList_GET_SIZE(cur) != 3 || !PyList_CheckExact(last_f)
+        || PyList_GET_SIZE(last_f) != 1 || !PyFrozenSet_CheckExact(selected)) {
+        PyErr_SetString(PyExc_TypeError, "gap_lines: cur and last_f must be lists, selected a frozenset");
+        return NULL;
+    }
+    PyObject *lines = PyList_GET_ITEM(cur, 0);
+    if (!PyList_CheckExact(lines)) {
+        PyErr_SetString(PyExc_TypeError, "gap_lines: cur[0] must be a list of str");
+        return NULL;
+    }
+    Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
+    long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
+    if (PyErr_Occurred() || get_hypot() < 0)
+        return NULL;
+    PyObject *feature = PyList_GET_ITEM(last_f, 0);
+    Py_INCREF(feature);
+    /* eligible()'s feature tests, for a move of the feature last_f[0]: the same answers
+     * for any feature equal to it */
+    int sel = PySet_Contains(selected, feature);
+    int is_travel = sel < 0 ? -1 : PyObject_RichCompareBool(feature, travel, Py_EQ);
+    if (sel < 0 || is_travel < 0) {
+        Py_DECREF(feature);
+        return NULL;
+    }
+    int err;
+    void *ss = fused_session(s, step, &err);
+    if (err || ss == NULL) {
+        Py_DECREF(feature);
+        if (err)
+            return NULL;
+        Py_RETURN_NONE;
+    }
+    Py_INCREF(lines);                  /* the model's callbacks run Python: keep the chunk */
+    int moved = 0, last_kind = 0;       /* a move was read; the last one's kind */
+    double ldx = 0.0, ldy = 0.0;        /* the last line move's dx dy */
+    Py_ssize_t i = i0 < 0 ? 0 : i0;
+    for (; i < PyList_GET_SIZE(lines); i++) {
+        PyObject *raw = PyList_GET_ITEM(lines, i);
+        long long idx = idx0 + (long long)i;
+        RunMove rm;
+        const FusedMove *fm = &rm.fm;
+        int got = READER->peek(ss, raw, &rm);
+        if (got < 0)
+            goto fail;
+        if (got == 0)
+            break;
+        if (got == 2)
+            continue;                  /* None: nothing to do */
+        if (got == 3) {                /* an M204: the fused loop reads it (None), or Python */
+            FusedMove m204;
+            Py_INCREF(raw);
+            int r = READER->line(ss, raw, &m204);
+            Py_DECREF(raw);
+            if (r < 0)
+                goto fail;
+            if (r != 0)
+                break;
+            continue;
+        }
+        if (fm->kind != 2) {
+            if (waiting)
+                break;                 /* the move whose direction the stroke waits for */
+            /* a move eligible() refuses (of its own feature: the feature before, or a new one) */
+            PyObject *f = rm.feature;
+            int changed = 0, f_sel = sel, f_travel = is_travel;
+            if (f != feature) {
+                int eq = PyObject_RichCompareBool(f, feature, Py_EQ);
+                if (eq < 0)
+                    goto fail;
+                if (!eq) {
+                    changed = 1;
+                    f_sel = PySet_Contains(selected, f);
+                    f_travel = f_sel < 0 ? -1 : PyObject_RichCompareBool(f, travel, Py_EQ);
+                    if (f_sel < 0 || f_travel < 0)
+                        goto fail;
+                }
+            }
+            if (fm->kind == 0 && f_sel && !rm.xyz_rel && rm.speed == 1.0 && fm->v >= min_feed_v
+                && fm->z0 == fm->z1 && (fm->x1 != fm->x0 || fm->y1 != fm->y0)
+                && (fm->e > 0.0 || (fm->e == 0.0 && f_travel)))
+                break;                 /* eligible: a run starts (Python) */
+            if (changed) {             /* analyse's note of the new feature */
+                PyObject *io = PyLong_FromLongLong(idx);
+                if (io == NULL)
+                    goto fail;
+                PyObject *note = PyTuple_Pack(2, io, f);
+                Py_DECREF(io);
+                if (note == NULL)
+                    goto fail;
+                PyObject *r = PyObject_CallMethod(feat_at, "append", "(O)", note);
+                Py_DECREF(note);
+                if (r == NULL)
+                    goto fail;
+                Py_DECREF(r);
+                Py_INCREF(f);
+                PyList_SetItem(last_f, 0, f);           /* steals */
+                Py_INCREF(f);
+                Py_SETREF(feature, f);
+                sel = f_sel;
+                is_travel = f_travel;
+            }
+        }
+        READER->commit(ss, &rm);
+        if (fm->kind == 2)
+            continue;
+        if (play_fused(s, idx, fm) < 0)
+            goto fail;
+        moved = 1;
+        last_kind = fm->kind;
+        ldx = fm->x1 - fm->x0;
+        ldy = fm->y1 - fm->y0;
+    }
+    Py_DECREF(feature);
+    Py_DECREF(lines);
+    if (READER->close(ss) < 0)
+        return NULL;
+    PyObject *io = PyLong_FromSsize_t(i);
+    if (io == NULL)
+        return NULL;
+    PyList_SetItem(cur, 1, io);        /* steals io */
+    if (i == i0)
+        return PyLong_FromLong(0);
+    PyObject *u;
+    if (!moved) {
+        u = last_u;
+        Py_INCREF(u);
+    } else if (last_kind == 1)
+        u = Py_NewRef(Py_None);
+    else {
+        PyObject *hx = PyFloat_FromDouble(ldx), *hy = PyFloat_FromDouble(ldy), *h = NULL;
+        if (hx != NULL && hy != NULL) {
+            PyObject *ha[2] = {hx, hy};
+            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+        }
+        Py_XDECREF(hx);
+        Py_XDECREF(hy);
+        if (h == NULL)
+            return NULL;
+        double d = PyFloat_AsDouble(h);
+        Py_DECREF(h);
+        if (d == -1.0 && PyErr_Occurred())
+            return NULL;
+        u = d > 0 ? Py_BuildValue("(dd)", ldx / d, ldy / d) : Py_NewRef(Py_None);
+        if (u == NULL)
+            return NULL;
+    }
+    return Py_BuildValue("(nN)", i - i0, u);
+fail:
+    Py_DECREF(feature);
+    Py_DECREF(lines);
+    READER->close(ss);                 /* writes the state back, keeps the error */
+    return NULL;
+}
+
 static PyObject *Sim_empty(SimObject *s, PyObject *noarg)
 {
     /* nothing planned is waiting: what comes next cannot change what came before */
@@ -2425,6 +2799,12 @@ static PyMethodDef Sim_methods[] = {
     {"barrier", (PyCFunction)Sim_barrier, METH_O, "Bring the machine to rest, then dwell."},
     {"stop", (PyCFunction)Sim_stop, METH_NOARGS, "Bring the machine to rest."},
     {"empty", (PyCFunction)Sim_empty, METH_NOARGS, "Nothing planned is waiting."},
+    {"run_lines", (PyCFunction)(void (*)(void))Sim_run_lines, METH_FASTCALL,
+     "run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy, ld, run_len, "
+     "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi): group_lines' common lines (pipeline.analyse)"},
+    {"gap_lines", (PyCFunction)(void (*)(void))Sim_gap_lines, METH_FASTCALL,
+     "gap_lines(cur, step, last_f, selected, travel, min_feed_v, feat_at, last_u, waiting): "
+     "analyse's lines between runs"},
     {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
      "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
     {NULL}
@@ -3190,7 +3570,8 @@ static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
     const ReaderAPI *api = PyCapsule_GetPointer(cap, "_gcode_opt_reader._C_API");
     if (api == NULL)
         return NULL;
-    if (strcmp(api->layout, FUSED_LAYOUT) != 0 || api->move_size != sizeof(FusedMove)) {
+    if (strcmp(api->layout, FUSED_LAYOUT) != 0 || api->move_size != sizeof(FusedMove)
+        || api->run_move_size != sizeof(RunMove)) {
         READER = NULL;
         Py_CLEAR(READER_CAPSULE);
         Py_RETURN_FALSE;

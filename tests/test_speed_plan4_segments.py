@@ -1,0 +1,224 @@
+"""Issue 8, stop 19 (D9): segments.plan_segments takes the plainest strokes' _finish (classic
+jerk, no slowed end, no knot merged, no edge) for all strokes of one knot count at once
+(_finish_jerk_rows) instead of one _finish(defer=True) call per stroke.  The plans must be
+the same bits and types as ddecd40's plan_segments, copied below (it calls the live
+_finish, law_knots and _finish_feeds_and_figures, which tests/test_speed_plan3_lines.py
+pins to their earlier forms); _finish_jerk_rows is compared with _finish(defer=True) on
+random and degenerate knots."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from gcode_opt import plan as plan_mod
+from gcode_opt import schedule as sc
+from gcode_opt import segments as seg
+from gcode_opt.pipeline import Options, analyse
+from gcode_opt.profile import load_profile
+from gcode_opt.strokes import K_LINE
+
+S = "sample_gcode/"
+CORPUS = os.path.expanduser("~/.cache/gcode-opt-corpus/")
+
+
+# ---------------------------------------------------------------- ddecd40's form
+def _old_plan_segments(strokes, T, beta, rules):
+    n = np.array([seg.segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
+                  for st, t in zip(strokes, T)], dtype=int)
+    ok = np.flatnonzero(n >= 2)
+    plans = [None] * len(strokes)
+    T, beta = np.asarray(T), np.asarray(beta)
+    for a in range(0, ok.size, seg.KNOT_CHUNK):       # bounded memory; every step is per stroke
+        rows = ok[a:a + seg.KNOT_CHUNK]
+        knots = seg.law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
+        pending = []
+        for i, (sk, vk) in zip(rows.tolist(), knots):
+            got = seg._finish(strokes[i], sk, vk, rules, defer=True)
+            if got is not None:
+                pending.append((i, got))
+        for (i, _), plan in zip(pending, seg._finish_feeds_and_figures([g for _, g in pending])):
+            plans[i] = plan
+    short = [i for i, p in enumerate(plans) if p is None or not p.int_a2 < strokes[i].int_a2]
+    if short:
+        rows = np.array(short, int)
+        for i, p in zip(short, seg.line_trapezoids([strokes[i] for i in short], T[rows], beta[rows], rules)):
+            if p is not None and p.int_a2 < strokes[i].int_a2 and (plans[i] is None or p.int_a2 < plans[i].int_a2):
+                plans[i] = p
+    return plans
+
+
+# ---------------------------------------------------------------- comparisons
+def _same_plan(a, b):
+    if a is None or b is None:
+        assert a is None and b is None
+        return
+    for f in ("s", "v", "accel", "feed"):
+        x, y = getattr(a, f), getattr(b, f)
+        assert type(x) is type(y) and x.dtype == y.dtype and x.shape == y.shape, f
+        assert x.tobytes() == y.tobytes(), (f, x, y)
+    for f in ("time_t", "int_a2"):
+        x, y = getattr(a, f), getattr(b, f)
+        assert type(x) is type(y) and np.float64(x).tobytes() == np.float64(y).tobytes(), (f, x, y)
+    assert a.shape == b.shape and a.first_cmds == b.first_cmds
+
+
+def _same_deferred(a, b):
+    if a is None or b is None:
+        assert a is None and b is None
+        return
+    assert a[0] is b[0]
+    for x, y in zip(a[1:4], b[1:4]):
+        assert type(x) is type(y) and x.dtype == y.dtype and x.shape == y.shape
+        assert x.tobytes() == y.tobytes(), (x, y)
+    assert type(a[4]) is type(b[4]) and np.float64(a[4]).tobytes() == np.float64(b[4]).tobytes()
+    assert a[5:] == b[5:] and type(a[5]) is type(b[5]) and type(a[6]) is type(b[6])
+
+
+def _line_laws(path, profile, corners=0.0, every=3):
+    prof = load_profile(profile)
+    opts = Options()
+    opts.corner_budget_r = corners
+    strokes, _ = analyse(path, prof, opts)
+    pin = sc.plan_inputs(strokes, prof, opts)
+    rows = np.array([i for i in sc._rows_by_kind(strokes)[K_LINE] if not pin.fault[i]], int)
+    T, beta, I, _ = plan_mod.candidates_auto(pin.take(rows))
+    sts, Ts, bs = [], [], []
+    for col in range(0, T.shape[1], every):             # several laws a stroke
+        ok = np.isfinite(I[:, col])
+        sts += [strokes[i] for i in rows[ok]]
+        Ts.append(T[ok, col])
+        bs.append(beta[ok, col])
+    return sts, np.concatenate(Ts), np.concatenate(bs), seg.SegmentRules.for_profile(prof, opts.max_segments)
+
+
+CASES = [
+    (S + "prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 0.0),    # classic jerk: the rows' path
+    (S + "prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 0.3),    # slowed ends and commands: per stroke
+    (S + "prusa_benchy_like.gcode", "prusa-mk4", 0.0),
+    (S + "prusa_gyroid.gcode", "bambu-x1c", 0.05),
+    (S + "prusa_mk3s_rectilinear.gcode", "voron24", 0.0),        # Klipper: every stroke per stroke
+    (S + "prusa_gyroid.gcode", "ender3", 0.0),                   # Marlin JD: likewise
+    (CORPUS + "bridges.gcode", "prusa-mk3s", 0.0),
+]
+
+
+@pytest.mark.parametrize("path,profile,corners", CASES)
+def test_plan_segments_same_plans(path, profile, corners):
+    if not os.path.exists(path):
+        pytest.skip("corpus file not present")
+    sts, T, beta, rules = _line_laws(path, profile, corners)
+    assert len(sts) > 200
+    calls = []
+    real = seg._finish_jerk_rows
+
+    def spy(strokes, knots, rules_):
+        out = real(strokes, knots, rules_)
+        calls.append(sum(x is not None for x in out))
+        return out
+    seg._finish_jerk_rows = spy
+    try:
+        got = seg.plan_segments(sts, T, beta, rules)
+    finally:
+        seg._finish_jerk_rows = real
+    want = _old_plan_segments(sts, T, beta, rules)
+    assert len(got) == len(want)
+    assert sum(p is not None and p.shape == "law" for p in got) > 100
+    if rules.junction == "jerk":
+        assert sum(calls) > 100               # the rows' path ran
+    else:
+        assert sum(calls) == 0
+    for a, b in zip(got, want):
+        _same_plan(a, b)
+
+
+class _Lim:
+    def __init__(self, jx, jy):
+        self.jerk_x, self.jerk_y, self.jd = jx, jy, 0.0
+
+
+class _St:
+    """What _finish reads of a stroke."""
+    def __init__(self, rng, k):
+        ang = rng.uniform(0, 2 * math.pi)
+        self.ux, self.uy = math.cos(ang), math.sin(ang)
+        if k % 13 == 0:
+            self.ux, self.uy = 1.0, 0.0
+        if k % 17 == 0:
+            self.ux, self.uy = 0.0, -1.0
+        self.v0, self.v1 = (float(x) for x in rng.choice([0.0, 0.004, 5.0, 40.0], 2))
+        self.accel = float(rng.choice([1000.0, 2500.0, -5.0, 0.0, -0.0, math.nan]) if k % 7 == 0 else 1250.0)
+        self.lim = _Lim(*(float(x) for x in rng.choice([8.0, 10.0, 0.5], 2)))
+        self.prev_u = None if k % 3 else (1.0, 0.0)
+        self.next_u = None if k % 5 else (0.0, 1.0)
+        self.corner_cmd0 = self.corner_cmd1 = False
+        self.v0_fw = self.v1_fw = None
+        if k % 11 == 0:                        # a slowed end: per stroke
+            self.v0_fw = self.v0 + 1.0
+        if k % 19 == 0:
+            self.v1_fw, self.corner_cmd1 = self.v1 + 1.0, True
+        self.v_feed = 60.0
+        self.ends_d = [1.0]
+
+
+def _random_knots(rng, k, K):
+    L = float(rng.choice([0.5, 3.0, 40.0]))
+    kind = k % 9
+    if kind == 0:                              # crowded knots: merged by _merge_short
+        s = np.sort(np.concatenate([[0.0, L], rng.uniform(0, L, K - 2)]))
+        s[1] = s[0] + 1e-4
+    elif kind == 1:                            # decreasing knots: negative ramp accelerations
+        s = np.linspace(L, 0.0, K)
+    elif kind == 2:
+        s = np.linspace(0.0, L, K)
+        s[2] = math.nan
+    else:
+        s = np.linspace(0.0, L, K)
+    v = rng.uniform(0.0, 80.0, K)
+    if k % 4 == 0:
+        v[:] = 30.0                            # a cruise: ramp accelerations 0
+    if k % 23 == 0:
+        v[1] = math.nan
+    if k % 29 == 0:
+        v[-1] = math.inf
+    return s, v
+
+
+@pytest.mark.parametrize("min_move_d", [0.0, 0.05, 1.0])
+def test_finish_rows_same_as_finish(min_move_d):
+    rng = np.random.default_rng(19)
+    rules = seg.SegmentRules("jerk", 20, 0.004, 0.3, min_move_d, "marlin")
+    sts, knots = [], []
+    for k in range(1200):
+        st = _St(rng, k)
+        K = int(rng.choice([3, 4, 5, 9, 15]))
+        sts.append(st)
+        knots.append(_random_knots(rng, k, K))
+    knots.append((np.array([0.0, 1.0]), np.array([1.0, 2.0])))     # one segment: per stroke
+    sts.append(_St(rng, 1))
+    got = seg._finish_jerk_rows(sts, knots, rules)
+    taken = sum(g is not None for g in got)
+    assert 200 < taken < len(sts) - 200
+    for st, (sk, vk), g in zip(sts, knots, got):
+        if g is None:
+            continue
+        with np.errstate(all="ignore"):
+            want = seg._finish(st, sk, vk, rules, defer=True)
+        _same_deferred(g, want)
+    # other junction laws take no stroke
+    for junction in ("scv", "jd"):
+        r = seg.SegmentRules(junction, 20, 0.004, 0.3, min_move_d, "klipper")
+        assert all(g is None for g in seg._finish_jerk_rows(sts, knots, r))
+
+
+def test_finish_rows_zero_direction_raises_alike():
+    """A stroke with ux = uy = 0 raises in _finish's step_v: here too (isolate() drops it)."""
+    rng = np.random.default_rng(3)
+    st = _St(rng, 1)
+    st.ux = st.uy = 0.0
+    rules = seg.SegmentRules("jerk", 20, 0.004, 0.3, 0.0, "marlin")
+    knots = [(np.linspace(0.0, 2.0, 5), np.full(5, 20.0))]
+    with pytest.raises(ZeroDivisionError):
+        seg._finish(st, *knots[0], rules, defer=True)
+    with pytest.raises(ZeroDivisionError):
+        seg._finish_jerk_rows([st], knots, rules)

@@ -62,8 +62,25 @@ def law_knots(strokes, T, beta, n):
         _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float), "v")
         for k, i in enumerate(owner):
             vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
-    out = []
-    for i in range(m):
+    out = [None] * m
+    # strokes of one move, by knot count: their rows in one go (the same copies, the
+    # same elementwise max and the same assignments as stroke by stroke); each stroke's
+    # s and v are its rows of the blocks
+    by_n = {}
+    for i, k in enumerate(n.tolist()):
+        if i not in vv:
+            by_n.setdefault(k, []).append(i)
+    for k, rows in by_n.items():
+        g = np.array(rows, int)
+        s = s_all[g, :k + 1]
+        s[:, 0] = 0.0
+        s[:, -1] = L[g]
+        v = np.maximum(v_all[g, :k + 1], 0.0)
+        v[:, 0] = v0[g]
+        v[:, -1] = v1[g]
+        for q, i in enumerate(rows):
+            out[i] = (s[q], v[q])
+    for i in vv:
         s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
         if i in vv:
             vs = np.array([p[0] for p in vv[i]])
@@ -78,7 +95,7 @@ def law_knots(strokes, T, beta, n):
         s[0], s[-1] = 0.0, L[i]
         v = np.maximum(v, 0.0)
         v[0], v[-1] = v0[i], v1[i]
-        out.append((s, v))
+        out[i] = (s, v)
     return out
 
 

@@ -1,8 +1,9 @@
-"""Issue 8, stop 19 (D9): segments.plan_segments takes the plainest strokes' _finish (classic
+"""Issue 8, stop 19 (D9): segments.law_knots makes the knots of the strokes of one move
+for all of one knot count at once (rows of two blocks), and segments.plan_segments takes the plainest strokes' _finish (classic
 jerk, no slowed end, no knot merged, no edge) for all strokes of one knot count at once
 (_finish_jerk_rows) instead of one _finish(defer=True) call per stroke.  The plans must be
-the same bits and types as ddecd40's plan_segments, copied below (it calls the live
-_finish, law_knots and _finish_feeds_and_figures, which tests/test_speed_plan3_lines.py
+the same bits and types as ddecd40's plan_segments and law_knots, copied below (it calls
+the live _finish and _finish_feeds_and_figures, which tests/test_speed_plan3_lines.py
 pins to their earlier forms); _finish_jerk_rows is compared with _finish(defer=True) on
 random and degenerate knots."""
 import math
@@ -22,7 +23,56 @@ S = "sample_gcode/"
 CORPUS = os.path.expanduser("~/.cache/gcode-opt-corpus/")
 
 
-# ---------------------------------------------------------------- ddecd40's form
+# ---------------------------------------------------------------- ddecd40's forms
+def _old_law_knots(strokes, T, beta, n):
+    """Knots of many strokes at once (one vectorised law evaluation): for stroke i, the
+    distances s (mm) and speeds v (mm/s) at n_i + 1 instants evenly spaced in time, plus
+    every interior original vertex (law knots too close to a vertex dropped), with
+    s_0 = 0, s_K = L and the end speeds exact.  Returns a list of (s, v)."""
+    m = len(strokes)
+    if m == 0:
+        return []
+    L = np.array([st.length_d for st in strokes])
+    v0 = np.array([st.v0 for st in strokes])
+    v1 = np.array([st.v1 for st in strokes])
+    T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
+    j = np.arange(n.max() + 1)
+    tau = np.minimum(j[None, :] / n[:, None], 1.0)
+    law = seg.line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
+    s_all, v_all, _ = law.eval(tau * T[:, None])
+    # interior vertices of multi-move strokes: one vectorised inversion s -> t
+    owner, verts = [], []
+    for i, st in enumerate(strokes):
+        if st.n_moves > 1:
+            owner += [i] * (st.n_moves - 1)
+            verts += st.ends_d[:-1]
+    vv = {}
+    if verts:
+        owner_a, verts_a = np.array(owner), np.array(verts)
+        vl = seg.line_law(L[owner_a], T[owner_a], beta[owner_a], v0[owner_a], v1[owner_a])
+        _, v_vert, _ = vl.eval(np.asarray(seg.time_of_distance(vl, verts_a), float), "v")
+        for k, i in enumerate(owner):
+            vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
+    out = []
+    for i in range(m):
+        s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
+        if i in vv:
+            vs = np.array([p[0] for p in vv[i]])
+            min_gap = min(seg.MIN_SEG_D, L[i] / (4 * n[i]))
+            gap = np.min(np.abs(s[:, None] - vs[None, :]), axis=1)
+            keep = np.ones(len(s), bool)
+            keep[1:-1] = gap[1:-1] >= min_gap
+            s = np.concatenate([s[keep], vs])
+            v = np.concatenate([v[keep], [p[1] for p in vv[i]]])
+            order = np.argsort(s, kind="stable")
+            s, v = s[order], v[order]
+        s[0], s[-1] = 0.0, L[i]
+        v = np.maximum(v, 0.0)
+        v[0], v[-1] = v0[i], v1[i]
+        out.append((s, v))
+    return out
+
+
 def _old_plan_segments(strokes, T, beta, rules):
     n = np.array([seg.segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
                   for st, t in zip(strokes, T)], dtype=int)
@@ -31,7 +81,7 @@ def _old_plan_segments(strokes, T, beta, rules):
     T, beta = np.asarray(T), np.asarray(beta)
     for a in range(0, ok.size, seg.KNOT_CHUNK):       # bounded memory; every step is per stroke
         rows = ok[a:a + seg.KNOT_CHUNK]
-        knots = seg.law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
+        knots = _old_law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
         pending = []
         for i, (sk, vk) in zip(rows.tolist(), knots):
             got = seg._finish(strokes[i], sk, vk, rules, defer=True)
@@ -222,3 +272,66 @@ def test_finish_rows_zero_direction_raises_alike():
         seg._finish(st, *knots[0], rules, defer=True)
     with pytest.raises(ZeroDivisionError):
         seg._finish_jerk_rows([st], knots, rules)
+
+
+def _same_knots(got, want):
+    assert len(got) == len(want)
+    for (s, v), (s0, v0) in zip(got, want):
+        for x, y in ((s, s0), (v, v0)):
+            assert type(x) is type(y) and x.dtype == y.dtype and x.shape == y.shape and x.ndim == 1
+            assert x.flags.c_contiguous
+            assert x.tobytes() == y.tobytes(), (x, y)
+
+
+@pytest.mark.parametrize("path,profile,corners", CASES[:4])
+def test_law_knots_same_as_ddecd40(path, profile, corners):
+    sts, T, beta, rules = _line_laws(path, profile, corners, every=5)
+    n = np.array([seg.segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
+                  for st, t in zip(sts, T)], dtype=int)
+    ok = np.flatnonzero(n >= 2)
+    for a in range(0, ok.size, 700):
+        rows = ok[a:a + 700]
+        sub = [sts[i] for i in rows]
+        _same_knots(seg.law_knots(sub, T[rows], beta[rows], n[rows]),
+                    _old_law_knots(sub, T[rows], beta[rows], n[rows]))
+    # segment counts of 0 and 1, slow laws (speeds through 0), near-cubic and flat laws
+    rows = ok[:300]
+    sub = [sts[i] for i in rows]
+    nn = n[rows].copy()
+    nn[::7] = 1
+    nn[::11] = 0
+    TT = T[rows].copy()
+    TT[::13] *= 3.0                                          # slow laws: speeds through 0
+    bb = beta[rows].copy()
+    bb[::17] = np.inf
+    bb[::19] = 1e-9
+    with np.errstate(all="ignore"):
+        _same_knots(seg.law_knots(sub, TT, bb, nn), _old_law_knots(sub, TT, bb, nn))
+
+
+class _Line:
+    """What law_knots reads of a stroke; n_moves > 1: collinear moves (interior vertices)."""
+    def __init__(self, L, v0, v1, ends):
+        self.length_d, self.v0, self.v1, self.ends_d = L, v0, v1, list(ends)
+        self.n_moves = len(self.ends_d)
+
+
+def test_law_knots_interior_vertices():
+    rng = np.random.default_rng(4)
+    sts, T, beta, n = [], [], [], []
+    for k in range(900):
+        L = float(rng.uniform(0.5, 60.0))
+        cuts = np.sort(rng.uniform(0.0, L, k % 4))
+        if k % 9 == 0 and cuts.size:
+            cuts[0] = L / 2.0                                 # a vertex on a law knot
+        sts.append(_Line(L, float(rng.choice([0.0, 10.0, 35.0])), float(rng.choice([0.0, 20.0])),
+                         list(cuts) + [L]))
+        T.append(L / rng.uniform(20.0, 80.0) if k % 5 else L / 2.0)    # slow: speeds through 0 (clipped)
+        beta.append(float(rng.choice([1e-6, 1e-4, 1e-2, np.inf])))
+        n.append(int(rng.choice([2, 3, 5, 8, 13])))
+    assert sum(st.n_moves > 1 for st in sts) > 500
+    T, beta, n = np.array(T), np.array(beta), np.array(n)
+    with np.errstate(all="ignore"):
+        got = seg.law_knots(sts, T, beta, n)
+        _same_knots(got, _old_law_knots(sts, T, beta, n))
+    assert sum(float(np.min(v)) == 0.0 for s, v in got if v.size > 2) > 50      # clipped speeds seen

@@ -40,8 +40,8 @@ from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import (MIN_FEED_V, SegmentPlan, hold_cruise_accels, hold_cruise_accels_rows, segment_feeds,
-                       segment_times, tent_feeds_rows)
+from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
+                       segment_feeds, segment_times, settled, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -837,7 +837,11 @@ def _finish_rows(sts, knots, rules, profile):
     c0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(sts, gs)]
     c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
     t_pred, a2_pred = _predict_rows(S, V, acc, np.stack([g.cos_turn for g in gs]), c0, c1)
-    return [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
+    plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
+    for plan, ok in zip(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred)):
+        if ok:                            # schedule.seg_fault's verdict, made on the blocks
+            settled(plan)
+    return plans
 
 
 def _jerk_junction_rows(sts, gs, V, acc, a_top, profile):

@@ -535,13 +535,44 @@ def _finish_feeds_and_figures(pending):
         feeds = tent_feeds_rows(need, np.array([p[0].v_feed for p in grp], float),
                                 np.array([p[4] for p in grp], float))
         t_pred, a2_pred = _predict_rows(S, V, A)
-        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2 in zip(qs, grp, A, feeds, t_pred, a2_pred):
+        fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2, ok in zip(qs, grp, A, feeds, t_pred, a2_pred, fine):
             if slow0:
                 f[0] = max(st.v0, MIN_FEED_V)
             if slow1:
                 f[-1] = max(st.v1, MIN_FEED_V)
-            out[q] = SegmentPlan(sk, vk, acc, f, t, a2)
+            out[q] = plan = SegmentPlan(sk, vk, acc, f, t, a2)
+            if ok and not (slow0 or slow1):        # (a slowed end's feed was set after the check)
+                settled(plan)
     return out
+
+
+def fine_rows(S, V, A, F, t, a2):
+    """Per row of the knots S, V (m, K), accelerations A and feeds F (m, K - 1) and the
+    figures t, a2 (m floats): does a SegmentPlan of these pass every check of
+    schedule.seg_fault (every number finite, K >= 2, knots strictly increasing, speeds
+    >= 0, accelerations and feeds > 0)?  A list of bools, made on the blocks the planner
+    already has (schedule.settle_faults made them again from each plan's four arrays).
+    b > a is b - a > 0 for finite floats (np.diff's subtraction: exact in sign)."""
+    m, K = S.shape
+    if K < 2 or A.shape != (m, K - 1) or F.shape != (m, K - 1) or V.shape != (m, K):
+        return [False] * m
+    with np.errstate(invalid="ignore", over="ignore"):
+        ok = (np.isfinite(S).all(axis=1) & (S[:, 1:] > S[:, :-1]).all(axis=1)
+              & np.isfinite(V).all(axis=1) & (V >= 0.0).all(axis=1)
+              & np.isfinite(A).all(axis=1) & (A > 0.0).all(axis=1)
+              & np.isfinite(F).all(axis=1) & (F > 0.0).all(axis=1)
+              & np.isfinite(np.array(t, float)) & np.isfinite(np.array(a2, float)))
+    return ok.tolist()
+
+
+def settled(plan):
+    """Keep seg_fault's verdict "" on a plan fine_rows passed, when its four arrays are the
+    1-D float64 arrays whose values fine_rows checked (as _seg_fault takes them)."""
+    s, v, a, f = plan.s, plan.v, plan.accel, plan.feed
+    if (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
+            and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
+        plan.fault = ""
 
 
 def _predict_rows(S, V, A):

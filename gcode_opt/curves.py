@@ -551,8 +551,15 @@ def _parts_block(pts):
     turn = np.angle(np.exp(1j * np.diff(heading, axis=1)))
     s_i = s_v[:, 1:-1]
     ell = 0.5 * (d[:, :-1] + d[:, 1:])
-    z2 = ((s_v[:, :, None] - s_i[:, None, :]) / smooth_d[:, None, None]) ** 2
-    kern = np.exp(-0.5 * (z2 - z2.min(axis=2, keepdims=True)))
+    # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
+    # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
+    # m (n+1)(n-1) doubles per step
+    kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
+    np.divide(kern, smooth_d[:, None, None], out=kern)
+    np.square(kern, out=kern)
+    np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
+    np.multiply(kern, -0.5, out=kern)
+    np.exp(kern, out=kern)
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits
     kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]

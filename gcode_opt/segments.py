@@ -341,13 +341,27 @@ class SegmentPlan:
     """Knots, per-segment acceleration and feed, and the firmware's predicted figures.
     shape: "law" (segments follow the planned law) or "trapezoid" (one move, or collinear
     moves sharing one F and acceleration, played as the least-int-a^2 trapezoid)."""
-    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape", "first_cmds", "fault")
+    __slots__ = ("_s", "_v", "_accel", "_feed", "time_t", "int_a2", "shape", "first_cmds", "fault")
 
     def __init__(self, s, v, accel, feed, time_t, int_a2, shape="law", first_cmds=None):
-        self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
+        self._s, self._v, self._accel, self._feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
         self.shape = shape
         self.fault = None                # schedule.seg_fault's verdict, once made
         self.first_cmds = first_cmds     # (before, after) the first move: a junction command (schedule.py)
+
+    # the four arrays: a verdict is made on them (the planners make it as they build a plan:
+    # fine_rows), so putting another array in their place drops it
+    def _set(name):
+        def put(self, x):
+            setattr(self, name, x)
+            self.fault = None
+        return put
+
+    s = property(lambda self: self._s, _set("_s"), doc="knots (mm from the stroke's start)")
+    v = property(lambda self: self._v, _set("_v"), doc="speed at each knot (mm/s)")
+    accel = property(lambda self: self._accel, _set("_accel"), doc="acceleration of each segment (mm/s^2)")
+    feed = property(lambda self: self._feed, _set("_feed"), doc="feed of each segment (mm/s)")
+    del _set
 
 
 def plan_segments(strokes, T, beta, rules: SegmentRules):

@@ -180,3 +180,17 @@ def test_settled_only_float64_vectors():
         q = SegmentPlan(bad, np.array([1.0, 2.0]), np.array([5.0]), np.array([3.0]), 0.5, 1.0)
         seg.settled(q)
         assert q.fault is None
+
+
+def test_new_array_drops_the_verdict():
+    """The verdict holds for the arrays it was made on: putting another in place drops it
+    (tests/test_fault_isolation.py puts a NaN into a returned plan's accelerations)."""
+    for field in ("s", "v", "accel", "feed"):
+        p = SegmentPlan(np.array([0.0, 1.0]), np.array([1.0, 2.0]), np.array([5.0]), np.array([3.0]), 0.5, 1.0)
+        seg.settled(p)
+        assert p.fault == ""
+        x = getattr(p, field).copy()
+        setattr(p, field, x)
+        assert p.fault is None and getattr(p, field) is x
+        x[-1] = np.nan
+        assert sc.seg_fault(p) == "error: segments (non-finite)" == p.fault

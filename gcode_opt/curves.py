@@ -41,7 +41,7 @@ from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
-                       segment_feeds, segment_times, settled, tent_feeds_rows)
+                       segment_feeds, segment_times, settle_rows, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -845,9 +845,7 @@ def _finish_rows(sts, knots, rules, profile):
     c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
     t_pred, a2_pred = _predict_rows(S, V, acc, np.stack([g.cos_turn for g in gs]), c0, c1)
     plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
-    for plan, ok in zip(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred)):
-        if ok:                            # schedule.seg_fault's verdict, made on the blocks
-            settled(plan)
+    settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
     return plans
 
 

@@ -188,6 +188,7 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
 
 
 TENT_CELLS = 1 << 19        # cells of one envelope block of _tent_by_step (4 MB)
+TENT_GROUP_ROWS = 32        # _tent_by_step: rows a step value must have on average to share its products
 
 
 def _tent_by_step(out, need, vf, step, live, ar, max_cells):
@@ -198,13 +199,25 @@ def _tent_by_step(out, need, vf, step, live, ar, max_cells):
     per-row way in tent_feeds_rows."""
     n = need.shape[1]
     steps = step[live]
+    per = max(1, max_cells // max(n * (n + 2), 1))
+    block = np.empty((min(per, live.size), n, n + 2))
     if (steps == steps[0]).all():
         groups = [(live, steps[0])]
     else:
         uniq, inv = np.unique(steps, return_inverse=True)
+        if uniq.size * TENT_GROUP_ROWS > live.size:
+            # groups of a few rows (lines under classic jerk: a step per direction): each
+            # row's own products step x |k - j| into the block, then the same differences
+            for a in range(0, live.size, per):
+                r = live[a:a + per]
+                side = (vf[r] + step[r])[:, None]
+                pad = np.concatenate([side, need[r], side], axis=1)
+                b = block[:r.size]
+                np.multiply(step[r][:, None, None], ar[None, :, :], out=b)
+                np.subtract(pad[:, None, :], b, out=b)
+                out[r] = np.max(b, axis=2)
+            return
         groups = [(live[inv == q], uniq[q]) for q in range(uniq.size)]
-    per = max(1, max_cells // max(n * (n + 2), 1))
-    block = np.empty((min(per, live.size), n, n + 2))
     for rows, st in groups:
         dist = st * ar
         for a in range(0, rows.size, per):
@@ -550,14 +563,17 @@ def _finish_feeds_and_figures(pending):
                                 np.array([p[4] for p in grp], float))
         t_pred, a2_pred = _predict_rows(S, V, A)
         fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
-        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2, ok in zip(qs, grp, A, feeds, t_pred, a2_pred, fine):
+        made = []
+        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2 in zip(qs, grp, A, feeds, t_pred, a2_pred):
             if slow0:
                 f[0] = max(st.v0, MIN_FEED_V)
             if slow1:
                 f[-1] = max(st.v1, MIN_FEED_V)
+            if slow0 or slow1:
+                fine[len(made)] = False           # (a slowed end's feed was set after the check)
             out[q] = plan = SegmentPlan(sk, vk, acc, f, t, a2)
-            if ok and not (slow0 or slow1):        # (a slowed end's feed was set after the check)
-                settled(plan)
+            made.append(plan)
+        settle_rows(made, fine, A, feeds)
     return out
 
 
@@ -583,10 +599,24 @@ def fine_rows(S, V, A, F, t, a2):
 def settled(plan):
     """Keep seg_fault's verdict "" on a plan fine_rows passed, when its four arrays are the
     1-D float64 arrays whose values fine_rows checked (as _seg_fault takes them)."""
-    s, v, a, f = plan.s, plan.v, plan.accel, plan.feed
+    s, v, a, f = plan._s, plan._v, plan._accel, plan._feed
     if (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
-            and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
+            and s.dtype is v.dtype is a.dtype is f.dtype is _F64):
         plan.fault = ""
+
+
+def settle_rows(plans, fine, A, F):
+    """settled() of each plan whose fine is True, whose accelerations and feeds are rows of
+    the 2-D float64 blocks A and F (checked once here), and whose knots and speeds are
+    1-D float64 arrays."""
+    if not (type(A) is type(F) is np.ndarray and A.ndim == F.ndim == 2 and A.dtype is F.dtype is _F64):
+        return
+    nd = np.ndarray
+    for plan, ok in zip(plans, fine):
+        if ok:
+            s, v = plan._s, plan._v
+            if type(s) is nd and type(v) is nd and s.ndim == 1 and v.ndim == 1 and s.dtype is v.dtype is _F64:
+                plan.fault = ""
 
 
 def _predict_rows(S, V, A):

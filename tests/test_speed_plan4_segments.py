@@ -335,3 +335,46 @@ def test_law_knots_interior_vertices():
         got = seg.law_knots(sts, T, beta, n)
         _same_knots(got, _old_law_knots(sts, T, beta, n))
     assert sum(float(np.min(v)) == 0.0 for s, v in got if v.size > 2) > 50      # clipped speeds seen
+
+
+# ddecd40's _tent_by_step (every step value its own group), verbatim
+def _old_tent_by_step(out, need, vf, step, live, ar, max_cells):
+    n = need.shape[1]
+    steps = step[live]
+    if (steps == steps[0]).all():
+        groups = [(live, steps[0])]
+    else:
+        uniq, inv = np.unique(steps, return_inverse=True)
+        groups = [(live[inv == q], uniq[q]) for q in range(uniq.size)]
+    per = max(1, max_cells // max(n * (n + 2), 1))
+    block = np.empty((min(per, live.size), n, n + 2))
+    for rows, st in groups:
+        dist = st * ar
+        for a in range(0, rows.size, per):
+            r = rows[a:a + per]
+            side = (vf[r] + step[r])[:, None]
+            pad = np.concatenate([side, need[r], side], axis=1)
+            b = block[:r.size]
+            np.subtract(pad[:, None, :], dist[None, :, :], out=b)
+            out[r] = np.max(b, axis=2)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tent_small_groups_same_as_ddecd40(seed):
+    """Lines under classic jerk: a step per direction, few rows each (each row's own
+    products into the block); a few large groups still share theirs."""
+    rng = np.random.default_rng(seed)
+    for k, n, distinct, cells in ((400, 9, 300, 1 << 19), (2000, 4, 1500, 5000), (300, 30, 12, 1 << 19),
+                                  (64, 1, 64, 1 << 19), (700, 15, 400, 3000)):
+        need = rng.uniform(0.1, 250.0, (k, n))
+        need[::13] = np.round(need[::13], 1)
+        steps = rng.uniform(0.3, 12.0, distinct)
+        steps[::5] = 9.0                             # ties between groups' rows
+        step = rng.choice(steps, k)
+        vf = rng.uniform(10.0, 150.0, k)
+        live = np.flatnonzero(step > 1.0)              # some rows left out (an infinite step)
+        ar = seg._tent_dist(n)
+        got, want = np.array(need), np.array(need)
+        seg._tent_by_step(got, need, vf, step, live, ar, cells)
+        _old_tent_by_step(want, need, vf, step, live, ar, cells)
+        assert got.tobytes() == want.tobytes()

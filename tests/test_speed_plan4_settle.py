@@ -194,3 +194,16 @@ def test_new_array_drops_the_verdict():
         assert p.fault is None and getattr(p, field) is x
         x[-1] = np.nan
         assert sc.seg_fault(p) == "error: segments (non-finite)" == p.fault
+
+
+def test_settle_rows_only_float64_blocks_and_vectors():
+    A = np.array([[5.0], [6.0], [7.0]])
+    F = np.array([[3.0], [3.0], [3.0]])
+    s = [np.array([0.0, 1.0]), np.array([0, 1]), np.array([0.0, 1.0])]
+    plans = [SegmentPlan(s[k], np.array([1.0, 2.0]), A[k], F[k], 0.5, 1.0) for k in range(3)]
+    seg.settle_rows(plans, [True, True, False], A, F)
+    assert [p.fault for p in plans] == ["", None, None]
+    plans = [SegmentPlan(np.array([0.0, 1.0]), np.array([1.0, 2.0]), a, f, 0.5, 1.0)
+             for a, f in zip(A.astype(np.float32), F)]
+    seg.settle_rows(plans, [True] * 3, A.astype(np.float32), F)
+    assert all(p.fault is None for p in plans)

@@ -396,8 +396,10 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
         fast = _finish_jerk_rows(sts, knots, rules)
         pending = []
         for i, st, (sk, vk), got in zip(rows.tolist(), sts, knots, fast):
-            if got is None:
-                got = _finish(st, sk, vk, rules, defer=True)
+            if got is not None:                   # made by the rows' path
+                plans[i] = got
+                continue
+            got = _finish(st, sk, vk, rules, defer=True)
             if got is not None:
                 pending.append((i, got))
         for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
@@ -498,9 +500,10 @@ def _finish(stroke, sk, vk, rules, defer=False):
 
 
 def _finish_jerk_rows(strokes, knots, rules):
-    """_finish(st, sk, vk, rules, defer=True) of the strokes that take its plainest path,
-    for all of one knot count at once; None for the others (and for all of them under a
-    junction law other than classic jerk), which go through _finish.
+    """The SegmentPlans _finish(st, sk, vk, rules, defer=True) and _finish_feeds_and_figures
+    make of the strokes that take _finish's plainest path, for all of one knot count at
+    once (their blocks go on to _block_plans as they are); None for the others (and for
+    all of them under a junction law other than classic jerk), which go through _finish.
 
     The plainest path: classic jerk (accel_to_pass_junction gives 0.0 at both ends), no
     end slowed by corners.py, no knot merged by _merge_short (every segment at least
@@ -534,10 +537,18 @@ def _finish_jerk_rows(strokes, knots, rules):
             edge = (0.0 > acc[:, 0]) | (0.0 > acc[:, -1])
             acc[:, 0] = np.where(z > acc[:, 0], z, acc[:, 0])
             acc[:, -1] = np.where(z > acc[:, -1], z, acc[:, -1])
-        for k, (q, st, e) in enumerate(zip(qs, sts, edge.tolist())):
+        take, step_v = [], []
+        for k, (st, e) in enumerate(zip(sts, edge.tolist())):
             if keep[k] and not e:
-                step_v = 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
-                out[q] = (st, knots[q][0], knots[q][1], acc[k], step_v, False, False)
+                step_v.append(0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy)))
+                take.append(k)
+        if not take:
+            continue
+        if len(take) < len(qs):
+            S, V, acc = S[take], V[take], acc[take]
+        grp = [(sts[k], knots[qs[k]][0], knots[qs[k]][1]) for k in take]
+        for k, plan in zip(take, _block_plans(grp, S, V, acc, step_v, None)):
+            out[qs[k]] = plan
     return out
 
 
@@ -557,24 +568,34 @@ def _finish_feeds_and_figures(pending):
         grp = [pending[q] for q in qs]
         S = np.stack([p[1] for p in grp])
         V = np.stack([p[2] for p in grp])
-        A = hold_cruise_accels_rows(np.stack([p[3] for p in grp]), np.array([p[0].accel for p in grp], float))
-        need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
-        feeds = tent_feeds_rows(need, np.array([p[0].v_feed for p in grp], float),
-                                np.array([p[4] for p in grp], float))
-        t_pred, a2_pred = _predict_rows(S, V, A)
-        fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
-        made = []
-        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2 in zip(qs, grp, A, feeds, t_pred, a2_pred):
+        for q, plan in zip(qs, _block_plans([p[:3] for p in grp], S, V, np.stack([p[3] for p in grp]),
+                                            [p[4] for p in grp], [p[5:7] for p in grp])):
+            out[q] = plan
+    return out
+
+
+def _block_plans(grp, S, V, acc, step_v, slow):
+    """SegmentPlans of strokes of one knot count: grp [(stroke, sk, vk)], their knots and
+    speeds S, V (rows), accelerations acc before hold_cruise_accels, step_v per row, slow
+    [(slow0, slow1)] per row or None (no slowed end)."""
+    A = hold_cruise_accels_rows(acc, np.array([g[0].accel for g in grp], float))
+    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    feeds = tent_feeds_rows(need, np.array([g[0].v_feed for g in grp], float), np.array(step_v, float))
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    made = []
+    for k, ((st, sk, vk), acc_k, f, t, a2) in enumerate(zip(grp, A, feeds, t_pred, a2_pred)):
+        if slow is not None:
+            slow0, slow1 = slow[k]
             if slow0:
                 f[0] = max(st.v0, MIN_FEED_V)
             if slow1:
                 f[-1] = max(st.v1, MIN_FEED_V)
             if slow0 or slow1:
-                fine[len(made)] = False           # (a slowed end's feed was set after the check)
-            out[q] = plan = SegmentPlan(sk, vk, acc, f, t, a2)
-            made.append(plan)
-        settle_rows(made, fine, A, feeds)
-    return out
+                fine[k] = False                   # (a slowed end's feed was set after the check)
+        made.append(SegmentPlan(sk, vk, acc_k, f, t, a2))
+    settle_rows(made, fine, A, feeds)
+    return made
 
 
 def fine_rows(S, V, A, F, t, a2):

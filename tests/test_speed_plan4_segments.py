@@ -1,11 +1,12 @@
 """Issue 8, stop 19 (D9): segments.law_knots makes the knots of the strokes of one move
-for all of one knot count at once (rows of two blocks), and segments.plan_segments takes the plainest strokes' _finish (classic
-jerk, no slowed end, no knot merged, no edge) for all strokes of one knot count at once
-(_finish_jerk_rows) instead of one _finish(defer=True) call per stroke.  The plans must be
-the same bits and types as ddecd40's plan_segments and law_knots, copied below (it calls
-the live _finish and _finish_feeds_and_figures, which tests/test_speed_plan3_lines.py
-pins to their earlier forms); _finish_jerk_rows is compared with _finish(defer=True) on
-random and degenerate knots."""
+for all of one knot count at once (rows of two blocks), and segments.plan_segments makes
+the plans of the plainest strokes (classic jerk, no slowed end, no knot merged, no edge)
+for all of one knot count at once (_finish_jerk_rows, then _block_plans on its blocks)
+instead of one _finish(defer=True) call per stroke.  The plans must be the same bits and
+types as ddecd40's plan_segments and law_knots, copied below (it calls the live _finish
+and _finish_feeds_and_figures, which tests/test_speed_plan3_lines.py pins to their
+earlier forms); _finish_jerk_rows is compared with _finish(defer=True) and
+_finish_feeds_and_figures on random and degenerate knots."""
 import math
 import os
 
@@ -246,7 +247,8 @@ def test_finish_rows_same_as_finish(min_move_d):
         knots.append(_random_knots(rng, k, K))
     knots.append((np.array([0.0, 1.0]), np.array([1.0, 2.0])))     # one segment: per stroke
     sts.append(_St(rng, 1))
-    got = seg._finish_jerk_rows(sts, knots, rules)
+    with np.errstate(all="ignore"):
+        got = seg._finish_jerk_rows(sts, knots, rules)
     taken = sum(g is not None for g in got)
     assert 200 < taken < len(sts) - 200
     for st, (sk, vk), g in zip(sts, knots, got):
@@ -254,7 +256,10 @@ def test_finish_rows_same_as_finish(min_move_d):
             continue
         with np.errstate(all="ignore"):
             want = seg._finish(st, sk, vk, rules, defer=True)
-        _same_deferred(g, want)
+            assert want is not None and want[5:] == (False, False)
+            ref = seg._finish_feeds_and_figures([want])[0]
+        _same_plan(g, ref)
+        assert g.fault == ref.fault
     # other junction laws take no stroke
     for junction in ("scv", "jd"):
         r = seg.SegmentRules(junction, 20, 0.004, 0.3, min_move_d, "klipper")

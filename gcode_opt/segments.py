@@ -527,7 +527,7 @@ def _finish_jerk_rows(strokes, knots, rules):
         d = S[:, 1:] - S[:, :-1]
         if rules.min_move_d > 0.0:
             # _merge_short leaves the knots alone where the shortest segment is >= min_d
-            min_d = np.array([rules.min_edge_d(st.ux, st.uy) for st in sts], float)
+            min_d = _min_edge_d_rows(rules, sts)
             with np.errstate(invalid="ignore"):
                 keep = [k and m for k, m in zip(keep, (d.min(axis=1) >= min_d).tolist())]
         v2 = V * V
@@ -553,6 +553,22 @@ def _finish_jerk_rows(strokes, knots, rules):
 
 
 _F64 = np.dtype(float)
+
+
+def _min_edge_d_rows(rules, sts):
+    """[rules.min_edge_d(st.ux, st.uy) for st in sts] as an array: for finite directions
+    Python's max and np.maximum give the same float, and the division is the same; a
+    stroke with a direction that is not finite takes min_edge_d itself."""
+    if rules.min_move_d <= 0.0:
+        return np.full(len(sts), MIN_EDGE_D)
+    ax = np.abs(np.array([st.ux for st in sts], float))
+    ay = np.abs(np.array([st.uy for st in sts], float))
+    with np.errstate(all="ignore"):
+        out = np.maximum(MIN_EDGE_D, (rules.min_move_d + ROUND_D) / np.maximum(np.maximum(ax, ay), 1e-12))
+    odd = ~(np.isfinite(ax) & np.isfinite(ay))
+    for k in np.flatnonzero(odd).tolist():
+        out[k] = rules.min_edge_d(sts[k].ux, sts[k].uy)
+    return out
 
 
 def _finish_feeds_and_figures(pending):

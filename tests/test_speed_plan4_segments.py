@@ -383,3 +383,21 @@ def test_tent_small_groups_same_as_ddecd40(seed):
         seg._tent_by_step(got, need, vf, step, live, ar, cells)
         _old_tent_by_step(want, need, vf, step, live, ar, cells)
         assert got.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("min_move_d", [0.0, 0.004, 0.05, 1.0])
+def test_min_edge_d_rows_same_as_min_edge_d(min_move_d):
+    rng = np.random.default_rng(7)
+    rules = seg.SegmentRules("jerk", 20, 0.004, 0.3, min_move_d, "marlin")
+
+    class D:
+        def __init__(self, ux, uy):
+            self.ux, self.uy = ux, uy
+    vals = [0.0, -0.0, 1.0, -1.0, 1e-13, -1e-300, 0.7071067811865476, math.nan, math.inf, -math.inf]
+    sts = [D(float(a), float(b)) for a in vals for b in vals]
+    ang = rng.uniform(0, 2 * math.pi, 500)
+    sts += [D(math.cos(a), math.sin(a)) for a in ang]
+    got = seg._min_edge_d_rows(rules, sts)
+    for st, g in zip(sts, got.tolist()):
+        want = rules.min_edge_d(st.ux, st.uy)
+        assert np.float64(g).tobytes() == np.float64(want).tobytes() or (math.isnan(g) and math.isnan(want))

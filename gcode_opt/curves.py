@@ -40,8 +40,8 @@ from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import (MIN_FEED_V, SegmentPlan, hold_cruise_accels, hold_cruise_accels_rows, segment_feeds,
-                       segment_times, tent_feeds_rows)
+from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
+                       segment_feeds, segment_times, settle_rows, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -154,15 +154,12 @@ def batch_caps(strokes, profile, us, ds, jerk_r):
     return [caps[a:a + max(k - 1, 0)] for a, k in zip(starts, n)]     # np.split's views, less overhead
 
 
-def _caps_flat_rows(strokes, profile, us, ds, jerk_r):
+def _caps_flat_rows(strokes, profile, us, ds, jerk_r, flat=None):
     """batch_caps' caps as one flat array and each stroke's first cap in it (a list of
-    ints), or None."""
-    n = np.array([x.size for x in ds], int)
-    u, d = np.concatenate(us), np.concatenate(ds)
+    ints), or None.  flat: (n, u, d, p) as _flat_inputs gives them for these strokes."""
+    n, u, d, p = _flat_inputs(strokes, us, ds) if flat is None else flat
     if not (np.isfinite(u).all() and np.isfinite(d).all()) or u.shape[0] < 2 or (n < 1).any():
         return None
-    p = {f: np.repeat(np.array([getattr(st.lim, f) for st in strokes], float), n)[:-1] for f in _LIM_FIELDS}
-    p["accel"] = np.repeat(np.array([st.accel for st in strokes], float), n)[:-1]
     caps = _caps_flat(profile, p, u, d, jerk_r)
     if caps is None:
         return None
@@ -171,6 +168,20 @@ def _caps_flat_rows(strokes, profile, us, ds, jerk_r):
     caps = caps[keep]
     ends = np.cumsum(np.maximum(n - 1, 0)).tolist()
     return caps, [0] + ends[:-1]
+
+
+def _flat_inputs(strokes, us, ds):
+    """(segment counts, directions and lengths end to end, the limits and acceleration of
+    each stroke repeated per segment but the last) of _caps_flat_rows.  The limits are
+    read once per limits object the strokes share (the same numbers as stroke by stroke)."""
+    n = np.array([x.size for x in ds], int)
+    u, d = np.concatenate(us), np.concatenate(ds)
+    seen = {}
+    which = [seen.setdefault(id(st.lim), (len(seen), st.lim))[0] for st in strokes]
+    lims = [lim for _, lim in seen.values()]
+    p = {f: np.repeat(np.array([getattr(lim, f) for lim in lims], float)[which], n)[:-1] for f in _LIM_FIELDS}
+    p["accel"] = np.repeat(np.array([st.accel for st in strokes], float), n)[:-1]
+    return n, u, d, p
 
 
 def _pmax(a, b):
@@ -431,14 +442,15 @@ def build_geoms(strokes, profile, jerk1=False):
         sts = todo[lo:hi]
         us = [_part(parts[k], 1) if parts[k] is not None else segs[k][2] for k in range(lo, hi)]
         ds = [_part(parts[k], 0) if parts[k] is not None else segs[k][1] for k in range(lo, hi)]
-        got = _caps_flat_rows(sts, profile, us, ds, 1.0 - JERK_F_STEP_R)
+        flat = _flat_inputs(sts, us, ds)
+        got = _caps_flat_rows(sts, profile, us, ds, 1.0 - JERK_F_STEP_R, flat)
         if got is None:
             continue
         caps[lo:hi] = [(got[0], a) for a in got[1]]
-        cap[lo:hi] = _cap_rows(got[0], got[1], [x.size for x in ds])
-        ends[lo:hi] = _ends_rows(sts, us)
+        cap[lo:hi] = _cap_rows(got[0], got[1], flat[0].tolist())
+        ends[lo:hi] = _ends_rows(sts, us, flat)
         if jerk1 and profile.junction == "jerk":
-            got = _caps_flat_rows(sts, profile, us, ds, 1.0)
+            got = _caps_flat_rows(sts, profile, us, ds, 1.0, flat)
             if got is not None:
                 caps1[lo:hi] = [(got[0], a) for a in got[1]]
     for st, sg, pa, c, c1, cp, ce in zip(todo, segs, parts, caps, caps1, cap, ends):
@@ -461,12 +473,19 @@ def _cap_rows(flat, starts, n_seg):
     return least
 
 
-def _ends_rows(sts, us):
+def _ends_rows(sts, us, flat=None):
     """CurveGeom.cos_end of the strokes sts (unit directions us): the same products and
-    sums as CurveGeom's per stroke (each a numpy float64), in arrays."""
+    sums as CurveGeom's per stroke (each a numpy float64), in arrays.  flat: _flat_inputs
+    of these strokes (their first and last directions read from the directions end to end)."""
     m = len(sts)
-    first = np.array([u[0] for u in us], float).reshape(m, 2)
-    last = np.array([u[-1] for u in us], float).reshape(m, 2)
+    if flat is not None:
+        n, u = flat[0], flat[1]
+        ends = np.cumsum(n)
+        first = u[ends - n].reshape(m, 2)
+        last = u[ends - 1].reshape(m, 2)
+    else:
+        first = np.array([u[0] for u in us], float).reshape(m, 2)
+        last = np.array([u[-1] for u in us], float).reshape(m, 2)
     nan2 = (math.nan, math.nan)
     pu = [st.prev_u for st in sts]
     nu = [st.next_u for st in sts]
@@ -551,8 +570,15 @@ def _parts_block(pts):
     turn = np.angle(np.exp(1j * np.diff(heading, axis=1)))
     s_i = s_v[:, 1:-1]
     ell = 0.5 * (d[:, :-1] + d[:, 1:])
-    z2 = ((s_v[:, :, None] - s_i[:, None, :]) / smooth_d[:, None, None]) ** 2
-    kern = np.exp(-0.5 * (z2 - z2.min(axis=2, keepdims=True)))
+    # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
+    # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
+    # m (n+1)(n-1) doubles per step
+    kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
+    np.divide(kern, smooth_d[:, None, None], out=kern)
+    np.square(kern, out=kern)
+    np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
+    np.multiply(kern, -0.5, out=kern)
+    np.exp(kern, out=kern)
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits
     kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]
@@ -837,7 +863,9 @@ def _finish_rows(sts, knots, rules, profile):
     c0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(sts, gs)]
     c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
     t_pred, a2_pred = _predict_rows(S, V, acc, np.stack([g.cos_turn for g in gs]), c0, c1)
-    return [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
+    plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
+    settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
+    return plans
 
 
 def _jerk_junction_rows(sts, gs, V, acc, a_top, profile):

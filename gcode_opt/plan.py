@@ -359,17 +359,22 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
 
     def thin(lam, r):
         """dense() of rows r, all narrow; None where a least cost is inf (no finite
-        candidate, or an overflow: argmin's first inf may be another column)."""
+        candidate, or an overflow: argmin's first inf may be another column).  The
+        narrow tables are column-major (w, rows): the least (argmin's first: a later
+        column replaces it only where strictly less) and the second least (the least
+        of the others, a tie included) are kept column by column, elementwise, on
+        arrays of rows instead of reductions along rows of w entries.  The costs hold
+        no NaN (finite T >= 0, finite lambda, I finite or inf), so these are argmin's
+        and min's choices and values; only the sign of a zero second least may differ,
+        which only comparisons and abs() read."""
         is_n, pos, col, Tn, In = narrow
         p = pos[r]
-        cost = In[p] + lam * Tn[p]
-        jn = np.argmin(cost, axis=1)
-        ar = np.arange(len(r))
-        c1 = cost[ar, jn]
+        cost = In[:, p]
+        cost += lam * Tn[:, p]
+        jn, c1, c2 = _least_two(cost)
         if np.isinf(c1).any():
             return None
-        cost[ar, jn] = np.inf
-        return col[p, jn].astype(np.intp), c1, np.min(cost, axis=1)
+        return col[p, jn].astype(np.intp), c1, c2
 
     def block(lam, r):
         if narrow is not None:
@@ -387,11 +392,27 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
     def choices(lam, r):
         """Choice and margin to the next candidate of rows r at lam (margin inf where only
         one candidate is finite or none is: then the choice cannot change).  By blocks of
-        rows, so that the cost matrices stay small (row-wise: the same numbers)."""
+        rows, so that the cost matrices stay small (row-wise: the same numbers).  Narrow
+        rows go by blocks of NARROW_ROWS (thin's arrays are a row's 8 columns, not 24:
+        fewer, larger numpy calls), the others by ALLOCATE_ROWS; a narrow block thin()
+        declines goes by ALLOCATE_ROWS as before."""
+        if narrow is not None and len(r) > ALLOCATE_ROWS:
+            nr = narrow[0][r]
+            if nr.all():
+                if len(r) > NARROW_ROWS:
+                    parts = [choices(lam, r[a:a + NARROW_ROWS]) for a in range(0, len(r), NARROW_ROWS)]
+                    return tuple(np.concatenate(x) for x in zip(*parts))
+                got = thin(lam, r)
+                if got is not None:
+                    return margins(*got)
+            elif nr.any():
+                return tuple(_merge(nr, x, y) for x, y in zip(choices(lam, r[nr]), choices(lam, r[~nr])))
         if len(r) > ALLOCATE_ROWS:
             parts = [choices(lam, r[a:a + ALLOCATE_ROWS]) for a in range(0, len(r), ALLOCATE_ROWS)]
             return tuple(np.concatenate(x) for x in zip(*parts))
-        j, c1, c2 = block(lam, r)
+        return margins(*block(lam, r))
+
+    def margins(j, c1, c2):
         if k < 2:
             return j, c1, c2
         with np.errstate(invalid="ignore"):
@@ -432,9 +453,27 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
 
 
+def _least_two(cost):
+    """Of each column of cost (w, m), holding no NaN: the row of its least entry (the
+    first if several), that entry, and the second least (the least of the others: the
+    least again where two rows hold it).  Kept row by row, elementwise: a later row
+    replaces the least only where it is strictly less (argmin's first)."""
+    c1 = cost[0]
+    jn = np.zeros(cost.shape[1], np.intp)
+    c2 = np.full(cost.shape[1], np.inf)
+    for q in range(1, cost.shape[0]):
+        x = cost[q]
+        lt = x < c1
+        c2 = np.where(lt, c1, np.minimum(c2, x))
+        c1 = np.where(lt, x, c1)
+        jn = np.where(lt, q, jn)
+    return jn, c1, c2
+
+
 def _narrow_tables(Tx, Ix, finite):
     """(is_narrow per row, row -> narrow row, narrow column -> column, T, I) of the rows
-    with at most NARROW_COLS finite entries, those first in column order; None when
+    with at most NARROW_COLS finite entries, those first in column order (T and I
+    column-major: (NARROW_COLS, narrow rows)); None when
     there are none or the tables are no wider (a stroke's T and I are its own row's)."""
     n, k = Ix.shape
     w = max(NARROW_COLS, 2)
@@ -444,8 +483,9 @@ def _narrow_tables(Tx, Ix, finite):
     if not is_n.any():
         return None
     col = np.argsort(~finite[is_n], axis=1, kind="stable")[:, :w]
-    Tn = np.take_along_axis(Tx[is_n], col, axis=1)
-    In = np.take_along_axis(Ix[is_n], col, axis=1)
+    # column-major (w, rows): allocate's thin() works on whole columns
+    Tn = np.ascontiguousarray(np.take_along_axis(Tx[is_n], col, axis=1).T)
+    In = np.ascontiguousarray(np.take_along_axis(Ix[is_n], col, axis=1).T)
     pos = np.full(n, -1)
     pos[is_n] = np.arange(int(is_n.sum()))
     return is_n, pos, col.astype(np.int16 if k < 2 ** 15 else np.intp), Tn, In
@@ -459,6 +499,7 @@ def _merge(mask, a, b):
 
 
 ALLOCATE_ROWS = 4096    # rows of a cost matrix in allocate (~0.7 MB a matrix of 21 columns)
+NARROW_ROWS = 1 << 15   # rows of a narrow cost block in allocate (2 MB a matrix of 8 columns)
 MARGIN_R = 1e-9     # a choice whose cost is below the next one's by more than this (relative)
                     # is beyond the rounding of I + lambda T (~1e-16): it cannot flip
 

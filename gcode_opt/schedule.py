@@ -27,6 +27,7 @@ from . import chains
 from . import corners
 from . import curves
 from .corners import junction_commands
+from .laws import circle
 from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha)
@@ -67,6 +68,11 @@ KINDS = {
     K_CHAIN: Kind(chains.candidates_chain, chains.fixed_alpha_chain, chains.plan_chain_segments,
                   chains.adjust_plan_inputs),
 }
+
+
+# kinds whose segment plans are each stroke's own when their batch sent no circle law to
+# Newton (curves.plan_curve_segments: the circle solves, then per row; SegmentCache)
+ROW_KINDS = (K_CURVE,)
 
 
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
@@ -274,9 +280,13 @@ class SegmentCache:
 
     Lines are planned one law at a time (every step of plan_segments is per stroke), so a
     line's plan is reused whenever its (T, beta) is the one it was made for.  Arcs and
-    curves solve their laws in one batch, whose rounding depends on the batch (~1e-16):
+    curves solve their laws in one batch, whose rounding may depend on the batch (~1e-16):
     their plans are reused only when the whole batch is the same, so that the result is
-    always the one a fresh run would give.  Kept for the last run only.
+    always the one a fresh run would give.  Curves (ROW_KINDS) are reused row by row when
+    their last batch is known to give each row its own bits (no circle solve went to
+    Newton, no failure: laws/circle.NEWTON_ARCS; the BLAS gives rows their own bits:
+    circle.rows_invariant); the gyroid plate's second budget run re-solved its ~3.5 k
+    curves, all at the (T, beta) of the first.  Kept for the last run only.
 
     A line's entry is a row of two float arrays (T, beta; NaN: none) and of a list of
     plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines)."""
@@ -287,6 +297,7 @@ class SegmentCache:
         self.line_seg = []              # row -> that segment plan, or None
         self.line_why = {}              # row -> why segmenting it failed (failures only)
         self.batch = {}                 # kind -> (key, {row: seg}, {row: why})
+        self.row_tb = {}                # kind -> {row: its (T, beta) bytes} when the batch is rows' own
 
     @staticmethod
     def _key(rows, T, beta):
@@ -298,6 +309,20 @@ class SegmentCache:
             self.line_T = np.concatenate([self.line_T, np.full(n - k, np.nan)])
             self.line_beta = np.concatenate([self.line_beta, np.full(n - k, np.nan)])
             self.line_seg += [None] * (n - k)
+
+    def lookup_rows(self, kind, rows, T, beta):
+        """{row: plan} of the rows whose plan the last batch of this kind made at their
+        (T, beta), when that batch's plans are each row's own (store(own=True))."""
+        tb = self.row_tb.get(kind)
+        if not tb:
+            return {}
+        segs = self.batch[kind][1]
+        got = {}
+        for i in rows.tolist():
+            k = tb.get(i)
+            if k is not None and k == T[i].tobytes() + beta[i].tobytes() and i in segs:
+                got[i] = segs[i]
+        return got
 
     def lookup(self, kind, rows, T, beta):
         if KINDS[kind].batch:
@@ -318,10 +343,15 @@ class SegmentCache:
                     got[i] = self.line_seg[i]
         return got, bad
 
-    def store(self, kind, rows, T, beta, segs, bad):
+    def store(self, kind, rows, T, beta, segs, bad, own=False):
+        """own: every plan of this batch is its row's own, whatever the batch (ROW_KINDS: no
+        Newton step in the circle solves, no failure, a BLAS whose rows are invariant);
+        lookup_rows then reuses them row by row."""
         if KINDS[kind].batch:
             if rows.size:
                 self.batch[kind] = (self._key(rows, T, beta), segs, bad)
+                self.row_tb[kind] = ({i: T[i].tobytes() + beta[i].tobytes() for i in rows.tolist()}
+                                     if own else None)
             return
         rows_l = rows.tolist()
         if not rows_l:
@@ -413,11 +443,31 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             segs.update(got)
             seg_failed.update(bad)
             todo = np.array([i for i in ii.tolist() if i not in got and i not in bad], int)
-            new, new_bad = {}, {}
-            for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
-                                    todo, "segments", new_bad):
-                new.update(zip(sub.tolist(), res))
-            seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad)
+
+            def solve(rows):
+                made, why = {}, {}
+                n0 = circle.NEWTON_ARCS[0]
+                for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
+                                        rows, "segments", why):
+                    made.update(zip(sub.tolist(), res))
+                return made, why, circle.NEWTON_ARCS[0] == n0 and not why
+
+            new = None
+            if k_name in ROW_KINDS and todo.size:
+                # a batch whose plans are each row's own (no Newton step, no failure): the
+                # rows of it at the same (T, beta) are reused, the others solved apart, which
+                # gives them their own bits too (when that batch also is each row's own)
+                hits = seg_cache.lookup_rows(k_name, todo, plan.T, plan.beta)
+                if hits:
+                    new, new_bad, own = solve(np.array([i for i in todo.tolist() if i not in hits], int))
+                    if own:
+                        new.update(hits)
+                    else:
+                        new = None
+            if new is None:
+                new, new_bad, own = solve(todo)
+            seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad,
+                            own and k_name in ROW_KINDS and circle.rows_invariant())
             segs.update(new)
             seg_failed.update(new_bad)
         idx_l = idx.tolist()

@@ -62,8 +62,25 @@ def law_knots(strokes, T, beta, n):
         _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float), "v")
         for k, i in enumerate(owner):
             vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
-    out = []
-    for i in range(m):
+    out = [None] * m
+    # strokes of one move, by knot count: their rows in one go (the same copies, the
+    # same elementwise max and the same assignments as stroke by stroke); each stroke's
+    # s and v are its rows of the blocks
+    by_n = {}
+    for i, k in enumerate(n.tolist()):
+        if i not in vv:
+            by_n.setdefault(k, []).append(i)
+    for k, rows in by_n.items():
+        g = np.array(rows, int)
+        s = s_all[g, :k + 1]
+        s[:, 0] = 0.0
+        s[:, -1] = L[g]
+        v = np.maximum(v_all[g, :k + 1], 0.0)
+        v[:, 0] = v0[g]
+        v[:, -1] = v1[g]
+        for q, i in enumerate(rows):
+            out[i] = (s[q], v[q])
+    for i in vv:
         s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
         if i in vv:
             vs = np.array([p[0] for p in vv[i]])
@@ -78,7 +95,7 @@ def law_knots(strokes, T, beta, n):
         s[0], s[-1] = 0.0, L[i]
         v = np.maximum(v, 0.0)
         v[0], v[-1] = v0[i], v1[i]
-        out.append((s, v))
+        out[i] = (s, v)
     return out
 
 
@@ -171,6 +188,7 @@ def tent_feeds_rows(need, v_feed, step_v, max_cells=4_000_000):
 
 
 TENT_CELLS = 1 << 19        # cells of one envelope block of _tent_by_step (4 MB)
+TENT_GROUP_ROWS = 32        # _tent_by_step: rows a step value must have on average to share its products
 
 
 def _tent_by_step(out, need, vf, step, live, ar, max_cells):
@@ -181,13 +199,25 @@ def _tent_by_step(out, need, vf, step, live, ar, max_cells):
     per-row way in tent_feeds_rows."""
     n = need.shape[1]
     steps = step[live]
+    per = max(1, max_cells // max(n * (n + 2), 1))
+    block = np.empty((min(per, live.size), n, n + 2))
     if (steps == steps[0]).all():
         groups = [(live, steps[0])]
     else:
         uniq, inv = np.unique(steps, return_inverse=True)
+        if uniq.size * TENT_GROUP_ROWS > live.size:
+            # groups of a few rows (lines under classic jerk: a step per direction): each
+            # row's own products step x |k - j| into the block, then the same differences
+            for a in range(0, live.size, per):
+                r = live[a:a + per]
+                side = (vf[r] + step[r])[:, None]
+                pad = np.concatenate([side, need[r], side], axis=1)
+                b = block[:r.size]
+                np.multiply(step[r][:, None, None], ar[None, :, :], out=b)
+                np.subtract(pad[:, None, :], b, out=b)
+                out[r] = np.max(b, axis=2)
+            return
         groups = [(live[inv == q], uniq[q]) for q in range(uniq.size)]
-    per = max(1, max_cells // max(n * (n + 2), 1))
-    block = np.empty((min(per, live.size), n, n + 2))
     for rows, st in groups:
         dist = st * ar
         for a in range(0, rows.size, per):
@@ -324,13 +354,27 @@ class SegmentPlan:
     """Knots, per-segment acceleration and feed, and the firmware's predicted figures.
     shape: "law" (segments follow the planned law) or "trapezoid" (one move, or collinear
     moves sharing one F and acceleration, played as the least-int-a^2 trapezoid)."""
-    __slots__ = ("s", "v", "accel", "feed", "time_t", "int_a2", "shape", "first_cmds", "fault")
+    __slots__ = ("_s", "_v", "_accel", "_feed", "time_t", "int_a2", "shape", "first_cmds", "fault")
 
     def __init__(self, s, v, accel, feed, time_t, int_a2, shape="law", first_cmds=None):
-        self.s, self.v, self.accel, self.feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
+        self._s, self._v, self._accel, self._feed, self.time_t, self.int_a2 = s, v, accel, feed, time_t, int_a2
         self.shape = shape
         self.fault = None                # schedule.seg_fault's verdict, once made
         self.first_cmds = first_cmds     # (before, after) the first move: a junction command (schedule.py)
+
+    # the four arrays: a verdict is made on them (the planners make it as they build a plan:
+    # fine_rows), so putting another array in their place drops it
+    def _set(name):
+        def put(self, x):
+            setattr(self, name, x)
+            self.fault = None
+        return put
+
+    s = property(lambda self: self._s, _set("_s"), doc="knots (mm from the stroke's start)")
+    v = property(lambda self: self._v, _set("_v"), doc="speed at each knot (mm/s)")
+    accel = property(lambda self: self._accel, _set("_accel"), doc="acceleration of each segment (mm/s^2)")
+    feed = property(lambda self: self._feed, _set("_feed"), doc="feed of each segment (mm/s)")
+    del _set
 
 
 def plan_segments(strokes, T, beta, rules: SegmentRules):
@@ -347,10 +391,15 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     T, beta = np.asarray(T), np.asarray(beta)
     for a in range(0, ok.size, KNOT_CHUNK):       # bounded memory; every step is per stroke
         rows = ok[a:a + KNOT_CHUNK]
-        knots = law_knots([strokes[i] for i in rows], T[rows], beta[rows], n[rows])
+        sts = [strokes[i] for i in rows]
+        knots = law_knots(sts, T[rows], beta[rows], n[rows])
+        fast = _finish_jerk_rows(sts, knots, rules)
         pending = []
-        for i, (sk, vk) in zip(rows.tolist(), knots):
-            got = _finish(strokes[i], sk, vk, rules, defer=True)
+        for i, st, (sk, vk), got in zip(rows.tolist(), sts, knots, fast):
+            if got is not None:                   # made by the rows' path
+                plans[i] = got
+                continue
+            got = _finish(st, sk, vk, rules, defer=True)
             if got is not None:
                 pending.append((i, got))
         for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
@@ -450,6 +499,78 @@ def _finish(stroke, sk, vk, rules, defer=False):
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
 
 
+def _finish_jerk_rows(strokes, knots, rules):
+    """The SegmentPlans _finish(st, sk, vk, rules, defer=True) and _finish_feeds_and_figures
+    make of the strokes that take _finish's plainest path, for all of one knot count at
+    once (their blocks go on to _block_plans as they are); None for the others (and for
+    all of them under a junction law other than classic jerk), which go through _finish.
+
+    The plainest path: classic jerk (accel_to_pass_junction gives 0.0 at both ends), no
+    end slowed by corners.py, no knot merged by _merge_short (every segment at least
+    min_edge_d long), and ramp accelerations at both ends not below 0 (0.0 > acc would
+    add edges).  Then _finish computes ramp_accels (elementwise: the same here in rows),
+    acc[0] = max(acc[0], min(0.0, accel)) and the same for acc[-1] (Python's max and min:
+    np.where on the same comparisons), and step_v on Python floats (as here), and returns
+    the knots it was given.  ~68 k strokes on the rectilinear plate: ~15 µs each there."""
+    out = [None] * len(strokes)
+    if rules.junction != "jerk":
+        return out
+    by_k = {}
+    for q, (st, (sk, _)) in enumerate(zip(strokes, knots)):
+        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64:
+            by_k.setdefault(sk.size, []).append(q)
+    for qs in by_k.values():
+        sts = [strokes[q] for q in qs]
+        keep = [not (s0 or s1) for s0, s1 in map(slowed_ends, sts)]
+        S = np.stack([knots[q][0] for q in qs])
+        V = np.stack([np.asarray(knots[q][1], float) for q in qs])
+        d = S[:, 1:] - S[:, :-1]
+        if rules.min_move_d > 0.0:
+            # _merge_short leaves the knots alone where the shortest segment is >= min_d
+            min_d = _min_edge_d_rows(rules, sts)
+            with np.errstate(invalid="ignore"):
+                keep = [k and m for k, m in zip(keep, (d.min(axis=1) >= min_d).tolist())]
+        v2 = V * V
+        with np.errstate(all="ignore"):
+            acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
+            z = np.array([min(0.0, st.accel) for st in sts], float)
+            edge = (0.0 > acc[:, 0]) | (0.0 > acc[:, -1])
+            acc[:, 0] = np.where(z > acc[:, 0], z, acc[:, 0])
+            acc[:, -1] = np.where(z > acc[:, -1], z, acc[:, -1])
+        take, step_v = [], []
+        for k, (st, e) in enumerate(zip(sts, edge.tolist())):
+            if keep[k] and not e:
+                step_v.append(0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy)))
+                take.append(k)
+        if not take:
+            continue
+        if len(take) < len(qs):
+            S, V, acc = S[take], V[take], acc[take]
+        grp = [(sts[k], knots[qs[k]][0], knots[qs[k]][1]) for k in take]
+        for k, plan in zip(take, _block_plans(grp, S, V, acc, step_v, None)):
+            out[qs[k]] = plan
+    return out
+
+
+_F64 = np.dtype(float)
+
+
+def _min_edge_d_rows(rules, sts):
+    """[rules.min_edge_d(st.ux, st.uy) for st in sts] as an array: for finite directions
+    Python's max and np.maximum give the same float, and the division is the same; a
+    stroke with a direction that is not finite takes min_edge_d itself."""
+    if rules.min_move_d <= 0.0:
+        return np.full(len(sts), MIN_EDGE_D)
+    ax = np.abs(np.array([st.ux for st in sts], float))
+    ay = np.abs(np.array([st.uy for st in sts], float))
+    with np.errstate(all="ignore"):
+        out = np.maximum(MIN_EDGE_D, (rules.min_move_d + ROUND_D) / np.maximum(np.maximum(ax, ay), 1e-12))
+    odd = ~(np.isfinite(ax) & np.isfinite(ay))
+    for k in np.flatnonzero(odd).tolist():
+        out[k] = rules.min_edge_d(sts[k].ux, sts[k].uy)
+    return out
+
+
 def _finish_feeds_and_figures(pending):
     """The rest of _finish for many strokes (its defer=True results): segment_feeds, the
     slowed ends' feeds and predict, after hold_cruise_accels (hold_cruise_accels_rows), for
@@ -463,18 +584,76 @@ def _finish_feeds_and_figures(pending):
         grp = [pending[q] for q in qs]
         S = np.stack([p[1] for p in grp])
         V = np.stack([p[2] for p in grp])
-        A = hold_cruise_accels_rows(np.stack([p[3] for p in grp]), np.array([p[0].accel for p in grp], float))
-        need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
-        feeds = tent_feeds_rows(need, np.array([p[0].v_feed for p in grp], float),
-                                np.array([p[4] for p in grp], float))
-        t_pred, a2_pred = _predict_rows(S, V, A)
-        for q, (st, sk, vk, _, _, slow0, slow1), acc, f, t, a2 in zip(qs, grp, A, feeds, t_pred, a2_pred):
+        for q, plan in zip(qs, _block_plans([p[:3] for p in grp], S, V, np.stack([p[3] for p in grp]),
+                                            [p[4] for p in grp], [p[5:7] for p in grp])):
+            out[q] = plan
+    return out
+
+
+def _block_plans(grp, S, V, acc, step_v, slow):
+    """SegmentPlans of strokes of one knot count: grp [(stroke, sk, vk)], their knots and
+    speeds S, V (rows), accelerations acc before hold_cruise_accels, step_v per row, slow
+    [(slow0, slow1)] per row or None (no slowed end)."""
+    A = hold_cruise_accels_rows(acc, np.array([g[0].accel for g in grp], float))
+    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    feeds = tent_feeds_rows(need, np.array([g[0].v_feed for g in grp], float), np.array(step_v, float))
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    made = []
+    for k, ((st, sk, vk), acc_k, f, t, a2) in enumerate(zip(grp, A, feeds, t_pred, a2_pred)):
+        if slow is not None:
+            slow0, slow1 = slow[k]
             if slow0:
                 f[0] = max(st.v0, MIN_FEED_V)
             if slow1:
                 f[-1] = max(st.v1, MIN_FEED_V)
-            out[q] = SegmentPlan(sk, vk, acc, f, t, a2)
-    return out
+            if slow0 or slow1:
+                fine[k] = False                   # (a slowed end's feed was set after the check)
+        made.append(SegmentPlan(sk, vk, acc_k, f, t, a2))
+    settle_rows(made, fine, A, feeds)
+    return made
+
+
+def fine_rows(S, V, A, F, t, a2):
+    """Per row of the knots S, V (m, K), accelerations A and feeds F (m, K - 1) and the
+    figures t, a2 (m floats): does a SegmentPlan of these pass every check of
+    schedule.seg_fault (every number finite, K >= 2, knots strictly increasing, speeds
+    >= 0, accelerations and feeds > 0)?  A list of bools, made on the blocks the planner
+    already has (schedule.settle_faults made them again from each plan's four arrays).
+    b > a is b - a > 0 for finite floats (np.diff's subtraction: exact in sign)."""
+    m, K = S.shape
+    if K < 2 or A.shape != (m, K - 1) or F.shape != (m, K - 1) or V.shape != (m, K):
+        return [False] * m
+    with np.errstate(invalid="ignore", over="ignore"):
+        ok = (np.isfinite(S).all(axis=1) & (S[:, 1:] > S[:, :-1]).all(axis=1)
+              & np.isfinite(V).all(axis=1) & (V >= 0.0).all(axis=1)
+              & np.isfinite(A).all(axis=1) & (A > 0.0).all(axis=1)
+              & np.isfinite(F).all(axis=1) & (F > 0.0).all(axis=1)
+              & np.isfinite(np.array(t, float)) & np.isfinite(np.array(a2, float)))
+    return ok.tolist()
+
+
+def settled(plan):
+    """Keep seg_fault's verdict "" on a plan fine_rows passed, when its four arrays are the
+    1-D float64 arrays whose values fine_rows checked (as _seg_fault takes them)."""
+    s, v, a, f = plan._s, plan._v, plan._accel, plan._feed
+    if (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
+            and s.dtype is v.dtype is a.dtype is f.dtype is _F64):
+        plan.fault = ""
+
+
+def settle_rows(plans, fine, A, F):
+    """settled() of each plan whose fine is True, whose accelerations and feeds are rows of
+    the 2-D float64 blocks A and F (checked once here), and whose knots and speeds are
+    1-D float64 arrays."""
+    if not (type(A) is type(F) is np.ndarray and A.ndim == F.ndim == 2 and A.dtype is F.dtype is _F64):
+        return
+    nd = np.ndarray
+    for plan, ok in zip(plans, fine):
+        if ok:
+            s, v = plan._s, plan._v
+            if type(s) is nd and type(v) is nd and s.ndim == 1 and v.ndim == 1 and s.dtype is v.dtype is _F64:
+                plan.fault = ""
 
 
 def _predict_rows(S, V, A):

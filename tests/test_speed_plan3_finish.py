@@ -45,7 +45,10 @@ def _same_plan(a, b):
         x, y = getattr(a, f), getattr(b, f)
         assert type(x) is type(y), (f, type(x), type(y))
         assert np.float64(x).tobytes() == np.float64(y).tobytes(), (f, x, y)
-    assert a.shape == b.shape and a.first_cmds == b.first_cmds and a.fault == b.fault
+    assert a.shape == b.shape and a.first_cmds == b.first_cmds
+    # stop 19 (D9): finish_curves keeps schedule.seg_fault's verdict "" on the plans whose
+    # blocks pass its checks (segments.fine_rows); the old plan has none yet: its own verdict
+    assert a.fault == b.fault or (a.fault == "" and b.fault is None and sc.seg_fault(b) == "")
 
 
 def _curve_knots_of(name, profile):

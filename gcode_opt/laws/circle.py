@@ -329,8 +329,22 @@ def _solve_nodes(n, phi, gam2, u0, u1, w_start):
         w[r], cc[r], ok[r] = _precond_cheb(n, phi[r], gam2[r], u0[r], u1[r], w_start[r])
     rest = np.flatnonzero(~ok)
     if rest.size:
+        NEWTON_ARCS[0] += rest.size
         w[rest], cc[rest], ok[rest] = _newton_chunked(n, phi[rest], gam2[rest], u0[rest], u1[rest], w_start[rest])
     return w, cc, ok
+
+
+# Arcs handed to Newton so far (a count; callers compare it before and after a solve).
+# Newton's batched products may round differently with the batch (_newton_chunked); every
+# other step of a solve is the arc's own (elementwise, row sums, _rows_matmul's fixed-shape
+# calls when rows_invariant()): a batch that sent no arc to Newton gave each arc the bits
+# it would have in any other batch.
+NEWTON_ARCS = [0]
+
+
+def rows_invariant():
+    """Whether this BLAS gives a row the same bits wherever it sits (_rows_matmul's calls)."""
+    return _gemm_rows_invariant()
 
 
 EVAL_CHUNK = 512           # arcs per evaluation on a grid (CircleBatch.row_chunks)

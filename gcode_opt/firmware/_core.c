@@ -2427,6 +2427,24 @@ static int get_hypot(void)
     return 0;
 }
 
+/* *d = math.hypot(dx, dy), called (its bits are CPython's, not libm's); -1 with an
+ * exception set if the call fails */
+static int py_hypot(double dx, double dy, double *d)
+{
+    PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
+    if (hx != NULL && hy != NULL) {
+        PyObject *ha[2] = {hx, hy};
+        h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+    }
+    Py_XDECREF(hx);
+    Py_XDECREF(hy);
+    if (h == NULL)
+        return -1;
+    *d = PyFloat_AsDouble(h);
+    Py_DECREF(h);
+    return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
 static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 23)
@@ -2497,18 +2515,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
               && (fm->x1 != fm->x0 || fm->y1 != fm->y0) && (fm->e > 0.0 || (fm->e == 0.0 && travel))))
             break;
         double dx = fm->x1 - fm->x0, dy = fm->y1 - fm->y0;
-        PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
-        if (hx != NULL && hy != NULL) {
-            PyObject *ha[2] = {hx, hy};
-            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
-        }
-        Py_XDECREF(hx);
-        Py_XDECREF(hy);
-        if (h == NULL)
-            goto fail;
-        double d = PyFloat_AsDouble(h);
-        Py_DECREF(h);
-        if (d == -1.0 && PyErr_Occurred())
+        double d;
+        if (py_hypot(dx, dy, &d) < 0)
             goto fail;
         if (d == 0.0)
             break;                     /* Python's division raises */
@@ -2724,18 +2732,8 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     } else if (last_kind == 1)
         u = Py_NewRef(Py_None);
     else {
-        PyObject *hx = PyFloat_FromDouble(ldx), *hy = PyFloat_FromDouble(ldy), *h = NULL;
-        if (hx != NULL && hy != NULL) {
-            PyObject *ha[2] = {hx, hy};
-            h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
-        }
-        Py_XDECREF(hx);
-        Py_XDECREF(hy);
-        if (h == NULL)
-            return NULL;
-        double d = PyFloat_AsDouble(h);
-        Py_DECREF(h);
-        if (d == -1.0 && PyErr_Occurred())
+        double d;
+        if (py_hypot(ldx, ldy, &d) < 0)
             return NULL;
         u = d > 0 ? Py_BuildValue("(dd)", ldx / d, ldy / d) : Py_NewRef(Py_None);
         if (u == NULL)

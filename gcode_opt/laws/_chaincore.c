@@ -468,7 +468,8 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
    with vf[r] + step[r] at both ends (j = -1, n).  Each difference is numpy's (one product
    of the step and the integer distance, one subtraction); with every input finite and
    > 0 no difference is a nan or a -0, so their maximum is one value whatever the order
-   numpy's reduction takes them in: the same bits. */
+   numpy's reduction takes them in: the same bits.  The differences that cannot reach
+   the maximum (bounded through the row's largest need) are not made: see the loop. */
 static PyObject *tent_rows(PyObject *self, PyObject *a) {
     PyObject *oneed, *ovf, *ostep, *oout;
     if (!PyArg_ParseTuple(a, "OOOO", &oneed, &ovf, &ostep, &oout)) return NULL;
@@ -494,14 +495,26 @@ static PyObject *tent_rows(PyObject *self, PyObject *a) {
     if (ok) {
         for (Py_ssize_t r = 0; r < R; r++) {
             const double *p = need + r * n;
-            double st = step[r], side = vf[r] + st;
+            double st = step[r], side = vf[r] + st, pmax = p[0];
+            for (Py_ssize_t j = 1; j < n; j++) pmax = p[j] > pmax ? p[j] : pmax;
             for (Py_ssize_t k = 0; k < n; k++) {
                 double m = side - st * (double)(k + 1);          /* j = -1 */
                 double e = side - st * (double)(n - k);          /* j = n */
                 if (e > m) m = e;
-                for (Py_ssize_t j = 0; j < n; j++) {
-                    double c = p[j] - st * (double)(k > j ? k - j : j - k);
-                    if (c > m) m = c;
+                /* the j at distance d = |k - j| = 0, 1, ... from k, until pmax - st d < m:
+                   then every difference at d or farther is below m (st d grows with d, each
+                   rounding is monotone, p[j] <= pmax), so it cannot be the maximum */
+                for (Py_ssize_t d = 0; d < n; d++) {
+                    double sd = st * (double)d;
+                    if (pmax - sd < m) break;
+                    if (k - d >= 0) {
+                        double c = p[k - d] - sd;
+                        if (c > m) m = c;
+                    }
+                    if (d > 0 && k + d < n) {
+                        double c = p[k + d] - sd;
+                        if (c > m) m = c;
+                    }
                 }
                 out[r * n + k] = m;
             }

@@ -113,3 +113,40 @@ def test_random_rows_with_ties_and_far_maxima(n):
     _same(need, vf, step)
     _same(need, float(vf[0]), float(step[0]))               # one feed and step for all rows
     _same(need[::-1].copy(), vf[::-1].copy(), step[::-1].copy())
+
+
+# ---------------------------------------------------------------- two small ones in chains.py
+def test_knots_s_as_concatenate():
+    from array import array
+    rng = np.random.default_rng(4)
+    for e in (array("d"), array("d", (1.5,)), array("d", np.cumsum(rng.uniform(0, 1, 40)).tolist()),
+              [0.5, 1.0], np.array([0.25, 2.0]), array("f", (1.0, 2.5))):
+        want = np.concatenate([[0.0], np.asarray(e, float)])
+        got = chains._knots_s(e)
+        assert got.dtype == want.dtype and got.shape == want.shape and got.flags.writeable
+        assert np.array_equal(got.view(np.int64), want.view(np.int64))
+
+
+def test_classify_marks_the_same_chains():
+    """classify with np.minimum.reduce marks the strokes np.min's test marked (ddecd40's
+    test, verbatim, on the bundled gyroid's curve strokes under both junction laws)."""
+    from gcode_opt import curves
+    from gcode_opt.pipeline import Options, analyse
+    from gcode_opt.profile import load_profile
+    from gcode_opt.strokes import K_CURVE
+    for prof in ("prusa-mk3s", "voron24"):
+        profile = load_profile(prof)
+        opts = Options()
+        opts.ringing = False
+        strokes, _ = analyse("sample_gcode/prusa_gyroid_fullspeed.gcode", profile, opts)
+        rows = list(range(len(strokes)))
+        chains.classify(strokes, rows, profile)
+        got = [st.chain_T is not None for st in strokes]
+        want = []
+        for st in strokes:
+            ok = False
+            if st.kind == K_CURVE:
+                caps = curves.geom(st, profile).caps
+                ok = bool(caps.size and curves.CAP_MARGIN * float(np.min(caps)) < st.v_feed)
+            want.append(ok)
+        assert got == want and sum(got) > 50

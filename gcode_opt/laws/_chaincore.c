@@ -60,9 +60,13 @@ static inline double nan_to_num(double x) {
 /* Vector clones where gcc can make them (x86-64 Linux): the loops below are elementwise,
    so SIMD lanes do each element's operations in its order: the same bits as one element at
    a time.  No contraction into fused multiply-adds (-ffp-contract=off, and again in the
-   clones' own options: the AVX-512 target has FMA), no reassociation. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+   clones' own options: the AVX-512 target has FMA), no reassociation.  (gcc 11 and later
+   know x86-64-v4; before, the AVX2 and default clones only.) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && __GNUC__ >= 11
 #define VEC_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"), \
+                                  optimize("O3", "no-trapping-math", "fp-contract=off")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define VEC_CLONES __attribute__((target_clones("avx2", "default"), \
                                   optimize("O3", "no-trapping-math", "fp-contract=off")))
 #else
 #define VEC_CLONES

@@ -57,49 +57,96 @@ static inline double nan_to_num(double x) {
     return x;
 }
 
-/* share_args(T, sqb, poff, conv, Tall, args, zmax) -> (m, k)
+/* Vector clones where gcc can make them (x86-64 Linux): the loops below are elementwise,
+   so SIMD lanes do each element's operations in its order: the same bits as one element at
+   a time.  No contraction into fused multiply-adds (-ffp-contract=off, and again in the
+   clones' own options: the AVX-512 target has FMA), no reassociation.  (gcc 11 and later
+   know x86-64-v4; before, the AVX2 and default clones only.) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && __GNUC__ >= 11
+#define VEC_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"), \
+                                  optimize("O3", "no-trapping-math", "fp-contract=off")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define VEC_CLONES __attribute__((target_clones("avx2", "default"), \
+                                  optimize("O3", "no-trapping-math", "fp-contract=off")))
+#else
+#define VEC_CLONES
+#endif
+
+/* share_args' arithmetic on the m active pieces, compact: durations Tm, √β sq; writes
+   Tlo = Tm - h, Thi = Tm + h (h = FD_H_R Tm) and args = [γ/2, γ] at the three (6 m).
+   Returns 1 where a duration is not finite and > 0 or a γ not below GAMMA_SWITCH, else 0
+   and *gmax the bits of the largest γ (all then > 0 or +0: their bits order as their
+   values, as their squares do). */
+VEC_CLONES static int args_vec(Py_ssize_t m, const double *restrict Tm, const double *restrict sq,
+                               double *restrict Tlo, double *restrict Thi, double *restrict args,
+                               int64_t *gmax) {
+    int bad = 0;
+    int64_t gb = 0;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        double Ti = Tm[j], h = FD_H_R * Ti, s = sq[j];
+        double t0 = Ti - h, t2 = Ti + h;
+        double g0 = t0 / s, g1 = Ti / s, g2 = t2 / s;
+        Tlo[j] = t0;
+        Thi[j] = t2;
+        args[j] = g0 / 2;
+        args[m + j] = g1 / 2;
+        args[2 * m + j] = g2 / 2;
+        args[3 * m + j] = g0;
+        args[4 * m + j] = g1;
+        args[5 * m + j] = g2;
+        bad |= !(t0 > 0.0) | !(t0 < HUGE_VAL) | !(Ti > 0.0) | !(Ti < HUGE_VAL) | !(t2 > 0.0) | !(t2 < HUGE_VAL)
+               | !(g0 < GAMMA_SWITCH) | !(g1 < GAMMA_SWITCH) | !(g2 < GAMMA_SWITCH);
+        int64_t b0, b1, b2;
+        memcpy(&b0, &g0, 8); memcpy(&b1, &g1, 8); memcpy(&b2, &g2, 8);
+        gb = b0 > gb ? b0 : gb;
+        gb = b1 > gb ? b1 : gb;
+        gb = b2 > gb ? b2 : gb;
+    }
+    *gmax = gb;
+    return bad;
+}
+
+/* share_args(T, sqb, poff, conv, Tall, args, zmax, scratch) -> (m, k)
    The active pieces (those of chains not conv, in order): Tall = [T - h, T, T + h] (3 m,
    h = FD_H_R T), args = [γ/2, γ] (6 m, γ = Tall / sqb) for np.sinh; k = the Horner terms
    the batch needs (_nms_terms over γ²).  m = -1: a duration not finite and > 0 or a γ
-   not below GAMMA_SWITCH (the numpy code then runs: its error or its other branch). */
+   not below GAMMA_SWITCH (the numpy code then runs: its error or its other branch).
+   scratch: m doubles or more (√β of the active pieces). */
 static PyObject *share_args(PyObject *self, PyObject *a) {
-    PyObject *oT, *osqb, *opoff, *oconv, *oTall, *oargs, *ozmax;
-    if (!PyArg_ParseTuple(a, "OOOOOOO", &oT, &osqb, &opoff, &oconv, &oTall, &oargs, &ozmax)) return NULL;
+    PyObject *oT, *osqb, *opoff, *oconv, *oTall, *oargs, *ozmax, *oscr;
+    if (!PyArg_ParseTuple(a, "OOOOOOOO", &oT, &osqb, &opoff, &oconv, &oTall, &oargs, &ozmax, &oscr)) return NULL;
     Bufs b = {.n = 0};
-    Py_ssize_t P, nc1, nz;
+    Py_ssize_t P, nc1, nz, nTall, nargs, nscr;
     double *T = get(&b, oT, 8, 0, &P);
     double *sqb = T ? get(&b, osqb, 8, 0, NULL) : NULL;
     int64_t *poff = sqb ? get(&b, opoff, 8, 0, &nc1) : NULL;
     uint8_t *conv = poff ? get(&b, oconv, 1, 0, NULL) : NULL;
-    double *Tall = conv ? get(&b, oTall, 8, 1, NULL) : NULL;
-    double *args = Tall ? get(&b, oargs, 8, 1, NULL) : NULL;
+    double *Tall = conv ? get(&b, oTall, 8, 1, &nTall) : NULL;
+    double *args = Tall ? get(&b, oargs, 8, 1, &nargs) : NULL;
     double *zmax = args ? get(&b, ozmax, 8, 0, &nz) : NULL;
-    if (!zmax) { release(&b); return NULL; }
+    double *scr = zmax ? get(&b, oscr, 8, 1, &nscr) : NULL;
+    if (!scr) { release(&b); return NULL; }
     Py_ssize_t n_c = nc1 - 1, m = 0;
     for (Py_ssize_t c = 0; c < n_c; c++)
         if (!conv[c]) m += poff[c + 1] - poff[c];
+    if (nTall < 3 * m || nargs < 6 * m || nscr < m) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "share_args: buffers");
+        return NULL;
+    }
     Py_ssize_t j = 0;
-    int bad = 0;
-    double zm = -1.0;
-    for (Py_ssize_t c = 0; c < n_c && !bad; c++) {
+    for (Py_ssize_t c = 0; c < n_c; c++) {              /* the active pieces, compact */
         if (conv[c]) continue;
         for (int64_t p = poff[c]; p < poff[c + 1]; p++, j++) {
-            double Ti = T[p], h = FD_H_R * Ti;
-            double t3[3] = {Ti - h, Ti, Ti + h};
-            for (int q = 0; q < 3; q++) {
-                double t = t3[q];
-                if (!(t > 0) || !isfinite(t)) { bad = 1; break; }
-                double g = t / sqb[p];
-                if (!(g < GAMMA_SWITCH)) { bad = 1; break; }
-                Tall[q * m + j] = t;
-                args[q * m + j] = g / 2;
-                args[3 * m + q * m + j] = g;
-                double z2 = g * g;
-                if (z2 > zm) zm = z2;
-            }
-            if (bad) break;
+            Tall[m + j] = T[p];
+            scr[j] = sqb[p];
         }
     }
+    int64_t gb;
+    int bad = args_vec(m, Tall + m, scr, Tall, Tall + 2 * m, args, &gb);
+    double gm;
+    memcpy(&gm, &gb, 8);
+    double zm = gm * gm;                 /* the largest γ²: rounding keeps the order of γ > 0 */
     release(&b);
     if (bad) return Py_BuildValue("(ni)", (Py_ssize_t)-1, 0);
     /* _nms_terms: the least k with zmax <= table[k] (searchsorted left), plus one, <= NTERMS */
@@ -112,29 +159,34 @@ static PyObject *share_args(PyObject *self, PyObject *a) {
     return Py_BuildValue("(ni)", m, k);
 }
 
-/* Vector clones where gcc can make them (x86-64 Linux): the loops of j_batch are
-   elementwise, so SIMD lanes do each element's operations in its order (the AVX2 target
-   has no FMA; -ffp-contract=off anyway): the same bits as one element at a time. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define VEC_CLONES __attribute__((target_clones("avx2", "default"), optimize("O3", "no-trapping-math")))
-#else
-#define VEC_CLONES
-#endif
+#define CHUNK 256          /* pieces a pass of j_chunk: its series stay in L1 */
 
-/* _J3's last steps for m pieces at one of their three durations: J from the durations t,
-   t3 = t ** 3, the np.sinh arguments γ/2 (zh) and γ (zf) and values (shh, shf), the
-   series n, mm, s1 at γ², and the pieces' L, β, v0 + v1, v0 - v1. */
-VEC_CLONES static void j_final(Py_ssize_t m, const double *restrict t, const double *restrict t3,
+/* J = ∫ṡ² + β∫s̈² (_J3's arithmetic, element by element) of n pieces at one of their
+   three durations: t, t3 = t ** 3, the np.sinh arguments γ/2 (zh) and γ (zf) and values
+   (shh, shf), the pieces' L, β, v0 + v1, v0 - v1; the n, m, S1 series (_horner_nms with
+   its k terms) at γ² first, into the chunk's own scratch (n <= CHUNK). */
+VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, const double *restrict t3,
                                const double *restrict zh, const double *restrict shh, const double *restrict zf,
-                               const double *restrict shf, const double *restrict nn, const double *restrict mm,
-                               const double *restrict s1, const double *restrict Lc, const double *restrict bc,
-                               const double *restrict vsc, const double *restrict vdc, double *restrict J) {
-    for (Py_ssize_t j = 0; j < m; j++) {
+                               const double *restrict shf, const double *restrict coef,
+                               const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
+                               const double *restrict vdc, double *restrict J) {
+    double nb[CHUNK], mb[CHUNK], sb[CHUNK];
+    double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
+    for (Py_ssize_t i = 0; i < n; i++) { nb[i] = c0; mb[i] = c1; sb[i] = c2; }
+    for (int q = k - 2; q >= 0; q--) {
+        double a0 = coef[3 * q], a1 = coef[3 * q + 1], a2 = coef[3 * q + 2];
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double z2 = zf[i] * zf[i];
+            double x = nb[i] * z2, y = mb[i] * z2, w = sb[i] * z2;
+            nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
+        }
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
         double sh2 = shh[j] / zh[j], shg = shf[j] / zf[j];
         sh2 = zh[j] == 0.0 ? 1.0 : sh2;                  /* _shc: 1 at z = 0 */
         shg = zf[j] == 0.0 ? 1.0 : shg;
-        double n = nn[j], n2 = (2 * n) * n, sq = sh2 * sh2;
-        double Ig1 = mm[j] / n2, Igp = s1[j] / n2, Ih = (2 * s1[j]) / sq, Ihp = (2 * (shg + 1)) / sq;
+        double nn = nb[j], n2 = (2 * nn) * nn, sq = sh2 * sh2;
+        double Ig1 = mb[j] / n2, Igp = sb[j] / n2, Ih = (2 * sb[j]) / sq, Ihp = (2 * (shg + 1)) / sq;
         double tj = t[j], L = Lc[j];
         double A = L - (tj * vsc[j]) / 2, d = (tj * vdc[j]) / 2;
         double AA = A * A, dd = d * d;
@@ -144,49 +196,37 @@ VEC_CLONES static void j_final(Py_ssize_t m, const double *restrict t, const dou
     }
 }
 
-/* The n, m, S1 series (_horner_nms with its k terms) at z² for the M values z. */
-VEC_CLONES static void j_series(Py_ssize_t M, int k, const double *restrict z, const double *restrict coef,
-                                double *restrict nb, double *restrict mb, double *restrict sb) {
-    double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
-    for (Py_ssize_t i = 0; i < M; i++) { nb[i] = c0; mb[i] = c1; sb[i] = c2; }
-    for (int t = k - 2; t >= 0; t--) {
-        double a0 = coef[3 * t], a1 = coef[3 * t + 1], a2 = coef[3 * t + 2];
-        for (Py_ssize_t i = 0; i < M; i++) {
-            double z2 = z[i] * z[i];
-            double x = nb[i] * z2, y = mb[i] * z2, w = sb[i] * z2;
-            nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
-        }
-    }
-}
-
-/* J = ∫ṡ² + β∫s̈² (_J3's arithmetic, element by element) of the 3 m durations Tall of the
-   m active pieces (L, β, v0 + v1, v0 - v1 of piece j in Lc[j], bc[j], vsc[j], vdc[j]);
-   nb, mb, sb: scratch of 3 m for the n, m, S1 series. */
-static void j_batch(Py_ssize_t m, int k, const double *Tall, const double *T3, const double *args,
-                    const double *sh, const double *Lc, const double *bc, const double *vsc,
-                    const double *vdc, const double *coef, double *J, double *nb, double *mb, double *sb) {
-    Py_ssize_t M = 3 * m;
-    j_series(M, k, args + M, coef, nb, mb, sb);
-    for (int q = 0; q < 3; q++) {
-        Py_ssize_t o = q * m;
-        j_final(m, Tall + o, T3 + o, args + o, sh + o, args + M + o, sh + M + o, nb + o, mb + o, sb + o,
-                Lc, bc, vsc, vdc, J + o);
+/* _share_time's slopes of the m active pieces from their J at T - h, T, T + h (J: 3 m,
+   Tc = the durations T): d1 = J', inv = 1 / J'' (its floor as numpy's maximum). */
+VEC_CLONES static void slopes(Py_ssize_t m, const double *restrict J, const double *restrict Tc,
+                              double *restrict d1b, double *restrict invb) {
+    for (Py_ssize_t j = 0; j < m; j++) {
+        double J0 = J[j], J1 = J[m + j], J2 = J[2 * m + j];
+        double Ti = Tc[j], h = FD_H_R * Ti;
+        double d1 = (J2 - J0) / (2.0 * h);
+        double d2 = ((J2 - 2.0 * J1) + J0) / (h * h);
+        double fl = ((1e-12 * fabs(J1)) / (Ti * Ti)) + 1e-300;
+        d2 = (d2 >= fl || isnan(d2)) ? d2 : fl;          /* np.maximum(d2, fl) */
+        d1b[j] = d1;
+        invb[j] = 1.0 / d2;
     }
 }
 
 /* share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, first, m, k, Tall, T3, args, sh,
-   coef, n_p, d1, inv) -> chains still moving.  One Newton step of _share_time on the
+   coef, n_p, d1, inv, work) -> chains still moving.  One Newton step of _share_time on the
    active pieces (share_args' m, k, Tall; T3 = Tall ** 3 and sh = np.sinh(args) by numpy;
-   vs = va + vb, vd = va - vb): T, lam, conv updated in place. */
+   vs = va + vb, vd = va - vb): T, lam, conv updated in place.  work: scratch of 7 m
+   doubles or more (the caller's, kept over the steps). */
 static PyObject *share_step(PyObject *self, PyObject *a) {
     PyObject *o[20];
     int first, k;
     Py_ssize_t m;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOpniOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &first, &m, &k, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16]))
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOpniOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &first, &m, &k, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16],
+                          &o[17]))
         return NULL;
     Bufs b = {.n = 0};
-    Py_ssize_t nc1;
+    Py_ssize_t nc1, nwork;
     double *L = get(&b, o[0], 8, 0, NULL);
     double *beta = L ? get(&b, o[1], 8, 0, NULL) : NULL;
     double *vs = beta ? get(&b, o[2], 8, 0, NULL) : NULL;
@@ -204,10 +244,14 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
     double *npc = coef ? get(&b, o[14], 8, 0, NULL) : NULL;
     double *d1b = npc ? get(&b, o[15], 8, 1, NULL) : NULL;
     double *invb = d1b ? get(&b, o[16], 8, 1, NULL) : NULL;
-    if (!invb) { release(&b); return NULL; }
+    double *work = invb ? get(&b, o[17], 8, 1, &nwork) : NULL;
+    if (!work) { release(&b); return NULL; }
+    if (nwork < 7 * m || k < 1 || k > NTERMS) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "share_step: work or terms");
+        return NULL;
+    }
     Py_ssize_t n_c = nc1 - 1, j = 0, moving = 0;
-    double *work = PyMem_Malloc((size_t)(m > 0 ? m : 1) * 16 * sizeof(double));
-    if (!work) { release(&b); return PyErr_NoMemory(); }
     double *Lc = work, *bc = work + m, *vsc = work + 2 * m, *vdc = work + 3 * m, *Jb = work + 4 * m;
     for (Py_ssize_t c = 0; c < n_c; c++) {              /* the active pieces, compact */
         if (conv[c]) continue;
@@ -215,7 +259,16 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
             Lc[j] = L[p]; bc[j] = beta[p]; vsc[j] = vs[p]; vdc[j] = vd[p];
         }
     }
-    j_batch(m, k, Tall, T3, args, sh, Lc, bc, vsc, vdc, coef, Jb, work + 7 * m, work + 10 * m, work + 13 * m);
+    Py_ssize_t M = 3 * m;
+    for (int q = 0; q < 3; q++) {
+        Py_ssize_t o3 = q * m;
+        for (Py_ssize_t j0 = 0; j0 < m; j0 += CHUNK) {
+            Py_ssize_t n = m - j0 < CHUNK ? m - j0 : CHUNK, x = o3 + j0;
+            j_chunk(n, k, Tall + x, T3 + x, args + x, sh + x, args + M + x, sh + M + x, coef,
+                    Lc + j0, bc + j0, vsc + j0, vdc + j0, Jb + x);
+        }
+    }
+    slopes(m, Jb, Tall + m, d1b, invb);                 /* Tall[m + j]: the duration T itself */
     j = 0;
     for (Py_ssize_t c = 0; c < n_c; c++) {
         if (conv[c]) continue;
@@ -223,17 +276,10 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
         Py_ssize_t j0 = j;
         double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
         for (int64_t p = p0; p < p1; p++, j++) {
-            double J[3] = {Jb[j], Jb[m + j], Jb[2 * m + j]};
-            double Ti = T[p], h = FD_H_R * Ti;
-            double d1 = (J[2] - J[0]) / (2.0 * h);
-            double d2 = ((J[2] - 2.0 * J[1]) + J[0]) / (h * h);
-            d2 = np_max(d2, ((1e-12 * fabs(J[1])) / (Ti * Ti)) + 1e-300);
-            double inv = 1.0 / d2;
-            d1b[j] = d1;
-            invb[j] = inv;
+            double d1 = d1b[j], inv = invb[j];
             s_inv += inv;
             s_d1inv += d1 * inv;
-            s_T += Ti;
+            s_T += T[p];
             s_ad1 += fabs(d1);
         }
         double l = first ? -s_d1inv / s_inv : lam[c];
@@ -268,7 +314,6 @@ static PyObject *share_step(PyObject *self, PyObject *a) {
         }
         lam[c] = l + nan_to_num(dlam);
     }
-    PyMem_Free(work);
     release(&b);
     return PyLong_FromSsize_t(moving);
 }
@@ -427,7 +472,8 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
    with vf[r] + step[r] at both ends (j = -1, n).  Each difference is numpy's (one product
    of the step and the integer distance, one subtraction); with every input finite and
    > 0 no difference is a nan or a -0, so their maximum is one value whatever the order
-   numpy's reduction takes them in: the same bits. */
+   numpy's reduction takes them in: the same bits.  The differences that cannot reach
+   the maximum (bounded through the row's largest need) are not made: see the loop. */
 static PyObject *tent_rows(PyObject *self, PyObject *a) {
     PyObject *oneed, *ovf, *ostep, *oout;
     if (!PyArg_ParseTuple(a, "OOOO", &oneed, &ovf, &ostep, &oout)) return NULL;
@@ -453,14 +499,26 @@ static PyObject *tent_rows(PyObject *self, PyObject *a) {
     if (ok) {
         for (Py_ssize_t r = 0; r < R; r++) {
             const double *p = need + r * n;
-            double st = step[r], side = vf[r] + st;
+            double st = step[r], side = vf[r] + st, pmax = p[0];
+            for (Py_ssize_t j = 1; j < n; j++) pmax = p[j] > pmax ? p[j] : pmax;
             for (Py_ssize_t k = 0; k < n; k++) {
                 double m = side - st * (double)(k + 1);          /* j = -1 */
                 double e = side - st * (double)(n - k);          /* j = n */
                 if (e > m) m = e;
-                for (Py_ssize_t j = 0; j < n; j++) {
-                    double c = p[j] - st * (double)(k > j ? k - j : j - k);
-                    if (c > m) m = c;
+                /* the j at distance d = |k - j| = 0, 1, ... from k, until pmax - st d < m:
+                   then every difference at d or farther is below m (st d grows with d, each
+                   rounding is monotone, p[j] <= pmax), so it cannot be the maximum */
+                for (Py_ssize_t d = 0; d < n; d++) {
+                    double sd = st * (double)d;
+                    if (pmax - sd < m) break;
+                    if (k - d >= 0) {
+                        double c = p[k - d] - sd;
+                        if (c > m) m = c;
+                    }
+                    if (d > 0 && k + d < n) {
+                        double c = p[k + d] - sd;
+                        if (c > m) m = c;
+                    }
                 }
                 out[r * n + k] = m;
             }

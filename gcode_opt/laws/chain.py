@@ -143,18 +143,18 @@ def _share_time_core(core, L, beta, va, vb, owner, T_total, T_init):
     T = np.array(T_init, float)
     lam = np.zeros(n_c)
     conv = np.zeros(n_c, np.uint8)
-    Tall, args = np.empty(3 * P), np.empty(6 * P)
-    d1, inv = np.empty(P), np.empty(P)
+    Tall, args, sh, T3 = np.empty(3 * P), np.empty(6 * P), np.empty(6 * P), np.empty(3 * P)
+    d1, inv, work = np.empty(P), np.empty(P), np.empty(7 * P)
     for it in range(MAX_NEWTON):
-        m, k = core.share_args(T, sqb, poff, conv, Tall, args, _ZMAX_C)
+        m, k = core.share_args(T, sqb, poff, conv, Tall, args, _ZMAX_C, d1)
         if m < 0:
             return None
         if m == 0:
             break
-        sh = np.sinh(args[:6 * m])
-        T3 = Tall[:3 * m] ** 3
+        np.sinh(args[:6 * m], out=sh[:6 * m])
+        np.power(Tall[:3 * m], 3, out=T3[:3 * m])        # (what ** 3 calls)
         core.share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, it == 0, m, k, Tall, T3, args, sh,
-                        _COEF_C, npc, d1, inv)
+                        _COEF_C, npc, d1, inv, work)
     return T, lam, conv.astype(bool)
 
 

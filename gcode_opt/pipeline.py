@@ -586,8 +586,10 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
     on_line = per_stroke = _stroke_sums(out_ranges, t, a2, v2, None if sink_rests else ring_line)
     progress = opts.progress.advance if opts.progress is not None else None
     if per_stroke is None:
-        on_line = per_stroke = _per_stroke(out_ranges, t, a2, v2)
-        if ring_line is not None:
+        per_stroke = _per_stroke(out_ranges, t, a2, v2)
+        if ring_line is None:
+            on_line = per_stroke
+        else:
             def on_line(r, _a=per_stroke, _b=ring_line):
                 _a(r)
                 _b(r)

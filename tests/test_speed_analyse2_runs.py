@@ -17,7 +17,6 @@ import pytest
 from gcode_opt import features as feat
 from gcode_opt import pipeline as pl
 from gcode_opt import state as reader
-from gcode_opt import strokes as stk
 from gcode_opt import vertex_filter
 from gcode_opt.firmware import simulate as fwsim
 from gcode_opt.profile import load_profile

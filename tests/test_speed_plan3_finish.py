@@ -3,7 +3,6 @@ arrays (curves.finish_curves: _finish_rows, _jerk_junction_rows, _predict_rows) 
 one finish_curve call per stroke.  Every SegmentPlan field must be the same bits and type
 as 9bb98a8's loop over finish_curve, copied below (it calls the live junction_accels and
 predict_curve, which tests/test_speed_budget.py pins to their earlier forms)."""
-import math
 
 import numpy as np
 import pytest

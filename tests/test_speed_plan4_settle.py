@@ -5,7 +5,6 @@ again.  The verdict must be "" exactly where ddecd40's _seg_fault (copied below,
 _fine_1d and _seg_fault_any) finds nothing: on the plans of real files and on random and
 degenerate blocks."""
 import math
-import os
 
 import numpy as np
 import pytest

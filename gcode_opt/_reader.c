@@ -859,6 +859,27 @@ static int fused_close(void *p)
     return rc;
 }
 
+/* The FusedMove of a G0/G1 that linear_calc read (lo) from the session's state as it is
+ * before the line: kind 0 a line, 1 E only (the callers tell an E of 0 apart), and
+ * linear()'s choice of acceleration.  fused_line and fused_peek fill it so. */
+static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
+{
+    const LinIn *in = &ss->in;
+    int eonly = lo->x == in->x0 && lo->y == in->y0 && lo->z == in->z0;
+    out->kind = eonly ? 1 : 0;
+    out->x0 = in->x0;
+    out->y0 = in->y0;
+    out->z0 = in->z0;
+    out->x1 = lo->x;
+    out->y1 = lo->y;
+    out->z1 = lo->z;
+    out->e = lo->de;
+    out->v = lo->v * in->speed;
+    out->flow_r = ss->flow;
+    out->lim = ss->lim;
+    out->accel = eonly ? ss->ar : (lo->de > 0.0 ? ss->ap : (in->one ? ss->ap : ss->at));
+}
+
 /* One line: 0 read (no move), 1 read with a move in *out, 2 not read here (the state is
  * written back: call step()), -1 error. */
 static int fused_line(void *p, PyObject *raw, FusedMove *out)
@@ -890,7 +911,9 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
         if (lo.fallback)
             goto other;
         LinIn *in = &ss->in;
-        double x0 = in->x0, y0 = in->y0, z0 = in->z0;
+        int moved = !(lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0 && lo.de == 0.0);
+        if (moved)
+            fill_fused(ss, &lo, out);
         in->x0 = lo.x;
         in->y0 = lo.y;
         in->z0 = lo.z;
@@ -900,27 +923,7 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
             ss->dirty_v = 1;
         }
         ss->dirty = 1;
-        int eonly = lo.x == x0 && lo.y == y0 && lo.z == z0;
-        if (eonly && lo.de == 0.0)
-            return 0;
-        out->x0 = x0;
-        out->y0 = y0;
-        out->z0 = z0;
-        out->x1 = lo.x;
-        out->y1 = lo.y;
-        out->z1 = lo.z;
-        out->e = lo.de;
-        out->v = lo.v * in->speed;
-        out->flow_r = ss->flow;
-        out->lim = ss->lim;
-        if (eonly) {
-            out->kind = 1;
-            out->accel = ss->ar;
-        } else {
-            out->kind = 0;
-            out->accel = lo.de > 0.0 ? ss->ap : (in->one ? ss->ap : ss->at);
-        }
-        return 1;
+        return moved;
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
         if (read_words(s, code_n, 4, "SPTR", &w) < 0)
@@ -977,35 +980,24 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     linear_calc(in, &w, &lo);
     if (lo.fallback)
         return 0;                      /* Python decides */
-    int eonly = lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0;
     FusedMove *out = &rm->fm;
-    out->kind = eonly ? (lo.de == 0.0 ? 2 : 1) : 0;
-    out->x0 = in->x0;
-    out->y0 = in->y0;
-    out->z0 = in->z0;
-    out->x1 = lo.x;
-    out->y1 = lo.y;
-    out->z1 = lo.z;
-    out->e = lo.de;
-    out->v = lo.v * in->speed;
-    out->flow_r = ss->flow;
-    out->lim = ss->lim;
+    fill_fused(ss, &lo, out);
+    int eonly = out->kind == 1;
+    if (eonly && lo.de == 0.0)
+        out->kind = 2;
     rm->e1 = in->e + lo.de;
     rm->v1 = lo.v;
     rm->speed = in->speed;
     rm->has_f = lo.has_f;
     rm->e_rel = lo.e_rel;
     rm->xyz_rel = !in->abs_xyz;
-    if (eonly) {                       /* linear()'s choice of accel and feature */
-        out->accel = ss->ar;
+    if (eonly) {                       /* linear()'s choice of accel object and feature */
         rm->accel = ss->o_ar;
         rm->feature = ss->o_feature;
     } else if (lo.de > 0.0) {
-        out->accel = ss->ap;
         rm->accel = ss->o_ap;
         rm->feature = ss->o_feature;
     } else {
-        out->accel = in->one ? ss->ap : ss->at;
         rm->accel = in->one ? ss->o_ap : ss->o_at;
         rm->feature = TRAVEL;
     }

@@ -80,18 +80,17 @@ def law_knots(strokes, T, beta, n):
         v[:, -1] = v1[g]
         for q, i in enumerate(rows):
             out[i] = (s[q], v[q])
-    for i in vv:
+    for i in vv:                  # strokes of several moves: their vertices' knots merged in
         s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
-        if i in vv:
-            vs = np.array([p[0] for p in vv[i]])
-            min_gap = min(MIN_SEG_D, L[i] / (4 * n[i]))
-            gap = np.min(np.abs(s[:, None] - vs[None, :]), axis=1)
-            keep = np.ones(len(s), bool)
-            keep[1:-1] = gap[1:-1] >= min_gap
-            s = np.concatenate([s[keep], vs])
-            v = np.concatenate([v[keep], [p[1] for p in vv[i]]])
-            order = np.argsort(s, kind="stable")
-            s, v = s[order], v[order]
+        vs = np.array([p[0] for p in vv[i]])
+        min_gap = min(MIN_SEG_D, L[i] / (4 * n[i]))
+        gap = np.min(np.abs(s[:, None] - vs[None, :]), axis=1)
+        keep = np.ones(len(s), bool)
+        keep[1:-1] = gap[1:-1] >= min_gap
+        s = np.concatenate([s[keep], vs])
+        v = np.concatenate([v[keep], [p[1] for p in vv[i]]])
+        order = np.argsort(s, kind="stable")
+        s, v = s[order], v[order]
         s[0], s[-1] = 0.0, L[i]
         v = np.maximum(v, 0.0)
         v[0], v[-1] = v0[i], v1[i]
@@ -481,7 +480,7 @@ def _finish(stroke, sk, vk, rules, defer=False):
         acc = np.maximum(acc, np.minimum(rounding_junction_accels(sk, vk), stroke.accel))
     step_v = np.inf
     if rules.junction == "jerk":         # per-axis jerk limit -> limit on the change of F
-        step_v = 0.9 * min(stroke.lim.jerk_x, stroke.lim.jerk_y) / max(abs(stroke.ux), abs(stroke.uy))
+        step_v = jerk_step_v(stroke)
     if defer:                             # hold_cruise_accels too in _finish_feeds_and_figures
         if (slow0 and not e0) or (slow1 and not e1):
             return None                   # (as below)
@@ -497,6 +496,12 @@ def _finish(stroke, sk, vk, rules, defer=False):
             feeds[-1] = max(stroke.v1, MIN_FEED_V)
     t_pred, a2_pred = predict(sk, vk, acc)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def jerk_step_v(st):
+    """Under classic jerk, how far a segment's F may step from the next one's (mm/s): 0.9 of
+    the smaller axis jerk over the stroke's larger direction component (segment_feeds)."""
+    return 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
 
 
 def _finish_jerk_rows(strokes, knots, rules):
@@ -540,7 +545,7 @@ def _finish_jerk_rows(strokes, knots, rules):
         take, step_v = [], []
         for k, (st, e) in enumerate(zip(sts, edge.tolist())):
             if keep[k] and not e:
-                step_v.append(0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy)))
+                step_v.append(jerk_step_v(st))
                 take.append(k)
         if not take:
             continue
@@ -853,7 +858,7 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
     L, jd, a_top = st.length_d, st.lim.jd, _accel_top(st)
     v_lo, v_hi = 0.0, v_peak
     if rules.junction == "jerk" and fixed_a is None:   # F within the jerk of the slicer's F (segment_feeds)
-        step_v = 0.9 * min(st.lim.jerk_x, st.lim.jerk_y) / max(abs(st.ux), abs(st.uy))
+        step_v = jerk_step_v(st)
         v_lo, v_hi = st.v_feed - step_v, min(v_hi, st.v_feed + step_v)
     # lead-in / lead-out at the corner speeds where the corner needs more than a gentle ramp
     e_min = rules.min_edge_d(*u)

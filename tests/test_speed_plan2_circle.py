@@ -1,7 +1,8 @@
 """Round 2 of issue 8's planning CPU in laws/circle.py: the collocation Newton writes its
 Jacobians' constant part once and only the diagonal per step, and the Newton batches run
 with OpenBLAS on one thread (blas_one_thread).  The start commit's Newton (a071b70) is kept
-here as the reference; the new one must give the same bits, with one thread or the default."""
+here as the reference; the new one must give the same bits as it under the same BLAS
+thread setting, one thread or the default."""
 import numpy as np
 import pytest
 
@@ -82,9 +83,13 @@ def test_newton_same_bits_as_start_commit(n, seed):
     for got in (circle._newton_cheb(n, phi, gam2, u0, u1, w0),):
         for a, b in zip(got, ref):
             _same(a, b)
+    # OpenBLAS's solve of a batch may round otherwise on one thread than on several (seen
+    # at n = 48 on a 2-core AVX2 machine): one thread is compared with the reference on one
+    # thread (what process() runs), the default with the default
     with blas.blas_one_thread():
         got1 = circle._newton_cheb(n, phi, gam2, u0, u1, w0)
-    for a, b in zip(got1, ref):
+        ref1 = _newton_cheb_ref(n, phi, gam2, u0, u1, w0)
+    for a, b in zip(got1, ref1):
         _same(a, b)
 
 

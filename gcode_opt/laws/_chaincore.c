@@ -77,6 +77,9 @@ static inline double nan_to_num(double x) {
 /* prims.cube and prims.sinh (its Horner on the fixed coefficients c[0..nc-1], from the
    last): the same operations in the same order */
 static inline double p_cube(double x) { return (x * x) * x; }
+/* the same, as a macro for the vector clones (a call from them to a function built for
+   another target is not inlined: a call per element and AVX/SSE transitions) */
+#define P_CUBE(x) (((x) * (x)) * (x))
 
 static inline double p_sinh(double z, const double *restrict c, int nc) {
     double z2 = z * z, s = c[nc - 1];
@@ -163,7 +166,7 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
     }
     for (Py_ssize_t j = 0; j < n; j++) {
         double zfj = zf[j], zhj = zfj / 2;
-        double sh2 = (zhj + p_cube(zhj) * hb[j]) / zhj, shg = (zfj + p_cube(zfj) * fb[j]) / zfj;
+        double sh2 = (zhj + P_CUBE(zhj) * hb[j]) / zhj, shg = (zfj + P_CUBE(zfj) * fb[j]) / zfj;
         sh2 = zhj == 0.0 ? 1.0 : sh2;                    /* prims.shc: 1 at z = 0 */
         shg = zfj == 0.0 ? 1.0 : shg;
         double nn = nb[j], n2 = (2 * nn) * nn, sq = sh2 * sh2;
@@ -172,7 +175,7 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
         double A = L - (tj * vsc[j]) / 2, d = (tj * vdc[j]) / 2;
         double AA = A * A, dd = d * d;
         double iv = ((L * L + AA * Ig1) + dd * Ih) / tj;
-        double ia = (AA * Igp + dd * Ihp) / p_cube(tj);
+        double ia = (AA * Igp + dd * Ihp) / P_CUBE(tj);
         J[j] = iv + bc[j] * ia;
     }
 }

@@ -178,5 +178,4 @@ def test_forced_release_and_cycling_follow_the_per_chain_rules(monkeypatch):
     probs = _synthetic_chains(30, seed=5)
     got, want = chain_law.solve_chains(probs), ref.ref_solve_chains(probs)
     assert sum(not lw.converged for lw in want) >= 10       # the rules gave up on many
-    for a, b in zip(got, want, strict=True):
-        ref._same(a, b)
+    ref._all_close(got, want)      # np.sinh there, prims.sinh here: see test_speed_chains._close

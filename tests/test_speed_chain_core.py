@@ -2,7 +2,12 @@
 the numpy code's bits: _share_time with the core and _share_time_numpy on the batches that
 real chains of the bundled full-speed gyroid (classic jerk and square-corner velocity
 profiles, cold and warm) hand it, whole solves compared law by law, and the inputs where
-the core declines (the numpy code then runs: its errors, its other γ branch)."""
+the core declines (the numpy code then runs: its errors, its other γ branch).
+
+Since session 20 (chainprim) both loops are whole C calls (share_time, tod_solve) and the
+numpy code they match uses the deterministic sinh and cube of laws/prims.py
+(chain._time_of_distance and chain._eval: the line law's time_of_distance and eval with
+those); the line law's own (np.sinh, ** 3) is now only a tolerance check (_close_to_line)."""
 import os
 import subprocess
 import sys
@@ -12,6 +17,7 @@ import pytest
 
 from gcode_opt import chains
 from gcode_opt.laws import chain as lc
+from gcode_opt.laws.line import time_of_distance
 
 pytestmark = pytest.mark.skipif(lc.CORE_MOD is None, reason=f"the chain core is not used here ({lc.CORE_WHY})")
 
@@ -121,26 +127,39 @@ def _tod_batches(monkeypatch, prof):
     return calls
 
 
+def _close_to_line(law, x, got):
+    """The line law's time_of_distance and eval (np.sinh, ** 3) vs the chains' (prims): the
+    same roots to the Newton's resolution (4 eps of the length or the duration) plus the
+    last bits of s(t) and ṡ(t), so within 1e-12 of the duration and of the speed scale."""
+    t = time_of_distance(law, x)
+    v = law.eval(t, "v")[1]
+    assert np.all(np.abs(got[0] - t) <= 1e-12 * law.T)
+    vs = np.maximum(np.abs(law.v0), np.abs(law.v1)) + np.abs(law.L) / law.T
+    assert np.all(np.abs(got[1] - v) <= 1e-12 * vs)
+
+
 @pytest.mark.parametrize("prof", ["prusa-mk3s", "voron24"])
 def test_time_of_distance_core_equals_numpy_on_real_batches(prof, monkeypatch):
     calls = _tod_batches(monkeypatch, prof)
     assert len(calls) >= 3 and sum(x.size for _, x in calls) > 500
     for law, x in calls:
         got = lc._tod_core(lc.CORE_MOD, law, x)
-        want_t = lc.time_of_distance(law, x)
-        want_v = law.eval(want_t, "v")[1]
+        want_t = lc._time_of_distance(law, x)
+        want_v = lc._eval(law, want_t, "v")[1]
         assert np.array_equal(_bits(got[0]), _bits(want_t)) and np.array_equal(_bits(got[1]), _bits(want_v))
+        _close_to_line(law, x, got)
 
 
 def test_time_of_distance_core_out_of_steps_and_edges(monkeypatch):
-    from gcode_opt.laws.line import LineLaw, time_of_distance
+    from gcode_opt.laws.line import LineLaw
+    time_of_distance = lc._time_of_distance
     calls = _tod_batches(monkeypatch, "prusa-mk3s")
     law, x = max(calls, key=lambda c: c[1].size)
     for it in (1, 2, 3):          # stopped early: the laws still going are evaluated where they stopped
         got = lc._tod_core(lc.CORE_MOD, law, x, max_iter=it)
         want_t = time_of_distance(law, x, max_iter=it)
         assert np.array_equal(_bits(got[0]), _bits(want_t))
-        assert np.array_equal(_bits(got[1]), _bits(law.eval(want_t, "v")[1]))
+        assert np.array_equal(_bits(got[1]), _bits(lc._eval(law, want_t, "v")[1]))
     # targets at and beyond the ends (clamped), a reversed law (L < 0), a zero-length one
     L = np.array([1.0, 1.0, 1.0, -0.8, 0.0, 0.6])
     T = np.array([0.02, 0.02, 0.02, 0.03, 0.01, 0.015])
@@ -149,4 +168,5 @@ def test_time_of_distance_core_out_of_steps_and_edges(monkeypatch):
     got = lc._tod_core(lc.CORE_MOD, law, x)
     want_t = time_of_distance(law, x)
     assert np.array_equal(_bits(got[0]), _bits(want_t))
-    assert np.array_equal(_bits(got[1]), _bits(law.eval(want_t, "v")[1]))
+    assert np.array_equal(_bits(got[1]), _bits(lc._eval(law, want_t, "v")[1]))
+    _close_to_line(law, x, got)

@@ -3,7 +3,11 @@ bit for bit the laws of the per-chain active set it replaced: the reference belo
 code as it stood at commit 1950734 (ref_solve_chains, its _solve_fixed, _share_time,
 _vertex_speeds, _multipliers), run on real chains of the bundled full-speed gyroid under a
 classic-jerk and a square-corner-velocity profile, cold and warm-started, and on chains with
-a zero-length segment (the flat vertex-to-piece map's fallback)."""
+a zero-length segment (the flat vertex-to-piece map's fallback).
+
+Since session 20 (chainprim) the chains' time sharing and time of distance use the
+deterministic sinh and cube of laws/prims.py where this reference has np.sinh and ** 3
+(through LineLaw): the comparison is a tolerance check (_close), see there."""
 import numpy as np
 import pytest
 
@@ -263,6 +267,39 @@ def _same(a, b):
         assert np.array_equal(getattr(a.pieces, f), getattr(b.pieces, f), equal_nan=True), f
 
 
+# The reference's J, time of distance and speeds use np.sinh and ** 3 (LineLaw); the chains
+# now use prims.sinh and prims.cube (session 20, chainprim: a documented change of the last
+# bits).  J's last bits differ by an ulp or two, the Newton step's central differences
+# (h = 1e-4 T) amplify that to ~1e-12 of the slopes, so the laws agree to ~1e-12 of each
+# chain's scale; a chain whose Newton stopping test sits at its threshold may stop a step
+# earlier or later, its law then differs within the Newton tolerance (NEWTON_TOL_R = 1e-8):
+# bounded here by CLOSE_ALL, and such chains must be rare (CLOSE_FEW).  The active set must
+# still end on the same binding vertices with the same convergence flags.
+CLOSE_TIGHT, CLOSE_ALL, CLOSE_FEW = 1e-11, 1e-7, 0.03
+
+
+def _close(a, b):
+    """The largest difference of chain laws a and b over their numbers, relative to each
+    field's scale in b (binding and converged: exactly equal)."""
+    assert np.array_equal(a.binding, b.binding) and a.converged == b.converged
+    worst = 0.0
+    fields = [(getattr(a, f), getattr(b, f)) for f in FIELDS[1:] if f != "converged"]
+    fields += [(getattr(a.pieces, f), getattr(b.pieces, f)) for f in _Pieces.__slots__]
+    for x, y in fields:
+        x, y = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(y, float))
+        assert x.shape == y.shape
+        if x.size:
+            worst = max(worst, float(np.max(np.abs(x - y))) / max(float(np.max(np.abs(y))), 1e-300))
+    return worst
+
+
+def _all_close(got, want):
+    """Every pair of laws within CLOSE_ALL, all but a few (CLOSE_FEW) within CLOSE_TIGHT."""
+    d = np.array([_close(a, b) for a, b in zip(got, want, strict=True)])
+    assert np.all(d <= CLOSE_ALL), float(d.max())
+    assert np.count_nonzero(d > CLOSE_TIGHT) <= 1 + CLOSE_FEW * d.size, np.sort(d)[-5:]
+
+
 _CACHE = {}
 
 
@@ -287,15 +324,13 @@ def test_flat_active_set_equals_the_per_chain_one(prof, ratio):
     probs = chains._problems(sts, T, (T / chains.GAMMA_MIN) ** 2, profile)
     got, want = solve_chains(probs), ref_solve_chains(probs)
     assert sum(lw.binding.size for lw in want) > 50          # caps bind: the active set worked
-    for a, b in zip(got, want, strict=True):
-        _same(a, b)
+    _all_close(got, want)
     # warm-started at a nearby duration, as the candidate table does
     T2 = T * 1.05
     probs2 = chains._problems(sts, T2, (T2 / chains.GAMMA_MIN) ** 2, profile)
     init_B = [lw.binding for lw in want]
     init_t = [lw.vert_t * 1.05 for lw in want]
-    for a, b in zip(solve_chains(probs2, init_B, init_t), ref_solve_chains(probs2, init_B, init_t), strict=True):
-        _same(a, b)
+    _all_close(solve_chains(probs2, init_B, init_t), ref_solve_chains(probs2, init_B, init_t))
 
 
 def test_zero_length_segment_takes_the_searchsorted_path():
@@ -316,10 +351,9 @@ def test_zero_length_segment_takes_the_searchsorted_path():
             with pytest.raises(type(e)):
                 solve_chains([pr])
             continue
-        _same(solve_chains([pr])[0], want[0])
+        _all_close(solve_chains([pr]), want)
         fine.append(pr)
     assert len(fine) >= 4
     want = ref_solve_chains(fine)
     assert sum(lw.binding.size for lw in want) > 5
-    for a, b in zip(solve_chains(fine), want, strict=True):
-        _same(a, b)
+    _all_close(solve_chains(fine), want)

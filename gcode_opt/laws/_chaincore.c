@@ -1,12 +1,13 @@
-/* The chains' time sharing (laws/chain.py: _share_time), its Newton steps compiled.
+/* The chains' time sharing and time of distance (laws/chain.py: _share_time_numpy,
+_time_of_distance), their whole Newton loops compiled.
 
 Optional extension _gcode_opt_chaincore (setup.py builds it; laws/chain.py falls back to
 the numpy code when it is missing, stale or GCODE_OPT_PURE_PYTHON is set).  It must give
 the numpy code's bits: every double operation below is the one numpy does, in the same
-order (built with -ffp-contract=off, no fast math).  numpy's sinh and power are not
-libm's on every machine (SIMD versions), so they stay numpy's: share_args writes their
-arguments, the Python loop calls np.sinh and ** 3 on them, and share_step does the rest
-of the step.  Sums per chain are bincount's: from 0.0, in the order of the pieces. */
+order (built with -ffp-contract=off, no fast math).  No libm function is called on a
+value: sinh and x³ are the deterministic primitives of laws/prims.py (+ - * / only, the
+same operations as there: p_sinh, p_cube), so the bits are the same on every machine.
+Sums per chain are bincount's: from 0.0, in the order of the pieces. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
@@ -22,9 +23,10 @@ of the step.  Sums per chain are bincount's: from 0.0, in the order of the piece
 #define NEWTON_TOL_R 1e-8
 #define GAMMA_SWITCH 4.0
 #define NTERMS 24
+#define SINH_MAX 32        /* prims.SINH_TERMS (17) at most */
 
 typedef struct {
-    Py_buffer v[24];
+    Py_buffer v[32];
     int n;
 } Bufs;
 
@@ -72,14 +74,40 @@ static inline double nan_to_num(double x) {
 #define VEC_CLONES
 #endif
 
-/* share_args' arithmetic on the m active pieces, compact: durations Tm, √β sq; writes
-   Tlo = Tm - h, Thi = Tm + h (h = FD_H_R Tm) and args = [γ/2, γ] at the three (6 m).
-   Returns 1 where a duration is not finite and > 0 or a γ not below GAMMA_SWITCH, else 0
-   and *gmax the bits of the largest γ (all then > 0 or +0: their bits order as their
-   values, as their squares do). */
+/* prims.cube and prims.sinh (its Horner on the fixed coefficients c[0..nc-1], from the
+   last): the same operations in the same order */
+static inline double p_cube(double x) { return (x * x) * x; }
+/* the same, as a macro for the vector clones (a call from them to a function built for
+   another target is not inlined: a call per element and AVX/SSE transitions) */
+#define P_CUBE(x) (((x) * (x)) * (x))
+
+static inline double p_sinh(double z, const double *restrict c, int nc) {
+    double z2 = z * z, s = c[nc - 1];
+    for (int q = nc - 2; q >= 0; q--) { s = s * z2; s = s + c[q]; }
+    return z + p_cube(z) * s;
+}
+
+/* prims.shc: sinh(z)/z, 1 at z = 0 */
+static inline double p_shc(double z, const double *restrict c, int nc) {
+    double v = p_sinh(z, c, nc) / z;
+    return z == 0.0 ? 1.0 : v;
+}
+
+/* _nms_terms: the least k with zmax <= table[k] (searchsorted left), plus one, <= NTERMS;
+   NTERMS for an empty batch or a nan */
+static int nms_terms(double zm, const double *zmax, Py_ssize_t nz, int empty) {
+    if (empty || isnan(zm)) return NTERMS;
+    Py_ssize_t i = 0;
+    while (i < nz && zmax[i] < zm) i++;
+    return (int)(i + 1 < NTERMS ? i + 1 : NTERMS);
+}
+
+/* The m active pieces' durations Tm and √β sq: Tlo = Tm - h, Thi = Tm + h (h = FD_H_R Tm).
+   Returns 1 where a duration is not finite and > 0 or a γ = T / √β not below GAMMA_SWITCH,
+   else 0 and *gmax the bits of the largest γ (all then > 0 or +0: their bits order as
+   their values, as their squares do). */
 VEC_CLONES static int args_vec(Py_ssize_t m, const double *restrict Tm, const double *restrict sq,
-                               double *restrict Tlo, double *restrict Thi, double *restrict args,
-                               int64_t *gmax) {
+                               double *restrict Tlo, double *restrict Thi, int64_t *gmax) {
     int bad = 0;
     int64_t gb = 0;
     for (Py_ssize_t j = 0; j < m; j++) {
@@ -88,12 +116,6 @@ VEC_CLONES static int args_vec(Py_ssize_t m, const double *restrict Tm, const do
         double g0 = t0 / s, g1 = Ti / s, g2 = t2 / s;
         Tlo[j] = t0;
         Thi[j] = t2;
-        args[j] = g0 / 2;
-        args[m + j] = g1 / 2;
-        args[2 * m + j] = g2 / 2;
-        args[3 * m + j] = g0;
-        args[4 * m + j] = g1;
-        args[5 * m + j] = g2;
         bad |= !(t0 > 0.0) | !(t0 < HUGE_VAL) | !(Ti > 0.0) | !(Ti < HUGE_VAL) | !(t2 > 0.0) | !(t2 < HUGE_VAL)
                | !(g0 < GAMMA_SWITCH) | !(g1 < GAMMA_SWITCH) | !(g2 < GAMMA_SWITCH);
         int64_t b0, b1, b2;
@@ -106,73 +128,22 @@ VEC_CLONES static int args_vec(Py_ssize_t m, const double *restrict Tm, const do
     return bad;
 }
 
-/* share_args(T, sqb, poff, conv, Tall, args, zmax, scratch) -> (m, k)
-   The active pieces (those of chains not conv, in order): Tall = [T - h, T, T + h] (3 m,
-   h = FD_H_R T), args = [γ/2, γ] (6 m, γ = Tall / sqb) for np.sinh; k = the Horner terms
-   the batch needs (_nms_terms over γ²).  m = -1: a duration not finite and > 0 or a γ
-   not below GAMMA_SWITCH (the numpy code then runs: its error or its other branch).
-   scratch: m doubles or more (√β of the active pieces). */
-static PyObject *share_args(PyObject *self, PyObject *a) {
-    PyObject *oT, *osqb, *opoff, *oconv, *oTall, *oargs, *ozmax, *oscr;
-    if (!PyArg_ParseTuple(a, "OOOOOOOO", &oT, &osqb, &opoff, &oconv, &oTall, &oargs, &ozmax, &oscr)) return NULL;
-    Bufs b = {.n = 0};
-    Py_ssize_t P, nc1, nz, nTall, nargs, nscr;
-    double *T = get(&b, oT, 8, 0, &P);
-    double *sqb = T ? get(&b, osqb, 8, 0, NULL) : NULL;
-    int64_t *poff = sqb ? get(&b, opoff, 8, 0, &nc1) : NULL;
-    uint8_t *conv = poff ? get(&b, oconv, 1, 0, NULL) : NULL;
-    double *Tall = conv ? get(&b, oTall, 8, 1, &nTall) : NULL;
-    double *args = Tall ? get(&b, oargs, 8, 1, &nargs) : NULL;
-    double *zmax = args ? get(&b, ozmax, 8, 0, &nz) : NULL;
-    double *scr = zmax ? get(&b, oscr, 8, 1, &nscr) : NULL;
-    if (!scr) { release(&b); return NULL; }
-    Py_ssize_t n_c = nc1 - 1, m = 0;
-    for (Py_ssize_t c = 0; c < n_c; c++)
-        if (!conv[c]) m += poff[c + 1] - poff[c];
-    if (nTall < 3 * m || nargs < 6 * m || nscr < m) {
-        release(&b);
-        PyErr_SetString(PyExc_ValueError, "share_args: buffers");
-        return NULL;
-    }
-    Py_ssize_t j = 0;
-    for (Py_ssize_t c = 0; c < n_c; c++) {              /* the active pieces, compact */
-        if (conv[c]) continue;
-        for (int64_t p = poff[c]; p < poff[c + 1]; p++, j++) {
-            Tall[m + j] = T[p];
-            scr[j] = sqb[p];
-        }
-    }
-    int64_t gb;
-    int bad = args_vec(m, Tall + m, scr, Tall, Tall + 2 * m, args, &gb);
-    double gm;
-    memcpy(&gm, &gb, 8);
-    double zm = gm * gm;                 /* the largest γ²: rounding keeps the order of γ > 0 */
-    release(&b);
-    if (bad) return Py_BuildValue("(ni)", (Py_ssize_t)-1, 0);
-    /* _nms_terms: the least k with zmax <= table[k] (searchsorted left), plus one, <= NTERMS */
-    int k = NTERMS;
-    if (m > 0) {
-        Py_ssize_t i = 0;
-        while (i < nz && zmax[i] < zm) i++;
-        k = (int)(i + 1 < NTERMS ? i + 1 : NTERMS);
-    }
-    return Py_BuildValue("(ni)", m, k);
-}
-
 #define CHUNK 256          /* pieces a pass of j_chunk: its series stay in L1 */
 
 /* J = ∫ṡ² + β∫s̈² (_J3's arithmetic, element by element) of n pieces at one of their
-   three durations: t, t3 = t ** 3, the np.sinh arguments γ/2 (zh) and γ (zf) and values
-   (shh, shf), the pieces' L, β, v0 + v1, v0 - v1; the n, m, S1 series (_horner_nms with
-   its k terms) at γ² first, into the chunk's own scratch (n <= CHUNK). */
-VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, const double *restrict t3,
-                               const double *restrict zh, const double *restrict shh, const double *restrict zf,
-                               const double *restrict shf, const double *restrict coef,
+   three durations t (γ = t / √β: sq), the pieces' L, β, v0 + v1, v0 - v1: the n, m, S1
+   series (_horner_nms with its k terms) at γ², prims.shc at γ/2 and γ (the sinh series'
+   nc coefficients sc), cube(t); each series in the chunk's own scratch (n <= CHUNK). */
+VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, const double *restrict sqc,
+                               const double *restrict coef, const double *restrict sc, int nc,
                                const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
                                const double *restrict vdc, double *restrict J) {
-    double nb[CHUNK], mb[CHUNK], sb[CHUNK];
+    double nb[CHUNK], mb[CHUNK], sb[CHUNK], zf[CHUNK], hb[CHUNK], fb[CHUNK];
     double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
-    for (Py_ssize_t i = 0; i < n; i++) { nb[i] = c0; mb[i] = c1; sb[i] = c2; }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        zf[i] = t[i] / sqc[i];
+        nb[i] = c0; mb[i] = c1; sb[i] = c2;
+    }
     for (int q = k - 2; q >= 0; q--) {
         double a0 = coef[3 * q], a1 = coef[3 * q + 1], a2 = coef[3 * q + 2];
         for (Py_ssize_t i = 0; i < n; i++) {
@@ -181,17 +152,30 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
             nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
         }
     }
+    /* the sinh series (prims.sinh's Horner) at γ/2 and γ */
+    double cl = sc[nc - 1];
+    for (Py_ssize_t i = 0; i < n; i++) { hb[i] = cl; fb[i] = cl; }
+    for (int q = nc - 2; q >= 0; q--) {
+        double a = sc[q];
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double zh = zf[i] / 2, z = zf[i];
+            double h2 = zh * zh, f2 = z * z;
+            double x = hb[i] * h2, y = fb[i] * f2;
+            hb[i] = x + a; fb[i] = y + a;
+        }
+    }
     for (Py_ssize_t j = 0; j < n; j++) {
-        double sh2 = shh[j] / zh[j], shg = shf[j] / zf[j];
-        sh2 = zh[j] == 0.0 ? 1.0 : sh2;                  /* _shc: 1 at z = 0 */
-        shg = zf[j] == 0.0 ? 1.0 : shg;
+        double zfj = zf[j], zhj = zfj / 2;
+        double sh2 = (zhj + P_CUBE(zhj) * hb[j]) / zhj, shg = (zfj + P_CUBE(zfj) * fb[j]) / zfj;
+        sh2 = zhj == 0.0 ? 1.0 : sh2;                    /* prims.shc: 1 at z = 0 */
+        shg = zfj == 0.0 ? 1.0 : shg;
         double nn = nb[j], n2 = (2 * nn) * nn, sq = sh2 * sh2;
         double Ig1 = mb[j] / n2, Igp = sb[j] / n2, Ih = (2 * sb[j]) / sq, Ihp = (2 * (shg + 1)) / sq;
         double tj = t[j], L = Lc[j];
         double A = L - (tj * vsc[j]) / 2, d = (tj * vdc[j]) / 2;
         double AA = A * A, dd = d * d;
         double iv = ((L * L + AA * Ig1) + dd * Ih) / tj;
-        double ia = (AA * Igp + dd * Ihp) / t3[j];
+        double ia = (AA * Igp + dd * Ihp) / P_CUBE(tj);
         J[j] = iv + bc[j] * ia;
     }
 }
@@ -212,245 +196,247 @@ VEC_CLONES static void slopes(Py_ssize_t m, const double *restrict J, const doub
     }
 }
 
-/* share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, first, m, k, Tall, T3, args, sh,
-   coef, n_p, d1, inv, work) -> chains still moving.  One Newton step of _share_time on the
-   active pieces (share_args' m, k, Tall; T3 = Tall ** 3 and sh = np.sinh(args) by numpy;
-   vs = va + vb, vd = va - vb): T, lam, conv updated in place.  work: scratch of 7 m
-   doubles or more (the caller's, kept over the steps). */
-static PyObject *share_step(PyObject *self, PyObject *a) {
-    PyObject *o[20];
-    int first, k;
-    Py_ssize_t m;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOpniOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &first, &m, &k, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16],
-                          &o[17]))
+/* share_time(L, beta, vs, vd, sqb, poff, npc, T_total, T, lam, conv, coef, zmax, sinh_coef,
+   max_newton) -> 0, or -1 (T, lam, conv then meaningless: the numpy code runs from the
+   start) where a duration is not finite and > 0 or a γ not below GAMMA_SWITCH.
+   _share_time_numpy's whole iteration: pieces of chain c at poff[c]:poff[c + 1] (npc:
+   their count as doubles), vs = va + vb, vd = va - vb, sqb = √β; T (the first guess,
+   updated), lam, conv (uint8) written in place.  Each step: the active pieces (those of
+   chains not converged, compact), γ at T - h, T, T + h and the terms k of the n, m, S1
+   series the step's batch needs (_nms_terms over the largest γ²), J at the three (j_chunk),
+   the slopes, then per chain the Newton update of (T, λ). */
+static PyObject *share_time(PyObject *self, PyObject *a) {
+    PyObject *o[14];
+    int max_newton;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &max_newton))
         return NULL;
     Bufs b = {.n = 0};
-    Py_ssize_t nc1, nwork;
-    double *L = get(&b, o[0], 8, 0, NULL);
-    double *beta = L ? get(&b, o[1], 8, 0, NULL) : NULL;
-    double *vs = beta ? get(&b, o[2], 8, 0, NULL) : NULL;
-    double *vd = vs ? get(&b, o[3], 8, 0, NULL) : NULL;
-    double *T = vd ? get(&b, o[4], 8, 1, NULL) : NULL;
-    double *Ttot = T ? get(&b, o[5], 8, 0, NULL) : NULL;
-    int64_t *poff = Ttot ? get(&b, o[6], 8, 0, &nc1) : NULL;
-    uint8_t *conv = poff ? get(&b, o[7], 1, 1, NULL) : NULL;
-    double *lam = conv ? get(&b, o[8], 8, 1, NULL) : NULL;
-    double *Tall = lam ? get(&b, o[9], 8, 0, NULL) : NULL;
-    double *T3 = Tall ? get(&b, o[10], 8, 0, NULL) : NULL;
-    double *args = T3 ? get(&b, o[11], 8, 0, NULL) : NULL;
-    double *sh = args ? get(&b, o[12], 8, 0, NULL) : NULL;
-    double *coef = sh ? get(&b, o[13], 8, 0, NULL) : NULL;
-    double *npc = coef ? get(&b, o[14], 8, 0, NULL) : NULL;
-    double *d1b = npc ? get(&b, o[15], 8, 1, NULL) : NULL;
-    double *invb = d1b ? get(&b, o[16], 8, 1, NULL) : NULL;
-    double *work = invb ? get(&b, o[17], 8, 1, &nwork) : NULL;
-    if (!work) { release(&b); return NULL; }
-    if (nwork < 7 * m || k < 1 || k > NTERMS) {
+    Py_ssize_t P, nc1, nz, nsc, nT, nlam, nconv, ntot, nnpc, nb2, nvs, nvd, nsq;
+    double *L = get(&b, o[0], 8, 0, &P);
+    double *beta = L ? get(&b, o[1], 8, 0, &nb2) : NULL;
+    double *vs = beta ? get(&b, o[2], 8, 0, &nvs) : NULL;
+    double *vd = vs ? get(&b, o[3], 8, 0, &nvd) : NULL;
+    double *sqb = vd ? get(&b, o[4], 8, 0, &nsq) : NULL;
+    int64_t *poff = sqb ? get(&b, o[5], 8, 0, &nc1) : NULL;
+    double *npc = poff ? get(&b, o[6], 8, 0, &nnpc) : NULL;
+    double *Ttot = npc ? get(&b, o[7], 8, 0, &ntot) : NULL;
+    double *T = Ttot ? get(&b, o[8], 8, 1, &nT) : NULL;
+    double *lam = T ? get(&b, o[9], 8, 1, &nlam) : NULL;
+    uint8_t *conv = lam ? get(&b, o[10], 1, 1, &nconv) : NULL;
+    double *coef = conv ? get(&b, o[11], 8, 0, NULL) : NULL;
+    double *zmax = coef ? get(&b, o[12], 8, 0, &nz) : NULL;
+    double *sc = zmax ? get(&b, o[13], 8, 0, &nsc) : NULL;
+    if (!sc) { release(&b); return NULL; }
+    Py_ssize_t n_c = nc1 - 1;
+    int ok = n_c >= 0 && nb2 == P && nvs == P && nvd == P && nsq == P && nT == P && nnpc == n_c
+             && ntot == n_c && nlam == n_c && nconv == n_c && nsc >= 1 && nsc <= SINH_MAX && poff[0] == 0
+             && poff[n_c] == P;
+    for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    if (!ok) {
         release(&b);
-        PyErr_SetString(PyExc_ValueError, "share_step: work or terms");
+        PyErr_SetString(PyExc_ValueError, "share_time: shapes");
         return NULL;
     }
-    Py_ssize_t n_c = nc1 - 1, j = 0, moving = 0;
-    double *Lc = work, *bc = work + m, *vsc = work + 2 * m, *vdc = work + 3 * m, *Jb = work + 4 * m;
-    for (Py_ssize_t c = 0; c < n_c; c++) {              /* the active pieces, compact */
-        if (conv[c]) continue;
-        for (int64_t p = poff[c]; p < poff[c + 1]; p++, j++) {
-            Lc[j] = L[p]; bc[j] = beta[p]; vsc[j] = vs[p]; vdc[j] = vd[p];
-        }
-    }
-    Py_ssize_t M = 3 * m;
-    for (int q = 0; q < 3; q++) {
-        Py_ssize_t o3 = q * m;
-        for (Py_ssize_t j0 = 0; j0 < m; j0 += CHUNK) {
-            Py_ssize_t n = m - j0 < CHUNK ? m - j0 : CHUNK, x = o3 + j0;
-            j_chunk(n, k, Tall + x, T3 + x, args + x, sh + x, args + M + x, sh + M + x, coef,
-                    Lc + j0, bc + j0, vsc + j0, vdc + j0, Jb + x);
-        }
-    }
-    slopes(m, Jb, Tall + m, d1b, invb);                 /* Tall[m + j]: the duration T itself */
-    j = 0;
-    for (Py_ssize_t c = 0; c < n_c; c++) {
-        if (conv[c]) continue;
-        int64_t p0 = poff[c], p1 = poff[c + 1];
-        Py_ssize_t j0 = j;
-        double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
-        for (int64_t p = p0; p < p1; p++, j++) {
-            double d1 = d1b[j], inv = invb[j];
-            s_inv += inv;
-            s_d1inv += d1 * inv;
-            s_T += T[p];
-            s_ad1 += fabs(d1);
-        }
-        double l = first ? -s_d1inv / s_inv : lam[c];
-        double s_rinv = 0.0, rr = 0.0;
-        for (Py_ssize_t q = j0; q < j; q++) {
-            double r = d1b[q] + l;
-            d1b[q] = r;                       /* r from here on */
-            s_rinv += r * invb[q];
-            rr += fabs(r);
-        }
-        double e = Ttot[c] - s_T;
-        double dlam = -(e + s_rinv) / s_inv;
-        double scale = np_max(fabs(l), s_ad1 / npc[c]);
-        int now = (rr <= (NEWTON_TOL_R * scale) * npc[c]) && (fabs(e) <= 1e-12 * Ttot[c]);
-        if (now) {
-            conv[c] = 1;
-            lam[c] = l;
-            continue;
-        }
-        moving++;
-        Py_ssize_t q = j0;
-        for (int64_t p = p0; p < p1; p++, q++) {
-            double Ti = T[p];
-            double dT = -(d1b[q] + dlam) * invb[q];
-            double lo = -0.5 * Ti, st;
-            if (isnan(dT)) st = dT;           /* np.clip: nan stays */
-            else {
-                st = dT > lo ? dT : lo;
-                st = st < Ti ? st : Ti;
+    int nc = (int)nsc;
+    Py_ssize_t PP = P ? P : 1;
+    double *work = PyMem_Malloc(14 * PP * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *Tall = work, *Jb = work + 3 * PP, *d1b = work + 6 * PP, *invb = work + 7 * PP;
+    double *Lc = work + 8 * PP, *bc = work + 9 * PP, *vsc = work + 10 * PP, *vdc = work + 11 * PP;
+    double *sqc = work + 12 * PP, *scr = work + 13 * PP;
+    int status = 0;
+    (void)scr;
+    for (int it = 0; it < max_newton; it++) {
+        Py_ssize_t m = 0;
+        for (Py_ssize_t c = 0; c < n_c; c++)
+            if (!conv[c]) m += poff[c + 1] - poff[c];
+        if (m == 0) break;
+        Py_ssize_t j = 0;
+        for (Py_ssize_t c = 0; c < n_c; c++) {          /* the active pieces, compact */
+            if (conv[c]) continue;
+            for (int64_t p = poff[c]; p < poff[c + 1]; p++, j++) {
+                Tall[m + j] = T[p];
+                sqc[j] = sqb[p];
+                Lc[j] = L[p]; bc[j] = beta[p]; vsc[j] = vs[p]; vdc[j] = vd[p];
             }
-            T[p] = Ti + st;
         }
-        lam[c] = l + nan_to_num(dlam);
+        int64_t gb;
+        if (args_vec(m, Tall + m, sqc, Tall, Tall + 2 * m, &gb)) { status = -1; break; }
+        double gm;
+        memcpy(&gm, &gb, 8);
+        int k = nms_terms(gm * gm, zmax, nz, 0);     /* the largest γ²: rounding keeps the order */
+        for (int q = 0; q < 3; q++) {
+            Py_ssize_t o3 = q * m;
+            for (Py_ssize_t j0 = 0; j0 < m; j0 += CHUNK) {
+                Py_ssize_t n = m - j0 < CHUNK ? m - j0 : CHUNK, x = o3 + j0;
+                j_chunk(n, k, Tall + x, sqc + j0, coef, sc, nc, Lc + j0, bc + j0, vsc + j0, vdc + j0, Jb + x);
+            }
+        }
+        slopes(m, Jb, Tall + m, d1b, invb);             /* Tall[m + j]: the duration T itself */
+        j = 0;
+        for (Py_ssize_t c = 0; c < n_c; c++) {
+            if (conv[c]) continue;
+            int64_t p0 = poff[c], p1 = poff[c + 1];
+            Py_ssize_t j0 = j;
+            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
+            for (int64_t p = p0; p < p1; p++, j++) {
+                double d1 = d1b[j], inv = invb[j];
+                s_inv += inv;
+                s_d1inv += d1 * inv;
+                s_T += T[p];
+                s_ad1 += fabs(d1);
+            }
+            double l = it == 0 ? -s_d1inv / s_inv : lam[c];
+            double s_rinv = 0.0, rr = 0.0;
+            for (Py_ssize_t q = j0; q < j; q++) {
+                double r = d1b[q] + l;
+                d1b[q] = r;                       /* r from here on */
+                s_rinv += r * invb[q];
+                rr += fabs(r);
+            }
+            double e = Ttot[c] - s_T;
+            double dlam = -(e + s_rinv) / s_inv;
+            double scale = np_max(fabs(l), s_ad1 / npc[c]);
+            int now = (rr <= (NEWTON_TOL_R * scale) * npc[c]) && (fabs(e) <= 1e-12 * Ttot[c]);
+            if (now) {
+                conv[c] = 1;
+                lam[c] = l;
+                continue;
+            }
+            Py_ssize_t q = j0;
+            for (int64_t p = p0; p < p1; p++, q++) {
+                double Ti = T[p];
+                double dT = -(d1b[q] + dlam) * invb[q];
+                double lo = -0.5 * Ti, st;
+                if (isnan(dT)) st = dT;           /* np.clip: nan stays */
+                else {
+                    st = dT > lo ? dT : lo;
+                    st = st < Ti ? st : Ti;
+                }
+                T[p] = Ti + st;
+            }
+            lam[c] = l + nan_to_num(dlam);
+        }
     }
+    PyMem_Free(work);
     release(&b);
-    return PyLong_FromSsize_t(moving);
+    return PyLong_FromLong(status);
 }
 
 
-/* tod_args(t, T, gs, act, na, args, xb, zmax) -> k
-   time_of_distance's step on the active laws act[:na]: τ = clip(t / T, 0, 1), x = τ - 1/2;
-   args = [γτ/2, γ(1 - τ)/2, γx] (3 na) for np.sinh, xb = x (for ** 3); k = the S1
-   series' terms the batch needs (_s1: _nms_terms over (γx)² with the S1 table). */
-static PyObject *tod_args(PyObject *self, PyObject *a) {
-    PyObject *ot, *oT, *ogs, *oact, *oargs, *oxb, *ozmax;
-    Py_ssize_t na;
-    if (!PyArg_ParseTuple(a, "OOOOnOOO", &ot, &oT, &ogs, &oact, &na, &oargs, &oxb, &ozmax)) return NULL;
-    Bufs b = {.n = 0};
-    Py_ssize_t nz;
-    double *t = get(&b, ot, 8, 0, NULL);
-    double *T = t ? get(&b, oT, 8, 0, NULL) : NULL;
-    double *gs = T ? get(&b, ogs, 8, 0, NULL) : NULL;
-    int64_t *act = gs ? get(&b, oact, 8, 0, NULL) : NULL;
-    double *args = act ? get(&b, oargs, 8, 1, NULL) : NULL;
-    double *xb = args ? get(&b, oxb, 8, 1, NULL) : NULL;
-    double *zmax = xb ? get(&b, ozmax, 8, 0, &nz) : NULL;
-    if (!zmax) { release(&b); return NULL; }
-    double zm = -1.0;
-    int nan = 0;
-    for (Py_ssize_t j = 0; j < na; j++) {
-        int64_t i = act[j];
-        double tau = t[i] / T[i];
-        if (!isnan(tau)) {                /* np.clip: nan stays */
-            tau = tau > 0.0 ? tau : 0.0;
-            tau = tau < 1.0 ? tau : 1.0;
-        }
-        double x = tau - 0.5, g = gs[i];
-        args[j] = (g * tau) / 2;
-        args[na + j] = (g * (1 - tau)) / 2;
-        double z = g * x;
-        args[2 * na + j] = z;
-        xb[j] = x;
-        double z2 = z * z;
-        if (isnan(z2)) nan = 1;
-        else if (z2 > zm) zm = z2;
-    }
-    release(&b);
-    int k = NTERMS;
-    if (na > 0 && !nan) {
-        Py_ssize_t i = 0;
-        while (i < nz && zmax[i] < zm) i++;
-        k = (int)(i + 1 < NTERMS ? i + 1 : NTERMS);
-    }
-    return PyLong_FromLong(k);
-}
-
-static inline double shc(double z, double s) { return z == 0.0 ? 1.0 : s / z; }
-
-/* tod_step(t, T, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, na, args, sh, x3,
-   k, s1coef, out, vout, q4, sh4) -> laws still active (q4 = γ/4 and sh4 = np.sinh(q4) of
-   every law: the same at every step) (act compacted in place), 0 when all are done
-   (then nothing is written, as _tod_rows breaks).  One step of _tod_step / _tod_rows: s and
-   ṡ at t as LineLaw.eval(t, "sv") (series branch), the bracket, done, Newton or bisection;
-   out[i] = the new t; vout[i] = ṡ at the t a law ended on (eval(t, "v") there). */
-static PyObject *tod_step(PyObject *self, PyObject *a) {
-    PyObject *o[21];
-    Py_ssize_t na;
-    int k;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOnOOOiOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &o[9], &o[10], &o[11], &o[12], &na, &o[13], &o[14], &o[15], &k, &o[16],
-                          &o[17], &o[18], &o[19], &o[20]))
+/* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
+   s1coef, s1zmax, sinh_coef, max_iter) -> laws still going after max_iter steps (act[:that]:
+   which; their vout not written), 0 when every law is done.  _time_of_distance's whole
+   iteration (_tod_rows: each step on the laws not done): s and ṡ at t as _eval(t, "sv")
+   (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
+   batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
+   or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
+   "v") there).  t, lo, hi, act: the caller's scratch, changed. */
+static PyObject *tod_solve(PyObject *self, PyObject *a) {
+    PyObject *o[19];
+    int max_iter;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
+                          &max_iter))
         return NULL;
     Bufs b = {.n = 0};
-    double *t = get(&b, o[0], 8, 1, NULL);
-    double *T = t ? get(&b, o[1], 8, 0, NULL) : NULL;
-    double *n = T ? get(&b, o[2], 8, 0, NULL) : NULL;
-    double *sh2 = n ? get(&b, o[3], 8, 0, NULL) : NULL;
-    double *wbar = sh2 ? get(&b, o[4], 8, 0, NULL) : NULL;
-    double *A = wbar ? get(&b, o[5], 8, 0, NULL) : NULL;
-    double *dl = A ? get(&b, o[6], 8, 0, NULL) : NULL;
-    double *target = dl ? get(&b, o[7], 8, 0, NULL) : NULL;
-    double *sgn = target ? get(&b, o[8], 8, 0, NULL) : NULL;
-    double *lo = sgn ? get(&b, o[9], 8, 1, NULL) : NULL;
-    double *hi = lo ? get(&b, o[10], 8, 1, NULL) : NULL;
-    double *scale = hi ? get(&b, o[11], 8, 0, NULL) : NULL;
-    int64_t *act = scale ? get(&b, o[12], 8, 1, NULL) : NULL;
-    double *args = act ? get(&b, o[13], 8, 0, NULL) : NULL;
-    double *sh = args ? get(&b, o[14], 8, 0, NULL) : NULL;
-    double *x3 = sh ? get(&b, o[15], 8, 0, NULL) : NULL;
-    double *coef = x3 ? get(&b, o[16], 8, 0, NULL) : NULL;
-    double *out = coef ? get(&b, o[17], 8, 1, NULL) : NULL;
-    double *vout = out ? get(&b, o[18], 8, 1, NULL) : NULL;
-    double *q4 = vout ? get(&b, o[19], 8, 0, NULL) : NULL;
-    double *sh4 = q4 ? get(&b, o[20], 8, 0, NULL) : NULL;
-    if (!sh4) { release(&b); return NULL; }
+    Py_ssize_t N, nz, nsc, ncoef, nn[15];
+    double *t = get(&b, o[0], 8, 1, &N);
+    double *T = t ? get(&b, o[1], 8, 0, &nn[0]) : NULL;
+    double *gs = T ? get(&b, o[2], 8, 0, &nn[1]) : NULL;
+    double *n = gs ? get(&b, o[3], 8, 0, &nn[2]) : NULL;
+    double *sh2 = n ? get(&b, o[4], 8, 0, &nn[3]) : NULL;
+    double *wbar = sh2 ? get(&b, o[5], 8, 0, &nn[4]) : NULL;
+    double *A = wbar ? get(&b, o[6], 8, 0, &nn[5]) : NULL;
+    double *dl = A ? get(&b, o[7], 8, 0, &nn[6]) : NULL;
+    double *target = dl ? get(&b, o[8], 8, 0, &nn[7]) : NULL;
+    double *sgn = target ? get(&b, o[9], 8, 0, &nn[8]) : NULL;
+    double *lo = sgn ? get(&b, o[10], 8, 1, &nn[9]) : NULL;
+    double *hi = lo ? get(&b, o[11], 8, 1, &nn[10]) : NULL;
+    double *scale = hi ? get(&b, o[12], 8, 0, &nn[11]) : NULL;
+    int64_t *act = scale ? get(&b, o[13], 8, 1, &nn[12]) : NULL;
+    double *out = act ? get(&b, o[14], 8, 1, &nn[13]) : NULL;
+    double *vout = out ? get(&b, o[15], 8, 1, &nn[14]) : NULL;
+    double *coef = vout ? get(&b, o[16], 8, 0, &ncoef) : NULL;
+    double *zmax = coef ? get(&b, o[17], 8, 0, &nz) : NULL;
+    double *sc = zmax ? get(&b, o[18], 8, 0, &nsc) : NULL;
+    if (!sc) { release(&b); return NULL; }
+    int ok = nsc >= 1 && nsc <= SINH_MAX && ncoef >= NTERMS;
+    for (int q = 0; q < 15; q++) ok = ok && nn[q] == N;
+    for (Py_ssize_t j = 0; ok && j < N; j++) ok = act[j] >= 0 && act[j] < N;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_solve: shapes");
+        return NULL;
+    }
+    int nc = (int)nsc;
     const double eps4 = 4 * DBL_EPSILON;
-    /* first pass: done of every law (all done: nothing written) */
-    double *newt = PyMem_Malloc((na ? na : 1) * sizeof(double));
-    unsigned char *dn = PyMem_Malloc(na ? na : 1);
-    double *vv = PyMem_Malloc((na ? na : 1) * sizeof(double));
-    if (!newt || !dn || !vv) {
-        PyMem_Free(newt); PyMem_Free(dn); PyMem_Free(vv); release(&b);
+    Py_ssize_t NN = N ? N : 1;
+    double *newt = PyMem_Malloc(4 * NN * sizeof(double));
+    unsigned char *dn = PyMem_Malloc(NN);
+    if (!newt || !dn) {
+        PyMem_Free(newt); PyMem_Free(dn); release(&b);
         return PyErr_NoMemory();
     }
-    Py_ssize_t ndone = 0;
-    for (Py_ssize_t j = 0; j < na; j++) {
-        int64_t i = act[j];
-        double ti = t[i], x = 0.0;
-        double tau = ti / T[i];
-        if (!isnan(tau)) {
-            tau = tau > 0.0 ? tau : 0.0;
-            tau = tau < 1.0 ? tau : 1.0;
+    double *vv = newt + NN, *taub = newt + 2 * NN, *zb = newt + 3 * NN;
+    Py_ssize_t na = N;
+    for (int it = 0; it < max_iter && na > 0; it++) {
+        /* τ, x, γx of the active laws, the S1 terms their batch needs */
+        double zm = -1.0;
+        int nan = 0;
+        for (Py_ssize_t j = 0; j < na; j++) {
+            int64_t i = act[j];
+            double tau = t[i] / T[i];
+            if (!isnan(tau)) {                /* np.clip: nan stays */
+                tau = tau > 0.0 ? tau : 0.0;
+                tau = tau < 1.0 ? tau : 1.0;
+            }
+            double z = gs[i] * (tau - 0.5);
+            taub[j] = tau;
+            zb[j] = z;
+            double z2 = z * z;
+            if (isnan(z2)) nan = 1;
+            else if (z2 > zm) zm = z2;
         }
-        x = tau - 0.5;
-        double pa = shc(args[j], sh[j]), pb = shc(args[na + j], sh[na + j]);
-        double bub = ((tau * (1 - tau)) * pa) * pb;
-        double g = bub / (2 * n[i]);
-        double Hs = (-bub) / sh2[i];
-        double shx = shc(args[2 * na + j], sh[2 * na + j]);
-        double h = ((2 * x) * shx) / sh2[i];
-        double z = args[2 * na + j], z2 = z * z;
-        double s1 = coef[k - 1];
-        for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
-        double s4 = shc(q4[i], sh4[i]);
-        double G = 0.5 + (((x * (s4 * s4)) / 8) - x3[j] * s1) / n[i];
-        double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
-        double v = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];
-        double f = sgn[i] * (s - target[i]);
-        if (f <= 0) lo[i] = ti;
-        if (f >= 0) hi[i] = ti;
-        int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
-        dn[j] = (unsigned char)done;
-        vv[j] = v;
-        if (done) { ndone++; newt[j] = ti; continue; }
-        double sv = sgn[i] * v;
-        double tn = ti - f / sv;
-        int ok = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
-        newt[j] = ok ? tn : 0.5 * (lo[i] + hi[i]);
-    }
-    Py_ssize_t keep = 0;
-    if (ndone < na) {
+        int k = nms_terms(zm, zmax, nz, nan);
+        Py_ssize_t ndone = 0;
+        for (Py_ssize_t j = 0; j < na; j++) {
+            int64_t i = act[j];
+            double ti = t[i], tau = taub[j], g = gs[i];
+            double x = tau - 0.5;
+            double pa = p_shc((g * tau) / 2, sc, nc), pb = p_shc((g * (1 - tau)) / 2, sc, nc);
+            double bub = ((tau * (1 - tau)) * pa) * pb;
+            double gg = bub / (2 * n[i]);
+            double Hs = (-bub) / sh2[i];
+            double z = zb[j];
+            double shx = p_shc(z, sc, nc);
+            double h = ((2 * x) * shx) / sh2[i];
+            double z2 = z * z;
+            double s1 = coef[k - 1];
+            for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
+            double s4 = p_shc(g / 4, sc, nc);
+            double G = 0.5 + (((x * (s4 * s4)) / 8) - p_cube(x) * s1) / n[i];
+            double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
+            double v = ((wbar[i] + A[i] * gg) - dl[i] * h) / T[i];
+            double f = sgn[i] * (s - target[i]);
+            if (f <= 0) lo[i] = ti;
+            if (f >= 0) hi[i] = ti;
+            int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
+            dn[j] = (unsigned char)done;
+            vv[j] = v;
+            if (done) { ndone++; newt[j] = ti; continue; }
+            double sv = sgn[i] * v;
+            double tn = ti - f / sv;
+            int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
+            newt[j] = okn ? tn : 0.5 * (lo[i] + hi[i]);
+        }
+        if (ndone == na) {             /* all done: nothing written but the speeds (_tod_rows breaks) */
+            for (Py_ssize_t j = 0; j < na; j++) vout[act[j]] = vv[j];
+            na = 0;
+            break;
+        }
+        Py_ssize_t keep = 0;
         for (Py_ssize_t j = 0; j < na; j++) {
             int64_t i = act[j];
             t[i] = newt[j];
@@ -458,12 +444,11 @@ static PyObject *tod_step(PyObject *self, PyObject *a) {
             if (dn[j]) vout[i] = vv[j];
             else act[keep++] = i;
         }
-    } else {
-        for (Py_ssize_t j = 0; j < na; j++) vout[act[j]] = vv[j];
+        na = keep;
     }
-    PyMem_Free(newt); PyMem_Free(dn); PyMem_Free(vv);
+    PyMem_Free(newt); PyMem_Free(dn);
     release(&b);
-    return PyLong_FromSsize_t(keep);
+    return PyLong_FromSsize_t(na);
 }
 
 /* tent_rows(need, vf, step, out) -> True, or False (nothing meaningful written) where a
@@ -566,18 +551,44 @@ static PyObject *piece_cumsum(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* prims_c(z, sinh_coef, sh, cu, sc): sh = p_sinh(z), cu = p_cube(z), sc = p_shc(z), element by
+   element (for the tests: the C primitives against prims.py's) */
+static PyObject *prims_c(PyObject *self, PyObject *a) {
+    PyObject *oz, *oc, *osh, *ocu, *osc;
+    if (!PyArg_ParseTuple(a, "OOOOO", &oz, &oc, &osh, &ocu, &osc)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t n, nc, n1, n2, n3;
+    double *z = get(&b, oz, 8, 0, &n);
+    double *c = z ? get(&b, oc, 8, 0, &nc) : NULL;
+    double *sh = c ? get(&b, osh, 8, 1, &n1) : NULL;
+    double *cu = sh ? get(&b, ocu, 8, 1, &n2) : NULL;
+    double *sc = cu ? get(&b, osc, 8, 1, &n3) : NULL;
+    if (!sc) { release(&b); return NULL; }
+    if (n1 != n || n2 != n || n3 != n || nc < 1 || nc > SINH_MAX) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "prims_c: shapes");
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        sh[i] = p_sinh(z[i], c, (int)nc);
+        cu[i] = p_cube(z[i]);
+        sc[i] = p_shc(z[i], c, (int)nc);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
-    {"share_args", share_args, METH_VARARGS, "the active pieces' durations and np.sinh arguments"},
-    {"share_step", share_step, METH_VARARGS, "one Newton step of _share_time"},
-    {"tod_args", tod_args, METH_VARARGS, "time_of_distance's np.sinh and ** 3 arguments"},
-    {"tod_step", tod_step, METH_VARARGS, "one step of time_of_distance"},
+    {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
+    {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
+    {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {
     PyModuleDef_HEAD_INIT, "_gcode_opt_chaincore",
-    "Compiled Newton steps of the chains' time sharing (laws/chain.py)", -1, methods};
+    "Compiled Newton loops of the chains' time sharing and time of distance (laws/chain.py)", -1, methods};
 
 #ifndef CHAINCORE_SOURCE_SHA256
 #define CHAINCORE_SOURCE_SHA256 ""

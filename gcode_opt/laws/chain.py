@@ -31,12 +31,16 @@ import os
 import numpy as np
 
 from .. import native
+from . import prims
 from .line import GAMMA_SWITCH as _GAMMA_SWITCH
-from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _gamma_coeffs, _nms_terms, _shc, end_speeds,
-                   time_of_distance)
+from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _horner_nms, _large_coeffs, _nms_terms,
+                   _s1, _shapes_large, _shc, end_speeds)
 
-# The compiled Newton steps of _share_time (_chaincore.c, module _gcode_opt_chaincore):
-# optional, the same bits as the numpy code (tests/test_speed_chain_core.py)
+# The compiled Newton loops of _share_time and of the chains' time of distance (_chaincore.c,
+# module _gcode_opt_chaincore): optional, the same bits as the numpy code
+# (tests/test_speed_chain_core.py, tests/test_speed20_chainprim_core.py).  Both use the
+# deterministic sinh and cube of prims.py (no libm, no numpy ufunc that differs between
+# machines), so their bits are the same on every machine.
 CORE_MOD, CORE_WHY = native.load("_gcode_opt_chaincore",
                                  os.path.join(os.path.dirname(os.path.abspath(__file__)), "_chaincore.c"),
                                  "chain core")
@@ -44,6 +48,7 @@ CORE = "c" if CORE_MOD is not None else "python"
 _COEF_C = np.ascontiguousarray(_NMS_COEF)
 _ZMAX_C = np.ascontiguousarray(_NMS_ZMAX)
 _S1_COEF_C, _S1_ZMAX_C = np.ascontiguousarray(_S1_COEF), np.ascontiguousarray(_S1_ZMAX)
+_SINH_COEF_C = prims.SINH_COEF
 
 CAP_TOL_R = 1e-7          # a speed above cap x (1 + this) violates the cap
 MU_TOL_R = 1e-7           # multiplier (accel jump) below -this x accel scale: release the vertex
@@ -79,16 +84,45 @@ class ChainLaw:
         j = np.clip(np.searchsorted(self.knot_s, s, side="right") - 1, 0, len(self.knot_s) - 2)
         p = self.pieces
         law = LineLaw(p.L[j], p.T[j], p.beta[j], p.v0[j], p.v1[j])
-        tl = time_of_distance(law, s - self.knot_s[j])
-        _, v, _ = law.eval(tl, "v")
+        tl = _time_of_distance(law, s - self.knot_s[j])
+        _, v, _ = _eval(law, tl, "v")
         return self.knot_t[j] + tl, v
+
+
+def _coeffs(gamma):
+    """The integral coefficients (Ig1, Igp, Ih, Ihp) of line._gamma_coeffs, each law in its
+    own branch, the series branch (γ < GAMMA_SWITCH) with the deterministic sinh of prims
+    (_small_coeffs' operations otherwise: n, m, S1 by _horner_nms on the batch)."""
+    small = gamma < _GAMMA_SWITCH
+    ns = int(np.count_nonzero(small))
+    if ns == small.size:
+        return _small_int_coeffs(np.minimum(gamma, _GAMMA_SWITCH))
+    if ns == 0:
+        return _large_coeffs(np.maximum(gamma, _GAMMA_SWITCH), small)
+    cs = _small_int_coeffs(np.minimum(gamma[small], _GAMMA_SWITCH))
+    cl = _large_coeffs(np.maximum(gamma[~small], _GAMMA_SWITCH), None)
+    c = {}
+    for k in ("Ig1", "Igp", "Ih", "Ihp"):
+        v = np.empty(gamma.shape)
+        v[small], v[~small] = cs[k], cl[k]
+        c[k] = v
+    return c
+
+
+def _small_int_coeffs(gs):
+    """line._small_coeffs' Ig1, Igp, Ih, Ihp with prims.shc for line's shc (numpy's sinh)."""
+    n, m, s1 = _horner_nms(gs * gs)
+    sh2 = prims.shc(gs / 2)
+    return {"Ig1": m / (2 * n * n), "Igp": s1 / (2 * n * n), "Ih": 2 * s1 / sh2**2,
+            "Ihp": 2 * (prims.shc(gs) + 1) / sh2**2}
 
 
 def _J3(L, Tm, T0, Tp, beta, va, vb):
     """J = ∫ṡ² + β∫s̈² (LineLaw.integrals) at the three durations Tm, T0, Tp of the same
-    pieces, in one batch: each element's arithmetic is LineLaw's (__init__, integrals), and what does not depend on
-    T (√β, v0 ± v1, L²) is computed once instead of three times.  Raises LineLaw's
-    ValueError, in its order, on bad inputs."""
+    pieces, in one batch: each element's arithmetic is LineLaw's (__init__, integrals)
+    but for the deterministic sinh and cube of prims (numpy's sinh and power there), and what
+    does not depend on T (√β, v0 ± v1, L²) is computed once instead of three times.
+    Raises LineLaw's ValueError, in its order, on bad inputs."""
     n = T0.size
     T = np.concatenate([Tm, T0, Tp])
     if not (np.all(T > 0) and np.all(np.isfinite(T))):
@@ -99,11 +133,11 @@ def _J3(L, Tm, T0, Tp, beta, va, vb):
         raise ValueError("L, v0, v1 must be finite")
     tile = lambda a: np.concatenate([a, a, a])          # noqa: E731
     gamma = T / tile(np.sqrt(beta))
-    c = _gamma_coeffs(gamma)
+    c = _coeffs(gamma)
     A = tile(L) - T * tile(va + vb) / 2
     d = T * tile(va - vb) / 2
     iv = (tile(L**2) + A**2 * c["Ig1"] + d**2 * c["Ih"]) / T
-    ia = (A**2 * c["Igp"] + d**2 * c["Ihp"]) / T**3
+    ia = (A**2 * c["Igp"] + d**2 * c["Ihp"]) / prims.cube(T)
     b3 = tile(beta)
     J = iv + b3 * ia
     return J[:n], J[n:2 * n], J[2 * n:]
@@ -121,10 +155,9 @@ def _share_time(L, beta, va, vb, owner, T_total, T_init, core=None):
 
 
 def _share_time_core(core, L, beta, va, vb, owner, T_total, T_init):
-    """_share_time_numpy's iteration with each Newton step's arithmetic in C (share_step)
-    and only numpy's sinh and ** 3 (SIMD versions on some machines, not libm's) called here,
-    on the arguments share_args wrote.  None (the numpy code runs instead, from the start)
-    where that code would raise or leave the series branch of the line law."""
+    """_share_time_numpy's whole Newton iteration in one C call (share_time), the same
+    bits.  None (the numpy code runs instead, from the start) where that code would raise
+    or leave the series branch of the line law."""
     n_c = T_total.size
     P = T_init.size
     if P == 0 or not (np.all(beta > 0) and np.all(np.isfinite(L)) and np.all(np.isfinite(va))
@@ -143,18 +176,9 @@ def _share_time_core(core, L, beta, va, vb, owner, T_total, T_init):
     T = np.array(T_init, float)
     lam = np.zeros(n_c)
     conv = np.zeros(n_c, np.uint8)
-    Tall, args, sh, T3 = np.empty(3 * P), np.empty(6 * P), np.empty(6 * P), np.empty(3 * P)
-    d1, inv, work = np.empty(P), np.empty(P), np.empty(7 * P)
-    for it in range(MAX_NEWTON):
-        m, k = core.share_args(T, sqb, poff, conv, Tall, args, _ZMAX_C, d1)
-        if m < 0:
-            return None
-        if m == 0:
-            break
-        np.sinh(args[:6 * m], out=sh[:6 * m])
-        np.power(Tall[:3 * m], 3, out=T3[:3 * m])        # (what ** 3 calls)
-        core.share_step(L, beta, vs, vd, T, T_total, poff, conv, lam, it == 0, m, k, Tall, T3, args, sh,
-                        _COEF_C, npc, d1, inv, work)
+    if core.share_time(L, beta, vs, vd, sqb, poff, npc, T_total, T, lam, conv, _COEF_C, _ZMAX_C, _SINH_COEF_C,
+                       MAX_NEWTON) < 0:
+        return None
     return T, lam, conv.astype(bool)
 
 
@@ -203,23 +227,22 @@ def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
 
 
 def _times_and_speeds(law, s_targets, core=None):
-    """(t, ṡ(t)) where the 1-D laws `law` reach s_targets: time_of_distance, then
-    law.eval(t, "v"); the steps compiled when the chain core is there (core: the module;
-    None = CORE_MOD) and every law is in the series branch, else the numpy code."""
+    """(t, ṡ(t)) where the 1-D laws `law` reach s_targets: _time_of_distance, then
+    _eval(law, t, "v"); the whole iteration compiled when the chain core is there (core:
+    the module; None = CORE_MOD) and every law is in the series branch, else the numpy code."""
     core = CORE_MOD if core is None else core
     if core and law.L.ndim == 1 and law.L.size and bool(law._c["small"].all()):
         out = _tod_core(core, law, s_targets)
         if out is not None:
             return out
-    tl = time_of_distance(law, s_targets)
-    return tl, law.eval(tl, "v")[1]
+    tl = _time_of_distance(law, s_targets)
+    return tl, _eval(law, tl, "v")[1]
 
 
 def _tod_core(core, law, s_targets, max_iter=200):
-    """time_of_distance's safeguarded Newton (_tod_rows) with each step's arithmetic in C
-    (tod_step; np.sinh and ** 3 on the arguments tod_args wrote stay numpy's), and the
-    speed at the t each law ends on, which that step has already computed (what
-    eval(t, "v") gives: the same operations).  None where the numpy code must run."""
+    """_time_of_distance's safeguarded Newton (_tod_rows) wholly in C (tod_solve), and the
+    speed at the t each law ends on, which the last step has already computed (what
+    _eval(t, "v") gives: the same operations).  None where the numpy code must run."""
     T = law.T
     lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
     target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
@@ -238,22 +261,132 @@ def _tod_core(core, law, s_targets, max_iter=200):
     N = T.size
     out, vout = t.copy(), np.empty(N)
     act = np.arange(N, dtype=np.int64)
-    na = N
-    args, xb = np.empty(3 * N), np.empty(N)
-    q4 = gs / 4                        # the shapes' shc(γ/4): the same at every step
-    sh4 = np.sinh(q4)
-    for _ in range(max_iter):
-        k = core.tod_args(t, T, gs, act, na, args, xb, _S1_ZMAX_C)
-        sh = np.sinh(args[:3 * na])
-        x3 = xb[:na] ** 3
-        na = core.tod_step(t, T, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, na, args, sh, x3, k,
-                           _S1_COEF_C, out, vout, q4, sh4)
-        if na == 0:
-            break
-    else:                      # out of steps: the last t of the laws still going, not evaluated yet
+    na = core.tod_solve(t, T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                        _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+    if na:                     # out of steps: the last t of the laws still going, not evaluated yet
         rest = act[:na]
-        vout[rest] = law.take(rest).eval(out[rest], "v")[1]
+        vout[rest] = _eval(law.take(rest), out[rest], "v")[1]
     return out, vout
+
+
+# ---------------------------------------------------------------- the chains' line-law evaluation
+# LineLaw.eval and time_of_distance (line.py) as the chains use them, with the deterministic
+# sinh and cube of prims in the series branch (np.sinh and ** 3 there); the other branch is
+# the line law's.  The reference of the compiled tod_solve.
+def _shapes_small(gs, n, sh2, tau, want):
+    """line._shapes_small with prims.shc and prims.cube for numpy's sinh and power."""
+    x = tau - 0.5
+    G_s = g_s = gp_s = Hs_s = h_s = hp_s = None
+    if "g" in want or "Hs" in want:
+        pa, pb = prims.shc(gs * tau / 2), prims.shc(gs * (1 - tau) / 2)
+        bub = tau * (1 - tau) * pa * pb
+        g_s = bub / (2 * n)
+        Hs_s = -bub / sh2
+    if "gp" in want or "h" in want:
+        shx = prims.shc(gs * x)
+        gp_s = -x * shx / n
+        h_s = 2 * x * shx / sh2
+    if "G" in want:
+        G_s = 0.5 + (x * prims.shc(gs / 4) ** 2 / 8 - prims.cube(x) * _s1(gs * x)) / n
+    if "hp" in want:
+        hp_s = 2 * np.cosh(gs * x) / sh2
+    return G_s, g_s, gp_s, Hs_s, h_s, hp_s
+
+
+_WANT = {"s": ("G", "Hs"), "v": ("g", "h"), "a": ("gp", "hp")}
+
+
+def _shapes(c, tau, want):
+    """line._shapes with _shapes_small above for the series branch."""
+    tau = np.asarray(tau, dtype=float)
+    small = c["small"]
+    shape = np.broadcast_shapes(tau.shape, small.shape)
+    bc = lambda a: a if a is None or a.shape == shape else np.broadcast_to(a, shape)    # noqa: E731
+    if small.all():
+        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want))
+    if not small.any():
+        return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau, want))
+    sm = bc(small)
+    lg = ~sm
+    ts, tl = bc(tau)[sm], bc(tau)[lg]
+    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts, want)
+    out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl, want)
+    res = []
+    for a, b in zip(out_s, out_l):
+        if a is None:
+            res.append(None)
+            continue
+        v = np.empty(shape)
+        v[sm], v[lg] = a, b
+        res.append(v)
+    return tuple(res)
+
+
+def _eval(law, t, want="sva"):
+    """law.eval(t, want) (LineLaw) with _shapes above."""
+    T = law.T
+    tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
+    G, g, gp, Hs, h, hp = _shapes(law._c, tau, sum((_WANT[w] for w in want), ()))
+    wbar, A, d = law._wbar, law._A, law._delta
+    s = wbar * tau + A * G - d * Hs if "s" in want else None
+    v = (wbar + A * g - d * h) / T if "v" in want else None
+    a = (A * gp - d * hp) / T**2 if "a" in want else None
+    return s, v, a
+
+
+def _time_of_distance(law, s_targets, max_iter=200):
+    """line.time_of_distance with _eval above for law.eval."""
+    T = law.T
+    lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
+    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
+    shape = np.broadcast_shapes(target.shape, T.shape)
+    target = np.broadcast_to(target, shape)
+    sgn = np.where(law.L < 0, -1.0, 1.0)
+    lo = np.zeros(shape)
+    hi = np.broadcast_to(T, shape).copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
+    scale = np.maximum(np.abs(law.L), 1e-300)
+    if len(shape) == 1 and law.L.shape == shape:
+        return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter)
+    for _ in range(max_iter):
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        if done is None:
+            break
+    return t
+
+
+def _tod_step(law, t, target, sgn, lo, hi, scale, T):
+    """line._tod_step with _eval above."""
+    s, v, _a = _eval(law, t, "sv")
+    f = sgn * (s - target)
+    lo = np.where(f <= 0, t, lo)
+    hi = np.where(f >= 0, t, hi)
+    done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
+    if np.all(done):
+        return t, lo, hi, None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_newton = t - f / (sgn * v)
+    ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
+    return np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi))), lo, hi, done
+
+
+def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
+    """line._tod_rows with _tod_step above."""
+    T = law.T
+    out = t.copy()
+    idx = np.arange(t.size)
+    for _ in range(max_iter):
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        if done is None:
+            break
+        out[idx] = t
+        if done.any():
+            keep = np.flatnonzero(~done)
+            idx, t, lo, hi = idx[keep], t[keep], lo[keep], hi[keep]
+            target, sgn, scale, T = target[keep], sgn[keep], scale[keep], T[keep]
+            law = law.take(keep)
+    return out
 
 
 def solve_chains(problems, init_binding=None, init_vert_t=None):

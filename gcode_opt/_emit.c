@@ -1014,18 +1014,23 @@ static PyObject *fast_body(PyObject *self, PyObject *args)
 
 /* ---------------------------------------------------------------- skip_lines, stroke_block */
 
-/* skip_lines(data, pos, n): (end, got) -- the offset in the bytes data after the next n
-   lines from pos, as a file opened with newline="" reads lines ("\n", "\r\n" or a lone
-   "\r" ends one; a "\r" as data's last byte ends one: the caller's data never splits a
-   "\r\n"), and how many lines that is (fewer than n at the end of data). */
+/* skip_lines(data, pos, n, final): (end, got) -- the offset in the bytes data after the
+   next n lines from pos, as a file opened with newline="" reads lines ("\n", "\r\n" or a
+   lone "\r" ends one; a "\r" as data's last byte ends one: the caller's data never splits
+   a "\r\n"), and how many lines that is (fewer than n at the end of data).  Bytes after
+   the last line end: taken (end is len(data)) and counted as a line only when final (the
+   end of the file: the text reading's last line without a line end). */
 static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 3 || !PyBytes_CheckExact(args[0])) {
-        PyErr_SetString(PyExc_TypeError, "skip_lines(bytes, pos, n)");
+    if (nargs != 4 || !PyBytes_CheckExact(args[0])) {
+        PyErr_SetString(PyExc_TypeError, "skip_lines(bytes, pos, n, final)");
         return NULL;
     }
     Py_ssize_t pos = PyLong_AsSsize_t(args[1]), n = PyLong_AsSsize_t(args[2]);
     if ((pos == -1 || n == -1) && PyErr_Occurred())
+        return NULL;
+    int final = PyObject_IsTrue(args[3]);
+    if (final < 0)
         return NULL;
     const char *d = PyBytes_AS_STRING(args[0]);
     Py_ssize_t len = PyBytes_GET_SIZE(args[0]), got = 0;
@@ -1039,6 +1044,7 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
         while (q < e && *q != '\n' && *q != '\r') q++;
         if (q == e) {
             pos = len;
+            got += final;                         /* the file's last line, without a line end */
             break;
         }
         pos = q - d + 1;

@@ -379,9 +379,10 @@ class _ByteLines:
         return chunk
 
     def copy(self, n, write):
-        """Write the next n lines (fewer at the end of the file)."""
+        """Write the next n lines (fewer at the end of the file).  A line cut by the end of
+        a chunk is written in two pieces."""
         while n > 0:
-            end, got = self.skip(self.data, self.pos, n)
+            end, got = self.skip(self.data, self.pos, n, self.eof)
             if end > self.pos:
                 write(self.data[self.pos:end] if self.pos or end < len(self.data) else self.data)
             self.pos = end
@@ -390,22 +391,16 @@ class _ByteLines:
                 if self.eof:
                     return
                 self.data, self.pos = self._read(), 0
-                if not self.data:
-                    return
 
     def take(self, n):
         """(data, start, stop, got): the next n lines are data[start:stop], got of them
         (fewer at the end of the file)."""
         while True:
-            end, got = self.skip(self.data, self.pos, n)
+            end, got = self.skip(self.data, self.pos, n, self.eof)
             if got == n or self.eof:
                 start, self.pos = self.pos, end
                 return self.data, start, end, got
-            more = self._read()
-            if not more:
-                start, self.pos = self.pos, end
-                return self.data, start, end, got
-            self.data, self.pos = self.data[self.pos:] + more, 0
+            self.data, self.pos = self.data[self.pos:] + self._read(), 0
 
     def rest(self, write):
         if self.pos < len(self.data):

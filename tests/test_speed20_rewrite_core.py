@@ -285,25 +285,28 @@ def test_rewrite_of_odd_bytes(tmp_path, monkeypatch):
         inside.update(range(strokes[i].first_idx, strokes[i].first_idx + strokes[i].n_moves))
     free = [k for k in range(len(lines) - 1) if k not in inside and lines[k].startswith(b";")]
     rng = random.Random(3)
+    ends = [b"\n"] * len(lines)
+    ends[-1] = b""
     for k in rng.sample(free, 40):
-        lines[k] = lines[k] + rng.choice([b" \xff\xfe", b" caf\xc3\xa9", b" \xed\xa0\x80", b" a\x85b", b"\r"])
+        lines[k] = lines[k] + rng.choice([b" \xff\xfe", b" caf\xc3\xa9", b" \xed\xa0\x80", b" a\x85b", b""])
+        ends[k] = rng.choice([b"\n", b"\r", b"\r\n"])        # a lone "\r" ends a line too
     # a comment with a non-ASCII character on a re-timed stroke's line (the Python path)
     victim = strokes[order[len(order) // 2]]
     k = victim.first_idx
     lines[k] = lines[k] + b" ; caf\xc3\xa9"
     path = tmp_path / "odd.gcode"
-    path.write_bytes(b"\n".join(lines))
+    path.write_bytes(b"".join(a + b for a, b in zip(lines, ends)))
     ref = _run(ref_rewrite, str(path), strokes, plan, prof, opts, tmp_path / "ref.gcode")
     for chunk in (1 << 20, 5):
         with monkeypatch.context() as m:
             m.setattr(pipeline, "_CHUNK", chunk)
             got = _run(pipeline.rewrite, str(path), strokes, plan, prof, opts, tmp_path / "new.gcode")
         assert got == ref, chunk
-    assert b"caf\xc3\xa9" in ref[0] and b"\xff\xfe" in ref[0]
+    assert b"caf\xc3\xa9" in ref[0] and b"\xff\xfe" in ref[0] and ends.count(b"\r") > 5
     # the file cut inside a re-timed stroke, its last line without a line end (the strokes
     # after it find no lines: the Python path, as in the reference)
     for cut in (victim.first_idx + victim.n_moves - 1, victim.first_idx + 1):
-        path.write_bytes(b"\n".join(lines[:cut + 1]))
+        path.write_bytes(b"".join(a + b for a, b in zip(lines[:cut], ends)) + lines[cut])
         ref = _run(ref_rewrite, str(path), strokes, plan, prof, opts, tmp_path / "ref.gcode")
         for chunk in (1 << 20, 3):
             with monkeypatch.context() as m:

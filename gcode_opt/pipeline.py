@@ -443,6 +443,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     svl = "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0\n" if klipper else ""
     closing_text = emit_mod._closing_text
     segs, betas = plan.segs, plan.beta
+    beta_list = betas.tolist() if isinstance(betas, np.ndarray) else list(betas)   # Python floats: the same texts
     isfinite = math.isfinite
     travel = feat.TRAVEL
     blake2b = hashlib.blake2b
@@ -475,7 +476,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 try:
                     seg = segs[i]
                     e0, accel0, mcr0 = s.start_state
-                    beta = betas[i]
+                    beta = beta_list[i]
                     extruding = s.feature != travel
                     beta_txt = "inf" if not isfinite(beta) else f"{beta:.4g}"
                     head = (f"{emit_mod.BEGIN}: replaces {n_lines} lines, kind={s.kind}, {len(seg.s) - 1} segments, "

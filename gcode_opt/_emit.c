@@ -529,8 +529,9 @@ static int fseq_object(PyObject *o, FSeq *f)
     return -1;
 }
 
-/* 0, or -1 (no exception): not such a sequence */
-static int fseq_get(PyObject *o, FSeq *f)
+/* 0, or -1 (no exception): not such a sequence.  objects: an ndarray or array.array too
+   (stroke_block; emit_body takes emit._doubles' lists and bytes only) */
+static int fseq_get(PyObject *o, FSeq *f, int objects)
 {
     memset(f, 0, sizeof *f);
     if (PyList_CheckExact(o)) {
@@ -554,7 +555,7 @@ static int fseq_get(PyObject *o, FSeq *f)
         f->d = f->own;
         return 0;
     }
-    return fseq_object(o, f);
+    return objects ? fseq_object(o, f) : -1;
 }
 
 typedef struct { int64_t x_a, x_b, y_a, y_b, e_move, e_before; } MoveUnits;
@@ -791,8 +792,8 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
     for (int i = 0; i < 4; i++)
         memset(&fs[i], 0, sizeof fs[i]);
     PyObject *res = NULL;
-    if (fseq_get(s_o, &fs[0]) == 0 && fseq_get(acc_o, &fs[1]) == 0 && fseq_get(fd_o, &fs[2]) == 0
-        && fseq_get(ends_o, &fs[3]) == 0) {
+    if (fseq_get(s_o, &fs[0], 0) == 0 && fseq_get(acc_o, &fs[1], 0) == 0 && fseq_get(fd_o, &fs[2], 0) == 0
+        && fseq_get(ends_o, &fs[3], 0) == 0) {
         /* one buffer for every block, kept between calls (a block's text is built there and
            copied once into its str): no growing allocations per block to fragment the heap */
         Buf b = EMIT_BUF;
@@ -1239,8 +1240,8 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
     int64_t e_start_u;
     if (py_round(e0 * POW10[dec_e], &e_start_u) < 0)
         goto decline;
-    if (fseq_get(args[13], &fs[0]) < 0 || fseq_get(args[14], &fs[1]) < 0 || fseq_get(args[15], &fs[2]) < 0
-        || fseq_get(args[16], &fs[3]) < 0)
+    if (fseq_get(args[13], &fs[0], 1) < 0 || fseq_get(args[14], &fs[1], 1) < 0 || fseq_get(args[15], &fs[2], 1) < 0
+        || fseq_get(args[16], &fs[3], 1) < 0)
         goto decline;
     Buf b = EMIT_BUF;
     b.n = 0;

@@ -481,6 +481,42 @@ def test_stroke_block_is_the_reference_block(name, prof_name):
     assert n_gave > 300 and n_refused > 300, (n_gave, n_refused)
 
 
+def test_stroke_block_keeps_nothing_of_the_arrays():
+    """stroke_block reads a plan's float64 arrays by their tobytes() and array.array('d') by
+    its buffer: nothing stays with them (numpy keeps a buffer's format and shape with an
+    array until it dies: ~7 MB over the rectilinear plate's plans)."""
+    import array
+    import tracemalloc
+    prof, opts, strokes, plan = _planned("prusa_klipper.gcode", "voron24")
+    order = [i for i in np.flatnonzero(plan.retime).tolist() if strokes[i].kind != K_ARC]
+    lines = _stroke_lines(SAMPLES + "prusa_klipper.gcode", strokes, order)
+    i = order[0]
+    s, seg, beta = strokes[i], plan.segs[i], plan.beta[i]
+    args = list(_block_args(s, lines[i], seg, beta, prof))
+    assert isinstance(s.ends_d, array.array)
+    want = CORE.stroke_block(*args)
+    assert want is not None
+    copies = [(seg.s.copy(), seg.accel.copy(), seg.feed.copy(), array.array("d", s.ends_d)) for _ in range(3000)]
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        for sv, av, fv, ev in copies:
+            args[13:17] = sv, av, fv, ev
+            assert CORE.stroke_block(*args) == want
+        grown = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    assert grown < 20_000, grown
+    # the same doubles as a list or as bytes
+    args[13:17] = seg.s.tolist(), seg.accel.tobytes(), seg.feed.tolist(), s.ends_d.tolist()
+    assert CORE.stroke_block(*args) == want
+    # emit_body still takes emit._doubles' lists and bytes only
+    st = emit.StrokeText(lines[i], f"{s.x0:.8f}", f"{s.y0:.8f}", 0)
+    assert CORE.emit_body("h\n", st.x_texts, st.y_texts, st.e_texts, st.comments, seg.s, seg.accel.tobytes(),
+                          seg.feed.tobytes(), s.ends_d.tobytes(), st.dec_xy, st.dec_e, True, True, 0,
+                          f"{s.x0:.8f}", f"{s.y0:.8f}", "M204 S", "\n", None, None, "end\n") is None
+
+
 # ------------------------------------------------------------------ whole runs
 def _process(path, prof_name, out):
     """process()'s output bytes and summary (less the paths and times, as setcmp.sh compares)."""

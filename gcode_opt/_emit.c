@@ -316,10 +316,8 @@ done:
 /* ---------------------------------------------------------------- emit_body */
 
 /* emit._units(text, dec) when it takes its fast form and fits: 0, else -1 (decline) */
-static int units(PyObject *o, int dec, int64_t *out)
+static int units_txt(const char *p, Py_ssize_t m, int dec, int64_t *out)
 {
-    Py_ssize_t m;
-    const char *p = ascii(o, &m);
     if (p == NULL)
         return -1;
     const char *dot = memchr(p, '.', m);
@@ -353,6 +351,9 @@ static int units(PyObject *o, int dec, int64_t *out)
     *out = neg ? -v : v;
     return 0;
 }
+
+/* a text of a stroke's line: an ASCII str's bytes, or a piece of a line stroke_block read */
+typedef struct { const char *p; Py_ssize_t n; } Txt;
 
 /* emit._fmt_units(u, dec) appended */
 static int put_units(Buf *b, int64_t u, int dec)
@@ -463,8 +464,74 @@ static void fseq_release(FSeq *f)
     f->own = NULL;
 }
 
-/* 0, or -1 (no exception): not such a sequence */
-static int fseq_get(PyObject *o, FSeq *f)
+/* set_types(ndarray, float64 dtype, array.array): what fseq_get reads besides lists and bytes */
+static PyObject *ND_TYPE = NULL, *F64_DTYPE = NULL, *ARRAY_TYPE = NULL;
+
+static PyObject *set_types(PyObject *self, PyObject *args)
+{
+    PyObject *nd, *f64, *arr;
+    if (!PyArg_ParseTuple(args, "O!OO!", &PyType_Type, &nd, &f64, &PyType_Type, &arr))
+        return NULL;
+    Py_XSETREF(ND_TYPE, Py_NewRef(nd));
+    Py_XSETREF(F64_DTYPE, Py_NewRef(f64));
+    Py_XSETREF(ARRAY_TYPE, Py_NewRef(arr));
+    Py_RETURN_NONE;
+}
+
+/* the doubles of a 1-D float64 ndarray (its tobytes(), as emit._doubles takes them) or an
+   array.array('d') (its buffer: array.array keeps nothing of a buffer after its release),
+   into f: 0; -1 (no exception): not one */
+static int fseq_object(PyObject *o, FSeq *f)
+{
+    PyObject *bytes = NULL;
+    if (ND_TYPE != NULL && Py_IS_TYPE(o, (PyTypeObject *)ND_TYPE)) {
+        PyObject *dt = PyObject_GetAttrString(o, "dtype");
+        int ok = dt == F64_DTYPE;
+        Py_XDECREF(dt);
+        if (ok) {
+            PyObject *nd = PyObject_GetAttrString(o, "ndim");
+            ok = nd != NULL && PyLong_CheckExact(nd) && PyLong_AsLong(nd) == 1;
+            Py_XDECREF(nd);
+        }
+        if (ok)
+            bytes = PyObject_CallMethod(o, "tobytes", NULL);
+        if (bytes == NULL || !PyBytes_CheckExact(bytes) || PyBytes_GET_SIZE(bytes) % sizeof(double)) {
+            Py_XDECREF(bytes);
+            PyErr_Clear();
+            return -1;
+        }
+        f->n = PyBytes_GET_SIZE(bytes) / (Py_ssize_t)sizeof(double);
+        f->own = PyMem_Malloc((f->n ? f->n : 1) * sizeof(double));
+        if (f->own != NULL)
+            memcpy(f->own, PyBytes_AS_STRING(bytes), f->n * sizeof(double));
+        Py_DECREF(bytes);
+        f->d = f->own;
+        return f->own != NULL ? 0 : -1;
+    }
+    if (ARRAY_TYPE != NULL && Py_IS_TYPE(o, (PyTypeObject *)ARRAY_TYPE)) {
+        Py_buffer v;
+        if (PyObject_GetBuffer(o, &v, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) {
+            PyErr_Clear();
+            return -1;
+        }
+        int ok = v.format != NULL && strcmp(v.format, "d") == 0 && v.itemsize == sizeof(double) && v.ndim == 1;
+        if (ok) {
+            f->n = v.len / (Py_ssize_t)sizeof(double);
+            f->own = PyMem_Malloc((f->n ? f->n : 1) * sizeof(double));
+            if (f->own != NULL)
+                memcpy(f->own, v.buf, f->n * sizeof(double));
+            f->d = f->own;
+            ok = f->own != NULL;
+        }
+        PyBuffer_Release(&v);
+        return ok ? 0 : -1;
+    }
+    return -1;
+}
+
+/* 0, or -1 (no exception): not such a sequence.  objects: an ndarray or array.array too
+   (stroke_block; emit_body takes emit._doubles' lists and bytes only) */
+static int fseq_get(PyObject *o, FSeq *f, int objects)
 {
     memset(f, 0, sizeof *f);
     if (PyList_CheckExact(o)) {
@@ -488,24 +555,24 @@ static int fseq_get(PyObject *o, FSeq *f)
         f->d = f->own;
         return 0;
     }
-    return -1;
+    return objects ? fseq_object(o, f) : -1;
 }
 
 typedef struct { int64_t x_a, x_b, y_a, y_b, e_move, e_before; } MoveUnits;
 
 /* emit._move_units */
-static int move_units(PyObject *xt, PyObject *yt, PyObject *et, Py_ssize_t move, const int64_t *start_u,
+static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t move, const int64_t *start_u,
                       int dxy, int de, int e_rel, int64_t e_start_u, MoveUnits *mu)
 {
     int64_t e_u, e_b;
     if (move == 0) {
         mu->x_a = start_u[0];
         mu->y_a = start_u[1];
-    } else if (units(PyList_GET_ITEM(xt, move - 1), dxy, &mu->x_a) < 0
-               || units(PyList_GET_ITEM(yt, move - 1), dxy, &mu->y_a) < 0)
+    } else if (units_txt(xt[move - 1].p, xt[move - 1].n, dxy, &mu->x_a) < 0
+               || units_txt(yt[move - 1].p, yt[move - 1].n, dxy, &mu->y_a) < 0)
         return -1;
-    if (units(PyList_GET_ITEM(xt, move), dxy, &mu->x_b) < 0 || units(PyList_GET_ITEM(yt, move), dxy, &mu->y_b) < 0
-        || units(PyList_GET_ITEM(et, move), de, &e_u) < 0)
+    if (units_txt(xt[move].p, xt[move].n, dxy, &mu->x_b) < 0 || units_txt(yt[move].p, yt[move].n, dxy, &mu->y_b) < 0
+        || units_txt(et[move].p, et[move].n, de, &e_u) < 0)
         return -1;
     if (e_rel) {
         mu->e_move = e_u;
@@ -514,80 +581,40 @@ static int move_units(PyObject *xt, PyObject *yt, PyObject *et, Py_ssize_t move,
     }
     if (move == 0)
         e_b = e_start_u;
-    else if (units(PyList_GET_ITEM(et, move - 1), de, &e_b) < 0)
+    else if (units_txt(et[move - 1].p, et[move - 1].n, de, &e_b) < 0)
         return -1;
     mu->e_move = e_u - e_b;
     mu->e_before = e_b;
     return 0;
 }
 
-/* emit_body(head, x_texts, y_texts, e_texts, comments, s, accels, feeds, ends_d, dxy, de,
-             e_rel, extruding, e_start_units, x0_text, y0_text, accel_word, nl, before,
-             after, closing)
-   emit.emit_stroke's text: head + segment lines (before/after around the first move when
-   not None) + closing; None where the Python loop would take another path or raise. */
-static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject *et, PyObject *cm, const FSeq *s,
-                           const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy, int de, int e_rel,
-                           int extruding, PyObject *e_start_o, PyObject *x0t, PyObject *y0t, PyObject *word,
-                           PyObject *nlo, PyObject *before, PyObject *after, PyObject *closing);
+/* the pieces emit_cols puts around the segment lines (ASCII) */
+typedef struct {
+    const char *hp, *wp, *nlp, *clp, *bp, *ap;
+    Py_ssize_t hn, wn, nln, cln, bn, an;
+} Pieces;
 
-static PyObject *emit_body(PyObject *self, PyObject *args)
-{
-    PyObject *head, *xt, *yt, *et, *cm, *s_o, *acc_o, *fd_o, *ends_o, *e_start_o, *x0t, *y0t, *word, *nlo, *before,
-             *after, *closing;
-    int dxy, de, e_rel, extruding;
-    if (!PyArg_ParseTuple(args, "UO!O!O!O!OOOOiippOUUUUOOU", &head, &PyList_Type, &xt, &PyList_Type, &yt,
-                          &PyList_Type, &et, &PyList_Type, &cm, &s_o, &acc_o, &fd_o, &ends_o, &dxy, &de, &e_rel, &extruding, &e_start_o,
-                          &x0t, &y0t, &word, &nlo, &before, &after, &closing))
-        return NULL;
-    FSeq fs[4];
-    for (int i = 0; i < 4; i++)
-        memset(&fs[i], 0, sizeof fs[i]);
-    PyObject *res = NULL;
-    if (fseq_get(s_o, &fs[0]) == 0 && fseq_get(acc_o, &fs[1]) == 0 && fseq_get(fd_o, &fs[2]) == 0
-        && fseq_get(ends_o, &fs[3]) == 0)
-        res = emit_text(head, xt, yt, et, cm, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding, e_start_o,
-                        x0t, y0t, word, nlo, before, after, closing);
-    else
-        res = Py_NewRef(Py_None);
-    for (int i = 0; i < 4; i++)
-        fseq_release(&fs[i]);
-    return res;
-}
-
-static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject *et, PyObject *cm, const FSeq *s,
-                           const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy, int de, int e_rel,
-                           int extruding, PyObject *e_start_o, PyObject *x0t, PyObject *y0t, PyObject *word,
-                           PyObject *nlo, PyObject *before, PyObject *after, PyObject *closing)
+/* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
+   bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
+   (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
+   raise); -1: no memory. */
+static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
+                     Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
+                     int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
-    Py_ssize_t hn = 0, wn = 0, nln = 0, cln = 0, bn = 0, an = 0;
-    const char *hp = ascii(head, &hn), *wp = ascii(word, &wn), *nlp = ascii(nlo, &nln),
-               *clp = ascii(closing, &cln), *bp = NULL, *ap = NULL;
+    const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
+    Py_ssize_t hn = pc->hn, wn = pc->wn, nln = pc->nln, cln = pc->cln, bn = pc->bn, an = pc->an;
     if (!hp || !wp || !nlp || !clp || n_moves == 0 || k_total < 0 || dxy < 0 || dxy > 15 || de < 0 || de > 15)
-        Py_RETURN_NONE;
-    if (before != Py_None && ((bp = ascii(before, &bn)) == NULL || (ap = ascii(after, &an)) == NULL))
-        Py_RETURN_NONE;
-    if (PyList_GET_SIZE(xt) < n_moves || PyList_GET_SIZE(yt) < n_moves || PyList_GET_SIZE(et) < n_moves
-        || PyList_GET_SIZE(cm) < n_moves || acc->n < k_total || fd->n < k_total)
-        Py_RETURN_NONE;
-    int overflow = 0;
-    long long e_start_u = PyLong_Check(e_start_o) ? PyLong_AsLongLongAndOverflow(e_start_o, &overflow) : 0;
-    if (!PyLong_Check(e_start_o) || overflow || (e_start_u == -1 && PyErr_Occurred())
-        || fabs((double)e_start_u) > EXACT_MAX) {
-        PyErr_Clear();
-        Py_RETURN_NONE;
-    }
+        return 1;
+    if (n_cols < n_moves || acc->n < k_total || fd->n < k_total || fabs((double)e_start_u) > EXACT_MAX)
+        return 1;
     int64_t start_u[2];
-    if (units(x0t, dxy, &start_u[0]) < 0 || units(y0t, dxy, &start_u[1]) < 0)
-        Py_RETURN_NONE;
+    if (units_txt(x0t->p, x0t->n, dxy, &start_u[0]) < 0 || units_txt(y0t->p, y0t->n, dxy, &start_u[1]) < 0)
+        return 1;
     double end_last = ends->d[n_moves - 1];
     double tol_d = 1e-9 * (end_last > 1.0 ? end_last : 1.0);
     double end_d = ends->d[0], start_d = 0.0;
-    /* one buffer for every block, kept between calls (a block's text is built there and
-       copied once into its str): no growing allocations per block to fragment the heap */
-    Buf b = EMIT_BUF;
-    b.n = 0;
     Py_ssize_t move = 0;
     int have_mu = 0;
     MoveUnits mu;
@@ -595,27 +622,27 @@ static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject 
     int have_a = 0, have_cmd = 0;
     double last_a = 0.0;
     int64_t last_ka = 0;
-    if (put(&b, hp, hn) < 0)
-        goto fail;
+    if (put(b, hp, hn) < 0)
+        return -1;
     for (Py_ssize_t k = 1; k <= k_total; k++) {
         double sk = s->d[k], a = acc->d[k - 1], f = fd->d[k - 1];
         if (!(sk <= end_d + tol_d))
-            goto decline;                            /* "a knot skipped an original vertex" */
+            return 1;                            /* "a knot skipped an original vertex" */
         int at_vertex = fabs(sk - end_d) <= tol_d;
-        PyObject *xo = NULL, *yo = NULL, *co = NULL;
+        const Txt *xo = NULL, *yo = NULL, *co = NULL;
         int64_t xu = 0, yu = 0, eu = 0;
         int e_kind;                                  /* 0: e text as is, 1: canon, 2: units */
         if (at_vertex) {
-            xo = PyList_GET_ITEM(xt, move);
-            yo = PyList_GET_ITEM(yt, move);
-            co = PyList_GET_ITEM(cm, move);
+            xo = &xt[move];
+            yo = &yt[move];
+            co = &cm[move];
             if (!e_rel)
                 e_kind = 0;
             else if (e_done_u == 0)
                 e_kind = 1;
             else {
-                if (units(PyList_GET_ITEM(et, move), de, &eu) < 0)
-                    goto decline;
+                if (units_txt(et[move].p, et[move].n, de, &eu) < 0)
+                    return 1;
                 eu -= e_done_u;
                 e_kind = 2;
             }
@@ -630,74 +657,67 @@ static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject 
             }
             if (!have_mu) {
                 if (move_units(xt, yt, et, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
-                    goto decline;
+                    return 1;
                 have_mu = 1;
             }
             int64_t e_target_u;
             if (py_round((double)mu.x_a + (double)(mu.x_b - mu.x_a) * frac, &xu) < 0
                 || py_round((double)mu.y_a + (double)(mu.y_b - mu.y_a) * frac, &yu) < 0
                 || py_round((double)mu.e_move * frac, &e_target_u) < 0)
-                goto decline;
+                return 1;
             if (fabs((double)e_target_u) > EXACT_MAX || fabs((double)e_again_u) > EXACT_MAX)
-                goto decline;
+                return 1;
             eu = e_rel ? e_target_u - e_done_u : mu.e_before + e_again_u + e_target_u;
             e_done_u = e_target_u;
             e_kind = 2;
         }
         if (!have_a || a != last_a) {
             if (!(isfinite(a) && a > 0.0))
-                goto decline;                        /* accel_command raises */
+                return 1;                        /* accel_command raises */
             double c = ceil(a * 10.0 - 1e-9);
             if (!(c < (double)TENTHS_MAX))
-                goto decline;                        /* the float formatting (or ceil's OverflowError) */
+                return 1;                        /* the float formatting (or ceil's OverflowError) */
             int64_t ka = (int64_t)c;
             if (ka <= 1) ka = 1;                     /* _tenths_up: every k <= 1 is "0.1" */
             have_a = 1;
             last_a = a;
             if (!have_cmd || ka != last_ka) {
-                if (put(&b, wp, wp ? wn : 0) < 0 || put_tenths_up(&b, ka) < 0 || put(&b, nlp, nln) < 0)
-                    goto fail;
+                if (put(b, wp, wp ? wn : 0) < 0 || put_tenths_up(b, ka) < 0 || put(b, nlp, nln) < 0)
+                    return -1;
                 last_ka = ka;
-                if (!have_cmd && bp != NULL && put(&b, bp, bn) < 0)   /* first_cmds[0], after the first M204 */
-                    goto fail;
+                if (!have_cmd && bp != NULL && put(b, bp, bn) < 0)   /* first_cmds[0], after the first M204 */
+                    return -1;
                 have_cmd = 1;
             }
         }
         if (!(isfinite(f) && f > 0.0))
-            goto decline;
+            return 1;
         double cf = ceil(f * 600.0 - 1e-6);
         if (!(cf < (double)TENTHS_MAX))
-            goto decline;
+            return 1;
         /* the line */
-        Py_ssize_t n1;
-        const char *p1;
-        if (put(&b, "G1 X", 4) < 0) goto fail;
+        if (put(b, "G1 X", 4) < 0) return -1;
         if (at_vertex) {
-            if (!(p1 = ascii(xo, &n1))) goto decline;
-            if (put(&b, p1, n1) < 0) goto fail;
-        } else if (put_units(&b, xu, dxy) < 0) goto fail;
-        if (put(&b, " Y", 2) < 0) goto fail;
+            if (put(b, xo->p, xo->n) < 0) return -1;
+        } else if (put_units(b, xu, dxy) < 0) return -1;
+        if (put(b, " Y", 2) < 0) return -1;
         if (at_vertex) {
-            if (!(p1 = ascii(yo, &n1))) goto decline;
-            if (put(&b, p1, n1) < 0) goto fail;
-        } else if (put_units(&b, yu, dxy) < 0) goto fail;
+            if (put(b, yo->p, yo->n) < 0) return -1;
+        } else if (put_units(b, yu, dxy) < 0) return -1;
         if (extruding) {
-            if (put(&b, " E", 2) < 0) goto fail;
+            if (put(b, " E", 2) < 0) return -1;
             if (e_kind == 2) {
-                if (put_units(&b, eu, de) < 0) goto fail;
+                if (put_units(b, eu, de) < 0) return -1;
             } else {
-                if (!(p1 = ascii(PyList_GET_ITEM(et, move), &n1))) goto decline;
-                if ((e_kind == 0 ? put(&b, p1, n1) : put_canon(&b, p1, n1)) < 0) goto fail;
+                if ((e_kind == 0 ? put(b, et[move].p, et[move].n) : put_canon(b, et[move].p, et[move].n)) < 0)
+                    return -1;
             }
         }
-        if (put(&b, " F", 2) < 0 || put_tenths_up(&b, (int64_t)cf) < 0) goto fail;
-        if (co != NULL) {
-            if (!(p1 = ascii(co, &n1))) goto decline;
-            if (n1 && (put(&b, " ", 1) < 0 || put(&b, p1, n1) < 0)) goto fail;
-        }
-        if (put(&b, nlp, nln) < 0) goto fail;
-        if (k == 1 && ap != NULL && put(&b, ap, an) < 0)   /* first_cmds[1], after the first move */
-            goto fail;
+        if (put(b, " F", 2) < 0 || put_tenths_up(b, (int64_t)cf) < 0) return -1;
+        if (co != NULL && co->n && (put(b, " ", 1) < 0 || put(b, co->p, co->n) < 0)) return -1;
+        if (put(b, nlp, nln) < 0) return -1;
+        if (k == 1 && ap != NULL && put(b, ap, an) < 0)   /* first_cmds[1], after the first move */
+            return -1;
         if (at_vertex) {
             e_done_u = 0;
             if (move < n_moves - 1) {
@@ -706,25 +726,93 @@ static PyObject *emit_text(PyObject *head, PyObject *xt, PyObject *yt, PyObject 
                 end_d = ends->d[move];
             } else if (!e_rel) {                     /* knots past the end: the last move again */
                 if (!have_mu && move_units(xt, yt, et, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
-                    goto decline;
+                    return 1;
                 e_again_u += mu.e_move;
             }
             have_mu = 0;
         }
     }
-    if (put(&b, clp, cln) < 0)
-        goto fail;
-    PyObject *res = PyUnicode_New(b.n, 127);
-    if (res != NULL)
-        memcpy(PyUnicode_DATA(res), b.p, b.n);
-    keep_buf(&b);
+    if (put(b, clp, cln) < 0)
+        return -1;
+    return 0;
+}
+
+/* emit_body(head, x_texts, y_texts, e_texts, comments, s, accels, feeds, ends_d, dxy, de,
+             e_rel, extruding, e_start_units, x0_text, y0_text, accel_word, nl, before,
+             after, closing)
+   emit.emit_stroke's text: head + segment lines (before/after around the first move when
+   not None) + closing; None where the Python loop would take another path or raise. */
+static PyObject *emit_body(PyObject *self, PyObject *args)
+{
+    PyObject *head, *xt, *yt, *et, *cm, *s_o, *acc_o, *fd_o, *ends_o, *e_start_o, *x0t, *y0t, *word, *nlo, *before,
+             *after, *closing;
+    int dxy, de, e_rel, extruding;
+    if (!PyArg_ParseTuple(args, "UO!O!O!O!OOOOiippOUUUUOOU", &head, &PyList_Type, &xt, &PyList_Type, &yt,
+                          &PyList_Type, &et, &PyList_Type, &cm, &s_o, &acc_o, &fd_o, &ends_o, &dxy, &de, &e_rel, &extruding, &e_start_o,
+                          &x0t, &y0t, &word, &nlo, &before, &after, &closing))
+        return NULL;
+    Pieces pc;
+    memset(&pc, 0, sizeof pc);
+    pc.hp = ascii(head, &pc.hn);
+    pc.wp = ascii(word, &pc.wn);
+    pc.nlp = ascii(nlo, &pc.nln);
+    pc.clp = ascii(closing, &pc.cln);
+    if (before != Py_None && ((pc.bp = ascii(before, &pc.bn)) == NULL || (pc.ap = ascii(after, &pc.an)) == NULL))
+        Py_RETURN_NONE;
+    Txt x0 = {NULL, 0}, y0 = {NULL, 0};
+    x0.p = ascii(x0t, &x0.n);
+    y0.p = ascii(y0t, &y0.n);
+    if (x0.p == NULL || y0.p == NULL)
+        Py_RETURN_NONE;
+    int overflow = 0;
+    long long e_start_u = PyLong_Check(e_start_o) ? PyLong_AsLongLongAndOverflow(e_start_o, &overflow) : 0;
+    if (!PyLong_Check(e_start_o) || overflow || (e_start_u == -1 && PyErr_Occurred())) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    /* the columns: the moves' texts (an item not an ASCII str: the Python loop) */
+    Py_ssize_t n_cols = PyList_GET_SIZE(xt);
+    if (PyList_GET_SIZE(yt) < n_cols) n_cols = PyList_GET_SIZE(yt);
+    if (PyList_GET_SIZE(et) < n_cols) n_cols = PyList_GET_SIZE(et);
+    if (PyList_GET_SIZE(cm) < n_cols) n_cols = PyList_GET_SIZE(cm);
+    Txt *cols = PyMem_Malloc((4 * n_cols + 1) * sizeof(Txt));
+    if (cols == NULL)
+        return PyErr_NoMemory();
+    Txt *cx = cols, *cy = cols + n_cols, *ce = cols + 2 * n_cols, *cc = cols + 3 * n_cols;
+    for (Py_ssize_t k = 0; k < n_cols; k++) {
+        if ((cx[k].p = ascii(PyList_GET_ITEM(xt, k), &cx[k].n)) == NULL
+            || (cy[k].p = ascii(PyList_GET_ITEM(yt, k), &cy[k].n)) == NULL
+            || (ce[k].p = ascii(PyList_GET_ITEM(et, k), &ce[k].n)) == NULL
+            || (cc[k].p = ascii(PyList_GET_ITEM(cm, k), &cc[k].n)) == NULL) {
+            PyMem_Free(cols);
+            Py_RETURN_NONE;
+        }
+    }
+    FSeq fs[4];
+    for (int i = 0; i < 4; i++)
+        memset(&fs[i], 0, sizeof fs[i]);
+    PyObject *res = NULL;
+    if (fseq_get(s_o, &fs[0], 0) == 0 && fseq_get(acc_o, &fs[1], 0) == 0 && fseq_get(fd_o, &fs[2], 0) == 0
+        && fseq_get(ends_o, &fs[3], 0) == 0) {
+        /* one buffer for every block, kept between calls (a block's text is built there and
+           copied once into its str): no growing allocations per block to fragment the heap */
+        Buf b = EMIT_BUF;
+        b.n = 0;
+        int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
+                          (int64_t)e_start_u, &x0, &y0);
+        if (r == 0)
+            res = ascii_str(b.p, b.n);
+        else if (r > 0)
+            res = Py_NewRef(Py_None);
+        else
+            res = PyErr_NoMemory();
+        keep_buf(&b);
+    } else
+        res = Py_NewRef(Py_None);
+    for (int i = 0; i < 4; i++)
+        fseq_release(&fs[i]);
+    PyMem_Free(cols);
     return res;
-decline:
-    keep_buf(&b);
-    Py_RETURN_NONE;
-fail:
-    keep_buf(&b);
-    return PyErr_NoMemory();
 }
 
 /* ---------------------------------------------------------------- fast_body */
@@ -736,6 +824,153 @@ fail:
    decides).  want: the M204 letter; limit: the command buffer (0: none); px, py: the
    polyline's vertices (None: no path check); e_mode: 0 none, 1 relative (the E words'
    sum), 2 absolute (the last E word). */
+/* fast_body's checks of the body t[start:stop] ("\n" line "\n" ... line "\n"): 1 when they
+   certainly pass, 0 otherwise.  px, py: the polyline's nv vertices (path 0: no path check),
+   each below validate._polyline_walk's bound. */
+static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want, int klipper, Py_ssize_t limit,
+                      double accel_max_a, int path, const double *px, const double *py, Py_ssize_t nv,
+                      double tol_d, int e_mode, double e_value, double e_err, double min_move_d)
+{
+    const double accel_hi = accel_max_a + 0.1 + 1e-9;
+    Py_ssize_t j = 1;                               /* the next original vertex */
+    double x_prev = 0.0, y_prev = 0.0, gap_least = INFINITY;
+    int n_points = 0;
+    double e_sum = 0.0, e_abs = 0.0, e_last = 0.0;
+    Py_ssize_t n_e = 0;
+    if (path) {
+        x_prev = px[0];
+        y_prev = py[0];
+    }
+    const char *p = t + start + 1, *end = t + stop;
+    while (p < end) {
+        const char *q = memchr(p, '\n', end - p);   /* the line is p[0..m) */
+        Py_ssize_t m = q - p, i, r;
+        int dec;
+        if (limit > 0 && m > limit)
+            return 0;
+        if (m > 4 && memcmp(p, "G1 X", 4) == 0) {
+            /* "G1 X<n> Y<n>[ E<n>] F<n>" */
+            Py_ssize_t xa = 4, xn, ya, yn, ea = 0, en = 0, fa, fn;
+            int dx_, dy_;
+            i = 4;
+            xn = plain_decimal(p + i, m - i, &dx_);
+            if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
+            i += xn;
+            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') return 0;
+            i += 2;
+            ya = i;
+            yn = plain_decimal(p + i, m - i, &dy_);
+            if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
+            i += yn;
+            if (i + 2 <= m && p[i] == ' ' && p[i + 1] == 'E') {
+                i += 2;
+                ea = i;
+                en = plain_decimal(p + i, m - i, &dec);
+                if (en < 0 || dec > MAX_DECIMALS) return 0;
+                i += en;
+            }
+            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'F') return 0;
+            i += 2;
+            fa = i;
+            fn = plain_decimal(p + i, m - i, &dec);
+            if (fn < 0 || dec > MAX_DECIMALS || i + fn != m) return 0;
+            double x = to_double(p + xa, xn), y = to_double(p + ya, yn), f = to_double(p + fa, fn);
+            if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
+            if (en) {
+                double e = to_double(p + ea, en);
+                if (!isfinite(e)) return 0;
+                e_sum += e;
+                e_abs += fabs(e);
+                e_last = e;
+                n_e++;
+            }
+            if (path) {
+                if (j < nv && x == px[j] && y == py[j])
+                    j++;
+                else {
+                    Py_ssize_t k = j < nv ? j - 1 : nv - 2;
+                    double ax = px[k], ay = py[k];
+                    double ddx = px[k + 1] - ax, ddy = py[k + 1] - ay;
+                    double dd = ddx * ddx + ddy * ddy, tt;
+                    if (dd <= 0)
+                        tt = 0.0;
+                    else {
+                        double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
+                        u = u > 0.0 ? u : 0.0;
+                        tt = u < 1.0 ? u : 1.0;
+                    }
+                    double d = hypot(x - ax - tt * ddx, y - ay - tt * ddy);
+                    int dmax = dx_ > dy_ ? dx_ : dy_;   /* validate._tol */
+                    double tv = 0.75 * pow(10.0, (double)-dmax);
+                    double tol = (tv < tol_d ? tv : tol_d) + 1e-7;
+                    if (!(d <= tol * (1.0 - MARGIN_R)))
+                        return 0;              /* off this segment, or near: Python's search */
+                }
+                double gx = fabs(x - x_prev), gy = fabs(y - y_prev);
+                double g = gy > gx ? gy : gx;
+                if (g < gap_least) gap_least = g;
+                x_prev = x;
+                y_prev = y;
+            }
+            n_points++;
+        } else if (m > 4 && memcmp(p, "G1 F", 4) == 0) {
+            i = 4;
+            r = plain_decimal(p + i, m - i, &dec);
+            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            double f = to_double(p + i, r);
+            if (!(f > 0.0 && f < INFINITY)) return 0;
+        } else if (m > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
+            i = 6;
+            r = plain_decimal(p + i, m - i, &dec);
+            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            double a = to_double(p + i, r);
+            if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) return 0;
+        } else if (klipper && m > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
+            i = MCR_N;
+            r = plain_decimal(p + i, m - i, &dec);
+            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            double v = to_double(p + i, r);
+            if (!(v >= 0.0 && v < 1.0)) return 0;
+        } else
+            return 0;
+        p = q + 1;
+    }
+    if (path && min_move_d > 0.0 && n_points && gap_least < min_move_d) {
+        /* _ShortMoves' floor: the original's own shortest move passes too */
+        double floor_d = min_move_d;
+        if (nv > 2) {
+            double own = INFINITY;
+            for (Py_ssize_t k = 0; k + 1 < nv; k++) {
+                double gx = fabs(px[k + 1] - px[k]), gy = fabs(py[k + 1] - py[k]);
+                double g = gy > gx ? gy : gx;
+                if (g < own) own = g;
+            }
+            double o = own * (1.0 - 1e-9);
+            if (o < floor_d) floor_d = o;
+        }
+        if (gap_least < floor_d)
+            return 0;
+    }
+    if (e_mode) {
+        if (n_e == 0)
+            return 0;
+        double lim = E_TOL * (1.0 + fabs(e_value));
+        if (e_mode == 2) {
+            if (fabs(e_last - e_value) > lim) return 0;
+        } else {
+            /* fsum is within half an ulp of the exact sum, the running sum within
+               (n - 1) u sum|e| of it: a pass this far inside the limit is fsum's too */
+            double err = 2.0 * (double)n_e * 1.1102230246251565e-16 * e_abs + 1e-300;
+            /* e_err: how far e_value may be from the value the Python check compares with
+               (stroke_block's running sum of the original's E words; 0 for fast_body's fsum) */
+            if (e_err > 0.0)
+                lim = E_TOL * (1.0 + fabs(e_value) - e_err);
+            if (!(fabs(e_sum - e_value) + 2.0 * err + 2.0 * e_err <= lim * (1.0 - MARGIN_R))) return 0;
+        }
+    }
+    return 1;
+}
+
 static PyObject *fast_body(PyObject *self, PyObject *args)
 {
     PyObject *text, *pxo, *pyo;
@@ -751,6 +986,7 @@ static PyObject *fast_body(PyObject *self, PyObject *args)
         Py_RETURN_NONE;
     int path = pxo != Py_None;
     Py_ssize_t nv = 0;
+    double *pv = NULL;
     if (path) {
         if (!PyList_CheckExact(pxo) || !PyList_CheckExact(pyo) || PyList_GET_SIZE(pxo) != PyList_GET_SIZE(pyo)
             || (nv = PyList_GET_SIZE(pxo)) < 2)
@@ -761,145 +997,290 @@ static PyObject *fast_body(PyObject *self, PyObject *args)
                 || !(fabs(PyFloat_AS_DOUBLE(c)) < 1e150))
                 Py_RETURN_NONE;
         }
+        pv = PyMem_Malloc(2 * nv * sizeof(double));
+        if (pv == NULL)
+            return PyErr_NoMemory();
+        for (Py_ssize_t j = 0; j < nv; j++) {
+            pv[j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(pxo, j));
+            pv[nv + j] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(pyo, j));
+        }
     }
-#define PX(j) PyFloat_AS_DOUBLE(PyList_GET_ITEM(pxo, (j)))
-#define PY(j) PyFloat_AS_DOUBLE(PyList_GET_ITEM(pyo, (j)))
-    const double accel_hi = accel_max_a + 0.1 + 1e-9;
-    Py_ssize_t j = 1;                               /* the next original vertex */
-    double x_prev = 0.0, y_prev = 0.0, gap_least = INFINITY;
-    int n_points = 0;
+    int ok = fast_check(t, start, stop, want, klipper, limit, accel_max_a, path, pv, pv ? pv + nv : NULL, nv, tol_d,
+                        e_mode, e_value, 0.0, min_move_d);
+    PyMem_Free(pv);
+    if (ok)
+        Py_RETURN_TRUE;
+    Py_RETURN_NONE;
+}
+
+/* ---------------------------------------------------------------- skip_lines, stroke_block */
+
+/* skip_lines(data, pos, n, final): (end, got) -- the offset in the bytes data after the
+   next n lines from pos, as a file opened with newline="" reads lines ("\n", "\r\n" or a
+   lone "\r" ends one; a "\r" as data's last byte ends one: the caller's data never splits
+   a "\r\n"), and how many lines that is (fewer than n at the end of data).  Bytes after
+   the last line end: taken (end is len(data)) and counted as a line only when final (the
+   end of the file: the text reading's last line without a line end). */
+static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 4 || !PyBytes_CheckExact(args[0])) {
+        PyErr_SetString(PyExc_TypeError, "skip_lines(bytes, pos, n, final)");
+        return NULL;
+    }
+    Py_ssize_t pos = PyLong_AsSsize_t(args[1]), n = PyLong_AsSsize_t(args[2]);
+    if ((pos == -1 || n == -1) && PyErr_Occurred())
+        return NULL;
+    int final = PyObject_IsTrue(args[3]);
+    if (final < 0)
+        return NULL;
+    const char *d = PyBytes_AS_STRING(args[0]);
+    Py_ssize_t len = PyBytes_GET_SIZE(args[0]), got = 0;
+    if (pos < 0 || pos > len) {
+        PyErr_SetString(PyExc_ValueError, "skip_lines: pos out of range");
+        return NULL;
+    }
+    while (got < n && pos < len) {
+        /* the next "\n" or "\r" */
+        const char *p = d + pos, *e = d + len, *q = p;
+        while (q < e && *q != '\n' && *q != '\r') q++;
+        if (q == e) {
+            pos = len;
+            got += final;                         /* the file's last line, without a line end */
+            break;
+        }
+        pos = q - d + 1;
+        if (*q == '\r' && pos < len && d[pos] == '\n')
+            pos++;
+        got++;
+    }
+    return Py_BuildValue("(nn)", pos, got);
+}
+
+/* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
+   1 and its pieces, or 0 (not that shape, or a number not a plain decimal: the Python
+   reading) */
+static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de)
+{
+    Py_ssize_t i, xn, yn, en = 0;
+    if (m < 4 || memcmp(p, "G1 X", 4) != 0)
+        return 0;
+    i = 4;
+    x->p = p + i; xn = num_run(p + i, m - i); i += xn;
+    if (xn == 0 || i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y')
+        return 0;
+    i += 2;
+    y->p = p + i; yn = num_run(p + i, m - i); i += yn;
+    if (yn == 0)
+        return 0;
+    e->p = NULL;
+    if (i + 1 < m && p[i] == ' ' && p[i + 1] == 'E') {
+        i += 2;
+        e->p = p + i; en = num_run(p + i, m - i); i += en;
+        if (en == 0)
+            return 0;
+    }
+    while (i < m && (p[i] == ' ' || p[i] == '\t')) i++;
+    c->p = p + i;
+    c->n = 0;
+    if (i < m && p[i] == ';') {
+        Py_ssize_t ca = i;
+        while (i < m && p[i] != '\r') i++;
+        c->n = i - ca;
+    }
+    if (i < m && p[i] == '\r') i++;
+    if (i != m)
+        return 0;
+    *de = 0;
+    if (plain_decimal(x->p, xn, dx) != xn || plain_decimal(y->p, yn, dy) != yn
+        || (en && plain_decimal(e->p, en, de) != en))
+        return 0;
+    x->n = xn;
+    y->n = yn;
+    e->n = en;
+    return 1;
+}
+
+static double arg_double(PyObject *o, int *bad)
+{
+    double v = PyFloat_AsDouble(o);
+    if (v == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        *bad = 1;
+    }
+    return v;
+}
+
+/* stroke_block(data, start, stop, n_lines, head, closing, before, after, x0_text, y0_text, x0, y0, e0,
+                s, accels, feeds, ends_d, e_rel, extruding, ctx, accel_max_a)
+   ctx = (accel_word, want, klipper, limit, min_move_d)
+   A line stroke's block in one call: data[start:stop] is the stroke's n_lines original lines
+   (bytes); the lines read as emit.StrokeText reads plain lines, the block written as
+   emit_stroke writes it (head: "; gcode-opt begin: ..." and its line end, plus Klipper's
+   cruise-ratio line; closing: emit._closing_text; before/after: the first_cmds lines with
+   their line end, or None) and checked as pipeline._validate's validate_block checks it
+   (validate._fast_ok's passes).  The block's bytes, or None: anything else (a line not
+   plain, not ASCII, a "\r", a block the column pass does not certainly pass, ...) is
+   pipeline's Python path's to decide. */
+static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 21) {
+        PyErr_SetString(PyExc_TypeError, "stroke_block takes 21 arguments");
+        return NULL;
+    }
+    PyObject *data = args[0], *ctx = args[19];
+    if (!PyBytes_CheckExact(data) || !PyTuple_CheckExact(ctx) || PyTuple_GET_SIZE(ctx) != 5)
+        Py_RETURN_NONE;
+    Py_ssize_t start = PyLong_AsSsize_t(args[1]), stop = PyLong_AsSsize_t(args[2]),
+               n = PyLong_AsSsize_t(args[3]);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    const char *d = PyBytes_AS_STRING(data);
+    if (start < 0 || stop > PyBytes_GET_SIZE(data) || n < 1 || stop - start < 2 || d[stop - 1] != '\n')
+        Py_RETURN_NONE;
+    Pieces pc;
+    memset(&pc, 0, sizeof pc);
+    Txt x0 = {NULL, 0}, y0 = {NULL, 0};
+    pc.hp = ascii(args[4], &pc.hn);
+    pc.clp = ascii(args[5], &pc.cln);
+    pc.wp = ascii(PyTuple_GET_ITEM(ctx, 0), &pc.wn);
+    pc.nlp = "\n";
+    pc.nln = 1;
+    if (args[6] != Py_None && ((pc.bp = ascii(args[6], &pc.bn)) == NULL || (pc.ap = ascii(args[7], &pc.an)) == NULL))
+        Py_RETURN_NONE;
+    x0.p = ascii(args[8], &x0.n);
+    y0.p = ascii(args[9], &y0.n);
+    PyObject *want_o = PyTuple_GET_ITEM(ctx, 1);
+    Py_ssize_t wl;
+    const char *wantp = ascii(want_o, &wl);
+    if (!pc.hp || !pc.clp || !pc.wp || !x0.p || !y0.p || !wantp || wl != 1 || !PyFloat_CheckExact(args[12]))
+        Py_RETURN_NONE;
+    /* the head line as validate._fast_ok wants it (the caller writes it: its kind is there) */
+    static const char BEGIN_R[] = "; gcode-opt begin: replaces ";
+    Py_ssize_t hl = 0;
+    while (hl < pc.hn && pc.hp[hl] != '\n') hl++;
+    if (hl == pc.hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc.hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
+        Py_RETURN_NONE;
+    for (Py_ssize_t k = 0; k < hl; k++) {
+        char c = pc.hp[k];
+        if (c == '\r' || c == '\x0b' || c == '\x0c' || c == '\x1c' || c == '\x1d' || c == '\x1e')
+            Py_RETURN_NONE;
+    }
+    int bad = 0;
+    double x0v = arg_double(args[10], &bad), y0v = arg_double(args[11], &bad), e0 = PyFloat_AS_DOUBLE(args[12]);
+    double accel_max_a = arg_double(args[20], &bad), min_move_d = arg_double(PyTuple_GET_ITEM(ctx, 4), &bad);
+    int e_rel = PyObject_IsTrue(args[17]), extruding = PyObject_IsTrue(args[18]),
+        klipper = PyObject_IsTrue(PyTuple_GET_ITEM(ctx, 2));
+    Py_ssize_t limit = PyLong_AsSsize_t(PyTuple_GET_ITEM(ctx, 3));
+    if (bad || e_rel < 0 || extruding < 0 || klipper < 0 || (limit == -1 && PyErr_Occurred())) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+
+    /* the lines: one allocation for their texts and the path's vertices */
+    char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
+    if (mem == NULL)
+        return PyErr_NoMemory();
+    Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
+    double *px = (double *)(cx + 4 * n), *py = px + n + 1;
+    PyObject *res = NULL;
+    FSeq fs[4];
+    for (int i = 0; i < 4; i++)
+        memset(&fs[i], 0, sizeof fs[i]);
+    int dec_xy = 3, dec_e = 5, d0;
+    if ((d0 = start_decimals(x0.p, x0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = start_decimals(y0.p, y0.n)) > dec_xy) dec_xy = d0;
+    px[0] = x0v;
+    py[0] = y0v;
+    int path_ok = fabs(x0v) < 1e150 && fabs(y0v) < 1e150;
     double e_sum = 0.0, e_abs = 0.0, e_last = 0.0;
     Py_ssize_t n_e = 0;
-    if (path) {
-        x_prev = PX(0);
-        y_prev = PY(0);
-    }
-    const char *p = t + start + 1, *end = t + stop;
-    while (p < end) {
-        const char *q = memchr(p, '\n', end - p);   /* the line is p[0..m) */
-        Py_ssize_t m = q - p, i, r;
-        int dec;
-        if (limit > 0 && m > limit)
-            Py_RETURN_NONE;
-        if (m > 4 && memcmp(p, "G1 X", 4) == 0) {
-            /* "G1 X<n> Y<n>[ E<n>] F<n>" */
-            Py_ssize_t xa = 4, xn, ya, yn, ea = 0, en = 0, fa, fn;
-            int dx_, dy_;
-            i = 4;
-            xn = plain_decimal(p + i, m - i, &dx_);
-            if (xn < 0 || dx_ > MAX_DECIMALS) Py_RETURN_NONE;
-            i += xn;
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') Py_RETURN_NONE;
-            i += 2;
-            ya = i;
-            yn = plain_decimal(p + i, m - i, &dy_);
-            if (yn < 0 || dy_ > MAX_DECIMALS) Py_RETURN_NONE;
-            i += yn;
-            if (i + 2 <= m && p[i] == ' ' && p[i + 1] == 'E') {
-                i += 2;
-                ea = i;
-                en = plain_decimal(p + i, m - i, &dec);
-                if (en < 0 || dec > MAX_DECIMALS) Py_RETURN_NONE;
-                i += en;
-            }
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'F') Py_RETURN_NONE;
-            i += 2;
-            fa = i;
-            fn = plain_decimal(p + i, m - i, &dec);
-            if (fn < 0 || dec > MAX_DECIMALS || i + fn != m) Py_RETURN_NONE;
-            double x = to_double(p + xa, xn), y = to_double(p + ya, yn), f = to_double(p + fa, fn);
-            if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) Py_RETURN_NONE;
-            if (en) {
-                double e = to_double(p + ea, en);
-                if (!isfinite(e)) Py_RETURN_NONE;
-                e_sum += e;
-                e_abs += fabs(e);
-                e_last = e;
-                n_e++;
-            }
-            if (path) {
-                if (j < nv && x == PX(j) && y == PY(j))
-                    j++;
-                else {
-                    Py_ssize_t k = j < nv ? j - 1 : nv - 2;
-                    double ax = PX(k), ay = PY(k);
-                    double ddx = PX(k + 1) - ax, ddy = PY(k + 1) - ay;
-                    double dd = ddx * ddx + ddy * ddy, tt;
-                    if (dd <= 0)
-                        tt = 0.0;
-                    else {
-                        double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
-                        u = u > 0.0 ? u : 0.0;
-                        tt = u < 1.0 ? u : 1.0;
-                    }
-                    double d = hypot(x - ax - tt * ddx, y - ay - tt * ddy);
-                    int dmax = dx_ > dy_ ? dx_ : dy_;   /* validate._tol */
-                    double tv = 0.75 * pow(10.0, (double)-dmax);
-                    double tol = (tv < tol_d ? tv : tol_d) + 1e-7;
-                    if (!(d <= tol * (1.0 - MARGIN_R)))
-                        Py_RETURN_NONE;              /* off this segment, or near: Python's search */
-                }
-                double gx = fabs(x - x_prev), gy = fabs(y - y_prev);
-                double g = gy > gx ? gy : gx;
-                if (g < gap_least) gap_least = g;
-                x_prev = x;
-                y_prev = y;
-            }
-            n_points++;
-        } else if (m > 4 && memcmp(p, "G1 F", 4) == 0) {
-            i = 4;
-            r = plain_decimal(p + i, m - i, &dec);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) Py_RETURN_NONE;
-            double f = to_double(p + i, r);
-            if (!(f > 0.0 && f < INFINITY)) Py_RETURN_NONE;
-        } else if (m > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
-            i = 6;
-            r = plain_decimal(p + i, m - i, &dec);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) Py_RETURN_NONE;
-            double a = to_double(p + i, r);
-            if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) Py_RETURN_NONE;
-        } else if (klipper && m > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
-            i = MCR_N;
-            r = plain_decimal(p + i, m - i, &dec);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) Py_RETURN_NONE;
-            double v = to_double(p + i, r);
-            if (!(v >= 0.0 && v < 1.0)) Py_RETURN_NONE;
-        } else
-            Py_RETURN_NONE;
+    const char *p = d + start, *end = d + stop;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        if (p >= end)
+            goto decline;
+        const char *q = memchr(p, '\n', end - p);
+        if (q == NULL)
+            goto decline;
+        Py_ssize_t m = q - p;
+        for (Py_ssize_t j = 0; j < m; j++)        /* ASCII, no line break but the "\r" of "\r\n" */
+            if ((unsigned char)p[j] >= 0x80 || (p[j] == '\r' && j != m - 1))
+                goto decline;
+        if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
+            goto decline;
+        int dx, dy, de;
+        if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de))
+            goto decline;
+        if (dx > dec_xy) dec_xy = dx;
+        if (dy > dec_xy) dec_xy = dy;
+        if (de > dec_e) dec_e = de;
+        double xv = to_double(cx[k].p, cx[k].n), yv = to_double(cy[k].p, cy[k].n);
+        px[k + 1] = xv;
+        py[k + 1] = yv;
+        if (!(fabs(xv) < 1e150 && fabs(yv) < 1e150))
+            path_ok = 0;
+        if (ce[k].p != NULL) {
+            double ev = to_double(ce[k].p, ce[k].n);
+            if (!isfinite(ev))
+                goto decline;
+            e_sum += ev;
+            e_abs += fabs(ev);
+            e_last = ev;
+            n_e++;
+        } else {
+            ce[k].p = "0";                        /* StrokeText's e text of a line without E */
+            ce[k].n = 1;
+        }
         p = q + 1;
     }
-    if (path && min_move_d > 0.0 && n_points && gap_least < min_move_d) {
-        /* _ShortMoves' floor: the original's own shortest move passes too */
-        double floor_d = min_move_d;
-        if (nv > 2) {
-            double own = INFINITY;
-            for (Py_ssize_t k = 0; k + 1 < nv; k++) {
-                double gx = fabs(PX(k + 1) - PX(k)), gy = fabs(PY(k + 1) - PY(k));
-                double g = gy > gx ? gy : gx;
-                if (g < own) own = g;
-            }
-            double o = own * (1.0 - 1e-9);
-            if (o < floor_d) floor_d = o;
-        }
-        if (gap_least < floor_d)
-            Py_RETURN_NONE;
+    if (p != end || !path_ok || dec_e > 15)
+        goto decline;
+    /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
+    int64_t e_start_u;
+    if (py_round(e0 * POW10[dec_e], &e_start_u) < 0)
+        goto decline;
+    if (fseq_get(args[13], &fs[0], 1) < 0 || fseq_get(args[14], &fs[1], 1) < 0 || fseq_get(args[15], &fs[2], 1) < 0
+        || fseq_get(args[16], &fs[3], 1) < 0)
+        goto decline;
+    Buf b = EMIT_BUF;
+    b.n = 0;
+    int r = emit_cols(&b, &pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, e_rel, extruding,
+                      e_start_u, &x0, &y0);
+    if (r < 0) {
+        keep_buf(&b);
+        res = PyErr_NoMemory();
+        goto done;
     }
-    if (e_mode) {
-        if (n_e == 0)
-            Py_RETURN_NONE;
-        double lim = E_TOL * (1.0 + fabs(e_value));
-        if (e_mode == 2) {
-            if (fabs(e_last - e_value) > lim) Py_RETURN_NONE;
-        } else {
-            /* fsum is within half an ulp of the exact sum, the running sum within
-               (n - 1) u sum|e| of it: a pass this far inside the limit is fsum's too */
-            double err = 2.0 * (double)n_e * 1.1102230246251565e-16 * e_abs + 1e-300;
-            if (!(fabs(e_sum - e_value) + 2.0 * err <= lim * (1.0 - MARGIN_R))) Py_RETURN_NONE;
+    if (r == 0) {
+        /* validate._fast_ok: the end line, then the column pass over the body */
+        static const char END_L[] = "\n; gcode-opt end\n";
+        Py_ssize_t el = (Py_ssize_t)sizeof(END_L) - 1;
+        int e_mode = 0;
+        double e_value = 0.0, e_err = 0.0;
+        if (extruding && n_e > 0) {
+            e_mode = e_rel ? 1 : 2;
+            if (e_rel) {              /* fsum's value within e_err of the running sum */
+                e_value = e_sum;
+                e_err = 2.0 * (double)n_e * 1.1102230246251565e-16 * e_abs + 1e-300;
+            } else
+                e_value = e_last;
         }
+        if (b.n > hl + el && memcmp(b.p + b.n - el, END_L, el) == 0
+            && fast_check(b.p, hl, b.n - el + 1, wantp[0], klipper, limit, accel_max_a, 1, px, py, n + 1, 2e-3,
+                          e_mode, e_value, e_err, min_move_d))
+            res = PyBytes_FromStringAndSize(b.p, b.n);
     }
-#undef PX
-#undef PY
-    Py_RETURN_TRUE;
+    keep_buf(&b);
+    if (res != NULL || PyErr_Occurred())
+        goto done;
+decline:
+    res = Py_NewRef(Py_None);
+done:
+    for (int i = 0; i < 4; i++)
+        fseq_release(&fs[i]);
+    PyMem_Free(mem);
+    return res;
 }
 
 /* decimal_value(text): to_double on a plain decimal (for the tests), else None */
@@ -919,6 +1300,11 @@ static PyMethodDef mod_methods[] = {
      "emit._plain_moves(raws) + (dec_xy, dec_e), or NotImplemented"},
     {"emit_body", emit_body, METH_VARARGS, "emit.emit_stroke's text, or None"},
     {"fast_body", fast_body, METH_VARARGS, "True when validate._fast_ok's checks certainly pass, else None"},
+    {"set_types", set_types, METH_VARARGS, "set_types(ndarray, float64 dtype, array.array): fseq_get's types"},
+    {"skip_lines", (PyCFunction)(void (*)(void))skip_lines, METH_FASTCALL,
+     "(end, got): the offset after the next n lines of bytes data from pos, and how many"},
+    {"stroke_block", (PyCFunction)(void (*)(void))stroke_block, METH_FASTCALL,
+     "a line stroke's block (bytes) written and checked in one call, or None"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef emit_module = {

@@ -35,6 +35,11 @@ CORE_MOD, CORE_WHY = native.load("_gcode_opt_emit",
                                  os.path.join(os.path.dirname(os.path.abspath(__file__)), "_emit.c"),
                                  "emit core")
 CORE = "c" if CORE_MOD is not None else "python"
+if CORE_MOD is not None and hasattr(CORE_MOD, "set_types"):
+    import array as _array
+    # what the core reads as a sequence of doubles besides lists and bytes: a 1-D float64
+    # ndarray (its tobytes()) and an array.array('d') (pipeline._rewrite_bytes passes them as they are)
+    CORE_MOD.set_types(np.ndarray, np.dtype(np.float64), _array.array)
 
 BEGIN = "; gcode-opt begin"
 END = "; gcode-opt end"

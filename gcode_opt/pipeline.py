@@ -49,6 +49,7 @@ from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
+from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
 
@@ -338,7 +339,199 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digest
     if given, receives a digest of each written block's text by stroke index (a second
     pass re-measures only the blocks whose text changed).  `reuse` (a _Reuse of the first
     pass's file) gives the blocks whose segment plan is the one the first pass wrote: they
-    are copied from that file, not emitted and validated again."""
+    are copied from that file, not emitted and validated again.
+
+    With the compiled rewrite core and a binary file under out_fh, the file is copied as
+    bytes (_rewrite_bytes: untouched line ranges as they are, a line stroke's block read,
+    written and checked by one call of the core); else line by line as text (_rewrite_text).
+    The same bytes either way: the file is read as UTF-8 with surrogateescape, which gives
+    back every byte as it was."""
+    core = emit_mod.CORE_MOD
+    raw = getattr(out_fh, "buffer", None)
+    if core is None or not hasattr(core, "stroke_block") or raw is None:
+        return _rewrite_text(path, out_fh, strokes, plan, profile, opts, digests, reuse)
+    return _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digests, reuse)
+
+
+_CHUNK = 1 << 20
+
+
+class _ByteLines:
+    """The input read as bytes, a chunk at a time, and cut into lines as the text reading
+    (newline="") cuts them: "\\n", "\\r\\n" and a lone "\\r" end a line.  A chunk never ends
+    in the "\\r" of a "\\r\\n" (one more byte is read), so a line end is never split."""
+
+    def __init__(self, fh, skip):
+        self.fh, self.skip = fh, skip
+        self.data = b""
+        self.pos = 0
+        self.eof = False
+
+    def _read(self):
+        chunk = self.fh.read(_CHUNK)
+        while chunk.endswith(b"\r"):
+            more = self.fh.read(1)
+            if not more:
+                break
+            chunk += more
+        if not chunk:
+            self.eof = True
+        return chunk
+
+    def copy(self, n, write):
+        """Write the next n lines (fewer at the end of the file).  A line cut by the end of
+        a chunk is written in two pieces."""
+        while n > 0:
+            end, got = self.skip(self.data, self.pos, n, self.eof)
+            if end > self.pos:
+                write(self.data[self.pos:end] if self.pos or end < len(self.data) else self.data)
+            self.pos = end
+            n -= got
+            if n > 0:
+                if self.eof:
+                    return
+                self.data, self.pos = self._read(), 0
+
+    def take(self, n):
+        """(data, start, stop, got): the next n lines are data[start:stop], got of them
+        (fewer at the end of the file)."""
+        while True:
+            end, got = self.skip(self.data, self.pos, n, self.eof)
+            if got == n or self.eof:
+                start, self.pos = self.pos, end
+                return self.data, start, end, got
+            self.data, self.pos = self.data[self.pos:] + self._read(), 0
+
+    def rest(self, write):
+        if self.pos < len(self.data):
+            write(self.data[self.pos:])
+        self.data, self.pos = b"", 0
+        while not self.eof:
+            chunk = self.fh.read(_CHUNK)
+            if not chunk:
+                break
+            write(chunk)
+
+
+def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digests, reuse):
+    """rewrite() on bytes.  A line stroke (not an arc) whose lines are all plain "G1 X Y [E]"
+    lines ending in "\\n" has its block written and validated by core.stroke_block; any
+    other stroke, or one the core declines, takes the Python path (_stroke_text,
+    _stroke_block, _validate on the lines as text), as _rewrite_text does."""
+    import io
+    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+    out_ranges = []
+    out_line = 0
+    pos = 0                       # next line of the input to copy
+    out_fh.flush()                # (nothing is buffered: the bytes go after what was written)
+    write = raw.write
+    # the one-call path, unless a piece of the Python path is replaced (the tests' injected
+    # faults and recordings) or the core is switched off for validation
+    block = core.stroke_block
+    if (_stroke_block is not _STROKE_BLOCK or _validate is not _VALIDATE or _stroke_text is not _STROKE_TEXT
+            or validate_block is not _VALIDATE_BLOCK or _validate_mod._FAST_BODY is None):
+        block = None
+    flavour = profile.flavour
+    max_accel_a = profile.max_accel_a
+    min_move_d = getattr(profile, "min_move_d", 0.0)
+    limit = _validate_mod.MAX_CMD_BYTES.get(flavour, 0)
+    klipper = flavour == "klipper"
+    plain_word = flavour in ("klipper", "marlin-legacy")
+    ctx = {ex: ("M204 S" if plain_word else ("M204 P" if ex else "M204 T"),
+                "S" if plain_word else ("P" if ex else "T"), klipper, limit, float(min_move_d))
+           for ex in (True, False)}
+    svl = "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0\n" if klipper else ""
+    closing_text = emit_mod._closing_text
+    segs, betas = plan.segs, plan.beta
+    beta_list = betas.tolist() if isinstance(betas, np.ndarray) else list(betas)   # Python floats: the same texts
+    isfinite = math.isfinite
+    travel = feat.TRAVEL
+    blake2b = hashlib.blake2b
+    with open(path, "rb") as fh, np.errstate(all="ignore"):
+        src = _ByteLines(fh, core.skip_lines)
+        for i in order:
+            s = strokes[i]
+            n_copy = s.first_idx - pos
+            if n_copy < 0:        # overlapping strokes cannot happen: keep the original
+                plan.retime[i], plan.segs[i], plan.reason[i] = False, None, "error: emission (overlap)"
+                continue
+            # untouched lines: copied as they are, in bulk (no tokenising, no state)
+            src.copy(n_copy, write)
+            out_line += n_copy
+            data, a, z, n_lines = src.take(s.n_moves)
+            pos = s.first_idx + n_lines
+            x0, y0 = s.x0, s.y0
+            if reuse is not None:
+                text = reuse.block(i, segs[i], betas[i])
+                if text is not None:  # the first pass wrote this very block (and validated it)
+                    write(text.encode("utf-8", "surrogateescape"))
+                    if digests is not None:
+                        digests[i] = reuse.digests[i]
+                    n_out = text.count("\n")
+                    out_ranges.append((out_line, out_line + n_out - 1, i))
+                    out_line += n_out
+                    continue
+            got = None
+            if block is not None and s.kind != K_ARC and n_lines:
+                try:
+                    seg = segs[i]
+                    e0, accel0, mcr0 = s.start_state
+                    beta = beta_list[i]
+                    extruding = s.feature != travel
+                    beta_txt = "inf" if not isfinite(beta) else f"{beta:.4g}"
+                    head = (f"{emit_mod.BEGIN}: replaces {n_lines} lines, kind={s.kind}, {len(seg.s) - 1} segments, "
+                            f"T={seg.time_t:.4f}s (was {s.time_t:.4f}s), beta={beta_txt}s^2\n{svl}")
+                    fc = getattr(seg, "first_cmds", None)
+                    before = after = None
+                    if fc and len(seg.s) >= 2:
+                        before, after = fc[0] + "\n", fc[1] + "\n"
+                    got = block(data, a, z, n_lines, head,
+                                closing_text(flavour, accel0, extruding, mcr0, s.v_feed, "\n"), before, after,
+                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, seg.s, seg.accel, seg.feed, s.ends_d, s.e_rel,
+                                extruding, ctx[extruding],
+                                max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a)
+                except Exception:     # noqa: BLE001 -- the Python path below says what
+                    got = None
+            if got is not None:
+                write(got)
+                if digests is not None:
+                    digests[i] = blake2b(got, digest_size=16).digest()
+                n_out = got.count(b"\n")
+                out_ranges.append((out_line, out_line + n_out - 1, i))
+                out_line += n_out
+                continue
+            # the Python path, on the lines as text (as _rewrite_text reads them)
+            buf = list(io.StringIO(data[a:z].decode("utf-8", "surrogateescape"), newline=""))
+            try:
+                e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
+                parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
+                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile, parsed)
+                _validate(text, s, buf, x0, y0, accel0, profile, parsed)
+            except BlockInvalid as e:
+                text = None
+                plan.reason[i] = str(e)
+            except Exception as e:        # noqa: BLE001 -- this stroke's failure only
+                text = None
+                plan.reason[i] = f"error: emission ({type(e).__name__})"
+            if text is None:
+                plan.retime[i] = False
+                plan.segs[i] = None
+                write(data[a:z])
+                out_line += n_lines
+            else:
+                write(text.encode("utf-8", "surrogateescape"))
+                if digests is not None:
+                    digests[i] = _digest(text)
+                n_out = text.count("\n")
+                out_ranges.append((out_line, out_line + n_out - 1, i))
+                out_line += n_out
+        src.rest(write)               # the rest of the file, in bulk
+    return out_ranges
+
+
+def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, digests=None, reuse=None):
+    """rewrite() line by line on text (the code before _rewrite_bytes): without the compiled
+    core (GCODE_OPT_PURE_PYTHON), or into a text stream without a binary file under it."""
     from itertools import islice
     order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
     out_ranges = []
@@ -516,6 +709,11 @@ def _stroke_text(raws, x0, y0):
     """The emitter's reading of a stroke's original lines (StrokeText), start point
     written with 8 decimals as _stroke_block writes it."""
     return StrokeText(raws, f"{x0:.8f}", f"{y0:.8f}", 0)
+
+
+# the Python path's pieces as this module defines them: _rewrite_bytes takes its one-call
+# path only while they are these (a test that replaces one sees every block go through it)
+_STROKE_BLOCK, _VALIDATE, _STROKE_TEXT, _VALIDATE_BLOCK = _stroke_block, _validate, _stroke_text, validate_block
 
 
 # ---------------------------------------------------------------- pass 3: measure

@@ -3081,39 +3081,16 @@ static inline int ring_same(double a, double b)      /* the same bits */
     return x == y;
 }
 
-RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
+/* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
+ * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
+ * (m_n 0: none), o_*: this call's exponentials (NULL: not kept). */
+static inline __attribute__((always_inline)) Py_ssize_t
+ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double wd, double span,
+              Py_ssize_t short_n, Py_ssize_t start, double cr, double ci, double t_carry, double *c,
+              int fused, const double *m_t, const double *m_t0, const double *m_v, Py_ssize_t m_n,
+              double *o_t0, double *o_v)
 {
-    Py_buffer tb, db, cb;
-    double s, wd, span, t_carry;
-    Py_complex carry;
-    Py_ssize_t short_n, start;
-    int fused;
-    PyObject *mt = Py_None, *mt0 = Py_None, *mv = Py_None, *ot0 = Py_None, *ov = Py_None;
-    RingMemo memo;
-    if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p|OOOOO:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
-                          &start, &carry, &t_carry, &cb, &fused, &mt, &mt0, &mv, &ot0, &ov))
-        return NULL;
-    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
-    PyObject *ret = NULL;
-    if (ring_memo_get(&memo, mt, mt0, mv, ot0, ov, n, 4) < 0) {
-        PyBuffer_Release(&tb);
-        PyBuffer_Release(&db);
-        PyBuffer_Release(&cb);
-        return NULL;
-    }
-    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
-    const double *m_t0 = memo.have_m ? (const double *)memo.mt0.buf : NULL;
-    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
-    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0, m_j = 0;
-    double *o_t0 = memo.have_o ? (double *)memo.ot0.buf : NULL;
-    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
-    if (db.len != 2 * n * (Py_ssize_t)sizeof(double) || cb.len != db.len || start < 0 || start > n) {
-        PyErr_SetString(PyExc_ValueError, "ring_amps: dc and c must hold len(t_ev) complex numbers");
-        goto done;
-    }
-    const double *t = (const double *)tb.buf, *dc = (const double *)db.buf;
-    double *c = (double *)cb.buf;
-    double cr = carry.real, ci = carry.imag;
+    Py_ssize_t m_j = 0;
     while (start < n) {
         double t0 = t[start];
         if (!isfinite(t0))
@@ -3212,6 +3189,43 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
         t_carry = t[stop - 1];
         start = stop;
     }
+    return start;
+}
+
+RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, db, cb;
+    double s, wd, span, t_carry;
+    Py_complex carry;
+    Py_ssize_t short_n, start;
+    int fused;
+    PyObject *mt = Py_None, *mt0 = Py_None, *mv = Py_None, *ot0 = Py_None, *ov = Py_None;
+    RingMemo memo;
+    if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p|OOOOO:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
+                          &start, &carry, &t_carry, &cb, &fused, &mt, &mt0, &mv, &ot0, &ov))
+        return NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (ring_memo_get(&memo, mt, mt0, mv, ot0, ov, n, 4) < 0) {
+        PyBuffer_Release(&tb);
+        PyBuffer_Release(&db);
+        PyBuffer_Release(&cb);
+        return NULL;
+    }
+    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
+    const double *m_t0 = memo.have_m ? (const double *)memo.mt0.buf : NULL;
+    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
+    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0;
+    double *o_t0 = memo.have_o ? (double *)memo.ot0.buf : NULL;
+    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
+    if (db.len != 2 * n * (Py_ssize_t)sizeof(double) || cb.len != db.len || start < 0 || start > n) {
+        PyErr_SetString(PyExc_ValueError, "ring_amps: dc and c must hold len(t_ev) complex numbers");
+        goto done;
+    }
+    const double *t = (const double *)tb.buf, *dc = (const double *)db.buf;
+    double *c = (double *)cb.buf;
+    start = ring_amps_run(t, dc, n, s, wd, span, short_n, start, carry.real, carry.imag, t_carry, c,
+                          fused, m_t, m_t0, m_v, m_n, o_t0, o_v);
     ret = PyLong_FromSsize_t(start);
 done:
     ring_memo_release(&memo);
@@ -3305,51 +3319,17 @@ static double ring_pairwise(const double *a, Py_ssize_t n)
  * cos(qi dur), sin(qi dur)) each; a piece here with the start and the length (bits) of one
  * there takes its numbers (the same argument: the same exponentials).  out_v (3 numbers a
  * piece, or None) receives this call's. */
-RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
+/* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
+ * finite.  decay2 NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same
+ * argument: ring_solve's caller checked numpy's exp is libm's); absc (or NULL): |c| each. */
+static inline __attribute__((always_inline)) int
+ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssize_t n, double qr,
+                double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
+                const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
+                double *v, double *absc)
 {
-    Py_buffer cb, db, eb, wb, sb;
-    double qr, qi, four_s, rat, scl;
-    int real_major;
-    PyObject *ts = Py_None, *mt = Py_None, *md = Py_None, *mv = Py_None, *ov = Py_None;
-    RingMemo memo;
-    if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*|OOOOO:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
-                          &rat, &scl, &real_major, &wb, &ts, &mt, &md, &mv, &ov))
-        return NULL;
-    Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
-    PyObject *ret = NULL;
-    int have_ts = 0;
-    memo.have_m = memo.have_o = 0;
-    if (ts != Py_None) {
-        if (PyObject_GetBuffer(ts, &sb, PyBUF_SIMPLE) < 0)
-            goto fail;
-        have_ts = 1;
-        /* (the memo's out part: out_v, with ts as its times) */
-        if (ring_memo_get(&memo, mt, md, mv, Py_None, Py_None, n, 3) < 0)
-            goto fail;
-        if (ov != Py_None) {
-            if (PyObject_GetBuffer(ov, &memo.ov, PyBUF_WRITABLE) < 0)
-                goto fail;
-            memo.have_o = 2;        /* ov only (ring_memo_release: see below) */
-        }
-        if (sb.len != db.len || (memo.have_o && memo.ov.len != 3 * db.len)) {
-            PyErr_SetString(PyExc_ValueError, "ring_int_r2: ts, out_v lengths");
-            goto fail;
-        }
-    }
-    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
-    const double *m_d = memo.have_m ? (const double *)memo.mt0.buf : NULL;
-    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
-    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0, m_j = 0;
-    const double *t_s = have_ts ? (const double *)sb.buf : NULL;
-    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
-    if (cb.len != 2 * db.len || eb.len != db.len || wb.len != db.len) {
-        PyErr_SetString(PyExc_ValueError, "ring_int_r2: c, dur, decay2, work of one length");
-        goto done;
-    }
-    const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
-    const double *decay2 = (const double *)eb.buf;
-    double *v = (double *)wb.buf;
     int ok = 1;
+    Py_ssize_t m_j = 0;
     /* pieces of one length (0: events at one time) share exp and sincos: the previous
      * piece's and the last zero-length piece's are kept (same bits in, same out) */
     uint64_t d_prev = 0, zero_bits;
@@ -3359,7 +3339,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
-        if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || !isfinite(decay2[i])) {
+        if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i]))) {
             ok = 0;
             break;
         }
@@ -3416,8 +3396,64 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
         double ratio = big == 0.0 ? 0.0 : small / big;
         double a = sqrt(fma(ratio, ratio, 1.0)) * big;
         double q = real_major ? (yr + yi * rat) * scl : (yr * rat + yi) * scl;
-        v[i] = a * a * (1.0 - decay2[i]) / four_s + q;
+        if (absc)
+            absc[i] = a;
+        if (!decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
+            ok = 0;
+            break;
+        }
+        double d2 = decay2 ? decay2[i] : ex;   /* (np.exp(-2 s dur): ex, once the caller checked it is) */
+        v[i] = a * a * (1.0 - d2) / four_s + q;
     }
+    return ok;
+}
+
+RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
+{
+    Py_buffer cb, db, eb, wb, sb;
+    double qr, qi, four_s, rat, scl;
+    int real_major;
+    PyObject *ts = Py_None, *mt = Py_None, *md = Py_None, *mv = Py_None, *ov = Py_None;
+    RingMemo memo;
+    if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*|OOOOO:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
+                          &rat, &scl, &real_major, &wb, &ts, &mt, &md, &mv, &ov))
+        return NULL;
+    Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    int have_ts = 0;
+    memo.have_m = memo.have_o = 0;
+    if (ts != Py_None) {
+        if (PyObject_GetBuffer(ts, &sb, PyBUF_SIMPLE) < 0)
+            goto fail;
+        have_ts = 1;
+        /* (the memo's out part: out_v, with ts as its times) */
+        if (ring_memo_get(&memo, mt, md, mv, Py_None, Py_None, n, 3) < 0)
+            goto fail;
+        if (ov != Py_None) {
+            if (PyObject_GetBuffer(ov, &memo.ov, PyBUF_WRITABLE) < 0)
+                goto fail;
+            memo.have_o = 2;        /* ov only (ring_memo_release: see below) */
+        }
+        if (sb.len != db.len || (memo.have_o && memo.ov.len != 3 * db.len)) {
+            PyErr_SetString(PyExc_ValueError, "ring_int_r2: ts, out_v lengths");
+            goto fail;
+        }
+    }
+    const double *m_t = memo.have_m ? (const double *)memo.mt.buf : NULL;
+    const double *m_d = memo.have_m ? (const double *)memo.mt0.buf : NULL;
+    const double *m_v = memo.have_m ? (const double *)memo.mv.buf : NULL;
+    Py_ssize_t m_n = memo.have_m ? memo.mt.len / (Py_ssize_t)sizeof(double) : 0;
+    const double *t_s = have_ts ? (const double *)sb.buf : NULL;
+    double *o_v = memo.have_o ? (double *)memo.ov.buf : NULL;
+    if (cb.len != 2 * db.len || eb.len != db.len || wb.len != db.len) {
+        PyErr_SetString(PyExc_ValueError, "ring_int_r2: c, dur, decay2, work of one length");
+        goto done;
+    }
+    const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
+    const double *decay2 = (const double *)eb.buf;
+    double *v = (double *)wb.buf;
+    int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
+                             m_n, o_v, v, NULL);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + ring_pairwise(v, n));
     else {
@@ -3440,6 +3476,366 @@ done:
 fail:
     ret = NULL;
     goto done;
+}
+
+/* numpy's complex exp of lam t (lam = lr + i li, t real, as ring_exp with a = lr, b = li)
+ * times c, its real part's absolute: |np.real(c * np.exp(lam * t))| */
+static inline __attribute__((always_inline)) double
+ring_re_abs(int fused, double cr, double ci, double lr, double li, double t)
+{
+    double x = lr * t - li * 0.0, y = lr * 0.0 + li * t;
+    double ex = exp(x), cs, sn;
+#ifdef RING_SINCOS
+    sincos(y, &sn, &cs);
+#else
+    cs = cos(y);
+    sn = sin(y);
+#endif
+    double pr, pi;
+    ring_cmul(fused, cr, ci, ex * cs, ex * sn, &pr, &pi);
+    return fabs(pr);
+}
+
+static inline double ring_npmax(double a, double b)     /* np.maximum(a, b) */
+{
+    return (a >= b || a != a) ? a : b;
+}
+
+/* np.mod(a, b) for b > 0 (numpy's npy_remainder: fmod, then the sign of b) */
+static inline double ring_npmod(double a, double b)
+{
+    double mod = fmod(a, b);
+    if (mod != 0.0) {
+        if ((b < 0) != (mod < 0))
+            mod += b;
+    } else
+        mod = copysign(0.0, b);
+    return mod;
+}
+
+/* Oscillator.peak_abs_r of one piece (c, finite d): the largest of |Re c|, the end's |r|
+ * and, if it is inside, the first extremum's (phi = np.angle(lam c), tau = np.mod(pi / 2 -
+ * phi, pi) / wd), each as numpy makes it (fused: numpy's complex product mode) */
+static inline __attribute__((always_inline)) double
+ring_peak_one(int fused, double cr, double ci, double d, double lr, double li, double wd)
+{
+    double best = fabs(cr);
+    double end = ring_re_abs(fused, cr, ci, lr, li, d);
+    best = ring_npmax(best, end);
+    double lr_c, li_c;
+    ring_cmul(fused, lr, li, cr, ci, &lr_c, &li_c);
+    double phi = atan2(li_c, lr_c);
+    double tau = ring_npmod(0.5 * M_PI - phi, M_PI) / wd;
+    double ext = tau < d ? ring_re_abs(fused, cr, ci, lr, li, tau) : 0.0;
+    return ring_npmax(best, ext);
+}
+
+/* |c| as numpy's complex absolute (ring_int_r2's) */
+static inline __attribute__((always_inline)) double ring_cabs(double cr, double ci)
+{
+    double ar = fabs(cr), ai = fabs(ci);
+    double big = ar > ai ? ar : ai, small = ai < ar ? ai : ar;
+    double ratio = big == 0.0 ? 0.0 : small / big;
+    return sqrt(fma(ratio, ratio, 1.0)) * big;
+}
+
+/* ring_peak(c, dur, lr, li, wd, fused, out, out_abs) -> False (partly written) at a number
+ * that is not finite, else True: out[i] = Oscillator.peak_abs_r(c, dur)[i] for finite dur,
+ * out_abs[i] = np.abs(c)[i], as numpy makes them (resonance.py checks them on a probe
+ * before ring_solve takes its max_abs_r). */
+RING_CLONES static PyObject *mod_ring_peak(PyObject *self, PyObject *args)
+{
+    Py_buffer cb, db, ob, ab;
+    double lr, li, wd;
+    int fused;
+    if (!PyArg_ParseTuple(args, "y*y*dddpw*w*:ring_peak", &cb, &db, &lr, &li, &wd, &fused, &ob, &ab))
+        return NULL;
+    Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
+    PyObject *ret = NULL;
+    if (cb.len != 2 * db.len || ob.len != db.len || ab.len != db.len) {
+        PyErr_SetString(PyExc_ValueError, "ring_peak: c, dur, out, out_abs of one length");
+        goto done;
+    }
+    const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
+    double *o = (double *)ob.buf, *oa = (double *)ab.buf;
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double cr = c[2 * i], ci = c[2 * i + 1], d = dur[i];
+        if (!isfinite(cr) || !isfinite(ci) || !isfinite(d)) {
+            ok = 0;
+            break;
+        }
+        oa[i] = ring_cabs(cr, ci);
+        o[i] = ring_peak_one(fused, cr, ci, d, lr, li, wd);
+    }
+    ret = PyBool_FromLong(ok);
+done:
+    PyBuffer_Release(&cb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&ab);
+    return ret;
+}
+
+/* an optional buffer: o None -> 0 (not there), else 1 with b filled of len doubles (or any
+ * length: len < 0); -1 with an exception */
+static int ring_opt_buf(PyObject *o, Py_buffer *b, int writable, Py_ssize_t len, const char *what)
+{
+    if (o == Py_None)
+        return 0;
+    if (PyObject_GetBuffer(o, b, writable ? PyBUF_WRITABLE : PyBUF_SIMPLE) < 0)
+        return -1;
+    if (len >= 0 && b->len != len * (Py_ssize_t)sizeof(double)) {
+        PyErr_Format(PyExc_ValueError, "ring_solve: %s has the wrong length", what);
+        PyBuffer_Release(b);
+        return -1;
+    }
+    return 1;
+}
+
+/* ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl,
+ * real_major, amps_memo, amps_out, pieces_memo, pieces_out): ringing.py's _Stream._solve
+ * in one pass: the events' amplitudes (ring_jumps' jump_amplitude of dr, drp; after the
+ * carried amplitude `first` at t[0], a complex, when it is not None), amplitudes' restarts
+ * (ring_amps), the pieces' lengths np.diff(t), integral_r2_fin's sum over them (ring_int_r2,
+ * np.exp(-2 s dur) as the piece's exp(qr dur): resonance.py checked numpy's real exp is
+ * libm's) and max_abs_r (ring_peak's pieces, where |c| (1 + 1e-9) is not below the largest
+ * |Re c|; |c| is int_r2's).  amps_memo (mt, mt0, mv) / amps_out (ot0, ov): ring_amps' memo;
+ * pieces_memo (ts, dur, v) / pieces_out (dur_out, v_out): ring_int_r2's (the pieces' starts
+ * are t[:-1]; dur_out gets np.diff(t)).  Returns None where _solve must do it itself (a
+ * restart of short_n events or more, a number that is not finite), else (sum or None, peak
+ * or None (one event: no piece), the last amplitude). */
+static double *ring_scratch = NULL;          /* ring_solve's room */
+static size_t ring_scratch_n = 0;
+
+RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, rb, pb;
+    PyObject *first, *am, *ao, *pm, *po;
+    double s, wd, span, qr, qi, four_s, rat, scl;
+    Py_ssize_t short_n;
+    int fused, real_major;
+    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
+                          &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_buffer mb[3], ob[2], qb[3], rb2[2];
+    int have_m = 0, have_o = 0, have_q = 0, have_r = 0;
+    double *dc = NULL, *c = NULL, *work = NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    int off = first != Py_None;
+    double fr = 0.0, fi = 0.0;
+    if (off) {
+        Py_complex z = PyComplex_AsCComplex(first);
+        if (z.real == -1.0 && PyErr_Occurred())
+            goto done;
+        fr = z.real;
+        fi = z.imag;
+    }
+    if (rb.len != pb.len || rb.len != (n - off) * (Py_ssize_t)sizeof(double) || n - off < 0) {
+        PyErr_SetString(PyExc_ValueError, "ring_solve: dr, drp must hold len(t) (less the carried one) numbers");
+        goto done;
+    }
+    Py_ssize_t np_ = n > 0 ? n - 1 : 0;         /* pieces */
+    /* the memos */
+    if (am != Py_None) {
+        PyObject *o[3];
+        if (!PyArg_ParseTuple(am, "OOO:amps_memo", &o[0], &o[1], &o[2]))
+            goto done;
+        for (int k = 0; k < 3; k++) {
+            int r = ring_opt_buf(o[k], &mb[k], 0, -1, "amps_memo");
+            if (r <= 0) {
+                if (r == 0)
+                    PyErr_SetString(PyExc_TypeError, "ring_solve: amps_memo");
+                for (int j = 0; j < k; j++)
+                    PyBuffer_Release(&mb[j]);
+                goto done;
+            }
+        }
+        have_m = 1;
+        if (mb[1].len != mb[0].len || mb[2].len != 4 * mb[0].len) {
+            PyErr_SetString(PyExc_ValueError, "ring_solve: amps_memo lengths");
+            goto done;
+        }
+    }
+    if (ao != Py_None) {
+        PyObject *o[2];
+        if (!PyArg_ParseTuple(ao, "OO:amps_out", &o[0], &o[1]))
+            goto done;
+        for (int k = 0; k < 2; k++) {
+            int r = ring_opt_buf(o[k], &ob[k], 1, (k ? 4 : 1) * n, "amps_out");
+            if (r <= 0) {
+                if (r == 0)
+                    PyErr_SetString(PyExc_TypeError, "ring_solve: amps_out");
+                for (int j = 0; j < k; j++)
+                    PyBuffer_Release(&ob[j]);
+                goto done;
+            }
+        }
+        have_o = 1;
+    }
+    if (pm != Py_None) {
+        PyObject *o[3];
+        if (!PyArg_ParseTuple(pm, "OOO:pieces_memo", &o[0], &o[1], &o[2]))
+            goto done;
+        for (int k = 0; k < 3; k++) {
+            int r = ring_opt_buf(o[k], &qb[k], 0, -1, "pieces_memo");
+            if (r <= 0) {
+                if (r == 0)
+                    PyErr_SetString(PyExc_TypeError, "ring_solve: pieces_memo");
+                for (int j = 0; j < k; j++)
+                    PyBuffer_Release(&qb[j]);
+                goto done;
+            }
+        }
+        have_q = 1;
+        if (qb[1].len != qb[0].len || qb[2].len != 3 * qb[0].len) {
+            PyErr_SetString(PyExc_ValueError, "ring_solve: pieces_memo lengths");
+            goto done;
+        }
+    }
+    if (po != Py_None) {
+        PyObject *o[2];
+        if (!PyArg_ParseTuple(po, "OO:pieces_out", &o[0], &o[1]))
+            goto done;
+        for (int k = 0; k < 2; k++) {
+            int r = ring_opt_buf(o[k], &rb2[k], 1, (k ? 3 : 1) * np_, "pieces_out");
+            if (r <= 0) {
+                if (r == 0)
+                    PyErr_SetString(PyExc_TypeError, "ring_solve: pieces_out");
+                for (int j = 0; j < k; j++)
+                    PyBuffer_Release(&rb2[j]);
+                goto done;
+            }
+        }
+        have_r = 1;
+    }
+    if (n == 0) {
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
+    const double *t = (const double *)tb.buf, *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
+    /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
+    size_t need = 4 * (size_t)n + 3 * (size_t)np_ + 1;
+    if (need > ring_scratch_n) {
+        size_t want = need + need / 2;
+        double *p = PyMem_Realloc(ring_scratch, sizeof(double) * want);
+        if (p == NULL) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        ring_scratch = p;
+        ring_scratch_n = want;
+    }
+    dc = ring_scratch;
+    work = dc + 4 * n;
+    c = dc + 2 * n;
+    double *dur = have_r ? (double *)rb2[0].buf : work;
+    double *v = work + np_, *absc = work + 2 * np_;
+    int ok = 1;
+    /* jump_amplitude (ring_jumps) */
+    if (off) {
+        dc[0] = fr;
+        dc[1] = fi;
+    }
+    {
+        double jrat = 0.0 / wd, jscl = 1.0 / (wd + 0.0 * jrat);
+        for (Py_ssize_t i = 0; i < n - off; i++) {
+            if (!isfinite(dr[i]) || !isfinite(drp[i])) {
+                ok = 0;
+                break;
+            }
+            double x = drp[i] + s * dr[i];
+            double zr, zi;
+            ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
+            double wr = (zr + zi * jrat) * jscl, wi = (zi - zr * jrat) * jscl;
+            dc[2 * (i + off)] = dr[i] - wr;
+            dc[2 * (i + off) + 1] = 0.0 - wi;
+        }
+    }
+    /* amplitudes (carry 0j from t[0], as Oscillator.amplitudes starts) */
+    if (ok) {
+        Py_ssize_t got = ring_amps_run(t, dc, n, s, wd, span, short_n, 0, 0.0, 0.0, t[0], c, fused,
+                                       have_m ? (const double *)mb[0].buf : NULL,
+                                       have_m ? (const double *)mb[1].buf : NULL,
+                                       have_m ? (const double *)mb[2].buf : NULL,
+                                       have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0,
+                                       have_o ? (double *)ob[0].buf : NULL, have_o ? (double *)ob[1].buf : NULL);
+        ok = got == n;
+    }
+    if (!ok) {
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
+    PyObject *sum = NULL, *peak = NULL;
+    if (np_ > 0) {
+        for (Py_ssize_t i = 0; i < np_; i++) {
+            dur[i] = t[i + 1] - t[i];
+            if (!isfinite(dur[i]))
+                ok = 0;
+        }
+        if (ok)
+            ok = ring_int_r2_run(c, dur, NULL, np_, qr, qi, four_s, rat, scl, real_major, t,
+                                 have_q ? (const double *)qb[0].buf : NULL,
+                                 have_q ? (const double *)qb[1].buf : NULL,
+                                 have_q ? (const double *)qb[2].buf : NULL,
+                                 have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0,
+                                 have_r ? (double *)rb2[1].buf : NULL, v, absc);
+        if (!ok) {
+            ret = Py_None;
+            Py_INCREF(ret);
+            goto done;
+        }
+        /* max_abs_r: lo = np.abs(c.real).max(), the pieces not ruled out, np.maximum */
+        double lo = fabs(c[0]);
+        for (Py_ssize_t i = 1; i < np_; i++) {
+            double a = fabs(c[2 * i]);
+            lo = a > lo ? a : lo;
+        }
+        double lam_r = -s, lam_i = wd, pk = 0.0;
+        int have_pk = 0;
+        for (Py_ssize_t i = 0; i < np_; i++) {
+            if (absc[i] * (1.0 + 1e-9) < lo)
+                continue;
+            double p = ring_peak_one(fused, c[2 * i], c[2 * i + 1], dur[i], lam_r, lam_i, wd);
+            if (!have_pk || p > pk) {
+                pk = p;
+                have_pk = 1;
+            }
+        }
+        sum = PyFloat_FromDouble(-0.0 + ring_pairwise(v, np_));
+        peak = PyFloat_FromDouble(have_pk ? ring_npmax(lo, pk) : lo);
+    } else {
+        sum = Py_None;
+        Py_INCREF(sum);
+        peak = Py_None;
+        Py_INCREF(peak);
+    }
+    if (sum == NULL || peak == NULL) {
+        Py_XDECREF(sum);
+        Py_XDECREF(peak);
+        goto done;
+    }
+    ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c[2 * (n - 1)], c[2 * (n - 1) + 1]});
+done:
+    if (have_m)
+        for (int k = 0; k < 3; k++)
+            PyBuffer_Release(&mb[k]);
+    if (have_o)
+        for (int k = 0; k < 2; k++)
+            PyBuffer_Release(&ob[k]);
+    if (have_q)
+        for (int k = 0; k < 3; k++)
+            PyBuffer_Release(&qb[k]);
+    if (have_r)
+        for (int k = 0; k < 2; k++)
+            PyBuffer_Release(&rb2[k]);
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&pb);
+    return ret;
 }
 
 /* ring_events(m, c_t, c_vx, c_vy, c_ax, c_ay, c_ux, c_uy, c_isb, w2x, w2y, corner_cos,
@@ -3595,6 +3991,11 @@ static PyMethodDef mod_methods[] = {
      "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out): the ringing's events"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
+    {"ring_peak", mod_ring_peak, METH_VARARGS,
+     "ring_peak(c, dur, lr, li, wd, fused, out, out_abs): Oscillator.peak_abs_r and np.abs(c)"},
+    {"ring_solve", mod_ring_solve, METH_VARARGS,
+     "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
+     "amps_memo, amps_out, pieces_memo, pieces_out): _Stream._solve"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

@@ -194,6 +194,63 @@ def _int_r2_core(s, wd):
     return core if ok else None
 
 
+_SOLVE_OK = {}
+USE_SOLVE = True         # tests turn it off: _Stream._solve by the steps below (the reference)
+
+
+def _decay_ok(core, s):
+    """np.exp(-2.0 * s * dur) is libm's exp of the same argument (ring_exp's real part with
+    no imaginary rate: exp(a t - 0 * 0.0) cos(0)) on a probe of piece lengths."""
+    t = _probe(1e4)
+    got = np.empty(len(t), complex)
+    with np.errstate(under="ignore"):
+        want = np.exp(-2.0 * s * t)
+    return bool(core.ring_exp(t, -2.0 * s, 0.0, got)) and got.real.tobytes() == want.tobytes()
+
+
+def _peak_ok(core, s, wd, fused):
+    """ring_peak gives peak_abs_r's and np.abs's numpy bits for this oscillator (with numpy's
+    complex product mode `fused`) on a probe of amplitudes and piece lengths."""
+    osc = Oscillator.__new__(Oscillator)
+    osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
+    rng = np.random.default_rng(19)
+    n = 20000
+    c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
+        + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
+    c[rng.uniform(size=n) < 0.03] = 0.0
+    c.imag[rng.uniform(size=n) < 0.03] = 0.0
+    c.real[rng.uniform(size=n) < 0.03] = -0.0
+    dur = rng.exponential(math.pi / wd, n) * (rng.uniform(size=n) < 0.95)
+    dur[:200] = np.geomspace(1e-12, 100.0 / s, 200)
+    out, out_abs = np.empty(n), np.empty(n)
+    return bool(core.ring_peak(c, dur, -s, wd, wd, fused, out, out_abs)) \
+        and out.tobytes() == osc.peak_abs_r(c, dur).tobytes() and out_abs.tobytes() == np.abs(c).tobytes()
+
+
+def _solve_core(s, wd):
+    """(core, span, fused) where the core's ring_solve does _Stream._solve for this
+    oscillator with numpy's bits: every step it takes (ring_exps' pair, ring_jumps,
+    ring_amps' mode, ring_int_r2, numpy's real exp as libm's, ring_peak) gave them on its
+    probe; else None (and without the core, or with any of those steps turned off)."""
+    if not (USE_SOLVE and USE_AMPS and USE_JUMPS and USE_INT_R2):
+        return None
+    core = _core()
+    if core is None or not hasattr(core, "ring_solve"):
+        return None
+    span = CHUNK_DECAY / s
+    if _kernel_for(("pair", s, wd), span) is None or _jumps_core(s, wd) is None \
+            or _int_r2_core(s, wd) is None:
+        return None
+    fused = _amps_mode(core, s, wd, span)
+    if fused is None or _kernel_for(("one", -s, wd), 1e4) is None:
+        return None
+    key = (s, wd, fused)
+    ok = _SOLVE_OK.get(key)
+    if ok is None:
+        ok = _SOLVE_OK[key] = _decay_ok(core, s) and _peak_ok(core, s, wd, fused)
+    return (core, span, fused) if ok else None
+
+
 USE_MEMO = True          # tests turn it off: every exponential from libm
 
 
@@ -206,9 +263,21 @@ class RingMemo:
 
     def __init__(self):
         self.key = self.amps = self.key_p = self.pieces = None
+        self.room = None          # Oscillator.solve's out arrays, kept from chunk to chunk
 
     def clear(self):
         self.key = self.amps = self.key_p = self.pieces = None
+
+    def out(self, n):
+        """(t0, 4 numbers, lengths, 3 numbers) for n events and their n - 1 pieces: views of
+        one array the memo keeps (fresh memory costs a page fault a page; the readers of
+        the last ones are done with them when the lead stream writes again)."""
+        m = max(n - 1, 0)
+        need = 5 * n + 4 * m
+        if self.room is None or len(self.room) < need:
+            self.room = np.empty(need + need // 2)
+        r = self.room
+        return r[:n], r[n:5 * n], r[5 * n:5 * n + m], r[5 * n + m:need]
 
 
 # ---------------------------------------------------------------- input shapers
@@ -376,6 +445,43 @@ class Oscillator:
                     memo.key_p, memo.pieces = (self.s, self.wd), (ts, dur, extra[4])
                 return got
         return float(self.integral_r2_fin(c, dur).sum())
+
+    def solve(self, t, dr, drp, first, memo=None, keep=False, src=None):
+        """_Stream._solve's numbers in one call of the core (ring_solve): the amplitudes of
+        the events at t (jump_amplitude(dr, drp), after `first`, the carried amplitude at
+        t[0], unless None), then over the pieces between them integral_r2_fin_sum and
+        max_abs_r -- (sum, peak, last amplitude), sum and peak None for one event; None
+        where the core does not do it (not there or not checked, a long restart, a number
+        that is not finite): the caller takes the steps itself.  memo, keep: as amplitudes'
+        and integral_r2_fin_sum's (the same exponentials go in, the same come out); src
+        (a RingMemo of this oscillator, or None: memo): the memo taken from."""
+        got = _solve_core(self.s, self.wd)
+        if got is None:
+            return None
+        core, span, fused = got
+        t, dr, drp = (np.ascontiguousarray(a, np.float64) for a in (t, dr, drp))
+        n = len(t)
+        am = ao = pm = po = None
+        if memo is not None and USE_MEMO:
+            # (a lead stream reads src only: its own memo is the one it writes)
+            rd = memo if not keep else (src if src is not memo else None)
+            if rd is not None:
+                if rd.key == (self.s, self.wd, span) and rd.amps is not None:
+                    am = rd.amps
+                if rd.key_p == (self.s, self.wd) and rd.pieces is not None:
+                    pm = rd.pieces
+            if keep:
+                # (its arrays are about to be written)
+                memo.key = memo.amps = memo.key_p = memo.pieces = None
+                o_t0, o_v, o_dur, o_pv = memo.out(n)
+                ao, po = (o_t0, o_v), (o_dur, o_pv)
+        ret = core.ring_solve(t, dr, drp, first, self.s, self.wd, span, ELIDE_BYTES // 16, fused,
+                              *_int_r2_args(self.s, self.lam), am, ao, pm, po)
+        if ret is not None and ao is not None:
+            memo.key, memo.amps = (self.s, self.wd, span), (t, ao[0], ao[1])
+            if n > 1:
+                memo.key_p, memo.pieces = (self.s, self.wd), (t[:-1], po[0], po[1])
+        return ret
 
     def peak_abs_r(self, c, dur):
         """Exact max |r| over each piece [0, dur): the larger of the start, the end and the

@@ -300,3 +300,56 @@ def test_stale_core_is_not_used(tmp_path):
     other.write_text("/* another source */\n")
     mod, why = native.load("_gcode_opt_curvecore", str(other), "curve core")
     assert mod is None and "another" in why
+
+
+def _cheb_der_int_ref(coef):
+    """ede93db's CircleBatch._eval_cheb: numpy.polynomial's own functions."""
+    from numpy.polynomial import chebyshev as C
+    return C.chebder(coef, axis=1, scl=2.0), C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+
+
+def _check_cheb(coef):
+    want = _cheb_der_int_ref(coef)
+    got = circle._cheb_der_int(coef)
+    for x, y in zip(got, want):
+        assert x.shape == y.shape and x.strides == y.strides and _bits(x, y)
+
+
+def test_cheb_der_int_bitwise_on_real_curves_laws():
+    """The series of the circle laws of the bundled files' curve strokes at a few
+    durations and betas (trimmed as _eval_cheb trims them: the padding common to all
+    rows dropped), and every third row of them."""
+    got = []
+    for name in ("prusa_gyroid.gcode", "prusa_concentric.gcode"):
+        prof = load_profile("prusa-mk3s")
+        strokes, _ = analyse(str(S / name), prof, Options())
+        sts = [st for st in strokes if st.kind == "curve"][:400]
+        curves.build_geoms(sts, prof)
+        geos = [curves.geom(st, prof) for st in sts]
+        S_ = np.array([st.length_d for st in sts])
+        T = S_ / np.array([st.v_feed for st in sts]) * 1.05
+        for beta in (1e-4, 1e-3, 3e-2):
+            law, _ = curves._solve(None, geos, S_, T, np.full(len(sts), beta), np.array([st.v0 for st in sts]),
+                                   np.array([st.v1 for st in sts]))
+            ch = ~law.regime
+            coef = law.coef[ch]
+            nz = np.nonzero(np.any(coef != 0, axis=0))[0]
+            got.append(coef[:, : (nz[-1] + 1 if nz.size else 1)])
+    assert sum(c.shape[0] for c in got) > 300
+    for coef in got:
+        _check_cheb(coef)
+        _check_cheb(coef[::3])
+
+
+def test_cheb_der_int_bitwise_on_random_series():
+    rng = np.random.default_rng(2)
+    for K in (1, 2, 3, 4, 5, 8, 17, 21, 33, 64, 129, 200):
+        for nb in (1, 7, 64):
+            c = rng.normal(size=(nb, K)) * rng.choice([1.0, 1e-3, 1e5, 0.0], (nb, K))
+            if nb > 3:
+                c[1, :] = 0.0
+                c[2, -1] = -0.0
+                c[3, 0] = np.nan
+            with np.errstate(all="ignore"):
+                _check_cheb(c)
+                _check_cheb(c[:, : max(K - 1, 1)])       # a column slice (_eval_cheb's trimmed view)

@@ -1,6 +1,6 @@
-/* The circle law's preconditioned collocation iteration (laws/circle.py: _precond_cheb)
-and the curvature kernel's arguments (curves.py: _parts_block), their elementwise work
-compiled.
+/* The circle law's preconditioned collocation iteration (laws/circle.py: _precond_cheb),
+the derivative and integral series of its laws (CircleBatch._eval_cheb) and the curvature
+kernel's arguments (curves.py: _parts_block), their elementwise work compiled.
 
 Optional extension _gcode_opt_curvecore (setup.py builds it; laws/circle.py and curves.py
 fall back to the numpy code when it is missing, stale or GCODE_OPT_PURE_PYTHON is set).
@@ -287,12 +287,71 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* cheb_der_int(coef, B, K, der_t, int_t): numpy.polynomial.chebyshev's
+     chebder(coef, axis=1, scl=2.0)                -> der_t.T  (der_t (K - 1, B))
+     chebint(coef, axis=1, lbnd=-1.0, scl=0.5)     -> int_t.T  (int_t (K + 1, B))
+   of coef (B, K), K >= 2, row by row: the same operations in the same order as numpy's
+   loops over the coefficients (integers times doubles as doubles; chebval at -1 by its
+   recurrence); its arrays are (coefficients, rows), so the transposes are laid out as
+   numpy's results are. */
+static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
+    PyObject *oc, *od, *oi;
+    Py_ssize_t nb, K;
+    if (!PyArg_ParseTuple(a, "OnnOO", &oc, &nb, &K, &od, &oi)) return NULL;
+    if (K < 2 || K > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "cheb_der_int: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *coef = get(&b, oc, 8, 0, nb * K);
+    double *der = coef ? get(&b, od, 8, 1, (K - 1) * nb) : NULL;
+    double *itg = der ? get(&b, oi, 8, 1, (K + 1) * nb) : NULL;
+    if (!itg) { release(&b); return NULL; }
+    double c[MAX_COLS], t[MAX_COLS + 1];
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *cr = coef + r * K;
+        /* chebder: c *= scl, then from the top */
+        Py_ssize_t n = K - 1;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 2.0;
+        for (Py_ssize_t j = n; j > 2; j--) {
+            der[(j - 1) * nb + r] = (double)(2 * j) * c[j];
+            c[j - 2] += ((double)j * c[j]) / (double)(j - 2);
+        }
+        if (n > 1) der[1 * nb + r] = 4.0 * c[2];
+        der[r] = c[1];
+        /* chebint: c *= scl, tmp, then tmp[0] += k - chebval(lbnd, tmp) */
+        n = K;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 0.5;
+        t[0] = c[0] * 0.0;
+        t[1] = c[0];
+        t[2] = c[1] / 4.0;
+        for (Py_ssize_t j = 2; j < n; j++) {
+            t[j + 1] = c[j] / (double)(2 * (j + 1));
+            t[j - 1] -= c[j] / (double)(2 * (j - 1));
+        }
+        Py_ssize_t L = n + 1;
+        const double x = -1.0, x2 = 2.0 * -1.0;
+        double c0 = t[L - 2], c1 = t[L - 1];
+        for (Py_ssize_t i = 3; i < L + 1; i++) {
+            double tmp = c0;
+            c0 = t[L - i] - c1;
+            c1 = tmp + c1 * x2;
+        }
+        double v = c0 + c1 * x;
+        t[0] += 0.0 - v;
+        for (Py_ssize_t j = 0; j < L; j++) itg[j * nb + r] = t[j];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
     {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
     {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
     {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
+    {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef curvecore_module = {

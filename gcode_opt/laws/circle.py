@@ -613,6 +613,22 @@ def _solve_layers_batch(phi, gam2, u0, u1):
 # Public batch object
 # ---------------------------------------------------------------------------------------------
 
+def _cheb_der_int(coef):
+    """(chebder(coef, axis=1, scl=2.0), chebint(coef, axis=1, lbnd=-1.0, scl=0.5)) of
+    Chebyshev series rows coef (B, K): numpy.polynomial's loops over the coefficients,
+    each an operation on a strided column, run in C per row where the core is built (the
+    same operations in the same order; results laid out as numpy's, the transposes of
+    (coefficients, rows) arrays: tests/test_speed20_curves_core.py)."""
+    from numpy.polynomial import chebyshev as C
+    nb, K = coef.shape
+    if CORE_MOD is None or K < 2 or K > 1024:
+        return C.chebder(coef, axis=1, scl=2.0), C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+    der = np.empty((K - 1, nb))
+    itg = np.empty((K + 1, nb))
+    CORE_MOD.cheb_der_int(np.ascontiguousarray(coef, float), nb, K, der, itg)
+    return der.T, itg.T
+
+
 _GL_CACHE: dict[int, tuple] = {}
 
 
@@ -724,14 +740,12 @@ class CircleBatch:
         return phi, w, w1, (dpp(dl) + dpp(dr) if w2 else None)
 
     def _eval_cheb(self, tau, idx, gam2, w2=True):
-        from numpy.polynomial import chebyshev as C
         x = 2.0 * tau - 1.0
         coef = self.coef[idx]
         nz = np.nonzero(np.any(coef != 0, axis=0))[0]
         coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
         wcoef = coef
-        dcoef = C.chebder(coef, axis=1, scl=2.0)
-        pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+        dcoef, pcoef = _cheb_der_int(coef)
         w, w1, phi = _series_values((wcoef, dcoef, pcoef), x)
         if not w2:
             return phi, w, w1, None

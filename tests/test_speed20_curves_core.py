@@ -190,7 +190,7 @@ def test_precond_bitwise_on_random_and_degenerate_arcs():
     pairwise sums of more than 128 terms), steep laws the iteration leaves to Newton,
     zero and NaN inputs, non-finite steps."""
     rng = np.random.default_rng(20)
-    for n in (16, 20, 24, 64, 192):
+    for n in (16, 20, 24, 64, 128):
         for nb in (1, 32, 33, 70):
             phi = rng.uniform(-3.0, 6.0, nb) * rng.choice([1.0, 1.0, 1e-3, 40.0], nb)
             gam2 = rng.uniform(0.0, 20.0, nb) * rng.choice([1.0, 1.0, 100.0, 1e4], nb)

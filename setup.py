@@ -3,7 +3,9 @@ and the compiled fast path of the reader (gcode_opt/_reader.c, module _gcode_opt
 used by state.py under the same rules: optional, top-level, SHA-256 checked, same bits),
 and the chains' Newton steps (gcode_opt/laws/_chaincore.c, module _gcode_opt_chaincore,
 used by laws/chain.py under the same rules), and the rewrite's per-line work
-(gcode_opt/_emit.c, module _gcode_opt_emit, used by emit.py and validate.py, same rules).
+(gcode_opt/_emit.c, module _gcode_opt_emit, used by emit.py and validate.py, same rules),
+and the circle law's iteration and the curves' kernel (gcode_opt/laws/_curvecore.c, module
+_gcode_opt_curvecore, used by laws/circle.py and curves.py, same rules).
 
 Everything else is in pyproject.toml.  The extension is optional: without a C compiler
 (or Python headers) the build prints a warning, skips it, and the install goes on; the
@@ -46,6 +48,7 @@ SHA256 = _sha256(SOURCE)
 READER_SOURCE = "gcode_opt/_reader.c"
 CHAIN_SOURCE = "gcode_opt/laws/_chaincore.c"   # the chains' Newton steps (laws/chain.py), same rules
 EMIT_SOURCE = "gcode_opt/_emit.c"               # the rewrite's emitter and validator passes (emit.py, validate.py)
+CURVE_SOURCE = "gcode_opt/laws/_curvecore.c"    # the circle law's iteration and the curves' kernel (circle.py, curves.py)
 
 setup(
     ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
@@ -55,6 +58,8 @@ setup(
                  Extension("_gcode_opt_chaincore", [CHAIN_SOURCE], optional=True,
                            define_macros=[("CHAINCORE_SOURCE_SHA256", f'"{_sha256(CHAIN_SOURCE)}"')]),
                  Extension("_gcode_opt_emit", [EMIT_SOURCE], optional=True,
-                           define_macros=[("EMIT_SOURCE_SHA256", f'"{_sha256(EMIT_SOURCE)}"')])],
+                           define_macros=[("EMIT_SOURCE_SHA256", f'"{_sha256(EMIT_SOURCE)}"')]),
+                 Extension("_gcode_opt_curvecore", [CURVE_SOURCE], optional=True,
+                           define_macros=[("CURVECORE_SOURCE_SHA256", f'"{_sha256(CURVE_SOURCE)}"')])],
     cmdclass={"build_ext": BuildExt},
 )

@@ -37,6 +37,7 @@ import numpy as np
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
+from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
@@ -48,6 +49,9 @@ try:                       # np.interp's compiled core (np.interp checks and con
     from numpy._core.multiarray import interp as _interp
 except ImportError:        # pragma: no cover -- numpy < 2
     from numpy.core.multiarray import interp as _interp
+
+# the compiled kernel of _parts_block (laws/_curvecore.c, loaded by laws/circle.py), or None
+_CURVE_CORE = _circle.CORE_MOD
 
 CURVE_T_RATIOS = (0.90, 0.96, 1.0, 1.02, 1.05, 1.10, 1.20)
 CURVE_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CURVE_T_RATIOS])
@@ -519,6 +523,15 @@ def _xy(st):
     return np.frombuffer(p.xy, float) if isinstance(p, Points) else np.asarray(p, float).ravel()
 
 
+def _xy_block(todo, idx):
+    """np.concatenate([_xy(todo[i]) for i in idx]): the strokes' packed vertices joined
+    as bytes and read once (the same doubles, one buffer read instead of one a stroke)."""
+    ps = [todo[i].pts for i in idx.tolist()]
+    if all(type(p) is Points for p in ps):
+        return np.frombuffer(b"".join([p.xy for p in ps]), float)
+    return np.concatenate([_xy(todo[i]) for i in idx])
+
+
 def _batch_parts(todo):
     """CurveGeom's (d, u, cos_turn, s_v, kappa_v, kappa_eff) of the strokes `todo`, computed
     for all strokes of one vertex count at once with CurveGeom's arithmetic elementwise in
@@ -539,7 +552,7 @@ def _batch_parts(todo):
         for a in range(0, grp.size, step):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
-                block = _parts_block(np.concatenate([_xy(todo[i]) for i in idx]).reshape(idx.size, npt, 2))
+                block = _parts_block(_xy_block(todo, idx).reshape(idx.size, npt, 2))
             good, block = block[-1].tolist(), block[:-1]
             for k, i in enumerate(idx.tolist()):
                 if good[k]:
@@ -573,11 +586,15 @@ def _parts_block(pts):
     # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
     # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
     # m (n+1)(n-1) doubles per step
-    kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
-    np.divide(kern, smooth_d[:, None, None], out=kern)
-    np.square(kern, out=kern)
-    np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
-    np.multiply(kern, -0.5, out=kern)
+    if _CURVE_CORE is not None:     # the same five steps in one compiled pass (_curvecore.c)
+        kern = np.empty((s_v.shape[0], n + 1, n - 1))
+        _CURVE_CORE.kern_args(s_v, smooth_d, s_v.shape[0], n + 1, kern)
+    else:
+        kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
+        np.divide(kern, smooth_d[:, None, None], out=kern)
+        np.square(kern, out=kern)
+        np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
+        np.multiply(kern, -0.5, out=kern)
     np.exp(kern, out=kern)
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits

@@ -25,11 +25,21 @@ The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the sol
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from .. import native
 from ..blas import blas_one_thread
+
+# The compiled elementwise steps of _precond_cheb (and curves._parts_block's kernel):
+# _curvecore.c, module _gcode_opt_curvecore; optional, the same bits as the numpy code
+# (tests/test_speed20_curves_core.py)
+CORE_MOD, CORE_WHY = native.load("_gcode_opt_curvecore",
+                                 os.path.join(os.path.dirname(os.path.abspath(__file__)), "_curvecore.c"),
+                                 "curve core")
+CORE = "c" if CORE_MOD is not None else "python"
 
 # ---------------------------------------------------------------------------------------------
 # Chebyshev machinery on τ ∈ [0, 1] (nodes τ_j = (1 - cos(πj/N))/2, so τ_0 = 0, τ_N = 1)
@@ -264,6 +274,78 @@ _PRECOND_SLOW_R = 0.7      # a step ratio above this after a few steps: left to 
 
 
 def _precond_cheb(n, phi, gam2, u0, u1, w_start):
+    """_precond_cheb_c where the compiled core is there (and this BLAS gives rows their own
+    bits, which both forms rely on), else _precond_cheb_np: the same bits."""
+    if CORE_MOD is not None and n + 1 <= 1024 and _gemm_rows_invariant():
+        return _precond_cheb_c(n, phi, gam2, u0, u1, w_start)
+    return _precond_cheb_np(n, phi, gam2, u0, u1, w_start)
+
+
+def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
+    """_precond_cheb_np with the elementwise work of each step in C (_curvecore.c: the
+    same operations in the same order, numpy's pairwise row sums, NaN-propagating maxima)
+    and the three matrix products the same BLAS calls on the same zero-padded arrays
+    (_rows_matmul's blocks of _GEMM_ROWS rows): one gather, three products and three
+    compiled calls a step instead of ~40 numpy operations on (arcs, N) arrays."""
+    cs = _cheb_setup(n)
+    eg = _eig_setup(n)
+    nb = phi.size
+    w = w_start.copy()
+    w[:, 0], w[:, -1] = u0, u1
+    cc = np.zeros(nb)
+    ok = np.zeros(nb, dtype=bool)
+    if eg is None or nb == 0:
+        return w, cc, ok
+    core = CORE_MOD
+    d2_t = np.ascontiguousarray(cs["d2"][1:-1].T)
+    q = np.ascontiguousarray(cs["q"], float)
+    lam_e = np.ascontiguousarray(eg["lam"], float)
+    qv = np.ascontiguousarray(eg["qv"], float)
+    e = np.ascontiguousarray(eg["e"], float)
+    vinv_t, v_t = eg["vinv_t"], eg["v_t"]
+    gam2 = np.ascontiguousarray(gam2, float)
+    phi_c = np.ascontiguousarray(phi, float)
+    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
+    nc, ni = n + 1, n - 1
+    g = _GEMM_ROWS
+    top = -(-nb // g) * g
+    wa_buf = np.zeros((top, nc))
+    r1_buf = np.zeros((top, ni))
+    x_buf = np.zeros((top, ni))
+    r2 = np.empty(nb)
+    den = np.empty((nb, ni))
+    dc = np.empty(nb)
+    stp = np.empty(nb)
+    act = np.arange(nb, dtype=np.int64)
+    last = np.full(nb, np.inf)
+    for it in range(_PRECOND_ITER):
+        na = act.size
+        rows = -(-na // g) * g
+        nblk = rows // g
+        wa = wa_buf[:rows]
+        core.pc_gather(w, act, na, nc, wa, rows)
+        m1 = (wa.reshape(nblk, g, nc) @ d2_t).reshape(rows, ni)
+        r1 = r1_buf[:rows]
+        core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, rows)
+        m2 = (r1.reshape(nblk, g, ni) @ vinv_t).reshape(rows, ni)
+        x = x_buf[:rows]
+        core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
+        dw = (x.reshape(nblk, g, ni) @ v_t).reshape(rows, ni)
+        core.pc_update(w, cc, act, na, n, wa, dw, dc, stp)
+        step = stp[:na]
+        # done: at the rounding floor of the residual (steps no longer shrink), or below it
+        slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
+        done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
+        ok[act[done]] = True
+        keep = ~done & np.isfinite(step) & ~slow
+        last[act] = step
+        act = act[keep]
+        if act.size == 0:
+            break
+    return w, cc, ok
+
+
+def _precond_cheb_np(n, phi, gam2, u0, u1, w_start):
     """The collocation equations of _newton_cheb solved by a preconditioned fixed-point
     iteration: each step is the Newton step with the Jacobian's diagonal γ² + 6w² replaced
     by its mid-range value ḡ, whose inverse is diagonal in the eigenbasis of the second-
@@ -467,11 +549,31 @@ def _layer_int(d0, d, wc, gam2):
 
 
 def _layers_total(wc, phi, gam2, u0, u1):
-    """∫₀¹ w dτ - Φ for the composite layer solution with cruise value w_c."""
+    """∫₀¹ w dτ - Φ for the composite layer solution with cruise value w_c:
+    wc + _layer_int(dl0, _layer_d(1, dl0)) + _layer_int(dr0, _layer_d(1, dr0)) - phi, the
+    terms the two layers share (c, λ, e^{-λ}, c², γ² + 2w_c², k, 2w_c, 4w_c) computed once
+    for both: the same operations on the same numbers (tests/test_speed20_curves_layers.py)."""
     dl0, dr0 = u0 - wc, u1 - wc
-    dl1 = _layer_d(1.0, dl0, wc, gam2)
-    dr1 = _layer_d(1.0, dr0, wc, gam2)
-    return wc + _layer_int(dl0, dl1, wc, gam2) + _layer_int(dr0, dr1, wc, gam2) - phi
+    c = gam2 + 6.0 * wc * wc
+    lam = np.sqrt(c)
+    c_sq = c * c
+    g2w = gam2 + 2.0 * wc * wc
+    w2, w4 = 2.0 * wc, 4.0 * wc
+    e = np.exp(-lam * 1.0)
+    k = np.sqrt(g2w)
+    tot = wc
+    for d0 in (dl0, dr0):
+        # _layer_coeffs(d0, wc, gam2)
+        rho = w2 * d0 / c
+        q = np.sqrt(np.maximum(d0 * d0 + w4 * d0 + c, 0.0)) / lam
+        s1 = 1.0 + rho
+        num = d0 * d0 * g2w / c_sq
+        a_inf = np.where(s1 >= 0, (s1 + q) / 2.0, num / (2.0 * np.where(s1 >= 0, 1.0, q - s1)))
+        b_inf = np.where(s1 <= 0, (s1 - q) / 2.0, -num / (2.0 * np.where(s1 <= 0, 1.0, q + s1)))
+        # _layer_d(1.0, d0, wc, gam2), then _layer_int(d0, d1, wc, gam2)
+        d1 = d0 * e / (-rho * e + a_inf + b_inf * e * e)
+        tot = tot + _asinh_diff((d0 + w2) / k, (d1 + w2) / k)
+    return tot - phi
 
 
 def _solve_layers_batch(phi, gam2, u0, u1):
@@ -510,6 +612,22 @@ def _solve_layers_batch(phi, gam2, u0, u1):
 # ---------------------------------------------------------------------------------------------
 # Public batch object
 # ---------------------------------------------------------------------------------------------
+
+def _cheb_der_int(coef):
+    """(chebder(coef, axis=1, scl=2.0), chebint(coef, axis=1, lbnd=-1.0, scl=0.5)) of
+    Chebyshev series rows coef (B, K): numpy.polynomial's loops over the coefficients,
+    each an operation on a strided column, run in C per row where the core is built (the
+    same operations in the same order; results laid out as numpy's, the transposes of
+    (coefficients, rows) arrays: tests/test_speed20_curves_core.py)."""
+    from numpy.polynomial import chebyshev as C
+    nb, K = coef.shape
+    if CORE_MOD is None or K < 2 or K > 1024:
+        return C.chebder(coef, axis=1, scl=2.0), C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+    der = np.empty((K - 1, nb))
+    itg = np.empty((K + 1, nb))
+    CORE_MOD.cheb_der_int(np.ascontiguousarray(coef, float), nb, K, der, itg)
+    return der.T, itg.T
+
 
 _GL_CACHE: dict[int, tuple] = {}
 
@@ -622,14 +740,12 @@ class CircleBatch:
         return phi, w, w1, (dpp(dl) + dpp(dr) if w2 else None)
 
     def _eval_cheb(self, tau, idx, gam2, w2=True):
-        from numpy.polynomial import chebyshev as C
         x = 2.0 * tau - 1.0
         coef = self.coef[idx]
         nz = np.nonzero(np.any(coef != 0, axis=0))[0]
         coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
         wcoef = coef
-        dcoef = C.chebder(coef, axis=1, scl=2.0)
-        pcoef = C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
+        dcoef, pcoef = _cheb_der_int(coef)
         w, w1, phi = _series_values((wcoef, dcoef, pcoef), x)
         if not w2:
             return phi, w, w1, None

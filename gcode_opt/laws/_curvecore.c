@@ -1,0 +1,372 @@
+/* The circle law's preconditioned collocation iteration (laws/circle.py: _precond_cheb),
+the derivative and integral series of its laws (CircleBatch._eval_cheb) and the curvature
+kernel's arguments (curves.py: _parts_block), their elementwise work compiled.
+
+Optional extension _gcode_opt_curvecore (setup.py builds it; laws/circle.py and curves.py
+fall back to the numpy code when it is missing, stale or GCODE_OPT_PURE_PYTHON is set).
+It must give the numpy code's bits: every double operation below is the one numpy does,
+in the same order (built with -ffp-contract=off, no fast math).  The matrix products stay
+numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-padded arrays) and so
+does np.exp (numpy's is not libm's on every machine): these functions do what lies
+between them.  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
+row maxima and minima propagate NaN as numpy's do. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+typedef struct {
+    Py_buffer v[16];
+    int n;
+} Bufs;
+
+static void release(Bufs *b) {
+    for (int i = 0; i < b->n; i++) PyBuffer_Release(&b->v[i]);
+    b->n = 0;
+}
+
+/* a C-contiguous buffer of items of `size` bytes and at least `need` items; NULL
+   (exception set) otherwise */
+static void *get(Bufs *b, PyObject *o, Py_ssize_t size, int writable, Py_ssize_t need) {
+    Py_buffer *v = &b->v[b->n];
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(o, v, flags) < 0) return NULL;
+    b->n++;
+    if (v->itemsize != size) {
+        PyErr_SetString(PyExc_TypeError, "curve core: wrong item size");
+        return NULL;
+    }
+    if (v->len / size < need) {
+        PyErr_SetString(PyExc_ValueError, "curve core: buffer too small");
+        return NULL;
+    }
+    return v->buf;
+}
+
+/* numpy's pairwise sum of a contiguous run (np.add.reduce's inner loop) */
+static double pw_sum(const double *a, Py_ssize_t n) {
+    if (n < 8) {
+        double res = -0.0;
+        for (Py_ssize_t i = 0; i < n; i++) res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        double r[8], res;
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++) r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++) r[j] += a[i + j];
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += a[i];
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return pw_sum(a, n2) + pw_sum(a + n2, n - n2);
+}
+
+/* numpy's maximum / minimum: NaN if either is NaN */
+static inline double np_max(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+
+#define MAX_COLS 1024
+
+/* pc_gather(w, act, na, ncol, wa, nrows): wa[i] = w[act[i]] for i < na, rows na..nrows of
+   wa zero (_rows_matmul's padding) */
+static PyObject *pc_gather(PyObject *self, PyObject *a) {
+    PyObject *ow, *oact, *owa;
+    Py_ssize_t na, ncol, nrows;
+    if (!PyArg_ParseTuple(a, "OOnnOn", &ow, &oact, &na, &ncol, &owa, &nrows)) return NULL;
+    Bufs b = {.n = 0};
+    const double *w = get(&b, ow, 8, 0, 0);
+    const int64_t *act = w ? get(&b, oact, 8, 0, na) : NULL;
+    double *wa = act ? get(&b, owa, 8, 1, nrows * ncol) : NULL;
+    if (!wa) { release(&b); return NULL; }
+    Py_ssize_t wlen = b.v[0].len / 8;
+    for (Py_ssize_t i = 0; i < na; i++) {
+        if (act[i] < 0 || (act[i] + 1) * ncol > wlen) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "pc_gather: row out of range");
+            return NULL;
+        }
+        memcpy(wa + i * ncol, w + act[i] * ncol, (size_t)ncol * sizeof(double));
+    }
+    memset(wa + na * ncol, 0, (size_t)((nrows - na) * ncol) * sizeof(double));
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* pc_res(wa, m1, act, na, n, gam2, cc, phi, q, lam_e, r1, r2, den, nrows):
+     wi = wa[:, 1:-1], w2 = wi * wi,
+     r1 = m1 - g2 wi - 2 wi w2 - ca          (m1 = wa @ d2_t, rows of n - 1)
+     r2 = (wa * q).sum(axis=1) - phi
+     den = lam_e - (g2 + 3 (w2.max(axis=1) + w2.min(axis=1)))
+   g2, ca, phi: gam2, cc, phi at act; rows na..nrows of r1 zero */
+static PyObject *pc_res(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    Py_ssize_t na, n, nrows;
+    if (!PyArg_ParseTuple(a, "OOOnnOOOOOOOOn", &o[0], &o[1], &o[2], &na, &n, &o[3], &o[4], &o[5], &o[6],
+                          &o[7], &o[8], &o[9], &o[10], &nrows))
+        return NULL;
+    if (n < 2 || n + 1 > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "pc_res: bad n");
+        return NULL;
+    }
+    Py_ssize_t nc = n + 1, ni = n - 1;
+    Bufs b = {.n = 0};
+    const double *wa = get(&b, o[0], 8, 0, na * nc);
+    const double *m1 = wa ? get(&b, o[1], 8, 0, na * ni) : NULL;
+    const int64_t *act = m1 ? get(&b, o[2], 8, 0, na) : NULL;
+    const double *gam2 = act ? get(&b, o[3], 8, 0, 0) : NULL;
+    const double *cc = gam2 ? get(&b, o[4], 8, 0, 0) : NULL;
+    const double *phi = cc ? get(&b, o[5], 8, 0, 0) : NULL;
+    const double *q = phi ? get(&b, o[6], 8, 0, nc) : NULL;
+    const double *lam_e = q ? get(&b, o[7], 8, 0, ni) : NULL;
+    double *r1 = lam_e ? get(&b, o[8], 8, 1, nrows * ni) : NULL;
+    double *r2 = r1 ? get(&b, o[9], 8, 1, na) : NULL;
+    double *den = r2 ? get(&b, o[10], 8, 1, na * ni) : NULL;
+    if (!den) { release(&b); return NULL; }
+    Py_ssize_t nlim = b.v[3].len / 8;
+    if (b.v[4].len / 8 < nlim) nlim = b.v[4].len / 8;
+    if (b.v[5].len / 8 < nlim) nlim = b.v[5].len / 8;
+    double tmp[MAX_COLS];
+    for (Py_ssize_t i = 0; i < na; i++) {
+        int64_t k = act[i];
+        if (k < 0 || k >= nlim) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "pc_res: row out of range");
+            return NULL;
+        }
+        const double g2 = gam2[k], ca = cc[k];
+        const double *wr = wa + i * nc, *mr = m1 + i * ni;
+        double *rr = r1 + i * ni;
+        double mx = 0.0, mn = 0.0;
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            double wi = wr[j + 1];
+            double w2 = wi * wi;
+            rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
+            if (j == 0) {
+                mx = w2;
+                mn = w2;
+            } else {
+                mx = np_max(mx, w2);
+                mn = np_min(mn, w2);
+            }
+        }
+        for (Py_ssize_t j = 0; j < nc; j++) tmp[j] = wr[j] * q[j];
+        r2[i] = pw_sum(tmp, nc) - phi[k];
+        double dd = g2 + 3.0 * (mx + mn);
+        double *dr = den + i * ni;
+        for (Py_ssize_t j = 0; j < ni; j++) dr[j] = lam_e[j] - dd;
+    }
+    memset(r1 + na * ni, 0, (size_t)((nrows - na) * ni) * sizeof(double));
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* pc_step(m2, den, qv, e, r2, na, ni, x, dc, nrows): b = -m2 (m2 = r1 @ vinv_t),
+     dc = (-r2 - ((b / den) * qv).sum(axis=1)) / ((qv * e) / den).sum(axis=1)
+     x = (b + dc e) / den                    (rows na..nrows of x zero) */
+static PyObject *pc_step(PyObject *self, PyObject *a) {
+    PyObject *o[7];
+    Py_ssize_t na, ni, nrows;
+    if (!PyArg_ParseTuple(a, "OOOOOnnOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &na, &ni, &o[5], &o[6], &nrows))
+        return NULL;
+    if (ni < 1 || ni > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "pc_step: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *m2 = get(&b, o[0], 8, 0, na * ni);
+    const double *den = m2 ? get(&b, o[1], 8, 0, na * ni) : NULL;
+    const double *qv = den ? get(&b, o[2], 8, 0, ni) : NULL;
+    const double *e = qv ? get(&b, o[3], 8, 0, ni) : NULL;
+    const double *r2 = e ? get(&b, o[4], 8, 0, na) : NULL;
+    double *x = r2 ? get(&b, o[5], 8, 1, nrows * ni) : NULL;
+    double *dc = x ? get(&b, o[6], 8, 1, na) : NULL;
+    if (!dc) { release(&b); return NULL; }
+    double qe[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS];
+    for (Py_ssize_t j = 0; j < ni; j++) qe[j] = qv[j] * e[j];
+    for (Py_ssize_t i = 0; i < na; i++) {
+        const double *mr = m2 + i * ni, *dr = den + i * ni;
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            double bj = -mr[j];
+            t1[j] = (bj / dr[j]) * qv[j];
+            t2[j] = qe[j] / dr[j];
+        }
+        double d = (-r2[i] - pw_sum(t1, ni)) / pw_sum(t2, ni);
+        dc[i] = d;
+        double *xr = x + i * ni;
+        for (Py_ssize_t j = 0; j < ni; j++) xr[j] = (-mr[j] + d * e[j]) / dr[j];
+    }
+    memset(x + na * ni, 0, (size_t)((nrows - na) * ni) * sizeof(double));
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* pc_update(w, cc, act, na, n, wa, dw, dc, step): w[act, 1:-1] = wa[:, 1:-1] + dw,
+   cc[act] = cc[act] + dc, step = abs(dw).max(axis=1) */
+static PyObject *pc_update(PyObject *self, PyObject *a) {
+    PyObject *o[8];
+    Py_ssize_t na, n;
+    if (!PyArg_ParseTuple(a, "OOOnnOOOO", &o[0], &o[1], &o[2], &na, &n, &o[3], &o[4], &o[5], &o[6]))
+        return NULL;
+    if (n < 2 || n + 1 > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "pc_update: bad n");
+        return NULL;
+    }
+    Py_ssize_t nc = n + 1, ni = n - 1;
+    Bufs b = {.n = 0};
+    double *w = get(&b, o[0], 8, 1, 0);
+    double *cc = w ? get(&b, o[1], 8, 1, 0) : NULL;
+    const int64_t *act = cc ? get(&b, o[2], 8, 0, na) : NULL;
+    const double *wa = act ? get(&b, o[3], 8, 0, na * nc) : NULL;
+    const double *dw = wa ? get(&b, o[4], 8, 0, na * ni) : NULL;
+    const double *dc = dw ? get(&b, o[5], 8, 0, na) : NULL;
+    double *step = dc ? get(&b, o[6], 8, 1, na) : NULL;
+    if (!step) { release(&b); return NULL; }
+    Py_ssize_t nlim = b.v[1].len / 8;
+    if (b.v[0].len / 8 / nc < nlim) nlim = b.v[0].len / 8 / nc;
+    for (Py_ssize_t i = 0; i < na; i++) {
+        int64_t k = act[i];
+        if (k < 0 || k >= nlim) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "pc_update: row out of range");
+            return NULL;
+        }
+        double *wr = w + k * nc;
+        const double *war = wa + i * nc, *dr = dw + i * ni;
+        double mx = 0.0;
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            wr[j + 1] = war[j + 1] + dr[j];
+            double ad = fabs(dr[j]);
+            mx = j == 0 ? ad : np_max(mx, ad);
+        }
+        cc[k] = cc[k] + dc[i];
+        step[i] = mx;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* kern_args(s_v, sd, m, n1, kern): _parts_block's kernel before np.exp, for m strokes of
+   n1 = n + 1 vertices (s_v (m, n1), sd (m,), kern (m, n1, n1 - 2)):
+     z = ((s_v[:, :, None] - s_v[:, None, 1:-1]) / sd) ** 2,  kern = (z - z.min(axis=2)) * -0.5 */
+static PyObject *kern_args(PyObject *self, PyObject *a) {
+    PyObject *os, *osd, *ok;
+    Py_ssize_t m, n1;
+    if (!PyArg_ParseTuple(a, "OOnnO", &os, &osd, &m, &n1, &ok)) return NULL;
+    if (n1 < 3) {
+        PyErr_SetString(PyExc_ValueError, "kern_args: bad size");
+        return NULL;
+    }
+    Py_ssize_t ni = n1 - 2;
+    Bufs b = {.n = 0};
+    const double *s = get(&b, os, 8, 0, m * n1);
+    const double *sd = s ? get(&b, osd, 8, 0, m) : NULL;
+    double *k = sd ? get(&b, ok, 8, 1, m * n1 * ni) : NULL;
+    if (!k) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double *sr = s + r * n1;
+        const double d = sd[r];
+        for (Py_ssize_t j = 0; j < n1; j++) {
+            double *kr = k + (r * n1 + j) * ni;
+            const double sj = sr[j];
+            double mn = 0.0;
+            for (Py_ssize_t i = 0; i < ni; i++) {
+                double t = (sj - sr[i + 1]) / d;
+                t = t * t;
+                kr[i] = t;
+                mn = i == 0 ? t : np_min(mn, t);
+            }
+            for (Py_ssize_t i = 0; i < ni; i++) kr[i] = (kr[i] - mn) * -0.5;
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* cheb_der_int(coef, B, K, der_t, int_t): numpy.polynomial.chebyshev's
+     chebder(coef, axis=1, scl=2.0)                -> der_t.T  (der_t (K - 1, B))
+     chebint(coef, axis=1, lbnd=-1.0, scl=0.5)     -> int_t.T  (int_t (K + 1, B))
+   of coef (B, K), K >= 2, row by row: the same operations in the same order as numpy's
+   loops over the coefficients (integers times doubles as doubles; chebval at -1 by its
+   recurrence); its arrays are (coefficients, rows), so the transposes are laid out as
+   numpy's results are. */
+static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
+    PyObject *oc, *od, *oi;
+    Py_ssize_t nb, K;
+    if (!PyArg_ParseTuple(a, "OnnOO", &oc, &nb, &K, &od, &oi)) return NULL;
+    if (K < 2 || K > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "cheb_der_int: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *coef = get(&b, oc, 8, 0, nb * K);
+    double *der = coef ? get(&b, od, 8, 1, (K - 1) * nb) : NULL;
+    double *itg = der ? get(&b, oi, 8, 1, (K + 1) * nb) : NULL;
+    if (!itg) { release(&b); return NULL; }
+    double c[MAX_COLS], t[MAX_COLS + 1];
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *cr = coef + r * K;
+        /* chebder: c *= scl, then from the top */
+        Py_ssize_t n = K - 1;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 2.0;
+        for (Py_ssize_t j = n; j > 2; j--) {
+            der[(j - 1) * nb + r] = (double)(2 * j) * c[j];
+            c[j - 2] += ((double)j * c[j]) / (double)(j - 2);
+        }
+        if (n > 1) der[1 * nb + r] = 4.0 * c[2];
+        der[r] = c[1];
+        /* chebint: c *= scl, tmp, then tmp[0] += k - chebval(lbnd, tmp) */
+        n = K;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 0.5;
+        t[0] = c[0] * 0.0;
+        t[1] = c[0];
+        t[2] = c[1] / 4.0;
+        for (Py_ssize_t j = 2; j < n; j++) {
+            t[j + 1] = c[j] / (double)(2 * (j + 1));
+            t[j - 1] -= c[j] / (double)(2 * (j - 1));
+        }
+        Py_ssize_t L = n + 1;
+        const double x = -1.0, x2 = 2.0 * -1.0;
+        double c0 = t[L - 2], c1 = t[L - 1];
+        for (Py_ssize_t i = 3; i < L + 1; i++) {
+            double tmp = c0;
+            c0 = t[L - i] - c1;
+            c1 = tmp + c1 * x2;
+        }
+        double v = c0 + c1 * x;
+        t[0] += 0.0 - v;
+        for (Py_ssize_t j = 0; j < L; j++) itg[j * nb + r] = t[j];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
+    {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
+    {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
+    {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
+    {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
+    {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef curvecore_module = {
+    PyModuleDef_HEAD_INIT, "_gcode_opt_curvecore",
+    "Compiled elementwise steps of the circle law's iteration and the curves' kernel", -1, methods};
+
+#ifndef CURVECORE_SOURCE_SHA256
+#define CURVECORE_SOURCE_SHA256 ""
+#endif
+
+PyMODINIT_FUNC PyInit__gcode_opt_curvecore(void) {
+    PyObject *mod = PyModule_Create(&curvecore_module);
+    if (mod && PyModule_AddStringConstant(mod, "SOURCE_SHA256", CURVECORE_SOURCE_SHA256) < 0) {
+        Py_DECREF(mod);
+        return NULL;
+    }
+    return mod;
+}

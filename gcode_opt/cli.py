@@ -398,7 +398,7 @@ def format_timing(s, peak_mb=None):
     out = (f"  CPU time (s)       {phases} ({s.get('rewrite_passes', 1)} rewrite pass(es)); "
            f"total {t.get('total', 0.0):.2f}{rate}; cores: firmware model {s.get('firmware_core', '?')}, "
            f"reader {s.get('reader_core', '?')}, chains {s.get('chain_core', '?')}, "
-           f"rewrite {s.get('emit_core', '?')}")
+           f"rewrite {s.get('emit_core', '?')}, curves {s.get('curve_core', '?')}")
     if peak_mb and all(v is not None for v in peak_mb.values()):
         out += "\n  peak RSS (MB)      " + ", ".join(f"{k} {v:.0f}" for k, v in peak_mb.items())
     return out

@@ -44,6 +44,7 @@ from .emit import StrokeText, emit_arc, emit_stroke
 from . import state as reader
 from .firmware import simulate as fwsim
 from .laws import chain as chain_law
+from .laws import circle as circle_law
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
@@ -1025,6 +1026,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             summary["reader_core"] = reader.CORE      # and which reader read the common lines
             summary["chain_core"] = chain_law.CORE    # and which code solved the chains' Newton steps
             summary["emit_core"] = emit_mod.CORE      # and which code read, wrote and checked the blocks
+            summary["curve_core"] = circle_law.CORE   # and which code ran the circle law's iteration and curve kernels
             opts.peak_rss_mb = dict(timing.peak_mb)       # --profile-time prints it (not in the JSON)
             summary["rewrite_passes"] = timing.passes
             summary["warnings"] = _warnings_json(opts.reader_warnings)

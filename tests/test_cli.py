@@ -223,11 +223,13 @@ def test_reader_warnings_name_their_line_and_reach_the_summary(capsys, tmp_path)
     from gcode_opt.firmware import simulate
     from gcode_opt.laws import chain as chain_law
     from gcode_opt import emit
+    from gcode_opt.laws import circle
     assert (f"cores: firmware model {simulate.CORE}, reader {state.CORE}, chains {chain_law.CORE}, "
-            f"rewrite {emit.CORE}") in err   # c or python
+            f"rewrite {emit.CORE}, curves {circle.CORE}") in err   # c or python
     assert json.loads(js.read_text())["firmware_core"] == simulate.CORE
     assert json.loads(js.read_text())["reader_core"] == state.CORE
     assert json.loads(js.read_text())["chain_core"] == chain_law.CORE
     assert json.loads(js.read_text())["emit_core"] == emit.CORE
+    assert json.loads(js.read_text())["curve_core"] == circle.CORE
     w = json.loads(js.read_text())["warnings"]
     assert w["count"] == 1 and w["first"][0]["line"] == 13

@@ -327,7 +327,7 @@ def _process(tmp_path, core, name, prof, tag):
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     summary = json.loads(js.read_text())
-    for k in ("timing_s", "elapsed_s", "output", "firmware_core", "reader_core", "chain_core", "emit_core"):   # CPU and wall s; the path; the cores
+    for k in ("timing_s", "elapsed_s", "output", "firmware_core", "reader_core", "chain_core", "emit_core", "curve_core"):   # CPU and wall s; the path; the cores
         summary.pop(k, None)
     return out.read_bytes(), summary
 

@@ -17,7 +17,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_gcode" / "prusa_gyroid.gcode"
-CORES = ("_gcode_opt_fwcore", "_gcode_opt_reader", "_gcode_opt_chaincore", "_gcode_opt_emit")
+CORES = ("_gcode_opt_fwcore", "_gcode_opt_reader", "_gcode_opt_chaincore", "_gcode_opt_emit", "_gcode_opt_curvecore")
+KEYS = ("firmware_core", "reader_core", "chain_core", "emit_core", "curve_core")
 
 # Run the CLI with the compiled cores unimportable (what a build without a compiler leaves).
 NO_CORES = """
@@ -50,7 +51,7 @@ def test_build_without_compiler_skips_the_cores(tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     assert _built(tmp_path) == []
-    # each of the four optional extensions was tried and skipped, not silently left out
+    # each of the optional extensions was tried and skipped, not silently left out
     text = r.stdout + r.stderr
     for mod in CORES:
         assert mod in text, text
@@ -67,9 +68,8 @@ def _process(tmp_path, tag, code_args):
 
 def test_run_without_cores_writes_the_same_bytes(tmp_path):
     with_, s_with = _process(tmp_path, "default", ["-m", "gcode_opt"])
-    if (s_with["firmware_core"], s_with["reader_core"], s_with["chain_core"], s_with["emit_core"]) == ("python",) * 4:
+    if tuple(s_with[k] for k in KEYS) == ("python",) * len(KEYS):
         pytest.skip("the cores are not built here either: the two runs would take the same path")
     without, s_without = _process(tmp_path, "nocores", ["-c", NO_CORES])
-    assert (s_without["firmware_core"], s_without["reader_core"], s_without["chain_core"], s_without["emit_core"]) == \
-        ("python",) * 4
+    assert tuple(s_without[k] for k in KEYS) == ("python",) * len(KEYS)
     assert without == with_

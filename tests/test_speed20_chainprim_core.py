@@ -142,12 +142,32 @@ def test_share_time_rejects_bad_shapes():
         core.share_time(*bad)
 
 
-def test_newton_code_has_no_libm_power_or_sinh():
+def test_newton_code_has_no_libm_power_or_sinh(monkeypatch):
     """The ** 3 the check above cannot catch (the operator calls the ufunc itself): none in
-    the chains' Newton code (prims.cube instead), nor a np.sinh, np.power."""
+    the chains' Newton code (prims.cube instead), nor a np.sinh, np.power; and the line
+    law's evaluation, which the chains share, takes its series branch's sinh and cube from
+    prims when the chains call it (line._shc and line._cube made to fail are not called)."""
     import inspect
-    for f in (lc._J3, lc._coeffs, lc._small_int_coeffs, lc._share_time_numpy, lc._shapes_small, lc._eval,
-              lc._time_of_distance, lc._tod_step, lc._tod_rows, lc._tod_core, lc._share_time_core):
+    from gcode_opt.laws import line
+    for f in (lc._J3, lc._coeffs, lc._small_int_coeffs, lc._share_time_numpy, lc._eval,
+              lc._time_of_distance, lc._tod_core, lc._share_time_core):
         src = inspect.getsource(f)
         for bad in ("** 3", "**3", "np.sinh", "np.power", "_shc("):
             assert bad not in src.replace("prims.shc(", "prims.SHC("), (f.__name__, bad)
+    law = line.line_law(np.array([2.0, 3.0, 5.0]), np.array([0.05, 0.06, 0.1]), np.array([0.25, 0.36, 1.0]),
+                        np.array([10.0, 20.0, 0.0]), np.array([30.0, 5.0, 0.0]))
+    assert law._c["small"].all()
+    want_t = lc._time_of_distance(law, law.L * 0.4)
+    want = lc._eval(law, want_t, "sva")
+
+    def fail(*a):
+        raise AssertionError("numpy's primitive called")
+    monkeypatch.setattr(line, "_shc", fail)
+    monkeypatch.setattr(line, "_cube", fail)
+    got_t = lc._time_of_distance(law, law.L * 0.4)
+    got = lc._eval(law, got_t, "sva")
+    assert np.array_equal(_bits(got_t), _bits(want_t))
+    for a, b in zip(got, want):
+        assert np.array_equal(_bits(a), _bits(b))
+    with pytest.raises(AssertionError, match="numpy's primitive"):
+        law.eval(want_t, "sva")                       # the line law's own path does call them

@@ -34,7 +34,7 @@ from .. import native
 from . import prims
 from .line import GAMMA_SWITCH as _GAMMA_SWITCH
 from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _horner_nms, _large_coeffs, _nms_terms,
-                   _s1, _shapes_large, _shc, end_speeds)
+                   _shc, end_speeds, time_of_distance)
 
 # The compiled Newton loops of _share_time and of the chains' time of distance (_chaincore.c,
 # module _gcode_opt_chaincore): optional, the same bits as the numpy code
@@ -270,123 +270,17 @@ def _tod_core(core, law, s_targets, max_iter=200):
 
 
 # ---------------------------------------------------------------- the chains' line-law evaluation
-# LineLaw.eval and time_of_distance (line.py) as the chains use them, with the deterministic
+# LineLaw.eval and time_of_distance (line.py) as the chains use them: with the deterministic
 # sinh and cube of prims in the series branch (np.sinh and ** 3 there); the other branch is
 # the line law's.  The reference of the compiled tod_solve.
-def _shapes_small(gs, n, sh2, tau, want):
-    """line._shapes_small with prims.shc and prims.cube for numpy's sinh and power."""
-    x = tau - 0.5
-    G_s = g_s = gp_s = Hs_s = h_s = hp_s = None
-    if "g" in want or "Hs" in want:
-        pa, pb = prims.shc(gs * tau / 2), prims.shc(gs * (1 - tau) / 2)
-        bub = tau * (1 - tau) * pa * pb
-        g_s = bub / (2 * n)
-        Hs_s = -bub / sh2
-    if "gp" in want or "h" in want:
-        shx = prims.shc(gs * x)
-        gp_s = -x * shx / n
-        h_s = 2 * x * shx / sh2
-    if "G" in want:
-        G_s = 0.5 + (x * prims.shc(gs / 4) ** 2 / 8 - prims.cube(x) * _s1(gs * x)) / n
-    if "hp" in want:
-        hp_s = 2 * np.cosh(gs * x) / sh2
-    return G_s, g_s, gp_s, Hs_s, h_s, hp_s
-
-
-_WANT = {"s": ("G", "Hs"), "v": ("g", "h"), "a": ("gp", "hp")}
-
-
-def _shapes(c, tau, want):
-    """line._shapes with _shapes_small above for the series branch."""
-    tau = np.asarray(tau, dtype=float)
-    small = c["small"]
-    shape = np.broadcast_shapes(tau.shape, small.shape)
-    bc = lambda a: a if a is None or a.shape == shape else np.broadcast_to(a, shape)    # noqa: E731
-    if small.all():
-        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want))
-    if not small.any():
-        return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau, want))
-    sm = bc(small)
-    lg = ~sm
-    ts, tl = bc(tau)[sm], bc(tau)[lg]
-    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts, want)
-    out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl, want)
-    res = []
-    for a, b in zip(out_s, out_l):
-        if a is None:
-            res.append(None)
-            continue
-        v = np.empty(shape)
-        v[sm], v[lg] = a, b
-        res.append(v)
-    return tuple(res)
-
-
 def _eval(law, t, want="sva"):
-    """law.eval(t, want) (LineLaw) with _shapes above."""
-    T = law.T
-    tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
-    G, g, gp, Hs, h, hp = _shapes(law._c, tau, sum((_WANT[w] for w in want), ()))
-    wbar, A, d = law._wbar, law._A, law._delta
-    s = wbar * tau + A * G - d * Hs if "s" in want else None
-    v = (wbar + A * g - d * h) / T if "v" in want else None
-    a = (A * gp - d * hp) / T**2 if "a" in want else None
-    return s, v, a
+    """law.eval(t, want) with prims."""
+    return law.eval(t, want, prims)
 
 
 def _time_of_distance(law, s_targets, max_iter=200):
-    """line.time_of_distance with _eval above for law.eval."""
-    T = law.T
-    lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
-    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
-    shape = np.broadcast_shapes(target.shape, T.shape)
-    target = np.broadcast_to(target, shape)
-    sgn = np.where(law.L < 0, -1.0, 1.0)
-    lo = np.zeros(shape)
-    hi = np.broadcast_to(T, shape).copy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
-    scale = np.maximum(np.abs(law.L), 1e-300)
-    if len(shape) == 1 and law.L.shape == shape:
-        return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter)
-    for _ in range(max_iter):
-        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
-        if done is None:
-            break
-    return t
-
-
-def _tod_step(law, t, target, sgn, lo, hi, scale, T):
-    """line._tod_step with _eval above."""
-    s, v, _a = _eval(law, t, "sv")
-    f = sgn * (s - target)
-    lo = np.where(f <= 0, t, lo)
-    hi = np.where(f >= 0, t, hi)
-    done = (np.abs(f) <= 4 * np.finfo(float).eps * scale) | (hi - lo <= 4 * np.finfo(float).eps * T)
-    if np.all(done):
-        return t, lo, hi, None
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_newton = t - f / (sgn * v)
-    ok = (sgn * v > 0) & (t_newton > lo) & (t_newton < hi)
-    return np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi))), lo, hi, done
-
-
-def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
-    """line._tod_rows with _tod_step above."""
-    T = law.T
-    out = t.copy()
-    idx = np.arange(t.size)
-    for _ in range(max_iter):
-        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
-        if done is None:
-            break
-        out[idx] = t
-        if done.any():
-            keep = np.flatnonzero(~done)
-            idx, t, lo, hi = idx[keep], t[keep], lo[keep], hi[keep]
-            target, sgn, scale, T = target[keep], sgn[keep], scale[keep], T[keep]
-            law = law.take(keep)
-    return out
+    """line.time_of_distance with prims."""
+    return time_of_distance(law, s_targets, max_iter, prims)
 
 
 def solve_chains(problems, init_binding=None, init_vert_t=None):

@@ -197,23 +197,29 @@ def _large_coeffs(gl, small):
             "kappa_over_gamma": Dn / (-em * gl)}
 
 
-def _shapes_small(gs, n, sh2, tau, want):
+def _cube(x):
+    return x**3
+
+
+def _shapes_small(gs, n, sh2, tau, want, prim=None):
     """Small γ: hyperbolic forms, no cancellation (products/ratios of shc and series).
     want: which of the six shapes to compute ("G", "g", "gp", "Hs", "h", "hp"; None for
-    the others)."""
+    the others).  prim: where sinh(z)/z and the cube come from (None: numpy's sinh and
+    ** 3; the chains pass laws/prims.py, whose bits are the same on every machine)."""
+    shc, cube = (_shc, _cube) if prim is None else (prim.shc, prim.cube)
     x = tau - 0.5
     G_s = g_s = gp_s = Hs_s = h_s = hp_s = None
     if "g" in want or "Hs" in want:
-        pa, pb = _shc(gs * tau / 2), _shc(gs * (1 - tau) / 2)
+        pa, pb = shc(gs * tau / 2), shc(gs * (1 - tau) / 2)
         bub = tau * (1 - tau) * pa * pb             # = 4 sinh(γτ/2) sinh(γ(1−τ)/2)/γ²
         g_s = bub / (2 * n)
         Hs_s = -bub / sh2
     if "gp" in want or "h" in want:
-        shx = _shc(gs * x)
+        shx = shc(gs * x)
         gp_s = -x * shx / n
         h_s = 2 * x * shx / sh2
     if "G" in want:
-        G_s = 0.5 + (x * _shc(gs / 4) ** 2 / 8 - x**3 * _s1(gs * x)) / n
+        G_s = 0.5 + (x * shc(gs / 4) ** 2 / 8 - cube(x) * _s1(gs * x)) / n
     if "hp" in want:
         hp_s = 2 * np.cosh(gs * x) / sh2
     return G_s, g_s, gp_s, Hs_s, h_s, hp_s
@@ -244,21 +250,22 @@ ALL_SHAPES = ("G", "g", "gp", "Hs", "h", "hp")
 _WANT = {"s": ("G", "Hs"), "v": ("g", "h"), "a": ("gp", "hp")}
 
 
-def _shapes(c, tau, want=ALL_SHAPES):
+def _shapes(c, tau, want=ALL_SHAPES, prim=None):
     """(G, g, g', Hs, h, h') at τ ∈ [0, 1] (broadcast with the law shape), each element
-    in its law's branch only; the shapes not in `want` are None (not computed)."""
+    in its law's branch only; the shapes not in `want` are None (not computed); prim as
+    _shapes_small's."""
     tau = np.asarray(tau, dtype=float)
     small = c["small"]
     shape = np.broadcast_shapes(tau.shape, small.shape)
     bc = lambda a: a if a is None or a.shape == shape else np.broadcast_to(a, shape)    # noqa: E731
     if small.all():
-        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want))
+        return tuple(bc(a) for a in _shapes_small(c["gs"], c["n"], c["sh2"], tau, want, prim))
     if not small.any():
         return tuple(bc(a) for a in _shapes_large(c["gl"], c["em"], c["Dn"], c["E"], tau, want))
     sm = bc(small)
     lg = ~sm
     ts, tl = bc(tau)[sm], bc(tau)[lg]
-    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts, want)
+    out_s = _shapes_small(bc(c["gs"])[sm], bc(c["n"])[sm], bc(c["sh2"])[sm], ts, want, prim)
     out_l = _shapes_large(bc(c["gl"])[lg], bc(c["em"])[lg], bc(c["Dn"])[lg], bc(c["E"])[lg], tl, want)
     res = []
     for a, b in zip(out_s, out_l):
@@ -322,15 +329,16 @@ class LineLaw:
                        self.v0[..., None], self.v1[..., None])
 
     # ---------------------------------------------------------------- evaluation
-    def eval(self, t, want="sva"):
+    def eval(self, t, want="sva", prim=None):
         """(s [mm], ṡ [mm/s], s̈ [mm/s²]) at t [s]; t is clamped to [0, T].  want: which of
-        s, v, a to compute (None for the others; the same numbers as all three).
+        s, v, a to compute (None for the others; the same numbers as all three); prim as
+        _shapes_small's.
 
         t broadcasts against the law parameters: one law (scalars) × t (k,) → (k,);
         n laws with params (n, 1) (`expand_dims()`) × t (n, k) → (n, k)."""
         T = self.T
         tau = np.clip(np.asarray(t, dtype=float) / T, 0.0, 1.0)
-        G, g, gp, Hs, h, hp = _shapes(self._c, tau, sum((_WANT[w] for w in want), ()))
+        G, g, gp, Hs, h, hp = _shapes(self._c, tau, sum((_WANT[w] for w in want), ()), prim)
         wbar, A, d = self._wbar, self._A, self._delta
         s = wbar * tau + A * G - d * Hs if "s" in want else None
         v = (wbar + A * g - d * h) / T if "v" in want else None
@@ -497,13 +505,14 @@ def line_law(L, T, beta, v0=0.0, v1=0.0) -> LineLaw:
     return LineLaw(L, T, beta, v0, v1)
 
 
-def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
+def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200, prim=None):
     """t [s] with s(t) = s_targets [mm] (broadcast with the law), for monotone laws.
 
     Safeguarded Newton: a bracket [lo, hi] with s(lo) ≤ target ≤ s(hi) is kept; a Newton step
     leaving the bracket (or with ṡ ≤ 0) is replaced by bisection, so convergence is guaranteed
     (≤ ~60 bisections to machine resolution) and quadratic near simple roots.  Targets outside
-    [0, L] are clamped.  If min_speed() < 0 the result is *a* root, not necessarily the first."""
+    [0, L] are clamped.  If min_speed() < 0 the result is *a* root, not necessarily the first.
+    prim: the law's primitives (LineLaw.eval's)."""
     T = law.T
     lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
     target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
@@ -516,19 +525,19 @@ def time_of_distance(law: LineLaw, s_targets, max_iter: int = 200):
         t = lo + (hi - lo) * np.where(law.L != 0, target / law.L, 0.5)
     scale = np.maximum(np.abs(law.L), 1e-300)
     if len(shape) == 1 and law.L.shape == shape:
-        return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter)
+        return _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter, prim)
     for _ in range(max_iter):
-        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T, prim)
         if done is None:
             break
     return t
 
 
-def _tod_step(law, t, target, sgn, lo, hi, scale, T):
+def _tod_step(law, t, target, sgn, lo, hi, scale, T, prim=None):
     """One safeguarded Newton step of time_of_distance: the bracket [lo, hi] shrunk to t,
     then Newton where it stays inside, else bisection.  done is None when every element
     has converged (t, lo, hi as they were then)."""
-    s, v, _a = law.eval(t, "sv")
+    s, v, _a = law.eval(t, "sv", prim)
     f = sgn * (s - target)
     lo = np.where(f <= 0, t, lo)
     hi = np.where(f >= 0, t, hi)
@@ -541,7 +550,7 @@ def _tod_step(law, t, target, sgn, lo, hi, scale, T):
     return np.where(done, t, np.where(ok, t_newton, 0.5 * (lo + hi))), lo, hi, done
 
 
-def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
+def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter, prim=None):
     """time_of_distance's iteration for 1-D laws, one target each, on the elements not done
     only: a done element's t no longer moves (its f is unchanged and its bracket only
     shrinks, so it stays done), and every step is elementwise, so each t is the same."""
@@ -549,7 +558,7 @@ def _tod_rows(law, target, sgn, lo, hi, t, scale, max_iter):
     out = t.copy()
     idx = np.arange(t.size)
     for _ in range(max_iter):
-        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T)
+        t, lo, hi, done = _tod_step(law, t, target, sgn, lo, hi, scale, T, prim)
         if done is None:
             break
         out[idx] = t

@@ -7,7 +7,6 @@ the pipeline makes on the bundled gyroid, concentric and benchy-like files (and 
 gyroid plate's curve strokes, when the corpus is there), plus random and degenerate
 inputs.  Without the core (GCODE_OPT_PURE_PYTHON=1) the fallback is the old code."""
 import os
-import pickle
 import subprocess
 import sys
 from pathlib import Path

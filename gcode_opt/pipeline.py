@@ -479,9 +479,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                     e0, accel0, mcr0 = s.start_state
                     beta = beta_list[i]
                     extruding = s.feature != travel
-                    beta_txt = "inf" if not isfinite(beta) else f"{beta:.4g}"
-                    head = (f"{emit_mod.BEGIN}: replaces {n_lines} lines, kind={s.kind}, {len(seg.s) - 1} segments, "
-                            f"T={seg.time_t:.4f}s (was {s.time_t:.4f}s), beta={beta_txt}s^2\n{svl}")
+                    head = f"{emit_mod.BEGIN}{_block_header(s, n_lines, 'segments', seg, beta)}\n{svl}"
                     fc = getattr(seg, "first_cmds", None)
                     before = after = None
                     if fc and len(seg.s) >= 2:
@@ -503,17 +501,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 continue
             # the Python path, on the lines as text (as _rewrite_text reads them)
             buf = list(io.StringIO(data[a:z].decode("utf-8", "surrogateescape"), newline=""))
-            try:
-                e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
-                parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
-                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile, parsed)
-                _validate(text, s, buf, x0, y0, accel0, profile, parsed)
-            except BlockInvalid as e:
-                text = None
-                plan.reason[i] = str(e)
-            except Exception as e:        # noqa: BLE001 -- this stroke's failure only
-                text = None
-                plan.reason[i] = f"error: emission ({type(e).__name__})"
+            text = _python_block(s, buf, plan, i, profile)
             if text is None:
                 plan.retime[i] = False
                 plan.segs[i] = None
@@ -552,7 +540,6 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
             out_line += n_copy
             buf = list(islice(lines, s.n_moves))
             pos = s.first_idx + len(buf)
-            x0, y0 = s.x0, s.y0
             text = None if reuse is None else reuse.block(i, plan.segs[i], plan.beta[i])
             if text is not None:  # the first pass wrote this very block (and validated it)
                 write(text)
@@ -562,19 +549,8 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
                 out_ranges.append((out_line, out_line + n_out - 1, i))
                 out_line += n_out
                 continue
-            try:
-                e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
-                # the original lines read once, for the emitter and the validator (numpy's
-                # warnings are off around the whole loop: errstate costs more than a block)
-                parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
-                text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile, parsed)
-                _validate(text, s, buf, x0, y0, accel0, profile, parsed)
-            except BlockInvalid as e:
-                text = None
-                plan.reason[i] = str(e)
-            except Exception as e:        # noqa: BLE001 -- this stroke's failure only
-                text = None
-                plan.reason[i] = f"error: emission ({type(e).__name__})"
+            # (numpy's warnings are off around the whole loop: errstate costs more than a block)
+            text = _python_block(s, buf, plan, i, profile)
             if text is None:
                 plan.retime[i] = False
                 plan.segs[i] = None
@@ -688,22 +664,45 @@ def _stroke_block(s, raws, seg, beta, x0, y0, e0, accel0, mcr0, profile, parsed=
     """G-code text replacing one stroke, from its segment plan `seg`.  The header names
     the kind (line, curve, arc) after "replaces N lines" (verify.py and the report read it)."""
     dec = 8
-    beta_txt = "inf" if not math.isfinite(beta) else f"{beta:.4g}"
     if s.kind == K_ARC:
-        header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} sub-arcs, T={seg.time_t:.4f}s "
-                  f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
+        header = _block_header(s, len(raws), "sub-arcs", seg, beta)
         return emit_arc(raws[0], f"{x0:.{dec}f}", f"{y0:.{dec}f}", e0, s.arc, seg.s, seg.accel, seg.feed,
                         e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0, mcr_restore=mcr0,
                         feed_restore_v=s.v_feed, header=header)
     st_text = parsed if parsed is not None else _stroke_text(raws, x0, y0)
     st_text.e_start_units = int(round(e0 * 10 ** st_text.dec_e))
-    header = (f": replaces {len(raws)} lines, kind={s.kind}, {len(seg.s) - 1} segments, T={seg.time_t:.4f}s "
-              f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
+    header = _block_header(s, len(raws), "segments", seg, beta)
     # the start's text as _stroke_text wrote it (the same f"{x0:.8f}")
     return emit_stroke(st_text, s.ends_d, seg.s, seg.v, seg.accel, seg.feed, x0_text=st_text.x_start_text,
                        y0_text=st_text.y_start_text, e_rel=s.e_rel, flavour=profile.flavour, accel_restore=accel0,
                        mcr_restore=mcr0, feed_restore_v=s.v_feed, extruding=s.feature != feat.TRAVEL,
                        header=header, first_cmds=getattr(seg, "first_cmds", None))
+
+
+def _block_header(s, n_lines, pieces, seg, beta):
+    """The block header after BEGIN: what it replaces, the kind (verify.py and the report
+    read it), the pieces, the times and beta."""
+    beta_txt = "inf" if not math.isfinite(beta) else f"{beta:.4g}"
+    return (f": replaces {n_lines} lines, kind={s.kind}, {len(seg.s) - 1} {pieces}, T={seg.time_t:.4f}s "
+            f"(was {s.time_t:.4f}s), beta={beta_txt}s^2")
+
+
+def _python_block(s, buf, plan, i, profile):
+    """One stroke's block by the Python path (emitter and validator on its lines as text),
+    or None with the reason in plan.reason[i]: this stroke's failure only."""
+    x0, y0 = s.x0, s.y0
+    try:
+        e0, accel0, mcr0 = s.start_state     # recorded by analyse (group_strokes)
+        # the original lines read once, for the emitter and the validator
+        parsed = None if s.kind == K_ARC else _stroke_text(buf, x0, y0)
+        text = _stroke_block(s, buf, plan.segs[i], plan.beta[i], x0, y0, e0, accel0, mcr0, profile, parsed)
+        _validate(text, s, buf, x0, y0, accel0, profile, parsed)
+        return text
+    except BlockInvalid as e:
+        plan.reason[i] = str(e)
+    except Exception as e:        # noqa: BLE001 -- this stroke's failure only
+        plan.reason[i] = f"error: emission ({type(e).__name__})"
+    return None
 
 
 def _stroke_text(raws, x0, y0):

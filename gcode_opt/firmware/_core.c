@@ -3593,6 +3593,31 @@ static int ring_opt_buf(PyObject *o, Py_buffer *b, int writable, Py_ssize_t len,
     return 1;
 }
 
+/* an optional tuple of k buffers (ring_solve's memos and outs): tup None -> 0 (not there),
+ * else 1 with b[0..k) filled, buffer j holding lens[j] doubles (any length: lens[j] < 0);
+ * -1 with an exception and no buffer held */
+static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const Py_ssize_t *lens,
+                         const char *what)
+{
+    if (tup == Py_None)
+        return 0;
+    if (!PyTuple_Check(tup) || PyTuple_GET_SIZE(tup) != k) {
+        PyErr_Format(PyExc_TypeError, "ring_solve: %s must be a tuple of %d buffers", what, k);
+        return -1;
+    }
+    for (int j = 0; j < k; j++) {
+        int r = ring_opt_buf(PyTuple_GET_ITEM(tup, j), &b[j], writable, lens[j], what);
+        if (r <= 0) {
+            if (r == 0)
+                PyErr_Format(PyExc_TypeError, "ring_solve: %s", what);
+            while (j-- > 0)
+                PyBuffer_Release(&b[j]);
+            return -1;
+        }
+    }
+    return 1;
+}
+
 /* ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl,
  * real_major, amps_memo, amps_out, pieces_memo, pieces_out): ringing.py's _Stream._solve
  * in one pass: the events' amplitudes (ring_jumps' jump_amplitude of dr, drp; after the
@@ -3638,77 +3663,19 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     }
     Py_ssize_t np_ = n > 0 ? n - 1 : 0;         /* pieces */
     /* the memos */
-    if (am != Py_None) {
-        PyObject *o[3];
-        if (!PyArg_ParseTuple(am, "OOO:amps_memo", &o[0], &o[1], &o[2]))
-            goto done;
-        for (int k = 0; k < 3; k++) {
-            int r = ring_opt_buf(o[k], &mb[k], 0, -1, "amps_memo");
-            if (r <= 0) {
-                if (r == 0)
-                    PyErr_SetString(PyExc_TypeError, "ring_solve: amps_memo");
-                for (int j = 0; j < k; j++)
-                    PyBuffer_Release(&mb[j]);
-                goto done;
-            }
-        }
-        have_m = 1;
-        if (mb[1].len != mb[0].len || mb[2].len != 4 * mb[0].len) {
-            PyErr_SetString(PyExc_ValueError, "ring_solve: amps_memo lengths");
-            goto done;
-        }
+    const Py_ssize_t any3[3] = {-1, -1, -1}, olen[2] = {n, 4 * n}, plen[2] = {np_, 3 * np_};
+    if ((have_m = ring_opt_bufs(am, 3, mb, 0, any3, "amps_memo")) < 0
+            || (have_o = ring_opt_bufs(ao, 2, ob, 1, olen, "amps_out")) < 0
+            || (have_q = ring_opt_bufs(pm, 3, qb, 0, any3, "pieces_memo")) < 0
+            || (have_r = ring_opt_bufs(po, 2, rb2, 1, plen, "pieces_out")) < 0)
+        goto done;
+    if (have_m && (mb[1].len != mb[0].len || mb[2].len != 4 * mb[0].len)) {
+        PyErr_SetString(PyExc_ValueError, "ring_solve: amps_memo lengths");
+        goto done;
     }
-    if (ao != Py_None) {
-        PyObject *o[2];
-        if (!PyArg_ParseTuple(ao, "OO:amps_out", &o[0], &o[1]))
-            goto done;
-        for (int k = 0; k < 2; k++) {
-            int r = ring_opt_buf(o[k], &ob[k], 1, (k ? 4 : 1) * n, "amps_out");
-            if (r <= 0) {
-                if (r == 0)
-                    PyErr_SetString(PyExc_TypeError, "ring_solve: amps_out");
-                for (int j = 0; j < k; j++)
-                    PyBuffer_Release(&ob[j]);
-                goto done;
-            }
-        }
-        have_o = 1;
-    }
-    if (pm != Py_None) {
-        PyObject *o[3];
-        if (!PyArg_ParseTuple(pm, "OOO:pieces_memo", &o[0], &o[1], &o[2]))
-            goto done;
-        for (int k = 0; k < 3; k++) {
-            int r = ring_opt_buf(o[k], &qb[k], 0, -1, "pieces_memo");
-            if (r <= 0) {
-                if (r == 0)
-                    PyErr_SetString(PyExc_TypeError, "ring_solve: pieces_memo");
-                for (int j = 0; j < k; j++)
-                    PyBuffer_Release(&qb[j]);
-                goto done;
-            }
-        }
-        have_q = 1;
-        if (qb[1].len != qb[0].len || qb[2].len != 3 * qb[0].len) {
-            PyErr_SetString(PyExc_ValueError, "ring_solve: pieces_memo lengths");
-            goto done;
-        }
-    }
-    if (po != Py_None) {
-        PyObject *o[2];
-        if (!PyArg_ParseTuple(po, "OO:pieces_out", &o[0], &o[1]))
-            goto done;
-        for (int k = 0; k < 2; k++) {
-            int r = ring_opt_buf(o[k], &rb2[k], 1, (k ? 3 : 1) * np_, "pieces_out");
-            if (r <= 0) {
-                if (r == 0)
-                    PyErr_SetString(PyExc_TypeError, "ring_solve: pieces_out");
-                for (int j = 0; j < k; j++)
-                    PyBuffer_Release(&rb2[j]);
-                goto done;
-            }
-        }
-        have_r = 1;
+    if (have_q && (qb[1].len != qb[0].len || qb[2].len != 3 * qb[0].len)) {
+        PyErr_SetString(PyExc_ValueError, "ring_solve: pieces_memo lengths");
+        goto done;
     }
     if (n == 0) {
         ret = Py_None;
@@ -3819,17 +3786,17 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         goto done;
     }
     ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c[2 * (n - 1)], c[2 * (n - 1) + 1]});
-done:
-    if (have_m)
+done:                                        /* (have_x -1: that tuple's ring_opt_bufs failed, none held) */
+    if (have_m > 0)
         for (int k = 0; k < 3; k++)
             PyBuffer_Release(&mb[k]);
-    if (have_o)
+    if (have_o > 0)
         for (int k = 0; k < 2; k++)
             PyBuffer_Release(&ob[k]);
-    if (have_q)
+    if (have_q > 0)
         for (int k = 0; k < 3; k++)
             PyBuffer_Release(&qb[k]);
-    if (have_r)
+    if (have_r > 0)
         for (int k = 0; k < 2; k++)
             PyBuffer_Release(&rb2[k]);
     PyBuffer_Release(&tb);

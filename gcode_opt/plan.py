@@ -419,19 +419,31 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
             margin = np.where(np.isinf(c2), np.inf, c2 - c1)
         return j, margin, MARGIN_R * (np.abs(c1) + np.abs(c2))
 
-    j_lo, m_lo, _ = choices(0.0, rows)
-    take(j_lo, rows)
+    # rows with at most one finite candidate keep one choice at every lambda (the others'
+    # costs are inf; where costs cannot overflow): their choice and T - T_orig are taken
+    # once, and the steps below cost and sum only the others
+    live = rows
+    J = np.empty(n, np.intp)      # every stroke's choice; those of `act` are the bracket's ends'
+    if plain and k >= 2 and _no_overflow(Tx, Ix, finite):
+        one = finite.sum(axis=1) <= 1
+        if one.any():
+            fixed, live = np.flatnonzero(one), np.flatnonzero(~one)
+            J[fixed] = np.argmax(finite[fixed], axis=1)     # none finite: argmin's 0
+            take(J[fixed], fixed)
+    j_lo, m_lo, _ = choices(0.0, live)
+    take(j_lo, live)
     if spent() <= budget_t:
-        return j_lo, 0.0
+        J[live] = j_lo
+        return J, 0.0
     lo, hi = 0.0, 1.0
     while True:
-        j_hi, m_hi, tol_hi = choices(hi, rows)
-        take(j_hi, rows)
+        j_hi, m_hi, tol_hi = choices(hi, live)
+        take(j_hi, live)
         if not (spent() > budget_t and hi < 1e30):
             break
         hi *= 10.0
-    J = j_hi.copy()               # every stroke's choice; those of `act` are the bracket's ends'
-    act = rows
+    J[live] = j_hi
+    act = live
     for _ in range(80):
         # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
         # at most the top end's, tol_hi, which both margins must clear
@@ -451,6 +463,19 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
 
 
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
+
+
+LAMBDA_MAX = 1e31      # above any lambda allocate visits (its decade search stops at 1e30)
+
+
+def _no_overflow(Tx, Ix, finite):
+    """Every finite cost I + lambda T stays finite for lambda <= LAMBDA_MAX (plain tables:
+    every T finite and >= 0): then a row's only finite candidate is its least at every
+    lambda allocate visits, its other costs being inf."""
+    if not finite.any():
+        return True
+    i_max = float(np.max(np.abs(Ix[finite])))
+    return i_max < 1e300 and float(Tx.max()) * LAMBDA_MAX < 1e300
 
 
 def _least_two(cost):
@@ -482,13 +507,29 @@ def _narrow_tables(Tx, Ix, finite):
     is_n = finite.sum(axis=1) <= w
     if not is_n.any():
         return None
-    col = np.argsort(~finite[is_n], axis=1, kind="stable")[:, :w]
+    rid = np.flatnonzero(is_n)
+    m = rid.size
+    # a stable argsort of ~finite, row by row, kept to its first w places: column by
+    # column, the finite entries (at most w a row), then the others while places are left
+    f = finite[rid]
+    col = np.empty((m, w), np.int16 if k < 2 ** 15 else np.intp)
+    fill = np.zeros(m, np.intp)
+    for c in range(k):
+        r = np.flatnonzero(f[:, c])
+        col[r, fill[r]] = c
+        fill[r] += 1
+    for c in range(k):
+        r = np.flatnonzero(~f[:, c] & (fill < w))
+        if r.size == 0 and fill.min() >= w:
+            break
+        col[r, fill[r]] = c
+        fill[r] += 1
     # column-major (w, rows): allocate's thin() works on whole columns
-    Tn = np.ascontiguousarray(np.take_along_axis(Tx[is_n], col, axis=1).T)
-    In = np.ascontiguousarray(np.take_along_axis(Ix[is_n], col, axis=1).T)
+    Tn = np.ascontiguousarray(Tx[rid[:, None], col].T)
+    In = np.ascontiguousarray(Ix[rid[:, None], col].T)
     pos = np.full(n, -1)
-    pos[is_n] = np.arange(int(is_n.sum()))
-    return is_n, pos, col.astype(np.int16 if k < 2 ** 15 else np.intp), Tn, In
+    pos[is_n] = np.arange(m)
+    return is_n, pos, col, Tn, In
 
 
 def _merge(mask, a, b):

@@ -318,20 +318,36 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
     candidates (most: a line has its original and ~5 laws of 24 columns) are costed on
     narrow tables holding their finite entries first, in column order: the same costs,
     the same least (argmin's first, mapped back to its column) and the same second least
-    (the rest are inf in both), so the same choices and margins."""
+    (the rest are inf in both), so the same choices and margins.  With the compiled core
+    (firmware/_core.c's alloc_choices), plain tables are costed row by row in one call a
+    step instead, with the same operations (a product, then a sum), argmin's first, the
+    same second least, margins and T - T_orig.  Rows with at most one finite candidate
+    (a third of a plate's) take it once: it is their choice at every lambda."""
     n, k = Ix.shape
     rows = np.arange(n)
     plain = bool(n and np.isfinite(Tx).all() and Tx.min() >= 0.0)
-    narrow = None
+    narrow = core = None
     if plain:
         Ix[~finite] = np.inf
-        narrow = _narrow_tables(Tx, Ix, finite)
+        core = _alloc_core() if k >= 2 else None
+        if core is not None:      # a row's costs in one compiled pass (same ops, same order)
+            Tx, Ix = np.ascontiguousarray(Tx, float), np.ascontiguousarray(Ix, float)
+            T_orig = np.ascontiguousarray(T_orig, float)
+        else:
+            narrow = _narrow_tables(Tx, Ix, finite)
     # each stroke's T - T_orig at its current choice, kept row by row as choices change:
     # the same array, so the same sum, as taking every row's again at each step
     dT = np.empty(n)
 
     def take(j, r):
         dT[r] = Tx[r, j] - T_orig[r]
+
+    def step(lam, r):
+        """choices(lam, r), and take() of them (the compiled core's call takes them)."""
+        got = choices(lam, r)
+        if core is None:
+            take(got[0], r)
+        return got
 
     def spent():
         return float(np.sum(dT))
@@ -395,7 +411,13 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
         rows, so that the cost matrices stay small (row-wise: the same numbers).  Narrow
         rows go by blocks of NARROW_ROWS (thin's arrays are a row's 8 columns, not 24:
         fewer, larger numpy calls), the others by ALLOCATE_ROWS; a narrow block thin()
-        declines goes by ALLOCATE_ROWS as before."""
+        declines goes by ALLOCATE_ROWS as before.  With the compiled core (plain tables),
+        all rows in one call of alloc_choices: the same values row by row."""
+        if core is not None:
+            r = np.ascontiguousarray(r, np.intp)
+            j, margin, tol = np.empty(r.size, np.intp), np.empty(r.size), np.empty(r.size)
+            core.alloc_choices(Tx, Ix, k, r, lam, MARGIN_R, T_orig, dT, j, margin, tol)   # and take(j, r)
+            return j, margin, tol
         if narrow is not None and len(r) > ALLOCATE_ROWS:
             nr = narrow[0][r]
             if nr.all():
@@ -419,19 +441,33 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
             margin = np.where(np.isinf(c2), np.inf, c2 - c1)
         return j, margin, MARGIN_R * (np.abs(c1) + np.abs(c2))
 
-    j_lo, m_lo, _ = choices(0.0, rows)
-    take(j_lo, rows)
+    # rows with at most one finite candidate keep one choice at every lambda (the others'
+    # costs are inf; where costs cannot overflow): their choice and T - T_orig are taken
+    # once, and the steps below cost and sum only the others
+    live = rows
+    J = np.empty(n, np.intp)      # every stroke's choice; those of `act` are the bracket's ends'
+    if plain and k >= 2:
+        fixed = np.flatnonzero(finite.sum(axis=1) <= 1)
+        j1 = np.argmax(finite[fixed], axis=1)                # none finite: argmin's 0
+        fixed, j1 = _fixed(Tx, Ix, finite, fixed, j1)
+        if fixed.size:
+            one = np.zeros(n, bool)
+            one[fixed] = True
+            live = np.flatnonzero(~one)
+            J[fixed] = j1
+            take(j1, fixed)
+    j_lo, m_lo, _ = step(0.0, live)
     if spent() <= budget_t:
-        return j_lo, 0.0
+        J[live] = j_lo
+        return J, 0.0
     lo, hi = 0.0, 1.0
     while True:
-        j_hi, m_hi, tol_hi = choices(hi, rows)
-        take(j_hi, rows)
+        j_hi, m_hi, tol_hi = step(hi, live)
         if not (spent() > budget_t and hi < 1e30):
             break
         hi *= 10.0
-    J = j_hi.copy()               # every stroke's choice; those of `act` are the bracket's ends'
-    act = rows
+    J[live] = j_hi
+    act = live
     for _ in range(80):
         # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
         # at most the top end's, tol_hi, which both margins must clear
@@ -439,9 +475,8 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
         if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
             act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
         mid = 0.5 * (lo + hi)
-        j_mid, m_mid, tol_mid = choices(mid, act)
+        j_mid, m_mid, tol_mid = step(mid, act)
         J[act] = j_mid
-        take(j_mid, act)
         if spent() > budget_t:
             lo, j_lo, m_lo = mid, j_mid, m_mid
         else:
@@ -451,6 +486,32 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
 
 
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
+
+
+USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)
+
+
+def _alloc_core():
+    """The compiled core's alloc_choices (firmware/_core.c), or None: not built, stale,
+    GCODE_OPT_PURE_PYTHON, or USE_CORE off."""
+    if not USE_CORE:
+        return None
+    from .firmware import simulate
+    core = simulate._core
+    return core if core is not None and hasattr(core, "alloc_choices") else None
+
+
+LAMBDA_MAX = 1e31      # above any lambda allocate visits (its decade search stops at 1e30)
+
+
+def _fixed(Tx, Ix, finite, rows, j1):
+    """Of the rows with at most one finite cost (j1: its column, or 0), those whose cost
+    stays finite for lambda <= LAMBDA_MAX (plain tables: every T finite and >= 0), and
+    their j1: argmin's choice at every lambda allocate visits (the others' costs are inf;
+    with none finite, all are inf and argmin's is the first)."""
+    t, i = Tx[rows, j1], Ix[rows, j1]
+    ok = ~finite[rows, j1] | ((np.abs(i) < 1e300) & (t * LAMBDA_MAX < 1e300))
+    return rows[ok], j1[ok]
 
 
 def _least_two(cost):
@@ -482,13 +543,29 @@ def _narrow_tables(Tx, Ix, finite):
     is_n = finite.sum(axis=1) <= w
     if not is_n.any():
         return None
-    col = np.argsort(~finite[is_n], axis=1, kind="stable")[:, :w]
+    rid = np.flatnonzero(is_n)
+    m = rid.size
+    # a stable argsort of ~finite, row by row, kept to its first w places: column by
+    # column, the finite entries (at most w a row), then the others while places are left
+    f = finite[rid]
+    col = np.empty((m, w), np.int16 if k < 2 ** 15 else np.intp)
+    fill = np.zeros(m, np.intp)
+    for c in range(k):
+        r = np.flatnonzero(f[:, c])
+        col[r, fill[r]] = c
+        fill[r] += 1
+    for c in range(k):
+        r = np.flatnonzero(~f[:, c] & (fill < w))
+        if r.size == 0 and fill.min() >= w:
+            break
+        col[r, fill[r]] = c
+        fill[r] += 1
     # column-major (w, rows): allocate's thin() works on whole columns
-    Tn = np.ascontiguousarray(np.take_along_axis(Tx[is_n], col, axis=1).T)
-    In = np.ascontiguousarray(np.take_along_axis(Ix[is_n], col, axis=1).T)
+    Tn = np.ascontiguousarray(Tx[rid[:, None], col].T)
+    In = np.ascontiguousarray(Ix[rid[:, None], col].T)
     pos = np.full(n, -1)
-    pos[is_n] = np.arange(int(is_n.sum()))
-    return is_n, pos, col.astype(np.int16 if k < 2 ** 15 else np.intp), Tn, In
+    pos[is_n] = np.arange(m)
+    return is_n, pos, col, Tn, In
 
 
 def _merge(mask, a, b):

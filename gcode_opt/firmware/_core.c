@@ -3943,7 +3943,78 @@ static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
     Py_RETURN_TRUE;
 }
 
+/* ---------------------------------------------------------------- plan._allocate's choices
+ * alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() of the
+ * rows `rows` (intp) of the row-major (n, k) tables Tx, Ix (float64; plain: every T finite
+ * and >= 0, Ix inf where not finite) at lam, k >= 2: per row, cost = Ix + lam * Tx (one
+ * product, then one sum: numpy's two ufuncs), j = argmin's column (the first least: a later
+ * column replaces it only where strictly less), c1 its cost, c2 the least of the others (the
+ * least again on a tie), margin = inf where c2 is inf else c2 - c1, tol = MARGIN_R
+ * (|c1| + |c2|); and its take(): dT[r] = Tx[r, j] - T_orig[r].  The costs hold no NaN (finite lam), so these are the numpy path's values
+ * (the sign of a zero c2 aside, which only comparisons and fabs read). */
+static PyObject *mod_alloc_choices(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, ib, rb, gb, db, jb, mb, ob;
+    Py_ssize_t k;
+    double lam, margin_r;
+    if (!PyArg_ParseTuple(args, "y*y*ny*ddy*w*w*w*w*:alloc_choices", &tb, &ib, &k, &rb, &lam, &margin_r,
+                          &gb, &db, &jb, &mb, &ob))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t m = rb.len / (Py_ssize_t)sizeof(Py_ssize_t);
+    Py_ssize_t n = k > 0 ? tb.len / (Py_ssize_t)sizeof(double) / k : 0;
+    if (k < 2 || ib.len != tb.len || tb.len != (Py_ssize_t)sizeof(double) * n * k
+        || jb.len != rb.len || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len
+        || gb.len != n * (Py_ssize_t)sizeof(double) || db.len != gb.len) {
+        PyErr_SetString(PyExc_ValueError, "alloc_choices: bad sizes");
+        goto done;
+    }
+    const double *T = (const double *)tb.buf, *I = (const double *)ib.buf;
+    const Py_ssize_t *rows = (const Py_ssize_t *)rb.buf;
+    Py_ssize_t *jo = (Py_ssize_t *)jb.buf;
+    double *mo = (double *)mb.buf, *to = (double *)ob.buf, *dT = (double *)db.buf;
+    const double *T_orig = (const double *)gb.buf;
+    for (Py_ssize_t q = 0; q < m; q++) {
+        Py_ssize_t r = rows[q];
+        if (r < 0 || r >= n) {
+            PyErr_SetString(PyExc_IndexError, "alloc_choices: row out of range");
+            goto done;
+        }
+        const double *tr = T + r * k, *ir = I + r * k;
+        double c1 = ir[0] + lam * tr[0], c2 = INFINITY;
+        Py_ssize_t j = 0;
+        for (Py_ssize_t c = 1; c < k; c++) {
+            double x = ir[c] + lam * tr[c];
+            if (x < c1) {
+                c2 = c1;
+                c1 = x;
+                j = c;
+            } else if (x < c2) {
+                c2 = x;
+            }
+        }
+        jo[q] = j;
+        dT[r] = tr[j] - T_orig[r];
+        mo[q] = isinf(c2) ? INFINITY : c2 - c1;
+        to[q] = margin_r * (fabs(c1) + fabs(c2));
+    }
+    ret = Py_None;
+    Py_INCREF(ret);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&ib);
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&gb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&jb);
+    PyBuffer_Release(&mb);
+    PyBuffer_Release(&ob);
+    return ret;
+}
+
 static PyMethodDef mod_methods[] = {
+    {"alloc_choices", mod_alloc_choices, METH_VARARGS,
+     "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
     {"use_reader", mod_use_reader, METH_O,
      "use_reader(the reader's _C_API capsule, or None): Sim.play reads common lines through it"},
     {"setup", mod_setup, METH_VARARGS,

@@ -7,7 +7,7 @@ voron24, auto), on random tables with ties, inf, duplicate columns, one or no fi
 candidate, overflows, and with and without the core.
 
 Big plates, by hand (not stored): capture with
-    PYTHONPATH=. python tests/test_speed21_allocate_capture.py /tmp/gyroid.npz PLATE.gcode --profile prusa-mk3s
+    PYTHONPATH=. python benchmarks/capture_allocate.py /tmp/gyroid.npz PLATE.gcode --profile prusa-mk3s
 then  GCODE_OPT_ALLOC_NPZ=/tmp/gyroid.npz:/tmp/rect.npz python -m pytest -q tests/test_speed21_allocate_same_bits.py"""
 import os
 from pathlib import Path

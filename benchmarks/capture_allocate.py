@@ -1,6 +1,6 @@
 """Capture the arguments of plan._allocate during a run (by hand, for tests on big plates).
 
-    PYTHONPATH=. python tests/test_speed21_allocate_capture.py OUT.npz FILE.gcode [--profile NAME]
+    PYTHONPATH=. python benchmarks/capture_allocate.py OUT.npz FILE.gcode [--profile NAME]
 
 Writes every call's (Tx, Ix, finite, T_orig, budget_t, settle) as arrays a0_Tx, a0_Ix, ...
 (copies taken before the call: _allocate writes inf into Ix in place)."""

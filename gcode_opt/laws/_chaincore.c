@@ -325,6 +325,61 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
 }
 
 
+/* One tod_solve step's s and ṡ of n active laws (n <= CHUNK), compact: τ, γ (g), the S1
+   series' k terms (coef), the per-law constants s4 = prims.shc(γ/4), n, sh2, wbar, A, δ, T;
+   the operations of _eval(t, "sv") element by element (prims.shc at γτ/2, γ(1 - τ)/2 and
+   z = γ(τ - 1/2), each sinh series by Horner from its last coefficient; the S1 series of G
+   at z²), loops over the terms outside and the elements inside: SIMD lanes, each element's
+   operations in its own order, the same bits as one element at a time. */
+VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict taub, const double *restrict gb,
+                                 const double *restrict coef, const double *restrict sc, int nc,
+                                 const double *restrict s4b, const double *restrict nb, const double *restrict sh2b,
+                                 const double *restrict wb, const double *restrict Ab, const double *restrict db,
+                                 const double *restrict Tb, double *restrict sout, double *restrict vout) {
+    double za[CHUNK], zb_[CHUNK], zx[CHUNK], ha[CHUNK], hb[CHUNK], hx[CHUNK], s1[CHUNK];
+    double cl = sc[nc - 1], ck = coef[k - 1];
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double tau = taub[j], g = gb[j];
+        za[j] = (g * tau) / 2;
+        zb_[j] = (g * (1 - tau)) / 2;
+        zx[j] = g * (tau - 0.5);
+        ha[j] = cl; hb[j] = cl; hx[j] = cl; s1[j] = ck;
+    }
+    for (int q = nc - 2; q >= 0; q--) {
+        double a = sc[q];
+        for (Py_ssize_t j = 0; j < n; j++) {
+            double a2 = za[j] * za[j], b2 = zb_[j] * zb_[j], x2 = zx[j] * zx[j];
+            double u = ha[j] * a2, w = hb[j] * b2, y = hx[j] * x2;
+            ha[j] = u + a; hb[j] = w + a; hx[j] = y + a;
+        }
+    }
+    for (int q = k - 2; q >= 0; q--) {
+        double a = coef[q];
+        for (Py_ssize_t j = 0; j < n; j++) {
+            double x2 = zx[j] * zx[j];
+            double y = s1[j] * x2;
+            s1[j] = y + a;
+        }
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double tau = taub[j], x = tau - 0.5;
+        double zaj = za[j], zbj = zb_[j], z = zx[j];
+        double pa = (zaj + P_CUBE(zaj) * ha[j]) / zaj, pb = (zbj + P_CUBE(zbj) * hb[j]) / zbj;
+        double shx = (z + P_CUBE(z) * hx[j]) / z;
+        pa = zaj == 0.0 ? 1.0 : pa;                      /* prims.shc: 1 at z = 0 */
+        pb = zbj == 0.0 ? 1.0 : pb;
+        shx = z == 0.0 ? 1.0 : shx;
+        double bub = ((tau * (1 - tau)) * pa) * pb;
+        double gg = bub / (2 * nb[j]);
+        double Hs = (-bub) / sh2b[j];
+        double h = ((2 * x) * shx) / sh2b[j];
+        double s4 = s4b[j];
+        double G = 0.5 + (((x * (s4 * s4)) / 8) - P_CUBE(x) * s1[j]) / nb[j];
+        sout[j] = ((wb[j] * tau) + (Ab[j] * G)) - (db[j] * Hs);
+        vout[j] = ((wb[j] + Ab[j] * gg) - db[j] * h) / Tb[j];
+    }
+}
+
 /* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
    s1coef, s1zmax, sinh_coef, max_iter) -> laws still going after max_iter steps (act[:that]:
    which; their vout not written), 0 when every law is done.  _time_of_distance's whole
@@ -332,7 +387,9 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
    (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
    batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
    or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
-   "v") there).  t, lo, hi, act: the caller's scratch, changed. */
+   "v") there).  t, lo, hi, act: the caller's scratch, changed.  prims.shc(γ/4), the same
+   at every step, is made once per law; each step gathers its active laws compact and
+   makes their s and ṡ chunk by chunk (tod_chunk). */
 static PyObject *tod_solve(PyObject *self, PyObject *a) {
     PyObject *o[19];
     int max_iter;
@@ -373,16 +430,20 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     int nc = (int)nsc;
     const double eps4 = 4 * DBL_EPSILON;
     Py_ssize_t NN = N ? N : 1;
-    double *newt = PyMem_Malloc(4 * NN * sizeof(double));
+    /* per law: s4; per active law (compact): τ, γ, s4, n, sh2, wbar, A, δ, T, s, ṡ, next t */
+    double *work = PyMem_Malloc(13 * NN * sizeof(double));
     unsigned char *dn = PyMem_Malloc(NN);
-    if (!newt || !dn) {
-        PyMem_Free(newt); PyMem_Free(dn); release(&b);
+    if (!work || !dn) {
+        PyMem_Free(work); PyMem_Free(dn); release(&b);
         return PyErr_NoMemory();
     }
-    double *vv = newt + NN, *taub = newt + 2 * NN, *zb = newt + 3 * NN;
+    double *s4all = work, *taub = work + NN, *gb = work + 2 * NN, *s4b = work + 3 * NN, *nb = work + 4 * NN;
+    double *sh2b = work + 5 * NN, *wb = work + 6 * NN, *Ab = work + 7 * NN, *db = work + 8 * NN;
+    double *Tb = work + 9 * NN, *sb = work + 10 * NN, *vv = work + 11 * NN, *newt = work + 12 * NN;
+    for (Py_ssize_t i = 0; i < N; i++) s4all[i] = p_shc(gs[i] / 4, sc, nc);
     Py_ssize_t na = N;
     for (int it = 0; it < max_iter && na > 0; it++) {
-        /* τ, x, γx of the active laws, the S1 terms their batch needs */
+        /* τ, γx of the active laws (compact), the S1 terms their batch needs */
         double zm = -1.0;
         int nan = 0;
         for (Py_ssize_t j = 0; j < na; j++) {
@@ -394,37 +455,27 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
             }
             double z = gs[i] * (tau - 0.5);
             taub[j] = tau;
-            zb[j] = z;
+            gb[j] = gs[i]; s4b[j] = s4all[i]; nb[j] = n[i]; sh2b[j] = sh2[i];
+            wb[j] = wbar[i]; Ab[j] = A[i]; db[j] = dl[i]; Tb[j] = T[i];
             double z2 = z * z;
             if (isnan(z2)) nan = 1;
             else if (z2 > zm) zm = z2;
         }
         int k = nms_terms(zm, zmax, nz, nan);
+        for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
+            Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
+            tod_chunk(m, k, taub + j0, gb + j0, coef, sc, nc, s4b + j0, nb + j0, sh2b + j0, wb + j0, Ab + j0,
+                      db + j0, Tb + j0, sb + j0, vv + j0);
+        }
         Py_ssize_t ndone = 0;
         for (Py_ssize_t j = 0; j < na; j++) {
             int64_t i = act[j];
-            double ti = t[i], tau = taub[j], g = gs[i];
-            double x = tau - 0.5;
-            double pa = p_shc((g * tau) / 2, sc, nc), pb = p_shc((g * (1 - tau)) / 2, sc, nc);
-            double bub = ((tau * (1 - tau)) * pa) * pb;
-            double gg = bub / (2 * n[i]);
-            double Hs = (-bub) / sh2[i];
-            double z = zb[j];
-            double shx = p_shc(z, sc, nc);
-            double h = ((2 * x) * shx) / sh2[i];
-            double z2 = z * z;
-            double s1 = coef[k - 1];
-            for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
-            double s4 = p_shc(g / 4, sc, nc);
-            double G = 0.5 + (((x * (s4 * s4)) / 8) - p_cube(x) * s1) / n[i];
-            double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
-            double v = ((wbar[i] + A[i] * gg) - dl[i] * h) / T[i];
+            double ti = t[i], s = sb[j], v = vv[j];
             double f = sgn[i] * (s - target[i]);
             if (f <= 0) lo[i] = ti;
             if (f >= 0) hi[i] = ti;
             int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
             dn[j] = (unsigned char)done;
-            vv[j] = v;
             if (done) { ndone++; newt[j] = ti; continue; }
             double sv = sgn[i] * v;
             double tn = ti - f / sv;
@@ -446,7 +497,7 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
         }
         na = keep;
     }
-    PyMem_Free(newt); PyMem_Free(dn);
+    PyMem_Free(work); PyMem_Free(dn);
     release(&b);
     return PyLong_FromSsize_t(na);
 }

@@ -502,6 +502,91 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     return PyLong_FromSsize_t(na);
 }
 
+/* fixed_knots(sv, cv, vt, vi, bv, bvoff, S, T, v0, v1, warm, ks, kv, kt0, koff, L, va, vb, T0, owner,
+   kj): _Flat.solve_fixed's knots and pieces (its numpy code, _knots_numpy), in one pass.
+   The na active chains' vertices vi (chain r's at bvoff[r]:bvoff[r + 1]), bv (uint8) their
+   binding marks; S, T, v0, v1, warm (uint8) the active chains'.  Writes each chain's knots
+   [0, binding vertices, S] (ks; speeds kv [v0, caps, v1]; warm-start times kt0 [0, vt, T]) at
+   koff[r]:koff[r + 1], its pieces at koff[r] - r: L (the knots' difference), va, vb, owner = r,
+   T0 = (T L) / S, or the differences of kt0 where warm[r] and every one of them is
+   > 1e-6 T (a nan is not); kj: the knot of each vertex's piece start (koff[r] + the binding
+   vertices of its chain up to it: solve_fixed's monotone count).  The sizes (knots:
+   2 na + the binding vertices) are checked. */
+static PyObject *fixed_knots(PyObject *self, PyObject *a) {
+    PyObject *o[21];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
+                          &o[19], &o[20]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nsv, ncv, nvt, n, nbv, nb1, nS, nT, n0, n1, nw, K, nkv, nkt, nko, P, nva, nvb, nT0, now, nkj;
+    double *sv = get(&b, o[0], 8, 0, &nsv);
+    double *cv = sv ? get(&b, o[1], 8, 0, &ncv) : NULL;
+    double *vt = cv ? get(&b, o[2], 8, 0, &nvt) : NULL;
+    int64_t *vi = vt ? get(&b, o[3], 8, 0, &n) : NULL;
+    uint8_t *bv = vi ? get(&b, o[4], 1, 0, &nbv) : NULL;
+    int64_t *bvoff = bv ? get(&b, o[5], 8, 0, &nb1) : NULL;
+    double *S = bvoff ? get(&b, o[6], 8, 0, &nS) : NULL;
+    double *T = S ? get(&b, o[7], 8, 0, &nT) : NULL;
+    double *v0 = T ? get(&b, o[8], 8, 0, &n0) : NULL;
+    double *v1 = v0 ? get(&b, o[9], 8, 0, &n1) : NULL;
+    uint8_t *warm = v1 ? get(&b, o[10], 1, 0, &nw) : NULL;
+    double *ks = warm ? get(&b, o[11], 8, 1, &K) : NULL;
+    double *kv = ks ? get(&b, o[12], 8, 1, &nkv) : NULL;
+    double *kt0 = kv ? get(&b, o[13], 8, 1, &nkt) : NULL;
+    int64_t *koff = kt0 ? get(&b, o[14], 8, 1, &nko) : NULL;
+    double *L = koff ? get(&b, o[15], 8, 1, &P) : NULL;
+    double *va = L ? get(&b, o[16], 8, 1, &nva) : NULL;
+    double *vb = va ? get(&b, o[17], 8, 1, &nvb) : NULL;
+    double *T0 = vb ? get(&b, o[18], 8, 1, &nT0) : NULL;
+    int64_t *owner = T0 ? get(&b, o[19], 8, 1, &now) : NULL;
+    int64_t *kj = owner ? get(&b, o[20], 8, 1, &nkj) : NULL;
+    if (!kj) { release(&b); return NULL; }
+    Py_ssize_t na = nb1 - 1;
+    int ok = na >= 0 && ncv == nsv && nvt == nsv && nbv == n && nS == na && nT == na && n0 == na && n1 == na
+             && nw == na && nkv == K && nkt == K && nko == na + 1 && nva == P && nvb == P && nT0 == P && now == P
+             && nkj == n && bvoff[0] == 0 && bvoff[na] == n;
+    for (Py_ssize_t r = 0; ok && r < na; r++) ok = bvoff[r + 1] >= bvoff[r];
+    Py_ssize_t nbind = 0;
+    for (Py_ssize_t u = 0; ok && u < n; u++) {
+        ok = vi[u] >= 0 && vi[u] < nsv;
+        nbind += bv[u] != 0;
+    }
+    if (!(ok && K == 2 * na + nbind && P == K - na)) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fixed_knots: shapes");
+        return NULL;
+    }
+    Py_ssize_t k = 0;
+    koff[0] = 0;
+    for (Py_ssize_t r = 0; r < na; r++) {
+        Py_ssize_t k0 = k;
+        ks[k] = 0.0; kv[k] = v0[r]; kt0[k] = 0.0; k++;
+        for (int64_t u = bvoff[r]; u < bvoff[r + 1]; u++) {
+            if (bv[u]) {
+                int64_t i = vi[u];
+                ks[k] = sv[i]; kv[k] = cv[i]; kt0[k] = vt[i]; k++;
+            }
+            kj[u] = k - 1;              /* the last knot at or before the vertex */
+        }
+        ks[k] = S[r]; kv[k] = v1[r]; kt0[k] = T[r]; k++;
+        koff[r + 1] = k;
+        double Tr = T[r], Sr = S[r], lim = 1e-6 * Tr;
+        int good = warm[r] != 0;
+        for (Py_ssize_t q = k0; q + 1 < k; q++) {
+            Py_ssize_t p = q - r;
+            double l = ks[q + 1] - ks[q];
+            L[p] = l; va[p] = kv[q]; vb[p] = kv[q + 1]; owner[p] = r;
+            T0[p] = (Tr * l) / Sr;
+            if (good) good = (kt0[q + 1] - kt0[q]) > lim;
+        }
+        if (good)
+            for (Py_ssize_t q = k0; q + 1 < k; q++) T0[q - r] = kt0[q + 1] - kt0[q];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* tent_rows(need, vf, step, out) -> True, or False (nothing meaningful written) where a
    value is not finite and > 0.  segments.tent_feeds_rows' envelope of every row of need
    (R, n): out[r, k] = max over j = -1..n of pad[r, j] - step[r] * |k - j|, pad = need[r]
@@ -634,6 +719,7 @@ static PyMethodDef methods[] = {
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
+    {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {NULL, NULL, 0, NULL}};
 

@@ -432,18 +432,11 @@ class _Flat:
             self.monotone = bool(np.all(self.sv > 0.0) and np.all(self.sv < self.S[ch])
                                  and np.all((np.diff(self.sv, prepend=0.0) > 0.0) | ~inner))
 
-    def solve_fixed(self, active, bound, vt, warm):
-        """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
-        their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
-        times vt, else time shared as a constant speed would share it."""
+    def _knots_numpy(self, active, vi, rank, bvoff, nv, bound, vt, warm):
+        """solve_fixed's knots [0, binding vertices, S] per chain (ks, speeds kv, warm-start
+        times kt0; chain r's at koff[r]:koff[r + 1]) and pieces (owner, start knot p0, L,
+        va, vb, first guess T0), numpy; kj_mono None (fixed_knots' reference)."""
         na = active.size
-        nv = self.nv[active]
-        on = np.zeros(self.S.size, bool)
-        on[active] = True
-        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
-        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
-        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
-        # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
         ne = nv + 2
         eoff = np.concatenate([[0], np.cumsum(ne)]).astype(int)
         E = int(eoff[-1])
@@ -475,6 +468,49 @@ class _Flat:
             good = np.bincount(owner, ~(t0 > 1e-6 * Tc[owner]), na) == 0
             use = (w & good)[owner]
             T0 = np.where(use, t0, T0)
+        return ks, kv, kt0, koff, owner, p0, L, va, vb, T0, None
+
+    def _knots_core(self, core, active, vi, bv, bvoff, vt, warm):
+        """_knots_numpy in one C call (fixed_knots, the same numbers), plus kj_mono: each
+        vertex's piece start knot as solve_fixed's monotone count has it.  None where the
+        inputs are not the float64 / int64 arrays it reads (the numpy code runs)."""
+        sv, cv = self.sv, self.cv
+        if not (sv.dtype == cv.dtype == vt.dtype == np.float64 and self.S.dtype == self.T.dtype == np.float64
+                and self.v0.dtype == self.v1.dtype == np.float64 and vi.dtype == bvoff.dtype == np.int64):
+            return None
+        na, n = active.size, vi.size
+        K = 2 * na + int(np.count_nonzero(bv))
+        P = K - na
+        ks, kv, kt0, L, va, vb, T0 = (np.empty(K), np.empty(K), np.empty(K), np.empty(P), np.empty(P), np.empty(P),
+                                      np.empty(P))
+        koff, owner, kj = np.empty(na + 1, np.int64), np.empty(P, np.int64), np.empty(n, np.int64)
+        c = np.ascontiguousarray
+        core.fixed_knots(c(sv), c(cv), c(vt), c(vi), c(bv).view(np.uint8), c(bvoff), c(self.S[active]),
+                         c(self.T[active]), c(self.v0[active]), c(self.v1[active]),
+                         c(warm[active]).view(np.uint8), ks, kv, kt0, koff, L, va, vb, T0, owner, kj)
+        return ks, kv, kt0, koff, owner, np.arange(P) + owner, L, va, vb, T0, kj
+
+    def solve_fixed(self, active, bound, vt, warm):
+        """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
+        their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
+        times vt, else time shared as a constant speed would share it."""
+        na = active.size
+        nv = self.nv[active]
+        on = np.zeros(self.S.size, bool)
+        on[active] = True
+        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
+        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
+        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
+        bv = bound[vi]
+        kn = None
+        if CORE_MOD is not None:
+            kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
+        if kn is None:
+            kn = self._knots_numpy(active, vi, rank, bvoff, nv, bound, vt, warm)
+        ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
+        npc = np.diff(koff) - 1                        # pieces per chain
+        Tc = self.T[active]
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = _step_law(L, Tj, beta, va, vb)
@@ -493,17 +529,19 @@ class _Flat:
             grid[owner, local] = Tj
             kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
         # speed and time at every vertex, in its piece
-        bv = bound[vi]
-        if self.monotone:              # binding vertices up to it in its chain
+        if self.monotone and kj_mono is not None:     # fixed_knots' count (the same numbers)
+            kj = kj_mono
+        elif self.monotone:            # binding vertices up to it in its chain
             cnt = np.cumsum(bv)
             j = cnt - np.concatenate([[0], cnt])[bvoff[:-1]][rank]
+            kj = koff[:-1][rank] + j
         else:
             j = np.empty(vi.size, int)
             for r in range(na):
                 sl = slice(bvoff[r], bvoff[r + 1])
                 kc = ks[koff[r]:koff[r + 1]]
                 j[sl] = np.clip(np.searchsorted(kc, self.sv[vi[sl]], side="right") - 1, 0, kc.size - 2)
-        kj = koff[:-1][rank] + j
+            kj = koff[:-1][rank] + j
         v, t = self.cv[vi].copy(), kt[kj]              # exact at the binding vertices (piece ends)
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's

@@ -325,6 +325,30 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
 }
 
 
+/* out[i] = prims.shc(g[i] / 4) for n <= CHUNK laws (p_shc's operations, terms outside,
+   elements inside: SIMD lanes) */
+VEC_CLONES static void shc_quarter(Py_ssize_t n, const double *restrict g, const double *restrict sc, int nc,
+                                   double *restrict out) {
+    double zb[CHUNK], z2b[CHUNK], hb[CHUNK];
+    double cl = sc[nc - 1];
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double z = g[j] / 4;
+        zb[j] = z; z2b[j] = z * z; hb[j] = cl;
+    }
+    for (int q = nc - 2; q >= 0; q--) {
+        double a = sc[q];
+        for (Py_ssize_t j = 0; j < n; j++) {
+            double u = hb[j] * z2b[j];
+            hb[j] = u + a;
+        }
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double z = zb[j];
+        double v = (z + P_CUBE(z) * hb[j]) / z;
+        out[j] = z == 0.0 ? 1.0 : v;
+    }
+}
+
 /* One tod_solve step's s and ṡ of n active laws (n <= CHUNK), compact: τ, γ (g), the S1
    series' k terms (coef), the per-law constants s4 = prims.shc(γ/4), n, sh2, wbar, A, δ, T;
    the operations of _eval(t, "sv") element by element (prims.shc at γτ/2, γ(1 - τ)/2 and
@@ -337,29 +361,36 @@ VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict tau
                                  const double *restrict wb, const double *restrict Ab, const double *restrict db,
                                  const double *restrict Tb, double *restrict sout, double *restrict vout) {
     double za[CHUNK], zb_[CHUNK], zx[CHUNK], ha[CHUNK], hb[CHUNK], hx[CHUNK], s1[CHUNK];
+    double a2b[CHUNK], b2b[CHUNK], x2b[CHUNK];             /* the squares, made once */
     double cl = sc[nc - 1], ck = coef[k - 1];
     for (Py_ssize_t j = 0; j < n; j++) {
         double tau = taub[j], g = gb[j];
-        za[j] = (g * tau) / 2;
-        zb_[j] = (g * (1 - tau)) / 2;
-        zx[j] = g * (tau - 0.5);
+        double zaj = (g * tau) / 2, zbj = (g * (1 - tau)) / 2, zxj = g * (tau - 0.5);
+        za[j] = zaj; zb_[j] = zbj; zx[j] = zxj;
+        a2b[j] = zaj * zaj; b2b[j] = zbj * zbj; x2b[j] = zxj * zxj;
         ha[j] = cl; hb[j] = cl; hx[j] = cl; s1[j] = ck;
     }
-    for (int q = nc - 2; q >= 0; q--) {
-        double a = sc[q];
-        for (Py_ssize_t j = 0; j < n; j++) {
-            double a2 = za[j] * za[j], b2 = zb_[j] * zb_[j], x2 = zx[j] * zx[j];
-            double u = ha[j] * a2, w = hb[j] * b2, y = hx[j] * x2;
-            ha[j] = u + a; hb[j] = w + a; hx[j] = y + a;
+    Py_ssize_t n8 = (n + 7) & ~(Py_ssize_t)7;            /* blocks of 8, the tail's padding zeros */
+    for (Py_ssize_t j = n; j < n8; j++) { a2b[j] = 0.0; b2b[j] = 0.0; x2b[j] = 0.0; }
+    /* each block's Horner steps in registers: the elements' operations in their order */
+    for (Py_ssize_t j0 = 0; j0 < n8; j0 += 8) {
+        double u[8], w[8], y[8], e[8];
+        for (int jj = 0; jj < 8; jj++) { u[jj] = cl; w[jj] = cl; y[jj] = cl; e[jj] = ck; }
+        for (int q = nc - 2; q >= 0; q--) {
+            double a = sc[q];
+            for (int jj = 0; jj < 8; jj++) {
+                double pu = u[jj] * a2b[j0 + jj], pw = w[jj] * b2b[j0 + jj], py = y[jj] * x2b[j0 + jj];
+                u[jj] = pu + a; w[jj] = pw + a; y[jj] = py + a;
+            }
         }
-    }
-    for (int q = k - 2; q >= 0; q--) {
-        double a = coef[q];
-        for (Py_ssize_t j = 0; j < n; j++) {
-            double x2 = zx[j] * zx[j];
-            double y = s1[j] * x2;
-            s1[j] = y + a;
+        for (int q = k - 2; q >= 0; q--) {
+            double a = coef[q];
+            for (int jj = 0; jj < 8; jj++) {
+                double pe = e[jj] * x2b[j0 + jj];
+                e[jj] = pe + a;
+            }
         }
+        for (int jj = 0; jj < 8; jj++) { ha[j0 + jj] = u[jj]; hb[j0 + jj] = w[jj]; hx[j0 + jj] = y[jj]; s1[j0 + jj] = e[jj]; }
     }
     for (Py_ssize_t j = 0; j < n; j++) {
         double tau = taub[j], x = tau - 0.5;
@@ -387,9 +418,10 @@ VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict tau
    (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
    batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
    or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
-   "v") there).  t, lo, hi, act: the caller's scratch, changed.  prims.shc(γ/4), the same
-   at every step, is made once per law; each step gathers its active laws compact and
-   makes their s and ṡ chunk by chunk (tod_chunk). */
+   "v") there).  t, lo, hi, act: the caller's scratch, changed; out: a copy of t on entry
+   (then out[i] = t[i] throughout).  prims.shc(γ/4), the same at every step, is made once
+   per law; each step gathers its active laws compact chunk by chunk (CHUNK laws in L1)
+   and makes their s and ṡ there (tod_chunk), then each law's bracket and next t. */
 static PyObject *tod_solve(PyObject *self, PyObject *a) {
     PyObject *o[19];
     int max_iter;
@@ -430,20 +462,16 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     int nc = (int)nsc;
     const double eps4 = 4 * DBL_EPSILON;
     Py_ssize_t NN = N ? N : 1;
-    /* per law: s4; per active law (compact): τ, γ, s4, n, sh2, wbar, A, δ, T, s, ṡ, next t */
-    double *work = PyMem_Malloc(13 * NN * sizeof(double));
-    unsigned char *dn = PyMem_Malloc(NN);
-    if (!work || !dn) {
-        PyMem_Free(work); PyMem_Free(dn); release(&b);
-        return PyErr_NoMemory();
-    }
-    double *s4all = work, *taub = work + NN, *gb = work + 2 * NN, *s4b = work + 3 * NN, *nb = work + 4 * NN;
-    double *sh2b = work + 5 * NN, *wb = work + 6 * NN, *Ab = work + 7 * NN, *db = work + 8 * NN;
-    double *Tb = work + 9 * NN, *sb = work + 10 * NN, *vv = work + 11 * NN, *newt = work + 12 * NN;
-    for (Py_ssize_t i = 0; i < N; i++) s4all[i] = p_shc(gs[i] / 4, sc, nc);
+    double *s4all = PyMem_Malloc(NN * sizeof(double));      /* per law: prims.shc(γ/4) */
+    if (!s4all) { release(&b); return PyErr_NoMemory(); }
+    for (Py_ssize_t i0 = 0; i0 < N; i0 += CHUNK)
+        shc_quarter(N - i0 < CHUNK ? N - i0 : CHUNK, gs + i0, sc, nc, s4all + i0);
+    /* a chunk of the active laws, compact: τ, γ, s4, n, sh2, wbar, A, δ, T; s, ṡ */
+    double taub[CHUNK], gb[CHUNK], s4b[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK];
+    double Tb[CHUNK], sb[CHUNK], vv[CHUNK];
     Py_ssize_t na = N;
     for (int it = 0; it < max_iter && na > 0; it++) {
-        /* τ, γx of the active laws (compact), the S1 terms their batch needs */
+        /* γx of the active laws: the S1 terms their batch needs */
         double zm = -1.0;
         int nan = 0;
         for (Py_ssize_t j = 0; j < na; j++) {
@@ -454,50 +482,52 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
                 tau = tau < 1.0 ? tau : 1.0;
             }
             double z = gs[i] * (tau - 0.5);
-            taub[j] = tau;
-            gb[j] = gs[i]; s4b[j] = s4all[i]; nb[j] = n[i]; sh2b[j] = sh2[i];
-            wb[j] = wbar[i]; Ab[j] = A[i]; db[j] = dl[i]; Tb[j] = T[i];
             double z2 = z * z;
             if (isnan(z2)) nan = 1;
             else if (z2 > zm) zm = z2;
         }
         int k = nms_terms(zm, zmax, nz, nan);
+        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t; the
+           laws not done stay in act (compacted in place: keep <= j) */
+        Py_ssize_t keep = 0;
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
-            tod_chunk(m, k, taub + j0, gb + j0, coef, sc, nc, s4b + j0, nb + j0, sh2b + j0, wb + j0, Ab + j0,
-                      db + j0, Tb + j0, sb + j0, vv + j0);
-        }
-        Py_ssize_t ndone = 0;
-        for (Py_ssize_t j = 0; j < na; j++) {
-            int64_t i = act[j];
-            double ti = t[i], s = sb[j], v = vv[j];
-            double f = sgn[i] * (s - target[i]);
-            if (f <= 0) lo[i] = ti;
-            if (f >= 0) hi[i] = ti;
-            int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
-            dn[j] = (unsigned char)done;
-            if (done) { ndone++; newt[j] = ti; continue; }
-            double sv = sgn[i] * v;
-            double tn = ti - f / sv;
-            int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
-            newt[j] = okn ? tn : 0.5 * (lo[i] + hi[i]);
-        }
-        if (ndone == na) {             /* all done: nothing written but the speeds (_tod_rows breaks) */
-            for (Py_ssize_t j = 0; j < na; j++) vout[act[j]] = vv[j];
-            na = 0;
-            break;
-        }
-        Py_ssize_t keep = 0;
-        for (Py_ssize_t j = 0; j < na; j++) {
-            int64_t i = act[j];
-            t[i] = newt[j];
-            out[i] = newt[j];
-            if (dn[j]) vout[i] = vv[j];
-            else act[keep++] = i;
+            for (Py_ssize_t jj = 0; jj < m; jj++) {
+                int64_t i = act[j0 + jj];
+                double tau = t[i] / T[i];
+                if (!isnan(tau)) {
+                    tau = tau > 0.0 ? tau : 0.0;
+                    tau = tau < 1.0 ? tau : 1.0;
+                }
+                taub[jj] = tau;
+                gb[jj] = gs[i]; s4b[jj] = s4all[i]; nb[jj] = n[i]; sh2b[jj] = sh2[i];
+                wb[jj] = wbar[i]; Ab[jj] = A[i]; db[jj] = dl[i]; Tb[jj] = T[i];
+            }
+            tod_chunk(m, k, taub, gb, coef, sc, nc, s4b, nb, sh2b, wb, Ab, db, Tb, sb, vv);
+            for (Py_ssize_t jj = 0; jj < m; jj++) {
+                int64_t i = act[j0 + jj];
+                double ti = t[i], s = sb[jj], v = vv[jj];
+                double f = sgn[i] * (s - target[i]);
+                if (f <= 0) lo[i] = ti;
+                if (f >= 0) hi[i] = ti;
+                int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
+                if (done) {            /* t stays; out[i] = t[i] already (out: t's copy on entry) */
+                    out[i] = ti;
+                    vout[i] = v;
+                    continue;
+                }
+                double sv = sgn[i] * v;
+                double tn = ti - f / sv;
+                int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
+                double nt = okn ? tn : 0.5 * (lo[i] + hi[i]);
+                t[i] = nt;
+                out[i] = nt;
+                act[keep++] = i;
+            }
         }
         na = keep;
     }
-    PyMem_Free(work); PyMem_Free(dn);
+    PyMem_Free(s4all);
     release(&b);
     return PyLong_FromSsize_t(na);
 }

@@ -356,7 +356,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         bpos = np.flatnonzero(bv)          # the binding vertices' places in vi
         off = neg & rel[brank]
         new[bpos[off]] = False
-        again = rel & _seen(hist, vi, new, rank, na)
+        again = rel & _seen(hist, vi, new, rank, na, rel)
         if again.any():                    # cycling: release only the worst
             order = np.lexsort((mu, brank))          # per chain, the least mu first (argmin's tie rule)
             first = order[np.r_[True, brank[order][1:] != brank[order][:-1]]]
@@ -365,7 +365,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
             new[back] = bv[back]
             new[bpos[worst]] = False
         moving = any_viol | any_neg
-        cyc = moving & _seen(hist, vi, new, rank, na)
+        cyc = moving & _seen(hist, vi, new, rank, na, moving)
         done = ~moving | cyc
         if it == MAX_ACTIVE_ITERS - 1:        # out of steps: the last law, not converged
             cyc = cyc | moving
@@ -381,11 +381,17 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
     return res
 
 
-def _seen(hist, vi, new, rank, na):
+def _seen(hist, vi, new, rank, na, want=None):
     """Per chain of the step: is its binding mask `new` (over the step's vertices vi) one
     of the masks of its steps so far (hist: the whole binding mask at each step; a chain
-    is active in every step from the first to its last)?"""
+    is active in every step from the first to its last)?  want (per chain, optional): the
+    chains whose answer is read (the others' entries are not looked at: meaningless)."""
     out = np.zeros(na, bool)
+    if want is not None:       # only the chains want (the caller's mask: the others' answers are not read)
+        if not want.any():
+            return out
+        sub = want[rank]
+        vi, new, rank = vi[sub], new[sub], rank[sub]
     for h in hist:
         out |= np.bincount(rank, h[vi] != new, na) == 0
     return out

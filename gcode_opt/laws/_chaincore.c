@@ -138,16 +138,19 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
                                const double *restrict coef, const double *restrict sc, int nc,
                                const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
                                const double *restrict vdc, double *restrict J) {
-    double nb[CHUNK], mb[CHUNK], sb[CHUNK], zf[CHUNK], hb[CHUNK], fb[CHUNK];
+    double nb[CHUNK], mb[CHUNK], sb[CHUNK], zf[CHUNK], hb[CHUNK], fb[CHUNK], f2b[CHUNK], h2b[CHUNK];
     double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
     for (Py_ssize_t i = 0; i < n; i++) {
-        zf[i] = t[i] / sqc[i];
+        double z = t[i] / sqc[i], zh = z / 2;
+        zf[i] = z;
+        f2b[i] = z * z;                       /* γ² (the n, m, S1 series and sinh at γ) */
+        h2b[i] = zh * zh;                     /* (γ/2)² */
         nb[i] = c0; mb[i] = c1; sb[i] = c2;
     }
     for (int q = k - 2; q >= 0; q--) {
         double a0 = coef[3 * q], a1 = coef[3 * q + 1], a2 = coef[3 * q + 2];
         for (Py_ssize_t i = 0; i < n; i++) {
-            double z2 = zf[i] * zf[i];
+            double z2 = f2b[i];
             double x = nb[i] * z2, y = mb[i] * z2, w = sb[i] * z2;
             nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
         }
@@ -158,9 +161,7 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
     for (int q = nc - 2; q >= 0; q--) {
         double a = sc[q];
         for (Py_ssize_t i = 0; i < n; i++) {
-            double zh = zf[i] / 2, z = zf[i];
-            double h2 = zh * zh, f2 = z * z;
-            double x = hb[i] * h2, y = fb[i] * f2;
+            double x = hb[i] * h2b[i], y = fb[i] * f2b[i];
             hb[i] = x + a; fb[i] = y + a;
         }
     }

@@ -706,8 +706,12 @@ def _flat_figures(res, full=True):
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
     False: ∫s̈² and peak |s̈| are not made (None)."""
-    law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
-    iv, ia = law.integrals()
+    law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
+    if law is None:
+        law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
+        iv, ia = law.integrals()
+    else:
+        iv = law._iv
     # the speed candidates of LineLaw._speed_candidates: the ends as eval has them
     # (end_speeds), the interior stationary point evaluated
     law._speeds = end_speeds(res.L, res.T, res.v0, res.v1) + (law.eval(law._critical_t(), "v")[1],)
@@ -727,6 +731,39 @@ def _flat_figures(res, full=True):
         res.iv[c] = np.sum(iv[ix], axis=1)
         if full:
             res.ia[c] = np.sum(ia[ix], axis=1)
+
+
+def _figure_law(L, T, beta, v0, v1):
+    """LineLaw(L, T, beta, v0, v1) for _flat_figures(full=False), which reads of it ∫ṡ²
+    (integrals()[0], here _iv) and the speed candidates (_critical_t, eval(t, "v")): with
+    every law in the series branch only what those read (γ, n, m, S1 by _horner_nms, shc(γ/2),
+    κ/γ; Ig1, Ih), each by LineLaw's own operations (_small_coeffs, integrals), so the same
+    bits; shc(γ), Igp, Ihp and ∫s̈² are not made.  None (the caller makes the whole LineLaw)
+    on bad inputs (LineLaw raises) or a law in the other branch."""
+    L, T, beta, v0, v1 = (np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1))
+    if (L.ndim != 1 or not (L.shape == T.shape == beta.shape == v0.shape == v1.shape)
+            or not (np.all(T > 0) and np.all(np.isfinite(T))) or not np.all(beta > 0)
+            or not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1)))):
+        return None
+    gamma = T / np.sqrt(beta)
+    small = gamma < _GAMMA_SWITCH
+    if not small.all():
+        return None
+    gs = np.minimum(gamma, _GAMMA_SWITCH)
+    n, m, s1 = _horner_nms(gs * gs)                   # _small_coeffs' operations
+    n = n.copy()
+    sh2 = _shc(gs / 2)
+    law = object.__new__(LineLaw)
+    law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, v0, v1
+    law.gamma = gamma
+    law._c = {"small": small, "gs": gs, "n": n, "sh2": sh2, "kappa_over_gamma": 2 * n / sh2,
+              "lite": np.ones(L.shape, bool)}
+    law._wbar = T * (v0 + v1) / 2
+    law._delta = T * (v0 - v1) / 2
+    law._A = L - law._wbar
+    A, d = law._A, law._delta                         # integrals()' ∫ṡ²
+    law._iv = (L**2 + A**2 * (m / (2 * n * n)) + d**2 * (2 * s1 / sh2**2)) / T
+    return law
 
 
 class _Pieces:

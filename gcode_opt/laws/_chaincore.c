@@ -138,16 +138,19 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
                                const double *restrict coef, const double *restrict sc, int nc,
                                const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
                                const double *restrict vdc, double *restrict J) {
-    double nb[CHUNK], mb[CHUNK], sb[CHUNK], zf[CHUNK], hb[CHUNK], fb[CHUNK];
+    double nb[CHUNK], mb[CHUNK], sb[CHUNK], zf[CHUNK], hb[CHUNK], fb[CHUNK], f2b[CHUNK], h2b[CHUNK];
     double c0 = coef[3 * (k - 1)], c1 = coef[3 * (k - 1) + 1], c2 = coef[3 * (k - 1) + 2];
     for (Py_ssize_t i = 0; i < n; i++) {
-        zf[i] = t[i] / sqc[i];
+        double z = t[i] / sqc[i], zh = z / 2;
+        zf[i] = z;
+        f2b[i] = z * z;                       /* γ² (the n, m, S1 series and sinh at γ) */
+        h2b[i] = zh * zh;                     /* (γ/2)² */
         nb[i] = c0; mb[i] = c1; sb[i] = c2;
     }
     for (int q = k - 2; q >= 0; q--) {
         double a0 = coef[3 * q], a1 = coef[3 * q + 1], a2 = coef[3 * q + 2];
         for (Py_ssize_t i = 0; i < n; i++) {
-            double z2 = zf[i] * zf[i];
+            double z2 = f2b[i];
             double x = nb[i] * z2, y = mb[i] * z2, w = sb[i] * z2;
             nb[i] = x + a0; mb[i] = y + a1; sb[i] = w + a2;
         }
@@ -158,9 +161,7 @@ VEC_CLONES static void j_chunk(Py_ssize_t n, int k, const double *restrict t, co
     for (int q = nc - 2; q >= 0; q--) {
         double a = sc[q];
         for (Py_ssize_t i = 0; i < n; i++) {
-            double zh = zf[i] / 2, z = zf[i];
-            double h2 = zh * zh, f2 = z * z;
-            double x = hb[i] * h2, y = fb[i] * f2;
+            double x = hb[i] * h2b[i], y = fb[i] * f2b[i];
             hb[i] = x + a; fb[i] = y + a;
         }
     }
@@ -325,6 +326,92 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
 }
 
 
+/* out[i] = prims.shc(g[i] / 4) for n <= CHUNK laws (p_shc's operations, terms outside,
+   elements inside: SIMD lanes) */
+VEC_CLONES static void shc_quarter(Py_ssize_t n, const double *restrict g, const double *restrict sc, int nc,
+                                   double *restrict out) {
+    double zb[CHUNK], z2b[CHUNK], hb[CHUNK];
+    double cl = sc[nc - 1];
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double z = g[j] / 4;
+        zb[j] = z; z2b[j] = z * z; hb[j] = cl;
+    }
+    for (int q = nc - 2; q >= 0; q--) {
+        double a = sc[q];
+        for (Py_ssize_t j = 0; j < n; j++) {
+            double u = hb[j] * z2b[j];
+            hb[j] = u + a;
+        }
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double z = zb[j];
+        double v = (z + P_CUBE(z) * hb[j]) / z;
+        out[j] = z == 0.0 ? 1.0 : v;
+    }
+}
+
+/* One tod_solve step's s and ṡ of n active laws (n <= CHUNK), compact: τ, γ (g), the S1
+   series' k terms (coef), the per-law constants s4 = prims.shc(γ/4), n, sh2, wbar, A, δ, T;
+   the operations of _eval(t, "sv") element by element (prims.shc at γτ/2, γ(1 - τ)/2 and
+   z = γ(τ - 1/2), each sinh series by Horner from its last coefficient; the S1 series of G
+   at z²), loops over the terms outside and the elements inside: SIMD lanes, each element's
+   operations in its own order, the same bits as one element at a time. */
+VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict taub, const double *restrict gb,
+                                 const double *restrict coef, const double *restrict sc, int nc,
+                                 const double *restrict s4b, const double *restrict nb, const double *restrict sh2b,
+                                 const double *restrict wb, const double *restrict Ab, const double *restrict db,
+                                 const double *restrict Tb, double *restrict sout, double *restrict vout) {
+    double za[CHUNK], zb_[CHUNK], zx[CHUNK], ha[CHUNK], hb[CHUNK], hx[CHUNK], s1[CHUNK];
+    double a2b[CHUNK], b2b[CHUNK], x2b[CHUNK];             /* the squares, made once */
+    double cl = sc[nc - 1], ck = coef[k - 1];
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double tau = taub[j], g = gb[j];
+        double zaj = (g * tau) / 2, zbj = (g * (1 - tau)) / 2, zxj = g * (tau - 0.5);
+        za[j] = zaj; zb_[j] = zbj; zx[j] = zxj;
+        a2b[j] = zaj * zaj; b2b[j] = zbj * zbj; x2b[j] = zxj * zxj;
+        ha[j] = cl; hb[j] = cl; hx[j] = cl; s1[j] = ck;
+    }
+    Py_ssize_t n8 = (n + 7) & ~(Py_ssize_t)7;            /* blocks of 8, the tail's padding zeros */
+    for (Py_ssize_t j = n; j < n8; j++) { a2b[j] = 0.0; b2b[j] = 0.0; x2b[j] = 0.0; }
+    /* each block's Horner steps in registers: the elements' operations in their order */
+    for (Py_ssize_t j0 = 0; j0 < n8; j0 += 8) {
+        double u[8], w[8], y[8], e[8];
+        for (int jj = 0; jj < 8; jj++) { u[jj] = cl; w[jj] = cl; y[jj] = cl; e[jj] = ck; }
+        for (int q = nc - 2; q >= 0; q--) {
+            double a = sc[q];
+            for (int jj = 0; jj < 8; jj++) {
+                double pu = u[jj] * a2b[j0 + jj], pw = w[jj] * b2b[j0 + jj], py = y[jj] * x2b[j0 + jj];
+                u[jj] = pu + a; w[jj] = pw + a; y[jj] = py + a;
+            }
+        }
+        for (int q = k - 2; q >= 0; q--) {
+            double a = coef[q];
+            for (int jj = 0; jj < 8; jj++) {
+                double pe = e[jj] * x2b[j0 + jj];
+                e[jj] = pe + a;
+            }
+        }
+        for (int jj = 0; jj < 8; jj++) { ha[j0 + jj] = u[jj]; hb[j0 + jj] = w[jj]; hx[j0 + jj] = y[jj]; s1[j0 + jj] = e[jj]; }
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
+        double tau = taub[j], x = tau - 0.5;
+        double zaj = za[j], zbj = zb_[j], z = zx[j];
+        double pa = (zaj + P_CUBE(zaj) * ha[j]) / zaj, pb = (zbj + P_CUBE(zbj) * hb[j]) / zbj;
+        double shx = (z + P_CUBE(z) * hx[j]) / z;
+        pa = zaj == 0.0 ? 1.0 : pa;                      /* prims.shc: 1 at z = 0 */
+        pb = zbj == 0.0 ? 1.0 : pb;
+        shx = z == 0.0 ? 1.0 : shx;
+        double bub = ((tau * (1 - tau)) * pa) * pb;
+        double gg = bub / (2 * nb[j]);
+        double Hs = (-bub) / sh2b[j];
+        double h = ((2 * x) * shx) / sh2b[j];
+        double s4 = s4b[j];
+        double G = 0.5 + (((x * (s4 * s4)) / 8) - P_CUBE(x) * s1[j]) / nb[j];
+        sout[j] = ((wb[j] * tau) + (Ab[j] * G)) - (db[j] * Hs);
+        vout[j] = ((wb[j] + Ab[j] * gg) - db[j] * h) / Tb[j];
+    }
+}
+
 /* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
    s1coef, s1zmax, sinh_coef, max_iter) -> laws still going after max_iter steps (act[:that]:
    which; their vout not written), 0 when every law is done.  _time_of_distance's whole
@@ -332,7 +419,10 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
    (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
    batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
    or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
-   "v") there).  t, lo, hi, act: the caller's scratch, changed. */
+   "v") there).  t, lo, hi, act: the caller's scratch, changed; out: a copy of t on entry
+   (then out[i] = t[i] throughout).  prims.shc(γ/4), the same at every step, is made once
+   per law; each step gathers its active laws compact chunk by chunk (CHUNK laws in L1)
+   and makes their s and ṡ there (tod_chunk), then each law's bracket and next t. */
 static PyObject *tod_solve(PyObject *self, PyObject *a) {
     PyObject *o[19];
     int max_iter;
@@ -373,16 +463,16 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     int nc = (int)nsc;
     const double eps4 = 4 * DBL_EPSILON;
     Py_ssize_t NN = N ? N : 1;
-    double *newt = PyMem_Malloc(4 * NN * sizeof(double));
-    unsigned char *dn = PyMem_Malloc(NN);
-    if (!newt || !dn) {
-        PyMem_Free(newt); PyMem_Free(dn); release(&b);
-        return PyErr_NoMemory();
-    }
-    double *vv = newt + NN, *taub = newt + 2 * NN, *zb = newt + 3 * NN;
+    double *s4all = PyMem_Malloc(NN * sizeof(double));      /* per law: prims.shc(γ/4) */
+    if (!s4all) { release(&b); return PyErr_NoMemory(); }
+    for (Py_ssize_t i0 = 0; i0 < N; i0 += CHUNK)
+        shc_quarter(N - i0 < CHUNK ? N - i0 : CHUNK, gs + i0, sc, nc, s4all + i0);
+    /* a chunk of the active laws, compact: τ, γ, s4, n, sh2, wbar, A, δ, T; s, ṡ */
+    double taub[CHUNK], gb[CHUNK], s4b[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK];
+    double Tb[CHUNK], sb[CHUNK], vv[CHUNK];
     Py_ssize_t na = N;
     for (int it = 0; it < max_iter && na > 0; it++) {
-        /* τ, x, γx of the active laws, the S1 terms their batch needs */
+        /* γx of the active laws: the S1 terms their batch needs */
         double zm = -1.0;
         int nan = 0;
         for (Py_ssize_t j = 0; j < na; j++) {
@@ -393,62 +483,139 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
                 tau = tau < 1.0 ? tau : 1.0;
             }
             double z = gs[i] * (tau - 0.5);
-            taub[j] = tau;
-            zb[j] = z;
             double z2 = z * z;
             if (isnan(z2)) nan = 1;
             else if (z2 > zm) zm = z2;
         }
         int k = nms_terms(zm, zmax, nz, nan);
-        Py_ssize_t ndone = 0;
-        for (Py_ssize_t j = 0; j < na; j++) {
-            int64_t i = act[j];
-            double ti = t[i], tau = taub[j], g = gs[i];
-            double x = tau - 0.5;
-            double pa = p_shc((g * tau) / 2, sc, nc), pb = p_shc((g * (1 - tau)) / 2, sc, nc);
-            double bub = ((tau * (1 - tau)) * pa) * pb;
-            double gg = bub / (2 * n[i]);
-            double Hs = (-bub) / sh2[i];
-            double z = zb[j];
-            double shx = p_shc(z, sc, nc);
-            double h = ((2 * x) * shx) / sh2[i];
-            double z2 = z * z;
-            double s1 = coef[k - 1];
-            for (int q = k - 2; q >= 0; q--) { s1 = s1 * z2; s1 = s1 + coef[q]; }
-            double s4 = p_shc(g / 4, sc, nc);
-            double G = 0.5 + (((x * (s4 * s4)) / 8) - p_cube(x) * s1) / n[i];
-            double s = ((wbar[i] * tau) + (A[i] * G)) - (dl[i] * Hs);
-            double v = ((wbar[i] + A[i] * gg) - dl[i] * h) / T[i];
-            double f = sgn[i] * (s - target[i]);
-            if (f <= 0) lo[i] = ti;
-            if (f >= 0) hi[i] = ti;
-            int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
-            dn[j] = (unsigned char)done;
-            vv[j] = v;
-            if (done) { ndone++; newt[j] = ti; continue; }
-            double sv = sgn[i] * v;
-            double tn = ti - f / sv;
-            int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
-            newt[j] = okn ? tn : 0.5 * (lo[i] + hi[i]);
-        }
-        if (ndone == na) {             /* all done: nothing written but the speeds (_tod_rows breaks) */
-            for (Py_ssize_t j = 0; j < na; j++) vout[act[j]] = vv[j];
-            na = 0;
-            break;
-        }
+        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t; the
+           laws not done stay in act (compacted in place: keep <= j) */
         Py_ssize_t keep = 0;
-        for (Py_ssize_t j = 0; j < na; j++) {
-            int64_t i = act[j];
-            t[i] = newt[j];
-            out[i] = newt[j];
-            if (dn[j]) vout[i] = vv[j];
-            else act[keep++] = i;
+        for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
+            Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
+            for (Py_ssize_t jj = 0; jj < m; jj++) {
+                int64_t i = act[j0 + jj];
+                double tau = t[i] / T[i];
+                if (!isnan(tau)) {
+                    tau = tau > 0.0 ? tau : 0.0;
+                    tau = tau < 1.0 ? tau : 1.0;
+                }
+                taub[jj] = tau;
+                gb[jj] = gs[i]; s4b[jj] = s4all[i]; nb[jj] = n[i]; sh2b[jj] = sh2[i];
+                wb[jj] = wbar[i]; Ab[jj] = A[i]; db[jj] = dl[i]; Tb[jj] = T[i];
+            }
+            tod_chunk(m, k, taub, gb, coef, sc, nc, s4b, nb, sh2b, wb, Ab, db, Tb, sb, vv);
+            for (Py_ssize_t jj = 0; jj < m; jj++) {
+                int64_t i = act[j0 + jj];
+                double ti = t[i], s = sb[jj], v = vv[jj];
+                double f = sgn[i] * (s - target[i]);
+                if (f <= 0) lo[i] = ti;
+                if (f >= 0) hi[i] = ti;
+                int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
+                if (done) {            /* t stays; out[i] = t[i] already (out: t's copy on entry) */
+                    out[i] = ti;
+                    vout[i] = v;
+                    continue;
+                }
+                double sv = sgn[i] * v;
+                double tn = ti - f / sv;
+                int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
+                double nt = okn ? tn : 0.5 * (lo[i] + hi[i]);
+                t[i] = nt;
+                out[i] = nt;
+                act[keep++] = i;
+            }
         }
         na = keep;
     }
-    PyMem_Free(newt); PyMem_Free(dn);
+    PyMem_Free(s4all);
     release(&b);
     return PyLong_FromSsize_t(na);
+}
+
+/* fixed_knots(sv, cv, vt, vi, bv, bvoff, S, T, v0, v1, warm, ks, kv, kt0, koff, L, va, vb, T0, owner,
+   kj): _Flat.solve_fixed's knots and pieces (its numpy code, _knots_numpy), in one pass.
+   The na active chains' vertices vi (chain r's at bvoff[r]:bvoff[r + 1]), bv (uint8) their
+   binding marks; S, T, v0, v1, warm (uint8) the active chains'.  Writes each chain's knots
+   [0, binding vertices, S] (ks; speeds kv [v0, caps, v1]; warm-start times kt0 [0, vt, T]) at
+   koff[r]:koff[r + 1], its pieces at koff[r] - r: L (the knots' difference), va, vb, owner = r,
+   T0 = (T L) / S, or the differences of kt0 where warm[r] and every one of them is
+   > 1e-6 T (a nan is not); kj: the knot of each vertex's piece start (koff[r] + the binding
+   vertices of its chain up to it: solve_fixed's monotone count).  The sizes (knots:
+   2 na + the binding vertices) are checked. */
+static PyObject *fixed_knots(PyObject *self, PyObject *a) {
+    PyObject *o[21];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
+                          &o[19], &o[20]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nsv, ncv, nvt, n, nbv, nb1, nS, nT, n0, n1, nw, K, nkv, nkt, nko, P, nva, nvb, nT0, now, nkj;
+    double *sv = get(&b, o[0], 8, 0, &nsv);
+    double *cv = sv ? get(&b, o[1], 8, 0, &ncv) : NULL;
+    double *vt = cv ? get(&b, o[2], 8, 0, &nvt) : NULL;
+    int64_t *vi = vt ? get(&b, o[3], 8, 0, &n) : NULL;
+    uint8_t *bv = vi ? get(&b, o[4], 1, 0, &nbv) : NULL;
+    int64_t *bvoff = bv ? get(&b, o[5], 8, 0, &nb1) : NULL;
+    double *S = bvoff ? get(&b, o[6], 8, 0, &nS) : NULL;
+    double *T = S ? get(&b, o[7], 8, 0, &nT) : NULL;
+    double *v0 = T ? get(&b, o[8], 8, 0, &n0) : NULL;
+    double *v1 = v0 ? get(&b, o[9], 8, 0, &n1) : NULL;
+    uint8_t *warm = v1 ? get(&b, o[10], 1, 0, &nw) : NULL;
+    double *ks = warm ? get(&b, o[11], 8, 1, &K) : NULL;
+    double *kv = ks ? get(&b, o[12], 8, 1, &nkv) : NULL;
+    double *kt0 = kv ? get(&b, o[13], 8, 1, &nkt) : NULL;
+    int64_t *koff = kt0 ? get(&b, o[14], 8, 1, &nko) : NULL;
+    double *L = koff ? get(&b, o[15], 8, 1, &P) : NULL;
+    double *va = L ? get(&b, o[16], 8, 1, &nva) : NULL;
+    double *vb = va ? get(&b, o[17], 8, 1, &nvb) : NULL;
+    double *T0 = vb ? get(&b, o[18], 8, 1, &nT0) : NULL;
+    int64_t *owner = T0 ? get(&b, o[19], 8, 1, &now) : NULL;
+    int64_t *kj = owner ? get(&b, o[20], 8, 1, &nkj) : NULL;
+    if (!kj) { release(&b); return NULL; }
+    Py_ssize_t na = nb1 - 1;
+    int ok = na >= 0 && ncv == nsv && nvt == nsv && nbv == n && nS == na && nT == na && n0 == na && n1 == na
+             && nw == na && nkv == K && nkt == K && nko == na + 1 && nva == P && nvb == P && nT0 == P && now == P
+             && nkj == n && bvoff[0] == 0 && bvoff[na] == n;
+    for (Py_ssize_t r = 0; ok && r < na; r++) ok = bvoff[r + 1] >= bvoff[r];
+    Py_ssize_t nbind = 0;
+    for (Py_ssize_t u = 0; ok && u < n; u++) {
+        ok = vi[u] >= 0 && vi[u] < nsv;
+        nbind += bv[u] != 0;
+    }
+    if (!(ok && K == 2 * na + nbind && P == K - na)) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fixed_knots: shapes");
+        return NULL;
+    }
+    Py_ssize_t k = 0;
+    koff[0] = 0;
+    for (Py_ssize_t r = 0; r < na; r++) {
+        Py_ssize_t k0 = k;
+        ks[k] = 0.0; kv[k] = v0[r]; kt0[k] = 0.0; k++;
+        for (int64_t u = bvoff[r]; u < bvoff[r + 1]; u++) {
+            if (bv[u]) {
+                int64_t i = vi[u];
+                ks[k] = sv[i]; kv[k] = cv[i]; kt0[k] = vt[i]; k++;
+            }
+            kj[u] = k - 1;              /* the last knot at or before the vertex */
+        }
+        ks[k] = S[r]; kv[k] = v1[r]; kt0[k] = T[r]; k++;
+        koff[r + 1] = k;
+        double Tr = T[r], Sr = S[r], lim = 1e-6 * Tr;
+        int good = warm[r] != 0;
+        for (Py_ssize_t q = k0; q + 1 < k; q++) {
+            Py_ssize_t p = q - r;
+            double l = ks[q + 1] - ks[q];
+            L[p] = l; va[p] = kv[q]; vb[p] = kv[q + 1]; owner[p] = r;
+            T0[p] = (Tr * l) / Sr;
+            if (good) good = (kt0[q + 1] - kt0[q]) > lim;
+        }
+        if (good)
+            for (Py_ssize_t q = k0; q + 1 < k; q++) T0[q - r] = kt0[q + 1] - kt0[q];
+    }
+    release(&b);
+    Py_RETURN_NONE;
 }
 
 /* tent_rows(need, vf, step, out) -> True, or False (nothing meaningful written) where a
@@ -583,6 +750,7 @@ static PyMethodDef methods[] = {
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
+    {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {NULL, NULL, 0, NULL}};
 

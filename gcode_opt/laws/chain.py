@@ -356,7 +356,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         bpos = np.flatnonzero(bv)          # the binding vertices' places in vi
         off = neg & rel[brank]
         new[bpos[off]] = False
-        again = rel & _seen(hist, vi, new, rank, na)
+        again = rel & _seen(hist, vi, new, rank, na, rel)
         if again.any():                    # cycling: release only the worst
             order = np.lexsort((mu, brank))          # per chain, the least mu first (argmin's tie rule)
             first = order[np.r_[True, brank[order][1:] != brank[order][:-1]]]
@@ -365,7 +365,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
             new[back] = bv[back]
             new[bpos[worst]] = False
         moving = any_viol | any_neg
-        cyc = moving & _seen(hist, vi, new, rank, na)
+        cyc = moving & _seen(hist, vi, new, rank, na, moving)
         done = ~moving | cyc
         if it == MAX_ACTIVE_ITERS - 1:        # out of steps: the last law, not converged
             cyc = cyc | moving
@@ -381,11 +381,17 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
     return res
 
 
-def _seen(hist, vi, new, rank, na):
+def _seen(hist, vi, new, rank, na, want=None):
     """Per chain of the step: is its binding mask `new` (over the step's vertices vi) one
     of the masks of its steps so far (hist: the whole binding mask at each step; a chain
-    is active in every step from the first to its last)?"""
+    is active in every step from the first to its last)?  want (per chain, optional): the
+    chains whose answer is read (the others' entries are not looked at: meaningless)."""
     out = np.zeros(na, bool)
+    if want is not None:       # only the chains want (the caller's mask: the others' answers are not read)
+        if not want.any():
+            return out
+        sub = want[rank]
+        vi, new, rank = vi[sub], new[sub], rank[sub]
     for h in hist:
         out |= np.bincount(rank, h[vi] != new, na) == 0
     return out
@@ -432,18 +438,11 @@ class _Flat:
             self.monotone = bool(np.all(self.sv > 0.0) and np.all(self.sv < self.S[ch])
                                  and np.all((np.diff(self.sv, prepend=0.0) > 0.0) | ~inner))
 
-    def solve_fixed(self, active, bound, vt, warm):
-        """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
-        their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
-        times vt, else time shared as a constant speed would share it."""
+    def _knots_numpy(self, active, vi, rank, bvoff, nv, bound, vt, warm):
+        """solve_fixed's knots [0, binding vertices, S] per chain (ks, speeds kv, warm-start
+        times kt0; chain r's at koff[r]:koff[r + 1]) and pieces (owner, start knot p0, L,
+        va, vb, first guess T0), numpy; kj_mono None (fixed_knots' reference)."""
         na = active.size
-        nv = self.nv[active]
-        on = np.zeros(self.S.size, bool)
-        on[active] = True
-        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
-        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
-        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
-        # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
         ne = nv + 2
         eoff = np.concatenate([[0], np.cumsum(ne)]).astype(int)
         E = int(eoff[-1])
@@ -475,6 +474,49 @@ class _Flat:
             good = np.bincount(owner, ~(t0 > 1e-6 * Tc[owner]), na) == 0
             use = (w & good)[owner]
             T0 = np.where(use, t0, T0)
+        return ks, kv, kt0, koff, owner, p0, L, va, vb, T0, None
+
+    def _knots_core(self, core, active, vi, bv, bvoff, vt, warm):
+        """_knots_numpy in one C call (fixed_knots, the same numbers), plus kj_mono: each
+        vertex's piece start knot as solve_fixed's monotone count has it.  None where the
+        inputs are not the float64 / int64 arrays it reads (the numpy code runs)."""
+        sv, cv = self.sv, self.cv
+        if not (sv.dtype == cv.dtype == vt.dtype == np.float64 and self.S.dtype == self.T.dtype == np.float64
+                and self.v0.dtype == self.v1.dtype == np.float64 and vi.dtype == bvoff.dtype == np.int64):
+            return None
+        na, n = active.size, vi.size
+        K = 2 * na + int(np.count_nonzero(bv))
+        P = K - na
+        ks, kv, kt0, L, va, vb, T0 = (np.empty(K), np.empty(K), np.empty(K), np.empty(P), np.empty(P), np.empty(P),
+                                      np.empty(P))
+        koff, owner, kj = np.empty(na + 1, np.int64), np.empty(P, np.int64), np.empty(n, np.int64)
+        c = np.ascontiguousarray
+        core.fixed_knots(c(sv), c(cv), c(vt), c(vi), c(bv).view(np.uint8), c(bvoff), c(self.S[active]),
+                         c(self.T[active]), c(self.v0[active]), c(self.v1[active]),
+                         c(warm[active]).view(np.uint8), ks, kv, kt0, koff, L, va, vb, T0, owner, kj)
+        return ks, kv, kt0, koff, owner, np.arange(P) + owner, L, va, vb, T0, kj
+
+    def solve_fixed(self, active, bound, vt, warm):
+        """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
+        their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
+        times vt, else time shared as a constant speed would share it."""
+        na = active.size
+        nv = self.nv[active]
+        on = np.zeros(self.S.size, bool)
+        on[active] = True
+        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
+        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
+        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
+        bv = bound[vi]
+        kn = None
+        if CORE_MOD is not None:
+            kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
+        if kn is None:
+            kn = self._knots_numpy(active, vi, rank, bvoff, nv, bound, vt, warm)
+        ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
+        npc = np.diff(koff) - 1                        # pieces per chain
+        Tc = self.T[active]
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = _step_law(L, Tj, beta, va, vb)
@@ -493,17 +535,19 @@ class _Flat:
             grid[owner, local] = Tj
             kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
         # speed and time at every vertex, in its piece
-        bv = bound[vi]
-        if self.monotone:              # binding vertices up to it in its chain
+        if self.monotone and kj_mono is not None:     # fixed_knots' count (the same numbers)
+            kj = kj_mono
+        elif self.monotone:            # binding vertices up to it in its chain
             cnt = np.cumsum(bv)
             j = cnt - np.concatenate([[0], cnt])[bvoff[:-1]][rank]
+            kj = koff[:-1][rank] + j
         else:
             j = np.empty(vi.size, int)
             for r in range(na):
                 sl = slice(bvoff[r], bvoff[r + 1])
                 kc = ks[koff[r]:koff[r + 1]]
                 j[sl] = np.clip(np.searchsorted(kc, self.sv[vi[sl]], side="right") - 1, 0, kc.size - 2)
-        kj = koff[:-1][rank] + j
+            kj = koff[:-1][rank] + j
         v, t = self.cv[vi].copy(), kt[kj]              # exact at the binding vertices (piece ends)
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's
@@ -662,8 +706,12 @@ def _flat_figures(res, full=True):
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
     False: ∫s̈² and peak |s̈| are not made (None)."""
-    law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
-    iv, ia = law.integrals()
+    law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
+    if law is None:
+        law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
+        iv, ia = law.integrals()
+    else:
+        iv = law._iv
     # the speed candidates of LineLaw._speed_candidates: the ends as eval has them
     # (end_speeds), the interior stationary point evaluated
     law._speeds = end_speeds(res.L, res.T, res.v0, res.v1) + (law.eval(law._critical_t(), "v")[1],)
@@ -683,6 +731,39 @@ def _flat_figures(res, full=True):
         res.iv[c] = np.sum(iv[ix], axis=1)
         if full:
             res.ia[c] = np.sum(ia[ix], axis=1)
+
+
+def _figure_law(L, T, beta, v0, v1):
+    """LineLaw(L, T, beta, v0, v1) for _flat_figures(full=False), which reads of it ∫ṡ²
+    (integrals()[0], here _iv) and the speed candidates (_critical_t, eval(t, "v")): with
+    every law in the series branch only what those read (γ, n, m, S1 by _horner_nms, shc(γ/2),
+    κ/γ; Ig1, Ih), each by LineLaw's own operations (_small_coeffs, integrals), so the same
+    bits; shc(γ), Igp, Ihp and ∫s̈² are not made.  None (the caller makes the whole LineLaw)
+    on bad inputs (LineLaw raises) or a law in the other branch."""
+    L, T, beta, v0, v1 = (np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1))
+    if (L.ndim != 1 or not (L.shape == T.shape == beta.shape == v0.shape == v1.shape)
+            or not (np.all(T > 0) and np.all(np.isfinite(T))) or not np.all(beta > 0)
+            or not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1)))):
+        return None
+    gamma = T / np.sqrt(beta)
+    small = gamma < _GAMMA_SWITCH
+    if not small.all():
+        return None
+    gs = np.minimum(gamma, _GAMMA_SWITCH)
+    n, m, s1 = _horner_nms(gs * gs)                   # _small_coeffs' operations
+    n = n.copy()
+    sh2 = _shc(gs / 2)
+    law = object.__new__(LineLaw)
+    law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, v0, v1
+    law.gamma = gamma
+    law._c = {"small": small, "gs": gs, "n": n, "sh2": sh2, "kappa_over_gamma": 2 * n / sh2,
+              "lite": np.ones(L.shape, bool)}
+    law._wbar = T * (v0 + v1) / 2
+    law._delta = T * (v0 - v1) / 2
+    law._A = L - law._wbar
+    A, d = law._A, law._delta                         # integrals()' ∫ṡ²
+    law._iv = (L**2 + A**2 * (m / (2 * n * n)) + d**2 * (2 * s1 / sh2**2)) / T
+    return law
 
 
 class _Pieces:

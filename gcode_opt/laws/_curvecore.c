@@ -287,6 +287,55 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* exp_split(kern, total, lo, buf) -> count: the arguments kern[i] not below lo (NaN
+   included) copied to buf in order, for one np.exp on them; exp_merge(kern, total, lo,
+   buf): kern[i] = +0.0 where kern[i] < lo, else the next of buf.  curves.py uses them only
+   where np.exp gave +0.0 on a probe of arguments below lo (_EXP_ZERO_OK): with them, the
+   ~26 % of the curvature kernel's arguments that underflow (libm's slow path) skip np.exp. */
+static PyObject *exp_split(PyObject *self, PyObject *a) {
+    PyObject *ok, *ob;
+    Py_ssize_t total;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OndO", &ok, &total, &lo, &ob)) return NULL;
+    Bufs b = {.n = 0};
+    const double *k = get(&b, ok, 8, 0, total);
+    double *buf = k ? get(&b, ob, 8, 1, total) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < total; i++) {
+        double x = k[i];
+        if (!(x < lo)) buf[c++] = x;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(c);
+}
+
+static PyObject *exp_merge(PyObject *self, PyObject *a) {
+    PyObject *ok, *ob;
+    Py_ssize_t total, count;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OndOn", &ok, &total, &lo, &ob, &count)) return NULL;
+    Bufs b = {.n = 0};
+    double *k = get(&b, ok, 8, 1, total);
+    const double *buf = k ? get(&b, ob, 8, 0, count) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < total; i++) {
+        if (k[i] < lo) {
+            k[i] = 0.0;
+        } else {
+            if (c >= count) {
+                release(&b);
+                PyErr_SetString(PyExc_ValueError, "exp_merge: buffer too short");
+                return NULL;
+            }
+            k[i] = buf[c++];
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* cheb_der_int(coef, B, K, der_t, int_t): numpy.polynomial.chebyshev's
      chebder(coef, axis=1, scl=2.0)                -> der_t.T  (der_t (K - 1, B))
      chebint(coef, axis=1, lbnd=-1.0, scl=0.5)     -> int_t.T  (int_t (K + 1, B))
@@ -449,6 +498,8 @@ static PyMethodDef methods[] = {
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
+    {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {NULL, NULL, 0, NULL}};
 

@@ -186,14 +186,44 @@ def _series_values(coefs, x):
     out = [np.empty(x.shape) for _ in coefs]
     kmax = max(c.shape[1] for c in coefs)
     for r in groups:
-        vand_t = np.ascontiguousarray(np.polynomial.chebyshev.chebvander(x[r[0]], kmax - 1).T)   # (K, M)
+        vand_t = _vander_t(x[r[0]], kmax)
+        whole = len(groups) == 1             # r is every row in order: no gather, no scatter
         for o, c in zip(out, coefs):
-            cr = c[r]
+            cr = c if whole else c[r]
             length = _row_lengths(cr)
-            for k in np.unique(length):
-                rk = np.flatnonzero(length == k)
-                o[r[rk]] = _rows_matmul(cr[rk, :k], vand_t[:k])
+            ks = np.unique(length)
+            for k in ks.tolist():
+                if ks.size == 1:
+                    rk = None
+                    got = _rows_matmul(np.ascontiguousarray(cr[:, :k]), vand_t[:k])   # laid out as a gather's
+                else:
+                    rk = np.flatnonzero(length == k)
+                    got = _rows_matmul(cr[rk, :k], vand_t[:k])
+                if whole:
+                    if rk is None:
+                        o[...] = got
+                    else:
+                        o[rk] = got
+                else:
+                    o[r if rk is None else r[rk]] = got
     return out
+
+
+_VANDER: dict = {}         # (grid bytes, K) -> _vander_t's array (a few grids recur: the probe's,
+_VANDER_MAX = 64           # the uniform one, the batch's quadrature grid)
+
+
+def _vander_t(xg, kmax):
+    """np.ascontiguousarray(chebvander(xg, kmax - 1).T), (K, M): kept for the grids that
+    recur (the same function of the same numbers, so the same bits)."""
+    key = (xg.tobytes(), kmax)
+    v = _VANDER.get(key)
+    if v is None:
+        if len(_VANDER) >= _VANDER_MAX:
+            _VANDER.clear()
+        v = _VANDER[key] = np.ascontiguousarray(np.polynomial.chebyshev.chebvander(xg, kmax - 1).T)
+        v.flags.writeable = False
+    return v
 
 
 def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):

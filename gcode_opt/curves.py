@@ -435,14 +435,15 @@ def build_geoms(strokes, profile, jerk1=False):
         return
     parts = _batch_parts(todo)
     segs = [None if p is not None else _segments(st) for st, p in zip(todo, parts)]
-    caps, caps1 = [None] * len(todo), [None] * len(todo)
-    cap, ends = [None] * len(todo), [None] * len(todo)      # CurveGeom's cap and cos_end, in batches
+    m = len(todo)
+    cbs, c0s, cb1s, c1s = [None] * m, [0] * m, [None] * m, [0] * m      # the caps: flat array, first cap
+    cap, ends = [None] * m, [None] * m      # CurveGeom's cap and cos_end, in batches
     # the caps by chunks of strokes (CAPS_CHUNK vertices): their temporaries, ~20 arrays
     # of a double per vertex, were ~40 MB at once on the gyroid plate; elementwise, so the
     # same bits (a chunk whose input the vectorised form does not take: stroke by stroke)
     nv = np.cumsum([s[1].size if p is None else p[0][0].shape[1] for p, s in zip(parts, segs)])
     cut = np.flatnonzero(np.diff(nv // CAPS_CHUNK)) + 1
-    for lo, hi in zip([0] + cut.tolist(), cut.tolist() + [len(todo)]):
+    for lo, hi in zip([0] + cut.tolist(), cut.tolist() + [m]):
         sts = todo[lo:hi]
         us = [_part(parts[k], 1) if parts[k] is not None else segs[k][2] for k in range(lo, hi)]
         ds = [_part(parts[k], 0) if parts[k] is not None else segs[k][1] for k in range(lo, hi)]
@@ -450,15 +451,29 @@ def build_geoms(strokes, profile, jerk1=False):
         got = _caps_flat_rows(sts, profile, us, ds, 1.0 - JERK_F_STEP_R, flat)
         if got is None:
             continue
-        caps[lo:hi] = [(got[0], a) for a in got[1]]
+        cbs[lo:hi], c0s[lo:hi] = [got[0]] * (hi - lo), got[1]
         cap[lo:hi] = _cap_rows(got[0], got[1], flat[0].tolist())
         ends[lo:hi] = _ends_rows(sts, us, flat)
         if jerk1 and profile.junction == "jerk":
             got = _caps_flat_rows(sts, profile, us, ds, 1.0, flat)
             if got is not None:
-                caps1[lo:hi] = [(got[0], a) for a in got[1]]
-    for st, sg, pa, c, c1, cp, ce in zip(todo, segs, parts, caps, caps1, cap, ends):
-        st.curv = CurveGeom(st, profile, sg, c, c1, pa, cp, ce)
+                cb1s[lo:hi], c1s[lo:hi] = [got[0]] * (hi - lo), got[1]
+    new = CurveGeom.__new__
+    for st, sg, pa, cb, c0, cb1, c1, cp, ce in zip(todo, segs, parts, cbs, c0s, cb1s, c1s, cap, ends):
+        if pa is None or cb is None or cp is None:
+            st.curv = CurveGeom(st, profile, sg, None if cb is None else (cb, c0),
+                                None if cb1 is None else (cb1, c1), pa, cp, ce)
+            continue
+        # CurveGeom.__init__'s fields, as it sets them from these arguments (its checks
+        # and tuples skipped: ~21 k strokes on the gyroid plate)
+        g = new(CurveGeom)
+        g._pts = st.pts
+        g._b, g._k = pa
+        g.kappa_eff = pa[0][5][pa[1]]
+        g._cb, g._c0, g._cb1, g._c1 = cb, c0, cb1, c1
+        g.chain_caps = None
+        g.cap, g.cos_end = cp, ce
+        st.curv = g
 
 
 def _cap_rows(flat, starts, n_seg):
@@ -480,7 +495,10 @@ def _cap_rows(flat, starts, n_seg):
 def _ends_rows(sts, us, flat=None):
     """CurveGeom.cos_end of the strokes sts (unit directions us): the same products and
     sums as CurveGeom's per stroke (each a numpy float64), in arrays.  flat: _flat_inputs
-    of these strokes (their first and last directions read from the directions end to end)."""
+    of these strokes (their first and last directions read from the directions end to end).
+    The neighbours' directions are read as the strokes keep them (four floats or None,
+    NaN in the arrays: a NaN's cosine is not >= CORNER_COS, as a missing one is not), and
+    only the strokes with an end turn get a tuple of their own."""
     m = len(sts)
     if flat is not None:
         n, u = flat[0], flat[1]
@@ -490,19 +508,27 @@ def _ends_rows(sts, us, flat=None):
     else:
         first = np.array([u[0] for u in us], float).reshape(m, 2)
         last = np.array([u[-1] for u in us], float).reshape(m, 2)
-    nan2 = (math.nan, math.nan)
-    pu = [st.prev_u for st in sts]
-    nu = [st.next_u for st in sts]
-    p = np.array([nan2 if x is None else x for x in pu], float).reshape(m, 2)
-    q = np.array([nan2 if x is None else x for x in nu], float).reshape(m, 2)
-    c0 = p[:, 0] * first[:, 0] + p[:, 1] * first[:, 1]
-    c1 = last[:, 0] * q[:, 0] + last[:, 1] * q[:, 1]
-    out = []
-    for a, b, x, y in zip(pu, nu, c0, c1):
-        e0 = x if a is not None and x >= CORNER_COS else None
-        e1 = y if b is not None and y >= CORNER_COS else None
-        out.append(_NO_ENDS if e0 is None and e1 is None else (e0, e1))
+    p, q = _neighbour_dirs(sts)
+    c0 = p[0] * first[:, 0] + p[1] * first[:, 1]
+    c1 = last[:, 0] * q[0] + last[:, 1] * q[1]
+    m0, m1 = c0 >= CORNER_COS, c1 >= CORNER_COS
+    out = [_NO_ENDS] * m
+    for k, a, b in zip(np.flatnonzero(m0 | m1).tolist(), m0[m0 | m1].tolist(), m1[m0 | m1].tolist()):
+        out[k] = (c0[k] if a else None, c1[k] if b else None)
     return out
+
+
+def _neighbour_dirs(sts):
+    """(prev_u, next_u) of the strokes as (2, m) arrays each, NaN where None."""
+    try:
+        cols = [[st._pux for st in sts], [st._puy for st in sts], [st._nux for st in sts], [st._nuy for st in sts]]
+    except AttributeError:          # not strokes.Stroke: its prev_u / next_u
+        nan2 = (math.nan, math.nan)
+        pu = [nan2 if st.prev_u is None else st.prev_u for st in sts]
+        nu = [nan2 if st.next_u is None else st.next_u for st in sts]
+        return np.array(pu, float).reshape(-1, 2).T, np.array(nu, float).reshape(-1, 2).T
+    a = np.array(cols, float).reshape(4, len(sts))      # None -> NaN
+    return a[:2], a[2:]
 
 
 CAPS_CHUNK = 1 << 15        # vertices of one batched caps pass (build_geoms)
@@ -595,7 +621,7 @@ def _parts_block(pts):
         np.square(kern, out=kern)
         np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
         np.multiply(kern, -0.5, out=kern)
-    np.exp(kern, out=kern)
+    _exp_inplace(kern)
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits
     kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]
@@ -606,6 +632,46 @@ def _parts_block(pts):
     k2 = np.sum(mid * d, axis=1) / S
     kappa_eff = _pmax(np.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
     return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
+
+
+EXP_ZERO_BELOW = -746.0     # exp(x) < 2^-1076 here: +0.0 in round to nearest (the least subnormal is 2^-1074)
+_EXP_ZERO_OK: list = []    # [bool]: np.exp gave +0.0 on every probe argument below EXP_ZERO_BELOW
+
+
+def _exp_zero_ok():
+    """Whether np.exp (this numpy, this machine: libm or a SIMD loop) gives +0.0, bit for
+    bit, on a probe of arguments below EXP_ZERO_BELOW (its edge, -inf, huge, random ones,
+    in arrays of several lengths and offsets, as its vector loops take them); checked once."""
+    if not _EXP_ZERO_OK:
+        rng = np.random.default_rng(21)
+        edge = np.nextafter(EXP_ZERO_BELOW, -np.inf)
+        x = np.concatenate([[edge, -746.5, -750.0, -800.0, -1075.0, -1e4, -1e300, -np.finfo(float).max, -np.inf],
+                            rng.uniform(-760.0, EXP_ZERO_BELOW, 4000), -np.exp(rng.uniform(6.62, 700.0, 4000)),
+                            edge - rng.uniform(0.0, 1e-9, 1000)])
+        ok = x.max() < EXP_ZERO_BELOW
+        for a in range(0, 9):
+            y = np.exp(x[a:])
+            ok &= bool(np.array_equal(y.view(np.int64), np.zeros(y.size, np.int64)))
+        _EXP_ZERO_OK.append(bool(ok))
+    return _EXP_ZERO_OK[0]
+
+
+def _exp_inplace(kern):
+    """np.exp(kern, out=kern); with the curve core, and where np.exp gives +0.0 on the probe
+    (_exp_zero_ok), only the arguments not below EXP_ZERO_BELOW go through np.exp (packed
+    by _curvecore.c exp_split, put back by exp_merge), the others are set to +0.0: the
+    same bits at ~3/4 of the cost on a gyroid plate (a quarter of its curvature kernel's
+    arguments underflow, which libm's exp takes ~3x longer over)."""
+    core = _CURVE_CORE
+    if core is None or not kern.flags.c_contiguous or not _exp_zero_ok():
+        np.exp(kern, out=kern)
+        return
+    total = kern.size
+    buf = np.empty(total)
+    cnt = core.exp_split(kern, total, EXP_ZERO_BELOW, buf)
+    part = buf[:cnt]
+    np.exp(part, out=part)
+    core.exp_merge(kern, total, EXP_ZERO_BELOW, buf, cnt)
 
 
 def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):

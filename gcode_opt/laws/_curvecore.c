@@ -287,6 +287,55 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* exp_split(kern, total, lo, buf) -> count: the arguments kern[i] not below lo (NaN
+   included) copied to buf in order, for one np.exp on them; exp_merge(kern, total, lo,
+   buf): kern[i] = +0.0 where kern[i] < lo, else the next of buf.  curves.py uses them only
+   where np.exp gave +0.0 on a probe of arguments below lo (_EXP_ZERO_OK): with them, the
+   ~26 % of the curvature kernel's arguments that underflow (libm's slow path) skip np.exp. */
+static PyObject *exp_split(PyObject *self, PyObject *a) {
+    PyObject *ok, *ob;
+    Py_ssize_t total;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OndO", &ok, &total, &lo, &ob)) return NULL;
+    Bufs b = {.n = 0};
+    const double *k = get(&b, ok, 8, 0, total);
+    double *buf = k ? get(&b, ob, 8, 1, total) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < total; i++) {
+        double x = k[i];
+        if (!(x < lo)) buf[c++] = x;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(c);
+}
+
+static PyObject *exp_merge(PyObject *self, PyObject *a) {
+    PyObject *ok, *ob;
+    Py_ssize_t total, count;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OndOn", &ok, &total, &lo, &ob, &count)) return NULL;
+    Bufs b = {.n = 0};
+    double *k = get(&b, ok, 8, 1, total);
+    const double *buf = k ? get(&b, ob, 8, 0, count) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < total; i++) {
+        if (k[i] < lo) {
+            k[i] = 0.0;
+        } else {
+            if (c >= count) {
+                release(&b);
+                PyErr_SetString(PyExc_ValueError, "exp_merge: buffer too short");
+                return NULL;
+            }
+            k[i] = buf[c++];
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* cheb_der_int(coef, B, K, der_t, int_t): numpy.polynomial.chebyshev's
      chebder(coef, axis=1, scl=2.0)                -> der_t.T  (der_t (K - 1, B))
      chebint(coef, axis=1, lbnd=-1.0, scl=0.5)     -> int_t.T  (int_t (K + 1, B))
@@ -345,12 +394,112 @@ static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* The boundary-layer regime's residual (laws/circle.py: _layers_total) of m cruise values
+   per arc, wc (m, n), for n arcs (phi, gam2, u0, u1 (n,)), in three compiled steps around
+   numpy's np.exp and np.arcsinh (which stay numpy's: they need not be libm's):
+     lay_pre:  ebuf = -sqrt(gam2 + 6 wc wc) * 1.0                     -> np.exp(ebuf)
+     lay_mid:  abuf (m, 2, n) = _asinh_diff's argument of the left and right layer
+                                                                       -> np.arcsinh(abuf)
+     lay_post: out = ((wc + asinh_l) + asinh_r) - phi
+   the same operations in the same order as _layers_total's numpy expressions; np.maximum
+   and np.where as numpy takes them (NaN propagates, both branches' conditions as written). */
+static PyObject *lay_pre(PyObject *self, PyObject *a) {
+    PyObject *ow, *og, *oe;
+    Py_ssize_t n, m;
+    if (!PyArg_ParseTuple(a, "OOnnO", &ow, &og, &n, &m, &oe)) return NULL;
+    Bufs b = {.n = 0};
+    const double *wc = get(&b, ow, 8, 0, m * n);
+    const double *g2 = wc ? get(&b, og, 8, 0, n) : NULL;
+    double *e = g2 ? get(&b, oe, 8, 1, m * n) : NULL;
+    if (!e) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < m; r++)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double w = wc[r * n + i];
+            double c = g2[i] + (6.0 * w) * w;
+            e[r * n + i] = -sqrt(c) * 1.0;
+        }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* _layer_coeffs, _layer_d(1.0, ...) and _asinh_diff's argument of one layer (offset d0),
+   the terms both layers share (c, lam, c_sq, g2w, w2, w4, k, e) given */
+static inline double lay_arg(double d0, double c, double lam, double c_sq, double g2w, double w2,
+                             double w4, double k, double e) {
+    double rho = (w2 * d0) / c;
+    double qa = ((d0 * d0) + (w4 * d0)) + c;
+    double q = sqrt(np_max(qa, 0.0)) / lam;
+    double s1 = 1.0 + rho;
+    double num = ((d0 * d0) * g2w) / c_sq;
+    double a_inf = s1 >= 0 ? (s1 + q) / 2.0 : num / (2.0 * (q - s1));
+    double b_inf = s1 <= 0 ? (s1 - q) / 2.0 : (-num) / (2.0 * (q + s1));
+    double d1 = (d0 * e) / (((-rho) * e + a_inf) + ((b_inf * e) * e));
+    /* _asinh_diff((d0 + w2) / k, (d1 + w2) / k) before its np.arcsinh */
+    double x = (d0 + w2) / k, y = (d1 + w2) / k;
+    double sa = sqrt(1.0 + x * x), sb = sqrt(1.0 + y * y);
+    if (x * y > 0) return ((x - y) * (x + y)) / (x * sb + y * sa);
+    return x * sb - y * sa;
+}
+
+static PyObject *lay_mid(PyObject *self, PyObject *a) {
+    PyObject *ow, *og, *o0, *o1, *oe, *oa;
+    Py_ssize_t n, m;
+    if (!PyArg_ParseTuple(a, "OOOOOnnO", &ow, &og, &o0, &o1, &oe, &n, &m, &oa)) return NULL;
+    Bufs b = {.n = 0};
+    const double *wc = get(&b, ow, 8, 0, m * n);
+    const double *g2 = wc ? get(&b, og, 8, 0, n) : NULL;
+    const double *u0 = g2 ? get(&b, o0, 8, 0, n) : NULL;
+    const double *u1 = u0 ? get(&b, o1, 8, 0, n) : NULL;
+    const double *e = u1 ? get(&b, oe, 8, 0, m * n) : NULL;
+    double *out = e ? get(&b, oa, 8, 1, 2 * m * n) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < m; r++)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double w = wc[r * n + i], ee = e[r * n + i], gam2 = g2[i];
+            double c = gam2 + (6.0 * w) * w;
+            double lam = sqrt(c);
+            double c_sq = c * c;
+            double g2w = gam2 + (2.0 * w) * w;
+            double w2 = 2.0 * w, w4 = 4.0 * w;
+            double k = sqrt(g2w);
+            out[(2 * r) * n + i] = lay_arg(u0[i] - w, c, lam, c_sq, g2w, w2, w4, k, ee);
+            out[(2 * r + 1) * n + i] = lay_arg(u1[i] - w, c, lam, c_sq, g2w, w2, w4, k, ee);
+        }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+static PyObject *lay_post(PyObject *self, PyObject *a) {
+    PyObject *ow, *op, *oa, *oo;
+    Py_ssize_t n, m;
+    if (!PyArg_ParseTuple(a, "OOOnnO", &ow, &op, &oa, &n, &m, &oo)) return NULL;
+    Bufs b = {.n = 0};
+    const double *wc = get(&b, ow, 8, 0, m * n);
+    const double *phi = wc ? get(&b, op, 8, 0, n) : NULL;
+    const double *as = phi ? get(&b, oa, 8, 0, 2 * m * n) : NULL;
+    double *out = as ? get(&b, oo, 8, 1, m * n) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < m; r++)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double t = wc[r * n + i] + as[(2 * r) * n + i];
+            t = t + as[(2 * r + 1) * n + i];
+            out[r * n + i] = t - phi[i];
+        }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
     {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
     {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
     {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
+    {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
+    {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
+    {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
+    {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {NULL, NULL, 0, NULL}};
 

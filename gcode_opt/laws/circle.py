@@ -186,14 +186,44 @@ def _series_values(coefs, x):
     out = [np.empty(x.shape) for _ in coefs]
     kmax = max(c.shape[1] for c in coefs)
     for r in groups:
-        vand_t = np.ascontiguousarray(np.polynomial.chebyshev.chebvander(x[r[0]], kmax - 1).T)   # (K, M)
+        vand_t = _vander_t(x[r[0]], kmax)
+        whole = len(groups) == 1             # r is every row in order: no gather, no scatter
         for o, c in zip(out, coefs):
-            cr = c[r]
+            cr = c if whole else c[r]
             length = _row_lengths(cr)
-            for k in np.unique(length):
-                rk = np.flatnonzero(length == k)
-                o[r[rk]] = _rows_matmul(cr[rk, :k], vand_t[:k])
+            ks = np.unique(length)
+            for k in ks.tolist():
+                if ks.size == 1:
+                    rk = None
+                    got = _rows_matmul(np.ascontiguousarray(cr[:, :k]), vand_t[:k])   # laid out as a gather's
+                else:
+                    rk = np.flatnonzero(length == k)
+                    got = _rows_matmul(cr[rk, :k], vand_t[:k])
+                if whole:
+                    if rk is None:
+                        o[...] = got
+                    else:
+                        o[rk] = got
+                else:
+                    o[r if rk is None else r[rk]] = got
     return out
+
+
+_VANDER: dict = {}         # (grid bytes, K) -> _vander_t's array (a few grids recur: the probe's,
+_VANDER_MAX = 64           # the uniform one, the batch's quadrature grid)
+
+
+def _vander_t(xg, kmax):
+    """np.ascontiguousarray(chebvander(xg, kmax - 1).T), (K, M): kept for the grids that
+    recur (the same function of the same numbers, so the same bits)."""
+    key = (xg.tobytes(), kmax)
+    v = _VANDER.get(key)
+    if v is None:
+        if len(_VANDER) >= _VANDER_MAX:
+            _VANDER.clear()
+        v = _VANDER[key] = np.ascontiguousarray(np.polynomial.chebyshev.chebvander(xg, kmax - 1).T)
+        v.flags.writeable = False
+    return v
 
 
 def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
@@ -576,12 +606,38 @@ def _layers_total(wc, phi, gam2, u0, u1):
     return tot - phi
 
 
+def _layers_totals(xs, phi, gam2, u0, u1):
+    """[_layers_total(x, phi, gam2, u0, u1) for x in xs]: with the compiled core, all of
+    them in three compiled passes (_curvecore.c lay_pre, lay_mid, lay_post: _layers_total's
+    operations in its order) around one np.exp and one np.arcsinh call (numpy's own, on
+    the same arguments: elementwise, so the same bits; tests/test_speed21_curvegeo_layers.py),
+    instead of ~45 numpy calls per cruise value; else _layers_total itself."""
+    core = CORE_MOD
+    if core is None:
+        return [_layers_total(x, phi, gam2, u0, u1) for x in xs]
+    m, n = len(xs), phi.size
+    wc = np.empty((m, n))
+    for k, x in enumerate(xs):
+        wc[k] = x
+    phi, gam2, u0, u1 = (np.ascontiguousarray(v, float) for v in (phi, gam2, u0, u1))
+    e = np.empty((m, n))
+    core.lay_pre(wc, gam2, n, m, e)
+    np.exp(e, out=e)
+    a = np.empty((m, 2, n))
+    core.lay_mid(wc, gam2, u0, u1, e, n, m, a)
+    np.arcsinh(a, out=a)
+    out = np.empty((m, n))
+    core.lay_post(wc, phi, a, n, m, out)
+    return list(out)
+
+
 def _solve_layers_batch(phi, gam2, u0, u1):
-    """Cruise value w_c (safeguarded Newton/bisection; the residual is increasing in w_c)."""
+    """Cruise value w_c (safeguarded Newton/bisection; the residual is increasing in w_c).
+    The two residuals each step takes (bracket ends; w_c and w_c + h) in one _layers_totals."""
     span = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
     lo, hi = np.minimum.reduce([phi, u0, u1]) - span, np.maximum.reduce([phi, u0, u1]) + span
     for _ in range(60):             # make sure the bracket holds (the layer integrals are O(log))
-        glo, ghi = _layers_total(lo, phi, gam2, u0, u1), _layers_total(hi, phi, gam2, u0, u1)
+        glo, ghi = _layers_totals((lo, hi), phi, gam2, u0, u1)
         bad_lo, bad_hi = glo > 0, ghi < 0
         if not (bad_lo.any() or bad_hi.any()):
             break
@@ -593,11 +649,11 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
     for _ in range(100):
         x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
-        g = _layers_total(x, p_, g2, a0, a1)
+        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+        g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
         lo[act] = lo_a = np.where(g < 0, x, lo[act])
         hi[act] = hi_a = np.where(g > 0, x, hi[act])
-        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
-        dg = (_layers_total(x + h, p_, g2, a0, a1) - g) / h
+        dg = (gh - g) / h
         new = x - g / np.where(dg > 0, dg, np.inf)
         outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
         new = np.where(outside, 0.5 * (lo_a + hi_a), new)

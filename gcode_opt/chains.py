@@ -39,11 +39,11 @@ import numpy as np
 from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
-from .firmware.simulate import CORNER_COS
+from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
-from .segments import SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
+from .segments import CRUISE_A, SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
 from .strokes import K_CHAIN, K_CURVE
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
@@ -525,6 +525,10 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
 def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
     """_finish_stacked's numbers (acc, feed, t_pred, a2_pred, fits) from the rows' knot
     speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row."""
+    if rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction:
+        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict)
+        if got is not None:
+            return got
     n = gs[0].d.size
     R = vk.shape[0]
     d = np.stack([g.d for g in gs])[own]
@@ -550,6 +554,62 @@ def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
         return acc, feed, None, None, fits
     t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)
     return acc, feed, t_pred, a2_pred, fits
+
+
+_CF_NO_W = np.empty(0)
+_CF_P = 18                   # the chain core's per-chain parameters (CP_* in _chaincore.c)
+
+
+def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
+    """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
+    batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
+    under a junction law of GROUP_JUNCTIONS that is the profile's; None (the numpy code
+    then) when the core is missing or stale, or declines the inputs (a non-finite one, a
+    classic-jerk tent input that is not finite and > 0).  core: the module (None = the
+    chain core if it is there, False = never)."""
+    core = _chain_law.CORE_MOD if core is None else core
+    fn = getattr(core, "chain_finish", None) if core else None
+    if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+        return None
+    jerk = rules.junction == "jerk"
+    n, m, R = gs[0].d.size, len(sts), vk.shape[0]
+    if vk.shape != (R, n + 1) or tk.shape != (R, n) or any(g.d.size != n for g in gs):
+        return None
+    D = np.stack([g.d for g in gs])
+    U = np.stack([g.u for g in gs])
+    C = np.stack([g.cos_turn for g in gs]) if n > 1 else np.empty((m, 0))
+    W = _windows(gs, profile) if profile.block_buffer > 0 else _CF_NO_W
+    P = np.zeros((m, _CF_P))
+    for q, (st, g) in enumerate(zip(sts, gs)):
+        lim, row = st.lim, P[q]
+        row[0] = _a_top(st)
+        row[8], row[9] = st.v0, st.v1
+        w0, w1 = st.prev_u, st.next_u
+        row[10] = np.nan if w0 is None else float(np.dot(w0, g.u[0]))
+        row[11] = np.nan if w1 is None else float(np.dot(g.u[-1], w1))
+        if jerk:
+            row[1] = st.v_feed
+            row[2] = min(lim.jerk_x, lim.jerk_y)
+            row[3], row[4] = lim.jerk_x, lim.jerk_y
+        else:
+            row[2] = np.inf
+            row[5], row[6], row[7] = lim.scv, lim.ax_max, lim.ay_max
+            if w0 is not None:
+                row[12], row[13], row[14] = w0[0], w0[1], 1.0
+            if w1 is not None:
+                row[15], row[16], row[17] = w1[0], w1[1], 1.0
+    if jerk:
+        P[:, 2] = curves.JERK_F_STEP_R * P[:, 2]        # step_v: the numpy code's product
+    K = np.array([1 + SPEED_TOL_R, profile.default_accel_a, CRUISE_A, CORNER_COS, SQRT2_M1,
+                  curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
+    acc, feed = np.empty((R, n)), np.empty((R, n))
+    t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
+    if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),
+              np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), np.ascontiguousarray(D, float),
+              np.ascontiguousarray(U, float), np.ascontiguousarray(C, float), np.ascontiguousarray(W, float),
+              P, TRAP_GRID, K, acc, feed, t, a2, fits):
+        return None
+    return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):

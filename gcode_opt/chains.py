@@ -557,7 +557,12 @@ def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
 
 
 _CF_NO_W = np.empty(0)
-_CF_P = 18                   # the chain core's per-chain parameters (CP_* in _chaincore.c)
+
+
+def _cf_consts(profile):
+    """The constants of the chain core's chain_finish (CK_* in _chaincore.c)."""
+    return np.array([1 + SPEED_TOL_R, profile.default_accel_a, CRUISE_A, CORNER_COS, SQRT2_M1,
+                     curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
 
 
 def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
@@ -573,41 +578,40 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         return None
     jerk = rules.junction == "jerk"
     n, m, R = gs[0].d.size, len(sts), vk.shape[0]
-    if vk.shape != (R, n + 1) or tk.shape != (R, n) or any(g.d.size != n for g in gs):
-        return None
     D = np.stack([g.d for g in gs])
+    if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n):
+        return None
     U = np.stack([g.u for g in gs])
     C = np.stack([g.cos_turn for g in gs]) if n > 1 else np.empty((m, 0))
-    W = _windows(gs, profile) if profile.block_buffer > 0 else _CF_NO_W
-    P = np.zeros((m, _CF_P))
-    for q, (st, g) in enumerate(zip(sts, gs)):
-        lim, row = st.lim, P[q]
-        row[0] = _a_top(st)
-        row[8], row[9] = st.v0, st.v1
-        w0, w1 = st.prev_u, st.next_u
-        row[10] = np.nan if w0 is None else float(np.dot(w0, g.u[0]))
-        row[11] = np.nan if w1 is None else float(np.dot(g.u[-1], w1))
+    W, ws = _CF_NO_W, 0
+    if profile.block_buffer > 0:       # _windows' convolution, each chain's window at W[q ws:q ws + n]
+        nb = max(profile.block_buffer - 3, 1)
+        ext = np.empty((m, n + nb))
+        ext[:, :n] = D
+        ext[:, n:] = D[:, n - 1:n]
+        W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
+    rows = []
+    for st, g in zip(sts, gs):
+        lim, w0, w1 = st.lim, st.prev_u, st.next_u
+        c0 = math.nan if w0 is None else float(np.dot(w0, g.u[0]))
+        c1 = math.nan if w1 is None else float(np.dot(g.u[-1], w1))
         if jerk:
-            row[1] = st.v_feed
-            row[2] = min(lim.jerk_x, lim.jerk_y)
-            row[3], row[4] = lim.jerk_x, lim.jerk_y
+            jx, jy = lim.jerk_x, lim.jerk_y
+            rows.append((_a_top(st), st.v_feed, min(jx, jy), jx, jy, 0.0, 0.0, 0.0, st.v0, st.v1, c0, c1,
+                         0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
         else:
-            row[2] = np.inf
-            row[5], row[6], row[7] = lim.scv, lim.ax_max, lim.ay_max
-            if w0 is not None:
-                row[12], row[13], row[14] = w0[0], w0[1], 1.0
-            if w1 is not None:
-                row[15], row[16], row[17] = w1[0], w1[1], 1.0
+            p0 = (0.0, 0.0, 0.0) if w0 is None else (w0[0], w0[1], 1.0)
+            p1 = (0.0, 0.0, 0.0) if w1 is None else (w1[0], w1[1], 1.0)
+            rows.append((_a_top(st), 0.0, math.inf, 0.0, 0.0, lim.scv, lim.ax_max, lim.ay_max, st.v0, st.v1, c0, c1)
+                        + p0 + p1)
+    P = np.array(rows, float)
     if jerk:
         P[:, 2] = curves.JERK_F_STEP_R * P[:, 2]        # step_v: the numpy code's product
-    K = np.array([1 + SPEED_TOL_R, profile.default_accel_a, CRUISE_A, CORNER_COS, SQRT2_M1,
-                  curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
     acc, feed = np.empty((R, n)), np.empty((R, n))
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
     if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),
-              np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), np.ascontiguousarray(D, float),
-              np.ascontiguousarray(U, float), np.ascontiguousarray(C, float), np.ascontiguousarray(W, float),
-              P, TRAP_GRID, K, acc, feed, t, a2, fits):
+              np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), D, U, C, W, ws,
+              P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
     return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
 

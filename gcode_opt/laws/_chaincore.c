@@ -676,19 +676,20 @@ static inline double cf_jerk_v(double pux, double puy, double ux, double uy, dou
     return ((p_safe > thr) && (safe > thr)) ? safe : vmax;
 }
 
-/* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, P, grid, K,
+/* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
    1 = scv (trapezoids, junction accelerations, the floor).  own (R,) int64 chain of each
    row; vk (R, n+1); tk (R, n) segment durations; per chain: D (m, n) lengths, U (m, n, 2)
-   directions, COS (m, n-1) cos_turn, W (m, n) lookahead windows (size 0: no floor),
+   directions, COS (m, n-1) cos_turn, W lookahead windows, chain c's at W[c ws:c ws + n] (size 0: no floor),
    P (m, CP_N); grid: TRAP_GRID; K: constants.  Out: acc, feed (R, n); t, a2 (R,)
    (predict); fits (R,) uint8. */
 static PyObject *chain_finish(PyObject *self, PyObject *args) {
     int junction, predict;
+    Py_ssize_t ws;
     PyObject *oown, *ovk, *otk, *oD, *oU, *oC, *oW, *oP, *og, *oK, *oacc, *ofeed, *ot, *oa2, *ofits;
-    if (!PyArg_ParseTuple(args, "iiOOOOOOOOOOOOOOO", &junction, &predict, &oown, &ovk, &otk, &oD, &oU, &oC,
-                          &oW, &oP, &og, &oK, &oacc, &ofeed, &ot, &oa2, &ofits))
+    if (!PyArg_ParseTuple(args, "iiOOOOOOOnOOOOOOOO", &junction, &predict, &oown, &ovk, &otk, &oD, &oU, &oC,
+                          &oW, &ws, &oP, &og, &oK, &oacc, &ofeed, &ot, &oa2, &ofits))
         return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t R, Nvk, Ntk, ND, NU, NC, NW, NP, G, NK, Nacc, Nfeed, Nt, Na2, Nf;
@@ -710,7 +711,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
     if (!fits) { release(&b); return NULL; }
     Py_ssize_t n = R > 0 ? Ntk / R : 0, m = NP / CP_N;
     if (R <= 0 || n < 1 || Ntk != R * n || Nvk != R * (n + 1) || NP != m * CP_N || m < 1 || ND != m * n ||
-        NU != 2 * m * n || NC != m * (n - 1) || (NW != 0 && NW != m * n) || NK != CK_N || G < 1 ||
+        NU != 2 * m * n || NC != m * (n - 1) || (NW != 0 && (ws < n || (m - 1) * ws + n > NW)) || NK != CK_N || G < 1 ||
         Nacc != R * n || Nfeed != R * n || Nt != R || Na2 != R || Nf != R || (junction != 0 && junction != 1)) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "chain_finish: shapes");
@@ -783,7 +784,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             fr[k] = fk;
         }
         fits[r] = (uint8_t)fit;
-        const double *w = NW ? W + c * n : NULL;
+        const double *w = NW ? W + c * ws : NULL;
         if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
             for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
             x[0] = p[CP_V0] >= stop_v ? p[CP_V0] : 0.0;

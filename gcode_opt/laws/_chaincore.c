@@ -616,6 +616,8 @@ static double cf_pw_sum(const double *a, Py_ssize_t n) {
     return cf_pw_sum(a, n2) + cf_pw_sum(a + n2, n - n2);
 }
 
+#define CF_TRAP_G 32      /* chains.TRAP_GRID: the trapezoid cruise speeds tried */
+
 /* per chain parameters (columns of P) */
 enum { CP_ATOP, CP_VFEED, CP_STEP, CP_JX, CP_JY, CP_SCV, CP_AXM, CP_AYM, CP_V0, CP_V1, CP_C0, CP_C1,
        CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_N };
@@ -731,6 +733,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         for (int j = 0; j < CP_N && ok; j++)
             if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction == 1)) ok = isfinite(p[j]);
     }
+    if (G != CF_TRAP_G) ok = 0;        /* chains.TRAP_GRID's size */
     if (!ok) { release(&b); Py_RETURN_FALSE; }
     const double tol = K[CK_TOL], defa = K[CK_DEFA], cruise_a = K[CK_CRUISE], corner = K[CK_CORNER],
                  sq2m1 = K[CK_SQ2M1], margin = K[CK_MARGIN], stop_v = K[CK_STOPV], min_feed = K[CK_MINFEED];
@@ -762,17 +765,20 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             double fk = bump ? peak : np_max(a0, b0);
             if (bump && junction == 1) {
                 double lo = np_max(dk / ttk, np_max(a0, b0));
-                double best = 0.0, best_a = 0.0, best_F = 0.0;
-                for (Py_ssize_t j = 0; j < G; j++) {
+                double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
+                for (int j = 0; j < CF_TRAP_G; j++) {      /* elementwise: vectorizable */
                     double F = lo + (peak - lo) * grid[j];
                     double a = ((F - a0) * (F - a0) + (F - b0) * (F - b0)) / (2.0 * (F * ttk - dk));
-                    double cost = (a > 0 && a <= a_top) ? a * (2.0 * F - a0 - b0) : INFINITY;
-                    if (j == 0 || (!isnan(best) && (cost < best || isnan(cost)))) {
-                        best = cost;
-                        best_a = a;
-                        best_F = F;
-                    }
+                    Fv[j] = F;
+                    av[j] = a;
+                    cv[j] = a * (2.0 * F - a0 - b0);
                 }
+                for (int j = 0; j < CF_TRAP_G; j++)
+                    if (!((av[j] > 0) && (av[j] <= a_top))) cv[j] = INFINITY;
+                int jb = 0;                                 /* np.argmin: the first minimum, a nan first */
+                for (int j = 1; j < CF_TRAP_G && !isnan(cv[jb]); j++)
+                    if (cv[j] < cv[jb] || isnan(cv[j])) jb = j;
+                double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
                 double tri_cost = tri_a * (2.0 * peak - a0 - b0);
                 int take = isfinite(best) && best < tri_cost;
                 ak = take ? best_a : tri_a;
@@ -929,7 +935,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
             tmp[k] = (ct[k] >= corner) ? dv2 / np_max(tj, 1e-12) : 0.0;
         }
-        a2 = a2 + (-0.0 + cf_pw_sum(tmp, n - 1));
+        a2 = a2 + (n > 1 ? -0.0 + cf_pw_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
         /* the end corners */
         if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
         if (p[CP_C1] >= corner) a2 = a2 + 1.0 * vb[n - 1] * vb[n - 1] * (1.0 - p[CP_C1]) / np_max(tt[n - 1], 1e-12);

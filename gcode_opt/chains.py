@@ -590,23 +590,32 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         ext[:, :n] = D
         ext[:, n:] = D[:, n - 1:n]
         W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
-    rows = []
-    for st, g in zip(sts, gs):
-        lim, w0, w1 = st.lim, st.prev_u, st.next_u
-        c0 = math.nan if w0 is None else float(np.dot(w0, g.u[0]))
-        c1 = math.nan if w1 is None else float(np.dot(g.u[-1], w1))
-        if jerk:
-            jx, jy = lim.jerk_x, lim.jerk_y
-            rows.append((_a_top(st), st.v_feed, min(jx, jy), jx, jy, 0.0, 0.0, 0.0, st.v0, st.v1, c0, c1,
-                         0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-        else:
-            p0 = (0.0, 0.0, 0.0) if w0 is None else (w0[0], w0[1], 1.0)
-            p1 = (0.0, 0.0, 0.0) if w1 is None else (w1[0], w1[1], 1.0)
-            rows.append((_a_top(st), 0.0, math.inf, 0.0, 0.0, lim.scv, lim.ax_max, lim.ay_max, st.v0, st.v1, c0, c1)
-                        + p0 + p1)
-    P = np.array(rows, float)
+    lims = [st.lim for st in sts]
+    nan2 = (math.nan, math.nan)
+    pu = np.array([nan2 if w is None else w for w in (st.prev_u for st in sts)], float).reshape(m, 2)
+    nu = np.array([nan2 if w is None else w for w in (st.next_u for st in sts)], float).reshape(m, 2)
+    P = np.zeros((m, 18))
+    P[:, 0] = [min(st.accel, lim.ax_max, lim.ay_max) for st, lim in zip(sts, lims)]    # _a_top
+    P[:, 8] = [st.v0 for st in sts]
+    P[:, 9] = [st.v1 for st in sts]
+    # the end turns, np.dot(prev_u, u[0]) and np.dot(u[-1], next_u) of predict_chains (its two
+    # products and their sum; nan: no neighbour)
+    P[:, 10] = pu[:, 0] * U[:, 0, 0] + pu[:, 1] * U[:, 0, 1]
+    P[:, 11] = U[:, -1, 0] * nu[:, 0] + U[:, -1, 1] * nu[:, 1]
     if jerk:
-        P[:, 2] = curves.JERK_F_STEP_R * P[:, 2]        # step_v: the numpy code's product
+        P[:, 1] = [st.v_feed for st in sts]
+        P[:, 3] = [lim.jerk_x for lim in lims]
+        P[:, 4] = [lim.jerk_y for lim in lims]
+        P[:, 2] = curves.JERK_F_STEP_R * np.minimum(P[:, 3], P[:, 4])     # step_v: the numpy code's
+    else:
+        P[:, 2] = math.inf
+        P[:, 5] = [lim.scv for lim in lims]
+        P[:, 6] = [lim.ax_max for lim in lims]
+        P[:, 7] = [lim.ay_max for lim in lims]
+        hp = np.array([st.prev_u is not None for st in sts], bool)
+        hn = np.array([st.next_u is not None for st in sts], bool)
+        P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
+        P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
     acc, feed = np.empty((R, n)), np.empty((R, n))
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
     if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),

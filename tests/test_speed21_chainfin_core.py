@@ -194,3 +194,17 @@ def test_no_core_or_stale_core_falls_back(tmp_path_factory):
     finally:
         chain_law.CORE_MOD = save
     assert _same(got, _ref_finish_stacked_dt(*b))
+
+
+def test_end_turn_products_are_np_dot():
+    """_finish_core makes predict_chains' end turns np.dot(prev_u, u[0]) as the two products
+    and their sum over all chains at once: the same bits as np.dot of two 2-vectors here
+    (no fused multiply-add in the BLAS dot); the real batches above compare the whole."""
+    rng = np.random.default_rng(8)
+    a = rng.normal(size=(5000, 2))
+    b = rng.normal(size=(5000, 2))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    b /= np.linalg.norm(b, axis=1)[:, None]
+    want = np.array([float(np.dot(tuple(x), y)) for x, y in zip(a, b)])
+    got = a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))

@@ -39,11 +39,11 @@ import numpy as np
 from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
-from .firmware.simulate import CORNER_COS
+from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
-from .segments import SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
+from .segments import CRUISE_A, SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
 from .strokes import K_CHAIN, K_CURVE
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
@@ -525,6 +525,10 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
 def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
     """_finish_stacked's numbers (acc, feed, t_pred, a2_pred, fits) from the rows' knot
     speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row."""
+    if rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction:
+        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict)
+        if got is not None:
+            return got
     n = gs[0].d.size
     R = vk.shape[0]
     d = np.stack([g.d for g in gs])[own]
@@ -550,6 +554,75 @@ def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
         return acc, feed, None, None, fits
     t_pred, a2_pred = _predict_group(sts, gs, own, d, acc, feed, profile)
     return acc, feed, t_pred, a2_pred, fits
+
+
+_CF_NO_W = np.empty(0)
+
+
+def _cf_consts(profile):
+    """The constants of the chain core's chain_finish (CK_* in _chaincore.c)."""
+    return np.array([1 + SPEED_TOL_R, profile.default_accel_a, CRUISE_A, CORNER_COS, SQRT2_M1,
+                     curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
+
+
+def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
+    """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
+    batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
+    under a junction law of GROUP_JUNCTIONS that is the profile's; None (the numpy code
+    then) when the core is missing or stale, or declines the inputs (a non-finite one, a
+    classic-jerk tent input that is not finite and > 0).  core: the module (None = the
+    chain core if it is there, False = never)."""
+    core = _chain_law.CORE_MOD if core is None else core
+    fn = getattr(core, "chain_finish", None) if core else None
+    if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+        return None
+    jerk = rules.junction == "jerk"
+    n, m, R = gs[0].d.size, len(sts), vk.shape[0]
+    D = np.stack([g.d for g in gs])
+    if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n):
+        return None
+    U = np.stack([g.u for g in gs])
+    C = np.stack([g.cos_turn for g in gs]) if n > 1 else np.empty((m, 0))
+    W, ws = _CF_NO_W, 0
+    if profile.block_buffer > 0:       # _windows' convolution, each chain's window at W[q ws:q ws + n]
+        nb = max(profile.block_buffer - 3, 1)
+        ext = np.empty((m, n + nb))
+        ext[:, :n] = D
+        ext[:, n:] = D[:, n - 1:n]
+        W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
+    lims = [st.lim for st in sts]
+    nan2 = (math.nan, math.nan)
+    pu = np.array([nan2 if w is None else w for w in (st.prev_u for st in sts)], float).reshape(m, 2)
+    nu = np.array([nan2 if w is None else w for w in (st.next_u for st in sts)], float).reshape(m, 2)
+    P = np.zeros((m, 18))
+    P[:, 0] = [min(st.accel, lim.ax_max, lim.ay_max) for st, lim in zip(sts, lims)]    # _a_top
+    P[:, 8] = [st.v0 for st in sts]
+    P[:, 9] = [st.v1 for st in sts]
+    # the end turns, np.dot(prev_u, u[0]) and np.dot(u[-1], next_u) of predict_chains (its two
+    # products and their sum; nan: no neighbour)
+    P[:, 10] = pu[:, 0] * U[:, 0, 0] + pu[:, 1] * U[:, 0, 1]
+    P[:, 11] = U[:, -1, 0] * nu[:, 0] + U[:, -1, 1] * nu[:, 1]
+    if jerk:
+        P[:, 1] = [st.v_feed for st in sts]
+        P[:, 3] = [lim.jerk_x for lim in lims]
+        P[:, 4] = [lim.jerk_y for lim in lims]
+        P[:, 2] = curves.JERK_F_STEP_R * np.minimum(P[:, 3], P[:, 4])     # step_v: the numpy code's
+    else:
+        P[:, 2] = math.inf
+        P[:, 5] = [lim.scv for lim in lims]
+        P[:, 6] = [lim.ax_max for lim in lims]
+        P[:, 7] = [lim.ay_max for lim in lims]
+        hp = np.array([st.prev_u is not None for st in sts], bool)
+        hn = np.array([st.next_u is not None for st in sts], bool)
+        P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
+        P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
+    acc, feed = np.empty((R, n)), np.empty((R, n))
+    t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
+    if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),
+              np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), D, U, C, W, ws,
+              P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
+        return None
+    return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):

@@ -745,6 +745,375 @@ static PyObject *prims_c(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* ------------------------------------------------------------------ chain finishing
+   chain_finish: chains.py's _finish_stacked_dt (numpy) for a batch of R rows of chains
+   with n segments under the junction laws "jerk" (classic jerk) and "scv" (Klipper):
+   shape_segments, the fits test, the acceleration floor / junction accelerations,
+   hold_cruise_accels_rows, the classic-jerk tent (tent_rows' envelope) and, when
+   predict, _predict_group.  Every double operation is numpy's, in numpy's order; numpy's
+   maximum/minimum (nan first), argmin (first minimum, first nan), pairwise row sums.
+   Returns False (nothing usable written) on an input it does not take: a non-finite knot
+   speed, duration or limit, or a classic-jerk tent input that is not finite and > 0. */
+
+/* numpy's minimum: the first operand if it is nan or not above the second */
+static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+/* Python's max(a, b) / min(a, b) of two floats: a unless b is above / below it */
+static inline double py_max(double a, double b) { return (b > a) ? b : a; }
+static inline double py_min(double a, double b) { return (b < a) ? b : a; }
+
+/* numpy's pairwise sum of a contiguous run (np.add.reduce's inner loop, from -0.0) */
+static double cf_pw_sum(const double *a, Py_ssize_t n) {
+    if (n < 8) {
+        double res = -0.0;
+        for (Py_ssize_t i = 0; i < n; i++) res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        double r[8], res;
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++) r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++) r[j] += a[i + j];
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += a[i];
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return cf_pw_sum(a, n2) + cf_pw_sum(a + n2, n - n2);
+}
+
+#define CF_TRAP_G 32      /* chains.TRAP_GRID: the trapezoid cruise speeds tried */
+
+/* per chain parameters (columns of P) */
+enum { CP_ATOP, CP_VFEED, CP_STEP, CP_JX, CP_JY, CP_SCV, CP_AXM, CP_AYM, CP_V0, CP_V1, CP_C0, CP_C1,
+       CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_N };
+/* constants (K) */
+enum { CK_TOL, CK_DEFA, CK_CRUISE, CK_CORNER, CK_SQ2M1, CK_MARGIN, CK_STOPV, CK_MINFEED, CK_N };
+
+/* junction.accel_to_pass_junction("scv", v, pu, u, d) */
+static inline double cf_atp_scv(double v, int has_pu, double pux, double puy, int has_u, double ux, double uy,
+                                double d) {
+    if (v <= 0.0 || !has_pu || !has_u) return 0.0;
+    double cos_theta = -(ux * pux + uy * puy);
+    if (cos_theta <= -0.999999) return 0.0;
+    double sin_d2 = sqrt(py_max(0.5 * (1.0 - cos_theta), 0.0));
+    double cos_d2 = sqrt(py_max(0.5 * (1.0 + cos_theta), 0.0));
+    double v2 = v * v;
+    if (cos_d2 <= 0.0) return 0.0;
+    if (sin_d2 <= 0.0) return INFINITY;
+    return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2);
+}
+
+/* chains._axis_jerk */
+static inline double cf_axis_jerk(double v_exit, double v_entry) {
+    double up = ((v_entry > 0.0) || (v_exit < 0.0)) ? v_exit - v_entry : np_max(v_exit, -v_entry);
+    double dn = ((v_entry < 0.0) || (v_exit > 0.0)) ? v_entry - v_exit : np_max(-v_exit, v_entry);
+    return (v_exit > v_entry) ? up : dn;
+}
+
+/* chains._safe_speed of one move */
+static inline double cf_safe(double ux, double uy, double nominal, double jx, double jy) {
+    double cx = fabs(ux) * nominal;
+    int lx = cx > jx;
+    double safe = lx ? jx : nominal;
+    double cy = fabs(uy) * nominal;
+    int ly = cy > jy;
+    double both = (cy * safe > jy * nominal) ? jy * nominal / cy : safe;
+    return ly ? (lx ? both : jy) : safe;
+}
+
+/* chains._jerk_junction_v of one junction */
+static inline double cf_jerk_v(double pux, double puy, double ux, double uy, double p_nom, double nom,
+                               double jx, double jy, double p_safe, double safe) {
+    double vmax = np_min(nom, p_nom);
+    double smaller = vmax / p_nom;
+    double jerk = cf_axis_jerk(pux * p_nom * smaller, ux * nom);
+    int limited = jerk > jx;
+    double vf = limited ? jx / jerk : 1.0;
+    double v_exit = puy * p_nom * smaller, v_entry = uy * nom;
+    if (limited) {
+        v_exit = v_exit * vf;
+        v_entry = v_entry * vf;
+    }
+    jerk = cf_axis_jerk(v_exit, v_entry);
+    int ly = jerk > jy;
+    if (ly) vf = vf * (jy / jerk);
+    limited = limited || ly;
+    if (limited) vmax = vmax * vf;
+    double thr = vmax * 0.99;
+    return ((p_safe > thr) && (safe > thr)) ? safe : vmax;
+}
+
+/* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
+                acc, feed, t, a2, fits) -> bool
+   junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
+   1 = scv (trapezoids, junction accelerations, the floor).  own (R,) int64 chain of each
+   row; vk (R, n+1); tk (R, n) segment durations; per chain: D (m, n) lengths, U (m, n, 2)
+   directions, COS (m, n-1) cos_turn, W lookahead windows, chain c's at W[c ws:c ws + n] (size 0: no floor),
+   P (m, CP_N); grid: TRAP_GRID; K: constants.  Out: acc, feed (R, n); t, a2 (R,)
+   (predict); fits (R,) uint8. */
+static PyObject *chain_finish(PyObject *self, PyObject *args) {
+    int junction, predict;
+    Py_ssize_t ws;
+    PyObject *oown, *ovk, *otk, *oD, *oU, *oC, *oW, *oP, *og, *oK, *oacc, *ofeed, *ot, *oa2, *ofits;
+    if (!PyArg_ParseTuple(args, "iiOOOOOOOnOOOOOOOO", &junction, &predict, &oown, &ovk, &otk, &oD, &oU, &oC,
+                          &oW, &ws, &oP, &og, &oK, &oacc, &ofeed, &ot, &oa2, &ofits))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t R, Nvk, Ntk, ND, NU, NC, NW, NP, G, NK, Nacc, Nfeed, Nt, Na2, Nf;
+    int64_t *own = get(&b, oown, 8, 0, &R);
+    double *vk = own ? get(&b, ovk, 8, 0, &Nvk) : NULL;
+    double *tk = vk ? get(&b, otk, 8, 0, &Ntk) : NULL;
+    double *D = tk ? get(&b, oD, 8, 0, &ND) : NULL;
+    double *U = D ? get(&b, oU, 8, 0, &NU) : NULL;
+    double *COS = U ? get(&b, oC, 8, 0, &NC) : NULL;
+    double *W = COS ? get(&b, oW, 8, 0, &NW) : NULL;
+    double *P = W ? get(&b, oP, 8, 0, &NP) : NULL;
+    double *grid = P ? get(&b, og, 8, 0, &G) : NULL;
+    double *K = grid ? get(&b, oK, 8, 0, &NK) : NULL;
+    double *acc = K ? get(&b, oacc, 8, 1, &Nacc) : NULL;
+    double *feed = acc ? get(&b, ofeed, 8, 1, &Nfeed) : NULL;
+    double *tout = feed ? get(&b, ot, 8, 1, &Nt) : NULL;
+    double *a2out = tout ? get(&b, oa2, 8, 1, &Na2) : NULL;
+    uint8_t *fits = a2out ? get(&b, ofits, 1, 1, &Nf) : NULL;
+    if (!fits) { release(&b); return NULL; }
+    Py_ssize_t n = R > 0 ? Ntk / R : 0, m = NP / CP_N;
+    if (R <= 0 || n < 1 || Ntk != R * n || Nvk != R * (n + 1) || NP != m * CP_N || m < 1 || ND != m * n ||
+        NU != 2 * m * n || NC != m * (n - 1) || (NW != 0 && (ws < n || (m - 1) * ws + n > NW)) || NK != CK_N || G < 1 ||
+        Nacc != R * n || Nfeed != R * n || Nt != R || Na2 != R || Nf != R || (junction != 0 && junction != 1)) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "chain_finish: shapes");
+        return NULL;
+    }
+    for (Py_ssize_t r = 0; r < R; r++)
+        if (own[r] < 0 || own[r] >= m) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "chain_finish: own");
+            return NULL;
+        }
+    int ok = 1;
+    for (Py_ssize_t i = 0; i < Nvk && ok; i++) ok = isfinite(vk[i]);
+    for (Py_ssize_t i = 0; i < Ntk && ok; i++) ok = isfinite(tk[i]);
+    for (Py_ssize_t c = 0; c < m && ok; c++) {
+        const double *p = P + c * CP_N;
+        for (int j = 0; j < CP_N && ok; j++)
+            if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction == 1)) ok = isfinite(p[j]);
+    }
+    if (G != CF_TRAP_G) ok = 0;        /* chains.TRAP_GRID's size */
+    if (!ok) { release(&b); Py_RETURN_FALSE; }
+    const double tol = K[CK_TOL], defa = K[CK_DEFA], cruise_a = K[CK_CRUISE], corner = K[CK_CORNER],
+                 sq2m1 = K[CK_SQ2M1], margin = K[CK_MARGIN], stop_v = K[CK_STOPV], min_feed = K[CK_MINFEED];
+    double *wk = malloc(sizeof(double) * (size_t)(16 * (n + 2)));
+    if (!wk) { release(&b); return PyErr_NoMemory(); }
+    double *v = wk, *cs = wk + (n + 2), *rs = wk + 2 * (n + 2), *reach = wk + 3 * (n + 2),
+           *va = wk + 5 * (n + 2), *vb = wk + 6 * (n + 2), *tt = wk + 7 * (n + 2),
+           *aa = wk + 8 * (n + 2), *tmp = wk + 9 * (n + 2), *safe = wk + 10 * (n + 2), *vj = wk + 11 * (n + 2),
+           *fsh = wk + 12 * (n + 2), *x = wk + 13 * (n + 2), *v2 = wk + 14 * (n + 2);
+    for (Py_ssize_t r = 0; r < R && ok; r++) {
+        const Py_ssize_t c = (Py_ssize_t)own[r];
+        const double *p = P + c * CP_N, *d = D + c * n, *u = U + c * 2 * n, *ct = COS + c * (n - 1);
+        const double a_top = p[CP_ATOP];
+        const double *vr = vk + r * (n + 1), *tr = tk + r * n;
+        double *ar = acc + r * n, *fr = feed + r * n;
+        int fit = 1;
+        /* shape_segments */
+        for (Py_ssize_t k = 0; k < n; k++) {
+            double dk = d[k], t = np_max(tr[k], 1e-12), a0 = vr[k], b0 = vr[k + 1];
+            double t_ramp = 2.0 * dk / np_max(a0 + b0, 1e-12);
+            double ramp_a = fabs(b0 * b0 - a0 * a0) / (2.0 * dk);
+            int bump = t < t_ramp * (1.0 - 1e-9);
+            double ttk = bump ? t : 1.0;
+            double disc = np_max(16.0 * dk * dk - 8.0 * ttk * (2.0 * dk * (a0 + b0) - ttk * (a0 * a0 + b0 * b0)), 0.0);
+            double peak = (4.0 * dk + sqrt(disc)) / (4.0 * ttk);
+            peak = np_max(peak, np_max(a0, b0));
+            double tri_a = (2.0 * peak * peak - a0 * a0 - b0 * b0) / (2.0 * dk);
+            double ak = bump ? tri_a : ramp_a;
+            double fk = bump ? peak : np_max(a0, b0);
+            if (bump && junction == 1) {
+                double lo = np_max(dk / ttk, np_max(a0, b0));
+                double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
+                for (int j = 0; j < CF_TRAP_G; j++) {      /* elementwise: vectorizable */
+                    double F = lo + (peak - lo) * grid[j];
+                    double a = ((F - a0) * (F - a0) + (F - b0) * (F - b0)) / (2.0 * (F * ttk - dk));
+                    Fv[j] = F;
+                    av[j] = a;
+                    cv[j] = a * (2.0 * F - a0 - b0);
+                }
+                for (int j = 0; j < CF_TRAP_G; j++)
+                    if (!((av[j] > 0) && (av[j] <= a_top))) cv[j] = INFINITY;
+                int jb = 0;                                 /* np.argmin: the first minimum, a nan first */
+                for (int j = 1; j < CF_TRAP_G && !isnan(cv[jb]); j++)
+                    if (cv[j] < cv[jb] || isnan(cv[j])) jb = j;
+                double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
+                double tri_cost = tri_a * (2.0 * peak - a0 - b0);
+                int take = isfinite(best) && best < tri_cost;
+                ak = take ? best_a : tri_a;
+                fk = take ? best_F : peak;
+            }
+            fk = np_max(fk, min_feed);
+            if (!(ak <= a_top * tol)) fit = 0;
+            ar[k] = np_min(ak, a_top);
+            fr[k] = fk;
+        }
+        fits[r] = (uint8_t)fit;
+        const double *w = NW ? W + c * ws : NULL;
+        if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
+            for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
+            x[0] = p[CP_V0] >= stop_v ? p[CP_V0] : 0.0;
+            x[n] = p[CP_V1] >= stop_v ? p[CP_V1] : 0.0;
+            for (Py_ssize_t k = 0; k < n; k++) {
+                int hp = k > 0 || p[CP_HASP] != 0.0, hn = k < n - 1 || p[CP_HASN] != 0.0;
+                double pux = k > 0 ? u[2 * (k - 1)] : p[CP_PUX], puy = k > 0 ? u[2 * (k - 1) + 1] : p[CP_PUY];
+                double nux = k < n - 1 ? u[2 * (k + 1)] : p[CP_NUX], nuy = k < n - 1 ? u[2 * (k + 1) + 1] : p[CP_NUY];
+                double need = cf_atp_scv(x[k], hp, pux, puy, 1, u[2 * k], u[2 * k + 1], d[k]);
+                need = py_max(need, cf_atp_scv(x[k + 1], 1, u[2 * k], u[2 * k + 1], hn, nux, nuy, d[k]));
+                ar[k] = py_max(ar[k], py_min(margin * need, a_top));
+            }
+        }
+        if (w)
+            for (Py_ssize_t k = 0; k < n; k++)
+                ar[k] = np_max(ar[k], np_min(1.1 * (fr[k] * fr[k]) / (2.0 * w[k]), a_top));
+        /* hold_cruise_accels_rows */
+        {
+            Py_ssize_t first = -1;
+            for (Py_ssize_t k = 0; k < n; k++)
+                if (!(ar[k] <= cruise_a)) { first = k; break; }
+            if (first < 0) {
+                for (Py_ssize_t k = 0; k < n; k++) ar[k] = a_top;
+            } else {
+                double held = ar[first];
+                for (Py_ssize_t k = first; k < n; k++) {
+                    if (ar[k] <= cruise_a) ar[k] = held;
+                    else held = ar[k];
+                }
+                for (Py_ssize_t k = 0; k < first; k++) ar[k] = ar[first];
+            }
+        }
+        /* the classic jerk tent (tent_rows) */
+        if (junction == 0) {
+            double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
+            ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
+            for (Py_ssize_t k = 0; k < n && ok; k++) ok = isfinite(fr[k]) && fr[k] > 0;
+            if (!ok) break;
+            double pmax = fr[0];
+            for (Py_ssize_t j = 1; j < n; j++) pmax = fr[j] > pmax ? fr[j] : pmax;
+            for (Py_ssize_t k = 0; k < n; k++) fsh[k] = fr[k];
+            for (Py_ssize_t k = 0; k < n; k++) {
+                double mm = side - st * (double)(k + 1);
+                double e = side - st * (double)(n - k);
+                if (e > mm) mm = e;
+                for (Py_ssize_t dd = 0; dd < n; dd++) {
+                    double sd = st * (double)dd;
+                    if (pmax - sd < mm) break;
+                    if (k - dd >= 0) {
+                        double q = fsh[k - dd] - sd;
+                        if (q > mm) mm = q;
+                    }
+                    if (dd > 0 && k + dd < n) {
+                        double q = fsh[k + dd] - sd;
+                        if (q > mm) mm = q;
+                    }
+                }
+                fr[k] = mm;
+            }
+        }
+        if (!predict) continue;
+        /* _predict_group: the junction speed caps v (n + 1) */
+        v[0] = p[CP_V0];
+        v[n] = p[CP_V1];
+        if (junction == 0) {
+            double jx = p[CP_JX], jy = p[CP_JY];
+            for (Py_ssize_t k = 0; k < n; k++) safe[k] = cf_safe(u[2 * k], u[2 * k + 1], fr[k], jx, jy);
+            for (Py_ssize_t k = 1; k < n; k++) {
+                double fp = fr[k - 1], fn = fr[k];
+                double q = cf_jerk_v(u[2 * (k - 1)], u[2 * (k - 1) + 1], u[2 * k], u[2 * k + 1], fp, fn, jx, jy,
+                                     safe[k - 1], safe[k]);
+                v[k] = np_min(q, np_min(fp, fn));
+            }
+        } else {
+            double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
+            for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */
+                double a0 = ar[k] > 0 ? ar[k] : defa;
+                double ux = fabs(u[2 * k]), uy = fabs(u[2 * k + 1]);
+                double a = ((ux > 0) && (a0 * ux > axm)) ? axm / ux : a0;
+                a = ((uy > 0) && (a * uy > aym)) ? aym / uy : a;
+                aa[k] = a;
+                vj[k] = scv * scv * sq2m1 / a0;
+                x[k] = 2.0 * d[k] * a;
+            }
+            for (Py_ssize_t k = 1; k < n; k++) {
+                double cos_t = -(u[2 * k] * u[2 * (k - 1)] + u[2 * k + 1] * u[2 * (k - 1) + 1] + 0.0);
+                double s2 = 0.5 * (1.0 - cos_t), c2 = 0.5 * (1.0 + cos_t);
+                double sin_d2 = sqrt(np_max(s2, 0.0)), cos_d2 = sqrt(np_max(c2, 0.0));
+                double one_m = 1.0 - sin_d2;
+                int okj = (one_m > 0.0) && (cos_d2 > 0.0);
+                double r_jd = sin_d2 / (okj ? one_m : 1.0);
+                double qt = 0.25 * sin_d2 / (okj ? cos_d2 : 1.0);
+                double q = np_min(r_jd * vj[k] * aa[k], r_jd * vj[k - 1] * aa[k - 1]);
+                q = np_min(np_min(q, x[k] * qt), x[k - 1] * qt);
+                q = okj ? sqrt(np_max(q, 0.0)) : INFINITY;
+                v[k] = np_min(q, np_min(fr[k - 1], fr[k]));
+            }
+        }
+        /* _trapezoid_rows: _lookahead_v2 */
+        for (Py_ssize_t k = 0; k < n; k++) reach[k] = 2.0 * ar[k] * d[k];
+        for (Py_ssize_t k = 0; k <= n; k++) v2[k] = v[k] * v[k];
+        cs[0] = 0.0;
+        cs[1] = reach[0];
+        for (Py_ssize_t k = 1; k < n; k++) cs[k + 1] = cs[k] + reach[k];
+        {
+            double mn = v2[0] - cs[0];
+            tmp[0] = np_min(v2[0], mn + cs[0]);
+            for (Py_ssize_t k = 1; k <= n; k++) {
+                mn = np_min(mn, v2[k] - cs[k]);
+                tmp[k] = np_min(v2[k], mn + cs[k]);
+            }
+        }
+        rs[n] = 0.0;
+        rs[n - 1] = reach[n - 1];
+        for (Py_ssize_t k = n - 2; k >= 0; k--) rs[k] = rs[k + 1] + reach[k];
+        {
+            double mn = tmp[n] - rs[n];
+            v2[n] = np_min(tmp[n], mn + rs[n]);
+            for (Py_ssize_t k = n - 1; k >= 0; k--) {
+                mn = np_min(mn, tmp[k] - rs[k]);
+                v2[k] = np_min(tmp[k], mn + rs[k]);
+            }
+        }
+        for (Py_ssize_t k = 0; k < n; k++) {
+            double va2 = v2[k], vb2 = v2[k + 1];
+            double peak2 = np_min(fr[k] * fr[k], 0.5 * (reach[k] + va2 + vb2));
+            peak2 = np_max(peak2, np_max(va2, vb2));
+            double pkk = sqrt(peak2), vak = sqrt(va2), vbk = sqrt(vb2);
+            double a = np_max(ar[k], 1e-12);
+            double up_d = (peak2 - va2) / (2.0 * a);
+            double dn_d = (peak2 - vb2) / (2.0 * a);
+            double cruise_d = np_max(d[k] - up_d - dn_d, 0.0);
+            tt[k] = (pkk - vak) / a + (pkk - vbk) / a + cruise_d / np_max(pkk, 1e-9);
+            tmp[k] = a * ((pkk - vak) + (pkk - vbk));
+            va[k] = vak;
+            vb[k] = vbk;
+        }
+        double a2 = -0.0 + cf_pw_sum(tmp, n);
+        for (Py_ssize_t k = 0; k + 1 < n; k++) {
+            double vi = va[k + 1];
+            double tj = 0.5 * (tt[k] + tt[k + 1]);
+            double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
+            tmp[k] = (ct[k] >= corner) ? dv2 / np_max(tj, 1e-12) : 0.0;
+        }
+        a2 = a2 + (n > 1 ? -0.0 + cf_pw_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
+        /* the end corners */
+        if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
+        if (p[CP_C1] >= corner) a2 = a2 + 1.0 * vb[n - 1] * vb[n - 1] * (1.0 - p[CP_C1]) / np_max(tt[n - 1], 1e-12);
+        tout[r] = -0.0 + cf_pw_sum(tt, n);
+        a2out[r] = a2;
+    }
+    free(wk);
+    release(&b);
+    return PyBool_FromLong(ok);
+}
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
@@ -752,6 +1121,7 @@ static PyMethodDef methods[] = {
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
+    {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

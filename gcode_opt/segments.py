@@ -19,7 +19,7 @@ from .laws.line import line_law, time_of_distance
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
 EDGE_T = 0.01            # s: ... and no longer than this at that speed (a slow lead-in costs time)
-KNOT_CHUNK = 1024         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
+KNOT_CHUNK = 2048         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
 MIN_EDGE_D = 0.02        # mm: no room for a lead-in this long: none (a sliver is 0/0 for its ramp)
 ROUND_D = 0.002          # mm: what writing X/Y to 3 decimals may take off a short move
 EDGE_MIN_V = 1.0         # mm/s: a corner slower than this (2 x the model's full-stop threshold) is passed

@@ -19,7 +19,7 @@ from .laws.line import line_law, time_of_distance
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
 EDGE_T = 0.01            # s: ... and no longer than this at that speed (a slow lead-in costs time)
-KNOT_CHUNK = 1024         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
+KNOT_CHUNK = 2048         # strokes whose knots are evaluated at once (law temporaries ~ 50 x strokes x knots)
 MIN_EDGE_D = 0.02        # mm: no room for a lead-in this long: none (a sliver is 0/0 for its ramp)
 ROUND_D = 0.002          # mm: what writing X/Y to 3 decimals may take off a short move
 EDGE_MIN_V = 1.0         # mm/s: a corner slower than this (2 x the model's full-stop threshold) is passed
@@ -41,6 +41,34 @@ def law_knots(strokes, T, beta, n):
     m = len(strokes)
     if m == 0:
         return []
+    multi, blocks = _law_knot_blocks(strokes, T, beta, n)
+    out = _Knots([None]) * m
+    for g, s, v in blocks:              # each stroke's s and v: its rows of the blocks
+        for i, sr, vr in zip(g.tolist(), s, v):
+            out[i] = (sr, vr)
+    for i, sv in multi.items():
+        out[i] = sv
+    out.blocks = blocks
+    return out
+
+
+class _Knots(list):
+    """law_knots' list of (s, v), with the blocks its strokes of one move are rows of:
+    blocks [(rows, S, V)], out[rows[q]] == (S[q], V[q]) (_finish_jerk_rows takes them as
+    they are instead of stacking the rows again).  A list like any other."""
+    __slots__ = ("blocks",)
+
+    def __mul__(self, k):
+        out = _Knots(list.__mul__(self, k))
+        out.blocks = ()
+        return out
+
+
+def _law_knot_blocks(strokes, T, beta, n):
+    """law_knots' knots as ({i: (s, v)} of the strokes of several moves, [(rows, S, V)]
+    blocks of the strokes of one move, by knot count: stroke rows[q]'s s and v are the
+    rows S[q], V[q]).  The speeds are evaluated without the accelerations (LineLaw.eval's
+    want: the same s and v)."""
     L = np.array([st.length_d for st in strokes])
     v0 = np.array([st.v0 for st in strokes])
     v1 = np.array([st.v1 for st in strokes])
@@ -48,13 +76,15 @@ def law_knots(strokes, T, beta, n):
     j = np.arange(n.max() + 1)
     tau = np.minimum(j[None, :] / n[:, None], 1.0)
     law = line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
-    s_all, v_all, _ = law.eval(tau * T[:, None])
+    s_all, v_all, _ = law.eval(tau * T[:, None], "sv")
     # interior vertices of multi-move strokes: one vectorised inversion s -> t
+    nm = [st.n_moves for st in strokes]
     owner, verts = [], []
-    for i, st in enumerate(strokes):
-        if st.n_moves > 1:
-            owner += [i] * (st.n_moves - 1)
-            verts += st.ends_d[:-1]
+    if max(nm) > 1:
+        for i, st in enumerate(strokes):
+            if nm[i] > 1:
+                owner += [i] * (nm[i] - 1)
+                verts += st.ends_d[:-1]
     vv = {}
     if verts:
         owner_a, verts_a = np.array(owner), np.array(verts)
@@ -62,24 +92,25 @@ def law_knots(strokes, T, beta, n):
         _, v_vert, _ = vl.eval(np.asarray(time_of_distance(vl, verts_a), float), "v")
         for k, i in enumerate(owner):
             vv.setdefault(i, []).append((verts_a[k], float(v_vert[k])))
-    out = [None] * m
     # strokes of one move, by knot count: their rows in one go (the same copies, the
-    # same elementwise max and the same assignments as stroke by stroke); each stroke's
-    # s and v are its rows of the blocks
-    by_n = {}
-    for i, k in enumerate(n.tolist()):
-        if i not in vv:
-            by_n.setdefault(k, []).append(i)
-    for k, rows in by_n.items():
-        g = np.array(rows, int)
-        s = s_all[g, :k + 1]
-        s[:, 0] = 0.0
-        s[:, -1] = L[g]
-        v = np.maximum(v_all[g, :k + 1], 0.0)
-        v[:, 0] = v0[g]
-        v[:, -1] = v1[g]
-        for q, i in enumerate(rows):
-            out[i] = (s[q], v[q])
+    # same elementwise max and the same assignments as stroke by stroke)
+    single = np.ones(len(strokes), bool)
+    if vv:
+        single[list(vv)] = False
+    blocks = []
+    idx = np.flatnonzero(single)
+    if idx.size:
+        ks = n[idx]
+        for k in np.unique(ks).tolist():
+            g = idx[ks == k]
+            s = s_all[g, :k + 1]
+            s[:, 0] = 0.0
+            s[:, -1] = L[g]
+            v = np.maximum(v_all[g, :k + 1], 0.0)
+            v[:, 0] = v0[g]
+            v[:, -1] = v1[g]
+            blocks.append((g, s, v))
+    multi = {}
     for i in vv:                  # strokes of several moves: their vertices' knots merged in
         s, v = s_all[i, :n[i] + 1].copy(), v_all[i, :n[i] + 1].copy()
         vs = np.array([p[0] for p in vv[i]])
@@ -94,8 +125,8 @@ def law_knots(strokes, T, beta, n):
         s[0], s[-1] = 0.0, L[i]
         v = np.maximum(v, 0.0)
         v[0], v[-1] = v0[i], v1[i]
-        out[i] = (s, v)
-    return out
+        multi[i] = (s, v)
+    return multi, blocks
 
 
 def with_edges(s, v, edge0_d=0.0, edge1_d=0.0):
@@ -383,8 +414,7 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     A stroke too short or quick for two segments, or whose segments would not beat the
     original trapezoid, gets the one-move trapezoid of the same duration with the least
     int a^2 (trapezoid.py) instead, when that beats the original."""
-    n = np.array([segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)
-                  for st, t in zip(strokes, T)], dtype=int)
+    n = _segment_counts(strokes, T, rules)
     ok = np.flatnonzero(n >= 2)
     plans = [None] * len(strokes)
     T, beta = np.asarray(T), np.asarray(beta)
@@ -410,6 +440,26 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
             if p is not None and p.int_a2 < strokes[i].int_a2 and (plans[i] is None or p.int_a2 < plans[i].int_a2):
                 plans[i] = p
     return plans
+
+
+def _segment_counts(strokes, T, rules):
+    """[segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)] as an int
+    array: the same truncated quotients and the same least of three (exact on floats that
+    hold integers: n_max below 2^53); anything else (a quotient not finite, which int()
+    refuses, a step not > 0, an n_max not an int) takes segment_count stroke by stroke."""
+    n_max, seg_t, min_d = rules.n_max, rules.seg_t, rules.min_seg_d
+    if (len(strokes) and type(n_max) is int and 0 <= n_max < 2 ** 53 and isinstance(seg_t, float)
+            and isinstance(min_d, float) and seg_t > 0 and min_d > 0 and np.ndim(T) == 1):
+        L = np.array([st.length_d for st in strokes], float)
+        Tf = np.asarray(T, float)
+        if L.ndim == 1 and Tf.shape == L.shape:
+            with np.errstate(all="ignore"):
+                q1, q2 = np.trunc(Tf / seg_t), np.trunc(L / min_d)
+            if np.isfinite(q1).all() and np.isfinite(q2).all():
+                nf = np.minimum(np.minimum(q1, q2), float(n_max))
+                return np.maximum(nf, 0.0).astype(int)
+    return np.array([segment_count(t, st.length_d, n_max, seg_t, min_d)
+                     for st, t in zip(strokes, T)], dtype=int)
 
 
 def _accel_top(stroke):
@@ -507,7 +557,8 @@ def jerk_step_v(st):
 def _finish_jerk_rows(strokes, knots, rules):
     """The SegmentPlans _finish(st, sk, vk, rules, defer=True) and _finish_feeds_and_figures
     make of the strokes that take _finish's plainest path, for all of one knot count at
-    once (their blocks go on to _block_plans as they are); None for the others (and for
+    once (law_knots' own blocks as they are, _Knots.blocks; other rows stacked by knot count:
+    _jerk_rows); None for the others (and for
     all of them under a junction law other than classic jerk), which go through _finish.
 
     The plainest path: classic jerk (accel_to_pass_junction gives 0.0 at both ends), no
@@ -515,46 +566,105 @@ def _finish_jerk_rows(strokes, knots, rules):
     min_edge_d long), and ramp accelerations at both ends not below 0 (0.0 > acc would
     add edges).  Then _finish computes ramp_accels (elementwise: the same here in rows),
     acc[0] = max(acc[0], min(0.0, accel)) and the same for acc[-1] (Python's max and min:
-    np.where on the same comparisons), and step_v on Python floats (as here), and returns
-    the knots it was given.  ~68 k strokes on the rectilinear plate: ~15 µs each there."""
+    np.where on the same comparisons), and step_v (jerk_step_v: _jerk_steps, the same
+    operations), and returns the knots it was given.  ~68 k strokes on the rectilinear
+    plate (law_knots, _finish_jerk_rows and the plans: ~20 µs each there, was ~29)."""
     out = [None] * len(strokes)
     if rules.junction != "jerk":
         return out
+    blocks = getattr(knots, "blocks", None) if type(knots) is _Knots else None
+    done = set()
+    for g, S, V in blocks or ():       # law_knots' blocks: its rows' knots as they are
+        if (type(S) is type(V) is np.ndarray and S.ndim == V.ndim == 2 and S.shape[1] >= 3
+                and S.shape == V.shape and S.dtype == V.dtype == _F64):
+            qs = g.tolist()
+            done.update(qs)
+            got = _jerk_rows(S, V, [strokes[q] for q in qs], rules)
+            if got is not None:
+                for k, plan in zip(*got):
+                    out[qs[k]] = plan
     by_k = {}
     for q, (st, (sk, _)) in enumerate(zip(strokes, knots)):
-        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64:
+        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64 and q not in done:
             by_k.setdefault(sk.size, []).append(q)
     for qs in by_k.values():
-        sts = [strokes[q] for q in qs]
-        keep = [not (s0 or s1) for s0, s1 in map(slowed_ends, sts)]
         S = np.stack([knots[q][0] for q in qs])
         V = np.stack([np.asarray(knots[q][1], float) for q in qs])
-        d = S[:, 1:] - S[:, :-1]
-        if rules.min_move_d > 0.0:
-            # _merge_short leaves the knots alone where the shortest segment is >= min_d
-            min_d = _min_edge_d_rows(rules, sts)
-            with np.errstate(invalid="ignore"):
-                keep = [k and m for k, m in zip(keep, (d.min(axis=1) >= min_d).tolist())]
-        v2 = V * V
-        with np.errstate(all="ignore"):
-            acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
-            z = np.array([min(0.0, st.accel) for st in sts], float)
-            edge = (0.0 > acc[:, 0]) | (0.0 > acc[:, -1])
-            acc[:, 0] = np.where(z > acc[:, 0], z, acc[:, 0])
-            acc[:, -1] = np.where(z > acc[:, -1], z, acc[:, -1])
-        take, step_v = [], []
-        for k, (st, e) in enumerate(zip(sts, edge.tolist())):
-            if keep[k] and not e:
-                step_v.append(jerk_step_v(st))
-                take.append(k)
-        if not take:
-            continue
-        if len(take) < len(qs):
-            S, V, acc = S[take], V[take], acc[take]
-        grp = [(sts[k], knots[qs[k]][0], knots[qs[k]][1]) for k in take]
-        for k, plan in zip(take, _block_plans(grp, S, V, acc, step_v, None)):
-            out[qs[k]] = plan
+        got = _jerk_rows(S, V, [strokes[q] for q in qs], rules, [knots[q] for q in qs])
+        if got is not None:
+            for k, plan in zip(*got):
+                out[qs[k]] = plan
     return out
+
+
+def _jerk_rows(S, V, sts, rules, knots=None):
+    """_finish_jerk_rows of one knot count's rows S, V (float64 blocks; knots: each row's
+    own (sk, vk) for its plan, else the blocks' rows): (rows taken, their SegmentPlans),
+    or None where no row is taken.  The strokes' fields are read into arrays once: Python's
+    min / max of two floats are np.where on the same comparison (the first one on a tie
+    or a NaN), the divisions the same; a stroke whose jerk step divides by 0 goes stroke by
+    stroke (jerk_step_v raises as _finish would)."""
+    m = len(sts)
+    fw = [getattr(st, "v0_fw", None) is None and getattr(st, "v1_fw", None) is None for st in sts]
+    if all(fw):
+        keep = np.ones(m, bool)
+    else:                                          # slowed_ends is (False, False) where both are None
+        keep = np.array([f or not any(slowed_ends(st)) for f, st in zip(fw, sts)], bool)
+    d = S[:, 1:] - S[:, :-1]
+    if rules.min_move_d > 0.0:
+        # _merge_short leaves the knots alone where the shortest segment is >= min_d
+        min_d = _min_edge_d_rows(rules, sts)
+        with np.errstate(invalid="ignore"):
+            keep &= d.min(axis=1) >= min_d
+    v2 = V * V
+    accel = np.array([st.accel for st in sts], float)
+    with np.errstate(all="ignore"):
+        acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
+        z = np.where(accel < 0.0, accel, 0.0)      # min(0.0, accel)
+        edge = (0.0 > acc[:, 0]) | (0.0 > acc[:, -1])
+        acc[:, 0] = np.where(z > acc[:, 0], z, acc[:, 0])
+        acc[:, -1] = np.where(z > acc[:, -1], z, acc[:, -1])
+    keep &= ~edge
+    take = np.flatnonzero(keep)
+    if not take.size:
+        return None
+    if take.size < m:
+        S, V, acc, accel = S[take], V[take], acc[take], accel[take]
+        sts = [sts[k] for k in take.tolist()]
+        if knots is not None:
+            knots = [knots[k] for k in take.tolist()]
+    step_v = _jerk_steps(sts)
+    A = hold_cruise_accels_rows(acc, accel)
+    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    if knots is None:
+        made = list(map(SegmentPlan, S, V, A, feeds, t_pred, a2_pred))
+        # settle_rows: the knots and speeds are rows of the float64 blocks S, V
+        if type(A) is type(feeds) is np.ndarray and A.ndim == feeds.ndim == 2 and A.dtype is feeds.dtype is _F64:
+            for plan, f in zip(made, fine):
+                if f:
+                    plan.fault = ""
+    else:
+        made = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, A, feeds, t_pred, a2_pred)]
+        settle_rows(made, fine, A, feeds)
+    return take.tolist(), made
+
+
+def _jerk_steps(sts):
+    """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient)."""
+    lims = [st.lim for st in sts]
+    jx = np.array([lim.jerk_x for lim in lims], float)
+    jy = np.array([lim.jerk_y for lim in lims], float)
+    ax = np.abs(np.array([st.ux for st in sts], float))
+    ay = np.abs(np.array([st.uy for st in sts], float))
+    mn = np.where(jy < jx, jy, jx)
+    mx = np.where(ay > ax, ay, ax)
+    if (mx == 0.0).any():
+        return np.array([jerk_step_v(st) for st in sts], float)
+    with np.errstate(all="ignore"):
+        return 0.9 * mn / mx
 
 
 _F64 = np.dtype(float)

@@ -285,11 +285,16 @@ def test_least_a2_trapezoids_random():
         a_max = float(rng.uniform(500, 20000))
         fl = float(rng.choice([-np.inf, rng.uniform(0, 5000)]))
         rows.append((L, T, v0, v1, v_lo, v_hi, a_max, fl))
+    for _ in range(40):                        # best at lo (cruise at v0 = v1): a zero-width refinement
+        v = float(rng.uniform(20, 100))          # grid in the same batch as the others (linspace's step 0)
+        rows.append((1.0, 1.0, v, v, 0.0, float(rng.uniform(100, 300)), 1e4, float(rng.choice([-np.inf, 500.0]))))
     rows.append((3.0, 0.05, 0.0, 0.0, 0.0, 50.0, 1e5, -np.inf))          # None: too slow
     rows.append((1.0, 0.1, 0.0, 0.0, 0.0, 1e4, 1e9, -np.inf))
     n_none = _check_rows(rows)
     assert 100 < n_none < len(rows) - 1000
     # one at a time and empty
+    rng.shuffle(rows)
+    _check_rows(rows)
     for r in rows[:50]:
         _check_rows([r])
     vp, a = seg.least_a2_trapezoids(*np.zeros((8, 0)))
@@ -301,6 +306,8 @@ def test_rows_linspace_is_linspace():
     a = rng.uniform(0, 100, 400)
     b = a + rng.choice([0.0, 1e-310, 5e-324, 1.0, 1e-12], 400) * rng.uniform(0, 3, 400)
     a[:5], b[:5] = 1.0, 1.0
+    a[5:40] = rng.uniform(0, 1e-306, 35)             # denormal steps
+    b[5:40] = a[5:40] + rng.uniform(0, 1e-308, 35)
     got = seg._rows_linspace(a, b, 33)
     for i in range(len(a)):
         assert got[i].tobytes() == np.linspace(a[i], b[i], 33).tobytes(), i

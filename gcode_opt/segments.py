@@ -935,7 +935,32 @@ def line_trapezoids(strokes, T, beta, rules: SegmentRules):
     if not len(strokes):
         return []
     peaks = law_peak_speeds(strokes, T, beta)
-    return [_line_trapezoid(st, float(t), float(p), rules) for st, t, p in zip(strokes, T, peaks)]
+    # every stroke's variants (edges, and none unless an end is slowed, as _line_trapezoid),
+    # their least-a^2 trapezoids solved in one batch (least_a2_trapezoids: the same bits)
+    preps = []
+    for st, t, p in zip(strokes, T, peaks):
+        t, p = float(t), float(p)
+        slow = any(slowed_ends(st))
+        preps.append((_edges_prep(st, t, p, rules, True),
+                      None if slow else _edges_prep(st, t, p, rules, False)))
+    rows = [q for pair in preps for q in pair if q is not None]
+    if rows:
+        cols = np.array([q[0] for q in rows], float).T       # Lm, T, v0, v1, v_lo, v_hi, a_top, floor
+        vps, accs = least_a2_trapezoids(*cols)
+    out, r = [], 0
+    for pair in preps:
+        got = []
+        for q in pair:
+            if q is None:
+                continue
+            vp, a = vps[r], accs[r]
+            r += 1
+            if vp == vp:                  # nan: no trapezoid
+                p = _edges_finish(q[1], float(vp), float(a))
+                if p is not None:
+                    got.append(p)
+        out.append(min(got, key=lambda p: p.int_a2) if got else None)
+    return out
 
 
 def _line_trapezoid(st, T, v_peak, rules):
@@ -962,6 +987,27 @@ def slowed_original(st, rules: SegmentRules):
 def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
     """fixed_a: the move's own acceleration, v_peak its feed (slowed_original), instead of
     the least-int a^2 trapezoid of duration T."""
+    q = _edges_prep(st, T, v_peak, rules, edges, fixed_a)
+    if q is None:
+        return None
+    (Lm, Tm, v0, v1, v_lo, v_hi, a_top, floor_a), state = q
+    if fixed_a is not None:
+        vp, a = v_peak, fixed_a
+        if floor_a > -np.inf:
+            a = max(a, floor_a)
+    else:
+        a_min = None if floor_a == -np.inf else (lambda vp: np.full_like(vp, floor_a))
+        got = least_a2_trapezoid(Lm, Tm, v0, v1, v_lo, v_hi, a_top, a_min)
+        if got is None:
+            return None
+        vp, a, _, _ = got
+    return _edges_finish(state, vp, a)
+
+
+def _edges_prep(st, T, v_peak, rules, edges, fixed_a=None):
+    """_line_trapezoid_edges up to its trapezoid: None, or ((Lm, T - t_edges, v0, v1, v_lo,
+    v_hi, a_top, floor_a): least_a2_trapezoid's arguments, floor_a the constant a_min
+    (-inf: none), state for _edges_finish)."""
     u = (st.ux, st.uy)
     v0 = st.v0 if st.v0 >= FULL_STOP_V else 0.0
     v1 = st.v1 if st.v1 >= FULL_STOP_V else 0.0
@@ -993,19 +1039,16 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
     if rules.junction == "jd" and (min(np.diff([0.0] + list(st.ends_d))) < rules.min_seg_d or
                                    (0 < e0 < rules.min_seg_d) or (0 < e1 < rules.min_seg_d)):
         return None
-    a_min = None
+    floor_a = -np.inf
     if not e0 and need0 > 0 or not e1 and need1 > 0:    # the original passed them with at most a_top
-        floor_a = min(max(need0 if not e0 else 0.0, need1 if not e1 else 0.0), a_top)
-        a_min = lambda vp: np.full_like(vp, floor_a)
-    if fixed_a is not None:
-        vp, a = v_peak, fixed_a
-        if a_min is not None:
-            a = max(a, float(a_min(np.array([vp]))[0]))
-    else:
-        got = least_a2_trapezoid(Lm, T - t_edges, v0, v1, v_lo, v_hi, a_top, a_min)
-        if got is None:
-            return None
-        vp, a, _, _ = got
+        floor_a = float(min(max(need0 if not e0 else 0.0, need1 if not e1 else 0.0), a_top))
+    return ((Lm, T - t_edges, v0, v1, v_lo, v_hi, a_top, floor_a),
+            (st, rules, u, v0, v1, L, jd, e0, e1, Lm, need0, need1))
+
+
+def _edges_finish(state, vp, a):
+    """_line_trapezoid_edges' plan for the trapezoid (vp, a)."""
+    st, rules, u, v0, v1, L, jd, e0, e1, Lm, need0, need1 = state
     # knots: the edges, every original vertex, the ends
     inner = np.array([d for d in st.ends_d[:-1] if e0 < d < L - e1], float)
     s = np.concatenate([[0.0], [e0] if e0 else [], inner, [L - e1] if e1 else [], [L]])
@@ -1029,3 +1072,70 @@ def _line_trapezoid_edges(st, T, v_peak, rules, edges, fixed_a=None):
     acc = hold_cruise_accels(acc, st.accel)
     t_pred, a2_pred = predict_peaked(s, v, acc, feed)
     return SegmentPlan(s, v, acc, feed, t_pred, a2_pred, "trapezoid")
+
+
+def _py_max(a, b):
+    """Python's max(a, b) elementwise (a unless b > a)."""
+    return np.where(b > a, b, a)
+
+
+def _py_min(a, b):
+    """Python's min(a, b) elementwise (a unless b < a)."""
+    return np.where(b < a, b, a)
+
+
+def _rows_linspace(start, stop, num):
+    """np.linspace(start[i], stop[i], num) per row i, bit for bit: numpy takes its
+    step == 0 branch ((k / div) * delta) per call, so it is chosen here per row."""
+    div = num - 1
+    delta = stop - start
+    step = delta / div
+    k = np.arange(0, num, dtype=float)
+    y = np.where((step == 0)[:, None], (k / div)[None, :] * delta[:, None], k[None, :] * step[:, None])
+    y += start[:, None]
+    y[:, -1] = stop
+    return y
+
+
+def least_a2_trapezoids(L, T, v0, v1, v_lo, v_hi, a_max, a_floor):
+    """least_a2_trapezoid for m trapezoids at once (1-d arrays of its arguments; a_floor the
+    constant a_min per row, -inf: none; no extra_fn), the same operations row by row, so
+    the same bits.  Returns (vp, a): arrays, nan where least_a2_trapezoid returns None."""
+    L, T, v0, v1, v_lo, v_hi, a_max, a_floor = (np.asarray(x, float) for x in
+                                                (L, T, v0, v1, v_lo, v_hi, a_max, a_floor))
+    m = len(L)
+    vp_out = np.full(m, np.nan)
+    a_out = np.full(m, np.nan)
+    if not m:
+        return vp_out, a_out
+    with np.errstate(all="ignore"):
+        lo = _py_max(_py_max(_py_max(v_lo, v0), v1), L / T * (1.0 + 1e-9))
+        ok = (lo <= v_hi) & (L > 0) & (T > 0) & (a_max > 0)
+        idx = np.flatnonzero(ok)
+        if not len(idx):
+            return vp_out, a_out
+        L, T, v0, v1, v_hi, a_max, a_floor, lo = (x[idx] for x in (L, T, v0, v1, v_hi, a_max, a_floor, lo))
+        Lc, Tc, v0c, v1c, a_maxc, floorc = (x[:, None] for x in (L, T, v0, v1, a_max, a_floor))
+        table = np.concatenate([[0.0], np.geomspace(1e-6, 1.0, TRAP_GRID - 1)])
+        grid = lo[:, None] + (v_hi - lo)[:, None] * table[None, :]
+        alive = np.ones(len(idx), bool)
+        rows = np.arange(len(idx))
+        for step in range(3):
+            vp = grid
+            G = ((vp - v0c) ** 2 + (vp - v1c) ** 2) / (2.0 * vp)
+            a = G / (Tc - Lc / vp)
+            a = np.where(np.isfinite(a) & (a > 0), a, np.where(G <= 1e-12, 2 * CRUISE_A, np.inf))
+            a = np.maximum(a, floorc)
+            a = np.maximum(a, (2.0 * vp * vp - v0c * v0c - v1c * v1c) / (2.0 * Lc))
+            fits = a <= a_maxc
+            c = a * (2.0 * vp - v0c - v1c) + 0.0
+            c = np.where(fits, c, np.inf)
+            k = np.argmin(c, axis=1)
+            alive &= np.isfinite(c[rows, k])
+            vp, a = grid[rows, k], a[rows, k]
+            w = 0.25 * (vp - lo) / 16 ** step
+            grid = np.concatenate([_rows_linspace(_py_max(lo, vp - w), _py_min(v_hi, vp + w), 33),
+                                   vp[:, None]], axis=1)
+        vp_out[idx[alive]] = vp[alive]
+        a_out[idx[alive]] = a[alive]
+    return vp_out, a_out

@@ -2244,6 +2244,226 @@ static void *fused_session(SimObject *s, PyObject *step, int *err)
     return ss;
 }
 
+/* ---------------------------------------------------------------- SET_VELOCITY_LIMIT in play()
+ * A Klipper output carries "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=.." (and ACCEL=..) around
+ * every re-timed stroke; the reader hands such a line to Python (fused_line returns 2, the
+ * state written back).  play() reads the plain ones here as MachineState._step_python reads
+ * them (_other -> _set_velocity_limit, flavour klipper): ACCEL sets accel_print and
+ * accel_travel to one float, VELOCITY / SQUARE_CORNER_VELOCITY / MINIMUM_CRUISE_RATIO make
+ * a new Limits (Limits.replace: the other slots' objects shared), ACCEL_TO_DECEL is read
+ * and ignored.  Only this shape is read here: spaces or tabs, then "SET_VELOCITY_LIMIT"
+ * (upper case), then one or more " KEY=NUMBER" (KEY one of the five in upper case, each at
+ * most once, NUMBER words.strict_number's grammar, at most 64 characters), spaces or tabs,
+ * an optional ';' comment of printable ASCII and tabs, and the line's LF or CR LF; every
+ * value within _set_velocity_limit's ranges; the state exactly a MachineState whose
+ * flavour is the str "klipper" and whose lim is exactly a Limits with every slot set.
+ * Anything else -- lower case, a key twice, an unknown key, a macro value, a bad or
+ * out-of-range number, a stray CR, a control character -- goes to step() as before:
+ * Python's errors and texts stay Python's.  The numbers are PyOS_string_to_double's, as
+ * float() reads a strict number. */
+static PyTypeObject *SVL_STATE = NULL;    /* state.MachineState (setup's consts["STATE"]) */
+static double SVL_MAX_V = 0.0, SVL_MAX_A = 0.0;
+static PyObject *SVL_NAMES[4] = {NULL, NULL, NULL, NULL};   /* flavour lim accel_print accel_travel */
+
+enum { SVL_VEL, SVL_ACC, SVL_A2D, SVL_SCV, SVL_MCR, SVL_N };
+static const char *SVL_KEYS[SVL_N] = {"VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY",
+                                      "MINIMUM_CRUISE_RATIO"};
+
+/* 1 with the values read (have[k] set for each key given), 0 not this shape or a value
+ * _set_velocity_limit refuses (Python reads the line) */
+static int svl_parse(const unsigned char *p, Py_ssize_t n, double *val, int *have)
+{
+    if (n > 0 && p[n - 1] == '\n') {
+        n--;
+        if (n > 0 && p[n - 1] == '\r')
+            n--;
+    }
+    Py_ssize_t code_n = n;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        unsigned char c = p[j];
+        if (!(c == '\t' || (c >= 0x20 && c < 0x7f)))
+            return 0;
+        if (c == ';' && code_n == n)
+            code_n = j;
+    }
+    Py_ssize_t j = 0;
+    while (j < code_n && (p[j] == ' ' || p[j] == '\t'))
+        j++;
+    static const char CMD[] = "SET_VELOCITY_LIMIT";
+    const Py_ssize_t cmd_n = (Py_ssize_t)sizeof(CMD) - 1;
+    if (code_n - j < cmd_n || memcmp(p + j, CMD, (size_t)cmd_n) != 0)
+        return 0;
+    j += cmd_n;
+    for (int k = 0; k < SVL_N; k++)
+        have[k] = 0;
+    int words = 0;
+    for (;;) {
+        Py_ssize_t ws = j;
+        while (j < code_n && (p[j] == ' ' || p[j] == '\t'))
+            j++;
+        if (j == code_n)
+            break;
+        if (j == ws)                   /* "SET_VELOCITY_LIMITX" or "ACCEL=1X=2" */
+            return 0;
+        Py_ssize_t k0 = j;
+        while (j < code_n && ((p[j] >= 'A' && p[j] <= 'Z') || p[j] == '_'))
+            j++;
+        if (j == code_n || p[j] != '=')
+            return 0;
+        int key = -1;
+        for (int k = 0; k < SVL_N; k++)
+            if ((Py_ssize_t)strlen(SVL_KEYS[k]) == j - k0 && memcmp(p + k0, SVL_KEYS[k], (size_t)(j - k0)) == 0)
+                key = k;
+        if (key < 0 || have[key])
+            return 0;
+        j++;
+        Py_ssize_t v0 = j;
+        if (j < code_n && (p[j] == '+' || p[j] == '-'))
+            j++;
+        Py_ssize_t d0 = j;
+        while (j < code_n && p[j] >= '0' && p[j] <= '9')
+            j++;
+        Py_ssize_t int_n = j - d0, frac_n = 0;
+        if (j < code_n && p[j] == '.') {
+            j++;
+            Py_ssize_t f0 = j;
+            while (j < code_n && p[j] >= '0' && p[j] <= '9')
+                j++;
+            frac_n = j - f0;
+        }
+        if (int_n == 0 && frac_n == 0)          /* "", "+", ".", "-." */
+            return 0;
+        if (j < code_n && p[j] != ' ' && p[j] != '\t')
+            return 0;                            /* "1e5", "1.2.3", "5,", "nan" */
+        char buf[72];
+        if (j - v0 > 64)
+            return 0;
+        memcpy(buf, p + v0, (size_t)(j - v0));
+        buf[j - v0] = '\0';
+        double x = PyOS_string_to_double(buf, NULL, NULL);
+        if (x == -1.0 && PyErr_Occurred()) {
+            PyErr_Clear();
+            return 0;
+        }
+        val[key] = x;
+        have[key] = 1;
+        words++;
+    }
+    if (words == 0)
+        return 0;
+    if (have[SVL_VEL] && !(0.0 < val[SVL_VEL] && val[SVL_VEL] <= SVL_MAX_V))
+        return 0;
+    if (have[SVL_ACC] && !(0.0 < val[SVL_ACC] && val[SVL_ACC] <= SVL_MAX_A))
+        return 0;
+    if (have[SVL_SCV] && !(0.0 <= val[SVL_SCV] && val[SVL_SCV] <= SVL_MAX_V))
+        return 0;
+    if (have[SVL_MCR] && !(0.0 <= val[SVL_MCR] && val[SVL_MCR] < 1.0))
+        return 0;
+    return 1;
+}
+
+/* 1 the line read here (the state changed as Python's step changes it), 0 not read (call
+ * step()), -1 error */
+static int svl_line(PyObject *state, PyObject *raw)
+{
+    if (SVL_STATE == NULL || Py_TYPE(state) != SVL_STATE || !PyUnicode_CheckExact(raw)
+        || !PyUnicode_IS_ASCII(raw))
+        return 0;
+    double val[SVL_N];
+    int have[SVL_N];
+    if (!svl_parse(PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), val, have))
+        return 0;
+    PyObject *fl = PyObject_GetAttr(state, SVL_NAMES[0]);
+    if (fl == NULL) {
+        PyErr_Clear();
+        return 0;
+    }
+    int klipper = PyUnicode_CheckExact(fl) && PyUnicode_CompareWithASCIIString(fl, "klipper") == 0;
+    Py_DECREF(fl);
+    if (!klipper)
+        return 0;
+    PyObject *new_lim = NULL, *acc = NULL;
+    int rc = -1;
+    if (have[SVL_VEL] || have[SVL_SCV] || have[SVL_MCR]) {     /* Limits.replace(**kw) */
+        PyObject *lim = PyObject_GetAttr(state, SVL_NAMES[1]);
+        if (lim == NULL) {
+            PyErr_Clear();
+            return 0;
+        }
+        PyTypeObject *lt = LIM_MAP.type;
+        int ok = lt != NULL && Py_TYPE(lim) == lt;
+        for (int i = 0; ok && i < L_N; i++)
+            ok = LIM_MAP.off[i] >= 0 && *(PyObject **)((char *)lim + LIM_MAP.off[i]) != NULL;
+        if (!ok) {
+            Py_DECREF(lim);
+            return 0;
+        }
+        new_lim = lt->tp_alloc(lt, 0);
+        if (new_lim == NULL) {
+            Py_DECREF(lim);
+            return -1;
+        }
+        for (int i = 0; i < L_N; i++) {
+            PyObject *v;
+            if (i == L_VMAX && have[SVL_VEL])
+                v = PyFloat_FromDouble(val[SVL_VEL]);
+            else if (i == L_SCV && have[SVL_SCV])
+                v = PyFloat_FromDouble(val[SVL_SCV]);
+            else if (i == L_MCR && have[SVL_MCR])
+                v = PyFloat_FromDouble(val[SVL_MCR]);
+            else {
+                v = *(PyObject **)((char *)lim + LIM_MAP.off[i]);
+                Py_INCREF(v);
+            }
+            if (v == NULL) {
+                Py_DECREF(lim);
+                goto done;
+            }
+            *(PyObject **)((char *)new_lim + LIM_MAP.off[i]) = v;
+        }
+        Py_DECREF(lim);
+    }
+    if (have[SVL_ACC]) {          /* self.accel_print = self.accel_travel = a, then the lim */
+        acc = PyFloat_FromDouble(val[SVL_ACC]);
+        if (acc == NULL || PyObject_SetAttr(state, SVL_NAMES[2], acc) < 0
+            || PyObject_SetAttr(state, SVL_NAMES[3], acc) < 0)
+            goto done;
+    }
+    if (new_lim != NULL && PyObject_SetAttr(state, SVL_NAMES[1], new_lim) < 0)
+        goto done;
+    rc = 1;
+done:
+    Py_XDECREF(new_lim);
+    Py_XDECREF(acc);
+    return rc;
+}
+
+/* setup's optional constants for svl_line: without them play() hands these lines to step() */
+static int svl_setup(PyObject *c)
+{
+    static const char *names[4] = {"flavour", "lim", "accel_print", "accel_travel"};
+    Py_CLEAR(SVL_STATE);
+    PyObject *st = PyDict_GetItemString(c, "STATE");
+    PyObject *mv = PyDict_GetItemString(c, "MAX_VELOCITY_V");
+    PyObject *ma = PyDict_GetItemString(c, "MAX_ACCEL_A");
+    if (st == NULL || mv == NULL || ma == NULL || !PyType_Check(st))
+        return 0;
+    double v = PyFloat_AsDouble(mv), a = PyFloat_AsDouble(ma);
+    if (PyErr_Occurred())
+        return -1;
+    for (int i = 0; i < 4; i++) {
+        PyObject *nm = PyUnicode_InternFromString(names[i]);
+        if (nm == NULL)
+            return -1;
+        Py_XSETREF(SVL_NAMES[i], nm);
+    }
+    SVL_MAX_V = v;
+    SVL_MAX_A = a;
+    Py_INCREF(st);
+    SVL_STATE = (PyTypeObject *)st;
+    return 0;
+}
+
 /* a FusedMove played as Sim_move_body plays the Move the reader would have made */
 static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
 {
@@ -2321,7 +2541,13 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
                 }
                 continue;
             }
-            /* got == 2: the state is written back; step() reads this line */
+            /* got == 2: the state is written back; a plain SET_VELOCITY_LIMIT is read
+             * here (svl_line), any other line by step() */
+            int h = svl_line(PyMethod_GET_SELF(step), raw);
+            if (h < 0)
+                goto fail_ss;
+            if (h > 0)
+                continue;
         }
         PyObject *io = PyLong_FromLongLong(idx);
         if (io == NULL)
@@ -2855,7 +3081,7 @@ static PyObject *mod_setup(PyObject *self, PyObject *args)
     if (map_init(&BAR_MAP, bar_t, bar_names) < 0)
         return NULL;
     if (const_l(c, "LINE", &K_LINE) < 0 || const_l(c, "ARC", &K_ARC) < 0
-        || const_l(c, "EONLY", &K_EONLY) < 0)
+        || const_l(c, "EONLY", &K_EONLY) < 0 || svl_setup(c) < 0)
         return NULL;
     Py_INCREF(rec_t);
     Py_XSETREF(REC_TYPE, (PyTypeObject *)rec_t);

@@ -452,7 +452,10 @@ def _load_core():
         __repr__ = SimResult.__repr__
 
     core.setup(st.Move, st.Arc, st.Limits, st.Barrier, _CLineRecord, _CSimResult,
-               {"LINE": st.LINE, "ARC": st.ARC, "EONLY": st.EONLY})
+               {"LINE": st.LINE, "ARC": st.ARC, "EONLY": st.EONLY,
+                # Sim.play reads plain SET_VELOCITY_LIMIT lines as MachineState does
+                "STATE": st.MachineState, "MAX_VELOCITY_V": st.MAX_VELOCITY_V,
+                "MAX_ACCEL_A": st.MAX_ACCEL_A})
     if hasattr(core, "use_reader"):
         # Sim.play reads the common lines through the compiled reader's fused loop
         core.use_reader(getattr(st._reader, "_C_API", None))

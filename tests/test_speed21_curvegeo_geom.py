@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from gcode_opt import curves
-from gcode_opt.curves import (CAP_MARGIN, CAPS_CHUNK, CORNER_COS, JERK_F_STEP_R, MAX_R_OVER_S, SMOOTH_MIN_D,
+from gcode_opt.curves import (CAPS_CHUNK, CORNER_COS, JERK_F_STEP_R, MAX_R_OVER_S, SMOOTH_MIN_D,
                               CurveGeom, _NO_ENDS, _cap_rows, _caps_flat_rows, _flat_inputs, _part, _pmax,
                               _segments)
 from gcode_opt.laws import circle

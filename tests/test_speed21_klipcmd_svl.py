@@ -8,7 +8,6 @@ under voron24 and auto) and on hand-written odd variants (lower case, spacing, m
 values, junk, comments, CR LF, huge numbers, nan, macros, keys twice)."""
 from __future__ import annotations
 
-import math
 import os
 import random
 import struct
@@ -253,7 +252,7 @@ def test_bad_values_same_error(outputs, tmp_path, bad):
 def test_plain_lines_do_not_reach_python(outputs, monkeypatch):
     """The C path is really taken: in play(), no plain line reaches _step_python (the odd
     ones still do), and a MachineState subclass still gets every such line in Python."""
-    path = _variants_file_path = outputs[("prusa_klipper", "voron24")]
+    path = outputs[("prusa_klipper", "voron24")]
     lines = _lines(path)
     seen = []
     orig = st.MachineState._step_python

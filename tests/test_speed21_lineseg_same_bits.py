@@ -9,7 +9,6 @@ bundled samples under prusa-mk3s (classic jerk: the rows' path) and voron24, per
 (slowed ends, junction commands, other durations, negative / zero accelerations), and the
 array helpers against their per-stroke forms on odd values."""
 import math
-import os
 
 import numpy as np
 import pytest

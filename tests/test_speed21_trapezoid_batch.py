@@ -5,8 +5,6 @@ _edges_prep / _edges_finish.  Below: verbatim copies of 512b101's least_a2_trape
 line_trapezoids, _line_trapezoid and _line_trapezoid_edges (renamed _old_*, calling each
 other) as the reference; compared bit for bit on real strokes (bundled samples under
 voron24, prusa-mk3s, ender3 (Marlin JD), prusa-mk4) and on random trapezoid arguments."""
-import math
-import os
 
 import numpy as np
 import pytest

@@ -3103,6 +3103,16 @@ static PyObject *mod_setup(PyObject *self, PyObject *args)
 #if defined(__GLIBC__)
 #define RING_SINCOS 1
 #endif
+/* cos and sin of y: glibc's sincos where there is one (the same two values, one call) */
+static inline void ring_sincos(double y, double *sn, double *cs)
+{
+#ifdef RING_SINCOS
+    sincos(y, sn, cs);
+#else
+    *cs = cos(y);
+    *sn = sin(y);
+#endif
+}
 static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
 {
     Py_buffer tb, b1, b2;
@@ -3128,12 +3138,7 @@ static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
         double y2 = wd * t, y1 = 0.0 - y2;
         double ex1 = exp(x1), ex2 = exp(x2);
         double cs, sn;
-#ifdef RING_SINCOS
-        sincos(y2, &sn, &cs);
-#else
-        cs = cos(y2);
-        sn = sin(y2);
-#endif
+        ring_sincos(y2, &sn, &cs);
         double sn1 = y2 != 0.0 ? -sn : y1;
         o1[2 * i] = ex1 * cs;
         o1[2 * i + 1] = ex1 * sn1;
@@ -3175,12 +3180,7 @@ static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
         }
         double x = a * t - b * 0.0, y = a * 0.0 + b * t;
         double ex = exp(x), cs, sn;
-#ifdef RING_SINCOS
-        sincos(y, &sn, &cs);
-#else
-        cs = cos(y);
-        sn = sin(y);
-#endif
+        ring_sincos(y, &sn, &cs);
         o[2 * i] = ex * cs;
         o[2 * i + 1] = ex * sn;
     }
@@ -3344,12 +3344,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
             break;
         double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
         double ex = exp(x), cs, sn;
-#ifdef RING_SINCOS
-        sincos(y, &sn, &cs);
-#else
-        cs = cos(y);
-        sn = sin(y);
-#endif
+        ring_sincos(y, &sn, &cs);
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
         double gr = 0.0, gi = 0.0;
@@ -3382,12 +3377,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
                     double x1 = s * tt + 0.0, x2 = -s * tt;
                     ex1 = exp(x1);
                     ex2 = exp(x2);
-#ifdef RING_SINCOS
-                    sincos(y2, &s2, &c2);
-#else
-                    c2 = cos(y2);
-                    s2 = sin(y2);
-#endif
+                    ring_sincos(y2, &s2, &c2);
                 }
                 s1 = y2 != 0.0 ? -s2 : y1;
                 tt_prev = tt_bits;
@@ -3593,12 +3583,7 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
             if (!got) {
                 double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
                 ex = exp(x);
-#ifdef RING_SINCOS
-                sincos(y, &sn, &cs);
-#else
-                cs = cos(y);
-                sn = sin(y);
-#endif
+                ring_sincos(y, &sn, &cs);
             }
             if (d_bits == zero_bits) {
                 ex0 = ex;
@@ -3711,12 +3696,7 @@ ring_re_abs(int fused, double cr, double ci, double lr, double li, double t)
 {
     double x = lr * t - li * 0.0, y = lr * 0.0 + li * t;
     double ex = exp(x), cs, sn;
-#ifdef RING_SINCOS
-    sincos(y, &sn, &cs);
-#else
-    cs = cos(y);
-    sn = sin(y);
-#endif
+    ring_sincos(y, &sn, &cs);
     double pr, pi;
     ring_cmul(fused, cr, ci, ex * cs, ex * sn, &pr, &pi);
     return fabs(pr);

@@ -21,7 +21,7 @@ The core must give the same bits as the Python model, so every double operation 
 be the one Python does: no fused multiply-add (-ffp-contract=off; gcc contracts by
 default on arm64), no -ffast-math, and sin/cos called as the separate libm functions
 Python's math module calls (-fno-builtin-sin/cos: gcc would merge them into sincos)."""
-import hashlib
+import importlib.util
 from pathlib import Path
 
 from setuptools import Extension, setup
@@ -39,27 +39,38 @@ class BuildExt(build_ext):
         super().build_extensions()
 
 
+HERE = Path(__file__).resolve().parent
+# gcode_opt/native.py (standard library only) hashes a source with the local headers it
+# includes: the same function here and at load time, loaded by path (the package's
+# __init__ is not imported at build time)
+_spec = importlib.util.spec_from_file_location("_gcode_opt_native_build", HERE / "gcode_opt" / "native.py")
+_native = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_native)
+
+
 def _sha256(source):
-    return hashlib.sha256(Path(__file__).resolve().parent.joinpath(source).read_bytes()).hexdigest()
+    return _native.source_digest(str(HERE / source))
+
+
+def _ext(name, source, macro):
+    """An optional extension built from one C source; its local headers are dependencies
+    (a changed header rebuilds it) and part of the recorded digest."""
+    deps = [str(Path(p).relative_to(HERE)) for p in _native.local_headers(str(HERE / source))]
+    return Extension(name, [source], optional=True, depends=deps,
+                     define_macros=[(macro, f'"{_sha256(source)}"')])
 
 
 SOURCE = "gcode_opt/firmware/_core.c"
-SHA256 = _sha256(SOURCE)
 READER_SOURCE = "gcode_opt/_reader.c"
 CHAIN_SOURCE = "gcode_opt/laws/_chaincore.c"   # the chains' Newton steps (laws/chain.py), same rules
 EMIT_SOURCE = "gcode_opt/_emit.c"               # the rewrite's emitter and validator passes (emit.py, validate.py)
 CURVE_SOURCE = "gcode_opt/laws/_curvecore.c"    # the circle law's iteration and the curves' kernel (circle.py, curves.py)
 
 setup(
-    ext_modules=[Extension("_gcode_opt_fwcore", [SOURCE], optional=True,
-                           define_macros=[("FWCORE_SOURCE_SHA256", f'"{SHA256}"')]),
-                 Extension("_gcode_opt_reader", [READER_SOURCE], optional=True,
-                           define_macros=[("READER_SOURCE_SHA256", f'"{_sha256(READER_SOURCE)}"')]),
-                 Extension("_gcode_opt_chaincore", [CHAIN_SOURCE], optional=True,
-                           define_macros=[("CHAINCORE_SOURCE_SHA256", f'"{_sha256(CHAIN_SOURCE)}"')]),
-                 Extension("_gcode_opt_emit", [EMIT_SOURCE], optional=True,
-                           define_macros=[("EMIT_SOURCE_SHA256", f'"{_sha256(EMIT_SOURCE)}"')]),
-                 Extension("_gcode_opt_curvecore", [CURVE_SOURCE], optional=True,
-                           define_macros=[("CURVECORE_SOURCE_SHA256", f'"{_sha256(CURVE_SOURCE)}"')])],
+    ext_modules=[_ext("_gcode_opt_fwcore", SOURCE, "FWCORE_SOURCE_SHA256"),
+                 _ext("_gcode_opt_reader", READER_SOURCE, "READER_SOURCE_SHA256"),
+                 _ext("_gcode_opt_chaincore", CHAIN_SOURCE, "CHAINCORE_SOURCE_SHA256"),
+                 _ext("_gcode_opt_emit", EMIT_SOURCE, "EMIT_SOURCE_SHA256"),
+                 _ext("_gcode_opt_curvecore", CURVE_SOURCE, "CURVECORE_SOURCE_SHA256")],
     cmdclass={"build_ext": BuildExt},
 )

@@ -1,12 +1,37 @@
 """The optional compiled cores (setup.py builds them when there is a C compiler): which
 one may be used.  A core is used unless GCODE_OPT_PURE_PYTHON asks for pure Python, it is
 not built, or it was built from another C source than the one installed beside the
-Python code it replaces (a stale build: the SHA-256 the build recorded differs)."""
+Python code it replaces (a stale build: the SHA-256 the build recorded differs).  The
+digest covers the source and the local headers it includes (source_digest; setup.py
+records the same)."""
 from __future__ import annotations
 
 import hashlib
 import importlib
 import os
+import re
+
+# a local header: #include "name.h" (resolved beside the source, as the compiler does)
+_LOCAL_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]+"([^"]+)"', re.M)
+
+
+def local_headers(source: str) -> list:
+    """The paths of the local headers source includes, in order (one level: the
+    headers themselves include only system headers; tests/test_native_headers.py)."""
+    with open(source, "rb") as fh:
+        names = _LOCAL_INCLUDE.findall(fh.read())
+    here = os.path.dirname(source)
+    return [os.path.normpath(os.path.join(here, n.decode())) for n in names]
+
+
+def source_digest(source: str) -> str:
+    """SHA-256 of a C source followed by its local headers' bytes (local_headers): what a
+    core was built from.  A source with no local header hashes as its bytes alone."""
+    h = hashlib.sha256()
+    for path in [source] + local_headers(source):
+        with open(path, "rb") as fh:
+            h.update(fh.read())
+    return h.hexdigest()
 
 
 def pure_python_asked() -> bool:
@@ -23,8 +48,11 @@ def load(module: str, source: str, what: str):
     except ImportError:
         return None, f"the compiled {what} is not built (pip install . with a C compiler builds it)"
     if os.path.exists(source):
-        with open(source, "rb") as fh:
-            if hashlib.sha256(fh.read()).hexdigest() != mod.SOURCE_SHA256:
-                return None, (f"the compiled {what} at {mod.__file__} was built from another "
-                              f"{os.path.basename(source)} (pip install . rebuilds it)")
+        try:
+            digest = source_digest(source)
+        except OSError:          # a header it includes is missing: not what the core was built from
+            digest = None
+        if digest != mod.SOURCE_SHA256:
+            return None, (f"the compiled {what} at {mod.__file__} was built from another "
+                          f"{os.path.basename(source)} (pip install . rebuilds it)")
     return mod, ""

@@ -22,6 +22,7 @@
 #include <structmember.h>
 #include <math.h>
 #include <string.h>
+#include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
 
 /* ---------------------------------------------------------------- constants */
 /* Move.kind values (setup); the model's constants come with each Sim (simulate.new_sim
@@ -3493,34 +3494,6 @@ done:
     return ret;
 }
 
-/* numpy's pairwise sum of n doubles (its float add reduction: 8 partial sums in blocks of
- * at most 128, halves above; the reduction starts from -0.0) */
-static double ring_pairwise(const double *a, Py_ssize_t n)
-{
-    if (n < 8) {
-        double res = -0.0;
-        for (Py_ssize_t i = 0; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    if (n <= 128) {
-        double r[8];
-        Py_ssize_t i;
-        for (int j = 0; j < 8; j++)
-            r[j] = a[j];
-        for (i = 8; i < n - (n % 8); i += 8)
-            for (int j = 0; j < 8; j++)
-                r[j] += a[i + j];
-        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
-        for (; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    Py_ssize_t n2 = n / 2;
-    n2 -= n2 % 8;
-    return ring_pairwise(a, n2) + ring_pairwise(a + n2, n - n2);
-}
-
 /* ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): resonance.py's
  * float(Oscillator.integral_r2_fin(c, dur).sum()) with decay2 = np.exp(-2 s dur) made by
  * numpy: osc2 = exp((qr + i qi) dur) as ring_exp, y = (c c)(osc2 - 1) by numpy's complex
@@ -3666,7 +3639,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
                              m_n, o_v, v, NULL);
     if (ok)
-        ret = PyFloat_FromDouble(-0.0 + ring_pairwise(v, n));
+        ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
         ret = Py_None;
         Py_INCREF(ret);
@@ -3978,7 +3951,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
                 have_pk = 1;
             }
         }
-        sum = PyFloat_FromDouble(-0.0 + ring_pairwise(v, np_));
+        sum = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, np_));
         peak = PyFloat_FromDouble(have_pk ? ring_npmax(lo, pk) : lo);
     } else {
         sum = Py_None;

@@ -14,6 +14,7 @@ Sums per chain are bincount's: from 0.0, in the order of the pieces. */
 #include <float.h>
 #include <stdint.h>
 #include <string.h>
+#include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
 
 #if defined(_MSC_VER) && !defined(restrict)
 #define restrict __restrict
@@ -761,28 +762,6 @@ static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? 
 static inline double py_max(double a, double b) { return (b > a) ? b : a; }
 static inline double py_min(double a, double b) { return (b < a) ? b : a; }
 
-/* numpy's pairwise sum of a contiguous run (np.add.reduce's inner loop, from -0.0) */
-static double cf_pw_sum(const double *a, Py_ssize_t n) {
-    if (n < 8) {
-        double res = -0.0;
-        for (Py_ssize_t i = 0; i < n; i++) res += a[i];
-        return res;
-    }
-    if (n <= 128) {
-        double r[8], res;
-        Py_ssize_t i;
-        for (int j = 0; j < 8; j++) r[j] = a[j];
-        for (i = 8; i < n - (n % 8); i += 8)
-            for (int j = 0; j < 8; j++) r[j] += a[i + j];
-        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
-        for (; i < n; i++) res += a[i];
-        return res;
-    }
-    Py_ssize_t n2 = n / 2;
-    n2 -= n2 % 8;
-    return cf_pw_sum(a, n2) + cf_pw_sum(a + n2, n - n2);
-}
-
 #define CF_TRAP_G 32      /* chains.TRAP_GRID: the trapezoid cruise speeds tried */
 
 /* per chain parameters (columns of P) */
@@ -1095,18 +1074,18 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             va[k] = vak;
             vb[k] = vbk;
         }
-        double a2 = -0.0 + cf_pw_sum(tmp, n);
+        double a2 = -0.0 + np_pairwise_sum(tmp, n);
         for (Py_ssize_t k = 0; k + 1 < n; k++) {
             double vi = va[k + 1];
             double tj = 0.5 * (tt[k] + tt[k + 1]);
             double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
             tmp[k] = (ct[k] >= corner) ? dv2 / np_max(tj, 1e-12) : 0.0;
         }
-        a2 = a2 + (n > 1 ? -0.0 + cf_pw_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
+        a2 = a2 + (n > 1 ? -0.0 + np_pairwise_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
         /* the end corners */
         if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
         if (p[CP_C1] >= corner) a2 = a2 + 1.0 * vb[n - 1] * vb[n - 1] * (1.0 - p[CP_C1]) / np_max(tt[n - 1], 1e-12);
-        tout[r] = -0.0 + cf_pw_sum(tt, n);
+        tout[r] = -0.0 + np_pairwise_sum(tt, n);
         a2out[r] = a2;
     }
     free(wk);

@@ -15,6 +15,7 @@ row maxima and minima propagate NaN as numpy's do. */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
 
 typedef struct {
     Py_buffer v[16];
@@ -42,28 +43,6 @@ static void *get(Bufs *b, PyObject *o, Py_ssize_t size, int writable, Py_ssize_t
         return NULL;
     }
     return v->buf;
-}
-
-/* numpy's pairwise sum of a contiguous run (np.add.reduce's inner loop) */
-static double pw_sum(const double *a, Py_ssize_t n) {
-    if (n < 8) {
-        double res = -0.0;
-        for (Py_ssize_t i = 0; i < n; i++) res += a[i];
-        return res;
-    }
-    if (n <= 128) {
-        double r[8], res;
-        Py_ssize_t i;
-        for (int j = 0; j < 8; j++) r[j] = a[j];
-        for (i = 8; i < n - (n % 8); i += 8)
-            for (int j = 0; j < 8; j++) r[j] += a[i + j];
-        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
-        for (; i < n; i++) res += a[i];
-        return res;
-    }
-    Py_ssize_t n2 = n / 2;
-    n2 -= n2 % 8;
-    return pw_sum(a, n2) + pw_sum(a + n2, n - n2);
 }
 
 /* numpy's maximum / minimum: NaN if either is NaN */
@@ -155,7 +134,7 @@ static PyObject *pc_res(PyObject *self, PyObject *a) {
             }
         }
         for (Py_ssize_t j = 0; j < nc; j++) tmp[j] = wr[j] * q[j];
-        r2[i] = pw_sum(tmp, nc) - phi[k];
+        r2[i] = np_pairwise_sum(tmp, nc) - phi[k];
         double dd = g2 + 3.0 * (mx + mn);
         double *dr = den + i * ni;
         for (Py_ssize_t j = 0; j < ni; j++) dr[j] = lam_e[j] - dd;
@@ -195,7 +174,7 @@ static PyObject *pc_step(PyObject *self, PyObject *a) {
             t1[j] = (bj / dr[j]) * qv[j];
             t2[j] = qe[j] / dr[j];
         }
-        double d = (-r2[i] - pw_sum(t1, ni)) / pw_sum(t2, ni);
+        double d = (-r2[i] - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
         dc[i] = d;
         double *xr = x + i * ni;
         for (Py_ssize_t j = 0; j < ni; j++) xr[j] = (-mr[j] + d * e[j]) / dr[j];

@@ -304,9 +304,14 @@ def _candidates_auto(p: PlanInput):
     r, c = np.nonzero(live)
     Tq = T[r, c]
     L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
-    bq = _largest_beta_plain(L, Tq, v0, v1, v_cap)
+    bq, v_crit = _largest_beta_plain(L, Tq, v0, v1, v_cap)
     law = line_law(L, Tq, bq, v0, v1)
-    ok = _feasible(law, v_cap, a_cap)             # (T >= t_seg_min: every live entry)
+    # _feasible(law, v_cap, a_cap) (T >= t_seg_min: every live entry), its speeds at the
+    # ends and at the interior extremum those the law's _speed_candidates gives (end_speeds,
+    # InteriorSpeeds: the same bits), in the same order
+    speeds = (*end_speeds(L, Tq, v0, v1), v_crit)
+    ok = ((np.maximum.reduce(speeds) <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))
+          & (np.minimum.reduce(speeds) >= -1e-9 * (1 + v_cap)))
     KEq, Iq = law.integrals()
     beta[r, c] = bq
     I[r, c] = np.where(ok, Iq, np.inf)
@@ -315,7 +320,8 @@ def _candidates_auto(p: PlanInput):
 
 
 def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
-    """_largest_beta_under_speed_cap of 1-D laws on which it cannot raise (T finite > 0,
+    """(beta, interior_speed of the law at that beta), beta being
+    _largest_beta_under_speed_cap of 1-D laws on which it cannot raise (T finite > 0,
     L, v0, v1 finite, (T / (2 GAMMA_HI))^2 > 0: no beta it tries underflows): the same
     bisection, the same bits, with what does not depend on beta made once
     (laws/line.InteriorSpeeds) and the laws whose cubic is under the cap left out."""
@@ -323,11 +329,12 @@ def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
     cap = v_cap * (1 + SPEED_TOL_R)
     v_end = np.maximum(*end_speeds(L, T, v0, v1))
     speeds = InteriorSpeeds(L, T, v0, v1)
-    cubic_ok = np.maximum(v_end, speeds(np.full(T.shape, np.inf))) <= cap
+    v_crit = speeds(np.full(T.shape, np.inf))
+    cubic_ok = np.maximum(v_end, v_crit) <= cap
     b = np.flatnonzero(~cubic_ok)
     out = np.full(T.shape, np.inf)
     if b.size == 0:
-        return out
+        return out, v_crit
     Tb, capb, v_endb, speeds = T[b], cap[b], v_end[b], speeds.take(b)
     lo = np.full(b.shape, np.log(GAMMA_LO))
     hi = np.full_like(lo, np.log(GAMMA_HI))
@@ -339,7 +346,8 @@ def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
         lo = np.where(ok, lo, mid)
     gamma = np.exp(hi)
     out[b] = (Tb / gamma) ** 2
-    return out
+    v_crit[b] = speeds(out[b])
+    return out, v_crit
 
 
 def _candidates_dense(p: PlanInput):

@@ -172,6 +172,11 @@ def test_interior_speeds_is_interior_speed():
     gamma[:20] = 4.0 * (1 + np.linspace(-1e-12, 1e-12, 20))
     beta = (T / gamma) ** 2
     beta[20:40] = np.inf
+    # A = 0 and delta = 0 (-delta/A is NaN: the centre), A = 0 alone (+-inf), |r| >= 1
+    v0[40:60] = v1[40:60] = L[40:60] / T[40:60]
+    L[60:80] = T[60:80] * (v0[60:80] + v1[60:80]) / 2
+    v0[80:100], v1[80:100] = 0.0, 3 * L[80:100] / T[80:100]
+    gamma[80:90], beta[80:90] = 50.0, (T[80:90] / 50.0) ** 2
     sp = InteriorSpeeds(L, T, v0, v1)
     assert np.array_equal(_bits(sp(beta)), _bits(interior_speed(L, T, beta, v0, v1)))
     for sel in (gamma < 4.0, gamma >= 4.0, np.arange(n) % 3 == 0):      # one branch, both

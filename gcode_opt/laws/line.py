@@ -547,8 +547,11 @@ class InteriorSpeeds:
                 r = rho_ * kog * g_
                 x = rho_ * kog * _atanhc(r)
                 x = np.where(np.abs(r) >= 1, np.sign(r) * 0.5, x)
-            x = np.clip(np.nan_to_num(x, nan=0.0), -0.5, 0.5)
-            tau = np.clip(((x + 0.5) * T_) / T_, 0.0, 1.0)
+            # np.clip(np.nan_to_num(x, nan=0.0), -0.5, 0.5) and np.clip(..., 0.0, 1.0): the
+            # same values (±inf and ±max clip alike; the bounds are not zero where a signed
+            # zero could tie: x + 0.5 >= +0.0, T_ > 0)
+            x = np.minimum(np.maximum(np.where(x != x, 0.0, x), -0.5), 0.5)
+            tau = np.minimum(np.maximum(((x + 0.5) * T_) / T_, 0.0), 1.0)
             x = tau - 0.5
             if is_small:
                 pa, pb = _shc(g_ * tau / 2), _shc(g_ * (1 - tau) / 2)

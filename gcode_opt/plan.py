@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .laws.line import end_speeds, interior_speed, line_law
+from .laws.line import InteriorSpeeds, end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
 T_RATIOS = np.array([0.70, 0.75, 0.80, 0.85, 0.90, 0.93, 0.96, 0.98, 1.0, 1.01, 1.02, 1.03,
@@ -278,6 +278,82 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
 
 
 def _candidates_auto(p: PlanInput):
+    """_candidates_dense's tables, computed only where a law can be within limits: a
+    candidate shorter than the stroke's t_seg_min is infeasible whatever its beta (~78 %
+    of the gyroid plate's), so neither its beta, its law nor its figures are made; its
+    entries are I = inf, beta = inf, KE = nan (the allocation reads only the feasible
+    ones: Candidates keeps those).  Every feasible entry's T, beta, I and KE, and which
+    are feasible, are _candidates_dense's, bit for bit: every step is elementwise
+    (tests/test_speed22_budget_candidates.py).  Inputs on which _candidates_dense could
+    raise (a duration not finite and > 0, a length or end speed not finite, a beta the
+    bisection tries underflowing to 0) go to _candidates_dense itself."""
+    T = p.T_orig[:, None] * T_RATIOS[None, :]
+    shape = T.shape
+    with np.errstate(all="ignore"):
+        plain = (np.isfinite(T).all() and bool((T > 0).all()) and np.isfinite(p.L).all()
+                 and np.isfinite(p.v0).all() and np.isfinite(p.v1).all()
+                 and bool(((T / (2.0 * GAMMA_HI)) ** 2 > 0.0).all()))
+    if not plain:
+        return _candidates_dense(p)
+    live = T >= p.t_seg_min[:, None]
+    beta = np.full(shape, np.inf)
+    I = np.full(shape, np.inf)
+    KE = np.full(shape, np.nan)
+    if not live.any():
+        return T, beta, I, KE
+    r, c = np.nonzero(live)
+    Tq = T[r, c]
+    L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
+    bq, v_crit = _largest_beta_plain(L, Tq, v0, v1, v_cap)
+    law = line_law(L, Tq, bq, v0, v1)
+    # _feasible(law, v_cap, a_cap) (T >= t_seg_min: every live entry), its speeds at the
+    # ends and at the interior extremum those the law's _speed_candidates gives (end_speeds,
+    # InteriorSpeeds: the same bits), in the same order
+    speeds = (*end_speeds(L, Tq, v0, v1), v_crit)
+    ok = ((np.maximum.reduce(speeds) <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))
+          & (np.minimum.reduce(speeds) >= -1e-9 * (1 + v_cap)))
+    KEq, Iq = law.integrals()
+    beta[r, c] = bq
+    I[r, c] = np.where(ok, Iq, np.inf)
+    KE[r, c] = KEq
+    return T, beta, I, KE
+
+
+def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
+    """(beta, interior_speed of the law at that beta), beta being
+    _largest_beta_under_speed_cap of 1-D laws on which it cannot raise (T finite > 0,
+    L, v0, v1 finite, (T / (2 GAMMA_HI))^2 > 0: no beta it tries underflows): the same
+    bisection, the same bits, with what does not depend on beta made once
+    (laws/line.InteriorSpeeds) and the laws whose cubic is under the cap left out."""
+    L, T, v0, v1, v_cap = (np.asarray(a, float) for a in (L, T, v0, v1, v_cap))
+    cap = v_cap * (1 + SPEED_TOL_R)
+    v_end = np.maximum(*end_speeds(L, T, v0, v1))
+    speeds = InteriorSpeeds(L, T, v0, v1)
+    v_crit = speeds(np.full(T.shape, np.inf))
+    cubic_ok = np.maximum(v_end, v_crit) <= cap
+    b = np.flatnonzero(~cubic_ok)
+    out = np.full(T.shape, np.inf)
+    if b.size == 0:
+        return out, v_crit
+    Tb, capb, v_endb, speeds = T[b], cap[b], v_end[b], speeds.take(b)
+    lo = np.full(b.shape, np.log(GAMMA_LO))
+    hi = np.full_like(lo, np.log(GAMMA_HI))
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        g = np.exp(mid)
+        ok = np.maximum(v_endb, speeds((Tb / g) ** 2)) <= capb
+        hi = np.where(ok, mid, hi)
+        lo = np.where(ok, lo, mid)
+    gamma = np.exp(hi)
+    out[b] = (Tb / gamma) ** 2
+    v_crit[b] = speeds(out[b])
+    return out, v_crit
+
+
+def _candidates_dense(p: PlanInput):
+    """Every candidate's T, beta, I, KE (the start commit's _candidates_auto): the path of
+    inputs on which a law or the bisection may raise."""
+
     T = p.T_orig[:, None] * T_RATIOS[None, :]
     L, v0, v1 = p.L[:, None], p.v0[:, None], p.v1[:, None]
     v_cap, a_cap = p.v_cap[:, None], p.a_cap[:, None]

@@ -334,13 +334,16 @@ class SegmentCache:
             return got, bad
         self._grow(max(rows_l) + 1)
         hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
-        for i, h in zip(rows_l, hit.tolist()):
-            if h:
-                why = self.line_why.get(i)
-                if why:
-                    bad[i] = why
-                else:
-                    got[i] = self.line_seg[i]
+        hit_l = rows[hit].tolist()
+        seg = self.line_seg
+        if not self.line_why:                 # no failure kept (the common case): the hits' plans
+            return dict(zip(hit_l, [seg[i] for i in hit_l])), bad
+        for i in hit_l:
+            why = self.line_why.get(i)
+            if why:
+                bad[i] = why
+            else:
+                got[i] = seg[i]
         return got, bad
 
     def store(self, kind, rows, T, beta, segs, bad, own=False):
@@ -359,13 +362,17 @@ class SegmentCache:
         self._grow(max(rows_l) + 1)
         self.line_T[rows] = T[rows]
         self.line_beta[rows] = beta[rows]
+        seg, get = self.line_seg, segs.get
         for i in rows_l:
-            self.line_seg[i] = segs.get(i)
-            why = bad.get(i, "")
-            if why:
-                self.line_why[i] = why
-            else:
-                self.line_why.pop(i, None)
+            seg[i] = get(i)
+        if self.line_why or bad:              # failures: a row's reason set, or dropped
+            why_of = self.line_why
+            for i in rows_l:
+                why = bad.get(i, "")
+                if why:
+                    why_of[i] = why
+                else:
+                    why_of.pop(i, None)
 
     def forget_line(self, i):
         """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
@@ -442,7 +449,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
             segs.update(got)
             seg_failed.update(bad)
-            todo = np.array([i for i in ii.tolist() if i not in got and i not in bad], int)
+            todo = _not_in(ii, got, bad)
 
             def solve(rows):
                 made, why = {}, {}
@@ -498,6 +505,16 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     if opts.alpha != "auto":
         return run(budget_t)
     return _fit_budget(run, pin, budget_t)
+
+
+def _not_in(ii, got, bad):
+    """The rows of ii (in order, an int array) that are keys of neither dict."""
+    if not got and not bad:
+        return np.array(ii.tolist(), int)
+    if ii.size == 0:
+        return np.array([], int)
+    keys = np.fromiter(list(got) + list(bad), np.int64, len(got) + len(bad))
+    return np.array(ii[~np.isin(ii, keys)].tolist(), int)
 
 
 def _rebuild_geometry(strokes, idx, kind, profile):

@@ -35,7 +35,8 @@ from math import factorial
 
 import numpy as np
 
-__all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH", "interior_speed", "end_speeds"]
+__all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH", "interior_speed", "end_speeds",
+           "InteriorSpeeds"]
 
 # Switch between the series/hyperbolic and the exponential forms.  Measured against mpmath
 # (80 digits) for each branch alone: the exponential branch's integral coefficient ∫g² − 1
@@ -487,6 +488,86 @@ def interior_speed(L, T, beta, v0, v1):
             h = (e0 - e1) / em
         out[branch] = (wbar_ + A_ * g - d_ * h) / T_
     return out
+
+
+class InteriorSpeeds:
+    """interior_speed(L, T, beta, v0, v1) of fixed laws (L, T, v0, v1) at many beta (the
+    planner's bisection): what does not depend on beta (w̄, δ, A, −δ/A and the checks of
+    L, T, v0, v1) made once, the rest as interior_speed makes it, the same expressions in
+    the same order, elementwise, so the same bits.  1-D arrays of one shape; the caller
+    checks T finite > 0 and L, v0, v1 finite (ValueError here otherwise, as interior_speed),
+    and each beta > 0 (not checked again at each call)."""
+
+    def __init__(self, L, T, v0, v1):
+        L, T, v0, v1 = (np.asarray(a, dtype=float) for a in (L, T, v0, v1))
+        if not (np.all(T > 0) and np.all(np.isfinite(T))):
+            raise ValueError("T must be finite and > 0")
+        if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+            raise ValueError("L, v0, v1 must be finite")
+        self.T = T
+        self.wbar = T * (v0 + v1) / 2
+        self.delta = T * (v0 - v1) / 2
+        self.A = L - self.wbar
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.rho = -self.delta / self.A
+
+    def take(self, rows):
+        """The laws rows only (an index array): their constants taken, not made again."""
+        out = object.__new__(InteriorSpeeds)
+        for f in ("T", "wbar", "delta", "A", "rho"):
+            setattr(out, f, getattr(self, f)[rows])
+        return out
+
+    def __call__(self, beta):
+        """interior_speed at beta."""
+        T, wbar, delta, A, rho = self.T, self.wbar, self.delta, self.A, self.rho
+        gamma = T / np.sqrt(beta)
+        out = np.empty(gamma.shape)
+        small = gamma < GAMMA_SWITCH
+        ns = int(np.count_nonzero(small))
+        for branch, is_small in ((small, True), (~small, False)):
+            cnt = ns if is_small else gamma.size - ns
+            if cnt == 0:
+                continue
+            if cnt == gamma.size:                  # one branch: no gather/scatter
+                g_, T_, wbar_, d_, A_, rho_ = gamma, T, wbar, delta, A, rho
+            else:
+                g_, T_, wbar_, d_, A_, rho_ = (a[branch] for a in (gamma, T, wbar, delta, A, rho))
+            if is_small:
+                n = _horner(_N_COEF, g_ * g_)
+                sh2 = _shc(g_ / 2)
+                kog = 2 * n / sh2
+            else:
+                E = np.exp(-g_)
+                em = np.expm1(-g_)
+                q = -em / g_
+                Dn = 1.0 + E - 2.0 * q
+                kog = Dn / (-em * g_)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r = rho_ * kog * g_
+                x = rho_ * kog * _atanhc(r)
+                x = np.where(np.abs(r) >= 1, np.sign(r) * 0.5, x)
+            # np.clip(np.nan_to_num(x, nan=0.0), -0.5, 0.5) and np.clip(..., 0.0, 1.0): the
+            # same values (±inf and ±max clip alike; the bounds are not zero where a signed
+            # zero could tie: x + 0.5 >= +0.0, T_ > 0)
+            x = np.minimum(np.maximum(np.where(x != x, 0.0, x), -0.5), 0.5)
+            tau = np.minimum(np.maximum(((x + 0.5) * T_) / T_, 0.0), 1.0)
+            x = tau - 0.5
+            if is_small:
+                pa, pb = _shc(g_ * tau / 2), _shc(g_ * (1 - tau) / 2)
+                shx = _shc(g_ * x)
+                bub = tau * (1 - tau) * pa * pb
+                g = bub / (2 * n)
+                h = 2 * x * shx / sh2
+            else:
+                e0, e1 = np.expm1(-g_ * tau), np.expm1(-g_ * (1 - tau))
+                g = e0 * e1 / Dn
+                h = (e0 - e1) / em
+            v = (wbar_ + A_ * g - d_ * h) / T_
+            if cnt == gamma.size:
+                return v
+            out[branch] = v
+        return out
 
 
 def end_speeds(L, T, v0, v1):

@@ -1114,6 +1114,208 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
     return PyBool_FromLong(ok);
 }
 
+/* ---------------------------------------------------------------- session 22 (chainlaw)
+   row_sums(x, off, out): out[c] = np.sum(x[off[c]:off[c + 1]]) (numpy's pairwise sum of
+   each contiguous run, cf_pw_sum; 0.0 for an empty run, as numpy's empty sum): the row
+   sums _flat_figures made per piece count with np.sum(x[ix], axis=1). */
+static PyObject *row_sums(PyObject *self, PyObject *a) {
+    PyObject *ox, *ooff, *oout;
+    if (!PyArg_ParseTuple(a, "OOO", &ox, &ooff, &oout)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nc1, no;
+    double *x = get(&b, ox, 8, 0, &P);
+    int64_t *off = x ? get(&b, ooff, 8, 0, &nc1) : NULL;
+    double *out = off ? get(&b, oout, 8, 1, &no) : NULL;
+    if (!out) { release(&b); return NULL; }
+    int ok = nc1 >= 1 && no == nc1 - 1;
+    for (Py_ssize_t c = 0; ok && c + 1 < nc1; c++) ok = off[c] >= 0 && off[c + 1] >= off[c] && off[c + 1] <= P;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "row_sums: offsets");
+        return NULL;
+    }
+    for (Py_ssize_t c = 0; c + 1 < nc1; c++) {
+        Py_ssize_t n = (Py_ssize_t)(off[c + 1] - off[c]);
+        out[c] = n ? cf_pw_sum(x + off[c], n) : 0.0;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* step_accels(T, n, sh2, ch, A, d, a0, a1): LineLaw.end_accels of series-branch laws,
+   element by element, its operations in its order: gp0 = 0.5 sh2 / n, hp = 2 cosh(γ/2) / sh2
+   (ch = np.cosh(0.5 γ), made by numpy), T2 = T T, a0 = (A gp0 - d hp) / T2,
+   a1 = (-A gp0 - d hp) / T2. */
+VEC_CLONES static void accels_vec(Py_ssize_t N, const double *restrict T, const double *restrict n,
+                                  const double *restrict sh2, const double *restrict ch, const double *restrict A,
+                                  const double *restrict d, double *restrict a0, double *restrict a1) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double gp0 = (0.5 * sh2[i]) / n[i];
+        double hp = (2.0 * ch[i]) / sh2[i];
+        double T2 = T[i] * T[i];
+        double x = A[i] * gp0, y = d[i] * hp;
+        a0[i] = (x - y) / T2;
+        a1[i] = ((-A[i]) * gp0 - y) / T2;
+    }
+}
+
+static PyObject *step_accels(PyObject *self, PyObject *a) {
+    PyObject *o[8];
+    if (!PyArg_ParseTuple(a, "OOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7])) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[8];
+    double *p[8];
+    for (int q = 0; q < 8; q++) {
+        p[q] = get(&b, o[q], 8, q >= 6, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    for (int q = 1; q < 8; q++)
+        if (nn[q] != nn[0]) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "step_accels: shapes");
+            return NULL;
+        }
+    accels_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* step_law(L, T, beta, va, vb, coef, zmax, gamma, gs, n, wbar, delta, A) -> 0, or 1 (nothing
+   usable written: laws/chain._step_law's numpy code runs) on an input LineLaw refuses
+   (T not finite and > 0, β not > 0, L, v0, v1 not finite) or a γ not below GAMMA_SWITCH.
+   _step_law's numbers, element by element, its operations in its order: γ = T / √β,
+   gs = γ (np.minimum(γ, GAMMA_SWITCH) of a γ below it), n by Horner on the first column of
+   coef (the _NMS_COEF rows) with the terms _nms_terms gives the batch's largest γ², wbar =
+   T (v0 + v1) / 2, δ = T (v0 - v1) / 2, A = L - wbar.  (shc(γ/2) is numpy's: np.sinh.) */
+VEC_CLONES static int steplaw_args(Py_ssize_t N, const double *restrict L, const double *restrict T,
+                                   const double *restrict beta, const double *restrict va,
+                                   const double *restrict vb, double *restrict g, int64_t *gmax) {
+    int bad = 0;
+    int64_t gb = 0;
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double t = T[i], bt = beta[i];
+        double gi = t / sqrt(bt);
+        g[i] = gi;
+        bad |= !(t > 0.0) | !(t < HUGE_VAL) | !(bt > 0.0) | !(fabs(L[i]) < HUGE_VAL) | !(fabs(va[i]) < HUGE_VAL)
+               | !(fabs(vb[i]) < HUGE_VAL) | !(gi < GAMMA_SWITCH);
+        int64_t b0;
+        memcpy(&b0, &gi, 8);
+        gb = b0 > gb ? b0 : gb;
+    }
+    *gmax = gb;
+    return bad;
+}
+
+VEC_CLONES static void steplaw_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
+                                    const double *restrict T, const double *restrict va, const double *restrict vb,
+                                    const double *restrict g, double *restrict gs, double *restrict n,
+                                    double *restrict wbar, double *restrict dl, double *restrict A) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double z = g[i];
+        double z2 = z * z, x = coef[3 * (k - 1)];
+        for (int q = k - 2; q >= 0; q--) { x = x * z2; x = x + coef[3 * q]; }
+        gs[i] = z;
+        n[i] = x;
+        double w = (T[i] * (va[i] + vb[i])) / 2;
+        wbar[i] = w;
+        dl[i] = (T[i] * (va[i] - vb[i])) / 2;
+        A[i] = L[i] - w;
+    }
+}
+
+static PyObject *step_law(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[13];
+    double *p[13];
+    for (int q = 0; q < 13; q++) {
+        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    int ok = nn[5] >= 3 * NTERMS;
+    for (int q = 0; q < 13; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "step_law: shapes");
+        return NULL;
+    }
+    Py_ssize_t N = nn[0];
+    int64_t gb;
+    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
+    if (!bad && N) {
+        double gm;
+        memcpy(&gm, &gb, 8);
+        int k = nms_terms(gm * gm, p[6], nn[6], 0);     /* the largest γ²: all γ > 0 here */
+        steplaw_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12]);
+    }
+    release(&b);
+    return PyLong_FromLong(bad || !N);
+}
+
+/* tod_prep(T, L, gs, n, sh2, wbar, A, dl, pj, s, <outs: T, gs, n, sh2, wbar, A, dl, target, sgn,
+   lo, hi, t, scale, out, act>): laws/chain._tod_core's inputs of the laws pj (law.take(pj)'s
+   numbers) in one pass: target = np.clip(s, min(0, L), max(0, L)), sgn, lo = 0, hi = T,
+   t = lo + (hi - lo) (L != 0 ? target / L : 0.5), scale = max(|L|, 1e-300), out = t,
+   act = 0, 1, ... (numpy's minimum, maximum, clip on their nan and signed-zero rules). */
+static PyObject *tod_prep(PyObject *self, PyObject *a) {
+    PyObject *o[25];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+                          &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17],
+                          &o[18], &o[19], &o[20], &o[21], &o[22], &o[23], &o[24]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[25];
+    void *p[25];
+    for (int q = 0; q < 25; q++) {
+        p[q] = get(&b, o[q], 8, q >= 10, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t P = nn[0], N = nn[8];
+    int ok = 1;
+    for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
+    for (int q = 9; q < 25; q++) ok = ok && nn[q] == N;
+    const int64_t *pj = p[8];
+    for (Py_ssize_t i = 0; ok && i < N; i++) ok = pj[i] >= 0 && pj[i] < P;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_prep: shapes");
+        return NULL;
+    }
+    const double *T = p[0], *L = p[1], *s = p[9];
+    double *const *src = (double *const *)&p[2];          /* gs, n, sh2, wbar, A, dl */
+    double *oT = p[10], *target = p[17], *sgn = p[18], *lo = p[19], *hi = p[20], *t = p[21], *scale = p[22];
+    double *out = p[23];
+    int64_t *act = p[24];
+    for (Py_ssize_t i = 0; i < N; i++) {
+        int64_t j = pj[i];
+        double Ti = T[j], Li = L[j];
+        oT[i] = Ti;
+        for (int q = 0; q < 6; q++) ((double *)p[11 + q])[i] = src[q][j];
+        double los = (0.0 <= Li || isnan(0.0)) ? 0.0 : Li;       /* np.minimum(0.0, L) */
+        double his = (0.0 >= Li || isnan(0.0)) ? 0.0 : Li;       /* np.maximum(0.0, L) */
+        double x = s[i];
+        double mx = isnan(x) ? x : (x > los ? x : los);          /* np.clip */
+        double tg = isnan(mx) ? mx : (mx < his ? mx : his);
+        target[i] = tg;
+        sgn[i] = Li < 0 ? -1.0 : 1.0;
+        double l0 = 0.0, h0 = Ti;
+        lo[i] = l0;
+        hi[i] = h0;
+        double r = Li != 0 ? tg / Li : 0.5;
+        double ti = l0 + (h0 - l0) * r;
+        t[i] = ti;
+        out[i] = ti;
+        double aL = fabs(Li);
+        scale[i] = (aL >= 1e-300 || isnan(aL)) ? aL : 1e-300;
+        act[i] = (int64_t)i;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
@@ -1122,6 +1324,10 @@ static PyMethodDef methods[] = {
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},
+    {"row_sums", row_sums, METH_VARARGS, "np.sum of each contiguous run (pairwise)"},
+    {"step_accels", step_accels, METH_VARARGS, "LineLaw.end_accels of series-branch laws"},
+    {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},
+    {"tod_prep", tod_prep, METH_VARARGS, "_tod_core's inputs of the taken laws, one pass"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

@@ -520,7 +520,7 @@ class _Flat:
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = _step_law(L, Tj, beta, va, vb)
-        a0, a1 = law.end_accels()                      # s̈ at both ends of every piece
+        a0, a1 = _end_accels(law)                      # s̈ at both ends of every piece
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
         kt = np.zeros(ks.size)
@@ -552,8 +552,7 @@ class _Flat:
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's
         pj = kf - rank[free]                           # make-up changes no figure)
-        vlaw = law.take(pj)                            # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
-        tl, v[free] = _times_and_speeds(vlaw, self.sv[vi[free]] - ks[kf])
+        tl, v[free] = _times_and_speeds_of(law, pj, self.sv[vi[free]] - ks[kf])   # law.take(pj)'s
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
@@ -570,6 +569,10 @@ def _step_law(L, T, beta, va, vb):
     has no integrals, peak_speed, _critical_t.  Else (bad inputs: LineLaw raises; a law
     in the other branch) the whole LineLaw."""
     L, T, beta, va, vb = (np.asarray(a, dtype=float) for a in (L, T, beta, va, vb))
+    if CORE_MOD is not None and L.ndim == 1 and L.shape == T.shape == beta.shape == va.shape == vb.shape:
+        law = _step_law_core(CORE_MOD, L, T, beta, va, vb)
+        if law is not None:
+            return law
     if (L.ndim != 1 or not (L.shape == T.shape == beta.shape == va.shape == vb.shape)
             or not (np.all(T > 0) and np.all(np.isfinite(T))) or not np.all(beta > 0)
             or not (np.all(np.isfinite(L)) and np.all(np.isfinite(va)) and np.all(np.isfinite(vb)))):
@@ -596,6 +599,93 @@ def _step_law(L, T, beta, va, vb):
     return law
 
 
+def _end_accels(law):
+    """law.end_accels() (a _step_law law): of a lite law (every law in the series branch)
+    in one C call (step_accels: its operations, in its order) after numpy's cosh(γ/2)
+    (np.cosh, as there), when the chain core is there; else end_accels itself."""
+    c = law._c
+    if CORE_MOD is None or "lite" not in c or law.T.ndim != 1:
+        return law.end_accels()
+    P = law.T.size
+    a0, a1 = np.empty(P), np.empty(P)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        ch = np.cosh(0.5 * c["gs"])
+    f = np.ascontiguousarray
+    CORE_MOD.step_accels(f(law.T), f(c["n"]), f(c["sh2"]), ch, f(law._A), f(law._delta), a0, a1)
+    return a0, a1
+
+
+def _times_and_speeds_of(law, pj, s_targets):
+    """_times_and_speeds(law.take(pj), s_targets) of a _step_law law: with the chain core
+    and every law of it in the series branch, only what tod_solve reads is taken (_tod_core's
+    arrays, law.take's numbers: the same bits); else law.take(pj) and _times_and_speeds."""
+    c = law._c
+    if CORE_MOD is not None and "lite" in c and law.L.ndim == 1 and pj.size:
+        out = _tod_core_of(CORE_MOD, law, pj, s_targets)
+        if out is not None:
+            return out
+    return _times_and_speeds(law.take(pj), s_targets)
+
+
+def _tod_core_of(core, law, pj, s_targets, max_iter=200):
+    """_tod_core(core, law.take(pj), s_targets) taking only the arrays it reads."""
+    c = law._c
+    if pj.dtype == np.int64 and law.T.dtype == np.float64 and np.asarray(s_targets).shape == pj.shape:
+        N = pj.size
+        f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+        T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
+        act = np.empty(N, np.int64)
+        core.tod_prep(f(law.T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A),
+                      f(law._delta), np.ascontiguousarray(pj), f(s_targets), T, gs, n, sh2, wbar, A, dl, target, sgn,
+                      lo, hi, t, scale, out, act)
+        vout = np.empty(N)
+        na = core.tod_solve(t, T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                            _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+        if na:
+            rest = act[:na]
+            vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
+        return out, vout
+    T, L = law.T[pj], law.L[pj]
+    lo_s, hi_s = np.minimum(0.0, L), np.maximum(0.0, L)
+    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
+    if target.shape != T.shape:
+        return None
+    target = np.ascontiguousarray(target)
+    sgn = np.where(L < 0, -1.0, 1.0)
+    lo = np.zeros(T.shape)
+    hi = T.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = lo + (hi - lo) * np.where(L != 0, target / L, 0.5)
+    scale = np.maximum(np.abs(L), 1e-300)
+    gs, n, sh2, wbar, A, dl = (a[pj] for a in (c["gs"], c["n"], c["sh2"], law._wbar, law._A, law._delta))
+    N = T.size
+    out, vout = t.copy(), np.empty(N)
+    act = np.arange(N, dtype=np.int64)
+    na = core.tod_solve(t, T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                        _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+    if na:                     # out of steps: the last t of the laws still going, not evaluated yet
+        rest = act[:na]
+        vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
+    return out, vout
+
+
+def _step_law_core(core, L, T, beta, va, vb):
+    """_step_law's lite law with its numbers but shc(γ/2) made in one C call (step_law: the
+    same operations, in the same order); shc(γ/2) by line._shc (np.sinh) as there.  None
+    (the numpy code runs) where that code would not make a lite law."""
+    f = np.ascontiguousarray
+    P = L.size
+    gamma, gs, n, wbar, dl, A = (np.empty(P) for _ in range(6))
+    if core.step_law(f(L), f(T), f(beta), f(va), f(vb), _COEF_C, _ZMAX_C, gamma, gs, n, wbar, dl, A):
+        return None
+    law = object.__new__(LineLaw)
+    law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, va, vb
+    law.gamma = gamma
+    law._c = {"small": np.ones(P, bool), "gs": gs, "n": n, "sh2": _shc(gs / 2), "lite": np.ones(P, bool)}
+    law._wbar, law._delta, law._A = wbar, dl, A
+    return law
+
+
 class _Step:
     """One active-set step's laws (solve_fixed), flat; law(r, c) makes chain c's ChainLaw
     (r: its place in the step)."""
@@ -614,8 +704,13 @@ class _Step:
         na = self.active.size
         o = self.owner
         scale = np.zeros(na)
-        np.maximum.at(scale, o, np.abs(self.a0))
-        np.maximum.at(scale, o, np.abs(self.a1))
+        first = self.koff[:-1] - np.arange(na)         # each chain's first piece (pieces in chain order)
+        if na and o.size and np.all(first[1:] > first[:-1]):      # every chain has a piece: max per run
+            np.maximum(scale, np.maximum.reduceat(np.abs(self.a0), first), out=scale)
+            np.maximum(scale, np.maximum.reduceat(np.abs(self.a1), first), out=scale)
+        else:
+            np.maximum.at(scale, o, np.abs(self.a0))
+            np.maximum.at(scale, o, np.abs(self.a1))
         scale = np.maximum(scale, 1e-9)
         same = o[1:] == o[:-1]                          # consecutive pieces of one chain
         jump = (self.a0[1:] - self.a1[:-1])[same]
@@ -725,6 +820,12 @@ def _flat_figures(res, full=True):
         pa0, pa1 = np.maximum.reduceat(np.abs(res.a0), first), np.maximum.reduceat(np.abs(res.a1), first)
         res.peak_a = np.where(pa1 > pa0, pa1, pa0)        # as max(pa0, pa1)
         res.ia = np.empty(npc.size)
+    if CORE_MOD is not None and iv.dtype == np.float64 and iv.ndim == 1:     # the same sums, run by run in C
+        po = np.ascontiguousarray(res.poff, np.int64)
+        CORE_MOD.row_sums(np.ascontiguousarray(iv), po, res.iv)
+        if full:
+            CORE_MOD.row_sums(np.ascontiguousarray(ia), po, res.ia)
+        return
     for k in np.unique(npc).tolist():
         c = np.flatnonzero(npc == k)
         ix = first[c][:, None] + np.arange(k)

@@ -1316,6 +1316,156 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* active_step(vi, rank_off, bv, vert_v, cv, a0, a1, koff, hist, cap_f, mu_tol, last, new, done, cyc,
+               bound, vt, vert_t, warm, active) -> 0
+   One step of laws/chain.solve_flat's active-set bookkeeping, chain by chain (each chain's
+   answer is its own: the numpy code's, whole batch at once, gives the same): the step's
+   chains r (vertices q at rank_off[r]:rank_off[r + 1] of vi, pieces at koff[r] - r ..
+   koff[r + 1] - r - 1), bv (uint8) their binding masks, vert_v their speeds, cv the caps
+   (all vertices), a0, a1 the pieces' end accelerations (_Step.multipliers' numbers: the
+   scale as numpy's maximum from 0 over |a0| then |a1|, floored at 1e-9; mu = jump / scale,
+   0 unless below -mu_tol), hist the binding masks (uint8, all vertices) of the steps so far
+   (this one's last).  Writes new (uint8), done, cyc (uint8 per chain) and, for the chains
+   not done, bound[vi] = new, vt[vi] = vert_t, warm[active[r]] = 1.  last: out of steps. */
+static PyObject *active_step(PyObject *self, PyObject *a) {
+    PyObject *o[20];
+    double cap_f, mu_tol;
+    int last;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOddiOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &cap_f, &mu_tol, &last, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15],
+                          &o[16]))
+        return NULL;
+    if (!PyList_Check(o[8])) {
+        PyErr_SetString(PyExc_TypeError, "active_step: hist must be a list");
+        return NULL;
+    }
+    Py_ssize_t H = PyList_GET_SIZE(o[8]);
+    if (H < 1 || H > 64) {
+        PyErr_SetString(PyExc_ValueError, "active_step: hist size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    Py_ssize_t n, nr1, nbv, nvv, NV, np0, np1, nk1, nnew, ndone, ncyc, nbound, nvt, nvert_t, nwarm, nact;
+    int64_t *vi = get(&b, o[0], 8, 0, &n);
+    int64_t *roff = vi ? get(&b, o[1], 8, 0, &nr1) : NULL;
+    uint8_t *bv = roff ? get(&b, o[2], 1, 0, &nbv) : NULL;
+    double *vv = bv ? get(&b, o[3], 8, 0, &nvv) : NULL;
+    double *cv = vv ? get(&b, o[4], 8, 0, &NV) : NULL;
+    double *a0 = cv ? get(&b, o[5], 8, 0, &np0) : NULL;
+    double *a1 = a0 ? get(&b, o[6], 8, 0, &np1) : NULL;
+    int64_t *koff = a1 ? get(&b, o[7], 8, 0, &nk1) : NULL;
+    uint8_t *nw = koff ? get(&b, o[9], 1, 1, &nnew) : NULL;
+    uint8_t *done = nw ? get(&b, o[10], 1, 1, &ndone) : NULL;
+    uint8_t *cyc = done ? get(&b, o[11], 1, 1, &ncyc) : NULL;
+    uint8_t *bound = cyc ? get(&b, o[12], 1, 1, &nbound) : NULL;
+    double *vt = bound ? get(&b, o[13], 8, 1, &nvt) : NULL;
+    double *vert_t = vt ? get(&b, o[14], 8, 0, &nvert_t) : NULL;
+    uint8_t *warm = vert_t ? get(&b, o[15], 1, 1, &nwarm) : NULL;
+    int64_t *act = warm ? get(&b, o[16], 8, 0, &nact) : NULL;
+    if (!act) { release(&b); return NULL; }
+    Py_ssize_t na = nr1 - 1;
+    int ok = na >= 0 && nbv == n && nvv == n && nnew == n && nvert_t == n && np1 == np0 && nk1 == nr1
+             && ndone == na && ncyc == na && nact == na && nbound == NV && nvt == NV && roff[0] == 0
+             && roff[na] == n && koff[0] == 0 && koff[na] - na == np0;
+    for (Py_ssize_t r = 0; ok && r < na; r++)
+        ok = roff[r + 1] >= roff[r] && koff[r + 1] - koff[r] >= 1 && act[r] >= 0 && act[r] < nwarm;
+    for (Py_ssize_t q = 0; ok && q < n; q++) ok = vi[q] >= 0 && vi[q] < NV;
+    /* binding vertices per chain = pieces - 1 */
+    for (Py_ssize_t r = 0; ok && r < na; r++) {
+        Py_ssize_t nb = 0;
+        for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
+        ok = nb == koff[r + 1] - koff[r] - 2;
+    }
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "active_step: shapes");
+        return NULL;
+    }
+    const uint8_t *hist[64];
+    Py_buffer hb[64];
+    int nh = 0;
+    for (Py_ssize_t h = 0; h < H; h++) {
+        if (PyObject_GetBuffer(PyList_GET_ITEM(o[8], h), &hb[h], PyBUF_C_CONTIGUOUS) < 0) break;
+        nh++;
+        if (hb[h].len != NV) {
+            PyErr_SetString(PyExc_ValueError, "active_step: hist shapes");
+            break;
+        }
+        hist[h] = hb[h].buf;
+    }
+    if (nh < H || PyErr_Occurred()) {
+        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+        release(&b);
+        return NULL;
+    }
+    for (Py_ssize_t r = 0; r < na; r++) {
+        int64_t q0 = roff[r], q1 = roff[r + 1];
+        int64_t p0 = koff[r] - r, p1 = koff[r + 1] - r - 1;        /* pieces p0 .. p1 - 1 */
+        double scale = 0.0;
+        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a0[p]));
+        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a1[p]));
+        scale = np_max(scale, 1e-9);
+        int any_viol = 0, any_neg = 0;
+        double mu_min = 0.0;
+        int64_t worst = -1;
+        int64_t p = p0;                                  /* the piece after the next binding vertex: p + 1 */
+        for (int64_t q = q0; q < q1; q++) {
+            if (bv[q]) {
+                double m = (a0[p + 1] - a1[p]) / scale;
+                m = m < -mu_tol ? m : 0.0;
+                p++;
+                if (m < 0) any_neg = 1;
+                if (worst < 0 || m < mu_min) { mu_min = m; worst = q; }
+                nw[q] = 2 | (m < 0);                     /* binding; bit 0: negative multiplier */
+            } else {
+                int viol = vv[q] > cv[vi[q]] * cap_f + 1e-12;
+                any_viol |= viol;
+                nw[q] = viol;
+            }
+        }
+        int rel = !any_viol && any_neg;
+        for (int64_t q = q0; q < q1; q++)                /* new = bv | viol, less the released */
+            nw[q] = (nw[q] & 2) ? !(rel && (nw[q] & 1)) : nw[q];
+        int moving = any_viol || any_neg;
+        int seen = 0;
+        if (rel || moving) {
+            for (Py_ssize_t h = 0; h < H && !seen; h++) {
+                int same = 1;
+                for (int64_t q = q0; q < q1 && same; q++) same = (hist[h][vi[q]] != 0) == (nw[q] != 0);
+                seen = same;
+            }
+        }
+        if (rel && seen) {                                /* cycling: release only the worst */
+            for (int64_t q = q0; q < q1; q++) nw[q] = bv[q] != 0;
+            nw[worst] = 0;
+            seen = 0;
+            for (Py_ssize_t h = 0; h < H && !seen; h++) {
+                int same = 1;
+                for (int64_t q = q0; q < q1 && same; q++) same = (hist[h][vi[q]] != 0) == (nw[q] != 0);
+                seen = same;
+            }
+        }
+        int cy = moving && seen;
+        int dn = !moving || cy;
+        if (last) {
+            cy = cy || moving;
+            dn = 1;
+        }
+        cyc[r] = (uint8_t)cy;
+        done[r] = (uint8_t)dn;
+        if (!dn) {
+            for (int64_t q = q0; q < q1; q++) {
+                bound[vi[q]] = nw[q];
+                vt[vi[q]] = vert_t[q];
+            }
+            warm[act[r]] = 1;
+        }
+    }
+    for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+    release(&b);
+    return PyLong_FromLong(0);
+}
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
@@ -1328,6 +1478,7 @@ static PyMethodDef methods[] = {
     {"step_accels", step_accels, METH_VARARGS, "LineLaw.end_accels of series-branch laws"},
     {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},
     {"tod_prep", tod_prep, METH_VARARGS, "_tod_core's inputs of the taken laws, one pass"},
+    {"active_step", active_step, METH_VARARGS, "solve_flat's active-set bookkeeping of one step"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

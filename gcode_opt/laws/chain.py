@@ -335,14 +335,21 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
     hist = []        # the binding masks of the steps so far: a chain is active from step 0 to its end
     vt = vt.copy()
     warm = warm.copy()
+    # the bookkeeping of a step in one C call (active_step) where the arrays are its types
+    fast = (CORE_MOD is not None and bound.dtype == bool and bound.ndim == 1 and vt.dtype == np.float64
+            and warm.dtype == bool and fl.cv.dtype == np.float64 and bound.flags.c_contiguous
+            and warm.flags.c_contiguous and fl.cv.flags.c_contiguous)
     for it in range(MAX_ACTIVE_ITERS):
         if active.size == 0:
             break
         na = active.size
         st = fl.solve_fixed(active, bound, vt, warm)
+        hist.append(bound.copy())
+        if fast and _active_step_core(st, fl, hist, bound, vt, warm, res, it == MAX_ACTIVE_ITERS - 1):
+            active = st.active[~st.done]
+            continue
         vi, rank = st.vi, st.rank
         bv = bound[vi]
-        hist.append(bound.copy())
         # a vertex over its cap joins the binding set; else a binding vertex whose
         # multiplier is negative leaves it
         viol = ~bv & (st.vert_v > fl.cv[vi] * (1 + CAP_TOL_R) + 1e-12)
@@ -379,6 +386,29 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         active = active[go]
     res.close(bound, pieces)
     return res
+
+
+def _active_step_core(st, fl, hist, bound, vt, warm, res, last):
+    """solve_flat's bookkeeping of the step st (its lines after hist.append: which vertex
+    joins or leaves, cycling, done; res.take; bound, vt, warm of the chains going on) in
+    one C call (active_step, chain by chain: the same masks).  Sets st.done.  False
+    (nothing done: the numpy lines run) where the step's arrays are not the types it reads."""
+    ix = (st.vi, st.voff, st.koff)
+    if not (all(a.dtype == np.int64 and a.flags.c_contiguous for a in ix) and st.a0.dtype == np.float64
+            and st.vert_v.dtype == np.float64 and st.vert_t.dtype == np.float64 and st.active.dtype == np.int64
+            and len(hist) <= 64):
+        return False
+    na, n = st.active.size, st.vi.size
+    c = np.ascontiguousarray
+    new = np.empty(n, bool)
+    done, cyc = np.empty(na, bool), np.empty(na, bool)
+    CORE_MOD.active_step(st.vi, st.voff, c(bound[st.vi]).view(np.uint8), c(st.vert_v), fl.cv, c(st.a0), c(st.a1),
+                         st.koff, hist, 1 + CAP_TOL_R, MU_TOL_R, int(last), new.view(np.uint8),
+                         done.view(np.uint8), cyc.view(np.uint8), bound.view(np.uint8), vt, c(st.vert_t),
+                         warm.view(np.uint8), c(st.active))
+    res.take(st, done, cyc)
+    st.done = done
+    return True
 
 
 def _seen(hist, vi, new, rank, na, want=None):

@@ -1466,6 +1466,203 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     return PyLong_FromLong(0);
 }
 
+/* The figures of _flat_figures(full=False) (laws/chain._figure_law, end_speeds, _critical_t,
+   eval(t, "v"), peak_speed, min_speed, the per-chain maxima and minima), their arithmetic
+   in three C passes, element by element in numpy's operations and order; numpy's sinh and
+   arctanh (line._shc, line._atanhc) in between, made by numpy.
+   fig_a(L, T, beta, v0, v1, coef, zmax, <outs: gamma, gs, n, m, s1, wbar, delta, A>) -> 0, or 1
+   (nothing usable: the numpy code runs) on an input LineLaw refuses or a γ not below
+   GAMMA_SWITCH: _figure_law's γ, n, m, S1 (_horner_nms: the batch's terms), wbar, δ, A. */
+VEC_CLONES static void fig_a_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
+                                  const double *restrict T, const double *restrict va, const double *restrict vb,
+                                  const double *restrict g, double *restrict gs, double *restrict n,
+                                  double *restrict m, double *restrict s1, double *restrict wbar,
+                                  double *restrict dl, double *restrict A) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double z = g[i];
+        double z2 = z * z, x = coef[3 * (k - 1)], y = coef[3 * (k - 1) + 1], w = coef[3 * (k - 1) + 2];
+        for (int q = k - 2; q >= 0; q--) {
+            x = x * z2; x = x + coef[3 * q];
+            y = y * z2; y = y + coef[3 * q + 1];
+            w = w * z2; w = w + coef[3 * q + 2];
+        }
+        gs[i] = z;
+        n[i] = x;
+        m[i] = y;
+        s1[i] = w;
+        double wb = (T[i] * (va[i] + vb[i])) / 2;
+        wbar[i] = wb;
+        dl[i] = (T[i] * (va[i] - vb[i])) / 2;
+        A[i] = L[i] - wb;
+    }
+}
+
+static PyObject *fig_a(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[15];
+    double *p[15];
+    for (int q = 0; q < 15; q++) {
+        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    int ok = nn[5] >= 3 * NTERMS;
+    for (int q = 0; q < 15; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_a: shapes");
+        return NULL;
+    }
+    Py_ssize_t N = nn[0];
+    int64_t gb;
+    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
+    if (!bad && N) {
+        double gm;
+        memcpy(&gm, &gb, 8);
+        int k = nms_terms(gm * gm, p[6], nn[6], 0);
+        fig_a_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14]);
+    }
+    release(&b);
+    return PyLong_FromLong(bad || !N);
+}
+
+/* fig_b(L, T, gamma, n, m, s1, sh2, wbar, delta, A, <outs: iv, kog, vs, ve, rho, r>): ∫ṡ²
+   (integrals()' with _small_coeffs' Ig1, Ih), κ/γ = 2 n / sh2, end_speeds, and _critical_t's
+   ρ = -δ / A, r = ρ κ/γ γ. */
+VEC_CLONES static void fig_b_vec(Py_ssize_t N, const double *restrict L, const double *restrict T,
+                                 const double *restrict g, const double *restrict n, const double *restrict m,
+                                 const double *restrict s1, const double *restrict sh2, const double *restrict wbar,
+                                 const double *restrict dl, const double *restrict A, double *restrict iv,
+                                 double *restrict kog, double *restrict vs, double *restrict ve,
+                                 double *restrict rho, double *restrict r) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double ni = n[i], sh = sh2[i], Ai = A[i], di = dl[i], Ti = T[i], Li = L[i], wb = wbar[i];
+        double Ig1 = m[i] / ((2 * ni) * ni), Ih = (2 * s1[i]) / (sh * sh);
+        iv[i] = ((Li * Li + (Ai * Ai) * Ig1) + (di * di) * Ih) / Ti;
+        double kg = (2 * ni) / sh;
+        kog[i] = kg;
+        double z = Ai * 0.0;
+        vs[i] = ((wb + z) - di * -1.0) / Ti;
+        ve[i] = ((wb + z) - di * 1.0) / Ti;
+        double rh = -di / Ai;
+        rho[i] = rh;
+        r[i] = (rh * kg) * g[i];
+    }
+}
+
+/* fig_c(T, gs, rho, kog, r, atc, <outs: tau, za, zb, zx>): _critical_t's x (atc = _atanhc(r)),
+   nan_to_num, clip, t; eval's τ = clip(t / T, 0, 1) and the arguments of shc: γτ/2,
+   γ(1 - τ)/2, γ(τ - 1/2). */
+VEC_CLONES static void fig_c_vec(Py_ssize_t N, const double *restrict T, const double *restrict gs,
+                                 const double *restrict rho, const double *restrict kog, const double *restrict r,
+                                 const double *restrict atc, double *restrict tau, double *restrict za,
+                                 double *restrict zb, double *restrict zx) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double ri = r[i];
+        double x = (rho[i] * kog[i]) * atc[i];
+        double sg = ri > 0 ? 1.0 : (ri < 0 ? -1.0 : ri);          /* np.sign (0 and nan kept) */
+        x = fabs(ri) >= 1 ? sg * 0.5 : x;
+        x = isnan(x) ? 0.0 : (isinf(x) ? (x > 0 ? DBL_MAX : -DBL_MAX) : x);     /* nan_to_num */
+        x = x > -0.5 ? x : -0.5;                                  /* np.clip (no nan left) */
+        x = x < 0.5 ? x : 0.5;
+        double Ti = T[i];
+        double t = (x + 0.5) * Ti;
+        double u = t / Ti;
+        u = isnan(u) ? u : (u > 0.0 ? u : 0.0);
+        u = isnan(u) ? u : (u < 1.0 ? u : 1.0);
+        tau[i] = u;
+        double g = gs[i];
+        za[i] = (g * u) / 2;
+        zb[i] = (g * (1 - u)) / 2;
+        zx[i] = g * (u - 0.5);
+    }
+}
+
+/* fig_d(tau, pa, pb, shx, n, sh2, wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v per
+   chain>): eval(t, "v") at the critical t (g = bub / 2n, h = 2x shx / sh2), the candidates'
+   max and min (np.maximum.reduce / np.minimum.reduce of (vs, ve, vc)), each chain's
+   (np.maximum.reduceat / np.minimum.reduceat over poff: from its first piece, in order). */
+static PyObject *fig_d(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[15];
+    double *p[15];
+    for (int q = 0; q < 15; q++) {
+        p[q] = get(&b, o[q], 8, q >= 13, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t N = nn[0], nc = nn[12] - 1;
+    int ok = nc >= 0 && nn[13] == nc && nn[14] == nc;
+    for (int q = 1; q < 12; q++) ok = ok && nn[q] == N;
+    const int64_t *poff = (const int64_t *)p[12];
+    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
+    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_d: shapes");
+        return NULL;
+    }
+    const double *tau = p[0], *pa = p[1], *pb = p[2], *shx = p[3], *n = p[4], *sh2 = p[5], *wbar = p[6];
+    const double *A = p[7], *dl = p[8], *T = p[9], *vs = p[10], *ve = p[11];
+    double *pk = p[13], *mn = p[14];
+    for (Py_ssize_t c = 0; c < nc; c++) {
+        double hi = 0.0, lo = 0.0;
+        for (int64_t i = poff[c]; i < poff[c + 1]; i++) {
+            double u = tau[i];
+            double bub = ((u * (1 - u)) * pa[i]) * pb[i];
+            double g = bub / (2 * n[i]);
+            double h = ((2 * (u - 0.5)) * shx[i]) / sh2[i];
+            double vc = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];
+            double mx = np_max(np_max(vs[i], ve[i]), vc), mi = np_min(np_min(vs[i], ve[i]), vc);
+            if (i == poff[c]) { hi = mx; lo = mi; }
+            else { hi = np_max(hi, mx); lo = np_min(lo, mi); }
+        }
+        pk[c] = hi;
+        mn[c] = lo;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* fig_b and fig_c's argument parsing: n inputs then n_out outputs, all the same length */
+static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
+    PyObject *o[16];
+    Py_ssize_t nargs = PyTuple_GET_SIZE(a);
+    if (nargs != nin + nout) {
+        PyErr_SetString(PyExc_TypeError, "fig: arguments");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[16];
+    double *p[16];
+    for (int q = 0; q < nin + nout; q++) {
+        o[q] = PyTuple_GET_ITEM(a, q);
+        p[q] = get(&b, o[q], 8, q >= nin, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+        if (nn[q] != nn[0]) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "fig: shapes");
+            return NULL;
+        }
+    }
+    if (which == 0)
+        fig_b_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+                  p[14], p[15]);
+    else
+        fig_c_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]);
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 0); }
+static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
@@ -1479,6 +1676,10 @@ static PyMethodDef methods[] = {
     {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},
     {"tod_prep", tod_prep, METH_VARARGS, "_tod_core's inputs of the taken laws, one pass"},
     {"active_step", active_step, METH_VARARGS, "solve_flat's active-set bookkeeping of one step"},
+    {"fig_a", fig_a, METH_VARARGS, "_figure_law's numbers but shc(gamma/2)"},
+    {"fig_b", fig_b, METH_VARARGS, "the flat figures: integral of v^2, end speeds, critical-point ratio"},
+    {"fig_c", fig_c, METH_VARARGS, "the flat figures: critical t, tau and the shc arguments"},
+    {"fig_d", fig_d, METH_VARARGS, "the flat figures: speed at the critical t, per-chain peak and least speed"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

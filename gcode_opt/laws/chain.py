@@ -33,8 +33,8 @@ import numpy as np
 from .. import native
 from . import prims
 from .line import GAMMA_SWITCH as _GAMMA_SWITCH
-from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _horner_nms, _large_coeffs, _nms_terms,
-                   _shc, end_speeds, time_of_distance)
+from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _atanhc, _horner_nms, _large_coeffs,
+                   _nms_terms, _shc, end_speeds, time_of_distance)
 
 # The compiled Newton loops of _share_time and of the chains' time of distance (_chaincore.c,
 # module _gcode_opt_chaincore): optional, the same bits as the numpy code
@@ -831,6 +831,8 @@ def _flat_figures(res, full=True):
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
     False: ∫s̈² and peak |s̈| are not made (None)."""
+    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res):
+        return
     law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
     if law is None:
         law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
@@ -862,6 +864,40 @@ def _flat_figures(res, full=True):
         res.iv[c] = np.sum(iv[ix], axis=1)
         if full:
             res.ia[c] = np.sum(ia[ix], axis=1)
+
+
+def _flat_figures_core(core, res):
+    """_flat_figures(res, full=False) with its arithmetic in C (fig_a .. fig_d, row_sums:
+    _figure_law, end_speeds, _critical_t, eval(t, "v"), peak and least speed and the
+    per-chain maxima, minima and sums, each its numpy operations in their order) and
+    numpy's sinh and arctanh (line._shc, line._atanhc) in between: the same bits.  False
+    (nothing set: the numpy code runs) where the inputs are not what it takes (not every law
+    in the series branch, bad inputs, a chain without pieces)."""
+    f = np.ascontiguousarray
+    L, T, beta, v0, v1 = (np.asarray(a) for a in (res.L, res.T, res.beta, res.v0, res.v1))
+    poff = np.asarray(res.poff)
+    if not (L.ndim == 1 and L.size and L.shape == T.shape == beta.shape == v0.shape == v1.shape
+            and all(a.dtype == np.float64 for a in (L, T, beta, v0, v1)) and poff.dtype == np.int64
+            and poff.size >= 2 and np.all(poff[1:] > poff[:-1])):
+        return False
+    L, T, beta, v0, v1, poff = (f(a) for a in (L, T, beta, v0, v1, poff))
+    P, nc = L.size, poff.size - 1
+    gamma, gs, n, m, s1, wbar, dl, A = (np.empty(P) for _ in range(8))
+    if core.fig_a(L, T, beta, v0, v1, _COEF_C, _ZMAX_C, gamma, gs, n, m, s1, wbar, dl, A):
+        return False
+    sh2 = f(_shc(gs / 2))
+    iv, kog, vs, ve, rho, r = (np.empty(P) for _ in range(6))
+    core.fig_b(L, T, gamma, n, m, s1, sh2, wbar, dl, A, iv, kog, vs, ve, rho, r)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        atc = f(_atanhc(r))
+    tau, za, zb, zx = (np.empty(P) for _ in range(4))
+    core.fig_c(T, gs, rho, kog, r, atc, tau, za, zb, zx)
+    pa, pb, shx = (f(_shc(z)) for z in (za, zb, zx))
+    res.peak_v, res.min_v, res.iv = np.empty(nc), np.empty(nc), np.empty(nc)
+    core.fig_d(tau, pa, pb, shx, n, sh2, wbar, A, dl, T, vs, ve, poff, res.peak_v, res.min_v)
+    core.row_sums(iv, poff, res.iv)
+    res.ia = res.peak_a = None
+    return True
 
 
 def _figure_law(L, T, beta, v0, v1):

@@ -1316,7 +1316,7 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
-/* active_step(vi, rank_off, bv, vert_v, cv, a0, a1, koff, hist, cap_f, mu_tol, last, new, done, cyc,
+/* active_step(vi, rank_off, bv, vert_v, cv, a0, a1, koff, mu, hist, cap_f, mu_tol, last, new, done, cyc,
                bound, vt, vert_t, warm, active) -> 0
    One step of laws/chain.solve_flat's active-set bookkeeping, chain by chain (each chain's
    answer is its own: the numpy code's, whole batch at once, gives the same): the step's
@@ -1324,16 +1324,17 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
    koff[r + 1] - r - 1), bv (uint8) their binding masks, vert_v their speeds, cv the caps
    (all vertices), a0, a1 the pieces' end accelerations (_Step.multipliers' numbers: the
    scale as numpy's maximum from 0 over |a0| then |a1|, floored at 1e-9; mu = jump / scale,
-   0 unless below -mu_tol), hist the binding masks (uint8, all vertices) of the steps so far
+   0 unless below -mu_tol; mu not None: the multipliers given, per binding vertex in order,
+   as _Step.multipliers returns them), hist the binding masks (uint8, all vertices) of the steps so far
    (this one's last).  Writes new (uint8), done, cyc (uint8 per chain) and, for the chains
    not done, bound[vi] = new, vt[vi] = vert_t, warm[active[r]] = 1.  last: out of steps. */
 static PyObject *active_step(PyObject *self, PyObject *a) {
-    PyObject *o[20];
+    PyObject *o[20], *omu;
     double cap_f, mu_tol;
     int last;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOddiOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &cap_f, &mu_tol, &last, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15],
-                          &o[16]))
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOddiOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &omu, &o[8], &cap_f, &mu_tol, &last, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14],
+                          &o[15], &o[16]))
         return NULL;
     if (!PyList_Check(o[8])) {
         PyErr_SetString(PyExc_TypeError, "active_step: hist must be a list");
@@ -1362,6 +1363,12 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     double *vert_t = vt ? get(&b, o[14], 8, 0, &nvert_t) : NULL;
     uint8_t *warm = vert_t ? get(&b, o[15], 1, 1, &nwarm) : NULL;
     int64_t *act = warm ? get(&b, o[16], 8, 0, &nact) : NULL;
+    Py_ssize_t nmu = -1;
+    double *mug = NULL;
+    if (act && omu != Py_None) {
+        mug = get(&b, omu, 8, 0, &nmu);
+        if (!mug) act = NULL;
+    }
     if (!act) { release(&b); return NULL; }
     Py_ssize_t na = nr1 - 1;
     int ok = na >= 0 && nbv == n && nvv == n && nnew == n && nvert_t == n && np1 == np0 && nk1 == nr1
@@ -1371,11 +1378,14 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
         ok = roff[r + 1] >= roff[r] && koff[r + 1] - koff[r] >= 1 && act[r] >= 0 && act[r] < nwarm;
     for (Py_ssize_t q = 0; ok && q < n; q++) ok = vi[q] >= 0 && vi[q] < NV;
     /* binding vertices per chain = pieces - 1 */
+    Py_ssize_t nbt = 0;
     for (Py_ssize_t r = 0; ok && r < na; r++) {
         Py_ssize_t nb = 0;
         for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
         ok = nb == koff[r + 1] - koff[r] - 2;
+        nbt += nb;
     }
+    ok = ok && (mug == NULL || nmu == nbt);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "active_step: shapes");
@@ -1411,8 +1421,12 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
         int64_t p = p0;                                  /* the piece after the next binding vertex: p + 1 */
         for (int64_t q = q0; q < q1; q++) {
             if (bv[q]) {
-                double m = (a0[p + 1] - a1[p]) / scale;
-                m = m < -mu_tol ? m : 0.0;
+                double m;
+                if (mug) m = mug[p - r];                 /* binding vertex p - r of the step, in order */
+                else {
+                    m = (a0[p + 1] - a1[p]) / scale;
+                    m = m < -mu_tol ? m : 0.0;
+                }
                 p++;
                 if (m < 0) any_neg = 1;
                 if (worst < 0 || m < mu_min) { mu_min = m; worst = q; }

@@ -402,8 +402,11 @@ def _active_step_core(st, fl, hist, bound, vt, warm, res, last):
     c = np.ascontiguousarray
     new = np.empty(n, bool)
     done, cyc = np.empty(na, bool), np.empty(na, bool)
+    # the multipliers: made in C from a0, a1 (_Step.multipliers' numbers), or the method's
+    # own where it is not that one (a test forcing them)
+    mu = None if _Step.multipliers is _MULTIPLIERS else c(np.asarray(st.multipliers(), float))
     CORE_MOD.active_step(st.vi, st.voff, c(bound[st.vi]).view(np.uint8), c(st.vert_v), fl.cv, c(st.a0), c(st.a1),
-                         st.koff, hist, 1 + CAP_TOL_R, MU_TOL_R, int(last), new.view(np.uint8),
+                         st.koff, mu, hist, 1 + CAP_TOL_R, MU_TOL_R, int(last), new.view(np.uint8),
                          done.view(np.uint8), cyc.view(np.uint8), bound.view(np.uint8), vt, c(st.vert_t),
                          warm.view(np.uint8), c(st.active))
     res.take(st, done, cyc)
@@ -746,6 +749,9 @@ class _Step:
         jump = (self.a0[1:] - self.a1[:-1])[same]
         mu = jump / scale[o[1:][same]]
         return np.where(mu < -MU_TOL_R, mu, 0.0)
+
+_MULTIPLIERS = _Step.multipliers
+
 
 class FlatLaws:
     """solve_flat's laws, flat: per vertex (in fl's order) bound (the binding masks solved

@@ -470,14 +470,15 @@ def test_cut_short_same_bits(iters, monkeypatch):
 
 
 @needs_core
-def test_forced_release_and_cycling_same_bits(monkeypatch):
-    """Every binding vertex wants release (a negative multiplier growing with its position):
-    release, re-add, 'seen before', release only the worst, give up; the C bookkeeping
-    (given the forced multipliers) as the reference's."""
+@pytest.mark.parametrize("tied", [False, True])
+def test_forced_release_and_cycling_same_bits(tied, monkeypatch):
+    """Every binding vertex wants release (a negative multiplier growing with its position,
+    or all the same: the worst is the first): release, re-add, 'seen before', release only
+    the worst, give up; the C bookkeeping (given the forced multipliers) as the reference's."""
     def forced(self):
         inner = np.ones(self.ks.size, bool)
         inner[self.koff[:-1]] = inner[self.koff[1:] - 1] = False
-        return -(1.0 + self.ks[inner])
+        return np.full(int(inner.sum()), -1.0) if tied else -(1.0 + self.ks[inner])
     ns = _ref_ns()
     ns["_Step"].multipliers = forced
     cnt = _Count(lc.CORE_MOD)
@@ -555,3 +556,39 @@ def test_fallbacks_decline_cleanly():
     _ref_ns()["_flat_figures"](r2, full=False)
     for f in ("iv", "peak_v", "min_v"):
         assert _eq(getattr(r, f), getattr(r2, f)), f
+
+
+@needs_core
+def test_lite_laws_and_figures_over_the_whole_series_branch():
+    """step_law and the figures' C passes against the reference's _step_law, end_accels and
+    _flat_figures on laws of γ all over the series branch (0 .. 4: the batch's series terms
+    grow with its largest γ), batches of small and large γ."""
+    rng = np.random.default_rng(11)
+    ns = _ref_ns()
+
+    class R:
+        pass
+    for gmax in (0.05, 0.3, 1.0, 2.0, 3.9):
+        P = 400
+        T = rng.uniform(0.01, 0.2, P)
+        gam = rng.uniform(0.0, gmax, P)
+        gam[0] = gmax
+        beta = (T / np.maximum(gam, 1e-3)) ** 2
+        L = rng.uniform(0.1, 5.0, P)
+        va, vb = rng.uniform(0, 2, P) * L / T, rng.uniform(0, 2, P) * L / T
+        law, ref = lc._step_law_core(lc.CORE_MOD, L, T, beta, va, vb), ns["_step_law"](L, T, beta, va, vb)
+        assert law is not None
+        for f in ("gamma", "_wbar", "_delta", "_A"):
+            assert _eq(getattr(law, f), getattr(ref, f)), (f, gmax)
+        for k in ("gs", "n", "sh2"):
+            assert _eq(law._c[k], ref._c[k]), (k, gmax)
+        for x, y in zip(lc._end_accels(law), ref.end_accels()):
+            assert _eq(x, y), gmax
+        poff = np.concatenate([[0], np.sort(rng.choice(np.arange(1, P), 60, replace=False)), [P]]).astype(np.int64)
+        r, r2 = R(), R()
+        for o in (r, r2):
+            o.L, o.T, o.beta, o.v0, o.v1, o.poff = L, T, beta, va, vb, poff
+        assert lc._flat_figures_core(lc.CORE_MOD, r)
+        ns["_flat_figures"](r2, full=False)
+        for f in ("iv", "peak_v", "min_v"):
+            assert _eq(getattr(r, f), getattr(r2, f)), (f, gmax)

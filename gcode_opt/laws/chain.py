@@ -244,6 +244,23 @@ def _tod_core(core, law, s_targets, max_iter=200):
     speed at the t each law ends on, which the last step has already computed (what
     _eval(t, "v") gives: the same operations).  None where the numpy code must run."""
     T = law.T
+    if (hasattr(core, "tod_prep") and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1
+            and np.asarray(s_targets).shape == T.shape):      # the inputs below in one C pass (tod_prep)
+        N = T.size
+        f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+        c = law._c
+        Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
+        act = np.empty(N, np.int64)
+        core.tod_prep(f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta),
+                      np.arange(N, dtype=np.int64), f(s_targets), Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t,
+                      scale, out, act)
+        vout = np.empty(N)
+        na = core.tod_solve(t, Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                            _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+        if na:                 # out of steps: the last t of the laws still going, not evaluated yet
+            rest = act[:na]
+            vout[rest] = _eval(law.take(rest), out[rest], "v")[1]
+        return out, vout
     lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
     target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
     if target.shape != T.shape:
@@ -585,7 +602,8 @@ class _Flat:
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's
         pj = kf - rank[free]                           # make-up changes no figure)
-        tl, v[free] = _times_and_speeds_of(law, pj, self.sv[vi[free]] - ks[kf])   # law.take(pj)'s
+        vlaw = law.take(pj)                            # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
+        tl, v[free] = _times_and_speeds(vlaw, self.sv[vi[free]] - ks[kf])
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
@@ -646,60 +664,6 @@ def _end_accels(law):
     f = np.ascontiguousarray
     CORE_MOD.step_accels(f(law.T), f(c["n"]), f(c["sh2"]), ch, f(law._A), f(law._delta), a0, a1)
     return a0, a1
-
-
-def _times_and_speeds_of(law, pj, s_targets):
-    """_times_and_speeds(law.take(pj), s_targets) of a _step_law law: with the chain core
-    and every law of it in the series branch, only what tod_solve reads is taken (_tod_core's
-    arrays, law.take's numbers: the same bits); else law.take(pj) and _times_and_speeds."""
-    c = law._c
-    if CORE_MOD is not None and "lite" in c and law.L.ndim == 1 and pj.size:
-        out = _tod_core_of(CORE_MOD, law, pj, s_targets)
-        if out is not None:
-            return out
-    return _times_and_speeds(law.take(pj), s_targets)
-
-
-def _tod_core_of(core, law, pj, s_targets, max_iter=200):
-    """_tod_core(core, law.take(pj), s_targets) taking only the arrays it reads."""
-    c = law._c
-    if pj.dtype == np.int64 and law.T.dtype == np.float64 and np.asarray(s_targets).shape == pj.shape:
-        N = pj.size
-        f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
-        T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
-        act = np.empty(N, np.int64)
-        core.tod_prep(f(law.T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A),
-                      f(law._delta), np.ascontiguousarray(pj), f(s_targets), T, gs, n, sh2, wbar, A, dl, target, sgn,
-                      lo, hi, t, scale, out, act)
-        vout = np.empty(N)
-        na = core.tod_solve(t, T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
-                            _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
-        if na:
-            rest = act[:na]
-            vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
-        return out, vout
-    T, L = law.T[pj], law.L[pj]
-    lo_s, hi_s = np.minimum(0.0, L), np.maximum(0.0, L)
-    target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
-    if target.shape != T.shape:
-        return None
-    target = np.ascontiguousarray(target)
-    sgn = np.where(L < 0, -1.0, 1.0)
-    lo = np.zeros(T.shape)
-    hi = T.copy()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = lo + (hi - lo) * np.where(L != 0, target / L, 0.5)
-    scale = np.maximum(np.abs(L), 1e-300)
-    gs, n, sh2, wbar, A, dl = (a[pj] for a in (c["gs"], c["n"], c["sh2"], law._wbar, law._A, law._delta))
-    N = T.size
-    out, vout = t.copy(), np.empty(N)
-    act = np.arange(N, dtype=np.int64)
-    na = core.tod_solve(t, T, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
-                        _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
-    if na:                     # out of steps: the last t of the laws still going, not evaluated yet
-        rest = act[:na]
-        vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
-    return out, vout
 
 
 def _step_law_core(core, L, T, beta, va, vb):

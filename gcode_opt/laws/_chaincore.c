@@ -1093,6 +1093,569 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
     return PyBool_FromLong(ok);
 }
 
+/* ---------------------------------------------------------------- session 22 (chainlaw)
+   row_sums(x, off, out): out[c] = np.sum(x[off[c]:off[c + 1]]) (numpy's pairwise sum of
+   each contiguous run, cf_pw_sum; 0.0 for an empty run, as numpy's empty sum): the row
+   sums _flat_figures made per piece count with np.sum(x[ix], axis=1). */
+static PyObject *row_sums(PyObject *self, PyObject *a) {
+    PyObject *ox, *ooff, *oout;
+    if (!PyArg_ParseTuple(a, "OOO", &ox, &ooff, &oout)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nc1, no;
+    double *x = get(&b, ox, 8, 0, &P);
+    int64_t *off = x ? get(&b, ooff, 8, 0, &nc1) : NULL;
+    double *out = off ? get(&b, oout, 8, 1, &no) : NULL;
+    if (!out) { release(&b); return NULL; }
+    int ok = nc1 >= 1 && no == nc1 - 1;
+    for (Py_ssize_t c = 0; ok && c + 1 < nc1; c++) ok = off[c] >= 0 && off[c + 1] >= off[c] && off[c + 1] <= P;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "row_sums: offsets");
+        return NULL;
+    }
+    for (Py_ssize_t c = 0; c + 1 < nc1; c++) {
+        Py_ssize_t n = (Py_ssize_t)(off[c + 1] - off[c]);
+        out[c] = n ? cf_pw_sum(x + off[c], n) : 0.0;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* step_accels(T, n, sh2, ch, A, d, a0, a1): LineLaw.end_accels of series-branch laws,
+   element by element, its operations in its order: gp0 = 0.5 sh2 / n, hp = 2 cosh(γ/2) / sh2
+   (ch = np.cosh(0.5 γ), made by numpy), T2 = T T, a0 = (A gp0 - d hp) / T2,
+   a1 = (-A gp0 - d hp) / T2. */
+VEC_CLONES static void accels_vec(Py_ssize_t N, const double *restrict T, const double *restrict n,
+                                  const double *restrict sh2, const double *restrict ch, const double *restrict A,
+                                  const double *restrict d, double *restrict a0, double *restrict a1) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double gp0 = (0.5 * sh2[i]) / n[i];
+        double hp = (2.0 * ch[i]) / sh2[i];
+        double T2 = T[i] * T[i];
+        double x = A[i] * gp0, y = d[i] * hp;
+        a0[i] = (x - y) / T2;
+        a1[i] = ((-A[i]) * gp0 - y) / T2;
+    }
+}
+
+static PyObject *step_accels(PyObject *self, PyObject *a) {
+    PyObject *o[8];
+    if (!PyArg_ParseTuple(a, "OOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7])) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[8];
+    double *p[8];
+    for (int q = 0; q < 8; q++) {
+        p[q] = get(&b, o[q], 8, q >= 6, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    for (int q = 1; q < 8; q++)
+        if (nn[q] != nn[0]) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "step_accels: shapes");
+            return NULL;
+        }
+    accels_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]);
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* step_law(L, T, beta, va, vb, coef, zmax, gamma, gs, n, wbar, delta, A) -> 0, or 1 (nothing
+   usable written: laws/chain._step_law's numpy code runs) on an input LineLaw refuses
+   (T not finite and > 0, β not > 0, L, v0, v1 not finite) or a γ not below GAMMA_SWITCH.
+   _step_law's numbers, element by element, its operations in its order: γ = T / √β,
+   gs = γ (np.minimum(γ, GAMMA_SWITCH) of a γ below it), n by Horner on the first column of
+   coef (the _NMS_COEF rows) with the terms _nms_terms gives the batch's largest γ², wbar =
+   T (v0 + v1) / 2, δ = T (v0 - v1) / 2, A = L - wbar.  (shc(γ/2) is numpy's: np.sinh.) */
+VEC_CLONES static int steplaw_args(Py_ssize_t N, const double *restrict L, const double *restrict T,
+                                   const double *restrict beta, const double *restrict va,
+                                   const double *restrict vb, double *restrict g, int64_t *gmax) {
+    int bad = 0;
+    int64_t gb = 0;
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double t = T[i], bt = beta[i];
+        double gi = t / sqrt(bt);
+        g[i] = gi;
+        bad |= !(t > 0.0) | !(t < HUGE_VAL) | !(bt > 0.0) | !(fabs(L[i]) < HUGE_VAL) | !(fabs(va[i]) < HUGE_VAL)
+               | !(fabs(vb[i]) < HUGE_VAL) | !(gi < GAMMA_SWITCH);
+        int64_t b0;
+        memcpy(&b0, &gi, 8);
+        gb = b0 > gb ? b0 : gb;
+    }
+    *gmax = gb;
+    return bad;
+}
+
+VEC_CLONES static void steplaw_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
+                                    const double *restrict T, const double *restrict va, const double *restrict vb,
+                                    const double *restrict g, double *restrict gs, double *restrict n,
+                                    double *restrict wbar, double *restrict dl, double *restrict A) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double z = g[i];
+        double z2 = z * z, x = coef[3 * (k - 1)];
+        for (int q = k - 2; q >= 0; q--) { x = x * z2; x = x + coef[3 * q]; }
+        gs[i] = z;
+        n[i] = x;
+        double w = (T[i] * (va[i] + vb[i])) / 2;
+        wbar[i] = w;
+        dl[i] = (T[i] * (va[i] - vb[i])) / 2;
+        A[i] = L[i] - w;
+    }
+}
+
+static PyObject *step_law(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[13];
+    double *p[13];
+    for (int q = 0; q < 13; q++) {
+        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    int ok = nn[5] >= 3 * NTERMS;
+    for (int q = 0; q < 13; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "step_law: shapes");
+        return NULL;
+    }
+    Py_ssize_t N = nn[0];
+    int64_t gb;
+    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
+    if (!bad && N) {
+        double gm;
+        memcpy(&gm, &gb, 8);
+        int k = nms_terms(gm * gm, p[6], nn[6], 0);     /* the largest γ²: all γ > 0 here */
+        steplaw_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12]);
+    }
+    release(&b);
+    return PyLong_FromLong(bad || !N);
+}
+
+/* tod_prep(T, L, gs, n, sh2, wbar, A, dl, pj, s, <outs: T, gs, n, sh2, wbar, A, dl, target, sgn,
+   lo, hi, t, scale, out, act>): laws/chain._tod_core's inputs of the laws pj (law.take(pj)'s
+   numbers) in one pass: target = np.clip(s, min(0, L), max(0, L)), sgn, lo = 0, hi = T,
+   t = lo + (hi - lo) (L != 0 ? target / L : 0.5), scale = max(|L|, 1e-300), out = t,
+   act = 0, 1, ... (numpy's minimum, maximum, clip on their nan and signed-zero rules). */
+static PyObject *tod_prep(PyObject *self, PyObject *a) {
+    PyObject *o[25];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+                          &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17],
+                          &o[18], &o[19], &o[20], &o[21], &o[22], &o[23], &o[24]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[25];
+    void *p[25];
+    for (int q = 0; q < 25; q++) {
+        p[q] = get(&b, o[q], 8, q >= 10, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t P = nn[0], N = nn[8];
+    int ok = 1;
+    for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
+    for (int q = 9; q < 25; q++) ok = ok && nn[q] == N;
+    const int64_t *pj = p[8];
+    for (Py_ssize_t i = 0; ok && i < N; i++) ok = pj[i] >= 0 && pj[i] < P;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_prep: shapes");
+        return NULL;
+    }
+    const double *T = p[0], *L = p[1], *s = p[9];
+    double *const *src = (double *const *)&p[2];          /* gs, n, sh2, wbar, A, dl */
+    double *oT = p[10], *target = p[17], *sgn = p[18], *lo = p[19], *hi = p[20], *t = p[21], *scale = p[22];
+    double *out = p[23];
+    int64_t *act = p[24];
+    for (Py_ssize_t i = 0; i < N; i++) {
+        int64_t j = pj[i];
+        double Ti = T[j], Li = L[j];
+        oT[i] = Ti;
+        for (int q = 0; q < 6; q++) ((double *)p[11 + q])[i] = src[q][j];
+        double los = (0.0 <= Li || isnan(0.0)) ? 0.0 : Li;       /* np.minimum(0.0, L) */
+        double his = (0.0 >= Li || isnan(0.0)) ? 0.0 : Li;       /* np.maximum(0.0, L) */
+        double x = s[i];
+        double mx = isnan(x) ? x : (x > los ? x : los);          /* np.clip */
+        double tg = isnan(mx) ? mx : (mx < his ? mx : his);
+        target[i] = tg;
+        sgn[i] = Li < 0 ? -1.0 : 1.0;
+        double l0 = 0.0, h0 = Ti;
+        lo[i] = l0;
+        hi[i] = h0;
+        double r = Li != 0 ? tg / Li : 0.5;
+        double ti = l0 + (h0 - l0) * r;
+        t[i] = ti;
+        out[i] = ti;
+        double aL = fabs(Li);
+        scale[i] = (aL >= 1e-300 || isnan(aL)) ? aL : 1e-300;
+        act[i] = (int64_t)i;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* active_step(vi, rank_off, bv, vert_v, cv, a0, a1, koff, mu, hist, cap_f, mu_tol, last, new, done, cyc,
+               bound, vt, vert_t, warm, active) -> 0
+   One step of laws/chain.solve_flat's active-set bookkeeping, chain by chain (each chain's
+   answer is its own: the numpy code's, whole batch at once, gives the same): the step's
+   chains r (vertices q at rank_off[r]:rank_off[r + 1] of vi, pieces at koff[r] - r ..
+   koff[r + 1] - r - 1), bv (uint8) their binding masks, vert_v their speeds, cv the caps
+   (all vertices), a0, a1 the pieces' end accelerations (_Step.multipliers' numbers: the
+   scale as numpy's maximum from 0 over |a0| then |a1|, floored at 1e-9; mu = jump / scale,
+   0 unless below -mu_tol; mu not None: the multipliers given, per binding vertex in order,
+   as _Step.multipliers returns them), hist the binding masks (uint8, all vertices) of the steps so far
+   (this one's last).  Writes new (uint8), done, cyc (uint8 per chain) and, for the chains
+   not done, bound[vi] = new, vt[vi] = vert_t, warm[active[r]] = 1.  last: out of steps. */
+static PyObject *active_step(PyObject *self, PyObject *a) {
+    PyObject *o[20], *omu;
+    double cap_f, mu_tol;
+    int last;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOddiOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &omu, &o[8], &cap_f, &mu_tol, &last, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14],
+                          &o[15], &o[16]))
+        return NULL;
+    if (!PyList_Check(o[8])) {
+        PyErr_SetString(PyExc_TypeError, "active_step: hist must be a list");
+        return NULL;
+    }
+    Py_ssize_t H = PyList_GET_SIZE(o[8]);
+    if (H < 1 || H > 64) {
+        PyErr_SetString(PyExc_ValueError, "active_step: hist size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    Py_ssize_t n, nr1, nbv, nvv, NV, np0, np1, nk1, nnew, ndone, ncyc, nbound, nvt, nvert_t, nwarm, nact;
+    int64_t *vi = get(&b, o[0], 8, 0, &n);
+    int64_t *roff = vi ? get(&b, o[1], 8, 0, &nr1) : NULL;
+    uint8_t *bv = roff ? get(&b, o[2], 1, 0, &nbv) : NULL;
+    double *vv = bv ? get(&b, o[3], 8, 0, &nvv) : NULL;
+    double *cv = vv ? get(&b, o[4], 8, 0, &NV) : NULL;
+    double *a0 = cv ? get(&b, o[5], 8, 0, &np0) : NULL;
+    double *a1 = a0 ? get(&b, o[6], 8, 0, &np1) : NULL;
+    int64_t *koff = a1 ? get(&b, o[7], 8, 0, &nk1) : NULL;
+    uint8_t *nw = koff ? get(&b, o[9], 1, 1, &nnew) : NULL;
+    uint8_t *done = nw ? get(&b, o[10], 1, 1, &ndone) : NULL;
+    uint8_t *cyc = done ? get(&b, o[11], 1, 1, &ncyc) : NULL;
+    uint8_t *bound = cyc ? get(&b, o[12], 1, 1, &nbound) : NULL;
+    double *vt = bound ? get(&b, o[13], 8, 1, &nvt) : NULL;
+    double *vert_t = vt ? get(&b, o[14], 8, 0, &nvert_t) : NULL;
+    uint8_t *warm = vert_t ? get(&b, o[15], 1, 1, &nwarm) : NULL;
+    int64_t *act = warm ? get(&b, o[16], 8, 0, &nact) : NULL;
+    Py_ssize_t nmu = -1;
+    double *mug = NULL;
+    if (act && omu != Py_None) {
+        mug = get(&b, omu, 8, 0, &nmu);
+        if (!mug) act = NULL;
+    }
+    if (!act) { release(&b); return NULL; }
+    Py_ssize_t na = nr1 - 1;
+    int ok = na >= 0 && nbv == n && nvv == n && nnew == n && nvert_t == n && np1 == np0 && nk1 == nr1
+             && ndone == na && ncyc == na && nact == na && nbound == NV && nvt == NV && roff[0] == 0
+             && roff[na] == n && koff[0] == 0 && koff[na] - na == np0;
+    for (Py_ssize_t r = 0; ok && r < na; r++)
+        ok = roff[r + 1] >= roff[r] && koff[r + 1] - koff[r] >= 1 && act[r] >= 0 && act[r] < nwarm;
+    for (Py_ssize_t q = 0; ok && q < n; q++) ok = vi[q] >= 0 && vi[q] < NV;
+    /* binding vertices per chain = pieces - 1 */
+    Py_ssize_t nbt = 0;
+    for (Py_ssize_t r = 0; ok && r < na; r++) {
+        Py_ssize_t nb = 0;
+        for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
+        ok = nb == koff[r + 1] - koff[r] - 2;
+        nbt += nb;
+    }
+    ok = ok && (mug == NULL || nmu == nbt);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "active_step: shapes");
+        return NULL;
+    }
+    const uint8_t *hist[64];
+    Py_buffer hb[64];
+    int nh = 0;
+    for (Py_ssize_t h = 0; h < H; h++) {
+        if (PyObject_GetBuffer(PyList_GET_ITEM(o[8], h), &hb[h], PyBUF_C_CONTIGUOUS) < 0) break;
+        nh++;
+        if (hb[h].len != NV) {
+            PyErr_SetString(PyExc_ValueError, "active_step: hist shapes");
+            break;
+        }
+        hist[h] = hb[h].buf;
+    }
+    if (nh < H || PyErr_Occurred()) {
+        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+        release(&b);
+        return NULL;
+    }
+    for (Py_ssize_t r = 0; r < na; r++) {
+        int64_t q0 = roff[r], q1 = roff[r + 1];
+        int64_t p0 = koff[r] - r, p1 = koff[r + 1] - r - 1;        /* pieces p0 .. p1 - 1 */
+        double scale = 0.0;
+        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a0[p]));
+        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a1[p]));
+        scale = np_max(scale, 1e-9);
+        int any_viol = 0, any_neg = 0;
+        double mu_min = 0.0;
+        int64_t worst = -1;
+        int64_t p = p0;                                  /* the piece after the next binding vertex: p + 1 */
+        for (int64_t q = q0; q < q1; q++) {
+            if (bv[q]) {
+                double m;
+                if (mug) m = mug[p - r];                 /* binding vertex p - r of the step, in order */
+                else {
+                    m = (a0[p + 1] - a1[p]) / scale;
+                    m = m < -mu_tol ? m : 0.0;
+                }
+                p++;
+                if (m < 0) any_neg = 1;
+                if (worst < 0 || m < mu_min) { mu_min = m; worst = q; }
+                nw[q] = 2 | (m < 0);                     /* binding; bit 0: negative multiplier */
+            } else {
+                int viol = vv[q] > cv[vi[q]] * cap_f + 1e-12;
+                any_viol |= viol;
+                nw[q] = viol;
+            }
+        }
+        int rel = !any_viol && any_neg;
+        for (int64_t q = q0; q < q1; q++)                /* new = bv | viol, less the released */
+            nw[q] = (nw[q] & 2) ? !(rel && (nw[q] & 1)) : nw[q];
+        int moving = any_viol || any_neg;
+        int seen = 0;
+        if (rel || moving) {
+            for (Py_ssize_t h = 0; h < H && !seen; h++) {
+                int same = 1;
+                for (int64_t q = q0; q < q1 && same; q++) same = (hist[h][vi[q]] != 0) == (nw[q] != 0);
+                seen = same;
+            }
+        }
+        if (rel && seen) {                                /* cycling: release only the worst */
+            for (int64_t q = q0; q < q1; q++) nw[q] = bv[q] != 0;
+            nw[worst] = 0;
+            seen = 0;
+            for (Py_ssize_t h = 0; h < H && !seen; h++) {
+                int same = 1;
+                for (int64_t q = q0; q < q1 && same; q++) same = (hist[h][vi[q]] != 0) == (nw[q] != 0);
+                seen = same;
+            }
+        }
+        int cy = moving && seen;
+        int dn = !moving || cy;
+        if (last) {
+            cy = cy || moving;
+            dn = 1;
+        }
+        cyc[r] = (uint8_t)cy;
+        done[r] = (uint8_t)dn;
+        if (!dn) {
+            for (int64_t q = q0; q < q1; q++) {
+                bound[vi[q]] = nw[q];
+                vt[vi[q]] = vert_t[q];
+            }
+            warm[act[r]] = 1;
+        }
+    }
+    for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+    release(&b);
+    return PyLong_FromLong(0);
+}
+
+/* The figures of _flat_figures(full=False) (laws/chain._figure_law, end_speeds, _critical_t,
+   eval(t, "v"), peak_speed, min_speed, the per-chain maxima and minima), their arithmetic
+   in three C passes, element by element in numpy's operations and order; numpy's sinh and
+   arctanh (line._shc, line._atanhc) in between, made by numpy.
+   fig_a(L, T, beta, v0, v1, coef, zmax, <outs: gamma, gs, n, m, s1, wbar, delta, A>) -> 0, or 1
+   (nothing usable: the numpy code runs) on an input LineLaw refuses or a γ not below
+   GAMMA_SWITCH: _figure_law's γ, n, m, S1 (_horner_nms: the batch's terms), wbar, δ, A. */
+VEC_CLONES static void fig_a_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
+                                  const double *restrict T, const double *restrict va, const double *restrict vb,
+                                  const double *restrict g, double *restrict gs, double *restrict n,
+                                  double *restrict m, double *restrict s1, double *restrict wbar,
+                                  double *restrict dl, double *restrict A) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double z = g[i];
+        double z2 = z * z, x = coef[3 * (k - 1)], y = coef[3 * (k - 1) + 1], w = coef[3 * (k - 1) + 2];
+        for (int q = k - 2; q >= 0; q--) {
+            x = x * z2; x = x + coef[3 * q];
+            y = y * z2; y = y + coef[3 * q + 1];
+            w = w * z2; w = w + coef[3 * q + 2];
+        }
+        gs[i] = z;
+        n[i] = x;
+        m[i] = y;
+        s1[i] = w;
+        double wb = (T[i] * (va[i] + vb[i])) / 2;
+        wbar[i] = wb;
+        dl[i] = (T[i] * (va[i] - vb[i])) / 2;
+        A[i] = L[i] - wb;
+    }
+}
+
+static PyObject *fig_a(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[15];
+    double *p[15];
+    for (int q = 0; q < 15; q++) {
+        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    int ok = nn[5] >= 3 * NTERMS;
+    for (int q = 0; q < 15; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_a: shapes");
+        return NULL;
+    }
+    Py_ssize_t N = nn[0];
+    int64_t gb;
+    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
+    if (!bad && N) {
+        double gm;
+        memcpy(&gm, &gb, 8);
+        int k = nms_terms(gm * gm, p[6], nn[6], 0);
+        fig_a_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14]);
+    }
+    release(&b);
+    return PyLong_FromLong(bad || !N);
+}
+
+/* fig_b(L, T, gamma, n, m, s1, sh2, wbar, delta, A, <outs: iv, kog, vs, ve, rho, r>): ∫ṡ²
+   (integrals()' with _small_coeffs' Ig1, Ih), κ/γ = 2 n / sh2, end_speeds, and _critical_t's
+   ρ = -δ / A, r = ρ κ/γ γ. */
+VEC_CLONES static void fig_b_vec(Py_ssize_t N, const double *restrict L, const double *restrict T,
+                                 const double *restrict g, const double *restrict n, const double *restrict m,
+                                 const double *restrict s1, const double *restrict sh2, const double *restrict wbar,
+                                 const double *restrict dl, const double *restrict A, double *restrict iv,
+                                 double *restrict kog, double *restrict vs, double *restrict ve,
+                                 double *restrict rho, double *restrict r) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double ni = n[i], sh = sh2[i], Ai = A[i], di = dl[i], Ti = T[i], Li = L[i], wb = wbar[i];
+        double Ig1 = m[i] / ((2 * ni) * ni), Ih = (2 * s1[i]) / (sh * sh);
+        iv[i] = ((Li * Li + (Ai * Ai) * Ig1) + (di * di) * Ih) / Ti;
+        double kg = (2 * ni) / sh;
+        kog[i] = kg;
+        double z = Ai * 0.0;
+        vs[i] = ((wb + z) - di * -1.0) / Ti;
+        ve[i] = ((wb + z) - di * 1.0) / Ti;
+        double rh = -di / Ai;
+        rho[i] = rh;
+        r[i] = (rh * kg) * g[i];
+    }
+}
+
+/* fig_c(T, gs, rho, kog, r, atc, <outs: tau, za, zb, zx>): _critical_t's x (atc = _atanhc(r)),
+   nan_to_num, clip, t; eval's τ = clip(t / T, 0, 1) and the arguments of shc: γτ/2,
+   γ(1 - τ)/2, γ(τ - 1/2). */
+VEC_CLONES static void fig_c_vec(Py_ssize_t N, const double *restrict T, const double *restrict gs,
+                                 const double *restrict rho, const double *restrict kog, const double *restrict r,
+                                 const double *restrict atc, double *restrict tau, double *restrict za,
+                                 double *restrict zb, double *restrict zx) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double ri = r[i];
+        double x = (rho[i] * kog[i]) * atc[i];
+        double sg = ri > 0 ? 1.0 : (ri < 0 ? -1.0 : ri);          /* np.sign (0 and nan kept) */
+        x = fabs(ri) >= 1 ? sg * 0.5 : x;
+        x = isnan(x) ? 0.0 : (isinf(x) ? (x > 0 ? DBL_MAX : -DBL_MAX) : x);     /* nan_to_num */
+        x = x > -0.5 ? x : -0.5;                                  /* np.clip (no nan left) */
+        x = x < 0.5 ? x : 0.5;
+        double Ti = T[i];
+        double t = (x + 0.5) * Ti;
+        double u = t / Ti;
+        u = isnan(u) ? u : (u > 0.0 ? u : 0.0);
+        u = isnan(u) ? u : (u < 1.0 ? u : 1.0);
+        tau[i] = u;
+        double g = gs[i];
+        za[i] = (g * u) / 2;
+        zb[i] = (g * (1 - u)) / 2;
+        zx[i] = g * (u - 0.5);
+    }
+}
+
+/* fig_d(tau, pa, pb, shx, n, sh2, wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v per
+   chain>): eval(t, "v") at the critical t (g = bub / 2n, h = 2x shx / sh2), the candidates'
+   max and min (np.maximum.reduce / np.minimum.reduce of (vs, ve, vc)), each chain's
+   (np.maximum.reduceat / np.minimum.reduceat over poff: from its first piece, in order). */
+static PyObject *fig_d(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[15];
+    double *p[15];
+    for (int q = 0; q < 15; q++) {
+        p[q] = get(&b, o[q], 8, q >= 13, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t N = nn[0], nc = nn[12] - 1;
+    int ok = nc >= 0 && nn[13] == nc && nn[14] == nc;
+    for (int q = 1; q < 12; q++) ok = ok && nn[q] == N;
+    const int64_t *poff = (const int64_t *)p[12];
+    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
+    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_d: shapes");
+        return NULL;
+    }
+    const double *tau = p[0], *pa = p[1], *pb = p[2], *shx = p[3], *n = p[4], *sh2 = p[5], *wbar = p[6];
+    const double *A = p[7], *dl = p[8], *T = p[9], *vs = p[10], *ve = p[11];
+    double *pk = p[13], *mn = p[14];
+    for (Py_ssize_t c = 0; c < nc; c++) {
+        double hi = 0.0, lo = 0.0;
+        for (int64_t i = poff[c]; i < poff[c + 1]; i++) {
+            double u = tau[i];
+            double bub = ((u * (1 - u)) * pa[i]) * pb[i];
+            double g = bub / (2 * n[i]);
+            double h = ((2 * (u - 0.5)) * shx[i]) / sh2[i];
+            double vc = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];
+            double mx = np_max(np_max(vs[i], ve[i]), vc), mi = np_min(np_min(vs[i], ve[i]), vc);
+            if (i == poff[c]) { hi = mx; lo = mi; }
+            else { hi = np_max(hi, mx); lo = np_min(lo, mi); }
+        }
+        pk[c] = hi;
+        mn[c] = lo;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* fig_b and fig_c's argument parsing: n inputs then n_out outputs, all the same length */
+static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
+    PyObject *o[16];
+    Py_ssize_t nargs = PyTuple_GET_SIZE(a);
+    if (nargs != nin + nout) {
+        PyErr_SetString(PyExc_TypeError, "fig: arguments");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[16];
+    double *p[16];
+    for (int q = 0; q < nin + nout; q++) {
+        o[q] = PyTuple_GET_ITEM(a, q);
+        p[q] = get(&b, o[q], 8, q >= nin, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+        if (nn[q] != nn[0]) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "fig: shapes");
+            return NULL;
+        }
+    }
+    if (which == 0)
+        fig_b_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+                  p[14], p[15]);
+    else
+        fig_c_vec(nn[0], p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]);
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 0); }
+static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
+
 static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
@@ -1101,6 +1664,15 @@ static PyMethodDef methods[] = {
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},
+    {"row_sums", row_sums, METH_VARARGS, "np.sum of each contiguous run (pairwise)"},
+    {"step_accels", step_accels, METH_VARARGS, "LineLaw.end_accels of series-branch laws"},
+    {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},
+    {"tod_prep", tod_prep, METH_VARARGS, "_tod_core's inputs of the taken laws, one pass"},
+    {"active_step", active_step, METH_VARARGS, "solve_flat's active-set bookkeeping of one step"},
+    {"fig_a", fig_a, METH_VARARGS, "_figure_law's numbers but shc(gamma/2)"},
+    {"fig_b", fig_b, METH_VARARGS, "the flat figures: integral of v^2, end speeds, critical-point ratio"},
+    {"fig_c", fig_c, METH_VARARGS, "the flat figures: critical t, tau and the shc arguments"},
+    {"fig_d", fig_d, METH_VARARGS, "the flat figures: speed at the critical t, per-chain peak and least speed"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

@@ -33,8 +33,8 @@ import numpy as np
 from .. import native
 from . import prims
 from .line import GAMMA_SWITCH as _GAMMA_SWITCH
-from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _horner_nms, _large_coeffs, _nms_terms,
-                   _shc, end_speeds, time_of_distance)
+from .line import (_NMS_COEF, _NMS_ZMAX, _S1_COEF, _S1_ZMAX, LineLaw, _atanhc, _horner_nms, _large_coeffs,
+                   _nms_terms, _shc, end_speeds, time_of_distance)
 
 # The compiled Newton loops of _share_time and of the chains' time of distance (_chaincore.c,
 # module _gcode_opt_chaincore): optional, the same bits as the numpy code
@@ -244,6 +244,23 @@ def _tod_core(core, law, s_targets, max_iter=200):
     speed at the t each law ends on, which the last step has already computed (what
     _eval(t, "v") gives: the same operations).  None where the numpy code must run."""
     T = law.T
+    if (hasattr(core, "tod_prep") and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1
+            and np.asarray(s_targets).shape == T.shape):      # the inputs below in one C pass (tod_prep)
+        N = T.size
+        f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+        c = law._c
+        Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
+        act = np.empty(N, np.int64)
+        core.tod_prep(f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta),
+                      np.arange(N, dtype=np.int64), f(s_targets), Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t,
+                      scale, out, act)
+        vout = np.empty(N)
+        na = core.tod_solve(t, Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                            _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+        if na:                 # out of steps: the last t of the laws still going, not evaluated yet
+            rest = act[:na]
+            vout[rest] = _eval(law.take(rest), out[rest], "v")[1]
+        return out, vout
     lo_s, hi_s = np.minimum(0.0, law.L), np.maximum(0.0, law.L)
     target = np.clip(np.asarray(s_targets, dtype=float), lo_s, hi_s)
     if target.shape != T.shape:
@@ -335,14 +352,21 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
     hist = []        # the binding masks of the steps so far: a chain is active from step 0 to its end
     vt = vt.copy()
     warm = warm.copy()
+    # the bookkeeping of a step in one C call (active_step) where the arrays are its types
+    fast = (CORE_MOD is not None and bound.dtype == bool and bound.ndim == 1 and vt.dtype == np.float64
+            and warm.dtype == bool and fl.cv.dtype == np.float64 and bound.flags.c_contiguous
+            and warm.flags.c_contiguous and fl.cv.flags.c_contiguous)
     for it in range(MAX_ACTIVE_ITERS):
         if active.size == 0:
             break
         na = active.size
         st = fl.solve_fixed(active, bound, vt, warm)
+        hist.append(bound.copy())
+        if fast and _active_step_core(st, fl, hist, bound, vt, warm, res, it == MAX_ACTIVE_ITERS - 1):
+            active = st.active[~st.done]
+            continue
         vi, rank = st.vi, st.rank
         bv = bound[vi]
-        hist.append(bound.copy())
         # a vertex over its cap joins the binding set; else a binding vertex whose
         # multiplier is negative leaves it
         viol = ~bv & (st.vert_v > fl.cv[vi] * (1 + CAP_TOL_R) + 1e-12)
@@ -379,6 +403,32 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         active = active[go]
     res.close(bound, pieces)
     return res
+
+
+def _active_step_core(st, fl, hist, bound, vt, warm, res, last):
+    """solve_flat's bookkeeping of the step st (its lines after hist.append: which vertex
+    joins or leaves, cycling, done; res.take; bound, vt, warm of the chains going on) in
+    one C call (active_step, chain by chain: the same masks).  Sets st.done.  False
+    (nothing done: the numpy lines run) where the step's arrays are not the types it reads."""
+    ix = (st.vi, st.voff, st.koff)
+    if not (all(a.dtype == np.int64 and a.flags.c_contiguous for a in ix) and st.a0.dtype == np.float64
+            and st.vert_v.dtype == np.float64 and st.vert_t.dtype == np.float64 and st.active.dtype == np.int64
+            and len(hist) <= 64):
+        return False
+    na, n = st.active.size, st.vi.size
+    c = np.ascontiguousarray
+    new = np.empty(n, bool)
+    done, cyc = np.empty(na, bool), np.empty(na, bool)
+    # the multipliers: made in C from a0, a1 (_Step.multipliers' numbers), or the method's
+    # own where it is not that one (a test forcing them)
+    mu = None if _Step.multipliers is _MULTIPLIERS else c(np.asarray(st.multipliers(), float))
+    CORE_MOD.active_step(st.vi, st.voff, c(bound[st.vi]).view(np.uint8), c(st.vert_v), fl.cv, c(st.a0), c(st.a1),
+                         st.koff, mu, hist, 1 + CAP_TOL_R, MU_TOL_R, int(last), new.view(np.uint8),
+                         done.view(np.uint8), cyc.view(np.uint8), bound.view(np.uint8), vt, c(st.vert_t),
+                         warm.view(np.uint8), c(st.active))
+    res.take(st, done, cyc)
+    st.done = done
+    return True
 
 
 def _seen(hist, vi, new, rank, na, want=None):
@@ -520,7 +570,7 @@ class _Flat:
         beta = self.beta[active][owner]
         Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = _step_law(L, Tj, beta, va, vb)
-        a0, a1 = law.end_accels()                      # s̈ at both ends of every piece
+        a0, a1 = _end_accels(law)                      # s̈ at both ends of every piece
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
         kt = np.zeros(ks.size)
@@ -570,6 +620,10 @@ def _step_law(L, T, beta, va, vb):
     has no integrals, peak_speed, _critical_t.  Else (bad inputs: LineLaw raises; a law
     in the other branch) the whole LineLaw."""
     L, T, beta, va, vb = (np.asarray(a, dtype=float) for a in (L, T, beta, va, vb))
+    if CORE_MOD is not None and L.ndim == 1 and L.shape == T.shape == beta.shape == va.shape == vb.shape:
+        law = _step_law_core(CORE_MOD, L, T, beta, va, vb)
+        if law is not None:
+            return law
     if (L.ndim != 1 or not (L.shape == T.shape == beta.shape == va.shape == vb.shape)
             or not (np.all(T > 0) and np.all(np.isfinite(T))) or not np.all(beta > 0)
             or not (np.all(np.isfinite(L)) and np.all(np.isfinite(va)) and np.all(np.isfinite(vb)))):
@@ -596,6 +650,39 @@ def _step_law(L, T, beta, va, vb):
     return law
 
 
+def _end_accels(law):
+    """law.end_accels() (a _step_law law): of a lite law (every law in the series branch)
+    in one C call (step_accels: its operations, in its order) after numpy's cosh(γ/2)
+    (np.cosh, as there), when the chain core is there; else end_accels itself."""
+    c = law._c
+    if CORE_MOD is None or "lite" not in c or law.T.ndim != 1:
+        return law.end_accels()
+    P = law.T.size
+    a0, a1 = np.empty(P), np.empty(P)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        ch = np.cosh(0.5 * c["gs"])
+    f = np.ascontiguousarray
+    CORE_MOD.step_accels(f(law.T), f(c["n"]), f(c["sh2"]), ch, f(law._A), f(law._delta), a0, a1)
+    return a0, a1
+
+
+def _step_law_core(core, L, T, beta, va, vb):
+    """_step_law's lite law with its numbers but shc(γ/2) made in one C call (step_law: the
+    same operations, in the same order); shc(γ/2) by line._shc (np.sinh) as there.  None
+    (the numpy code runs) where that code would not make a lite law."""
+    f = np.ascontiguousarray
+    P = L.size
+    gamma, gs, n, wbar, dl, A = (np.empty(P) for _ in range(6))
+    if core.step_law(f(L), f(T), f(beta), f(va), f(vb), _COEF_C, _ZMAX_C, gamma, gs, n, wbar, dl, A):
+        return None
+    law = object.__new__(LineLaw)
+    law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, va, vb
+    law.gamma = gamma
+    law._c = {"small": np.ones(P, bool), "gs": gs, "n": n, "sh2": _shc(gs / 2), "lite": np.ones(P, bool)}
+    law._wbar, law._delta, law._A = wbar, dl, A
+    return law
+
+
 class _Step:
     """One active-set step's laws (solve_fixed), flat; law(r, c) makes chain c's ChainLaw
     (r: its place in the step)."""
@@ -614,13 +701,21 @@ class _Step:
         na = self.active.size
         o = self.owner
         scale = np.zeros(na)
-        np.maximum.at(scale, o, np.abs(self.a0))
-        np.maximum.at(scale, o, np.abs(self.a1))
+        first = self.koff[:-1] - np.arange(na)         # each chain's first piece (pieces in chain order)
+        if na and o.size and np.all(first[1:] > first[:-1]):      # every chain has a piece: max per run
+            np.maximum(scale, np.maximum.reduceat(np.abs(self.a0), first), out=scale)
+            np.maximum(scale, np.maximum.reduceat(np.abs(self.a1), first), out=scale)
+        else:
+            np.maximum.at(scale, o, np.abs(self.a0))
+            np.maximum.at(scale, o, np.abs(self.a1))
         scale = np.maximum(scale, 1e-9)
         same = o[1:] == o[:-1]                          # consecutive pieces of one chain
         jump = (self.a0[1:] - self.a1[:-1])[same]
         mu = jump / scale[o[1:][same]]
         return np.where(mu < -MU_TOL_R, mu, 0.0)
+
+_MULTIPLIERS = _Step.multipliers
+
 
 class FlatLaws:
     """solve_flat's laws, flat: per vertex (in fl's order) bound (the binding masks solved
@@ -706,6 +801,8 @@ def _flat_figures(res, full=True):
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
     False: ∫s̈² and peak |s̈| are not made (None)."""
+    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res):
+        return
     law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
     if law is None:
         law = LineLaw(res.L, res.T, res.beta, res.v0, res.v1)
@@ -725,12 +822,52 @@ def _flat_figures(res, full=True):
         pa0, pa1 = np.maximum.reduceat(np.abs(res.a0), first), np.maximum.reduceat(np.abs(res.a1), first)
         res.peak_a = np.where(pa1 > pa0, pa1, pa0)        # as max(pa0, pa1)
         res.ia = np.empty(npc.size)
+    if CORE_MOD is not None and iv.dtype == np.float64 and iv.ndim == 1:     # the same sums, run by run in C
+        po = np.ascontiguousarray(res.poff, np.int64)
+        CORE_MOD.row_sums(np.ascontiguousarray(iv), po, res.iv)
+        if full:
+            CORE_MOD.row_sums(np.ascontiguousarray(ia), po, res.ia)
+        return
     for k in np.unique(npc).tolist():
         c = np.flatnonzero(npc == k)
         ix = first[c][:, None] + np.arange(k)
         res.iv[c] = np.sum(iv[ix], axis=1)
         if full:
             res.ia[c] = np.sum(ia[ix], axis=1)
+
+
+def _flat_figures_core(core, res):
+    """_flat_figures(res, full=False) with its arithmetic in C (fig_a .. fig_d, row_sums:
+    _figure_law, end_speeds, _critical_t, eval(t, "v"), peak and least speed and the
+    per-chain maxima, minima and sums, each its numpy operations in their order) and
+    numpy's sinh and arctanh (line._shc, line._atanhc) in between: the same bits.  False
+    (nothing set: the numpy code runs) where the inputs are not what it takes (not every law
+    in the series branch, bad inputs, a chain without pieces)."""
+    f = np.ascontiguousarray
+    L, T, beta, v0, v1 = (np.asarray(a) for a in (res.L, res.T, res.beta, res.v0, res.v1))
+    poff = np.asarray(res.poff)
+    if not (L.ndim == 1 and L.size and L.shape == T.shape == beta.shape == v0.shape == v1.shape
+            and all(a.dtype == np.float64 for a in (L, T, beta, v0, v1)) and poff.dtype == np.int64
+            and poff.size >= 2 and np.all(poff[1:] > poff[:-1])):
+        return False
+    L, T, beta, v0, v1, poff = (f(a) for a in (L, T, beta, v0, v1, poff))
+    P, nc = L.size, poff.size - 1
+    gamma, gs, n, m, s1, wbar, dl, A = (np.empty(P) for _ in range(8))
+    if core.fig_a(L, T, beta, v0, v1, _COEF_C, _ZMAX_C, gamma, gs, n, m, s1, wbar, dl, A):
+        return False
+    sh2 = f(_shc(gs / 2))
+    iv, kog, vs, ve, rho, r = (np.empty(P) for _ in range(6))
+    core.fig_b(L, T, gamma, n, m, s1, sh2, wbar, dl, A, iv, kog, vs, ve, rho, r)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        atc = f(_atanhc(r))
+    tau, za, zb, zx = (np.empty(P) for _ in range(4))
+    core.fig_c(T, gs, rho, kog, r, atc, tau, za, zb, zx)
+    pa, pb, shx = (f(_shc(z)) for z in (za, zb, zx))
+    res.peak_v, res.min_v, res.iv = np.empty(nc), np.empty(nc), np.empty(nc)
+    core.fig_d(tau, pa, pb, shx, n, sh2, wbar, A, dl, T, vs, ve, poff, res.peak_v, res.min_v)
+    core.row_sums(iv, poff, res.iv)
+    res.ia = res.peak_a = None
+    return True
 
 
 def _figure_law(L, T, beta, v0, v1):

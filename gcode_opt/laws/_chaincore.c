@@ -1095,7 +1095,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
 
 /* ---------------------------------------------------------------- session 22 (chainlaw)
    row_sums(x, off, out): out[c] = np.sum(x[off[c]:off[c + 1]]) (numpy's pairwise sum of
-   each contiguous run, cf_pw_sum; 0.0 for an empty run, as numpy's empty sum): the row
+   each contiguous run, np_pairwise_sum; 0.0 for an empty run, as numpy's empty sum): the row
    sums _flat_figures made per piece count with np.sum(x[ix], axis=1). */
 static PyObject *row_sums(PyObject *self, PyObject *a) {
     PyObject *ox, *ooff, *oout;
@@ -1115,7 +1115,7 @@ static PyObject *row_sums(PyObject *self, PyObject *a) {
     }
     for (Py_ssize_t c = 0; c + 1 < nc1; c++) {
         Py_ssize_t n = (Py_ssize_t)(off[c + 1] - off[c]);
-        out[c] = n ? cf_pw_sum(x + off[c], n) : 0.0;
+        out[c] = n ? np_pairwise_sum(x + off[c], n) : 0.0;
     }
     release(&b);
     Py_RETURN_NONE;

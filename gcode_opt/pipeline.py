@@ -140,6 +140,13 @@ def analyse(path, profile: Profile, opts: Options):
         (a G0-G3 line leaves those as they were, so the state after it is the one before)."""
         return e_before[0], state.accel_for(True, True), state.accel_for(False, True), state.lim.mcr
 
+    if type(state).accel_for is MachineState.accel_for and isinstance(getattr(state, "_one_accel", None), bool):
+        one_accel = state._one_accel      # the flavour's (fixed for the run): accel_for inlined
+
+        def start_state():        # noqa: F811 -- the same values, fewer calls (one a run of moves)
+            a = state.accel_print
+            return e_before[0], a, (a if one_accel else state.accel_travel), state.lim.mcr
+
     def on_stroke(st):
         """A stroke closed: the records of its lines that came already are early's first
         (those before it belong to no stroke)."""
@@ -273,7 +280,8 @@ def analyse(path, profile: Profile, opts: Options):
     collecting = gc.isenabled()
     gc.disable()
     try:
-        for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
+        for _ in group_lines(read(), opts.features, strokes.append if log is not None else on_stroke,
+                         opts.min_length_d, opts.max_turn_deg, split,
                              start_state, opened, fast, gap):
             pass
     finally:

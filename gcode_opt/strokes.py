@@ -412,6 +412,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
     r_last = -2            # idx of the run's last move
     r_ux = r_uy = 0.0      # the run's first move's direction
+    pre = False            # the line read is a run's first, its x1, y1, d, ux, uy known (it closed a run)
     lazy = False           # fast read lines of the open run: their moves are floats in run
     pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
     # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
@@ -547,7 +548,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                             fast = None
                     yield idx, raw, ev
                     continue
-                ok = True
+                ok = pre = True                     # (d, ux, uy: the new run's first move's, below)
                 is_move = True
                 last_u = (lux, luy)
                 close(True, (ux, uy))               # (ux, uy): _direction(ev, False)
@@ -571,9 +572,15 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
         if ok:
             run = [ev]
             lazy = False
-            x0, y0, x1, y1 = ev.x0, ev.y0, ev.x1, ev.y1
-            dx, dy = x1 - x0, y1 - y0
-            d = hypot(dx, dy)
+            x0, y0 = ev.x0, ev.y0
+            if pre:        # the line that closed the run: x1, y1, d, ux, uy are its (the same operations)
+                pre = False
+                lux, luy = ux, uy                   # (one pair of floats: this run's ux, uy, that stroke's next_u)
+            else:
+                x1, y1 = ev.x1, ev.y1
+                dx, dy = x1 - x0, y1 - y0
+                d = hypot(dx, dy)
+                lux, luy = dx / d, dy / d
             run_len = ld = d
             run_ends = [d]
             run_xy = [x0, y0, x1, y1]
@@ -587,7 +594,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             r_travel = ev.feature == "travel"
             r_last = ev.idx
             opened[0] = idx
-            pm, lux, luy = ev, dx / d, dy / d     # _direction(ev, True) of an eligible line
+            pm = ev                               # (lux, luy): _direction(ev, True) of an eligible line
             r_ux, r_uy = lux, luy                 # Stroke(ev)'s ux, uy
             last_u = (lux, luy)
             if fast is not None:                  # the lines that follow, in C

@@ -140,6 +140,13 @@ def analyse(path, profile: Profile, opts: Options):
         (a G0-G3 line leaves those as they were, so the state after it is the one before)."""
         return e_before[0], state.accel_for(True, True), state.accel_for(False, True), state.lim.mcr
 
+    if type(state).accel_for is MachineState.accel_for and isinstance(getattr(state, "_one_accel", None), bool):
+        one_accel = state._one_accel      # the flavour's (fixed for the run): accel_for inlined
+
+        def start_state():        # noqa: F811 -- the same values, fewer calls (one a run of moves)
+            a = state.accel_print
+            return e_before[0], a, (a if one_accel else state.accel_travel), state.lim.mcr
+
     def on_stroke(st):
         """A stroke closed: the records of its lines that came already are early's first
         (those before it belong to no stroke)."""
@@ -273,7 +280,8 @@ def analyse(path, profile: Profile, opts: Options):
     collecting = gc.isenabled()
     gc.disable()
     try:
-        for _ in group_lines(read(), opts.features, on_stroke, opts.min_length_d, opts.max_turn_deg, split,
+        for _ in group_lines(read(), opts.features, strokes.append if log is not None else on_stroke,
+                         opts.min_length_d, opts.max_turn_deg, split,
                              start_state, opened, fast, gap):
             pass
     finally:
@@ -302,9 +310,10 @@ def _apply_log(log, strokes, feat_at, by_feature):
     time, int a^2 and int v^2 summed in file order; the feature tally (feat_at: (line,
     feature) where the moves' feature changes) per feature, in the order the features'
     first records came (by_feature is filled in that order, as on_line fills it)."""
+    from operator import attrgetter
     n = len(strokes)
-    lo = np.fromiter((s.first_idx for s in strokes), np.int64, n)
-    hi = np.fromiter((s.last_idx for s in strokes), np.int64, n)
+    lo = np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n)
+    hi = np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n)
     if n and not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1])):
         raise AssertionError("strokes out of file order")     # group_lines closes them in order
     got = np.zeros(n, np.int64)
@@ -312,6 +321,9 @@ def _apply_log(log, strokes, feat_at, by_feature):
     log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
     for s, g, a, b, x, y, z in zip(strokes, got.tolist(), v0.tolist(), v1.tolist(), t.tolist(), a2.tolist(),
                                    v2.tolist()):
+        if g == 3:              # (most strokes: both ends' records came)
+            s.v0, s.v1, s.time_t, s.int_a2, s.int_v2 = a, b, x, y, z
+            continue
         if g & 1:
             s.v0 = a
         if g & 2:

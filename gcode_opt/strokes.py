@@ -62,11 +62,11 @@ class Points:
 class Stroke:
     """Geometry and original timing of one straight stroke (original file's figures).
     Every stroke lives for the whole run: slots, and ends_d an array of doubles."""
-    __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "ends_d",
+    __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends",
                  "v_feed", "accel", "feature", "layer", "e_rel",
                  "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "start_state", "chain_T",
-                 "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+                 "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c",
+                 "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -79,7 +79,7 @@ class Stroke:
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0)
         self.ux, self.uy = (m.x1 - m.x0) / d, (m.y1 - m.y0) / d
         self.length_d = d
-        self.ends_d = array("d", (d,))   # distance from stroke start to each original vertex
+        self._ends = None            # ends_d of one move: (length_d,), made when read (see ends_d)
         self.v_feed, self.accel = m.v, m.accel
         self.feature, self.layer, self.e_rel = m.feature, m.layer, m.e_rel
         self.lim = m.lim
@@ -89,7 +89,30 @@ class Stroke:
         self._pux = self._puy = self._nux = self._nuy = None
         self.v0_fw = self.v1_fw = None       # the firmware's own end speeds when corners.py lowered v0/v1
         self.corner_cmd0 = self.corner_cmd1 = False   # that lowered end is set by a junction command
-        self.start_state = None      # group_strokes(start_state=...): (E before, accel, cruise ratio)
+        self._ss_e = self._ss_a = self._ss_c = None   # start_state (None: not recorded)
+
+    # ends_d: distance from the stroke's start to each original vertex, an array of doubles.
+    # A stroke of one move (or an arc) keeps none: its ends_d is array("d", (length_d,)),
+    # made when read (most strokes are read a few times; ~90 bytes a stroke less)
+    @property
+    def ends_d(self):
+        e = self._ends
+        return array("d", (self.length_d,)) if e is None else e
+
+    @ends_d.setter
+    def ends_d(self, e):
+        self._ends = e
+
+    # start_state: group_strokes(start_state=...)'s (E before, accel, cruise ratio), or None;
+    # kept as three slots (a tuple took 48 bytes more a stroke)
+    @property
+    def start_state(self):
+        e = self._ss_e
+        return None if e is None else (e, self._ss_a, self._ss_c)
+
+    @start_state.setter
+    def start_state(self, ss):
+        self._ss_e, self._ss_a, self._ss_c = (None, None, None) if ss is None else ss
 
     # the XY directions of the neighbouring moves, (x, y) or None: kept as four floats (a
     # tuple each took ~70 bytes more a stroke)
@@ -126,7 +149,7 @@ class Stroke:
         sgn = 1.0 if a.sweep > 0 else -1.0
         st.ux, st.uy = -math.sin(a.theta0) * sgn, math.cos(a.theta0) * sgn   # start tangent
         st.length_d = a.length_d
-        st.ends_d = array("d", (a.length_d,))
+        st._ends = None                  # ends_d: (length_d,)
         st.v_feed, st.accel = m.v, m.accel
         st.feature, st.layer, st.e_rel = m.feature, m.layer, m.e_rel
         st.lim = m.lim
@@ -135,7 +158,7 @@ class Stroke:
         st.prev_u = st.next_u = None
         st.v0_fw = st.v1_fw = None
         st.corner_cmd0 = st.corner_cmd1 = False
-        st.start_state = None
+        st._ss_e = st._ss_a = st._ss_c = None
         return st
 
     @classmethod
@@ -165,7 +188,7 @@ class Stroke:
         last_idx the last move's line if given (else moves[-1].idx)."""
         self.kind = K_CURVE
         self.length_d, self.e_per_mm = ends[-1], e_per_mm
-        self.pts, self.ends_d = Points(xy), array("d", ends)
+        self.pts, self._ends = Points(xy), array("d", ends)
         self.last_idx = moves[-1].idx if last_idx is None else last_idx
         return self
 
@@ -184,8 +207,10 @@ class Stroke:
         if abs(dx * self.uy - dy * self.ux) > COLLINEAR_SIN * d or dx * self.ux + dy * self.uy <= 0.0:
             return False
         self.last_idx = m.idx
+        if self._ends is None:
+            self._ends = array("d", (self.length_d,))
         self.length_d += d
-        self.ends_d.append(self.length_d)
+        self._ends.append(self.length_d)
         self.e_per_mm = max(self.e_per_mm, m.e / d)
         return True
 
@@ -262,6 +287,38 @@ def _read_move(run, k, run_xy, z, v, accel, feature, e_rel):
     m0, j = run[0], 2 * k
     return Move(m0.idx + k, LINE, run_xy[j], run_xy[j + 1], z, run_xy[j + 2], run_xy[j + 3], z, run[k], v, accel,
                 feature, m0.layer, m0.lim, None, None, e_rel, False, False, False, m0.flow_r, m0.speed_r)
+
+
+def _run_stroke(m, kind, ux, uy, length_d, e_per_mm, last_idx, pts, ends, prev_u, ss, travel):
+    """The stroke group_lines' close() makes of a run that is one stroke, what Stroke(m) (and
+    _curve(...) for a curve, pts its Points and ends its ends_d; else None, None: one move)
+    and close's prev_u and start_state give, from what the run kept: (ux, uy) the first
+    move's direction and e_per_mm / length_d as Stroke and _curve compute them (the same
+    operations on the same floats, in group_lines); ss the run's start_state() or None,
+    travel: the run's feature is travel (_kind_state)."""
+    st = _new(Stroke)
+    st.kind, st.arc, st.pts, st.curv, st.chain_T = kind, None, pts, None, None
+    st.first_idx, st.last_idx = m.idx, last_idx
+    st.x0, st.y0, st.z = m.x0, m.y0, m.z0
+    st.ux, st.uy = ux, uy
+    st.length_d, st._ends = length_d, ends
+    st.v_feed, st.accel = m.v, m.accel
+    st.feature, st.layer, st.e_rel = m.feature, m.layer, m.e_rel
+    st.lim = m.lim
+    st.e_per_mm = e_per_mm
+    st.v0 = st.v1 = st.time_t = st.int_a2 = st.int_v2 = 0.0
+    st._pux, st._puy = (None, None) if prev_u is None else prev_u
+    st._nux = st._nuy = None
+    st.v0_fw = st.v1_fw = None
+    st.corner_cmd0 = st.corner_cmd1 = False
+    if ss is None:
+        st._ss_e = st._ss_a = st._ss_c = None
+    else:
+        st._ss_e, st._ss_a, st._ss_c = ss[0], (ss[2] if travel else ss[1]), ss[3]
+    return st
+
+
+_new = object.__new__
 
 
 def _kind_state(st, e0, ss):
@@ -354,6 +411,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     run_start = None       # start_state() where the open run began
     r_v = r_accel = r_feature = r_z = r_erel = r_travel = None   # the open run's (first move's)
     r_last = -2            # idx of the run's last move
+    r_ux = r_uy = 0.0      # the run's first move's direction
+    pre = False            # the line read is a run's first, its x1, y1, d, ux, uy known (it closed a run)
     lazy = False           # fast read lines of the open run: their moves are floats in run
     pm, lux, luy = None, 0.0, 0.0   # the run's last move and its direction
     # split_vertex.short_bounds(lim, accel, min_cos) (vertex_filter.splitter): the segment
@@ -380,9 +439,15 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             return None
         else:
             if curves and turned and len(run) >= 3:
-                st = Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last)
+                # Stroke(run[0])._curve(run, run_xy, run_ends, r_epm, r_last) and what follows
+                st = _run_stroke(run[0], K_CURVE, r_ux, r_uy, run_ends[-1], r_epm, r_last, Points(run_xy),
+                                 array("d", run_ends), run_prev_u, run_start, r_travel)
+                run = []
             elif len(run) == 1:
-                st = Stroke(run[0])
+                # Stroke(run[0]) and what follows: its length, E per mm are the run's
+                st = _run_stroke(run[0], K_LINE, r_ux, r_uy, run_len, r_epm, r_last, None, None, run_prev_u,
+                                 run_start, r_travel)
+                run = []
             else:
                 if lazy:
                     run = [_read_move(run, k, run_xy, r_z, r_v, r_accel, r_feature, r_erel)
@@ -391,11 +456,11 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                 if len(parts) > 1:
                     return close_parts(parts, next_u_known, next_u)
                 st = parts[0][1]
-            # one stroke (most runs): what close_parts does for it
-            st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
-            if run_start is not None:
-                st.start_state = _kind_state(st, run_start[0], run_start)
-            run = []
+                # one stroke: what close_parts does for it
+                st._pux, st._puy = (None, None) if run_prev_u is None else run_prev_u    # prev_u
+                if run_start is not None:
+                    st.start_state = _kind_state(st, run_start[0], run_start)
+                run = []
         if st.length_d < min_length_d:
             return None
         if next_u_known:
@@ -483,7 +548,7 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                             fast = None
                     yield idx, raw, ev
                     continue
-                ok = True
+                ok = pre = True                     # (d, ux, uy: the new run's first move's, below)
                 is_move = True
                 last_u = (lux, luy)
                 close(True, (ux, uy))               # (ux, uy): _direction(ev, False)
@@ -507,9 +572,15 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
         if ok:
             run = [ev]
             lazy = False
-            x0, y0, x1, y1 = ev.x0, ev.y0, ev.x1, ev.y1
-            dx, dy = x1 - x0, y1 - y0
-            d = hypot(dx, dy)
+            x0, y0 = ev.x0, ev.y0
+            if pre:        # the line that closed the run: x1, y1, d, ux, uy are its (the same operations)
+                pre = False
+                lux, luy = ux, uy                   # (one pair of floats: this run's ux, uy, that stroke's next_u)
+            else:
+                x1, y1 = ev.x1, ev.y1
+                dx, dy = x1 - x0, y1 - y0
+                d = hypot(dx, dy)
+                lux, luy = dx / d, dy / d
             run_len = ld = d
             run_ends = [d]
             run_xy = [x0, y0, x1, y1]
@@ -523,7 +594,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             r_travel = ev.feature == "travel"
             r_last = ev.idx
             opened[0] = idx
-            pm, lux, luy = ev, dx / d, dy / d     # _direction(ev, True) of an eligible line
+            pm = ev                               # (lux, luy): _direction(ev, True) of an eligible line
+            r_ux, r_uy = lux, luy                 # Stroke(ev)'s ux, uy
             last_u = (lux, luy)
             if fast is not None:                  # the lines that follow, in C
                 got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux, luy, ld,

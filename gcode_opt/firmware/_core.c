@@ -224,6 +224,8 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
     if (k->n + rows <= k->alloc)
         return 0;
     Py_ssize_t want = k->alloc * 2 > k->n + rows ? k->alloc * 2 : k->n + rows + 16;
+    if (want > k->cap + 1 && k->n + rows <= k->cap + 1)
+        want = k->cap + 1;            /* (grown as rows come, to what a chunk holds) */
     double *nb = PyMem_Realloc(k->buf, (size_t)want * SINK_ROW * sizeof(double));
     if (nb == NULL) {
         PyErr_NoMemory();
@@ -278,7 +280,9 @@ static int Sink_init(SinkObject *k, PyObject *args, PyObject *kw)
     k->n = 0;
     Py_INCREF(flush);
     Py_XSETREF(k->flush, flush);
-    return sink_reserve(k, cap + 1);
+    /* a small file's rows, or a pass that never ends its chunk, take no more than they
+     * need: the room grows (doubling) to cap + 1 rows as rows come */
+    return sink_reserve(k, cap + 1 < 1024 ? cap + 1 : 1024);
 }
 
 static const char *SINK_FIELDS[SINK_ROW - 1] = {"ux", "uy", "start_v", "cruise_v", "end_v", "accel",
@@ -3892,7 +3896,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
     size_t need = 4 * (size_t)n + 3 * (size_t)np_ + 1;
     if (need > ring_scratch_n) {
-        size_t want = need + need / 2;
+        size_t want = need + need / 8;     /* (the next chunk's few more events) */
         double *p = PyMem_Realloc(ring_scratch, sizeof(double) * want);
         if (p == NULL) {
             PyErr_NoMemory();
@@ -4218,6 +4222,18 @@ done:
     return ret;
 }
 
+/* ring_release(): ring_solve's room given back (a Collector's pass is over: the room,
+ * ~7 doubles an event of a chunk, would stay for the rest of the run); the next ring_solve
+ * takes it again.  Returns the bytes it held. */
+static PyObject *mod_ring_release(PyObject *self, PyObject *noargs)
+{
+    size_t held = ring_scratch_n * sizeof(double);
+    PyMem_Free(ring_scratch);
+    ring_scratch = NULL;
+    ring_scratch_n = 0;
+    return PyLong_FromSize_t(held);
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -4240,6 +4256,8 @@ static PyMethodDef mod_methods[] = {
     {"ring_solve", mod_ring_solve, METH_VARARGS,
      "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
      "amps_memo, amps_out, pieces_memo, pieces_out): _Stream._solve"},
+    {"ring_release", mod_ring_release, METH_NOARGS,
+     "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

@@ -6,10 +6,11 @@ import gc
 import math
 import os
 from collections import Counter
-from itertools import repeat
 from operator import attrgetter
 
 import numpy as np
+
+from .strokes import Stroke
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -184,6 +185,40 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     return out
 
 
+_TWO52 = float(1 << 52)
+
+
+def round_list(vals, nd):
+    """[round(v, nd) for v in vals] (nd 0..15), the same objects' values, at a fraction of
+    the cost for Python floats: round() is correctly rounded (the decimal D / 10^nd nearest
+    v, ties to even, read back as the double nearest it).  D is rint(v * 10^nd) unless the
+    product lies within 2 ulp of a tie (its rounding could have moved it across): there,
+    and for any value not a float, not finite or with |v * 10^nd| >= 2^52, round() itself.
+    D / 10^nd, both exact doubles, is one correctly rounded division: the nearest double."""
+    n = len(vals)
+    if n < 64:
+        return [round(v, nd) for v in vals]
+    scale = float(10 ** nd)
+    x = np.array(vals, dtype=float)
+    with np.errstate(all="ignore"):
+        p = x * scale
+        d = np.rint(p)
+        out = (d / scale).tolist()
+        ap = np.abs(p)
+        frac = ap - np.floor(ap)
+        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
+    for j in np.flatnonzero(slow).tolist():
+        out[j] = round(vals[j], nd)
+    if set(map(type, vals)) != _FLOAT_ONLY:
+        for j, v in enumerate(vals):
+            if type(v) is not float:      # (an int, a numpy scalar: its own __round__)
+                out[j] = round(v, nd)
+    return out
+
+
+_FLOAT_ONLY = {float}
+
+
 def _kind_of(s):
     return getattr(s, "kind", "line")
 
@@ -196,19 +231,21 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
     ss = [strokes[i] for i in idx]
     kinds = list(map(_kind_of, ss))
     get = attrgetter
-    r4 = list(map(round, map(get("length_d"), ss), repeat(4)))
-    rv0 = list(map(round, map(get("v0"), ss), repeat(3)))
-    rv1 = list(map(round, map(get("v1"), ss), repeat(3)))
-    rvf = list(map(round, map(get("v_feed"), ss), repeat(3)))
+    r4 = round_list(list(map(get("length_d"), ss)), 4)
+    rv0 = round_list(list(map(get("v0"), ss)), 3)
+    rv1 = round_list(list(map(get("v1"), ss)), 3)
+    rvf = round_list(list(map(get("v_feed"), ss)), 3)
+    # Stroke.n_moves, without the property's call (another kind of stroke: its own)
+    n_moves = [s.last_idx - s.first_idx + 1 if type(s) is Stroke else s.n_moves for s in ss]
     per_stroke.extend([
-        {"line": s.first_idx + 1, "lines": s.n_moves, "kind": kind, "out_line": of + 1,
+        {"line": s.first_idx + 1, "lines": nm, "kind": kind, "out_line": of + 1,
          "feature": s.feature, "layer": s.layer, "length_mm": ln,
          "v0_mm_s": a, "v1_mm_s": b, "feed_mm_s": f,
          "time_s": {"before": x0, "law": xl, "after": x1},
          "int_a2": {"before": y0, "law": yl, "after": y1},
          "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
-        for s, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
-        in zip(ss, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
+        for s, nm, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
+        in zip(ss, n_moves, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
     # by kind: the old row-by-row loop's additions, as it wrote them (the same `+=` on the
     # same floats in the same order: NaN and inf sums too keep their bits)
     for kind, x0, xl, x1, y0, yl, y1 in zip(kinds, t0, t_law, t1, i0, i_law, a21):

@@ -2493,16 +2493,25 @@ static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
     return rc;
 }
 
+static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
+                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
+                           Py_ssize_t nf, Py_ssize_t *wi_io);
+
 /* play(lines, start, idx0, step, until, stops, on_barrier): simulate._play's loop over
  * lines[start:] (a list of str, lines[j] the file's line idx0 + j): ev = step(idx, raw),
  * a Move played (move), a Barrier taken (barrier, then on_barrier(ev.dwell_t) unless
  * None), anything else passed over.  Returns (j, stopped) where it stopped: before the
  * line whose idx == until (not read), after a line that left the model standing empty
  * (an E-only Move or a Barrier) when `stops` is true (stopped True), or at len(lines). */
+/* play(lines, start, idx0, step, wi, stops, on_barrier, firsts): the same loop, but where
+ * the 7-argument form stops before the line `until`, it passes over the watched ranges'
+ * first lines: firsts (int64 buffer, sorted) from index wi; before each line whose idx
+ * equals firsts[wi], wi moves on (as many times as firsts holds that idx).  Returns
+ * (j, stopped, wi): the ranges started are those wi passed (simulate._play_chunks). */
 static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 7)
-        return PyErr_Format(PyExc_TypeError, "play() takes 7 arguments (%zd given)", nargs);
+    if (nargs != 7 && nargs != 8)
+        return PyErr_Format(PyExc_TypeError, "play() takes 7 or 8 arguments (%zd given)", nargs);
     PyObject *lines = args[0], *step = args[3], *on_barrier = args[6];
     if (!PyList_CheckExact(lines)) {
         PyErr_SetString(PyExc_TypeError, "play: lines must be a list of str");
@@ -2516,6 +2525,36 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     if (i < 0)
         i = 0;
+    Py_buffer fb;
+    const long long *firsts = NULL;
+    Py_ssize_t nf = 0, wi = 0;
+    if (nargs == 8) {
+        if (PyObject_GetBuffer(args[7], &fb, PyBUF_SIMPLE) < 0)
+            return NULL;
+        firsts = (const long long *)fb.buf;
+        nf = fb.len / (Py_ssize_t)sizeof(long long);
+        wi = (Py_ssize_t)until;
+        if (wi < 0)
+            wi = 0;
+        until = -2;
+    }
+    PyObject *res = play_loop(s, lines, i, idx0, step, until, stops, on_barrier, firsts, nf, &wi);
+    if (nargs == 8) {
+        PyBuffer_Release(&fb);
+        if (res != NULL) {
+            PyObject *r3 = Py_BuildValue("(OOn)", PyTuple_GET_ITEM(res, 0), PyTuple_GET_ITEM(res, 1), wi);
+            Py_DECREF(res);
+            res = r3;
+        }
+    }
+    return res;
+}
+
+static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
+                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
+                           Py_ssize_t nf, Py_ssize_t *wi_io)
+{
+    Py_ssize_t wi = *wi_io;
     int stopped = 0, err;
     PyObject *call[3];
     void *ss = fused_session(s, step, &err);
@@ -2525,6 +2564,8 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         long long idx = idx0 + (long long)i;
         if (idx == until)
             break;
+        while (wi < nf && firsts[wi] == idx)
+            wi++;
         PyObject *raw = PyList_GET_ITEM(lines, i);
         if (ss != NULL) {
             FusedMove fm;
@@ -2608,6 +2649,7 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         Py_DECREF(ev);
         goto fail_ss;
     }
+    *wi_io = wi;
     if (ss != NULL && READER->close(ss) < 0)
         return NULL;
     return Py_BuildValue("(nO)", i, stopped ? Py_True : Py_False);
@@ -4296,7 +4338,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
-        || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
+        || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
+        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -312,7 +312,9 @@ class RingRoom:
     def take(self, memo, need):
         owner = self.owner() if self.owner is not None else None
         if owner is not None and owner is not memo:
-            owner.clear()         # (its numbers are about to be overwritten)
+            # (its numbers are about to be overwritten; not through clear(): the streams'
+            # own clears are what the Collector calls it for)
+            owner.key = owner.amps = owner.key_p = owner.pieces = None
         if owner is not memo:
             self.owner = weakref.ref(memo)
         if self.arr is None or len(self.arr) < need:

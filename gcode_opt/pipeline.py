@@ -48,6 +48,7 @@ from .laws import circle as circle_law
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
+from .segments import SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
 from . import validate as _validate_mod
@@ -415,6 +416,17 @@ class _ByteLines:
                 return self.data, start, end, got
             self.data, self.pos = self.data[self.pos:] + self._read(), 0
 
+    def copy_take(self, n_copy, n, write):
+        """copy(n_copy, write) then take(n), in one call (the same pieces written, the same
+        (data, start, stop, got))."""
+        if n_copy:
+            self.copy(n_copy, write)
+        end, got = self.skip(self.data, self.pos, n, self.eof)
+        if got == n or self.eof:
+            start, self.pos = self.pos, end
+            return self.data, start, end, got
+        return self.take(n)
+
     def rest(self, write):
         if self.pos < len(self.data):
             write(self.data[self.pos:])
@@ -459,20 +471,24 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     beta_list = betas.tolist() if isinstance(betas, np.ndarray) else list(betas)   # Python floats: the same texts
     isfinite = math.isfinite
     travel = feat.TRAVEL
+    begin = emit_mod.BEGIN
     blake2b = hashlib.blake2b
+    seg_type = SegmentPlan
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
+        copy_take = src.copy_take
         for i in order:
             s = strokes[i]
-            n_copy = s.first_idx - pos
+            first_idx = s.first_idx
+            n_copy = first_idx - pos
             if n_copy < 0:        # overlapping strokes cannot happen: keep the original
                 plan.retime[i], plan.segs[i], plan.reason[i] = False, None, "error: emission (overlap)"
                 continue
-            # untouched lines: copied as they are, in bulk (no tokenising, no state)
-            src.copy(n_copy, write)
+            # untouched lines: copied as they are, in bulk (no tokenising, no state); then
+            # the stroke's own lines
+            data, a, z, n_lines = copy_take(n_copy, s.last_idx - first_idx + 1, write)
             out_line += n_copy
-            data, a, z, n_lines = src.take(s.n_moves)
-            pos = s.first_idx + n_lines
+            pos = first_idx + n_lines
             x0, y0 = s.x0, s.y0
             if reuse is not None:
                 text = reuse.block(i, segs[i], betas[i])
@@ -491,14 +507,20 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                     e0, accel0, mcr0 = s.start_state
                     beta = beta_list[i]
                     extruding = s.feature != travel
-                    head = f"{emit_mod.BEGIN}{_block_header(s, n_lines, 'segments', seg, beta)}\n{svl}"
-                    fc = getattr(seg, "first_cmds", None)
+                    if type(seg) is seg_type:      # (its fields, not through the properties)
+                        knots, seg_a, seg_f, fc = seg._s, seg._accel, seg._feed, seg.first_cmds
+                    else:
+                        knots, seg_a, seg_f, fc = seg.s, seg.accel, seg.feed, getattr(seg, "first_cmds", None)
+                    # _block_header's text, as it writes it
+                    head = (f"{begin}: replaces {n_lines} lines, kind={s.kind}, {len(knots) - 1} segments, "
+                            f"T={seg.time_t:.4f}s (was {s.time_t:.4f}s), "
+                            f"beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}")
                     before = after = None
-                    if fc and len(seg.s) >= 2:
+                    if fc and len(knots) >= 2:
                         before, after = fc[0] + "\n", fc[1] + "\n"
                     got = block(data, a, z, n_lines, head,
                                 closing_text(flavour, accel0, extruding, mcr0, s.v_feed, "\n"), before, after,
-                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, seg.s, seg.accel, seg.feed, s.ends_d, s.e_rel,
+                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, s.ends_d, s.e_rel,
                                 extruding, ctx[extruding],
                                 max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a)
                 except Exception:     # noqa: BLE001 -- the Python path below says what

@@ -31,8 +31,8 @@ from itertools import chain
 import numpy as np
 
 from . import state as st
-from .firmware.resonance import (Oscillator, Response, RingMemo, _smoothing_chunk, shaped_events,
-                                 shaper_pulses, smoothing)
+from .firmware.resonance import (Oscillator, Response, RingMemo, RingRoom, _smoothing_chunk, release_solve_room,
+                                 shaped_events, shaper_pulses, smoothing)
 from .firmware import simulate as fwsim
 from .firmware.simulate import CORNER_COS, simulate_file
 
@@ -482,12 +482,18 @@ class Collector:
         pulses = _pulses(self.model, self.shaper)
         self.streams = {}
         memos = {}                         # one RingMemo per part and oscillator
+        # the ramp, corner and turn memos are written one part after the other, each cleared
+        # before the next part runs (_flush): one room for them all (RingRoom); "all"'s is
+        # read while they write, and keeps its own
+        parts_room = RingRoom()
         for ax, name in enumerate("xy"):
             osc = Oscillator(self.model[f"freq_{name}_hz"], self.model["damping_r"])
             for part in ("all",) + PARTS:
                 # X's stream keeps its exponentials for Y's of the same part: the two axes
                 # share most events, and their restarts start at the same events
-                memo = memos.setdefault((osc.s, osc.wd, part), RingMemo())
+                memo = memos.get((osc.s, osc.wd, part))
+                if memo is None:
+                    memo = memos[osc.s, osc.wd, part] = RingMemo(None if part == "all" else parts_room)
                 # and X's other parts take "all"'s in the core's solve (kept until they ran:
                 # _flush): on the gyroid plate 99 % of ramp's pieces and events (with their
                 # restarts' starts) are "all"'s, 44 % / 13 % of turn's, few of corner's
@@ -637,6 +643,7 @@ class Collector:
             smooth = self.smooth.result() if self.smooth is not None else None
             self.result = _assemble(self.model, self.shaper, self.time_t, axes, smooth)
             self.streams = self.smooth = None
+            release_solve_room()           # (the next pass takes it again)
         return self.result
 
 

@@ -6,8 +6,11 @@ import gc
 import math
 import os
 from collections import Counter
+from operator import attrgetter
 
 import numpy as np
+
+from .strokes import Stroke
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -122,18 +125,16 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
     V0 = np.array([strokes[i].int_v2 for i in idx]) if len(idx) else np.zeros(0)
-    # one loop over the re-timed strokes, on Python floats (tolist: the arrays' values)
-    # rather than numpy scalars: the same numbers, the same sums in the same order
+    # the rows built column by column on Python floats (tolist: the arrays' values) rather
+    # than numpy scalars: the same numbers, the same sums in the same order
     per_stroke = []
     by_kind = {}
-    add_row = per_stroke.append
-    rows = zip(idx.tolist(), [r[0] for r in out_ranges], T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
-               plan.I_law[idx].tolist(), np.asarray(t_after).tolist(), np.asarray(a2_after).tolist(),
-               plan.beta[idx].tolist())
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
     try:
-        _per_stroke_rows(rows, strokes, add_row, by_kind)
+        _per_stroke_rows(idx.tolist(), [r[0] for r in out_ranges], T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
+                         plan.I_law[idx].tolist(), np.asarray(t_after).tolist(), np.asarray(a2_after).tolist(),
+                         plan.beta[idx].tolist(), strokes, per_stroke, by_kind)
     finally:
         if gc_was:
             gc.enable()
@@ -184,32 +185,85 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     return out
 
 
-def _per_stroke_rows(rows, strokes, add_row, by_kind):
-    """build_summary's per-stroke rows and by_kind sums, in the order of rows."""
-    isfinite = math.isfinite
-    for i, out_first, t0, i0, t_law, i_law, t1, a21, beta in rows:
-        s = strokes[i]
-        kind = getattr(s, "kind", "line")
-        add_row({
-            "line": s.first_idx + 1, "lines": s.n_moves, "kind": kind, "out_line": out_first + 1,
-            "feature": s.feature, "layer": s.layer, "length_mm": round(s.length_d, 4),
-            "v0_mm_s": round(s.v0, 3), "v1_mm_s": round(s.v1, 3), "feed_mm_s": round(s.v_feed, 3),
-            "time_s": {"before": t0, "law": t_law, "after": t1},
-            "int_a2": {"before": i0, "law": i_law, "after": a21},
-            "beta_s2": beta if isfinite(beta) else None,
-        })
+_TWO52 = float(1 << 52)
+
+
+def round_list(vals, nd):
+    """[round(v, nd) for v in vals] (nd 0..15), the same objects' values, at a fraction of
+    the cost for Python floats: round() is correctly rounded (the decimal D / 10^nd nearest
+    v, ties to even, read back as the double nearest it).  D is rint(v * 10^nd) unless the
+    product lies within 2 ulp of a tie (its rounding could have moved it across): there,
+    and for any value not a float, not finite or with |v * 10^nd| >= 2^52, round() itself.
+    D / 10^nd, both exact doubles, is one correctly rounded division: the nearest double."""
+    n = len(vals)
+    if n < 64:
+        return [round(v, nd) for v in vals]
+    scale = float(10 ** nd)
+    x = np.array(vals, dtype=float)
+    with np.errstate(all="ignore"):
+        p = x * scale
+        d = np.rint(p)
+        out = (d / scale).tolist()
+        ap = np.abs(p)
+        frac = ap - np.floor(ap)
+        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
+    for j in np.flatnonzero(slow).tolist():
+        out[j] = round(vals[j], nd)
+    if set(map(type, vals)) != _FLOAT_ONLY:
+        for j, v in enumerate(vals):
+            if type(v) is not float:      # (an int, a numpy scalar: its own __round__)
+                out[j] = round(v, nd)
+    return out
+
+
+_FLOAT_ONLY = {float}
+
+
+def _kind_of(s):
+    return getattr(s, "kind", "line")
+
+
+def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
+    """build_summary's per-stroke rows (appended to per_stroke) and by_kind sums, in the
+    order of idx (lists of Python floats by row).  Each column is made in one pass (map:
+    the same round() of each value); the rows then zip them.  By kind, each sum is the
+    additions of the old row-by-row loop in the same order."""
+    ss = [strokes[i] for i in idx]
+    kinds = list(map(_kind_of, ss))
+    get = attrgetter
+    r4 = round_list(list(map(get("length_d"), ss)), 4)
+    rv0 = round_list(list(map(get("v0"), ss)), 3)
+    rv1 = round_list(list(map(get("v1"), ss)), 3)
+    rvf = round_list(list(map(get("v_feed"), ss)), 3)
+    # Stroke.n_moves, without the property's call (another kind of stroke: its own)
+    n_moves = [s.last_idx - s.first_idx + 1 if type(s) is Stroke else s.n_moves for s in ss]
+    per_stroke.extend([
+        {"line": s.first_idx + 1, "lines": nm, "kind": kind, "out_line": of + 1,
+         "feature": s.feature, "layer": s.layer, "length_mm": ln,
+         "v0_mm_s": a, "v1_mm_s": b, "feed_mm_s": f,
+         "time_s": {"before": x0, "law": xl, "after": x1},
+         "int_a2": {"before": y0, "law": yl, "after": y1},
+         "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
+        for s, nm, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
+        in zip(ss, n_moves, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
+    # by kind: the old row-by-row loop's additions, as it wrote them (the same `+=` on the
+    # same floats in the same order: NaN and inf sums too keep their bits)
+    for kind, x0, xl, x1, y0, yl, y1 in zip(kinds, t0, t_law, t1, i0, i_law, a21):
         g = by_kind.get(kind)
         if g is None:
             g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
                                  "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}}
         g["retimed"] += 1
         gt, ga = g["time_s"], g["int_a2"]
-        gt["before"] += t0
-        gt["law"] += t_law
-        gt["after"] += t1
-        ga["before"] += i0
-        ga["law"] += i_law
-        ga["after"] += a21
+        gt["before"] += x0
+        gt["law"] += xl
+        gt["after"] += x1
+        ga["before"] += y0
+        ga["law"] += yl
+        ga["after"] += y1
+
+
+_INF = math.inf
 
 
 def dump_json(summary: dict, fh) -> None:

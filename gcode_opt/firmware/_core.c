@@ -225,6 +225,8 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
     if (k->n + rows <= k->alloc)
         return 0;
     Py_ssize_t want = k->alloc * 2 > k->n + rows ? k->alloc * 2 : k->n + rows + 16;
+    if (want > k->cap + 1 && k->n + rows <= k->cap + 1)
+        want = k->cap + 1;            /* (grown as rows come, to what a chunk holds) */
     double *nb = PyMem_Realloc(k->buf, (size_t)want * SINK_ROW * sizeof(double));
     if (nb == NULL) {
         PyErr_NoMemory();
@@ -279,7 +281,9 @@ static int Sink_init(SinkObject *k, PyObject *args, PyObject *kw)
     k->n = 0;
     Py_INCREF(flush);
     Py_XSETREF(k->flush, flush);
-    return sink_reserve(k, cap + 1);
+    /* a small file's rows, or a pass that never ends its chunk, take no more than they
+     * need: the room grows (doubling) to cap + 1 rows as rows come */
+    return sink_reserve(k, cap + 1 < 1024 ? cap + 1 : 1024);
 }
 
 static const char *SINK_FIELDS[SINK_ROW - 1] = {"ux", "uy", "start_v", "cruise_v", "end_v", "accel",
@@ -2490,16 +2494,25 @@ static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
     return rc;
 }
 
+static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
+                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
+                           Py_ssize_t nf, Py_ssize_t *wi_io);
+
 /* play(lines, start, idx0, step, until, stops, on_barrier): simulate._play's loop over
  * lines[start:] (a list of str, lines[j] the file's line idx0 + j): ev = step(idx, raw),
  * a Move played (move), a Barrier taken (barrier, then on_barrier(ev.dwell_t) unless
  * None), anything else passed over.  Returns (j, stopped) where it stopped: before the
  * line whose idx == until (not read), after a line that left the model standing empty
  * (an E-only Move or a Barrier) when `stops` is true (stopped True), or at len(lines). */
+/* play(lines, start, idx0, step, wi, stops, on_barrier, firsts): the same loop, but where
+ * the 7-argument form stops before the line `until`, it passes over the watched ranges'
+ * first lines: firsts (int64 buffer, sorted) from index wi; before each line whose idx
+ * equals firsts[wi], wi moves on (as many times as firsts holds that idx).  Returns
+ * (j, stopped, wi): the ranges started are those wi passed (simulate._play_chunks). */
 static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 7)
-        return PyErr_Format(PyExc_TypeError, "play() takes 7 arguments (%zd given)", nargs);
+    if (nargs != 7 && nargs != 8)
+        return PyErr_Format(PyExc_TypeError, "play() takes 7 or 8 arguments (%zd given)", nargs);
     PyObject *lines = args[0], *step = args[3], *on_barrier = args[6];
     if (!PyList_CheckExact(lines)) {
         PyErr_SetString(PyExc_TypeError, "play: lines must be a list of str");
@@ -2513,6 +2526,36 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     if (i < 0)
         i = 0;
+    Py_buffer fb;
+    const long long *firsts = NULL;
+    Py_ssize_t nf = 0, wi = 0;
+    if (nargs == 8) {
+        if (PyObject_GetBuffer(args[7], &fb, PyBUF_SIMPLE) < 0)
+            return NULL;
+        firsts = (const long long *)fb.buf;
+        nf = fb.len / (Py_ssize_t)sizeof(long long);
+        wi = (Py_ssize_t)until;
+        if (wi < 0)
+            wi = 0;
+        until = -2;
+    }
+    PyObject *res = play_loop(s, lines, i, idx0, step, until, stops, on_barrier, firsts, nf, &wi);
+    if (nargs == 8) {
+        PyBuffer_Release(&fb);
+        if (res != NULL) {
+            PyObject *r3 = Py_BuildValue("(OOn)", PyTuple_GET_ITEM(res, 0), PyTuple_GET_ITEM(res, 1), wi);
+            Py_DECREF(res);
+            res = r3;
+        }
+    }
+    return res;
+}
+
+static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
+                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
+                           Py_ssize_t nf, Py_ssize_t *wi_io)
+{
+    Py_ssize_t wi = *wi_io;
     int stopped = 0, err;
     PyObject *call[3];
     void *ss = fused_session(s, step, &err);
@@ -2522,6 +2565,8 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         long long idx = idx0 + (long long)i;
         if (idx == until)
             break;
+        while (wi < nf && firsts[wi] == idx)
+            wi++;
         PyObject *raw = PyList_GET_ITEM(lines, i);
         if (ss != NULL) {
             FusedMove fm;
@@ -2605,6 +2650,7 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
         Py_DECREF(ev);
         goto fail_ss;
     }
+    *wi_io = wi;
     if (ss != NULL && READER->close(ss) < 0)
         return NULL;
     return Py_BuildValue("(nO)", i, stopped ? Py_True : Py_False);
@@ -3865,7 +3911,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
     size_t need = 4 * (size_t)n + 3 * (size_t)np_ + 1;
     if (need > ring_scratch_n) {
-        size_t want = need + need / 2;
+        size_t want = need + need / 8;     /* (the next chunk's few more events) */
         double *p = PyMem_Realloc(ring_scratch, sizeof(double) * want);
         if (p == NULL) {
             PyErr_NoMemory();
@@ -4191,6 +4237,18 @@ done:
     return ret;
 }
 
+/* ring_release(): ring_solve's room given back (a Collector's pass is over: the room,
+ * ~7 doubles an event of a chunk, would stay for the rest of the run); the next ring_solve
+ * takes it again.  Returns the bytes it held. */
+static PyObject *mod_ring_release(PyObject *self, PyObject *noargs)
+{
+    size_t held = ring_scratch_n * sizeof(double);
+    PyMem_Free(ring_scratch);
+    ring_scratch = NULL;
+    ring_scratch_n = 0;
+    return PyLong_FromSize_t(held);
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -4213,6 +4271,8 @@ static PyMethodDef mod_methods[] = {
     {"ring_solve", mod_ring_solve, METH_VARARGS,
      "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
      "amps_memo, amps_out, pieces_memo, pieces_out): _Stream._solve"},
+    {"ring_release", mod_ring_release, METH_NOARGS,
+     "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}
@@ -4251,7 +4311,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
-        || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0) {
+        || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
+        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -23,6 +23,7 @@ Units: seconds, mm, mm/s, mm/s^2; frequencies in Hz.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -251,6 +252,16 @@ def _solve_core(s, wd):
     return (core, span, fused) if ok else None
 
 
+def release_solve_room():
+    """Give back the room the core's ring_solve keeps from call to call (~7 doubles an event
+    of a chunk: ~4 MB on the gyroid plate): a Collector calls it when its pass is over, so
+    the room does not stay for the rest of the run.  Returns the bytes given back (0
+    without the core)."""
+    core = _core()
+    release = getattr(core, "ring_release", None) if core is not None else None
+    return release() if release is not None else 0
+
+
 USE_MEMO = True          # tests turn it off: every exponential from libm
 
 
@@ -259,25 +270,57 @@ class RingMemo:
     the next calls of streams of the same oscillator (the ringing's parts and axes share
     most of their events and pieces; ringing.Collector): amps = (event times, each
     event's restart start (NaN: numpy made it), 4 numbers an event), pieces = (start
-    times, lengths, 3 numbers a piece), each for the oscillator key (s, wd[, span])."""
+    times, lengths, 3 numbers a piece), each for the oscillator key (s, wd[, span]).
 
-    def __init__(self):
+    room: the out arrays' memory, a RingRoom kept from chunk to chunk, this memo's own or
+    shared with memos written one after the other (the Collector's ramp, corner and turn
+    memos: each is cleared before the next part writes): a memo writing a shared room
+    clears the memo that wrote it last, so no memo ever reads another's numbers."""
+
+    def __init__(self, room=None):
         self.key = self.amps = self.key_p = self.pieces = None
-        self.room = None          # Oscillator.solve's out arrays, kept from chunk to chunk
+        self.shared = room if room is not None else RingRoom()   # Oscillator.solve's out arrays
+
+    @property
+    def room(self):
+        return self.shared.arr
 
     def clear(self):
         self.key = self.amps = self.key_p = self.pieces = None
 
     def out(self, n):
         """(t0, 4 numbers, lengths, 3 numbers) for n events and their n - 1 pieces: views of
-        one array the memo keeps (fresh memory costs a page fault a page; the readers of
+        one array the room keeps (fresh memory costs a page fault a page; the readers of
         the last ones are done with them when the lead stream writes again)."""
         m = max(n - 1, 0)
         need = 5 * n + 4 * m
-        if self.room is None or len(self.room) < need:
-            self.room = np.empty(need + need // 2)
-        r = self.room
+        r = self.shared.take(self, need)
         return r[:n], r[n:5 * n], r[5 * n:5 * n + m], r[5 * n + m:need]
+
+
+class RingRoom:
+    """The memory of RingMemo.out, kept from chunk to chunk (1/8 more than asked, for the
+    next chunk's few more events: the ringing's chunks hold about the same number of
+    events), for one memo or for several written one after the other."""
+    SLACK = 8
+
+    def __init__(self):
+        self.arr = None
+        self.owner = None         # the memo that wrote it last (a weak reference: no cycle
+                                  # holding the room after its Collector is gone)
+
+    def take(self, memo, need):
+        owner = self.owner() if self.owner is not None else None
+        if owner is not None and owner is not memo:
+            # (its numbers are about to be overwritten; not through clear(): the streams'
+            # own clears are what the Collector calls it for)
+            owner.key = owner.amps = owner.key_p = owner.pieces = None
+        if owner is not memo:
+            self.owner = weakref.ref(memo)
+        if self.arr is None or len(self.arr) < need:
+            self.arr = None
+            self.arr = np.empty(need + need // self.SLACK)
+        return self.arr
 
 
 # ---------------------------------------------------------------- input shapers

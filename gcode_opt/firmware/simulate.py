@@ -705,6 +705,19 @@ class _LedgerWriter:
         self.next_first = self.watch[self.wi][0] if self.wi < self.n_w else -2
         return self.next_first
 
+    def ranges_start(self, k):
+        """range_starts k times over (the lines between them played, the model not empty
+        in between): the same ledger entries."""
+        led = self.led
+        if self.last_j < 0:
+            last = self.last
+            self.last_j = led._commit(last[0], last[1], last[2], self.carry_v, self.carry_a)
+            self.carry_v = self.carry_a = 0.0
+        led.lo.extend([self.last_j] * k)
+        self.pending.extend(range(self.wi, self.wi + k))
+        self.wi += k
+        self.next_first = self.watch[self.wi][0] if self.wi < self.n_w else -2
+
     def stopped(self, idx):
         """The model stands empty after line idx."""
         res = self.res
@@ -739,6 +752,9 @@ class _LedgerWriter:
         res.peak_a = max(led.peak_a) if len(led.peak_a) else 0.0
 
 
+USE_PLAY_FIRSTS = True    # tests turn it off: a play() call per watched range (the reference)
+
+
 def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
     """_play on (idx0, [raw, ...]) chunks (read_chunks) with a compiled Sim: its play() runs
     the loop, leaving C only where _play's ledger does something (a watched range's first
@@ -749,8 +765,27 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
             play(lines, 0, idx0, step, -2, False, on_barrier)
         return
     w = _LedgerWriter(led, watch, state, sim.res)
-    next_first = w.next_first
     n_lines = 0
+    if getattr(_core, "PLAY_FIRSTS", 0) and USE_PLAY_FIRSTS:
+        # the watched ranges' first lines passed over in C: play() leaves only where the
+        # model stands empty (or at the chunk's end) and says how many ranges started
+        from array import array
+        firsts = array("q", [r[0] for r in watch])
+        wi = 0
+        for idx0, lines in chunks:
+            n = len(lines)
+            n_lines = idx0 + n
+            i = 0
+            while i < n:
+                i, stopped, wj = play(lines, i, idx0, step, wi, True, on_barrier, firsts)
+                if wj != wi:
+                    w.ranges_start(wj - wi)
+                    wi = wj
+                if stopped:
+                    w.stopped(idx0 + i - 1)
+        w.finish(n_lines, sim)
+        return
+    next_first = w.next_first
     for idx0, lines in chunks:
         n = len(lines)
         n_lines = idx0 + n

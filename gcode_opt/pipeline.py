@@ -28,6 +28,7 @@ in the summary (strokes.not_retimed, strokes.faults).
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -940,11 +941,35 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
     only adds synchronisation (~2x their CPU) and takes the core the slicer may need;
     the results are the same bits (blas.py)."""
     from .blas import blas_one_thread
-    with blas_one_thread():
-        return _process(in_path, out_path, profile, opts, before_replace)
+    with blas_one_thread(), _strokes_frozen() as freeze:
+        return _process(in_path, out_path, profile, opts, before_replace, freeze)
 
 
-def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=None):
+@contextlib.contextmanager
+def _strokes_frozen():
+    """Yields freeze(): called once the strokes are built, it moves every object then alive
+    (the strokes, the modules) out of the garbage collector's view until the job ends.
+    The passes after analyse make and drop many short-lived containers; each full
+    collection they trigger walked the ~10^6 long-lived objects again (gyroid plate: GC
+    0.24 -> 0.14 s CPU).  Frozen objects are still freed by their reference counts; only
+    a cycle among them waits for the unfreeze.  Left alone when the caller froze objects
+    already (gc.unfreeze would thaw those too)."""
+    import gc
+    mine = gc.get_freeze_count() == 0
+    done = []
+
+    def freeze():
+        if mine and not done:
+            gc.freeze()
+            done.append(True)
+    try:
+        yield freeze
+    finally:
+        if done:
+            gc.unfreeze()
+
+
+def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=None, freeze=None):
     from .outfile import AtomicOutput, OutputError, describe
     t_start = time.monotonic()
     timing = _Timing()
@@ -953,6 +978,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     if prog:
         prog.start("analyse")
     strokes, sim0 = analyse(in_path, profile, opts)
+    if freeze is not None:
+        freeze()
     timing.lap("analyse")
     if sim0.n_moves == 0:
         if prog:
@@ -1022,6 +1049,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                     ring = _ring_collector(profile, opts)
                     got = measure(tmp, profile, out_ranges, opts, watch, ring)
                     ring_after = ring
+                    ring = None       # a second pass's remeasure must not keep this one's buffers
                 sim1, t1, a21, v21, led = got
                 first = _FirstPass(plan, digests, lines, out_ranges, (t1, a21, v21), led)
                 timing.lap("measure")

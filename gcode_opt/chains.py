@@ -194,11 +194,12 @@ class _Again(_KeptLaws):
         self.base, self.lo, self.k = None, 0, 0
 
     def plan(self, r, st, rules, profile):
-        """The SegmentPlan of the candidate at row r of st's memo (as plan_chain_segments
-        makes it)."""
-        memo = st.chain_T
-        a = memo.figs[4 * (memo.at + r):4 * (memo.at + r + 1)]
-        return _again_plans([(st, self, a[1], a[2])], rules, profile)[0]
+        """The SegmentPlan of the candidate at row r of its kept rows (ChainMemo.plan_of's
+        row) of chain st, as plan_chain_segments makes it."""
+        for t, T, beta, row, kept in st.chain_T.rows():
+            if kept is self and row == r:
+                return _again_plans([(st, self, T, beta)], rules, profile)[0]
+        raise KeyError(r)
 
 
 _ZERO_D = array("d", (0.0,))

@@ -1005,7 +1005,10 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
-    budget that leaves its (T, beta) alone reuses it."""
+    budget that leaves its (T, beta) alone reuses it.  Once a chain's plan is made, the knots
+    of its candidate rows and its vertex caps are dropped (_drop: ~25 MB on the gyroid plate);
+    a re-plan that picks another of its candidates solves it again (_again_plans, the same
+    bits: tests/test_speed22_chainmem_drop.py)."""
     T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)

@@ -109,6 +109,7 @@ def _problems(strokes, T, beta, profile):
     return out
 
 
+TRIM_DROPPED = 2000          # chains whose rows plan_chain_segments dropped that are worth a malloc_trim
 FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, see _finish_table)
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 
@@ -167,6 +168,40 @@ class _KeptLaws:
         return _replay([(st, self, r)], rules, profile)[0]
 
 
+class _Source:
+    """What _figures solved a chain's candidates from, to solve one again (_knots_again):
+    the (n, k) tables of law durations T and weights beta (row src_i of a chain), the
+    columns' order (mid first, cold; each other from its neighbour prev[c], warm) and the
+    rules key of its finishing.  One per _figures call, shared by its chains."""
+    __slots__ = ("T", "beta", "order", "prev", "key", "again")
+
+    def __init__(self, T, beta, order, prev, key):
+        self.T, self.beta, self.order, self.prev, self.key = T, beta, order, prev, key
+        self.again = _Again(self)
+
+
+class _Again(_KeptLaws):
+    """A candidate row whose knots were dropped (ChainMemo.drop_rows): plan_chain_segments
+    makes its knots again (_knots_again: the chain solved again along the same columns,
+    from the same starts; solve_flat's numbers are each chain's own, whatever chains are
+    solved with it), its predicted figures (the table's finishing) and then its plan
+    (_replay), as for a kept row.  i: the chain's row in src's tables (None: the memo's
+    src_i)."""
+    __slots__ = ("src", "i")
+
+    def __init__(self, src, i=None):
+        self.key, self.src, self.i = src.key, src, i
+        self.base, self.lo, self.k = None, 0, 0
+
+    def plan(self, r, st, rules, profile):
+        """The SegmentPlan of the candidate at row r of its kept rows (ChainMemo.plan_of's
+        row) of chain st, as plan_chain_segments makes it."""
+        for t, T, beta, row, kept in st.chain_T.rows():
+            if kept is self and row == r:
+                return _again_plans([(st, self, T, beta)], rules, profile)[0]
+        raise KeyError(r)
+
+
 _ZERO_D = array("d", (0.0,))
 
 
@@ -179,10 +214,13 @@ def _knots_s(ends_d):
     return np.concatenate([[0.0], np.asarray(ends_d, float)])
 
 
-def _replay(items, rules, profile):
+def _replay(items, rules, profile, drop=False):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
-    table did, or _finish_rows_dt chain by chain); row by row the table's numbers."""
+    table did, or _finish_rows_dt chain by chain); row by row the table's numbers.  drop:
+    each chain's memo drops its rows' knots once its group is made (ChainMemo.drop_rows:
+    the arrays of rows finished together go as the plans are made, not after all of
+    them); the plans hold their own knot speeds then, not views of those arrays."""
     out = [None] * len(items)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     gs = [curves.geom(st, profile) for st, _, _ in items]
@@ -191,7 +229,9 @@ def _replay(items, rules, profile):
         for q, (st, kept, r) in enumerate(items):
             vk, dt, t, a2 = kept.row(r)
             acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
-            out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
+            out[q] = SegmentPlan(sk(st), vk.copy() if drop else vk, acc[0], feed[0], t, a2)
+            if drop:
+                _drop(st)
         return out
     by_n = {}
     for q, g in enumerate(gs):
@@ -206,7 +246,109 @@ def _replay(items, rules, profile):
                                                     profile, predict=False)
             for i, q in enumerate(Q):
                 out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], rows[i][2], rows[i][3])
+            del rows, dt
+        if drop:            # the group's chains are made: their rows' arrays can go
+            for q in qs:
+                _drop(items[q][0])
     return out
+
+
+def _drop(st):
+    """What a chain keeps for its candidates once a plan of one is made: its rows' knots
+    (ChainMemo.drop_rows) and its law's vertex caps (vertex_caps makes them again, the
+    same numbers: tests/test_speed22_chainmem_drop.py), ~1.7 kB a chain."""
+    st.chain_T.drop_rows()
+    g = st.curv
+    if g is not None:
+        g.chain_caps = None
+
+
+def _knots_again(items, profile):
+    """The knots (vk (n + 1), dt (n)) of candidate rows whose knots were dropped, items
+    [(stroke, _Source, its row i there, law T, beta)]: each chain solved again as _figures
+    solved it (the same tables, the columns in the same order from the same starts, up to
+    the one asked for) and its row taken out as _table_rows takes it."""
+    out = [None] * len(items)
+    by_src = {}
+    for q, it in enumerate(items):
+        by_src.setdefault(id(it[1]), []).append(q)
+    for qs in by_src.values():
+        src = items[qs[0]][1]
+        idx = np.array([items[q][2] for q in qs], int)
+        Tt, bt = src.T[idx], src.beta[idx]
+        cols = []
+        for q, Tr, br in zip(qs, Tt, bt):
+            hit = np.flatnonzero((Tr == items[q][3]) & (br == items[q][4]))
+            if hit.size == 0:
+                raise ValueError("chain candidate not in its table")
+            cols.append(int(hit[0]))
+        for a in range(0, len(qs), SOLVE_CHUNK):
+            sl = slice(a, min(a + SOLVE_CHUNK, len(qs)))
+            sts = [items[q][0] for q in qs[sl]]
+            want = cols[sl]
+            need = set()
+            for c in want:                # the columns each one is solved along
+                while c not in need:
+                    need.add(c)
+                    c = src.prev.get(c, c)
+            base = _flat_chains(sts, profile)
+            m, nv = len(sts), base.sv.size
+            res = {}
+            for c in src.order:
+                if c not in need:
+                    continue
+                fl = base.with_T(Tt[sl, c], bt[sl, c])
+                if c in src.prev:
+                    p = src.prev[c]
+                    s0 = res[p]
+                    vt = s0.vert_t * (Tt[sl, c] / Tt[sl, p])[fl.ch]
+                    res[c] = solve_flat(fl, s0.bound.copy(), vt, np.ones(m, bool), pieces=False)
+                else:
+                    res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
+            for jj, (q, c) in enumerate(zip(qs[sl], want)):
+                n = curves.geom(sts[jj], profile).d.size
+                o = int(base.voff[jj])
+                vk = np.empty((1, n + 1))
+                tk = np.empty((1, n + 1))
+                vk[0, 0], vk[0, -1] = base.v0[jj], base.v1[jj]
+                tk[0, 0] = 0.0
+                tk[0, -1] = Tt[a + jj, c]
+                vk[0, 1:-1] = res[c].vert_v[o:o + n - 1]
+                tk[0, 1:-1] = res[c].vert_t[o:o + n - 1]
+                out[q] = (vk, np.diff(tk, axis=1))
+            del res
+    return out
+
+
+def _again_plans(items, rules, profile):
+    """SegmentPlans of candidates whose knots were dropped, items [(stroke, _Again, law
+    T, beta)]: the knots made again (_knots_again), their predicted figures as the
+    candidate table's finishing made them (_Finisher: by groups of a segment count under
+    GROUP_JUNCTIONS, else chain by chain; each row's numbers its own), then _replay."""
+    got = _knots_again([(st, ag.src, st.chain_T.src_i if ag.i is None else ag.i, T, b)
+                        for st, ag, T, b in items], profile)
+    grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
+    kept = [None] * len(items)
+    if grouped:
+        by_n = {}
+        for q, (vk, _) in enumerate(got):
+            by_n.setdefault(vk.shape[1], []).append(q)
+        for qs in by_n.values():
+            for a in range(0, len(qs), FINISH_ROWS):
+                Q = qs[a:a + FINISH_ROWS]
+                sts = [items[q][0] for q in Q]
+                vk = np.concatenate([got[q][0] for q in Q])
+                dt = np.concatenate([got[q][1] for q in Q])
+                _, _, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts], np.arange(len(Q)),
+                                                    vk, dt, rules, profile)
+                for i, q in enumerate(Q):
+                    kept[q] = _KeptLaws(items[q][1].key, (vk, dt, t, a2), i, 1)
+    else:
+        for q, (st, ag, _, _) in enumerate(items):
+            vk, dt = got[q]
+            _, _, t, a2, _ = _finish_rows_dt(st, vk, dt, rules, profile)
+            kept[q] = _KeptLaws(ag.key, (vk, dt, t, a2), 0, 1)
+    return _replay([(st, kp, 0) for (st, _, _, _), kp in zip(items, kept)], rules, profile)
 
 
 class ChainMemo:
@@ -218,11 +360,13 @@ class ChainMemo:
     are one array (put_shared: this chain's are rows at..at+n of it) and a chain's rows
     share one kept plan (kept: that object; a list, one per row, once put mixes them):
     ~0.25 kB a chain (a dict held ~1.8 kB)."""
-    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg")
+    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg", "src", "src_i")
 
     def __init__(self):
         self.figs = self.kept = None
         self.at = self.n = 0
+        self.src = None         # the _Source of its rows (_figures), its row src_i there: drop_rows
+        self.src_i = -1
         self.seg_T = self.seg_beta = self.seg_key = None
         self.seg = None         # the SegmentPlan of the last plan_chain_segments (for seg_T, seg_beta, seg_key)
 
@@ -275,6 +419,15 @@ class ChainMemo:
             if (j - a) % 4 == col:
                 return (j - a) // 4
             j += 1
+
+    def drop_rows(self):
+        """Forget the knots of this chain's candidate rows (its _KeptLaws, rows of arrays
+        shared with the chains finished together: ~1.5 kB a chain) once a plan was made
+        of one: a later plan of another candidate makes its row again (_Again: the
+        table's computation, solved for the chains asking, the same bits).  Only rows of
+        one _figures call (kept one _KeptLaws of the call that set src) are dropped."""
+        if type(self.kept) is _KeptLaws and self.src is not None and self.kept.key == self.src.key:
+            self.kept = self.src.again
 
     def rows(self):
         """[(t_pred, law T, beta, row, kept)], newest first."""
@@ -852,7 +1005,10 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
-    budget that leaves its (T, beta) alone reuses it."""
+    budget that leaves its (T, beta) alone reuses it.  Once a chain's plan is made, the knots
+    of its candidate rows and its vertex caps are dropped (_drop: ~25 MB on the gyroid plate);
+    a re-plan that picks another of its candidates solves it again (_again_plans, the same
+    bits: tests/test_speed22_chainmem_drop.py)."""
     T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
@@ -866,24 +1022,35 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
             todo.append(k)
     # the candidate table's plan when this (T, beta) is one of the candidates (under the
     # same rules), else the law solved and finished
-    cold, lazy = [], []
+    cold, lazy, again = [], [], []
     for k in todo:
         st = strokes[k]
         hit = st.chain_T.plan_of(float(T[k]), float(beta[k]))
         if hit is not None and hit[0].key == key:
-            if isinstance(hit[0], _KeptLaws):
+            if isinstance(hit[0], _Again):
+                again.append((k, hit[0]))
+            elif isinstance(hit[0], _KeptLaws):
                 lazy.append((k, hit))
             else:
                 out[k] = hit[0].plan(hit[1])
         else:
             cold.append(k)
-    for (k, _), plan in zip(lazy, _replay([(strokes[k], kept, r) for k, (kept, r) in lazy], rules, profile)):
+    for (k, _), plan in zip(lazy, _replay([(strokes[k], kept, r) for k, (kept, r) in lazy], rules, profile,
+                                          drop=True)):
         out[k] = plan
+    if again:
+        plans = _again_plans([(strokes[k], ag, float(T[k]), float(beta[k])) for k, ag in again], rules, profile)
+        for (k, _), plan in zip(again, plans):
+            out[k] = plan
     for k, law in zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)):
         out[k] = finish_chain(strokes[k], law, rules, profile)[0]
     for k in todo:
         memo = strokes[k].chain_T
         memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = float(T[k]), float(beta[k]), key, out[k]
+        _drop(strokes[k])       # its plan is made: the other candidates' knots are made again if asked
+    if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
+        from .pipeline import trim_heap
+        trim_heap()
     return out
 
 
@@ -902,6 +1069,7 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     order = [mid] + list(range(mid + 1, k)) + list(range(mid - 1, -1, -1))
     prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
     fin = _Finisher(tab, rules, profile)
+    fin.src = _Source(T, beta, order, prev, fin.key)
     for a in range(0, n, SOLVE_CHUNK):      # the laws of one chunk of chains at a time
         sl = slice(a, min(a + SOLVE_CHUNK, n))
         sts = [strokes[i] for i in rows[sl]]
@@ -971,6 +1139,7 @@ class _Finisher:
         self.key = _rules_key(rules, profile)
         self.grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
         self.wait = {}                 # n -> [_Rows], their row count
+        self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
 
     def add(self, r):
         if not self.grouped:
@@ -1015,17 +1184,35 @@ class _Finisher:
             kb = (r.vk, r.dt, tr, a2r)
             first = np.concatenate([[0], np.cumsum(r.ks)]).tolist()
             plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q]) for q in range(r.J.size)]
-            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans)
+            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans, self.src, r.a)
 
 
 def _flat_chains(sts, profile):
     """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
     gs = [curves.geom(st, profile) for st in sts]
-    caps = [vertex_caps(st, profile) for st in sts]
+    caps = _chain_caps(sts, gs, profile)
     return _Flat.of_arrays(np.concatenate([g.s_v[1:-1] for g in gs]), np.concatenate(caps),
                            np.array([c.size for c in caps], int),
                            np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
                            np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
+
+
+def _chain_caps(sts, gs, profile):
+    """vertex_caps of the chains sts (geometries gs).  Under classic jerk, those whose caps
+    went (_drop) and whose whole-jerk caps were read are made again in one batch, as
+    build_geoms made them (curves._caps_flat_rows at the whole jerk: elementwise, the same
+    bits as vertex_caps stroke by stroke), x CHAIN_CAP_MARGIN, without keeping them."""
+    out = [None] * len(sts)
+    if profile.junction == "jerk":
+        gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
+        if len(gone) > 1:
+            got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
+                                         [gs[q].d for q in gone], 1.0)
+            if got is not None:
+                flat, first = got
+                for q, a in zip(gone, first):
+                    out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
+    return [vertex_caps(st, profile) if c is None else c for st, c in zip(sts, out)]
 
 
 def _table_rows(sts, base, res, use, T, profile, grouped):
@@ -1070,10 +1257,10 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), iv
 
 
-def _remember(sts, j, c, t, good, T, beta, plans):
+def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     """Each chain's memo (ChainMemo.put_shared: one array for the batch) of its good rows:
     predicted time, law T, beta, and its row in its kept plans; rows of one chain are
-    consecutive in j."""
+    consecutive in j.  src: the _Source of the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
     start = np.maximum.accumulate(np.where(first, np.arange(R), 0))      # each row's chain's first row
@@ -1088,8 +1275,24 @@ def _remember(sts, j, c, t, good, T, beta, plans):
     for kept, jj in zip(plans, j[first].tolist()):
         k = int(cnt[jj])
         if k:
-            sts[jj].chain_T.put_shared(figs, lo, k, kept)
+            memo = sts[jj].chain_T
+            if src is not None:
+                _own_source(memo, src, a + jj)
+            memo.put_shared(figs, lo, k, kept)
             lo += k
+
+
+def _own_source(memo, src, i):
+    """Make src (row i) the source of memo's rows; rows of another source it dropped keep
+    theirs (an _Again of their own row)."""
+    old = memo.src
+    if old is not None and old is not src:
+        mine = _Again(old, memo.src_i)
+        if memo.kept is old.again:
+            memo.kept = mine
+        elif isinstance(memo.kept, list):
+            memo.kept = [mine if x is old.again else x for x in memo.kept]
+    memo.src, memo.src_i = src, i
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

@@ -501,7 +501,7 @@ def build_geoms(strokes, profile, jerk1=False):
         return
     rows = [None] * len(todo)          # (block, row) per stroke; None: CurveGeom's own path
     j1 = jerk1 and profile.junction == "jerk"
-    for idx, block in _part_blocks(todo, compact=True):
+    for idx, block in _part_blocks(todo):
         got = _block_geoms([todo[i] for i in idx.tolist()], block, profile, j1)
         if got is None:
             continue
@@ -540,6 +540,7 @@ def _block_geoms(sts, block, profile, j1):
     path for all) when the vectorised caps decline one of them.  The caps are _caps_flat's
     law on (m, n - 1) arrays, the limits as (m, 1): each element the same operations."""
     d, u, _, _, kappa_v, kappa_eff, good = block
+    kappa_eff = np.array(kappa_eff, float)          # the same floats, 8 bytes each
     keep = good
     if not good.all():
         if not good.any():
@@ -676,9 +677,9 @@ def _batch_parts(todo):
     return parts
 
 
-def _part_blocks(todo, compact=False):
-    """(indices into todo, _parts_block(their vertices, compact)) for every block of strokes
-    of one vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
+def _part_blocks(todo):
+    """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
+    vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
     npts = np.array([len(st.pts) for st in todo], int)
     order = np.argsort(npts, kind="stable")
     for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
@@ -689,19 +690,16 @@ def _part_blocks(todo, compact=False):
         for a in range(0, grp.size, step):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
-                xy = _xy_block(todo, idx).reshape(idx.size, npt, 2)
-                block = _parts_block(xy, True) if compact else _parts_block(xy)
+                block = _parts_block(_xy_block(todo, idx).reshape(idx.size, npt, 2))
             yield idx, block
 
 
-def _parts_block(pts, compact=False):
-    """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2).
-    compact (build_geoms): no cos_turn (None: CurveGeom makes it from u), kappa_eff an
-    array (else a list)."""
+def _parts_block(pts):
+    """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
     seg = pts[:, 1:] - pts[:, :-1]                           # _segments
     d = np.hypot(seg[..., 0], seg[..., 1])
     u = seg / d[..., None]
-    cos_turn = None if compact else np.einsum("bij,bij->bi", u[:, :-1], u[:, 1:])
+    cos_turn = np.einsum("bij,bij->bi", u[:, :-1], u[:, 1:])
     s_v = np.empty(d.shape[:1] + (d.shape[1] + 1,))
     s_v[:, 0] = 0.0
     np.cumsum(d, axis=1, out=s_v[:, 1:])
@@ -741,7 +739,7 @@ def _parts_block(pts, compact=False):
     mid = 0.5 * (kappa_v[:, :-1] ** 2 + kappa_v[:, 1:] ** 2)
     k2 = np.sum(mid * d, axis=1) / S
     kappa_eff = _pmax(np.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
-    return d, u, cos_turn, s_v, kappa_v, kappa_eff if compact else kappa_eff.tolist(), good
+    return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
 
 
 EXP_ZERO_BELOW = -746.0     # exp(x) < 2^-1076 here: +0.0 in round to nearest (the least subnormal is 2^-1074)

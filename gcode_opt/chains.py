@@ -77,14 +77,20 @@ def vertex_caps(st, profile):
 def classify(strokes, rows, profile):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
     caps a curve's peak) is below the feed become chains."""
-    curves.build_geoms([strokes[i] for i in rows if strokes[i].kind == K_CURVE], profile, jerk1=True)
-    for i in rows:
-        st = strokes[i]
-        if st.kind == K_CURVE:
-            caps = curves.geom(st, profile).caps
-            # (np.min's reduction, called without its Python wrappers: ~1 us a curve)
-            if caps.size and curves.CAP_MARGIN * float(np.minimum.reduce(caps)) < st.v_feed:
-                st.chain_T = ChainMemo()     # the mark of a chain (plan_kind)
+    sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
+    curves.build_geoms(sts, profile, jerk1=True)
+    jerk = profile.junction == "jerk"
+    for st in sts:
+        g = curves.geom(st, profile)
+        caps = g.caps
+        # (np.min's reduction, called without its Python wrappers: ~1 us a curve)
+        if caps.size and curves.CAP_MARGIN * float(np.minimum.reduce(caps)) < st.v_feed:
+            st.chain_T = ChainMemo()     # the mark of a chain (plan_kind)
+            if jerk and g.caps_jerk1 is not None:
+                vertex_caps(st, profile)     # its caps now (planning reads them): the
+                                             # caps at the whole jerk are read no more
+    if jerk:
+        curves.drop_jerk1(sts)
 
 
 def plan_kind(st):

@@ -128,7 +128,13 @@ def _caps_flat(profile, p, u, d, jerk_r):
     """The caps at the vertices between u[k] and u[k + 1]; p: the limits (and the stroke's
     acceleration) per vertex or scalars.  None where the scalar law would raise (a negative
     squared speed: math.sqrt raises)."""
-    pux, puy, ux, uy = u[:-1, 0], u[:-1, 1], u[1:, 0], u[1:, 1]
+    return _caps_core(profile, p, u[:-1, 0], u[:-1, 1], u[1:, 0], u[1:, 1], d[:-1], d[1:], jerk_r)
+
+
+def _caps_core(profile, p, pux, puy, ux, uy, dp, dn, jerk_r):
+    """_caps_flat's elementwise law on the two directions and lengths of every vertex
+    (any shapes that broadcast: _caps_flat's flat rows or _block_caps' (m, n - 1) blocks
+    with the limits per row as (m, 1): the same operations on each element)."""
     with np.errstate(all="ignore"):
         if profile.junction == "jerk":
             return _jerk_caps(pux, puy, ux, uy, jerk_r * p["jerk_x"], jerk_r * p["jerk_y"])
@@ -137,10 +143,10 @@ def _caps_flat(profile, p, u, d, jerk_r):
         ap = _accel_in_force_v(a0, p["ax_max"], p["ay_max"], pux, puy)
         a = _accel_in_force_v(a0, p["ax_max"], p["ay_max"], ux, uy)
         if profile.junction == "scv":
-            v2 = _klipper_v2(pux, puy, p["scv"] * p["scv"] * SQRT2_M1 / a0, ap, 2.0 * d[:-1] * ap,
-                             ux, uy, a, 2.0 * d[1:] * a)
+            v2 = _klipper_v2(pux, puy, p["scv"] * p["scv"] * SQRT2_M1 / a0, ap, 2.0 * dp * ap,
+                             ux, uy, a, 2.0 * dn * a)
         else:
-            v2 = _marlin_jd_v2(pux, puy, ux, uy, d[1:], a, p["jd"], p["ax_max"], p["ay_max"])
+            v2 = _marlin_jd_v2(pux, puy, ux, uy, dn, a, p["jd"], p["ax_max"], p["ay_max"])
         if (v2 < 0.0).any():
             return None
         return np.where(np.isfinite(v2), np.sqrt(v2), math.inf)
@@ -297,85 +303,100 @@ def _d(m):
 class CurveGeom:
     """Per-curve arrays: vertices, segment lengths/directions, turns, κ(s).
 
-    Compact: the arrays are rows of blocks shared by many strokes (_batch_parts' blocks,
-    build_geoms' flat caps), each made into a view when read.  A view kept per field and
-    stroke cost ~110 bytes, ~0.8 kB a curve in all (~16 MB on the gyroid plate), more
-    than its numbers."""
-    __slots__ = ("_pts", "_b", "_k", "_cb", "_c0", "_cb1", "_c1", "kappa_eff", "cap", "cos_end",
-                 "chain_caps")
+    Compact: a geometry is one row of a block shared by the strokes of one vertex count
+    (build_geoms: _block_geoms), every field read from the block when asked.  The block
+    (_Blk) keeps only what later steps read and cannot make cheaply: the lengths d, the
+    directions u, κ at the vertices, κ_eff, the vertex caps (and classic jerk's at the
+    whole jerk), cap and cos_end; the turns' cosines (cos_turn) and the arc lengths at
+    the vertices (s_v) are made from u and d when read, by the same operations as when
+    they were kept (einsum of the row; cumsum, a sequential sum: the same bits)."""
+    __slots__ = ("_pts", "_b", "_k", "chain_caps", "_j1")
 
     def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None, cap=None, cos_end=None):
         """seg: (pts, d, u) from _segments; parts: (block, row) of _batch_parts (the same
         bits for many strokes at once); caps, caps_jerk1: the vertex caps (classic jerk's
         at the whole jerk: chains.vertex_caps), an array or (flat array, first cap) as
-        build_geoms computes them for many strokes at once; caps None: computed here.
-        cap, cos_end: those fields as build_geoms computes them for many strokes (the
-        same numbers, _ends_rows); None: computed here."""
+        build_geoms computed them for many strokes at once; caps None: computed here.
+        cap, cos_end: those fields as computed for many strokes (the same numbers,
+        _ends_rows); None: computed here.  The geometry is a block of one row."""
         self._pts = st.pts                # the stroke's own vertices: pts is read by tests only
         if parts is not None:
-            self._b, self._k = parts
-            self.kappa_eff = self._b[5][self._k]
+            pb, pk = parts
+            d, u, kappa_v, kappa_eff = pb[0][pk], pb[1][pk], pb[4][pk], pb[5][pk]
         else:
-            self._own_parts(st, seg)
+            d, u, kappa_v, kappa_eff = _own_parts(st, seg)
         if caps is None:
-            caps = vertex_caps(profile, st.lim, st.accel, self.u, self.d)
-        self._cb, self._c0 = caps if isinstance(caps, tuple) else (caps, 0)
-        self._cb1, self._c1 = caps_jerk1 if isinstance(caps_jerk1, tuple) else (caps_jerk1, 0)
-        self.chain_caps = None                    # chains.py: the caps a chain's law meets
+            caps = vertex_caps(profile, st.lim, st.accel, u, d)
+        elif isinstance(caps, tuple):
+            caps = caps[0][caps[1]:caps[1] + d.shape[0] - 1]
+        if isinstance(caps_jerk1, tuple):
+            caps_jerk1 = caps_jerk1[0][caps_jerk1[1]:caps_jerk1[1] + d.shape[0] - 1]
         if cap is None:
-            caps = self.caps
             cap = CAP_MARGIN * min(caps.tolist()) if caps.size else math.inf
-        self.cap = cap
-        if cos_end is not None:
-            self.cos_end = cos_end
-            return
-        # turns at the two ends (None: a stop or a corner): the firmware model counts half
-        # of each end junction's normal term in the stroke, as it did for the original
-        u = self.u
-        cos_end = [None, None]
-        for j, (a, b) in enumerate(((st.prev_u, tuple(u[0])), (tuple(u[-1]), st.next_u))):
-            if a is not None and b is not None:
-                c = a[0] * b[0] + a[1] * b[1]
-                cos_end[j] = c if c >= CORNER_COS else None
-        self.cos_end = _NO_ENDS if cos_end == [None, None] else tuple(cos_end)
+        if cos_end is None:
+            # turns at the two ends (None: a stop or a corner): the firmware model counts half
+            # of each end junction's normal term in the stroke, as it did for the original
+            cos_end = [None, None]
+            for j, (a, b) in enumerate(((st.prev_u, tuple(u[0])), (tuple(u[-1]), st.next_u))):
+                if a is not None and b is not None:
+                    c = a[0] * b[0] + a[1] * b[1]
+                    cos_end[j] = c if c >= CORNER_COS else None
+            cos_end = _NO_ENDS if cos_end == [None, None] else tuple(cos_end)
+        self._b = _Blk(d[None], u[None], kappa_v[None], [kappa_eff], caps[None],
+                       None if caps_jerk1 is None else caps_jerk1[None], [cap], [cos_end], False)
+        self._k = 0
+        self.chain_caps = None                    # chains.py: the caps a chain's law meets
+        self._j1 = _FROM_BLOCK
 
-    d = property(lambda self: self._b[0][self._k], doc="segment lengths (n,)")
-    u = property(lambda self: self._b[1][self._k], doc="segment unit directions (n, 2)")
-    cos_turn = property(lambda self: self._b[2][self._k], doc="cosine of each interior vertex's turn (n - 1,)")
-    s_v = property(lambda self: self._b[3][self._k], doc="arc length at each vertex (n + 1,)")
-    kappa_v = property(lambda self: self._b[4][self._k], doc="smoothed curvature at each vertex (n + 1,)")
+    d = property(lambda self: self._b.d[self._k], doc="segment lengths (n,)")
+    u = property(lambda self: self._b.u[self._k], doc="segment unit directions (n, 2)")
+    kappa_v = property(lambda self: self._b.kappa_v[self._k], doc="smoothed curvature at each vertex (n + 1,)")
+    caps = property(lambda self: self._b.caps[self._k], doc="the vertex speed caps (mm/s), per interior vertex")
+    cap = property(lambda self: float(self._b.cap[self._k]), doc="CAP_MARGIN x the least vertex cap (a float; inf if none)")
 
     @property
-    def caps(self):
-        """The vertex speed caps (mm/s), per interior vertex."""
-        c0 = self._c0
-        return self._cb[c0:c0 + self._b[0].shape[1] - 1]
+    def kappa_eff(self):
+        """The effective constant curvature: a float (a block's array element), or as
+        CurveGeom's own path made it (a list of one: a float or a numpy float64)."""
+        k = self._b.kappa_eff
+        return k[self._k] if type(k) is list else float(k[self._k])
+
+    @property
+    def cos_turn(self):
+        """cosine of each interior vertex's turn (n - 1,)"""
+        u = self._b.u[self._k]
+        return np.einsum("ij,ij->i", u[:-1], u[1:])
+
+    @property
+    def s_v(self):
+        """arc length at each vertex (n + 1,)"""
+        d = self._b.d[self._k]
+        s = np.empty(d.shape[0] + 1)
+        s[0] = 0.0
+        np.cumsum(d, out=s[1:])
+        return s
+
+    @property
+    def cos_end(self):
+        """The cosines of the turns at the two ends (None where a stop or a corner)."""
+        return self._b.cos_end[self._k]
+
+    @cos_end.setter
+    def cos_end(self, c):
+        self._b.cos_end[self._k] = c
 
     @property
     def caps_jerk1(self):
         """Classic jerk's caps at the whole jerk, if build_geoms computed them (chains)."""
-        c1 = self._c1
-        return None if self._cb1 is None else self._cb1[c1:c1 + self._b[0].shape[1] - 1]
+        j1 = self._j1
+        if j1 is not _FROM_BLOCK:
+            return j1
+        c1 = self._b.caps_jerk1
+        return None if c1 is None else c1[self._k]
 
     @caps_jerk1.setter
     def caps_jerk1(self, caps):
-        self._cb1, self._c1 = caps, 0
-
-    def _own_parts(self, st, seg):
-        pts, d, u = seg if seg is not None else _segments(st)
-        cos_turn = np.einsum("ij,ij->i", u[:-1], u[1:])
-        s_v = np.concatenate([[0.0], np.cumsum(d)])
-        # smoothing over one median segment: wider kernels flatten the gyroid's curvature
-        # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
-        # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
-        pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
-        kappa_v = np.interp(s_v, pc.s_d, pc.kappa_v)
-        S = s_v[-1]
-        mid = 0.5 * (kappa_v[:-1] ** 2 + kappa_v[1:] ** 2)
-        k2 = float(np.sum(mid * d) / S)
-        self.kappa_eff = max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
-        self._b = (d[None], u[None], cos_turn[None], s_v[None], kappa_v[None])   # a block of one row
-        self._k = 0
+        self._j1 = caps
 
     @property
     def pts(self):
@@ -385,14 +406,57 @@ class CurveGeom:
     def end_terms(self, v0, v1):
         """Half the normal term of the two end junctions, at the end speeds: (1-cos) v³/d."""
         out = 0.0
-        for c, v, d in ((self.cos_end[0], v0, self.d[0]), (self.cos_end[1], v1, self.d[-1])):
+        cos_end = self.cos_end
+        if cos_end is _NO_ENDS:
+            return out
+        d = self.d
+        for c, v, dd in ((cos_end[0], v0, d[0]), (cos_end[1], v1, d[-1])):
             if c is not None:
-                out += (1.0 - c) * v ** 3 / d
+                out += (1.0 - c) * v ** 3 / dd
         return out
 
     def kappa(self, s):
         return np.interp(s, self.s_v, self.kappa_v)
 
+
+def drop_jerk1(sts):
+    """Let go of the blocks' caps at the whole jerk of the strokes sts' geometries (chains
+    have made their own caps from them: chains.classify); a stroke that reads them later
+    finds None and makes them (chains.vertex_caps: the same numbers)."""
+    for st in sts:
+        g = st.curv
+        if g is not None:
+            g._b.caps_jerk1 = None
+
+
+class _Blk:
+    """The fields of a block of curve geometries, row k each stroke's: d (m, n), u (m, n, 2),
+    kappa_v (m, n + 1), kappa_eff (m floats), caps (m, n - 1), caps_jerk1 (m, n - 1) or None,
+    cap (m floats), cos_end (a list of m), cap_min: every cap of the block is > 0 (then
+    cap is CAP_MARGIN x the least cap as np.minimum takes it)."""
+    __slots__ = ("d", "u", "kappa_v", "kappa_eff", "caps", "caps_jerk1", "cap", "cos_end", "cap_min")
+
+    def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min):
+        self.d, self.u, self.kappa_v, self.kappa_eff = d, u, kappa_v, kappa_eff
+        self.caps, self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps, caps_jerk1, cap, cos_end, cap_min
+
+
+_FROM_BLOCK = object()      # CurveGeom._j1: caps_jerk1 is the block's row
+
+
+def _own_parts(st, seg):
+    """CurveGeom's own path: (d, u, kappa_v, kappa_eff) of one stroke."""
+    pts, d, u = seg if seg is not None else _segments(st)
+    s_v = np.concatenate([[0.0], np.cumsum(d)])
+    # smoothing over one median segment: wider kernels flatten the gyroid's curvature
+    # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
+    # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
+    pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
+    kappa_v = np.interp(s_v, pc.s_d, pc.kappa_v)
+    S = s_v[-1]
+    mid = 0.5 * (kappa_v[:-1] ** 2 + kappa_v[1:] ** 2)
+    k2 = float(np.sum(mid * d) / S)
+    return d, u, kappa_v, max(math.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
 
 _NO_ENDS = (None, None)     # CurveGeom.cos_end of a curve between stops or corners (shared)
 
@@ -424,56 +488,86 @@ def geom(st, profile):
 
 
 def build_geoms(strokes, profile, jerk1=False):
-    """geom() of every stroke in `strokes` (those without one), their vertex caps computed
-    in vectorised passes (per stroke they cost ~50 µs of numpy calls for ~14 vertices)
-    and their segments and curvature batched over strokes of one vertex count
-    (_batch_parts); jerk1: classic jerk's caps at the whole jerk too (chains.vertex_caps).
-    A stroke whose geometry raises raises here, as geom() would (the strokes before it
-    keep theirs)."""
+    """geom() of every stroke in `strokes` (those without one): their segments, curvature
+    and vertex caps computed for all strokes of one vertex count at once (_part_blocks,
+    _block_geoms: the same elementwise arithmetic as stroke by stroke, so the same bits),
+    each geometry a row of its block; jerk1: classic jerk's caps at the whole jerk too
+    (chains.vertex_caps).  A stroke the batched forms do not take (a degenerate or
+    non-finite one, too few or too many vertices, caps the vectorised law declines) takes
+    CurveGeom's own path, in the strokes' order: one whose geometry raises raises here,
+    as geom() would (the strokes before it keep theirs)."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return
-    parts = _batch_parts(todo)
-    segs = [None if p is not None else _segments(st) for st, p in zip(todo, parts)]
-    m = len(todo)
-    cbs, c0s, cb1s, c1s = [None] * m, [0] * m, [None] * m, [0] * m      # the caps: flat array, first cap
-    cap, ends = [None] * m, [None] * m      # CurveGeom's cap and cos_end, in batches
-    # the caps by chunks of strokes (CAPS_CHUNK vertices): their temporaries, ~20 arrays
-    # of a double per vertex, were ~40 MB at once on the gyroid plate; elementwise, so the
-    # same bits (a chunk whose input the vectorised form does not take: stroke by stroke)
-    nv = np.cumsum([s[1].size if p is None else p[0][0].shape[1] for p, s in zip(parts, segs)])
-    cut = np.flatnonzero(np.diff(nv // CAPS_CHUNK)) + 1
-    for lo, hi in zip([0] + cut.tolist(), cut.tolist() + [m]):
-        sts = todo[lo:hi]
-        us = [_part(parts[k], 1) if parts[k] is not None else segs[k][2] for k in range(lo, hi)]
-        ds = [_part(parts[k], 0) if parts[k] is not None else segs[k][1] for k in range(lo, hi)]
-        flat = _flat_inputs(sts, us, ds)
-        got = _caps_flat_rows(sts, profile, us, ds, 1.0 - JERK_F_STEP_R, flat)
+    rows = [None] * len(todo)          # (block, row) per stroke; None: CurveGeom's own path
+    j1 = jerk1 and profile.junction == "jerk"
+    for idx, block in _part_blocks(todo):
+        got = _block_geoms([todo[i] for i in idx.tolist()], block, profile, j1)
         if got is None:
             continue
-        cbs[lo:hi], c0s[lo:hi] = [got[0]] * (hi - lo), got[1]
-        cap[lo:hi] = _cap_rows(got[0], got[1], flat[0].tolist())
-        ends[lo:hi] = _ends_rows(sts, us, flat)
-        if jerk1 and profile.junction == "jerk":
-            got = _caps_flat_rows(sts, profile, us, ds, 1.0, flat)
-            if got is not None:
-                cb1s[lo:hi], c1s[lo:hi] = [got[0]] * (hi - lo), got[1]
+        blk, keep = got
+        for k, i in enumerate(idx[keep].tolist()):
+            rows[i] = (blk, k)
     new = CurveGeom.__new__
-    for st, sg, pa, cb, c0, cb1, c1, cp, ce in zip(todo, segs, parts, cbs, c0s, cb1s, c1s, cap, ends):
-        if pa is None or cb is None or cp is None:
-            st.curv = CurveGeom(st, profile, sg, None if cb is None else (cb, c0),
-                                None if cb1 is None else (cb1, c1), pa, cp, ce)
+    for st, r in zip(todo, rows):
+        if r is None:
+            st.curv = CurveGeom(st, profile, caps_jerk1=_own_jerk1(st, profile) if j1 else None)
             continue
-        # CurveGeom.__init__'s fields, as it sets them from these arguments (its checks
-        # and tuples skipped: ~21 k strokes on the gyroid plate)
+        # CurveGeom's fields, a row of its block (~21 k strokes on the gyroid plate)
         g = new(CurveGeom)
         g._pts = st.pts
-        g._b, g._k = pa
-        g.kappa_eff = pa[0][5][pa[1]]
-        g._cb, g._c0, g._cb1, g._c1 = cb, c0, cb1, c1
+        g._b, g._k = r
         g.chain_caps = None
-        g.cap, g.cos_end = cp, ce
+        g._j1 = _FROM_BLOCK
         st.curv = g
+
+
+def _own_jerk1(st, profile):
+    """Classic jerk's caps at the whole jerk of a stroke on CurveGeom's own path, where
+    the vectorised law takes its segments (else None: chains.vertex_caps makes them)."""
+    try:
+        _, d, u = _segments(st)
+    except (ArithmeticError, ValueError):
+        return None
+    if d.size < 1 or not (np.isfinite(u).all() and np.isfinite(d).all()):
+        return None
+    return _caps_flat(profile, _lim_fields(st.lim, st.accel), u, d, 1.0)
+
+
+def _block_geoms(sts, block, profile, j1):
+    """The _Blk of the strokes sts whose _parts_block (compact) is `block`, and which of
+    them it holds (a bool mask: the rows _parts_block takes), or None (CurveGeom's own
+    path for all) when the vectorised caps decline one of them.  The caps are _caps_flat's
+    law on (m, n - 1) arrays, the limits as (m, 1): each element the same operations."""
+    d, u, _, _, kappa_v, kappa_eff, good = block
+    kappa_eff = np.array(kappa_eff, float)          # the same floats, 8 bytes each
+    keep = good
+    if not good.all():
+        if not good.any():
+            return None
+        d, u, kappa_v, kappa_eff = d[good], u[good], kappa_v[good], kappa_eff[good]
+        sts = [st for st, g in zip(sts, good.tolist()) if g]
+    if not (np.isfinite(u).all() and np.isfinite(d).all()):
+        return None
+    m = len(sts)
+    seen = {}
+    which = [seen.setdefault(id(st.lim), (len(seen), st.lim))[0] for st in sts]
+    lims = [lim for _, lim in seen.values()]
+    p = {f: np.array([getattr(lim, f) for lim in lims], float)[which][:, None] for f in _LIM_FIELDS}
+    p["accel"] = np.array([st.accel for st in sts], float)[:, None]
+    pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
+    dp, dn = d[:, :-1], d[:, 1:]
+    caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
+    if caps is None:
+        return None
+    caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
+    cap_min = bool((caps > 0.0).all())
+    if cap_min:
+        cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
+    else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
+        cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
+    ends = _ends_of(sts, u[:, 0], u[:, -1])
+    return _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min), keep
 
 
 def _cap_rows(flat, starts, n_seg):
@@ -508,6 +602,13 @@ def _ends_rows(sts, us, flat=None):
     else:
         first = np.array([u[0] for u in us], float).reshape(m, 2)
         last = np.array([u[-1] for u in us], float).reshape(m, 2)
+    return _ends_of(sts, first, last)
+
+
+def _ends_of(sts, first, last):
+    """_ends_rows of strokes whose first and last unit directions are the rows of first
+    and last, (m, 2) each."""
+    m = len(sts)
     p, q = _neighbour_dirs(sts)
     c0 = p[0] * first[:, 0] + p[1] * first[:, 1]
     c1 = last[:, 0] * q[0] + last[:, 1] * q[1]
@@ -568,6 +669,17 @@ def _batch_parts(todo):
     CurveGeom's own path, which raises where it raises).  ~10x faster than stroke by
     stroke on a gyroid plate."""
     parts = [None] * len(todo)
+    for idx, block in _part_blocks(todo):
+        good, block = block[-1].tolist(), block[:-1]
+        for k, i in enumerate(idx.tolist()):
+            if good[k]:
+                parts[i] = (block, k)
+    return parts
+
+
+def _part_blocks(todo):
+    """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
+    vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
     npts = np.array([len(st.pts) for st in todo], int)
     order = np.argsort(npts, kind="stable")
     for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
@@ -579,11 +691,7 @@ def _batch_parts(todo):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
                 block = _parts_block(_xy_block(todo, idx).reshape(idx.size, npt, 2))
-            good, block = block[-1].tolist(), block[:-1]
-            for k, i in enumerate(idx.tolist()):
-                if good[k]:
-                    parts[i] = (block, k)
-    return parts
+            yield idx, block
 
 
 def _parts_block(pts):

@@ -549,7 +549,6 @@ def _block_geoms(sts, block, profile, j1):
         sts = [st for st, g in zip(sts, good.tolist()) if g]
     if not (np.isfinite(u).all() and np.isfinite(d).all()):
         return None
-    m = len(sts)
     seen = {}
     which = [seen.setdefault(id(st.lim), (len(seen), st.lim))[0] for st in sts]
     lims = [lim for _, lim in seen.values()]

@@ -21,8 +21,8 @@ from gcode_opt import pipeline as pl
 from gcode_opt import state as reader
 from gcode_opt.firmware import simulate as fwsim
 from gcode_opt.profile import load_profile
-from gcode_opt.state import ARC, LINE, MAX_POS_D, Barrier, MachineState, Move
-from gcode_opt.strokes import (COLLINEAR_SIN, K_ARC, K_CURVE, K_LINE, NOT_OPEN, MIN_FEED_V, Points, Stroke,
+from gcode_opt.state import ARC, LINE, Barrier, MachineState, Move
+from gcode_opt.strokes import (COLLINEAR_SIN, K_ARC, K_CURVE, K_LINE, NOT_OPEN, Points, Stroke,
                                _direction, _kind_state, _read_move, _unit, eligible, eligible_arc)
 from test_speed_analyse import _bits, _sim_bits
 

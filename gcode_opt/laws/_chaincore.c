@@ -1202,36 +1202,51 @@ VEC_CLONES static void steplaw_rest(Py_ssize_t N, int k, const double *restrict 
     }
 }
 
+/* step_law and fig_a's arguments: nargs buffers of doubles (the outputs from index 7 on),
+   all of one length but the series table (5, at least 3 NTERMS long) and its term limits
+   (6).  Returns 0 with an exception set (the buffers released) or 1. */
+static int law_args(PyObject *a, int nargs, const char *name, Bufs *b, double **p, Py_ssize_t *nn) {
+    if (!PyTuple_Check(a) || PyTuple_GET_SIZE(a) != nargs) {
+        PyErr_Format(PyExc_TypeError, "%s takes %d arguments", name, nargs);
+        return 0;
+    }
+    for (int q = 0; q < nargs; q++) {
+        p[q] = get(b, PyTuple_GET_ITEM(a, q), 8, q >= 7, &nn[q]);
+        if (!p[q]) { release(b); return 0; }
+    }
+    int ok = nn[5] >= 3 * NTERMS;
+    for (int q = 0; q < nargs; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
+    if (!ok) {
+        release(b);
+        PyErr_Format(PyExc_ValueError, "%s: shapes", name);
+        return 0;
+    }
+    return 1;
+}
+
+/* the series terms the laws (L, T, sq, va, vb: p[0..4], Tlo/Thi... into p[7]) need: -1 when
+   steplaw_args finds a law it does not take, or there is none */
+static int law_terms(const Py_ssize_t *nn, double **p) {
+    Py_ssize_t N = nn[0];
+    int64_t gb;
+    if (steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb) || !N)
+        return -1;
+    double gm;
+    memcpy(&gm, &gb, 8);
+    return nms_terms(gm * gm, p[6], nn[6], 0);     /* the largest γ²: all γ > 0 here */
+}
+
 static PyObject *step_law(PyObject *self, PyObject *a) {
-    PyObject *o[13];
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
-                          &o[9], &o[10], &o[11], &o[12]))
-        return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t nn[13];
     double *p[13];
-    for (int q = 0; q < 13; q++) {
-        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
-        if (!p[q]) { release(&b); return NULL; }
-    }
-    int ok = nn[5] >= 3 * NTERMS;
-    for (int q = 0; q < 13; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
-    if (!ok) {
-        release(&b);
-        PyErr_SetString(PyExc_ValueError, "step_law: shapes");
+    if (!law_args(a, 13, "step_law", &b, p, nn))
         return NULL;
-    }
-    Py_ssize_t N = nn[0];
-    int64_t gb;
-    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
-    if (!bad && N) {
-        double gm;
-        memcpy(&gm, &gb, 8);
-        int k = nms_terms(gm * gm, p[6], nn[6], 0);     /* the largest γ²: all γ > 0 here */
-        steplaw_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12]);
-    }
+    int k = law_terms(nn, p);
+    if (k >= 0)
+        steplaw_rest(nn[0], k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12]);
     release(&b);
-    return PyLong_FromLong(bad || !N);
+    return PyLong_FromLong(k < 0);
 }
 
 /* tod_prep(T, L, gs, n, sh2, wbar, A, dl, pj, s, <outs: T, gs, n, sh2, wbar, A, dl, target, sgn,
@@ -1491,35 +1506,16 @@ VEC_CLONES static void fig_a_rest(Py_ssize_t N, int k, const double *restrict co
 }
 
 static PyObject *fig_a(PyObject *self, PyObject *a) {
-    PyObject *o[15];
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
-                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
-        return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t nn[15];
     double *p[15];
-    for (int q = 0; q < 15; q++) {
-        p[q] = get(&b, o[q], 8, q >= 7, &nn[q]);
-        if (!p[q]) { release(&b); return NULL; }
-    }
-    int ok = nn[5] >= 3 * NTERMS;
-    for (int q = 0; q < 15; q++) ok = ok && (q == 5 || q == 6 || nn[q] == nn[0]);
-    if (!ok) {
-        release(&b);
-        PyErr_SetString(PyExc_ValueError, "fig_a: shapes");
+    if (!law_args(a, 15, "fig_a", &b, p, nn))
         return NULL;
-    }
-    Py_ssize_t N = nn[0];
-    int64_t gb;
-    int bad = steplaw_args(N, p[0], p[1], p[2], p[3], p[4], p[7], &gb);
-    if (!bad && N) {
-        double gm;
-        memcpy(&gm, &gb, 8);
-        int k = nms_terms(gm * gm, p[6], nn[6], 0);
-        fig_a_rest(N, k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14]);
-    }
+    int k = law_terms(nn, p);
+    if (k >= 0)
+        fig_a_rest(nn[0], k, p[5], p[0], p[1], p[3], p[4], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14]);
     release(&b);
-    return PyLong_FromLong(bad || !N);
+    return PyLong_FromLong(k < 0);
 }
 
 /* fig_b(L, T, gamma, n, m, s1, sh2, wbar, delta, A, <outs: iv, kog, vs, ve, rho, r>): ∫ṡ²

@@ -741,7 +741,9 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n):
         return None
     U = np.stack([g.u for g in gs])
-    C = np.stack([g.cos_turn for g in gs]) if n > 1 else np.empty((m, 0))
+    # the turns' cosines, g.cos_turn of every chain in one einsum over the stack (the same
+    # two-term sum of products a row, the same bits; ~34 k property calls on the gyroid plate)
+    C = np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:]) if n > 1 else np.empty((m, 0))
     W, ws = _CF_NO_W, 0
     if profile.block_buffer > 0:       # _windows' convolution, each chain's window at W[q ws:q ws + n]
         nb = max(profile.block_buffer - 3, 1)

@@ -186,3 +186,30 @@ def test_chains_keep_little_after_planning(prof_name):
     plans); the plans and the candidates' figures alone ~1.5 kB."""
     kb = _retained_kb(prof_name)
     assert kb < 2.2, kb
+
+
+def test_stacked_turn_cosines_are_each_geometrys_cos_turn():
+    """_finish_core's C: one einsum over the stacked directions of a group of chains gives
+    each geometry's own cos_turn, bit for bit (signed zeros included), on real chains."""
+    import numpy as np
+    from gcode_opt import curves
+    from gcode_opt.pipeline import Options, analyse, plan_inputs
+    from gcode_opt.profile import load_profile
+    from pathlib import Path
+    sample = Path(__file__).resolve().parents[1] / "sample_gcode" / "prusa_gyroid_fullspeed.gcode"
+    prof = load_profile("prusa-mk3s")
+    opts = Options()
+    strokes, _ = analyse(str(sample), prof, opts)
+    plan_inputs(strokes, prof, opts)
+    by_n = {}
+    for st in strokes:
+        if st.kind == "curve":
+            g = curves.geom(st, prof)
+            if g.d.size > 1:
+                by_n.setdefault(g.d.size, []).append(g)
+    assert sum(len(v) for v in by_n.values()) > 100
+    for n, gs in by_n.items():
+        U = np.stack([g.u for g in gs])
+        got = np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:])
+        want = np.stack([g.cos_turn for g in gs])
+        assert np.array_equal(got.view(np.int64), want.view(np.int64)), n

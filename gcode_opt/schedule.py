@@ -230,8 +230,19 @@ def settle_faults(segs):
         vs.append(v)
         as_.append(a)
         fs.append(f)
-    if not todo:
-        return
+    for a in range(0, len(todo), SETTLE_CHUNK):     # bounded memory: every check is per plan
+        b = a + SETTLE_CHUNK
+        _settle(todo[a:b], ss[a:b], vs[a:b], as_[a:b], fs[a:b])
+
+
+# plans checked together by settle_faults: all ~16 k chains of the gyroid plate at once
+# (~40 knots each) raised the plan phase's peak RSS by ~17 MB (the flat copies, their
+# masks and the int64 running counts)
+SETTLE_CHUNK = 1024
+
+
+def _settle(todo, ss, vs, as_, fs):
+    """settle_faults' checks on the plans `todo` (their arrays ss, vs, as_, fs)."""
     with np.errstate(invalid="ignore"):
         s, v, a, f = (np.concatenate(x) for x in (ss, vs, as_, fs))
         # per plan, the count of bad entries: a cumulative count read at each plan's ends
@@ -345,6 +356,13 @@ class SegmentCache:
             else:
                 got[i] = seg[i]
         return got, bad
+
+    def drop(self, kind):
+        """Forget the last batch of a batch kind (its plans are not this run's): it would
+        otherwise live beside the batch being made (store replaces it only after).  A
+        later batch equal to it is solved again, with the same bits."""
+        self.batch.pop(kind, None)
+        self.row_tb.pop(kind, None)
 
     def store(self, kind, rows, T, beta, segs, bad, own=False):
         """own: every plan of this batch is its row's own, whatever the batch (ROW_KINDS: no
@@ -460,17 +478,21 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 return made, why, circle.NEWTON_ARCS[0] == n0 and not why
 
             new = None
+            hits = None
             if k_name in ROW_KINDS and todo.size:
                 # a batch whose plans are each row's own (no Newton step, no failure): the
                 # rows of it at the same (T, beta) are reused, the others solved apart, which
                 # gives them their own bits too (when that batch also is each row's own)
                 hits = seg_cache.lookup_rows(k_name, todo, plan.T, plan.beta)
-                if hits:
-                    new, new_bad, own = solve(np.array([i for i in todo.tolist() if i not in hits], int))
-                    if own:
-                        new.update(hits)
-                    else:
-                        new = None
+            if kind_of.batch and todo.size:
+                # the last batch missed (but for its hits, kept above): freed before this one is made
+                seg_cache.drop(k_name)
+            if hits:
+                new, new_bad, own = solve(np.array([i for i in todo.tolist() if i not in hits], int))
+                if own:
+                    new.update(hits)
+                else:
+                    new = None
             if new is None:
                 new, new_bad, own = solve(todo)
             seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad,

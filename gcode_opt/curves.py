@@ -820,7 +820,7 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
     return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
 
 
-def true_figures(law, R, geos, idx=None):
+def true_figures(law, R, geos, idx=None, memo=None):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
     speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
     evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded.
@@ -829,11 +829,11 @@ def true_figures(law, R, geos, idx=None):
     if idx is None:
         out = np.empty((5, len(geos)))
         for sl, tau, wq in law.grid_chunks():
-            out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq)
+            out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq, memo)
         return tuple(out)
     out = np.full((5, len(geos)), np.nan)
     for r, tau, wq in law.grid_chunks(idx):
-        out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq)
+        out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq, memo)
     return tuple(out)
 
 
@@ -842,7 +842,7 @@ _PROBE_TAU = _UNIFORM_TAU[::8]      # 17 of its points (k/16, the same numbers)
 PROBE_MARGIN_R = 1e-6               # a probe over its limit by more than this is over it on any grid
 
 
-def surely_over(law, R, geos, v_lim, a_lim):
+def surely_over(law, R, geos, v_lim, a_lim, memo=None):
     """Laws whose speed or |a| (_true_figures_rows' arithmetic) at 17 points of the
     uniform grid _true_figures_rows also evaluates already exceeds v_lim or a_lim by
     more than PROBE_MARGIN_R: their peaks (maxima over a grid that holds these points)
@@ -859,14 +859,14 @@ def surely_over(law, R, geos, v_lim, a_lim):
         Rr = R[sl, None]
         v = Rr * w / T
         at = Rr * w1 / T ** 2
-        kv2 = _kappa_rows(geos[sl], Rr * phi) * (v * v)
+        kv2 = _kappa_rows(geos[sl], Rr * phi, memo) * (v * v)
         a2 = at * at + kv2 * kv2
         over[sl] = ((np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R))
                     | (np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)))
     return over
 
 
-def _true_figures_rows(law, R, geos, tau, wq):
+def _true_figures_rows(law, R, geos, tau, wq, memo=None):
     m = tau.shape[1]
     # the quadrature grid and a uniform one for the peaks (the quadrature grid is graded
     # towards the ends), evaluated in one piece
@@ -876,7 +876,7 @@ def _true_figures_rows(law, R, geos, tau, wq):
     s = R[:, None] * phi
     v = R[:, None] * w / T
     at = R[:, None] * w1 / T ** 2
-    kap = _kappa_rows(geos, s)
+    kap = _kappa_rows(geos, s, memo)
     v2 = v * v
     kv2 = kap * v2
     a2 = at * at + kv2 * kv2
@@ -886,10 +886,13 @@ def _true_figures_rows(law, R, geos, tau, wq):
     return iv, ia, np.max(v, axis=1), np.sqrt(np.max(a2, axis=1)), np.min(v, axis=1)
 
 
-def _kappa_rows(geos, s):
+def _kappa_rows(geos, s, memo=None):
     """g.kappa(s[k]) for every row k (geos[k] = g): one interpolation (np.interp's compiled
     core, the same bits) per run of rows of one geometry (a stroke's candidate durations
-    are adjacent rows)."""
+    are adjacent rows).  The knots (s_v, kappa_v) are made as CurveGeom's properties make
+    them (cumsum of the row's d: the same bits), without the property calls; memo (a dict,
+    optional): id(g) -> knots, kept by the caller while geos live (candidates_curve's probe
+    and figures read the same geometries again)."""
     out = np.empty_like(s)
     n = len(geos)
     a = 0
@@ -898,7 +901,21 @@ def _kappa_rows(geos, s):
         b = a + 1
         while b < n and geos[b] is g:
             b += 1
-        out[a:b] = _interp(s[a:b].ravel(), g.s_v, g.kappa_v, None, None).reshape(b - a, -1)
+        kn = None if memo is None else memo.get(id(g))
+        if kn is None:
+            blk = getattr(g, "_b", None)
+            if blk is None:                 # not a CurveGeom: its own fields
+                kn = (g.s_v, g.kappa_v)
+            else:
+                k = g._k
+                d = blk.d[k]
+                s_v = np.empty(d.shape[0] + 1)
+                s_v[0] = 0.0
+                np.cumsum(d, out=s_v[1:])
+                kn = (s_v, blk.kappa_v[k])
+            if memo is not None:
+                memo[id(g)] = kn
+        out[a:b] = _interp(s[a:b].ravel(), kn[0], kn[1], None, None).reshape(b - a, -1)
         a = b
     return out
 
@@ -910,14 +927,19 @@ def candidates_curve(pin, rows, strokes, profile):
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
     S, v0, v1, vc, ac = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1, pin.v_cap, pin.a_cap))
+    memo = {}           # _kappa_rows' knots per geometry (geos live until the table is made)
+    # κ_eff per row, read once per stroke (_solve read it per candidate of each pass)
+    keff = np.array([g.kappa_eff for g in geos[::k]])[np.repeat(np.arange(rows.size), k)]
 
     def solve_figures(idx, T, beta):
         gs = [geos[q] for q in idx]
-        law, R = _solve(None, gs, S[idx], T, beta, v0[idx], v1[idx])
+        R = 1.0 / keff[idx]                     # _solve's R, the same numbers
+        law = solve_circles(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R, R)
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
-        iv, ia, pv, pa, mv = true_figures(law, R, gs, np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim)))
+        iv, ia, pv, pa, mv = true_figures(law, R, gs, np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim, memo)),
+                                          memo)
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 

@@ -176,3 +176,89 @@ def test_kappa_rows_knots_are_the_properties():
         curves._kappa_rows([g], np.zeros((1, 3)), memo)
         s_v, kv = memo[id(g)]
         assert _bits(s_v, g.s_v) and _bits(kv, g.kappa_v)
+
+
+# ---------------------------------------------------------------- the compiled interpolation
+needs_core = pytest.mark.skipif(curves._INTERP_ROWS is None, reason="curve core not built")
+
+
+class _FakeGeom:
+    """A geometry of given knots (for the rows the core does not take: np.interp)."""
+    def __init__(self, s_v, kappa_v):
+        self.s_v, self.kappa_v = s_v, kappa_v
+
+
+def _knots_of(pairs):
+    xs = np.concatenate([p[0] for p in pairs])
+    ys = np.concatenate([p[1] for p in pairs])
+    cnt = np.array([p[0].size for p in pairs], dtype=np.int64)
+    off = np.concatenate([[0], np.cumsum(cnt)[:-1]]).astype(np.int64)
+    ok = np.array([p[0].size >= 2 and np.isfinite(p[0]).all() and (np.diff(p[0]) > 0).all() for p in pairs])
+    return curves._Knots(xs, ys, off, cnt, ok)
+
+
+@needs_core
+def test_interp_rows_is_np_interp_bit_for_bit():
+    """Random knots, points below, above, at every knot, between, NaN; values with inf and
+    NaN (numpy's fallbacks); rows the core does not take (repeated, NaN knots)."""
+    rng = np.random.default_rng(11)
+    pairs = []
+    for t in range(300):
+        n = int(rng.integers(2, 40))
+        x = np.cumsum(rng.uniform(1e-9 if t % 7 == 0 else 0.01, 1.0, n)) - rng.uniform(0, 3)
+        y = rng.normal(0, 1, n)
+        if t % 11 == 0:
+            y[int(rng.integers(0, n))] = np.inf
+        if t % 13 == 0:
+            y[int(rng.integers(0, n))] = np.nan
+        if t % 23 == 1 and n > 2:
+            y[1] = y[2] = np.inf             # slope NaN both ways: numpy's last fallback
+        if t % 17 == 0 and n > 2:
+            x[1] = x[2]                      # repeated knot: np.interp's own path
+        if t % 19 == 0:
+            x[0] = np.nan
+        pairs.append((x, y))
+    m = 64
+    s = np.empty((len(pairs), m))
+    for r, (x, _) in enumerate(pairs):
+        lo, hi = np.nanmin(x), np.nanmax(x)
+        s[r] = rng.uniform(lo - 0.5, hi + 0.5, m)
+        s[r, :min(m // 2, x.size)] = x[:min(m // 2, x.size)]          # exactly at knots
+        s[r, -1], s[r, -2] = np.nan, hi
+        if x.size > 2:
+            s[r, -3] = 0.5 * (x[1] + x[2])
+    kn = _knots_of(pairs)
+    assert not kn.ok.all() and kn.ok.any()
+    geos = [_FakeGeom(x, y) for x, y in pairs]
+    got = curves._kappa_rows(geos, s, kn)
+    want = np.array([np.interp(s[r], x, y) for r, (x, y) in enumerate(pairs)])
+    assert _bits(got, want)
+    # a row subset (as surely_over's and true_figures' chunks take them)
+    sel = np.array([5, 3, 3, 250, 0])
+    got = curves._kappa_rows([geos[i] for i in sel], s[sel], kn.sub(sel))
+    assert _bits(got, want[sel])
+
+
+@needs_core
+def test_knots_of_real_geometries_same_bits():
+    strokes, pin, rows, prof = _curves_of(*FILES[0])
+    gs = [curves.geom(strokes[i], prof) for i in rows.tolist()]
+    kn = curves._Knots.of(gs)
+    assert kn.ok.all()
+    rng = np.random.default_rng(3)
+    top = np.array([g.s_v[-1] for g in gs])
+    s = rng.uniform(-0.1, 1.1, (len(gs), 33)) * top[:, None]
+    s[:, 0], s[:, 1] = 0.0, top
+    assert _bits(curves._kappa_rows(gs, s, kn), _ref_kappa_rows(gs, s))
+    bad = curves._Knots.of([_FakeGeom(None, None)] * 0)        # no geometries
+    assert bad.xs.size == 0 and bad.ok.size == 0
+
+
+def test_without_the_core_same_bits(monkeypatch):
+    """The per-run path (no compiled core) gives the same tables."""
+    monkeypatch.setattr(curves, "_INTERP_ROWS", None)
+    strokes, pin, rows, prof = _curves_of(*FILES[0])
+    got = curves.candidates_curve(pin, rows, strokes, prof)
+    want = _ref_candidates_curve(pin, rows, strokes, prof)
+    for g, w in zip(got, want):
+        assert _bits(g, w)

@@ -820,7 +820,12 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
     return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
 
 
-def true_figures(law, R, geos, idx=None):
+def _rows_of(memo, sel):
+    """The memo of _kappa_rows for the rows sel of its rows: a _Knots' rows, a dict as it is."""
+    return memo.sub(sel) if isinstance(memo, _Knots) else memo
+
+
+def true_figures(law, R, geos, idx=None, memo=None):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
     speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
     evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded.
@@ -829,11 +834,11 @@ def true_figures(law, R, geos, idx=None):
     if idx is None:
         out = np.empty((5, len(geos)))
         for sl, tau, wq in law.grid_chunks():
-            out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq)
+            out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq, _rows_of(memo, sl))
         return tuple(out)
     out = np.full((5, len(geos)), np.nan)
     for r, tau, wq in law.grid_chunks(idx):
-        out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq)
+        out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq, _rows_of(memo, r))
     return tuple(out)
 
 
@@ -842,7 +847,7 @@ _PROBE_TAU = _UNIFORM_TAU[::8]      # 17 of its points (k/16, the same numbers)
 PROBE_MARGIN_R = 1e-6               # a probe over its limit by more than this is over it on any grid
 
 
-def surely_over(law, R, geos, v_lim, a_lim):
+def surely_over(law, R, geos, v_lim, a_lim, memo=None):
     """Laws whose speed or |a| (_true_figures_rows' arithmetic) at 17 points of the
     uniform grid _true_figures_rows also evaluates already exceeds v_lim or a_lim by
     more than PROBE_MARGIN_R: their peaks (maxima over a grid that holds these points)
@@ -859,14 +864,14 @@ def surely_over(law, R, geos, v_lim, a_lim):
         Rr = R[sl, None]
         v = Rr * w / T
         at = Rr * w1 / T ** 2
-        kv2 = _kappa_rows(geos[sl], Rr * phi) * (v * v)
+        kv2 = _kappa_rows(geos[sl], Rr * phi, _rows_of(memo, sl)) * (v * v)
         a2 = at * at + kv2 * kv2
         over[sl] = ((np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R))
                     | (np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)))
     return over
 
 
-def _true_figures_rows(law, R, geos, tau, wq):
+def _true_figures_rows(law, R, geos, tau, wq, memo=None):
     m = tau.shape[1]
     # the quadrature grid and a uniform one for the peaks (the quadrature grid is graded
     # towards the ends), evaluated in one piece
@@ -876,7 +881,7 @@ def _true_figures_rows(law, R, geos, tau, wq):
     s = R[:, None] * phi
     v = R[:, None] * w / T
     at = R[:, None] * w1 / T ** 2
-    kap = _kappa_rows(geos, s)
+    kap = _kappa_rows(geos, s, memo)
     v2 = v * v
     kv2 = kap * v2
     a2 = at * at + kv2 * kv2
@@ -886,10 +891,71 @@ def _true_figures_rows(law, R, geos, tau, wq):
     return iv, ia, np.max(v, axis=1), np.sqrt(np.max(a2, axis=1)), np.min(v, axis=1)
 
 
-def _kappa_rows(geos, s):
+class _Knots:
+    """_kappa_rows' knots of many rows laid out for the compiled core: the geometries'
+    s_v and kappa_v concatenated (xs, ys), and per row its geometry's offset and count
+    and whether the core may take it (ok: at least 2 knots, finite, strictly increasing;
+    the other rows go through np.interp)."""
+    __slots__ = ("xs", "ys", "off", "cnt", "ok")
+
+    def __init__(self, xs, ys, off, cnt, ok):
+        self.xs, self.ys, self.off, self.cnt, self.ok = xs, ys, off, cnt, ok
+
+    @classmethod
+    def of(cls, gs):
+        """The knots of the geometries gs (CurveGeom), one row each."""
+        sv, kv = [], []
+        for g in gs:
+            blk, k = g._b, g._k
+            d = blk.d[k]
+            s_v = np.empty(d.shape[0] + 1)
+            s_v[0] = 0.0
+            np.cumsum(d, out=s_v[1:])
+            sv.append(s_v)
+            kv.append(blk.kappa_v[k])
+        cnt = np.array([x.size for x in sv], dtype=np.int64)
+        off = np.zeros(cnt.size, dtype=np.int64)
+        if cnt.size:
+            np.cumsum(cnt[:-1], out=off[1:])
+        xs = np.concatenate(sv) if sv else np.empty(0)
+        ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
+        ok = cnt >= 2
+        if xs.size:
+            bad = ~np.isfinite(xs)
+            bad[1:] |= ~(xs[1:] > xs[:-1])
+            bad[off] = ~np.isfinite(xs[off])      # a row's first knot: no pair before it
+            ok &= ~np.logical_or.reduceat(bad, off)
+        return cls(xs, ys, off, cnt, ok)
+
+    def sub(self, sel):
+        """The rows sel (a slice or an integer array)."""
+        return _Knots(self.xs, self.ys, self.off[sel], self.cnt[sel], self.ok[sel])
+
+
+_INTERP_ROWS = getattr(_CURVE_CORE, "interp_rows", None) if _CURVE_CORE is not None else None
+
+
+def _kappa_rows(geos, s, memo=None):
     """g.kappa(s[k]) for every row k (geos[k] = g): one interpolation (np.interp's compiled
     core, the same bits) per run of rows of one geometry (a stroke's candidate durations
-    are adjacent rows)."""
+    are adjacent rows).  The knots (s_v, kappa_v) are made as CurveGeom's properties make
+    them (cumsum of the row's d: the same bits), without the property calls; memo (a dict,
+    optional): id(g) -> knots, kept by the caller while geos live (candidates_curve's probe
+    and figures read the same geometries again).  memo a _Knots (the rows of geos): every
+    row in one compiled call (_curvecore.c interp_rows: np.interp's operations), the rows
+    it does not take by np.interp; without the core, the per-run path."""
+    if isinstance(memo, _Knots):
+        if _INTERP_ROWS is not None and s.ndim == 2:
+            kn = memo
+            s = np.ascontiguousarray(s, dtype=float)
+            out = np.empty_like(s)
+            _INTERP_ROWS(s, np.ascontiguousarray(kn.off), np.ascontiguousarray(kn.cnt), kn.xs, kn.ys,
+                         s.shape[0], s.shape[1], kn.xs.size, out)
+            for r in np.flatnonzero(~kn.ok).tolist():
+                g = geos[r]
+                out[r] = _interp(s[r], g.s_v, g.kappa_v, None, None)
+            return out
+        memo = None
     out = np.empty_like(s)
     n = len(geos)
     a = 0
@@ -898,7 +964,21 @@ def _kappa_rows(geos, s):
         b = a + 1
         while b < n and geos[b] is g:
             b += 1
-        out[a:b] = _interp(s[a:b].ravel(), g.s_v, g.kappa_v, None, None).reshape(b - a, -1)
+        kn = None if memo is None else memo.get(id(g))
+        if kn is None:
+            blk = getattr(g, "_b", None)
+            if blk is None:                 # not a CurveGeom: its own fields
+                kn = (g.s_v, g.kappa_v)
+            else:
+                k = g._k
+                d = blk.d[k]
+                s_v = np.empty(d.shape[0] + 1)
+                s_v[0] = 0.0
+                np.cumsum(d, out=s_v[1:])
+                kn = (s_v, blk.kappa_v[k])
+            if memo is not None:
+                memo[id(g)] = kn
+        out[a:b] = _interp(s[a:b].ravel(), kn[0], kn[1], None, None).reshape(b - a, -1)
         a = b
     return out
 
@@ -910,14 +990,21 @@ def candidates_curve(pin, rows, strokes, profile):
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
     S, v0, v1, vc, ac = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1, pin.v_cap, pin.a_cap))
+    # _kappa_rows' knots: per row, laid out for the compiled core (a dict per geometry without it)
+    knots = _Knots.of(geos[::k]).sub(np.repeat(np.arange(rows.size), k)) if _INTERP_ROWS is not None else None
+    # κ_eff per row, read once per stroke (_solve read it per candidate of each pass)
+    keff = np.array([g.kappa_eff for g in geos[::k]])[np.repeat(np.arange(rows.size), k)]
 
     def solve_figures(idx, T, beta):
         gs = [geos[q] for q in idx]
-        law, R = _solve(None, gs, S[idx], T, beta, v0[idx], v1[idx])
+        R = 1.0 / keff[idx]                     # _solve's R, the same numbers
+        law = solve_circles(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R, R)
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
-        iv, ia, pv, pa, mv = true_figures(law, R, gs, np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim)))
+        memo = {} if knots is None else knots.sub(idx)
+        iv, ia, pv, pa, mv = true_figures(law, R, gs, np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim, memo)),
+                                          memo)
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 

@@ -468,6 +468,57 @@ static PyObject *lay_post(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* curves.py: _kappa_rows with its knots laid out (_Knots): per row r, np.interp(s[r],
+   xs[off[r]:off[r]+cnt[r]], ys[...]) with numpy's defaults (left, right: the end values),
+   numpy's arr_interp operations in its order: NaN x gives x; above the last knot the last
+   value, below the first the first; at the last knot, or exactly at a knot, that knot's
+   value; else slope (fp[j+1] - fp[j]) / (xp[j+1] - xp[j]), slope (x - xp[j]) + fp[j], and
+   numpy's two NaN fallbacks.  j is the last knot with xp[j] <= x, which numpy's guessed
+   binary search also finds when the knots are strictly increasing and finite (the caller
+   gives only such rows, cnt >= 2; rows of cnt < 2 are skipped and left to the caller). */
+static PyObject *interp_rows(PyObject *self, PyObject *a) {
+    PyObject *os_, *oo, *oc, *ox, *oy, *out_;
+    Py_ssize_t nr, m, nk;
+    if (!PyArg_ParseTuple(a, "OOOOOnnnO", &os_, &oo, &oc, &ox, &oy, &nr, &m, &nk, &out_)) return NULL;
+    Bufs b = {.n = 0};
+    const double *s = get(&b, os_, 8, 0, nr * m);
+    const int64_t *off = s ? get(&b, oo, 8, 0, nr) : NULL;
+    const int64_t *cnt = off ? get(&b, oc, 8, 0, nr) : NULL;
+    const double *xs = cnt ? get(&b, ox, 8, 0, nk) : NULL;
+    const double *ys = xs ? get(&b, oy, 8, 0, nk) : NULL;
+    double *out = ys ? get(&b, out_, 8, 1, nr * m) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < nr; r++) {
+        Py_ssize_t n = (Py_ssize_t)cnt[r], o = (Py_ssize_t)off[r];
+        if (n < 2 || o < 0 || o + n > nk) continue;
+        const double *xp = xs + o, *fp = ys + o;
+        const double *x_r = s + r * m;
+        double *res = out + r * m;
+        for (Py_ssize_t i = 0; i < m; i++) {
+            const double x = x_r[i];
+            if (isnan(x)) { res[i] = x; continue; }
+            if (x > xp[n - 1]) { res[i] = fp[n - 1]; continue; }
+            if (x < xp[0]) { res[i] = fp[0]; continue; }
+            Py_ssize_t lo = 0, hi = n - 1;
+            while (hi - lo > 1) {
+                Py_ssize_t mid = lo + (hi - lo) / 2;
+                if (xp[mid] <= x) lo = mid; else hi = mid;
+            }
+            Py_ssize_t j = (xp[hi] <= x) ? hi : lo;
+            if (j == n - 1 || xp[j] == x) { res[i] = fp[j]; continue; }
+            const double slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+            double v = slope * (x - xp[j]) + fp[j];
+            if (isnan(v)) {
+                v = slope * (x - xp[j + 1]) + fp[j + 1];
+                if (isnan(v) && fp[j] == fp[j + 1]) v = fp[j];
+            }
+            res[i] = v;
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
@@ -480,6 +531,7 @@ static PyMethodDef methods[] = {
     {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
+    {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef curvecore_module = {

@@ -478,6 +478,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
+        skip = core.skip_lines
         for i in order:
             s = strokes[i]
             first_idx = s.first_idx
@@ -487,7 +488,22 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 continue
             # untouched lines: copied as they are, in bulk (no tokenising, no state); then
             # the stroke's own lines
-            data, a, z, n_lines = copy_take(n_copy, s.last_idx - first_idx + 1, write)
+            n_take = s.last_idx - first_idx + 1
+            # copy_take's common case inline: both line runs inside the chunk read (the same
+            # pieces written, the same (data, a, z, n_lines)); else copy_take itself
+            data, a = src.data, src.pos
+            end, got = skip(data, a, n_copy, False)
+            if got == n_copy:
+                z, n_lines = skip(data, end, n_take, False)
+                if n_lines == n_take:
+                    if end > a:
+                        write(data[a:end] if a or end < len(data) else data)
+                    src.pos = z
+                    a = end
+                else:
+                    data, a, z, n_lines = copy_take(n_copy, n_take, write)
+            else:
+                data, a, z, n_lines = copy_take(n_copy, n_take, write)
             out_line += n_copy
             pos = first_idx + n_lines
             x0, y0 = s.x0, s.y0

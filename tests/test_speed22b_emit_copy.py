@@ -1,0 +1,82 @@
+"""_rewrite_bytes' inline copy of the untouched lines and take of a stroke's lines (the
+common case of _ByteLines.copy_take, both line runs inside the chunk read; else
+copy_take itself) against the reference rewrite kept verbatim in
+tests/test_speed20_rewrite_core.py (ref_rewrite, the text loop of ede93db):
+
+  * real files, chunk sizes from a few bytes (nearly every stroke falls back to
+    copy_take) to the default (nearly none does): the same bytes, output ranges, digests,
+    reasons and plans;
+  * the inline path is taken (copy_take is called for few strokes with the default chunk);
+  * a file cut right after a re-timed stroke's last line, with and without its line end
+    (the end of the file: skip_lines' final is the fallback's business)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gcode_opt import pipeline
+
+from test_speed20_rewrite_core import CORE, SAMPLES, _planned, _run, ref_rewrite
+
+pytestmark = pytest.mark.skipif(CORE is None or not hasattr(CORE, "stroke_block"),
+                                reason="no compiled emit core")
+
+CASES = [("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "voron24"),
+         ("edge/crlf_line_endings.gcode", "prusa-mk3s")]
+
+
+@pytest.mark.parametrize("name,prof_name", CASES)
+def test_chunks_are_the_reference(name, prof_name, tmp_path, monkeypatch):
+    prof, opts, strokes, plan = _planned(name, prof_name)
+    path = SAMPLES + name
+    ref = _run(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    for chunk in (1 << 20, 4096, 997, 101, 37, 3):
+        with monkeypatch.context() as m:
+            m.setattr(pipeline, "_CHUNK", chunk)
+            got = _run(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / f"c{chunk}.gcode")
+        assert got[0] == ref[0], chunk
+        assert got[1:] == ref[1:], chunk
+
+
+def test_inline_path_is_taken(tmp_path, monkeypatch):
+    prof, opts, strokes, plan = _planned("prusa_gyroid.gcode", "prusa-mk3s")
+    calls = []
+    orig = pipeline._ByteLines.copy_take
+
+    def counted(self, *a):
+        calls.append(a)
+        return orig(self, *a)
+
+    ref = _run(ref_rewrite, SAMPLES + "prusa_gyroid.gcode", strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    with monkeypatch.context() as m:
+        m.setattr(pipeline._ByteLines, "copy_take", counted)
+        got = _run(pipeline.rewrite, SAMPLES + "prusa_gyroid.gcode", strokes, plan, prof, opts, tmp_path / "n.gcode")
+    assert got == ref
+    n = int(np.count_nonzero(plan.retime))
+    assert n > 100 and len(calls) <= 2, (n, len(calls))      # the file is one chunk
+    calls.clear()
+    with monkeypatch.context() as m:
+        m.setattr(pipeline._ByteLines, "copy_take", counted)
+        m.setattr(pipeline, "_CHUNK", 4096)
+        got = _run(pipeline.rewrite, SAMPLES + "prusa_gyroid.gcode", strokes, plan, prof, opts, tmp_path / "c.gcode")
+    assert got == ref
+    assert 0 < len(calls) < n / 2, (n, len(calls))           # some strokes span chunks
+
+
+@pytest.mark.parametrize("line_end", [b"\n", b""])
+@pytest.mark.parametrize("chunk", [1 << 20, 64])
+def test_file_cut_after_a_stroke(line_end, chunk, tmp_path, monkeypatch):
+    prof, opts, strokes, plan = _planned("prusa_gyroid.gcode", "prusa-mk3s")
+    raw = open(SAMPLES + "prusa_gyroid.gcode", "rb").read()
+    lines = raw.split(b"\n")
+    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+    s = strokes[order[len(order) // 2]]
+    last = s.first_idx + s.n_moves - 1
+    path = tmp_path / "cut.gcode"
+    path.write_bytes(b"\n".join(lines[:last + 1]) + line_end)
+    ref = _run(ref_rewrite, str(path), strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    with monkeypatch.context() as m:
+        m.setattr(pipeline, "_CHUNK", chunk)
+        got = _run(pipeline.rewrite, str(path), strokes, plan, prof, opts, tmp_path / "got.gcode")
+    assert got[0] == ref[0]
+    assert got[1:] == ref[1:]

@@ -51,7 +51,7 @@ from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .segments import SegmentPlan
 from .state import Barrier, MachineState, Move
-from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
+from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -475,6 +475,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     begin = emit_mod.BEGIN
     blake2b = hashlib.blake2b
     seg_type = SegmentPlan
+    stroke_type = Stroke
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
@@ -521,7 +522,12 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
             if block is not None and s.kind != K_ARC and n_lines:
                 try:
                     seg = segs[i]
-                    e0, accel0, mcr0 = s.start_state
+                    if type(s) is stroke_type:    # (start_state's slots, not through the property)
+                        e0, accel0, mcr0 = s._ss_e, s._ss_a, s._ss_c
+                        if e0 is None:
+                            raise TypeError("no start state")
+                    else:
+                        e0, accel0, mcr0 = s.start_state
                     beta = beta_list[i]
                     extruding = s.feature != travel
                     if type(seg) is seg_type:      # (its fields, not through the properties)

@@ -80,3 +80,19 @@ def test_file_cut_after_a_stroke(line_end, chunk, tmp_path, monkeypatch):
         got = _run(pipeline.rewrite, str(path), strokes, plan, prof, opts, tmp_path / "got.gcode")
     assert got[0] == ref[0]
     assert got[1:] == ref[1:]
+
+
+def test_stroke_without_start_state(tmp_path):
+    """A re-timed stroke without a recorded start state (start_state None, read from the
+    slots by _rewrite_bytes): the Python path's failure, as the reference has it."""
+    import copy as _copy
+    prof, opts, strokes, plan = _planned("prusa_gyroid.gcode", "prusa-mk3s")
+    strokes = _copy.deepcopy(strokes)
+    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+    for k in (0, len(order) // 3, len(order) - 1):
+        strokes[order[k]].start_state = None
+    path = SAMPLES + "prusa_gyroid.gcode"
+    ref = _run(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    got = _run(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "got.gcode")
+    assert got == ref
+    assert sum(r is not None and r.startswith("error: emission") for r in ref[3]) >= 3

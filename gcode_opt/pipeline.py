@@ -522,12 +522,16 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
             if block is not None and s.kind != K_ARC and n_lines:
                 try:
                     seg = segs[i]
-                    if type(s) is stroke_type:    # (start_state's slots, not through the property)
+                    if type(s) is stroke_type:    # (start_state's and ends_d's slots, not the properties)
                         e0, accel0, mcr0 = s._ss_e, s._ss_a, s._ss_c
                         if e0 is None:
                             raise TypeError("no start state")
+                        ends = s._ends
+                        if ends is None:          # one move: ends_d's (length_d,), as a list (no array made)
+                            ends = [s.length_d]
                     else:
                         e0, accel0, mcr0 = s.start_state
+                        ends = s.ends_d
                     beta = beta_list[i]
                     extruding = s.feature != travel
                     if type(seg) is seg_type:      # (its fields, not through the properties)
@@ -543,7 +547,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                         before, after = fc[0] + "\n", fc[1] + "\n"
                     got = block(data, a, z, n_lines, head,
                                 closing_text(flavour, accel0, extruding, mcr0, s.v_feed, "\n"), before, after,
-                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, s.ends_d, s.e_rel,
+                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, ends, s.e_rel,
                                 extruding, ctx[extruding],
                                 max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a)
                 except Exception:     # noqa: BLE001 -- the Python path below says what

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from gcode_opt import pipeline
+from gcode_opt.strokes import K_ARC
 
 from test_speed20_rewrite_core import CORE, SAMPLES, _planned, _run, ref_rewrite
 
@@ -96,3 +97,37 @@ def test_stroke_without_start_state(tmp_path):
     got = _run(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "got.gcode")
     assert got == ref
     assert sum(r is not None and r.startswith("error: emission") for r in ref[3]) >= 3
+
+
+def test_one_move_strokes(tmp_path, monkeypatch):
+    """Strokes of one move (no ends_d kept: _rewrite_bytes hands the core [length_d], not
+    ends_d's array): the core writes their blocks, the reference's bytes; a length_d that
+    is not a float (a numpy float) makes the core decline: still the reference's bytes."""
+    import copy as _copy
+    from test_speed20_rewrite_core import _Core
+    from gcode_opt import emit
+    prof, opts, strokes, plan = _planned("prusa_gyroid.gcode", "prusa-mk3s")
+    path = SAMPLES + "prusa_gyroid.gcode"
+    one = [i for i in np.flatnonzero(plan.retime) if strokes[i]._ends is None and strokes[i].kind != K_ARC]
+    assert len(one) > 20
+    ref = _run(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    seen = []
+
+    class Seen(_Core):
+        def stroke_block(self, *args):
+            got = super().stroke_block(*args)
+            if isinstance(args[16], list):
+                seen.append(got is not None)
+            return got
+
+    with monkeypatch.context() as m:
+        m.setattr(emit, "CORE_MOD", Seen())
+        got = _run(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "got.gcode")
+    assert got == ref
+    assert len(seen) == len(one) and sum(seen) >= 0.9 * len(one), (len(seen), sum(seen), len(one))
+    strokes2 = _copy.deepcopy(strokes)
+    for i in one[::3]:
+        strokes2[i].length_d = np.float64(strokes2[i].length_d)
+    ref2 = _run(ref_rewrite, path, strokes2, plan, prof, opts, tmp_path / "ref2.gcode")
+    got2 = _run(pipeline.rewrite, path, strokes2, plan, prof, opts, tmp_path / "got2.gcode")
+    assert got2 == ref2

@@ -51,7 +51,7 @@ from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .segments import SegmentPlan
 from .state import Barrier, MachineState, Move
-from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, group_lines
+from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -475,9 +475,11 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     begin = emit_mod.BEGIN
     blake2b = hashlib.blake2b
     seg_type = SegmentPlan
+    stroke_type = Stroke
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
+        skip = core.skip_lines
         for i in order:
             s = strokes[i]
             first_idx = s.first_idx
@@ -487,7 +489,22 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 continue
             # untouched lines: copied as they are, in bulk (no tokenising, no state); then
             # the stroke's own lines
-            data, a, z, n_lines = copy_take(n_copy, s.last_idx - first_idx + 1, write)
+            n_take = s.last_idx - first_idx + 1
+            # copy_take's common case inline: both line runs inside the chunk read (the same
+            # pieces written, the same (data, a, z, n_lines)); else copy_take itself
+            data, a = src.data, src.pos
+            end, got = skip(data, a, n_copy, False)
+            if got == n_copy:
+                z, n_lines = skip(data, end, n_take, False)
+                if n_lines == n_take:
+                    if end > a:
+                        write(data[a:end] if a or end < len(data) else data)
+                    src.pos = z
+                    a = end
+                else:
+                    data, a, z, n_lines = copy_take(n_copy, n_take, write)
+            else:
+                data, a, z, n_lines = copy_take(n_copy, n_take, write)
             out_line += n_copy
             pos = first_idx + n_lines
             x0, y0 = s.x0, s.y0
@@ -505,7 +522,16 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
             if block is not None and s.kind != K_ARC and n_lines:
                 try:
                     seg = segs[i]
-                    e0, accel0, mcr0 = s.start_state
+                    if type(s) is stroke_type:    # (start_state's and ends_d's slots, not the properties)
+                        e0, accel0, mcr0 = s._ss_e, s._ss_a, s._ss_c
+                        if e0 is None:
+                            raise TypeError("no start state")
+                        ends = s._ends
+                        if ends is None:          # one move: ends_d's (length_d,), as a list (no array made)
+                            ends = [s.length_d]
+                    else:
+                        e0, accel0, mcr0 = s.start_state
+                        ends = s.ends_d
                     beta = beta_list[i]
                     extruding = s.feature != travel
                     if type(seg) is seg_type:      # (its fields, not through the properties)
@@ -521,7 +547,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                         before, after = fc[0] + "\n", fc[1] + "\n"
                     got = block(data, a, z, n_lines, head,
                                 closing_text(flavour, accel0, extruding, mcr0, s.v_feed, "\n"), before, after,
-                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, s.ends_d, s.e_rel,
+                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, ends, s.e_rel,
                                 extruding, ctx[extruding],
                                 max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a)
                 except Exception:     # noqa: BLE001 -- the Python path below says what

@@ -3854,23 +3854,31 @@ static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const
  * pieces_memo (ts, dur, v) / pieces_out (dur_out, v_out): ring_int_r2's (the pieces' starts
  * are t[:-1]; dur_out gets np.diff(t)).  Returns None where _solve must do it itself (a
  * restart of short_n events or more, a number that is not finite), else (sum or None, peak
- * or None (one event: no piece), the last amplitude). */
+ * or None (one event: no piece), the last amplitude).
+ *
+ * Where numpy's own SIMD loops (AVX-512: its exp and arctan2 are not libm's) do not give
+ * libm's bits, two optional arguments leave those two steps to numpy: decay2 (np_ doubles,
+ * np.exp(-2 s np.diff(t)) as numpy made it; None: exp(qr dur) here) and numpy_peak (true:
+ * max_abs_r's pieces not ruled out are handed back instead of solved: the result is then
+ * (sum, lo, the last amplitude, their c as bytes of complex, their dur as bytes) and the
+ * caller takes np.maximum(lo, peak_abs_r(c, dur).max()); lo = np.abs(c.real).max()). */
 static double *ring_scratch = NULL;          /* ring_solve's room */
 static size_t ring_scratch_n = 0;
 
 RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
 {
     Py_buffer tb, rb, pb;
-    PyObject *first, *am, *ao, *pm, *po;
+    PyObject *first, *am, *ao, *pm, *po, *d2o = Py_None;
     double s, wd, span, qr, qi, four_s, rat, scl;
     Py_ssize_t short_n;
-    int fused, real_major;
-    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
-                          &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po))
+    int fused, real_major, numpy_peak = 0;
+    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Op:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
+                          &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po,
+                          &d2o, &numpy_peak))
         return NULL;
     PyObject *ret = NULL;
-    Py_buffer mb[3], ob[2], qb[3], rb2[2];
-    int have_m = 0, have_o = 0, have_q = 0, have_r = 0;
+    Py_buffer mb[3], ob[2], qb[3], rb2[2], d2b;
+    int have_m = 0, have_o = 0, have_q = 0, have_r = 0, have_d2 = 0;
     double *dc = NULL, *c = NULL, *work = NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
     int off = first != Py_None;
@@ -3892,7 +3900,8 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     if ((have_m = ring_opt_bufs(am, 3, mb, 0, any3, "amps_memo")) < 0
             || (have_o = ring_opt_bufs(ao, 2, ob, 1, olen, "amps_out")) < 0
             || (have_q = ring_opt_bufs(pm, 3, qb, 0, any3, "pieces_memo")) < 0
-            || (have_r = ring_opt_bufs(po, 2, rb2, 1, plen, "pieces_out")) < 0)
+            || (have_r = ring_opt_bufs(po, 2, rb2, 1, plen, "pieces_out")) < 0
+            || (have_d2 = ring_opt_buf(d2o, &d2b, 0, np_, "decay2")) < 0)
         goto done;
     if (have_m && (mb[1].len != mb[0].len || mb[2].len != 4 * mb[0].len)) {
         PyErr_SetString(PyExc_ValueError, "ring_solve: amps_memo lengths");
@@ -3969,7 +3978,8 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
                 ok = 0;
         }
         if (ok)
-            ok = ring_int_r2_run(c, dur, NULL, np_, qr, qi, four_s, rat, scl, real_major, t,
+            ok = ring_int_r2_run(c, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s,
+                                 rat, scl, real_major, t,
                                  have_q ? (const double *)qb[0].buf : NULL,
                                  have_q ? (const double *)qb[1].buf : NULL,
                                  have_q ? (const double *)qb[2].buf : NULL,
@@ -3986,6 +3996,32 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
             double a = fabs(c[2 * i]);
             lo = a > lo ? a : lo;
         }
+        sum = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, np_));
+        if (sum == NULL)
+            goto done;
+        if (numpy_peak) {
+            /* the pieces not ruled out, for numpy's peak_abs_r (its arctan2 and exp) */
+            Py_ssize_t k = 0;
+            for (Py_ssize_t i = 0; i < np_; i++)
+                k += !(absc[i] * (1.0 + 1e-9) < lo);
+            PyObject *kc = PyBytes_FromStringAndSize(NULL, 2 * k * (Py_ssize_t)sizeof(double));
+            PyObject *kd = kc ? PyBytes_FromStringAndSize(NULL, k * (Py_ssize_t)sizeof(double)) : NULL;
+            if (kd == NULL) {
+                Py_XDECREF(kc);
+                Py_DECREF(sum);
+                goto done;
+            }
+            double *pc = (double *)PyBytes_AS_STRING(kc), *pd = (double *)PyBytes_AS_STRING(kd);
+            for (Py_ssize_t i = 0, j = 0; i < np_; i++) {
+                if (absc[i] * (1.0 + 1e-9) < lo)
+                    continue;
+                pc[2 * j] = c[2 * i];
+                pc[2 * j + 1] = c[2 * i + 1];
+                pd[j++] = dur[i];
+            }
+            ret = Py_BuildValue("NdDNN", sum, lo, &(Py_complex){c[2 * (n - 1)], c[2 * (n - 1) + 1]}, kc, kd);
+            goto done;
+        }
         double lam_r = -s, lam_i = wd, pk = 0.0;
         int have_pk = 0;
         for (Py_ssize_t i = 0; i < np_; i++) {
@@ -3997,7 +4033,6 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
                 have_pk = 1;
             }
         }
-        sum = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, np_));
         peak = PyFloat_FromDouble(have_pk ? ring_npmax(lo, pk) : lo);
     } else {
         sum = Py_None;
@@ -4024,6 +4059,8 @@ done:                                        /* (have_x -1: that tuple's ring_op
     if (have_r > 0)
         for (int k = 0; k < 2; k++)
             PyBuffer_Release(&rb2[k]);
+    if (have_d2 > 0)
+        PyBuffer_Release(&d2b);
     PyBuffer_Release(&tb);
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);
@@ -4270,7 +4307,7 @@ static PyMethodDef mod_methods[] = {
      "ring_peak(c, dur, lr, li, wd, fused, out, out_abs): Oscillator.peak_abs_r and np.abs(c)"},
     {"ring_solve", mod_ring_solve, METH_VARARGS,
      "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
-     "amps_memo, amps_out, pieces_memo, pieces_out): _Stream._solve"},
+     "amps_memo, amps_out, pieces_memo, pieces_out[, decay2, numpy_peak]): _Stream._solve"},
     {"ring_release", mod_ring_release, METH_NOARGS,
      "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,

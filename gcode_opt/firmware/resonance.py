@@ -197,6 +197,10 @@ def _int_r2_core(s, wd):
 
 _SOLVE_OK = {}
 USE_SOLVE = True         # tests turn it off: _Stream._solve by the steps below (the reference)
+# tests set it True: ring_solve leaves np.exp(-2 s dur) and peak_abs_r to numpy even where
+# the core gives their bits (the path an AVX-512 numpy takes: its SIMD exp and arctan2 are
+# not libm's)
+SOLVE_NUMPY = False
 
 
 def _decay_ok(core, s):
@@ -211,7 +215,8 @@ def _decay_ok(core, s):
 
 def _peak_ok(core, s, wd, fused):
     """ring_peak gives peak_abs_r's and np.abs's numpy bits for this oscillator (with numpy's
-    complex product mode `fused`) on a probe of amplitudes and piece lengths."""
+    complex product mode `fused`) on a probe of amplitudes and piece lengths: "core", or
+    "numpy" where only np.abs's are (peak_abs_r left to numpy), else None."""
     osc = Oscillator.__new__(Oscillator)
     osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
     rng = np.random.default_rng(19)
@@ -224,15 +229,19 @@ def _peak_ok(core, s, wd, fused):
     dur = rng.exponential(math.pi / wd, n) * (rng.uniform(size=n) < 0.95)
     dur[:200] = np.geomspace(1e-12, 100.0 / s, 200)
     out, out_abs = np.empty(n), np.empty(n)
-    return bool(core.ring_peak(c, dur, -s, wd, wd, fused, out, out_abs)) \
-        and out.tobytes() == osc.peak_abs_r(c, dur).tobytes() and out_abs.tobytes() == np.abs(c).tobytes()
+    if not core.ring_peak(c, dur, -s, wd, wd, fused, out, out_abs) or out_abs.tobytes() != np.abs(c).tobytes():
+        return None
+    return "core" if out.tobytes() == osc.peak_abs_r(c, dur).tobytes() else "numpy"
 
 
 def _solve_core(s, wd):
-    """(core, span, fused) where the core's ring_solve does _Stream._solve for this
-    oscillator with numpy's bits: every step it takes (ring_exps' pair, ring_jumps,
-    ring_amps' mode, ring_int_r2, numpy's real exp as libm's, ring_peak) gave them on its
-    probe; else None (and without the core, or with any of those steps turned off)."""
+    """(core, span, fused, np_decay, np_peak) where the core's ring_solve does _Stream._solve
+    for this oscillator with numpy's bits: every step it takes (ring_exps' pair, ring_jumps,
+    ring_amps' mode, ring_int_r2, np.abs) gave them on its probe; else None (and without
+    the core, or with any of those steps turned off).  np_decay / np_peak: numpy's real exp
+    (np.exp(-2 s dur)) / peak_abs_r (its arctan2, exp) are not libm's as the core takes
+    them (numpy's AVX-512 loops), or SOLVE_NUMPY: the caller hands ring_solve numpy's
+    decay2 / solves the pieces ring_solve hands back with numpy."""
     if not (USE_SOLVE and USE_AMPS and USE_JUMPS and USE_INT_R2):
         return None
     core = _core()
@@ -243,13 +252,20 @@ def _solve_core(s, wd):
             or _int_r2_core(s, wd) is None:
         return None
     fused = _amps_mode(core, s, wd, span)
-    if fused is None or _kernel_for(("one", -s, wd), 1e4) is None:
+    if fused is None:
         return None
     key = (s, wd, fused)
-    ok = _SOLVE_OK.get(key)
-    if ok is None:
-        ok = _SOLVE_OK[key] = _decay_ok(core, s) and _peak_ok(core, s, wd, fused)
-    return (core, span, fused) if ok else None
+    modes = _SOLVE_OK.get(key)
+    if modes is None:
+        # (ring_peak's exp(lam tau) is ring_exp's: the core's peak needs that kernel too)
+        peak = _peak_ok(core, s, wd, fused)
+        if peak == "core" and _kernel_for(("one", -s, wd), 1e4) is None:
+            peak = "numpy"
+        modes = _SOLVE_OK[key] = None if peak is None else (not _decay_ok(core, s), peak == "numpy")
+    if modes is None:
+        return None
+    np_decay, np_peak = modes
+    return core, span, fused, np_decay or SOLVE_NUMPY, np_peak or SOLVE_NUMPY
 
 
 def release_solve_room():
@@ -501,9 +517,12 @@ class Oscillator:
         got = _solve_core(self.s, self.wd)
         if got is None:
             return None
-        core, span, fused = got
+        core, span, fused, np_decay, np_peak = got
         t, dr, drp = (np.ascontiguousarray(a, np.float64) for a in (t, dr, drp))
         n = len(t)
+        # numpy's np.exp(-2 s dur) (integral_r2_fin_sum's, over np.diff(t)) where the core's
+        # exp is not its
+        decay2 = np.exp(-2.0 * self.s * (t[1:] - t[:-1])) if np_decay and n > 1 else None
         am = ao = pm = po = None
         if memo is not None and USE_MEMO:
             # (a lead stream reads src only: its own memo is the one it writes)
@@ -519,7 +538,13 @@ class Oscillator:
                 o_t0, o_v, o_dur, o_pv = memo.out(n)
                 ao, po = (o_t0, o_v), (o_dur, o_pv)
         ret = core.ring_solve(t, dr, drp, first, self.s, self.wd, span, ELIDE_BYTES // 16, fused,
-                              *_int_r2_args(self.s, self.lam), am, ao, pm, po)
+                              *_int_r2_args(self.s, self.lam), am, ao, pm, po, decay2, np_peak)
+        if ret is not None and len(ret) == 5:
+            # max_abs_r's last step by numpy: the pieces not ruled out (|c| (1 + 1e-9) not
+            # below lo, the largest |Re c|), as max_abs_r solves them
+            i_r2, lo, c_last, kc, kd = ret
+            pk = self.peak_abs_r(np.frombuffer(kc, complex), np.frombuffer(kd, float))
+            ret = (i_r2, float(np.maximum(np.float64(lo), pk.max())) if len(pk) else lo, c_last)
         if ret is not None and ao is not None:
             memo.key, memo.amps = (self.s, self.wd, span), (t, ao[0], ao[1])
             if n > 1:

@@ -330,6 +330,7 @@ def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
 CHUNK_BLOCKS = 16384      # blocks turned into pieces and solved at once
 PEND_BLOCKS = 1024        # planned blocks a Collector keeps before it writes their rows
 STREAM_SMOOTH = 1 << 16   # merged pieces of the shaper smoothing evaluated at once
+PEND_PIECES = 1 << 16     # pieces a stream keeps for numpy's peak before it solves them
 
 
 class _Stream:
@@ -351,6 +352,10 @@ class _Stream:
         # solve (Oscillator.solve): X's "all" for X's other parts (ramp events and pieces
         # are nearly all "all"'s), or None: its own memo
         self.src = src
+        # pieces whose peak the core's solve left to numpy (Oscillator.solve's pending): solved
+        # together once PEND_PIECES of them wait, and at finish (the peak is a max: any
+        # grouping gives the same)
+        self.pend, self.pend_n = [], 0
         # no shaper (one pulse, weight 1.0 at time 0.0): shaped_events is t + 0.0 and the
         # jumps times 1.0, i.e. the jumps themselves
         self.plain = len(self.a_p) == 1 and float(self.a_p[0]) == 1.0 and float(self.t_p[0]) == 0.0
@@ -381,13 +386,18 @@ class _Stream:
         osc = self.osc
         # in one call of the core where it gives these steps' bits (Oscillator.solve)
         t1 = t if self.t_last is None else np.concatenate([[self.t_last], t])
+        npend = len(self.pend)
         got = osc.solve(t1, dr, drp, None if self.t_last is None else self.c_last, self.memo, self.lead,
-                        self.src)
+                        self.src, self.peak, self.pend)
         if got is not None:
             i_r2, peak, c_last = got
             if peak is not None:
                 self.int_r2 += i_r2
                 self.peak = max(self.peak, peak)
+            if len(self.pend) > npend:
+                self.pend_n += len(self.pend[-1][1]) // 8
+                if self.pend_n >= PEND_PIECES:
+                    self._settle()
             self.t_last, self.c_last = float(t1[-1]), c_last
             return
         dc = osc.jump_amplitude(dr, drp)
@@ -405,8 +415,15 @@ class _Stream:
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
 
+    def _settle(self):
+        """The pending pieces' peak into the stream's."""
+        if self.pend:
+            self.peak = max(self.peak, self.osc.pending_peak(self.pend))
+        self.pend_n = 0
+
     def finish(self):
         self._solve(self.t, self.dr, self.drp)
+        self._settle()
         self.t = np.zeros(0)
         if self.t_last is not None:        # the last rings down at rest
             c, inf = np.array([self.c_last]), np.array([np.inf])

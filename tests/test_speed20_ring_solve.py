@@ -350,10 +350,10 @@ def test_x_parts_read_alls_memo(monkeypatch):
     seen = []
     orig = Oscillator.solve
 
-    def spy(self, t, dr, drp, first, memo=None, keep=False, src=None):
+    def spy(self, t, dr, drp, first, memo=None, keep=False, src=None, *more):
         if src is not None:
             seen.append(src.amps is not None and src.pieces is not None)
-        return orig(self, t, dr, drp, first, memo, keep, src)
+        return orig(self, t, dr, drp, first, memo, keep, src, *more)
     monkeypatch.setattr(Oscillator, "solve", spy)
     _figures(os.path.join(SAMPLES, "prusa_gyroid.gcode"), profile, col)
     assert seen and sum(seen) > 0.9 * len(seen)

@@ -187,3 +187,62 @@ def test_bad_decay2_raises_and_nonfinite_declines():
     d2[7] = np.nan
     assert core.ring_solve(*args, d2, True) is None          # the caller takes the steps
     assert core.ring_solve(*args, None, False) is not None   # still usable
+
+
+# ---------------------------------------------------------------- floor and pending pieces
+@pytest.mark.parametrize("pend_pieces", [1, 50, 1 << 16])
+@pytest.mark.parametrize("name,prof,shaper,chunk", [CASES[1], CASES[3]])
+def test_pending_pieces_settled_any_time(monkeypatch, name, prof, shaper, chunk, pend_pieces):
+    """The streams' pieces left for numpy's peak (solved every pend_pieces, and at finish)
+    give the steps' figures."""
+    path = os.path.join(SAMPLES, name)
+    if not os.path.exists(path):
+        pytest.skip(f"{name} not in sample_gcode")
+    profile = load_profile(prof)
+    ref = _reference(monkeypatch, path, profile, shaper, chunk)
+    monkeypatch.setattr(res, "SOLVE_NUMPY", True)
+    monkeypatch.setattr(rg, "PEND_PIECES", pend_pieces)
+    settled = []
+    orig = Oscillator.pending_peak
+
+    def spy(self, pending):
+        settled.append(len(pending))
+        return orig(self, pending)
+    monkeypatch.setattr(Oscillator, "pending_peak", spy)
+    assert _bits(_figures(path, profile, shaper, chunk)) == _bits(ref)
+    assert settled and max(settled) > 0
+    if pend_pieces == 1:
+        assert len(settled) > 8         # mid-run too, not only at the 8 streams' finish
+
+
+def test_floor_rules_out_pieces_not_the_peak():
+    """ring_solve's floor: pieces below a peak the caller has are not handed back (nor
+    solved, in the core's peak), and the caller's max is unchanged."""
+    osc = Oscillator(50.0, 0.1)
+    got = res._solve_core(osc.s, osc.wd)
+    if got is None:
+        pytest.skip("the core's solve is not checked for this oscillator here")
+    core, span, fused, _d, _p = got
+    t, dr, drp = _events(np.random.default_rng(29), 4000)
+    decay2 = np.exp(-2.0 * osc.s * np.diff(t))
+    args = (t, dr, drp, None, osc.s, osc.wd, span, res.ELIDE_BYTES // 16, fused,
+            *res._int_r2_args(osc.s, osc.lam), None, None, None, None, decay2)
+    i0, lo, c0, kc0, kd0 = core.ring_solve(*args, True)
+    assert core.ring_solve(*args, True, 0.0) == (i0, lo, c0, kc0, kd0)
+    full = osc.pending_peak([(kc0, kd0)])
+    assert full >= lo
+    for floor in (0.5 * lo, lo, 0.5 * (lo + full), full, 2.0 * full):
+        i1, lo1, c1, kc1, kd1 = core.ring_solve(*args, True, floor)
+        assert (i1, lo1, c1) == (i0, lo, c0)
+        assert len(kd1) <= len(kd0)
+        if floor <= lo:
+            assert kd1 == kd0
+        if floor > full * (1.0 + 1e-8):
+            assert kd1 == b""
+        # the caller's max: max(floor-ish earlier peak, lo, the pieces') is the full one's
+        assert max(full, lo, osc.pending_peak([(kc1, kd1)])) == max(full, lo)
+        assert max(floor, lo, osc.pending_peak([(kc1, kd1)])) == max(floor, full)
+        # the core's own peak (its bits where the probe says so) obeys the same
+        p_core = core.ring_solve(*args, False, floor)[1]
+        p_none = core.ring_solve(*args, False, 0.0)[1]
+        assert max(floor, p_core) == max(floor, p_none)

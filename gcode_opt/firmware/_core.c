@@ -3861,7 +3861,10 @@ static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const
  * np.exp(-2 s np.diff(t)) as numpy made it; None: exp(qr dur) here) and numpy_peak (true:
  * max_abs_r's pieces not ruled out are handed back instead of solved: the result is then
  * (sum, lo, the last amplitude, their c as bytes of complex, their dur as bytes) and the
- * caller takes np.maximum(lo, peak_abs_r(c, dur).max()); lo = np.abs(c.real).max()). */
+ * caller takes np.maximum(lo, peak_abs_r(c, dur).max()); lo = np.abs(c.real).max()).
+ * floor (0.0 if not given): a peak the caller already has (of earlier chunks); pieces
+ * whose |c| (1 + 1e-9) is below it are ruled out too (|r| <= |c| on a piece: they cannot
+ * raise the caller's max; the peak returned may then be below floor). */
 static double *ring_scratch = NULL;          /* ring_solve's room */
 static size_t ring_scratch_n = 0;
 
@@ -3872,9 +3875,10 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     double s, wd, span, qr, qi, four_s, rat, scl;
     Py_ssize_t short_n;
     int fused, real_major, numpy_peak = 0;
-    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Op:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
+    double floor_ = 0.0;
+    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Opd:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
                           &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po,
-                          &d2o, &numpy_peak))
+                          &d2o, &numpy_peak, &floor_))
         return NULL;
     PyObject *ret = NULL;
     Py_buffer mb[3], ob[2], qb[3], rb2[2], d2b;
@@ -3996,6 +4000,9 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
             double a = fabs(c[2 * i]);
             lo = a > lo ? a : lo;
         }
+        /* the pieces max_abs_r solves: |c| (1 + 1e-9) not below lo, nor below `floor` (a
+         * peak the caller already has: a piece below it cannot raise its max) */
+        double thr = floor_ > lo ? floor_ : lo;
         sum = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, np_));
         if (sum == NULL)
             goto done;
@@ -4003,7 +4010,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
             /* the pieces not ruled out, for numpy's peak_abs_r (its arctan2 and exp) */
             Py_ssize_t k = 0;
             for (Py_ssize_t i = 0; i < np_; i++)
-                k += !(absc[i] * (1.0 + 1e-9) < lo);
+                k += !(absc[i] * (1.0 + 1e-9) < thr);
             PyObject *kc = PyBytes_FromStringAndSize(NULL, 2 * k * (Py_ssize_t)sizeof(double));
             PyObject *kd = kc ? PyBytes_FromStringAndSize(NULL, k * (Py_ssize_t)sizeof(double)) : NULL;
             if (kd == NULL) {
@@ -4013,7 +4020,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
             }
             double *pc = (double *)PyBytes_AS_STRING(kc), *pd = (double *)PyBytes_AS_STRING(kd);
             for (Py_ssize_t i = 0, j = 0; i < np_; i++) {
-                if (absc[i] * (1.0 + 1e-9) < lo)
+                if (absc[i] * (1.0 + 1e-9) < thr)
                     continue;
                 pc[2 * j] = c[2 * i];
                 pc[2 * j + 1] = c[2 * i + 1];
@@ -4025,7 +4032,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         double lam_r = -s, lam_i = wd, pk = 0.0;
         int have_pk = 0;
         for (Py_ssize_t i = 0; i < np_; i++) {
-            if (absc[i] * (1.0 + 1e-9) < lo)
+            if (absc[i] * (1.0 + 1e-9) < thr)
                 continue;
             double p = ring_peak_one(fused, c[2 * i], c[2 * i + 1], dur[i], lam_r, lam_i, wd);
             if (!have_pk || p > pk) {
@@ -4307,7 +4314,7 @@ static PyMethodDef mod_methods[] = {
      "ring_peak(c, dur, lr, li, wd, fused, out, out_abs): Oscillator.peak_abs_r and np.abs(c)"},
     {"ring_solve", mod_ring_solve, METH_VARARGS,
      "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
-     "amps_memo, amps_out, pieces_memo, pieces_out[, decay2, numpy_peak]): _Stream._solve"},
+     "amps_memo, amps_out, pieces_memo, pieces_out[, decay2, numpy_peak, floor]): _Stream._solve"},
     {"ring_release", mod_ring_release, METH_NOARGS,
      "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,

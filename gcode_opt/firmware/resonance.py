@@ -505,7 +505,7 @@ class Oscillator:
                 return got
         return float(self.integral_r2_fin(c, dur).sum())
 
-    def solve(self, t, dr, drp, first, memo=None, keep=False, src=None):
+    def solve(self, t, dr, drp, first, memo=None, keep=False, src=None, floor=0.0, pending=None):
         """_Stream._solve's numbers in one call of the core (ring_solve): the amplitudes of
         the events at t (jump_amplitude(dr, drp), after `first`, the carried amplitude at
         t[0], unless None), then over the pieces between them integral_r2_fin_sum and
@@ -513,7 +513,15 @@ class Oscillator:
         where the core does not do it (not there or not checked, a long restart, a number
         that is not finite): the caller takes the steps itself.  memo, keep: as amplitudes'
         and integral_r2_fin_sum's (the same exponentials go in, the same come out); src
-        (a RingMemo of this oscillator, or None: memo): the memo taken from."""
+        (a RingMemo of this oscillator, or None: memo): the memo taken from.
+
+        floor: a peak the caller has already (its earlier chunks' max): pieces whose |c|
+        (1 + 1e-9) is below it are not solved (|r| <= |c| on a piece), and the peak
+        returned is then only at least this chunk's largest |Re c|, not its max -- the
+        caller's max stays the same.  pending (a list), where numpy solves the peak: the
+        pieces to solve, as (c bytes, dur bytes), go there instead (pending_peak solves
+        them, in one numpy call for many chunks) and the peak returned is this chunk's
+        largest |Re c|."""
         got = _solve_core(self.s, self.wd)
         if got is None:
             return None
@@ -538,18 +546,33 @@ class Oscillator:
                 o_t0, o_v, o_dur, o_pv = memo.out(n)
                 ao, po = (o_t0, o_v), (o_dur, o_pv)
         ret = core.ring_solve(t, dr, drp, first, self.s, self.wd, span, ELIDE_BYTES // 16, fused,
-                              *_int_r2_args(self.s, self.lam), am, ao, pm, po, decay2, np_peak)
+                              *_int_r2_args(self.s, self.lam), am, ao, pm, po, decay2, np_peak, floor)
         if ret is not None and len(ret) == 5:
             # max_abs_r's last step by numpy: the pieces not ruled out (|c| (1 + 1e-9) not
-            # below lo, the largest |Re c|), as max_abs_r solves them
+            # below lo, the largest |Re c|, nor floor), as max_abs_r solves them
             i_r2, lo, c_last, kc, kd = ret
-            pk = self.peak_abs_r(np.frombuffer(kc, complex), np.frombuffer(kd, float))
-            ret = (i_r2, float(np.maximum(np.float64(lo), pk.max())) if len(pk) else lo, c_last)
+            if pending is not None:
+                if kd:
+                    pending.append((kc, kd))
+                ret = (i_r2, lo, c_last)
+            else:
+                pk = self.peak_abs_r(np.frombuffer(kc, complex), np.frombuffer(kd, float))
+                ret = (i_r2, float(np.maximum(np.float64(lo), pk.max())) if len(pk) else lo, c_last)
         if ret is not None and ao is not None:
             memo.key, memo.amps = (self.s, self.wd, span), (t, ao[0], ao[1])
             if n > 1:
                 memo.key_p, memo.pieces = (self.s, self.wd), (t[:-1], po[0], po[1])
         return ret
+
+    def pending_peak(self, pending):
+        """The largest peak_abs_r of the pieces solve() left in `pending` (0.0 for none); it
+        empties the list."""
+        if not pending:
+            return 0.0
+        kc, kd = zip(*pending)
+        pending.clear()
+        dur = np.frombuffer(b"".join(kd), float)
+        return float(self.peak_abs_r(np.frombuffer(b"".join(kc), complex), dur).max()) if len(dur) else 0.0
 
     def peak_abs_r(self, c, dur):
         """Exact max |r| over each piece [0, dur): the larger of the start, the end and the

@@ -332,7 +332,7 @@ class _LogSums:
         self.last_hi = -1      # the last of those's last line
         self.dropped = 0       # records summed (features) and dropped from the log
         self.ids = {}          # feature -> its number, in feat_at's order
-        self.fid = []          # feat_at's entries' feature numbers, so far
+        self.starts, self.fid = [], []   # feat_at's entries so far: their lines, their feature numbers
         nf = 8
         self.count, self.first = np.zeros(nf, np.int64), np.full(nf, -1, np.int64)
         self.ft, self.fa2 = np.zeros(nf), np.zeros(nf)
@@ -393,10 +393,12 @@ class _LogSums:
         """The first rows records added to the feature tally, then dropped from the log."""
         if not rows:
             return
-        feat_at, ids, fid = self.feat_at, self.ids, self.fid
-        if len(fid) < len(feat_at):
+        feat_at, ids, fid, starts = self.feat_at, self.ids, self.fid, self.starts
+        if len(fid) < len(feat_at):        # (feat_at only grows: its new entries)
             from itertools import islice
-            fid += [ids.setdefault(f, len(ids)) for _, f in islice(feat_at, len(fid), None)]
+            for i, f in islice(feat_at, len(fid), None):
+                starts.append(i)
+                fid.append(ids.setdefault(f, len(ids)))
         nf = len(ids)
         if nf > len(self.count):           # more features: the sums so far kept as they are
             grow = max(nf, 2 * len(self.count)) - len(self.count)
@@ -404,10 +406,9 @@ class _LogSums:
             self.first = np.concatenate((self.first, np.full(grow, -1, np.int64)))
             self.ft = np.concatenate((self.ft, np.zeros(grow)))
             self.fa2 = np.concatenate((self.fa2, np.zeros(grow)))
-        m = len(fid)
-        starts = np.fromiter((i for i, _ in feat_at), np.int64, m)
         first = np.full(len(self.count), -1, np.int64)     # positions in this prefix
-        self.log.feature_sums(starts, np.array(fid, np.int64), self.count, self.ft, self.fa2, first, rows)
+        self.log.feature_sums(np.array(starts, np.int64), np.array(fid, np.int64), self.count, self.ft, self.fa2,
+                              first, rows)
         new = (self.first < 0) & (first >= 0)
         self.first[new] = first[new] + self.dropped
         self.log.drop(rows)

@@ -120,7 +120,8 @@ def analyse(path, profile: Profile, opts: Options):
     order, so a record goes to the oldest closed stroke still due, or waits (early) while
     its line is in the run still open, or belongs to no stroke.  With the compiled model
     the records go into its RecordLog instead (no Python call a record), which sums them
-    per stroke and per feature after the pass, in the same order (_apply_log)."""
+    per stroke and per feature, in the same order (_LogSums: a prefix at a time during the
+    pass, the log dropping the records summed, the rest after it)."""
     log = _record_log()
     strokes = []
     due = deque()       # closed strokes, in file order, whose last line's record has not come
@@ -208,6 +209,7 @@ def analyse(path, profile: Profile, opts: Options):
             early.append(r)
 
     records = on_line if log is None else log     # what the model hands each record to
+    sums = _LogSums(log, strokes, feat_at, by_feature) if log is not None else None
     ring = None
     opts.ringing_before = None
     if getattr(opts, "ringing", True):
@@ -240,6 +242,8 @@ def analyse(path, profile: Profile, opts: Options):
         move, barrier = sim.move, sim.barrier
         prog = opts.progress.advance if opts.progress is not None else None
         for idx0, lines in fwsim.read_chunks(path, prog):
+            if sums is not None and log.rows >= LOG_FLUSH_ROWS:
+                sums.flush(opened[0])
             cur[0], cur[2] = lines, idx0
             n = len(lines)
             i = cur[1] = 0
@@ -291,7 +295,7 @@ def analyse(path, profile: Profile, opts: Options):
             gc.enable()
     sim.stop()
     if log is not None:
-        _apply_log(log, strokes, feat_at, by_feature)
+        sums.finish()
     if ring is not None:
         opts.ringing_before = ring.figures()
     opts.feature_info = feat.selection_info(seen[0], opts.features)
@@ -306,41 +310,114 @@ def _record_log():
     return fwsim._core.RecordLog()
 
 
-def _apply_log(log, strokes, feat_at, by_feature):
+LOG_FLUSH_ROWS = 1 << 15     # records the RecordLog gathers before analyse sums and drops them
+
+
+class _LogSums:
     """What analyse's on_line and apply() do record by record, from the RecordLog: each
     stroke's v0 (the record at its first line), v1 (at its last line) and its records'
     time, int a^2 and int v^2 summed in file order; the feature tally (feat_at: (line,
     feature) where the moves' feature changes) per feature, in the order the features'
-    first records came (by_feature is filled in that order, as on_line fills it)."""
-    from operator import attrgetter
-    n = len(strokes)
-    lo = np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n)
-    hi = np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n)
-    if n and not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1])):
-        raise AssertionError("strokes out of file order")     # group_lines closes them in order
-    got = np.zeros(n, np.int64)
-    v0, v1, t, a2, v2 = (np.zeros(n) for _ in range(5))
-    log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
-    for s, g, a, b, x, y, z in zip(strokes, got.tolist(), v0.tolist(), v1.tolist(), t.tolist(), a2.tolist(),
-                                   v2.tolist()):
-        if g == 3:              # (most strokes: both ends' records came)
-            s.v0, s.v1, s.time_t, s.int_a2, s.int_v2 = a, b, x, y, z
-            continue
-        if g & 1:
-            s.v0 = a
-        if g & 2:
-            s.v1 = b
-        s.time_t, s.int_a2, s.int_v2 = x, y, z
-    ids = {}
-    starts = np.fromiter((i for i, _ in feat_at), np.int64, len(feat_at))
-    fid = np.fromiter((ids.setdefault(f, len(ids)) for _, f in feat_at), np.int64, len(feat_at))
-    nf = len(ids)
-    count, first = np.zeros(nf, np.int64), np.full(nf, -1, np.int64)
-    ft, fa2 = np.zeros(nf), np.zeros(nf)
-    log.feature_sums(starts, fid, count, ft, fa2, first)
-    feats = list(ids)
-    for k in sorted((k for k in range(nf) if first[k] >= 0), key=lambda k: first[k]):
-        by_feature[feats[k]] = [int(count[k]), float(ft[k]), float(fa2[k])]
+    first records came (by_feature is filled in that order, as on_line fills it).
+
+    Taken a prefix of the records at a time during the pass (flush), which the log then
+    drops: it holds a few thousand records, not the whole file's (~48 bytes a record: 21 MB
+    on the 461 k-line gyroid plate).  A stroke's sums are its own records' from 0.0, and
+    the feature sums go on in the same accumulators in file order: the same bits as one
+    pass over the whole log after the file (finish)."""
+
+    def __init__(self, log, strokes, feat_at, by_feature):
+        self.log, self.strokes, self.feat_at, self.by_feature = log, strokes, feat_at, by_feature
+        self.done = 0          # strokes[:done] have their sums
+        self.last_hi = -1      # the last of those's last line
+        self.dropped = 0       # records summed (features) and dropped from the log
+        self.ids = {}          # feature -> its number, in feat_at's order
+        self.starts, self.fid = [], []   # feat_at's entries so far: their lines, their feature numbers
+        nf = 8
+        self.count, self.first = np.zeros(nf, np.int64), np.full(nf, -1, np.int64)
+        self.ft, self.fa2 = np.zeros(nf), np.zeros(nf)
+
+    def flush(self, open_line):
+        """Sum what the records so far settle, drop those records.  open_line: the first
+        line of the run or arc stroke still open (NOT_OPEN if none).  Records of lines
+        before the log's last record's line have all come (file order); a stroke that
+        ends before that and before open_line gets its sums; the records before the first
+        line of every stroke still to come or to sum are tallied by feature and dropped."""
+        log = self.log
+        line = min(open_line, log.last)
+        strokes, k = self.strokes, self.done
+        n = len(strokes)
+        while k < n and strokes[k].last_idx < line:
+            k += 1
+        self._strokes(k)
+        if k < n:
+            line = min(line, strokes[k].first_idx)
+        self._features(log.below(line))
+
+    def finish(self):
+        """The rest, after the pass: every stroke, every record."""
+        self._strokes(len(self.strokes))
+        self._features(self.log.rows)
+        ft, fa2, count, first = self.ft, self.fa2, self.count, self.first
+        feats = list(self.ids)
+        for k in sorted((k for k in range(len(feats)) if first[k] >= 0), key=lambda k: first[k]):
+            self.by_feature[feats[k]] = [int(count[k]), float(ft[k]), float(fa2[k])]
+
+    def _strokes(self, stop):
+        """strokes[done:stop]'s sums from the log (all their records are in it)."""
+        from operator import attrgetter
+        batch = self.strokes[self.done:stop]
+        n = len(batch)
+        if not n:
+            return
+        lo = np.fromiter(map(attrgetter("first_idx"), batch), np.int64, n)
+        hi = np.fromiter(map(attrgetter("last_idx"), batch), np.int64, n)
+        if not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1]) and lo[0] > self.last_hi):
+            raise AssertionError("strokes out of file order")     # group_lines closes them in order
+        self.done, self.last_hi = stop, int(hi[-1])
+        got = np.zeros(n, np.int64)
+        v0, v1, t, a2, v2 = (np.zeros(n) for _ in range(5))
+        self.log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
+        for s, g, a, b, x, y, z in zip(batch, got.tolist(), v0.tolist(), v1.tolist(), t.tolist(), a2.tolist(),
+                                       v2.tolist()):
+            if g == 3:              # (most strokes: both ends' records came)
+                s.v0, s.v1, s.time_t, s.int_a2, s.int_v2 = a, b, x, y, z
+                continue
+            if g & 1:
+                s.v0 = a
+            if g & 2:
+                s.v1 = b
+            s.time_t, s.int_a2, s.int_v2 = x, y, z
+
+    def _features(self, rows):
+        """The first rows records added to the feature tally, then dropped from the log."""
+        if not rows:
+            return
+        feat_at, ids, fid, starts = self.feat_at, self.ids, self.fid, self.starts
+        if len(fid) < len(feat_at):        # (feat_at only grows: its new entries)
+            from itertools import islice
+            for i, f in islice(feat_at, len(fid), None):
+                starts.append(i)
+                fid.append(ids.setdefault(f, len(ids)))
+        nf = len(ids)
+        if nf > len(self.count):           # more features: the sums so far kept as they are
+            grow = max(nf, 2 * len(self.count)) - len(self.count)
+            self.count = np.concatenate((self.count, np.zeros(grow, np.int64)))
+            self.first = np.concatenate((self.first, np.full(grow, -1, np.int64)))
+            self.ft = np.concatenate((self.ft, np.zeros(grow)))
+            self.fa2 = np.concatenate((self.fa2, np.zeros(grow)))
+        first = np.full(len(self.count), -1, np.int64)     # positions in this prefix
+        self.log.feature_sums(np.array(starts, np.int64), np.array(fid, np.int64), self.count, self.ft, self.fa2,
+                              first, rows)
+        new = (self.first < 0) & (first >= 0)
+        self.first[new] = first[new] + self.dropped
+        self.log.drop(rows)
+        self.dropped += rows
+
+
+def _apply_log(log, strokes, feat_at, by_feature):
+    """_LogSums over the whole log at once (the strokes' and the feature sums)."""
+    _LogSums(log, strokes, feat_at, by_feature).finish()
 
 
 # ---------------------------------------------------------------- pass 2: rewrite

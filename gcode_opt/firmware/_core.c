@@ -855,12 +855,18 @@ fail:
  * (int64) that feature's number there; a record belongs to the last start at or before its
  * line (none before the first: skipped).  Per feature number f (count, t, a2, first:
  * buffers of n_features items, zeroed by the caller, first at -1): records, their time_t
- * and a2 summed from 0.0 in file order, and the position of its first record. */
+ * and a2 summed from 0.0 in file order, and the position of its first record.  stop, if
+ * given, the number of records (the first ones) to take: the analyse pass takes a prefix,
+ * drops it (drop) and goes on with the same sums later (the same additions in the same
+ * order: the same bits). */
 static PyObject *Log_feature_sums(LogObject *k, PyObject *args)
 {
     PyObject *o[6];
-    if (!PyArg_ParseTuple(args, "OOOOOO:feature_sums", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5]))
+    Py_ssize_t stop = -1;
+    if (!PyArg_ParseTuple(args, "OOOOOO|n:feature_sums", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &stop))
         return NULL;
+    if (stop < 0 || stop > k->n)
+        stop = k->n;
     Py_ssize_t m = PyObject_Length(o[0]), nf = PyObject_Length(o[2]);
     if (m < 0 || nf < 0)
         return NULL;
@@ -881,7 +887,7 @@ static PyObject *Log_feature_sums(LogObject *k, PyObject *args)
             goto fail;
         }
     Py_ssize_t p = -1;
-    for (Py_ssize_t j = 0; j < k->n; j++) {
+    for (Py_ssize_t j = 0; j < stop; j++) {
         long long i = k->idx[j];
         while (p + 1 < m && starts[p + 1] <= i)
             p++;
@@ -928,16 +934,60 @@ static PyObject *Log_len(LogObject *k, void *c)
     return PyLong_FromSsize_t(k->n);
 }
 
+/* the idx of the last record, -1 if none */
+static PyObject *Log_last(LogObject *k, void *c)
+{
+    return PyLong_FromLongLong(k->n ? k->idx[k->n - 1] : -1);
+}
+
+/* below(line): how many records (the first ones: file order) are of lines before line */
+static PyObject *Log_below(LogObject *k, PyObject *arg)
+{
+    long long line = PyLong_AsLongLong(arg);
+    if (line == -1 && PyErr_Occurred())
+        return NULL;
+    Py_ssize_t lo = 0, hi = k->n;
+    while (lo < hi) {
+        Py_ssize_t mid = lo + (hi - lo) / 2;
+        if (k->idx[mid] < line)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return PyLong_FromSsize_t(lo);
+}
+
+/* drop(n): forget the first n records (the analyse pass has summed them): the log holds
+ * the records not summed yet, not the whole file's (~48 bytes a record) */
+static PyObject *Log_drop(LogObject *k, PyObject *arg)
+{
+    Py_ssize_t n = PyLong_AsSsize_t(arg);
+    if (n == -1 && PyErr_Occurred())
+        return NULL;
+    if (n < 0 || n > k->n) {
+        PyErr_SetString(PyExc_ValueError, "RecordLog.drop: n out of range");
+        return NULL;
+    }
+    Py_ssize_t rest = k->n - n;
+    memmove(k->idx, k->idx + n, (size_t)rest * sizeof(long long));
+    memmove(k->v, k->v + n * LOG_COLS, (size_t)rest * LOG_COLS * sizeof(double));
+    k->n = rest;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef Log_methods[] = {
     {"stroke_sums", (PyCFunction)Log_stroke_sums, METH_VARARGS,
      "stroke_sums(lo, hi, got, v0, v1, t, a2, v2): pipeline.analyse's apply() per stroke."},
     {"feature_sums", (PyCFunction)Log_feature_sums, METH_VARARGS,
-     "feature_sums(starts, ids, count, t, a2, first): pipeline.analyse's feature tally."},
+     "feature_sums(starts, ids, count, t, a2, first[, stop]): pipeline.analyse's feature tally."},
+    {"below", (PyCFunction)Log_below, METH_O, "below(line): records of lines before line (the first ones)."},
+    {"drop", (PyCFunction)Log_drop, METH_O, "drop(n): forget the first n records."},
     {NULL}
 };
 
 static PyGetSetDef Log_getset[] = {
     {"rows", (getter)Log_len, NULL, "records held", NULL},
+    {"last", (getter)Log_last, NULL, "the last record's line, -1 if none", NULL},
     {NULL}
 };
 

@@ -375,3 +375,45 @@ def test_table_rows_gathered_at_once(prof_name, monkeypatch):
     monkeypatch.setattr(chains, "_table_rows", ref_table_rows)
     want = _table_and_rows(FILES[0], prof_name)
     assert len(got) > 1000 and got == want
+
+
+# ---------------------------------------------------------------- _replay's rows
+def ref_replay(items, rules, profile, drop=False):
+    """chains._replay at 0d0dc03 (verbatim but for the module names): row() and np.stack."""
+    out = [None] * len(items)
+    grouped = rules.junction in chains.GROUP_JUNCTIONS and profile.junction == rules.junction
+    gs = [curves.geom(st, profile) for st, _, _ in items]
+    sk = lambda st: chains._knots_s(st.ends_d)       # noqa: E731
+    assert grouped
+    by_n = {}
+    for q, g in enumerate(gs):
+        by_n.setdefault(g.d.size, []).append(q)
+    for qs in by_n.values():
+        for a in range(0, len(qs), chains.FINISH_ROWS):
+            Q = qs[a:a + chains.FINISH_ROWS]
+            rows = [items[q][1].row(items[q][2]) for q in Q]
+            vk, dt = np.stack([x[0] for x in rows]), np.stack([x[1] for x in rows])
+            sts = [items[q][0] for q in Q]
+            acc, feed, _, _, _ = chains._finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt,
+                                                           rules, profile, predict=False)
+            for i, q in enumerate(Q):
+                out[q] = chains.SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], rows[i][2], rows[i][3])
+    return out
+
+
+@pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])
+def test_replay_gathers_the_rows_row_would_give(prof_name):
+    """Every kept row of every chain (rows of many finishing batches in one group), and a
+    mixed pick of one row a chain: _replay's plans are the 0d0dc03 replay's, bit for bit,
+    their figures Python floats as row() gives them."""
+    strokes, pin, rows, prof, rules = _fresh(FILES[0], prof_name)
+    chains.candidates_chain(pin, rows, strokes, prof, rules)
+    items = [(strokes[i], kept, int(r)) for i in rows.tolist() for _, _, _, r, kept in strokes[i].chain_T.rows()]
+    assert len(items) > 1000 and len({id(k.base) for _, k, _ in items}) > 3
+    got, want = chains._replay(items, rules, prof), ref_replay(items, rules, prof)
+    assert all(_same_plan(p, w) for p, w in zip(got, want))
+    assert all(type(p.time_t) is float and type(p.int_a2) is float for p in got)
+    rng = np.random.default_rng(11)
+    pick = [it for it in items if rng.random() < 0.25]
+    got, want = chains._replay(pick, rules, prof), ref_replay(pick, rules, prof)
+    assert len(pick) > 200 and all(_same_plan(p, w) for p, w in zip(got, want))

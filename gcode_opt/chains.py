@@ -389,14 +389,12 @@ class ChainMemo:
     are one array (put_shared: this chain's are rows at..at+n of it) and a chain's rows
     share one kept plan (kept: that object; a list, one per row, once put mixes them):
     ~0.25 kB a chain (a dict held ~1.8 kB)."""
-    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg", "src", "src_i", "ver",
-                 "seg_tin", "seg_ver")
+    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg", "src", "src_i", "seg_tin")
 
     def __init__(self):
         self.figs = self.kept = None
         self.at = self.n = 0
-        self.ver = 0            # bumped whenever its rows change (_set): law_of's answers may change
-        self.seg_tin = self.seg_ver = None     # the duration seg was asked for (law_T's input), at rows ver
+        self.seg_tin = None     # the duration seg was asked for (law_T's input); None once its rows change
         self.src = None         # the _Source of its rows (_figures), its row src_i there: drop_rows
         self.src_i = -1
         self.seg_T = self.seg_beta = self.seg_key = None
@@ -414,7 +412,7 @@ class ChainMemo:
 
     def _set(self, figs, kept, at, n):
         self.figs, self.kept, self.at, self.n = figs, kept, at, n
-        self.ver += 1
+        self.seg_tin = None     # law_of's answers may change: law_T is asked again
 
     def put(self, time_t, T, beta, kept, r):
         figs, ks = self._own()
@@ -799,9 +797,13 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         ext[:, :n] = D
         ext[:, n:] = D[:, n - 1:n]
         W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
-    # each chain's numbers in one pass over the chains, one row a chain (_cf_row), then as
-    # columns: the values the columns were given one list each before (the same floats)
-    Q = np.array([_cf_row(st) for st in sts], float).reshape(m, _CF_ROW)
+    # each chain's numbers in one pass over the chains, one row a chain (_cf_row) packed as
+    # doubles as it is made (not a list of m tuples of floats: ~1 MB at once on 2048
+    # chains), then as columns: the values the columns were given one list each before
+    buf = array("d")
+    for st in sts:
+        buf.extend(_cf_row(st))
+    Q = np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
     pu, nu = Q[:, 9:11], Q[:, 11:13]
     P = np.zeros((m, 18))
     P[:, 0] = Q[:, 0]                  # _a_top
@@ -1065,26 +1067,26 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     of its candidate rows and its vertex caps are dropped (_drop: ~25 MB on the gyroid plate);
     a re-plan that picks another of its candidates solves it again (_again_plans, the same
     bits: tests/test_speed22_chainmem_drop.py)."""
-    T_in = np.asarray(T, float).tolist()
+    T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
     todo = []
     key = _rules_key(rules, profile)
-    law = [0.0] * len(strokes)
-    for k, (st, t, b) in enumerate(zip(strokes, T_in, beta.tolist())):
+    T = np.empty(len(strokes))          # the law durations (law_T)
+    for k, (st, t, b) in enumerate(zip(strokes, T_in.tolist(), beta.tolist())):
         memo = st.chain_T
         seg = memo.seg
-        if seg is not None and memo.seg_tin == t and memo.seg_ver == memo.ver:
+        if seg is not None and memo.seg_tin == t:
             # asked for what its last plan was made for, its rows as they were: law_T(t)
             # is the law duration that plan was made for (law_of reads only the rows)
-            law[k] = memo.seg_T
+            lt = memo.seg_T
         else:
-            law[k] = law_T(st, t)
-        if seg is not None and memo.seg_T == law[k] and memo.seg_beta == b and memo.seg_key == key:
+            lt = law_T(st, t)
+        T[k] = lt
+        if seg is not None and memo.seg_T == lt and memo.seg_beta == b and memo.seg_key == key:
             out[k] = seg
         else:
             todo.append(k)
-    T = np.array(law, float)
     # the candidate table's plan when this (T, beta) is one of the candidates (under the
     # same rules), else the law solved and finished
     cold, lazy, again = [], [], []
@@ -1112,7 +1114,9 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     for k in todo:
         memo = strokes[k].chain_T
         memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = float(T[k]), float(beta[k]), key, out[k]
-        memo.seg_tin, memo.seg_ver = T_in[k], memo.ver
+        # (its plan's own time_t when equal, the usual case: no float kept per chain)
+        tt, t = getattr(out[k], "time_t", None), float(T_in[k])
+        memo.seg_tin = tt if tt == t else t
         _drop(strokes[k])       # its plan is made: the other candidates' knots are made again if asked
     if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
         from .pipeline import trim_heap
@@ -1326,12 +1330,6 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
     v0, v1 = base.v0, base.v1
-    # the columns' laws stacked (column, vertex) and (column, chain): a group's rows are
-    # gathered in one fancy index each, not column by column (~5 x 8 numpy calls a group)
-    cols = range(use.shape[1])
-    VV = np.stack([res[c].vert_v for c in cols])
-    VT = np.stack([res[c].vert_t for c in cols])
-    IV = np.stack([res[c].iv for c in cols])
     for J in groups:
         n = int(nseg[J[0]])
         rj, rc = np.nonzero(use[J])                 # rows: chain by chain, columns ascending
@@ -1339,13 +1337,19 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         R = j.size
         vk = np.empty((R, n + 1))
         tk = np.empty((R, n + 1))
+        iv = np.empty(R)
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = T[j, rc]
-        ix = base.voff[j][:, None] + np.arange(n - 1)
-        vk[:, 1:-1] = VV[rc[:, None], ix]
-        tk[:, 1:-1] = VT[rc[:, None], ix]
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), IV[rc, j]
+        for c in range(use.shape[1]):
+            q = rc == c
+            if not q.any():
+                continue
+            ix = base.voff[j[q]][:, None] + np.arange(n - 1)
+            vk[q, 1:-1] = res[c].vert_v[ix]
+            tk[q, 1:-1] = res[c].vert_t[ix]
+            iv[q] = res[c].iv[j[q]]
+        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), iv
 
 
 def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):

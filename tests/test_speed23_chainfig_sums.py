@@ -9,6 +9,7 @@ chain):
   _finish_core     the chains' numbers gathered in one pass (_cf_row), not a list per column;
   _again_plans     one finishing of a re-solved row (its acc and feed from the call that
                    predicts its figures), not that call and then _replay's;
+  _replay          the chosen rows gathered base by base, not row() and np.stack;
   plan_chain_segments  a chain asked again for the duration its last plan was made for,
                    its rows unchanged, skips law_T (the law duration is the plan's)."""
 import math
@@ -315,66 +316,6 @@ def test_last_plan_taken_without_law_T_while_rows_unchanged(monkeypatch):
     if st1.chain_T.seg_T != float(Tc[1]):
         assert len(calls) == 1 and calls[0] is st1
     assert got[0] is first[1]
-
-
-# ---------------------------------------------------------------- _table_rows
-def ref_table_rows(sts, base, res, use, T, profile, grouped):
-    """chains._table_rows at 0d0dc03 (verbatim but for the module names): column by column."""
-    FINISH_ROWS = chains.FINISH_ROWS
-    gs = [curves.geom(st, profile) for st in sts]
-    nseg = np.array([g.d.size for g in gs], int)
-    has = use.any(axis=1)
-    if grouped:
-        groups = []
-        rows = use.sum(axis=1)
-        for q in np.unique(nseg[has]).tolist():
-            J = np.flatnonzero(has & (nseg == q))
-            cut = np.cumsum(rows[J]) // FINISH_ROWS
-            groups += np.split(J, np.flatnonzero(np.diff(cut)) + 1)
-    else:
-        groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
-    v0, v1 = base.v0, base.v1
-    for J in groups:
-        n = int(nseg[J[0]])
-        rj, rc = np.nonzero(use[J])
-        j = J[rj]
-        R = j.size
-        vk = np.empty((R, n + 1))
-        tk = np.empty((R, n + 1))
-        iv = np.empty(R)
-        vk[:, 0], vk[:, -1] = v0[j], v1[j]
-        tk[:, 0] = 0.0
-        tk[:, -1] = T[j, rc]
-        for c in range(use.shape[1]):
-            q = rc == c
-            if not q.any():
-                continue
-            ix = base.voff[j[q]][:, None] + np.arange(n - 1)
-            vk[q, 1:-1] = res[c].vert_v[ix]
-            tk[q, 1:-1] = res[c].vert_t[ix]
-            iv[q] = res[c].iv[j[q]]
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), iv
-
-
-def _table_and_rows(path, prof_name):
-    strokes, pin, rows, prof, rules = _fresh(path, prof_name)
-    tab = chains.candidates_chain(pin, rows, strokes, prof, rules)
-    out = [_bits(x) for x in tab]
-    for i in rows.tolist():
-        for t, TL, b, r, kept in strokes[i].chain_T.rows():
-            vk, dt, tp, a2 = kept.row(int(r))
-            out.append((t, TL, b, r, _bits(vk), _bits(dt), tp, a2))
-    return out
-
-
-@pytest.mark.parametrize("prof_name", ["prusa-mk3s", "ender3"])
-def test_table_rows_gathered_at_once(prof_name, monkeypatch):
-    """The candidate table and every chain's kept rows (knot speeds, durations, figures):
-    the same bits with the rows gathered from the stacked columns as column by column."""
-    got = _table_and_rows(FILES[0], prof_name)
-    monkeypatch.setattr(chains, "_table_rows", ref_table_rows)
-    want = _table_and_rows(FILES[0], prof_name)
-    assert len(got) > 1000 and got == want
 
 
 # ---------------------------------------------------------------- _replay's rows

@@ -245,18 +245,38 @@ def _replay(items, rules, profile, drop=False):
     for qs in by_n.values():
         for a in range(0, len(qs), FINISH_ROWS):
             Q = qs[a:a + FINISH_ROWS]
-            rows = [items[q][1].row(items[q][2]) for q in Q]
-            vk, dt = np.stack([x[0] for x in rows]), np.stack([x[1] for x in rows])
+            vk, dt, tp, a2 = _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q])
             sts = [items[q][0] for q in Q]
             acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                     profile, predict=False)
             for i, q in enumerate(Q):
-                out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], rows[i][2], rows[i][3])
-            del rows, dt
+                out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i])
+            del dt
         if drop:            # the group's chains are made: their rows' arrays can go
             for q in qs:
                 _drop(items[q][0])
     return out
+
+
+def _gather_rows(kept, rs):
+    """The rows rs[i] of kept[i] (_KeptLaws of chains with the same number of segments)
+    stacked: (vk, dt, predicted times, predicted ∫|a|²) as kept[i].row(rs[i]) gives them
+    (the times as Python floats), gathered by one fancy index a base (the chains finished
+    together share one), not row by row (~2 us a chain: row() and np.stack)."""
+    by = {}
+    for i, (kp, r) in enumerate(zip(kept, rs)):
+        e = by.get(id(kp.base))
+        if e is None:
+            e = by[id(kp.base)] = (kp.base, [], [])
+        e[1].append(i)
+        e[2].append(kp.lo + r)
+    m = len(kept)
+    b0 = kept[0].base
+    vk, dt = np.empty((m, b0[0].shape[1])), np.empty((m, b0[1].shape[1]))
+    tp, a2 = np.empty(m), np.empty(m)
+    for b, ii, qq in by.values():
+        vk[ii], dt[ii], tp[ii], a2[ii] = b[0][qq], b[1][qq], b[2][qq], b[3][qq]
+    return vk, dt, tp.tolist(), a2.tolist()
 
 
 def _drop(st):
@@ -328,13 +348,15 @@ def _knots_again(items, profile):
 
 def _again_plans(items, rules, profile):
     """SegmentPlans of candidates whose knots were dropped, items [(stroke, _Again, law
-    T, beta)]: the knots made again (_knots_again), their predicted figures as the
-    candidate table's finishing made them (_Finisher: by groups of a segment count under
-    GROUP_JUNCTIONS, else chain by chain; each row's numbers its own), then _replay."""
+    T, beta)]: the knots made again (_knots_again), then finished as the candidate
+    table's finishing did (_Finisher: by groups of a segment count under GROUP_JUNCTIONS,
+    else chain by chain; each row's numbers its own): its predicted figures and, from the
+    same call, the accelerations and feeds _replay would make of that row again (the
+    finishing's acc and feed do not depend on predict: one finishing, not two)."""
     got = _knots_again([(st, ag.src, st.chain_T.src_i if ag.i is None else ag.i, T, b)
                         for st, ag, T, b in items], profile)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
-    kept = [None] * len(items)
+    out = [None] * len(items)
     if grouped:
         by_n = {}
         for q, (vk, _) in enumerate(got):
@@ -345,16 +367,17 @@ def _again_plans(items, rules, profile):
                 sts = [items[q][0] for q in Q]
                 vk = np.concatenate([got[q][0] for q in Q])
                 dt = np.concatenate([got[q][1] for q in Q])
-                _, _, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts], np.arange(len(Q)),
-                                                    vk, dt, rules, profile)
+                acc, feed, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts],
+                                                         np.arange(len(Q)), vk, dt, rules, profile)
                 for i, q in enumerate(Q):
-                    kept[q] = _KeptLaws(items[q][1].key, (vk, dt, t, a2), i, 1)
+                    out[q] = SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]),
+                                         float(a2[i]))
     else:
-        for q, (st, ag, _, _) in enumerate(items):
+        for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q]
-            _, _, t, a2, _ = _finish_rows_dt(st, vk, dt, rules, profile)
-            kept[q] = _KeptLaws(ag.key, (vk, dt, t, a2), 0, 1)
-    return _replay([(st, kp, 0) for (st, _, _, _), kp in zip(items, kept)], rules, profile)
+            acc, feed, t, a2, _ = _finish_rows_dt(st, vk, dt, rules, profile)
+            out[q] = SegmentPlan(_knots_s(st.ends_d), vk[0], acc[0], feed[0], float(t[0]), float(a2[0]))
+    return out
 
 
 class ChainMemo:
@@ -366,11 +389,12 @@ class ChainMemo:
     are one array (put_shared: this chain's are rows at..at+n of it) and a chain's rows
     share one kept plan (kept: that object; a list, one per row, once put mixes them):
     ~0.25 kB a chain (a dict held ~1.8 kB)."""
-    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg", "src", "src_i")
+    __slots__ = ("figs", "kept", "at", "n", "seg_T", "seg_beta", "seg_key", "seg", "src", "src_i", "seg_tin")
 
     def __init__(self):
         self.figs = self.kept = None
         self.at = self.n = 0
+        self.seg_tin = None     # the duration seg was asked for (law_T's input); None once its rows change
         self.src = None         # the _Source of its rows (_figures), its row src_i there: drop_rows
         self.src_i = -1
         self.seg_T = self.seg_beta = self.seg_key = None
@@ -388,6 +412,7 @@ class ChainMemo:
 
     def _set(self, figs, kept, at, n):
         self.figs, self.kept, self.at, self.n = figs, kept, at, n
+        self.seg_tin = None     # law_of's answers may change: law_T is asked again
 
     def put(self, time_t, T, beta, kept, r):
         figs, ks = self._own()
@@ -724,6 +749,24 @@ def _cf_consts(profile):
                      curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
 
 
+_CF_ROW = 15
+
+
+def _cf_row(st):
+    """A chain's numbers for _finish_core's P: _a_top, v_feed, v0, v1, the limits' jerk_x,
+    jerk_y, scv, ax_max, ay_max, prev_u and next_u (nan, nan where None) and whether each
+    is there (1.0 / 0.0)."""
+    lim, pu, nu = st.lim, st.prev_u, st.next_u
+    hp, hn = pu is not None, nu is not None
+    px, py = pu if hp else _NAN2
+    nx, ny = nu if hn else _NAN2
+    return (min(st.accel, lim.ax_max, lim.ay_max), st.v_feed, st.v0, st.v1, lim.jerk_x, lim.jerk_y, lim.scv,
+            lim.ax_max, lim.ay_max, px, py, nx, ny, 1.0 if hp else 0.0, 1.0 if hn else 0.0)
+
+
+_NAN2 = (math.nan, math.nan)
+
+
 def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
     batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
@@ -737,10 +780,13 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         return None
     jerk = rules.junction == "jerk"
     n, m, R = gs[0].d.size, len(sts), vk.shape[0]
-    D = np.stack([g.d for g in gs])
+    # (np.array of the rows, not np.stack: the same copy, a third of the time on ~10^2 chains)
+    D = np.array([g.d for g in gs], float)
     if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n):
         return None
-    U = np.stack([g.u for g in gs])
+    U = np.array([g.u for g in gs], float)
+    if U.shape != (m, n, 2):
+        return None
     # the turns' cosines, g.cos_turn of every chain in one einsum over the stack (the same
     # two-term sum of products a row, the same bits; ~34 k property calls on the gyroid plate)
     C = np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:]) if n > 1 else np.empty((m, 0))
@@ -751,30 +797,34 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         ext[:, :n] = D
         ext[:, n:] = D[:, n - 1:n]
         W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
-    lims = [st.lim for st in sts]
-    nan2 = (math.nan, math.nan)
-    pu = np.array([nan2 if w is None else w for w in (st.prev_u for st in sts)], float).reshape(m, 2)
-    nu = np.array([nan2 if w is None else w for w in (st.next_u for st in sts)], float).reshape(m, 2)
+    # each chain's numbers in one pass over the chains, one row a chain (_cf_row) packed as
+    # doubles as it is made (not a list of m tuples of floats: ~1 MB at once on 2048
+    # chains), then as columns: the values the columns were given one list each before
+    buf = array("d")
+    for st in sts:
+        buf.extend(_cf_row(st))
+    Q = np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
+    pu, nu = Q[:, 9:11], Q[:, 11:13]
     P = np.zeros((m, 18))
-    P[:, 0] = [min(st.accel, lim.ax_max, lim.ay_max) for st, lim in zip(sts, lims)]    # _a_top
-    P[:, 8] = [st.v0 for st in sts]
-    P[:, 9] = [st.v1 for st in sts]
+    P[:, 0] = Q[:, 0]                  # _a_top
+    P[:, 8] = Q[:, 2]
+    P[:, 9] = Q[:, 3]
     # the end turns, np.dot(prev_u, u[0]) and np.dot(u[-1], next_u) of predict_chains (its two
     # products and their sum; nan: no neighbour)
     P[:, 10] = pu[:, 0] * U[:, 0, 0] + pu[:, 1] * U[:, 0, 1]
     P[:, 11] = U[:, -1, 0] * nu[:, 0] + U[:, -1, 1] * nu[:, 1]
     if jerk:
-        P[:, 1] = [st.v_feed for st in sts]
-        P[:, 3] = [lim.jerk_x for lim in lims]
-        P[:, 4] = [lim.jerk_y for lim in lims]
+        P[:, 1] = Q[:, 1]
+        P[:, 3] = Q[:, 4]
+        P[:, 4] = Q[:, 5]
         P[:, 2] = curves.JERK_F_STEP_R * np.minimum(P[:, 3], P[:, 4])     # step_v: the numpy code's
     else:
         P[:, 2] = math.inf
-        P[:, 5] = [lim.scv for lim in lims]
-        P[:, 6] = [lim.ax_max for lim in lims]
-        P[:, 7] = [lim.ay_max for lim in lims]
-        hp = np.array([st.prev_u is not None for st in sts], bool)
-        hn = np.array([st.next_u is not None for st in sts], bool)
+        P[:, 5] = Q[:, 6]
+        P[:, 6] = Q[:, 7]
+        P[:, 7] = Q[:, 8]
+        hp = Q[:, 13] != 0.0
+        hn = Q[:, 14] != 0.0
         P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
         P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
     acc, feed = np.empty((R, n)), np.empty((R, n))
@@ -1017,15 +1067,24 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     of its candidate rows and its vertex caps are dropped (_drop: ~25 MB on the gyroid plate);
     a re-plan that picks another of its candidates solves it again (_again_plans, the same
     bits: tests/test_speed22_chainmem_drop.py)."""
-    T = np.array([law_T(st, t) for st, t in zip(strokes, T)], float)
+    T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
     todo = []
     key = _rules_key(rules, profile)
-    for k, (st, t, b) in enumerate(zip(strokes, T, beta)):
+    T = np.empty(len(strokes))          # the law durations (law_T)
+    for k, (st, t, b) in enumerate(zip(strokes, T_in.tolist(), beta.tolist())):
         memo = st.chain_T
-        if memo.seg is not None and memo.seg_T == float(t) and memo.seg_beta == float(b) and memo.seg_key == key:
-            out[k] = memo.seg
+        seg = memo.seg
+        if seg is not None and memo.seg_tin == t:
+            # asked for what its last plan was made for, its rows as they were: law_T(t)
+            # is the law duration that plan was made for (law_of reads only the rows)
+            lt = memo.seg_T
+        else:
+            lt = law_T(st, t)
+        T[k] = lt
+        if seg is not None and memo.seg_T == lt and memo.seg_beta == b and memo.seg_key == key:
+            out[k] = seg
         else:
             todo.append(k)
     # the candidate table's plan when this (T, beta) is one of the candidates (under the
@@ -1055,6 +1114,9 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     for k in todo:
         memo = strokes[k].chain_T
         memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = float(T[k]), float(beta[k]), key, out[k]
+        # (its plan's own time_t when equal, the usual case: no float kept per chain)
+        tt, t = getattr(out[k], "time_t", None), float(T_in[k])
+        memo.seg_tin = tt if tt == t else t
         _drop(strokes[k])       # its plan is made: the other candidates' knots are made again if asked
     if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
         from .pipeline import trim_heap
@@ -1199,10 +1261,35 @@ def _flat_chains(sts, profile):
     """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
     gs = [curves.geom(st, profile) for st in sts]
     caps = _chain_caps(sts, gs, profile)
-    return _Flat.of_arrays(np.concatenate([g.s_v[1:-1] for g in gs]), np.concatenate(caps),
+    return _Flat.of_arrays(_inner_s(gs), np.concatenate(caps),
                            np.array([c.size for c in caps], int),
                            np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
                            np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
+
+
+def _inner_s(gs):
+    """The interior vertices' arc lengths of the geometries gs, chain after chain: each
+    one's g.s_v[1:-1] (np.cumsum of its segment lengths d, its last sum left out).  With
+    the chain core, the sums of all chains in one piece_cumsum call over their d laid end
+    to end (the same additions in the same order, chain by chain, so the same bits: not a
+    g.s_v array made and sliced per chain, ~3 us each on ~16 k chains)."""
+    core = _chain_law.CORE_MOD
+    if core is None or not gs:
+        return np.concatenate([g.s_v[1:-1] for g in gs]) if gs else np.empty(0)
+    ds = [g.d for g in gs]
+    d = np.concatenate(ds)
+    if d.dtype != np.float64:
+        return np.concatenate([g.s_v[1:-1] for g in gs])
+    n = np.fromiter(map(len, ds), np.int64, len(ds))
+    if not n.all():                       # a chain without segments has no last sum to leave out
+        return np.concatenate([g.s_v[1:-1] for g in gs])
+    off = np.zeros(n.size + 1, np.int64)
+    np.cumsum(n, out=off[1:])
+    s = np.empty(d.size)
+    core.piece_cumsum(d, off, s)
+    keep = np.ones(d.size, bool)
+    keep[off[1:] - 1] = False             # each chain's last sum: its length, not a vertex
+    return s[keep]
 
 
 def _chain_caps(sts, gs, profile):

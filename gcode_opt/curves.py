@@ -904,15 +904,8 @@ class _Knots:
     @classmethod
     def of(cls, gs):
         """The knots of the geometries gs (CurveGeom), one row each."""
-        sv, kv = [], []
-        for g in gs:
-            blk, k = g._b, g._k
-            d = blk.d[k]
-            s_v = np.empty(d.shape[0] + 1)
-            s_v[0] = 0.0
-            np.cumsum(d, out=s_v[1:])
-            sv.append(s_v)
-            kv.append(blk.kappa_v[k])
+        sv = [g.s_v for g in gs]
+        kv = [g.kappa_v for g in gs]
         cnt = np.array([x.size for x in sv], dtype=np.int64)
         off = np.zeros(cnt.size, dtype=np.int64)
         if cnt.size:
@@ -938,8 +931,7 @@ _INTERP_ROWS = getattr(_CURVE_CORE, "interp_rows", None) if _CURVE_CORE is not N
 def _kappa_rows(geos, s, memo=None):
     """g.kappa(s[k]) for every row k (geos[k] = g): one interpolation (np.interp's compiled
     core, the same bits) per run of rows of one geometry (a stroke's candidate durations
-    are adjacent rows).  The knots (s_v, kappa_v) are made as CurveGeom's properties make
-    them (cumsum of the row's d: the same bits), without the property calls; memo (a dict,
+    are adjacent rows).  The knots are the geometry's s_v and kappa_v; memo (a dict,
     optional): id(g) -> knots, kept by the caller while geos live (candidates_curve's probe
     and figures read the same geometries again).  memo a _Knots (the rows of geos): every
     row in one compiled call (_curvecore.c interp_rows: np.interp's operations), the rows
@@ -966,16 +958,7 @@ def _kappa_rows(geos, s, memo=None):
             b += 1
         kn = None if memo is None else memo.get(id(g))
         if kn is None:
-            blk = getattr(g, "_b", None)
-            if blk is None:                 # not a CurveGeom: its own fields
-                kn = (g.s_v, g.kappa_v)
-            else:
-                k = g._k
-                d = blk.d[k]
-                s_v = np.empty(d.shape[0] + 1)
-                s_v[0] = 0.0
-                np.cumsum(d, out=s_v[1:])
-                kn = (s_v, blk.kappa_v[k])
+            kn = (g.s_v, g.kappa_v)
             if memo is not None:
                 memo[id(g)] = kn
         out[a:b] = _interp(s[a:b].ravel(), kn[0], kn[1], None, None).reshape(b - a, -1)

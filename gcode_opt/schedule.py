@@ -206,6 +206,12 @@ def _fine_1d(seg, s, v, a, f):
             and (m == n or min(x[n:m]) >= 0.0))
 
 
+# plans checked together by settle_faults: all ~16 k chains of the gyroid plate at once
+# (~40 knots each) raised the plan phase's peak RSS by ~17 MB (the flat copies, their
+# masks and the int64 running counts)
+SETTLE_CHUNK = 1024
+
+
 def settle_faults(segs):
     """seg_fault's verdict "" kept on every SegmentPlan of `segs` (None and plans with a
     verdict skipped) that passes _fine_1d's checks, made on all of them at once in flat
@@ -233,12 +239,6 @@ def settle_faults(segs):
     for a in range(0, len(todo), SETTLE_CHUNK):     # bounded memory: every check is per plan
         b = a + SETTLE_CHUNK
         _settle(todo[a:b], ss[a:b], vs[a:b], as_[a:b], fs[a:b])
-
-
-# plans checked together by settle_faults: all ~16 k chains of the gyroid plate at once
-# (~40 knots each) raised the plan phase's peak RSS by ~17 MB (the flat copies, their
-# masks and the int64 running counts)
-SETTLE_CHUNK = 1024
 
 
 def _settle(todo, ss, vs, as_, fs):

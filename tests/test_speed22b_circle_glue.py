@@ -1,7 +1,7 @@
 """Issue 8, s22 (circle): cheaper glue around the curve candidates' circle law.
 
 curves.candidates_curve reads each stroke's κ_eff once (not once per candidate and pass),
-and _kappa_rows makes a geometry's knots (s_v, kappa_v) without the property calls, once
+and _kappa_rows takes a geometry's knots (s_v, kappa_v) once
 per geometry for the probe and the figures of both passes (a memo the caller keeps).
 
 The candidate tables must be the same bits as 7712ddd's, whose code is copied below

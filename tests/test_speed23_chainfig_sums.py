@@ -59,11 +59,17 @@ def _same_plan(p, w):
     return all(_bits(getattr(p, f)) == _bits(getattr(w, f)) for f in ("s", "v", "accel", "feed", "time_t", "int_a2"))
 
 
+# the C paths under test need the chain core (a build without a compiler: the Python paths,
+# which these tests compare against, are all that runs)
+needs_core = pytest.mark.skipif(chain_law.CORE_MOD is None, reason="chain core not built")
+
+
 # ---------------------------------------------------------------- _inner_s
 def _ref_inner_s(gs):
     return np.concatenate([g.s_v[1:-1] for g in gs])
 
 
+@needs_core
 @pytest.mark.parametrize("path", FILES)
 def test_inner_s_is_each_geometrys_s_v(path, monkeypatch):
     strokes, pin, rows, prof = _chains(path, "prusa-mk3s")
@@ -175,6 +181,7 @@ class _Spy:
         return self.core.chain_finish(*a)
 
 
+@needs_core
 @pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])
 def test_finish_core_hands_the_core_what_it_did(prof_name, monkeypatch):
     """The candidate table and the plans of one column made through _finish_core: every call

@@ -1,0 +1,39 @@
+"""benchmarks/bench_command.py runs the real command on a bundled sample and reports it."""
+import importlib.util
+import os
+import re
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, "..")
+
+
+def _load():
+    spec = importlib.util.spec_from_file_location("bench_command", os.path.join(ROOT, "benchmarks", "bench_command.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_one_round_on_the_small_sample(tmp_path, capsys):
+    mod = _load()
+    mod.main([f"{ROOT}:this", "--rounds", "1", "--files", "small", "--tmp", str(tmp_path)])
+    out = capsys.readouterr().out
+    row = re.search(r"^\s+0 small\s+this\s+([\d.]+)\s+(\d+)\s+([\d.]+)\s+([\d.]+)$", out, re.M)
+    assert row, out                       # no "exit N": the command succeeded
+    cpu, rss = float(row.group(1)), float(row.group(4))
+    assert cpu > 0.05 and rss > 20.0      # a real run: interpreter, numpy, the file
+    # the command wrote the file it was asked for, a processed one
+    written = (tmp_path / "small_this.gcode").read_text(errors="replace")
+    assert "gcode-opt" in written
+    assert "small       this       CPU" in out
+
+
+def test_unknown_file_name_is_refused(capsys):
+    mod = _load()
+    try:
+        mod.main(["--files", "nosuch"])
+    except SystemExit as e:
+        assert e.code == 2
+    else:
+        raise AssertionError("accepted an unknown file name")
+    assert "unknown file 'nosuch'" in capsys.readouterr().err

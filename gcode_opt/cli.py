@@ -281,6 +281,9 @@ def _process(a, out, job, Options, Progress, process):
                    corner_budget_r=a.corners)
     opts.max_turn_deg = a.max_turn
     opts.ringing = not a.no_ringing                   # the pipeline's passes feed ringing collectors
+    # the ringing's ramp / corner / turn parts only where something reads them: the JSON, the
+    # report, --corners auto (corners.corner_share); the text summary shows the whole ringing
+    opts.ringing_parts = bool(a.json or a.report or a.corners == "auto")
     report_error = []
     pending = []
 

@@ -71,6 +71,7 @@ class Options:
         self.max_turn_deg = max_turn_deg    # polyline vertices turning <= this are inside a curve (0: no curves)
         self.reader_warnings = []           # (idx, text) the reader noted in the analyse pass
         self.ringing = True                 # resonance figures before/after in the summary (ringing.py)
+        self.ringing_parts = True           # and their ramp / corner / turn parts (the command line: where shown)
         self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
         self.peak_rss_mb = None             # process: {phase: peak RSS (MB) at its end} (--profile-time)
@@ -215,7 +216,7 @@ def analyse(path, profile: Profile, opts: Options):
     if getattr(opts, "ringing", True):
         # the original's ringing rides on this pass (streamed: bounded memory)
         from . import ringing as rg
-        ring = rg.Collector(profile)
+        ring = rg.Collector(profile, parts=getattr(opts, "ringing_parts", True))
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
 
         def on_line_both(r):
@@ -1209,7 +1210,7 @@ def _ring_collector(profile, opts):
     if getattr(opts, "ringing_before", None) is None:
         return None
     from . import ringing as rg
-    return rg.Collector(profile)
+    return rg.Collector(profile, parts=getattr(opts, "ringing_parts", True))
 
 
 def _ringing_after(written, profile, opts, ring=None, original=None):
@@ -1227,7 +1228,7 @@ def _ringing_after(written, profile, opts, ring=None, original=None):
         if original is not None and same_bytes(original, written):
             return (before, before), None
         from . import ringing as rg
-        return (before, rg.figures(written, profile)), None
+        return (before, rg.figures(written, profile, parts=getattr(opts, "ringing_parts", True))), None
     except Exception as e:          # noqa: BLE001 - the G-code output comes first
         return None, f"{type(e).__name__}: {e}"
 

@@ -289,9 +289,11 @@ def _axis_figures(tr: Trace, model: dict, name: str, shaper: str, total_t: float
 
 
 def _axis_dict(got: dict, total_t: float) -> dict:
-    """{part: (int r^2 dt, peak |r|)} -> rms / peak (micrometres) per part."""
+    """{part: (int r^2 dt, peak |r|)} -> rms / peak (micrometres) per part (those in got)."""
     d = {}
     for part in ("all",) + PARTS:
+        if part not in got:           # a Collector without the parts (parts=False)
+            continue
         i_r2, peak = got[part]
         key = "" if part == "all" else "_" + part
         d["rms" + key + "_um"] = math.sqrt(max(i_r2, 0.0) / total_t) * UM if total_t > 0 else 0.0
@@ -305,7 +307,8 @@ def _assemble(model: dict, shaper: str, total_t: float, axes: dict, smooth=None)
     # the XY error vector: RMS adds in squares; its peak is at least the larger axis'
     xy = {}
     for key in ("rms_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
-        xy[key] = math.hypot(out["x"][key], out["y"][key])
+        if key in out["x"]:
+            xy[key] = math.hypot(out["x"][key], out["y"][key])
     xy["peak_um"] = max(out["x"]["peak_um"], out["y"]["peak_um"])
     out["xy"] = xy
     if smooth is not None:
@@ -492,8 +495,13 @@ class Collector:
     with the block); the chunks are cut at the same rows as the Python rows cut them."""
 
     def __init__(self, profile=None, shaper: str | None = None, chunk_blocks: int = CHUNK_BLOCKS,
-                 model: dict | None = None):
+                 model: dict | None = None, parts: bool = True):
         self.model = model_of(profile) if model is None else model
+        # parts=False: the whole ringing only, not its ramp / corner / turn parts (6 of the 8
+        # streams: ~half a ringing pass's solve) -- for a run that shows no parts (the
+        # command line without --json, --report or --corners auto); "all"'s figures are
+        # the same bits either way (the parts read "all"'s exponentials, never the reverse)
+        self.parts = ("all",) + (PARTS if parts else ())
         self.shaper = self.model["shaper"] if shaper is None else shaper
         self.limit = ROW * max(int(chunk_blocks), 1)
         pulses = _pulses(self.model, self.shaper)
@@ -505,7 +513,7 @@ class Collector:
         parts_room = RingRoom()
         for ax, name in enumerate("xy"):
             osc = Oscillator(self.model[f"freq_{name}_hz"], self.model["damping_r"])
-            for part in ("all",) + PARTS:
+            for part in self.parts:
                 # X's stream keeps its exponentials for Y's of the same part: the two axes
                 # share most events, and their restarts start at the same events
                 memo = memos.get((osc.s, osc.wd, part))
@@ -637,7 +645,7 @@ class Collector:
         # part by part, X then Y (the streams are independent: any order gives the same
         # sums): Y takes X's exponentials of the part (RingMemo), which then go; "all"'s
         # go last (X's other parts take them too)
-        for part in ("all",) + PARTS:
+        for part in self.parts:
             for name in "xy":
                 self.streams[name, part].add(*got.pop((name, part)), horizon[name])
             if part != "all":
@@ -655,7 +663,7 @@ class Collector:
             self.rows.extend(IDLE)         # at rest 1 s after the file: the last ring-down
             self._flush(True)
             axes = {name: _axis_dict({part: self.streams[name, part].finish()
-                                      for part in ("all",) + PARTS}, self.time_t)
+                                      for part in self.parts}, self.time_t)
                     for name in "xy"}
             smooth = self.smooth.result() if self.smooth is not None else None
             self.result = _assemble(self.model, self.shaper, self.time_t, axes, smooth)
@@ -711,12 +719,12 @@ def _row_sink_type():
 USE_SINK = True           # tests turn it off: the Python rows (pend, _drain) for reference
 
 
-def figures(path, profile, shaper: str | None = None) -> dict:
+def figures(path, profile, shaper: str | None = None, parts: bool = True) -> dict:
     """Ringing figures of one file (for the summary JSON, `simulate` and the report):
     {"model": {...}, "time_s", "x": {...}, "y": {...}, "xy": {...}[, "smoothing": {...}]}
-    with rms_um / peak_um and their _ramp / _corner / _turn parts per axis.  `shaper`
+    with rms_um / peak_um and (parts) their _ramp / _corner / _turn parts per axis.  `shaper`
     overrides the profile's ("none" for the unshaped machine)."""
-    col = Collector(profile, shaper)
+    col = Collector(profile, shaper, parts=parts)
     play(path, profile, col)
     return col.figures()
 
@@ -730,10 +738,13 @@ def compare(before: dict, after: dict) -> dict:
     smoothing) and, under "x" / "y", of each axis: the summary's and the report's
     headline."""
     out = {}
+    # (the parts' keys only where both sides have them: a Collector(parts=False) has none)
     for key in ("rms_um", "peak_um", "rms_ramp_um", "rms_corner_um", "rms_turn_um"):
-        out[key] = _change(before["xy"][key], after["xy"][key])
+        if key in before["xy"] and key in after["xy"]:
+            out[key] = _change(before["xy"][key], after["xy"][key])
     for ax in "xy":
-        out[ax] = {key: _change(before[ax][key], after[ax][key]) for key in AXIS_KEYS}
+        out[ax] = {key: _change(before[ax][key], after[ax][key]) for key in AXIS_KEYS
+                   if key in before[ax] and key in after[ax]}
     if "smoothing" in before and "smoothing" in after:
         out["smoothing_rms_um"] = {"before": before["smoothing"]["rms_um"],
                                    "after": after["smoothing"]["rms_um"]}

@@ -1110,6 +1110,55 @@ static double arg_double(PyObject *o, int *bad)
     return v;
 }
 
+/* The head of a line stroke's block as pipeline._rewrite_bytes' f-string writes it,
+     f"{BEGIN}: replaces {n_lines} lines, kind={kind}, {n_segments} segments, "
+     f"T={t:.4f}s (was {t_was:.4f}s), beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}"
+   from spec = (kind, n_segments, t, t_was, beta, svl): the floats through
+   PyOS_double_to_string, which float.__format__ calls for 'f' and 'g' with a precision.
+   A PyMem buffer (the caller frees it) and its length; NULL (no exception) for a spec of
+   other types. */
+static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
+{
+    if (!PyTuple_CheckExact(spec) || PyTuple_GET_SIZE(spec) != 6)
+        return NULL;
+    PyObject *o_seg = PyTuple_GET_ITEM(spec, 1), *o_t = PyTuple_GET_ITEM(spec, 2),
+             *o_tw = PyTuple_GET_ITEM(spec, 3), *o_b = PyTuple_GET_ITEM(spec, 4);
+    Py_ssize_t kn, sn;
+    const char *kp = ascii(PyTuple_GET_ITEM(spec, 0), &kn), *sp = ascii(PyTuple_GET_ITEM(spec, 5), &sn);
+    if (!kp || !sp || !PyLong_CheckExact(o_seg) || !PyFloat_Check(o_t) || !PyFloat_Check(o_tw) || !PyFloat_Check(o_b))
+        return NULL;
+    long long n_seg = PyLong_AsLongLong(o_seg);
+    if (n_seg == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        return NULL;
+    }
+    double beta = PyFloat_AS_DOUBLE(o_b);
+    char *ft = PyOS_double_to_string(PyFloat_AS_DOUBLE(o_t), 'f', 4, 0, NULL),
+         *fw = PyOS_double_to_string(PyFloat_AS_DOUBLE(o_tw), 'f', 4, 0, NULL),
+         *fb = isfinite(beta) ? PyOS_double_to_string(beta, 'g', 4, 0, NULL) : NULL;
+    char *out = NULL;
+    if (ft && fw && (fb || !isfinite(beta))) {
+        size_t cap = strlen(ft) + strlen(fw) + (fb ? strlen(fb) : 3) + (size_t)kn + (size_t)sn + 160;
+        out = PyMem_Malloc(cap);
+        if (out != NULL) {
+            int m = snprintf(out, cap, "; gcode-opt begin: replaces %zd lines, kind=%.*s, %lld segments, "
+                             "T=%ss (was %ss), beta=%ss^2\n", n_lines, (int)kn, kp, n_seg, ft, fw, fb ? fb : "inf");
+            if (m < 0 || (size_t)m + (size_t)sn >= cap) {
+                PyMem_Free(out);
+                out = NULL;
+            } else {
+                memcpy(out + m, sp, (size_t)sn);
+                *len = m + sn;
+            }
+        }
+    }
+    PyMem_Free(ft);
+    PyMem_Free(fw);
+    PyMem_Free(fb);
+    PyErr_Clear();             /* (a failed PyOS_double_to_string: declined, no exception) */
+    return out;
+}
+
 /* stroke_block(data, start, stop, n_lines, head, closing, before, after, x0_text, y0_text, x0, y0, e0,
                 s, accels, feeds, ends_d, e_rel, extruding, ctx, accel_max_a)
    ctx = (accel_word, want, klipper, limit, min_move_d)
@@ -1120,7 +1169,9 @@ static double arg_double(PyObject *o, int *bad)
    their line end, or None) and checked as pipeline._validate's validate_block checks it
    (validate._fast_ok's passes).  The block's bytes, or None: anything else (a line not
    plain, not ASCII, a "\r", a block the column pass does not certainly pass, ...) is
-   pipeline's Python path's to decide. */
+   pipeline's Python path's to decide.
+   head may be head_text's spec tuple instead of the text; x0_text and y0_text None for
+   f"{x0:.8f}" and f"{y0:.8f}" made here (PyOS_double_to_string, as format() makes them). */
 static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 21) {
@@ -1142,30 +1193,56 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
     Pieces pc;
     memset(&pc, 0, sizeof pc);
     Txt x0 = {NULL, 0}, y0 = {NULL, 0};
-    pc.hp = ascii(args[4], &pc.hn);
+    char *own_head = NULL, *own_x0 = NULL, *own_y0 = NULL;     /* texts made here (freed at the end) */
+    if (PyTuple_CheckExact(args[4])) {
+        if ((own_head = head_text(args[4], n, &pc.hn)) == NULL)
+            Py_RETURN_NONE;
+        pc.hp = own_head;
+    } else
+        pc.hp = ascii(args[4], &pc.hn);
+    if (args[8] == Py_None && args[9] == Py_None) {
+        double xv = PyFloat_AsDouble(args[10]), yv = PyFloat_AsDouble(args[11]);
+        if (!PyErr_Occurred()) {
+            own_x0 = PyOS_double_to_string(xv, 'f', 8, 0, NULL);
+            own_y0 = PyOS_double_to_string(yv, 'f', 8, 0, NULL);
+        }
+        PyErr_Clear();
+    }
+    PyObject *res = NULL;
+    char *mem = NULL;
+    FSeq fs[4];
+    for (int i = 0; i < 4; i++)
+        memset(&fs[i], 0, sizeof fs[i]);
     pc.clp = ascii(args[5], &pc.cln);
     pc.wp = ascii(PyTuple_GET_ITEM(ctx, 0), &pc.wn);
     pc.nlp = "\n";
     pc.nln = 1;
     if (args[6] != Py_None && ((pc.bp = ascii(args[6], &pc.bn)) == NULL || (pc.ap = ascii(args[7], &pc.an)) == NULL))
-        Py_RETURN_NONE;
-    x0.p = ascii(args[8], &x0.n);
-    y0.p = ascii(args[9], &y0.n);
+        goto decline;
+    if (own_x0 != NULL && own_y0 != NULL) {
+        x0.p = own_x0;
+        x0.n = (Py_ssize_t)strlen(own_x0);
+        y0.p = own_y0;
+        y0.n = (Py_ssize_t)strlen(own_y0);
+    } else {
+        x0.p = ascii(args[8], &x0.n);
+        y0.p = ascii(args[9], &y0.n);
+    }
     PyObject *want_o = PyTuple_GET_ITEM(ctx, 1);
     Py_ssize_t wl;
     const char *wantp = ascii(want_o, &wl);
     if (!pc.hp || !pc.clp || !pc.wp || !x0.p || !y0.p || !wantp || wl != 1 || !PyFloat_CheckExact(args[12]))
-        Py_RETURN_NONE;
+        goto decline;
     /* the head line as validate._fast_ok wants it (the caller writes it: its kind is there) */
     static const char BEGIN_R[] = "; gcode-opt begin: replaces ";
     Py_ssize_t hl = 0;
     while (hl < pc.hn && pc.hp[hl] != '\n') hl++;
     if (hl == pc.hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc.hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
-        Py_RETURN_NONE;
+        goto decline;
     for (Py_ssize_t k = 0; k < hl; k++) {
         char c = pc.hp[k];
         if (c == '\r' || c == '\x0b' || c == '\x0c' || c == '\x1c' || c == '\x1d' || c == '\x1e')
-            Py_RETURN_NONE;
+            goto decline;
     }
     int bad = 0;
     double x0v = arg_double(args[10], &bad), y0v = arg_double(args[11], &bad), e0 = PyFloat_AS_DOUBLE(args[12]);
@@ -1175,19 +1252,17 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
     Py_ssize_t limit = PyLong_AsSsize_t(PyTuple_GET_ITEM(ctx, 3));
     if (bad || e_rel < 0 || extruding < 0 || klipper < 0 || (limit == -1 && PyErr_Occurred())) {
         PyErr_Clear();
-        Py_RETURN_NONE;
+        goto decline;
     }
 
     /* the lines: one allocation for their texts and the path's vertices */
-    char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
-    if (mem == NULL)
-        return PyErr_NoMemory();
+    mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
+    if (mem == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
     Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
     double *px = (double *)(cx + 4 * n), *py = px + n + 1;
-    PyObject *res = NULL;
-    FSeq fs[4];
-    for (int i = 0; i < 4; i++)
-        memset(&fs[i], 0, sizeof fs[i]);
     int dec_xy = 3, dec_e = 5, d0;
     if ((d0 = start_decimals(x0.p, x0.n)) > dec_xy) dec_xy = d0;
     if ((d0 = start_decimals(y0.p, y0.n)) > dec_xy) dec_xy = d0;
@@ -1280,6 +1355,9 @@ done:
     for (int i = 0; i < 4; i++)
         fseq_release(&fs[i]);
     PyMem_Free(mem);
+    PyMem_Free(own_head);
+    PyMem_Free(own_x0);
+    PyMem_Free(own_y0);
     return res;
 }
 

@@ -35,6 +35,7 @@ import os
 import sys
 import time
 from collections import deque
+from operator import attrgetter, itemgetter
 
 import numpy as np
 
@@ -449,6 +450,13 @@ def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digest
 _CHUNK = 1 << 20
 
 
+def _HEAD_TEXT(begin, n_lines, kind, n_segs, t, t_was, beta, svl):
+    """The head line of a line stroke's block (_block_header's text) with svl after it."""
+    return (f"{begin}: replaces {n_lines} lines, kind={kind}, {n_segs} segments, "
+            f"T={t:.4f}s (was {t_was:.4f}s), "
+            f"beta={f'{beta:.4g}' if math.isfinite(beta) else 'inf'}s^2\n{svl}")
+
+
 class _ByteLines:
     """The input read as bytes, a chunk at a time, and cut into lines as the text reading
     (newline="") cuts them: "\\n", "\\r\\n" and a lone "\\r" end a line.  A chunk never ends
@@ -523,7 +531,10 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     other stroke, or one the core declines, takes the Python path (_stroke_text,
     _stroke_block, _validate on the lines as text), as _rewrite_text does."""
     import io
-    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+    # sorted(flatnonzero(retime), key=first_idx) in rows (a stable sort: the same order, numpy ints)
+    sel = np.flatnonzero(plan.retime)
+    order = sel[np.argsort(np.fromiter(map(attrgetter("first_idx"), map(strokes.__getitem__, sel.tolist())), np.int64,
+                                       len(sel)), kind="stable")]
     out_ranges = []
     out_line = 0
     pos = 0                       # next line of the input to copy
@@ -545,6 +556,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 "S" if plain_word else ("P" if ex else "T"), klipper, limit, float(min_move_d))
            for ex in (True, False)}
     svl = "SET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO=0\n" if klipper else ""
+    head_spec = emit_mod.BEGIN == "; gcode-opt begin"     # the core's head text (else the text made here)
     closing_text = emit_mod._closing_text
     segs, betas = plan.segs, plan.beta
     beta_list = betas.tolist() if isinstance(betas, np.ndarray) else list(betas)   # Python floats: the same texts
@@ -616,16 +628,17 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                         knots, seg_a, seg_f, fc = seg._s, seg._accel, seg._feed, seg.first_cmds
                     else:
                         knots, seg_a, seg_f, fc = seg.s, seg.accel, seg.feed, getattr(seg, "first_cmds", None)
-                    # _block_header's text, as it writes it
-                    head = (f"{begin}: replaces {n_lines} lines, kind={s.kind}, {len(knots) - 1} segments, "
-                            f"T={seg.time_t:.4f}s (was {s.time_t:.4f}s), "
-                            f"beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}")
+                    # _block_header's text, as it writes it, made by the core from these
+                    # (_HEAD_TEXT, the f-string it stands for), and the start's texts too
+                    # (x0_text, y0_text None: f"{x0:.8f}", f"{y0:.8f}")
+                    head = (s.kind, len(knots) - 1, seg.time_t, s.time_t, beta, svl) if head_spec else (
+                        _HEAD_TEXT(begin, n_lines, s.kind, len(knots) - 1, seg.time_t, s.time_t, beta, svl))
                     before = after = None
                     if fc and len(knots) >= 2:
                         before, after = fc[0] + "\n", fc[1] + "\n"
                     got = block(data, a, z, n_lines, head,
                                 closing_text(flavour, accel0, extruding, mcr0, s.v_feed, "\n"), before, after,
-                                f"{x0:.8f}", f"{y0:.8f}", x0, y0, e0, knots, seg_a, seg_f, ends, s.e_rel,
+                                None, None, x0, y0, e0, knots, seg_a, seg_f, ends, s.e_rel,
                                 extruding, ctx[extruding],
                                 max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a)
                 except Exception:     # noqa: BLE001 -- the Python path below says what
@@ -901,8 +914,8 @@ def _stroke_sums(out_ranges, t, a2, v2, also=None):
     made unless also(rec) is given), or None where the Python model plays."""
     if fwsim.CORE != "c" or not hasattr(fwsim._core, "StrokeSums"):
         return None
-    lo = np.fromiter((r[0] for r in out_ranges), np.int64, len(out_ranges))
-    hi = np.fromiter((r[1] for r in out_ranges), np.int64, len(out_ranges))
+    lo = np.fromiter(map(itemgetter(0), out_ranges), np.int64, len(out_ranges))
+    hi = np.fromiter(map(itemgetter(1), out_ranges), np.int64, len(out_ranges))
     return fwsim._core.StrokeSums(lo, hi, t, a2, v2, also)
 
 
@@ -944,7 +957,42 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
 def stroke_lines(strokes, order, out_ranges):
     """First and last output line of every stroke (arrays by stroke index): a re-timed
     stroke's block, or its original lines where they were copied.  None if the ranges are
-    not in file order (then nothing can be re-measured in part)."""
+    not in file order (then nothing can be re-measured in part).
+
+    In rows (numpy, int64): the offset output line - input line before each stroke of
+    `order` is the sum of the re-timed ones' line changes before it; the same figures and
+    the same refusals as _stroke_lines_loop, which takes the odd inputs (a stroke twice in
+    out_ranges, an index out of range, no strokes)."""
+    n, m = len(strokes), len(order)
+    if not n or not m:
+        return _stroke_lines_loop(strokes, order, out_ranges)
+    rng = np.array(out_ranges, np.int64).reshape(-1, 3)
+    ra, rz, ri = rng[:, 0], rng[:, 1], rng[:, 2]
+    o = np.asarray(order, np.int64)
+    if (len(ri) and (ri.min() < 0 or ri.max() >= n or len(np.unique(ri)) != len(ri))) or o.min() < 0 or o.max() >= n:
+        return _stroke_lines_loop(strokes, order, out_ranges)
+    get_f, get_l = attrgetter("first_idx"), attrgetter("last_idx")
+    fi = np.fromiter(map(get_f, map(strokes.__getitem__, order)), np.int64, m)
+    li = np.fromiter(map(get_l, map(strokes.__getitem__, order)), np.int64, m)
+    block_a, block_z = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    has = np.zeros(n, bool)
+    block_a[ri], block_z[ri], has[ri] = ra, rz, True
+    h, ba, bz = has[o], block_a[o], block_z[o]
+    delta = np.where(h, (bz - ba) - (li - fi), 0)
+    off = np.cumsum(delta) - delta                 # the loop's off when it reaches each stroke
+    a = np.where(h, ba, fi + off)
+    z = np.where(h, bz, li + off)
+    prev = np.empty(m, np.int64)
+    prev[0], prev[1:] = -1, z[:-1]
+    if np.any(h & (ba != fi + off)) or np.any(a <= prev) or np.any(z < a):
+        return None
+    first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    first[o], last[o] = a, z
+    return first, last
+
+
+def _stroke_lines_loop(strokes, order, out_ranges):
+    """stroke_lines stroke by stroke (the code before the rows; the tests' reference)."""
     n = len(strokes)
     first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
     block = {i: (a, z) for a, z, i in out_ranges}
@@ -1051,19 +1099,21 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
 
 @contextlib.contextmanager
 def _strokes_frozen():
-    """Yields freeze(): called once the strokes are built, it moves every object then alive
-    (the strokes, the modules) out of the garbage collector's view until the job ends.
+    """Yields freeze(): called once the strokes are built (and again after each plan and
+    after the summary's rows), it moves every object then alive (the strokes, the
+    modules) out of the garbage collector's view until the job ends.
     The passes after analyse make and drop many short-lived containers; each full
     collection they trigger walked the ~10^6 long-lived objects again (gyroid plate: GC
     0.24 -> 0.14 s CPU).  Frozen objects are still freed by their reference counts; only
     a cycle among them waits for the unfreeze.  Left alone when the caller froze objects
-    already (gc.unfreeze would thaw those too)."""
+    already (gc.unfreeze would thaw those too).  freeze() may be called again: each call
+    freezes what is alive then (see _young_frozen)."""
     import gc
     mine = gc.get_freeze_count() == 0
     done = []
 
     def freeze():
-        if mine and not done:
+        if mine:
             gc.freeze()
             done.append(True)
     try:
@@ -1071,6 +1121,25 @@ def _strokes_frozen():
     finally:
         if done:
             gc.unfreeze()
+
+
+@contextlib.contextmanager
+def _young_frozen(freeze):
+    """The collector off for a stretch that makes many objects that live on and no cycles
+    (analyse's strokes, the summary's rows), then freeze() (_strokes_frozen) before it is
+    on again: the objects made while it was off are all in the youngest generation, and
+    the first collection after it walked them all (~0.06 s after analyse, ~0.015 s after
+    the summary on the rectilinear plate).  Without freeze (None) nothing is changed."""
+    import gc
+    off = freeze is not None and gc.isenabled()
+    if off:
+        gc.disable()
+    try:
+        yield
+    finally:
+        if off:
+            freeze()
+            gc.enable()
 
 
 def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=None, freeze=None):
@@ -1081,9 +1150,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     prog = opts.progress
     if prog:
         prog.start("analyse")
-    strokes, sim0 = analyse(in_path, profile, opts)
-    if freeze is not None:
-        freeze()
+    with _young_frozen(freeze):      # (analyse leaves the collector off then: its strokes are frozen)
+        strokes, sim0 = analyse(in_path, profile, opts)
     timing.lap("analyse")
     if sim0.n_moves == 0:
         if prog:
@@ -1099,10 +1167,14 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # last word.  If the written file overruns the budget, plan once more with the
             # overrun taken off (one more rewrite; the firmware model plays again only the
             # stretches around the blocks that changed: remeasure).
-            order = sorted(range(len(strokes)), key=lambda i: strokes[i].first_idx)
+            # (a stable sort by first line: sorted(range(n), key=first_idx)'s order)
+            order = np.argsort(np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, len(strokes)),
+                               kind="stable").tolist()
             first = None              # the first pass: _FirstPass
             for pass_i in range(2):
                 plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+                if freeze is not None:     # the plan's objects too: rewrite's collections walked them
+                    freeze()               # (rectilinear plate: a full collection there, ~0.03 s)
                 trim_heap()           # planning's freed temporaries: rewrite and measure grow on live memory only
                 timing.lap("plan")
                 if prog:
@@ -1149,7 +1221,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                                     first.out_ranges, first.figures, out_ranges, opts)
                 ring_after = None     # the written file's ringing, when this pass played all of it
                 if got is None:
-                    watch = None if lines is None or pass_i else [(int(lines[0][i]), int(lines[1][i])) for i in order]
+                    watch = None if lines is None or pass_i else list(zip(lines[0][order].tolist(),
+                                                                          lines[1][order].tolist()))
                     ring = _ring_collector(profile, opts)
                     got = measure(tmp, profile, out_ranges, opts, watch, ring)
                     ring_after = ring
@@ -1181,8 +1254,9 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
             timing.lap("ringing")
             from .summary import build_summary
-            summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0, sim1,
-                                    out_ranges, t1, a21, v21, time.monotonic() - t_start, ringing=ringing)
+            with _young_frozen(freeze):      # (~70 k rows' dicts: frozen, not walked by the next collection)
+                summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0,
+                                        sim1, out_ranges, t1, a21, v21, time.monotonic() - t_start, ringing=ringing)
             if ringing_error:
                 summary["ringing_error"] = ringing_error
             timing.lap("summary")
@@ -1257,9 +1331,20 @@ DEPART_R, DEPART_T = 1.5, 0.05     # a re-timed stroke the model plays > 1.5 x i
 def _departures(plan, out_ranges, t1):
     """Strokes whose measured time in the written file is far from their plan's: the
     segments did not make the firmware follow the law (seen on a purge line whose first
-    segment's acceleration the firmware could not use)."""
+    segment's acceleration the firmware could not use).  In rows where both are float64
+    arrays (the same double operations on the same values as the loop)."""
+    t_pred = plan.t_pred
+    n = len(out_ranges)
+    if (n and type(t_pred) is np.ndarray and type(t1) is np.ndarray and t_pred.dtype == np.float64
+            and t1.dtype == np.float64 and t1.ndim == 1 and len(t1) >= n):
+        ii = np.fromiter(map(_THIRD, out_ranges), np.int64, n)
+        hit = np.flatnonzero(t1[:n] > DEPART_R * t_pred[ii] + DEPART_T)
+        return [out_ranges[k][2] for k in hit.tolist()]
     return [i for k, (_, _, i) in enumerate(out_ranges)
-            if t1[k] > DEPART_R * plan.t_pred[i] + DEPART_T]
+            if t1[k] > DEPART_R * t_pred[i] + DEPART_T]
+
+
+_THIRD = itemgetter(2)
 
 
 class _Timing:

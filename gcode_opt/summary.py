@@ -6,7 +6,7 @@ import gc
 import math
 import os
 from collections import Counter
-from operator import attrgetter
+from operator import attrgetter, itemgetter
 
 import numpy as np
 
@@ -64,7 +64,7 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
         g["int_a2"] += float(a2)
         g["time_s"] += float(t)
 
-    reasons = np.array([str(r) for r in plan.reason[:n]], dtype=object)
+    reasons = np.array(list(map(str, plan.reason[:n])), dtype=object)
     for r in sorted(set(reasons[~retimed])):
         m = (reasons == r) & ~retimed
         add(r or "not planned", m.sum(), "strokes", I0[m].sum(), T0[m].sum())
@@ -72,14 +72,11 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
-        feats = np.array([s.feature for s in strokes], dtype=object)
-        cand_moves = {}                                           # the candidates' moves by feature
-        for s in strokes:
-            f = s.feature
-            cand_moves[f] = cand_moves.get(f, 0) + s.n_moves
+        feats = np.array(list(map(attrgetter("feature"), strokes)), dtype=object)
+        nm = _n_moves(strokes)                                    # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):
             m = feats == f                                        # candidates of this feature
-            moves -= cand_moves.get(f, 0)
+            moves -= int(nm[m].sum())                             # (integers: the loop's sum)
             t, a2 = t - float(T0[m].sum()), a2 - float(I0[m].sum())
             if moves <= 0 and t <= 1e-9 * total_t:
                 continue
@@ -121,10 +118,11 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
                   out_ranges, t_after, a2_after, v2_after, elapsed_t, ringing=None):
     """ringing: None, or (before, after) ringing figure dicts (the firmware-model passes over
     the original and the written file fed ringing.Collector): the summary's "ringing" key."""
-    idx = np.array([r[2] for r in out_ranges], dtype=int)
+    idx = np.fromiter(map(itemgetter(2), out_ranges), int, len(out_ranges))
+    idx_list = idx.tolist()
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
-    V0 = np.array([strokes[i].int_v2 for i in idx]) if len(idx) else np.zeros(0)
+    V0 = np.array(list(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)))) if len(idx) else np.zeros(0)
     # the rows built column by column on Python floats (tolist: the arrays' values) rather
     # than numpy scalars: the same numbers, the same sums in the same order
     per_stroke = []
@@ -132,7 +130,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
     try:
-        _per_stroke_rows(idx.tolist(), [r[0] for r in out_ranges], T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
+        _per_stroke_rows(idx_list, list(map(itemgetter(0), out_ranges)), T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
                          plan.I_law[idx].tolist(), np.asarray(t_after).tolist(), np.asarray(a2_after).tolist(),
                          plan.beta[idx].tolist(), strokes, per_stroke, by_kind)
     finally:
@@ -141,7 +139,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     for g in by_kind.values():
         g["int_a2"]["change"] = _ratio(g["int_a2"]["after"], g["int_a2"]["before"])
         g["time_s"]["change"] = _ratio(g["time_s"]["after"], g["time_s"]["before"])
-    reasons = Counter(str(r) for r in plan.reason)
+    reasons = Counter(map(str, plan.reason))
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
     lines_before = count_lines(in_path)
@@ -219,6 +217,16 @@ def round_list(vals, nd):
 _FLOAT_ONLY = {float}
 
 
+def _n_moves(strokes):
+    """Every stroke's n_moves, an int64 array (Stroke's from its lines in rows; another
+    kind of stroke: its own n_moves)."""
+    n = len(strokes)
+    if all(type(s) is Stroke for s in strokes):
+        return (np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n)
+                - np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n) + 1)
+    return np.fromiter((s.n_moves for s in strokes), np.int64, n)
+
+
 def _kind_of(s):
     return getattr(s, "kind", "line")
 
@@ -228,7 +236,7 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
     order of idx (lists of Python floats by row).  Each column is made in one pass (map:
     the same round() of each value); the rows then zip them.  By kind, each sum is the
     additions of the old row-by-row loop in the same order."""
-    ss = [strokes[i] for i in idx]
+    ss = list(map(strokes.__getitem__, idx))
     kinds = list(map(_kind_of, ss))
     get = attrgetter
     r4 = round_list(list(map(get("length_d"), ss)), 4)
@@ -247,8 +255,33 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
         for s, nm, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
         in zip(ss, n_moves, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
     # by kind: the old row-by-row loop's additions, as it wrote them (the same `+=` on the
-    # same floats in the same order: NaN and inf sums too keep their bits)
-    for kind, x0, xl, x1, y0, yl, y1 in zip(kinds, t0, t_law, t1, i0, i_law, a21):
+    # same floats in the same order: NaN and inf sums too keep their bits): in rows, each
+    # sum an add.accumulate (a strictly sequential sum) from the total so far over the
+    # kind's values in row order
+    cols = (t0, t_law, t1, i0, i_law, a21)
+    n = len(kinds)
+    if n < 64 or any(len(c) != n for c in cols) or any(set(map(type, c)) != _FLOAT_ONLY for c in cols):
+        _by_kind_loop(kinds, cols, by_kind)
+        return
+    kind_arr = np.array(kinds, dtype=object)
+    arrs = [np.array(c, dtype=float) for c in cols]
+    for kind in dict.fromkeys(kinds):            # (the kinds in the order of their first row)
+        g = by_kind.get(kind)
+        if g is None:
+            g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
+                                 "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}}
+        m = kind_arr == kind
+        g["retimed"] += int(m.sum())
+        gt, ga = g["time_s"], g["int_a2"]
+        for d, key, x in ((gt, "before", arrs[0]), (gt, "law", arrs[1]), (gt, "after", arrs[2]),
+                          (ga, "before", arrs[3]), (ga, "law", arrs[4]), (ga, "after", arrs[5])):
+            d[key] = float(np.add.accumulate(np.concatenate(([d[key]], x[m])))[-1])
+
+
+def _by_kind_loop(kinds, cols, by_kind):
+    """_per_stroke_rows' by-kind sums row by row (the code before the rows: short or odd
+    columns, and the tests' reference)."""
+    for kind, x0, xl, x1, y0, yl, y1 in zip(kinds, *cols):
         g = by_kind.get(kind)
         if g is None:
             g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},

@@ -518,6 +518,14 @@ class InteriorSpeeds:
             setattr(out, f, getattr(self, f)[rows])
         return out
 
+    @staticmethod
+    def concat(parts):
+        """The laws of several InteriorSpeeds, one after the other (their constants joined)."""
+        out = object.__new__(InteriorSpeeds)
+        for f in ("T", "wbar", "delta", "A", "rho"):
+            setattr(out, f, np.concatenate([getattr(p, f) for p in parts]))
+        return out
+
     def __call__(self, beta):
         """interior_speed at beta."""
         T, wbar, delta, A, rho = self.T, self.wbar, self.delta, self.A, self.rho
@@ -525,14 +533,17 @@ class InteriorSpeeds:
         out = np.empty(gamma.shape)
         small = gamma < GAMMA_SWITCH
         ns = int(np.count_nonzero(small))
-        for branch, is_small in ((small, True), (~small, False)):
+        for is_small in (True, False):
             cnt = ns if is_small else gamma.size - ns
             if cnt == 0:
                 continue
             if cnt == gamma.size:                  # one branch: no gather/scatter
                 g_, T_, wbar_, d_, A_, rho_ = gamma, T, wbar, delta, A, rho
             else:
-                g_, T_, wbar_, d_, A_, rho_ = (a[branch] for a in (gamma, T, wbar, delta, A, rho))
+                # the branch's elements by index (taken, put back): the same values as by
+                # the boolean mask, without its search of the mask for each of six arrays
+                branch = np.flatnonzero(small if is_small else ~small)
+                g_, T_, wbar_, d_, A_, rho_ = (a.take(branch) for a in (gamma, T, wbar, delta, A, rho))
             if is_small:
                 n = _horner(_N_COEF, g_ * g_)
                 sh2 = _shc(g_ / 2)

@@ -130,12 +130,24 @@ class Candidates:
         stroke as failed: nothing non-finite is chosen)."""
         t, b, i, ke = (np.asarray(x, float) for x in tables)
         with np.errstate(invalid="ignore"):
-            bad = ~np.isfinite(t) | np.isnan(b) | np.isnan(i) | (np.isfinite(i) & ~np.isfinite(ke))
+            t_finite = np.isfinite(t)
+            bad = ~t_finite | np.isnan(b) | np.isnan(i) | (np.isfinite(i) & ~np.isfinite(ke))
             bad_row = bad.any(axis=1)             # the caller drops the whole row (failed)
             mask = np.isfinite(i) & ~bad & ~bad_row[:, None]
-            t_fill = T_orig[sub, None] * T_RATIOS[None, :]
-            t_pos = (np.where(np.isfinite(t), t, t_fill) >= 0.0).all(axis=1)
-        return sub, mask, np.stack([t[mask], b[mask], i[mask], ke[mask]]), t_pos, bad_row
+            del bad
+            if t_finite.all():                    # (every T finite: the fill below is never taken)
+                t_pos = (t >= 0.0).all(axis=1)
+            else:
+                t_fill = T_orig[sub, None] * T_RATIOS[None, :]
+                t_pos = (np.where(t_finite, t, t_fill) >= 0.0).all(axis=1)
+        # the feasible entries straight into their rows (np.compress: mask's True entries in
+        # row-major order, as t[mask]), not four copies stacked (~24 MB at once on the
+        # rectilinear plate's lines, beside the dense tables)
+        keep = mask.ravel()
+        vals = np.empty((4, int(np.count_nonzero(keep))))
+        for row, x in zip(vals, (t, b, i, ke)):
+            np.compress(keep, np.ascontiguousarray(x).ravel(), out=row)
+        return sub, mask, vals, t_pos, bad_row
 
     @classmethod
     def of_pieces(cls, n, pieces, T_orig):

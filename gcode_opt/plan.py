@@ -298,7 +298,7 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
             q = p.take(rows)
             tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
             for o, piece in zip(out, tables):
-                o[rows] = piece
+                o[rows[0]:rows[-1] + 1] = piece      # (a run of rows: a slice, not an index)
     return tuple(out)
 
 

@@ -417,7 +417,7 @@ def _beta_prep(L, T, v0, v1, v_cap):
     cap = v_cap * (1 + SPEED_TOL_R)
     v_end = np.maximum(*end_speeds(L, T, v0, v1))
     speeds = InteriorSpeeds(L, T, v0, v1)
-    v_crit = speeds(np.full(T.shape, np.inf))
+    v_crit = speeds.cubic()                   # speeds(inf), the same bits
     b = np.flatnonzero(~(np.maximum(v_end, v_crit) <= cap))
     return v_crit, b, T[b], cap[b], v_end[b], speeds.take(b)
 

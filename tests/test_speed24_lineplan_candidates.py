@@ -199,3 +199,24 @@ def test_interior_speeds_concat_and_take():
     assert np.array_equal(_bits(sp(beta)), _bits(interior_speed(L, T, beta, v0, v1)))
     b = np.flatnonzero(rng.random(n) < 0.4)
     assert np.array_equal(_bits(sp.take(b)(beta[b])), _bits(interior_speed(L[b], T[b], beta[b], v0[b], v1[b])))
+
+
+def test_cubic_interior_speeds_same_bits():
+    """InteriorSpeeds.cubic() is interior_speed at beta = inf (the reference: the general
+    function, untouched): ordinary laws, A = 0 with delta = 0 (-delta/A NaN), A = 0 alone
+    (+-inf), a speed through 0 (|r| >= 1 cannot occur at gamma = 0, r is +-0 or NaN)."""
+    rng = np.random.default_rng(9)
+    n = 50000
+    L = rng.uniform(0.01, 100.0, n)
+    T = L / rng.uniform(2.0, 400.0, n)
+    v0 = rng.uniform(0.0, 250.0, n) * (rng.random(n) < 0.8)
+    v1 = rng.uniform(0.0, 250.0, n) * (rng.random(n) < 0.7)
+    v0[40:60] = v1[40:60] = L[40:60] / T[40:60]
+    L[60:80] = T[60:80] * (v0[60:80] + v1[60:80]) / 2          # A = 0 exactly
+    v0[80:100], v1[80:100] = 0.0, 3 * L[80:100] / T[80:100]
+    want = interior_speed(L, T, np.inf, v0, v1)
+    sp = InteriorSpeeds(L, T, v0, v1)
+    assert np.array_equal(_bits(sp.cubic()), _bits(want))
+    assert np.array_equal(_bits(sp.cubic()), _bits(sp(np.full(n, np.inf))))
+    b = np.flatnonzero(rng.random(n) < 0.3)
+    assert np.array_equal(_bits(sp.take(b).cubic()), _bits(want[b]))

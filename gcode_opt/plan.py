@@ -130,12 +130,24 @@ class Candidates:
         stroke as failed: nothing non-finite is chosen)."""
         t, b, i, ke = (np.asarray(x, float) for x in tables)
         with np.errstate(invalid="ignore"):
-            bad = ~np.isfinite(t) | np.isnan(b) | np.isnan(i) | (np.isfinite(i) & ~np.isfinite(ke))
+            t_finite = np.isfinite(t)
+            bad = ~t_finite | np.isnan(b) | np.isnan(i) | (np.isfinite(i) & ~np.isfinite(ke))
             bad_row = bad.any(axis=1)             # the caller drops the whole row (failed)
             mask = np.isfinite(i) & ~bad & ~bad_row[:, None]
-            t_fill = T_orig[sub, None] * T_RATIOS[None, :]
-            t_pos = (np.where(np.isfinite(t), t, t_fill) >= 0.0).all(axis=1)
-        return sub, mask, np.stack([t[mask], b[mask], i[mask], ke[mask]]), t_pos, bad_row
+            del bad
+            if t_finite.all():                    # (every T finite: the fill below is never taken)
+                t_pos = (t >= 0.0).all(axis=1)
+            else:
+                t_fill = T_orig[sub, None] * T_RATIOS[None, :]
+                t_pos = (np.where(t_finite, t, t_fill) >= 0.0).all(axis=1)
+        # the feasible entries straight into their rows (np.compress: mask's True entries in
+        # row-major order, as t[mask]), not four copies stacked (~24 MB at once on the
+        # rectilinear plate's lines, beside the dense tables)
+        keep = mask.ravel()
+        vals = np.empty((4, int(np.count_nonzero(keep))))
+        for row, x in zip(vals, (t, b, i, ke)):
+            np.compress(keep, np.ascontiguousarray(x).ravel(), out=row)
+        return sub, mask, vals, t_pos, bad_row
 
     @classmethod
     def of_pieces(cls, n, pieces, T_orig):
@@ -266,46 +278,87 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
     law with that T meets the limits).  Returns (T, beta, I, KE) of shape (n, k).
 
     Computed `chunk` strokes at a time: every step is per candidate, so the tables are
-    the same as in one piece, and the temporaries stay a few MB whatever the file."""
+    the same as in one piece, and the temporaries stay a few MB whatever the file.  The
+    bisections on beta (_beta_bisect) are made BISECT_CHUNKS chunks at a time (each entry
+    its own steps, elementwise: the same bits) in numpy calls that many times larger than
+    a chunk's (~1.7 k entries a chunk on the rectilinear plate, where the calls' overhead
+    was half the bisection's time).  Between the two passes a chunk keeps its live
+    entries' positions and interior speeds (12 bytes an entry, ~0.3 MB a chunk there; all
+    chunks at once held 8 MB, and the plan's peak RSS grew by ~5 MB)."""
     n = len(p.L)
     if n <= chunk:
         return _candidates_auto(p)
     out = [np.empty((n, len(T_RATIOS))) for _ in range(4)]
-    for a in range(0, n, chunk):
-        rows = np.arange(a, min(a + chunk, n))
-        for o, piece in zip(out, _candidates_auto(p.take(rows))):
-            o[rows] = piece
+    step = chunk * BISECT_CHUNKS
+    for a0 in range(0, n, step):
+        chunks = [np.arange(a, min(a + chunk, n)) for a in range(a0, min(a0 + step, n), chunk)]
+        live = [_live_entries(p.take(rows)) for rows in chunks]
+        betas = _beta_bisect([lv[1] for lv in live if lv is not None])
+        for rows, lv in zip(chunks, live):
+            q = p.take(rows)
+            tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
+            for o, piece in zip(out, tables):
+                o[rows[0]:rows[-1] + 1] = piece      # (a run of rows: a slice, not an index)
     return tuple(out)
+
+
+BISECT_CHUNKS = 8       # candidates_auto: chunks whose bisections are made at once
 
 
 def _candidates_auto(p: PlanInput):
     """_candidates_dense's tables, computed only where a law can be within limits: a
     candidate shorter than the stroke's t_seg_min is infeasible whatever its beta (~78 %
-    of the gyroid plate's), so neither its beta, its law nor its figures are made; its
-    entries are I = inf, beta = inf, KE = nan (the allocation reads only the feasible
-    ones: Candidates keeps those).  Every feasible entry's T, beta, I and KE, and which
-    are feasible, are _candidates_dense's, bit for bit: every step is elementwise
-    (tests/test_speed22_budget_candidates.py).  Inputs on which _candidates_dense could
+    of the gyroid plate's), and so is one whose length is out of reach (out_of_reach:
+    a quarter of the rectilinear plate's others), so neither its beta, its law nor its
+    figures are made; its entries are I = inf, beta = inf, KE = nan (the allocation reads
+    only the feasible ones: Candidates keeps those).  Every feasible entry's T, beta, I
+    and KE, and which are feasible, are _candidates_dense's, bit for bit: every step is
+    elementwise (tests/test_speed22_budget_candidates.py,
+    tests/test_speed24_lineplan_candidates.py).  Inputs on which _candidates_dense could
     raise (a duration not finite and > 0, a length or end speed not finite, a beta the
     bisection tries underflowing to 0) go to _candidates_dense itself."""
+    lv = _live_entries(p)
+    if lv is None:
+        return _candidates_dense(p)
+    return _live_tables(p, lv[0], *next(_beta_bisect([lv[1]])))
+
+
+def _live_entries(p: PlanInput):
+    """A chunk's live entries, before the bisection: (flat positions in the (n, k)
+    tables (int32), _beta_prep's state), or None where the inputs are not plain (see
+    _candidates_auto)."""
     T = p.T_orig[:, None] * T_RATIOS[None, :]
-    shape = T.shape
     with np.errstate(all="ignore"):
         plain = (np.isfinite(T).all() and bool((T > 0).all()) and np.isfinite(p.L).all()
                  and np.isfinite(p.v0).all() and np.isfinite(p.v1).all()
                  and bool(((T / (2.0 * GAMMA_HI)) ** 2 > 0.0).all()))
     if not plain:
-        return _candidates_dense(p)
-    live = T >= p.t_seg_min[:, None]
+        return None
+    flat = np.flatnonzero(T >= p.t_seg_min[:, None])
+    r = flat // T.shape[1]
+    Tq = T.ravel()[flat]
+    L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
+    # entries no law can meet (a quarter of a plate's live ones, two thirds of those the
+    # bisection would take) are infeasible whatever beta: left as the others above
+    reach = ~out_of_reach(L, Tq, v0, v1, v_cap, a_cap)
+    if not reach.all():
+        flat, Tq, L, v0, v1, v_cap = (x[reach] for x in (flat, Tq, L, v0, v1, v_cap))
+    return flat.astype(np.int32), _beta_prep(L, Tq, v0, v1, v_cap)
+
+
+def _live_tables(p: PlanInput, flat, bq, v_crit):
+    """The (T, beta, I, KE) tables of the chunk p from its live entries (flat positions)
+    and their beta and interior speed (_beta_bisect)."""
+    T = p.T_orig[:, None] * T_RATIOS[None, :]
+    shape = T.shape
     beta = np.full(shape, np.inf)
     I = np.full(shape, np.inf)
     KE = np.full(shape, np.nan)
-    if not live.any():
+    if not flat.size:
         return T, beta, I, KE
-    r, c = np.nonzero(live)
-    Tq = T[r, c]
+    r = flat // shape[1]
+    Tq = T.ravel()[flat]
     L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
-    bq, v_crit = _largest_beta_plain(L, Tq, v0, v1, v_cap)
     law = line_law(L, Tq, bq, v0, v1)
     # _feasible(law, v_cap, a_cap) (T >= t_seg_min: every live entry), its speeds at the
     # ends and at the interior extremum those the law's _speed_candidates gives (end_speeds,
@@ -314,10 +367,38 @@ def _candidates_auto(p: PlanInput):
     ok = ((np.maximum.reduce(speeds) <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))
           & (np.minimum.reduce(speeds) >= -1e-9 * (1 + v_cap)))
     KEq, Iq = law.integrals()
-    beta[r, c] = bq
-    I[r, c] = np.where(ok, Iq, np.inf)
-    KE[r, c] = KEq
+    beta.ravel()[flat] = bq
+    I.ravel()[flat] = np.where(ok, Iq, np.inf)
+    KE.ravel()[flat] = KEq
     return T, beta, I, KE
+
+
+REACH_TOL_R = 1e-6     # out_of_reach's margins: far above the rounding of the law's figures (~1e-15)
+
+
+def out_of_reach(L, T, v0, v1, v_cap, a_cap):
+    """Which strokes (elementwise) no law of duration T can take within the caps: length
+    L beyond the farthest any motion from v0 to v1 in T goes with speed <= v_cap and |a|
+    <= a_cap (ramp up at a_cap, cruise at v_cap, ramp down: a trapezoid, or a triangle
+    when there is no time to reach v_cap).  A law is such a motion: it covers L exactly,
+    its peak |a| is at an end (LineLaw.peak_accel) and its peak speed at an end or at its
+    one interior extremum, the values _feasible compares.  So where L exceeds that reach
+    by a clear margin, _feasible fails for every beta: the speed or the acceleration
+    computed is over its cap (with SPEED_TOL_R), whatever the rounding (~1e-15 of those
+    figures, against the margins of REACH_TOL_R).  False wherever the bound does not
+    apply (an end speed over the cap or below 0, an end-speed change beyond a_cap T) or
+    an input is not finite: those entries are computed as before."""
+    with np.errstate(all="ignore"):
+        v_top = v_cap * (1 + SPEED_TOL_R) * (1 + REACH_TOL_R)
+        a_top = a_cap * (1 + SPEED_TOL_R) * (1 + REACH_TOL_R)
+        up_t, down_t = (v_top - v0) / a_top, (v_top - v1) / a_top
+        trapezoid_d = v_top * T - (v_top - v0) ** 2 / (2 * a_top) - (v_top - v1) ** 2 / (2 * a_top)
+        v_peak = (a_top * T + v0 + v1) / 2
+        triangle_d = (v_peak * v_peak - v0 * v0) / (2 * a_top) + (v_peak * v_peak - v1 * v1) / (2 * a_top)
+        reach_d = np.where(up_t + down_t <= T, trapezoid_d, triangle_d)
+        bound = ((v0 >= 0) & (v1 >= 0) & (v0 <= v_top) & (v1 <= v_top) & (np.abs(v1 - v0) <= a_top * T)
+                 & np.isfinite(reach_d) & np.isfinite(L) & np.isfinite(v_top * T))
+        return bound & (L - reach_d > REACH_TOL_R * (L + v_top * T))
 
 
 def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
@@ -327,28 +408,48 @@ def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
     bisection, the same bits, with what does not depend on beta made once
     (laws/line.InteriorSpeeds) and the laws whose cubic is under the cap left out."""
     L, T, v0, v1, v_cap = (np.asarray(a, float) for a in (L, T, v0, v1, v_cap))
+    return next(_beta_bisect([_beta_prep(L, T, v0, v1, v_cap)], iters))
+
+
+def _beta_prep(L, T, v0, v1, v_cap):
+    """_largest_beta_plain up to its bisection: (v_crit at beta = inf, the rows b whose
+    cubic is over the cap, their T, cap, end speed and InteriorSpeeds)."""
     cap = v_cap * (1 + SPEED_TOL_R)
     v_end = np.maximum(*end_speeds(L, T, v0, v1))
     speeds = InteriorSpeeds(L, T, v0, v1)
-    v_crit = speeds(np.full(T.shape, np.inf))
-    cubic_ok = np.maximum(v_end, v_crit) <= cap
-    b = np.flatnonzero(~cubic_ok)
-    out = np.full(T.shape, np.inf)
-    if b.size == 0:
-        return out, v_crit
-    Tb, capb, v_endb, speeds = T[b], cap[b], v_end[b], speeds.take(b)
-    lo = np.full(b.shape, np.log(GAMMA_LO))
-    hi = np.full_like(lo, np.log(GAMMA_HI))
-    for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        g = np.exp(mid)
-        ok = np.maximum(v_endb, speeds((Tb / g) ** 2)) <= capb
-        hi = np.where(ok, mid, hi)
-        lo = np.where(ok, lo, mid)
-    gamma = np.exp(hi)
-    out[b] = (Tb / gamma) ** 2
-    v_crit[b] = speeds(out[b])
-    return out, v_crit
+    v_crit = speeds.cubic()                   # speeds(inf), the same bits
+    b = np.flatnonzero(~(np.maximum(v_end, v_crit) <= cap))
+    return v_crit, b, T[b], cap[b], v_end[b], speeds.take(b)
+
+
+def _beta_bisect(preps, iters=32):
+    """(beta, v_crit) of each _beta_prep state, in turn (an iterator): the bisections of
+    all their rows b at once (each row its own steps, elementwise: the same bits as one
+    state at a time); a row left out (cubic under the cap) has beta = inf."""
+    sizes = [pr[1].size for pr in preps]
+    if sum(sizes):
+        Tb, capb, v_endb = (np.concatenate([pr[k] for pr in preps]) for k in (2, 3, 4))
+        speeds = InteriorSpeeds.concat([pr[5] for pr in preps])
+        lo = np.full(Tb.shape, np.log(GAMMA_LO))
+        hi = np.full_like(lo, np.log(GAMMA_HI))
+        for _ in range(iters):
+            mid = 0.5 * (lo + hi)
+            g = np.exp(mid)
+            ok = np.maximum(v_endb, speeds((Tb / g) ** 2)) <= capb
+            hi = np.where(ok, mid, hi)
+            lo = np.where(ok, lo, mid)
+        gamma = np.exp(hi)
+        beta_b = (Tb / gamma) ** 2
+        v_crit_b = speeds(beta_b)
+    at = 0
+    for pr, m in zip(preps, sizes):
+        v_crit, b = pr[0], pr[1]
+        out = np.full(v_crit.shape, np.inf)
+        if m:
+            out[b] = beta_b[at:at + m]
+            v_crit[b] = v_crit_b[at:at + m]
+            at += m
+        yield out, v_crit
 
 
 def _candidates_dense(p: PlanInput):

@@ -33,17 +33,21 @@ def segment_count(T, L, n_max, t_seg_min_t, min_seg_d=MIN_SEG_D):
     return max(n, 0)
 
 
-def law_knots(strokes, T, beta, n):
+def law_knots(strokes, T, beta, n, views=True):
     """Knots of many strokes at once (one vectorised law evaluation): for stroke i, the
     distances s (mm) and speeds v (mm/s) at n_i + 1 instants evenly spaced in time, plus
     every interior original vertex (law knots too close to a vertex dropped), with
-    s_0 = 0, s_K = L and the end speeds exact.  Returns a list of (s, v)."""
+    s_0 = 0, s_K = L and the end speeds exact.  Returns a list of (s, v).
+
+    views=False: the strokes of one move (rows of the blocks) are None in the list, and
+    _Knots.at(i) gives their (s, v) (plan_segments: ~95 % of a plate's strokes are planned
+    from the blocks themselves, whose rows' views, ~1.3 µs a stroke, were not read)."""
     m = len(strokes)
     if m == 0:
         return []
     multi, blocks = _law_knot_blocks(strokes, T, beta, n)
     out = _Knots([None]) * m
-    for g, s, v in blocks:              # each stroke's s and v: its rows of the blocks
+    for g, s, v in blocks if views else ():     # each stroke's s and v: its rows of the blocks
         for i, sr, vr in zip(g.tolist(), s, v):
             out[i] = (sr, vr)
     for i, sv in multi.items():
@@ -56,12 +60,32 @@ class _Knots(list):
     """law_knots' list of (s, v), with the blocks its strokes of one move are rows of:
     blocks [(rows, S, V)], out[rows[q]] == (S[q], V[q]) (_finish_jerk_rows takes them as
     they are instead of stacking the rows again).  A list like any other."""
-    __slots__ = ("blocks",)
+    __slots__ = ("blocks", "_where")
 
     def __mul__(self, k):
         out = _Knots(list.__mul__(self, k))
         out.blocks = ()
+        out._where = None
         return out
+
+    def at(self, i):
+        """Stroke i's (s, v): its entry, or where that is None (law_knots(views=False)),
+        its rows of the blocks (the views law_knots would have put there)."""
+        got = self[i]
+        if got is not None or not self.blocks:
+            return got
+        if self._where is None:            # block and row of each stroke, made once
+            blk = np.full(len(self), -1)
+            row = np.zeros(len(self), int)
+            for b, (g, _, _) in enumerate(self.blocks):
+                blk[g], row[g] = b, np.arange(g.size)
+            self._where = blk.tolist(), row.tolist()
+        b = self._where[0][i]
+        if b < 0:
+            return got
+        _, S, V = self.blocks[b]
+        r = self._where[1][i]
+        return S[r], V[r]
 
 
 def _law_knot_blocks(strokes, T, beta, n):
@@ -421,14 +445,15 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     for a in range(0, ok.size, KNOT_CHUNK):       # bounded memory; every step is per stroke
         rows = ok[a:a + KNOT_CHUNK]
         sts = [strokes[i] for i in rows]
-        knots = law_knots(sts, T[rows], beta[rows], n[rows])
+        knots = law_knots(sts, T[rows], beta[rows], n[rows], views=False)
         fast = _finish_jerk_rows(sts, knots, rules)
         pending = []
-        for i, st, (sk, vk), got in zip(rows.tolist(), sts, knots, fast):
+        for q, (i, got) in enumerate(zip(rows.tolist(), fast)):
             if got is not None:                   # made by the rows' path
                 plans[i] = got
                 continue
-            got = _finish(st, sk, vk, rules, defer=True)
+            sk, vk = knots.at(q)
+            got = _finish(sts[q], sk, vk, rules, defer=True)
             if got is not None:
                 pending.append((i, got))
         for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
@@ -584,13 +609,21 @@ def _finish_jerk_rows(strokes, knots, rules):
                 for k, plan in zip(*got):
                     out[qs[k]] = plan
     by_k = {}
-    for q, (st, (sk, _)) in enumerate(zip(strokes, knots)):
-        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64 and q not in done:
+    at = knots.at if type(knots) is _Knots else knots.__getitem__
+    rest = range(len(strokes))
+    if done:                           # the strokes no block took (few): those only
+        left = np.ones(len(strokes), bool)
+        left[list(done)] = False
+        rest = np.flatnonzero(left).tolist()
+    for q in rest:
+        sk = at(q)[0]
+        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64:
             by_k.setdefault(sk.size, []).append(q)
     for qs in by_k.values():
-        S = np.stack([knots[q][0] for q in qs])
-        V = np.stack([np.asarray(knots[q][1], float) for q in qs])
-        got = _jerk_rows(S, V, [strokes[q] for q in qs], rules, [knots[q] for q in qs])
+        kn = [at(q) for q in qs]
+        S = np.stack([k[0] for k in kn])
+        V = np.stack([np.asarray(k[1], float) for k in kn])
+        got = _jerk_rows(S, V, [strokes[q] for q in qs], rules, kn)
         if got is not None:
             for k, plan in zip(*got):
                 out[qs[k]] = plan

@@ -400,6 +400,24 @@ class SegmentCache:
                 else:
                     why_of.pop(i, None)
 
+    def forget_lines(self, rows):
+        """The line plans of rows (an int array) about to be made again at another (T, beta),
+        freed before the new ones are made: a budget run otherwise held both (rectilinear
+        plate's second run: ~30 k plans, ~30 MB, beside their replacements).  A later run back
+        at an old (T, beta) makes that plan again, with the same bits (a line's plan is its
+        row's own)."""
+        n = len(self.line_seg)
+        rows_l = [i for i in rows.tolist() if i < n]
+        if not rows_l:
+            return
+        self.line_T[rows_l] = self.line_beta[rows_l] = np.nan
+        seg = self.line_seg
+        for i in rows_l:
+            seg[i] = None
+        if self.line_why:
+            for i in rows_l:
+                self.line_why.pop(i, None)
+
     def forget_line(self, i):
         """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
         if i < len(self.line_seg):
@@ -518,6 +536,8 @@ def _plan_strokes(strokes, pin, profile, opts, budget_t):
             if kind_of.batch and todo.size:
                 # the last batch missed (but for its hits, kept above): freed before this one is made
                 seg_cache.drop(k_name)
+            elif todo.size:
+                seg_cache.forget_lines(todo)      # (likewise the lines' plans at their old laws)
             if hits:
                 new, new_bad, own = solve(np.array([i for i in todo.tolist() if i not in hits], int))
                 if own:

@@ -284,6 +284,7 @@ def _process(a, out, job, Options, Progress, process):
     # the ringing's ramp / corner / turn parts only where something reads them: the JSON, the
     # report, --corners auto (corners.corner_share); the text summary shows the whole ringing
     opts.ringing_parts = bool(a.json or a.report or a.corners == "auto")
+    opts.summary_rows = bool(a.json or a.report)      # likewise the summary's per-stroke rows
     report_error = []
     pending = []
 
@@ -370,7 +371,8 @@ def add_ringing(summary, orig, new, prof, debug=False):
         before = figures(orig, prof)
         after = before if same_bytes(orig, new) else figures(new, prof)
         summary["ringing"] = summary_of(before, after)
-        summary["per_stroke"] = summary.pop("per_stroke", [])
+        if "per_stroke" in summary:                   # (kept last: the long list)
+            summary["per_stroke"] = summary.pop("per_stroke")
     except Exception as e:                            # noqa: BLE001 - the G-code output comes first
         if debug:
             import traceback

@@ -125,7 +125,9 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     V0 = np.array(list(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)))) if len(idx) else np.zeros(0)
     # the rows built column by column on Python floats (tolist: the arrays' values) rather
     # than numpy scalars: the same numbers, the same sums in the same order
-    per_stroke = []
+    # the per-stroke rows only where something reads them (Options.summary_rows: the command
+    # line asks for them with --json or --report; its text summary has none)
+    per_stroke = [] if getattr(opts, "summary_rows", True) else None
     by_kind = {}
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
@@ -177,9 +179,12 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "features": getattr(opts, "feature_info", None),
         "per_stroke": per_stroke,
     }
+    if per_stroke is None:
+        del out["per_stroke"]
     if ringing is not None:                        # ahead of the long per-stroke list
         out["ringing"] = ringing_section(*ringing)
-        out["per_stroke"] = out.pop("per_stroke")
+        if per_stroke is not None:
+            out["per_stroke"] = out.pop("per_stroke")
     return out
 
 
@@ -232,12 +237,18 @@ def _kind_of(s):
 
 
 def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
-    """build_summary's per-stroke rows (appended to per_stroke) and by_kind sums, in the
-    order of idx (lists of Python floats by row).  Each column is made in one pass (map:
-    the same round() of each value); the rows then zip them.  By kind, each sum is the
-    additions of the old row-by-row loop in the same order."""
+    """build_summary's per-stroke rows (appended to per_stroke; per_stroke None: the by_kind
+    sums alone) and by_kind sums, in the order of idx (lists of Python floats by row)."""
     ss = list(map(strokes.__getitem__, idx))
     kinds = list(map(_kind_of, ss))
+    if per_stroke is not None:
+        _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke)
+    _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)
+
+
+def _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke):
+    """The per-stroke rows: each column made in one pass (map: the same round() of each
+    value), then the rows zip them."""
     get = attrgetter
     r4 = round_list(list(map(get("length_d"), ss)), 4)
     rv0 = round_list(list(map(get("v0"), ss)), 3)
@@ -254,11 +265,13 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
          "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
         for s, nm, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
         in zip(ss, n_moves, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
-    # by kind: the old row-by-row loop's additions, as it wrote them (the same `+=` on the
-    # same floats in the same order: NaN and inf sums too keep their bits): in rows, each
-    # sum an add.accumulate (a strictly sequential sum) from the total so far over the
-    # kind's values in row order
-    cols = (t0, t_law, t1, i0, i_law, a21)
+
+
+def _by_kind_rows(kinds, cols, by_kind):
+    """The by-kind sums: the old row-by-row loop's additions, as it wrote them (the same `+=`
+    on the same floats in the same order: NaN and inf sums too keep their bits): in rows,
+    each sum an add.accumulate (a strictly sequential sum) from the total so far over the
+    kind's values in row order."""
     n = len(kinds)
     if n < 64 or any(len(c) != n for c in cols) or any(set(map(type, c)) != _FLOAT_ONLY for c in cols):
         _by_kind_loop(kinds, cols, by_kind)

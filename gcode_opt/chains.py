@@ -80,17 +80,60 @@ def classify(strokes, rows, profile):
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
     curves.build_geoms(sts, profile, jerk1=True)
     jerk = profile.junction == "jerk"
-    for st in sts:
-        g = curves.geom(st, profile)
-        caps = g.caps
-        # (np.min's reduction, called without its Python wrappers: ~1 us a curve)
-        if caps.size and curves.CAP_MARGIN * float(np.minimum.reduce(caps)) < st.v_feed:
-            st.chain_T = ChainMemo()     # the mark of a chain (plan_kind)
-            if jerk and g.caps_jerk1 is not None:
-                vertex_caps(st, profile)     # its caps now (planning reads them): the
-                                             # caps at the whole jerk are read no more
+    by_blk = {}                          # the strokes of each geometry block, in order
+    for q, st in enumerate(sts):
+        b = getattr(curves.geom(st, profile), "_b", None)
+        by_blk.setdefault(id(b), (b, []))[1].append(q)
+    for b, qs in by_blk.values():
+        if type(b) is not curves._Blk or not _classify_block(b, [sts[q] for q in qs], jerk):
+            for q in qs:
+                _classify_one(sts[q], profile, jerk)
     if jerk:
         curves.drop_jerk1(sts)
+
+
+def _classify_one(st, profile, jerk):
+    """classify's test and marking of one curve stroke."""
+    g = curves.geom(st, profile)
+    caps = g.caps
+    # (np.min's reduction, called without its Python wrappers: ~1 us a curve)
+    if caps.size and curves.CAP_MARGIN * float(np.minimum.reduce(caps)) < st.v_feed:
+        st.chain_T = ChainMemo()     # the mark of a chain (plan_kind)
+        if jerk and g.caps_jerk1 is not None:
+            vertex_caps(st, profile)     # its caps now (planning reads them): the
+                                         # caps at the whole jerk are read no more
+
+
+def _classify_block(b, sts, jerk):
+    """_classify_one of the strokes sts, rows of the geometry block b (curves._Blk), as
+    row operations on the block: its cap (CAP_MARGIN x each row's least cap, as
+    np.minimum takes it: the test's own number where every cap is > 0, b.cap_min) against
+    the feeds, and under classic jerk the chains' caps CHAIN_CAP_MARGIN x caps_jerk1 for
+    the chains' rows at once (vertex_caps' product, elementwise: the same bits; each
+    chain keeps a copy of its row).  False (nothing done) where the block is not such."""
+    if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
+        return False
+    if jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
+        return False             # (a geometry's own caps at the whole jerk: one by one)
+    ks = np.array([st.curv._k for st in sts], np.int64)
+    feed = np.array([st.v_feed for st in sts], float)
+    hit = np.flatnonzero(b.cap[ks] < feed).tolist()
+    if not hit:
+        return True
+    caps1 = None
+    if jerk and b.caps_jerk1 is not None:
+        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1[ks[hit]]
+    for i, q in enumerate(hit):
+        st = sts[q]
+        st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
+        g = st.curv
+        if caps1 is not None and g.chain_caps is None:     # vertex_caps: its caps now, the
+            # whole jerk's read no more; a copy of its own, not a view: _drop frees each
+            # chain's as its plan is made (a view would hold the block's whole array while
+            # any chain of it, not re-timed, keeps its caps)
+            g.chain_caps = caps1[i].copy()
+            g.caps_jerk1 = None
+    return True
 
 
 def plan_kind(st):
@@ -220,6 +263,21 @@ def _knots_s(ends_d):
     return np.concatenate([[0.0], np.asarray(ends_d, float)])
 
 
+def _knots_rows(sts, n):
+    """The knots _knots_s(st.ends_d) of chains of n segments as the rows of one (m, n + 1)
+    array (the same doubles: 0, then each one's ends_d), their ends_d arrays of doubles
+    joined as bytes in one call instead of an array made per chain (~2 us each on ~16 k
+    chains; the rows are views, as the plans' vk, acc and feed are rows of their group's
+    arrays); None where an ends_d is not an array of n doubles (_knots_s one by one)."""
+    ends = [st.ends_d for st in sts]
+    if not all(type(e) is array and e.typecode == "d" and len(e) == n for e in ends):
+        return None
+    s = np.empty((len(ends), n + 1))
+    s[:, 0] = 0.0
+    s[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), n)
+    return s
+
+
 def _replay(items, rules, profile, drop=False):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
@@ -249,8 +307,9 @@ def _replay(items, rules, profile, drop=False):
             sts = [items[q][0] for q in Q]
             acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                     profile, predict=False)
+            s = _knots_rows(sts, vk.shape[1] - 1)
             for i, q in enumerate(Q):
-                out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i])
+                out[q] = SegmentPlan(sk(sts[i]) if s is None else s[i], vk[i], acc[i], feed[i], tp[i], a2[i])
             del dt
         if drop:            # the group's chains are made: their rows' arrays can go
             for q in qs:
@@ -369,9 +428,10 @@ def _again_plans(items, rules, profile):
                 dt = np.concatenate([got[q][1] for q in Q])
                 acc, feed, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts],
                                                          np.arange(len(Q)), vk, dt, rules, profile)
+                s = _knots_rows(sts, vk.shape[1] - 1)
                 for i, q in enumerate(Q):
-                    out[q] = SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]),
-                                         float(a2[i]))
+                    out[q] = SegmentPlan(_knots_s(sts[i].ends_d) if s is None else s[i], vk[i], acc[i], feed[i],
+                                         float(t[i]), float(a2[i]))
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q]
@@ -781,11 +841,8 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     jerk = rules.junction == "jerk"
     n, m, R = gs[0].d.size, len(sts), vk.shape[0]
     # (np.array of the rows, not np.stack: the same copy, a third of the time on ~10^2 chains)
-    D = np.array([g.d for g in gs], float)
-    if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n):
-        return None
-    U = np.array([g.u for g in gs], float)
-    if U.shape != (m, n, 2):
+    D, U = curves.stack_du(gs)
+    if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2):
         return None
     # the turns' cosines, g.cos_turn of every chain in one einsum over the stack (the same
     # two-term sum of products a row, the same bits; ~34 k property calls on the gyroid plate)
@@ -1072,8 +1129,13 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     out = [None] * len(strokes)
     todo = []
     key = _rules_key(rules, profile)
-    T = np.empty(len(strokes))          # the law durations (law_T)
-    for k, (st, t, b) in enumerate(zip(strokes, T_in.tolist(), beta.tolist())):
+    # per chain as arrays of doubles (the arrays' own doubles, 8 bytes each: lists of
+    # floats held ~1 MB more at the plan's peak), read by the loops below as Python floats
+    # without a numpy scalar per read: ~16 k chains on the gyroid plate
+    t_in, b_in = array("d", T_in.tobytes()), array("d", beta.tobytes())
+    T = array("d", t_in)                # the law durations (law_T)
+    for k, st in enumerate(strokes):
+        t = t_in[k]
         memo = st.chain_T
         seg = memo.seg
         if seg is not None and memo.seg_tin == t:
@@ -1083,7 +1145,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         else:
             lt = law_T(st, t)
         T[k] = lt
-        if seg is not None and memo.seg_T == lt and memo.seg_beta == b and memo.seg_key == key:
+        if seg is not None and memo.seg_T == lt and memo.seg_beta == b_in[k] and memo.seg_key == key:
             out[k] = seg
         else:
             todo.append(k)
@@ -1091,8 +1153,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     # same rules), else the law solved and finished
     cold, lazy, again = [], [], []
     for k in todo:
-        st = strokes[k]
-        hit = st.chain_T.plan_of(float(T[k]), float(beta[k]))
+        hit = strokes[k].chain_T.plan_of(T[k], b_in[k])
         if hit is not None and hit[0].key == key:
             if isinstance(hit[0], _Again):
                 again.append((k, hit[0]))
@@ -1106,18 +1167,24 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
                                           drop=True)):
         out[k] = plan
     if again:
-        plans = _again_plans([(strokes[k], ag, float(T[k]), float(beta[k])) for k, ag in again], rules, profile)
+        plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile)
         for (k, _), plan in zip(again, plans):
             out[k] = plan
-    for k, law in zip(cold, solve([strokes[k] for k in cold], T[cold], beta[cold], profile)):
-        out[k] = finish_chain(strokes[k], law, rules, profile)[0]
+    if cold:
+        Ta = np.array(T, float)
+        for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):
+            out[k] = finish_chain(strokes[k], law, rules, profile)[0]
+    dropped = {k for k, _ in lazy}      # (_replay dropped theirs)
     for k in todo:
-        memo = strokes[k].chain_T
-        memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = float(T[k]), float(beta[k]), key, out[k]
+        st = strokes[k]
+        memo = st.chain_T
+        plan = out[k]
+        memo.seg_T, memo.seg_beta, memo.seg_key, memo.seg = T[k], b_in[k], key, plan
         # (its plan's own time_t when equal, the usual case: no float kept per chain)
-        tt, t = getattr(out[k], "time_t", None), float(T_in[k])
+        tt, t = getattr(plan, "time_t", None), t_in[k]
         memo.seg_tin = tt if tt == t else t
-        _drop(strokes[k])       # its plan is made: the other candidates' knots are made again if asked
+        if k not in dropped:
+            _drop(st)           # its plan is made: the other candidates' knots are made again if asked
     if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
         from .pipeline import trim_heap
         trim_heap()

@@ -70,6 +70,7 @@ def main(argv=None):
             ap.error(f"{FILES[n][0]} is missing: make it with `bash sample_gcode/make_corpus.sh`")
     import tempfile
     tmp = a.tmp or tempfile.mkdtemp(prefix="bench_command_")
+    os.makedirs(tmp, exist_ok=True)
     py = sys.executable
     for path, _ in trees:
         subprocess.run([py, "-m", "compileall", "-q", os.path.join(path, "gcode_opt")], check=True)
@@ -79,7 +80,9 @@ def main(argv=None):
     for rnd in range(a.rounds):
         for n in names:
             f, prof = FILES[n]
-            t_bare, m_bare, _ = child([py, "-c", BARE, f, os.path.join(tmp, "bare.out")], dict(os.environ))
+            t_bare, m_bare, rc = child([py, "-c", BARE, f, os.path.join(tmp, "bare.out")], dict(os.environ))
+            if rc != 0:
+                sys.exit(f"bench_command: the bare loop failed on {f} (exit {rc})")
             res.setdefault((n, "bare"), []).append((t_bare, m_bare))
             print(f"{rnd:>5} {n:<11} {'bare loop':<10} {t_bare:7.2f} {lines[n] / t_bare / 1e3:10.0f} {1.0:7.1f} {m_bare:12.1f}",
                   flush=True)

@@ -16,14 +16,14 @@ def _load():
 
 def test_one_round_on_the_small_sample(tmp_path, capsys):
     mod = _load()
-    mod.main([f"{ROOT}:this", "--rounds", "1", "--files", "small", "--tmp", str(tmp_path)])
+    mod.main([f"{ROOT}:this", "--rounds", "1", "--files", "small", "--tmp", str(tmp_path / "new")])
     out = capsys.readouterr().out
     row = re.search(r"^\s+0 small\s+this\s+([\d.]+)\s+(\d+)\s+([\d.]+)\s+([\d.]+)$", out, re.M)
     assert row, out                       # no "exit N": the command succeeded
     cpu, rss = float(row.group(1)), float(row.group(4))
     assert cpu > 0.05 and rss > 20.0      # a real run: interpreter, numpy, the file
     # the command wrote the file it was asked for, a processed one
-    written = (tmp_path / "small_this.gcode").read_text(errors="replace")
+    written = (tmp_path / "new" / "small_this.gcode").read_text(errors="replace")
     assert "gcode-opt" in written
     assert "small       this       CPU" in out
 

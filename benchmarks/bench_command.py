@@ -43,9 +43,9 @@ BARE = ("import sys\n"
         "        fo.write(raw)\n")
 
 
-def child(cmd, env):
+def child(cmd, env, cwd=None):
     """(CPU s, peak RSS MB, exit status) of one child process."""
-    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    p = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _, status, ru = os.wait4(p.pid, 0)
     return ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0, os.waitstatus_to_exitcode(status)
 
@@ -69,10 +69,17 @@ def main(argv=None):
         if not os.path.exists(FILES[n][0]):
             ap.error(f"{FILES[n][0]} is missing: make it with `bash sample_gcode/make_corpus.sh`")
     import tempfile
-    tmp = a.tmp or tempfile.mkdtemp(prefix="bench_command_")
+    tmp = os.path.abspath(a.tmp or tempfile.mkdtemp(prefix="bench_command_"))
     os.makedirs(tmp, exist_ok=True)
     py = sys.executable
-    for path, _ in trees:
+    for path, tag in trees:
+        # each tree's runs start in the tree (`python -m` puts the working folder first on
+        # the path, ahead of PYTHONPATH: run from another checkout, they would all run that
+        # one); check that the package imported is the tree's
+        got = subprocess.run([py, "-c", "import gcode_opt; print(gcode_opt.__file__)"], cwd=path, text=True,
+                             env=dict(os.environ, PYTHONPATH=path), capture_output=True, check=True).stdout.strip()
+        if not os.path.realpath(got).startswith(os.path.realpath(path) + os.sep):
+            sys.exit(f"bench_command: {tag} imports {got}, not its own tree {path}")
         subprocess.run([py, "-m", "compileall", "-q", os.path.join(path, "gcode_opt")], check=True)
     lines = {n: sum(1 for _ in open(FILES[n][0], "rb")) for n in names}
     res = {}
@@ -91,7 +98,7 @@ def main(argv=None):
                 if a.pure:
                     env["GCODE_OPT_PURE_PYTHON"] = "1"
                 out = os.path.join(tmp, f"{n}_{tag}.gcode")
-                t, m, rc = child([py, "-m", "gcode_opt", "process", f, "-o", out, "--profile", prof, "-q"], env)
+                t, m, rc = child([py, "-m", "gcode_opt", "process", f, "-o", out, "--profile", prof, "-q"], env, path)
                 res.setdefault((n, tag), []).append((t, m))
                 print(f"{rnd:>5} {n:<11} {tag:<10} {t:7.2f} {lines[n] / t / 1e3:10.0f} {t / t_bare:7.1f} {m:12.1f}"
                       + ("" if rc == 0 else f"  exit {rc}"), flush=True)

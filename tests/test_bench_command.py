@@ -37,3 +37,15 @@ def test_unknown_file_name_is_refused(capsys):
     else:
         raise AssertionError("accepted an unknown file name")
     assert "unknown file 'nosuch'" in capsys.readouterr().err
+
+
+def test_a_folder_that_is_not_a_tree_is_refused(tmp_path, capsys):
+    # run from inside another checkout, `python -m gcode_opt` would import that one: each
+    # tree must import its own package
+    mod = _load()
+    try:
+        mod.main([f"{tmp_path}:empty", "--rounds", "1", "--files", "small", "--tmp", str(tmp_path / "out")])
+    except SystemExit as e:
+        assert "not its own tree" in str(e.code)
+    else:
+        raise AssertionError("ran a folder with no gcode_opt in it")

@@ -1100,8 +1100,8 @@ def process(in_path, out_path, profile: Profile, opts: Options, before_replace=N
 
 @contextlib.contextmanager
 def _strokes_frozen():
-    """Yields freeze(): called once the strokes are built (and again after each plan and
-    after the summary's rows), it moves every object then alive (the strokes, the
+    """Yields freeze(): called once the strokes are built (and again after planning's inputs,
+    after each plan and after the summary's rows), it moves every object then alive (the strokes, the
     modules) out of the garbage collector's view until the job ends.
     The passes after analyse make and drop many short-lived containers; each full
     collection they trigger walked the ~10^6 long-lived objects again (gyroid plate: GC
@@ -1127,7 +1127,7 @@ def _strokes_frozen():
 @contextlib.contextmanager
 def _young_frozen(freeze):
     """The collector off for a stretch that makes many objects that live on and no cycles
-    (analyse's strokes, the summary's rows), then freeze() (_strokes_frozen) before it is
+    (analyse's strokes, planning's tables and segment plans, the summary's rows), then freeze() (_strokes_frozen) before it is
     on again: the objects made while it was off are all in the youngest generation, and
     the first collection after it walked them all (~0.06 s after analyse, ~0.015 s after
     the summary on the rectilinear plate).  Without freeze (None) nothing is changed."""
@@ -1158,7 +1158,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
         if prog:
             prog.finish()
         return _unchanged(in_path, out_path, profile, "no moves to re-time")
-    pin = plan_inputs(strokes, profile, opts)
+    with _young_frozen(freeze):      # (planning's ~10^5 containers live on, with no cycles)
+        pin = plan_inputs(strokes, profile, opts)
     timing.lap("plan")
     budget_t = opts.max_slowdown_r * sim0.time_t
     try:
@@ -1173,9 +1174,11 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                                kind="stable").tolist()
             first = None              # the first pass: _FirstPass
             for pass_i in range(2):
-                plan = plan_strokes(strokes, pin, profile, opts, budget_t)
-                if freeze is not None:     # the plan's objects too: rewrite's collections walked them
-                    freeze()               # (rectilinear plate: a full collection there, ~0.03 s)
+                # the collector off while planning (~135 young collections a run walked the
+                # plans for ~300 objects of garbage) and the plan's objects frozen after it:
+                # rewrite's collections walked them too (rectilinear plate: ~0.03 s)
+                with _young_frozen(freeze):
+                    plan = plan_strokes(strokes, pin, profile, opts, budget_t)
                 trim_heap()           # planning's freed temporaries: rewrite and measure grow on live memory only
                 timing.lap("plan")
                 if prog:

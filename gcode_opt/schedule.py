@@ -18,8 +18,6 @@ with its reason.
 """
 from __future__ import annotations
 
-import contextlib
-import gc
 import math
 
 import numpy as np
@@ -78,12 +76,6 @@ ROW_KINDS = (K_CURVE,)
 
 
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
-    """_plan_inputs with the cyclic garbage collector paused (as plan_strokes)."""
-    with _gc_paused():
-        return _plan_inputs(strokes, profile, opts)
-
-
-def _plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     n = len(strokes)
     with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
         L = np.array([s.length_d for s in strokes], float)
@@ -420,10 +412,7 @@ class SegmentCache:
 
     def forget_line(self, i):
         """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
-        if i < len(self.line_seg):
-            self.line_T[i] = self.line_beta[i] = np.nan
-            self.line_seg[i] = None
-            self.line_why.pop(i, None)
+        self.forget_lines(np.array([i]))
 
 
 GAIN_TOL_R = 1e-9       # a plan within this of the original's int a^2 gains nothing but rounding
@@ -437,29 +426,6 @@ def beats(a2_plan, a2_orig) -> bool:
 
 
 def plan_strokes(strokes, pin, profile, opts, budget_t):
-    """_plan_strokes with the cyclic garbage collector paused (_gc_paused)."""
-    with _gc_paused():
-        return _plan_strokes(strokes, pin, profile, opts, budget_t)
-
-
-@contextlib.contextmanager
-def _gc_paused():
-    """The cyclic collector off while planning: planning makes ~10^5 containers that live on
-    (segment plans, their arrays, lists of them), which the young generations' collections
-    walked ~135 times a plan for ~300 objects of garbage (gyroid plate: ~0.07 s CPU of GC,
-    ~0.08 s on the rectilinear plate).  Reference counts still free everything else; the
-    few cycles wait for the next collection after.  Left as it was found (a caller that
-    turned it off keeps it off)."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
-
-
-def _plan_strokes(strokes, pin, profile, opts, budget_t):
     """Law per stroke (plan.py), then its segments as the firmware will execute them
     (segments.py).  The segments' predicted time, not the law's, is what the print takes:
     the budget is re-spent once with the difference taken off, and a stroke whose

@@ -254,8 +254,7 @@ def _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke)
     rv0 = round_list(list(map(get("v0"), ss)), 3)
     rv1 = round_list(list(map(get("v1"), ss)), 3)
     rvf = round_list(list(map(get("v_feed"), ss)), 3)
-    # Stroke.n_moves, without the property's call (another kind of stroke: its own)
-    n_moves = [s.last_idx - s.first_idx + 1 if type(s) is Stroke else s.n_moves for s in ss]
+    n_moves = _n_moves(ss).tolist()
     per_stroke.extend([
         {"line": s.first_idx + 1, "lines": nm, "kind": kind, "out_line": of + 1,
          "feature": s.feature, "layer": s.layer, "length_mm": ln,
@@ -279,10 +278,7 @@ def _by_kind_rows(kinds, cols, by_kind):
     kind_arr = np.array(kinds, dtype=object)
     arrs = [np.array(c, dtype=float) for c in cols]
     for kind in dict.fromkeys(kinds):            # (the kinds in the order of their first row)
-        g = by_kind.get(kind)
-        if g is None:
-            g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
-                                 "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}}
+        g = _kind_group(by_kind, kind)
         m = kind_arr == kind
         g["retimed"] += int(m.sum())
         gt, ga = g["time_s"], g["int_a2"]
@@ -291,14 +287,20 @@ def _by_kind_rows(kinds, cols, by_kind):
             d[key] = float(np.add.accumulate(np.concatenate(([d[key]], x[m])))[-1])
 
 
+def _kind_group(by_kind, kind):
+    """by_kind[kind], made empty if it is not there yet."""
+    g = by_kind.get(kind)
+    if g is None:
+        g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
+                             "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}}
+    return g
+
+
 def _by_kind_loop(kinds, cols, by_kind):
     """_per_stroke_rows' by-kind sums row by row (the code before the rows: short or odd
     columns, and the tests' reference)."""
     for kind, x0, xl, x1, y0, yl, y1 in zip(kinds, *cols):
-        g = by_kind.get(kind)
-        if g is None:
-            g = by_kind[kind] = {"retimed": 0, "time_s": {"before": 0.0, "law": 0.0, "after": 0.0},
-                                 "int_a2": {"before": 0.0, "law": 0.0, "after": 0.0}}
+        g = _kind_group(by_kind, kind)
         g["retimed"] += 1
         gt, ga = g["time_s"], g["int_a2"]
         gt["before"] += x0

@@ -14,9 +14,9 @@ import pytest
 
 from gcode_opt import plan as plan_mod
 from gcode_opt import schedule as sc
-from gcode_opt.laws.line import InteriorSpeeds, end_speeds, interior_speed, line_law
+from gcode_opt.laws.line import InteriorSpeeds, interior_speed
 from gcode_opt.pipeline import Options, analyse
-from gcode_opt.plan import GAMMA_HI, GAMMA_LO, SPEED_TOL_R, T_RATIOS, PlanInput, _feasible
+from gcode_opt.plan import T_RATIOS, PlanInput
 from gcode_opt.profile import load_profile
 from gcode_opt.strokes import K_LINE
 
@@ -24,76 +24,8 @@ S = "sample_gcode/"
 PLATE = os.path.expanduser("~/.cache/gcode-opt-corpus/plate_rectilinear.gcode")
 
 
-# ---------------------------------------------------------------- 479aedb, verbatim
-def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
-    L, T, v0, v1, v_cap = np.broadcast_arrays(*(np.asarray(a, float) for a in (L, T, v0, v1, v_cap)))
-    lo = np.full(L.shape, np.log(GAMMA_LO))
-    hi = np.full_like(lo, np.log(GAMMA_HI))
-    cap = v_cap * (1 + SPEED_TOL_R)
-    v_end = np.maximum(*end_speeds(L, T, v0, v1))
-    cubic_ok = np.maximum(v_end, interior_speed(L, T, np.inf, v0, v1)) <= cap
-    with np.errstate(all="ignore"):
-        skip = cubic_ok & ((T / (2.0 * GAMMA_HI)) ** 2 > 0.0)
-    if skip.any():
-        gamma = np.full(L.shape, np.inf)
-        b = ~skip
-        if b.any():
-            gamma[b] = np.exp(_bisect_log_gamma(L[b], T[b], v0[b], v1[b], cap[b], v_end[b], lo[b], hi[b], iters))
-    else:
-        gamma = np.exp(_bisect_log_gamma(L, T, v0, v1, cap, v_end, lo, hi, iters))
-    return np.where(cubic_ok, np.inf, (T / gamma) ** 2)
-
-
-def _bisect_log_gamma(L, T, v0, v1, cap, v_end, lo, hi, iters):
-    for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        g = np.exp(mid)
-        ok = np.maximum(v_end, interior_speed(L, T, (T / g) ** 2, v0, v1)) <= cap
-        hi = np.where(ok, mid, hi)
-        lo = np.where(ok, lo, mid)
-    return hi
-
-
-def _candidates_auto_ref(p):
-    T = p.T_orig[:, None] * T_RATIOS[None, :]
-    L, v0, v1 = p.L[:, None], p.v0[:, None], p.v1[:, None]
-    v_cap, a_cap = p.v_cap[:, None], p.a_cap[:, None]
-    beta = _largest_beta_under_speed_cap(L, T, v0, v1, v_cap)
-    law = line_law(L, T, beta, v0, v1)
-    ok = _feasible(law, v_cap, a_cap) & (T >= p.t_seg_min[:, None])
-    KE, I = law.integrals()
-    return T, beta, np.where(ok, I, np.inf), KE
-
-
-def candidates_ref(p, chunk=plan_mod.CANDIDATE_CHUNK):
-    n = len(p.L)
-    if n <= chunk:
-        return _candidates_auto_ref(p)
-    out = [np.empty((n, len(T_RATIOS))) for _ in range(4)]
-    for a in range(0, n, chunk):
-        rows = np.arange(a, min(a + chunk, n))
-        for o, piece in zip(out, _candidates_auto_ref(p.take(rows))):
-            o[rows] = piece
-    return tuple(out)
-
-
-# ---------------------------------------------------------------- comparison
-def _bits(x):
-    return np.ascontiguousarray(x, float).view(np.int64)
-
-
-def _same(want, got):
-    """Feasible entries (finite I) and their four figures the same bits; T everywhere;
-    beta's and I's NaNs where the reference has them (Candidates.piece reads those)."""
-    assert all(a.shape == b.shape for a, b in zip(want, got))
-    fw, fg = np.isfinite(want[2]), np.isfinite(got[2])
-    assert np.array_equal(fw, fg)
-    for a, b in zip(want, got):
-        assert np.array_equal(_bits(a[fw]), _bits(b[fw]))
-    assert np.array_equal(_bits(want[0]), _bits(got[0]))
-    for k in (1, 2):
-        assert np.array_equal(np.isnan(want[k]), np.isnan(got[k]))
-    return int(fw.sum())
+# 479aedb's candidates (kept verbatim there) and the bitwise comparison
+from test_speed22_budget_candidates import _bits, _same, candidates_ref  # noqa: E402
 
 
 def _unreached(p):

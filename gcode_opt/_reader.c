@@ -716,7 +716,8 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
  * back (the values step() would have left).  The doubles are linear_calc's, the ones
  * linear() puts into the Move, so the model gets the same bits. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
-    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
+    " double e0" \
     " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
@@ -731,6 +732,7 @@ typedef struct {
     double e1, v1, speed;             /* the state's e and v after the line; Move.speed_r */
     int has_f, e_rel, xyz_rel;
     PyObject *feature, *accel;        /* borrowed: the Move's feature and accel objects */
+    double e0;                        /* the state's e before the line (analyse's start_state) */
 } RunMove;
 
 typedef struct {
@@ -985,6 +987,7 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     int eonly = out->kind == 1;
     if (eonly && lo.de == 0.0)
         out->kind = 2;
+    rm->e0 = in->e;
     rm->e1 = in->e + lo.de;
     rm->v1 = lo.v;
     rm->speed = in->speed;

@@ -289,6 +289,16 @@ def _read_move(run, k, run_xy, z, v, accel, feature, e_rel):
                 feature, m0.layer, m0.lim, None, None, e_rel, False, False, False, m0.flow_r, m0.speed_r)
 
 
+def _head_move(m, idx, x0, y0, z0, x1, y1, z1, e, v, has_f):
+    """The Move step() made of the first line of a run that the model's Sim.run_lines opened
+    (the line that closed the run before: group_lines' pre path, in C): its doubles as the
+    reader read them, the rest the first move's of the run run_lines was handed, m (the
+    run's feed, acceleration, feature, E mode and limits are equal to its; its layer, flow
+    and speed factors only other lines change)."""
+    return Move(idx, LINE, x0, y0, z0, x1, y1, z1, e, v, m.accel, m.feature, m.layer, m.lim, None, has_f, m.e_rel,
+                False, False, False, m.flow_r, m.speed_r)
+
+
 def _run_stroke(m, kind, ux, uy, length_d, e_per_mm, last_idx, pts, ends, prev_u, ss, travel):
     """The stroke group_lines' close() makes of a run that is one stroke, what Stroke(m) (and
     _curve(...) for a curve, pts its Points and ends its ends_d; else None, None: one move)
@@ -383,8 +393,13 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     test below, the vertex filter's bounds), appending their moves to the run as this code
     does (each such move kept in run as its E alone, a float: _read_move makes the Move
     where one is needed), and returns (lines taken, run_len, r_epm, ld, lux, luy,
-    turned), 0 (none taken) or None (it cannot: not called again).  Those lines are not
-    yielded.
+    turned, runs opened), 0 (none taken) or None (it cannot: not called again).  Those
+    lines are not yielded.  With the kit it is handed, it also takes the line that turns
+    the run too sharply (the `pre` path below: the run closes, the next opens at that line)
+    where close() would make at most one stroke without asking Python (none, one move, a
+    curve), making that stroke as _run_stroke does and handing it to on_stroke; when it
+    opened runs, rs holds r_last, r_ux, r_uy, run_prev_u, run_start and the first line of
+    the last one, and run[0] its first Move (_head_move).
 
     gap, if given (pipeline.analyse: the model's Sim.gap_lines), is called with last_u and
     whether a stroke waits for the next move's direction after a line that leaves no run
@@ -420,6 +435,8 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
     f_bounds = getattr(split_vertex, "short_bounds", None)
     f_lim, f_accel, f_lo, f_hi = None, None, 1.0, 0.0     # (a run of another acceleration clears f_lim)
     coll = COLLINEAR_SIN
+    # what fast needs to close a run and open the next itself (Sim.run_lines' kit)
+    kit = (Stroke, Points, array, K_LINE, K_CURVE, on_stroke, _head_move, float(min_length_d), curves)
     if opened is None:
         opened = [NOT_OPEN]
     else:
@@ -537,12 +554,16 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
                     r_last += 1                     # ev.idx
                     pm, lux, luy, ld = ev, ux, uy, d
                     if fast is not None:            # the lines that follow, in C
+                        rs = [r_last, r_ux, r_uy, run_prev_u, run_start, None]
                         got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux,
                                    luy, ld, run_len, r_epm, turned, min_cos, coll, split_vertex is not None,
-                                   f_lim, f_lo, f_hi)
+                                   f_lim, f_lo, f_hi, kit, rs)
                         if got:
-                            n, run_len, r_epm, ld, lux, luy, turned = got
-                            r_last += n
+                            n, run_len, r_epm, ld, lux, luy, turned, reopened = got
+                            if reopened:            # it closed the run and opened others: the last one's
+                                r_last, r_ux, r_uy, run_prev_u, run_start, opened[0] = rs
+                            else:
+                                r_last += n
                             pm, lazy = run[-1], True
                         elif got is None:
                             fast = None
@@ -598,11 +619,16 @@ def group_lines(event_iter, selected, on_stroke, min_length_d: float = 0.0, max_
             r_ux, r_uy = lux, luy                 # Stroke(ev)'s ux, uy
             last_u = (lux, luy)
             if fast is not None:                  # the lines that follow, in C
+                rs = [r_last, r_ux, r_uy, run_prev_u, run_start, None]
                 got = fast(run, run_ends, run_xy, r_v, r_accel, r_feature, r_z, r_erel, r_travel, lux, luy, ld,
-                           run_len, r_epm, turned, min_cos, coll, split_vertex is not None, f_lim, f_lo, f_hi)
+                           run_len, r_epm, turned, min_cos, coll, split_vertex is not None, f_lim, f_lo, f_hi,
+                           kit, rs)
                 if got:
-                    n, run_len, r_epm, ld, lux, luy, turned = got
-                    r_last += n
+                    n, run_len, r_epm, ld, lux, luy, turned, reopened = got
+                    if reopened:                  # (as above)
+                        r_last, r_ux, r_uy, run_prev_u, run_start, opened[0] = rs
+                    else:
+                        r_last += n
                     pm, lazy = run[-1], True
                 elif got is None:
                     fast = None

@@ -32,9 +32,9 @@ static int configured = 0;
 
 /* ---------------------------------------------------------------- slot access */
 enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_LIM, MV_ARC,
-       MV_FLOW_R, MV_N };
+       MV_FLOW_R, MV_FEATURE, MV_LAYER, MV_E_REL, MV_N };
 static const char *MOVE_NAMES[MV_N] = {"idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e",
-                                      "v", "accel", "lim", "arc", "flow_r"};
+                                      "v", "accel", "lim", "arc", "flow_r", "feature", "layer", "e_rel"};
 enum { A_CX, A_CY, A_R, A_THETA0, A_SWEEP, A_LENGTH, A_N };
 static const char *ARC_NAMES[A_N] = {"cx", "cy", "r", "theta0", "sweep", "length_d"};
 enum { L_VMAX, L_AXMAX, L_AYMAX, L_SCV, L_MCR, L_JD, L_JERKX, L_JERKY, L_N };
@@ -2248,7 +2248,8 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
  * common lines through it and plays their moves from doubles, with no Move object and no
  * state dict traffic per line.  The layout string must be the reader's own. */
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
-    " | RunMove 1: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel" \
+    " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
+    " double e0" \
     " | peek commit 4"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
@@ -2261,6 +2262,7 @@ typedef struct {                      /* _reader.c's: see fused_peek there */
     double e1, v1, speed;
     int has_f, e_rel, xyz_rel;
     PyObject *feature, *accel;        /* borrowed */
+    double e0;
 } RunMove;
 
 typedef struct {
@@ -2727,6 +2729,9 @@ fail_ss:
  * reads it) and at the chunk's end, sets cur[1] and returns (n lines taken, run_len,
  * r_epm, ld, lux, luy, turned), 0 when it took none, None when it cannot read lines here
  * (the reader's step is not the compiled one, or the callbacks are not the core's own).
+ * Given two more arguments, kit and rs (see "run_lines' strokes" below), it also closes
+ * runs and opens the next ones itself, and the tuple has an 8th item: the runs it opened
+ * (rs then holds group_lines' locals for the last one, run[0] its first Move).
  * The lengths are math.hypot's (called: it is not libm's), the rest the same double
  * operations in the same order as group_lines. */
 static PyObject *HYPOT = NULL;            /* math.hypot */
@@ -2768,10 +2773,307 @@ static int py_hypot(double dx, double dy, double *d)
     return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
 }
 
+/* ---------------------------------------------------------------- run_lines' strokes
+ * With its kit (strokes.group_lines' _RunKit: Stroke, Points, array, K_LINE, K_CURVE,
+ * on_stroke, head_move, min_length_d, curves) run_lines also does group_lines' commonest
+ * other line in C: a G1 that continues the run in everything but its direction (its test
+ * passed, the turn too sharp for the run) closes the run and opens the next one at itself
+ * (group_lines' `pre` path).  It does so only where close() makes at most one stroke
+ * without asking Python: a run shorter than min_length_d (no stroke), a run of one move
+ * (a K_LINE stroke), a curve (curves on, a turned vertex, 3 moves or more); a straight
+ * run of several moves (_straight_parts) goes to Python, before the line.  The stroke is
+ * the one _run_stroke makes, slot by slot (the same objects where Python passes objects
+ * on, the same doubles where it computes), handed to on_stroke.  Every run of one call
+ * has the run's feed, acceleration, feature, Z, E mode and limits (the test above), so
+ * the first move of the run handed in (run[0]) gives those objects to every stroke;
+ * layer, flow and speed factors only change on other lines. */
+enum { ST_FIRST, ST_LAST, ST_X0, ST_Y0, ST_Z, ST_UX, ST_UY, ST_LEN, ST_ENDS, ST_VF, ST_ACC, ST_FEAT,
+       ST_LAYER, ST_EREL, ST_V0, ST_V1, ST_T, ST_A2, ST_V2, ST_LIM, ST_EPM, ST_PUX, ST_PUY, ST_NUX,
+       ST_NUY, ST_KIND, ST_ARC, ST_PTS, ST_CURV, ST_SSE, ST_SSA, ST_SSC, ST_CHAIN, ST_V0FW, ST_V1FW,
+       ST_CC0, ST_CC1, ST_N };
+static const char *STROKE_NAMES[ST_N] = {
+    "first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends", "v_feed", "accel",
+    "feature", "layer", "e_rel", "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm", "_pux",
+    "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c", "chain_T", "v0_fw",
+    "v1_fw", "corner_cmd0", "corner_cmd1"};
+static Py_ssize_t stroke_off[ST_N], points_off[1];
+static PyObject *stroke_name[ST_N], *points_name[1];
+static SlotMap STROKE_MAP = {NULL, stroke_off, stroke_name, ST_N};
+static SlotMap POINTS_MAP = {NULL, points_off, points_name, 1};
+
+/* an object of exactly map's type, every slot val[k] (borrowed), or NULL with an error */
+static PyObject *slots_new(SlotMap *m, PyObject *const *val)
+{
+    PyTypeObject *t = m->type;
+    PyObject *o = t->tp_alloc(t, 0);
+    if (o == NULL)
+        return NULL;
+    for (int k = 0; k < m->n; k++)
+        *(PyObject **)((char *)o + m->off[k]) = Py_NewRef(val[k]);
+    return o;
+}
+
+/* map set up for type (kept while it is the same type); 0 if a slot is not a plain one */
+static int slots_ready(SlotMap *m, PyObject *type, const char **names)
+{
+    if ((PyObject *)m->type != type) {
+        if (map_init(m, type, names) < 0)
+            return -1;
+    }
+    for (int k = 0; k < m->n; k++)
+        if (m->off[k] < 0)
+            return 0;
+    return 1;
+}
+
+typedef struct {
+    PyObject *stroke_t, *points_t, *array_t, *k_line, *k_curve, *on_stroke, *head_move;
+    double min_len;
+    int curves;
+} RunKit;
+
+/* the open run's own figures (the rest is run_lines' locals): its first move is run[0]
+ * handed in (c = 0: proto, with prev_u and start the objects group_lines holds) or a line
+ * this call opened (c = 1: rm, prev_u (pux, puy), start E rm.e0).  The direction floats are
+ * shared as group_lines shares them (a stroke's next_u is the next run's ux uy, a run's
+ * prev_u its last move's direction: the stroke's ux uy after a run of one move): new
+ * references, kept as long as the run is open */
+typedef struct {
+    int c;
+    RunMove rm;
+    long long first, last;
+    PyObject *ux, *uy, *pux, *puy;
+} RunHead;
+
+static void head_clear(RunHead *h)
+{
+    Py_CLEAR(h->ux);
+    Py_CLEAR(h->uy);
+    Py_CLEAR(h->pux);
+    Py_CLEAR(h->puy);
+}
+
+static PyObject *ZERO = NULL;          /* the 0.0 of _run_stroke's v0 v1 time_t int_a2 int_v2 (one object) */
+
+/* the first move's objects every stroke of the call shares (new references) */
+typedef struct {
+    PyObject *idx, *x0, *y0, *z0, *v, *accel, *feature, *layer, *e_rel, *lim;
+} Proto;
+
+static void proto_clear(Proto *p)
+{
+    Py_CLEAR(p->idx);
+    Py_CLEAR(p->x0);
+    Py_CLEAR(p->y0);
+    Py_CLEAR(p->z0);
+    Py_CLEAR(p->v);
+    Py_CLEAR(p->accel);
+    Py_CLEAR(p->feature);
+    Py_CLEAR(p->layer);
+    Py_CLEAR(p->e_rel);
+    Py_CLEAR(p->lim);
+}
+
+static int proto_read(Proto *p, PyObject *m)
+{
+    return (p->idx = get_obj(&MOVE_MAP, m, MV_IDX)) && (p->x0 = get_obj(&MOVE_MAP, m, MV_X0))
+           && (p->y0 = get_obj(&MOVE_MAP, m, MV_Y0)) && (p->z0 = get_obj(&MOVE_MAP, m, MV_Z0))
+           && (p->v = get_obj(&MOVE_MAP, m, MV_V)) && (p->accel = get_obj(&MOVE_MAP, m, MV_ACCEL))
+           && (p->feature = get_obj(&MOVE_MAP, m, MV_FEATURE)) && (p->layer = get_obj(&MOVE_MAP, m, MV_LAYER))
+           && (p->e_rel = get_obj(&MOVE_MAP, m, MV_E_REL)) && (p->lim = get_obj(&MOVE_MAP, m, MV_LIM))
+           ? 0 : -1;
+}
+
+/* close()'s stroke of the open run (_run_stroke: curve, or one move when !curve), its
+ * next_u (nux, nuy), handed to on_stroke.  prev_u / start: the run handed in's objects
+ * (None or a tuple) when h->c is 0; z: the run's Z (the run handed in's z1, the bits of
+ * every z0 in it). */
+static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObject *prev_u, PyObject *start,
+                      int travel, int curve, PyObject *run_ends, PyObject *run_xy, double run_len, double r_epm,
+                      PyObject *nux, PyObject *nuy, PyObject *z)
+{
+    PyObject *own[12];                 /* new references made here (at most 9) */
+    int n_own = 0, rc = -1;
+#define OWN(x) (own[n_own++] = (x))
+    PyObject *val[ST_N];
+    for (int k = 0; k < ST_N; k++)
+        val[k] = Py_None;
+    PyObject *epm = OWN(PyFloat_FromDouble(r_epm));
+    if (!epm)
+        goto done;
+    if (h->c) {
+        PyObject *first = OWN(PyLong_FromLongLong(h->first));
+        PyObject *x0 = OWN(PyFloat_FromDouble(h->rm.fm.x0)), *y0 = OWN(PyFloat_FromDouble(h->rm.fm.y0));
+        if (!first || !x0 || !y0)
+            goto done;
+        val[ST_FIRST] = first;
+        val[ST_X0] = x0;
+        val[ST_Y0] = y0;
+        val[ST_Z] = z;
+        val[ST_PUX] = h->pux;
+        val[ST_PUY] = h->puy;
+        if (start != Py_None) {
+            PyObject *e0 = OWN(PyFloat_FromDouble(h->rm.e0));
+            if (!e0)
+                goto done;
+            val[ST_SSE] = e0;
+        }
+    } else {
+        val[ST_FIRST] = p->idx;
+        val[ST_X0] = p->x0;
+        val[ST_Y0] = p->y0;
+        val[ST_Z] = p->z0;
+        if (prev_u != Py_None) {
+            val[ST_PUX] = PyTuple_GET_ITEM(prev_u, 0);
+            val[ST_PUY] = PyTuple_GET_ITEM(prev_u, 1);
+        }
+        if (start != Py_None)
+            val[ST_SSE] = PyTuple_GET_ITEM(start, 0);
+    }
+    if (start != Py_None) {
+        val[ST_SSA] = PyTuple_GET_ITEM(start, travel ? 2 : 1);
+        val[ST_SSC] = PyTuple_GET_ITEM(start, 3);
+    }
+    if (h->last == h->first)           /* (one line: group_lines' r_last is that line's idx) */
+        val[ST_LAST] = val[ST_FIRST];
+    else if (!(val[ST_LAST] = OWN(PyLong_FromLongLong(h->last))))
+        goto done;
+    val[ST_UX] = h->ux;
+    val[ST_UY] = h->uy;
+    val[ST_VF] = p->v;
+    val[ST_ACC] = p->accel;
+    val[ST_FEAT] = p->feature;
+    val[ST_LAYER] = p->layer;
+    val[ST_EREL] = p->e_rel;
+    val[ST_LIM] = p->lim;
+    val[ST_EPM] = epm;
+    val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
+    val[ST_NUX] = nux;
+    val[ST_NUY] = nuy;
+    val[ST_CC0] = val[ST_CC1] = Py_False;
+    if (curve) {
+        /* Points(run_xy), array("d", run_ends), length_d run_ends[-1] */
+        PyObject *xy = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", run_xy));
+        if (!xy)
+            goto done;
+        PyObject *pts = OWN(slots_new(&POINTS_MAP, &xy));
+        PyObject *ends = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", run_ends));
+        if (!pts || !ends)
+            goto done;
+        val[ST_KIND] = kit->k_curve;
+        val[ST_PTS] = pts;
+        val[ST_ENDS] = ends;
+        val[ST_LEN] = PyList_GET_ITEM(run_ends, PyList_GET_SIZE(run_ends) - 1);
+    } else {
+        PyObject *len = OWN(PyFloat_FromDouble(run_len));
+        if (!len)
+            goto done;
+        val[ST_KIND] = kit->k_line;
+        val[ST_LEN] = len;
+    }
+    PyObject *st = OWN(slots_new(&STROKE_MAP, val));
+    if (!st)
+        goto done;
+    PyObject *r = PyObject_CallOneArg(kit->on_stroke, st);
+    if (r == NULL)
+        goto done;
+    Py_DECREF(r);
+    rc = 0;
+done:
+    for (int k = 0; k < n_own; k++)
+        Py_XDECREF(own[k]);
+#undef OWN
+    return rc;
+}
+
+/* list[:] = [a, b, c, d][:n] (new floats) */
+static int list_reset(PyObject *list, int n, double a, double b, double c, double d)
+{
+    if (PyList_SetSlice(list, 0, PyList_GET_SIZE(list), NULL) < 0)
+        return -1;
+    const double v[4] = {a, b, c, d};
+    for (int k = 0; k < n; k++) {
+        PyObject *f = PyFloat_FromDouble(v[k]);
+        if (f == NULL || PyList_Append(list, f) < 0) {
+            Py_XDECREF(f);
+            return -1;
+        }
+        Py_DECREF(f);
+    }
+    return 0;
+}
+
+/* the kit's parts; 0: no kit (None, or a Stroke / Points whose slots are not all plain) */
+static int kit_read(PyObject *o, RunKit *kit)
+{
+    if (o == Py_None)
+        return 0;
+    if (!PyTuple_CheckExact(o) || PyTuple_GET_SIZE(o) != 9) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: the kit must be a 9-tuple or None");
+        return -1;
+    }
+    kit->stroke_t = PyTuple_GET_ITEM(o, 0);
+    kit->points_t = PyTuple_GET_ITEM(o, 1);
+    kit->array_t = PyTuple_GET_ITEM(o, 2);
+    kit->k_line = PyTuple_GET_ITEM(o, 3);
+    kit->k_curve = PyTuple_GET_ITEM(o, 4);
+    kit->on_stroke = PyTuple_GET_ITEM(o, 5);
+    kit->head_move = PyTuple_GET_ITEM(o, 6);
+    kit->min_len = PyFloat_AsDouble(PyTuple_GET_ITEM(o, 7));
+    kit->curves = PyObject_IsTrue(PyTuple_GET_ITEM(o, 8));
+    if ((kit->min_len == -1.0 && PyErr_Occurred()) || kit->curves < 0)
+        return -1;
+    if (!PyType_Check(kit->stroke_t) || !PyType_Check(kit->points_t)) {
+        PyErr_SetString(PyExc_TypeError, "run_lines: the kit's Stroke and Points must be classes");
+        return -1;
+    }
+    static const char *points_names[1] = {"xy"};
+    int a = slots_ready(&STROKE_MAP, kit->stroke_t, STROKE_NAMES);
+    int b = a < 0 ? -1 : slots_ready(&POINTS_MAP, kit->points_t, points_names);
+    return a < 0 || b < 0 ? -1 : (a && b);
+}
+
+/* the open run is one run_lines opened: run[0] its first Move (head_move(the run handed
+ * in's first Move, ...): the Move step() made of the line) and rs group_lines' locals for
+ * it.  start: the run handed in's start_state (its accelerations and cruise ratio hold:
+ * no other line came between) */
+static int hand_back(const RunKit *kit, const RunHead *h, PyObject *proto_mv, PyObject *run, PyObject *rs,
+                     PyObject *start)
+{
+    const FusedMove *fm = &h->rm.fm;
+    PyObject *mv = PyObject_CallFunction(kit->head_move, "OLddddddddO", proto_mv, h->first, fm->x0, fm->y0,
+                                         fm->z0, fm->x1, fm->y1, fm->z1, fm->e, fm->v,
+                                         h->rm.has_f ? Py_True : Py_False);
+    if (mv == NULL)
+        return -1;
+    PyList_SetItem(run, 0, mv);        /* steals mv */
+    PyObject *nst = Py_None;
+    if (start != Py_None)
+        nst = Py_BuildValue("(dOOO)", h->rm.e0, PyTuple_GET_ITEM(start, 1), PyTuple_GET_ITEM(start, 2),
+                            PyTuple_GET_ITEM(start, 3));
+    else
+        Py_INCREF(nst);
+    PyObject *val[6] = {PyLong_FromLongLong(h->last), Py_NewRef(h->ux), Py_NewRef(h->uy),
+                        PyTuple_Pack(2, h->pux, h->puy), nst, PyLong_FromLongLong(h->first)};
+    int bad = 0;
+    for (int k = 0; k < 6; k++)
+        bad |= val[k] == NULL;
+    if (bad) {
+        for (int k = 0; k < 6; k++)
+            Py_XDECREF(val[k]);
+        return -1;
+    }
+    for (int k = 0; k < 6; k++)
+        PyList_SetItem(rs, k, val[k]);     /* steals */
+    return 0;
+}
+
+#define RL_CLEANUP() (proto_clear(&p), head_clear(&h), Py_XDECREF(proto_mv), Py_XDECREF(o_lux), \
+                      Py_XDECREF(o_luy))
 static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 23)
-        return PyErr_Format(PyExc_TypeError, "run_lines() takes 23 arguments (%zd given)", nargs);
+    if (nargs != 23 && nargs != 25)
+        return PyErr_Format(PyExc_TypeError, "run_lines() takes 23 or 25 arguments (%zd given)", nargs);
     PyObject *cur = args[0], *step = args[1], *run = args[2], *run_ends = args[3], *run_xy = args[4];
     PyObject *o_v = args[5], *o_accel = args[6], *feature = args[7], *o_z = args[8];
     PyObject *f_lim = args[20];
@@ -2799,12 +3101,61 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         return NULL;
     if (get_hypot() < 0)
         return NULL;
+    /* the strokes' kit and the open run's head, rs = [r_last, r_ux, r_uy, run_prev_u,
+     * run_start, first line] (group_lines' locals; rewritten when this call opened a run) */
+    RunKit kit;
+    memset(&kit, 0, sizeof(kit));
+    int have_kit = 0;
+    PyObject *rs = NULL, *prev_u = Py_None, *start = Py_None, *proto_mv = NULL;
+    /* the last move's direction as objects (the run's ux uy after a run of one move), NULL:
+     * not made yet (a line taken here) */
+    PyObject *o_lux = NULL, *o_luy = NULL;
+    RunHead h;
+    memset(&h, 0, sizeof(h));
+    Proto p;
+    memset(&p, 0, sizeof(p));
+    if (nargs == 25) {
+        have_kit = kit_read(args[23], &kit);
+        if (have_kit < 0)
+            return NULL;
+        rs = args[24];
+        if (have_kit) {
+            if (!PyList_CheckExact(rs) || PyList_GET_SIZE(rs) != 6) {
+                PyErr_SetString(PyExc_TypeError, "run_lines: rs must be a list of 6");
+                return NULL;
+            }
+            prev_u = PyList_GET_ITEM(rs, 3);
+            start = PyList_GET_ITEM(rs, 4);
+            h.last = PyLong_AsLongLong(PyList_GET_ITEM(rs, 0));
+            if ((h.last == -1 && PyErr_Occurred()) || (ZERO == NULL && (ZERO = PyFloat_FromDouble(0.0)) == NULL))
+                return NULL;
+            h.ux = Py_NewRef(PyList_GET_ITEM(rs, 1));
+            h.uy = Py_NewRef(PyList_GET_ITEM(rs, 2));
+            /* (anything unusual: no strokes here, Python closes the run) */
+            if (PyList_GET_SIZE(run) < 1 || Py_TYPE(PyList_GET_ITEM(run, 0)) != MOVE_MAP.type
+                || !(prev_u == Py_None || (PyTuple_CheckExact(prev_u) && PyTuple_GET_SIZE(prev_u) == 2))
+                || !(start == Py_None || (PyTuple_CheckExact(start) && PyTuple_GET_SIZE(start) == 4))
+                || PyList_GET_SIZE(run_ends) < 1)
+                have_kit = 0;
+            else if (proto_read(&p, PyList_GET_ITEM(run, 0)) < 0) {
+                RL_CLEANUP();
+                return NULL;
+            }
+            if (have_kit)
+                proto_mv = Py_NewRef(PyList_GET_ITEM(run, 0));
+        }
+    }
+    int opened = 0;                    /* runs this call opened */
+    o_lux = Py_NewRef(args[11]);
+    o_luy = Py_NewRef(args[12]);
     int err;
     void *ss = fused_session(s, step, &err);
-    if (err)
-        return NULL;
-    if (ss == NULL)
+    if (err || ss == NULL) {
+        RL_CLEANUP();
+        if (err)
+            return NULL;
         Py_RETURN_NONE;
+    }
     Py_INCREF(lines);                  /* the model's callbacks run Python: keep the chunk */
     /* the run's feed, acceleration and Z compared as Python compares floats (an object of
      * another type: no line is taken) */
@@ -2847,6 +3198,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         double dot = lux * ux + luy * uy;
         double cross = lux * uy - luy * ux;
         int turn = 0;
+        long long idx = idx0 + (long long)i;
         if (-coll <= cross && cross <= coll && dot > 0.0)
             ;
         else if (dot >= min_cos) {
@@ -2854,10 +3206,57 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
                 break;                 /* Python finds the bounds or asks split_vertex */
             turn = 1;
         }
-        else
-            break;
+        else {
+            /* group_lines' pre path: close the run, open the next one at this line */
+            if (!have_kit || fm->lim != p.lim)
+                break;
+            int drop = run_len < kit.min_len;
+            int curve = !drop && kit.curves && turned && PyList_GET_SIZE(run) >= 3;
+            if (!drop && !curve && PyList_GET_SIZE(run) != 1)
+                break;                 /* straight parts: Python */
+            READER->commit(ss, &rm);   /* (read() plays the line before group_lines sees it) */
+            if (play_fused(s, idx, fm) < 0)
+                goto fail;
+            /* this line's direction: the stroke's next_u, the new run's ux uy and last direction */
+            PyObject *nux = PyFloat_FromDouble(ux), *nuy = PyFloat_FromDouble(uy);
+            if (nux == NULL || nuy == NULL) {
+                Py_XDECREF(nux);
+                Py_XDECREF(nuy);
+                goto fail;
+            }
+            if (o_lux == NULL)
+                o_lux = PyFloat_FromDouble(lux);
+            if (o_luy == NULL)
+                o_luy = PyFloat_FromDouble(luy);
+            if (o_lux == NULL || o_luy == NULL
+                || (!drop && run_stroke(&kit, &p, &h, prev_u, start, travel, curve, run_ends, run_xy, run_len,
+                                        r_epm, nux, nuy, o_z) < 0)) {
+                Py_DECREF(nux);
+                Py_DECREF(nuy);
+                goto fail;
+            }
+            head_clear(&h);
+            h.pux = o_lux;             /* run_prev_u: the last move's direction (the references move) */
+            h.puy = o_luy;
+            h.ux = Py_NewRef(nux);
+            h.uy = Py_NewRef(nuy);
+            o_lux = nux;
+            o_luy = nuy;
+            if (list_reset(run, 1, fm->e, 0, 0, 0) < 0 || list_reset(run_ends, 1, d, 0, 0, 0) < 0
+                || list_reset(run_xy, 4, fm->x0, fm->y0, fm->x1, fm->y1) < 0)
+                goto fail;
+            h.c = 1;
+            h.rm = rm;
+            h.first = h.last = idx;
+            run_len = ld = d;
+            r_epm = fm->e / d;
+            lux = ux;
+            luy = uy;
+            turned = 0;
+            opened++;
+            continue;
+        }
         /* taken: the reader's state, the model, the run */
-        long long idx = idx0 + (long long)i;
         READER->commit(ss, &rm);
         if (play_fused(s, idx, fm) < 0)
             goto fail;
@@ -2879,20 +3278,32 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         luy = uy;
         ld = d;
         turned |= turn;
+        h.last = idx;
+        Py_CLEAR(o_lux);
+        Py_CLEAR(o_luy);
     }
     Py_DECREF(lines);
-    if (READER->close(ss) < 0)
+    if (READER->close(ss) < 0) {
+        RL_CLEANUP();
         return NULL;
+    }
     PyObject *io = PyLong_FromSsize_t(i);
-    if (io == NULL)
+    if (io == NULL) {
+        RL_CLEANUP();
         return NULL;
+    }
     PyList_SetItem(cur, 1, io);        /* steals io */
+    if (opened && hand_back(&kit, &h, proto_mv, run, rs, start) < 0) {
+        RL_CLEANUP();
+        return NULL;
+    }
+    RL_CLEANUP();
     if (i == i0)
         return PyLong_FromLong(0);
-    return Py_BuildValue("(ndddddN)", i - i0, run_len, r_epm, ld, lux, luy,
-                         PyBool_FromLong(turned));
+    return Py_BuildValue("(ndddddNi)", i - i0, run_len, r_epm, ld, lux, luy, PyBool_FromLong(turned), opened);
 fail:
     Py_DECREF(lines);
+    RL_CLEANUP();
     READER->close(ss);                 /* writes the state back, keeps the error */
     return NULL;
 }
@@ -3122,7 +3533,8 @@ static PyMethodDef Sim_methods[] = {
     {"empty", (PyCFunction)Sim_empty, METH_NOARGS, "Nothing planned is waiting."},
     {"run_lines", (PyCFunction)(void (*)(void))Sim_run_lines, METH_FASTCALL,
      "run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy, ld, run_len, "
-     "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi): group_lines' common lines (pipeline.analyse)"},
+     "r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi[, kit, rs]): group_lines' common lines "
+     "(pipeline.analyse); with a kit, also the runs they close and open"},
     {"gap_lines", (PyCFunction)(void (*)(void))Sim_gap_lines, METH_FASTCALL,
      "gap_lines(cur, step, last_f, selected, travel, min_feed_v, feat_at, last_u, waiting): "
      "analyse's lines between runs"},

@@ -10,6 +10,7 @@ code under test.  The C path must be the one compared (most strokes made in C), 
 strokes must share their float objects as the Python ones do (memory: ~50 k strokes)."""
 from __future__ import annotations
 
+import math
 import os
 import random
 
@@ -97,6 +98,39 @@ def test_random_files_are_the_reference(tmp_path, monkeypatch, seed):
     kw = [dict(), dict(features=feat.ALL), dict(max_turn_deg=0.0)][seed // 2 % 3]
     _same(str(f), prof, **kw)
     assert made.calls > 0
+
+
+def _drifting_runs(rng, n_runs):
+    """Straight runs whose direction drifts by less than the collinear tolerance a move but
+    more than it along the run (strokes split into straight parts), some of moves shorter
+    than min_length_d, each run ended by a sharp turn (the line that opens the next run)."""
+    out = ["M83", ";TYPE:Internal infill", "G1 F3000"]
+    x, y, th = 10.0, 10.0, 0.0
+    for _ in range(n_runs):
+        th += rng.choice([1.2, -1.5, 2.0, 3.1])           # radians: past any curve limit
+        step = rng.choice([0.0004, 0.0008, 0.0015])      # drift a move (|sin| ~ step)
+        for _ in range(rng.randint(1, 9)):
+            th += rng.choice([step, -step, step])
+            d = rng.choice([0.05, 0.3, 1.0, 2.5, 6.0])
+            x = min(max(x + d * math.cos(th), -200.0), 200.0)
+            y = min(max(y + d * math.sin(th), -200.0), 200.0)
+            out.append(f"G1 X{x:.4f} Y{y:.4f} E{rng.choice([0.01, 0.02, 0.05]) * d:.5f}")
+        if rng.random() < 0.05:
+            out.append(rng.choice([";a comment", "G1 F3000", "M204 S1000", "G1 Z0.4", "G1 Z0.2"]))
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("kw", [dict(), dict(max_turn_deg=0.0), dict(min_length_d=0.0), dict(min_length_d=2.0)])
+def test_straight_parts_made_in_c_are_the_reference(tmp_path, monkeypatch, kw):
+    """Runs that are not curves but split into parts (run_parts: prev_u / next_u of the
+    parts, their start E sums, the short ones dropped and the last kept given the run's
+    next_u)."""
+    made = _Made(monkeypatch)
+    f = tmp_path / "drift.gcode"
+    f.write_text(_drifting_runs(random.Random(7), 3000))
+    got = _same(str(f), "prusa-mk3s", **kw)
+    assert made.reopened > 2000, made.reopened
+    assert sum(1 for st in got if st.n_moves > 1) > 300
 
 
 def _float_objects(strokes_):

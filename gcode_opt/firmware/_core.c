@@ -2884,6 +2884,26 @@ static int proto_read(Proto *p, PyObject *m)
            ? 0 : -1;
 }
 
+/* array("d", floats): the list's doubles handed to the array as bytes (frombytes: one copy)
+ * where every item is a float (array("d", list) converts item by item, through the
+ * argument parser: ~200 instructions a vertex), else array("d", list) itself */
+static PyObject *double_array(PyObject *array_t, PyObject *list)
+{
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    for (Py_ssize_t k = 0; k < n; k++)
+        if (!PyFloat_CheckExact(PyList_GET_ITEM(list, k)))
+            return PyObject_CallFunction(array_t, "sO", "d", list);
+    PyObject *b = PyBytes_FromStringAndSize(NULL, n * (Py_ssize_t)sizeof(double));
+    if (b == NULL)
+        return NULL;
+    double *d = (double *)PyBytes_AS_STRING(b);
+    for (Py_ssize_t k = 0; k < n; k++)
+        d[k] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(list, k));
+    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    Py_DECREF(b);
+    return a;
+}
+
 /* close()'s stroke of the open run (_run_stroke: curve, or one move when !curve), its
  * next_u (nux, nuy), handed to on_stroke.  prev_u / start: the run handed in's objects
  * (None or a tuple) when h->c is 0; z: the run's Z (the run handed in's z1, the bits of
@@ -2953,11 +2973,11 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
     val[ST_CC0] = val[ST_CC1] = Py_False;
     if (curve) {
         /* Points(run_xy), array("d", run_ends), length_d run_ends[-1] */
-        PyObject *xy = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", run_xy));
+        PyObject *xy = OWN(double_array(kit->array_t, run_xy));
         if (!xy)
             goto done;
         PyObject *pts = OWN(slots_new(&POINTS_MAP, &xy));
-        PyObject *ends = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", run_ends));
+        PyObject *ends = OWN(double_array(kit->array_t, run_ends));
         if (!pts || !ends)
             goto done;
         val[ST_KIND] = kit->k_curve;
@@ -2983,6 +3003,187 @@ done:
     for (int k = 0; k < n_own; k++)
         Py_XDECREF(own[k]);
 #undef OWN
+    return rc;
+}
+
+/* close()'s strokes of a straight run of several moves (_straight_parts, then close_parts,
+ * or close()'s one-stroke case, which is close_parts' first part): a new Stroke(move)
+ * wherever Stroke.try_extend refuses the move (|cross| > coll d or dot <= 0 against the
+ * part's first direction: the run's other tests hold for every move of a run), each part's
+ * prev_u the run's (the first) or the direction of the move before it, next_u the next
+ * part's first direction, start_state E the run's start E plus the moves' E before it (in
+ * order); the parts shorter than min_length_d dropped, the last one kept given (nux, nuy),
+ * each handed to on_stroke.  The moves are run's (its E: a float, or a Move's e) and
+ * run_xy's (their ends); their lengths math.hypot's again (the bits group_lines had). */
+static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObject *prev_u, PyObject *start,
+                     int travel, PyObject *run, PyObject *run_xy, double coll, PyObject *nux, PyObject *nuy,
+                     PyObject *z)
+{
+    Py_ssize_t n = PyList_GET_SIZE(run);
+    if (PyList_GET_SIZE(run_xy) != 2 * n + 2)
+        return 1;                      /* (not the run's shape: Python) */
+    /* 1 (nothing done: Python closes the run) is decided before any stroke is made */
+    double *buf = PyMem_Malloc(6 * (size_t)n * sizeof(double));
+    Py_ssize_t *k0s = PyMem_Malloc(((size_t)n + 1) * sizeof(Py_ssize_t));
+    PyObject **made = PyMem_Calloc((size_t)n, sizeof(PyObject *));
+    if (buf == NULL || k0s == NULL || made == NULL) {
+        PyMem_Free(buf);
+        PyMem_Free(k0s);
+        PyMem_Free(made);
+        PyErr_NoMemory();
+        return -1;
+    }
+    double *d = buf, *ux = buf + n, *uy = buf + 2 * n, *e = buf + 3 * n, *ends = buf + 4 * n;
+    int rc = -1;
+    Py_ssize_t np = 0, kept = 0;       /* parts, strokes made */
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PyObject *m = PyList_GET_ITEM(run, k), *o;
+        double q[4];
+        for (int j = 0; j < 4; j++) {
+            o = PyList_GET_ITEM(run_xy, 2 * k + j);
+            if (!PyFloat_CheckExact(o)) {
+                rc = 1;
+                goto done;
+            }
+            q[j] = PyFloat_AS_DOUBLE(o);
+        }
+        /* the moves after the first are floats (run_lines' or group_lines' lazy moves: the
+         * run's feed, acceleration, Z ... to the bit); a Move group_lines took there: Python */
+        if (PyFloat_CheckExact(m))
+            e[k] = PyFloat_AS_DOUBLE(m);
+        else if (k > 0) {
+            rc = 1;
+            goto done;
+        } else if (get_d(&MOVE_MAP, m, MV_E, &e[k]) < 0)
+            goto done;
+        double dx = q[2] - q[0], dy = q[3] - q[1];
+        if (py_hypot(dx, dy, &d[k]) < 0)
+            goto done;
+        if (d[k] == 0.0) {
+            rc = 1;
+            goto done;
+        }
+        ux[k] = dx / d[k];
+        uy[k] = dy / d[k];
+        if (k > 0) {                   /* try_extend against the part's first move */
+            Py_ssize_t f = k0s[np - 1];
+            if (!(fabs(dx * uy[f] - dy * ux[f]) > coll * d[k] || dx * ux[f] + dy * uy[f] <= 0.0))
+                continue;
+        }
+        k0s[np++] = k;
+    }
+    k0s[np] = n;
+    double e_k = 0.0;
+    if (start != Py_None) {
+        if (h->c)
+            e_k = h->rm.e0;
+        else if ((e_k = PyFloat_AsDouble(PyTuple_GET_ITEM(start, 0))) == -1.0 && PyErr_Occurred())
+            goto done;
+    }
+    Py_ssize_t k_done = 0;
+    for (Py_ssize_t j = 0; j < np; j++) {
+        Py_ssize_t a = k0s[j], b = k0s[j + 1];      /* the part's moves a .. b-1 */
+        double len = d[a], epm = e[a] / d[a];
+        ends[0] = len;
+        for (Py_ssize_t k = a + 1; k < b; k++) {
+            len += d[k];
+            ends[k - a] = len;
+            double q = e[k] / d[k];
+            if (q > epm)               /* max(e_per_mm, q) */
+                epm = q;
+        }
+        for (; k_done < a; k_done++)  /* the reader's own sum, in its order */
+            e_k += e[k_done];
+        if (len < kit->min_len)
+            continue;                  /* dropped (its neighbours keep what they were given) */
+        PyObject *own[16];
+        int n_own = 0, bad = 0;
+#define OWN(x) (bad |= (own[n_own++] = (x)) == NULL, own[n_own - 1])
+        PyObject *val[ST_N];
+        for (int k = 0; k < ST_N; k++)
+            val[k] = Py_None;
+        if (a == 0 && !h->c) {
+            val[ST_FIRST] = p->idx;
+            val[ST_X0] = p->x0;
+            val[ST_Y0] = p->y0;
+            val[ST_Z] = p->z0;
+        } else {
+            val[ST_FIRST] = OWN(PyLong_FromLongLong(h->first + a));
+            val[ST_X0] = OWN(PyFloat_FromDouble(PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a))));
+            val[ST_Y0] = OWN(PyFloat_FromDouble(PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a + 1))));
+            val[ST_Z] = z;
+        }
+        val[ST_LAST] = b - 1 == a ? val[ST_FIRST] : OWN(PyLong_FromLongLong(h->first + b - 1));
+        if (a == 0) {
+            val[ST_UX] = h->ux;        /* (the run's first direction: the same bits) */
+            val[ST_UY] = h->uy;
+            if (h->c) {
+                val[ST_PUX] = h->pux;
+                val[ST_PUY] = h->puy;
+            } else if (prev_u != Py_None) {
+                val[ST_PUX] = PyTuple_GET_ITEM(prev_u, 0);
+                val[ST_PUY] = PyTuple_GET_ITEM(prev_u, 1);
+            }
+        } else {
+            val[ST_UX] = OWN(PyFloat_FromDouble(ux[a]));
+            val[ST_UY] = OWN(PyFloat_FromDouble(uy[a]));
+            val[ST_PUX] = OWN(PyFloat_FromDouble(ux[a - 1]));
+            val[ST_PUY] = OWN(PyFloat_FromDouble(uy[a - 1]));
+        }
+        if (j + 1 < np) {              /* the next part's first direction (the last kept: below) */
+            val[ST_NUX] = OWN(PyFloat_FromDouble(ux[b]));
+            val[ST_NUY] = OWN(PyFloat_FromDouble(uy[b]));
+        }
+        val[ST_LEN] = OWN(PyFloat_FromDouble(len));
+        if (b - a > 1) {
+            PyObject *by = OWN(PyBytes_FromStringAndSize((const char *)ends, (b - a) * (Py_ssize_t)sizeof(double)));
+            if (!bad)
+                val[ST_ENDS] = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", by));
+        }
+        val[ST_EPM] = OWN(PyFloat_FromDouble(epm));
+        if (start != Py_None) {
+            if (a == 0 && !h->c)
+                val[ST_SSE] = PyTuple_GET_ITEM(start, 0);
+            else
+                val[ST_SSE] = OWN(PyFloat_FromDouble(e_k));
+            val[ST_SSA] = PyTuple_GET_ITEM(start, travel ? 2 : 1);
+            val[ST_SSC] = PyTuple_GET_ITEM(start, 3);
+        }
+#undef OWN
+        val[ST_VF] = p->v;
+        val[ST_ACC] = p->accel;
+        val[ST_FEAT] = p->feature;
+        val[ST_LAYER] = p->layer;
+        val[ST_EREL] = p->e_rel;
+        val[ST_LIM] = p->lim;
+        val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
+        val[ST_CC0] = val[ST_CC1] = Py_False;
+        val[ST_KIND] = kit->k_line;
+        PyObject *st = bad ? NULL : slots_new(&STROKE_MAP, val);
+        for (int k = 0; k < n_own; k++)
+            Py_XDECREF(own[k]);
+        if (st == NULL)
+            goto done;
+        made[kept++] = st;
+    }
+    if (kept) {                        /* the last one kept: the run's next_u */
+        PyObject *st = made[kept - 1];
+        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUX]), Py_NewRef(nux));
+        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUY]), Py_NewRef(nuy));
+    }
+    for (Py_ssize_t k = 0; k < kept; k++) {
+        PyObject *r = PyObject_CallOneArg(kit->on_stroke, made[k]);
+        if (r == NULL)
+            goto done;
+        Py_DECREF(r);
+    }
+    rc = 0;
+done:
+    for (Py_ssize_t k = 0; k < kept; k++)
+        Py_XDECREF(made[k]);
+    PyMem_Free(buf);
+    PyMem_Free(k0s);
+    PyMem_Free(made);
     return rc;
 }
 
@@ -3141,8 +3342,14 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
                 RL_CLEANUP();
                 return NULL;
             }
-            if (have_kit)
+            if (have_kit) {
                 proto_mv = Py_NewRef(PyList_GET_ITEM(run, 0));
+                h.first = PyLong_AsLongLong(p.idx);
+                if (h.first == -1 && PyErr_Occurred()) {
+                    RL_CLEANUP();
+                    return NULL;
+                }
+            }
         }
     }
     int opened = 0;                    /* runs this call opened */
@@ -3212,11 +3419,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
                 break;
             int drop = run_len < kit.min_len;
             int curve = !drop && kit.curves && turned && PyList_GET_SIZE(run) >= 3;
-            if (!drop && !curve && PyList_GET_SIZE(run) != 1)
-                break;                 /* straight parts: Python */
-            READER->commit(ss, &rm);   /* (read() plays the line before group_lines sees it) */
-            if (play_fused(s, idx, fm) < 0)
-                goto fail;
+            int parts = !drop && !curve && PyList_GET_SIZE(run) >= 2;
             /* this line's direction: the stroke's next_u, the new run's ux uy and last direction */
             PyObject *nux = PyFloat_FromDouble(ux), *nuy = PyFloat_FromDouble(uy);
             if (nux == NULL || nuy == NULL) {
@@ -3224,13 +3427,24 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
                 Py_XDECREF(nuy);
                 goto fail;
             }
+            if (parts) {               /* straight parts (or Python, before anything changed) */
+                int r = run_parts(&kit, &p, &h, prev_u, start, travel, run, run_xy, coll, nux, nuy, o_z);
+                if (r != 0) {
+                    Py_DECREF(nux);
+                    Py_DECREF(nuy);
+                    if (r < 0)
+                        goto fail;
+                    break;
+                }
+            }
+            READER->commit(ss, &rm);   /* (read() plays the line before group_lines sees it) */
             if (o_lux == NULL)
                 o_lux = PyFloat_FromDouble(lux);
             if (o_luy == NULL)
                 o_luy = PyFloat_FromDouble(luy);
-            if (o_lux == NULL || o_luy == NULL
-                || (!drop && run_stroke(&kit, &p, &h, prev_u, start, travel, curve, run_ends, run_xy, run_len,
-                                        r_epm, nux, nuy, o_z) < 0)) {
+            if (play_fused(s, idx, fm) < 0 || o_lux == NULL || o_luy == NULL
+                || (!drop && !parts && run_stroke(&kit, &p, &h, prev_u, start, travel, curve, run_ends, run_xy,
+                                                  run_len, r_epm, nux, nuy, o_z) < 0)) {
                 Py_DECREF(nux);
                 Py_DECREF(nuy);
                 goto fail;

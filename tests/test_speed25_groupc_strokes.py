@@ -180,3 +180,35 @@ def test_run_lines_without_kit_opens_no_run():
         if kit is None:
             assert got[7] == 0
         sim.stop()
+
+
+_DUMP = r"""
+import pickle, sys
+from gcode_opt import pipeline as pl
+from gcode_opt.firmware import simulate as fwsim
+from gcode_opt.profile import load_profile
+from test_speed_analyse import _stroke_bits
+o = pl.Options()
+o.ringing = False
+st, sim = pl.analyse(sys.argv[1], load_profile("prusa-mk3s"), o)
+pickle.dump((fwsim.CORE, [_stroke_bits(s) for s in st]), sys.stdout.buffer)
+"""
+
+
+def test_pure_python_path_gives_the_same_strokes():
+    """GCODE_OPT_PURE_PYTHON=1 (no compiled model or reader: group_lines reads every line,
+    no kit) gives the strokes of the C path, bit for bit."""
+    import pickle
+    import subprocess
+    import sys
+    from test_speed_analyse import _stroke_bits
+    path = SAMPLES + "prusa_gyroid.gcode"
+    o = pl.Options()
+    o.ringing = False
+    here, _ = pl.analyse(path, load_profile("prusa-mk3s"), o)
+    env = dict(os.environ, GCODE_OPT_PURE_PYTHON="1",
+               PYTHONPATH=os.pathsep.join([os.getcwd(), os.path.dirname(__file__)]))
+    out = subprocess.run([sys.executable, "-c", _DUMP, path], env=env, capture_output=True, check=True).stdout
+    core, there = pickle.loads(out)
+    assert core == "python" and fwsim.CORE == "c"
+    assert there == [_stroke_bits(s) for s in here]

@@ -177,6 +177,7 @@ def test_run_lines_without_kit_opens_no_run():
                 m.e, False, 0.5, 1e-3, False, None, 1.0, 0.0]
         got = sim.run_lines(*args) if kit == "none" else sim.run_lines(*args, None, [1, 1.0, 0.0, None, None, None])
         assert got[0] == 2 and cur[1] == 4 and len(run) == 3
+        assert len(got) == (7 if kit == "none" else 8)
         if kit is None:
             assert got[7] == 0
         sim.stop()

@@ -3514,6 +3514,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     RL_CLEANUP();
     if (i == i0)
         return PyLong_FromLong(0);
+    if (nargs == 23)                   /* (the round-24 form: no runs opened, 7 items) */
+        return Py_BuildValue("(ndddddN)", i - i0, run_len, r_epm, ld, lux, luy, PyBool_FromLong(turned));
     return Py_BuildValue("(ndddddNi)", i - i0, run_len, r_epm, ld, lux, luy, PyBool_FromLong(turned), opened);
 fail:
     Py_DECREF(lines);

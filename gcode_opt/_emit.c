@@ -464,18 +464,44 @@ static void fseq_release(FSeq *f)
     f->own = NULL;
 }
 
-/* set_types(ndarray, float64 dtype, array.array): what fseq_get reads besides lists and bytes */
+/* set_types(ndarray, float64 dtype, array.array[, probe, probe_address]): what fseq_get
+   reads besides lists and bytes.  probe: a float64 ndarray [0.5, 1.5, 2.5] and the address
+   of its data (probe.ctypes.data): when the array's leading fields (NdHead) read as they
+   should on it, fseq_object reads a contiguous 1-D float64 ndarray's doubles where they are
+   (no tobytes() and copy a sequence) */
 static PyObject *ND_TYPE = NULL, *F64_DTYPE = NULL, *ARRAY_TYPE = NULL;
+
+/* numpy's array object's leading fields (PyArrayObject_fields in numpy/ndarraytypes.h:
+   the same in numpy 1.x and 2.x); used only when set_types' probe reads right */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    int nd;
+    Py_ssize_t *dimensions, *strides;
+    PyObject *base, *descr;
+} NdHead;
+static int ND_DIRECT = 0;
 
 static PyObject *set_types(PyObject *self, PyObject *args)
 {
-    PyObject *nd, *f64, *arr;
-    if (!PyArg_ParseTuple(args, "O!OO!", &PyType_Type, &nd, &f64, &PyType_Type, &arr))
+    PyObject *nd, *f64, *arr, *probe = NULL, *addr = NULL;
+    if (!PyArg_ParseTuple(args, "O!OO!|OO", &PyType_Type, &nd, &f64, &PyType_Type, &arr, &probe, &addr))
         return NULL;
     Py_XSETREF(ND_TYPE, Py_NewRef(nd));
     Py_XSETREF(F64_DTYPE, Py_NewRef(f64));
     Py_XSETREF(ARRAY_TYPE, Py_NewRef(arr));
-    Py_RETURN_NONE;
+    ND_DIRECT = 0;
+    if (probe != NULL && addr != NULL && Py_IS_TYPE(probe, (PyTypeObject *)nd) && PyLong_Check(addr)) {
+        void *at = PyLong_AsVoidPtr(addr);
+        const NdHead *h = (const NdHead *)probe;
+        if (at != NULL && h->data == at && h->nd == 1 && h->dimensions[0] == 3 && h->strides[0] == sizeof(double)
+            && h->descr == f64) {
+            const double *v = (const double *)h->data;
+            ND_DIRECT = v[0] == 0.5 && v[1] == 1.5 && v[2] == 2.5;
+        }
+        PyErr_Clear();
+    }
+    return PyBool_FromLong(ND_DIRECT);
 }
 
 /* the doubles of a 1-D float64 ndarray (its tobytes(), as emit._doubles takes them) or an
@@ -484,6 +510,18 @@ static PyObject *set_types(PyObject *self, PyObject *args)
 static int fseq_object(PyObject *o, FSeq *f)
 {
     PyObject *bytes = NULL;
+    if (ND_DIRECT && Py_IS_TYPE(o, (PyTypeObject *)ND_TYPE)) {
+        /* the doubles where they are (the caller holds the array): tobytes() would give
+           these same bytes */
+        const NdHead *h = (const NdHead *)o;
+        if (h->descr == F64_DTYPE && h->nd == 1 && h->strides[0] == (Py_ssize_t)sizeof(double)
+            && ((uintptr_t)h->data % sizeof(double)) == 0) {
+            f->own = NULL;
+            f->d = (const double *)h->data;
+            f->n = h->dimensions[0];
+            return 0;
+        }
+    }
     if (ND_TYPE != NULL && Py_IS_TYPE(o, (PyTypeObject *)ND_TYPE)) {
         PyObject *dt = PyObject_GetAttrString(o, "dtype");
         int ok = dt == F64_DTYPE;
@@ -817,6 +855,22 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
 
 /* ---------------------------------------------------------------- fast_body */
 
+/* pow(10.0, -k) (Python's 10.0 ** -k calls libm's pow): the same values, made once */
+static double POW10_NEG[32];
+static int POW10_NEG_READY = 0;
+
+static inline double pow10_neg(int k)
+{
+    if (k < 0 || k >= 32)
+        return pow(10.0, (double)-k);
+    if (!POW10_NEG_READY) {
+        for (int j = 0; j < 32; j++)
+            POW10_NEG[j] = pow(10.0, (double)-j);
+        POW10_NEG_READY = 1;
+    }
+    return POW10_NEG[k];
+}
+
 /* fast_body(text, start, stop, want, klipper, limit, accel_max_a, px, py, tol_d, e_mode,
              e_value, min_move_d)
    validate._fast_ok's reading of text[start:stop] (the body: "\n" line "\n" ... line "\n")
@@ -901,7 +955,7 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
                     }
                     double d = hypot(x - ax - tt * ddx, y - ay - tt * ddy);
                     int dmax = dx_ > dy_ ? dx_ : dy_;   /* validate._tol */
-                    double tv = 0.75 * pow(10.0, (double)-dmax);
+                    double tv = 0.75 * pow10_neg(dmax);
                     double tol = (tv < tol_d ? tv : tol_d) + 1e-7;
                     if (!(d <= tol * (1.0 - MARGIN_R)))
                         return 0;              /* off this segment, or near: Python's search */
@@ -1113,43 +1167,57 @@ static double arg_double(PyObject *o, int *bad)
 /* The head of a line stroke's block as pipeline._rewrite_bytes' f-string writes it,
      f"{BEGIN}: replaces {n_lines} lines, kind={kind}, {n_segments} segments, "
      f"T={t:.4f}s (was {t_was:.4f}s), beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}"
-   from spec = (kind, n_segments, t, t_was, beta, svl): the floats through
+   from the kind's and svl's texts and the numbers: the floats through
    PyOS_double_to_string, which float.__format__ calls for 'f' and 'g' with a precision.
-   A PyMem buffer (the caller frees it) and its length; NULL (no exception) for a spec of
-   other types. */
-static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
+   A PyMem buffer (the caller frees it) and its length; NULL (no exception): declined. */
+/* the decimal text of v (what %lld writes) at p: its length (at most 20) */
+static int put_ll(char *p, long long v)
 {
-    if (!PyTuple_CheckExact(spec) || PyTuple_GET_SIZE(spec) != 6)
-        return NULL;
-    PyObject *o_seg = PyTuple_GET_ITEM(spec, 1), *o_t = PyTuple_GET_ITEM(spec, 2),
-             *o_tw = PyTuple_GET_ITEM(spec, 3), *o_b = PyTuple_GET_ITEM(spec, 4);
-    Py_ssize_t kn, sn;
-    const char *kp = ascii(PyTuple_GET_ITEM(spec, 0), &kn), *sp = ascii(PyTuple_GET_ITEM(spec, 5), &sn);
-    if (!kp || !sp || !PyLong_CheckExact(o_seg) || !PyFloat_Check(o_t) || !PyFloat_Check(o_tw) || !PyFloat_Check(o_b))
-        return NULL;
-    long long n_seg = PyLong_AsLongLong(o_seg);
-    if (n_seg == -1 && PyErr_Occurred()) {
-        PyErr_Clear();
-        return NULL;
-    }
-    double beta = PyFloat_AS_DOUBLE(o_b);
-    char *ft = PyOS_double_to_string(PyFloat_AS_DOUBLE(o_t), 'f', 4, 0, NULL),
-         *fw = PyOS_double_to_string(PyFloat_AS_DOUBLE(o_tw), 'f', 4, 0, NULL),
+    char tmp[24];
+    int t = (int)sizeof tmp, n = 0;
+    unsigned long long u = v < 0 ? 0ULL - (unsigned long long)v : (unsigned long long)v;
+    do { tmp[--t] = (char)('0' + (int)(u % 10)); u /= 10; } while (u);
+    if (v < 0) tmp[--t] = '-';
+    n = (int)sizeof tmp - t;
+    memcpy(p, tmp + t, (size_t)n);
+    return n;
+}
+
+static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double t, double t_was, double beta,
+                          const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, Py_ssize_t *len)
+{
+    char *ft = PyOS_double_to_string(t, 'f', 4, 0, NULL),
+         *fw = PyOS_double_to_string(t_was, 'f', 4, 0, NULL),
          *fb = isfinite(beta) ? PyOS_double_to_string(beta, 'g', 4, 0, NULL) : NULL;
     char *out = NULL;
     if (ft && fw && (fb || !isfinite(beta))) {
-        size_t cap = strlen(ft) + strlen(fw) + (fb ? strlen(fb) : 3) + (size_t)kn + (size_t)sn + 160;
+        /* the pieces put one after the other (snprintf's "%zd", "%.*s", "%lld", "%s" of
+           them: the same bytes, without the format's parsing a block) */
+        static const char P0[] = "; gcode-opt begin: replaces ", P1[] = " lines, kind=", P2[] = ", ",
+                          P3[] = " segments, T=", P4[] = "s (was ", P5[] = "s), beta=", P6[] = "s^2\n";
+        const char *bt = fb ? fb : "inf";
+        size_t nt = strlen(ft), nw = strlen(fw), nb = strlen(bt);
+        size_t cap = nt + nw + nb + (size_t)kn + (size_t)sn + 160;
         out = PyMem_Malloc(cap);
         if (out != NULL) {
-            int m = snprintf(out, cap, "; gcode-opt begin: replaces %zd lines, kind=%.*s, %lld segments, "
-                             "T=%ss (was %ss), beta=%ss^2\n", n_lines, (int)kn, kp, n_seg, ft, fw, fb ? fb : "inf");
-            if (m < 0 || (size_t)m + (size_t)sn >= cap) {
-                PyMem_Free(out);
-                out = NULL;
-            } else {
-                memcpy(out + m, sp, (size_t)sn);
-                *len = m + sn;
-            }
+            char *q = out;
+#define PUT(s_, n_) do { memcpy(q, (s_), (n_)); q += (n_); } while (0)
+            PUT(P0, sizeof P0 - 1);
+            q += put_ll(q, (long long)n_lines);
+            PUT(P1, sizeof P1 - 1);
+            PUT(kp, (size_t)kn);
+            PUT(P2, sizeof P2 - 1);
+            q += put_ll(q, n_seg);
+            PUT(P3, sizeof P3 - 1);
+            PUT(ft, nt);
+            PUT(P4, sizeof P4 - 1);
+            PUT(fw, nw);
+            PUT(P5, sizeof P5 - 1);
+            PUT(bt, nb);
+            PUT(P6, sizeof P6 - 1);
+            PUT(sp, (size_t)sn);
+#undef PUT
+            *len = q - out;
         }
     }
     PyMem_Free(ft);
@@ -1159,116 +1227,79 @@ static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
     return out;
 }
 
-/* stroke_block(data, start, stop, n_lines, head, closing, before, after, x0_text, y0_text, x0, y0, e0,
-                s, accels, feeds, ends_d, e_rel, extruding, ctx, accel_max_a)
-   ctx = (accel_word, want, klipper, limit, min_move_d)
-   A line stroke's block in one call: data[start:stop] is the stroke's n_lines original lines
-   (bytes); the lines read as emit.StrokeText reads plain lines, the block written as
-   emit_stroke writes it (head: "; gcode-opt begin: ..." and its line end, plus Klipper's
-   cruise-ratio line; closing: emit._closing_text; before/after: the first_cmds lines with
-   their line end, or None) and checked as pipeline._validate's validate_block checks it
-   (validate._fast_ok's passes).  The block's bytes, or None: anything else (a line not
-   plain, not ASCII, a "\r", a block the column pass does not certainly pass, ...) is
-   pipeline's Python path's to decide.
-   head may be head_text's spec tuple instead of the text; x0_text and y0_text None for
-   f"{x0:.8f}" and f"{y0:.8f}" made here (PyOS_double_to_string, as format() makes them). */
-static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* head_text_of from spec = (kind, n_segments, t, t_was, beta, svl); NULL (no exception)
+   for a spec of other types */
+static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
 {
-    if (nargs != 21) {
-        PyErr_SetString(PyExc_TypeError, "stroke_block takes 21 arguments");
+    if (!PyTuple_CheckExact(spec) || PyTuple_GET_SIZE(spec) != 6)
+        return NULL;
+    PyObject *o_seg = PyTuple_GET_ITEM(spec, 1), *o_t = PyTuple_GET_ITEM(spec, 2),
+             *o_tw = PyTuple_GET_ITEM(spec, 3), *o_b = PyTuple_GET_ITEM(spec, 4);
+    Py_ssize_t kn = 0, sn = 0;
+    const char *kp = ascii(PyTuple_GET_ITEM(spec, 0), &kn), *sp = ascii(PyTuple_GET_ITEM(spec, 5), &sn);
+    if (!kp || !sp || !PyLong_CheckExact(o_seg) || !PyFloat_Check(o_t) || !PyFloat_Check(o_tw) || !PyFloat_Check(o_b)
+        || memchr(kp, 0, (size_t)kn) != NULL)
+        return NULL;
+    long long n_seg = PyLong_AsLongLong(o_seg);
+    if (n_seg == -1 && PyErr_Occurred()) {
+        PyErr_Clear();
         return NULL;
     }
-    PyObject *data = args[0], *ctx = args[19];
-    if (!PyBytes_CheckExact(data) || !PyTuple_CheckExact(ctx) || PyTuple_GET_SIZE(ctx) != 5)
-        Py_RETURN_NONE;
-    Py_ssize_t start = PyLong_AsSsize_t(args[1]), stop = PyLong_AsSsize_t(args[2]),
-               n = PyLong_AsSsize_t(args[3]);
-    if (PyErr_Occurred()) {
-        PyErr_Clear();
-        Py_RETURN_NONE;
-    }
-    const char *d = PyBytes_AS_STRING(data);
-    if (start < 0 || stop > PyBytes_GET_SIZE(data) || n < 1 || stop - start < 2 || d[stop - 1] != '\n')
-        Py_RETURN_NONE;
-    Pieces pc;
-    memset(&pc, 0, sizeof pc);
-    Txt x0 = {NULL, 0}, y0 = {NULL, 0};
-    char *own_head = NULL, *own_x0 = NULL, *own_y0 = NULL;     /* texts made here (freed at the end) */
-    if (PyTuple_CheckExact(args[4])) {
-        if ((own_head = head_text(args[4], n, &pc.hn)) == NULL)
-            Py_RETURN_NONE;
-        pc.hp = own_head;
-    } else
-        pc.hp = ascii(args[4], &pc.hn);
-    if (args[8] == Py_None && args[9] == Py_None) {
-        double xv = PyFloat_AsDouble(args[10]), yv = PyFloat_AsDouble(args[11]);
-        if (!PyErr_Occurred()) {
-            own_x0 = PyOS_double_to_string(xv, 'f', 8, 0, NULL);
-            own_y0 = PyOS_double_to_string(yv, 'f', 8, 0, NULL);
-        }
-        PyErr_Clear();
-    }
-    PyObject *res = NULL;
-    char *mem = NULL;
-    FSeq fs[4];
-    for (int i = 0; i < 4; i++)
-        memset(&fs[i], 0, sizeof fs[i]);
-    pc.clp = ascii(args[5], &pc.cln);
-    pc.wp = ascii(PyTuple_GET_ITEM(ctx, 0), &pc.wn);
-    pc.nlp = "\n";
-    pc.nln = 1;
-    if (args[6] != Py_None && ((pc.bp = ascii(args[6], &pc.bn)) == NULL || (pc.ap = ascii(args[7], &pc.an)) == NULL))
-        goto decline;
-    if (own_x0 != NULL && own_y0 != NULL) {
-        x0.p = own_x0;
-        x0.n = (Py_ssize_t)strlen(own_x0);
-        y0.p = own_y0;
-        y0.n = (Py_ssize_t)strlen(own_y0);
-    } else {
-        x0.p = ascii(args[8], &x0.n);
-        y0.p = ascii(args[9], &y0.n);
-    }
-    PyObject *want_o = PyTuple_GET_ITEM(ctx, 1);
-    Py_ssize_t wl;
-    const char *wantp = ascii(want_o, &wl);
-    if (!pc.hp || !pc.clp || !pc.wp || !x0.p || !y0.p || !wantp || wl != 1 || !PyFloat_CheckExact(args[12]))
-        goto decline;
+    return head_text_of(kp, kn, n_seg, PyFloat_AS_DOUBLE(o_t), PyFloat_AS_DOUBLE(o_tw), PyFloat_AS_DOUBLE(o_b), sp,
+                        sn, n_lines, len);
+}
+
+/* what block_into reads besides the four sequences (stroke_block's arguments, unpacked) */
+typedef struct {
+    const char *d;                  /* d[start:stop]: the stroke's n original lines */
+    Py_ssize_t start, stop, n;
+    Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
+    Txt x0, y0;                     /* the start's texts */
+    const char *wantp;              /* the M204 letter (one character) */
+    double x0v, y0v, e0, accel_max_a, min_move_d;
+    int e_rel, extruding, klipper;
+    Py_ssize_t limit;
+} BlockArgs;
+
+/* A line stroke's block appended to out (at out->n): the lines read as emit.StrokeText
+   reads plain lines, the block written as emit_stroke writes it and checked as
+   validate._fast_ok checks it.  1: appended; 0: declined (out->n as it was, no
+   exception); -1: no memory (exception set).  fs: s, accels, feeds, ends_d. */
+static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
+{
+    const Pieces *pc = &ba->pc;
+    const char *d = ba->d;
+    Py_ssize_t n = ba->n, start = ba->start, stop = ba->stop, base = out->n;
+    if (n < 1 || stop - start < 2 || d[stop - 1] != '\n')
+        return 0;
+    if (!pc->hp || !pc->clp || !pc->wp || !ba->x0.p || !ba->y0.p || !ba->wantp)
+        return 0;
     /* the head line as validate._fast_ok wants it (the caller writes it: its kind is there) */
     static const char BEGIN_R[] = "; gcode-opt begin: replaces ";
     Py_ssize_t hl = 0;
-    while (hl < pc.hn && pc.hp[hl] != '\n') hl++;
-    if (hl == pc.hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc.hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
-        goto decline;
+    while (hl < pc->hn && pc->hp[hl] != '\n') hl++;
+    if (hl == pc->hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc->hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
+        return 0;
     for (Py_ssize_t k = 0; k < hl; k++) {
-        char c = pc.hp[k];
+        char c = pc->hp[k];
         if (c == '\r' || c == '\x0b' || c == '\x0c' || c == '\x1c' || c == '\x1d' || c == '\x1e')
-            goto decline;
+            return 0;
     }
-    int bad = 0;
-    double x0v = arg_double(args[10], &bad), y0v = arg_double(args[11], &bad), e0 = PyFloat_AS_DOUBLE(args[12]);
-    double accel_max_a = arg_double(args[20], &bad), min_move_d = arg_double(PyTuple_GET_ITEM(ctx, 4), &bad);
-    int e_rel = PyObject_IsTrue(args[17]), extruding = PyObject_IsTrue(args[18]),
-        klipper = PyObject_IsTrue(PyTuple_GET_ITEM(ctx, 2));
-    Py_ssize_t limit = PyLong_AsSsize_t(PyTuple_GET_ITEM(ctx, 3));
-    if (bad || e_rel < 0 || extruding < 0 || klipper < 0 || (limit == -1 && PyErr_Occurred())) {
-        PyErr_Clear();
-        goto decline;
-    }
-
     /* the lines: one allocation for their texts and the path's vertices */
-    mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
+    char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
     if (mem == NULL) {
         PyErr_NoMemory();
-        goto done;
+        return -1;
     }
+    int got = 0;
     Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
     double *px = (double *)(cx + 4 * n), *py = px + n + 1;
     int dec_xy = 3, dec_e = 5, d0;
-    if ((d0 = start_decimals(x0.p, x0.n)) > dec_xy) dec_xy = d0;
-    if ((d0 = start_decimals(y0.p, y0.n)) > dec_xy) dec_xy = d0;
-    px[0] = x0v;
-    py[0] = y0v;
-    int path_ok = fabs(x0v) < 1e150 && fabs(y0v) < 1e150;
+    if ((d0 = start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
+    px[0] = ba->x0v;
+    py[0] = ba->y0v;
+    int path_ok = fabs(ba->x0v) < 1e150 && fabs(ba->y0v) < 1e150;
     double e_sum = 0.0, e_abs = 0.0, e_last = 0.0;
     Py_ssize_t n_e = 0;
     const char *p = d + start, *end = d + stop;
@@ -1313,51 +1344,545 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
         goto decline;
     /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
     int64_t e_start_u;
-    if (py_round(e0 * POW10[dec_e], &e_start_u) < 0)
+    if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)
         goto decline;
-    if (fseq_get(args[13], &fs[0], 1) < 0 || fseq_get(args[14], &fs[1], 1) < 0 || fseq_get(args[15], &fs[2], 1) < 0
-        || fseq_get(args[16], &fs[3], 1) < 0)
-        goto decline;
-    Buf b = EMIT_BUF;
-    b.n = 0;
-    int r = emit_cols(&b, &pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, e_rel, extruding,
-                      e_start_u, &x0, &y0);
+    int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0);
     if (r < 0) {
-        keep_buf(&b);
-        res = PyErr_NoMemory();
+        PyErr_NoMemory();
+        got = -1;
         goto done;
     }
     if (r == 0) {
         /* validate._fast_ok: the end line, then the column pass over the body */
         static const char END_L[] = "\n; gcode-opt end\n";
-        Py_ssize_t el = (Py_ssize_t)sizeof(END_L) - 1;
+        Py_ssize_t el = (Py_ssize_t)sizeof(END_L) - 1, bn = out->n - base;
+        const char *bp = out->p + base;
         int e_mode = 0;
         double e_value = 0.0, e_err = 0.0;
-        if (extruding && n_e > 0) {
-            e_mode = e_rel ? 1 : 2;
-            if (e_rel) {              /* fsum's value within e_err of the running sum */
+        if (ba->extruding && n_e > 0) {
+            e_mode = ba->e_rel ? 1 : 2;
+            if (ba->e_rel) {          /* fsum's value within e_err of the running sum */
                 e_value = e_sum;
                 e_err = 2.0 * (double)n_e * 1.1102230246251565e-16 * e_abs + 1e-300;
             } else
                 e_value = e_last;
         }
-        if (b.n > hl + el && memcmp(b.p + b.n - el, END_L, el) == 0
-            && fast_check(b.p, hl, b.n - el + 1, wantp[0], klipper, limit, accel_max_a, 1, px, py, n + 1, 2e-3,
-                          e_mode, e_value, e_err, min_move_d))
-            res = PyBytes_FromStringAndSize(b.p, b.n);
+        if (bn > hl + el && memcmp(bp + bn - el, END_L, el) == 0
+            && fast_check(bp, hl, bn - el + 1, ba->wantp[0], ba->klipper, ba->limit, ba->accel_max_a, 1, px, py, n + 1,
+                          2e-3, e_mode, e_value, e_err, ba->min_move_d)) {
+            got = 1;
+            goto done;
+        }
     }
+decline:
+    out->n = base;
+done:
+    PyMem_Free(mem);
+    return got;
+}
+
+/* the ctx tuple (accel_word, want, klipper, limit, min_move_d) into ba: 0, or -1 (no
+   exception): not such a tuple */
+static int ctx_into(PyObject *ctx, BlockArgs *ba)
+{
+    if (!PyTuple_CheckExact(ctx) || PyTuple_GET_SIZE(ctx) != 5)
+        return -1;
+    Py_ssize_t wl = 0;
+    int bad = 0;
+    ba->pc.wp = ascii(PyTuple_GET_ITEM(ctx, 0), &ba->pc.wn);
+    ba->wantp = ascii(PyTuple_GET_ITEM(ctx, 1), &wl);
+    ba->klipper = PyObject_IsTrue(PyTuple_GET_ITEM(ctx, 2));
+    ba->limit = PyLong_AsSsize_t(PyTuple_GET_ITEM(ctx, 3));
+    ba->min_move_d = arg_double(PyTuple_GET_ITEM(ctx, 4), &bad);
+    if (bad || !ba->pc.wp || !ba->wantp || wl != 1 || ba->klipper < 0 || (ba->limit == -1 && PyErr_Occurred())) {
+        PyErr_Clear();
+        return -1;
+    }
+    return 0;
+}
+
+/* stroke_block(data, start, stop, n_lines, head, closing, before, after, x0_text, y0_text, x0, y0, e0,
+                s, accels, feeds, ends_d, e_rel, extruding, ctx, accel_max_a)
+   ctx = (accel_word, want, klipper, limit, min_move_d)
+   A line stroke's block in one call: data[start:stop] is the stroke's n_lines original lines
+   (bytes); the lines read as emit.StrokeText reads plain lines, the block written as
+   emit_stroke writes it (head: "; gcode-opt begin: ..." and its line end, plus Klipper's
+   cruise-ratio line; closing: emit._closing_text; before/after: the first_cmds lines with
+   their line end, or None) and checked as pipeline._validate's validate_block checks it
+   (validate._fast_ok's passes).  The block's bytes, or None: anything else (a line not
+   plain, not ASCII, a "\r", a block the column pass does not certainly pass, ...) is
+   pipeline's Python path's to decide.
+   head may be head_text's spec tuple instead of the text; x0_text and y0_text None for
+   f"{x0:.8f}" and f"{y0:.8f}" made here (PyOS_double_to_string, as format() makes them). */
+static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 21) {
+        PyErr_SetString(PyExc_TypeError, "stroke_block takes 21 arguments");
+        return NULL;
+    }
+    PyObject *data = args[0];
+    if (!PyBytes_CheckExact(data))
+        Py_RETURN_NONE;
+    BlockArgs ba;
+    memset(&ba, 0, sizeof ba);
+    ba.start = PyLong_AsSsize_t(args[1]);
+    ba.stop = PyLong_AsSsize_t(args[2]);
+    ba.n = PyLong_AsSsize_t(args[3]);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    ba.d = PyBytes_AS_STRING(data);
+    if (ba.start < 0 || ba.stop > PyBytes_GET_SIZE(data) || ba.n < 1 || ba.stop - ba.start < 2
+        || ba.d[ba.stop - 1] != '\n' || ctx_into(args[19], &ba) < 0)
+        Py_RETURN_NONE;
+    char *own_head = NULL, *own_x0 = NULL, *own_y0 = NULL;     /* texts made here (freed at the end) */
+    if (PyTuple_CheckExact(args[4])) {
+        if ((own_head = head_text(args[4], ba.n, &ba.pc.hn)) == NULL)
+            Py_RETURN_NONE;
+        ba.pc.hp = own_head;
+    } else
+        ba.pc.hp = ascii(args[4], &ba.pc.hn);
+    if (args[8] == Py_None && args[9] == Py_None) {
+        double xv = PyFloat_AsDouble(args[10]), yv = PyFloat_AsDouble(args[11]);
+        if (!PyErr_Occurred()) {
+            own_x0 = PyOS_double_to_string(xv, 'f', 8, 0, NULL);
+            own_y0 = PyOS_double_to_string(yv, 'f', 8, 0, NULL);
+        }
+        PyErr_Clear();
+    }
+    PyObject *res = NULL;
+    FSeq fs[4];
+    for (int i = 0; i < 4; i++)
+        memset(&fs[i], 0, sizeof fs[i]);
+    ba.pc.clp = ascii(args[5], &ba.pc.cln);
+    ba.pc.nlp = "\n";
+    ba.pc.nln = 1;
+    if (args[6] != Py_None
+        && ((ba.pc.bp = ascii(args[6], &ba.pc.bn)) == NULL || (ba.pc.ap = ascii(args[7], &ba.pc.an)) == NULL))
+        goto decline;
+    if (own_x0 != NULL && own_y0 != NULL) {
+        ba.x0.p = own_x0;
+        ba.x0.n = (Py_ssize_t)strlen(own_x0);
+        ba.y0.p = own_y0;
+        ba.y0.n = (Py_ssize_t)strlen(own_y0);
+    } else {
+        ba.x0.p = ascii(args[8], &ba.x0.n);
+        ba.y0.p = ascii(args[9], &ba.y0.n);
+    }
+    if (!PyFloat_CheckExact(args[12]))
+        goto decline;
+    int bad = 0;
+    ba.x0v = arg_double(args[10], &bad);
+    ba.y0v = arg_double(args[11], &bad);
+    ba.e0 = PyFloat_AS_DOUBLE(args[12]);
+    ba.accel_max_a = arg_double(args[20], &bad);
+    ba.e_rel = PyObject_IsTrue(args[17]);
+    ba.extruding = PyObject_IsTrue(args[18]);
+    if (bad || ba.e_rel < 0 || ba.extruding < 0) {
+        PyErr_Clear();
+        goto decline;
+    }
+    if (fseq_get(args[13], &fs[0], 1) < 0 || fseq_get(args[14], &fs[1], 1) < 0 || fseq_get(args[15], &fs[2], 1) < 0
+        || fseq_get(args[16], &fs[3], 1) < 0)
+        goto decline;
+    /* one buffer for every block, kept between calls */
+    Buf b = EMIT_BUF;
+    b.n = 0;
+    int r = block_into(&b, &ba, fs);
+    if (r > 0)
+        res = PyBytes_FromStringAndSize(b.p, b.n);
     keep_buf(&b);
-    if (res != NULL || PyErr_Occurred())
+    if (res != NULL || r < 0)
         goto done;
 decline:
     res = Py_NewRef(Py_None);
 done:
     for (int i = 0; i < 4; i++)
         fseq_release(&fs[i]);
-    PyMem_Free(mem);
     PyMem_Free(own_head);
     PyMem_Free(own_x0);
     PyMem_Free(own_y0);
+    return res;
+}
+
+/* ---------------------------------------------------------------- stroke_run */
+
+/* the attribute names stroke_run reads (interned once) */
+enum { A_FIRST, A_LAST, A_KIND, A_X0, A_Y0, A_SS_E, A_SS_A, A_SS_C, A_ENDS, A_LENGTH, A_E_REL, A_FEATURE,
+       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, N_NAMES };
+static const char *const NAME_TEXT[N_NAMES] = {"first_idx", "last_idx", "kind", "x0", "y0", "_ss_e", "_ss_a",
+    "_ss_c", "_ends", "length_d", "e_rel", "feature", "v_feed", "time_t", "_s", "_accel", "_feed", "first_cmds",
+    "copy", "update", "digest"};
+static PyObject *NAMES[N_NAMES];
+
+static int names_ready(void)
+{
+    for (int k = 0; k < N_NAMES; k++)
+        if (NAMES[k] == NULL && (NAMES[k] = PyUnicode_InternFromString(NAME_TEXT[k])) == NULL)
+            return -1;
+    return 0;
+}
+
+/* the lines after pos in d[0:len): skip_lines(d, pos, n, False)'s (end, got) */
+static Py_ssize_t skip_n(const char *d, Py_ssize_t len, Py_ssize_t pos, Py_ssize_t n, Py_ssize_t *got)
+{
+    *got = 0;
+    while (*got < n && pos < len) {
+        const char *p = d + pos, *e = d + len, *q = p;
+        while (q < e && *q != '\n' && *q != '\r') q++;
+        if (q == e)
+            return len;
+        pos = q - d + 1;
+        if (*q == '\r' && pos < len && d[pos] == '\n')
+            pos++;
+        (*got)++;
+    }
+    return pos;
+}
+
+/* the run's fixed arguments */
+typedef struct {
+    PyObject *strokes, *segs, *betas, *stroke_type, *seg_type, *k_arc, *travel, *closing_text, *flavour, *nl,
+             *svl, *digests, *blake2b;
+    PyObject *ctx_o[2];             /* ctx[False], ctx[True] */
+    BlockArgs ctx[2];               /* their unpacked fields */
+    double max_accel_a;
+} RunArgs;
+
+/* an attribute that must be a float: its value; bad set (no exception) otherwise */
+static double float_attr(PyObject *o, int name, int *bad)
+{
+    PyObject *v = PyObject_GetAttr(o, NAMES[name]);
+    double x = 0.0;
+    if (v != NULL && PyFloat_CheckExact(v))
+        x = PyFloat_AS_DOUBLE(v);
+    else {
+        PyErr_Clear();
+        *bad = 1;
+    }
+    Py_XDECREF(v);
+    return x;
+}
+
+/* one stroke of the run, its lines d[a:z] (n of them), appended to out as
+   pipeline._rewrite_bytes' one-call path writes it: 1; 0: not this stroke (out as it
+   was: pipeline's loop takes it); -1: an exception */
+static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
+                     const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n)
+{
+    PyObject *obj[20] = {NULL};     /* references held (at most 18): freed at the end */
+    int no = 0, got = 0, bad = 0;
+    FSeq fs[4];
+    char *head = NULL, *x0t = NULL, *y0t = NULL;
+    for (int k = 0; k < 4; k++)
+        memset(&fs[k], 0, sizeof fs[k]);
+#define GET(var, o, name) do { if ((var = obj[no++] = PyObject_GetAttr(o, NAMES[name])) == NULL) goto decline; } while (0)
+    PyObject *e0_o, *a0_o, *c0_o, *ends, *e_rel_o, *feature, *v_feed, *knots, *acc, *fd, *fc, *t_was_o, *t_o;
+    GET(e0_o, s, A_SS_E);
+    GET(a0_o, s, A_SS_A);
+    GET(c0_o, s, A_SS_C);
+    GET(ends, s, A_ENDS);
+    GET(e_rel_o, s, A_E_REL);
+    GET(feature, s, A_FEATURE);
+    GET(v_feed, s, A_V_FEED);
+    GET(t_was_o, s, A_TIME);
+    GET(knots, seg, A_S);
+    GET(acc, seg, A_ACCEL);
+    GET(fd, seg, A_FEED);
+    GET(fc, seg, A_FIRST_CMDS);
+    GET(t_o, seg, A_TIME);
+#undef GET
+    if (e0_o == Py_None || !PyFloat_CheckExact(e0_o) || !PyFloat_CheckExact(a0_o) || !PyFloat_Check(t_o)
+        || !PyFloat_Check(t_was_o) || !PyFloat_Check(beta_o))
+        goto decline;
+    if (ends == Py_None) {        /* one move: ends_d's (length_d,) */
+        double len_d = float_attr(s, A_LENGTH, &bad);
+        if (bad)
+            goto decline;
+        fs[3].own = PyMem_Malloc(sizeof(double));
+        if (fs[3].own == NULL)
+            goto decline;
+        fs[3].own[0] = len_d;
+        fs[3].d = fs[3].own;
+        fs[3].n = 1;
+    } else if (PyBytes_Check(ends) || fseq_get(ends, &fs[3], 1) < 0)
+        goto decline;
+    /* (bytes are not a plan's arrays: len() of them is not the doubles' count) */
+    if (PyBytes_Check(knots) || PyBytes_Check(acc) || PyBytes_Check(fd) || fseq_get(knots, &fs[0], 1) < 0
+        || fseq_get(acc, &fs[1], 1) < 0 || fseq_get(fd, &fs[2], 1) < 0)
+        goto decline;
+    int extruding = PyObject_RichCompareBool(feature, ra->travel, Py_NE), e_rel = PyObject_IsTrue(e_rel_o);
+    if (extruding < 0 || e_rel < 0) {
+        PyErr_Clear();
+        goto decline;
+    }
+    BlockArgs ba = ra->ctx[extruding];
+    ba.d = d;
+    ba.start = a;
+    ba.stop = z;
+    ba.n = n;
+    ba.e0 = PyFloat_AS_DOUBLE(e0_o);
+    ba.e_rel = e_rel;
+    ba.extruding = extruding;
+    double accel0 = PyFloat_AS_DOUBLE(a0_o);
+    /* max(max_accel_a, accel0) if isfinite(accel0) else max_accel_a */
+    ba.accel_max_a = isfinite(accel0) && accel0 > ra->max_accel_a ? accel0 : ra->max_accel_a;
+    ba.x0v = float_attr(s, A_X0, &bad);
+    ba.y0v = float_attr(s, A_Y0, &bad);
+    if (bad)
+        goto decline;
+    if ((x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL)) == NULL
+        || (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL)) == NULL) {
+        PyErr_Clear();
+        goto decline;
+    }
+    ba.x0.p = x0t;
+    ba.x0.n = (Py_ssize_t)strlen(x0t);
+    ba.y0.p = y0t;
+    ba.y0.n = (Py_ssize_t)strlen(y0t);
+    Py_ssize_t kn = 0, sn = 0;
+    const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
+    if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
+        || (head = head_text_of(kp, kn, (long long)fs[0].n - 1, PyFloat_AS_DOUBLE(t_o), PyFloat_AS_DOUBLE(t_was_o),
+                                PyFloat_AS_DOUBLE(beta_o), sp, sn, n, &ba.pc.hn)) == NULL)
+        goto decline;
+    ba.pc.hp = head;
+    /* closing_text(flavour, accel0, extruding, mcr0, v_feed, "\n") (lru-cached in emit.py) */
+    PyObject *cargs[6] = {ra->flavour, a0_o, extruding ? Py_True : Py_False, c0_o, v_feed, ra->nl};
+    PyObject *closing = obj[no++] = PyObject_Vectorcall(ra->closing_text, cargs, 6, NULL);
+    if (closing == NULL || (ba.pc.clp = ascii(closing, &ba.pc.cln)) == NULL) {
+        PyErr_Clear();
+        goto decline;
+    }
+    /* first_cmds' lines around the first move: fc[0] + "\n", fc[1] + "\n" when fc and two knots */
+    if (fc != Py_None) {
+        int t = PyObject_IsTrue(fc);
+        if (t < 0) {
+            PyErr_Clear();
+            goto decline;
+        }
+        if (t && fs[0].n >= 2) {
+            PyObject *f0, *f1, *bf, *af;
+            if ((f0 = obj[no++] = PySequence_GetItem(fc, 0)) == NULL || (f1 = obj[no++] = PySequence_GetItem(fc, 1)) == NULL
+                || (bf = obj[no++] = PyNumber_Add(f0, ra->nl)) == NULL || (af = obj[no++] = PyNumber_Add(f1, ra->nl)) == NULL
+                || (ba.pc.bp = ascii(bf, &ba.pc.bn)) == NULL || (ba.pc.ap = ascii(af, &ba.pc.an)) == NULL) {
+                PyErr_Clear();
+                goto decline;
+            }
+        }
+    }
+    got = block_into(out, &ba, fs);
+    goto done;
+decline:
+    PyErr_Clear();
+    got = 0;
+done:
+    for (int k = 0; k < 4; k++)
+        fseq_release(&fs[k]);
+    for (int k = 0; k < no; k++)
+        Py_XDECREF(obj[k]);
+    PyMem_Free(head);
+    PyMem_Free(x0t);
+    PyMem_Free(y0t);
+    return got;
+}
+
+/* stroke_run(data, pos, line, order, k, out_line, out_ranges, strokes, segs, betas, stroke_type, seg_type,
+              k_arc, travel, closing_text, flavour, svl, ctx_false, ctx_true, max_accel_a, digests, blake2b,
+              write)
+   pipeline._rewrite_bytes' loop over order[k:] in one call, for as long as each stroke is
+   a line stroke of the exact Stroke and SegmentPlan types whose untouched lines before it
+   and own lines are whole in data (from byte pos; line: the input line at pos) and whose
+   block block_into writes.  For each: the untouched lines and the block appended to one
+   buffer, (out_first, out_last, order[k]) appended to out_ranges, and, digests not None,
+   digests[order[k]] = blake2b(block, digest_size=16).digest() (blake2b: the hash of
+   nothing, blake2b(digest_size=16), copied for each block).  Stops at the first stroke
+   it does not take (pipeline's loop takes that one, from its first untouched line on).
+   The buffer goes to write (a memoryview of it, released after the call) a MB at a time
+   and at the end: no bytes object of the run's output, and a bounded buffer.
+   Returns (k, pos, line, out_line). */
+#define RUN_FLUSH (1 << 20)
+
+/* write(memoryview of b's bytes), then b emptied: 0, or -1 (an exception) */
+static int run_flush(Buf *b, PyObject *write)
+{
+    if (b->n == 0)
+        return 0;
+    PyObject *mv = PyMemoryView_FromMemory(b->p, b->n, PyBUF_READ);
+    if (mv == NULL)
+        return -1;
+    PyObject *r = PyObject_CallOneArg(write, mv);
+    /* (a writer that kept the view finds it released, not the buffer's next bytes; the
+       write's own exception, a full disk say, is the one raised) */
+    PyObject *et, *ev, *tb;
+    PyErr_Fetch(&et, &ev, &tb);
+    PyObject *rel = PyObject_CallMethod(mv, "release", NULL);
+    Py_DECREF(mv);
+    if (r == NULL) {
+        Py_XDECREF(rel);
+        PyErr_Restore(et, ev, tb);        /* (release's own exception, if any, replaced) */
+        return -1;
+    }
+    Py_DECREF(r);
+    if (rel == NULL)
+        return -1;
+    Py_DECREF(rel);
+    b->n = 0;
+    return 0;
+}
+static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 23) {
+        PyErr_SetString(PyExc_TypeError, "stroke_run takes 23 arguments");
+        return NULL;
+    }
+    if (names_ready() < 0)
+        return NULL;
+    PyObject *data = args[0], *order = args[3], *out_ranges = args[6];
+    RunArgs ra;
+    memset(&ra, 0, sizeof ra);
+    ra.strokes = args[7];
+    ra.segs = args[8];
+    ra.betas = args[9];
+    ra.stroke_type = args[10];
+    ra.seg_type = args[11];
+    ra.k_arc = args[12];
+    ra.travel = args[13];
+    ra.closing_text = args[14];
+    ra.flavour = args[15];
+    ra.svl = args[16];
+    ra.ctx_o[0] = args[17];
+    ra.ctx_o[1] = args[18];
+    ra.digests = args[20];
+    ra.blake2b = args[21];
+    Py_ssize_t pos = PyLong_AsSsize_t(args[1]), line = PyLong_AsSsize_t(args[2]), k = PyLong_AsSsize_t(args[4]),
+               out_line = PyLong_AsSsize_t(args[5]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!PyBytes_CheckExact(data) || !PyList_CheckExact(out_ranges) || !PyList_CheckExact(ra.strokes)
+        || !PyList_CheckExact(ra.segs) || !PyList_CheckExact(ra.betas) || !PyFloat_CheckExact(args[19])
+        || !PyUnicode_CheckExact(ra.k_arc) || (ra.digests != Py_None && !PyDict_CheckExact(ra.digests))
+        || pos < 0 || pos > PyBytes_GET_SIZE(data) || k < 0) {
+        PyErr_SetString(PyExc_TypeError, "stroke_run: arguments of other types");
+        return NULL;
+    }
+    ra.max_accel_a = PyFloat_AS_DOUBLE(args[19]);
+    ra.nl = PyUnicode_InternFromString("\n");
+    if (ra.nl == NULL)
+        return NULL;
+    int ctx_ok = ctx_into(ra.ctx_o[0], &ra.ctx[0]) == 0 && ctx_into(ra.ctx_o[1], &ra.ctx[1]) == 0;
+    for (int x = 0; x < 2; x++) {
+        ra.ctx[x].pc.nlp = "\n";
+        ra.ctx[x].pc.nln = 1;
+    }
+    const char *d = PyBytes_AS_STRING(data);
+    Py_ssize_t len = PyBytes_GET_SIZE(data), n_order = PySequence_Length(order);
+    if (n_order < 0) {
+        Py_DECREF(ra.nl);
+        return NULL;
+    }
+    Buf out = {NULL, 0, 0};
+    int err = 0;
+    while (ctx_ok && k < n_order) {
+        PyObject *i_o = PySequence_GetItem(order, k), *kind = NULL;
+        if (i_o == NULL) { err = 1; break; }
+        Py_ssize_t i = PyNumber_AsSsize_t(i_o, NULL);
+        int took = 0;
+        if (i < 0 || i >= PyList_GET_SIZE(ra.strokes) || i >= PyList_GET_SIZE(ra.segs)
+            || i >= PyList_GET_SIZE(ra.betas)) {
+            PyErr_Clear();
+            goto next;
+        }
+        PyObject *s = PyList_GET_ITEM(ra.strokes, i), *seg = PyList_GET_ITEM(ra.segs, i);
+        if (!Py_IS_TYPE(s, (PyTypeObject *)ra.stroke_type) || !Py_IS_TYPE(seg, (PyTypeObject *)ra.seg_type))
+            goto next;
+        PyObject *fi_o = PyObject_GetAttr(s, NAMES[A_FIRST]), *li_o = PyObject_GetAttr(s, NAMES[A_LAST]);
+        Py_ssize_t first = fi_o && PyLong_CheckExact(fi_o) ? PyLong_AsSsize_t(fi_o) : -1,
+                   last = li_o && PyLong_CheckExact(li_o) ? PyLong_AsSsize_t(li_o) : -1;
+        Py_XDECREF(fi_o);
+        Py_XDECREF(li_o);
+        PyErr_Clear();
+        Py_ssize_t n_copy = first - line, n_take = last - first + 1;
+        if (first < 0 || last < 0 || n_copy < 0 || n_take < 1)
+            goto next;
+        kind = PyObject_GetAttr(s, NAMES[A_KIND]);
+        int arc = kind == NULL ? -1 : PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
+        if (arc != 0) {
+            PyErr_Clear();
+            goto next;
+        }
+        /* the untouched lines and the stroke's, whole in data */
+        Py_ssize_t got_c, got_t, end = skip_n(d, len, pos, n_copy, &got_c), z;
+        if (got_c != n_copy)
+            goto next;
+        z = skip_n(d, len, end, n_take, &got_t);
+        if (got_t != n_take)
+            goto next;
+        Py_ssize_t base = out.n;
+        if (put(&out, d + pos, end - pos) < 0) {
+            PyErr_NoMemory();
+            err = 1;
+            goto next;
+        }
+        Py_ssize_t head_at = out.n;
+        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, z, n_take);
+        if (r <= 0) {             /* (no memory: the loop's stroke_block call, as before) */
+            out.n = base;
+            PyErr_Clear();
+            goto next;
+        }
+        Py_ssize_t n_out = 0;
+        for (const char *p = out.p + head_at, *e = out.p + out.n; (p = memchr(p, '\n', e - p)) != NULL; p++)
+            n_out++;
+        PyObject *row = Py_BuildValue("(nnO)", out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
+        if (row == NULL || PyList_Append(out_ranges, row) < 0) {
+            Py_XDECREF(row);
+            out.n = base;
+            err = 1;
+            goto next;
+        }
+        Py_DECREF(row);
+        if (ra.digests != Py_None) {
+            /* blake2b(block, digest_size=16).digest(), as the loop makes it: the empty
+               hash's copy (blake2 is the same from its start state) updated with the block
+               (no keyword dict a call) */
+            PyObject *mv = PyMemoryView_FromMemory(out.p + head_at, out.n - head_at, PyBUF_READ), *h = NULL, *dg = NULL;
+            if (mv != NULL && (h = PyObject_CallMethodNoArgs(ra.blake2b, NAMES[A_COPY])) != NULL) {
+                PyObject *u = PyObject_CallMethodOneArg(h, NAMES[A_UPDATE], mv);
+                if (u != NULL)
+                    dg = PyObject_CallMethodNoArgs(h, NAMES[A_DIGEST]);
+                Py_XDECREF(u);
+            }
+            Py_XDECREF(mv);
+            Py_XDECREF(h);
+            if (dg == NULL || PyDict_SetItem(ra.digests, i_o, dg) < 0) {
+                /* (the row is in out_ranges: an exception here ends the rewrite) */
+                Py_XDECREF(dg);
+                err = 1;
+                goto next;
+            }
+            Py_DECREF(dg);
+        }
+        pos = z;
+        line = first + n_take;
+        out_line += n_copy + n_out;
+        took = 1;
+        if (out.n >= RUN_FLUSH && run_flush(&out, args[22]) < 0)
+            err = 1;
+next:
+        Py_XDECREF(kind);
+        Py_DECREF(i_o);
+        if (!took || err)
+            break;
+        k++;
+    }
+    Py_DECREF(ra.nl);
+    PyObject *res = NULL;
+    if (!err && run_flush(&out, args[22]) == 0)
+        res = Py_BuildValue("(nnnn)", k, pos, line, out_line);
+    PyMem_Free(out.p);
     return res;
 }
 
@@ -1383,6 +1908,8 @@ static PyMethodDef mod_methods[] = {
      "(end, got): the offset after the next n lines of bytes data from pos, and how many"},
     {"stroke_block", (PyCFunction)(void (*)(void))stroke_block, METH_FASTCALL,
      "a line stroke's block (bytes) written and checked in one call, or None"},
+    {"stroke_run", (PyCFunction)(void (*)(void))stroke_run, METH_FASTCALL,
+     "pipeline._rewrite_bytes' loop over a run of line strokes in one call"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef emit_module = {

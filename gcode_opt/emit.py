@@ -39,7 +39,11 @@ if CORE_MOD is not None and hasattr(CORE_MOD, "set_types"):
     import array as _array
     # what the core reads as a sequence of doubles besides lists and bytes: a 1-D float64
     # ndarray (its tobytes()) and an array.array('d') (pipeline._rewrite_bytes passes them as they are)
-    CORE_MOD.set_types(np.ndarray, np.dtype(np.float64), _array.array)
+    # (the probe: the core reads such an ndarray's doubles in place once it has checked
+    # that it reads this one's right)
+    _probe = np.array([0.5, 1.5, 2.5])
+    CORE_MOD.set_types(np.ndarray, np.dtype(np.float64), _array.array, _probe, _probe.ctypes.data)
+    del _probe
 
 BEGIN = "; gcode-opt begin"
 END = "; gcode-opt end"

@@ -530,8 +530,12 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     """rewrite() on bytes.  A line stroke (not an arc) whose lines are all plain "G1 X Y [E]"
     lines ending in "\\n" has its block written and validated by core.stroke_block; any
     other stroke, or one the core declines, takes the Python path (_stroke_text,
-    _stroke_block, _validate on the lines as text), as _rewrite_text does."""
+    _stroke_block, _validate on the lines as text), as _rewrite_text does.  A run of such
+    line strokes goes through one call of core.stroke_run (the same per stroke, its
+    attribute reads, head, closing, out_ranges row and digest made in C) until the first
+    stroke it does not take, which the loop below takes."""
     import io
+    import types
     # sorted(flatnonzero(retime), key=first_idx) in rows (a stable sort: the same order, numpy ints)
     sel = np.flatnonzero(plan.retime)
     order = sel[np.argsort(np.fromiter(map(attrgetter("first_idx"), map(strokes.__getitem__, sel.tolist())), np.int64,
@@ -567,11 +571,32 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     blake2b = hashlib.blake2b
     seg_type = SegmentPlan
     stroke_type = Stroke
+    # the whole run of line strokes in one call of the core (stroke_run: the loop below's
+    # one-call path, stroke after stroke, into one buffer): it stops at a stroke it does
+    # not take (an arc, a block it declines, lines past the chunk read, ...), which the
+    # loop below then takes as before, and goes on after it
+    # (not through a stand-in for the core: the tests' counting wrappers see each stroke_block)
+    run = getattr(core, "stroke_run", None) if _STROKE_RUN and isinstance(core, types.ModuleType) else None
+    if (block is None or reuse is not None or not head_spec or type(max_accel_a) is not float
+            or type(segs) is not list or type(strokes) is not list):
+        run = None
+    n_order = len(order)
+    k = 0
+    empty_digest = blake2b(digest_size=16)       # (stroke_run: its copy updated with a block)
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
         skip = core.skip_lines
-        for i in order:
+        while k < n_order:
+            if run is not None:
+                k, src.pos, pos, out_line = run(
+                    src.data, src.pos, pos, order, k, out_line, out_ranges, strokes, segs, beta_list, stroke_type,
+                    seg_type, K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True], max_accel_a, digests,
+                    empty_digest, write)
+                if k >= n_order:
+                    break
+            i = order[k]
+            k += 1
             s = strokes[i]
             first_idx = s.first_idx
             n_copy = first_idx - pos
@@ -867,6 +892,9 @@ def _stroke_text(raws, x0, y0):
 # the Python path's pieces as this module defines them: _rewrite_bytes takes its one-call
 # path only while they are these (a test that replaces one sees every block go through it)
 _STROKE_BLOCK, _VALIDATE, _STROKE_TEXT, _VALIDATE_BLOCK = _stroke_block, _validate, _stroke_text, validate_block
+# _rewrite_bytes runs the core's stroke_run over the strokes it takes (False: the loop
+# calls stroke_block stroke by stroke, as before; the tests compare the two)
+_STROKE_RUN = True
 
 
 # ---------------------------------------------------------------- pass 3: measure

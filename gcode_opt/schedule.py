@@ -32,7 +32,7 @@ from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha)
 from .profile import Profile
-from .segments import SegmentPlan, SegmentRules, plan_segments, slowed_original
+from .segments import RowPlan, SegmentPlan, SegmentRules, plan_segments, slowed_original
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
 
 
@@ -221,7 +221,7 @@ def settle_faults(segs):
     sizes and figures are checked as _fine_1d checks them."""
     todo, ss, vs, as_, fs = [], [], [], [], []
     for seg in segs:
-        if type(seg) is not SegmentPlan or seg.fault is not None:
+        if (type(seg) is not SegmentPlan and type(seg) is not RowPlan) or seg.fault is not None:
             continue
         s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
         if not (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1

@@ -1483,13 +1483,16 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     """(T, beta, I, KE) for the chain strokes `rows`, shape (n, len(T_RATIOS)); inf where no
     candidate was computed or it breaks a limit.  I is the firmware's predicted ∫|a|²dt."""
     rules = rules or SegmentRules.for_profile(profile, 10)
-    rows, T, beta, I, KE = empty_table(pin, rows)
-    n = rows.size
-    if n == 0:
-        return T, beta, I, KE
-    Tc = T[:, CHAIN_COLS]
+    rows = np.asarray(rows, int)
+    if rows.size == 0:
+        return empty_table(pin, rows)[1:]
+    # the columns' durations as empty_table's T has them (one product an entry: the same
+    # bits); its four (n, len(T_RATIOS)) tables (~12 MB on the gyroid plate's ~16 k chains)
+    # are made after _figures, not held beside its knots at the candidates' peak
+    Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
     bc = (Tc / GAMMA_MIN) ** 2
     ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    _, T, beta, I, KE = empty_table(pin, rows)
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
     KE[:, CHAIN_COLS] = iv

@@ -133,3 +133,19 @@ def test_packed_tables_are_smaller():
     Tx, Ix, finite, _ = cands.allocation_tables(g, pin.T_orig[g], pin.I_orig[g])
     packed_b = sum(T.nbytes + I.nbytes for _, T, I, _ in pk.parts)
     assert packed_b < 0.7 * (Tx.nbytes + Ix.nbytes + finite.nbytes)
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "voron24")])
+def test_line_candidates_by_chunks_are_the_whole(name, prof, monkeypatch):
+    """schedule._candidates makes the lines' tables CANDIDATE_ROWS rows at a time: the
+    same sparse tables, bit for bit, as all rows in one call (CANDIDATE_ROWS past the
+    file's rows), with chunks that cut plan.py's own batches too."""
+    got = []
+    for rows_at_once in (10 ** 9, 777):
+        monkeypatch.setattr(schedule, "CANDIDATE_ROWS", rows_at_once)
+        cands, g, pin, _ = _sample_cands(name, prof)
+        got.append(cands)
+    a, b = got
+    assert a.vals.shape[1] > 1000 and (np.bincount(np.flatnonzero(a.mask.any(axis=1)) // 777).size > 3)
+    assert np.array_equal(a.mask, b.mask) and np.array_equal(a.t_pos, b.t_pos) and np.array_equal(a.start, b.start)
+    assert np.array_equal(a.vals.view(np.int64), b.vals.view(np.int64))

@@ -43,7 +43,7 @@ from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
-from .segments import CRUISE_A, SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
+from .segments import CRUISE_A, RowPlan, SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
 from .strokes import K_CHAIN, K_CURVE
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
@@ -282,9 +282,11 @@ def _replay(items, rules, profile, drop=False):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
     table did, or _finish_rows_dt chain by chain); row by row the table's numbers.  drop:
-    each chain's memo drops its rows' knots once its group is made (ChainMemo.drop_rows:
-    the arrays of rows finished together go as the plans are made, not after all of
-    them); the plans hold their own knot speeds then, not views of those arrays."""
+    each chain's memo drops its rows' knots (ChainMemo.drop_rows) once its chosen row is
+    copied out (by groups: all rows gathered, then every chain's dropped, then the plans
+    made; chain by chain: as each plan is made); the plans hold their own knot speeds
+    then, not views of the candidates' arrays, and items' kept entries are cleared (None):
+    the caller's list holds no candidate row once its plan is made."""
     out = [None] * len(items)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     gs = [curves.geom(st, profile) for st, _, _ in items]
@@ -296,24 +298,35 @@ def _replay(items, rules, profile, drop=False):
             out[q] = SegmentPlan(sk(st), vk.copy() if drop else vk, acc[0], feed[0], t, a2)
             if drop:
                 _drop(st)
+                items[q] = (st, None, r)
         return out
     by_n = {}
     for q, g in enumerate(gs):
         by_n.setdefault(g.d.size, []).append(q)
+    # the chosen rows gathered first (copies: the plans' knot speeds are rows of these),
+    # then, with drop, every chain's candidate knots freed before any plan is made: the
+    # plans' arrays (acc, feed, knots, ~16 k SegmentPlans) were made while all the
+    # candidates' knots were still held (the gyroid plate's planning peak, ~+15 MB)
+    batches = []
     for qs in by_n.values():
         for a in range(0, len(qs), FINISH_ROWS):
             Q = qs[a:a + FINISH_ROWS]
-            vk, dt, tp, a2 = _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q])
-            sts = [items[q][0] for q in Q]
-            acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
-                                                    profile, predict=False)
-            s = _knots_rows(sts, vk.shape[1] - 1)
-            for i, q in enumerate(Q):
-                out[q] = SegmentPlan(sk(sts[i]) if s is None else s[i], vk[i], acc[i], feed[i], tp[i], a2[i])
-            del dt
-        if drop:            # the group's chains are made: their rows' arrays can go
-            for q in qs:
-                _drop(items[q][0])
+            batches.append((Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q])))
+    if drop:
+        for q, (st, _, r) in enumerate(items):
+            _drop(st)
+            items[q] = (st, None, r)    # (nor held here: the memo's rows were the last to hold them)
+    batches.reverse()                   # popped from the end: in the order gathered
+    while batches:
+        Q, (vk, dt, tp, a2) = batches.pop()
+        sts = [items[q][0] for q in Q]
+        acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
+                                                profile, predict=False)
+        s = _knots_rows(sts, vk.shape[1] - 1)
+        for i, q in enumerate(Q):      # (rows of the blocks: RowPlan)
+            out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if s is None
+                      else RowPlan(s, vk, acc, feed, i, tp[i], a2[i]))
+        del dt
     return out
 
 
@@ -430,8 +443,8 @@ def _again_plans(items, rules, profile):
                                                          np.arange(len(Q)), vk, dt, rules, profile)
                 s = _knots_rows(sts, vk.shape[1] - 1)
                 for i, q in enumerate(Q):
-                    out[q] = SegmentPlan(_knots_s(sts[i].ends_d) if s is None else s[i], vk[i], acc[i], feed[i],
-                                         float(t[i]), float(a2[i]))
+                    out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
+                              if s is None else RowPlan(s, vk, acc, feed, i, float(t[i]), float(a2[i])))
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q]
@@ -1163,9 +1176,13 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
                 out[k] = hit[0].plan(hit[1])
         else:
             cold.append(k)
-    for (k, _), plan in zip(lazy, _replay([(strokes[k], kept, r) for k, (kept, r) in lazy], rules, profile,
-                                          drop=True)):
+    hit = None
+    # (the rows' kept objects handed over, not held here: _replay drops them as it goes)
+    items = [(strokes[k], kept, r) for k, (kept, r) in lazy]
+    lazy = [k for k, _ in lazy]
+    for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
         out[k] = plan
+    del items
     if again:
         plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile)
         for (k, _), plan in zip(again, plans):
@@ -1174,7 +1191,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         Ta = np.array(T, float)
         for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):
             out[k] = finish_chain(strokes[k], law, rules, profile)[0]
-    dropped = {k for k, _ in lazy}      # (_replay dropped theirs)
+    dropped = set(lazy)                 # (_replay dropped theirs)
     for k in todo:
         st = strokes[k]
         memo = st.chain_T
@@ -1466,13 +1483,16 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     """(T, beta, I, KE) for the chain strokes `rows`, shape (n, len(T_RATIOS)); inf where no
     candidate was computed or it breaks a limit.  I is the firmware's predicted ∫|a|²dt."""
     rules = rules or SegmentRules.for_profile(profile, 10)
-    rows, T, beta, I, KE = empty_table(pin, rows)
-    n = rows.size
-    if n == 0:
-        return T, beta, I, KE
-    Tc = T[:, CHAIN_COLS]
+    rows = np.asarray(rows, int)
+    if rows.size == 0:
+        return empty_table(pin, rows)[1:]
+    # the columns' durations as empty_table's T has them (one product an entry: the same
+    # bits); its four (n, len(T_RATIOS)) tables (~12 MB on the gyroid plate's ~16 k chains)
+    # are made after _figures, not held beside its knots at the candidates' peak
+    Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
     bc = (Tc / GAMMA_MIN) ** 2
     ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    _, T, beta, I, KE = empty_table(pin, rows)
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
     KE[:, CHAIN_COLS] = iv

@@ -191,6 +191,47 @@ class Candidates:
         settle = bool(np.all(Ix[finite] >= 0.0) and np.all(self.t_pos[rows]) and np.all(Tx[:, k] >= 0.0))
         return Tx, Ix, finite, settle
 
+    def packed(self, rows, T_orig, I_orig):
+        """The allocation's tables of the strokes rows packed (_Packed): each row's feasible
+        candidates in column order, then its original, then filler (I inf, T 0), in two
+        tables, the rows of at most PACK_NARROW - 1 candidates and the others, each as wide
+        as its widest row (the dense (n, k + 1) tables were 24 columns for ~5 candidates a
+        line).  None where the packed choices could differ from the dense ones: a cost that
+        could overflow or a T that is not finite and >= 0 (then a least cost may be inf, and
+        which inf argmin takes depends on the columns), an original not finite."""
+        k = self.mask.shape[1]
+        T_orig, I_orig = np.asarray(T_orig, float), np.asarray(I_orig, float)
+        if not (np.isfinite(T_orig).all() and np.isfinite(I_orig).all()):
+            return None
+        cnt = np.count_nonzero(self.mask[rows], axis=1)
+        narrow = cnt < PACK_NARROW
+        parts, settle = [], bool(np.all(self.t_pos[rows]))
+        for sel in (np.flatnonzero(narrow), np.flatnonzero(~narrow)):
+            w = max(2, int(cnt[sel].max()) + 1) if sel.size else 2
+            T = np.zeros((sel.size, w))
+            I = np.full((sel.size, w), np.inf)
+            for a in range(0, sel.size, PACK_ROWS):         # bounded temporaries
+                q = sel[a:a + PACK_ROWS]
+                cq = cnt[q]
+                # a row's feasible entries are consecutive in vals (row-major), from start[row]
+                c = np.arange(int(cq.sum())) - np.repeat(np.cumsum(cq) - cq, cq)     # each one's place in its row
+                r = np.repeat(np.arange(a, a + q.size), cq)
+                pos = np.repeat(self.start[rows[q]], cq) + c
+                at = r * w + c
+                T.ravel()[at] = self.vals[0, pos]
+                I.ravel()[at] = self.vals[2, pos]
+            T[np.arange(sel.size), cnt[sel]] = T_orig[sel]
+            I[np.arange(sel.size), cnt[sel]] = I_orig[sel]
+            fin = np.isfinite(I)
+            with np.errstate(over="ignore", invalid="ignore"):
+                if not (np.isfinite(T).all() and T.min(initial=0.0) >= 0.0 and np.all(np.abs(I[fin]) < 1e300)
+                        and np.all(T * LAMBDA_MAX < 1e300)):
+                    return None
+            settle = settle and bool(np.all(I[fin] >= 0.0))
+            del fin
+            parts.append((sel, T, I, np.ascontiguousarray(T_orig[sel])))
+        return _Packed(rows.size, k, cnt, parts, settle)
+
     def _positions(self, rows, mask_rows):
         """Indices into vals of the True entries of mask_rows (= mask[rows]), row-major."""
         cnt = mask_rows.sum(axis=1)
@@ -637,38 +678,114 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
                 live = np.flatnonzero(~one)
                 J[fixed] = j1
                 take(j1, fixed)
-        j_lo, m_lo, _ = step(0.0, live)
-        if spent() <= budget_t:
-            J[live] = j_lo
-            return J, 0.0
-        lo, hi = 0.0, 1.0
-        while True:
-            j_hi, m_hi, tol_hi = step(hi, live)
-            if not (spent() > budget_t and hi < 1e30):
-                break
-            hi *= 10.0
-        J[live] = j_hi
-        act = live
-        for _ in range(80):
-            # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
-            # at most the top end's, tol_hi, which both margins must clear
-            keep = (j_lo != j_hi) | ~(m_lo > tol_hi) | ~(m_hi > tol_hi)
-            if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
-                act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
-            mid = 0.5 * (lo + hi)
-            j_mid, m_mid, tol_mid = step(mid, act)
-            J[act] = j_mid
-            if spent() > budget_t:
-                lo, j_lo, m_lo = mid, j_mid, m_mid
-            else:
-                hi, j_hi, m_hi, tol_hi = mid, j_mid, m_mid, tol_mid
-        J[act] = j_hi
-        return J, hi
+        return _bisect(J, live, step, spent, budget_t, settle)
     finally:
         choices = None
 
 
+def _bisect(J, live, step, spent, budget_t, settle):
+    """_allocate's bisection on lambda over the rows live (J: every row's choice, the
+    others' set already), step(lam, rows) -> (choice, margin, tol) of those rows (and
+    their T - T_orig taken), spent() the sum of every row's.  Returns (J, lambda)."""
+    j_lo, m_lo, _ = step(0.0, live)
+    if spent() <= budget_t:
+        J[live] = j_lo
+        return J, 0.0
+    lo, hi = 0.0, 1.0
+    while True:
+        j_hi, m_hi, tol_hi = step(hi, live)
+        if not (spent() > budget_t and hi < 1e30):
+            break
+        hi *= 10.0
+    J[live] = j_hi
+    act = live
+    for _ in range(80):
+        # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
+        # at most the top end's, tol_hi, which both margins must clear
+        keep = (j_lo != j_hi) | ~(m_lo > tol_hi) | ~(m_hi > tol_hi)
+        if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
+            act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
+        mid = 0.5 * (lo + hi)
+        j_mid, m_mid, tol_mid = step(mid, act)
+        J[act] = j_mid
+        if spent() > budget_t:
+            lo, j_lo, m_lo = mid, j_mid, m_mid
+        else:
+            hi, j_hi, m_hi, tol_hi = mid, j_mid, m_mid, tol_mid
+    J[act] = j_hi
+    return J, hi
+
+
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
+
+PACK_NARROW = 8        # Candidates.packed: rows with fewer candidates go in the narrow table
+PACK_ROWS = 8192       # Candidates.packed: rows filled at once
+
+
+class _Packed:
+    """Candidates.packed's tables: n rows, k candidate columns; cnt: each row's feasible
+    candidates (its original is at its column cnt); parts: (rows, T, I, T_orig) of each
+    table; settle as allocation_tables finds it."""
+    __slots__ = ("n", "k", "cnt", "parts", "settle")
+
+    def __init__(self, n, k, cnt, parts, settle):
+        self.n, self.k, self.cnt, self.parts, self.settle = n, k, cnt, parts, settle
+
+    def columns(self, mask_rows, j):
+        """The dense columns (mask_rows: the rows' mask; k: the original) of the packed
+        columns j."""
+        out = np.full(j.size, self.k, np.intp)
+        c = j < self.cnt
+        q = np.flatnonzero(c)
+        for a in range(0, q.size, PACK_ROWS):
+            qq = q[a:a + PACK_ROWS]
+            # the (j + 1)-th feasible column of each row: the first whose running count passes j
+            run = np.cumsum(mask_rows[qq], axis=1, dtype=np.int8)
+            out[qq] = np.argmax(run > j[qq, None], axis=1)
+        return out
+
+
+def _allocate_packed(pk, budget_t, core):
+    """_allocate's choices on packed tables (Candidates.packed) by the compiled core, a
+    call per table: each row's costs are its feasible candidates' and its original's in
+    the dense order, so argmin's first, the second least, the margins and T - T_orig are
+    the dense tables' (the columns left out cost inf at every lambda and no least cost is
+    inf: Candidates.packed declines tables where one could be); every row's T - T_orig is
+    kept in one array in row order, so the sums are the same.  Returns (packed column per
+    row, lambda)."""
+    n = pk.n
+    dT = np.empty(n)
+    part = np.empty(n, np.int8)
+    local = np.empty(n, np.intp)
+    for p, (sel, _, _, _) in enumerate(pk.parts):
+        part[sel] = p
+        local[sel] = np.arange(sel.size)
+    dts = [np.empty(sel.size) for sel, _, _, _ in pk.parts]
+    J = np.empty(n, np.intp)
+    # rows with no candidate keep their original (packed column 0) at every lambda
+    fixed = np.flatnonzero(pk.cnt == 0)
+    J[fixed] = 0
+    for p, (sel, T, _, To) in enumerate(pk.parts):
+        f = local[fixed[part[fixed] == p]]
+        dT[fixed[part[fixed] == p]] = T[f, 0] - To[f]
+    live = np.flatnonzero(pk.cnt != 0)
+
+    def step(lam, r):
+        j, margin, tol = np.empty(r.size, np.intp), np.empty(r.size), np.empty(r.size)
+        pr = part[r]
+        for p, (sel, T, I, To) in enumerate(pk.parts):
+            q = np.flatnonzero(pr == p)
+            if q.size == 0:
+                continue
+            g = r[q]
+            loc = np.ascontiguousarray(local[g])
+            jj, mm, tt = np.empty(q.size, np.intp), np.empty(q.size), np.empty(q.size)
+            core.alloc_choices(T, I, T.shape[1], loc, lam, MARGIN_R, To, dts[p], jj, mm, tt)
+            j[q], margin[q], tol[q] = jj, mm, tt
+            dT[g] = dts[p][loc]
+        return j, margin, tol
+
+    return _bisect(J, live, step, lambda: float(np.sum(dT)), budget_t, pk.settle)
 
 
 USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)
@@ -789,6 +906,16 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     lam = []
     for g in groups:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
+        # with the compiled core, packed tables (the feasible entries only: ~half the dense
+        # tables' bytes, ~10 MB less at the rectilinear plate's planning peak)
+        core = _alloc_core()
+        pk = cands.packed(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
+        if pk is not None:
+            jp, lam_g = _allocate_packed(pk, share, core)
+            j[g] = pk.columns(cands.mask[g], jp)
+            del pk, jp
+            lam.append(lam_g)
+            continue
         # the extended tables of the group only, made from the feasible entries: the dense
         # tables, their copies for the group and the extended ones were ~30 MB at once
         Tx, Ix, finite, settle = cands.allocation_tables(g, p.T_orig[g], p.I_orig[g])
@@ -855,11 +982,14 @@ def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
     int_a2, ok) solves the true law; a candidate that breaks a limit is retried once at
     beta/4 (a flatter law).  Returns (T, beta, I, KE) of shape (n, len(T_RATIOS)), inf
     where nothing was computed or nothing met the limits."""
-    rows, T, beta, I, KE = empty_table(pin, rows)
+    rows = np.asarray(rows, int)
     n = rows.size
     if n == 0:
-        return T, beta, I, KE
-    Tc = T[:, cols]
+        return empty_table(pin, rows)[1:]
+    # the columns' durations as empty_table's T has them (one product an entry: the same
+    # bits); its four (n, len(T_RATIOS)) tables are made once the figures are, not held
+    # beside the solve's temporaries
+    Tc = pin.T_orig[rows, None] * T_RATIOS[None, cols]
 
     def flat(a):
         return np.broadcast_to(np.asarray(a)[:, None], Tc.shape).ravel()
@@ -880,6 +1010,8 @@ def candidate_table(pin: PlanInput, rows, cols, solve_figures, gamma_min):
         KEf[todo[ok]] = iv[ok]
         todo = todo[~ok]
         betaf[todo] *= 0.25
+    del todo, S, v0, v1, vc, ok_v
+    _, T, beta, I, KE = empty_table(pin, rows)
     I[:, cols] = If.reshape(Tc.shape)
     KE[:, cols] = KEf.reshape(Tc.shape)
     beta[:, cols] = betaf.reshape(Tc.shape)

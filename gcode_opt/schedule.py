@@ -32,7 +32,7 @@ from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
                    plan_fixed_alpha)
 from .profile import Profile
-from .segments import SegmentPlan, SegmentRules, plan_segments, slowed_original
+from .segments import RowPlan, SegmentPlan, SegmentRules, plan_segments, slowed_original
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
 
 
@@ -127,6 +127,10 @@ def _rows_by_kind(strokes):
     return {k: np.flatnonzero(kinds == k) for k in KINDS}
 
 
+CANDIDATE_ROWS = 1 << 14      # line strokes whose candidates are made at once (plan.py's
+                              # CANDIDATE_CHUNK x BISECT_CHUNKS: its batches as in one call)
+
+
 def _candidates(strokes, pin, profile, opts, rows, failed):
     """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
     isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
@@ -136,9 +140,14 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     if opts.alpha == "auto":
         pieces = []
         for k, kind in KINDS.items():     # each kind's tables kept sparse as soon as made
-            pieces += [Candidates.piece(sub, tables, pin.T_orig) for sub, tables in
-                       isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k], "planning",
-                               failed)]
+            # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
+            # were ~33 MB at once on the rectilinear plate, before they were made sparse
+            # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
+            step = CANDIDATE_ROWS if k == K_LINE else max(ok[k].size, 1)
+            for a in range(0, ok[k].size, step):
+                pieces += [Candidates.piece(sub, tables, pin.T_orig) for sub, tables in
+                           isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k][a:a + step],
+                                   "planning", failed)]
         cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")
@@ -221,7 +230,7 @@ def settle_faults(segs):
     sizes and figures are checked as _fine_1d checks them."""
     todo, ss, vs, as_, fs = [], [], [], [], []
     for seg in segs:
-        if type(seg) is not SegmentPlan or seg.fault is not None:
+        if (type(seg) is not SegmentPlan and type(seg) is not RowPlan) or seg.fault is not None:
             continue
         s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
         if not (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1

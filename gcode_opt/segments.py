@@ -10,6 +10,8 @@ motion is slow) and every original vertex is a knot, so the toolpath keeps its p
 """
 from __future__ import annotations
 
+from itertools import repeat
+
 import numpy as np
 
 from .firmware.junction import accel_to_pass_junction
@@ -431,6 +433,41 @@ class SegmentPlan:
     del _set
 
 
+class RowPlan(SegmentPlan):
+    """A SegmentPlan made with others at once: its four arrays are row `row` of the 2-D
+    blocks it holds (S, V, A, F: the knots, speeds, accelerations and feeds of the plans
+    made together), each read as that row (a view, the same numbers as the view a
+    SegmentPlan of the rows held).  Four views a plan were ~0.4 kB of numpy objects (the
+    rectilinear plate's ~36 k line plans held ~14 MB of them at the plan's peak); the
+    blocks are held as the views held them.  Setting an array makes all four the plan's
+    own (views of its rows), then the plan is as a SegmentPlan."""
+    __slots__ = ("_row",)
+
+    def __init__(self, S, V, A, F, row, time_t, int_a2, shape="law", first_cmds=None):
+        SegmentPlan.__init__(self, S, V, A, F, time_t, int_a2, shape, first_cmds)
+        self._row = row
+
+    def _set(name):
+        def put(self, x):
+            r = self._row
+            if r is not None:
+                self._s, self._v, self._accel, self._feed = self._s[r], self._v[r], self._accel[r], self._feed[r]
+                self._row = None
+            setattr(self, name, x)
+            self.fault = None
+        return put
+
+    s = property(lambda self: self._s if self._row is None else self._s[self._row], _set("_s"),
+                 doc=SegmentPlan.s.__doc__)
+    v = property(lambda self: self._v if self._row is None else self._v[self._row], _set("_v"),
+                 doc=SegmentPlan.v.__doc__)
+    accel = property(lambda self: self._accel if self._row is None else self._accel[self._row], _set("_accel"),
+                     doc=SegmentPlan.accel.__doc__)
+    feed = property(lambda self: self._feed if self._row is None else self._feed[self._row], _set("_feed"),
+                    doc=SegmentPlan.feed.__doc__)
+    del _set
+
+
 def plan_segments(strokes, T, beta, rules: SegmentRules):
     """Segments that make the firmware play each stroke's law (L, T, beta, v0, v1): a
     list with a SegmentPlan, or None where no plan beats the original.
@@ -673,7 +710,9 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     t_pred, a2_pred = _predict_rows(S, V, A)
     fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
     if knots is None:
-        made = list(map(SegmentPlan, S, V, A, feeds, t_pred, a2_pred))
+        m = len(t_pred)
+        made = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(feeds, m), range(m), t_pred,
+                        a2_pred))
         # settle_rows: the knots and speeds are rows of the float64 blocks S, V
         if type(A) is type(feeds) is np.ndarray and A.ndim == feeds.ndim == 2 and A.dtype is feeds.dtype is _F64:
             for plan, f in zip(made, fine):

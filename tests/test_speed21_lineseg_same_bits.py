@@ -223,7 +223,8 @@ def _same_plan(a, b):
     if a is None or b is None:
         assert a is None and b is None
         return
-    assert type(a) is type(b)
+    # (a plan made with others may be a RowPlan: the same fields, read as rows of its blocks)
+    assert isinstance(a, SegmentPlan) and isinstance(b, SegmentPlan)
     for f in ("s", "v", "accel", "feed"):
         x, y = getattr(a, f), getattr(b, f)
         assert type(x) is type(y) and x.dtype == y.dtype and x.shape == y.shape, f

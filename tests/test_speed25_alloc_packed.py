@@ -1,0 +1,151 @@
+"""Issue 8 (s25, the plan's peak memory): with the compiled core, plan_auto allocates the
+budget on packed tables (Candidates.packed: each row's feasible candidates, then its
+original, in two tables as wide as their widest rows) instead of the dense (n, k + 1)
+tables.  The reference is the dense allocation (Candidates.allocation_tables, _allocate)
+by numpy (USE_CORE off) and by the core: the same choices and the same lambda, bit for bit,
+on the candidates of real sample files at several budgets and on random tables; tables
+whose costs could overflow are left to the dense path."""
+import os
+
+import numpy as np
+import pytest
+
+from gcode_opt import pipeline, schedule
+from gcode_opt import plan as plan_mod
+from gcode_opt.plan import Candidates, T_RATIOS
+from gcode_opt.profile import load_profile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SAMPLES = os.path.join(HERE, "..", "sample_gcode")
+
+pytestmark = pytest.mark.skipif(plan_mod._alloc_core() is None, reason="the compiled core is not built")
+
+
+def _dense(cands, g, T_orig, I_orig, budget, use_core, monkeypatch):
+    monkeypatch.setattr(plan_mod, "USE_CORE", use_core)
+    Tx, Ix, finite, settle = cands.allocation_tables(g, T_orig, I_orig)
+    got = plan_mod._allocate(Tx, Ix, finite, T_orig, budget, settle)
+    monkeypatch.setattr(plan_mod, "USE_CORE", True)
+    return got
+
+
+def _packed(cands, g, T_orig, I_orig, budget):
+    pk = cands.packed(g, T_orig, I_orig)
+    assert pk is not None
+    j, lam = plan_mod._allocate_packed(pk, budget, plan_mod._alloc_core())
+    return pk.columns(cands.mask[g], j), lam
+
+
+def _same(cands, g, T_orig, I_orig, budget, monkeypatch):
+    jp, lp = _packed(cands, g, T_orig, I_orig, budget)
+    for use_core in (False, True):
+        jd, ld = _dense(cands, g, T_orig, I_orig, budget, use_core, monkeypatch)
+        assert np.array_equal(jp, jd)
+        assert np.float64(lp).tobytes() == np.float64(ld).tobytes()
+    return jp, lp
+
+
+def _sample_cands(name, prof):
+    profile = load_profile(prof)
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    failed = {i: str(r) for i, r in enumerate(pin.fault) if r}
+    cands, _ = schedule._candidates(strokes, pin, profile, opts, schedule._rows_by_kind(strokes), failed)
+    g = np.setdiff1d(np.arange(len(strokes)), np.array(sorted(failed), int))
+    g = g[np.isfinite(pin.T_orig[g]) & np.isfinite(pin.I_orig[g])]
+    return cands, g, pin, opts.max_slowdown_r * sim0.time_t
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"),
+                                       ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s"),
+                                       ("prusa_klipper.gcode", "voron24")])
+def test_packed_allocation_is_the_dense_one_on_samples(name, prof, monkeypatch):
+    cands, g, pin, budget = _sample_cands(name, prof)
+    T_orig, I_orig = pin.T_orig[g], pin.I_orig[g]
+    cnt = cands.mask[g].sum(axis=1)
+    assert (cnt < plan_mod.PACK_NARROW).any() and (cnt >= plan_mod.PACK_NARROW).any()    # both tables
+    lams = []
+    for r in (0.05, 0.3, 1.0, 3.0, 1e3):
+        j, lam = _same(cands, g, T_orig, I_orig, r * budget, monkeypatch)
+        lams.append(lam)
+        assert (j < cands.shape[1]).any()
+    assert lams[0] > lams[2] > 0.0 and lams[-1] == 0.0     # bisected and early answers both checked
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_packed_allocation_is_the_dense_one_on_random_tables(seed, monkeypatch):
+    rng = np.random.default_rng(seed)
+    n, k = 700, len(T_RATIOS)
+    T_orig = rng.uniform(0.01, 2.0, n)
+    T = T_orig[:, None] * T_RATIOS[None, :]
+    I = rng.uniform(0.0, 50.0, (n, k)) * (1.0 + T_RATIOS[None, ::-1])
+    # rows from none to all feasible, ties between candidates, zero costs
+    I[rng.random((n, k)) < rng.uniform(0.0, 1.0, (n, 1))] = np.inf
+    I[rng.random((n, k)) < 0.02] = 0.0
+    I[::7, 3] = I[::7, 4] = 10.0
+    beta, KE = np.ones((n, k)), np.ones((n, k))
+    cands = Candidates.of_tables(T, beta, I, KE, T_orig)
+    g = np.sort(rng.choice(n, n - 50, replace=False))
+    I_orig = rng.uniform(10.0, 60.0, n)
+    for budget in (0.0, 0.01, 0.1, 0.5, 5.0, -1.0):
+        _same(cands, g, T_orig[g], I_orig[g], budget * T_orig.sum(), monkeypatch)
+
+
+def test_tables_that_could_overflow_stay_dense(monkeypatch):
+    n, k = 50, len(T_RATIOS)
+    T_orig = np.linspace(0.5, 1.5, n)
+    I = np.full((n, k), 5.0)
+    I[3, 2] = 1e305
+    cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
+    g = np.arange(n)
+    assert cands.packed(g, T_orig, np.full(n, 9.0)) is None
+    I[3, 2] = 5.0
+    cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
+    assert cands.packed(g, T_orig, np.full(n, 9.0)) is not None
+    assert cands.packed(g, T_orig, np.r_[np.nan, np.full(n - 1, 9.0)]) is None
+    # plan_auto then answers as the dense tables do (the packed path declined)
+    pin = plan_mod.PlanInput(np.ones(n), np.zeros(n), np.zeros(n), np.ones(n), np.ones(n), T_orig, np.full(n, 9.0),
+                             np.ones(n), np.zeros(n))
+    I[3, 2] = 1e305
+    cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
+    a = plan_mod.plan_auto(pin, 0.2, cands, [g])
+    monkeypatch.setattr(plan_mod, "USE_CORE", False)
+    b = plan_mod.plan_auto(pin, 0.2, cands, [g])
+    assert (a.T == b.T).all() and (a.retime == b.retime).all() and a.lam == b.lam
+
+
+def test_plan_auto_packed_is_plan_auto_dense(monkeypatch):
+    cands, g, pin, budget = _sample_cands("prusa_gyroid_fullspeed.gcode", "prusa-mk3s")
+    a = plan_mod.plan_auto(pin, budget, cands, [g])
+    monkeypatch.setattr(Candidates, "packed", lambda self, rows, T_orig, I_orig: None)
+    b = plan_mod.plan_auto(pin, budget, cands, [g])
+    for f in ("retime", "T", "beta", "I_law", "KE_law"):
+        x, y = getattr(a, f), getattr(b, f)
+        assert np.array_equal(np.asarray(x, float).view(np.int64), np.asarray(y, float).view(np.int64)), f
+    assert (a.reason == b.reason).all() and a.lam == b.lam and a.retime.sum() > 100
+
+
+def test_packed_tables_are_smaller():
+    cands, g, pin, _ = _sample_cands("prusa_mk3s_rectilinear.gcode", "prusa-mk3s")
+    pk = cands.packed(g, pin.T_orig[g], pin.I_orig[g])
+    Tx, Ix, finite, _ = cands.allocation_tables(g, pin.T_orig[g], pin.I_orig[g])
+    packed_b = sum(T.nbytes + I.nbytes for _, T, I, _ in pk.parts)
+    assert packed_b < 0.7 * (Tx.nbytes + Ix.nbytes + finite.nbytes)
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "voron24")])
+def test_line_candidates_by_chunks_are_the_whole(name, prof, monkeypatch):
+    """schedule._candidates makes the lines' tables CANDIDATE_ROWS rows at a time: the
+    same sparse tables, bit for bit, as all rows in one call (CANDIDATE_ROWS past the
+    file's rows), with chunks that cut plan.py's own batches too."""
+    got = []
+    for rows_at_once in (10 ** 9, 777):
+        monkeypatch.setattr(schedule, "CANDIDATE_ROWS", rows_at_once)
+        cands, g, pin, _ = _sample_cands(name, prof)
+        got.append(cands)
+    a, b = got
+    assert a.vals.shape[1] > 1000 and (np.bincount(np.flatnonzero(a.mask.any(axis=1)) // 777).size > 3)
+    assert np.array_equal(a.mask, b.mask) and np.array_equal(a.t_pos, b.t_pos) and np.array_equal(a.start, b.start)
+    assert np.array_equal(a.vals.view(np.int64), b.vals.view(np.int64))

@@ -1,0 +1,168 @@
+"""Issue 8 (s25, the plan's peak memory):
+
+  RowPlan          the plans made together (line plans by _jerk_rows, chains' by _replay
+                   and _again_plans) hold their blocks and a row, not four numpy views each
+                   (~0.4 kB a plan): the same numbers as the views, the same verdicts;
+  _replay(drop)    every chain's candidate knots are freed once the chosen rows are
+                   gathered, before the plans are made (they were held until
+                   plan_chain_segments returned: the gyroid plate's planning peak).
+
+The reference is the views the old code made (segments.RowPlan and chains.RowPlan swapped
+for a SegmentPlan of the rows, as before), on real sample files, through budget runs as
+_fit_budget makes them, and the written G-code of both ways, byte for byte."""
+import os
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from gcode_opt import chains, pipeline, schedule, segments
+from gcode_opt.profile import load_profile
+from gcode_opt.segments import RowPlan, SegmentPlan
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SAMPLES = os.path.join(HERE, "..", "sample_gcode")
+CASES = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s"),
+         ("prusa_gyroid_fullspeed_klipper.gcode", "voron24")]
+
+
+def _views(S, V, A, F, row, time_t, int_a2, shape="law", first_cmds=None):
+    """The old plan of a row: a SegmentPlan of four views."""
+    return SegmentPlan(S[row], V[row], A[row], F[row], time_t, int_a2, shape, first_cmds)
+
+
+def _runs(name, prof, monkeypatch, views, budgets=(1.0, 0.5, 1.2)):
+    if views:
+        monkeypatch.setattr(segments, "RowPlan", _views)
+        monkeypatch.setattr(chains, "RowPlan", _views)
+    profile = load_profile(prof)
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    runs = []
+
+    def fit(run, pin_, budget_t):
+        for r in budgets:
+            p = run(r * budget_t)
+            # each run's plans as they are then (a later run may re-make them)
+            runs.append([None if s is None else (type(s), s.s, s.v, s.accel, s.feed, s.time_t, s.int_a2,
+                                                 schedule.seg_fault(s), s.first_cmds) for s in p.segs])
+        return p
+    monkeypatch.setattr(schedule, "_fit_budget", fit)
+    schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
+    monkeypatch.undo()
+    return runs
+
+
+def _bits(x):
+    return np.asarray(x, float).view(np.int64)
+
+
+@pytest.mark.parametrize("name,prof", CASES)
+def test_row_plans_are_the_views(name, prof, monkeypatch):
+    got = _runs(name, prof, monkeypatch, False)
+    ref = _runs(name, prof, monkeypatch, True)
+    n_rows = 0
+    for a_run, b_run in zip(got, ref):
+        assert len(a_run) == len(b_run)
+        for a, b in zip(a_run, b_run):
+            assert (a is None) == (b is None)
+            if a is None:
+                continue
+            assert b[0] is SegmentPlan
+            n_rows += a[0] is RowPlan
+            for x, y in zip(a[1:5], b[1:5]):
+                assert type(x) is type(y) is np.ndarray and x.shape == y.shape and x.dtype == y.dtype
+                assert (_bits(x) == _bits(y)).all()
+            assert np.float64(a[5]).tobytes() == np.float64(b[5]).tobytes()
+            assert np.float64(a[6]).tobytes() == np.float64(b[6]).tobytes()
+            assert a[7] == b[7] and a[8] == b[8]
+    assert n_rows > 200             # RowPlans were made (else nothing was compared)
+
+
+def test_row_plan_fields_and_setters():
+    rng = np.random.default_rng(5)
+    S = np.cumsum(rng.random((6, 5)) + 0.1, axis=1)
+    V, A, F = rng.random((6, 5)), rng.random((6, 4)) + 0.5, rng.random((6, 4)) + 1.0
+    p = RowPlan(S, V, A, F, 3, 1.5, 2.5)
+    assert (p.s == S[3]).all() and (p.v == V[3]).all() and (p.accel == A[3]).all() and (p.feed == F[3]).all()
+    assert p.s.base is S and schedule.seg_fault(p) == "" and p.fault == ""
+    p.feed = np.full(4, -1.0)            # another array: the plan's own rows, its verdict made again
+    assert p.fault is None and (p.s == S[3]).all() and (p.v == V[3]).all() and (p.accel == A[3]).all()
+    assert (p.feed == -1.0).all() and (F[3] > 0).all()
+    assert schedule.seg_fault(p) == schedule._seg_fault_any(SegmentPlan(S[3], V[3], A[3], np.full(4, -1.0), 1.5,
+                                                                          2.5)) != ""
+    q = RowPlan(S, V, A, F, 1, 1.0, 1.0)
+    q.s = [0.0, 1.0]                      # (anything, as on a SegmentPlan: its verdict says why)
+    assert q.s == [0.0, 1.0] and schedule.seg_fault(q) == "error: segments (malformed)"
+
+
+def test_row_plans_hold_less():
+    """20 k plans of rows of one set of blocks: the RowPlans' objects are less than half
+    the views'."""
+    tracemalloc.start()
+    try:
+        rng = np.random.default_rng(1)
+        S, V = rng.random((20000, 5)), rng.random((20000, 5))
+        A, F = rng.random((20000, 4)), rng.random((20000, 4))
+        sizes = []
+        for make in (RowPlan, _views):
+            c0 = tracemalloc.get_traced_memory()[0]
+            plans = [make(S, V, A, F, r, 1.0, 1.0) for r in range(20000)]
+            sizes.append(tracemalloc.get_traced_memory()[0] - c0)
+            del plans
+    finally:
+        tracemalloc.stop()
+    assert sizes[0] < 0.5 * sizes[1]
+
+
+def test_replay_frees_the_knots_before_the_plans(monkeypatch):
+    """The first plans of the chains (plan_chain_segments, every chain's candidate rows
+    kept): when the first batch of plans is finished, the candidates' knot arrays are gone
+    already (traced memory then below the start by most of their bytes)."""
+    profile = load_profile("prusa-mk3s")
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, "prusa_gyroid_fullspeed.gcode"), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    seen = {}
+    real_replay, real_finish = chains._replay, chains._finish_stacked_dt
+
+    def replay(items, rules, prof, drop=False):
+        bases = {id(k.base): k.base for _, k, _ in items if type(k) is chains._KeptLaws}
+        seen["knots"] = sum(b[0].nbytes + b[1].nbytes for b in bases.values())
+        bases = None
+        seen["start"] = tracemalloc.get_traced_memory()[0]
+        return real_replay(items, rules, prof, drop)
+
+    def finish(*a, **k):
+        if "start" in seen and "first" not in seen and k.get("predict", True) is False:
+            seen["first"] = tracemalloc.get_traced_memory()[0]
+        return real_finish(*a, **k)
+    monkeypatch.setattr(chains, "_replay", replay)
+    monkeypatch.setattr(chains, "_finish_stacked_dt", finish)
+    monkeypatch.setattr(schedule, "_fit_budget", lambda run, pin_, budget_t: run(budget_t))
+    tracemalloc.start()
+    try:
+        schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
+    finally:
+        tracemalloc.stop()
+    assert seen["knots"] > 2e5
+    assert seen["first"] < seen["start"] - 0.7 * seen["knots"]
+
+
+@pytest.mark.parametrize("name,prof", [CASES[0], CASES[2]])
+def test_written_file_the_same(name, prof, tmp_path, monkeypatch):
+    out = []
+    for views in (False, True):
+        if views:
+            monkeypatch.setattr(segments, "RowPlan", _views)
+            monkeypatch.setattr(chains, "RowPlan", _views)
+        opts = pipeline.Options()
+        opts.ringing = False
+        dest = tmp_path / f"out{int(views)}.gcode"
+        pipeline.process(os.path.join(SAMPLES, name), str(dest), load_profile(prof), opts)
+        out.append(dest.read_bytes())
+        monkeypatch.undo()
+    assert out[0] == out[1] and len(out[0]) > 10000

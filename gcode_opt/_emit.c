@@ -1511,10 +1511,10 @@ done:
 
 /* the attribute names stroke_run reads (interned once) */
 enum { A_FIRST, A_LAST, A_KIND, A_X0, A_Y0, A_SS_E, A_SS_A, A_SS_C, A_ENDS, A_LENGTH, A_E_REL, A_FEATURE,
-       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, N_NAMES };
+       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, A_ROW, N_NAMES };
 static const char *const NAME_TEXT[N_NAMES] = {"first_idx", "last_idx", "kind", "x0", "y0", "_ss_e", "_ss_a",
     "_ss_c", "_ends", "length_d", "e_rel", "feature", "v_feed", "time_t", "_s", "_accel", "_feed", "first_cmds",
-    "copy", "update", "digest"};
+    "copy", "update", "digest", "_row"};
 static PyObject *NAMES[N_NAMES];
 
 static int names_ready(void)
@@ -1544,7 +1544,7 @@ static Py_ssize_t skip_n(const char *d, Py_ssize_t len, Py_ssize_t pos, Py_ssize
 
 /* the run's fixed arguments */
 typedef struct {
-    PyObject *strokes, *segs, *betas, *stroke_type, *seg_type, *k_arc, *travel, *closing_text, *flavour, *nl,
+    PyObject *strokes, *segs, *betas, *stroke_type, *seg_type, *row_type, *k_arc, *travel, *closing_text, *flavour, *nl,
              *svl, *digests, *blake2b;
     PyObject *ctx_o[2];             /* ctx[False], ctx[True] */
     BlockArgs ctx[2];               /* their unpacked fields */
@@ -1572,7 +1572,7 @@ static double float_attr(PyObject *o, int name, int *bad)
 static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
                      const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n)
 {
-    PyObject *obj[20] = {NULL};     /* references held (at most 18): freed at the end */
+    PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
     int no = 0, got = 0, bad = 0;
     FSeq fs[4];
     char *head = NULL, *x0t = NULL, *y0t = NULL;
@@ -1593,6 +1593,18 @@ static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, Py
     GET(fd, seg, A_FEED);
     GET(fc, seg, A_FIRST_CMDS);
     GET(t_o, seg, A_TIME);
+    if (ra->row_type != NULL && Py_IS_TYPE(seg, (PyTypeObject *)ra->row_type)) {
+        PyObject *row;             /* a RowPlan: its arrays are that row of its blocks (its s, accel, feed) */
+        GET(row, seg, A_ROW);
+        if (row != Py_None) {
+            if (!PyLong_CheckExact(row))
+                goto decline;
+            if ((knots = obj[no++] = PyObject_GetItem(knots, row)) == NULL
+                || (acc = obj[no++] = PyObject_GetItem(acc, row)) == NULL
+                || (fd = obj[no++] = PyObject_GetItem(fd, row)) == NULL)
+                goto decline;
+        }
+    }
 #undef GET
     if (e0_o == Py_None || !PyFloat_CheckExact(e0_o) || !PyFloat_CheckExact(a0_o) || !PyFloat_Check(t_o)
         || !PyFloat_Check(t_was_o) || !PyFloat_Check(beta_o))
@@ -1747,7 +1759,13 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
     ra.segs = args[8];
     ra.betas = args[9];
     ra.stroke_type = args[10];
-    ra.seg_type = args[11];
+    /* seg_type: the SegmentPlan type, or (SegmentPlan, RowPlan): a RowPlan's arrays are
+       row _row of the blocks it holds (segments.RowPlan) */
+    if (PyTuple_Check(args[11]) && PyTuple_GET_SIZE(args[11]) == 2) {
+        ra.seg_type = PyTuple_GET_ITEM(args[11], 0);
+        ra.row_type = PyTuple_GET_ITEM(args[11], 1);
+    } else
+        ra.seg_type = args[11];
     ra.k_arc = args[12];
     ra.travel = args[13];
     ra.closing_text = args[14];
@@ -1796,7 +1814,9 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto next;
         }
         PyObject *s = PyList_GET_ITEM(ra.strokes, i), *seg = PyList_GET_ITEM(ra.segs, i);
-        if (!Py_IS_TYPE(s, (PyTypeObject *)ra.stroke_type) || !Py_IS_TYPE(seg, (PyTypeObject *)ra.seg_type))
+        if (!Py_IS_TYPE(s, (PyTypeObject *)ra.stroke_type)
+            || !(Py_IS_TYPE(seg, (PyTypeObject *)ra.seg_type)
+                 || (ra.row_type != NULL && Py_IS_TYPE(seg, (PyTypeObject *)ra.row_type))))
             goto next;
         PyObject *fi_o = PyObject_GetAttr(s, NAMES[A_FIRST]), *li_o = PyObject_GetAttr(s, NAMES[A_LAST]);
         Py_ssize_t first = fi_o && PyLong_CheckExact(fi_o) ? PyLong_AsSsize_t(fi_o) : -1,

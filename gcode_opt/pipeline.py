@@ -50,7 +50,7 @@ from .laws import circle as circle_law
 from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
-from .segments import SegmentPlan
+from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines
 from . import validate as _validate_mod
@@ -591,8 +591,8 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
             if run is not None:
                 k, src.pos, pos, out_line = run(
                     src.data, src.pos, pos, order, k, out_line, out_ranges, strokes, segs, beta_list, stroke_type,
-                    seg_type, K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True], max_accel_a, digests,
-                    empty_digest, write)
+                    (seg_type, RowPlan), K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True],
+                    max_accel_a, digests, empty_digest, write)
                 if k >= n_order:
                     break
             i = order[k]

@@ -47,7 +47,7 @@ from . import state as reader
 from .firmware import simulate as fwsim
 from .laws import chain as chain_law
 from .laws import circle as circle_law
-from .firmware.simulate import ReplayMismatch, replay_runs, simulate_file, simulate_ledger
+from .firmware.simulate import LineRanges, ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
 from .segments import RowPlan, SegmentPlan
@@ -1253,8 +1253,9 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                                     first.out_ranges, first.figures, out_ranges, opts)
                 ring_after = None     # the written file's ringing, when this pass played all of it
                 if got is None:
-                    watch = None if lines is None or pass_i else list(zip(lines[0][order].tolist(),
-                                                                          lines[1][order].tolist()))
+                    # (as LineRanges: two int64 arrays, not ~52 k tuples held through measure)
+                    watch = None if lines is None or pass_i else LineRanges.of_rows(lines[0][order],
+                                                                                   lines[1][order])
                     ring = _ring_collector(profile, opts)
                     got = measure(tmp, profile, out_ranges, opts, watch, ring)
                     ring_after = ring

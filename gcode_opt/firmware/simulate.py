@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import os
+from array import array
 
 from .. import state as st
 from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, klipper_corner_v2, klipper_extruder_v2,
@@ -676,16 +677,54 @@ def _play(lines, state, sim, watch, led, on_barrier=None):
     w.finish(idx + 1, sim)
 
 
+class LineRanges:
+    """Sorted, disjoint line ranges [(first, last), ...] (a Ledger's watched ranges) held as
+    two array("q"): a list of tuples held ~125 bytes a range (~6.5 MB for the rectilinear
+    plate's 52 k strokes while its output is measured), these 16.  Reads as that list
+    (len, [i], iteration: (first, last) tuples made when read)."""
+    __slots__ = ("first", "last")
+
+    def __init__(self, first, last):
+        if len(first) != len(last):
+            raise ValueError("LineRanges: as many first lines as last lines")
+        self.first, self.last = array("q", first), array("q", last)
+
+    @classmethod
+    def of_rows(cls, first, last):
+        """From two int64 numpy arrays (their bytes copied, no int objects made)."""
+        a, z = array("q"), array("q")
+        a.frombytes(first.astype("=i8", copy=False).tobytes())
+        z.frombytes(last.astype("=i8", copy=False).tobytes())
+        return cls(a, z)
+
+    def __len__(self):
+        return len(self.first)
+
+    def __getitem__(self, i):
+        return self.first[i], self.last[i]
+
+    def __iter__(self):
+        return zip(self.first, self.last)
+
+
+def _ranges(watch):
+    """watch's first and last lines as two array("q") (the same arrays for LineRanges)."""
+    if type(watch) is LineRanges:
+        return watch.first, watch.last
+    return array("q", [r[0] for r in watch]), array("q", [r[1] for r in watch])
+
+
 class _LedgerWriter:
     """What _play and _play_chunks record into a Ledger around the watched ranges: told
     where a watched range starts and where the model stands empty, it commits the stop
     before each range and the stop after it, with the peaks of the stretch between."""
 
     def __init__(self, led, watch, state, res):
-        self.led, self.watch, self.snap, self.res = led, watch, state.snapshot, res
-        self.n_w = len(watch)
+        self.led, self.snap, self.res = led, state.snapshot, res
+        self.w_first, self.w_last = _ranges(watch)     # each watched range's first and last line
+        self.n_w = len(self.w_first)
         self.wi = 0
-        self.next_first = watch[0][0] if self.n_w else -2   # first line of the next watched range
+        self.next_first = self.w_first[0] if self.n_w else -2   # first line of the next watched range
         self.pending = []          # watched ranges started, waiting for the stop after them
         self.carry_v = self.carry_a = 0.0   # peaks since the last committed stop, up to the last stop
         self.last = (-1, self.snap(), _sums(res))
@@ -702,7 +741,7 @@ class _LedgerWriter:
         led.lo.append(self.last_j)
         self.pending.append(self.wi)
         self.wi += 1
-        self.next_first = self.watch[self.wi][0] if self.wi < self.n_w else -2
+        self.next_first = self.w_first[self.wi] if self.wi < self.n_w else -2
         return self.next_first
 
     def ranges_start(self, k):
@@ -716,7 +755,7 @@ class _LedgerWriter:
         led.lo.extend([self.last_j] * k)
         self.pending.extend(range(self.wi, self.wi + k))
         self.wi += k
-        self.next_first = self.watch[self.wi][0] if self.wi < self.n_w else -2
+        self.next_first = self.w_first[self.wi] if self.wi < self.n_w else -2
 
     def stopped(self, idx):
         """The model stands empty after line idx."""
@@ -731,7 +770,7 @@ class _LedgerWriter:
         pending = self.pending
         if pending:
             led = self.led
-            if self.watch[pending[-1]][1] >= idx:        # a stop inside a watched range
+            if self.w_last[pending[-1]] >= idx:          # a stop inside a watched range
                 led.ok = False
             self.last_j = led._commit(idx, self.last[1], self.last[2], self.carry_v, self.carry_a)
             self.carry_v = self.carry_a = 0.0
@@ -769,8 +808,7 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
     if getattr(_core, "PLAY_FIRSTS", 0) and USE_PLAY_FIRSTS:
         # the watched ranges' first lines passed over in C: play() leaves only where the
         # model stands empty (or at the chunk's end) and says how many ranges started
-        from array import array
-        firsts = array("q", [r[0] for r in watch])
+        firsts = w.w_first
         wi = 0
         for idx0, lines in chunks:
             n = len(lines)

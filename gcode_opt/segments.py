@@ -450,20 +450,19 @@ class RowPlan(SegmentPlan):
     def _set(name):
         def put(self, x):
             r = self._row
-            if r is not None:
+            if r is not None:            # the four rows made the plan's own, then SegmentPlan's setter
                 self._s, self._v, self._accel, self._feed = self._s[r], self._v[r], self._accel[r], self._feed[r]
                 self._row = None
-            setattr(self, name, x)
-            self.fault = None
+            getattr(SegmentPlan, name).fset(self, x)
         return put
 
-    s = property(lambda self: self._s if self._row is None else self._s[self._row], _set("_s"),
+    s = property(lambda self: self._s if self._row is None else self._s[self._row], _set("s"),
                  doc=SegmentPlan.s.__doc__)
-    v = property(lambda self: self._v if self._row is None else self._v[self._row], _set("_v"),
+    v = property(lambda self: self._v if self._row is None else self._v[self._row], _set("v"),
                  doc=SegmentPlan.v.__doc__)
-    accel = property(lambda self: self._accel if self._row is None else self._accel[self._row], _set("_accel"),
+    accel = property(lambda self: self._accel if self._row is None else self._accel[self._row], _set("accel"),
                      doc=SegmentPlan.accel.__doc__)
-    feed = property(lambda self: self._feed if self._row is None else self._feed[self._row], _set("_feed"),
+    feed = property(lambda self: self._feed if self._row is None else self._feed[self._row], _set("feed"),
                     doc=SegmentPlan.feed.__doc__)
     del _set
 

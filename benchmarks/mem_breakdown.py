@@ -6,8 +6,10 @@ strokes' own share by slot -- the figures a memory change starts from.
 
 tracemalloc makes the run ~10x slower and only sees allocations made through Python's
 allocators (numpy's data buffers are among them; the C cores' own buffers are not).  The
-RSS column is /proc/self/statm's resident set at the same moment (it also holds freed
-memory the allocator keeps, and shared pages), ru_maxrss the peak so far.  Run from /tmp or
+RSS column is /proc/self/statm's resident set at the same moment and ru_maxrss the peak so
+far, both with tracemalloc's own bookkeeping in them (on the gyroid plate ~3x the traced
+memory): compare them between phases of one run only.  The command's real peak RSS per
+phase is `gcode-opt process --profile-time`'s.  Run from /tmp or
 the tree whose gcode_opt you mean to measure (the current directory shadows PYTHONPATH).
 """
 from __future__ import annotations

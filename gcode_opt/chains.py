@@ -1486,15 +1486,23 @@ def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     q = q[np.lexsort((-q, j[q]))]
     figs = array("d")
     figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
-    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
+    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for kept, jj in zip(plans, j[first].tolist()):
-        k = int(cnt[jj])
+        k = cnt[jj]
         if k:
             memo = sts[jj].chain_T
-            if src is not None:
-                _own_source(memo, src, a + jj)
-            memo.put_shared(figs, lo, k, kept)
+            if memo.figs is None and memo.src is None:
+                # a chain's first rows (the table's usual case): what _own_source and
+                # put_shared set on a memo without rows nor source, set here
+                if src is not None:
+                    memo.src, memo.src_i = src, a + jj
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, lo, k
+                memo.seg_tin = None
+            else:
+                if src is not None:
+                    _own_source(memo, src, a + jj)
+                memo.put_shared(figs, lo, k, kept)
             lo += k
 
 

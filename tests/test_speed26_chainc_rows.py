@@ -218,3 +218,121 @@ def test_cf_rows_declined_falls_back_to_python(monkeypatch):
     want = _ref_rows(sts)
     monkeypatch.setattr(chains, "Stroke", object)                            # every stroke declined
     assert _bits(chains._cf_rows(sts)) == _bits(want)
+
+
+# ---------------------------------------------------------------- _tod_core_at
+def _tod_calls(path, prof_name, monkeypatch):
+    """(law, pj, x) of every solve_fixed's free-vertex evaluation of a candidate table."""
+    strokes, pin, rows, prof, rules = _fresh(path, prof_name)
+    calls = []
+    orig = chain_law._tod_core_at
+
+    def rec(core, law, pj, x, max_iter=200):
+        calls.append((law, np.array(pj), np.array(x)))
+        return orig(core, law, pj, x, max_iter)
+    monkeypatch.setattr(chain_law, "_tod_core_at", rec)
+    chains.candidates_chain(pin, rows[:300], strokes, prof, rules)
+    monkeypatch.undo()
+    return calls
+
+
+@needs_core
+@pytest.mark.parametrize("path,prof_name", CASES[:2])
+def test_tod_core_at_is_times_and_speeds_of_the_taken_laws(path, prof_name, monkeypatch):
+    calls = _tod_calls(path, prof_name, monkeypatch)
+    assert len(calls) >= 10 and sum(pj.size for _, pj, _ in calls) > 1000
+    core = chain_law.CORE_MOD
+    for law, pj, x in calls:
+        want = chain_law._times_and_speeds(law.take(pj), x)
+        got = chain_law._tod_core_at(core, law, pj, x)
+        assert got is not None
+        for a, b in zip(got, want, strict=True):
+            assert _bits(a) == _bits(b)
+    # out of steps (the laws still going evaluated in numpy, as _tod_core does)
+    law, pj, x = max(calls, key=lambda c: c[1].size)
+    for mi in (1, 2, 3):
+        got = chain_law._tod_core_at(core, law, pj, x, max_iter=mi)
+        want = chain_law._tod_core(core, law.take(pj), x, max_iter=mi)
+        for a, b in zip(got, want, strict=True):
+            assert _bits(a) == _bits(b)
+    # a mutant of the index (the laws taken one place off) is seen
+    bad = np.roll(pj, 1)
+    got = chain_law._tod_core_at(core, law, bad, x)
+    want = chain_law._times_and_speeds(law.take(pj), x)
+    assert _bits(got[0]) != _bits(want[0])
+
+
+@needs_core
+def test_tod_core_at_declines(monkeypatch):
+    calls = _tod_calls(*CASES[0], monkeypatch)
+    law, pj, x = calls[0]
+    core = chain_law.CORE_MOD
+    assert chain_law._tod_core_at(core, law, pj[:0], x[:0]) is None            # no laws
+    assert chain_law._tod_core_at(core, law, pj, x[:-1]) is None               # shapes
+    small = law._c["small"].copy()
+    try:
+        law._c["small"] = small.copy()
+        law._c["small"][pj[0]] = False                                        # a law out of the series branch
+        assert chain_law._tod_core_at(core, law, pj, x) is None
+        law._c["small"][:] = True
+        other = np.setdiff1d(np.arange(law.T.size), pj)
+        if other.size:                                                         # only the taken laws count
+            law._c["small"][other[0]] = False
+            assert chain_law._tod_core_at(core, law, pj, x) is not None
+    finally:
+        law._c["small"] = small
+
+
+# ---------------------------------------------------------------- _remember (ad24489)
+def _ref_remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
+    R = j.size
+    first = np.r_[True, j[1:] != j[:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(R), 0))
+    tab = np.stack([t, T[j, c], beta[j, c], (np.arange(R) - start).astype(float)], axis=1)
+    q = np.flatnonzero(good)
+    q = q[np.lexsort((-q, j[q]))]
+    from array import array
+    figs = array("d")
+    figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
+    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
+    lo = 0
+    for kept, jj in zip(plans, j[first].tolist()):
+        k = int(cnt[jj])
+        if k:
+            memo = sts[jj].chain_T
+            if src is not None:
+                chains._own_source(memo, src, a + jj)
+            memo.put_shared(figs, lo, k, kept)
+            lo += k
+
+
+def _memo_state(strokes, rows):
+    out = []
+    for i in rows.tolist():
+        m = strokes[i].chain_T
+        rs = [(r[0], r[1], r[2], r[3], type(r[4]).__name__, getattr(r[4], "lo", None), getattr(r[4], "k", None))
+              for r in m.rows()]
+        out.append((rs, m.src_i, m.src is None, m.seg_tin))
+    return out
+
+
+@pytest.mark.parametrize("path,prof_name", CASES)
+def test_remember_is_put_shared_and_own_source(path, prof_name, monkeypatch):
+    """The memos after a candidate table, and after a second table of other durations
+    (memos with rows and a source already: the old path), are those of ad24489's code."""
+    states = []
+    for fn in (chains._remember, _ref_remember):
+        strokes, pin, rows, prof, rules = _fresh(path, prof_name)
+        monkeypatch.setattr(chains, "_remember", fn)
+        chains.candidates_chain(pin, rows, strokes, prof, rules)
+        s1 = _memo_state(strokes, rows)
+        saved = pin.T_orig.copy()
+        pin.T_orig[rows] *= 1.01
+        try:
+            chains.candidates_chain(pin, rows, strokes, prof, rules)
+        finally:
+            pin.T_orig[:] = saved
+        states.append((s1, _memo_state(strokes, rows)))
+        monkeypatch.undo()
+    assert states[0] == states[1]
+    assert sum(len(s[0]) for s in states[0][1]) > sum(len(s[0]) for s in states[0][0]) > rows.size

@@ -1664,9 +1664,8 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
     static PyObject *nm[14];
     static const char *names[14] = {"accel", "v_feed", "v0", "v1", "lim", "_pux", "_puy", "_nux", "_nuy",
                                     "jerk_x", "jerk_y", "scv", "ax_max", "ay_max"};
-    if (!nm[0])
-        for (int i = 0; i < 14; i++)
-            if (!(nm[i] = PyUnicode_InternFromString(names[i]))) return NULL;
+    for (int i = 0; i < 14; i++)          /* (made once; again where a first try failed) */
+        if (!nm[i] && !(nm[i] = PyUnicode_InternFromString(names[i]))) return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t len;
     double *out = get(&b, outo, 8, 1, &len);

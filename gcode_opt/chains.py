@@ -44,7 +44,7 @@ from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
 from .plan import SPEED_TOL_R, T_RATIOS, empty_table
 from .segments import CRUISE_A, RowPlan, SegmentPlan, SegmentRules, hold_cruise_accels_rows, tent_feeds_rows
-from .strokes import K_CHAIN, K_CURVE
+from .strokes import K_CHAIN, K_CURVE, Stroke
 
 CHAIN_T_RATIOS = (1.0, 1.02, 1.05, 1.10, 1.25)   # the budget picks 1.0-1.07 at 3 %: 10 durations gained 0.02 pp
 CHAIN_COLS = np.array([int(np.argmin(np.abs(T_RATIOS - r))) for r in CHAIN_T_RATIOS])
@@ -840,6 +840,26 @@ def _cf_row(st):
 _NAN2 = (math.nan, math.nan)
 
 
+def _cf_rows(sts, core=None):
+    """_cf_row of every chain of sts as the rows of an (m, _CF_ROW) array: by the chain
+    core's cf_rows (the same doubles read in C from each stroke's slots: ~16 k chains
+    twice on the gyroid plate, a row of Python floats packed each), else (no core, or it
+    declines: a stroke not a strokes.Stroke, a value not a float) packed as doubles as
+    each row is made (not a list of m tuples of floats: ~1 MB at once on 2048 chains).
+    core: the module (None = the chain core if it is there, False = never)."""
+    core = _chain_law.CORE_MOD if core is None else core
+    m = len(sts)
+    fn = getattr(core, "cf_rows", None) if core else None
+    if fn is not None and m:
+        Q = np.empty((m, _CF_ROW))
+        if fn(sts if type(sts) is list else list(sts), Stroke, Q):
+            return Q
+    buf = array("d")
+    for st in sts:
+        buf.extend(_cf_row(st))
+    return np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
+
+
 def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
     batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
@@ -867,13 +887,9 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         ext[:, :n] = D
         ext[:, n:] = D[:, n - 1:n]
         W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
-    # each chain's numbers in one pass over the chains, one row a chain (_cf_row) packed as
-    # doubles as it is made (not a list of m tuples of floats: ~1 MB at once on 2048
-    # chains), then as columns: the values the columns were given one list each before
-    buf = array("d")
-    for st in sts:
-        buf.extend(_cf_row(st))
-    Q = np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
+    # each chain's numbers in one pass over the chains, one row a chain (_cf_rows), then as
+    # columns: the values the columns were given one list each before
+    Q = _cf_rows(sts, core)
     pu, nu = Q[:, 9:11], Q[:, 11:13]
     P = np.zeros((m, 18))
     P[:, 0] = Q[:, 0]                  # _a_top
@@ -1419,6 +1435,12 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
     v0, v1 = base.v0, base.v1
+    # the columns' laws stacked (k, vertices) and (k, chains): each group's rows are then
+    # one gather over (column, vertex), not one per column (~500 groups x 5 columns of
+    # masks and fancy indexes on the gyroid plate); the same numbers copied
+    k = use.shape[1]
+    VV, TT, IV = _stack_cols(res, k, "vert_v"), _stack_cols(res, k, "vert_t"), _stack_cols(res, k, "iv")
+    voff = base.voff
     for J in groups:
         n = int(nseg[J[0]])
         rj, rc = np.nonzero(use[J])                 # rows: chain by chain, columns ascending
@@ -1426,19 +1448,29 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         R = j.size
         vk = np.empty((R, n + 1))
         tk = np.empty((R, n + 1))
-        iv = np.empty(R)
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = T[j, rc]
-        for c in range(use.shape[1]):
-            q = rc == c
-            if not q.any():
-                continue
-            ix = base.voff[j[q]][:, None] + np.arange(n - 1)
-            vk[q, 1:-1] = res[c].vert_v[ix]
-            tk[q, 1:-1] = res[c].vert_t[ix]
-            iv[q] = res[c].iv[j[q]]
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), iv
+        if n > 1:
+            ix = voff[j][:, None] + np.arange(n - 1)
+            cc = rc[:, None]
+            vk[:, 1:-1] = VV[cc, ix]
+            tk[:, 1:-1] = TT[cc, ix]
+        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), IV[rc, j]
+
+
+def _stack_cols(res, k, name):
+    """The arrays res[c].<name> of the k columns as the rows of one (k, size) array (a
+    column not solved: a row of nan, never read: use has no row of it)."""
+    got = [getattr(res[c], name, None) if c in res else None for c in range(k)]
+    size = next(a.size for a in got if a is not None)
+    out = np.empty((k, size))
+    for c, a in enumerate(got):
+        if a is None:
+            out[c] = np.nan
+        else:
+            out[c] = a
+    return out
 
 
 def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
@@ -1454,15 +1486,23 @@ def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     q = q[np.lexsort((-q, j[q]))]
     figs = array("d")
     figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
-    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
+    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for kept, jj in zip(plans, j[first].tolist()):
-        k = int(cnt[jj])
+        k = cnt[jj]
         if k:
             memo = sts[jj].chain_T
-            if src is not None:
-                _own_source(memo, src, a + jj)
-            memo.put_shared(figs, lo, k, kept)
+            if memo.figs is None and memo.src is None:
+                # a chain's first rows (the table's usual case): what _own_source and
+                # put_shared set on a memo without rows nor source, set here
+                if src is not None:
+                    memo.src, memo.src_i = src, a + jj
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, lo, k
+                memo.seg_tin = None
+            else:
+                if src is not None:
+                    _own_source(memo, src, a + jj)
+                memo.put_shared(figs, lo, k, kept)
             lo += k
 
 

@@ -1649,6 +1649,90 @@ static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
     Py_RETURN_NONE;
 }
 
+/* cf_rows(sts, stroke_type, out) -> 1, or 0 (out then meaningless: chains._cf_row runs
+   instead): chains._cf_row of every stroke of the list sts, row q of out (m, 15 doubles):
+   _a_top = min(accel, lim.ax_max, lim.ay_max) (Python's min: the first of the least, a
+   later one only when below), v_feed, v0, v1, lim's jerk_x, jerk_y, scv, ax_max, ay_max,
+   prev_u and next_u (the stroke's _pux, _puy, _nux, _nuy: nan, nan where _pux / _nux is
+   None: no neighbour) and whether each is there (1.0 / 0.0).  Declines (0) a stroke whose
+   type is not exactly stroke_type (whose prev_u, next_u are those four slots) or a value
+   that is not a Python float (or a subclass): _cf_row's float() of it is then not
+   certainly its double. */
+static PyObject *cf_rows(PyObject *self, PyObject *a) {
+    PyObject *sts, *stype, *outo;
+    if (!PyArg_ParseTuple(a, "O!OO", &PyList_Type, &sts, &stype, &outo)) return NULL;
+    static PyObject *nm[14];
+    static const char *names[14] = {"accel", "v_feed", "v0", "v1", "lim", "_pux", "_puy", "_nux", "_nuy",
+                                    "jerk_x", "jerk_y", "scv", "ax_max", "ay_max"};
+    for (int i = 0; i < 14; i++)          /* (made once; again where a first try failed) */
+        if (!nm[i] && !(nm[i] = PyUnicode_InternFromString(names[i]))) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t len;
+    double *out = get(&b, outo, 8, 1, &len);
+    if (!out) { release(&b); return NULL; }
+    Py_ssize_t m = PyList_GET_SIZE(sts);
+    if (len != 15 * m) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "cf_rows: shapes");
+        return NULL;
+    }
+    int ok = 1;
+    for (Py_ssize_t q = 0; ok && q < m; q++) {
+        PyObject *st = PyList_GET_ITEM(sts, q);
+        if ((PyObject *)Py_TYPE(st) != stype) { ok = 0; break; }
+        double v[15];
+        PyObject *lim = NULL;
+        /* accel, v_feed, v0, v1 -> v[0..3] (accel to a_top below); lim; the neighbours'
+           slots _pux, _puy, _nux, _nuy -> pu[0..3] (None: isnone) */
+        double pu[4];
+        int isnone[4];
+        for (int i = 0; ok && i < 9; i++) {
+            PyObject *x = PyObject_GetAttr(st, nm[i]);
+            if (!x) { PyErr_Clear(); ok = 0; break; }
+            if (i == 4) { lim = x; continue; }             /* (a reference kept until its fields are read) */
+            if (i >= 5) {
+                isnone[i - 5] = x == Py_None;
+                if (isnone[i - 5]) { Py_DECREF(x); pu[i - 5] = NAN; continue; }
+            }
+            if (!PyFloat_Check(x)) { Py_DECREF(x); ok = 0; break; }
+            double d = PyFloat_AS_DOUBLE(x);
+            Py_DECREF(x);
+            if (i < 4) v[i] = d;
+            else pu[i - 5] = d;
+        }
+        double lv[5];                                       /* jerk_x, jerk_y, scv, ax_max, ay_max */
+        for (int i = 0; ok && i < 5; i++) {
+            PyObject *x = PyObject_GetAttr(lim, nm[9 + i]);
+            if (!x) { PyErr_Clear(); ok = 0; break; }
+            if (!PyFloat_Check(x)) { Py_DECREF(x); ok = 0; break; }
+            lv[i] = PyFloat_AS_DOUBLE(x);
+            Py_DECREF(x);
+        }
+        Py_XDECREF(lim);
+        if (!ok) break;
+        /* prev_u is (_pux, _puy) where _pux is not None, else None: nan, nan (likewise
+           next_u); a _puy None beside a _pux is no number (_cf_row raises): declined */
+        int has[2];
+        for (int e = 0; e < 2; e++) {
+            has[e] = !isnone[2 * e];
+            if (!has[e]) { pu[2 * e] = NAN; pu[2 * e + 1] = NAN; }
+            else if (isnone[2 * e + 1]) ok = 0;
+        }
+        if (!ok) break;
+        double at = v[0];                                   /* min(accel, ax_max, ay_max) */
+        if (lv[3] < at) at = lv[3];
+        if (lv[4] < at) at = lv[4];
+        double *r = out + 15 * q;
+        r[0] = at; r[1] = v[1]; r[2] = v[2]; r[3] = v[3];
+        r[4] = lv[0]; r[5] = lv[1]; r[6] = lv[2]; r[7] = lv[3]; r[8] = lv[4];
+        r[9] = pu[0]; r[10] = pu[1]; r[11] = pu[2]; r[12] = pu[3];
+        r[13] = has[0] ? 1.0 : 0.0;
+        r[14] = has[1] ? 1.0 : 0.0;
+    }
+    release(&b);
+    return PyLong_FromLong(ok);
+}
+
 static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 0); }
 static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
 
@@ -1668,6 +1752,7 @@ static PyMethodDef methods[] = {
     {"fig_a", fig_a, METH_VARARGS, "_figure_law's numbers but shc(gamma/2)"},
     {"fig_b", fig_b, METH_VARARGS, "the flat figures: integral of v^2, end speeds, critical-point ratio"},
     {"fig_c", fig_c, METH_VARARGS, "the flat figures: critical t, tau and the shc arguments"},
+    {"cf_rows", cf_rows, METH_VARARGS, "chains._cf_row of a list of strokes, one row each"},
     {"fig_d", fig_d, METH_VARARGS, "the flat figures: speed at the critical t, per-chain peak and least speed"},
     {NULL, NULL, 0, NULL}};
 

@@ -286,6 +286,42 @@ def _tod_core(core, law, s_targets, max_iter=200):
     return out, vout
 
 
+_TIMES_AND_SPEEDS = _times_and_speeds
+
+
+def _tod_core_at(core, law, pj, s_targets, max_iter=200):
+    """_times_and_speeds(law.take(pj), s_targets) by the chain core without taking the
+    laws first: tod_prep gathers the laws pj's inputs itself (its index argument; _tod_core
+    passes 0..N-1 of a taken law), the same numbers as from the taken law's arrays (each a
+    gather of law's), and tod_solve runs on them as in _tod_core.  The ~14 arrays of
+    law.take were gathered and then copied again by tod_prep, each active-set step of
+    every chain batch.  None (the caller takes the laws and calls _times_and_speeds) where
+    _times_and_speeds would not run _tod_core's C path on the taken laws."""
+    c = law._c
+    T = law.T
+    if not (hasattr(core, "tod_prep") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
+            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
+            and np.asarray(s_targets).shape == pj.shape):
+        return None
+    small = c["small"]
+    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
+        return None
+    N = pj.size
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
+    act = np.empty(N, np.int64)
+    core.tod_prep(f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta),
+                  np.ascontiguousarray(pj, np.int64), f(s_targets), Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo,
+                  hi, t, scale, out, act)
+    vout = np.empty(N)
+    na = core.tod_solve(t, Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
+                        _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+    if na:                     # out of steps: the last t of the laws still going, not evaluated yet
+        rest = act[:na]
+        vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
+    return out, vout
+
+
 # ---------------------------------------------------------------- the chains' line-law evaluation
 # LineLaw.eval and time_of_distance (line.py) as the chains use them: with the deterministic
 # sinh and cube of prims in the series branch (np.sinh and ** 3 there); the other branch is
@@ -602,8 +638,14 @@ class _Flat:
         free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
         kf = kj[free]                                  # element's Newton is its own: the batch's
         pj = kf - rank[free]                           # make-up changes no figure)
-        vlaw = law.take(pj)                            # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
-        tl, v[free] = _times_and_speeds(vlaw, self.sv[vi[free]] - ks[kf])
+        x = self.sv[vi[free]] - ks[kf]
+        got = None
+        if CORE_MOD is not None and _times_and_speeds is _TIMES_AND_SPEEDS:     # (not a test's stand-in)
+            got = _tod_core_at(CORE_MOD, law, pj, x)
+        if got is None:
+            vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
+            got = _times_and_speeds(vlaw, x)
+        tl, v[free] = got
         t[free] = kt[kf] + tl
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
@@ -743,11 +785,11 @@ class FlatLaws:
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]
         pd = done[st.owner]
-        nk = np.diff(st.koff)
-        kd = np.repeat(done, nk)
         if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
             self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
             return
+        nk = np.diff(st.koff)
+        kd = np.repeat(done, nk)
         self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
                             st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
 

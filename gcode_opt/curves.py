@@ -931,14 +931,21 @@ class _Knots:
     @classmethod
     def of(cls, gs):
         """The knots of the geometries gs (CurveGeom), one row each."""
-        sv = [g.s_v for g in gs]
-        kv = [g.kappa_v for g in gs]
-        cnt = np.array([x.size for x in sv], dtype=np.int64)
+        got = _knots_by_block(gs)
+        if got is None:
+            sv = [g.s_v for g in gs]
+            kv = [g.kappa_v for g in gs]
+            cnt = np.array([x.size for x in sv], dtype=np.int64)
+        else:
+            cnt = got[0]
         off = np.zeros(cnt.size, dtype=np.int64)
         if cnt.size:
             np.cumsum(cnt[:-1], out=off[1:])
-        xs = np.concatenate(sv) if sv else np.empty(0)
-        ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
+        if got is not None:
+            xs, ys = got[1](off)
+        else:
+            xs = np.concatenate(sv) if sv else np.empty(0)
+            ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
         ok = cnt >= 2
         if xs.size:
             bad = ~np.isfinite(xs)
@@ -950,6 +957,43 @@ class _Knots:
     def sub(self, sel):
         """The rows sel (a slice or an integer array)."""
         return _Knots(self.xs, self.ys, self.off[sel], self.cnt[sel], self.ok[sel])
+
+
+def _knots_by_block(gs):
+    """(knot counts, fill(off) -> (xs, ys)) of _Knots.of, the geometries' s_v and kappa_v
+    made a block at a time (build_geoms' _Blk: s_v is the same cumsum along each row of the
+    block's d as CurveGeom.s_v's 1-D one, kappa_v the block's rows) and put at each row's
+    offset off, not an s_v a geometry (~5 k geometries a plate's curve candidates); None
+    when a geometry has no block of 2-D rows."""
+    try:
+        bs = [g._b for g in gs]
+        ks = [g._k for g in gs]
+    except AttributeError:
+        return None
+    rows = {}                           # id(block) -> (block, [positions in gs])
+    for q, b in enumerate(bs):
+        rows.setdefault(id(b), (b, []))[1].append(q)
+    cnt = np.empty(len(gs), dtype=np.int64)
+    for b, qs in rows.values():
+        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and isinstance(b.kappa_v, np.ndarray)
+                and b.kappa_v.shape == (b.d.shape[0], b.d.shape[1] + 1)):
+            return None
+        cnt[qs] = b.d.shape[1] + 1
+
+    def fill(off):
+        total = int(cnt.sum())
+        xs, ys = np.empty(total), np.empty(total)
+        for b, qs in rows.values():
+            sel = [ks[q] for q in qs]
+            n1 = b.d.shape[1] + 1
+            sv = np.empty((len(qs), n1))
+            sv[:, 0] = 0.0
+            np.cumsum(np.asarray(b.d, float)[sel], axis=1, out=sv[:, 1:])
+            at = off[qs][:, None] + np.arange(n1)[None, :]
+            xs[at] = sv
+            ys[at] = np.asarray(b.kappa_v, float)[sel]
+        return xs, ys
+    return cnt, fill
 
 
 _INTERP_ROWS = getattr(_CURVE_CORE, "interp_rows", None) if _CURVE_CORE is not None else None
@@ -1135,8 +1179,9 @@ def _finish_rows(sts, knots, rules, profile):
     v2 = V * V
     acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
     a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    D, U = stack_du(gs)                  # the geometries' d and u rows, one array each
     if rules.junction == "jerk":
-        acc = _jerk_junction_rows(sts, gs, V, acc, a_top, profile)
+        acc = _jerk_junction_rows(D, V, acc, a_top, profile)
     else:
         acc = np.stack([junction_accels(st, g, vk, a, rules, profile)
                         for st, g, (_, vk), a in zip(sts, gs, knots, acc)])
@@ -1149,26 +1194,41 @@ def _finish_rows(sts, knots, rules, profile):
     feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
     c0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(sts, gs)]
     c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
-    t_pred, a2_pred = _predict_rows(S, V, acc, np.stack([g.cos_turn for g in gs]), c0, c1)
+    # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
+    t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
     plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
     settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
     return plans
 
 
-def _jerk_junction_rows(sts, gs, V, acc, a_top, profile):
+def _jerk_junction_rows(D, V, acc, a_top, profile):
     """junction_accels under classic jerk, row by row in arrays: max(x, z) where x < z
-    (z = min(ACCEL_MARGIN x 0, a_top)), then the finite buffer's floor."""
+    (z = min(ACCEL_MARGIN x 0, a_top)), then the finite buffer's floor (D: the segment
+    lengths g.d of each row's geometry)."""
     z = np.array([min(ACCEL_MARGIN * 0.0, a) for a in a_top], float)[:, None]
     acc = np.where(z > acc, z, acc)               # Python's max(x, z): z only where z > x
     if profile.block_buffer > 0:
         nb = max(profile.block_buffer - 3, 1)
-        ones = np.ones(nb)
-        n = acc.shape[1]
-        window = np.stack([np.convolve(np.concatenate([g.d, np.full(nb, g.d[-1])]), ones, "valid")[:n]
-                           for g in gs])
+        window = _window_rows(D, nb)
         vmax = np.maximum(V[:, :-1], V[:, 1:])
         acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), np.array(a_top, float)[:, None]))
     return acc
+
+
+def _window_rows(D, nb):
+    """[np.convolve(np.concatenate([d, np.full(nb, d[-1])]), np.ones(nb), "valid")[:n]
+    for d in D] as an (m, n) array, by one np.convolve over those rows end to end: numpy's
+    correlate makes each "valid" output by the same dot of nb values (one BLAS ddot, or
+    its small-kernel loop, whatever the position in the array), so each window the same
+    bits (tests/test_speed_plan3_finish.py, tests/test_speed26_curvec_rows.py)."""
+    m, n = D.shape
+    ext = np.empty((m, n + nb))
+    ext[:, :n] = D
+    ext[:, n:] = D[:, -1:]
+    flat = np.convolve(ext.ravel(), np.ones(nb), "valid")       # m (n + nb) - nb + 1 windows
+    out = np.empty(m * (n + nb))
+    out[:flat.size] = flat
+    return out.reshape(m, n + nb)[:, :n]
 
 
 def _predict_rows(S, V, A, cos_turn, c0, c1):

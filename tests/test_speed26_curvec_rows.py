@@ -1,0 +1,104 @@
+"""Round 26 (curvec): the curves' per-geometry Python made a block of rows at a time.
+
+* curves._window_rows: the finite buffer's window sums of every row by one np.convolve
+  over the rows end to end, against the per-row np.convolve it replaces (kept here);
+* curves._Knots.of: the knots made a geometry block at a time, against the per-geometry
+  s_v / kappa_v concatenation it replaces (kept here), on the bundled gyroid's curves;
+* curves._finish_rows' cos_turn from the stacked directions: tests/test_speed_plan3_finish.py
+  compares whole plans with finish_curve's (every profile kind), and the gyroid plate's
+  curve plans are checked here against finish_curve when the corpus is there."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gcode_opt import curves
+from gcode_opt import schedule as sc
+from gcode_opt.pipeline import Options, analyse
+from gcode_opt.profile import load_profile
+from gcode_opt.strokes import K_CURVE
+
+S = Path(__file__).resolve().parent.parent / "sample_gcode"
+PLATE = Path.home() / ".cache/gcode-opt-corpus/plate_gyroid.gcode"
+
+
+def _bits(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _window_rows_old(D, nb):
+    n = D.shape[1]
+    ones = np.ones(nb)
+    return np.stack([np.convolve(np.concatenate([d, np.full(nb, d[-1])]), ones, "valid")[:n] for d in D])
+
+
+def test_window_rows_as_per_row_convolve():
+    rng = np.random.default_rng(26)
+    for m, n in ((1, 1), (1, 5), (7, 2), (50, 9), (300, 17), (40, 130)):
+        for nb in (1, 2, 3, 4, 5, 13, 16, 17, 29, 45):
+            D = rng.uniform(1e-3, 3.0, (m, n)) * rng.choice([1.0, 1e-4, 1e3], (m, 1))
+            if m > 5:
+                D[3, n // 2] = np.nan
+                D[4, -1] = np.inf
+            with np.errstate(invalid="ignore"):
+                got, want = curves._window_rows(D, nb), _window_rows_old(D, nb)
+            assert _bits(np.ascontiguousarray(got), want), (m, n, nb)
+
+
+def _knots_old(gs):
+    sv = [g.s_v for g in gs]
+    kv = [g.kappa_v for g in gs]
+    cnt = np.array([x.size for x in sv], dtype=np.int64)
+    off = np.zeros(cnt.size, dtype=np.int64)
+    np.cumsum(cnt[:-1], out=off[1:])
+    return np.concatenate(sv), np.concatenate(kv), off, cnt
+
+
+def _curve_geoms(path, profile):
+    prof = load_profile(profile)
+    strokes, _ = analyse(str(path), prof, Options())
+    pin = sc.plan_inputs(strokes, prof, Options())
+    rows = [i for i in sc._rows_by_kind(strokes)[K_CURVE] if not pin.fault[i]]
+    return [curves.geom(strokes[i], prof) for i in rows]
+
+
+@pytest.mark.parametrize("name,profile", [("prusa_gyroid.gcode", "prusa-mk3s"),
+                                          ("prusa_concentric.gcode", "voron24")])
+def test_knots_by_block_as_per_geometry(name, profile):
+    gs = _curve_geoms(S / name, profile)
+    assert len(gs) > 50 and len({id(g._b) for g in gs}) > 3
+    for sel in (gs, gs[::-1], gs[::3] + gs[:5]):          # any order, repeats
+        kn = curves._Knots.of(sel)
+        xs, ys, off, cnt = _knots_old(sel)
+        assert _bits(kn.xs, xs) and _bits(kn.ys, ys) and _bits(kn.off, off) and _bits(kn.cnt, cnt)
+
+
+def test_knots_without_blocks_take_the_per_geometry_path():
+    class G:                                   # a geometry of another make (no _b)
+        def __init__(self, d, k):
+            self.s_v = np.concatenate([[0.0], np.cumsum(d)])
+            self.kappa_v = k
+    rng = np.random.default_rng(3)
+    gs = [G(rng.uniform(0.1, 1.0, n), rng.uniform(0.0, 2.0, n + 1)) for n in (3, 5, 4)]
+    kn = curves._Knots.of(gs)
+    xs, ys, off, cnt = _knots_old(gs)
+    assert _bits(kn.xs, xs) and _bits(kn.ys, ys) and _bits(kn.off, off) and _bits(kn.cnt, cnt)
+
+
+@pytest.mark.skipif(not PLATE.exists(), reason="corpus plate not downloaded")
+def test_plate_knots_and_windows(tmp_path):
+    lines = PLATE.read_text().splitlines(keepends=True)[:40000]
+    src = tmp_path / "plate_head.gcode"
+    src.write_text("".join(lines))
+    gs = _curve_geoms(src, "prusa-mk3s")
+    assert len(gs) > 300
+    kn = curves._Knots.of(gs)
+    xs, ys, off, cnt = _knots_old(gs)
+    assert _bits(kn.xs, xs) and _bits(kn.ys, ys) and _bits(kn.off, off)
+    by_n = {}
+    for g in gs:
+        by_n.setdefault(g.d.size, []).append(g)
+    for n, grp in by_n.items():
+        D = curves.stack_du(grp)[0]
+        assert _bits(np.ascontiguousarray(curves._window_rows(D, 13)), _window_rows_old(D, 13)), n

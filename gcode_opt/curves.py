@@ -811,30 +811,46 @@ def _exp_inplace(kern):
 def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     """Curve rows of a PlanInput: length-weighted direction masses, the per-axis
     acceleration cap of a turning path, the vertex speed caps (cap_peak: the law's peak
-    stays under the lowest; a chain's law meets each at its own vertex instead)."""
+    stays under the lowest; a chain's law meets each at its own vertex instead).  The
+    masses and caps of all rows in arrays: the same double operations as the scalar
+    expressions (Python's min(a, b) is b where b < a), put with one index each."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    rows = [int(i) for i in rows]
     gs = [geom(strokes[i], profile) for i in rows]
-    for i, g, ux2 in zip(rows, gs, _ux2_rows(gs)):
-        st = strokes[i]
-        uy2 = 1.0 - ux2
-        pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
-        pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
-        if cap_peak:
-            pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+    ux2 = np.array(_ux2_rows(gs), float)
+    uy2 = 1.0 - ux2
+    den = mx * ux2 + my * uy2
+    if not len(rows) or (den == 0.0).any():     # a zero mass: the scalar loop (it raises)
+        for i, x in zip(rows, ux2.tolist()):
+            y = 1.0 - x
+            pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
+    else:
+        pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
+    sts = [strokes[i] for i in rows]
+    pin.a_cap[rows] = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    if cap_peak and rows:
+        vc = pin.v_cap[rows]
+        cap = np.array([g.cap for g in gs], float)
+        pin.v_cap[rows] = np.where(cap < vc, cap, vc)
+        for g in gs:
             g.caps_jerk1 = None           # read by chains only (chains.vertex_caps): not a chain
 
 
 def _ux2_rows(gs):
     """float(np.sum(w * g.u[:, 0] ** 2)), w = g.d / g.d.sum(), of every geometry in gs,
     for all of one segment count at once (row sums of a C-contiguous block add in the
-    same order as the 1-D sums: the same bits)."""
+    same order as the 1-D sums: the same bits; the rows stacked by stack_du)."""
     out = [0.0] * len(gs)
     by_n = {}
-    for k, g in enumerate(gs):
-        by_n.setdefault(g.d.size, []).append(k)
+    try:
+        sizes = [g._b.d.shape[-1] for g in gs]
+    except AttributeError:
+        sizes = [g.d.size for g in gs]
+    for k, n in enumerate(sizes):
+        by_n.setdefault(n, []).append(k)
     for ks in by_n.values():
-        d = np.stack([gs[k].d for k in ks])
-        ux = np.stack([gs[k].u[:, 0] for k in ks])
+        d, u = stack_du([gs[k] for k in ks])
+        ux = np.ascontiguousarray(u[:, :, 0])
         w = d / d.sum(axis=1, keepdims=True)
         for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
             out[k] = x

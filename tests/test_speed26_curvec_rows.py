@@ -102,3 +102,57 @@ def test_plate_knots_and_windows(tmp_path):
     for n, grp in by_n.items():
         D = curves.stack_du(grp)[0]
         assert _bits(np.ascontiguousarray(curves._window_rows(D, 13)), _window_rows_old(D, 13)), n
+
+
+def _adjust_old(pin, strokes, rows, profile, cap_peak=True):
+    """curves.adjust_plan_inputs as it was (ad24489): row by row."""
+    mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    gs = [curves.geom(strokes[i], profile) for i in rows]
+    for i, g, ux2 in zip(rows, gs, _ux2_old(gs)):
+        st = strokes[i]
+        uy2 = 1.0 - ux2
+        pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
+        pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
+        if cap_peak:
+            pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+
+
+def _ux2_old(gs):
+    out = [0.0] * len(gs)
+    by_n = {}
+    for k, g in enumerate(gs):
+        by_n.setdefault(g.d.size, []).append(k)
+    for ks in by_n.values():
+        d = np.stack([gs[k].d for k in ks])
+        ux = np.stack([gs[k].u[:, 0] for k in ks])
+        w = d / d.sum(axis=1, keepdims=True)
+        for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
+            out[k] = x
+    return out
+
+
+class _Pin:
+    def __init__(self, n, rng):
+        self.mass_r = rng.uniform(0.5, 2.0, n)
+        self.a_cap = rng.uniform(100.0, 5000.0, n)
+        self.v_cap = rng.uniform(10.0, 300.0, n)
+        self.v_cap[::7] = np.inf
+
+
+@pytest.mark.parametrize("name,profile", [("prusa_gyroid.gcode", "prusa-mk3s"),
+                                          ("prusa_concentric.gcode", "voron24")])
+def test_adjust_plan_inputs_as_row_by_row(name, profile):
+    prof = load_profile(profile)
+    strokes, _ = analyse(str(S / name), prof, Options())
+    sc.plan_inputs(strokes, prof, Options())
+    rows = [i for i, st in enumerate(strokes) if st.kind == K_CURVE and st.curv is not None]
+    assert len(rows) > 50
+    for cap_peak in (True, False):
+        rng = np.random.default_rng(7)
+        a, b = _Pin(len(strokes), rng), None
+        b = _Pin(len(strokes), np.random.default_rng(7))
+        curves.adjust_plan_inputs(a, strokes, np.array(rows[::2] + rows[1::2]), prof, cap_peak)
+        _adjust_old(b, strokes, rows[::2] + rows[1::2], prof, cap_peak)
+        for f in ("mass_r", "a_cap", "v_cap"):
+            assert _bits(getattr(a, f), getattr(b, f)), f
+    assert all(strokes[i].curv.caps_jerk1 is None for i in rows)

@@ -583,10 +583,15 @@ def _block_geoms(sts, block, profile, j1):
     p["accel"] = np.array([st.accel for st in sts], float)[:, None]
     pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
     dp, dn = d[:, :-1], d[:, 1:]
-    caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
-    if caps is None:
-        return None
-    caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
+    if profile.junction == "jerk" and _JERK_CAPS is not None:
+        # _jerk_caps' choices and products per vertex in one compiled pass (_curvecore.c)
+        caps = _jerk_caps_block(u, p, 1.0 - JERK_F_STEP_R)
+        caps1 = _jerk_caps_block(u, p, 1.0) if j1 else None
+    else:
+        caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
+        if caps is None:
+            return None
+        caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
     cap_min = bool((caps > 0.0).all())
     if cap_min:
         cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
@@ -594,6 +599,21 @@ def _block_geoms(sts, block, profile, j1):
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
     return _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min), keep
+
+
+_JERK_CAPS = getattr(_CURVE_CORE, "jerk_caps", None)
+
+
+def _jerk_caps_block(u, p, jerk_r):
+    """_caps_core's classic jerk caps of a block (u (m, n, 2), the limits p per row as
+    (m, 1)) by the compiled core: jerk_r x each row's jerks, then _jerk_caps' operations."""
+    m, n = u.shape[:2]
+    out = np.empty((m, n - 1))
+    # flat views go to the core: numpy keeps a buffer's format on the array the buffer was
+    # asked of, and u and out live on in the geometry block (~150 bytes a block)
+    _JERK_CAPS(np.ascontiguousarray(u, dtype=float).reshape(-1), np.ascontiguousarray(p["jerk_x"], dtype=float).ravel(),
+               np.ascontiguousarray(p["jerk_y"], dtype=float).ravel(), jerk_r, m, n, out.reshape(-1))
+    return out
 
 
 def _cap_rows(flat, starts, n_seg):
@@ -706,7 +726,8 @@ def _batch_parts(todo):
 def _part_blocks(todo):
     """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
     vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
-    npts = np.array([len(st.pts) for st in todo], int)
+    # len(Points) is its array's half length: read without the Python __len__ (~21 k strokes)
+    npts = np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in [st.pts for st in todo]], int)
     order = np.argsort(npts, kind="stable")
     for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
         npt = int(npts[grp[0]]) if grp.size else 0

@@ -184,3 +184,38 @@ def test_output_bytes_the_same_without_avx(tmp_path):
     finally:
         CORE.simd(1)
     assert outs[0] == outs[1]
+
+
+class _Prof:
+    junction = "jerk"
+    default_accel_a = 1000.0
+
+
+def test_jerk_caps_core_as_numpy():
+    """curves._jerk_caps_block (_curvecore.c jerk_caps) against _caps_core's numpy law of
+    classic jerk, on unit directions of every quadrant, axis-aligned and reversing ones,
+    zeros, NaN and inf, with per-row jerks (some 0, some huge) and both jerk shares."""
+    if not hasattr(CORE, "jerk_caps"):
+        pytest.skip("no jerk_caps")
+    rng = np.random.default_rng(263)
+    for m, n in ((1, 2), (5, 3), (60, 9), (300, 24)):
+        ang = rng.uniform(-np.pi, np.pi, (m, n)).cumsum(axis=1) * rng.choice([0.05, 0.5, 1.0], (m, 1))
+        u = np.stack([np.cos(ang), np.sin(ang)], axis=2)
+        if m > 50:
+            u[0] = [1.0, 0.0]
+            u[1, ::2] = [0.0, -1.0]
+            u[1, 1::2] = [0.0, 1.0]
+            u[2, 1] = [-0.0, 0.0]
+            u[3, 2] = [np.nan, 0.5]
+            u[4, 1] = [np.inf, -np.inf]
+            u[5] = -u[5]
+        jx = rng.uniform(0.0, 20.0, (m, 1))
+        jy = rng.uniform(0.0, 20.0, (m, 1))
+        jx[::11] = 0.0
+        jy[::13] = 1e9
+        p = {"jerk_x": jx, "jerk_y": jy}
+        for jerk_r in (1.0 - curves.JERK_F_STEP_R, 1.0):
+            got = curves._jerk_caps_block(u, p, jerk_r)
+            want = curves._caps_core(_Prof, p, u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1],
+                                     None, None, jerk_r)
+            assert _bits(got, np.ascontiguousarray(want)), (m, n, jerk_r)

@@ -404,6 +404,100 @@ static PyObject *pc_update(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* pc_done(step, act, na, it, last, scale, ok, slow_r, tol, floor) -> count: _precond_cheb's
+   end of a step, for the na active arcs act (k = act[i], s = step[i]):
+     slow = it >= 4 and not (s < slow_r * last[k]),
+     done = s <= tol * scale[k] or (slow and s <= floor * scale[k]),
+     ok[k] = True where done, last[k] = s,
+   and act keeps, in order and in place, the arcs neither done nor slow whose step is
+   finite (numpy's comparisons: false on NaN); returns how many it keeps */
+static PyObject *pc_done(PyObject *self, PyObject *a) {
+    PyObject *o[5];
+    Py_ssize_t na, it;
+    double slow_r, tol, floor_r;
+    if (!PyArg_ParseTuple(a, "OOnnOOOddd", &o[0], &o[1], &na, &it, &o[2], &o[3], &o[4], &slow_r, &tol, &floor_r))
+        return NULL;
+    Bufs b = {.n = 0};
+    const double *step = get(&b, o[0], 8, 0, na);
+    int64_t *act = step ? get(&b, o[1], 8, 1, na) : NULL;
+    double *last = act ? get(&b, o[2], 8, 1, 0) : NULL;
+    const double *scale = last ? get(&b, o[3], 8, 0, 0) : NULL;
+    char *ok = scale ? get(&b, o[4], 1, 1, 0) : NULL;
+    if (!ok) { release(&b); return NULL; }
+    Py_ssize_t nlim = b.v[2].len / 8;
+    if (b.v[3].len / 8 < nlim) nlim = b.v[3].len / 8;
+    if (b.v[4].len < nlim) nlim = b.v[4].len;
+    for (Py_ssize_t i = 0; i < na; i++)
+        if (act[i] < 0 || act[i] >= nlim) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "pc_done: row out of range");
+            return NULL;
+        }
+    Py_ssize_t kept = 0;
+    for (Py_ssize_t i = 0; i < na; i++) {
+        const int64_t k = act[i];
+        const double st = step[i];
+        const int slow = it >= 4 && !(st < slow_r * last[k]);
+        const int done = (st <= tol * scale[k]) || (slow && st <= floor_r * scale[k]);
+        if (done) ok[k] = 1;
+        last[k] = st;
+        if (!done && isfinite(st) && !slow) act[kept++] = k;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(kept);
+}
+
+/* jerk_caps(u, jx, jy, jerk_r, m, n, out): curves._jerk_caps (marlin_jerk_junction_v with
+   nominal speeds 1e6, no safe speeds, z = 0) at the n - 1 interior vertices of m strokes of
+   n unit directions u (m, n, 2), the axis jerks jerk_r * jx[r], jerk_r * jy[r] (r the
+   stroke), into out (m, n - 1): _jerk_caps' np.where choices and products in its order */
+static inline double jk_pmax(double a, double b) { return b > a ? b : a; }
+
+static inline double axis_jerk(double ex, double en) {
+    if (ex > en) return (en > 0.0 || ex < 0.0) ? ex - en : jk_pmax(ex, -en);
+    return (en < 0.0 || ex > 0.0) ? en - ex : jk_pmax(-ex, en);
+}
+
+static PyObject *jerk_caps(PyObject *self, PyObject *a) {
+    PyObject *ou, *ox, *oy, *oo;
+    double jerk_r;
+    Py_ssize_t m, n;
+    if (!PyArg_ParseTuple(a, "OOOdnnO", &ou, &ox, &oy, &jerk_r, &m, &n, &oo)) return NULL;
+    if (n < 1 || m < 0) {
+        PyErr_SetString(PyExc_ValueError, "jerk_caps: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *u = get(&b, ou, 8, 0, m * n * 2);
+    const double *jxs = u ? get(&b, ox, 8, 0, m) : NULL;
+    const double *jys = jxs ? get(&b, oy, 8, 0, m) : NULL;
+    double *out = jys ? get(&b, oo, 8, 1, m * (n - 1)) : NULL;
+    if (!out) { release(&b); return NULL; }
+    const double big = 1e6;
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double jx = jerk_r * jxs[r], jy = jerk_r * jys[r];
+        const double *ur = u + r * n * 2;
+        double *o = out + r * (n - 1);
+        for (Py_ssize_t k = 0; k + 1 < n; k++) {
+            const double pux = ur[2 * k], puy = ur[2 * k + 1], ux = ur[2 * k + 2], uy = ur[2 * k + 3];
+            double jerk = axis_jerk((pux * big) * 1.0, ux * big);
+            const int lim_x = jerk > jx;
+            double vf = lim_x ? 1.0 * (jx / jerk) : 1.0;
+            double ex = (puy * big) * 1.0, en = uy * big;
+            if (lim_x) {
+                ex = ex * vf;
+                en = en * vf;
+            }
+            jerk = axis_jerk(ex, en);
+            const int lim_y = jerk > jy;
+            if (lim_y) vf = vf * (jy / jerk);
+            o[k] = (lim_x || lim_y) ? big * vf : big;
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* kern_args(s_v, sd, m, n1, kern): _parts_block's kernel before np.exp, for m strokes of
    n1 = n + 1 vertices (s_v (m, n1), sd (m,), kern (m, n1, n1 - 2)):
      z = ((s_v[:, :, None] - s_v[:, None, 1:-1]) / sd) ** 2,  kern = (z - z.min(axis=2)) * -0.5 */
@@ -803,7 +897,9 @@ static PyMethodDef methods[] = {
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
     {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
     {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
+    {"pc_done", pc_done, METH_VARARGS, "_precond_cheb's convergence tests and the arcs it keeps"},
     {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
+    {"jerk_caps", jerk_caps, METH_VARARGS, "curves._jerk_caps of a block of strokes' interior vertices"},
     {"simd", simd, METH_VARARGS, "simd([flag]): whether the AVX loops are used (flag 0 turns them off, 1 on)"},
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},

@@ -1229,8 +1229,7 @@ def _finish_rows(sts, knots, rules, profile):
         step_v = np.full(m, np.inf)
     need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)        # segment_feeds
     feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
-    c0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(sts, gs)]
-    c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
+    c0, c1 = _end_cosines(sts, U)
     # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
     t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
     plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
@@ -1250,6 +1249,18 @@ def _jerk_junction_rows(D, V, acc, a_top, profile):
         vmax = np.maximum(V[:, :-1], V[:, 1:])
         acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), np.array(a_top, float)[:, None]))
     return acc
+
+
+def _end_cosines(sts, U):
+    """([None or float(np.dot(st.prev_u, u[0]))], [None or float(np.dot(u[-1], st.next_u))])
+    of the strokes sts, U their directions (m, n, 2): numpy's matmul of a (1, 2) row by a
+    (2, 1) column is its vector dot, the function np.dot of two vectors calls (the same
+    bits: tests/test_speed26_curvec_rows.py), for every row in one call."""
+    p, q = _neighbour_dirs(sts)                 # (2, m) each, NaN where None
+    a = (np.ascontiguousarray(p.T)[:, None, :] @ U[:, 0, :, None])[:, 0, 0].tolist()
+    b = (U[:, -1, None, :] @ np.ascontiguousarray(q.T)[:, :, None])[:, 0, 0].tolist()
+    return ([None if st.prev_u is None else x for st, x in zip(sts, a)],
+            [None if st.next_u is None else x for st, x in zip(sts, b)])
 
 
 def _window_rows(D, nb):

@@ -156,3 +156,41 @@ def test_adjust_plan_inputs_as_row_by_row(name, profile):
         for f in ("mass_r", "a_cap", "v_cap"):
             assert _bits(getattr(a, f), getattr(b, f)), f
     assert all(strokes[i].curv.caps_jerk1 is None for i in rows)
+
+
+def test_end_cosines_as_np_dot():
+    """curves._end_cosines against the per-stroke np.dot it replaces, on the bundled
+    gyroid's curves (neighbours present or None) and on random directions."""
+    prof = load_profile("prusa-mk3s")
+    strokes, _ = analyse(str(S / "prusa_gyroid.gcode"), prof, Options())
+    sc.plan_inputs(strokes, prof, Options())
+    sts = [st for st in strokes if st.kind == K_CURVE and st.curv is not None]
+    by_n = {}
+    for st in sts:
+        by_n.setdefault(st.curv.d.size, []).append(st)
+    n_some = 0
+    for grp in by_n.values():
+        gs = [st.curv for st in grp]
+        c0, c1 = curves._end_cosines(grp, curves.stack_du(gs)[1])
+        w0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(grp, gs)]
+        w1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(grp, gs)]
+        assert [None if x is None else np.float64(x).tobytes() for x in c0] == \
+            [None if x is None else np.float64(x).tobytes() for x in w0]
+        assert [None if x is None else np.float64(x).tobytes() for x in c1] == \
+            [None if x is None else np.float64(x).tobytes() for x in w1]
+        n_some += sum(x is not None for x in c0) + sum(x is None for x in c1)
+    assert n_some > 20
+
+    class St:
+        def __init__(self, pu, nu):
+            self.prev_u, self.next_u = pu, nu
+    rng = np.random.default_rng(9)
+    U = rng.normal(size=(500, 4, 2)) * rng.choice([1.0, 1e-8, 1e8], (500, 1, 1))
+    sts = [St(None if k % 5 == 0 else tuple(rng.normal(size=2)), None if k % 7 == 0 else tuple(rng.normal(size=2)))
+           for k in range(500)]
+    c0, c1 = curves._end_cosines(sts, U)
+    for k, st in enumerate(sts):
+        want0 = None if st.prev_u is None else float(np.dot(st.prev_u, U[k, 0]))
+        want1 = None if st.next_u is None else float(np.dot(U[k, -1], st.next_u))
+        assert (c0[k] is None) == (want0 is None) and (c0[k] is None or np.float64(c0[k]).tobytes() == np.float64(want0).tobytes())
+        assert (c1[k] is None) == (want1 is None) and (c1[k] is None or np.float64(c1[k]).tobytes() == np.float64(want1).tobytes())

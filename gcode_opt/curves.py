@@ -583,10 +583,15 @@ def _block_geoms(sts, block, profile, j1):
     p["accel"] = np.array([st.accel for st in sts], float)[:, None]
     pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
     dp, dn = d[:, :-1], d[:, 1:]
-    caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
-    if caps is None:
-        return None
-    caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
+    if profile.junction == "jerk" and _JERK_CAPS is not None:
+        # _jerk_caps' choices and products per vertex in one compiled pass (_curvecore.c)
+        caps = _jerk_caps_block(u, p, 1.0 - JERK_F_STEP_R)
+        caps1 = _jerk_caps_block(u, p, 1.0) if j1 else None
+    else:
+        caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
+        if caps is None:
+            return None
+        caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
     cap_min = bool((caps > 0.0).all())
     if cap_min:
         cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
@@ -594,6 +599,21 @@ def _block_geoms(sts, block, profile, j1):
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
     return _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min), keep
+
+
+_JERK_CAPS = getattr(_CURVE_CORE, "jerk_caps", None)
+
+
+def _jerk_caps_block(u, p, jerk_r):
+    """_caps_core's classic jerk caps of a block (u (m, n, 2), the limits p per row as
+    (m, 1)) by the compiled core: jerk_r x each row's jerks, then _jerk_caps' operations."""
+    m, n = u.shape[:2]
+    out = np.empty((m, n - 1))
+    # flat views go to the core: numpy keeps a buffer's format on the array the buffer was
+    # asked of, and u and out live on in the geometry block (~150 bytes a block)
+    _JERK_CAPS(np.ascontiguousarray(u, dtype=float).reshape(-1), np.ascontiguousarray(p["jerk_x"], dtype=float).ravel(),
+               np.ascontiguousarray(p["jerk_y"], dtype=float).ravel(), jerk_r, m, n, out.reshape(-1))
+    return out
 
 
 def _cap_rows(flat, starts, n_seg):
@@ -706,7 +726,8 @@ def _batch_parts(todo):
 def _part_blocks(todo):
     """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
     vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
-    npts = np.array([len(st.pts) for st in todo], int)
+    # len(Points) is its array's half length: read without the Python __len__ (~21 k strokes)
+    npts = np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in [st.pts for st in todo]], int)
     order = np.argsort(npts, kind="stable")
     for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
         npt = int(npts[grp[0]]) if grp.size else 0
@@ -811,30 +832,46 @@ def _exp_inplace(kern):
 def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     """Curve rows of a PlanInput: length-weighted direction masses, the per-axis
     acceleration cap of a turning path, the vertex speed caps (cap_peak: the law's peak
-    stays under the lowest; a chain's law meets each at its own vertex instead)."""
+    stays under the lowest; a chain's law meets each at its own vertex instead).  The
+    masses and caps of all rows in arrays: the same double operations as the scalar
+    expressions (Python's min(a, b) is b where b < a), put with one index each."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    rows = [int(i) for i in rows]
     gs = [geom(strokes[i], profile) for i in rows]
-    for i, g, ux2 in zip(rows, gs, _ux2_rows(gs)):
-        st = strokes[i]
-        uy2 = 1.0 - ux2
-        pin.mass_r[i] = (mx * mx * ux2 + my * my * uy2) / (mx * ux2 + my * uy2)
-        pin.a_cap[i] = min(st.accel, st.lim.ax_max, st.lim.ay_max)
-        if cap_peak:
-            pin.v_cap[i] = min(pin.v_cap[i], g.cap)
+    ux2 = np.array(_ux2_rows(gs), float)
+    uy2 = 1.0 - ux2
+    den = mx * ux2 + my * uy2
+    if not len(rows) or (den == 0.0).any():     # a zero mass: the scalar loop (it raises)
+        for i, x in zip(rows, ux2.tolist()):
+            y = 1.0 - x
+            pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
+    else:
+        pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
+    sts = [strokes[i] for i in rows]
+    pin.a_cap[rows] = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    if cap_peak and rows:
+        vc = pin.v_cap[rows]
+        cap = np.array([g.cap for g in gs], float)
+        pin.v_cap[rows] = np.where(cap < vc, cap, vc)
+        for g in gs:
             g.caps_jerk1 = None           # read by chains only (chains.vertex_caps): not a chain
 
 
 def _ux2_rows(gs):
     """float(np.sum(w * g.u[:, 0] ** 2)), w = g.d / g.d.sum(), of every geometry in gs,
     for all of one segment count at once (row sums of a C-contiguous block add in the
-    same order as the 1-D sums: the same bits)."""
+    same order as the 1-D sums: the same bits; the rows stacked by stack_du)."""
     out = [0.0] * len(gs)
     by_n = {}
-    for k, g in enumerate(gs):
-        by_n.setdefault(g.d.size, []).append(k)
+    try:
+        sizes = [g._b.d.shape[-1] for g in gs]
+    except AttributeError:
+        sizes = [g.d.size for g in gs]
+    for k, n in enumerate(sizes):
+        by_n.setdefault(n, []).append(k)
     for ks in by_n.values():
-        d = np.stack([gs[k].d for k in ks])
-        ux = np.stack([gs[k].u[:, 0] for k in ks])
+        d, u = stack_du([gs[k] for k in ks])
+        ux = np.ascontiguousarray(u[:, :, 0])
         w = d / d.sum(axis=1, keepdims=True)
         for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
             out[k] = x
@@ -931,14 +968,21 @@ class _Knots:
     @classmethod
     def of(cls, gs):
         """The knots of the geometries gs (CurveGeom), one row each."""
-        sv = [g.s_v for g in gs]
-        kv = [g.kappa_v for g in gs]
-        cnt = np.array([x.size for x in sv], dtype=np.int64)
+        got = _knots_by_block(gs)
+        if got is None:
+            sv = [g.s_v for g in gs]
+            kv = [g.kappa_v for g in gs]
+            cnt = np.array([x.size for x in sv], dtype=np.int64)
+        else:
+            cnt = got[0]
         off = np.zeros(cnt.size, dtype=np.int64)
         if cnt.size:
             np.cumsum(cnt[:-1], out=off[1:])
-        xs = np.concatenate(sv) if sv else np.empty(0)
-        ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
+        if got is not None:
+            xs, ys = got[1](off)
+        else:
+            xs = np.concatenate(sv) if sv else np.empty(0)
+            ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
         ok = cnt >= 2
         if xs.size:
             bad = ~np.isfinite(xs)
@@ -950,6 +994,43 @@ class _Knots:
     def sub(self, sel):
         """The rows sel (a slice or an integer array)."""
         return _Knots(self.xs, self.ys, self.off[sel], self.cnt[sel], self.ok[sel])
+
+
+def _knots_by_block(gs):
+    """(knot counts, fill(off) -> (xs, ys)) of _Knots.of, the geometries' s_v and kappa_v
+    made a block at a time (build_geoms' _Blk: s_v is the same cumsum along each row of the
+    block's d as CurveGeom.s_v's 1-D one, kappa_v the block's rows) and put at each row's
+    offset off, not an s_v a geometry (~5 k geometries a plate's curve candidates); None
+    when a geometry has no block of 2-D rows."""
+    try:
+        bs = [g._b for g in gs]
+        ks = [g._k for g in gs]
+    except AttributeError:
+        return None
+    rows = {}                           # id(block) -> (block, [positions in gs])
+    for q, b in enumerate(bs):
+        rows.setdefault(id(b), (b, []))[1].append(q)
+    cnt = np.empty(len(gs), dtype=np.int64)
+    for b, qs in rows.values():
+        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and isinstance(b.kappa_v, np.ndarray)
+                and b.kappa_v.shape == (b.d.shape[0], b.d.shape[1] + 1)):
+            return None
+        cnt[qs] = b.d.shape[1] + 1
+
+    def fill(off):
+        total = int(cnt.sum())
+        xs, ys = np.empty(total), np.empty(total)
+        for b, qs in rows.values():
+            sel = [ks[q] for q in qs]
+            n1 = b.d.shape[1] + 1
+            sv = np.empty((len(qs), n1))
+            sv[:, 0] = 0.0
+            np.cumsum(np.asarray(b.d, float)[sel], axis=1, out=sv[:, 1:])
+            at = off[qs][:, None] + np.arange(n1)[None, :]
+            xs[at] = sv
+            ys[at] = np.asarray(b.kappa_v, float)[sel]
+        return xs, ys
+    return cnt, fill
 
 
 _INTERP_ROWS = getattr(_CURVE_CORE, "interp_rows", None) if _CURVE_CORE is not None else None
@@ -1135,8 +1216,9 @@ def _finish_rows(sts, knots, rules, profile):
     v2 = V * V
     acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
     a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    D, U = stack_du(gs)                  # the geometries' d and u rows, one array each
     if rules.junction == "jerk":
-        acc = _jerk_junction_rows(sts, gs, V, acc, a_top, profile)
+        acc = _jerk_junction_rows(D, V, acc, a_top, profile)
     else:
         acc = np.stack([junction_accels(st, g, vk, a, rules, profile)
                         for st, g, (_, vk), a in zip(sts, gs, knots, acc)])
@@ -1147,28 +1229,54 @@ def _finish_rows(sts, knots, rules, profile):
         step_v = np.full(m, np.inf)
     need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)        # segment_feeds
     feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
-    c0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(sts, gs)]
-    c1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(sts, gs)]
-    t_pred, a2_pred = _predict_rows(S, V, acc, np.stack([g.cos_turn for g in gs]), c0, c1)
+    c0, c1 = _end_cosines(sts, U)
+    # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
+    t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
     plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
     settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
     return plans
 
 
-def _jerk_junction_rows(sts, gs, V, acc, a_top, profile):
+def _jerk_junction_rows(D, V, acc, a_top, profile):
     """junction_accels under classic jerk, row by row in arrays: max(x, z) where x < z
-    (z = min(ACCEL_MARGIN x 0, a_top)), then the finite buffer's floor."""
+    (z = min(ACCEL_MARGIN x 0, a_top)), then the finite buffer's floor (D: the segment
+    lengths g.d of each row's geometry)."""
     z = np.array([min(ACCEL_MARGIN * 0.0, a) for a in a_top], float)[:, None]
     acc = np.where(z > acc, z, acc)               # Python's max(x, z): z only where z > x
     if profile.block_buffer > 0:
         nb = max(profile.block_buffer - 3, 1)
-        ones = np.ones(nb)
-        n = acc.shape[1]
-        window = np.stack([np.convolve(np.concatenate([g.d, np.full(nb, g.d[-1])]), ones, "valid")[:n]
-                           for g in gs])
+        window = _window_rows(D, nb)
         vmax = np.maximum(V[:, :-1], V[:, 1:])
         acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), np.array(a_top, float)[:, None]))
     return acc
+
+
+def _end_cosines(sts, U):
+    """([None or float(np.dot(st.prev_u, u[0]))], [None or float(np.dot(u[-1], st.next_u))])
+    of the strokes sts, U their directions (m, n, 2): numpy's matmul of a (1, 2) row by a
+    (2, 1) column is its vector dot, the function np.dot of two vectors calls (the same
+    bits: tests/test_speed26_curvec_rows.py), for every row in one call."""
+    p, q = _neighbour_dirs(sts)                 # (2, m) each, NaN where None
+    a = (np.ascontiguousarray(p.T)[:, None, :] @ U[:, 0, :, None])[:, 0, 0].tolist()
+    b = (U[:, -1, None, :] @ np.ascontiguousarray(q.T)[:, :, None])[:, 0, 0].tolist()
+    return ([None if st.prev_u is None else x for st, x in zip(sts, a)],
+            [None if st.next_u is None else x for st, x in zip(sts, b)])
+
+
+def _window_rows(D, nb):
+    """[np.convolve(np.concatenate([d, np.full(nb, d[-1])]), np.ones(nb), "valid")[:n]
+    for d in D] as an (m, n) array, by one np.convolve over those rows end to end: numpy's
+    correlate makes each "valid" output by the same dot of nb values (one BLAS ddot, or
+    its small-kernel loop, whatever the position in the array), so each window the same
+    bits (tests/test_speed_plan3_finish.py, tests/test_speed26_curvec_rows.py)."""
+    m, n = D.shape
+    ext = np.empty((m, n + nb))
+    ext[:, :n] = D
+    ext[:, n:] = D[:, -1:]
+    flat = np.convolve(ext.ravel(), np.ones(nb), "valid")       # m (n + nb) - nb + 1 windows
+    out = np.empty(m * (n + nb))
+    out[:flat.size] = flat
+    return out.reshape(m, n + nb)[:, :n]
 
 
 def _predict_rows(S, V, A, cos_turn, c0, c1):

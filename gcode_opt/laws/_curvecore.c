@@ -51,6 +51,42 @@ static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? 
 
 #define MAX_COLS 1024
 
+/* The elementwise loops below have a 4-wide AVX form (x86-64 with gcc or clang, chosen at
+   run time where the CPU has AVX): IEEE add, subtract, multiply, divide and square root
+   are correctly rounded whatever the vector width, and the AVX forms do those same
+   operations on the same operands in the same order (no fused multiply-add: AVX alone
+   has none, and -ffp-contract=off), so each element gets the scalar loop's bits.  Row
+   maxima and minima are exact whatever the order; a row holding a NaN (numpy's maxima
+   propagate the first NaN, whose payload the scalar loop keeps) is redone by the scalar
+   loop.  simd(flag) turns the AVX forms off (0) or back on (1) and returns whether they
+   are used: the tests compare the two. */
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define CURVE_AVX 1
+#define AVX_FN __attribute__((target("avx")))
+static int avx_ok = -1;       /* the CPU has AVX (-1: not asked yet) */
+static int avx_wanted = 1;    /* simd(0) turns the AVX forms off */
+static int use_avx(void) {
+    if (avx_ok < 0) {
+        __builtin_cpu_init();
+        avx_ok = __builtin_cpu_supports("avx") ? 1 : 0;
+    }
+    return avx_ok && avx_wanted;
+}
+#else
+#define CURVE_AVX 0
+static int use_avx(void) { return 0; }
+#endif
+
+static PyObject *simd(PyObject *self, PyObject *a) {
+    int flag = -1;
+    if (!PyArg_ParseTuple(a, "|i", &flag)) return NULL;
+#if CURVE_AVX
+    if (flag >= 0) avx_wanted = flag != 0;
+#endif
+    return PyBool_FromLong(use_avx());
+}
+
 /* pc_gather(w, act, na, ncol, wa, nrows): wa[i] = w[act[i]] for i < na, rows na..nrows of
    wa zero (_rows_matmul's padding) */
 static PyObject *pc_gather(PyObject *self, PyObject *a) {
@@ -75,6 +111,79 @@ static PyObject *pc_gather(PyObject *self, PyObject *a) {
     release(&b);
     Py_RETURN_NONE;
 }
+
+/* one row of pc_res: wr (nc) the arc's node values, mr its row of m1 */
+static void pc_res_row(const double *wr, const double *mr, Py_ssize_t nc, double g2, double ca, double ph,
+                       const double *q, const double *lam_e, double *rr, double *r2, double *dr) {
+    Py_ssize_t ni = nc - 2;
+    double tmp[MAX_COLS];
+    double mx = 0.0, mn = 0.0;
+    for (Py_ssize_t j = 0; j < ni; j++) {
+        double wi = wr[j + 1];
+        double w2 = wi * wi;
+        rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
+        if (j == 0) {
+            mx = w2;
+            mn = w2;
+        } else {
+            mx = np_max(mx, w2);
+            mn = np_min(mn, w2);
+        }
+    }
+    for (Py_ssize_t j = 0; j < nc; j++) tmp[j] = wr[j] * q[j];
+    *r2 = np_pairwise_sum(tmp, nc) - ph;
+    double dd = g2 + 3.0 * (mx + mn);
+    for (Py_ssize_t j = 0; j < ni; j++) dr[j] = lam_e[j] - dd;
+}
+
+#if CURVE_AVX
+/* pc_res_row's numbers; 0 (the row to be redone by pc_res_row) if a square is NaN */
+AVX_FN static int pc_res_row_avx(const double *wr, const double *mr, Py_ssize_t nc, double g2, double ca,
+                                 double ph, const double *q, const double *lam_e, double *rr, double *r2,
+                                 double *dr) {
+    Py_ssize_t ni = nc - 2, j = 0;
+    double tmp[MAX_COLS];
+    const __m256d vg = _mm256_set1_pd(g2), vc = _mm256_set1_pd(ca), two = _mm256_set1_pd(2.0);
+    __m256d vmx = _mm256_set1_pd(-INFINITY), vmn = _mm256_set1_pd(INFINITY), bad = _mm256_setzero_pd();
+    for (; j + 4 <= ni; j += 4) {
+        __m256d wi = _mm256_loadu_pd(wr + j + 1);
+        __m256d w2 = _mm256_mul_pd(wi, wi);
+        __m256d t = _mm256_sub_pd(_mm256_loadu_pd(mr + j), _mm256_mul_pd(vg, wi));
+        t = _mm256_sub_pd(t, _mm256_mul_pd(_mm256_mul_pd(two, wi), w2));
+        _mm256_storeu_pd(rr + j, _mm256_sub_pd(t, vc));
+        vmx = _mm256_max_pd(vmx, w2);
+        vmn = _mm256_min_pd(vmn, w2);
+        bad = _mm256_or_pd(bad, _mm256_cmp_pd(w2, w2, _CMP_UNORD_Q));
+    }
+    if (_mm256_movemask_pd(bad)) return 0;
+    double x4[4], n4[4];
+    _mm256_storeu_pd(x4, vmx);
+    _mm256_storeu_pd(n4, vmn);
+    double mx = x4[0], mn = n4[0];
+    for (int c = 1; c < 4; c++) {
+        mx = x4[c] > mx ? x4[c] : mx;
+        mn = n4[c] < mn ? n4[c] : mn;
+    }
+    for (; j < ni; j++) {
+        double wi = wr[j + 1];
+        double w2 = wi * wi;
+        rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
+        if (isnan(w2)) return 0;
+        mx = w2 > mx ? w2 : mx;
+        mn = w2 < mn ? w2 : mn;
+    }
+    for (j = 0; j + 4 <= nc; j += 4)
+        _mm256_storeu_pd(tmp + j, _mm256_mul_pd(_mm256_loadu_pd(wr + j), _mm256_loadu_pd(q + j)));
+    for (; j < nc; j++) tmp[j] = wr[j] * q[j];
+    *r2 = np_pairwise_sum(tmp, nc) - ph;
+    const double dd = g2 + 3.0 * (mx + mn);
+    const __m256d vd = _mm256_set1_pd(dd);
+    for (j = 0; j + 4 <= ni; j += 4)
+        _mm256_storeu_pd(dr + j, _mm256_sub_pd(_mm256_loadu_pd(lam_e + j), vd));
+    for (; j < ni; j++) dr[j] = lam_e[j] - dd;
+    return 1;
+}
+#endif
 
 /* pc_res(wa, m1, act, na, n, gam2, cc, phi, q, lam_e, r1, r2, den, nrows):
      wi = wa[:, 1:-1], w2 = wi * wi,
@@ -109,7 +218,9 @@ static PyObject *pc_res(PyObject *self, PyObject *a) {
     Py_ssize_t nlim = b.v[3].len / 8;
     if (b.v[4].len / 8 < nlim) nlim = b.v[4].len / 8;
     if (b.v[5].len / 8 < nlim) nlim = b.v[5].len / 8;
-    double tmp[MAX_COLS];
+#if CURVE_AVX
+    const int avx = use_avx() && ni >= 4;
+#endif
     for (Py_ssize_t i = 0; i < na; i++) {
         int64_t k = act[i];
         if (k < 0 || k >= nlim) {
@@ -117,32 +228,52 @@ static PyObject *pc_res(PyObject *self, PyObject *a) {
             PyErr_SetString(PyExc_IndexError, "pc_res: row out of range");
             return NULL;
         }
-        const double g2 = gam2[k], ca = cc[k];
         const double *wr = wa + i * nc, *mr = m1 + i * ni;
-        double *rr = r1 + i * ni;
-        double mx = 0.0, mn = 0.0;
-        for (Py_ssize_t j = 0; j < ni; j++) {
-            double wi = wr[j + 1];
-            double w2 = wi * wi;
-            rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
-            if (j == 0) {
-                mx = w2;
-                mn = w2;
-            } else {
-                mx = np_max(mx, w2);
-                mn = np_min(mn, w2);
-            }
-        }
-        for (Py_ssize_t j = 0; j < nc; j++) tmp[j] = wr[j] * q[j];
-        r2[i] = np_pairwise_sum(tmp, nc) - phi[k];
-        double dd = g2 + 3.0 * (mx + mn);
-        double *dr = den + i * ni;
-        for (Py_ssize_t j = 0; j < ni; j++) dr[j] = lam_e[j] - dd;
+#if CURVE_AVX
+        if (avx && pc_res_row_avx(wr, mr, nc, gam2[k], cc[k], phi[k], q, lam_e, r1 + i * ni, r2 + i, den + i * ni))
+            continue;
+#endif
+        pc_res_row(wr, mr, nc, gam2[k], cc[k], phi[k], q, lam_e, r1 + i * ni, r2 + i, den + i * ni);
     }
     memset(r1 + na * ni, 0, (size_t)((nrows - na) * ni) * sizeof(double));
     release(&b);
     Py_RETURN_NONE;
 }
+
+#if CURVE_AVX
+/* pc_step's rows, 4 columns at a time (-x as a flip of the sign bit, as the scalar -x) */
+AVX_FN static void pc_step_avx(const double *m2, const double *den, const double *qv, const double *e,
+                               const double *qe, const double *r2, Py_ssize_t na, Py_ssize_t ni, double *x,
+                               double *dc) {
+    double t1[MAX_COLS], t2[MAX_COLS];
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    for (Py_ssize_t i = 0; i < na; i++) {
+        const double *mr = m2 + i * ni, *dr = den + i * ni;
+        Py_ssize_t j = 0;
+        for (; j + 4 <= ni; j += 4) {
+            __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(mr + j), sign);
+            __m256d dv = _mm256_loadu_pd(dr + j);
+            _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_div_pd(bj, dv), _mm256_loadu_pd(qv + j)));
+            _mm256_storeu_pd(t2 + j, _mm256_div_pd(_mm256_loadu_pd(qe + j), dv));
+        }
+        for (; j < ni; j++) {
+            double bj = -mr[j];
+            t1[j] = (bj / dr[j]) * qv[j];
+            t2[j] = qe[j] / dr[j];
+        }
+        double d = (-r2[i] - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
+        dc[i] = d;
+        double *xr = x + i * ni;
+        const __m256d vd = _mm256_set1_pd(d);
+        for (j = 0; j + 4 <= ni; j += 4) {
+            __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(mr + j), sign);
+            __m256d t = _mm256_add_pd(bj, _mm256_mul_pd(vd, _mm256_loadu_pd(e + j)));
+            _mm256_storeu_pd(xr + j, _mm256_div_pd(t, _mm256_loadu_pd(dr + j)));
+        }
+        for (; j < ni; j++) xr[j] = (-mr[j] + d * e[j]) / dr[j];
+    }
+}
+#endif
 
 /* pc_step(m2, den, qv, e, r2, na, ni, x, dc, nrows): b = -m2 (m2 = r1 @ vinv_t),
      dc = (-r2 - ((b / den) * qv).sum(axis=1)) / ((qv * e) / den).sum(axis=1)
@@ -167,6 +298,11 @@ static PyObject *pc_step(PyObject *self, PyObject *a) {
     if (!dc) { release(&b); return NULL; }
     double qe[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS];
     for (Py_ssize_t j = 0; j < ni; j++) qe[j] = qv[j] * e[j];
+#if CURVE_AVX
+    if (use_avx() && ni >= 4) {
+        pc_step_avx(m2, den, qv, e, qe, r2, na, ni, x, dc);
+    } else
+#endif
     for (Py_ssize_t i = 0; i < na; i++) {
         const double *mr = m2 + i * ni, *dr = den + i * ni;
         for (Py_ssize_t j = 0; j < ni; j++) {
@@ -183,6 +319,37 @@ static PyObject *pc_step(PyObject *self, PyObject *a) {
     release(&b);
     Py_RETURN_NONE;
 }
+
+#if CURVE_AVX
+/* one row of pc_update but cc; 0 (to be redone by the scalar loop, which writes the same
+   w) if a step is NaN */
+AVX_FN static int pc_update_row_avx(double *wr, const double *war, const double *dr, Py_ssize_t ni,
+                                    double *step) {
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    __m256d vmx = _mm256_setzero_pd(), bad = _mm256_setzero_pd();
+    Py_ssize_t j = 0;
+    for (; j + 4 <= ni; j += 4) {
+        __m256d d = _mm256_loadu_pd(dr + j);
+        _mm256_storeu_pd(wr + j + 1, _mm256_add_pd(_mm256_loadu_pd(war + j + 1), d));
+        __m256d ad = _mm256_andnot_pd(sign, d);
+        vmx = _mm256_max_pd(vmx, ad);
+        bad = _mm256_or_pd(bad, _mm256_cmp_pd(ad, ad, _CMP_UNORD_Q));
+    }
+    if (_mm256_movemask_pd(bad)) return 0;
+    double x4[4];
+    _mm256_storeu_pd(x4, vmx);
+    double mx = x4[0];
+    for (int c = 1; c < 4; c++) mx = x4[c] > mx ? x4[c] : mx;
+    for (; j < ni; j++) {
+        wr[j + 1] = war[j + 1] + dr[j];
+        double ad = fabs(dr[j]);
+        if (isnan(ad)) return 0;
+        mx = ad > mx ? ad : mx;
+    }
+    *step = mx;
+    return 1;
+}
+#endif
 
 /* pc_update(w, cc, act, na, n, wa, dw, dc, step): w[act, 1:-1] = wa[:, 1:-1] + dw,
    cc[act] = cc[act] + dc, step = abs(dw).max(axis=1) */
@@ -207,6 +374,9 @@ static PyObject *pc_update(PyObject *self, PyObject *a) {
     if (!step) { release(&b); return NULL; }
     Py_ssize_t nlim = b.v[1].len / 8;
     if (b.v[0].len / 8 / nc < nlim) nlim = b.v[0].len / 8 / nc;
+#if CURVE_AVX
+    const int avx = use_avx() && ni >= 4;
+#endif
     for (Py_ssize_t i = 0; i < na; i++) {
         int64_t k = act[i];
         if (k < 0 || k >= nlim) {
@@ -216,14 +386,113 @@ static PyObject *pc_update(PyObject *self, PyObject *a) {
         }
         double *wr = w + k * nc;
         const double *war = wa + i * nc, *dr = dw + i * ni;
-        double mx = 0.0;
-        for (Py_ssize_t j = 0; j < ni; j++) {
-            wr[j + 1] = war[j + 1] + dr[j];
-            double ad = fabs(dr[j]);
-            mx = j == 0 ? ad : np_max(mx, ad);
+#if CURVE_AVX
+        if (!(avx && pc_update_row_avx(wr, war, dr, ni, step + i)))
+#endif
+        {
+            double mx = 0.0;
+            for (Py_ssize_t j = 0; j < ni; j++) {
+                wr[j + 1] = war[j + 1] + dr[j];
+                double ad = fabs(dr[j]);
+                mx = j == 0 ? ad : np_max(mx, ad);
+            }
+            step[i] = mx;
         }
         cc[k] = cc[k] + dc[i];
-        step[i] = mx;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* pc_done(step, act, na, it, last, scale, ok, slow_r, tol, floor) -> count: _precond_cheb's
+   end of a step, for the na active arcs act (k = act[i], s = step[i]):
+     slow = it >= 4 and not (s < slow_r * last[k]),
+     done = s <= tol * scale[k] or (slow and s <= floor * scale[k]),
+     ok[k] = True where done, last[k] = s,
+   and act keeps, in order and in place, the arcs neither done nor slow whose step is
+   finite (numpy's comparisons: false on NaN); returns how many it keeps */
+static PyObject *pc_done(PyObject *self, PyObject *a) {
+    PyObject *o[5];
+    Py_ssize_t na, it;
+    double slow_r, tol, floor_r;
+    if (!PyArg_ParseTuple(a, "OOnnOOOddd", &o[0], &o[1], &na, &it, &o[2], &o[3], &o[4], &slow_r, &tol, &floor_r))
+        return NULL;
+    Bufs b = {.n = 0};
+    const double *step = get(&b, o[0], 8, 0, na);
+    int64_t *act = step ? get(&b, o[1], 8, 1, na) : NULL;
+    double *last = act ? get(&b, o[2], 8, 1, 0) : NULL;
+    const double *scale = last ? get(&b, o[3], 8, 0, 0) : NULL;
+    char *ok = scale ? get(&b, o[4], 1, 1, 0) : NULL;
+    if (!ok) { release(&b); return NULL; }
+    Py_ssize_t nlim = b.v[2].len / 8;
+    if (b.v[3].len / 8 < nlim) nlim = b.v[3].len / 8;
+    if (b.v[4].len < nlim) nlim = b.v[4].len;
+    for (Py_ssize_t i = 0; i < na; i++)
+        if (act[i] < 0 || act[i] >= nlim) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "pc_done: row out of range");
+            return NULL;
+        }
+    Py_ssize_t kept = 0;
+    for (Py_ssize_t i = 0; i < na; i++) {
+        const int64_t k = act[i];
+        const double st = step[i];
+        const int slow = it >= 4 && !(st < slow_r * last[k]);
+        const int done = (st <= tol * scale[k]) || (slow && st <= floor_r * scale[k]);
+        if (done) ok[k] = 1;
+        last[k] = st;
+        if (!done && isfinite(st) && !slow) act[kept++] = k;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(kept);
+}
+
+/* jerk_caps(u, jx, jy, jerk_r, m, n, out): curves._jerk_caps (marlin_jerk_junction_v with
+   nominal speeds 1e6, no safe speeds, z = 0) at the n - 1 interior vertices of m strokes of
+   n unit directions u (m, n, 2), the axis jerks jerk_r * jx[r], jerk_r * jy[r] (r the
+   stroke), into out (m, n - 1): _jerk_caps' np.where choices and products in its order */
+static inline double jk_pmax(double a, double b) { return b > a ? b : a; }
+
+static inline double axis_jerk(double ex, double en) {
+    if (ex > en) return (en > 0.0 || ex < 0.0) ? ex - en : jk_pmax(ex, -en);
+    return (en < 0.0 || ex > 0.0) ? en - ex : jk_pmax(-ex, en);
+}
+
+static PyObject *jerk_caps(PyObject *self, PyObject *a) {
+    PyObject *ou, *ox, *oy, *oo;
+    double jerk_r;
+    Py_ssize_t m, n;
+    if (!PyArg_ParseTuple(a, "OOOdnnO", &ou, &ox, &oy, &jerk_r, &m, &n, &oo)) return NULL;
+    if (n < 1 || m < 0) {
+        PyErr_SetString(PyExc_ValueError, "jerk_caps: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *u = get(&b, ou, 8, 0, m * n * 2);
+    const double *jxs = u ? get(&b, ox, 8, 0, m) : NULL;
+    const double *jys = jxs ? get(&b, oy, 8, 0, m) : NULL;
+    double *out = jys ? get(&b, oo, 8, 1, m * (n - 1)) : NULL;
+    if (!out) { release(&b); return NULL; }
+    const double big = 1e6;
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double jx = jerk_r * jxs[r], jy = jerk_r * jys[r];
+        const double *ur = u + r * n * 2;
+        double *o = out + r * (n - 1);
+        for (Py_ssize_t k = 0; k + 1 < n; k++) {
+            const double pux = ur[2 * k], puy = ur[2 * k + 1], ux = ur[2 * k + 2], uy = ur[2 * k + 3];
+            double jerk = axis_jerk((pux * big) * 1.0, ux * big);
+            const int lim_x = jerk > jx;
+            double vf = lim_x ? 1.0 * (jx / jerk) : 1.0;
+            double ex = (puy * big) * 1.0, en = uy * big;
+            if (lim_x) {
+                ex = ex * vf;
+                en = en * vf;
+            }
+            jerk = axis_jerk(ex, en);
+            const int lim_y = jerk > jy;
+            if (lim_y) vf = vf * (jy / jerk);
+            o[k] = (lim_x || lim_y) ? big * vf : big;
+        }
     }
     release(&b);
     Py_RETURN_NONE;
@@ -232,11 +501,55 @@ static PyObject *pc_update(PyObject *self, PyObject *a) {
 /* kern_args(s_v, sd, m, n1, kern): _parts_block's kernel before np.exp, for m strokes of
    n1 = n + 1 vertices (s_v (m, n1), sd (m,), kern (m, n1, n1 - 2)):
      z = ((s_v[:, :, None] - s_v[:, None, 1:-1]) / sd) ** 2,  kern = (z - z.min(axis=2)) * -0.5 */
+static void kern_row(const double *si, Py_ssize_t ni, double sj, double d, double *kr) {
+    double mn = 0.0;
+    for (Py_ssize_t i = 0; i < ni; i++) {
+        double t = (sj - si[i]) / d;
+        t = t * t;
+        kr[i] = t;
+        mn = i == 0 ? t : np_min(mn, t);
+    }
+    for (Py_ssize_t i = 0; i < ni; i++) kr[i] = (kr[i] - mn) * -0.5;
+}
+
+#if CURVE_AVX
+/* kern_row's numbers; 0 (the row to be redone by kern_row) if one of its squares is NaN */
+AVX_FN static int kern_row_avx(const double *si, Py_ssize_t ni, double sj, double d, double *kr) {
+    const __m256d vs = _mm256_set1_pd(sj), vd = _mm256_set1_pd(d);
+    __m256d vmn = _mm256_set1_pd(INFINITY), bad = _mm256_setzero_pd();
+    Py_ssize_t i = 0;
+    for (; i + 4 <= ni; i += 4) {
+        __m256d t = _mm256_div_pd(_mm256_sub_pd(vs, _mm256_loadu_pd(si + i)), vd);
+        t = _mm256_mul_pd(t, t);
+        _mm256_storeu_pd(kr + i, t);
+        vmn = _mm256_min_pd(vmn, t);
+        bad = _mm256_or_pd(bad, _mm256_cmp_pd(t, t, _CMP_UNORD_Q));
+    }
+    if (_mm256_movemask_pd(bad)) return 0;
+    double m4[4];
+    _mm256_storeu_pd(m4, vmn);
+    double mn = m4[0];
+    for (int j = 1; j < 4; j++) mn = m4[j] < mn ? m4[j] : mn;
+    for (; i < ni; i++) {
+        double t = (sj - si[i]) / d;
+        t = t * t;
+        kr[i] = t;
+        if (isnan(t)) return 0;
+        mn = t < mn ? t : mn;
+    }
+    const __m256d vm = _mm256_set1_pd(mn), h = _mm256_set1_pd(-0.5);
+    for (i = 0; i + 4 <= ni; i += 4)
+        _mm256_storeu_pd(kr + i, _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(kr + i), vm), h));
+    for (; i < ni; i++) kr[i] = (kr[i] - mn) * -0.5;
+    return 1;
+}
+#endif
+
 static PyObject *kern_args(PyObject *self, PyObject *a) {
     PyObject *os, *osd, *ok;
     Py_ssize_t m, n1;
     if (!PyArg_ParseTuple(a, "OOnnO", &os, &osd, &m, &n1, &ok)) return NULL;
-    if (n1 < 3) {
+    if (n1 < 3 || m < 0) {
         PyErr_SetString(PyExc_ValueError, "kern_args: bad size");
         return NULL;
     }
@@ -246,20 +559,18 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     const double *sd = s ? get(&b, osd, 8, 0, m) : NULL;
     double *k = sd ? get(&b, ok, 8, 1, m * n1 * ni) : NULL;
     if (!k) { release(&b); return NULL; }
+#if CURVE_AVX
+    const int avx = use_avx() && ni >= 4;      /* shorter rows: no whole vector */
+#endif
     for (Py_ssize_t r = 0; r < m; r++) {
         const double *sr = s + r * n1;
         const double d = sd[r];
         for (Py_ssize_t j = 0; j < n1; j++) {
             double *kr = k + (r * n1 + j) * ni;
-            const double sj = sr[j];
-            double mn = 0.0;
-            for (Py_ssize_t i = 0; i < ni; i++) {
-                double t = (sj - sr[i + 1]) / d;
-                t = t * t;
-                kr[i] = t;
-                mn = i == 0 ? t : np_min(mn, t);
-            }
-            for (Py_ssize_t i = 0; i < ni; i++) kr[i] = (kr[i] - mn) * -0.5;
+#if CURVE_AVX
+            if (avx && kern_row_avx(sr + 1, ni, sr[j], d, kr)) continue;
+#endif
+            kern_row(sr + 1, ni, sr[j], d, kr);
         }
     }
     release(&b);
@@ -420,6 +731,61 @@ static inline double lay_arg(double d0, double c, double lam, double c_sq, doubl
     return x * sb - y * sa;
 }
 
+#if CURVE_AVX
+/* lay_arg on 4 arcs: both branches of each choice computed and the scalar one's condition
+   picks (an ordered compare: false on NaN, as the scalar test); np_max(qa, 0.0) is qa where
+   qa >= 0 or qa is NaN, else 0.0 */
+AVX_FN static inline __m256d lay_arg_avx(__m256d d0, __m256d c, __m256d lam, __m256d c_sq, __m256d g2w,
+                                        __m256d w2, __m256d w4, __m256d k, __m256d e) {
+    const __m256d sign = _mm256_set1_pd(-0.0), zero = _mm256_setzero_pd();
+    const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+    __m256d rho = _mm256_div_pd(_mm256_mul_pd(w2, d0), c);
+    __m256d qa = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(w4, d0)), c);
+    __m256d keep = _mm256_or_pd(_mm256_cmp_pd(qa, zero, _CMP_GE_OQ), _mm256_cmp_pd(qa, qa, _CMP_UNORD_Q));
+    __m256d q = _mm256_div_pd(_mm256_sqrt_pd(_mm256_blendv_pd(zero, qa, keep)), lam);
+    __m256d s1 = _mm256_add_pd(one, rho);
+    __m256d num = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(d0, d0), g2w), c_sq);
+    __m256d a_inf = _mm256_blendv_pd(_mm256_div_pd(num, _mm256_mul_pd(two, _mm256_sub_pd(q, s1))),
+                                     _mm256_div_pd(_mm256_add_pd(s1, q), two),
+                                     _mm256_cmp_pd(s1, zero, _CMP_GE_OQ));
+    __m256d b_inf = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(num, sign), _mm256_mul_pd(two, _mm256_add_pd(q, s1))),
+                                     _mm256_div_pd(_mm256_sub_pd(s1, q), two),
+                                     _mm256_cmp_pd(s1, zero, _CMP_LE_OQ));
+    __m256d den = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_xor_pd(rho, sign), e), a_inf),
+                                _mm256_mul_pd(_mm256_mul_pd(b_inf, e), e));
+    __m256d d1 = _mm256_div_pd(_mm256_mul_pd(d0, e), den);
+    __m256d x = _mm256_div_pd(_mm256_add_pd(d0, w2), k), y = _mm256_div_pd(_mm256_add_pd(d1, w2), k);
+    __m256d sa = _mm256_sqrt_pd(_mm256_add_pd(one, _mm256_mul_pd(x, x)));
+    __m256d sb = _mm256_sqrt_pd(_mm256_add_pd(one, _mm256_mul_pd(y, y)));
+    __m256d same = _mm256_div_pd(_mm256_mul_pd(_mm256_sub_pd(x, y), _mm256_add_pd(x, y)),
+                                 _mm256_add_pd(_mm256_mul_pd(x, sb), _mm256_mul_pd(y, sa)));
+    __m256d diff = _mm256_sub_pd(_mm256_mul_pd(x, sb), _mm256_mul_pd(y, sa));
+    return _mm256_blendv_pd(diff, same, _mm256_cmp_pd(_mm256_mul_pd(x, y), zero, _CMP_GT_OQ));
+}
+
+/* lay_mid's loop over arcs i0 <= i < i0 + 4k of row r */
+AVX_FN static Py_ssize_t lay_mid_avx(const double *wc, const double *g2, const double *u0, const double *u1,
+                                     const double *e, Py_ssize_t n, Py_ssize_t r, double *out) {
+    const __m256d six = _mm256_set1_pd(6.0), two = _mm256_set1_pd(2.0), four = _mm256_set1_pd(4.0);
+    Py_ssize_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        __m256d w = _mm256_loadu_pd(wc + r * n + i), ee = _mm256_loadu_pd(e + r * n + i);
+        __m256d gam2 = _mm256_loadu_pd(g2 + i);
+        __m256d c = _mm256_add_pd(gam2, _mm256_mul_pd(_mm256_mul_pd(six, w), w));
+        __m256d lam = _mm256_sqrt_pd(c);
+        __m256d c_sq = _mm256_mul_pd(c, c);
+        __m256d g2w = _mm256_add_pd(gam2, _mm256_mul_pd(_mm256_mul_pd(two, w), w));
+        __m256d w2 = _mm256_mul_pd(two, w), w4 = _mm256_mul_pd(four, w);
+        __m256d k = _mm256_sqrt_pd(g2w);
+        _mm256_storeu_pd(out + (2 * r) * n + i,
+                         lay_arg_avx(_mm256_sub_pd(_mm256_loadu_pd(u0 + i), w), c, lam, c_sq, g2w, w2, w4, k, ee));
+        _mm256_storeu_pd(out + (2 * r + 1) * n + i,
+                         lay_arg_avx(_mm256_sub_pd(_mm256_loadu_pd(u1 + i), w), c, lam, c_sq, g2w, w2, w4, k, ee));
+    }
+    return i;
+}
+#endif
+
 static PyObject *lay_mid(PyObject *self, PyObject *a) {
     PyObject *ow, *og, *o0, *o1, *oe, *oa;
     Py_ssize_t n, m;
@@ -432,8 +798,15 @@ static PyObject *lay_mid(PyObject *self, PyObject *a) {
     const double *e = u1 ? get(&b, oe, 8, 0, m * n) : NULL;
     double *out = e ? get(&b, oa, 8, 1, 2 * m * n) : NULL;
     if (!out) { release(&b); return NULL; }
+    const int avx = use_avx();
+    (void)avx;
     for (Py_ssize_t r = 0; r < m; r++)
-        for (Py_ssize_t i = 0; i < n; i++) {
+        for (Py_ssize_t i =
+#if CURVE_AVX
+                 avx ? lay_mid_avx(wc, g2, u0, u1, e, n, r, out) :
+#endif
+                 0;
+             i < n; i++) {
             double w = wc[r * n + i], ee = e[r * n + i], gam2 = g2[i];
             double c = gam2 + (6.0 * w) * w;
             double lam = sqrt(c);
@@ -524,7 +897,10 @@ static PyMethodDef methods[] = {
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
     {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
     {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
+    {"pc_done", pc_done, METH_VARARGS, "_precond_cheb's convergence tests and the arcs it keeps"},
     {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
+    {"jerk_caps", jerk_caps, METH_VARARGS, "curves._jerk_caps of a block of strokes' interior vertices"},
+    {"simd", simd, METH_VARARGS, "simd([flag]): whether the AVX loops are used (flag 0 turns them off, 1 on)"},
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},

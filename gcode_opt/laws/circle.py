@@ -362,14 +362,9 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
         core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
         dw = (x.reshape(nblk, g, ni) @ v_t).reshape(rows, ni)
         core.pc_update(w, cc, act, na, n, wa, dw, dc, stp)
-        step = stp[:na]
-        # done: at the rounding floor of the residual (steps no longer shrink), or below it
-        slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
-        done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
-        ok[act[done]] = True
-        keep = ~done & np.isfinite(step) & ~slow
-        last[act] = step
-        act = act[keep]
+        # done: at the rounding floor of the residual (steps no longer shrink), or below it;
+        # _precond_cheb_np's tests, and act kept in place (pc_done)
+        act = act[:core.pc_done(stp, act, na, it, last, scale, ok, _PRECOND_SLOW_R, _PRECOND_TOL, _PRECOND_FLOOR)]
         if act.size == 0:
             break
     return w, cc, ok

@@ -703,11 +703,12 @@ def _jerk_rows(S, V, sts, rules, knots=None):
         if knots is not None:
             knots = [knots[k] for k in take.tolist()]
     step_v = _jerk_steps(sts)
-    A = hold_cruise_accels_rows(acc, accel)
-    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
-    feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
-    t_pred, a2_pred = _predict_rows(S, V, A)
-    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    v_feed = np.array([st.v_feed for st in sts], float)
+    core = _rows_core()
+    if core is not None:
+        A, feeds, t_pred, a2_pred, fine = _jerk_tail_core(core, S, V, acc, accel, step_v, v_feed)
+    else:
+        A, feeds, t_pred, a2_pred, fine = _jerk_tail(S, V, acc, accel, step_v, v_feed)
     if knots is None:
         m = len(t_pred)
         made = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(feeds, m), range(m), t_pred,
@@ -721,6 +722,50 @@ def _jerk_rows(S, V, sts, rules, knots=None):
         made = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, A, feeds, t_pred, a2_pred)]
         settle_rows(made, fine, A, feeds)
     return take.tolist(), made
+
+
+def _jerk_tail(S, V, acc, accel, step_v, v_feed):
+    """_jerk_rows' plans' arrays from the taken rows' knots S, V, ramp accelerations acc
+    (m, K - 1), own accelerations, jerk steps and feeds: (A held, feeds, t_pred, a2_pred,
+    fine) as lists for the figures and verdicts (numpy; the compiled core's jerk_tail
+    makes the same bits)."""
+    A = hold_cruise_accels_rows(acc, accel)
+    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    feeds = tent_feeds_rows(need, v_feed, step_v)
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    return A, feeds, t_pred, a2_pred, fine_rows(S, V, A, feeds, t_pred, a2_pred)
+
+
+def _jerk_tail_core(core, S, V, acc, accel, step_v, v_feed):
+    """_jerk_tail in one compiled call a block (firmware/_core.c jerk_tail: every row's
+    held accelerations, tent feeds, segment times, pairwise sums and checks as numpy makes
+    them, the same operations in the same order; tests/test_speed26_linec_tail.py).  The
+    numpy path made ~25 calls a block on (m, K) arrays and an (m, K - 1, K + 1) envelope:
+    ~0.09 s of the rectilinear plate's ~68 k line plans, ~0.01 s here."""
+    m, K = S.shape
+    f64 = np.float64
+    S, V, acc = (np.ascontiguousarray(x, f64) for x in (S, V, acc))
+    own, step, vf = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, f64), (m,))) for x in (accel, step_v, v_feed))
+    A = np.empty((m, K - 1))
+    feeds = np.empty((m, K - 1))
+    t = np.empty(m)
+    a2 = np.empty(m)
+    fine = np.empty(m, np.uint8)
+    core.jerk_tail(S, V, acc, own, step, vf, K, MIN_FEED_V, CRUISE_A, A, feeds, t, a2, fine)
+    return A, feeds, t.tolist(), a2.tolist(), fine.astype(bool).tolist()
+
+
+USE_CORE = True         # tests turn it off: _jerk_rows' tail by numpy (the reference)
+
+
+def _rows_core():
+    """The compiled core (firmware/_core.c) when it has jerk_tail, else None: not built,
+    stale, GCODE_OPT_PURE_PYTHON, or USE_CORE off."""
+    if not USE_CORE:
+        return None
+    from .firmware import simulate
+    core = simulate._core
+    return core if core is not None and hasattr(core, "jerk_tail") else None
 
 
 def _jerk_steps(sts):

@@ -109,3 +109,58 @@ def test_law_knots_on_sample(monkeypatch):
     assert len(got) == len(ref) > 1000
     for (s1, v1), (s2, v2) in zip(got, ref):
         assert np.array_equal(_bits(s1), _bits(s2)) and np.array_equal(_bits(v1), _bits(v2))
+
+
+# ------------------------------------------------------------ plan._live_tables' figures
+from gcode_opt import plan as plan_mod          # noqa: E402
+from gcode_opt.laws.line import cubic_figures   # noqa: E402
+
+
+def _figures_old(L, T, beta, v0, v1):
+    law = line_law(L, T, beta, v0, v1)
+    return (law.peak_accel(), *law.integrals())
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_law_figures_as_linelaw(seed):
+    rng = np.random.default_rng(100 + seed)
+    mix = ["all", 0, 1, 2][seed % 4]
+    L, T, beta, v0, v1, _ = _batch(rng, int(rng.integers(1, 2000)), mix)
+    with np.errstate(all="ignore"):
+        ref = _figures_old(L, T, beta, v0, v1)
+        got = plan_mod._law_figures(L, T, beta, v0, v1)
+    for a, b in zip(ref, got):
+        assert np.array_equal(_bits(a), _bits(b))
+
+
+def test_cubic_figures_premises():
+    """cosh(±0) is 1.0 in numpy's loops (cubic_figures takes h' = 2 at the ends)."""
+    z = np.array([0.0, -0.0] * 40)
+    assert (np.cosh(z) == 1.0).all() and (np.cosh(z[:3]) == 1.0).all()
+    rng = np.random.default_rng(5)
+    L, T, beta, v0, v1, _ = _batch(rng, 300, 0)
+    ref = _figures_old(L, T, beta, v0, v1)
+    got = cubic_figures(L, T, v0, v1)
+    for a, b in zip(ref, got):
+        assert np.array_equal(_bits(a), _bits(b))
+
+
+def test_candidates_on_sample():
+    """The line candidates of the rectilinear sample (_candidates_auto, its _live_tables)
+    with _law_figures and with the LineLaw of every entry: the same tables."""
+    profile = load_profile("prusa-mk3s")
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, _ = pipeline.analyse(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    rows = schedule._rows_by_kind(strokes)["line"]
+    got = plan_mod.candidates_auto(pin.take(rows))
+    mp = pytest.MonkeyPatch()
+    mp.setattr(plan_mod, "_law_figures", _figures_old)
+    try:
+        ref = plan_mod.candidates_auto(pin.take(rows))
+    finally:
+        mp.undo()
+    assert np.isinf(got[1]).sum() > 1000 and np.isfinite(got[2]).sum() > 1000
+    for a, b in zip(ref, got):
+        assert np.array_equal(_bits(a), _bits(b))

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .laws.line import InteriorSpeeds, end_speeds, interior_speed, line_law
+from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
 T_RATIOS = np.array([0.70, 0.75, 0.80, 0.85, 0.90, 0.93, 0.96, 0.98, 1.0, 1.01, 1.02, 1.03,
@@ -400,18 +400,40 @@ def _live_tables(p: PlanInput, flat, bq, v_crit):
     r = flat // shape[1]
     Tq = T.ravel()[flat]
     L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
-    law = line_law(L, Tq, bq, v0, v1)
+    # the law's peak acceleration and integrals: the cubic ones (beta = inf, ~94 % of the
+    # rectilinear plate's) by cubic_figures, the others by their LineLaw (each entry its own)
+    a_peak, KEq, Iq = _law_figures(L, Tq, bq, v0, v1)
     # _feasible(law, v_cap, a_cap) (T >= t_seg_min: every live entry), its speeds at the
     # ends and at the interior extremum those the law's _speed_candidates gives (end_speeds,
     # InteriorSpeeds: the same bits), in the same order
     speeds = (*end_speeds(L, Tq, v0, v1), v_crit)
-    ok = ((np.maximum.reduce(speeds) <= v_cap * (1 + SPEED_TOL_R)) & (law.peak_accel() <= a_cap * (1 + SPEED_TOL_R))
+    ok = ((np.maximum.reduce(speeds) <= v_cap * (1 + SPEED_TOL_R)) & (a_peak <= a_cap * (1 + SPEED_TOL_R))
           & (np.minimum.reduce(speeds) >= -1e-9 * (1 + v_cap)))
-    KEq, Iq = law.integrals()
     beta.ravel()[flat] = bq
     I.ravel()[flat] = np.where(ok, Iq, np.inf)
     KE.ravel()[flat] = KEq
     return T, beta, I, KE
+
+
+def _law_figures(L, T, beta, v0, v1):
+    """(peak_accel(), int_v2, int_a2) of line_law(L, T, beta, v0, v1) (1-D, plain inputs
+    as _live_entries checks them): cubic_figures where beta = inf, the LineLaw of the
+    others.  The same bits: a law's figures are its own (elementwise; the series' term
+    counts of the others' batch are set by its largest gamma^2, and the cubic ones' are 0)."""
+    cubic = beta == np.inf
+    if not cubic.any():
+        law = line_law(L, T, beta, v0, v1)
+        return (law.peak_accel(), *law.integrals())
+    if cubic.all():
+        return cubic_figures(L, T, v0, v1)
+    out = [np.empty(L.shape) for _ in range(3)]
+    c, o = np.flatnonzero(cubic), np.flatnonzero(~cubic)
+    for x, y in zip(out, cubic_figures(L[c], T[c], v0[c], v1[c])):
+        x[c] = y
+    law = line_law(L[o], T[o], beta[o], v0[o], v1[o])
+    for x, y in zip(out, (law.peak_accel(), *law.integrals())):
+        x[o] = y
+    return tuple(out)
 
 
 REACH_TOL_R = 1e-6     # out_of_reach's margins: far above the rounding of the law's figures (~1e-15)

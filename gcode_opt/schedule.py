@@ -19,6 +19,8 @@ with its reason.
 from __future__ import annotations
 
 import math
+from collections import deque
+from operator import attrgetter
 
 import numpy as np
 
@@ -525,26 +527,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                             own and k_name in ROW_KINDS and circle.rows_invariant())
             segs.update(new)
             seg_failed.update(new_bad)
-        idx_l = idx.tolist()
-        settle_faults([segs.get(i) for i in idx_l])
-        put, t_put, a2_put = [], [], []      # the kept plans' figures, set in one go below
-        for i in idx_l:
-            seg = segs.get(i)
-            why = seg_failed.get(i) or ("" if seg is None else seg_fault(seg))
-            if why:
-                plan.retime[i] = False
-                plan.reason[i] = why
-                continue
-            if seg is None or not beats(seg.int_a2, strokes[i].int_a2):
-                plan.retime[i] = False
-                plan.reason[i] = "segments would not beat the original"
-                continue
-            plan.segs[i] = seg
-            put.append(i)
-            t_put.append(seg.time_t)
-            a2_put.append(seg.int_a2)
-        plan.t_pred[put] = np.array(t_put, float)
-        plan.a2_pred[put] = np.array(a2_put, float)
+        _keep_plans(plan, strokes, idx, segs, seg_failed)
         _attach_commands(plan, strokes, pin, rules)
         _keep_slowed_corners(plan, strokes, rules)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
@@ -553,6 +536,81 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     if opts.alpha != "auto":
         return run(budget_t)
     return _fit_budget(run, pin, budget_t)
+
+
+_NOT_BEATING = "segments would not beat the original"
+
+
+def _keep_plans(plan, strokes, idx, segs, seg_failed):
+    """The segment plans segs ({row: plan}) of the rows idx (an int array) put on the plan:
+    a row whose segmenting failed (seg_failed: its reason), whose plan has a fault
+    (seg_fault), has none, or does not beat its original (beats) is left as sliced with
+    its reason; the others are put in plan.segs with their figures in t_pred and a2_pred.
+
+    Row by row, the same as a loop over idx asking each row in turn (tests/
+    test_speed26_linec_keep.py keeps that loop), made as a few passes over the rows'
+    lists and arrays (~41 k rows a budget run on the rectilinear plate, three runs: the
+    loop's ~1 µs a row was ~0.1 s of its planning): the faults in one list, beats on
+    arrays (the same product and comparison of doubles), the kept rows put at once."""
+    idx_l = idx.tolist()
+    seg_l = list(map(segs.get, idx_l))
+    settle_faults(seg_l)
+    n = len(seg_l)
+    why_l = None
+    if not seg_failed:
+        try:                    # every row a plan with a verdict slot (else AttributeError)
+            why_l = list(map(_FAULT, seg_l))
+        except AttributeError:
+            pass
+    if why_l is not None and why_l.count("") == n:
+        # the common case: every row has a plan and every plan its verdict "" (settle_faults)
+        bad_why = None
+        a2 = np.fromiter(map(_INT_A2, seg_l), float, n)
+    else:
+        # seg_fault(seg): its verdict kept on the plan (settle_faults set it on most), else made
+        if seg_failed:
+            fail = seg_failed.get
+            why_l = [fail(i) or ("" if seg is None else seg_fault(seg)) for i, seg in zip(idx_l, seg_l)]
+        else:
+            why_l = ["" if seg is None else f if (f := getattr(seg, "fault", None)) is not None else seg_fault(seg)
+                     for seg in seg_l]
+        # the figures of the fault-free plans only (the others' are not read: they may be anything)
+        nan = math.nan
+        a2 = np.array([nan if why or seg is None else seg.int_a2 for seg, why in zip(seg_l, why_l)], float)
+        bad_why = np.fromiter(map(bool, why_l), bool, n)
+    a2_orig = np.fromiter(map(_INT_A2, map(strokes.__getitem__, idx_l)), float, n)
+    # beats(a2_plan, a2_orig) elementwise (the same product and comparison of doubles); a
+    # plan that is None has a2 = nan: it does not beat
+    keep = a2 < a2_orig * (1.0 - GAIN_TOL_R)
+    if bad_why is not None:
+        keep &= ~bad_why
+        if bad_why.any():
+            rows = idx[bad_why]
+            plan.retime[rows] = False
+            reason = plan.reason
+            for i, why in zip(rows.tolist(), [why for why in why_l if why]):
+                reason[i] = why
+        lost = ~bad_why & ~keep
+    else:
+        lost = ~keep
+    if lost.any():
+        rows = idx[lost]
+        plan.retime[rows] = False
+        plan.reason[rows] = _NOT_BEATING
+    if keep.all():
+        put, put_l, kept, a2_kept = idx, idx_l, seg_l, a2
+    else:
+        k = np.flatnonzero(keep)
+        put = idx[k]
+        put_l, kept, a2_kept = put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
+    if not kept:
+        return
+    deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
+    plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept))
+    plan.a2_pred[put] = a2_kept
+
+
+_FAULT, _INT_A2, _TIME_T = attrgetter("fault"), attrgetter("int_a2"), attrgetter("time_t")
 
 
 def _not_in(ii, got, bad):
@@ -600,9 +658,12 @@ def _as_sliced(plan, pin, i, why):
 
 def _attach_commands(plan, strokes, pin, rules):
     """Every re-timed stroke whose start corners.py slowed by a junction command gets it
-    (lines, curves and chains alike); one that cannot is left as sliced."""
-    for i in np.flatnonzero(plan.retime).tolist():
-        seg = plan.segs[i]
+    (lines, curves and chains alike); one that cannot is left as sliced.  Only the
+    strokes whose start corners.py slowed ask (_command_for: every other one has nothing
+    to attach), found in one pass (none without --corners)."""
+    segs = plan.segs
+    for i in [i for i in np.flatnonzero(plan.retime).tolist() if strokes[i].corner_cmd0]:
+        seg = segs[i]
         if seg is not None and not _command_for(seg, strokes[i], rules):
             _as_sliced(plan, pin, i, "no junction command for its slower corner")
 

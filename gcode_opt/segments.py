@@ -16,7 +16,7 @@ import numpy as np
 
 from .firmware.junction import accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
-from .laws.line import line_law, time_of_distance
+from .laws.line import _N_COEF, _S1_COEF, _cube, line_law, time_of_distance
 
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
@@ -101,8 +101,7 @@ def _law_knot_blocks(strokes, T, beta, n):
     T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
     j = np.arange(n.max() + 1)
     tau = np.minimum(j[None, :] / n[:, None], 1.0)
-    law = line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
-    s_all, v_all, _ = law.eval(tau * T[:, None], "sv")
+    s_all, v_all = _law_sv(L, T, beta, v0, v1, tau * T[:, None])
     # interior vertices of multi-move strokes: one vectorised inversion s -> t
     nm = [st.n_moves for st in strokes]
     owner, verts = [], []
@@ -153,6 +152,64 @@ def _law_knot_blocks(strokes, T, beta, n):
         v[0], v[-1] = v0[i], v1[i]
         multi[i] = (s, v)
     return multi, blocks
+
+
+def _law_sv(L, T, beta, v0, v1, t):
+    """line_law(L, T, beta, v0, v1) (1-D, as columns).eval(t, "sv")[:2] at t (m, k): the
+    cubic laws (beta = inf: ~90 % of the rectilinear plate's re-timed lines) by
+    _cubic_sv, the others by their LineLaw, each row its own.  The same bits: every step
+    of eval is elementwise, and the series' term counts of the other rows' batch
+    (_nms_terms: by its largest gamma^2) are the whole batch's, whose cubic rows' gamma^2
+    are 0.  LineLaw's ValueErrors are raised on all rows first, as it raised them."""
+    cubic = beta == np.inf
+    if not cubic.any():
+        law = line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
+        return law.eval(t, "sv")[:2]
+    _check_law(L, T, beta, v0, v1)
+    s = np.empty(t.shape)
+    v = np.empty(t.shape)
+    c = np.flatnonzero(cubic)
+    s[c], v[c] = _cubic_sv(L[c], T[c], v0[c], v1[c], t[c])
+    if c.size < cubic.size:
+        o = np.flatnonzero(~cubic)
+        law = line_law(L[o, None], T[o, None], beta[o, None], v0[o, None], v1[o, None])
+        s[o], v[o], _ = law.eval(t[o], "sv")
+    return s, v
+
+
+def _check_law(L, T, beta, v0, v1):
+    """LineLaw's checks of its parameters (its ValueErrors, in its order)."""
+    L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1)))
+    if not (np.all(T > 0) and np.all(np.isfinite(T))):
+        raise ValueError("T must be finite and > 0")
+    if not np.all(beta > 0):
+        raise ValueError("beta must be > 0 (np.inf allowed)")
+    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+        raise ValueError("L, v0, v1 must be finite")
+
+
+def _cubic_sv(L, T, v0, v1, t):
+    """LineLaw.eval(t, "sv")[:2] of laws at beta = inf (T finite > 0: gamma = T / inf = +0.0
+    exactly), as eval computes it in the series branch: there n (Horner at z2 = 0: each
+    step c * 0 + c_j) is _N_COEF[0] and S1 is _S1_COEF[0] exactly, every shc is of a zero
+    (np.where's 1.0), so pa = pb = shx = sh2 = shc(gamma / 4) = 1.0 and the products and
+    quotients by them (and by 1.0 ** 2) are exact: what is left are eval's and
+    _shapes_small's own operations, in their order (tests/test_speed26_linec_cubic.py)."""
+    Tc = T[:, None]
+    wbar = Tc * (v0 + v1)[:, None] / 2
+    d = Tc * (v0 - v1)[:, None] / 2
+    A = L[:, None] - wbar
+    tau = np.clip(np.asarray(t, dtype=float) / Tc, 0.0, 1.0)
+    n = _N_COEF[0]
+    x = tau - 0.5
+    bub = tau * (1 - tau)                    # tau (1 - tau) pa pb
+    g = bub / (2 * n)
+    Hs = -bub                                # -bub / sh2
+    h = 2 * x                                # 2 x shx / sh2
+    G = 0.5 + (x / 8 - _cube(x) * _S1_COEF[0]) / n    # x shc(gamma / 4)^2 / 8, cube(x) S1(0)
+    s = wbar * tau + A * G - d * Hs
+    v = (wbar + A * g - d * h) / Tc
+    return s, v
 
 
 def with_edges(s, v, edge0_d=0.0, edge1_d=0.0):
@@ -703,11 +760,12 @@ def _jerk_rows(S, V, sts, rules, knots=None):
         if knots is not None:
             knots = [knots[k] for k in take.tolist()]
     step_v = _jerk_steps(sts)
-    A = hold_cruise_accels_rows(acc, accel)
-    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
-    feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
-    t_pred, a2_pred = _predict_rows(S, V, A)
-    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    v_feed = np.array([st.v_feed for st in sts], float)
+    core = _rows_core()
+    if core is not None:
+        A, feeds, t_pred, a2_pred, fine = _jerk_tail_core(core, S, V, acc, accel, step_v, v_feed)
+    else:
+        A, feeds, t_pred, a2_pred, fine = _jerk_tail(S, V, acc, accel, step_v, v_feed)
     if knots is None:
         m = len(t_pred)
         made = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(feeds, m), range(m), t_pred,
@@ -721,6 +779,50 @@ def _jerk_rows(S, V, sts, rules, knots=None):
         made = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, A, feeds, t_pred, a2_pred)]
         settle_rows(made, fine, A, feeds)
     return take.tolist(), made
+
+
+def _jerk_tail(S, V, acc, accel, step_v, v_feed):
+    """_jerk_rows' plans' arrays from the taken rows' knots S, V, ramp accelerations acc
+    (m, K - 1), own accelerations, jerk steps and feeds: (A held, feeds, t_pred, a2_pred,
+    fine) as lists for the figures and verdicts (numpy; the compiled core's jerk_tail
+    makes the same bits)."""
+    A = hold_cruise_accels_rows(acc, accel)
+    need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    feeds = tent_feeds_rows(need, v_feed, step_v)
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    return A, feeds, t_pred, a2_pred, fine_rows(S, V, A, feeds, t_pred, a2_pred)
+
+
+def _jerk_tail_core(core, S, V, acc, accel, step_v, v_feed):
+    """_jerk_tail in one compiled call a block (firmware/_core.c jerk_tail: every row's
+    held accelerations, tent feeds, segment times, pairwise sums and checks as numpy makes
+    them, the same operations in the same order; tests/test_speed26_linec_tail.py).  The
+    numpy path made ~25 calls a block on (m, K) arrays and an (m, K - 1, K + 1) envelope:
+    ~0.09 s of the rectilinear plate's ~68 k line plans, ~0.01 s here."""
+    m, K = S.shape
+    f64 = np.float64
+    S, V, acc = (np.ascontiguousarray(x, f64) for x in (S, V, acc))
+    own, step, vf = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, f64), (m,))) for x in (accel, step_v, v_feed))
+    A = np.empty((m, K - 1))
+    feeds = np.empty((m, K - 1))
+    t = np.empty(m)
+    a2 = np.empty(m)
+    fine = np.empty(m, np.uint8)
+    core.jerk_tail(S, V, acc, own, step, vf, K, MIN_FEED_V, CRUISE_A, A, feeds, t, a2, fine)
+    return A, feeds, t.tolist(), a2.tolist(), fine.astype(bool).tolist()
+
+
+USE_CORE = True         # tests turn it off: _jerk_rows' tail by numpy (the reference)
+
+
+def _rows_core():
+    """The compiled core (firmware/_core.c) when it has jerk_tail, else None: not built,
+    stale, GCODE_OPT_PURE_PYTHON, or USE_CORE off."""
+    if not USE_CORE:
+        return None
+    from .firmware import simulate
+    core = simulate._core
+    return core if core is not None and hasattr(core, "jerk_tail") else None
 
 
 def _jerk_steps(sts):

@@ -4971,6 +4971,170 @@ static PyObject *mod_ring_release(PyObject *self, PyObject *noargs)
     return PyLong_FromSize_t(held);
 }
 
+/* ---------------------------------------------------------------- segments._jerk_rows' tail
+ * Elementwise helpers with numpy's semantics: np.maximum propagates a NaN (the first
+ * operand's if both are), np.max of a row likewise. */
+static inline double np_maximum(double a, double b)
+{
+    return (a >= b || isnan(a)) ? a : b;
+}
+
+/* numpy's pairwise sum of n doubles (add.reduce of a contiguous row: 8 accumulators from
+ * 8 on, blocks of 128 split in halves), then added to the reduction's identity 0.0 as
+ * np.add.reduce(x, axis=1) does. */
+static double np_pairwise(const double *a, Py_ssize_t n)
+{
+    if (n < 8) {
+        double res = 0.0;
+        for (Py_ssize_t i = 0; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        double r[8];
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++)
+            r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++)
+                r[j] += a[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return np_pairwise(a, n2) + np_pairwise(a + n2, n - n2);
+}
+
+/* jerk_tail(S, V, acc, a_own, step, v_feed, K, A, F, t, a2, fine): segments._jerk_rows
+ * after its rows are taken, for m rows of K knots (row-major float64; K >= 3):
+ *   A     = hold_cruise_accels_rows(acc, a_own)               (m, K - 1)
+ *   F     = tent_feeds_rows(max(max(V[:-1], V[1:]), MIN_FEED_V), v_feed, step)
+ *   t, a2 = _predict_rows(S, V, A)  (segment_times, each row's pairwise sum)
+ *   fine  = fine_rows(S, V, A, F, t, a2)                      (m bytes, 0 / 1)
+ * the same operations on the same doubles as the numpy path (no contraction: the build's
+ * -ffp-contract=off), in the same order where it matters (the sums), so the same bits;
+ * MIN_FEED_V and CRUISE_A and the floors 1e-12, 1e-9 are passed as segments.py has them. */
+static PyObject *mod_jerk_tail(PyObject *self, PyObject *args)
+{
+    Py_buffer sb, vb, cb, ob, pb, fb, Ab, Fb, tb, ab, kb;
+    Py_ssize_t K;
+    double min_feed_v, cruise_a;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*nddw*w*w*w*w*:jerk_tail", &sb, &vb, &cb, &ob, &pb, &fb, &K,
+                          &min_feed_v, &cruise_a, &Ab, &Fb, &tb, &ab, &kb))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t m = ob.len / (Py_ssize_t)sizeof(double);
+    Py_ssize_t ks = K - 1;
+    double *work = NULL;
+    if (K < 3 || sb.len != (Py_ssize_t)sizeof(double) * m * K || vb.len != sb.len
+        || cb.len != (Py_ssize_t)sizeof(double) * m * ks || Ab.len != cb.len || Fb.len != cb.len
+        || pb.len != ob.len || fb.len != ob.len || tb.len != ob.len || ab.len != ob.len || kb.len != m) {
+        PyErr_SetString(PyExc_ValueError, "jerk_tail: bad sizes");
+        goto done;
+    }
+    work = PyMem_Malloc(sizeof(double) * (size_t)(3 * ks + 2));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    const double *S = (const double *)sb.buf, *V = (const double *)vb.buf, *C = (const double *)cb.buf;
+    const double *a_own = (const double *)ob.buf, *step = (const double *)pb.buf, *vf = (const double *)fb.buf;
+    double *A = (double *)Ab.buf, *F = (double *)Fb.buf, *t_out = (double *)tb.buf, *a2_out = (double *)ab.buf;
+    unsigned char *fine = (unsigned char *)kb.buf;
+    double *tt = work, *aa = work + ks, *pad = work + 2 * ks;    /* ks, ks and ks + 2 doubles */
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double *s = S + r * K, *v = V + r * K, *c = C + r * ks;
+        double *Ar = A + r * ks, *Fr = F + r * ks;
+        /* hold_cruise_accels_rows: a cruise (acc <= CRUISE_A, not NaN) keeps the last
+         * non-cruise before it, the first non-cruise before that, a_own when all cruise */
+        Py_ssize_t first = -1;
+        for (Py_ssize_t k = 0; k < ks; k++)
+            if (!(c[k] <= cruise_a)) {
+                first = k;
+                break;
+            }
+        if (first < 0) {
+            for (Py_ssize_t k = 0; k < ks; k++)
+                Ar[k] = a_own[r];
+        } else {
+            Py_ssize_t last = first;
+            for (Py_ssize_t k = 0; k < ks; k++) {
+                if (!(c[k] <= cruise_a)) {
+                    last = k;
+                    Ar[k] = c[k];
+                } else {
+                    Ar[k] = k < first ? c[first] : c[last];
+                }
+            }
+        }
+        /* tent_feeds_rows: need_k = max(max(v_k, v_k+1), MIN_FEED_V); a row of finite
+         * step: max_j (pad_j - step |k - j|), j = -1..ks, pad's ends v_feed + step */
+        double st = step[r];
+        for (Py_ssize_t k = 0; k < ks; k++)
+            Fr[k] = np_maximum(np_maximum(v[k], v[k + 1]), min_feed_v);
+        if (isfinite(st)) {
+            double side = vf[r] + st;
+            pad[0] = side;
+            for (Py_ssize_t k = 0; k < ks; k++)
+                pad[k + 1] = Fr[k];
+            pad[ks + 1] = side;
+            for (Py_ssize_t k = 0; k < ks; k++) {
+                double best = 0.0;
+                for (Py_ssize_t j = 0; j < ks + 2; j++) {       /* pad index j is position j - 1 */
+                    Py_ssize_t dist = k - (j - 1);
+                    double x = pad[j] - st * (double)(dist < 0 ? -dist : dist);
+                    if (j == 0 || isnan(x) || x > best) {
+                        best = x;
+                        if (isnan(x))
+                            break;
+                    }
+                }
+                Fr[k] = best;
+            }
+        }
+        /* segment_times and the rows' sums */
+        for (Py_ssize_t k = 0; k < ks; k++) {
+            double d = s[k + 1] - s[k];
+            double va = v[k], vb2 = v[k + 1];
+            double dv = fabs(vb2 - va);
+            double vmax = np_maximum(va, vb2);
+            double a = np_maximum(Ar[k], 1e-12);
+            double ramp_d = fabs(vb2 * vb2 - va * va) / (2.0 * a);
+            tt[k] = dv / a + np_maximum(d - ramp_d, 0.0) / np_maximum(vmax, 1e-9);
+            aa[k] = a * dv;
+        }
+        double t_sum = 0.0 + np_pairwise(tt, ks), a2_sum = 0.0 + np_pairwise(aa, ks);
+        t_out[r] = t_sum;
+        a2_out[r] = a2_sum;
+        /* fine_rows */
+        int ok = isfinite(t_sum) && isfinite(a2_sum);
+        for (Py_ssize_t k = 0; ok && k < K; k++)
+            ok = isfinite(s[k]) && isfinite(v[k]) && v[k] >= 0.0 && (k == 0 || s[k] > s[k - 1]);
+        for (Py_ssize_t k = 0; ok && k < ks; k++)
+            ok = isfinite(Ar[k]) && Ar[k] > 0.0 && isfinite(Fr[k]) && Fr[k] > 0.0;
+        fine[r] = (unsigned char)ok;
+    }
+    ret = Py_None;
+    Py_INCREF(ret);
+done:
+    PyMem_Free(work);
+    PyBuffer_Release(&sb);
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&cb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&pb);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&Ab);
+    PyBuffer_Release(&Fb);
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&ab);
+    PyBuffer_Release(&kb);
+    return ret;
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -4995,6 +5159,9 @@ static PyMethodDef mod_methods[] = {
      "amps_memo, amps_out, pieces_memo, pieces_out[, decay2, numpy_peak, floor]): _Stream._solve"},
     {"ring_release", mod_ring_release, METH_NOARGS,
      "ring_release(): ring_solve's room given back; returns the bytes it held"},
+    {"jerk_tail", mod_jerk_tail, METH_VARARGS,
+     "jerk_tail(S, V, acc, a_own, step, v_feed, K, min_feed_v, cruise_a, A, F, t, a2, fine): segments._jerk_rows' "
+     "held accelerations, feeds, figures and verdicts"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

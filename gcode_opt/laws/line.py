@@ -36,7 +36,7 @@ from math import factorial
 import numpy as np
 
 __all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH", "interior_speed", "end_speeds",
-           "InteriorSpeeds"]
+           "InteriorSpeeds", "cubic_figures"]
 
 # Switch between the series/hyperbolic and the exponential forms.  Measured against mpmath
 # (80 digits) for each branch alone: the exponential branch's integral coefficient ∫g² − 1
@@ -603,6 +603,34 @@ class InteriorSpeeds:
                 return v
             out[branch] = v
         return out
+
+
+def cubic_figures(L, T, v0, v1):
+    """(peak_accel(), *integrals()) of the laws LineLaw(L, T, inf, v0, v1) (1-D arrays, T
+    finite > 0), bit for bit, without the law: gamma = T / inf is +0.0, so in the series
+    branch n, m and S1 are their first coefficients exactly (Horner at z2 = 0: each step
+    c * 0 + c_j), every shc is of a zero (np.where's 1.0) and cosh(±0) is 1.0, so
+    Ig1 = m / (2 n n), Igp = S1 / (2 n n), Ih = 2 S1, Ihp = 4, and at the ends g' = ±0.5 / n,
+    h' = 2 (the products and quotients by 1.0 are exact).  What is left are eval's and
+    integrals' own operations, in their order (tests/test_speed26_linec_cubic.py).  The
+    planner's ~610 k cubic candidates on the rectilinear plate: their LineLaw, its two
+    end evaluations and its integrals were most of _live_tables."""
+    L, T, v0, v1 = (np.asarray(a, dtype=float) for a in (L, T, v0, v1))
+    n, m, s1 = _N_COEF[0], _M_COEF[0], _S1_COEF[0]
+    wbar = T * (v0 + v1) / 2
+    d = T * (v0 - v1) / 2
+    A = L - wbar
+    gp0 = 0.5 * 1.0 / n                 # -x shx / n at x = -0.5
+    gp1 = -0.5 * 1.0 / n                # at x = 0.5
+    hp = 2 * 1.0 / 1.0                  # 2 cosh(gs x) / sh2
+    a0 = (A * gp0 - d * hp) / T**2
+    a1 = (A * gp1 - d * hp) / T**2
+    peak = np.maximum(np.abs(a0), np.abs(a1))
+    Ig1, Igp = m / (2 * n * n), s1 / (2 * n * n)
+    Ih, Ihp = 2 * s1 / 1.0 ** 2, 2 * (1.0 + 1) / 1.0 ** 2
+    int_v2 = (L**2 + A**2 * Ig1 + d**2 * Ih) / T
+    int_a2 = (A**2 * Igp + d**2 * Ihp) / T**3
+    return peak, int_v2, int_a2
 
 
 def end_speeds(L, T, v0, v1):

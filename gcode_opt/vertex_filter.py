@@ -34,8 +34,6 @@ bundled samples and corpus files under every profile, and on random and degenera
 """
 from __future__ import annotations
 
-import math
-
 from . import curves
 
 FILTER_COS = 0.5           # the proof holds for turns of at most 60 deg

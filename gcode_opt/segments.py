@@ -16,7 +16,7 @@ import numpy as np
 
 from .firmware.junction import accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
-from .laws.line import _N_COEF, _S1_COEF, _cube, line_law, time_of_distance
+from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
 
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
@@ -165,7 +165,7 @@ def _law_sv(L, T, beta, v0, v1, t):
     if not cubic.any():
         law = line_law(L[:, None], T[:, None], beta[:, None], v0[:, None], v1[:, None])
         return law.eval(t, "sv")[:2]
-    _check_law(L, T, beta, v0, v1)
+    check_params(L, T, beta, v0, v1)          # LineLaw's ValueErrors, raised on all rows first
     s = np.empty(t.shape)
     v = np.empty(t.shape)
     c = np.flatnonzero(cubic)
@@ -175,17 +175,6 @@ def _law_sv(L, T, beta, v0, v1, t):
         law = line_law(L[o, None], T[o, None], beta[o, None], v0[o, None], v1[o, None])
         s[o], v[o], _ = law.eval(t[o], "sv")
     return s, v
-
-
-def _check_law(L, T, beta, v0, v1):
-    """LineLaw's checks of its parameters (its ValueErrors, in its order)."""
-    L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1)))
-    if not (np.all(T > 0) and np.all(np.isfinite(T))):
-        raise ValueError("T must be finite and > 0")
-    if not np.all(beta > 0):
-        raise ValueError("beta must be > 0 (np.inf allowed)")
-    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
-        raise ValueError("L, v0, v1 must be finite")
 
 
 def _cubic_sv(L, T, v0, v1, t):

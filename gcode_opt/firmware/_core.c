@@ -4979,35 +4979,6 @@ static inline double np_maximum(double a, double b)
     return (a >= b || isnan(a)) ? a : b;
 }
 
-/* numpy's pairwise sum of n doubles (add.reduce of a contiguous row: 8 accumulators from
- * 8 on, blocks of 128 split in halves), then added to the reduction's identity 0.0 as
- * np.add.reduce(x, axis=1) does. */
-static double np_pairwise(const double *a, Py_ssize_t n)
-{
-    if (n < 8) {
-        double res = 0.0;
-        for (Py_ssize_t i = 0; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    if (n <= 128) {
-        double r[8];
-        Py_ssize_t i;
-        for (int j = 0; j < 8; j++)
-            r[j] = a[j];
-        for (i = 8; i < n - (n % 8); i += 8)
-            for (int j = 0; j < 8; j++)
-                r[j] += a[i + j];
-        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
-        for (; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    Py_ssize_t n2 = n / 2;
-    n2 -= n2 % 8;
-    return np_pairwise(a, n2) + np_pairwise(a + n2, n - n2);
-}
-
 /* jerk_tail(S, V, acc, a_own, step, v_feed, K, A, F, t, a2, fine): segments._jerk_rows
  * after its rows are taken, for m rows of K knots (row-major float64; K >= 3):
  *   A     = hold_cruise_accels_rows(acc, a_own)               (m, K - 1)
@@ -5106,7 +5077,8 @@ static PyObject *mod_jerk_tail(PyObject *self, PyObject *args)
             tt[k] = dv / a + np_maximum(d - ramp_d, 0.0) / np_maximum(vmax, 1e-9);
             aa[k] = a * dv;
         }
-        double t_sum = 0.0 + np_pairwise(tt, ks), a2_sum = 0.0 + np_pairwise(aa, ks);
+        /* (0.0 +: the numpy path's row sums start from +0.0, so an all -0.0 row sums to +0.0) */
+        double t_sum = 0.0 + np_pairwise_sum(tt, ks), a2_sum = 0.0 + np_pairwise_sum(aa, ks);
         t_out[r] = t_sum;
         a2_out[r] = a2_sum;
         /* fine_rows */

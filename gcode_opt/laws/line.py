@@ -287,6 +287,20 @@ def _atanhc(r):
     return np.where(r == 0, 1.0, np.where(inside, np.arctanh(rs) / rs, np.inf))
 
 
+def check_params(L, T, beta, v0, v1):
+    """The law's parameters as float arrays broadcast together, checked (LineLaw's
+    ValueErrors, in its order): T finite > 0, beta > 0 (inf allowed: gamma = 0; 0 and NaN
+    not), L, v0, v1 finite."""
+    L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1)))
+    if not (np.all(T > 0) and np.all(np.isfinite(T))):
+        raise ValueError("T must be finite and > 0")
+    if not np.all(beta > 0):
+        raise ValueError("beta must be > 0 (np.inf allowed)")
+    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+        raise ValueError("L, v0, v1 must be finite")
+    return L, T, beta, v0, v1
+
+
 class LineLaw:
     """Optimal straight-line law; all attributes are broadcast numpy arrays.
 
@@ -296,14 +310,7 @@ class LineLaw:
     """
 
     def __init__(self, L, T, beta, v0=0.0, v1=0.0):
-        L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float)
-                                                   for a in (L, T, beta, v0, v1)))
-        if not (np.all(T > 0) and np.all(np.isfinite(T))):
-            raise ValueError("T must be finite and > 0")
-        if not np.all(beta > 0):                   # inf allowed (γ = 0), 0/nan not
-            raise ValueError("beta must be > 0 (np.inf allowed)")
-        if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
-            raise ValueError("L, v0, v1 must be finite")
+        L, T, beta, v0, v1 = check_params(L, T, beta, v0, v1)
         self.L, self.T, self.beta, self.v0, self.v1 = L, T, beta, v0, v1
         self.gamma = T / np.sqrt(beta)                          # dimensionless, 0 for beta=inf
         self._c = _gamma_coeffs(self.gamma)
@@ -441,13 +448,7 @@ def interior_speed(L, T, beta, v0, v1):
     as in _gamma_coeffs/_shapes, in the same order, so the rounding is the same.  The
     planner's bisection on β calls this 32 times per candidate: the end speeds do not
     depend on β (g = 0 and h = ∓1 exactly at the ends), so they are not recomputed."""
-    L, T, beta, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (L, T, beta, v0, v1)))
-    if not (np.all(T > 0) and np.all(np.isfinite(T))):
-        raise ValueError("T must be finite and > 0")
-    if not np.all(beta > 0):
-        raise ValueError("beta must be > 0 (np.inf allowed)")
-    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
-        raise ValueError("L, v0, v1 must be finite")
+    L, T, beta, v0, v1 = check_params(L, T, beta, v0, v1)
     gamma = T / np.sqrt(beta)
     wbar = T * (v0 + v1) / 2
     delta = T * (v0 - v1) / 2

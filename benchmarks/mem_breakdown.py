@@ -75,14 +75,17 @@ def main(argv=None):
     ap.add_argument("--ringing", action="store_true", help="leave the ringing figures on (default: off)")
     a = ap.parse_args(argv)
 
-    tracemalloc.start(1)
+    was_tracing = tracemalloc.is_tracing()
+    if not was_tracing:
+        tracemalloc.start(1)
     import gcode_opt.pipeline as pl
     import gcode_opt.schedule as sch
     mods = {"pipeline": pl, "schedule": sch}
-    rows, held = [], {}
+    rows, held, saved = [], {}, []
 
     def wrap(mod, name):
         fn = getattr(mod, name)
+        saved.append((mod, name, fn))
 
         def wrapped(*args, **kw):
             out = fn(*args, **kw)
@@ -95,18 +98,24 @@ def main(argv=None):
             return out
         setattr(mod, name, wrapped)
 
-    for mod, name in PHASES:
-        wrap(mods[mod], name)
     from gcode_opt.cli import main as cli_main
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = ["process", a.file, "-o", os.path.join(tmp, "out.gcode"), "--profile", a.profile, "-q"]
-        if not a.ringing:
-            cmd.append("--no-ringing")
-        try:
-            cli_main(cmd)
-        except SystemExit as e:
-            if e.code not in (0, None):
-                raise
+    try:
+        for mod, name in PHASES:
+            wrap(mods[mod], name)
+        with tempfile.TemporaryDirectory() as tmp:
+            cmd = ["process", a.file, "-o", os.path.join(tmp, "out.gcode"), "--profile", a.profile, "-q"]
+            if not a.ringing:
+                cmd.append("--no-ringing")
+            try:
+                cli_main(cmd)
+            except SystemExit as e:
+                if e.code not in (0, None):
+                    raise
+    finally:                  # (called in a process that goes on, e.g. a test: leave it as it was)
+        for mod, name, fn in reversed(saved):
+            setattr(mod, name, fn)
+        if not was_tracing:
+            tracemalloc.stop()
     print(f"{a.file} ({a.profile}): traced MB after each phase (peak: since the start), RSS MB")
     for name, cur, peak, rss, maxrss, files in rows:
         print(f"  {name:14s} traced {cur:7.1f} (peak {peak:7.1f})  RSS {rss:7.1f} (peak {maxrss:7.1f})")

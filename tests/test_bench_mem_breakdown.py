@@ -2,6 +2,10 @@
 strokes' memory agrees with what tracemalloc saw the stroke-making code allocate."""
 import importlib.util
 import os
+import tracemalloc
+
+import gcode_opt.pipeline as pl
+import gcode_opt.schedule as sch
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
@@ -14,12 +18,22 @@ def _load():
     return mod
 
 
+def _phases(mod):
+    return list(mod.PHASES)
+
+
 def test_phases_and_strokes_on_a_sample(capsys):
     mod = _load()
+    before = {name: getattr(pl if m == "pipeline" else sch, name) for m, name in _phases(mod)}
+    assert not tracemalloc.is_tracing()
     rows = mod.main([os.path.join(ROOT, "sample_gcode", "prusa_klipper.gcode"), "--profile", "voron24",
                      "--top", "40"])
     out = capsys.readouterr().out
     assert [r[0] for r in rows] == [name for _m, name in mod.PHASES]
+    # the process is left as it was: tracing off (a later tracemalloc test measured the whole
+    # suite's allocations once), the wrapped functions the modules' own again
+    assert not tracemalloc.is_tracing()
+    assert all(getattr(pl if m == "pipeline" else sch, name) is before[name] for m, name in _phases(mod))
     for name, cur, peak, rss, maxrss, files in rows:
         assert 0 < cur <= peak and rss > 0 and maxrss > 0, name
         assert files and all(mb >= 0 for _f, mb in files), name

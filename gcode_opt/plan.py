@@ -153,7 +153,11 @@ class Candidates:
     def of_pieces(cls, n, pieces, T_orig):
         """The tables of n strokes from Candidates.piece()s of disjoint rows; rows no piece
         covers are infeasible.  Returns (Candidates, rows holding a non-finite candidate,
-        sorted).  tests/test_memory_plan.py compares them with the dense tables."""
+        sorted).  tests/test_memory_plan.py compares them with the dense tables.
+
+        The list pieces is emptied: each piece's values are let go once copied, so the
+        pieces and the table they make are not all held at once (~12 MB on the
+        rectilinear plate's lines, at the peak of making the candidates)."""
         k = len(T_RATIOS)
         mask = np.zeros((n, k), bool)
         t_pos = ((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1)
@@ -161,9 +165,11 @@ class Candidates:
             mask[sub], t_pos[sub] = m, tp
         out = cls(mask, np.empty((4, 0)), t_pos, T_orig)
         out.vals = np.empty((4, int(out.start[-1])))
-        for sub, m, v, _, _ in pieces:
-            out.vals[:, out._positions(sub, m)] = v
         bad = [sub[b] for sub, _, _, _, b in pieces]
+        while pieces:
+            sub, m, v, _, _ = pieces.pop()
+            out.vals[:, out._positions(sub, m)] = v
+            del sub, m, v
         return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
 
     def __iter__(self):
@@ -191,46 +197,40 @@ class Candidates:
         settle = bool(np.all(Ix[finite] >= 0.0) and np.all(self.t_pos[rows]) and np.all(Tx[:, k] >= 0.0))
         return Tx, Ix, finite, settle
 
-    def packed(self, rows, T_orig, I_orig):
-        """The allocation's tables of the strokes rows packed (_Packed): each row's feasible
-        candidates in column order, then its original, then filler (I inf, T 0), in two
-        tables, the rows of at most PACK_NARROW - 1 candidates and the others, each as wide
-        as its widest row (the dense (n, k + 1) tables were 24 columns for ~5 candidates a
-        line).  None where the packed choices could differ from the dense ones: a cost that
-        could overflow or a T that is not finite and >= 0 (then a least cost may be inf, and
-        which inf argmin takes depends on the columns), an original not finite."""
-        k = self.mask.shape[1]
-        T_orig, I_orig = np.asarray(T_orig, float), np.asarray(I_orig, float)
+    def rows_view(self, rows, T_orig, I_orig):
+        """What the compiled allocation (_allocate_rows) reads of the strokes rows, the
+        candidates left where they are: _RowsView (each row's first entry in vals and its
+        count, the rows' originals, settle).  A row's candidates then its original are the
+        costs, in the dense order, that the dense (n, k + 1) tables hold finite (~5 of 24 a
+        line); the packed copies of them this replaced were ~10 MB on the rectilinear plate.
+        None where the choices could differ from the dense ones: a cost that could overflow
+        or a T that is not finite and >= 0 (then a least cost may be inf, and which inf
+        argmin takes depends on the columns), an original not finite."""
+        T_orig = np.ascontiguousarray(T_orig, float)
+        I_orig = np.ascontiguousarray(I_orig, float)
         if not (np.isfinite(T_orig).all() and np.isfinite(I_orig).all()):
             return None
-        cnt = np.count_nonzero(self.mask[rows], axis=1)
-        narrow = cnt < PACK_NARROW
-        parts, settle = [], bool(np.all(self.t_pos[rows]))
-        for sel in (np.flatnonzero(narrow), np.flatnonzero(~narrow)):
-            w = max(2, int(cnt[sel].max()) + 1) if sel.size else 2
-            T = np.zeros((sel.size, w))
-            I = np.full((sel.size, w), np.inf)
-            for a in range(0, sel.size, PACK_ROWS):         # bounded temporaries
-                q = sel[a:a + PACK_ROWS]
-                cq = cnt[q]
-                # a row's feasible entries are consecutive in vals (row-major), from start[row]
-                c = np.arange(int(cq.sum())) - np.repeat(np.cumsum(cq) - cq, cq)     # each one's place in its row
-                r = np.repeat(np.arange(a, a + q.size), cq)
-                pos = np.repeat(self.start[rows[q]], cq) + c
-                at = r * w + c
-                T.ravel()[at] = self.vals[0, pos]
-                I.ravel()[at] = self.vals[2, pos]
-            T[np.arange(sel.size), cnt[sel]] = T_orig[sel]
-            I[np.arange(sel.size), cnt[sel]] = I_orig[sel]
-            fin = np.isfinite(I)
-            with np.errstate(over="ignore", invalid="ignore"):
-                if not (np.isfinite(T).all() and T.min(initial=0.0) >= 0.0 and np.all(np.abs(I[fin]) < 1e300)
-                        and np.all(T * LAMBDA_MAX < 1e300)):
-                    return None
-            settle = settle and bool(np.all(I[fin] >= 0.0))
-            del fin
-            parts.append((sel, T, I, np.ascontiguousarray(T_orig[sel])))
-        return _Packed(rows.size, k, cnt, parts, settle)
+        first = self.start[rows]
+        cnt = self.start[rows + 1] - first
+        # the entries of the rows: all of vals when the rows hold every row with one (the
+        # usual case: only failed strokes are left out), else those rows' entries
+        into = np.zeros(self.mask.shape[0], bool)
+        into[rows] = True
+        every = np.repeat(into, np.diff(self.start))
+        del into
+        T, I = (self.vals[0], self.vals[2]) if every.all() else (self.vals[0, every], self.vals[2, every])
+        del every
+        settle = bool(np.all(self.t_pos[rows]))
+        for t_all, i_all in ((T, I), (T_orig, I_orig)):
+            for a in range(0, t_all.size, CHECK_ENTRIES):       # (bounded temporaries)
+                t, i = t_all[a:a + CHECK_ENTRIES], i_all[a:a + CHECK_ENTRIES]
+                fin = np.isfinite(i)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    if not (np.isfinite(t).all() and t.min(initial=0.0) >= 0.0 and np.all(np.abs(i[fin]) < 1e300)
+                            and np.all(t * LAMBDA_MAX < 1e300)):
+                        return None
+                settle = settle and bool(np.all(i[fin] >= 0.0))
+        return _RowsView(first, cnt, T_orig, I_orig, settle)
 
     def _positions(self, rows, mask_rows):
         """Indices into vals of the True entries of mask_rows (= mask[rows]), row-major."""
@@ -740,25 +740,26 @@ def _bisect(J, live, step, spent, budget_t, settle):
 
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
 
-PACK_NARROW = 8        # Candidates.packed: rows with fewer candidates go in the narrow table
-PACK_ROWS = 8192       # Candidates.packed: rows filled at once
+PACK_ROWS = 8192       # _RowsView.columns: rows whose running counts are made at once
+CHECK_ENTRIES = 1 << 16   # Candidates.rows_view: entries checked at once
 
 
-class _Packed:
-    """Candidates.packed's tables: n rows, k candidate columns; cnt: each row's feasible
-    candidates (its original is at its column cnt); parts: (rows, T, I, T_orig) of each
-    table; settle as allocation_tables finds it."""
-    __slots__ = ("n", "k", "cnt", "parts", "settle")
+class _RowsView:
+    """Candidates.rows_view's: first, cnt (intp): each row's first entry in vals and how
+    many (its original is then at column cnt); T_orig, I_orig of the rows; settle as
+    allocation_tables finds it."""
+    __slots__ = ("first", "cnt", "T_orig", "I_orig", "settle")
 
-    def __init__(self, n, k, cnt, parts, settle):
-        self.n, self.k, self.cnt, self.parts, self.settle = n, k, cnt, parts, settle
+    def __init__(self, first, cnt, T_orig, I_orig, settle):
+        self.first = np.ascontiguousarray(first, np.intp)
+        self.cnt = np.ascontiguousarray(cnt, np.intp)
+        self.T_orig, self.I_orig, self.settle = T_orig, I_orig, settle
 
-    def columns(self, mask_rows, j):
-        """The dense columns (mask_rows: the rows' mask; k: the original) of the packed
-        columns j."""
-        out = np.full(j.size, self.k, np.intp)
-        c = j < self.cnt
-        q = np.flatnonzero(c)
+    def columns(self, mask_rows, j, k):
+        """The dense columns (mask_rows: the rows' mask; k: the original) of the choices j
+        (a row's j-th candidate, cnt = its original)."""
+        out = np.full(j.size, k, np.intp)
+        q = np.flatnonzero(j < self.cnt)
         for a in range(0, q.size, PACK_ROWS):
             qq = q[a:a + PACK_ROWS]
             # the (j + 1)-th feasible column of each row: the first whose running count passes j
@@ -767,47 +768,31 @@ class _Packed:
         return out
 
 
-def _allocate_packed(pk, budget_t, core):
-    """_allocate's choices on packed tables (Candidates.packed) by the compiled core, a
-    call per table: each row's costs are its feasible candidates' and its original's in
-    the dense order, so argmin's first, the second least, the margins and T - T_orig are
-    the dense tables' (the columns left out cost inf at every lambda and no least cost is
-    inf: Candidates.packed declines tables where one could be); every row's T - T_orig is
-    kept in one array in row order, so the sums are the same.  Returns (packed column per
-    row, lambda)."""
-    n = pk.n
+def _allocate_rows(vals, rv, budget_t, core):
+    """_allocate's choices on the candidates where they are (Candidates.rows_view) by the
+    compiled core's alloc_rows: each row's costs are its feasible candidates' and its
+    original's in the dense order, so argmin's first, the second least, the margins and
+    T - T_orig are the dense tables' (the columns left out cost inf at every lambda and no
+    least cost is inf: rows_view declines tables where one could be); every row's T - T_orig
+    is kept in one array in row order, so the sums are the same.  Returns (choice per row:
+    its j-th candidate, cnt = its original; lambda)."""
+    n = rv.cnt.size
+    vT, vI = np.ascontiguousarray(vals[0]), np.ascontiguousarray(vals[2])
     dT = np.empty(n)
-    part = np.empty(n, np.int8)
-    local = np.empty(n, np.intp)
-    for p, (sel, _, _, _) in enumerate(pk.parts):
-        part[sel] = p
-        local[sel] = np.arange(sel.size)
-    dts = [np.empty(sel.size) for sel, _, _, _ in pk.parts]
     J = np.empty(n, np.intp)
-    # rows with no candidate keep their original (packed column 0) at every lambda
-    fixed = np.flatnonzero(pk.cnt == 0)
+    # rows with no candidate keep their original (column 0) at every lambda
+    fixed = np.flatnonzero(rv.cnt == 0)
     J[fixed] = 0
-    for p, (sel, T, _, To) in enumerate(pk.parts):
-        f = local[fixed[part[fixed] == p]]
-        dT[fixed[part[fixed] == p]] = T[f, 0] - To[f]
-    live = np.flatnonzero(pk.cnt != 0)
+    dT[fixed] = rv.T_orig[fixed] - rv.T_orig[fixed]
+    live = np.flatnonzero(rv.cnt != 0)
 
     def step(lam, r):
         j, margin, tol = np.empty(r.size, np.intp), np.empty(r.size), np.empty(r.size)
-        pr = part[r]
-        for p, (sel, T, I, To) in enumerate(pk.parts):
-            q = np.flatnonzero(pr == p)
-            if q.size == 0:
-                continue
-            g = r[q]
-            loc = np.ascontiguousarray(local[g])
-            jj, mm, tt = np.empty(q.size, np.intp), np.empty(q.size), np.empty(q.size)
-            core.alloc_choices(T, I, T.shape[1], loc, lam, MARGIN_R, To, dts[p], jj, mm, tt)
-            j[q], margin[q], tol[q] = jj, mm, tt
-            dT[g] = dts[p][loc]
+        core.alloc_rows(vT, vI, rv.first, rv.cnt, rv.T_orig, rv.I_orig, np.ascontiguousarray(r, np.intp), lam,
+                        MARGIN_R, dT, j, margin, tol)
         return j, margin, tol
 
-    return _bisect(J, live, step, lambda: float(np.sum(dT)), budget_t, pk.settle)
+    return _bisect(J, live, step, lambda: float(np.sum(dT)), budget_t, rv.settle)
 
 
 USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)
@@ -820,7 +805,7 @@ def _alloc_core():
         return None
     from .firmware import simulate
     core = simulate._core
-    return core if core is not None and hasattr(core, "alloc_choices") else None
+    return core if core is not None and hasattr(core, "alloc_choices") and hasattr(core, "alloc_rows") else None
 
 
 LAMBDA_MAX = 1e31      # above any lambda allocate visits (its decade search stops at 1e30)
@@ -925,17 +910,20 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     total_t = sum(float(p.T_orig[g].sum()) for g in groups)
     k = cands.shape[1]
     j = np.full(n, k, dtype=int)      # rows in no group keep their original
+    pos = np.full(n, -1, np.intp)     # a chosen candidate's place in cands.vals, where known
     lam = []
     for g in groups:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
-        # with the compiled core, packed tables (the feasible entries only: ~half the dense
-        # tables' bytes, ~10 MB less at the rectilinear plate's planning peak)
+        # with the compiled core, on the feasible entries where Candidates holds them (no
+        # table copied: the packed tables were ~10 MB at the rectilinear plate's planning peak)
         core = _alloc_core()
-        pk = cands.packed(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
-        if pk is not None:
-            jp, lam_g = _allocate_packed(pk, share, core)
-            j[g] = pk.columns(cands.mask[g], jp)
-            del pk, jp
+        rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
+        if rv is not None:
+            jp, lam_g = _allocate_rows(cands.vals, rv, share, core)
+            j[g] = rv.columns(cands.mask[g], jp, k)
+            took = jp < rv.cnt                  # their entries: each row's jp-th, read below
+            pos[g[took]] = rv.first[took] + jp[took]
+            del rv, jp, took
             lam.append(lam_g)
             continue
         # the extended tables of the group only, made from the feasible entries: the dense
@@ -948,7 +936,10 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     use = j < k
     got = np.zeros((4, n))
     got[2:] = np.nan
-    got[:, use] = cands.at(np.flatnonzero(use), j[use])
+    known = pos >= 0                    # (entries the compiled allocation located: no mask count)
+    got[:, known] = cands.vals[:, pos[known]]
+    rest = use & ~known
+    got[:, rest] = cands.at(np.flatnonzero(rest), j[rest])
     plan.retime = use
     plan.T = np.where(use, got[0], p.T_orig)
     plan.beta = np.where(use, got[1], np.inf)

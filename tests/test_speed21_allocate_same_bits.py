@@ -284,9 +284,9 @@ def _capture(path, profile, tmp_path, monkeypatch):
         return orig(Tx, Ix, finite, T_orig, budget_t, settle)
 
     monkeypatch.setattr(plan_mod, "_allocate", spy)
-    # the dense tables (the packed ones, taken with the compiled core, are held to these by
-    # tests/test_speed25_alloc_packed.py)
-    monkeypatch.setattr(plan_mod.Candidates, "packed", lambda self, rows, T_orig, I_orig: None)
+    # the dense tables (the compiled core's allocation on Candidates' rows is held to these by
+    # tests/test_mem27_alloc_rows.py)
+    monkeypatch.setattr(plan_mod.Candidates, "rows_view", lambda self, rows, T_orig, I_orig: None)
     try:
         main(["process", str(path), "-o", str(tmp_path / "out.gcode"), "-q", "--profile", profile])
     except SystemExit:

@@ -4959,6 +4959,78 @@ done:
     return ret;
 }
 
+/* alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol): alloc_choices on
+ * the candidates as plan.Candidates holds them, not on a table copied out of them: local row r's
+ * feasible candidates are vT, vI[first[r] .. first[r] + cnt[r]) (float64: T, I in column order),
+ * then its original T_orig[r], I_orig[r], in the order of a row of the packed table (its filler,
+ * I = inf, moved neither the least nor the second least), so per row the same costs in the same
+ * order: the same j (0 .. cnt[r], cnt[r] = the original), margin and tol, and dT[r] = its T -
+ * T_orig[r].  rows, first, cnt intp; j, margin, tol of rows' length; dT, T_orig, I_orig of
+ * first's length (plan._allocate_rows checks the tables are plain, as packed() did). */
+static PyObject *mod_alloc_rows(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, ib, fb, cb, gb, hb, rb, db, jb, mb, ob;
+    double lam, margin_r;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*ddw*w*w*w*:alloc_rows", &tb, &ib, &fb, &cb, &gb, &hb, &rb,
+                          &lam, &margin_r, &db, &jb, &mb, &ob))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t nnz = tb.len / (Py_ssize_t)sizeof(double);
+    Py_ssize_t n = fb.len / (Py_ssize_t)sizeof(Py_ssize_t);
+    Py_ssize_t m = rb.len / (Py_ssize_t)sizeof(Py_ssize_t);
+    if (ib.len != tb.len || cb.len != fb.len || gb.len != n * (Py_ssize_t)sizeof(double) || hb.len != gb.len
+        || db.len != gb.len || jb.len != rb.len || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len) {
+        PyErr_SetString(PyExc_ValueError, "alloc_rows: bad sizes");
+        goto done;
+    }
+    const double *T = (const double *)tb.buf, *I = (const double *)ib.buf;
+    const Py_ssize_t *first = (const Py_ssize_t *)fb.buf, *cnt = (const Py_ssize_t *)cb.buf;
+    const double *T_orig = (const double *)gb.buf, *I_orig = (const double *)hb.buf;
+    const Py_ssize_t *rows = (const Py_ssize_t *)rb.buf;
+    Py_ssize_t *jo = (Py_ssize_t *)jb.buf;
+    double *mo = (double *)mb.buf, *to = (double *)ob.buf, *dT = (double *)db.buf;
+    for (Py_ssize_t q = 0; q < m; q++) {
+        Py_ssize_t r = rows[q];
+        if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
+            PyErr_SetString(PyExc_IndexError, "alloc_rows: row out of range");
+            goto done;
+        }
+        const double *tr = T + first[r], *ir = I + first[r];
+        Py_ssize_t w = cnt[r];
+        double c1 = w > 0 ? ir[0] + lam * tr[0] : I_orig[r] + lam * T_orig[r], c2 = INFINITY;
+        Py_ssize_t j = 0;
+        for (Py_ssize_t c = 1; c <= w; c++) {
+            double x = c < w ? ir[c] + lam * tr[c] : I_orig[r] + lam * T_orig[r];
+            if (x < c1) {
+                c2 = c1;
+                c1 = x;
+                j = c;
+            } else if (x < c2) {
+                c2 = x;
+            }
+        }
+        jo[q] = j;
+        dT[r] = (j < w ? tr[j] : T_orig[r]) - T_orig[r];
+        mo[q] = isinf(c2) ? INFINITY : c2 - c1;
+        to[q] = margin_r * (fabs(c1) + fabs(c2));
+    }
+    ret = Py_None;
+    Py_INCREF(ret);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&ib);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&cb);
+    PyBuffer_Release(&gb);
+    PyBuffer_Release(&hb);
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&jb);
+    PyBuffer_Release(&mb);
+    PyBuffer_Release(&ob);
+    return ret;
+}
+
 /* ring_release(): ring_solve's room given back (a Collector's pass is over: the room,
  * ~7 doubles an event of a chunk, would stay for the rest of the run); the next ring_solve
  * takes it again.  Returns the bytes it held. */
@@ -5110,6 +5182,8 @@ done:
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
+    {"alloc_rows", mod_alloc_rows, METH_VARARGS,
+     "alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol): alloc_choices on plan.Candidates' rows"},
     {"use_reader", mod_use_reader, METH_O,
      "use_reader(the reader's _C_API capsule, or None): Sim.play reads common lines through it"},
     {"setup", mod_setup, METH_VARARGS,

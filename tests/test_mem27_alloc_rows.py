@@ -1,7 +1,7 @@
-"""Issue 8 (s25, the plan's peak memory): with the compiled core, plan_auto allocates the
-budget on packed tables (Candidates.packed: each row's feasible candidates, then its
-original, in two tables as wide as their widest rows) instead of the dense (n, k + 1)
-tables.  The reference is the dense allocation (Candidates.allocation_tables, _allocate)
+"""Issue 8 (s25, s27: the plan's peak memory): with the compiled core, plan_auto allocates
+the budget on the candidates where Candidates holds them (rows_view: each row's feasible
+candidates, then its original; the core's alloc_rows), not on the dense (n, k + 1) tables
+nor on packed copies of them (s25's, ~10 MB at the rectilinear plate's peak).  The reference is the dense allocation (Candidates.allocation_tables, _allocate)
 by numpy (USE_CORE off) and by the core: the same choices and the same lambda, bit for bit,
 on the candidates of real sample files at several budgets and on random tables; tables
 whose costs could overflow are left to the dense path."""
@@ -30,10 +30,10 @@ def _dense(cands, g, T_orig, I_orig, budget, use_core, monkeypatch):
 
 
 def _packed(cands, g, T_orig, I_orig, budget):
-    pk = cands.packed(g, T_orig, I_orig)
-    assert pk is not None
-    j, lam = plan_mod._allocate_packed(pk, budget, plan_mod._alloc_core())
-    return pk.columns(cands.mask[g], j), lam
+    rv = cands.rows_view(g, T_orig, I_orig)
+    assert rv is not None
+    j, lam = plan_mod._allocate_rows(cands.vals, rv, budget, plan_mod._alloc_core())
+    return rv.columns(cands.mask[g], j, cands.shape[1]), lam
 
 
 def _same(cands, g, T_orig, I_orig, budget, monkeypatch):
@@ -61,11 +61,11 @@ def _sample_cands(name, prof):
 @pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"),
                                        ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s"),
                                        ("prusa_klipper.gcode", "voron24")])
-def test_packed_allocation_is_the_dense_one_on_samples(name, prof, monkeypatch):
+def test_rows_allocation_is_the_dense_one_on_samples(name, prof, monkeypatch):
     cands, g, pin, budget = _sample_cands(name, prof)
     T_orig, I_orig = pin.T_orig[g], pin.I_orig[g]
     cnt = cands.mask[g].sum(axis=1)
-    assert (cnt < plan_mod.PACK_NARROW).any() and (cnt >= plan_mod.PACK_NARROW).any()    # both tables
+    assert (cnt >= 8).any()                            # wide rows among the others
     lams = []
     for r in (0.05, 0.3, 1.0, 3.0, 1e3):
         j, lam = _same(cands, g, T_orig, I_orig, r * budget, monkeypatch)
@@ -75,7 +75,7 @@ def test_packed_allocation_is_the_dense_one_on_samples(name, prof, monkeypatch):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_packed_allocation_is_the_dense_one_on_random_tables(seed, monkeypatch):
+def test_rows_allocation_is_the_dense_one_on_random_tables(seed, monkeypatch):
     rng = np.random.default_rng(seed)
     n, k = 700, len(T_RATIOS)
     T_orig = rng.uniform(0.01, 2.0, n)
@@ -87,7 +87,7 @@ def test_packed_allocation_is_the_dense_one_on_random_tables(seed, monkeypatch):
     I[::7, 3] = I[::7, 4] = 10.0
     beta, KE = np.ones((n, k)), np.ones((n, k))
     cands = Candidates.of_tables(T, beta, I, KE, T_orig)
-    g = np.sort(rng.choice(n, n - 50, replace=False))
+    g = np.sort(rng.choice(n, n - 50, replace=False))      # (rows left out hold entries: gathered)
     I_orig = rng.uniform(10.0, 60.0, n)
     for budget in (0.0, 0.01, 0.1, 0.5, 5.0, -1.0):
         _same(cands, g, T_orig[g], I_orig[g], budget * T_orig.sum(), monkeypatch)
@@ -100,12 +100,12 @@ def test_tables_that_could_overflow_stay_dense(monkeypatch):
     I[3, 2] = 1e305
     cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
     g = np.arange(n)
-    assert cands.packed(g, T_orig, np.full(n, 9.0)) is None
+    assert cands.rows_view(g, T_orig, np.full(n, 9.0)) is None
     I[3, 2] = 5.0
     cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
-    assert cands.packed(g, T_orig, np.full(n, 9.0)) is not None
-    assert cands.packed(g, T_orig, np.r_[np.nan, np.full(n - 1, 9.0)]) is None
-    # plan_auto then answers as the dense tables do (the packed path declined)
+    assert cands.rows_view(g, T_orig, np.full(n, 9.0)) is not None
+    assert cands.rows_view(g, T_orig, np.r_[np.nan, np.full(n - 1, 9.0)]) is None
+    # plan_auto then answers as the dense tables do (rows_view declined)
     pin = plan_mod.PlanInput(np.ones(n), np.zeros(n), np.zeros(n), np.ones(n), np.ones(n), T_orig, np.full(n, 9.0),
                              np.ones(n), np.zeros(n))
     I[3, 2] = 1e305
@@ -116,10 +116,10 @@ def test_tables_that_could_overflow_stay_dense(monkeypatch):
     assert (a.T == b.T).all() and (a.retime == b.retime).all() and a.lam == b.lam
 
 
-def test_plan_auto_packed_is_plan_auto_dense(monkeypatch):
+def test_plan_auto_on_rows_is_plan_auto_dense(monkeypatch):
     cands, g, pin, budget = _sample_cands("prusa_gyroid_fullspeed.gcode", "prusa-mk3s")
     a = plan_mod.plan_auto(pin, budget, cands, [g])
-    monkeypatch.setattr(Candidates, "packed", lambda self, rows, T_orig, I_orig: None)
+    monkeypatch.setattr(Candidates, "rows_view", lambda self, rows, T_orig, I_orig: None)
     b = plan_mod.plan_auto(pin, budget, cands, [g])
     for f in ("retime", "T", "beta", "I_law", "KE_law"):
         x, y = getattr(a, f), getattr(b, f)
@@ -127,12 +127,28 @@ def test_plan_auto_packed_is_plan_auto_dense(monkeypatch):
     assert (a.reason == b.reason).all() and a.lam == b.lam and a.retime.sum() > 100
 
 
-def test_packed_tables_are_smaller():
-    cands, g, pin, _ = _sample_cands("prusa_mk3s_rectilinear.gcode", "prusa-mk3s")
-    pk = cands.packed(g, pin.T_orig[g], pin.I_orig[g])
-    Tx, Ix, finite, _ = cands.allocation_tables(g, pin.T_orig[g], pin.I_orig[g])
-    packed_b = sum(T.nbytes + I.nbytes for _, T, I, _ in pk.parts)
-    assert packed_b < 0.7 * (Tx.nbytes + Ix.nbytes + finite.nbytes)
+def test_rows_allocation_copies_no_table():
+    """What the allocation holds beside the candidates: a few numbers a row, not a copy of
+    the feasible entries (s25's packed tables: each row's entries, original and filler)."""
+    import tracemalloc
+    rng = np.random.default_rng(7)
+    n, k = 20000, len(T_RATIOS)
+    T_orig = rng.uniform(0.01, 2.0, n)
+    I = rng.uniform(0.0, 50.0, (n, k)) * (1.0 + T_RATIOS[None, ::-1])
+    I[rng.random((n, k)) < 0.2] = np.inf
+    cands = Candidates.of_tables(T_orig[:, None] * T_RATIOS[None, :], np.ones((n, k)), I, np.ones((n, k)), T_orig)
+    g = np.arange(n)
+    I_orig = rng.uniform(10.0, 60.0, n)
+    entries_b = 2 * cands.vals.shape[1] * 8             # their T and I: ~18 a row, ~290 bytes
+    tracemalloc.start()
+    try:
+        rv = cands.rows_view(g, T_orig, I_orig)
+        j, lam = plan_mod._allocate_rows(cands.vals, rv, 0.05 * T_orig.sum(), plan_mod._alloc_core())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert lam > 0.0 and (j < rv.cnt).any()
+    assert peak < 0.5 * entries_b
 
 
 @pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"), ("prusa_klipper.gcode", "voron24")])

@@ -35,7 +35,7 @@ import os
 import sys
 import time
 from collections import deque
-from operator import attrgetter, itemgetter
+from operator import attrgetter
 
 import numpy as np
 
@@ -47,6 +47,7 @@ from . import state as reader
 from .firmware import simulate as fwsim
 from .laws import chain as chain_law
 from .laws import circle as circle_law
+from .outranges import Digests, OutRanges, columns as range_columns
 from .firmware.simulate import LineRanges, ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
 from .schedule import plan_inputs, plan_strokes
@@ -426,12 +427,12 @@ def _apply_log(log, strokes, feat_at, by_feature):
 # ---------------------------------------------------------------- pass 2: rewrite
 def rewrite(path, out_fh, strokes, plan, profile: Profile, opts: Options, digests=None, reuse=None):
     """Copy the file to out_fh, re-timed strokes replaced.  Returns the output line
-    range of each re-timed stroke: list of (out_first, out_last, stroke_index).
+    range of each re-timed stroke: an OutRanges of (out_first, out_last, stroke_index).
 
     Each block is validated (validate.py) before it is written; a block whose emission
     raises or fails validation is replaced by the stroke's original lines, and the
-    stroke counted with the reason (plan.retime/plan.reason updated).  `digests` (a dict),
-    if given, receives a digest of each written block's text by stroke index (a second
+    stroke counted with the reason (plan.retime/plan.reason updated).  `digests` (a
+    Digests, or a dict), if given, receives a digest of each written block's text by stroke index (a second
     pass re-measures only the blocks whose text changed).  `reuse` (a _Reuse of the first
     pass's file) gives the blocks whose segment plan is the one the first pass wrote: they
     are copied from that file, not emitted and validated again.
@@ -540,7 +541,9 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     sel = np.flatnonzero(plan.retime)
     order = sel[np.argsort(np.fromiter(map(attrgetter("first_idx"), map(strokes.__getitem__, sel.tolist())), np.int64,
                                        len(sel)), kind="stable")]
-    out_ranges = []
+    out_ranges = OutRanges()
+    run_rows = []                 # the core's rows, moved into out_ranges after each call
+    run_digests = digests if digests is None or type(digests) is dict else {}    # (the core fills a dict)
     out_line = 0
     pos = 0                       # next line of the input to copy
     out_fh.flush()                # (nothing is buffered: the bytes go after what was written)
@@ -589,10 +592,15 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
         skip = core.skip_lines
         while k < n_order:
             if run is not None:
-                k, src.pos, pos, out_line = run(
-                    src.data, src.pos, pos, order, k, out_line, out_ranges, strokes, segs, beta_list, stroke_type,
-                    (seg_type, RowPlan), K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True],
-                    max_accel_a, digests, empty_digest, write)
+                try:
+                    k, src.pos, pos, out_line = run(
+                        src.data, src.pos, pos, order, k, out_line, run_rows, strokes, segs, beta_list, stroke_type,
+                        (seg_type, RowPlan), K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True],
+                        max_accel_a, run_digests, empty_digest, write)
+                finally:
+                    out_ranges.take(run_rows)
+                    if run_digests is not digests:
+                        digests.take(run_digests)
                 if k >= n_order:
                     break
             i = order[k]
@@ -701,7 +709,7 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
     core (GCODE_OPT_PURE_PYTHON), or into a text stream without a binary file under it."""
     from itertools import islice
     order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
-    out_ranges = []
+    out_ranges = OutRanges()
     out_line = 0
     pos = 0                       # next line of the input to copy
     with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh, np.errstate(all="ignore"):
@@ -905,6 +913,10 @@ def _per_stroke(out_ranges, t, a2, v2):
     the same order as into t[k], a2[k], v2[k]) and written out when the records leave it;
     call on_line.flush() after the pass for the last one."""
     n = len(out_ranges)
+    if type(out_ranges) is OutRanges:
+        first_of, last_of = out_ranges.first, out_ranges.last
+    else:
+        first_of, last_of = [r[0] for r in out_ranges], [r[1] for r in out_ranges]
     k, lo, hi = 0, -1, -1          # the stroke the records are at, its output lines
     live = False                   # a record was added to it
     s_t = s_a2 = s_v2 = 0.0
@@ -922,12 +934,12 @@ def _per_stroke(out_ranges, t, a2, v2):
             if live:
                 t[k], a2[k], v2[k] = s_t, s_a2, s_v2
                 live = False
-            while k < n and i > out_ranges[k][1]:
+            while k < n and i > last_of[k]:
                 k += 1
             if k >= n:
                 lo = hi = NOT_OPEN
                 return
-            lo, hi = out_ranges[k][0], out_ranges[k][1]
+            lo, hi = first_of[k], last_of[k]
             s_t = s_a2 = s_v2 = 0.0
         if lo <= i:
             live = True
@@ -943,8 +955,7 @@ def _stroke_sums(out_ranges, t, a2, v2, also=None):
     made unless also(rec) is given), or None where the Python model plays."""
     if fwsim.CORE != "c" or not hasattr(fwsim._core, "StrokeSums"):
         return None
-    lo = np.fromiter(map(itemgetter(0), out_ranges), np.int64, len(out_ranges))
-    hi = np.fromiter(map(itemgetter(1), out_ranges), np.int64, len(out_ranges))
+    lo, hi, _ = range_columns(out_ranges)
     return fwsim._core.StrokeSums(lo, hi, t, a2, v2, also)
 
 
@@ -995,8 +1006,7 @@ def stroke_lines(strokes, order, out_ranges):
     n, m = len(strokes), len(order)
     if not n or not m:
         return _stroke_lines_loop(strokes, order, out_ranges)
-    rng = np.array(out_ranges, np.int64).reshape(-1, 3)
-    ra, rz, ri = rng[:, 0], rng[:, 1], rng[:, 2]
+    ra, rz, ri = range_columns(out_ranges)
     o = np.asarray(order, np.int64)
     if (len(ri) and (ri.min() < 0 or ri.max() >= n or len(np.unique(ri)) != len(ri))) or o.min() < 0 or o.max() >= n:
         return _stroke_lines_loop(strokes, order, out_ranges)
@@ -1211,7 +1221,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 timing.lap("plan")
                 if prog:
                     prog.start("rewrite")
-                digests = {}
+                digests = Digests(len(strokes))
                 # a second pass copies the blocks it shares with the first from the first's
                 # file, so it writes beside it and then takes its place
                 dest = tmp if first is None else tmp + ".pass2"
@@ -1247,8 +1257,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 lines = stroke_lines(strokes, order, out_ranges)
                 got = None
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
-                    changed = np.array([plan.retime[i] != first.retime[i] or digests.get(i) != first.digests.get(i)
-                                        for i in range(len(strokes))], bool)
+                    changed = (np.asarray(plan.retime, bool) != np.asarray(first.retime, bool)) | digests.differ(first.digests)
                     got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,
                                     first.out_ranges, first.figures, out_ranges, opts)
                 ring_after = None     # the written file's ringing, when this pass played all of it
@@ -1370,14 +1379,12 @@ def _departures(plan, out_ranges, t1):
     n = len(out_ranges)
     if (n and type(t_pred) is np.ndarray and type(t1) is np.ndarray and t_pred.dtype == np.float64
             and t1.dtype == np.float64 and t1.ndim == 1 and len(t1) >= n):
-        ii = np.fromiter(map(_THIRD, out_ranges), np.int64, n)
+        ii = range_columns(out_ranges)[2]
         hit = np.flatnonzero(t1[:n] > DEPART_R * t_pred[ii] + DEPART_T)
-        return [out_ranges[k][2] for k in hit.tolist()]
+        return ii[hit].tolist()
     return [i for k, (_, _, i) in enumerate(out_ranges)
             if t1[k] > DEPART_R * t_pred[i] + DEPART_T]
 
-
-_THIRD = itemgetter(2)
 
 
 class _Timing:

@@ -6,10 +6,11 @@ import gc
 import math
 import os
 from collections import Counter
-from operator import attrgetter, itemgetter
+from operator import attrgetter
 
 import numpy as np
 
+from .outranges import columns as range_columns
 from .strokes import Stroke
 
 
@@ -118,7 +119,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
                   out_ranges, t_after, a2_after, v2_after, elapsed_t, ringing=None):
     """ringing: None, or (before, after) ringing figure dicts (the firmware-model passes over
     the original and the written file fed ringing.Collector): the summary's "ringing" key."""
-    idx = np.fromiter(map(itemgetter(2), out_ranges), int, len(out_ranges))
+    out_first, _, idx = range_columns(out_ranges)
     idx_list = idx.tolist()
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
@@ -132,7 +133,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
     try:
-        _per_stroke_rows(idx_list, list(map(itemgetter(0), out_ranges)), T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
+        _per_stroke_rows(idx_list, out_first.tolist(), T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
                          plan.I_law[idx].tolist(), np.asarray(t_after).tolist(), np.asarray(a2_after).tolist(),
                          plan.beta[idx].tolist(), strokes, per_stroke, by_kind)
     finally:

@@ -86,6 +86,8 @@ class Digests:
     def __setitem__(self, i, dg):
         if len(dg) != 16:
             raise ValueError("Digests: a digest is 16 bytes")
+        if not 0 <= i < len(self._has):
+            raise IndexError(f"Digests: stroke {i} out of range")
         self._d[16 * i:16 * i + 16] = dg
         self._has[i] = 1
 
@@ -104,9 +106,20 @@ class Digests:
         return self._has.count(1)
 
     def take(self, d: dict):
-        """Set the entries of the dict d (as the compiled rewrite fills one) and empty it."""
-        for i, dg in d.items():
-            self[i] = dg
+        """Set the entries of the dict d (as the compiled rewrite fills one) and empty it:
+        in rows (one join and two fancy assignments, not a call an entry)."""
+        if not d:
+            return
+        blob = b"".join(d.values())
+        if len(blob) != 16 * len(d):           # (a digest of another size: said by __setitem__)
+            for i, dg in d.items():
+                self[i] = dg
+        else:
+            idx = np.fromiter(d.keys(), np.int64, len(d))
+            if idx.size and (idx.min() < 0 or idx.max() >= len(self._has)):
+                raise IndexError("Digests: a stroke out of range")
+            np.frombuffer(self._d, np.uint8).reshape(-1, 16)[idx] = np.frombuffer(blob, np.uint8).reshape(-1, 16)
+            np.frombuffer(self._has, np.uint8)[idx] = 1
         d.clear()
 
     def differ(self, other: "Digests"):

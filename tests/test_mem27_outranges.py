@@ -102,6 +102,11 @@ def test_digests_read_as_the_dict(seed):
     assert np.array_equal(got.differ(other), want) and want.any() and not want.all()
     with pytest.raises(ValueError):
         got[0] = b"short"
+    with pytest.raises(IndexError):
+        got[n] = bytes(16)
+    with pytest.raises(IndexError):
+        got.take({-1: bytes(16)})
+    assert len(got._d) == 16 * n
 
 
 def test_a_second_pass_compares_the_digests(tmp_path, monkeypatch):

@@ -330,6 +330,27 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
     if n <= chunk:
         return _candidates_auto(p)
     out = [np.empty((n, len(T_RATIOS))) for _ in range(4)]
+    for a, b, tables in _chunk_tables(p, chunk):
+        for o, piece in zip(out, tables):
+            o[a:b] = piece
+    return tuple(out)
+
+
+def candidate_pieces(p: PlanInput, rows, T_orig, chunk=CANDIDATE_CHUNK):
+    """candidates_auto(p)'s tables of the strokes rows (p: their PlanInput) kept sparse a
+    chunk at a time: [Candidates.piece of each chunk's rows].  The same entries as
+    Candidates.piece(rows, candidates_auto(p), T_orig) (each row's own), without the
+    dense (n, 23) tables of all the rows at once (four of them, ~12 MB for 16 k lines)."""
+    rows = np.asarray(rows)
+    if len(p.L) <= chunk:
+        return [Candidates.piece(rows, _candidates_auto(p), T_orig)]
+    return [Candidates.piece(rows[a:b], tables, T_orig) for a, b, tables in _chunk_tables(p, chunk)]
+
+
+def _chunk_tables(p: PlanInput, chunk):
+    """(first row, end row, (T, beta, I, KE) of those rows) chunk by chunk, in order (see
+    candidates_auto)."""
+    n = len(p.L)
     step = chunk * BISECT_CHUNKS
     for a0 in range(0, n, step):
         chunks = [np.arange(a, min(a + chunk, n)) for a in range(a0, min(a0 + step, n), chunk)]
@@ -338,9 +359,7 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
         for rows, lv in zip(chunks, live):
             q = p.take(rows)
             tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
-            for o, piece in zip(out, tables):
-                o[rows[0]:rows[-1] + 1] = piece      # (a run of rows: a slice, not an index)
-    return tuple(out)
+            yield rows[0], rows[-1] + 1, tables      # (a run of rows: a slice, not an index)
 
 
 BISECT_CHUNKS = 8       # candidates_auto: chunks whose bisections are made at once

@@ -31,7 +31,7 @@ from . import curves
 from .corners import junction_commands
 from .laws import circle
 from .coverage import feature_overshoot_r
-from .plan import (Candidates, Plan, PlanInput, candidates_auto, input_faults, isolate, plan_auto,
+from .plan import (Candidates, Plan, PlanInput, candidate_pieces, input_faults, isolate, plan_auto,
                    plan_fixed_alpha)
 from .profile import Profile
 from .segments import RowPlan, SegmentPlan, SegmentRules, plan_segments, slowed_original
@@ -57,7 +57,7 @@ def _fixed_lines(plan, pin, rows, strokes, profile, alpha, rules):
 
 
 KINDS = {
-    K_LINE: Kind(lambda pin, r, sts, prof, rules: candidates_auto(pin.take(r)), _fixed_lines,
+    K_LINE: Kind(lambda pin, r, sts, prof, rules: _Pieces(candidate_pieces(pin.take(r), r, pin.T_orig)), _fixed_lines,
                  lambda sts, T, b, rules, prof: plan_segments(sts, T, b, rules), batch=False),
     K_ARC: Kind(lambda pin, r, sts, prof, rules: arcs.candidates_arc(pin, r, sts),
                 lambda plan, pin, r, sts, prof, alpha, rules: arcs.fixed_alpha_arc(plan, pin, r, sts, alpha),
@@ -129,6 +129,10 @@ def _rows_by_kind(strokes):
     return {k: np.flatnonzero(kinds == k) for k in KINDS}
 
 
+class _Pieces(list):
+    """A kind's candidates already as Candidates.piece()s (lines: plan.candidate_pieces)."""
+
+
 CANDIDATE_ROWS = 1 << 14      # line strokes whose candidates are made at once (plan.py's
                               # CANDIDATE_CHUNK x BISECT_CHUNKS: its batches as in one call)
 
@@ -147,9 +151,12 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
             # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
             step = CANDIDATE_ROWS if k == K_LINE else max(ok[k].size, 1)
             for a in range(0, ok[k].size, step):
-                pieces += [Candidates.piece(sub, tables, pin.T_orig) for sub, tables in
-                           isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules), ok[k][a:a + step],
-                                   "planning", failed)]
+                for sub, tables in isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
+                                           ok[k][a:a + step], "planning", failed):
+                    if type(tables) is _Pieces:           # (kept sparse by the kind, chunk by chunk)
+                        pieces += tables
+                    else:
+                        pieces.append(Candidates.piece(sub, tables, pin.T_orig))
         cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")

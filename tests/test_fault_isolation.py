@@ -59,29 +59,29 @@ def _check_one_dropped(s, baseline, reason):
 
 def test_planning_exception_drops_only_its_stroke(tmp_path, monkeypatch, baseline):
     target = _victim_length(baseline)
-    real = schedule.candidates_auto
+    real = schedule.candidate_pieces
 
-    def flaky(pin):
+    def flaky(pin, rows, T_orig):
         if any(_is_victim(L, target) for L in pin.L):
             raise FloatingPointError("injected")
-        return real(pin)
+        return real(pin, rows, T_orig)
 
-    monkeypatch.setattr(schedule, "candidates_auto", flaky)
+    monkeypatch.setattr(schedule, "candidate_pieces", flaky)
     s, _ = _run(tmp_path)
     _check_one_dropped(s, baseline, "error: planning (FloatingPointError)")
 
 
 def test_non_finite_candidate_drops_only_its_stroke(tmp_path, monkeypatch, baseline):
     target = _victim_length(baseline)
-    real = schedule.candidates_auto
+    from gcode_opt.plan import Candidates, candidates_auto
 
-    def poisoned(pin):
-        T, beta, I, KE = real(pin)
+    def poisoned(pin, rows, T_orig):
+        T, beta, I, KE = candidates_auto(pin)
         I = I.copy()
         I[[_is_victim(L, target) for L in pin.L], 3] = np.nan
-        return T, beta, I, KE
+        return [Candidates.piece(rows, (T, beta, I, KE), T_orig)]
 
-    monkeypatch.setattr(schedule, "candidates_auto", poisoned)
+    monkeypatch.setattr(schedule, "candidate_pieces", poisoned)
     s, _ = _run(tmp_path)
     _check_one_dropped(s, baseline, "error: planning (non-finite)")
 

@@ -165,3 +165,21 @@ def test_line_candidates_by_chunks_are_the_whole(name, prof, monkeypatch):
     assert a.vals.shape[1] > 1000 and (np.bincount(np.flatnonzero(a.mask.any(axis=1)) // 777).size > 3)
     assert np.array_equal(a.mask, b.mask) and np.array_equal(a.t_pos, b.t_pos) and np.array_equal(a.start, b.start)
     assert np.array_equal(a.vals.view(np.int64), b.vals.view(np.int64))
+
+
+@pytest.mark.parametrize("chunk", [7, 300, 10 ** 6])
+def test_line_pieces_chunk_by_chunk_are_the_whole_tables_made_sparse(chunk):
+    """plan.candidate_pieces (each chunk's tables made sparse as soon as made) gives the
+    entries Candidates.piece gives on candidates_auto's dense tables of all the rows."""
+    profile = load_profile("prusa-mk3s")
+    opts = pipeline.Options()
+    strokes, _ = pipeline.analyse(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    rows = schedule._rows_by_kind(strokes)["line"]
+    p = pin.take(rows)
+    got, _ = Candidates.of_pieces(len(strokes), plan_mod.candidate_pieces(p, rows, pin.T_orig, chunk=chunk), pin.T_orig)
+    want, _ = Candidates.of_pieces(len(strokes), [Candidates.piece(rows, plan_mod.candidates_auto(p), pin.T_orig)],
+                                   pin.T_orig)
+    assert got.vals.shape[1] > 1000
+    assert np.array_equal(got.mask, want.mask) and np.array_equal(got.t_pos, want.t_pos)
+    assert np.array_equal(got.vals.view(np.int64), want.vals.view(np.int64))

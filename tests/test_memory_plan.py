@@ -21,7 +21,7 @@ import numpy as np
 from gcode_opt import chains, curves
 from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
-from gcode_opt.plan import T_RATIOS, Candidates, allocate, isolate, plan_auto
+from gcode_opt.plan import T_RATIOS, Candidates, allocate, candidates_auto, isolate, plan_auto
 from gcode_opt.profile import load_profile
 from gcode_opt.segments import SegmentRules
 
@@ -89,7 +89,11 @@ def _pieces(name, profile):
     pieces = []
     for k, kind in sc.KINDS.items():
         ok = np.array([i for i in rows[k] if i not in failed], int)
-        pieces += isolate(lambda r: kind.candidates(pin, r, strokes, prof, rules), ok, "planning", failed)
+        # (the lines' dense tables: their kind keeps them sparse chunk by chunk, held to
+        # these by tests/test_mem27_alloc_rows.py)
+        fn = ((lambda r: candidates_auto(pin.take(r))) if k == "line"
+              else (lambda r, kind=kind: kind.candidates(pin, r, strokes, prof, rules)))
+        pieces += isolate(fn, ok, "planning", failed)
     return strokes, pin, pieces, failed, sim0.time_t, rows
 
 

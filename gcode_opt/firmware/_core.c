@@ -4891,13 +4891,36 @@ static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
 }
 
 /* ---------------------------------------------------------------- plan._allocate's choices
- * alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() of the
+ * least_two: one row's choice at lam among its w costs I[c] + lam * T[c] (one product, then one sum:
+ * numpy's two ufuncs) and then the last, i_last + lam * t_last, in that order: j = the first least
+ * (a later one replaces it only where strictly less), c1 its cost, c2 the least of the others (the
+ * least again on a tie); *margin = inf where c2 is inf else c2 - c1, *tol = margin_r (|c1| + |c2|).
+ * Returns j (w: the last). */
+static inline Py_ssize_t least_two(const double *T, const double *I, Py_ssize_t w, double t_last, double i_last,
+                                   double lam, double margin_r, double *margin, double *tol)
+{
+    double c1 = w > 0 ? I[0] + lam * T[0] : i_last + lam * t_last, c2 = INFINITY;
+    Py_ssize_t j = 0;
+    for (Py_ssize_t c = 1; c <= w; c++) {
+        double x = c < w ? I[c] + lam * T[c] : i_last + lam * t_last;
+        if (x < c1) {
+            c2 = c1;
+            c1 = x;
+            j = c;
+        } else if (x < c2) {
+            c2 = x;
+        }
+    }
+    *margin = isinf(c2) ? INFINITY : c2 - c1;
+    *tol = margin_r * (fabs(c1) + fabs(c2));
+    return j;
+}
+
+/* alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() of the
  * rows `rows` (intp) of the row-major (n, k) tables Tx, Ix (float64; plain: every T finite
- * and >= 0, Ix inf where not finite) at lam, k >= 2: per row, cost = Ix + lam * Tx (one
- * product, then one sum: numpy's two ufuncs), j = argmin's column (the first least: a later
- * column replaces it only where strictly less), c1 its cost, c2 the least of the others (the
- * least again on a tie), margin = inf where c2 is inf else c2 - c1, tol = MARGIN_R
- * (|c1| + |c2|); and its take(): dT[r] = Tx[r, j] - T_orig[r].  The costs hold no NaN (finite lam), so these are the numpy path's values
+ * and >= 0, Ix inf where not finite) at lam, k >= 2: per row least_two over its k columns
+ * (j = argmin's column, margin, tol = MARGIN_R (|c1| + |c2|)); and its take(): dT[r] =
+ * Tx[r, j] - T_orig[r].  The costs hold no NaN (finite lam), so these are the numpy path's values
  * (the sign of a zero c2 aside, which only comparisons and fabs read). */
 static PyObject *mod_alloc_choices(PyObject *self, PyObject *args)
 {
@@ -4928,22 +4951,9 @@ static PyObject *mod_alloc_choices(PyObject *self, PyObject *args)
             goto done;
         }
         const double *tr = T + r * k, *ir = I + r * k;
-        double c1 = ir[0] + lam * tr[0], c2 = INFINITY;
-        Py_ssize_t j = 0;
-        for (Py_ssize_t c = 1; c < k; c++) {
-            double x = ir[c] + lam * tr[c];
-            if (x < c1) {
-                c2 = c1;
-                c1 = x;
-                j = c;
-            } else if (x < c2) {
-                c2 = x;
-            }
-        }
+        Py_ssize_t j = least_two(tr, ir, k - 1, tr[k - 1], ir[k - 1], lam, margin_r, mo + q, to + q);
         jo[q] = j;
         dT[r] = tr[j] - T_orig[r];
-        mo[q] = isinf(c2) ? INFINITY : c2 - c1;
-        to[q] = margin_r * (fabs(c1) + fabs(c2));
     }
     ret = Py_None;
     Py_INCREF(ret);
@@ -4997,22 +5007,9 @@ static PyObject *mod_alloc_rows(PyObject *self, PyObject *args)
         }
         const double *tr = T + first[r], *ir = I + first[r];
         Py_ssize_t w = cnt[r];
-        double c1 = w > 0 ? ir[0] + lam * tr[0] : I_orig[r] + lam * T_orig[r], c2 = INFINITY;
-        Py_ssize_t j = 0;
-        for (Py_ssize_t c = 1; c <= w; c++) {
-            double x = c < w ? ir[c] + lam * tr[c] : I_orig[r] + lam * T_orig[r];
-            if (x < c1) {
-                c2 = c1;
-                c1 = x;
-                j = c;
-            } else if (x < c2) {
-                c2 = x;
-            }
-        }
+        Py_ssize_t j = least_two(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q);
         jo[q] = j;
         dT[r] = (j < w ? tr[j] : T_orig[r]) - T_orig[r];
-        mo[q] = isinf(c2) ? INFINITY : c2 - c1;
-        to[q] = margin_r * (fabs(c1) + fabs(c2));
     }
     ret = Py_None;
     Py_INCREF(ret);

@@ -31,6 +31,7 @@ vertices and to the finite-buffer floor of a Marlin planner (as arcs.py), and it
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -473,12 +474,14 @@ class _Blk:
     again from them when read, by _parts_block's operations (the difference of the
     vertices over the kept lengths d: the same bits).  lim: (profile, the limits objects,
     which one each row's, each row's acceleration): then the caps, read by chains.classify
-    alone under classic jerk, may be let go (drop_jerk1) and are made again when read."""
-    __slots__ = ("d", "_u", "_pts", "kappa_v", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
-                 "cap_min")
+    alone under classic jerk, may be let go (drop_jerk1) and are made again when read.
+    With pts, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
+    are made: their one reader) and is made again by _parts_block when read."""
+    __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
+                 "cap_min", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
-        self.d, self.kappa_v, self.kappa_eff = d, kappa_v, kappa_eff
+        self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
         self._u, self._pts = (None, pts) if pts is not None else (u, None)
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
@@ -515,6 +518,30 @@ class _Blk:
     @caps.setter
     def caps(self, c):
         self._caps = c
+
+    @property
+    def kappa_v(self):
+        kv = self._kv
+        if kv is None:              # let go by drop_kappa: the same rows' _parts_block, kept
+            m, n = self.d.shape
+            with np.errstate(all="ignore"):
+                kv = self._kv = _parts_block(_pts_xy(self._pts).reshape(m, n + 1, 2))[4]
+        return kv
+
+    @kappa_v.setter
+    def kappa_v(self, kv):
+        self._kv = kv
+
+
+_BLOCKS = weakref.WeakSet()     # build_geoms' blocks alive (drop_kappa)
+
+
+def drop_kappa():
+    """Let go of κ at the vertices of every block of build_geoms alive (~2.7 MB on the
+    gyroid plate through planning's budget runs): the curves' candidates (candidates_curve)
+    are its one reader in a run, made once; a later reader makes it again (_Blk.kappa_v)."""
+    for b in list(_BLOCKS):
+        b._kv = None
 
 
 def _pts_xy(ps):
@@ -648,7 +675,9 @@ def _block_geoms(sts, block, profile, j1):
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
     # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
-    return _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=[st.pts for st in sts], lim=lim), keep
+    blk = _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=[st.pts for st in sts], lim=lim)
+    _BLOCKS.add(blk)
+    return blk, keep
 
 
 def _block_caps(lim, u, d, jerk_r):
@@ -1164,7 +1193,10 @@ def candidates_curve(pin, rows, strokes, profile):
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 
-    return candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
+    table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
+    # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go
+    drop_kappa()
+    return table
 
 
 def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):

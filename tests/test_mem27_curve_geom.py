@@ -5,7 +5,9 @@
   them and the kept lengths d when read (_Blk.u_rows / u_row, CurveGeom.u, cos_turn,
   stack_du);
 * under classic jerk, chains.classify's drop_jerk1 lets go of the blocks' vertex caps too
-  (~2.4 MB; classify is their one reader there): _Blk.caps makes them again when read.
+  (~2.4 MB; classify is their one reader there): _Blk.caps makes them again when read;
+* candidates_curve, κ(s)'s one reader in a run, lets go of κ at the vertices of every
+  block alive (drop_kappa, ~2.7 MB): _Blk.kappa_v makes it again by _parts_block.
 
 The reference is each stroke's geometry on CurveGeom's own path (its own _segments, its
 own vertex_caps, its u kept as made), independent of the blocks; every field must be the
@@ -86,6 +88,10 @@ def test_blocks_without_u_same_bits(path, profile, core, monkeypatch):
         assert _bits(D) == _bits(np.array([g.d for g in pick], float))
         for b in batched:                   # the whole block's u: its rows'
             assert _bits(b.u) == _bits(np.stack([b.u_row(k) for k in range(b.d.shape[0])]))
+        curves.drop_kappa()                 # κ at the vertices let go: made again when read
+        assert all(b._kv is None for b in batched)
+        assert [_fields(st.curv, j1) for st in sts] == want
+        assert all(b._kv is not None for b in batched)
         for st in sts:
             st.curv = None
 
@@ -130,3 +136,20 @@ def test_blocks_hold_less(monkeypatch):
     for st in sts:
         st.curv = None
         st.chain_T = None
+
+
+def test_candidates_let_kappa_go():
+    """plan_inputs then the curves' candidates, as planning runs them: afterwards no block
+    holds κ at the vertices, and the candidate table is the same whether the blocks held
+    it or made it again (a second call reads the made-again κ)."""
+    from gcode_opt.schedule import plan_inputs
+    prof = load_profile("prusa-mk3s")
+    strokes, _ = analyse(os.path.join(S, "prusa_gyroid.gcode"), prof, Options())
+    pin = plan_inputs(strokes, prof, Options())
+    rows = [i for i, st in enumerate(strokes) if chains.plan_kind(st) == K_CURVE and not pin.fault[i]]
+    assert len(rows) > 10
+    first = curves.candidates_curve(pin, rows, strokes, prof)
+    blks = {id(st.curv._b): st.curv._b for st in strokes if st.curv is not None and st.curv._b._pts is not None}
+    assert blks and all(b._kv is None for b in blks.values())
+    again = curves.candidates_curve(pin, rows, strokes, prof)
+    assert [_bits(x) for x in first] == [_bits(x) for x in again]

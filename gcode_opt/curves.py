@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from operator import attrgetter
 
 import numpy as np
 
@@ -424,16 +425,18 @@ class CurveGeom:
 def stack_du(gs):
     """(np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)): the
     geometries' segment lengths and directions stacked, each run of rows of one block
-    (build_geoms' _Blk) taken by one fancy index of its arrays (the same doubles), not
-    a view and a copy a geometry (~1 us each, ~34 k geometries a plate's chain finishing).
-    Geometries of another make, or blocks whose rows do not stack: row by row."""
+    (build_geoms' _Blk) taken by one fancy index of its lengths (the same doubles), not
+    a view and a copy a geometry (~1 us each, ~34 k geometries a plate's chain finishing),
+    and the directions made from the stacked lengths and the strokes' vertices in one
+    pass (_stack_u).  Geometries of another make, or blocks whose rows do not stack: row
+    by row."""
     try:
         bs = [g._b for g in gs]
         ks = [g._k for g in gs]
     except AttributeError:
         bs = None
     if bs:
-        ds, us = [], []
+        ds, runs = [], []
         a, m = 0, len(bs)
         while a < m:                    # runs of one block
             b = bs[a]
@@ -441,11 +444,32 @@ def stack_du(gs):
             while z < m and bs[z] is b:
                 z += 1
             ds.append(np.asarray(b.d, float)[ks[a:z]])
-            us.append(b.u_rows(ks[a:z]))
+            runs.append((b, a, z))
             a = z
-        if all(x.shape[1:] == ds[0].shape[1:] for x in ds) and all(x.shape[1:] == us[0].shape[1:] for x in us):
-            return ((ds[0], us[0]) if len(ds) == 1 else (np.concatenate(ds), np.concatenate(us)))
+        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
+            D = ds[0] if len(ds) == 1 else np.concatenate(ds)
+            return D, _stack_u(gs, runs, ks, D)
     return np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)
+
+
+_GPTS = attrgetter("_pts")
+
+
+def _stack_u(gs, runs, ks, D):
+    """stack_du's directions: the rows of the runs (block, first, end) of gs, whose
+    lengths D holds stacked.  Blocks that keep no u (build_geoms'): one pass of the
+    compiled core over every row (each geometry's _pts is its block row's vertices: the
+    same operations as _Blk.u_rows); else run by run."""
+    if _U_ROWS is not None and all(b._u is None for b, _, _ in runs):
+        m, n = D.shape
+        out = np.empty((m, n, 2))
+        try:
+            _U_ROWS(list(map(_GPTS, gs)), None, 0, D, m, n, out)
+            return out
+        except (TypeError, ValueError, AttributeError, BufferError):
+            pass
+    us = [b.u_rows(ks[a:z]) for b, a, z in runs]
+    return us[0] if len(us) == 1 else np.concatenate(us)
 
 
 def drop_jerk1(sts):
@@ -454,13 +478,17 @@ def drop_jerk1(sts):
     finds None and makes them (chains.vertex_caps: the same numbers).  Under classic jerk
     (chains.classify calls this then) the caps at jerk's share go too: classify is their
     one reader (curves read cap); a block of build_geoms makes them again if asked."""
-    for st in sts:
-        g = st.curv
-        if g is not None:
-            b = g._b
-            b.caps_jerk1 = None
-            if b._lim is not None:      # the caps at jerk's share too: chains.classify alone reads
-                b._caps = None          # them under classic jerk (made again if read: _Blk.caps)
+    try:                                # each block once (~21 k strokes, ~120 blocks a plate)
+        blocks = set(map(_CURV_B, sts))
+    except AttributeError:              # a stroke without a geometry
+        blocks = {g._b for g in [st.curv for st in sts] if g is not None}
+    for b in blocks:
+        b.caps_jerk1 = None
+        if b._lim is not None:          # the caps at jerk's share too: chains.classify alone reads
+            b._caps = None              # them under classic jerk (made again if read: _Blk.caps)
+
+
+_CURV_B = attrgetter("curv._b")
 
 
 class _Blk:
@@ -495,18 +523,37 @@ class _Blk:
         """u[ks] (ks a list of rows): _parts_block's seg / d[..., None] of those rows' vertices."""
         if self._u is not None:
             return np.asarray(self._u, float)[ks]
-        n = self.d.shape[1]
-        xy = _pts_xy([self._pts[k] for k in ks]).reshape(len(ks), n + 1, 2)
+        m, n = len(ks), self.d.shape[1]
+        if _U_ROWS is not None:
+            out = np.empty((m, n, 2))
+            if self._core_u(np.asarray(ks, np.int64), 0, m, out):
+                return out
+        xy = _pts_xy(list(map(self._pts.__getitem__, ks))).reshape(m, n + 1, 2)
         with np.errstate(all="ignore"):
-            return (xy[:, 1:] - xy[:, :-1]) / self.d[ks][..., None]
+            u = np.subtract(xy[:, 1:], xy[:, :-1])
+            return np.divide(u, self.d[ks][..., None], out=u)
 
     def u_row(self, k):
         """u[k], (n, 2): u_rows of one row, as 2-D arrays (the same operations)."""
         if self._u is not None:
             return self._u[k]
+        if _U_ROWS is not None:
+            out = np.empty((self.d.shape[1], 2))
+            if self._core_u(None, k, 1, out):
+                return out
         xy = _pts_xy([self._pts[k]]).reshape(-1, 2)
         with np.errstate(all="ignore"):
-            return (xy[1:] - xy[:-1]) / self.d[k][:, None]
+            u = np.subtract(xy[1:], xy[:-1])
+            return np.divide(u, self.d[k][:, None], out=u)
+
+    def _core_u(self, ks, k0, m, out):
+        """u_rows by the compiled core (_curvecore.c u_rows: the same two operations per
+        element) into out; False where it does not take the rows (vertices not Points)."""
+        try:
+            _U_ROWS(self._pts, ks, k0, self.d, m, self.d.shape[1], out)
+        except (TypeError, ValueError, AttributeError, BufferError):
+            return False
+        return True
 
     @property
     def caps(self):
@@ -533,6 +580,8 @@ class _Blk:
         self._kv = kv
 
 
+_XY = attrgetter("xy")
+_U_ROWS = getattr(_CURVE_CORE, "u_rows", None)      # _Blk.u_rows compiled (or None)
 _BLOCKS = weakref.WeakSet()     # build_geoms' blocks alive (drop_kappa)
 
 
@@ -546,8 +595,10 @@ def drop_kappa():
 
 def _pts_xy(ps):
     """The vertices of the point lists ps end to end, flat (x0, y0, x1, ...): _xy_block's."""
-    if all(type(p) is Points for p in ps):
-        return np.frombuffer(b"".join([p.xy for p in ps]), float)
+    try:                # Points: their packed doubles joined (an array("d") each)
+        return np.frombuffer(b"".join(map(_XY, ps)), float)
+    except (AttributeError, TypeError):
+        pass
     return np.concatenate([np.frombuffer(p.xy, float) if isinstance(p, Points) else np.asarray(p, float).ravel()
                            for p in ps])
 

@@ -3,7 +3,7 @@
 * curves._Blk keeps no directions u (~5 MB on the gyroid plate at planning's peak): a
   block of build_geoms holds its rows' vertices (the strokes' own pts) and makes u from
   them and the kept lengths d when read (_Blk.u_rows / u_row, CurveGeom.u, cos_turn,
-  stack_du);
+  stack_du; _curvecore.c u_rows, or numpy's subtract and divide without the core);
 * under classic jerk, chains.classify's drop_jerk1 lets go of the blocks' vertex caps too
   (~2.4 MB; classify is their one reader there): _Blk.caps makes them again when read;
 * candidates_curve, κ(s)'s one reader in a run, lets go of κ at the vertices of every
@@ -72,6 +72,7 @@ def test_blocks_without_u_same_bits(path, profile, core, monkeypatch):
     if not core:
         monkeypatch.setattr(curves, "_CURVE_CORE", None)
         monkeypatch.setattr(curves, "_JERK_CAPS", None)
+        monkeypatch.setattr(curves, "_U_ROWS", None)
     prof, sts = _curves(path, profile)
     for jerk1 in (False, True):
         want = _own(sts, prof, jerk1)
@@ -86,8 +87,10 @@ def test_blocks_without_u_same_bits(path, profile, core, monkeypatch):
         D, U = curves.stack_du(pick)
         assert _bits(U) == _bits(np.array([g.u for g in pick], float))
         assert _bits(D) == _bits(np.array([g.d for g in pick], float))
-        for b in batched:                   # the whole block's u: its rows'
+        for b in batched:                   # the whole block's u: its rows', rows in any order
             assert _bits(b.u) == _bits(np.stack([b.u_row(k) for k in range(b.d.shape[0])]))
+            ks = list(range(b.d.shape[0]))[::-2]
+            assert _bits(b.u_rows(ks)) == _bits(b.u[ks])
         curves.drop_kappa()                 # κ at the vertices let go: made again when read
         assert all(b._kv is None for b in batched)
         assert [_fields(st.curv, j1) for st in sts] == want
@@ -153,3 +156,28 @@ def test_candidates_let_kappa_go():
     assert blks and all(b._kv is None for b in blks.values())
     again = curves.candidates_curve(pin, rows, strokes, prof)
     assert [_bits(x) for x in first] == [_bits(x) for x in again]
+
+
+@pytest.mark.skipif(not HAVE_CORE or curves._U_ROWS is None, reason="curve core not built")
+def test_core_u_rows_same_bits_as_numpy(monkeypatch):
+    """_curvecore.c u_rows against numpy's path, on sample rows and on random vertices
+    (rows in any order, one row, rows whose vertices are lists: numpy's path)."""
+    prof, sts = _curves(os.path.join(S, "prusa_gyroid.gcode"), "prusa-mk3s")
+    curves.build_geoms(sts, prof)
+    blks = [b for b in {id(st.curv._b): st.curv._b for st in sts}.values() if b._pts is not None]
+    rng = np.random.default_rng(27)
+    from gcode_opt.strokes import Points
+    m, n = 40, 7
+    xy = rng.normal(scale=30.0, size=(m, n + 1, 2))
+    d = np.hypot(*np.moveaxis(np.diff(xy, axis=1), -1, 0))
+    pts = [Points(r.ravel().tolist()) if k % 3 else [tuple(v) for v in r.tolist()] for k, r in enumerate(xy)]
+    blks.append(curves._Blk(d, None, None, None, None, None, None, None, False, pts=pts))
+    for b in blks:
+        ks = rng.permutation(b.d.shape[0]).tolist()
+        got = [b.u_rows(ks), b.u_rows(ks[:1]), b.u_row(ks[0])]
+        with monkeypatch.context() as mp:
+            mp.setattr(curves, "_U_ROWS", None)
+            want = [b.u_rows(ks), b.u_rows(ks[:1]), b.u_row(ks[0])]
+        assert [_bits(x) for x in got] == [_bits(x) for x in want]
+    for st in sts:
+        st.curv = None

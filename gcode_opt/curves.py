@@ -31,6 +31,8 @@ vertices and to the finite-buffer floor of a Marlin planner (as arcs.py), and it
 from __future__ import annotations
 
 import math
+import weakref
+from operator import attrgetter
 
 import numpy as np
 
@@ -305,11 +307,12 @@ class CurveGeom:
 
     Compact: a geometry is one row of a block shared by the strokes of one vertex count
     (build_geoms: _block_geoms), every field read from the block when asked.  The block
-    (_Blk) keeps only what later steps read and cannot make cheaply: the lengths d, the
-    directions u, κ at the vertices, κ_eff, the vertex caps (and classic jerk's at the
-    whole jerk), cap and cos_end; the turns' cosines (cos_turn) and the arc lengths at
-    the vertices (s_v) are made from u and d when read, by the same operations as when
-    they were kept (einsum of the row; cumsum, a sequential sum: the same bits)."""
+    (_Blk) keeps only what later steps read and cannot make cheaply: the lengths d, κ at
+    the vertices, κ_eff, the vertex caps (and classic jerk's at the whole jerk), cap and
+    cos_end; the directions u are made from the strokes' own vertices and d when read
+    (_Blk.u_rows), the turns' cosines (cos_turn) and the arc lengths at the vertices (s_v)
+    from u and d, by the same operations as when they were kept (the difference over d;
+    einsum of the row; cumsum, a sequential sum: the same bits)."""
     __slots__ = ("_pts", "_b", "_k", "chain_caps", "_j1")
 
     def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None, cap=None, cos_end=None):
@@ -349,7 +352,7 @@ class CurveGeom:
         self._j1 = _FROM_BLOCK
 
     d = property(lambda self: self._b.d[self._k], doc="segment lengths (n,)")
-    u = property(lambda self: self._b.u[self._k], doc="segment unit directions (n, 2)")
+    u = property(lambda self: self._b.u_row(self._k), doc="segment unit directions (n, 2)")
     kappa_v = property(lambda self: self._b.kappa_v[self._k], doc="smoothed curvature at each vertex (n + 1,)")
     caps = property(lambda self: self._b.caps[self._k], doc="the vertex speed caps (mm/s), per interior vertex")
     cap = property(lambda self: float(self._b.cap[self._k]), doc="CAP_MARGIN x the least vertex cap (a float; inf if none)")
@@ -364,7 +367,7 @@ class CurveGeom:
     @property
     def cos_turn(self):
         """cosine of each interior vertex's turn (n - 1,)"""
-        u = self._b.u[self._k]
+        u = self._b.u_row(self._k)
         return np.einsum("ij,ij->i", u[:-1], u[1:])
 
     @property
@@ -422,16 +425,18 @@ class CurveGeom:
 def stack_du(gs):
     """(np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)): the
     geometries' segment lengths and directions stacked, each run of rows of one block
-    (build_geoms' _Blk) taken by one fancy index of its arrays (the same doubles), not
-    a view and a copy a geometry (~1 us each, ~34 k geometries a plate's chain finishing).
-    Geometries of another make, or blocks whose rows do not stack: row by row."""
+    (build_geoms' _Blk) taken by one fancy index of its lengths (the same doubles), not
+    a view and a copy a geometry (~1 us each, ~34 k geometries a plate's chain finishing),
+    and the directions made from the stacked lengths and the strokes' vertices in one
+    pass (_stack_u).  Geometries of another make, or blocks whose rows do not stack: row
+    by row."""
     try:
         bs = [g._b for g in gs]
         ks = [g._k for g in gs]
     except AttributeError:
         bs = None
     if bs:
-        ds, us = [], []
+        ds, runs = [], []
         a, m = 0, len(bs)
         while a < m:                    # runs of one block
             b = bs[a]
@@ -439,33 +444,163 @@ def stack_du(gs):
             while z < m and bs[z] is b:
                 z += 1
             ds.append(np.asarray(b.d, float)[ks[a:z]])
-            us.append(np.asarray(b.u, float)[ks[a:z]])
+            runs.append((b, a, z))
             a = z
-        if all(x.shape[1:] == ds[0].shape[1:] for x in ds) and all(x.shape[1:] == us[0].shape[1:] for x in us):
-            return ((ds[0], us[0]) if len(ds) == 1 else (np.concatenate(ds), np.concatenate(us)))
+        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
+            D = ds[0] if len(ds) == 1 else np.concatenate(ds)
+            return D, _stack_u(gs, runs, ks, D)
     return np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)
+
+
+_GPTS = attrgetter("_pts")
+
+
+def _stack_u(gs, runs, ks, D):
+    """stack_du's directions: the rows of the runs (block, first, end) of gs, whose
+    lengths D holds stacked.  Blocks that keep no u (build_geoms'): one pass of the
+    compiled core over every row (each geometry's _pts is its block row's vertices: the
+    same operations as _Blk.u_rows); else run by run."""
+    if _U_ROWS is not None and all(b._u is None for b, _, _ in runs):
+        m, n = D.shape
+        out = np.empty((m, n, 2))
+        try:
+            _U_ROWS(list(map(_GPTS, gs)), None, 0, D, m, n, out)
+            return out
+        except (TypeError, ValueError, AttributeError, BufferError):
+            pass
+    us = [b.u_rows(ks[a:z]) for b, a, z in runs]
+    return us[0] if len(us) == 1 else np.concatenate(us)
 
 
 def drop_jerk1(sts):
     """Let go of the blocks' caps at the whole jerk of the strokes sts' geometries (chains
     have made their own caps from them: chains.classify); a stroke that reads them later
-    finds None and makes them (chains.vertex_caps: the same numbers)."""
-    for st in sts:
-        g = st.curv
-        if g is not None:
-            g._b.caps_jerk1 = None
+    finds None and makes them (chains.vertex_caps: the same numbers).  Under classic jerk
+    (chains.classify calls this then) the caps at jerk's share go too: classify is their
+    one reader (curves read cap); a block of build_geoms makes them again if asked."""
+    try:                                # each block once (~21 k strokes, ~120 blocks a plate)
+        blocks = set(map(_CURV_B, sts))
+    except AttributeError:              # a stroke without a geometry
+        blocks = {g._b for g in [st.curv for st in sts] if g is not None}
+    for b in blocks:
+        b.caps_jerk1 = None
+        if b._lim is not None:          # the caps at jerk's share too: chains.classify alone reads
+            b._caps = None              # them under classic jerk (made again if read: _Blk.caps)
+
+
+_CURV_B = attrgetter("curv._b")
 
 
 class _Blk:
     """The fields of a block of curve geometries, row k each stroke's: d (m, n), u (m, n, 2),
     kappa_v (m, n + 1), kappa_eff (m floats), caps (m, n - 1), caps_jerk1 (m, n - 1) or None,
     cap (m floats), cos_end (a list of m), cap_min: every cap of the block is > 0 (then
-    cap is CAP_MARGIN x the least cap as np.minimum takes it)."""
-    __slots__ = ("d", "u", "kappa_v", "kappa_eff", "caps", "caps_jerk1", "cap", "cos_end", "cap_min")
+    cap is CAP_MARGIN x the least cap as np.minimum takes it).
 
-    def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min):
-        self.d, self.u, self.kappa_v, self.kappa_eff = d, u, kappa_v, kappa_eff
-        self.caps, self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps, caps_jerk1, cap, cos_end, cap_min
+    pts (build_geoms' blocks): the rows' own vertices (the strokes' pts, which they hold
+    anyway); then u is not kept (~5 MB on the gyroid plate at planning's peak) but made
+    again from them when read, by _parts_block's operations (the difference of the
+    vertices over the kept lengths d: the same bits).  lim: (profile, the limits objects,
+    which one each row's, each row's acceleration): then the caps, read by chains.classify
+    alone under classic jerk, may be let go (drop_jerk1) and are made again when read.
+    With pts, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
+    are made: their one reader) and is made again by _parts_block when read."""
+    __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
+                 "cap_min", "__weakref__")
+
+    def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
+        self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
+        self._u, self._pts = (None, pts) if pts is not None else (u, None)
+        self._caps, self._lim = caps, lim
+        self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
+
+    @property
+    def u(self):
+        """The directions of every row, (m, n, 2)."""
+        return self.u_rows(list(range(self.d.shape[0]))) if self._u is None else self._u
+
+    def u_rows(self, ks):
+        """u[ks] (ks a list of rows): _parts_block's seg / d[..., None] of those rows' vertices."""
+        if self._u is not None:
+            return np.asarray(self._u, float)[ks]
+        m, n = len(ks), self.d.shape[1]
+        if _U_ROWS is not None:
+            out = np.empty((m, n, 2))
+            if self._core_u(np.asarray(ks, np.int64), 0, m, out):
+                return out
+        xy = _pts_xy(list(map(self._pts.__getitem__, ks))).reshape(m, n + 1, 2)
+        with np.errstate(all="ignore"):
+            u = np.subtract(xy[:, 1:], xy[:, :-1])
+            return np.divide(u, self.d[ks][..., None], out=u)
+
+    def u_row(self, k):
+        """u[k], (n, 2): u_rows of one row, as 2-D arrays (the same operations)."""
+        if self._u is not None:
+            return self._u[k]
+        if _U_ROWS is not None:
+            out = np.empty((self.d.shape[1], 2))
+            if self._core_u(None, k, 1, out):
+                return out
+        xy = _pts_xy([self._pts[k]]).reshape(-1, 2)
+        with np.errstate(all="ignore"):
+            u = np.subtract(xy[1:], xy[:-1])
+            return np.divide(u, self.d[k][:, None], out=u)
+
+    def _core_u(self, ks, k0, m, out):
+        """u_rows by the compiled core (_curvecore.c u_rows: the same two operations per
+        element) into out; False where it does not take the rows (vertices not Points)."""
+        try:
+            _U_ROWS(self._pts, ks, k0, self.d, m, self.d.shape[1], out)
+        except (TypeError, ValueError, AttributeError, BufferError):
+            return False
+        return True
+
+    @property
+    def caps(self):
+        c = self._caps
+        if c is None and self._lim is not None:      # let go by drop_jerk1: made again, kept
+            c = self._caps = _block_caps(self._lim, self.u, self.d, 1.0 - JERK_F_STEP_R)
+        return c
+
+    @caps.setter
+    def caps(self, c):
+        self._caps = c
+
+    @property
+    def kappa_v(self):
+        kv = self._kv
+        if kv is None:              # let go by drop_kappa: the same rows' _parts_block, kept
+            m, n = self.d.shape
+            with np.errstate(all="ignore"):
+                kv = self._kv = _parts_block(_pts_xy(self._pts).reshape(m, n + 1, 2))[4]
+        return kv
+
+    @kappa_v.setter
+    def kappa_v(self, kv):
+        self._kv = kv
+
+
+_XY = attrgetter("xy")
+_U_ROWS = getattr(_CURVE_CORE, "u_rows", None)      # _Blk.u_rows compiled (or None)
+_BLOCKS = weakref.WeakSet()     # build_geoms' blocks alive (drop_kappa)
+
+
+def drop_kappa():
+    """Let go of κ at the vertices of every block of build_geoms alive (~2.7 MB on the
+    gyroid plate through planning's budget runs): the curves' candidates (candidates_curve)
+    are its one reader in a run, made once; a later reader makes it again (_Blk.kappa_v)."""
+    for b in list(_BLOCKS):
+        b._kv = None
+
+
+def _pts_xy(ps):
+    """The vertices of the point lists ps end to end, flat (x0, y0, x1, ...): _xy_block's."""
+    try:                # Points: their packed doubles joined (an array("d") each)
+        return np.frombuffer(b"".join(map(_XY, ps)), float)
+    except (AttributeError, TypeError):
+        pass
+    return np.concatenate([np.frombuffer(p.xy, float) if isinstance(p, Points) else np.asarray(p, float).ravel()
+                           for p in ps])
 
 
 _FROM_BLOCK = object()      # CurveGeom._j1: caps_jerk1 is the block's row
@@ -579,26 +714,36 @@ def _block_geoms(sts, block, profile, j1):
     seen = {}
     which = [seen.setdefault(id(st.lim), (len(seen), st.lim))[0] for st in sts]
     lims = [lim for _, lim in seen.values()]
-    p = {f: np.array([getattr(lim, f) for lim in lims], float)[which][:, None] for f in _LIM_FIELDS}
-    p["accel"] = np.array([st.accel for st in sts], float)[:, None]
-    pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
-    dp, dn = d[:, :-1], d[:, 1:]
-    if profile.junction == "jerk" and _JERK_CAPS is not None:
-        # _jerk_caps' choices and products per vertex in one compiled pass (_curvecore.c)
-        caps = _jerk_caps_block(u, p, 1.0 - JERK_F_STEP_R)
-        caps1 = _jerk_caps_block(u, p, 1.0) if j1 else None
-    else:
-        caps = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0 - JERK_F_STEP_R)
-        if caps is None:
-            return None
-        caps1 = _caps_core(profile, p, pux, puy, ux, uy, dp, dn, 1.0) if j1 else None
+    lim = (profile, lims, np.array(which, np.int32), np.array([st.accel for st in sts], float))
+    caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
+    if caps is None:
+        return None
+    caps1 = _block_caps(lim, u, d, 1.0) if j1 else None
     cap_min = bool((caps > 0.0).all())
     if cap_min:
         cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
-    return _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min), keep
+    # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
+    blk = _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=[st.pts for st in sts], lim=lim)
+    _BLOCKS.add(blk)
+    return blk, keep
+
+
+def _block_caps(lim, u, d, jerk_r):
+    """The vertex caps of a block's rows (directions u (m, n, 2), lengths d (m, n)) at the
+    share jerk_r of classic jerk: _caps_core's law on (m, n - 1) arrays with the limits as
+    (m, 1), each element the same operations (or None where that law declines).  lim:
+    (profile, the limits objects, which one each row's (int array), each row's acceleration)."""
+    profile, lims, which, accel = lim
+    p = {f: np.array([getattr(x, f) for x in lims], float)[which][:, None] for f in _LIM_FIELDS}
+    p["accel"] = accel[:, None]
+    if profile.junction == "jerk" and _JERK_CAPS is not None:
+        # _jerk_caps' choices and products per vertex in one compiled pass (_curvecore.c)
+        return _jerk_caps_block(u, p, jerk_r)
+    pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
+    return _caps_core(profile, p, pux, puy, ux, uy, d[:, :-1], d[:, 1:], jerk_r)
 
 
 _JERK_CAPS = getattr(_CURVE_CORE, "jerk_caps", None)
@@ -1099,7 +1244,10 @@ def candidates_curve(pin, rows, strokes, profile):
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 
-    return candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
+    table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
+    # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go
+    drop_kappa()
+    return table
 
 
 def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):

@@ -892,6 +892,57 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* curves._Blk.u_rows: the unit directions of rows of a geometry block made again from
+   the strokes' own vertices, (x[j + 1] - x[j]) / d[j] per axis: numpy's subtract then
+   divide of the same doubles (two correctly rounded operations, no contraction between
+   them).  pts: the block's list of strokes.Points (each an `xy` array of doubles, n + 1
+   vertices); ks: an int64 buffer of m row indices, or None for the rows k0 .. k0 + m - 1;
+   d: the block's lengths (rows x n, C-contiguous); out: m x n x 2 doubles.  A row whose
+   vertices are not such a buffer raises (the caller takes numpy's path). */
+static PyObject *u_rows(PyObject *self, PyObject *a) {
+    PyObject *pts, *oks, *od, *out_;
+    Py_ssize_t k0, m, n;
+    if (!PyArg_ParseTuple(a, "O!OnOnnO", &PyList_Type, &pts, &oks, &k0, &od, &m, &n, &out_)) return NULL;
+    const Py_ssize_t rows = PyList_GET_SIZE(pts);
+    Bufs b = {.n = 0};
+    const int64_t *ks = NULL;
+    if (oks != Py_None && !(ks = get(&b, oks, 8, 0, m))) { release(&b); return NULL; }
+    const double *d = get(&b, od, 8, 0, rows * n);
+    double *out = d ? get(&b, out_, 8, 1, m * n * 2) : NULL;
+    if (!out) { release(&b); return NULL; }
+    static PyObject *name_xy = NULL;
+    if (!name_xy && !(name_xy = PyUnicode_InternFromString("xy"))) { release(&b); return NULL; }
+    for (Py_ssize_t q = 0; q < m; q++) {
+        const Py_ssize_t k = ks ? (Py_ssize_t)ks[q] : k0 + q;
+        if (k < 0 || k >= rows) {
+            PyErr_SetString(PyExc_IndexError, "curve core: row out of range");
+            release(&b);
+            return NULL;
+        }
+        PyObject *xy = PyObject_GetAttr(PyList_GET_ITEM(pts, k), name_xy);
+        if (!xy) { release(&b); return NULL; }
+        Py_buffer v;
+        int bad = PyObject_GetBuffer(xy, &v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT);
+        Py_DECREF(xy);      /* (the buffer holds the array while it is read) */
+        if (bad < 0) { release(&b); return NULL; }
+        if (v.itemsize != 8 || !v.format || strcmp(v.format, "d") != 0 || v.len != (n + 1) * 2 * 8) {
+            PyBuffer_Release(&v);
+            PyErr_SetString(PyExc_ValueError, "curve core: vertices not n + 1 pairs of doubles");
+            release(&b);
+            return NULL;
+        }
+        const double *x = v.buf, *dk = d + k * n;
+        double *o = out + q * n * 2;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            o[2 * j] = (x[2 * j + 2] - x[2 * j]) / dk[j];
+            o[2 * j + 1] = (x[2 * j + 3] - x[2 * j + 1]) / dk[j];
+        }
+        PyBuffer_Release(&v);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
@@ -908,6 +959,7 @@ static PyMethodDef methods[] = {
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
+    {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef curvecore_module = {

@@ -636,13 +636,17 @@ def _rebuild_geometry(strokes, idx, kind, profile):
     plan_inputs made it (the same bits), not stroke by stroke (~2 s on that plate).  A
     stroke whose geometry raises makes it where isolate() catches it, in its kind's
     segments."""
+    made = False
     for k, jerk1 in ((K_CURVE, False), (K_CHAIN, True)):
         todo = [strokes[i] for i in idx[kind == k].tolist() if strokes[i].curv is None]
         if todo:
+            made = True
             try:
                 curves.build_geoms(todo, profile, jerk1=jerk1)
             except Exception:                 # noqa: BLE001 -- the stroke at fault, in isolate()
                 pass
+    if made:            # (the candidates, κ's one reader, are made: segments read it no more)
+        curves.drop_kappa()
 
 
 def _command_for(seg, st, rules):

@@ -59,14 +59,35 @@ class Points:
         return np.array(self.xy, dtype=float if dtype is None else dtype).reshape(-1, 2)
 
 
-class Stroke:
+# a Stroke's fields (its __slots__ in pure Python)
+FIELDS = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends",
+          "v_feed", "accel", "feature", "layer", "e_rel",
+          "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
+          "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c",
+          "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+
+
+def _stroke_base():
+    """The compiled core's StrokeBase (firmware/_core.c), or None (pure Python, not built,
+    stale: native.load): the fields that are always a float (or a float or None) held as
+    doubles and first_idx / last_idx as ints -- a float object of its own each took 24
+    bytes beside its slot (gyroid plate: ~13 MB of 40 for its 35 k strokes).  They read
+    back as the same floats and ints; a value of another type is refused."""
+    import os
+    from .native import load
+    core, _ = load("_gcode_opt_fwcore", os.path.join(os.path.dirname(os.path.abspath(__file__)), "firmware",
+                                                     "_core.c"), "core")
+    return getattr(core, "StrokeBase", None)
+
+
+_BASE = _stroke_base()
+
+
+class Stroke(object if _BASE is None else _BASE):
     """Geometry and original timing of one straight stroke (original file's figures).
-    Every stroke lives for the whole run: slots, and ends_d an array of doubles."""
-    __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends",
-                 "v_feed", "accel", "feature", "layer", "e_rel",
-                 "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c",
-                 "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+    Every stroke lives for the whole run: slots (or the compiled StrokeBase's fields:
+    FIELDS either way), and ends_d an array of doubles."""
+    __slots__ = FIELDS if _BASE is None else ()
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -328,7 +349,12 @@ def _run_stroke(m, kind, ux, uy, length_d, e_per_mm, last_idx, pts, ends, prev_u
     return st
 
 
-_new = object.__new__
+if _BASE is not None:
+    # the field names where code looks them up (tests, benchmarks/mem_breakdown.py): read
+    # only when a class is made, the empty tuple above made no slot
+    Stroke.__slots__ = FIELDS
+
+_new = Stroke.__new__          # (object.__new__ for the pure-Python class; StrokeBase's otherwise)
 
 
 def _kind_state(st, e0, ss):

@@ -2773,6 +2773,146 @@ static int py_hypot(double dx, double dy, double *d)
     return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
 }
 
+/* ---------------------------------------------------------------- StrokeBase */
+/* strokes.Stroke's compiled base (the class subclasses it, adding no slot, where this core
+ * is used): every stroke lives for the whole run (gyroid plate: 35 k), and a float or int
+ * of its own in an object slot cost 24-32 bytes beside the slot's 8.  The fields that are
+ * always a float (and the None-able ones that are a float or None) are kept here as
+ * doubles, first_idx / last_idx as 64-bit ints; reading one makes the float (int) of
+ * those bits, so readers see the same values and types as from the object slots they
+ * replace.  A field refuses a value of another type (an int for a float would read back
+ * as a float: a type the writers never give, checked here rather than converted).  The
+ * rest are object slots (T_OBJECT_EX, read by offset as before). */
+enum { SD_X0, SD_Y0, SD_UX, SD_UY, SD_LEN, SD_EPM, SD_V0, SD_V1, SD_T, SD_A2, SD_V2,
+       SD_PUX, SD_PUY, SD_NUX, SD_NUY, SD_SSE, SD_N };        /* from SD_PUX on: a float or None */
+#define SD_NONE0 SD_PUX
+enum { SI_FIRST, SI_LAST, SI_N };
+enum { SO_Z, SO_ENDS, SO_VF, SO_ACC, SO_FEAT, SO_LAYER, SO_EREL, SO_LIM, SO_KIND, SO_ARC, SO_PTS, SO_CURV,
+       SO_SSA, SO_SSC, SO_CHAIN, SO_V0FW, SO_V1FW, SO_CC0, SO_CC1, SO_N };
+static const char *const SD_NAMES[SD_N] = {"x0", "y0", "ux", "uy", "length_d", "e_per_mm", "v0", "v1", "time_t",
+    "int_a2", "int_v2", "_pux", "_puy", "_nux", "_nuy", "_ss_e"};
+static const char *const SI_NAMES[SI_N] = {"first_idx", "last_idx"};
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *o[SO_N];
+    double d[SD_N];
+    long long i[SI_N];
+    unsigned int has;          /* bit k - SD_NONE0: the None-able double k holds a float */
+} StrokeObject;
+
+static PyTypeObject StrokeType;
+
+static PyObject *sd_get(StrokeObject *s, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (k >= SD_NONE0 && !(s->has & (1u << (k - SD_NONE0))))
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(s->d[k]);
+}
+
+static int sd_set(StrokeObject *s, PyObject *v, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (v != NULL && PyFloat_Check(v)) {
+        s->d[k] = PyFloat_AS_DOUBLE(v);
+        if (k >= SD_NONE0)
+            s->has |= 1u << (k - SD_NONE0);
+        return 0;
+    }
+    if (v == Py_None && k >= SD_NONE0) {
+        s->has &= ~(1u << (k - SD_NONE0));
+        s->d[k] = 0.0;
+        return 0;
+    }
+    PyErr_Format(PyExc_TypeError, "Stroke.%s must be a float%s, not %.50s", SD_NAMES[k],
+                 k >= SD_NONE0 ? " or None" : "", v == NULL ? "a deletion" : Py_TYPE(v)->tp_name);
+    return -1;
+}
+
+static PyObject *si_get(StrokeObject *s, void *c)
+{
+    return PyLong_FromLongLong(s->i[(intptr_t)c]);
+}
+
+static int si_set(StrokeObject *s, PyObject *v, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (v == NULL || !PyLong_CheckExact(v)) {
+        PyErr_Format(PyExc_TypeError, "Stroke.%s must be an int, not %.50s", SI_NAMES[k],
+                     v == NULL ? "a deletion" : Py_TYPE(v)->tp_name);
+        return -1;
+    }
+    long long x = PyLong_AsLongLong(v);
+    if (x == -1 && PyErr_Occurred())
+        return -1;
+    s->i[k] = x;
+    return 0;
+}
+
+static int Stroke_traverse(StrokeObject *s, visitproc visit, void *arg)
+{
+    for (int k = 0; k < SO_N; k++)
+        Py_VISIT(s->o[k]);
+    return 0;
+}
+
+static int Stroke_clear(StrokeObject *s)
+{
+    for (int k = 0; k < SO_N; k++)
+        Py_CLEAR(s->o[k]);
+    return 0;
+}
+
+static void Stroke_dealloc(StrokeObject *s)
+{
+    PyObject_GC_UnTrack(s);
+    Stroke_clear(s);
+    Py_TYPE(s)->tp_free((PyObject *)s);
+}
+
+#define SOM(nm, k) {nm, T_OBJECT_EX, offsetof(StrokeObject, o) + (k) * sizeof(PyObject *), 0, NULL}
+static PyMemberDef Stroke_members[] = {
+    SOM("z", SO_Z), SOM("_ends", SO_ENDS), SOM("v_feed", SO_VF), SOM("accel", SO_ACC), SOM("feature", SO_FEAT),
+    SOM("layer", SO_LAYER), SOM("e_rel", SO_EREL), SOM("lim", SO_LIM), SOM("kind", SO_KIND), SOM("arc", SO_ARC),
+    SOM("pts", SO_PTS), SOM("curv", SO_CURV), SOM("_ss_a", SO_SSA), SOM("_ss_c", SO_SSC),
+    SOM("chain_T", SO_CHAIN), SOM("v0_fw", SO_V0FW), SOM("v1_fw", SO_V1FW), SOM("corner_cmd0", SO_CC0),
+    SOM("corner_cmd1", SO_CC1), {NULL}
+};
+#undef SOM
+
+#define SDG(k) {(char *)0, (getter)sd_get, (setter)sd_set, NULL, (void *)(intptr_t)(k)}
+#define SIG(k) {(char *)0, (getter)si_get, (setter)si_set, NULL, (void *)(intptr_t)(k)}
+static PyGetSetDef Stroke_getset[SD_N + SI_N + 1] = {
+    SDG(0), SDG(1), SDG(2), SDG(3), SDG(4), SDG(5), SDG(6), SDG(7), SDG(8), SDG(9), SDG(10), SDG(11), SDG(12),
+    SDG(13), SDG(14), SDG(15), SIG(0), SIG(1), {NULL}
+};
+#undef SDG
+#undef SIG
+
+static PyTypeObject StrokeType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.StrokeBase",
+    .tp_doc = "strokes.Stroke's fields: the floats and line numbers kept as doubles and ints (see strokes.py)",
+    .tp_basicsize = sizeof(StrokeObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_dealloc = (destructor)Stroke_dealloc,
+    .tp_traverse = (traverseproc)Stroke_traverse,
+    .tp_clear = (inquiry)Stroke_clear,
+    .tp_members = Stroke_members,
+    .tp_getset = Stroke_getset,
+};
+
+static int stroke_type_ready(void)
+{
+    for (int k = 0; k < SD_N; k++)
+        Stroke_getset[k].name = SD_NAMES[k];
+    for (int k = 0; k < SI_N; k++)
+        Stroke_getset[SD_N + k].name = SI_NAMES[k];
+    return PyType_Ready(&StrokeType);
+}
+
 /* ---------------------------------------------------------------- run_lines' strokes
  * With its kit (strokes.group_lines' _RunKit: Stroke, Points, array, K_LINE, K_CURVE,
  * on_stroke, head_move, min_length_d, curves) run_lines also does group_lines' commonest
@@ -2824,6 +2964,77 @@ static int slots_ready(SlotMap *m, PyObject *type, const char **names)
         if (m->off[k] < 0)
             return 0;
     return 1;
+}
+
+/* a StrokeBase subclass (strokes.Stroke over this core): where each of STROKE_NAMES lives,
+ * a double (stroke_dbl: SD_ index), an int (stroke_int: SI_ index) or an object slot (-1 in
+ * both: STROKE_MAP.off's offset); stroke_inline: STROKE_MAP's type is one */
+static signed char stroke_dbl[ST_N], stroke_int[ST_N];
+static int stroke_inline = 0;
+
+/* the descriptor of name on type, if it is StrokeBase's own (g: its getter) */
+static int stroke_own(PyObject *type, const char *name, getter g)
+{
+    PyObject *d = PyObject_GetAttrString(type, name);
+    if (d == NULL) {
+        PyErr_Clear();
+        return 0;
+    }
+    int own = Py_TYPE(d) == &PyGetSetDescr_Type && ((PyGetSetDescrObject *)d)->d_getset->get == g;
+    Py_DECREF(d);
+    return own;
+}
+
+/* STROKE_MAP set up for type (kept while it is the same type); 0 if a field is in no
+ * plain slot and not StrokeBase's own */
+static int stroke_ready(PyObject *type)
+{
+    if ((PyObject *)STROKE_MAP.type != type) {
+        if (map_init(&STROKE_MAP, type, STROKE_NAMES) < 0)
+            return -1;
+        stroke_inline = PyType_IsSubtype((PyTypeObject *)type, &StrokeType);
+        for (int k = 0; k < ST_N; k++) {
+            stroke_dbl[k] = stroke_int[k] = -1;
+            for (int j = 0; stroke_inline && j < SD_N; j++)
+                if (!strcmp(STROKE_NAMES[k], SD_NAMES[j]) && stroke_own(type, SD_NAMES[j], (getter)sd_get))
+                    stroke_dbl[k] = (signed char)j;
+            for (int j = 0; stroke_inline && j < SI_N; j++)
+                if (!strcmp(STROKE_NAMES[k], SI_NAMES[j]) && stroke_own(type, SI_NAMES[j], (getter)si_get))
+                    stroke_int[k] = (signed char)j;
+        }
+    }
+    for (int k = 0; k < ST_N; k++)
+        if (STROKE_MAP.off[k] < 0 && stroke_dbl[k] < 0 && stroke_int[k] < 0)
+            return 0;
+    return 1;
+}
+
+/* field k of the stroke o (of STROKE_MAP's type) set to v (borrowed) */
+static int stroke_put(PyObject *o, int k, PyObject *v)
+{
+    if (stroke_dbl[k] >= 0)
+        return sd_set((StrokeObject *)o, v, (void *)(intptr_t)stroke_dbl[k]);
+    if (stroke_int[k] >= 0)
+        return si_set((StrokeObject *)o, v, (void *)(intptr_t)stroke_int[k]);
+    Py_XSETREF(*(PyObject **)((char *)o + STROKE_MAP.off[k]), Py_NewRef(v));
+    return 0;
+}
+
+/* a stroke of exactly STROKE_MAP's type, field k val[k] (borrowed), or NULL with an error */
+static PyObject *stroke_new(PyObject *const *val)
+{
+    if (!stroke_inline)
+        return slots_new(&STROKE_MAP, val);
+    PyTypeObject *t = STROKE_MAP.type;
+    PyObject *o = t->tp_alloc(t, 0);
+    if (o == NULL)
+        return NULL;
+    for (int k = 0; k < ST_N; k++)
+        if (stroke_put(o, k, val[k]) < 0) {
+            Py_DECREF(o);
+            return NULL;
+        }
+    return o;
 }
 
 typedef struct {
@@ -2991,7 +3202,7 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
         val[ST_KIND] = kit->k_line;
         val[ST_LEN] = len;
     }
-    PyObject *st = OWN(slots_new(&STROKE_MAP, val));
+    PyObject *st = OWN(stroke_new(val));
     if (!st)
         goto done;
     PyObject *r = PyObject_CallOneArg(kit->on_stroke, st);
@@ -3159,7 +3370,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
         val[ST_CC0] = val[ST_CC1] = Py_False;
         val[ST_KIND] = kit->k_line;
-        PyObject *st = bad ? NULL : slots_new(&STROKE_MAP, val);
+        PyObject *st = bad ? NULL : stroke_new(val);
         for (int k = 0; k < n_own; k++)
             Py_XDECREF(own[k]);
         if (st == NULL)
@@ -3168,8 +3379,8 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
     }
     if (kept) {                        /* the last one kept: the run's next_u */
         PyObject *st = made[kept - 1];
-        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUX]), Py_NewRef(nux));
-        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUY]), Py_NewRef(nuy));
+        if (stroke_put(st, ST_NUX, nux) < 0 || stroke_put(st, ST_NUY, nuy) < 0)
+            goto done;
     }
     for (Py_ssize_t k = 0; k < kept; k++) {
         PyObject *r = PyObject_CallOneArg(kit->on_stroke, made[k]);
@@ -3229,7 +3440,7 @@ static int kit_read(PyObject *o, RunKit *kit)
         return -1;
     }
     static const char *points_names[1] = {"xy"};
-    int a = slots_ready(&STROKE_MAP, kit->stroke_t, STROKE_NAMES);
+    int a = stroke_ready(kit->stroke_t);
     int b = a < 0 ? -1 : slots_ready(&POINTS_MAP, kit->points_t, points_names);
     return a < 0 || b < 0 ? -1 : (a && b);
 }
@@ -5153,7 +5364,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
         || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0 || PyType_Ready(&SumsType) < 0
-        || PyType_Ready(&LogType) < 0)
+        || PyType_Ready(&LogType) < 0 || stroke_type_ready() < 0)
         return NULL;
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
@@ -5172,6 +5383,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
+        || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
         Py_DECREF(m);

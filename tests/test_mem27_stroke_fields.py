@@ -149,6 +149,9 @@ def test_analyse_strokes_as_the_python_class(monkeypatch, name, prof):
         assert _fields(a) == _fields(b), a.first_idx
         assert (a.prev_u, a.next_u, a.start_state, a.n_moves) == (b.prev_u, b.next_u, b.start_state, b.n_moves)
         assert a.ends_d.tobytes() == b.ends_d.tobytes()
+        # the core's arrays take no more room than Python's (made from lists: exact)
+        assert a._ends is None or sys.getsizeof(a._ends) <= sys.getsizeof(b._ends)
+        assert a.pts is None or sys.getsizeof(a.pts.xy) == sys.getsizeof(b.pts.xy)
         kinds.add(a.kind)
     assert "line" in kinds and ("curve" in kinds or name != "prusa_gyroid.gcode")
     assert "arc" in kinds or name != "prusa_concentric_arcs.gcode"
@@ -226,3 +229,58 @@ def test_pure_python_path(tmp_path):
         outs.append((out.read_bytes(), json.dumps(s, sort_keys=True)))
     assert outs[0][0] == outs[1][0]
     assert outs[0][1] == outs[1][1]
+
+
+def test_line_spans_and_put_sums_as_attribute_reads_and_writes():
+    """strokes.line_spans / put_sums in the core (StrokeBase read and written directly)
+    against the attribute reads and writes they replace, and their fallback for a list
+    holding another kind of stroke."""
+    import numpy as np
+    sts = _analyse(SAMPLES + "prusa_gyroid.gcode", "prusa-mk3s")
+    lo, hi = strokes.line_spans(sts)
+    assert lo.dtype == hi.dtype == np.int64
+    assert lo.tolist() == [s.first_idx for s in sts] and hi.tolist() == [s.last_idx for s in sts]
+    cls = _python_stroke()
+    twins = []
+    for s in sts[:300]:
+        t = object.__new__(cls)
+        for n in strokes.FIELDS:
+            setattr(t, n, getattr(s, n))
+        twins.append(t)
+    rng = np.random.default_rng(5)
+    n = len(twins)
+    got = rng.integers(0, 4, n).astype(np.int64)
+    v0, v1, t_, a2, v2 = (rng.standard_normal(n) * 10.0 ** rng.integers(-300, 300, n) for _ in range(5))
+    v0[:3] = (-0.0, np.nan, np.inf)
+    mine = sts[:300]
+    strokes.put_sums(mine, got, v0, v1, t_, a2, v2)
+    strokes.put_sums(twins, got, v0, v1, t_, a2, v2)              # (not StrokeBase objects: Python's loop)
+    assert [_fields(a) for a in mine] == [_fields(b) for b in twins]
+    mixed = mine[:5] + twins[5:10]
+    a_lo, a_hi = strokes.line_spans(mixed)                        # (declined by the core: attribute reads)
+    assert a_lo.tolist() == [s.first_idx for s in mixed] and a_hi.tolist() == [s.last_idx for s in mixed]
+    with pytest.raises(ValueError):
+        strokes._CORE.stroke_put_sums(mine, got[:2], v0, v1, t_, a2, v2)
+    with pytest.raises(ValueError):
+        strokes._CORE.stroke_lines(mine, np.empty(n), np.empty(n, np.int64))
+
+
+def test_copy_and_pickle_as_the_python_class():
+    """copy.deepcopy / pickle of a stroke (StrokeBase has no slots to copy by: Stroke's
+    __reduce__) give what the slotted class's give: every field."""
+    import copy
+    import pickle
+    sts = _analyse(SAMPLES + "prusa_concentric_arcs.gcode", "voron24")
+    cls = _python_stroke()
+    for s in sts[:200]:
+        t = object.__new__(cls)
+        for n in strokes.FIELDS:
+            setattr(t, n, getattr(s, n))
+        for a, b in ((copy.deepcopy(s), copy.deepcopy(t)), (copy.copy(s), copy.copy(t)),
+                     (pickle.loads(pickle.dumps(s)), None)):
+            assert type(a) is strokes.Stroke
+            if b is not None:
+                assert _fields(a) == _fields(b)
+            else:
+                assert [_val(getattr(a, n)) for n in DOUBLES + NONE_ABLE + INTS] == \
+                       [_val(getattr(s, n)) for n in DOUBLES + NONE_ABLE + INTS]

@@ -2904,6 +2904,97 @@ static PyTypeObject StrokeType = {
     .tp_getset = Stroke_getset,
 };
 
+/* a float64 (int64: q) buffer of at least n items, writable if asked; -1 with an error */
+static int stroke_buf(PyObject *o, Py_buffer *b, Py_ssize_t n, int is_int, int writable, const char *what)
+{
+    if (PyObject_GetBuffer(o, b, (writable ? PyBUF_WRITABLE : 0) | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    int ok = b->itemsize == 8 && b->format != NULL && b->len >= n * 8
+             && (is_int ? (!strcmp(b->format, "q") || !strcmp(b->format, "l")) : !strcmp(b->format, "d"));
+    if (!ok) {
+        PyBuffer_Release(b);
+        PyErr_Format(PyExc_ValueError, "%s: an %s buffer of len(strokes) expected", what,
+                     is_int ? "int64" : "float64");
+        return -1;
+    }
+    return 0;
+}
+
+/* every item of the list a StrokeBase (its fields read and written here directly) */
+static int all_strokes(PyObject *list)
+{
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    for (Py_ssize_t k = 0; k < n; k++)
+        if (!PyObject_TypeCheck(PyList_GET_ITEM(list, k), &StrokeType))
+            return 0;
+    return 1;
+}
+
+/* stroke_lines(strokes, lo, hi): lo[k], hi[k] = strokes[k].first_idx, .last_idx (int64
+ * buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase (nothing written) */
+static PyObject *mod_stroke_lines(PyObject *self, PyObject *args)
+{
+    PyObject *list, *lo_o, *hi_o;
+    if (!PyArg_ParseTuple(args, "O!OO:stroke_lines", &PyList_Type, &list, &lo_o, &hi_o))
+        return NULL;
+    if (!all_strokes(list))
+        return PyLong_FromLong(0);
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer bl, bh;
+    if (stroke_buf(lo_o, &bl, n, 1, 1, "stroke_lines") < 0)
+        return NULL;
+    if (stroke_buf(hi_o, &bh, n, 1, 1, "stroke_lines") < 0) {
+        PyBuffer_Release(&bl);
+        return NULL;
+    }
+    long long *lo = bl.buf, *hi = bh.buf;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
+        lo[k] = s->i[SI_FIRST];
+        hi[k] = s->i[SI_LAST];
+    }
+    PyBuffer_Release(&bl);
+    PyBuffer_Release(&bh);
+    return PyLong_FromLong(1);
+}
+
+/* stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written into
+ * the strokes: v0 where got & 1, v1 where got & 2, time_t int_a2 int_v2 always (got int64,
+ * the rest float64 buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase
+ * (nothing written) */
+static PyObject *mod_stroke_put_sums(PyObject *self, PyObject *args)
+{
+    PyObject *list, *o[6];
+    if (!PyArg_ParseTuple(args, "O!OOOOOO:stroke_put_sums", &PyList_Type, &list, &o[0], &o[1], &o[2], &o[3],
+                          &o[4], &o[5]))
+        return NULL;
+    if (!all_strokes(list))
+        return PyLong_FromLong(0);
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer b[6];
+    int got_b = 0;
+    for (; got_b < 6; got_b++)
+        if (stroke_buf(o[got_b], &b[got_b], n, got_b == 0, 0, "stroke_put_sums") < 0)
+            break;
+    if (got_b == 6) {
+        const long long *g = b[0].buf;
+        const double *v0 = b[1].buf, *v1 = b[2].buf, *t = b[3].buf, *a2 = b[4].buf, *v2 = b[5].buf;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
+            if (g[k] & 1)
+                s->d[SD_V0] = v0[k];
+            if (g[k] & 2)
+                s->d[SD_V1] = v1[k];
+            s->d[SD_T] = t[k];
+            s->d[SD_A2] = a2[k];
+            s->d[SD_V2] = v2[k];
+        }
+    }
+    for (int k = 0; k < got_b; k++)
+        PyBuffer_Release(&b[k]);
+    return got_b == 6 ? PyLong_FromLong(1) : NULL;
+}
+
 static int stroke_type_ready(void)
 {
     for (int k = 0; k < SD_N; k++)
@@ -3095,9 +3186,22 @@ static int proto_read(Proto *p, PyObject *m)
            ? 0 : -1;
 }
 
-/* array("d", floats): the list's doubles handed to the array as bytes (frombytes: one copy)
- * where every item is a float (array("d", list) converts item by item, through the
- * argument parser: ~200 instructions a vertex), else array("d", list) itself */
+/* array("d", bytes) of exactly its doubles' room: an array made from bytes keeps room for
+ * 3 + n / 16 more (it grew from empty), its copy a[:] none, as array("d", list) (the
+ * strokes keep their arrays for the whole run: ~1.3 MB of the gyroid plate's curves) */
+static PyObject *bytes_array(PyObject *array_t, PyObject *b)
+{
+    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    if (a == NULL)
+        return NULL;
+    PyObject *c = PySequence_GetSlice(a, 0, PY_SSIZE_T_MAX);
+    Py_DECREF(a);
+    return c;
+}
+
+/* array("d", floats): the list's doubles handed to the array as bytes (bytes_array: two
+ * copies) where every item is a float (array("d", list) converts item by item, through
+ * the argument parser: ~200 instructions a vertex), else array("d", list) itself */
 static PyObject *double_array(PyObject *array_t, PyObject *list)
 {
     Py_ssize_t n = PyList_GET_SIZE(list);
@@ -3110,7 +3214,7 @@ static PyObject *double_array(PyObject *array_t, PyObject *list)
     double *d = (double *)PyBytes_AS_STRING(b);
     for (Py_ssize_t k = 0; k < n; k++)
         d[k] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(list, k));
-    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    PyObject *a = bytes_array(array_t, b);
     Py_DECREF(b);
     return a;
 }
@@ -3349,7 +3453,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         if (b - a > 1) {
             PyObject *by = OWN(PyBytes_FromStringAndSize((const char *)ends, (b - a) * (Py_ssize_t)sizeof(double)));
             if (!bad)
-                val[ST_ENDS] = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", by));
+                val[ST_ENDS] = OWN(bytes_array(kit->array_t, by));
         }
         val[ST_EPM] = OWN(PyFloat_FromDouble(epm));
         if (start != Py_None) {
@@ -5345,6 +5449,10 @@ static PyMethodDef mod_methods[] = {
     {"jerk_tail", mod_jerk_tail, METH_VARARGS,
      "jerk_tail(S, V, acc, a_own, step, v_feed, K, min_feed_v, cruise_a, A, F, t, a2, fine): segments._jerk_rows' "
      "held accelerations, feeds, figures and verdicts"},
+    {"stroke_lines", mod_stroke_lines, METH_VARARGS,
+     "stroke_lines(strokes, lo, hi): their first_idx and last_idx into two int64 buffers; 0: declined"},
+    {"stroke_put_sums", mod_stroke_put_sums, METH_VARARGS,
+     "stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written in; 0: declined"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

@@ -2780,9 +2780,10 @@ static int py_hypot(double dx, double dy, double *d)
  * always a float (and the None-able ones that are a float or None) are kept here as
  * doubles, first_idx / last_idx as 64-bit ints; reading one makes the float (int) of
  * those bits, so readers see the same values and types as from the object slots they
- * replace.  A field refuses a value of another type (an int for a float would read back
- * as a float: a type the writers never give, checked here rather than converted).  The
- * rest are object slots (T_OBJECT_EX, read by offset as before). */
+ * replace.  A value of another type (the tests' np.float64, an int for a float; never
+ * the package's own writers) is kept as it is in the stroke's `extra` dict (its bit set
+ * in `odd`) and read back as that object; a deleted field reads as unset (AttributeError),
+ * as a slot.  The rest are object slots (T_OBJECT_EX, read by offset as before). */
 enum { SD_X0, SD_Y0, SD_UX, SD_UY, SD_LEN, SD_EPM, SD_V0, SD_V1, SD_T, SD_A2, SD_V2,
        SD_PUX, SD_PUY, SD_NUX, SD_NUY, SD_SSE, SD_N };        /* from SD_PUX on: a float or None */
 #define SD_NONE0 SD_PUX
@@ -2796,16 +2797,49 @@ static const char *const SI_NAMES[SI_N] = {"first_idx", "last_idx"};
 typedef struct {
     PyObject_HEAD
     PyObject *o[SO_N];
+    PyObject *extra;           /* NULL, or {name: value} of the odd fields */
     double d[SD_N];
     long long i[SI_N];
     unsigned int has;          /* bit k - SD_NONE0: the None-able double k holds a float */
+    unsigned int odd;          /* bit k (double k, int SD_N + k): the value is extra's (unset if not there) */
 } StrokeObject;
 
+#define ODD_INTS(s) (((s)->odd >> SD_N) & ((1u << SI_N) - 1))
+
 static PyTypeObject StrokeType;
+
+/* field f's value kept as an object (new reference; an unset field: AttributeError) */
+static PyObject *odd_get(StrokeObject *s, const char *name)
+{
+    PyObject *v = s->extra ? PyDict_GetItemString(s->extra, name) : NULL;
+    if (v == NULL) {
+        PyErr_Format(PyExc_AttributeError, "'%.50s' object has no attribute '%s'", Py_TYPE(s)->tp_name, name);
+        return NULL;
+    }
+    return Py_NewRef(v);
+}
+
+/* field f (bit f of odd) set to the object v, or unset (v NULL) */
+static int odd_set(StrokeObject *s, int f, const char *name, PyObject *v)
+{
+    if (v == NULL) {
+        if (s->extra && PyDict_GetItemString(s->extra, name) && PyDict_DelItemString(s->extra, name) < 0)
+            return -1;
+    } else {
+        if (s->extra == NULL && (s->extra = PyDict_New()) == NULL)
+            return -1;
+        if (PyDict_SetItemString(s->extra, name, v) < 0)
+            return -1;
+    }
+    s->odd |= 1u << f;
+    return 0;
+}
 
 static PyObject *sd_get(StrokeObject *s, void *c)
 {
     int k = (int)(intptr_t)c;
+    if (s->odd & (1u << k))
+        return odd_get(s, SD_NAMES[k]);
     if (k >= SD_NONE0 && !(s->has & (1u << (k - SD_NONE0))))
         Py_RETURN_NONE;
     return PyFloat_FromDouble(s->d[k]);
@@ -2814,46 +2848,52 @@ static PyObject *sd_get(StrokeObject *s, void *c)
 static int sd_set(StrokeObject *s, PyObject *v, void *c)
 {
     int k = (int)(intptr_t)c;
-    if (v != NULL && PyFloat_Check(v)) {
+    if (v != NULL && PyFloat_CheckExact(v)) {
         s->d[k] = PyFloat_AS_DOUBLE(v);
         if (k >= SD_NONE0)
             s->has |= 1u << (k - SD_NONE0);
+        s->odd &= ~(1u << k);
         return 0;
     }
     if (v == Py_None && k >= SD_NONE0) {
         s->has &= ~(1u << (k - SD_NONE0));
         s->d[k] = 0.0;
+        s->odd &= ~(1u << k);
         return 0;
     }
-    PyErr_Format(PyExc_TypeError, "Stroke.%s must be a float%s, not %.50s", SD_NAMES[k],
-                 k >= SD_NONE0 ? " or None" : "", v == NULL ? "a deletion" : Py_TYPE(v)->tp_name);
-    return -1;
+    return odd_set(s, k, SD_NAMES[k], v);
 }
 
 static PyObject *si_get(StrokeObject *s, void *c)
 {
-    return PyLong_FromLongLong(s->i[(intptr_t)c]);
+    int k = (int)(intptr_t)c;
+    if (s->odd & (1u << (SD_N + k)))
+        return odd_get(s, SI_NAMES[k]);
+    return PyLong_FromLongLong(s->i[k]);
 }
 
 static int si_set(StrokeObject *s, PyObject *v, void *c)
 {
     int k = (int)(intptr_t)c;
-    if (v == NULL || !PyLong_CheckExact(v)) {
-        PyErr_Format(PyExc_TypeError, "Stroke.%s must be an int, not %.50s", SI_NAMES[k],
-                     v == NULL ? "a deletion" : Py_TYPE(v)->tp_name);
-        return -1;
+    if (v != NULL && PyLong_CheckExact(v)) {
+        int over = 0;
+        long long x = PyLong_AsLongLongAndOverflow(v, &over);
+        if (x == -1 && PyErr_Occurred())
+            return -1;
+        if (!over) {
+            s->i[k] = x;
+            s->odd &= ~(1u << (SD_N + k));
+            return 0;
+        }
     }
-    long long x = PyLong_AsLongLong(v);
-    if (x == -1 && PyErr_Occurred())
-        return -1;
-    s->i[k] = x;
-    return 0;
+    return odd_set(s, SD_N + k, SI_NAMES[k], v);
 }
 
 static int Stroke_traverse(StrokeObject *s, visitproc visit, void *arg)
 {
     for (int k = 0; k < SO_N; k++)
         Py_VISIT(s->o[k]);
+    Py_VISIT(s->extra);
     return 0;
 }
 
@@ -2861,6 +2901,7 @@ static int Stroke_clear(StrokeObject *s)
 {
     for (int k = 0; k < SO_N; k++)
         Py_CLEAR(s->o[k]);
+    Py_CLEAR(s->extra);
     return 0;
 }
 
@@ -2931,7 +2972,8 @@ static int all_strokes(PyObject *list)
 }
 
 /* stroke_lines(strokes, lo, hi): lo[k], hi[k] = strokes[k].first_idx, .last_idx (int64
- * buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase (nothing written) */
+ * buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase or keeps a line
+ * number as an object (then the attribute reads) */
 static PyObject *mod_stroke_lines(PyObject *self, PyObject *args)
 {
     PyObject *list, *lo_o, *hi_o;
@@ -2948,14 +2990,16 @@ static PyObject *mod_stroke_lines(PyObject *self, PyObject *args)
         return NULL;
     }
     long long *lo = bl.buf, *hi = bh.buf;
-    for (Py_ssize_t k = 0; k < n; k++) {
+    int odd = 0;
+    for (Py_ssize_t k = 0; k < n && !odd; k++) {
         StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
         lo[k] = s->i[SI_FIRST];
         hi[k] = s->i[SI_LAST];
+        odd = ODD_INTS(s) != 0;        /* (a line number kept as an object: the attribute reads) */
     }
     PyBuffer_Release(&bl);
     PyBuffer_Release(&bh);
-    return PyLong_FromLong(1);
+    return PyLong_FromLong(!odd);
 }
 
 /* stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written into
@@ -2981,13 +3025,18 @@ static PyObject *mod_stroke_put_sums(PyObject *self, PyObject *args)
         const double *v0 = b[1].buf, *v1 = b[2].buf, *t = b[3].buf, *a2 = b[4].buf, *v2 = b[5].buf;
         for (Py_ssize_t k = 0; k < n; k++) {
             StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
-            if (g[k] & 1)
+            if (g[k] & 1) {
                 s->d[SD_V0] = v0[k];
-            if (g[k] & 2)
+                s->odd &= ~(1u << SD_V0);
+            }
+            if (g[k] & 2) {
                 s->d[SD_V1] = v1[k];
+                s->odd &= ~(1u << SD_V1);
+            }
             s->d[SD_T] = t[k];
             s->d[SD_A2] = a2[k];
             s->d[SD_V2] = v2[k];
+            s->odd &= ~(1u << SD_T | 1u << SD_A2 | 1u << SD_V2);    /* (floats: as setattr) */
         }
     }
     for (int k = 0; k < got_b; k++)

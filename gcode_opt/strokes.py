@@ -59,14 +59,36 @@ class Points:
         return np.array(self.xy, dtype=float if dtype is None else dtype).reshape(-1, 2)
 
 
-class Stroke:
+# a Stroke's fields (its __slots__ in pure Python)
+FIELDS = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends",
+          "v_feed", "accel", "feature", "layer", "e_rel",
+          "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
+          "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c",
+          "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+
+
+def _fw_core():
+    """The compiled firmware core (firmware/_core.c) or None (pure Python, not built, stale:
+    native.load).  Its StrokeBase holds the fields that are always a float (or a float or
+    None) as doubles and first_idx / last_idx as ints -- a float object of its own each
+    took 24 bytes beside its slot (gyroid plate: ~13 MB of 40 for its 35 k strokes).  They
+    read back as the same floats and ints; a value of another type is kept as that object."""
+    import os
+    from .native import load
+    core, _ = load("_gcode_opt_fwcore", os.path.join(os.path.dirname(os.path.abspath(__file__)), "firmware",
+                                                     "_core.c"), "core")
+    return core if hasattr(core, "StrokeBase") else None
+
+
+_CORE = _fw_core()
+_BASE = None if _CORE is None else _CORE.StrokeBase
+
+
+class Stroke(object if _BASE is None else _BASE):
     """Geometry and original timing of one straight stroke (original file's figures).
-    Every stroke lives for the whole run: slots, and ends_d an array of doubles."""
-    __slots__ = ("first_idx", "last_idx", "x0", "y0", "z", "ux", "uy", "length_d", "_ends",
-                 "v_feed", "accel", "feature", "layer", "e_rel",
-                 "v0", "v1", "time_t", "int_a2", "int_v2", "lim", "e_per_mm",
-                 "_pux", "_puy", "_nux", "_nuy", "kind", "arc", "pts", "curv", "_ss_e", "_ss_a", "_ss_c",
-                 "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+    Every stroke lives for the whole run: slots (or the compiled StrokeBase's fields:
+    FIELDS either way), and ends_d an array of doubles."""
+    __slots__ = FIELDS if _BASE is None else ()
 
     def __init__(self, m):
         self.kind = K_LINE
@@ -328,7 +350,58 @@ def _run_stroke(m, kind, ux, uy, length_d, e_per_mm, last_idx, pts, ends, prev_u
     return st
 
 
-_new = object.__new__
+_UNSET = object()
+
+
+def _reduce(st):
+    """copy / pickle of a Stroke over StrokeBase (which has no slots to copy by): the class
+    and every field that is set, as the slotted class gives them ((None, {slot: value}))."""
+    import copyreg
+    fields = {n: v for n in FIELDS if (v := getattr(st, n, _UNSET)) is not _UNSET}
+    return copyreg.__newobj__, (type(st),), (None, fields)
+
+
+if _BASE is not None:
+    # the field names where code looks them up (tests, benchmarks/mem_breakdown.py): read
+    # only when a class is made, the empty tuple above made no slot
+    Stroke.__slots__ = FIELDS
+    Stroke.__reduce__ = _reduce
+
+
+
+def line_spans(strokes):
+    """(first_idx, last_idx) of every stroke of the list, two int64 arrays (the core reads
+    StrokeBase's ints directly; else one attribute read each)."""
+    import numpy as np
+    n = len(strokes)
+    lo, hi = np.empty(n, np.int64), np.empty(n, np.int64)
+    if _CORE is not None and type(strokes) is list and _CORE.stroke_lines(strokes, lo, hi):
+        return lo, hi
+    from operator import attrgetter
+    return (np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n),
+            np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n))
+
+
+def put_sums(strokes, got, v0, v1, time_t, int_a2, int_v2):
+    """The model's sums given to the strokes of the list: v0 where got & 1, v1 where got & 2,
+    time_t, int_a2, int_v2 to all (got an int64 array, the rest float64 arrays: the
+    values their floats have)."""
+    if _CORE is not None and type(strokes) is list and _CORE.stroke_put_sums(strokes, got, v0, v1, time_t, int_a2,
+                                                                              int_v2):
+        return
+    for s, g, a, b, x, y, z in zip(strokes, got.tolist(), v0.tolist(), v1.tolist(), time_t.tolist(),
+                                   int_a2.tolist(), int_v2.tolist()):
+        if g == 3:              # (most strokes: both ends' records came)
+            s.v0, s.v1, s.time_t, s.int_a2, s.int_v2 = a, b, x, y, z
+            continue
+        if g & 1:
+            s.v0 = a
+        if g & 2:
+            s.v1 = b
+        s.time_t, s.int_a2, s.int_v2 = x, y, z
+
+
+_new = Stroke.__new__          # (object.__new__ for the pure-Python class; StrokeBase's otherwise)
 
 
 def _kind_state(st, e0, ss):

@@ -2773,6 +2773,286 @@ static int py_hypot(double dx, double dy, double *d)
     return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
 }
 
+/* ---------------------------------------------------------------- StrokeBase */
+/* strokes.Stroke's compiled base (the class subclasses it, adding no slot, where this core
+ * is used): every stroke lives for the whole run (gyroid plate: 35 k), and a float or int
+ * of its own in an object slot cost 24-32 bytes beside the slot's 8.  The fields that are
+ * always a float (and the None-able ones that are a float or None) are kept here as
+ * doubles, first_idx / last_idx as 64-bit ints; reading one makes the float (int) of
+ * those bits, so readers see the same values and types as from the object slots they
+ * replace.  A value of another type (the tests' np.float64, an int for a float; never
+ * the package's own writers) is kept as it is in the stroke's `extra` dict (its bit set
+ * in `odd`) and read back as that object; a deleted field reads as unset (AttributeError),
+ * as a slot.  The rest are object slots (T_OBJECT_EX, read by offset as before). */
+enum { SD_X0, SD_Y0, SD_UX, SD_UY, SD_LEN, SD_EPM, SD_V0, SD_V1, SD_T, SD_A2, SD_V2,
+       SD_PUX, SD_PUY, SD_NUX, SD_NUY, SD_SSE, SD_N };        /* from SD_PUX on: a float or None */
+#define SD_NONE0 SD_PUX
+enum { SI_FIRST, SI_LAST, SI_N };
+enum { SO_Z, SO_ENDS, SO_VF, SO_ACC, SO_FEAT, SO_LAYER, SO_EREL, SO_LIM, SO_KIND, SO_ARC, SO_PTS, SO_CURV,
+       SO_SSA, SO_SSC, SO_CHAIN, SO_V0FW, SO_V1FW, SO_CC0, SO_CC1, SO_N };
+static const char *const SD_NAMES[SD_N] = {"x0", "y0", "ux", "uy", "length_d", "e_per_mm", "v0", "v1", "time_t",
+    "int_a2", "int_v2", "_pux", "_puy", "_nux", "_nuy", "_ss_e"};
+static const char *const SI_NAMES[SI_N] = {"first_idx", "last_idx"};
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *o[SO_N];
+    PyObject *extra;           /* NULL, or {name: value} of the odd fields */
+    double d[SD_N];
+    long long i[SI_N];
+    unsigned int has;          /* bit k - SD_NONE0: the None-able double k holds a float */
+    unsigned int odd;          /* bit k (double k, int SD_N + k): the value is extra's (unset if not there) */
+} StrokeObject;
+
+#define ODD_INTS(s) (((s)->odd >> SD_N) & ((1u << SI_N) - 1))
+
+static PyTypeObject StrokeType;
+
+/* field f's value kept as an object (new reference; an unset field: AttributeError) */
+static PyObject *odd_get(StrokeObject *s, const char *name)
+{
+    PyObject *v = s->extra ? PyDict_GetItemString(s->extra, name) : NULL;
+    if (v == NULL) {
+        PyErr_Format(PyExc_AttributeError, "'%.50s' object has no attribute '%s'", Py_TYPE(s)->tp_name, name);
+        return NULL;
+    }
+    return Py_NewRef(v);
+}
+
+/* field f (bit f of odd) set to the object v, or unset (v NULL) */
+static int odd_set(StrokeObject *s, int f, const char *name, PyObject *v)
+{
+    if (v == NULL) {
+        if (s->extra && PyDict_GetItemString(s->extra, name) && PyDict_DelItemString(s->extra, name) < 0)
+            return -1;
+    } else {
+        if (s->extra == NULL && (s->extra = PyDict_New()) == NULL)
+            return -1;
+        if (PyDict_SetItemString(s->extra, name, v) < 0)
+            return -1;
+    }
+    s->odd |= 1u << f;
+    return 0;
+}
+
+static PyObject *sd_get(StrokeObject *s, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (s->odd & (1u << k))
+        return odd_get(s, SD_NAMES[k]);
+    if (k >= SD_NONE0 && !(s->has & (1u << (k - SD_NONE0))))
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(s->d[k]);
+}
+
+static int sd_set(StrokeObject *s, PyObject *v, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (v != NULL && PyFloat_CheckExact(v)) {
+        s->d[k] = PyFloat_AS_DOUBLE(v);
+        if (k >= SD_NONE0)
+            s->has |= 1u << (k - SD_NONE0);
+        s->odd &= ~(1u << k);
+        return 0;
+    }
+    if (v == Py_None && k >= SD_NONE0) {
+        s->has &= ~(1u << (k - SD_NONE0));
+        s->d[k] = 0.0;
+        s->odd &= ~(1u << k);
+        return 0;
+    }
+    return odd_set(s, k, SD_NAMES[k], v);
+}
+
+static PyObject *si_get(StrokeObject *s, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (s->odd & (1u << (SD_N + k)))
+        return odd_get(s, SI_NAMES[k]);
+    return PyLong_FromLongLong(s->i[k]);
+}
+
+static int si_set(StrokeObject *s, PyObject *v, void *c)
+{
+    int k = (int)(intptr_t)c;
+    if (v != NULL && PyLong_CheckExact(v)) {
+        int over = 0;
+        long long x = PyLong_AsLongLongAndOverflow(v, &over);
+        if (x == -1 && PyErr_Occurred())
+            return -1;
+        if (!over) {
+            s->i[k] = x;
+            s->odd &= ~(1u << (SD_N + k));
+            return 0;
+        }
+    }
+    return odd_set(s, SD_N + k, SI_NAMES[k], v);
+}
+
+static int Stroke_traverse(StrokeObject *s, visitproc visit, void *arg)
+{
+    for (int k = 0; k < SO_N; k++)
+        Py_VISIT(s->o[k]);
+    Py_VISIT(s->extra);
+    return 0;
+}
+
+static int Stroke_clear(StrokeObject *s)
+{
+    for (int k = 0; k < SO_N; k++)
+        Py_CLEAR(s->o[k]);
+    Py_CLEAR(s->extra);
+    return 0;
+}
+
+static void Stroke_dealloc(StrokeObject *s)
+{
+    PyObject_GC_UnTrack(s);
+    Stroke_clear(s);
+    Py_TYPE(s)->tp_free((PyObject *)s);
+}
+
+#define SOM(nm, k) {nm, T_OBJECT_EX, offsetof(StrokeObject, o) + (k) * sizeof(PyObject *), 0, NULL}
+static PyMemberDef Stroke_members[] = {
+    SOM("z", SO_Z), SOM("_ends", SO_ENDS), SOM("v_feed", SO_VF), SOM("accel", SO_ACC), SOM("feature", SO_FEAT),
+    SOM("layer", SO_LAYER), SOM("e_rel", SO_EREL), SOM("lim", SO_LIM), SOM("kind", SO_KIND), SOM("arc", SO_ARC),
+    SOM("pts", SO_PTS), SOM("curv", SO_CURV), SOM("_ss_a", SO_SSA), SOM("_ss_c", SO_SSC),
+    SOM("chain_T", SO_CHAIN), SOM("v0_fw", SO_V0FW), SOM("v1_fw", SO_V1FW), SOM("corner_cmd0", SO_CC0),
+    SOM("corner_cmd1", SO_CC1), {NULL}
+};
+#undef SOM
+
+#define SDG(k) {(char *)0, (getter)sd_get, (setter)sd_set, NULL, (void *)(intptr_t)(k)}
+#define SIG(k) {(char *)0, (getter)si_get, (setter)si_set, NULL, (void *)(intptr_t)(k)}
+static PyGetSetDef Stroke_getset[SD_N + SI_N + 1] = {
+    SDG(0), SDG(1), SDG(2), SDG(3), SDG(4), SDG(5), SDG(6), SDG(7), SDG(8), SDG(9), SDG(10), SDG(11), SDG(12),
+    SDG(13), SDG(14), SDG(15), SIG(0), SIG(1), {NULL}
+};
+#undef SDG
+#undef SIG
+
+static PyTypeObject StrokeType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.StrokeBase",
+    .tp_doc = "strokes.Stroke's fields: the floats and line numbers kept as doubles and ints (see strokes.py)",
+    .tp_basicsize = sizeof(StrokeObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_dealloc = (destructor)Stroke_dealloc,
+    .tp_traverse = (traverseproc)Stroke_traverse,
+    .tp_clear = (inquiry)Stroke_clear,
+    .tp_members = Stroke_members,
+    .tp_getset = Stroke_getset,
+};
+
+/* a float64 (int64: q) buffer of at least n items, writable if asked; -1 with an error */
+static int stroke_buf(PyObject *o, Py_buffer *b, Py_ssize_t n, int is_int, int writable, const char *what)
+{
+    if (PyObject_GetBuffer(o, b, (writable ? PyBUF_WRITABLE : 0) | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    int ok = b->itemsize == 8 && b->format != NULL && b->len >= n * 8
+             && (is_int ? (!strcmp(b->format, "q") || !strcmp(b->format, "l")) : !strcmp(b->format, "d"));
+    if (!ok) {
+        PyBuffer_Release(b);
+        PyErr_Format(PyExc_ValueError, "%s: an %s buffer of len(strokes) expected", what,
+                     is_int ? "int64" : "float64");
+        return -1;
+    }
+    return 0;
+}
+
+/* every item of the list a StrokeBase (its fields read and written here directly) */
+static int all_strokes(PyObject *list)
+{
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    for (Py_ssize_t k = 0; k < n; k++)
+        if (!PyObject_TypeCheck(PyList_GET_ITEM(list, k), &StrokeType))
+            return 0;
+    return 1;
+}
+
+/* stroke_lines(strokes, lo, hi): lo[k], hi[k] = strokes[k].first_idx, .last_idx (int64
+ * buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase or keeps a line
+ * number as an object (then the attribute reads) */
+static PyObject *mod_stroke_lines(PyObject *self, PyObject *args)
+{
+    PyObject *list, *lo_o, *hi_o;
+    if (!PyArg_ParseTuple(args, "O!OO:stroke_lines", &PyList_Type, &list, &lo_o, &hi_o))
+        return NULL;
+    if (!all_strokes(list))
+        return PyLong_FromLong(0);
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer bl, bh;
+    if (stroke_buf(lo_o, &bl, n, 1, 1, "stroke_lines") < 0)
+        return NULL;
+    if (stroke_buf(hi_o, &bh, n, 1, 1, "stroke_lines") < 0) {
+        PyBuffer_Release(&bl);
+        return NULL;
+    }
+    long long *lo = bl.buf, *hi = bh.buf;
+    int odd = 0;
+    for (Py_ssize_t k = 0; k < n && !odd; k++) {
+        StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
+        lo[k] = s->i[SI_FIRST];
+        hi[k] = s->i[SI_LAST];
+        odd = ODD_INTS(s) != 0;        /* (a line number kept as an object: the attribute reads) */
+    }
+    PyBuffer_Release(&bl);
+    PyBuffer_Release(&bh);
+    return PyLong_FromLong(!odd);
+}
+
+/* stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written into
+ * the strokes: v0 where got & 1, v1 where got & 2, time_t int_a2 int_v2 always (got int64,
+ * the rest float64 buffers of len(strokes)); 1, or 0 if an item is not a StrokeBase
+ * (nothing written) */
+static PyObject *mod_stroke_put_sums(PyObject *self, PyObject *args)
+{
+    PyObject *list, *o[6];
+    if (!PyArg_ParseTuple(args, "O!OOOOOO:stroke_put_sums", &PyList_Type, &list, &o[0], &o[1], &o[2], &o[3],
+                          &o[4], &o[5]))
+        return NULL;
+    if (!all_strokes(list))
+        return PyLong_FromLong(0);
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer b[6];
+    int got_b = 0;
+    for (; got_b < 6; got_b++)
+        if (stroke_buf(o[got_b], &b[got_b], n, got_b == 0, 0, "stroke_put_sums") < 0)
+            break;
+    if (got_b == 6) {
+        const long long *g = b[0].buf;
+        const double *v0 = b[1].buf, *v1 = b[2].buf, *t = b[3].buf, *a2 = b[4].buf, *v2 = b[5].buf;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, k);
+            if (g[k] & 1) {
+                s->d[SD_V0] = v0[k];
+                s->odd &= ~(1u << SD_V0);
+            }
+            if (g[k] & 2) {
+                s->d[SD_V1] = v1[k];
+                s->odd &= ~(1u << SD_V1);
+            }
+            s->d[SD_T] = t[k];
+            s->d[SD_A2] = a2[k];
+            s->d[SD_V2] = v2[k];
+            s->odd &= ~(1u << SD_T | 1u << SD_A2 | 1u << SD_V2);    /* (floats: as setattr) */
+        }
+    }
+    for (int k = 0; k < got_b; k++)
+        PyBuffer_Release(&b[k]);
+    return got_b == 6 ? PyLong_FromLong(1) : NULL;
+}
+
+static int stroke_type_ready(void)
+{
+    for (int k = 0; k < SD_N; k++)
+        Stroke_getset[k].name = SD_NAMES[k];
+    for (int k = 0; k < SI_N; k++)
+        Stroke_getset[SD_N + k].name = SI_NAMES[k];
+    return PyType_Ready(&StrokeType);
+}
+
 /* ---------------------------------------------------------------- run_lines' strokes
  * With its kit (strokes.group_lines' _RunKit: Stroke, Points, array, K_LINE, K_CURVE,
  * on_stroke, head_move, min_length_d, curves) run_lines also does group_lines' commonest
@@ -2824,6 +3104,77 @@ static int slots_ready(SlotMap *m, PyObject *type, const char **names)
         if (m->off[k] < 0)
             return 0;
     return 1;
+}
+
+/* a StrokeBase subclass (strokes.Stroke over this core): where each of STROKE_NAMES lives,
+ * a double (stroke_dbl: SD_ index), an int (stroke_int: SI_ index) or an object slot (-1 in
+ * both: STROKE_MAP.off's offset); stroke_inline: STROKE_MAP's type is one */
+static signed char stroke_dbl[ST_N], stroke_int[ST_N];
+static int stroke_inline = 0;
+
+/* the descriptor of name on type, if it is StrokeBase's own (g: its getter) */
+static int stroke_own(PyObject *type, const char *name, getter g)
+{
+    PyObject *d = PyObject_GetAttrString(type, name);
+    if (d == NULL) {
+        PyErr_Clear();
+        return 0;
+    }
+    int own = Py_TYPE(d) == &PyGetSetDescr_Type && ((PyGetSetDescrObject *)d)->d_getset->get == g;
+    Py_DECREF(d);
+    return own;
+}
+
+/* STROKE_MAP set up for type (kept while it is the same type); 0 if a field is in no
+ * plain slot and not StrokeBase's own */
+static int stroke_ready(PyObject *type)
+{
+    if ((PyObject *)STROKE_MAP.type != type) {
+        if (map_init(&STROKE_MAP, type, STROKE_NAMES) < 0)
+            return -1;
+        stroke_inline = PyType_IsSubtype((PyTypeObject *)type, &StrokeType);
+        for (int k = 0; k < ST_N; k++) {
+            stroke_dbl[k] = stroke_int[k] = -1;
+            for (int j = 0; stroke_inline && j < SD_N; j++)
+                if (!strcmp(STROKE_NAMES[k], SD_NAMES[j]) && stroke_own(type, SD_NAMES[j], (getter)sd_get))
+                    stroke_dbl[k] = (signed char)j;
+            for (int j = 0; stroke_inline && j < SI_N; j++)
+                if (!strcmp(STROKE_NAMES[k], SI_NAMES[j]) && stroke_own(type, SI_NAMES[j], (getter)si_get))
+                    stroke_int[k] = (signed char)j;
+        }
+    }
+    for (int k = 0; k < ST_N; k++)
+        if (STROKE_MAP.off[k] < 0 && stroke_dbl[k] < 0 && stroke_int[k] < 0)
+            return 0;
+    return 1;
+}
+
+/* field k of the stroke o (of STROKE_MAP's type) set to v (borrowed) */
+static int stroke_put(PyObject *o, int k, PyObject *v)
+{
+    if (stroke_dbl[k] >= 0)
+        return sd_set((StrokeObject *)o, v, (void *)(intptr_t)stroke_dbl[k]);
+    if (stroke_int[k] >= 0)
+        return si_set((StrokeObject *)o, v, (void *)(intptr_t)stroke_int[k]);
+    Py_XSETREF(*(PyObject **)((char *)o + STROKE_MAP.off[k]), Py_NewRef(v));
+    return 0;
+}
+
+/* a stroke of exactly STROKE_MAP's type, field k val[k] (borrowed), or NULL with an error */
+static PyObject *stroke_new(PyObject *const *val)
+{
+    if (!stroke_inline)
+        return slots_new(&STROKE_MAP, val);
+    PyTypeObject *t = STROKE_MAP.type;
+    PyObject *o = t->tp_alloc(t, 0);
+    if (o == NULL)
+        return NULL;
+    for (int k = 0; k < ST_N; k++)
+        if (stroke_put(o, k, val[k]) < 0) {
+            Py_DECREF(o);
+            return NULL;
+        }
+    return o;
 }
 
 typedef struct {
@@ -2884,9 +3235,22 @@ static int proto_read(Proto *p, PyObject *m)
            ? 0 : -1;
 }
 
-/* array("d", floats): the list's doubles handed to the array as bytes (frombytes: one copy)
- * where every item is a float (array("d", list) converts item by item, through the
- * argument parser: ~200 instructions a vertex), else array("d", list) itself */
+/* array("d", bytes) of exactly its doubles' room: an array made from bytes keeps room for
+ * 3 + n / 16 more (it grew from empty), its copy a[:] none, as array("d", list) (the
+ * strokes keep their arrays for the whole run: ~1.3 MB of the gyroid plate's curves) */
+static PyObject *bytes_array(PyObject *array_t, PyObject *b)
+{
+    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    if (a == NULL)
+        return NULL;
+    PyObject *c = PySequence_GetSlice(a, 0, PY_SSIZE_T_MAX);
+    Py_DECREF(a);
+    return c;
+}
+
+/* array("d", floats): the list's doubles handed to the array as bytes (bytes_array: two
+ * copies) where every item is a float (array("d", list) converts item by item, through
+ * the argument parser: ~200 instructions a vertex), else array("d", list) itself */
 static PyObject *double_array(PyObject *array_t, PyObject *list)
 {
     Py_ssize_t n = PyList_GET_SIZE(list);
@@ -2899,7 +3263,7 @@ static PyObject *double_array(PyObject *array_t, PyObject *list)
     double *d = (double *)PyBytes_AS_STRING(b);
     for (Py_ssize_t k = 0; k < n; k++)
         d[k] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(list, k));
-    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    PyObject *a = bytes_array(array_t, b);
     Py_DECREF(b);
     return a;
 }
@@ -2991,7 +3355,7 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
         val[ST_KIND] = kit->k_line;
         val[ST_LEN] = len;
     }
-    PyObject *st = OWN(slots_new(&STROKE_MAP, val));
+    PyObject *st = OWN(stroke_new(val));
     if (!st)
         goto done;
     PyObject *r = PyObject_CallOneArg(kit->on_stroke, st);
@@ -3138,7 +3502,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         if (b - a > 1) {
             PyObject *by = OWN(PyBytes_FromStringAndSize((const char *)ends, (b - a) * (Py_ssize_t)sizeof(double)));
             if (!bad)
-                val[ST_ENDS] = OWN(PyObject_CallFunction(kit->array_t, "sO", "d", by));
+                val[ST_ENDS] = OWN(bytes_array(kit->array_t, by));
         }
         val[ST_EPM] = OWN(PyFloat_FromDouble(epm));
         if (start != Py_None) {
@@ -3159,7 +3523,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
         val[ST_CC0] = val[ST_CC1] = Py_False;
         val[ST_KIND] = kit->k_line;
-        PyObject *st = bad ? NULL : slots_new(&STROKE_MAP, val);
+        PyObject *st = bad ? NULL : stroke_new(val);
         for (int k = 0; k < n_own; k++)
             Py_XDECREF(own[k]);
         if (st == NULL)
@@ -3168,8 +3532,8 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
     }
     if (kept) {                        /* the last one kept: the run's next_u */
         PyObject *st = made[kept - 1];
-        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUX]), Py_NewRef(nux));
-        Py_SETREF(*(PyObject **)((char *)st + STROKE_MAP.off[ST_NUY]), Py_NewRef(nuy));
+        if (stroke_put(st, ST_NUX, nux) < 0 || stroke_put(st, ST_NUY, nuy) < 0)
+            goto done;
     }
     for (Py_ssize_t k = 0; k < kept; k++) {
         PyObject *r = PyObject_CallOneArg(kit->on_stroke, made[k]);
@@ -3229,7 +3593,7 @@ static int kit_read(PyObject *o, RunKit *kit)
         return -1;
     }
     static const char *points_names[1] = {"xy"};
-    int a = slots_ready(&STROKE_MAP, kit->stroke_t, STROKE_NAMES);
+    int a = stroke_ready(kit->stroke_t);
     int b = a < 0 ? -1 : slots_ready(&POINTS_MAP, kit->points_t, points_names);
     return a < 0 || b < 0 ? -1 : (a && b);
 }
@@ -5205,6 +5569,10 @@ static PyMethodDef mod_methods[] = {
     {"jerk_tail", mod_jerk_tail, METH_VARARGS,
      "jerk_tail(S, V, acc, a_own, step, v_feed, K, min_feed_v, cruise_a, A, F, t, a2, fine): segments._jerk_rows' "
      "held accelerations, feeds, figures and verdicts"},
+    {"stroke_lines", mod_stroke_lines, METH_VARARGS,
+     "stroke_lines(strokes, lo, hi): their first_idx and last_idx into two int64 buffers; 0: declined"},
+    {"stroke_put_sums", mod_stroke_put_sums, METH_VARARGS,
+     "stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written in; 0: declined"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}
@@ -5224,7 +5592,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
         || PyType_Ready(&SimType) < 0 || PyType_Ready(&SinkType) < 0 || PyType_Ready(&SumsType) < 0
-        || PyType_Ready(&LogType) < 0)
+        || PyType_Ready(&LogType) < 0 || stroke_type_ready() < 0)
         return NULL;
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
@@ -5243,6 +5611,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "RowSink", (PyObject *)&SinkType) < 0
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
+        || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
         Py_DECREF(m);

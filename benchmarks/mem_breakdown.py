@@ -47,8 +47,14 @@ def by_file(snapshot, top):
 def stroke_slots(strokes):
     """{slot or part: MB} of the strokes: the Stroke objects, and each slot's objects not
     counted before (a float shared by two strokes counts once), numpy/array data included."""
+    import types
     from gcode_opt.strokes import Stroke
     seen, sizes = set(), collections.Counter()
+    # fields the compiled StrokeBase stores in the stroke itself (doubles, ints): a read makes
+    # an object the stroke does not hold, so they are in "Stroke objects" and not counted again
+    base = Stroke.__mro__[1] if len(Stroke.__mro__) > 2 else None
+    inline = {f for f in Stroke.__slots__
+              if base is not None and isinstance(base.__dict__.get(f), types.GetSetDescriptorType)}
 
     def count(tag, o):
         if o is None or isinstance(o, bool) or id(o) in seen:
@@ -59,6 +65,8 @@ def stroke_slots(strokes):
     for s in strokes:
         count("Stroke objects", s)
         for slot in Stroke.__slots__:
+            if slot in inline:
+                continue
             v = getattr(s, slot, None)
             count(f"{slot} ({type(v).__name__})", v)
             xy = getattr(v, "xy", None)           # strokes.Points: its array of vertices

@@ -156,8 +156,9 @@ class Candidates:
         sorted).  tests/test_memory_plan.py compares them with the dense tables.
 
         The list pieces is emptied: each piece's values are let go once copied, so the
-        pieces and the table they make are not all held at once (~12 MB on the
-        rectilinear plate's lines, at the peak of making the candidates)."""
+        pieces and the table they make are not all held at once while it is filled (the
+        pieces' values are ~12 MB on the rectilinear plate; that moment was not the plan's
+        peak, so the peak did not move)."""
         k = len(T_RATIOS)
         mask = np.zeros((n, k), bool)
         t_pos = ((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1)

@@ -556,7 +556,8 @@ def main(argv=None):
     if not a.cmd:
         ap.print_help()
         return EXIT_USER
-    from . import malloc_policy
+    from . import blas, malloc_policy
+    blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
     malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
     from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
     from .profile import ProfileError

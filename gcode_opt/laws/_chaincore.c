@@ -51,7 +51,10 @@ static void *get(Bufs *b, PyObject *o, Py_ssize_t size, int writable, Py_ssize_t
 }
 
 /* numpy's maximum: the first operand if it is nan or not below the second */
-static inline double np_max(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double np_max(double a, double b) {
+    int k = (a >= b) | (a != a);          /* (both tests, no short cut: a select, not branches) */
+    return k ? a : b;
+}
 
 /* numpy's nan_to_num */
 static inline double nan_to_num(double x) {
@@ -778,7 +781,10 @@ static PyObject *prims_c(PyObject *self, PyObject *a) {
    speed, duration or limit, or a classic-jerk tent input that is not finite and > 0. */
 
 /* numpy's minimum: the first operand if it is nan or not above the second */
-static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+static inline double np_min(double a, double b) {
+    int k = (a <= b) | (a != a);
+    return k ? a : b;
+}
 /* Python's max(a, b) / min(a, b) of two floats: a unless b is above / below it */
 static inline double py_max(double a, double b) { return (b > a) ? b : a; }
 static inline double py_min(double a, double b) { return (b < a) ? b : a; }

@@ -51,7 +51,10 @@ static void *get(Bufs *b, PyObject *o, Py_ssize_t size, int writable, Py_ssize_t
 }
 
 /* numpy's maximum: the first operand if it is nan or not below the second */
-static inline double np_max(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double np_max(double a, double b) {
+    int k = (a >= b) | (a != a);          /* (both tests, no short cut: a select, not branches) */
+    return k ? a : b;
+}
 
 /* numpy's nan_to_num */
 static inline double nan_to_num(double x) {
@@ -471,37 +474,42 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     /* a chunk of the active laws, compact: τ, γ, s4, n, sh2, wbar, A, δ, T; s, ṡ */
     double taub[CHUNK], gb[CHUNK], s4b[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK];
     double Tb[CHUNK], sb[CHUNK], vv[CHUNK];
+    /* τ = clip(t / T, 0, 1) of the active laws in act's order (taus[j]: act[j]'s), made
+       where t is: once here, then by the step that moves t (each law's τ once a step, not
+       once for the batch's S1 terms and again for its chunk); zm, nan: the largest (γx)²
+       of the active laws (nan: one is nan), the S1 terms the next step's batch needs */
+    double *taus = PyMem_Malloc(NN * sizeof(double));
+    if (!taus) { PyMem_Free(s4all); release(&b); return PyErr_NoMemory(); }
+    double zm = -1.0;
+    int nan = 0;
+    for (Py_ssize_t j = 0; j < N; j++) {
+        int64_t i = act[j];
+        double tau = t[i] / T[i];
+        if (!isnan(tau)) {                /* np.clip: nan stays */
+            tau = tau > 0.0 ? tau : 0.0;
+            tau = tau < 1.0 ? tau : 1.0;
+        }
+        taus[j] = tau;
+        double z = gs[i] * (tau - 0.5);
+        double z2 = z * z;
+        if (isnan(z2)) nan = 1;
+        else if (z2 > zm) zm = z2;
+    }
     Py_ssize_t na = N;
     for (int it = 0; it < max_iter && na > 0; it++) {
         /* γx of the active laws: the S1 terms their batch needs */
-        double zm = -1.0;
-        int nan = 0;
-        for (Py_ssize_t j = 0; j < na; j++) {
-            int64_t i = act[j];
-            double tau = t[i] / T[i];
-            if (!isnan(tau)) {                /* np.clip: nan stays */
-                tau = tau > 0.0 ? tau : 0.0;
-                tau = tau < 1.0 ? tau : 1.0;
-            }
-            double z = gs[i] * (tau - 0.5);
-            double z2 = z * z;
-            if (isnan(z2)) nan = 1;
-            else if (z2 > zm) zm = z2;
-        }
         int k = nms_terms(zm, zmax, nz, nan);
-        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t; the
-           laws not done stay in act (compacted in place: keep <= j) */
+        zm = -1.0;
+        nan = 0;
+        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t and its
+           τ; the laws not done stay in act and their τ in taus (both compacted in place:
+           keep <= j, so a later chunk's entries are not written before they are read) */
         Py_ssize_t keep = 0;
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
             for (Py_ssize_t jj = 0; jj < m; jj++) {
                 int64_t i = act[j0 + jj];
-                double tau = t[i] / T[i];
-                if (!isnan(tau)) {
-                    tau = tau > 0.0 ? tau : 0.0;
-                    tau = tau < 1.0 ? tau : 1.0;
-                }
-                taub[jj] = tau;
+                taub[jj] = taus[j0 + jj];
                 gb[jj] = gs[i]; s4b[jj] = s4all[i]; nb[jj] = n[i]; sh2b[jj] = sh2[i];
                 wb[jj] = wbar[i]; Ab[jj] = A[i]; db[jj] = dl[i]; Tb[jj] = T[i];
             }
@@ -510,9 +518,13 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
                 int64_t i = act[j0 + jj];
                 double ti = t[i], s = sb[jj], v = vv[jj];
                 double f = sgn[i] * (s - target[i]);
-                if (f <= 0) lo[i] = ti;
-                if (f >= 0) hi[i] = ti;
-                int done = (fabs(f) <= eps4 * scale[i]) || (hi[i] - lo[i] <= eps4 * T[i]);
+                /* the bracket as selections, not branches (f's sign is a coin toss) */
+                double loi = lo[i], hii = hi[i];
+                loi = (f <= 0) ? ti : loi;
+                hii = (f >= 0) ? ti : hii;
+                lo[i] = loi;
+                hi[i] = hii;
+                int done = (fabs(f) <= eps4 * scale[i]) || (hii - loi <= eps4 * Tb[jj]);
                 if (done) {            /* t stays; out[i] = t[i] already (out: t's copy on entry) */
                     out[i] = ti;
                     vout[i] = v;
@@ -520,15 +532,27 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
                 }
                 double sv = sgn[i] * v;
                 double tn = ti - f / sv;
-                int okn = (sv > 0) && (tn > lo[i]) && (tn < hi[i]);
-                double nt = okn ? tn : 0.5 * (lo[i] + hi[i]);
+                int okn = (sv > 0) && (tn > loi) && (tn < hii);
+                double nt = okn ? tn : 0.5 * (loi + hii);
                 t[i] = nt;
                 out[i] = nt;
+                /* its τ for the next step, and the largest (γx)² of the laws going on */
+                double tau = nt / Tb[jj];
+                if (!isnan(tau)) {
+                    tau = tau > 0.0 ? tau : 0.0;
+                    tau = tau < 1.0 ? tau : 1.0;
+                }
+                double z = gb[jj] * (tau - 0.5);
+                double z2 = z * z;
+                if (isnan(z2)) nan = 1;
+                else if (z2 > zm) zm = z2;
+                taus[keep] = tau;
                 act[keep++] = i;
             }
         }
         na = keep;
     }
+    PyMem_Free(taus);
     PyMem_Free(s4all);
     release(&b);
     return PyLong_FromSsize_t(na);
@@ -757,7 +781,10 @@ static PyObject *prims_c(PyObject *self, PyObject *a) {
    speed, duration or limit, or a classic-jerk tent input that is not finite and > 0. */
 
 /* numpy's minimum: the first operand if it is nan or not above the second */
-static inline double np_min(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+static inline double np_min(double a, double b) {
+    int k = (a <= b) | (a != a);
+    return k ? a : b;
+}
 /* Python's max(a, b) / min(a, b) of two floats: a unless b is above / below it */
 static inline double py_max(double a, double b) { return (b > a) ? b : a; }
 static inline double py_min(double a, double b) { return (b < a) ? b : a; }

@@ -11,7 +11,6 @@ import math
 import os
 import types
 
-import numpy as np
 import pytest
 
 from gcode_opt import pipeline as pl

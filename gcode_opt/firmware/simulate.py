@@ -756,6 +756,12 @@ def _ranges(watch):
     return array("q", [r[0] for r in watch]), array("q", [r[1] for r in watch])
 
 
+def _repeat(j, k):
+    """array("q") of k times j: extended into another array("q") as one copy (a list's ints
+    go in one by one, each parsed: ~0.2 M of them a plate's measure)."""
+    return array("q", (j,)) * k
+
+
 class _LedgerWriter:
     """What _play and _play_chunks record into a Ledger around the watched ranges: told
     where a watched range starts and where the model stands empty, it commits the stop
@@ -794,7 +800,7 @@ class _LedgerWriter:
             last = self.last
             self.last_j = led._commit(last[0], last[1], last[2], self.carry_v, self.carry_a)
             self.carry_v = self.carry_a = 0.0
-        led.lo.extend([self.last_j] * k)
+        led.lo.extend(_repeat(self.last_j, k))
         self.pending.extend(range(self.wi, self.wi + k))
         self.wi += k
         self.next_first = self.w_first[self.wi] if self.wi < self.n_w else -2
@@ -816,7 +822,7 @@ class _LedgerWriter:
                 led.ok = False
             self.last_j = led._commit(idx, self.last[1], self.last[2], self.carry_v, self.carry_a)
             self.carry_v = self.carry_a = 0.0
-            led.hi.extend([self.last_j] * len(pending))
+            led.hi.extend(_repeat(self.last_j, len(pending)))
             self.pending = []
 
     def finish(self, n_lines, sim):
@@ -826,7 +832,7 @@ class _LedgerWriter:
         sim.stop()
         carry_v, carry_a = max(self.carry_v, res.peak_v), max(self.carry_a, res.peak_a)
         end_j = led._commit(led.n_lines - 1, self.snap(), _sums(res), carry_v, carry_a)
-        led.hi.extend([end_j] * len(self.pending))
+        led.hi.extend(_repeat(end_j, len(self.pending)))
         if self.wi < self.n_w:    # ranges past the end of the file: nothing to replay from
             led.ok = False
         res.peak_v = max(led.peak_v) if len(led.peak_v) else 0.0

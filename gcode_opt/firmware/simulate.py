@@ -565,8 +565,9 @@ class Blocks:
     that read lists of str: the reference); blocks() yields (buf, cr): bytes-like blocks of
     whole lines in file order (a block ends after a line's ending, the last at the file's
     end), cr False where the block holds no "\r".  play_buf splits and decodes them as
-    read_lines does, without a str per line kept for the chunk (~0.05 s of a re-timed
-    plate's ~920 k lines, half its reading).  progress(n) is told each block's bytes."""
+    read_lines does, without a list of str a chunk (the rectilinear plate's measure, 926 k
+    lines: 9 % fewer instructions than readlines' chunks).  progress(n) is told each
+    block's bytes."""
 
     def __init__(self, path, progress=None):
         self.path, self.progress = path, progress

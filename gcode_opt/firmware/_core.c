@@ -212,10 +212,16 @@ static PyTypeObject BlockType = {
  * ringing.hooks' on_line and wrap_events put them); the sink's own line() and dwell() then
  * do nothing (sim_rests), so a pass gets each rest once whichever model plays it. */
 #define SINK_ROW 12
+/* The rows are written into a bytes object (store) that take() hands out as it is (a
+ * chunk's rows, ~1.5 MB, not copied); the last one handed out (spare) is written again
+ * once nothing but the sink holds it (the Collector's arrays over it are gone). */
+#define SINK_ROW_B ((Py_ssize_t)(SINK_ROW * sizeof(double)))
 typedef struct {
     PyObject_HEAD
-    double *buf;
+    double *buf;                      /* store's bytes, NULL without a store */
     Py_ssize_t n, alloc, cap;         /* rows held, rows allocated, rows that call flush */
+    Py_ssize_t last_alloc;            /* rows allocated when take() took the store */
+    PyObject *store, *spare;          /* bytes: the rows' room; the last one take() returned */
     PyObject *flush;
     int sim_rests;                    /* a compiled Sim writes the rests too */
 } SinkObject;
@@ -224,15 +230,38 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
 {
     if (k->n + rows <= k->alloc)
         return 0;
-    Py_ssize_t want = k->alloc * 2 > k->n + rows ? k->alloc * 2 : k->n + rows + 16;
-    if (want > k->cap + 1 && k->n + rows <= k->cap + 1)
-        want = k->cap + 1;            /* (grown as rows come, to what a chunk holds) */
-    double *nb = PyMem_Realloc(k->buf, (size_t)want * SINK_ROW * sizeof(double));
-    if (nb == NULL) {
-        PyErr_NoMemory();
+    if (k->store == NULL && k->spare != NULL && Py_REFCNT(k->spare) == 1) {
+        /* no one else holds it: its bytes can be written (its hash, if one was taken,
+         * forgotten: the field is deprecated, not gone) */
+        k->store = k->spare;
+        k->spare = NULL;
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+        ((PyBytesObject *)k->store)->ob_shash = -1;
+#pragma GCC diagnostic pop
+        k->buf = (double *)PyBytes_AS_STRING(k->store);
+        k->alloc = PyBytes_GET_SIZE(k->store) / SINK_ROW_B;
+        if (k->n + rows <= k->alloc)
+            return 0;
+    }
+    Py_ssize_t want;
+    if (k->store == NULL && k->last_alloc >= k->n + rows)
+        want = k->last_alloc;         /* (the room a chunk took before: taken at once) */
+    else {
+        want = k->alloc * 2 > k->n + rows ? k->alloc * 2 : k->n + rows + 16;
+        if (want > k->cap + 1 && k->n + rows <= k->cap + 1)
+            want = k->cap + 1;        /* (grown as rows come, to what a chunk holds) */
+    }
+    if (k->store == NULL)
+        k->store = PyBytes_FromStringAndSize(NULL, want * SINK_ROW_B);
+    else if (_PyBytes_Resize(&k->store, want * SINK_ROW_B) < 0)
+        k->store = NULL;              /* (freed by the resize: its rows are lost) */
+    if (k->store == NULL) {
+        k->buf = NULL;
+        k->n = k->alloc = 0;
         return -1;
     }
-    k->buf = nb;
+    k->buf = (double *)PyBytes_AS_STRING(k->store);
     k->alloc = want;
     return 0;
 }
@@ -393,13 +422,23 @@ static PyObject *Sink_put(SinkObject *k, PyObject *arg)
     Py_RETURN_NONE;
 }
 
-/* take(): the rows held (bytes), and the sink empty */
+/* take(): the rows held (bytes: the store itself, cut to them), and the sink empty */
 static PyObject *Sink_take(SinkObject *k, PyObject *noarg)
 {
-    PyObject *b = PyBytes_FromStringAndSize((const char *)k->buf,
-                                            k->n * (Py_ssize_t)(SINK_ROW * sizeof(double)));
-    if (b != NULL)
+    if (k->store == NULL || k->n == 0) {
         k->n = 0;
+        return PyBytes_FromStringAndSize(NULL, 0);
+    }
+    PyObject *b = k->store;
+    k->store = NULL;
+    k->buf = NULL;
+    k->last_alloc = k->alloc;
+    Py_ssize_t len = k->n * SINK_ROW_B;
+    k->n = k->alloc = 0;
+    if (_PyBytes_Resize(&b, len) < 0)
+        return NULL;
+    Py_INCREF(b);
+    Py_XSETREF(k->spare, b);
     return b;
 }
 
@@ -424,7 +463,8 @@ static void Sink_dealloc(SinkObject *k)
 {
     PyObject_GC_UnTrack(k);
     Sink_clear(k);
-    PyMem_Free(k->buf);
+    Py_XDECREF(k->store);
+    Py_XDECREF(k->spare);
     Py_TYPE(k)->tp_free((PyObject *)k);
 }
 
@@ -2546,9 +2586,21 @@ static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
     return rc;
 }
 
-static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
-                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
-                           Py_ssize_t nf, Py_ssize_t *wi_io);
+/* Where play_loop takes its lines: a list of str (lines[i] the file's line idx0 + i), or a
+ * bytes buffer of whole lines (play_buf: the lines split and decoded here, as the text
+ * file read_lines opens would give them, each str made only for the time its line is
+ * played) */
+typedef struct {
+    PyObject *list;            /* the list, or NULL: buf */
+    const char *buf;
+    Py_ssize_t len;
+    int cr;                    /* buf may hold a '\r' (else a line ends at its '\n' only) */
+    Py_ssize_t i;              /* the next line: its index in the list, or its offset in buf */
+    long long idx;             /* the next line's idx */
+} LineSrc;
+
+static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until, int stops,
+                     PyObject *on_barrier, const long long *firsts, Py_ssize_t nf, Py_ssize_t *wi_io);
 
 /* play(lines, start, idx0, step, until, stops, on_barrier): simulate._play's loop over
  * lines[start:] (a list of str, lines[j] the file's line idx0 + j): ev = step(idx, raw),
@@ -2591,49 +2643,164 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
             wi = 0;
         until = -2;
     }
-    PyObject *res = play_loop(s, lines, i, idx0, step, until, stops, on_barrier, firsts, nf, &wi);
-    if (nargs == 8) {
+    LineSrc src = {lines, NULL, 0, 0, i, idx0 + (long long)i};
+    int stopped = play_loop(s, &src, step, until, stops, on_barrier, firsts, nf, &wi);
+    if (nargs == 8)
         PyBuffer_Release(&fb);
-        if (res != NULL) {
-            PyObject *r3 = Py_BuildValue("(OOn)", PyTuple_GET_ITEM(res, 0), PyTuple_GET_ITEM(res, 1), wi);
-            Py_DECREF(res);
-            res = r3;
-        }
-    }
-    return res;
+    if (stopped < 0)
+        return NULL;
+    if (nargs == 8)
+        return Py_BuildValue("(nOn)", src.i, stopped ? Py_True : Py_False, wi);
+    return Py_BuildValue("(nO)", src.i, stopped ? Py_True : Py_False);
 }
 
-static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long long idx0, PyObject *step,
-                           long long until, int stops, PyObject *on_barrier, const long long *firsts,
-                           Py_ssize_t nf, Py_ssize_t *wi_io)
+/* play_buf(buf, pos, idx, cr, step, until, stops, on_barrier[, firsts]): play() over the
+ * lines of buf (bytes-like) from offset pos, the first of them the file's line idx: buf
+ * holds whole lines (split as a text file opened with newline="" splits them: after each
+ * "\n", "\r\n" or lone "\r"; a last line without an ending is one), each decoded as
+ * UTF-8 with surrogateescape, i.e. the str read_lines would give (cr false: buf holds no
+ * "\r", lines end at "\n" only).  No list of str is made: each line's str lives only
+ * while it is played.  Returns (pos, idx, stopped) where it stopped, the next line's
+ * offset and idx; with firsts, (pos, idx, stopped, wi) as play()'s 8-argument form. */
+static PyObject *Sim_play_buf(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 8 && nargs != 9)
+        return PyErr_Format(PyExc_TypeError, "play_buf() takes 8 or 9 arguments (%zd given)", nargs);
+    PyObject *step = args[4], *on_barrier = args[7];
+    Py_ssize_t pos = PyLong_AsSsize_t(args[1]);
+    long long idx = PyLong_AsLongLong(args[2]);
+    int cr = PyObject_IsTrue(args[3]);
+    long long until = PyLong_AsLongLong(args[5]);
+    int stops = PyObject_IsTrue(args[6]);
+    if (PyErr_Occurred() || stops < 0 || cr < 0)
+        return NULL;
+    Py_buffer bb, fb;
+    if (PyObject_GetBuffer(args[0], &bb, PyBUF_SIMPLE) < 0)
+        return NULL;
+    if (pos < 0 || pos > bb.len) {
+        PyBuffer_Release(&bb);
+        PyErr_SetString(PyExc_ValueError, "play_buf: pos out of the buffer");
+        return NULL;
+    }
+    const long long *firsts = NULL;
+    Py_ssize_t nf = 0, wi = 0;
+    if (nargs == 9) {
+        if (PyObject_GetBuffer(args[8], &fb, PyBUF_SIMPLE) < 0) {
+            PyBuffer_Release(&bb);
+            return NULL;
+        }
+        firsts = (const long long *)fb.buf;
+        nf = fb.len / (Py_ssize_t)sizeof(long long);
+        wi = (Py_ssize_t)until;
+        if (wi < 0)
+            wi = 0;
+        until = -2;
+    }
+    LineSrc src = {NULL, (const char *)bb.buf, bb.len, cr, pos, idx};
+    int stopped = play_loop(s, &src, step, until, stops, on_barrier, firsts, nf, &wi);
+    if (nargs == 9)
+        PyBuffer_Release(&fb);
+    PyBuffer_Release(&bb);
+    if (stopped < 0)
+        return NULL;
+    if (nargs == 9)
+        return Py_BuildValue("(nLOn)", src.i, src.idx, stopped ? Py_True : Py_False, wi);
+    return Py_BuildValue("(nLO)", src.i, src.idx, stopped ? Py_True : Py_False);
+}
+
+/* The source's next line as a new str, src moved past it; NULL at its end (no error set)
+ * or on error (set). */
+static PyObject *src_take(LineSrc *src)
+{
+    if (src->list != NULL) {
+        if (src->i >= PyList_GET_SIZE(src->list))
+            return NULL;
+        PyObject *raw = PyList_GET_ITEM(src->list, src->i);
+        Py_INCREF(raw);                /* (the callbacks could change the list) */
+        src->i++;
+        src->idx++;
+        return raw;
+    }
+    if (src->i >= src->len)
+        return NULL;
+    const char *a = src->buf + src->i, *end = src->buf + src->len, *e;
+    if (!src->cr) {
+        e = memchr(a, '\n', (size_t)(end - a));
+        e = e != NULL ? e + 1 : end;
+    } else {
+        e = a;
+        while (e < end && *e != '\n' && *e != '\r')
+            e++;
+        if (e < end)
+            e += (*e == '\r' && e + 1 < end && e[1] == '\n') ? 2 : 1;
+    }
+    /* a line of ASCII (nearly all) is its bytes: copied into a new str; any other is
+     * UTF-8's decoder's (its ASCII path costs about as much again as the copy) */
+    Py_ssize_t n = (Py_ssize_t)(e - a), k = 0;
+    uint64_t high = 0;
+    for (; k + 8 <= n; k += 8) {
+        uint64_t w8;
+        memcpy(&w8, a + k, sizeof w8);
+        high |= w8;
+    }
+    for (; k < n; k++)
+        high |= (unsigned char)a[k];
+    PyObject *raw;
+    if ((high & 0x8080808080808080ULL) == 0) {
+        raw = PyUnicode_New(n, 127);
+        if (raw == NULL)
+            return NULL;
+        memcpy(PyUnicode_1BYTE_DATA(raw), a, (size_t)n);
+    } else {
+        raw = PyUnicode_DecodeUTF8(a, n, "surrogateescape");
+        if (raw == NULL)
+            return NULL;
+    }
+    src->i = (Py_ssize_t)(e - src->buf);
+    src->idx++;
+    return raw;
+}
+
+static inline int src_more(const LineSrc *src)
+{
+    return src->list != NULL ? src->i < PyList_GET_SIZE(src->list) : src->i < src->len;
+}
+
+/* play()'s loop over src's lines: returns 1 if it stopped after a line that left the model
+ * empty, 0 before the line `until` or at the end of the lines, -1 on error; src is left at
+ * the next line. */
+static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until, int stops,
+                     PyObject *on_barrier, const long long *firsts, Py_ssize_t nf, Py_ssize_t *wi_io)
 {
     Py_ssize_t wi = *wi_io;
     int stopped = 0, err;
     PyObject *call[3];
     void *ss = fused_session(s, step, &err);
     if (err)
-        return NULL;
-    for (; i < PyList_GET_SIZE(lines); i++) {
-        long long idx = idx0 + (long long)i;
+        return -1;
+    while (src_more(src)) {
+        long long idx = src->idx;
         if (idx == until)
             break;
         while (wi < nf && firsts[wi] == idx)
             wi++;
-        PyObject *raw = PyList_GET_ITEM(lines, i);
+        PyObject *raw = src_take(src);
+        if (raw == NULL)
+            goto fail_ss;
         if (ss != NULL) {
             FusedMove fm;
-            Py_INCREF(raw);
             int got = READER->line(ss, raw, &fm);
-            Py_DECREF(raw);
             if (got < 0)
-                goto fail_ss;
-            if (got == 0)
+                goto fail_raw;
+            if (got == 0) {
+                Py_DECREF(raw);
                 continue;
+            }
             if (got == 1) {
+                Py_DECREF(raw);
                 if (play_fused(s, idx, &fm) < 0)
                     goto fail_ss;
                 if (stops && fm.kind == 1) {
-                    i++;
                     stopped = 1;
                     break;
                 }
@@ -2643,14 +2810,15 @@ static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long lon
              * here (svl_line), any other line by step() */
             int h = svl_line(PyMethod_GET_SELF(step), raw);
             if (h < 0)
-                goto fail_ss;
-            if (h > 0)
+                goto fail_raw;
+            if (h > 0) {
+                Py_DECREF(raw);
                 continue;
+            }
         }
         PyObject *io = PyLong_FromLongLong(idx);
         if (io == NULL)
-            goto fail_ss;
-        Py_INCREF(raw);                /* the callbacks could change the list */
+            goto fail_raw;
         call[0] = NULL;
         call[1] = io;
         call[2] = raw;
@@ -2693,23 +2861,24 @@ static PyObject *play_loop(SimObject *s, PyObject *lines, Py_ssize_t i, long lon
             stopped = stops;
         }
         Py_DECREF(ev);
-        if (stopped) {
-            i++;
+        if (stopped)
             break;
-        }
         continue;
     fail:
         Py_DECREF(ev);
         goto fail_ss;
+    fail_raw:
+        Py_DECREF(raw);
+        goto fail_ss;
     }
     *wi_io = wi;
     if (ss != NULL && READER->close(ss) < 0)
-        return NULL;
-    return Py_BuildValue("(nO)", i, stopped ? Py_True : Py_False);
+        return -1;
+    return stopped;
 fail_ss:
     if (ss != NULL)
         READER->close(ss);            /* writes the state back, keeps the error */
-    return NULL;
+    return -1;
 }
 
 /* run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy,
@@ -4120,6 +4289,9 @@ static PyMethodDef Sim_methods[] = {
      "analyse's lines between runs"},
     {"play", (PyCFunction)(void (*)(void))Sim_play, METH_FASTCALL,
      "play(lines, start, idx0, step, until, stops, on_barrier) -> (j, stopped): read and play lines."},
+    {"play_buf", (PyCFunction)(void (*)(void))Sim_play_buf, METH_FASTCALL,
+     "play_buf(buf, pos, idx, cr, step, until, stops, on_barrier[, firsts]) -> (pos, idx, stopped[, wi]): "
+     "play() over the lines of a bytes buffer."},
     {NULL}
 };
 

@@ -1,4 +1,4 @@
-"""RowSink.take() hands out the bytes the rows were written into (no copy) and writes the
+"""RowSink.take() hands out the bytearray the rows were written into (no copy) and writes the
 next rows into the last bytes it handed out only once nothing else holds them: every
 chunk a flush takes reads the rows pushed, in order, whether the taker keeps the bytes
 (or an array over them) or drops them; and the Collector's figures on samples are

@@ -212,16 +212,18 @@ static PyTypeObject BlockType = {
  * ringing.hooks' on_line and wrap_events put them); the sink's own line() and dwell() then
  * do nothing (sim_rests), so a pass gets each rest once whichever model plays it. */
 #define SINK_ROW 12
-/* The rows are written into a bytes object (store) that take() hands out as it is (a
+/* The rows are written into a bytearray (store) that take() hands out as it is (a
  * chunk's rows, ~1.5 MB, not copied); the last one handed out (spare) is written again
- * once nothing but the sink holds it (the Collector's arrays over it are gone). */
+ * once nothing but the sink holds it (the Collector's arrays over it are gone: an array
+ * or view over it holds a reference).  A bytearray, not bytes: bytes are immutable to
+ * everything else in the interpreter (their cached hash), a bytearray may be written. */
 #define SINK_ROW_B ((Py_ssize_t)(SINK_ROW * sizeof(double)))
 typedef struct {
     PyObject_HEAD
     double *buf;                      /* store's bytes, NULL without a store */
     Py_ssize_t n, alloc, cap;         /* rows held, rows allocated, rows that call flush */
     Py_ssize_t last_alloc;            /* rows allocated when take() took the store */
-    PyObject *store, *spare;          /* bytes: the rows' room; the last one take() returned */
+    PyObject *store, *spare;          /* bytearrays: the rows' room; the last one take() returned */
     PyObject *flush;
     int sim_rests;                    /* a compiled Sim writes the rests too */
 } SinkObject;
@@ -231,16 +233,12 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
     if (k->n + rows <= k->alloc)
         return 0;
     if (k->store == NULL && k->spare != NULL && Py_REFCNT(k->spare) == 1) {
-        /* no one else holds it: its bytes can be written (its hash, if one was taken,
-         * forgotten: the field is deprecated, not gone) */
+        /* no one else holds it (nor a view of it: a view holds a reference): its bytes
+           can be written again */
         k->store = k->spare;
         k->spare = NULL;
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
-        ((PyBytesObject *)k->store)->ob_shash = -1;
-#pragma GCC diagnostic pop
-        k->buf = (double *)PyBytes_AS_STRING(k->store);
-        k->alloc = PyBytes_GET_SIZE(k->store) / SINK_ROW_B;
+        k->buf = (double *)PyByteArray_AS_STRING(k->store);
+        k->alloc = PyByteArray_GET_SIZE(k->store) / SINK_ROW_B;
         if (k->n + rows <= k->alloc)
             return 0;
     }
@@ -253,15 +251,15 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
             want = k->cap + 1;        /* (grown as rows come, to what a chunk holds) */
     }
     if (k->store == NULL)
-        k->store = PyBytes_FromStringAndSize(NULL, want * SINK_ROW_B);
-    else if (_PyBytes_Resize(&k->store, want * SINK_ROW_B) < 0)
-        k->store = NULL;              /* (freed by the resize: its rows are lost) */
+        k->store = PyByteArray_FromStringAndSize(NULL, want * SINK_ROW_B);
+    else if (PyByteArray_Resize(k->store, want * SINK_ROW_B) < 0)
+        Py_CLEAR(k->store);           /* (its rows are lost) */
     if (k->store == NULL) {
         k->buf = NULL;
         k->n = k->alloc = 0;
         return -1;
     }
-    k->buf = (double *)PyBytes_AS_STRING(k->store);
+    k->buf = (double *)PyByteArray_AS_STRING(k->store);
     k->alloc = want;
     return 0;
 }
@@ -422,12 +420,12 @@ static PyObject *Sink_put(SinkObject *k, PyObject *arg)
     Py_RETURN_NONE;
 }
 
-/* take(): the rows held (bytes: the store itself, cut to them), and the sink empty */
+/* take(): the rows held (a bytearray: the store itself, cut to them), and the sink empty */
 static PyObject *Sink_take(SinkObject *k, PyObject *noarg)
 {
     if (k->store == NULL || k->n == 0) {
         k->n = 0;
-        return PyBytes_FromStringAndSize(NULL, 0);
+        return PyByteArray_FromStringAndSize(NULL, 0);
     }
     PyObject *b = k->store;
     k->store = NULL;
@@ -435,8 +433,10 @@ static PyObject *Sink_take(SinkObject *k, PyObject *noarg)
     k->last_alloc = k->alloc;
     Py_ssize_t len = k->n * SINK_ROW_B;
     k->n = k->alloc = 0;
-    if (_PyBytes_Resize(&b, len) < 0)
+    if (PyByteArray_Resize(b, len) < 0) {   /* (shrinking keeps its room: reused as it is) */
+        Py_DECREF(b);
         return NULL;
+    }
     Py_INCREF(b);
     Py_XSETREF(k->spare, b);
     return b;

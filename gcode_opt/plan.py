@@ -254,7 +254,7 @@ class Plan:
         self.beta = np.full(n, np.inf)
         self.I_law = np.zeros(n)          # int a^2 dt of the chosen law
         self.KE_law = np.zeros(n)         # int v^2 dt
-        self.reason = np.array(["" for _ in range(n)], dtype=object)
+        self.reason = np.full(n, "", dtype=object)     # (every entry the one "": as a list of them made it)
         self.lam = 0.0
 
     def put(self, rows, other: "Plan"):

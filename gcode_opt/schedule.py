@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from operator import attrgetter
+from functools import partial
+from itertools import compress, repeat
+from operator import attrgetter, is_
 
 import numpy as np
 
@@ -238,8 +240,18 @@ def settle_faults(segs):
     elementwise (finite, > 0, >= 0, knots increasing inside each plan), each plan's
     sizes and figures are checked as _fine_1d checks them."""
     todo, ss, vs, as_, fs = [], [], [], [], []
+    blocks = {}                 # RowPlans by their four blocks: checked as rows of them (_settle_rows)
     for seg in segs:
         if (type(seg) is not SegmentPlan and type(seg) is not RowPlan) or seg.fault is not None:
+            continue
+        if type(seg) is RowPlan and type(seg._row) is int:
+            if not (math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
+                continue
+            key = (id(seg._s), id(seg._v), id(seg._accel), id(seg._feed))
+            got = blocks.get(key)
+            if got is None:
+                got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
+            got[1].append(seg)
             continue
         s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
         if not (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
@@ -254,9 +266,55 @@ def settle_faults(segs):
         vs.append(v)
         as_.append(a)
         fs.append(f)
+    for (S, V, A, F), plans in blocks.values():
+        if not _settle_rows(S, V, A, F, plans):
+            for seg in plans:               # blocks of another shape: each plan's four arrays
+                s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
+                if not (type(s) is type(v) is type(a) is type(f) is np.ndarray
+                        and s.ndim == v.ndim == a.ndim == f.ndim == 1
+                        and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
+                    continue
+                n = s.size
+                if not (n >= 2 and a.size == n - 1 and f.size == n - 1):
+                    continue
+                todo.append(seg)
+                ss.append(s)
+                vs.append(v)
+                as_.append(a)
+                fs.append(f)
     for a in range(0, len(todo), SETTLE_CHUNK):     # bounded memory: every check is per plan
         b = a + SETTLE_CHUNK
         _settle(todo[a:b], ss[a:b], vs[a:b], as_[a:b], fs[a:b])
+
+
+def _settle_rows(S, V, A, F, plans):
+    """settle_faults' checks on RowPlans `plans` (int rows, finite figures) of the blocks
+    S, V, A, F, made on their rows of the blocks (segments.fine_rows: the same elementwise
+    checks as _settle's; ~17 k chain plans in ~100 blocks on the gyroid plate, whose four
+    views each were made and concatenated again).  False where the blocks are not 2-D
+    float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone)."""
+    nd = np.ndarray
+    if not (type(S) is nd and type(V) is nd and type(A) is nd and type(F) is nd
+            and S.ndim == V.ndim == A.ndim == F.ndim == 2 and S.dtype == V.dtype == A.dtype == F.dtype == _F64):
+        return False
+    m, K = S.shape
+    if not (K >= 2 and V.shape == (m, K) and A.shape == F.shape == (m, K - 1)):
+        return False
+    for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
+        part = plans[a:a + SETTLE_CHUNK]
+        r = np.fromiter(map(_ROW, part), np.intp, len(part))
+        with np.errstate(invalid="ignore"):
+            Sr, Vr, Ar, Fr = S[r], V[r], A[r], F[r]
+            fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
+                    & np.isfinite(Vr).all(axis=1) & (Vr >= 0.0).all(axis=1)
+                    & np.isfinite(Ar).all(axis=1) & (Ar > 0.0).all(axis=1)
+                    & np.isfinite(Fr).all(axis=1) & (Fr > 0.0).all(axis=1))
+        for seg in compress(part, fine.tolist()):
+            seg.fault = ""
+    return True
+
+
+_ROW = attrgetter("_row")
 
 
 def _settle(todo, ss, vs, as_, fs):
@@ -347,9 +405,9 @@ class SegmentCache:
             return {}
         segs = self.batch[kind][1]
         got = {}
-        for i in rows.tolist():
+        for i, now in zip(rows.tolist(), _tb_keys(rows, T, beta)):
             k = tb.get(i)
-            if k is not None and k == T[i].tobytes() + beta[i].tobytes() and i in segs:
+            if k is not None and k == now and i in segs:
                 got[i] = segs[i]
         return got
 
@@ -358,15 +416,14 @@ class SegmentCache:
             key, segs, bad = self.batch.get(kind, (None, {}, {}))
             return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
         got, bad = {}, {}
-        rows_l = rows.tolist()
-        if not rows_l:
+        if not rows.size:
             return got, bad
-        self._grow(max(rows_l) + 1)
+        self._grow(int(rows.max()) + 1)
         hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
         hit_l = rows[hit].tolist()
         seg = self.line_seg
         if not self.line_why:                 # no failure kept (the common case): the hits' plans
-            return dict(zip(hit_l, [seg[i] for i in hit_l])), bad
+            return dict(zip(hit_l, map(seg.__getitem__, hit_l))), bad
         for i in hit_l:
             why = self.line_why.get(i)
             if why:
@@ -389,8 +446,7 @@ class SegmentCache:
         if KINDS[kind].batch:
             if rows.size:
                 self.batch[kind] = (self._key(rows, T, beta), segs, bad)
-                self.row_tb[kind] = ({i: T[i].tobytes() + beta[i].tobytes() for i in rows.tolist()}
-                                     if own else None)
+                self.row_tb[kind] = dict(zip(rows.tolist(), _tb_keys(rows, T, beta))) if own else None
             return
         rows_l = rows.tolist()
         if not rows_l:
@@ -398,9 +454,7 @@ class SegmentCache:
         self._grow(max(rows_l) + 1)
         self.line_T[rows] = T[rows]
         self.line_beta[rows] = beta[rows]
-        seg, get = self.line_seg, segs.get
-        for i in rows_l:
-            seg[i] = get(i)
+        deque(map(self.line_seg.__setitem__, rows_l, map(segs.get, rows_l)), maxlen=0)   # seg[i] = segs.get(i)
         if self.line_why or bad:              # failures: a row's reason set, or dropped
             why_of = self.line_why
             for i in rows_l:
@@ -417,13 +471,14 @@ class SegmentCache:
         at an old (T, beta) makes that plan again, with the same bits (a line's plan is its
         row's own)."""
         n = len(self.line_seg)
-        rows_l = [i for i in rows.tolist() if i < n]
-        if not rows_l:
+        rows = np.asarray(rows)
+        if rows.size and rows.max() >= n:
+            rows = rows[rows < n]
+        if not rows.size:
             return
-        self.line_T[rows_l] = self.line_beta[rows_l] = np.nan
-        seg = self.line_seg
-        for i in rows_l:
-            seg[i] = None
+        self.line_T[rows] = self.line_beta[rows] = np.nan
+        rows_l = rows.tolist()
+        deque(map(self.line_seg.__setitem__, rows_l, repeat(None)), maxlen=0)          # seg[i] = None
         if self.line_why:
             for i in rows_l:
                 self.line_why.pop(i, None)
@@ -431,6 +486,19 @@ class SegmentCache:
     def forget_line(self, i):
         """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
         self.forget_lines(np.array([i]))
+
+
+def _tb_keys(rows, T, beta):
+    """[T[i].tobytes() + beta[i].tobytes() for i in rows]: for float64 T and beta, the rows
+    (T, beta) pairs as 16-byte records (the same bytes, made in one pass)."""
+    if T.dtype == _F64 and beta.dtype == _F64 and T.ndim == beta.ndim == 1:
+        tb = np.empty((rows.size, 2))
+        tb[:, 0], tb[:, 1] = T[rows], beta[rows]
+        return tb.view(_TB).ravel().tolist()
+    return [T[i].tobytes() + beta[i].tobytes() for i in rows.tolist()]
+
+
+_TB = np.dtype((np.void, 16))
 
 
 GAIN_TOL_R = 1e-9       # a plan within this of the original's int a^2 gains nothing but rounding
@@ -477,6 +545,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     kind_by_row = np.empty(len(strokes), dtype=object)
     for k, r in rows.items():
         kind_by_row[r] = k
+    # the strokes whose start corners.py slowed by a junction command (set before planning,
+    # read by every run's _attach_commands and _keep_slowed_corners)
+    cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes))
 
     def run(budget):
         plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
@@ -535,8 +606,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             segs.update(new)
             seg_failed.update(new_bad)
         _keep_plans(plan, strokes, idx, segs, seg_failed)
+        plan.cmd0 = cmd0        # (read by the two below; not kept on the plan)
         _attach_commands(plan, strokes, pin, rules)
         _keep_slowed_corners(plan, strokes, rules)
+        del plan.cmd0
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
 
@@ -561,14 +634,18 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
     arrays (the same product and comparison of doubles), the kept rows put at once."""
     idx_l = idx.tolist()
     seg_l = list(map(segs.get, idx_l))
-    settle_faults(seg_l)
     n = len(seg_l)
     why_l = None
-    if not seg_failed:
-        try:                    # every row a plan with a verdict slot (else AttributeError)
+    try:                        # every row a plan with a verdict slot (else AttributeError)
+        why_l = list(map(_FAULT, seg_l))
+    except AttributeError:
+        settle_faults(seg_l)
+    else:
+        if why_l.count(None):   # settle_faults of the plans with no verdict yet (it skips the others)
+            settle_faults(list(compress(seg_l, map(_IS_NONE, why_l))))
             why_l = list(map(_FAULT, seg_l))
-        except AttributeError:
-            pass
+    if seg_failed:
+        why_l = None
     if why_l is not None and why_l.count("") == n:
         # the common case: every row has a plan and every plan its verdict "" (settle_faults)
         bad_why = None
@@ -618,6 +695,8 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
 
 
 _FAULT, _INT_A2, _TIME_T = attrgetter("fault"), attrgetter("int_a2"), attrgetter("time_t")
+_IS_NONE = partial(is_, None)   # x is None
+_CORNER_CMD0 = attrgetter("corner_cmd0")
 
 
 def _not_in(ii, got, bad):
@@ -671,9 +750,15 @@ def _attach_commands(plan, strokes, pin, rules):
     """Every re-timed stroke whose start corners.py slowed by a junction command gets it
     (lines, curves and chains alike); one that cannot is left as sliced.  Only the
     strokes whose start corners.py slowed ask (_command_for: every other one has nothing
-    to attach), found in one pass (none without --corners)."""
+    to attach), found in one pass (none without --corners).  plan.cmd0, when there: the
+    strokes' corner_cmd0 as a bool array (plan_strokes reads them once for its runs)."""
     segs = plan.segs
-    for i in [i for i in np.flatnonzero(plan.retime).tolist() if strokes[i].corner_cmd0]:
+    cmd0 = getattr(plan, "cmd0", None)
+    if cmd0 is not None:
+        todo = np.flatnonzero(plan.retime & cmd0).tolist()
+    else:
+        todo = [i for i in np.flatnonzero(plan.retime).tolist() if strokes[i].corner_cmd0]
+    for i in todo:
         seg = segs[i]
         if seg is not None and not _command_for(seg, strokes[i], rules):
             _as_sliced(plan, pin, i, "no junction command for its slower corner")
@@ -688,8 +773,10 @@ def _keep_slowed_corners(plan, strokes, rules):
     """A line stroke the planner leaves as sliced whose start corners.py slowed with a
     junction command keeps that corner: its own move is written behind the command
     (segments.slowed_original).  Its time counts in the budget like a re-timed stroke's;
-    what the corner cost was priced in corners.py's share of the budget."""
-    for i in np.flatnonzero(~plan.retime).tolist():
+    what the corner cost was priced in corners.py's share of the budget.  plan.cmd0, when
+    there: the strokes' corner_cmd0 as a bool array (only those rows are asked)."""
+    cmd0 = getattr(plan, "cmd0", None)
+    for i in np.flatnonzero(~plan.retime if cmd0 is None else ~plan.retime & cmd0).tolist():
         st = strokes[i]
         if not st.corner_cmd0 or plan.reason[i] not in AS_SLICED or chains.plan_kind(st) != K_LINE:
             continue

@@ -10,13 +10,16 @@ motion is slow) and every original vertex is a knot, so the toolpath keeps its p
 """
 from __future__ import annotations
 
-from itertools import repeat
+from collections import deque
+from itertools import compress, repeat
+from operator import add, attrgetter, sub
 
 import numpy as np
 
 from .firmware.junction import accel_to_pass_junction
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
+from .strokes import Stroke
 
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
@@ -35,7 +38,7 @@ def segment_count(T, L, n_max, t_seg_min_t, min_seg_d=MIN_SEG_D):
     return max(n, 0)
 
 
-def law_knots(strokes, T, beta, n, views=True):
+def law_knots(strokes, T, beta, n, views=True, fields=None):
     """Knots of many strokes at once (one vectorised law evaluation): for stroke i, the
     distances s (mm) and speeds v (mm/s) at n_i + 1 instants evenly spaced in time, plus
     every interior original vertex (law knots too close to a vertex dropped), with
@@ -47,7 +50,7 @@ def law_knots(strokes, T, beta, n, views=True):
     m = len(strokes)
     if m == 0:
         return []
-    multi, blocks = _law_knot_blocks(strokes, T, beta, n)
+    multi, blocks = _law_knot_blocks(strokes, T, beta, n, fields)
     out = _Knots([None]) * m
     for g, s, v in blocks if views else ():     # each stroke's s and v: its rows of the blocks
         for i, sr, vr in zip(g.tolist(), s, v):
@@ -90,20 +93,24 @@ class _Knots(list):
         return S[r], V[r]
 
 
-def _law_knot_blocks(strokes, T, beta, n):
+def _law_knot_blocks(strokes, T, beta, n, fields=None):
     """law_knots' knots as ({i: (s, v)} of the strokes of several moves, [(rows, S, V)]
     blocks of the strokes of one move, by knot count: stroke rows[q]'s s and v are the
     rows S[q], V[q]).  The speeds are evaluated without the accelerations (LineLaw.eval's
-    want: the same s and v)."""
-    L = np.array([st.length_d for st in strokes])
-    v0 = np.array([st.v0 for st in strokes])
-    v1 = np.array([st.v1 for st in strokes])
+    want: the same s and v).  fields: the strokes' (L, v0, v1) as float arrays, when read
+    already (plan_segments reads them once for all its chunks), else read here."""
+    if fields is None:
+        L = np.array([st.length_d for st in strokes])
+        v0 = np.array([st.v0 for st in strokes])
+        v1 = np.array([st.v1 for st in strokes])
+    else:
+        L, v0, v1 = fields
     T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
     j = np.arange(n.max() + 1)
     tau = np.minimum(j[None, :] / n[:, None], 1.0)
     s_all, v_all = _law_sv(L, T, beta, v0, v1, tau * T[:, None])
     # interior vertices of multi-move strokes: one vectorised inversion s -> t
-    nm = [st.n_moves for st in strokes]
+    nm = _move_counts(strokes)
     owner, verts = [], []
     if max(nm) > 1:
         for i, st in enumerate(strokes):
@@ -152,6 +159,16 @@ def _law_knot_blocks(strokes, T, beta, n):
         v[0], v[-1] = v0[i], v1[i]
         multi[i] = (s, v)
     return multi, blocks
+
+
+def _move_counts(strokes):
+    """[st.n_moves for st in strokes]: for Strokes (whose n_moves is last_idx - first_idx
+    + 1, a Python property) from their two indices read in C-level passes (~0.2 µs a
+    stroke less), else each stroke's n_moves."""
+    if set(map(type, strokes)) == {Stroke}:
+        first = list(map(_FIRST_IDX, strokes))
+        return list(map(add, map(sub, map(_LAST_IDX, strokes), first), repeat(1, len(first))))
+    return [st.n_moves for st in strokes]
 
 
 def _law_sv(L, T, beta, v0, v1, t):
@@ -490,8 +507,10 @@ class RowPlan(SegmentPlan):
     __slots__ = ("_row",)
 
     def __init__(self, S, V, A, F, row, time_t, int_a2, shape="law", first_cmds=None):
-        SegmentPlan.__init__(self, S, V, A, F, time_t, int_a2, shape, first_cmds)
-        self._row = row
+        # SegmentPlan.__init__'s fields set here (~68 k plans on the rectilinear plate's
+        # budget runs: one Python call each, not two)
+        self._s, self._v, self._accel, self._feed, self.time_t, self.int_a2 = S, V, A, F, time_t, int_a2
+        self.shape, self.fault, self.first_cmds, self._row = shape, None, first_cmds, row
 
     def _set(name):
         def put(self, x):
@@ -520,17 +539,26 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     A stroke too short or quick for two segments, or whose segments would not beat the
     original trapezoid, gets the one-move trapezoid of the same duration with the least
     int a^2 (trapezoid.py) instead, when that beats the original."""
-    n = _segment_counts(strokes, T, rules)
+    m = len(strokes)
+    # the fields law_knots and _segment_counts read, read once (one C-level pass each)
+    L = np.fromiter(map(_LENGTH_D, strokes), float, m)
+    v0 = np.fromiter(map(_V0, strokes), float, m)
+    v1 = np.fromiter(map(_V1, strokes), float, m)
+    n = _segment_counts(strokes, T, rules, L)
     ok = np.flatnonzero(n >= 2)
-    plans = [None] * len(strokes)
+    plans = [None] * m
     T, beta = np.asarray(T), np.asarray(beta)
     for a in range(0, ok.size, KNOT_CHUNK):       # bounded memory; every step is per stroke
         rows = ok[a:a + KNOT_CHUNK]
-        sts = [strokes[i] for i in rows]
-        knots = law_knots(sts, T[rows], beta[rows], n[rows], views=False)
+        rows_l = rows.tolist()
+        sts = list(map(strokes.__getitem__, rows_l))
+        knots = law_knots(sts, T[rows], beta[rows], n[rows], views=False, fields=(L[rows], v0[rows], v1[rows]))
         fast = _finish_jerk_rows(sts, knots, rules)
         pending = []
-        for q, (i, got) in enumerate(zip(rows.tolist(), fast)):
+        if not fast.count(None):                  # every stroke made by the rows' path (plans[i] = got, in C)
+            deque(map(plans.__setitem__, rows_l, fast), maxlen=0)
+            continue
+        for q, (i, got) in enumerate(zip(rows_l, fast)):
             if got is not None:                   # made by the rows' path
                 plans[i] = got
                 continue
@@ -540,7 +568,9 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
                 pending.append((i, got))
         for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
             plans[i] = plan
-    short = [i for i, p in enumerate(plans) if p is None or not p.int_a2 < strokes[i].int_a2]
+    # the strokes with no plan, or one that does not beat the original (NaN: not below)
+    a2_plan = np.fromiter([_NAN if p is None else p.int_a2 for p in plans], float, m)
+    short = np.flatnonzero(~(a2_plan < np.fromiter(map(_INT_A2, strokes), float, m))).tolist()
     if short:
         rows = np.array(short, int)
         for i, p in zip(short, line_trapezoids([strokes[i] for i in short], T[rows], beta[rows], rules)):
@@ -549,15 +579,17 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     return plans
 
 
-def _segment_counts(strokes, T, rules):
+def _segment_counts(strokes, T, rules, L=None):
     """[segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)] as an int
     array: the same truncated quotients and the same least of three (exact on floats that
     hold integers: n_max below 2^53); anything else (a quotient not finite, which int()
-    refuses, a step not > 0, an n_max not an int) takes segment_count stroke by stroke."""
+    refuses, a step not > 0, an n_max not an int) takes segment_count stroke by stroke.
+    L: the strokes' lengths as a float array, when read already."""
     n_max, seg_t, min_d = rules.n_max, rules.seg_t, rules.min_seg_d
     if (len(strokes) and type(n_max) is int and 0 <= n_max < 2 ** 53 and isinstance(seg_t, float)
             and isinstance(min_d, float) and seg_t > 0 and min_d > 0 and np.ndim(T) == 1):
-        L = np.array([st.length_d for st in strokes], float)
+        if L is None:
+            L = np.array([st.length_d for st in strokes], float)
         Tf = np.asarray(T, float)
         if L.ndim == 1 and Tf.shape == L.shape:
             with np.errstate(all="ignore"):
@@ -680,22 +712,22 @@ def _finish_jerk_rows(strokes, knots, rules):
     if rules.junction != "jerk":
         return out
     blocks = getattr(knots, "blocks", None) if type(knots) is _Knots else None
-    done = set()
+    left = None                        # the strokes no block took, once one did
     for g, S, V in blocks or ():       # law_knots' blocks: its rows' knots as they are
         if (type(S) is type(V) is np.ndarray and S.ndim == V.ndim == 2 and S.shape[1] >= 3
                 and S.shape == V.shape and S.dtype == V.dtype == _F64):
             qs = g.tolist()
-            done.update(qs)
-            got = _jerk_rows(S, V, [strokes[q] for q in qs], rules)
-            if got is not None:
-                for k, plan in zip(*got):
-                    out[qs[k]] = plan
+            if qs:
+                if left is None:
+                    left = np.ones(len(strokes), bool)
+                left[qs] = False
+            got = _jerk_rows(S, V, list(map(strokes.__getitem__, qs)), rules)
+            if got is not None:        # out[qs[k]] = plan, in C
+                deque(map(out.__setitem__, map(qs.__getitem__, got[0]), got[1]), maxlen=0)
     by_k = {}
     at = knots.at if type(knots) is _Knots else knots.__getitem__
     rest = range(len(strokes))
-    if done:                           # the strokes no block took (few): those only
-        left = np.ones(len(strokes), bool)
-        left[list(done)] = False
+    if left is not None:               # the strokes no block took (few): those only
         rest = np.flatnonzero(left).tolist()
     for q in rest:
         sk = at(q)[0]
@@ -720,19 +752,25 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     or a NaN), the divisions the same; a stroke whose jerk step divides by 0 goes stroke by
     stroke (jerk_step_v raises as _finish would)."""
     m = len(sts)
-    fw = [getattr(st, "v0_fw", None) is None and getattr(st, "v1_fw", None) is None for st in sts]
-    if all(fw):
+    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
+        unset = list(map(_V0_FW, sts)).count(None) == m and list(map(_V1_FW, sts)).count(None) == m
+    except AttributeError:
+        unset = False
+    if unset:
         keep = np.ones(m, bool)
     else:                                          # slowed_ends is (False, False) where both are None
+        fw = [getattr(st, "v0_fw", None) is None and getattr(st, "v1_fw", None) is None for st in sts]
         keep = np.array([f or not any(slowed_ends(st)) for f, st in zip(fw, sts)], bool)
     d = S[:, 1:] - S[:, :-1]
+    ux = np.fromiter(map(_UX, sts), float, m)      # read once: the jerk steps and edges read them
+    uy = np.fromiter(map(_UY, sts), float, m)
     if rules.min_move_d > 0.0:
         # _merge_short leaves the knots alone where the shortest segment is >= min_d
-        min_d = _min_edge_d_rows(rules, sts)
+        min_d = _min_edge_d_rows(rules, sts, ux, uy)
         with np.errstate(invalid="ignore"):
             keep &= d.min(axis=1) >= min_d
     v2 = V * V
-    accel = np.array([st.accel for st in sts], float)
+    accel = np.fromiter(map(_ACCEL, sts), float, m)
     with np.errstate(all="ignore"):
         acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
         z = np.where(accel < 0.0, accel, 0.0)      # min(0.0, accel)
@@ -744,12 +782,12 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     if not take.size:
         return None
     if take.size < m:
-        S, V, acc, accel = S[take], V[take], acc[take], accel[take]
+        S, V, acc, accel, ux, uy = S[take], V[take], acc[take], accel[take], ux[take], uy[take]
         sts = [sts[k] for k in take.tolist()]
         if knots is not None:
             knots = [knots[k] for k in take.tolist()]
-    step_v = _jerk_steps(sts)
-    v_feed = np.array([st.v_feed for st in sts], float)
+    step_v = _jerk_steps(sts, ux, uy)
+    v_feed = np.fromiter(map(_V_FEED, sts), float, len(sts))
     core = _rows_core()
     if core is not None:
         A, feeds, t_pred, a2_pred, fine = _jerk_tail_core(core, S, V, acc, accel, step_v, v_feed)
@@ -761,9 +799,8 @@ def _jerk_rows(S, V, sts, rules, knots=None):
                         a2_pred))
         # settle_rows: the knots and speeds are rows of the float64 blocks S, V
         if type(A) is type(feeds) is np.ndarray and A.ndim == feeds.ndim == 2 and A.dtype is feeds.dtype is _F64:
-            for plan, f in zip(made, fine):
-                if f:
-                    plan.fault = ""
+            for plan in compress(made, fine):
+                plan.fault = ""
     else:
         made = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, A, feeds, t_pred, a2_pred)]
         settle_rows(made, fine, A, feeds)
@@ -814,13 +851,15 @@ def _rows_core():
     return core if core is not None and hasattr(core, "jerk_tail") else None
 
 
-def _jerk_steps(sts):
-    """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient)."""
-    lims = [st.lim for st in sts]
-    jx = np.array([lim.jerk_x for lim in lims], float)
-    jy = np.array([lim.jerk_y for lim in lims], float)
-    ax = np.abs(np.array([st.ux for st in sts], float))
-    ay = np.abs(np.array([st.uy for st in sts], float))
+def _jerk_steps(sts, ux=None, uy=None):
+    """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient).
+    ux, uy: the strokes' directions as float arrays, when read already."""
+    m = len(sts)
+    lims = list(map(_LIM, sts))
+    jx = np.fromiter(map(_JERK_X, lims), float, m)
+    jy = np.fromiter(map(_JERK_Y, lims), float, m)
+    ax = np.abs(np.fromiter(map(_UX, sts), float, m) if ux is None else ux)
+    ay = np.abs(np.fromiter(map(_UY, sts), float, m) if uy is None else uy)
     mn = np.where(jy < jx, jy, jx)
     mx = np.where(ay > ax, ay, ax)
     if (mx == 0.0).any():
@@ -830,16 +869,23 @@ def _jerk_steps(sts):
 
 
 _F64 = np.dtype(float)
+# the strokes' fields the row paths read, each in one C-level pass (map) over the strokes
+_FIRST_IDX, _LAST_IDX, _V0_FW, _V1_FW, _UX, _UY = (attrgetter(a) for a in ("first_idx", "last_idx", "v0_fw", "v1_fw",
+                                                                           "ux", "uy"))
+_ACCEL, _V_FEED, _LIM, _JERK_X, _JERK_Y = (attrgetter(a) for a in ("accel", "v_feed", "lim", "jerk_x", "jerk_y"))
+_LENGTH_D, _V0, _V1, _INT_A2 = (attrgetter(a) for a in ("length_d", "v0", "v1", "int_a2"))
+_NAN = float("nan")
 
 
-def _min_edge_d_rows(rules, sts):
+def _min_edge_d_rows(rules, sts, ux=None, uy=None):
     """[rules.min_edge_d(st.ux, st.uy) for st in sts] as an array: for finite directions
     Python's max and np.maximum give the same float, and the division is the same; a
-    stroke with a direction that is not finite takes min_edge_d itself."""
+    stroke with a direction that is not finite takes min_edge_d itself.  ux, uy: the
+    strokes' directions as float arrays, when read already."""
     if rules.min_move_d <= 0.0:
         return np.full(len(sts), MIN_EDGE_D)
-    ax = np.abs(np.array([st.ux for st in sts], float))
-    ay = np.abs(np.array([st.uy for st in sts], float))
+    ax = np.abs(np.array([st.ux for st in sts], float) if ux is None else ux)
+    ay = np.abs(np.array([st.uy for st in sts], float) if uy is None else uy)
     with np.errstate(all="ignore"):
         out = np.maximum(MIN_EDGE_D, (rules.min_move_d + ROUND_D) / np.maximum(np.maximum(ax, ay), 1e-12))
     odd = ~(np.isfinite(ax) & np.isfinite(ay))

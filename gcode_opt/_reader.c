@@ -176,11 +176,6 @@ static PyObject *setup(PyObject *self, PyObject *args)
 }
 
 /* ---------------------------------------------------------------- the line */
-static inline int is_num_char(unsigned char c)
-{
-    return (c >= '0' && c <= '9') || c == '.' || c == '-' || c == '+';
-}
-
 /* Clinger's fast path: s[0:n] = [+-]digits[.digits] (a digit at least) with at most 19
  * digits making m < 2^53 and at most 22 after the point is m / 10^k, both exact doubles,
  * and one IEEE division rounds it correctly: the bits of Python's float() (correctly
@@ -255,36 +250,79 @@ static int to_double(const char *s, Py_ssize_t n, double *out)
 #define MAXW 16
 typedef struct {
     int n;
-    char letter[MAXW];
-    double val[MAXW];
+    char letter[MAXW];                /* the words' letters, in the line's order */
+    unsigned seen;                    /* bit c - 'A': letter c given */
+    double by[26];                    /* letter c's value at by[c - 'A'] (if seen) */
 } Words;
+
+/* the letters a command takes, as a mask of bits c - 'A' */
+#define LETTER(c) (1u << ((c) - 'A'))
+#define G_LETTERS (LETTER('X') | LETTER('Y') | LETTER('Z') | LETTER('E') | LETTER('F'))
+#define M204_LETTERS (LETTER('S') | LETTER('P') | LETTER('T') | LETTER('R'))
 
 /* The words after a 4- or 2-character command, as the fast regexes of state.py accept them:
  *   CMD(?:[ \t]+[letters][-+.0-9]+)*[ \t\r\n]*  (fullmatch over code = s[0:n])
  * and each value through float(); -1 if the line is not of that shape, a value is not a
- * number, a letter comes twice (Python's len(p) check) or there are too many words. */
-static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, const char *letters, Words *w)
+ * number, a letter comes twice (Python's len(p) check) or there are too many words.
+ * A value is read as it is scanned: fast_decimal's rule (the same m, digits and point, so
+ * the same double), or, where that rule does not hold, to_double over the token. */
+static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
 {
     w->n = 0;
+    w->seen = 0;
     for (;;) {
         Py_ssize_t j = k;
         while (j < n && (s[j] == ' ' || s[j] == '\t'))
             j++;
-        if (j > k && j < n && strchr(letters, s[j]) != NULL && s[j] != '\0') {
-            char c = (char)s[j];
+        unsigned bit = 0;
+        if (j > k && j < n && s[j] >= 'A' && s[j] <= 'Z')
+            bit = LETTER(s[j]) & letters;
+        if (bit) {
+            int c = s[j] - 'A';
             Py_ssize_t a = ++j;
-            while (j < n && is_num_char(s[j]))
-                j++;
+            /* fast_decimal's scan: [+-]digits[.digits]; ok = 0 where its shape fails */
+            int neg = 0, ok = 1;
+            Py_ssize_t digits = 0, frac = -1;      /* frac: digits after the point, -1 before it */
+            unsigned long long m = 0;
+            if (j < n && (s[j] == '+' || s[j] == '-'))
+                neg = s[j++] == '-';
+            for (; j < n; j++) {
+                unsigned d = (unsigned)s[j] - '0';
+                if (d <= 9) {
+                    m = m * 10u + d;        /* wraps past 19 digits: then not used */
+                    digits++;
+                    if (frac >= 0)
+                        frac++;
+                }
+                else if (s[j] == '.') {
+                    if (frac >= 0)
+                        ok = 0;
+                    frac = 0;
+                }
+                else if (s[j] == '+' || s[j] == '-')
+                    ok = 0;
+                else
+                    break;
+            }
             if (j == a)
                 return -1;
-            for (int i = 0; i < w->n; i++)
-                if (w->letter[i] == c)
-                    return -1;
+            if (w->seen & bit)
+                return -1;
             if (w->n == MAXW)
                 return -1;
-            if (to_double((const char *)s + a, j - a, &w->val[w->n]) < 0)
+#ifdef FAST_DECIMAL
+            if (ok && digits > 0 && digits <= 19 && m <= (1ull << 53) && frac <= 22) {
+                double v = (double)m;
+                if (frac > 0)
+                    v = v / POW10[frac];
+                w->by[c] = neg ? -v : v;
+            }
+            else
+#endif
+            if (to_double((const char *)s + a, j - a, &w->by[c]) < 0)
                 return -1;
-            w->letter[w->n++] = c;
+            w->seen |= bit;
+            w->letter[w->n++] = (char)('A' + c);
             k = j;
             continue;
         }
@@ -296,12 +334,16 @@ static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, const 
 
 static inline int word(const Words *w, char c, double *out)
 {
-    for (int i = 0; i < w->n; i++)
-        if (w->letter[i] == c) {
-            *out = w->val[i];
-            return 1;
-        }
-    return 0;
+    if (!(w->seen & LETTER(c)))
+        return 0;
+    *out = w->by[c - 'A'];
+    return 1;
+}
+
+/* the i-th word's value (in the line's order) */
+static inline double word_val(const Words *w, int i)
+{
+    return w->by[w->letter[i] - 'A'];
 }
 
 /* Borrowed attribute of the state (its instance dict), NULL if absent. */
@@ -534,7 +576,7 @@ static int m204_python(PyObject *self, PyObject *idx, PyObject *raw, const Words
         return -1;
     for (int i = 0; i < w->n; i++) {
         char key[2] = {w->letter[i], '\0'};
-        PyObject *v = PyFloat_FromDouble(w->val[i]);
+        PyObject *v = PyFloat_FromDouble(word_val(w, i));
         if (v == NULL || PyDict_SetItemString(p, key, v) < 0) {
             Py_XDECREF(v);
             Py_DECREF(p);
@@ -600,7 +642,7 @@ static int m204(PyObject *dict, const Words *w)
     const char *keys = "SPTR";
     int rc = -1;
     for (int i = 0; i < w->n; i++) {
-        val = w->val[i];
+        val = word_val(w, i);
         if (!(0.0 < val && val <= MAX_ACCEL_A))
             return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
     }
@@ -704,7 +746,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
             return slow(self, idx, raw);
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL) {
@@ -719,7 +761,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return res;
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
-        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+        if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
             return slow(self, idx, raw);
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL)
@@ -866,7 +908,7 @@ static int sess_m204(Session *ss, const Words *w)
     if (ss->acc_kind == ACC_OTHER)
         return 0;
     for (int i = 0; i < w->n; i++) {
-        double val = w->val[i];
+        double val = word_val(w, i);
         if (!(0.0 < val && val <= MAX_ACCEL_A))
             return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
     }
@@ -1025,7 +1067,7 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
             goto other;
         if (!ss->live) {
             sess_load(ss);
@@ -1052,7 +1094,7 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
         return moved;
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
-        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+        if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
             goto other;
         /* live: the session's accel slots (written back with x y z e); else the dict, as
          * step() writes it */
@@ -1091,7 +1133,7 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
         return 3;
     if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
-        || read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        || read_words(s, code_n, 2, G_LETTERS, &w) < 0)
         return 0;
     if (!ss->live) {
         sess_load(ss);

@@ -200,3 +200,31 @@ def test_m204_sequences_in_a_live_session(prof, seq):
              + ["G1 X30 Y10 E0.5\n", "G1 X30 Y30\n", "G1 E-0.5\n", "G1 E0.5\n", "G1 X40 Y30 E0.2\n"])
     assert walk(lines, prof, 0, max_chunk=len(lines)) is None
     assert walk(lines, prof, 1, max_chunk=3) is None
+
+
+# ---------------------------------------------------------------- numbers as the words are scanned
+def test_numbers_in_the_fused_loop():
+    """read_words reads a value as it scans it (fast_decimal's rule, else to_double): G1 and
+    M204 words with the edge tokens of the number tests and random ones (those Python
+    takes), through the fused loop, against the Python reader (float() of the token)."""
+    from test_speed_measure_reader import EDGE, _number
+
+    def takes(tok, lo, hi):
+        try:
+            return lo <= float(tok) <= hi
+        except ValueError:
+            return False
+
+    rng = random.Random(7)
+    toks = [t for t in EDGE + [_number(rng) for _ in range(4000)] if takes(t, -1000.0, 1000.0)]
+    accs = [t for t in toks if takes(t, 1.0, 10000.0)]
+    assert len(toks) > 1500 and len(accs) > 200
+    lines = ["G90\n", "M83\n", "G1 X1 Y1 F3000\n"]
+    for tok in toks:
+        lines.append(f"G1 X{tok} Y{rng.choice(toks)} E{rng.choice(toks)}\n")
+        lines.append("G1 X1 Y2\n")
+        if rng.random() < 0.3:
+            lines.append(f"M204 S{rng.choice(accs)} T{rng.choice(accs)}\n")
+    raised = []
+    assert walk(lines, "generic-marlin", 7, raised=raised) is None
+    assert raised == []

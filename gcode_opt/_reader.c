@@ -176,11 +176,6 @@ static PyObject *setup(PyObject *self, PyObject *args)
 }
 
 /* ---------------------------------------------------------------- the line */
-static inline int is_num_char(unsigned char c)
-{
-    return (c >= '0' && c <= '9') || c == '.' || c == '-' || c == '+';
-}
-
 /* Clinger's fast path: s[0:n] = [+-]digits[.digits] (a digit at least) with at most 19
  * digits making m < 2^53 and at most 22 after the point is m / 10^k, both exact doubles,
  * and one IEEE division rounds it correctly: the bits of Python's float() (correctly
@@ -255,36 +250,79 @@ static int to_double(const char *s, Py_ssize_t n, double *out)
 #define MAXW 16
 typedef struct {
     int n;
-    char letter[MAXW];
-    double val[MAXW];
+    char letter[MAXW];                /* the words' letters, in the line's order */
+    unsigned seen;                    /* bit c - 'A': letter c given */
+    double by[26];                    /* letter c's value at by[c - 'A'] (if seen) */
 } Words;
+
+/* the letters a command takes, as a mask of bits c - 'A' */
+#define LETTER(c) (1u << ((c) - 'A'))
+#define G_LETTERS (LETTER('X') | LETTER('Y') | LETTER('Z') | LETTER('E') | LETTER('F'))
+#define M204_LETTERS (LETTER('S') | LETTER('P') | LETTER('T') | LETTER('R'))
 
 /* The words after a 4- or 2-character command, as the fast regexes of state.py accept them:
  *   CMD(?:[ \t]+[letters][-+.0-9]+)*[ \t\r\n]*  (fullmatch over code = s[0:n])
  * and each value through float(); -1 if the line is not of that shape, a value is not a
- * number, a letter comes twice (Python's len(p) check) or there are too many words. */
-static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, const char *letters, Words *w)
+ * number, a letter comes twice (Python's len(p) check) or there are too many words.
+ * A value is read as it is scanned: fast_decimal's rule (the same m, digits and point, so
+ * the same double), or, where that rule does not hold, to_double over the token. */
+static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
 {
     w->n = 0;
+    w->seen = 0;
     for (;;) {
         Py_ssize_t j = k;
         while (j < n && (s[j] == ' ' || s[j] == '\t'))
             j++;
-        if (j > k && j < n && strchr(letters, s[j]) != NULL && s[j] != '\0') {
-            char c = (char)s[j];
+        unsigned bit = 0;
+        if (j > k && j < n && s[j] >= 'A' && s[j] <= 'Z')
+            bit = LETTER(s[j]) & letters;
+        if (bit) {
+            int c = s[j] - 'A';
             Py_ssize_t a = ++j;
-            while (j < n && is_num_char(s[j]))
-                j++;
+            /* fast_decimal's scan: [+-]digits[.digits]; ok = 0 where its shape fails */
+            int neg = 0, ok = 1;
+            Py_ssize_t digits = 0, frac = -1;      /* frac: digits after the point, -1 before it */
+            unsigned long long m = 0;
+            if (j < n && (s[j] == '+' || s[j] == '-'))
+                neg = s[j++] == '-';
+            for (; j < n; j++) {
+                unsigned d = (unsigned)s[j] - '0';
+                if (d <= 9) {
+                    m = m * 10u + d;        /* wraps past 19 digits: then not used */
+                    digits++;
+                    if (frac >= 0)
+                        frac++;
+                }
+                else if (s[j] == '.') {
+                    if (frac >= 0)
+                        ok = 0;
+                    frac = 0;
+                }
+                else if (s[j] == '+' || s[j] == '-')
+                    ok = 0;
+                else
+                    break;
+            }
             if (j == a)
                 return -1;
-            for (int i = 0; i < w->n; i++)
-                if (w->letter[i] == c)
-                    return -1;
+            if (w->seen & bit)
+                return -1;
             if (w->n == MAXW)
                 return -1;
-            if (to_double((const char *)s + a, j - a, &w->val[w->n]) < 0)
+#ifdef FAST_DECIMAL
+            if (ok && digits > 0 && digits <= 19 && m <= (1ull << 53) && frac <= 22) {
+                double v = (double)m;
+                if (frac > 0)
+                    v = v / POW10[frac];
+                w->by[c] = neg ? -v : v;
+            }
+            else
+#endif
+            if (to_double((const char *)s + a, j - a, &w->by[c]) < 0)
                 return -1;
-            w->letter[w->n++] = c;
+            w->seen |= bit;
+            w->letter[w->n++] = (char)('A' + c);
             k = j;
             continue;
         }
@@ -296,12 +334,16 @@ static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, const 
 
 static inline int word(const Words *w, char c, double *out)
 {
-    for (int i = 0; i < w->n; i++)
-        if (w->letter[i] == c) {
-            *out = w->val[i];
-            return 1;
-        }
-    return 0;
+    if (!(w->seen & LETTER(c)))
+        return 0;
+    *out = w->by[c - 'A'];
+    return 1;
+}
+
+/* the i-th word's value (in the line's order) */
+static inline double word_val(const Words *w, int i)
+{
+    return w->by[w->letter[i] - 'A'];
 }
 
 /* Borrowed attribute of the state (its instance dict), NULL if absent. */
@@ -534,7 +576,7 @@ static int m204_python(PyObject *self, PyObject *idx, PyObject *raw, const Words
         return -1;
     for (int i = 0; i < w->n; i++) {
         char key[2] = {w->letter[i], '\0'};
-        PyObject *v = PyFloat_FromDouble(w->val[i]);
+        PyObject *v = PyFloat_FromDouble(word_val(w, i));
         if (v == NULL || PyDict_SetItemString(p, key, v) < 0) {
             Py_XDECREF(v);
             Py_DECREF(p);
@@ -551,28 +593,56 @@ static int m204_python(PyObject *self, PyObject *idx, PyObject *raw, const Words
     return 0;
 }
 
+/* The flavours state._m204 reads in its own way (m204() and sess_m204() here); ACC_OTHER:
+ * Python reads the M204 (another flavour, or a flavour attribute not a str) */
+enum { ACC_UNKNOWN = -1, ACC_OTHER, ACC_KLIPPER, ACC_LEGACY, ACC_MARLIN };
+
+/* The flavour object last compared as text, and its kind: a file's M204s read under one
+ * flavour str compare it once.  The reference held keeps its address from being another's. */
+static PyObject *KIND_OF = NULL;
+static int KIND = ACC_OTHER;
+
+/* the ACC_* kind of the state's flavour attribute (dict: its instance dict) */
+static int acc_kind(PyObject *dict)
+{
+    PyObject *fl = PyDict_GetItemWithError(dict, NAME_FLAVOUR);
+    if (fl == NULL) {
+        PyErr_Clear();
+        return ACC_OTHER;
+    }
+    if (fl == KIND_OF)
+        return KIND;
+    if (!PyUnicode_CheckExact(fl))
+        return ACC_OTHER;
+    int kind = ACC_OTHER;
+    if (PyUnicode_CompareWithASCIIString(fl, "klipper") == 0)
+        kind = ACC_KLIPPER;
+    else if (PyUnicode_CompareWithASCIIString(fl, "marlin-legacy") == 0)
+        kind = ACC_LEGACY;
+    else if (PyUnicode_CompareWithASCIIString(fl, "marlin2") == 0 || PyUnicode_CompareWithASCIIString(fl, "rrf") == 0)
+        kind = ACC_MARLIN;
+    Py_INCREF(fl);
+    Py_XSETREF(KIND_OF, fl);
+    KIND = kind;
+    return kind;
+}
+
 /* state._m204 where every value given is in (0, MAX_ACCEL_A] and the flavour is one it
  * knows: 1 when done, 0 to let Python do it (it raises or reads another flavour), -1 on
  * error.  The values stored are the p values Python would store (one object where Python
  * stores the same p[k] twice). */
 static int m204(PyObject *dict, const Words *w)
 {
-    PyObject *fl = PyDict_GetItemWithError(dict, NAME_FLAVOUR);
-    if (fl == NULL || !PyUnicode_CheckExact(fl)) {
-        PyErr_Clear();
+    int kind = acc_kind(dict);
+    if (kind == ACC_OTHER)
         return 0;
-    }
-    int klipper = PyUnicode_CompareWithASCIIString(fl, "klipper") == 0;
-    int legacy = PyUnicode_CompareWithASCIIString(fl, "marlin-legacy") == 0;
-    if (!klipper && !legacy && PyUnicode_CompareWithASCIIString(fl, "marlin2") != 0
-        && PyUnicode_CompareWithASCIIString(fl, "rrf") != 0)
-        return 0;
+    int klipper = kind == ACC_KLIPPER, legacy = kind == ACC_LEGACY;
     double val;
     PyObject *o[4] = {NULL, NULL, NULL, NULL};     /* S P T R as floats, if given */
     const char *keys = "SPTR";
     int rc = -1;
     for (int i = 0; i < w->n; i++) {
-        val = w->val[i];
+        val = word_val(w, i);
         if (!(0.0 < val && val <= MAX_ACCEL_A))
             return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
     }
@@ -676,7 +746,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
             return slow(self, idx, raw);
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL) {
@@ -691,7 +761,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return res;
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
-        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+        if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
             return slow(self, idx, raw);
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL)
@@ -735,15 +805,26 @@ typedef struct {
     double e0;                        /* the state's e before the line (analyse's start_state) */
 } RunMove;
 
+/* The three accelerations (accel_print, accel_travel, accel_retract) as a session holds them */
+enum { A_P, A_T, A_R, A_N };
+static const int ACC_NAME[A_N] = {S_ACC_PRINT, S_ACC_TRAVEL, S_ACC_RETRACT};
+
 typedef struct {
     PyObject *state, *dict;           /* new references */
     int off;                          /* not a MachineState step() reads: every line goes to step() */
     int live;                         /* in holds the state (read at load, kept since) */
     int dirty, dirty_v;               /* x y z e (and v) changed since load */
     LinIn in;
-    double ap, at, ar, flow;          /* the Move's accel objects and flow_r, as the model reads them */
+    double acc[A_N], flow;            /* the Move's accel objects and flow_r, as the model reads them */
     PyObject *lim;                    /* borrowed from dict */
-    PyObject *o_ap, *o_at, *o_ar, *o_feature;   /* borrowed from dict: fused_peek's Move objects */
+    PyObject *o_feature;              /* borrowed from dict: fused_peek's Move feature */
+    /* The accel objects a Move would hold (fused_peek's): borrowed from dict, but a slot
+     * whose bit is set in acc_own is an M204's (sess_m204) not yet written: a new reference
+     * the session holds until sess_flush writes it to the dict.  Two slots may hold one
+     * object, as Python's `self.accel_print = self.accel_travel = p["S"]` stores one. */
+    PyObject *o_acc[A_N];
+    int acc_own;
+    int acc_kind;                     /* ACC_*: the flavour's, read at the first M204 since load */
 } Session;
 
 /* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
@@ -765,13 +846,16 @@ static int num_double(PyObject *o, double *out)
     return 0;
 }
 
+/* the accel objects from the dict (borrowed), and their numbers; 0 if one is not a number */
 static int sess_accels(Session *ss)
 {
     PyObject *dict = ss->dict;
-    ss->o_ap = GET(S_ACC_PRINT);
-    ss->o_at = GET(S_ACC_TRAVEL);
-    ss->o_ar = GET(S_ACC_RETRACT);
-    return num_double(ss->o_ap, &ss->ap) && num_double(ss->o_at, &ss->at) && num_double(ss->o_ar, &ss->ar);
+    int ok = 1;
+    for (int k = 0; k < A_N; k++) {
+        ss->o_acc[k] = GET(ACC_NAME[k]);
+        ok = ok && num_double(ss->o_acc[k], &ss->acc[k]);
+    }
+    return ok;
 }
 
 /* read the state as linear() would (live only where linear() would not fall back for it) */
@@ -797,14 +881,96 @@ static void sess_load(Session *ss)
     ss->in.abs_xyz = o_abs == Py_True;
     ss->in.e_rel_flag = o_erel == Py_True;
     ss->in.one = o_one == Py_True;
+    ss->acc_kind = ACC_UNKNOWN;       /* read at the session's first M204 */
+    ss->acc_own = 0;
     ss->live = 1;
+}
+
+/* slot k now holds `o` (any object; its number `val`), as an M204 stored it: a reference
+ * of the session's own until sess_flush */
+static void sess_set_acc(Session *ss, int k, PyObject *o, double val)
+{
+    Py_INCREF(o);                     /* first: o may be the object the slot lets go of */
+    if (ss->acc_own & (1 << k))
+        Py_DECREF(ss->o_acc[k]);
+    ss->o_acc[k] = o;
+    ss->acc[k] = val;
+    ss->acc_own |= 1 << k;
+}
+
+/* An M204 of the fast shape in a live session: m204()'s rules (state._m204's), the dict
+ * left alone (sess_flush writes the slots).  1 done, 0 Python decides (nothing changed:
+ * a value out of (0, MAX_ACCEL_A], another flavour), -1 error. */
+static int sess_m204(Session *ss, const Words *w)
+{
+    if (ss->acc_kind == ACC_UNKNOWN)
+        ss->acc_kind = acc_kind(ss->dict);
+    if (ss->acc_kind == ACC_OTHER)
+        return 0;
+    for (int i = 0; i < w->n; i++) {
+        double val = word_val(w, i);
+        if (!(0.0 < val && val <= MAX_ACCEL_A))
+            return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
+    }
+    double val;
+    PyObject *o[4] = {NULL, NULL, NULL, NULL};     /* S P T R as floats, if given */
+    const char *keys = "SPTR";
+    for (int k = 0; k < 4; k++)
+        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL) {
+            for (int j = 0; j < k; j++)
+                Py_XDECREF(o[j]);
+            return -1;
+        }
+    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
+    PyObject *print = NULL, *travel = NULL, *retract = NULL;   /* the slots' new objects */
+    switch (ss->acc_kind) {
+    case ACC_KLIPPER:
+        if (S)
+            print = S;
+        else if (P && T)
+            print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
+        travel = print ? print : ss->o_acc[A_P];                        /* travel = print */
+        break;
+    case ACC_LEGACY:
+        if (S) {
+            print = travel = S;
+            retract = T;
+        } else {
+            print = travel = P;
+            retract = R;
+        }
+        break;
+    default:                           /* ACC_MARLIN */
+        print = travel = S;
+        if (P)
+            print = P;
+        if (T)
+            travel = T;
+        retract = R;
+    }
+    if (print)
+        sess_set_acc(ss, A_P, print, PyFloat_AS_DOUBLE(print));
+    if (travel)
+        sess_set_acc(ss, A_T, travel, travel == ss->o_acc[A_P] ? ss->acc[A_P] : PyFloat_AS_DOUBLE(travel));
+    if (retract)
+        sess_set_acc(ss, A_R, retract, PyFloat_AS_DOUBLE(retract));
+    for (int k = 0; k < 4; k++)
+        Py_XDECREF(o[k]);
+    return 1;
 }
 
 /* write x y z e (v) back where fused lines moved them; the session is no longer live */
 static int sess_flush(Session *ss)
 {
     int rc = 0;
-    if (ss->live && ss->dirty) {
+    for (int k = 0; ss->acc_own && k < A_N; k++)     /* the M204s' objects (none unless live) */
+        if (ss->acc_own & (1 << k)) {
+            if (rc == 0 && PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], ss->o_acc[k]) < 0)
+                rc = -1;
+            Py_DECREF(ss->o_acc[k]);
+        }
+    ss->acc_own = 0;
+    if (ss->live && ss->dirty && rc == 0) {
         const int keys[5] = {S_X, S_Y, S_Z, S_E, S_V};
         const double vals[5] = {ss->in.x0, ss->in.y0, ss->in.z0, ss->in.e, ss->in.v};
         for (int i = 0; i < (ss->dirty_v ? 5 : 4) && rc == 0; i++) {
@@ -879,7 +1045,7 @@ static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
     out->v = lo->v * in->speed;
     out->flow_r = ss->flow;
     out->lim = ss->lim;
-    out->accel = eonly ? ss->ar : (lo->de > 0.0 ? ss->ap : (in->one ? ss->ap : ss->at));
+    out->accel = ss->acc[eonly ? A_R : (lo->de > 0.0 || in->one ? A_P : A_T)];
 }
 
 /* One line: 0 read (no move), 1 read with a move in *out, 2 not read here (the state is
@@ -901,7 +1067,7 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
             goto other;
         if (!ss->live) {
             sess_load(ss);
@@ -928,18 +1094,15 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
         return moved;
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
-        if (read_words(s, code_n, 4, "SPTR", &w) < 0)
+        if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
             goto other;
-        int done = m204(ss->dict, &w);
+        /* live: the session's accel slots (written back with x y z e); else the dict, as
+         * step() writes it */
+        int done = ss->live ? sess_m204(ss, &w) : m204(ss->dict, &w);
         if (done < 0)
             return -1;
         if (!done)
             goto other;
-        if (ss->live && !sess_accels(ss)) {   /* not numbers the model reads: leave the session */
-            PyErr_Clear();
-            if (sess_flush(ss) < 0)
-                return -1;
-        }
         return 0;
     }
 other:
@@ -970,7 +1133,7 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
         return 3;
     if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
-        || read_words(s, code_n, 2, "XYZEF", &w) < 0)
+        || read_words(s, code_n, 2, G_LETTERS, &w) < 0)
         return 0;
     if (!ss->live) {
         sess_load(ss);
@@ -995,13 +1158,13 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
     rm->e_rel = lo.e_rel;
     rm->xyz_rel = !in->abs_xyz;
     if (eonly) {                       /* linear()'s choice of accel object and feature */
-        rm->accel = ss->o_ar;
+        rm->accel = ss->o_acc[A_R];
         rm->feature = ss->o_feature;
     } else if (lo.de > 0.0) {
-        rm->accel = ss->o_ap;
+        rm->accel = ss->o_acc[A_P];
         rm->feature = ss->o_feature;
     } else {
-        rm->accel = in->one ? ss->o_ap : ss->o_at;
+        rm->accel = ss->o_acc[in->one ? A_P : A_T];
         rm->feature = TRAVEL;
     }
     return 1;

@@ -253,38 +253,33 @@ def settle_faults(segs):
                 got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
             got[1].append(seg)
             continue
-        s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
-        if not (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
-                and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
-            continue
-        n = s.size
-        if not (n >= 2 and a.size == n - 1 and f.size == n - 1 and math.isfinite(seg.time_t)
-                and math.isfinite(seg.int_a2)):
-            continue
-        todo.append(seg)
-        ss.append(s)
-        vs.append(v)
-        as_.append(a)
-        fs.append(f)
+        _take_flat(seg, todo, ss, vs, as_, fs)
     for (S, V, A, F), plans in blocks.values():
         if not _settle_rows(S, V, A, F, plans):
             for seg in plans:               # blocks of another shape: each plan's four arrays
-                s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
-                if not (type(s) is type(v) is type(a) is type(f) is np.ndarray
-                        and s.ndim == v.ndim == a.ndim == f.ndim == 1
-                        and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
-                    continue
-                n = s.size
-                if not (n >= 2 and a.size == n - 1 and f.size == n - 1):
-                    continue
-                todo.append(seg)
-                ss.append(s)
-                vs.append(v)
-                as_.append(a)
-                fs.append(f)
+                _take_flat(seg, todo, ss, vs, as_, fs)
     for a in range(0, len(todo), SETTLE_CHUNK):     # bounded memory: every check is per plan
         b = a + SETTLE_CHUNK
         _settle(todo[a:b], ss[a:b], vs[a:b], as_[a:b], fs[a:b])
+
+
+def _take_flat(seg, todo, ss, vs, as_, fs):
+    """seg and its four arrays appended to the lists where they are what _settle checks
+    (1-D float64, n >= 2 knots, n - 1 accelerations and feeds) and its figures finite;
+    else nothing (seg_fault finds the reason)."""
+    s, v, a, f = seg.s, seg.v, seg.accel, seg.feed
+    if not (type(s) is type(v) is type(a) is type(f) is np.ndarray and s.ndim == v.ndim == a.ndim == f.ndim == 1
+            and s.dtype == _F64 and v.dtype == _F64 and a.dtype == _F64 and f.dtype == _F64):
+        return
+    n = s.size
+    if not (n >= 2 and a.size == n - 1 and f.size == n - 1 and math.isfinite(seg.time_t)
+            and math.isfinite(seg.int_a2)):
+        return
+    todo.append(seg)
+    ss.append(s)
+    vs.append(v)
+    as_.append(a)
+    fs.append(f)
 
 
 def _settle_rows(S, V, A, F, plans):

@@ -627,6 +627,67 @@ static int acc_kind(PyObject *dict)
     return kind;
 }
 
+/* An M204's S P T R as new floats (NULL where not given): 1, or 0 where a value given is
+ * not in (0, MAX_ACCEL_A] (state._positive raises: Python reads the line; nothing made),
+ * -1 on error. */
+static int m204_words(const Words *w, PyObject *o[4])
+{
+    double val;
+    for (int i = 0; i < w->n; i++) {
+        val = word_val(w, i);
+        if (!(0.0 < val && val <= MAX_ACCEL_A))
+            return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
+    }
+    const char *keys = "SPTR";
+    for (int k = 0; k < 4; k++) {
+        o[k] = NULL;
+        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL) {
+            for (int j = 0; j < k; j++)
+                Py_XDECREF(o[j]);
+            return -1;
+        }
+    }
+    return 1;
+}
+
+/* state._m204's rule for the flavour kind (not ACC_OTHER): the objects the print, travel
+ * and retract accelerations take from o = S P T R (NULL: that one unchanged).  Klipper's
+ * travel is the print acceleration, cur_print (the one in force) where neither S nor both
+ * P and T are given: then *print is cur_print. */
+static void m204_pick(int kind, PyObject *const o[4], PyObject *cur_print, PyObject **print, PyObject **travel,
+                      PyObject **retract)
+{
+    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
+    *print = *travel = *retract = NULL;
+    switch (kind) {
+    case ACC_KLIPPER:
+        if (S)
+            *print = S;
+        else if (P && T)
+            *print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
+        else
+            *print = cur_print;
+        *travel = *print;
+        break;
+    case ACC_LEGACY:
+        if (S) {
+            *print = *travel = S;
+            *retract = T;
+        } else {
+            *print = *travel = P;
+            *retract = R;
+        }
+        break;
+    default:                           /* ACC_MARLIN */
+        *print = *travel = S;
+        if (P)
+            *print = P;
+        if (T)
+            *travel = T;
+        *retract = R;
+    }
+}
+
 /* state._m204 where every value given is in (0, MAX_ACCEL_A] and the flavour is one it
  * knows: 1 when done, 0 to let Python do it (it raises or reads another flavour), -1 on
  * error.  The values stored are the p values Python would store (one object where Python
@@ -636,57 +697,22 @@ static int m204(PyObject *dict, const Words *w)
     int kind = acc_kind(dict);
     if (kind == ACC_OTHER)
         return 0;
-    int klipper = kind == ACC_KLIPPER, legacy = kind == ACC_LEGACY;
-    double val;
-    PyObject *o[4] = {NULL, NULL, NULL, NULL};     /* S P T R as floats, if given */
-    const char *keys = "SPTR";
+    PyObject *o[4];
+    int got = m204_words(w, o);
+    if (got <= 0)
+        return got;
     int rc = -1;
-    for (int i = 0; i < w->n; i++) {
-        val = word_val(w, i);
-        if (!(0.0 < val && val <= MAX_ACCEL_A))
-            return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
-    }
-    for (int k = 0; k < 4; k++)
-        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL)
-            goto out;
-    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
-    PyObject *print = NULL, *travel = NULL, *retract = NULL;
-    if (klipper) {
-        if (S)
-            print = S;
-        else if (P && T)
-            print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
-        else {
-            print = PyDict_GetItemWithError(dict, state_name[S_ACC_PRINT]);
-            if (print == NULL) {
-                if (PyErr_Occurred())
-                    goto out;
+    PyObject *cur = NULL;
+    if (kind == ACC_KLIPPER && !o[0] && !(o[1] && o[2])) {      /* travel = the print in force */
+        cur = PyDict_GetItemWithError(dict, state_name[S_ACC_PRINT]);
+        if (cur == NULL) {
+            if (!PyErr_Occurred())
                 rc = 0;                /* no attribute: Python's AttributeError */
-                goto out;
-            }
+            goto out;
         }
-        travel = print;
-    } else if (legacy) {
-        if (S) {
-            print = travel = S;
-            if (T)
-                retract = T;
-        } else {
-            if (P)
-                print = travel = P;
-            if (R)
-                retract = R;
-        }
-    } else {
-        if (S)
-            print = travel = S;
-        if (P)
-            print = P;
-        if (T)
-            travel = T;
-        if (R)
-            retract = R;
     }
+    PyObject *print, *travel, *retract;
+    m204_pick(kind, o, cur, &print, &travel, &retract);
     Py_XINCREF(print);             /* print may be the dict's own object */
     if ((print && PyDict_SetItem(dict, state_name[S_ACC_PRINT], print) < 0)
         || (travel && PyDict_SetItem(dict, state_name[S_ACC_TRAVEL], travel) < 0)
@@ -907,48 +933,13 @@ static int sess_m204(Session *ss, const Words *w)
         ss->acc_kind = acc_kind(ss->dict);
     if (ss->acc_kind == ACC_OTHER)
         return 0;
-    for (int i = 0; i < w->n; i++) {
-        double val = word_val(w, i);
-        if (!(0.0 < val && val <= MAX_ACCEL_A))
-            return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
-    }
-    double val;
-    PyObject *o[4] = {NULL, NULL, NULL, NULL};     /* S P T R as floats, if given */
-    const char *keys = "SPTR";
-    for (int k = 0; k < 4; k++)
-        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL) {
-            for (int j = 0; j < k; j++)
-                Py_XDECREF(o[j]);
-            return -1;
-        }
-    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
-    PyObject *print = NULL, *travel = NULL, *retract = NULL;   /* the slots' new objects */
-    switch (ss->acc_kind) {
-    case ACC_KLIPPER:
-        if (S)
-            print = S;
-        else if (P && T)
-            print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
-        travel = print ? print : ss->o_acc[A_P];                        /* travel = print */
-        break;
-    case ACC_LEGACY:
-        if (S) {
-            print = travel = S;
-            retract = T;
-        } else {
-            print = travel = P;
-            retract = R;
-        }
-        break;
-    default:                           /* ACC_MARLIN */
-        print = travel = S;
-        if (P)
-            print = P;
-        if (T)
-            travel = T;
-        retract = R;
-    }
-    if (print)
+    PyObject *o[4];
+    int got = m204_words(w, o);
+    if (got <= 0)
+        return got;
+    PyObject *print, *travel, *retract;                        /* the slots' new objects */
+    m204_pick(ss->acc_kind, o, ss->o_acc[A_P], &print, &travel, &retract);
+    if (print && print != ss->o_acc[A_P])                      /* (Klipper's print in force: kept) */
         sess_set_acc(ss, A_P, print, PyFloat_AS_DOUBLE(print));
     if (travel)
         sess_set_acc(ss, A_T, travel, travel == ss->o_acc[A_P] ? ss->acc[A_P] : PyFloat_AS_DOUBLE(travel));

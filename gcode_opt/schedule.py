@@ -601,10 +601,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             segs.update(new)
             seg_failed.update(new_bad)
         _keep_plans(plan, strokes, idx, segs, seg_failed)
-        plan.cmd0 = cmd0        # (read by the two below; not kept on the plan)
-        _attach_commands(plan, strokes, pin, rules)
-        _keep_slowed_corners(plan, strokes, rules)
-        del plan.cmd0
+        _attach_commands(plan, strokes, pin, rules, cmd0)
+        _keep_slowed_corners(plan, strokes, rules, cmd0)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
         return plan
 
@@ -741,14 +739,13 @@ def _as_sliced(plan, pin, i, why):
     plan.t_pred[i], plan.a2_pred[i] = pin.T_orig[i], pin.I_orig[i]
 
 
-def _attach_commands(plan, strokes, pin, rules):
+def _attach_commands(plan, strokes, pin, rules, cmd0=None):
     """Every re-timed stroke whose start corners.py slowed by a junction command gets it
     (lines, curves and chains alike); one that cannot is left as sliced.  Only the
     strokes whose start corners.py slowed ask (_command_for: every other one has nothing
-    to attach), found in one pass (none without --corners).  plan.cmd0, when there: the
+    to attach), found in one pass (none without --corners).  cmd0, if given: the
     strokes' corner_cmd0 as a bool array (plan_strokes reads them once for its runs)."""
     segs = plan.segs
-    cmd0 = getattr(plan, "cmd0", None)
     if cmd0 is not None:
         todo = np.flatnonzero(plan.retime & cmd0).tolist()
     else:
@@ -764,13 +761,12 @@ AS_SLICED = ("original is better within the time budget", "no law within limits"
              "segments would not beat the original")
 
 
-def _keep_slowed_corners(plan, strokes, rules):
+def _keep_slowed_corners(plan, strokes, rules, cmd0=None):
     """A line stroke the planner leaves as sliced whose start corners.py slowed with a
     junction command keeps that corner: its own move is written behind the command
     (segments.slowed_original).  Its time counts in the budget like a re-timed stroke's;
-    what the corner cost was priced in corners.py's share of the budget.  plan.cmd0, when
-    there: the strokes' corner_cmd0 as a bool array (only those rows are asked)."""
-    cmd0 = getattr(plan, "cmd0", None)
+    what the corner cost was priced in corners.py's share of the budget.  cmd0, if
+    given: the strokes' corner_cmd0 as a bool array (only those rows are asked)."""
     for i in np.flatnonzero(~plan.retime if cmd0 is None else ~plan.retime & cmd0).tolist():
         st = strokes[i]
         if not st.corner_cmd0 or plan.reason[i] not in AS_SLICED or chains.plan_kind(st) != K_LINE:

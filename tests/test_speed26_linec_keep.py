@@ -49,7 +49,7 @@ def _keep_plans_old(plan, strokes, idx, segs, seg_failed):
     plan.a2_pred[put] = np.array(a2_put, float)
 
 
-def _attach_commands_old(plan, strokes, pin, rules):
+def _attach_commands_old(plan, strokes, pin, rules, cmd0=None):   # (cmd0: the current signature; read per stroke here)
     for i in np.flatnonzero(plan.retime).tolist():
         seg = plan.segs[i]
         if seg is not None and not _command_for(seg, strokes[i], rules):

@@ -427,7 +427,7 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
     plan.a2_pred[put] = a2_kept
 
 
-def _attach_commands(plan, strokes, pin, rules):
+def _attach_commands(plan, strokes, pin, rules, cmd0=None):   # (cmd0: the current signature; read per stroke here)
     """Every re-timed stroke whose start corners.py slowed by a junction command gets it
     (lines, curves and chains alike); one that cannot is left as sliced.  Only the
     strokes whose start corners.py slowed ask (_command_for: every other one has nothing
@@ -439,7 +439,7 @@ def _attach_commands(plan, strokes, pin, rules):
             _as_sliced(plan, pin, i, "no junction command for its slower corner")
 
 
-def _keep_slowed_corners(plan, strokes, rules):
+def _keep_slowed_corners(plan, strokes, rules, cmd0=None):   # (cmd0: the current signature; read per stroke here)
     """A line stroke the planner leaves as sliced whose start corners.py slowed with a
     junction command keeps that corner: its own move is written behind the command
     (segments.slowed_original).  Its time counts in the budget like a re-timed stroke's;

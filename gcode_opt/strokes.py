@@ -73,10 +73,8 @@ def _fw_core():
     None) as doubles and first_idx / last_idx as ints -- a float object of its own each
     took 24 bytes beside its slot (gyroid plate: ~13 MB of 40 for its 35 k strokes).  They
     read back as the same floats and ints; a value of another type is kept as that object."""
-    import os
-    from .native import load
-    core, _ = load("_gcode_opt_fwcore", os.path.join(os.path.dirname(os.path.abspath(__file__)), "firmware",
-                                                     "_core.c"), "core")
+    from .firmware import load_core
+    core, _ = load_core()
     return core if hasattr(core, "StrokeBase") else None
 
 

@@ -43,7 +43,6 @@ bits as the per-line loop _play (tests/test_speed_measure_loop.py, _fused.py).
 from __future__ import annotations
 
 import math
-import os
 from array import array
 
 from .. import state as st
@@ -436,9 +435,8 @@ def _load_core():
     _core.c than the one beside this file (a stale build), or if GCODE_OPT_PURE_PYTHON
     asks for the Python model.  CORE_WHY says why not."""
     global CORE_WHY, _CLineRecord, _CSimResult
-    from ..native import load
-    core, CORE_WHY = load("_gcode_opt_fwcore", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_core.c"),
-                          "core")
+    from . import load_core
+    core, CORE_WHY = load_core()
     if core is None:
         return None
 

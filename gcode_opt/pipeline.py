@@ -767,7 +767,16 @@ class _Reuse:
             return False
         for f in ("s", "v", "accel", "feed"):
             x, y = getattr(a, f, None), getattr(b, f, None)
-            if (x is None) != (y is None) or (x is not None and not np.array_equal(x, y)):
+            if (x is None) != (y is None):
+                return False
+            if x is None:
+                continue
+            if type(x) is type(y) is np.ndarray:
+                # the same bits (a byte compare: ~10x quicker than array_equal on these short
+                # rows, and stricter: -0.0 against 0.0 is written anew, not taken for it)
+                if x.dtype != y.dtype or x.shape != y.shape or x.tobytes() != y.tobytes():
+                    return False
+            elif not np.array_equal(x, y):
                 return False
         return True
 

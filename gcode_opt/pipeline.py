@@ -1208,12 +1208,16 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # took ~36 bytes a stroke, 1.4 MB on the gyroid plate, 8 here)
             order = array("q", np.argsort(line_spans(strokes)[0], kind="stable").astype(np.int64).tobytes())
             first = None              # the first pass: _FirstPass
+            restore = plan = None     # restore: strokes the second pass puts back to their lines, the plan kept
             for pass_i in range(2):
                 # the collector off while planning (~135 young collections a run walked the
                 # plans for ~300 objects of garbage) and the plan's objects frozen after it:
                 # rewrite's collections walked them too (rectilinear plate: ~0.03 s)
-                with _young_frozen(freeze):
-                    plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+                if restore is not None:
+                    plan = _restored(plan, pin, restore)
+                else:
+                    with _young_frozen(freeze):
+                        plan = plan_strokes(strokes, pin, profile, opts, budget_t)
                 trim_heap()           # planning's freed temporaries: rewrite and measure grow on live memory only
                 timing.lap("plan")
                 if prog:
@@ -1276,6 +1280,13 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                     failed = pin.cached[2]
                     for i in departed:
                         failed[i] = "firmware model departs from the plan"
+                    # what putting them back to their lines gives back; where that alone brings the
+                    # file within the budget (or the laws are fixed: a re-plan would make the same
+                    # plans), the plan stands without them: no re-plan, the other blocks copied
+                    over_t -= _departed_excess_t(pin, out_ranges, t1, departed)
+                    if opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
+                        restore = departed
+                        continue
                 elif opts.alpha != "auto" or over_t <= 5e-4 * sim0.time_t:
                     break
                 if over_t > 0.0:
@@ -1382,6 +1393,28 @@ def _departures(plan, out_ranges, t1):
     return [i for k, (_, _, i) in enumerate(out_ranges)
             if t1[k] > DEPART_R * t_pred[i] + DEPART_T]
 
+
+
+def _departed_excess_t(pin, out_ranges, t1, departed):
+    """The time (s) the firmware model played the departed strokes (stroke indices) beyond
+    their original lines' time: what keeping them as sliced gives back."""
+    ii = range_columns(out_ranges)[2]
+    at = {int(i): k for k, i in enumerate(ii.tolist())}
+    return float(sum(t1[at[i]] - pin.T_orig[i] for i in departed if i in at))
+
+
+def _restored(plan, pin, rows):
+    """A copy of plan (segment plans and predictions included) with the strokes `rows` left
+    as sliced, each with its reason from the failed strokes (pin.cached[2]).  The first
+    pass's plan stays as it was written: the second pass compares against it."""
+    from .schedule import _as_sliced
+    new = plan.copy()
+    new.segs = list(plan.segs)
+    new.t_pred, new.a2_pred = plan.t_pred.copy(), plan.a2_pred.copy()
+    failed = pin.cached[2]
+    for i in rows:
+        _as_sliced(new, pin, i, failed.get(i, "firmware model departs from the plan"))
+    return new
 
 
 class _Timing:

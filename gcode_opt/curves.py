@@ -1056,15 +1056,18 @@ _PROBE_TAU = _UNIFORM_TAU[::8]      # 17 of its points (k/16, the same numbers)
 PROBE_MARGIN_R = 1e-6               # a probe over its limit by more than this is over it on any grid
 
 
-def surely_over(law, R, geos, v_lim, a_lim, memo=None):
+def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
     """Laws whose speed or |a| (_true_figures_rows' arithmetic) at 17 points of the
     uniform grid _true_figures_rows also evaluates already exceeds v_lim or a_lim by
     more than PROBE_MARGIN_R: their peaks (maxima over a grid that holds these points)
     exceed them too, so the full figures would reject them.  The probe's numbers are the
     same sums in another BLAS blocking, ~1e-15 apart (the margin is 10^9 times that):
     the same decisions, at ~1/9 of the cost.  88 % of the gyroid plate's curve candidates
-    break the acceleration cap; the full figures are made for the others only."""
+    break the acceleration cap; the full figures are made for the others only.
+    why (a list, optional): the laws over on |a| but not on speed are appended to it (a
+    bool array; candidates_curve does not retry them at beta/4)."""
     over = np.zeros(len(geos), bool)
+    a_only = np.zeros(len(geos), bool)
     for sl in law.row_chunks():
         sub = law.rows(sl)
         phi, w, w1, _ = sub.eval_tau(np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size)),
@@ -1075,8 +1078,12 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None):
         at = Rr * w1 / T ** 2
         kv2 = _kappa_rows(geos[sl], Rr * phi, _rows_of(memo, sl)) * (v * v)
         a2 = at * at + kv2 * kv2
-        over[sl] = ((np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R))
-                    | (np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)))
+        over_v = np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        over_a = np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        over[sl] = over_v | over_a
+        a_only[sl] = over_a & ~over_v
+    if why is not None:
+        why.append(a_only)
     return over
 
 
@@ -1231,7 +1238,29 @@ def candidates_curve(pin, rows, strokes, profile):
     # κ_eff per row, read once per stroke (_solve read it per candidate of each pass)
     keff = np.array([g.kappa_eff for g in geos[::k]])[np.repeat(np.arange(rows.size), k)]
 
+    # candidate_table solves each candidate, then retries those that break a limit at
+    # beta/4, a flatter law.  A smaller beta weighs |a| less: the law's ∫|a|² can only grow
+    # (J = ∫v² + beta G is minimised, so G(beta/4) >= G(beta)), and its peak |a| grows too
+    # (+0.05..0.2 % on the plates' 50 k retried laws).  The retry helps a law over on
+    # speed; one over on |a| alone (on the probe: surely over) is not solved again, it is
+    # rejected as its retry was on every case of the 35-case run set (86 k candidates,
+    # none accepted): ~0.1 s of the gyroid plate's 0.32 s of curve candidates
+    # (tests/test_speed29_curvesolve_retry.py)
+    a_only = np.zeros(rows.size * k, bool)
+
     def solve_figures(idx, T, beta):
+        skip = a_only[idx]
+        if skip.any():
+            iv, ia, ok = np.full(idx.size, np.nan), np.full(idx.size, np.nan), np.zeros(idx.size, bool)
+            keep = np.flatnonzero(~skip)
+            if keep.size:
+                iv[keep], ia[keep], ok[keep] = _figures(idx[keep], T[keep], beta[keep], idx[skip], T[skip], beta[skip])
+            return iv, ia, ok
+        return _figures(idx, T, beta)
+
+    def _figures(idx, T, beta, idx_out=None, T_out=None, beta_out=None):
+        """(∫v², ∫|a|², ok) of the candidates idx; idx_out: candidates left out of this
+        batch, whose grid levels it takes (the figures of the batch that holds them)."""
         gs = [geos[q] for q in idx]
         R = 1.0 / keff[idx]                     # _solve's R, the same numbers
         law = solve_circles(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R, R)
@@ -1239,8 +1268,14 @@ def candidates_curve(pin, rows, strokes, profile):
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         memo = {} if knots is None else knots.sub(idx)
-        iv, ia, pv, pa, mv = true_figures(law, R, gs, np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim, memo)),
-                                          memo)
+        why = []
+        fig = np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim, memo, why))
+        a_only[idx] = why[0]
+        if fig.size and idx_out is not None:
+            Ro = 1.0 / keff[idx_out]
+            law.grid_levels = _circle.grid_levels_of(S[idx_out] / Ro, T_out, beta_out, v0[idx_out] / Ro,
+                                                     v1[idx_out] / Ro)
+        iv, ia, pv, pa, mv = true_figures(law, R, gs, fig, memo)
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 

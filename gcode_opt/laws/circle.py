@@ -706,6 +706,49 @@ def _graded_grid(h, levels):
     return xs, ws
 
 
+def _grid_plan_of(phi_total, T_t, beta_s2, w0, w1, regime, wc):
+    """CircleBatch._grid_plan of a batch of these arcs (regime, wc: as solve_circles gives
+    them): the layer width h in τ per arc and the panel levels of the batch."""
+    gam2 = (T_t / np.sqrt(beta_s2)) ** 2         # CircleBatch.gamma ** 2
+    u0, u1 = w0 * T_t, w1 * T_t
+    wmax = np.maximum.reduce([np.abs(phi_total), np.abs(u0), np.abs(u1)])
+    lam_min = np.sqrt(gam2 + 6.0 * np.where(regime, wc ** 2, 0.0))
+    h = np.minimum(0.5, 30.0 / np.maximum(lam_min, 1e-300))
+    # finest panel must resolve the steepest scale 1/(λ + |d0|)
+    levels = int(np.clip(np.ceil(np.log2(np.max(20.0 * h * (lam_min + 2 * wmax)))), 2, 40))
+    return h, levels
+
+
+def grid_levels_of(phi_total, T, beta, w0=0.0, w1=0.0):
+    """The panel levels (CircleBatch._grid_plan) a batch of these arcs (solve_circles'
+    arguments, R aside) has, without its Chebyshev solve: the layer regime's solve and
+    test only.  The levels of a batch are the largest of its arcs' (a maximum, then
+    monotone maps), so a batch given the levels of arcs left out of it (grid_levels) has
+    the grid, and the figures, of the batch that holds them too."""
+    phi, T_t, beta_s2, w0, w1 = (a.copy() for a in np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(v, float)) for v in (phi_total, T, beta, w0, w1))))
+    if phi.size == 0:
+        return None
+    wc, regime = _layer_regime(phi, T_t, beta_s2, w0, w1)[:2]
+    return _grid_plan_of(phi, T_t, beta_s2, w0, w1, regime, wc)[1]
+
+
+def _layer_regime(phi, T_t, beta_s2, w0, w1):
+    """solve_circles' first step: (w_c, regime, γ², u0, u1, λ) -- the cruise value of the
+    layer solution, whether it is accepted (the neglected interaction of the two layers
+    is tiny), and the dimensionless numbers the Chebyshev regime goes on with."""
+    gam2 = T_t * T_t / beta_s2
+    u0, u1 = w0 * T_t, w1 * T_t
+    nb = phi.size
+    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
+    wc = _solve_layers_batch(phi, gam2, u0, u1)
+    tail = np.maximum(np.abs(_layer_d(1.0, u0 - wc, wc, gam2)),
+                      np.abs(_layer_d(1.0, u1 - wc, wc, gam2)))
+    lam = np.sqrt(gam2 + 6.0 * wc * wc)
+    regime = (tail * (1.0 + lam) <= _LAYER_TAIL_TOL * scale) & np.isfinite(wc)
+    return wc, regime, gam2, u0, u1, lam
+
+
 @dataclass
 class CircleBatch:
     """Optimal laws for B arcs.  Angles in rad, t in s, R in mm (or any length unit).
@@ -721,6 +764,10 @@ class CircleBatch:
     wc: np.ndarray              # cruise value (layers regime; dimensionless)
     cc: np.ndarray              # the constant C (dimensionless)
     coef: np.ndarray            # (B, K) Chebyshev coefficients of w(τ), zero-padded (0 for layers)
+    # the least panel levels of the quadrature grid (_grid_plan): a batch solved apart from
+    # arcs it would have shared a batch with takes their levels too (grid_levels_of), so
+    # its figures are those of the larger batch, bit for bit; None: its own levels
+    grid_levels: int | None = None
 
     def __len__(self):
         return self.phi_total.size
@@ -735,12 +782,13 @@ class CircleBatch:
     def rows(self, sl) -> "CircleBatch":
         """The arcs `sl` (a slice) as a batch of their own (views, no copy)."""
         return CircleBatch(self.phi_total[sl], self.T_t[sl], self.beta_s2[sl], self.w0[sl], self.w1[sl],
-                           self.R_d[sl], self.regime[sl], self.wc[sl], self.cc[sl], self.coef[sl])
+                           self.R_d[sl], self.regime[sl], self.wc[sl], self.cc[sl], self.coef[sl], self.grid_levels)
 
     def take(self, idx) -> "CircleBatch":
         """The arcs idx (integer array) as a batch of their own (copies)."""
         return CircleBatch(self.phi_total[idx], self.T_t[idx], self.beta_s2[idx], self.w0[idx], self.w1[idx],
-                           self.R_d[idx], self.regime[idx], self.wc[idx], self.cc[idx], self.coef[idx])
+                           self.R_d[idx], self.regime[idx], self.wc[idx], self.cc[idx], self.coef[idx],
+                           self.grid_levels)
 
     def row_chunks(self):
         """Slices of at most EVAL_CHUNK arcs: evaluations on (arcs, grid) arrays go chunk by
@@ -840,14 +888,11 @@ class CircleBatch:
             yield (r,) + _graded_grid(h[r], levels)
 
     def _grid_plan(self):
-        """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch."""
-        gam2 = self.gamma ** 2
-        u0, u1 = self.w0 * self.T_t, self.w1 * self.T_t
-        wmax = np.maximum.reduce([np.abs(self.phi_total), np.abs(u0), np.abs(u1)])
-        lam_min = np.sqrt(gam2 + 6.0 * np.where(self.regime, self.wc ** 2, 0.0))
-        h = np.minimum(0.5, 30.0 / np.maximum(lam_min, 1e-300))
-        # finest panel must resolve the steepest scale 1/(λ + |d0|)
-        levels = int(np.clip(np.ceil(np.log2(np.max(20.0 * h * (lam_min + 2 * wmax)))), 2, 40))
+        """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch
+        (at least grid_levels, when set)."""
+        h, levels = _grid_plan_of(self.phi_total, self.T_t, self.beta_s2, self.w0, self.w1, self.regime, self.wc)
+        if self.grid_levels is not None and self.grid_levels > levels:
+            levels = self.grid_levels
         return h, levels
 
     def integrals(self):
@@ -945,7 +990,7 @@ class CircleLaw:
         b = self.batch
         i = slice(self.i, self.i + 1)
         return CircleBatch(b.phi_total[i], b.T_t[i], b.beta_s2[i], b.w0[i], b.w1[i], b.R_d[i],
-                           b.regime[i], b.wc[i], b.cc[i], b.coef[i])
+                           b.regime[i], b.wc[i], b.cc[i], b.coef[i], b.grid_levels)
 
     def integrals(self):
         iv, ia = self._sub().integrals()
@@ -974,17 +1019,9 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
     phi, T_t, beta_s2, w0, w1, R_d = (a.copy() for a in (phi, T_t, beta_s2, w0, w1, R_d))
     if np.any(T_t <= 0) or np.any(beta_s2 <= 0):
         raise ValueError("T and beta must be positive")
-    gam2 = T_t * T_t / beta_s2
-    u0, u1 = w0 * T_t, w1 * T_t
     nb = phi.size
-    scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
-
     # layer regime first: accept where the neglected interaction of the two layers is tiny
-    wc = _solve_layers_batch(phi, gam2, u0, u1)
-    tail = np.maximum(np.abs(_layer_d(1.0, u0 - wc, wc, gam2)),
-                      np.abs(_layer_d(1.0, u1 - wc, wc, gam2)))
-    lam = np.sqrt(gam2 + 6.0 * wc * wc)
-    regime = (tail * (1.0 + lam) <= _LAYER_TAIL_TOL * scale) & np.isfinite(wc)
+    wc, regime, gam2, u0, u1, lam = _layer_regime(phi, T_t, beta_s2, w0, w1)
 
     coef = np.zeros((nb, 1))
     cc = -gam2 * wc - 2.0 * wc ** 3

@@ -39,6 +39,7 @@ from collections import deque
 
 import numpy as np
 
+from .distinct import distinct
 from . import chains, vertex_filter
 from . import features as feat
 from . import emit as emit_mod
@@ -1005,7 +1006,7 @@ def stroke_lines(strokes, order, out_ranges):
         return _stroke_lines_loop(strokes, order, out_ranges)
     ra, rz, ri = range_columns(out_ranges)
     o = np.asarray(order, np.int64)
-    if (len(ri) and (ri.min() < 0 or ri.max() >= n or len(np.unique(ri)) != len(ri))) or o.min() < 0 or o.max() >= n:
+    if (len(ri) and (ri.min() < 0 or ri.max() >= n or len(distinct(ri)) != len(ri))) or o.min() < 0 or o.max() >= n:
         return _stroke_lines_loop(strokes, order, out_ranges)
     lo, hi = line_spans(strokes)
     fi, li = lo[o], hi[o]

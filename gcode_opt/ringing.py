@@ -30,6 +30,7 @@ from itertools import chain
 
 import numpy as np
 
+from .distinct import distinct
 from . import state as st
 from .firmware.resonance import (Oscillator, Response, RingMemo, RingRoom, _smoothing_chunk, release_solve_room,
                                  shaped_events, shaper_pulses, smoothing)
@@ -465,7 +466,7 @@ class _SmoothStream:
         else:
             self.win = tuple(np.concatenate([w, x]) for w, x in zip(self.win, new))
         t0, x0, v0, a0 = self.win
-        brk = np.unique(np.concatenate([t0 + ti for _a, t_p in self.pulses for ti in t_p]
+        brk = distinct(np.concatenate([t0 + ti for _a, t_p in self.pulses for ti in t_p]
                                        + [t0, [self.lo]]))
         if final:
             self.t_last = float(t0[-1])

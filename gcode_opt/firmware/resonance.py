@@ -27,6 +27,7 @@ import weakref
 
 import numpy as np
 
+from ..distinct import distinct
 from ..probe_draws import Draws
 
 CHUNK_DECAY = 300.0      # exp(300) ~ 1e130: cumulative sums restart before float64 overflows
@@ -666,7 +667,7 @@ def smoothing(t0, x0, v0, a0, pulses, samples=4):
     breakpoints, its square integrated in closed form), the max from `samples` points per
     merged piece (pieces last milliseconds)."""
     shifts = [t0 + ti for a_p, t_p in pulses for ti in t_p]
-    brk = np.unique(np.concatenate(shifts + [t0]))
+    brk = distinct(np.concatenate(shifts + [t0]))
     del shifts
     brk = brk[(brk >= t0[0]) & (brk <= t0[-1])]
     integral, total_t, mx = 0.0, float(brk[-1] - brk[0]) if len(brk) else 0.0, 0.0

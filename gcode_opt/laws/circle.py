@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..distinct import distinct
 from .. import native
 from ..blas import blas_one_thread
 from ..probe_draws import Draws
@@ -111,7 +112,7 @@ def _clenshaw_rows(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     nz = coef != 0
     length = np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
     out = np.empty(x.shape)
-    for K in np.unique(length):
+    for K in distinct(length):
         r = np.flatnonzero(length == K)
         # blocks of rows whose recurrence arrays stay in cache (same numbers, ~1.3x faster)
         step = max(1, _CLENSHAW_BLOCK // max(x.shape[1], 1))
@@ -192,7 +193,7 @@ def _series_values(coefs, x):
         for o, c in zip(out, coefs):
             cr = c if whole else c[r]
             length = _row_lengths(cr)
-            ks = np.unique(length)
+            ks = distinct(length)
             for k in ks.tolist():
                 if ks.size == 1:
                     rk = None
@@ -494,7 +495,7 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
     top = len(_N_LADDER) - 1
     while pending.size:
         next_pending = []
-        for lv in np.unique(level[pending]):
+        for lv in distinct(level[pending]):
             ia = pending[level[pending] == lv]
             n = _N_LADDER[lv]
             cs = _cheb_setup(n)

@@ -42,7 +42,6 @@ from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
-from .probe_draws import Draws
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
                        segment_feeds, segment_times, settle_rows, tent_feeds_rows)
@@ -944,7 +943,7 @@ def _exp_zero_ok():
     bit, on a probe of arguments below EXP_ZERO_BELOW (its edge, -inf, huge, random ones,
     in arrays of several lengths and offsets, as its vector loops take them); checked once."""
     if not _EXP_ZERO_OK:
-        rng = Draws(21)
+        rng = np.random.default_rng(21)
         edge = np.nextafter(EXP_ZERO_BELOW, -np.inf)
         x = np.concatenate([[edge, -746.5, -750.0, -800.0, -1075.0, -1e4, -1e300, -np.finfo(float).max, -np.inf],
                             rng.uniform(-760.0, EXP_ZERO_BELOW, 4000), -np.exp(rng.uniform(6.62, 700.0, 4000)),

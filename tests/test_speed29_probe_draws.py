@@ -42,17 +42,3 @@ def test_shapes_as_numpy_reads_them():
     assert d.normal(size=(2, 3, 4)).shape == (2, 3, 4)
     assert d.uniform(size=7).shape == (7,)
     assert d.exponential(1.0, 5).shape == (5,)
-
-
-def test_a_run_does_not_import_numpy_random(tmp_path):
-    # every run-time probe (ringing kernels, BLAS rows, curve exp) draws from Draws
-    import os
-    import subprocess
-    import sys
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    code = ("import sys; from gcode_opt import cli; "
-            f"cli.main(['process', {os.path.join(root, 'sample_gcode', 'prusa_gyroid_arcs.gcode')!r}, "
-            f"'-o', {str(tmp_path / 'o.gcode')!r}, '-q']); "
-            "print('numpy.random' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, check=True)
-    assert out.stdout.strip().splitlines()[-1] == "False"

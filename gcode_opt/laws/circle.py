@@ -33,7 +33,6 @@ import numpy as np
 from ..distinct import distinct
 from .. import native
 from ..blas import blas_one_thread
-from ..probe_draws import Draws
 
 # The compiled elementwise steps of _precond_cheb (and curves._parts_block's kernel):
 # _curvecore.c, module _gcode_opt_curvecore; optional, the same bits as the numpy code
@@ -131,7 +130,7 @@ def _gemm_rows_invariant():
     position and the other rows (true of OpenBLAS, whose small-matrix kernels accumulate
     each element in order; checked once, on this machine's BLAS)."""
     if not _GEMM_OK:
-        rng = Draws(0)
+        rng = np.random.default_rng(0)
         same = True
         for k, m in ((1, 3), (5, 40), (21, 129), (33, 184), (65, 97)):
             v = rng.normal(size=(k, m))

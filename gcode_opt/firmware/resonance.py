@@ -28,7 +28,6 @@ import weakref
 import numpy as np
 
 from ..distinct import distinct
-from ..probe_draws import Draws
 
 CHUNK_DECAY = 300.0      # exp(300) ~ 1e130: cumulative sums restart before float64 overflows
 # numpy works a binary operation in place on a temporary operand of this many bytes or
@@ -55,7 +54,7 @@ def _core():
 def _probe(span):
     t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
                         np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
-    return np.concatenate([t, t * (1.0 + 2.0 ** -52), Draws(7).uniform(0.0, span, 2000)])
+    return np.concatenate([t, t * (1.0 + 2.0 ** -52), np.random.default_rng(7).uniform(0.0, span, 2000)])
 
 
 def _kernel_for(key, span):
@@ -103,7 +102,7 @@ def _amps_mode(core, s, wd, span):
         return None
     key = (s, wd, span)
     if key not in _AMPS_MODE:
-        rng = Draws(11)
+        rng = np.random.default_rng(11)
         gaps = rng.exponential(span / 300.0, 4000) * (rng.uniform(size=4000) < 0.9)
         gaps[rng.uniform(size=4000) < 0.01] *= 400.0       # long pauses: restarts apart
         t_ev = np.cumsum(gaps)
@@ -135,7 +134,7 @@ def _jumps_core(s, wd):
         return None
     ok = _JUMPS_OK.get((s, wd))
     if ok is None:
-        rng = Draws(17)
+        rng = np.random.default_rng(17)
         n = 20000
         dr = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
         drp = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
@@ -178,7 +177,7 @@ def _int_r2_core(s, wd):
     if ok is None:
         osc = Oscillator.__new__(Oscillator)
         osc.s, osc.wd, osc.lam = s, wd, lam
-        rng = Draws(13)
+        rng = np.random.default_rng(13)
         ok = True
         for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000, 4097, 5003, 20011) * 3:
             c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
@@ -222,7 +221,7 @@ def _peak_ok(core, s, wd, fused):
     "numpy" where only np.abs's are (peak_abs_r left to numpy), else None."""
     osc = Oscillator.__new__(Oscillator)
     osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
-    rng = Draws(19)
+    rng = np.random.default_rng(19)
     n = 20000
     c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
         + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)

@@ -1909,21 +1909,35 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         for (Py_ssize_t c = 0; c < n_c; c++) {           /* as share_time */
             if (conv[c]) continue;
             int64_t p0 = poff[c], p1 = poff[c + 1];
-            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
-            for (int64_t p = p0; p < p1; p++) {
-                double d1 = d1b[p], inv = invb[p];
-                s_inv += inv;
-                s_d1inv += d1 * inv;
-                s_T += T[p];
-                s_ad1 += fabs(d1);
-            }
-            double l = it == 0 ? -s_d1inv / s_inv : lam[c];
-            double s_rinv = 0.0, rr = 0.0;
-            for (int64_t p = p0; p < p1; p++) {
-                double r = d1b[p] + l;
-                d1b[p] = r;                       /* r from here on */
-                s_rinv += r * invb[p];
-                rr += fabs(r);
+            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0, s_rinv = 0.0, rr = 0.0, l;
+            if (it) {            /* λ known: the residuals' sums in the same pass (the same sums) */
+                l = lam[c];
+                for (int64_t p = p0; p < p1; p++) {
+                    double d1 = d1b[p], inv = invb[p];
+                    s_inv += inv;
+                    s_d1inv += d1 * inv;
+                    s_T += T[p];
+                    s_ad1 += fabs(d1);
+                    double r = d1 + l;
+                    d1b[p] = r;                   /* r from here on */
+                    s_rinv += r * inv;
+                    rr += fabs(r);
+                }
+            } else {
+                for (int64_t p = p0; p < p1; p++) {
+                    double d1 = d1b[p], inv = invb[p];
+                    s_inv += inv;
+                    s_d1inv += d1 * inv;
+                    s_T += T[p];
+                    s_ad1 += fabs(d1);
+                }
+                l = -s_d1inv / s_inv;
+                for (int64_t p = p0; p < p1; p++) {
+                    double r = d1b[p] + l;
+                    d1b[p] = r;                   /* r from here on */
+                    s_rinv += r * invb[p];
+                    rr += fabs(r);
+                }
             }
             double e = Ttot[c] - s_T;
             double dlam = -(e + s_rinv) / s_inv;

@@ -14,8 +14,9 @@ end speeds are the caps; each piece is the closed-form straight-line law (laws/l
 on its length L_j and duration T_j.  The vertex times are free, so the durations share T
 by equal marginal cost: J_j'(T_j) = -λ for every piece, Σ T_j = T (λ = the chain's
 Hamiltonian, continuous across a binding vertex).  Solved by Newton on (T_j, λ) for all
-pieces of all chains at once (J_j from LineLaw.integrals, derivatives by central
-differences of that closed form).  Then the usual rules: a vertex whose speed exceeds
+pieces of all chains at once (J_j' = the piece's Hamiltonian and J_j'' in closed form:
+_exact_slopes; before session 29, central differences of LineLaw.integrals' J, still the
+fallback).  Then the usual rules: a vertex whose speed exceeds
 its cap joins B; a binding vertex whose multiplier is negative (s̈(t_i-) > s̈(t_i+):
 the cap holds the law up instead of down) leaves B; a cap that binds rightly bends the
 speed into a valley at its vertex, s̈(t_i+) >= s̈(t_i-).  The start is B = every vertex

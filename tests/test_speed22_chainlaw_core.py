@@ -463,10 +463,15 @@ def test_cut_short_same_bits(iters, monkeypatch):
     monkeypatch.setattr(lc, "MAX_ACTIVE_ITERS", iters)
     for pieces in (False, True):
         for fl, b, vt, w in _flats("prusa-mk3s"):
-            got = lc.solve_flat(fl, b.copy(), vt, w, pieces)
-            want = _ref_solve(ns, fl, b.copy(), vt, w, pieces)
-            _same(got, want, pieces)
-            assert (~want.conv).sum() > 0          # some chains were cut short
+            # (session 29: from the cold start's binding set (COLD_BIND_R) every chain here now
+            # ends within two steps; from no binding vertex some do not)
+            cut = 0
+            for b0 in (b, np.zeros_like(b)):
+                got = lc.solve_flat(fl, b0.copy(), vt, w, pieces)
+                want = _ref_solve(ns, fl, b0.copy(), vt, w, pieces)
+                _same(got, want, pieces)
+                cut += (~want.conv).sum()
+            assert cut > 0          # some chains were cut short
 
 
 @needs_core

@@ -158,7 +158,7 @@ def test_active_set_cut_short_is_each_chains_own(iters, monkeypatch):
     assert n_unconv > 0                  # some chains were cut short ...
     if iters == 1:                       # ... and a law cut short is the first step's: cold binding set
         for pr, lw in zip(probs, together):
-            assert np.array_equal(lw.binding, np.flatnonzero(pr.c_v < pr.S / pr.T))
+            assert np.array_equal(lw.binding, np.flatnonzero(pr.c_v < chain_law.COLD_BIND_R * pr.S / pr.T))
 
 
 def test_forced_release_and_cycling_follow_the_per_chain_rules(monkeypatch):

@@ -7,13 +7,17 @@ a zero-length segment (the flat vertex-to-piece map's fallback).
 
 Since session 20 (chainprim) the chains' time sharing and time of distance use the
 deterministic sinh and cube of laws/prims.py where this reference has np.sinh and ** 3
-(through LineLaw): the comparison is a tolerance check (_close), see there."""
+(through LineLaw): the comparison is a tolerance check (_close), see there.  Since session 29
+(chainnewton) the time sharing's Newton steps take the exact slopes of J (laws/chain.
+_exact_slopes, checked against mpmath in test_speed29_chainnewton_slopes) and the cold start
+binds the caps below COLD_BIND_R x the mean speed: this reference's _share_time and cold
+start follow (the rest of it, the per-chain active set, is as it stood)."""
 import numpy as np
 import pytest
 
 from gcode_opt import chains
-from gcode_opt.laws.chain import (CAP_TOL_R, FD_H_R, MAX_ACTIVE_ITERS, MAX_NEWTON, MU_TOL_R, NEWTON_TOL_R,
-                                  ChainLaw, ChainProblem, _Pieces, solve_chains)
+from gcode_opt.laws.chain import (CAP_TOL_R, COLD_BIND_R, MAX_ACTIVE_ITERS, MAX_NEWTON, MU_TOL_R, NEWTON_TOL_R,
+                                  ChainLaw, ChainProblem, _exact_slopes, _exact_terms, _Pieces, solve_chains)
 from gcode_opt.laws.line import LineLaw, time_of_distance
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
@@ -77,11 +81,11 @@ def _share_time(L, beta, va, vb, owner, T_total, T_init):
         if ix.size == 0:
             break
         o, Ti, Li, bi, ai, ci = owner[ix], T[ix], L[ix], beta[ix], va[ix], vb[ix]
-        h = FD_H_R * Ti
-        jm, j0, jp = _J(Li, Ti - h, bi, ai, ci), _J(Li, Ti, bi, ai, ci), _J(Li, Ti + h, bi, ai, ci)
-        d1 = (jp - jm) / (2.0 * h)
-        d2 = (jp - 2.0 * j0 + jm) / (h * h)
-        d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)
+        # session 29 (chainnewton): the exact slopes (checked against mpmath's derivatives
+        # of J in test_speed29_chainnewton_slopes), where this stood central differences of
+        # _J at Ti(1 ± FD_H_R), whose rounding noise moved the laws by up to ~2e-7
+        d1, d2, rt = _exact_slopes(Li, Ti, bi, ai + ci, ai - ci, _exact_terms(float(np.max((Ti * Ti) / bi))))
+        d2 = np.maximum(d2, (1e-12 * np.abs(d1)) * rt + 1e-300)
         inv = 1.0 / d2
         s_inv = np.bincount(o, inv, n_c)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -124,7 +128,8 @@ def ref_solve_chains(problems, init_binding=None, init_vert_t=None):
         if init_binding is not None and init_binding[c] is not None:
             B[c] = np.asarray(init_binding[c], int)
         else:       # a cap below the mean speed is (nearly always) met: start with those
-            B[c] = np.flatnonzero(pr.c_v < pr.S / pr.T)
+            # (session 29: below COLD_BIND_R x the mean speed, as laws/chain.py)
+            B[c] = np.flatnonzero(pr.c_v < COLD_BIND_R * pr.S / pr.T)
     active = list(range(m))
     out = [None] * m
     seen = [set() for _ in range(m)]

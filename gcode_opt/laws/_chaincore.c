@@ -1760,6 +1760,217 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
     return PyLong_FromLong(ok);
 }
 
+/* ---------------------------------------------------------------- session 29 (chainnewton)
+   laws/chain._share_time_exact's iteration: Newton on the exact slopes J', J'' of the line
+   law's J (laws/chain._exact_slopes: series of G, R, Q and their z-derivatives in z = γ²),
+   numpy's operations in its order. */
+#define EX_NS 6            /* series: G, R, Q, dG/dz, dR/dz, dQ/dz (a row of coef per term) */
+
+/* J' (d1) and 1 / J'' (invb; J'' floored as np.maximum(d2, 1e-12 |d1| / T + 1e-300)) of
+   n <= CHUNK pieces with k terms of the series (coef: EX_NS a term) */
+VEC_CLONES static void ex_chunk(Py_ssize_t n, int k, const double *restrict coef, const double *restrict T,
+                                const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
+                                const double *restrict vdc, double *restrict d1b, double *restrict invb) {
+    double zb[CHUNK], s0[CHUNK], s1[CHUNK], s2[CHUNK], s3[CHUNK], s4[CHUNK], s5[CHUNK];
+    const double *cl = coef + EX_NS * (k - 1);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double t = T[i];
+        zb[i] = (t * t) / bc[i];
+        s0[i] = cl[0]; s1[i] = cl[1]; s2[i] = cl[2]; s3[i] = cl[3]; s4[i] = cl[4]; s5[i] = cl[5];
+    }
+    for (int q = k - 2; q >= 0; q--) {
+        const double *c = coef + EX_NS * q;
+        double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3], a4 = c[4], a5 = c[5];
+        for (Py_ssize_t i = 0; i < n; i++) {
+            double z = zb[i];
+            double x0 = s0[i] * z, x1 = s1[i] * z, x2 = s2[i] * z, x3 = s3[i] * z, x4 = s4[i] * z, x5 = s5[i] * z;
+            s0[i] = x0 + a0; s1[i] = x1 + a1; s2[i] = x2 + a2; s3[i] = x3 + a3; s4[i] = x4 + a4; s5[i] = x5 + a5;
+        }
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        double t = T[i], b = bc[i], vs = vsc[i], vd = vdc[i], z = zb[i];
+        double g = s0[i], r = s1[i], q = s2[i], gz = s3[i], rz = s4[i], qz = s5[i];
+        double rt = 1.0 / t;
+        double rt2 = rt * rt;
+        double hv = vs / 2;
+        double wb = (t * vs) / 2;
+        double A = Lc[i] - wb;
+        double bt = b * rt2;
+        double zp = (2 * z) * rt;
+        double u = wb + A * g;
+        double Au = A * u;
+        double w = b * (vd * vd);
+        double F = (u * u + w * q) + (2 * bt) * (Au * r);
+        double up = (hv - hv * g) + A * (gz * zp);
+        double Fp = ((2 * u) * up + w * (qz * zp)) + (2 * bt) * (((A * up - hv * u) * r + Au * (rz * zp))
+                                                                  - ((2 * Au) * r) * rt);
+        double d1 = -F * rt2;
+        double d2 = ((2 * F) * rt - Fp) * rt2;
+        double fl = (1e-12 * fabs(d1)) * rt + 1e-300;
+        d2 = (d2 >= fl || isnan(d2)) ? d2 : fl;          /* np.maximum(d2, fl) */
+        d1b[i] = d1;
+        invb[i] = 1.0 / d2;
+    }
+}
+
+/* The largest z = T²/β of pieces [p0, p1) folded into *zm, and 1 where a duration is not
+   finite and > 0 (β: finite and > 0, checked by the caller, so z is not nan) */
+VEC_CLONES static int ex_zmax(int64_t p0, int64_t p1, const double *restrict T, const double *restrict beta,
+                              double *zm) {
+    int bad = 0;
+    double m = *zm;
+    for (int64_t p = p0; p < p1; p++) {
+        double t = T[p], z = (t * t) / beta[p];
+        bad |= !(t > 0.0) | !(t < HUGE_VAL);
+        m = z > m ? z : m;
+    }
+    *zm = m;
+    return bad;
+}
+
+/* exact_share(L, beta, vs, vd, poff, npc, T_total, T, lam, conv, coef, zmax, zlim, max_newton)
+   -> 0, or -1 (T, lam, conv then meaningless: the caller runs the central differences) where
+   a step's duration is not finite and > 0 or its largest z = T²/β is not <= zlim or needs
+   more terms than coef has (_exact_terms).  Pieces of chain c at poff[c]:poff[c + 1].  The
+   pieces of the chains not converged are not gathered: each run of consecutive such chains
+   is a contiguous range of pieces, and their slopes are made there (ex_chunk), in place. */
+static PyObject *exact_share(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    double zlim;
+    int max_newton;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOdi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &zlim, &max_newton))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nc1, nz, ncoef, nT, nlam, nconv, ntot, nnpc, nb2, nvs, nvd;
+    double *L = get(&b, o[0], 8, 0, &P);
+    double *beta = L ? get(&b, o[1], 8, 0, &nb2) : NULL;
+    double *vs = beta ? get(&b, o[2], 8, 0, &nvs) : NULL;
+    double *vd = vs ? get(&b, o[3], 8, 0, &nvd) : NULL;
+    int64_t *poff = vd ? get(&b, o[4], 8, 0, &nc1) : NULL;
+    double *npc = poff ? get(&b, o[5], 8, 0, &nnpc) : NULL;
+    double *Ttot = npc ? get(&b, o[6], 8, 0, &ntot) : NULL;
+    double *T = Ttot ? get(&b, o[7], 8, 1, &nT) : NULL;
+    double *lam = T ? get(&b, o[8], 8, 1, &nlam) : NULL;
+    uint8_t *conv = lam ? get(&b, o[9], 1, 1, &nconv) : NULL;
+    double *coef = conv ? get(&b, o[10], 8, 0, &ncoef) : NULL;
+    double *zmax = coef ? get(&b, o[11], 8, 0, &nz) : NULL;
+    if (!zmax) { release(&b); return NULL; }
+    Py_ssize_t n_c = nc1 - 1, nterms = ncoef / EX_NS;
+    int ok = n_c >= 0 && nb2 == P && nvs == P && nvd == P && nT == P && nnpc == n_c && ntot == n_c
+             && nlam == n_c && nconv == n_c && ncoef % EX_NS == 0 && nz == nterms + 1 && nterms >= 2
+             && poff[0] == 0 && poff[n_c] == P;
+    for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "exact_share: shapes");
+        return NULL;
+    }
+    Py_ssize_t PP = P ? P : 1;
+    double *work = PyMem_Malloc(2 * PP * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *d1b = work, *invb = work + PP;             /* per piece: J', then r; 1 / J'' */
+    int status = 0;
+    /* the active pieces' count m, largest z and bad durations: of every chain not converged
+       at the start, then made by the step that moves T (of the chains going on) */
+    Py_ssize_t m = 0;
+    int bad = 0;
+    double zm = 0.0;
+    for (Py_ssize_t c = 0; c < n_c;) {                 /* runs of chains not converged */
+        if (conv[c]) { c++; continue; }
+        Py_ssize_t c1 = c + 1;
+        while (c1 < n_c && !conv[c1]) c1++;
+        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zm);
+        m += poff[c1] - poff[c];
+        c = c1;
+    }
+    for (int it = 0; it < max_newton; it++) {
+        if (m == 0) break;
+        if (bad) { status = -1; break; }
+        /* _exact_terms: the least i with zm <= zmax[i] (searchsorted left), k = i + 1 */
+        if (!(zm <= zlim)) { status = -1; break; }
+        Py_ssize_t i = 0;
+        while (i < nz && zmax[i] < zm) i++;
+        if (i + 1 > nterms) { status = -1; break; }
+        int k = (int)(i + 1);
+        for (Py_ssize_t c = 0; c < n_c;) {
+            if (conv[c]) { c++; continue; }
+            Py_ssize_t c1 = c + 1;
+            while (c1 < n_c && !conv[c1]) c1++;
+            for (int64_t j0 = poff[c]; j0 < poff[c1]; j0 += CHUNK) {
+                Py_ssize_t n = poff[c1] - j0 < CHUNK ? poff[c1] - j0 : CHUNK;
+                ex_chunk(n, k, coef, T + j0, L + j0, beta + j0, vs + j0, vd + j0, d1b + j0, invb + j0);
+            }
+            c = c1;
+        }
+        m = 0;
+        bad = 0;
+        zm = 0.0;
+        for (Py_ssize_t c = 0; c < n_c; c++) {           /* as share_time */
+            if (conv[c]) continue;
+            int64_t p0 = poff[c], p1 = poff[c + 1];
+            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0, s_rinv = 0.0, rr = 0.0, l;
+            if (it) {            /* λ known: the residuals' sums in the same pass (the same sums) */
+                l = lam[c];
+                for (int64_t p = p0; p < p1; p++) {
+                    double d1 = d1b[p], inv = invb[p];
+                    s_inv += inv;
+                    s_d1inv += d1 * inv;
+                    s_T += T[p];
+                    s_ad1 += fabs(d1);
+                    double r = d1 + l;
+                    d1b[p] = r;                   /* r from here on */
+                    s_rinv += r * inv;
+                    rr += fabs(r);
+                }
+            } else {
+                for (int64_t p = p0; p < p1; p++) {
+                    double d1 = d1b[p], inv = invb[p];
+                    s_inv += inv;
+                    s_d1inv += d1 * inv;
+                    s_T += T[p];
+                    s_ad1 += fabs(d1);
+                }
+                l = -s_d1inv / s_inv;
+                for (int64_t p = p0; p < p1; p++) {
+                    double r = d1b[p] + l;
+                    d1b[p] = r;                   /* r from here on */
+                    s_rinv += r * invb[p];
+                    rr += fabs(r);
+                }
+            }
+            double e = Ttot[c] - s_T;
+            double dlam = -(e + s_rinv) / s_inv;
+            double scale = np_max(fabs(l), s_ad1 / npc[c]);
+            int now = (rr <= (NEWTON_TOL_R * scale) * npc[c]) && (fabs(e) <= 1e-12 * Ttot[c]);
+            if (now) {
+                conv[c] = 1;
+                lam[c] = l;
+                continue;
+            }
+            for (int64_t p = p0; p < p1; p++) {
+                double Ti = T[p];
+                double dT = -(d1b[p] + dlam) * invb[p];
+                double lo = -0.5 * Ti, st;
+                if (isnan(dT)) st = dT;           /* np.clip: nan stays */
+                else {
+                    st = dT > lo ? dT : lo;
+                    st = st < Ti ? st : Ti;
+                }
+                double tn = Ti + st, z = (tn * tn) / beta[p];
+                T[p] = tn;
+                bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
+                zm = z > zm ? z : zm;
+            }
+            m += p1 - p0;
+            lam[c] = l + nan_to_num(dlam);
+        }
+    }
+    PyMem_Free(work);
+    release(&b);
+    return PyLong_FromLong(status);
+}
+
 static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 0); }
 static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
 
@@ -1767,6 +1978,7 @@ static PyMethodDef methods[] = {
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
+    {"exact_share", exact_share, METH_VARARGS, "_share_time_exact's whole Newton iteration"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},

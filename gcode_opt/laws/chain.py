@@ -14,12 +14,13 @@ end speeds are the caps; each piece is the closed-form straight-line law (laws/l
 on its length L_j and duration T_j.  The vertex times are free, so the durations share T
 by equal marginal cost: J_j'(T_j) = -λ for every piece, Σ T_j = T (λ = the chain's
 Hamiltonian, continuous across a binding vertex).  Solved by Newton on (T_j, λ) for all
-pieces of all chains at once (J_j from LineLaw.integrals, derivatives by central
-differences of that closed form).  Then the usual rules: a vertex whose speed exceeds
+pieces of all chains at once (J_j' = the piece's Hamiltonian and J_j'' in closed form:
+_exact_slopes; before session 29, central differences of LineLaw.integrals' J, still the
+fallback).  Then the usual rules: a vertex whose speed exceeds
 its cap joins B; a binding vertex whose multiplier is negative (s̈(t_i-) > s̈(t_i+):
 the cap holds the law up instead of down) leaves B; a cap that binds rightly bends the
 speed into a valley at its vertex, s̈(t_i+) >= s̈(t_i-).  The start is B = every vertex
-whose cap is below the chain's mean speed S/T.
+whose cap is below COLD_BIND_R x the chain's mean speed S/T.
 
 tests/test_chain_law.py checks the result against an independent minimisation of the
 same J (piecewise-linear v(s), SLSQP with the cap inequalities) on real gyroid chains.
@@ -56,6 +57,15 @@ MAX_ACTIVE_ITERS = 40
 MAX_NEWTON = 60
 FD_H_R = 1e-4             # relative step of the central differences on T
 NEWTON_TOL_R = 1e-8       # |J_j' + λ| per piece, relative to the chain's slope scale
+# The cold start binds the caps below this x the chain's mean speed S/T: the law's speed
+# swells between binding vertices well above the mean (a rest-to-rest cubic peaks at 1.5 x),
+# so with 1 x nearly every chain's first step had vertices over their caps, joined them all
+# and released many of those at the next.  Gyroid plate, cold active-set chain-steps
+# (chains solved, summed over the steps): 44860 at 1.0, 37283 at 1.15, 30878 at 1.2, 31453
+# at 1.25, 32260 at 1.3, 33862 at 1.4; the written file the same at each (the same final
+# binding sets).  (A chain with two vertices at one place raises when both bind, as before;
+# a larger start binds both more often: tests/test_speed_chains' zero-length case.)
+COLD_BIND_R = 1.2
 
 
 class ChainProblem:
@@ -144,9 +154,15 @@ def _J3(L, Tm, T0, Tp, beta, va, vb):
 
 
 def _share_time(L, beta, va, vb, owner, T_total, T_init, core=None):
-    """_share_time_numpy, its steps compiled when the chain core is there (core: the
-    module; None = CORE_MOD); the numpy code where the core declines."""
+    """Durations T_j with J_j'(T_j) = -λ_c and Σ T_j = T_total[c] (_share_time_numpy's
+    problem): by Newton on the exact slopes (_share_time_exact: compiled when the chain core
+    is there), else, where that declines (a γ above EXACT_GAMMA_MAX, β not finite, bad
+    inputs), by the central differences (_share_time_numpy, its steps compiled when the
+    core is there).  core: the module; None = CORE_MOD; False = the numpy code."""
     core = CORE_MOD if core is None else core
+    out = _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core)
+    if out is not None:
+        return out
     if core:
         out = _share_time_core(core, L, beta, va, vb, owner, T_total, T_init)
         if out is not None:
@@ -203,6 +219,171 @@ def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
         d1 = (jp - jm) / (2.0 * h)
         d2 = (jp - 2.0 * j0 + jm) / (h * h)
         d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)
+        inv = 1.0 / d2
+        s_inv = np.bincount(o, inv, n_c)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lam0 = -np.bincount(o, d1 * inv, n_c) / s_inv
+        lam = np.where(fresh & ~conv, lam0, lam)   # λ that best matches the first slopes
+        fresh[:] = False
+        r = d1 + lam[o]
+        e = T_total - np.bincount(o, Ti, n_c)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dlam = -(e + np.bincount(o, r * inv, n_c)) / s_inv
+            scale = np.maximum(np.abs(lam), np.bincount(o, np.abs(d1), n_c) / n_p)
+        dT = -(r + dlam[o]) * inv
+        rr = np.bincount(o, np.abs(r), n_c)
+        now = (~conv) & (rr <= NEWTON_TOL_R * scale * n_p) & (np.abs(e) <= 1e-12 * T_total)
+        conv |= now
+        move = ~now[o]
+        # damped: no piece may lose more than half or gain more than its duration in a step
+        step = np.clip(dT, -0.5 * Ti, Ti)
+        T[ix[move]] = Ti[move] + step[move]
+        lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
+    return T, lam, conv
+
+
+# ---------------------------------------------------------------- exact slopes of the line law's J
+# J_j(T) is the line law's optimal J = ∫ṡ² + β∫s̈² for fixed L, v0, v1 as a function of its
+# duration; its slope is the law's Hamiltonian (constant along the law):
+#     J'(T) = H = -(ṡ² + β s̈² - 2β ṡ s⃛),
+# taken at mid-piece (τ = 1/2, x = 0), where line.py's shapes are simplest: g' = h = h'' = 0,
+#     g(½) = shc(γ/4)² / (8n),  g''(½) = -1/n,  h'(½) = 2/shc(γ/2)
+# (n = N/γ², line._N_COEF).  With u = T ṡ = w̄ + A g - δ h (line.py), δ²β/T² = β vd²/4
+# (vd = v0 - v1, vs = v0 + v1):
+#     F = u² + β vd² Q + 2 (β/T²) A u R,       J' = -F / T²,     J'' = (2F/T - F') / T²,
+#     u = w̄ + A G,  G = g(½),  R = 1/n,  Q = 1/shc(γ/2)²,
+#     F' = 2u u' + β vd² Q_z z' + 2(β/T²) ((A u' - (vs/2) u) R + A u R_z z' - 2 A u R / T),
+#     u' = (vs/2)(1 - G) + A G_z z',  z = γ² = T²/β,  z' = 2z/T.
+# G, R, Q are even in γ: power series in z (their coefficients exact rationals, made here
+# once), and their z-derivatives the same series differentiated; no sinh, no cancelling
+# difference.  The old slopes were central differences of J at T(1 ± 1e-4): on the plates'
+# pieces of γ ~ 1e-3 their rounding error (J's ~1e-13 relative error, / 1e-4, x J/(T J'))
+# reached 1e-3 .. 1e-2 of the slope, so the shares stopped wherever that noise said the
+# slopes were equal; these slopes are within ~1e-11 of mpmath's derivative of J
+# (tests/test_speed29_chainnewton_slopes.py).
+EXACT_TERMS = 30
+EXACT_GAMMA_MAX = 2.0     # γ above this anywhere in a step: the exact path declines (z <= 4: 24 terms)
+
+
+def _exact_series():
+    """(EXACT_TERMS, 6) coefficients of G, R, Q, dG/dz, dR/dz, dQ/dz in powers of z = γ²."""
+    from fractions import Fraction as Fr
+    from math import factorial
+    K = EXACT_TERMS + 1
+
+    def shc(w):            # shc(x) with x² = w z: Σ (w z)^j / (2j + 1)!
+        return [Fr(w) ** j / factorial(2 * j + 1) for j in range(K)]
+
+    def mul(a, b):
+        return [sum(a[i] * b[j - i] for i in range(j + 1)) for j in range(K)]
+
+    def inv(a):
+        r = [1 / a[0]]
+        for j in range(1, K):
+            r.append(-sum(a[i] * r[j - i] for i in range(1, j + 1)) / a[0])
+        return r
+
+    n = [Fr(2 * (j + 1), 4 ** (j + 1) * factorial(2 * j + 3)) for j in range(K)]     # line._N_COEF
+    R = inv(n)
+    G = [x / 8 for x in mul(mul(shc(Fr(1, 16)), shc(Fr(1, 16))), R)]
+    Q = inv(mul(shc(Fr(1, 4)), shc(Fr(1, 4))))
+    d = lambda a: [a[j + 1] * (j + 1) for j in range(K - 1)]        # noqa: E731
+    cols = [G[:-1], R[:-1], Q[:-1], d(G), d(R), d(Q)]
+    return np.ascontiguousarray(np.array([[float(c[j]) for c in cols] for j in range(EXACT_TERMS)]))
+
+
+_EX_COEF = _exact_series()
+# k terms are enough for z <= _EX_ZMAX[k]: the k-th term of every series at most 2^-60 of its
+# first (the terms fall ~z/40 each: alternating series, truncation below the last kept term)
+_EX_ZMAX = np.array([0.0] + [min((2.0 ** -60 * abs(c[0]) / abs(c[k - 1])) ** (1.0 / (k - 1)) if k > 1 else 0.0
+                                 for c in _EX_COEF.T) for k in range(1, EXACT_TERMS + 1)])
+
+
+def _exact_terms(zmax):
+    """The series terms a step whose largest z is zmax needs (as line._nms_terms: the least
+    k with zmax <= _EX_ZMAX[k], plus one); 0 (decline) above EXACT_GAMMA_MAX² or nan."""
+    if not zmax <= EXACT_GAMMA_MAX * EXACT_GAMMA_MAX:
+        return 0
+    k = int(np.searchsorted(_EX_ZMAX, zmax, side="left"))
+    return k + 1 if k + 1 <= EXACT_TERMS else 0
+
+
+def _exact_slopes(L, T, b, vs, vd, k):
+    """J'(T), J''(T) (see above) of pieces L, T, β = b, vs = v0 + v1, vd = v0 - v1, with k
+    terms of the series, and 1/T; the operations of the chain core's ex_chunk, in its order."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):     # (a piece shrinking to 0:
+        return _exact_slopes_(L, T, b, vs, vd, k)                          # the caller declines)
+
+
+def _exact_slopes_(L, T, b, vs, vd, k):
+    TT = T * T
+    z = TT / b
+    s = np.empty((6,) + z.shape)
+    s[...] = _EX_COEF[k - 1].reshape(6, 1)
+    for c in _EX_COEF[k - 2::-1]:
+        np.multiply(s, z, out=s)
+        np.add(s, c.reshape(6, 1), out=s)
+    g, r, q, gz, rz, qz = s
+    rt = 1.0 / T                  # (two divisions an element: the rest are products)
+    rt2 = rt * rt
+    hv = vs / 2
+    wb = (T * vs) / 2
+    A = L - wb
+    bt = b * rt2
+    zp = (2 * z) * rt
+    u = wb + A * g
+    Au = A * u
+    w = b * (vd * vd)
+    F = (u * u + w * q) + (2 * bt) * (Au * r)
+    up = (hv - hv * g) + A * (gz * zp)
+    Fp = ((2 * u) * up + w * (qz * zp)) + (2 * bt) * (((A * up - hv * u) * r + Au * (rz * zp)) - ((2 * Au) * r) * rt)
+    d1 = -F * rt2
+    d2 = ((2 * F) * rt - Fp) * rt2
+    return d1, d2, rt
+
+
+def _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core=None):
+    """_share_time_numpy's Newton on the exact slopes J', J'' (_exact_slopes) instead of
+    central differences of J: one evaluation of the series a step instead of J three times,
+    and quadratic convergence to the shares that make the true slopes equal.  The whole
+    iteration in one C call (exact_share) when the core is there (core: the module, False:
+    numpy), the same bits.  None (the caller runs _share_time_numpy) where a β is not finite
+    and > 0, an L, va, vb not finite, a duration not finite and > 0, or a step's γ above
+    EXACT_GAMMA_MAX; the caller's numpy code then raises LineLaw's errors."""
+    n_c = T_total.size
+    P = T_init.size
+    if P == 0 or not (np.all(beta > 0) and np.all(np.isfinite(beta)) and np.all(np.isfinite(L))
+                      and np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
+        return None
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    L, beta, T_total = f(L), f(beta), f(T_total)
+    vs, vd = f(va + vb), f(va - vb)
+    T = np.array(T_init, float)
+    lam = np.zeros(n_c)
+    conv = np.zeros(n_c, bool)
+    if core and hasattr(core, "exact_share") and not np.any(np.diff(owner) < 0):
+        npc = np.bincount(owner, None, n_c)
+        poff = np.zeros(n_c + 1, np.int64)
+        np.cumsum(npc, out=poff[1:])
+        cv = conv.view(np.uint8)
+        if core.exact_share(L, beta, vs, vd, poff, npc.astype(float), T_total, T, lam, cv, _EX_COEF, _EX_ZMAX,
+                            EXACT_GAMMA_MAX * EXACT_GAMMA_MAX, MAX_NEWTON) < 0:
+            return None
+        return T, lam, conv
+    fresh = np.ones(n_c, bool)
+    n_p = np.bincount(owner, None, n_c)
+    for _ in range(MAX_NEWTON):
+        ix = np.flatnonzero(~conv[owner])
+        if ix.size == 0:
+            break
+        o, Ti = owner[ix], T[ix]
+        if not (np.all(Ti > 0) and np.all(np.isfinite(Ti))):
+            return None
+        k = _exact_terms(float(np.max((Ti * Ti) / beta[ix])))
+        if k == 0:
+            return None
+        d1, d2, rt = _exact_slopes(L[ix], Ti, beta[ix], vs[ix], vd[ix], k)
+        d2 = np.maximum(d2, (1e-12 * np.abs(d1)) * rt + 1e-300)
         inv = 1.0 / d2
         s_inv = np.bincount(o, inv, n_c)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -358,15 +539,15 @@ def solve_chains(problems, init_binding=None, init_vert_t=None):
         if init_binding is not None and init_binding[c] is not None:
             bound[a + np.asarray(init_binding[c], int)] = True
         else:       # a cap below the mean speed is (nearly always) met: start with those
-            bound[a:b] = pr.c_v < pr.S / pr.T
+            bound[a:b] = pr.c_v < COLD_BIND_R * pr.S / pr.T
     res = solve_flat(fl, bound, vt, warm)
     return [res.law(c) for c in range(m)]
 
 
 def cold_binding(fl):
     """The cold start's binding set: every vertex whose cap is below its chain's mean speed
-    S/T (such a cap is nearly always met)."""
-    return fl.cv < (fl.S / fl.T)[fl.ch]
+    S/T x COLD_BIND_R (such a cap is nearly always met)."""
+    return fl.cv < (COLD_BIND_R * fl.S / fl.T)[fl.ch]
 
 
 def solve_flat(fl, bound, vt, warm, pieces=True):

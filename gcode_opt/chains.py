@@ -36,6 +36,7 @@ from array import array
 
 import numpy as np
 
+from .distinct import distinct
 from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
@@ -1428,7 +1429,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
         groups = []
         rows = use.sum(axis=1)
-        for q in np.unique(nseg[has]).tolist():
+        for q in distinct(nseg[has]).tolist():
             J = np.flatnonzero(has & (nseg == q))
             cut = np.cumsum(rows[J]) // FINISH_ROWS          # nondecreasing
             groups += np.split(J, np.flatnonzero(np.diff(cut)) + 1)

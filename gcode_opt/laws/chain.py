@@ -31,6 +31,7 @@ import os
 
 import numpy as np
 
+from ..distinct import distinct
 from .. import native
 from . import prims
 from .line import GAMMA_SWITCH as _GAMMA_SWITCH
@@ -1051,7 +1052,7 @@ def _flat_figures(res, full=True):
         if full:
             CORE_MOD.row_sums(np.ascontiguousarray(ia), po, res.ia)
         return
-    for k in np.unique(npc).tolist():
+    for k in distinct(npc).tolist():
         c = np.flatnonzero(npc == k)
         ix = first[c][:, None] + np.arange(k)
         res.iv[c] = np.sum(iv[ix], axis=1)

@@ -566,7 +566,10 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
             got = _finish(sts[q], sk, vk, rules, defer=True)
             if got is not None:
                 pending.append((i, got))
-        for (i, _), plan in zip(pending, _finish_feeds_and_figures([g for _, g in pending])):
+        made = _finish_feeds_and_figures([g for _, g in pending])
+        if rules.junction == "jerk" and JERK_CORNERS:     # an end cut where its F would slow the corner
+            made = _jerk_corner_plans([g[0] for _, g in pending], made, rules)
+        for (i, _), plan in zip(pending, made):
             plans[i] = plan
     # the strokes with no plan, or one that does not beat the original (NaN: not below)
     a2_plan = np.fromiter([_NAN if p is None else p.int_a2 for p in plans], float, m)
@@ -804,7 +807,204 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     else:
         made = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, A, feeds, t_pred, a2_pred)]
         settle_rows(made, fine, A, feeds)
+    if JERK_CORNERS:
+        for k, plan in _jerk_corner_rows(sts, S, V, A, feeds, v_feed, step_v, ux, uy, rules).items():
+            made[k] = plan               # an end cut where its F would slow the corner
     return take.tolist(), made
+
+
+# ---- classic jerk: a re-timed stroke's end F must not lower its corner's junction ----------
+# Marlin's classic jerk (firmware/junction.marlin_jerk_junction_v) takes the NEW block's
+# nominal velocity vector as its entry velocity: where the neighbour is slower than this
+# stroke's first F (a corner between moves at the slicer's F, F_0 lifted above it by the
+# law's overshoot), a higher F_0 means a larger jerk and a SLOWER corner than the plan's v0,
+# and with the law's gentle ramps the firmware lags all along the stroke (prusa_gyroid
+# stroke 135: 16.1 mm/s instead of 18.9, +60 ms on 0.55 s).  The neighbour's nominal speed
+# is not known here; at the slicer's F on both sides the junction is the original's exactly.
+# So where the end F, under either plausible neighbour speed (this stroke's slicer F, or the
+# planned corner speed itself), gives a slower junction than the plan's and than F = the
+# slicer's, the end segment is cut where its ramp crosses the slicer's F: the part next to
+# the corner is written at the slicer's F, the rest at its old F.  Both parts keep the ramp's
+# acceleration: the same motion (time, int a^2), one more move.  A corner at the slicer's F
+# itself (no crossing) gets the shortest lead-in the firmware keeps at that F, the ramp
+# beyond it a little steeper (prusa_gyroid stroke 137: entered at 16.1 mm/s, not 20).
+# prusa_gyroid under prusa-mk3s: the re-timed lines played +0.96 s over their prediction,
+# now -0.01 s (firmware model), and the file takes one rewrite pass, not two.
+JERK_KEEP_R = 1e-9       # relative: a junction this far below the planned corner speed is kept
+JERK_CORNERS = True      # tests that pin the plans made before this step turn it off
+
+
+def jerk_safe_rows(ux, uy, nom, jx, jy):
+    """junction.marlin_safe_speed of XY moves (uz = 0: the Z axis limits nothing) on arrays:
+    the same comparisons and quotients, elementwise."""
+    cx, cy = np.abs(ux) * nom, np.abs(uy) * nom
+    lim_x = cx > jx
+    safe = np.where(lim_x, jx, nom)
+    lim_y = cy > jy
+    with np.errstate(all="ignore"):
+        both = np.where(cy * safe > jy * nom, (jy * nom) / cy, safe)
+    return np.where(lim_y, np.where(lim_x, both, jy), safe)
+
+
+def _jerk_axis(v_exit, v_entry):
+    """One axis's jerk of marlin_jerk_junction_v (Marlin's cases, elementwise)."""
+    down = np.where((v_entry > 0.0) | (v_exit < 0.0), v_exit - v_entry,
+                    np.where(-v_entry > v_exit, -v_entry, v_exit))
+    up = np.where((v_entry < 0.0) | (v_exit > 0.0), v_entry - v_exit,
+                  np.where(v_entry > -v_exit, v_entry, -v_exit))
+    return np.where(v_exit > v_entry, down, up)
+
+
+def jerk_junction_rows(pux, puy, p_nom, ux, uy, nom, jx, jy):
+    """junction.marlin_jerk_junction_v of XY moves (uz = puz = 0) on arrays: the junction
+    speed (mm/s) between a block along pu at nominal p_nom and one along u at nominal nom,
+    each block's safe speed from jerk_safe_rows; the same steps in Marlin's order."""
+    p_safe = jerk_safe_rows(pux, puy, p_nom, jx, jy)
+    safe = jerk_safe_rows(ux, uy, nom, jx, jy)
+    vmax = np.where(nom < p_nom, nom, p_nom)
+    smaller = vmax / p_nom
+    jerk = _jerk_axis(pux * p_nom * smaller, ux * nom)
+    lim_x = jerk > jx
+    with np.errstate(all="ignore"):
+        f = np.where(lim_x, 1.0 * (jx / jerk), 1.0)
+        ex, en = puy * p_nom * smaller, uy * nom
+        ex, en = np.where(lim_x, ex * f, ex), np.where(lim_x, en * f, en)
+        jerk = _jerk_axis(ex, en)
+        lim_y = jerk > jy
+        f = np.where(lim_y, f * (jy / jerk), f)
+    vmax = np.where(lim_x | lim_y, vmax * f, vmax)
+    thr = vmax * 0.99
+    return np.where((p_safe > thr) & (safe > thr), safe, vmax)
+
+
+_PUX, _PUY, _NUX, _NUY = (attrgetter(a) for a in ("_pux", "_puy", "_nux", "_nuy"))
+
+
+def jerk_corner_fires(sts, F0, F1, v_feed, ux, uy):
+    """Per stroke, does its first (last) segment's F lower its entry (exit) corner's
+    classic-jerk junction below the plan's: (fire0, fire1) bool arrays.  Only an end F
+    above the slicer's feed with a moving neighbour (and a corner speed >= EDGE_MIN_V) is
+    looked at; the neighbour's nominal speed is taken as the slicer's feed and as the
+    planned corner speed, and the end fires where either gives a junction below the planned
+    corner speed AND below what the slicer's feed at that end gives (the original)."""
+    m = len(sts)
+    fire0, fire1 = np.zeros(m, bool), np.zeros(m, bool)
+    for end, F in ((0, F0), (1, F1)):
+        look = np.flatnonzero(F > v_feed)
+        if not look.size:
+            continue
+        ss = [sts[k] for k in look.tolist()]
+        gx, gy = (_PUX, _PUY) if end == 0 else (_NUX, _NUY)
+        nx = [gx(st) for st in ss]
+        has = np.array([x is not None for x in nx], bool)
+        v_end = np.fromiter(map(_V0 if end == 0 else _V1, ss), float, len(ss))
+        has &= v_end >= EDGE_MIN_V
+        if not has.any():
+            continue
+        k = look[has]
+        ss = [s for s, h in zip(ss, has.tolist()) if h]
+        ox = np.array([x for x, h in zip(nx, has.tolist()) if h], float)
+        oy = np.fromiter(map(gy, ss), float, len(ss))
+        v_end, F_end, vf = v_end[has], F[k], v_feed[k]
+        lims = list(map(_LIM, ss))
+        jx = np.fromiter(map(_JERK_X, lims), float, len(ss))
+        jy = np.fromiter(map(_JERK_Y, lims), float, len(ss))
+        bad = np.zeros(k.size, bool)
+        for p_nom in (vf, v_end):
+            if end == 0:           # the neighbour enters the corner, this stroke leaves it
+                j_new = jerk_junction_rows(ox, oy, p_nom, ux[k], uy[k], F_end, jx, jy)
+                j_old = jerk_junction_rows(ox, oy, p_nom, ux[k], uy[k], vf, jx, jy)
+            else:
+                j_new = jerk_junction_rows(ux[k], uy[k], F_end, ox, oy, p_nom, jx, jy)
+                j_old = jerk_junction_rows(ux[k], uy[k], vf, ox, oy, p_nom, jx, jy)
+            bad |= (j_new < v_end * (1.0 - JERK_KEEP_R)) & (j_new < j_old)
+        (fire0 if end == 0 else fire1)[k[bad]] = True
+    return fire0, fire1
+
+
+def jerk_keep_corner(st, sk, vk, acc, feeds, fire0, fire1, step_v, rules):
+    """The segments (sk, vk, acc, feeds) with the first (fire0) / last (fire1) segment cut
+    where its ramp crosses the slicer's feed, the part at the corner written at that feed:
+    the same ramp, the same acceleration.  Where the corner is at the slicer's feed already
+    (or the crossing is nearer than the firmware keeps a move), the part at the corner is
+    the shortest lead-in the firmware keeps (>= 0.05 mm, as _finish's edges), and the ramp
+    beyond it steepens to reach its knot (both parts at that acceleration: one M204; not
+    above the machine's cap).  A SegmentPlan, or None where no end can be cut (the ramp
+    does not rise above the slicer's feed, no room, or the old F is more than a jerk step
+    above the slicer's feed: the cut's own junction would slow)."""
+    vf = st.v_feed
+    e_min = rules.min_edge_d(st.ux, st.uy)
+    sk, vk = np.asarray(sk, float), np.asarray(vk, float)
+    acc, feeds = np.asarray(acc, float), np.asarray(feeds, float)
+    cut = False
+    for end, fire in ((0, fire0), (1, fire1)):
+        if not fire:
+            continue
+        if end == 0:
+            va, vb, d, F, a = vk[0], vk[1], sk[1] - sk[0], feeds[0], acc[0]
+        else:
+            va, vb, d, F, a = vk[-1], vk[-2], sk[-1] - sk[-2], feeds[-1], acc[-1]
+        if not (va <= vf < vb) or F - vf > step_v:
+            continue
+        e = d * (vf * vf - va * va) / (vb * vb - va * va)     # v^2 is linear in s on the ramp
+        if e < e_min:                  # a lead-in the firmware keeps; the ramp beyond it steeper
+            e = max(e_min, 0.05)
+            if e > 0.4 * d:
+                continue
+            a = max(a, (vb * vb - vf * vf) / (2.0 * (d - e)))
+            if a > _accel_top(st):
+                continue
+        elif d - e < e_min:
+            continue
+        if end == 0:
+            sk = np.concatenate([[sk[0], sk[0] + e], sk[1:]])
+            vk = np.concatenate([[va, vf], vk[1:]])
+            acc = np.concatenate([[a, a], acc[1:]])
+            feeds = np.concatenate([[vf], feeds])
+        else:
+            sk = np.concatenate([sk[:-1], [sk[-1] - e, sk[-1]]])
+            vk = np.concatenate([vk[:-1], [vf, va]])
+            acc = np.concatenate([acc[:-1], [a, a]])
+            feeds = np.concatenate([feeds, [vf]])
+        cut = True
+    if not cut:
+        return None
+    t_pred, a2_pred = predict(sk, vk, acc)
+    return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
+
+
+def _jerk_corner_rows(sts, S, V, A, F, v_feed, step_v, ux, uy, rules):
+    """{row: SegmentPlan} of the rows (one knot count's blocks, _jerk_rows) whose end F
+    would lower a corner (jerk_corner_fires), cut by jerk_keep_corner."""
+    fire0, fire1 = jerk_corner_fires(sts, F[:, 0], F[:, -1], v_feed, ux, uy)
+    out = {}
+    for k in np.flatnonzero(fire0 | fire1).tolist():
+        got = jerk_keep_corner(sts[k], S[k], V[k], A[k], F[k], fire0[k], fire1[k], step_v[k], rules)
+        if got is not None:
+            out[k] = got
+    return out
+
+
+def _jerk_corner_plans(sts, plans, rules):
+    """jerk_keep_corner on SegmentPlans of shape "law" (_finish's): the plans, each replaced
+    where an end was cut."""
+    rows = [k for k, p in enumerate(plans) if p is not None and p.shape == "law" and len(p.feed) >= 1]
+    if not rows:
+        return plans
+    ss = [sts[k] for k in rows]
+    F0 = np.array([plans[k].feed[0] for k in rows], float)
+    F1 = np.array([plans[k].feed[-1] for k in rows], float)
+    vf = np.fromiter(map(_V_FEED, ss), float, len(ss))
+    ux = np.fromiter(map(_UX, ss), float, len(ss))
+    uy = np.fromiter(map(_UY, ss), float, len(ss))
+    fire0, fire1 = jerk_corner_fires(ss, F0, F1, vf, ux, uy)
+    out = list(plans)
+    for q in np.flatnonzero(fire0 | fire1).tolist():
+        k, p = rows[q], plans[rows[q]]
+        got = jerk_keep_corner(sts[k], p.s, p.v, p.accel, p.feed, fire0[q], fire1[q], jerk_step_v(sts[k]), rules)
+        if got is not None:
+            out[k] = got
+    return out
 
 
 def _jerk_tail(S, V, acc, accel, step_v, v_feed):

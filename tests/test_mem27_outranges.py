@@ -113,6 +113,11 @@ def test_a_second_pass_compares_the_digests(tmp_path, monkeypatch):
     """A run that writes twice (the budget re-spent after the first measure): the strokes
     re-measured are those whose block's digest changed (Digests.differ) or whose retime
     changed -- as the dict comparison picked them."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     seen = []
     real = pipeline.remeasure
 

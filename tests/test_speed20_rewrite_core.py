@@ -530,6 +530,11 @@ def _process(path, prof_name, out):
 def test_two_passes_are_the_reference(tmp_path, monkeypatch):
     """prusa_gyroid under prusa-mk3s re-plans once: the second pass copies the blocks the
     first wrote (_Reuse).  The same bytes and summary as the reference rewrite."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     got, s_new = _process(SAMPLES + "prusa_gyroid.gcode", "prusa-mk3s", tmp_path / "new.gcode")
     assert s_new["rewrite_passes"] == 2
     with monkeypatch.context() as m:

@@ -406,3 +406,11 @@ def test_jerk_steps_same_as_jerk_step_v():
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
     with pytest.raises(ZeroDivisionError):
         seg._jerk_steps(sts[:5] + [St(0.0, -0.0, 8, 10)])
+
+
+@pytest.fixture(autouse=True)
+def _no_jerk_corners(monkeypatch):
+    """The plans pinned here are those of the code before segments' classic-jerk corner step
+    (session 29, segments.JERK_CORNERS): off here.  tests/test_speed29_jerkentry_corners.py
+    checks that step, and that plan_segments with it is these plans with their ends cut."""
+    monkeypatch.setattr(seg, "JERK_CORNERS", False)

@@ -293,6 +293,11 @@ def test_process_freezes_after_analyse_plan_and_summary(tmp_path, monkeypatch):
     """The freezes are taken (the count grows after analyse, after planning, after the
     summary), everything is thawed at the end, and the bytes and summary are those of a
     run without any freeze."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     counts = []
     real_plan, real_summary = pl.plan_strokes, sm.build_summary
 

@@ -816,6 +816,7 @@ def test_pure_python_same_as_da0e9ec():
     same plans as da0e9ec's code."""
     code = ("import sys; sys.path.insert(0, %r); import test_speed28_seg_fields as t, gcode_opt.strokes as s\n"
             "assert s._BASE is None and t.SEG._rows_core() is None\n"
+            "t.SEG.JERK_CORNERS = False\n"
             "sts, T, b, r = t._line_laws(t.S + 'prusa_mk3s_rectilinear.gcode', 'prusa-mk3s', every=5)\n"
             "assert t._same_plans(t.SEG.plan_segments(sts, T, b, r), t.plan_segments(sts, T, b, r)) > 100\n"
             "print('ok')\n") % HERE
@@ -844,6 +845,7 @@ def _plan_figures(p):
 
 
 def _budget_runs(name, prof, corners, monkeypatch, old, budgets=(1.0, 0.6, 0.61, 1.3, 1.0)):
+    monkeypatch.setattr(SEG, "JERK_CORNERS", False)   # (the undo() below takes the fixture's off too)
     if old:
         for k, f in (("_keep_plans", _keep_plans), ("settle_faults", settle_faults),
                      ("_attach_commands", _attach_commands), ("_keep_slowed_corners", _keep_slowed_corners),
@@ -882,3 +884,11 @@ def test_budget_runs_same_as_da0e9ec(name, prof, corners, monkeypatch):
     for a, b in zip(old, new):
         assert a == b
     assert sum(s is not None for s in new[0][6]) > 100
+
+
+@pytest.fixture(autouse=True)
+def _no_jerk_corners(monkeypatch):
+    """The plans pinned here are those of the code before segments' classic-jerk corner step
+    (session 29, segments.JERK_CORNERS): off here.  tests/test_speed29_jerkentry_corners.py
+    checks that step, and that plan_segments with it is these plans with their ends cut."""
+    monkeypatch.setattr(SEG, "JERK_CORNERS", False)

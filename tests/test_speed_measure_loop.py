@@ -512,6 +512,11 @@ def test_second_pass_remeasure_same_bits(tmp_path, name, prof, monkeypatch):
     stretches in chunks (replay_runs), and the written file's ringing takes a pass of its
     own (ringing.play, read in chunks with no per-record callback): the same output and
     the same summary as with the per-line loop everywhere."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     src = os.path.join(SAMPLES, name + ".gcode")
     got = []
     for per_line in (True, False):

@@ -338,6 +338,11 @@ SECOND_PASS = [("prusa_absolute_e.gcode", "prusa-mk3s"),         # absolute E, l
 def test_second_pass_measures_only_what_changed(monkeypatch, tmp_path, name, prof):
     """These files re-plan (2 passes): the second measure, spliced from the first pass's
     ledger, equals a full firmware-model pass on the written file."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     src = tmp_path / "g.gcode"
     src.write_bytes(open(SAMPLES + name, "rb").read())
     s, seen = _check_remeasure(monkeypatch, str(src), prof)
@@ -397,6 +402,11 @@ def test_reader_snapshot_restores_everything_a_line_changes(name, prof):
 def test_second_pass_copies_unchanged_blocks_as_it_would_write_them(monkeypatch, tmp_path, name, prof):
     """The second rewrite copies the blocks whose segment plan the first wrote from the
     first's file: the output is byte for byte the one a full re-emission writes."""
+    # segments.JERK_CORNERS (session 29) keeps classic-jerk corners, and this sample (prusa-mk3s)
+    # no longer overruns its budget: one pass.  Off, the segments are those this test was made on
+    # (two passes under prusa-mk3s; other profiles are not touched by it)
+    from gcode_opt import segments as _segments
+    monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     profile = load_profile(prof)
     src = SAMPLES + name
     calls = {"hit": 0}

@@ -188,3 +188,11 @@ def test_predict_rows_same_as_predict():
             want = seg.predict(S_[r], V[r], A[r])
             assert type(t[r]) is float and type(a2[r]) is float
             assert (t[r], a2[r]) == want and np.float64(t[r]).tobytes() == np.float64(want[0]).tobytes()
+
+
+@pytest.fixture(autouse=True)
+def _no_jerk_corners(monkeypatch):
+    """The plans pinned here are those of the code before segments' classic-jerk corner step
+    (session 29, segments.JERK_CORNERS): off here.  tests/test_speed29_jerkentry_corners.py
+    checks that step, and that plan_segments with it is these plans with their ends cut."""
+    monkeypatch.setattr(seg, "JERK_CORNERS", False)

@@ -401,3 +401,11 @@ def test_min_edge_d_rows_same_as_min_edge_d(min_move_d):
     for st, g in zip(sts, got.tolist()):
         want = rules.min_edge_d(st.ux, st.uy)
         assert np.float64(g).tobytes() == np.float64(want).tobytes() or (math.isnan(g) and math.isnan(want))
+
+
+@pytest.fixture(autouse=True)
+def _no_jerk_corners(monkeypatch):
+    """The plans pinned here are those of the code before segments' classic-jerk corner step
+    (session 29, segments.JERK_CORNERS): off here.  tests/test_speed29_jerkentry_corners.py
+    checks that step, and that plan_segments with it is these plans with their ends cut."""
+    monkeypatch.setattr(seg, "JERK_CORNERS", False)

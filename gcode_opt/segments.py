@@ -16,7 +16,7 @@ from operator import attrgetter
 
 import numpy as np
 
-from .firmware.junction import accel_to_pass_junction
+from .firmware.junction import accel_to_pass_junction, accel_to_pass_junction_rows
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
 from .strokes import Stroke, line_spans
@@ -553,7 +553,7 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
         rows_l = rows.tolist()
         sts = list(map(strokes.__getitem__, rows_l))
         knots = law_knots(sts, T[rows], beta[rows], n[rows], views=False, fields=(L[rows], v0[rows], v1[rows]))
-        fast = _finish_jerk_rows(sts, knots, rules)
+        fast = (_finish_corner_rows if rules.junction in ("scv", "jd") else _finish_jerk_rows)(sts, knots, rules)
         pending = []
         if not fast.count(None):                  # every stroke made by the rows' path (plans[i] = got, in C)
             deque(map(plans.__setitem__, rows_l, fast), maxlen=0)
@@ -1074,6 +1074,9 @@ _V0_FW, _V1_FW, _UX, _UY = (attrgetter(a) for a in ("v0_fw", "v1_fw", "ux", "uy"
 _ACCEL, _V_FEED, _LIM, _JERK_X, _JERK_Y = (attrgetter(a) for a in ("accel", "v_feed", "lim", "jerk_x", "jerk_y"))
 _LENGTH_D, _V0, _V1, _INT_A2 = (attrgetter(a) for a in ("length_d", "v0", "v1", "int_a2"))
 _NAN = float("nan")
+_JD, _AX_MAX, _AY_MAX, _PREV_U, _NEXT_U = (attrgetter(a) for a in ("jd", "ax_max", "ay_max", "prev_u", "next_u"))
+_PUX, _PUY, _NUX, _NUY, _CMD0, _CMD1 = (attrgetter(a) for a in ("_pux", "_puy", "_nux", "_nuy", "corner_cmd0",
+                                                                 "corner_cmd1"))
 
 
 def _min_edge_d_rows(rules, sts, ux=None, uy=None):
@@ -1184,6 +1187,248 @@ def _predict_rows(S, V, A):
     pairwise sum runs per row): two lists of floats."""
     t, a, dv = segment_times(S, V, A)
     return np.add.reduce(t, axis=1).tolist(), np.add.reduce(a * dv, axis=1).tolist()
+
+
+# ------------------------------------------------------- Klipper scv / Marlin JD lines in rows
+def _finish_corner_rows(strokes, knots, rules):
+    """_finish_jerk_rows for the junction laws whose corners need an acceleration (Klipper
+    "scv", Marlin "jd"): the SegmentPlans _finish(st, sk, vk, rules, defer=True) and
+    _finish_feeds_and_figures make, as RowPlans, for the strokes _corner_rows takes (all of
+    one knot count at once); None for the others (slowed ends, knots _merge_short would
+    merge, a junction whose per-stroke form raises), which go through _finish."""
+    out = [None] * len(strokes)
+    if rules.junction not in ("scv", "jd"):
+        return out
+    blocks = getattr(knots, "blocks", None) if type(knots) is _Knots else None
+    left = None
+    for g, S, V in blocks or ():       # law_knots' blocks: its rows' knots as they are
+        if (type(S) is type(V) is np.ndarray and S.ndim == V.ndim == 2 and S.shape[1] >= 3
+                and S.shape == V.shape and S.dtype == V.dtype == _F64):
+            qs = g.tolist()
+            if qs:
+                if left is None:
+                    left = np.ones(len(strokes), bool)
+                left[qs] = False
+            ks, plans = _corner_rows(S, V, list(map(strokes.__getitem__, qs)), rules)
+            deque(map(out.__setitem__, map(qs.__getitem__, ks), plans), maxlen=0)     # out[qs[k]] = plan, in C
+    by_k = {}
+    at = knots.at if type(knots) is _Knots else knots.__getitem__
+    rest = range(len(strokes)) if left is None else np.flatnonzero(left).tolist()
+    for q in rest:                     # the other strokes (several moves): stacked by knot count
+        sk, vk = at(q)
+        if (type(sk) is type(vk) is np.ndarray and sk.ndim == vk.ndim == 1 and sk.size >= 3
+                and sk.shape == vk.shape and sk.dtype == vk.dtype == _F64):
+            by_k.setdefault(sk.size, []).append(q)
+    for qs in by_k.values():
+        kn = [at(q) for q in qs]
+        S = np.stack([k[0] for k in kn])
+        V = np.stack([k[1] for k in kn])
+        ks, plans = _corner_rows(S, V, [strokes[q] for q in qs], rules)
+        deque(map(out.__setitem__, map(qs.__getitem__, ks), plans), maxlen=0)
+    return out
+
+
+def _corner_rows(S, V, sts, rules):
+    """_finish(defer=True) + _finish_feeds_and_figures of the strokes sts whose knots are
+    the rows of S, V (float64, (m, K + 1), K >= 2) under rules.junction "scv" or "jd":
+    the rows taken.  Taken: no end slowed by corners.py (slowed_ends:
+    _room_for_edges' loop), knots _merge_short leaves alone (every segment at least
+    min_edge_d), every junction need computed without a division by zero.  Every step is
+    _finish's on arrays: accel_to_pass_junction_rows for the junctions, Python's min / max
+    as np.where on the same comparisons (_py_min / _py_max), _ramp_room's powers (libm
+    pow, which is not always x * x) on Python floats, with_edges' knots put in by rows of
+    one edge pattern, then _block_plans' steps (no jerk step: the feeds are the needs).
+    Returns (rows taken, their RowPlans)."""
+    m = len(sts)
+    junction = rules.junction
+    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
+        unset = list(map(_V0_FW, sts)).count(None) == m and list(map(_V1_FW, sts)).count(None) == m
+    except AttributeError:
+        unset = False
+    if unset:
+        keep = np.ones(m, bool)
+    else:
+        keep = np.array([not any(slowed_ends(st)) for st in sts], bool)
+    ux = np.fromiter(map(_UX, sts), float, m)
+    uy = np.fromiter(map(_UY, sts), float, m)
+    d = S[:, 1:] - S[:, :-1]
+    e_min = _min_edge_d_rows(rules, sts, ux, uy)
+    if rules.min_move_d > 0.0:           # _merge_short leaves the knots alone where the shortest is >= min_d
+        with np.errstate(invalid="ignore"):
+            keep &= d.min(axis=1) >= e_min
+    sv0 = np.fromiter(map(_V0, sts), float, m)
+    sv1 = np.fromiter(map(_V1, sts), float, m)
+    v0 = np.where(sv0 >= FULL_STOP_V, sv0, 0.0)
+    v1 = np.where(sv1 >= FULL_STOP_V, sv1, 0.0)
+    lims = list(map(_LIM, sts))
+    jd = np.fromiter(map(_JD, lims), float, m)
+    pux, puy, has_p, nux, nuy, has_n = _neighbour_dirs(sts)
+
+    def needs(D):
+        n0, odd0 = accel_to_pass_junction_rows(junction, v0, pux, puy, has_p, ux, uy, D[:, 0], jd)
+        n1, odd1 = accel_to_pass_junction_rows(junction, v1, ux, uy, has_n, nux, nuy, D[:, -1], jd)
+        return n0, n1, odd0 | odd1
+
+    with np.errstate(all="ignore"):
+        acc = np.abs((V * V)[:, 1:] - (V * V)[:, :-1]) / (2.0 * d)       # ramp_accels
+        need0, need1, odd = needs(d)
+    keep &= ~odd
+    take = np.flatnonzero(keep)
+    if not take.size:
+        return [], []
+    if take.size < m:
+        tl = take.tolist()
+        S, V, d, acc, need0, need1 = S[take], V[take], d[take], acc[take], need0[take], need1[take]
+        sts = [sts[k] for k in tl]
+        lims = [lims[k] for k in tl]
+        (ux, uy, e_min, sv0, sv1, v0, v1, jd, has_p, has_n, pux, puy, nux, nuy) = (
+            x[take] for x in (ux, uy, e_min, sv0, sv1, v0, v1, jd, has_p, has_n, pux, puy, nux, nuy))
+    mt = take.size
+    accel = np.fromiter(map(_ACCEL, sts), float, mt)
+    # the lead-in / lead-out lengths where a corner needs more than the end's ramp carries
+    e0 = np.zeros(mt)
+    e1 = np.zeros(mt)
+    c0 = need0 > acc[:, 0]
+    c1 = need1 > acc[:, -1]
+    if (c0 | c1).any():
+        cmd0, cmd1 = _corner_cmds(sts)
+        with np.errstate(all="ignore"):
+            a_top = _accel_top_rows(sts, lims, accel, ux, uy)
+            for e, c, sv, vv, cmd, first in ((e0, c0, sv0, v0, cmd0, True), (e1, c1, sv1, v1, cmd1, False)):
+                on = np.flatnonzero((c0 | c1) & c & (vv >= EDGE_MIN_V) & ~cmd)
+                if not on.size:
+                    continue
+                x = _py_max(_py_max(sv[on] * EDGE_T, 0.05), e_min[on])
+                x = _py_min(EDGE_D, x)
+                if first:
+                    seg_d, va, vb = S[on, 1], V[on, 0], V[on, 1]          # sk[1], vk[0], vk[1]
+                else:
+                    seg_d, va, vb = S[on, -1] - S[on, -2], V[on, -2], V[on, -1]
+                room = np.array([dd - abs(b ** 2 - a ** 2) / (2.0 * at) for dd, a, b, at in
+                                 zip(seg_d.tolist(), va.tolist(), vb.tolist(), a_top[on].tolist())], float)
+                x = _py_min(_py_min(x, 0.99 * _py_max(room, 0.0)), 0.4 * seg_d)
+                e[on] = np.where(x >= e_min[on], x, 0.0)
+    rows, plans = [], []
+    for b0 in (False, True):             # rows of one edge pattern: their knots with the edges
+        for b1 in (False, True):
+            r = np.flatnonzero(((e0 > 0.0) == b0) & ((e1 > 0.0) == b1))
+            if r.size:
+                got = _corner_rows_edged(S[r], V[r], r, e0[r], e1[r], b0, b1, rules, accel[r], v0[r], v1[r],
+                                          pux[r], puy[r], has_p[r], ux[r], uy[r], nux[r], nuy[r], has_n[r],
+                                          jd[r], [sts[k] for k in r.tolist()])
+                rows.append(got[0])
+                plans += got[1]
+    return take[np.concatenate(rows)].tolist(), plans
+
+
+def _accel_top_rows(sts, lims, accel, ux, uy):
+    """[_accel_top(st) for st in sts] as an array: the same quotients, min as np.where."""
+    m = len(sts)
+    ax = np.abs(ux)
+    ay = np.abs(uy)
+    with np.errstate(all="ignore"):
+        cx = np.fromiter(map(_AX_MAX, lims), float, m) / ax
+        cy = np.fromiter(map(_AY_MAX, lims), float, m) / ay
+    a = np.where((ax > 1e-12) & (cx < accel), cx, accel)
+    return np.where((ay > 1e-12) & (cy < a), cy, a)
+
+
+def _neighbour_dirs(sts):
+    """The strokes' prev_u and next_u as arrays: (pux, puy, has_p, nux, nuy, has_n), 0.0
+    where there is none (has False).  Strokes: their four slots read in C-level passes."""
+    if set(map(type, sts)) == {Stroke}:
+        cols = []
+        for get in (_PUX, _PUY, _NUX, _NUY):
+            a = np.array(list(map(get, sts)), object)
+            cols.append(a)
+        has_p = cols[0] != None      # noqa: E711 (elementwise)
+        has_n = cols[2] != None      # noqa: E711
+        out = []
+        for a, has in zip(cols, (has_p, has_p, has_n, has_n)):
+            a[~has] = 0.0
+            out.append(a.astype(float))
+        return out[0], out[1], has_p.astype(bool), out[2], out[3], has_n.astype(bool)
+    pu = list(map(_PREV_U, sts))
+    nu = list(map(_NEXT_U, sts))
+    has_p = np.array([p is not None for p in pu], bool)
+    has_n = np.array([p is not None for p in nu], bool)
+    pux = np.array([p[0] if p is not None else 0.0 for p in pu], float)
+    puy = np.array([p[1] if p is not None else 0.0 for p in pu], float)
+    nux = np.array([p[0] if p is not None else 0.0 for p in nu], float)
+    nuy = np.array([p[1] if p is not None else 0.0 for p in nu], float)
+    return pux, puy, has_p, nux, nuy, has_n
+
+
+def _corner_cmds(sts):
+    """[bool(getattr(st, "corner_cmd0/1", False))] of the strokes as two bool arrays."""
+    m = len(sts)
+    try:
+        return (np.fromiter(map(bool, map(_CMD0, sts)), bool, m), np.fromiter(map(bool, map(_CMD1, sts)), bool, m))
+    except AttributeError:
+        return (np.array([bool(getattr(st, "corner_cmd0", False)) for st in sts], bool),
+                np.array([bool(getattr(st, "corner_cmd1", False)) for st in sts], bool))
+
+
+def _row_plans(S, V, A, F, t_pred, a2_pred, fine, shape="law"):
+    """RowPlans of every row of the blocks (made by a C-level map), seg_fault's verdict ""
+    on the fine ones (fault=None: none set)."""
+    m = len(t_pred)
+    made = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t_pred, a2_pred,
+                    repeat(shape, m)))
+    if fine is not None:
+        for plan in compress(made, fine):
+            plan.fault = ""
+    return made
+
+
+def _corner_rows_edged(S, V, rows, e0, e1, b0, b1, rules, accel, v0, v1, pux, puy, has_p, ux, uy, nux, nuy,
+                       has_n, jd, sts):
+    """_corner_rows' rows of one edge pattern (b0: a lead-in, b1: a lead-out): with_edges,
+    ramp_accels and the needs again, the ends' and the law's junction floors, then
+    _block_plans' steps.  (rows, their RowPlans): rows (an int array) where no junction
+    need's per-stroke form would raise."""
+    junction = rules.junction
+    m = S.shape[0]
+    if b0:                               # with_edges: e = min(edge0_d, 0.4 * s[1]) after [0, e] ...
+        e = _py_min(e0, 0.4 * S[:, 1])
+        S = np.concatenate([np.zeros((m, 1)), e[:, None], S[:, 1:]], axis=1)
+        V = np.concatenate([V[:, :1], V[:, :1], V[:, 1:]], axis=1)
+    if b1:
+        e = _py_min(e1, 0.4 * (S[:, -1] - S[:, -2]))
+        S = np.concatenate([S[:, :-1], (S[:, -1] - e)[:, None], S[:, -1:]], axis=1)
+        V = np.concatenate([V[:, :-1], V[:, -1:], V[:, -1:]], axis=1)
+    with np.errstate(all="ignore"):
+        d = S[:, 1:] - S[:, :-1]
+        acc = np.abs((V * V)[:, 1:] - (V * V)[:, :-1]) / (2.0 * d)
+        need0, odd0 = accel_to_pass_junction_rows(junction, v0, pux, puy, has_p, ux, uy, d[:, 0], jd)
+        need1, odd1 = accel_to_pass_junction_rows(junction, v1, ux, uy, has_n, nux, nuy, d[:, -1], jd)
+        bad = odd0 | odd1                # (a lead-in's junction: the per-stroke form would raise)
+        acc[:, 0] = _py_max(acc[:, 0], _py_min(need0, accel))
+        acc[:, -1] = _py_max(acc[:, -1], _py_min(need1, accel))
+        if junction == "jd":             # every inner junction of the straight line: Marlin's < 1 mm rule
+            K = acc.shape[1]
+            need, odd = accel_to_pass_junction_rows("jd", V[:, 1:K], ux[:, None], uy[:, None], True,
+                                                    ux[:, None], uy[:, None], d[:, 1:], jd[:, None])
+            bad |= odd.any(axis=1)
+            acc[:, 1:] = _py_max(acc[:, 1:], _py_min(need, accel[:, None]))
+        else:                            # scv: rounding_junction_accels
+            need = np.zeros(d.shape)
+            theta = ROUND_TURN_D / np.minimum(d[:, :-1], d[:, 1:])
+            v2 = V[:, 1:-1] ** 2
+            need[:, :-1] = np.maximum(need[:, :-1], v2 * theta / d[:, :-1])
+            need[:, 1:] = np.maximum(need[:, 1:], v2 * theta / d[:, 1:])
+            acc = np.maximum(acc, np.minimum(need, accel[:, None]))
+    # _block_plans: the cruises' accelerations held, the feeds (no jerk step: the needs
+    # themselves), the figures and the verdicts
+    A = hold_cruise_accels_rows(acc, accel)
+    feeds = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)
+    t_pred, a2_pred = _predict_rows(S, V, A)
+    fine = fine_rows(S, V, A, feeds, t_pred, a2_pred)
+    made = _row_plans(S, V, A, feeds, t_pred, a2_pred, fine)
+    if bad.any():
+        ok = np.flatnonzero(~bad)
+        return rows[ok], [made[k] for k in ok.tolist()]
+    return rows, made
 
 
 def _ramp_room(d, va, vb, a_top):
@@ -1342,10 +1587,17 @@ def line_trapezoids(strokes, T, beta, rules: SegmentRules):
     if not len(strokes):
         return []
     peaks = law_peak_speeds(strokes, T, beta)
+    # the strokes of one move with no slowed end in rows (_line_trapezoid_rows: the same
+    # bits); the others stroke by stroke below
+    made = [None] * len(strokes)
+    rest = _line_trapezoid_rows(strokes, T, peaks, rules, made)
+    if not rest:
+        return made
     # every stroke's variants (edges, and none unless an end is slowed, as _line_trapezoid),
     # their least-a^2 trapezoids solved in one batch (least_a2_trapezoids: the same bits)
     preps = []
-    for st, t, p in zip(strokes, T, peaks):
+    Ta = np.asarray(T)
+    for st, t, p in zip([strokes[i] for i in rest], Ta[rest].tolist(), np.asarray(peaks)[rest].tolist()):
         t, p = float(t), float(p)
         slow = any(slowed_ends(st))
         preps.append((_edges_prep(st, t, p, rules, True),
@@ -1367,7 +1619,183 @@ def line_trapezoids(strokes, T, beta, rules: SegmentRules):
                 if p is not None:
                     got.append(p)
         out.append(min(got, key=lambda p: p.int_a2) if got else None)
-    return out
+    for i, p in zip(rest, out):
+        made[i] = p
+    return made
+
+
+def _line_trapezoid_rows(strokes, T, peaks, rules, out, variants=(True, False)):
+    """line_trapezoids' plans of the strokes of one move with no slowed end, in rows: both
+    variants of _edges_prep (edges / none; variants: those of them, the tests' choice) on
+    arrays, their trapezoids in one batch
+    (least_a2_trapezoids), _edges_finish's knots, speeds, accelerations and figures by
+    rows of one edge pattern (RowPlans), and the better of the two as min(key=int_a2)
+    takes it (the second only where its int a^2 is below the first's).  Sets out[i] for
+    the strokes taken; returns the indices of the others (slowed ends, several moves, a
+    junction need whose per-stroke form would raise: _edges_prep / _edges_finish one by
+    one).  Every step is the per-stroke one on arrays: Python's min / max as np.where
+    on the same comparisons, `x or y` as x where x != 0."""
+    m = len(strokes)
+    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
+        unset = list(map(_V0_FW, strokes)).count(None) == m and list(map(_V1_FW, strokes)).count(None) == m
+    except AttributeError:
+        unset = False
+    keep = np.ones(m, bool) if unset else np.array([not any(slowed_ends(st)) for st in strokes], bool)
+    keep &= np.array(_move_counts(strokes)) == 1
+    idx = np.flatnonzero(keep)
+    if not idx.size:
+        return list(range(m))
+    il = idx.tolist()
+    sts = [strokes[i] for i in il]
+    n = len(sts)
+    junction = rules.junction
+    Tq = np.asarray(T, float)[idx]
+    vpk = np.asarray(peaks, float)[idx]
+    L = np.fromiter(map(_LENGTH_D, sts), float, n)
+    ux = np.fromiter(map(_UX, sts), float, n)
+    uy = np.fromiter(map(_UY, sts), float, n)
+    sv0 = np.fromiter(map(_V0, sts), float, n)
+    sv1 = np.fromiter(map(_V1, sts), float, n)
+    accel = np.fromiter(map(_ACCEL, sts), float, n)
+    lims = list(map(_LIM, sts))
+    jd = np.fromiter(map(_JD, lims), float, n)
+    v0 = np.where(sv0 >= FULL_STOP_V, sv0, 0.0)
+    v1 = np.where(sv1 >= FULL_STOP_V, sv1, 0.0)
+    a_top = _accel_top_rows(sts, lims, accel, ux, uy)
+    v_lo, v_hi = np.zeros(n), vpk
+    if junction == "jerk":               # F within the jerk of the slicer's F (segment_feeds)
+        step_v = _jerk_steps(sts, ux, uy)
+        v_feed = np.fromiter(map(_V_FEED, sts), float, n)
+        with np.errstate(all="ignore"):
+            v_lo, v_hi = v_feed - step_v, _py_min(v_hi, v_feed + step_v)
+    e_min = _min_edge_d_rows(rules, sts, ux, uy)
+    cmd0, cmd1 = _corner_cmds(sts)
+    if junction == "jerk":               # accel_to_pass_junction: 0.0 under classic jerk
+        pux = puy = nux = nuy = np.zeros(n)
+        has_p = has_n = np.zeros(n, bool)
+    else:
+        pux, puy, has_p, nux, nuy, has_n = _neighbour_dirs(sts)
+    odd = np.zeros(n, bool)
+    var = []                             # per variant: (ok, e0, e1, need0, need1, Lm, cols)
+    with np.errstate(all="ignore"):
+        for edges in variants:
+            if edges:
+                x0 = _py_min(_py_min(EDGE_D, _py_max(_py_max(v0 * EDGE_T, 0.05), e_min)), 0.25 * L)
+                x1 = _py_min(_py_min(EDGE_D, _py_max(_py_max(v1 * EDGE_T, 0.05), e_min)), 0.25 * L)
+                e0 = np.where((v0 >= EDGE_MIN_V) & ~cmd0, x0, 0.0)
+                e1 = np.where((v1 >= EDGE_MIN_V) & ~cmd1, x1, 0.0)
+            else:
+                e0 = e1 = np.zeros(n)
+            # d0 = ends_d[0] = L and d1 = L - 0.0 for a stroke of one move; `e0 or d0`
+            if junction == "jerk":
+                need0 = need1 = np.zeros(n)
+            else:
+                need0, o0 = accel_to_pass_junction_rows(junction, v0, pux, puy, has_p, ux, uy,
+                                                        np.where(e0 != 0.0, e0, L), jd)
+                need1, o1 = accel_to_pass_junction_rows(junction, v1, ux, uy, has_n, nux, nuy,
+                                                        np.where(e1 != 0.0, e1, L - 0.0), jd)
+                need0 = np.where(v0 > 0, need0, 0.0)
+                need1 = np.where(v1 > 0, need1, 0.0)
+                odd |= (v0 > 0) & o0 | (v1 > 0) & o1
+            e0 = np.where((need0 > 0.0) & (e0 >= e_min), e0, 0.0)
+            e1 = np.where((need1 > 0.0) & (e1 >= e_min), e1, 0.0)
+            t_edges = np.where(e0 != 0.0, e0 / v0, 0.0) + np.where(e1 != 0.0, e1 / v1, 0.0)
+            Lm = L - e0 - e1
+            Tm = Tq - t_edges
+            ok = ~((Lm <= 0) | (Tm <= 0))
+            if junction == "jd":         # Marlin JD: collinear blocks shorter than 1 mm cap v^2 at d a / 0.033
+                md = rules.min_seg_d
+                ok &= ~((L - 0.0 < md) | (0 < e0) & (e0 < md) | (0 < e1) & (e1 < md))
+            fl = _py_min(_py_max(np.where(e0 == 0.0, need0, 0.0), np.where(e1 == 0.0, need1, 0.0)), a_top)
+            floor_a = np.where((e0 == 0.0) & (need0 > 0) | (e1 == 0.0) & (need1 > 0), fl, -np.inf)
+            var.append((ok, e0, e1, need0, need1, Lm, (Lm, Tm, v0, v1, v_lo, v_hi, a_top, floor_a)))
+    if variants == (True, False):
+        # where the edges' variant has none and the same floor (its needs were asked at the
+        # edge's length: the same where that was no edge, d0 in both), the other has the
+        # same arguments and makes the same plan, which min() does not take: not made twice
+        same = (var[0][1] == 0.0) & (var[0][2] == 0.0) & (var[0][6][7] == var[1][6][7])
+        var[1] = (var[1][0] & ~same,) + var[1][1:]
+    take = ~odd
+    r = [np.flatnonzero(take & v[0]) for v in var]
+    cols = [np.concatenate([v[6][j][rk] for v, rk in zip(var, r)]) for j in range(8)]
+    vps, accs = least_a2_trapezoids(*cols)
+    best = [None] * n                    # per stroke: the plan of the better variant, its int a^2
+    has = np.zeros(n, bool)
+    best_a2 = np.zeros(n)
+    at = 0
+    for (ok, e0, e1, need0, need1, Lm, _), rk in zip(var, r):
+        vp, a = vps[at:at + rk.size], accs[at:at + rk.size]
+        at += rk.size
+        live = vp == vp                  # nan: no trapezoid
+        rk, vp, a = rk[live], vp[live], a[live]
+        ks, plans, a2 = _edges_finish_rows(rk, vp, a, e0[rk], e1[rk], need0[rk], need1[rk], L[rk], Lm[rk],
+                                           v0[rk], v1[rk], ux[rk], uy[rk], jd[rk], accel[rk], junction)
+        better = ~has[ks] | (a2 < best_a2[ks])       # min(key=int_a2): the first unless a later one is below
+        if not better.all():
+            sel = np.flatnonzero(better)
+            ks, a2, plans = ks[sel], a2[sel], [plans[k] for k in sel.tolist()]
+        has[ks] = True
+        best_a2[ks] = a2
+        deque(map(best.__setitem__, ks.tolist(), plans), maxlen=0)
+    got = idx[take]
+    deque(map(out.__setitem__, got.tolist(), compress(best, take.tolist())), maxlen=0)
+    rest = np.ones(m, bool)
+    rest[got] = False
+    return np.flatnonzero(rest).tolist()
+
+
+def _edges_finish_rows(rk, vp, a, e0, e1, need0, need1, L, Lm, v0, v1, ux, uy, jd, accel, junction):
+    """_edges_finish of the strokes rk (of one move: no inner vertex) with trapezoids (vp,
+    a), by rows of one edge pattern: (strokes, their RowPlans, their int a^2) of those that
+    make a plan (under Marlin JD none where a straight junction needs more than the
+    trapezoid's ramp)."""
+    out_k, out_p, out_a2 = [], [], []
+    for b0 in (False, True):
+        for b1 in (False, True):
+            g = np.flatnonzero(((e0 != 0.0) == b0) & ((e1 != 0.0) == b1))
+            if not g.size:
+                continue
+            m = g.size
+            cols = [np.zeros(m)] + ([e0[g]] if b0 else []) + ([L[g] - e1[g]] if b1 else []) + [L[g]]
+            S = np.stack(cols, axis=1)
+            Lg, vpg, ag, v0g, v1g = (x[g][:, None] for x in (Lm, vp, a, v0, v1))
+            with np.errstate(all="ignore"):
+                V = trapezoid_knot_speeds(S - e0[g][:, None], Lg, vpg, ag, v0g, v1g)
+            V[:, 0], V[:, -1] = v0[g], v1[g]
+            if b0:
+                V[:, 1] = v0[g]
+            if b1:
+                V[:, -2] = v1[g]
+            K = S.shape[1] - 1
+            A = np.repeat(ag, K, axis=1)
+            F = np.repeat(vpg, K, axis=1)
+            if b0:
+                A[:, 0] = _py_min(_py_max(need0[g], a[g]), accel[g])
+                F[:, 0] = _py_max(v0[g], MIN_FEED_V)
+            if b1:
+                A[:, -1] = _py_min(_py_max(need1[g], a[g]), accel[g])
+                F[:, -1] = _py_max(v1[g], MIN_FEED_V)
+            fine = np.ones(m, bool)
+            if junction == "jd" and K > 1:
+                with np.errstate(all="ignore"):
+                    need, _ = accel_to_pass_junction_rows("jd", V[:, 1:K], ux[g][:, None], uy[g][:, None], True,
+                                                          ux[g][:, None], uy[g][:, None], S[:, 2:] - S[:, 1:K],
+                                                          jd[g][:, None])
+                    fine = ~(need > A[:, 1:] * (1 + 1e-9)).any(axis=1)
+            A = hold_cruise_accels_rows(A, accel[g])
+            with np.errstate(all="ignore"):
+                t, i2 = trapezoid_time(S[:, 1:] - S[:, :-1], F, np.maximum(A, 1e-12), V[:, :-1], V[:, 1:])
+            a2_sum = np.add.reduce(i2, axis=1)
+            made = _row_plans(S, V, A, F, np.add.reduce(t, axis=1).tolist(), a2_sum.tolist(), None, "trapezoid")
+            if not fine.all():
+                sel = np.flatnonzero(fine)
+                g, a2_sum, made = g[sel], a2_sum[sel], [made[k] for k in sel.tolist()]
+            out_k.append(rk[g])
+            out_a2.append(a2_sum)
+            out_p += made
+    if not out_k:
+        return np.zeros(0, int), [], np.zeros(0)
+    return np.concatenate(out_k), out_p, np.concatenate(out_a2)
 
 
 def _line_trapezoid(st, T, v_peak, rules):

@@ -77,6 +77,8 @@ def plan_segments_ref(strokes, T, beta, rules):
         sts = [strokes[i] for i in rows]
         knots = law_knots_ref(sts, T[rows], beta[rows], n[rows])
         fast = finish_jerk_rows_ref(sts, knots, rules)
+        if rules.junction in ("scv", "jd"):    # s29 segrows: the live rows' path of scv / jd (RowPlans),
+            fast = seg._finish_corner_rows(sts, knots, rules)   # checked against _finish in test_speed29_segrows_lines
         pending = []
         for i, st, (sk, vk), got in zip(rows.tolist(), sts, knots, fast):
             if got is not None:                   # made by the rows' path

@@ -62,6 +62,8 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
         sts = [strokes[i] for i in rows]
         knots = law_knots(sts, T[rows], beta[rows], n[rows], views=False)
         fast = _finish_jerk_rows(sts, knots, rules)
+        if rules.junction in ("scv", "jd"):    # s29 segrows: the live rows' path of scv / jd (RowPlans),
+            fast = SEG._finish_corner_rows(sts, knots, rules)   # checked against _finish in test_speed29_segrows_lines
         pending = []
         for q, (i, got) in enumerate(zip(rows.tolist(), fast)):
             if got is not None:                   # made by the rows' path

@@ -241,3 +241,60 @@ def accel_to_pass_junction(junction: str, v: float, pu, u, d: float, jd: float =
     if d < 1.0 and cos_theta < -0.7071067812:
         per_a = min(per_a, d / _marlin_fast_acos_neg(cos_theta))
     return v2 / per_a if per_a > 0 else INF
+
+
+def _marlin_fast_acos_neg_rows(cos_theta):
+    """_marlin_fast_acos_neg of an array, elementwise: the same operations in the same
+    order (the same bits)."""
+    import numpy as np
+    neg = np.where(cos_theta < 0.0, -1.0, 1.0)
+    t = neg * cos_theta
+    asinx = (0.032843707 + t * (-1.451838349 + t * (29.66153956 + t * (-131.1123477
+             + t * (262.8130562 + t * (-242.7199627 + t * 84.31466202))))))
+    return math.pi / 2.0 + neg * asinx
+
+
+def accel_to_pass_junction_rows(junction, v, pux, puy, has_pu, ux, uy, d, jd):
+    """accel_to_pass_junction of many junctions at once (arrays that broadcast: v, the
+    previous direction pux, puy where has_pu (else pu None), this direction ux, uy, the
+    length d, jd), for junction "scv" or "jd".  Returns (need, odd): need the same floats
+    elementwise (every step is the same float operation; Python's max / min are np.where
+    on the same comparison), odd where the per-junction form would raise (a division by
+    zero) -- the caller takes those junctions one by one.  Every branch is computed on
+    every element and the taken one kept (numpy's warnings on the others silenced)."""
+    import numpy as np
+    with np.errstate(all="ignore"):
+        v, pux, puy, ux, uy, d, jd = np.broadcast_arrays(*(np.asarray(x, float) for x in (v, pux, puy, ux, uy, d, jd)))
+        nil = (v <= 0.0) | ~np.asarray(has_pu, bool)
+        cos_theta = -(ux * pux + uy * puy)
+        straight = cos_theta <= -0.999999
+        short = d < 1.0
+        if junction == "jd":
+            c_straight = _marlin_fast_acos_neg(-0.999999)
+            need_straight = np.where(short, v * v * c_straight / d, 0.0)
+            odd = straight & short & (d == 0.0)
+        else:
+            need_straight = np.zeros(v.shape)
+            odd = np.zeros(v.shape, bool)
+        x = 0.5 * (1.0 - cos_theta)
+        sin_d2 = np.sqrt(np.where(0.0 > x, 0.0, x))
+        x = 0.5 * (1.0 + cos_theta)
+        cos_d2 = np.sqrt(np.where(0.0 > x, 0.0, x))
+        v2 = v * v
+        bent = ~nil & ~straight
+        if junction == "scv":
+            den = 2.0 * d * 0.25 * sin_d2 / cos_d2
+            need = np.where(cos_d2 <= 0.0, 0.0, np.where(sin_d2 <= 0.0, np.inf, v2 / den))
+            odd |= bent & ~(cos_d2 <= 0.0) & ~(sin_d2 <= 0.0) & (den == 0.0)     # v2 / 0.0 raises
+        elif junction == "jd":
+            per_a = np.where(sin_d2 < 1.0, jd * sin_d2 / (1.0 - sin_d2), np.inf)
+            sharp = short & (cos_theta < -0.7071067812)
+            acos = _marlin_fast_acos_neg_rows(cos_theta)
+            b = d / acos
+            per_a = np.where(sharp & (b < per_a), b, per_a)
+            need = np.where(per_a > 0, v2 / per_a, np.inf)
+            odd |= bent & sharp & (acos == 0.0)        # d / 0.0 raises
+        else:
+            raise ValueError(f"accel_to_pass_junction_rows: junction {junction!r} (scv or jd)")
+        need = np.where(nil, 0.0, np.where(straight, need_straight, need))
+        return need, odd & ~nil

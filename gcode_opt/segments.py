@@ -16,6 +16,7 @@ from operator import attrgetter
 
 import numpy as np
 
+from .distinct import distinct
 from .firmware.junction import accel_to_pass_junction, accel_to_pass_junction_rows
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
@@ -133,7 +134,7 @@ def _law_knot_blocks(strokes, T, beta, n, fields=None):
     idx = np.flatnonzero(single)
     if idx.size:
         ks = n[idx]
-        for k in np.unique(ks).tolist():
+        for k in distinct(ks).tolist():
             g = idx[ks == k]
             s = s_all[g, :k + 1]
             s[:, 0] = 0.0

@@ -26,6 +26,7 @@ from operator import attrgetter, is_
 
 import numpy as np
 
+from .distinct import distinct
 from . import arcs
 from . import chains
 from . import corners
@@ -534,7 +535,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # share per kind held the vertex-capped chains to their share of the print time (MK3S
     # gyroid at full speed: chains -34 %, whole file -35 %; one budget: -75 %, -47 %, same
     # time).  No stroke ends stiffer than its original: plan_strokes leaves such a one as sliced.
-    groups = [np.setdiff1d(np.concatenate([rows[k] for k in KINDS]), failed_rows)]
+    # (np.setdiff1d's sorted distinct rows, without its np.unique: distinct.py)
+    every = distinct(np.concatenate([rows[k] for k in KINDS]))
+    not_failed = np.ones(len(strokes), bool)
+    not_failed[failed_rows] = False
+    groups = [every[not_failed[every]]]
     # each stroke's plan_kind, as _rows_by_kind found it (only plan_inputs' chains.classify
     # changes it): read by every re-plan for the strokes it segments
     kind_by_row = np.empty(len(strokes), dtype=object)

@@ -37,3 +37,17 @@ def test_leaves_its_argument_alone():
     x = np.array([3.0, 1.0, 2.0, 1.0])
     distinct(x)
     assert x.tolist() == [3.0, 1.0, 2.0, 1.0]
+
+
+def test_a_run_does_not_import_numpy_ma(tmp_path):
+    # every np.unique / np.setdiff1d on a run's path is distinct now (numpy.ma: ~8 ms of import)
+    import os
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    runs = ", ".join(f"(['process', {os.path.join(root, 'sample_gcode', f)!r}, '-o', {str(tmp_path / f)!r}, "
+                     f"'-q', '--profile', {p!r}])" for f, p in (("prusa_gyroid_arcs.gcode", "prusa-mk3s"),
+                                                                 ("prusa_klipper.gcode", "voron24")))
+    code = f"import sys; from gcode_opt import cli; [cli.main(a) for a in ({runs},)]; print('numpy.ma' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "False"

@@ -199,6 +199,34 @@ def _share_time_core(core, L, beta, va, vb, owner, T_total, T_init):
     return T, lam, conv.astype(bool)
 
 
+def _kkt_step(o, ix, Ti, d1, d2, T, lam, conv, fresh, T_total, n_c, n_p):
+    """One damped Newton step of the time-sharing KKT system (J_j'(T_j) + λ_c = 0, Σ T_j =
+    T_total[c]) for the active pieces ix (owners o, durations Ti, slopes d1, curvatures d2
+    already floored): T updated in place, conv and fresh too; returns the new λ.  Shared by
+    the central-difference and the exact-slope solvers."""
+    inv = 1.0 / d2
+    s_inv = np.bincount(o, inv, n_c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam0 = -np.bincount(o, d1 * inv, n_c) / s_inv
+    lam = np.where(fresh & ~conv, lam0, lam)   # λ that best matches the first slopes
+    fresh[:] = False
+    r = d1 + lam[o]
+    e = T_total - np.bincount(o, Ti, n_c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dlam = -(e + np.bincount(o, r * inv, n_c)) / s_inv
+        scale = np.maximum(np.abs(lam), np.bincount(o, np.abs(d1), n_c) / n_p)
+    dT = -(r + dlam[o]) * inv
+    rr = np.bincount(o, np.abs(r), n_c)
+    now = (~conv) & (rr <= NEWTON_TOL_R * scale * n_p) & (np.abs(e) <= 1e-12 * T_total)
+    conv |= now
+    move = ~now[o]
+    # damped: no piece may lose more than half or gain more than its duration in a step
+    step = np.clip(dT, -0.5 * Ti, Ti)
+    T[ix[move]] = Ti[move] + step[move]
+    lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
+    return lam
+
+
 def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
     """Durations T_j of all pieces with J_j'(T_j) = -λ_c per chain c and Σ_c T_j = T_total[c]
     (Newton on the KKT system).  Returns (T_j, λ_c, converged per chain).  A chain that has
@@ -220,26 +248,7 @@ def _share_time_numpy(L, beta, va, vb, owner, T_total, T_init):
         d1 = (jp - jm) / (2.0 * h)
         d2 = (jp - 2.0 * j0 + jm) / (h * h)
         d2 = np.maximum(d2, 1e-12 * np.abs(j0) / (Ti * Ti) + 1e-300)
-        inv = 1.0 / d2
-        s_inv = np.bincount(o, inv, n_c)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            lam0 = -np.bincount(o, d1 * inv, n_c) / s_inv
-        lam = np.where(fresh & ~conv, lam0, lam)   # λ that best matches the first slopes
-        fresh[:] = False
-        r = d1 + lam[o]
-        e = T_total - np.bincount(o, Ti, n_c)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            dlam = -(e + np.bincount(o, r * inv, n_c)) / s_inv
-            scale = np.maximum(np.abs(lam), np.bincount(o, np.abs(d1), n_c) / n_p)
-        dT = -(r + dlam[o]) * inv
-        rr = np.bincount(o, np.abs(r), n_c)
-        now = (~conv) & (rr <= NEWTON_TOL_R * scale * n_p) & (np.abs(e) <= 1e-12 * T_total)
-        conv |= now
-        move = ~now[o]
-        # damped: no piece may lose more than half or gain more than its duration in a step
-        step = np.clip(dT, -0.5 * Ti, Ti)
-        T[ix[move]] = Ti[move] + step[move]
-        lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
+        lam = _kkt_step(o, ix, Ti, d1, d2, T, lam, conv, fresh, T_total, n_c, n_p)
     return T, lam, conv
 
 
@@ -385,26 +394,7 @@ def _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core=None):
             return None
         d1, d2, rt = _exact_slopes(L[ix], Ti, beta[ix], vs[ix], vd[ix], k)
         d2 = np.maximum(d2, (1e-12 * np.abs(d1)) * rt + 1e-300)
-        inv = 1.0 / d2
-        s_inv = np.bincount(o, inv, n_c)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            lam0 = -np.bincount(o, d1 * inv, n_c) / s_inv
-        lam = np.where(fresh & ~conv, lam0, lam)   # λ that best matches the first slopes
-        fresh[:] = False
-        r = d1 + lam[o]
-        e = T_total - np.bincount(o, Ti, n_c)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            dlam = -(e + np.bincount(o, r * inv, n_c)) / s_inv
-            scale = np.maximum(np.abs(lam), np.bincount(o, np.abs(d1), n_c) / n_p)
-        dT = -(r + dlam[o]) * inv
-        rr = np.bincount(o, np.abs(r), n_c)
-        now = (~conv) & (rr <= NEWTON_TOL_R * scale * n_p) & (np.abs(e) <= 1e-12 * T_total)
-        conv |= now
-        move = ~now[o]
-        # damped: no piece may lose more than half or gain more than its duration in a step
-        step = np.clip(dT, -0.5 * Ti, Ti)
-        T[ix[move]] = Ti[move] + step[move]
-        lam = np.where(conv, lam, lam + np.nan_to_num(dlam))
+        lam = _kkt_step(o, ix, Ti, d1, d2, T, lam, conv, fresh, T_total, n_c, n_p)
     return T, lam, conv
 
 

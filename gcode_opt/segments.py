@@ -17,7 +17,8 @@ from operator import attrgetter
 import numpy as np
 
 from .distinct import distinct
-from .firmware.junction import accel_to_pass_junction, accel_to_pass_junction_rows
+from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
+                                marlin_jerk_junction_v_rows)
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
 from .strokes import Stroke, line_spans
@@ -712,12 +713,21 @@ def _finish_jerk_rows(strokes, knots, rules):
     np.where on the same comparisons), and step_v (jerk_step_v: _jerk_steps, the same
     operations), and returns the knots it was given.  ~68 k strokes on the rectilinear
     plate (law_knots, _finish_jerk_rows and the plans: ~20 µs each there, was ~29)."""
-    out = [None] * len(strokes)
     if rules.junction != "jerk":
-        return out
+        return [None] * len(strokes)
+    return _finish_rows(strokes, knots, rules, _jerk_rows)
+
+
+def _finish_rows(strokes, knots, rules, rows_fn):
+    """The walk _finish_jerk_rows and _finish_corner_rows share: rows_fn(S, V, sts, rules,
+    knots) -> (the rows it took, their plans), or None, first on law_knots' own blocks as
+    they are (_Knots.blocks: strokes of one move), then on the other strokes' knots stacked
+    by knot count (knots: each row's own (sk, vk)).  Returns out[i] = plan, None for the
+    strokes no rows_fn call took (they go through _finish)."""
+    out = [None] * len(strokes)
     blocks = getattr(knots, "blocks", None) if type(knots) is _Knots else None
     left = None                        # the strokes no block took, once one did
-    for g, S, V in blocks or ():       # law_knots' blocks: its rows' knots as they are
+    for g, S, V in blocks or ():
         if (type(S) is type(V) is np.ndarray and S.ndim == V.ndim == 2 and S.shape[1] >= 3
                 and S.shape == V.shape and S.dtype == V.dtype == _F64):
             qs = g.tolist()
@@ -725,27 +735,38 @@ def _finish_jerk_rows(strokes, knots, rules):
                 if left is None:
                     left = np.ones(len(strokes), bool)
                 left[qs] = False
-            got = _jerk_rows(S, V, list(map(strokes.__getitem__, qs)), rules)
+            got = rows_fn(S, V, list(map(strokes.__getitem__, qs)), rules, None)
             if got is not None:        # out[qs[k]] = plan, in C
                 deque(map(out.__setitem__, map(qs.__getitem__, got[0]), got[1]), maxlen=0)
     by_k = {}
     at = knots.at if type(knots) is _Knots else knots.__getitem__
-    rest = range(len(strokes))
-    if left is not None:               # the strokes no block took (few): those only
-        rest = np.flatnonzero(left).tolist()
-    for q in rest:
-        sk = at(q)[0]
-        if type(sk) is np.ndarray and sk.ndim == 1 and sk.size >= 3 and sk.dtype == _F64:
+    rest = range(len(strokes)) if left is None else np.flatnonzero(left).tolist()
+    for q in rest:                     # the strokes no block took (few: several moves)
+        sk, vk = at(q)
+        if (type(sk) is type(vk) is np.ndarray and sk.ndim == vk.ndim == 1 and sk.size >= 3
+                and sk.shape == vk.shape and sk.dtype == vk.dtype == _F64):
             by_k.setdefault(sk.size, []).append(q)
     for qs in by_k.values():
         kn = [at(q) for q in qs]
-        S = np.stack([k[0] for k in kn])
-        V = np.stack([np.asarray(k[1], float) for k in kn])
-        got = _jerk_rows(S, V, [strokes[q] for q in qs], rules, kn)
+        got = rows_fn(np.stack([k[0] for k in kn]), np.stack([k[1] for k in kn]), [strokes[q] for q in qs],
+                      rules, kn)
         if got is not None:
-            for k, plan in zip(*got):
-                out[qs[k]] = plan
+            deque(map(out.__setitem__, map(qs.__getitem__, got[0]), got[1]), maxlen=0)
     return out
+
+
+def _not_slowed(sts):
+    """[not any(slowed_ends(st)) for st in sts] as a bool array: all True, from two C-level
+    passes, where no stroke has a firmware end speed (corners.py sets them only where it
+    slows a corner; slowed_ends is (False, False) where both are None)."""
+    m = len(sts)
+    try:
+        unset = list(map(_V0_FW, sts)).count(None) == m and list(map(_V1_FW, sts)).count(None) == m
+    except AttributeError:
+        unset = False
+    if unset:
+        return np.ones(m, bool)
+    return np.array([not any(slowed_ends(st)) for st in sts], bool)
 
 
 def _jerk_rows(S, V, sts, rules, knots=None):
@@ -756,15 +777,7 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     or a NaN), the divisions the same; a stroke whose jerk step divides by 0 goes stroke by
     stroke (jerk_step_v raises as _finish would)."""
     m = len(sts)
-    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
-        unset = list(map(_V0_FW, sts)).count(None) == m and list(map(_V1_FW, sts)).count(None) == m
-    except AttributeError:
-        unset = False
-    if unset:
-        keep = np.ones(m, bool)
-    else:                                          # slowed_ends is (False, False) where both are None
-        fw = [getattr(st, "v0_fw", None) is None and getattr(st, "v1_fw", None) is None for st in sts]
-        keep = np.array([f or not any(slowed_ends(st)) for f, st in zip(fw, sts)], bool)
+    keep = _not_slowed(sts)
     d = S[:, 1:] - S[:, :-1]
     ux = np.fromiter(map(_UX, sts), float, m)      # read once: the jerk steps and edges read them
     uy = np.fromiter(map(_UY, sts), float, m)
@@ -835,49 +848,6 @@ JERK_KEEP_R = 1e-9       # relative: a junction this far below the planned corne
 JERK_CORNERS = True      # tests that pin the plans made before this step turn it off
 
 
-def jerk_safe_rows(ux, uy, nom, jx, jy):
-    """junction.marlin_safe_speed of XY moves (uz = 0: the Z axis limits nothing) on arrays:
-    the same comparisons and quotients, elementwise."""
-    cx, cy = np.abs(ux) * nom, np.abs(uy) * nom
-    lim_x = cx > jx
-    safe = np.where(lim_x, jx, nom)
-    lim_y = cy > jy
-    with np.errstate(all="ignore"):
-        both = np.where(cy * safe > jy * nom, (jy * nom) / cy, safe)
-    return np.where(lim_y, np.where(lim_x, both, jy), safe)
-
-
-def _jerk_axis(v_exit, v_entry):
-    """One axis's jerk of marlin_jerk_junction_v (Marlin's cases, elementwise)."""
-    down = np.where((v_entry > 0.0) | (v_exit < 0.0), v_exit - v_entry,
-                    np.where(-v_entry > v_exit, -v_entry, v_exit))
-    up = np.where((v_entry < 0.0) | (v_exit > 0.0), v_entry - v_exit,
-                  np.where(v_entry > -v_exit, v_entry, -v_exit))
-    return np.where(v_exit > v_entry, down, up)
-
-
-def jerk_junction_rows(pux, puy, p_nom, ux, uy, nom, jx, jy):
-    """junction.marlin_jerk_junction_v of XY moves (uz = puz = 0) on arrays: the junction
-    speed (mm/s) between a block along pu at nominal p_nom and one along u at nominal nom,
-    each block's safe speed from jerk_safe_rows; the same steps in Marlin's order."""
-    p_safe = jerk_safe_rows(pux, puy, p_nom, jx, jy)
-    safe = jerk_safe_rows(ux, uy, nom, jx, jy)
-    vmax = np.where(nom < p_nom, nom, p_nom)
-    smaller = vmax / p_nom
-    jerk = _jerk_axis(pux * p_nom * smaller, ux * nom)
-    lim_x = jerk > jx
-    with np.errstate(all="ignore"):
-        f = np.where(lim_x, 1.0 * (jx / jerk), 1.0)
-        ex, en = puy * p_nom * smaller, uy * nom
-        ex, en = np.where(lim_x, ex * f, ex), np.where(lim_x, en * f, en)
-        jerk = _jerk_axis(ex, en)
-        lim_y = jerk > jy
-        f = np.where(lim_y, f * (jy / jerk), f)
-    vmax = np.where(lim_x | lim_y, vmax * f, vmax)
-    thr = vmax * 0.99
-    return np.where((p_safe > thr) & (safe > thr), safe, vmax)
-
-
 _PUX, _PUY, _NUX, _NUY = (attrgetter(a) for a in ("_pux", "_puy", "_nux", "_nuy"))
 
 
@@ -913,11 +883,11 @@ def jerk_corner_fires(sts, F0, F1, v_feed, ux, uy):
         bad = np.zeros(k.size, bool)
         for p_nom in (vf, v_end):
             if end == 0:           # the neighbour enters the corner, this stroke leaves it
-                j_new = jerk_junction_rows(ox, oy, p_nom, ux[k], uy[k], F_end, jx, jy)
-                j_old = jerk_junction_rows(ox, oy, p_nom, ux[k], uy[k], vf, jx, jy)
+                j_new = marlin_jerk_junction_v_rows(ox, oy, p_nom, ux[k], uy[k], F_end, jx, jy)
+                j_old = marlin_jerk_junction_v_rows(ox, oy, p_nom, ux[k], uy[k], vf, jx, jy)
             else:
-                j_new = jerk_junction_rows(ux[k], uy[k], F_end, ox, oy, p_nom, jx, jy)
-                j_old = jerk_junction_rows(ux[k], uy[k], vf, ox, oy, p_nom, jx, jy)
+                j_new = marlin_jerk_junction_v_rows(ux[k], uy[k], F_end, ox, oy, p_nom, jx, jy)
+                j_old = marlin_jerk_junction_v_rows(ux[k], uy[k], vf, ox, oy, p_nom, jx, jy)
             bad |= (j_new < v_end * (1.0 - JERK_KEEP_R)) & (j_new < j_old)
         (fire0 if end == 0 else fire1)[k[bad]] = True
     return fire0, fire1
@@ -1197,39 +1167,12 @@ def _finish_corner_rows(strokes, knots, rules):
     _finish_feeds_and_figures make, as RowPlans, for the strokes _corner_rows takes (all of
     one knot count at once); None for the others (slowed ends, knots _merge_short would
     merge, a junction whose per-stroke form raises), which go through _finish."""
-    out = [None] * len(strokes)
     if rules.junction not in ("scv", "jd"):
-        return out
-    blocks = getattr(knots, "blocks", None) if type(knots) is _Knots else None
-    left = None
-    for g, S, V in blocks or ():       # law_knots' blocks: its rows' knots as they are
-        if (type(S) is type(V) is np.ndarray and S.ndim == V.ndim == 2 and S.shape[1] >= 3
-                and S.shape == V.shape and S.dtype == V.dtype == _F64):
-            qs = g.tolist()
-            if qs:
-                if left is None:
-                    left = np.ones(len(strokes), bool)
-                left[qs] = False
-            ks, plans = _corner_rows(S, V, list(map(strokes.__getitem__, qs)), rules)
-            deque(map(out.__setitem__, map(qs.__getitem__, ks), plans), maxlen=0)     # out[qs[k]] = plan, in C
-    by_k = {}
-    at = knots.at if type(knots) is _Knots else knots.__getitem__
-    rest = range(len(strokes)) if left is None else np.flatnonzero(left).tolist()
-    for q in rest:                     # the other strokes (several moves): stacked by knot count
-        sk, vk = at(q)
-        if (type(sk) is type(vk) is np.ndarray and sk.ndim == vk.ndim == 1 and sk.size >= 3
-                and sk.shape == vk.shape and sk.dtype == vk.dtype == _F64):
-            by_k.setdefault(sk.size, []).append(q)
-    for qs in by_k.values():
-        kn = [at(q) for q in qs]
-        S = np.stack([k[0] for k in kn])
-        V = np.stack([k[1] for k in kn])
-        ks, plans = _corner_rows(S, V, [strokes[q] for q in qs], rules)
-        deque(map(out.__setitem__, map(qs.__getitem__, ks), plans), maxlen=0)
-    return out
+        return [None] * len(strokes)
+    return _finish_rows(strokes, knots, rules, _corner_rows)
 
 
-def _corner_rows(S, V, sts, rules):
+def _corner_rows(S, V, sts, rules, knots=None):
     """_finish(defer=True) + _finish_feeds_and_figures of the strokes sts whose knots are
     the rows of S, V (float64, (m, K + 1), K >= 2) under rules.junction "scv" or "jd":
     the rows taken.  Taken: no end slowed by corners.py (slowed_ends:
@@ -1239,17 +1182,11 @@ def _corner_rows(S, V, sts, rules):
     as np.where on the same comparisons (_py_min / _py_max), _ramp_room's powers (libm
     pow, which is not always x * x) on Python floats, with_edges' knots put in by rows of
     one edge pattern, then _block_plans' steps (no jerk step: the feeds are the needs).
-    Returns (rows taken, their RowPlans)."""
+    Returns (rows taken, their RowPlans).  knots: not read (the plans are rows of S, V;
+    _finish_rows' signature)."""
     m = len(sts)
     junction = rules.junction
-    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
-        unset = list(map(_V0_FW, sts)).count(None) == m and list(map(_V1_FW, sts)).count(None) == m
-    except AttributeError:
-        unset = False
-    if unset:
-        keep = np.ones(m, bool)
-    else:
-        keep = np.array([not any(slowed_ends(st)) for st in sts], bool)
+    keep = _not_slowed(sts)
     ux = np.fromiter(map(_UX, sts), float, m)
     uy = np.fromiter(map(_UY, sts), float, m)
     d = S[:, 1:] - S[:, :-1]
@@ -1637,11 +1574,7 @@ def _line_trapezoid_rows(strokes, T, peaks, rules, out, variants=(True, False)):
     one).  Every step is the per-stroke one on arrays: Python's min / max as np.where
     on the same comparisons, `x or y` as x where x != 0."""
     m = len(strokes)
-    try:                 # (C-level passes: the strokes' firmware speeds are None but where corners.py set them)
-        unset = list(map(_V0_FW, strokes)).count(None) == m and list(map(_V1_FW, strokes)).count(None) == m
-    except AttributeError:
-        unset = False
-    keep = np.ones(m, bool) if unset else np.array([not any(slowed_ends(st)) for st in strokes], bool)
+    keep = _not_slowed(strokes)
     keep &= np.array(_move_counts(strokes)) == 1
     idx = np.flatnonzero(keep)
     if not idx.size:

@@ -47,7 +47,7 @@ def test_junction_rows_match_the_scalar_law():
     want = np.array([_scalar_junction(*r) for r in rows])
     arr = [np.array(x, float) for x in zip(*[(r[0][0], r[0][1], r[1], r[2][0], r[2][1], r[3], r[4], r[5])
                                              for r in rows])]
-    got = jn_rows = segments.jerk_junction_rows(*arr)
+    got = jn_rows = jn.marlin_jerk_junction_v_rows(*arr)
     assert np.array_equal(got, want), np.max(np.abs(jn_rows - want))
 
 

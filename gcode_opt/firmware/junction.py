@@ -298,3 +298,49 @@ def accel_to_pass_junction_rows(junction, v, pux, puy, has_pu, ux, uy, d, jd):
             raise ValueError(f"accel_to_pass_junction_rows: junction {junction!r} (scv or jd)")
         need = np.where(nil, 0.0, np.where(straight, need_straight, need))
         return need, odd & ~nil
+
+
+def marlin_safe_speed_rows(ux, uy, nom, jx, jy):
+    """marlin_safe_speed of XY moves (uz = 0: the Z axis limits nothing) on arrays:
+    the same comparisons and quotients, elementwise."""
+    import numpy as np
+    cx, cy = np.abs(ux) * nom, np.abs(uy) * nom
+    lim_x = cx > jx
+    safe = np.where(lim_x, jx, nom)
+    lim_y = cy > jy
+    with np.errstate(all="ignore"):
+        both = np.where(cy * safe > jy * nom, (jy * nom) / cy, safe)
+    return np.where(lim_y, np.where(lim_x, both, jy), safe)
+
+
+def _jerk_axis(v_exit, v_entry):
+    """One axis's jerk of marlin_jerk_junction_v (Marlin's cases, elementwise)."""
+    import numpy as np
+    down = np.where((v_entry > 0.0) | (v_exit < 0.0), v_exit - v_entry,
+                    np.where(-v_entry > v_exit, -v_entry, v_exit))
+    up = np.where((v_entry < 0.0) | (v_exit > 0.0), v_entry - v_exit,
+                  np.where(v_entry > -v_exit, v_entry, -v_exit))
+    return np.where(v_exit > v_entry, down, up)
+
+
+def marlin_jerk_junction_v_rows(pux, puy, p_nom, ux, uy, nom, jx, jy):
+    """marlin_jerk_junction_v of XY moves (uz = puz = 0) on arrays: the junction
+    speed (mm/s) between a block along pu at nominal p_nom and one along u at nominal nom,
+    each block's safe speed from marlin_safe_speed_rows; the same steps in Marlin's order."""
+    import numpy as np
+    p_safe = marlin_safe_speed_rows(pux, puy, p_nom, jx, jy)
+    safe = marlin_safe_speed_rows(ux, uy, nom, jx, jy)
+    vmax = np.where(nom < p_nom, nom, p_nom)
+    smaller = vmax / p_nom
+    jerk = _jerk_axis(pux * p_nom * smaller, ux * nom)
+    lim_x = jerk > jx
+    with np.errstate(all="ignore"):
+        f = np.where(lim_x, 1.0 * (jx / jerk), 1.0)
+        ex, en = puy * p_nom * smaller, uy * nom
+        ex, en = np.where(lim_x, ex * f, ex), np.where(lim_x, en * f, en)
+        jerk = _jerk_axis(ex, en)
+        lim_y = jerk > jy
+        f = np.where(lim_y, f * (jy / jerk), f)
+    vmax = np.where(lim_x | lim_y, vmax * f, vmax)
+    thr = vmax * 0.99
+    return np.where((p_safe > thr) & (safe > thr), safe, vmax)

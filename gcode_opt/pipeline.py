@@ -1406,7 +1406,8 @@ def _departed_excess_t(pin, out_ranges, t1, departed):
 
 def _restored(plan, pin, rows):
     """A copy of plan (segment plans and predictions included) with the strokes `rows` left
-    as sliced, each with its reason from the failed strokes (pin.cached[2]).  The first
+    as sliced, each with its reason from the failed strokes (pin.cached[2], where _process
+    put it).  The first
     pass's plan stays as it was written: the second pass compares against it."""
     from .schedule import _as_sliced
     new = plan.copy()
@@ -1414,7 +1415,7 @@ def _restored(plan, pin, rows):
     new.t_pred, new.a2_pred = plan.t_pred.copy(), plan.a2_pred.copy()
     failed = pin.cached[2]
     for i in rows:
-        _as_sliced(new, pin, i, failed.get(i, "firmware model departs from the plan"))
+        _as_sliced(new, pin, i, failed[i])
     return new
 
 

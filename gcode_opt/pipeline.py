@@ -246,7 +246,7 @@ def analyse(path, profile: Profile, opts: Options):
         step = state.step
         move, barrier = sim.move, sim.barrier
         prog = opts.progress.advance if opts.progress is not None else None
-        for idx0, lines in fwsim.read_chunks(path, prog):
+        for idx0, lines in reader.line_chunks(path, prog):
             if sums is not None and log.rows >= LOG_FLUSH_ROWS:
                 sums.flush(opened[0])
             cur[0], cur[2] = lines, idx0

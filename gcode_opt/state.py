@@ -683,6 +683,38 @@ def read_lines(path: str):
         yield from enumerate(fh)
 
 
+LINE_BLOCK_BYTES = 1 << 16    # bytes line_chunks reads at a time (~2.5 k lines of a slicer's file)
+
+
+def line_chunks(path: str, progress=None):
+    """The file's lines as read_lines reads them, in lists: (idx of the first, [raw, ...]),
+    as simulate.read_chunks gives them (there the chunks end elsewhere: callers take any
+    chunking).  The compiled reader splits and decodes blocks of bytes (split_lines: no
+    TextIOWrapper, ~0.02 s of the gyroid plate's 461 k lines); else read_chunks itself.
+    progress(n) is told each chunk's characters."""
+    split = getattr(_reader, "split_lines", None)
+    if split is None:
+        from .firmware.simulate import read_chunks
+        yield from read_chunks(path, progress)
+        return
+    with open(path, "rb") as fh:
+        idx0, rest = 0, b""
+        while True:
+            data = fh.read(LINE_BLOCK_BYTES)
+            final = not data
+            if rest:
+                data = rest + data
+            lines, used = split(data, final)
+            rest = data[used:]
+            if lines:
+                if progress is not None:
+                    progress(sum(map(len, lines)))
+                yield idx0, lines
+                idx0 += len(lines)
+            if final:
+                return
+
+
 def events(path: str, profile: Profile, warnings: list | None = None):
     """Yield (idx, raw, event) for every line of the file: event is Move, Barrier or None.
     Give `warnings` (a list) to collect the reader's (idx, text) warnings into it."""

@@ -21,6 +21,7 @@
 #include <Python.h>
 #include <structmember.h>
 #include <math.h>
+#include <float.h>
 #include <string.h>
 #include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
 
@@ -2924,10 +2925,118 @@ static int get_hypot(void)
     return 0;
 }
 
-/* *d = math.hypot(dx, dy), called (its bits are CPython's, not libm's); -1 with an
+/* The length CPython's math.hypot gives two finite floats, computed here (no call: ~330
+ * instructions a line of run_lines).  math.hypot is not libm's hypot: it scales both by the
+ * power of two that puts the larger in [0.5, 1), sums 1 and the two squares with their exact
+ * rounding errors kept aside (the products split exactly: Dekker), takes the root of that
+ * sum less 1 and corrects it by one Newton step from the exact residual, then scales back.
+ * Every step below is an exact operation or the same rounding in the same order, so the bits
+ * are CPython 3.8+'s (checked: hypot_same() against the real math.hypot before use, and
+ * tests/test_speed30_groupc_*.py on millions of pairs).  Needs -ffp-contract=off (setup.py). */
+typedef struct {
+    double hi, lo;
+} TwoDouble;
+
+static inline TwoDouble two_prod(double x, double y)      /* x * y = hi + lo exactly (Dekker) */
+{
+    const double split = 134217729.0;                     /* 2^27 + 1 */
+    double cx = split * x, cy = split * y;
+    double xh = cx - (cx - x), yh = cy - (cy - y);
+    double xl = x - xh, yl = y - yh;
+    double hi = x * y;
+    double lo = (((xh * yh - hi) + xh * yl) + xl * yh) + xl * yl;
+    TwoDouble r = {hi, lo};
+    return r;
+}
+
+static inline TwoDouble fast_two_sum(double a, double b)  /* a + b = hi + lo exactly, |a| >= |b| */
+{
+    double hi = a + b;
+    TwoDouble r = {hi, (a - hi) + b};
+    return r;
+}
+
+static double c_hypot(double dx, double dy)
+{
+    double ax = fabs(dx), ay = fabs(dy), mx = 0.0;
+    if (ax > mx)                                       /* (a nan is never the max: an infinity wins) */
+        mx = ax;
+    if (ay > mx)
+        mx = ay;
+    if (isinf(mx))
+        return mx;
+    if (isnan(ax) || isnan(ay))
+        return NAN;
+    if (mx == 0.0)
+        return mx;
+    int e;
+    frexp(mx, &e);
+    if (e < -1023)                                     /* both subnormal: scaled up first */
+        return DBL_MIN * c_hypot(ax / DBL_MIN, ay / DBL_MIN);
+    double scale = ldexp(1.0, -e);
+    double csum = 1.0, f1 = 0.0, f2 = 0.0;
+    const double v[2] = {ax * scale, ay * scale};
+    for (int k = 0; k < 2; k++) {
+        TwoDouble p = two_prod(v[k], v[k]);
+        TwoDouble q = fast_two_sum(csum, p.hi);
+        csum = q.hi;
+        f1 += p.lo;
+        f2 += q.lo;
+    }
+    double h = sqrt(csum - 1.0 + (f1 + f2));
+    TwoDouble p = two_prod(-h, h);
+    TwoDouble q = fast_two_sum(csum, p.hi);
+    csum = q.hi;
+    f1 += p.lo;
+    f2 += q.lo;
+    double x = csum - 1.0 + (f1 + f2);
+    h += x / (2.0 * h);
+    return h / scale;
+}
+
+/* c_hypot gives math.hypot's bits on a spread of pairs (zeros, subnormals, huge, equal,
+ * the mm lengths of G-code): 1, else 0 (py_hypot then calls math.hypot); -1 an error */
+static int HYPOT_SAME = -2;                            /* -2: not checked yet */
+
+static int hypot_same(void)
+{
+    static const double xs[] = {0.0, -0.0, 1.0, -1.0, 3.0, 0.1, 0.2, 1e-3, 0.4142135623730951, 123.456,
+                                1e-310, 5e-324, 2.2250738585072014e-308, 1e300, 1.7976931348623157e308,
+                                7.0710678118654757, 249.99999999999997, 0.30000000000000004, 1.0000000000000002,
+                                -87.123456789, 0.0123456789, 33.333333333333336, 6.103515625e-05};
+    int n = (int)(sizeof(xs) / sizeof(xs[0]));
+    for (int a = 0; a < n; a++)
+        for (int b = 0; b < n; b++) {
+            double want, got = c_hypot(xs[a], xs[b]);
+            PyObject *hx = PyFloat_FromDouble(xs[a]), *hy = PyFloat_FromDouble(xs[b]), *h = NULL;
+            if (hx != NULL && hy != NULL) {
+                PyObject *ha[2] = {hx, hy};
+                h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+            }
+            Py_XDECREF(hx);
+            Py_XDECREF(hy);
+            if (h == NULL)
+                return -1;
+            want = PyFloat_AsDouble(h);
+            Py_DECREF(h);
+            if (!same_bits(want, got))
+                return 0;
+        }
+    return 1;
+}
+
+/* *d = math.hypot(dx, dy): c_hypot where it is proven the same, else called; -1 with an
  * exception set if the call fails */
 static int py_hypot(double dx, double dy, double *d)
 {
+    if (HYPOT_SAME == -2 && (HYPOT_SAME = hypot_same()) < 0) {
+        HYPOT_SAME = -2;
+        return -1;
+    }
+    if (HYPOT_SAME == 1) {
+        *d = c_hypot(dx, dy);
+        return 0;
+    }
     PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
     if (hx != NULL && hy != NULL) {
         PyObject *ha[2] = {hx, hy};
@@ -2940,6 +3049,23 @@ static int py_hypot(double dx, double dy, double *d)
     *d = PyFloat_AsDouble(h);
     Py_DECREF(h);
     return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
+/* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(): whether run_lines
+ * and gap_lines use it (hypot_same()) */
+static PyObject *mod_hypot(PyObject *self, PyObject *args)
+{
+    double dx, dy;
+    if (PyTuple_GET_SIZE(args) == 0) {
+        if (get_hypot() < 0 || (HYPOT_SAME == -2 && (HYPOT_SAME = hypot_same()) < 0)) {
+            HYPOT_SAME = -2;
+            return NULL;
+        }
+        return PyBool_FromLong(HYPOT_SAME == 1);
+    }
+    if (!PyArg_ParseTuple(args, "dd:hypot", &dx, &dy))
+        return NULL;
+    return PyFloat_FromDouble(c_hypot(dx, dy));
 }
 
 /* ---------------------------------------------------------------- StrokeBase */
@@ -3437,13 +3563,121 @@ static PyObject *double_array(PyObject *array_t, PyObject *list)
     return a;
 }
 
+/* the moves of a run run_lines opened itself, as doubles (no float objects, no list
+ * appends a line): e[k] the k-th move's E, xy the run's start and every move's end (x y x y
+ * ..., run_xy's), ends[k] the run's length after move k (run_ends').  group_lines' lists
+ * are made from them only when the call returns with that run still open (rb_to_lists) */
+typedef struct {
+    double *e, *xy, *ends;
+    Py_ssize_t n, cap;                 /* moves, room (in moves) */
+} RunBuf;
+
+static void rb_free(RunBuf *b)
+{
+    PyMem_Free(b->e);
+    PyMem_Free(b->xy);
+    PyMem_Free(b->ends);
+    b->e = b->xy = b->ends = NULL;
+    b->n = b->cap = 0;
+}
+
+/* room for one more move; -1 (MemoryError) if none */
+static int rb_room(RunBuf *b)
+{
+    if (b->n < b->cap)
+        return 0;
+    Py_ssize_t cap = b->cap ? 2 * b->cap : 64;
+    double *e = PyMem_Realloc(b->e, (size_t)cap * sizeof(double));
+    if (e)
+        b->e = e;
+    double *xy = PyMem_Realloc(b->xy, (size_t)(2 * cap + 2) * sizeof(double));
+    if (xy)
+        b->xy = xy;
+    double *ends = PyMem_Realloc(b->ends, (size_t)cap * sizeof(double));
+    if (ends)
+        b->ends = ends;
+    if (!e || !xy || !ends) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    b->cap = cap;
+    return 0;
+}
+
+/* the run is one move (e, from (x0, y0) to (x1, y1), length d) */
+static int rb_reset(RunBuf *b, double e, double x0, double y0, double x1, double y1, double d)
+{
+    b->n = 0;
+    if (rb_room(b) < 0)
+        return -1;
+    b->e[0] = e;
+    b->xy[0] = x0;
+    b->xy[1] = y0;
+    b->xy[2] = x1;
+    b->xy[3] = y1;
+    b->ends[0] = d;
+    b->n = 1;
+    return 0;
+}
+
+/* a move appended (its E, its end, the run's length after it) */
+static int rb_push(RunBuf *b, double e, double x1, double y1, double len)
+{
+    if (rb_room(b) < 0)
+        return -1;
+    Py_ssize_t n = b->n;
+    b->e[n] = e;
+    b->xy[2 * n + 2] = x1;
+    b->xy[2 * n + 3] = y1;
+    b->ends[n] = len;
+    b->n = n + 1;
+    return 0;
+}
+
+/* list[:] = the n doubles as new floats */
+static int list_set_doubles(PyObject *list, const double *v, Py_ssize_t n)
+{
+    PyObject *l = PyList_New(n);
+    if (l == NULL)
+        return -1;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PyObject *f = PyFloat_FromDouble(v[k]);
+        if (f == NULL) {
+            Py_DECREF(l);
+            return -1;
+        }
+        PyList_SET_ITEM(l, k, f);
+    }
+    int rc = PyList_SetSlice(list, 0, PyList_GET_SIZE(list), l);
+    Py_DECREF(l);
+    return rc;
+}
+
+/* group_lines' run, run_ends and run_xy made from the buffer (the open run, handed back) */
+static int rb_to_lists(const RunBuf *b, PyObject *run, PyObject *run_ends, PyObject *run_xy)
+{
+    return list_set_doubles(run, b->e, b->n) < 0 || list_set_doubles(run_ends, b->ends, b->n) < 0
+           || list_set_doubles(run_xy, b->xy, 2 * b->n + 2) < 0 ? -1 : 0;
+}
+
+/* array("d") of the n doubles, exactly their room (bytes_array) */
+static PyObject *doubles_array(PyObject *array_t, const double *v, Py_ssize_t n)
+{
+    PyObject *b = PyBytes_FromStringAndSize((const char *)v, n * (Py_ssize_t)sizeof(double));
+    if (b == NULL)
+        return NULL;
+    PyObject *a = bytes_array(array_t, b);
+    Py_DECREF(b);
+    return a;
+}
+
 /* close()'s stroke of the open run (_run_stroke: curve, or one move when !curve), its
  * next_u (nux, nuy), handed to on_stroke.  prev_u / start: the run handed in's objects
  * (None or a tuple) when h->c is 0; z: the run's Z (the run handed in's z1, the bits of
  * every z0 in it). */
 static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObject *prev_u, PyObject *start,
-                      int travel, int curve, PyObject *run_ends, PyObject *run_xy, double run_len, double r_epm,
-                      PyObject *nux, PyObject *nuy, PyObject *z)
+                      int travel, int curve, const RunBuf *rb, PyObject *run_ends, PyObject *run_xy, double run_len,
+                      double r_epm, PyObject *nux, PyObject *nuy, PyObject *z)
 {
     PyObject *own[12];                 /* new references made here (at most 9) */
     int n_own = 0, rc = -1;
@@ -3505,18 +3739,22 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
     val[ST_NUY] = nuy;
     val[ST_CC0] = val[ST_CC1] = Py_False;
     if (curve) {
-        /* Points(run_xy), array("d", run_ends), length_d run_ends[-1] */
-        PyObject *xy = OWN(double_array(kit->array_t, run_xy));
+        /* Points(run_xy), array("d", run_ends), length_d run_ends[-1] (rb: the run's buffer) */
+        PyObject *xy = OWN(rb ? doubles_array(kit->array_t, rb->xy, 2 * rb->n + 2) : double_array(kit->array_t, run_xy));
         if (!xy)
             goto done;
         PyObject *pts = OWN(slots_new(&POINTS_MAP, &xy));
-        PyObject *ends = OWN(double_array(kit->array_t, run_ends));
+        PyObject *ends = OWN(rb ? doubles_array(kit->array_t, rb->ends, rb->n) : double_array(kit->array_t, run_ends));
         if (!pts || !ends)
             goto done;
         val[ST_KIND] = kit->k_curve;
         val[ST_PTS] = pts;
         val[ST_ENDS] = ends;
-        val[ST_LEN] = PyList_GET_ITEM(run_ends, PyList_GET_SIZE(run_ends) - 1);
+        if (rb) {
+            if (!(val[ST_LEN] = OWN(PyFloat_FromDouble(rb->ends[rb->n - 1]))))
+                goto done;
+        } else
+            val[ST_LEN] = PyList_GET_ITEM(run_ends, PyList_GET_SIZE(run_ends) - 1);
     } else {
         PyObject *len = OWN(PyFloat_FromDouble(run_len));
         if (!len)
@@ -3549,11 +3787,11 @@ done:
  * each handed to on_stroke.  The moves are run's (its E: a float, or a Move's e) and
  * run_xy's (their ends); their lengths math.hypot's again (the bits group_lines had). */
 static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObject *prev_u, PyObject *start,
-                     int travel, PyObject *run, PyObject *run_xy, double coll, PyObject *nux, PyObject *nuy,
-                     PyObject *z)
+                     int travel, const RunBuf *rb, PyObject *run, PyObject *run_xy, double coll, PyObject *nux,
+                     PyObject *nuy, PyObject *z)
 {
-    Py_ssize_t n = PyList_GET_SIZE(run);
-    if (PyList_GET_SIZE(run_xy) != 2 * n + 2)
+    Py_ssize_t n = rb ? rb->n : PyList_GET_SIZE(run);
+    if (!rb && PyList_GET_SIZE(run_xy) != 2 * n + 2)
         return 1;                      /* (not the run's shape: Python) */
     /* 1 (nothing done: Python closes the run) is decided before any stroke is made */
     double *buf = PyMem_Malloc(6 * (size_t)n * sizeof(double));
@@ -3570,8 +3808,14 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
     int rc = -1;
     Py_ssize_t np = 0, kept = 0;       /* parts, strokes made */
     for (Py_ssize_t k = 0; k < n; k++) {
-        PyObject *m = PyList_GET_ITEM(run, k), *o;
+        PyObject *m, *o;
         double q[4];
+        if (rb) {                      /* (a run opened here: its moves' E and ends) */
+            memcpy(q, rb->xy + 2 * k, sizeof(q));
+            e[k] = rb->e[k];
+            goto got_move;
+        }
+        m = PyList_GET_ITEM(run, k);
         for (int j = 0; j < 4; j++) {
             o = PyList_GET_ITEM(run_xy, 2 * k + j);
             if (!PyFloat_CheckExact(o)) {
@@ -3589,6 +3833,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
             goto done;
         } else if (get_d(&MOVE_MAP, m, MV_E, &e[k]) < 0)
             goto done;
+    got_move:;
         double dx = q[2] - q[0], dy = q[3] - q[1];
         if (py_hypot(dx, dy, &d[k]) < 0)
             goto done;
@@ -3642,8 +3887,9 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
             val[ST_Z] = p->z0;
         } else {
             val[ST_FIRST] = OWN(PyLong_FromLongLong(h->first + a));
-            val[ST_X0] = OWN(PyFloat_FromDouble(PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a))));
-            val[ST_Y0] = OWN(PyFloat_FromDouble(PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a + 1))));
+            val[ST_X0] = OWN(PyFloat_FromDouble(rb ? rb->xy[2 * a] : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a))));
+            val[ST_Y0] = OWN(PyFloat_FromDouble(rb ? rb->xy[2 * a + 1]
+                                                   : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a + 1))));
             val[ST_Z] = z;
         }
         val[ST_LAST] = b - 1 == a ? val[ST_FIRST] : OWN(PyLong_FromLongLong(h->first + b - 1));
@@ -3720,23 +3966,6 @@ done:
     return rc;
 }
 
-/* list[:] = [a, b, c, d][:n] (new floats) */
-static int list_reset(PyObject *list, int n, double a, double b, double c, double d)
-{
-    if (PyList_SetSlice(list, 0, PyList_GET_SIZE(list), NULL) < 0)
-        return -1;
-    const double v[4] = {a, b, c, d};
-    for (int k = 0; k < n; k++) {
-        PyObject *f = PyFloat_FromDouble(v[k]);
-        if (f == NULL || PyList_Append(list, f) < 0) {
-            Py_XDECREF(f);
-            return -1;
-        }
-        Py_DECREF(f);
-    }
-    return 0;
-}
-
 /* the kit's parts; 0: no kit (None, or a Stroke / Points whose slots are not all plain) */
 static int kit_read(PyObject *o, RunKit *kit)
 {
@@ -3803,7 +4032,7 @@ static int hand_back(const RunKit *kit, const RunHead *h, PyObject *proto_mv, Py
 }
 
 #define RL_CLEANUP() (proto_clear(&p), head_clear(&h), Py_XDECREF(proto_mv), Py_XDECREF(o_lux), \
-                      Py_XDECREF(o_luy))
+                      Py_XDECREF(o_luy), rb_free(&rb))
 static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 23 && nargs != 25)
@@ -3848,6 +4077,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     memset(&h, 0, sizeof(h));
     Proto p;
     memset(&p, 0, sizeof(p));
+    RunBuf rb;                         /* the moves of the run open while h.c (opened here) */
+    memset(&rb, 0, sizeof(rb));
     if (nargs == 25) {
         have_kit = kit_read(args[23], &kit);
         if (have_kit < 0)
@@ -3950,9 +4181,11 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             /* group_lines' pre path: close the run, open the next one at this line */
             if (!have_kit || fm->lim != p.lim)
                 break;
+            const RunBuf *rbc = h.c ? &rb : NULL;      /* (the run's moves: in rb, else the lists) */
+            Py_ssize_t n_run = h.c ? rb.n : PyList_GET_SIZE(run);
             int drop = run_len < kit.min_len;
-            int curve = !drop && kit.curves && turned && PyList_GET_SIZE(run) >= 3;
-            int parts = !drop && !curve && PyList_GET_SIZE(run) >= 2;
+            int curve = !drop && kit.curves && turned && n_run >= 3;
+            int parts = !drop && !curve && n_run >= 2;
             /* this line's direction: the stroke's next_u, the new run's ux uy and last direction */
             PyObject *nux = PyFloat_FromDouble(ux), *nuy = PyFloat_FromDouble(uy);
             if (nux == NULL || nuy == NULL) {
@@ -3961,7 +4194,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
                 goto fail;
             }
             if (parts) {               /* straight parts (or Python, before anything changed) */
-                int r = run_parts(&kit, &p, &h, prev_u, start, travel, run, run_xy, coll, nux, nuy, o_z);
+                int r = run_parts(&kit, &p, &h, prev_u, start, travel, rbc, run, run_xy, coll, nux, nuy, o_z);
                 if (r != 0) {
                     Py_DECREF(nux);
                     Py_DECREF(nuy);
@@ -3976,8 +4209,8 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             if (o_luy == NULL)
                 o_luy = PyFloat_FromDouble(luy);
             if (play_fused(s, idx, fm) < 0 || o_lux == NULL || o_luy == NULL
-                || (!drop && !parts && run_stroke(&kit, &p, &h, prev_u, start, travel, curve, run_ends, run_xy,
-                                                  run_len, r_epm, nux, nuy, o_z) < 0)) {
+                || (!drop && !parts && run_stroke(&kit, &p, &h, prev_u, start, travel, curve, rbc, run_ends,
+                                                  run_xy, run_len, r_epm, nux, nuy, o_z) < 0)) {
                 Py_DECREF(nux);
                 Py_DECREF(nuy);
                 goto fail;
@@ -3989,8 +4222,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             h.uy = Py_NewRef(nuy);
             o_lux = nux;
             o_luy = nuy;
-            if (list_reset(run, 1, fm->e, 0, 0, 0) < 0 || list_reset(run_ends, 1, d, 0, 0, 0) < 0
-                || list_reset(run_xy, 4, fm->x0, fm->y0, fm->x1, fm->y1) < 0)
+            if (rb_reset(&rb, fm->e, fm->x0, fm->y0, fm->x1, fm->y1, d) < 0)
                 goto fail;
             h.c = 1;
             h.rm = rm;
@@ -4008,16 +4240,21 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         if (play_fused(s, idx, fm) < 0)
             goto fail;
         run_len += d;
-        PyObject *t[4] = {PyFloat_FromDouble(fm->e), PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1),
-                          PyFloat_FromDouble(run_len)};
-        int bad = t[0] == NULL || t[1] == NULL || t[2] == NULL || t[3] == NULL;
-        if (!bad)
-            bad = PyList_Append(run, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
-                  || PyList_Append(run_xy, t[2]) < 0 || PyList_Append(run_ends, t[3]) < 0;
-        for (int k = 0; k < 4; k++)
-            Py_XDECREF(t[k]);
-        if (bad)
-            goto fail;
+        if (h.c) {
+            if (rb_push(&rb, fm->e, fm->x1, fm->y1, run_len) < 0)
+                goto fail;
+        } else {
+            PyObject *t[4] = {PyFloat_FromDouble(fm->e), PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1),
+                              PyFloat_FromDouble(run_len)};
+            int bad = t[0] == NULL || t[1] == NULL || t[2] == NULL || t[3] == NULL;
+            if (!bad)
+                bad = PyList_Append(run, t[0]) < 0 || PyList_Append(run_xy, t[1]) < 0
+                      || PyList_Append(run_xy, t[2]) < 0 || PyList_Append(run_ends, t[3]) < 0;
+            for (int k = 0; k < 4; k++)
+                Py_XDECREF(t[k]);
+            if (bad)
+                goto fail;
+        }
         double q = fm->e / d;
         if (q > r_epm)
             r_epm = q;
@@ -4040,7 +4277,7 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         return NULL;
     }
     PyList_SetItem(cur, 1, io);        /* steals io */
-    if (opened && hand_back(&kit, &h, proto_mv, run, rs, start) < 0) {
+    if (opened && (rb_to_lists(&rb, run, run_ends, run_xy) < 0 || hand_back(&kit, &h, proto_mv, run, rs, start) < 0)) {
         RL_CLEANUP();
         return NULL;
     }
@@ -5741,6 +5978,8 @@ static PyMethodDef mod_methods[] = {
     {"jerk_tail", mod_jerk_tail, METH_VARARGS,
      "jerk_tail(S, V, acc, a_own, step, v_feed, K, min_feed_v, cruise_a, A, F, t, a2, fine): segments._jerk_rows' "
      "held accelerations, feeds, figures and verdicts"},
+    {"hypot", mod_hypot, METH_VARARGS,
+     "hypot(dx, dy): math.hypot's length computed in C; hypot(): whether run_lines and gap_lines use it"},
     {"stroke_lines", mod_stroke_lines, METH_VARARGS,
      "stroke_lines(strokes, lo, hi): their first_idx and last_idx into two int64 buffers; 0: declined"},
     {"stroke_put_sums", mod_stroke_put_sums, METH_VARARGS,

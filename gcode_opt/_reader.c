@@ -1222,9 +1222,17 @@ static PyObject *split_lines(PyObject *module, PyObject *args)
     if (!PyArg_ParseTuple(args, "y*p:split_lines", &b, &final))
         return NULL;
     const char *p = (const char *)b.buf, *end = p + b.len, *s = p;
-    int cr = memchr(p, '\r', (size_t)b.len) != NULL, ascii = 1;
-    for (const char *q = p; q < end && ascii; q++)       /* (all ASCII, the usual: str made directly) */
-        ascii = (unsigned char)*q < 0x80;
+    int cr = memchr(p, '\r', (size_t)b.len) != NULL;
+    unsigned long long any = 0;        /* the bytes or'ed, 8 at a time: all ASCII (the usual)? */
+    Py_ssize_t k = 0;
+    for (; k + 8 <= b.len; k += 8) {
+        unsigned long long w;
+        memcpy(&w, p + k, 8);
+        any |= w;
+    }
+    for (; k < b.len; k++)
+        any |= (unsigned char)p[k];
+    int ascii = (any & 0x8080808080808080ULL) == 0;    /* (then each str is made directly) */
     PyObject *lines = PyList_New(0);
     if (lines == NULL)
         goto fail;

@@ -3530,36 +3530,65 @@ static int proto_read(Proto *p, PyObject *m)
            ? 0 : -1;
 }
 
-/* array("d", bytes) of exactly its doubles' room: an array made from bytes keeps room for
- * 3 + n / 16 more (it grew from empty), its copy a[:] none, as array("d", list) (the
- * strokes keep their arrays for the whole run: ~1.3 MB of the gyroid plate's curves) */
-static PyObject *bytes_array(PyObject *array_t, PyObject *b)
+/* a new array("d") of n doubles, exactly their room (as array("d", list) has: the strokes
+ * keep their arrays for the whole run, ~1.3 MB of the gyroid plate's curves), *buf its
+ * items to fill: array("d", [0.0]) repeated n times (array_repeat makes the array of that
+ * size, ~10x fewer instructions than array("d", bytes) and its copy a[:], which gave the
+ * same array before) */
+static PyObject *ARRAY_ONE = NULL;     /* array("d", [0.0]) of the kit's array class */
+
+static PyObject *array_room(PyObject *array_t, Py_ssize_t n, double **buf)
 {
-    PyObject *a = PyObject_CallFunction(array_t, "sO", "d", b);
+    if (ARRAY_ONE == NULL || (PyObject *)Py_TYPE(ARRAY_ONE) != array_t) {
+        PyObject *one = PyObject_CallFunction(array_t, "s[d]", "d", 0.0);
+        if (one == NULL)
+            return NULL;
+        Py_XSETREF(ARRAY_ONE, one);
+    }
+    PyObject *a = PySequence_Repeat(ARRAY_ONE, n);
     if (a == NULL)
         return NULL;
-    PyObject *c = PySequence_GetSlice(a, 0, PY_SSIZE_T_MAX);
-    Py_DECREF(a);
-    return c;
+    Py_buffer view;
+    if (PyObject_GetBuffer(a, &view, PyBUF_WRITABLE) < 0) {
+        Py_DECREF(a);
+        return NULL;
+    }
+    *buf = (double *)view.buf;         /* (stays put: nothing else holds the array) */
+    int ok = view.len == n * (Py_ssize_t)sizeof(double) && view.itemsize == (Py_ssize_t)sizeof(double);
+    PyBuffer_Release(&view);
+    if (!ok) {
+        Py_DECREF(a);
+        PyErr_SetString(PyExc_TypeError, "array_room: not an array of doubles");
+        return NULL;
+    }
+    return a;
 }
 
-/* array("d", floats): the list's doubles handed to the array as bytes (bytes_array: two
- * copies) where every item is a float (array("d", list) converts item by item, through
- * the argument parser: ~200 instructions a vertex), else array("d", list) itself */
+/* array("d", floats): the list's doubles copied into array_room's array where every item
+ * is a float (array("d", list) converts item by item, through the argument parser: ~200
+ * instructions a vertex), else array("d", list) itself */
 static PyObject *double_array(PyObject *array_t, PyObject *list)
 {
     Py_ssize_t n = PyList_GET_SIZE(list);
     for (Py_ssize_t k = 0; k < n; k++)
         if (!PyFloat_CheckExact(PyList_GET_ITEM(list, k)))
             return PyObject_CallFunction(array_t, "sO", "d", list);
-    PyObject *b = PyBytes_FromStringAndSize(NULL, n * (Py_ssize_t)sizeof(double));
-    if (b == NULL)
+    double *d;
+    PyObject *a = array_room(array_t, n, &d);
+    if (a == NULL)
         return NULL;
-    double *d = (double *)PyBytes_AS_STRING(b);
     for (Py_ssize_t k = 0; k < n; k++)
         d[k] = PyFloat_AS_DOUBLE(PyList_GET_ITEM(list, k));
-    PyObject *a = bytes_array(array_t, b);
-    Py_DECREF(b);
+    return a;
+}
+
+/* array("d") of the n doubles (array_room) */
+static PyObject *doubles_array(PyObject *array_t, const double *v, Py_ssize_t n)
+{
+    double *d;
+    PyObject *a = array_room(array_t, n, &d);
+    if (a != NULL && n > 0)
+        memcpy(d, v, (size_t)n * sizeof(double));
     return a;
 }
 
@@ -3658,17 +3687,6 @@ static int rb_to_lists(const RunBuf *b, PyObject *run, PyObject *run_ends, PyObj
 {
     return list_set_doubles(run, b->e, b->n) < 0 || list_set_doubles(run_ends, b->ends, b->n) < 0
            || list_set_doubles(run_xy, b->xy, 2 * b->n + 2) < 0 ? -1 : 0;
-}
-
-/* array("d") of the n doubles, exactly their room (bytes_array) */
-static PyObject *doubles_array(PyObject *array_t, const double *v, Py_ssize_t n)
-{
-    PyObject *b = PyBytes_FromStringAndSize((const char *)v, n * (Py_ssize_t)sizeof(double));
-    if (b == NULL)
-        return NULL;
-    PyObject *a = bytes_array(array_t, b);
-    Py_DECREF(b);
-    return a;
 }
 
 /* close()'s stroke of the open run (_run_stroke: curve, or one move when !curve), its
@@ -3914,11 +3932,8 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
             val[ST_NUY] = OWN(PyFloat_FromDouble(uy[b]));
         }
         val[ST_LEN] = OWN(PyFloat_FromDouble(len));
-        if (b - a > 1) {
-            PyObject *by = OWN(PyBytes_FromStringAndSize((const char *)ends, (b - a) * (Py_ssize_t)sizeof(double)));
-            if (!bad)
-                val[ST_ENDS] = OWN(bytes_array(kit->array_t, by));
-        }
+        if (b - a > 1)
+            val[ST_ENDS] = OWN(doubles_array(kit->array_t, ends, b - a));
         val[ST_EPM] = OWN(PyFloat_FromDouble(epm));
         if (start != Py_None) {
             if (a == 0 && !h->c)

@@ -286,6 +286,20 @@ static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsign
             unsigned long long m = 0;
             if (j < n && (s[j] == '+' || s[j] == '-'))
                 neg = s[j++] == '-';
+            /* the usual shape, digits[.digits], in two tight loops (the same m, digits, frac
+             * and end as the loop below, which goes on from where they stop) */
+            unsigned dd;
+            Py_ssize_t j0 = j;
+            for (; j < n && (dd = (unsigned)s[j] - '0') <= 9; j++)
+                m = m * 10u + dd;
+            if (j < n && s[j] == '.') {
+                Py_ssize_t f0 = ++j;
+                for (; j < n && (dd = (unsigned)s[j] - '0') <= 9; j++)
+                    m = m * 10u + dd;
+                frac = j - f0;
+                digits = j - j0 - 1;
+            } else
+                digits = j - j0;
             for (; j < n; j++) {
                 unsigned d = (unsigned)s[j] - '0';
                 if (d <= 9) {

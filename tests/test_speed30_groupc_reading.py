@@ -162,3 +162,31 @@ def test_corpus_analyse_is_the_pure_path():
     assert len(got) == len(pure) > 1000
     assert [_stroke_bits(x) for x in got] == pure
     assert sorted(o.by_feature.items()) == pure_feat
+
+
+# ---------------------------------------------------------------- the reader's numbers
+@pytest.mark.skipif(state._reader is None, reason="the compiled reader is not built")
+def test_reader_number_shapes_are_pythons():
+    """read_words scans digits[.digits] in two tight loops, then the general loop goes on
+    (a second ".", a sign inside): every shape must read as the Python reader reads it."""
+    from test_reader_core_bits import Counter as _Counter, compare_lines
+    from gcode_opt.profile import load_profile
+
+    class _MP:                       # (compare_lines' Counter wants a monkeypatch: none here)
+        def setattr(self, *a):
+            pass
+    py_step = _Counter(_MP()).py
+    rng = random.Random(30)
+
+    def num():
+        parts = [rng.choice(["", "", "-", "+", "--", "+-"])]
+        for _ in range(rng.choice([1, 1, 1, 2, 3])):
+            parts.append("".join(rng.choice("0123456789") for _ in range(rng.choice([0, 1, 2, 3, 5, 17, 19, 20, 25]))))
+            parts.append(rng.choice([".", ".", "", "-", "+", ".."]))
+        return "".join(parts[:-1]) if rng.random() < 0.6 else "".join(parts)
+    lines = ["G1 X%s Y%s E%s%s\n" % (num(), num(), num(), rng.choice(["", " F%s" % num(), " ;c", "\r"]))
+             for _ in range(6000)]
+    lines += ["G1 X1.5 Y2.25 E.0312\n", "G1 X00012.50000 Y-0.0\n", "G1 X12345678901234567890.5\n",
+              "G1 X9007199254740993\n", "G1 X0.1234567890123456789012\n", "G1 X1..5\n", "G1 X.5.\n"]
+    diff = compare_lines(lines, load_profile("prusa-mk3s"), py_step)
+    assert diff is None, diff

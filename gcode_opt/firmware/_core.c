@@ -2970,10 +2970,22 @@ static double c_hypot(double dx, double dy)
     if (mx == 0.0)
         return mx;
     int e;
-    frexp(mx, &e);
-    if (e < -1023)                                     /* both subnormal: scaled up first */
-        return DBL_MIN * c_hypot(ax / DBL_MIN, ay / DBL_MIN);
-    double scale = ldexp(1.0, -e);
+    double scale;
+    unsigned long long bits;
+    memcpy(&bits, &mx, sizeof(bits));
+    int biased = (int)(bits >> 52);                    /* (mx > 0: no sign bit) */
+    if (biased > 64 && biased < 2000) {
+        /* frexp's exponent and ldexp(1.0, -e) read and made from the bits (a normal mx far
+         * from both ends: the same numbers, without the two libm calls) */
+        e = biased - 1022;
+        bits = (unsigned long long)(1023 - e) << 52;
+        memcpy(&scale, &bits, sizeof(scale));
+    } else {
+        frexp(mx, &e);
+        if (e < -1023)                                 /* both subnormal: scaled up first */
+            return DBL_MIN * c_hypot(ax / DBL_MIN, ay / DBL_MIN);
+        scale = ldexp(1.0, -e);
+    }
     double csum = 1.0, f1 = 0.0, f2 = 0.0;
     const double v[2] = {ax * scale, ay * scale};
     for (int k = 0; k < 2; k++) {

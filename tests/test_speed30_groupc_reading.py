@@ -76,6 +76,21 @@ def test_c_hypot_is_math_hypot_random():
 
 
 @needs_core
+def test_c_hypot_is_math_hypot_at_the_bit_path_ends():
+    """c_hypot reads frexp's exponent from the bits for a normal max away from both ends of
+    the range (else frexp / ldexp): every biased exponent near those ends."""
+    h = fwsim._core.hypot
+    bad = []
+    for be in list(range(0, 80)) + list(range(1970, 2047)):
+        for frac in (0, 1, 12345, (1 << 52) - 1):
+            m = struct.unpack("<d", struct.pack("<Q", (be << 52) | frac))[0]
+            for o in (m, m * 0.3, m * 1e-10, 0.0, m * 0.999, -m):
+                if _b(h(m, o)) != _b(math.hypot(m, o)) or _b(h(o, m)) != _b(math.hypot(o, m)):
+                    bad.append((m, o))
+    assert not bad, bad[:5]
+
+
+@needs_core
 def test_c_hypot_is_math_hypot_corpus_moves():
     """Every XY move of a corpus file (its deltas as the reader computes them)."""
     path = _corpus("plate_gyroid")

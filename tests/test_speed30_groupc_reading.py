@@ -134,7 +134,7 @@ def test_line_chunks_are_read_chunks_random(tmp_path, monkeypatch):
     texts += [b"".join(rng.choice(alpha[:6]) for _ in range(rng.randint(1, 300))) for _ in range(150)]   # ASCII
     path = str(tmp_path / "t.gcode")
     for block in (1, 2, 7, 64, 1 << 16):
-        monkeypatch.setattr(state, "LINE_BLOCK_BYTES", block)
+        monkeypatch.setattr(fwsim, "CHUNK_HINT", block)       # (line_chunks' bytes a block)
         for t in texts:
             with open(path, "wb") as fh:
                 fh.write(t)

@@ -163,6 +163,7 @@ TRIM_DROPPED = 2000          # chains whose rows plan_chain_segments dropped tha
 FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, see _finish_table)
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 SOLVE_SEGS = 2048 * 20       # segments of the chains solved in one batch (~2048 chains of the gyroid plate)
+REPLAY_SEGS = 8192           # segments of the chains whose kept laws' knots are made again in one call
 
 
 class _KeptPlans:
@@ -392,12 +393,13 @@ def _gather_rows(kept, rs, sts, profile):
 
 
 def _gather_batches(Qs, items, profile):
-    """_gather_batches_at of the batches Qs, consecutive ones together up to SOLVE_SEGS
-    segments (the arrays of one call stay in the caches)."""
+    """_gather_batches_at of the batches Qs, consecutive ones together up to REPLAY_SEGS
+    segments (the arrays of one call stay in the caches, its temporaries small beside the
+    kept laws: the plans' first run is the gyroid plate's heap peak)."""
     out, grp, segs = [], [], 0
     for Q in Qs:
         w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
-        if grp and segs + w > SOLVE_SEGS:
+        if grp and segs + w > REPLAY_SEGS:
             out += _gather_batches_at(grp, items, profile)
             grp, segs = [], 0
         grp.append(Q)

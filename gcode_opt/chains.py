@@ -329,18 +329,27 @@ def _replay(items, rules, profile, drop=False):
     # then, with drop, every chain's candidate knots freed before any plan is made: the
     # plans' arrays (acc, feed, knots, ~16 k SegmentPlans) were made while all the
     # candidates' knots were still held (the gyroid plate's planning peak, ~+15 MB)
+    # (s30: the rows are kept as their laws: the chosen rows' laws are copied out, then the
+    # rows dropped, then the knots made again group by group as the plans are made)
     Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
     if all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
-        batches = list(zip(Qs, _gather_batches(Qs, items, profile)))      # (every row by its law)
+        groups = _gather_laws(Qs, items, profile)         # (every row by its law)
+        batches = []
     else:
+        groups = []
         batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
         for q, (st, _, r) in enumerate(items):
             _drop(st)
             items[q] = (st, None, r)    # (nor held here: the memo's rows were the last to hold them)
+    groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
-    while batches:
+    while batches or groups:
+        if not batches:
+            grp, laws = groups.pop()
+            batches = list(zip(grp, _laws_knots(grp, laws, profile)))[::-1]
+            del laws
         Q, (vk, dt, tp, a2) = batches.pop()
         sts = [items[q][0] for q in Q]
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
@@ -393,29 +402,67 @@ def _gather_rows(kept, rs, sts, profile):
 
 
 def _gather_batches(Qs, items, profile):
-    """_gather_batches_at of the batches Qs, consecutive ones together up to REPLAY_SEGS
-    segments (the arrays of one call stay in the caches, its temporaries small beside the
-    kept laws: the plans' first run is the gyroid plate's heap peak)."""
+    """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
+    every row kept by its law, a batch's chains of one number of segments)."""
+    return [x for grp, laws in _gather_laws(Qs, items, profile) for x in _laws_knots(grp, laws, profile)]
+
+
+def _gather_laws(Qs, items, profile):
+    """The laws of the rows of the batches Qs (as _gather_batches), copied out of their
+    kept bases, consecutive batches together up to REPLAY_SEGS segments: [(those batches,
+    their laws)] for _laws_knots, which needs no kept row (the chains' rows can be dropped
+    first: only the chosen rows' laws, ~1/5 of the kept bytes, are held while the plans are
+    made; each call's temporaries stay in the caches)."""
     out, grp, segs = [], [], 0
     for Q in Qs:
         w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
         if grp and segs + w > REPLAY_SEGS:
-            out += _gather_batches_at(grp, items, profile)
+            out.append((grp, _laws_of(grp, items)))
             grp, segs = [], 0
         grp.append(Q)
         segs += w
-    return out + _gather_batches_at(grp, items, profile)
+    if grp:
+        out.append((grp, _laws_of(grp, items)))
+    return out
 
 
-def _gather_batches_at(Qs, items, profile):
-    """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
-    every row kept by its law, a batch's chains of one number of segments): the laws of all
-    batches' rows made again in one _Flat.vertices_at call (its numpy calls paid once, not
-    per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by batch."""
+def _laws_knots(Qs, laws, profile):
+    """(vk, dt, predicted times, predicted ∫|a|²) of each batch Q of Qs from their rows'
+    laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid once,
+    not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by
+    batch."""
+    sts, nv, voff, bound, tj, TL, beta, tp, a2 = laws
+    # (the chains' vertex caps, dropped with their rows (_drop), are made again for this
+    # call only, as _knots_again's: not kept on the geometries again)
+    gone = [g for g in (curves.geom(st, profile) for st in sts) if g.chain_caps is None]
+    fl = _flat_chains(sts, profile).with_T(TL, beta)
+    for g in gone:
+        g.chain_caps = None
+    vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
+    out = []
+    a = 0
+    for Q in Qs:
+        z = a + len(Q)
+        n = int(nv[a]) + 1
+        vk = np.empty((z - a, n + 1))
+        tk = np.empty((z - a, n + 1))
+        vk[:, 0], vk[:, -1] = fl.v0[a:z], fl.v1[a:z]
+        tk[:, 0] = 0.0
+        tk[:, -1] = TL[a:z]
+        if n > 1:
+            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
+            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
+        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist()))
+        a = z
+    return out
+
+
+def _laws_of(Qs, items):
+    """The laws of the rows of the batches Qs, in their order: (strokes, vertices a row,
+    their offsets, binding masks (flat), pieces' durations (flat), T, beta, predicted
+    times, predicted ∫|a|²)."""
     order = [q for Q in Qs for q in Q]
     m = len(order)
-    if m == 0:
-        return []
     sts = [items[q][0] for q in order]
     kept = [items[q][1] for q in order]
     nv = np.fromiter((kp.base[0].shape[1] for kp in kept), np.int64, m)      # vertices a row
@@ -451,24 +498,7 @@ def _gather_batches_at(Qs, items, profile):
         src = np.repeat(p0 - at, c) + np.arange(k)
         dst = np.repeat(poff[ii] - at, c) + np.arange(k)
         tj[dst] = piece_t[src]
-    fl = _flat_chains(sts, profile).with_T(TL, beta)
-    vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
-    out = []
-    a = 0
-    for Q in Qs:
-        z = a + len(Q)
-        n = int(nv[a]) + 1
-        vk = np.empty((z - a, n + 1))
-        tk = np.empty((z - a, n + 1))
-        vk[:, 0], vk[:, -1] = fl.v0[a:z], fl.v1[a:z]
-        tk[:, 0] = 0.0
-        tk[:, -1] = TL[a:z]
-        if n > 1:
-            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
-            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
-        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist()))
-        a = z
-    return out
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2
 
 
 def _rows_knots(sts, bnd, tj, TL, beta, profile):

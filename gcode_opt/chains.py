@@ -417,12 +417,12 @@ def _gather_laws(Qs, items, profile):
     for Q in Qs:
         w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
         if grp and segs + w > REPLAY_SEGS:
-            out.append((grp, _laws_of(grp, items)))
+            out.append((grp, _laws_of(grp, items, profile)))
             grp, segs = [], 0
         grp.append(Q)
         segs += w
     if grp:
-        out.append((grp, _laws_of(grp, items)))
+        out.append((grp, _laws_of(grp, items, profile)))
     return out
 
 
@@ -431,13 +431,14 @@ def _laws_knots(Qs, laws, profile):
     laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid once,
     not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by
     batch."""
-    sts, nv, voff, bound, tj, TL, beta, tp, a2 = laws
-    # (the chains' vertex caps, dropped with their rows (_drop), are made again for this
-    # call only, as _knots_again's: not kept on the geometries again)
-    gone = [g for g in (curves.geom(st, profile) for st in sts) if g.chain_caps is None]
-    fl = _flat_chains(sts, profile).with_T(TL, beta)
-    for g in gone:
-        g.chain_caps = None
+    sts, nv, voff, bound, tj, TL, beta, tp, a2, cv = laws
+    # (_flat_chains' arrays, the caps as _laws_of took them before the rows and caps were
+    # dropped: not made again)
+    gs = [curves.geom(st, profile) for st in sts]
+    m = len(sts)
+    fl = _Flat.of_arrays(_inner_s(gs), cv, nv, np.array([st.length_d for st in sts], float), np.zeros(m),
+                         np.ones(m), np.array([st.v0 for st in sts], float),
+                         np.array([st.v1 for st in sts], float)).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
     a = 0
@@ -457,10 +458,10 @@ def _laws_knots(Qs, laws, profile):
     return out
 
 
-def _laws_of(Qs, items):
+def _laws_of(Qs, items, profile):
     """The laws of the rows of the batches Qs, in their order: (strokes, vertices a row,
     their offsets, binding masks (flat), pieces' durations (flat), T, beta, predicted
-    times, predicted ∫|a|²)."""
+    times, predicted ∫|a|², the chains' vertex caps (flat))."""
     order = [q for Q in Qs for q in Q]
     m = len(order)
     sts = [items[q][0] for q in order]
@@ -498,7 +499,9 @@ def _laws_of(Qs, items):
         src = np.repeat(p0 - at, c) + np.arange(k)
         dst = np.repeat(poff[ii] - at, c) + np.arange(k)
         tj[dst] = piece_t[src]
-    return sts, nv, voff, bound, tj, TL, beta, tp, a2
+    # the chains' vertex caps (_flat_chains' cv) taken now: _drop drops them with the rows
+    cv = np.concatenate(_chain_caps(sts, [curves.geom(st, profile) for st in sts], profile))
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, cv
 
 
 def _rows_knots(sts, bnd, tj, TL, beta, profile):

@@ -162,6 +162,8 @@ def _problems(strokes, T, beta, profile):
 TRIM_DROPPED = 2000          # chains whose rows plan_chain_segments dropped that are worth a malloc_trim
 FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, see _finish_table)
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
+SOLVE_SEGS = 2048 * 20       # segments of the chains solved in one batch (~2048 chains of the gyroid plate)
+REPLAY_SEGS = 8192           # segments of the chains whose kept laws' knots are made again in one call
 
 
 class _KeptPlans:
@@ -196,22 +198,30 @@ class _KeptPlans:
 
 class _KeptLaws:
     """What the candidate table keeps of a chain's candidate laws instead of their
-    _KeptPlans: each row's knot speeds vk (n + 1), segment durations dt (n) and predicted
-    figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished together
-    (base = (vk, dt, t_pred, a2_pred)).  The accelerations and feeds of the candidate
-    chosen are made again from them (_replay: the same arithmetic, row by row, as the
-    table's): those of every candidate, which the table held until the rewrite, were 2/3
-    of the chains' memory."""
-    __slots__ = ("key", "base", "lo", "k")
+    _KeptPlans: each row's law as its binding mask (n - 1 bools) and its pieces' durations
+    (one per piece: its binding vertices + 1), its law duration T and weight beta, and its
+    predicted figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished
+    together (base = (bound (rows, n - 1), piece durations (flat), their offsets (rows + 1),
+    T, beta, t_pred, a2_pred, profile)); st its chain.  The knot speeds vk and segment durations dt of the
+    candidate chosen are made again from them (_rows_knots: _Flat.vertices_at, solve_flat's
+    own operations after its Newton on the durations: the same bits, ~1/3 of the knots'
+    bytes), then its accelerations and feeds (_replay: the same arithmetic, row by row, as
+    the table's): those of every candidate, which the table held until the rewrite, were
+    2/3 of the chains' memory.  A base of four arrays (vk, dt, t_pred, a2_pred) holds the
+    rows' knots themselves (tests; st and profile not read)."""
+    __slots__ = ("key", "base", "lo", "k", "st")
 
-    def __init__(self, key, base, lo, k):
-        self.key, self.base, self.lo, self.k = key, base, lo, k
+    def __init__(self, key, base, lo, k, st=None):
+        self.key, self.base, self.lo, self.k, self.st = key, base, lo, k, st
 
     def row(self, r):
         """(vk, dt, predicted time, predicted ∫|a|²) of row r."""
-        q = self.lo + r
         b = self.base
-        return b[0][q], b[1][q], float(b[2][q]), float(b[3][q])
+        if len(b) == 4:
+            q = self.lo + r
+            return b[0][q], b[1][q], float(b[2][q]), float(b[3][q])
+        vk, dt, tp, a2 = _gather_rows([self], [r], [self.st], b[7])
+        return vk[0], dt[0], tp[0], a2[0]
 
     def plan(self, r, st, rules, profile):
         """The SegmentPlan of row r (chain st), as _replay makes it."""
@@ -293,10 +303,21 @@ def _replay(items, rules, profile, drop=False):
     gs = [curves.geom(st, profile) for st, _, _ in items]
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
+        rows = [None] * len(items)
+        if items and all(len(kept.base) == 8 for _, kept, _ in items):
+            # the knots of every row's law made again together (not a vertices_at call a chain)
+            by_n = {}
+            for q, g in enumerate(gs):
+                by_n.setdefault(g.d.size, []).append(q)
+            Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
+            for Q, (vk, dt, tp, a2) in zip(Qs, _gather_batches(Qs, items, profile)):
+                for i, q in enumerate(Q):
+                    rows[q] = (vk[i], dt[i], tp[i], a2[i])
         for q, (st, kept, r) in enumerate(items):
-            vk, dt, t, a2 = kept.row(r)
+            vk, dt, t, a2 = kept.row(r) if rows[q] is None else rows[q]
+            rows[q] = None
             acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
-            out[q] = SegmentPlan(sk(st), vk.copy() if drop else vk, acc[0], feed[0], t, a2)
+            out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
             if drop:
                 _drop(st)
                 items[q] = (st, None, r)
@@ -308,17 +329,27 @@ def _replay(items, rules, profile, drop=False):
     # then, with drop, every chain's candidate knots freed before any plan is made: the
     # plans' arrays (acc, feed, knots, ~16 k SegmentPlans) were made while all the
     # candidates' knots were still held (the gyroid plate's planning peak, ~+15 MB)
-    batches = []
-    for qs in by_n.values():
-        for a in range(0, len(qs), FINISH_ROWS):
-            Q = qs[a:a + FINISH_ROWS]
-            batches.append((Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q])))
+    # (s30: the rows are kept as their laws: the chosen rows' laws are copied out, then the
+    # rows dropped, then the knots made again group by group as the plans are made)
+    Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
+    if all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
+        groups = _gather_laws(Qs, items, profile)         # (every row by its law)
+        batches = []
+    else:
+        groups = []
+        batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
+                                    [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
         for q, (st, _, r) in enumerate(items):
             _drop(st)
             items[q] = (st, None, r)    # (nor held here: the memo's rows were the last to hold them)
+    groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
-    while batches:
+    while batches or groups:
+        if not batches:
+            grp, laws = groups.pop()
+            batches = list(zip(grp, _laws_knots(grp, laws, profile)))[::-1]
+            del laws
         Q, (vk, dt, tp, a2) = batches.pop()
         sts = [items[q][0] for q in Q]
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
@@ -331,11 +362,12 @@ def _replay(items, rules, profile, drop=False):
     return out
 
 
-def _gather_rows(kept, rs):
-    """The rows rs[i] of kept[i] (_KeptLaws of chains with the same number of segments)
-    stacked: (vk, dt, predicted times, predicted ∫|a|²) as kept[i].row(rs[i]) gives them
-    (the times as Python floats), gathered by one fancy index a base (the chains finished
-    together share one), not row by row (~2 us a chain: row() and np.stack)."""
+def _gather_rows(kept, rs, sts, profile):
+    """The rows rs[i] of kept[i] (_KeptLaws of the chains sts, all with the same number of
+    segments) stacked: (vk, dt, predicted times, predicted ∫|a|²), the times as Python
+    floats; each base's rows gathered by one fancy index (the chains finished together
+    share one), then the knots made again from the laws (_rows_knots; a base of the
+    knots themselves, _KeptLaws': gathered)."""
     by = {}
     for i, (kp, r) in enumerate(zip(kept, rs)):
         e = by.get(id(kp.base))
@@ -344,18 +376,159 @@ def _gather_rows(kept, rs):
         e[1].append(i)
         e[2].append(kp.lo + r)
     m = len(kept)
-    b0 = kept[0].base
-    vk, dt = np.empty((m, b0[0].shape[1])), np.empty((m, b0[1].shape[1]))
-    tp, a2 = np.empty(m), np.empty(m)
+    n = curves.geom(sts[0], profile).d.size
+    vk, dt = np.empty((m, n + 1)), np.empty((m, n))
+    bnd = np.empty((m, n - 1), bool)
+    TL, beta, tp, a2 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    law = []                        # the rows given by their laws
+    tj = []
     for b, ii, qq in by.values():
-        vk[ii], dt[ii], tp[ii], a2[ii] = b[0][qq], b[1][qq], b[2][qq], b[3][qq]
+        if len(b) == 4:             # the knots themselves
+            vk[ii], dt[ii], tp[ii], a2[ii] = b[0][qq], b[1][qq], b[2][qq], b[3][qq]
+            continue
+        bnd[ii], TL[ii], beta[ii], tp[ii], a2[ii] = b[0][qq], b[3][qq], b[4][qq], b[5][qq], b[6][qq]
+        q = np.array(qq)
+        p0 = b[2][q]
+        cnt = b[2][q + 1] - p0
+        at = np.cumsum(cnt) - cnt          # each row's first piece in this base's gather
+        tj.append(b[1][np.repeat(p0 - at, cnt) + np.arange(int(cnt.sum()))])
+        law += ii
+    if law == list(range(m)):       # (the usual case: every row by its law, in order)
+        vk, dt = _rows_knots(sts, bnd, np.concatenate(tj), TL, beta, profile)
+    elif law:
+        li = np.array(law)
+        vk[li], dt[li] = _rows_knots([sts[i] for i in law], bnd[li], np.concatenate(tj), TL[li], beta[li], profile)
     return vk, dt, tp.tolist(), a2.tolist()
+
+
+def _gather_batches(Qs, items, profile):
+    """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
+    every row kept by its law, a batch's chains of one number of segments)."""
+    return [x for grp, laws in _gather_laws(Qs, items, profile) for x in _laws_knots(grp, laws, profile)]
+
+
+def _gather_laws(Qs, items, profile):
+    """The laws of the rows of the batches Qs (as _gather_batches), copied out of their
+    kept bases, consecutive batches together up to REPLAY_SEGS segments: [(those batches,
+    their laws)] for _laws_knots, which needs no kept row (the chains' rows can be dropped
+    first: only the chosen rows' laws, ~1/5 of the kept bytes, are held while the plans are
+    made; each call's temporaries stay in the caches)."""
+    out, grp, segs = [], [], 0
+    for Q in Qs:
+        w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
+        if grp and segs + w > REPLAY_SEGS:
+            out.append((grp, _laws_of(grp, items, profile)))
+            grp, segs = [], 0
+        grp.append(Q)
+        segs += w
+    if grp:
+        out.append((grp, _laws_of(grp, items, profile)))
+    return out
+
+
+def _laws_knots(Qs, laws, profile):
+    """(vk, dt, predicted times, predicted ∫|a|²) of each batch Q of Qs from their rows'
+    laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid once,
+    not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by
+    batch."""
+    sts, nv, voff, bound, tj, TL, beta, tp, a2, cv = laws
+    # (_flat_chains' arrays, the caps as _laws_of took them before the rows and caps were
+    # dropped: not made again)
+    gs = [curves.geom(st, profile) for st in sts]
+    m = len(sts)
+    fl = _Flat.of_arrays(_inner_s(gs), cv, nv, np.array([st.length_d for st in sts], float), np.zeros(m),
+                         np.ones(m), np.array([st.v0 for st in sts], float),
+                         np.array([st.v1 for st in sts], float)).with_T(TL, beta)
+    vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
+    out = []
+    a = 0
+    for Q in Qs:
+        z = a + len(Q)
+        n = int(nv[a]) + 1
+        vk = np.empty((z - a, n + 1))
+        tk = np.empty((z - a, n + 1))
+        vk[:, 0], vk[:, -1] = fl.v0[a:z], fl.v1[a:z]
+        tk[:, 0] = 0.0
+        tk[:, -1] = TL[a:z]
+        if n > 1:
+            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
+            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
+        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist()))
+        a = z
+    return out
+
+
+def _laws_of(Qs, items, profile):
+    """The laws of the rows of the batches Qs, in their order: (strokes, vertices a row,
+    their offsets, binding masks (flat), pieces' durations (flat), T, beta, predicted
+    times, predicted ∫|a|², the chains' vertex caps (flat))."""
+    order = [q for Q in Qs for q in Q]
+    m = len(order)
+    sts = [items[q][0] for q in order]
+    kept = [items[q][1] for q in order]
+    nv = np.fromiter((kp.base[0].shape[1] for kp in kept), np.int64, m)      # vertices a row
+    voff = np.zeros(m + 1, np.int64)
+    np.cumsum(nv, out=voff[1:])
+    by = {}
+    for i, (kp, q) in enumerate(zip(kept, order)):
+        e = by.get(id(kp.base))
+        if e is None:
+            e = by[id(kp.base)] = (kp.base, [], [])
+        e[1].append(i)
+        e[2].append(kp.lo + items[q][2])
+    TL, beta, tp, a2 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    bound = np.empty(int(voff[-1]), bool)
+    cnt = np.empty(m, np.int64)
+    parts = []
+    for b, ii, qq in by.values():
+        ii, qq = np.array(ii), np.array(qq)
+        TL[ii], beta[ii], tp[ii], a2[ii] = b[3][qq], b[4][qq], b[5][qq], b[6][qq]
+        w = b[0].shape[1]
+        if w:
+            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
+        p0 = b[2][qq]
+        cnt[ii] = b[2][qq + 1] - p0
+        parts.append((ii, p0, b[1]))
+    poff = np.zeros(m + 1, np.int64)
+    np.cumsum(cnt, out=poff[1:])
+    tj = np.empty(int(poff[-1]))
+    for ii, p0, piece_t in parts:       # each row's pieces to its place in the order
+        c = cnt[ii]
+        at = np.cumsum(c) - c
+        k = int(c.sum())
+        src = np.repeat(p0 - at, c) + np.arange(k)
+        dst = np.repeat(poff[ii] - at, c) + np.arange(k)
+        tj[dst] = piece_t[src]
+    # the chains' vertex caps (_flat_chains' cv) taken now: _drop drops them with the rows
+    cv = np.concatenate(_chain_caps(sts, [curves.geom(st, profile) for st in sts], profile))
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, cv
+
+
+def _rows_knots(sts, bnd, tj, TL, beta, profile):
+    """The knot speeds vk (m, n + 1) and segment durations dt (m, n) of the laws of the m
+    chains sts of n segments each given by their binding masks bnd (m, n - 1), their
+    pieces' durations tj (flat, chain after chain), law durations TL and weights beta: the
+    laws' vertices made again (_Flat.vertices_at: solve_flat's operations, the same bits)
+    and laid out as _table_rows lays out the table's."""
+    m, n = bnd.shape[0], bnd.shape[1] + 1
+    fl = _flat_chains(sts, profile).with_T(TL, beta)
+    vk = np.empty((m, n + 1))
+    tk = np.empty((m, n + 1))
+    vk[:, 0], vk[:, -1] = fl.v0, fl.v1
+    tk[:, 0] = 0.0
+    tk[:, -1] = TL
+    if n > 1:
+        vv, vt = fl.vertices_at(bnd.reshape(-1), tj)
+        vk[:, 1:-1] = vv.reshape(m, n - 1)
+        tk[:, 1:-1] = vt.reshape(m, n - 1)
+    return vk, np.diff(tk, axis=1)
 
 
 def _drop(st):
     """What a chain keeps for its candidates once a plan of one is made: its rows' knots
     (ChainMemo.drop_rows) and its law's vertex caps (vertex_caps makes them again, the
-    same numbers: tests/test_speed22_chainmem_drop.py), ~1.7 kB a chain."""
+    same numbers: tests/test_speed22_chainmem_drop.py), ~0.8 kB a chain (s30: the rows'
+    laws, ~1/3 of the knots they replaced)."""
     st.chain_T.drop_rows()
     g = st.curv
     if g is not None:
@@ -526,8 +699,8 @@ class ChainMemo:
             j += 1
 
     def drop_rows(self):
-        """Forget the knots of this chain's candidate rows (its _KeptLaws, rows of arrays
-        shared with the chains finished together: ~1.5 kB a chain) once a plan was made
+        """Forget the laws of this chain's candidate rows (its _KeptLaws, rows of arrays
+        shared with the chains finished together: ~0.6 kB a chain) once a plan was made
         of one: a later plan of another candidate makes its row again (_Again: the
         table's computation, solved for the chains asking, the same bits).  Only rows of
         one _figures call (kept one _KeptLaws of the call that set src) are dropped."""
@@ -1151,7 +1324,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
     budget that leaves its (T, beta) alone reuses it.  Once a chain's plan is made, the knots
-    of its candidate rows and its vertex caps are dropped (_drop: ~25 MB on the gyroid plate);
+    of its candidate rows and its vertex caps are dropped (_drop: ~12 MB on the gyroid plate);
     a re-plan that picks another of its candidates solves it again (_again_plans, the same
     bits: tests/test_speed22_chainmem_drop.py)."""
     T_in = np.asarray(T, float)
@@ -1194,6 +1367,12 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         else:
             cold.append(k)
     hit = None
+    if len(lazy) >= TRIM_DROPPED:
+        # the heap's free pages given back before the plans are made: the budget's and the
+        # curves' planning freed ~20 MB in the middle of it since the candidate table, and
+        # the plans would grow the peak on top of them (gyroid plate: peak RSS -1..3 MB)
+        from .pipeline import trim_heap
+        trim_heap()
     # (the rows' kept objects handed over, not held here: _replay drops them as it goes)
     items = [(strokes[k], kept, r) for k, (kept, r) in lazy]
     lazy = [k for k, _ in lazy]
@@ -1233,7 +1412,32 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     each law warm-started from its neighbour's (the one nearest 1 x T_orig first, cold):
     the binding set moves little between close durations.  The laws stay flat arrays
     (laws/chain.FlatLaws), SOLVE_CHUNK chains at a time; their rows are finished by
-    groups of the same number of segments gathered over the chunks (_Finisher)."""
+    groups of the same number of segments gathered over the chunks (_Finisher).
+
+    The chains are taken in the order of their number of segments (stable): the rows of
+    one segment count then come from one or two chunks, and a count's last batch is
+    finished as soon as the chunks have passed it (flush_below), not held (its knots)
+    until the end beside every other count's (~7 MB on the gyroid plate).  Each chain's
+    law is its own whatever chains are solved with it (solve_flat: the same bits, as
+    _knots_again relies on), and each row's finishing its own."""
+    n, k = T.shape
+    if n == 0:
+        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
+    nseg = np.fromiter((curves.geom(strokes[i], profile).d.size for i in rows.tolist()), np.int64, n)
+    perm = np.argsort(nseg, kind="stable")
+    if np.all(perm[1:] > perm[:-1]):
+        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
+    got = _figures_sorted(strokes, rows[perm], pin, T[perm], beta[perm], profile, rules, nseg[perm])
+    out = []
+    for a in got:                     # back in the rows' order
+        b = np.empty_like(a)
+        b[perm] = a
+        out.append(b)
+    return tuple(out)
+
+
+def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
+    """_figures of chains in nondecreasing number of segments nseg (None: no early flush)."""
     n, k = T.shape
     tab = _Table(n, k, T)
     mid = int(np.argmin(np.abs(T[0] / pin.T_orig[rows[0]] - 1.0))) if n else 0
@@ -1241,8 +1445,8 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
     fin = _Finisher(tab, rules, profile)
     fin.src = _Source(T, beta, order, prev, fin.key)
-    for a in range(0, n, SOLVE_CHUNK):      # the laws of one chunk of chains at a time
-        sl = slice(a, min(a + SOLVE_CHUNK, n))
+    for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
+        a = sl.start
         sts = [strokes[i] for i in rows[sl]]
         base = _flat_chains(sts, profile)
         m, nv = len(sts), base.sv.size
@@ -1259,11 +1463,34 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
                         for c in range(k)], axis=1)
+        laws = _LawCols(res, k, base.voff)
         for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
-            fin.add(_Rows(a, sts, T[sl], beta[sl], *item))
-        del res
+            J, rj, rc, _, dt = item[:5]
+            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1])))
+        del res, laws
+        if nseg is not None:            # the counts no later chunk has: their last batches
+            fin.flush_below(int(nseg[sl.stop - 1]))
     fin.flush()
     return tab.ok, tab.tp, tab.ia, tab.iv
+
+
+def _chunks(nseg, n):
+    """_figures' chunks of its n chains: SOLVE_CHUNK chains, or with their numbers of
+    segments nseg (nondecreasing) at most SOLVE_SEGS segments (the chains in the order
+    of their length: the long ones would be a chunk of ~10 x the usual vertices), at least
+    one chain a chunk."""
+    if nseg is None:
+        return [slice(a, min(a + SOLVE_CHUNK, n)) for a in range(0, n, SOLVE_CHUNK)]
+    out = []
+    cum = np.cumsum(nseg)
+    a = 0
+    while a < n:
+        base = cum[a - 1] if a else 0
+        b = int(np.searchsorted(cum, base + SOLVE_SEGS, side="right"))
+        b = min(max(b, a + 1), a + SOLVE_CHUNK, n)
+        out.append(slice(a, b))
+        a = b
+    return out
 
 
 class _Table:
@@ -1279,12 +1506,14 @@ class _Table:
 class _Rows:
     """Candidate rows of chains with the same number of segments n from one chunk (chains
     sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
-    knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain."""
-    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "n")
+    knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain;
+    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[toff[i]:toff[i + 1]]."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "toff", "n")
 
-    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv):
+    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, toff):
         self.a, self.sts, self.T, self.beta = a, sts, T, beta
         self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
+        self.bnd, self.tj, self.toff = bnd, tj, toff
         self.n = dt.shape[1]
 
 
@@ -1328,6 +1557,11 @@ class _Finisher:
             self._finish(rs)
         self.wait = {}
 
+    def flush_below(self, n):
+        """Finish the waiting rows of chains of fewer than n segments."""
+        for q in [q for q in self.wait if q < n]:
+            self._finish(self.wait.pop(q)[0])
+
     def _finish(self, rs):
         profile, rules = self.profile, self.rules
         if self.grouped:
@@ -1352,9 +1586,12 @@ class _Finisher:
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
             J, C = r.a + j[good], r.rc[good]
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
-            kb = (r.vk, r.dt, tr, a2r)
+            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made)
+            kb = (r.bnd, r.tj, r.toff, r.T[j, r.rc], r.beta[j, r.rc], tr, a2r, profile)
+            r.vk = r.dt = None
             first = np.concatenate([[0], np.cumsum(r.ks)]).tolist()
-            plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q]) for q in range(r.J.size)]
+            plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q], r.sts[jj])
+                     for q, jj in enumerate(r.J.tolist())]
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans, self.src, r.a)
 
 
@@ -1460,15 +1697,47 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), IV[rc, j]
 
 
-def _stack_cols(res, k, name):
+class _LawCols:
+    """The laws of one chunk's columns (solve_flat's FlatLaws res[c]) as _KeptLaws keeps a
+    candidate row's law: its binding mask and its pieces' durations."""
+
+    def __init__(self, res, k, voff):
+        self.voff = voff
+        self.BB = _stack_cols(res, k, "bound", bool)
+        # the columns' pieces' durations end to end, chain c's of column q at PO[q, c]:PO[q, c + 1]
+        self.PT = np.concatenate([res[c].piece_T for c in range(k) if c in res])
+        m = voff.size - 1
+        self.PO = PO = np.zeros((k, m + 1), np.int64)
+        at = 0
+        for c in range(k):
+            if c in res:
+                PO[c] = res[c].piece_off + at
+                at += res[c].piece_T.size
+
+    def rows(self, j, rc, n):
+        """(bnd (R, n - 1), tj, toff (R + 1)) of the rows (chain j[i], column rc[i]) of
+        chains of n segments: row i's pieces' durations tj[toff[i]:toff[i + 1]]."""
+        R = j.size
+        if n > 1:
+            bnd = self.BB[rc[:, None], self.voff[j][:, None] + np.arange(n - 1)]
+        else:
+            bnd = np.empty((R, 0), bool)
+        p0 = self.PO[rc, j]
+        cnt = self.PO[rc, j + 1] - p0
+        toff = np.zeros(R + 1, np.int64)
+        np.cumsum(cnt, out=toff[1:])
+        return bnd, self.PT[np.repeat(p0 - toff[:-1], cnt) + np.arange(toff[-1])], toff
+
+
+def _stack_cols(res, k, name, dtype=float):
     """The arrays res[c].<name> of the k columns as the rows of one (k, size) array (a
-    column not solved: a row of nan, never read: use has no row of it)."""
+    column not solved: a row of nan (or False), never read: use has no row of it)."""
     got = [getattr(res[c], name, None) if c in res else None for c in range(k)]
     size = next(a.size for a in got if a is not None)
-    out = np.empty((k, size))
+    out = np.empty((k, size), dtype)
     for c, a in enumerate(got):
         if a is None:
-            out[c] = np.nan
+            out[c] = np.nan if dtype is float else 0
         else:
             out[c] = a
     return out
@@ -1533,6 +1802,9 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
     bc = (Tc / GAMMA_MIN) ** 2
     ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    if rows.size >= TRIM_DROPPED:     # _figures' freed temporaries (its solves' and finishing's)
+        from .pipeline import trim_heap
+        trim_heap()
     _, T, beta, I, KE = empty_table(pin, rows)
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)

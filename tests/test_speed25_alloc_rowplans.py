@@ -12,6 +12,7 @@ for a SegmentPlan of the rows, as before), on real sample files, through budget 
 _fit_budget makes them, and the written G-code of both ways, byte for byte."""
 import os
 import tracemalloc
+import weakref
 
 import numpy as np
 import pytest
@@ -120,7 +121,12 @@ def test_row_plans_hold_less():
 def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     """The first plans of the chains (plan_chain_segments, every chain's candidate rows
     kept): when the first batch of plans is finished, the candidates' knot arrays are gone
-    already (traced memory then below the start by most of their bytes)."""
+    already (traced memory then below the start by most of their bytes).
+    s30: a base keeps the rows' laws (seven arrays, ~2.5 x the chosen rows' knots, not ~5 x
+    as the knots did), and the chosen rows' knots made again before the first plan are a
+    larger share of them: the kept arrays are checked gone (weak references; all but a
+    base shared with a chain not planned in this call) and the
+    traced memory below the start by half of their bytes (0.59 measured), not 0.7."""
     profile = load_profile("prusa-mk3s")
     opts = pipeline.Options()
     opts.ringing = False
@@ -131,14 +137,17 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
 
     def replay(items, rules, prof, drop=False):
         bases = {id(k.base): k.base for _, k, _ in items if type(k) is chains._KeptLaws}
-        seen["knots"] = sum(b[0].nbytes + b[1].nbytes for b in bases.values())
-        bases = None
+        arrays = [a for b in bases.values() for a in b if isinstance(a, np.ndarray)]
+        seen["knots"] = sum(a.nbytes for a in arrays)
+        seen["refs"] = [(weakref.ref(a.base if a.base is not None else a), a.nbytes) for a in arrays]
+        bases = arrays = None
         seen["start"] = tracemalloc.get_traced_memory()[0]
         return real_replay(items, rules, prof, drop)
 
     def finish(*a, **k):
         if "start" in seen and "first" not in seen and k.get("predict", True) is False:
             seen["first"] = tracemalloc.get_traced_memory()[0]
+            seen["alive"] = sum(n for r, n in seen["refs"] if r() is not None)
         return real_finish(*a, **k)
     monkeypatch.setattr(chains, "_replay", replay)
     monkeypatch.setattr(chains, "_finish_stacked_dt", finish)
@@ -149,7 +158,8 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     finally:
         tracemalloc.stop()
     assert seen["knots"] > 2e5
-    assert seen["first"] < seen["start"] - 0.7 * seen["knots"]
+    assert seen["alive"] < 0.1 * seen["knots"] and len(seen["refs"]) > 10   # (a base shared with a chain not planned here lives)
+    assert seen["first"] < seen["start"] - 0.5 * seen["knots"]
 
 
 @pytest.mark.parametrize("name,prof", [CASES[0], CASES[2]])

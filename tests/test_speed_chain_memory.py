@@ -70,7 +70,10 @@ def test_kept_laws_hold_no_accelerations_or_feeds():
         m = strokes[i].chain_T
         for *_, kept in m.rows():
             bases[id(kept.base)] = kept.base
-    assert bases and all(len(b) == 4 and b[2].ndim == 1 for b in bases.values())   # (vk, dt, t, a2) only
+    # s30: (binding mask, pieces' durations, their offsets, T, beta, t, a2, profile) only:
+    # the rows' laws, not even their knots (made again for the row chosen)
+    assert bases and all(len(b) == 8 and b[0].dtype == bool and b[0].ndim == 2 and b[1].ndim == 1
+                         and all(x.ndim == 1 for x in b[2:7]) for b in bases.values())
     n_rows = sum(b[0].shape[0] for b in bases.values())
     assert n_rows >= 3 * rows.size
 

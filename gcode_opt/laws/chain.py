@@ -758,6 +758,25 @@ class _Flat:
         """Laws of the chains `active` (ascending) for the binding vertices `bound`, all
         their pieces in one Newton batch (_share_time); warm[c]: start from the vertex
         times vt, else time shared as a constant speed would share it."""
+        pre = self._fixed_knots(active, bound, vt, warm)
+        kn, beta = pre[5], pre[6]
+        Tj, lam, conv = _share_time(kn[6], beta, kn[7], kn[8], kn[4], self.T[active], kn[9])
+        return self._at_times(*pre, Tj, lam, conv)
+
+    def vertices_at(self, bound, Tj):
+        """(vert_v, vert_t) of every chain's law for the binding mask bound and its pieces'
+        durations Tj (all chains' pieces, chain after chain: FlatLaws.piece_T): what
+        solve_fixed gives for a step whose _share_time gave Tj -- its operations after
+        _share_time on the same inputs, so the same bits (the law of a chain is its pieces'
+        durations: the rest is the knots).  No Newton on the durations: a row of the
+        candidate table is kept as its binding mask and durations (chains._KeptLaws)."""
+        m = self.S.size
+        pre = self._fixed_knots(np.arange(m), bound, np.zeros(self.sv.size), np.zeros(m, bool))
+        st = self._at_times(*pre, np.asarray(Tj, float), None, None, accels=False)
+        return st.vert_v, st.vert_t
+
+    def _fixed_knots(self, active, bound, vt, warm):
+        """solve_fixed's knots and pieces of the chains active (its lines before _share_time)."""
         na = active.size
         nv = self.nv[active]
         on = np.zeros(self.S.size, bool)
@@ -772,13 +791,19 @@ class _Flat:
             kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
         if kn is None:
             kn = self._knots_numpy(active, vi, rank, bvoff, nv, bound, vt, warm)
+        beta = self.beta[active][kn[4]]
+        return active, na, vi, rank, bvoff, kn, beta, bv
+
+    def _at_times(self, active, na, vi, rank, bvoff, kn, beta, bv, Tj, lam, conv, accels=True):
+        """solve_fixed's lines after _share_time: the laws of its pieces' durations Tj, the
+        knot times and the speed and time at every vertex (accels False: the pieces' end
+        accelerations, which vertices_at does not read, left out: None)."""
         ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
         npc = np.diff(koff) - 1                        # pieces per chain
-        Tc = self.T[active]
-        beta = self.beta[active][owner]
-        Tj, lam, conv = _share_time(L, beta, va, vb, owner, Tc, T0)
         law = _step_law(L, Tj, beta, va, vb)
-        a0, a1 = _end_accels(law)                      # s̈ at both ends of every piece
+        a0 = a1 = None
+        if accels:
+            a0, a1 = _end_accels(law)                  # s̈ at both ends of every piece
         # knot times: each chain's cumulative sum of its own pieces (row by row)
         poff = koff[:-1] - np.arange(na)
         kt = np.zeros(ks.size)
@@ -978,6 +1003,9 @@ class FlatLaws:
         if not (pieces and self.pieces):
             self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[1:6])
             _flat_figures(self, full=False)
+            # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
+            # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
+            self.piece_T, self.piece_off = self.T, self.poff
             for f in ("L", "T", "beta", "v0", "v1", "poff"):
                 delattr(self, f)
             return

@@ -5299,13 +5299,15 @@ done:                                        /* (have_x -1: that tuple's ring_op
  * all at 0, ramp at 3n, corner at 6n, turn at 7n; n rows), dr of all and ramp into dr_out
  * (6 n an axis: 0, 3n), drp of all, corner and turn into drp_out (5 n an axis: 0, 3n, 4n).
  * Returns (counts: 8 ints, x's four parts then y's, the new carry: t, vel_end x, y, acc x,
- * y, ux, uy, isb). */
+ * y, ux, uy, isb).  all_only (optional, false if not given): "all"'s events only (the
+ * other parts' counts 0, their outputs not written: a Collector without the parts). */
 static PyObject *mod_ring_events(PyObject *self, PyObject *args)
 {
     Py_buffer mb, tb, rb, pb;
     double c_t, pvx, pvy, pax, pay, pux, puy, pisb, w2[2], corner_cos;
-    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
-                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb))
+    int all_only = 0;
+    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*|p:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
+                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb, &all_only))
         return NULL;
     PyObject *ret = NULL;
     Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
@@ -5369,6 +5371,8 @@ static PyObject *mod_ring_events(PyObject *self, PyObject *args)
                     DR[x][0][j] = dr;
                     DP[x][0][j] = drp;
                 }
+                if (all_only)
+                    continue;
                 if (ramp) {
                     Py_ssize_t j = cnt[x][1]++;
                     T[x][1][j] = t0;
@@ -5728,7 +5732,7 @@ static PyMethodDef mod_methods[] = {
     {"ring_int_r2", mod_ring_int_r2, METH_VARARGS,
      "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
     {"ring_events", mod_ring_events, METH_VARARGS,
-     "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out): the ringing's events"},
+     "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out[, all_only]): the ringing's events"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_peak", mod_ring_peak, METH_VARARGS,

@@ -179,7 +179,11 @@ def _int_r2_core(s, wd):
         osc.s, osc.wd, osc.lam = s, wd, lam
         rng = np.random.default_rng(13)
         ok = True
-        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000, 4097, 5003, 20011) * 3:
+        # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops'
+        # tails) three times over; the large ones (its recursion) once: their 29 k pieces
+        # give the per-piece numbers variety enough (three times was 60 k pieces more,
+        # ~15 ms of every run's first ringing pass)
+        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003, 20011):
             c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
                 + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
             c[rng.uniform(size=n) < 0.05] = 0.0

@@ -683,8 +683,7 @@ USE_EVENTS = True         # tests turn it off: the events by _pieces and numpy (
 
 
 def _events_core():
-    from .firmware import simulate
-    core = simulate._core
+    core = fwsim._core
     return core if USE_EVENTS and core is not None and hasattr(core, "ring_events") else None
 
 
@@ -721,8 +720,7 @@ def _events(m, c: _Carry, model: dict, parts: bool = True):
 
 def _row_sink_type():
     """The compiled firmware core's RowSink, or None (pure Python, or a core without it)."""
-    from .firmware import simulate
-    core = simulate._core
+    core = fwsim._core
     return getattr(core, "RowSink", None) if core is not None and USE_SINK else None
 
 

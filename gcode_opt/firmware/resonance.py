@@ -45,10 +45,19 @@ _KERNEL_OK = {}
 USE_KERNEL = True        # tests turn it off: numpy's exponentials for reference
 
 
+_SIMULATE = None          # the simulate module, once imported here (its _core read each call: tests swap it)
+
+
 def _core():
-    from . import simulate
-    return simulate._core if USE_KERNEL and simulate._core is not None \
-        and hasattr(simulate._core, "ring_exps") else None
+    global _SIMULATE
+    simulate = _SIMULATE
+    if simulate is None:
+        # (imported on first use, not at the top: simulate is the heavier module; an import
+        # statement per call was ~9 us of importlib's bookkeeping, ~1 k calls a pass)
+        from . import simulate
+        _SIMULATE = simulate
+    core = simulate._core
+    return core if USE_KERNEL and core is not None and hasattr(core, "ring_exps") else None
 
 
 def _probe(span):

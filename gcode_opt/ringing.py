@@ -629,7 +629,7 @@ class Collector:
         self.time_t += float(counted[:, 6:9].sum())
         self.skip_first = False
         self.chunks += 1
-        got = _events(m, self.carry, self.model) if self.smooth is None else None
+        got = _events(m, self.carry, self.model, len(self.parts) > 1) if self.smooth is None else None
         if got is None:             # (without a shaper the core's events are all a chunk needs)
             tr = _pieces(m, self.carry, self.smooth is not None)
             got = {}
@@ -683,16 +683,16 @@ USE_EVENTS = True         # tests turn it off: the events by _pieces and numpy (
 
 
 def _events_core():
-    from .firmware import simulate
-    core = simulate._core
+    core = fwsim._core
     return core if USE_EVENTS and core is not None and hasattr(core, "ring_events") else None
 
 
-def _events(m, c: _Carry, model: dict):
+def _events(m, c: _Carry, model: dict, parts: bool = True):
     """{(axis, part): (t, dr, drp)}: the events Collector._flush hands each stream, from the
     rows m (k x 12) following on from c (c moves to their end, as _pieces moves it), by the
     compiled core's ring_events (the same numbers as _pieces without positions, _jumps and
-    the parts' masks: the same operations in the same order); None without the core."""
+    the parts' masks: the same operations in the same order); None without the core.
+    Without `parts`, "all"'s only (the core writes no other part's)."""
     core = _events_core()
     if core is None:
         return None
@@ -701,7 +701,7 @@ def _events(m, c: _Carry, model: dict):
     w = [2.0 * math.pi * model[f"freq_{name}_hz"] for name in "xy"]     # _jumps' w, and its w * w
     counts, t, vx, vy, ax_, ay_, ux, uy, isb = core.ring_events(
         np.ascontiguousarray(m), c.t, float(c.vel_end[0]), float(c.vel_end[1]), float(c.acc[0]), float(c.acc[1]),
-        c.ux, c.uy, c.isb, w[0] * w[0], w[1] * w[1], CORNER_COS, t_out, dr_out, drp_out)
+        c.ux, c.uy, c.isb, w[0] * w[0], w[1] * w[1], CORNER_COS, t_out, dr_out, drp_out, not parts)
     c.t = t
     c.vel_end, c.acc = np.array([vx, vy]), np.array([ax_, ay_])
     c.ux, c.uy, c.isb = ux, uy, isb
@@ -710,6 +710,8 @@ def _events(m, c: _Carry, model: dict):
         n_all, n_ramp, n_corner, n_turn = counts[4 * a:4 * a + 4]
         T, R, P = t_out[8 * n * a:], dr_out[6 * n * a:], drp_out[5 * n * a:]
         got[name, "all"] = (T[:n_all], R[:n_all], P[:n_all])
+        if not parts:
+            continue
         got[name, "ramp"] = (T[3 * n:3 * n + n_ramp], R[3 * n:3 * n + n_ramp], np.zeros(n_ramp))
         got[name, "corner"] = (T[6 * n:6 * n + n_corner], np.zeros(n_corner), P[3 * n:3 * n + n_corner])
         got[name, "turn"] = (T[7 * n:7 * n + n_turn], np.zeros(n_turn), P[4 * n:4 * n + n_turn])
@@ -718,8 +720,7 @@ def _events(m, c: _Carry, model: dict):
 
 def _row_sink_type():
     """The compiled firmware core's RowSink, or None (pure Python, or a core without it)."""
-    from .firmware import simulate
-    core = simulate._core
+    core = fwsim._core
     return getattr(core, "RowSink", None) if core is not None and USE_SINK else None
 
 

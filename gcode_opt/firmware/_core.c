@@ -5032,6 +5032,42 @@ done:
  * cos(qi dur), sin(qi dur)) each; a piece here with the start and the length (bits) of one
  * there takes its numbers (the same argument: the same exponentials).  out_v (3 numbers a
  * piece, or None) receives this call's. */
+/* The pieces' exponentials by their length: (exp(qr dur), cos(qi dur), sin(qi dur)) for
+ * the last pieces of each length seen (a direct-mapped table on dur's bits, kept from call
+ * to call for one (qr, qi); another pair clears it).  The plates' pieces are of few lengths
+ * (a move's ramps last (v - v0) / a, the same for many moves): on the gyroid plate 83 % of
+ * the pieces whose exponentials a chunk computed had a length an earlier piece of the chunk
+ * had.  The same arguments give the same numbers, so a hit is what libm would give. */
+typedef struct {
+    uint64_t key;             /* dur's bits; RING_DUR_NONE: empty */
+    double ex, cs, sn;
+} RingDur;
+#define RING_DUR_BITS 12
+#define RING_DUR_NONE UINT64_MAX      /* a NaN's bits: never a (finite) length's */
+static RingDur *ring_dur = NULL;
+static uint64_t ring_dur_qr = 0, ring_dur_qi = 0;
+
+/* dur's slot for (qr, qi) (the table made or cleared as needed), or NULL without memory
+ * (then libm, as without the table) */
+static inline RingDur *ring_dur_slot(double qr, double qi, uint64_t d_bits)
+{
+    uint64_t br, bi;
+    memcpy(&br, &qr, sizeof br);
+    memcpy(&bi, &qi, sizeof bi);
+    if (ring_dur == NULL || br != ring_dur_qr || bi != ring_dur_qi) {
+        if (ring_dur == NULL) {
+            ring_dur = PyMem_Malloc(sizeof(RingDur) << RING_DUR_BITS);
+            if (ring_dur == NULL)
+                return NULL;
+        }
+        for (size_t k = 0; k < ((size_t)1 << RING_DUR_BITS); k++)
+            ring_dur[k].key = RING_DUR_NONE;
+        ring_dur_qr = br;
+        ring_dur_qi = bi;
+    }
+    return ring_dur + ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_BITS));
+}
+
 /* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
  * finite.  decay2 NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same
  * argument: ring_solve's caller checked numpy's exp is libm's); absc (or NULL): |c| each. */
@@ -5078,9 +5114,22 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
                     }
             }
             if (!got) {
-                double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
-                ex = exp(x);
-                ring_sincos(y, &sn, &cs);
+                RingDur *slot = ring_dur_slot(qr, qi, d_bits);
+                if (slot != NULL && slot->key == d_bits) {
+                    ex = slot->ex;
+                    cs = slot->cs;
+                    sn = slot->sn;
+                } else {
+                    double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
+                    ex = exp(x);
+                    ring_sincos(y, &sn, &cs);
+                    if (slot != NULL) {
+                        slot->key = d_bits;
+                        slot->ex = ex;
+                        slot->cs = cs;
+                        slot->sn = sn;
+                    }
+                }
             }
             if (d_bits == zero_bits) {
                 ex0 = ex;
@@ -5563,13 +5612,15 @@ done:                                        /* (have_x -1: that tuple's ring_op
  * all at 0, ramp at 3n, corner at 6n, turn at 7n; n rows), dr of all and ramp into dr_out
  * (6 n an axis: 0, 3n), drp of all, corner and turn into drp_out (5 n an axis: 0, 3n, 4n).
  * Returns (counts: 8 ints, x's four parts then y's, the new carry: t, vel_end x, y, acc x,
- * y, ux, uy, isb). */
+ * y, ux, uy, isb).  all_only (optional, false if not given): "all"'s events only (the
+ * other parts' counts 0, their outputs not written: a Collector without the parts). */
 static PyObject *mod_ring_events(PyObject *self, PyObject *args)
 {
     Py_buffer mb, tb, rb, pb;
     double c_t, pvx, pvy, pax, pay, pux, puy, pisb, w2[2], corner_cos;
-    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
-                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb))
+    int all_only = 0;
+    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*|p:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
+                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb, &all_only))
         return NULL;
     PyObject *ret = NULL;
     Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
@@ -5633,6 +5684,8 @@ static PyObject *mod_ring_events(PyObject *self, PyObject *args)
                     DR[x][0][j] = dr;
                     DP[x][0][j] = drp;
                 }
+                if (all_only)
+                    continue;
                 if (ramp) {
                     Py_ssize_t j = cnt[x][1]++;
                     T[x][1][j] = t0;
@@ -5837,6 +5890,11 @@ static PyObject *mod_ring_release(PyObject *self, PyObject *noargs)
     PyMem_Free(ring_scratch);
     ring_scratch = NULL;
     ring_scratch_n = 0;
+    if (ring_dur != NULL) {                  /* (the pieces' table: made again when next asked) */
+        held += sizeof(RingDur) << RING_DUR_BITS;
+        PyMem_Free(ring_dur);
+        ring_dur = NULL;
+    }
     return PyLong_FromSize_t(held);
 }
 
@@ -5992,7 +6050,7 @@ static PyMethodDef mod_methods[] = {
     {"ring_int_r2", mod_ring_int_r2, METH_VARARGS,
      "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
     {"ring_events", mod_ring_events, METH_VARARGS,
-     "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out): the ringing's events"},
+     "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out[, all_only]): the ringing's events"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_peak", mod_ring_peak, METH_VARARGS,

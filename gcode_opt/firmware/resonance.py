@@ -45,10 +45,19 @@ _KERNEL_OK = {}
 USE_KERNEL = True        # tests turn it off: numpy's exponentials for reference
 
 
+_SIMULATE = None          # the simulate module, once imported here (its _core read each call: tests swap it)
+
+
 def _core():
-    from . import simulate
-    return simulate._core if USE_KERNEL and simulate._core is not None \
-        and hasattr(simulate._core, "ring_exps") else None
+    global _SIMULATE
+    simulate = _SIMULATE
+    if simulate is None:
+        # (imported on first use, not at the top: simulate is the heavier module; an import
+        # statement per call was ~9 us of importlib's bookkeeping, ~1 k calls a pass)
+        from . import simulate
+        _SIMULATE = simulate
+    core = simulate._core
+    return core if USE_KERNEL and core is not None and hasattr(core, "ring_exps") else None
 
 
 def _probe(span):
@@ -179,7 +188,11 @@ def _int_r2_core(s, wd):
         osc.s, osc.wd, osc.lam = s, wd, lam
         rng = np.random.default_rng(13)
         ok = True
-        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000, 4097, 5003, 20011) * 3:
+        # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops'
+        # tails) three times over; the large ones (its recursion) once: their 29 k pieces
+        # give the per-piece numbers variety enough (three times was 60 k pieces more,
+        # ~15 ms of every run's first ringing pass)
+        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003, 20011):
             c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
                 + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
             c[rng.uniform(size=n) < 0.05] = 0.0

@@ -28,6 +28,7 @@ T_RATIOS = np.array([0.70, 0.75, 0.80, 0.85, 0.90, 0.93, 0.96, 0.98, 1.0, 1.01, 
 GAMMA_LO, GAMMA_HI = 1e-4, 1e6          # gamma = T/sqrt(beta): cubic ... constant speed
 SPEED_TOL_R = 1e-6                      # relative slack when comparing with a cap
 CANDIDATE_CHUNK = 2048                  # strokes per batch of line candidates (bounded memory)
+_F64 = np.dtype(float)
 
 
 class PlanInput:
@@ -346,6 +347,90 @@ def candidate_pieces(p: PlanInput, rows, T_orig, chunk=CANDIDATE_CHUNK):
     if len(p.L) <= chunk:
         return [Candidates.piece(rows, _candidates_auto(p), T_orig)]
     return [Candidates.piece(rows[a:b], tables, T_orig) for a, b, tables in _chunk_tables(p, chunk)]
+
+
+def pieces_once(make, p: PlanInput, rows, T_orig):
+    """make(p, rows, T_orig) (candidate_pieces: [Candidates.piece]) with each distinct set
+    of inputs made once (_same_inputs): strokes with the same inputs, bit for bit, have the
+    same entries (each entry is its row's own), so the first of each is made and the
+    others take its entries (_spread).  Where no set repeats enough, or make's pieces are
+    not the first rows' in order, make of every row."""
+    rows = np.asarray(rows)
+    same = _same_inputs(p)
+    if same is None:
+        return make(p, rows, T_orig)
+    first, inv = same
+    made = make(p.take(first), rows[first], T_orig)
+    if not np.array_equal(np.concatenate([pc[0] for pc in made]) if made else rows[:0], rows[first]):
+        return make(p, rows, T_orig)
+    return [_spread(rows[a:a + SPREAD_ROWS], inv[a:a + SPREAD_ROWS], made)
+            for a in range(0, rows.size, SPREAD_ROWS)]
+
+
+SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share
+SPREAD_ROWS = 1 << 14   # pieces_once: rows whose piece _spread makes at once (bounded temporaries)
+
+
+def _same_inputs(p: PlanInput):
+    """(first, inv): the strokes of p whose candidate inputs (L, v0, v1, v_cap, a_cap,
+    T_orig, t_seg_min: all that _live_entries and _live_tables read) are the first
+    of their bytes, in order, and each stroke's place among them (p's row q has the
+    inputs of row first[inv[q]], bit for bit); None where that is not worth it (fewer than
+    1 / SAME_MAX_R strokes a set of inputs) or the inputs are not plain (_live_entries:
+    every chunk then takes the live path, whose entries are each row's own, as they
+    are in any chunk).  The rectilinear plate's 48.6 k lines have 6.2 k sets of inputs
+    (the layers of a prism repeat their perimeters and infill: its line candidates ~0.16
+    -> ~0.06 s); the gyroid plate's 13.8 k have 6.7 k, too many to pay (schedule's
+    _lines_repeat: no pieces_once there)."""
+    n = len(p.L)
+    if n < 2:
+        return None
+    cols = (p.L, p.v0, p.v1, p.v_cap, p.a_cap, p.T_orig, p.t_seg_min)
+    if not all(type(c) is np.ndarray and c.dtype == _F64 and c.shape == (n,) for c in cols):
+        return None
+    if not _plain(p):
+        return None
+    X = np.empty((n, len(cols)))
+    for j, c in enumerate(cols):
+        X[:, j] = c
+    # by their bytes (-0.0 and 0.0 apart): np.unique's first of each (a stable sort)
+    _, first, inv = np.unique(X.view(np.dtype((np.void, X.itemsize * len(cols)))).ravel(),
+                              return_index=True, return_inverse=True)
+    if first.size > SAME_MAX_R * n:
+        return None
+    order = np.argsort(first)               # the sets in the order of their first stroke
+    place = np.empty_like(order)
+    place[order] = np.arange(order.size)
+    return first[order], place[inv.ravel()]
+
+
+def _plain(p: PlanInput):
+    """_live_entries' test of plain inputs on the (n, k) durations T_orig x T_RATIOS, made
+    on their least and largest columns only: a product by a constant > 0, the quotient
+    and the square round monotonically, so a row's least (greatest) duration and its
+    square are those of its least (largest) ratio, and every duration is finite and > 0,
+    and squares to > 0, where those are (a NaN fails both ways)."""
+    T = p.T_orig[:, None] * T_RATIOS[None, [int(np.argmin(T_RATIOS)), int(np.argmax(T_RATIOS))]]
+    with np.errstate(all="ignore"):
+        return bool(np.isfinite(T).all() and (T > 0).all() and np.isfinite(p.L).all()
+                    and np.isfinite(p.v0).all() and np.isfinite(p.v1).all()
+                    and ((T[:, 0] / (2.0 * GAMMA_HI)) ** 2 > 0.0).all())
+
+
+def _spread(rows, inv, pieces):
+    """One Candidates.piece of the strokes rows from the pieces of their distinct inputs
+    (in order, covering them all; rows[q] takes the entries of distinct row inv[q]): the
+    same mask, entries (row-major), t_pos and bad rows as the piece made of every row."""
+    mask_u = np.concatenate([pc[1] for pc in pieces])
+    vals_u = np.concatenate([pc[2] for pc in pieces], axis=1)
+    t_pos_u = np.concatenate([pc[3] for pc in pieces])
+    bad_u = np.concatenate([pc[4] for pc in pieces])
+    cnt_u = mask_u.sum(axis=1)
+    start_u = np.cumsum(cnt_u) - cnt_u
+    cnt = cnt_u[inv]
+    run = np.cumsum(cnt) - cnt              # each row's first entry in the piece
+    pos = np.repeat(start_u[inv] - run, cnt) + np.arange(int(run[-1] + cnt[-1]) if cnt.size else 0)
+    return rows, mask_u[inv], vals_u[:, pos], t_pos_u[inv], bad_u[inv]
 
 
 def _chunk_tables(p: PlanInput, chunk):

@@ -34,11 +34,30 @@ from . import curves
 from .corners import junction_commands
 from .laws import circle
 from .coverage import feature_overshoot_r
-from .plan import (Candidates, Plan, PlanInput, candidate_pieces, input_faults, isolate, plan_auto,
+from .plan import (Candidates, Plan, PlanInput, candidate_pieces, input_faults, isolate, pieces_once, plan_auto,
                    plan_fixed_alpha)
 from .profile import Profile
-from .segments import RowPlan, SegmentPlan, SegmentRules, plan_segments, slowed_original
+from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, row_classes,
+                       slowed_original)
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
+
+
+def _line_segments(sts, T, beta, rules, same=None):
+    """plan_segments of lines; same: their line classes (segments.line_classes), whose
+    lines at one (T, beta) are planned once (segments.plan_once), or None."""
+    if same is not None:
+        got = plan_once(lambda s, t, b: plan_segments(s, t, b, rules), sts, T, beta, same)
+        if got is not None:
+            return got
+    return plan_segments(sts, T, beta, rules)
+
+
+def _line_candidates(pin, rows):
+    """candidate_pieces of the lines rows, each set of inputs made once where many repeat
+    (plan.pieces_once; _lines_repeat)."""
+    if _lines_repeat(pin, rows):
+        return pieces_once(lambda p, r, t: candidate_pieces(p, r, t), pin.take(rows), rows, pin.T_orig)
+    return candidate_pieces(pin.take(rows), rows, pin.T_orig)
 
 
 class Kind:
@@ -60,8 +79,8 @@ def _fixed_lines(plan, pin, rows, strokes, profile, alpha, rules):
 
 
 KINDS = {
-    K_LINE: Kind(lambda pin, r, sts, prof, rules: _Pieces(candidate_pieces(pin.take(r), r, pin.T_orig)), _fixed_lines,
-                 lambda sts, T, b, rules, prof: plan_segments(sts, T, b, rules), batch=False),
+    K_LINE: Kind(lambda pin, r, sts, prof, rules: _Pieces(_line_candidates(pin, r)), _fixed_lines,
+                 lambda sts, T, b, rules, prof, same=None: _line_segments(sts, T, b, rules, same), batch=False),
     K_ARC: Kind(lambda pin, r, sts, prof, rules: arcs.candidates_arc(pin, r, sts),
                 lambda plan, pin, r, sts, prof, alpha, rules: arcs.fixed_alpha_arc(plan, pin, r, sts, alpha),
                 lambda sts, T, b, rules, prof: arcs.plan_arc_segments(sts, T, b, rules, prof),
@@ -152,7 +171,10 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
             # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
             # were ~33 MB at once on the rectilinear plate, before they were made sparse
             # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
-            step = CANDIDATE_ROWS if k == K_LINE else max(ok[k].size, 1)
+            # (lines all at once where many repeat: plan.pieces_once makes each set of
+            # inputs once, and candidate_pieces its pieces chunk by chunk)
+            step = (CANDIDATE_ROWS if not _lines_repeat(pin, ok[k]) else max(ok[k].size, 1)) if k == K_LINE \
+                else max(ok[k].size, 1)
             for a in range(0, ok[k].size, step):
                 for sub, tables in isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
                                            ok[k][a:a + step], "planning", failed):
@@ -381,6 +403,7 @@ class SegmentCache:
         self.line_why = {}              # row -> why segmenting it failed (failures only)
         self.batch = {}                 # kind -> (key, {row: seg}, {row: why})
         self.row_tb = {}                # kind -> {row: its (T, beta) bytes} when the batch is rows' own
+        self.line_class = None          # row -> its segments.line_classes class (plan_strokes sets it)
 
     @staticmethod
     def _key(rows, T, beta):
@@ -479,6 +502,12 @@ class SegmentCache:
             for i in rows_l:
                 self.line_why.pop(i, None)
 
+    def alone(self, i):
+        """Stroke i's fields changed (a lead-out): it is a line class of its own from now on."""
+        cls = self.line_class
+        if cls is not None and 0 <= i < cls.size:
+            cls[i] = cls.max() + 1
+
     def forget_line(self, i):
         """Stroke i's line plan is no longer the one its (T, beta) gives (a lead-out changed)."""
         self.forget_lines(np.array([i]))
@@ -548,6 +577,14 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # the strokes whose start corners.py slowed by a junction command (set before planning,
     # read by every run's _attach_commands and _keep_slowed_corners)
     cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes))
+    # each line's class (segments.line_classes): the lines of one class at one (T, beta)
+    # are segmented once a batch (a plate's layers repeat their strokes); None where few
+    # lines repeat (then every line is segmented, as before)
+    line_cls = None
+    if _lines_repeat(pin, rows[K_LINE]):
+        line_cls = np.arange(len(strokes), dtype=np.int64)
+        line_cls[rows[K_LINE]] = len(strokes) + line_classes([strokes[i] for i in rows[K_LINE].tolist()])
+    seg_cache.line_class = line_cls
 
     def run(budget):
         plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
@@ -566,7 +603,12 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         segs = {}
         seg_failed = {}
         for k_name, kind_of in KINDS.items():
-            fn = (lambda k: lambda sts, T, b: k.segments(sts, T, b, rules, profile))(kind_of)
+            if k_name == K_LINE:      # with the lines' classes (the same plans, made once a class and law)
+                fn = (lambda k: lambda r: k.segments([strokes[i] for i in r], plan.T[r], plan.beta[r], rules,
+                                                      profile, same=None if line_cls is None else line_cls[r]))(kind_of)
+            else:
+                fn = (lambda k: lambda r: k.segments([strokes[i] for i in r], plan.T[r], plan.beta[r], rules,
+                                                      profile))(kind_of)
             ii = idx[kind == k_name]
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
             segs.update(got)
@@ -576,8 +618,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             def solve(rows):
                 made, why = {}, {}
                 n0 = circle.NEWTON_ARCS[0]
-                for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
-                                        rows, "segments", why):
+                for sub, res in isolate(fn, rows, "segments", why):
                     made.update(zip(sub.tolist(), res))
                 return made, why, circle.NEWTON_ARCS[0] == n0 and not why
 
@@ -617,6 +658,19 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 
 
 _NOT_BEATING = "segments would not beat the original"
+REPEAT_R = 0.35         # _lines_repeat: at most this share of the lines distinct
+
+
+def _lines_repeat(pin, rows):
+    """Do enough of the lines rows repeat another one for segments.line_classes (reading
+    ~16 fields of every line, ~1.4 µs a line) to pay: at most REPEAT_R of them distinct in
+    (L, v0, v1, T_orig) as plan_inputs read them (a guess only: the classes are made
+    of the strokes' own fields).  The rectilinear plate's 48.6 k lines: 13 % distinct (its
+    budget runs then segment ~6 k lines, not ~68 k); the gyroid plate's 13.8 k: 49 %."""
+    if rows.size < 2:
+        return False
+    X = np.stack([pin.L[rows], pin.v0[rows], pin.v1[rows], pin.T_orig[rows]], axis=1).astype(float)
+    return bool(distinct(row_classes(X.view(np.int64))).size <= REPEAT_R * rows.size)
 
 
 def _keep_plans(plan, strokes, idx, segs, seg_failed):
@@ -813,6 +867,7 @@ def _own_lead_out(plan, strokes, pin, rules, seg_cache, a):
     """Stroke a's segments with its own lead-out at its lowered end, or a left as sliced."""
     st = strokes[a]
     st.corner_cmd1 = False
+    seg_cache.alone(a)                        # (its class's plans are not its own any more)
     seg_cache.forget_line(a)
     try:
         seg = KINDS[K_LINE].segments([st], plan.T[[a]], plan.beta[[a]], rules, None)[0]

@@ -10,9 +10,11 @@ motion is slow) and every original vertex is a knot, so the toolpath keeps its p
 """
 from __future__ import annotations
 
+import copy
 from collections import deque
 from itertools import compress, repeat
-from operator import attrgetter
+from functools import partial
+from operator import attrgetter, is_, is_not
 
 import numpy as np
 
@@ -584,6 +586,144 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     return plans
 
 
+SAME_MAX_R = 0.8        # plan_once: worth it where the distinct plans are at most this share
+
+
+def plan_once(plan_fn, strokes, T, beta, same):
+    """plan_fn(strokes, T, beta) (plan_segments with its rules) of the strokes, the
+    strokes of one line class (same: line_classes) at the same (T, beta) bytes planned
+    once: the first of each, in order; the others take a copy of its plan (_twin).
+    Every step of plan_segments is per stroke (the SegmentCache reuses a line's plan
+    across batches on that ground) and reads only what line_classes compares, so each
+    copy is the plan the stroke would be given itself.  None where that is not worth it
+    (more than SAME_MAX_R of the strokes distinct): the caller plans them all.  The
+    rectilinear plate's budget runs planned ~38.7 k and ~29.5 k lines, of ~3.9 k and
+    ~2.1 k distinct ones (its layers repeat)."""
+    m = len(strokes)
+    if m < 2:
+        return None
+    T, beta = np.asarray(T), np.asarray(beta)
+    if not (T.dtype == beta.dtype == _F64 and T.shape == beta.shape == (m,) and np.shape(same) == (m,)):
+        return None
+    key = np.empty((m, 3))
+    key[:, 0], key[:, 1], key[:, 2] = T, beta, 0.0
+    key.view(np.int64)[:, 2] = same         # (the class's int64 bytes)
+    # first[k]: the first stroke of key k (keys in the order of their bytes); inv[q]: q's key
+    _, first, inv = np.unique(key.view(np.dtype((np.void, 24))).ravel(), return_index=True, return_inverse=True)
+    if first.size > SAME_MAX_R * m:
+        return None
+    order = np.argsort(first)               # the keys in the order of their first stroke
+    rows = first[order]
+    place = np.empty_like(order)            # key -> its place in rows
+    place[order] = np.arange(order.size)
+    made = plan_fn([strokes[i] for i in rows.tolist()], T[rows], beta[rows])
+    # each stroke's plan: the first's own object, the others a copy (their figures and
+    # verdicts the same, their junction commands their own: schedule._command_for)
+    out = list(map(made.__getitem__, place[inv.ravel()].tolist()))
+    twin = np.ones(m, bool)
+    twin[rows] = False
+    for q in np.flatnonzero(twin).tolist():
+        out[q] = _twin(out[q])
+    return out
+
+
+def _twin(p):
+    """A plan of its own with p's arrays (shared: no plan's arrays are written in place,
+    only replaced: SegmentPlan's setters), figures, shape, commands and verdict."""
+    if p is None:
+        return None
+    if type(p) is RowPlan:
+        q = RowPlan(p._s, p._v, p._accel, p._feed, p._row, p.time_t, p.int_a2, p.shape, p.first_cmds)
+    elif type(p) is SegmentPlan:
+        q = SegmentPlan(p._s, p._v, p._accel, p._feed, p.time_t, p.int_a2, p.shape, p.first_cmds)
+    else:
+        return copy.copy(p)
+    q.fault = p.fault
+    return q
+
+
+_LINE_FLOATS = ("length_d", "v0", "v1", "int_a2", "ux", "uy", "accel", "v_feed")
+_LINE_MAYBE = ("_pux", "_puy", "_nux", "_nuy", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+
+
+def line_classes(strokes):
+    """An int per stroke: two strokes of one class have every field plan_segments reads
+    (length_d, v0, v1, int_a2, ux, uy, accel, v_feed, the neighbours' directions, v0_fw,
+    v1_fw, corner_cmd0 / corner_cmd1, lim's values: the scalars _finish_jerk_rows,
+    _finish, _jerk_corner_rows, _corner_rows and line_trapezoids read) the same, bit for
+    bit and of the same type, and one move each (ends_d is (length_d,): no vertex).
+    Strokes of several moves, with a field of another type, or not Strokes, are each
+    a class of their own.  Fields set after (schedule: a lead-out) need the stroke's
+    class made its own again (schedule.SegmentCache.alone)."""
+    m = len(strokes)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    if set(map(type, strokes)) != {Stroke}:
+        return np.arange(m, dtype=np.int64)
+    first, last = line_spans(strokes)
+    alone = last != first
+    alone |= np.fromiter(map(_IS_NOT_NONE, map(_ENDS, strokes)), bool, m)
+    cols = []                               # float64 columns, compared by their bytes
+    for name in _LINE_FLOATS + _LINE_MAYBE:
+        vals = list(map(attrgetter(name), strokes))
+        types = set(map(type, vals))
+        if types == {float}:
+            cols.append(np.fromiter(vals, float, m))
+        elif types == {_NONE_TYPE}:
+            continue                        # (all None: nothing apart)
+        elif types == {bool}:
+            cols.append(np.fromiter(vals, bool, m).astype(float))
+        elif types == {float, _NONE_TYPE}:
+            # None apart from any float (NaN included): a column of which are None
+            cols.append(np.array(vals, float))
+            cols.append(np.fromiter(map(_IS_NONE, vals), bool, m).astype(float))
+        else:                               # (values of other or mixed types: those strokes alone)
+            odd = np.fromiter(map(_NOT_FLOAT, vals), bool, m)
+            alone |= odd
+            cols.append(np.array([0.0 if o else v for v, o in zip(vals, odd.tolist())], float))
+    # lim: by its values (few distinct objects)
+    lims = list(map(_LIM, strokes))
+    by_id, by_val = {}, {}
+    for lim in dict(zip(map(id, lims), lims)).values():
+        try:
+            key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
+                        for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
+            by_id[id(lim)] = by_val.setdefault(key, len(by_val))
+        except (AttributeError, TypeError):
+            by_id[id(lim)] = -1
+    lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
+    alone |= lim_k < 0
+    X = np.empty((m, len(cols) + 1))
+    for j, c in enumerate(cols):
+        X[:, j] = c
+    X.view(np.int64)[:, -1] = lim_k
+    out = row_classes(X.view(np.int64))
+    k = np.flatnonzero(alone)
+    out[k] = out.max() + 1 + np.arange(k.size)      # each a class of its own
+    return out
+
+
+def row_classes(B):
+    """A class per row of the int64 array B (m, w): rows of one class equal, entry for
+    entry.  Rows are hashed to one int64 (a wrapping sum of products by odd constants),
+    sorted by it, and each row then compared with the first of its hash: one that differs
+    (a collision) is a class of its own."""
+    m, w = B.shape
+    mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
+    U = B.view(np.uint64)
+    h = np.zeros(m, np.uint64)
+    for j in range(w):
+        x = U[:, j] * mult[j]
+        h ^= x ^ (x >> np.uint64(29))
+        h *= np.uint64(0xBF58476D1CE4E5B9)
+    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    out = inv.astype(np.int64)
+    odd = np.flatnonzero((B != B[first[inv]]).any(axis=1))
+    out[odd] = first.size + np.arange(odd.size)
+    return out
+
+
 def _segment_counts(strokes, T, rules, L=None):
     """[segment_count(t, st.length_d, rules.n_max, rules.seg_t, rules.min_seg_d)] as an int
     array: the same truncated quotients and the same least of three (exact on floats that
@@ -1045,6 +1185,18 @@ _V0_FW, _V1_FW, _UX, _UY = (attrgetter(a) for a in ("v0_fw", "v1_fw", "ux", "uy"
 _ACCEL, _V_FEED, _LIM, _JERK_X, _JERK_Y = (attrgetter(a) for a in ("accel", "v_feed", "lim", "jerk_x", "jerk_y"))
 _LENGTH_D, _V0, _V1, _INT_A2 = (attrgetter(a) for a in ("length_d", "v0", "v1", "int_a2"))
 _NAN = float("nan")
+_ENDS = attrgetter("_ends")
+_LIM_FIELDS = ("v_max", "ax_max", "ay_max", "scv", "mcr", "jd", "jerk_x", "jerk_y")
+
+
+_IS_NOT_NONE, _IS_NONE = partial(is_not, None), partial(is_, None)
+
+
+def _NOT_FLOAT(x):
+    return type(x) is not float
+
+
+_NONE_TYPE = type(None)
 _JD, _AX_MAX, _AY_MAX, _PREV_U, _NEXT_U = (attrgetter(a) for a in ("jd", "ax_max", "ay_max", "prev_u", "next_u"))
 _PUX, _PUY, _NUX, _NUY, _CMD0, _CMD1 = (attrgetter(a) for a in ("_pux", "_puy", "_nux", "_nuy", "corner_cmd0",
                                                                  "corner_cmd1"))

@@ -14,41 +14,12 @@ import pytest
 
 from gcode_opt import chains, curves
 from gcode_opt.laws import chain as lc
-from gcode_opt.pipeline import Options, analyse
-from gcode_opt.profile import load_profile
-from gcode_opt.schedule import plan_inputs
-from gcode_opt.segments import SegmentRules
-from gcode_opt.strokes import K_CHAIN
+
+from chain_cases import chain_strokes, fresh_chains, float_bits
 
 CASES = [("sample_gcode/prusa_gyroid_fullspeed.gcode", "prusa-mk3s"),
          ("sample_gcode/prusa_gyroid_fullspeed_klipper.gcode", "voron24")]
-_CACHE = {}
-
-
-def _chains(path, prof_name):
-    key = (path, prof_name)
-    if key not in _CACHE:
-        prof = load_profile(prof_name)
-        opts = Options()
-        opts.ringing = False
-        strokes, _ = analyse(path, prof, opts)
-        pin = plan_inputs(strokes, prof, opts)
-        rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == K_CHAIN], int)
-        _CACHE[key] = (strokes, pin, rows, prof)
-    return _CACHE[key]
-
-
-def _fresh(path, prof_name):
-    strokes, pin, rows, prof = _chains(path, prof_name)
-    for i in rows.tolist():
-        strokes[i].chain_T = chains.ChainMemo()
-        strokes[i].curv = None
-    curves.build_geoms([strokes[i] for i in rows.tolist()], prof, jerk1=True)
-    return strokes, pin, rows, prof, SegmentRules.for_profile(prof, 10)
-
-
-def _bits(x):
-    return np.ascontiguousarray(np.asarray(x, float)).view(np.int64).tobytes()
+_chains, _fresh, _bits = chain_strokes, fresh_chains, float_bits
 
 
 def _column_solves(strokes, pin, rows, prof):

@@ -3006,6 +3006,23 @@ static double c_hypot(double dx, double dy)
     return h / scale;
 }
 
+/* *d = math.hypot(dx, dy), the Python call; -1 with an exception set if it fails */
+static int call_hypot(double dx, double dy, double *d)
+{
+    PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
+    if (hx != NULL && hy != NULL) {
+        PyObject *ha[2] = {hx, hy};
+        h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
+    }
+    Py_XDECREF(hx);
+    Py_XDECREF(hy);
+    if (h == NULL)
+        return -1;
+    *d = PyFloat_AsDouble(h);
+    Py_DECREF(h);
+    return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
 /* c_hypot gives math.hypot's bits on a spread of pairs (zeros, subnormals, huge, equal,
  * the mm lengths of G-code): 1, else 0 (py_hypot then calls math.hypot); -1 an error */
 static int HYPOT_SAME = -2;                            /* -2: not checked yet */
@@ -3020,17 +3037,8 @@ static int hypot_same(void)
     for (int a = 0; a < n; a++)
         for (int b = 0; b < n; b++) {
             double want, got = c_hypot(xs[a], xs[b]);
-            PyObject *hx = PyFloat_FromDouble(xs[a]), *hy = PyFloat_FromDouble(xs[b]), *h = NULL;
-            if (hx != NULL && hy != NULL) {
-                PyObject *ha[2] = {hx, hy};
-                h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
-            }
-            Py_XDECREF(hx);
-            Py_XDECREF(hy);
-            if (h == NULL)
+            if (call_hypot(xs[a], xs[b], &want) < 0)
                 return -1;
-            want = PyFloat_AsDouble(h);
-            Py_DECREF(h);
             if (!same_bits(want, got))
                 return 0;
         }
@@ -3049,18 +3057,7 @@ static int py_hypot(double dx, double dy, double *d)
         *d = c_hypot(dx, dy);
         return 0;
     }
-    PyObject *hx = PyFloat_FromDouble(dx), *hy = PyFloat_FromDouble(dy), *h = NULL;
-    if (hx != NULL && hy != NULL) {
-        PyObject *ha[2] = {hx, hy};
-        h = PyObject_Vectorcall(HYPOT, ha, 2, NULL);
-    }
-    Py_XDECREF(hx);
-    Py_XDECREF(hy);
-    if (h == NULL)
-        return -1;
-    *d = PyFloat_AsDouble(h);
-    Py_DECREF(h);
-    return (*d == -1.0 && PyErr_Occurred()) ? -1 : 0;
+    return call_hypot(dx, dy, d);
 }
 
 /* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(): whether run_lines

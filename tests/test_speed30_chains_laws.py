@@ -70,13 +70,9 @@ def test_vertices_at_catches_an_ulp():
     assert _bits(t) != _bits(res.vert_t)
 
 
-@pytest.mark.parametrize("path,prof_name", CASES)
-def test_kept_rows_made_again_are_the_tables_knots(path, prof_name, monkeypatch):
-    """Every row the table finished: its knots as _table_rows gave them (the knots 71ac544
-    kept) against the knots _gather_rows makes again from the row's kept law, bit for bit;
-    and the table's T, beta, predicted figures kept with it."""
-    strokes, pin, rows, prof, rules = _fresh(path, prof_name)
-    seen = {}                         # id(stroke) -> [(T, beta, vk, dt)] of its rows, in order
+def _record_table_rows(monkeypatch, seen):
+    """chains._table_rows wrapped: each row it yields goes into seen[id(stroke)] as
+    (T, vk, dt), in order."""
     real = chains._table_rows
 
     def spy(sts, base, res, use, T, profile, grouped):
@@ -88,6 +84,16 @@ def test_kept_rows_made_again_are_the_tables_knots(path, prof_name, monkeypatch)
             yield item
 
     monkeypatch.setattr(chains, "_table_rows", spy)
+
+
+@pytest.mark.parametrize("path,prof_name", CASES)
+def test_kept_rows_made_again_are_the_tables_knots(path, prof_name, monkeypatch):
+    """Every row the table finished: its knots as _table_rows gave them (the knots 71ac544
+    kept) against the knots _gather_rows makes again from the row's kept law, bit for bit;
+    and the table's T, beta, predicted figures kept with it."""
+    strokes, pin, rows, prof, rules = _fresh(path, prof_name)
+    seen = {}                         # id(stroke) -> [(T, beta, vk, dt)] of its rows, in order
+    _record_table_rows(monkeypatch, seen)
     chains.candidates_chain(pin, rows, strokes, prof, rules)
     by_n, n_rows = {}, 0
     for i in rows.tolist():
@@ -143,17 +149,7 @@ def test_replay_of_kept_laws_is_the_replay_of_the_tables_knots(prof_name, monkey
     path = CASES[1][0] if prof_name == "voron24" else CASES[0][0]
     strokes, pin, rows, prof, rules = _fresh(path, prof_name)
     seen = {}
-    real = chains._table_rows
-
-    def spy(sts, base, res, use, T, profile, grouped):
-        for item in real(sts, base, res, use, T, profile, grouped):
-            J, rj, rc, vk, dt = item[:5]
-            j = J[rj]
-            for q in range(rj.size):
-                seen.setdefault(id(sts[j[q]]), []).append((float(T[j[q], rc[q]]), vk[q].copy(), dt[q].copy()))
-            yield item
-
-    monkeypatch.setattr(chains, "_table_rows", spy)
+    _record_table_rows(monkeypatch, seen)
     chains.candidates_chain(pin, rows, strokes, prof, rules)
     rng = np.random.default_rng(5)
     items, legacy = [], []

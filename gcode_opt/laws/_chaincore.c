@@ -210,6 +210,63 @@ VEC_CLONES static void slopes(Py_ssize_t m, const double *restrict J, const doub
    chains not converged, compact), γ at T - h, T, T + h and the terms k of the n, m, S1
    series the step's batch needs (_nms_terms over the largest γ²), J at the three (j_chunk),
    the slopes, then per chain the Newton update of (T, λ). */
+/* One chain's KKT step of the time sharing (share_time's and exact_share's): over its n
+ * pieces (T, d1 = J' per piece, inv = 1 / J''), the multiplier l (first: -Σ d1 inv / Σ inv,
+ * else lam_prev), the residuals r = d1 + l written over d1, and the multiplier's Newton step
+ * *dlam.  Returns 1 where the chain has converged (residuals and total time within
+ * tolerance).  Every sum is taken in piece order (the fused and split forms: the same sums). */
+static inline int kkt_chain(const double *T, double *d1, const double *inv, Py_ssize_t n, int first,
+                            double lam_prev, double Ttot, double npc, double *l_out, double *dlam) {
+    double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0, s_rinv = 0.0, rr = 0.0, l;
+    if (!first) {            /* λ known: the residuals' sums in the same pass (the same sums) */
+        l = lam_prev;
+        for (Py_ssize_t p = 0; p < n; p++) {
+            double d = d1[p], iv = inv[p];
+            s_inv += iv;
+            s_d1inv += d * iv;
+            s_T += T[p];
+            s_ad1 += fabs(d);
+            double r = d + l;
+            d1[p] = r;                    /* r from here on */
+            s_rinv += r * iv;
+            rr += fabs(r);
+        }
+    } else {
+        for (Py_ssize_t p = 0; p < n; p++) {
+            double d = d1[p], iv = inv[p];
+            s_inv += iv;
+            s_d1inv += d * iv;
+            s_T += T[p];
+            s_ad1 += fabs(d);
+        }
+        l = -s_d1inv / s_inv;
+        for (Py_ssize_t p = 0; p < n; p++) {
+            double r = d1[p] + l;
+            d1[p] = r;                    /* r from here on */
+            s_rinv += r * inv[p];
+            rr += fabs(r);
+        }
+    }
+    double e = Ttot - s_T;
+    *l_out = l;
+    *dlam = -(e + s_rinv) / s_inv;
+    double scale = np_max(fabs(l), s_ad1 / npc);
+    return (rr <= (NEWTON_TOL_R * scale) * npc) && (fabs(e) <= 1e-12 * Ttot);
+}
+
+/* A piece's new duration after kkt_chain's step: T + the step -(r + dlam) inv clipped to
+ * [-T/2, T] (np.clip: a NaN step stays NaN) */
+static inline double kkt_new_T(double Ti, double r, double dlam, double inv) {
+    double dT = -(r + dlam) * inv;
+    double lo = -0.5 * Ti, st;
+    if (isnan(dT)) st = dT;
+    else {
+        st = dT > lo ? dT : lo;
+        st = st < Ti ? st : Ti;
+    }
+    return Ti + st;
+}
+
 static PyObject *share_time(PyObject *self, PyObject *a) {
     PyObject *o[14];
     int max_newton;
@@ -284,43 +341,16 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
             if (conv[c]) continue;
             int64_t p0 = poff[c], p1 = poff[c + 1];
             Py_ssize_t j0 = j;
-            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0;
-            for (int64_t p = p0; p < p1; p++, j++) {
-                double d1 = d1b[j], inv = invb[j];
-                s_inv += inv;
-                s_d1inv += d1 * inv;
-                s_T += T[p];
-                s_ad1 += fabs(d1);
-            }
-            double l = it == 0 ? -s_d1inv / s_inv : lam[c];
-            double s_rinv = 0.0, rr = 0.0;
-            for (Py_ssize_t q = j0; q < j; q++) {
-                double r = d1b[q] + l;
-                d1b[q] = r;                       /* r from here on */
-                s_rinv += r * invb[q];
-                rr += fabs(r);
-            }
-            double e = Ttot[c] - s_T;
-            double dlam = -(e + s_rinv) / s_inv;
-            double scale = np_max(fabs(l), s_ad1 / npc[c]);
-            int now = (rr <= (NEWTON_TOL_R * scale) * npc[c]) && (fabs(e) <= 1e-12 * Ttot[c]);
-            if (now) {
+            j += p1 - p0;
+            double l, dlam;
+            if (kkt_chain(T + p0, d1b + j0, invb + j0, p1 - p0, it == 0, lam[c], Ttot[c], npc[c], &l, &dlam)) {
                 conv[c] = 1;
                 lam[c] = l;
                 continue;
             }
             Py_ssize_t q = j0;
-            for (int64_t p = p0; p < p1; p++, q++) {
-                double Ti = T[p];
-                double dT = -(d1b[q] + dlam) * invb[q];
-                double lo = -0.5 * Ti, st;
-                if (isnan(dT)) st = dT;           /* np.clip: nan stays */
-                else {
-                    st = dT > lo ? dT : lo;
-                    st = st < Ti ? st : Ti;
-                }
-                T[p] = Ti + st;
-            }
+            for (int64_t p = p0; p < p1; p++, q++)
+                T[p] = kkt_new_T(T[p], d1b[q], dlam, invb[q]);
             lam[c] = l + nan_to_num(dlam);
         }
     }
@@ -1909,55 +1939,14 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         for (Py_ssize_t c = 0; c < n_c; c++) {           /* as share_time */
             if (conv[c]) continue;
             int64_t p0 = poff[c], p1 = poff[c + 1];
-            double s_inv = 0.0, s_d1inv = 0.0, s_T = 0.0, s_ad1 = 0.0, s_rinv = 0.0, rr = 0.0, l;
-            if (it) {            /* λ known: the residuals' sums in the same pass (the same sums) */
-                l = lam[c];
-                for (int64_t p = p0; p < p1; p++) {
-                    double d1 = d1b[p], inv = invb[p];
-                    s_inv += inv;
-                    s_d1inv += d1 * inv;
-                    s_T += T[p];
-                    s_ad1 += fabs(d1);
-                    double r = d1 + l;
-                    d1b[p] = r;                   /* r from here on */
-                    s_rinv += r * inv;
-                    rr += fabs(r);
-                }
-            } else {
-                for (int64_t p = p0; p < p1; p++) {
-                    double d1 = d1b[p], inv = invb[p];
-                    s_inv += inv;
-                    s_d1inv += d1 * inv;
-                    s_T += T[p];
-                    s_ad1 += fabs(d1);
-                }
-                l = -s_d1inv / s_inv;
-                for (int64_t p = p0; p < p1; p++) {
-                    double r = d1b[p] + l;
-                    d1b[p] = r;                   /* r from here on */
-                    s_rinv += r * invb[p];
-                    rr += fabs(r);
-                }
-            }
-            double e = Ttot[c] - s_T;
-            double dlam = -(e + s_rinv) / s_inv;
-            double scale = np_max(fabs(l), s_ad1 / npc[c]);
-            int now = (rr <= (NEWTON_TOL_R * scale) * npc[c]) && (fabs(e) <= 1e-12 * Ttot[c]);
-            if (now) {
+            double l, dlam;
+            if (kkt_chain(T + p0, d1b + p0, invb + p0, p1 - p0, it == 0, lam[c], Ttot[c], npc[c], &l, &dlam)) {
                 conv[c] = 1;
                 lam[c] = l;
                 continue;
             }
             for (int64_t p = p0; p < p1; p++) {
-                double Ti = T[p];
-                double dT = -(d1b[p] + dlam) * invb[p];
-                double lo = -0.5 * Ti, st;
-                if (isnan(dT)) st = dT;           /* np.clip: nan stays */
-                else {
-                    st = dT > lo ? dT : lo;
-                    st = st < Ti ? st : Ti;
-                }
-                double tn = Ti + st, z = (tn * tn) / beta[p];
+                double tn = kkt_new_T(T[p], d1b[p], dlam, invb[p]), z = (tn * tn) / beta[p];
                 T[p] = tn;
                 bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
                 zm = z > zm ? z : zm;

@@ -608,12 +608,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         segs = {}
         seg_failed = {}
         for k_name, kind_of in KINDS.items():
-            if k_name == K_LINE:      # with the lines' classes (the same plans, made once a class and law)
-                fn = (lambda k: lambda r: k.segments([strokes[i] for i in r], plan.T[r], plan.beta[r], rules,
-                                                      profile, same=None if line_cls is None else line_cls[r]))(kind_of)
-            else:
-                fn = (lambda k: lambda r: k.segments([strokes[i] for i in r], plan.T[r], plan.beta[r], rules,
-                                                      profile))(kind_of)
+            # (lines with their classes: the same plans, made once a class and law)
+            fn = (lambda k, lines: lambda r: k.segments(
+                [strokes[i] for i in r], plan.T[r], plan.beta[r], rules, profile,
+                **({"same": None if line_cls is None else line_cls[r]} if lines else {})))(kind_of, k_name == K_LINE)
             ii = idx[kind == k_name]
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
             segs.update(got)
@@ -674,8 +672,16 @@ def _lines_repeat(pin, rows):
     budget runs then segment ~6 k lines, not ~68 k); the gyroid plate's 13.8 k: 49 %."""
     if rows.size < 2:
         return False
+    # asked for the same lines by the candidates (their step, then each chunk) and the plan
+    # runs: the last answer kept on pin, by the rows' bytes
+    key = np.asarray(rows, np.int64).tobytes()
+    memo = getattr(pin, "lines_repeat_memo", None)
+    if memo is not None and memo[0] == key:
+        return memo[1]
     X = np.stack([pin.L[rows], pin.v0[rows], pin.v1[rows], pin.T_orig[rows]], axis=1).astype(float)
-    return bool(distinct(row_classes(X.view(np.int64))).size <= REPEAT_R * rows.size)
+    got = bool(distinct(row_classes(X.view(np.int64))).size <= REPEAT_R * rows.size)
+    pin.lines_repeat_memo = (key, got)
+    return got
 
 
 def _keep_plans(plan, strokes, idx, segs, seg_failed):

@@ -1069,8 +1069,8 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     P[:, 0] = Q[:, 0]                  # _a_top
     P[:, 8] = Q[:, 2]
     P[:, 9] = Q[:, 3]
-    # the end turns, np.dot(prev_u, u[0]) and np.dot(u[-1], next_u) of predict_chains (its two
-    # products and their sum; nan: no neighbour)
+    # the end turns, curves.dot2(prev_u, u[0]) and dot2(u[-1], next_u) of predict_chains (its
+    # two products and their sum; nan: no neighbour)
     P[:, 10] = pu[:, 0] * U[:, 0, 0] + pu[:, 1] * U[:, 0, 1]
     P[:, 11] = U[:, -1, 0] * nu[:, 0] + U[:, -1, 1] * nu[:, 1]
     if jerk:
@@ -1243,7 +1243,7 @@ def _predict_group(sts, gs, own, d, acc, feed, profile):
         for q, (st, g) in enumerate(zip(sts, gs)):
             w = st.prev_u if end == 0 else st.next_u
             if w is not None:
-                c[q] = float(np.dot(w, g.u[0])) if end == 0 else float(np.dot(g.u[-1], w))
+                c[q] = curves.dot2(w, g.u[0]) if end == 0 else curves.dot2(g.u[-1], w)
         c = c[own]
         on = c >= CORNER_COS                     # nan compares False
         a2 = np.where(on, a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12), a2)
@@ -1305,8 +1305,8 @@ def predict_chains(st, g, acc, feed, profile):
                                  acc[r, j - 1], acc[r, j], feed[r, j - 1], feed[r, j])
                 v[r, j] = min(vj, feed[r, j - 1], feed[r, j])
     va, vb, t, a2 = _trapezoid_rows(v, acc, d, feed, g.cos_turn)
-    c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
-    c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
+    c0 = None if st.prev_u is None else curves.dot2(st.prev_u, g.u[0])
+    c1 = None if st.next_u is None else curves.dot2(g.u[-1], st.next_u)
     for c, vv, tt in ((c0, va[:, 0], t[:, 0]), (c1, vb[:, -1], t[:, -1])):
         if c is not None and c >= CORNER_COS:
             a2 = a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12)

@@ -1372,7 +1372,7 @@ def finish_curves(strokes, knots, rules, profile):
     """[finish_curve(st, s, v, rules, profile) for st, (s, v) in zip(strokes, knots)], the
     strokes of one knot count in arrays: the same elementwise arithmetic, exact maxima,
     row sums that add in the 1-D sums' order (numpy's pairwise sum per row), and per
-    stroke what is not elementwise (np.convolve's window, np.dot's end turns, the
+    stroke what is not elementwise (np.convolve's window, dot2's end turns, the
     junction law of Marlin JD and Klipper); ~4x faster on the gyroid plate.  The same
     SegmentPlans (tests/test_speed_plan3_finish.py)."""
     plans = [None] * len(strokes)
@@ -1434,14 +1434,20 @@ def _jerk_junction_rows(D, V, acc, a_top, profile):
     return acc
 
 
+def dot2(a, b):
+    """a . b of two 2-vectors as two products and their sum, in Python floats: every path
+    (this, the row forms below, the chain core) the same bits whatever BLAS numpy links.
+    np.dot does not promise that: OpenBLAS 0.3.31's Haswell ddot fuses the multiply-add."""
+    return float(a[0]) * float(b[0]) + float(a[1]) * float(b[1])
+
+
 def _end_cosines(sts, U):
-    """([None or float(np.dot(st.prev_u, u[0]))], [None or float(np.dot(u[-1], st.next_u))])
-    of the strokes sts, U their directions (m, n, 2): numpy's matmul of a (1, 2) row by a
-    (2, 1) column is its vector dot, the function np.dot of two vectors calls (the same
-    bits: tests/test_speed26_curvec_rows.py), for every row in one call."""
+    """([None or dot2(st.prev_u, u[0])], [None or dot2(u[-1], st.next_u)]) of the strokes
+    sts, U their directions (m, n, 2), for every row at once (elementwise products and a
+    sum: dot2's bits)."""
     p, q = _neighbour_dirs(sts)                 # (2, m) each, NaN where None
-    a = (np.ascontiguousarray(p.T)[:, None, :] @ U[:, 0, :, None])[:, 0, 0].tolist()
-    b = (U[:, -1, None, :] @ np.ascontiguousarray(q.T)[:, :, None])[:, 0, 0].tolist()
+    a = (p[0] * U[:, 0, 0] + p[1] * U[:, 0, 1]).tolist()
+    b = (U[:, -1, 0] * q[0] + U[:, -1, 1] * q[1]).tolist()
     return ([None if st.prev_u is None else x for st, x in zip(sts, a)],
             [None if st.next_u is None else x for st, x in zip(sts, b)])
 
@@ -1535,7 +1541,7 @@ def finish_curve(st, sk, vk, rules, profile):
         step_v = JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
     acc = hold_cruise_accels(acc, a_top)
     feeds = segment_feeds(vk, st.v_feed, step_v)
-    c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
-    c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
+    c0 = None if st.prev_u is None else dot2(st.prev_u, g.u[0])
+    c1 = None if st.next_u is None else dot2(g.u[-1], st.next_u)
     t_pred, a2_pred = predict_curve(sk, vk, acc, g.cos_turn, c0, c1)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)

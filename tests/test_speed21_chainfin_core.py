@@ -196,15 +196,20 @@ def test_no_core_or_stale_core_falls_back(tmp_path_factory):
     assert _same(got, _ref_finish_stacked_dt(*b))
 
 
-def test_end_turn_products_are_np_dot():
-    """_finish_core makes predict_chains' end turns np.dot(prev_u, u[0]) as the two products
-    and their sum over all chains at once: the same bits as np.dot of two 2-vectors here
-    (no fused multiply-add in the BLAS dot); the real batches above compare the whole."""
+def test_end_turn_products_are_dot2():
+    """_finish_core makes predict_chains' end turns curves.dot2(prev_u, u[0]) as the two
+    products and their sum over all chains at once: the same bits as dot2 row by row, and
+    as the exactly rounded products added (no fused multiply-add anywhere: np.dot of two
+    2-vectors fuses under OpenBLAS 0.3.31, so the product does not use it)."""
+    from fractions import Fraction
     rng = np.random.default_rng(8)
     a = rng.normal(size=(5000, 2))
     b = rng.normal(size=(5000, 2))
     a /= np.linalg.norm(a, axis=1)[:, None]
     b /= np.linalg.norm(b, axis=1)[:, None]
-    want = np.array([float(np.dot(tuple(x), y)) for x, y in zip(a, b)])
+    want = np.array([curves.dot2(x, y) for x, y in zip(a, b)])
     got = a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    for x, y, w in zip(a[:200], b[:200], want[:200]):
+        p = float(Fraction(x[0]) * Fraction(y[0])) + float(Fraction(x[1]) * Fraction(y[1]))
+        assert p == w

@@ -158,8 +158,14 @@ def test_adjust_plan_inputs_as_row_by_row(name, profile):
     assert all(strokes[i].curv.caps_jerk1 is None for i in rows)
 
 
-def test_end_cosines_as_np_dot():
-    """curves._end_cosines against the per-stroke np.dot it replaces, on the bundled
+def _dot2(a, b):
+    """two products and their sum, each rounded (what np.dot of two 2-vectors gave until a
+    BLAS with a fused ddot: OpenBLAS 0.3.31)"""
+    return float(a[0]) * float(b[0]) + float(a[1]) * float(b[1])
+
+
+def test_end_cosines_as_plain_dot():
+    """curves._end_cosines against a per-stroke plain two-product dot, on the bundled
     gyroid's curves (neighbours present or None) and on random directions."""
     prof = load_profile("prusa-mk3s")
     strokes, _ = analyse(str(S / "prusa_gyroid.gcode"), prof, Options())
@@ -172,8 +178,8 @@ def test_end_cosines_as_np_dot():
     for grp in by_n.values():
         gs = [st.curv for st in grp]
         c0, c1 = curves._end_cosines(grp, curves.stack_du(gs)[1])
-        w0 = [None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0])) for st, g in zip(grp, gs)]
-        w1 = [None if st.next_u is None else float(np.dot(g.u[-1], st.next_u)) for st, g in zip(grp, gs)]
+        w0 = [None if st.prev_u is None else _dot2(st.prev_u, g.u[0]) for st, g in zip(grp, gs)]
+        w1 = [None if st.next_u is None else _dot2(g.u[-1], st.next_u) for st, g in zip(grp, gs)]
         assert [None if x is None else np.float64(x).tobytes() for x in c0] == \
             [None if x is None else np.float64(x).tobytes() for x in w0]
         assert [None if x is None else np.float64(x).tobytes() for x in c1] == \
@@ -190,7 +196,7 @@ def test_end_cosines_as_np_dot():
            for k in range(500)]
     c0, c1 = curves._end_cosines(sts, U)
     for k, st in enumerate(sts):
-        want0 = None if st.prev_u is None else float(np.dot(st.prev_u, U[k, 0]))
-        want1 = None if st.next_u is None else float(np.dot(U[k, -1], st.next_u))
+        want0 = None if st.prev_u is None else _dot2(st.prev_u, U[k, 0])
+        want1 = None if st.next_u is None else _dot2(U[k, -1], st.next_u)
         assert (c0[k] is None) == (want0 is None) and (c0[k] is None or np.float64(c0[k]).tobytes() == np.float64(want0).tobytes())
         assert (c1[k] is None) == (want1 is None) and (c1[k] is None or np.float64(c1[k]).tobytes() == np.float64(want1).tobytes())

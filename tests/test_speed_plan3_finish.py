@@ -29,8 +29,8 @@ def _old_finish_curve(st, sk, vk, rules, profile):
         step_v = curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
     acc = hold_cruise_accels(acc, a_top)
     feeds = segment_feeds(vk, st.v_feed, step_v)
-    c0 = None if st.prev_u is None else float(np.dot(st.prev_u, g.u[0]))
-    c1 = None if st.next_u is None else float(np.dot(g.u[-1], st.next_u))
+    c0 = None if st.prev_u is None else curves.dot2(st.prev_u, g.u[0])
+    c1 = None if st.next_u is None else curves.dot2(g.u[-1], st.next_u)
     t_pred, a2_pred = curves.predict_curve(sk, vk, acc, g.cos_turn, c0, c1)
     return SegmentPlan(sk, vk, acc, feeds, t_pred, a2_pred)
 

@@ -36,6 +36,7 @@ import sys
 import time
 from array import array
 from collections import deque
+from functools import partial
 
 import numpy as np
 
@@ -79,6 +80,8 @@ class Options:
         self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
         self.peak_rss_mb = None             # process: {phase: peak RSS (MB) at its end} (--profile-time)
+        self.lines_in = None                # analyse: the input's lines as summary.count_lines counts them, if known
+        self.lines_out = None               # measure: the written file's, if the last pass played all of it
 
 
 class Progress:
@@ -235,6 +238,7 @@ def analyse(path, profile: Profile, opts: Options):
         sim = fwsim.new_sim(profile, records)
 
     cur = [[], 0, 0]       # the chunk being read: its lines, the next one's position, the first's idx
+    cr_seen = [False]      # the file may hold a "\r" (line_chunks)
     last_f = [None]        # the feature of the last move read
 
     def read():
@@ -246,7 +250,7 @@ def analyse(path, profile: Profile, opts: Options):
         step = state.step
         move, barrier = sim.move, sim.barrier
         prog = opts.progress.advance if opts.progress is not None else None
-        for idx0, lines in reader.line_chunks(path, prog):
+        for idx0, lines in reader.line_chunks(path, prog, cr_seen):
             if sums is not None and log.rows >= LOG_FLUSH_ROWS:
                 sums.flush(opened[0])
             cur[0], cur[2] = lines, idx0
@@ -278,7 +282,6 @@ def analyse(path, profile: Profile, opts: Options):
     # the compiled model reads a run's common lines itself (Sim.run_lines: the reader's
     # fused loop, its records into the RecordLog), and the lines between runs that change
     # nothing but the model (Sim.gap_lines): no Python a line there
-    from functools import partial
     fast = gap = None
     if log is not None and hasattr(sim, "run_lines"):
         fast = partial(sim.run_lines, cur, state.step)
@@ -299,6 +302,8 @@ def analyse(path, profile: Profile, opts: Options):
         if collecting:
             gc.enable()
     sim.stop()
+    # the lines read are the lines summary.count_lines would count again where no "\r" ends one
+    opts.lines_in = None if cr_seen[0] else cur[2] + len(cur[0])
     if log is not None:
         sums.finish()
     if ring is not None:
@@ -981,13 +986,15 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
             def on_line(r, _a=per_stroke, _b=ring_line):
                 _a(r)
                 _b(r)
+    opts.lines_out = None
+    counted = partial(setattr, opts, "lines_out")    # the written file's lines, where the pass counts them
     if watch is None:
         sim = simulate_file(path, profile, on_line=on_line, on_block=on_block, on_barrier=on_dwell,
-                            progress=progress)
+                            progress=progress, on_count=counted)
         per_stroke.flush()
         return sim, t, a2, v2, None
     sim, led = simulate_ledger(path, profile, watch, on_line=on_line, on_block=on_block,
-                               on_barrier=on_dwell, progress=progress)
+                               on_barrier=on_dwell, progress=progress, on_count=counted)
     per_stroke.flush()
     return sim, t, a2, v2, led
 
@@ -1258,6 +1265,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                     prog.start("measure")
                 lines = stroke_lines(strokes, order, out_ranges)
                 got = None
+                opts.lines_out = None     # (measure counts the written file's lines; a remeasure does not)
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
                     changed = (np.asarray(plan.retime, bool) != np.asarray(first.retime, bool)) | digests.differ(first.digests)
                     got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,

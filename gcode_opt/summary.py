@@ -145,8 +145,14 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     reasons = Counter(map(str, plan.reason))
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
-    lines_before = count_lines(in_path)
-    lines_after = count_lines(written_path)
+    # the passes' counts where they made them (analyse's, the last full measure's): the same
+    # numbers without reading both files again
+    lines_before = getattr(opts, "lines_in", None)
+    if lines_before is None:
+        lines_before = count_lines(in_path)
+    lines_after = getattr(opts, "lines_out", None)
+    if lines_after is None:
+        lines_after = count_lines(written_path)
     size_after = os.path.getsize(written_path)
     out = {
         "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,

@@ -11,7 +11,7 @@ from operator import attrgetter
 import numpy as np
 
 from .outranges import columns as range_columns
-from .strokes import Stroke
+from .strokes import Stroke, line_spans
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -233,10 +233,13 @@ def _n_moves(strokes):
     """Every stroke's n_moves, an int64 array (Stroke's from its lines in rows; another
     kind of stroke: its own n_moves)."""
     n = len(strokes)
-    if all(type(s) is Stroke for s in strokes):
-        return (np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n)
-                - np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n) + 1)
+    if n and set(map(type, strokes)) == _STROKE_ONLY:       # (the type test in C: ~35 k strokes)
+        lo, hi = line_spans(strokes)
+        return hi - lo + 1
     return np.fromiter((s.n_moves for s in strokes), np.int64, n)
+
+
+_STROKE_ONLY = {Stroke}
 
 
 def _kind_of(s):

@@ -159,3 +159,37 @@ def test_summary_json_same_with_and_without_counts(tmp_path, monkeypatch):
         for k in ("timing_s", "elapsed_s", "output"):
             s.pop(k, None)
     assert json.dumps(a, sort_keys=True, default=str) == json.dumps(b, sort_keys=True, default=str)
+
+
+def _n_moves_ref(strokes):
+    """summary._n_moves before session 31 (the type test and the fields read in Python)."""
+    import numpy as np
+    from operator import attrgetter
+    from gcode_opt.strokes import Stroke
+    n = len(strokes)
+    if all(type(s) is Stroke for s in strokes):
+        return (np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n)
+                - np.fromiter(map(attrgetter("first_idx"), strokes), np.int64, n) + 1)
+    return np.fromiter((s.n_moves for s in strokes), np.int64, n)
+
+
+def test_n_moves_same(tmp_path):
+    from gcode_opt import summary
+    from gcode_opt.strokes import Stroke
+    strokes, _ = pl.analyse(os.path.join(SAMPLES, "prusa_gyroid.gcode"), load_profile("prusa-mk3s"), pl.Options())
+    assert len(strokes) > 500
+    got = summary._n_moves(strokes)
+    assert got.dtype == _n_moves_ref(strokes).dtype and got.tolist() == _n_moves_ref(strokes).tolist()
+    assert summary._n_moves(strokes[::3]).tolist() == _n_moves_ref(strokes[::3]).tolist()
+    assert summary._n_moves([]).tolist() == [] and summary._n_moves([]).dtype == _n_moves_ref([]).dtype
+
+    class Other(Stroke):                 # a stroke of another kind counts its own moves
+        __slots__ = ()
+
+        @property
+        def n_moves(self):
+            return 7
+    odd = Other.__new__(Other)
+    odd.first_idx, odd.last_idx = 10, 11
+    mixed = strokes[:5] + [odd]
+    assert summary._n_moves(mixed).tolist() == _n_moves_ref(mixed).tolist() == [s.n_moves for s in mixed]

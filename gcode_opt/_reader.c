@@ -828,7 +828,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4"
+    " | peek commit 4 | line_ascii 5"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -1055,16 +1055,29 @@ static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
 
 /* One line: 0 read (no move), 1 read with a move in *out, 2 not read here (the state is
  * written back: call step()), -1 error. */
+static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *out);
+
 static int fused_line(void *p, PyObject *raw, FusedMove *out)
 {
     Session *ss = p;
     if (ss->off)
         return 2;
     if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
-        goto other;
-    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+        return sess_flush(ss) < 0 ? -1 : 2;
+    return fused_line_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), out);
+}
+
+/* fused_line of the line line[0..n), all of it ASCII (the str a line of ASCII bytes
+ * decodes to has these bytes): the firmware core's play_buf reads its lines from bytes
+ * without a str each (one is made only where this returns 2: step() reads the line) */
+static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *out)
+{
+    Session *ss = p;
+    if (ss->off)
+        return 2;
+    const unsigned char *s = (const unsigned char *)line;
     Py_ssize_t code_n = 0;
-    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    switch (line_shape(s, n, &code_n)) {
     case SHAPE_PYTHON:
         goto other;
     case SHAPE_NOTHING:
@@ -1200,12 +1213,13 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
+    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
 } ReaderAPI;
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
                                      fused_open, fused_line, fused_close,
-                                     sizeof(RunMove), fused_peek, fused_commit};
+                                     sizeof(RunMove), fused_peek, fused_commit, fused_line_ascii};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

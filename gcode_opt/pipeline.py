@@ -36,6 +36,7 @@ import sys
 import time
 from array import array
 from collections import deque
+from functools import partial
 
 import numpy as np
 
@@ -79,6 +80,8 @@ class Options:
         self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
         self.peak_rss_mb = None             # process: {phase: peak RSS (MB) at its end} (--profile-time)
+        self.lines_in = None                # analyse: the input's lines as summary.count_lines counts them, if known
+        self.lines_out = None               # measure: the written file's, if the last pass played all of it
 
 
 class Progress:
@@ -235,6 +238,7 @@ def analyse(path, profile: Profile, opts: Options):
         sim = fwsim.new_sim(profile, records)
 
     cur = [[], 0, 0]       # the chunk being read: its lines, the next one's position, the first's idx
+    cr_seen = [False]      # the file may hold a "\r" (line_chunks)
     last_f = [None]        # the feature of the last move read
 
     def read():
@@ -246,7 +250,7 @@ def analyse(path, profile: Profile, opts: Options):
         step = state.step
         move, barrier = sim.move, sim.barrier
         prog = opts.progress.advance if opts.progress is not None else None
-        for idx0, lines in reader.line_chunks(path, prog):
+        for idx0, lines in reader.line_chunks(path, prog, cr_seen):
             if sums is not None and log.rows >= LOG_FLUSH_ROWS:
                 sums.flush(opened[0])
             cur[0], cur[2] = lines, idx0
@@ -278,7 +282,6 @@ def analyse(path, profile: Profile, opts: Options):
     # the compiled model reads a run's common lines itself (Sim.run_lines: the reader's
     # fused loop, its records into the RecordLog), and the lines between runs that change
     # nothing but the model (Sim.gap_lines): no Python a line there
-    from functools import partial
     fast = gap = None
     if log is not None and hasattr(sim, "run_lines"):
         fast = partial(sim.run_lines, cur, state.step)
@@ -299,6 +302,8 @@ def analyse(path, profile: Profile, opts: Options):
         if collecting:
             gc.enable()
     sim.stop()
+    # the lines read are the lines summary.count_lines would count again where no "\r" ends one
+    opts.lines_in = None if cr_seen[0] else cur[2] + len(cur[0])
     if log is not None:
         sums.finish()
     if ring is not None:
@@ -470,6 +475,16 @@ class _ByteLines:
         if not chunk:
             self.eof = True
         return chunk
+
+    def drop(self, n):
+        """Pass over the next n lines (fewer at the end of the file): copy() writing nothing."""
+        while n > 0:
+            self.pos, got = self.skip(self.data, self.pos, n, self.eof)
+            n -= got
+            if n > 0:
+                if self.eof:
+                    return
+                self.data, self.pos = self._read(), 0
 
     def copy(self, n, write):
         """Write the next n lines (fewer at the end of the file).  A line cut by the end of
@@ -806,6 +821,39 @@ def _digest(text):
     return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=16).digest()
 
 
+def block_digests(path, out_ranges, n):
+    """The Digests rewrite gives the blocks of the file it wrote (out_ranges: its blocks'
+    lines, in file order), read back from that file: each block's bytes are the ones
+    written (the lines cut as the rewrite and _Reuse cut them: "\\n", "\\r\\n", a lone
+    "\\r"), so each digest is the one rewrite would have made.  The first pass leaves them
+    to this (only a second pass compares blocks): ~0.2 G instructions of blake2b on the
+    gyroid plate that a run of one pass does not need."""
+    digests = Digests(n)
+    blake2b = hashlib.blake2b
+    core = emit_mod.CORE_MOD
+    if core is None or not hasattr(core, "skip_lines"):
+        with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+            lines = enumerate(fh)
+            for a, z, i in out_ranges:
+                text = []
+                for k, raw in lines:
+                    if k >= a:
+                        text.append(raw)
+                        if k >= z:
+                            break
+                digests[i] = _digest("".join(text))
+        return digests
+    pos = 0
+    with open(path, "rb") as fh:
+        src = _ByteLines(fh, core.skip_lines)
+        for a, z, i in out_ranges:
+            src.drop(a - pos)
+            data, start, stop, _ = src.take(z - a + 1)
+            digests[i] = blake2b(memoryview(data)[start:stop], digest_size=16).digest()
+            pos = z + 1
+    return digests
+
+
 def _validate(text, s, raws, x0, y0, accel0, profile, parsed=None):
     """validate.py on one block; the path and the filament are the original's own (its raw
     X/Y/E words; `parsed`, the emitter's StrokeText of the same lines, saves reading them
@@ -981,13 +1029,15 @@ def measure(path, profile, out_ranges, opts, watch=None, ring=None):
             def on_line(r, _a=per_stroke, _b=ring_line):
                 _a(r)
                 _b(r)
+    opts.lines_out = None
+    counted = partial(setattr, opts, "lines_out")    # the written file's lines, where the pass counts them
     if watch is None:
         sim = simulate_file(path, profile, on_line=on_line, on_block=on_block, on_barrier=on_dwell,
-                            progress=progress)
+                            progress=progress, on_count=counted)
         per_stroke.flush()
         return sim, t, a2, v2, None
     sim, led = simulate_ledger(path, profile, watch, on_line=on_line, on_block=on_block,
-                               on_barrier=on_dwell, progress=progress)
+                               on_barrier=on_dwell, progress=progress, on_count=counted)
     per_stroke.flush()
     return sim, t, a2, v2, led
 
@@ -1049,6 +1099,8 @@ def _stroke_lines_loop(strokes, order, out_ranges):
         first[i], last[i], prev_last = a, z, z
     return first, last
 
+
+LAZY_DIGESTS = True      # tests turn it off: the first pass makes its blocks' digests as it writes them
 
 LAST_REMEASURE = {}      # what the last remeasure played (lines of the first pass's file): for the benchmark
 
@@ -1223,13 +1275,17 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 timing.lap("plan")
                 if prog:
                     prog.start("rewrite")
-                digests = Digests(len(strokes))
+                # the blocks' digests: only a second pass compares them (the first pass's
+                # are read back from its file when a second pass comes: block_digests)
+                digests = None if first is None and LAZY_DIGESTS else Digests(len(strokes))
                 # a second pass copies the blocks it shares with the first from the first's
                 # file, so it writes beside it and then takes its place
                 dest = tmp if first is None else tmp + ".pass2"
                 reuse = None
                 try:
                     if first is not None:
+                        if first.digests is None:
+                            first.digests = block_digests(tmp, first.out_ranges, len(strokes))
                         reuse = _Reuse(tmp, first.out_ranges, first.segs, first.beta, first.digests)
                     with open(dest, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
                         out_ranges = rewrite(in_path, fh, strokes, plan, profile, opts, digests, reuse)
@@ -1258,6 +1314,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                     prog.start("measure")
                 lines = stroke_lines(strokes, order, out_ranges)
                 got = None
+                opts.lines_out = None     # (measure counts the written file's lines; a remeasure does not)
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
                     changed = (np.asarray(plan.retime, bool) != np.asarray(first.retime, bool)) | digests.differ(first.digests)
                     got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,

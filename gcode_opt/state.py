@@ -683,16 +683,20 @@ def read_lines(path: str):
         yield from enumerate(fh)
 
 
-def line_chunks(path: str, progress=None):
+def line_chunks(path: str, progress=None, cr=None):
     """The file's lines as read_lines reads them, in lists: (idx of the first, [raw, ...]),
     as simulate.read_chunks gives them (there the chunks end elsewhere: callers take any
     chunking).  The compiled reader splits and decodes blocks of bytes (split_lines: no
     TextIOWrapper, ~0.01 s of the gyroid plate's 461 k lines), simulate.CHUNK_HINT bytes
     at a time (read_chunks' characters: one knob for both); else read_chunks itself.
-    progress(n) is told each chunk's characters."""
+    progress(n) is told each chunk's characters.  cr, a one-item list if given, is set
+    True unless the file holds no "\r" (then its lines, ended by "\n" alone, are the ones
+    summary.count_lines counts; read_chunks' path does not look: True)."""
     from .firmware import simulate       # (it imports this module)
     split = getattr(_reader, "split_lines", None)
     if split is None:
+        if cr is not None:
+            cr[0] = True
         yield from simulate.read_chunks(path, progress)
         return
     block = max(1, simulate.CHUNK_HINT)
@@ -701,6 +705,8 @@ def line_chunks(path: str, progress=None):
         while True:
             data = fh.read(block)
             final = not data
+            if cr is not None and not cr[0] and b"\r" in data:
+                cr[0] = True
             if rest:
                 data = rest + data
             lines, used = split(data, final)

@@ -2291,7 +2291,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4"
+    " | peek commit 4 | line_ascii 5"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2316,6 +2316,7 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
+    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2709,6 +2710,53 @@ static PyObject *Sim_play_buf(SimObject *s, PyObject *const *args, Py_ssize_t na
     return Py_BuildValue("(nLO)", src.i, src.idx, stopped ? Py_True : Py_False);
 }
 
+/* The source's next line from a buffer: line[0..n) its bytes (the ending included), *ascii
+ * whether all of them are ASCII; src moved past it.  0 at the buffer's end. */
+static int src_next_buf(LineSrc *src, const char **line, Py_ssize_t *n_out, int *ascii)
+{
+    if (src->i >= src->len)
+        return 0;
+    const char *a = src->buf + src->i, *end = src->buf + src->len, *e;
+    if (!src->cr) {
+        e = memchr(a, '\n', (size_t)(end - a));
+        e = e != NULL ? e + 1 : end;
+    } else {
+        e = a;
+        while (e < end && *e != '\n' && *e != '\r')
+            e++;
+        if (e < end)
+            e += (*e == '\r' && e + 1 < end && e[1] == '\n') ? 2 : 1;
+    }
+    Py_ssize_t n = (Py_ssize_t)(e - a), k = 0;
+    uint64_t high = 0;
+    for (; k + 8 <= n; k += 8) {
+        uint64_t w8;
+        memcpy(&w8, a + k, sizeof w8);
+        high |= w8;
+    }
+    for (; k < n; k++)
+        high |= (unsigned char)a[k];
+    *line = a;
+    *n_out = n;
+    *ascii = (high & 0x8080808080808080ULL) == 0;
+    src->i = (Py_ssize_t)(e - src->buf);
+    src->idx++;
+    return 1;
+}
+
+/* A buffer's line as the str read_lines gives: a line of ASCII (nearly all) is its bytes
+ * copied into a new str; any other is UTF-8's decoder's (its ASCII path costs about as
+ * much again as the copy) */
+static PyObject *line_str(const char *a, Py_ssize_t n, int ascii)
+{
+    if (!ascii)
+        return PyUnicode_DecodeUTF8(a, n, "surrogateescape");
+    PyObject *raw = PyUnicode_New(n, 127);
+    if (raw != NULL)
+        memcpy(PyUnicode_1BYTE_DATA(raw), a, (size_t)n);
+    return raw;
+}
+
 /* The source's next line as a new str, src moved past it; NULL at its end (no error set)
  * or on error (set). */
 static PyObject *src_take(LineSrc *src)
@@ -2722,44 +2770,12 @@ static PyObject *src_take(LineSrc *src)
         src->idx++;
         return raw;
     }
-    if (src->i >= src->len)
+    const char *a;
+    Py_ssize_t n;
+    int ascii;
+    if (!src_next_buf(src, &a, &n, &ascii))
         return NULL;
-    const char *a = src->buf + src->i, *end = src->buf + src->len, *e;
-    if (!src->cr) {
-        e = memchr(a, '\n', (size_t)(end - a));
-        e = e != NULL ? e + 1 : end;
-    } else {
-        e = a;
-        while (e < end && *e != '\n' && *e != '\r')
-            e++;
-        if (e < end)
-            e += (*e == '\r' && e + 1 < end && e[1] == '\n') ? 2 : 1;
-    }
-    /* a line of ASCII (nearly all) is its bytes: copied into a new str; any other is
-     * UTF-8's decoder's (its ASCII path costs about as much again as the copy) */
-    Py_ssize_t n = (Py_ssize_t)(e - a), k = 0;
-    uint64_t high = 0;
-    for (; k + 8 <= n; k += 8) {
-        uint64_t w8;
-        memcpy(&w8, a + k, sizeof w8);
-        high |= w8;
-    }
-    for (; k < n; k++)
-        high |= (unsigned char)a[k];
-    PyObject *raw;
-    if ((high & 0x8080808080808080ULL) == 0) {
-        raw = PyUnicode_New(n, 127);
-        if (raw == NULL)
-            return NULL;
-        memcpy(PyUnicode_1BYTE_DATA(raw), a, (size_t)n);
-    } else {
-        raw = PyUnicode_DecodeUTF8(a, n, "surrogateescape");
-        if (raw == NULL)
-            return NULL;
-    }
-    src->i = (Py_ssize_t)(e - src->buf);
-    src->idx++;
-    return raw;
+    return line_str(a, n, ascii);
 }
 
 static inline int src_more(const LineSrc *src)
@@ -2785,20 +2801,40 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             break;
         while (wi < nf && firsts[wi] == idx)
             wi++;
-        PyObject *raw = src_take(src);
-        if (raw == NULL)
-            goto fail_ss;
+        PyObject *raw;
+        int got = -2;                  /* what the reader's fused line said; -2: not asked */
+        FusedMove fm;
+        if (src->list == NULL && ss != NULL) {
+            /* from bytes: a line of ASCII is read from its bytes, its str made only if
+             * step() must read it (fused_line reads the same bytes from the str) */
+            const char *a;
+            Py_ssize_t n;
+            int ascii;
+            src_next_buf(src, &a, &n, &ascii);
+            if (ascii) {
+                got = READER->line_ascii(ss, a, n, &fm);
+                if (got < 0)
+                    goto fail_ss;
+            }
+            raw = got == 0 || got == 1 ? NULL : line_str(a, n, ascii);
+            if (raw == NULL && PyErr_Occurred())
+                goto fail_ss;
+        } else {
+            raw = src_take(src);
+            if (raw == NULL)
+                goto fail_ss;
+        }
         if (ss != NULL) {
-            FusedMove fm;
-            int got = READER->line(ss, raw, &fm);
+            if (got == -2)
+                got = READER->line(ss, raw, &fm);
             if (got < 0)
                 goto fail_raw;
             if (got == 0) {
-                Py_DECREF(raw);
+                Py_XDECREF(raw);
                 continue;
             }
             if (got == 1) {
-                Py_DECREF(raw);
+                Py_XDECREF(raw);
                 if (play_fused(s, idx, &fm) < 0)
                     goto fail_ss;
                 if (stops && fm.kind == 1) {

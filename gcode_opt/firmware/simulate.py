@@ -520,15 +520,20 @@ def simulate_events(event_iter, profile, on_line=None, on_block=None) -> SimResu
     return sim.res
 
 
-def simulate_file(path, profile, on_line=None, on_block=None, on_barrier=None, progress=None) -> SimResult:
+def simulate_file(path, profile, on_line=None, on_block=None, on_barrier=None, progress=None,
+                  on_count=None) -> SimResult:
     """simulate_events over the file's lines (state.events), read in chunks and played by the
     compiled loop (Sim.play) where the compiled core plays.  on_barrier(dwell_t), if given,
     is called once the model took a Barrier (as ringing.wrap_events does); progress(n), if
-    given, is told the characters read (per chunk, or per line in pure Python)."""
+    given, is told the characters read (per chunk, or per line in pure Python).
+    on_count(n), if given, is told the file's lines as summary.count_lines counts them,
+    where the pass knows that number (_counted_by)."""
     state = st.MachineState(profile, path)
     sim = new_sim(profile, on_line, on_block)
     if hasattr(sim, "play"):
-        _play_chunks(Blocks(path, progress), state, sim, None, None, on_barrier)
+        blocks = Blocks(path, progress)
+        _play_chunks(blocks, state, sim, None, None, on_barrier)
+        _counted_by(blocks, on_count)
     else:
         _play(_counted(st.read_lines(path), progress), state, sim, None, None, on_barrier)
     sim.stop()
@@ -569,19 +574,29 @@ class Blocks:
 
     def __init__(self, path, progress=None):
         self.path, self.progress = path, progress
+        self.cr = False           # a block yielded held a "\r"
+        self.n_lines = None       # _play_blocks: the lines it played, once it played them all
 
     def __iter__(self):
         return read_chunks(self.path, self.progress)
 
+    def count(self):
+        """The file's lines as summary.count_lines counts them, if known: the lines played
+        where no "\r" ended one (else None)."""
+        return None if self.cr else self.n_lines
+
     def blocks(self):
         progress = self.progress
+        self.cr = False
         with open(self.path, "rb") as fh:
             rest = b""
             while True:
                 data = fh.read(BLOCK_BYTES)
                 if not data:
                     if rest:
-                        yield rest, b"\r" in rest
+                        cr = b"\r" in rest
+                        self.cr |= cr
+                        yield rest, cr
                     return
                 if progress is not None:
                     progress(len(data))
@@ -595,7 +610,9 @@ class Blocks:
                     rest = data
                     continue
                 rest = data[k:]
-                yield memoryview(data)[:k], data.find(b"\r", 0, k) >= 0
+                cr = data.find(b"\r", 0, k) >= 0
+                self.cr |= cr
+                yield memoryview(data)[:k], cr
 
 
 def _chunked(lines, n=2048):
@@ -901,6 +918,7 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
             pos = 0
             while pos < n:
                 pos, idx, _ = play(buf, pos, idx, cr, step, -2, False, on_barrier)
+        blocks.n_lines = idx
         return
     w = _LedgerWriter(led, watch, state, sim.res)
     if getattr(_core, "PLAY_FIRSTS", 0) and USE_PLAY_FIRSTS:
@@ -916,6 +934,7 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
                     wi = wj
                 if stopped:
                     w.stopped(idx - 1)
+        blocks.n_lines = idx
         w.finish(idx, sim)
         return
     next_first = w.next_first
@@ -928,24 +947,34 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
                 w.stopped(idx - 1)         # the model stands empty after line idx - 1
             elif pos < n:                  # line idx (not read yet) starts a watched range
                 next_first = w.range_starts()
+    blocks.n_lines = idx
     w.finish(idx, sim)
 
 
+def _counted_by(blocks, on_count):
+    """on_count(the lines Blocks played) where they are count_lines' lines: played as
+    blocks of bytes (play_buf), none ended by a "\r"."""
+    if on_count is not None and blocks.count() is not None:
+        on_count(blocks.count())
+
+
 def simulate_ledger(path, profile, watch, on_line=None, on_block=None, lines=None, on_barrier=None,
-                    progress=None):
+                    progress=None, on_count=None):
     """simulate_file that also returns a Ledger of the stops around the sorted, disjoint
     line ranges `watch` [(first, last), ...] (0-based, inclusive), for replay_runs.
     `lines`: the file's (idx, raw) lines if the caller reads them (read_lines(path));
     else the file is read here, in chunks played by the compiled loop where the compiled
     core plays (progress(n), if given, is told the characters read);
-    on_barrier(dwell_t): called after each Barrier (see _play)."""
+    on_barrier(dwell_t): called after each Barrier (see _play); on_count as simulate_file's."""
     state = st.MachineState(profile, path)
     state.warnings = []
     sim = new_sim(profile, on_line, on_block)
     sim.max_stop_lines = math.inf
     led = Ledger()
     if lines is None and hasattr(sim, "play"):
-        _play_chunks(Blocks(path, progress), state, sim, watch, led, on_barrier)
+        blocks = Blocks(path, progress)
+        _play_chunks(blocks, state, sim, watch, led, on_barrier)
+        _counted_by(blocks, on_count)
     else:
         lines = _counted(st.read_lines(path), progress) if lines is None else lines
         _play(lines, state, sim, watch, led, on_barrier)

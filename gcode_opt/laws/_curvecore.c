@@ -577,6 +577,101 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* kern_pack(s_v, sd, m, n1, lo, buf, rng) -> count: kern_args' arguments, row by row (the
+   same operations), but only those not below lo (NaN included) kept, packed in buf in
+   order, as exp_split would pack them (np.exp then takes buf[:count]); rng (m n1 2 int64)
+   the first and end index of each row's kept run.  A row's arguments are unimodal in the
+   index (s_v sorted: rounding is monotone), so its kept ones are one run; -1 if a row's
+   are not (unsorted or NaN arguments: the caller takes kern_args and exp_split then).
+   kern_unpack(kern, m, n1, rng, buf, count): exp_merge's kern from them, +0.0 outside
+   each row's run.  The full kernel is written once, not three times (kern_args,
+   exp_merge) and read twice (exp_split, exp_merge). */
+static Py_ssize_t kept_run(const double *kr, Py_ssize_t ni, double lo, Py_ssize_t *a, Py_ssize_t *e) {
+    Py_ssize_t i = 0;
+    while (i < ni && kr[i] < lo) i++;
+    *a = i;
+    while (i < ni && !(kr[i] < lo)) i++;
+    *e = i;
+    while (i < ni && kr[i] < lo) i++;
+    return i == ni;           /* 0: a kept argument after the run */
+}
+
+static PyObject *kern_pack(PyObject *self, PyObject *a) {
+    PyObject *os, *osd, *ob, *orng;
+    Py_ssize_t m, n1;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OOnndOO", &os, &osd, &m, &n1, &lo, &ob, &orng)) return NULL;
+    if (n1 < 3 || m < 0) {
+        PyErr_SetString(PyExc_ValueError, "kern_pack: bad size");
+        return NULL;
+    }
+    Py_ssize_t ni = n1 - 2;
+    Bufs b = {.n = 0};
+    const double *s = get(&b, os, 8, 0, m * n1);
+    const double *sd = s ? get(&b, osd, 8, 0, m) : NULL;
+    double *buf = sd ? get(&b, ob, 8, 1, m * n1 * ni) : NULL;
+    int64_t *rng = buf ? get(&b, orng, 8, 1, m * n1 * 2) : NULL;
+    if (!rng) { release(&b); return NULL; }
+#if CURVE_AVX
+    const int avx = use_avx() && ni >= 4;
+#endif
+    Py_ssize_t c = 0;
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double *sr = s + r * n1;
+        const double d = sd[r];
+        for (Py_ssize_t j = 0; j < n1; j++) {
+            double *kr = buf + c;           /* the row made in place, its run moved down to c */
+#if CURVE_AVX
+            if (!(avx && kern_row_avx(sr + 1, ni, sr[j], d, kr)))
+#endif
+                kern_row(sr + 1, ni, sr[j], d, kr);
+            Py_ssize_t ra, re;
+            if (!kept_run(kr, ni, lo, &ra, &re)) {
+                release(&b);
+                return PyLong_FromSsize_t(-1);
+            }
+            if (ra > 0 && re > ra) memmove(kr, kr + ra, (size_t)(re - ra) * sizeof(double));
+            rng[2 * (r * n1 + j)] = ra;
+            rng[2 * (r * n1 + j) + 1] = re;
+            c += re - ra;
+        }
+    }
+    release(&b);
+    return PyLong_FromSsize_t(c);
+}
+
+static PyObject *kern_unpack(PyObject *self, PyObject *a) {
+    PyObject *ok, *orng, *ob;
+    Py_ssize_t m, n1, count;
+    if (!PyArg_ParseTuple(a, "OnnOOn", &ok, &m, &n1, &orng, &ob, &count)) return NULL;
+    if (n1 < 3 || m < 0 || count < 0) {
+        PyErr_SetString(PyExc_ValueError, "kern_unpack: bad size");
+        return NULL;
+    }
+    Py_ssize_t ni = n1 - 2;
+    Bufs b = {.n = 0};
+    double *k = get(&b, ok, 8, 1, m * n1 * ni);
+    const int64_t *rng = k ? get(&b, orng, 8, 0, m * n1 * 2) : NULL;
+    const double *buf = rng ? get(&b, ob, 8, 0, count) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t q = 0; q < m * n1; q++) {
+        double *kr = k + q * ni;
+        Py_ssize_t ra = (Py_ssize_t)rng[2 * q], re = (Py_ssize_t)rng[2 * q + 1];
+        if (ra < 0 || re < ra || re > ni || c + (re - ra) > count) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "kern_unpack: runs do not match the buffer");
+            return NULL;
+        }
+        for (Py_ssize_t i = 0; i < ra; i++) kr[i] = 0.0;
+        memcpy(kr + ra, buf + c, (size_t)(re - ra) * sizeof(double));
+        for (Py_ssize_t i = re; i < ni; i++) kr[i] = 0.0;
+        c += re - ra;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* exp_split(kern, total, lo, buf) -> count: the arguments kern[i] not below lo (NaN
    included) copied to buf in order, for one np.exp on them; exp_merge(kern, total, lo,
    buf): kern[i] = +0.0 where kern[i] < lo, else the next of buf.  curves.py uses them only
@@ -955,6 +1050,8 @@ static PyMethodDef methods[] = {
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"kern_pack", kern_pack, METH_VARARGS, "_parts_block's kernel arguments np.exp does not take to +0.0, packed, and each row's run"},
+    {"kern_unpack", kern_unpack, METH_VARARGS, "the kernel from np.exp of kern_pack's arguments, +0.0 outside the runs"},
     {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},

@@ -511,13 +511,14 @@ class _Blk:
     With pts, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
     are made: their one reader) and is made again by _parts_block when read."""
     __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
-                 "cap_min", "__weakref__")
+                 "cap_min", "_ux2", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
         self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
         self._u, self._pts = (None, pts) if pts is not None else (u, None)
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
+        self._ux2 = None            # adjust_plan_inputs' direction weights of every row, once made
 
     @property
     def u(self):
@@ -1069,8 +1070,10 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     expressions (Python's min(a, b) is b where b < a), put with one index each."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
     rows = [int(i) for i in rows]
-    gs = [geom(strokes[i], profile) for i in rows]
-    ux2 = np.array(_ux2_rows(gs), float)
+    sts = [strokes[i] for i in rows]
+    gs = [geom(st, profile) for st in sts]
+    by_blk = _by_block(gs)
+    ux2 = np.array(_ux2_rows(gs) if by_blk is None else _block_rows(by_blk, _blk_ux2), float)
     uy2 = 1.0 - ux2
     den = mx * ux2 + my * uy2
     if not len(rows) or (den == 0.0).any():     # a zero mass: the scalar loop (it raises)
@@ -1079,11 +1082,10 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
             pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
     else:
         pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
-    sts = [strokes[i] for i in rows]
-    pin.a_cap[rows] = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    pin.a_cap[rows] = _a_caps(sts)
     if cap_peak and rows:
         vc = pin.v_cap[rows]
-        cap = np.array([g.cap for g in gs], float)
+        cap = np.array([g.cap for g in gs] if by_blk is None else _block_rows(by_blk, _blk_cap), float)
         pin.v_cap[rows] = np.where(cap < vc, cap, vc)
         for g in gs:
             g.caps_jerk1 = None           # read by chains only (chains.vertex_caps): not a chain
@@ -1108,6 +1110,74 @@ def _ux2_rows(gs):
         for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
             out[k] = x
     return out
+
+
+def _a_caps(sts):
+    """[min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]: Python's min of the three
+    (the later one where it is < the least so far) in arrays, the limits read once per
+    limits object the strokes share; the list itself where a number is not a float."""
+    m = len(sts)
+    acc = list(map(_ACCEL, sts))
+    lims, which = _lims_which(sts)
+    ax = [lim.ax_max for lim in lims]
+    ay = [lim.ay_max for lim in lims]
+    if not all(type(x) is float for x in acc + ax + ay):
+        return [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    a = np.fromiter(acc, float, m)
+    axr, ayr = np.array(ax, float)[which], np.array(ay, float)[which]
+    a = np.where(axr < a, axr, a)
+    return np.where(ayr < a, ayr, a)
+
+
+_G_B = attrgetter("_b")
+_G_K = attrgetter("_k")
+
+
+def _by_block(gs):
+    """(per distinct block: (block, positions in gs, rows in it)) of geometries that are rows
+    of build_geoms' blocks (a _Blk with its strokes' vertices, cap an array), or None."""
+    try:
+        bs = list(map(_G_B, gs))
+        ks = list(map(_G_K, gs))
+    except AttributeError:
+        return None
+    out = {}
+    for q, (b, k) in enumerate(zip(bs, ks)):
+        e = out.get(id(b))
+        if e is None:
+            if type(b) is not _Blk or b._pts is None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
+                return None
+            e = out[id(b)] = (b, [], [])
+        e[1].append(q)
+        e[2].append(k)
+    return list(out.values())
+
+
+def _block_rows(by_blk, per_block):
+    """The numbers per_block(block) (an array, one a row of the block) of every geometry,
+    in the geometries' order."""
+    n = sum(len(qs) for _, qs, _ in by_blk)
+    out = np.empty(n)
+    for b, qs, ks in by_blk:
+        out[qs] = per_block(b)[ks]
+    return out
+
+
+def _blk_cap(b):
+    return b.cap
+
+
+def _blk_ux2(b):
+    """_ux2_rows of every row of the block b (kept on it): the same row operations on the
+    block's d and its u made from the rows' vertices (stack_du's numbers, row by row)."""
+    got = b._ux2
+    if got is None:
+        d = np.asarray(b.d, float)
+        u = b.u_rows(list(range(d.shape[0])))
+        ux = np.ascontiguousarray(u[:, :, 0])
+        w = d / d.sum(axis=1, keepdims=True)
+        got = b._ux2 = np.sum(w * ux ** 2, axis=1)
+    return got
 
 
 # ------------------------------------------------------------------ law

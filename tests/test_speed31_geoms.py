@@ -253,3 +253,110 @@ def test_lims_which_as_setdefault():
         lims = [lim for _, lim in seen.values()]
         got_lims, got_which = curves._lims_which(sts)
         assert got_lims == lims and got_which.dtype == np.int32 and got_which.tolist() == which
+
+
+# ---------------------------------------------------------------- adjust_plan_inputs
+def Radjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
+    """b219ac3's curves.adjust_plan_inputs, verbatim (names prefixed R)."""
+    mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
+    rows = [int(i) for i in rows]
+    gs = [curves.geom(strokes[i], profile) for i in rows]
+    ux2 = np.array(curves._ux2_rows(gs), float)
+    uy2 = 1.0 - ux2
+    den = mx * ux2 + my * uy2
+    if not len(rows) or (den == 0.0).any():
+        for i, x in zip(rows, ux2.tolist()):
+            y = 1.0 - x
+            pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
+    else:
+        pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
+    sts = [strokes[i] for i in rows]
+    pin.a_cap[rows] = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    if cap_peak and rows:
+        vc = pin.v_cap[rows]
+        cap = np.array([g.cap for g in gs], float)
+        pin.v_cap[rows] = np.where(cap < vc, cap, vc)
+        for g in gs:
+            g.caps_jerk1 = None
+
+
+def _pin_after(adjust, strokes, prof, tweak=None):
+    from gcode_opt import schedule
+    for st in strokes:
+        st.curv, st.chain_T = None, None
+    if tweak:
+        tweak(strokes)
+    kind = schedule.KINDS[K_CURVE]
+    saved = (curves.adjust_plan_inputs, kind.adjust_inputs)
+    curves.adjust_plan_inputs = kind.adjust_inputs = adjust      # (chains' calls it as curves')
+    try:
+        pin = schedule.plan_inputs(strokes, prof, Options())
+    finally:
+        curves.adjust_plan_inputs, kind.adjust_inputs = saved
+    cur = [st for st in strokes if st.kind == K_CURVE]
+    return ([np.asarray(a).tobytes() for a in (pin.mass_r, pin.a_cap, pin.v_cap)] + [list(pin.fault)],
+            [st.curv.caps_jerk1 is None for st in cur])
+
+
+@pytest.mark.parametrize("name,profile", CASES + [("prusa_concentric.gcode", "prusa-mk3s")])
+def test_adjust_plan_inputs_as_b219ac3(name, profile):
+    """Every plan input (masses, acceleration and speed caps) and the caps let go, as
+    b219ac3's; curves and chains (chains.adjust_plan_inputs calls it with cap_peak=False)."""
+    prof = load_profile(profile)
+    strokes, _ = analyse(os.path.join(S, name), prof, Options())
+    assert _pin_after(curves.adjust_plan_inputs, strokes, prof) == _pin_after(Radjust_plan_inputs, strokes, prof)
+
+
+def test_adjust_plan_inputs_other_limits_and_geometries_as_b219ac3():
+    """Several limits objects (and an int acceleration: the list of Python mins), and
+    geometries of CurveGeom's own path (not rows of build_geoms' blocks)."""
+    import copy
+    prof = load_profile("voron24")
+    strokes, _ = analyse(os.path.join(S, "prusa_gyroid.gcode"), prof, Options())
+    cur = [st for st in strokes if st.kind == K_CURVE]
+
+    def other_limits(sts):
+        for k, st in enumerate(cur):
+            if k % 3 == 1:
+                st.lim = copy.copy(st.lim)
+                st.lim.ax_max = st.lim.ax_max * (0.5 + 0.1 * (k % 7))
+                st.accel = float(st.accel) * 0.9
+
+    def own_path(sts):
+        other_limits(sts)
+        for st in cur[::5]:
+            st.curv = curves.CurveGeom(st, prof)
+        cur[7].accel = int(cur[7].accel)
+    for tweak in (other_limits, own_path):
+        lims = [(st.lim, st.accel) for st in cur]
+        got = _pin_after(curves.adjust_plan_inputs, strokes, prof, tweak)
+        for st, (lim, a) in zip(cur, lims):
+            st.lim, st.accel = lim, a
+        want = _pin_after(Radjust_plan_inputs, strokes, prof, tweak)
+        for st, (lim, a) in zip(cur, lims):
+            st.lim, st.accel = lim, a
+        assert got == want
+
+
+# ---------------------------------------------------------------- circle._row_lengths
+def R_row_lengths(coef):
+    """b219ac3's circle._row_lengths, verbatim."""
+    nz = coef != 0
+    return np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
+
+
+def test_row_lengths_as_b219ac3():
+    """The compiled scan against numpy's four passes: zeros, -0.0 (a zero), NaN (not a
+    zero), all-zero rows, one column, no rows, views that are not contiguous."""
+    rng = np.random.default_rng(31)
+    for _ in range(300):
+        B, K = int(rng.integers(0, 40)), int(rng.integers(1, 30))
+        c = rng.normal(size=(B, K))
+        c[rng.random((B, K)) < 0.5] = 0.0
+        c[rng.random((B, K)) < 0.05] = -0.0
+        c[rng.random((B, K)) < 0.02] = np.nan
+        c[:B // 4] = 0.0
+        for x in (c, c[:, ::2], c[::3]):
+            if x.shape[1]:
+                got, want = circle._row_lengths(x), R_row_lengths(x)
+                assert got.dtype == want.dtype and got.tolist() == want.tolist()

@@ -987,6 +987,31 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* row_lengths(coef, B, K, out): circle._row_lengths, each row's own number of
+   coefficients of coef (B, K): one past its last c != 0 (NaN is != 0, -0.0 is not), at
+   least 1; out (B,) int64. */
+static PyObject *row_lengths(PyObject *self, PyObject *a) {
+    PyObject *oc, *oo;
+    Py_ssize_t nb, K;
+    if (!PyArg_ParseTuple(a, "OnnO", &oc, &nb, &K, &oo)) return NULL;
+    if (nb < 0 || K < 1) {
+        PyErr_SetString(PyExc_ValueError, "row_lengths: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *c = get(&b, oc, 8, 0, nb * K);
+    int64_t *out = c ? get(&b, oo, 8, 1, nb) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *row = c + r * K;
+        Py_ssize_t k = K;
+        while (k > 0 && !(row[k - 1] != 0.0)) k--;
+        out[r] = k > 0 ? k : 1;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* curves._Blk.u_rows: the unit directions of rows of a geometry block made again from
    the strokes' own vertices, (x[j + 1] - x[j]) / d[j] per axis: numpy's subtract then
    divide of the same doubles (two correctly rounded operations, no contraction between
@@ -1056,6 +1081,7 @@ static PyMethodDef methods[] = {
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
+    {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {NULL, NULL, 0, NULL}};
 

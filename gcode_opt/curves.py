@@ -673,7 +673,7 @@ def build_geoms(strokes, profile, jerk1=False):
     made = []                           # (block, its strokes, their indices into todo)
     for idx, block in _part_blocks(todo, pts):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1, [pts[i] for i in ii])
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1)
         if got is None:
             continue
         blk, keep, sts = got

@@ -113,6 +113,19 @@ def test_packed_kernel_declines_what_is_not_one_run():
         assert _bits(curves._kern_packed(s_v, nsd, n), _old_kernel(s_v, nsd, n))
         one = s_v[:, :4].copy()                          # n = 3: one interior vertex
         assert _bits(curves._kern_packed(one, sd, 3), _old_kernel(one, sd, 3))
+        # rows kern_pack knows are one run (sorted, finite) next to rows it checks: repeated
+        # vertices, overflowing differences, an infinite or zero width, an infinite vertex
+        odd = s_v.copy()
+        odd[0, 4:7] = odd[0, 4]                          # repeated vertices (still in order)
+        odd[1] = np.linspace(-1.5e308, 1.5e308, n + 1)    # differences overflow to inf
+        odd[2, -1] = np.inf
+        odd[3, 0] = -np.inf
+        osd = sd.copy()
+        osd[4], osd[5] = np.inf, 0.0
+        for w in (osd, osd * 1e-3, osd * 1e3):
+            r = curves._kern_packed(odd, w, n)
+            assert r is None or _bits(r, _old_kernel(odd, w, n))
+        assert _bits(curves._kern_packed(odd[:2], sd[:2], n), _old_kernel(odd[:2], sd[:2], n))
 
 
 @needs_core

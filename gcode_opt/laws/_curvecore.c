@@ -596,6 +596,30 @@ static Py_ssize_t kept_run(const double *kr, Py_ssize_t ni, double lo, Py_ssize_
     return i == ni;           /* 0: a kept argument after the run */
 }
 
+/* kept_run of a row whose arguments are known to be one run (kern_pack's sorted rows):
+   only the dropped arguments at its two ends are read */
+static void run_ends(const double *kr, Py_ssize_t ni, double lo, Py_ssize_t *a, Py_ssize_t *e) {
+    Py_ssize_t i = 0, j = ni;
+    while (i < ni && kr[i] < lo) i++;
+    while (j > i && kr[j - 1] < lo) j--;
+    *a = i;
+    *e = j;
+}
+
+/* whether kern_row's arguments of the stroke (vertices s (n1), width d) are one run in
+   every row: s finite, its interior vertices in order and d > 0 finite.  Then each row's
+   z_i = ((s_j - s_i) / d)^2 falls then rises with i (each rounded step is monotone, the
+   overflows included), (z_i - min z) * -0.5 rises then falls, and those not below lo are
+   one run (or, the minimum infinite, every argument NaN: one run too). */
+static int one_run_rows(const double *s, Py_ssize_t n1, double d) {
+    if (!(d > 0.0) || !isfinite(d)) return 0;
+    for (Py_ssize_t i = 0; i < n1; i++)
+        if (!isfinite(s[i])) return 0;
+    for (Py_ssize_t i = 1; i + 2 < n1; i++)
+        if (!(s[i + 1] >= s[i])) return 0;
+    return 1;
+}
+
 static PyObject *kern_pack(PyObject *self, PyObject *a) {
     PyObject *os, *osd, *ob, *orng;
     Py_ssize_t m, n1;
@@ -619,6 +643,7 @@ static PyObject *kern_pack(PyObject *self, PyObject *a) {
     for (Py_ssize_t r = 0; r < m; r++) {
         const double *sr = s + r * n1;
         const double d = sd[r];
+        const int known = one_run_rows(sr, n1, d);
         for (Py_ssize_t j = 0; j < n1; j++) {
             double *kr = buf + c;           /* the row made in place, its run moved down to c */
 #if CURVE_AVX
@@ -626,7 +651,9 @@ static PyObject *kern_pack(PyObject *self, PyObject *a) {
 #endif
                 kern_row(sr + 1, ni, sr[j], d, kr);
             Py_ssize_t ra, re;
-            if (!kept_run(kr, ni, lo, &ra, &re)) {
+            if (known) {
+                run_ends(kr, ni, lo, &ra, &re);
+            } else if (!kept_run(kr, ni, lo, &ra, &re)) {
                 release(&b);
                 return PyLong_FromSsize_t(-1);
             }

@@ -140,7 +140,7 @@ def _classify_block(b, sts, jerk, fresh=False):
     else:
         ks = np.array([st.curv._k for st in sts], np.int64)
         cap = b.cap[ks]
-    feed = np.fromiter(map(_V_FEED, sts), float, len(sts))
+    feed = curves.floats_of(map(_V_FEED, sts), len(sts))
     hit = np.flatnonzero(cap < feed).tolist()
     if not hit:
         return True

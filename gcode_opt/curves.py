@@ -750,7 +750,7 @@ def _block_geoms(sts, block, profile, j1, pts=None):
         pts = [p for p, x in zip(pts, g) if x]
     if not (np.isfinite(u).all() and np.isfinite(d).all()):
         return None
-    lim = (profile,) + _lims_which(sts) + (np.fromiter(map(_ACCEL, sts), float, len(sts)),)
+    lim = (profile,) + _lims_which(sts) + (floats_of(map(_ACCEL, sts), len(sts)),)
     caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
     if caps is None:
         return None
@@ -769,6 +769,16 @@ def _block_geoms(sts, block, profile, j1, pts=None):
 
 _LIM = attrgetter("lim")
 _ACCEL = attrgetter("accel")
+
+
+def floats_of(values, n):
+    """np.array(list(values), float) of n numbers: by np.fromiter where each is a number,
+    else (a None: NaN, as np.array takes it) np.array of the list."""
+    vals = list(values)
+    try:
+        return np.fromiter(vals, float, n)
+    except (TypeError, ValueError):
+        return np.array(vals, float)
 
 
 def _lims_which(sts):

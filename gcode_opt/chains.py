@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from operator import attrgetter
 
 import numpy as np
 
@@ -79,18 +80,35 @@ def classify(strokes, rows, profile):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
     caps a curve's peak) is below the feed become chains."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
-    curves.build_geoms(sts, profile, jerk1=True)
+    made = curves.build_geoms(sts, profile, jerk1=True) or []     # (None: a build_geoms of tests)
     jerk = profile.junction == "jerk"
-    by_blk = {}                          # the strokes of each geometry block, in order
-    for q, st in enumerate(sts):
-        b = getattr(curves.geom(st, profile), "_b", None)
-        by_blk.setdefault(id(b), (b, []))[1].append(q)
-    for b, qs in by_blk.values():
-        if type(b) is not curves._Blk or not _classify_block(b, [sts[q] for q in qs], jerk):
-            for q in qs:
-                _classify_one(sts[q], profile, jerk)
+    for b, bsts in made:                 # the blocks build_geoms made: their rows in order
+        if not _classify_block(b, bsts, jerk, fresh=True):
+            for st in bsts:
+                _classify_one(st, profile, jerk)
+    every = sum(len(m[1]) for m in made) == len(sts)
+    if not every:
+        _classify_rest(sts, made, profile, jerk)
     if jerk:
-        curves.drop_jerk1(sts)
+        if every:                        # (their blocks: build_geoms' made)
+            curves.drop_blocks_jerk1([m[0] for m in made])
+        else:
+            curves.drop_jerk1(sts)
+
+
+def _classify_rest(sts, made, profile, jerk):
+    """classify's test of the strokes sts that are no row of a block build_geoms made
+    (a geometry made before, or CurveGeom's own), by the block their geometry is a row of."""
+    done = {id(st) for m in made for st in m[1]}
+    by_blk = {}                          # the strokes of each geometry block, in order
+    for st in sts:
+        if id(st) not in done:
+            b = getattr(curves.geom(st, profile), "_b", None)
+            by_blk.setdefault(id(b), (b, []))[1].append(st)
+    for b, bsts in by_blk.values():
+        if type(b) is not curves._Blk or not _classify_block(b, bsts, jerk):
+            for st in bsts:
+                _classify_one(st, profile, jerk)
 
 
 def _classify_one(st, profile, jerk):
@@ -105,25 +123,30 @@ def _classify_one(st, profile, jerk):
                                          # caps at the whole jerk are read no more
 
 
-def _classify_block(b, sts, jerk):
+def _classify_block(b, sts, jerk, fresh=False):
     """_classify_one of the strokes sts, rows of the geometry block b (curves._Blk), as
     row operations on the block: its cap (CAP_MARGIN x each row's least cap, as
     np.minimum takes it: the test's own number where every cap is > 0, b.cap_min) against
     the feeds, and under classic jerk the chains' caps CHAIN_CAP_MARGIN x caps_jerk1 for
     the chains' rows at once (vertex_caps' product, elementwise: the same bits; each
-    chain keeps a copy of its row).  False (nothing done) where the block is not such."""
+    chain keeps a copy of its row).  False (nothing done) where the block is not such.
+    fresh: sts are the block's rows in order, as build_geoms made them just now."""
     if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
         return False
-    if jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
+    if not fresh and jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
         return False             # (a geometry's own caps at the whole jerk: one by one)
-    ks = np.array([st.curv._k for st in sts], np.int64)
-    feed = np.array([st.v_feed for st in sts], float)
-    hit = np.flatnonzero(b.cap[ks] < feed).tolist()
+    if fresh:
+        ks, cap = None, b.cap
+    else:
+        ks = np.array([st.curv._k for st in sts], np.int64)
+        cap = b.cap[ks]
+    feed = curves.floats_of(map(_V_FEED, sts), len(sts))
+    hit = np.flatnonzero(cap < feed).tolist()
     if not hit:
         return True
     caps1 = None
     if jerk and b.caps_jerk1 is not None:
-        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1[ks[hit]]
+        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1[hit if ks is None else ks[hit]]
     for i, q in enumerate(hit):
         st = sts[q]
         st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
@@ -135,6 +158,9 @@ def _classify_block(b, sts, jerk):
             g.chain_caps = caps1[i].copy()
             g.caps_jerk1 = None
     return True
+
+
+_V_FEED = attrgetter("v_feed")
 
 
 def plan_kind(st):

@@ -482,6 +482,11 @@ def drop_jerk1(sts):
         blocks = set(map(_CURV_B, sts))
     except AttributeError:              # a stroke without a geometry
         blocks = {g._b for g in [st.curv for st in sts] if g is not None}
+    drop_blocks_jerk1(blocks)
+
+
+def drop_blocks_jerk1(blocks):
+    """drop_jerk1 of strokes whose geometries are the rows of these blocks."""
     for b in blocks:
         b.caps_jerk1 = None
         if b._lim is not None:          # the caps at jerk's share too: chains.classify alone reads
@@ -506,13 +511,14 @@ class _Blk:
     With pts, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
     are made: their one reader) and is made again by _parts_block when read."""
     __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
-                 "cap_min", "__weakref__")
+                 "cap_min", "_ux2", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
         self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
         self._u, self._pts = (None, pts) if pts is not None else (u, None)
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
+        self._ux2 = None            # adjust_plan_inputs' direction weights of every row, once made
 
     @property
     def u(self):
@@ -657,28 +663,55 @@ def build_geoms(strokes, profile, jerk1=False):
     (chains.vertex_caps).  A stroke the batched forms do not take (a degenerate or
     non-finite one, too few or too many vertices, caps the vectorised law declines) takes
     CurveGeom's own path, in the strokes' order: one whose geometry raises raises here,
-    as geom() would (the strokes before it keep theirs)."""
+    as geom() would (the strokes before it keep theirs).  Returns the blocks it made, each
+    as (its _Blk, its strokes in row order): chains.classify reads them by block."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
-        return
-    rows = [None] * len(todo)          # (block, row) per stroke; None: CurveGeom's own path
+        return []
     j1 = jerk1 and profile.junction == "jerk"
-    for idx, block in _part_blocks(todo):
-        got = _block_geoms([todo[i] for i in idx.tolist()], block, profile, j1)
+    pts = list(map(_PTS, todo))
+    made = []                           # (block, its strokes, their indices into todo)
+    for idx, block in _part_blocks(todo, pts):
+        ii = idx.tolist()
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1)
         if got is None:
             continue
-        blk, keep = got
-        for k, i in enumerate(idx[keep].tolist()):
+        blk, keep, sts = got
+        made.append((blk, sts, ii if keep is None else [i for i, g in zip(ii, keep.tolist()) if g]))
+    if sum(len(m[1]) for m in made) == len(todo):
+        for blk, sts, _ in made:        # every stroke a row of a block: the order is not seen
+            _put_rows(blk, sts)
+        return [m[:2] for m in made]
+    rows = [None] * len(todo)          # (block, row) per stroke; None: CurveGeom's own path
+    for blk, _, ii in made:
+        for k, i in enumerate(ii):
             rows[i] = (blk, k)
     new = CurveGeom.__new__
     for st, r in zip(todo, rows):
         if r is None:
             st.curv = CurveGeom(st, profile, caps_jerk1=_own_jerk1(st, profile) if j1 else None)
             continue
-        # CurveGeom's fields, a row of its block (~21 k strokes on the gyroid plate)
         g = new(CurveGeom)
         g._pts = st.pts
         g._b, g._k = r
+        g.chain_caps = None
+        g._j1 = _FROM_BLOCK
+        st.curv = g
+    return [m[:2] for m in made]
+
+
+_PTS = attrgetter("pts")
+
+
+def _put_rows(blk, sts):
+    """CurveGeom's fields of the strokes sts, row k of blk the k-th's (~21 k strokes on the
+    gyroid plate)."""
+    new = CurveGeom.__new__
+    for k, st in enumerate(sts):
+        g = new(CurveGeom)
+        g._pts = st.pts
+        g._b = blk
+        g._k = k
         g.chain_caps = None
         g._j1 = _FROM_BLOCK
         st.curv = g
@@ -696,25 +729,28 @@ def _own_jerk1(st, profile):
     return _caps_flat(profile, _lim_fields(st.lim, st.accel), u, d, 1.0)
 
 
-def _block_geoms(sts, block, profile, j1):
-    """The _Blk of the strokes sts whose _parts_block (compact) is `block`, and which of
-    them it holds (a bool mask: the rows _parts_block takes), or None (CurveGeom's own
-    path for all) when the vectorised caps decline one of them.  The caps are _caps_flat's
-    law on (m, n - 1) arrays, the limits as (m, 1): each element the same operations."""
+def _block_geoms(sts, block, profile, j1, pts=None):
+    """The _Blk of the strokes sts whose _parts_block (compact) is `block`, which of them
+    it holds (a bool mask: the rows _parts_block takes; None: all) and those strokes, or
+    None (CurveGeom's own path for all) when the vectorised caps decline one of them.  The
+    caps are _caps_flat's law on (m, n - 1) arrays, the limits as (m, 1): each element the
+    same operations.  pts: the strokes' vertices (their pts), if the caller has them."""
     d, u, _, _, kappa_v, kappa_eff, good = block
     kappa_eff = np.array(kappa_eff, float)          # the same floats, 8 bytes each
-    keep = good
+    keep = None
+    if pts is None:
+        pts = list(map(_PTS, sts))
     if not good.all():
         if not good.any():
             return None
+        keep = good
         d, u, kappa_v, kappa_eff = d[good], u[good], kappa_v[good], kappa_eff[good]
-        sts = [st for st, g in zip(sts, good.tolist()) if g]
+        g = good.tolist()
+        sts = [st for st, x in zip(sts, g) if x]
+        pts = [p for p, x in zip(pts, g) if x]
     if not (np.isfinite(u).all() and np.isfinite(d).all()):
         return None
-    seen = {}
-    which = [seen.setdefault(id(st.lim), (len(seen), st.lim))[0] for st in sts]
-    lims = [lim for _, lim in seen.values()]
-    lim = (profile, lims, np.array(which, np.int32), np.array([st.accel for st in sts], float))
+    lim = (profile,) + _lims_which(sts) + (floats_of(map(_ACCEL, sts), len(sts)),)
     caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
     if caps is None:
         return None
@@ -726,9 +762,35 @@ def _block_geoms(sts, block, profile, j1):
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
     # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
-    blk = _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=[st.pts for st in sts], lim=lim)
+    blk = _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
     _BLOCKS.add(blk)
-    return blk, keep
+    return blk, keep, sts
+
+
+_LIM = attrgetter("lim")
+_ACCEL = attrgetter("accel")
+
+
+def floats_of(values, n):
+    """np.array(list(values), float) of n numbers: by np.fromiter where each is a number,
+    else (a None: NaN, as np.array takes it) np.array of the list."""
+    vals = list(values)
+    try:
+        return np.fromiter(vals, float, n)
+    except (TypeError, ValueError):
+        return np.array(vals, float)
+
+
+def _lims_which(sts):
+    """(the limits objects of the strokes sts, each once in the order first met; which one
+    each stroke's, an int32 array): the strokes mostly share one."""
+    lims = list(map(_LIM, sts))
+    ids = list(map(id, lims))
+    first = dict(zip(ids, lims))        # id -> limits, in the order first met
+    if len(first) == 1:
+        return [lims[0]], np.zeros(len(sts), np.int32)
+    at = dict(zip(first, range(len(first))))
+    return list(first.values()), np.fromiter(map(at.__getitem__, ids), np.int32, len(ids))
 
 
 def _block_caps(lim, u, d, jerk_r):
@@ -737,11 +799,14 @@ def _block_caps(lim, u, d, jerk_r):
     (m, 1), each element the same operations (or None where that law declines).  lim:
     (profile, the limits objects, which one each row's (int array), each row's acceleration)."""
     profile, lims, which, accel = lim
-    p = {f: np.array([getattr(x, f) for x in lims], float)[which][:, None] for f in _LIM_FIELDS}
-    p["accel"] = accel[:, None]
+
+    def field(f):
+        return np.array([getattr(x, f) for x in lims], float)[which][:, None]
     if profile.junction == "jerk" and _JERK_CAPS is not None:
         # _jerk_caps' choices and products per vertex in one compiled pass (_curvecore.c)
-        return _jerk_caps_block(u, p, jerk_r)
+        return _jerk_caps_block(u, {f: field(f) for f in ("jerk_x", "jerk_y")}, jerk_r)
+    p = {f: field(f) for f in _LIM_FIELDS}
+    p["accel"] = accel[:, None]
     pux, puy, ux, uy = u[:, :-1, 0], u[:, :-1, 1], u[:, 1:, 0], u[:, 1:, 1]
     return _caps_core(profile, p, pux, puy, ux, uy, d[:, :-1], d[:, 1:], jerk_r)
 
@@ -813,14 +878,17 @@ def _ends_of(sts, first, last):
 def _neighbour_dirs(sts):
     """(prev_u, next_u) of the strokes as (2, m) arrays each, NaN where None."""
     try:
-        cols = [[st._pux for st in sts], [st._puy for st in sts], [st._nux for st in sts], [st._nuy for st in sts]]
+        rows = list(map(_NDIRS, sts))
     except AttributeError:          # not strokes.Stroke: its prev_u / next_u
         nan2 = (math.nan, math.nan)
         pu = [nan2 if st.prev_u is None else st.prev_u for st in sts]
         nu = [nan2 if st.next_u is None else st.next_u for st in sts]
         return np.array(pu, float).reshape(-1, 2).T, np.array(nu, float).reshape(-1, 2).T
-    a = np.array(cols, float).reshape(4, len(sts))      # None -> NaN
+    a = np.array(rows, float).reshape(len(sts), 4).T      # None -> NaN
     return a[:2], a[2:]
+
+
+_NDIRS = attrgetter("_pux", "_puy", "_nux", "_nuy")
 
 
 CAPS_CHUNK = 1 << 15        # vertices of one batched caps pass (build_geoms)
@@ -841,12 +909,13 @@ def _xy(st):
     return np.frombuffer(p.xy, float) if isinstance(p, Points) else np.asarray(p, float).ravel()
 
 
-def _xy_block(todo, idx):
+def _xy_block(todo, idx, pts=None):
     """np.concatenate([_xy(todo[i]) for i in idx]): the strokes' packed vertices joined
-    as bytes and read once (the same doubles, one buffer read instead of one a stroke)."""
-    ps = [todo[i].pts for i in idx.tolist()]
+    as bytes and read once (the same doubles, one buffer read instead of one a stroke).
+    pts: the strokes' vertices (todo[i].pts for every i), if the caller has them."""
+    ps = [todo[i].pts for i in idx.tolist()] if pts is None else [pts[i] for i in idx.tolist()]
     if all(type(p) is Points for p in ps):
-        return np.frombuffer(b"".join([p.xy for p in ps]), float)
+        return np.frombuffer(b"".join(map(_XY, ps)), float)
     return np.concatenate([_xy(todo[i]) for i in idx])
 
 
@@ -868,11 +937,14 @@ def _batch_parts(todo):
     return parts
 
 
-def _part_blocks(todo):
+def _part_blocks(todo, pts=None):
     """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
-    vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes."""
+    vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes.  pts: the strokes'
+    vertices (their pts), if the caller has them."""
+    if pts is None:
+        pts = list(map(_PTS, todo))
     # len(Points) is its array's half length: read without the Python __len__ (~21 k strokes)
-    npts = np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in [st.pts for st in todo]], int)
+    npts = np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in pts], int)
     order = np.argsort(npts, kind="stable")
     for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
         npt = int(npts[grp[0]]) if grp.size else 0
@@ -882,7 +954,7 @@ def _part_blocks(todo):
         for a in range(0, grp.size, step):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
-                block = _parts_block(_xy_block(todo, idx).reshape(idx.size, npt, 2))
+                block = _parts_block(_xy_block(todo, idx, pts).reshape(idx.size, npt, 2))
             yield idx, block
 
 
@@ -912,16 +984,18 @@ def _parts_block(pts):
     # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
     # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
     # m (n+1)(n-1) doubles per step
-    if _CURVE_CORE is not None:     # the same five steps in one compiled pass (_curvecore.c)
-        kern = np.empty((s_v.shape[0], n + 1, n - 1))
-        _CURVE_CORE.kern_args(s_v, smooth_d, s_v.shape[0], n + 1, kern)
-    else:
-        kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
-        np.divide(kern, smooth_d[:, None, None], out=kern)
-        np.square(kern, out=kern)
-        np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
-        np.multiply(kern, -0.5, out=kern)
-    _exp_inplace(kern)
+    kern = _kern_packed(s_v, smooth_d, n) if _CURVE_CORE is not None else None
+    if kern is None:
+        if _CURVE_CORE is not None:     # the same five steps in one compiled pass (_curvecore.c)
+            kern = np.empty((s_v.shape[0], n + 1, n - 1))
+            _CURVE_CORE.kern_args(s_v, smooth_d, s_v.shape[0], n + 1, kern)
+        else:
+            kern = np.subtract(s_v[:, :, None], s_i[:, None, :])
+            np.divide(kern, smooth_d[:, None, None], out=kern)
+            np.square(kern, out=kern)
+            np.subtract(kern, kern.min(axis=2, keepdims=True), out=kern)
+            np.multiply(kern, -0.5, out=kern)
+        _exp_inplace(kern)
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits
     kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]
@@ -956,6 +1030,30 @@ def _exp_zero_ok():
     return _EXP_ZERO_OK[0]
 
 
+_KERN_PACK = getattr(_CURVE_CORE, "kern_pack", None)
+
+
+def _kern_packed(s_v, smooth_d, n):
+    """_parts_block's np.exp(kern) made as kern_args then _exp_inplace make it, in fewer
+    passes over the kernel (_curvecore.c kern_pack: the arguments np.exp does not take to
+    +0.0, packed as exp_split packs them; kern_unpack: exp_merge's kernel): the same
+    arguments, the same np.exp on the same packed array, the same bits.  None where
+    _exp_inplace would not split, or a row's kept arguments are not one run."""
+    if _KERN_PACK is None or not _exp_zero_ok():
+        return None
+    m = s_v.shape[0]
+    buf = np.empty(m * (n + 1) * (n - 1))
+    rng = np.empty(m * (n + 1) * 2, np.int64)
+    cnt = _KERN_PACK(s_v, smooth_d, m, n + 1, EXP_ZERO_BELOW, buf, rng)
+    if cnt < 0:
+        return None
+    part = buf[:cnt]
+    np.exp(part, out=part)
+    kern = np.empty((m, n + 1, n - 1))
+    _CURVE_CORE.kern_unpack(kern, m, n + 1, rng, buf, cnt)
+    return kern
+
+
 def _exp_inplace(kern):
     """np.exp(kern, out=kern); with the curve core, and where np.exp gives +0.0 on the probe
     (_exp_zero_ok), only the arguments not below EXP_ZERO_BELOW go through np.exp (packed
@@ -982,8 +1080,10 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     expressions (Python's min(a, b) is b where b < a), put with one index each."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
     rows = [int(i) for i in rows]
-    gs = [geom(strokes[i], profile) for i in rows]
-    ux2 = np.array(_ux2_rows(gs), float)
+    sts = [strokes[i] for i in rows]
+    gs = [geom(st, profile) for st in sts]
+    by_blk = _by_block(gs)
+    ux2 = np.array(_ux2_rows(gs) if by_blk is None else _block_rows(by_blk, _blk_ux2), float)
     uy2 = 1.0 - ux2
     den = mx * ux2 + my * uy2
     if not len(rows) or (den == 0.0).any():     # a zero mass: the scalar loop (it raises)
@@ -992,11 +1092,10 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
             pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
     else:
         pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
-    sts = [strokes[i] for i in rows]
-    pin.a_cap[rows] = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    pin.a_cap[rows] = _a_caps(sts)
     if cap_peak and rows:
         vc = pin.v_cap[rows]
-        cap = np.array([g.cap for g in gs], float)
+        cap = np.array([g.cap for g in gs] if by_blk is None else _block_rows(by_blk, _blk_cap), float)
         pin.v_cap[rows] = np.where(cap < vc, cap, vc)
         for g in gs:
             g.caps_jerk1 = None           # read by chains only (chains.vertex_caps): not a chain
@@ -1021,6 +1120,74 @@ def _ux2_rows(gs):
         for k, x in zip(ks, np.sum(w * ux ** 2, axis=1).tolist()):
             out[k] = x
     return out
+
+
+def _a_caps(sts):
+    """[min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]: Python's min of the three
+    (the later one where it is < the least so far) in arrays, the limits read once per
+    limits object the strokes share; the list itself where a number is not a float."""
+    m = len(sts)
+    acc = list(map(_ACCEL, sts))
+    lims, which = _lims_which(sts)
+    ax = [lim.ax_max for lim in lims]
+    ay = [lim.ay_max for lim in lims]
+    if not all(type(x) is float for x in acc + ax + ay):
+        return [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    a = np.fromiter(acc, float, m)
+    axr, ayr = np.array(ax, float)[which], np.array(ay, float)[which]
+    a = np.where(axr < a, axr, a)
+    return np.where(ayr < a, ayr, a)
+
+
+_G_B = attrgetter("_b")
+_G_K = attrgetter("_k")
+
+
+def _by_block(gs):
+    """(per distinct block: (block, positions in gs, rows in it)) of geometries that are rows
+    of build_geoms' blocks (a _Blk with its strokes' vertices, cap an array), or None."""
+    try:
+        bs = list(map(_G_B, gs))
+        ks = list(map(_G_K, gs))
+    except AttributeError:
+        return None
+    out = {}
+    for q, (b, k) in enumerate(zip(bs, ks)):
+        e = out.get(id(b))
+        if e is None:
+            if type(b) is not _Blk or b._pts is None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
+                return None
+            e = out[id(b)] = (b, [], [])
+        e[1].append(q)
+        e[2].append(k)
+    return list(out.values())
+
+
+def _block_rows(by_blk, per_block):
+    """The numbers per_block(block) (an array, one a row of the block) of every geometry,
+    in the geometries' order."""
+    n = sum(len(qs) for _, qs, _ in by_blk)
+    out = np.empty(n)
+    for b, qs, ks in by_blk:
+        out[qs] = per_block(b)[ks]
+    return out
+
+
+def _blk_cap(b):
+    return b.cap
+
+
+def _blk_ux2(b):
+    """_ux2_rows of every row of the block b (kept on it): the same row operations on the
+    block's d and its u made from the rows' vertices (stack_du's numbers, row by row)."""
+    got = b._ux2
+    if got is None:
+        d = np.asarray(b.d, float)
+        u = b.u_rows(list(range(d.shape[0])))
+        ux = np.ascontiguousarray(u[:, :, 0])
+        w = d / d.sum(axis=1, keepdims=True)
+        got = b._ux2 = np.sum(w * ux ** 2, axis=1)
+    return got
 
 
 # ------------------------------------------------------------------ law

@@ -577,6 +577,128 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* kern_pack(s_v, sd, m, n1, lo, buf, rng) -> count: kern_args' arguments, row by row (the
+   same operations), but only those not below lo (NaN included) kept, packed in buf in
+   order, as exp_split would pack them (np.exp then takes buf[:count]); rng (m n1 2 int64)
+   the first and end index of each row's kept run.  A row's arguments are unimodal in the
+   index (s_v sorted: rounding is monotone), so its kept ones are one run; -1 if a row's
+   are not (unsorted or NaN arguments: the caller takes kern_args and exp_split then).
+   kern_unpack(kern, m, n1, rng, buf, count): exp_merge's kern from them, +0.0 outside
+   each row's run.  The full kernel is written once, not three times (kern_args,
+   exp_merge) and read twice (exp_split, exp_merge). */
+static Py_ssize_t kept_run(const double *kr, Py_ssize_t ni, double lo, Py_ssize_t *a, Py_ssize_t *e) {
+    Py_ssize_t i = 0;
+    while (i < ni && kr[i] < lo) i++;
+    *a = i;
+    while (i < ni && !(kr[i] < lo)) i++;
+    *e = i;
+    while (i < ni && kr[i] < lo) i++;
+    return i == ni;           /* 0: a kept argument after the run */
+}
+
+/* kept_run of a row whose arguments are known to be one run (kern_pack's sorted rows):
+   only the dropped arguments at its two ends are read */
+static void run_ends(const double *kr, Py_ssize_t ni, double lo, Py_ssize_t *a, Py_ssize_t *e) {
+    Py_ssize_t i = 0, j = ni;
+    while (i < ni && kr[i] < lo) i++;
+    while (j > i && kr[j - 1] < lo) j--;
+    *a = i;
+    *e = j;
+}
+
+/* whether kern_row's arguments of the stroke (vertices s (n1), width d) are one run in
+   every row: s finite, its interior vertices in order and d > 0 finite.  Then each row's
+   z_i = ((s_j - s_i) / d)^2 falls then rises with i (each rounded step is monotone, the
+   overflows included), (z_i - min z) * -0.5 rises then falls, and those not below lo are
+   one run (or, the minimum infinite, every argument NaN: one run too). */
+static int one_run_rows(const double *s, Py_ssize_t n1, double d) {
+    if (!(d > 0.0) || !isfinite(d)) return 0;
+    for (Py_ssize_t i = 0; i < n1; i++)
+        if (!isfinite(s[i])) return 0;
+    for (Py_ssize_t i = 1; i + 2 < n1; i++)
+        if (!(s[i + 1] >= s[i])) return 0;
+    return 1;
+}
+
+static PyObject *kern_pack(PyObject *self, PyObject *a) {
+    PyObject *os, *osd, *ob, *orng;
+    Py_ssize_t m, n1;
+    double lo;
+    if (!PyArg_ParseTuple(a, "OOnndOO", &os, &osd, &m, &n1, &lo, &ob, &orng)) return NULL;
+    if (n1 < 3 || m < 0) {
+        PyErr_SetString(PyExc_ValueError, "kern_pack: bad size");
+        return NULL;
+    }
+    Py_ssize_t ni = n1 - 2;
+    Bufs b = {.n = 0};
+    const double *s = get(&b, os, 8, 0, m * n1);
+    const double *sd = s ? get(&b, osd, 8, 0, m) : NULL;
+    double *buf = sd ? get(&b, ob, 8, 1, m * n1 * ni) : NULL;
+    int64_t *rng = buf ? get(&b, orng, 8, 1, m * n1 * 2) : NULL;
+    if (!rng) { release(&b); return NULL; }
+#if CURVE_AVX
+    const int avx = use_avx() && ni >= 4;
+#endif
+    Py_ssize_t c = 0;
+    for (Py_ssize_t r = 0; r < m; r++) {
+        const double *sr = s + r * n1;
+        const double d = sd[r];
+        const int known = one_run_rows(sr, n1, d);
+        for (Py_ssize_t j = 0; j < n1; j++) {
+            double *kr = buf + c;           /* the row made in place, its run moved down to c */
+#if CURVE_AVX
+            if (!(avx && kern_row_avx(sr + 1, ni, sr[j], d, kr)))
+#endif
+                kern_row(sr + 1, ni, sr[j], d, kr);
+            Py_ssize_t ra, re;
+            if (known) {
+                run_ends(kr, ni, lo, &ra, &re);
+            } else if (!kept_run(kr, ni, lo, &ra, &re)) {
+                release(&b);
+                return PyLong_FromSsize_t(-1);
+            }
+            if (ra > 0 && re > ra) memmove(kr, kr + ra, (size_t)(re - ra) * sizeof(double));
+            rng[2 * (r * n1 + j)] = ra;
+            rng[2 * (r * n1 + j) + 1] = re;
+            c += re - ra;
+        }
+    }
+    release(&b);
+    return PyLong_FromSsize_t(c);
+}
+
+static PyObject *kern_unpack(PyObject *self, PyObject *a) {
+    PyObject *ok, *orng, *ob;
+    Py_ssize_t m, n1, count;
+    if (!PyArg_ParseTuple(a, "OnnOOn", &ok, &m, &n1, &orng, &ob, &count)) return NULL;
+    if (n1 < 3 || m < 0 || count < 0) {
+        PyErr_SetString(PyExc_ValueError, "kern_unpack: bad size");
+        return NULL;
+    }
+    Py_ssize_t ni = n1 - 2;
+    Bufs b = {.n = 0};
+    double *k = get(&b, ok, 8, 1, m * n1 * ni);
+    const int64_t *rng = k ? get(&b, orng, 8, 0, m * n1 * 2) : NULL;
+    const double *buf = rng ? get(&b, ob, 8, 0, count) : NULL;
+    if (!buf) { release(&b); return NULL; }
+    Py_ssize_t c = 0;
+    for (Py_ssize_t q = 0; q < m * n1; q++) {
+        double *kr = k + q * ni;
+        Py_ssize_t ra = (Py_ssize_t)rng[2 * q], re = (Py_ssize_t)rng[2 * q + 1];
+        if (ra < 0 || re < ra || re > ni || c + (re - ra) > count) {
+            release(&b);
+            PyErr_SetString(PyExc_ValueError, "kern_unpack: runs do not match the buffer");
+            return NULL;
+        }
+        for (Py_ssize_t i = 0; i < ra; i++) kr[i] = 0.0;
+        memcpy(kr + ra, buf + c, (size_t)(re - ra) * sizeof(double));
+        for (Py_ssize_t i = re; i < ni; i++) kr[i] = 0.0;
+        c += re - ra;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* exp_split(kern, total, lo, buf) -> count: the arguments kern[i] not below lo (NaN
    included) copied to buf in order, for one np.exp on them; exp_merge(kern, total, lo,
    buf): kern[i] = +0.0 where kern[i] < lo, else the next of buf.  curves.py uses them only
@@ -892,6 +1014,31 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* row_lengths(coef, B, K, out): circle._row_lengths, each row's own number of
+   coefficients of coef (B, K): one past its last c != 0 (NaN is != 0, -0.0 is not), at
+   least 1; out (B,) int64. */
+static PyObject *row_lengths(PyObject *self, PyObject *a) {
+    PyObject *oc, *oo;
+    Py_ssize_t nb, K;
+    if (!PyArg_ParseTuple(a, "OnnO", &oc, &nb, &K, &oo)) return NULL;
+    if (nb < 0 || K < 1) {
+        PyErr_SetString(PyExc_ValueError, "row_lengths: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *c = get(&b, oc, 8, 0, nb * K);
+    int64_t *out = c ? get(&b, oo, 8, 1, nb) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *row = c + r * K;
+        Py_ssize_t k = K;
+        while (k > 0 && !(row[k - 1] != 0.0)) k--;
+        out[r] = k > 0 ? k : 1;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* curves._Blk.u_rows: the unit directions of rows of a geometry block made again from
    the strokes' own vertices, (x[j + 1] - x[j]) / d[j] per axis: numpy's subtract then
    divide of the same doubles (two correctly rounded operations, no contraction between
@@ -955,10 +1102,13 @@ static PyMethodDef methods[] = {
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"kern_pack", kern_pack, METH_VARARGS, "_parts_block's kernel arguments np.exp does not take to +0.0, packed, and each row's run"},
+    {"kern_unpack", kern_unpack, METH_VARARGS, "the kernel from np.exp of kern_pack's arguments, +0.0 outside the runs"},
     {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
+    {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {NULL, NULL, 0, NULL}};
 

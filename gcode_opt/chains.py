@@ -1488,7 +1488,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
         for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
             r = _Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1]))
-            if same is not None:
+            if same is not None and np.any(same[J] != J):      # (else each row its chain's own)
                 r.same = a + same[J[rj]]
             fin.add(r)
         del res, laws

@@ -953,12 +953,11 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
     return res
 
 
-def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True, first=None):
+def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
     """_finish_stacked's numbers (acc, feed, t_pred, a2_pred, fits) from the rows' knot
-    speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row.
-    first (optional): each row's earlier row that may be the same (_finish_core's guess)."""
+    speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row."""
     if rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction:
-        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict, first=first)
+        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict)
         if got is not None:
             return got
     n = gs[0].d.size
@@ -1035,10 +1034,9 @@ def _cf_rows(sts, core=None):
     return np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
 
 
-def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, first=None):
+def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
-    batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py;
-    rows that are the same as the earlier row first[i], every input, made once: _same_finish),
+    batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
     under a junction law of GROUP_JUNCTIONS that is the profile's; None (the numpy code
     then) when the core is missing or stale, or declines the inputs (a non-finite one, a
     classic-jerk tent input that is not finite and > 0).  core: the module (None = the
@@ -1089,41 +1087,13 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, first
         hn = Q[:, 14] != 0.0
         P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
         P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
-    same = None if first is None else _same_finish(D, U, Q, own, vk, tk, first)
-    if same is not None:              # each row's numbers are its own: the equal rows' made once
-        keep, pos = same
-        own, vk, tk, R = own[keep], vk[keep], tk[keep], keep.size
     acc, feed = np.empty((R, n)), np.empty((R, n))
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
     if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),
               np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), D, U, C, W, ws,
               P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
-    if same is not None:
-        acc, feed, t, a2, fits = acc[pos], feed[pos], t[pos], a2[pos], fits[pos]
     return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
-
-
-def _same_finish(D, U, Q, own, vk, tk, first):
-    """(keep, pos) of the rows (chain own[i], knot speeds vk[i], segment durations tk[i]) of
-    _finish_core that are the same bit for bit, every input of their finishing, as the
-    earlier row first[i] (the caller's guess: the rows of chains solved once, _Spread, at
-    one column): their chains' lengths D, directions U and numbers Q (_cf_rows), their vk
-    and tk (~17 % of the gyroid plate's candidate rows).  A row that differs is its own.
-    None where every row is its own."""
-    R = own.size
-    first = np.asarray(first, np.int64)
-    dup = np.flatnonzero(first != np.arange(R))
-    if dup.size == 0:
-        return None
-    a, b = own[dup], own[first[dup]]
-    ok = np.all(_bits(D)[a] == _bits(D)[b], axis=1) & np.all(_bits(Q)[a] == _bits(Q)[b], axis=1)
-    ok &= np.all(_bits(U).reshape(D.shape[0], -1)[a] == _bits(U).reshape(D.shape[0], -1)[b], axis=1)
-    ok &= np.all(_bits(vk)[dup] == _bits(vk)[first[dup]], axis=1)
-    ok &= np.all(_bits(tk)[dup] == _bits(tk)[first[dup]], axis=1)
-    rep = np.arange(R)
-    rep[dup[ok]] = first[dup[ok]]
-    return _kept(rep)
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):
@@ -1479,7 +1449,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
         base = _flat_chains(sts, profile)
-        res, same = _solve_cols(base, T[sl], beta[sl], order, prev)
+        res = _solve_cols(base, T[sl], beta[sl], order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
@@ -1487,10 +1457,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
         laws = _LawCols(res, k, base.voff)
         for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
-            r = _Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1]))
-            if same is not None and np.any(same[J] != J):      # (else each row its chain's own)
-                r.same = a + same[J[rj]]
-            fin.add(r)
+            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1])))
         del res, laws
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
@@ -1499,10 +1466,9 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
 
 
 def _solve_cols(base, T, beta, order, prev, spread=True):
-    """(res, same): the flat laws res[c] (solve_flat, FlatLaws or _Spread) of the chains base
-    (a _Flat) at each column c of the (m, k) tables T, beta, in the columns' order: the
-    first cold, each other warm-started from its neighbour prev[c]; same[j] the chain whose
-    laws chain j got (None: each its own).  Chains whose every solve input is the
+    """The flat laws res[c] (solve_flat, FlatLaws or _Spread) of the chains base (a _Flat) at
+    each column c of the (m, k) tables T, beta, in the columns' order: the first cold, each
+    other warm-started from its neighbour prev[c].  Chains whose every solve input is the
     same bit for bit as an earlier chain's (_same_chains: ~27 % of the gyroid plate's) are
     not solved (spread: look for them): they get their first's laws (_Spread), the numbers
     its solve gave (solve_flat's numbers are each chain's own, whatever chains are solved
@@ -1510,8 +1476,8 @@ def _solve_cols(base, T, beta, order, prev, spread=True):
     same = _same_chains(base, T, beta) if spread else None
     if same is not None:
         keep, pos = same
-        got, _ = _solve_cols(base.take(keep), T[keep], beta[keep], order, prev, False)
-        return {c: _Spread(r, base, pos) for c, r in got.items()}, keep[pos]
+        got = _solve_cols(base.take(keep), T[keep], beta[keep], order, prev, False)
+        return {c: _Spread(r, base, pos) for c, r in got.items()}
     m, nv = base.S.size, base.sv.size
     res = {}
     for c in order:
@@ -1522,7 +1488,7 @@ def _solve_cols(base, T, beta, order, prev, spread=True):
             res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool), pieces=False)
         else:
             res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
-    return res, None
+    return res
 
 
 def _bits(a):
@@ -1641,17 +1607,14 @@ class _Rows:
     """Candidate rows of chains with the same number of segments n from one chunk (chains
     sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
     knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain;
-    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[toff[i]:toff[i + 1]];
-    same (None: each its own) the chain in the table whose law row i's chain got (_Spread)."""
-    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "toff", "n",
-                 "same")
+    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[toff[i]:toff[i + 1]]."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "toff", "n")
 
     def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, toff):
         self.a, self.sts, self.T, self.beta = a, sts, T, beta
         self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
         self.bnd, self.tj, self.toff = bnd, tj, toff
         self.n = dt.shape[1]
-        self.same = None
 
 
 FINISH_CELLS = 1 << 20       # a finishing batch's rows x n x (n + 2) (tent_feeds_rows' envelopes): 8 MB
@@ -1699,17 +1662,6 @@ class _Finisher:
         for q in [q for q in self.wait if q < n]:
             self._finish(self.wait.pop(q)[0])
 
-    def _first(self, rs):
-        """Each row of the batch rs (_Rows) its first row of the same column whose chain's
-        law is the same (_Rows.same: one law solved for both), the guess _same_finish
-        checks; None where no row's chain got another's law."""
-        if all(r.same is None for r in rs):
-            return None
-        k = self.tab.ok.shape[1]
-        key = np.concatenate([(r.a + r.J[r.rj] if r.same is None else r.same) * k + r.rc for r in rs])
-        _, first, inv = np.unique(key, return_index=True, return_inverse=True)
-        return first[inv] if first.size < key.size else None
-
     def _finish(self, rs):
         profile, rules = self.profile, self.rules
         if self.grouped:
@@ -1719,7 +1671,7 @@ class _Finisher:
             own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
             vk = rs[0].vk if len(rs) == 1 else np.concatenate([r.vk for r in rs])
             dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
-            _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile, first=self._first(rs))
+            _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile)
             del vk, dt
         else:
             r = rs[0]

@@ -89,10 +89,10 @@ def _batches(tmp_path_factory, name, lines=5000, keep=24):
     got = []
     orig = chains._finish_stacked_dt
 
-    def spy(sts, gs, own, vk, tk, rules, profile, predict=True, **kw):
+    def spy(sts, gs, own, vk, tk, rules, profile, predict=True):
         if len(got) < keep:
             got.append((list(sts), list(gs), np.array(own), np.array(vk), np.array(tk), rules, profile, predict))
-        return orig(sts, gs, own, vk, tk, rules, profile, predict, **kw)
+        return orig(sts, gs, own, vk, tk, rules, profile, predict)
 
     chains._finish_stacked_dt = spy
     try:

@@ -1,7 +1,6 @@
 """Issue 8 (s31, the chains' candidates): chains whose every solve input is the same bit
-for bit as an earlier chain's are solved once (chains._same_chains, _solve_cols, _Spread),
-and candidate rows whose every finishing input is the same as an earlier row's are
-finished once (chains._Finisher._first's guess, checked by _same_finish in _finish_core).  These tests hold:
+for bit as an earlier chain's are solved once (chains._same_chains, _solve_cols, _Spread).
+These tests hold:
   - _same_rows to a grouping of the rows by their bytes, on tables with equal rows and
     rows whose hashes collide;
   - _same_chains to a grouping of real chains by the bytes of every solve input, and that
@@ -9,14 +8,11 @@ finished once (chains._Finisher._first's guess, checked by _same_finish in _fini
   - _figures' tables (feasible, predicted time and ∫|a|², ∫ṡ²) with the merging to those
     without it, bit for bit, on real chains with repeated rows, under classic jerk, Klipper
     SCV and junction deviation (no grouped finishing);
-  - _finish_core's outputs with the merging (a right and a wrong guess of the equal rows)
-    to those without it on real batches with repeated rows;
 and that the comparison catches one table entry one ulp off."""
 import numpy as np
 import pytest
 
-from gcode_opt import chains, curves
-from gcode_opt.laws import chain as lc
+from gcode_opt import chains
 
 from chain_cases import fresh_chains, float_bits
 
@@ -121,35 +117,26 @@ def _tables(path, prof_name, merge, monkeypatch, count=None):
         mp.setattr(chains, "SOLVE_SEGS", 128 * 12)
         if not merge:
             mp.setattr(chains, "_same_chains", lambda *a: None)
-            mp.setattr(chains, "_same_finish", lambda *a: None)
         elif count is not None:
-            real_c, real_f = chains._same_chains, chains._same_finish
+            real_c = chains._same_chains
 
             def spy_c(base, T, beta):
                 got = real_c(base, T, beta)
                 count["chains"] += 0 if got is None else base.S.size - got[0].size
                 return got
-
-            def spy_f(D, U, Q, own, vk, tk, first):
-                got = real_f(D, U, Q, own, vk, tk, first)
-                count["rows"] += 0 if got is None else own.size - got[0].size
-                return got
             mp.setattr(chains, "_same_chains", spy_c)
-            mp.setattr(chains, "_same_finish", spy_f)
         return chains._figures(strokes, rows, pin, T, beta, prof, rules), rows.size
 
 
 @pytest.mark.parametrize("path,prof_name", CASES)
 def test_figures_merged_are_the_tables_unmerged(path, prof_name, monkeypatch):
-    count = {"chains": 0, "rows": 0}
+    count = {"chains": 0}
     got, n = _tables(path, prof_name, True, monkeypatch, count)
     want, _ = _tables(path, prof_name, False, monkeypatch)
     for g, w in zip(got, want, strict=True):
         assert g.dtype == w.dtype and g.shape == w.shape and float_bits(g) == float_bits(w)
     assert np.isfinite(got[2]).sum() > 3 * n
     assert count["chains"] > n // 10                    # the repeats in a repeated chain's chunk not solved
-    if chains._chain_law.CORE_MOD is not None and prof_name != "ender3":
-        assert count["rows"] > 2 * count["chains"]      # nor their rows finished
 
 
 def test_figures_comparison_catches_an_ulp(monkeypatch):
@@ -158,64 +145,3 @@ def test_figures_comparison_catches_an_ulp(monkeypatch):
     q = np.flatnonzero(got[0].ravel())[7]
     tp.ravel()[q] = np.nextafter(tp.ravel()[q], np.inf)
     assert float_bits(tp) != float_bits(got[1])
-
-
-def _finish_batches(path, prof_name, monkeypatch, keep=12):
-    """The first batches _finish_core gets while the sample's chains' table is made."""
-    strokes, pin, rows, prof, rules = fresh_chains(path, prof_name)
-    got = []
-    real = chains._finish_core
-
-    def spy(sts, gs, own, vk, tk, rules, profile, predict, core=None, first=None):
-        if len(got) < keep:
-            got.append((list(sts), list(gs), np.array(own), np.array(vk), np.array(tk), rules, profile, predict))
-        return real(sts, gs, own, vk, tk, rules, profile, predict, core, first)
-
-    with monkeypatch.context() as mp:
-        mp.setattr(chains, "_finish_core", spy)
-        chains.candidates_chain(pin, rows, strokes, prof, rules)
-    return got
-
-
-def _guesses(own, vk, tk):
-    """Guesses of each row's first equal row: the right one (by the bytes of its chain and
-    knots) and a wrong one (the row before, for every other row)."""
-    keys = [b"%d|" % o + float_bits(v) + float_bits(t) for o, v, t in zip(own.tolist(), vk, tk)]
-    right = _groups_by_bytes(keys)
-    wrong = np.arange(own.size)
-    wrong[1::2] -= 1
-    return right, wrong
-
-
-@pytest.mark.skipif(lc.CORE_MOD is None or not hasattr(lc.CORE_MOD, "chain_finish"), reason="no chain core")
-@pytest.mark.parametrize("path,prof_name", CASES[:2])
-@pytest.mark.parametrize("predict", [True, False])
-def test_finish_core_merged_rows_are_the_rows_unmerged(path, prof_name, predict, monkeypatch):
-    """_finish_core given a guess of each row's first equal row: its outputs those without
-    the guess, bit for bit, with the right guess (rows merged) and a wrong one (checked:
-    only the rows that are the same merged)."""
-    batches = _finish_batches(path, prof_name, monkeypatch)
-    assert batches
-    merged = 0
-    for sts, gs, own, vk, tk, rules, prof, _ in batches:
-        R = own.size
-        ix = np.concatenate([np.arange(R), np.arange(0, R, 2), np.arange(R - 1, -1, -3)])   # rows repeated
-        args = (sts, gs, own[ix], vk[ix], tk[ix], rules, prof, predict)
-        want = chains._finish_core(*args)
-        assert want is not None
-        for first in _guesses(own[ix], vk[ix], tk[ix]):
-            got = chains._finish_core(*args, first=first)
-            for g, w in zip(got, want, strict=True):
-                assert (g is None) == (w is None)
-                if g is not None:
-                    assert g.dtype == w.dtype and g.shape == w.shape and float_bits(g) == float_bits(w)
-        right, wrong = _guesses(own[ix], vk[ix], tk[ix])
-        D, U = curves.stack_du(gs)
-        Q = chains._cf_rows(sts)
-        keep, pos = chains._same_finish(D, U, Q, own[ix], vk[ix], tk[ix], right)
-        assert np.array_equal(keep[pos], right)
-        merged += ix.size - keep.size
-        got = chains._same_finish(D, U, Q, own[ix], vk[ix], tk[ix], wrong)
-        if got is not None:
-            assert np.array_equal(right[got[0][got[1]]], right)    # only equal rows merged
-    assert merged > 0

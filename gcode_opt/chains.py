@@ -1475,16 +1475,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
         base = _flat_chains(sts, profile)
-        m, nv = len(sts), base.sv.size
-        res = {}
-        for c in order:
-            fl = base.with_T(T[sl, c], beta[sl, c])
-            if c in prev:
-                src = res[prev[c]]
-                vt = src.vert_t * (T[sl, c] / T[sl, prev[c]])[fl.ch]
-                res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool), pieces=False)
-            else:
-                res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
+        res = _solve_cols(base, T[sl], beta[sl], order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
@@ -1498,6 +1489,115 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
             fin.flush_below(int(nseg[sl.stop - 1]))
     fin.flush()
     return tab.ok, tab.tp, tab.ia, tab.iv
+
+
+def _solve_cols(base, T, beta, order, prev, spread=True):
+    """The flat laws res[c] (solve_flat, FlatLaws or _Spread) of the chains base (a _Flat) at
+    each column c of the (m, k) tables T, beta, in the columns' order: the first cold, each
+    other warm-started from its neighbour prev[c].  Chains whose every solve input is the
+    same bit for bit as an earlier chain's (_same_chains: ~27 % of the gyroid plate's) are
+    not solved (spread: look for them): they get their first's laws (_Spread), the numbers
+    its solve gave (solve_flat's numbers are each chain's own, whatever chains are solved
+    with it)."""
+    same = _same_chains(base, T, beta) if spread else None
+    if same is not None:
+        keep, pos = same
+        got = _solve_cols(base.take(keep), T[keep], beta[keep], order, prev, False)
+        return {c: _Spread(r, base, pos) for c, r in got.items()}
+    m, nv = base.S.size, base.sv.size
+    res = {}
+    for c in order:
+        fl = base.with_T(T[:, c], beta[:, c])
+        if c in prev:
+            src = res[prev[c]]
+            vt = src.vert_t * (T[:, c] / T[:, prev[c]])[fl.ch]
+            res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool), pieces=False)
+        else:
+            res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
+    return res
+
+
+def _bits(a):
+    """The float64 array a's bits as int64 (equal bits: equal solve inputs; -0.0 and 0.0,
+    nans of other payloads, differ)."""
+    return np.ascontiguousarray(a, np.float64).view(np.int64)
+
+
+def _same_rows(K):
+    """Each row's first equal row of the int64 table K (R, c), bit for bit: rows grouped by
+    a hash (a wrapping dot with fixed odd weights), then each compared with its group's
+    first (a row that differs is its own).  None where every row is its own."""
+    R, c = K.shape
+    if R < 2:
+        return None
+    w = np.arange(1, c + 1, dtype=np.int64) * np.int64(-7046029254386353131) | np.int64(1)
+    _, first, inv = np.unique(K @ w, return_index=True, return_inverse=True)
+    if first.size == R:
+        return None
+    rep = first[inv]
+    dup = np.flatnonzero(rep != np.arange(R))
+    dup = dup[np.all(K[dup] == K[rep[dup]], axis=1)]
+    if dup.size == 0:
+        return None
+    out = np.arange(R)
+    out[dup] = rep[dup]
+    return out
+
+
+def _kept(rep):
+    """(keep, pos) of the rows' firsts rep (_same_rows): the rows that are their own first
+    (ascending), and each row's first's place in keep; None where every row is its own."""
+    if rep is None:
+        return None
+    keep = np.flatnonzero(rep == np.arange(rep.size))
+    if keep.size == rep.size:
+        return None
+    return keep, np.searchsorted(keep, rep)
+
+
+def _same_chains(base, T, beta):
+    """(keep, pos) where some chains of base (a _Flat; durations T and weights beta (m, k))
+    have every solve input of an earlier one bit for bit (vertex positions and caps, length,
+    end speeds, T and beta of each column): keep the chains to solve (ascending), pos[j]
+    chain j's place in keep (its own or its first equal's).  None where every chain is its
+    own.  Chains are first grouped by their scalars (_same_rows), then each one's vertices
+    compared with its group's first; one that differs there is solved itself."""
+    m = base.S.size
+    K = np.concatenate([base.nv.astype(np.int64)[:, None], _bits(base.S)[:, None], _bits(base.v0)[:, None],
+                        _bits(base.v1)[:, None], _bits(T).reshape(m, -1), _bits(beta).reshape(m, -1)], axis=1)
+    rep = _same_rows(K)
+    if rep is None:
+        return None
+    dup = np.flatnonzero(rep != np.arange(m))
+    nv, voff = base.nv.astype(np.int64), base.voff.astype(np.int64)
+    cnt = nv[dup]
+    at = np.repeat(cnt - np.cumsum(cnt), cnt) + np.arange(int(cnt.sum()))    # place in its chain
+    mine = np.repeat(voff[dup], cnt) + at
+    theirs = np.repeat(voff[rep[dup]], cnt) + at
+    sv, cv = _bits(base.sv), _bits(base.cv)
+    differ = (sv[mine] != sv[theirs]) | (cv[mine] != cv[theirs])
+    bad = np.bincount(np.repeat(np.arange(dup.size), cnt)[differ], None, dup.size) > 0
+    rep[dup[bad]] = dup[bad]
+    return _kept(rep)
+
+
+class _Spread:
+    """The flat laws r (solved for base.take(keep)) of every chain of base, chain j's those
+    of r's chain pos[j]: what _figures reads of a FlatLaws (per chain conv, iv, peak_v,
+    min_v; per vertex bound, vert_v, vert_t; the pieces' durations piece_T, chain c's at
+    piece_off[c]:piece_off[c + 1]), each a copy of r's numbers."""
+
+    def __init__(self, r, base, pos):
+        for f in ("conv", "iv", "peak_v", "min_v"):
+            setattr(self, f, getattr(r, f)[pos])
+        rv = r.fl.voff.astype(np.int64)
+        vg = np.repeat(rv[pos] - base.voff[:-1], base.nv) + np.arange(base.sv.size)
+        self.bound, self.vert_v, self.vert_t = r.bound[vg], r.vert_v[vg], r.vert_t[vg]
+        po = r.piece_off
+        cnt = po[pos + 1] - po[pos]
+        self.piece_off = off = np.zeros(pos.size + 1, po.dtype)
+        np.cumsum(cnt, out=off[1:])
+        self.piece_T = r.piece_T[np.repeat(po[pos] - off[:-1], cnt) + np.arange(off[-1])]
 
 
 def _chunks(nseg, n):

@@ -739,6 +739,14 @@ class _Flat:
                     *(np.asarray(a, float) for a in (S, T, beta, v0, v1)))
         return self
 
+    def take(self, keep):
+        """The chains keep (ascending indices) of these, as flat arrays of their own."""
+        keep = np.asarray(keep, np.int64)
+        vs = np.repeat(self.voff[keep] - np.concatenate([[0], np.cumsum(self.nv[keep])[:-1]]), self.nv[keep])
+        vs = vs + np.arange(int(self.nv[keep].sum()))
+        return _Flat.of_arrays(self.sv[vs], self.cv[vs], self.nv[keep], self.S[keep], self.T[keep],
+                               self.beta[keep], self.v0[keep], self.v1[keep])
+
     def with_T(self, T, beta):
         """The same chains at durations T and weights beta."""
         out = object.__new__(_Flat)

@@ -113,3 +113,44 @@ def test_whole_command_same_bytes(name, prof, monkeypatch, tmp_path):
         pipeline.process(os.path.join(SAMPLES, name), str(path), profile, opts)
         out[reuse] = path.read_bytes()
     assert out[True] == out[False]
+
+
+def test_plan_once_copies_for_junction_commands():
+    """segments.plan_once gives a stroke that may get a junction command (corner_cmd0) a
+    plan object of its own, the others of its class their first's; the same bits as
+    plan_segments of every stroke either way."""
+    import copy
+
+    from gcode_opt import segments as sg
+    prof = load_profile(os.path.join(PROFILES, "prusa-mk3s.toml"))
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, _ = pipeline.analyse(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), prof, opts)
+    pin = schedule.plan_inputs(strokes, prof, opts)
+    rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == K_LINE and s.n_moves == 1][:300])
+    rules = sg.SegmentRules.for_profile(prof, opts.max_segments)
+    for cmd in (False, True):
+        sts = []
+        for i in rows.tolist():
+            st = copy.copy(strokes[i])
+            st.corner_cmd0 = cmd
+            sts.append(st)
+        sts3 = sts * 3
+        cls3 = np.tile(sg.line_classes(sts), 3)
+        T = np.tile(pin.T_orig[rows] * 0.9, 3)
+        beta = np.full(T.size, np.inf)
+        got = sg.plan_once(lambda s, t, b: sg.plan_segments(s, t, b, rules), sts3, T, beta, cls3)
+        want = sg.plan_segments(sts3, T, beta, rules)
+        assert got is not None
+        held = [p for p in got if p is not None]
+        assert len(held) > 100
+        for a, b in zip(got, want):
+            assert (a is None) == (b is None)
+            if a is not None:
+                for f in ("s", "v", "accel", "feed"):
+                    assert (_bits(getattr(a, f)) == _bits(getattr(b, f))).all()
+                assert _bits(a.time_t) == _bits(b.time_t) and _bits(a.int_a2) == _bits(b.int_a2)
+        if cmd:
+            assert len({id(p) for p in held}) == len(held)
+        else:
+            assert len({id(p) for p in held}) <= len(held) // 3 + 1

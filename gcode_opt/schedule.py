@@ -596,9 +596,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # --corners (their commands and lead-outs change strokes and plans after the segments)
     reuse = REUSE_RUNS and not cmd0.any() and not getattr(pin, "corner_next", None)
     last = [None]           # the last run's _RunMemo
+    alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
     def run(budget):
-        plan = plan_auto(pin, budget, cands, groups) if opts.alpha == "auto" else fixed.copy()
+        plan = plan_auto(pin, budget, cands, groups, alloc_memo) if opts.alpha == "auto" else fixed.copy()
         plan.retime[failed_rows] = False
         for i in failed_rows:
             plan.reason[i] = failed[i]

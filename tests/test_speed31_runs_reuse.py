@@ -154,3 +154,41 @@ def test_plan_once_copies_for_junction_commands():
             assert len({id(p) for p in held}) == len(held)
         else:
             assert len({id(p) for p in held}) <= len(held) // 3 + 1
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s"),
+                                       ("prusa_gyroid_fullspeed_klipper.gcode", "voron24")])
+def test_plan_auto_memo_same_as_fresh(name, prof):
+    """plan_auto with its memo kept across budgets (plan._AllocMemo: the rows' view) gives
+    each budget the plan a fresh call gives, and the plan of the dense allocation (no
+    compiled core: every choice by its column)."""
+    from gcode_opt import plan as plan_mod
+    profile = load_profile(os.path.join(PROFILES, prof + ".toml"))
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    budget = opts.max_slowdown_r * sim0.time_t
+    schedule.plan_strokes(strokes, pin, profile, opts, budget)
+    cands, _, failed = pin.cached
+    ok = np.array([i for i in range(len(strokes)) if i not in failed], int)
+    memo = {}
+    # (a row of every fourth stroke taken out: they keep their original at every budget)
+    few = ok[ok % 4 != 0]
+    for r in (1.0, 0.7, 0.69, 0.2, 1.5, 1.0, 0.0, 1.0, 1e-6):
+        for g in (ok, few):
+            got = plan_mod.plan_auto(pin, r * budget, cands, [g], memo)
+            want = plan_mod.plan_auto(pin, r * budget, cands, [g])
+            plan_mod.USE_CORE = False
+            try:
+                dense = plan_mod.plan_auto(pin, r * budget, cands, [g])
+            finally:
+                plan_mod.USE_CORE = True
+            for w in (want, dense):
+                for f in ("retime", "T", "beta", "I_law", "KE_law"):
+                    a, b = getattr(got, f), getattr(w, f)
+                    assert a.dtype == b.dtype and (a.view(np.int64 if a.dtype == float else a.dtype) ==
+                                                   b.view(np.int64 if b.dtype == float else b.dtype)).all(), f
+                assert (got.reason == w.reason).all() and got.lam == w.lam
+    am = [v for k, v in memo.items() if isinstance(k, tuple)]
+    assert len(am) == 2 and all(m.rv is not None for m in am)

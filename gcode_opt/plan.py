@@ -993,12 +993,15 @@ MARGIN_R = 1e-9     # a choice whose cost is below the next one's by more than t
                     # is beyond the rounding of I + lambda T (~1e-16): it cannot flip
 
 
-def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
+def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None) -> Plan:
     """cands: candidates_auto(p), when the caller plans the same strokes twice.
 
     groups: index arrays (lines, arcs, curves...).  Each group gets the share of the
     budget its strokes take of the print time and spends it on itself, so one kind of
-    stroke is never made faster and stiffer to pay for another."""
+    stroke is never made faster and stiffer to pay for another.
+
+    memo: a dict the caller keeps across calls on the same p and cands (the budget runs):
+    what does not depend on the budget is made once (_AllocMemo)."""
     n = len(p.L)
     plan = Plan(n)
     if n == 0:
@@ -1022,11 +1025,18 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
         # with the compiled core, on the feasible entries where Candidates holds them (no
         # table copied: the packed tables were ~10 MB at the rectilinear plate's planning peak)
         core = _alloc_core()
-        rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
+        am = _AllocMemo.of(memo, cands, g, p) if memo is not None and core is not None and len(g) else None
+        if am is not None:
+            rv = am.rv
+        else:
+            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
         if rv is not None:
             jp, lam_g = _allocate_rows(cands.vals, rv, share, core)
-            j[g] = rv.columns(cands.mask[g], jp, k)
             took = jp < rv.cnt                  # their entries: each row's jp-th, read below
+            # j only marks which rows take a candidate (< k): their figures are read at pos
+            # below, never by column (their dense columns, _RowsView.columns' running counts
+            # over the rows' masks, were ~5 ms a budget run on the rectilinear plate)
+            j[g] = np.where(took, 0, k)
             pos[g[took]] = rv.first[took] + jp[took]
             del rv, jp, took
             lam.append(lam_g)
@@ -1050,10 +1060,40 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None) -> Plan:
     plan.beta = np.where(use, got[1], np.inf)
     plan.I_law = np.where(use, got[2], p.I_orig)
     plan.KE_law = np.where(use, got[3], np.nan)
-    none_ok = ~cands.mask.any(axis=1)
+    none_ok = ~cands.mask.any(axis=1) if memo is None else _AllocMemo.none_ok(memo, cands)
     plan.reason = _reasons(n, "original is better within the time budget",
                            (none_ok, "no law within limits"), (use, "retimed"))
     return plan
+
+
+class _AllocMemo:
+    """What plan_auto makes of one group that does not depend on the budget, kept across
+    the budget runs (the same strokes, candidates and originals, checked by their bytes):
+    its Candidates.rows_view, a pass over every candidate entry (~5 ms a run on the
+    rectilinear plate)."""
+    __slots__ = ("key", "rv")
+
+    @classmethod
+    def of(cls, memo, cands, g, p):
+        """The memo of group g (made anew when g, its originals or cands are others)."""
+        key = (g.tobytes(), p.T_orig[g].tobytes(), p.I_orig[g].tobytes())
+        got = memo.get(("group", id(cands), key[0]))
+        if got is not None and got.key == key and memo.get("cands") is cands:
+            return got
+        self = cls()
+        self.key = key
+        self.rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g])
+        memo["cands"] = cands
+        memo[("group", id(cands), key[0])] = self
+        return self
+
+    @staticmethod
+    def none_ok(memo, cands):
+        """~cands.mask.any(axis=1), made once for cands."""
+        got = memo.get("none_ok")
+        if got is None or got[0] is not cands:
+            got = memo["none_ok"] = (cands, ~cands.mask.any(axis=1))
+        return got[1]
 
 
 def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:

@@ -592,7 +592,8 @@ SAME_MAX_R = 0.8        # plan_once: worth it where the distinct plans are at mo
 def plan_once(plan_fn, strokes, T, beta, same):
     """plan_fn(strokes, T, beta) (plan_segments with its rules) of the strokes, the
     strokes of one line class (same: line_classes) at the same (T, beta) bytes planned
-    once: the first of each, in order; the others take a copy of its plan (_twin).
+    once: the first of each, in order; the others take its plan (a copy, _twin, where
+    the stroke may get a junction command of its own).
     Every step of plan_segments is per stroke (the SegmentCache reuses a line's plan
     across batches on that ground) and reads only what line_classes compares, so each
     copy is the plan the stroke would be given itself.  None where that is not worth it
@@ -617,13 +618,17 @@ def plan_once(plan_fn, strokes, T, beta, same):
     place = np.empty_like(order)            # key -> its place in rows
     place[order] = np.arange(order.size)
     made = plan_fn([strokes[i] for i in rows.tolist()], T[rows], beta[rows])
-    # each stroke's plan: the first's own object, the others a copy (their figures and
-    # verdicts the same, their junction commands their own: schedule._command_for)
+    # each stroke's plan: the first's own object; a copy for a stroke whose start corners.py
+    # slowed by a junction command (schedule._command_for puts that stroke's own command on
+    # its plan: their figures and verdicts the same), the first's object for the others
+    # (nothing else is set on a plan once made but its verdict, the same for the same
+    # arrays: ~35 k and ~27 k copies in the rectilinear plate's first two budget runs)
     out = list(map(made.__getitem__, place[inv.ravel()].tolist()))
     twin = np.ones(m, bool)
     twin[rows] = False
     for q in np.flatnonzero(twin).tolist():
-        out[q] = _twin(out[q])
+        if getattr(strokes[q], "corner_cmd0", True):
+            out[q] = _twin(out[q])
     return out
 
 

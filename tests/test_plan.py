@@ -138,9 +138,17 @@ def test_replans_reuse_segments_and_give_a_fresh_runs_plan(monkeypatch):
         hits.append(len(got) + len(bad))
         return got, bad
     monkeypatch.setattr(schedule.SegmentCache, "lookup", counting)
+    real_same = schedule._RunMemo.put_same
+
+    def counting_same(self, plan, idx, own):          # (s31: the last run's outcome, kept per row)
+        rest = real_same(self, plan, idx, own)
+        hits.append(idx.size - rest.size)
+        return rest
+    monkeypatch.setattr(schedule._RunMemo, "put_same", counting_same)
     schedule.plan_strokes(strokes, schedule.plan_inputs(strokes, prof, opts), prof, opts, budget)
-    assert sum(hits) > 0                                  # the cache is used on this file
+    assert sum(hits) > 0                                  # the cache or the last run's is used on this file
     monkeypatch.setattr(schedule.SegmentCache, "lookup", lambda self, *a: ({}, {}))
+    monkeypatch.setattr(schedule, "REUSE_RUNS", False)
     fresh = schedule.plan_strokes(strokes, schedule.plan_inputs(strokes, prof, opts), prof, opts, budget)
     assert np.array_equal(cached.retime, fresh.retime)
     assert np.array_equal(cached.T, fresh.T) and np.array_equal(cached.beta, fresh.beta)

@@ -214,7 +214,12 @@ def test_line_plans_same_bits(name, profile, corners):
     assert sum(p is not None for p in got) > 50
     assert all(_same_plan(a, b) for a, b in zip(want, got))
     held = [p for p in got if p is not None]
-    assert len({id(p) for p in held}) == len(held)      # a plan object of each stroke's own
+    # a plan object of its own for each stroke that may get a junction command (corners.py
+    # slowed its start); the others may share their class's (s31: nothing else is set on it)
+    cmd = [p for p, st in zip(got, sts3) if p is not None and st.corner_cmd0]
+    assert len({id(p) for p in cmd}) == len(cmd)
+    if not corners:
+        assert len({id(p) for p in held}) < len(held)
     # a junction command put on one copy stays on it
     a, b = held[0], next(p for p in held[1:] if _same_plan(p, held[0]) or True)
     a.first_cmds = ("M205 X1", "M205 X8")

@@ -1,9 +1,11 @@
 /* Compiled fast path of the G-code reader (state.MachineState.step); see state.py.
  *
  * It reads the two line shapes the Python step() already fast-paths -- the slicer's own
- * "G0/G1 X.. Y.. Z.. E.. F.." and "M204 S.. P.. T.. R.." -- and blank lines and comments
- * no feature or layer marker starts, and gives exactly what Python gives: the same Move (fields read and written by __slots__ offset, the same objects
- * where Python passes objects through, the same doubles where it computes), the same
+ * "G0/G1 X.. Y.. Z.. E.. F.." and "M204 S.. P.. T.. R.." -- blank lines, comment lines
+ * (a feature or layer marker's too), and the commands step() does not read ("M73 P5":
+ * None, nothing changed), and gives exactly what Python gives: the same Move (fields read
+ * and written by __slots__ offset, the same objects where Python passes objects through,
+ * the same doubles where it computes), the same
  * MachineState changes (written to the instance dict, as Python's setattr does).  Every
  * other line, and every case where Python leaves its fast path or raises (a lone CR, a
  * BOM, a word float() refuses, a word given twice, F out of range, G20, a target out of
@@ -33,10 +35,10 @@ static Py_ssize_t move_off[MV_N];
 
 /* MachineState attributes read or written here */
 enum { S_X, S_Y, S_Z, S_E, S_ABS, S_EREL, S_INCH, S_V, S_FEATURE, S_LAYER, S_FLOW, S_SPEED,
-       S_ACC_PRINT, S_ACC_TRAVEL, S_ACC_RETRACT, S_LIM, S_ONE, S_N };
+       S_ACC_PRINT, S_ACC_TRAVEL, S_ACC_RETRACT, S_LIM, S_ONE, S_SEEN, S_N };
 static const char *STATE_NAMES[S_N] = {
     "x", "y", "z", "e", "abs_xyz", "e_rel_flag", "inch", "v", "feature", "layer", "flow_r",
-    "speed_r", "accel_print", "accel_travel", "accel_retract", "lim", "_one_accel"};
+    "speed_r", "accel_print", "accel_travel", "accel_retract", "lim", "_one_accel", "feature_seen"};
 static PyObject *state_name[S_N];
 
 static PyTypeObject *MOVE_TYPE = NULL, *STATE_TYPE = NULL;
@@ -49,23 +51,40 @@ static int READY = 0;
 /* The comment prefixes _step_python acts on (features._PREFIXES and _LAYER_MARKERS, read at
  * setup): a comment-only line starting with none of them (lowercased) changes nothing, as
  * feature_from_comment and is_layer_change test startswith on comment.strip().lower() (the
- * strip takes only trailing whitespace off a comment that starts with ';').  Any other
- * comment line goes to Python. */
+ * strip takes only trailing whitespace off a comment that starts with ';').  A comment
+ * one of them starts is read here too (marked_comment: the feature features._NAMES gives
+ * its name, or the layer count) where features._NAMES and OTHER are a dict and a str;
+ * else it goes to Python. */
 #define MAX_MARKS 32
 static char *MARKS[MAX_MARKS];
 static int N_MARKS = -1;          /* -1: not read (every comment line goes to Python) */
+static int N_PREFIX = 0;          /* MARKS[:N_PREFIX] are _PREFIXES, the rest _LAYER_MARKERS */
+static PyObject *FEATURE_NAMES = NULL, *FEATURE_OTHER = NULL;   /* features._NAMES, OTHER (or NULL) */
 
 static int read_marks(void)
 {
     for (int i = 0; i < N_MARKS; i++)
         PyMem_Free(MARKS[i]);
     N_MARKS = -1;
+    Py_CLEAR(FEATURE_NAMES);
+    Py_CLEAR(FEATURE_OTHER);
     PyObject *mod = PyImport_ImportModule("gcode_opt.features");
     if (mod == NULL)
         return -1;
+    PyObject *names_d = PyObject_GetAttrString(mod, "_NAMES"), *other = PyObject_GetAttrString(mod, "OTHER");
+    if (names_d != NULL && other != NULL && PyDict_CheckExact(names_d) && PyUnicode_CheckExact(other)) {
+        FEATURE_NAMES = names_d;
+        FEATURE_OTHER = other;
+    } else {                      /* not the shape this code knows: marked comments stay Python's */
+        PyErr_Clear();
+        Py_XDECREF(names_d);
+        Py_XDECREF(other);
+    }
     int n = 0, ok = 1;
     static const char *names[2] = {"_PREFIXES", "_LAYER_MARKERS"};
     for (int j = 0; j < 2 && ok; j++) {
+        if (j == 1)
+            N_PREFIX = n;
         PyObject *t = PyObject_GetAttrString(mod, names[j]);
         if (t == NULL || !PyTuple_Check(t)) {
             PyErr_Clear();
@@ -123,12 +142,14 @@ static inline int is_split_space(unsigned char c)
     return c == ' ' || (c >= '\t' && c <= '\r') || (c >= 0x1c && c <= 0x1f);
 }
 
+static int read_cmds(PyObject *cmds);
+
 static PyObject *setup(PyObject *self, PyObject *args)
 {
-    PyObject *move, *state, *travel, *line_k, *eonly_k;
+    PyObject *move, *state, *travel, *line_k, *eonly_k, *cmds = NULL;
     double pos, e, f, acc;
-    if (!PyArg_ParseTuple(args, "O!O!OOOdddd", &PyType_Type, &move, &PyType_Type, &state, &travel,
-                          &line_k, &eonly_k, &pos, &e, &f, &acc))
+    if (!PyArg_ParseTuple(args, "O!O!OOOdddd|O", &PyType_Type, &move, &PyType_Type, &state, &travel,
+                          &line_k, &eonly_k, &pos, &e, &f, &acc, &cmds))
         return NULL;
     for (int i = 0; i < MV_N; i++) {
         PyObject *d = PyObject_GetAttrString(move, MOVE_NAMES[i]);
@@ -169,7 +190,7 @@ static PyObject *setup(PyObject *self, PyObject *args)
     MAX_E_D = e;
     MAX_F = f;
     MAX_ACCEL_A = acc;
-    if (read_marks() < 0)
+    if (read_marks() < 0 || read_cmds(cmds) < 0)
         return NULL;
     READY = 1;
     Py_RETURN_NONE;
@@ -742,11 +763,149 @@ out:
     return rc;
 }
 
+/* ---------------------------------------------------------------- lines that change little
+ * The commands _step_python reads (state.COMMANDS_READ, given to setup): any other classic
+ * command ("M73 P5", "M107", "T0", "M862.3 P", ...) returns None there and changes nothing
+ * (no word of it is parsed), so it needs no Python. */
+#define MAX_CMDS 64
+static char CMDS[MAX_CMDS][16];
+static int N_CMDS = -1;           /* -1: not given (every command goes to Python) */
+
+static int read_cmds(PyObject *cmds)
+{
+    N_CMDS = -1;
+    if (cmds == NULL || cmds == Py_None)
+        return 0;
+    PyObject *it = PyObject_GetIter(cmds);
+    if (it == NULL)
+        return -1;
+    int n = 0, ok = 1;
+    PyObject *c;
+    while ((c = PyIter_Next(it)) != NULL) {
+        const char *t = PyUnicode_Check(c) && PyUnicode_IS_ASCII(c) ? PyUnicode_AsUTF8(c) : NULL;
+        if (t == NULL || n == MAX_CMDS || strlen(t) >= sizeof(CMDS[0]))
+            ok = 0;
+        else
+            strcpy(CMDS[n++], t);
+        Py_DECREF(c);
+    }
+    Py_DECREF(it);
+    if (PyErr_Occurred())
+        return -1;
+    if (ok)
+        N_CMDS = n;
+    return 0;
+}
+
+/* s[0:code_n] a command _step_python returns None for without reading it: a classic
+ * command word at the line's start (letter, digits, none of N or a '*' in the code: no
+ * line number, no checksum) whose name as words.command_of gives it ("G01" is "G1",
+ * "M862.3" keeps its fraction) is not one it reads. */
+static int noop_command(const unsigned char *s, Py_ssize_t code_n)
+{
+    if (N_CMDS < 0 || code_n < 2 || memchr(s, '*', code_n) != NULL)
+        return 0;
+    unsigned char c0 = s[0];
+    if (c0 >= 'a' && c0 <= 'z')
+        c0 = (unsigned char)(c0 - 'a' + 'A');
+    if (c0 < 'A' || c0 > 'Z' || c0 == 'N' || !(s[1] >= '0' && s[1] <= '9'))
+        return 0;
+    Py_ssize_t j = 1;
+    while (j < code_n && s[j] == '0')      /* int(whole): no leading zeros */
+        j++;
+    Py_ssize_t w0 = j;
+    while (j < code_n && s[j] >= '0' && s[j] <= '9')
+        j++;
+    if (j - w0 > 9)
+        return 0;
+    if (j + 1 < code_n && s[j] == '.' && s[j + 1] >= '0' && s[j + 1] <= '9')
+        return 1;                          /* a fraction: none of the commands read has one */
+    char name[16];
+    name[0] = (char)c0;
+    Py_ssize_t k = 1;
+    if (j == w0)
+        name[k++] = '0';
+    for (Py_ssize_t i = w0; i < j; i++)
+        name[k++] = (char)s[i];
+    name[k] = '\0';
+    for (int i = 0; i < N_CMDS; i++)
+        if (strcmp(name, CMDS[i]) == 0)
+            return 0;
+    return 1;
+}
+
+/* A comment-only line a marker starts (c[0:n], from its ';' to the line's end): what
+ * _step_python does with it -- features.feature_from_comment's feature (comment
+ * .strip().lower() starting with a prefix: the rest, stripped, looked up in _NAMES, else
+ * OTHER) into state.feature, else (a layer marker) state.layer += 1 -- done in the state's
+ * dict.  A feature also sets feature_seen (analyse's `seen` of the lines read in C).  1
+ * done (*feature: the feature set, borrowed, or NULL; a comment marked only before its
+ * strip changes nothing), 0 Python decides (nothing changed: no _NAMES, a layer that is
+ * not an int), -1 error. */
+static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, PyObject **feature)
+{
+    *feature = NULL;
+    if (FEATURE_NAMES == NULL || N_MARKS < 0)
+        return 0;
+    while (n > 0 && is_split_space(c[n - 1]))      /* strip(): the comment starts with ';' */
+        n--;
+    for (int i = 0; i < N_MARKS; i++) {
+        const char *m = MARKS[i];
+        Py_ssize_t j = 0;
+        for (; m[j] != '\0' && j < n; j++) {
+            unsigned char ch = c[j];
+            if (ch >= 'A' && ch <= 'Z')
+                ch = (unsigned char)(ch - 'A' + 'a');
+            if (ch != (unsigned char)m[j])
+                break;
+        }
+        if (m[j] != '\0')
+            continue;
+        if (i >= N_PREFIX) {                       /* a layer marker (no prefix starts it) */
+            PyObject *layer = GET(S_LAYER);
+            if (layer == NULL || !PyLong_CheckExact(layer)) {
+                PyErr_Clear();
+                return 0;
+            }
+            PyObject *one = PyLong_FromLong(1);
+            PyObject *next = one ? PyNumber_Add(layer, one) : NULL;
+            Py_XDECREF(one);
+            int rc = next == NULL ? -1 : PyDict_SetItem(dict, state_name[S_LAYER], next);
+            Py_XDECREF(next);
+            return rc < 0 ? -1 : 1;
+        }
+        Py_ssize_t a = j, b = n;                   /* the name: the rest, stripped, lowercased */
+        while (a < b && is_split_space(c[a]))
+            a++;
+        PyObject *key = PyUnicode_New(b - a, 127);
+        if (key == NULL)
+            return -1;
+        Py_UCS1 *k = PyUnicode_1BYTE_DATA(key);
+        for (Py_ssize_t t = a; t < b; t++)
+            k[t - a] = (c[t] >= 'A' && c[t] <= 'Z') ? (Py_UCS1)(c[t] - 'A' + 'a') : c[t];
+        PyObject *f = PyDict_GetItemWithError(FEATURE_NAMES, key);
+        Py_DECREF(key);
+        if (f == NULL && PyErr_Occurred())
+            return -1;
+        if (f == NULL)
+            f = FEATURE_OTHER;
+        Py_INCREF(f);                              /* (held while the dict lets go of the old one) */
+        int rc = PyDict_SetItem(dict, state_name[S_FEATURE], f) < 0
+                 || PyDict_SetItem(dict, state_name[S_SEEN], Py_True) < 0 ? -1 : 1;
+        Py_DECREF(f);
+        *feature = f;                              /* (the dict holds it) */
+        return rc;
+    }
+    return 1;                 /* marked only before the strip ("; feature " + spaces): nothing to do */
+}
+
 /* What kind of line s[0..n) is, for step() and fused_line(): SHAPE_PYTHON (the Python
- * reader must read it: a stray CR, which Python rejects, or a marked comment), SHAPE_NOTHING
- * (a blank line, or a comment no marker starts: it changes nothing), or SHAPE_CODE (a command;
- * *code_n: the length before any ';'). */
-enum { SHAPE_PYTHON, SHAPE_NOTHING, SHAPE_CODE };
+ * reader must read it: a stray CR, which Python rejects), SHAPE_NOTHING (a blank line, a
+ * comment no marker starts: it changes nothing), SHAPE_MARKED (a comment a marker starts:
+ * marked_comment; *code_n: where its ';' is), or
+ * SHAPE_CODE (a command; *code_n: the length before any ';': the callers read a G0/G1 or
+ * M204 of the fast shape, answer a command noop_command finds, and hand the rest to Python). */
+enum { SHAPE_PYTHON, SHAPE_NOTHING, SHAPE_CODE, SHAPE_MARKED };
 
 static int line_shape(const unsigned char *s, Py_ssize_t n, Py_ssize_t *code_n)
 {
@@ -764,7 +923,7 @@ static int line_shape(const unsigned char *s, Py_ssize_t n, Py_ssize_t *code_n)
     while (k < *code_n && is_split_space(s[k]))
         k++;
     if (k == *code_n)      /* no command: a blank line changes nothing; a comment only if it is marked */
-        return (semi != NULL && marked(semi, n - *code_n)) ? SHAPE_PYTHON : SHAPE_NOTHING;
+        return (semi != NULL && marked(semi, n - *code_n)) ? SHAPE_MARKED : SHAPE_NOTHING;
     return n < 2 ? SHAPE_PYTHON : SHAPE_CODE;
 }
 
@@ -783,11 +942,25 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return slow(self, idx, raw);
     case SHAPE_NOTHING:
         Py_RETURN_NONE;
+    case SHAPE_MARKED: {
+        PyObject *dict = PyObject_GenericGetDict(self, NULL), *f;
+        if (dict == NULL) {
+            PyErr_Clear();
+            return slow(self, idx, raw);
+        }
+        int done = marked_comment(dict, s + code_n, PyUnicode_GET_LENGTH(raw) - code_n, &f);
+        Py_DECREF(dict);
+        if (done < 0)
+            return NULL;
+        if (!done)
+            return slow(self, idx, raw);
+        Py_RETURN_NONE;
+    }
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
-            return slow(self, idx, raw);
+            goto other;
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL) {
             PyErr_Clear();
@@ -802,7 +975,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     }
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
         if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
-            return slow(self, idx, raw);
+            goto other;
         PyObject *dict = PyObject_GenericGetDict(self, NULL);
         if (dict == NULL)
             return NULL;
@@ -814,6 +987,9 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
             return NULL;
         Py_RETURN_NONE;
     }
+other:
+    if (noop_command(s, code_n))
+        Py_RETURN_NONE;
     return slow(self, idx, raw);
 }
 
@@ -1082,11 +1258,22 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *
         goto other;
     case SHAPE_NOTHING:
         return 0;
+    case SHAPE_MARKED: {
+        PyObject *f;
+        int done = marked_comment(ss->dict, s + code_n, n - code_n, &f);
+        if (done < 0)
+            return -1;
+        if (!done)
+            goto other;
+        if (f != NULL && ss->live)
+            ss->o_feature = f;         /* (borrowed from the dict, as sess_load's) */
+        return 0;
+    }
     }
     Words w;
     if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
-            goto other;
+            goto command;
         if (!ss->live) {
             sess_load(ss);
             if (!ss->live)
@@ -1123,6 +1310,9 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *
             goto other;
         return 0;
     }
+command:
+    if (noop_command(s, code_n))
+        return 0;
 other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
@@ -1130,9 +1320,9 @@ other:
 /* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in
  * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing
  * nothing: 1 with *rm filled (rm->fm.kind 0 a line, 1 E only, 2 no move: a line step()
- * returns None for, its state change only), 2 a blank or unmarked comment line (step()
- * returns None, nothing changes), 3 an M204 line (nothing read: fused_line reads it), 0 any
- * other line, -1 error; fused_commit then makes the state step() would leave, if the loop
+ * returns None for, its state change only), 2 a blank or unmarked comment line or a command
+ * noop_command finds (step() returns None, nothing changes), 3 an M204 or a marked comment
+ * line (nothing read: fused_line reads it), 0 any other line, -1 error; fused_commit then makes the state step() would leave, if the loop
  * takes the line. */
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
@@ -1146,13 +1336,15 @@ static int fused_peek(void *p, PyObject *raw, RunMove *rm)
         return 0;
     case SHAPE_NOTHING:
         return 2;
+    case SHAPE_MARKED:
+        return 3;
     }
     Words w;
     if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
         return 3;
     if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
         || read_words(s, code_n, 2, G_LETTERS, &w) < 0)
-        return 0;
+        return noop_command(s, code_n) ? 2 : 0;
     if (!ss->live) {
         sess_load(ss);
         if (!ss->live)

@@ -308,7 +308,8 @@ def analyse(path, profile: Profile, opts: Options):
         sums.finish()
     if ring is not None:
         opts.ringing_before = ring.figures()
-    opts.feature_info = feat.selection_info(seen[0], opts.features)
+    # (state.feature_seen: a feature comment the compiled reader read, also in its own loops)
+    opts.feature_info = feat.selection_info(seen[0] or state.feature_seen is True, opts.features)
     return strokes, sim.res
 
 

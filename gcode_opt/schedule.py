@@ -99,6 +99,9 @@ KINDS = {
 ROW_KINDS = (K_CURVE,)
 
 
+_FEATURE = attrgetter("feature")
+
+
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     n = len(strokes)
     with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
@@ -110,7 +113,14 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         area = math.pi * (profile.filament_diameter_d / 2) ** 2
         e_mm = np.array([s.e_per_mm for s in strokes], float)
         v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
-        over_r = np.array([feature_overshoot_r(s.feature, opts) for s in strokes], float)
+        # (one feature_overshoot_r call a feature, not a stroke: it reads only the feature and opts)
+        feats = list(map(_FEATURE, strokes))
+        try:
+            over_of = {f: feature_overshoot_r(f, opts) for f in set(feats)}
+        except TypeError:                     # (an unhashable feature: a call a stroke)
+            over_of = None
+        over_r = (np.array([feature_overshoot_r(f, opts) for f in feats], float) if over_of is None
+                  else np.fromiter(map(over_of.__getitem__, feats), float, n))
         v_cap = np.minimum(np.minimum(v_feed * (1 + over_r), v_lim), v_flow)
         v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
         # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)

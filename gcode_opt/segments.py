@@ -23,7 +23,7 @@ from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_r
                                 marlin_jerk_junction_v_rows)
 from .firmware.simulate import FULL_STOP_V
 from .laws.line import _N_COEF, _S1_COEF, _cube, check_params, line_law, time_of_distance
-from .strokes import Stroke, line_spans
+from .strokes import Stroke, line_spans, stroke_fields
 
 MIN_SEG_D = 0.3          # mm: shorter segments bloat the file for no fidelity gain
 EDGE_D = 0.5             # mm: longest lead-in/lead-out at a corner speed
@@ -667,9 +667,18 @@ def line_classes(strokes):
         return np.arange(m, dtype=np.int64)
     first, last = line_spans(strokes)
     alone = last != first
-    alone |= np.fromiter(map(_IS_NOT_NONE, map(_ENDS, strokes)), bool, m)
+    # the compiled core reads the fields of every stroke without a Python object a field
+    # (its columns are taken as views: no more memory than the columns made below)
+    names = _LINE_FLOATS + _LINE_MAYBE
+    got = stroke_fields(strokes, names + ("_ends",))
+    if got is None or (got[1][:, -1] == 4).any():
+        alone |= np.fromiter(map(_IS_NOT_NONE, map(_ENDS, strokes)), bool, m)
+    else:
+        alone |= got[1][:, -1] != 1         # ends_d kept: more than one move
     cols = []                               # float64 columns, compared by their bytes
-    for name in _LINE_FLOATS + _LINE_MAYBE:
+    for j, name in enumerate(names):
+        if got is not None and _core_column(got[0][:, j], got[1][:, j], cols):
+            continue
         vals = list(map(attrgetter(name), strokes))
         types = set(map(type, vals))
         if types == {float}:
@@ -706,6 +715,21 @@ def line_classes(strokes):
     k = np.flatnonzero(alone)
     out[k] = out.max() + 1 + np.arange(k.size)      # each a class of its own
     return out
+
+
+def _core_column(vals, kinds, cols):
+    """line_classes' columns of one field from stroke_fields' vals and kinds of it,
+    appended to cols as its loop makes them (the same doubles: a float's own, None's NaN, a
+    bool's 1.0 / 0.0); False (nothing appended) for a mix that loop does not make so
+    (another type, or a bool with a float or None: its `alone` case)."""
+    seen = np.bincount(kinds.view(np.uint8), minlength=5)
+    if seen[3] or seen[4] or (seen[2] and (seen[0] or seen[1])):
+        return False
+    if seen[0] or seen[2]:                  # {float}, {bool}, {float, None}
+        cols.append(vals)
+        if seen[1]:
+            cols.append((kinds == 1).astype(float))
+    return True                             # ({None}: nothing apart)
 
 
 def row_classes(B):

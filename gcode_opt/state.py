@@ -138,6 +138,11 @@ MAX_VELOCITY_V = 1e5   # mm/s
 MAX_DWELL_T = 1e6      # s (11 days)
 _CLASSIC_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ")
 _WAITS = {"M109", "M190", "M400", "M0", "M1", "M600", "M191", "M116", "G29", "G80", "G34", "M226"}
+# the classic commands (words.command_of's names) _step_python reads: any other returns
+# None there and changes nothing, and the compiled reader answers it so itself (keep this
+# in step with _step_python and _other: tests/test_speed32_reader_noop.py checks)
+COMMANDS_READ = frozenset({"G0", "G1", "G2", "G3", "G92", "G90", "G91", "M82", "M83", "G20", "G21", "M204", "M201",
+                           "M203", "M205", "M221", "M220", "G10", "G11", "G4", "G28"} | _WAITS)
 
 
 def arc_from_words(x0, y0, x1, y1, p, cw, dz):
@@ -196,6 +201,7 @@ class MachineState:
         self.pa_t = 0.0                   # Klipper pressure advance (s), config default 0
         self.pa_smooth_t = 0.040          # Klipper pressure_advance_smooth_time default
         self.retracted = False
+        self.feature_seen = False         # the compiled reader read a feature comment (pipeline.analyse)
         self.accel_print = profile.default_accel_a    # M204 P (Klipper: the single accel)
         self.accel_travel = profile.travel_accel_a    # M204 T (Marlin 2 / RRF)
         self.accel_retract = profile.retract_accel_a  # M204 R
@@ -646,7 +652,7 @@ def _load_reader():
                           "reader")
     if core is None:
         return None
-    core.setup(Move, MachineState, feat.TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)
+    core.setup(Move, MachineState, feat.TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A, COMMANDS_READ)
     CORE_WHY = ""
     return core
 

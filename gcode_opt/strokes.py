@@ -380,6 +380,19 @@ def line_spans(strokes):
             np.fromiter(map(attrgetter("last_idx"), strokes), np.int64, n))
 
 
+def stroke_fields(strokes, names):
+    """The fields `names` of every stroke of the list read by the compiled core, or None
+    (no core, not all StrokeBase, a name it does not keep): (vals, kinds), float64 and int8
+    arrays (len(strokes), len(names)): a float's value (kind 0), None (1, vals NaN), a
+    bool (2, 1.0 / 0.0), another object (3) or an unset object field (4): read those
+    yourself (segments.line_classes)."""
+    if _CORE is None or type(strokes) is not list or not hasattr(_CORE, "stroke_fields"):
+        return None
+    import numpy as np
+    vals, kinds = np.empty((len(strokes), len(names))), np.empty((len(strokes), len(names)), np.int8)
+    return (vals, kinds) if _CORE.stroke_fields(strokes, tuple(names), vals, kinds) else None
+
+
 def put_sums(strokes, got, v0, v1, time_t, int_a2, int_v2):
     """The model's sums given to the strokes of the list: v0 where got & 1, v1 where got & 2,
     time_t, int_a2, int_v2 to all (got an int64 array, the rest float64 arrays: the

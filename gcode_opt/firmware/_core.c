@@ -3384,6 +3384,99 @@ static PyObject *mod_stroke_put_sums(PyObject *self, PyObject *args)
     return got_b == 6 ? PyLong_FromLong(1) : NULL;
 }
 
+/* stroke_fields(strokes, names, vals, kinds): segments.line_classes' reading of the fields
+ * `names` (a tuple of StrokeBase field names) of every stroke, without a Python object a
+ * field: vals (float64, len(strokes) x len(names), C order) the value's double (a float's
+ * own bits, a bool 1.0 / 0.0, None the NaN np.array(..., float) makes of it), kinds (int8,
+ * the same shape) what it is: 0 a float, 1 None, 2 a bool, 3 another object or a double
+ * field kept as an object (set or not), 4 an object field not set (the caller reads such
+ * a field's attribute itself).  1, or 0 (nothing read) if an item is not a
+ * StrokeBase or a name is not one of its double or object fields. */
+static PyObject *mod_stroke_fields(PyObject *self, PyObject *args)
+{
+    PyObject *list, *names, *vals_o, *kinds_o;
+    if (!PyArg_ParseTuple(args, "O!O!OO:stroke_fields", &PyList_Type, &list, &PyTuple_Type, &names, &vals_o,
+                          &kinds_o))
+        return NULL;
+    Py_ssize_t w = PyTuple_GET_SIZE(names), n = PyList_GET_SIZE(list);
+    int where[64];                     /* field j: double k (>= 0) or object slot ~k */
+    if (w > 64 || !all_strokes(list))
+        return PyLong_FromLong(0);
+    for (Py_ssize_t j = 0; j < w; j++) {
+        PyObject *nm = PyTuple_GET_ITEM(names, j);
+        const char *c = PyUnicode_Check(nm) ? PyUnicode_AsUTF8(nm) : NULL;
+        if (c == NULL) {
+            PyErr_Clear();
+            return PyLong_FromLong(0);
+        }
+        where[j] = INT_MIN;
+        for (int k = 0; k < SD_N; k++)
+            if (!strcmp(c, SD_NAMES[k]))
+                where[j] = k;
+        for (int k = 0; Stroke_members[k].name != NULL; k++)
+            if (!strcmp(c, Stroke_members[k].name))
+                where[j] = ~(int)((Stroke_members[k].offset - offsetof(StrokeObject, o)) / sizeof(PyObject *));
+        if (where[j] == INT_MIN)
+            return PyLong_FromLong(0);
+    }
+    Py_buffer bv, bk;
+    if (PyObject_GetBuffer(vals_o, &bv, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return NULL;
+    if (PyObject_GetBuffer(kinds_o, &bk, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) {
+        PyBuffer_Release(&bv);
+        return NULL;
+    }
+    if (bv.itemsize != 8 || bv.format == NULL || strcmp(bv.format, "d") || bv.len < n * w * 8
+        || bk.itemsize != 1 || bk.format == NULL || strcmp(bk.format, "b") || bk.len < n * w) {
+        PyBuffer_Release(&bv);
+        PyBuffer_Release(&bk);
+        PyErr_SetString(PyExc_ValueError, "stroke_fields: float64 and int8 buffers of len(strokes) x len(names)");
+        return NULL;
+    }
+    double *vals = bv.buf, nan_v;
+    signed char *kinds = bk.buf;
+    const unsigned long long nan_bits = 0x7ff8000000000000ull;      /* np.array([None], float) */
+    memcpy(&nan_v, &nan_bits, sizeof nan_v);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        StrokeObject *s = (StrokeObject *)PyList_GET_ITEM(list, i);
+        for (Py_ssize_t j = 0; j < w; j++) {
+            double v = 0.0;
+            signed char kind = 3;
+            int k = where[j];
+            if (k >= 0) {
+                if (s->odd & (1u << k))
+                    ;                                  /* kept as an object (or unset): the caller's */
+                else if (k >= SD_NONE0 && !(s->has & (1u << (k - SD_NONE0)))) {
+                    v = nan_v;
+                    kind = 1;
+                } else {
+                    v = s->d[k];
+                    kind = 0;
+                }
+            } else {
+                PyObject *o = s->o[~k];
+                if (o == NULL)
+                    kind = 4;
+                else if (PyFloat_CheckExact(o)) {
+                    v = PyFloat_AS_DOUBLE(o);
+                    kind = 0;
+                } else if (o == Py_None) {
+                    v = nan_v;
+                    kind = 1;
+                } else if (o == Py_True || o == Py_False) {
+                    v = o == Py_True ? 1.0 : 0.0;
+                    kind = 2;
+                }
+            }
+            vals[i * w + j] = v;
+            kinds[i * w + j] = kind;
+        }
+    }
+    PyBuffer_Release(&bv);
+    PyBuffer_Release(&bk);
+    return PyLong_FromLong(1);
+}
+
 static int stroke_type_ready(void)
 {
     for (int k = 0; k < SD_N; k++)
@@ -6102,6 +6195,8 @@ static PyMethodDef mod_methods[] = {
      "stroke_lines(strokes, lo, hi): their first_idx and last_idx into two int64 buffers; 0: declined"},
     {"stroke_put_sums", mod_stroke_put_sums, METH_VARARGS,
      "stroke_put_sums(strokes, got, v0, v1, t, a2, v2): pipeline._LogSums' sums written in; 0: declined"},
+    {"stroke_fields", mod_stroke_fields, METH_VARARGS,
+     "stroke_fields(strokes, names, vals, kinds): line_classes' fields as doubles and kinds; 0: declined"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {NULL}

@@ -176,12 +176,19 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
             step = (CANDIDATE_ROWS if not _lines_repeat(pin, ok[k]) else max(ok[k].size, 1)) if k == K_LINE \
                 else max(ok[k].size, 1)
             for a in range(0, ok[k].size, step):
-                for sub, tables in isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
-                                           ok[k][a:a + step], "planning", failed):
+                got = isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
+                              ok[k][a:a + step], "planning", failed)
+                # each dense table let go once made sparse: a loop variable held the last
+                # one through the next kind's solve and the merge (gyroid plate: the
+                # curves' 3.6 MB at the chains' peak, the chains' 12 MB at of_pieces)
+                got.reverse()
+                while got:
+                    sub, tables = got.pop()
                     if type(tables) is _Pieces:           # (kept sparse by the kind, chunk by chunk)
                         pieces += tables
                     else:
                         pieces.append(Candidates.piece(sub, tables, pin.T_orig))
+                    del sub, tables
         cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")

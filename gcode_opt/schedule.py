@@ -167,7 +167,11 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
         pieces = []
-        for k, kind in KINDS.items():     # each kind's tables kept sparse as soon as made
+        # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
+        # held under the curves' and chains' solves, whose transients set the peak RSS
+        order = [k for k in KINDS if k != K_LINE] + [K_LINE]
+        for k in order:                   # each kind's tables kept sparse as soon as made
+            kind = KINDS[k]
             # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
             # were ~33 MB at once on the rectilinear plate, before they were made sparse
             # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)

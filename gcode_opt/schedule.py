@@ -155,6 +155,7 @@ class _Pieces(list):
     """A kind's candidates already as Candidates.piece()s (lines: plan.candidate_pieces)."""
 
 
+LINES_LAST = True     # tests turn it off: the kinds in KINDS' order (the same tables)
 CANDIDATE_ROWS = 1 << 14      # line strokes whose candidates are made at once (plan.py's
                               # CANDIDATE_CHUNK x BISECT_CHUNKS: its batches as in one call)
 
@@ -169,7 +170,7 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         pieces = []
         # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
         # held under the curves' and chains' solves, whose transients set the peak RSS
-        order = [k for k in KINDS if k != K_LINE] + [K_LINE]
+        order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
         for k in order:                   # each kind's tables kept sparse as soon as made
             kind = KINDS[k]
             # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)

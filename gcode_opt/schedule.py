@@ -165,6 +165,7 @@ class _Pieces(list):
     """A kind's candidates already as Candidates.piece()s (lines: plan.candidate_pieces)."""
 
 
+LINES_LAST = True     # tests turn it off: the kinds in KINDS' order (the same tables)
 CANDIDATE_ROWS = 1 << 14      # line strokes whose candidates are made at once (plan.py's
                               # CANDIDATE_CHUNK x BISECT_CHUNKS: its batches as in one call)
 
@@ -177,7 +178,11 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
         pieces = []
-        for k, kind in KINDS.items():     # each kind's tables kept sparse as soon as made
+        # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
+        # held under the curves' and chains' solves, whose transients set the peak RSS
+        order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
+        for k in order:                   # each kind's tables kept sparse as soon as made
+            kind = KINDS[k]
             # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
             # were ~33 MB at once on the rectilinear plate, before they were made sparse
             # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
@@ -186,12 +191,19 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
             step = (CANDIDATE_ROWS if not _lines_repeat(pin, ok[k]) else max(ok[k].size, 1)) if k == K_LINE \
                 else max(ok[k].size, 1)
             for a in range(0, ok[k].size, step):
-                for sub, tables in isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
-                                           ok[k][a:a + step], "planning", failed):
+                got = isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
+                              ok[k][a:a + step], "planning", failed)
+                # each dense table let go once made sparse: a loop variable held the last
+                # one through the next kind's solve and the merge (gyroid plate: the
+                # curves' 3.6 MB at the chains' peak, the chains' 12 MB at of_pieces)
+                got.reverse()
+                while got:
+                    sub, tables = got.pop()
                     if type(tables) is _Pieces:           # (kept sparse by the kind, chunk by chunk)
                         pieces += tables
                     else:
                         pieces.append(Candidates.piece(sub, tables, pin.T_orig))
+                    del sub, tables
         cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")

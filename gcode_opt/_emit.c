@@ -711,6 +711,35 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t mo
     return 0;
 }
 
+/* s[0..n) copied to q: the end.  The short texts of a segment line (numbers, words) by two
+   overlapping loads, without a call to memcpy */
+static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
+{
+    if (n >= 8 && n <= 16) {
+        uint64_t a, z;
+        memcpy(&a, s, 8);
+        memcpy(&z, s + n - 8, 8);
+        memcpy(q, &a, 8);
+        memcpy(q + n - 8, &z, 8);
+    } else if (n >= 4 && n < 8) {
+        uint32_t a, z;
+        memcpy(&a, s, 4);
+        memcpy(&z, s + n - 4, 4);
+        memcpy(q, &a, 4);
+        memcpy(q + n - 4, &z, 4);
+    } else if (n > 16)
+        memcpy(q, s, (size_t)n);
+    else if (n >= 2) {
+        uint16_t a, z;
+        memcpy(&a, s, 2);
+        memcpy(&z, s + n - 2, 2);
+        memcpy(q, &a, 2);
+        memcpy(q + n - 2, &z, 2);
+    } else if (n == 1)
+        *q = *s;
+    return q + n;
+}
+
 /* the pieces emit_cols puts around the segment lines (ASCII) */
 typedef struct {
     const char *hp, *wp, *nlp, *clp, *bp, *ap;
@@ -824,7 +853,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         if (buf_grow(b, room) < 0)
             return -1;
         char *q = b->p + b->n;
-#define CPY(s_, n_) do { memcpy(q, (s_), (size_t)(n_)); q += (n_); } while (0)
+#define CPY(s_, n_) do { q = copy_short(q, (s_), (n_)); } while (0)
         CPY("G1 X", 4);
         if (at_vertex)
             CPY(xo->p, xo->n);

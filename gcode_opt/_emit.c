@@ -406,6 +406,35 @@ static inline char *digits_back(char *end, uint64_t a)
     return end;
 }
 
+/* s[0..n) copied to q: the end.  The short texts of a segment line (numbers, words) by two
+   overlapping loads, without a call to memcpy */
+static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
+{
+    if (n >= 8 && n <= 16) {
+        uint64_t a, z;
+        memcpy(&a, s, 8);
+        memcpy(&z, s + n - 8, 8);
+        memcpy(q, &a, 8);
+        memcpy(q + n - 8, &z, 8);
+    } else if (n >= 4 && n < 8) {
+        uint32_t a, z;
+        memcpy(&a, s, 4);
+        memcpy(&z, s + n - 4, 4);
+        memcpy(q, &a, 4);
+        memcpy(q + n - 4, &z, 4);
+    } else if (n > 16)
+        memcpy(q, s, (size_t)n);
+    else if (n >= 2) {
+        uint16_t a, z;
+        memcpy(&a, s, 2);
+        memcpy(&z, s + n - 2, 2);
+        memcpy(q, &a, 2);
+        memcpy(q + n - 2, &z, 2);
+    } else if (n == 1)
+        *q = *s;
+    return q + n;
+}
+
 /* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end */
 static inline char *units_at(char *q, int64_t u, int dec)
 {
@@ -416,12 +445,10 @@ static inline char *units_at(char *q, int64_t u, int dec)
     char *point = end - dec, *last = end;          /* the whole: first..point; the fraction: point..last */
     while (last > point && last[-1] == '0') last--;   /* the fraction's trailing zeros cut */
     if (u < 0) *q++ = '-';                         /* u != 0: whole != "0" or a fraction digit */
-    memcpy(q, first, (size_t)(point - first));
-    q += point - first;
+    q = copy_short(q, first, point - first);
     if (last > point) {
         *q++ = '.';
-        memcpy(q, point, (size_t)(last - point));
-        q += last - point;
+        q = copy_short(q, point, last - point);
     }
     return q;
 }
@@ -446,8 +473,7 @@ static inline char *tenths_at(char *q, int64_t k)
     }
     int r = (int)(k % 10);
     char *end = tmp + sizeof tmp, *first = digits_back(end, (uint64_t)(k / 10));   /* k / 10 >= 1 */
-    memcpy(q, first, (size_t)(end - first));
-    q += end - first;
+    q = copy_short(q, first, end - first);
     if (r) {
         *q++ = '.';
         *q++ = (char)('0' + r);
@@ -709,35 +735,6 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t mo
     mu->e_move = e_u - e_b;
     mu->e_before = e_b;
     return 0;
-}
-
-/* s[0..n) copied to q: the end.  The short texts of a segment line (numbers, words) by two
-   overlapping loads, without a call to memcpy */
-static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
-{
-    if (n >= 8 && n <= 16) {
-        uint64_t a, z;
-        memcpy(&a, s, 8);
-        memcpy(&z, s + n - 8, 8);
-        memcpy(q, &a, 8);
-        memcpy(q + n - 8, &z, 8);
-    } else if (n >= 4 && n < 8) {
-        uint32_t a, z;
-        memcpy(&a, s, 4);
-        memcpy(&z, s + n - 4, 4);
-        memcpy(q, &a, 4);
-        memcpy(q + n - 4, &z, 4);
-    } else if (n > 16)
-        memcpy(q, s, (size_t)n);
-    else if (n >= 2) {
-        uint16_t a, z;
-        memcpy(&a, s, 2);
-        memcpy(&z, s + n - 2, 2);
-        memcpy(q, &a, 2);
-        memcpy(q + n - 2, &z, 2);
-    } else if (n == 1)
-        *q = *s;
-    return q + n;
 }
 
 /* the pieces emit_cols puts around the segment lines (ASCII) */

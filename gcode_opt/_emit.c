@@ -123,6 +123,35 @@ slow:
     return v;
 }
 
+/* plain_decimal and to_double in one pass: the length of the plain decimal at p[0..n)
+   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v */
+static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
+{
+    Py_ssize_t i = 0, nd = 0, nf = 0;
+    int neg = 0;
+    uint64_t m = 0;                               /* (wraps past 19 digits: then unused) */
+    if (i < n && p[i] == '-') {
+        neg = 1;
+        i++;
+    }
+    while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nd++;
+    *dec = 0;
+    if (i < n && p[i] == '.') {
+        i++;
+        while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nf++;
+        *dec = (int)nf;
+    }
+    if (nd + nf == 0)
+        return -1;
+    if (nd + nf <= 15) {                          /* to_double's fast path: the same division */
+        double x = (double)m;
+        if (nf) x = x / POW10[nf];
+        *v = neg ? -x : x;
+    } else
+        *v = to_double(p, i);
+    return i;
+}
+
 /* growable byte buffer */
 typedef struct { char *p; Py_ssize_t n, cap; } Buf;
 
@@ -355,48 +384,110 @@ static int units_txt(const char *p, Py_ssize_t m, int dec, int64_t *out)
 /* a text of a stroke's line: an ASCII str's bytes, or a piece of a line stroke_block read */
 typedef struct { const char *p; Py_ssize_t n; } Txt;
 
+/* "00".."99": two decimal digits a division */
+static const char DIGITS2[201] = "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+                                 "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+                                 "8081828384858687888990919293949596979899";
+
+/* the decimal digits of a, written backwards ending at end: their first */
+static inline char *digits_back(char *end, uint64_t a)
+{
+    while (a >= 100) {
+        uint64_t r = a % 100;
+        a /= 100;
+        end -= 2;
+        memcpy(end, DIGITS2 + 2 * r, 2);
+    }
+    if (a >= 10) {
+        end -= 2;
+        memcpy(end, DIGITS2 + 2 * a, 2);
+    } else
+        *--end = (char)('0' + a);
+    return end;
+}
+
+/* s[0..n) copied to q: the end.  The short texts of a segment line (numbers, words) by two
+   overlapping loads, without a call to memcpy */
+static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
+{
+    if (n >= 8 && n <= 16) {
+        uint64_t a, z;
+        memcpy(&a, s, 8);
+        memcpy(&z, s + n - 8, 8);
+        memcpy(q, &a, 8);
+        memcpy(q + n - 8, &z, 8);
+    } else if (n >= 4 && n < 8) {
+        uint32_t a, z;
+        memcpy(&a, s, 4);
+        memcpy(&z, s + n - 4, 4);
+        memcpy(q, &a, 4);
+        memcpy(q + n - 4, &z, 4);
+    } else if (n > 16)
+        memcpy(q, s, (size_t)n);
+    else if (n >= 2) {
+        uint16_t a, z;
+        memcpy(&a, s, 2);
+        memcpy(&z, s + n - 2, 2);
+        memcpy(q, &a, 2);
+        memcpy(q + n - 2, &z, 2);
+    } else if (n == 1)
+        *q = *s;
+    return q + n;
+}
+
+/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end */
+static inline char *units_at(char *q, int64_t u, int dec)
+{
+    char tmp[48];
+    uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
+    char *end = tmp + sizeof tmp, *first = digits_back(end, a);
+    while (end - first < dec + 1) *--first = '0';  /* zero-padded to dec + 1 digits */
+    char *point = end - dec, *last = end;          /* the whole: first..point; the fraction: point..last */
+    while (last > point && last[-1] == '0') last--;   /* the fraction's trailing zeros cut */
+    if (u < 0) *q++ = '-';                         /* u != 0: whole != "0" or a fraction digit */
+    q = copy_short(q, first, point - first);
+    if (last > point) {
+        *q++ = '.';
+        q = copy_short(q, point, last - point);
+    }
+    return q;
+}
+
 /* emit._fmt_units(u, dec) appended */
 static int put_units(Buf *b, int64_t u, int dec)
 {
-    char digits[40], tmp[48];
-    uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
-    int nd = 0;
-    do { digits[nd++] = (char)('0' + a % 10); a /= 10; } while (a);   /* reversed */
-    if (dec <= 0) {
-        int t = 0;
-        if (u < 0) tmp[t++] = '-';
-        while (nd) tmp[t++] = digits[--nd];
-        return put(b, tmp, t);
-    }
     if (dec > 30) return -2;
-    while (nd < dec + 1) digits[nd++] = '0';      /* zero-padded to dec + 1 digits */
-    int fz = 0;                                    /* trailing zeros of the fraction */
-    while (fz < dec && digits[fz] == '0') fz++;
-    int t = 0;
-    if (u < 0) tmp[t++] = '-';                     /* u != 0: whole != "0" or a fraction digit */
-    for (int j = nd - 1; j >= dec; j--) tmp[t++] = digits[j];
-    if (fz < dec) {
-        tmp[t++] = '.';
-        for (int j = dec - 1; j >= fz; j--) tmp[t++] = digits[j];
+    if (buf_grow(b, 48) < 0)
+        return -1;
+    b->n = units_at(b->p + b->n, u, dec < 0 ? 0 : dec) - b->p;   /* (dec <= 0: str(u)) */
+    return 0;
+}
+
+/* emit._tenths_up(k) written at q (room for 24 bytes; k < TENTHS_MAX): the end */
+static inline char *tenths_at(char *q, int64_t k)
+{
+    char tmp[24];
+    if (k <= 1) {
+        memcpy(q, "0.1", 3);
+        return q + 3;
     }
-    return put(b, tmp, t);
+    int r = (int)(k % 10);
+    char *end = tmp + sizeof tmp, *first = digits_back(end, (uint64_t)(k / 10));   /* k / 10 >= 1 */
+    q = copy_short(q, first, end - first);
+    if (r) {
+        *q++ = '.';
+        *q++ = (char)('0' + r);
+    }
+    return q;
 }
 
 /* emit._tenths_up(k) appended (k < TENTHS_MAX) */
 static int put_tenths_up(Buf *b, int64_t k)
 {
-    char tmp[32];
-    int t = (int)sizeof tmp;
-    if (k <= 1)
-        return put(b, "0.1", 3);
-    int r = (int)(k % 10);
-    if (r) {
-        tmp[--t] = (char)('0' + r);
-        tmp[--t] = '.';
-    }
-    k /= 10;                                       /* k >= 1 here */
-    do { tmp[--t] = (char)('0' + k % 10); k /= 10; } while (k);
-    return put(b, tmp + t, (Py_ssize_t)sizeof tmp - t);
+    if (buf_grow(b, 24) < 0)
+        return -1;
+    b->n = tenths_at(b->p + b->n, k) - b->p;
+    return 0;
 }
 
 /* Python's round(x) of a float (float.__round__: half to even), as an int64: 0, or -1 */
@@ -596,6 +687,26 @@ static int fseq_get(PyObject *o, FSeq *f, int objects)
     return objects ? fseq_object(o, f) : -1;
 }
 
+/* row r of a 2-D float64 ndarray whose rows are contiguous, read where it is (a RowPlan's
+   block: block[r] is the 1-D view fseq_object would read in place, the same doubles): 0;
+   -1 (f untouched): not such an array or row, fseq_get on block[r] decides */
+static int fseq_row(PyObject *o, Py_ssize_t r, FSeq *f)
+{
+    if (!ND_DIRECT || !Py_IS_TYPE(o, (PyTypeObject *)ND_TYPE))
+        return -1;
+    const NdHead *h = (const NdHead *)o;
+    if (h->descr != F64_DTYPE || h->nd != 2 || h->strides[1] != (Py_ssize_t)sizeof(double) || r < 0
+        || r >= h->dimensions[0])
+        return -1;
+    const char *at = h->data + r * h->strides[0];
+    if ((uintptr_t)at % sizeof(double) != 0)
+        return -1;
+    f->own = NULL;
+    f->d = (const double *)at;
+    f->n = h->dimensions[1];
+    return 0;
+}
+
 typedef struct { int64_t x_a, x_b, y_a, y_b, e_move, e_before; } MoveUnits;
 
 /* emit._move_units */
@@ -733,29 +844,47 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         double cf = ceil(f * 600.0 - 1e-6);
         if (!(cf < (double)TENTHS_MAX))
             return 1;
-        /* the line */
-        if (put(b, "G1 X", 4) < 0) return -1;
-        if (at_vertex) {
-            if (put(b, xo->p, xo->n) < 0) return -1;
-        } else if (put_units(b, xu, dxy) < 0) return -1;
-        if (put(b, " Y", 2) < 0) return -1;
-        if (at_vertex) {
-            if (put(b, yo->p, yo->n) < 0) return -1;
-        } else if (put_units(b, yu, dxy) < 0) return -1;
+        /* the line, in room made for all of it at once (a number's text: at most 48 bytes) */
+        Py_ssize_t room = 11 + 3 * 48 + 24 + nln + (at_vertex ? xo->n + yo->n + co->n : 0)
+                          + (extruding ? et[move].n + 1 : 0) + (k == 1 && ap != NULL ? an : 0);
+        if (buf_grow(b, room) < 0)
+            return -1;
+        char *q = b->p + b->n;
+#define CPY(s_, n_) do { q = copy_short(q, (s_), (n_)); } while (0)
+        CPY("G1 X", 4);
+        if (at_vertex)
+            CPY(xo->p, xo->n);
+        else
+            q = units_at(q, xu, dxy);
+        CPY(" Y", 2);
+        if (at_vertex)
+            CPY(yo->p, yo->n);
+        else
+            q = units_at(q, yu, dxy);
         if (extruding) {
-            if (put(b, " E", 2) < 0) return -1;
-            if (e_kind == 2) {
-                if (put_units(b, eu, de) < 0) return -1;
-            } else {
-                if ((e_kind == 0 ? put(b, et[move].p, et[move].n) : put_canon(b, et[move].p, et[move].n)) < 0)
+            CPY(" E", 2);
+            if (e_kind == 2)
+                q = units_at(q, eu, de);
+            else if (e_kind == 0)
+                CPY(et[move].p, et[move].n);
+            else {
+                b->n = q - b->p;                     /* (put_canon: at most m + 1 bytes, in the room) */
+                if (put_canon(b, et[move].p, et[move].n) < 0)
                     return -1;
+                q = b->p + b->n;
             }
         }
-        if (put(b, " F", 2) < 0 || put_tenths_up(b, (int64_t)cf) < 0) return -1;
-        if (co != NULL && co->n && (put(b, " ", 1) < 0 || put(b, co->p, co->n) < 0)) return -1;
-        if (put(b, nlp, nln) < 0) return -1;
-        if (k == 1 && ap != NULL && put(b, ap, an) < 0)   /* first_cmds[1], after the first move */
-            return -1;
+        CPY(" F", 2);
+        q = tenths_at(q, (int64_t)cf);
+        if (co != NULL && co->n) {
+            *q++ = ' ';
+            CPY(co->p, co->n);
+        }
+        CPY(nlp, nln);
+        if (k == 1 && ap != NULL)                    /* first_cmds[1], after the first move */
+            CPY(ap, an);
+#undef CPY
+        b->n = q - b->p;
         if (at_vertex) {
             e_done_u = 0;
             if (move < n_moves - 1) {
@@ -904,34 +1033,30 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
             return 0;
         if (m > 4 && memcmp(p, "G1 X", 4) == 0) {
             /* "G1 X<n> Y<n>[ E<n>] F<n>" */
-            Py_ssize_t xa = 4, xn, ya, yn, ea = 0, en = 0, fa, fn;
+            Py_ssize_t xn, yn, en = 0, fn;
             int dx_, dy_;
+            double x, y, e = 0.0, f;
             i = 4;
-            xn = plain_decimal(p + i, m - i, &dx_);
+            xn = dec_value(p + i, m - i, &dx_, &x);
             if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
             i += xn;
             if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') return 0;
             i += 2;
-            ya = i;
-            yn = plain_decimal(p + i, m - i, &dy_);
+            yn = dec_value(p + i, m - i, &dy_, &y);
             if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
             i += yn;
             if (i + 2 <= m && p[i] == ' ' && p[i + 1] == 'E') {
                 i += 2;
-                ea = i;
-                en = plain_decimal(p + i, m - i, &dec);
+                en = dec_value(p + i, m - i, &dec, &e);
                 if (en < 0 || dec > MAX_DECIMALS) return 0;
                 i += en;
             }
             if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'F') return 0;
             i += 2;
-            fa = i;
-            fn = plain_decimal(p + i, m - i, &dec);
+            fn = dec_value(p + i, m - i, &dec, &f);
             if (fn < 0 || dec > MAX_DECIMALS || i + fn != m) return 0;
-            double x = to_double(p + xa, xn), y = to_double(p + ya, yn), f = to_double(p + fa, fn);
             if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
             if (en) {
-                double e = to_double(p + ea, en);
                 if (!isfinite(e)) return 0;
                 e_sum += e;
                 e_abs += fabs(e);
@@ -969,21 +1094,21 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
             n_points++;
         } else if (m > 4 && memcmp(p, "G1 F", 4) == 0) {
             i = 4;
-            r = plain_decimal(p + i, m - i, &dec);
+            double f;
+            r = dec_value(p + i, m - i, &dec, &f);
             if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
-            double f = to_double(p + i, r);
             if (!(f > 0.0 && f < INFINITY)) return 0;
         } else if (m > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
             i = 6;
-            r = plain_decimal(p + i, m - i, &dec);
+            double a;
+            r = dec_value(p + i, m - i, &dec, &a);
             if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
-            double a = to_double(p + i, r);
             if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) return 0;
         } else if (klipper && m > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
             i = MCR_N;
-            r = plain_decimal(p + i, m - i, &dec);
+            double v;
+            r = dec_value(p + i, m - i, &dec, &v);
             if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
-            double v = to_double(p + i, r);
             if (!(v >= 0.0 && v < 1.0)) return 0;
         } else
             return 0;
@@ -1110,28 +1235,66 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
     return Py_BuildValue("(nn)", pos, got);
 }
 
+/* the number at p[0..n) as num_run finds it and plain_decimal reads it: its length when
+   the run of [-.0-9] there is a plain decimal (read whole: dec_value's length, and no
+   [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value */
+static inline Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v)
+{
+    Py_ssize_t k = dec_value(p, n, dec, v);
+    if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
+        return -1;
+    return k;
+}
+
+/* p[0..n) all ASCII (8 bytes a step) */
+static inline int ascii_bytes(const char *p, Py_ssize_t n)
+{
+    uint64_t high = 0, w8;
+    Py_ssize_t k = 0;
+    if (n >= 8) {
+        for (; k + 8 <= n; k += 8) {
+            memcpy(&w8, p + k, sizeof w8);
+            high |= w8;
+        }
+        if (k < n) {                              /* the last 8 bytes (some again) */
+            memcpy(&w8, p + n - 8, sizeof w8);
+            high |= w8;
+        }
+    } else
+        for (; k < n; k++)
+            high |= (unsigned char)p[k];
+    return (high & 0x8080808080808080ULL) == 0;
+}
+
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
-   1 and its pieces, or 0 (not that shape, or a number not a plain decimal: the Python
-   reading) */
-static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de)
+   1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
+   E), or 0 (not that shape, or a number not a plain decimal: the Python reading) */
+static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
+                      double *v)
 {
     Py_ssize_t i, xn, yn, en = 0;
     if (m < 4 || memcmp(p, "G1 X", 4) != 0)
         return 0;
     i = 4;
-    x->p = p + i; xn = num_run(p + i, m - i); i += xn;
-    if (xn == 0 || i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y')
+    x->p = p + i;
+    if ((xn = num_word(p + i, m - i, dx, &v[0])) < 0)
+        return 0;
+    i += xn;
+    if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y')
         return 0;
     i += 2;
-    y->p = p + i; yn = num_run(p + i, m - i); i += yn;
-    if (yn == 0)
+    y->p = p + i;
+    if ((yn = num_word(p + i, m - i, dy, &v[1])) < 0)
         return 0;
+    i += yn;
     e->p = NULL;
+    *de = 0;
     if (i + 1 < m && p[i] == ' ' && p[i + 1] == 'E') {
         i += 2;
-        e->p = p + i; en = num_run(p + i, m - i); i += en;
-        if (en == 0)
+        e->p = p + i;
+        if ((en = num_word(p + i, m - i, de, &v[2])) < 0)
             return 0;
+        i += en;
     }
     while (i < m && (p[i] == ' ' || p[i] == '\t')) i++;
     c->p = p + i;
@@ -1143,10 +1306,6 @@ static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *
     }
     if (i < m && p[i] == '\r') i++;
     if (i != m)
-        return 0;
-    *de = 0;
-    if (plain_decimal(x->p, xn, dx) != xn || plain_decimal(y->p, yn, dy) != yn
-        || (en && plain_decimal(e->p, en, de) != en))
         return 0;
     x->n = xn;
     y->n = yn;
@@ -1162,6 +1321,139 @@ static double arg_double(PyObject *o, int *bad)
         *bad = 1;
     }
     return v;
+}
+
+/* ---------------------------------------------------------------- float texts
+   float.__format__'s 'f' (precision <= 20) and '.4g' texts of the finite doubles of the
+   common range made by exact integer arithmetic: x = m 2^e exactly, so x 10^k = m 5^k 2^(e+k)
+   is an exact 128-bit integer shifted, and its rounding to an integer is decided on the
+   shifted-out bits, half to even -- the correctly rounded digits PyOS_double_to_string
+   (dtoa) gives.  Other values (not finite, too large, a '.4g' text in exponent form, no
+   128-bit integers) take PyOS_double_to_string itself. */
+#if defined(__SIZEOF_INT128__)
+typedef unsigned __int128 u128;
+
+/* round(|x| 10^k) half to even (*n) and floor(|x| 10^k) (*fl), k <= 27: 0; -1 when
+   either is 2^64 or more */
+static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
+{
+    uint64_t bits, p5 = 1;
+    memcpy(&bits, &x, sizeof bits);
+    int ex = (int)((bits >> 52) & 0x7ff);
+    uint64_t m = bits & ((1ULL << 52) - 1);
+    if (ex == 0)
+        ex = 1;                                   /* subnormal: m 2^-1074 */
+    else
+        m |= 1ULL << 52;
+    int s = ex - 1075 + k;                        /* |x| 10^k = m 5^k 2^s */
+    for (int j = 0; j < k; j++) p5 *= 5;          /* (5^27 < 2^63) */
+    u128 P = (u128)m * p5;                        /* < 2^116 */
+    if (s >= 0) {
+        if (s >= 64 || (P >> (64 - s)) != 0)
+            return -1;
+        *n = *fl = (uint64_t)(P << s);
+        return 0;
+    }
+    int sh = -s;
+    if (sh >= 120) {                              /* |x| 10^k < 2^-4 */
+        *n = *fl = 0;
+        return 0;
+    }
+    u128 q = P >> sh, rem = P - (q << sh), half = (u128)1 << (sh - 1);
+    if ((q >> 64) != 0)
+        return -1;
+    uint64_t r = (uint64_t)q;
+    *fl = r;
+    *n = r + (rem > half || (rem == half && (r & 1)));
+    return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
+}
+
+/* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined) */
+static int fmt_f(double x, int prec, char *buf)
+{
+    uint64_t n, fl;
+    if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
+        return -1;
+    char tmp[48], *end = tmp + sizeof tmp, *first = digits_back(end, n);
+    while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
+    char *q = buf;
+    if (signbit(x)) *q++ = '-';                       /* "-0.0000" too, as Python writes it */
+    Py_ssize_t nw = end - first - prec;
+    memcpy(q, first, (size_t)nw);
+    q += nw;
+    if (prec) {
+        *q++ = '.';
+        memcpy(q, end - prec, (size_t)prec);
+        q += prec;
+    }
+    *q = 0;
+    return (int)(q - buf);
+}
+
+/* format(x, ".4g") into buf (at least 64 bytes) where it is written without an exponent
+   (1e-4 <= |x| rounded < 1e4): its length, or -1 (declined: zero, not finite, exponent form) */
+static int fmt_g4(double x, char *buf)
+{
+    uint64_t n = 0, fl = 0;
+    int k;
+    if (!isfinite(x) || x == 0.0)
+        return -1;
+    for (k = 0; k <= 7; k++) {                    /* the k with |x| 10^k in [1000, 10000) */
+        if (scaled_int(x, k, &n, &fl) < 0)
+            return -1;
+        if (fl >= 1000)
+            break;
+    }
+    if (k > 7 || fl >= 10000)
+        return -1;
+    int decpt = 4 - k;                             /* x ~ 0.dddd 10^decpt */
+    if (n >= 10000) {                              /* 9999.5.. rounded up: "1000", one place on */
+        n = 1000;
+        decpt++;
+    }
+    if (decpt <= -4 || decpt > 4)
+        return -1;
+    char d[4];
+    memcpy(d, DIGITS2 + 2 * (n / 100), 2);
+    memcpy(d + 2, DIGITS2 + 2 * (n % 100), 2);
+    int nd = 4;
+    while (nd > 1 && d[nd - 1] == '0') nd--;       /* dtoa's digits: no trailing zeros */
+    char *q = buf;
+    if (x < 0) *q++ = '-';
+    if (decpt <= 0) {
+        *q++ = '0';
+        *q++ = '.';
+        for (int j = 0; j < -decpt; j++) *q++ = '0';
+        memcpy(q, d, (size_t)nd);
+        q += nd;
+    } else if (decpt < nd) {
+        memcpy(q, d, (size_t)decpt);
+        q += decpt;
+        *q++ = '.';
+        memcpy(q, d + decpt, (size_t)(nd - decpt));
+        q += nd - decpt;
+    } else {
+        memcpy(q, d, (size_t)nd);
+        q += nd;
+        for (int j = nd; j < decpt; j++) *q++ = '0';
+    }
+    *q = 0;
+    return (int)(q - buf);
+}
+#else
+static int fmt_f(double x, int prec, char *buf) { (void)x; (void)prec; (void)buf; return -1; }
+static int fmt_g4(double x, char *buf) { (void)x; (void)buf; return -1; }
+#endif
+
+/* PyOS_double_to_string(x, code, prec, 0, NULL)'s text ('f', or 'g' with prec 4): in buf
+   (64 bytes) when fmt_f / fmt_g4 make it, else PyOS_double_to_string's own (*own, the
+   caller's to free); NULL on its failure (an exception set) */
+static const char *fmt_double(double x, char code, int prec, char *buf, char **own)
+{
+    *own = NULL;
+    if ((code == 'f' ? fmt_f(x, prec, buf) : prec == 4 ? fmt_g4(x, buf) : -1) >= 0)
+        return buf;
+    return *own = PyOS_double_to_string(x, code, prec, 0, NULL);
 }
 
 /* The head of a line stroke's block as pipeline._rewrite_bytes' f-string writes it,
@@ -1186,9 +1478,10 @@ static int put_ll(char *p, long long v)
 static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double t, double t_was, double beta,
                           const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, Py_ssize_t *len)
 {
-    char *ft = PyOS_double_to_string(t, 'f', 4, 0, NULL),
-         *fw = PyOS_double_to_string(t_was, 'f', 4, 0, NULL),
-         *fb = isfinite(beta) ? PyOS_double_to_string(beta, 'g', 4, 0, NULL) : NULL;
+    char bt_[64], bw_[64], bb_[64], *ft_own = NULL, *fw_own = NULL, *fb_own = NULL;
+    const char *ft = fmt_double(t, 'f', 4, bt_, &ft_own),
+               *fw = ft ? fmt_double(t_was, 'f', 4, bw_, &fw_own) : NULL,
+               *fb = fw && isfinite(beta) ? fmt_double(beta, 'g', 4, bb_, &fb_own) : NULL;
     char *out = NULL;
     if (ft && fw && (fb || !isfinite(beta))) {
         /* the pieces put one after the other (snprintf's "%zd", "%.*s", "%lld", "%s" of
@@ -1220,9 +1513,9 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
             *len = q - out;
         }
     }
-    PyMem_Free(ft);
-    PyMem_Free(fw);
-    PyMem_Free(fb);
+    PyMem_Free(ft_own);
+    PyMem_Free(fw_own);
+    PyMem_Free(fb_own);
     PyErr_Clear();             /* (a failed PyOS_double_to_string: declined, no exception) */
     return out;
 }
@@ -1276,13 +1569,15 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
         return 0;
     /* the head line as validate._fast_ok wants it (the caller writes it: its kind is there) */
     static const char BEGIN_R[] = "; gcode-opt begin: replaces ";
-    Py_ssize_t hl = 0;
-    while (hl < pc->hn && pc->hp[hl] != '\n') hl++;
+    const char *hnl = memchr(pc->hp, '\n', (size_t)pc->hn);
+    Py_ssize_t hl = hnl != NULL ? hnl - pc->hp : pc->hn;
     if (hl == pc->hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc->hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
         return 0;
+    /* no other line break of str.splitlines in it: \r \x0b \x0c \x1c \x1d \x1e (below 0x20) */
+    const uint32_t breaks = (1u << 0x0d) | (1u << 0x0b) | (1u << 0x0c) | (1u << 0x1c) | (1u << 0x1d) | (1u << 0x1e);
     for (Py_ssize_t k = 0; k < hl; k++) {
-        char c = pc->hp[k];
-        if (c == '\r' || c == '\x0b' || c == '\x0c' || c == '\x1c' || c == '\x1d' || c == '\x1e')
+        unsigned char c = (unsigned char)pc->hp[k];
+        if (c < 0x20 && ((breaks >> c) & 1))
             return 0;
     }
     /* the lines: one allocation for their texts and the path's vertices */
@@ -1310,24 +1605,24 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
         if (q == NULL)
             goto decline;
         Py_ssize_t m = q - p;
-        for (Py_ssize_t j = 0; j < m; j++)        /* ASCII, no line break but the "\r" of "\r\n" */
-            if ((unsigned char)p[j] >= 0x80 || (p[j] == '\r' && j != m - 1))
-                goto decline;
+        if (!ascii_bytes(p, m) || (m > 1 && memchr(p, '\r', (size_t)(m - 1)) != NULL))
+            goto decline;                         /* ASCII, no line break but the "\r" of "\r\n" */
         if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
             goto decline;
         int dx, dy, de;
-        if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de))
+        double v[3];
+        if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de, v))
             goto decline;
         if (dx > dec_xy) dec_xy = dx;
         if (dy > dec_xy) dec_xy = dy;
         if (de > dec_e) dec_e = de;
-        double xv = to_double(cx[k].p, cx[k].n), yv = to_double(cy[k].p, cy[k].n);
+        double xv = v[0], yv = v[1];
         px[k + 1] = xv;
         py[k + 1] = yv;
         if (!(fabs(xv) < 1e150 && fabs(yv) < 1e150))
             path_ok = 0;
         if (ce[k].p != NULL) {
-            double ev = to_double(ce[k].p, ce[k].n);
+            double ev = v[2];
             if (!isfinite(ev))
                 goto decline;
             e_sum += ev;
@@ -1444,11 +1739,13 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
         ba.pc.hp = own_head;
     } else
         ba.pc.hp = ascii(args[4], &ba.pc.hn);
+    char x0b[64], y0b[64];
+    const char *x0s = NULL, *y0s = NULL;
     if (args[8] == Py_None && args[9] == Py_None) {
         double xv = PyFloat_AsDouble(args[10]), yv = PyFloat_AsDouble(args[11]);
         if (!PyErr_Occurred()) {
-            own_x0 = PyOS_double_to_string(xv, 'f', 8, 0, NULL);
-            own_y0 = PyOS_double_to_string(yv, 'f', 8, 0, NULL);
+            x0s = fmt_double(xv, 'f', 8, x0b, &own_x0);
+            y0s = fmt_double(yv, 'f', 8, y0b, &own_y0);
         }
         PyErr_Clear();
     }
@@ -1462,11 +1759,11 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
     if (args[6] != Py_None
         && ((ba.pc.bp = ascii(args[6], &ba.pc.bn)) == NULL || (ba.pc.ap = ascii(args[7], &ba.pc.an)) == NULL))
         goto decline;
-    if (own_x0 != NULL && own_y0 != NULL) {
-        ba.x0.p = own_x0;
-        ba.x0.n = (Py_ssize_t)strlen(own_x0);
-        ba.y0.p = own_y0;
-        ba.y0.n = (Py_ssize_t)strlen(own_y0);
+    if (x0s != NULL && y0s != NULL) {
+        ba.x0.p = x0s;
+        ba.x0.n = (Py_ssize_t)strlen(x0s);
+        ba.y0.p = y0s;
+        ba.y0.n = (Py_ssize_t)strlen(y0s);
     } else {
         ba.x0.p = ascii(args[8], &ba.x0.n);
         ba.y0.p = ascii(args[9], &ba.y0.n);
@@ -1525,13 +1822,87 @@ static int names_ready(void)
     return 0;
 }
 
+/* Attribute reads by the type's own data descriptor: PyObject_GetAttr's result where the
+   type reads attributes generically (PyObject_GenericGetAttr), for that takes a data
+   descriptor found on the type (a __slots__ member, a C getter, a property) before anything
+   else and returns its __get__(o, type).  The descriptor found is kept with the type's
+   version tag, which Python changes whenever the type or a base is modified: a stale entry
+   is never used.  Other types and names: PyObject_GetAttr. */
+#if PY_VERSION_HEX >= 0x030A0000 && PY_VERSION_HEX < 0x030E0000 && !defined(Py_GIL_DISABLED)
+#define ATTR_CACHE 1
+typedef struct {
+    PyTypeObject *type;             /* (not a reference: compared, and used only while tag holds) */
+    unsigned int tag;
+    PyObject *descr;                /* borrowed from the type's dict, valid while tag holds */
+    descrgetfunc get;
+} AttrSlot;
+#define ATTR_WAYS 4
+static AttrSlot ATTR_SLOTS[N_NAMES][ATTR_WAYS];   /* a name read on a few types (Stroke, SegmentPlan, RowPlan) */
+static unsigned int ATTR_NEXT[N_NAMES];           /* the slot a miss takes when none is free */
+
+static inline int tag_valid(PyTypeObject *tp, unsigned int tag)
+{
+    return tag != 0 && tp->tp_version_tag == tag && PyType_HasFeature(tp, Py_TPFLAGS_VALID_VERSION_TAG);
+}
+
+/* d.__get__(o, type(o)), d held for the call (as the generic getattr holds it) */
+static inline PyObject *descr_get(PyObject *d, descrgetfunc get, PyObject *o)
+{
+    Py_INCREF(d);
+    PyObject *r = get(d, o, (PyObject *)Py_TYPE(o));
+    Py_DECREF(d);
+    return r;
+}
+
+static PyObject *get_attr(PyObject *o, int name)
+{
+    PyTypeObject *tp = Py_TYPE(o);
+    AttrSlot *sl = ATTR_SLOTS[name];
+    for (int k = 0; k < ATTR_WAYS; k++)
+        if (sl[k].type == tp && tag_valid(tp, sl[k].tag))
+            return descr_get(sl[k].descr, sl[k].get, o);
+    if (tp->tp_getattro == PyObject_GenericGetAttr) {
+        PyObject *d = _PyType_Lookup(tp, NAMES[name]);      /* (borrowed; gives the type a tag) */
+        if (d != NULL && Py_TYPE(d)->tp_descr_get != NULL && Py_TYPE(d)->tp_descr_set != NULL
+            && tag_valid(tp, tp->tp_version_tag)) {
+            AttrSlot *at = NULL;
+            for (int k = 0; k < ATTR_WAYS && at == NULL; k++)     /* this type's stale slot, or a free one */
+                if (sl[k].type == tp || sl[k].type == NULL)
+                    at = &sl[k];
+            if (at == NULL)
+                at = &sl[ATTR_NEXT[name]++ % ATTR_WAYS];
+            at->type = tp;
+            at->tag = tp->tp_version_tag;
+            at->descr = d;
+            at->get = Py_TYPE(d)->tp_descr_get;
+            return descr_get(d, at->get, o);
+        }
+    }
+    return PyObject_GetAttr(o, NAMES[name]);
+}
+#else
+static PyObject *get_attr(PyObject *o, int name)
+{
+    return PyObject_GetAttr(o, NAMES[name]);
+}
+#endif
+
 /* the lines after pos in d[0:len): skip_lines(d, pos, n, False)'s (end, got) */
 static Py_ssize_t skip_n(const char *d, Py_ssize_t len, Py_ssize_t pos, Py_ssize_t n, Py_ssize_t *got)
 {
     *got = 0;
     while (*got < n && pos < len) {
-        const char *p = d + pos, *e = d + len, *q = p;
-        while (q < e && *q != '\n' && *q != '\r') q++;
+        const char *p = d + pos, *e = d + len, *q;
+        /* the first "\n" or "\r": a "\n" within 256 bytes and no "\r" before it (memchr's
+           vector loops), else byte by byte (no long scans: a file of lone "\r" ends) */
+        Py_ssize_t w = e - p < 256 ? e - p : 256;
+        if ((q = memchr(p, '\n', (size_t)w)) != NULL) {
+            const char *c = memchr(p, '\r', (size_t)(q - p));
+            if (c != NULL)
+                q = c;
+        } else
+            for (q = p; q < e && *q != '\n' && *q != '\r'; q++) {
+            }
         if (q == e)
             return len;
         pos = q - d + 1;
@@ -1542,6 +1913,53 @@ static Py_ssize_t skip_n(const char *d, Py_ssize_t len, Py_ssize_t pos, Py_ssize
     return pos;
 }
 
+/* closing_text's last call in a run: its arguments and text (references).  closing_text
+   is emit._closing_text, lru-cached: called again with the same arguments (the same
+   objects, or floats of the same bits: the same key) and nothing called in between, it
+   returns that same text object, which is returned here without the call. */
+typedef struct {
+    PyObject *arg[6];
+    PyObject *res;                  /* NULL: no call kept */
+} ClosingMemo;
+
+static inline int same_arg(PyObject *a, PyObject *b)
+{
+    if (a == b)
+        return 1;
+    if (!PyFloat_CheckExact(a) || !PyFloat_CheckExact(b))
+        return 0;
+    double x = PyFloat_AS_DOUBLE(a), y = PyFloat_AS_DOUBLE(b);
+    return memcmp(&x, &y, sizeof x) == 0;
+}
+
+static void memo_clear(ClosingMemo *m)
+{
+    if (m->res == NULL)
+        return;
+    for (int k = 0; k < 6; k++)
+        Py_CLEAR(m->arg[k]);
+    Py_CLEAR(m->res);
+}
+
+/* closing_text(*args) (6 of them): a new reference, or NULL (an exception) */
+static PyObject *closing_call(ClosingMemo *m, PyObject *fn, PyObject *const *args)
+{
+    if (m->res != NULL) {
+        int k = 0;
+        while (k < 6 && same_arg(m->arg[k], args[k])) k++;
+        if (k == 6)
+            return Py_NewRef(m->res);
+    }
+    PyObject *r = PyObject_Vectorcall(fn, args, 6, NULL);
+    memo_clear(m);
+    if (r != NULL) {
+        for (int k = 0; k < 6; k++)
+            m->arg[k] = Py_NewRef(args[k]);
+        m->res = Py_NewRef(r);
+    }
+    return r;
+}
+
 /* the run's fixed arguments */
 typedef struct {
     PyObject *strokes, *segs, *betas, *stroke_type, *seg_type, *row_type, *k_arc, *travel, *closing_text, *flavour, *nl,
@@ -1549,12 +1967,13 @@ typedef struct {
     PyObject *ctx_o[2];             /* ctx[False], ctx[True] */
     BlockArgs ctx[2];               /* their unpacked fields */
     double max_accel_a;
+    ClosingMemo memo;
 } RunArgs;
 
 /* an attribute that must be a float: its value; bad set (no exception) otherwise */
 static double float_attr(PyObject *o, int name, int *bad)
 {
-    PyObject *v = PyObject_GetAttr(o, NAMES[name]);
+    PyObject *v = get_attr(o, name);
     double x = 0.0;
     if (v != NULL && PyFloat_CheckExact(v))
         x = PyFloat_AS_DOUBLE(v);
@@ -1569,16 +1988,16 @@ static double float_attr(PyObject *o, int name, int *bad)
 /* one stroke of the run, its lines d[a:z] (n of them), appended to out as
    pipeline._rewrite_bytes' one-call path writes it: 1; 0: not this stroke (out as it
    was: pipeline's loop takes it); -1: an exception */
-static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
+static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
                      const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n)
 {
     PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
-    int no = 0, got = 0, bad = 0;
+    int no = 0, got = 0, bad = 0, rows_read = 0;
     FSeq fs[4];
     char *head = NULL, *x0t = NULL, *y0t = NULL;
     for (int k = 0; k < 4; k++)
         memset(&fs[k], 0, sizeof fs[k]);
-#define GET(var, o, name) do { if ((var = obj[no++] = PyObject_GetAttr(o, NAMES[name])) == NULL) goto decline; } while (0)
+#define GET(var, o, name) do { if ((var = obj[no++] = get_attr(o, name)) == NULL) goto decline; } while (0)
     PyObject *e0_o, *a0_o, *c0_o, *ends, *e_rel_o, *feature, *v_feed, *knots, *acc, *fd, *fc, *t_was_o, *t_o;
     GET(e0_o, s, A_SS_E);
     GET(a0_o, s, A_SS_A);
@@ -1599,9 +2018,15 @@ static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, Py
         if (row != Py_None) {
             if (!PyLong_CheckExact(row))
                 goto decline;
-            if ((knots = obj[no++] = PyObject_GetItem(knots, row)) == NULL
-                || (acc = obj[no++] = PyObject_GetItem(acc, row)) == NULL
-                || (fd = obj[no++] = PyObject_GetItem(fd, row)) == NULL)
+            Py_ssize_t r = PyLong_AsSsize_t(row);
+            if (r == -1 && PyErr_Occurred())
+                PyErr_Clear();
+            /* the rows read where they are; else the row views (numpy's indexing) */
+            if (fseq_row(knots, r, &fs[0]) == 0 && fseq_row(acc, r, &fs[1]) == 0 && fseq_row(fd, r, &fs[2]) == 0)
+                rows_read = 1;
+            else if ((knots = obj[no++] = PyObject_GetItem(knots, row)) == NULL
+                     || (acc = obj[no++] = PyObject_GetItem(acc, row)) == NULL
+                     || (fd = obj[no++] = PyObject_GetItem(fd, row)) == NULL)
                 goto decline;
         }
     }
@@ -1622,8 +2047,8 @@ static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, Py
     } else if (PyBytes_Check(ends) || fseq_get(ends, &fs[3], 1) < 0)
         goto decline;
     /* (bytes are not a plan's arrays: len() of them is not the doubles' count) */
-    if (PyBytes_Check(knots) || PyBytes_Check(acc) || PyBytes_Check(fd) || fseq_get(knots, &fs[0], 1) < 0
-        || fseq_get(acc, &fs[1], 1) < 0 || fseq_get(fd, &fs[2], 1) < 0)
+    if (!rows_read && (PyBytes_Check(knots) || PyBytes_Check(acc) || PyBytes_Check(fd) || fseq_get(knots, &fs[0], 1) < 0
+                       || fseq_get(acc, &fs[1], 1) < 0 || fseq_get(fd, &fs[2], 1) < 0))
         goto decline;
     int extruding = PyObject_RichCompareBool(feature, ra->travel, Py_NE), e_rel = PyObject_IsTrue(e_rel_o);
     if (extruding < 0 || e_rel < 0) {
@@ -1645,15 +2070,14 @@ static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, Py
     ba.y0v = float_attr(s, A_Y0, &bad);
     if (bad)
         goto decline;
-    if ((x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL)) == NULL
-        || (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL)) == NULL) {
+    char x0b[64], y0b[64];
+    if ((ba.x0.p = fmt_double(ba.x0v, 'f', 8, x0b, &x0t)) == NULL
+        || (ba.y0.p = fmt_double(ba.y0v, 'f', 8, y0b, &y0t)) == NULL) {
         PyErr_Clear();
         goto decline;
     }
-    ba.x0.p = x0t;
-    ba.x0.n = (Py_ssize_t)strlen(x0t);
-    ba.y0.p = y0t;
-    ba.y0.n = (Py_ssize_t)strlen(y0t);
+    ba.x0.n = (Py_ssize_t)strlen(ba.x0.p);
+    ba.y0.n = (Py_ssize_t)strlen(ba.y0.p);
     Py_ssize_t kn = 0, sn = 0;
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
@@ -1663,7 +2087,7 @@ static int run_block(Buf *out, const RunArgs *ra, PyObject *s, PyObject *seg, Py
     ba.pc.hp = head;
     /* closing_text(flavour, accel0, extruding, mcr0, v_feed, "\n") (lru-cached in emit.py) */
     PyObject *cargs[6] = {ra->flavour, a0_o, extruding ? Py_True : Py_False, c0_o, v_feed, ra->nl};
-    PyObject *closing = obj[no++] = PyObject_Vectorcall(ra->closing_text, cargs, 6, NULL);
+    PyObject *closing = obj[no++] = closing_call(&ra->memo, ra->closing_text, cargs);
     if (closing == NULL || (ba.pc.clp = ascii(closing, &ba.pc.cln)) == NULL) {
         PyErr_Clear();
         goto decline;
@@ -1716,6 +2140,22 @@ done:
    and at the end: no bytes object of the run's output, and a bounded buffer.
    Returns (k, pos, line, out_line). */
 #define RUN_FLUSH (1 << 20)
+
+/* (a, z, i): Py_BuildValue("(nnO)", a, z, i) */
+static PyObject *range_row(Py_ssize_t a, Py_ssize_t z, PyObject *i)
+{
+    PyObject *t = PyTuple_New(3), *ao = PyLong_FromSsize_t(a), *zo = PyLong_FromSsize_t(z);
+    if (t == NULL || ao == NULL || zo == NULL) {
+        Py_XDECREF(t);
+        Py_XDECREF(ao);
+        Py_XDECREF(zo);
+        return NULL;
+    }
+    PyTuple_SET_ITEM(t, 0, ao);
+    PyTuple_SET_ITEM(t, 1, zo);
+    PyTuple_SET_ITEM(t, 2, Py_NewRef(i));
+    return t;
+}
 
 /* write(memoryview of b's bytes), then b emptied: 0, or -1 (an exception) */
 static int run_flush(Buf *b, PyObject *write)
@@ -1818,7 +2258,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             || !(Py_IS_TYPE(seg, (PyTypeObject *)ra.seg_type)
                  || (ra.row_type != NULL && Py_IS_TYPE(seg, (PyTypeObject *)ra.row_type))))
             goto next;
-        PyObject *fi_o = PyObject_GetAttr(s, NAMES[A_FIRST]), *li_o = PyObject_GetAttr(s, NAMES[A_LAST]);
+        PyObject *fi_o = get_attr(s, A_FIRST), *li_o = get_attr(s, A_LAST);
         Py_ssize_t first = fi_o && PyLong_CheckExact(fi_o) ? PyLong_AsSsize_t(fi_o) : -1,
                    last = li_o && PyLong_CheckExact(li_o) ? PyLong_AsSsize_t(li_o) : -1;
         Py_XDECREF(fi_o);
@@ -1827,7 +2267,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         Py_ssize_t n_copy = first - line, n_take = last - first + 1;
         if (first < 0 || last < 0 || n_copy < 0 || n_take < 1)
             goto next;
-        kind = PyObject_GetAttr(s, NAMES[A_KIND]);
+        kind = get_attr(s, A_KIND);
         int arc = kind == NULL ? -1 : PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
         if (arc != 0) {
             PyErr_Clear();
@@ -1856,7 +2296,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         Py_ssize_t n_out = 0;
         for (const char *p = out.p + head_at, *e = out.p + out.n; (p = memchr(p, '\n', e - p)) != NULL; p++)
             n_out++;
-        PyObject *row = Py_BuildValue("(nnO)", out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
+        PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
         if (row == NULL || PyList_Append(out_ranges, row) < 0) {
             Py_XDECREF(row);
             out.n = base;
@@ -1898,11 +2338,133 @@ next:
             break;
         k++;
     }
+    memo_clear(&ra.memo);
     Py_DECREF(ra.nl);
     PyObject *res = NULL;
     if (!err && run_flush(&out, args[22]) == 0)
         res = Py_BuildValue("(nnnn)", k, pos, line, out_line);
     PyMem_Free(out.p);
+    return res;
+}
+
+/* ---------------------------------------------------------------- for the tests */
+
+/* format_text(x, code, prec): fmt_f's ('f') or fmt_g4's ('g', prec 4) text of x, None
+   where it declines */
+static PyObject *format_text(PyObject *self, PyObject *args)
+{
+    double x;
+    int code, prec;
+    char buf[64];
+    if (!PyArg_ParseTuple(args, "dCi", &x, &code, &prec))
+        return NULL;
+    int n = code == 'f' ? fmt_f(x, prec, buf) : code == 'g' && prec == 4 ? fmt_g4(x, buf) : -1;
+    if (n < 0)
+        Py_RETURN_NONE;
+    return ascii_str(buf, n);
+}
+
+/* format_check(doubles, code, prec): the native doubles (bytes) formatted by fmt_f / fmt_g4
+   and by PyOS_double_to_string: (taken, index of the first text that differs or -1) */
+static PyObject *format_check(PyObject *self, PyObject *args)
+{
+    Py_buffer v;
+    int code, prec;
+    if (!PyArg_ParseTuple(args, "y*Ci", &v, &code, &prec))
+        return NULL;
+    const double *d = (const double *)v.buf;
+    Py_ssize_t n = v.len / (Py_ssize_t)sizeof(double), taken = 0, bad = -1;
+    char buf[64];
+    for (Py_ssize_t k = 0; k < n && bad < 0; k++) {
+        double x;
+        memcpy(&x, d + k, sizeof x);
+        int m = code == 'f' ? fmt_f(x, prec, buf) : code == 'g' && prec == 4 ? fmt_g4(x, buf) : -1;
+        if (m < 0)
+            continue;
+        taken++;
+        char *ref = PyOS_double_to_string(x, (char)code, prec, 0, NULL);
+        if (ref == NULL) {
+            PyBuffer_Release(&v);
+            return NULL;
+        }
+        if ((size_t)m != strlen(buf) || strcmp(ref, buf) != 0)
+            bad = k;
+        PyMem_Free(ref);
+    }
+    PyBuffer_Release(&v);
+    return Py_BuildValue("(nn)", taken, bad);
+}
+
+/* dec_read(text): the fused reading of the plain decimal leading text and the two-pass one
+   it replaced: ((length, decimals, value) by dec_value, (length, decimals, value) by
+   plain_decimal and to_double); a length -1 where no plain decimal leads (value None) */
+static PyObject *dec_read(PyObject *self, PyObject *o)
+{
+    Py_ssize_t n;
+    const char *p = ascii(o, &n);
+    if (p == NULL) {
+        PyErr_SetString(PyExc_TypeError, "dec_read: an ASCII str");
+        return NULL;
+    }
+    int d1 = 0, d2 = 0;
+    double v1 = 0.0;
+    Py_ssize_t n1 = dec_value(p, n, &d1, &v1), n2 = plain_decimal(p, n, &d2);
+    PyObject *a = n1 < 0 ? Py_BuildValue("(niO)", n1, d1, Py_None) : Py_BuildValue("(nid)", n1, d1, v1);
+    PyObject *b = n2 < 0 ? Py_BuildValue("(niO)", n2, d2, Py_None) : Py_BuildValue("(nid)", n2, d2, to_double(p, n2));
+    PyObject *r = a && b ? PyTuple_Pack(2, a, b) : NULL;
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return r;
+}
+
+/* line_read(text): plain_line on an ASCII line without its "\n": None (not plain), or
+   (x_text, y_text, e_text or None, comment, dx, dy, de, x, y, e or None) */
+static PyObject *line_read(PyObject *self, PyObject *o)
+{
+    Py_ssize_t m;
+    const char *p = ascii(o, &m);
+    if (p == NULL) {
+        PyErr_SetString(PyExc_TypeError, "line_read: an ASCII str");
+        return NULL;
+    }
+    Txt x, y, e, c;
+    int dx, dy, de;
+    double v[3] = {0.0, 0.0, 0.0};
+    if (!plain_line(p, m, &x, &y, &e, &c, &dx, &dy, &de, v))
+        Py_RETURN_NONE;
+    PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None), *ev = e.p ? PyFloat_FromDouble(v[2]) : Py_NewRef(Py_None);
+    PyObject *r = et && ev ? Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev)
+                           : NULL;
+    Py_XDECREF(et);
+    Py_XDECREF(ev);
+    return r;
+}
+
+/* units_text(u, dec), tenths_text(k): put_units' and put_tenths_up's texts */
+static PyObject *units_text(PyObject *self, PyObject *args)
+{
+    long long u;
+    int dec;
+    if (!PyArg_ParseTuple(args, "Li", &u, &dec))
+        return NULL;
+    Buf b = {NULL, 0, 0};
+    int r = put_units(&b, (int64_t)u, dec);
+    PyObject *res = r == 0 ? ascii_str(b.p, b.n) : r == -2 ? Py_NewRef(Py_None) : PyErr_NoMemory();
+    PyMem_Free(b.p);
+    return res;
+}
+
+static PyObject *tenths_text(PyObject *self, PyObject *args)
+{
+    long long k;
+    if (!PyArg_ParseTuple(args, "L", &k))
+        return NULL;
+    if (k >= TENTHS_MAX)
+        Py_RETURN_NONE;
+    Buf b = {NULL, 0, 0};
+    int r = put_tenths_up(&b, (int64_t)k);
+    PyObject *res = r == 0 ? ascii_str(b.p, b.n) : PyErr_NoMemory();
+    PyMem_Free(b.p);
     return res;
 }
 
@@ -1919,6 +2481,13 @@ static PyObject *decimal_value(PyObject *self, PyObject *o)
 
 static PyMethodDef mod_methods[] = {
     {"decimal_value", decimal_value, METH_O, "float(text) of a plain decimal text, else None (tests)"},
+    {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},
+    {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
+     "of native doubles against PyOS_double_to_string's (tests)"},
+    {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
+    {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
+    {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
+    {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
     {"plain_moves", plain_moves, METH_VARARGS,
      "emit._plain_moves(raws) + (dec_xy, dec_e), or NotImplemented"},
     {"emit_body", emit_body, METH_VARARGS, "emit.emit_stroke's text, or None"},

@@ -2728,14 +2728,19 @@ static int src_next_buf(LineSrc *src, const char **line, Py_ssize_t *n_out, int 
             e += (*e == '\r' && e + 1 < end && e[1] == '\n') ? 2 : 1;
     }
     Py_ssize_t n = (Py_ssize_t)(e - a), k = 0;
-    uint64_t high = 0;
-    for (; k + 8 <= n; k += 8) {
-        uint64_t w8;
-        memcpy(&w8, a + k, sizeof w8);
-        high |= w8;
-    }
-    for (; k < n; k++)
-        high |= (unsigned char)a[k];
+    uint64_t high = 0, w8;
+    if (n >= 8) {
+        for (; k + 8 <= n; k += 8) {
+            memcpy(&w8, a + k, sizeof w8);
+            high |= w8;
+        }
+        if (k < n) {                   /* the last 8 bytes (some again): no byte loop */
+            memcpy(&w8, a + n - 8, sizeof w8);
+            high |= w8;
+        }
+    } else
+        for (; k < n; k++)
+            high |= (unsigned char)a[k];
     *line = a;
     *n_out = n;
     *ascii = (high & 0x8080808080808080ULL) == 0;
@@ -2816,9 +2821,9 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
                 if (got < 0)
                     goto fail_ss;
             }
-            raw = got == 0 || got == 1 ? NULL : line_str(a, n, ascii);
-            if (raw == NULL && PyErr_Occurred())
-                goto fail_ss;
+            raw = NULL;
+            if (got != 0 && got != 1 && (raw = line_str(a, n, ascii)) == NULL)
+                goto fail_ss;          /* (line_str's NULL: an error) */
         } else {
             raw = src_take(src);
             if (raw == NULL)

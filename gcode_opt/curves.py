@@ -422,6 +422,29 @@ class CurveGeom:
         return np.interp(s, self.s_v, self.kappa_v)
 
 
+_GEOM_B = attrgetter("_b")
+
+
+def seg_counts(gs):
+    """[g.d.size for g in gs]: each geometry's number of segments, read as its block's
+    row length (build_geoms' _Blk: rows of one (m, n) array) instead of a view of its row
+    made per geometry (~17 k chains a plate's chain replay); g.d.size itself for a block
+    not of that shape or a geometry of another make."""
+    try:
+        bs = list(map(_GEOM_B, gs))
+    except AttributeError:
+        return [g.d.size for g in gs]
+    out = []
+    last, n = None, -1
+    for g, b in zip(gs, bs):
+        if b is not last:
+            d = b.d
+            n = d.shape[1] if type(d) is np.ndarray and d.ndim == 2 else -1
+            last = b
+        out.append(n if n >= 0 else g.d.size)
+    return out
+
+
 def stack_du(gs):
     """(np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)): the
     geometries' segment lengths and directions stacked, each run of rows of one block

@@ -627,12 +627,11 @@ def _knots_again(items, profile):
             # chains whose every solve input is an earlier one's bit for bit (_same_chains,
             # as _solve_cols: ~16 % of the gyroid plate's) are not solved: each takes its
             # first's laws (solve_flat's numbers are each chain's own)
-            Ts, bs, sb, pos = Tt[sl], bt[sl], base, range(len(sts))
+            Ts, bs, sb, pos = Tt[sl], bt[sl], base, np.arange(len(sts))
             same = _same_chains(base, Ts, bs)
             if same is not None:
                 keep, pos = same
                 sb, Ts, bs = base.take(keep), Ts[keep], bs[keep]
-                pos = pos.tolist()
             m, nv = sb.S.size, sb.sv.size
             res = {}
             for c in src.order:
@@ -646,18 +645,26 @@ def _knots_again(items, profile):
                     res[c] = solve_flat(fl, s0.bound.copy(), vt, np.ones(m, bool), pieces=False)
                 else:
                     res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
-            voff = sb.voff.tolist()
-            for jj, (q, c, n) in enumerate(zip(qs[sl], want, curves.seg_counts([curves.geom(st, profile)
-                                                                                 for st in sts]))):
-                o = voff[pos[jj]]
-                vk = np.empty((1, n + 1))
-                tk = np.empty((1, n + 1))
-                vk[0, 0], vk[0, -1] = base.v0[jj], base.v1[jj]
-                tk[0, 0] = 0.0
-                tk[0, -1] = Tt[a + jj, c]
-                vk[0, 1:-1] = res[c].vert_v[o:o + n - 1]
-                tk[0, 1:-1] = res[c].vert_t[o:o + n - 1]
-                out[q] = (vk, np.diff(tk, axis=1))
+            # each chain's row laid out as _table_rows lays it out, the chains of one segment
+            # count and column at once (the same copies and differences, row by row); each
+            # one's (vk, dt) the rows of those arrays
+            by = {}
+            for jj, (c, n) in enumerate(zip(want, curves.seg_counts([curves.geom(st, profile) for st in sts]))):
+                by.setdefault((n, c), []).append(jj)
+            for (n, c), J in by.items():
+                J = np.array(J, np.int64)
+                vk = np.empty((J.size, n + 1))
+                tk = np.empty((J.size, n + 1))
+                vk[:, 0], vk[:, -1] = base.v0[J], base.v1[J]
+                tk[:, 0] = 0.0
+                tk[:, -1] = Tt[a + J, c]
+                if n > 1:
+                    ix = sb.voff[pos[J]][:, None] + np.arange(n - 1)
+                    vk[:, 1:-1] = res[c].vert_v[ix]
+                    tk[:, 1:-1] = res[c].vert_t[ix]
+                dt = np.diff(tk, axis=1)
+                for i, jj in enumerate(J.tolist()):
+                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1])
             del res
     return out
 

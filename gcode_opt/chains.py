@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import math
 from array import array
-from operator import attrgetter, itemgetter
+from functools import partial
+from operator import attrgetter, is_not, itemgetter
 
 import numpy as np
 
@@ -492,7 +493,8 @@ def _laws_knots(Qs, laws, profile):
 
 
 _LENGTH_D, _V0, _V1 = attrgetter("length_d"), attrgetter("v0"), attrgetter("v1")
-_BASE, _LO = attrgetter("base"), attrgetter("lo")
+_BASE, _LO, _CHAIN_CAPS = attrgetter("base"), attrgetter("lo"), attrgetter("chain_caps")
+_IS_NOT_NONE = partial(is_not, None)
 _IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
 
 
@@ -559,8 +561,13 @@ def _laws_of(Qs, items, profile, gs=None):
         dst = np.repeat(poff[ii] - at, c) + np.arange(k)
         tj[dst] = piece_t[src]
     # the chains' vertex caps (_flat_chains' cv) taken now: _drop drops them with the rows
+    # (each geometry's chain_caps where every one has them, the usual case: what
+    # vertex_caps returns then, without a call a chain)
     gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
-    cv = np.concatenate(_chain_caps(sts, gso, profile))
+    caps = list(map(_CHAIN_CAPS, gso))
+    if not all(map(_IS_NOT_NONE, caps)):
+        caps = _chain_caps(sts, gso, profile)
+    cv = np.concatenate(caps)
     return sts, nv, voff, bound, tj, TL, beta, tp, a2, cv, gso
 
 

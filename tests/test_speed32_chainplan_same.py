@@ -182,11 +182,15 @@ def _kept_items(strokes, rows, T, beta, I, last=False):
 
 
 @pytest.mark.parametrize("path,prof_name", CASES)
-@pytest.mark.parametrize("last", [False, True])
-def test_laws_of_as_e9d4ed5(path, prof_name, last):
+@pytest.mark.parametrize("last,drop_caps", [(False, False), (True, False), (False, True)])
+def test_laws_of_as_e9d4ed5(path, prof_name, last, drop_caps):
+    """drop_caps: every fifth chain's vertex caps let go (_drop's state: made again)."""
     strokes, pin, rows, prof, rules, T, beta, I = _tabled(path, prof_name)
     items = _kept_items(strokes, rows, T, beta, I, last)
     assert len(items) > 100
+    if drop_caps:
+        for st, _, _ in items[::5]:
+            st.curv.chain_caps = None
     rng = np.random.default_rng(5)
     idx = rng.permutation(len(items)).tolist()          # the rows' bases interleaved
     Qs = [idx[a:a + 37] for a in range(0, len(idx), 37)]

@@ -285,3 +285,57 @@ def test_knots_again_solves_equal_chains_once(path, prof_name, monkeypatch):
     assert len(merged) == 2 and all(k > 0 for k in merged)
     for (gv, gt), (wv, wt) in zip(got, want):
         assert float_bits(gv) == float_bits(wv) and float_bits(gt) == float_bits(wt)
+
+
+# ---------------------------------------------------------------- _window_sums
+def test_window_sums_as_np_convolve():
+    """The core's window sums where its probe takes them, np.convolve's bits either way,
+    on segment-like lengths and on values whose sums depend on the order of additions;
+    a window the machine's dot adds in another order (OpenBLAS's vector kernel: 16 terms
+    and more here) is left to np.convolve, and so is every window without the core."""
+    core = chains._chain_law.CORE_MOD
+    if core is None or not hasattr(core, "window_sums"):
+        pytest.skip("no chain core")
+    rng = np.random.default_rng(11)
+    taken = []
+    for nb in range(1, 40):
+        ok = chains._window_sums_ok(core.window_sums, nb)
+        taken.append(ok)
+        for x in (rng.uniform(0.05, 1.5, 3 * nb + 50),
+                  rng.lognormal(0.0, 5.0, 200) * rng.choice([-1.0, 1.0], 200)):
+            want = np.convolve(x, np.ones(nb), "valid")
+            for c in (core, None):
+                assert float_bits(chains._window_sums(x, nb, c)) == float_bits(want)
+            if ok:        # the core's own sums: the same bits
+                out = np.empty(want.size)
+                core.window_sums(x, nb, out)
+                assert float_bits(out) == float_bits(want)
+    assert taken[12]                        # prusa-mk3s: block_buffer 16, windows of 13
+    # a window the probe turns down gives other bits in the core (the probe has to look)
+    bad = [nb for nb, ok in zip(range(1, 40), taken) if not ok]
+    if bad:
+        x = rng.lognormal(0.0, 6.0, 4 * bad[0] + 64) * rng.choice([-1.0, 1.0], 4 * bad[0] + 64)
+        out = np.empty(x.size - bad[0] + 1)
+        core.window_sums(x, bad[0], out)
+        assert float_bits(out) != float_bits(np.convolve(x, np.ones(bad[0]), "valid"))
+
+
+@pytest.mark.parametrize("path,prof_name,taken", [("sample_gcode/prusa_gyroid_fullspeed.gcode", "prusa-mk3s", True),
+                                                  ("sample_gcode/prusa_gyroid_fullspeed.gcode", "prusa-mk4", False)])
+def test_candidate_table_with_core_windows_as_np_convolve(path, prof_name, taken, monkeypatch):
+    """The candidate table (every row finished: _finish_core with the lookahead windows)
+    with the core's window sums and with np.convolve's, bit for bit; prusa-mk4's windows
+    of 29 (OpenBLAS's vector kernel in np.convolve's dot here) left to np.convolve."""
+    if chains._chain_law.CORE_MOD is None:
+        pytest.skip("no chain core")
+    got = {}
+    for name, ok in (("core", None), ("numpy", False)):
+        strokes, pin, rows, prof, rules = fresh_chains(path, prof_name)
+        nb = max(prof.block_buffer - 3, 1)
+        assert prof.block_buffer > 0 and prof.junction in chains.GROUP_JUNCTIONS
+        monkeypatch.setattr(chains, "_WINDOW_SUMS_OK", {} if ok is None else {nb: False})
+        got[name] = chains.candidates_chain(pin, rows, strokes, prof, rules)
+        if ok is None:
+            assert chains._WINDOW_SUMS_OK.get(nb) is taken
+    for a, b in zip(got["core"], got["numpy"]):
+        assert float_bits(a) == float_bits(b)

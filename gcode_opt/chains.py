@@ -379,10 +379,10 @@ def _replay(items, rules, profile, drop=False):
             grp, laws = groups.pop()
             batches = list(zip(grp, _laws_knots(grp, laws, profile)))[::-1]
             del laws
-        Q, (vk, dt, tp, a2, *du) = batches.pop()
+        Q, (vk, dt, tp, a2) = batches.pop()
         sts = [items[q][0] for q in Q]
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
-                                                profile, predict=False, du=du[0] if du else None)
+                                                profile, predict=False)
         s = _knots_rows(sts, vk.shape[1] - 1)
         for i, q in enumerate(Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if s is None
@@ -434,7 +434,7 @@ def _gather_batches(Qs, items, profile, gs=None):
     """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
     every row kept by its law, a batch's chains of one number of segments; gs: the
     strokes' geometries, items' order, or None)."""
-    return [x[:4] for grp, laws in _gather_laws(Qs, items, profile, gs) for x in _laws_knots(grp, laws, profile)]
+    return [x for grp, laws in _gather_laws(Qs, items, profile, gs) for x in _laws_knots(grp, laws, profile)]
 
 
 def _gather_laws(Qs, items, profile, gs=None):
@@ -457,20 +457,23 @@ def _gather_laws(Qs, items, profile, gs=None):
 
 
 def _laws_knots(Qs, laws, profile):
-    """(vk, dt, predicted times, predicted ∫|a|², (D, U)) of each batch Q of Qs from their
-    rows' laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid
-    once, not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut
-    by batch.  (D, U): the batch's curves.stack_du, which the finishing reads (_finish_core)
-    and whose lengths give the vertices' arc lengths here (_inner_s_stacked)."""
+    """(vk, dt, predicted times, predicted ∫|a|²) of each batch Q of Qs from their rows'
+    laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid once,
+    not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by
+    batch.  The vertices' arc lengths from each batch's stacked lengths (curves.stack_d,
+    _inner_s_stacked), not a d view a chain; those lengths not kept (the finishing stacks
+    its own with the directions: the replay's first plans are made with no more held)."""
     sts, nv, voff, bound, tj, TL, beta, tp, a2, cv, gs = laws
     # (_flat_chains' arrays, the caps as _laws_of took them before the rows and caps were
     # dropped: not made again)
     m = len(sts)
-    du, a = [], 0
+    Ds, a = [], 0
     for Q in Qs:
-        du.append(curves.stack_du(gs[a:a + len(Q)]))
+        Ds.append(curves.stack_d(gs[a:a + len(Q)]))
         a += len(Q)
-    fl = _Flat.of_arrays(_inner_s_stacked(gs, [D for D, _ in du]), cv, nv, np.fromiter(map(_LENGTH_D, sts), float, m),
+    sv = _inner_s_stacked(gs, Ds)
+    del Ds
+    fl = _Flat.of_arrays(sv, cv, nv, np.fromiter(map(_LENGTH_D, sts), float, m),
                          np.zeros(m), np.ones(m), np.fromiter(map(_V0, sts), float, m),
                          np.fromiter(map(_V1, sts), float, m)).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
@@ -487,7 +490,7 @@ def _laws_knots(Qs, laws, profile):
         if n > 1:
             vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
             tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
-        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist(), du[len(out)]))
+        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist()))
         a = z
     return out
 
@@ -499,7 +502,7 @@ _IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
 
 
 def _inner_s_stacked(gs, Ds):
-    """_inner_s(gs) from the geometries' lengths stacked (Ds: curves.stack_du's D of
+    """_inner_s(gs) from the geometries' lengths stacked (Ds: curves.stack_d of
     consecutive runs of gs, each (m, n)): the rows laid end to end are the chains' d in
     their order (the same doubles), so the same sums (_inner_s_core) without a d view a
     chain; _inner_s itself where the core is missing or a chain has no segment."""

@@ -440,6 +440,29 @@ def seg_counts(gs):
     return list(map(_AXIS1, map(_GEOM_D_SHAPE, gs)))
 
 
+def stack_d(gs):
+    """stack_du(gs)'s lengths D alone (the same doubles: one fancy index a run of rows of
+    one block; row by row otherwise), without the directions."""
+    try:
+        bs = [g._b for g in gs]
+        ks = [g._k for g in gs]
+    except AttributeError:
+        bs = None
+    if bs:
+        ds = []
+        a, m = 0, len(bs)
+        while a < m:                    # runs of one block
+            b = bs[a]
+            z = a + 1
+            while z < m and bs[z] is b:
+                z += 1
+            ds.append(np.asarray(b.d, float)[ks[a:z]])
+            a = z
+        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
+            return ds[0] if len(ds) == 1 else np.concatenate(ds)
+    return np.array([g.d for g in gs], float)
+
+
 def stack_du(gs):
     """(np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)): the
     geometries' segment lengths and directions stacked, each run of rows of one block

@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import math
 from array import array
-from operator import attrgetter
+from functools import partial
+from operator import attrgetter, is_not, itemgetter
 
 import numpy as np
 
@@ -333,10 +334,10 @@ def _replay(items, rules, profile, drop=False):
         if items and all(len(kept.base) == 8 for _, kept, _ in items):
             # the knots of every row's law made again together (not a vertices_at call a chain)
             by_n = {}
-            for q, g in enumerate(gs):
-                by_n.setdefault(g.d.size, []).append(q)
+            for q, n in enumerate(curves.seg_counts(gs)):
+                by_n.setdefault(n, []).append(q)
             Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
-            for Q, (vk, dt, tp, a2) in zip(Qs, _gather_batches(Qs, items, profile)):
+            for Q, (vk, dt, tp, a2) in zip(Qs, _gather_batches(Qs, items, profile, gs)):
                 for i, q in enumerate(Q):
                     rows[q] = (vk[i], dt[i], tp[i], a2[i])
         for q, (st, kept, r) in enumerate(items):
@@ -349,8 +350,8 @@ def _replay(items, rules, profile, drop=False):
                 items[q] = (st, None, r)
         return out
     by_n = {}
-    for q, g in enumerate(gs):
-        by_n.setdefault(g.d.size, []).append(q)
+    for q, n in enumerate(curves.seg_counts(gs)):
+        by_n.setdefault(n, []).append(q)
     # the chosen rows gathered first (copies: the plans' knot speeds are rows of these),
     # then, with drop, every chain's candidate knots freed before any plan is made: the
     # plans' arrays (acc, feed, knots, ~16 k SegmentPlans) were made while all the
@@ -359,7 +360,7 @@ def _replay(items, rules, profile, drop=False):
     # rows dropped, then the knots made again group by group as the plans are made)
     Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
     if all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
-        groups = _gather_laws(Qs, items, profile)         # (every row by its law)
+        groups = _gather_laws(Qs, items, profile, gs)     # (every row by its law)
         batches = []
     else:
         groups = []
@@ -367,8 +368,10 @@ def _replay(items, rules, profile, drop=False):
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
         for q, (st, _, r) in enumerate(items):
-            _drop(st)
-            items[q] = (st, None, r)    # (nor held here: the memo's rows were the last to hold them)
+            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold them
+            st.chain_T.drop_rows()
+            gs[q].chain_caps = None
+            items[q] = (st, None, r)
     groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
     while batches or groups:
@@ -427,13 +430,14 @@ def _gather_rows(kept, rs, sts, profile):
     return vk, dt, tp.tolist(), a2.tolist()
 
 
-def _gather_batches(Qs, items, profile):
+def _gather_batches(Qs, items, profile, gs=None):
     """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
-    every row kept by its law, a batch's chains of one number of segments)."""
-    return [x for grp, laws in _gather_laws(Qs, items, profile) for x in _laws_knots(grp, laws, profile)]
+    every row kept by its law, a batch's chains of one number of segments; gs: the
+    strokes' geometries, items' order, or None)."""
+    return [x for grp, laws in _gather_laws(Qs, items, profile, gs) for x in _laws_knots(grp, laws, profile)]
 
 
-def _gather_laws(Qs, items, profile):
+def _gather_laws(Qs, items, profile, gs=None):
     """The laws of the rows of the batches Qs (as _gather_batches), copied out of their
     kept bases, consecutive batches together up to REPLAY_SEGS segments: [(those batches,
     their laws)] for _laws_knots, which needs no kept row (the chains' rows can be dropped
@@ -443,12 +447,12 @@ def _gather_laws(Qs, items, profile):
     for Q in Qs:
         w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
         if grp and segs + w > REPLAY_SEGS:
-            out.append((grp, _laws_of(grp, items, profile)))
+            out.append((grp, _laws_of(grp, items, profile, gs)))
             grp, segs = [], 0
         grp.append(Q)
         segs += w
     if grp:
-        out.append((grp, _laws_of(grp, items, profile)))
+        out.append((grp, _laws_of(grp, items, profile, gs)))
     return out
 
 
@@ -456,15 +460,22 @@ def _laws_knots(Qs, laws, profile):
     """(vk, dt, predicted times, predicted ∫|a|²) of each batch Q of Qs from their rows'
     laws (_laws_of): made again in one _Flat.vertices_at call (its numpy calls paid once,
     not per batch: ~80 batches of ~60 segment counts on the gyroid plate), then cut by
-    batch."""
-    sts, nv, voff, bound, tj, TL, beta, tp, a2, cv = laws
+    batch.  The vertices' arc lengths from each batch's stacked lengths (curves.stack_d,
+    _inner_s_stacked), not a d view a chain; those lengths not kept (the finishing stacks
+    its own with the directions: the replay's first plans are made with no more held)."""
+    sts, nv, voff, bound, tj, TL, beta, tp, a2, cv, gs = laws
     # (_flat_chains' arrays, the caps as _laws_of took them before the rows and caps were
     # dropped: not made again)
-    gs = [curves.geom(st, profile) for st in sts]
     m = len(sts)
-    fl = _Flat.of_arrays(_inner_s(gs), cv, nv, np.array([st.length_d for st in sts], float), np.zeros(m),
-                         np.ones(m), np.array([st.v0 for st in sts], float),
-                         np.array([st.v1 for st in sts], float)).with_T(TL, beta)
+    Ds, a = [], 0
+    for Q in Qs:
+        Ds.append(curves.stack_d(gs[a:a + len(Q)]))
+        a += len(Q)
+    sv = _inner_s_stacked(gs, Ds)
+    del Ds
+    fl = _Flat.of_arrays(sv, cv, nv, np.fromiter(map(_LENGTH_D, sts), float, m),
+                         np.zeros(m), np.ones(m), np.fromiter(map(_V0, sts), float, m),
+                         np.fromiter(map(_V1, sts), float, m)).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
     a = 0
@@ -484,30 +495,57 @@ def _laws_knots(Qs, laws, profile):
     return out
 
 
-def _laws_of(Qs, items, profile):
+_LENGTH_D, _V0, _V1 = attrgetter("length_d"), attrgetter("v0"), attrgetter("v1")
+_BASE, _LO, _CHAIN_CAPS = attrgetter("base"), attrgetter("lo"), attrgetter("chain_caps")
+_IS_NOT_NONE = partial(is_not, None)
+_IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
+
+
+def _inner_s_stacked(gs, Ds):
+    """_inner_s(gs) from the geometries' lengths stacked (Ds: curves.stack_d of
+    consecutive runs of gs, each (m, n)): the rows laid end to end are the chains' d in
+    their order (the same doubles), so the same sums (_inner_s_core) without a d view a
+    chain; _inner_s itself where the core is missing or a chain has no segment."""
+    core = _chain_law.CORE_MOD
+    if core is None or not Ds or any(D.dtype != np.float64 or D.ndim != 2 or D.shape[1] < 1 for D in Ds):
+        return _inner_s(gs)
+    d = Ds[0].ravel() if len(Ds) == 1 else np.concatenate([D.ravel() for D in Ds])
+    n = np.concatenate([np.full(D.shape[0], D.shape[1], np.int64) for D in Ds])
+    return _inner_s_core(core, d, n)
+
+
+def _laws_of(Qs, items, profile, gs=None):
     """The laws of the rows of the batches Qs, in their order: (strokes, vertices a row,
     their offsets, binding masks (flat), pieces' durations (flat), T, beta, predicted
-    times, predicted ∫|a|², the chains' vertex caps (flat))."""
+    times, predicted ∫|a|², the chains' vertex caps (flat), their geometries).  gs: the
+    items' geometries (items' order), or None (made here)."""
     order = [q for Q in Qs for q in Q]
     m = len(order)
-    sts = [items[q][0] for q in order]
-    kept = [items[q][1] for q in order]
-    nv = np.fromiter((kp.base[0].shape[1] for kp in kept), np.int64, m)      # vertices a row
+    its = list(map(items.__getitem__, order))
+    sts = list(map(_IT0, its))
+    kept = list(map(_IT1, its))
+    # the rows grouped by their kept base (the chains finished together share one): its
+    # rows' places lo + row, by numpy over the items (not a dict entry and two appends a
+    # chain); a group's items in their order, as a dict of lists gathered them
+    bases = list(map(_BASE, kept))
+    qq_all = np.fromiter(map(_LO, kept), np.int64, m) + np.fromiter(map(_IT2, its), np.int64, m)
+    del its
+    _, first, inv = np.unique(np.fromiter(map(id, bases), np.uint64, m), return_index=True, return_inverse=True)
+    by_pos = np.argsort(inv.ravel(), kind="stable")
+    ends = np.cumsum(np.bincount(inv.ravel(), None, first.size)).tolist()
+    groups = [(bases[int(f)], by_pos[a:z]) for f, a, z in zip(first.tolist(), [0] + ends[:-1], ends)]
+    del bases
+    nv = np.empty(m, np.int64)                  # vertices a row
+    for b, ii in groups:
+        nv[ii] = b[0].shape[1]
     voff = np.zeros(m + 1, np.int64)
     np.cumsum(nv, out=voff[1:])
-    by = {}
-    for i, (kp, q) in enumerate(zip(kept, order)):
-        e = by.get(id(kp.base))
-        if e is None:
-            e = by[id(kp.base)] = (kp.base, [], [])
-        e[1].append(i)
-        e[2].append(kp.lo + items[q][2])
     TL, beta, tp, a2 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     bound = np.empty(int(voff[-1]), bool)
     cnt = np.empty(m, np.int64)
     parts = []
-    for b, ii, qq in by.values():
-        ii, qq = np.array(ii), np.array(qq)
+    for b, ii in groups:
+        qq = qq_all[ii]
         TL[ii], beta[ii], tp[ii], a2[ii] = b[3][qq], b[4][qq], b[5][qq], b[6][qq]
         w = b[0].shape[1]
         if w:
@@ -526,8 +564,14 @@ def _laws_of(Qs, items, profile):
         dst = np.repeat(poff[ii] - at, c) + np.arange(k)
         tj[dst] = piece_t[src]
     # the chains' vertex caps (_flat_chains' cv) taken now: _drop drops them with the rows
-    cv = np.concatenate(_chain_caps(sts, [curves.geom(st, profile) for st in sts], profile))
-    return sts, nv, voff, bound, tj, TL, beta, tp, a2, cv
+    # (each geometry's chain_caps where every one has them, the usual case: what
+    # vertex_caps returns then, without a call a chain)
+    gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
+    caps = list(map(_CHAIN_CAPS, gso))
+    if not all(map(_IS_NOT_NONE, caps)):
+        caps = _chain_caps(sts, gso, profile)
+    cv = np.concatenate(caps)
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, cv, gso
 
 
 def _rows_knots(sts, bnd, tj, TL, beta, profile):
@@ -574,12 +618,12 @@ def _knots_again(items, profile):
         src = items[qs[0]][1]
         idx = np.array([items[q][2] for q in qs], int)
         Tt, bt = src.T[idx], src.beta[idx]
-        cols = []
-        for q, Tr, br in zip(qs, Tt, bt):
-            hit = np.flatnonzero((Tr == items[q][3]) & (br == items[q][4]))
-            if hit.size == 0:
-                raise ValueError("chain candidate not in its table")
-            cols.append(int(hit[0]))
+        # each one's first column of its (T, beta) (the same comparisons, all rows at once)
+        hit = ((Tt == np.array([items[q][3] for q in qs], float)[:, None])
+               & (bt == np.array([items[q][4] for q in qs], float)[:, None]))
+        if not hit.any(axis=1).all():
+            raise ValueError("chain candidate not in its table")
+        cols = np.argmax(hit, axis=1).tolist()
         for a in range(0, len(qs), SOLVE_CHUNK):
             sl = slice(a, min(a + SOLVE_CHUNK, len(qs)))
             sts = [items[q][0] for q in qs[sl]]
@@ -590,30 +634,47 @@ def _knots_again(items, profile):
                     need.add(c)
                     c = src.prev.get(c, c)
             base = _flat_chains(sts, profile)
-            m, nv = len(sts), base.sv.size
+            # chains whose every solve input is an earlier one's bit for bit (_same_chains,
+            # as _solve_cols: ~16 % of the gyroid plate's) are not solved: each takes its
+            # first's laws (solve_flat's numbers are each chain's own)
+            Ts, bs, sb, pos = Tt[sl], bt[sl], base, np.arange(len(sts))
+            same = _same_chains(base, Ts, bs)
+            if same is not None:
+                keep, pos = same
+                sb, Ts, bs = base.take(keep), Ts[keep], bs[keep]
+            m, nv = sb.S.size, sb.sv.size
             res = {}
             for c in src.order:
                 if c not in need:
                     continue
-                fl = base.with_T(Tt[sl, c], bt[sl, c])
+                fl = sb.with_T(Ts[:, c], bs[:, c])
                 if c in src.prev:
                     p = src.prev[c]
                     s0 = res[p]
-                    vt = s0.vert_t * (Tt[sl, c] / Tt[sl, p])[fl.ch]
+                    vt = s0.vert_t * (Ts[:, c] / Ts[:, p])[fl.ch]
                     res[c] = solve_flat(fl, s0.bound.copy(), vt, np.ones(m, bool), pieces=False)
                 else:
                     res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
-            for jj, (q, c) in enumerate(zip(qs[sl], want)):
-                n = curves.geom(sts[jj], profile).d.size
-                o = int(base.voff[jj])
-                vk = np.empty((1, n + 1))
-                tk = np.empty((1, n + 1))
-                vk[0, 0], vk[0, -1] = base.v0[jj], base.v1[jj]
-                tk[0, 0] = 0.0
-                tk[0, -1] = Tt[a + jj, c]
-                vk[0, 1:-1] = res[c].vert_v[o:o + n - 1]
-                tk[0, 1:-1] = res[c].vert_t[o:o + n - 1]
-                out[q] = (vk, np.diff(tk, axis=1))
+            # each chain's row laid out as _table_rows lays it out, the chains of one segment
+            # count and column at once (the same copies and differences, row by row); each
+            # one's (vk, dt) the rows of those arrays
+            by = {}
+            for jj, (c, n) in enumerate(zip(want, curves.seg_counts([curves.geom(st, profile) for st in sts]))):
+                by.setdefault((n, c), []).append(jj)
+            for (n, c), J in by.items():
+                J = np.array(J, np.int64)
+                vk = np.empty((J.size, n + 1))
+                tk = np.empty((J.size, n + 1))
+                vk[:, 0], vk[:, -1] = base.v0[J], base.v1[J]
+                tk[:, 0] = 0.0
+                tk[:, -1] = Tt[a + J, c]
+                if n > 1:
+                    ix = sb.voff[pos[J]][:, None] + np.arange(n - 1)
+                    vk[:, 1:-1] = res[c].vert_v[ix]
+                    tk[:, 1:-1] = res[c].vert_t[ix]
+                dt = np.diff(tk, axis=1)
+                for i, jj in enumerate(J.tolist()):
+                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1])
             del res
     return out
 
@@ -753,6 +814,43 @@ class ChainMemo:
             if figs[a + 4 * q + 1] == T and figs[a + 4 * q + 2] == beta:
                 return self._kept(q), int(figs[a + 4 * q + 3])
         return None
+
+    def ask(self, t, beta, key):
+        """plan_chain_segments' look-up of this chain asked for predicted duration t (a
+        float) and weight beta under the rules key, in one call (~17 k chains a plan run
+        on the gyroid plate; law_T, law_of, _find, plan_of and _kept were six): (law T,
+        its last plan) where that plan was made for (law T, beta, key), else (law T,
+        None, plan_of(law T, beta) or None).  law T: the last plan's where t is what it
+        was asked for (its rows as they were), else law_of(t); the same comparisons, in
+        the same order, as those functions make."""
+        seg = self.seg
+        if seg is not None and self.seg_tin == t:
+            lt = self.seg_T
+        else:                               # law_of(t): the newest row of predicted time t
+            lt = t
+            figs = self.figs
+            if figs is not None:
+                a = 4 * self.at
+                j, stop = a, a + 4 * self.n
+                while True:
+                    try:
+                        j = figs.index(t, j, stop)
+                    except ValueError:
+                        break
+                    if (j - a) % 4 == 0:
+                        lt = figs[j + 1]
+                        break
+                    j += 1
+        if seg is not None and self.seg_T == lt and self.seg_beta == beta and self.seg_key == key:
+            return lt, seg, None
+        figs = self.figs
+        if figs is not None:                # plan_of(lt, beta)
+            a = 4 * self.at
+            for q in range(self.n):
+                if figs[a + 4 * q + 1] == lt and figs[a + 4 * q + 2] == beta:
+                    kept = self.kept
+                    return lt, None, (kept[q] if isinstance(kept, list) else kept, int(figs[a + 4 * q + 3]))
+        return lt, None, None
 
 
 def _rules_key(rules, profile):
@@ -979,11 +1077,12 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
     return res
 
 
-def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True):
+def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True, du=None):
     """_finish_stacked's numbers (acc, feed, t_pred, a2_pred, fits) from the rows' knot
-    speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row."""
+    speeds vk (R, n + 1) and segment durations tk (R, n); own: the chain of each row.
+    du: curves.stack_du(gs) if the caller has it (None: made where needed)."""
     if rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction:
-        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict)
+        got = _finish_core(sts, gs, own, vk, tk, rules, profile, predict, du=du)
         if got is not None:
             return got
     n = gs[0].d.size
@@ -1060,13 +1159,13 @@ def _cf_rows(sts, core=None):
     return np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
 
 
-def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
+def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=None):
     """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
     batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
     under a junction law of GROUP_JUNCTIONS that is the profile's; None (the numpy code
     then) when the core is missing or stale, or declines the inputs (a non-finite one, a
     classic-jerk tent input that is not finite and > 0).  core: the module (None = the
-    chain core if it is there, False = never)."""
+    chain core if it is there, False = never).  du: curves.stack_du(gs), or None (made here)."""
     core = _chain_law.CORE_MOD if core is None else core
     fn = getattr(core, "chain_finish", None) if core else None
     if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
@@ -1074,7 +1173,7 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
     jerk = rules.junction == "jerk"
     n, m, R = gs[0].d.size, len(sts), vk.shape[0]
     # (np.array of the rows, not np.stack: the same copy, a third of the time on ~10^2 chains)
-    D, U = curves.stack_du(gs)
+    D, U = curves.stack_du(gs) if du is None else du
     if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2):
         return None
     # the turns' cosines, g.cos_turn of every chain in one einsum over the stack (the same
@@ -1086,7 +1185,7 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
         ext = np.empty((m, n + nb))
         ext[:, :n] = D
         ext[:, n:] = D[:, n - 1:n]
-        W, ws = np.convolve(ext.ravel(), np.ones(nb), "valid"), n + nb
+        W, ws = _window_sums(ext.ravel(), nb, core), n + nb
     # each chain's numbers in one pass over the chains, one row a chain (_cf_rows), then as
     # columns: the values the columns were given one list each before
     Q = _cf_rows(sts, core)
@@ -1120,6 +1219,44 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None):
               P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
     return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
+
+
+_WINDOW_SUMS_OK = {}     # nb -> does the core's window_sums give np.convolve's bits (_window_sums_ok)
+
+
+def _window_sums(x, nb, core):
+    """np.convolve(x, np.ones(nb), "valid") (x: doubles, C-contiguous): by the chain core's
+    window_sums (each window's terms added left to right from 0.0: ~6 k instructions a
+    chain less than numpy's dot call per window, ~17 k chains a plate's replay and as many
+    in its candidates) where a probe found it gives np.convolve's bits for this nb on this
+    machine (numpy's dot goes to OpenBLAS's ddot, whose vector kernel adds a long window
+    in another order); else np.convolve.  core: the module (False / None: np.convolve)."""
+    fn = getattr(core, "window_sums", None) if core else None
+    if fn is not None and x.dtype == np.float64 and x.flags.c_contiguous and x.size >= nb:
+        ok = _WINDOW_SUMS_OK.get(nb)
+        if ok is None:
+            ok = _WINDOW_SUMS_OK[nb] = _window_sums_ok(fn, nb)
+        if ok:
+            out = np.empty(x.size - nb + 1)
+            fn(x, nb, out)
+            return out
+    return np.convolve(x, np.ones(nb), "valid")
+
+
+def _window_sums_ok(fn, nb):
+    """Do window_sums and np.convolve(x, np.ones(nb), "valid") agree bit for bit on values
+    whose sums depend on the order of their additions (magnitudes over 12 decades, signs
+    mixed, plus segment-like lengths)?"""
+    rng = np.random.default_rng(8)
+    probes = [rng.uniform(0.01, 2.0, 4 * nb + 64),
+              rng.lognormal(0.0, 6.0, 4 * nb + 64) * rng.choice([-1.0, 1.0], 4 * nb + 64),
+              np.round(rng.uniform(0.1, 1.0, 4 * nb + 64), 3)]
+    for x in probes:
+        out = np.empty(x.size - nb + 1)
+        fn(x, nb, out)
+        if out.view(np.int64).tobytes() != np.convolve(x, np.ones(nb), "valid").view(np.int64).tobytes():
+            return False
+    return True
 
 
 def _junction_accels(st, g, vk, acc, rules, profile, vmax):
@@ -1363,26 +1500,18 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     # without a numpy scalar per read: ~16 k chains on the gyroid plate
     t_in, b_in = array("d", T_in.tobytes()), array("d", beta.tobytes())
     T = array("d", t_in)                # the law durations (law_T)
-    for k, st in enumerate(strokes):
-        t = t_in[k]
-        memo = st.chain_T
-        seg = memo.seg
-        if seg is not None and memo.seg_tin == t:
-            # asked for what its last plan was made for, its rows as they were: law_T(t)
-            # is the law duration that plan was made for (law_of reads only the rows)
-            lt = memo.seg_T
-        else:
-            lt = law_T(st, t)
-        T[k] = lt
-        if seg is not None and memo.seg_T == lt and memo.seg_beta == b_in[k] and memo.seg_key == key:
-            out[k] = seg
-        else:
-            todo.append(k)
-    # the candidate table's plan when this (T, beta) is one of the candidates (under the
-    # same rules), else the law solved and finished
+    # each chain's law duration, and its last plan where that was made for this (T, beta)
+    # (asked for what its last plan was made for, its rows as they were: law_T(t) is the
+    # law duration that plan was made for; law_of reads only the rows); else the
+    # candidate table's plan when this (T, beta) is one of the candidates (under the same
+    # rules), else the law solved and finished (ChainMemo.ask: one call a chain)
     cold, lazy, again = [], [], []
-    for k in todo:
-        hit = strokes[k].chain_T.plan_of(T[k], b_in[k])
+    for k, st in enumerate(strokes):
+        T[k], seg, hit = st.chain_T.ask(t_in[k], b_in[k], key)
+        if seg is not None:
+            out[k] = seg
+            continue
+        todo.append(k)
         if hit is not None and hit[0].key == key:
             if isinstance(hit[0], _Again):
                 again.append((k, hit[0]))

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import weakref
-from operator import attrgetter
+from operator import attrgetter, itemgetter
 
 import numpy as np
 
@@ -420,6 +420,47 @@ class CurveGeom:
 
     def kappa(self, s):
         return np.interp(s, self.s_v, self.kappa_v)
+
+
+_GEOM_B, _GEOM_D_SHAPE, _AXIS1 = attrgetter("_b"), attrgetter("_b.d.shape"), itemgetter(1)
+
+
+def seg_counts(gs):
+    """[g.d.size for g in gs]: each geometry's number of segments, read as its block's
+    row length (build_geoms' _Blk: rows of one (m, n) array; each block checked once)
+    by C-level maps instead of a view of its row made per geometry (~17 k chains a
+    plate's chain replay); g.d.size itself where a block is not of that shape or a
+    geometry is of another make."""
+    try:
+        blocks = set(map(_GEOM_B, gs))
+    except AttributeError:
+        return [g.d.size for g in gs]
+    if not all(type(b.d) is np.ndarray and b.d.ndim == 2 for b in blocks):
+        return [g.d.size for g in gs]
+    return list(map(_AXIS1, map(_GEOM_D_SHAPE, gs)))
+
+
+def stack_d(gs):
+    """stack_du(gs)'s lengths D alone (the same doubles: one fancy index a run of rows of
+    one block; row by row otherwise), without the directions."""
+    try:
+        bs = [g._b for g in gs]
+        ks = [g._k for g in gs]
+    except AttributeError:
+        bs = None
+    if bs:
+        ds = []
+        a, m = 0, len(bs)
+        while a < m:                    # runs of one block
+            b = bs[a]
+            z = a + 1
+            while z < m and bs[z] is b:
+                z += 1
+            ds.append(np.asarray(b.d, float)[ks[a:z]])
+            a = z
+        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
+            return ds[0] if len(ds) == 1 else np.concatenate(ds)
+    return np.array([g.d for g in gs], float)
 
 
 def stack_du(gs):

@@ -194,6 +194,10 @@ def test_finish_core_hands_the_core_what_it_did(prof_name, monkeypatch):
 
     def spy(*a, **k):
         got = real(*a, **k)
+        du = k.pop("du", None)         # (s32: the caller's curves.stack_du, which the reference makes)
+        if du is not None:
+            D, U = curves.stack_du(a[1])
+            assert _bits(du[0]) == _bits(D) and _bits(du[1]) == _bits(U)
         want = ref_finish_core(*a, **k)
         if got is None or want is None:
             same = got is None and want is None
@@ -301,7 +305,15 @@ def test_last_plan_taken_without_law_T_while_rows_unchanged(monkeypatch):
     first = chains.plan_chain_segments(sts, Tc, bc, rules, prof)
     calls = []
     real = chains.law_T
-    monkeypatch.setattr(chains, "law_T", lambda st, t: calls.append(st) or real(st, t))
+    # (s32: plan_chain_segments asks each memo once, ChainMemo.ask, which reads the rows,
+    # as law_T did, unless its last plan was asked for this duration: those asks recorded)
+    real_ask = chains.ChainMemo.ask
+
+    def ask(memo, t, b, key):
+        if not (memo.seg is not None and memo.seg_tin == t):
+            calls.append(next(x for x in sts if x.chain_T is memo))
+        return real_ask(memo, t, b, key)
+    monkeypatch.setattr(chains.ChainMemo, "ask", ask)
     again = chains.plan_chain_segments(sts, Tc, bc, rules, prof)
     assert calls == [] and all(p is q for p, q in zip(first, again))
     # a chain's rows change (a put: what its predicted duration maps to may change): law_T

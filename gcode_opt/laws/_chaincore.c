@@ -1790,6 +1790,35 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
     return PyLong_FromLong(ok);
 }
 
+/* ---------------------------------------------------------------- session 32 (chainplan)
+   window_sums(x, nb, out): out[i] = the sum of x[i], ..., x[i + nb - 1] added left to right
+   from 0.0, each term times 1.0: a dot product with ones whose terms are added one after
+   the other, which is what np.convolve(x, np.ones(nb), "valid") gives where its dot adds
+   them so (numpy's own loop; OpenBLAS's ddot below its vector kernel's block).  chains.
+   _window_sums probes that it does, for each nb, before taking these (else np.convolve). */
+static PyObject *window_sums(PyObject *self, PyObject *a) {
+    PyObject *ox, *oo;
+    Py_ssize_t nb;
+    if (!PyArg_ParseTuple(a, "OnO", &ox, &nb, &oo)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t n, no;
+    const double *x = get(&b, ox, 8, 0, &n);
+    double *out = x ? get(&b, oo, 8, 1, &no) : NULL;
+    if (!out) { release(&b); return NULL; }
+    if (nb < 1 || n < nb || no != n - nb + 1) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "window_sums: shapes");
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < no; i++) {
+        double acc = 0.0;
+        for (Py_ssize_t j = 0; j < nb; j++) acc = acc + x[i + j] * 1.0;
+        out[i] = acc;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* ---------------------------------------------------------------- session 29 (chainnewton)
    laws/chain._share_time_exact's iteration: Newton on the exact slopes J', J'' of the line
    law's J (laws/chain._exact_slopes: series of G, R, Q and their z-derivatives in z = γ²),
@@ -1981,6 +2010,7 @@ static PyMethodDef methods[] = {
     {"fig_b", fig_b, METH_VARARGS, "the flat figures: integral of v^2, end speeds, critical-point ratio"},
     {"fig_c", fig_c, METH_VARARGS, "the flat figures: critical t, tau and the shc arguments"},
     {"cf_rows", cf_rows, METH_VARARGS, "chains._cf_row of a list of strokes, one row each"},
+    {"window_sums", window_sums, METH_VARARGS, "sums of nb consecutive values, left to right"},
     {"fig_d", fig_d, METH_VARARGS, "the flat figures: speed at the critical t, per-chain peak and least speed"},
     {NULL, NULL, 0, NULL}};
 

@@ -440,56 +440,50 @@ def seg_counts(gs):
     return list(map(_AXIS1, map(_GEOM_D_SHAPE, gs)))
 
 
-def stack_d(gs):
-    """stack_du(gs)'s lengths D alone (the same doubles: one fancy index a run of rows of
-    one block; row by row otherwise), without the directions."""
+def _stacked_runs(gs):
+    """(D, runs, ks) of the geometries gs: D their lengths stacked, each run of rows of one
+    block (build_geoms' _Blk) taken by one fancy index of its lengths (the same doubles),
+    runs the (block, first, end) of each, ks the rows' indices in their blocks; None for
+    geometries of another make, or blocks whose rows do not stack."""
     try:
         bs = [g._b for g in gs]
         ks = [g._k for g in gs]
     except AttributeError:
-        bs = None
-    if bs:
-        ds = []
-        a, m = 0, len(bs)
-        while a < m:                    # runs of one block
-            b = bs[a]
-            z = a + 1
-            while z < m and bs[z] is b:
-                z += 1
-            ds.append(np.asarray(b.d, float)[ks[a:z]])
-            a = z
-        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
-            return ds[0] if len(ds) == 1 else np.concatenate(ds)
-    return np.array([g.d for g in gs], float)
+        return None
+    if not bs:
+        return None
+    ds, runs = [], []
+    a, m = 0, len(bs)
+    while a < m:                    # runs of one block
+        b = bs[a]
+        z = a + 1
+        while z < m and bs[z] is b:
+            z += 1
+        ds.append(np.asarray(b.d, float)[ks[a:z]])
+        runs.append((b, a, z))
+        a = z
+    if not all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
+        return None
+    return (ds[0] if len(ds) == 1 else np.concatenate(ds)), runs, ks
+
+
+def stack_d(gs):
+    """stack_du(gs)'s lengths D alone (the same doubles), without the directions."""
+    got = _stacked_runs(gs)
+    return got[0] if got is not None else np.array([g.d for g in gs], float)
 
 
 def stack_du(gs):
     """(np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)): the
-    geometries' segment lengths and directions stacked, each run of rows of one block
-    (build_geoms' _Blk) taken by one fancy index of its lengths (the same doubles), not
-    a view and a copy a geometry (~1 us each, ~34 k geometries a plate's chain finishing),
-    and the directions made from the stacked lengths and the strokes' vertices in one
-    pass (_stack_u).  Geometries of another make, or blocks whose rows do not stack: row
-    by row."""
-    try:
-        bs = [g._b for g in gs]
-        ks = [g._k for g in gs]
-    except AttributeError:
-        bs = None
-    if bs:
-        ds, runs = [], []
-        a, m = 0, len(bs)
-        while a < m:                    # runs of one block
-            b = bs[a]
-            z = a + 1
-            while z < m and bs[z] is b:
-                z += 1
-            ds.append(np.asarray(b.d, float)[ks[a:z]])
-            runs.append((b, a, z))
-            a = z
-        if all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
-            D = ds[0] if len(ds) == 1 else np.concatenate(ds)
-            return D, _stack_u(gs, runs, ks, D)
+    geometries' segment lengths and directions stacked (_stacked_runs: not a view and a
+    copy a geometry, ~1 us each, ~34 k geometries a plate's chain finishing), the
+    directions made from the stacked lengths and the strokes' vertices in one pass
+    (_stack_u).  Geometries of another make, or blocks whose rows do not stack: row by
+    row."""
+    got = _stacked_runs(gs)
+    if got is not None:
+        D, runs, ks = got
+        return D, _stack_u(gs, runs, ks, D)
     return np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)
 
 

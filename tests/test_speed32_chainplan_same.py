@@ -13,7 +13,6 @@ SCV (voron24):
 
 (plan_chain_segments as a whole: tests/test_speed24_chainplan_batch.py, against its
 verbatim reference over three budget runs.)"""
-from array import array
 
 import numpy as np
 import pytest

@@ -817,40 +817,15 @@ class ChainMemo:
 
     def ask(self, t, beta, key):
         """plan_chain_segments' look-up of this chain asked for predicted duration t (a
-        float) and weight beta under the rules key, in one call (~17 k chains a plan run
-        on the gyroid plate; law_T, law_of, _find, plan_of and _kept were six): (law T,
-        its last plan) where that plan was made for (law T, beta, key), else (law T,
-        None, plan_of(law T, beta) or None).  law T: the last plan's where t is what it
-        was asked for (its rows as they were), else law_of(t); the same comparisons, in
-        the same order, as those functions make."""
+        float) and weight beta under the rules key: (law T, its last plan) where that plan
+        was made for (law T, beta, key), else (law T, None, plan_of(law T, beta) or None).
+        law T: the last plan's where t is what it was asked for (its rows as they were),
+        else law_of(t)."""
         seg = self.seg
-        if seg is not None and self.seg_tin == t:
-            lt = self.seg_T
-        else:                               # law_of(t): the newest row of predicted time t
-            lt = t
-            figs = self.figs
-            if figs is not None:
-                a = 4 * self.at
-                j, stop = a, a + 4 * self.n
-                while True:
-                    try:
-                        j = figs.index(t, j, stop)
-                    except ValueError:
-                        break
-                    if (j - a) % 4 == 0:
-                        lt = figs[j + 1]
-                        break
-                    j += 1
+        lt = self.seg_T if seg is not None and self.seg_tin == t else self.law_of(t)
         if seg is not None and self.seg_T == lt and self.seg_beta == beta and self.seg_key == key:
             return lt, seg, None
-        figs = self.figs
-        if figs is not None:                # plan_of(lt, beta)
-            a = 4 * self.at
-            for q in range(self.n):
-                if figs[a + 4 * q + 1] == lt and figs[a + 4 * q + 2] == beta:
-                    kept = self.kept
-                    return lt, None, (kept[q] if isinstance(kept, list) else kept, int(figs[a + 4 * q + 3]))
-        return lt, None, None
+        return lt, None, self.plan_of(lt, beta)
 
 
 def _rules_key(rules, profile):

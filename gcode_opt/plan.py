@@ -1025,11 +1025,9 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
         # with the compiled core, on the feasible entries where Candidates holds them (no
         # table copied: the packed tables were ~10 MB at the rectilinear plate's planning peak)
         core = _alloc_core()
-        am = _AllocMemo.of(memo, cands, g, p) if memo is not None and core is not None and len(g) else None
-        if am is not None:
-            rv = am.rv
-        else:
-            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if core is not None and len(g) else None
+        rv = None
+        if core is not None and len(g):
+            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if memo is None else _AllocMemo.of(memo, cands, g, p).rv
         if rv is not None:
             jp, lam_g = _allocate_rows(cands.vals, rv, share, core)
             took = jp < rv.cnt                  # their entries: each row's jp-th, read below

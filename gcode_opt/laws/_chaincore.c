@@ -1989,6 +1989,192 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     return PyLong_FromLong(status);
 }
 
+/* exact_prep(L, beta, va, vb, owner, vs, vd, poff, npc) -> -1, 0 or 1: _share_time_exact's
+   checks and exact_share's inputs in one pass over the P pieces (not ~15 numpy calls a
+   solve step).  -1: a β not finite and > 0, or an L, va, vb not finite (the caller
+   declines: None); 0: owner not nondecreasing in [0, n_c) (the caller's numpy loop runs;
+   nothing usable written); 1: vs = va + vb, vd = va - vb, npc[c] = the pieces of chain c
+   (np.bincount's counts, as doubles), poff their offsets (np.cumsum of them after a 0). */
+static PyObject *exact_prep(PyObject *self, PyObject *a) {
+    PyObject *o[9];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nb2, nva, nvb, now, nvs, nvd, nc1, nnpc;
+    const double *L = get(&b, o[0], 8, 0, &P);
+    const double *beta = L ? get(&b, o[1], 8, 0, &nb2) : NULL;
+    const double *va = beta ? get(&b, o[2], 8, 0, &nva) : NULL;
+    const double *vb = va ? get(&b, o[3], 8, 0, &nvb) : NULL;
+    const int64_t *owner = vb ? get(&b, o[4], 8, 0, &now) : NULL;
+    double *vs = owner ? get(&b, o[5], 8, 1, &nvs) : NULL;
+    double *vd = vs ? get(&b, o[6], 8, 1, &nvd) : NULL;
+    int64_t *poff = vd ? get(&b, o[7], 8, 1, &nc1) : NULL;
+    double *npc = poff ? get(&b, o[8], 8, 1, &nnpc) : NULL;
+    if (!npc) { release(&b); return NULL; }
+    Py_ssize_t n_c = nc1 - 1;
+    if (nb2 != P || nva != P || nvb != P || now != P || nvs != P || nvd != P || n_c < 0 || nnpc != n_c) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "exact_prep: shapes");
+        return NULL;
+    }
+    int bad = 0;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        double x = beta[p];
+        bad |= !(x > 0.0) | !(x < HUGE_VAL) | !(fabs(L[p]) < HUGE_VAL) | !(fabs(va[p]) < HUGE_VAL)
+               | !(fabs(vb[p]) < HUGE_VAL);
+    }
+    if (bad) { release(&b); return PyLong_FromLong(-1); }
+    int64_t prev = 0;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        int64_t c = owner[p];
+        if (c < prev || c >= n_c) { release(&b); return PyLong_FromLong(0); }
+        prev = c;
+    }
+    for (Py_ssize_t c = 0; c < n_c; c++) npc[c] = 0.0;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        vs[p] = va[p] + vb[p];
+        vd[p] = va[p] - vb[p];
+        npc[owner[p]] += 1.0;
+    }
+    poff[0] = 0;
+    for (Py_ssize_t c = 0; c < n_c; c++) poff[c + 1] = poff[c] + (int64_t)npc[c];
+    release(&b);
+    return PyLong_FromLong(1);
+}
+
+/* step_vertices(active, voff, bound, vi, rank, bvoff, bv) -> n, or -1 where active is not
+   strictly ascending in [0, chains): solve_fixed's vertices of the chains active, one pass:
+   vi[:n] the active chains' vertices in order (chain c's at voff[c]:voff[c + 1]), rank[:n]
+   the place in active of each one's chain, bvoff[r] the first of chain active[r]'s in vi
+   (bvoff[na] = n), bv[:n] = bound[vi] (uint8).  vi, rank, bv hold at least the vertices of
+   every chain. */
+static PyObject *step_vertices(PyObject *self, PyObject *a) {
+    PyObject *o[7];
+    if (!PyArg_ParseTuple(a, "OOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6])) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t na, nc1, nb, nvi, nrk, nbo, nbv;
+    const int64_t *active = get(&b, o[0], 8, 0, &na);
+    const int64_t *voff = active ? get(&b, o[1], 8, 0, &nc1) : NULL;
+    const uint8_t *bound = voff ? get(&b, o[2], 1, 0, &nb) : NULL;
+    int64_t *vi = bound ? get(&b, o[3], 8, 1, &nvi) : NULL;
+    int64_t *rank = vi ? get(&b, o[4], 8, 1, &nrk) : NULL;
+    int64_t *bvoff = rank ? get(&b, o[5], 8, 1, &nbo) : NULL;
+    uint8_t *bv = bvoff ? get(&b, o[6], 1, 1, &nbv) : NULL;
+    if (!bv) { release(&b); return NULL; }
+    Py_ssize_t m = nc1 - 1;
+    int ok = m >= 0 && voff[0] == 0 && voff[m] == nb && nvi >= nb && nrk >= nb && nbv >= nb && nbo == na + 1;
+    for (Py_ssize_t c = 0; ok && c < m; c++) ok = voff[c + 1] >= voff[c];
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "step_vertices: shapes");
+        return NULL;
+    }
+    for (Py_ssize_t r = 0; r < na; r++)
+        if (active[r] < 0 || active[r] >= m || (r && active[r] <= active[r - 1])) {
+            release(&b);
+            return PyLong_FromLong(-1);
+        }
+    Py_ssize_t n = 0;
+    for (Py_ssize_t r = 0; r < na; r++) {
+        bvoff[r] = n;
+        for (int64_t q = voff[active[r]]; q < voff[active[r] + 1]; q++) {
+            vi[n] = q;
+            rank[n] = r;
+            bv[n] = bound[q];
+            n++;
+        }
+    }
+    bvoff[na] = n;
+    release(&b);
+    return PyLong_FromSsize_t(n);
+}
+
+/* knot_times(Tj, koff, kt): solve_fixed's knot times, each chain's [0, running sums of its
+   pieces' durations] (its piece_cumsum and the scatter to the knots after each chain's
+   first: out[0] = x[0], out[i] = out[i - 1] + x[i]), written to kt at koff[r]:koff[r + 1]
+   (chain r's pieces at koff[r] - r: a chain has one piece less than knots). */
+static PyObject *knot_times(PyObject *self, PyObject *a) {
+    PyObject *ot, *ok, *oo;
+    if (!PyArg_ParseTuple(a, "OOO", &ot, &ok, &oo)) return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t P, nc1, K;
+    const double *Tj = get(&b, ot, 8, 0, &P);
+    const int64_t *koff = Tj ? get(&b, ok, 8, 0, &nc1) : NULL;
+    double *kt = koff ? get(&b, oo, 8, 1, &K) : NULL;
+    if (!kt) { release(&b); return NULL; }
+    int ok_ = nc1 >= 1 && koff[0] == 0 && koff[nc1 - 1] == K && K - (nc1 - 1) == P;
+    for (Py_ssize_t r = 0; ok_ && r + 1 < nc1; r++) ok_ = koff[r + 1] > koff[r];
+    if (!ok_) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "knot_times: offsets");
+        return NULL;
+    }
+    for (Py_ssize_t r = 0; r + 1 < nc1; r++) {
+        int64_t k0 = koff[r], k1 = koff[r + 1];
+        const double *x = Tj + (k0 - r);
+        kt[k0] = 0.0;
+        if (k1 - k0 < 2) continue;
+        double s = x[0];
+        kt[k0 + 1] = s;
+        for (int64_t k = k0 + 2; k < k1; k++) {
+            s = s + x[k - k0 - 1];
+            kt[k] = s;
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* vert_prep(vi, bv, kj, rank, cv, sv, ks, kt, v, t, free, pj, x) -> nf: solve_fixed's
+   vertices before their time of distance, one pass over the step's n vertices q: v[q] =
+   cv[vi[q]] (the cap: exact at a binding vertex), t[q] = kt[kj[q]] (its piece's start
+   knot's time); the free ones (bv[q] == 0, in order) listed in free[:nf], with pj their
+   piece (kj[q] - rank[q]) and x their distance into it (sv[vi[q]] - ks[kj[q]]). */
+static PyObject *vert_prep(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t n, nbv, nkj, nrk, ncv, nsv, nks, nkt, nv, nt, nfr, npj, nx;
+    const int64_t *vi = get(&b, o[0], 8, 0, &n);
+    const uint8_t *bv = vi ? get(&b, o[1], 1, 0, &nbv) : NULL;
+    const int64_t *kj = bv ? get(&b, o[2], 8, 0, &nkj) : NULL;
+    const int64_t *rank = kj ? get(&b, o[3], 8, 0, &nrk) : NULL;
+    const double *cv = rank ? get(&b, o[4], 8, 0, &ncv) : NULL;
+    const double *sv = cv ? get(&b, o[5], 8, 0, &nsv) : NULL;
+    const double *ks = sv ? get(&b, o[6], 8, 0, &nks) : NULL;
+    const double *kt = ks ? get(&b, o[7], 8, 0, &nkt) : NULL;
+    double *v = kt ? get(&b, o[8], 8, 1, &nv) : NULL;
+    double *t = v ? get(&b, o[9], 8, 1, &nt) : NULL;
+    int64_t *fr = t ? get(&b, o[10], 8, 1, &nfr) : NULL;
+    int64_t *pj = fr ? get(&b, o[11], 8, 1, &npj) : NULL;
+    double *x = pj ? get(&b, o[12], 8, 1, &nx) : NULL;
+    if (!x) { release(&b); return NULL; }
+    int ok = nbv == n && nkj == n && nrk == n && nv == n && nt == n && nfr == n && npj == n && nx == n
+             && ncv == nsv && nks == nkt;
+    for (Py_ssize_t q = 0; ok && q < n; q++)
+        ok = vi[q] >= 0 && vi[q] < ncv && kj[q] >= 0 && kj[q] < nks;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "vert_prep: shapes");
+        return NULL;
+    }
+    Py_ssize_t nf = 0;
+    for (Py_ssize_t q = 0; q < n; q++) {
+        int64_t i = vi[q], k = kj[q];
+        v[q] = cv[i];
+        t[q] = kt[k];
+        if (bv[q]) continue;
+        fr[nf] = q;
+        pj[nf] = k - rank[q];
+        x[nf] = sv[i] - ks[k];
+        nf++;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(nf);
+}
+
 static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 0); }
 static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
 
@@ -1997,6 +2183,10 @@ static PyMethodDef methods[] = {
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
     {"exact_share", exact_share, METH_VARARGS, "_share_time_exact's whole Newton iteration"},
+    {"step_vertices", step_vertices, METH_VARARGS, "solve_fixed's vertices of its active chains"},
+    {"knot_times", knot_times, METH_VARARGS, "solve_fixed's knot times: each chain's running sums after a 0"},
+    {"vert_prep", vert_prep, METH_VARARGS, "solve_fixed's vertices before their time of distance"},
+    {"exact_prep", exact_prep, METH_VARARGS, "_share_time_exact's checks and exact_share's inputs"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},

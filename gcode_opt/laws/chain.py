@@ -426,24 +426,21 @@ def _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core=None):
     EXACT_GAMMA_MAX; the caller's numpy code then raises LineLaw's errors."""
     n_c = T_total.size
     P = T_init.size
-    if P == 0 or not (np.all(beta > 0) and np.all(np.isfinite(beta)) and np.all(np.isfinite(L))
-                      and np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
+    if P == 0:
         return None
     f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    if core and hasattr(core, "exact_share") and hasattr(core, "exact_prep"):
+        got = _exact_share_core(core, f(L), f(beta), f(va), f(vb), owner, f(T_total), T_init)
+        if got is not False:          # the result, or None: declined
+            return got
+    if not (np.all(beta > 0) and np.all(np.isfinite(beta)) and np.all(np.isfinite(L))
+            and np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
+        return None
     L, beta, T_total = f(L), f(beta), f(T_total)
     vs, vd = f(va + vb), f(va - vb)
     T = np.array(T_init, float)
     lam = np.zeros(n_c)
     conv = np.zeros(n_c, bool)
-    if core and hasattr(core, "exact_share") and not np.any(np.diff(owner) < 0):
-        npc = np.bincount(owner, None, n_c)
-        poff = np.zeros(n_c + 1, np.int64)
-        np.cumsum(npc, out=poff[1:])
-        cv = conv.view(np.uint8)
-        if core.exact_share(L, beta, vs, vd, poff, npc.astype(float), T_total, T, lam, cv, _EX_COEF, _EX_ZMAX,
-                            EXACT_GAMMA_MAX * EXACT_GAMMA_MAX, MAX_NEWTON) < 0:
-            return None
-        return T, lam, conv
     fresh = np.ones(n_c, bool)
     n_p = np.bincount(owner, None, n_c)
     for _ in range(MAX_NEWTON):
@@ -459,6 +456,27 @@ def _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core=None):
         d1, d2, rt = _exact_slopes(L[ix], Ti, beta[ix], vs[ix], vd[ix], k)
         d2 = np.maximum(d2, (1e-12 * np.abs(d1)) * rt + 1e-300)
         lam = _kkt_step(o, ix, Ti, d1, d2, T, lam, conv, fresh, T_total, n_c, n_p)
+    return T, lam, conv
+
+
+def _exact_share_core(core, L, beta, va, vb, owner, T_total, T_init):
+    """_share_time_exact's iteration in one C call (exact_share), its checks and inputs
+    (vs, vd, the pieces' counts and offsets) in another (exact_prep: one pass, not ~15
+    numpy calls a step): (T, λ, conv); None where _share_time_exact declines (a bad input,
+    a step's γ above EXACT_GAMMA_MAX); False where the owners are not in chain order (the
+    numpy iteration runs).  L, beta, va, vb, T_total: contiguous float64."""
+    n_c, P = T_total.size, T_init.size
+    vs, vd, npc = np.empty(P), np.empty(P), np.empty(n_c)
+    poff = np.empty(n_c + 1, np.int64)
+    got = core.exact_prep(L, beta, va, vb, np.ascontiguousarray(owner, np.int64), vs, vd, poff, npc)
+    if got <= 0:
+        return None if got < 0 else False
+    T = np.array(T_init, float)
+    lam = np.zeros(n_c)
+    conv = np.zeros(n_c, bool)
+    if core.exact_share(L, beta, vs, vd, poff, npc, T_total, T, lam, conv.view(np.uint8), _EX_COEF, _EX_ZMAX,
+                        EXACT_GAMMA_MAX * EXACT_GAMMA_MAX, MAX_NEWTON) < 0:
+        return None
     return T, lam, conv
 
 
@@ -806,6 +824,28 @@ class _Flat:
             T0 = np.where(use, t0, T0)
         return ks, kv, kt0, koff, owner, p0, L, va, vb, T0, None
 
+    def _step_vertices(self, active, bound):
+        """(vi, rank, bvoff, bv) of the chains active (ascending): their vertices in order,
+        the place in active of each one's chain, each chain's first in vi (and their count
+        last), bound[vi].  By the chain core in one pass (step_vertices) when it is there,
+        the same numbers."""
+        if (CORE_MOD is not None and hasattr(CORE_MOD, "step_vertices") and active.dtype == np.int64
+                and bound.dtype == bool and self.voff.dtype == np.int64):
+            nall, na = self.sv.size, active.size
+            vi, rank, bv = np.empty(nall, np.int64), np.empty(nall, np.int64), np.empty(nall, bool)
+            bvoff = np.empty(na + 1, np.int64)
+            n = CORE_MOD.step_vertices(np.ascontiguousarray(active), np.ascontiguousarray(self.voff),
+                                       np.ascontiguousarray(bound).view(np.uint8), vi, rank, bvoff, bv.view(np.uint8))
+            if n >= 0:
+                return vi[:n], rank[:n], bvoff, bv[:n]
+        nv = self.nv[active]
+        on = np.zeros(self.S.size, bool)
+        on[active] = True
+        vi = np.flatnonzero(on[self.ch])
+        rank = np.repeat(np.arange(active.size), nv)
+        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        return vi, rank, bvoff, bound[vi]
+
     def _knots_core(self, core, active, vi, bv, bvoff, vt, warm):
         """_knots_numpy in one C call (fixed_knots, the same numbers), plus kj_mono: each
         vertex's piece start knot as solve_fixed's monotone count has it.  None where the
@@ -850,19 +890,13 @@ class _Flat:
     def _fixed_knots(self, active, bound, vt, warm):
         """solve_fixed's knots and pieces of the chains active (its lines before _share_time)."""
         na = active.size
-        nv = self.nv[active]
-        on = np.zeros(self.S.size, bool)
-        on[active] = True
-        vi = np.flatnonzero(on[self.ch])               # the active chains' vertices, in order
-        rank = np.repeat(np.arange(na), nv)            # place in the step of each one's chain
-        bvoff = np.concatenate([[0], np.cumsum(nv)]).astype(int)
+        vi, rank, bvoff, bv = self._step_vertices(active, bound)
         # knots: [0, binding vertices, S] per chain, with speeds and warm-start times
-        bv = bound[vi]
         kn = None
         if CORE_MOD is not None:
             kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
         if kn is None:
-            kn = self._knots_numpy(active, vi, rank, bvoff, nv, bound, vt, warm)
+            kn = self._knots_numpy(active, vi, rank, bvoff, self.nv[active], bound, vt, warm)
         beta = self.beta[active][kn[4]]
         return active, na, vi, rank, bvoff, kn, beta, bv
 
@@ -871,24 +905,11 @@ class _Flat:
         knot times and the speed and time at every vertex (accels False: the pieces' end
         accelerations, which vertices_at does not read, left out: None)."""
         ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
-        npc = np.diff(koff) - 1                        # pieces per chain
         law = _step_law(L, Tj, beta, va, vb)
         a0 = a1 = None
         if accels:
             a0, a1 = _end_accels(law)                  # s̈ at both ends of every piece
-        # knot times: each chain's cumulative sum of its own pieces (row by row)
-        poff = koff[:-1] - np.arange(na)
-        kt = np.zeros(ks.size)
-        if CORE_MOD is not None and Tj.dtype == np.float64:    # the same sums, chain by chain in C
-            pc = np.empty(Tj.size)
-            CORE_MOD.piece_cumsum(np.ascontiguousarray(Tj), np.append(poff, Tj.size).astype(np.int64), pc)
-            kt[p0 + 1] = pc
-        else:
-            local = np.arange(Tj.size) - poff[owner]
-            P = int(npc.max()) if na else 0
-            grid = np.zeros((na, P))
-            grid[owner, local] = Tj
-            kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
+        kt = _knot_times(Tj, koff, owner, p0, ks.size)
         # speed and time at every vertex, in its piece
         if self.monotone and kj_mono is not None:     # fixed_knots' count (the same numbers)
             kj = kj_mono
@@ -903,11 +924,10 @@ class _Flat:
                 kc = ks[koff[r]:koff[r + 1]]
                 j[sl] = np.clip(np.searchsorted(kc, self.sv[vi[sl]], side="right") - 1, 0, kc.size - 2)
             kj = koff[:-1][rank] + j
-        v, t = self.cv[vi].copy(), kt[kj]              # exact at the binding vertices (piece ends)
-        free = np.flatnonzero(~bv)                     # the others: in their piece's law (each
-        kf = kj[free]                                  # element's Newton is its own: the batch's
-        pj = kf - rank[free]                           # make-up changes no figure)
-        x = self.sv[vi[free]] - ks[kf]
+        # the caps (exact at the binding vertices, piece ends), the start knots' times; the
+        # free vertices in their piece's law (each element's Newton is its own: the batch's
+        # make-up changes no figure)
+        v, t, free, pj, x = self._vertex_starts(vi, bv, kj, rank, ks, kt)
         got = None
         if CORE_MOD is not None and _times_and_speeds is _TIMES_AND_SPEEDS:     # (not a test's stand-in)
             got = _tod_core_at(CORE_MOD, law, pj, x)
@@ -915,9 +935,48 @@ class _Flat:
             vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
             got = _times_and_speeds(vlaw, x)
         tl, v[free] = got
-        t[free] = kt[kf] + tl
+        t[free] += tl                                  # (t[free]: the start knots' times)
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+
+    def _vertex_starts(self, vi, bv, kj, rank, ks, kt):
+        """(v, t, free, pj, x) of the step's vertices vi (bv: binding; kj: its piece's start
+        knot; rank: its chain's place in the step): v the caps, t the start knots' times
+        kt[kj]; the free vertices (not binding) free, their pieces pj and distances x into
+        them.  By the chain core in one pass (vert_prep) when it is there, the same numbers."""
+        if (CORE_MOD is not None and hasattr(CORE_MOD, "vert_prep") and bv.dtype == bool
+                and vi.dtype == kj.dtype == rank.dtype == np.int64):
+            n = vi.size
+            c = np.ascontiguousarray
+            v, t, x = np.empty(n), np.empty(n), np.empty(n)
+            free, pj = np.empty(n, np.int64), np.empty(n, np.int64)
+            nf = CORE_MOD.vert_prep(c(vi), c(bv).view(np.uint8), c(kj), c(rank), c(self.cv, float), c(self.sv, float),
+                                    c(ks, float), c(kt, float), v, t, free, pj, x)
+            return v, t, free[:nf], pj[:nf], x[:nf]
+        v, t = self.cv[vi].copy(), kt[kj]
+        free = np.flatnonzero(~bv)
+        kf = kj[free]
+        return v, t, free, kf - rank[free], self.sv[vi[free]] - ks[kf]
+
+
+def _knot_times(Tj, koff, owner, p0, K):
+    """solve_fixed's K knot times: each chain's (knots at koff[r]:koff[r + 1]) 0 and the
+    running sums of its own pieces' durations Tj (pieces in chain order: owner, start knots
+    p0), as np.cumsum along the rows of the (chains, pieces) grid gives them; in one C
+    call (knot_times) when the chain core is there, the same sums."""
+    na = koff.size - 1
+    if CORE_MOD is not None and Tj.dtype == np.float64 and hasattr(CORE_MOD, "knot_times"):
+        kt = np.empty(K)
+        CORE_MOD.knot_times(np.ascontiguousarray(Tj), np.ascontiguousarray(koff, np.int64), kt)
+        return kt
+    kt = np.zeros(K)
+    poff = koff[:-1] - np.arange(na)
+    local = np.arange(Tj.size) - poff[owner]
+    P = int((np.diff(koff) - 1).max()) if na else 0
+    grid = np.zeros((na, P))
+    grid[owner, local] = Tj
+    kt[p0 + 1] = np.cumsum(grid, axis=1)[owner, local]
+    return kt
 
 
 def _step_law(L, T, beta, va, vb):
@@ -1047,18 +1106,20 @@ class FlatLaws:
         steps: not converged)."""
         if not done.any():
             return
-        dv = done[st.rank]
+        if done.all():              # (a batch's last step: every array whole, not masked)
+            done = dv = pd = slice(None)
+        else:
+            dv, pd = done[st.rank], done[st.owner]
         self.vert_v[st.vi[dv]] = st.vert_v[dv]
         self.vert_t[st.vi[dv]] = st.vert_t[dv]
         c = st.active[done]
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]
-        pd = done[st.owner]
         if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
             self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
             return
         nk = np.diff(st.koff)
-        kd = np.repeat(done, nk)
+        kd = pd if isinstance(pd, slice) else np.repeat(done, nk)
         self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
                             st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
 

@@ -1890,8 +1890,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     group, else one chain a group.  Each row keeps its knot speeds and segment durations
     (_KeptLaws: the accelerations and feeds are made again for the candidate chosen,
     _replay)."""
-    gs = [curves.geom(st, profile) for st in sts]
-    nseg = np.array([g.d.size for g in gs], int)
+    nseg = np.diff(base.voff) + 1      # (a chain's interior vertices: one less than its segments)
     has = use.any(axis=1)
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
         groups = []

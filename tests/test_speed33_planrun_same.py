@@ -3,7 +3,9 @@ compiled core (strokes.stroke_fields, one pass), each Limits object's fields onc
 kinds by map (plan_kinds), not an attribute read or a call a stroke.  The arrays must be
 the ones e19044c's reads (kept below verbatim) give, bit for bit, on real strokes and on
 strokes whose fields hold values of other types; and plan_kinds must be chains.plan_kind
-of every stroke."""
+of every stroke.  segments.plan_once keys its strokes by a hash of their (T, beta, class)
+bytes (segments.row_classes), not np.unique's sort of 24-byte records: the same rows
+planned and the same plan for each row as e19044c's keys (kept below verbatim)."""
 from __future__ import annotations
 
 import copy
@@ -14,6 +16,7 @@ import pytest
 
 from gcode_opt import chains
 from gcode_opt import schedule as sc
+from gcode_opt import segments as sg
 from gcode_opt import strokes as stk
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
@@ -113,3 +116,51 @@ def test_plan_kinds_are_plan_kind(name, profile):
     for st in odd[::7]:
         st.chain_T = chains.ChainMemo()
     assert sc.plan_kinds(odd).tolist() == [chains.plan_kind(s) for s in odd]
+
+
+# ---------------------------------------------------------------- segments.plan_once
+def ref_plan_once_groups(T, beta, same):
+    """plan_once's keys at e19044c, verbatim: (the rows planned, each row's place among
+    them), or None where it declines."""
+    m = len(T)
+    key = np.empty((m, 3))
+    key[:, 0], key[:, 1], key[:, 2] = T, beta, 0.0
+    key.view(np.int64)[:, 2] = same
+    _, first, inv = np.unique(key.view(np.dtype((np.void, 24))).ravel(), return_index=True, return_inverse=True)
+    if first.size > sg.SAME_MAX_R * m:
+        return None
+    order = np.argsort(first)
+    rows = first[order]
+    place = np.empty_like(order)
+    place[order] = np.arange(order.size)
+    return rows.tolist(), place[inv.ravel()].tolist()
+
+
+def _groups(T, beta, same):
+    """plan_once's (rows planned, each row's place among them) as it plans now."""
+    seen = []
+
+    def fn(sts, T_, b_):
+        seen.append(list(sts))
+        return list(range(len(sts)))
+    out = sg.plan_once(fn, list(range(len(T))), T, beta, same)
+    return None if out is None else (seen[0], out)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_plan_once_groups_are_the_reference(seed):
+    """Keys repeating in any of their three parts, signed zeros and NaNs of other bits
+    (keys equal in their bytes only), few or many distinct: the same rows planned and the
+    same plan taken by each row."""
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(2, 3000))
+    k = int(rng.integers(1, m + 1))
+    T = rng.choice([1.0, 2.0, 0.0, -0.0, np.nan, 3.5, 1e-300], k)[rng.integers(0, k, m)]
+    beta = rng.choice([np.inf, 1.0, 2.0, -0.0, 0.0], k)[rng.integers(0, k, m)]
+    same = rng.integers(0, [3, 40, 400][seed % 3], m).astype(np.int64)
+    if seed % 2:
+        T.view(np.int64)[rng.integers(0, m, 5)] = 0x7FF8000000000001      # a NaN of other bits
+    want = ref_plan_once_groups(T, beta, same)
+    assert _groups(T, beta, same) == want
+    if seed % 3 == 0:
+        assert want is not None and len(want[0]) < m     # (rows share plans: the groups compared)

@@ -226,7 +226,7 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
     isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
     n = len(strokes)
-    ok = {k: np.array([i for i in r if i not in failed], int) for k, r in rows.items()}
+    ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
         pieces = []
@@ -269,6 +269,25 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         isolate(lambda r: kind.fixed_alpha(fixed, pin, r, strokes, profile, alpha, rules), ok[k], "planning",
                 failed)
     return None, fixed
+
+
+def _not_failed(rows, failed):
+    """np.array([i for i in rows if i not in failed], int): the rows (an int array) whose
+    stroke has no failure, as a new array (all of them, the usual case: no Python pass)."""
+    if not failed:
+        return np.array(rows, int)
+    rows = np.asarray(rows)
+    return np.array(rows[[i not in failed for i in rows.tolist()]], int)
+
+
+def _faults_of(fault):
+    """{i: str(why)} of every stroke whose fault (pin.fault: its reason, "" = fine) is
+    one, in the strokes' order: the truthy ones found by one cast, not a Python test a
+    stroke."""
+    fz = np.asarray(fault, dtype=object)
+    if fz.ndim != 1:
+        return {i: str(r) for i, r in enumerate(fault) if r}
+    return {i: str(fz[i]) for i in np.flatnonzero(fz.astype(bool)).tolist()}
 
 
 def _plan_fault(plan):
@@ -624,7 +643,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
     if cached is None:
         fault = getattr(pin, "fault", None)
-        failed = {} if fault is None else {i: str(r) for i, r in enumerate(fault) if r}
+        failed = {} if fault is None else _faults_of(fault)
         cands, fixed = _candidates(strokes, pin, profile, opts, rows, failed) if len(strokes) else (None, None)
         cached = pin.cached = (cands, fixed, failed)
         # the candidates' freed temporaries given back before the plan runs: the runs' own

@@ -164,3 +164,26 @@ def test_plan_once_groups_are_the_reference(seed):
     assert _groups(T, beta, same) == want
     if seed % 3 == 0:
         assert want is not None and len(want[0]) < m     # (rows share plans: the groups compared)
+
+
+# ---------------------------------------------------------------- _not_failed, _faults_of
+@pytest.mark.parametrize("seed", range(4))
+def test_failed_rows_are_the_reference(seed):
+    """schedule._not_failed and _faults_of against plan_strokes' and _candidates' list
+    comprehensions of e19044c (kept here verbatim)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 500))
+    fault = np.empty(n, dtype=object)
+    fault[:] = ""
+    for i in rng.integers(0, max(n, 1), int(rng.integers(0, 6))).tolist() if n else []:
+        fault[i] = rng.choice(["error: planning (ValueError)", "error: non-finite plan input"])
+    want = {i: str(r) for i, r in enumerate(fault) if r}
+    got = sc._faults_of(fault)
+    assert got == want and list(got) == list(want)
+    assert sc._faults_of(list(fault)) == want
+    for failed in (want, {}, {int(i): "x" for i in rng.integers(0, max(n, 1), 3)}):
+        rows = np.sort(rng.choice(max(n, 1), size=min(n, 100), replace=False)) if n else np.zeros(0, int)
+        ref = np.array([i for i in rows if i not in failed], int)
+        new = sc._not_failed(rows, failed)
+        assert new.dtype == ref.dtype and new.tolist() == ref.tolist()
+        assert new is not rows

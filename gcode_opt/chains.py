@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from array import array
 from functools import partial
-from operator import attrgetter, is_not, itemgetter
+from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
 
@@ -289,16 +289,7 @@ class _Again(_KeptLaws):
         raise KeyError(r)
 
 
-_ZERO_D = array("d", (0.0,))
-
-
-def _knots_s(ends_d):
-    """[0, ends_d] as a new array of doubles: a stroke's ends_d (an array of doubles)
-    copied after a 0 (~0.4 us less than np.concatenate a chain); anything else as
-    np.concatenate([[0.0], np.asarray(ends_d, float)])."""
-    if isinstance(ends_d, array) and ends_d.typecode == "d":
-        return np.array(_ZERO_D + ends_d)
-    return np.concatenate([[0.0], np.asarray(ends_d, float)])
+_knots_s = curves.knots_s
 
 
 def _knots_rows(sts, n):
@@ -497,6 +488,7 @@ def _laws_knots(Qs, laws, profile):
 
 _LENGTH_D, _V0, _V1 = attrgetter("length_d"), attrgetter("v0"), attrgetter("v1")
 _BASE, _LO, _CHAIN_CAPS = attrgetter("base"), attrgetter("lo"), attrgetter("chain_caps")
+_CHAIN_T = attrgetter("chain_T")
 _IS_NOT_NONE = partial(is_not, None)
 _IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
 
@@ -826,6 +818,88 @@ class ChainMemo:
         if seg is not None and self.seg_T == lt and self.seg_beta == beta and self.seg_key == key:
             return lt, seg, None
         return lt, None, self.plan_of(lt, beta)
+
+
+ASK_ROWS_MIN = 64          # chains of one shared rows array worth answering by numpy (ask_all)
+
+
+def ask_all(memos, t_in, b_in, key, T):
+    """ChainMemo.ask of every memo, memos[k].ask(t_in[k], b_in[k], key) (t_in, b_in: arrays
+    of doubles): the law durations written into T (an array of doubles), the rest returned
+    as three lists, (last plans, kept plans, rows): a memo's last plan or None, and of its
+    candidate (kept, row) or None, None.  The memos with no last plan whose rows are rows
+    of one array shared by the chains finished together (put_shared: ~140 chains an array
+    on the gyroid plate) are answered by numpy on that array, a group at once (ask's
+    look-ups were ~1/3 of the first plan_chain_segments: ~16 k chains, ~5 rows each, a
+    float object made of each double read); the others by ask.  (Three lists, not a tuple
+    a chain: ~1 MB of tuples at once on that plate.)"""
+    m = len(memos)
+    segs, kept, rows = [None] * m, [None] * m, [None] * m
+    figs_l = list(map(_FIGS, memos))
+    # the memos' places by their rows array, those with no last plan and rows only
+    free = np.fromiter(map(_IS_NONE, map(_SEG, memos)), bool, m) & np.fromiter(map(_IS_NOT_NONE, figs_l), bool, m)
+    ids = np.fromiter(map(id, figs_l), np.uint64, m)
+    ks_free = np.flatnonzero(free)
+    by_pos, ends = [], []
+    if ks_free.size:
+        _, first, inv = np.unique(ids[ks_free], return_index=True, return_inverse=True)
+        by_pos = ks_free[np.argsort(inv.ravel(), kind="stable")]        # grouped, in order within a group
+        ends = np.cumsum(np.bincount(inv.ravel(), None, first.size)).tolist()
+    asked = np.ones(m, bool)             # answered by ask
+    a = 0
+    for z in ends:
+        ks = by_pos[a:z]
+        figs = figs_l[int(ks[0])]
+        if ks.size >= ASK_ROWS_MIN and len(figs) % 4 == 0:
+            _ask_rows(figs, ks, memos, t_in, b_in, T, kept, rows)
+            asked[ks] = False
+        a = z
+    for k in np.flatnonzero(asked).tolist():
+        T[k], segs[k], hit = memos[k].ask(t_in[k], b_in[k], key)
+        if hit is not None:
+            kept[k], rows[k] = hit
+    return segs, kept, rows
+
+
+def _ask_rows(figs, ks, memos, t_in, b_in, T, kept_out, rows_out):
+    """ChainMemo.ask of the memos ks (an int array of places in memos, t_in, b_in and the
+    outputs), with no last plan, whose rows are rows at..at+n of figs (4 doubles a row):
+    law_of's newest row whose predicted time is t (figs.index's equality: NaN matches
+    nothing, -0.0 matches 0.0), its law T or t, into T; plan_of's newest row of that (T,
+    beta): its kept plans and row into kept_out and rows_out."""
+    F = np.frombuffer(figs, float).reshape(-1, 4)
+    ms = list(map(memos.__getitem__, ks.tolist()))
+    m = len(ms)
+    at = np.fromiter(map(_AT, ms), np.intp, m)
+    n = np.fromiter(map(_N, ms), np.intp, m)
+    w = int(n.max())
+    t = np.frombuffer(t_in, float)[ks]
+    b = np.frombuffer(b_in, float)[ks]
+    lt = t.copy()
+    hit = np.zeros(m, bool)
+    q = np.zeros(m, np.intp)
+    if w:
+        j = np.arange(w)
+        live = j < n[:, None]
+        rows = np.where(live, at[:, None] + j, 0)         # (a dead place reads row 0: masked)
+        same_t = live & (F[rows, 0] == t[:, None])
+        found = same_t.any(axis=1)
+        lt[found] = F[at[found] + same_t[found].argmax(axis=1), 1]
+        same = live & (F[rows, 1] == lt[:, None]) & (F[rows, 2] == b[:, None])
+        hit = same.any(axis=1)
+        q = same.argmax(axis=1)
+    r = F[at[hit] + q[hit], 3].tolist()  # (each hit's row in its kept plans, as a double)
+    del F                                # (the rows array's buffer let go)
+    np.frombuffer(T, float)[ks] = lt
+    h = np.flatnonzero(hit).tolist()
+    for k, memo, qi, ri in zip(ks[hit].tolist(), map(ms.__getitem__, h), q[hit].tolist(), r):
+        kept = memo.kept
+        kept_out[k] = kept[qi] if isinstance(kept, list) else kept
+        rows_out[k] = int(ri)
+
+
+_AT, _N, _FIGS, _SEG, _KEPT = attrgetter("at"), attrgetter("n"), attrgetter("figs"), attrgetter("seg"), attrgetter("kept")
+_IS_NONE = partial(is_, None)
 
 
 def _rules_key(rules, profile):
@@ -1479,24 +1553,24 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     # (asked for what its last plan was made for, its rows as they were: law_T(t) is the
     # law duration that plan was made for; law_of reads only the rows); else the
     # candidate table's plan when this (T, beta) is one of the candidates (under the same
-    # rules), else the law solved and finished (ChainMemo.ask: one call a chain)
+    # rules), else the law solved and finished (ChainMemo.ask: ask_all, by numpy on the shared rows)
     cold, lazy, again = [], [], []
-    for k, st in enumerate(strokes):
-        T[k], seg, hit = st.chain_T.ask(t_in[k], b_in[k], key)
+    segs, kept_l, rows_l = ask_all(list(map(_CHAIN_T, strokes)), t_in, b_in, key, T)
+    for k, (seg, kept, r) in enumerate(zip(segs, kept_l, rows_l)):
         if seg is not None:
             out[k] = seg
             continue
         todo.append(k)
-        if hit is not None and hit[0].key == key:
-            if isinstance(hit[0], _Again):
-                again.append((k, hit[0]))
-            elif isinstance(hit[0], _KeptLaws):
-                lazy.append((k, hit))
+        if r is not None and kept.key == key:
+            if isinstance(kept, _Again):
+                again.append((k, kept))
+            elif isinstance(kept, _KeptLaws):
+                lazy.append((k, (kept, r)))
             else:
-                out[k] = hit[0].plan(hit[1])
+                out[k] = kept.plan(r)
         else:
             cold.append(k)
-    hit = None
+    segs = kept_l = rows_l = kept = None     # (no kept plans held here: _replay drops them as it goes)
     if len(lazy) >= TRIM_DROPPED:
         # the heap's free pages given back before the plans are made: the budget's and the
         # curves' planning freed ~20 MB in the middle of it since the candidate table, and

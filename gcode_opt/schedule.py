@@ -22,7 +22,7 @@ import math
 from collections import deque
 from functools import partial
 from itertools import compress, repeat
-from operator import attrgetter, is_
+from operator import attrgetter, is_, is_not
 
 import numpy as np
 
@@ -39,7 +39,7 @@ from .plan import (Candidates, Plan, PlanInput, candidate_pieces, input_faults, 
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, row_classes,
                        slowed_original)
-from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
+from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
 def _line_segments(sts, T, beta, rules, same=None):
@@ -99,19 +99,71 @@ KINDS = {
 ROW_KINDS = (K_CURVE,)
 
 
-_FEATURE = attrgetter("feature")
+_FEATURE, _LIM, _KIND, _CHAIN_T = attrgetter("feature"), attrgetter("lim"), attrgetter("kind"), attrgetter("chain_T")
+# the strokes' floats plan_inputs reads (as np.array([s.name for s in strokes], float))
+_PIN_FLOATS = ("length_d", "ux", "uy", "v_feed", "e_per_mm", "accel", "v0", "v1", "time_t", "int_a2")
+
+
+def _float_columns(strokes, names):
+    """{name: np.array([s.name for s in strokes], float)} for each of names: the compiled
+    core's reading (strokes.stroke_fields: a float's own double, None's NaN, a bool's 1.0 /
+    0.0, the doubles np.array makes of them) where every stroke's value is one of those,
+    else that field read here.  One pass in C, not a Python attribute read a stroke and
+    field (~10 fields of ~52 k strokes on the rectilinear plate)."""
+    got = stroke_fields(strokes, names) if strokes else None
+    out = {}
+    for j, name in enumerate(names):
+        if got is not None and (got[1][:, j] <= 2).all():
+            out[name] = np.ascontiguousarray(got[0][:, j])
+        else:
+            out[name] = np.array(list(map(attrgetter(name), strokes)), float)
+    return out
+
+
+def _lim_columns(strokes, profile):
+    """(min(lim.v_max, profile's max velocity), lim.ax_max, lim.ay_max) of every stroke as
+    float arrays, read once a Limits object: few distinct ones are shared by all the strokes
+    (state.Limits is copy-on-write), the same values read a stroke at a time."""
+    n = len(strokes)
+    lims = list(map(_LIM, strokes))
+    uniq = dict(zip(map(id, lims), lims))           # each distinct object, in first-seen order
+    at = dict(zip(uniq, range(len(uniq))))
+    which = np.fromiter(map(at.__getitem__, map(id, lims)), np.intp, n)
+    del lims
+    ul = list(uniq.values())
+    v_lim = np.array([min(lim.v_max, profile.max_velocity_v) for lim in ul], float)[which]
+    ax = np.array([lim.ax_max for lim in ul], float)[which]
+    ay = np.array([lim.ay_max for lim in ul], float)[which]
+    return v_lim, ax, ay
+
+
+def _kinds(strokes):
+    """Every stroke's kind, as an object array."""
+    kinds = np.empty(len(strokes), dtype=object)
+    kinds[:] = list(map(_KIND, strokes))
+    return kinds
+
+
+def plan_kinds(strokes, kinds=None):
+    """chains.plan_kind of every stroke, as an object array (its two fields read by map,
+    not a Python call a stroke); kinds: _kinds(strokes) if the caller has it (a new
+    array is returned)."""
+    n = len(strokes)
+    kinds = _kinds(strokes) if kinds is None else kinds.copy()
+    chain = np.fromiter(map(_IS_NOT_NONE, map(_CHAIN_T, strokes)), bool, n)
+    if chain.any():
+        kinds[chain & (kinds == K_CURVE)] = K_CHAIN
+    return kinds
 
 
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     n = len(strokes)
+    col = _float_columns(strokes, _PIN_FLOATS)
     with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
-        L = np.array([s.length_d for s in strokes], float)
-        ux = np.array([s.ux for s in strokes], float)
-        uy = np.array([s.uy for s in strokes], float)
-        v_feed = np.array([s.v_feed for s in strokes], float)
-        v_lim = np.array([min(s.lim.v_max, profile.max_velocity_v) for s in strokes], float)
+        L, ux, uy, v_feed = col["length_d"], col["ux"], col["uy"], col["v_feed"]
+        v_lim, ax, ay = _lim_columns(strokes, profile)
         area = math.pi * (profile.filament_diameter_d / 2) ** 2
-        e_mm = np.array([s.e_per_mm for s in strokes], float)
+        e_mm = col["e_per_mm"]
         v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
         # (one feature_overshoot_r call a feature, not a stroke: it reads only the feature and opts)
         feats = list(map(_FEATURE, strokes))
@@ -124,26 +176,26 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         v_cap = np.minimum(np.minimum(v_feed * (1 + over_r), v_lim), v_flow)
         v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
         # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
-        ax = np.array([s.lim.ax_max for s in strokes], float)
-        ay = np.array([s.lim.ay_max for s in strokes], float)
         a_axis = np.minimum(np.where(abs(ux) > 1e-12, ax / abs(ux), np.inf),
                             np.where(abs(uy) > 1e-12, ay / abs(uy), np.inf))
-        a_cap = np.minimum(np.array([s.accel for s in strokes], float), a_axis)
+        a_cap = np.minimum(col["accel"], a_axis)
         m = profile.moving_mass_x_kg * ux ** 2 + profile.moving_mass_y_kg * uy ** 2
         m2 = profile.moving_mass_x_kg ** 2 * ux ** 2 + profile.moving_mass_y_kg ** 2 * uy ** 2
         seg_t = max(profile.min_segment_time_t, 1.0 / profile.max_segment_rate)
-        pin = PlanInput(L, np.array([s.v0 for s in strokes], float), np.array([s.v1 for s in strokes], float),
-                        v_cap, a_cap, np.array([s.time_t for s in strokes], float),
-                        np.array([s.int_a2 for s in strokes], float), m2 / m, np.full(n, 3 * seg_t))
+        pin = PlanInput(L, col["v0"], col["v1"], v_cap, a_cap, col["time_t"], col["int_a2"], m2 / m,
+                        np.full(n, 3 * seg_t))
+    del col
     pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
     failed = {}
     # a curve whose vertices cap the speed below its feed is a chain
-    isolate(lambda r: chains.classify(strokes, r, profile),
-            [i for i, s in enumerate(strokes) if s.kind == K_CURVE], "planning", failed)
-    kinds = [chains.plan_kind(s) for s in strokes]
+    kinds = _kinds(strokes)
+    isolate(lambda r: chains.classify(strokes, r, profile), np.flatnonzero(kinds == K_CURVE), "planning", failed)
+    kinds = plan_kinds(strokes, kinds)
     for k, kind in KINDS.items():
         if kind.adjust_inputs is not None:
-            rows = [i for i in range(n) if kinds[i] == k and i not in failed]
+            rows = np.flatnonzero(kinds == k)
+            if failed:
+                rows = rows[[i not in failed for i in rows.tolist()]]
             isolate(lambda r: kind.adjust_inputs(pin, strokes, r, profile), rows, "planning", failed)
     # --corners R: lower line strokes' end speeds at sharp corners (corners.py); off by default
     try:                                      # computed first, then set: a failure changes nothing
@@ -157,7 +209,7 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
 
 
 def _rows_by_kind(strokes):
-    kinds = np.array([chains.plan_kind(s) for s in strokes], dtype=object)
+    kinds = plan_kinds(strokes)
     return {k: np.flatnonzero(kinds == k) for k in KINDS}
 
 
@@ -174,7 +226,7 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
     isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
     n = len(strokes)
-    ok = {k: np.array([i for i in r if i not in failed], int) for k, r in rows.items()}
+    ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
         pieces = []
@@ -217,6 +269,25 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         isolate(lambda r: kind.fixed_alpha(fixed, pin, r, strokes, profile, alpha, rules), ok[k], "planning",
                 failed)
     return None, fixed
+
+
+def _not_failed(rows, failed):
+    """np.array([i for i in rows if i not in failed], int): the rows (an int array) whose
+    stroke has no failure, as a new array (all of them, the usual case: no Python pass)."""
+    if not failed:
+        return np.array(rows, int)
+    rows = np.asarray(rows)
+    return np.array(rows[[i not in failed for i in rows.tolist()]], int)
+
+
+def _faults_of(fault):
+    """{i: str(why)} of every stroke whose fault (pin.fault: its reason, "" = fine) is
+    one, in the strokes' order: the truthy ones found by one cast, not a Python test a
+    stroke."""
+    fz = np.asarray(fault, dtype=object)
+    if fz.ndim != 1:
+        return {i: str(r) for i, r in enumerate(fault) if r}
+    return {i: str(fz[i]) for i in np.flatnonzero(fz.astype(bool)).tolist()}
 
 
 def _plan_fault(plan):
@@ -572,7 +643,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
     if cached is None:
         fault = getattr(pin, "fault", None)
-        failed = {} if fault is None else {i: str(r) for i, r in enumerate(fault) if r}
+        failed = {} if fault is None else _faults_of(fault)
         cands, fixed = _candidates(strokes, pin, profile, opts, rows, failed) if len(strokes) else (None, None)
         cached = pin.cached = (cands, fixed, failed)
         # the candidates' freed temporaries given back before the plan runs: the runs' own
@@ -853,6 +924,7 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
 
 _FAULT, _INT_A2, _TIME_T = attrgetter("fault"), attrgetter("int_a2"), attrgetter("time_t")
 _IS_NONE = partial(is_, None)   # x is None
+_IS_NOT_NONE = partial(is_not, None)
 _CORNER_CMD0 = attrgetter("corner_cmd0")
 
 

@@ -35,6 +35,7 @@ import os
 import sys
 import time
 from array import array
+from bisect import bisect_right
 from collections import deque
 from functools import partial
 
@@ -343,7 +344,10 @@ class _LogSums:
         self.last_hi = -1      # the last of those's last line
         self.dropped = 0       # records summed (features) and dropped from the log
         self.ids = {}          # feature -> its number, in feat_at's order
-        self.starts, self.fid = [], []   # feat_at's entries so far: their lines, their feature numbers
+        # feat_at's entries taken so far (taken out of it) from the one in force at the log's
+        # first record on: their lines, their feature numbers (int64: feature_sums reads them
+        # as they are, not copied into arrays each flush)
+        self.starts, self.fid = array("q"), array("q")
         nf = 8
         self.count, self.first = np.zeros(nf, np.int64), np.full(nf, -1, np.int64)
         self.ft, self.fa2 = np.zeros(nf), np.zeros(nf)
@@ -363,7 +367,7 @@ class _LogSums:
         self._strokes(k)
         if k < n:
             line = min(line, strokes[k].first_idx)
-        self._features(log.below(line))
+        self._features(log.below(line), line)
 
     def finish(self):
         """The rest, after the pass: every stroke, every record."""
@@ -389,16 +393,17 @@ class _LogSums:
         self.log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
         put_sums(batch, got, v0, v1, t, a2, v2)
 
-    def _features(self, rows):
-        """The first rows records added to the feature tally, then dropped from the log."""
+    def _features(self, rows, line=None):
+        """The first rows records added to the feature tally, then dropped from the log.
+        line, if given: every record left is of this line or later (flush's cut), so the
+        feature changes before the one in force at it are looked up no more and go."""
         if not rows:
             return
         feat_at, ids, fid, starts = self.feat_at, self.ids, self.fid, self.starts
-        if len(fid) < len(feat_at):        # (feat_at only grows: its new entries)
-            from itertools import islice
-            for i, f in islice(feat_at, len(fid), None):
-                starts.append(i)
-                fid.append(ids.setdefault(f, len(ids)))
+        while feat_at:            # its new entries (analyse's read and gap_lines append to it)
+            i, f = feat_at.popleft()
+            starts.append(i)
+            fid.append(ids.setdefault(f, len(ids)))
         nf = len(ids)
         if nf > len(self.count):           # more features: the sums so far kept as they are
             grow = max(nf, 2 * len(self.count)) - len(self.count)
@@ -407,12 +412,15 @@ class _LogSums:
             self.ft = np.concatenate((self.ft, np.zeros(grow)))
             self.fa2 = np.concatenate((self.fa2, np.zeros(grow)))
         first = np.full(len(self.count), -1, np.int64)     # positions in this prefix
-        self.log.feature_sums(np.array(starts, np.int64), np.array(fid, np.int64), self.count, self.ft, self.fa2,
-                              first, rows)
+        self.log.feature_sums(starts, fid, self.count, self.ft, self.fa2, first, rows)
         new = (self.first < 0) & (first >= 0)
         self.first[new] = first[new] + self.dropped
         self.log.drop(rows)
         self.dropped += rows
+        if line is not None:
+            k = bisect_right(starts, line) - 1      # the change in force at line (-1: none yet)
+            if k > 0:
+                del starts[:k], fid[:k]
 
 
 def _apply_log(log, strokes, feat_at, by_feature):

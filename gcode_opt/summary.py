@@ -6,6 +6,7 @@ import gc
 import math
 import os
 from collections import Counter
+from itertools import repeat
 from operator import attrgetter
 
 import numpy as np
@@ -124,8 +125,6 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
     V0 = np.array(list(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)))) if len(idx) else np.zeros(0)
-    # the rows built column by column on Python floats (tolist: the arrays' values) rather
-    # than numpy scalars: the same numbers, the same sums in the same order
     # the per-stroke rows only where something reads them (Options.summary_rows: the command
     # line asks for them with --json or --report; its text summary has none)
     per_stroke = [] if getattr(opts, "summary_rows", True) else None
@@ -133,9 +132,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
     try:
-        _per_stroke_rows(idx_list, out_first.tolist(), T0.tolist(), I0.tolist(), plan.T[idx].tolist(),
-                         plan.I_law[idx].tolist(), np.asarray(t_after).tolist(), np.asarray(a2_after).tolist(),
-                         plan.beta[idx].tolist(), strokes, per_stroke, by_kind)
+        _per_stroke_rows(idx_list, out_first, T0, I0, plan.T[idx], plan.I_law[idx], np.asarray(t_after),
+                         np.asarray(a2_after), plan.beta[idx], strokes, per_stroke, by_kind)
     finally:
         if gc_was:
             gc.enable()
@@ -248,12 +246,19 @@ def _kind_of(s):
 
 def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
     """build_summary's per-stroke rows (appended to per_stroke; per_stroke None: the by_kind
-    sums alone) and by_kind sums, in the order of idx (lists of Python floats by row)."""
+    sums alone) and by_kind sums, in the order of idx (columns by row: lists, or arrays,
+    whose rows are built on Python floats (tolist: the arrays' values) rather than numpy
+    scalars: the same numbers, the same sums in the same order)."""
     ss = list(map(strokes.__getitem__, idx))
-    kinds = list(map(_kind_of, ss))
+    kinds = list(map(getattr, ss, repeat("kind"), repeat("line")))       # _kind_of of each
     if per_stroke is not None:
-        _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke)
+        _rows(ss, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
     _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)
+
+
+def _as_list(col):
+    """A column as a list (an array's values as Python numbers)."""
+    return col.tolist() if isinstance(col, np.ndarray) else col
 
 
 def _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke):
@@ -282,11 +287,14 @@ def _by_kind_rows(kinds, cols, by_kind):
     each sum an add.accumulate (a strictly sequential sum) from the total so far over the
     kind's values in row order."""
     n = len(kinds)
-    if n < 64 or any(len(c) != n for c in cols) or any(set(map(type, c)) != _FLOAT_ONLY for c in cols):
-        _by_kind_loop(kinds, cols, by_kind)
+    # (a float64 array is taken as it is: the values np.array makes of its tolist())
+    cols = [c if isinstance(c, np.ndarray) and c.dtype == np.float64 and c.ndim == 1 else _as_list(c) for c in cols]
+    if n < 64 or any(len(c) != n for c in cols) or any(not isinstance(c, np.ndarray)
+                                                       and set(map(type, c)) != _FLOAT_ONLY for c in cols):
+        _by_kind_loop(kinds, list(map(_as_list, cols)), by_kind)
         return
     kind_arr = np.array(kinds, dtype=object)
-    arrs = [np.array(c, dtype=float) for c in cols]
+    arrs = [np.asarray(c, dtype=float) for c in cols]
     for kind in dict.fromkeys(kinds):            # (the kinds in the order of their first row)
         g = _kind_group(by_kind, kind)
         m = kind_arr == kind

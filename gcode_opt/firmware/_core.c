@@ -5178,9 +5178,9 @@ typedef struct {
 static RingDur *ring_dur = NULL;
 static uint64_t ring_dur_qr = 0, ring_dur_qi = 0;
 
-/* dur's slot for (qr, qi) (the table made or cleared as needed), or NULL without memory
- * (then libm, as without the table) */
-static inline RingDur *ring_dur_slot(double qr, double qi, uint64_t d_bits)
+/* the table for (qr, qi) (made or cleared as needed), or NULL without memory (then libm,
+ * as without the table); taken once a call (ring_int_r2_run), not once a piece */
+static RingDur *ring_dur_table(double qr, double qi)
 {
     uint64_t br, bi;
     memcpy(&br, &qr, sizeof br);
@@ -5196,20 +5196,28 @@ static inline RingDur *ring_dur_slot(double qr, double qi, uint64_t d_bits)
         ring_dur_qr = br;
         ring_dur_qi = bi;
     }
-    return ring_dur + ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_BITS));
+    return ring_dur;
+}
+
+/* dur's slot in a table of ring_dur_table */
+static inline RingDur *ring_dur_slot(RingDur *table, uint64_t d_bits)
+{
+    return table + ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_BITS));
 }
 
 /* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
  * finite.  decay2 NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same
- * argument: ring_solve's caller checked numpy's exp is libm's); absc (or NULL): |c| each. */
+ * argument: ring_solve's caller checked numpy's exp is libm's); absc (or NULL): |c| each.
+ * dur_finite: the caller found every dur finite already (ring_solve: not tested again). */
 static inline __attribute__((always_inline)) int
 ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssize_t n, double qr,
                 double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
                 const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
-                double *v, double *absc)
+                double *v, double *absc, int dur_finite)
 {
     int ok = 1;
     Py_ssize_t m_j = 0;
+    RingDur *table = n > 0 ? ring_dur_table(qr, qi) : NULL;
     /* pieces of one length (0: events at one time) share exp and sincos: the previous
      * piece's and the last zero-length piece's are kept (same bits in, same out) */
     uint64_t d_prev = 0, zero_bits;
@@ -5219,7 +5227,7 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
     double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
-        if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i]))) {
+        if ((!dur_finite && !isfinite(t)) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i]))) {
             ok = 0;
             break;
         }
@@ -5245,7 +5253,7 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
                     }
             }
             if (!got) {
-                RingDur *slot = ring_dur_slot(qr, qi, d_bits);
+                RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
                 if (slot != NULL && slot->key == d_bits) {
                     ex = slot->ex;
                     cs = slot->cs;
@@ -5341,7 +5349,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
     int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
-                             m_n, o_v, v, NULL);
+                             m_n, o_v, v, NULL, 0);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
@@ -5646,7 +5654,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
                                  have_q ? (const double *)qb[1].buf : NULL,
                                  have_q ? (const double *)qb[2].buf : NULL,
                                  have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0,
-                                 have_r ? (double *)rb2[1].buf : NULL, v, absc);
+                                 have_r ? (double *)rb2[1].buf : NULL, v, absc, 1);
         if (!ok) {
             ret = Py_None;
             Py_INCREF(ret);

@@ -1236,19 +1236,26 @@ def _rows_of(memo, sel):
     return memo.sub(sel) if isinstance(memo, _Knots) else memo
 
 
+# laws a chunk of true_figures: its ~20 (laws, ~300 points) arrays are ~0.3 MB each (at
+# 512 laws a chunk they were 1.3 MB, ~18 MB at once: the gyroid plate's curve candidates
+# peaked there after their solve)
+FIGURE_ROWS = 128
+
+
 def true_figures(law, R, geos, idx=None, memo=None):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
     speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
-    evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded.
-    idx: only these laws (an integer array), the others' figures NaN; each law's figures
-    are its own (its own row of every array, the batch's grid), so the same bits."""
+    evaluation goes by chunks of FIGURE_ROWS laws (law.grid_chunks), so memory stays
+    bounded.  idx: only these laws (an integer array), the others' figures NaN; each
+    law's figures are its own (its own row of every array, the batch's grid), so the
+    same bits whatever the chunks."""
     if idx is None:
         out = np.empty((5, len(geos)))
-        for sl, tau, wq in law.grid_chunks():
+        for sl, tau, wq in law.grid_chunks(rows=FIGURE_ROWS):
             out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq, _rows_of(memo, sl))
         return tuple(out)
     out = np.full((5, len(geos)), np.nan)
-    for r, tau, wq in law.grid_chunks(idx):
+    for r, tau, wq in law.grid_chunks(idx, rows=FIGURE_ROWS):
         out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq, _rows_of(memo, r))
     return tuple(out)
 

@@ -951,6 +951,24 @@ class CircleBatch:
             r = idx[a:a + step]
             yield (r,) + _graded_grid(h[r], levels)
 
+    def panel_levels(self):
+        """The panel levels of this batch's quadrature grid (at least grid_levels, when
+        set): the largest of its arcs' (a maximum, then monotone maps), so the levels of
+        a batch made of several are the largest of theirs."""
+        return self._grid_plan()[1]
+
+    @classmethod
+    def concat(cls, batches):
+        """The arcs of batches (a non-empty list), in order, as one batch; coefficients
+        zero-padded to the widest (trailing zeros: the same series), grid_levels None."""
+        coef = np.zeros((sum(len(b) for b in batches), max(b.coef.shape[1] for b in batches)))
+        a = 0
+        for b in batches:
+            coef[a:a + len(b), :b.coef.shape[1]] = b.coef
+            a += len(b)
+        cols = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d", "regime", "wc", "cc")
+        return cls(*(np.concatenate([getattr(b, f) for b in batches]) for f in cols), coef)
+
     def _grid_plan(self):
         """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch
         (at least grid_levels, when set)."""

@@ -3,14 +3,21 @@
 strokes' own share by slot -- the figures a memory change starts from.
 
     python benchmarks/mem_breakdown.py FILE [--profile NAME] [--top N] [--ringing]
+    python benchmarks/mem_breakdown.py FILE --rises [--profile NAME] [--ringing]
 
 tracemalloc makes the run ~10x slower and only sees allocations made through Python's
 allocators (numpy's data buffers are among them; the C cores' own buffers are not).  The
-RSS column is /proc/self/statm's resident set at the same moment and ru_maxrss the peak so
+RSS column is /proc/self/statm's resident set at the same moment and peak_mb() the peak so
 far, both with tracemalloc's own bookkeeping in them (on the gyroid plate ~3x the traced
 memory): compare them between phases of one run only.  The command's real peak RSS per
 phase is `gcode-opt process --profile-time`'s.  Run from /tmp or
 the tree whose gcode_opt you mean to measure (the current directory shadows PYTHONPATH).
+
+--rises: where the peak RSS is reached, without tracemalloc (whose bookkeeping would be in
+it): every rise of the peak (peak_mb), put on the innermost of the STEPS running when it
+was seen (read at each step's start and end), with glibc's heap in use and free beside
+it.  Several steps rising to about the same height is the common picture: bounding one
+step's temporaries then moves the peak only to the next.
 """
 from __future__ import annotations
 
@@ -27,12 +34,33 @@ PHASES = (("pipeline", "analyse"), ("pipeline", "plan_inputs"), ("schedule", "_c
           ("pipeline", "plan_strokes"), ("pipeline", "rewrite"), ("pipeline", "measure"))
 
 
+# the steps --rises watches: (module, attribute); plan_inputs and plan_strokes as pipeline
+# calls them, and each kind's candidates and segments through schedule.KINDS (bound there)
+STEPS = (("pipeline", "analyse"), ("pipeline", "plan_inputs"), ("pipeline", "plan_strokes"),
+         ("schedule", "_candidates"), ("schedule", "_line_candidates"), ("schedule", "line_classes"),
+         ("plan", "Candidates.of_pieces"), ("schedule", "_fit_budget"), ("schedule", "plan_auto"),
+         ("schedule", "_keep_plans"), ("laws.circle", "_layer_regime"), ("laws.circle", "_solve_cheb_batch"),
+         ("curves", "surely_over"), ("curves", "true_figures"), ("chains", "_figures_sorted"),
+         ("pipeline", "rewrite"), ("pipeline", "measure"), ("pipeline", "trim_heap"))
+
+
 def rss_mb() -> float:
     with open("/proc/self/statm") as fh:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
 def peak_mb() -> float:
+    """The process's peak resident set so far, MB: /proc/self/status's VmHWM where there is
+    one.  Linux's ru_maxrss also counts the parent's resident set at the fork that made
+    this process (kept through exec): a child of a large process (a test run, a slicer)
+    starts with that peak."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
@@ -75,13 +103,95 @@ def stroke_slots(strokes):
     return {k: v / 1e6 for k, v in sizes.most_common()}
 
 
+def heap_mb():
+    """(in use, free) MB of glibc's main heap (mallinfo2), or None off glibc >= 2.33."""
+    import ctypes
+
+    class Mallinfo2(ctypes.Structure):
+        _fields_ = [(f, ctypes.c_size_t) for f in ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
+                                                   "fsmblks", "uordblks", "fordblks", "keepcost")]
+    try:
+        fn = ctypes.CDLL(None).mallinfo2
+    except (OSError, AttributeError):
+        return None
+    fn.restype = Mallinfo2
+    m = fn()
+    return m.uordblks / 1e6, m.fordblks / 1e6
+
+
+def _run(a):
+    """The command on a.file, its output in a temporary folder."""
+    from gcode_opt.cli import main as cli_main
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = ["process", a.file, "-o", os.path.join(tmp, "out.gcode"), "--profile", a.profile, "-q"]
+        if not a.ringing:
+            cmd.append("--no-ringing")
+        try:
+            cli_main(cmd)
+        except SystemExit as e:
+            if e.code not in (0, None):
+                raise
+
+
+def rises(a):
+    """[(step path, MB risen, peak MB after, heap_mb())]: each rise of peak_mb() during the
+    command, put on the innermost STEPS running (the last three of them named); printed."""
+    import importlib
+    import gcode_opt.schedule as sch
+    stack, seen, out = [], [peak_mb()], []
+
+    def note():
+        p = peak_mb()
+        if p > seen[0]:
+            out.append(("/".join(stack[-3:]) or "(between steps)", p - seen[0], p, heap_mb()))
+            seen[0] = p
+
+    def watched(fn, name):
+        def step(*args, **kw):
+            note()
+            stack.append(name)
+            try:
+                return fn(*args, **kw)
+            finally:
+                note()
+                stack.pop()
+        return step
+
+    saved = []              # (owner, attribute, what owner.__dict__ held): put back after
+    for mod, path in STEPS:
+        owner = importlib.import_module("gcode_opt." + mod)
+        *outer, name = path.split(".")
+        for part in outer:
+            owner = getattr(owner, part)
+        saved.append((owner, name, owner.__dict__[name]))
+        setattr(owner, name, watched(getattr(owner, name), path))
+    for k, kind in sch.KINDS.items():
+        for name in ("candidates", "segments"):
+            saved.append((kind, name, kind.__dict__[name]))
+            setattr(kind, name, watched(getattr(kind, name), f"{name}[{k}]"))
+    try:
+        _run(a)
+        note()
+    finally:
+        for owner, name, was in reversed(saved):
+            setattr(owner, name, was)
+    print(f"{a.file} ({a.profile}): each rise of the peak RSS, in the step it was seen in")
+    for path, up, peak, heap in out:
+        tail = "" if heap is None else f"   [heap in use {heap[0]:.1f}, free {heap[1]:.1f} MB]"
+        print(f"  +{up:6.1f} MB -> {peak:6.1f} MB  {path}{tail}")
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("file")
     ap.add_argument("--profile", default="prusa-mk3s")
     ap.add_argument("--top", type=int, default=8, help="files listed per phase")
     ap.add_argument("--ringing", action="store_true", help="leave the ringing figures on (default: off)")
+    ap.add_argument("--rises", action="store_true", help="where the peak RSS rises (no tracemalloc)")
     a = ap.parse_args(argv)
+    if a.rises:
+        return rises(a)
 
     was_tracing = tracemalloc.is_tracing()
     if not was_tracing:
@@ -106,19 +216,10 @@ def main(argv=None):
             return out
         setattr(mod, name, wrapped)
 
-    from gcode_opt.cli import main as cli_main
     try:
         for mod, name in PHASES:
             wrap(mods[mod], name)
-        with tempfile.TemporaryDirectory() as tmp:
-            cmd = ["process", a.file, "-o", os.path.join(tmp, "out.gcode"), "--profile", a.profile, "-q"]
-            if not a.ringing:
-                cmd.append("--no-ringing")
-            try:
-                cli_main(cmd)
-            except SystemExit as e:
-                if e.code not in (0, None):
-                    raise
+        _run(a)
     finally:                  # (called in a process that goes on, e.g. a test: leave it as it was)
         for mod, name, fn in reversed(saved):
             setattr(mod, name, fn)

@@ -1237,19 +1237,26 @@ def _rows_of(memo, sel):
     return memo.sub(sel) if isinstance(memo, _Knots) else memo
 
 
+# laws a chunk of true_figures: its ~20 (laws, ~300 points) arrays are ~0.3 MB each (at
+# 512 laws a chunk they were 1.3 MB, ~18 MB at once: the gyroid plate's curve candidates
+# peaked there after their solve)
+FIGURE_ROWS = 128
+
+
 def true_figures(law, R, geos, idx=None, memo=None):
     """The circle law at κ_eff, measured on each curve's true κ(s): (∫ṡ², ∫|a|², peak
     speed, peak |a|, min speed) per law.  The quadrature grid is the whole batch's; the
-    evaluation goes by chunks of laws (law.row_chunks), so memory stays bounded.
-    idx: only these laws (an integer array), the others' figures NaN; each law's figures
-    are its own (its own row of every array, the batch's grid), so the same bits."""
+    evaluation goes by chunks of FIGURE_ROWS laws (law.grid_chunks), so memory stays
+    bounded.  idx: only these laws (an integer array), the others' figures NaN; each
+    law's figures are its own (its own row of every array, the batch's grid), so the
+    same bits whatever the chunks."""
     if idx is None:
         out = np.empty((5, len(geos)))
-        for sl, tau, wq in law.grid_chunks():
+        for sl, tau, wq in law.grid_chunks(rows=FIGURE_ROWS):
             out[:, sl] = _true_figures_rows(law.rows(sl), R[sl], geos[sl], tau, wq, _rows_of(memo, sl))
         return tuple(out)
     out = np.full((5, len(geos)), np.nan)
-    for r, tau, wq in law.grid_chunks(idx):
+    for r, tau, wq in law.grid_chunks(idx, rows=FIGURE_ROWS):
         out[:, r] = _true_figures_rows(law.take(r), R[r], [geos[i] for i in r.tolist()], tau, wq, _rows_of(memo, r))
     return tuple(out)
 
@@ -1429,6 +1436,12 @@ def _kappa_rows(geos, s, memo=None):
     return out
 
 
+# curve candidates (circle laws) solved and probed at once by candidates_curve: the solve's
+# (arcs,) and (arcs, N) arrays for 4 k arcs, ~3 MB at once; the gyroid plate's 34 k in one
+# batch held ~25 MB (its laws' coefficients alone 9 MB)
+SOLVE_ROWS = 4096
+
+
 def candidates_curve(pin, rows, strokes, profile):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt."""
@@ -1464,23 +1477,55 @@ def candidates_curve(pin, rows, strokes, profile):
     def _figures(idx, T, beta, idx_out=None, T_out=None, beta_out=None):
         """(∫v², ∫|a|², ok) of the candidates idx; idx_out: candidates left out of this
         batch, whose grid levels it takes (the figures of the batch that holds them)."""
-        gs = [geos[q] for q in idx]
-        R = 1.0 / keff[idx]                     # _solve's R, the same numbers
-        law = solve_circles(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R, R)
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
+        got = None
+        if idx.size > SOLVE_ROWS and _circle.rows_invariant():
+            got = _probe(idx, T, beta, v_lim, a_lim, SOLVE_ROWS)
+        if got is None:
+            got = _probe(idx, T, beta, v_lim, a_lim, idx.size)
+        fig, laws, levels = got
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
-        memo = {} if knots is None else knots.sub(idx)
-        why = []
-        fig = np.flatnonzero(~surely_over(law, R, gs, v_lim, a_lim, memo, why))
-        a_only[idx] = why[0]
-        if fig.size and idx_out is not None:
-            Ro = 1.0 / keff[idx_out]
-            law.grid_levels = _circle.grid_levels_of(S[idx_out] / Ro, T_out, beta_out, v0[idx_out] / Ro,
-                                                     v1[idx_out] / Ro)
-        iv, ia, pv, pa, mv = true_figures(law, R, gs, fig, memo)
+        iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
+        if fig.size:
+            if idx_out is not None:
+                Ro = 1.0 / keff[idx_out]
+                out = _circle.grid_levels_of(S[idx_out] / Ro, T_out, beta_out, v0[idx_out] / Ro, v1[idx_out] / Ro)
+                levels = levels if out is None else max(levels, out)
+            law = laws[0] if len(laws) == 1 else _circle.CircleBatch.concat(laws)
+            law.grid_levels = levels
+            q = idx[fig]
+            iv[fig], ia[fig], pv[fig], pa[fig], mv[fig] = true_figures(
+                law, 1.0 / keff[q], [geos[i] for i in q], None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
+
+    def _probe(idx, T, beta, v_lim, a_lim, step):
+        """(fig, laws, levels) of the candidates idx solved `step` at a time: the positions
+        in idx of those not surely over a limit (surely_over; a_only set for the others),
+        their circle laws (a CircleBatch a chunk), and the panel levels of the whole batch
+        (the largest of its chunks').  Each law is its own whatever its chunk, and given
+        the whole batch's levels its figures are too, except where Newton took part
+        (NEWTON_ARCS): then None, for the whole batch in one (step = idx.size)."""
+        n0 = _circle.NEWTON_ARCS[0]
+        figs, laws, levels = [], [], 0
+        for a in range(0, idx.size, step):
+            sl = slice(a, a + step)
+            q = idx[sl]
+            R = 1.0 / keff[q]                   # _solve's R, the same numbers
+            law = solve_circles(S[q] / R, T[sl], beta[sl], v0[q] / R, v1[q] / R, R)
+            if step < idx.size and _circle.NEWTON_ARCS[0] != n0:
+                return None
+            why = []
+            fig = np.flatnonzero(~surely_over(law, R, [geos[i] for i in q], v_lim[sl], a_lim[sl],
+                                              {} if knots is None else knots.sub(q), why))
+            a_only[q] = why[0]
+            levels = max(levels, law.panel_levels())
+            if fig.size:
+                figs.append(a + fig)
+                laws.append(law.take(fig))     # (the others' laws let go with the chunk)
+            del law
+        return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, levels
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go

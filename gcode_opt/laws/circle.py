@@ -449,6 +449,65 @@ def _solve_nodes(n, phi, gam2, u0, u1, w_start):
     return w, cc, ok
 
 
+def _start_nodes(n, phi, ia, w_guess):
+    """The start values of w on the N+1 nodes for the arcs ia (indices into phi): the last
+    level's solution where w_guess has one (its Chebyshev series at these nodes), else
+    the constant cruise phi."""
+    cs = _cheb_setup(n)
+    w0 = np.empty((ia.size, n + 1))
+    w0[:] = phi[ia, None]
+    if w_guess:
+        for k, i in enumerate(ia.tolist()):
+            if i in w_guess:
+                w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
+    return w0
+
+
+# arcs taken from their start nodes to their coefficients at once (_solve_coefs): the
+# preconditioned iteration's ~8 (arcs, N) work arrays, ~1.3 MB at N = 20 (at 4096 arcs,
+# _PRECOND_CHUNK, ~5.5 MB)
+_COEF_CHUNK = 1024
+
+
+def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess):
+    """(c, C, ok) of the arcs ia (indices into phi, gam2, u0, u1) on N+1 nodes: the
+    Chebyshev coefficients (arcs, N+1) of _solve_nodes' collocation solutions from
+    _start_nodes, C and the convergence flags.
+
+    Where this BLAS gives rows their own bits (rows_invariant), _COEF_CHUNK arcs at a
+    time from their start nodes to their coefficients: the preconditioned iteration and
+    the coefficient product are each arc's own, so only c, C and ok are held for the whole
+    level (on the gyroid plate's 34 k curve candidates its start nodes, nodes, the
+    product's padded copy and its result were each held whole, ~6 MB apiece).  The arcs
+    the iteration leaves go to Newton afterwards in one batch, the one _solve_nodes
+    makes (the same arcs, start nodes and order: Newton's batched products may round
+    with the batch).  Elsewhere _solve_nodes on the whole level, then the product."""
+    to_coef_t = _cheb_setup(n)["to_coef"].T
+    p, g2, a0, a1 = phi[ia], gam2[ia], u0[ia], u1[ia]
+    if not rows_invariant():
+        w, cc, ok = _solve_nodes(n, p, g2, a0, a1, _start_nodes(n, phi, ia, w_guess))
+        return _rows_matmul(w, to_coef_t), cc, ok
+    nb = ia.size
+    c = np.empty((nb, n + 1))
+    cc = np.empty(nb)
+    ok = np.empty(nb, dtype=bool)
+    left = []                   # the start nodes of the arcs left to Newton, in order
+    for a in range(0, nb, _COEF_CHUNK):
+        r = slice(a, a + _COEF_CHUNK)
+        w0 = _start_nodes(n, phi, ia[r], w_guess)
+        w, cc[r], ok[r] = _precond_cheb(n, p[r], g2[r], a0[r], a1[r], w0)
+        c[r] = _rows_matmul(w, to_coef_t)
+        if not ok[r].all():
+            left.append(w0[~ok[r]])
+        del w, w0
+    rest = np.flatnonzero(~ok)
+    if rest.size:
+        NEWTON_ARCS[0] += rest.size
+        w, cc[rest], ok[rest] = _newton_chunked(n, p[rest], g2[rest], a0[rest], a1[rest], np.concatenate(left))
+        c[rest] = _rows_matmul(w, to_coef_t)
+    return c, cc, ok
+
+
 # Arcs handed to Newton so far (a count; callers compare it before and after a solve).
 # Newton's batched products may round differently with the batch (_newton_chunked); every
 # other step of a solve is the arc's own (elementwise, row sums, _rows_matmul's fixed-shape
@@ -504,16 +563,8 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
         for lv in distinct(level[pending]):
             ia = pending[level[pending] == lv]
             n = _N_LADDER[lv]
-            cs = _cheb_setup(n)
-            w0 = np.empty((ia.size, n + 1))
-            w0[:] = phi[ia, None]                # warm start: previous level, else constant cruise
-            if w_guess:
-                for k, i in enumerate(ia.tolist()):
-                    if i in w_guess:
-                        w0[k] = _clenshaw(w_guess[i][None, :], cs["x"][None, :])[0]
             with blas_one_thread():
-                w, cc, ok = _solve_nodes(n, phi[ia], gam2[ia], u0[ia], u1[ia], w0)
-                c = _rows_matmul(w, cs["to_coef"].T)
+                c, cc, ok = _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess)
             scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
             tail = np.abs(c[:, -3:]).max(axis=1) / scale
             good = ok & (tail <= _TAIL_TOL)
@@ -523,16 +574,18 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
                 raise RuntimeError(
                     f"circle law did not converge (Φ={phi[i]}, γ²={gam2[i]}, u0={u0[i]},"
                     f" u1={u1[i]}, tail={tail[k]:.1e}, newton_ok={ok[k]})")
-            blocks.append((ia[good], c[good]))
+            # (every arc accepted, the usual case: c itself, not a copy of it beside it)
+            blocks.append((ia, c) if good.all() else (ia[good], c[good]))
             cvals[ia[good]] = cc[good]
             for k in np.flatnonzero(~good).tolist():
                 i = int(ia[k])
                 if ok[k]:
-                    w_guess[i] = c[k]
+                    w_guess[i] = c[k].copy()     # (a row, not a view holding the level's c)
                 else:
                     w_guess.pop(i, None)
             level[ia[~good]] = lv + 1
             next_pending.append(ia[~good])
+            del c, cc, ok, tail, good       # (not held through the next level's solve)
         pending = np.concatenate(next_pending)
     return blocks, cvals
 
@@ -879,21 +932,42 @@ class CircleBatch:
         """Per-arc quadrature nodes in τ resolving the layers (and their weights)."""
         return _graded_grid(*self._grid_plan())
 
-    def grid_chunks(self, idx=None):
+    def grid_chunks(self, idx=None, rows=None):
         """(slice, τ nodes, weights) per chunk of arcs: the batch's _quad_grid, built chunk
         by chunk (each arc's nodes depend on its own layer width and the batch's number of
         levels only), so the (arcs, nodes) arrays are never held for the whole batch.
-        idx: only these arcs (an integer array; chunks of EVAL_CHUNK of them, each given
-        as its index array), on the whole batch's grid: the same nodes as without idx."""
+        idx: only these arcs (an integer array; chunks of them, each given as its index
+        array), on the whole batch's grid: the same nodes as without idx.  rows: arcs a
+        chunk (default EVAL_CHUNK)."""
         h, levels = self._grid_plan()
+        step = EVAL_CHUNK if rows is None else rows
         if idx is None:
-            for sl in self.row_chunks():
+            for a in range(0, len(self), step):
+                sl = slice(a, a + step)
                 yield (sl,) + _graded_grid(h[sl], levels)
             return
         idx = np.asarray(idx, int)
-        for a in range(0, idx.size, EVAL_CHUNK):
-            r = idx[a:a + EVAL_CHUNK]
+        for a in range(0, idx.size, step):
+            r = idx[a:a + step]
             yield (r,) + _graded_grid(h[r], levels)
+
+    def panel_levels(self):
+        """The panel levels of this batch's quadrature grid (at least grid_levels, when
+        set): the largest of its arcs' (a maximum, then monotone maps), so the levels of
+        a batch made of several are the largest of theirs."""
+        return self._grid_plan()[1]
+
+    @classmethod
+    def concat(cls, batches):
+        """The arcs of batches (a non-empty list), in order, as one batch; coefficients
+        zero-padded to the widest (trailing zeros: the same series), grid_levels None."""
+        coef = np.zeros((sum(len(b) for b in batches), max(b.coef.shape[1] for b in batches)))
+        a = 0
+        for b in batches:
+            coef[a:a + len(b), :b.coef.shape[1]] = b.coef
+            a += len(b)
+        cols = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d", "regime", "wc", "cc")
+        return cls(*(np.concatenate([getattr(b, f) for b in batches]) for f in cols), coef)
 
     def _grid_plan(self):
         """(h, levels) of _quad_grid: layer width in τ per arc, panel levels of the batch
@@ -1041,8 +1115,10 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
         lam_est = np.maximum.reduce([lam, q0, q1])[rest]
         blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est)
         coef = np.zeros((nb, max(c.shape[1] for _, c in blocks)))   # zero-padded to the largest N
-        for ia, c in blocks:
+        while blocks:               # each block let go once copied
+            ia, c = blocks.pop()
             coef[rest[ia], : c.shape[1]] = c
+        del ia, c
         cc[rest] = cv
     return CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
 

@@ -1,0 +1,43 @@
+"""benchmarks/mem_breakdown.py --rises: each rise of the peak RSS put on the step it was
+seen in, and the process left as it was."""
+import importlib.util
+import os
+import re
+import subprocess
+import sys
+
+import gcode_opt.schedule as sch
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+SAMPLE = os.path.join(ROOT, "sample_gcode", "prusa_gyroid.gcode")
+
+
+def _load():
+    spec = importlib.util.spec_from_file_location("mem_breakdown", os.path.join(ROOT, "benchmarks", "mem_breakdown.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_rises_in_a_fresh_process_name_the_phases():
+    """A fresh process (a test process's peak may be above anything the sample needs): the
+    rises add up to the last peak, and analyse and planning raise it."""
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(ROOT))
+    out = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "mem_breakdown.py"), SAMPLE, "--rises"],
+                         capture_output=True, text=True, check=True, env=env).stdout
+    rows = [(float(m[1]), float(m[2]), m[3]) for m in re.finditer(r"\+\s*([\d.]+) MB ->\s*([\d.]+) MB  (\S+)", out)]
+    assert rows, out
+    peaks = [p for _, p, _ in rows]
+    assert peaks == sorted(peaks)
+    assert abs(sum(up for up, _, _ in rows[1:]) - (peaks[-1] - peaks[0])) <= 0.05 * len(rows)   # (printed to 0.1)
+    steps = {s for _, _, s in rows}
+    assert "analyse" in steps and any(s.startswith(("plan_inputs", "plan_strokes")) for s in steps), steps
+
+
+def test_rises_leave_the_steps_as_they_were():
+    mod = _load()
+    kinds = {k: (kind.candidates, kind.segments) for k, kind in sch.KINDS.items()}
+    fit, of_pieces = sch._fit_budget, vars(sch.Candidates)["of_pieces"]
+    mod.main([SAMPLE, "--rises"])
+    assert sch._fit_budget is fit and vars(sch.Candidates)["of_pieces"] is of_pieces
+    assert all((kind.candidates, kind.segments) == kinds[k] for k, kind in sch.KINDS.items())

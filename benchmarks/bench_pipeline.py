@@ -32,7 +32,6 @@ import argparse
 import glob
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -46,7 +45,8 @@ CASES = ("bare", "read+state", "strokes", "analyse", "process")
 
 
 def _peak_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0     # Linux: kB
+    from gcode_opt.rss import peak_rss_mb      # VmHWM: ru_maxrss counts the parent's at the fork
+    return peak_rss_mb()
 
 
 def bare_loop(path, out):

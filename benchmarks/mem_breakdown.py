@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import collections
 import os
-import resource
 import sys
 import tempfile
 import tracemalloc
@@ -50,18 +49,10 @@ def rss_mb() -> float:
 
 
 def peak_mb() -> float:
-    """The process's peak resident set so far, MB: /proc/self/status's VmHWM where there is
-    one.  Linux's ru_maxrss also counts the parent's resident set at the fork that made
-    this process (kept through exec): a child of a large process (a test run, a slicer)
-    starts with that peak."""
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    """The process's peak resident set so far, MB (pipeline.peak_rss_mb: VmHWM, not the
+    ru_maxrss a child inherits from its parent)."""
+    from gcode_opt.rss import peak_rss_mb
+    return peak_rss_mb()
 
 
 def by_file(snapshot, top):

@@ -41,6 +41,7 @@ from functools import partial
 
 import numpy as np
 
+from .rss import peak_rss_mb
 from .distinct import distinct
 from . import chains, vertex_filter
 from . import features as feat
@@ -1523,17 +1524,6 @@ def trim_heap():
     except (OSError, AttributeError):
         return
     trim(0)
-
-
-def peak_rss_mb():
-    """The process's peak resident set so far, MB (ru_maxrss: KiB on Linux, bytes on
-    macOS); None where the resource module is missing (Windows)."""
-    try:
-        import resource
-    except ImportError:
-        return None
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / (1 << 20 if sys.platform == "darwin" else 1 << 10)
 
 
 def _unchanged(in_path, out_path, profile, why):

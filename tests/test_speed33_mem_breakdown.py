@@ -21,7 +21,9 @@ def _load():
 
 def test_rises_in_a_fresh_process_name_the_phases():
     """A fresh process (a test process's peak may be above anything the sample needs): the
-    rises add up to the last peak, and analyse and planning raise it."""
+    rises add up to the last peak, planning raises it, and every rise is put on a watched
+    step.  (Whether analyse raises it on the 7 k-line sample depends on the heap the imports
+    left: +0.2 to +1.4 MB, or none under pytest.)"""
     env = dict(os.environ, PYTHONPATH=os.path.abspath(ROOT))
     out = subprocess.run([sys.executable, os.path.join(ROOT, "benchmarks", "mem_breakdown.py"), SAMPLE, "--rises"],
                          capture_output=True, text=True, check=True, env=env).stdout
@@ -31,7 +33,9 @@ def test_rises_in_a_fresh_process_name_the_phases():
     assert peaks == sorted(peaks)
     assert abs(sum(up for up, _, _ in rows[1:]) - (peaks[-1] - peaks[0])) <= 0.05 * len(rows)   # (printed to 0.1)
     steps = {s for _, _, s in rows}
-    assert "analyse" in steps and any(s.startswith(("plan_inputs", "plan_strokes")) for s in steps), steps
+    assert any(s.startswith(("plan_inputs", "plan_strokes")) for s in steps), steps
+    watched = {name.split(".")[-1] for _, name in _load().STEPS} | {"candidates", "segments", "(between"}   # (the kinds')
+    assert all(s.split("/")[-1].split("[")[0] in watched for s in steps), steps
 
 
 def test_rises_leave_the_steps_as_they_were():

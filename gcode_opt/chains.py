@@ -898,7 +898,7 @@ def _ask_rows(figs, ks, memos, t_in, b_in, T, kept_out, rows_out):
         rows_out[k] = int(ri)
 
 
-_AT, _N, _FIGS, _SEG, _KEPT = attrgetter("at"), attrgetter("n"), attrgetter("figs"), attrgetter("seg"), attrgetter("kept")
+_AT, _N, _FIGS, _SEG = attrgetter("at"), attrgetter("n"), attrgetter("figs"), attrgetter("seg")
 _IS_NONE = partial(is_, None)
 
 

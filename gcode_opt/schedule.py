@@ -193,9 +193,7 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     kinds = plan_kinds(strokes, kinds)
     for k, kind in KINDS.items():
         if kind.adjust_inputs is not None:
-            rows = np.flatnonzero(kinds == k)
-            if failed:
-                rows = rows[[i not in failed for i in rows.tolist()]]
+            rows = _not_failed(np.flatnonzero(kinds == k), failed)
             isolate(lambda r: kind.adjust_inputs(pin, strokes, r, profile), rows, "planning", failed)
     # --corners R: lower line strokes' end speeds at sharp corners (corners.py); off by default
     try:                                      # computed first, then set: a failure changes nothing

@@ -6,7 +6,6 @@ import gc
 import math
 import os
 from collections import Counter
-from itertools import repeat
 from operator import attrgetter
 
 import numpy as np
@@ -250,7 +249,7 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
     whose rows are built on Python floats (tolist: the arrays' values) rather than numpy
     scalars: the same numbers, the same sums in the same order)."""
     ss = list(map(strokes.__getitem__, idx))
-    kinds = list(map(getattr, ss, repeat("kind"), repeat("line")))       # _kind_of of each
+    kinds = list(map(_kind_of, ss))
     if per_stroke is not None:
         _rows(ss, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
     _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)

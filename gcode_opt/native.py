@@ -15,11 +15,28 @@ import re
 _LOCAL_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]+"([^"]+)"', re.M)
 
 
+def _include_names(text: bytes) -> list:
+    """_LOCAL_INCLUDE.findall(text), the same names: the pattern is tried only at the
+    starts of the lines whose first character other than a blank is a "#" (a findall
+    tries it at every position, ~0.1 G instructions over the cores' sources each
+    run, as each core is loaded), and, as findall does, not inside the last match."""
+    names, done, p = [], 0, text.find(b"#")
+    while p >= 0:
+        start = text.rfind(b"\n", 0, p) + 1
+        if start >= done and not text[start:p].strip(b" \t"):
+            m = _LOCAL_INCLUDE.match(text, start)
+            if m is not None:
+                names.append(m.group(1))
+                done = m.end()
+        p = text.find(b"#", p + 1)
+    return names
+
+
 def local_headers(source: str) -> list:
     """The paths of the local headers source includes, in order (one level: the
     headers themselves include only system headers; tests/test_native_headers.py)."""
     with open(source, "rb") as fh:
-        names = _LOCAL_INCLUDE.findall(fh.read())
+        names = _include_names(fh.read())
     here = os.path.dirname(source)
     return [os.path.normpath(os.path.join(here, n.decode())) for n in names]
 

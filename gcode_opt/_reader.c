@@ -286,17 +286,25 @@ typedef struct {
  * and each value through float(); -1 if the line is not of that shape, a value is not a
  * number, a letter comes twice (Python's len(p) check) or there are too many words.
  * A value is read as it is scanned: fast_decimal's rule (the same m, digits and point, so
- * the same double), or, where that rule does not hold, to_double over the token. */
-static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+ * the same double), or, where that rule does not hold, to_double over the token.
+ *
+ * ended: s[n - 1] is a line ending ('\n' or '\r', the common line: no comment) and k < n.
+ * Then no scan of blanks, a letter, a sign, digits or a point passes n - 1 (that character
+ * is none of those and stops each), so those loops need no bound (~20% of this function's
+ * instructions); only the trailing blanks and line endings are read up to n.  A constant
+ * in read_words' two calls of it: two copies, the same steps and results. */
+static inline __attribute__((always_inline)) int read_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
+                                                               unsigned letters, Words *w, const int ended)
 {
+#define BELOW(j) (ended || (j) < n)          /* s[j] is in the code (always, when ended) */
     w->n = 0;
     w->seen = 0;
     for (;;) {
         Py_ssize_t j = k;
-        while (j < n && (s[j] == ' ' || s[j] == '\t'))
+        while (BELOW(j) && (s[j] == ' ' || s[j] == '\t'))
             j++;
         unsigned bit = 0;
-        if (j > k && j < n && s[j] >= 'A' && s[j] <= 'Z')
+        if (j > k && BELOW(j) && s[j] >= 'A' && s[j] <= 'Z')
             bit = LETTER(s[j]) & letters;
         if (bit) {
             int c = s[j] - 'A';
@@ -305,39 +313,43 @@ static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsign
             int neg = 0, ok = 1;
             Py_ssize_t digits = 0, frac = -1;      /* frac: digits after the point, -1 before it */
             unsigned long long m = 0;
-            if (j < n && (s[j] == '+' || s[j] == '-'))
+            if (BELOW(j) && (s[j] == '+' || s[j] == '-'))
                 neg = s[j++] == '-';
             /* the usual shape, digits[.digits], in two tight loops (the same m, digits, frac
              * and end as the loop below, which goes on from where they stop) */
             unsigned dd;
             Py_ssize_t j0 = j;
-            for (; j < n && (dd = (unsigned)s[j] - '0') <= 9; j++)
+            for (; BELOW(j) && (dd = (unsigned)s[j] - '0') <= 9; j++)
                 m = m * 10u + dd;
-            if (j < n && s[j] == '.') {
+            if (BELOW(j) && s[j] == '.') {
                 Py_ssize_t f0 = ++j;
-                for (; j < n && (dd = (unsigned)s[j] - '0') <= 9; j++)
+                for (; BELOW(j) && (dd = (unsigned)s[j] - '0') <= 9; j++)
                     m = m * 10u + dd;
                 frac = j - f0;
                 digits = j - j0 - 1;
             } else
                 digits = j - j0;
-            for (; j < n; j++) {
-                unsigned d = (unsigned)s[j] - '0';
-                if (d <= 9) {
-                    m = m * 10u + d;        /* wraps past 19 digits: then not used */
-                    digits++;
-                    if (frac >= 0)
-                        frac++;
-                }
-                else if (s[j] == '.') {
-                    if (frac >= 0)
+            /* the loop below takes only digits, points and signs: the tight loops stopped
+             * at none of those but a point or a sign (the usual value ends here) */
+            if (BELOW(j) && (s[j] == '.' || s[j] == '+' || s[j] == '-')) {
+                for (; j < n; j++) {
+                    unsigned d = (unsigned)s[j] - '0';
+                    if (d <= 9) {
+                        m = m * 10u + d;        /* wraps past 19 digits: then not used */
+                        digits++;
+                        if (frac >= 0)
+                            frac++;
+                    }
+                    else if (s[j] == '.') {
+                        if (frac >= 0)
+                            ok = 0;
+                        frac = 0;
+                    }
+                    else if (s[j] == '+' || s[j] == '-')
                         ok = 0;
-                    frac = 0;
+                    else
+                        break;
                 }
-                else if (s[j] == '+' || s[j] == '-')
-                    ok = 0;
-                else
-                    break;
             }
             if (j == a)
                 return -1;
@@ -365,6 +377,14 @@ static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsign
             j++;
         return j == n ? 0 : -1;
     }
+#undef BELOW
+}
+
+static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+{
+    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r'))
+        return read_words_in(s, n, k, letters, w, 1);
+    return read_words_in(s, n, k, letters, w, 0);
 }
 
 static inline int word(const Words *w, char c, double *out)

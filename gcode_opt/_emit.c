@@ -127,24 +127,18 @@ slow:
    (or -1), its decimals in *dec and, when it is one, to_double of its text in *v */
 static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
 {
-    Py_ssize_t i = 0, nf = 0;
+    Py_ssize_t i = 0, nd = 0, nf = 0;
     int neg = 0;
     uint64_t m = 0;                               /* (wraps past 19 digits: then unused) */
-    unsigned dd;
     if (i < n && p[i] == '-') {
         neg = 1;
         i++;
     }
-    /* the digits counted by where their loops stop (no counter a digit: the hot loops
-       of fast_check and plain_line) */
-    Py_ssize_t i0 = i;
-    while (i < n && (dd = (unsigned)(p[i] - '0')) <= 9) m = m * 10 + dd, i++;
-    Py_ssize_t nd = i - i0;
+    while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nd++;
     *dec = 0;
     if (i < n && p[i] == '.') {
-        Py_ssize_t f0 = ++i;
-        while (i < n && (dd = (unsigned)(p[i] - '0')) <= 9) m = m * 10 + dd, i++;
-        nf = i - f0;
+        i++;
+        while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nf++;
         *dec = (int)nf;
     }
     if (nd + nf == 0)

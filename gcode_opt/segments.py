@@ -18,7 +18,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
-from .distinct import distinct
+from .distinct import column_classes, column_classes_first, distinct
 from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
                                 marlin_jerk_junction_v_rows)
 from .firmware.simulate import FULL_STOP_V
@@ -606,14 +606,9 @@ def plan_once(plan_fn, strokes, T, beta, same):
     T, beta = np.asarray(T), np.asarray(beta)
     if not (T.dtype == beta.dtype == _F64 and T.shape == beta.shape == (m,) and np.shape(same) == (m,)):
         return None
-    key = np.empty((m, 3))
-    key[:, 0], key[:, 1], key[:, 2] = T, beta, 0.0
-    key.view(np.int64)[:, 2] = same         # (the class's int64 bytes)
-    # inv[q]: q's key, keys equal in their 24 bytes (row_classes: by a hash of the bytes,
+    # inv[q]: q's key (T, beta, class), keys equal in their 24 bytes (by a hash of the bytes,
     # not np.unique's sort of 24-byte records, ~2x its time); first[k]: key k's first stroke
-    inv = row_classes(key.view(np.int64))
-    first = np.full(int(inv.max()) + 1, m, np.int64)
-    np.minimum.at(first, inv, np.arange(m))
+    inv, first = column_classes_first([T.view(np.int64), beta.view(np.int64), np.asarray(same, np.int64)])
     if first.size > SAME_MAX_R * m:
         return None
     order = np.argsort(first)               # the keys in the order of their first stroke
@@ -737,32 +732,6 @@ def row_classes(B):
     """A class per row of the int64 array B (m, w): rows of one class equal, entry for
     entry (column_classes of its columns)."""
     return column_classes([B[:, j] for j in range(B.shape[1])])
-
-
-def column_classes(cols):
-    """A class per row of the int64 columns cols (each (m,), any strides): rows of one
-    class equal in every column.  Rows are hashed to one int64 (a wrapping sum of products
-    by odd constants), sorted by it, and each row then compared with the first of its
-    hash: one that differs (a collision) is a class of its own.  Column by column: no
-    temporary wider than a column."""
-    m, w = cols[0].shape[0], len(cols)
-    mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-    h = np.zeros(m, np.uint64)
-    for j, c in enumerate(cols):
-        x = c.view(np.uint64) * mult[j]
-        h ^= x ^ (x >> np.uint64(29))
-        h *= np.uint64(0xBF58476D1CE4E5B9)
-    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
-    del h
-    inv = inv.ravel()
-    out = inv.astype(np.int64)
-    rep = first[inv]                        # each row's first of its hash
-    odd = np.zeros(m, bool)
-    for c in cols:
-        odd |= c != c[rep]
-    odd = np.flatnonzero(odd)
-    out[odd] = first.size + np.arange(odd.size)
-    return out
 
 
 def _segment_counts(strokes, T, rules, L=None):

@@ -10,8 +10,9 @@ while they were spread and merged).  Checked against the candidates made of ever
   rows_view on shared entries, also for groups that leave out rows whose entries other
   rows share) and by numpy's (USE_CORE off: allocation_tables' positions);
 - Candidates.at, and a mix of own pieces (curves, chains) and a shared one, with bad rows.
-segments.column_classes (line_classes' classes, made column by column where the columns
-are) against row_classes as it was (e1bafc4: on one table, its rows compared at once).
+distinct.column_classes (line_classes' classes, made column by column where the columns
+are) against row_classes as it was (e1bafc4: on one table, its rows compared at once), and
+plan._same_inputs by it against its np.unique of the rows' bytes (e1bafc4).
 """
 import os
 
@@ -21,6 +22,7 @@ import pytest
 from gcode_opt import plan as plan_mod
 from gcode_opt import schedule as sc
 from gcode_opt import segments as sg
+from gcode_opt.distinct import column_classes
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.plan import Candidates, SharedPiece
 from gcode_opt.profile import load_profile
@@ -157,7 +159,7 @@ def test_column_classes_as_row_classes_was(seed):
     want = _row_classes_e1bafc4(B)
     assert np.array_equal(sg.row_classes(B), want)
     F = np.asfortranarray(B)                   # columns of other strides
-    assert np.array_equal(sg.column_classes([F[:, j] for j in range(w)]), want)
+    assert np.array_equal(column_classes([F[:, j] for j in range(w)]), want)
     assert np.unique(want).size < m            # (classes of several rows)
 
 
@@ -168,7 +170,38 @@ def test_column_classes_collision_is_a_class_of_its_own(monkeypatch):
 
     def one_hash(h, **kw):                     # every row the first's hash
         return real_unique(np.zeros_like(h), **kw)
-    monkeypatch.setattr(sg.np, "unique", one_hash)
-    got = sg.column_classes([B[:, 0], B[:, 1]])
+    monkeypatch.setattr(np, "unique", one_hash)
+    got = column_classes([B[:, 0], B[:, 1]])
     assert got[0] == got[1] == got[3]
     assert len({got[0], got[2], got[4]}) == 3
+
+
+def _same_inputs_e1bafc4(p):
+    n = len(p.L)
+    cols = (p.L, p.v0, p.v1, p.v_cap, p.a_cap, p.T_orig, p.t_seg_min)
+    X = np.empty((n, len(cols)))
+    for j, c in enumerate(cols):
+        X[:, j] = c
+    _, first, inv = np.unique(X.view(np.dtype((np.void, X.itemsize * len(cols)))).ravel(),
+                              return_index=True, return_inverse=True)
+    if first.size > plan_mod.SAME_MAX_R * n:
+        return None
+    order = np.argsort(first)
+    place = np.empty_like(order)
+    place[order] = np.arange(order.size)
+    return first[order], place[inv.ravel()]
+
+
+def test_same_inputs_as_by_np_unique(rect):
+    p = rect.take(np.random.default_rng(1).permutation(len(rect.L)))
+    got, want = plan_mod._same_inputs(p), _same_inputs_e1bafc4(p)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    # -0.0 and 0.0 apart (by their bytes), a last bit apart
+    q = p.take(np.arange(len(p.L)))
+    q.v0[:50] = np.where(q.v0[:50] == 0.0, -0.0, np.nextafter(q.v0[:50], np.inf))
+    got, want = plan_mod._same_inputs(q), _same_inputs_e1bafc4(q)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    assert got[0].size > plan_mod._same_inputs(p)[0].size
+    # too few repeats: none
+    u = rect.take(plan_mod._same_inputs(rect)[0])
+    assert plan_mod._same_inputs(u) is None and _same_inputs_e1bafc4(u) is None

@@ -11,8 +11,9 @@ allocators (numpy's data buffers are among them; the C cores' own buffers are no
 RSS column is /proc/self/statm's resident set at the same moment and peak_mb() the peak so
 far, both with tracemalloc's own bookkeeping in them (on the gyroid plate ~3x the traced
 memory): compare them between phases of one run only.  The command's real peak RSS per
-phase is `gcode-opt process --profile-time`'s.  Run from /tmp or
-the tree whose gcode_opt you mean to measure (the current directory shadows PYTHONPATH).
+phase is `gcode-opt process --profile-time`'s.  Measure a tree with PYTHONPATH=TREE: a
+script's own folder, not the current one, is first on sys.path, so without it the
+gcode_opt installed in the environment is the one measured.
 
 --rises: where the peak RSS is reached, without tracemalloc (whose bookkeeping would be in
 it): every rise of the peak (peak_mb), put on the innermost of the STEPS running when it

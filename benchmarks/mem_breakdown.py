@@ -4,20 +4,25 @@ strokes' own share by slot -- the figures a memory change starts from.
 
     python benchmarks/mem_breakdown.py FILE [--profile NAME] [--top N] [--ringing]
     python benchmarks/mem_breakdown.py FILE --rises [--profile NAME] [--ringing]
+    python benchmarks/mem_breakdown.py FILE --steps [--profile NAME] [--ringing]
 
 tracemalloc makes the run ~10x slower and only sees allocations made through Python's
 allocators (numpy's data buffers are among them; the C cores' own buffers are not).  The
 RSS column is /proc/self/statm's resident set at the same moment and peak_mb() the peak so
 far, both with tracemalloc's own bookkeeping in them (on the gyroid plate ~3x the traced
 memory): compare them between phases of one run only.  The command's real peak RSS per
-phase is `gcode-opt process --profile-time`'s.  Run from /tmp or
-the tree whose gcode_opt you mean to measure (the current directory shadows PYTHONPATH).
+phase is `gcode-opt process --profile-time`'s.  Measure a tree with PYTHONPATH=TREE: a
+script's own folder, not the current one, is first on sys.path, so without it the
+gcode_opt installed in the environment is the one measured.
 
 --rises: where the peak RSS is reached, without tracemalloc (whose bookkeeping would be in
 it): every rise of the peak (peak_mb), put on the innermost of the STEPS running when it
 was seen (read at each step's start and end), with glibc's heap in use and free beside
 it.  Several steps rising to about the same height is the common picture: bounding one
 step's temporaries then moves the peak only to the next.
+
+--steps: the same steps' RSS, peak and heap at each one's start and end, indented: whether
+a step's rise was a transient the next step reused (the heap's free part grew), or kept.
 """
 from __future__ import annotations
 
@@ -44,8 +49,10 @@ STEPS = (("pipeline", "analyse"), ("pipeline", "plan_inputs"), ("pipeline", "pla
 
 
 def rss_mb() -> float:
+    """The resident set now, in peak_mb()'s unit (VmHWM's kB / 1024: MiB; this read
+    1e6-byte MB, ~5 % more than the peak beside it)."""
     with open("/proc/self/statm") as fh:
-        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / (1 << 20)
 
 
 def peak_mb() -> float:
@@ -124,28 +131,20 @@ def _run(a):
                 raise
 
 
-def rises(a):
-    """[(step path, MB risen, peak MB after, heap_mb())]: each rise of peak_mb() during the
-    command, put on the innermost STEPS running (the last three of them named); printed."""
+def _watching(a, enter, leave):
+    """Run the command with every STEPS step and each kind's candidates and segments
+    wrapped: enter(name) before it runs, leave(name) after (it raised or not); the steps
+    put back as they were after."""
     import importlib
     import gcode_opt.schedule as sch
-    stack, seen, out = [], [peak_mb()], []
-
-    def note():
-        p = peak_mb()
-        if p > seen[0]:
-            out.append(("/".join(stack[-3:]) or "(between steps)", p - seen[0], p, heap_mb()))
-            seen[0] = p
 
     def watched(fn, name):
         def step(*args, **kw):
-            note()
-            stack.append(name)
+            enter(name)
             try:
                 return fn(*args, **kw)
             finally:
-                note()
-                stack.pop()
+                leave(name)
         return step
 
     saved = []              # (owner, attribute, what owner.__dict__ held): put back after
@@ -162,14 +161,62 @@ def rises(a):
             setattr(kind, name, watched(getattr(kind, name), f"{name}[{k}]"))
     try:
         _run(a)
-        note()
     finally:
         for owner, name, was in reversed(saved):
             setattr(owner, name, was)
+
+
+def rises(a):
+    """[(step path, MB risen, peak MB after, heap_mb())]: each rise of peak_mb() during the
+    command, put on the innermost STEPS running (the last three of them named); printed."""
+    stack, seen, out = [], [peak_mb()], []
+
+    def note():
+        p = peak_mb()
+        if p > seen[0]:
+            out.append(("/".join(stack[-3:]) or "(between steps)", p - seen[0], p, heap_mb()))
+            seen[0] = p
+
+    def enter(name):
+        note()
+        stack.append(name)
+
+    def leave(name):
+        note()
+        stack.pop()
+
+    _watching(a, enter, leave)
+    note()
     print(f"{a.file} ({a.profile}): each rise of the peak RSS, in the step it was seen in")
     for path, up, peak, heap in out:
         tail = "" if heap is None else f"   [heap in use {heap[0]:.1f}, free {heap[1]:.1f} MB]"
         print(f"  +{up:6.1f} MB -> {peak:6.1f} MB  {path}{tail}")
+    return out
+
+
+def steps(a):
+    """[(depth, '>' or '<', step, RSS MB, peak MB, heap_mb())] at each watched step's start
+    (>) and end (<), printed indented by depth: what a step holds after it (RSS, heap in
+    use) and what it left free, beside the peak -- the rises alone do not say whether a
+    step's memory was a transient, reused by the next, or kept."""
+    out, depth = [], [0]
+
+    def row(mark, name):
+        out.append((depth[0], mark, name, rss_mb(), peak_mb(), heap_mb()))
+
+    def enter(name):
+        row(">", name)
+        depth[0] += 1
+
+    def leave(name):
+        depth[0] -= 1
+        row("<", name)
+
+    _watching(a, enter, leave)
+    print(f"{a.file} ({a.profile}): RSS (statm), peak RSS and glibc's heap at each step's start (>) and end (<), MB")
+    for d, mark, name, rss, peak, heap in out:
+        tail = "" if heap is None else f"   heap in use {heap[0]:5.1f}, free {heap[1]:5.1f}"
+        print(f"  {'  ' * d}{mark} {name:{44 - 2 * d}s} RSS {rss:6.1f}  peak {peak:6.1f}{tail}")
     return out
 
 
@@ -180,9 +227,12 @@ def main(argv=None):
     ap.add_argument("--top", type=int, default=8, help="files listed per phase")
     ap.add_argument("--ringing", action="store_true", help="leave the ringing figures on (default: off)")
     ap.add_argument("--rises", action="store_true", help="where the peak RSS rises (no tracemalloc)")
+    ap.add_argument("--steps", action="store_true", help="RSS and heap at every step's start and end (no tracemalloc)")
     a = ap.parse_args(argv)
     if a.rises:
         return rises(a)
+    if a.steps:
+        return steps(a)
 
     was_tracing = tracemalloc.is_tracing()
     if not was_tracing:

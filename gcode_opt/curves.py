@@ -1554,7 +1554,7 @@ def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):
 
 
 # ------------------------------------------------------------------ segments
-KNOT_ROWS = 128            # curve laws evaluated at once on curve_knots' grid
+KNOT_ROWS = 32             # curve laws evaluated at once on curve_knots' grid (~2 MB of grid values)
 
 
 _ZERO_D = array("d", (0.0,))

@@ -18,8 +18,11 @@ Everything is vectorised over strokes (numpy), so a file with 10^5 strokes plans
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
+from .distinct import column_classes_first
 from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
@@ -98,19 +101,39 @@ def isolate(fn, rows, stage, failed):
     return pieces
 
 
+class SharedPiece(NamedTuple):
+    """The candidates of the strokes rows whose inputs repeat (pieces_once): row q has the
+    entries of distinct row inv[q], whose mask, vals (row-major), t_pos and bad rows are
+    those of a Candidates.piece of the distinct rows.  Candidates.of_pieces keeps the
+    distinct rows' entries once."""
+    rows: np.ndarray
+    mask: np.ndarray
+    vals: np.ndarray
+    t_pos: np.ndarray
+    bad: np.ndarray
+    inv: np.ndarray
+
+
 class Candidates:
     """The candidate tables (T, beta, I, KE), (n, k) by stroke and duration column, kept
     as their feasible entries only: those with a finite I, the only ones the allocation
     can choose (~17 % of the gyroid plate's, whose four dense tables held 24 MB to the end
-    of the run).  mask (n, k): which; vals (4, nnz): their T, beta, I, KE in row-major
-    order; start (n + 1,): each row's first; t_pos (n,): every duration of the row's dense
-    T >= 0 (what plan.allocate's test for costs that cannot cancel read of the others).
+    of the run).  mask (n, k): which; vals (4, m): their T, beta, I, KE; a row's entries
+    are vals[:, first:first + cnt] (first, cnt (n,): intp), in its columns' order; t_pos
+    (n,): every duration of the row's dense T >= 0 (what plan.allocate's test for costs
+    that cannot cancel read of the others).  Rows made together from one set of inputs
+    (SharedPiece: lines that repeat) share their entries: the rectilinear plate's 48.6 k
+    lines hold those of their 6.2 k distinct inputs (~1.5 MB, not ~12 MB); the others'
+    are in row-major order, as the dense tables hold them.
     Iterating gives the dense tables (T: the infeasible entries are T_orig x T_RATIOS)."""
-    __slots__ = ("mask", "vals", "start", "t_pos", "T_orig")
+    __slots__ = ("mask", "vals", "first", "cnt", "t_pos", "T_orig")
 
-    def __init__(self, mask, vals, t_pos, T_orig):
+    def __init__(self, mask, vals, t_pos, T_orig, first=None, cnt=None):
+        """first, cnt: each row's entries in vals; None: mask's True entries in row-major
+        order."""
         self.mask, self.vals, self.t_pos, self.T_orig = mask, vals, t_pos, T_orig
-        self.start = np.concatenate([[0], np.cumsum(mask.sum(axis=1))])
+        self.cnt = np.ascontiguousarray(mask.sum(axis=1) if cnt is None else cnt, np.intp)
+        self.first = np.ascontiguousarray(np.cumsum(self.cnt) - self.cnt if first is None else first, np.intp)
 
     @property
     def shape(self):
@@ -152,8 +175,8 @@ class Candidates:
 
     @classmethod
     def of_pieces(cls, n, pieces, T_orig):
-        """The tables of n strokes from Candidates.piece()s of disjoint rows; rows no piece
-        covers are infeasible.  Returns (Candidates, rows holding a non-finite candidate,
+        """The tables of n strokes from Candidates.piece()s and SharedPieces of disjoint
+        rows; rows no piece covers are infeasible.  Returns (Candidates, rows holding a non-finite candidate,
         sorted).  tests/test_memory_plan.py compares them with the dense tables.
 
         The list pieces is emptied: each piece's values are let go once copied, so the
@@ -163,22 +186,48 @@ class Candidates:
         k = len(T_RATIOS)
         mask = np.zeros((n, k), bool)
         t_pos = ((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1)
-        for sub, m, _, tp, _ in pieces:
-            mask[sub], t_pos[sub] = m, tp
-        out = cls(mask, np.empty((4, 0)), t_pos, T_orig)
-        out.vals = np.empty((4, int(out.start[-1])))
-        bad = [sub[b] for sub, _, _, _, b in pieces]
+        own = np.ones(n, bool)                # rows whose entries are their own (not shared)
+        bad = []
+        for pc in pieces:
+            if type(pc) is SharedPiece:
+                mask[pc.rows], t_pos[pc.rows] = pc.mask[pc.inv], pc.t_pos[pc.inv]
+                own[pc.rows] = False
+                bad.append(pc.rows[pc.bad[pc.inv]])
+            else:
+                sub, m, _, tp, b = pc
+                mask[sub], t_pos[sub] = m, tp
+                bad.append(sub[b])
+        # the own rows' entries first, in row-major order (all of them, without shared
+        # pieces: the layout of the dense tables' mask), then each shared piece's distinct ones
+        cnt = mask.sum(axis=1)
+        own_cnt = np.where(own, cnt, 0)
+        first = np.cumsum(own_cnt) - own_cnt
+        end = int(own_cnt.sum())
+        del own, own_cnt
+        at = []
+        for pc in pieces:
+            if type(pc) is SharedPiece:
+                cnt_u = pc.mask.sum(axis=1)
+                first[pc.rows] = end + (np.cumsum(cnt_u) - cnt_u)[pc.inv]
+                at.append(end)
+                end += int(cnt_u.sum())
+        out = cls(mask, np.empty((4, end)), t_pos, T_orig, first, cnt)
         while pieces:
-            sub, m, v, _, _ = pieces.pop()
-            out.vals[:, out._positions(sub, m)] = v
-            del sub, m, v
+            pc = pieces.pop()
+            if type(pc) is SharedPiece:
+                a = at.pop()
+                out.vals[:, a:a + pc.vals.shape[1]] = pc.vals
+            else:
+                out.vals[:, out._positions(pc[0], pc[1])] = pc[2]
+            del pc
         return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
 
     def __iter__(self):
         n, k = self.mask.shape
         T = np.zeros((n, k)) if self.T_orig is None else self.T_orig[:, None] * T_RATIOS[None, :]
         beta, I, KE = np.full((n, k), np.inf), np.full((n, k), np.inf), np.full((n, k), np.nan)
-        for a, v in zip((T, beta, I, KE), self.vals):
+        entries = self.vals[:, self._positions(np.arange(n), self.mask)]     # (row-major, as mask's)
+        for a, v in zip((T, beta, I, KE), entries):
             a[self.mask] = v
         return iter((T, beta, I, KE))
 
@@ -212,16 +261,19 @@ class Candidates:
         I_orig = np.ascontiguousarray(I_orig, float)
         if not (np.isfinite(T_orig).all() and np.isfinite(I_orig).all()):
             return None
-        first = self.start[rows]
-        cnt = self.start[rows + 1] - first
+        first, cnt = self.first[rows], self.cnt[rows]
         # the entries of the rows: all of vals when the rows hold every row with one (the
-        # usual case: only failed strokes are left out), else those rows' entries
+        # usual case: only failed strokes are left out), else those rows' entries (the
+        # checks below are of every entry: an entry two rows share is checked once)
         into = np.zeros(self.mask.shape[0], bool)
         into[rows] = True
-        every = np.repeat(into, np.diff(self.start))
+        if not self.cnt[~into].any():
+            T, I = self.vals[0], self.vals[2]
+        else:
+            used = self._entries_of(first, cnt)
+            T, I = self.vals[0, used], self.vals[2, used]
+            del used
         del into
-        T, I = (self.vals[0], self.vals[2]) if every.all() else (self.vals[0, every], self.vals[2, every])
-        del every
         settle = bool(np.all(self.t_pos[rows]))
         for t_all, i_all in ((T, I), (T_orig, I_orig)):
             for a in range(0, t_all.size, CHECK_ENTRIES):       # (bounded temporaries)
@@ -237,13 +289,20 @@ class Candidates:
     def _positions(self, rows, mask_rows):
         """Indices into vals of the True entries of mask_rows (= mask[rows]), row-major."""
         cnt = mask_rows.sum(axis=1)
-        first = np.cumsum(cnt) - cnt
-        return np.repeat(self.start[rows] - first, cnt) + np.arange(int(cnt.sum()))
+        run = np.cumsum(cnt) - cnt
+        return np.repeat(self.first[rows] - run, cnt) + np.arange(int(cnt.sum()))
+
+    def _entries_of(self, first, cnt):
+        """Which entries of vals (a bool per entry) are in the rows' spans [first, first +
+        cnt): their starts less their ends, summed along vals."""
+        m = self.vals.shape[1]
+        edges = np.bincount(first, minlength=m + 1) - np.bincount(first + cnt, minlength=m + 1)
+        return np.cumsum(edges[:m]) > 0
 
     def at(self, rows, cols):
         """(T, beta, I, KE) of the feasible entries (rows[q], cols[q])."""
         before = np.cumsum(self.mask[rows], axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
-        return self.vals[:, self.start[rows] + before]
+        return self.vals[:, self.first[rows] + before]
 
 
 class Plan:
@@ -353,8 +412,8 @@ def pieces_once(make, p: PlanInput, rows, T_orig):
     """make(p, rows, T_orig) (candidate_pieces: [Candidates.piece]) with each distinct set
     of inputs made once (_same_inputs): strokes with the same inputs, bit for bit, have the
     same entries (each entry is its row's own), so the first of each is made and the
-    others take its entries (_spread).  Where no set repeats enough, or make's pieces are
-    not the first rows' in order, make of every row."""
+    others share its entries: [SharedPiece].  Where no set repeats enough, or make's pieces
+    are not the first rows' in order, make of every row."""
     rows = np.asarray(rows)
     same = _same_inputs(p)
     if same is None:
@@ -363,12 +422,11 @@ def pieces_once(make, p: PlanInput, rows, T_orig):
     made = make(p.take(first), rows[first], T_orig)
     if not np.array_equal(np.concatenate([pc[0] for pc in made]) if made else rows[:0], rows[first]):
         return make(p, rows, T_orig)
-    return [_spread(rows[a:a + SPREAD_ROWS], inv[a:a + SPREAD_ROWS], made)
-            for a in range(0, rows.size, SPREAD_ROWS)]
+    return [SharedPiece(rows, np.concatenate([pc[1] for pc in made]), np.concatenate([pc[2] for pc in made], axis=1),
+                        np.concatenate([pc[3] for pc in made]), np.concatenate([pc[4] for pc in made]), inv)]
 
 
 SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share
-SPREAD_ROWS = 1 << 14   # pieces_once: rows whose piece _spread makes at once (bounded temporaries)
 
 
 def _same_inputs(p: PlanInput):
@@ -390,18 +448,15 @@ def _same_inputs(p: PlanInput):
         return None
     if not _plain(p):
         return None
-    X = np.empty((n, len(cols)))
-    for j, c in enumerate(cols):
-        X[:, j] = c
-    # by their bytes (-0.0 and 0.0 apart): np.unique's first of each (a stable sort)
-    _, first, inv = np.unique(X.view(np.dtype((np.void, X.itemsize * len(cols)))).ravel(),
-                              return_index=True, return_inverse=True)
+    # by their bytes (-0.0 and 0.0 apart), hashed column by column (column_classes: np.unique
+    # of the rows as 56-byte records sorted them by memcmp, ~10 ms on the rectilinear plate)
+    cls, first = column_classes_first([c.view(np.int64) for c in cols])
     if first.size > SAME_MAX_R * n:
         return None
-    order = np.argsort(first)               # the sets in the order of their first stroke
-    place = np.empty_like(order)
-    place[order] = np.arange(order.size)
-    return first[order], place[inv.ravel()]
+    by_first = np.argsort(first)            # the sets in the order of their first stroke
+    place = np.empty(first.size, np.intp)   # class -> its set's place
+    place[by_first] = np.arange(first.size)
+    return first[by_first], place[cls]
 
 
 def _plain(p: PlanInput):
@@ -415,22 +470,6 @@ def _plain(p: PlanInput):
         return bool(np.isfinite(T).all() and (T > 0).all() and np.isfinite(p.L).all()
                     and np.isfinite(p.v0).all() and np.isfinite(p.v1).all()
                     and ((T[:, 0] / (2.0 * GAMMA_HI)) ** 2 > 0.0).all())
-
-
-def _spread(rows, inv, pieces):
-    """One Candidates.piece of the strokes rows from the pieces of their distinct inputs
-    (in order, covering them all; rows[q] takes the entries of distinct row inv[q]): the
-    same mask, entries (row-major), t_pos and bad rows as the piece made of every row."""
-    mask_u = np.concatenate([pc[1] for pc in pieces])
-    vals_u = np.concatenate([pc[2] for pc in pieces], axis=1)
-    t_pos_u = np.concatenate([pc[3] for pc in pieces])
-    bad_u = np.concatenate([pc[4] for pc in pieces])
-    cnt_u = mask_u.sum(axis=1)
-    start_u = np.cumsum(cnt_u) - cnt_u
-    cnt = cnt_u[inv]
-    run = np.cumsum(cnt) - cnt              # each row's first entry in the piece
-    pos = np.repeat(start_u[inv] - run, cnt) + np.arange(int(run[-1] + cnt[-1]) if cnt.size else 0)
-    return rows, mask_u[inv], vals_u[:, pos], t_pos_u[inv], bad_u[inv]
 
 
 def _chunk_tables(p: PlanInput, chunk):

@@ -26,7 +26,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
-from .distinct import distinct
+from .distinct import column_classes_first, distinct
 from . import arcs
 from . import chains
 from . import corners
@@ -37,7 +37,7 @@ from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, candidate_pieces, input_faults, isolate, pieces_once, plan_auto,
                    plan_fixed_alpha)
 from .profile import Profile
-from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, row_classes,
+from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -841,8 +841,8 @@ def _lines_repeat(pin, rows):
     memo = getattr(pin, "lines_repeat_memo", None)
     if memo is not None and memo[0] == key:
         return memo[1]
-    X = np.stack([pin.L[rows], pin.v0[rows], pin.v1[rows], pin.T_orig[rows]], axis=1).astype(float)
-    got = bool(distinct(row_classes(X.view(np.int64))).size <= REPEAT_R * rows.size)
+    cols = [np.asarray(x[rows], float).view(np.int64) for x in (pin.L, pin.v0, pin.v1, pin.T_orig)]
+    got = bool(column_classes_first(cols)[1].size <= REPEAT_R * rows.size)
     pin.lines_repeat_memo = (key, got)
     return got
 

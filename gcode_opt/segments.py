@@ -18,7 +18,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
-from .distinct import distinct
+from .distinct import column_classes, column_classes_first, distinct
 from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
                                 marlin_jerk_junction_v_rows)
 from .firmware.simulate import FULL_STOP_V
@@ -606,14 +606,9 @@ def plan_once(plan_fn, strokes, T, beta, same):
     T, beta = np.asarray(T), np.asarray(beta)
     if not (T.dtype == beta.dtype == _F64 and T.shape == beta.shape == (m,) and np.shape(same) == (m,)):
         return None
-    key = np.empty((m, 3))
-    key[:, 0], key[:, 1], key[:, 2] = T, beta, 0.0
-    key.view(np.int64)[:, 2] = same         # (the class's int64 bytes)
-    # inv[q]: q's key, keys equal in their 24 bytes (row_classes: by a hash of the bytes,
+    # inv[q]: q's key (T, beta, class), keys equal in their 24 bytes (by a hash of the bytes,
     # not np.unique's sort of 24-byte records, ~2x its time); first[k]: key k's first stroke
-    inv = row_classes(key.view(np.int64))
-    first = np.full(int(inv.max()) + 1, m, np.int64)
-    np.minimum.at(first, inv, np.arange(m))
+    inv, first = column_classes_first([T.view(np.int64), beta.view(np.int64), np.asarray(same, np.int64)])
     if first.size > SAME_MAX_R * m:
         return None
     order = np.argsort(first)               # the keys in the order of their first stroke
@@ -710,11 +705,9 @@ def line_classes(strokes):
             by_id[id(lim)] = -1
     lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
     alone |= lim_k < 0
-    X = np.empty((m, len(cols) + 1))
-    for j, c in enumerate(cols):
-        X[:, j] = c
-    X.view(np.int64)[:, -1] = lim_k
-    out = row_classes(X.view(np.int64))
+    # by the columns where they are (the core's are views of its table): a table of them
+    # all, and row_classes' copy of its rows, were ~13 MB more on the rectilinear plate
+    out = column_classes([np.asarray(c, float).view(np.int64) for c in cols] + [lim_k])
     k = np.flatnonzero(alone)
     out[k] = out.max() + 1 + np.arange(k.size)      # each a class of its own
     return out
@@ -737,23 +730,8 @@ def _core_column(vals, kinds, cols):
 
 def row_classes(B):
     """A class per row of the int64 array B (m, w): rows of one class equal, entry for
-    entry.  Rows are hashed to one int64 (a wrapping sum of products by odd constants),
-    sorted by it, and each row then compared with the first of its hash: one that differs
-    (a collision) is a class of its own."""
-    m, w = B.shape
-    mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-    U = B.view(np.uint64)
-    h = np.zeros(m, np.uint64)
-    for j in range(w):
-        x = U[:, j] * mult[j]
-        h ^= x ^ (x >> np.uint64(29))
-        h *= np.uint64(0xBF58476D1CE4E5B9)
-    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    out = inv.astype(np.int64)
-    odd = np.flatnonzero((B != B[first[inv]]).any(axis=1))
-    out[odd] = first.size + np.arange(odd.size)
-    return out
+    entry (column_classes of its columns)."""
+    return column_classes([B[:, j] for j in range(B.shape[1])])
 
 
 def _segment_counts(strokes, T, rules, L=None):

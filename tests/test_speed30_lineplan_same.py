@@ -2,7 +2,7 @@
 
 plan.pieces_once makes the candidates of each distinct set of a line's inputs once
 (plan._same_inputs: L, v0, v1, v_cap, a_cap, T_orig, t_seg_min, by their bytes) and gives
-them to every line with those inputs (plan._spread); the budget runs segment each line
+them to every line with those inputs (plan.SharedPiece); the budget runs segment each line
 class (segments.line_classes: every stroke field plan_segments reads, by bytes and type)
 once per (T, beta) (segments.plan_once), the others taking a copy of the plan.  Checked:
 
@@ -68,15 +68,9 @@ def _same_pieces(a, b):
         assert np.array_equal(x[3], y[3]) and np.array_equal(x[4], y[4])
 
 
-def _check_candidates(p, chunk=plan_mod.CANDIDATE_CHUNK, spread_rows=None):
+def _check_candidates(p, chunk=plan_mod.CANDIDATE_CHUNK):
     rows = np.arange(len(p.L))
-    if spread_rows:
-        keep, plan_mod.SPREAD_ROWS = plan_mod.SPREAD_ROWS, spread_rows
-    try:
-        got = plan_mod.pieces_once(lambda q, r, t: plan_mod.candidate_pieces(q, r, t, chunk), p, rows, p.T_orig)
-    finally:
-        if spread_rows:
-            plan_mod.SPREAD_ROWS = keep
+    got = plan_mod.pieces_once(lambda q, r, t: plan_mod.candidate_pieces(q, r, t, chunk), p, rows, p.T_orig)
     want = plan_mod.candidate_pieces(p, rows, p.T_orig, chunk)  # every row made
     dense, bad = _dense(p, got)
     assert bad.size == 0
@@ -98,7 +92,6 @@ def test_line_candidates_same_bits(name, profile):
     for chunk in (plan_mod.CANDIDATE_CHUNK, 97):
         assert _check_candidates(ps, chunk) > 0
         assert _check_candidates(p, chunk) > 0
-    assert _check_candidates(ps, 97, spread_rows=61) > 0       # pieces of 61 rows
 
 
 def _plain_ref(p):

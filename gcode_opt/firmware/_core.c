@@ -4963,6 +4963,30 @@ static inline int ring_same(double a, double b)      /* the same bits */
     return x == y;
 }
 
+/* Whether the memo (m_t sorted, m_t0 each event's restart's start) has a restart from t0:
+ * only then can an event of a restart from t0 find its exponentials there (the same tt,
+ * t - t0, is the same event time in a restart from the same time), and that restart starts
+ * at an event at t0 (its m_t0 is its own time).  *m_j: there (the first event at t0), to
+ * look the restart's events up from. */
+static inline int ring_memo_restart(const double *m_t, const double *m_t0, Py_ssize_t m_n, double t0,
+                                    Py_ssize_t *m_j)
+{
+    Py_ssize_t lo = 0, hi = m_n;
+    while (lo < hi) {               /* the first event not before t0 */
+        Py_ssize_t mid = lo + ((hi - lo) >> 1);
+        if (m_t[mid] < t0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    for (Py_ssize_t k = lo; k < m_n && m_t[k] == t0; k++)
+        if (ring_same(m_t[k], t0) && ring_same(m_t0[k], t0)) {
+            *m_j = lo;
+            return 1;
+        }
+    return 0;
+}
+
 /* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
  * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
@@ -5007,6 +5031,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
         double gr = 0.0, gi = 0.0;
+        /* the memo serves this restart only if it has one from t0 too */
+        int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
         /* events at one time (a block without cruise: its cruise piece lasts 0) have the
          * same tt: their exponentials are the previous event's (same bits in, same out) */
         uint64_t tt_prev = 0;
@@ -5018,7 +5044,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
             if (i == start || tt_bits != tt_prev) {
                 double y2 = wd * tt, y1 = 0.0 - y2;
                 int got = 0;
-                if (m_n) {      /* the memo's event at this time in a restart from t0 */
+                if (use_m) {    /* the memo's event at this time in a restart from t0 */
                     double ti = t[i];
                     while (m_j < m_n && m_t[m_j] < ti)
                         m_j++;
@@ -5111,27 +5137,27 @@ done:
 }
 
 /* ring_jumps(dr, drp, s, wd, out) -> False (out partly written) at a jump that is not
- * finite, else True: resonance.py's Oscillator.jump_amplitude,
+ * finite (or whose drp + s dr is not), else True: resonance.py's Oscillator.jump_amplitude,
  * dr - 1j (drp + s dr) / wd, as numpy makes it: x = drp + s dr, 1j x by its fused complex
  * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
  * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
  * after it gave numpy's bits on a probe. */
 /* jump_amplitude into o (n complex numbers), as ring_jumps; checks: stop (returning 0) at a
- * jump that is not finite (ring_jumps); 0: none (ring_solve: such a jump's dc is not finite,
- * see there) */
+ * jump, or an x = drp + s dr, that is not finite (ring_jumps); 0: none (ring_solve: such a
+ * jump's dc is not finite, see there).  The steps of ring_jumps' comment, for a finite x:
+ * 1j x = (fma(0, x, -0), fma(0, 0, x)) = (-0 where x's sign bit is set, else +0; x + 0.0);
+ * over wd + 0i (ratio +0, scale 1 / wd) that is ((re + im 0) scl, (im - re 0) scl) = (-0 if
+ * x < 0 else +0, (x + 0.0) scl) -- the zeros' signs worked through, the same bits. */
 static inline __attribute__((always_inline)) int
 ring_jumps_run(const double *dr, const double *drp, Py_ssize_t n, double s, double wd, double *o, int checks)
 {
-    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
+    double scl = 1.0 / (wd + 0.0 * (0.0 / wd));
     for (Py_ssize_t i = 0; i < n; i++) {
-        if (checks && (!isfinite(dr[i]) || !isfinite(drp[i])))    /* NaN's bits are not copied */
-            return 0;
         double x = drp[i] + s * dr[i];
-        double zr, zi;
-        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
-        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
-        o[2 * i] = dr[i] - wr;
-        o[2 * i + 1] = 0.0 - wi;
+        if (checks && (!isfinite(dr[i]) || !isfinite(x)))    /* NaN's bits are not copied */
+            return 0;
+        o[2 * i] = dr[i] - (x < 0.0 ? -0.0 : 0.0);
+        o[2 * i + 1] = 0.0 - (x + 0.0) * scl;
     }
     return 1;
 }
@@ -5237,12 +5263,14 @@ typedef struct {
 
 /* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
  * finite (checks; without checks every piece is made: a number that is not finite gives a v
- * that is not finite, which ring_solve finds in their sum).  decay2 NULL: np.exp(-2 s dur)
- * is taken as the piece's exp(qr dur) (the same argument: ring_solve's caller checked numpy's
- * exp is libm's).  cand (or NULL): max_abs_r's candidates (RingCand). */
+ * that is not finite, which ring_solve finds in their sum).  dur: the pieces' lengths, or
+ * NULL: np.diff of the events' times t_s (n + 1 of them) made here into dur_out.  decay2
+ * NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same argument:
+ * ring_solve's caller checked numpy's exp is libm's).  cand (or NULL): max_abs_r's
+ * candidates (RingCand). */
 static inline __attribute__((always_inline)) int
-ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssize_t n, double qr,
-                double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
+ring_int_r2_run(const double *c, const double *dur, double *dur_out, const double *decay2, Py_ssize_t n,
+                double qr, double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
                 const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
                 double *v, RingCand *cand, int checks)
 {
@@ -5259,7 +5287,9 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
     int have_prev = 0, have_zero = 0;
     double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
     for (Py_ssize_t i = 0; i < n; i++) {
-        double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
+        double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
+        if (!dur)
+            dur_out[i] = t;
         if (checks && (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i])))) {
             ok = 0;
             break;
@@ -5271,36 +5301,38 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
             cs = cs0;
             sn = sn0;
         } else if (!have_prev || d_bits != d_prev) {
-            int got = 0;
-            if (m_n) {      /* the memo's piece from this start, of this length */
-                double ti = t_s[i];
-                while (m_j < m_n && m_t[m_j] < ti)
-                    m_j++;
-                for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                    if (ring_same(m_d[k], t)) {
-                        ex = m_v[3 * k];
-                        cs = m_v[3 * k + 1];
-                        sn = m_v[3 * k + 2];
-                        got = 1;
-                        break;
-                    }
-            }
-            if (!got) {
-                RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
-                if (slot != NULL && slot->key == d_bits) {
-                    ex = slot->ex;
-                    cs = slot->cs;
-                    sn = slot->sn;
-                } else {
+            /* the table first (a lookup; it holds most lengths the memo would give: the memo's
+             * stream filled it too), then the memo, then libm */
+            RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
+            if (slot != NULL && slot->key == d_bits) {
+                ex = slot->ex;
+                cs = slot->cs;
+                sn = slot->sn;
+            } else {
+                int got = 0;
+                if (m_n) {      /* the memo's piece from this start, of this length */
+                    double ti = t_s[i];
+                    while (m_j < m_n && m_t[m_j] < ti)
+                        m_j++;
+                    for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                        if (ring_same(m_d[k], t)) {
+                            ex = m_v[3 * k];
+                            cs = m_v[3 * k + 1];
+                            sn = m_v[3 * k + 2];
+                            got = 1;
+                            break;
+                        }
+                }
+                if (!got) {
                     double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
                     ex = exp(x);
                     ring_sincos(y, &sn, &cs);
-                    if (slot != NULL) {
-                        slot->key = d_bits;
-                        slot->ex = ex;
-                        slot->cs = cs;
-                        slot->sn = sn;
-                    }
+                }
+                if (slot != NULL) {
+                    slot->key = d_bits;
+                    slot->ex = ex;
+                    slot->cs = cs;
+                    slot->sn = sn;
                 }
             }
             if (d_bits == zero_bits) {
@@ -5386,7 +5418,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
-    int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
+    int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
                              m_n, o_v, v, NULL, 1);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
@@ -5662,9 +5694,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     }
     PyObject *sum = NULL, *peak = NULL;
     if (np_ > 0) {
-        for (Py_ssize_t i = 0; i < np_; i++)
-            dur[i] = t[i + 1] - t[i];
-        ring_int_r2_run(c, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s, rat, scl,
+        ring_int_r2_run(c, NULL, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s, rat, scl,
                         real_major, t,
                         have_q ? (const double *)qb[0].buf : NULL,
                         have_q ? (const double *)qb[1].buf : NULL,

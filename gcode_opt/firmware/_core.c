@@ -4963,6 +4963,8 @@ static inline int ring_same(double a, double b)      /* the same bits */
     return x == y;
 }
 
+#define RING_BATCH 128            /* events whose exponentials ring_amps_run makes at once */
+
 /* Whether the memo (m_t sorted, m_t0 each event's restart's start) has a restart from t0:
  * only then can an event of a restart from t0 find its exponentials there (the same tt,
  * t - t0, is the same event time in a restart from the same time), and that restart starts
@@ -5000,6 +5002,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
               double *o_t0, double *o_v, int checks)
 {
     Py_ssize_t m_j = 0;
+    double batch[4 * (RING_BATCH + 1)];    /* a batch's exponentials, and the one before's */
     while (start < n) {
         double t0 = t[start];
         if (!isfinite(t0))
@@ -5033,57 +5036,70 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double gr = 0.0, gi = 0.0;
         /* the memo serves this restart only if it has one from t0 too */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
-        /* events at one time (a block without cruise: its cruise piece lasts 0) have the
-         * same tt: their exponentials are the previous event's (same bits in, same out) */
+        /* the restart's events a batch at a time: first their exponentials (into o_v, or
+         * the batch's room), then the sums (no libm call among them: the registers the sums
+         * hold are not saved and restored around three calls an event) */
         uint64_t tt_prev = 0;
-        double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0, s1 = 0.0;
-        for (Py_ssize_t i = start; i < stop; i++) {
-            double tt = t[i] - t0;
-            uint64_t tt_bits;
-            memcpy(&tt_bits, &tt, sizeof tt_bits);
-            if (i == start || tt_bits != tt_prev) {
-                double y2 = wd * tt, y1 = 0.0 - y2;
-                int got = 0;
+        for (Py_ssize_t b0 = start; b0 < stop; b0 += RING_BATCH) {
+            Py_ssize_t b1 = stop - b0 > RING_BATCH ? b0 + RING_BATCH : stop;
+            double *ev;                 /* (ev - 4: the event before's, past the restart's start) */
+            if (o_v)
+                ev = o_v + 4 * b0;
+            else {
+                if (b0 > start)         /* (the batch before was whole) */
+                    memcpy(batch, batch + 4 * RING_BATCH, 4 * sizeof(double));
+                ev = batch + 4;
+            }
+            for (Py_ssize_t i = b0; i < b1; i++) {
+                double *e = ev + 4 * (i - b0);      /* exp(s tt), exp(-s tt), cos(wd tt), sin(wd tt) */
+                double tt = t[i] - t0;
+                uint64_t tt_bits;
+                memcpy(&tt_bits, &tt, sizeof tt_bits);
+                if (o_t0)
+                    o_t0[i] = t0;
+                /* events at one time (a block without cruise: its cruise piece lasts 0) have
+                 * the same tt: their exponentials are the previous event's (same bits in,
+                 * same out) */
+                if (i != start && tt_bits == tt_prev) {
+                    memcpy(e, e - 4, 4 * sizeof(double));
+                    continue;
+                }
+                tt_prev = tt_bits;
                 if (use_m) {    /* the memo's event at this time in a restart from t0 */
                     double ti = t[i];
+                    int got = 0;
                     while (m_j < m_n && m_t[m_j] < ti)
                         m_j++;
                     for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
                         if (ring_same(m_t0[k], t0)) {
-                            ex1 = m_v[4 * k];
-                            ex2 = m_v[4 * k + 1];
-                            c2 = m_v[4 * k + 2];
-                            s2 = m_v[4 * k + 3];
+                            memcpy(e, m_v + 4 * k, 4 * sizeof(double));
                             got = 1;
                             break;
                         }
+                    if (got)
+                        continue;
                 }
-                if (!got) {
-                    double x1 = s * tt + 0.0, x2 = -s * tt;
-                    ex1 = exp(x1);
-                    ex2 = exp(x2);
-                    ring_sincos(y2, &s2, &c2);
+                double x1 = s * tt + 0.0, x2 = -s * tt;
+                e[0] = exp(x1);
+                e[1] = exp(x2);
+                ring_sincos(wd * tt, &e[3], &e[2]);
+            }
+            for (Py_ssize_t i = b0; i < b1; i++) {
+                const double *e = ev + 4 * (i - b0);
+                double ex1 = e[0], ex2 = e[1], c2 = e[2], s2 = e[3];
+                double y2 = wd * (t[i] - t0), y1 = 0.0 - y2;
+                double s1 = y2 != 0.0 ? -s2 : y1;
+                double pr, pi;
+                ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
+                if (i == start) {
+                    gr = pr;
+                    gi = pi;
+                } else {
+                    gr = gr + pr;
+                    gi = gi + pi;
                 }
-                s1 = y2 != 0.0 ? -s2 : y1;
-                tt_prev = tt_bits;
+                ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
             }
-            if (o_t0) {
-                o_t0[i] = t0;
-                o_v[4 * i] = ex1;
-                o_v[4 * i + 1] = ex2;
-                o_v[4 * i + 2] = c2;
-                o_v[4 * i + 3] = s2;
-            }
-            double pr, pi;
-            ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
-            if (i == start) {
-                gr = pr;
-                gi = pi;
-            } else {
-                gr = gr + pr;
-                gi = gi + pi;
-            }
-            ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
         }
         cr = c[2 * (stop - 1)];
         ci = c[2 * (stop - 1) + 1];
@@ -5137,27 +5153,30 @@ done:
 }
 
 /* ring_jumps(dr, drp, s, wd, out) -> False (out partly written) at a jump that is not
- * finite (or whose drp + s dr is not), else True: resonance.py's Oscillator.jump_amplitude,
+ * finite, else True: resonance.py's Oscillator.jump_amplitude,
  * dr - 1j (drp + s dr) / wd, as numpy makes it: x = drp + s dr, 1j x by its fused complex
  * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
  * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
  * after it gave numpy's bits on a probe. */
 /* jump_amplitude into o (n complex numbers), as ring_jumps; checks: stop (returning 0) at a
- * jump, or an x = drp + s dr, that is not finite (ring_jumps); 0: none (ring_solve: such a
- * jump's dc is not finite, see there).  The steps of ring_jumps' comment, for a finite x:
- * 1j x = (fma(0, x, -0), fma(0, 0, x)) = (-0 where x's sign bit is set, else +0; x + 0.0);
- * over wd + 0i (ratio +0, scale 1 / wd) that is ((re + im 0) scl, (im - re 0) scl) = (-0 if
- * x < 0 else +0, (x + 0.0) scl) -- the zeros' signs worked through, the same bits. */
+ * jump that is not finite (ring_jumps); 0: none (ring_solve: such a jump's dc is not finite,
+ * see there).  (The product and quotient by their steps, zeros and all: worked through to
+ * fewer operations they were the same bits on hardware, but not under valgrind, whose fma
+ * gives fma(0, x, -0) another zero's sign -- as it gives numpy's, which then differed from
+ * the core's, and the probe left every chunk to the steps.) */
 static inline __attribute__((always_inline)) int
 ring_jumps_run(const double *dr, const double *drp, Py_ssize_t n, double s, double wd, double *o, int checks)
 {
-    double scl = 1.0 / (wd + 0.0 * (0.0 / wd));
+    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
     for (Py_ssize_t i = 0; i < n; i++) {
-        double x = drp[i] + s * dr[i];
-        if (checks && (!isfinite(dr[i]) || !isfinite(x)))    /* NaN's bits are not copied */
+        if (checks && (!isfinite(dr[i]) || !isfinite(drp[i])))    /* NaN's bits are not copied */
             return 0;
-        o[2 * i] = dr[i] - (x < 0.0 ? -0.0 : 0.0);
-        o[2 * i + 1] = 0.0 - (x + 0.0) * scl;
+        double x = drp[i] + s * dr[i];
+        double zr, zi;
+        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
+        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
+        o[2 * i] = dr[i] - wr;
+        o[2 * i + 1] = 0.0 - wi;
     }
     return 1;
 }

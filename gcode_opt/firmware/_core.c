@@ -4963,8 +4963,6 @@ static inline int ring_same(double a, double b)      /* the same bits */
     return x == y;
 }
 
-#define RING_BATCH 128            /* events whose exponentials ring_amps_run makes at once */
-
 /* Whether the memo (m_t sorted, m_t0 each event's restart's start) has a restart from t0:
  * only then can an event of a restart from t0 find its exponentials there (the same tt,
  * t - t0, is the same event time in a restart from the same time), and that restart starts
@@ -5002,7 +5000,6 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
               double *o_t0, double *o_v, int checks)
 {
     Py_ssize_t m_j = 0;
-    double batch[4 * (RING_BATCH + 1)];    /* a batch's exponentials, and the one before's */
     while (start < n) {
         double t0 = t[start];
         if (!isfinite(t0))
@@ -5036,70 +5033,57 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double gr = 0.0, gi = 0.0;
         /* the memo serves this restart only if it has one from t0 too */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
-        /* the restart's events a batch at a time: first their exponentials (into o_v, or
-         * the batch's room), then the sums (no libm call among them: the registers the sums
-         * hold are not saved and restored around three calls an event) */
+        /* events at one time (a block without cruise: its cruise piece lasts 0) have the
+         * same tt: their exponentials are the previous event's (same bits in, same out) */
         uint64_t tt_prev = 0;
-        for (Py_ssize_t b0 = start; b0 < stop; b0 += RING_BATCH) {
-            Py_ssize_t b1 = stop - b0 > RING_BATCH ? b0 + RING_BATCH : stop;
-            double *ev;                 /* (ev - 4: the event before's, past the restart's start) */
-            if (o_v)
-                ev = o_v + 4 * b0;
-            else {
-                if (b0 > start)         /* (the batch before was whole) */
-                    memcpy(batch, batch + 4 * RING_BATCH, 4 * sizeof(double));
-                ev = batch + 4;
-            }
-            for (Py_ssize_t i = b0; i < b1; i++) {
-                double *e = ev + 4 * (i - b0);      /* exp(s tt), exp(-s tt), cos(wd tt), sin(wd tt) */
-                double tt = t[i] - t0;
-                uint64_t tt_bits;
-                memcpy(&tt_bits, &tt, sizeof tt_bits);
-                if (o_t0)
-                    o_t0[i] = t0;
-                /* events at one time (a block without cruise: its cruise piece lasts 0) have
-                 * the same tt: their exponentials are the previous event's (same bits in,
-                 * same out) */
-                if (i != start && tt_bits == tt_prev) {
-                    memcpy(e, e - 4, 4 * sizeof(double));
-                    continue;
-                }
-                tt_prev = tt_bits;
+        double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0, s1 = 0.0;
+        for (Py_ssize_t i = start; i < stop; i++) {
+            double tt = t[i] - t0;
+            uint64_t tt_bits;
+            memcpy(&tt_bits, &tt, sizeof tt_bits);
+            if (i == start || tt_bits != tt_prev) {
+                double y2 = wd * tt, y1 = 0.0 - y2;
+                int got = 0;
                 if (use_m) {    /* the memo's event at this time in a restart from t0 */
                     double ti = t[i];
-                    int got = 0;
                     while (m_j < m_n && m_t[m_j] < ti)
                         m_j++;
                     for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
                         if (ring_same(m_t0[k], t0)) {
-                            memcpy(e, m_v + 4 * k, 4 * sizeof(double));
+                            ex1 = m_v[4 * k];
+                            ex2 = m_v[4 * k + 1];
+                            c2 = m_v[4 * k + 2];
+                            s2 = m_v[4 * k + 3];
                             got = 1;
                             break;
                         }
-                    if (got)
-                        continue;
                 }
-                double x1 = s * tt + 0.0, x2 = -s * tt;
-                e[0] = exp(x1);
-                e[1] = exp(x2);
-                ring_sincos(wd * tt, &e[3], &e[2]);
-            }
-            for (Py_ssize_t i = b0; i < b1; i++) {
-                const double *e = ev + 4 * (i - b0);
-                double ex1 = e[0], ex2 = e[1], c2 = e[2], s2 = e[3];
-                double y2 = wd * (t[i] - t0), y1 = 0.0 - y2;
-                double s1 = y2 != 0.0 ? -s2 : y1;
-                double pr, pi;
-                ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
-                if (i == start) {
-                    gr = pr;
-                    gi = pi;
-                } else {
-                    gr = gr + pr;
-                    gi = gi + pi;
+                if (!got) {
+                    double x1 = s * tt + 0.0, x2 = -s * tt;
+                    ex1 = exp(x1);
+                    ex2 = exp(x2);
+                    ring_sincos(y2, &s2, &c2);
                 }
-                ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
+                s1 = y2 != 0.0 ? -s2 : y1;
+                tt_prev = tt_bits;
             }
+            if (o_t0) {
+                o_t0[i] = t0;
+                o_v[4 * i] = ex1;
+                o_v[4 * i + 1] = ex2;
+                o_v[4 * i + 2] = c2;
+                o_v[4 * i + 3] = s2;
+            }
+            double pr, pi;
+            ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
+            if (i == start) {
+                gr = pr;
+                gi = pi;
+            } else {
+                gr = gr + pr;
+                gi = gi + pi;
+            }
+            ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
         }
         cr = c[2 * (stop - 1)];
         ci = c[2 * (stop - 1) + 1];

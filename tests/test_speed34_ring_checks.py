@@ -180,3 +180,32 @@ def test_ring_jumps_is_numpys_to_the_zeros_sign():
             d2[len(d2) // 2] = bad
             assert not CORE.ring_jumps(d2, drp[ok], osc.s, osc.wd, got)
             assert not CORE.ring_jumps(drp[ok], d2, osc.s, osc.wd, got)
+
+
+@need_solve
+def test_the_events_room_is_kept_and_the_figures_stay(monkeypatch):
+    """A Collector's _events write every chunk into one Room (views of one array); the
+    figures are those of fresh arrays a chunk."""
+    import os
+
+    from gcode_opt import ringing as rg
+    from gcode_opt.profile import load_profile
+    path = os.path.join(os.path.dirname(__file__), "..", "sample_gcode", "prusa_gyroid.gcode")
+    profile = load_profile("prusa-mk3s")
+    arrays = []
+    orig = rg._events
+
+    def spy(m, c, model, parts=True, room=None):
+        got = orig(m, c, model, parts, room)
+        arrays.append(room.arr)
+        return got
+    monkeypatch.setattr(rg, "_events", spy)
+    col = rg.Collector(profile, chunk_blocks=300)
+    rg.play(path, profile, col)
+    kept = col.figures()
+    assert len(arrays) > 5 and all(a is arrays[0] for a in arrays)
+    monkeypatch.setattr(rg, "_events", orig)
+    monkeypatch.setattr(res.Room, "grab", lambda self, need: np.full(need, np.nan))
+    col = rg.Collector(profile, chunk_blocks=300)
+    rg.play(path, profile, col)
+    assert repr(col.figures()) == repr(kept)

@@ -4963,14 +4963,41 @@ static inline int ring_same(double a, double b)      /* the same bits */
     return x == y;
 }
 
+/* Whether the memo (m_t sorted, m_t0 each event's restart's start) has a restart from t0:
+ * only then can an event of a restart from t0 find its exponentials there (the same tt,
+ * t - t0, is the same event time in a restart from the same time), and that restart starts
+ * at an event at t0 (its m_t0 is its own time).  *m_j: there (the first event at t0), to
+ * look the restart's events up from. */
+static inline int ring_memo_restart(const double *m_t, const double *m_t0, Py_ssize_t m_n, double t0,
+                                    Py_ssize_t *m_j)
+{
+    Py_ssize_t lo = 0, hi = m_n;
+    while (lo < hi) {               /* the first event not before t0 */
+        Py_ssize_t mid = lo + ((hi - lo) >> 1);
+        if (m_t[mid] < t0)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    for (Py_ssize_t k = lo; k < m_n && m_t[k] == t0; k++)
+        if (ring_same(m_t[k], t0) && ring_same(m_t0[k], t0)) {
+            *m_j = lo;
+            return 1;
+        }
+    return 0;
+}
+
 /* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
- * (m_n 0: none), o_*: this call's exponentials (NULL: not kept). */
+ * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
+ * restart holding a time or a dc that is not finite (ring_amps: numpy does that restart);
+ * 0: no such test (ring_solve: such a number makes its amplitude, and so its piece's
+ * integral or the last amplitude, not finite, which ring_solve tests once at the end). */
 static inline __attribute__((always_inline)) Py_ssize_t
 ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double wd, double span,
               Py_ssize_t short_n, Py_ssize_t start, double cr, double ci, double t_carry, double *c,
               int fused, const double *m_t, const double *m_t0, const double *m_v, Py_ssize_t m_n,
-              double *o_t0, double *o_v)
+              double *o_t0, double *o_v, int checks)
 {
     Py_ssize_t m_j = 0;
     while (start < n) {
@@ -4990,7 +5017,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         if (stop - start >= short_n)
             break;
         int fin = 1;        /* NaN's bits are not copied: such a restart is numpy's */
-        for (Py_ssize_t i = start; i < stop; i++)
+        for (Py_ssize_t i = start; checks && i < stop; i++)
             if (!isfinite(t[i] - t0) || !isfinite(dc[2 * i]) || !isfinite(dc[2 * i + 1])) {
                 fin = 0;
                 break;
@@ -5004,6 +5031,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
         double gr = 0.0, gi = 0.0;
+        /* the memo serves this restart only if it has one from t0 too */
+        int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
         /* events at one time (a block without cruise: its cruise piece lasts 0) have the
          * same tt: their exponentials are the previous event's (same bits in, same out) */
         uint64_t tt_prev = 0;
@@ -5015,7 +5044,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
             if (i == start || tt_bits != tt_prev) {
                 double y2 = wd * tt, y1 = 0.0 - y2;
                 int got = 0;
-                if (m_n) {      /* the memo's event at this time in a restart from t0 */
+                if (use_m) {    /* the memo's event at this time in a restart from t0 */
                     double ti = t[i];
                     while (m_j < m_n && m_t[m_j] < ti)
                         m_j++;
@@ -5097,7 +5126,7 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
     const double *t = (const double *)tb.buf, *dc = (const double *)db.buf;
     double *c = (double *)cb.buf;
     start = ring_amps_run(t, dc, n, s, wd, span, short_n, start, carry.real, carry.imag, t_carry, c,
-                          fused, m_t, m_t0, m_v, m_n, o_t0, o_v);
+                          fused, m_t, m_t0, m_v, m_n, o_t0, o_v, 1);
     ret = PyLong_FromSsize_t(start);
 done:
     ring_memo_release(&memo);
@@ -5113,6 +5142,29 @@ done:
  * product ((0 + 1i)(x + 0i)), the quotient by wd + 0i by its Smith division (ratio 0, scale
  * 1 / wd), then dr + 0i minus it.  out: len(dr) complex numbers.  resonance.py uses it only
  * after it gave numpy's bits on a probe. */
+/* jump_amplitude into o (n complex numbers), as ring_jumps; checks: stop (returning 0) at a
+ * jump that is not finite (ring_jumps); 0: none (ring_solve: such a jump's dc is not finite,
+ * see there).  (The product and quotient by their steps, zeros and all: worked through to
+ * fewer operations they were the same bits on hardware, but not under valgrind, whose fma
+ * gives fma(0, x, -0) another zero's sign -- as it gives numpy's, which then differed from
+ * the core's, and the probe left every chunk to the steps.) */
+static inline __attribute__((always_inline)) int
+ring_jumps_run(const double *dr, const double *drp, Py_ssize_t n, double s, double wd, double *o, int checks)
+{
+    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        if (checks && (!isfinite(dr[i]) || !isfinite(drp[i])))    /* NaN's bits are not copied */
+            return 0;
+        double x = drp[i] + s * dr[i];
+        double zr, zi;
+        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
+        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
+        o[2 * i] = dr[i] - wr;
+        o[2 * i + 1] = 0.0 - wi;
+    }
+    return 1;
+}
+
 RING_CLONES static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
 {
     Py_buffer rb, pb, ob;
@@ -5125,23 +5177,8 @@ RING_CLONES static PyObject *mod_ring_jumps(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "ring_jumps: drp and out must match dr");
         goto done;
     }
-    const double *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
-    double *o = (double *)ob.buf;
-    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);
-    int ok = 1;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        if (!isfinite(dr[i]) || !isfinite(drp[i])) {    /* NaN's bits are not copied */
-            ok = 0;
-            break;
-        }
-        double x = drp[i] + s * dr[i];
-        double zr, zi;
-        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
-        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
-        o[2 * i] = dr[i] - wr;
-        o[2 * i + 1] = 0.0 - wi;
-    }
-    ret = PyBool_FromLong(ok);
+    ret = PyBool_FromLong(ring_jumps_run((const double *)rb.buf, (const double *)pb.buf, n, s, wd,
+                                         (double *)ob.buf, 1));
 done:
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);
@@ -5191,8 +5228,12 @@ static RingDur *ring_dur_table(double qr, double qi)
             if (ring_dur == NULL)
                 return NULL;
         }
-        for (size_t k = 0; k < ((size_t)1 << RING_DUR_BITS); k++)
+        /* (an empty slot's numbers are NaN: a length whose bits are RING_DUR_NONE's -- a NaN
+         * ring_solve does not test for before the table -- takes NaN from it, as from libm) */
+        for (size_t k = 0; k < ((size_t)1 << RING_DUR_BITS); k++) {
             ring_dur[k].key = RING_DUR_NONE;
+            ring_dur[k].ex = ring_dur[k].cs = ring_dur[k].sn = NAN;
+        }
         ring_dur_qr = br;
         ring_dur_qi = bi;
     }
@@ -5205,18 +5246,41 @@ static inline RingDur *ring_dur_slot(RingDur *table, uint64_t d_bits)
     return table + ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_BITS));
 }
 
+/* |c| as numpy's complex absolute (numpy's SIMD loop: larger * sqrt(fma(r, r, 1)), r = smaller / larger) */
+static inline __attribute__((always_inline)) double ring_cabs(double cr, double ci)
+{
+    double ar = fabs(cr), ai = fabs(ci);
+    double big = ar > ai ? ar : ai, small = ai < ar ? ai : ar;
+    double ratio = big == 0.0 ? 0.0 : small / big;
+    return sqrt(fma(ratio, ratio, 1.0)) * big;
+}
+
+/* max_abs_r's pieces, found while ring_int_r2_run has each piece's |c| at hand (ring_solve):
+ * floor, the caller's peak so far; lo, np.abs(c.real).max() over the pieces; idx[0..n), the
+ * pieces whose |c| (1 + 1e-9) is not below max(floor, lo) so far, in order -- the pieces
+ * max_abs_r keeps (not below max(floor, lo)) are among them: lo only grows. */
+typedef struct {
+    double floor, lo;
+    Py_ssize_t *idx, n;
+} RingCand;
+
 /* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
- * finite.  decay2 NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same
- * argument: ring_solve's caller checked numpy's exp is libm's); absc (or NULL): |c| each.
- * dur_finite: the caller found every dur finite already (ring_solve: not tested again). */
+ * finite (checks; without checks every piece is made: a number that is not finite gives a v
+ * that is not finite, which ring_solve finds in their sum).  dur: the pieces' lengths, or
+ * NULL: np.diff of the events' times t_s (n + 1 of them) made here into dur_out.  decay2
+ * NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same argument:
+ * ring_solve's caller checked numpy's exp is libm's).  cand (or NULL): max_abs_r's
+ * candidates (RingCand). */
 static inline __attribute__((always_inline)) int
-ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssize_t n, double qr,
-                double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
+ring_int_r2_run(const double *c, const double *dur, double *dur_out, const double *decay2, Py_ssize_t n,
+                double qr, double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
                 const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
-                double *v, double *absc, int dur_finite)
+                double *v, RingCand *cand, int checks)
 {
     int ok = 1;
     Py_ssize_t m_j = 0;
+    double lo = 0.0;            /* (|c| are not below +0.0: np.max's value, NaN aside) */
+    Py_ssize_t n_cand = 0;
     RingDur *table = n > 0 ? ring_dur_table(qr, qi) : NULL;
     /* pieces of one length (0: events at one time) share exp and sincos: the previous
      * piece's and the last zero-length piece's are kept (same bits in, same out) */
@@ -5226,8 +5290,10 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
     int have_prev = 0, have_zero = 0;
     double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
     for (Py_ssize_t i = 0; i < n; i++) {
-        double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
-        if ((!dur_finite && !isfinite(t)) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i]))) {
+        double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
+        if (!dur)
+            dur_out[i] = t;
+        if (checks && (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i])))) {
             ok = 0;
             break;
         }
@@ -5238,36 +5304,38 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
             cs = cs0;
             sn = sn0;
         } else if (!have_prev || d_bits != d_prev) {
-            int got = 0;
-            if (m_n) {      /* the memo's piece from this start, of this length */
-                double ti = t_s[i];
-                while (m_j < m_n && m_t[m_j] < ti)
-                    m_j++;
-                for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                    if (ring_same(m_d[k], t)) {
-                        ex = m_v[3 * k];
-                        cs = m_v[3 * k + 1];
-                        sn = m_v[3 * k + 2];
-                        got = 1;
-                        break;
-                    }
-            }
-            if (!got) {
-                RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
-                if (slot != NULL && slot->key == d_bits) {
-                    ex = slot->ex;
-                    cs = slot->cs;
-                    sn = slot->sn;
-                } else {
+            /* the table first (a lookup; it holds most lengths the memo would give: the memo's
+             * stream filled it too), then the memo, then libm */
+            RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
+            if (slot != NULL && slot->key == d_bits) {
+                ex = slot->ex;
+                cs = slot->cs;
+                sn = slot->sn;
+            } else {
+                int got = 0;
+                if (m_n) {      /* the memo's piece from this start, of this length */
+                    double ti = t_s[i];
+                    while (m_j < m_n && m_t[m_j] < ti)
+                        m_j++;
+                    for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                        if (ring_same(m_d[k], t)) {
+                            ex = m_v[3 * k];
+                            cs = m_v[3 * k + 1];
+                            sn = m_v[3 * k + 2];
+                            got = 1;
+                            break;
+                        }
+                }
+                if (!got) {
                     double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
                     ex = exp(x);
                     ring_sincos(y, &sn, &cs);
-                    if (slot != NULL) {
-                        slot->key = d_bits;
-                        slot->ex = ex;
-                        slot->cs = cs;
-                        slot->sn = sn;
-                    }
+                }
+                if (slot != NULL) {
+                    slot->key = d_bits;
+                    slot->ex = ex;
+                    slot->cs = cs;
+                    slot->sn = sn;
                 }
             }
             if (d_bits == zero_bits) {
@@ -5287,19 +5355,24 @@ ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssi
         double c2r, c2i, yr, yi;
         ring_cmul(1, cr, ci, cr, ci, &c2r, &c2i);
         ring_cmul(1, c2r, c2i, ex * cs - 1.0, ex * sn - 0.0, &yr, &yi);
-        double ar = fabs(cr), ai = fabs(ci);
-        double big = ar > ai ? ar : ai, small = ai < ar ? ai : ar;
-        double ratio = big == 0.0 ? 0.0 : small / big;
-        double a = sqrt(fma(ratio, ratio, 1.0)) * big;
+        double a = ring_cabs(cr, ci);
         double q = real_major ? (yr + yi * rat) * scl : (yr * rat + yi) * scl;
-        if (absc)
-            absc[i] = a;
-        if (!decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
+        if (cand) {
+            double ar_ = fabs(cr);
+            lo = ar_ > lo ? ar_ : lo;
+            if (!(a * (1.0 + 1e-9) < (cand->floor > lo ? cand->floor : lo)))
+                cand->idx[n_cand++] = i;
+        }
+        if (checks && !decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
             ok = 0;
             break;
         }
         double d2 = decay2 ? decay2[i] : ex;   /* (np.exp(-2 s dur): ex, once the caller checked it is) */
         v[i] = a * a * (1.0 - d2) / four_s + q;
+    }
+    if (cand) {
+        cand->lo = lo;
+        cand->n = n_cand;
     }
     return ok;
 }
@@ -5348,8 +5421,8 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
-    int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
-                             m_n, o_v, v, NULL, 0);
+    int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
+                             m_n, o_v, v, NULL, 1);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
@@ -5419,15 +5492,6 @@ ring_peak_one(int fused, double cr, double ci, double d, double lr, double li, d
     double tau = ring_npmod(0.5 * M_PI - phi, M_PI) / wd;
     double ext = tau < d ? ring_re_abs(fused, cr, ci, lr, li, tau) : 0.0;
     return ring_npmax(best, ext);
-}
-
-/* |c| as numpy's complex absolute (ring_int_r2's) */
-static inline __attribute__((always_inline)) double ring_cabs(double cr, double ci)
-{
-    double ar = fabs(cr), ai = fabs(ci);
-    double big = ar > ai ? ar : ai, small = ai < ar ? ai : ar;
-    double ratio = big == 0.0 ? 0.0 : small / big;
-    return sqrt(fma(ratio, ratio, 1.0)) * big;
 }
 
 /* ring_peak(c, dur, lr, li, wd, fused, out, out_abs) -> False (partly written) at a number
@@ -5603,80 +5667,65 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     work = dc + 4 * n;
     c = dc + 2 * n;
     double *dur = have_r ? (double *)rb2[0].buf : work;
-    double *v = work + np_, *absc = work + 2 * np_;
-    int ok = 1;
-    /* jump_amplitude (ring_jumps) */
+    double *v = work + np_;
+    /* (max_abs_r's candidates: indices, in room of a double each) */
+    RingCand cand = {floor_, 0.0, (Py_ssize_t *)(void *)(work + 2 * np_), 0};
+    /* No number is tested for being finite on the way: one that is not (in t, dr, drp,
+     * first, or made from them) gives an amplitude that is not finite from its event on
+     * (the cumulative sum carries it), so that event's piece's integral (v) too -- or the
+     * last amplitude, which has no piece -- and a sum of terms one of which is not finite
+     * is not finite.  Both are tested once at the end: None (the caller's steps) then, as
+     * at the first such number before.  (A finite sum can overflow too: the caller's steps
+     * then give that same sum.) */
+    ring_jumps_run(dr, drp, n - off, s, wd, dc + 2 * off, 0);
     if (off) {
         dc[0] = fr;
         dc[1] = fi;
     }
-    {
-        double jrat = 0.0 / wd, jscl = 1.0 / (wd + 0.0 * jrat);
-        for (Py_ssize_t i = 0; i < n - off; i++) {
-            if (!isfinite(dr[i]) || !isfinite(drp[i])) {
-                ok = 0;
-                break;
-            }
-            double x = drp[i] + s * dr[i];
-            double zr, zi;
-            ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
-            double wr = (zr + zi * jrat) * jscl, wi = (zi - zr * jrat) * jscl;
-            dc[2 * (i + off)] = dr[i] - wr;
-            dc[2 * (i + off) + 1] = 0.0 - wi;
-        }
-    }
     /* amplitudes (carry 0j from t[0], as Oscillator.amplitudes starts) */
-    if (ok) {
-        Py_ssize_t got = ring_amps_run(t, dc, n, s, wd, span, short_n, 0, 0.0, 0.0, t[0], c, fused,
-                                       have_m ? (const double *)mb[0].buf : NULL,
-                                       have_m ? (const double *)mb[1].buf : NULL,
-                                       have_m ? (const double *)mb[2].buf : NULL,
-                                       have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0,
-                                       have_o ? (double *)ob[0].buf : NULL, have_o ? (double *)ob[1].buf : NULL);
-        ok = got == n;
-    }
-    if (!ok) {
+    Py_ssize_t got = ring_amps_run(t, dc, n, s, wd, span, short_n, 0, 0.0, 0.0, t[0], c, fused,
+                                   have_m ? (const double *)mb[0].buf : NULL,
+                                   have_m ? (const double *)mb[1].buf : NULL,
+                                   have_m ? (const double *)mb[2].buf : NULL,
+                                   have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0,
+                                   have_o ? (double *)ob[0].buf : NULL, have_o ? (double *)ob[1].buf : NULL, 0);
+    double c_last_r = c[2 * (n - 1)], c_last_i = c[2 * (n - 1) + 1];
+    if (got != n || !isfinite(c_last_r) || !isfinite(c_last_i)) {
         ret = Py_None;
         Py_INCREF(ret);
         goto done;
     }
     PyObject *sum = NULL, *peak = NULL;
     if (np_ > 0) {
-        for (Py_ssize_t i = 0; i < np_; i++) {
-            dur[i] = t[i + 1] - t[i];
-            if (!isfinite(dur[i]))
-                ok = 0;
-        }
-        if (ok)
-            ok = ring_int_r2_run(c, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s,
-                                 rat, scl, real_major, t,
-                                 have_q ? (const double *)qb[0].buf : NULL,
-                                 have_q ? (const double *)qb[1].buf : NULL,
-                                 have_q ? (const double *)qb[2].buf : NULL,
-                                 have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0,
-                                 have_r ? (double *)rb2[1].buf : NULL, v, absc, 1);
-        if (!ok) {
+        ring_int_r2_run(c, NULL, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s, rat, scl,
+                        real_major, t,
+                        have_q ? (const double *)qb[0].buf : NULL,
+                        have_q ? (const double *)qb[1].buf : NULL,
+                        have_q ? (const double *)qb[2].buf : NULL,
+                        have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0,
+                        have_r ? (double *)rb2[1].buf : NULL, v, &cand, 0);
+        double total = -0.0 + np_pairwise_sum(v, np_);
+        if (!isfinite(total)) {
             ret = Py_None;
             Py_INCREF(ret);
             goto done;
         }
-        /* max_abs_r: lo = np.abs(c.real).max(), the pieces not ruled out, np.maximum */
-        double lo = fabs(c[0]);
-        for (Py_ssize_t i = 1; i < np_; i++) {
-            double a = fabs(c[2 * i]);
-            lo = a > lo ? a : lo;
-        }
-        /* the pieces max_abs_r solves: |c| (1 + 1e-9) not below lo, nor below `floor` (a
-         * peak the caller already has: a piece below it cannot raise its max) */
+        /* max_abs_r: lo = np.abs(c.real).max(); the pieces it solves, |c| (1 + 1e-9) not below
+         * lo, nor below `floor` (a peak the caller already has: a piece below it cannot
+         * raise its max), are those of the candidates; np.maximum */
+        double lo = cand.lo;
         double thr = floor_ > lo ? floor_ : lo;
-        sum = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, np_));
+        Py_ssize_t k = 0;
+        for (Py_ssize_t j = 0; j < cand.n; j++) {
+            Py_ssize_t i = cand.idx[j];
+            if (!(ring_cabs(c[2 * i], c[2 * i + 1]) * (1.0 + 1e-9) < thr))
+                cand.idx[k++] = i;
+        }
+        sum = PyFloat_FromDouble(total);
         if (sum == NULL)
             goto done;
         if (numpy_peak) {
             /* the pieces not ruled out, for numpy's peak_abs_r (its arctan2 and exp) */
-            Py_ssize_t k = 0;
-            for (Py_ssize_t i = 0; i < np_; i++)
-                k += !(absc[i] * (1.0 + 1e-9) < thr);
             PyObject *kc = PyBytes_FromStringAndSize(NULL, 2 * k * (Py_ssize_t)sizeof(double));
             PyObject *kd = kc ? PyBytes_FromStringAndSize(NULL, k * (Py_ssize_t)sizeof(double)) : NULL;
             if (kd == NULL) {
@@ -5685,28 +5734,22 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
                 goto done;
             }
             double *pc = (double *)PyBytes_AS_STRING(kc), *pd = (double *)PyBytes_AS_STRING(kd);
-            for (Py_ssize_t i = 0, j = 0; i < np_; i++) {
-                if (absc[i] * (1.0 + 1e-9) < thr)
-                    continue;
+            for (Py_ssize_t j = 0; j < k; j++) {
+                Py_ssize_t i = cand.idx[j];
                 pc[2 * j] = c[2 * i];
                 pc[2 * j + 1] = c[2 * i + 1];
-                pd[j++] = dur[i];
+                pd[j] = dur[i];
             }
-            ret = Py_BuildValue("NdDNN", sum, lo, &(Py_complex){c[2 * (n - 1)], c[2 * (n - 1) + 1]}, kc, kd);
+            ret = Py_BuildValue("NdDNN", sum, lo, &(Py_complex){c_last_r, c_last_i}, kc, kd);
             goto done;
         }
         double lam_r = -s, lam_i = wd, pk = 0.0;
-        int have_pk = 0;
-        for (Py_ssize_t i = 0; i < np_; i++) {
-            if (absc[i] * (1.0 + 1e-9) < thr)
-                continue;
+        for (Py_ssize_t j = 0; j < k; j++) {
+            Py_ssize_t i = cand.idx[j];
             double p = ring_peak_one(fused, c[2 * i], c[2 * i + 1], dur[i], lam_r, lam_i, wd);
-            if (!have_pk || p > pk) {
-                pk = p;
-                have_pk = 1;
-            }
+            pk = j == 0 || p > pk ? p : pk;
         }
-        peak = PyFloat_FromDouble(have_pk ? ring_npmax(lo, pk) : lo);
+        peak = PyFloat_FromDouble(k > 0 ? ring_npmax(lo, pk) : lo);
     } else {
         sum = Py_None;
         Py_INCREF(sum);
@@ -5718,7 +5761,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         Py_XDECREF(peak);
         goto done;
     }
-    ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c[2 * (n - 1)], c[2 * (n - 1) + 1]});
+    ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c_last_r, c_last_i});
 done:                                        /* (have_x -1: that tuple's ring_opt_bufs failed, none held) */
     if (have_m > 0)
         for (int k = 0; k < 3; k++)
@@ -5738,6 +5781,104 @@ done:                                        /* (have_x -1: that tuple's ring_op
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);
     return ret;
+}
+
+/* x hidden from the compiler's algebra: where it knows ta = -a, it makes ta * u as -(a * u)
+ * (and takes a * u of the piece before), which is another NaN than numpy's (-a) * u when
+ * a * u is not a number (0 * inf: x86's default NaN, negative, then negated) */
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define RING_OPAQUE(x) __asm__("" : "+x"(x))
+#elif defined(__GNUC__)
+#define RING_OPAQUE(x) __asm__("" : "+m"(x))
+#else
+#define RING_OPAQUE(x) ((void)0)
+#endif
+
+/* ring_events' state from piece to piece: the carry (t, the cumulative sum of the pieces'
+ * lengths, vel_end, acc), each axis' and part's count and outputs, w^2 of each axis */
+typedef struct {
+    double c_t, cs, pvx, pvy, pax, pay;
+    Py_ssize_t cnt[2][4];
+    double *T[2][4], *DR[2][2], *DP[2][3];
+    double w2[2];
+} RingEv;
+
+/* one axis' events of a piece starting at t0: dr = da / w^2 (da = acc - the piece before's),
+ * drp = -dv; cls (the piece's junction: 1 corner, 2 turn, 0 none -- not a block's first piece) */
+static inline __attribute__((always_inline)) void
+ring_events_axis(RingEv *e, int x, double t0, double acc, double pa, double dv, int cls, int all_only)
+{
+    double dr = (acc - pa) / e->w2[x], drp = -dv;
+    int ramp = dr != 0.0, jump = drp != 0.0;
+    if (ramp || jump) {
+        Py_ssize_t j = e->cnt[x][0]++;
+        e->T[x][0][j] = t0;
+        e->DR[x][0][j] = dr;
+        e->DP[x][0][j] = drp;
+    }
+    if (all_only)
+        return;
+    if (ramp) {
+        Py_ssize_t j = e->cnt[x][1]++;
+        e->T[x][1][j] = t0;
+        e->DR[x][1][j] = dr;
+    }
+    if (jump && (cls == 1 || cls == 2)) {
+        int part = cls == 1 ? 2 : 3;
+        Py_ssize_t j = e->cnt[x][part]++;
+        e->T[x][part][j] = t0;
+        e->DP[x][part - 1][j] = drp;
+    }
+}
+
+/* one piece of a row (jumping: its block's first, the velocity jumps there; first: the
+ * chunk's first piece) of length dur, speed and tangential acceleration ta at its start,
+ * along (ux, uy): _pieces' t0 (c.t + the pieces before's cumulative sum), vel, acc, dv, da,
+ * end speed, each by numpy's operations */
+static inline __attribute__((always_inline)) void
+ring_events_piece(RingEv *e, int jumping, int first, double dur, double speed, double ta, double ux,
+                  double uy, int cls, int all_only)
+{
+    /* t0 = c.t + concatenate([[0.0], cs[:-1]]) */
+    double t0 = e->c_t + (first ? 0.0 : e->cs);
+    e->cs = first ? dur : e->cs + dur;
+    RING_OPAQUE(ta);
+    double es = speed + ta * dur;          /* end_speed = speed + tan_a * dur */
+    double ax = ta * ux, ay = ta * uy;
+    /* (dv: vel - the piece before's vel_end where a block or a rest begins, else 0) */
+    ring_events_axis(e, 0, t0, ax, e->pax, jumping ? speed * ux - e->pvx : 0.0, cls, all_only);
+    ring_events_axis(e, 1, t0, ay, e->pay, jumping ? speed * uy - e->pvy : 0.0, cls, all_only);
+    e->pvx = es * ux;                      /* vel_end = end_speed * u */
+    e->pvy = es * uy;
+    e->pax = ax;
+    e->pay = ay;
+}
+
+/* the rows' pieces (accelerate, cruise, decelerate) and their events; (pux, puy, pisb): the
+ * row before's direction and is_block, moved to the last row's */
+static inline __attribute__((always_inline)) void
+ring_events_rows(RingEv *e, const double *m, Py_ssize_t rows, double corner_cos, double *pux_, double *puy_,
+                 double *pisb_, int all_only)
+{
+    double pux = *pux_, puy = *puy_, pisb = *pisb_;
+    for (Py_ssize_t r = 0; r < rows; r++) {
+        const double *q = m + 12 * r;
+        double ux = q[0], uy = q[1], sv = q[2], cv = q[3], a = q[5];
+        double after = q[9], isb = q[11];
+        /* a junction is a gentle turn when both blocks move and it turns < 30 degrees */
+        double cos_turn = ux * pux + uy * puy;
+        int moving = isb > 0 && pisb > 0 && after == 0;
+        int cls = moving && cos_turn >= corner_cos ? 2 : 1;      /* TURN : CORNER */
+        ring_events_piece(e, 1, r == 0, q[6], sv, a, ux, uy, cls, all_only);
+        ring_events_piece(e, 0, 0, q[7], cv, 0.0 * a, ux, uy, 0, all_only);
+        ring_events_piece(e, 0, 0, q[8], cv, -a, ux, uy, 0, all_only);
+        pux = ux;
+        puy = uy;
+        pisb = isb;
+    }
+    *pux_ = pux;
+    *puy_ = puy;
+    *pisb_ = pisb;
 }
 
 /* ring_events(m, c_t, c_vx, c_vy, c_ax, c_ay, c_ux, c_uy, c_isb, w2x, w2y, corner_cos,
@@ -5771,83 +5912,32 @@ static PyObject *mod_ring_events(PyObject *self, PyObject *args)
     const double *m = (const double *)mb.buf;
     double *t_out = (double *)tb.buf, *dr_out = (double *)rb.buf, *drp_out = (double *)pb.buf;
     Py_ssize_t n = rows;
-    Py_ssize_t cnt[2][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}};
-    double *T[2][4], *DR[2][2], *DP[2][3];
+    RingEv e = {.c_t = c_t, .cs = 0.0, .pvx = pvx, .pvy = pvy, .pax = pax, .pay = pay,
+                .w2 = {w2[0], w2[1]}};
     for (int a = 0; a < 2; a++) {
-        T[a][0] = t_out + a * 8 * n;
-        T[a][1] = T[a][0] + 3 * n;
-        T[a][2] = T[a][0] + 6 * n;
-        T[a][3] = T[a][0] + 7 * n;
-        DR[a][0] = dr_out + a * 6 * n;
-        DR[a][1] = DR[a][0] + 3 * n;
-        DP[a][0] = drp_out + a * 5 * n;
-        DP[a][1] = DP[a][0] + 3 * n;
-        DP[a][2] = DP[a][0] + 4 * n;
+        for (int k = 0; k < 4; k++)
+            e.cnt[a][k] = 0;
+        e.T[a][0] = t_out + a * 8 * n;
+        e.T[a][1] = e.T[a][0] + 3 * n;
+        e.T[a][2] = e.T[a][0] + 6 * n;
+        e.T[a][3] = e.T[a][0] + 7 * n;
+        e.DR[a][0] = dr_out + a * 6 * n;
+        e.DR[a][1] = e.DR[a][0] + 3 * n;
+        e.DP[a][0] = drp_out + a * 5 * n;
+        e.DP[a][1] = e.DP[a][0] + 3 * n;
+        e.DP[a][2] = e.DP[a][0] + 4 * n;
     }
-    double cs = 0.0;               /* np.cumsum(dur) up to the piece before */
-    double t_end = c_t;
-    for (Py_ssize_t r = 0; r < rows; r++) {
-        const double *q = m + 12 * r;
-        double ux = q[0], uy = q[1], sv = q[2], cv = q[3], a = q[5];
-        double after = q[9], isb = q[11];
-        double u[2] = {ux, uy};
-        for (int p = 0; p < 3; p++) {
-            Py_ssize_t k = 3 * r + p;
-            double dur = q[6 + p];
-            double speed = p == 0 ? sv : cv;
-            double ta = p == 0 ? a : (p == 1 ? 0.0 * a : -a);
-            /* t0 = c.t + concatenate([[0.0], cs[:-1]]) */
-            double t0 = c_t + (k == 0 ? 0.0 : cs);
-            cs = k == 0 ? dur : cs + dur;
-            double es = speed + ta * dur;          /* end_speed = speed + tan_a * dur */
-            double vel[2], acc[2], dv[2], da[2];
-            int cls = 0;                           /* NONE */
-            if (p == 0) {
-                double cos_turn = ux * pux + uy * puy;
-                int moving = isb > 0 && pisb > 0 && after == 0;
-                cls = moving && cos_turn >= corner_cos ? 2 : 1;      /* TURN : CORNER */
-            }
-            double pv[2] = {pvx, pvy}, pa[2] = {pax, pay};
-            for (int x = 0; x < 2; x++) {
-                vel[x] = speed * u[x];
-                acc[x] = ta * u[x];
-                dv[x] = p == 0 ? vel[x] - pv[x] : 0.0;
-                da[x] = acc[x] - pa[x];
-            }
-            for (int x = 0; x < 2; x++) {
-                double dr = da[x] / w2[x], drp = -dv[x];
-                int ramp = dr != 0.0, jump = drp != 0.0;
-                if (ramp || jump) {
-                    Py_ssize_t j = cnt[x][0]++;
-                    T[x][0][j] = t0;
-                    DR[x][0][j] = dr;
-                    DP[x][0][j] = drp;
-                }
-                if (all_only)
-                    continue;
-                if (ramp) {
-                    Py_ssize_t j = cnt[x][1]++;
-                    T[x][1][j] = t0;
-                    DR[x][1][j] = dr;
-                }
-                if (jump && (cls == 1 || cls == 2)) {
-                    int part = cls == 1 ? 2 : 3;
-                    Py_ssize_t j = cnt[x][part]++;
-                    T[x][part][j] = t0;
-                    DP[x][part - 1][j] = drp;
-                }
-            }
-            pvx = es * ux;                          /* vel_end = end_speed * u */
-            pvy = es * uy;
-            pax = acc[0];
-            pay = acc[1];
-        }
-        pux = ux;
-        puy = uy;
-        pisb = isb;
-    }
-    if (rows)
-        t_end = c_t + cs;
+    /* (each a loop of its own: the parts' tests drop out of "all"'s) */
+    if (all_only)
+        ring_events_rows(&e, m, rows, corner_cos, &pux, &puy, &pisb, 1);
+    else
+        ring_events_rows(&e, m, rows, corner_cos, &pux, &puy, &pisb, 0);
+    double t_end = rows ? c_t + e.cs : c_t;
+    Py_ssize_t (*cnt)[4] = e.cnt;
+    pvx = e.pvx;
+    pvy = e.pvy;
+    pax = e.pax;
+    pay = e.pay;
     ret = Py_BuildValue("(nnnnnnnn)dddddddd", cnt[0][0], cnt[0][1], cnt[0][2], cnt[0][3], cnt[1][0], cnt[1][1],
                         cnt[1][2], cnt[1][3], t_end, pvx, pvy, pax, pay, pux, puy, pisb);
 done:

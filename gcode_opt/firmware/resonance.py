@@ -329,14 +329,29 @@ class RingMemo:
         return r[:n], r[n:5 * n], r[5 * n:5 * n + m], r[5 * n + m:need]
 
 
-class RingRoom:
-    """The memory of RingMemo.out, kept from chunk to chunk (1/8 more than asked, for the
-    next chunk's few more events: the ringing's chunks hold about the same number of
-    events), for one memo or for several written one after the other."""
+class Room:
+    """An array kept from chunk to chunk (fresh memory costs a page fault a page), 1/8 more
+    than asked, for the next chunk's few more events: the ringing's chunks hold about the
+    same number.  Its user must be done with what it wrote before it takes it again."""
     SLACK = 8
 
     def __init__(self):
         self.arr = None
+
+    def grab(self, need):
+        """The array, of at least `need` doubles."""
+        if self.arr is None or len(self.arr) < need:
+            self.arr = None
+            self.arr = np.empty(need + need // self.SLACK)
+        return self.arr
+
+
+class RingRoom(Room):
+    """The memory of RingMemo.out, for one memo or for several written one after the
+    other."""
+
+    def __init__(self):
+        super().__init__()
         self.owner = None         # the memo that wrote it last (a weak reference: no cycle
                                   # holding the room after its Collector is gone)
 
@@ -348,10 +363,7 @@ class RingRoom:
             owner.key = owner.amps = owner.key_p = owner.pieces = None
         if owner is not memo:
             self.owner = weakref.ref(memo)
-        if self.arr is None or len(self.arr) < need:
-            self.arr = None
-            self.arr = np.empty(need + need // self.SLACK)
-        return self.arr
+        return self.grab(need)
 
 
 # ---------------------------------------------------------------- input shapers

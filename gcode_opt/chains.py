@@ -228,8 +228,11 @@ class _KeptLaws:
     _KeptPlans: each row's law as its binding mask (n - 1 bools) and its pieces' durations
     (one per piece: its binding vertices + 1), its law duration T and weight beta, and its
     predicted figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished
-    together (base = (bound (rows, n - 1), piece durations (flat), their offsets (rows + 1),
-    T, beta, t_pred, a2_pred, profile)); st its chain.  The knot speeds vk and segment durations dt of the
+    together (base = (bound (rows, n - 1; as bits, _PackedMask), piece durations (flat),
+    their offsets (rows + 1), T, beta, t_pred, a2_pred, profile)).  The candidate table makes one for all the chains
+    finished together (lo 0, a chain's row r is the batch's row r: _Finisher._finish), not
+    one a chain (~16 k objects on the gyroid plate, ~1.2 MB held through the plan); st: the
+    chain of a kept of one chain's rows, else None.  The knot speeds vk and segment durations dt of the
     candidate chosen are made again from them (_rows_knots: _Flat.vertices_at, solve_flat's
     own operations after its Newton on the durations: the same bits, ~1/3 of the knots'
     bytes), then its accelerations and feeds (_replay: the same arithmetic, row by row, as
@@ -241,18 +244,32 @@ class _KeptLaws:
     def __init__(self, key, base, lo, k, st=None):
         self.key, self.base, self.lo, self.k, self.st = key, base, lo, k, st
 
-    def row(self, r):
-        """(vk, dt, predicted time, predicted ∫|a|²) of row r."""
+    def row(self, r, st=None):
+        """(vk, dt, predicted time, predicted ∫|a|²) of row r (of the chain st; None: self.st)."""
         b = self.base
         if len(b) == 4:
             q = self.lo + r
             return b[0][q], b[1][q], float(b[2][q]), float(b[3][q])
-        vk, dt, tp, a2 = _gather_rows([self], [r], [self.st], b[7])
+        vk, dt, tp, a2 = _gather_rows([self], [r], [self.st if st is None else st], b[7])
         return vk[0], dt[0], tp[0], a2[0]
 
     def plan(self, r, st, rules, profile):
         """The SegmentPlan of row r (chain st), as _replay makes it."""
         return _replay([(st, self, r)], rules, profile)[0]
+
+
+class _PackedMask:
+    """A (rows, n) array of bools held as bits (np.packbits along each row: 1/8 of the
+    bytes; the kept laws' binding masks, ~1.4 MB as bools on the gyroid plate, held
+    through the plan); indexing its rows gives them back as bools, the same values."""
+    __slots__ = ("bits", "shape")
+
+    def __init__(self, mask):
+        self.bits = np.packbits(mask, axis=1)
+        self.shape = mask.shape
+
+    def __getitem__(self, rows):
+        return np.unpackbits(self.bits[rows], axis=-1, count=self.shape[1]).view(bool)
 
 
 class _Source:
@@ -332,7 +349,7 @@ def _replay(items, rules, profile, drop=False):
                 for i, q in enumerate(Q):
                     rows[q] = (vk[i], dt[i], tp[i], a2[i])
         for q, (st, kept, r) in enumerate(items):
-            vk, dt, t, a2 = kept.row(r) if rows[q] is None else rows[q]
+            vk, dt, t, a2 = kept.row(r, st) if rows[q] is None else rows[q]
             rows[q] = None
             acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
             out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
@@ -1890,13 +1907,11 @@ class _Finisher:
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
             J, C = r.a + j[good], r.rc[good]
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
-            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made)
-            kb = (r.bnd, r.tj, r.toff, r.T[j, r.rc], r.beta[j, r.rc], tr, a2r, profile)
-            r.vk = r.dt = None
-            first = np.concatenate([[0], np.cumsum(r.ks)]).tolist()
-            plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q], r.sts[jj])
-                     for q, jj in enumerate(r.J.tolist())]
-            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans, self.src, r.a)
+            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
+            # one _KeptLaws for the rows of all these chains, each row its batch row)
+            kb = (_PackedMask(r.bnd), r.tj, r.toff, r.T[j, r.rc], r.beta[j, r.rc], tr, a2r, profile)
+            r.vk = r.dt = r.bnd = None
+            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
 
 def _flat_chains(sts, profile):
@@ -2046,14 +2061,14 @@ def _stack_cols(res, k, name, dtype=float):
     return out
 
 
-def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
+def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     """Each chain's memo (ChainMemo.put_shared: one array for the batch) of its good rows:
-    predicted time, law T, beta, and its row in its kept plans; rows of one chain are
-    consecutive in j.  src: the _Source of the rows (chain sts[jj] is its row a + jj)."""
+    predicted time, law T, beta, and its row in kept (the batch's kept laws, shared by its
+    chains: the batch row); rows of one chain are consecutive in j.  src: the _Source of
+    the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    start = np.maximum.accumulate(np.where(first, np.arange(R), 0))      # each row's chain's first row
-    tab = np.stack([t, T[j, c], beta[j, c], (np.arange(R) - start).astype(float)], axis=1)
+    tab = np.stack([t, T[j, c], beta[j, c], np.arange(R, dtype=float)], axis=1)
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
@@ -2061,7 +2076,7 @@ def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
-    for kept, jj in zip(plans, j[first].tolist()):
+    for jj in j[first].tolist():
         k = cnt[jj]
         if k:
             memo = sts[jj].chain_T

@@ -1644,7 +1644,8 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     n, k = T.shape
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
-    nseg = np.fromiter((curves.geom(strokes[i], profile).d.size for i in rows.tolist()), np.int64, n)
+    # (each one's segment count as its geometry block's row length: no d view a chain)
+    nseg = np.array(curves.seg_counts([curves.geom(strokes[i], profile) for i in rows.tolist()]), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)

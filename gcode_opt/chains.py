@@ -272,6 +272,26 @@ class _PackedMask:
         return np.unpackbits(self.bits[rows], axis=-1, count=self.shape[1]).view(bool)
 
 
+class _Cells:
+    """Cells of a table held as their places in it: cell q is table[row[q], col[q]] (the
+    kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
+    _Source holds anyway: 4 bytes a row, not a copy of 8 bytes a row for each); indexing
+    gives the cells' own doubles, as a fancy index of a copy would."""
+    __slots__ = ("table", "at", "ndim")
+
+    def __init__(self, table, row, col):
+        self.table = table
+        self.at = (np.asarray(row, np.int64) * table.shape[1] + col).astype(np.int32)   # (C order)
+        self.ndim = 1
+
+    @property
+    def shape(self):
+        return self.at.shape
+
+    def __getitem__(self, q):
+        return np.take(self.table, self.at[q])
+
+
 class _Source:
     """What _figures solved a chain's candidates from, to solve one again (_knots_again):
     the (n, k) tables of law durations T and weights beta (row src_i of a chain), the
@@ -1910,7 +1930,7 @@ class _Finisher:
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            kb = (_PackedMask(r.bnd), r.tj, r.toff, r.T[j, r.rc], r.beta[j, r.rc], tr, a2r, profile)
+            kb = (_PackedMask(r.bnd), r.tj, r.toff, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 

@@ -1,7 +1,8 @@
 """Issue 8, session 34 (the chains' memos held compactly through the plan): the candidate
 table keeps one _KeptLaws per finishing batch, shared by its chains (a memo row's number
 is its batch row), not one a chain; the kept binding masks are bits (_PackedMask) that
-give back the masks' own bools.  The plans made from the shared kept laws are those made
+give back the masks' own bools, the rows' T and beta their cells' places in _figures'
+tables (_Cells).  The plans made from the shared kept laws are those made
 from a chain's own (tests/test_speed30_chains_laws.py: the rows made again are the
 table's knots; the 48-case set: the same bytes)."""
 import numpy as np
@@ -41,6 +42,21 @@ def _fresh_table(prof_name):
     rules = SegmentRules.for_profile(prof, 10)
     chains.candidates_chain(pin, rows, strokes, prof, rules)
     return strokes, rows, prof, rules
+
+
+def test_cells_are_the_tables_doubles():
+    rng = np.random.default_rng(3)
+    table = rng.random((50, 5))
+    table[7, 2] = -0.0
+    view = table[10:40]                     # (a chunk's rows of the table, as _Finisher has them)
+    row = rng.integers(0, 30, 200)
+    col = rng.integers(0, 5, 200)
+    cells = chains._Cells(view, row, col)
+    want = view[row, col]
+    assert cells.shape == want.shape and cells.ndim == 1 and cells.at.dtype == np.int32
+    for q in ([5, 0, 5], np.arange(200), np.array([199, 3], np.int64)):
+        assert cells[q].tobytes() == want[q].tobytes()
+    assert cells[17] == want[17] and chains._Cells(table, [7], [2])[[0]].tobytes() == np.array([-0.0]).tobytes()
 
 
 @pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])

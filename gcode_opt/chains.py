@@ -228,8 +228,9 @@ class _KeptLaws:
     _KeptPlans: each row's law as its binding mask (n - 1 bools) and its pieces' durations
     (one per piece: its binding vertices + 1), its law duration T and weight beta, and its
     predicted figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished
-    together (base = (bound (rows, n - 1; as bits, _PackedMask), piece durations (flat),
-    their offsets (rows + 1), T, beta, t_pred, a2_pred, profile)).  The candidate table makes one for all the chains
+    together (base = (bound (rows, n - 1; as bits, _PackedMask), piece durations (flat,
+    shared by the chunk's rows: _LawCols), each row's first piece there and their number
+    (rows, 2), T, beta (_Cells), t_pred, a2_pred, profile)).  The candidate table makes one for all the chains
     finished together (lo 0, a chain's row r is the batch's row r: _Finisher._finish), not
     one a chain (~16 k objects on the gyroid plate, ~1.2 MB held through the plan); st: the
     chain of a kept of one chain's rows, else None.  The knot speeds vk and segment durations dt of the
@@ -444,9 +445,8 @@ def _gather_rows(kept, rs, sts, profile):
             vk[ii], dt[ii], tp[ii], a2[ii] = b[0][qq], b[1][qq], b[2][qq], b[3][qq]
             continue
         bnd[ii], TL[ii], beta[ii], tp[ii], a2[ii] = b[0][qq], b[3][qq], b[4][qq], b[5][qq], b[6][qq]
-        q = np.array(qq)
-        p0 = b[2][q]
-        cnt = b[2][q + 1] - p0
+        sp = b[2][np.array(qq)]
+        p0, cnt = sp[:, 0].astype(np.int64), sp[:, 1].astype(np.int64)
         at = np.cumsum(cnt) - cnt          # each row's first piece in this base's gather
         tj.append(b[1][np.repeat(p0 - at, cnt) + np.arange(int(cnt.sum()))])
         law += ii
@@ -579,8 +579,9 @@ def _laws_of(Qs, items, profile, gs=None):
         w = b[0].shape[1]
         if w:
             bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
-        p0 = b[2][qq]
-        cnt[ii] = b[2][qq + 1] - p0
+        sp = b[2][qq]
+        p0 = sp[:, 0].astype(np.int64)
+        cnt[ii] = sp[:, 1]
         parts.append((ii, p0, b[1]))
     poff = np.zeros(m + 1, np.int64)
     np.cumsum(cnt, out=poff[1:])
@@ -1800,8 +1801,9 @@ def _same_chains(base, T, beta):
 class _Spread:
     """The flat laws r (solved for base.take(keep)) of every chain of base, chain j's those
     of r's chain pos[j]: what _figures reads of a FlatLaws (per chain conv, iv, peak_v,
-    min_v; per vertex bound, vert_v, vert_t; the pieces' durations piece_T, chain c's at
-    piece_off[c]:piece_off[c + 1]), each a copy of r's numbers."""
+    min_v; per vertex bound, vert_v, vert_t), each a copy of r's numbers; the pieces'
+    durations piece_T are r's own, not copied (chain j's piece_n[j] of them from
+    piece_at[j]: a chain and its first equal share theirs, _piece_spans)."""
 
     def __init__(self, r, base, pos):
         for f in ("conv", "iv", "peak_v", "min_v"):
@@ -1810,10 +1812,16 @@ class _Spread:
         vg = np.repeat(rv[pos] - base.voff[:-1], base.nv) + np.arange(base.sv.size)
         self.bound, self.vert_v, self.vert_t = r.bound[vg], r.vert_v[vg], r.vert_t[vg]
         po = r.piece_off
-        cnt = po[pos + 1] - po[pos]
-        self.piece_off = off = np.zeros(pos.size + 1, po.dtype)
-        np.cumsum(cnt, out=off[1:])
-        self.piece_T = r.piece_T[np.repeat(po[pos] - off[:-1], cnt) + np.arange(off[-1])]
+        self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
+
+
+def _piece_spans(laws):
+    """(piece_T, each chain's first piece there, its number of pieces) of the flat laws
+    laws (a FlatLaws: its chains' pieces end to end; a _Spread: those of its chains' firsts)."""
+    if isinstance(laws, _Spread):
+        return laws.piece_T, laws.piece_at, laws.piece_n
+    po = laws.piece_off
+    return laws.piece_T, po[:-1], po[1:] - po[:-1]
 
 
 def _chunks(nseg, n):
@@ -1849,13 +1857,14 @@ class _Rows:
     """Candidate rows of chains with the same number of segments n from one chunk (chains
     sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
     knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain;
-    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[toff[i]:toff[i + 1]]."""
-    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "toff", "n")
+    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[a:a + c],
+    (a, c) = spans[i]."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "spans", "n")
 
-    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, toff):
+    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, spans):
         self.a, self.sts, self.T, self.beta = a, sts, T, beta
         self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
-        self.bnd, self.tj, self.toff = bnd, tj, toff
+        self.bnd, self.tj, self.spans = bnd, tj, spans
         self.n = dt.shape[1]
 
 
@@ -1930,7 +1939,7 @@ class _Finisher:
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            kb = (_PackedMask(r.bnd), r.tj, r.toff, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r, profile)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
@@ -2038,34 +2047,36 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
 
 class _LawCols:
     """The laws of one chunk's columns (solve_flat's FlatLaws res[c]) as _KeptLaws keeps a
-    candidate row's law: its binding mask and its pieces' durations."""
+    candidate row's law: its binding mask and its pieces' durations.  The durations of all
+    the columns' pieces are one array PT, which the rows' kept laws share (each row: its
+    first piece there and their number), not copied out row by row: a chain and its first
+    equal (_Spread) share theirs (~18 % of the gyroid plate's pieces, held through the plan)."""
 
     def __init__(self, res, k, voff):
         self.voff = voff
         self.BB = _stack_cols(res, k, "bound", bool)
-        # the columns' pieces' durations end to end, chain c's of column q at PO[q, c]:PO[q, c + 1]
-        self.PT = np.concatenate([res[c].piece_T for c in range(k) if c in res])
+        # the columns' pieces' durations end to end, chain c's of column q: PN[q, c] of them from P0[q, c]
+        spans = [_piece_spans(res[c]) if c in res else None for c in range(k)]
+        self.PT = np.concatenate([sp[0] for sp in spans if sp is not None])
         m = voff.size - 1
-        self.PO = PO = np.zeros((k, m + 1), np.int64)
+        self.P0, self.PN = np.zeros((k, m), np.int64), np.zeros((k, m), np.int64)
         at = 0
-        for c in range(k):
-            if c in res:
-                PO[c] = res[c].piece_off + at
-                at += res[c].piece_T.size
+        for c, sp in enumerate(spans):
+            if sp is not None:
+                self.P0[c] = sp[1] + at
+                self.PN[c] = sp[2]
+                at += sp[0].size
 
     def rows(self, j, rc, n):
-        """(bnd (R, n - 1), tj, toff (R + 1)) of the rows (chain j[i], column rc[i]) of
-        chains of n segments: row i's pieces' durations tj[toff[i]:toff[i + 1]]."""
+        """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
+        chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
+        (int32: a chunk's pieces are ~10^5)."""
         R = j.size
         if n > 1:
             bnd = self.BB[rc[:, None], self.voff[j][:, None] + np.arange(n - 1)]
         else:
             bnd = np.empty((R, 0), bool)
-        p0 = self.PO[rc, j]
-        cnt = self.PO[rc, j + 1] - p0
-        toff = np.zeros(R + 1, np.int64)
-        np.cumsum(cnt, out=toff[1:])
-        return bnd, self.PT[np.repeat(p0 - toff[:-1], cnt) + np.arange(toff[-1])], toff
+        return bnd, self.PT, np.stack([self.P0[rc, j], self.PN[rc, j]], axis=1).astype(np.int32)
 
 
 def _stack_cols(res, k, name, dtype=float):

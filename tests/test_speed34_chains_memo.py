@@ -2,7 +2,7 @@
 table keeps one _KeptLaws per finishing batch, shared by its chains (a memo row's number
 is its batch row), not one a chain; the kept binding masks are bits (_PackedMask) that
 give back the masks' own bools, the rows' T and beta their cells' places in _figures'
-tables (_Cells).  The plans made from the shared kept laws are those made
+tables (_Cells), the rows' pieces' durations spans of one array a chunk (_LawCols).  The plans made from the shared kept laws are those made
 from a chain's own (tests/test_speed30_chains_laws.py: the rows made again are the
 table's knots; the 48-case set: the same bytes)."""
 import numpy as np
@@ -76,6 +76,22 @@ def test_one_kept_laws_a_batch_its_rows_the_batch_rows(prof_name):
     # one kept laws (and one base) a finishing batch, not one a chain
     assert len({id(k.base) for k in kepts.values()}) == len(kepts)
     assert memo_rows > 3 * rows.size and 3 * len(kepts) < rows.size
+
+
+def test_rows_share_their_chunks_pieces(prof_name="prusa-mk3s"):
+    """The kept rows' pieces' durations are spans of one array a chunk of chains, shared by
+    its batches' rows (a chain and its first equal: the same span), not copied row by row."""
+    strokes, rows, prof, rules = _fresh_table(prof_name)
+    bases = {}
+    for i in rows.tolist():
+        for *_, kept in strokes[i].chain_T.rows():
+            bases[id(kept.base)] = kept.base
+    pieces = {id(b[1]): b[1].size for b in bases.values()}
+    spans = np.concatenate([b[2] for b in bases.values()])
+    assert spans.dtype == np.int32 and (spans[:, 1] >= 1).all()
+    assert len(pieces) < len(bases)                          # one pieces array, several batches
+    assert all(((b[2][:, 0] >= 0) & (b[2][:, 0] + b[2][:, 1] <= b[1].size)).all() for b in bases.values())
+    assert sum(pieces.values()) < int(spans[:, 1].sum())    # rows of equal chains share their pieces
 
 
 def test_plan_of_a_shared_kept_row_is_the_tables(prof_name="prusa-mk3s"):

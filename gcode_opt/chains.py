@@ -230,10 +230,11 @@ class _KeptLaws:
     predicted figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished
     together (base = (bound (rows, n - 1; as bits, _PackedMask), piece durations (flat,
     shared by the chunk's rows: _LawCols), each row's first piece there and their number
-    (rows, 2), T, beta (_Cells), t_pred, a2_pred, profile)).  The candidate table makes one for all the chains
-    finished together (lo 0, a chain's row r is the batch's row r: _Finisher._finish), not
-    one a chain (~16 k objects on the gyroid plate, ~1.2 MB held through the plan); st: the
-    chain of a kept of one chain's rows, else None.  The knot speeds vk and segment durations dt of the
+    (rows, 2), T, beta (_Cells), t_pred, a2_pred, profile)).  The candidate table makes one
+    for all the chains finished together (lo 0: a chain's row r is the batch's row r,
+    _Finisher._finish), not one a chain (~16 k objects on the gyroid plate, ~1.2 MB held
+    through the plan); st: the chain whose rows these are where they are one chain's, else
+    None (row's st then).  The knot speeds vk and segment durations dt of the
     candidate chosen are made again from them (_rows_knots: _Flat.vertices_at, solve_flat's
     own operations after its Newton on the durations: the same bits, ~1/3 of the knots'
     bytes), then its accelerations and feeds (_replay: the same arithmetic, row by row, as
@@ -278,12 +279,12 @@ class _Cells:
     kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
     _Source holds anyway: 4 bytes a row, not a copy of 8 bytes a row for each); indexing
     gives the cells' own doubles, as a fancy index of a copy would."""
-    __slots__ = ("table", "at", "ndim")
+    __slots__ = ("table", "at")
+    ndim = 1
 
     def __init__(self, table, row, col):
         self.table = table
         self.at = (np.asarray(row, np.int64) * table.shape[1] + col).astype(np.int32)   # (C order)
-        self.ndim = 1
 
     @property
     def shape(self):
@@ -396,11 +397,13 @@ def _replay(items, rules, profile, drop=False):
         batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
-        for q, (st, _, r) in enumerate(items):
-            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold them
+        for q, st in enumerate(map(_IT0, items)):
+            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold
+            # them (no loop variable left holding the last one's kept laws: the pieces of its
+            # whole chunk, _LawCols, while the plans are made)
             st.chain_T.drop_rows()
             gs[q].chain_caps = None
-            items[q] = (st, None, r)
+            items[q] = (st, None, items[q][2])
     groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
     while batches or groups:
@@ -1815,13 +1818,13 @@ class _Spread:
         self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
 
 
-def _piece_spans(laws):
-    """(piece_T, each chain's first piece there, its number of pieces) of the flat laws
-    laws (a FlatLaws: its chains' pieces end to end; a _Spread: those of its chains' firsts)."""
-    if isinstance(laws, _Spread):
-        return laws.piece_T, laws.piece_at, laws.piece_n
-    po = laws.piece_off
-    return laws.piece_T, po[:-1], po[1:] - po[:-1]
+def _piece_spans(col):
+    """(piece_T, each chain's first piece there, its number of pieces) of one column's flat
+    laws col (a FlatLaws: its chains' pieces end to end; a _Spread: its chains' firsts')."""
+    if isinstance(col, _Spread):
+        return col.piece_T, col.piece_at, col.piece_n
+    po = col.piece_off
+    return col.piece_T, po[:-1], po[1:] - po[:-1]
 
 
 def _chunks(nseg, n):
@@ -1939,7 +1942,8 @@ class _Finisher:
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r, profile)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
+                  profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 

@@ -2,9 +2,10 @@
 table keeps one _KeptLaws per finishing batch, shared by its chains (a memo row's number
 is its batch row), not one a chain; the kept binding masks are bits (_PackedMask) that
 give back the masks' own bools, the rows' T and beta their cells' places in _figures'
-tables (_Cells), the rows' pieces' durations spans of one array a chunk (_LawCols).  The plans made from the shared kept laws are those made
-from a chain's own (tests/test_speed30_chains_laws.py: the rows made again are the
-table's knots; the 48-case set: the same bytes)."""
+tables (_Cells), the rows' pieces' durations spans of one array a chunk (_LawCols).
+The plans made from the shared kept laws are those made from a chain's own
+(tests/test_speed30_chains_laws.py: the rows made again are the table's knots; the
+48-case set: the same bytes)."""
 import numpy as np
 import pytest
 

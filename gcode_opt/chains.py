@@ -228,8 +228,13 @@ class _KeptLaws:
     _KeptPlans: each row's law as its binding mask (n - 1 bools) and its pieces' durations
     (one per piece: its binding vertices + 1), its law duration T and weight beta, and its
     predicted figures (time, ∫|a|²), rows lo..lo+k of the arrays of the chains finished
-    together (base = (bound (rows, n - 1), piece durations (flat), their offsets (rows + 1),
-    T, beta, t_pred, a2_pred, profile)); st its chain.  The knot speeds vk and segment durations dt of the
+    together (base = (bound (rows, n - 1; as bits, _PackedMask), piece durations (flat,
+    shared by the chunk's rows: _LawCols), each row's first piece there and their number
+    (rows, 2), T, beta (_Cells), t_pred, a2_pred, profile)).  The candidate table makes one
+    for all the chains finished together (lo 0: a chain's row r is the batch's row r,
+    _Finisher._finish), not one a chain (~16 k objects on the gyroid plate, ~1.2 MB held
+    through the plan); st: the chain whose rows these are where they are one chain's, else
+    None (row's st then).  The knot speeds vk and segment durations dt of the
     candidate chosen are made again from them (_rows_knots: _Flat.vertices_at, solve_flat's
     own operations after its Newton on the durations: the same bits, ~1/3 of the knots'
     bytes), then its accelerations and feeds (_replay: the same arithmetic, row by row, as
@@ -241,18 +246,52 @@ class _KeptLaws:
     def __init__(self, key, base, lo, k, st=None):
         self.key, self.base, self.lo, self.k, self.st = key, base, lo, k, st
 
-    def row(self, r):
-        """(vk, dt, predicted time, predicted ∫|a|²) of row r."""
+    def row(self, r, st=None):
+        """(vk, dt, predicted time, predicted ∫|a|²) of row r (of the chain st; None: self.st)."""
         b = self.base
         if len(b) == 4:
             q = self.lo + r
             return b[0][q], b[1][q], float(b[2][q]), float(b[3][q])
-        vk, dt, tp, a2 = _gather_rows([self], [r], [self.st], b[7])
+        vk, dt, tp, a2 = _gather_rows([self], [r], [self.st if st is None else st], b[7])
         return vk[0], dt[0], tp[0], a2[0]
 
     def plan(self, r, st, rules, profile):
         """The SegmentPlan of row r (chain st), as _replay makes it."""
         return _replay([(st, self, r)], rules, profile)[0]
+
+
+class _PackedMask:
+    """A (rows, n) array of bools held as bits (np.packbits along each row: 1/8 of the
+    bytes; the kept laws' binding masks, ~1.4 MB as bools on the gyroid plate, held
+    through the plan); indexing its rows gives them back as bools, the same values."""
+    __slots__ = ("bits", "shape")
+
+    def __init__(self, mask):
+        self.bits = np.packbits(mask, axis=1)
+        self.shape = mask.shape
+
+    def __getitem__(self, rows):
+        return np.unpackbits(self.bits[rows], axis=-1, count=self.shape[1]).view(bool)
+
+
+class _Cells:
+    """Cells of a table held as their places in it: cell q is table[row[q], col[q]] (the
+    kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
+    _Source holds anyway: 4 bytes a row, not a copy of 8 bytes a row for each); indexing
+    gives the cells' own doubles, as a fancy index of a copy would."""
+    __slots__ = ("table", "at")
+    ndim = 1
+
+    def __init__(self, table, row, col):
+        self.table = table
+        self.at = (np.asarray(row, np.int64) * table.shape[1] + col).astype(np.int32)   # (C order)
+
+    @property
+    def shape(self):
+        return self.at.shape
+
+    def __getitem__(self, q):
+        return np.take(self.table, self.at[q])
 
 
 class _Source:
@@ -332,7 +371,7 @@ def _replay(items, rules, profile, drop=False):
                 for i, q in enumerate(Q):
                     rows[q] = (vk[i], dt[i], tp[i], a2[i])
         for q, (st, kept, r) in enumerate(items):
-            vk, dt, t, a2 = kept.row(r) if rows[q] is None else rows[q]
+            vk, dt, t, a2 = kept.row(r, st) if rows[q] is None else rows[q]
             rows[q] = None
             acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
             out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
@@ -358,11 +397,13 @@ def _replay(items, rules, profile, drop=False):
         batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
-        for q, (st, _, r) in enumerate(items):
-            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold them
+        for q, st in enumerate(map(_IT0, items)):
+            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold
+            # them (no loop variable left holding the last one's kept laws: the pieces of its
+            # whole chunk, _LawCols, while the plans are made)
             st.chain_T.drop_rows()
             gs[q].chain_caps = None
-            items[q] = (st, None, r)
+            items[q] = (st, None, items[q][2])
     groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
     while batches or groups:
@@ -407,9 +448,8 @@ def _gather_rows(kept, rs, sts, profile):
             vk[ii], dt[ii], tp[ii], a2[ii] = b[0][qq], b[1][qq], b[2][qq], b[3][qq]
             continue
         bnd[ii], TL[ii], beta[ii], tp[ii], a2[ii] = b[0][qq], b[3][qq], b[4][qq], b[5][qq], b[6][qq]
-        q = np.array(qq)
-        p0 = b[2][q]
-        cnt = b[2][q + 1] - p0
+        sp = b[2][np.array(qq)]
+        p0, cnt = sp[:, 0].astype(np.int64), sp[:, 1].astype(np.int64)
         at = np.cumsum(cnt) - cnt          # each row's first piece in this base's gather
         tj.append(b[1][np.repeat(p0 - at, cnt) + np.arange(int(cnt.sum()))])
         law += ii
@@ -542,8 +582,9 @@ def _laws_of(Qs, items, profile, gs=None):
         w = b[0].shape[1]
         if w:
             bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
-        p0 = b[2][qq]
-        cnt[ii] = b[2][qq + 1] - p0
+        sp = b[2][qq]
+        p0 = sp[:, 0].astype(np.int64)
+        cnt[ii] = sp[:, 1]
         parts.append((ii, p0, b[1]))
     poff = np.zeros(m + 1, np.int64)
     np.cumsum(cnt, out=poff[1:])
@@ -1627,7 +1668,8 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     n, k = T.shape
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
-    nseg = np.fromiter((curves.geom(strokes[i], profile).d.size for i in rows.tolist()), np.int64, n)
+    # (each one's segment count as its geometry block's row length: no d view a chain)
+    nseg = np.array(curves.seg_counts([curves.geom(strokes[i], profile) for i in rows.tolist()]), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
@@ -1762,8 +1804,9 @@ def _same_chains(base, T, beta):
 class _Spread:
     """The flat laws r (solved for base.take(keep)) of every chain of base, chain j's those
     of r's chain pos[j]: what _figures reads of a FlatLaws (per chain conv, iv, peak_v,
-    min_v; per vertex bound, vert_v, vert_t; the pieces' durations piece_T, chain c's at
-    piece_off[c]:piece_off[c + 1]), each a copy of r's numbers."""
+    min_v; per vertex bound, vert_v, vert_t), each a copy of r's numbers; the pieces'
+    durations piece_T are r's own, not copied (chain j's piece_n[j] of them from
+    piece_at[j]: a chain and its first equal share theirs, _piece_spans)."""
 
     def __init__(self, r, base, pos):
         for f in ("conv", "iv", "peak_v", "min_v"):
@@ -1772,10 +1815,16 @@ class _Spread:
         vg = np.repeat(rv[pos] - base.voff[:-1], base.nv) + np.arange(base.sv.size)
         self.bound, self.vert_v, self.vert_t = r.bound[vg], r.vert_v[vg], r.vert_t[vg]
         po = r.piece_off
-        cnt = po[pos + 1] - po[pos]
-        self.piece_off = off = np.zeros(pos.size + 1, po.dtype)
-        np.cumsum(cnt, out=off[1:])
-        self.piece_T = r.piece_T[np.repeat(po[pos] - off[:-1], cnt) + np.arange(off[-1])]
+        self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
+
+
+def _piece_spans(col):
+    """(piece_T, each chain's first piece there, its number of pieces) of one column's flat
+    laws col (a FlatLaws: its chains' pieces end to end; a _Spread: its chains' firsts')."""
+    if isinstance(col, _Spread):
+        return col.piece_T, col.piece_at, col.piece_n
+    po = col.piece_off
+    return col.piece_T, po[:-1], po[1:] - po[:-1]
 
 
 def _chunks(nseg, n):
@@ -1811,13 +1860,14 @@ class _Rows:
     """Candidate rows of chains with the same number of segments n from one chunk (chains
     sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
     knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain;
-    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[toff[i]:toff[i + 1]]."""
-    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "toff", "n")
+    its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[a:a + c],
+    (a, c) = spans[i]."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "spans", "n")
 
-    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, toff):
+    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, spans):
         self.a, self.sts, self.T, self.beta = a, sts, T, beta
         self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
-        self.bnd, self.tj, self.toff = bnd, tj, toff
+        self.bnd, self.tj, self.spans = bnd, tj, spans
         self.n = dt.shape[1]
 
 
@@ -1890,13 +1940,12 @@ class _Finisher:
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
             J, C = r.a + j[good], r.rc[good]
             tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
-            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made)
-            kb = (r.bnd, r.tj, r.toff, r.T[j, r.rc], r.beta[j, r.rc], tr, a2r, profile)
-            r.vk = r.dt = None
-            first = np.concatenate([[0], np.cumsum(r.ks)]).tolist()
-            plans = [_KeptLaws(self.key, kb, first[q], first[q + 1] - first[q], r.sts[jj])
-                     for q, jj in enumerate(r.J.tolist())]
-            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, plans, self.src, r.a)
+            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
+            # one _KeptLaws for the rows of all these chains, each row its batch row)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
+                  profile)
+            r.vk = r.dt = r.bnd = None
+            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
 
 def _flat_chains(sts, profile):
@@ -2002,34 +2051,36 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
 
 class _LawCols:
     """The laws of one chunk's columns (solve_flat's FlatLaws res[c]) as _KeptLaws keeps a
-    candidate row's law: its binding mask and its pieces' durations."""
+    candidate row's law: its binding mask and its pieces' durations.  The durations of all
+    the columns' pieces are one array PT, which the rows' kept laws share (each row: its
+    first piece there and their number), not copied out row by row: a chain and its first
+    equal (_Spread) share theirs (~18 % of the gyroid plate's pieces, held through the plan)."""
 
     def __init__(self, res, k, voff):
         self.voff = voff
         self.BB = _stack_cols(res, k, "bound", bool)
-        # the columns' pieces' durations end to end, chain c's of column q at PO[q, c]:PO[q, c + 1]
-        self.PT = np.concatenate([res[c].piece_T for c in range(k) if c in res])
+        # the columns' pieces' durations end to end, chain c's of column q: PN[q, c] of them from P0[q, c]
+        spans = [_piece_spans(res[c]) if c in res else None for c in range(k)]
+        self.PT = np.concatenate([sp[0] for sp in spans if sp is not None])
         m = voff.size - 1
-        self.PO = PO = np.zeros((k, m + 1), np.int64)
+        self.P0, self.PN = np.zeros((k, m), np.int64), np.zeros((k, m), np.int64)
         at = 0
-        for c in range(k):
-            if c in res:
-                PO[c] = res[c].piece_off + at
-                at += res[c].piece_T.size
+        for c, sp in enumerate(spans):
+            if sp is not None:
+                self.P0[c] = sp[1] + at
+                self.PN[c] = sp[2]
+                at += sp[0].size
 
     def rows(self, j, rc, n):
-        """(bnd (R, n - 1), tj, toff (R + 1)) of the rows (chain j[i], column rc[i]) of
-        chains of n segments: row i's pieces' durations tj[toff[i]:toff[i + 1]]."""
+        """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
+        chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
+        (int32: a chunk's pieces are ~10^5)."""
         R = j.size
         if n > 1:
             bnd = self.BB[rc[:, None], self.voff[j][:, None] + np.arange(n - 1)]
         else:
             bnd = np.empty((R, 0), bool)
-        p0 = self.PO[rc, j]
-        cnt = self.PO[rc, j + 1] - p0
-        toff = np.zeros(R + 1, np.int64)
-        np.cumsum(cnt, out=toff[1:])
-        return bnd, self.PT[np.repeat(p0 - toff[:-1], cnt) + np.arange(toff[-1])], toff
+        return bnd, self.PT, np.stack([self.P0[rc, j], self.PN[rc, j]], axis=1).astype(np.int32)
 
 
 def _stack_cols(res, k, name, dtype=float):
@@ -2046,14 +2097,14 @@ def _stack_cols(res, k, name, dtype=float):
     return out
 
 
-def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
+def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     """Each chain's memo (ChainMemo.put_shared: one array for the batch) of its good rows:
-    predicted time, law T, beta, and its row in its kept plans; rows of one chain are
-    consecutive in j.  src: the _Source of the rows (chain sts[jj] is its row a + jj)."""
+    predicted time, law T, beta, and its row in kept (the batch's kept laws, shared by its
+    chains: the batch row); rows of one chain are consecutive in j.  src: the _Source of
+    the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    start = np.maximum.accumulate(np.where(first, np.arange(R), 0))      # each row's chain's first row
-    tab = np.stack([t, T[j, c], beta[j, c], (np.arange(R) - start).astype(float)], axis=1)
+    tab = np.stack([t, T[j, c], beta[j, c], np.arange(R, dtype=float)], axis=1)
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
@@ -2061,7 +2112,7 @@ def _remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
-    for kept, jj in zip(plans, j[first].tolist()):
+    for jj in j[first].tolist():
         k = cnt[jj]
         if k:
             memo = sts[jj].chain_T

@@ -48,7 +48,7 @@ def ref_replay(items, rules, profile):
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         for q, (st, kept, r) in enumerate(items):
-            vk, dt, t, a2 = kept.row(r)
+            vk, dt, t, a2 = kept.row(r, st)
             acc, feed, _, _, _ = _finish_rows_dt(st, vk[None, :], dt[None, :], rules, profile, predict=False)
             out[q] = SegmentPlan(sk(st), vk, acc[0], feed[0], t, a2)
         return out
@@ -58,7 +58,7 @@ def ref_replay(items, rules, profile):
     for qs in by_n.values():
         for a in range(0, len(qs), FINISH_ROWS):
             Q = qs[a:a + FINISH_ROWS]
-            rows = [items[q][1].row(items[q][2]) for q in Q]
+            rows = [items[q][1].row(items[q][2], items[q][0]) for q in Q]
             vk, dt = np.stack([x[0] for x in rows]), np.stack([x[1] for x in rows])
             sts = [items[q][0] for q in Q]
             acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,

@@ -351,7 +351,7 @@ def ref_replay(items, rules, profile, drop=False):
     for qs in by_n.values():
         for a in range(0, len(qs), chains.FINISH_ROWS):
             Q = qs[a:a + chains.FINISH_ROWS]
-            rows = [items[q][1].row(items[q][2]) for q in Q]
+            rows = [items[q][1].row(items[q][2], items[q][0]) for q in Q]
             vk, dt = np.stack([x[0] for x in rows]), np.stack([x[1] for x in rows])
             sts = [items[q][0] for q in Q]
             acc, feed, _, _, _ = chains._finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt,

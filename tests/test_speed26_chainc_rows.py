@@ -255,11 +255,11 @@ def test_tod_core_at_declines(monkeypatch):
 
 
 # ---------------------------------------------------------------- _remember (ad24489)
-def _ref_remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
+def _ref_remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
+    # (s34: one kept laws for the batch, shared by its chains, a row its batch row)
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    start = np.maximum.accumulate(np.where(first, np.arange(R), 0))
-    tab = np.stack([t, T[j, c], beta[j, c], (np.arange(R) - start).astype(float)], axis=1)
+    tab = np.stack([t, T[j, c], beta[j, c], np.arange(R, dtype=float)], axis=1)
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
     from array import array
@@ -267,7 +267,7 @@ def _ref_remember(sts, j, c, t, good, T, beta, plans, src=None, a=0):
     figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0)
     lo = 0
-    for kept, jj in zip(plans, j[first].tolist()):
+    for jj in j[first].tolist():
         k = int(cnt[jj])
         if k:
             memo = sts[jj].chain_T

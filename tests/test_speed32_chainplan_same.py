@@ -124,7 +124,7 @@ def test_seg_counts_and_stacked_arc_lengths(path, prof_name):
 
 # ---------------------------------------------------------------- _laws_of
 def ref_laws_of(Qs, items, profile):
-    """chains._laws_of at e9d4ed5 (verbatim but for the names)."""
+    """chains._laws_of at e9d4ed5 (verbatim but for the names and s34's pieces' spans)."""
     order = [q for Q in Qs for q in Q]
     m = len(order)
     sts = [items[q][0] for q in order]
@@ -149,8 +149,9 @@ def ref_laws_of(Qs, items, profile):
         w = b[0].shape[1]
         if w:
             bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
-        p0 = b[2][qq]
-        cnt[ii] = b[2][qq + 1] - p0
+        # (s34: a row's pieces are (first, count) = b[2][row] of the chunk's shared b[1])
+        p0 = b[2][qq, 0].astype(np.int64)
+        cnt[ii] = b[2][qq, 1]
         parts.append((ii, p0, b[1]))
     poff = np.zeros(m + 1, np.int64)
     np.cumsum(cnt, out=poff[1:])

@@ -96,7 +96,9 @@ def _memo_rows(strokes, rows, rules, prof):
         rows = []
         for t, T, b, r, kp in m.rows():
             p = kp.plan(int(r), st, rules, prof) if isinstance(kp, chains._KeptLaws) else kp.plan(int(r))
-            rows.append((t, T, b, r, kp.key[:4], p.s.tobytes(), p.v.tobytes(), p.accel.tobytes(),
+            # (r: the row's place in its kept plans, a handle, not compared: s34's kept laws
+            # are one a finishing batch, r the batch's row; the plan it gives is compared)
+            rows.append((t, T, b, kp.key[:4], p.s.tobytes(), p.v.tobytes(), p.accel.tobytes(),
                          p.feed.tobytes(), p.time_t, p.int_a2))
         out.append(rows)
     return out

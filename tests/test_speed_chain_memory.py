@@ -71,9 +71,13 @@ def test_kept_laws_hold_no_accelerations_or_feeds():
         for *_, kept in m.rows():
             bases[id(kept.base)] = kept.base
     # s30: (binding mask, pieces' durations, their offsets, T, beta, t, a2, profile) only:
-    # the rows' laws, not even their knots (made again for the row chosen)
-    assert bases and all(len(b) == 8 and b[0].dtype == bool and b[0].ndim == 2 and b[1].ndim == 1
-                         and all(x.ndim == 1 for x in b[2:7]) for b in bases.values())
+    # the rows' laws, not even their knots (made again for the row chosen); s34: the mask
+    # as bits, its rows given back as bools; each row's pieces (first, count) of durations
+    # shared by a chunk's rows
+    assert bases and all(len(b) == 8 and type(b[0]) is chains._PackedMask and b[0].bits.dtype == np.uint8
+                         and len(b[0].shape) == 2 and b[0][[0]].dtype == bool and b[1].ndim == 1
+                         and b[2].shape == (b[0].shape[0], 2) and all(x.ndim == 1 for x in b[3:7])
+                         for b in bases.values())
     n_rows = sum(b[0].shape[0] for b in bases.values())
     assert n_rows >= 3 * rows.size
 

@@ -901,9 +901,11 @@ class _RowsView:
         self.first = np.ascontiguousarray(first, np.intp)
         self.cnt = np.ascontiguousarray(cnt, np.intp)
         self.T_orig, self.I_orig, self.settle = T_orig, I_orig, settle
-        self.reps, self.inv = _same_rows(self.first, self.cnt, T_orig, I_orig)
-        if self.reps.size > GROUP_R * self.cnt.size:
-            self.reps = self.inv = None
+        self.reps = self.inv = None
+        if _firsts_at_most(self.first, GROUP_R * self.cnt.size):
+            self.reps, self.inv = _same_rows(self.first, self.cnt, T_orig, I_orig)
+            if self.reps.size > GROUP_R * self.cnt.size:
+                self.reps = self.inv = None
 
     def columns(self, mask_rows, j, k):
         """The dense columns (mask_rows: the rows' mask; k: the original) of the choices j
@@ -916,6 +918,17 @@ class _RowsView:
             run = np.cumsum(mask_rows[qq], axis=1, dtype=np.int8)
             out[qq] = np.argmax(run > j[qq, None], axis=1)
         return out
+
+
+def _firsts_at_most(first, most):
+    """Are there at most `most` distinct values in first (intp, >= 0)?  The rows of a
+    group share their first, so more of them means more groups than that: _same_rows'
+    sort is then not made (the gyroid plate: +40 M instructions for groups declined)."""
+    if first.size == 0:
+        return True
+    seen = np.zeros(int(first.max()) + 1, bool)
+    seen[first] = True
+    return np.count_nonzero(seen) <= most
 
 
 def _same_rows(first, cnt, T_orig, I_orig):

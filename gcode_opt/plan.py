@@ -883,6 +883,8 @@ def _bisect(J, live, step, spent, budget_t, settle):
 
 
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
+GROUP_R = 0.5          # _allocate_rows allocates by groups of same rows when at most this share are distinct
+                       # (beyond, its copies of the groups' figures and row lists cost more than they save)
 
 PACK_ROWS = 8192       # _RowsView.columns: rows whose running counts are made at once
 CHECK_ENTRIES = 1 << 16   # Candidates.rows_view: entries checked at once
@@ -891,13 +893,19 @@ CHECK_ENTRIES = 1 << 16   # Candidates.rows_view: entries checked at once
 class _RowsView:
     """Candidates.rows_view's: first, cnt (intp): each row's first entry in vals and how
     many (its original is then at column cnt); T_orig, I_orig of the rows; settle as
-    allocation_tables finds it."""
-    __slots__ = ("first", "cnt", "T_orig", "I_orig", "settle")
+    allocation_tables finds it; reps, inv (intp): _same_rows' groups of the rows, None
+    where there are more than GROUP_R of the rows (each row is then its own group)."""
+    __slots__ = ("first", "cnt", "T_orig", "I_orig", "settle", "reps", "inv")
 
     def __init__(self, first, cnt, T_orig, I_orig, settle):
         self.first = np.ascontiguousarray(first, np.intp)
         self.cnt = np.ascontiguousarray(cnt, np.intp)
         self.T_orig, self.I_orig, self.settle = T_orig, I_orig, settle
+        self.reps = self.inv = None
+        if _firsts_at_most(self.first, GROUP_R * self.cnt.size):
+            self.reps, self.inv = _same_rows(self.first, self.cnt, T_orig, I_orig)
+            if self.reps.size > GROUP_R * self.cnt.size:
+                self.reps = self.inv = None
 
     def columns(self, mask_rows, j, k):
         """The dense columns (mask_rows: the rows' mask; k: the original) of the choices j
@@ -912,31 +920,110 @@ class _RowsView:
         return out
 
 
+def _firsts_at_most(first, most):
+    """Are there at most `most` distinct values in first (intp, >= 0)?  The rows of a
+    group share their first, so more of them means more groups than that: _same_rows'
+    sort is then not made (the gyroid plate: +40 M instructions for groups declined)."""
+    if first.size == 0:
+        return True
+    seen = np.zeros(int(first.max()) + 1, bool)
+    seen[first] = True
+    return np.count_nonzero(seen) <= most
+
+
+def _same_rows(first, cnt, T_orig, I_orig):
+    """The rows' groups of the same entries (first, cnt) and the same originals (their
+    bits): every row of a group has the same costs at every lambda, so the same choice,
+    margins and T - T_orig (lines that repeat share their entries: SharedPiece).  Returns
+    (reps: each group's first row, ascending; inv: each row's group)."""
+    n = first.size
+    if n == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    keys = (I_orig.view(np.int64), T_orig.view(np.int64), cnt, first)
+    order = np.lexsort(keys)                         # stable: a group's rows ascending
+    same = np.ones(n - 1, bool)                      # a sorted row's keys are its predecessor's
+    for key in keys:
+        ks = key[order]
+        same &= ks[1:] == ks[:-1]
+    new = np.concatenate(([True], ~same))            # a sorted row starts a group
+    starts = order[new]                              # each group's first row
+    gid = np.cumsum(new) - 1                         # the sorted rows' group, by sorted group
+    rank = np.empty(starts.size, np.intp)            # sorted group -> group numbered by its first row
+    rank[np.argsort(starts, kind="stable")] = np.arange(starts.size)
+    inv = np.empty(n, np.intp)
+    inv[order] = rank[gid]
+    return np.sort(starts), inv
+
+
 def _allocate_rows(vals, rv, budget_t, core):
     """_allocate's choices on the candidates where they are (Candidates.rows_view) by the
     compiled core's alloc_rows: each row's costs are its feasible candidates' and its
     original's in the dense order, so argmin's first, the second least, the margins and
     T - T_orig are the dense tables' (the columns left out cost inf at every lambda and no
-    least cost is inf: rows_view declines tables where one could be); every row's T - T_orig
-    is kept in one array in row order, so the sums are the same.  Returns (choice per row:
-    its j-th candidate, cnt = its original; lambda)."""
-    n = rv.cnt.size
+    least cost is inf: rows_view declines tables where one could be).  Each group of rows
+    with the same costs (rv.reps, rv.inv) is allocated once, by its first row: its rows
+    settle together and keep the same values through the bisection, and every row's T -
+    T_orig is kept in one array in row order (_RowSpread), so the sums are the same.
+    Returns (choice per row: its j-th candidate, cnt = its original; lambda)."""
+    reps, inv = rv.reps, rv.inv
     vT, vI = np.ascontiguousarray(vals[0]), np.ascontiguousarray(vals[2])
-    dT = np.empty(n)
-    J = np.empty(n, np.intp)
-    # rows with no candidate keep their original (column 0) at every lambda
-    fixed = np.flatnonzero(rv.cnt == 0)
+    first, cnt, T_orig, I_orig = ((rv.first, rv.cnt, rv.T_orig, rv.I_orig) if reps is None else
+                                  (np.ascontiguousarray(a[reps]) for a in (rv.first, rv.cnt, rv.T_orig, rv.I_orig)))
+    J = np.empty(cnt.size, np.intp)
+    spread = _RowSpread(inv, cnt.size)
+    # groups with no candidate keep their original (column 0) at every lambda
+    fixed = np.flatnonzero(cnt == 0)
     J[fixed] = 0
-    dT[fixed] = rv.T_orig[fixed] - rv.T_orig[fixed]
-    live = np.flatnonzero(rv.cnt != 0)
+    spread.dT_u[fixed] = T_orig[fixed] - T_orig[fixed]
+    live = np.flatnonzero(cnt != 0)
 
-    def step(lam, r):
-        j, margin, tol = np.empty(r.size, np.intp), np.empty(r.size), np.empty(r.size)
-        core.alloc_rows(vT, vI, rv.first, rv.cnt, rv.T_orig, rv.I_orig, np.ascontiguousarray(r, np.intp), lam,
-                        MARGIN_R, dT, j, margin, tol)
+    def step(lam, g):
+        j, margin, tol = np.empty(g.size, np.intp), np.empty(g.size), np.empty(g.size)
+        core.alloc_rows(vT, vI, first, cnt, T_orig, I_orig, np.ascontiguousarray(g, np.intp), lam,
+                        MARGIN_R, spread.dT_u, j, margin, tol)
+        spread.rows_of(g)
         return j, margin, tol
 
-    return _bisect(J, live, step, lambda: float(np.sum(dT)), budget_t, rv.settle)
+    J, lam = _bisect(J, live, step, lambda: float(np.sum(spread.dT)), budget_t, rv.settle)
+    return (J if inv is None else J[inv]), lam
+
+
+class _RowSpread:
+    """_allocate_rows' T - T_orig: dT_u, each group's (the core writes it), and dT, every
+    row's in row order, as the row-by-row allocation held it (so np.sum gives its bits).
+    rows_of(g) copies the groups g's values to their rows after a step on them: the
+    first step's groups are every group with a candidate (and the others' are set then),
+    each later one's a subset of the last one's (_bisect only narrows them), so the rows
+    to copy are found among the last step's, not among all (the rectilinear plate: ~6 k
+    groups live, ~10 after 20 of its 88 steps; a gather of every row a step cost more
+    than the groups saved).  inv None: each row its own group (dT is dT_u)."""
+    __slots__ = ("inv", "dT_u", "dT", "g_n", "rows", "inv_rows")
+
+    def __init__(self, inv, n_groups):
+        self.inv = inv
+        self.dT_u = np.empty(n_groups)
+        self.dT = self.dT_u if inv is None else np.empty(inv.size)
+        self.g_n = -1                 # the last step's number of groups (-1: no step yet)
+        self.rows = self.inv_rows = None
+
+    def rows_of(self, g):
+        if self.inv is None:
+            return
+        if self.g_n < 0:
+            self.dT[:] = self.dT_u[self.inv]
+            live = np.zeros(self.dT_u.size, bool)
+            live[g] = True
+            self.rows = np.flatnonzero(live[self.inv])
+            self.inv_rows = self.inv[self.rows]
+            self.g_n = g.size
+            return
+        if g.size != self.g_n:        # fewer groups: their rows among the last ones'
+            keep = np.zeros(self.dT_u.size, bool)
+            keep[g] = True
+            keep = keep[self.inv_rows]
+            self.rows, self.inv_rows = self.rows[keep], self.inv_rows[keep]
+            self.g_n = g.size
+        self.dT[self.rows] = self.dT_u[self.inv_rows]
 
 
 USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)

@@ -1,17 +1,14 @@
 """benchmarks/bench_command.py runs the real command on a bundled sample and reports it."""
-import importlib.util
 import os
 import re
+from bench_modules import load_bench
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("bench_command", os.path.join(ROOT, "benchmarks", "bench_command.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_bench("bench_command")
 
 
 def test_one_round_on_the_small_sample(tmp_path, capsys):

@@ -1,21 +1,18 @@
 """benchmarks/mem_breakdown.py: every phase reported, on a real sample, and its count of the
 strokes' memory agrees with what tracemalloc saw the stroke-making code allocate."""
-import importlib.util
 import os
 import tracemalloc
 
 import gcode_opt.pipeline as pl
 import gcode_opt.schedule as sch
+from bench_modules import load_bench
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..")
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("mem_breakdown", os.path.join(ROOT, "benchmarks", "mem_breakdown.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_bench("mem_breakdown")
 
 
 def _phases(mod):

@@ -1,22 +1,19 @@
 """benchmarks/mem_breakdown.py --rises: each rise of the peak RSS put on the step it was
 seen in, and the process left as it was."""
-import importlib.util
 import os
 import re
 import subprocess
 import sys
 
 import gcode_opt.schedule as sch
+from bench_modules import load_bench
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 SAMPLE = os.path.join(ROOT, "sample_gcode", "prusa_gyroid.gcode")
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("mem_breakdown", os.path.join(ROOT, "benchmarks", "mem_breakdown.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_bench("mem_breakdown")
 
 
 def test_rises_in_a_fresh_process_name_the_phases():

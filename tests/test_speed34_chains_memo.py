@@ -9,12 +9,8 @@ The plans made from the shared kept laws are those made from a chain's own
 import numpy as np
 import pytest
 
+from chain_cases import fresh_chains
 from gcode_opt import chains
-from gcode_opt.pipeline import Options, analyse
-from gcode_opt.profile import load_profile
-from gcode_opt.schedule import plan_inputs
-from gcode_opt.segments import SegmentRules
-from gcode_opt.strokes import K_CHAIN
 
 SAMPLE = "sample_gcode/prusa_gyroid_fullspeed.gcode"
 
@@ -34,13 +30,7 @@ def test_packed_mask_gives_back_the_masks_rows(n):
 
 
 def _fresh_table(prof_name):
-    prof = load_profile(prof_name)
-    opts = Options()
-    opts.ringing = False
-    strokes, _ = analyse(SAMPLE, prof, opts)
-    pin = plan_inputs(strokes, prof, opts)
-    rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == K_CHAIN], int)
-    rules = SegmentRules.for_profile(prof, 10)
+    strokes, pin, rows, prof, rules = fresh_chains(SAMPLE, prof_name)
     chains.candidates_chain(pin, rows, strokes, prof, rules)
     return strokes, rows, prof, rules
 

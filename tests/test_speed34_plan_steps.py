@@ -1,20 +1,17 @@
 """benchmarks/mem_breakdown.py --steps (s34, planrect): the RSS, peak and heap at every
 watched step's start and end, nested as the steps ran, and the process left as it was;
 its RSS in the peak's unit (MiB, VmHWM's kB / 1024)."""
-import importlib.util
 import os
 
 import gcode_opt.schedule as sch
+from bench_modules import load_bench
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 SAMPLE = os.path.join(ROOT, "sample_gcode", "prusa_gyroid.gcode")
 
 
 def _load():
-    spec = importlib.util.spec_from_file_location("mem_breakdown", os.path.join(ROOT, "benchmarks", "mem_breakdown.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_bench("mem_breakdown")
 
 
 def test_steps_nest_and_leave_the_steps_as_they_were():

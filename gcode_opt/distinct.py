@@ -57,3 +57,15 @@ def column_classes_first(cols):
     odd = np.flatnonzero(odd)
     out[odd] = first.size + np.arange(odd.size)
     return out, np.concatenate([first, odd])
+
+
+def classes_in_row_order(cols):
+    """(first, inv) of column_classes_first(cols), the classes numbered in the order of
+    their first rows: first ascending, row q in class inv[q] (intp), equal in every column
+    to row first[inv[q]]."""
+    cls, first = column_classes_first(cols)
+    by_first = np.argsort(first)
+    place = np.empty(first.size, np.intp)   # class -> its place among the firsts
+    place[by_first] = np.arange(first.size)
+    return first[by_first], place[cls]
+

@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .distinct import column_classes_first
+from .distinct import classes_in_row_order
 from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
@@ -450,13 +450,8 @@ def _same_inputs(p: PlanInput):
         return None
     # by their bytes (-0.0 and 0.0 apart), hashed column by column (column_classes: np.unique
     # of the rows as 56-byte records sorted them by memcmp, ~10 ms on the rectilinear plate)
-    cls, first = column_classes_first([c.view(np.int64) for c in cols])
-    if first.size > SAME_MAX_R * n:
-        return None
-    by_first = np.argsort(first)            # the sets in the order of their first stroke
-    place = np.empty(first.size, np.intp)   # class -> its set's place
-    place[by_first] = np.arange(first.size)
-    return first[by_first], place[cls]
+    first, inv = classes_in_row_order([c.view(np.int64) for c in cols])
+    return None if first.size > SAME_MAX_R * n else (first, inv)
 
 
 def _plain(p: PlanInput):
@@ -936,23 +931,9 @@ def _same_rows(first, cnt, T_orig, I_orig):
     bits): every row of a group has the same costs at every lambda, so the same choice,
     margins and T - T_orig (lines that repeat share their entries: SharedPiece).  Returns
     (reps: each group's first row, ascending; inv: each row's group)."""
-    n = first.size
-    if n == 0:
+    if first.size == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
-    keys = (I_orig.view(np.int64), T_orig.view(np.int64), cnt, first)
-    order = np.lexsort(keys)                         # stable: a group's rows ascending
-    same = np.ones(n - 1, bool)                      # a sorted row's keys are its predecessor's
-    for key in keys:
-        ks = key[order]
-        same &= ks[1:] == ks[:-1]
-    new = np.concatenate(([True], ~same))            # a sorted row starts a group
-    starts = order[new]                              # each group's first row
-    gid = np.cumsum(new) - 1                         # the sorted rows' group, by sorted group
-    rank = np.empty(starts.size, np.intp)            # sorted group -> group numbered by its first row
-    rank[np.argsort(starts, kind="stable")] = np.arange(starts.size)
-    inv = np.empty(n, np.intp)
-    inv[order] = rank[gid]
-    return np.sort(starts), inv
+    return classes_in_row_order([I_orig.view(np.int64), T_orig.view(np.int64), cnt, first])
 
 
 def _allocate_rows(vals, rv, budget_t, core):

@@ -1024,7 +1024,7 @@ other:
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | line_ascii 5"
+    " | peek commit 4 | line_ascii 5 | Lines peek_ascii 6"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -1344,14 +1344,25 @@ other:
  * noop_command finds (step() returns None, nothing changes), 3 an M204 or a marked comment
  * line (nothing read: fused_line reads it), 0 any other line, -1 error; fused_commit then makes the state step() would leave, if the loop
  * takes the line. */
+static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, RunMove *rm);
+
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
-    Session *ss = p;
-    if (ss->off || !PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+    if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         return 0;
-    const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
+    return fused_peek_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), rm);
+}
+
+/* fused_peek of the line line[0..n), all of it ASCII (as fused_line_ascii is fused_line's):
+ * run_lines and gap_lines read the reader's Lines chunks without a str a line */
+static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, RunMove *rm)
+{
+    Session *ss = p;
+    if (ss->off)
+        return 0;
+    const unsigned char *s = (const unsigned char *)line;
     Py_ssize_t code_n = 0;
-    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    switch (line_shape(s, n, &code_n)) {
     case SHAPE_PYTHON:
         return 0;
     case SHAPE_NOTHING:
@@ -1426,12 +1437,104 @@ typedef struct {
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
     int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
+    Py_ssize_t (*lines_len)(PyObject *o);
+    int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
+    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, RunMove *rm);
 } ReaderAPI;
+
+/* ---------------------------------------------------------------- a chunk of lines as bytes
+ * line_chunks' chunk with the compiled reader: the chunk's bytes and where each line starts,
+ * read as a sequence of str (lines[i] makes the str read_lines gives: split_lines' own).
+ * The analyse pass reads most lines in C (run_lines, gap_lines: lines_at, no str), so a
+ * str is made only for the few lines Python reads (~5 k of the gyroid plate's 461 k). */
+typedef struct {
+    PyObject_HEAD
+    PyObject *data;                   /* bytes: the lines from offset 0 */
+    Py_ssize_t n;                     /* lines */
+    Py_ssize_t *start;                /* n + 1 offsets: line i is data[start[i]:start[i + 1]] */
+    int ascii;                        /* every byte of data is ASCII */
+} LinesObject;
+
+static PyTypeObject LinesType;
+
+static Py_ssize_t Lines_len(LinesObject *o)
+{
+    return o->n;
+}
+
+/* A line's str as read_lines gives it: a line of ASCII bytes copied into a new str, any other
+ * UTF-8's decoder's with surrogateescape (a line alone decodes as it would in the stream: no
+ * byte of "\r" or "\n" is inside a UTF-8 sequence) */
+static PyObject *line_str(const char *s, Py_ssize_t n, int ascii)
+{
+    if (!ascii)
+        return PyUnicode_DecodeUTF8(s, n, "surrogateescape");
+    PyObject *line = PyUnicode_New(n, 127);
+    if (line != NULL)
+        memcpy(PyUnicode_1BYTE_DATA(line), s, (size_t)n);
+    return line;
+}
+
+static PyObject *Lines_item(LinesObject *o, Py_ssize_t i)
+{
+    if (i < 0 || i >= o->n) {
+        PyErr_SetString(PyExc_IndexError, "Lines index out of range");
+        return NULL;
+    }
+    const char *s = PyBytes_AS_STRING(o->data) + o->start[i];
+    return line_str(s, o->start[i + 1] - o->start[i], o->ascii);
+}
+
+static void Lines_dealloc(LinesObject *o)
+{
+    Py_XDECREF(o->data);
+    PyMem_Free(o->start);
+    Py_TYPE(o)->tp_free((PyObject *)o);
+}
+
+static PySequenceMethods Lines_as_seq = {
+    .sq_length = (lenfunc)Lines_len,
+    .sq_item = (ssizeargfunc)Lines_item,
+};
+
+static PyTypeObject LinesType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_reader.Lines",
+    .tp_basicsize = sizeof(LinesObject),
+    .tp_dealloc = (destructor)Lines_dealloc,
+    .tp_as_sequence = &Lines_as_seq,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "A chunk of lines as bytes (split_block): lines[i] is the i-th line's str",
+};
+
+/* the capsule's: o's length, -1 if o is not a Lines */
+static Py_ssize_t lines_len(PyObject *o)
+{
+    return Py_IS_TYPE(o, &LinesType) ? ((LinesObject *)o)->n : -1;
+}
+
+/* the capsule's: line i (0 <= i < len) of the Lines o as bytes; 1 if all of it is ASCII (then
+ * it is the str's own characters), else 0 (the str is the decoder's) */
+static int lines_at(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n)
+{
+    LinesObject *b = (LinesObject *)o;
+    const char *s = PyBytes_AS_STRING(b->data) + b->start[i];
+    Py_ssize_t k = 0, m = b->start[i + 1] - b->start[i];
+    *line = s;
+    *n = m;
+    if (b->ascii)
+        return 1;
+    for (; k < m; k++)
+        if ((unsigned char)s[k] & 0x80)
+            return 0;
+    return 1;
+}
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
                                      fused_open, fused_line, fused_close,
-                                     sizeof(RunMove), fused_peek, fused_commit, fused_line_ascii};
+                                     sizeof(RunMove), fused_peek, fused_commit, fused_line_ascii,
+                                     lines_len, lines_at, fused_peek_ascii};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,
@@ -1447,35 +1550,33 @@ static PyObject *make_method(PyObject *module, PyObject *unused)
     return m;
 }
 
-/* split_lines(buf, final) -> (lines, used): the whole lines at the start of the bytes-like
- * buf as read_lines reads them (open_text: UTF-8 with surrogateescape, newline=""), a list
- * of str, endings kept: a line ends after "\n", "\r\n" or a lone "\r".  used: the bytes
- * they take; the rest (a line without its ending, or a "\r" at the very end, which may be
- * the start of a "\r\n") waits for more bytes, unless final (the file's end: the rest is
- * the last line).  No byte of "\r" or "\n" is inside a UTF-8 sequence, so each line
- * decodes alone as it would in the stream.  (state.line_chunks: analyse's reading, ~2x
- * fewer instructions than TextIOWrapper.readlines.) */
-static PyObject *split_lines(PyObject *module, PyObject *args)
+/* The whole lines at the start of p[0..len) as read_lines reads them (open_text: newline=""):
+ * a line ends after "\n", "\r\n" or a lone "\r".  The rest (a line without its ending, or a
+ * "\r" at the very end, which may be the start of a "\r\n") waits for more bytes, unless
+ * final (the file's end: the rest is the last line).  Returns the lines n, their starts and
+ * the end of the last in *start_out (n + 1 offsets, PyMem; the caller frees them), *ascii
+ * whether every byte of p[0..len) is ASCII; -1 on error (set). */
+static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_t **start_out, int *ascii)
 {
-    Py_buffer b;
-    int final;
-    if (!PyArg_ParseTuple(args, "y*p:split_lines", &b, &final))
-        return NULL;
-    const char *p = (const char *)b.buf, *end = p + b.len, *s = p;
-    int cr = memchr(p, '\r', (size_t)b.len) != NULL;
+    const char *end = p + len, *s = p;
+    int cr = memchr(p, '\r', (size_t)len) != NULL;
     unsigned long long any = 0;        /* the bytes or'ed, 8 at a time: all ASCII (the usual)? */
     Py_ssize_t k = 0;
-    for (; k + 8 <= b.len; k += 8) {
+    for (; k + 8 <= len; k += 8) {
         unsigned long long w;
         memcpy(&w, p + k, 8);
         any |= w;
     }
-    for (; k < b.len; k++)
+    for (; k < len; k++)
         any |= (unsigned char)p[k];
-    int ascii = (any & 0x8080808080808080ULL) == 0;    /* (then each str is made directly) */
-    PyObject *lines = PyList_New(0);
-    if (lines == NULL)
-        goto fail;
+    *ascii = (any & 0x8080808080808080ULL) == 0;
+    Py_ssize_t n = 0, cap = len / 24 + 16;
+    Py_ssize_t *start = PyMem_Malloc((size_t)cap * sizeof(Py_ssize_t));
+    if (start == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    start[0] = 0;
     while (s < end) {
         const char *e;
         if (!cr) {
@@ -1494,27 +1595,73 @@ static PyObject *split_lines(PyObject *module, PyObject *args)
             e += (e + 1 < end && e[1] == '\n') ? 2 : 1;
         } else
             e++;
-        PyObject *line;
-        if (ascii) {
-            line = PyUnicode_New(e - s, 127);
-            if (line != NULL)
-                memcpy(PyUnicode_1BYTE_DATA(line), s, (size_t)(e - s));
-        } else
-            line = PyUnicode_DecodeUTF8(s, e - s, "surrogateescape");
-        if (line == NULL)
-            goto fail;
-        int bad = PyList_Append(lines, line) < 0;
-        Py_DECREF(line);
-        if (bad)
-            goto fail;
+        if (n + 2 > cap) {
+            cap *= 2;
+            Py_ssize_t *more = PyMem_Realloc(start, (size_t)cap * sizeof(Py_ssize_t));
+            if (more == NULL) {
+                PyMem_Free(start);
+                PyErr_NoMemory();
+                return -1;
+            }
+            start = more;
+        }
+        start[++n] = e - p;
         s = e;
     }
+    *start_out = start;
+    return n;
+}
+
+/* split_lines(buf, final) -> (lines, used): the whole lines at the start of the bytes-like
+ * buf (split_scan's), a list of str, endings kept; used: the bytes they take.  (The
+ * reference of split_block: read_chunks' lists.) */
+static PyObject *split_lines(PyObject *module, PyObject *args)
+{
+    Py_buffer b;
+    int final, ascii;
+    Py_ssize_t *start = NULL;
+    if (!PyArg_ParseTuple(args, "y*p:split_lines", &b, &final))
+        return NULL;
+    const char *p = (const char *)b.buf;
+    Py_ssize_t n = split_scan(p, b.len, final, &start, &ascii);
+    PyObject *lines = n < 0 ? NULL : PyList_New(n);
+    for (Py_ssize_t i = 0; lines != NULL && i < n; i++) {
+        PyObject *line = line_str(p + start[i], start[i + 1] - start[i], ascii);
+        if (line == NULL)
+            Py_CLEAR(lines);
+        else
+            PyList_SET_ITEM(lines, i, line);
+    }
+    Py_ssize_t used = n < 0 ? 0 : start[n];
+    PyMem_Free(start);
     PyBuffer_Release(&b);
-    return Py_BuildValue("(Nn)", lines, (Py_ssize_t)(s - p));
-fail:
-    Py_XDECREF(lines);
-    PyBuffer_Release(&b);
-    return NULL;
+    return lines == NULL ? NULL : Py_BuildValue("(Nn)", lines, used);
+}
+
+/* split_block(data, final) -> (lines, used): split_lines' lines as a Lines over the bytes
+ * data (held, not copied): no str is made until one is read.  (state.line_chunks: analyse's
+ * reading.) */
+static PyObject *split_block(PyObject *module, PyObject *args)
+{
+    PyObject *data;
+    int final, ascii;
+    if (!PyArg_ParseTuple(args, "O!p:split_block", &PyBytes_Type, &data, &final))
+        return NULL;
+    Py_ssize_t *start = NULL;
+    Py_ssize_t n = split_scan(PyBytes_AS_STRING(data), PyBytes_GET_SIZE(data), final, &start, &ascii);
+    if (n < 0)
+        return NULL;
+    LinesObject *o = PyObject_New(LinesObject, &LinesType);
+    if (o == NULL) {
+        PyMem_Free(start);
+        return NULL;
+    }
+    Py_INCREF(data);
+    o->data = data;
+    o->n = n;
+    o->start = start;
+    o->ascii = ascii;
+    return Py_BuildValue("(Nn)", (PyObject *)o, start[n]);
 }
 
 static PyMethodDef mod_methods[] = {
@@ -1524,6 +1671,8 @@ static PyMethodDef mod_methods[] = {
     {"make_method", make_method, METH_NOARGS, "step as a method for MachineState"},
     {"split_lines", split_lines, METH_VARARGS,
      "split_lines(buf, final) -> (lines, used): buf's whole lines decoded as read_lines reads them"},
+    {"split_block", split_block, METH_VARARGS,
+     "split_block(data, final) -> (lines, used): split_lines' lines as a Lines over the bytes data"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef reader_module = {
@@ -1537,9 +1686,17 @@ static struct PyModuleDef reader_module = {
 
 PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
 {
+    if (PyType_Ready(&LinesType) < 0)
+        return NULL;
     PyObject *m = PyModule_Create(&reader_module);
     if (m == NULL)
         return NULL;
+    Py_INCREF(&LinesType);
+    if (PyModule_AddObject(m, "Lines", (PyObject *)&LinesType) < 0) {
+        Py_DECREF(&LinesType);
+        Py_DECREF(m);
+        return NULL;
+    }
     PyObject *cap = PyCapsule_New((void *)&READER_API, "_gcode_opt_reader._C_API", NULL);
     if (cap == NULL || PyModule_AddObject(m, "_C_API", cap) < 0) {
         Py_XDECREF(cap);

@@ -690,16 +690,19 @@ def read_lines(path: str):
 
 
 def line_chunks(path: str, progress=None, cr=None):
-    """The file's lines as read_lines reads them, in lists: (idx of the first, [raw, ...]),
-    as simulate.read_chunks gives them (there the chunks end elsewhere: callers take any
-    chunking).  The compiled reader splits and decodes blocks of bytes (split_lines: no
-    TextIOWrapper, ~0.01 s of the gyroid plate's 461 k lines), simulate.CHUNK_HINT bytes
-    at a time (read_chunks' characters: one knob for both); else read_chunks itself.
+    """The file's lines as read_lines reads them, in chunks: (idx of the first, lines), the
+    lines (raw, ...) as simulate.read_chunks gives them (there the chunks end elsewhere: callers take any
+    chunking).  The compiled reader splits blocks of bytes (no TextIOWrapper), simulate.
+    CHUNK_HINT bytes at a time (read_chunks' characters: one knob for both), each chunk a
+    Lines (split_block): a sequence of those str, made only as they are read -- the
+    compiled model's run_lines and gap_lines read most lines from its bytes (on the gyroid
+    plate all but ~5 k of 461 k; a list of str a chunk cost ~0.1 G instructions there).
+    Without it, read_chunks itself.
     progress(n) is told each chunk's characters.  cr, a one-item list if given, is set
     True unless the file holds no "\r" (then its lines, ended by "\n" alone, are the ones
     summary.count_lines counts; read_chunks' path does not look: True)."""
     from .firmware import simulate       # (it imports this module)
-    split = getattr(_reader, "split_lines", None)
+    split = getattr(_reader, "split_block", None)
     if split is None:
         if cr is not None:
             cr[0] = True
@@ -718,8 +721,8 @@ def line_chunks(path: str, progress=None, cr=None):
             lines, used = split(data, final)
             rest = data[used:]
             if lines:
-                if progress is not None:
-                    progress(sum(map(len, lines)))
+                if progress is not None:      # (characters: the bytes where they are ASCII)
+                    progress(used if data.isascii() else sum(map(len, lines)))
                 yield idx0, lines
                 idx0 += len(lines)
             if final:

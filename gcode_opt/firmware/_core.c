@@ -2291,7 +2291,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | line_ascii 5"
+    " | peek commit 4 | line_ascii 5 | Lines peek_ascii 6"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2317,6 +2317,9 @@ typedef struct {
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
     int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
+    Py_ssize_t (*lines_len)(PyObject *o);
+    int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
+    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, RunMove *rm);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2923,10 +2926,59 @@ fail_ss:
     return -1;
 }
 
+/* The chunk run_lines and gap_lines read (cur[0]): a list of str (read_chunks') or the
+ * reader's Lines (state.line_chunks': the chunk's bytes, no str a line) */
+typedef struct {
+    PyObject *lines;                  /* borrowed */
+    Py_ssize_t n_block;               /* a Lines' length; -1: a list */
+} Chunk;
+
+/* 0; 1 without the reader (no line can be read here: the callers return None); -1 with a
+ * TypeError (what: the caller's name) */
+static int chunk_of(PyObject *lines, Chunk *c, const char *what)
+{
+    c->lines = lines;
+    c->n_block = -1;
+    if (READER == NULL)
+        return 1;
+    if (PyList_CheckExact(lines) || (c->n_block = READER->lines_len(lines)) >= 0)
+        return 0;
+    PyErr_Format(PyExc_TypeError, "%s: cur[0] must be a list of str or the reader's Lines", what);
+    return -1;
+}
+
+static inline Py_ssize_t chunk_len(const Chunk *c)
+{
+    return c->n_block >= 0 ? c->n_block : PyList_GET_SIZE(c->lines);   /* (a list may change) */
+}
+
+/* line i (< chunk_len) as ASCII bytes: 1 with line[0..n) (the str's characters), 0 a line
+ * that is not (a str of other characters, or not a str: the peek's 0, Python reads it) */
+static inline int chunk_ascii(const Chunk *c, Py_ssize_t i, const char **line, Py_ssize_t *n)
+{
+    if (c->n_block >= 0)
+        return READER->lines_at(c->lines, i, line, n);
+    PyObject *raw = PyList_GET_ITEM(c->lines, i);
+    if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
+        return 0;
+    *line = (const char *)PyUnicode_1BYTE_DATA(raw);
+    *n = PyUnicode_GET_LENGTH(raw);
+    return 1;
+}
+
+/* READER->peek of line i (fused_peek's answers) */
+static inline int chunk_peek(const Chunk *c, void *ss, Py_ssize_t i, RunMove *rm)
+{
+    const char *line;
+    Py_ssize_t n;
+    return chunk_ascii(c, i, &line, &n) ? READER->peek_ascii(ss, line, n, rm) : 0;
+}
+
 /* run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy,
  *           ld, run_len, r_epm, turned, min_cos, coll, split, f_lim, f_lo, f_hi):
  * strokes.group_lines' common line in C, for pipeline.analyse.  cur = [lines, i, idx0]
- * (lines[i] the file's line idx0 + i, the next to read).  While the next line is a G0/G1
+ * (lines[i] the file's line idx0 + i, the next to read; lines a list of str or the reader's
+ * Lines, read here as bytes: Chunk).  While the next line is a G0/G1
  * of the reader's fast shape whose move continues the open run and group_lines would take
  * it without asking Python (its fast test: the feed, acceleration, feature, Z and E mode
  * of the run (v accel feature z e_rel: the run's first move's), eligible() less what that
@@ -4204,10 +4256,12 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         return NULL;
     }
     PyObject *lines = PyList_GET_ITEM(cur, 0);
-    if (!PyList_CheckExact(lines)) {
-        PyErr_SetString(PyExc_TypeError, "run_lines: cur[0] must be a list of str");
+    Chunk chunk;
+    int no_chunk = chunk_of(lines, &chunk, "run_lines");
+    if (no_chunk < 0)
         return NULL;
-    }
+    if (no_chunk)
+        Py_RETURN_NONE;
     Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
     long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
     int e_rel = PyObject_IsTrue(args[9]), travel = PyObject_IsTrue(args[10]);
@@ -4292,11 +4346,10 @@ static PyObject *Sim_run_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     double v = ok ? PyFloat_AS_DOUBLE(o_v) : 0.0, accel = ok ? PyFloat_AS_DOUBLE(o_accel) : 0.0;
     double z = ok ? PyFloat_AS_DOUBLE(o_z) : 0.0;
     Py_ssize_t i = i0 < 0 ? 0 : i0;
-    for (; ok && i < PyList_GET_SIZE(lines); i++) {
-        PyObject *raw = PyList_GET_ITEM(lines, i);
+    for (; ok && i < chunk_len(&chunk); i++) {
         RunMove rm;
         const FusedMove *fm = &rm.fm;
-        int got = READER->peek(ss, raw, &rm);
+        int got = chunk_peek(&chunk, ss, i, &rm);
         if (got < 0)
             goto fail;
         if (got != 1 || fm->kind != 0)
@@ -4487,10 +4540,12 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
         return NULL;
     }
     PyObject *lines = PyList_GET_ITEM(cur, 0);
-    if (!PyList_CheckExact(lines)) {
-        PyErr_SetString(PyExc_TypeError, "gap_lines: cur[0] must be a list of str");
+    Chunk chunk;
+    int no_chunk = chunk_of(lines, &chunk, "gap_lines");
+    if (no_chunk < 0)
         return NULL;
-    }
+    if (no_chunk)
+        Py_RETURN_NONE;
     Py_ssize_t i0 = PyLong_AsSsize_t(PyList_GET_ITEM(cur, 1));
     long long idx0 = PyLong_AsLongLong(PyList_GET_ITEM(cur, 2));
     if (PyErr_Occurred() || get_hypot() < 0)
@@ -4517,12 +4572,11 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
     int moved = 0, last_kind = 0;       /* a move was read; the last one's kind */
     double ldx = 0.0, ldy = 0.0;        /* the last line move's dx dy */
     Py_ssize_t i = i0 < 0 ? 0 : i0;
-    for (; i < PyList_GET_SIZE(lines); i++) {
-        PyObject *raw = PyList_GET_ITEM(lines, i);
+    for (; i < chunk_len(&chunk); i++) {
         long long idx = idx0 + (long long)i;
         RunMove rm;
         const FusedMove *fm = &rm.fm;
-        int got = READER->peek(ss, raw, &rm);
+        int got = chunk_peek(&chunk, ss, i, &rm);
         if (got < 0)
             goto fail;
         if (got == 0)
@@ -4531,9 +4585,13 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             continue;                  /* None: nothing to do */
         if (got == 3) {                /* an M204: the fused loop reads it (None), or Python */
             FusedMove m204;
-            Py_INCREF(raw);
-            int r = READER->line(ss, raw, &m204);
-            Py_DECREF(raw);
+            const char *line;
+            Py_ssize_t n;
+            chunk_ascii(&chunk, i, &line, &n);      /* (ASCII: the peek read it) */
+            /* (a list's str held while it is read, as the list could let go of it) */
+            PyObject *held = chunk.n_block < 0 ? Py_NewRef(PyList_GET_ITEM(lines, i)) : NULL;
+            int r = READER->line_ascii(ss, line, n, &m204);
+            Py_XDECREF(held);
             if (r < 0)
                 goto fail;
             if (r != 0)

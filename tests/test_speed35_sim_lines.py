@@ -1,0 +1,108 @@
+"""analyse's chunks as bytes (issue 8, round 35), same bits:
+
+- state.line_chunks yields the compiled reader's Lines (split_block: the chunk's bytes and
+  where each line starts) instead of a list of str: as a sequence it must be split_lines'
+  list (the same str, endings and bad UTF-8 included) with the same bytes used;
+- the compiled model's run_lines and gap_lines read a Lines' lines as bytes (no str a
+  line): analyse must give the reference's strokes, sums and tallies field by field where
+  lines are not ASCII (such a line's peek is Python's, as a str of other characters was),
+  where they end in "\\r\\n", and at every chunk size; and the C loops must still read
+  nearly every line (else the test would pass with Python reading them all)."""
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from gcode_opt import pipeline as pl
+from gcode_opt import state
+from gcode_opt.firmware import simulate as fwsim
+from test_speed_analyse2_runs import COMPILED, SAMPLES, _same, _Taken
+
+needs_reader = pytest.mark.skipif(getattr(state._reader, "split_block", None) is None,
+                                  reason="the compiled reader is not built")
+
+
+# ---------------------------------------------------------------- Lines is split_lines' list
+def _texts():
+    rng = random.Random(35)
+    alpha = [b"\r", b"\n", b"\r\n", b"a", b"G1 X1.5 Y2 E.1\n", b";c", b"\xc3\xa9", b"\xe2\x82\xac", b"\xff", b"\xe2"]
+    texts = [b"", b"a", b"a\n", b"a\r", b"a\r\n", b"\r\n\r\n", b"x\ry\r\nz\nw", b"\xe2\x82\n\xff\r\xc3\xa9\r\n"]
+    texts += [b"".join(rng.choice(alpha) for _ in range(rng.randint(1, 300))) for _ in range(100)]
+    texts += [b"".join(rng.choice(alpha[:6]) for _ in range(rng.randint(1, 300))) for _ in range(100)]
+    return texts
+
+
+@needs_reader
+@pytest.mark.parametrize("final", [False, True])
+def test_lines_are_split_lines(final):
+    r = state._reader
+    for t in _texts():
+        want, want_used = r.split_lines(t, final)
+        got, used = r.split_block(t, final)
+        assert type(got) is r.Lines
+        assert used == want_used and len(got) == len(want), t
+        assert list(got) == want and [got[i] for i in range(len(got))] == want, t
+        if want:
+            assert got[-1] == want[-1]
+        with pytest.raises(IndexError):
+            got[len(want)]
+
+
+@needs_reader
+def test_lines_hold_their_bytes():
+    """A Lines keeps the bytes it was made of (no copy): its lines outlive the caller's name."""
+    data = b"G1 X1\nG1 X2\r\nM204 S3\n\xc3\xa9\n"
+    got, used = state._reader.split_block(bytes(bytearray(data)), True)
+    assert used == len(data)
+    assert list(got) == ["G1 X1\n", "G1 X2\r\n", "M204 S3\n", "\u00e9\n"]
+    with pytest.raises(TypeError):
+        state._reader.split_block(bytearray(data), True)      # (only bytes: held as they are)
+
+
+# ---------------------------------------------------------------- analyse over Lines
+def _odd_copy(tmp_path, name, every, crlf):
+    """A sample with a non-ASCII comment line every `every` lines (a Lines that is not all
+    ASCII: its ASCII lines still read in C, the others by Python) and "\\r\\n" endings."""
+    with open(SAMPLES + name, "rb") as fh:
+        lines = fh.read().split(b"\n")
+    out = []
+    for k, line in enumerate(lines):
+        if k % every == every - 1:
+            out.append("; caf\u00e9 \u20ac".encode())
+        out.append(line)
+    path = str(tmp_path / name.replace("/", "_"))
+    with open(path, "wb") as fh:
+        fh.write((b"\r\n" if crlf else b"\n").join(out))
+    return path
+
+
+@pytest.mark.skipif(not COMPILED, reason="the compiled model and reader are not built")
+@pytest.mark.parametrize("every,crlf,hint,least_r", [(97, False, 1 << 16, 0.8), (5, True, 1 << 16, 0.6),
+                                                     (300, False, 999, 0.8), (10 ** 9, True, 4096, 0.8)])
+def test_analyse_over_lines_is_the_reference(tmp_path, monkeypatch, every, crlf, hint, least_r):
+    """least_r: the share of the lines the C loops read at least (a non-ASCII line every 5
+    lines breaks the runs: Python reads those lines and the ones that restart a run)."""
+    path = _odd_copy(tmp_path, "prusa_gyroid.gcode", every, crlf)
+    monkeypatch.setattr(fwsim, "CHUNK_HINT", hint)       # (line_chunks' bytes a block)
+    chunks = list(state.line_chunks(path))
+    assert all(type(lines) is state._reader.Lines for _, lines in chunks)
+    n_lines = sum(len(lines) for _, lines in chunks)
+    taken = _Taken(monkeypatch)
+    _same(path, "prusa-mk3s")
+    assert taken.run + taken.gap > least_r * n_lines, (taken.run, taken.gap, n_lines)
+
+
+@pytest.mark.skipif(not COMPILED, reason="the compiled model and reader are not built")
+def test_analyse_over_lists_is_the_reference(tmp_path, monkeypatch):
+    """run_lines and gap_lines still read a list of str (read_chunks' chunks) in C."""
+    path = _odd_copy(tmp_path, "prusa_gyroid.gcode", 97, False)
+
+    def line_chunks(path, progress=None, cr=None):
+        if cr is not None:
+            cr[0] = True
+        return fwsim.read_chunks(path, progress)
+    monkeypatch.setattr(pl.reader, "line_chunks", line_chunks)
+    taken = _Taken(monkeypatch)
+    _same(path, "prusa-mk3s")
+    assert taken.run + taken.gap > 0.8 * sum(1 for _ in open(path, "rb"))

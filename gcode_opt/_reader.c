@@ -920,23 +920,26 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
 }
 
 /* What kind of line s[0..n) is, for step() and fused_line(): SHAPE_PYTHON (the Python
- * reader must read it: a stray CR, which Python rejects), SHAPE_NOTHING (a blank line, a
+ * reader must read it: a stray CR, which Python rejects; lf: the caller knows the line holds
+ * no CR, as play_buf and a Lines know their blocks' -- no look for one), SHAPE_NOTHING (a blank line, a
  * comment no marker starts: it changes nothing), SHAPE_MARKED (a comment a marker starts:
  * marked_comment; *code_n: where its ';' is), or
  * SHAPE_CODE (a command; *code_n: the length before any ';': the callers read a G0/G1 or
  * M204 of the fast shape, answer a command noop_command finds, and hand the rest to Python). */
 enum { SHAPE_PYTHON, SHAPE_NOTHING, SHAPE_CODE, SHAPE_MARKED };
 
-static int line_shape(const unsigned char *s, Py_ssize_t n, Py_ssize_t *code_n)
+static int line_shape(const unsigned char *s, Py_ssize_t n, int lf, Py_ssize_t *code_n)
 {
     if (n < 1)
         return SHAPE_PYTHON;
     /* a CR anywhere but in the trailing run of CR/LF, or a CR last: Python raises */
-    Py_ssize_t t = n;
-    while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
-        t--;
-    if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
-        return SHAPE_PYTHON;
+    if (!lf) {
+        Py_ssize_t t = n;
+        while (t > 0 && (s[t - 1] == '\r' || s[t - 1] == '\n'))
+            t--;
+        if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
+            return SHAPE_PYTHON;
+    }
     const unsigned char *semi = memchr(s, ';', n);
     *code_n = semi ? semi - s : n;
     Py_ssize_t k = 0;
@@ -957,7 +960,7 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
         return slow(self, idx, raw);       /* not ASCII: the BOM, or anything unusual */
     const unsigned char *s = PyUnicode_1BYTE_DATA(raw);
     Py_ssize_t code_n = 0;
-    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), &code_n)) {
+    switch (line_shape(s, PyUnicode_GET_LENGTH(raw), 0, &code_n)) {
     case SHAPE_PYTHON:
         return slow(self, idx, raw);
     case SHAPE_NOTHING:
@@ -1024,7 +1027,7 @@ other:
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | line_ascii 5 | Lines peek_ascii 6"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -1251,7 +1254,7 @@ static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
 
 /* One line: 0 read (no move), 1 read with a move in *out, 2 not read here (the state is
  * written back: call step()), -1 error. */
-static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *out);
+static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, FusedMove *out);
 
 static int fused_line(void *p, PyObject *raw, FusedMove *out)
 {
@@ -1260,20 +1263,21 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
         return 2;
     if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         return sess_flush(ss) < 0 ? -1 : 2;
-    return fused_line_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), out);
+    return fused_line_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), 0, out);
 }
 
 /* fused_line of the line line[0..n), all of it ASCII (the str a line of ASCII bytes
  * decodes to has these bytes): the firmware core's play_buf reads its lines from bytes
- * without a str each (one is made only where this returns 2: step() reads the line) */
-static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, FusedMove *out)
+ * without a str each (one is made only where this returns 2: step() reads the line).
+ * lf: the line holds no CR (line_shape's). */
+static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, FusedMove *out)
 {
     Session *ss = p;
     if (ss->off)
         return 2;
     const unsigned char *s = (const unsigned char *)line;
     Py_ssize_t code_n = 0;
-    switch (line_shape(s, n, &code_n)) {
+    switch (line_shape(s, n, lf, &code_n)) {
     case SHAPE_PYTHON:
         goto other;
     case SHAPE_NOTHING:
@@ -1344,25 +1348,25 @@ other:
  * noop_command finds (step() returns None, nothing changes), 3 an M204 or a marked comment
  * line (nothing read: fused_line reads it), 0 any other line, -1 error; fused_commit then makes the state step() would leave, if the loop
  * takes the line. */
-static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, RunMove *rm);
+static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, RunMove *rm);
 
 static int fused_peek(void *p, PyObject *raw, RunMove *rm)
 {
     if (!PyUnicode_CheckExact(raw) || !PyUnicode_IS_ASCII(raw))
         return 0;
-    return fused_peek_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), rm);
+    return fused_peek_ascii(p, (const char *)PyUnicode_1BYTE_DATA(raw), PyUnicode_GET_LENGTH(raw), 0, rm);
 }
 
-/* fused_peek of the line line[0..n), all of it ASCII (as fused_line_ascii is fused_line's):
- * run_lines and gap_lines read the reader's Lines chunks without a str a line */
-static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, RunMove *rm)
+/* fused_peek of the line line[0..n), all of it ASCII, lf as fused_line_ascii's: run_lines
+ * and gap_lines read the reader's Lines chunks without a str a line */
+static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, RunMove *rm)
 {
     Session *ss = p;
     if (ss->off)
         return 0;
     const unsigned char *s = (const unsigned char *)line;
     Py_ssize_t code_n = 0;
-    switch (line_shape(s, n, &code_n)) {
+    switch (line_shape(s, n, lf, &code_n)) {
     case SHAPE_PYTHON:
         return 0;
     case SHAPE_NOTHING:
@@ -1436,10 +1440,10 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
-    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
+    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, int lf, FusedMove *out);
     Py_ssize_t (*lines_len)(PyObject *o);
     int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
-    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, RunMove *rm);
+    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, int lf, RunMove *rm);
 } ReaderAPI;
 
 /* ---------------------------------------------------------------- a chunk of lines as bytes
@@ -1453,6 +1457,7 @@ typedef struct {
     Py_ssize_t n;                     /* lines */
     Py_ssize_t *start;                /* n + 1 offsets: line i is data[start[i]:start[i + 1]] */
     int ascii;                        /* every byte of data is ASCII */
+    int cr;                           /* data holds a CR */
 } LinesObject;
 
 static PyTypeObject LinesType;
@@ -1513,8 +1518,11 @@ static Py_ssize_t lines_len(PyObject *o)
     return Py_IS_TYPE(o, &LinesType) ? ((LinesObject *)o)->n : -1;
 }
 
-/* the capsule's: line i (0 <= i < len) of the Lines o as bytes; 1 if all of it is ASCII (then
- * it is the str's own characters), else 0 (the str is the decoder's) */
+/* the capsule's: line i (0 <= i < len) of the Lines o as bytes; LINE_ASCII if all of it is
+ * ASCII (then it is the str's own characters; else the str is the decoder's), or'ed with
+ * LINE_LF where it holds no CR (line_shape's lf) */
+enum { LINE_ASCII = 1, LINE_LF = 2 };
+
 static int lines_at(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n)
 {
     LinesObject *b = (LinesObject *)o;
@@ -1522,12 +1530,13 @@ static int lines_at(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n)
     Py_ssize_t k = 0, m = b->start[i + 1] - b->start[i];
     *line = s;
     *n = m;
+    int lf = b->cr ? 0 : LINE_LF;
     if (b->ascii)
-        return 1;
+        return LINE_ASCII | lf;
     for (; k < m; k++)
         if ((unsigned char)s[k] & 0x80)
-            return 0;
-    return 1;
+            return lf;
+    return LINE_ASCII | lf;
 }
 
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
@@ -1555,11 +1564,12 @@ static PyObject *make_method(PyObject *module, PyObject *unused)
  * "\r" at the very end, which may be the start of a "\r\n") waits for more bytes, unless
  * final (the file's end: the rest is the last line).  Returns the lines n, their starts and
  * the end of the last in *start_out (n + 1 offsets, PyMem; the caller frees them), *ascii
- * whether every byte of p[0..len) is ASCII; -1 on error (set). */
-static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_t **start_out, int *ascii)
+ * whether every byte of p[0..len) is ASCII, *cr_out whether one is a CR; -1 on error (set). */
+static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_t **start_out, int *ascii,
+                             int *cr_out)
 {
     const char *end = p + len, *s = p;
-    int cr = memchr(p, '\r', (size_t)len) != NULL;
+    int cr = *cr_out = memchr(p, '\r', (size_t)len) != NULL;
     unsigned long long any = 0;        /* the bytes or'ed, 8 at a time: all ASCII (the usual)? */
     Py_ssize_t k = 0;
     for (; k + 8 <= len; k += 8) {
@@ -1618,12 +1628,12 @@ static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_
 static PyObject *split_lines(PyObject *module, PyObject *args)
 {
     Py_buffer b;
-    int final, ascii;
+    int final, ascii, cr;
     Py_ssize_t *start = NULL;
     if (!PyArg_ParseTuple(args, "y*p:split_lines", &b, &final))
         return NULL;
     const char *p = (const char *)b.buf;
-    Py_ssize_t n = split_scan(p, b.len, final, &start, &ascii);
+    Py_ssize_t n = split_scan(p, b.len, final, &start, &ascii, &cr);
     PyObject *lines = n < 0 ? NULL : PyList_New(n);
     for (Py_ssize_t i = 0; lines != NULL && i < n; i++) {
         PyObject *line = line_str(p + start[i], start[i + 1] - start[i], ascii);
@@ -1644,11 +1654,11 @@ static PyObject *split_lines(PyObject *module, PyObject *args)
 static PyObject *split_block(PyObject *module, PyObject *args)
 {
     PyObject *data;
-    int final, ascii;
+    int final, ascii, cr;
     if (!PyArg_ParseTuple(args, "O!p:split_block", &PyBytes_Type, &data, &final))
         return NULL;
     Py_ssize_t *start = NULL;
-    Py_ssize_t n = split_scan(PyBytes_AS_STRING(data), PyBytes_GET_SIZE(data), final, &start, &ascii);
+    Py_ssize_t n = split_scan(PyBytes_AS_STRING(data), PyBytes_GET_SIZE(data), final, &start, &ascii, &cr);
     if (n < 0)
         return NULL;
     LinesObject *o = PyObject_New(LinesObject, &LinesType);
@@ -1661,6 +1671,7 @@ static PyObject *split_block(PyObject *module, PyObject *args)
     o->n = n;
     o->start = start;
     o->ascii = ascii;
+    o->cr = cr;
     return Py_BuildValue("(Nn)", (PyObject *)o, start[n]);
 }
 

@@ -106,3 +106,38 @@ def test_analyse_over_lists_is_the_reference(tmp_path, monkeypatch):
     taken = _Taken(monkeypatch)
     _same(path, "prusa-mk3s")
     assert taken.run + taken.gap > 0.8 * sum(1 for _ in open(path, "rb"))
+
+
+# ---------------------------------------------------------------- the Limits a block reads
+@pytest.mark.skipif(fwsim._core is None, reason="the compiled firmware-model core is not built")
+@pytest.mark.parametrize("law", ["prusa-mk3s", "generic-marlin", "voron24"])
+def test_blocks_read_each_limits_own_values(law):
+    """sim_block keeps v_max and the junction's values (scv and mcr, or jd) for the Limits
+    it last read: moves that go back and forth between shared Limits objects of other
+    values, and a slot the model does not read holding no number, play as in Python."""
+    from gcode_opt.profile import load_profile
+    from test_fwcore_bits import _lim, _move, _play
+    a = _lim(v_max=120.0, scv=3.0, mcr=0.2, jd=0.01)
+    b = _lim(v_max=40.0, scv=9.0, mcr=0.7, jd=0.08)
+    odd = _lim(v_max=60.0, **({"jd": "no"} if law == "voron24" else {"scv": None, "mcr": None}))
+    lims = [a, a, b, a, b, b, odd, a, odd]
+    moves = [_move(i, 7.0 * i, 3.0 * (i % 2), 7.0 * i + 7.0, 3.0 * ((i + 1) % 2), v=100.0, lim=lim)
+             for i, lim in enumerate(lims)]
+    prof = load_profile(law)
+    py = _play("python", prof, moves)
+    assert len(py[0]) > 0                       # (played, not an error)
+    assert repr(_play("c", prof, moves)) == repr(py)
+
+
+@pytest.mark.skipif(fwsim._core is None, reason="the compiled firmware-model core is not built")
+@pytest.mark.parametrize("law,slot", [("prusa-mk3s", "v_max"), ("generic-marlin", "v_max"), ("voron24", "scv"),
+                                      ("voron24", "mcr")])
+def test_blocks_raise_where_python_reads_a_bad_limit(law, slot):
+    """A slot the model reads that is no number: the same error, from the same move."""
+    from gcode_opt.profile import load_profile
+    from test_fwcore_bits import _lim, _move, _play
+    bad = _lim(**{slot: "x"})
+    moves = [_move(0, 0, 0, 10, 0), _move(1, 10, 0, 20, 5), _move(2, 20, 5, 30, 0, lim=bad)]
+    py = _play("python", load_profile(law), moves)
+    assert py[0] == "TypeError"
+    assert repr(_play("c", load_profile(law), moves)) == repr(py)

@@ -1137,6 +1137,8 @@ typedef struct {
     double jerk_z, icv, min_seg_t, arc_segment_d, default_accel, max_z_accel, max_z_v, max_e_v;
     double caps[3], jerk[3];
     PyObject *lim;                    /* the Limits caps and jerk were last taken from */
+    PyObject *vlim;                   /* the Limits vlim_* were last taken from (vlim_read) */
+    double vlim_v_max, vlim_scv, vlim_mcr, vlim_jd;
     double stop_thr;
     /* planner: Klipper's queue q[0..n) / Marlin's buf q[0..n) with head */
     BlockData *q;
@@ -1290,6 +1292,7 @@ static int Sim_traverse(SimObject *s, visitproc visit, void *arg)
     Py_VISIT(s->res);
     Py_VISIT(s->max_stop_lines);
     Py_VISIT(s->lim);
+    Py_VISIT(s->vlim);
     return 0;
 }
 
@@ -1300,6 +1303,7 @@ static int Sim_clear(SimObject *s)
     Py_CLEAR(s->res);
     Py_CLEAR(s->max_stop_lines);
     Py_CLEAR(s->lim);
+    Py_CLEAR(s->vlim);
     return 0;
 }
 
@@ -1935,8 +1939,32 @@ typedef struct {
     int kind;
     double e, v, accel, flow_r;
     PyObject *lim;                /* new reference */
-    double v_max, scv, mcr, jd;   /* lim's, read per block as _block does */
 } MoveData;
+
+/* What _block reads of a Limits per block besides the caps: v_max and the junction model's
+ * (scv and mcr, or jd), in s->vlim_*, kept for one Limits object as the caps are (set_lim:
+ * copy-on-write, so identity is enough; the reference held keeps its address from being
+ * another's): ~3 attribute reads a block fewer.  Read all at once where _block reads
+ * v_max: nothing between that and the model's reads can raise, so an error is the same. */
+static int vlim_read(SimObject *s, PyObject *lim)
+{
+    double v_max, scv = 0.0, mcr = 0.0, jd = 0.0;
+    if (get_d(&LIM_MAP, lim, L_VMAX, &v_max) < 0)
+        return -1;
+    if (s->model == J_SCV) {
+        if (get_d(&LIM_MAP, lim, L_SCV, &scv) < 0 || get_d(&LIM_MAP, lim, L_MCR, &mcr) < 0)
+            return -1;
+    }
+    else if (get_d(&LIM_MAP, lim, L_JD, &jd) < 0)
+        return -1;
+    Py_INCREF(lim);
+    Py_XSETREF(s->vlim, lim);
+    s->vlim_v_max = v_max;
+    s->vlim_scv = scv;
+    s->vlim_mcr = mcr;
+    s->vlim_jd = jd;
+    return 0;
+}
 
 static int set_lim(SimObject *s, PyObject *lim)
 {
@@ -2042,9 +2070,9 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
         if (auz > 0.0 && a * auz > cz)
             DIV(a, cz, auz);
     }
-    double v_max, v;
-    if (get_d(&LIM_MAP, lim, L_VMAX, &v_max) < 0)
+    if (lim != s->vlim && vlim_read(s, lim) < 0)
         return -1;
+    double v_max = s->vlim_v_max, v;
     if (s->klipper_limits) {
         v = m->v < v_max ? m->v : v_max;
         if (uz != 0.0) {
@@ -2068,15 +2096,12 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
     }
     double jd, mcr_a;
     if (s->model == J_SCV) {
-        double scv, mcr;
-        if (get_d(&LIM_MAP, lim, L_SCV, &scv) < 0 || get_d(&LIM_MAP, lim, L_MCR, &mcr) < 0)
-            return -1;
+        double scv = s->vlim_scv;
         DIV(jd, scv * scv * s->sqrt2_m1, a0);
-        mcr_a = a0 * (1.0 - mcr);
+        mcr_a = a0 * (1.0 - s->vlim_mcr);
     }
     else {
-        if (get_d(&LIM_MAP, lim, L_JD, &jd) < 0)
-            return -1;
+        jd = s->vlim_jd;
         mcr_a = a;
     }
     double er = de != 0.0 ? de * inv * m->flow_r : 0.0;
@@ -2291,7 +2316,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | line_ascii 5 | Lines peek_ascii 6"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2316,10 +2341,10 @@ typedef struct {
     size_t run_move_size;
     int (*peek)(void *session, PyObject *raw, RunMove *rm);
     void (*commit)(void *session, const RunMove *rm);
-    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, FusedMove *out);
+    int (*line_ascii)(void *session, const char *line, Py_ssize_t n, int lf, FusedMove *out);
     Py_ssize_t (*lines_len)(PyObject *o);
     int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
-    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, RunMove *rm);
+    int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, int lf, RunMove *rm);
 } ReaderAPI;
 
 static const ReaderAPI *READER = NULL;
@@ -2820,7 +2845,7 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             int ascii;
             src_next_buf(src, &a, &n, &ascii);
             if (ascii) {
-                got = READER->line_ascii(ss, a, n, &fm);
+                got = READER->line_ascii(ss, a, n, !src->cr, &fm);   /* (no CR in buf: none in the line) */
                 if (got < 0)
                     goto fail_ss;
             }
@@ -2952,9 +2977,12 @@ static inline Py_ssize_t chunk_len(const Chunk *c)
     return c->n_block >= 0 ? c->n_block : PyList_GET_SIZE(c->lines);   /* (a list may change) */
 }
 
-/* line i (< chunk_len) as ASCII bytes: 1 with line[0..n) (the str's characters), 0 a line
- * that is not (a str of other characters, or not a str: the peek's 0, Python reads it) */
-static inline int chunk_ascii(const Chunk *c, Py_ssize_t i, const char **line, Py_ssize_t *n)
+enum { LINE_ASCII = 1, LINE_LF = 2 };     /* the reader's lines_at flags */
+
+/* line i (< chunk_len) as bytes line[0..n): LINE_ASCII where they are ASCII (the str's
+ * characters; else a str of other characters, or not a str: the peek's 0, Python reads
+ * it), or'ed with LINE_LF where the line is known to hold no CR (a Lines' block holds none) */
+static inline int chunk_line(const Chunk *c, Py_ssize_t i, const char **line, Py_ssize_t *n)
 {
     if (c->n_block >= 0)
         return READER->lines_at(c->lines, i, line, n);
@@ -2963,7 +2991,7 @@ static inline int chunk_ascii(const Chunk *c, Py_ssize_t i, const char **line, P
         return 0;
     *line = (const char *)PyUnicode_1BYTE_DATA(raw);
     *n = PyUnicode_GET_LENGTH(raw);
-    return 1;
+    return LINE_ASCII;
 }
 
 /* READER->peek of line i (fused_peek's answers) */
@@ -2971,7 +2999,8 @@ static inline int chunk_peek(const Chunk *c, void *ss, Py_ssize_t i, RunMove *rm
 {
     const char *line;
     Py_ssize_t n;
-    return chunk_ascii(c, i, &line, &n) ? READER->peek_ascii(ss, line, n, rm) : 0;
+    int got = chunk_line(c, i, &line, &n);
+    return (got & LINE_ASCII) ? READER->peek_ascii(ss, line, n, (got & LINE_LF) != 0, rm) : 0;
 }
 
 /* run_lines(cur, step, run, run_ends, run_xy, v, accel, feature, z, e_rel, travel, lux, luy,
@@ -4587,10 +4616,10 @@ static PyObject *Sim_gap_lines(SimObject *s, PyObject *const *args, Py_ssize_t n
             FusedMove m204;
             const char *line;
             Py_ssize_t n;
-            chunk_ascii(&chunk, i, &line, &n);      /* (ASCII: the peek read it) */
+            int lf = (chunk_line(&chunk, i, &line, &n) & LINE_LF) != 0;     /* (ASCII: the peek read it) */
             /* (a list's str held while it is read, as the list could let go of it) */
             PyObject *held = chunk.n_block < 0 ? Py_NewRef(PyList_GET_ITEM(lines, i)) : NULL;
-            int r = READER->line_ascii(ss, line, n, &m204);
+            int r = READER->line_ascii(ss, line, n, lf, &m204);
             Py_XDECREF(held);
             if (r < 0)
                 goto fail;

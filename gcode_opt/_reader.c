@@ -682,21 +682,32 @@ static int acc_kind(PyObject *dict)
     return kind;
 }
 
-/* An M204's S P T R as new floats (NULL where not given): 1, or 0 where a value given is
- * not in (0, MAX_ACCEL_A] (state._positive raises: Python reads the line; nothing made),
- * -1 on error. */
-static int m204_words(const Words *w, PyObject *o[4])
+/* 1 if every value of an M204's words is in (0, MAX_ACCEL_A], else 0 (state._positive
+ * raises: Python reads the line) */
+static int m204_in_range(const Words *w)
 {
-    double val;
     for (int i = 0; i < w->n; i++) {
-        val = word_val(w, i);
+        double val = word_val(w, i);
         if (!(0.0 < val && val <= MAX_ACCEL_A))
             return 0;                  /* _positive raises (Klipper: only for S, or P/T without S) */
     }
-    const char *keys = "SPTR";
+    return 1;
+}
+
+/* An M204's words, in m204_pick's order */
+enum { W_S, W_P, W_T, W_R, W_CUR, W_NONE = -1 };
+static const char M204_KEYS[4] = {'S', 'P', 'T', 'R'};
+
+/* An M204's S P T R as new floats (NULL where not given): 1, or 0 where a value given is
+ * not in (0, MAX_ACCEL_A] (m204_in_range; nothing made), -1 on error. */
+static int m204_words(const Words *w, PyObject *o[4])
+{
+    double val;
+    if (!m204_in_range(w))
+        return 0;
     for (int k = 0; k < 4; k++) {
         o[k] = NULL;
-        if (word(w, keys[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL) {
+        if (word(w, M204_KEYS[k], &val) && (o[k] = PyFloat_FromDouble(val)) == NULL) {
             for (int j = 0; j < k; j++)
                 Py_XDECREF(o[j]);
             return -1;
@@ -705,41 +716,41 @@ static int m204_words(const Words *w, PyObject *o[4])
     return 1;
 }
 
-/* state._m204's rule for the flavour kind (not ACC_OTHER): the objects the print, travel
- * and retract accelerations take from o = S P T R (NULL: that one unchanged).  Klipper's
- * travel is the print acceleration, cur_print (the one in force) where neither S nor both
- * P and T are given: then *print is cur_print. */
-static void m204_pick(int kind, PyObject *const o[4], PyObject *cur_print, PyObject **print, PyObject **travel,
-                      PyObject **retract)
+/* state._m204's rule for the flavour kind (not ACC_OTHER): the word (W_S W_P W_T W_R) whose
+ * value (one object: Python's p[k]) the print, travel and retract accelerations take;
+ * W_NONE: that one unchanged.  Klipper's travel is the print acceleration in force (W_CUR)
+ * where neither S nor both P and T are given: then the print is W_CUR too (unchanged). */
+static void m204_pick(int kind, const Words *w, int *print, int *travel, int *retract)
 {
-    PyObject *S = o[0], *P = o[1], *T = o[2], *R = o[3];
-    *print = *travel = *retract = NULL;
+    int S = (w->seen & LETTER('S')) != 0, P = (w->seen & LETTER('P')) != 0;
+    int T = (w->seen & LETTER('T')) != 0, R = (w->seen & LETTER('R')) != 0;
+    *print = *travel = *retract = W_NONE;
     switch (kind) {
     case ACC_KLIPPER:
         if (S)
-            *print = S;
+            *print = W_S;
         else if (P && T)
-            *print = PyFloat_AS_DOUBLE(T) < PyFloat_AS_DOUBLE(P) ? T : P;   /* min(P, T) */
+            *print = w->by['T' - 'A'] < w->by['P' - 'A'] ? W_T : W_P;   /* min(P, T) */
         else
-            *print = cur_print;
+            *print = W_CUR;
         *travel = *print;
         break;
     case ACC_LEGACY:
         if (S) {
-            *print = *travel = S;
-            *retract = T;
+            *print = *travel = W_S;
+            *retract = T ? W_T : W_NONE;
         } else {
-            *print = *travel = P;
-            *retract = R;
+            *print = *travel = P ? W_P : W_NONE;
+            *retract = R ? W_R : W_NONE;
         }
         break;
     default:                           /* ACC_MARLIN */
-        *print = *travel = S;
+        *print = *travel = S ? W_S : W_NONE;
         if (P)
-            *print = P;
+            *print = W_P;
         if (T)
-            *travel = T;
-        *retract = R;
+            *travel = W_T;
+        *retract = R ? W_R : W_NONE;
     }
 }
 
@@ -758,7 +769,9 @@ static int m204(PyObject *dict, const Words *w)
         return got;
     int rc = -1;
     PyObject *cur = NULL;
-    if (kind == ACC_KLIPPER && !o[0] && !(o[1] && o[2])) {      /* travel = the print in force */
+    int pw, tw, rw;
+    m204_pick(kind, w, &pw, &tw, &rw);
+    if (pw == W_CUR) {                 /* travel = the print in force */
         cur = PyDict_GetItemWithError(dict, state_name[S_ACC_PRINT]);
         if (cur == NULL) {
             if (!PyErr_Occurred())
@@ -766,8 +779,9 @@ static int m204(PyObject *dict, const Words *w)
             goto out;
         }
     }
-    PyObject *print, *travel, *retract;
-    m204_pick(kind, o, cur, &print, &travel, &retract);
+    PyObject *print = pw == W_CUR ? cur : pw >= 0 ? o[pw] : NULL;
+    PyObject *travel = tw == W_CUR ? cur : tw >= 0 ? o[tw] : NULL;
+    PyObject *retract = rw >= 0 ? o[rw] : NULL;
     Py_XINCREF(print);             /* print may be the dict's own object */
     if ((print && PyDict_SetItem(dict, state_name[S_ACC_PRINT], print) < 0)
         || (travel && PyDict_SetItem(dict, state_name[S_ACC_TRAVEL], travel) < 0)
@@ -1059,10 +1073,15 @@ typedef struct {
     PyObject *o_feature;              /* borrowed from dict: fused_peek's Move feature */
     /* The accel objects a Move would hold (fused_peek's): borrowed from dict, but a slot
      * whose bit is set in acc_own is an M204's (sess_m204) not yet written: a new reference
-     * the session holds until sess_flush writes it to the dict.  Two slots may hold one
-     * object, as Python's `self.accel_print = self.accel_travel = p["S"]` stores one. */
+     * the session holds until sess_flush writes it to the dict, or NULL: the object not
+     * made yet (sess_acc_obj makes it where a Move or the dict needs it; the measure pass
+     * reads ~360 k M204s a plate and needs none).  Two slots may hold one object, as
+     * Python's `self.accel_print = self.accel_travel = p["S"]` stores one: slots not made
+     * yet that took the same word have the same acc_word. */
     PyObject *o_acc[A_N];
     int acc_own;
+    long long acc_word[A_N];          /* an M204 slot not made yet: m204_n * 4 + the word */
+    long long m204_n;                 /* the session's M204s read */
     int acc_kind;                     /* ACC_*: the flavour's, read at the first M204 since load */
 } Session;
 
@@ -1125,41 +1144,71 @@ static void sess_load(Session *ss)
     ss->live = 1;
 }
 
-/* slot k now holds `o` (any object; its number `val`), as an M204 stored it: a reference
- * of the session's own until sess_flush */
-static void sess_set_acc(Session *ss, int k, PyObject *o, double val)
+/* slot k now holds slot `from`'s value and object (made or not), as Python's
+ * `self.accel_travel = self.accel_print` stores it: the session's own until sess_flush */
+static void sess_share_acc(Session *ss, int k, int from)
 {
-    Py_INCREF(o);                     /* first: o may be the object the slot lets go of */
+    PyObject *o = ss->o_acc[from];
+    Py_XINCREF(o);                    /* first: o may be the object the slot lets go of */
     if (ss->acc_own & (1 << k))
-        Py_DECREF(ss->o_acc[k]);
+        Py_XDECREF(ss->o_acc[k]);
     ss->o_acc[k] = o;
-    ss->acc[k] = val;
+    ss->acc[k] = ss->acc[from];
+    ss->acc_word[k] = ss->acc_word[from];
     ss->acc_own |= 1 << k;
 }
 
+/* slot k now holds the value of word `word` of the session's m204_n-th M204 (its object not
+ * made yet): the session's own until sess_flush */
+static void sess_set_word(Session *ss, int k, const Words *w, int word)
+{
+    if (ss->acc_own & (1 << k))
+        Py_XDECREF(ss->o_acc[k]);
+    ss->o_acc[k] = NULL;
+    ss->acc[k] = w->by[M204_KEYS[word] - 'A'];
+    ss->acc_word[k] = ss->m204_n * 4 + word;
+    ss->acc_own |= 1 << k;
+}
+
+/* slot k's object (borrowed from the session, or the dict where not the session's), made
+ * now if an M204's not made yet: one float for every slot that took the same word; NULL on
+ * error (set) */
+static PyObject *sess_acc_obj(Session *ss, int k)
+{
+    if (ss->o_acc[k] != NULL)
+        return ss->o_acc[k];
+    PyObject *f = PyFloat_FromDouble(ss->acc[k]);
+    if (f == NULL)
+        return NULL;
+    for (int j = 0; j < A_N; j++)
+        if ((ss->acc_own & (1 << j)) && ss->o_acc[j] == NULL && ss->acc_word[j] == ss->acc_word[k]) {
+            Py_INCREF(f);
+            ss->o_acc[j] = f;
+        }
+    Py_DECREF(f);
+    return ss->o_acc[k];
+}
+
 /* An M204 of the fast shape in a live session: m204()'s rules (state._m204's), the dict
- * left alone (sess_flush writes the slots).  1 done, 0 Python decides (nothing changed:
- * a value out of (0, MAX_ACCEL_A], another flavour), -1 error. */
+ * left alone (sess_flush writes the slots; the floats made only where needed).  1 done, 0
+ * Python decides (nothing changed: a value out of (0, MAX_ACCEL_A], another flavour). */
 static int sess_m204(Session *ss, const Words *w)
 {
     if (ss->acc_kind == ACC_UNKNOWN)
         ss->acc_kind = acc_kind(ss->dict);
-    if (ss->acc_kind == ACC_OTHER)
+    if (ss->acc_kind == ACC_OTHER || !m204_in_range(w))
         return 0;
-    PyObject *o[4];
-    int got = m204_words(w, o);
-    if (got <= 0)
-        return got;
-    PyObject *print, *travel, *retract;                        /* the slots' new objects */
-    m204_pick(ss->acc_kind, o, ss->o_acc[A_P], &print, &travel, &retract);
-    if (print && print != ss->o_acc[A_P])                      /* (Klipper's print in force: kept) */
-        sess_set_acc(ss, A_P, print, PyFloat_AS_DOUBLE(print));
-    if (travel)
-        sess_set_acc(ss, A_T, travel, travel == ss->o_acc[A_P] ? ss->acc[A_P] : PyFloat_AS_DOUBLE(travel));
-    if (retract)
-        sess_set_acc(ss, A_R, retract, PyFloat_AS_DOUBLE(retract));
-    for (int k = 0; k < 4; k++)
-        Py_XDECREF(o[k]);
+    int pw, tw, rw;
+    m204_pick(ss->acc_kind, w, &pw, &tw, &rw);
+    ss->m204_n++;
+    if (pw >= 0 && pw != W_CUR)                                /* (Klipper's print in force: kept) */
+        sess_set_word(ss, A_P, w, pw);
+    if (tw == W_CUR)
+        sess_share_acc(ss, A_T, A_P);
+    else if (tw >= 0)
+        sess_set_word(ss, A_T, w, tw);     /* (print's word too: one object, made for both) */
+    if (rw >= 0)
+        sess_set_word(ss, A_R, w, rw);
     return 1;
 }
 
@@ -1169,9 +1218,10 @@ static int sess_flush(Session *ss)
     int rc = 0;
     for (int k = 0; ss->acc_own && k < A_N; k++)     /* the M204s' objects (none unless live) */
         if (ss->acc_own & (1 << k)) {
-            if (rc == 0 && PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], ss->o_acc[k]) < 0)
+            PyObject *o = rc == 0 ? sess_acc_obj(ss, k) : ss->o_acc[k];
+            if (rc == 0 && (o == NULL || PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], o) < 0))
                 rc = -1;
-            Py_DECREF(ss->o_acc[k]);
+            Py_XDECREF(ss->o_acc[k]);
         }
     ss->acc_own = 0;
     if (ss->live && ss->dirty && rc == 0) {
@@ -1403,16 +1453,16 @@ static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, Run
     rm->e_rel = lo.e_rel;
     rm->xyz_rel = !in->abs_xyz;
     if (eonly) {                       /* linear()'s choice of accel object and feature */
-        rm->accel = ss->o_acc[A_R];
+        rm->accel = sess_acc_obj(ss, A_R);
         rm->feature = ss->o_feature;
     } else if (lo.de > 0.0) {
-        rm->accel = ss->o_acc[A_P];
+        rm->accel = sess_acc_obj(ss, A_P);
         rm->feature = ss->o_feature;
     } else {
-        rm->accel = ss->o_acc[in->one ? A_P : A_T];
+        rm->accel = sess_acc_obj(ss, in->one ? A_P : A_T);
         rm->feature = TRAVEL;
     }
-    return 1;
+    return rm->accel != NULL ? 1 : -1;
 }
 
 static void fused_commit(void *p, const RunMove *rm)

@@ -141,3 +141,20 @@ def test_blocks_raise_where_python_reads_a_bad_limit(law, slot):
     py = _play("python", load_profile(law), moves)
     assert py[0] == "TypeError"
     assert repr(_play("c", load_profile(law), moves)) == repr(py)
+
+
+# ---------------------------------------------------------------- M204 floats made when needed
+@pytest.mark.skipif(not COMPILED, reason="the compiled model and reader are not built")
+@pytest.mark.parametrize("prof", ["prusa-mk3s", "voron24", "generic-marlin"])
+def test_analyse_of_a_written_file_is_the_reference(tmp_path, prof):
+    """A live session keeps an M204's values as doubles and makes their float only where a
+    Move (run_lines' peek) or the state needs it, one for the slots Python gives one object:
+    analyse of a re-timed file (an M204 before most segments, read by gap_lines between
+    runs and peeked by run_lines after them) is the reference's, field by field."""
+    from gcode_opt.pipeline import Options, process
+    from gcode_opt.profile import load_profile
+    path = str(tmp_path / "out.gcode")
+    process(SAMPLES + "prusa_gyroid.gcode", path, load_profile(prof), Options())
+    with open(path) as fh:
+        assert sum(1 for raw in fh if raw.startswith("M204 ")) > 500
+    _same(path, prof)

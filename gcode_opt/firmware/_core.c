@@ -5795,13 +5795,20 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     }
     PyObject *sum = NULL, *peak = NULL;
     if (np_ > 0) {
-        ring_int_r2_run(c, NULL, dur, have_d2 ? (const double *)d2b.buf : NULL, np_, qr, qi, four_s, rat, scl,
-                        real_major, t,
-                        have_q ? (const double *)qb[0].buf : NULL,
-                        have_q ? (const double *)qb[1].buf : NULL,
-                        have_q ? (const double *)qb[2].buf : NULL,
-                        have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0,
-                        have_r ? (double *)rb2[1].buf : NULL, v, &cand, 0);
+        const double *d2 = have_d2 ? (const double *)d2b.buf : NULL;
+        const double *q_t = have_q ? (const double *)qb[0].buf : NULL;
+        const double *q_d = have_q ? (const double *)qb[1].buf : NULL;
+        const double *q_v = have_q ? (const double *)qb[2].buf : NULL;
+        Py_ssize_t q_n = have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0;
+        double *r_v = have_r ? (double *)rb2[1].buf : NULL;
+        /* (a copy of the loop for each branch of _real_quotient: real_major a constant in
+         * each, not a test a piece; ~5 instructions a piece) */
+        if (real_major)
+            ring_int_r2_run(c, NULL, dur, d2, np_, qr, qi, four_s, rat, scl, 1, t, q_t, q_d, q_v, q_n, r_v, v,
+                            &cand, 0);
+        else
+            ring_int_r2_run(c, NULL, dur, d2, np_, qr, qi, four_s, rat, scl, 0, t, q_t, q_d, q_v, q_n, r_v, v,
+                            &cand, 0);
         double total = -0.0 + np_pairwise_sum(v, np_);
         if (!isfinite(total)) {
             ret = Py_None;

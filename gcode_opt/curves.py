@@ -44,8 +44,8 @@ from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
-                       segment_feeds, segment_times, settle_rows, tent_feeds_rows)
+from .segments import (MIN_FEED_V, SegmentPlan, _row_plans, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
+                       segment_feeds, segment_times, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -1675,9 +1675,10 @@ def _finish_rows(sts, knots, rules, profile):
     c0, c1 = _end_cosines(sts, U)
     # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
     t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
-    plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
-    settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
-    return plans
+    # rows of the four blocks (RowPlan), not a SegmentPlan of two arrays and two views each
+    # (~0.45 kB of numpy objects a plan; ~7 k curve plans held through the budget runs of
+    # the gyroid plate); the same numbers, and seg_fault's verdicts made on the blocks
+    return _row_plans(S, V, acc, feeds, t_pred, a2_pred, fine_rows(S, V, acc, feeds, t_pred, a2_pred))
 
 
 def _jerk_junction_rows(D, V, acc, a_top, profile):

@@ -44,8 +44,8 @@ from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
-from .segments import (MIN_FEED_V, SegmentPlan, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
-                       segment_feeds, segment_times, settle_rows, tent_feeds_rows)
+from .segments import (MIN_FEED_V, SegmentPlan, _row_plans, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
+                       segment_feeds, segment_times, tent_feeds_rows)
 from .strokes import Points
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
@@ -313,8 +313,10 @@ class CurveGeom:
     cos_end; the directions u are made from the strokes' own vertices and d when read
     (_Blk.u_rows), the turns' cosines (cos_turn) and the arc lengths at the vertices (s_v)
     from u and d, by the same operations as when they were kept (the difference over d;
-    einsum of the row; cumsum, a sequential sum: the same bits)."""
-    __slots__ = ("_pts", "_b", "_k", "chain_caps", "_j1")
+    einsum of the row; cumsum, a sequential sum: the same bits).  Four slots: the
+    vertices are the block's (a fifth slot put a geometry in pymalloc's 80-byte class, not
+    the 64-byte one: ~0.3 MB on the gyroid plate's 21 k curves)."""
+    __slots__ = ("_b", "_k", "chain_caps", "_j1")
 
     def __init__(self, st, profile, seg=None, caps=None, caps_jerk1=None, parts=None, cap=None, cos_end=None):
         """seg: (pts, d, u) from _segments; parts: (block, row) of _batch_parts (the same
@@ -323,7 +325,6 @@ class CurveGeom:
         build_geoms computed them for many strokes at once; caps None: computed here.
         cap, cos_end: those fields as computed for many strokes (the same numbers,
         _ends_rows); None: computed here.  The geometry is a block of one row."""
-        self._pts = st.pts                # the stroke's own vertices: pts is read by tests only
         if parts is not None:
             pb, pk = parts
             d, u, kappa_v, kappa_eff = pb[0][pk], pb[1][pk], pb[4][pk], pb[5][pk]
@@ -347,7 +348,7 @@ class CurveGeom:
                     cos_end[j] = c if c >= CORNER_COS else None
             cos_end = _NO_ENDS if cos_end == [None, None] else tuple(cos_end)
         self._b = _Blk(d[None], u[None], kappa_v[None], [kappa_eff], caps[None],
-                       None if caps_jerk1 is None else caps_jerk1[None], [cap], [cos_end], False)
+                       None if caps_jerk1 is None else caps_jerk1[None], [cap], [cos_end], False, pts=[st.pts])
         self._k = 0
         self.chain_caps = None                    # chains.py: the caps a chain's law meets
         self._j1 = _FROM_BLOCK
@@ -404,8 +405,9 @@ class CurveGeom:
 
     @property
     def pts(self):
-        """The vertices as _segments takes them, (n+1, 2) (an array per curve held ~10 MB on a plate)."""
-        return np.asarray(self._pts, float)
+        """The vertices as _segments takes them, (n+1, 2) (an array per curve held ~10 MB on a
+        plate): the stroke's own, its block's row (read by tests only)."""
+        return np.asarray(self._b._pts[self._k], float)
 
     def end_terms(self, v0, v1):
         """Half the normal term of the two end junctions, at the end speeds: (1-cos) v³/d."""
@@ -488,19 +490,19 @@ def stack_du(gs):
     return np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)
 
 
-_GPTS = attrgetter("_pts")
-
-
 def _stack_u(gs, runs, ks, D):
     """stack_du's directions: the rows of the runs (block, first, end) of gs, whose
     lengths D holds stacked.  Blocks that keep no u (build_geoms'): one pass of the
-    compiled core over every row (each geometry's _pts is its block row's vertices: the
+    compiled core over every row (the rows' vertices gathered from their blocks: the
     same operations as _Blk.u_rows); else run by run."""
     if _U_ROWS is not None and all(b._u is None for b, _, _ in runs):
         m, n = D.shape
         out = np.empty((m, n, 2))
+        pts = []
+        for b, a, z in runs:
+            pts += map(b._pts.__getitem__, ks[a:z])
         try:
-            _U_ROWS(list(map(_GPTS, gs)), None, 0, D, m, n, out)
+            _U_ROWS(pts, None, 0, D, m, n, out)
             return out
         except (TypeError, ValueError, AttributeError, BufferError):
             pass
@@ -538,20 +540,20 @@ class _Blk:
     cap (m floats), cos_end (a list of m), cap_min: every cap of the block is > 0 (then
     cap is CAP_MARGIN x the least cap as np.minimum takes it).
 
-    pts (build_geoms' blocks): the rows' own vertices (the strokes' pts, which they hold
-    anyway); then u is not kept (~5 MB on the gyroid plate at planning's peak) but made
-    again from them when read, by _parts_block's operations (the difference of the
+    pts: the rows' own vertices (the strokes' pts, which they hold anyway).  u None
+    (build_geoms' blocks): not kept (~5 MB on the gyroid plate at planning's peak) but made
+    again from pts when read, by _parts_block's operations (the difference of the
     vertices over the kept lengths d: the same bits).  lim: (profile, the limits objects,
     which one each row's, each row's acceleration): then the caps, read by chains.classify
     alone under classic jerk, may be let go (drop_jerk1) and are made again when read.
-    With pts, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
+    Without u, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
     are made: their one reader) and is made again by _parts_block when read."""
     __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
                  "cap_min", "_ux2", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
         self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
-        self._u, self._pts = (None, pts) if pts is not None else (u, None)
+        self._u, self._pts = u, pts
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
         self._ux2 = None            # adjust_plan_inputs' direction weights of every row, once made
@@ -728,7 +730,6 @@ def build_geoms(strokes, profile, jerk1=False):
             st.curv = CurveGeom(st, profile, caps_jerk1=_own_jerk1(st, profile) if j1 else None)
             continue
         g = new(CurveGeom)
-        g._pts = st.pts
         g._b, g._k = r
         g.chain_caps = None
         g._j1 = _FROM_BLOCK
@@ -745,7 +746,6 @@ def _put_rows(blk, sts):
     new = CurveGeom.__new__
     for k, st in enumerate(sts):
         g = new(CurveGeom)
-        g._pts = st.pts
         g._b = blk
         g._k = k
         g.chain_caps = None
@@ -798,7 +798,7 @@ def _block_geoms(sts, block, profile, j1, pts=None):
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
     # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
-    blk = _Blk(d, u, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
+    blk = _Blk(d, None, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
     _BLOCKS.add(blk)
     return blk, keep, sts
 
@@ -1181,7 +1181,7 @@ _G_K = attrgetter("_k")
 
 def _by_block(gs):
     """(per distinct block: (block, positions in gs, rows in it)) of geometries that are rows
-    of build_geoms' blocks (a _Blk with its strokes' vertices, cap an array), or None."""
+    of build_geoms' blocks (a _Blk that keeps no u, cap an array), or None."""
     try:
         bs = list(map(_G_B, gs))
         ks = list(map(_G_K, gs))
@@ -1191,7 +1191,7 @@ def _by_block(gs):
     for q, (b, k) in enumerate(zip(bs, ks)):
         e = out.get(id(b))
         if e is None:
-            if type(b) is not _Blk or b._pts is None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
+            if type(b) is not _Blk or b._u is not None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
                 return None
             e = out[id(b)] = (b, [], [])
         e[1].append(q)
@@ -1675,9 +1675,10 @@ def _finish_rows(sts, knots, rules, profile):
     c0, c1 = _end_cosines(sts, U)
     # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
     t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
-    plans = [SegmentPlan(sk, vk, a, f, t, a2) for (sk, vk), a, f, t, a2 in zip(knots, acc, feeds, t_pred, a2_pred)]
-    settle_rows(plans, fine_rows(S, V, acc, feeds, t_pred, a2_pred), acc, feeds)    # seg_fault's verdicts
-    return plans
+    # rows of the four blocks (RowPlan), not a SegmentPlan of two arrays and two views each
+    # (~0.45 kB of numpy objects a plan; ~7 k curve plans held through the budget runs of
+    # the gyroid plate); the same numbers, and seg_fault's verdicts made on the blocks
+    return _row_plans(S, V, acc, feeds, t_pred, a2_pred, fine_rows(S, V, acc, feeds, t_pred, a2_pred))
 
 
 def _jerk_junction_rows(D, V, acc, a_top, profile):

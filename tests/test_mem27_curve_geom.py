@@ -78,7 +78,7 @@ def test_blocks_without_u_same_bits(path, profile, core, monkeypatch):
         want = _own(sts, prof, jerk1)
         curves.build_geoms(sts, prof, jerk1=jerk1)
         blks = {id(st.curv._b): st.curv._b for st in sts}
-        batched = [b for b in blks.values() if b._pts is not None]
+        batched = [b for b in blks.values() if b in curves._BLOCKS]
         assert batched and all(b._u is None for b in batched)       # no directions kept
         j1 = jerk1 and prof.junction == "jerk"
         assert [_fields(st.curv, j1) for st in sts] == want
@@ -131,7 +131,7 @@ def test_blocks_hold_less(monkeypatch):
     (8 + 8 + 16 + 8 bytes a segment: d, kappa_v, u, caps)."""
     prof, sts = _curves(os.path.join(S, "prusa_gyroid.gcode"), "prusa-mk3s")
     chains.classify(sts, range(len(sts)), prof)
-    blks = {id(st.curv._b): st.curv._b for st in sts if st.curv._b._pts is not None}.values()
+    blks = {id(st.curv._b): st.curv._b for st in sts if st.curv._b._u is None}.values()
     seg = sum(b.d.size for b in blks)
     held = sum(x.nbytes for b in blks for x in (b.d, b.kappa_v, b._u, b._caps, b.caps_jerk1)
                if isinstance(x, np.ndarray))
@@ -152,7 +152,7 @@ def test_candidates_let_kappa_go():
     rows = [i for i, st in enumerate(strokes) if chains.plan_kind(st) == K_CURVE and not pin.fault[i]]
     assert len(rows) > 10
     first = curves.candidates_curve(pin, rows, strokes, prof)
-    blks = {id(st.curv._b): st.curv._b for st in strokes if st.curv is not None and st.curv._b._pts is not None}
+    blks = {id(st.curv._b): st.curv._b for st in strokes if st.curv is not None and st.curv._b._u is None}
     assert blks and all(b._kv is None for b in blks.values())
     again = curves.candidates_curve(pin, rows, strokes, prof)
     assert [_bits(x) for x in first] == [_bits(x) for x in again]
@@ -164,7 +164,7 @@ def test_core_u_rows_same_bits_as_numpy(monkeypatch):
     (rows in any order, one row, rows whose vertices are lists: numpy's path)."""
     prof, sts = _curves(os.path.join(S, "prusa_gyroid.gcode"), "prusa-mk3s")
     curves.build_geoms(sts, prof)
-    blks = [b for b in {id(st.curv._b): st.curv._b for st in sts}.values() if b._pts is not None]
+    blks = [b for b in {id(st.curv._b): st.curv._b for st in sts}.values() if b._u is None]
     rng = np.random.default_rng(27)
     from gcode_opt.strokes import Points
     m, n = 40, 7

@@ -81,5 +81,5 @@ def test_curve_geom_pts_reads_the_strokes_vertices():
         pts = Points((0.0, 0.0, 1.0, 0.25, 2.0, 0.0, 3.0, 0.5))
     pts, d, u = curves._segments(St)
     g = curves.CurveGeom.__new__(curves.CurveGeom)
-    g._pts = St.pts
+    g._b, g._k = curves._Blk(d[None], None, None, None, None, None, None, None, False, pts=[St.pts]), 0
     assert np.array_equal(g.pts, pts) and g.pts.shape == (4, 2)

@@ -698,7 +698,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     line_cls = None
     if _lines_repeat(pin, rows[K_LINE]):
         line_cls = np.arange(len(strokes), dtype=np.int64)
-        line_cls[rows[K_LINE]] = len(strokes) + line_classes([strokes[i] for i in rows[K_LINE].tolist()])
+        line_cls[rows[K_LINE]] = len(strokes) + line_classes(list(map(strokes.__getitem__, rows[K_LINE].tolist())))
     seg_cache.line_class = line_cls
 
     # a later budget run takes the last one's outcome for each re-timed line and chain
@@ -741,7 +741,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         for k_name, kind_of in KINDS.items():
             # (lines with their classes: the same plans, made once a class and law)
             fn = (lambda k, lines: lambda r: k.segments(
-                [strokes[i] for i in r], plan.T[r], plan.beta[r], rules, profile,
+                list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r]} if lines else {})))(kind_of, k_name == K_LINE)
             ii = idx[kind == k_name]
 

@@ -124,20 +124,40 @@ class Candidates:
     that cannot cancel read of the others).  Rows made together from one set of inputs
     (SharedPiece: lines that repeat) share their entries: the rectilinear plate's 48.6 k
     lines hold those of their 6.2 k distinct inputs (~1.5 MB, not ~12 MB); the others'
-    are in row-major order, as the dense tables hold them.
+    are in row-major order, as the dense tables hold them.  The mask is held as each
+    entry's column (col, int8), a row's entries in its columns' order: the (n, k) bools
+    were 1.2 MB on the rectilinear plate through the budget runs, the rewrite and the
+    measure (a second pass re-plans with them), where the allocation reads only cnt.
     Iterating gives the dense tables (T: the infeasible entries are T_orig x T_RATIOS)."""
-    __slots__ = ("mask", "vals", "first", "cnt", "t_pos", "T_orig")
+    __slots__ = ("col", "k", "vals", "first", "cnt", "t_pos", "T_orig")
 
     def __init__(self, mask, vals, t_pos, T_orig, first=None, cnt=None):
         """first, cnt: each row's entries in vals; None: mask's True entries in row-major
-        order."""
-        self.mask, self.vals, self.t_pos, self.T_orig = mask, vals, t_pos, T_orig
+        order (cnt, when given, is mask.sum(axis=1))."""
+        self.vals, self.t_pos, self.T_orig = vals, t_pos, T_orig
         self.cnt = np.ascontiguousarray(mask.sum(axis=1) if cnt is None else cnt, np.intp)
         self.first = np.ascontiguousarray(np.cumsum(self.cnt) - self.cnt if first is None else first, np.intp)
+        self.k = mask.shape[1]
+        self.col = _entry_columns(mask, self.first, self.cnt, vals.shape[1])
 
     @property
     def shape(self):
-        return self.mask.shape
+        return self.cnt.size, self.k
+
+    @property
+    def mask(self):
+        """(n, k) bool: which candidates are feasible (made from col)."""
+        return self._mask_rows(np.arange(self.cnt.size))
+
+    def _mask_rows(self, rows):
+        """mask[rows] (rows: an int array), made from their entries' columns."""
+        cnt = self.cnt[rows]
+        out = np.zeros((rows.size, self.k), bool)
+        total = int(cnt.sum())
+        if total:
+            at = np.repeat(self.first[rows] - (np.cumsum(cnt) - cnt), cnt) + np.arange(total)
+            out[np.repeat(np.arange(rows.size), cnt), self.col[at]] = True
+        return out
 
     @classmethod
     def of_tables(cls, T, beta, I, KE, T_orig=None):
@@ -223,20 +243,21 @@ class Candidates:
         return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
 
     def __iter__(self):
-        n, k = self.mask.shape
+        n, k = self.shape
+        mask = self.mask
         T = np.zeros((n, k)) if self.T_orig is None else self.T_orig[:, None] * T_RATIOS[None, :]
         beta, I, KE = np.full((n, k), np.inf), np.full((n, k), np.inf), np.full((n, k), np.nan)
-        entries = self.vals[:, self._positions(np.arange(n), self.mask)]     # (row-major, as mask's)
+        entries = self.vals[:, self._positions(np.arange(n), mask)]     # (row-major, as mask's)
         for a, v in zip((T, beta, I, KE), entries):
-            a[self.mask] = v
+            a[mask] = v
         return iter((T, beta, I, KE))
 
     def allocation_tables(self, rows, T_orig, I_orig):
         """allocate's (Tx, Ix, finite, settle) for the strokes rows: durations and costs with
         the original as the last column; an infeasible entry's T is 0 (never read)."""
-        n, k = rows.size, self.mask.shape[1]
+        n, k = rows.size, self.k
         m = np.zeros((n, k + 1), bool)
-        m[:, :k] = self.mask[rows]
+        m[:, :k] = self._mask_rows(rows)
         pos = self._positions(rows, m[:, :k])
         Tx = np.zeros((n, k + 1))
         Ix = np.full((n, k + 1), np.inf)
@@ -265,7 +286,7 @@ class Candidates:
         # the entries of the rows: all of vals when the rows hold every row with one (the
         # usual case: only failed strokes are left out), else those rows' entries (the
         # checks below are of every entry: an entry two rows share is checked once)
-        into = np.zeros(self.mask.shape[0], bool)
+        into = np.zeros(self.cnt.size, bool)
         into[rows] = True
         if not self.cnt[~into].any():
             T, I = self.vals[0], self.vals[2]
@@ -301,8 +322,23 @@ class Candidates:
 
     def at(self, rows, cols):
         """(T, beta, I, KE) of the feasible entries (rows[q], cols[q])."""
-        before = np.cumsum(self.mask[rows], axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
+        before = np.cumsum(self._mask_rows(rows), axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
         return self.vals[:, self.first[rows] + before]
+
+
+ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
+
+
+def _entry_columns(mask, first, cnt, m):
+    """Each of the m entries' column (int8 where the columns fit): row r's True columns
+    of mask, in order, are those of its entries first[r] .. first[r] + cnt[r] (rows that
+    share entries have the same mask rows: each writes the same columns)."""
+    col = np.zeros(m, np.int8 if mask.shape[1] <= 127 else np.intp)
+    for a in range(0, mask.shape[0], ENTRY_ROWS):        # (bounded temporaries: ~5 entries a row)
+        rr, cc = np.nonzero(mask[a:a + ENTRY_ROWS])      # row-major: each row's columns ascending
+        c = cnt[a:a + ENTRY_ROWS]
+        col[np.repeat(first[a:a + ENTRY_ROWS] - (np.cumsum(c) - c), c) + np.arange(rr.size)] = cc
+    return col
 
 
 class Plan:
@@ -1165,7 +1201,7 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     plan.beta = np.where(use, got[1], np.inf)
     plan.I_law = np.where(use, got[2], p.I_orig)
     plan.KE_law = np.where(use, got[3], np.nan)
-    none_ok = ~cands.mask.any(axis=1) if memo is None else _AllocMemo.none_ok(memo, cands)
+    none_ok = cands.cnt == 0            # (~mask.any(axis=1): no feasible candidate)
     plan.reason = _reasons(n, "original is better within the time budget",
                            (none_ok, "no law within limits"), (use, "retimed"))
     return plan
@@ -1173,7 +1209,7 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
 
 class _AllocMemo:
     """What plan_auto makes of one group that does not depend on the budget, kept across
-    the budget runs (the same strokes, candidates and originals, checked by their bytes):
+    the budget runs (the same strokes, candidates and originals, checked by a digest of their bytes):
     its Candidates.rows_view, a pass over every candidate entry (~5 ms a run on the
     rectilinear plate)."""
     __slots__ = ("key", "rv")
@@ -1192,14 +1228,6 @@ class _AllocMemo:
         memo["cands"] = cands
         memo[("group", id(cands), key)] = self
         return self
-
-    @staticmethod
-    def none_ok(memo, cands):
-        """~cands.mask.any(axis=1), made once for cands."""
-        got = memo.get("none_ok")
-        if got is None or got[0] is not cands:
-            got = memo["none_ok"] = (cands, ~cands.mask.any(axis=1))
-        return got[1]
 
 
 def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:

@@ -583,9 +583,7 @@ class SegmentCache:
         self._grow(int(rows.max()) + 1)
         self.line_T[rows] = T[rows]
         self.line_beta[rows] = beta[rows]
-        for a in range(0, rows.size, PUT_ROWS):   # line_seg[i] = segs[i] (bounded int lists: _put_at)
-            part = rows[a:a + PUT_ROWS].tolist()
-            deque(map(self.line_seg.__setitem__, part, map(segs.__getitem__, part)), maxlen=0)
+        _copy_at(self.line_seg, rows, segs, rows)
         if self.line_why or bad:              # failures: a row's reason set, or dropped
             why_of = self.line_why
             for i in rows.tolist():
@@ -804,8 +802,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 
 _NOT_BEATING = "segments would not beat the original"
 REUSE_RUNS = True       # tests turn it off: every budget run segments all its strokes (the reference)
-# rows whose plans _RunMemo.put_same puts at once: the int objects of two lists of all ~38 k
-# were 3.1 MB, the moment of the rectilinear plate's planning peak (a later run's start)
+# rows whose plans _put_at and _copy_at put at once: in _RunMemo.put_same the int objects
+# of two lists of all ~38 k rows were 3.1 MB, the moment of the rectilinear plate's
+# planning peak (a later run's start)
 PUT_ROWS = 4096
 
 
@@ -847,9 +846,7 @@ class _RunMemo:
         plan.reason[u] = self.reason[pu]
         plan.t_pred[u] = self.t_pred[pu]
         plan.a2_pred[u] = self.a2_pred[pu]
-        for a in range(0, u.size, PUT_ROWS):        # plan.segs[i] = self.segs[p], in C
-            b = a + PUT_ROWS
-            deque(map(plan.segs.__setitem__, u[a:b].tolist(), map(self.segs.__getitem__, pu[a:b].tolist())), maxlen=0)
+        _copy_at(plan.segs, u, self.segs, pu)
         done = np.zeros(n, bool)
         done[u] = True
         return idx[~done[idx]]
@@ -888,6 +885,14 @@ def _put_at(segs, rows, plans):
     it = iter(plans)
     for a in range(0, rows.size, PUT_ROWS):
         deque(map(segs.__setitem__, rows[a:a + PUT_ROWS].tolist(), it), maxlen=0)      # (map stops at the rows' end)
+
+
+def _copy_at(dst, dst_rows, src, src_rows):
+    """dst[i] = src[j] for i, j in zip(dst_rows, src_rows) (int arrays of one size; dst,
+    src: lists), PUT_ROWS rows at a time as _put_at."""
+    for a in range(0, dst_rows.size, PUT_ROWS):
+        b = a + PUT_ROWS
+        deque(map(dst.__setitem__, dst_rows[a:b].tolist(), map(src.__getitem__, src_rows[a:b].tolist())), maxlen=0)
 
 
 KEEP_ROWS = 8192        # rows _keep_made_plans hands _keep_plans at once

@@ -6,12 +6,8 @@ as one (np.unique's equal_nan), of a's dtype.
 
 column_classes(cols): a class per row of int64 columns, rows of one class equal in every
 column (by a hash of the rows, not np.unique's sort of their bytes as records);
-column_classes_first(cols) also each class's first row.
-
-digest(*arrays): a 32-byte key standing for the arrays' bytes."""
+column_classes_first(cols) also each class's first row."""
 from __future__ import annotations
-
-import hashlib
 
 import numpy as np
 
@@ -73,12 +69,3 @@ def classes_in_row_order(cols):
     place[by_first] = np.arange(first.size)
     return first[by_first], place[cls]
 
-
-def digest(*arrays):
-    """SHA-256 of the arrays' bytes, in order: a key that stands for them (a memo's or a
-    cache's, checked across the budget runs), 32 bytes however long they are, made in
-    about the time of copying them."""
-    h = hashlib.sha256()
-    for a in arrays:
-        h.update(np.ascontiguousarray(a).view(np.uint8))
-    return h.digest()

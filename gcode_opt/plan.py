@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .distinct import classes_in_row_order, digest
+from .distinct import classes_in_row_order
 from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law
 
 # candidate durations, as multiples of the stroke's original duration
@@ -1143,8 +1143,9 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     budget its strokes take of the print time and spends it on itself, so one kind of
     stroke is never made faster and stiffer to pay for another.
 
-    memo: a dict the caller keeps across calls on the same p and cands (the budget runs):
-    what does not depend on the budget is made once (_AllocMemo)."""
+    memo: a dict the caller keeps across calls on the same p and cands (the budget runs),
+    neither they nor the groups' arrays changed in place between the calls: what does not
+    depend on the budget is made once (_AllocMemo)."""
     n = len(p.L)
     plan = Plan(n)
     if n == 0:
@@ -1156,21 +1157,23 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     # a stroke whose original figures are not finite takes no part in the allocation (a
     # NaN there would silence the budget for the whole file): it keeps its original
     fine = np.isfinite(p.T_orig) & np.isfinite(p.I_orig)
-    groups = [g[fine[g]] for g in (groups or [np.arange(n)])]
-    groups = [g for g in groups if len(g)]
+    # (each group as given, beside its strokes taking part: the memo knows a group by the former)
+    given = [(g0, g0[fine[g0]]) for g0 in (groups or [np.arange(n)])]
+    given = [(g0, g) for g0, g in given if len(g)]
+    groups = [g for _, g in given]
     total_t = sum(float(p.T_orig[g].sum()) for g in groups)
     k = cands.shape[1]
     j = np.full(n, k, dtype=int)      # rows in no group keep their original
     pos = np.full(n, -1, np.intp)     # a chosen candidate's place in cands.vals, where known
     lam = []
-    for g in groups:
+    for g0, g in given:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
         # with the compiled core, on the feasible entries where Candidates holds them (no
         # table copied: the packed tables were ~10 MB at the rectilinear plate's planning peak)
         core = _alloc_core()
         rv = None
         if core is not None and len(g):
-            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if memo is None else _AllocMemo.of(memo, cands, g, p).rv
+            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if memo is None else _AllocMemo.of(memo, cands, g0, g, p).rv
         if rv is not None:
             jp, lam_g = _allocate_rows(cands.vals, rv, share, core)
             took = jp < rv.cnt                  # their entries: each row's jp-th, read below
@@ -1209,24 +1212,25 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
 
 class _AllocMemo:
     """What plan_auto makes of one group that does not depend on the budget, kept across
-    the budget runs (the same strokes, candidates and originals, checked by a digest of their bytes):
-    its Candidates.rows_view, a pass over every candidate entry (~5 ms a run on the
-    rectilinear plate)."""
-    __slots__ = ("key", "rv")
+    the budget runs: its Candidates.rows_view, a pass over every candidate entry (~5 ms a
+    run on the rectilinear plate).  Known by the objects it was made of (the group's array
+    as the caller gave it, p, cands: held here, so no other object takes their ids), which
+    plan_auto's memo contract keeps unchanged; their bytes kept as the key were 1.25 MB
+    through the rectilinear plate's runs, and a digest of them cost more than the pass."""
+    __slots__ = ("made_of", "rv")
 
     @classmethod
-    def of(cls, memo, cands, g, p):
-        """The memo of group g (made anew when g, its originals or cands are others)."""
-        # (the three arrays' bytes as the key were 1.25 MB through the rectilinear plate's runs)
-        key = digest(g, p.T_orig[g], p.I_orig[g])
-        got = memo.get(("group", id(cands), key))
-        if got is not None and got.key == key and memo.get("cands") is cands:
+    def of(cls, memo, cands, g0, g, p):
+        """The memo of the group given as g0 (g: its rows taking part), made anew for
+        another group array, p or cands."""
+        key = ("group", id(g0), id(p), id(cands))
+        got = memo.get(key)
+        if got is not None and got.made_of[0] is g0 and got.made_of[1] is p and got.made_of[2] is cands:
             return got
         self = cls()
-        self.key = key
+        self.made_of = (g0, p, cands)
         self.rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g])
-        memo["cands"] = cands
-        memo[("group", id(cands), key)] = self
+        memo[key] = self
         return self
 
 

@@ -26,7 +26,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
-from .distinct import column_classes_first, digest, distinct
+from .distinct import column_classes_first, distinct
 from . import arcs
 from . import chains
 from . import corners
@@ -512,9 +512,7 @@ class SegmentCache:
 
     @staticmethod
     def _key(rows, T, beta):
-        """The batch's rows and their (T, beta), as a digest of their bytes (the bytes kept
-        were ~0.5 MB through the gyroid plate's runs)."""
-        return digest(np.asarray(rows, np.int64), T[rows], beta[rows])
+        return rows.tobytes() + T[rows].tobytes() + beta[rows].tobytes()
 
     def _grow(self, n):
         k = len(self.line_seg)

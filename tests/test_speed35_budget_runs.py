@@ -2,7 +2,7 @@
 plan.segs as it is found or made (no {row: plan} dicts), decide the rows KEEP_ROWS at a
 time (_keep_made_plans) with the strokes' int_a2 read from pin.I_orig, put the last run's
 plans (_RunMemo.put_same) and store the lines' (SegmentCache.store) PUT_ROWS at a time,
-key the alloc memo and the batch cache by digests, and take the plan kinds plan_inputs
+know the alloc memo by the objects it was made of, and take the plan kinds plan_inputs
 found (pin.plan_kinds).  Each is a change of bookkeeping: the same plans, run by run."""
 import os
 
@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from gcode_opt import pipeline, schedule
-from gcode_opt.distinct import digest
 from gcode_opt.profile import load_profile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -84,11 +83,25 @@ def test_pin_holds_what_the_runs_read_of_the_strokes():
         assert schedule._plan_kinds_of(strokes[:-1], pin) is not pin.plan_kinds    # (another list: made anew)
 
 
-def test_digest_stands_for_the_bytes():
-    a, b = np.arange(6, dtype=np.int64), np.linspace(0.0, 1.0, 6)
-    assert digest(a, b) == digest(a.copy(), b.copy()) and len(digest(a, b)) == 32
-    c = b.copy()
-    c[3] = np.nextafter(c[3], 2.0)                # one bit
-    assert digest(a, c) != digest(a, b)
-    assert digest(b, a) != digest(a, b)           # (in order)
-    assert digest(a[::2]) == digest(np.ascontiguousarray(a[::2]))
+def test_alloc_memo_known_by_its_objects():
+    """plan._AllocMemo: reused for the same group array, p and cands (the budget runs), made
+    anew for another array (even an equal one) or another p; each entry holds what it was
+    made of (their ids are not taken by other objects while it lives)."""
+    from gcode_opt import plan as plan_mod
+    strokes, sim0, profile, opts = _analysed("prusa_mk3s_rectilinear.gcode", "prusa-mk3s")
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    budget = opts.max_slowdown_r * sim0.time_t
+    schedule.plan_strokes(strokes, pin, profile, opts, budget)
+    cands = pin.cached[0]
+    g = np.arange(len(strokes))
+    memo = {}
+    first = plan_mod.plan_auto(pin, budget, cands, [g], memo)
+    (key, m), = [(k, v) for k, v in memo.items() if isinstance(k, tuple)]
+    assert m.made_of[0] is g and m.made_of[1] is pin and m.made_of[2] is cands
+    again = plan_mod.plan_auto(pin, 0.5 * budget, cands, [g], memo)
+    assert [v for k, v in memo.items() if isinstance(k, tuple)] == [m]           # reused
+    plan_mod.plan_auto(pin, budget, cands, [g.copy()], memo)
+    assert len([k for k in memo if isinstance(k, tuple)]) == 2                    # another array: made anew
+    fresh = plan_mod.plan_auto(pin, 0.5 * budget, cands, [g])
+    assert again.T.tobytes() == fresh.T.tobytes() and (again.reason == fresh.reason).all()
+    assert first.retime.any()

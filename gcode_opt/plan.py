@@ -124,20 +124,40 @@ class Candidates:
     that cannot cancel read of the others).  Rows made together from one set of inputs
     (SharedPiece: lines that repeat) share their entries: the rectilinear plate's 48.6 k
     lines hold those of their 6.2 k distinct inputs (~1.5 MB, not ~12 MB); the others'
-    are in row-major order, as the dense tables hold them.
+    are in row-major order, as the dense tables hold them.  The mask is held as each
+    entry's column (col, int8), a row's entries in its columns' order: the (n, k) bools
+    were 1.2 MB on the rectilinear plate through the budget runs, the rewrite and the
+    measure (a second pass re-plans with them), where the allocation reads only cnt.
     Iterating gives the dense tables (T: the infeasible entries are T_orig x T_RATIOS)."""
-    __slots__ = ("mask", "vals", "first", "cnt", "t_pos", "T_orig")
+    __slots__ = ("col", "k", "vals", "first", "cnt", "t_pos", "T_orig")
 
     def __init__(self, mask, vals, t_pos, T_orig, first=None, cnt=None):
         """first, cnt: each row's entries in vals; None: mask's True entries in row-major
-        order."""
-        self.mask, self.vals, self.t_pos, self.T_orig = mask, vals, t_pos, T_orig
+        order (cnt, when given, is mask.sum(axis=1))."""
+        self.vals, self.t_pos, self.T_orig = vals, t_pos, T_orig
         self.cnt = np.ascontiguousarray(mask.sum(axis=1) if cnt is None else cnt, np.intp)
         self.first = np.ascontiguousarray(np.cumsum(self.cnt) - self.cnt if first is None else first, np.intp)
+        self.k = mask.shape[1]
+        self.col = _entry_columns(mask, self.first, self.cnt, vals.shape[1])
 
     @property
     def shape(self):
-        return self.mask.shape
+        return self.cnt.size, self.k
+
+    @property
+    def mask(self):
+        """(n, k) bool: which candidates are feasible (made from col)."""
+        return self._mask_rows(np.arange(self.cnt.size))
+
+    def _mask_rows(self, rows):
+        """mask[rows] (rows: an int array), made from their entries' columns."""
+        cnt = self.cnt[rows]
+        out = np.zeros((rows.size, self.k), bool)
+        total = int(cnt.sum())
+        if total:
+            at = np.repeat(self.first[rows] - (np.cumsum(cnt) - cnt), cnt) + np.arange(total)
+            out[np.repeat(np.arange(rows.size), cnt), self.col[at]] = True
+        return out
 
     @classmethod
     def of_tables(cls, T, beta, I, KE, T_orig=None):
@@ -223,20 +243,21 @@ class Candidates:
         return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
 
     def __iter__(self):
-        n, k = self.mask.shape
+        n, k = self.shape
+        mask = self.mask
         T = np.zeros((n, k)) if self.T_orig is None else self.T_orig[:, None] * T_RATIOS[None, :]
         beta, I, KE = np.full((n, k), np.inf), np.full((n, k), np.inf), np.full((n, k), np.nan)
-        entries = self.vals[:, self._positions(np.arange(n), self.mask)]     # (row-major, as mask's)
+        entries = self.vals[:, self._positions(np.arange(n), mask)]     # (row-major, as mask's)
         for a, v in zip((T, beta, I, KE), entries):
-            a[self.mask] = v
+            a[mask] = v
         return iter((T, beta, I, KE))
 
     def allocation_tables(self, rows, T_orig, I_orig):
         """allocate's (Tx, Ix, finite, settle) for the strokes rows: durations and costs with
         the original as the last column; an infeasible entry's T is 0 (never read)."""
-        n, k = rows.size, self.mask.shape[1]
+        n, k = rows.size, self.k
         m = np.zeros((n, k + 1), bool)
-        m[:, :k] = self.mask[rows]
+        m[:, :k] = self._mask_rows(rows)
         pos = self._positions(rows, m[:, :k])
         Tx = np.zeros((n, k + 1))
         Ix = np.full((n, k + 1), np.inf)
@@ -265,7 +286,7 @@ class Candidates:
         # the entries of the rows: all of vals when the rows hold every row with one (the
         # usual case: only failed strokes are left out), else those rows' entries (the
         # checks below are of every entry: an entry two rows share is checked once)
-        into = np.zeros(self.mask.shape[0], bool)
+        into = np.zeros(self.cnt.size, bool)
         into[rows] = True
         if not self.cnt[~into].any():
             T, I = self.vals[0], self.vals[2]
@@ -301,8 +322,23 @@ class Candidates:
 
     def at(self, rows, cols):
         """(T, beta, I, KE) of the feasible entries (rows[q], cols[q])."""
-        before = np.cumsum(self.mask[rows], axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
+        before = np.cumsum(self._mask_rows(rows), axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
         return self.vals[:, self.first[rows] + before]
+
+
+ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
+
+
+def _entry_columns(mask, first, cnt, m):
+    """Each of the m entries' column (int8 where the columns fit): row r's True columns
+    of mask, in order, are those of its entries first[r] .. first[r] + cnt[r] (rows that
+    share entries have the same mask rows: each writes the same columns)."""
+    col = np.zeros(m, np.int8 if mask.shape[1] <= 127 else np.intp)
+    for a in range(0, mask.shape[0], ENTRY_ROWS):        # (bounded temporaries: ~5 entries a row)
+        rr, cc = np.nonzero(mask[a:a + ENTRY_ROWS])      # row-major: each row's columns ascending
+        c = cnt[a:a + ENTRY_ROWS]
+        col[np.repeat(first[a:a + ENTRY_ROWS] - (np.cumsum(c) - c), c) + np.arange(rr.size)] = cc
+    return col
 
 
 class Plan:
@@ -1107,8 +1143,9 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     budget its strokes take of the print time and spends it on itself, so one kind of
     stroke is never made faster and stiffer to pay for another.
 
-    memo: a dict the caller keeps across calls on the same p and cands (the budget runs):
-    what does not depend on the budget is made once (_AllocMemo)."""
+    memo: a dict the caller keeps across calls on the same p and cands (the budget runs),
+    neither they nor the groups' arrays changed in place between the calls: what does not
+    depend on the budget is made once (_AllocMemo)."""
     n = len(p.L)
     plan = Plan(n)
     if n == 0:
@@ -1120,21 +1157,23 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     # a stroke whose original figures are not finite takes no part in the allocation (a
     # NaN there would silence the budget for the whole file): it keeps its original
     fine = np.isfinite(p.T_orig) & np.isfinite(p.I_orig)
-    groups = [g[fine[g]] for g in (groups or [np.arange(n)])]
-    groups = [g for g in groups if len(g)]
+    # (each group as given, beside its strokes taking part: the memo knows a group by the former)
+    given = [(g0, g0[fine[g0]]) for g0 in (groups or [np.arange(n)])]
+    given = [(g0, g) for g0, g in given if len(g)]
+    groups = [g for _, g in given]
     total_t = sum(float(p.T_orig[g].sum()) for g in groups)
     k = cands.shape[1]
     j = np.full(n, k, dtype=int)      # rows in no group keep their original
     pos = np.full(n, -1, np.intp)     # a chosen candidate's place in cands.vals, where known
     lam = []
-    for g in groups:
+    for g0, g in given:
         share = budget_t * float(p.T_orig[g].sum()) / total_t if total_t > 0 else 0.0
         # with the compiled core, on the feasible entries where Candidates holds them (no
         # table copied: the packed tables were ~10 MB at the rectilinear plate's planning peak)
         core = _alloc_core()
         rv = None
         if core is not None and len(g):
-            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if memo is None else _AllocMemo.of(memo, cands, g, p).rv
+            rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g]) if memo is None else _AllocMemo.of(memo, cands, g0, g, p).rv
         if rv is not None:
             jp, lam_g = _allocate_rows(cands.vals, rv, share, core)
             took = jp < rv.cnt                  # their entries: each row's jp-th, read below
@@ -1165,7 +1204,7 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     plan.beta = np.where(use, got[1], np.inf)
     plan.I_law = np.where(use, got[2], p.I_orig)
     plan.KE_law = np.where(use, got[3], np.nan)
-    none_ok = ~cands.mask.any(axis=1) if memo is None else _AllocMemo.none_ok(memo, cands)
+    none_ok = cands.cnt == 0            # (~mask.any(axis=1): no feasible candidate)
     plan.reason = _reasons(n, "original is better within the time budget",
                            (none_ok, "no law within limits"), (use, "retimed"))
     return plan
@@ -1173,32 +1212,26 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
 
 class _AllocMemo:
     """What plan_auto makes of one group that does not depend on the budget, kept across
-    the budget runs (the same strokes, candidates and originals, checked by their bytes):
-    its Candidates.rows_view, a pass over every candidate entry (~5 ms a run on the
-    rectilinear plate)."""
-    __slots__ = ("key", "rv")
+    the budget runs: its Candidates.rows_view, a pass over every candidate entry (~5 ms a
+    run on the rectilinear plate).  Known by the objects it was made of (the group's array
+    as the caller gave it, p, cands: held here, so no other object takes their ids), which
+    plan_auto's memo contract keeps unchanged; their bytes kept as the key were 1.25 MB
+    through the rectilinear plate's runs, and a digest of them cost more than the pass."""
+    __slots__ = ("made_of", "rv")
 
     @classmethod
-    def of(cls, memo, cands, g, p):
-        """The memo of group g (made anew when g, its originals or cands are others)."""
-        key = (g.tobytes(), p.T_orig[g].tobytes(), p.I_orig[g].tobytes())
-        got = memo.get(("group", id(cands), key[0]))
-        if got is not None and got.key == key and memo.get("cands") is cands:
+    def of(cls, memo, cands, g0, g, p):
+        """The memo of the group given as g0 (g: its rows taking part), made anew for
+        another group array, p or cands."""
+        key = ("group", id(g0), id(p), id(cands))
+        got = memo.get(key)
+        if got is not None and got.made_of[0] is g0 and got.made_of[1] is p and got.made_of[2] is cands:
             return got
         self = cls()
-        self.key = key
+        self.made_of = (g0, p, cands)
         self.rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g])
-        memo["cands"] = cands
-        memo[("group", id(cands), key[0])] = self
+        memo[key] = self
         return self
-
-    @staticmethod
-    def none_ok(memo, cands):
-        """~cands.mask.any(axis=1), made once for cands."""
-        got = memo.get("none_ok")
-        if got is None or got[0] is not cands:
-            got = memo["none_ok"] = (cands, ~cands.mask.any(axis=1))
-        return got[1]
 
 
 def plan_fixed_alpha(p: PlanInput, alpha: float) -> Plan:

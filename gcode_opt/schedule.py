@@ -203,12 +203,26 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     pin.fault = input_faults(pin)             # reason per stroke, "" = fine
     for i, why in failed.items():
         pin.fault[i] = why
+    # each stroke's plan_kind, for plan_strokes (chains.classify above is the one step that
+    # changes them): read again there, it was ~5 ms of the rectilinear plate's planning
+    pin.plan_kinds = kinds
     return pin
 
 
-def _rows_by_kind(strokes):
-    kinds = plan_kinds(strokes)
+def _rows_by_kind(strokes, kinds=None):
+    """{kind: the rows of the strokes of that plan_kind}; kinds: plan_kinds(strokes), if
+    the caller has it."""
+    if kinds is None:
+        kinds = plan_kinds(strokes)
     return {k: np.flatnonzero(kinds == k) for k in KINDS}
+
+
+def _plan_kinds_of(strokes, pin):
+    """plan_kinds(strokes) as plan_inputs made them for pin (pin.plan_kinds), else made here."""
+    kinds = getattr(pin, "plan_kinds", None)
+    if kinds is None or len(kinds) != len(strokes):
+        kinds = plan_kinds(strokes)
+    return kinds
 
 
 class _Pieces(list):
@@ -550,24 +564,27 @@ class SegmentCache:
         self.row_tb.pop(kind, None)
 
     def store(self, kind, rows, T, beta, segs, bad, own=False):
-        """own: every plan of this batch is its row's own, whatever the batch (ROW_KINDS: no
+        """The plans segs[i] (a list by row, or a dict with every row; None: none) of the
+        rows made at (T, beta), bad ({row: why}) those that failed.
+        own: every plan of this batch is its row's own, whatever the batch (ROW_KINDS: no
         Newton step in the circle solves, no failure, a BLAS whose rows are invariant);
         lookup_rows then reuses them row by row."""
         if KINDS[kind].batch:
             if rows.size:
-                self.batch[kind] = (self._key(rows, T, beta), segs, bad)
-                self.row_tb[kind] = dict(zip(rows.tolist(), _tb_keys(rows, T, beta))) if own else None
+                rows_l = rows.tolist()
+                made = {i: segs[i] for i in rows_l if i not in bad}
+                self.batch[kind] = (self._key(rows, T, beta), made, bad)
+                self.row_tb[kind] = dict(zip(rows_l, _tb_keys(rows, T, beta))) if own else None
             return
-        rows_l = rows.tolist()
-        if not rows_l:
+        if not rows.size:
             return
-        self._grow(max(rows_l) + 1)
+        self._grow(int(rows.max()) + 1)
         self.line_T[rows] = T[rows]
         self.line_beta[rows] = beta[rows]
-        deque(map(self.line_seg.__setitem__, rows_l, map(segs.get, rows_l)), maxlen=0)   # seg[i] = segs.get(i)
+        _copy_at(self.line_seg, rows, segs, rows)
         if self.line_why or bad:              # failures: a row's reason set, or dropped
             why_of = self.line_why
-            for i in rows_l:
+            for i in rows.tolist():
                 why = bad.get(i, "")
                 if why:
                     why_of[i] = why
@@ -637,7 +654,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     raises, or whose plan holds a non-finite number keeps its original lines, with the
     reason in plan.reason (the summary counts them)."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
-    rows = _rows_by_kind(strokes)
+    # each stroke's plan_kind: the rows of each kind, and read by every re-plan for the
+    # strokes it segments (an object array)
+    kind_by_row = _plan_kinds_of(strokes, pin)
+    rows = _rows_by_kind(strokes, kind_by_row)
     cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
     if cached is None:
         fault = getattr(pin, "fault", None)
@@ -665,11 +685,6 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     not_failed = np.ones(len(strokes), bool)
     not_failed[failed_rows] = False
     groups = [every[not_failed[every]]]
-    # each stroke's plan_kind, as _rows_by_kind found it (only plan_inputs' chains.classify
-    # changes it): read by every re-plan for the strokes it segments
-    kind_by_row = np.empty(len(strokes), dtype=object)
-    for k, r in rows.items():
-        kind_by_row[r] = k
     # the strokes whose start corners.py slowed by a junction command (set before planning,
     # read by every run's _attach_commands and _keep_slowed_corners)
     cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes))
@@ -679,7 +694,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     line_cls = None
     if _lines_repeat(pin, rows[K_LINE]):
         line_cls = np.arange(len(strokes), dtype=np.int64)
-        line_cls[rows[K_LINE]] = len(strokes) + line_classes([strokes[i] for i in rows[K_LINE].tolist()])
+        line_cls[rows[K_LINE]] = len(strokes) + line_classes(list(map(strokes.__getitem__, rows[K_LINE].tolist())))
     seg_cache.line_class = line_cls
 
     # a later budget run takes the last one's outcome for each re-timed line and chain
@@ -713,35 +728,40 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         memo = None             # (the last run's plans not held here while this one's are made)
         kind = kind_by_row[idx]
         _rebuild_geometry(strokes, idx, kind, profile)
-        segs = {}
+        # each row's segment plan, written as it is found or made: plan.segs itself, whose
+        # rows of idx are None until then (put_same left them out); _keep_plans puts back
+        # those it keeps (a dict of them all and its int keys were ~2.7 MB at the run's
+        # peak on either plate)
+        segs = plan.segs
         seg_failed = {}
         for k_name, kind_of in KINDS.items():
             # (lines with their classes: the same plans, made once a class and law)
             fn = (lambda k, lines: lambda r: k.segments(
-                [strokes[i] for i in r], plan.T[r], plan.beta[r], rules, profile,
+                list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r]} if lines else {})))(kind_of, k_name == K_LINE)
             ii = idx[kind == k_name]
 
             def solve(rows):
-                made, why = {}, {}
+                """rows' plans written in segs (a failed row's left as it is); returns
+                ({row: why} of the failed ones, whether each plan is its row's own)."""
+                why = {}
                 n0 = circle.NEWTON_ARCS[0]
                 for sub, res in isolate(fn, rows, "segments", why):
-                    made.update(zip(sub.tolist(), res))
-                return made, why, circle.NEWTON_ARCS[0] == n0 and not why
+                    _put_at(segs, sub, res)
+                return why, circle.NEWTON_ARCS[0] == n0 and not why
 
             if later and k_name == K_CHAIN:
                 # the chains whose law changed only: each one's plan is its own (its memo,
                 # chains.plan_chain_segments, gives the others the plans the last run took)
                 seg_cache.drop(k_name)
-                new, new_bad, _ = solve(np.array(ii.tolist(), int))
-                segs.update(new)
-                seg_failed.update(new_bad)
+                seg_failed.update(solve(np.array(ii.tolist(), int))[0])
                 continue
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
-            segs.update(got)
+            _put_rows(segs, got)
             seg_failed.update(bad)
             todo = _not_in(ii, got, bad)
-            new = None
+            del got
+            new_bad = None
             hits = None
             if k_name in ROW_KINDS and todo.size:
                 # a batch whose plans are each row's own (no Newton step, no failure): the
@@ -754,18 +774,18 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             elif todo.size:
                 seg_cache.forget_lines(todo)      # (likewise the lines' plans at their old laws)
             if hits:
-                new, new_bad, own_rows = solve(np.array([i for i in todo.tolist() if i not in hits], int))
+                new_bad, own_rows = solve(np.array([i for i in todo.tolist() if i not in hits], int))
                 if own_rows:
-                    new.update(hits)
-                else:
-                    new = None
-            if new is None:
-                new, new_bad, own_rows = solve(todo)
-            seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad,
+                    _put_rows(segs, hits)
+                else:                             # the whole batch solved again: its rows cleared first
+                    _put_at(segs, todo, repeat(None))
+                    new_bad = None
+            if new_bad is None:
+                new_bad, own_rows = solve(todo)
+            seg_cache.store(k_name, todo, plan.T, plan.beta, segs, new_bad,
                             own_rows and k_name in ROW_KINDS and circle.rows_invariant())
-            segs.update(new)
             seg_failed.update(new_bad)
-        _keep_plans(plan, strokes, idx, segs, seg_failed)
+        _keep_made_plans(plan, strokes, idx, seg_failed, pin.I_orig)
         _attach_commands(plan, strokes, pin, rules, cmd0)
         _keep_slowed_corners(plan, strokes, rules, cmd0)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
@@ -780,6 +800,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 
 _NOT_BEATING = "segments would not beat the original"
 REUSE_RUNS = True       # tests turn it off: every budget run segments all its strokes (the reference)
+# rows whose plans _put_at and _copy_at put at once: in _RunMemo.put_same the int objects
+# of two lists of all ~38 k rows were 3.1 MB, the moment of the rectilinear plate's
+# planning peak (a later run's start)
+PUT_ROWS = 4096
 
 
 class _RunMemo:
@@ -820,7 +844,7 @@ class _RunMemo:
         plan.reason[u] = self.reason[pu]
         plan.t_pred[u] = self.t_pred[pu]
         plan.a2_pred[u] = self.a2_pred[pu]
-        deque(map(plan.segs.__setitem__, u.tolist(), map(self.segs.__getitem__, pu.tolist())), maxlen=0)
+        _copy_at(plan.segs, u, self.segs, pu)
         done = np.zeros(n, bool)
         done[u] = True
         return idx[~done[idx]]
@@ -847,8 +871,47 @@ def _lines_repeat(pin, rows):
     return got
 
 
-def _keep_plans(plan, strokes, idx, segs, seg_failed):
-    """The segment plans segs ({row: plan}) of the rows idx (an int array) put on the plan:
+def _put_rows(segs, got):
+    """segs[i] = plan for each {i: plan} of got (segs: a list by row)."""
+    deque(map(segs.__setitem__, got.keys(), got.values()), maxlen=0)
+
+
+def _put_at(segs, rows, plans):
+    """segs[i] = plan for i, plan in zip(rows, plans) (rows: an int array, plans: an
+    iterable as long), PUT_ROWS rows at a time: their int objects are not all made at once
+    (~41 k rows, 1.2 MB of them, a budget run's lines on the rectilinear plate)."""
+    it = iter(plans)
+    for a in range(0, rows.size, PUT_ROWS):
+        deque(map(segs.__setitem__, rows[a:a + PUT_ROWS].tolist(), it), maxlen=0)      # (map stops at the rows' end)
+
+
+def _copy_at(dst, dst_rows, src, src_rows):
+    """dst[i] = src[j] for i, j in zip(dst_rows, src_rows) (int arrays of one size; dst,
+    src: lists), PUT_ROWS rows at a time as _put_at."""
+    for a in range(0, dst_rows.size, PUT_ROWS):
+        b = a + PUT_ROWS
+        deque(map(dst.__setitem__, dst_rows[a:b].tolist(), map(src.__getitem__, src_rows[a:b].tolist())), maxlen=0)
+
+
+KEEP_ROWS = 8192        # rows _keep_made_plans hands _keep_plans at once
+
+
+def _keep_made_plans(plan, strokes, idx, seg_failed, a2_orig):
+    """_keep_plans of the plans a run wrote in plan.segs for the rows idx (sorted), which
+    are None there again unless kept: KEEP_ROWS rows at a time, each row decided on its
+    own (the int objects of idx's list, twice, were ~3.3 MB, the moment of the
+    rectilinear plate's planning peak).  a2_orig: every stroke's int_a2 (pin.I_orig)."""
+    segs = plan.segs
+    for a in range(0, idx.size, KEEP_ROWS):
+        rows = idx[a:a + KEEP_ROWS]
+        rows_l = rows.tolist()
+        seg_l = list(map(segs.__getitem__, rows_l))
+        deque(map(segs.__setitem__, rows_l, repeat(None)), maxlen=0)      # segs[i] = None
+        _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows])
+
+
+def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None):
+    """The segment plans seg_l (a list: row idx[q]'s plan, or None) of the rows idx (an int array) put on the plan:
     a row whose segmenting failed (seg_failed: its reason), whose plan has a fault
     (seg_fault), has none, or does not beat its original (beats) is left as sliced with
     its reason; the others are put in plan.segs with their figures in t_pred and a2_pred.
@@ -857,9 +920,12 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
     test_speed26_linec_keep.py keeps that loop), made as a few passes over the rows'
     lists and arrays (~41 k rows a budget run on the rectilinear plate, three runs: the
     loop's ~1 µs a row was ~0.1 s of its planning): the faults in one list, beats on
-    arrays (the same product and comparison of doubles), the kept rows put at once."""
-    idx_l = idx.tolist()
-    seg_l = list(map(segs.get, idx_l))
+    arrays (the same product and comparison of doubles), the kept rows put at once.
+    idx_l: idx.tolist(), when the caller has it; a2_orig: the rows' strokes' int_a2 (a
+    float array) when the caller has them (pin.I_orig, read once: their ~41 k attribute
+    reads a run were ~5 ms)."""
+    if idx_l is None:
+        idx_l = idx.tolist()
     n = len(seg_l)
     why_l = None
     try:                        # every row a plan with a verdict slot (else AttributeError)
@@ -888,7 +954,8 @@ def _keep_plans(plan, strokes, idx, segs, seg_failed):
         nan = math.nan
         a2 = np.array([nan if why or seg is None else seg.int_a2 for seg, why in zip(seg_l, why_l)], float)
         bad_why = np.fromiter(map(bool, why_l), bool, n)
-    a2_orig = np.fromiter(map(_INT_A2, map(strokes.__getitem__, idx_l)), float, n)
+    if a2_orig is None:
+        a2_orig = np.fromiter(map(_INT_A2, map(strokes.__getitem__, idx_l)), float, n)
     # beats(a2_plan, a2_orig) elementwise (the same product and comparison of doubles); a
     # plan that is None has a2 = nan: it does not beat
     keep = a2 < a2_orig * (1.0 - GAIN_TOL_R)

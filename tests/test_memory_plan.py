@@ -138,10 +138,10 @@ def test_sparse_tables_are_smaller_than_the_dense_ones():
     strokes, pin, pieces, failed, total_t, rows = _pieces("prusa_gyroid.gcode", "prusa-mk3s")
     n = len(strokes)
     cands, _ = Candidates.of_pieces(n, [Candidates.piece(s, tb, pin.T_orig) for s, tb in pieces], pin.T_orig)
-    held = cands.mask.nbytes + cands.vals.nbytes + cands.first.nbytes + cands.cnt.nbytes + cands.t_pos.nbytes
+    held = cands.col.nbytes + cands.vals.nbytes + cands.first.nbytes + cands.cnt.nbytes + cands.t_pos.nbytes
     dense = 4 * n * len(T_RATIOS) * 8
-    # a row: its mask, first and count (intp) and t_pos, beside its entries' 4 doubles each
-    assert held <= 4 * 8 * int(cands.mask.sum()) + n * (len(T_RATIOS) + 18)
+    # a row: its first and count (intp) and t_pos, beside its entries' 4 doubles and column each
+    assert held <= (4 * 8 + 1) * int(cands.mask.sum()) + n * 18
     assert held < 0.6 * dense
 
 

@@ -145,7 +145,7 @@ def test_segment_cache_lines_hit_only_the_law_they_were_made_for():
         todo = np.array([i for i in rows.tolist() if i not in got and i not in bad], int)
         segs = {i: object() for i in todo.tolist() if rng.random() < 0.7}
         fails = {i: "error: segments (x)" for i in todo.tolist() if i not in segs and rng.random() < 0.5}
-        cache.store("line", todo, T, beta, segs, fails)
+        cache.store("line", todo, T, beta, list(map(segs.get, range(n))), fails)    # (a list by row, as a run's)
         for i in todo.tolist():
             oracle[i] = (float(T[i]), float(beta[i]), segs.get(i), fails.get(i, ""))
         if step % 7 == 3 and len(rows):

@@ -68,7 +68,7 @@ def test_line_cache_same_as_479aedb():
             fails = {i: "error: segments (x)" for i in todo.tolist() if i not in segs and rng.random() < p_fail}
             if rng.random() < 0.1:
                 fails.update({i: "" for i in todo.tolist()[:2]})          # an empty reason: none
-            new.store("line", todo, T, beta, segs, fails)
+            new.store("line", todo, T, beta, list(map(segs.get, range(n))), fails)     # (a list by row, as a run's)
             ref.store("line", todo, T, beta, segs, fails)
             assert new.line_why == ref.line_why
             assert all(a is b for a, b in zip(new.line_seg, ref.line_seg)) and len(new.line_seg) == len(ref.line_seg)

@@ -120,7 +120,7 @@ def test_keep_plans_random(seed):
     old, new = _fresh_plan(n, np.random.default_rng(seed)), _fresh_plan(n, np.random.default_rng(seed))
     segs_old = {i: _copy(s) for i, s in made.items()}
     _keep_plans_old(old, strokes, idx, segs_old, failed)
-    schedule._keep_plans(new, strokes, idx, made, failed)
+    schedule._keep_plans(new, strokes, idx, list(map(made.get, idx.tolist())), failed)    # (its plans by idx)
     if seed >= 12:                        # (their verdicts are made: the common path is taken)
         settle_faults(list(made.values()))
         assert all(s.fault == "" for s in made.values())
@@ -154,7 +154,8 @@ def _plan_figures(p):
 
 def _runs(name, prof, corners, monkeypatch, old, budgets=(1.0, 0.6, 0.61, 1.3)):
     if old:
-        monkeypatch.setattr(schedule, "_keep_plans", _keep_plans_old)
+        monkeypatch.setattr(schedule, "_keep_plans", lambda plan, strokes, idx, seg_l, failed, idx_l=None, a2_orig=None:   # (its plans by row)
+                            _keep_plans_old(plan, strokes, idx, dict(zip(idx.tolist(), seg_l)), failed))
         monkeypatch.setattr(schedule, "_attach_commands", _attach_commands_old)
     profile = load_profile(prof)
     opts = pipeline.Options(corner_budget_r=corners)

@@ -803,7 +803,7 @@ def test_keep_plans_same_as_da0e9ec():
                         p.fault = SC.seg_fault(p)
             rows.append((_plan_of(n, np.random.default_rng(seed)), strokes, idx, segs, failed))
         (pg, *a), (pw, *b) = rows
-        SC._keep_plans(pg, *a)
+        SC._keep_plans(pg, a[0], a[1], list(map(a[2].get, a[1].tolist())), a[3])    # (its plans by idx)
         _keep_plans(pw, *b)
         assert pg.retime.tolist() == pw.retime.tolist() and pg.reason.tolist() == pw.reason.tolist()
         assert pg.t_pred.tobytes() == pw.t_pred.tobytes() and pg.a2_pred.tobytes() == pw.a2_pred.tobytes()
@@ -838,6 +838,19 @@ def test_tb_keys():
     assert SC._tb_keys(rows, Ti, beta) == [Ti[i].tobytes() + beta[i].tobytes() for i in rows.tolist()]
 
 
+class _SegmentCacheOldOfList(SegmentCacheOld):
+    """da0e9ec's SegmentCache stored to as the run stores now (its plans as a list by row)."""
+
+    def store(self, kind, rows, T, beta, segs, bad, own=False):
+        made = {i: segs[i] for i in rows.tolist() if i not in bad}
+        super().store(kind, rows, T, beta, made, bad, own)
+
+
+def _keep_plans_of_list(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None):
+    """da0e9ec's _keep_plans called as the run calls it now (its plans as a list by idx)."""
+    _keep_plans(plan, strokes, idx, dict(zip(idx.tolist(), seg_l)), seg_failed)
+
+
 def _plan_figures(p):
     segs = [None if s is None else (type(s).__name__, s.s.tobytes(), s.v.tobytes(), s.accel.tobytes(),
                                     s.feed.tobytes(), s.time_t, s.int_a2, s.first_cmds, SC.seg_fault(s))
@@ -849,9 +862,9 @@ def _plan_figures(p):
 def _budget_runs(name, prof, corners, monkeypatch, old, budgets=(1.0, 0.6, 0.61, 1.3, 1.0)):
     monkeypatch.setattr(SEG, "JERK_CORNERS", False)   # (the undo() below takes the fixture's off too)
     if old:
-        for k, f in (("_keep_plans", _keep_plans), ("settle_faults", settle_faults),
+        for k, f in (("_keep_plans", _keep_plans_of_list), ("settle_faults", settle_faults),
                      ("_attach_commands", _attach_commands), ("_keep_slowed_corners", _keep_slowed_corners),
-                     ("SegmentCache", SegmentCacheOld)):
+                     ("SegmentCache", _SegmentCacheOldOfList)):
             monkeypatch.setattr(SC, k, f)
         monkeypatch.setattr(SC, "plan_segments", plan_segments)
     profile = load_profile(prof)

@@ -26,11 +26,11 @@ def _runs(name, prof, reuse, monkeypatch, budgets):
     strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
     pin = schedule.plan_inputs(strokes, profile, opts)
     runs, staged = [], []
-    keep = schedule._keep_plans
+    keep = schedule._keep_made_plans
 
-    def keep_rows(plan, sts, idx, segs, seg_failed):
+    def keep_rows(plan, sts, idx, seg_failed, a2_orig):
         staged.append(idx.size)
-        return keep(plan, sts, idx, segs, seg_failed)
+        return keep(plan, sts, idx, seg_failed, a2_orig)
 
     def fit(run, pin_, budget_t):
         for r in budgets:
@@ -38,7 +38,7 @@ def _runs(name, prof, reuse, monkeypatch, budgets):
             # (each run's arrays as they were: the next run must not change them)
             runs.append((p, p.retime.copy(), p.reason.copy(), p.t_pred.copy(), p.a2_pred.copy(), list(p.segs)))
         return runs[-1][0]
-    monkeypatch.setattr(schedule, "_keep_plans", keep_rows)
+    monkeypatch.setattr(schedule, "_keep_made_plans", keep_rows)
     monkeypatch.setattr(schedule, "_fit_budget", fit)
     schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
     monkeypatch.undo()

@@ -94,7 +94,7 @@ def _old_plan_strokes(strokes, pin, profile, opts, budget_t):
             for sub, res in isolate(lambda r: fn([strokes[i] for i in r], plan.T[r], plan.beta[r]),
                                     todo, "segments", new_bad):
                 new.update(zip(sub.tolist(), res))
-            seg_cache.store(k_name, todo, plan.T, plan.beta, new, new_bad)
+            seg_cache.store(k_name, todo, plan.T, plan.beta, list(map(new.get, range(len(strokes)))), new_bad)  # (by row)
             segs.update(new)
             seg_failed.update(new_bad)
         for i in idx:

@@ -64,7 +64,7 @@ def test_tod_solve_cut_short_same_bits(steps, monkeypatch):
 
 
 def test_tod_solve_taken_laws_same_bits(monkeypatch):
-    """_tod_core_at (tod_prep gathering the laws pj itself, as solve_fixed calls it) gives
+    """_tod_core_at (tod_at reading the laws pj where they are, as solve_fixed calls it) gives
     _times_and_speeds' bits on the taken laws, in a scrambled order with repeats, so that act's
     compaction and the kept τ are exercised out of the laws' order."""
     law, x = max(_tod_batches("voron24", monkeypatch), key=lambda b: b[1].size)

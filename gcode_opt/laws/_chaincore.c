@@ -446,81 +446,84 @@ VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict tau
     }
 }
 
-/* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
-   s1coef, s1zmax, sinh_coef, max_iter) -> laws still going after max_iter steps (act[:that]:
-   which; their vout not written), 0 when every law is done.  _time_of_distance's whole
-   iteration (_tod_rows: each step on the laws not done): s and ṡ at t as _eval(t, "sv")
-   (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
-   batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
-   or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
-   "v") there).  t, lo, hi, act: the caller's scratch, changed; out: a copy of t on entry
-   (then out[i] = t[i] throughout).  prims.shc(γ/4), the same at every step, is made once
-   per law; each step gathers its active laws compact chunk by chunk (CHUNK laws in L1)
-   and makes their s and ṡ there (tod_chunk), then each law's bracket and next t. */
-static PyObject *tod_solve(PyObject *self, PyObject *a) {
-    PyObject *o[19];
-    int max_iter;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
-                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
-                          &max_iter))
-        return NULL;
-    Bufs b = {.n = 0};
-    Py_ssize_t N, nz, nsc, ncoef, nn[15];
-    double *t = get(&b, o[0], 8, 1, &N);
-    double *T = t ? get(&b, o[1], 8, 0, &nn[0]) : NULL;
-    double *gs = T ? get(&b, o[2], 8, 0, &nn[1]) : NULL;
-    double *n = gs ? get(&b, o[3], 8, 0, &nn[2]) : NULL;
-    double *sh2 = n ? get(&b, o[4], 8, 0, &nn[3]) : NULL;
-    double *wbar = sh2 ? get(&b, o[5], 8, 0, &nn[4]) : NULL;
-    double *A = wbar ? get(&b, o[6], 8, 0, &nn[5]) : NULL;
-    double *dl = A ? get(&b, o[7], 8, 0, &nn[6]) : NULL;
-    double *target = dl ? get(&b, o[8], 8, 0, &nn[7]) : NULL;
-    double *sgn = target ? get(&b, o[9], 8, 0, &nn[8]) : NULL;
-    double *lo = sgn ? get(&b, o[10], 8, 1, &nn[9]) : NULL;
-    double *hi = lo ? get(&b, o[11], 8, 1, &nn[10]) : NULL;
-    double *scale = hi ? get(&b, o[12], 8, 0, &nn[11]) : NULL;
-    int64_t *act = scale ? get(&b, o[13], 8, 1, &nn[12]) : NULL;
-    double *out = act ? get(&b, o[14], 8, 1, &nn[13]) : NULL;
-    double *vout = out ? get(&b, o[15], 8, 1, &nn[14]) : NULL;
-    double *coef = vout ? get(&b, o[16], 8, 0, &ncoef) : NULL;
-    double *zmax = coef ? get(&b, o[17], 8, 0, &nz) : NULL;
-    double *sc = zmax ? get(&b, o[18], 8, 0, &nsc) : NULL;
-    if (!sc) { release(&b); return NULL; }
-    int ok = nsc >= 1 && nsc <= SINH_MAX && ncoef >= NTERMS;
-    for (int q = 0; q < 15; q++) ok = ok && nn[q] == N;
-    for (Py_ssize_t j = 0; ok && j < N; j++) ok = act[j] >= 0 && act[j] < N;
-    if (!ok) {
-        release(&b);
-        PyErr_SetString(PyExc_ValueError, "tod_solve: shapes");
-        return NULL;
-    }
-    int nc = (int)nsc;
+/* Law i's inputs of the time-of-distance iteration (tod_prep's and tod_at's), as _tod_core
+   makes them: its duration Ti, length Li, the distance x asked for: target = x clipped into
+   [min(0, L), max(0, L)], sgn, the bracket [0, T], t = 0 + (T - 0) (target / L, or 0.5 at
+   L = 0) and out = t, scale = max(|L|, 1e-300). */
+static inline void tod_start(double Ti, double Li, double x, Py_ssize_t i, double *target, double *sgn, double *lo,
+                             double *hi, double *t, double *out, double *scale) {
+    double los = (0.0 <= Li || isnan(0.0)) ? 0.0 : Li;       /* np.minimum(0.0, L) */
+    double his = (0.0 >= Li || isnan(0.0)) ? 0.0 : Li;       /* np.maximum(0.0, L) */
+    double mx = isnan(x) ? x : (x > los ? x : los);          /* np.clip */
+    double tg = isnan(mx) ? mx : (mx < his ? mx : his);
+    target[i] = tg;
+    sgn[i] = Li < 0 ? -1.0 : 1.0;
+    double l0 = 0.0, h0 = Ti;
+    lo[i] = l0;
+    hi[i] = h0;
+    double r = Li != 0 ? tg / Li : 0.5;
+    double ti = l0 + (h0 - l0) * r;
+    t[i] = ti;
+    out[i] = ti;
+    double aL = fabs(Li);
+    scale[i] = (aL >= 1e-300 || isnan(aL)) ? aL : 1e-300;
+}
+
+/* The laws a time-of-distance iteration reads (tod_iterate): law i's T, γ, n, sh2, wbar, A, δ
+   at place ix[i] of these arrays (tod_iterate_at), or at i (tod_iterate_own; ix NULL).
+   tod_solve hands it laws gathered by tod_prep (at i); tod_at the step's own laws and the
+   free vertices' pieces (ix = pj), so the laws' numbers are read where they are, not
+   copied out first. */
+typedef struct {
+    const double *T, *gs, *n, *sh2, *wbar, *A, *dl;
+    const int64_t *ix;
+} TodLaws;
+
+/* _time_of_distance's whole iteration on the N laws lw (tod_solve's; see there): target,
+   sgn, scale per law; t, lo, hi, act the scratch, changed (act: 0..N-1 on entry); out = t's
+   copy on entry; vout.  Returns the laws still going after max_iter steps (act[:that]), -1
+   out of memory (exception set).  Inlined into its two callers, indexed a constant there
+   (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own: 0, lw->ix not read): no test of
+   ix a law read. */
+static inline __attribute__((always_inline)) Py_ssize_t
+tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, const double *target, const double *sgn,
+            const double *scale, double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
+            const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter) {
+    const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
+    const int64_t *ix = lw->ix;
     const double eps4 = 4 * DBL_EPSILON;
     Py_ssize_t NN = N ? N : 1;
     double *s4all = PyMem_Malloc(NN * sizeof(double));      /* per law: prims.shc(γ/4) */
-    if (!s4all) { release(&b); return PyErr_NoMemory(); }
-    for (Py_ssize_t i0 = 0; i0 < N; i0 += CHUNK)
-        shc_quarter(N - i0 < CHUNK ? N - i0 : CHUNK, gs + i0, sc, nc, s4all + i0);
+    if (!s4all) { PyErr_NoMemory(); return -1; }
     /* a chunk of the active laws, compact: τ, γ, s4, n, sh2, wbar, A, δ, T; s, ṡ */
     double taub[CHUNK], gb[CHUNK], s4b[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK];
     double Tb[CHUNK], sb[CHUNK], vv[CHUNK];
+    for (Py_ssize_t i0 = 0; i0 < N; i0 += CHUNK) {
+        Py_ssize_t m = N - i0 < CHUNK ? N - i0 : CHUNK;
+        const double *g = gs + i0;
+        if (indexed) {             /* (the laws' γ gathered: shc_quarter reads them in a row) */
+            for (Py_ssize_t jj = 0; jj < m; jj++) gb[jj] = gs[ix[i0 + jj]];
+            g = gb;
+        }
+        shc_quarter(m, g, sc, nc, s4all + i0);
+    }
     /* τ = clip(t / T, 0, 1) of the active laws in act's order (taus[j]: act[j]'s), made
        where t is: once here, then by the step that moves t (each law's τ once a step, not
        once for the batch's S1 terms and again for its chunk); zm, nan: the largest (γx)²
        of the active laws (nan: one is nan), the S1 terms the next step's batch needs */
     double *taus = PyMem_Malloc(NN * sizeof(double));
-    if (!taus) { PyMem_Free(s4all); release(&b); return PyErr_NoMemory(); }
+    if (!taus) { PyMem_Free(s4all); PyErr_NoMemory(); return -1; }
     double zm = -1.0;
     int nan = 0;
     for (Py_ssize_t j = 0; j < N; j++) {
-        int64_t i = act[j];
-        double tau = t[i] / T[i];
+        int64_t i = act[j], q = indexed ? ix[i] : i;
+        double tau = t[i] / T[q];
         if (!isnan(tau)) {                /* np.clip: nan stays */
             tau = tau > 0.0 ? tau : 0.0;
             tau = tau < 1.0 ? tau : 1.0;
         }
         taus[j] = tau;
-        double z = gs[i] * (tau - 0.5);
+        double z = gs[q] * (tau - 0.5);
         double z2 = z * z;
         if (isnan(z2)) nan = 1;
         else if (z2 > zm) zm = z2;
@@ -538,10 +541,11 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
             for (Py_ssize_t jj = 0; jj < m; jj++) {
-                int64_t i = act[j0 + jj];
+                int64_t i = act[j0 + jj], q = indexed ? ix[i] : i;
                 taub[jj] = taus[j0 + jj];
-                gb[jj] = gs[i]; s4b[jj] = s4all[i]; nb[jj] = n[i]; sh2b[jj] = sh2[i];
-                wb[jj] = wbar[i]; Ab[jj] = A[i]; db[jj] = dl[i]; Tb[jj] = T[i];
+                s4b[jj] = s4all[i];
+                gb[jj] = gs[q]; nb[jj] = n[q]; sh2b[jj] = sh2[q];
+                wb[jj] = wbar[q]; Ab[jj] = A[q]; db[jj] = dl[q]; Tb[jj] = T[q];
             }
             tod_chunk(m, k, taub, gb, coef, sc, nc, s4b, nb, sh2b, wb, Ab, db, Tb, sb, vv);
             for (Py_ssize_t jj = 0; jj < m; jj++) {
@@ -584,8 +588,129 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     }
     PyMem_Free(taus);
     PyMem_Free(s4all);
+    return na;
+}
+
+#define TOD_ITERATE_ARGS const TodLaws *lw, Py_ssize_t N, const double *target, const double *sgn, \
+    const double *scale, double *t, double *lo, double *hi, int64_t *act, double *out, double *vout, \
+    const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter
+static Py_ssize_t tod_iterate_at(TOD_ITERATE_ARGS) {
+    return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
+                       max_iter);
+}
+static Py_ssize_t tod_iterate_own(TOD_ITERATE_ARGS) {
+    return tod_iterate(lw, 0, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
+                       max_iter);
+}
+
+/* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
+   s1coef, s1zmax, sinh_coef, max_iter) -> laws still going after max_iter steps (act[:that]:
+   which; their vout not written), 0 when every law is done.  _time_of_distance's whole
+   iteration (_tod_rows: each step on the laws not done): s and ṡ at t as _eval(t, "sv")
+   (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
+   batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
+   or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
+   "v") there).  t, lo, hi, act: the caller's scratch, changed; out: a copy of t on entry
+   (then out[i] = t[i] throughout).  prims.shc(γ/4), the same at every step, is made once
+   per law; each step gathers its active laws compact chunk by chunk (CHUNK laws in L1)
+   and makes their s and ṡ there (tod_chunk), then each law's bracket and next t
+   (tod_iterate). */
+static PyObject *tod_solve(PyObject *self, PyObject *a) {
+    PyObject *o[19];
+    int max_iter;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
+                          &max_iter))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t N, nz, nsc, ncoef, nn[15];
+    double *t = get(&b, o[0], 8, 1, &N);
+    double *T = t ? get(&b, o[1], 8, 0, &nn[0]) : NULL;
+    double *gs = T ? get(&b, o[2], 8, 0, &nn[1]) : NULL;
+    double *n = gs ? get(&b, o[3], 8, 0, &nn[2]) : NULL;
+    double *sh2 = n ? get(&b, o[4], 8, 0, &nn[3]) : NULL;
+    double *wbar = sh2 ? get(&b, o[5], 8, 0, &nn[4]) : NULL;
+    double *A = wbar ? get(&b, o[6], 8, 0, &nn[5]) : NULL;
+    double *dl = A ? get(&b, o[7], 8, 0, &nn[6]) : NULL;
+    double *target = dl ? get(&b, o[8], 8, 0, &nn[7]) : NULL;
+    double *sgn = target ? get(&b, o[9], 8, 0, &nn[8]) : NULL;
+    double *lo = sgn ? get(&b, o[10], 8, 1, &nn[9]) : NULL;
+    double *hi = lo ? get(&b, o[11], 8, 1, &nn[10]) : NULL;
+    double *scale = hi ? get(&b, o[12], 8, 0, &nn[11]) : NULL;
+    int64_t *act = scale ? get(&b, o[13], 8, 1, &nn[12]) : NULL;
+    double *out = act ? get(&b, o[14], 8, 1, &nn[13]) : NULL;
+    double *vout = out ? get(&b, o[15], 8, 1, &nn[14]) : NULL;
+    double *coef = vout ? get(&b, o[16], 8, 0, &ncoef) : NULL;
+    double *zmax = coef ? get(&b, o[17], 8, 0, &nz) : NULL;
+    double *sc = zmax ? get(&b, o[18], 8, 0, &nsc) : NULL;
+    if (!sc) { release(&b); return NULL; }
+    int ok = nsc >= 1 && nsc <= SINH_MAX && ncoef >= NTERMS;
+    for (int q = 0; q < 15; q++) ok = ok && nn[q] == N;
+    for (Py_ssize_t j = 0; ok && j < N; j++) ok = act[j] >= 0 && act[j] < N;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_solve: shapes");
+        return NULL;
+    }
+    TodLaws lw = {T, gs, n, sh2, wbar, A, dl, NULL};
+    Py_ssize_t na = tod_iterate_own(&lw, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc,
+                                    (int)nsc, max_iter);
     release(&b);
-    return PyLong_FromSsize_t(na);
+    return na < 0 ? NULL : PyLong_FromSsize_t(na);
+}
+
+/* tod_at(T, L, gs, n, sh2, wbar, A, delta, pj, s, out, vout, act, s1coef, s1zmax, sinh_coef,
+   max_iter) -> laws still going after max_iter steps (act[:that]), 0 when every law is done.
+   tod_prep then tod_solve in one call, without the laws gathered first: law i is the step's
+   law pj[i] (its P pieces' arrays T .. delta), asked for the distance s[i]; its inputs as
+   tod_prep makes them (tod_start) and the iteration as tod_solve runs it on them
+   (tod_iterate, reading each law's numbers at pj[i]): the same operations on the same numbers.
+   Writes out (each law's last t), vout (ṡ there; not for the laws still going) and act. */
+static PyObject *tod_at(PyObject *self, PyObject *a) {
+    PyObject *o[16];
+    int max_iter;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &max_iter))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[16];
+    void *p[16];
+    for (int q = 0; q < 16; q++) {
+        p[q] = get(&b, o[q], 8, q >= 10 && q <= 12, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t P = nn[0], N = nn[8], nz = nn[14], nsc = nn[15];
+    int ok = nsc >= 1 && nsc <= SINH_MAX && nn[13] >= NTERMS;
+    for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
+    for (int q = 9; q < 13; q++) ok = ok && nn[q] == N;
+    const int64_t *pj = p[8];
+    for (Py_ssize_t i = 0; ok && i < N; i++) ok = pj[i] >= 0 && pj[i] < P;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_at: shapes");
+        return NULL;
+    }
+    const double *T = p[0], *L = p[1], *s = p[9];
+    double *out = p[10], *vout = p[11];
+    int64_t *act = p[12];
+    Py_ssize_t NN = N ? N : 1;
+    /* per law: target, sgn, scale, t, lo, hi */
+    double *work = PyMem_Malloc(6 * NN * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *target = work, *sgn = work + NN, *scale = work + 2 * NN, *t = work + 3 * NN, *lo = work + 4 * NN,
+           *hi = work + 5 * NN;
+    for (Py_ssize_t i = 0; i < N; i++) {          /* tod_prep's inputs of law i */
+        int64_t j = pj[i];
+        double Ti = T[j], Li = L[j];
+        tod_start(Ti, Li, s[i], i, target, sgn, lo, hi, t, out, scale);
+        act[i] = (int64_t)i;
+    }
+    TodLaws lw = {T, p[2], p[3], p[4], p[5], p[6], p[7], pj};
+    Py_ssize_t na = tod_iterate_at(&lw, N, target, sgn, scale, t, lo, hi, act, out, vout, p[13], p[14], nz, p[15],
+                                   (int)nsc, max_iter);
+    PyMem_Free(work);
+    release(&b);
+    return na < 0 ? NULL : PyLong_FromSsize_t(na);
 }
 
 /* fixed_knots(sv, cv, vt, vi, bv, bvoff, S, T, v0, v1, warm, ks, kv, kt0, koff, L, va, vb, T0, owner,
@@ -1383,22 +1508,7 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
         double Ti = T[j], Li = L[j];
         oT[i] = Ti;
         for (int q = 0; q < 6; q++) ((double *)p[11 + q])[i] = src[q][j];
-        double los = (0.0 <= Li || isnan(0.0)) ? 0.0 : Li;       /* np.minimum(0.0, L) */
-        double his = (0.0 >= Li || isnan(0.0)) ? 0.0 : Li;       /* np.maximum(0.0, L) */
-        double x = s[i];
-        double mx = isnan(x) ? x : (x > los ? x : los);          /* np.clip */
-        double tg = isnan(mx) ? mx : (mx < his ? mx : his);
-        target[i] = tg;
-        sgn[i] = Li < 0 ? -1.0 : 1.0;
-        double l0 = 0.0, h0 = Ti;
-        lo[i] = l0;
-        hi[i] = h0;
-        double r = Li != 0 ? tg / Li : 0.5;
-        double ti = l0 + (h0 - l0) * r;
-        t[i] = ti;
-        out[i] = ti;
-        double aL = fabs(Li);
-        scale[i] = (aL >= 1e-300 || isnan(aL)) ? aL : 1e-300;
+        tod_start(Ti, Li, s[i], i, target, sgn, lo, hi, t, out, scale);
         act[i] = (int64_t)i;
     }
     release(&b);
@@ -2226,6 +2336,7 @@ static PyMethodDef methods[] = {
     {"vert_prep", vert_prep, METH_VARARGS, "solve_fixed's vertices before their time of distance"},
     {"exact_prep", exact_prep, METH_VARARGS, "_share_time_exact's checks and exact_share's inputs"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
+    {"tod_at", tod_at, METH_VARARGS, "tod_prep and tod_solve in one call, the laws read where they are"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},

@@ -545,15 +545,17 @@ _TIMES_AND_SPEEDS = _times_and_speeds
 
 def _tod_core_at(core, law, pj, s_targets, max_iter=200):
     """_times_and_speeds(law.take(pj), s_targets) by the chain core without taking the
-    laws first: tod_prep gathers the laws pj's inputs itself (its index argument; _tod_core
-    passes 0..N-1 of a taken law), the same numbers as from the taken law's arrays (each a
-    gather of law's), and tod_solve runs on them as in _tod_core.  The ~14 arrays of
+    laws first: tod_at makes each law's inputs as tod_prep makes them from the taken law's
+    arrays and runs tod_solve's iteration on them, reading law i's numbers at pj[i] where
+    they are (the same numbers: tests/test_speed35_chains_tod_at.py).  The ~14 arrays of
     law.take were gathered and then copied again by tod_prep, each active-set step of
-    every chain batch.  None (the caller takes the laws and calls _times_and_speeds) where
-    _times_and_speeds would not run _tod_core's C path on the taken laws."""
+    every chain batch; then the laws' 7 arrays were copied out by tod_prep into as many
+    arrays of the free vertices, which tod_solve gathered from again at every step.  None
+    (the caller takes the laws and calls _times_and_speeds) where _times_and_speeds would
+    not run _tod_core's C path on the taken laws."""
     c = law._c
     T = law.T
-    if not (hasattr(core, "tod_prep") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
+    if not (hasattr(core, "tod_at") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
             and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
             and np.asarray(s_targets).shape == pj.shape):
         return None
@@ -562,14 +564,10 @@ def _tod_core_at(core, law, pj, s_targets, max_iter=200):
         return None
     N = pj.size
     f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
-    Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, t, scale, out = (np.empty(N) for _ in range(14))
-    act = np.empty(N, np.int64)
-    core.tod_prep(f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta),
-                  np.ascontiguousarray(pj, np.int64), f(s_targets), Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo,
-                  hi, t, scale, out, act)
-    vout = np.empty(N)
-    na = core.tod_solve(t, Tc, gs, n, sh2, wbar, A, dl, target, sgn, lo, hi, scale, act, out, vout,
-                        _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
+    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
+    pj, s = np.ascontiguousarray(pj, np.int64), f(s_targets)
+    out, vout, act = np.empty(N), np.empty(N), np.empty(N, np.int64)
+    na = core.tod_at(*laws, pj, s, out, vout, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
     if na:                     # out of steps: the last t of the laws still going, not evaluated yet
         rest = act[:na]
         vout[rest] = _eval(law.take(pj[rest]), out[rest], "v")[1]
@@ -1110,8 +1108,9 @@ class FlatLaws:
             done = dv = pd = slice(None)
         else:
             dv, pd = done[st.rank], done[st.owner]
-        self.vert_v[st.vi[dv]] = st.vert_v[dv]
-        self.vert_t[st.vi[dv]] = st.vert_t[dv]
+        vd = st.vi[dv]              # (one mask gather for both)
+        self.vert_v[vd] = st.vert_v[dv]
+        self.vert_t[vd] = st.vert_t[dv]
         c = st.active[done]
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]

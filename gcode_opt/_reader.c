@@ -23,6 +23,7 @@
 #include <structmember.h>
 #include <float.h>
 #include <string.h>
+#include "_linestr.h"     /* line_str: a line's str as read_lines gives it */
 
 /* ---------------------------------------------------------------- set up from state.py */
 enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_FEATURE,
@@ -1515,19 +1516,6 @@ static PyTypeObject LinesType;
 static Py_ssize_t Lines_len(LinesObject *o)
 {
     return o->n;
-}
-
-/* A line's str as read_lines gives it: a line of ASCII bytes copied into a new str, any other
- * UTF-8's decoder's with surrogateescape (a line alone decodes as it would in the stream: no
- * byte of "\r" or "\n" is inside a UTF-8 sequence) */
-static PyObject *line_str(const char *s, Py_ssize_t n, int ascii)
-{
-    if (!ascii)
-        return PyUnicode_DecodeUTF8(s, n, "surrogateescape");
-    PyObject *line = PyUnicode_New(n, 127);
-    if (line != NULL)
-        memcpy(PyUnicode_1BYTE_DATA(line), s, (size_t)n);
-    return line;
 }
 
 static PyObject *Lines_item(LinesObject *o, Py_ssize_t i)

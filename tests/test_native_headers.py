@@ -1,4 +1,5 @@
-"""The compiled cores share a header (gcode_opt/_npsum.h: numpy's pairwise sum).  A core
+"""The compiled cores share headers (gcode_opt/_npsum.h: numpy's pairwise sum;
+gcode_opt/_linestr.h: a line's str as read_lines gives it).  A core
 built from a source is used only with that same source AND the same headers beside it:
 native.source_digest hashes both, setup.py records the same digest, and a changed header
 makes the build stale (the Python path plays, and says why), as a changed .c does."""
@@ -20,16 +21,25 @@ SOURCES = {                     # module -> the C source it is built from
     "_gcode_opt_curvecore": PKG / "laws" / "_curvecore.c",
 }
 HEADER = PKG / "_npsum.h"
+LINESTR = PKG / "_linestr.h"
 
 
 def test_the_three_summing_cores_include_the_shared_header():
-    for mod in ("_gcode_opt_fwcore", "_gcode_opt_chaincore", "_gcode_opt_curvecore"):
+    assert native.local_headers(str(SOURCES["_gcode_opt_fwcore"])) == [str(HEADER), str(LINESTR)]
+    for mod in ("_gcode_opt_chaincore", "_gcode_opt_curvecore"):
         assert native.local_headers(str(SOURCES[mod])) == [str(HEADER)]
     # no core keeps a copy of its own any more
     for src in SOURCES.values():
         text = src.read_text()
         assert "static double ring_pairwise" not in text and "static double pw_sum" not in text
         assert "static double cf_pw_sum" not in text
+        assert "static PyObject *line_str" not in text
+
+
+def test_the_reader_and_the_model_share_line_str():
+    # one definition of a line's str for the reader's Lines / split_lines and the model
+    assert native.local_headers(str(SOURCES["_gcode_opt_reader"])) == [str(LINESTR)]
+    assert "static PyObject *line_str" in LINESTR.read_text()
 
 
 def test_headers_include_no_local_header():
@@ -41,7 +51,7 @@ def test_headers_include_no_local_header():
 
 
 def test_digest_of_a_source_without_headers_is_its_sha256():
-    src = SOURCES["_gcode_opt_reader"]
+    src = SOURCES["_gcode_opt_emit"]
     assert native.local_headers(str(src)) == []
     assert native.source_digest(str(src)) == hashlib.sha256(src.read_bytes()).hexdigest()
 

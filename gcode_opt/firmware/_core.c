@@ -24,6 +24,7 @@
 #include <float.h>
 #include <string.h>
 #include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
+#include "../_linestr.h"    /* line_str: a line's str as read_lines gives it */
 
 /* ---------------------------------------------------------------- constants */
 /* Move.kind values (setup); the model's constants come with each Sim (simulate.new_sim
@@ -2775,19 +2776,6 @@ static int src_next_buf(LineSrc *src, const char **line, Py_ssize_t *n_out, int 
     src->i = (Py_ssize_t)(e - src->buf);
     src->idx++;
     return 1;
-}
-
-/* A buffer's line as the str read_lines gives: a line of ASCII (nearly all) is its bytes
- * copied into a new str; any other is UTF-8's decoder's (its ASCII path costs about as
- * much again as the copy) */
-static PyObject *line_str(const char *a, Py_ssize_t n, int ascii)
-{
-    if (!ascii)
-        return PyUnicode_DecodeUTF8(a, n, "surrogateescape");
-    PyObject *raw = PyUnicode_New(n, 127);
-    if (raw != NULL)
-        memcpy(PyUnicode_1BYTE_DATA(raw), a, (size_t)n);
-    return raw;
 }
 
 /* The source's next line as a new str, src moved past it; NULL at its end (no error set)

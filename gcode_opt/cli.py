@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -494,6 +493,7 @@ def cmd_simulate(a):
     if fig:
         d["ringing"] = fig[0]
     if a.json:
+        import json
         print(json.dumps(d, indent=1))
         return 0
     stops = ", ".join(str(x) for x in d["stop_lines"][:12]) + (" ..." if len(d["stop_lines"]) > 12 else "")

@@ -37,6 +37,7 @@ from operator import attrgetter, itemgetter
 
 import numpy as np
 
+from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
@@ -1053,7 +1054,7 @@ def _exp_zero_ok():
     bit, on a probe of arguments below EXP_ZERO_BELOW (its edge, -inf, huge, random ones,
     in arrays of several lengths and offsets, as its vector loops take them); checked once."""
     if not _EXP_ZERO_OK:
-        rng = np.random.default_rng(21)
+        rng = ProbeRng(21)
         edge = np.nextafter(EXP_ZERO_BELOW, -np.inf)
         x = np.concatenate([[edge, -746.5, -750.0, -800.0, -1075.0, -1e4, -1e300, -np.finfo(float).max, -np.inf],
                             rng.uniform(-760.0, EXP_ZERO_BELOW, 4000), -np.exp(rng.uniform(6.62, 700.0, 4000)),

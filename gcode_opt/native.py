@@ -6,10 +6,17 @@ digest covers the source and the local headers it includes (source_digest; setup
 records the same)."""
 from __future__ import annotations
 
-import hashlib
 import importlib
 import os
 import re
+
+try:                          # CPython's own SHA-256: hashlib would load OpenSSL (~3.5 MB resident) for it
+    from _sha256 import sha256 as _sha256_new      # 3.11
+except ImportError:
+    try:
+        from _sha2 import sha256 as _sha256_new    # 3.12+
+    except ImportError:
+        from hashlib import sha256 as _sha256_new
 
 # a local header: #include "name.h" (resolved beside the source, as the compiler does)
 _LOCAL_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]+"([^"]+)"', re.M)
@@ -44,7 +51,7 @@ def local_headers(source: str) -> list:
 def source_digest(source: str) -> str:
     """SHA-256 of a C source followed by its local headers' bytes (local_headers): what a
     core was built from.  A source with no local header hashes as its bytes alone."""
-    h = hashlib.sha256()
+    h = _sha256_new()
     for path in [source] + local_headers(source):
         with open(path, "rb") as fh:
             h.update(fh.read())

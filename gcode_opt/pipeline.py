@@ -29,7 +29,6 @@ in the summary (strokes.not_retimed, strokes.faults).
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import math
 import os
 import sys
@@ -38,6 +37,11 @@ from array import array
 from bisect import bisect_right
 from collections import deque
 from functools import partial
+
+try:                          # what hashlib.blake2b is; importing hashlib would load OpenSSL (~3.5 MB resident)
+    from _blake2 import blake2b as _blake2b
+except ImportError:
+    from hashlib import blake2b as _blake2b
 
 import numpy as np
 
@@ -585,7 +589,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     isfinite = math.isfinite
     travel = feat.TRAVEL
     begin = emit_mod.BEGIN
-    blake2b = hashlib.blake2b
+    blake2b = _blake2b
     seg_type = SegmentPlan
     stroke_type = Stroke
     # the whole run of line strokes in one call of the core (stroke_run: the loop below's
@@ -828,7 +832,7 @@ class _Reuse:
 
 
 def _digest(text):
-    return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=16).digest()
+    return _blake2b(text.encode("utf-8", "surrogateescape"), digest_size=16).digest()
 
 
 def block_digests(path, out_ranges, n):
@@ -839,7 +843,7 @@ def block_digests(path, out_ranges, n):
     to this (only a second pass compares blocks): ~0.2 G instructions of blake2b on the
     gyroid plate that a run of one pass does not need."""
     digests = Digests(n)
-    blake2b = hashlib.blake2b
+    blake2b = _blake2b
     core = emit_mod.CORE_MOD
     if core is None or not hasattr(core, "skip_lines"):
         with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh:

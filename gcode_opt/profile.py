@@ -35,7 +35,6 @@ import math
 import os
 import re
 from dataclasses import dataclass, field
-from importlib import resources
 
 try:  # Python 3.11+
     import tomllib
@@ -292,15 +291,19 @@ def profile_from_dict(data: dict, name: str, where: str | None = None) -> Profil
 
 
 def _bundled_dir():
-    """profiles/ of the repository, installed as package data `gcode_opt.profiles`."""
+    """profiles/ of the repository, installed as package data `gcode_opt.profiles`: the
+    package's folder as the import system finds it (importlib.resources.files gives the
+    same folder for an installed or editable package, and costs ~1 MB resident to import)."""
+    from importlib.util import find_spec
+    from pathlib import Path
     try:
-        d = resources.files("gcode_opt.profiles")
-        if d.is_dir():
-            return d
-    except (ModuleNotFoundError, TypeError):
-        pass
-    from pathlib import Path                 # running from a source checkout
-    d = Path(__file__).resolve().parent.parent / "profiles"
+        spec = find_spec("gcode_opt.profiles")
+    except (ImportError, ValueError):
+        spec = None
+    for d in (spec.submodule_search_locations or ()) if spec is not None else ():
+        if os.path.isdir(d):
+            return Path(d)
+    d = Path(__file__).resolve().parent.parent / "profiles"      # running from a source checkout
     return d if d.is_dir() else None
 
 

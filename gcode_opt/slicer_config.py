@@ -12,7 +12,6 @@ over the environment (the environment may belong to another slicer run), the env
 fills what the file lacks (a file whose comments were stripped)."""
 from __future__ import annotations
 
-import json
 import os
 import re
 from dataclasses import dataclass, field
@@ -90,6 +89,7 @@ def _cura_settings(tail):
         return {}
     # GCodeWriter escapes '\\', newline and CR in the JSON before cutting it; undo that in one pass
     joined = _CURA_ESCAPE.sub(lambda m: _CURA_UNESCAPE[m.group(0)], "".join(pieces))
+    import json                   # (only Cura's settings block needs it)
     try:
         blob = json.loads(joined, strict=False)
     except ValueError:

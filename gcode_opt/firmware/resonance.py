@@ -27,6 +27,7 @@ import weakref
 
 import numpy as np
 
+from ..probe_rng import ProbeRng
 from ..distinct import distinct
 
 CHUNK_DECAY = 300.0      # exp(300) ~ 1e130: cumulative sums restart before float64 overflows
@@ -63,7 +64,7 @@ def _core():
 def _probe(span):
     t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
                         np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
-    return np.concatenate([t, t * (1.0 + 2.0 ** -52), np.random.default_rng(7).uniform(0.0, span, 2000)])
+    return np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
 
 
 def _kernel_for(key, span):
@@ -111,7 +112,7 @@ def _amps_mode(core, s, wd, span):
         return None
     key = (s, wd, span)
     if key not in _AMPS_MODE:
-        rng = np.random.default_rng(11)
+        rng = ProbeRng(11)
         gaps = rng.exponential(span / 300.0, 4000) * (rng.uniform(size=4000) < 0.9)
         gaps[rng.uniform(size=4000) < 0.01] *= 400.0       # long pauses: restarts apart
         t_ev = np.cumsum(gaps)
@@ -143,7 +144,7 @@ def _jumps_core(s, wd):
         return None
     ok = _JUMPS_OK.get((s, wd))
     if ok is None:
-        rng = np.random.default_rng(17)
+        rng = ProbeRng(17)
         n = 20000
         dr = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
         drp = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
@@ -186,7 +187,7 @@ def _int_r2_core(s, wd):
     if ok is None:
         osc = Oscillator.__new__(Oscillator)
         osc.s, osc.wd, osc.lam = s, wd, lam
-        rng = np.random.default_rng(13)
+        rng = ProbeRng(13)
         ok = True
         # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops'
         # tails) three times over; the large ones (its recursion) once: their 29 k pieces
@@ -234,7 +235,7 @@ def _peak_ok(core, s, wd, fused):
     "numpy" where only np.abs's are (peak_abs_r left to numpy), else None."""
     osc = Oscillator.__new__(Oscillator)
     osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
-    rng = np.random.default_rng(19)
+    rng = ProbeRng(19)
     n = 20000
     c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
         + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)

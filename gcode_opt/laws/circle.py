@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..probe_rng import ProbeRng
 from ..distinct import distinct
 from .. import native
 from ..blas import blas_one_thread
@@ -130,7 +131,7 @@ def _gemm_rows_invariant():
     position and the other rows (true of OpenBLAS, whose small-matrix kernels accumulate
     each element in order; checked once, on this machine's BLAS)."""
     if not _GEMM_OK:
-        rng = np.random.default_rng(0)
+        rng = ProbeRng(0)
         same = True
         for k, m in ((1, 3), (5, 40), (21, 129), (33, 184), (65, 97)):
             v = rng.uniform(-1.0, 1.0, (k, m))     # (generic numbers: uniform draws cost the least)

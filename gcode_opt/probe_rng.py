@@ -1,0 +1,67 @@
+"""Deterministic pseudo-random draws for the bit probes (chains, curves, laws.circle,
+firmware.resonance check once per run that a compiled loop gives numpy's bits on varied
+numbers).  The probes need varied numbers, not a statistical generator: importing
+numpy.random for them loaded it, `secrets`, `hmac` and hashlib's OpenSSL into every run
+(~6.3 MB resident, ~40 M instructions).  SplitMix64 over a counter, in numpy uint64
+arithmetic (wrapping); the methods the probes call, with numpy's names (normal is a
+bell-shaped stand-in: see there)."""
+from __future__ import annotations
+
+import numpy as np
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+
+
+class ProbeRng:
+    """rng = ProbeRng(seed): rng.uniform(low, high, size), rng.normal(size=),
+    rng.exponential(scale, size), rng.lognormal(mean, sigma, size), rng.choice(a, size),
+    as numpy's Generator names them (other numbers: the same seed gives the same draws
+    here on every machine)."""
+
+    def __init__(self, seed: int):
+        self._next = (np.array([seed], np.uint64) * _GOLDEN)[0]     # (arrays wrap without a warning)
+
+    def _bits(self, n: int):
+        """n 64-bit words: SplitMix64's output for the next n counters (in place: the
+        probes draw ~10^6 numbers a run)."""
+        z = np.arange(1, n + 1, dtype=np.uint64)
+        z *= _GOLDEN
+        z += self._next
+        self._next = z[-1] if n else self._next
+        for shift, mul in ((30, _M1), (27, _M2)):
+            z ^= z >> np.uint64(shift)
+            z *= mul
+        z ^= z >> np.uint64(31)
+        return z
+
+    def random(self, size):
+        """Uniform on (0, 1): 32 random bits and a half each, two from each 64-bit word
+        (never 0: normal's logarithm; the probes need spread, not 53-bit resolution)."""
+        shape = () if size is None else size
+        n = int(np.prod(shape))
+        u = self._bits((n + 1) // 2).view(np.uint32)[:n].astype(np.float64)
+        u += 0.5
+        u *= 1.0 / 4294967296.0
+        return u.reshape(shape)
+
+    def uniform(self, low=0.0, high=1.0, size=None):
+        return low + (high - low) * self.random(size)
+
+    def normal(self, loc=0.0, scale=1.0, size=None):
+        """A logistic draw scaled to unit variance (log(u / (1 - u)) sqrt(3) / pi): bell-shaped
+        like numpy's normal, with heavier tails, at one logarithm a number (the probes need
+        numbers spread over many magnitudes, not a normal law)."""
+        u = self.random(size)
+        return loc + scale * 0.5513288954217921 * np.log(u / (1.0 - u))
+
+    def exponential(self, scale=1.0, size=None):
+        return -scale * np.log1p(-self.random(size))
+
+    def lognormal(self, mean=0.0, sigma=1.0, size=None):
+        return np.exp(self.normal(mean, sigma, size))
+
+    def choice(self, a, size):
+        a = np.asarray(a)
+        return a[(self.random(size) * a.size).astype(np.intp)]

@@ -1623,7 +1623,7 @@ def curve_knots(strokes, T, beta, profile):
     for sl in [slice(a, a + KNOT_ROWS) for a in range(0, m, KNOT_ROWS)]:
         sub = law.rows(sl)
         tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (len(sub), 513))
-        phi, w, _, _ = sub.eval_tau(tau, w2=False)
+        phi, w, _, _ = sub.eval_tau(tau, w2=False, w1=False)
         # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
         # chunk (elementwise, and an exact max: the same numbers as law by law)
         Rc = R[sl, None]

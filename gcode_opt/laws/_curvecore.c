@@ -577,15 +577,20 @@ static PyObject *kern_args(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
-/* kern_pack(s_v, sd, m, n1, lo, buf, rng) -> count: kern_args' arguments, row by row (the
-   same operations), but only those not below lo (NaN included) kept, packed in buf in
+/* kern_pack(s_v, sd, m, n1, lo, mirror, buf, rng, sym) -> count: kern_args' arguments, row by row
+   (the same operations), but only those not below lo (NaN included) kept, packed in buf in
    order, as exp_split would pack them (np.exp then takes buf[:count]); rng (m n1 2 int64)
-   the first and end index of each row's kept run.  A row's arguments are unimodal in the
+   the first and end index of each row's packed run.  A row's arguments are unimodal in the
    index (s_v sorted: rounding is monotone), so its kept ones are one run; -1 if a row's
    are not (unsorted or NaN arguments: the caller takes kern_args and exp_split then).
-   kern_unpack(kern, m, n1, rng, buf, count): exp_merge's kern from them, +0.0 outside
-   each row's run.  The full kernel is written once, not three times (kern_args,
-   exp_merge) and read twice (exp_split, exp_merge). */
+   Where that is known beforehand (one_run_rows) and mirror is 1, the interior rows pack
+   only their run from the diagonal on (sym_row: the kernel's interior block is
+   symmetric, bit for bit), about half of them: sym[r] = 1 for such a stroke, else 0.
+   kern_unpack(kern, m, n1, rng, buf, count, sym): exp_merge's kern from them, +0.0 outside
+   each row's run, the interior rows of a sym stroke left of their diagonal copied from
+   the rows above (kern[j][i] = kern[i + 1][j - 1]).  The full kernel is written once, not
+   three times (kern_args, exp_merge) and read twice (exp_split, exp_merge), and np.exp
+   takes each argument of a symmetric pair once. */
 static Py_ssize_t kept_run(const double *kr, Py_ssize_t ni, double lo, Py_ssize_t *a, Py_ssize_t *e) {
     Py_ssize_t i = 0;
     while (i < ni && kr[i] < lo) i++;
@@ -620,11 +625,57 @@ static int one_run_rows(const double *s, Py_ssize_t n1, double d) {
     return 1;
 }
 
+/* sym_row(si, ni, i0, sj, d, lo, out) -> count: the kept arguments of the interior row j
+   (i0 = j - 1, its diagonal column) of a stroke one_run_rows takes, from the diagonal to the
+   run's end, into out.  There every z_i = ((s_j - s_i) / d)^2 is +0.0 or more (no NaN) and
+   the diagonal's is +0.0, so the row's minimum is +0.0 and kern_row's argument
+   (z_i - min) * -0.5 is z_i * -0.5, the same double; and z_ji = z_ij bit for bit
+   (fl(s_i - s_j) = -fl(s_j - s_i), and division and squaring round symmetrically): the
+   row's arguments left of its diagonal are those above the diagonal in its column, which
+   kern_unpack copies.  The arguments fall from the diagonal on (the row is one run), so
+   the first one below lo ends the run. */
+static Py_ssize_t sym_row(const double *si, Py_ssize_t ni, Py_ssize_t i0, double sj, double d, double lo,
+                          double *out) {
+    Py_ssize_t i = i0;
+    for (; i < ni; i++) {
+        double t = (sj - si[i]) / d;
+        double x = (t * t) * -0.5;
+        if (x < lo) break;
+        out[i - i0] = x;
+    }
+    return i - i0;
+}
+
+#if CURVE_AVX
+/* sym_row, 4 columns at a time (the same operations per element) */
+AVX_FN static Py_ssize_t sym_row_avx(const double *si, Py_ssize_t ni, Py_ssize_t i0, double sj, double d,
+                                     double lo, double *out) {
+    const __m256d vs = _mm256_set1_pd(sj), vd = _mm256_set1_pd(d), h = _mm256_set1_pd(-0.5),
+                  vlo = _mm256_set1_pd(lo);
+    Py_ssize_t i = i0;
+    for (; i + 4 <= ni; i += 4) {
+        __m256d t = _mm256_div_pd(_mm256_sub_pd(vs, _mm256_loadu_pd(si + i)), vd);
+        __m256d x = _mm256_mul_pd(_mm256_mul_pd(t, t), h);
+        int below = _mm256_movemask_pd(_mm256_cmp_pd(x, vlo, _CMP_LT_OQ));
+        if (below) {                     /* the run ends in these four: its first below lo */
+            double x4[4];
+            _mm256_storeu_pd(x4, x);
+            int k = 0;
+            while (!(below & (1 << k))) out[i - i0 + k] = x4[k], k++;
+            return i - i0 + k;
+        }
+        _mm256_storeu_pd(out + (i - i0), x);
+    }
+    return i - i0 + sym_row(si, ni, i, sj, d, lo, out + (i - i0));
+}
+#endif
+
 static PyObject *kern_pack(PyObject *self, PyObject *a) {
-    PyObject *os, *osd, *ob, *orng;
+    PyObject *os, *osd, *ob, *orng, *osym;
     Py_ssize_t m, n1;
     double lo;
-    if (!PyArg_ParseTuple(a, "OOnndOO", &os, &osd, &m, &n1, &lo, &ob, &orng)) return NULL;
+    int mirror;
+    if (!PyArg_ParseTuple(a, "OOnndpOOO", &os, &osd, &m, &n1, &lo, &mirror, &ob, &orng, &osym)) return NULL;
     if (n1 < 3 || m < 0) {
         PyErr_SetString(PyExc_ValueError, "kern_pack: bad size");
         return NULL;
@@ -635,7 +686,8 @@ static PyObject *kern_pack(PyObject *self, PyObject *a) {
     const double *sd = s ? get(&b, osd, 8, 0, m) : NULL;
     double *buf = sd ? get(&b, ob, 8, 1, m * n1 * ni) : NULL;
     int64_t *rng = buf ? get(&b, orng, 8, 1, m * n1 * 2) : NULL;
-    if (!rng) { release(&b); return NULL; }
+    int64_t *sym = rng ? get(&b, osym, 8, 1, m) : NULL;
+    if (!sym) { release(&b); return NULL; }
 #if CURVE_AVX
     const int avx = use_avx() && ni >= 4;
 #endif
@@ -644,8 +696,22 @@ static PyObject *kern_pack(PyObject *self, PyObject *a) {
         const double *sr = s + r * n1;
         const double d = sd[r];
         const int known = one_run_rows(sr, n1, d);
+        sym[r] = known && mirror;
         for (Py_ssize_t j = 0; j < n1; j++) {
             double *kr = buf + c;           /* the row made in place, its run moved down to c */
+            if (sym[r] && j >= 1 && j + 1 < n1) {
+                Py_ssize_t cnt;
+#if CURVE_AVX
+                if (avx)
+                    cnt = sym_row_avx(sr + 1, ni, j - 1, sr[j], d, lo, kr);
+                else
+#endif
+                    cnt = sym_row(sr + 1, ni, j - 1, sr[j], d, lo, kr);
+                rng[2 * (r * n1 + j)] = j - 1;
+                rng[2 * (r * n1 + j) + 1] = j - 1 + cnt;
+                c += cnt;
+                continue;
+            }
 #if CURVE_AVX
             if (!(avx && kern_row_avx(sr + 1, ni, sr[j], d, kr)))
 #endif
@@ -668,9 +734,9 @@ static PyObject *kern_pack(PyObject *self, PyObject *a) {
 }
 
 static PyObject *kern_unpack(PyObject *self, PyObject *a) {
-    PyObject *ok, *orng, *ob;
+    PyObject *ok, *orng, *ob, *osym;
     Py_ssize_t m, n1, count;
-    if (!PyArg_ParseTuple(a, "OnnOOn", &ok, &m, &n1, &orng, &ob, &count)) return NULL;
+    if (!PyArg_ParseTuple(a, "OnnOOnO", &ok, &m, &n1, &orng, &ob, &count, &osym)) return NULL;
     if (n1 < 3 || m < 0 || count < 0) {
         PyErr_SetString(PyExc_ValueError, "kern_unpack: bad size");
         return NULL;
@@ -680,17 +746,24 @@ static PyObject *kern_unpack(PyObject *self, PyObject *a) {
     double *k = get(&b, ok, 8, 1, m * n1 * ni);
     const int64_t *rng = k ? get(&b, orng, 8, 0, m * n1 * 2) : NULL;
     const double *buf = rng ? get(&b, ob, 8, 0, count) : NULL;
-    if (!buf) { release(&b); return NULL; }
+    const int64_t *sym = buf ? get(&b, osym, 8, 0, m) : NULL;
+    if (!sym) { release(&b); return NULL; }
     Py_ssize_t c = 0;
     for (Py_ssize_t q = 0; q < m * n1; q++) {
         double *kr = k + q * ni;
+        const Py_ssize_t j = q % n1;
+        const int mirror = sym[q / n1] && j >= 1 && j + 1 < n1;    /* an interior row of a sym stroke */
         Py_ssize_t ra = (Py_ssize_t)rng[2 * q], re = (Py_ssize_t)rng[2 * q + 1];
-        if (ra < 0 || re < ra || re > ni || c + (re - ra) > count) {
+        if (ra < 0 || re < ra || re > ni || c + (re - ra) > count || (mirror && ra != j - 1)) {
             release(&b);
             PyErr_SetString(PyExc_ValueError, "kern_unpack: runs do not match the buffer");
             return NULL;
         }
-        for (Py_ssize_t i = 0; i < ra; i++) kr[i] = 0.0;
+        if (mirror) {                   /* left of the diagonal: the column above it (sym_row) */
+            const double *col = kr - (j - 1) * ni + (j - 1);        /* kern[q - j + 1][j - 1] */
+            for (Py_ssize_t i = 0; i < ra; i++) kr[i] = col[i * ni];
+        } else
+            for (Py_ssize_t i = 0; i < ra; i++) kr[i] = 0.0;
         memcpy(kr + ra, buf + c, (size_t)(re - ra) * sizeof(double));
         for (Py_ssize_t i = re; i < ni; i++) kr[i] = 0.0;
         c += re - ra;

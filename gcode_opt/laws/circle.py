@@ -863,27 +863,24 @@ class CircleBatch:
         return [slice(a, a + EVAL_CHUNK) for a in range(0, len(self), EVAL_CHUNK)]
 
     # -- dimensionless evaluation: φ, w = φ', w', w'' at τ (B, M) --------------------------
-    def eval_tau(self, tau: np.ndarray, idx=None, w2=True):
-        """(φ, w, w', w'') at τ; w2=False: w'' is not computed (None), the other three are
-        the same numbers (the curve planner reads φ, w, w' only: w'' cost a cube per point)."""
+    def eval_tau(self, tau: np.ndarray, idx=None, w2=True, w1=True):
+        """(φ, w, w', w'') at τ; w2=False: w'' is not computed (None), w1=False: w' is not
+        (None); the others are the same numbers (the curve planner reads φ, w, w' only: w''
+        cost a cube per point; curve_knots reads φ and w: w' cost a third of its series)."""
         idx = np.arange(len(self)) if idx is None else np.asarray(idx)
         tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:]).copy()
-        out = [np.empty_like(tau) for _ in range(4 if w2 else 3)]
+        out = [np.empty_like(tau) if made else None for made in (True, True, w1, w2)]
         gam2 = self.gamma[idx] ** 2
         lay = self.regime[idx]
-        if lay.any():
-            k = np.nonzero(lay)[0]
-            r = self._eval_layers(tau[k], idx[k], gam2[k], w2)
-            for o, v in zip(out, r):
-                o[k] = v
-        if (~lay).any():
-            k = np.nonzero(~lay)[0]
-            r = self._eval_cheb(tau[k], idx[k], gam2[k], w2)
-            for o, v in zip(out, r):
-                o[k] = v
-        return out if w2 else out + [None]
+        for rows, part in ((lay, self._eval_layers), (~lay, self._eval_cheb)):
+            if rows.any():
+                k = np.nonzero(rows)[0]
+                for o, v in zip(out, part(tau[k], idx[k], gam2[k], w2, w1)):
+                    if o is not None:
+                        o[k] = v
+        return out
 
-    def _eval_layers(self, tau, idx, gam2, w2=True):
+    def _eval_layers(self, tau, idx, gam2, w2=True, w1=True):
         wc = self.wc[idx][:, None]
         g2 = gam2[:, None]
         u0, u1 = self.w0[idx] * self.T_t[idx], self.w1[idx] * self.T_t[idx]
@@ -901,20 +898,23 @@ class CircleBatch:
 
         def dpp(d):  # d''
             return d * (c + 6.0 * wc * d + 2.0 * d * d)
-        w1 = dp(dl) - dp(dr)
-        return phi, w, w1, (dpp(dl) + dpp(dr) if w2 else None)
+        return phi, w, (dp(dl) - dp(dr) if w1 else None), (dpp(dl) + dpp(dr) if w2 else None)
 
-    def _eval_cheb(self, tau, idx, gam2, w2=True):
+    def _eval_cheb(self, tau, idx, gam2, w2=True, w1=True):
         x = 2.0 * tau - 1.0
         coef = self.coef[idx]
         nz = np.nonzero(np.any(coef != 0, axis=0))[0]
         coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
         wcoef = coef
         dcoef, pcoef = _cheb_der_int(coef)
-        w, w1, phi = _series_values((wcoef, dcoef, pcoef), x)
-        if not w2:
-            return phi, w, w1, None
-        return phi, w, w1, gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None]
+        # each series is evaluated apart (its own products, row by row): leaving w' out
+        # leaves w and φ the same numbers
+        if w1:
+            w, dw, phi = _series_values((wcoef, dcoef, pcoef), x)
+        else:
+            (w, phi), dw = _series_values((wcoef, pcoef), x), None
+        w2_v = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None] if w2 else None
+        return phi, w, dw, w2_v
 
     # -- dimensional quantities ------------------------------------------------------------
     def eval(self, t_t, idx=None):

@@ -124,21 +124,33 @@ slow:
 }
 
 /* plain_decimal and to_double in one pass: the length of the plain decimal at p[0..n)
-   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v */
-static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
+   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v.
+   ended: a '\n' ends the text (at p[n - 1], or past it: fast_check's lines, whose "\n"
+   it finds as they are read), where each scan stops: no bound to look at a digit (~1/3 of
+   the instructions a digit); dec_value and dec_value_nl are its two copies. */
+static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char *p, Py_ssize_t n, int *dec,
+                                                                     double *v, const int ended)
 {
+#define BELOW(i) (ended || (i) < n)               /* p[i] is in the text (always, when ended) */
     Py_ssize_t i = 0, nd = 0, nf = 0;
     int neg = 0;
     uint64_t m = 0;                               /* (wraps past 19 digits: then unused) */
-    if (i < n && p[i] == '-') {
+    if (BELOW(i) && p[i] == '-') {
         neg = 1;
         i++;
     }
-    while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nd++;
+    /* the digits' loops count no digits (their ends do: two instructions a digit less) */
+    unsigned d;
+    Py_ssize_t i0 = i;
+    for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
+        m = m * 10 + d;
+    nd = i - i0;
     *dec = 0;
-    if (i < n && p[i] == '.') {
-        i++;
-        while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nf++;
+    if (BELOW(i) && p[i] == '.') {
+        Py_ssize_t f0 = ++i;
+        for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
+            m = m * 10 + d;
+        nf = i - f0;
         *dec = (int)nf;
     }
     if (nd + nf == 0)
@@ -150,6 +162,18 @@ static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double
     } else
         *v = to_double(p, i);
     return i;
+#undef BELOW
+}
+
+static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
+{
+    return dec_value_in(p, n, dec, v, 0);
+}
+
+/* dec_value of a text a '\n' ends (no bound: the scans stop at it) */
+static inline Py_ssize_t dec_value_nl(const char *p, int *dec, double *v)
+{
+    return dec_value_in(p, 0, dec, v, 1);
 }
 
 /* growable byte buffer */
@@ -1026,35 +1050,37 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
     }
     const char *p = t + start + 1, *end = t + stop;
     while (p < end) {
-        const char *q = memchr(p, '\n', end - p);   /* the line is p[0..m) */
-        Py_ssize_t m = q - p, i, r;
+        /* The line is p[0..m), its "\n" at p[m], found as the line is read (no memchr a
+           line): the region ends with a "\n", and each scan stops at one (a number's, a
+           word's compare), so no read passes the region's end */
+        const Py_ssize_t left = end - p;
+        Py_ssize_t m, i, r;
         int dec;
-        if (limit > 0 && m > limit)
-            return 0;
-        if (m > 4 && memcmp(p, "G1 X", 4) == 0) {
+        if (left > 4 && memcmp(p, "G1 X", 4) == 0) {
             /* "G1 X<n> Y<n>[ E<n>] F<n>" */
             Py_ssize_t xn, yn, en = 0, fn;
             int dx_, dy_;
             double x, y, e = 0.0, f;
             i = 4;
-            xn = dec_value(p + i, m - i, &dx_, &x);
+            xn = dec_value_nl(p + i, &dx_, &x);
             if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
             i += xn;
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') return 0;
+            if (p[i] != ' ' || p[i + 1] != 'Y') return 0;
             i += 2;
-            yn = dec_value(p + i, m - i, &dy_, &y);
+            yn = dec_value_nl(p + i, &dy_, &y);
             if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
             i += yn;
-            if (i + 2 <= m && p[i] == ' ' && p[i + 1] == 'E') {
+            if (p[i] == ' ' && p[i + 1] == 'E') {
                 i += 2;
-                en = dec_value(p + i, m - i, &dec, &e);
+                en = dec_value_nl(p + i, &dec, &e);
                 if (en < 0 || dec > MAX_DECIMALS) return 0;
                 i += en;
             }
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'F') return 0;
+            if (p[i] != ' ' || p[i + 1] != 'F') return 0;
             i += 2;
-            fn = dec_value(p + i, m - i, &dec, &f);
-            if (fn < 0 || dec > MAX_DECIMALS || i + fn != m) return 0;
+            fn = dec_value_nl(p + i, &dec, &f);
+            m = i + fn;
+            if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
             if (en) {
                 if (!isfinite(e)) return 0;
@@ -1092,27 +1118,32 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
                 y_prev = y;
             }
             n_points++;
-        } else if (m > 4 && memcmp(p, "G1 F", 4) == 0) {
+        } else if (left > 4 && memcmp(p, "G1 F", 4) == 0) {
             i = 4;
             double f;
-            r = dec_value(p + i, m - i, &dec, &f);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &f);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(f > 0.0 && f < INFINITY)) return 0;
-        } else if (m > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
+        } else if (left > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
             i = 6;
             double a;
-            r = dec_value(p + i, m - i, &dec, &a);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &a);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) return 0;
-        } else if (klipper && m > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
+        } else if (klipper && left > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
             i = MCR_N;
             double v;
-            r = dec_value(p + i, m - i, &dec, &v);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &v);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(v >= 0.0 && v < 1.0)) return 0;
         } else
             return 0;
-        p = q + 1;
+        if (limit > 0 && m > limit)
+            return 0;
+        p += m + 1;
     }
     if (path && min_move_d > 0.0 && n_points && gap_least < min_move_d) {
         /* _ShortMoves' floor: the original's own shortest move passes too */
@@ -1237,10 +1268,11 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
 
 /* the number at p[0..n) as num_run finds it and plain_decimal reads it: its length when
    the run of [-.0-9] there is a plain decimal (read whole: dec_value's length, and no
-   [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value */
+   [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value.  p[n] is a
+   plain_line's line end (its '\n', or a '\r' before it): the number is read up to it. */
 static inline Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v)
 {
-    Py_ssize_t k = dec_value(p, n, dec, v);
+    Py_ssize_t k = dec_value_nl(p, dec, v);      /* (plain_line's lines: a '\n' at p[n] or before) */
     if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
         return -1;
     return k;
@@ -1268,7 +1300,8 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
 
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
    1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
-   E), or 0 (not that shape, or a number not a plain decimal: the Python reading) */
+   E), or 0 (not that shape, or a number not a plain decimal: the Python reading).  The
+   line is p[0..m) and p[m] its '\n' (num_word reads a number up to it, without a bound). */
 static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
                       double *v)
 {
@@ -2427,16 +2460,26 @@ static PyObject *line_read(PyObject *self, PyObject *o)
         PyErr_SetString(PyExc_TypeError, "line_read: an ASCII str");
         return NULL;
     }
+    char *line = PyMem_Malloc(m + 1);            /* the line and its '\n', as block_into gives it */
+    if (line == NULL)
+        return PyErr_NoMemory();
+    memcpy(line, p, m);
+    line[m] = '\n';
     Txt x, y, e, c;
     int dx, dy, de;
     double v[3] = {0.0, 0.0, 0.0};
-    if (!plain_line(p, m, &x, &y, &e, &c, &dx, &dy, &de, v))
-        Py_RETURN_NONE;
-    PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None), *ev = e.p ? PyFloat_FromDouble(v[2]) : Py_NewRef(Py_None);
-    PyObject *r = et && ev ? Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev)
-                           : NULL;
-    Py_XDECREF(et);
-    Py_XDECREF(ev);
+    PyObject *r = NULL;
+    if (!plain_line(line, m, &x, &y, &e, &c, &dx, &dy, &de, v))
+        r = Py_NewRef(Py_None);
+    else {
+        PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None);
+        PyObject *ev = e.p ? PyFloat_FromDouble(v[2]) : Py_NewRef(Py_None);
+        if (et && ev)
+            r = Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev);
+        Py_XDECREF(et);
+        Py_XDECREF(ev);
+    }
+    PyMem_Free(line);
     return r;
 }
 

@@ -21,6 +21,7 @@ own result or exception.  What it does return is the Python code's result:
 The validator reads the block's own text: it does not use the emitter's numbers. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -413,20 +414,29 @@ static const char DIGITS2[201] = "0001020304050607080910111213141516171819202122
                                  "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
                                  "8081828384858687888990919293949596979899";
 
-/* the decimal digits of a, written backwards ending at end: their first */
+/* the decimal digits of a, written backwards ending at end: their first.  Two digits a
+   step; 64-bit steps only while a needs them, then 32-bit ones (cheaper multiplications;
+   nearly every number of a segment line fits 32 bits from the start) */
 static inline char *digits_back(char *end, uint64_t a)
 {
-    while (a >= 100) {
+    while (a > UINT32_MAX) {
         uint64_t r = a % 100;
         a /= 100;
         end -= 2;
         memcpy(end, DIGITS2 + 2 * r, 2);
     }
-    if (a >= 10) {
+    uint32_t b = (uint32_t)a;
+    while (b >= 100) {
+        uint32_t r = b % 100;
+        b /= 100;
         end -= 2;
-        memcpy(end, DIGITS2 + 2 * a, 2);
+        memcpy(end, DIGITS2 + 2 * r, 2);
+    }
+    if (b >= 10) {
+        end -= 2;
+        memcpy(end, DIGITS2 + 2 * b, 2);
     } else
-        *--end = (char)('0' + a);
+        *--end = (char)('0' + b);
     return end;
 }
 
@@ -459,20 +469,37 @@ static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
     return q + n;
 }
 
-/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end */
+/* s[0..n) copied to q, where 16 bytes may be read at s and written at q (units_at's
+   digits and room): one 16-byte copy for n <= 16 (the bytes past n are written over or
+   past the text's end), copy_short past that; the end */
+static inline char *copy_upto16(char *q, const char *s, Py_ssize_t n)
+{
+    if (n > 16)
+        return copy_short(q, s, n);
+    memcpy(q, s, 16);
+    return q + n;
+}
+
+/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end.  Its
+   digits are made in tmp after 32 zeros (the padding to dec + 1 digits, without a loop),
+   and the whole and the fraction copied 16 bytes at a time: at most 1 + 20 + 1 + 16 bytes
+   written, inside the room */
 static inline char *units_at(char *q, int64_t u, int dec)
 {
-    char tmp[48];
+    char tmp[64];
+    char *end = tmp + 48;                          /* the digits end here; 16 bytes after them to read */
+    memset(end - 32, '0', 32);
     uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
-    char *end = tmp + sizeof tmp, *first = digits_back(end, a);
-    while (end - first < dec + 1) *--first = '0';  /* zero-padded to dec + 1 digits */
+    char *first = digits_back(end, a);
+    if (end - first < dec + 1)
+        first = end - (dec + 1);                   /* zero-padded to dec + 1 digits */
     char *point = end - dec, *last = end;          /* the whole: first..point; the fraction: point..last */
     while (last > point && last[-1] == '0') last--;   /* the fraction's trailing zeros cut */
     if (u < 0) *q++ = '-';                         /* u != 0: whole != "0" or a fraction digit */
-    q = copy_short(q, first, point - first);
+    q = copy_upto16(q, first, point - first);
     if (last > point) {
         *q++ = '.';
-        q = copy_short(q, point, last - point);
+        q = copy_upto16(q, point, last - point);
     }
     return q;
 }
@@ -514,7 +541,23 @@ static int put_tenths_up(Buf *b, int64_t k)
     return 0;
 }
 
-/* Python's round(x) of a float (float.__round__: half to even), as an int64: 0, or -1 */
+/* Python's round(x) of a float (float.__round__: half to even), as an int64: 0, or -1.
+   Below 2^52, |x| + 2^52 is rounded to an integer by the addition itself, a half to even
+   (IEEE's rounding to nearest, which Python never changes): the subtraction is exact, so
+   r is float.__round__'s value without libm's round and the halfway test (~50 instructions
+   a call of emit_cols' three a point); from 2^52 on every double is an integer. */
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
+static inline int py_round(double x, int64_t *out)
+{
+    const double two52 = 4503599627370496.0;
+    double t = fabs(x);
+    if (!(t < 4.0e18))                            /* (NaN and the infinities too) */
+        return -1;
+    double r = t < two52 ? (t + two52) - two52 : t;
+    *out = (int64_t)copysign(r, x);
+    return 0;
+}
+#else
 static int py_round(double x, int64_t *out)
 {
     if (!isfinite(x))
@@ -527,6 +570,7 @@ static int py_round(double x, int64_t *out)
     *out = (int64_t)r;
     return 0;
 }
+#endif
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
    ending in 0, else _canon(t) */
@@ -2511,6 +2555,29 @@ static PyObject *tenths_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* rounds(doubles): py_round of each native double (bytes): its int, or None where it
+   declines (for the tests: Python's round() of each) */
+static PyObject *rounds(PyObject *self, PyObject *o)
+{
+    Py_buffer v;
+    if (PyObject_GetBuffer(o, &v, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t n = v.len / (Py_ssize_t)sizeof(double);
+    PyObject *res = PyList_New(n);
+    for (Py_ssize_t k = 0; res != NULL && k < n; k++) {
+        double x;
+        int64_t r;
+        memcpy(&x, (const char *)v.buf + k * sizeof(double), sizeof x);
+        PyObject *item = py_round(x, &r) < 0 ? Py_NewRef(Py_None) : PyLong_FromLongLong((long long)r);
+        if (item == NULL)
+            Py_CLEAR(res);
+        else
+            PyList_SET_ITEM(res, k, item);
+    }
+    PyBuffer_Release(&v);
+    return res;
+}
+
 /* decimal_value(text): to_double on a plain decimal (for the tests), else None */
 static PyObject *decimal_value(PyObject *self, PyObject *o)
 {
@@ -2524,6 +2591,7 @@ static PyObject *decimal_value(PyObject *self, PyObject *o)
 
 static PyMethodDef mod_methods[] = {
     {"decimal_value", decimal_value, METH_O, "float(text) of a plain decimal text, else None (tests)"},
+    {"rounds", rounds, METH_O, "py_round of each native double (bytes): int, or None where declined (tests)"},
     {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},

@@ -100,3 +100,34 @@ def test_line_read_numbers_are_float(line):
     assert (x, y) == (float(got[0]), float(got[1]))
     assert e == (None if got[2] is None else float(got[2]))
     assert got[0] in line and got[1] in line
+
+
+def test_py_round_is_pythons_round():
+    """emit_cols' py_round (a point's units: the addition of 2^52 rounds, halves to even)
+    against Python's round() on halves, near-halves, the 2^52 edge, large, tiny and signed
+    values, and the declines (not finite, past 4e18)."""
+    import math
+    import random
+    import struct
+    rng = random.Random(36)
+    xs = [0.0, -0.0, 0.5, -0.5, 1.5, 2.5, -2.5, 1e-300, -1e-300, 2.0 ** 52, 2.0 ** 52 + 1, 2.0 ** 52 - 0.5,
+          2.0 ** 53 + 2, -(2.0 ** 52) + 0.5, 3.9e18, 4.0e18, -4.0e18, 1e19, math.inf, -math.inf, math.nan]
+    for _ in range(20000):
+        k = rng.randrange(-200000, 200000)
+        xs += [k + 0.5, math.nextafter(k + 0.5, math.inf), math.nextafter(k + 0.5, -math.inf),
+               rng.uniform(-1e6, 1e6) * rng.choice([1, 1e-6, 1e6, 1e9]), k * 0.001 * 1000.0]
+    got = _CORE.rounds(struct.pack(f"{len(xs)}d", *xs))
+    want = [round(x) if math.isfinite(x) and abs(x) < 4.0e18 else None for x in xs]
+    assert got == want
+
+
+def test_units_text_about_the_32_bit_step():
+    """units_at's digits: 64-bit steps down to 32 bits, then 32-bit ones; its 16-byte
+    copies of the whole and the fraction (17 digits and more: the exact copy) -- texts
+    as emit._fmt_units writes them, about 2^32 and 10^16 and for every dec."""
+    from gcode_opt import emit as em
+    us = [u for c in (2 ** 32, 10 ** 16, 10 ** 17, 2 ** 63 - 1) for u in range(c - 300, min(c + 300, 2 ** 63))]
+    for u in us:
+        for dec in (0, 1, 3, 5, 16, 17, 30):
+            for v in (u, -u):
+                assert _CORE.units_text(v, dec) == em._fmt_units(v, dec), (v, dec)

@@ -1344,7 +1344,8 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
 
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
    1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
-   E), or 0 (not that shape, or a number not a plain decimal: the Python reading).  The
+   E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
+   the line's last: the Python reading).  The
    line is p[0..m) and p[m] its '\n' (num_word reads a number up to it, without a bound). */
 static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
                       double *v)
@@ -1382,7 +1383,9 @@ static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *
         c->n = i - ca;
     }
     if (i < m && p[i] == '\r') i++;
-    if (i != m)
+    /* the line read to its end, so a byte not ASCII or a "\r" before the last is only in
+       a comment, where the first "\r" stops the loop above short of m */
+    if (i != m || !ascii_bytes(c->p, c->n))
         return 0;
     x->n = xn;
     y->n = yn;
@@ -1682,8 +1685,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
         if (q == NULL)
             goto decline;
         Py_ssize_t m = q - p;
-        if (!ascii_bytes(p, m) || (m > 1 && memchr(p, '\r', (size_t)(m - 1)) != NULL))
-            goto decline;                         /* ASCII, no line break but the "\r" of "\r\n" */
+        /* (plain_line takes only ASCII lines with no line break but the "\r" of "\r\n") */
         if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
             goto decline;
         int dx, dy, de;

@@ -131,3 +131,42 @@ def test_units_text_about_the_32_bit_step():
         for dec in (0, 1, 3, 5, 16, 17, 30):
             for v in (u, -u):
                 assert _CORE.units_text(v, dec) == em._fmt_units(v, dec), (v, dec)
+
+
+@pytest.mark.parametrize("line,plain", [("G1 X1 Y2\r", True), ("G1 X1 Y2 E3 ; c\r", True), ("G1 X1 Y2 ;a\rb", False),
+                                        ("G1 X1\r Y2", False), ("G1 X1 Y2\r\r", False), ("G1 X1 Y2 E3\r;c", False),
+                                        ("G1 X1 Y2 ; \x0b ok", True)])
+def test_plain_line_takes_a_cr_only_last(line, plain):
+    """block_into no longer looks for a "\\r" (nor a byte not ASCII) in a line before
+    plain_line reads it: plain_line reads the line to its end and refuses one but the last."""
+    assert (_CORE.line_read(line) is not None) == plain
+
+
+def test_strokes_with_comments_not_ascii_or_cr_as_pure_python(tmp_path):
+    """A stroke's lines with a comment not ASCII (UTF-8 or not), CRLF line ends (a lone CR
+    the reader refuses: test_plain_line_takes_a_cr_only_last):
+    the compiled rewrite (block_into declines those strokes through plain_line now) writes
+    the bytes the pure-Python one writes."""
+    import os
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    src = open(os.path.join(root, "sample_gcode", "prusa_gyroid.gcode"), "rb").read().split(b"\n")
+    k = 0
+    for i, ln in enumerate(src):
+        if ln.startswith(b"G1 X") and b";" not in ln:
+            k += 1
+            tail = [b"", b" ; caf\xc3\xa9", b"\r", b" ; \xff"][k % 4]
+            src[i] = ln + tail
+    f = tmp_path / "odd.gcode"
+    f.write_bytes(b"\n".join(src))
+    outs = []
+    for pure in ("", "1"):
+        env = dict(os.environ, GCODE_OPT_PURE_PYTHON=pure)
+        if not pure:
+            env.pop("GCODE_OPT_PURE_PYTHON")
+        o = tmp_path / f"out{pure}.gcode"
+        subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(f), "-o", str(o), "-q"], env=env, cwd=root,
+                       check=True, capture_output=True)
+        outs.append(o.read_bytes())
+    assert outs[0] == outs[1] and b"gcode-opt begin" in outs[0]

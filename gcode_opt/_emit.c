@@ -21,6 +21,7 @@ own result or exception.  What it does return is the Python code's result:
 The validator reads the block's own text: it does not use the emitter's numbers. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -124,21 +125,33 @@ slow:
 }
 
 /* plain_decimal and to_double in one pass: the length of the plain decimal at p[0..n)
-   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v */
-static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
+   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v.
+   ended: a '\n' ends the text (at p[n - 1], or past it: fast_check's lines, whose "\n"
+   it finds as they are read), where each scan stops: no bound to look at a digit (~1/3 of
+   the instructions a digit); dec_value and dec_value_nl are its two copies. */
+static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char *p, Py_ssize_t n, int *dec,
+                                                                     double *v, const int ended)
 {
+#define BELOW(i) (ended || (i) < n)               /* p[i] is in the text (always, when ended) */
     Py_ssize_t i = 0, nd = 0, nf = 0;
     int neg = 0;
     uint64_t m = 0;                               /* (wraps past 19 digits: then unused) */
-    if (i < n && p[i] == '-') {
+    if (BELOW(i) && p[i] == '-') {
         neg = 1;
         i++;
     }
-    while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nd++;
+    /* the digits' loops count no digits (their ends do: two instructions a digit less) */
+    unsigned d;
+    Py_ssize_t i0 = i;
+    for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
+        m = m * 10 + d;
+    nd = i - i0;
     *dec = 0;
-    if (i < n && p[i] == '.') {
-        i++;
-        while (i < n && p[i] >= '0' && p[i] <= '9') m = m * 10 + (uint64_t)(p[i++] - '0'), nf++;
+    if (BELOW(i) && p[i] == '.') {
+        Py_ssize_t f0 = ++i;
+        for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
+            m = m * 10 + d;
+        nf = i - f0;
         *dec = (int)nf;
     }
     if (nd + nf == 0)
@@ -150,6 +163,18 @@ static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double
     } else
         *v = to_double(p, i);
     return i;
+#undef BELOW
+}
+
+static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
+{
+    return dec_value_in(p, n, dec, v, 0);
+}
+
+/* dec_value of a text a '\n' ends (no bound: the scans stop at it) */
+static inline Py_ssize_t dec_value_nl(const char *p, int *dec, double *v)
+{
+    return dec_value_in(p, 0, dec, v, 1);
 }
 
 /* growable byte buffer */
@@ -389,20 +414,29 @@ static const char DIGITS2[201] = "0001020304050607080910111213141516171819202122
                                  "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
                                  "8081828384858687888990919293949596979899";
 
-/* the decimal digits of a, written backwards ending at end: their first */
+/* the decimal digits of a, written backwards ending at end: their first.  Two digits a
+   step; 64-bit steps only while a needs them, then 32-bit ones (cheaper multiplications;
+   nearly every number of a segment line fits 32 bits from the start) */
 static inline char *digits_back(char *end, uint64_t a)
 {
-    while (a >= 100) {
+    while (a > UINT32_MAX) {
         uint64_t r = a % 100;
         a /= 100;
         end -= 2;
         memcpy(end, DIGITS2 + 2 * r, 2);
     }
-    if (a >= 10) {
+    uint32_t b = (uint32_t)a;
+    while (b >= 100) {
+        uint32_t r = b % 100;
+        b /= 100;
         end -= 2;
-        memcpy(end, DIGITS2 + 2 * a, 2);
+        memcpy(end, DIGITS2 + 2 * r, 2);
+    }
+    if (b >= 10) {
+        end -= 2;
+        memcpy(end, DIGITS2 + 2 * b, 2);
     } else
-        *--end = (char)('0' + a);
+        *--end = (char)('0' + b);
     return end;
 }
 
@@ -435,20 +469,37 @@ static inline char *copy_short(char *q, const char *s, Py_ssize_t n)
     return q + n;
 }
 
-/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end */
+/* s[0..n) copied to q, where 16 bytes may be read at s and written at q (units_at's
+   digits and room): one 16-byte copy for n <= 16 (the bytes past n are written over or
+   past the text's end), copy_short past that; the end */
+static inline char *copy_upto16(char *q, const char *s, Py_ssize_t n)
+{
+    if (n > 16)
+        return copy_short(q, s, n);
+    memcpy(q, s, 16);
+    return q + n;
+}
+
+/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end.  Its
+   digits are made in tmp after 32 zeros (the padding to dec + 1 digits, without a loop),
+   and the whole and the fraction copied 16 bytes at a time: at most 1 + 20 + 1 + 16 bytes
+   written, inside the room */
 static inline char *units_at(char *q, int64_t u, int dec)
 {
-    char tmp[48];
+    char tmp[64];
+    char *end = tmp + 48;                          /* the digits end here; 16 bytes after them to read */
+    memset(end - 32, '0', 32);
     uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
-    char *end = tmp + sizeof tmp, *first = digits_back(end, a);
-    while (end - first < dec + 1) *--first = '0';  /* zero-padded to dec + 1 digits */
+    char *first = digits_back(end, a);
+    if (end - first < dec + 1)
+        first = end - (dec + 1);                   /* zero-padded to dec + 1 digits */
     char *point = end - dec, *last = end;          /* the whole: first..point; the fraction: point..last */
     while (last > point && last[-1] == '0') last--;   /* the fraction's trailing zeros cut */
     if (u < 0) *q++ = '-';                         /* u != 0: whole != "0" or a fraction digit */
-    q = copy_short(q, first, point - first);
+    q = copy_upto16(q, first, point - first);
     if (last > point) {
         *q++ = '.';
-        q = copy_short(q, point, last - point);
+        q = copy_upto16(q, point, last - point);
     }
     return q;
 }
@@ -490,7 +541,23 @@ static int put_tenths_up(Buf *b, int64_t k)
     return 0;
 }
 
-/* Python's round(x) of a float (float.__round__: half to even), as an int64: 0, or -1 */
+/* Python's round(x) of a float (float.__round__: half to even), as an int64: 0, or -1.
+   Below 2^52, |x| + 2^52 is rounded to an integer by the addition itself, a half to even
+   (IEEE's rounding to nearest, which Python never changes): the subtraction is exact, so
+   r is float.__round__'s value without libm's round and the halfway test (~50 instructions
+   a call of emit_cols' three a point); from 2^52 on every double is an integer. */
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD == 0
+static inline int py_round(double x, int64_t *out)
+{
+    const double two52 = 4503599627370496.0;
+    double t = fabs(x);
+    if (!(t < 4.0e18))                            /* (NaN and the infinities too) */
+        return -1;
+    double r = t < two52 ? (t + two52) - two52 : t;
+    *out = (int64_t)copysign(r, x);
+    return 0;
+}
+#else
 static int py_round(double x, int64_t *out)
 {
     if (!isfinite(x))
@@ -503,6 +570,7 @@ static int py_round(double x, int64_t *out)
     *out = (int64_t)r;
     return 0;
 }
+#endif
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
    ending in 0, else _canon(t) */
@@ -1026,35 +1094,37 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
     }
     const char *p = t + start + 1, *end = t + stop;
     while (p < end) {
-        const char *q = memchr(p, '\n', end - p);   /* the line is p[0..m) */
-        Py_ssize_t m = q - p, i, r;
+        /* The line is p[0..m), its "\n" at p[m], found as the line is read (no memchr a
+           line): the region ends with a "\n", and each scan stops at one (a number's, a
+           word's compare), so no read passes the region's end */
+        const Py_ssize_t left = end - p;
+        Py_ssize_t m, i, r;
         int dec;
-        if (limit > 0 && m > limit)
-            return 0;
-        if (m > 4 && memcmp(p, "G1 X", 4) == 0) {
+        if (left > 4 && memcmp(p, "G1 X", 4) == 0) {
             /* "G1 X<n> Y<n>[ E<n>] F<n>" */
             Py_ssize_t xn, yn, en = 0, fn;
             int dx_, dy_;
             double x, y, e = 0.0, f;
             i = 4;
-            xn = dec_value(p + i, m - i, &dx_, &x);
+            xn = dec_value_nl(p + i, &dx_, &x);
             if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
             i += xn;
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') return 0;
+            if (p[i] != ' ' || p[i + 1] != 'Y') return 0;
             i += 2;
-            yn = dec_value(p + i, m - i, &dy_, &y);
+            yn = dec_value_nl(p + i, &dy_, &y);
             if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
             i += yn;
-            if (i + 2 <= m && p[i] == ' ' && p[i + 1] == 'E') {
+            if (p[i] == ' ' && p[i + 1] == 'E') {
                 i += 2;
-                en = dec_value(p + i, m - i, &dec, &e);
+                en = dec_value_nl(p + i, &dec, &e);
                 if (en < 0 || dec > MAX_DECIMALS) return 0;
                 i += en;
             }
-            if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'F') return 0;
+            if (p[i] != ' ' || p[i + 1] != 'F') return 0;
             i += 2;
-            fn = dec_value(p + i, m - i, &dec, &f);
-            if (fn < 0 || dec > MAX_DECIMALS || i + fn != m) return 0;
+            fn = dec_value_nl(p + i, &dec, &f);
+            m = i + fn;
+            if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
             if (en) {
                 if (!isfinite(e)) return 0;
@@ -1092,27 +1162,32 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
                 y_prev = y;
             }
             n_points++;
-        } else if (m > 4 && memcmp(p, "G1 F", 4) == 0) {
+        } else if (left > 4 && memcmp(p, "G1 F", 4) == 0) {
             i = 4;
             double f;
-            r = dec_value(p + i, m - i, &dec, &f);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &f);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(f > 0.0 && f < INFINITY)) return 0;
-        } else if (m > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
+        } else if (left > 6 && memcmp(p, "M204 ", 5) == 0 && p[5] == want) {
             i = 6;
             double a;
-            r = dec_value(p + i, m - i, &dec, &a);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &a);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) return 0;
-        } else if (klipper && m > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
+        } else if (klipper && left > MCR_N && memcmp(p, MCR, MCR_N) == 0) {
             i = MCR_N;
             double v;
-            r = dec_value(p + i, m - i, &dec, &v);
-            if (r < 0 || dec > MAX_DECIMALS || i + r != m) return 0;
+            r = dec_value_nl(p + i, &dec, &v);
+            m = i + r;
+            if (r < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
             if (!(v >= 0.0 && v < 1.0)) return 0;
         } else
             return 0;
-        p = q + 1;
+        if (limit > 0 && m > limit)
+            return 0;
+        p += m + 1;
     }
     if (path && min_move_d > 0.0 && n_points && gap_least < min_move_d) {
         /* _ShortMoves' floor: the original's own shortest move passes too */
@@ -1237,10 +1312,11 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
 
 /* the number at p[0..n) as num_run finds it and plain_decimal reads it: its length when
    the run of [-.0-9] there is a plain decimal (read whole: dec_value's length, and no
-   [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value */
+   [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value.  p[n] is a
+   plain_line's line end (its '\n', or a '\r' before it): the number is read up to it. */
 static inline Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v)
 {
-    Py_ssize_t k = dec_value(p, n, dec, v);
+    Py_ssize_t k = dec_value_nl(p, dec, v);      /* (plain_line's lines: a '\n' at p[n] or before) */
     if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
         return -1;
     return k;
@@ -1268,7 +1344,9 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
 
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
    1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
-   E), or 0 (not that shape, or a number not a plain decimal: the Python reading) */
+   E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
+   the line's last: the Python reading).  The
+   line is p[0..m) and p[m] its '\n' (num_word reads a number up to it, without a bound). */
 static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
                       double *v)
 {
@@ -1305,7 +1383,9 @@ static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *
         c->n = i - ca;
     }
     if (i < m && p[i] == '\r') i++;
-    if (i != m)
+    /* the line read to its end, so a byte not ASCII or a "\r" before the last is only in
+       a comment, where the first "\r" stops the loop above short of m */
+    if (i != m || !ascii_bytes(c->p, c->n))
         return 0;
     x->n = xn;
     y->n = yn;
@@ -1605,8 +1685,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
         if (q == NULL)
             goto decline;
         Py_ssize_t m = q - p;
-        if (!ascii_bytes(p, m) || (m > 1 && memchr(p, '\r', (size_t)(m - 1)) != NULL))
-            goto decline;                         /* ASCII, no line break but the "\r" of "\r\n" */
+        /* (plain_line takes only ASCII lines with no line break but the "\r" of "\r\n") */
         if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
             goto decline;
         int dx, dy, de;
@@ -2427,16 +2506,26 @@ static PyObject *line_read(PyObject *self, PyObject *o)
         PyErr_SetString(PyExc_TypeError, "line_read: an ASCII str");
         return NULL;
     }
+    char *line = PyMem_Malloc(m + 1);            /* the line and its '\n', as block_into gives it */
+    if (line == NULL)
+        return PyErr_NoMemory();
+    memcpy(line, p, m);
+    line[m] = '\n';
     Txt x, y, e, c;
     int dx, dy, de;
     double v[3] = {0.0, 0.0, 0.0};
-    if (!plain_line(p, m, &x, &y, &e, &c, &dx, &dy, &de, v))
-        Py_RETURN_NONE;
-    PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None), *ev = e.p ? PyFloat_FromDouble(v[2]) : Py_NewRef(Py_None);
-    PyObject *r = et && ev ? Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev)
-                           : NULL;
-    Py_XDECREF(et);
-    Py_XDECREF(ev);
+    PyObject *r = NULL;
+    if (!plain_line(line, m, &x, &y, &e, &c, &dx, &dy, &de, v))
+        r = Py_NewRef(Py_None);
+    else {
+        PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None);
+        PyObject *ev = e.p ? PyFloat_FromDouble(v[2]) : Py_NewRef(Py_None);
+        if (et && ev)
+            r = Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev);
+        Py_XDECREF(et);
+        Py_XDECREF(ev);
+    }
+    PyMem_Free(line);
     return r;
 }
 
@@ -2468,6 +2557,29 @@ static PyObject *tenths_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* rounds(doubles): py_round of each native double (bytes): its int, or None where it
+   declines (for the tests: Python's round() of each) */
+static PyObject *rounds(PyObject *self, PyObject *o)
+{
+    Py_buffer v;
+    if (PyObject_GetBuffer(o, &v, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t n = v.len / (Py_ssize_t)sizeof(double);
+    PyObject *res = PyList_New(n);
+    for (Py_ssize_t k = 0; res != NULL && k < n; k++) {
+        double x;
+        int64_t r;
+        memcpy(&x, (const char *)v.buf + k * sizeof(double), sizeof x);
+        PyObject *item = py_round(x, &r) < 0 ? Py_NewRef(Py_None) : PyLong_FromLongLong((long long)r);
+        if (item == NULL)
+            Py_CLEAR(res);
+        else
+            PyList_SET_ITEM(res, k, item);
+    }
+    PyBuffer_Release(&v);
+    return res;
+}
+
 /* decimal_value(text): to_double on a plain decimal (for the tests), else None */
 static PyObject *decimal_value(PyObject *self, PyObject *o)
 {
@@ -2481,6 +2593,7 @@ static PyObject *decimal_value(PyObject *self, PyObject *o)
 
 static PyMethodDef mod_methods[] = {
     {"decimal_value", decimal_value, METH_O, "float(text) of a plain decimal text, else None (tests)"},
+    {"rounds", rounds, METH_O, "py_round of each native double (bytes): int, or None where declined (tests)"},
     {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},

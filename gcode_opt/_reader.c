@@ -277,32 +277,42 @@ typedef struct {
     double by[26];                    /* letter c's value at by[c - 'A'] (if seen) */
 } Words;
 
+/* read_words' classes of a byte: a scan's test of a byte is one table load (a blank is
+ * ' ' or '\t', as the fast regexes' [ \t]) */
+enum { WC_BLANK = 1, WC_SIGN = 2, WC_POINT = 4 };
+static const unsigned char WORD_CLASS[256] = {[' '] = WC_BLANK, ['\t'] = WC_BLANK, ['+'] = WC_SIGN,
+                                              ['-'] = WC_SIGN, ['.'] = WC_POINT};
+
 /* the letters a command takes, as a mask of bits c - 'A' */
 #define LETTER(c) (1u << ((c) - 'A'))
 #define G_LETTERS (LETTER('X') | LETTER('Y') | LETTER('Z') | LETTER('E') | LETTER('F'))
 #define M204_LETTERS (LETTER('S') | LETTER('P') | LETTER('T') | LETTER('R'))
 
 /* The words after a 4- or 2-character command, as the fast regexes of state.py accept them:
- *   CMD(?:[ \t]+[letters][-+.0-9]+)*[ \t\r\n]*  (fullmatch over code = s[0:n])
+ *   CMD(?:[ \t]+[letters][-+.0-9]+)*[ \t\r\n]*  (fullmatch over the code: s[0:n] up to its
+ * first ';', where the line's comment starts -- the callers may pass the whole line, a
+ * line line_shape has not read)
  * and each value through float(); -1 if the line is not of that shape, a value is not a
  * number, a letter comes twice (Python's len(p) check) or there are too many words.
  * A value is read as it is scanned: fast_decimal's rule (the same m, digits and point, so
  * the same double), or, where that rule does not hold, to_double over the token.
  *
- * ended: s[n - 1] is a line ending ('\n' or '\r', the common line: no comment) and k < n.
- * Then no scan of blanks, a letter, a sign, digits or a point passes n - 1 (that character
- * is none of those and stops each), so those loops need no bound (~20% of this function's
- * instructions); only the trailing blanks and line endings are read up to n.  A constant
- * in read_words' two calls of it: two copies, the same steps and results. */
+ * ended: s[n - 1] is a line ending ('\n' or '\r': the common line) and k < n.  Then no scan
+ * of blanks, a letter, a sign, digits or a point passes n - 1 (that character is none of
+ * those and stops each; so does a ';'), so those loops need no bound (~20% of this
+ * function's instructions); only the trailing blanks and line endings are read up to n.  A
+ * constant in read_words' two calls of it: two copies, the same steps and results. */
 static inline __attribute__((always_inline)) int read_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
                                                                unsigned letters, Words *w, const int ended)
 {
 #define BELOW(j) (ended || (j) < n)          /* s[j] is in the code (always, when ended) */
-    w->n = 0;
-    w->seen = 0;
+    /* w's count and letters set kept here until the end: w->letter's char stores may alias
+     * them, which would have them read and written back around every word */
+    unsigned seen = 0;
+    int nw = 0;
     for (;;) {
         Py_ssize_t j = k;
-        while (BELOW(j) && (s[j] == ' ' || s[j] == '\t'))
+        while (BELOW(j) && (WORD_CLASS[s[j]] & WC_BLANK))
             j++;
         unsigned bit = 0;
         if (j > k && BELOW(j) && s[j] >= 'A' && s[j] <= 'Z')
@@ -314,7 +324,7 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
             int neg = 0, ok = 1;
             Py_ssize_t digits = 0, frac = -1;      /* frac: digits after the point, -1 before it */
             unsigned long long m = 0;
-            if (BELOW(j) && (s[j] == '+' || s[j] == '-'))
+            if (BELOW(j) && (WORD_CLASS[s[j]] & WC_SIGN))
                 neg = s[j++] == '-';
             /* the usual shape, digits[.digits], in two tight loops (the same m, digits, frac
              * and end as the loop below, which goes on from where they stop) */
@@ -332,7 +342,7 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
                 digits = j - j0;
             /* the loop below takes only digits, points and signs: the tight loops stopped
              * at none of those but a point or a sign (the usual value ends here) */
-            if (BELOW(j) && (s[j] == '.' || s[j] == '+' || s[j] == '-')) {
+            if (BELOW(j) && (WORD_CLASS[s[j]] & (WC_POINT | WC_SIGN))) {
                 for (; j < n; j++) {
                     unsigned d = (unsigned)s[j] - '0';
                     if (d <= 9) {
@@ -354,12 +364,13 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
             }
             if (j == a)
                 return -1;
-            if (w->seen & bit)
+            if (seen & bit)
                 return -1;
-            if (w->n == MAXW)
+            if (nw == MAXW)
                 return -1;
 #ifdef FAST_DECIMAL
-            if (ok && digits > 0 && digits <= 19 && m <= (1ull << 53) && frac <= 22) {
+            /* fast_decimal's test: 1 to 19 digits (then frac <= 22: frac counts some of them) */
+            if (ok && (size_t)(digits - 1) < 19 && m <= (1ull << 53)) {
                 double v = (double)m;
                 if (frac > 0)
                     v = v / POW10[frac];
@@ -369,14 +380,18 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 #endif
             if (to_double((const char *)s + a, j - a, &w->by[c]) < 0)
                 return -1;
-            w->seen |= bit;
-            w->letter[w->n++] = (char)('A' + c);
+            seen |= bit;
+            w->letter[nw++] = (char)('A' + c);
             k = j;
             continue;
         }
         while (j < n && (s[j] == ' ' || s[j] == '\t' || s[j] == '\r' || s[j] == '\n'))
             j++;
-        return j == n ? 0 : -1;
+        if (!(j == n || s[j] == ';'))   /* the code's end: the line's, or its comment's start */
+            return -1;
+        w->n = nw;
+        w->seen = seen;
+        return 0;
     }
 #undef BELOW
 }
@@ -943,6 +958,23 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
  * M204 of the fast shape, answer a command noop_command finds, and hand the rest to Python). */
 enum { SHAPE_PYTHON, SHAPE_NOTHING, SHAPE_CODE, SHAPE_MARKED };
 
+/* the length of the line's code: before its first ';' */
+static inline Py_ssize_t code_len(const unsigned char *s, Py_ssize_t n)
+{
+    const unsigned char *semi = memchr(s, ';', (size_t)n);
+    return semi ? semi - s : n;
+}
+
+/* A line line_shape finds SHAPE_CODE without reading more than its first character: no CR
+ * in it (lf), two characters at least, and a command first (neither a blank nor a ';').
+ * The fused readers take such a line (nearly every line the measure pass plays) without
+ * line_shape's look for a ';': read_words stops at one itself, and code_len finds it only
+ * for a line that goes on to noop_command. */
+static inline int command_line(const unsigned char *s, Py_ssize_t n, int lf)
+{
+    return lf && n >= 2 && s[0] != ';' && !is_split_space(s[0]);
+}
+
 static int line_shape(const unsigned char *s, Py_ssize_t n, int lf, Py_ssize_t *code_n)
 {
     if (n < 1)
@@ -955,13 +987,12 @@ static int line_shape(const unsigned char *s, Py_ssize_t n, int lf, Py_ssize_t *
         if (s[n - 1] == '\r' || memchr(s, '\r', t) != NULL)
             return SHAPE_PYTHON;
     }
-    const unsigned char *semi = memchr(s, ';', n);
-    *code_n = semi ? semi - s : n;
+    *code_n = code_len(s, n);
     Py_ssize_t k = 0;
     while (k < *code_n && is_split_space(s[k]))
         k++;
     if (k == *code_n)      /* no command: a blank line changes nothing; a comment only if it is marked */
-        return (semi != NULL && marked(semi, n - *code_n)) ? SHAPE_MARKED : SHAPE_NOTHING;
+        return (*code_n < n && marked(s + *code_n, n - *code_n)) ? SHAPE_MARKED : SHAPE_NOTHING;
     return n < 2 ? SHAPE_PYTHON : SHAPE_CODE;
 }
 
@@ -1327,27 +1358,29 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
     if (ss->off)
         return 2;
     const unsigned char *s = (const unsigned char *)line;
-    Py_ssize_t code_n = 0;
-    switch (line_shape(s, n, lf, &code_n)) {
-    case SHAPE_PYTHON:
-        goto other;
-    case SHAPE_NOTHING:
-        return 0;
-    case SHAPE_MARKED: {
-        PyObject *f;
-        int done = marked_comment(ss->dict, s + code_n, n - code_n, &f);
-        if (done < 0)
-            return -1;
-        if (!done)
+    Py_ssize_t code_n = -1;            /* the code's length: line_shape's, or code_len's where needed */
+    if (!command_line(s, n, lf))
+        switch (line_shape(s, n, lf, &code_n)) {
+        case SHAPE_PYTHON:
             goto other;
-        if (f != NULL && ss->live)
-            ss->o_feature = f;         /* (borrowed from the dict, as sess_load's) */
-        return 0;
-    }
-    }
+        case SHAPE_NOTHING:
+            return 0;
+        case SHAPE_MARKED: {
+            PyObject *f;
+            int done = marked_comment(ss->dict, s + code_n, n - code_n, &f);
+            if (done < 0)
+                return -1;
+            if (!done)
+                goto other;
+            if (f != NULL && ss->live)
+                ss->o_feature = f;     /* (borrowed from the dict, as sess_load's) */
+            return 0;
+        }
+        }
+    /* a command (SHAPE_CODE: n >= 2); read_words reads its code, up to any ';' */
     Words w;
-    if (code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, code_n, 2, G_LETTERS, &w) < 0)
+    if (s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
+        if (read_words(s, n, 2, G_LETTERS, &w) < 0)
             goto command;
         if (!ss->live) {
             sess_load(ss);
@@ -1373,8 +1406,8 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
         ss->dirty = 1;
         return moved;
     }
-    if (code_n >= 4 && memcmp(s, "M204", 4) == 0) {
-        if (read_words(s, code_n, 4, M204_LETTERS, &w) < 0)
+    if (n >= 4 && memcmp(s, "M204", 4) == 0) {
+        if (read_words(s, n, 4, M204_LETTERS, &w) < 0)
             goto other;
         /* live: the session's accel slots (written back with x y z e); else the dict, as
          * step() writes it */
@@ -1386,7 +1419,7 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
         return 0;
     }
 command:
-    if (noop_command(s, code_n))
+    if (noop_command(s, code_n >= 0 ? code_n : code_len(s, n)))
         return 0;
 other:
     return sess_flush(ss) < 0 ? -1 : 2;
@@ -1416,21 +1449,21 @@ static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, Run
     if (ss->off)
         return 0;
     const unsigned char *s = (const unsigned char *)line;
-    Py_ssize_t code_n = 0;
-    switch (line_shape(s, n, lf, &code_n)) {
-    case SHAPE_PYTHON:
-        return 0;
-    case SHAPE_NOTHING:
-        return 2;
-    case SHAPE_MARKED:
-        return 3;
-    }
+    Py_ssize_t code_n = -1;            /* as fused_line_ascii's */
+    if (!command_line(s, n, lf))
+        switch (line_shape(s, n, lf, &code_n)) {
+        case SHAPE_PYTHON:
+            return 0;
+        case SHAPE_NOTHING:
+            return 2;
+        case SHAPE_MARKED:
+            return 3;
+        }
     Words w;
-    if (code_n >= 4 && memcmp(s, "M204", 4) == 0)
+    if (n >= 4 && memcmp(s, "M204", 4) == 0)
         return 3;
-    if (!(code_n >= 2 && s[0] == 'G' && (s[1] == '0' || s[1] == '1'))
-        || read_words(s, code_n, 2, G_LETTERS, &w) < 0)
-        return noop_command(s, code_n) ? 2 : 0;
+    if (!(s[0] == 'G' && (s[1] == '0' || s[1] == '1')) || read_words(s, n, 2, G_LETTERS, &w) < 0)
+        return noop_command(s, code_n >= 0 ? code_n : code_len(s, n)) ? 2 : 0;
     if (!ss->live) {
         sess_load(ss);
         if (!ss->live)

@@ -6,10 +6,12 @@ import gc
 import math
 import os
 from collections import Counter
+from itertools import compress
 from operator import attrgetter
 
 import numpy as np
 
+from .distinct import value_codes
 from .outranges import columns as range_columns
 from .strokes import Stroke, line_spans
 
@@ -65,18 +67,21 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
         g["int_a2"] += float(a2)
         g["time_s"] += float(t)
 
-    reasons = np.array(list(map(str, plan.reason[:n])), dtype=object)
-    for r in sorted(set(reasons[~retimed])):
-        m = (reasons == r) & ~retimed
+    # each reason's strokes left as sliced: the re-timed ones coded past every reason
+    code_of, code = value_codes(list(map(str, plan.reason[:n])))
+    code[retimed] = len(code_of)
+    left_reasons = compress(code_of, (np.bincount(code, minlength=len(code_of) + 1)[:-1] > 0).tolist())
+    for r in sorted(left_reasons):
+        m = code == code_of[r]
         add(r or "not planned", m.sum(), "strokes", I0[m].sum(), T0[m].sum())
     dwell_t = float(getattr(sim0, "barrier_dwell_t", 0.0) or 0.0)
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
-        feats = np.array(list(map(attrgetter("feature"), strokes)), dtype=object)
+        feat_code_of, feat_code = value_codes(list(map(attrgetter("feature"), strokes)))
         nm = _n_moves(strokes)                                    # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):
-            m = feats == f                                        # candidates of this feature
+            m = feat_code == feat_code_of.get(f, -1)              # candidates of this feature
             moves -= int(nm[m].sum())                             # (integers: the loop's sum)
             t, a2 = t - float(T0[m].sum()), a2 - float(I0[m].sum())
             if moves <= 0 and t <= 1e-9 * total_t:
@@ -292,11 +297,11 @@ def _by_kind_rows(kinds, cols, by_kind):
                                                        and set(map(type, c)) != _FLOAT_ONLY for c in cols):
         _by_kind_loop(kinds, list(map(_as_list, cols)), by_kind)
         return
-    kind_arr = np.array(kinds, dtype=object)
+    code_of, code = value_codes(kinds)          # (the kinds in the order of their first row)
     arrs = [np.asarray(c, dtype=float) for c in cols]
-    for kind in dict.fromkeys(kinds):            # (the kinds in the order of their first row)
+    for kind, c in code_of.items():
         g = _kind_group(by_kind, kind)
-        m = kind_arr == kind
+        m = code == c
         g["retimed"] += int(m.sum())
         gt, ga = g["time_s"], g["int_a2"]
         for d, key, x in ((gt, "before", arrs[0]), (gt, "law", arrs[1]), (gt, "after", arrs[2]),

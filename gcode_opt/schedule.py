@@ -437,7 +437,7 @@ def _settle_rows(S, V, A, F, plans):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
-        r = np.fromiter(map(_ROW, part), np.intp, len(part))
+        r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)))
         with np.errstate(invalid="ignore"):
             Sr, Vr, Ar, Fr = S[r], V[r], A[r], F[r]
             fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
@@ -450,6 +450,15 @@ def _settle_rows(S, V, A, F, plans):
 
 
 _ROW = attrgetter("_row")
+
+
+def _run_or_rows(r):
+    """The rows r (intp) as a slice where they are one ascending run (a block's plans in
+    its rows' order, the usual case): its rows are then views, not gathered copies (~20 M
+    instructions on the gyroid plate), the same values."""
+    if r.size and int(r[-1]) - int(r[0]) == r.size - 1 and (r.size == 1 or bool((np.diff(r) == 1).all())):
+        return slice(int(r[0]), int(r[-1]) + 1)
+    return r
 
 
 def _settle(todo, ss, vs, as_, fs):

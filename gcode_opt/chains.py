@@ -2052,7 +2052,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         tk = np.empty((R, n + 1))
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
-        tk[:, -1] = T[j, rc]
+        tk[:, -1] = _at(T, j, rc)
         if n > 1:
             ix = voff[j][:, None] + np.arange(n - 1)
             if vmap is not None:
@@ -2142,7 +2142,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    tab = np.stack([t, T[j, c], beta[j, c], np.arange(R, dtype=float)], axis=1)
+    tab = np.stack([t, _at(T, j, c), _at(beta, j, c), np.arange(R, dtype=float)], axis=1)
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]

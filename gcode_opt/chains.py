@@ -1724,7 +1724,8 @@ def _solve_cols(base, T, beta, order, prev, spread=True):
     if same is not None:
         keep, pos = same
         got = _solve_cols(base.take(keep), T[keep], beta[keep], order, prev, False)
-        return {c: _Spread(r, base, pos) for c, r in got.items()}
+        vg = _spread_vertices(next(iter(got.values())), base, pos) if got else None
+        return {c: _Spread(r, base, pos, vg) for c, r in got.items()}
     m, nv = base.S.size, base.sv.size
     res = {}
     for c in order:
@@ -1802,21 +1803,31 @@ def _same_chains(base, T, beta):
     return _kept(rep)
 
 
+def _spread_vertices(r, base, pos):
+    """Each vertex of the chains of base its place among r's (the flat laws of base.take(keep)),
+    chain j's those of r's chain pos[j] (one for every column solved for the same chains)."""
+    rv = r.fl.voff.astype(np.int64)
+    return np.repeat(rv[pos] - base.voff[:-1], base.nv) + np.arange(base.sv.size)
+
+
 class _Spread:
     """The flat laws r (solved for base.take(keep)) of every chain of base, chain j's those
     of r's chain pos[j]: what _figures reads of a FlatLaws (per chain conv, iv, peak_v,
-    min_v; per vertex bound, vert_v, vert_t), each a copy of r's numbers; the pieces'
-    durations piece_T are r's own, not copied (chain j's piece_n[j] of them from
-    piece_at[j]: a chain and its first equal share theirs, _piece_spans)."""
+    min_v, each a copy of r's numbers; per vertex bound, vert_v, vert_t: r's at vg, the
+    vertices' places there, _spread_vertices, gathered when read: _vertex_stack reads r's
+    own); the pieces' durations piece_T are r's own, not copied (chain j's piece_n[j] of
+    them from piece_at[j]: a chain and its first equal share theirs, _piece_spans)."""
 
-    def __init__(self, r, base, pos):
+    def __init__(self, r, base, pos, vg):
         for f in ("conv", "iv", "peak_v", "min_v"):
             setattr(self, f, getattr(r, f)[pos])
-        rv = r.fl.voff.astype(np.int64)
-        vg = np.repeat(rv[pos] - base.voff[:-1], base.nv) + np.arange(base.sv.size)
-        self.bound, self.vert_v, self.vert_t = r.bound[vg], r.vert_v[vg], r.vert_t[vg]
+        self.r, self.vg = r, vg
         po = r.piece_off
         self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
+
+    bound = property(lambda self: self.r.bound[self.vg])
+    vert_v = property(lambda self: self.r.vert_v[self.vg])
+    vert_t = property(lambda self: self.r.vert_t[self.vg])
 
 
 def _piece_spans(col):
@@ -2030,7 +2041,8 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     # one gather over (column, vertex), not one per column (~500 groups x 5 columns of
     # masks and fancy indexes on the gyroid plate); the same numbers copied
     k = use.shape[1]
-    VV, TT, IV = _stack_cols(res, k, "vert_v"), _stack_cols(res, k, "vert_t"), _stack_cols(res, k, "iv")
+    (VV, TT), vmap = _vertex_stack(res, k, ("vert_v", "vert_t"))
+    IV = _stack_cols(res, k, "iv")
     voff = base.voff
     for J in groups:
         n = int(nseg[J[0]])
@@ -2041,13 +2053,15 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         tk = np.empty((R, n + 1))
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
-        tk[:, -1] = T[j, rc]
+        tk[:, -1] = _at(T, j, rc)
         if n > 1:
             ix = voff[j][:, None] + np.arange(n - 1)
+            if vmap is not None:
+                ix = vmap[ix]
             cc = rc[:, None]
-            vk[:, 1:-1] = VV[cc, ix]
-            tk[:, 1:-1] = TT[cc, ix]
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), IV[rc, j]
+            vk[:, 1:-1] = _at(VV, cc, ix)
+            tk[:, 1:-1] = _at(TT, cc, ix)
+        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)
 
 
 class _LawCols:
@@ -2059,7 +2073,7 @@ class _LawCols:
 
     def __init__(self, res, k, voff):
         self.voff = voff
-        self.BB = _stack_cols(res, k, "bound", bool)
+        (self.BB,), self.vmap = _vertex_stack(res, k, ("bound",), bool)
         # the columns' pieces' durations end to end, chain c's of column q: PN[q, c] of them from P0[q, c]
         spans = [_piece_spans(res[c]) if c in res else None for c in range(k)]
         self.PT = np.concatenate([sp[0] for sp in spans if sp is not None])
@@ -2078,10 +2092,34 @@ class _LawCols:
         (int32: a chunk's pieces are ~10^5)."""
         R = j.size
         if n > 1:
-            bnd = self.BB[rc[:, None], self.voff[j][:, None] + np.arange(n - 1)]
+            ix = self.voff[j][:, None] + np.arange(n - 1)
+            bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
             bnd = np.empty((R, 0), bool)
-        return bnd, self.PT, np.stack([self.P0[rc, j], self.PN[rc, j]], axis=1).astype(np.int32)
+        return bnd, self.PT, np.stack([_at(self.P0, rc, j), _at(self.PN, rc, j)], axis=1).astype(np.int32)
+
+
+def _at(A, rows, cols):
+    """A[rows, cols] for a C-contiguous 2-D A and int arrays rows, cols of places inside it
+    (broadcast together): a gather from A's flat values at rows * width + cols, the same
+    values (~30 instructions an element with the index's sums, where numpy's 2-D fancy
+    index took ~70: ~4 M entries of the gyroid plate's chain tables)."""
+    if not A.flags.c_contiguous:
+        return A[rows, cols]
+    return A.ravel()[rows * A.shape[1] + cols]
+
+
+def _vertex_stack(res, k, names, dtype=float):
+    """([_stack_cols of each per-vertex array of names], vmap): where the columns are
+    _Spreads of one solve (chains that repeat), the arrays of the laws they spread (fewer
+    vertices) with vmap each vertex's place there (a gather less of every vertex a column,
+    ~60 M instructions on the gyroid plate); else the columns' own and vmap None."""
+    cols = [res[c] for c in range(k) if c in res]
+    vg = getattr(cols[0], "vg", None) if cols else None
+    if vg is not None and all(type(col) is _Spread and col.vg is vg for col in cols):
+        own = {c: res[c].r for c in res}
+        return [_stack_cols(own, k, name, dtype) for name in names], vg
+    return [_stack_cols(res, k, name, dtype) for name in names], None
 
 
 def _stack_cols(res, k, name, dtype=float):
@@ -2105,7 +2143,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    tab = np.stack([t, T[j, c], beta[j, c], np.arange(R, dtype=float)], axis=1)
+    tab = np.stack([t, _at(T, j, c), _at(beta, j, c), np.arange(R, dtype=float)], axis=1)
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]

@@ -6,7 +6,9 @@ as one (np.unique's equal_nan), of a's dtype.
 
 column_classes(cols): a class per row of int64 columns, rows of one class equal in every
 column (by a hash of the rows, not np.unique's sort of their bytes as records);
-column_classes_first(cols) also each class's first row."""
+column_classes_first(cols) also each class's first row.
+
+value_codes(values): a code per value of a list of hashable values, equal values one code."""
 from __future__ import annotations
 
 import numpy as np
@@ -69,3 +71,13 @@ def classes_in_row_order(cols):
     place[by_first] = np.arange(first.size)
     return first[by_first], place[cls]
 
+
+
+def value_codes(values):
+    """({value: its code}, in the order of first appearance, and the code of each of the
+    list `values` (hashable; an intp array)): `codes == code_of[v]` is the mask where the
+    values equal v, for values that are equal exactly when their hashes and == agree
+    (str, int, None), made by one pass of dict look-ups in C rather than a compare of
+    every value of an object array per distinct value (~100 instructions a value)."""
+    code_of = {v: c for c, v in enumerate(dict.fromkeys(values))}
+    return code_of, np.fromiter(map(code_of.__getitem__, values), np.intp, len(values))

@@ -94,6 +94,15 @@ KINDS = {
 }
 
 
+# each kind's code (its place in KINDS) in the per-stroke kind arrays: an int8 compare an
+# element, where an object array's `kinds == K_CURVE` made a str compare of each (~100
+# instructions an element, a few dozen passes over the strokes: with summary.py's compares
+# of reasons, features and kinds, 1.7 % of the rectilinear plate's instructions)
+KIND_CODE = {k: c for c, k in enumerate(KINDS)}
+C_LINE, C_ARC, C_CURVE, C_CHAIN = (KIND_CODE[k] for k in (K_LINE, K_ARC, K_CURVE, K_CHAIN))
+NO_KIND = -1            # a stroke of a kind the planner has none of (in no kind's rows)
+
+
 # kinds whose segment plans are each stroke's own when their batch sent no circle law to
 # Newton (curves.plan_curve_segments: the circle solves, then per row; SegmentCache)
 ROW_KINDS = (K_CURVE,)
@@ -137,23 +146,25 @@ def _lim_columns(strokes, profile):
     return v_lim, ax, ay
 
 
-def _kinds(strokes):
-    """Every stroke's kind, as an object array."""
-    kinds = np.empty(len(strokes), dtype=object)
-    kinds[:] = list(map(_KIND, strokes))
-    return kinds
+def _kind_codes(strokes):
+    """Every stroke's kind as its KIND_CODE (int8; NO_KIND: none of KINDS)."""
+    return np.fromiter(map(KIND_CODE.get, map(_KIND, strokes), repeat(NO_KIND)), np.int8, len(strokes))
 
 
-def plan_kinds(strokes, kinds=None):
-    """chains.plan_kind of every stroke, as an object array (its two fields read by map,
-    not a Python call a stroke); kinds: _kinds(strokes) if the caller has it (a new
-    array is returned)."""
+def plan_kind_codes(strokes, codes=None):
+    """The KIND_CODE of chains.plan_kind of every stroke (int8; its two fields read by
+    map, not a Python call a stroke); codes: _kind_codes(strokes) if the caller has it (a
+    new array is returned)."""
     n = len(strokes)
-    kinds = _kinds(strokes) if kinds is None else kinds.copy()
+    codes = _kind_codes(strokes) if codes is None else codes.copy()
     chain = np.fromiter(map(_IS_NOT_NONE, map(_CHAIN_T, strokes)), bool, n)
     if chain.any():
-        kinds[chain & (kinds == K_CURVE)] = K_CHAIN
-    return kinds
+        codes[chain & (codes == C_CURVE)] = C_CHAIN
+    return codes
+
+
+# code -> kind name, NO_KIND's (the last place) None: the names corners.py compares
+_KIND_NAMES = np.array(list(KINDS) + [None], dtype=object)
 
 
 def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
@@ -188,16 +199,16 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     pin.v_cap, pin.a_cap, pin.mass_r = pin.v_cap.astype(float), pin.a_cap.astype(float), pin.mass_r.astype(float)
     failed = {}
     # a curve whose vertices cap the speed below its feed is a chain
-    kinds = _kinds(strokes)
-    isolate(lambda r: chains.classify(strokes, r, profile), np.flatnonzero(kinds == K_CURVE), "planning", failed)
-    kinds = plan_kinds(strokes, kinds)
+    codes = _kind_codes(strokes)
+    isolate(lambda r: chains.classify(strokes, r, profile), np.flatnonzero(codes == C_CURVE), "planning", failed)
+    codes = plan_kind_codes(strokes, codes)
     for k, kind in KINDS.items():
         if kind.adjust_inputs is not None:
-            rows = _not_failed(np.flatnonzero(kinds == k), failed)
+            rows = _not_failed(np.flatnonzero(codes == KIND_CODE[k]), failed)
             isolate(lambda r: kind.adjust_inputs(pin, strokes, r, profile), rows, "planning", failed)
     # --corners R: lower line strokes' end speeds at sharp corners (corners.py); off by default
     try:                                      # computed first, then set: a failure changes nothing
-        corners.lower_corners(strokes, pin, profile, opts, kinds)
+        corners.lower_corners(strokes, pin, profile, opts, _KIND_NAMES[codes])
     except Exception:                         # noqa: BLE001 -- the corners stay the firmware's
         pass
     pin.fault = input_faults(pin)             # reason per stroke, "" = fine
@@ -205,24 +216,25 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         pin.fault[i] = why
     # each stroke's plan_kind, for plan_strokes (chains.classify above is the one step that
     # changes them): read again there, it was ~5 ms of the rectilinear plate's planning
-    pin.plan_kinds = kinds
+    pin.plan_kind_codes = codes
     return pin
 
 
-def _rows_by_kind(strokes, kinds=None):
-    """{kind: the rows of the strokes of that plan_kind}; kinds: plan_kinds(strokes), if
-    the caller has it."""
-    if kinds is None:
-        kinds = plan_kinds(strokes)
-    return {k: np.flatnonzero(kinds == k) for k in KINDS}
+def _rows_by_kind(strokes, codes=None):
+    """{kind: the rows of the strokes of that plan_kind}; codes: plan_kind_codes(strokes),
+    if the caller has them."""
+    if codes is None:
+        codes = plan_kind_codes(strokes)
+    return {k: np.flatnonzero(codes == c) for k, c in KIND_CODE.items()}
 
 
-def _plan_kinds_of(strokes, pin):
-    """plan_kinds(strokes) as plan_inputs made them for pin (pin.plan_kinds), else made here."""
-    kinds = getattr(pin, "plan_kinds", None)
-    if kinds is None or len(kinds) != len(strokes):
-        kinds = plan_kinds(strokes)
-    return kinds
+def _plan_kind_codes_of(strokes, pin):
+    """plan_kind_codes(strokes) as plan_inputs made them for pin (pin.plan_kind_codes),
+    else made here."""
+    codes = getattr(pin, "plan_kind_codes", None)
+    if codes is None or len(codes) != len(strokes):
+        codes = plan_kind_codes(strokes)
+    return codes
 
 
 class _Pieces(list):
@@ -425,7 +437,7 @@ def _settle_rows(S, V, A, F, plans):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
-        r = np.fromiter(map(_ROW, part), np.intp, len(part))
+        r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)))
         with np.errstate(invalid="ignore"):
             Sr, Vr, Ar, Fr = S[r], V[r], A[r], F[r]
             fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
@@ -438,6 +450,15 @@ def _settle_rows(S, V, A, F, plans):
 
 
 _ROW = attrgetter("_row")
+
+
+def _run_or_rows(r):
+    """The rows r (intp) as a slice where they are one ascending run (a block's plans in
+    its rows' order, the usual case): its rows are then views, not gathered copies (~20 M
+    instructions on the gyroid plate), the same values."""
+    if r.size and int(r[-1]) - int(r[0]) == r.size - 1 and (r.size == 1 or bool((np.diff(r) == 1).all())):
+        return slice(int(r[0]), int(r[-1]) + 1)
+    return r
 
 
 def _settle(todo, ss, vs, as_, fs):
@@ -655,8 +676,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     reason in plan.reason (the summary counts them)."""
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     # each stroke's plan_kind: the rows of each kind, and read by every re-plan for the
-    # strokes it segments (an object array)
-    kind_by_row = _plan_kinds_of(strokes, pin)
+    # strokes it segments (KIND_CODEs)
+    kind_by_row = _plan_kind_codes_of(strokes, pin)
     rows = _rows_by_kind(strokes, kind_by_row)
     cached = getattr(pin, "cached", None)    # the same strokes planned again: reuse
     if cached is None:
@@ -720,7 +741,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         idx_in, own = idx, None
         if reuse and opts.alpha == "auto":
             k_in = kind_by_row[idx]
-            own = (k_in == K_LINE) | (k_in == K_CHAIN)
+            own = (k_in == C_LINE) | (k_in == C_CHAIN)
             del k_in
         later = memo is not None
         if later:
@@ -739,7 +760,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             fn = (lambda k, lines: lambda r: k.segments(
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r]} if lines else {})))(kind_of, k_name == K_LINE)
-            ii = idx[kind == k_name]
+            ii = idx[kind == KIND_CODE[k_name]]
 
             def solve(rows):
                 """rows' plans written in segs (a failed row's left as it is); returns
@@ -754,7 +775,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 # the chains whose law changed only: each one's plan is its own (its memo,
                 # chains.plan_chain_segments, gives the others the plans the last run took)
                 seg_cache.drop(k_name)
-                seg_failed.update(solve(np.array(ii.tolist(), int))[0])
+                seg_failed.update(solve(np.array(ii, int))[0])
                 continue
             got, bad = seg_cache.lookup(k_name, ii, plan.T, plan.beta)
             _put_rows(segs, got)
@@ -995,16 +1016,17 @@ _CORNER_CMD0 = attrgetter("corner_cmd0")
 
 def _not_in(ii, got, bad):
     """The rows of ii (in order, an int array) that are keys of neither dict (their keys
-    are rows of ii: SegmentCache.lookup's answers)."""
+    are rows of ii: SegmentCache.lookup's answers), as a new int array (np.array copies:
+    not through a list, ~20 M instructions on the rectilinear plate)."""
     if not got and not bad:
-        return np.array(ii.tolist(), int)
+        return np.array(ii, int)
     if ii.size == 0:
         return np.array([], int)
     keys = np.fromiter(list(got) + list(bad), np.int64, len(got) + len(bad))
     # (a mask over the rows, not np.isin's sorts: ~20 ms a budget run on the rectilinear plate)
     hit = np.zeros(max(int(ii.max()), int(keys.max())) + 1, bool)
     hit[keys] = True
-    return np.array(ii[~hit[ii]].tolist(), int)
+    return np.array(ii[~hit[ii]], int)
 
 
 def _rebuild_geometry(strokes, idx, kind, profile):
@@ -1012,9 +1034,9 @@ def _rebuild_geometry(strokes, idx, kind, profile):
     drop it between passes: ~17 MB on the gyroid plate), made in one batch as
     plan_inputs made it (the same bits), not stroke by stroke (~2 s on that plate).  A
     stroke whose geometry raises makes it where isolate() catches it, in its kind's
-    segments."""
+    segments.  kind: the KIND_CODEs of the strokes idx."""
     made = False
-    for k, jerk1 in ((K_CURVE, False), (K_CHAIN, True)):
+    for k, jerk1 in ((C_CURVE, False), (C_CHAIN, True)):
         todo = [strokes[i] for i in idx[kind == k].tolist() if strokes[i].curv is None]
         if todo:
             made = True

@@ -6,10 +6,12 @@ import gc
 import math
 import os
 from collections import Counter
+from itertools import compress
 from operator import attrgetter
 
 import numpy as np
 
+from .distinct import value_codes
 from .outranges import columns as range_columns
 from .strokes import Stroke, line_spans
 
@@ -65,18 +67,21 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
         g["int_a2"] += float(a2)
         g["time_s"] += float(t)
 
-    reasons = np.array(list(map(str, plan.reason[:n])), dtype=object)
-    for r in sorted(set(reasons[~retimed])):
-        m = (reasons == r) & ~retimed
+    # each reason's strokes left as sliced: the re-timed ones coded past every reason
+    code_of, code = value_codes(list(map(str, plan.reason[:n])))
+    code[retimed] = len(code_of)
+    left_reasons = compress(code_of, (np.bincount(code, minlength=len(code_of) + 1)[:-1] > 0).tolist())
+    for r in sorted(left_reasons):
+        m = code == code_of[r]
         add(r or "not planned", m.sum(), "strokes", I0[m].sum(), T0[m].sum())
     dwell_t = float(getattr(sim0, "barrier_dwell_t", 0.0) or 0.0)
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
-        feats = np.array(list(map(attrgetter("feature"), strokes)), dtype=object)
+        feat_code_of, feat_code = value_codes(list(map(attrgetter("feature"), strokes)))
         nm = _n_moves(strokes)                                    # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):
-            m = feats == f                                        # candidates of this feature
+            m = feat_code == feat_code_of.get(f, -1)              # candidates of this feature
             moves -= int(nm[m].sum())                             # (integers: the loop's sum)
             t, a2 = t - float(T0[m].sum()), a2 - float(I0[m].sum())
             if moves <= 0 and t <= 1e-9 * total_t:
@@ -123,7 +128,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     idx_list = idx.tolist()
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
-    V0 = np.array(list(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)))) if len(idx) else np.zeros(0)
+    V0 = np.fromiter(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)), float, len(idx_list))
     # the per-stroke rows only where something reads them (Options.summary_rows: the command
     # line asks for them with --json or --report; its text summary has none)
     per_stroke = [] if getattr(opts, "summary_rows", True) else None
@@ -243,13 +248,25 @@ def _kind_of(s):
     return getattr(s, "kind", "line")
 
 
+def _kinds_of(ss):
+    """[_kind_of(s) for s in ss]: read by attrgetter in C where every one has a kind (a
+    Python call a stroke was ~6 M instructions on the rectilinear plate)."""
+    try:
+        return list(map(_KIND, ss))
+    except AttributeError:
+        return list(map(_kind_of, ss))
+
+
+_KIND = attrgetter("kind")
+
+
 def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
     """build_summary's per-stroke rows (appended to per_stroke; per_stroke None: the by_kind
     sums alone) and by_kind sums, in the order of idx (columns by row: lists, or arrays,
     whose rows are built on Python floats (tolist: the arrays' values) rather than numpy
     scalars: the same numbers, the same sums in the same order)."""
     ss = list(map(strokes.__getitem__, idx))
-    kinds = list(map(_kind_of, ss))
+    kinds = _kinds_of(ss)
     if per_stroke is not None:
         _rows(ss, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
     _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)
@@ -292,11 +309,11 @@ def _by_kind_rows(kinds, cols, by_kind):
                                                        and set(map(type, c)) != _FLOAT_ONLY for c in cols):
         _by_kind_loop(kinds, list(map(_as_list, cols)), by_kind)
         return
-    kind_arr = np.array(kinds, dtype=object)
+    code_of, code = value_codes(kinds)          # (the kinds in the order of their first row)
     arrs = [np.asarray(c, dtype=float) for c in cols]
-    for kind in dict.fromkeys(kinds):            # (the kinds in the order of their first row)
+    for kind, c in code_of.items():
         g = _kind_group(by_kind, kind)
-        m = kind_arr == kind
+        m = code == c
         g["retimed"] += int(m.sum())
         gt, ga = g["time_s"], g["int_a2"]
         for d, key, x in ((gt, "before", arrs[0]), (gt, "law", arrs[1]), (gt, "after", arrs[2]),

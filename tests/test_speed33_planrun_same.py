@@ -1,9 +1,9 @@
 """Issue 8 (s33, planrun): schedule.plan_inputs reads the strokes' floats through the
 compiled core (strokes.stroke_fields, one pass), each Limits object's fields once, and the
-kinds by map (plan_kinds), not an attribute read or a call a stroke.  The arrays must be
+kinds by map (plan_kind_codes), not an attribute read or a call a stroke.  The arrays must be
 the ones e19044c's reads (kept below verbatim) give, bit for bit, on real strokes and on
-strokes whose fields hold values of other types; and plan_kinds must be chains.plan_kind
-of every stroke.  segments.plan_once keys its strokes by a hash of their (T, beta, class)
+strokes whose fields hold values of other types; and plan_kind_codes must be the codes of
+chains.plan_kind of every stroke.  segments.plan_once keys its strokes by a hash of their (T, beta, class)
 bytes (segments.row_classes), not np.unique's sort of 24-byte records: the same rows
 planned and the same plan for each row as e19044c's keys (kept below verbatim)."""
 from __future__ import annotations
@@ -101,7 +101,7 @@ def test_odd_fields_are_the_reference(seed):
 def test_empty():
     prof = load_profile("prusa-mk3s")
     assert _outcome(got_floats, [], prof) == _outcome(ref_floats, [], prof)
-    assert sc.plan_kinds([]).tolist() == []
+    assert sc.plan_kind_codes([]).tolist() == []
 
 
 @pytest.mark.parametrize("name,profile", [("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_gyroid_arcs.gcode", "voron24")])
@@ -109,13 +109,18 @@ def test_plan_kinds_are_plan_kind(name, profile):
     strokes, prof = _strokes(name, profile)
     sc.plan_inputs(strokes, prof, Options())          # (classify marks the chains)
     want = [chains.plan_kind(s) for s in strokes]
-    assert sc.plan_kinds(strokes).tolist() == want
+    assert sc.plan_kind_codes(strokes).tolist() == [sc.KIND_CODE[k] for k in want]
     assert len(set(want)) >= 3                        # (lines, curves and chains at least)
     # a chain memo on a stroke that is no curve leaves its kind alone
     odd = [copy.copy(s) for s in strokes[:200]]
     for st in odd[::7]:
         st.chain_T = chains.ChainMemo()
-    assert sc.plan_kinds(odd).tolist() == [chains.plan_kind(s) for s in odd]
+    # a kind the planner has none of: in no kind's rows
+    for st in odd[3::11]:
+        st.kind = "spline"
+    assert sc.plan_kind_codes(odd).tolist() == [sc.KIND_CODE.get(chains.plan_kind(s), sc.NO_KIND) for s in odd]
+    rows = sc._rows_by_kind(odd)
+    assert sorted(np.concatenate(list(rows.values())).tolist()) == [i for i, s in enumerate(odd) if s.kind != "spline"]
 
 
 # ---------------------------------------------------------------- segments.plan_once

@@ -3,7 +3,7 @@ plan.segs as it is found or made (no {row: plan} dicts), decide the rows KEEP_RO
 time (_keep_made_plans) with the strokes' int_a2 read from pin.I_orig, put the last run's
 plans (_RunMemo.put_same) and store the lines' (SegmentCache.store) PUT_ROWS at a time,
 know the alloc memo by the objects it was made of, and take the plan kinds plan_inputs
-found (pin.plan_kinds).  Each is a change of bookkeeping: the same plans, run by run."""
+found (pin.plan_kind_codes).  Each is a change of bookkeeping: the same plans, run by run."""
 import os
 
 import numpy as np
@@ -76,11 +76,11 @@ def test_pin_holds_what_the_runs_read_of_the_strokes():
     for name, prof in (("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_mk3s_rectilinear.gcode", "prusa-mk3s")):
         strokes, _, profile, opts = _analysed(name, prof)
         pin = schedule.plan_inputs(strokes, profile, opts)
-        assert list(pin.plan_kinds) == list(schedule.plan_kinds(strokes))
+        assert pin.plan_kind_codes.tobytes() == schedule.plan_kind_codes(strokes).tobytes()
         a2 = np.array([st.int_a2 for st in strokes], float)
         assert pin.I_orig.tobytes() == a2.tobytes()
-        assert schedule._plan_kinds_of(strokes, pin) is pin.plan_kinds
-        assert schedule._plan_kinds_of(strokes[:-1], pin) is not pin.plan_kinds    # (another list: made anew)
+        assert schedule._plan_kind_codes_of(strokes, pin) is pin.plan_kind_codes
+        assert schedule._plan_kind_codes_of(strokes[:-1], pin) is not pin.plan_kind_codes    # (another list: made anew)
 
 
 def test_alloc_memo_known_by_its_objects():

@@ -80,7 +80,7 @@ def _old_plan_strokes(strokes, pin, profile, opts, budget_t):
         plan.a2_pred = pin.I_orig.copy()
         idx = np.flatnonzero(plan.retime)
         kind = np.array([chains.plan_kind(strokes[i]) for i in idx], dtype=object)
-        sc._rebuild_geometry(strokes, idx, kind, profile)
+        sc._rebuild_geometry(strokes, idx, np.array([sc.KIND_CODE[k] for k in kind], np.int8), profile)
         segs = {}
         seg_failed = {}
         for k_name, kind_of in sc.KINDS.items():

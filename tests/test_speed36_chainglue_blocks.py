@@ -1,8 +1,7 @@
 """Issue 8 (s36, chain glue): FlatLaws.take keeps each step's done chains as blocks (chain
-numbers, vertex and piece counts, their vertices' speeds and times: not a chain number per
-piece, not a scatter of the vertices) and close puts the blocks in chain order by
-_block_order, not by a stable argsort of every piece's chain.  These tests hold the new
-take/close to the code of 0252e9a (RefFlatLaws: __init__, take and close verbatim) bit
+numbers and piece counts, not a chain number per piece) and close puts the blocks in
+chain order by _block_order, not by a stable argsort of every piece's chain.  These tests
+hold the new take/close to the code of 0252e9a (RefFlatLaws: take and close verbatim) bit
 for bit, through solve_flat with one and several active-set steps, with and without the
 pieces, and _block_order to the argsort it replaces."""
 import numpy as np
@@ -12,14 +11,7 @@ from gcode_opt.laws import chain as chain_law
 
 
 class RefFlatLaws(chain_law.FlatLaws):
-    """FlatLaws with __init__, take and close as they stood at 0252e9a (verbatim)."""
-
-    def __init__(self, fl, pieces=True):
-        self.fl, self.pieces = fl, pieces
-        m, nv = fl.S.size, fl.sv.size
-        self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
-        self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
-        self._parts = []
+    """FlatLaws with take and close as they stood at 0252e9a (verbatim)."""
 
     def take(self, st, done, cyc):
         if not done.any():

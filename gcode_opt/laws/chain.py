@@ -1094,7 +1094,8 @@ class FlatLaws:
 
     def __init__(self, fl, pieces=True):
         self.fl, self.pieces = fl, pieces
-        m = fl.S.size
+        m, nv = fl.S.size, fl.sv.size
+        self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
         self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
         self._parts = []
 
@@ -1107,19 +1108,21 @@ class FlatLaws:
             done = dv = pd = slice(None)
         else:
             dv, pd = done[st.rank], done[st.owner]
+        vd = st.vi[dv]              # (one mask gather for both)
+        self.vert_v[vd] = st.vert_v[dv]
+        self.vert_t[vd] = st.vert_t[dv]
         c = st.active[done]
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]
-        # the chains as blocks (each done chain's vertices and pieces are consecutive, chains
-        # ascending): close orders the blocks (no per-piece chain array, no vertex scatter)
+        # the chains as blocks (each done chain's pieces are consecutive, chains ascending):
+        # close orders the blocks, not piece by piece (no per-piece chain array)
         npc = np.diff(st.koff)[done] - 1          # pieces per chain: its knots - 1
-        part = (c, npc, np.diff(st.voff)[done], st.vert_v[dv], st.vert_t[dv],
-                st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd])
         if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
-            self._parts.append(part)
+            self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
             return
         kd = pd if isinstance(pd, slice) else np.repeat(done, np.diff(st.koff))
-        self._parts.append(part + (st.a0[pd], st.a1[pd], st.ks[kd], st.kv[kd], st.kt[kd]))
+        self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
+                            st.a0[pd], st.a1[pd], st.ks[kd], st.kv[kd], st.kt[kd]))
 
     def close(self, bound, pieces=True):
         """Every chain taken: pieces and knots in chain order, the figures (_flat_figures);
@@ -1128,13 +1131,11 @@ class FlatLaws:
         cat = [np.concatenate(x) for x in zip(*self._parts)]
         del self._parts
         m = self.fl.S.size
-        chains, npc, nvc = cat[:3]
-        vo = _block_order(chains, nvc, m)[0]
-        self.vert_v, self.vert_t = cat[3][vo], cat[4][vo]
+        chains, npc = cat[0], cat[1]
         po, self.poff = _block_order(chains, npc, m)
         self.bound = bound
         if not (pieces and self.pieces):
-            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[5:10])
+            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[2:7])
             _flat_figures(self, full=False)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
@@ -1142,9 +1143,9 @@ class FlatLaws:
             for f in ("L", "T", "beta", "v0", "v1", "poff"):
                 delattr(self, f)
             return
-        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[5:12])
+        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[2:9])
         ko, self.koff = _block_order(chains, npc + 1, m)  # a chain's knots: its pieces + 1
-        self.ks, self.kv, self.kt = (x[ko] for x in cat[12:15])
+        self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
         _flat_figures(self)
 
     def law(self, c):

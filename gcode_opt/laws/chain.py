@@ -1183,7 +1183,9 @@ def _block_order(chains, counts, m):
     n_c = np.zeros(m, np.int64)
     n_c[chains] = counts
     off = np.concatenate([[0], np.cumsum(n_c)]).astype(int)
-    return np.repeat(start - off[:-1], n_c) + np.arange(off[-1]), off
+    order = np.repeat(start - off[:-1], n_c)
+    order += np.arange(off[-1])                    # (in place: one array of the items fewer at the peak)
+    return order, off
 
 
 def _flat_figures(res, full=True):

@@ -1114,13 +1114,15 @@ class FlatLaws:
         c = st.active[done]
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]
+        # the chains as blocks (each done chain's pieces are consecutive, chains ascending):
+        # close orders the blocks, not piece by piece (no per-piece chain array)
+        npc = np.diff(st.koff)[done] - 1          # pieces per chain: its knots - 1
         if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
-            self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
+            self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
             return
-        nk = np.diff(st.koff)
-        kd = pd if isinstance(pd, slice) else np.repeat(done, nk)
-        self._parts.append((st.active[st.owner[pd]], st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
-                            st.a0[pd], st.a1[pd], np.repeat(st.active, nk)[kd], st.ks[kd], st.kv[kd], st.kt[kd]))
+        kd = pd if isinstance(pd, slice) else np.repeat(done, np.diff(st.koff))
+        self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
+                            st.a0[pd], st.a1[pd], st.ks[kd], st.kv[kd], st.kt[kd]))
 
     def close(self, bound, pieces=True):
         """Every chain taken: pieces and knots in chain order, the figures (_flat_figures);
@@ -1128,12 +1130,12 @@ class FlatLaws:
         peak_v, min_v; ia and peak_a are None), then drop the pieces."""
         cat = [np.concatenate(x) for x in zip(*self._parts)]
         del self._parts
-        po = np.argsort(cat[0], kind="stable")
         m = self.fl.S.size
-        self.poff = np.concatenate([[0], np.cumsum(np.bincount(cat[0], None, m))]).astype(int)
+        chains, npc = cat[0], cat[1]
+        po, self.poff = _block_order(chains, npc, m)
         self.bound = bound
         if not (pieces and self.pieces):
-            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[1:6])
+            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[2:7])
             _flat_figures(self, full=False)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
@@ -1141,10 +1143,9 @@ class FlatLaws:
             for f in ("L", "T", "beta", "v0", "v1", "poff"):
                 delattr(self, f)
             return
-        ko = np.argsort(cat[8], kind="stable")
-        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[1:8])
+        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[2:9])
+        ko, self.koff = _block_order(chains, npc + 1, m)  # a chain's knots: its pieces + 1
         self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
-        self.koff = self.poff + np.arange(m + 1)          # a chain's knots: its pieces + 1
         _flat_figures(self)
 
     def law(self, c):
@@ -1168,6 +1169,23 @@ class FlatLaws:
         lw.iv, lw.ia = float(self.iv[c]), float(self.ia[c])
         lw.peak_v, lw.min_v, lw.peak_a = float(self.peak_v[c]), float(self.min_v[c]), float(self.peak_a[c])
         return lw
+
+
+def _block_order(chains, counts, m):
+    """(order, off): the items of blocks laid end to end -- chain chains[i]'s counts[i]
+    items, each of the m chains in one block at most -- put in chain order (x[order]),
+    and chain c's place in it (off[c]:off[c + 1]).  What a stable argsort of the items'
+    chain numbers gives, made per block (FlatLaws.close: a chain's pieces are taken at
+    one step, consecutive)."""
+    counts = np.asarray(counts, np.int64)
+    start = np.zeros(m, np.int64)                 # chain c's first item in the blocks' order
+    start[chains] = np.cumsum(counts) - counts
+    n_c = np.zeros(m, np.int64)
+    n_c[chains] = counts
+    off = np.concatenate([[0], np.cumsum(n_c)]).astype(int)
+    order = np.repeat(start - off[:-1], n_c)
+    order += np.arange(off[-1])                    # (in place: one array of the items fewer at the peak)
+    return order, off
 
 
 def _flat_figures(res, full=True):

@@ -1345,8 +1345,8 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
    1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
    E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
-   the line's last: the Python reading).  The
-   line is p[0..m) and p[m] its '\n' (num_word reads a number up to it, without a bound). */
+   the line's last: the Python reading).  The line is p[0..m) and p[m] its '\n' (num_word
+   reads a number up to it, without a bound). */
 static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
                       double *v)
 {

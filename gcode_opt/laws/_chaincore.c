@@ -1525,15 +1525,18 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
    scale as numpy's maximum from 0 over |a0| then |a1|, floored at 1e-9; mu = jump / scale,
    0 unless below -mu_tol; mu not None: the multipliers given, per binding vertex in order,
    as _Step.multipliers returns them), hist the binding masks (uint8, all vertices) of the steps so far
-   (this one's last).  Writes new (uint8), done, cyc (uint8 per chain) and, for the chains
-   not done, bound[vi] = new, vt[vi] = vert_t, warm[active[r]] = 1.  last: out of steps. */
+   (this one's last; bv None: this step's masks read there, hist[-1][vi], no gather by the caller).
+   Writes new (uint8), done, cyc (uint8 per chain) and, for the chains not done, bound[vi] = new,
+   vt[vi] = vert_t, warm[active[r]] = 1.  last: out of steps.  res_v, res_t (optional, all
+   vertices): for the chains done, res_v[vi] = vert_v, res_t[vi] = vert_t (FlatLaws.take's
+   vertices, written here: take then gathers no vertex). */
 static PyObject *active_step(PyObject *self, PyObject *a) {
-    PyObject *o[20], *omu;
+    PyObject *o[20], *omu, *orv = Py_None, *ort = Py_None;
     double cap_f, mu_tol;
     int last;
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOddiOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOddiOOOOOOOO|OO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
                           &omu, &o[8], &cap_f, &mu_tol, &last, &o[9], &o[10], &o[11], &o[12], &o[13], &o[14],
-                          &o[15], &o[16]))
+                          &o[15], &o[16], &orv, &ort))
         return NULL;
     if (!PyList_Check(o[8])) {
         PyErr_SetString(PyExc_TypeError, "active_step: hist must be a list");
@@ -1545,11 +1548,13 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
         return NULL;
     }
     Bufs b = {.n = 0};
-    Py_ssize_t n, nr1, nbv, nvv, NV, np0, np1, nk1, nnew, ndone, ncyc, nbound, nvt, nvert_t, nwarm, nact;
+    Py_ssize_t n, nr1, nbv = -1, nvv, NV, np0, np1, nk1, nnew, ndone, ncyc, nbound, nvt, nvert_t, nwarm, nact;
+    Py_ssize_t nrv = -1, nrt = -1;
+    const int bv_given = o[2] != Py_None, res_given = orv != Py_None || ort != Py_None;
     int64_t *vi = get(&b, o[0], 8, 0, &n);
     int64_t *roff = vi ? get(&b, o[1], 8, 0, &nr1) : NULL;
-    uint8_t *bv = roff ? get(&b, o[2], 1, 0, &nbv) : NULL;
-    double *vv = bv ? get(&b, o[3], 8, 0, &nvv) : NULL;
+    uint8_t *bv = (roff && bv_given) ? get(&b, o[2], 1, 0, &nbv) : NULL;
+    double *vv = (bv || (roff && !bv_given)) ? get(&b, o[3], 8, 0, &nvv) : NULL;
     double *cv = vv ? get(&b, o[4], 8, 0, &NV) : NULL;
     double *a0 = cv ? get(&b, o[5], 8, 0, &np0) : NULL;
     double *a1 = a0 ? get(&b, o[6], 8, 0, &np1) : NULL;
@@ -1563,28 +1568,29 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     uint8_t *warm = vert_t ? get(&b, o[15], 1, 1, &nwarm) : NULL;
     int64_t *act = warm ? get(&b, o[16], 8, 0, &nact) : NULL;
     Py_ssize_t nmu = -1;
-    double *mug = NULL;
+    double *mug = NULL, *res_v = NULL, *res_t = NULL;
     if (act && omu != Py_None) {
         mug = get(&b, omu, 8, 0, &nmu);
         if (!mug) act = NULL;
     }
+    if (act && res_given) {
+        res_v = get(&b, orv, 8, 1, &nrv);
+        res_t = res_v ? get(&b, ort, 8, 1, &nrt) : NULL;
+        if (!res_t) act = NULL;
+    }
     if (!act) { release(&b); return NULL; }
+    if (!bv_given) nbv = n;
     Py_ssize_t na = nr1 - 1;
     int ok = na >= 0 && nbv == n && nvv == n && nnew == n && nvert_t == n && np1 == np0 && nk1 == nr1
              && ndone == na && ncyc == na && nact == na && nbound == NV && nvt == NV && roff[0] == 0
-             && roff[na] == n && koff[0] == 0 && koff[na] - na == np0;
+             && roff[na] == n && koff[0] == 0 && koff[na] - na == np0 && (!res_given || (nrv == NV && nrt == NV));
     for (Py_ssize_t r = 0; ok && r < na; r++)
         ok = roff[r + 1] >= roff[r] && koff[r + 1] - koff[r] >= 1 && act[r] >= 0 && act[r] < nwarm;
-    for (Py_ssize_t q = 0; ok && q < n; q++) ok = vi[q] >= 0 && vi[q] < NV;
-    /* binding vertices per chain = pieces - 1 */
-    Py_ssize_t nbt = 0;
-    for (Py_ssize_t r = 0; ok && r < na; r++) {
-        Py_ssize_t nb = 0;
-        for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
-        ok = nb == koff[r + 1] - koff[r] - 2;
-        nbt += nb;
+    if (ok) {               /* (no early exit: a loop the compiler vectorizes) */
+        int64_t bad = 0;
+        for (Py_ssize_t q = 0; q < n; q++) bad |= (uint64_t)vi[q] >= (uint64_t)NV;
+        ok = !bad;
     }
-    ok = ok && (mug == NULL || nmu == nbt);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "active_step: shapes");
@@ -1602,9 +1608,36 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
         }
         hist[h] = hb[h].buf;
     }
+    uint8_t *bvbuf = NULL;
+    if (nh == H && !PyErr_Occurred() && !bv_given) {     /* this step's masks: hist[-1] at vi */
+        bvbuf = PyMem_Malloc(n ? n : 1);
+        if (!bvbuf) PyErr_NoMemory();
+        else {
+            const uint8_t *cur = hist[H - 1];
+            for (Py_ssize_t q = 0; q < n; q++) bvbuf[q] = cur[vi[q]] != 0;
+            bv = bvbuf;
+        }
+    }
     if (nh < H || PyErr_Occurred()) {
         for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+        PyMem_Free(bvbuf);
         release(&b);
+        return NULL;
+    }
+    /* binding vertices per chain = pieces - 1 */
+    Py_ssize_t nbt = 0;
+    for (Py_ssize_t r = 0; ok && r < na; r++) {
+        Py_ssize_t nb = 0;
+        for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
+        ok = nb == koff[r + 1] - koff[r] - 2;
+        nbt += nb;
+    }
+    ok = ok && (mug == NULL || nmu == nbt);
+    if (!ok) {
+        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+        PyMem_Free(bvbuf);
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "active_step: shapes");
         return NULL;
     }
     for (Py_ssize_t r = 0; r < na; r++) {
@@ -1672,11 +1705,69 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
                 vt[vi[q]] = vert_t[q];
             }
             warm[act[r]] = 1;
+        } else if (res_v) {
+            for (int64_t q = q0; q < q1; q++) {
+                res_v[vi[q]] = vv[q];
+                res_t[vi[q]] = vert_t[q];
+            }
         }
     }
     for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
+    PyMem_Free(bvbuf);
     release(&b);
     return PyLong_FromLong(0);
+}
+
+/* take_blocks(off, done, srcs, outs): FlatLaws.take's gathers of a step's chains done
+   (uint8, na) without a mask: block r of every array in srcs (float64, its items
+   off[r]:off[r + 1]) copied, the blocks of the chains done end to end in their order, to the
+   same place of outs (float64, each the size of those blocks together).  x[np.repeat(done,
+   np.diff(off)).astype(bool)] of each x: the same numbers. */
+static PyObject *take_blocks(PyObject *self, PyObject *a) {
+    PyObject *ooff, *odone, *osrc, *oout;
+    if (!PyArg_ParseTuple(a, "OOOO", &ooff, &odone, &osrc, &oout)) return NULL;
+    if (!PyTuple_Check(osrc) || !PyTuple_Check(oout) || PyTuple_GET_SIZE(osrc) != PyTuple_GET_SIZE(oout)
+        || PyTuple_GET_SIZE(osrc) > 12) {
+        PyErr_SetString(PyExc_TypeError, "take_blocks: srcs, outs: tuples of one size (12 at most)");
+        return NULL;
+    }
+    Py_ssize_t k = PyTuple_GET_SIZE(osrc), nr1, na, ns[12], no[12];
+    Bufs b = {.n = 0};
+    const int64_t *off = get(&b, ooff, 8, 0, &nr1);
+    const uint8_t *done = off ? get(&b, odone, 1, 0, &na) : NULL;
+    const double *src[12];
+    double *out[12];
+    int got = done != NULL;
+    for (Py_ssize_t j = 0; got && j < k; j++) {
+        src[j] = get(&b, PyTuple_GET_ITEM(osrc, j), 8, 0, &ns[j]);
+        out[j] = src[j] ? get(&b, PyTuple_GET_ITEM(oout, j), 8, 1, &no[j]) : NULL;
+        got = out[j] != NULL;
+    }
+    if (!got) { release(&b); return NULL; }
+    int ok = nr1 == na + 1 && off[0] == 0;
+    Py_ssize_t total = 0;
+    for (Py_ssize_t r = 0; ok && r < na; r++) {
+        ok = off[r + 1] >= off[r];
+        if (done[r]) total += off[r + 1] - off[r];
+    }
+    for (Py_ssize_t j = 0; ok && j < k; j++) ok = ns[j] == off[na] && no[j] == total;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "take_blocks: shapes");
+        return NULL;
+    }
+    Py_ssize_t w = 0;
+    for (Py_ssize_t r = 0; r < na;) {
+        if (!done[r]) { r++; continue; }
+        Py_ssize_t r1 = r;                  /* a run of chains done: one copy */
+        while (r1 < na && done[r1]) r1++;
+        Py_ssize_t len = off[r1] - off[r];
+        for (Py_ssize_t j = 0; j < k; j++) memcpy(out[j] + w, src[j] + off[r], (size_t)len * sizeof(double));
+        w += len;
+        r = r1;
+    }
+    release(&b);
+    Py_RETURN_NONE;
 }
 
 /* The figures of _flat_figures(full=False) (laws/chain._figure_law, end_speeds, _critical_t,
@@ -2345,6 +2436,7 @@ static PyMethodDef methods[] = {
     {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},
     {"tod_prep", tod_prep, METH_VARARGS, "_tod_core's inputs of the taken laws, one pass"},
     {"active_step", active_step, METH_VARARGS, "solve_flat's active-set bookkeeping of one step"},
+    {"take_blocks", take_blocks, METH_VARARGS, "the blocks of the chains done of a step's arrays, end to end"},
     {"fig_a", fig_a, METH_VARARGS, "_figure_law's numbers but shc(gamma/2)"},
     {"fig_b", fig_b, METH_VARARGS, "the flat figures: integral of v^2, end speeds, critical-point ratio"},
     {"fig_c", fig_c, METH_VARARGS, "the flat figures: critical t, tau and the shc arguments"},

@@ -710,11 +710,19 @@ def _active_step_core(st, fl, hist, bound, vt, warm, res, last):
     # the multipliers: made in C from a0, a1 (_Step.multipliers' numbers), or the method's
     # own where it is not that one (a test forcing them)
     mu = None if _Step.multipliers is _MULTIPLIERS else c(np.asarray(st.multipliers(), float))
-    CORE_MOD.active_step(st.vi, st.voff, c(bound[st.vi]).view(np.uint8), c(st.vert_v), fl.cv, c(st.a0), c(st.a1),
+    # the done chains' vertex speeds and times written to res by active_step, unless take is
+    # not FlatLaws' own (a test's stand-in: it takes them)
+    own_take = type(res).take is _FLAT_TAKE and res.vert_v.flags.c_contiguous and res.vert_t.flags.c_contiguous
+    rv, rt = (res.vert_v, res.vert_t) if own_take else (None, None)
+    # bv None: the step's binding masks read in hist[-1] (bound as it was at the step: no gather here)
+    CORE_MOD.active_step(st.vi, st.voff, None, c(st.vert_v), fl.cv, c(st.a0), c(st.a1),
                          st.koff, mu, hist, 1 + CAP_TOL_R, MU_TOL_R, int(last), new.view(np.uint8),
                          done.view(np.uint8), cyc.view(np.uint8), bound.view(np.uint8), vt, c(st.vert_t),
-                         warm.view(np.uint8), c(st.active))
-    res.take(st, done, cyc)
+                         warm.view(np.uint8), c(st.active), rv, rt)
+    if own_take:
+        res.take(st, done, cyc, verts=False)
+    else:
+        res.take(st, done, cyc)
     st.done = done
     return True
 
@@ -1099,30 +1107,36 @@ class FlatLaws:
         self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
         self._parts = []
 
-    def take(self, st, done, cyc):
+    def take(self, st, done, cyc, verts=True):
         """Keep the laws of the step st's chains `done` (cyc: ended by cycling or out of
-        steps: not converged)."""
+        steps: not converged).  verts False: their vertex speeds and times are already in
+        vert_v, vert_t (active_step wrote them)."""
         if not done.any():
             return
-        if done.all():              # (a batch's last step: every array whole, not masked)
-            done = dv = pd = slice(None)
-        else:
-            dv, pd = done[st.rank], done[st.owner]
-        vd = st.vi[dv]              # (one mask gather for both)
-        self.vert_v[vd] = st.vert_v[dv]
-        self.vert_t[vd] = st.vert_t[dv]
+        whole = done.all()
+        if whole:                   # (a batch's last step: every array whole, not masked)
+            done = slice(None)
+        if verts:
+            dv = done if whole else done[st.rank]
+            vd = st.vi[dv]          # (one mask gather for both)
+            self.vert_v[vd] = st.vert_v[dv]
+            self.vert_t[vd] = st.vert_t[dv]
         c = st.active[done]
         self.conv[c] = st.conv[done] & ~cyc[done]
         self.lam[c] = st.lam[done]
         # the chains as blocks (each done chain's pieces are consecutive, chains ascending):
         # close orders the blocks, not piece by piece (no per-piece chain array)
-        npc = np.diff(st.koff)[done] - 1          # pieces per chain: its knots - 1
-        if not self.pieces:     # what close reads for the figures of the candidate table (no a0, a1, knots)
-            self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd]))
+        nk = np.diff(st.koff)                     # knots per chain
+        npc = nk[done] - 1                        # pieces per chain: its knots - 1
+        # what close reads for the figures of the candidate table; with pieces a0, a1 and the knots too
+        pcs = (st.L, st.Tj, st.beta, st.va, st.vb) + ((st.a0, st.a1) if self.pieces else ())
+        if whole:
+            self._parts.append((c, npc) + pcs + ((st.ks, st.kv, st.kt) if self.pieces else ()))
             return
-        kd = pd if isinstance(pd, slice) else np.repeat(done, np.diff(st.koff))
-        self._parts.append((c, npc, st.L[pd], st.Tj[pd], st.beta[pd], st.va[pd], st.vb[pd],
-                            st.a0[pd], st.a1[pd], st.ks[kd], st.kv[kd], st.kt[kd]))
+        part = (c, npc) + _blocks(pcs, st.koff - np.arange(nk.size + 1), done, int(npc.sum()))
+        if self.pieces:
+            part += _blocks((st.ks, st.kv, st.kt), st.koff, done, int(nk[done].sum()))
+        self._parts.append(part)
 
     def close(self, bound, pieces=True):
         """Every chain taken: pieces and knots in chain order, the figures (_flat_figures);
@@ -1169,6 +1183,22 @@ class FlatLaws:
         lw.iv, lw.ia = float(self.iv[c]), float(self.ia[c])
         lw.peak_v, lw.min_v, lw.peak_a = float(self.peak_v[c]), float(self.min_v[c]), float(self.peak_a[c])
         return lw
+
+
+_FLAT_TAKE = FlatLaws.take
+
+
+def _blocks(arrays, off, done, size):
+    """Of each of arrays, the blocks (block r: items off[r]:off[r + 1]) of the chains done
+    (bool mask), end to end: x[np.repeat(done, np.diff(off))].  size: their items in all.
+    By the chain core's copies of whole runs (take_blocks) where the arrays are float64."""
+    if CORE_MOD is not None and all(a.dtype == np.float64 and a.ndim == 1 for a in arrays):
+        outs = tuple(np.empty(size) for _ in arrays)
+        CORE_MOD.take_blocks(np.ascontiguousarray(off, np.int64), np.ascontiguousarray(done).view(np.uint8),
+                             tuple(np.ascontiguousarray(a) for a in arrays), outs)
+        return outs
+    keep = np.repeat(done, np.diff(off))
+    return tuple(a[keep] for a in arrays)
 
 
 def _block_order(chains, counts, m):

@@ -78,6 +78,26 @@ static inline double nan_to_num(double x) {
 #define VEC_CLONES
 #endif
 
+/* The input checks' loops without an early exit (so the clones vectorize them; a bad input
+   is rare, its check's cost no matter): every x[i] in [0, hi) / finite / finite and > 0. */
+VEC_CLONES static int all_in_range(Py_ssize_t n, const int64_t *restrict x, int64_t hi) {
+    int bad = 0;
+    for (Py_ssize_t i = 0; i < n; i++) bad |= (uint64_t)x[i] >= (uint64_t)hi;
+    return !bad;
+}
+
+VEC_CLONES static int all_finite(Py_ssize_t n, const double *restrict x) {
+    int bad = 0;
+    for (Py_ssize_t i = 0; i < n; i++) bad |= !(fabs(x[i]) <= DBL_MAX);       /* isfinite: nan, ±inf not */
+    return !bad;
+}
+
+VEC_CLONES static int all_finite_pos(Py_ssize_t n, const double *restrict x) {
+    int bad = 0;
+    for (Py_ssize_t i = 0; i < n; i++) bad |= !(x[i] > 0.0) | !(x[i] <= DBL_MAX);
+    return !bad;
+}
+
 /* prims.cube and prims.sinh (its Horner on the fixed coefficients c[0..nc-1], from the
    last): the same operations in the same order */
 static inline double p_cube(double x) { return (x * x) * x; }
@@ -684,7 +704,7 @@ static PyObject *tod_at(PyObject *self, PyObject *a) {
     for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
     for (int q = 9; q < 13; q++) ok = ok && nn[q] == N;
     const int64_t *pj = p[8];
-    for (Py_ssize_t i = 0; ok && i < N; i++) ok = pj[i] >= 0 && pj[i] < P;
+    ok = ok && all_in_range(N, pj, P);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "tod_at: shapes");
@@ -759,10 +779,9 @@ static PyObject *fixed_knots(PyObject *self, PyObject *a) {
              && nkj == n && bvoff[0] == 0 && bvoff[na] == n;
     for (Py_ssize_t r = 0; ok && r < na; r++) ok = bvoff[r + 1] >= bvoff[r];
     Py_ssize_t nbind = 0;
-    for (Py_ssize_t u = 0; ok && u < n; u++) {
-        ok = vi[u] >= 0 && vi[u] < nsv;
-        nbind += bv[u] != 0;
-    }
+    ok = ok && all_in_range(n, vi, nsv);
+    if (ok)
+        for (Py_ssize_t u = 0; u < n; u++) nbind += bv[u] != 0;
     if (!(ok && K == 2 * na + nbind && P == K - na)) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "fixed_knots: shapes");
@@ -1111,8 +1130,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             return NULL;
         }
     int ok = 1;
-    for (Py_ssize_t i = 0; i < Nvk && ok; i++) ok = isfinite(vk[i]);
-    for (Py_ssize_t i = 0; i < Ntk && ok; i++) ok = isfinite(tk[i]);
+    ok = all_finite(Nvk, vk) && all_finite(Ntk, tk);
     for (Py_ssize_t c = 0; c < m && ok; c++) {
         const double *p = P + c * CP_N;
         for (int j = 0; j < CP_N && ok; j++)
@@ -1206,11 +1224,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         if (junction == 0) {
             double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
             ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
-            for (Py_ssize_t k = 0; k < n && ok; k++) ok = isfinite(fr[k]) && fr[k] > 0;
+            ok = ok && all_finite_pos(n, fr);
             if (!ok) break;
             double pmax = fr[0];
             for (Py_ssize_t j = 1; j < n; j++) pmax = fr[j] > pmax ? fr[j] : pmax;
-            for (Py_ssize_t k = 0; k < n; k++) fsh[k] = fr[k];
+            memcpy(fsh, fr, (size_t)n * sizeof(double));
             for (Py_ssize_t k = 0; k < n; k++) {
                 double mm = side - st * (double)(k + 1);
                 double e = side - st * (double)(n - k);
@@ -1492,7 +1510,7 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
     for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
     for (int q = 9; q < 25; q++) ok = ok && nn[q] == N;
     const int64_t *pj = p[8];
-    for (Py_ssize_t i = 0; ok && i < N; i++) ok = pj[i] >= 0 && pj[i] < P;
+    ok = ok && all_in_range(N, pj, P);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "tod_prep: shapes");
@@ -1586,11 +1604,7 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
              && roff[na] == n && koff[0] == 0 && koff[na] - na == np0 && (!res_given || (nrv == NV && nrt == NV));
     for (Py_ssize_t r = 0; ok && r < na; r++)
         ok = roff[r + 1] >= roff[r] && koff[r + 1] - koff[r] >= 1 && act[r] >= 0 && act[r] < nwarm;
-    if (ok) {               /* (no early exit: a loop the compiler vectorizes) */
-        int64_t bad = 0;
-        for (Py_ssize_t q = 0; q < n; q++) bad |= (uint64_t)vi[q] >= (uint64_t)NV;
-        ok = !bad;
-    }
+    ok = ok && all_in_range(n, vi, NV);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "active_step: shapes");
@@ -2035,6 +2049,17 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
    the other, which is what np.convolve(x, np.ones(nb), "valid") gives where its dot adds
    them so (numpy's own loop; OpenBLAS's ddot below its vector kernel's block).  chains.
    _window_sums probes that it does, for each nb, before taking these (else np.convolve). */
+#define WIN_BLOCK 512       /* windows at a time: their sums stay in L1 while their terms are added */
+VEC_CLONES static void win_sums(Py_ssize_t no, Py_ssize_t nb, const double *restrict x, double *restrict out) {
+    /* the windows side by side (SIMD lanes), each one's terms added in its order */
+    for (Py_ssize_t i0 = 0; i0 < no; i0 += WIN_BLOCK) {
+        Py_ssize_t i1 = no - i0 < WIN_BLOCK ? no : i0 + WIN_BLOCK;
+        for (Py_ssize_t i = i0; i < i1; i++) out[i] = 0.0;
+        for (Py_ssize_t j = 0; j < nb; j++)
+            for (Py_ssize_t i = i0; i < i1; i++) out[i] = out[i] + x[i + j] * 1.0;
+    }
+}
+
 static PyObject *window_sums(PyObject *self, PyObject *a) {
     PyObject *ox, *oo;
     Py_ssize_t nb;
@@ -2044,16 +2069,12 @@ static PyObject *window_sums(PyObject *self, PyObject *a) {
     const double *x = get(&b, ox, 8, 0, &n);
     double *out = x ? get(&b, oo, 8, 1, &no) : NULL;
     if (!out) { release(&b); return NULL; }
-    if (nb < 1 || n < nb || no != n - nb + 1) {
+    if (nb < 1 || n < nb || no != n - nb + 1 || (out < x + n && x < out + no)) {     /* (out apart from x) */
         release(&b);
         PyErr_SetString(PyExc_ValueError, "window_sums: shapes");
         return NULL;
     }
-    for (Py_ssize_t i = 0; i < no; i++) {
-        double acc = 0.0;
-        for (Py_ssize_t j = 0; j < nb; j++) acc = acc + x[i + j] * 1.0;
-        out[i] = acc;
-    }
+    win_sums(no, nb, x, out);
     release(&b);
     Py_RETURN_NONE;
 }
@@ -2392,8 +2413,7 @@ static PyObject *vert_prep(PyObject *self, PyObject *a) {
     if (!x) { release(&b); return NULL; }
     int ok = nbv == n && nkj == n && nrk == n && nv == n && nt == n && nfr == n && npj == n && nx == n
              && ncv == nsv && nks == nkt;
-    for (Py_ssize_t q = 0; ok && q < n; q++)
-        ok = vi[q] >= 0 && vi[q] < ncv && kj[q] >= 0 && kj[q] < nks;
+    ok = ok && all_in_range(n, vi, ncv) && all_in_range(n, kj, nks);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "vert_prep: shapes");

@@ -123,3 +123,20 @@ def test_int_r2_core_verdict(monkeypatch, n, how):
             break
     assert want is (n is None)
     assert (got is not None) is want
+
+
+def _probe_fresh(span):
+    """resonance._probe's times as it made them before it kept the last span's."""
+    t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
+                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
+    return np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
+
+
+def test_probe_times_kept_for_the_last_span_are_the_fresh_ones(monkeypatch):
+    monkeypatch.setattr(R, "_PROBE", [None, None])
+    spans = [1e4, 1e4, 31.41592653589793, 1e4, 1e4, np.nextafter(1e4, 0.0), 1e4, 2.5, 2.5, 31.41592653589793]
+    for span in spans:
+        got = R._probe(span)
+        assert got.tobytes() == _probe_fresh(span).tobytes()
+        assert not got.flags.writeable          # (kept: no caller may write it)
+    assert R._probe(1e4) is R._probe(1e4)

@@ -41,23 +41,47 @@ class ProbeRng:
         (never 0: normal's logarithm; the probes need spread, not 53-bit resolution)."""
         shape = () if size is None else size
         n = int(np.prod(shape))
-        u = self._bits((n + 1) // 2).view(np.uint32)[:n].astype(np.float64)
-        u += 0.5
-        u *= 1.0 / 4294967296.0
-        return u.reshape(shape)
+        return _unit(self._bits((n + 1) // 2).view(np.uint32)[:n]).reshape(shape)
+
+    def randoms(self, sizes, k: int):
+        """The draws of a loop that, for each n of sizes in turn, takes k random(n): k
+        arrays, the j-th the j-th draws of all sizes one after the other -- the same numbers
+        (and the same state after), from one _bits call and a few whole-array steps instead
+        of k numpy calls a size (a probe over many small sizes: ~0.1 M instructions a
+        call).  With normal_of, uniform_of, exponential_of: the loop's other draws."""
+        n = np.asarray(sizes, np.intp)
+        w = (n + 1) // 2                              # each draw's 64-bit words
+        bits = self._bits(int(k * w.sum())).view(np.uint32)
+        # size i's j-th draw: 32-bit words from 2 (base_i + j w_i), base_i its first word
+        base = np.concatenate([[0], np.cumsum(k * w)[:-1]])
+        out0 = np.concatenate([[0], np.cumsum(n)[:-1]])     # where size i starts in the result
+        ramp = np.arange(int(n.sum()))
+        return [_unit(bits[np.repeat(2 * (base + j * w) - out0, n) + ramp]) for j in range(k)]
 
     def uniform(self, low=0.0, high=1.0, size=None):
-        return low + (high - low) * self.random(size)
+        return self.uniform_of(self.random(size), low, high)
 
     def normal(self, loc=0.0, scale=1.0, size=None):
         """A logistic draw scaled to unit variance (log(u / (1 - u)) sqrt(3) / pi): bell-shaped
         like numpy's normal, with heavier tails, at one logarithm a number (the probes need
         numbers spread over many magnitudes, not a normal law)."""
-        u = self.random(size)
-        return loc + scale * 0.5513288954217921 * np.log(u / (1.0 - u))
+        return self.normal_of(self.random(size), loc, scale)
 
     def exponential(self, scale=1.0, size=None):
-        return -scale * np.log1p(-self.random(size))
+        return self.exponential_of(self.random(size), scale)
+
+    # the draws of uniform, normal and exponential from random's u (randoms' arrays)
+    @staticmethod
+    def uniform_of(u, low=0.0, high=1.0):
+        return low + (high - low) * u
+
+    @staticmethod
+    def normal_of(u, loc=0.0, scale=1.0):
+        return loc + scale * 0.5513288954217921 * np.log(u / (1.0 - u))
+
+    @staticmethod
+    def exponential_of(u, scale=1.0):
+        return -scale * np.log1p(-u)
 
     def lognormal(self, mean=0.0, sigma=1.0, size=None):
         return np.exp(self.normal(mean, sigma, size))
@@ -65,3 +89,11 @@ class ProbeRng:
     def choice(self, a, size):
         a = np.asarray(a)
         return a[(self.random(size) * a.size).astype(np.intp)]
+
+
+def _unit(u32):
+    """random's numbers of 32-bit words: (u + 0.5) / 2^32."""
+    u = u32.astype(np.float64)
+    u += 0.5
+    u *= 1.0 / 4294967296.0
+    return u

@@ -61,10 +61,22 @@ def _core():
     return core if USE_KERNEL and core is not None and hasattr(core, "ring_exps") else None
 
 
+_PROBE = [None, None]     # the last span (its bits) _probe made times for, and its times (read only)
+
+
 def _probe(span):
+    """The times the exponential kernels are probed on, up to span.  The last span's are
+    kept (read only: the probes only read them): three of an oscillator's four probes take
+    1e4, one after the other (~0.25 ms a set; one set kept: 48 kB)."""
+    key = float(span).hex()
+    if _PROBE[0] == key:
+        return _PROBE[1]
     t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
                         np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
-    return np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
+    t = np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
+    t.flags.writeable = False
+    _PROBE[:] = [key, t]
+    return t
 
 
 def _kernel_for(key, span):
@@ -173,6 +185,30 @@ def _int_r2_args(s, lam):
     return q.real, q.imag, 4.0 * s, rat, 1.0 / (qi + qr * rat), False
 
 
+# the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops' tails) three
+# times over; the large ones (its recursion) once: their 29 k pieces give the per-piece
+# numbers variety enough (three times was 60 k pieces more, ~15 ms of every run's first
+# ringing pass)
+INT_R2_SIZES = (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003, 20011)
+
+
+def _int_r2_probe(s):
+    """(c, dur, sizes): _int_r2_core's probe, the pieces of all sizes one after the other --
+    the numbers of drawing, for each size n in turn, c = normal(n) exp(4 normal(n)) + 1j
+    normal(n) exp(4 normal(n)), zeros where uniform(n) < 0.05 (c) and its imaginary part's,
+    dur = exponential(0.5 / s, n) (zero where not uniform(n) < 0.95): the draws by
+    ProbeRng.randoms, the steps on all pieces at once (~45 M instructions less than size
+    by size; tests/test_speed37_ringflush_probe.py: the same bits)."""
+    rng = ProbeRng(13)
+    u = rng.randoms(INT_R2_SIZES, 8)
+    normal, uniform = rng.normal_of, rng.uniform_of
+    c = normal(u[0]) * np.exp(normal(u[1]) * 4.0) + 1j * normal(u[2]) * np.exp(normal(u[3]) * 4.0)
+    c[uniform(u[4]) < 0.05] = 0.0
+    c.imag[uniform(u[5]) < 0.05] = 0.0
+    dur = rng.exponential_of(u[6], 0.5 / s) * (uniform(u[7]) < 0.95)
+    return c, dur, INT_R2_SIZES
+
+
 def _int_r2_core(s, wd):
     """The core if its ring_int_r2 gives float(integral_r2_fin(c, dur).sum())'s numpy bits
     for this oscillator on a probe (checked once per oscillator), else None."""
@@ -187,26 +223,24 @@ def _int_r2_core(s, wd):
     if ok is None:
         osc = Oscillator.__new__(Oscillator)
         osc.s, osc.wd, osc.lam = s, wd, lam
-        rng = ProbeRng(13)
+        c, dur, sizes = _int_r2_probe(s)
+        # every step but the sums is piece by piece: made for all sizes at once (the same
+        # numbers as size by size), the sums and the core's calls size by size
+        want = osc.integral_r2_fin(c, dur)
+        decay2 = np.exp(-2.0 * s * dur)
+        work = np.empty(len(dur))             # the core leaves each piece's integral there
+        args = _int_r2_args(s, lam)
         ok = True
-        # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops'
-        # tails) three times over; the large ones (its recursion) once: their 29 k pieces
-        # give the per-piece numbers variety enough (three times was 60 k pieces more,
-        # ~15 ms of every run's first ringing pass)
-        for n in (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003, 20011):
-            c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
-                + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
-            c[rng.uniform(size=n) < 0.05] = 0.0
-            c.imag[rng.uniform(size=n) < 0.05] = 0.0
-            dur = rng.exponential(0.5 / s, n) * (rng.uniform(size=n) < 0.95)
-            want = osc.integral_r2_fin(c, dur)
-            decay2 = np.exp(-2.0 * s * dur)
-            work = np.empty(n)                # the core leaves each piece's integral there
-            got = core.ring_int_r2(c, dur, decay2, *_int_r2_args(s, lam), work)
-            if got is None or work.tobytes() != want.tobytes() \
-                    or np.float64(got).tobytes() != np.float64(float(want.sum())).tobytes():
+        a = 0
+        for n in sizes:
+            b = a + n
+            got = core.ring_int_r2(c[a:b], dur[a:b], decay2[a:b], *args, work[a:b])
+            # (the sum of a fresh array, as want.sum() of the size's own array was)
+            if got is None or work[a:b].tobytes() != want[a:b].tobytes() \
+                    or np.float64(got).tobytes() != np.float64(float(want[a:b].copy().sum())).tobytes():
                 ok = False
                 break
+            a = b
         _INT_R2_OK[(s, wd)] = ok
     return core if ok else None
 

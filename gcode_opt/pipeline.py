@@ -58,7 +58,7 @@ from .laws import circle as circle_law
 from .outranges import Digests, OutRanges, columns as range_columns
 from .firmware.simulate import LineRanges, ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
-from .schedule import plan_inputs, plan_strokes
+from .schedule import plan_inputs, plan_strokes, set_aside_for_rewrite
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
@@ -1285,6 +1285,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 else:
                     with _young_frozen(freeze):
                         plan = plan_strokes(strokes, pin, profile, opts, budget_t)
+                    set_aside_for_rewrite(pin, os.path.dirname(tmp) or None, last=pass_i == 1)
                 trim_heap()           # planning's freed temporaries: rewrite and measure grow on live memory only
                 timing.lap("plan")
                 if prog:

@@ -144,6 +144,37 @@ class Candidates:
     def shape(self):
         return self.cnt.size, self.k
 
+    # the arrays spill() writes out: every one of its own (T_orig is planning's input, held anyway)
+    SPILLED = ("col", "vals", "first", "cnt", "t_pos")
+
+    def spill(self, folder=None):
+        """These tables written to an unnamed temporary file in folder (SpilledCandidates),
+        their memory let go until load() reads them back, the same bits and layout; None
+        (and nothing written) where the file cannot be made or written."""
+        import tempfile
+        try:            # (unbuffered: the arrays' bytes go to the file without a copy)
+            fh = tempfile.TemporaryFile(dir=folder, buffering=0)
+        except OSError:
+            return None
+        try:
+            layout = []
+            for name in self.SPILLED:
+                a = getattr(self, name)
+                # (a Fortran-ordered array as its transpose's C bytes: the layout a reduction's
+                # order, and so its bits, may depend on comes back as it was)
+                order = "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else None
+                if order is None:
+                    fh.close()
+                    return None
+                buf, done = (a if order == "C" else a.T).data.cast("B") if a.nbytes else b"", 0
+                while done < len(buf):
+                    done += fh.write(buf[done:])
+                layout.append((name, a.dtype, a.shape, order))
+        except OSError:
+            fh.close()
+            return None
+        return SpilledCandidates(fh, layout, self.k, self.T_orig)
+
     @property
     def mask(self):
         """(n, k) bool: which candidates are feasible (made from col)."""
@@ -331,6 +362,35 @@ class Candidates:
 
 
 ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
+
+
+class SpilledCandidates:
+    """A Candidates' tables in an unnamed temporary file (Candidates.spill): the first pass
+    holds them only in case the time budget re-plans (a second rewrite pass: 9 of the 54
+    reference cases, neither plate), and its measure was the rectilinear plate's peak with
+    them held.  load() gives them back once, bit for bit; the file goes with it."""
+    __slots__ = ("fh", "layout", "k", "T_orig")
+
+    def __init__(self, fh, layout, k, T_orig):
+        self.fh, self.layout, self.k, self.T_orig = fh, layout, k, T_orig
+
+    def load(self):
+        out = Candidates.__new__(Candidates)
+        out.k, out.T_orig = self.k, self.T_orig
+        fh = self.fh
+        fh.seek(0)
+        for name, dtype, shape, order in self.layout:
+            a = np.empty(shape if order == "C" else shape[::-1], dtype)
+            buf, got = a.data.cast("B") if a.nbytes else None, 0
+            while got < a.nbytes:
+                k = fh.readinto(buf[got:])
+                if not k:
+                    raise OSError("the spilled candidate tables were cut short")
+                got += k
+            setattr(out, name, a if order == "C" else a.T)
+        fh.close()
+        self.fh = None
+        return out
 
 
 def _entry_columns(mask, first, cnt, m):

@@ -15,7 +15,8 @@ from gcode_opt.laws.circle import solve_circles
 
 def _same(a, b):
     a, b = np.asarray(a), np.asarray(b)
-    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+    return (a.shape == b.shape and a.dtype == b.dtype
+            and np.array_equal(np.ascontiguousarray(a).view(np.uint8), np.ascontiguousarray(b).view(np.uint8)))
 
 
 @pytest.mark.parametrize("nb", [1, 5, 31, 32, 33, 64, 70, 129])
@@ -34,6 +35,9 @@ def test_rows_matmul_same_bits_as_padded(nb, k, m):
         out = np.full((nb, m), np.nan)
         assert circle._rows_matmul(a, bb, out=out) is out
         assert _same(out, ref)
+        wide = np.full((nb, 2 * m), np.nan)                      # an out not C-contiguous
+        assert circle._rows_matmul(a, bb, out=wide[:, ::2]) is not None
+        assert _same(wide[:, ::2], ref) and np.isnan(wide[:, 1::2]).all()
         # rows of a bigger array (a slice of rows: C-contiguous) and a column slice (not)
         big = np.concatenate([a, a], axis=1)
         assert _same(circle._rows_matmul(big[:, :k], bb), circle._rows_matmul_padded(big[:, :k], bb))

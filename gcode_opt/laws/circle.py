@@ -162,6 +162,8 @@ def _rows_matmul(a, b, out=None):
     full = nb - nb % g
     if not a.flags.c_contiguous:
         return _into(out, _rows_matmul_padded(a, b))
+    if out is not None and not out.flags.c_contiguous:     # (the same BLAS calls into a new array)
+        return _into(out, _rows_matmul(a, b))
     if out is None:
         out = np.empty((nb, b.shape[1]))
     if full:

@@ -39,7 +39,7 @@ from operator import attrgetter, is_, is_not, itemgetter
 import numpy as np
 
 from .probe_rng import ProbeRng
-from .distinct import distinct
+from .distinct import distinct, unique_first_inverse
 from . import curves
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
@@ -563,9 +563,9 @@ def _laws_of(Qs, items, profile, gs=None):
     bases = list(map(_BASE, kept))
     qq_all = np.fromiter(map(_LO, kept), np.int64, m) + np.fromiter(map(_IT2, its), np.int64, m)
     del its
-    _, first, inv = np.unique(np.fromiter(map(id, bases), np.uint64, m), return_index=True, return_inverse=True)
-    by_pos = np.argsort(inv.ravel(), kind="stable")
-    ends = np.cumsum(np.bincount(inv.ravel(), None, first.size)).tolist()
+    first, inv = unique_first_inverse(np.fromiter(map(id, bases), np.uint64, m))
+    by_pos = np.argsort(inv, kind="stable")
+    ends = np.cumsum(np.bincount(inv, None, first.size)).tolist()
     groups = [(bases[int(f)], by_pos[a:z]) for f, a, z in zip(first.tolist(), [0] + ends[:-1], ends)]
     del bases
     nv = np.empty(m, np.int64)                  # vertices a row
@@ -884,9 +884,9 @@ def ask_all(memos, t_in, b_in, key, T):
     ks_free = np.flatnonzero(free)
     by_pos, ends = [], []
     if ks_free.size:
-        _, first, inv = np.unique(ids[ks_free], return_index=True, return_inverse=True)
-        by_pos = ks_free[np.argsort(inv.ravel(), kind="stable")]        # grouped, in order within a group
-        ends = np.cumsum(np.bincount(inv.ravel(), None, first.size)).tolist()
+        first, inv = unique_first_inverse(ids[ks_free])
+        by_pos = ks_free[np.argsort(inv, kind="stable")]        # grouped, in order within a group
+        ends = np.cumsum(np.bincount(inv, None, first.size)).tolist()
     asked = np.ones(m, bool)             # answered by ask
     a = 0
     for z in ends:
@@ -1753,7 +1753,7 @@ def _same_rows(K):
     if R < 2:
         return None
     w = np.arange(1, c + 1, dtype=np.int64) * np.int64(-7046029254386353131) | np.int64(1)
-    _, first, inv = np.unique(K @ w, return_index=True, return_inverse=True)
+    first, inv = unique_first_inverse(K @ w)
     if first.size == R:
         return None
     rep = first[inv]

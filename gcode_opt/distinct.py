@@ -41,16 +41,10 @@ def column_classes(cols):
 def column_classes_first(cols):
     """(column_classes(cols), each class's first row): classes 0 .. k - 1, every one
     used."""
-    m, w = cols[0].shape[0], len(cols)
-    mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-    h = np.zeros(m, np.uint64)
-    for j, c in enumerate(cols):
-        x = c.view(np.uint64) * mult[j]
-        h ^= x ^ (x >> np.uint64(29))
-        h *= np.uint64(0xBF58476D1CE4E5B9)
-    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+    m = cols[0].shape[0]
+    h = _row_hashes(cols)
+    first, inv = unique_first_inverse(h)
     del h
-    inv = inv.ravel()
     out = inv.astype(np.int64)
     rep = first[inv]                        # each row's first of its hash
     odd = np.zeros(m, bool)
@@ -59,6 +53,50 @@ def column_classes_first(cols):
     odd = np.flatnonzero(odd)
     out[odd] = first.size + np.arange(odd.size)
     return out, np.concatenate([first, odd])
+
+
+def _row_hashes(cols):
+    """column_classes' hash of each row of the int64 columns cols (uint64)."""
+    m, w = cols[0].shape[0], len(cols)
+    mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
+    h = np.zeros(m, np.uint64)
+    for j, c in enumerate(cols):
+        x = c.view(np.uint64) * mult[j]
+        h ^= x ^ (x >> np.uint64(29))
+        h *= np.uint64(0xBF58476D1CE4E5B9)
+    return h
+
+
+_LOW32 = np.uint64(0xFFFFFFFF)
+_SIGN64 = np.uint64(1 << 63)
+
+
+def unique_first_inverse(h):
+    """(first, inv) of np.unique(h, return_index=True, return_inverse=True), inv flat, the
+    same arrays for a 1-D int64 or uint64 h.  np.unique finds them by a stable argsort
+    (timsort, ~14 M instructions for 48 k keys); here by one sort of the keys' top 32 bits
+    with each one's index in the bottom 32 (~2x fewer): where the keys come out in order
+    that is the stable argsort's order (equal keys share their top bits, so go by index),
+    and where two keys of one top half come out of order, np.unique itself."""
+    m = h.size
+    if h.ndim != 1 or h.dtype not in (np.uint64, np.int64) or not 2 <= m < 2 ** 32:
+        _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        return first, inv.ravel()
+    u = h.view(np.uint64) if h.dtype == np.uint64 else h.view(np.uint64) ^ _SIGN64    # (int64's order)
+    key = (u & ~_LOW32) | np.arange(m, dtype=np.uint64)
+    key.sort()
+    perm = (key & _LOW32).astype(np.intp)
+    del key
+    srt = u[perm]
+    new = np.empty(m, bool)                 # where a run of equal keys starts
+    new[0] = True
+    np.greater(srt[1:], srt[:-1], out=new[1:])
+    if not np.greater_equal(srt[1:], srt[:-1]).all():
+        _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        return first, inv.ravel()
+    inv = np.empty(m, np.intp)
+    inv[perm] = np.cumsum(new) - 1
+    return perm[new], inv
 
 
 def classes_in_row_order(cols):

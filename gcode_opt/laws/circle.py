@@ -148,12 +148,36 @@ def _gemm_rows_invariant():
     return _GEMM_OK[0]
 
 
-def _rows_matmul(a, b):
+def _rows_matmul(a, b, out=None):
     """a (B, K) @ b (K, M) by BLAS calls of _GEMM_ROWS rows each (zero rows pad the last),
     so each row's bits do not depend on the other rows: a law solved in a batch is the
-    one solved alone, bit for bit.  Plain a @ b where this BLAS does not allow it."""
+    one solved alone, bit for bit.  Plain a @ b where this BLAS does not allow it.
+    out: a C-contiguous (B, M) float64 array to hold the product (returned), or None.
+    The whole blocks are multiplied in place in a C-contiguous a (views: the same calls
+    of the same blocks) and written straight into the result; only the last, partial
+    block is padded (not a zero-filled copy of all of a, ~29 MB on the gyroid plate)."""
     if not _gemm_rows_invariant():
-        return a @ b
+        return _into(out, a @ b)
+    nb, g = a.shape[0], _GEMM_ROWS
+    full = nb - nb % g
+    if not a.flags.c_contiguous:
+        return _into(out, _rows_matmul_padded(a, b))
+    if out is not None and not out.flags.c_contiguous:     # (the same BLAS calls into a new array)
+        return _into(out, _rows_matmul(a, b))
+    if out is None:
+        out = np.empty((nb, b.shape[1]))
+    if full:
+        np.matmul(a[:full].reshape(full // g, g, -1), b, out=out[:full].reshape(full // g, g, -1))
+    if full < nb:
+        pad = np.zeros((1, g, a.shape[1]))
+        pad[0, :nb - full] = a[full:]
+        out[full:] = (pad @ b)[0, :nb - full]
+    return out
+
+
+def _rows_matmul_padded(a, b):
+    """_rows_matmul(a, b) as one stacked product of a zero-padded copy of a (the code
+    before the blocks; a not C-contiguous, and the tests' reference)."""
     nb = a.shape[0]
     nblk = -(-nb // _GEMM_ROWS)
     if nblk * _GEMM_ROWS != nb:
@@ -161,6 +185,14 @@ def _rows_matmul(a, b):
         pad[:nb] = a
         a = pad
     return (a.reshape(nblk, _GEMM_ROWS, -1) @ b).reshape(nblk * _GEMM_ROWS, -1)[:nb]
+
+
+def _into(out, x):
+    """x, or x copied into out (not None)."""
+    if out is None:
+        return x
+    out[...] = x
+    return out
 
 
 def _row_lengths(coef):
@@ -207,15 +239,16 @@ def _series_values(coefs, x):
             for k in ks.tolist():
                 if ks.size == 1:
                     rk = None
-                    got = _rows_matmul(np.ascontiguousarray(cr[:, :k]), vand_t[:k])   # laid out as a gather's
+                    a = np.ascontiguousarray(cr[:, :k])     # laid out as a gather's
+                    if whole:                               # the product straight into o
+                        _rows_matmul(a, vand_t[:k], out=o)
+                        continue
+                    got = _rows_matmul(a, vand_t[:k])
                 else:
                     rk = np.flatnonzero(length == k)
                     got = _rows_matmul(cr[rk, :k], vand_t[:k])
                 if whole:
-                    if rk is None:
-                        o[...] = got
-                    else:
-                        o[rk] = got
+                    o[rk] = got
                 else:
                     o[r if rk is None else r[rk]] = got
     return out
@@ -351,9 +384,12 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
     nc, ni = n + 1, n - 1
     g = _GEMM_ROWS
     top = -(-nb // g) * g
-    wa_buf = np.zeros((top, nc))
-    r1_buf = np.zeros((top, ni))
-    x_buf = np.zeros((top, ni))
+    # every row a step reads is written first: pc_gather, pc_res and pc_step write rows
+    # 0 .. na and zero the block's pad rows na .. rows (no zero-filled buffers, ~19 MB on
+    # the gyroid plate)
+    wa_buf = np.empty((top, nc))
+    r1_buf = np.empty((top, ni))
+    x_buf = np.empty((top, ni))
     r2 = np.empty(nb)
     den = np.empty((nb, ni))
     dc = np.empty(nb)
@@ -501,7 +537,7 @@ def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess):
         r = slice(a, a + _COEF_CHUNK)
         w0 = _start_nodes(n, phi, ia[r], w_guess)
         w, cc[r], ok[r] = _precond_cheb(n, p[r], g2[r], a0[r], a1[r], w0)
-        c[r] = _rows_matmul(w, to_coef_t)
+        _rows_matmul(w, to_coef_t, out=c[r])
         if not ok[r].all():
             left.append(w0[~ok[r]])
         del w, w0
@@ -815,6 +851,25 @@ def _layer_regime(phi, T_t, beta_s2, w0, w1):
     return wc, regime, gam2, u0, u1, lam
 
 
+def _own_arrays(got, like, made):
+    """The arrays eval_tau gives for values got computed on all of its rows at once: each
+    value itself where it is a float64 array of like's shape holding its own memory and
+    given once, not like itself (a new array, as o[k] = v's o), else a copy into a new one."""
+    out, seen = [], []
+    for v, m in zip(got, made):
+        if not m:
+            out.append(None)
+            continue
+        if not (type(v) is np.ndarray and v.base is None and v.dtype == like.dtype and v.shape == like.shape
+                and v.flags.c_contiguous and v is not like and not any(v is u for u in seen)):
+            o = np.empty_like(like)
+            o[...] = v
+            v = o
+        seen.append(v)
+        out.append(v)
+    return out
+
+
 @dataclass
 class CircleBatch:
     """Optimal laws for B arcs.  Angles in rad, t in s, R in mm (or any length unit).
@@ -868,10 +923,16 @@ class CircleBatch:
         (None); the others are the same numbers (the curve planner reads φ, w, w' only: w''
         cost a cube per point; curve_knots reads φ and w: w' cost a third of its series)."""
         idx = np.arange(len(self)) if idx is None else np.asarray(idx)
-        tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:]).copy()
-        out = [np.empty_like(tau) if made else None for made in (True, True, w1, w2)]
+        tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:])
         gam2 = self.gamma[idx] ** 2
         lay = self.regime[idx]
+        if lay.all() or not lay.any():      # one regime (the usual case): no gather, no scatter
+            # (read only: the caller's own array where it is C-contiguous, not a copy)
+            tau = np.ascontiguousarray(tau)
+            got = (self._eval_layers if lay.all() else self._eval_cheb)(tau, idx, gam2, w2, w1)
+            return _own_arrays(got, tau, (True, True, w1, w2))
+        tau = tau.copy()
+        out = [np.empty_like(tau) if made else None for made in (True, True, w1, w2)]
         for rows, part in ((lay, self._eval_layers), (~lay, self._eval_cheb)):
             if rows.any():
                 k = np.nonzero(rows)[0]

@@ -1967,7 +1967,40 @@ static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
    None: no neighbour) and whether each is there (1.0 / 0.0).  Declines (0) a stroke whose
    type is not exactly stroke_type (whose prev_u, next_u are those four slots) or a value
    that is not a Python float (or a subclass): _cf_row's float() of it is then not
-   certainly its double. */
+   certainly its double.  Each name's attribute is read by its type's data descriptor,
+   looked up once a call (a stroke type's, and a limits type's for each new type of lim)
+   where the type's getattr is the generic one: what PyObject_GetAttr does first for a
+   data descriptor, the same object, without its type-cache lookup a read (~14 reads a
+   chain); else by PyObject_GetAttr. */
+
+/* the data descriptors of names[0..n) on type t, all or none (0): where t's getattr is
+   PyObject_GenericGetAttr and each name's attribute is a data descriptor (a getset or a
+   slot's member: tp_descr_get and tp_descr_set), which the generic getattr returns the
+   __get__ of before any instance dict (new references, cf_drop; none taken where 0) */
+static int cf_descrs(PyTypeObject *t, PyObject **names, int n, PyObject **out) {
+    for (int i = 0; i < n; i++) out[i] = NULL;
+    if (t->tp_getattro != PyObject_GenericGetAttr) return 0;
+    for (int i = 0; i < n; i++) {
+        PyObject *d = _PyType_Lookup(t, names[i]);
+        if (!d || !Py_TYPE(d)->tp_descr_get || !Py_TYPE(d)->tp_descr_set) {
+            for (int j = 0; j < i; j++) Py_CLEAR(out[j]);
+            return 0;
+        }
+        Py_INCREF(d);
+        out[i] = d;
+    }
+    return 1;
+}
+
+static void cf_drop(PyObject **d, int n) {
+    for (int i = 0; i < n; i++) Py_CLEAR(d[i]);
+}
+
+/* obj.name by its descriptor d (cf_descrs) when there is one, else PyObject_GetAttr */
+static inline PyObject *cf_get(PyObject *obj, PyObject *d, PyObject *name) {
+    return d ? Py_TYPE(d)->tp_descr_get(d, obj, (PyObject *)Py_TYPE(obj)) : PyObject_GetAttr(obj, name);
+}
+
 static PyObject *cf_rows(PyObject *self, PyObject *a) {
     PyObject *sts, *stype, *outo;
     if (!PyArg_ParseTuple(a, "O!OO", &PyList_Type, &sts, &stype, &outo)) return NULL;
@@ -1987,6 +2020,10 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
         return NULL;
     }
     int ok = 1;
+    PyObject *sd[9] = {NULL}, *ld[5] = {NULL};          /* the names' descriptors (NULL: getattr) */
+    PyTypeObject *ltype = NULL;                        /* the type ld is of (held) */
+    if (PyType_Check(stype))
+        cf_descrs((PyTypeObject *)stype, nm, 9, sd);
     for (Py_ssize_t q = 0; ok && q < m; q++) {
         PyObject *st = PyList_GET_ITEM(sts, q);
         if ((PyObject *)Py_TYPE(st) != stype) { ok = 0; break; }
@@ -1997,7 +2034,7 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
         double pu[4];
         int isnone[4];
         for (int i = 0; ok && i < 9; i++) {
-            PyObject *x = PyObject_GetAttr(st, nm[i]);
+            PyObject *x = cf_get(st, sd[i], nm[i]);
             if (!x) { PyErr_Clear(); ok = 0; break; }
             if (i == 4) { lim = x; continue; }             /* (a reference kept until its fields are read) */
             if (i >= 5) {
@@ -2011,8 +2048,13 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
             else pu[i - 5] = d;
         }
         double lv[5];                                       /* jerk_x, jerk_y, scv, ax_max, ay_max */
+        if (ok && Py_TYPE(lim) != ltype) {
+            cf_drop(ld, 5);
+            Py_XSETREF(ltype, (PyTypeObject *)Py_NewRef(Py_TYPE(lim)));
+            cf_descrs(ltype, nm + 9, 5, ld);
+        }
         for (int i = 0; ok && i < 5; i++) {
-            PyObject *x = PyObject_GetAttr(lim, nm[9 + i]);
+            PyObject *x = cf_get(lim, ld[i], nm[9 + i]);
             if (!x) { PyErr_Clear(); ok = 0; break; }
             if (!PyFloat_Check(x)) { Py_DECREF(x); ok = 0; break; }
             lv[i] = PyFloat_AS_DOUBLE(x);
@@ -2039,6 +2081,9 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
         r[13] = has[0] ? 1.0 : 0.0;
         r[14] = has[1] ? 1.0 : 0.0;
     }
+    cf_drop(sd, 9);
+    cf_drop(ld, 5);
+    Py_XDECREF(ltype);
     release(&b);
     return PyLong_FromLong(ok);
 }

@@ -40,3 +40,19 @@ def fresh_chains(path, prof_name):
 def float_bits(x):
     """x's doubles as bytes (compares NaNs and signed zeros by their bits)."""
     return np.ascontiguousarray(np.asarray(x, float)).view(np.int64).tobytes()
+
+
+def synthetic_chains(m, seed, min_vertices, min_cap):
+    """m random chain problems (laws.chain.ChainProblem): min_vertices..29 vertices 0.4-1.0 mm
+    apart, caps min_cap-60 mm/s, run at a mean 35-70 mm/s, end speeds 10-40 mm/s."""
+    from gcode_opt.laws.chain import ChainProblem
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(m):
+        n = int(rng.integers(min_vertices, 30))
+        s = np.cumsum(rng.uniform(0.4, 1.0, n))
+        S = float(s[-1] + rng.uniform(0.3, 1.0))
+        caps = rng.uniform(min_cap, 60.0, n)
+        T = S / rng.uniform(35.0, 70.0)
+        out.append(ChainProblem(s, caps, S, T, (T / 0.1) ** 2, rng.uniform(10, 40), rng.uniform(10, 40)))
+    return out

@@ -9,6 +9,8 @@ import pytest
 
 from gcode_opt.laws import chain as chain_law
 
+from chain_cases import synthetic_chains
+
 
 class RefFlatLaws(chain_law.FlatLaws):
     """FlatLaws with take and close as they stood at 0252e9a (verbatim)."""
@@ -56,16 +58,7 @@ class RefFlatLaws(chain_law.FlatLaws):
 
 
 def _problems(m, seed):
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(m):
-        n = int(rng.integers(3, 30))
-        s = np.cumsum(rng.uniform(0.4, 1.0, n))
-        S = float(s[-1] + rng.uniform(0.3, 1.0))
-        caps = rng.uniform(12.0, 60.0, n)
-        T = S / rng.uniform(35.0, 70.0)
-        out.append(chain_law.ChainProblem(s, caps, S, T, (T / 0.1) ** 2, rng.uniform(10, 40), rng.uniform(10, 40)))
-    return out
+    return synthetic_chains(m, seed, min_vertices=3, min_cap=12.0)
 
 
 def _solve(probs, pieces, cls, monkeypatch):

@@ -22,6 +22,8 @@ from gcode_opt.schedule import plan_inputs
 from gcode_opt.segments import SegmentRules
 from gcode_opt.strokes import K_CHAIN
 
+from chain_cases import synthetic_chains
+
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
 
 
@@ -131,16 +133,7 @@ def test_flat_candidate_table_equals_the_per_chain_one(prof_name, junction, monk
 
 
 def _synthetic_chains(m, seed):
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(m):
-        n = int(rng.integers(8, 30))
-        s = np.cumsum(rng.uniform(0.4, 1.0, n))
-        S = float(s[-1] + rng.uniform(0.3, 1.0))
-        caps = rng.uniform(15.0, 60.0, n)
-        T = S / rng.uniform(35.0, 70.0)
-        out.append(chain_law.ChainProblem(s, caps, S, T, (T / 0.1) ** 2, rng.uniform(10, 40), rng.uniform(10, 40)))
-    return out
+    return synthetic_chains(m, seed, min_vertices=8, min_cap=15.0)
 
 
 @pytest.mark.parametrize("iters", [1, 2, 3])

@@ -710,6 +710,7 @@ def line_chunks(path: str, progress=None, cr=None):
         return
     block = max(1, simulate.CHUNK_HINT)
     with open(path, "rb") as fh:
+        seek = fh.seekable()
         idx0, rest = 0, b""
         while True:
             data = fh.read(block)
@@ -719,7 +720,13 @@ def line_chunks(path: str, progress=None, cr=None):
             if rest:
                 data = rest + data
             lines, used = split(data, final)
-            rest = data[used:]
+            if seek and used and used < len(data):
+                # the cut line is read again with the next block (a seek back) rather than
+                # joined to it: rest + data copied the whole block
+                fh.seek(used - len(data), 1)
+                rest = b""
+            else:
+                rest = data[used:]
             if lines:
                 if progress is not None:      # (characters: the bytes where they are ASCII)
                     progress(used if data.isascii() else sum(map(len, lines)))

@@ -589,6 +589,7 @@ class Blocks:
         progress = self.progress
         self.cr = False
         with open(self.path, "rb") as fh:
+            seek = fh.seekable()
             rest = b""
             while True:
                 data = fh.read(BLOCK_BYTES)
@@ -598,8 +599,7 @@ class Blocks:
                         self.cr |= cr
                         yield rest, cr
                     return
-                if progress is not None:
-                    progress(len(data))
+                n_read = len(data)
                 if rest:
                     data = rest + data
                 # cut after the last line ending; a "\r" at the very end may be the start of a
@@ -607,9 +607,21 @@ class Blocks:
                 stop = len(data) - 1 if data[-1] == 13 else len(data)
                 k = max(data.rfind(b"\n", 0, stop), data.rfind(b"\r", 0, stop)) + 1
                 if k == 0:
+                    if progress is not None:
+                        progress(n_read)
                     rest = data
                     continue
-                rest = data[k:]
+                # the cut line is read again with the next block (a seek back) rather than
+                # joined to it (rest + data copied the whole block: ~12 M bytes a pass of
+                # the gyroid plate); it lies in the bytes just read
+                tail = len(data) - k if seek else 0
+                if tail:
+                    fh.seek(-tail, 1)
+                    rest = b""
+                else:
+                    rest = data[k:]
+                if progress is not None:
+                    progress(n_read - tail)     # (each byte told once)
                 cr = data.find(b"\r", 0, k) >= 0
                 self.cr |= cr
                 yield memoryview(data)[:k], cr

@@ -478,6 +478,7 @@ class _ByteLines:
         self.data = b""
         self.pos = 0
         self.eof = False
+        self.seek = fh.seekable()
 
     def _read(self):
         chunk = self.fh.read(_CHUNK)
@@ -522,7 +523,13 @@ class _ByteLines:
             if got == n or self.eof:
                 start, self.pos = self.pos, end
                 return self.data, start, end, got
-            self.data, self.pos = self.data[self.pos:] + self._read(), 0
+            if self.pos and self.seek:
+                # the lines from pos on are read again with the next chunk (a seek back)
+                # rather than copied and joined to it (two copies of a chunk)
+                self.fh.seek(self.pos - len(self.data), 1)
+                self.data, self.pos = self._read(), 0
+            else:
+                self.data, self.pos = self.data[self.pos:] + self._read(), 0
 
     def copy_take(self, n_copy, n, write):
         """copy(n_copy, write) then take(n), in one call (the same pieces written, the same

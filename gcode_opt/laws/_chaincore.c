@@ -1423,16 +1423,44 @@ VEC_CLONES static int steplaw_args(Py_ssize_t N, const double *restrict L, const
     return bad;
 }
 
+/* The first nser series of the _NMS_COEF rows (coef, 3 a term; out[s]: series s) at γ² of
+   the N laws g, k terms by Horner from the last: blocks of 8 laws with the terms outside
+   and the laws inside, held in registers (SIMD lanes: each law's operations in its order,
+   x = x γ² then x = x + c; the last block padded with zeros, not written).  A macro, not
+   a function: a call from a vector clone is not inlined (see P_CUBE). */
+#define NMS_HORNER8(N, k, coef, g, nser, out)                                                      \
+    for (Py_ssize_t i0_ = 0; i0_ < (N); i0_ += 8) {                                                \
+        Py_ssize_t nb_ = (N) - i0_ < 8 ? (N) - i0_ : 8;                                            \
+        double gt_[8], z2_[8], x_[3][8];                                                           \
+        const double *gb_ = (g) + i0_;                                                             \
+        if (nb_ < 8) {                                                                             \
+            for (int jj = 0; jj < 8; jj++) gt_[jj] = jj < nb_ ? gb_[jj] : 0.0;                    \
+            gb_ = gt_;                                                                             \
+        }                                                                                          \
+        for (int jj = 0; jj < 8; jj++) z2_[jj] = gb_[jj] * gb_[jj];                               \
+        for (int s_ = 0; s_ < (nser); s_++)                                                        \
+            for (int jj = 0; jj < 8; jj++) x_[s_][jj] = (coef)[3 * ((k) - 1) + s_];               \
+        for (int q_ = (k) - 2; q_ >= 0; q_--)                                                      \
+            for (int s_ = 0; s_ < (nser); s_++) {                                                  \
+                double a_ = (coef)[3 * q_ + s_];                                                   \
+                for (int jj = 0; jj < 8; jj++) {                                                   \
+                    double p_ = x_[s_][jj] * z2_[jj];                                              \
+                    x_[s_][jj] = p_ + a_;                                                          \
+                }                                                                                  \
+            }                                                                                      \
+        for (int s_ = 0; s_ < (nser); s_++)                                                        \
+            for (int jj = 0; jj < nb_; jj++) (out)[s_][i0_ + jj] = x_[s_][jj];                     \
+    }
+
 VEC_CLONES static void steplaw_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
                                     const double *restrict T, const double *restrict va, const double *restrict vb,
                                     const double *restrict g, double *restrict gs, double *restrict n,
                                     double *restrict wbar, double *restrict dl, double *restrict A) {
+    double *out[1] = {n};
+    NMS_HORNER8(N, k, coef, g, 1, out);
     for (Py_ssize_t i = 0; i < N; i++) {
         double z = g[i];
-        double z2 = z * z, x = coef[3 * (k - 1)];
-        for (int q = k - 2; q >= 0; q--) { x = x * z2; x = x + coef[3 * q]; }
         gs[i] = z;
-        n[i] = x;
         double w = (T[i] * (va[i] + vb[i])) / 2;
         wbar[i] = w;
         dl[i] = (T[i] * (va[i] - vb[i])) / 2;
@@ -1796,18 +1824,10 @@ VEC_CLONES static void fig_a_rest(Py_ssize_t N, int k, const double *restrict co
                                   const double *restrict g, double *restrict gs, double *restrict n,
                                   double *restrict m, double *restrict s1, double *restrict wbar,
                                   double *restrict dl, double *restrict A) {
+    double *out[3] = {n, m, s1};
+    NMS_HORNER8(N, k, coef, g, 3, out);
     for (Py_ssize_t i = 0; i < N; i++) {
-        double z = g[i];
-        double z2 = z * z, x = coef[3 * (k - 1)], y = coef[3 * (k - 1) + 1], w = coef[3 * (k - 1) + 2];
-        for (int q = k - 2; q >= 0; q--) {
-            x = x * z2; x = x + coef[3 * q];
-            y = y * z2; y = y + coef[3 * q + 1];
-            w = w * z2; w = w + coef[3 * q + 2];
-        }
-        gs[i] = z;
-        n[i] = x;
-        m[i] = y;
-        s1[i] = w;
+        gs[i] = g[i];
         double wb = (T[i] * (va[i] + vb[i])) / 2;
         wbar[i] = wb;
         dl[i] = (T[i] * (va[i] - vb[i])) / 2;

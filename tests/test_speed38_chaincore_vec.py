@@ -1,0 +1,152 @@
+"""Session 38 (chaincore): the chain core's loops made into SIMD lanes give the same bits.
+
+- step_law and fig_a: the n (and m, S1) series by Horner in blocks of 8 laws held in
+  registers (NMS_HORNER8; the last block padded), against numpy's Horner of
+  chain._step_law's numpy lines and line._horner_nms, on batches of every size 1 .. 40 and
+  around the blocks and chunks, with γ over decades (the series' term counts k from 1 up);
+- exact_share: each chain's new durations after its step in a vector loop (ex_move) and the
+  largest z = T²/β by its bits (ex_move, ex_zmax), against _share_time_exact's numpy
+  iteration (core=False), on synthetic chains of 1 .. 40 pieces, chains converging at
+  different steps, and batches that must decline (a γ above EXACT_GAMMA_MAX at a later
+  step, a duration not finite).
+Each compares every output bit for bit (None where the numpy code declines)."""
+import numpy as np
+import pytest
+
+from gcode_opt.laws import chain as lc
+from gcode_opt.laws.line import _NMS_COEF, _horner_nms, _nms_terms
+
+CORE = lc.CORE_MOD
+needs_core = pytest.mark.skipif(CORE is None, reason=f"the chain core is not used here ({lc.CORE_WHY})")
+
+
+def _bits(x):
+    x = np.asarray(x)
+    return x.view(np.uint8) if x.dtype == bool else x.view(np.int64)
+
+
+def _same(x, y):
+    x, y = np.asarray(x), np.asarray(y)
+    return x.shape == y.shape and x.dtype == y.dtype and np.array_equal(_bits(x), _bits(y))
+
+
+def _laws(N, rng, gmax):
+    """N line laws (L, T, beta, va, vb) with γ = T / √β log-uniform in [1e-4, gmax]."""
+    L = rng.uniform(-3.0, 6.0, N)
+    T = rng.uniform(1e-3, 0.5, N)
+    gamma = 10.0 ** rng.uniform(-4.0, np.log10(gmax), N)
+    beta = (T / gamma) ** 2
+    return L, T, beta, rng.uniform(0.0, 200.0, N), rng.uniform(0.0, 200.0, N)
+
+
+def _sizes():
+    return list(range(1, 41)) + [63, 64, 65, 255, 256, 257, 1000]
+
+
+def _numpy_n(gs):
+    """chain._step_law's numpy Horner of n (its lines, verbatim)."""
+    z2 = gs * gs
+    coef = _NMS_COEF[:_nms_terms(z2), 0]
+    n = np.empty(z2.shape)
+    n[...] = coef[-1]
+    for c in coef[-2::-1]:
+        np.multiply(n, z2, out=n)
+        np.add(n, c, out=n)
+    return n
+
+
+@needs_core
+@pytest.mark.parametrize("gmax", [1e-3, 0.1, 1.0, 3.9])
+def test_step_law_and_fig_a_equal_numpy(gmax):
+    rng = np.random.default_rng(int(gmax * 1000) + 38)
+    ks = set()
+    for N in _sizes():
+        L, T, beta, va, vb = _laws(N, rng, gmax)
+        gamma = T / np.sqrt(beta)
+        gs = np.minimum(gamma, 4.0)
+        ks.add(_nms_terms(gs * gs))
+        wbar, dl = T * (va + vb) / 2, T * (va - vb) / 2
+        A = L - wbar
+        # step_law: gamma, gs, n, wbar, delta, A
+        out = [np.full(N, np.nan) for _ in range(6)]
+        assert CORE.step_law(L, T, beta, va, vb, lc._COEF_C, lc._ZMAX_C, *out) == 0
+        for got, want in zip(out, (gamma, gs, _numpy_n(gs), wbar, dl, A), strict=True):
+            assert _same(got, want), N
+        # fig_a: gamma, gs, n, m, s1, wbar, delta, A
+        out = [np.full(N, np.nan) for _ in range(8)]
+        assert CORE.fig_a(L, T, beta, va, vb, lc._COEF_C, lc._ZMAX_C, *out) == 0
+        n, m, s1 = _horner_nms(gs * gs)
+        for got, want in zip(out, (gamma, gs, n, m, s1, wbar, dl, A), strict=True):
+            assert _same(got, want), N
+    assert len(ks) >= (1 if gmax < 0.01 else 2)
+
+
+@needs_core
+def test_step_law_declines_as_before():
+    """A β not > 0 (its √ a nan: the vector sqrt's), a T not finite, a γ not below the
+    switch: 1 (the numpy code runs)."""
+    rng = np.random.default_rng(7)
+    for N in (1, 5, 8, 9, 33):
+        for bad in ("beta0", "betaneg", "Tinf", "gamma"):
+            L, T, beta, va, vb = _laws(N, rng, 1.0)
+            j = int(rng.integers(N))
+            if bad == "beta0":
+                beta[j] = 0.0
+            elif bad == "betaneg":
+                beta[j] = -1.0
+            elif bad == "Tinf":
+                T[j] = np.inf
+            else:
+                beta[j] = (T[j] / 4.5) ** 2
+            out = [np.empty(N) for _ in range(6)]
+            assert CORE.step_law(L, T, beta, va, vb, lc._COEF_C, lc._ZMAX_C, *out) == 1, (N, bad)
+
+
+def _chains(rng, n_c, gmax=0.3, pmax=40):
+    """Synthetic _share_time inputs: n_c chains of 1 .. pmax pieces, owner ascending, one β
+    a chain (its whole duration's γ log-uniform in [1e-3, gmax])."""
+    npc = rng.integers(1, pmax + 1, n_c)
+    owner = np.repeat(np.arange(n_c), npc)
+    P = owner.size
+    L = rng.uniform(0.05, 5.0, P)
+    va, vb = rng.uniform(0.0, 150.0, P), rng.uniform(0.0, 150.0, P)
+    T_init = L / rng.uniform(5.0, 150.0, P)
+    T_total = np.bincount(owner, T_init, n_c) * rng.uniform(0.7, 1.5, n_c)
+    gamma = 10.0 ** rng.uniform(-3.0, np.log10(gmax), n_c)         # a chain's whole γ (its β)
+    beta = ((T_total / gamma) ** 2)[owner]
+    return L, beta, va, vb, owner, T_total, T_init
+
+
+def _check(a):
+    got = lc._share_time_exact(*a, core=CORE)
+    want = lc._share_time_exact(*a, core=False)
+    assert (got is None) == (want is None)
+    if want is not None:
+        for x, y in zip(got, want, strict=True):
+            assert _same(x, y)
+    return want
+
+
+@needs_core
+@pytest.mark.parametrize("seed", range(6))
+def test_exact_share_equals_numpy(seed):
+    rng = np.random.default_rng(380 + seed)
+    solved = 0
+    for n_c in (1, 2, 3, 17, 120):
+        for gmax in (1e-3, 0.3, 1.5):
+            solved += _check(_chains(rng, n_c, gmax)) is not None
+    assert solved >= 12
+
+
+@needs_core
+def test_exact_share_declines_as_numpy():
+    rng = np.random.default_rng(38)
+    L, beta, va, vb, owner, T_total, T_init = _chains(rng, 30, 0.3)
+    # a chain whose total is far above its pieces: its steps grow γ past EXACT_GAMMA_MAX
+    T_total[7] *= 40.0
+    beta[owner == 7] = (T_total[7] / 40.0 / 1.9) ** 2
+    assert _check((L, beta, va, vb, owner, T_total, T_init)) is None
+    # a first duration not finite
+    L, beta, va, vb, owner, T_total, T_init = _chains(rng, 30, 0.3)
+    T_init[5] = np.inf
+    assert _check((L, beta, va, vb, owner, T_total, T_init)) is None

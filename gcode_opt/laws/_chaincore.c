@@ -2197,16 +2197,43 @@ VEC_CLONES static void ex_chunk(Py_ssize_t n, int k, const double *restrict coef
     }
 }
 
-/* The largest z = T²/β of pieces [p0, p1) folded into *zm, and 1 where a duration is not
-   finite and > 0 (β: finite and > 0, checked by the caller, so z is not nan) */
+/* The largest z = T²/β of pieces [p0, p1) folded into *zm (the bits of z: where no duration
+   is bad, every z is >= +0 and not nan -- β is finite and > 0, checked by the caller -- so
+   their bits order as their values, as a maximum of the doubles has them), and 1 where a
+   duration is not finite and > 0 (*zm then not read) */
 VEC_CLONES static int ex_zmax(int64_t p0, int64_t p1, const double *restrict T, const double *restrict beta,
-                              double *zm) {
+                              int64_t *zm) {
     int bad = 0;
-    double m = *zm;
+    int64_t m = *zm;
     for (int64_t p = p0; p < p1; p++) {
         double t = T[p], z = (t * t) / beta[p];
         bad |= !(t > 0.0) | !(t < HUGE_VAL);
-        m = z > m ? z : m;
+        int64_t zb;
+        memcpy(&zb, &z, 8);
+        m = zb > m ? zb : m;
+    }
+    *zm = m;
+    return bad;
+}
+
+/* A chain's n pieces after its step (exact_share's): each one's new duration as kkt_new_T
+   makes it (elementwise, in its order: SIMD lanes), from its residual r and 1 / J'' inv and
+   the chain's dlam; with ex_zmax's largest z and bad test of the new durations. */
+VEC_CLONES static int ex_move(Py_ssize_t n, double *restrict T, const double *restrict r,
+                              const double *restrict inv, const double *restrict beta, double dlam, int64_t *zm) {
+    int bad = 0;
+    int64_t m = *zm;
+    for (Py_ssize_t p = 0; p < n; p++) {
+        double Ti = T[p], dT = -(r[p] + dlam) * inv[p], lo = -0.5 * Ti;
+        double st = dT > lo ? dT : lo;               /* np.clip(dT, -T/2, T): a nan step stays nan */
+        st = st < Ti ? st : Ti;
+        st = isnan(dT) ? dT : st;
+        double tn = Ti + st, z = (tn * tn) / beta[p];
+        T[p] = tn;
+        bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
+        int64_t zb;
+        memcpy(&zb, &z, 8);
+        m = zb > m ? zb : m;
     }
     *zm = m;
     return bad;
@@ -2259,12 +2286,12 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
        at the start, then made by the step that moves T (of the chains going on) */
     Py_ssize_t m = 0;
     int bad = 0;
-    double zm = 0.0;
+    int64_t zb = 0;                                    /* the bits of the largest z (ex_zmax) */
     for (Py_ssize_t c = 0; c < n_c;) {                 /* runs of chains not converged */
         if (conv[c]) { c++; continue; }
         Py_ssize_t c1 = c + 1;
         while (c1 < n_c && !conv[c1]) c1++;
-        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zm);
+        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zb);
         m += poff[c1] - poff[c];
         c = c1;
     }
@@ -2272,6 +2299,8 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         if (m == 0) break;
         if (bad) { status = -1; break; }
         /* _exact_terms: the least i with zm <= zmax[i] (searchsorted left), k = i + 1 */
+        double zm;
+        memcpy(&zm, &zb, 8);
         if (!(zm <= zlim)) { status = -1; break; }
         Py_ssize_t i = 0;
         while (i < nz && zmax[i] < zm) i++;
@@ -2289,7 +2318,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         }
         m = 0;
         bad = 0;
-        zm = 0.0;
+        zb = 0;
         for (Py_ssize_t c = 0; c < n_c; c++) {           /* as share_time */
             if (conv[c]) continue;
             int64_t p0 = poff[c], p1 = poff[c + 1];
@@ -2299,12 +2328,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
                 lam[c] = l;
                 continue;
             }
-            for (int64_t p = p0; p < p1; p++) {
-                double tn = kkt_new_T(T[p], d1b[p], dlam, invb[p]), z = (tn * tn) / beta[p];
-                T[p] = tn;
-                bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
-                zm = z > zm ? z : zm;
-            }
+            bad |= ex_move(p1 - p0, T + p0, d1b + p0, invb + p0, beta + p0, dlam, &zb);
             m += p1 - p0;
             lam[c] = l + nan_to_num(dlam);
         }

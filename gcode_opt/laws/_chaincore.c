@@ -1660,12 +1660,8 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
             bv = bvbuf;
         }
     }
-    if (nh < H || PyErr_Occurred()) {
-        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
-        PyMem_Free(bvbuf);
-        release(&b);
-        return NULL;
-    }
+    PyObject *ret = NULL;                               /* (NULL: an exception set) */
+    if (nh < H || PyErr_Occurred()) goto out;
     /* binding vertices per chain = pieces - 1 */
     Py_ssize_t nbt = 0;
     for (Py_ssize_t r = 0; ok && r < na; r++) {
@@ -1676,11 +1672,8 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     }
     ok = ok && (mug == NULL || nmu == nbt);
     if (!ok) {
-        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
-        PyMem_Free(bvbuf);
-        release(&b);
         PyErr_SetString(PyExc_ValueError, "active_step: shapes");
-        return NULL;
+        goto out;
     }
     for (Py_ssize_t r = 0; r < na; r++) {
         int64_t q0 = roff[r], q1 = roff[r + 1];
@@ -1754,10 +1747,12 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
             }
         }
     }
+    ret = PyLong_FromLong(0);
+out:
     for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
     PyMem_Free(bvbuf);
     release(&b);
-    return PyLong_FromLong(0);
+    return ret;
 }
 
 /* take_blocks(off, done, srcs, outs): FlatLaws.take's gathers of a step's chains done

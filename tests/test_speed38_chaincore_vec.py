@@ -150,3 +150,76 @@ def test_exact_share_declines_as_numpy():
     L, beta, va, vb, owner, T_total, T_init = _chains(rng, 30, 0.3)
     T_init[5] = np.inf
     assert _check((L, beta, va, vb, owner, T_total, T_init)) is None
+
+
+def _prep_ref(L, beta, va, vb, owner, n_c):
+    """exact_prep's contract: -1 on a β not finite and > 0 or an L, va, vb not finite; 0 on
+    owners not nondecreasing in [0, n_c); else 1 and vs, vd, poff, npc."""
+    if not (np.all(beta > 0) and np.all(np.isfinite(beta)) and np.all(np.isfinite(L))
+            and np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
+        return -1, None
+    if owner.size and (owner[0] < 0 or np.any(owner >= n_c) or np.any(np.diff(owner) < 0)):
+        return 0, None
+    npc = np.bincount(owner, None, n_c).astype(float)
+    return 1, (va + vb, va - vb, np.concatenate([[0], np.cumsum(npc)]).astype(np.int64), npc)
+
+
+@needs_core
+def test_exact_prep_equals_its_contract():
+    rng = np.random.default_rng(3838)
+    cases = 0
+    for P in (0, 1, 3, 4, 5, 8, 9, 31, 200):
+        for what in ("ok", "Linf", "vanan", "vbinf", "beta0", "betaneg", "betainf", "betanan",
+                     "down", "high", "neg"):
+            n_c = 6
+            owner = np.sort(rng.integers(0, n_c, P))
+            L, va, vb = rng.uniform(-5, 5, P), rng.uniform(0, 100, P), rng.uniform(0, 100, P)
+            beta = rng.uniform(1e-6, 1.0, P)
+            if P and what != "ok":
+                j = int(rng.integers(P))
+                if what == "Linf":
+                    L[j] = -np.inf
+                elif what == "vanan":
+                    va[j] = np.nan
+                elif what == "vbinf":
+                    vb[j] = np.inf
+                elif what.startswith("beta"):
+                    beta[j] = {"beta0": 0.0, "betaneg": -1.0, "betainf": np.inf, "betanan": np.nan}[what]
+                elif what == "down" and P > 1:
+                    owner[max(j, 1)] = owner[max(j, 1) - 1] - 1 if owner[max(j, 1) - 1] > 0 else n_c
+                elif what == "high":
+                    owner[j:] = n_c
+                elif what == "neg":
+                    owner[:j + 1] = -1
+            vs, vd, npc = np.empty(P), np.empty(P), np.empty(n_c)
+            poff = np.empty(n_c + 1, np.int64)
+            got = CORE.exact_prep(L, beta, va, vb, owner, vs, vd, poff, npc)
+            want, out = _prep_ref(L, beta, va, vb, owner, n_c)
+            assert got == want, (P, what)
+            if want == 1:
+                for x, y in zip((vs, vd, poff, npc), out, strict=True):
+                    assert _same(x, y), (P, what)
+            cases += want != 1
+    assert cases >= 60
+
+
+# chain_finish's elementwise lines as vector loops (cf_floor, cf_reach_v2, cf_corners) and the
+# vector sqrt of cf_shape and cf_trap_times (-fno-math-errno): the numpy path's bits, on the
+# real batches of test_speed21_chainfin_core (those its perturbation test leaves out too) and
+# on perturbations of them (another seed)
+@needs_core
+@pytest.mark.parametrize("name", ["mk3s", "mk3s_nobuf", "voron", "voron_buf", "klipper_auto"])
+def test_chain_finish_equals_numpy(tmp_path_factory, name):
+    from test_speed21_chainfin_core import _batches, _numpy, _perturbed, _same as _fin_same
+    from gcode_opt import chains
+
+    rng = np.random.default_rng(3800)
+    rows = 0
+    for b in _batches(tmp_path_factory, name):
+        for p in (b, _perturbed(b, rng), _perturbed(b, rng)):
+            got = chains._finish_core(*p)
+            if got is None:                        # declined (a jerk tent input <= 0)
+                continue
+            assert _fin_same(got, _numpy(p))
+            rows += p[3].shape[0]
+    assert rows >= 100

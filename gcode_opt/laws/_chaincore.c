@@ -2333,6 +2333,30 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     return PyLong_FromLong(status);
 }
 
+/* exact_prep's checks and sums over the P pieces, elementwise (SIMD lanes, no early exit):
+   vs = va + vb, vd = va - vb; 1 where a β is not finite and > 0 or an L, va, vb not finite */
+VEC_CLONES static int prep_vec(Py_ssize_t P, const double *restrict L, const double *restrict beta,
+                               const double *restrict va, const double *restrict vb, double *restrict vs,
+                               double *restrict vd) {
+    int bad = 0;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        double x = beta[p], a = va[p], c = vb[p];
+        bad |= !(x > 0.0) | !(x < HUGE_VAL) | !(fabs(L[p]) < HUGE_VAL) | !(fabs(a) < HUGE_VAL)
+               | !(fabs(c) < HUGE_VAL);
+        vs[p] = a + c;
+        vd[p] = a - c;
+    }
+    return bad;
+}
+
+/* every owner in [0, n_c) and not below the one before it (the first: not below 0) */
+VEC_CLONES static int owners_ok(Py_ssize_t P, const int64_t *restrict owner, int64_t n_c) {
+    int bad = P > 0 && owner[0] < 0;
+    for (Py_ssize_t p = 0; p < P; p++) bad |= owner[p] >= n_c;
+    for (Py_ssize_t p = 1; p < P; p++) bad |= owner[p] < owner[p - 1];
+    return !bad;
+}
+
 /* exact_prep(L, beta, va, vb, owner, vs, vd, poff, npc) -> -1, 0 or 1: _share_time_exact's
    checks and exact_share's inputs in one pass over the P pieces (not ~15 numpy calls a
    solve step).  -1: a β not finite and > 0, or an L, va, vb not finite (the caller
@@ -2361,25 +2385,10 @@ static PyObject *exact_prep(PyObject *self, PyObject *a) {
         PyErr_SetString(PyExc_ValueError, "exact_prep: shapes");
         return NULL;
     }
-    int bad = 0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        double x = beta[p];
-        bad |= !(x > 0.0) | !(x < HUGE_VAL) | !(fabs(L[p]) < HUGE_VAL) | !(fabs(va[p]) < HUGE_VAL)
-               | !(fabs(vb[p]) < HUGE_VAL);
-    }
-    if (bad) { release(&b); return PyLong_FromLong(-1); }
-    int64_t prev = 0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        int64_t c = owner[p];
-        if (c < prev || c >= n_c) { release(&b); return PyLong_FromLong(0); }
-        prev = c;
-    }
+    if (prep_vec(P, L, beta, va, vb, vs, vd)) { release(&b); return PyLong_FromLong(-1); }
+    if (!owners_ok(P, owner, n_c)) { release(&b); return PyLong_FromLong(0); }
     for (Py_ssize_t c = 0; c < n_c; c++) npc[c] = 0.0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        vs[p] = va[p] + vb[p];
-        vd[p] = va[p] - vb[p];
-        npc[owner[p]] += 1.0;
-    }
+    for (Py_ssize_t p = 0; p < P; p++) npc[owner[p]] += 1.0;
     poff[0] = 0;
     for (Py_ssize_t c = 0; c < n_c; c++) poff[c + 1] = poff[c] + (int64_t)npc[c];
     release(&b);

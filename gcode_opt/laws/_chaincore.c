@@ -1082,6 +1082,38 @@ VEC_CLONES static void cf_trap_times(Py_ssize_t n, const double *restrict v2, co
     }
 }
 
+/* chain_finish's elementwise lines (SIMD lanes: each element's operations in its order,
+   numpy's maximum / minimum as selections): the lookahead floor of the accelerations ar
+   on the windows w (a_top the cap) */
+VEC_CLONES static void cf_floor(Py_ssize_t n, double *restrict ar, const double *restrict fr,
+                                const double *restrict w, double a_top) {
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double f = 1.1 * (fr[k] * fr[k]) / (2.0 * w[k]);
+        ar[k] = NP_MAX(ar[k], NP_MIN(f, a_top));
+    }
+}
+
+/* _lookahead_v2's reach (2 a d) of the n segments and the squared speeds of the n + 1 knots */
+VEC_CLONES static void cf_reach_v2(Py_ssize_t n, const double *restrict ar, const double *restrict d,
+                                   const double *restrict v, double *restrict reach, double *restrict v2) {
+    for (Py_ssize_t k = 0; k < n; k++) reach[k] = 2.0 * ar[k] * d[k];
+    for (Py_ssize_t k = 0; k <= n; k++) v2[k] = v[k] * v[k];
+}
+
+/* the nj inner corners' ∫a² terms: at junction k (between segments k and k + 1) with
+   cos_turn ct[k] at least corner, 2 v² (1 - ct) / max(the mean of the two durations, 1e-12),
+   v = va[k + 1]; else 0 */
+VEC_CLONES static void cf_corners(Py_ssize_t nj, const double *restrict va, const double *restrict tt,
+                                  const double *restrict ct, double corner, double *restrict out) {
+    for (Py_ssize_t k = 0; k < nj; k++) {
+        double vi = va[k + 1];
+        double tj = 0.5 * (tt[k] + tt[k + 1]);
+        double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
+        double q = dv2 / NP_MAX(tj, 1e-12);
+        out[k] = (ct[k] >= corner) ? q : 0.0;
+    }
+}
+
 /* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
@@ -1201,9 +1233,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
                 ar[k] = py_max(ar[k], py_min(margin * need, a_top));
             }
         }
-        if (w)
-            for (Py_ssize_t k = 0; k < n; k++)
-                ar[k] = np_max(ar[k], np_min(1.1 * (fr[k] * fr[k]) / (2.0 * w[k]), a_top));
+        if (w) cf_floor(n, ar, fr, w, a_top);
         /* hold_cruise_accels_rows */
         {
             Py_ssize_t first = -1;
@@ -1287,8 +1317,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             }
         }
         /* _trapezoid_rows: _lookahead_v2 */
-        for (Py_ssize_t k = 0; k < n; k++) reach[k] = 2.0 * ar[k] * d[k];
-        for (Py_ssize_t k = 0; k <= n; k++) v2[k] = v[k] * v[k];
+        cf_reach_v2(n, ar, d, v, reach, v2);
         cs[0] = 0.0;
         cs[1] = reach[0];
         for (Py_ssize_t k = 1; k < n; k++) cs[k + 1] = cs[k] + reach[k];
@@ -1313,12 +1342,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         }
         cf_trap_times(n, v2, fr, reach, ar, d, tt, tmp, va, vb);
         double a2 = -0.0 + np_pairwise_sum(tmp, n);
-        for (Py_ssize_t k = 0; k + 1 < n; k++) {
-            double vi = va[k + 1];
-            double tj = 0.5 * (tt[k] + tt[k + 1]);
-            double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
-            tmp[k] = (ct[k] >= corner) ? dv2 / np_max(tj, 1e-12) : 0.0;
-        }
+        cf_corners(n - 1, va, tt, ct, corner, tmp);
         a2 = a2 + (n > 1 ? -0.0 + np_pairwise_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
         /* the end corners */
         if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);

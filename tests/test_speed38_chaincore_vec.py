@@ -8,7 +8,11 @@
   largest z = T²/β by its bits (ex_move, ex_zmax), against _share_time_exact's numpy
   iteration (core=False), on synthetic chains of 1 .. 40 pieces, chains converging at
   different steps, and batches that must decline (a γ above EXACT_GAMMA_MAX at a later
-  step, a duration not finite).
+  step, a duration not finite);
+- exact_prep (its checks and vs, vd as vector loops) against its contract;
+- chain_finish (its elementwise lines as vector loops, the vector sqrt of cf_shape and
+  cf_trap_times) against its numpy path;
+- tod_solve / tod_at against the numpy time of distance on synthetic edge cases.
 Each compares every output bit for bit (None where the numpy code declines)."""
 import numpy as np
 import pytest
@@ -223,3 +227,53 @@ def test_chain_finish_equals_numpy(tmp_path_factory, name):
             assert _fin_same(got, _numpy(p))
             rows += p[3].shape[0]
     assert rows >= 100
+
+
+# tod_iterate (the chains' time of distance; a vector form of its step was tried this session
+# and dropped: its gathers cost what it saved): tod_solve and tod_at against the numpy
+# iteration (chain._time_of_distance, chain._eval), on synthetic lite laws -- lengths 0 and
+# negative, speeds 0 (ṡ = 0 at an end: bisection), laws that overshoot and come back (ṡ < 0:
+# Newton refused), targets outside [0, L] (clipped), at 0 and at L -- in batches across the
+# chunks of 256, whole and cut short
+def _tod_laws(rng, P):
+    L = rng.uniform(-2.0, 8.0, P)
+    L[rng.random(P) < 0.05] = 0.0
+    T = rng.uniform(1e-3, 0.3, P)
+    va, vb = rng.uniform(0.0, 200.0, P), rng.uniform(0.0, 200.0, P)
+    va[rng.random(P) < 0.1] = 0.0
+    vb[rng.random(P) < 0.1] = 0.0
+    back = rng.random(P) < 0.2          # short for their end speeds: they overshoot and come back (ṡ < 0)
+    L[back] = T[back] * (va[back] + vb[back]) / 2 * rng.uniform(0.0, 0.3, int(back.sum()))
+    gamma = 10.0 ** rng.uniform(-3.0, 0.3, P)
+    law = lc._step_law(L, T, (T / gamma) ** 2, va, vb)
+    assert "lite" in law._c
+    return law
+
+
+def _tod_targets(rng, law, N, pj):
+    L = law.L[pj]
+    x = L * rng.uniform(-0.2, 1.2, N)
+    x[rng.random(N) < 0.05] = 0.0
+    e = rng.random(N) < 0.05
+    x[e] = L[e]
+    return x
+
+
+@needs_core
+@pytest.mark.parametrize("steps", [200, 1, 2, 4])
+def test_tod_iteration_equals_numpy(steps):
+    rng = np.random.default_rng(38000 + steps)
+    for N in (1, 3, 8, 255, 256, 257, 700):
+        law = _tod_laws(rng, N)
+        x = _tod_targets(rng, law, N, np.arange(N))
+        t, v = lc._tod_core(CORE, law, x, max_iter=steps)
+        t_ref = lc._time_of_distance(law, x, max_iter=steps)
+        v_ref = lc._eval(law, t_ref, "v")[1]
+        assert _same(t, t_ref) and _same(v, v_ref), (N, steps)
+        # tod_at: the laws read at pj (some twice), not taken first
+        pj = rng.integers(0, N, N + 5)
+        xs = _tod_targets(rng, law, pj.size, pj)
+        ta, va_ = lc._tod_core_at(CORE, law, pj, xs, max_iter=steps)
+        sub = law.take(pj)
+        t_ref = lc._time_of_distance(sub, xs, max_iter=steps)
+        assert _same(ta, t_ref) and _same(va_, lc._eval(sub, t_ref, "v")[1]), (N, steps)

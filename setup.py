@@ -36,6 +36,10 @@ class BuildExt(build_ext):
         flags = MSVC_FLAGS if self.compiler.compiler_type == "msvc" else UNIX_FLAGS
         for ext in self.extensions:
             ext.extra_compile_args = list(flags)
+            if ext.name == "_gcode_opt_chaincore" and self.compiler.compiler_type != "msvc":
+                # sqrt without errno (the chain core reads no errno): its vector loops with
+                # a sqrt vectorise; sqrt is correctly rounded either way (the same bits)
+                ext.extra_compile_args.append("-fno-math-errno")
             if self.compiler.compiler_type != "msvc":
                 # libm named: exp and log bind to its current symbol versions, not the
                 # compat wrappers an unnamed libm leaves (~10 instructions a call; the

@@ -1082,6 +1082,38 @@ VEC_CLONES static void cf_trap_times(Py_ssize_t n, const double *restrict v2, co
     }
 }
 
+/* chain_finish's elementwise lines (SIMD lanes: each element's operations in its order,
+   numpy's maximum / minimum as selections): the lookahead floor of the accelerations ar
+   on the windows w (a_top the cap) */
+VEC_CLONES static void cf_floor(Py_ssize_t n, double *restrict ar, const double *restrict fr,
+                                const double *restrict w, double a_top) {
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double f = 1.1 * (fr[k] * fr[k]) / (2.0 * w[k]);
+        ar[k] = NP_MAX(ar[k], NP_MIN(f, a_top));
+    }
+}
+
+/* _lookahead_v2's reach (2 a d) of the n segments and the squared speeds of the n + 1 knots */
+VEC_CLONES static void cf_reach_v2(Py_ssize_t n, const double *restrict ar, const double *restrict d,
+                                   const double *restrict v, double *restrict reach, double *restrict v2) {
+    for (Py_ssize_t k = 0; k < n; k++) reach[k] = 2.0 * ar[k] * d[k];
+    for (Py_ssize_t k = 0; k <= n; k++) v2[k] = v[k] * v[k];
+}
+
+/* the nj inner corners' ∫a² terms: at junction k (between segments k and k + 1) with
+   cos_turn ct[k] at least corner, 2 v² (1 - ct) / max(the mean of the two durations, 1e-12),
+   v = va[k + 1]; else 0 */
+VEC_CLONES static void cf_corners(Py_ssize_t nj, const double *restrict va, const double *restrict tt,
+                                  const double *restrict ct, double corner, double *restrict out) {
+    for (Py_ssize_t k = 0; k < nj; k++) {
+        double vi = va[k + 1];
+        double tj = 0.5 * (tt[k] + tt[k + 1]);
+        double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
+        double q = dv2 / NP_MAX(tj, 1e-12);
+        out[k] = (ct[k] >= corner) ? q : 0.0;
+    }
+}
+
 /* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
@@ -1201,9 +1233,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
                 ar[k] = py_max(ar[k], py_min(margin * need, a_top));
             }
         }
-        if (w)
-            for (Py_ssize_t k = 0; k < n; k++)
-                ar[k] = np_max(ar[k], np_min(1.1 * (fr[k] * fr[k]) / (2.0 * w[k]), a_top));
+        if (w) cf_floor(n, ar, fr, w, a_top);
         /* hold_cruise_accels_rows */
         {
             Py_ssize_t first = -1;
@@ -1287,8 +1317,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             }
         }
         /* _trapezoid_rows: _lookahead_v2 */
-        for (Py_ssize_t k = 0; k < n; k++) reach[k] = 2.0 * ar[k] * d[k];
-        for (Py_ssize_t k = 0; k <= n; k++) v2[k] = v[k] * v[k];
+        cf_reach_v2(n, ar, d, v, reach, v2);
         cs[0] = 0.0;
         cs[1] = reach[0];
         for (Py_ssize_t k = 1; k < n; k++) cs[k + 1] = cs[k] + reach[k];
@@ -1313,12 +1342,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         }
         cf_trap_times(n, v2, fr, reach, ar, d, tt, tmp, va, vb);
         double a2 = -0.0 + np_pairwise_sum(tmp, n);
-        for (Py_ssize_t k = 0; k + 1 < n; k++) {
-            double vi = va[k + 1];
-            double tj = 0.5 * (tt[k] + tt[k + 1]);
-            double dv2 = 2.0 * vi * vi * (1.0 - ct[k]);
-            tmp[k] = (ct[k] >= corner) ? dv2 / np_max(tj, 1e-12) : 0.0;
-        }
+        cf_corners(n - 1, va, tt, ct, corner, tmp);
         a2 = a2 + (n > 1 ? -0.0 + np_pairwise_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
         /* the end corners */
         if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
@@ -1423,16 +1447,44 @@ VEC_CLONES static int steplaw_args(Py_ssize_t N, const double *restrict L, const
     return bad;
 }
 
+/* The first nser series of the _NMS_COEF rows (coef, 3 a term; out[s]: series s) at γ² of
+   the N laws g, k terms by Horner from the last: blocks of 8 laws with the terms outside
+   and the laws inside, held in registers (SIMD lanes: each law's operations in its order,
+   x = x γ² then x = x + c; the last block padded with zeros, not written).  A macro, not
+   a function: a call from a vector clone is not inlined (see P_CUBE). */
+#define NMS_HORNER8(N, k, coef, g, nser, out)                                                      \
+    for (Py_ssize_t i0_ = 0; i0_ < (N); i0_ += 8) {                                                \
+        Py_ssize_t nb_ = (N) - i0_ < 8 ? (N) - i0_ : 8;                                            \
+        double gt_[8], z2_[8], x_[3][8];                                                           \
+        const double *gb_ = (g) + i0_;                                                             \
+        if (nb_ < 8) {                                                                             \
+            for (int jj = 0; jj < 8; jj++) gt_[jj] = jj < nb_ ? gb_[jj] : 0.0;                    \
+            gb_ = gt_;                                                                             \
+        }                                                                                          \
+        for (int jj = 0; jj < 8; jj++) z2_[jj] = gb_[jj] * gb_[jj];                               \
+        for (int s_ = 0; s_ < (nser); s_++)                                                        \
+            for (int jj = 0; jj < 8; jj++) x_[s_][jj] = (coef)[3 * ((k) - 1) + s_];               \
+        for (int q_ = (k) - 2; q_ >= 0; q_--)                                                      \
+            for (int s_ = 0; s_ < (nser); s_++) {                                                  \
+                double a_ = (coef)[3 * q_ + s_];                                                   \
+                for (int jj = 0; jj < 8; jj++) {                                                   \
+                    double p_ = x_[s_][jj] * z2_[jj];                                              \
+                    x_[s_][jj] = p_ + a_;                                                          \
+                }                                                                                  \
+            }                                                                                      \
+        for (int s_ = 0; s_ < (nser); s_++)                                                        \
+            for (int jj = 0; jj < nb_; jj++) (out)[s_][i0_ + jj] = x_[s_][jj];                     \
+    }
+
 VEC_CLONES static void steplaw_rest(Py_ssize_t N, int k, const double *restrict coef, const double *restrict L,
                                     const double *restrict T, const double *restrict va, const double *restrict vb,
                                     const double *restrict g, double *restrict gs, double *restrict n,
                                     double *restrict wbar, double *restrict dl, double *restrict A) {
+    double *out[1] = {n};
+    NMS_HORNER8(N, k, coef, g, 1, out);
     for (Py_ssize_t i = 0; i < N; i++) {
         double z = g[i];
-        double z2 = z * z, x = coef[3 * (k - 1)];
-        for (int q = k - 2; q >= 0; q--) { x = x * z2; x = x + coef[3 * q]; }
         gs[i] = z;
-        n[i] = x;
         double w = (T[i] * (va[i] + vb[i])) / 2;
         wbar[i] = w;
         dl[i] = (T[i] * (va[i] - vb[i])) / 2;
@@ -1632,12 +1684,8 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
             bv = bvbuf;
         }
     }
-    if (nh < H || PyErr_Occurred()) {
-        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
-        PyMem_Free(bvbuf);
-        release(&b);
-        return NULL;
-    }
+    PyObject *ret = NULL;                               /* (NULL: an exception set) */
+    if (nh < H || PyErr_Occurred()) goto out;
     /* binding vertices per chain = pieces - 1 */
     Py_ssize_t nbt = 0;
     for (Py_ssize_t r = 0; ok && r < na; r++) {
@@ -1648,11 +1696,8 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     }
     ok = ok && (mug == NULL || nmu == nbt);
     if (!ok) {
-        for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
-        PyMem_Free(bvbuf);
-        release(&b);
         PyErr_SetString(PyExc_ValueError, "active_step: shapes");
-        return NULL;
+        goto out;
     }
     for (Py_ssize_t r = 0; r < na; r++) {
         int64_t q0 = roff[r], q1 = roff[r + 1];
@@ -1726,10 +1771,12 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
             }
         }
     }
+    ret = PyLong_FromLong(0);
+out:
     for (int h = 0; h < nh; h++) PyBuffer_Release(&hb[h]);
     PyMem_Free(bvbuf);
     release(&b);
-    return PyLong_FromLong(0);
+    return ret;
 }
 
 /* take_blocks(off, done, srcs, outs): FlatLaws.take's gathers of a step's chains done
@@ -1796,18 +1843,10 @@ VEC_CLONES static void fig_a_rest(Py_ssize_t N, int k, const double *restrict co
                                   const double *restrict g, double *restrict gs, double *restrict n,
                                   double *restrict m, double *restrict s1, double *restrict wbar,
                                   double *restrict dl, double *restrict A) {
+    double *out[3] = {n, m, s1};
+    NMS_HORNER8(N, k, coef, g, 3, out);
     for (Py_ssize_t i = 0; i < N; i++) {
-        double z = g[i];
-        double z2 = z * z, x = coef[3 * (k - 1)], y = coef[3 * (k - 1) + 1], w = coef[3 * (k - 1) + 2];
-        for (int q = k - 2; q >= 0; q--) {
-            x = x * z2; x = x + coef[3 * q];
-            y = y * z2; y = y + coef[3 * q + 1];
-            w = w * z2; w = w + coef[3 * q + 2];
-        }
-        gs[i] = z;
-        n[i] = x;
-        m[i] = y;
-        s1[i] = w;
+        gs[i] = g[i];
         double wb = (T[i] * (va[i] + vb[i])) / 2;
         wbar[i] = wb;
         dl[i] = (T[i] * (va[i] - vb[i])) / 2;
@@ -2177,16 +2216,43 @@ VEC_CLONES static void ex_chunk(Py_ssize_t n, int k, const double *restrict coef
     }
 }
 
-/* The largest z = T²/β of pieces [p0, p1) folded into *zm, and 1 where a duration is not
-   finite and > 0 (β: finite and > 0, checked by the caller, so z is not nan) */
+/* The largest z = T²/β of pieces [p0, p1) folded into *zm (the bits of z: where no duration
+   is bad, every z is >= +0 and not nan -- β is finite and > 0, checked by the caller -- so
+   their bits order as their values, as a maximum of the doubles has them), and 1 where a
+   duration is not finite and > 0 (*zm then not read) */
 VEC_CLONES static int ex_zmax(int64_t p0, int64_t p1, const double *restrict T, const double *restrict beta,
-                              double *zm) {
+                              int64_t *zm) {
     int bad = 0;
-    double m = *zm;
+    int64_t m = *zm;
     for (int64_t p = p0; p < p1; p++) {
         double t = T[p], z = (t * t) / beta[p];
         bad |= !(t > 0.0) | !(t < HUGE_VAL);
-        m = z > m ? z : m;
+        int64_t zb;
+        memcpy(&zb, &z, 8);
+        m = zb > m ? zb : m;
+    }
+    *zm = m;
+    return bad;
+}
+
+/* A chain's n pieces after its step (exact_share's): each one's new duration as kkt_new_T
+   makes it (elementwise, in its order: SIMD lanes), from its residual r and 1 / J'' inv and
+   the chain's dlam; with ex_zmax's largest z and bad test of the new durations. */
+VEC_CLONES static int ex_move(Py_ssize_t n, double *restrict T, const double *restrict r,
+                              const double *restrict inv, const double *restrict beta, double dlam, int64_t *zm) {
+    int bad = 0;
+    int64_t m = *zm;
+    for (Py_ssize_t p = 0; p < n; p++) {
+        double Ti = T[p], dT = -(r[p] + dlam) * inv[p], lo = -0.5 * Ti;
+        double st = dT > lo ? dT : lo;               /* np.clip(dT, -T/2, T): a nan step stays nan */
+        st = st < Ti ? st : Ti;
+        st = isnan(dT) ? dT : st;
+        double tn = Ti + st, z = (tn * tn) / beta[p];
+        T[p] = tn;
+        bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
+        int64_t zb;
+        memcpy(&zb, &z, 8);
+        m = zb > m ? zb : m;
     }
     *zm = m;
     return bad;
@@ -2239,12 +2305,12 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
        at the start, then made by the step that moves T (of the chains going on) */
     Py_ssize_t m = 0;
     int bad = 0;
-    double zm = 0.0;
+    int64_t zb = 0;                                    /* the bits of the largest z (ex_zmax) */
     for (Py_ssize_t c = 0; c < n_c;) {                 /* runs of chains not converged */
         if (conv[c]) { c++; continue; }
         Py_ssize_t c1 = c + 1;
         while (c1 < n_c && !conv[c1]) c1++;
-        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zm);
+        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zb);
         m += poff[c1] - poff[c];
         c = c1;
     }
@@ -2252,6 +2318,8 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         if (m == 0) break;
         if (bad) { status = -1; break; }
         /* _exact_terms: the least i with zm <= zmax[i] (searchsorted left), k = i + 1 */
+        double zm;
+        memcpy(&zm, &zb, 8);
         if (!(zm <= zlim)) { status = -1; break; }
         Py_ssize_t i = 0;
         while (i < nz && zmax[i] < zm) i++;
@@ -2269,7 +2337,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         }
         m = 0;
         bad = 0;
-        zm = 0.0;
+        zb = 0;
         for (Py_ssize_t c = 0; c < n_c; c++) {           /* as share_time */
             if (conv[c]) continue;
             int64_t p0 = poff[c], p1 = poff[c + 1];
@@ -2279,12 +2347,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
                 lam[c] = l;
                 continue;
             }
-            for (int64_t p = p0; p < p1; p++) {
-                double tn = kkt_new_T(T[p], d1b[p], dlam, invb[p]), z = (tn * tn) / beta[p];
-                T[p] = tn;
-                bad |= !(tn > 0.0) | !(tn < HUGE_VAL);
-                zm = z > zm ? z : zm;
-            }
+            bad |= ex_move(p1 - p0, T + p0, d1b + p0, invb + p0, beta + p0, dlam, &zb);
             m += p1 - p0;
             lam[c] = l + nan_to_num(dlam);
         }
@@ -2292,6 +2355,30 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     PyMem_Free(work);
     release(&b);
     return PyLong_FromLong(status);
+}
+
+/* exact_prep's checks and sums over the P pieces, elementwise (SIMD lanes, no early exit):
+   vs = va + vb, vd = va - vb; 1 where a β is not finite and > 0 or an L, va, vb not finite */
+VEC_CLONES static int prep_vec(Py_ssize_t P, const double *restrict L, const double *restrict beta,
+                               const double *restrict va, const double *restrict vb, double *restrict vs,
+                               double *restrict vd) {
+    int bad = 0;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        double x = beta[p], a = va[p], c = vb[p];
+        bad |= !(x > 0.0) | !(x < HUGE_VAL) | !(fabs(L[p]) < HUGE_VAL) | !(fabs(a) < HUGE_VAL)
+               | !(fabs(c) < HUGE_VAL);
+        vs[p] = a + c;
+        vd[p] = a - c;
+    }
+    return bad;
+}
+
+/* every owner in [0, n_c) and not below the one before it (the first: not below 0) */
+VEC_CLONES static int owners_ok(Py_ssize_t P, const int64_t *restrict owner, int64_t n_c) {
+    int bad = P > 0 && owner[0] < 0;
+    for (Py_ssize_t p = 0; p < P; p++) bad |= owner[p] >= n_c;
+    for (Py_ssize_t p = 1; p < P; p++) bad |= owner[p] < owner[p - 1];
+    return !bad;
 }
 
 /* exact_prep(L, beta, va, vb, owner, vs, vd, poff, npc) -> -1, 0 or 1: _share_time_exact's
@@ -2322,25 +2409,10 @@ static PyObject *exact_prep(PyObject *self, PyObject *a) {
         PyErr_SetString(PyExc_ValueError, "exact_prep: shapes");
         return NULL;
     }
-    int bad = 0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        double x = beta[p];
-        bad |= !(x > 0.0) | !(x < HUGE_VAL) | !(fabs(L[p]) < HUGE_VAL) | !(fabs(va[p]) < HUGE_VAL)
-               | !(fabs(vb[p]) < HUGE_VAL);
-    }
-    if (bad) { release(&b); return PyLong_FromLong(-1); }
-    int64_t prev = 0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        int64_t c = owner[p];
-        if (c < prev || c >= n_c) { release(&b); return PyLong_FromLong(0); }
-        prev = c;
-    }
+    if (prep_vec(P, L, beta, va, vb, vs, vd)) { release(&b); return PyLong_FromLong(-1); }
+    if (!owners_ok(P, owner, n_c)) { release(&b); return PyLong_FromLong(0); }
     for (Py_ssize_t c = 0; c < n_c; c++) npc[c] = 0.0;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        vs[p] = va[p] + vb[p];
-        vd[p] = va[p] - vb[p];
-        npc[owner[p]] += 1.0;
-    }
+    for (Py_ssize_t p = 0; p < P; p++) npc[owner[p]] += 1.0;
     poff[0] = 0;
     for (Py_ssize_t c = 0; c < n_c; c++) poff[c + 1] = poff[c] + (int64_t)npc[c];
     release(&b);

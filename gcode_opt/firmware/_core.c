@@ -6091,6 +6091,47 @@ done:
     return ret;
 }
 
+/* ring_rows_time(m, r0, r1): float(m[r0:r1, 6:9].sum()) for rows m of 12 doubles
+ * (Collector._flush's time of the rows' pieces), summed as numpy sums that strided view:
+ * its buffered reduction copies the values a row at a time (~60 instructions a row) into
+ * a buffer of 8190 (its 8192 cut to whole rows of 3) and adds each buffer's pairwise sum,
+ * in order, to 0.0.  ringing._rows_time checks it against numpy once a process. */
+#define RING_ROWS_BUF 8190
+_Static_assert(RING_ROWS_BUF % 3 == 0, "ring_rows_time fills its buffer 3 values at a time");
+static double ring_rows_buf[RING_ROWS_BUF];
+
+static PyObject *mod_ring_rows_time(PyObject *self, PyObject *args)
+{
+    Py_buffer mb;
+    Py_ssize_t r0, r1;
+    if (!PyArg_ParseTuple(args, "y*nn:ring_rows_time", &mb, &r0, &r1))
+        return NULL;
+    Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
+    if (mb.len != rows * 12 * (Py_ssize_t)sizeof(double) || r0 < 0 || r1 > rows) {
+        PyBuffer_Release(&mb);
+        PyErr_SetString(PyExc_ValueError, "ring_rows_time: m is not whole rows, or r0, r1 out of them");
+        return NULL;
+    }
+    const double *m = (const double *)mb.buf;
+    double total = 0.0;
+    Py_ssize_t k = 0;
+    for (Py_ssize_t r = r0; r < r1; r++) {
+        const double *q = m + 12 * r + 6;
+        ring_rows_buf[k] = q[0];
+        ring_rows_buf[k + 1] = q[1];
+        ring_rows_buf[k + 2] = q[2];
+        k += 3;
+        if (k == RING_ROWS_BUF) {
+            total += np_pairwise_sum(ring_rows_buf, k);
+            k = 0;
+        }
+    }
+    if (k)
+        total += np_pairwise_sum(ring_rows_buf, k);
+    PyBuffer_Release(&mb);
+    return PyFloat_FromDouble(total);
+}
+
 /* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if
  * its layout is not this core's */
 static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
@@ -6424,6 +6465,8 @@ static PyMethodDef mod_methods[] = {
      "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
     {"ring_events", mod_ring_events, METH_VARARGS,
      "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out[, all_only]): the ringing's events"},
+    {"ring_rows_time", mod_ring_rows_time, METH_VARARGS,
+     "ring_rows_time(m, r0, r1): float(m[r0:r1, 6:9].sum()), numpy's bits"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_peak", mod_ring_peak, METH_VARARGS,

@@ -5375,6 +5375,8 @@ typedef struct {
  * NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same argument:
  * ring_solve's caller checked numpy's exp is libm's).  cand (or NULL): max_abs_r's
  * candidates (RingCand). */
+#define RING_ZERO_BIG 1e150       /* |Re c|, |Im c| below it: c^2 and |c|^2 are finite */
+
 static inline __attribute__((always_inline)) int
 ring_int_r2_run(const double *c, const double *dur, double *dur_out, const double *decay2, Py_ssize_t n,
                 double qr, double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
@@ -5393,6 +5395,14 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
     memcpy(&zero_bits, &zero, sizeof zero_bits);
     int have_prev = 0, have_zero = 0;
     double ex = 0.0, cs = 0.0, sn = 0.0, ex0 = 0.0, cs0 = 0.0, sn0 = 0.0;
+    /* A piece of length +0 (events at one time: about half the pieces) whose exp(q 0) is
+     * 1 + 0i and whose decay2 is 1 has v = +0 exactly for |c| below RING_ZERO_BIG: y = c^2
+     * (osc2 - 1) is a complex zero (c^2 finite), q a zero (rat, scl finite), |c|^2 (1 -
+     * 1) / four_s is +0 (four_s > 0), and +0 + (+-0) is +0.  Its peak, max(|Re c|, the
+     * end's |Re c e^0| = |Re c|), is not above lo (which holds its |Re c|), but it stays
+     * a candidate as before (the pieces handed back are the same).  zero_v: those scalars
+     * hold (the exponentials are checked once made). */
+    int zero_call = isfinite(rat) && isfinite(scl) && four_s > 0.0 && isfinite(four_s), zero_v = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
         if (!dur)
@@ -5407,6 +5417,27 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
             ex = ex0;
             cs = cs0;
             sn = sn0;
+            if (zero_v && fabs(cr) < RING_ZERO_BIG && fabs(ci) < RING_ZERO_BIG
+                    && (decay2 ? decay2[i] : ex) == 1.0) {
+                d_prev = d_bits;
+                if (o_v) {
+                    o_v[3 * i] = ex;
+                    o_v[3 * i + 1] = cs;
+                    o_v[3 * i + 2] = sn;
+                }
+                if (cand) {
+                    /* (the candidate test as below; |c| made only where its upper bound,
+                     * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
+                    double ar_ = fabs(cr), thr;
+                    lo = ar_ > lo ? ar_ : lo;
+                    thr = cand->floor > lo ? cand->floor : lo;
+                    if (!((ar_ + fabs(ci)) * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
+                            && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
+                        cand->idx[n_cand++] = i;
+                }
+                v[i] = 0.0;
+                continue;
+            }
         } else if (!have_prev || d_bits != d_prev) {
             /* the table first (a lookup; it holds most lengths the memo would give: the memo's
              * stream filled it too), then the memo, then libm */
@@ -5447,6 +5478,7 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 cs0 = cs;
                 sn0 = sn;
                 have_zero = 1;
+                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0;
             }
         }
         d_prev = d_bits;
@@ -6059,6 +6091,47 @@ done:
     return ret;
 }
 
+/* ring_rows_time(m, r0, r1): float(m[r0:r1, 6:9].sum()) for rows m of 12 doubles
+ * (Collector._flush's time of the rows' pieces), summed as numpy sums that strided view:
+ * its buffered reduction copies the values a row at a time (~60 instructions a row) into
+ * a buffer of 8190 (its 8192 cut to whole rows of 3) and adds each buffer's pairwise sum,
+ * in order, to 0.0.  ringing._rows_time checks it against numpy once a process. */
+#define RING_ROWS_BUF 8190
+_Static_assert(RING_ROWS_BUF % 3 == 0, "ring_rows_time fills its buffer 3 values at a time");
+static double ring_rows_buf[RING_ROWS_BUF];
+
+static PyObject *mod_ring_rows_time(PyObject *self, PyObject *args)
+{
+    Py_buffer mb;
+    Py_ssize_t r0, r1;
+    if (!PyArg_ParseTuple(args, "y*nn:ring_rows_time", &mb, &r0, &r1))
+        return NULL;
+    Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
+    if (mb.len != rows * 12 * (Py_ssize_t)sizeof(double) || r0 < 0 || r1 > rows) {
+        PyBuffer_Release(&mb);
+        PyErr_SetString(PyExc_ValueError, "ring_rows_time: m is not whole rows, or r0, r1 out of them");
+        return NULL;
+    }
+    const double *m = (const double *)mb.buf;
+    double total = 0.0;
+    Py_ssize_t k = 0;
+    for (Py_ssize_t r = r0; r < r1; r++) {
+        const double *q = m + 12 * r + 6;
+        ring_rows_buf[k] = q[0];
+        ring_rows_buf[k + 1] = q[1];
+        ring_rows_buf[k + 2] = q[2];
+        k += 3;
+        if (k == RING_ROWS_BUF) {
+            total += np_pairwise_sum(ring_rows_buf, k);
+            k = 0;
+        }
+    }
+    if (k)
+        total += np_pairwise_sum(ring_rows_buf, k);
+    PyBuffer_Release(&mb);
+    return PyFloat_FromDouble(total);
+}
+
 /* use_reader(capsule or None): the reader's fused loop for play(); False (not used) if
  * its layout is not this core's */
 static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
@@ -6392,6 +6465,8 @@ static PyMethodDef mod_methods[] = {
      "ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): integral_r2_fin's sum"},
     {"ring_events", mod_ring_events, METH_VARARGS,
      "ring_events(m, carry (8 numbers), w2x, w2y, corner_cos, t_out, dr_out, drp_out[, all_only]): the ringing's events"},
+    {"ring_rows_time", mod_ring_rows_time, METH_VARARGS,
+     "ring_rows_time(m, r0, r1): float(m[r0:r1, 6:9].sum()), numpy's bits"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
     {"ring_peak", mod_ring_peak, METH_VARARGS,

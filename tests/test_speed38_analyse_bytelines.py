@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import os
 import random
-import threading
 
 import pytest
 
+from fifo_cases import through_fifo
 from gcode_opt import emit, pipeline
 
 CORE = emit.CORE_MOD
@@ -134,22 +134,14 @@ def test_take_is_the_joining_reader(tmp_path, monkeypatch):
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_not_seekable_reads_the_same(tmp_path, monkeypatch):
     text = (b"G1 X1 Y2\r\n" * 7 + b"\r;" + b"c" * 50 + b"\n") * 5 + b"G1 X3"
-    path = str(tmp_path / "fifo.gcode")
-    os.mkfifo(path)
     monkeypatch.setattr(pipeline, "_CHUNK", 16)
     ops = [("d", 3, 1), ("t", 0, 5), ("k", 2, 9), ("c", 4, 1), ("t", 0, 7), ("r", 0, 0)]
 
-    def write():
-        with open(path, "wb") as fh:
-            fh.write(text)
-    th = threading.Thread(target=write)
-    th.start()
-    try:
+    def read(path):
         with open(path, "rb") as fh:
             assert not fh.seekable()
-            got = _play(pipeline._ByteLines(fh, CORE.skip_lines), ops)
-    finally:
-        th.join()
+            return _play(pipeline._ByteLines(fh, CORE.skip_lines), ops)
+    got = through_fifo(tmp_path, text, read)
     plain = str(tmp_path / "plain.gcode")
     with open(plain, "wb") as fh:
         fh.write(text)

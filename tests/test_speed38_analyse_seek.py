@@ -12,10 +12,10 @@ from __future__ import annotations
 import io
 import os
 import random
-import threading
 
 import pytest
 
+from fifo_cases import through_fifo
 from gcode_opt import state
 from gcode_opt.firmware import simulate as fwsim
 
@@ -141,24 +141,6 @@ def test_line_chunks_are_the_joining_reader(tmp_path, monkeypatch):
             assert sum(told) == sum(ref_told) and cr == ref_cr, (size, t)
 
 
-def _through_fifo(tmp_path, text, read):
-    """read(path) of a FIFO a thread writes text into (not seekable)."""
-    path = str(tmp_path / "fifo.gcode")
-    if os.path.exists(path):
-        os.unlink(path)
-    os.mkfifo(path)
-
-    def write():
-        with open(path, "wb") as fh:
-            fh.write(text)
-    th = threading.Thread(target=write)
-    th.start()
-    try:
-        return read(path)
-    finally:
-        th.join()
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_not_seekable_reads_the_same(tmp_path, monkeypatch):
     text = b"G1 X1 Y2\r\n" * 30 + b"\r" + b"; " + b"c" * 100 + b"\nG1 X3"
@@ -168,8 +150,8 @@ def test_not_seekable_reads_the_same(tmp_path, monkeypatch):
     for size in (7, 64):
         monkeypatch.setattr(fwsim, "BLOCK_BYTES", size)
         # (a FIFO's reads may come short: the blocks, chunks may end elsewhere again)
-        got, cr = _through_fifo(tmp_path, text, _blocks)
+        got, cr = through_fifo(tmp_path, text, _blocks)
         assert _split(got) == _split(_ref_blocks(plain, size)) and b"".join(b for b, _ in got) == text and cr
         if state._reader is not None:
             monkeypatch.setattr(fwsim, "CHUNK_HINT", size)
-            assert _flat(_through_fifo(tmp_path, text, _chunks)) == _flat(_ref_chunks(plain, size))
+            assert _flat(through_fifo(tmp_path, text, _chunks)) == _flat(_ref_chunks(plain, size))

@@ -1282,9 +1282,9 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
     D, U = curves.stack_du(gs) if du is None else du
     if vk.shape != (R, n + 1) or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2):
         return None
-    # the turns' cosines, g.cos_turn of every chain in one einsum over the stack (the same
+    # the turns' cosines, g.cos_turn of every chain in one pass over the stack (the same
     # two-term sum of products a row, the same bits; ~34 k property calls on the gyroid plate)
-    C = np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:]) if n > 1 else np.empty((m, 0))
+    C = _turn_cosines(U, core) if n > 1 else np.empty((m, 0))
     W, ws = _CF_NO_W, 0
     if profile.block_buffer > 0:       # _windows' convolution, each chain's window at W[q ws:q ws + n]
         nb = max(profile.block_buffer - 3, 1)
@@ -1325,6 +1325,21 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
               P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
     return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
+
+
+def _turn_cosines(U, core):
+    """np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:]): the turn cosines of chains of n > 1
+    segments from their unit directions U (m, n, 2).  By the chain core's turn_cosines
+    where U is C-contiguous doubles (einsum's additions in its order, from its zero: the
+    same bits; einsum's set-up and generic loop a batch: ~30 M instructions net on the
+    gyroid plate); else einsum.  core: the module (False / None: einsum)."""
+    fn = getattr(core, "turn_cosines", None) if core else None
+    if fn is not None and U.dtype == np.float64 and U.ndim == 3 and U.shape[2] == 2 and U.flags.c_contiguous:
+        m, n = U.shape[0], U.shape[1]
+        C = np.empty((m, n - 1))
+        fn(U, m, n, C)
+        return C
+    return np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:])
 
 
 _WINDOW_SUMS_OK = {}     # nb -> does the core's window_sums give np.convolve's bits (_window_sums_ok)

@@ -8,6 +8,10 @@ column_classes(cols): a class per row of int64 columns, rows of one class equal 
 column (by a hash of the rows, not np.unique's sort of their bytes as records);
 column_classes_first(cols) also each class's first row.
 
+unique_first_inverse(h): np.unique(h, return_index=True, return_inverse=True)'s (first,
+inverse) of a 1-D int64 / uint64 array, by one packed sort (np.unique where that cannot
+give them).
+
 value_codes(values): a code per value of a list of hashable values, equal values one code."""
 from __future__ import annotations
 

@@ -447,10 +447,10 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
     r1_buf = np.empty((top, ni))
     x_buf = np.empty((top, ni))
     # the products by the curve core's rows_fma where it gives the BLAS calls' bits: no
-    # pad rows, and one buffer for the three (each read once, by the next compiled step)
+    # pad rows and no arrays of their own (each product goes into the buffer of (rows, ni)
+    # the step before it has done with: m1 and m2 into x_buf, x into r1_buf, dw into x_buf)
     m_res, m_step = _fma_rows_mode(nc, ni), _fma_rows_mode(ni, ni)
     fma = m_res is not None and m_step is not None
-    prod_buf = np.empty((nb, ni)) if fma else None
     r2 = np.empty(nb)
     den = np.empty((nb, ni))
     dc = np.empty(nb)
@@ -463,24 +463,23 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
         nblk = rows // g
         wa = wa_buf[:rows]
         core.pc_gather(w, act, na, nc, wa, rows)
-        if fma:
-            m1 = prod_buf[:na]
-            core.rows_fma(wa, nc, na, nc, d2_t, ni, m1, m_res)
-        else:
-            m1 = (wa.reshape(nblk, g, nc) @ d2_t).reshape(rows, ni)
         r1 = r1_buf[:rows]
-        core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, rows)
         if fma:
-            m2 = prod_buf[:na]
+            m1 = x_buf[:na]
+            core.rows_fma(wa, nc, na, nc, d2_t, ni, m1, m_res)
+            core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, na)
+            m2 = x_buf[:na]
             core.rows_fma(r1, ni, na, ni, vinv_t, ni, m2, m_step)
-        else:
-            m2 = (r1.reshape(nblk, g, ni) @ vinv_t).reshape(rows, ni)
-        x = x_buf[:rows]
-        core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
-        if fma:
-            dw = prod_buf[:na]
+            x = r1_buf[:na]
+            core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, na)
+            dw = x_buf[:na]
             core.rows_fma(x, ni, na, ni, v_t, ni, dw, m_step)
         else:
+            m1 = (wa.reshape(nblk, g, nc) @ d2_t).reshape(rows, ni)
+            core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, rows)
+            m2 = (r1.reshape(nblk, g, ni) @ vinv_t).reshape(rows, ni)
+            x = x_buf[:rows]
+            core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
             dw = (x.reshape(nblk, g, ni) @ v_t).reshape(rows, ni)
         core.pc_update(w, cc, act, na, n, wa, dw, dc, stp)
         # done: at the rounding floor of the residual (steps no longer shrink), or below it;

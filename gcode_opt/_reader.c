@@ -474,7 +474,7 @@ typedef struct {
     double x, y, z, de, v;            /* the target, E moved, the feed (mm/s) now in force */
 } LinOut;
 
-static void linear_calc(const LinIn *in, const Words *w, LinOut *o)
+static inline __attribute__((always_inline)) void linear_calc(const LinIn *in, const Words *w, LinOut *o)
 {
     o->fallback = 1;
     double f = 0.0, px = 0.0, py = 0.0, pz = 0.0, ev = 0.0;
@@ -1329,7 +1329,7 @@ static int fused_close(void *p)
 /* The FusedMove of a G0/G1 that linear_calc read (lo) from the session's state as it is
  * before the line: kind 0 a line, 1 E only (the callers tell an E of 0 apart), and
  * linear()'s choice of acceleration.  fused_line and fused_peek fill it so. */
-static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
+static inline __attribute__((always_inline)) void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
 {
     const LinIn *in = &ss->in;
     int eonly = lo->x == in->x0 && lo->y == in->y0 && lo->z == in->z0;

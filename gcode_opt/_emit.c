@@ -141,17 +141,19 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char 
         i++;
     }
     /* the digits' loops count no digits (their ends do: two instructions a digit less) */
-    unsigned d;
+    unsigned d = 0;                               /* (the point's is '.' - '0': no copy of the byte kept a digit) */
     Py_ssize_t i0 = i;
     for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
         m = m * 10 + d;
     nd = i - i0;
     *dec = 0;
-    if (BELOW(i) && p[i] == '.') {
-        Py_ssize_t f0 = ++i;
-        for (; BELOW(i) && (d = (unsigned)(unsigned char)p[i] - '0') <= 9; i++)
+    if (BELOW(i) && d == (unsigned)('.' - '0')) {
+        /* (counted from the point: indexed from p, gcc kept the index before each step in
+           a register of its own, an instruction a digit) */
+        const char *f = p + ++i;
+        for (; BELOW(i + nf) && (d = (unsigned)(unsigned char)f[nf] - '0') <= 9; nf++)
             m = m * 10 + d;
-        nf = i - f0;
+        i += nf;
         *dec = (int)nf;
     }
     if (nd + nf == 0)

@@ -283,6 +283,13 @@ enum { WC_BLANK = 1, WC_SIGN = 2, WC_POINT = 4 };
 static const unsigned char WORD_CLASS[256] = {[' '] = WC_BLANK, ['\t'] = WC_BLANK, ['+'] = WC_SIGN,
                                               ['-'] = WC_SIGN, ['.'] = WC_POINT};
 
+/* a letter's bit c - 'A' (0 for any other byte): a word's letter tested by one load */
+#define LB(c) [c] = 1u << (c - 'A')
+static const unsigned LETTER_BIT[256] = {LB('A'), LB('B'), LB('C'), LB('D'), LB('E'), LB('F'), LB('G'), LB('H'),
+    LB('I'), LB('J'), LB('K'), LB('L'), LB('M'), LB('N'), LB('O'), LB('P'), LB('Q'), LB('R'), LB('S'), LB('T'),
+    LB('U'), LB('V'), LB('W'), LB('X'), LB('Y'), LB('Z')};
+#undef LB
+
 /* the letters a command takes, as a mask of bits c - 'A' */
 #define LETTER(c) (1u << ((c) - 'A'))
 #define G_LETTERS (LETTER('X') | LETTER('Y') | LETTER('Z') | LETTER('E') | LETTER('F'))
@@ -315,8 +322,8 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
         while (BELOW(j) && (WORD_CLASS[s[j]] & WC_BLANK))
             j++;
         unsigned bit = 0;
-        if (j > k && BELOW(j) && s[j] >= 'A' && s[j] <= 'Z')
-            bit = LETTER(s[j]) & letters;
+        if (j > k && BELOW(j))
+            bit = LETTER_BIT[s[j]] & letters;
         if (bit) {
             int c = s[j] - 'A';
             Py_ssize_t a = ++j;
@@ -328,20 +335,25 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
                 neg = s[j++] == '-';
             /* the usual shape, digits[.digits], in two tight loops (the same m, digits, frac
              * and end as the loop below, which goes on from where they stop) */
-            unsigned dd;
+            unsigned dd = 0;           /* (the point's is '.' - '0': no other copy of the byte kept a digit) */
             Py_ssize_t j0 = j;
             for (; BELOW(j) && (dd = (unsigned)s[j] - '0') <= 9; j++)
                 m = m * 10u + dd;
-            if (BELOW(j) && s[j] == '.') {
-                Py_ssize_t f0 = ++j;
-                for (; BELOW(j) && (dd = (unsigned)s[j] - '0') <= 9; j++)
+            if (BELOW(j) && dd == (unsigned)('.' - '0')) {
+                /* (counted from the point: indexed from the line's start, gcc kept the index
+                 * before each step in a register of its own, an instruction a digit) */
+                const unsigned char *f = s + ++j;
+                Py_ssize_t t = 0;
+                for (; BELOW(j + t) && (dd = (unsigned)f[t] - '0') <= 9; t++)
                     m = m * 10u + dd;
-                frac = j - f0;
+                frac = t;
+                j += t;
                 digits = j - j0 - 1;
             } else
                 digits = j - j0;
             /* the loop below takes only digits, points and signs: the tight loops stopped
              * at none of those but a point or a sign (the usual value ends here) */
+            int usual = 0;             /* 1 to 15 digits (m < 10^15 < 2^53): fast_decimal's test holds */
             if (BELOW(j) && (WORD_CLASS[s[j]] & (WC_POINT | WC_SIGN))) {
                 for (; j < n; j++) {
                     unsigned d = (unsigned)s[j] - '0';
@@ -361,7 +373,8 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
                     else
                         break;
                 }
-            }
+            } else
+                usual = (size_t)(digits - 1) < 15;
             if (j == a)
                 return -1;
             if (seen & bit)
@@ -370,7 +383,7 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
                 return -1;
 #ifdef FAST_DECIMAL
             /* fast_decimal's test: 1 to 19 digits (then frac <= 22: frac counts some of them) */
-            if (ok && (size_t)(digits - 1) < 19 && m <= (1ull << 53)) {
+            if (usual || (ok && (size_t)(digits - 1) < 19 && m <= (1ull << 53))) {
                 double v = (double)m;
                 if (frac > 0)
                     v = v / POW10[frac];
@@ -461,7 +474,7 @@ typedef struct {
     double x, y, z, de, v;            /* the target, E moved, the feed (mm/s) now in force */
 } LinOut;
 
-static void linear_calc(const LinIn *in, const Words *w, LinOut *o)
+static inline __attribute__((always_inline)) void linear_calc(const LinIn *in, const Words *w, LinOut *o)
 {
     o->fallback = 1;
     double f = 0.0, px = 0.0, py = 0.0, pz = 0.0, ev = 0.0;
@@ -1316,7 +1329,7 @@ static int fused_close(void *p)
 /* The FusedMove of a G0/G1 that linear_calc read (lo) from the session's state as it is
  * before the line: kind 0 a line, 1 E only (the callers tell an E of 0 apart), and
  * linear()'s choice of acceleration.  fused_line and fused_peek fill it so. */
-static void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
+static inline __attribute__((always_inline)) void fill_fused(const Session *ss, const LinOut *lo, FusedMove *out)
 {
     const LinIn *in = &ss->in;
     int eonly = lo->x == in->x0 && lo->y == in->y0 && lo->z == in->z0;

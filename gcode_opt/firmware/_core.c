@@ -2593,7 +2593,7 @@ static int svl_setup(PyObject *c)
 }
 
 /* a FusedMove played as Sim_move_body plays the Move the reader would have made */
-static int play_fused(SimObject *s, long long idx, const FusedMove *fm)
+static inline __attribute__((always_inline)) int play_fused(SimObject *s, long long idx, const FusedMove *fm)
 {
     if (enter(s) < 0)
         return -1;
@@ -2741,7 +2741,8 @@ static PyObject *Sim_play_buf(SimObject *s, PyObject *const *args, Py_ssize_t na
 
 /* The source's next line from a buffer: line[0..n) its bytes (the ending included), *ascii
  * whether all of them are ASCII; src moved past it.  0 at the buffer's end. */
-static int src_next_buf(LineSrc *src, const char **line, Py_ssize_t *n_out, int *ascii)
+static inline __attribute__((always_inline)) int src_next_buf(LineSrc *src, const char **line, Py_ssize_t *n_out,
+                                                               int *ascii)
 {
     if (src->i >= src->len)
         return 0;

@@ -1012,50 +1012,66 @@ static inline double cf_atp_scv(double v, int has_pu, double pux, double puy, in
     return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2);
 }
 
-/* chains._axis_jerk */
-static inline double cf_axis_jerk(double v_exit, double v_entry) {
-    double up = ((v_entry > 0.0) || (v_exit < 0.0)) ? v_exit - v_entry : np_max(v_exit, -v_entry);
-    double dn = ((v_entry < 0.0) || (v_exit > 0.0)) ? v_entry - v_exit : np_max(-v_exit, v_entry);
-    return (v_exit > v_entry) ? up : dn;
-}
-
-/* chains._safe_speed of one move */
-static inline double cf_safe(double ux, double uy, double nominal, double jx, double jy) {
-    double cx = fabs(ux) * nominal;
-    int lx = cx > jx;
-    double safe = lx ? jx : nominal;
-    double cy = fabs(uy) * nominal;
-    int ly = cy > jy;
-    double both = (cy * safe > jy * nominal) ? jy * nominal / cy : safe;
-    return ly ? (lx ? both : jy) : safe;
-}
-
-/* chains._jerk_junction_v of one junction */
-static inline double cf_jerk_v(double pux, double puy, double ux, double uy, double p_nom, double nom,
-                               double jx, double jy, double p_safe, double safe) {
-    double vmax = np_min(nom, p_nom);
-    double smaller = vmax / p_nom;
-    double jerk = cf_axis_jerk(pux * p_nom * smaller, ux * nom);
-    int limited = jerk > jx;
-    double vf = limited ? jx / jerk : 1.0;
-    double v_exit = puy * p_nom * smaller, v_entry = uy * nom;
-    if (limited) {
-        v_exit = v_exit * vf;
-        v_entry = v_entry * vf;
-    }
-    jerk = cf_axis_jerk(v_exit, v_entry);
-    int ly = jerk > jy;
-    if (ly) vf = vf * (jy / jerk);
-    limited = limited || ly;
-    if (limited) vmax = vmax * vf;
-    double thr = vmax * 0.99;
-    return ((p_safe > thr) && (safe > thr)) ? safe : vmax;
-}
-
 /* numpy's maximum and minimum (np_max, np_min) as macros for the vector clones (a call to
    a function built for another target is not inlined there) */
 #define NP_MAX(a, b) ((((a) >= (b)) | ((a) != (a))) ? (a) : (b))
 #define NP_MIN(a, b) ((((a) <= (b)) | ((a) != (a))) ? (a) : (b))
+
+/* chains._axis_jerk of a junction's speeds x (exit) and e (entry), plain variables, into j:
+   the numpy code's selections (np.maximum's nan rule), each candidate made, then selected.
+   A macro: the vector clones inline no function built for another target. */
+#define CF_AXIS_JERK(j, x, e) do {                                                          \
+        double up1_ = (x) - (e), up2_ = NP_MAX((x), -(e)), dn1_ = (e) - (x), dn2_ = NP_MAX(-(x), (e)); \
+        double up_ = (((e) > 0.0) | ((x) < 0.0)) ? up1_ : up2_;                            \
+        double dn_ = (((e) < 0.0) | ((x) > 0.0)) ? dn1_ : dn2_;                            \
+        (j) = ((x) > (e)) ? up_ : dn_;                                                     \
+    } while (0)
+
+/* _predict_group's jerk junction (junction 0) on one row's n moves (unit vectors u, feeds
+   fr): each move's safe speed (chains._safe_speed) and the junction speed caps v[1..n-1]
+   (chains._jerk_junction_v, then at most both feeds), elementwise with selections for the
+   numpy code's masks (SIMD lanes: each element's operations in its order) */
+VEC_CLONES static void cf_jerk_caps(Py_ssize_t n, const double *restrict u, const double *restrict fr, double jx,
+                                    double jy, double *restrict safe, double *restrict v) {
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double nominal = fr[k];
+        double cx = fabs(u[2 * k]) * nominal;
+        int lx = cx > jx;
+        double sk = lx ? jx : nominal;
+        double cy = fabs(u[2 * k + 1]) * nominal;
+        int ly = cy > jy;
+        double both = (cy * sk > jy * nominal) ? jy * nominal / cy : sk;
+        safe[k] = ly ? (lx ? both : jy) : sk;
+    }
+    for (Py_ssize_t k = 1; k < n; k++) {
+        double pux = u[2 * (k - 1)], puy = u[2 * (k - 1) + 1], ux = u[2 * k], uy = u[2 * k + 1];
+        double p_nom = fr[k - 1], nom = fr[k];
+        double vmax = NP_MIN(nom, p_nom);
+        double smaller = vmax / p_nom;
+        double x0 = pux * p_nom * smaller, e0 = ux * nom;
+        double jerk;
+        CF_AXIS_JERK(jerk, x0, e0);
+        int limited = jerk > jx;
+        double vfx = jx / jerk;
+        double vf = limited ? vfx : 1.0;
+        double v_exit = puy * p_nom * smaller, v_entry = uy * nom;
+        double vxs = v_exit * vf, ves = v_entry * vf;
+        v_exit = limited ? vxs : v_exit;
+        v_entry = limited ? ves : v_entry;
+        double jerk2;
+        CF_AXIS_JERK(jerk2, v_exit, v_entry);
+        int ly = jerk2 > jy;
+        double vfy = vf * (jy / jerk2);
+        vf = ly ? vfy : vf;
+        limited = limited | ly;
+        double vms = vmax * vf;
+        vmax = limited ? vms : vmax;
+        double thr = vmax * 0.99;
+        double q = ((safe[k - 1] > thr) & (safe[k] > thr)) ? safe[k] : vmax;
+        double fm = NP_MIN(p_nom, nom);
+        v[k] = NP_MIN(q, fm);
+    }
+}
 
 /* shape_segments' per-segment numbers of one row's n segments (lengths d, durations tr,
    knot speeds vr[0..n]), elementwise (SIMD lanes: each segment's operations in its order):
@@ -1310,14 +1326,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         v[0] = p[CP_V0];
         v[n] = p[CP_V1];
         if (junction == 0) {
-            double jx = p[CP_JX], jy = p[CP_JY];
-            for (Py_ssize_t k = 0; k < n; k++) safe[k] = cf_safe(u[2 * k], u[2 * k + 1], fr[k], jx, jy);
-            for (Py_ssize_t k = 1; k < n; k++) {
-                double fp = fr[k - 1], fn = fr[k];
-                double q = cf_jerk_v(u[2 * (k - 1)], u[2 * (k - 1) + 1], u[2 * k], u[2 * k + 1], fp, fn, jx, jy,
-                                     safe[k - 1], safe[k]);
-                v[k] = np_min(q, np_min(fp, fn));
-            }
+            cf_jerk_caps(n, u, fr, p[CP_JX], p[CP_JY], safe, v);
         } else {
             double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
             for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */

@@ -1,12 +1,14 @@
 """Session 39 (chaincore): the time-of-distance iteration (tod_iterate, laws/_chaincore.c, under
 tod_at and tod_solve) keeps each active law's own numbers (t, lo, hi, τ, shc(γ/4), sgn, target,
-scale, its place in the law arrays) in act's order, compacted with act, and makes each step's
-bracket, done and next t in a vector pass (tod_step), where it gathered them through act and
-ran that part one law at a time.  The same operations on the same numbers: its times, speeds
-and laws still going must be the numpy reference's bits (chain._time_of_distance and
-chain._eval), for laws taken in a scrambled order with repeats, targets at, inside and beyond
-the laws' ends, whole and cut short after each number of steps; and tod_solve handed an act
-that is not 0..N-1 (its copies in act's order) must give what it gives in order."""
+scale, its place in the law arrays) in act's order, and makes each step's bracket, done and
+next t in a vector pass (tod_step), where it gathered them through act and ran that part one law
+at a time; the laws done stay in place, marked, until they are more than an eighth of the
+entries, when the laws going are moved up in order.  The same operations on the same numbers:
+its times, speeds and laws still going must be the numpy reference's bits
+(chain._time_of_distance and chain._eval), for laws taken in a scrambled order with repeats,
+targets at, inside and beyond the laws' ends, whole and cut short after each number of steps;
+and tod_solve handed an act that is not 0..N-1 (its copies in act's order) must give what it
+gives in order."""
 import numpy as np
 import pytest
 

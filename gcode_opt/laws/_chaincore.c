@@ -499,45 +499,91 @@ typedef struct {
     const int64_t *ix;
 } TodLaws;
 
+/* The elementwise part of a time-of-distance step on m active laws (a chunk, compact): from
+   s and ṡ at t (tod_chunk's) and the laws' sgn, target, scale, T, γ: the bracket [lo, hi]
+   (updated in place), done, the next t tn (Newton inside the bracket, else its middle; not
+   read where done), its τ = clip(tn / T, 0, 1) and (γ (τ - 1/2))², the S1 terms' measure.
+   Each element's operations in their order (SIMD lanes: the same bits as one at a time). */
+VEC_CLONES static void tod_step(Py_ssize_t m, const double *restrict s, const double *restrict v,
+                                const double *restrict sgn, const double *restrict target,
+                                const double *restrict scale, const double *restrict Tb, const double *restrict gb,
+                                const double *restrict t, double *restrict lo, double *restrict hi,
+                                int64_t *restrict done, double *restrict tn, double *restrict taun,
+                                double *restrict z2n) {
+    const double eps4 = 4 * DBL_EPSILON;
+    for (Py_ssize_t j = 0; j < m; j++) {
+        double ti = t[j];
+        double f = sgn[j] * (s[j] - target[j]);
+        double loi = (f <= 0) ? ti : lo[j], hii = (f >= 0) ? ti : hi[j];    /* (selections: f's sign is a coin toss) */
+        lo[j] = loi;
+        hi[j] = hii;
+        done[j] = (fabs(f) <= eps4 * scale[j]) | (hii - loi <= eps4 * Tb[j]);
+        double sv = sgn[j] * v[j];
+        double tnew = ti - f / sv;
+        int okn = (sv > 0) & (tnew > loi) & (tnew < hii);
+        double nt = okn ? tnew : 0.5 * (loi + hii);
+        tn[j] = nt;
+        double tau = nt / Tb[j];
+        double c = tau > 0.0 ? tau : 0.0;
+        c = c < 1.0 ? c : 1.0;
+        tau = isnan(tau) ? tau : c;                       /* np.clip: nan stays */
+        taun[j] = tau;
+        double z = gb[j] * (tau - 0.5);
+        z2n[j] = z * z;
+    }
+}
+
 /* _time_of_distance's whole iteration on the N laws lw (tod_solve's; see there): target,
    sgn, scale per law; t, lo, hi, act the scratch, changed (act: 0..N-1 on entry); out = t's
    copy on entry; vout.  Returns the laws still going after max_iter steps (act[:that]), -1
-   out of memory (exception set).  Inlined into its two callers, indexed a constant there
-   (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own: 0, lw->ix not read): no test of
-   ix a law read. */
+   out of memory (exception set).  Each law's numbers that change or that are its own (t, lo,
+   hi, τ, prims.shc(γ/4), sgn, target, scale, and its place in the law arrays) are kept in
+   act's order and compacted with it, so a step reads them in a row (target, sgn, scale, t,
+   lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its callers give it;
+   else copies); the law arrays' numbers are gathered chunk by chunk.  Inlined into its two
+   callers, indexed a constant there (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own:
+   0, lw->ix not read): no test of ix a law read. */
 static inline __attribute__((always_inline)) Py_ssize_t
-tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, const double *target, const double *sgn,
-            const double *scale, double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
+tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, double *sgn, double *scale,
+            double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
             const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter) {
     const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
     const int64_t *ix = lw->ix;
-    const double eps4 = 4 * DBL_EPSILON;
     Py_ssize_t NN = N ? N : 1;
-    double *s4all = PyMem_Malloc(NN * sizeof(double));      /* per law: prims.shc(γ/4) */
-    if (!s4all) { PyErr_NoMemory(); return -1; }
-    /* a chunk of the active laws, compact: τ, γ, s4, n, sh2, wbar, A, δ, T; s, ṡ */
-    double taub[CHUNK], gb[CHUNK], s4b[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK];
-    double Tb[CHUNK], sb[CHUNK], vv[CHUNK];
-    for (Py_ssize_t i0 = 0; i0 < N; i0 += CHUNK) {
-        Py_ssize_t m = N - i0 < CHUNK ? N - i0 : CHUNK;
-        const double *g = gs + i0;
-        if (indexed) {             /* (the laws' γ gathered: shc_quarter reads them in a row) */
-            for (Py_ssize_t jj = 0; jj < m; jj++) gb[jj] = gs[ix[i0 + jj]];
-            g = gb;
-        }
-        shc_quarter(m, g, sc, nc, s4all + i0);
+    int ident = 1;
+    for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
+    /* per active law: prims.shc(γ/4), τ, its place q in the law arrays (indexed); the
+       copies of target .. hi in act's order where act is not 0..N-1 */
+    double *s4 = PyMem_Malloc((ident ? 3 : 9) * NN * sizeof(double));
+    if (!s4) { PyErr_NoMemory(); return -1; }
+    double *taus = s4 + NN;
+    int64_t *qa = (int64_t *)(s4 + 2 * NN);
+    if (!ident) {
+        double *cp = s4 + 3 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
+        for (int u = 0; u < 6; u++)
+            for (Py_ssize_t j = 0; j < N; j++) cp[u * NN + j] = src[u][act[j]];
+        target = cp; sgn = cp + NN; scale = cp + 2 * NN; t = cp + 3 * NN; lo = cp + 4 * NN; hi = cp + 5 * NN;
     }
-    /* τ = clip(t / T, 0, 1) of the active laws in act's order (taus[j]: act[j]'s), made
-       where t is: once here, then by the step that moves t (each law's τ once a step, not
-       once for the batch's S1 terms and again for its chunk); zm, nan: the largest (γx)²
-       of the active laws (nan: one is nan), the S1 terms the next step's batch needs */
-    double *taus = PyMem_Malloc(NN * sizeof(double));
-    if (!taus) { PyMem_Free(s4all); PyErr_NoMemory(); return -1; }
+    /* a chunk of the active laws, compact: γ, n, sh2, wbar, A, δ, T (gathered); s, ṡ
+       (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
+    double gb[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK], Tb[CHUNK];
+    double sb[CHUNK], vv[CHUNK], tnb[CHUNK], taub[CHUNK], z2b[CHUNK];
+    int64_t dn[CHUNK];
+    for (Py_ssize_t j = 0; j < N; j++) qa[j] = indexed ? ix[act[j]] : act[j];
+    for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
+        Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
+        for (Py_ssize_t jj = 0; jj < m; jj++) gb[jj] = gs[qa[j0 + jj]];  /* (shc_quarter reads them in a row) */
+        shc_quarter(m, gb, sc, nc, s4 + j0);
+    }
+    /* τ = clip(t / T, 0, 1) of the active laws (taus[j]: act[j]'s), made where t is: once
+       here, then by the step that moves t (each law's τ once a step, not once for the
+       batch's S1 terms and again for its chunk); zm, nan: the largest (γx)² of the active
+       laws (nan: one is nan), the S1 terms the next step's batch needs */
     double zm = -1.0;
     int nan = 0;
     for (Py_ssize_t j = 0; j < N; j++) {
-        int64_t i = act[j], q = indexed ? ix[i] : i;
-        double tau = t[i] / T[q];
+        int64_t q = qa[j];
+        double tau = t[j] / T[q];
         if (!isnan(tau)) {                /* np.clip: nan stays */
             tau = tau > 0.0 ? tau : 0.0;
             tau = tau < 1.0 ? tau : 1.0;
@@ -548,71 +594,71 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, const double *ta
         if (isnan(z2)) nan = 1;
         else if (z2 > zm) zm = z2;
     }
-    Py_ssize_t na = N;
-    for (int it = 0; it < max_iter && na > 0; it++) {
+    /* the laws done stay in place, marked (act[j] = -1 - i: evaluated with the rest, their
+       answers not read), until they are more than an eighth of the entries na: then the
+       laws going are moved up in order before a step (most laws take 4 or 5 steps: the
+       laws going are moved about once, not at every step) */
+    Py_ssize_t na = N, ndone = 0;
+    for (int it = 0; it < max_iter && na > ndone; it++) {
+        if (ndone > na / 8) {
+            Py_ssize_t keep = 0;
+            for (Py_ssize_t j = 0; j < na; j++) {
+                if (act[j] < 0) continue;
+                t[keep] = t[j]; lo[keep] = lo[j]; hi[keep] = hi[j]; taus[keep] = taus[j];
+                s4[keep] = s4[j]; sgn[keep] = sgn[j]; target[keep] = target[j]; scale[keep] = scale[j];
+                qa[keep] = qa[j];
+                act[keep++] = act[j];
+            }
+            na = keep;
+            ndone = 0;
+        }
         /* γx of the active laws: the S1 terms their batch needs */
         int k = nms_terms(zm, zmax, nz, nan);
         zm = -1.0;
         nan = 0;
         /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t and its
-           τ; the laws not done stay in act and their τ in taus (both compacted in place:
-           keep <= j, so a later chunk's entries are not written before they are read) */
-        Py_ssize_t keep = 0;
+           τ (tod_step) */
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
             for (Py_ssize_t jj = 0; jj < m; jj++) {
-                int64_t i = act[j0 + jj], q = indexed ? ix[i] : i;
-                taub[jj] = taus[j0 + jj];
-                s4b[jj] = s4all[i];
+                int64_t q = qa[j0 + jj];
                 gb[jj] = gs[q]; nb[jj] = n[q]; sh2b[jj] = sh2[q];
                 wb[jj] = wbar[q]; Ab[jj] = A[q]; db[jj] = dl[q]; Tb[jj] = T[q];
             }
-            tod_chunk(m, k, taub, gb, coef, sc, nc, s4b, nb, sh2b, wb, Ab, db, Tb, sb, vv);
+            tod_chunk(m, k, taus + j0, gb, coef, sc, nc, s4 + j0, nb, sh2b, wb, Ab, db, Tb, sb, vv);
+            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tb, gb, t + j0, lo + j0, hi + j0, dn, tnb,
+                     taub, z2b);
             for (Py_ssize_t jj = 0; jj < m; jj++) {
-                int64_t i = act[j0 + jj];
-                double ti = t[i], s = sb[jj], v = vv[jj];
-                double f = sgn[i] * (s - target[i]);
-                /* the bracket as selections, not branches (f's sign is a coin toss) */
-                double loi = lo[i], hii = hi[i];
-                loi = (f <= 0) ? ti : loi;
-                hii = (f >= 0) ? ti : hii;
-                lo[i] = loi;
-                hi[i] = hii;
-                int done = (fabs(f) <= eps4 * scale[i]) || (hii - loi <= eps4 * Tb[jj]);
-                if (done) {            /* t stays; out[i] = t[i] already (out: t's copy on entry) */
-                    out[i] = ti;
-                    vout[i] = v;
+                Py_ssize_t j = j0 + jj;
+                int64_t i = act[j];
+                if (i < 0) continue;   /* done before */
+                if (dn[jj]) {          /* t stays */
+                    out[i] = t[j];
+                    vout[i] = vv[jj];
+                    act[j] = -1 - i;
+                    ndone++;
                     continue;
                 }
-                double sv = sgn[i] * v;
-                double tn = ti - f / sv;
-                int okn = (sv > 0) && (tn > loi) && (tn < hii);
-                double nt = okn ? tn : 0.5 * (loi + hii);
-                t[i] = nt;
-                out[i] = nt;
-                /* its τ for the next step, and the largest (γx)² of the laws going on */
-                double tau = nt / Tb[jj];
-                if (!isnan(tau)) {
-                    tau = tau > 0.0 ? tau : 0.0;
-                    tau = tau < 1.0 ? tau : 1.0;
-                }
-                double z = gb[jj] * (tau - 0.5);
-                double z2 = z * z;
+                double z2 = z2b[jj];   /* the largest (γx)² of the laws going on */
                 if (isnan(z2)) nan = 1;
                 else if (z2 > zm) zm = z2;
-                taus[keep] = tau;
-                act[keep++] = i;
+                t[j] = tnb[jj];
+                taus[j] = taub[jj];
             }
         }
-        na = keep;
     }
-    PyMem_Free(taus);
-    PyMem_Free(s4all);
-    return na;
+    Py_ssize_t going = 0;          /* the laws still going, in order, and their last t */
+    for (Py_ssize_t j = 0; j < na; j++) {
+        if (act[j] < 0) continue;
+        out[act[j]] = t[j];
+        act[going++] = act[j];
+    }
+    PyMem_Free(s4);
+    return going;
 }
 
-#define TOD_ITERATE_ARGS const TodLaws *lw, Py_ssize_t N, const double *target, const double *sgn, \
-    const double *scale, double *t, double *lo, double *hi, int64_t *act, double *out, double *vout, \
+#define TOD_ITERATE_ARGS const TodLaws *lw, Py_ssize_t N, double *target, double *sgn, double *scale, \
+    double *t, double *lo, double *hi, int64_t *act, double *out, double *vout, \
     const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter
 static Py_ssize_t tod_iterate_at(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
@@ -630,11 +676,11 @@ static Py_ssize_t tod_iterate_own(TOD_ITERATE_ARGS) {
    (series branch, prims.shc and prims.cube; the S1 series of G with the terms its step's
    batch needs: _s1's _nms_terms over the largest (γx)²), the bracket [lo, hi], done, Newton
    or bisection; out[i] = each law's last t; vout[i] = ṡ at the t a law ended on (_eval(t,
-   "v") there).  t, lo, hi, act: the caller's scratch, changed; out: a copy of t on entry
-   (then out[i] = t[i] throughout).  prims.shc(γ/4), the same at every step, is made once
-   per law; each step gathers its active laws compact chunk by chunk (CHUNK laws in L1)
-   and makes their s and ṡ there (tod_chunk), then each law's bracket and next t
-   (tod_iterate). */
+   "v") there).  target, sgn, scale, t, lo, hi, act: the caller's scratch, changed; out: a
+   copy of t on entry.  prims.shc(γ/4), the same at every step, is made once per law; each
+   step gathers its active laws' numbers compact chunk by chunk (CHUNK laws in L1) and
+   makes their s and ṡ there (tod_chunk), then each law's bracket and next t (tod_step),
+   and keeps the laws going (tod_iterate). */
 static PyObject *tod_solve(PyObject *self, PyObject *a) {
     PyObject *o[19];
     int max_iter;
@@ -652,11 +698,11 @@ static PyObject *tod_solve(PyObject *self, PyObject *a) {
     double *wbar = sh2 ? get(&b, o[5], 8, 0, &nn[4]) : NULL;
     double *A = wbar ? get(&b, o[6], 8, 0, &nn[5]) : NULL;
     double *dl = A ? get(&b, o[7], 8, 0, &nn[6]) : NULL;
-    double *target = dl ? get(&b, o[8], 8, 0, &nn[7]) : NULL;
-    double *sgn = target ? get(&b, o[9], 8, 0, &nn[8]) : NULL;
+    double *target = dl ? get(&b, o[8], 8, 1, &nn[7]) : NULL;
+    double *sgn = target ? get(&b, o[9], 8, 1, &nn[8]) : NULL;
     double *lo = sgn ? get(&b, o[10], 8, 1, &nn[9]) : NULL;
     double *hi = lo ? get(&b, o[11], 8, 1, &nn[10]) : NULL;
-    double *scale = hi ? get(&b, o[12], 8, 0, &nn[11]) : NULL;
+    double *scale = hi ? get(&b, o[12], 8, 1, &nn[11]) : NULL;
     int64_t *act = scale ? get(&b, o[13], 8, 1, &nn[12]) : NULL;
     double *out = act ? get(&b, o[14], 8, 1, &nn[13]) : NULL;
     double *vout = out ? get(&b, o[15], 8, 1, &nn[14]) : NULL;
@@ -985,50 +1031,66 @@ static inline double cf_atp_scv(double v, int has_pu, double pux, double puy, in
     return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2);
 }
 
-/* chains._axis_jerk */
-static inline double cf_axis_jerk(double v_exit, double v_entry) {
-    double up = ((v_entry > 0.0) || (v_exit < 0.0)) ? v_exit - v_entry : np_max(v_exit, -v_entry);
-    double dn = ((v_entry < 0.0) || (v_exit > 0.0)) ? v_entry - v_exit : np_max(-v_exit, v_entry);
-    return (v_exit > v_entry) ? up : dn;
-}
-
-/* chains._safe_speed of one move */
-static inline double cf_safe(double ux, double uy, double nominal, double jx, double jy) {
-    double cx = fabs(ux) * nominal;
-    int lx = cx > jx;
-    double safe = lx ? jx : nominal;
-    double cy = fabs(uy) * nominal;
-    int ly = cy > jy;
-    double both = (cy * safe > jy * nominal) ? jy * nominal / cy : safe;
-    return ly ? (lx ? both : jy) : safe;
-}
-
-/* chains._jerk_junction_v of one junction */
-static inline double cf_jerk_v(double pux, double puy, double ux, double uy, double p_nom, double nom,
-                               double jx, double jy, double p_safe, double safe) {
-    double vmax = np_min(nom, p_nom);
-    double smaller = vmax / p_nom;
-    double jerk = cf_axis_jerk(pux * p_nom * smaller, ux * nom);
-    int limited = jerk > jx;
-    double vf = limited ? jx / jerk : 1.0;
-    double v_exit = puy * p_nom * smaller, v_entry = uy * nom;
-    if (limited) {
-        v_exit = v_exit * vf;
-        v_entry = v_entry * vf;
-    }
-    jerk = cf_axis_jerk(v_exit, v_entry);
-    int ly = jerk > jy;
-    if (ly) vf = vf * (jy / jerk);
-    limited = limited || ly;
-    if (limited) vmax = vmax * vf;
-    double thr = vmax * 0.99;
-    return ((p_safe > thr) && (safe > thr)) ? safe : vmax;
-}
-
 /* numpy's maximum and minimum (np_max, np_min) as macros for the vector clones (a call to
    a function built for another target is not inlined there) */
 #define NP_MAX(a, b) ((((a) >= (b)) | ((a) != (a))) ? (a) : (b))
 #define NP_MIN(a, b) ((((a) <= (b)) | ((a) != (a))) ? (a) : (b))
+
+/* chains._axis_jerk of a junction's speeds x (exit) and e (entry), plain variables, into j:
+   the numpy code's selections (np.maximum's nan rule), each candidate made, then selected.
+   A macro: the vector clones inline no function built for another target. */
+#define CF_AXIS_JERK(j, x, e) do {                                                          \
+        double up1_ = (x) - (e), up2_ = NP_MAX((x), -(e)), dn1_ = (e) - (x), dn2_ = NP_MAX(-(x), (e)); \
+        double up_ = (((e) > 0.0) | ((x) < 0.0)) ? up1_ : up2_;                            \
+        double dn_ = (((e) < 0.0) | ((x) > 0.0)) ? dn1_ : dn2_;                            \
+        (j) = ((x) > (e)) ? up_ : dn_;                                                     \
+    } while (0)
+
+/* _predict_group's jerk junction (junction 0) on one row's n moves (unit vectors u, feeds
+   fr): each move's safe speed (chains._safe_speed) and the junction speed caps v[1..n-1]
+   (chains._jerk_junction_v, then at most both feeds), elementwise with selections for the
+   numpy code's masks (SIMD lanes: each element's operations in its order) */
+VEC_CLONES static void cf_jerk_caps(Py_ssize_t n, const double *restrict u, const double *restrict fr, double jx,
+                                    double jy, double *restrict safe, double *restrict v) {
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double nominal = fr[k];
+        double cx = fabs(u[2 * k]) * nominal;
+        int lx = cx > jx;
+        double sk = lx ? jx : nominal;
+        double cy = fabs(u[2 * k + 1]) * nominal;
+        int ly = cy > jy;
+        double both = (cy * sk > jy * nominal) ? jy * nominal / cy : sk;
+        safe[k] = ly ? (lx ? both : jy) : sk;
+    }
+    for (Py_ssize_t k = 1; k < n; k++) {
+        double pux = u[2 * (k - 1)], puy = u[2 * (k - 1) + 1], ux = u[2 * k], uy = u[2 * k + 1];
+        double p_nom = fr[k - 1], nom = fr[k];
+        double vmax = NP_MIN(nom, p_nom);
+        double smaller = vmax / p_nom;
+        double x0 = pux * p_nom * smaller, e0 = ux * nom;
+        double jerk;
+        CF_AXIS_JERK(jerk, x0, e0);
+        int limited = jerk > jx;
+        double vfx = jx / jerk;
+        double vf = limited ? vfx : 1.0;
+        double v_exit = puy * p_nom * smaller, v_entry = uy * nom;
+        double vxs = v_exit * vf, ves = v_entry * vf;
+        v_exit = limited ? vxs : v_exit;
+        v_entry = limited ? ves : v_entry;
+        double jerk2;
+        CF_AXIS_JERK(jerk2, v_exit, v_entry);
+        int ly = jerk2 > jy;
+        double vfy = vf * (jy / jerk2);
+        vf = ly ? vfy : vf;
+        limited = limited | ly;
+        double vms = vmax * vf;
+        vmax = limited ? vms : vmax;
+        double thr = vmax * 0.99;
+        double q = ((safe[k - 1] > thr) & (safe[k] > thr)) ? safe[k] : vmax;
+        double fm = NP_MIN(p_nom, nom);
+        v[k] = NP_MIN(q, fm);
+    }
+}
 
 /* shape_segments' per-segment numbers of one row's n segments (lengths d, durations tr,
    knot speeds vr[0..n]), elementwise (SIMD lanes: each segment's operations in its order):
@@ -1283,14 +1345,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         v[0] = p[CP_V0];
         v[n] = p[CP_V1];
         if (junction == 0) {
-            double jx = p[CP_JX], jy = p[CP_JY];
-            for (Py_ssize_t k = 0; k < n; k++) safe[k] = cf_safe(u[2 * k], u[2 * k + 1], fr[k], jx, jy);
-            for (Py_ssize_t k = 1; k < n; k++) {
-                double fp = fr[k - 1], fn = fr[k];
-                double q = cf_jerk_v(u[2 * (k - 1)], u[2 * (k - 1) + 1], u[2 * k], u[2 * k + 1], fp, fn, jx, jy,
-                                     safe[k - 1], safe[k]);
-                v[k] = np_min(q, np_min(fp, fn));
-            }
+            cf_jerk_caps(n, u, fr, p[CP_JX], p[CP_JY], safe, v);
         } else {
             double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
             for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */

@@ -26,6 +26,7 @@ _NUM_ONLY = re.compile(_NUM)
 _LINE_NUMBER = re.compile(rf"{_WS}*[Nn][0-9]+{_WS}*")
 _CLASSIC = re.compile(r"([A-Za-z])[ \t]*([0-9]+(?:\.[0-9]+)?)")
 _DIGITS = frozenset("0123456789")
+_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
 _EXPONENT = re.compile(rf"{_NUM}[eE][-+]?[0-9]")
 
 
@@ -63,7 +64,7 @@ def command_of(code: str) -> str:
     s = code.lstrip()
     if not s:
         return ""
-    if s[0].isalpha() and s[1:2] in _DIGITS:
+    if s[0] in _LETTERS and s[1:2] in _DIGITS:       # (ASCII: 'é1' is no classic word)
         m = _CLASSIC.match(s)
         whole, _, frac = m.group(2).partition(".")
         return s[0].upper() + str(int(whole)) + ("." + frac if frac else "")
@@ -75,7 +76,7 @@ def command_text(code: str) -> str:
     handler up by this text, so 'G01' is an unknown command there."""
     s = code.lstrip()
     m = _CLASSIC.match(s)
-    if m is None or not s[0].isalpha() or s[1:2] not in _DIGITS:
+    if m is None or s[1:2] not in _DIGITS:
         return command_of(code)
     return s[0].upper() + m.group(2)
 

@@ -2,7 +2,7 @@
 bounds and its ASCII test: 8 bytes at a time, the last 8 again), play_fused into play_loop,
 run_lines and gap_lines, linear_calc and fill_fused into the fused readers.  The same
 lines, moves and figures as the 9bb98a8 per-line loop (test_speed_measure_loop._ref_play):
-a byte that is not ASCII at every place but the first of lines 2 to 24 bytes long (each side of the
+a byte that is not ASCII at every place of lines 2 to 24 bytes long (each side of the
 8-byte steps), in the code (the Python step reads it) and in a comment, among G1 (XY, Z or E alone)
 and M204 lines, played through play_buf at block sizes that cut the lines anywhere."""
 from __future__ import annotations
@@ -23,7 +23,7 @@ def _lines():
     out = [b"G90\n", b"M83\n", b"M204 S1000\n"]
     x = 0
     for n in range(1, 25):
-        for at in range(1, n):     # (not first: "é1" makes words.command_of raise AttributeError, on main too)
+        for at in range(n):        # (first too: "é1" is an unknown command since words' ASCII fix)
             x += 1
             base = (b"G1 X%d Y%d E.01 ;" % (x % 97, x % 89) + b"c" * 30)[:n]
             if len(base) < n:

@@ -10,7 +10,7 @@ from hypothesis import strategies as hs
 
 from gcode_opt.profile import load_profile
 from gcode_opt.state import GcodeError, MachineState, Move
-from gcode_opt.words import WordError, command_of, param_texts, params_of, strict_number
+from gcode_opt.words import WordError, command_of, command_text, param_texts, params_of, strict_number
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -68,6 +68,27 @@ def test_command_word_is_ascii_only():
     assert command_of("G\u0661 X1") != "G1"      # int() would read the Arabic digit as 1
     assert command_of("G01 X1") == "G1" and command_of("g1x1") == "G1"
     assert command_of("set_velocity_limit accel=1") == "SET_VELOCITY_LIMIT"
+
+
+@pytest.mark.parametrize("code", ["\u00e91", "\u00c912 X1", "\u01c51", "\u00aa1"])
+def test_non_ascii_letter_then_digit_is_no_classic_word(code):
+    """A letter outside A-Z before a digit ('é1': isalpha, but no firmware's command
+    letter) is an extended/unknown command, not an internal error (session 39: it raised
+    AttributeError from the classic-word match)."""
+    assert command_of(code) == code.split()[0].upper()
+    assert command_text(code) == code.split()[0].upper()
+
+
+def test_non_ascii_letter_line_passes_through(tmp_path):
+    """The whole command keeps such a line as it was and re-times the file around it."""
+    src = tmp_path / "na.gcode"
+    src.write_bytes(b"G21\nG90\nM83\nG1 X10 Y10 F3000\n\xc3\xa91\n"
+                    + b"".join(b"G1 X%d Y10 E1 F1200\n" % (20 + 10 * k) for k in range(6)))
+    out = tmp_path / "out.gcode"
+    r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(src), "-o", str(out), "-q"],
+                       capture_output=True)
+    assert r.returncode == 0, r.stderr
+    assert b"\n\xc3\xa91\n" in out.read_bytes()
 
 
 def test_strict_number():

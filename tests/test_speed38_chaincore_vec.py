@@ -229,8 +229,8 @@ def test_chain_finish_equals_numpy(tmp_path_factory, name):
     assert rows >= 100
 
 
-# tod_iterate (the chains' time of distance; a vector form of its step was tried this session
-# and dropped: its gathers cost what it saved): tod_solve and tod_at against the numpy
+# tod_iterate (the chains' time of distance; its step is a vector loop since session 39, the
+# laws' own numbers kept in act's order: test_speed39_chaincore_tod.py): tod_solve and tod_at against the numpy
 # iteration (chain._time_of_distance, chain._eval), on synthetic lite laws -- lengths 0 and
 # negative, speeds 0 (ṡ = 0 at an end: bisection), laws that overshoot and come back (ṡ < 0:
 # Newton refused), targets outside [0, L] (clipped), at 0 and at L -- in batches across the

@@ -2832,7 +2832,8 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             const char *a;
             Py_ssize_t n;
             int ascii;
-            src_next_buf(src, &a, &n, &ascii);
+            if (!src_next_buf(src, &a, &n, &ascii))
+                break;                 /* (src_more said there is one: never taken) */
             if (ascii) {
                 got = READER->line_ascii(ss, a, n, !src->cr, &fm);   /* (no CR in buf: none in the line) */
                 if (got < 0)

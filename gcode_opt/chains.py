@@ -399,8 +399,8 @@ def _replay(items, rules, profile, drop=False):
         batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
-        # (_drop, inline: ~16 k chains; with the chain core in one C pass, ~15 M instructions
-        # less) nor held here: the memo's rows were the last to hold them
+        # (_drop, inline: ~16 k chains; with the chain core in one C pass: with sort_asks,
+        # -37 M instructions on the gyroid plate) nor held here: the memo's rows were the last to hold them
         core = _chain_law.CORE_MOD
         (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
@@ -899,7 +899,7 @@ def ask_all(memos, t_in, b_in, key, T):
     look-ups were ~1/3 of the first plan_chain_segments: ~16 k chains, ~5 rows each, a
     float object made of each double read); the others by ask.  (Three lists, not a tuple
     a chain: ~1 MB of tuples at once on that plate.)  With the chain core, every memo in
-    one C pass (ask_memos: ask's answers, ~170 -> ~15 M instructions on that plate)."""
+    one C pass (ask_memos: ask's answers; -136 M instructions on that plate)."""
     m = len(memos)
     segs, kept, rows = [None] * m, [None] * m, [None] * m
     core = _chain_law.CORE_MOD
@@ -1643,7 +1643,8 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     core = _chain_law.CORE_MOD
     if type(strokes) is not list:
         strokes = list(strokes)
-    # (~16 k chains on the gyroid plate: with the chain core in one C pass, ~20 M instructions less)
+    # (~16 k chains on the gyroid plate: with the chain core in one C pass; with drop_items, -37 M
+    # instructions on that plate)
     todo, items, lazy, again, cold = (_sort_asks if core is None else core.sort_asks)(
         strokes, segs, kept_l, rows_l, key, _Again, _KeptLaws, out)
     segs = kept_l = rows_l = None     # (no kept plans held here: _replay drops them as it goes)

@@ -399,13 +399,10 @@ def _replay(items, rules, profile, drop=False):
         batches = [(Q, _gather_rows([items[q][1] for q in Q], [items[q][2] for q in Q],
                                     [items[q][0] for q in Q], profile)) for Q in Qs]
     if drop:
-        for q, st in enumerate(map(_IT0, items)):
-            # (_drop, inline: ~16 k chains) nor held here: the memo's rows were the last to hold
-            # them (no loop variable left holding the last one's kept laws: the pieces of its
-            # whole chunk, _LawCols, while the plans are made)
-            st.chain_T.drop_rows()
-            gs[q].chain_caps = None
-            items[q] = (st, None, items[q][2])
+        # (_drop, inline: ~16 k chains; with the chain core in one C pass: with sort_asks,
+        # -37 M instructions on the gyroid plate) nor held here: the memo's rows were the last to hold them
+        core = _chain_law.CORE_MOD
+        (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
     batches.reverse()                   # popped from the end: in the order gathered
     while batches or groups:
@@ -423,6 +420,18 @@ def _replay(items, rules, profile, drop=False):
                       else RowPlan(s, vk, acc, feed, i, tp[i], a2[i]))
         del dt
     return out
+
+
+def _drop_items(items, gs, laws_type):
+    """Each chain's rows dropped (ChainMemo.drop_rows) and its geometry's caps (gs, items'
+    order), and items' kept entries cleared (None); the chain core's drop_items (ChainMemo's
+    type laws_type: _KeptLaws)."""
+    for q, st in enumerate(map(_IT0, items)):
+        # (no loop variable left holding the last one's kept laws: the pieces of its whole
+        # chunk, _LawCols, while the plans are made)
+        st.chain_T.drop_rows()
+        gs[q].chain_caps = None
+        items[q] = (st, None, items[q][2])
 
 
 def _gather_rows(kept, rs, sts, profile):
@@ -889,9 +898,14 @@ def ask_all(memos, t_in, b_in, key, T):
     on the gyroid plate) are answered by numpy on that array, a group at once (ask's
     look-ups were ~1/3 of the first plan_chain_segments: ~16 k chains, ~5 rows each, a
     float object made of each double read); the others by ask.  (Three lists, not a tuple
-    a chain: ~1 MB of tuples at once on that plate.)"""
+    a chain: ~1 MB of tuples at once on that plate.)  With the chain core, every memo in
+    one C pass (ask_memos: ask's answers; -136 M instructions on that plate)."""
     m = len(memos)
     segs, kept, rows = [None] * m, [None] * m, [None] * m
+    core = _chain_law.CORE_MOD
+    if core is not None:
+        core.ask_memos(memos if type(memos) is list else list(memos), t_in, b_in, key, T, array, segs, kept, rows)
+        return segs, kept, rows
     figs_l = list(map(_FIGS, memos))
     # the memos' places by their rows array, those with no last plan and rows only
     free = np.fromiter(map(_IS_NONE, map(_SEG, memos)), bool, m) & np.fromiter(map(_IS_NOT_NONE, figs_l), bool, m)
@@ -1614,7 +1628,6 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
-    todo = []
     key = _rules_key(rules, profile)
     # per chain as arrays of doubles (the arrays' own doubles, 8 bytes each: lists of
     # floats held ~1 MB more at the plan's peak), read by the loops below as Python floats
@@ -1626,32 +1639,22 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
     # law duration that plan was made for; law_of reads only the rows); else the
     # candidate table's plan when this (T, beta) is one of the candidates (under the same
     # rules), else the law solved and finished (ChainMemo.ask: ask_all, by numpy on the shared rows)
-    cold, lazy, again = [], [], []
     segs, kept_l, rows_l = ask_all(list(map(_CHAIN_T, strokes)), t_in, b_in, key, T)
-    for k, (seg, kept, r) in enumerate(zip(segs, kept_l, rows_l)):
-        if seg is not None:
-            out[k] = seg
-            continue
-        todo.append(k)
-        if r is not None and kept.key == key:
-            if isinstance(kept, _Again):
-                again.append((k, kept))
-            elif isinstance(kept, _KeptLaws):
-                lazy.append((k, (kept, r)))
-            else:
-                out[k] = kept.plan(r)
-        else:
-            cold.append(k)
-    segs = kept_l = rows_l = kept = None     # (no kept plans held here: _replay drops them as it goes)
+    core = _chain_law.CORE_MOD
+    if type(strokes) is not list:
+        strokes = list(strokes)
+    # (~16 k chains on the gyroid plate: with the chain core in one C pass; with drop_items, -37 M
+    # instructions on that plate)
+    todo, items, lazy, again, cold = (_sort_asks if core is None else core.sort_asks)(
+        strokes, segs, kept_l, rows_l, key, _Again, _KeptLaws, out)
+    segs = kept_l = rows_l = None     # (no kept plans held here: _replay drops them as it goes)
     if len(lazy) >= TRIM_DROPPED:
         # the heap's free pages given back before the plans are made: the budget's and the
         # curves' planning freed ~20 MB in the middle of it since the candidate table, and
         # the plans would grow the peak on top of them (gyroid plate: peak RSS -1..3 MB)
         from .pipeline import trim_heap
         trim_heap()
-    # (the rows' kept objects handed over, not held here: _replay drops them as it goes)
-    items = [(strokes[k], kept, r) for k, (kept, r) in lazy]
-    lazy = [k for k, _ in lazy]
+    # (the rows' kept objects handed over in items, not held here: _replay drops them as it goes)
     for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
         out[k] = plan
     del items
@@ -1664,6 +1667,43 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):
             out[k] = finish_chain(strokes[k], law, rules, profile)[0]
     dropped = set(lazy)                 # (_replay dropped theirs)
+    (_remember_plans if core is None else core.remember_plans)(strokes, todo, out, T, b_in, t_in, key, dropped,
+                                                               _drop)
+    if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
+        from .pipeline import trim_heap
+        trim_heap()
+    return out
+
+
+def _sort_asks(strokes, segs, kept_l, rows_l, key, again_type, laws_type, out):
+    """plan_chain_segments' chains by ask_all's answers (segs, kept_l, rows_l): a chain's last
+    plan into out; else it is to do (todo), and where it has a candidate row of the rules
+    key: a dropped row (again_type) -> again [(k, kept)], a kept law (laws_type) -> items
+    [(stroke, kept, row)] and lazy [k], another kept plan -> out[k] = kept.plan(row); no row ->
+    cold.  (todo, items, lazy, again, cold); the chain core's sort_asks."""
+    todo, items, lazy, again, cold = [], [], [], [], []
+    for k, (seg, kept, r) in enumerate(zip(segs, kept_l, rows_l)):
+        if seg is not None:
+            out[k] = seg
+            continue
+        todo.append(k)
+        if r is not None and kept.key == key:
+            if isinstance(kept, again_type):
+                again.append((k, kept))
+            elif isinstance(kept, laws_type):
+                items.append((strokes[k], kept, r))
+                lazy.append(k)
+            else:
+                out[k] = kept.plan(r)
+        else:
+            cold.append(k)
+    return todo, items, lazy, again, cold
+
+
+def _remember_plans(strokes, todo, out, T, b_in, t_in, key, dropped, drop):
+    """Each chain k of todo remembers its plan out[k] (its memo's seg) and what it was made
+    for (law duration T[k], beta b_in[k], rules key, asked for t_in[k]), then drop(strokes[k])
+    where k is not in dropped (_replay dropped those); the chain core's remember_plans."""
     for k in todo:
         st = strokes[k]
         memo = st.chain_T
@@ -1673,11 +1713,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         tt, t = getattr(plan, "time_t", None), t_in[k]
         memo.seg_tin = tt if tt == t else t
         if k not in dropped:
-            _drop(st)           # its plan is made: the other candidates' knots are made again if asked
-    if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
-        from .pipeline import trim_heap
-        trim_heap()
-    return out
+            drop(st)            # its plan is made: the other candidates' knots are made again if asked
 
 
 # ------------------------------------------------------------------ candidates

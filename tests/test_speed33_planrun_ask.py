@@ -26,7 +26,9 @@ def _same(got, want):
 
 
 def _counted(monkeypatch):
-    """chains._ask_rows counting its calls (the numpy path taken, not only ask)."""
+    """chains._ask_rows counting its calls (the numpy path taken, not only ask; not the
+    chain core's one pass, tests/test_speed39_replay_ask.py)."""
+    monkeypatch.setattr(chains._chain_law, "CORE_MOD", None)
     calls = []
     f = chains._ask_rows
 

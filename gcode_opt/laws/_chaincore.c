@@ -2610,9 +2610,17 @@ static PyObject *fig_b(PyObject *self, PyObject *a) { return fig_call(a, 10, 6, 
 static PyObject *fig_c(PyObject *self, PyObject *a) { return fig_call(a, 6, 4, 1); }
 
 static PyObject *turn_cosines(PyObject *self, PyObject *a);      /* (session 38, replay: at the end) */
+static PyObject *ask_memos(PyObject *self, PyObject *a);         /* (session 39, replay: at the end) */
+static PyObject *remember_plans(PyObject *self, PyObject *a);    /* (session 39, replay: at the end) */
+static PyObject *sort_asks(PyObject *self, PyObject *a);         /* (session 39, replay: at the end) */
+static PyObject *drop_items(PyObject *self, PyObject *a);        /* (session 39, replay: at the end) */
 
 static PyMethodDef methods[] = {
     {"turn_cosines", turn_cosines, METH_VARARGS, "chains._finish_core's turn cosines (einsum's bits)"},
+    {"ask_memos", ask_memos, METH_VARARGS, "chains.ask_all: ChainMemo.ask of every memo, one pass"},
+    {"remember_plans", remember_plans, METH_VARARGS, "plan_chain_segments' memos of their plans, one pass"},
+    {"sort_asks", sort_asks, METH_VARARGS, "plan_chain_segments' sorting of ask_all's answers, one pass"},
+    {"drop_items", drop_items, METH_VARARGS, "_replay's drop of the chosen chains' rows, one pass"},
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
@@ -2686,5 +2694,379 @@ static PyObject *turn_cosines(PyObject *self, PyObject *a) {
         }
     }
     release(&b);
+    Py_RETURN_NONE;
+}
+
+/* ---------------------------------------------------------------- session 39 (replay)
+   chains.ask_all in one pass: ChainMemo.ask(t_in[k], b_in[k], key) of every memo k, the law
+   durations written into T, the rest into the lists segs, kept and rows (None where none).
+   A memo with no last plan (seg None) whose rows are an array of doubles (array_type, 4 a
+   row: predicted time, law T, beta, row) is answered here as ask answers it: law_of's
+   newest row (smallest q) whose predicted time == t (C's ==: NaN matches nothing, -0.0
+   matches 0.0, as the floats' == that array.index makes), its law T, else t; then plan_of's
+   newest row of that (T, beta): its kept (kept[q] of a list) and int(row).  Any other memo
+   (a last plan, rows of another type or out of their array) is asked by its own ask method:
+   the same answers, ask's own exceptions.  (ask_all's numpy groups and look-ups: this pass
+   -136 M instructions on the gyroid plate.) */
+static PyObject *ask_memos(PyObject *self, PyObject *a) {
+    PyObject *memos, *ot, *ob, *key, *oT, *array_type, *segs, *kept, *rows;
+    if (!PyArg_ParseTuple(a, "O!OOOOOO!O!O!", &PyList_Type, &memos, &ot, &ob, &key, &oT, &array_type,
+                          &PyList_Type, &segs, &PyList_Type, &kept, &PyList_Type, &rows))
+        return NULL;
+    static PyObject *s_seg, *s_figs, *s_at, *s_n, *s_kept, *s_ask;
+    if (!s_ask) {
+        s_seg = PyUnicode_InternFromString("seg");
+        s_figs = PyUnicode_InternFromString("figs");
+        s_at = PyUnicode_InternFromString("at");
+        s_n = PyUnicode_InternFromString("n");
+        s_kept = PyUnicode_InternFromString("kept");
+        s_ask = PyUnicode_InternFromString("ask");
+        if (!s_seg || !s_figs || !s_at || !s_n || !s_kept || !s_ask) return NULL;
+    }
+    Py_ssize_t m = PyList_GET_SIZE(memos), nt, nb, nT;
+    Bufs b = {.n = 0};
+    const double *t_in = get(&b, ot, 8, 0, &nt);
+    const double *b_in = t_in ? get(&b, ob, 8, 0, &nb) : NULL;
+    double *T = b_in ? get(&b, oT, 8, 1, &nT) : NULL;
+    if (!T) { release(&b); return NULL; }
+    if (nt != m || nb != m || nT != m || PyList_GET_SIZE(segs) != m || PyList_GET_SIZE(kept) != m
+        || PyList_GET_SIZE(rows) != m) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "ask_memos: sizes");
+        return NULL;
+    }
+    for (Py_ssize_t k = 0; k < m; k++) {
+        PyObject *memo = PyList_GET_ITEM(memos, k);
+        double t = t_in[k], beta = b_in[k];
+        PyObject *seg = PyObject_GetAttr(memo, s_seg);
+        if (!seg) goto fail;
+        int mine = seg == Py_None;
+        Py_DECREF(seg);
+        PyObject *figs = NULL;
+        Py_buffer fv = {.obj = NULL};
+        Py_ssize_t at = 0, n = 0;
+        if (mine) {
+            figs = PyObject_GetAttr(memo, s_figs);
+            if (!figs) goto fail;
+            if (figs != Py_None) {
+                PyObject *oa = PyObject_GetAttr(memo, s_at), *on = oa ? PyObject_GetAttr(memo, s_n) : NULL;
+                if (!on) {
+                    Py_XDECREF(oa);
+                    Py_DECREF(figs);
+                    goto fail;
+                }
+                mine = PyLong_CheckExact(oa) && PyLong_CheckExact(on) && Py_IS_TYPE(figs, (PyTypeObject *)array_type);
+                if (mine) {
+                    at = PyLong_AsSsize_t(oa);
+                    n = PyLong_AsSsize_t(on);
+                    if ((at == -1 || n == -1) && PyErr_Occurred()) PyErr_Clear();
+                }
+                Py_XDECREF(oa);
+                Py_XDECREF(on);
+                if (mine && PyObject_GetBuffer(figs, &fv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+                    Py_DECREF(figs);
+                    goto fail;
+                }
+                /* (rows of doubles inside the array, else ask: its IndexError) */
+                mine = mine && fv.itemsize == 8 && fv.format && strcmp(fv.format, "d") == 0
+                       && at >= 0 && n >= 0 && 4 * (at + n) <= fv.len / 8;
+            }
+        }
+        if (!mine) {        /* ChainMemo.ask itself */
+            if (fv.obj) PyBuffer_Release(&fv);
+            Py_XDECREF(figs);
+            PyObject *ft = PyFloat_FromDouble(t), *fb = ft ? PyFloat_FromDouble(beta) : NULL;
+            PyObject *r = fb ? PyObject_CallMethodObjArgs(memo, s_ask, ft, fb, key, NULL) : NULL;
+            Py_XDECREF(ft);
+            Py_XDECREF(fb);
+            if (!r) goto fail;
+            PyObject *lt, *sg, *hit;
+            if (!PyArg_ParseTuple(r, "OOO", &lt, &sg, &hit)) { Py_DECREF(r); goto fail; }
+            double v = PyFloat_AsDouble(lt);
+            if (v == -1.0 && PyErr_Occurred()) { Py_DECREF(r); goto fail; }
+            T[k] = v;
+            Py_INCREF(sg);
+            PyList_SetItem(segs, k, sg);
+            if (hit != Py_None) {
+                PyObject *kp, *rw;
+                if (!PyArg_ParseTuple(hit, "OO", &kp, &rw)) { Py_DECREF(r); goto fail; }
+                Py_INCREF(kp);
+                Py_INCREF(rw);
+                PyList_SetItem(kept, k, kp);
+                PyList_SetItem(rows, k, rw);
+            }
+            Py_DECREF(r);
+            continue;
+        }
+        double lt = t;
+        if (figs == Py_None) {                  /* no rows: law_of(t) is t, plan_of None */
+            Py_DECREF(figs);
+            T[k] = lt;
+            continue;
+        }
+        const double *F = (const double *)fv.buf + 4 * at;
+        for (Py_ssize_t q = 0; q < n; q++)
+            if (F[4 * q] == t) { lt = F[4 * q + 1]; break; }
+        T[k] = lt;
+        Py_ssize_t hq = -1;
+        for (Py_ssize_t q = 0; q < n; q++)
+            if (F[4 * q + 1] == lt && F[4 * q + 2] == beta) { hq = q; break; }
+        double row = hq >= 0 ? F[4 * hq + 3] : 0.0;
+        PyBuffer_Release(&fv);
+        Py_DECREF(figs);
+        if (hq < 0) continue;
+        PyObject *kp = PyObject_GetAttr(memo, s_kept);
+        if (!kp) goto fail;
+        if (PyList_Check(kp)) {
+            if (hq >= PyList_GET_SIZE(kp)) {
+                Py_DECREF(kp);
+                PyErr_SetString(PyExc_IndexError, "list index out of range");
+                goto fail;
+            }
+            PyObject *e = PyList_GET_ITEM(kp, hq);
+            Py_INCREF(e);
+            Py_DECREF(kp);
+            kp = e;
+        }
+        PyObject *rw = PyLong_FromDouble(row);
+        if (!rw) { Py_DECREF(kp); goto fail; }
+        PyList_SetItem(kept, k, kp);
+        PyList_SetItem(rows, k, rw);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+fail:
+    release(&b);
+    return NULL;
+}
+
+/* plan_chain_segments' last loop in one pass: for each k of todo, the chain strokes[k]'s memo
+   (its chain_T) remembers its plan out[k] and what it was made for: seg_T = T[k], seg_beta =
+   b_in[k], seg_key = key, seg = out[k] (set in that order), seg_tin = the plan's time_t
+   where it == t_in[k] (getattr(plan, "time_t", None): no time_t, None), else t_in[k]; then
+   drop(strokes[k]) where k is not in the set dropped.  (~16 k chains on the gyroid plate:
+   the loop's attribute reads and writes: -9 M instructions on the gyroid plate.) */
+static PyObject *remember_plans(PyObject *self, PyObject *a) {
+    PyObject *strokes, *todo, *out, *oT, *ob, *ot, *key, *dropped, *drop;
+    if (!PyArg_ParseTuple(a, "O!O!O!OOOOO!O", &PyList_Type, &strokes, &PyList_Type, &todo, &PyList_Type, &out,
+                          &oT, &ob, &ot, &key, &PySet_Type, &dropped, &drop))
+        return NULL;
+    static PyObject *s_chain_T, *s_seg_T, *s_seg_beta, *s_seg_key, *s_seg, *s_time_t, *s_seg_tin;
+    if (!s_seg_tin) {
+        s_chain_T = PyUnicode_InternFromString("chain_T");
+        s_seg_T = PyUnicode_InternFromString("seg_T");
+        s_seg_beta = PyUnicode_InternFromString("seg_beta");
+        s_seg_key = PyUnicode_InternFromString("seg_key");
+        s_seg = PyUnicode_InternFromString("seg");
+        s_time_t = PyUnicode_InternFromString("time_t");
+        s_seg_tin = PyUnicode_InternFromString("seg_tin");
+        if (!s_chain_T || !s_seg_T || !s_seg_beta || !s_seg_key || !s_seg || !s_time_t || !s_seg_tin) return NULL;
+    }
+    Py_ssize_t m = PyList_GET_SIZE(strokes), nT, nb, nt;
+    Bufs b = {.n = 0};
+    const double *T = get(&b, oT, 8, 0, &nT);
+    const double *b_in = T ? get(&b, ob, 8, 0, &nb) : NULL;
+    const double *t_in = b_in ? get(&b, ot, 8, 0, &nt) : NULL;
+    if (!t_in) { release(&b); return NULL; }
+    if (nT != m || nb != m || nt != m || PyList_GET_SIZE(out) != m) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "remember_plans: sizes");
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < PyList_GET_SIZE(todo); i++) {
+        PyObject *ok = PyList_GET_ITEM(todo, i);
+        Py_ssize_t k = PyLong_AsSsize_t(ok);
+        if (k == -1 && PyErr_Occurred()) goto fail;
+        if (k < 0 || k >= m) {
+            PyErr_SetString(PyExc_IndexError, "remember_plans: todo out of range");
+            goto fail;
+        }
+        PyObject *st = PyList_GET_ITEM(strokes, k), *plan = PyList_GET_ITEM(out, k);
+        PyObject *memo = PyObject_GetAttr(st, s_chain_T);
+        if (!memo) goto fail;
+        PyObject *fT = PyFloat_FromDouble(T[k]), *fb = fT ? PyFloat_FromDouble(b_in[k]) : NULL;
+        int bad = !fb || PyObject_SetAttr(memo, s_seg_T, fT) < 0 || PyObject_SetAttr(memo, s_seg_beta, fb) < 0
+                  || PyObject_SetAttr(memo, s_seg_key, key) < 0 || PyObject_SetAttr(memo, s_seg, plan) < 0;
+        Py_XDECREF(fT);
+        Py_XDECREF(fb);
+        if (bad) { Py_DECREF(memo); goto fail; }
+        PyObject *tt = PyObject_GetAttr(plan, s_time_t);
+        if (!tt) {
+            if (!PyErr_ExceptionMatches(PyExc_AttributeError)) { Py_DECREF(memo); goto fail; }
+            PyErr_Clear();
+            Py_INCREF(Py_None);
+            tt = Py_None;
+        }
+        PyObject *t = PyFloat_FromDouble(t_in[k]);
+        int eq = -1;
+        if (t) {
+            if (PyFloat_CheckExact(tt)) {
+                eq = PyFloat_AS_DOUBLE(tt) == t_in[k];
+            } else {
+                PyObject *r = PyObject_RichCompare(tt, t, Py_EQ);
+                if (r) {
+                    eq = PyObject_IsTrue(r);
+                    Py_DECREF(r);
+                }
+            }
+        }
+        bad = eq < 0 || PyObject_SetAttr(memo, s_seg_tin, eq ? tt : t) < 0;
+        Py_DECREF(tt);
+        Py_XDECREF(t);
+        Py_DECREF(memo);
+        if (bad) goto fail;
+        int in = PySet_Contains(dropped, ok);
+        if (in < 0) goto fail;
+        if (!in) {
+            PyObject *r = PyObject_CallOneArg(drop, st);
+            if (!r) goto fail;
+            Py_DECREF(r);
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+fail:
+    release(&b);
+    return NULL;
+}
+
+/* plan_chain_segments' sorting of ask_all's answers in one pass: for each chain k, its last
+   plan segs[k] where there is one (into out[k]), else k joins todo and, where it has a
+   candidate row (rows[k] not None) of the rules key (kept[k].key == key): a row dropped
+   (an instance of again_type) -> again [(k, kept)], a kept law (laws_type) -> items
+   [(strokes[k], kept, row)] and lazy [k], else out[k] = kept.plan(row); no row -> cold [k].
+   Returns (todo, items, lazy, again, cold). */
+static PyObject *sort_asks(PyObject *self, PyObject *a) {
+    PyObject *strokes, *segs, *kept, *rows, *key, *again_type, *laws_type, *out;
+    if (!PyArg_ParseTuple(a, "O!O!O!O!OOOO!", &PyList_Type, &strokes, &PyList_Type, &segs, &PyList_Type, &kept,
+                          &PyList_Type, &rows, &key, &again_type, &laws_type, &PyList_Type, &out))
+        return NULL;
+    static PyObject *s_key, *s_plan;
+    if (!s_plan) {
+        s_key = PyUnicode_InternFromString("key");
+        s_plan = PyUnicode_InternFromString("plan");
+        if (!s_key || !s_plan) return NULL;
+    }
+    Py_ssize_t m = PyList_GET_SIZE(strokes);
+    if (PyList_GET_SIZE(segs) != m || PyList_GET_SIZE(kept) != m || PyList_GET_SIZE(rows) != m
+        || PyList_GET_SIZE(out) != m) {
+        PyErr_SetString(PyExc_ValueError, "sort_asks: sizes");
+        return NULL;
+    }
+    PyObject *todo = PyList_New(0), *items = PyList_New(0), *lazy = PyList_New(0), *again = PyList_New(0),
+             *cold = PyList_New(0), *ok = NULL;
+    if (!todo || !items || !lazy || !again || !cold) goto done;
+    for (Py_ssize_t k = 0; k < m; k++) {
+        PyObject *seg = PyList_GET_ITEM(segs, k);
+        if (seg != Py_None) {
+            Py_INCREF(seg);
+            PyList_SetItem(out, k, seg);
+            continue;
+        }
+        PyObject *ik = PyLong_FromSsize_t(k);
+        if (!ik || PyList_Append(todo, ik) < 0) { Py_XDECREF(ik); goto done; }
+        PyObject *r = PyList_GET_ITEM(rows, k), *kp = PyList_GET_ITEM(kept, k);
+        int mine = 0;
+        if (r != Py_None) {
+            PyObject *kk = PyObject_GetAttr(kp, s_key);
+            PyObject *eq = kk ? PyObject_RichCompare(kk, key, Py_EQ) : NULL;
+            Py_XDECREF(kk);
+            mine = eq ? PyObject_IsTrue(eq) : -1;
+            Py_XDECREF(eq);
+        }
+        int bad = mine < 0;
+        if (!bad && mine) {
+            int is_again = PyObject_IsInstance(kp, again_type);
+            int is_laws = is_again == 0 ? PyObject_IsInstance(kp, laws_type) : 0;
+            if (is_again < 0 || is_laws < 0) {
+                bad = 1;
+            } else if (is_again) {
+                PyObject *t = PyTuple_Pack(2, ik, kp);
+                bad = !t || PyList_Append(again, t) < 0;
+                Py_XDECREF(t);
+            } else if (is_laws) {
+                PyObject *t = PyTuple_Pack(3, PyList_GET_ITEM(strokes, k), kp, r);
+                bad = !t || PyList_Append(items, t) < 0 || PyList_Append(lazy, ik) < 0;
+                Py_XDECREF(t);
+            } else {
+                PyObject *p = PyObject_CallMethodOneArg(kp, s_plan, r);
+                bad = !p;
+                if (p) PyList_SetItem(out, k, p);
+            }
+        } else if (!bad) {
+            bad = PyList_Append(cold, ik) < 0;
+        }
+        Py_DECREF(ik);
+        if (bad) goto done;
+    }
+    ok = PyTuple_Pack(5, todo, items, lazy, again, cold);
+done:
+    Py_XDECREF(todo);
+    Py_XDECREF(items);
+    Py_XDECREF(lazy);
+    Py_XDECREF(again);
+    Py_XDECREF(cold);
+    return ok;
+}
+
+/* _replay's drop of the chosen chains' rows in one pass: for each item (stroke, kept, row) of
+   items, the stroke's memo (chain_T) drops its rows as ChainMemo.drop_rows does (its kept of
+   type laws_type exactly, a src not None and kept.key == src.key: kept = src.again), gs[q]'s
+   chain_caps = None, and items[q] = (stroke, None, row). */
+static PyObject *drop_items(PyObject *self, PyObject *a) {
+    PyObject *items, *gs, *laws_type;
+    if (!PyArg_ParseTuple(a, "O!O!O", &PyList_Type, &items, &PyList_Type, &gs, &laws_type)) return NULL;
+    static PyObject *s_chain_T, *s_kept, *s_src, *s_key, *s_again, *s_chain_caps;
+    if (!s_chain_caps) {
+        s_chain_T = PyUnicode_InternFromString("chain_T");
+        s_kept = PyUnicode_InternFromString("kept");
+        s_src = PyUnicode_InternFromString("src");
+        s_key = PyUnicode_InternFromString("key");
+        s_again = PyUnicode_InternFromString("again");
+        s_chain_caps = PyUnicode_InternFromString("chain_caps");
+        if (!s_chain_T || !s_kept || !s_src || !s_key || !s_again || !s_chain_caps) return NULL;
+    }
+    Py_ssize_t m = PyList_GET_SIZE(items);
+    if (PyList_GET_SIZE(gs) != m) {
+        PyErr_SetString(PyExc_ValueError, "drop_items: sizes");
+        return NULL;
+    }
+    for (Py_ssize_t q = 0; q < m; q++) {
+        PyObject *it = PyList_GET_ITEM(items, q);
+        if (!PyTuple_Check(it) || PyTuple_GET_SIZE(it) != 3) {
+            PyErr_SetString(PyExc_TypeError, "drop_items: items of (stroke, kept, row)");
+            return NULL;
+        }
+        PyObject *st = PyTuple_GET_ITEM(it, 0);
+        PyObject *memo = PyObject_GetAttr(st, s_chain_T);
+        if (!memo) return NULL;
+        PyObject *kept = PyObject_GetAttr(memo, s_kept);
+        int bad = !kept;
+        if (kept && (PyObject *)Py_TYPE(kept) == laws_type) {
+            PyObject *src = PyObject_GetAttr(memo, s_src);
+            bad = !src;
+            if (src && src != Py_None) {
+                PyObject *k1 = PyObject_GetAttr(kept, s_key), *k2 = k1 ? PyObject_GetAttr(src, s_key) : NULL;
+                PyObject *eq = k2 ? PyObject_RichCompare(k1, k2, Py_EQ) : NULL;
+                int is = eq ? PyObject_IsTrue(eq) : -1;
+                Py_XDECREF(k1);
+                Py_XDECREF(k2);
+                Py_XDECREF(eq);
+                if (is > 0) {
+                    PyObject *ag = PyObject_GetAttr(src, s_again);
+                    is = ag && PyObject_SetAttr(memo, s_kept, ag) == 0 ? 0 : -1;
+                    Py_XDECREF(ag);
+                }
+                bad = is < 0;
+            }
+            Py_XDECREF(src);
+        }
+        Py_XDECREF(kept);
+        Py_DECREF(memo);
+        if (bad || PyObject_SetAttr(PyList_GET_ITEM(gs, q), s_chain_caps, Py_None) < 0) return NULL;
+        PyObject *t = PyTuple_Pack(3, st, Py_None, PyTuple_GET_ITEM(it, 2));
+        if (!t) return NULL;
+        PyList_SetItem(items, q, t);
+    }
     Py_RETURN_NONE;
 }

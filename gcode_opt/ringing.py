@@ -401,15 +401,15 @@ class _Stream:
         new ones'), where the caller wrote the carried time and the waiting events in
         front of them (_events' lead): the same steps without concatenating (~8 instructions
         a number each; the concatenations add and _solve make)."""
-        lead, nw = self.t_last is not None, len(self.t)
-        new_t = t1[lead + nw:]
+        has_last, nw = self.t_last is not None, len(self.t)
+        new_t = t1[has_last + nw:]
         new_t += 0.0                    # (add's t + 0.0, in place: no shaper here)
-        t_all = t1[lead:]
+        t_all = t1[has_last:]
         if not self.plain or not (t_all[:-1] <= t_all[1:]).all():
             self.add(new_t, dr1[nw:], drp1[nw:], horizon_t)     # (the new events, as add takes them)
             return
         k = int(np.searchsorted(t_all, horizon_t, side="left"))
-        self.t1 = t1[:lead + k]         # (_solve's t after the carried time, made)
+        self.t1 = t1[:has_last + k]     # (_solve's t after the carried time, made)
         try:
             self._solve(t_all[:k], dr1[:k], drp1[:k])
         finally:
@@ -660,9 +660,8 @@ class Collector:
         self.time_t += _rows_time(m, 1 if self.skip_first else 0, len(m) - 1 if final else len(m))
         self.skip_first = False
         self.chunks += 1
-        # "all"'s events after each stream's carried time and waiting events (add_joined)
-        lead = {name: self.streams[name, "all"] for name in "xy"}
-        got = _events(m, self.carry, self.model, len(self.parts) > 1, self.events_room, lead) \
+        # the events after each stream's carried time and waiting events (add_joined)
+        got = _events(m, self.carry, self.model, len(self.parts) > 1, self.events_room, self.streams) \
             if self.smooth is None else None
         joined = got is not None
         if got is None:             # (without a shaper the core's events are all a chunk needs)
@@ -689,7 +688,7 @@ class Collector:
         # go last (X's other parts take them too)
         for part in self.parts:
             for name in "xy":
-                if joined and part == "all":
+                if joined:
                     self.streams[name, part].add_joined(*got.pop((name, part)), horizon[name])
                 else:
                     self.streams[name, part].add(*got.pop((name, part)), horizon[name])
@@ -735,16 +734,17 @@ def _events(m, c: _Carry, model: dict, parts: bool = True, room: Room | None = N
     chunk of 4096 rows, whose fresh pages fault when written: ~1.3 k fewer faults a
     plate_rectilinear run), else new arrays.
 
-    lead ({"x": stream, "y": stream}: each axis' "all" _Stream, or None): "all"'s events
+    lead ({(axis, part): _Stream}: the Collector's streams, or None): each stream's events
     are (t1, dr, drp) for its add_joined: the stream's carried time (if any) and waiting
     events written in front of the new ones (the core leaves room for them)."""
     core = _events_core()
     if core is None:
         return None
     n = len(m)
-    f = max(st.front() for st in lead.values()) if lead else 0    # room before each axis' events
-    out = room.grab(38 * n + 6 * f) if room is not None else np.empty(38 * n + 6 * f)
-    t_out, dr_out, drp_out = out[:16 * n + 2 * f], out[16 * n + 2 * f:28 * n + 4 * f], out[28 * n + 4 * f:38 * n + 6 * f]
+    f = max(st.front() for st in lead.values()) if lead else 0    # room before each output
+    nt, nr, np_ = 16 * n + 8 * f, 12 * n + 4 * f, 10 * n + 6 * f
+    out = room.grab(nt + nr + np_) if room is not None else np.empty(nt + nr + np_)
+    t_out, dr_out, drp_out = out[:nt], out[nt:nt + nr], out[nt + nr:nt + nr + np_]
     w = [2.0 * math.pi * model[f"freq_{name}_hz"] for name in "xy"]     # _jumps' w, and its w * w
     counts, t, vx, vy, ax_, ay_, ux, uy, isb = core.ring_events(
         np.ascontiguousarray(m), c.t, float(c.vel_end[0]), float(c.vel_end[1]), float(c.acc[0]), float(c.acc[1]),
@@ -754,25 +754,26 @@ def _events(m, c: _Carry, model: dict, parts: bool = True, room: Room | None = N
     c.ux, c.uy, c.isb = ux, uy, isb
     got = {}
     for a, name in enumerate("xy"):
-        n_all, n_ramp, n_corner, n_turn = counts[4 * a:4 * a + 4]
-        T, R, P = t_out[(8 * n + f) * a + f:], dr_out[(6 * n + f) * a + f:], drp_out[(5 * n + f) * a + f:]
-        if lead:
-            st = lead[name]
-            nw = len(st.t)
-            T0, R0, P0 = (8 * n + f) * a + f - nw, (6 * n + f) * a + f - nw, (5 * n + f) * a + f - nw
-            t_out[T0:T0 + nw], dr_out[R0:R0 + nw], drp_out[P0:P0 + nw] = st.t, st.dr, st.drp
-            if st.t_last is not None:
-                T0 -= 1
-                t_out[T0] = st.t_last
-            got[name, "all"] = (t_out[T0:T0 + st.front() + n_all], dr_out[R0:R0 + nw + n_all],
-                                drp_out[P0:P0 + nw + n_all])
-        else:
-            got[name, "all"] = (T[:n_all], R[:n_all], P[:n_all])
-        if not parts:
-            continue
-        got[name, "ramp"] = (T[3 * n:3 * n + n_ramp], R[3 * n:3 * n + n_ramp], np.zeros(n_ramp))
-        got[name, "corner"] = (T[6 * n:6 * n + n_corner], np.zeros(n_corner), P[3 * n:3 * n + n_corner])
-        got[name, "turn"] = (T[7 * n:7 * n + n_turn], np.zeros(n_turn), P[4 * n:4 * n + n_turn])
+        t0, r0, p0 = (8 * n + 4 * f) * a + f, (6 * n + 2 * f) * a + f, (5 * n + 3 * f) * a + f
+        # where each part's times, dr and drp start in the outputs (None: zeros)
+        at = {"all": (t0, r0, p0), "ramp": (t0 + 3 * n + f, r0 + 3 * n + f, None),
+              "corner": (t0 + 6 * n + 2 * f, None, p0 + 3 * n + f),
+              "turn": (t0 + 7 * n + 3 * f, None, p0 + 4 * n + 2 * f)}
+        for part, k in zip(("all",) + PARTS if parts else ("all",), counts[4 * a:4 * a + 4]):
+            ti, ri, pi = at[part]
+            st = lead.get((name, part)) if lead else None
+            nw, front = (len(st.t), st.front()) if st is not None else (0, 0)
+            if st is not None:          # (its waiting dr or drp where the part has none: zeros)
+                t_out[ti - nw:ti] = st.t
+                if ri is not None:
+                    dr_out[ri - nw:ri] = st.dr
+                if pi is not None:
+                    drp_out[pi - nw:pi] = st.drp
+                if st.t_last is not None:
+                    t_out[ti - front] = st.t_last
+            got[name, part] = (t_out[ti - front:ti + k],
+                               dr_out[ri - nw:ri + k] if ri is not None else np.zeros(nw + k),
+                               drp_out[pi - nw:pi + k] if pi is not None else np.zeros(nw + k))
     return got
 
 

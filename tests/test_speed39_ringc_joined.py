@@ -1,15 +1,15 @@
-"""Session 39 (ringc): the "all" streams' events without concatenations.
+"""Session 39 (ringc): the ringing streams' events without concatenations.
 
-Collector._flush has ring_events leave room (its `front`) before each axis' events, writes
-each "all" stream's carried time and waiting events there (_events' lead) and hands the
-joined arrays to _Stream.add_joined, which does add's and _solve's steps on views of them
+Collector._flush has ring_events leave room (its `front`) before each output, writes each
+stream's carried time and waiting events there (_events' lead) and hands the joined
+arrays to _Stream.add_joined, which does add's and _solve's steps on views of them
 instead of np.concatenate-ing (~8 instructions a number each).
 
-Checked bit for bit against the code it replaces: _events with a lead gives, per axis,
-[t_last] + waiting + the new events (and the new events and every other part the same as
-without a lead), on random rows with varied waiting events; whole Collectors' figures equal
-those of add() (the 8a00d23 path: add_joined undone into add) on sample files cut into
-small chunks (many flushes, waiting events), with and without the parts."""
+Checked bit for bit against the code it replaces: _events with a lead gives, per stream,
+[t_last] + waiting + the new events (the new events the same as without a lead), on
+random rows with varied waiting events; whole Collectors' figures equal those of add()
+(the 8a00d23 path: _events without a lead, add) on sample files cut into small chunks
+(many flushes, waiting events), with and without the parts."""
 import os
 
 import numpy as np
@@ -62,20 +62,19 @@ def test_events_with_a_lead_are_the_joined_arrays(seed):
         for parts in (True, False):
             want = rg._events(m, _Carry(), MODEL, parts)
             lead = {}
-            for name in "xy":
+            for key in want:
                 nw = int(rng.integers(0, 5))
                 t_last = None if rng.uniform() < 0.3 else float(rng.uniform(-2.0, 0.0))
-                lead[name] = _Lead(t_last, rng.uniform(-1.0, 0.0, nw), rng.normal(size=nw), rng.normal(size=nw))
+                # (a part's waiting dr or drp where it has none: zeros, as its stream's)
+                dr = rng.normal(size=nw) if key[1] in ("all", "ramp") else np.zeros(nw)
+                drp = rng.normal(size=nw) if key[1] != "ramp" else np.zeros(nw)
+                lead[key] = _Lead(t_last, rng.uniform(-1.0, 0.0, nw), dr, drp)
             room = rg.Room()
             room.grab(1)                         # (a room too small: grown)
             got = rg._events(m, _Carry(), MODEL, parts, room, lead)
             assert list(got) == list(want)
             for (name, part), arrs in want.items():
-                if part != "all":
-                    for a, b in zip(got[name, part], arrs):
-                        assert a.tobytes() == b.tobytes(), (name, part)
-                    continue
-                st = lead[name]
+                st = lead[name, part]
                 t_front = ([st.t_last] if st.t_last is not None else []) + list(st.t)
                 w_t = np.concatenate([np.array(t_front, float), arrs[0]])
                 w_dr = np.concatenate([st.dr, arrs[1]])
@@ -89,17 +88,24 @@ def test_ring_events_front_checks_the_lengths():
     m = np.zeros((3, rg.ROW))
     args = (m, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.5)
     n, f = 3, 2
-    CORE.ring_events(*args, np.empty(16 * n + 2 * f), np.empty(12 * n + 2 * f), np.empty(10 * n + 2 * f), True, f)
+    CORE.ring_events(*args, np.empty(16 * n + 8 * f), np.empty(12 * n + 4 * f), np.empty(10 * n + 6 * f), False, f)
     with pytest.raises(ValueError):
         CORE.ring_events(*args, np.empty(16 * n), np.empty(12 * n), np.empty(10 * n), True, f)
     with pytest.raises(ValueError):
         CORE.ring_events(*args, np.empty(16 * n), np.empty(12 * n), np.empty(10 * n), True, -1)
 
 
-def _add_joined_undone(self, t1, dr1, drp1, horizon_t):
+def _events_alone(m, c, model, parts=True, room=None, lead=None):
+    """8a00d23's _events: no lead (each stream's new events only)."""
+    return _EVENTS(m, c, model, parts, room)
+
+
+def _add(self, t, dr, drp, horizon_t):
     """8a00d23's path: the new events through add() (its concatenations)."""
-    nw = len(self.t)
-    self.add(t1[self.front():].copy(), dr1[nw:].copy(), drp1[nw:].copy(), horizon_t)
+    self.add(t, dr, drp, horizon_t)
+
+
+_EVENTS = rg._events
 
 
 def _figures(path, prof, chunk, parts):
@@ -130,6 +136,8 @@ def test_figures_equal_the_add_path(monkeypatch, name, prof, chunk):
         monkeypatch.setattr(rg._Stream, "add_joined", spy)
         got, chunks = _figures(path, profile, chunk, parts)
         assert calls["n"] >= 2 * chunks > 4      # (the joined path ran, chunk after chunk)
-        monkeypatch.setattr(rg._Stream, "add_joined", _add_joined_undone)
+        monkeypatch.setattr(rg._Stream, "add_joined", _add)
+        monkeypatch.setattr(rg, "_events", _events_alone)
         want, _ = _figures(path, profile, chunk, parts)
+        monkeypatch.setattr(rg, "_events", _EVENTS)
         assert _bits(got) == _bits(want)

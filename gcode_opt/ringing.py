@@ -354,6 +354,7 @@ class _Stream:
         self.t = np.zeros(0)
         self.dr, self.drp = np.zeros(0), np.zeros(0)
         self.t_last, self.c_last = None, 0j
+        self.t1 = None                  # add_joined's t1 for _solve (during its call only)
         self.int_r2, self.peak = 0.0, 0.0
         # the exponentials shared with the streams of the same oscillator (resonance.RingMemo;
         # lead: this stream's go into it, for the others)
@@ -390,12 +391,40 @@ class _Stream:
         # what waits is copied: a few events, not a view holding the chunk's arrays
         self.t, self.dr, self.drp = t_all[k:].copy(), dr_all[k:].copy(), drp_all[k:].copy()
 
+    def front(self) -> int:
+        """The numbers add_joined's arrays hold before the new events: the carried time
+        (if any) and the events that wait."""
+        return (self.t_last is not None) + len(self.t)
+
+    def add_joined(self, t1, dr1, drp1, horizon_t):
+        """add() of the new events at t1[front():] (dr1, drp1: the waiting events' then the
+        new ones'), where the caller wrote the carried time and the waiting events in
+        front of them (_events' lead): the same steps without concatenating (~8 instructions
+        a number each; the concatenations add and _solve make)."""
+        has_last, nw = self.t_last is not None, len(self.t)
+        new_t = t1[has_last + nw:]
+        new_t += 0.0                    # (add's t + 0.0, in place: no shaper here)
+        t_all = t1[has_last:]
+        if not self.plain or not (t_all[:-1] <= t_all[1:]).all():
+            self.add(new_t, dr1[nw:], drp1[nw:], horizon_t)     # (the new events, as add takes them)
+            return
+        k = int(np.searchsorted(t_all, horizon_t, side="left"))
+        self.t1 = t1[:has_last + k]     # (_solve's t after the carried time, made)
+        try:
+            self._solve(t_all[:k], dr1[:k], drp1[:k])
+        finally:
+            self.t1 = None
+        self.t, self.dr, self.drp = t_all[k:].copy(), dr1[k:].copy(), drp1[k:].copy()
+
     def _solve(self, t, dr, drp):
         if len(t) == 0:
             return
         osc = self.osc
-        # in one call of the core where it gives these steps' bits (Oscillator.solve)
-        t1 = t if self.t_last is None else np.concatenate([[self.t_last], t])
+        # in one call of the core where it gives these steps' bits (Oscillator.solve); t1:
+        # t after the carried time, unless add_joined has it
+        t1 = self.t1
+        if t1 is None:
+            t1 = t if self.t_last is None else np.concatenate([[self.t_last], t])
         npend = len(self.pend)
         got = osc.solve(t1, dr, drp, None if self.t_last is None else self.c_last, self.memo, self.lead,
                         self.src, self.peak, self.pend)
@@ -631,8 +660,10 @@ class Collector:
         self.time_t += _rows_time(m, 1 if self.skip_first else 0, len(m) - 1 if final else len(m))
         self.skip_first = False
         self.chunks += 1
-        got = _events(m, self.carry, self.model, len(self.parts) > 1, self.events_room) \
+        # the events after each stream's carried time and waiting events (add_joined)
+        got = _events(m, self.carry, self.model, len(self.parts) > 1, self.events_room, self.streams) \
             if self.smooth is None else None
+        joined = got is not None
         if got is None:             # (without a shaper the core's events are all a chunk needs)
             tr = _pieces(m, self.carry, self.smooth is not None)
             got = {}
@@ -657,7 +688,10 @@ class Collector:
         # go last (X's other parts take them too)
         for part in self.parts:
             for name in "xy":
-                self.streams[name, part].add(*got.pop((name, part)), horizon[name])
+                if joined:
+                    self.streams[name, part].add_joined(*got.pop((name, part)), horizon[name])
+                else:
+                    self.streams[name, part].add(*got.pop((name, part)), horizon[name])
             if part != "all":
                 for name in "xy":
                     self.streams[name, part].memo.clear()
@@ -690,7 +724,7 @@ def _events_core():
     return core if USE_EVENTS and core is not None and hasattr(core, "ring_events") else None
 
 
-def _events(m, c: _Carry, model: dict, parts: bool = True, room: Room | None = None):
+def _events(m, c: _Carry, model: dict, parts: bool = True, room: Room | None = None, lead=None):
     """{(axis, part): (t, dr, drp)}: the events Collector._flush hands each stream, from the
     rows m (k x 12) following on from c (c moves to their end, as _pieces moves it), by the
     compiled core's ring_events (the same numbers as _pieces without positions, _jumps and
@@ -698,30 +732,48 @@ def _events(m, c: _Carry, model: dict, parts: bool = True, room: Room | None = N
     Without `parts`, "all"'s only (the core writes no other part's).  room: where they are
     written (views of its array; the Collector's, kept from chunk to chunk: ~1.2 MB a
     chunk of 4096 rows, whose fresh pages fault when written: ~1.3 k fewer faults a
-    plate_rectilinear run), else new arrays."""
+    plate_rectilinear run), else new arrays.
+
+    lead ({(axis, part): _Stream}: the Collector's streams, or None): each stream's events
+    are (t1, dr, drp) for its add_joined: the stream's carried time (if any) and waiting
+    events written in front of the new ones (the core leaves room for them)."""
     core = _events_core()
     if core is None:
         return None
     n = len(m)
-    out = room.grab(38 * n) if room is not None else np.empty(38 * n)
-    t_out, dr_out, drp_out = out[:16 * n], out[16 * n:28 * n], out[28 * n:38 * n]
+    f = max(st.front() for st in lead.values()) if lead else 0    # room before each output
+    nt, nr, np_ = 16 * n + 8 * f, 12 * n + 4 * f, 10 * n + 6 * f
+    out = room.grab(nt + nr + np_) if room is not None else np.empty(nt + nr + np_)
+    t_out, dr_out, drp_out = out[:nt], out[nt:nt + nr], out[nt + nr:nt + nr + np_]
     w = [2.0 * math.pi * model[f"freq_{name}_hz"] for name in "xy"]     # _jumps' w, and its w * w
     counts, t, vx, vy, ax_, ay_, ux, uy, isb = core.ring_events(
         np.ascontiguousarray(m), c.t, float(c.vel_end[0]), float(c.vel_end[1]), float(c.acc[0]), float(c.acc[1]),
-        c.ux, c.uy, c.isb, w[0] * w[0], w[1] * w[1], CORNER_COS, t_out, dr_out, drp_out, not parts)
+        c.ux, c.uy, c.isb, w[0] * w[0], w[1] * w[1], CORNER_COS, t_out, dr_out, drp_out, not parts, f)
     c.t = t
     c.vel_end, c.acc = np.array([vx, vy]), np.array([ax_, ay_])
     c.ux, c.uy, c.isb = ux, uy, isb
     got = {}
     for a, name in enumerate("xy"):
-        n_all, n_ramp, n_corner, n_turn = counts[4 * a:4 * a + 4]
-        T, R, P = t_out[8 * n * a:], dr_out[6 * n * a:], drp_out[5 * n * a:]
-        got[name, "all"] = (T[:n_all], R[:n_all], P[:n_all])
-        if not parts:
-            continue
-        got[name, "ramp"] = (T[3 * n:3 * n + n_ramp], R[3 * n:3 * n + n_ramp], np.zeros(n_ramp))
-        got[name, "corner"] = (T[6 * n:6 * n + n_corner], np.zeros(n_corner), P[3 * n:3 * n + n_corner])
-        got[name, "turn"] = (T[7 * n:7 * n + n_turn], np.zeros(n_turn), P[4 * n:4 * n + n_turn])
+        t0, r0, p0 = (8 * n + 4 * f) * a + f, (6 * n + 2 * f) * a + f, (5 * n + 3 * f) * a + f
+        # where each part's times, dr and drp start in the outputs (None: zeros)
+        at = {"all": (t0, r0, p0), "ramp": (t0 + 3 * n + f, r0 + 3 * n + f, None),
+              "corner": (t0 + 6 * n + 2 * f, None, p0 + 3 * n + f),
+              "turn": (t0 + 7 * n + 3 * f, None, p0 + 4 * n + 2 * f)}
+        for part, k in zip(("all",) + PARTS if parts else ("all",), counts[4 * a:4 * a + 4]):
+            ti, ri, pi = at[part]
+            st = lead.get((name, part)) if lead else None
+            nw, front = (len(st.t), st.front()) if st is not None else (0, 0)
+            if st is not None:          # (its waiting dr or drp where the part has none: zeros)
+                t_out[ti - nw:ti] = st.t
+                if ri is not None:
+                    dr_out[ri - nw:ri] = st.dr
+                if pi is not None:
+                    drp_out[pi - nw:pi] = st.drp
+                if st.t_last is not None:
+                    t_out[ti - front] = st.t_last
+            got[name, part] = (t_out[ti - front:ti + k],
+                               dr_out[ri - nw:ri + k] if ri is not None else np.zeros(nw + k),
+                               drp_out[pi - nw:pi + k] if pi is not None else np.zeros(nw + k))
     return got
 
 

@@ -195,8 +195,8 @@ def test_the_events_room_is_kept_and_the_figures_stay(monkeypatch):
     arrays = []
     orig = rg._events
 
-    def spy(m, c, model, parts=True, room=None):
-        got = orig(m, c, model, parts, room)
+    def spy(m, c, model, parts=True, room=None, *lead):
+        got = orig(m, c, model, parts, room, *lead)
         arrays.append(room.arr)
         return got
     monkeypatch.setattr(rg, "_events", spy)

@@ -6038,19 +6038,28 @@ ring_events_rows(RingEv *e, const double *m, Py_ssize_t rows, double corner_cos,
  * (6 n an axis: 0, 3n), drp of all, corner and turn into drp_out (5 n an axis: 0, 3n, 4n).
  * Returns (counts: 8 ints, x's four parts then y's, the new carry: t, vel_end x, y, acc x,
  * y, ux, uy, isb).  all_only (optional, false if not given): "all"'s events only (the
- * other parts' counts 0, their outputs not written: a Collector without the parts). */
+ * other parts' counts 0, their outputs not written: a Collector without the parts).
+ * front (optional, 0 if not given): doubles left unwritten before each output (t_out
+ * 16 n + 8 front: axis a's all, ramp, corner, turn at a (8 n + 4 front) + front, + 3 n +
+ * front, + 6 n + 2 front, + 7 n + 3 front; dr_out 12 n + 4 front: all, ramp at a (6 n + 2
+ * front) + front, + 3 n + front; drp_out 10 n + 6 front: all, corner, turn at a (5 n + 3
+ * front) + front, + 3 n + front, + 4 n + 2 front): the caller puts each stream's events
+ * that wait from the chunk before (and its carried time) in front of its new ones, which
+ * then need no concatenation (Collector._flush). */
 static PyObject *mod_ring_events(PyObject *self, PyObject *args)
 {
     Py_buffer mb, tb, rb, pb;
     double c_t, pvx, pvy, pax, pay, pux, puy, pisb, w2[2], corner_cos;
     int all_only = 0;
-    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*|p:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
-                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb, &all_only))
+    Py_ssize_t front = 0;
+    if (!PyArg_ParseTuple(args, "y*dddddddddddw*w*w*|pn:ring_events", &mb, &c_t, &pvx, &pvy, &pax, &pay,
+                          &pux, &puy, &pisb, &w2[0], &w2[1], &corner_cos, &tb, &rb, &pb, &all_only, &front))
         return NULL;
     PyObject *ret = NULL;
     Py_ssize_t rows = mb.len / (Py_ssize_t)(12 * sizeof(double));
-    if (mb.len != rows * 12 * (Py_ssize_t)sizeof(double) || tb.len != 16 * rows * (Py_ssize_t)sizeof(double)
-        || rb.len != 12 * rows * (Py_ssize_t)sizeof(double) || pb.len != 10 * rows * (Py_ssize_t)sizeof(double)) {
+    const Py_ssize_t d = (Py_ssize_t)sizeof(double);
+    if (front < 0 || mb.len != rows * 12 * d || tb.len != (16 * rows + 8 * front) * d
+        || rb.len != (12 * rows + 4 * front) * d || pb.len != (10 * rows + 6 * front) * d) {
         PyErr_SetString(PyExc_ValueError, "ring_events: m is not whole rows, or the outputs' lengths");
         goto done;
     }
@@ -6062,15 +6071,15 @@ static PyObject *mod_ring_events(PyObject *self, PyObject *args)
     for (int a = 0; a < 2; a++) {
         for (int k = 0; k < 4; k++)
             e.cnt[a][k] = 0;
-        e.T[a][0] = t_out + a * 8 * n;
-        e.T[a][1] = e.T[a][0] + 3 * n;
-        e.T[a][2] = e.T[a][0] + 6 * n;
-        e.T[a][3] = e.T[a][0] + 7 * n;
-        e.DR[a][0] = dr_out + a * 6 * n;
-        e.DR[a][1] = e.DR[a][0] + 3 * n;
-        e.DP[a][0] = drp_out + a * 5 * n;
-        e.DP[a][1] = e.DP[a][0] + 3 * n;
-        e.DP[a][2] = e.DP[a][0] + 4 * n;
+        e.T[a][0] = t_out + a * (8 * n + 4 * front) + front;
+        e.T[a][1] = e.T[a][0] + 3 * n + front;
+        e.T[a][2] = e.T[a][0] + 6 * n + 2 * front;
+        e.T[a][3] = e.T[a][0] + 7 * n + 3 * front;
+        e.DR[a][0] = dr_out + a * (6 * n + 2 * front) + front;
+        e.DR[a][1] = e.DR[a][0] + 3 * n + front;
+        e.DP[a][0] = drp_out + a * (5 * n + 3 * front) + front;
+        e.DP[a][1] = e.DP[a][0] + 3 * n + front;
+        e.DP[a][2] = e.DP[a][0] + 4 * n + 2 * front;
     }
     /* (each a loop of its own: the parts' tests drop out of "all"'s) */
     if (all_only)

@@ -257,6 +257,14 @@ def m_non_utf8(r, L):
     L[i] = L[i][:k] + r.choice((b"\xff", b"\xfe\xff", b"\x80", b"\xc3", b"\xed\xa0\x80", b"\xe9")) + L[i][k:]
 
 
+def m_letter(r, L):
+    """A line's command letter replaced by a letter outside A-Z (UTF-8: 'é1' is isalpha
+    before a digit; session 39's crash), or such a letter put before the line."""
+    i = _pick_motion(r, L)
+    letter = r.choice(("\u00e9", "\u00c9", "\u00df", "\u01c5", "\u00aa", "\u03a9", "\uff27")).encode()
+    L[i] = letter + (L[i][1:] if r.random() < 0.7 else L[i])
+
+
 def m_nul(r, L):
     if r.random() < 0.3:
         L.insert(r.randrange(len(L) + 1), b"\x00" * r.randint(1, 4096) + b"\n")
@@ -338,7 +346,7 @@ def m_scale(r, L):
 
 MUTATIONS = {f.__name__[2:]: f for f in (
     m_delete, m_duplicate, m_swap, m_digit_flip, m_number, m_truncate, m_mode, m_bad_arc, m_checksum, m_tool,
-    m_accel, m_feed, m_crlf, m_bom, m_tabs, m_non_utf8, m_nul, m_long_line, m_case_space, m_binary, m_coords,
+    m_accel, m_feed, m_crlf, m_bom, m_tabs, m_non_utf8, m_letter, m_nul, m_long_line, m_case_space, m_binary, m_coords,
     m_value, m_feature, m_scale)}
 WEIGHTS = {"binary": 0.2, "long_line": 0.3, "value": 2.0}   # relative draw weights (default 1)
 

@@ -5,10 +5,9 @@ kernel's arguments (curves.py: _parts_block), their elementwise work compiled.
 Optional extension _gcode_opt_curvecore (setup.py builds it; laws/circle.py and curves.py
 fall back to the numpy code when it is missing, stale or GCODE_OPT_PURE_PYTHON is set).
 It must give the numpy code's bits: every double operation below is the one numpy does,
-in the same order (built with -ffp-contract=off, no fast math).  The matrix products are
-numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-padded arrays), or rows_fma's
-where a probe of the shape finds it sums as that BLAS does (circle._fma_rows_mode); np.exp
-stays numpy's (numpy's is not libm's on every machine): these functions do what lies
+in the same order (built with -ffp-contract=off, no fast math).  The matrix products stay
+numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-padded arrays) and so
+does np.exp (numpy's is not libm's on every machine): these functions do what lies
 between them.  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
 row maxima and minima propagate NaN as numpy's do. */
 #define PY_SSIZE_T_CLEAN
@@ -1164,158 +1163,6 @@ static PyObject *u_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
-/* rows_fma(a, lda, nrows, k, b, m, out, split): out[i] = a[i, :k] @ b (k, m) for i < nrows,
-   each element summed as the BLAS's dgemm sums it under numpy's matmul (OpenBLAS 0.3.31;
-   found by experiment, and checked at run time for each shape before use:
-   circle._fma_rows_mode):
-   - every column (Haswell kernels: split 0), or the columns in whole groups of 8 and the
-     last m % 8 columns when m % 8 > 4 or k < 16 (SkylakeX kernels: split 1): one
-     accumulator from +0.0, fused multiply-adds in k order;
-   - split 1, the last m % 8 columns when m % 8 is 1 .. 4 and k >= 16: eight
-     accumulators, the terms k = s mod 8 fused into the s-th in k order, added pairwise
-     ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7));
-   k = 1: the product + 0.0 (a -0.0 comes out +0.0).  a's rows are lda doubles apart (a
-   column slice of a wider table, no copy); b and out C-contiguous.  No BLAS call: no
-   zero-fill of C, no packing, no padding rows (circle._rows_matmul's blocks of
-   _GEMM_ROWS rows: rows are each their own).  Returns False (nothing written) where the
-   CPU has no AVX2 and FMA. */
-#if CURVE_AVX
-#define FMA_FN __attribute__((target("avx2,fma")))
-static int fma_ok = -1;
-static int use_fma(void) {
-    if (fma_ok < 0) {
-        __builtin_cpu_init();
-        fma_ok = (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) ? 1 : 0;
-    }
-    return fma_ok;
-}
-
-/* columns c0 .. c0 + cols (4 (NV - 1) < cols <= 4 NV) of every row, from the padded b (ldb
-   columns from c0); a row's last vector through tmp when cols is not 4 NV.  k two terms a
-   pass (the same fused adds in the same order; fewer loop steps) */
-#define FMA_BLK(NV)                                                                          \
-    FMA_FN static void fma_blk##NV(const double *a, Py_ssize_t lda, Py_ssize_t nrows,       \
-                                   const double *bp, Py_ssize_t k, Py_ssize_t ldb,           \
-                                   double *out, Py_ssize_t ldo, Py_ssize_t cols) {           \
-        const Py_ssize_t rem = cols - 4 * (NV - 1);                                          \
-        for (Py_ssize_t i = 0; i < nrows; i++) {                                             \
-            const double *ar = a + i * lda, *br = bp;                                        \
-            double *o = out + i * ldo;                                                       \
-            __m256d acc[NV];                                                                 \
-            _Pragma("GCC unroll 8") for (int v = 0; v < NV; v++) acc[v] = _mm256_setzero_pd(); \
-            Py_ssize_t kk = 0;                                                               \
-            for (; kk + 2 <= k; kk += 2, br += 2 * ldb) {                                    \
-                const __m256d a0 = _mm256_broadcast_sd(ar + kk);                             \
-                _Pragma("GCC unroll 8") for (int v = 0; v < NV; v++)                         \
-                    acc[v] = _mm256_fmadd_pd(a0, _mm256_loadu_pd(br + 4 * v), acc[v]);       \
-                const __m256d a1 = _mm256_broadcast_sd(ar + kk + 1);                         \
-                _Pragma("GCC unroll 8") for (int v = 0; v < NV; v++)                         \
-                    acc[v] = _mm256_fmadd_pd(a1, _mm256_loadu_pd(br + ldb + 4 * v), acc[v]); \
-            }                                                                                \
-            if (kk < k) {                                                                    \
-                const __m256d a0 = _mm256_broadcast_sd(ar + kk);                             \
-                _Pragma("GCC unroll 8") for (int v = 0; v < NV; v++)                         \
-                    acc[v] = _mm256_fmadd_pd(a0, _mm256_loadu_pd(br + 4 * v), acc[v]);       \
-            }                                                                                \
-            _Pragma("GCC unroll 8") for (int v = 0; v < NV - 1; v++)                         \
-                _mm256_storeu_pd(o + 4 * v, acc[v]);                                         \
-            if (rem == 4) {                                                                  \
-                _mm256_storeu_pd(o + 4 * (NV - 1), acc[NV - 1]);                             \
-            } else {                                                                         \
-                double tmp[4];                                                               \
-                _mm256_storeu_pd(tmp, acc[NV - 1]);                                          \
-                for (Py_ssize_t r = 0; r < rem; r++) o[4 * (NV - 1) + r] = tmp[r];           \
-            }                                                                                \
-        }                                                                                    \
-    }
-FMA_BLK(1)
-FMA_BLK(2)
-FMA_BLK(3)
-FMA_BLK(4)
-FMA_BLK(5)
-FMA_BLK(6)
-FMA_BLK(7)
-FMA_BLK(8)
-
-typedef void (*fma_blk_fn)(const double *, Py_ssize_t, Py_ssize_t, const double *, Py_ssize_t, Py_ssize_t,
-                           double *, Py_ssize_t, Py_ssize_t);
-static const fma_blk_fn fma_blk_by_nv[9] = {NULL, fma_blk1, fma_blk2, fma_blk3, fma_blk4,
-                                            fma_blk5, fma_blk6, fma_blk7, fma_blk8};
-
-/* one element of the split tail: a row (k) . a column of b laid out along k (bt) */
-FMA_FN static double fma_dot8(const double *ar, const double *bt, Py_ssize_t k) {
-    __m256d lo = _mm256_setzero_pd(), hi = _mm256_setzero_pd();
-    Py_ssize_t q = 0;
-    for (; q + 8 <= k; q += 8) {
-        lo = _mm256_fmadd_pd(_mm256_loadu_pd(ar + q), _mm256_loadu_pd(bt + q), lo);
-        hi = _mm256_fmadd_pd(_mm256_loadu_pd(ar + q + 4), _mm256_loadu_pd(bt + q + 4), hi);
-    }
-    double s[8];
-    _mm256_storeu_pd(s, lo);
-    _mm256_storeu_pd(s + 4, hi);
-    for (Py_ssize_t r = 0; q + r < k; r++)
-        s[r] = _mm_cvtsd_f64(_mm_fmadd_sd(_mm_set_sd(ar[q + r]), _mm_set_sd(bt[q + r]), _mm_set_sd(s[r])));
-    return ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]));
-}
-
-/* out (nrows, m) from a (rows lda apart), bp (k, ldb: the first m - split columns then
-   zeros to a multiple of 4): 32 columns of every row at a time; the split tail (the last
-   `split` columns, bt: those columns of b laid out along k) by fma_dot8 */
-FMA_FN static void fma_rows(const double *a, Py_ssize_t lda, Py_ssize_t nrows, Py_ssize_t k,
-                            const double *bp, Py_ssize_t ldb, Py_ssize_t m, Py_ssize_t split,
-                            const double *bt, double *out) {
-    const Py_ssize_t mseq = m - split;
-    for (Py_ssize_t c0 = 0; c0 < mseq; c0 += 32) {
-        Py_ssize_t cols = mseq - c0 < 32 ? mseq - c0 : 32;
-        fma_blk_by_nv[(cols + 3) / 4](a, lda, nrows, bp + c0, k, ldb, out + c0, m, cols);
-    }
-    for (Py_ssize_t i = 0; i < nrows && split; i++)
-        for (Py_ssize_t j = 0; j < split; j++) out[i * m + mseq + j] = fma_dot8(a + i * lda, bt + j * k, k);
-}
-#else
-static int use_fma(void) { return 0; }
-#endif
-
-static PyObject *rows_fma(PyObject *self, PyObject *args) {
-    PyObject *oa, *ob, *oout;
-    Py_ssize_t lda, nrows, k, m;
-    int split_tail;
-    if (!PyArg_ParseTuple(args, "OnnnOnOp", &oa, &lda, &nrows, &k, &ob, &m, &oout, &split_tail)) return NULL;
-    if (nrows < 0 || k < 1 || m < 1 || lda < k) {
-        PyErr_SetString(PyExc_ValueError, "rows_fma: bad shape");
-        return NULL;
-    }
-    if (!use_fma()) Py_RETURN_FALSE;
-#if CURVE_AVX
-    Bufs b = {.n = 0};
-    const double *a = get(&b, oa, 8, 0, nrows ? (nrows - 1) * lda + k : 0);
-    const double *bm = a ? get(&b, ob, 8, 0, k * m) : NULL;
-    double *out = bm ? get(&b, oout, 8, 1, nrows * m) : NULL;
-    if (!out) { release(&b); return NULL; }
-    const Py_ssize_t split = (split_tail && m % 8 >= 1 && m % 8 <= 4 && k >= 16) ? m % 8 : 0;
-    const Py_ssize_t mseq = m - split, ldb = (mseq + 3) / 4 * 4;
-    double *bp = NULL;
-    if (ldb != m || split) {    /* b's first mseq columns padded with zeros to whole vectors,
-                                   the split tail's columns laid out along k after them */
-        bp = malloc((size_t)(k * ldb + split * k) * sizeof(double));
-        if (!bp) { release(&b); return PyErr_NoMemory(); }
-        for (Py_ssize_t kk = 0; kk < k; kk++) {
-            memcpy(bp + kk * ldb, bm + kk * m, (size_t)mseq * sizeof(double));
-            for (Py_ssize_t j = mseq; j < ldb; j++) bp[kk * ldb + j] = 0.0;
-            for (Py_ssize_t j = 0; j < split; j++) bp[k * ldb + j * k + kk] = bm[kk * m + mseq + j];
-        }
-    }
-    Py_BEGIN_ALLOW_THREADS
-    fma_rows(a, lda, nrows, k, bp ? bp : bm, ldb, m, split, bp ? bp + k * ldb : NULL, out);
-    if (k == 1)                 /* one term: the BLAS's -0.0 products come out +0.0 */
-        for (Py_ssize_t i = 0; i < nrows * m; i++) out[i] += 0.0;
-    Py_END_ALLOW_THREADS
-    free(bp);
-    release(&b);
-    Py_RETURN_TRUE;
-#endif
-}
-
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
@@ -1335,7 +1182,6 @@ static PyMethodDef methods[] = {
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
-    {"rows_fma", rows_fma, METH_VARARGS, "rows_fma(a, lda, nrows, k, b, m, out, split): a @ b row by row as the BLAS kernels sum (False: no FMA)"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {NULL, NULL, 0, NULL}};
 

@@ -148,51 +148,6 @@ def _gemm_rows_invariant():
     return _GEMM_OK[0]
 
 
-_FMA_MAX_K = 48            # rows_fma's shapes: k <= this, k m <= _FMA_MAX_KM, m >= 2 (the range
-_FMA_MAX_KM = 16384        # tests/test_speed39_curveglue_fma.py covers; OpenBLAS 0.3.31 sums
-                           # larger B panels and m = 1 (dgemv) otherwise)
-_FMA_SHAPES: dict = {}     # (k, m) -> rows_fma's split flag that gives the BLAS's bits, or None
-
-
-def _fma_rows_mode(k, m):
-    """The split flag (0 or 1) with which the curve core's rows_fma gives _rows_matmul's
-    bits for (B, k) @ (k, m), b C-contiguous, or None: a compiled core on a CPU with FMA,
-    a shape in rows_fma's range, and a probe of the shape (one _GEMM_ROWS-row call of
-    generic numbers, rows_fma against the BLAS, bit for bit: a BLAS that sums in another
-    order fails it) passed with that flag; checked once a shape."""
-    core = CORE_MOD
-    if core is None:            # (no core, or a test's numpy path)
-        return None
-    key = (k, m)
-    if key not in _FMA_SHAPES:
-        mode = None
-        if 1 <= k <= _FMA_MAX_K and m >= 2 and k * m <= _FMA_MAX_KM \
-                and _gemm_rows_invariant():
-            rng = ProbeRng(1000 * k + m)
-            a = rng.uniform(-1.0, 1.0, (1, _GEMM_ROWS, k))
-            b = rng.uniform(-1.0, 1.0, (k, m))
-            ref = (a @ b)[0]
-            got = np.empty((_GEMM_ROWS, m))
-            for split in (1, 0):        # (SkylakeX's kernels, then Haswell's)
-                if not core.rows_fma(a, k, _GEMM_ROWS, k, b, m, got, split):
-                    break
-                if np.array_equal(got, ref):
-                    mode = split
-                    break
-        _FMA_SHAPES[key] = mode
-    return _FMA_SHAPES[key]
-
-
-def _rows_fma(a, b, mode, out=None):
-    """_rows_matmul(a, b, out) by the curve core's rows_fma (mode: _fma_rows_mode(K, M),
-    not None; b C-contiguous): each row straight into the result, no BLAS call, no
-    zero-filled or padded arrays."""
-    nb, (k, m) = a.shape[0], b.shape
-    res = out if out is not None and out.flags.c_contiguous else np.empty((nb, m))
-    CORE_MOD.rows_fma(np.ascontiguousarray(a), k, nb, k, b, m, res, mode)
-    return res if out is None or res is out else _into(out, res)
-
-
 def _rows_matmul(a, b, out=None):
     """a (B, K) @ b (K, M) by BLAS calls of _GEMM_ROWS rows each (zero rows pad the last),
     so each row's bits do not depend on the other rows: a law solved in a batch is the
@@ -200,15 +155,9 @@ def _rows_matmul(a, b, out=None):
     out: a C-contiguous (B, M) float64 array to hold the product (returned), or None.
     The whole blocks are multiplied in place in a C-contiguous a (views: the same calls
     of the same blocks) and written straight into the result; only the last, partial
-    block is padded (not a zero-filled copy of all of a, ~29 MB on the gyroid plate).
-    Where the curve core gives those calls' bits (_fma_rows_mode), by rows_fma instead."""
+    block is padded (not a zero-filled copy of all of a, ~29 MB on the gyroid plate)."""
     if not _gemm_rows_invariant():
         return _into(out, a @ b)
-    # (b C-contiguous: a transposed b is another BLAS kernel, dgemm_tn, summing otherwise)
-    if a.dtype == np.float64 and b.dtype == np.float64 and b.flags.c_contiguous:
-        mode = _fma_rows_mode(a.shape[1], b.shape[1])
-        if mode is not None:
-            return _rows_fma(a, b, mode, out)
     nb, g = a.shape[0], _GEMM_ROWS
     full = nb - nb % g
     if not a.flags.c_contiguous:
@@ -290,11 +239,6 @@ def _series_values(coefs, x):
             for k in ks.tolist():
                 if ks.size == 1:
                     rk = None
-                    mode = _fma_rows_mode(k, vand_t.shape[1]) if whole else None
-                    if mode is not None and cr.flags.c_contiguous and cr.dtype == np.float64:
-                        # rows_fma reads the first k columns in place (no copy)
-                        CORE_MOD.rows_fma(cr, cr.shape[1], cr.shape[0], k, vand_t[:k], vand_t.shape[1], o, mode)
-                        continue
                     a = np.ascontiguousarray(cr[:, :k])     # laid out as a gather's
                     if whole:                               # the product straight into o
                         _rows_matmul(a, vand_t[:k], out=o)
@@ -446,11 +390,6 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
     wa_buf = np.empty((top, nc))
     r1_buf = np.empty((top, ni))
     x_buf = np.empty((top, ni))
-    # the products by the curve core's rows_fma where it gives the BLAS calls' bits: no
-    # pad rows and no arrays of their own (each product goes into the buffer of (rows, ni)
-    # the step before it has done with: m1 and m2 into x_buf, x into r1_buf, dw into x_buf)
-    m_res, m_step = _fma_rows_mode(nc, ni), _fma_rows_mode(ni, ni)
-    fma = m_res is not None and m_step is not None
     r2 = np.empty(nb)
     den = np.empty((nb, ni))
     dc = np.empty(nb)
@@ -459,28 +398,17 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
     last = np.full(nb, np.inf)
     for it in range(_PRECOND_ITER):
         na = act.size
-        rows = na if fma else -(-na // g) * g
+        rows = -(-na // g) * g
         nblk = rows // g
         wa = wa_buf[:rows]
         core.pc_gather(w, act, na, nc, wa, rows)
+        m1 = (wa.reshape(nblk, g, nc) @ d2_t).reshape(rows, ni)
         r1 = r1_buf[:rows]
-        if fma:
-            m1 = x_buf[:na]
-            core.rows_fma(wa, nc, na, nc, d2_t, ni, m1, m_res)
-            core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, na)
-            m2 = x_buf[:na]
-            core.rows_fma(r1, ni, na, ni, vinv_t, ni, m2, m_step)
-            x = r1_buf[:na]
-            core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, na)
-            dw = x_buf[:na]
-            core.rows_fma(x, ni, na, ni, v_t, ni, dw, m_step)
-        else:
-            m1 = (wa.reshape(nblk, g, nc) @ d2_t).reshape(rows, ni)
-            core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, rows)
-            m2 = (r1.reshape(nblk, g, ni) @ vinv_t).reshape(rows, ni)
-            x = x_buf[:rows]
-            core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
-            dw = (x.reshape(nblk, g, ni) @ v_t).reshape(rows, ni)
+        core.pc_res(wa, m1, act, na, n, gam2, cc, phi_c, q, lam_e, r1, r2, den, rows)
+        m2 = (r1.reshape(nblk, g, ni) @ vinv_t).reshape(rows, ni)
+        x = x_buf[:rows]
+        core.pc_step(m2, den, qv, e, r2, na, ni, x, dc, rows)
+        dw = (x.reshape(nblk, g, ni) @ v_t).reshape(rows, ni)
         core.pc_update(w, cc, act, na, n, wa, dw, dc, stp)
         # done: at the rounding floor of the residual (steps no longer shrink), or below it;
         # _precond_cheb_np's tests, and act kept in place (pc_done)

@@ -47,7 +47,7 @@ from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import (MIN_FEED_V, SegmentPlan, _row_plans, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
                        segment_feeds, segment_times, tent_feeds_rows)
-from .strokes import Points
+from .strokes import Points, stroke_fields
 
 try:                       # np.interp's compiled core (np.interp checks and converts, then calls it)
     from numpy._core.multiarray import interp as _interp
@@ -787,7 +787,7 @@ def _block_geoms(sts, block, profile, j1, pts=None):
         pts = [p for p, x in zip(pts, g) if x]
     if not (np.isfinite(u).all() and np.isfinite(d).all()):
         return None
-    lim = (profile,) + _lims_which(sts) + (floats_of(map(_ACCEL, sts), len(sts)),)
+    lim = (profile,) + _lims_which(sts) + (_accels(sts),)
     caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
     if caps is None:
         return None
@@ -806,6 +806,24 @@ def _block_geoms(sts, block, profile, j1, pts=None):
 
 _LIM = attrgetter("lim")
 _ACCEL = attrgetter("accel")
+
+
+def _stroke_floats(sts, names):
+    """The fields `names` of the strokes sts (a list) as a float array (len(sts),
+    len(names)), read in one pass by the compiled core (strokes.stroke_fields) where each
+    value is a float, None or a bool (their doubles: the floats np.array(..., float) and
+    np.fromiter make of them), else None (no core, another object: read them yourself).
+    Not ~200 instructions an attribute read (~250 k reads on the gyroid plate)."""
+    got = stroke_fields(sts, names) if type(sts) is list else None
+    if got is None or (got[1] > 2).any():
+        return None
+    return got[0]
+
+
+def _accels(sts):
+    """The strokes' accel as floats_of(map(_ACCEL, sts), len(sts)) makes them."""
+    acc = _stroke_floats(sts, ("accel",))
+    return floats_of(map(_ACCEL, sts), len(sts)) if acc is None else acc[:, 0].copy()
 
 
 def floats_of(values, n):
@@ -914,6 +932,10 @@ def _ends_of(sts, first, last):
 
 def _neighbour_dirs(sts):
     """(prev_u, next_u) of the strokes as (2, m) arrays each, NaN where None."""
+    a = _stroke_floats(sts, _NDIR_NAMES)
+    if a is not None:
+        a = a.T                     # the same (4, m) view of an (m, 4) array as below
+        return a[:2], a[2:]
     try:
         rows = list(map(_NDIRS, sts))
     except AttributeError:          # not strokes.Stroke: its prev_u / next_u
@@ -925,7 +947,8 @@ def _neighbour_dirs(sts):
     return a[:2], a[2:]
 
 
-_NDIRS = attrgetter("_pux", "_puy", "_nux", "_nuy")
+_NDIR_NAMES = ("_pux", "_puy", "_nux", "_nuy")
+_NDIRS = attrgetter(*_NDIR_NAMES)
 
 
 CAPS_CHUNK = 1 << 15        # vertices of one batched caps pass (build_geoms)

@@ -157,7 +157,11 @@ def plan_kind_codes(strokes, codes=None):
     new array is returned)."""
     n = len(strokes)
     codes = _kind_codes(strokes) if codes is None else codes.copy()
-    chain = np.fromiter(map(_IS_NOT_NONE, map(_CHAIN_T, strokes)), bool, n)
+    got = stroke_fields(strokes, ("chain_T",)) if n and type(strokes) is list else None
+    if got is not None and (got[1] <= 3).all():     # each chain_T read (4: unset, its read raises)
+        chain = got[1][:, 0] != 1                   # kind 1: None
+    else:
+        chain = np.fromiter(map(_IS_NOT_NONE, map(_CHAIN_T, strokes)), bool, n)
     if chain.any():
         codes[chain & (codes == C_CURVE)] = C_CHAIN
     return codes

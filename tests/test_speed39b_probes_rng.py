@@ -65,3 +65,29 @@ def test_uniform_of_unit_keeps_the_bits_of_randoms_rows():
     for u in rng.randoms((1, 9, 128, 3), 4):
         assert ProbeRng.uniform_of(u).tobytes() == (0.0 + (1.0 - 0.0) * u).tobytes()
         assert ProbeRng.uniform_of(u, 0.0, 1.0).tobytes() == (0.0 + 1.0 * u).tobytes()
+
+
+def _normal_formula(rng, loc, scale, size):
+    u = rng.random(size)
+    return loc + scale * 0.5513288954217921 * np.log(u / (1.0 - u))
+
+
+@pytest.mark.parametrize("loc,scale", [(0.0, 1.0), (-0.0, 1.0), (0.0, 3.5), (0.0, -1.0), (0, 1),
+                                       (1.5, 1.0), (np.float64(0.0), 1.0)])
+@pytest.mark.parametrize("size", [None, 1, 7, 20000, (3, 5)])
+def test_normal_is_the_formula(loc, scale, size):
+    a, b = ProbeRng(19), ProbeRng(19)
+    for _ in range(3):
+        got, want = a.normal(loc, scale, size), _normal_formula(b, loc, scale, size)
+        assert type(got) is type(want) and np.shape(got) == np.shape(want)
+        assert np.asarray(got).dtype == np.asarray(want).dtype
+        assert np.asarray(got).tobytes() == np.asarray(want).tobytes()
+
+
+def test_normal_of_edges_keep_the_bits():
+    # the unit interval's ends as _unit makes them, and numbers by 1/2 (x near 0)
+    u = np.array([0.5 / 2 ** 32, 1.0 - 0.5 / 2 ** 32, 0.5 - 0.5 / 2 ** 32, 0.5 + 0.5 / 2 ** 32,
+                  0.5 - 2.0 ** -53, 0.5 + 2.0 ** -52, 0.25, 0.75])
+    for scale in (1.0, 2.0 ** -1074 * 2 ** 60, 1e300):
+        assert ProbeRng.normal_of(u, 0.0, scale).tobytes() == \
+            (0.0 + scale * 0.5513288954217921 * np.log(u / (1.0 - u))).tobytes()

@@ -83,12 +83,13 @@ class ProbeRng:
 
     @staticmethod
     def normal_of(u, loc=0.0, scale=1.0):
+        x = scale * 0.5513288954217921 * np.log(u / (1.0 - u))
         if type(loc) is float and type(scale) is float and loc == 0.0 and scale > 0.0 \
                 and type(u) is np.ndarray and u.ndim:
             # 0 + x is x's bits: x is never -0.0 (log of u / (1 - u) > 0 is not; u is never
             # 1/2), and a pass fewer a draw
-            return scale * 0.5513288954217921 * np.log(u / (1.0 - u))
-        return loc + scale * 0.5513288954217921 * np.log(u / (1.0 - u))
+            return x
+        return loc + x
 
     @staticmethod
     def exponential_of(u, scale=1.0):

@@ -10,6 +10,7 @@ lines we do not re-time are written back byte for byte by the caller.
 from __future__ import annotations
 
 import re
+import string
 
 _NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
 _WS = "[ \t\r\n\v\f]"
@@ -26,7 +27,7 @@ _NUM_ONLY = re.compile(_NUM)
 _LINE_NUMBER = re.compile(rf"{_WS}*[Nn][0-9]+{_WS}*")
 _CLASSIC = re.compile(r"([A-Za-z])[ \t]*([0-9]+(?:\.[0-9]+)?)")
 _DIGITS = frozenset("0123456789")
-_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
+_LETTERS = frozenset(string.ascii_letters)      # a classic word's letter (not str.isalpha: 'é')
 _EXPONENT = re.compile(rf"{_NUM}[eE][-+]?[0-9]")
 
 
@@ -64,7 +65,7 @@ def command_of(code: str) -> str:
     s = code.lstrip()
     if not s:
         return ""
-    if s[0] in _LETTERS and s[1:2] in _DIGITS:       # (ASCII: 'é1' is no classic word)
+    if s[0] in _LETTERS and s[1:2] in _DIGITS:
         m = _CLASSIC.match(s)
         whole, _, frac = m.group(2).partition(".")
         return s[0].upper() + str(int(whole)) + ("." + frac if frac else "")

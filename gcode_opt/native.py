@@ -48,14 +48,37 @@ def local_headers(source: str) -> list:
     return [os.path.normpath(os.path.join(here, n.decode())) for n in names]
 
 
+# source -> (its path and its headers', their _stat_key()s, digest): two modules load the
+# model's core and two the writer's, so a run would hash ~0.5 MB of C twice
+_DIGESTS = {}
+
+
+def _stat_key(path: str) -> tuple:
+    """What changes when a file's bytes may have: any write sets st_ctime_ns anew."""
+    st = os.stat(path)
+    return st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino
+
+
 def source_digest(source: str) -> str:
     """SHA-256 of a C source followed by its local headers' bytes (local_headers): what a
-    core was built from.  A source with no local header hashes as its bytes alone."""
+    core was built from.  A source with no local header hashes as its bytes alone.  Kept
+    for the process while none of the files' _stat_key() changes."""
+    got = _DIGESTS.get(source)
+    if got is not None:
+        try:
+            if [_stat_key(p) for p in got[0]] == got[1]:
+                return got[2]
+        except OSError:
+            pass
+    paths = [source] + local_headers(source)
+    keys = [_stat_key(p) for p in paths]     # before reading: a write after this re-hashes next time
     h = _sha256_new()
-    for path in [source] + local_headers(source):
+    for path in paths:
         with open(path, "rb") as fh:
             h.update(fh.read())
-    return h.hexdigest()
+    digest = h.hexdigest()
+    _DIGESTS[source] = (paths, keys, digest)
+    return digest
 
 
 def pure_python_asked() -> bool:

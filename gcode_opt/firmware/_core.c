@@ -266,12 +266,17 @@ static int sink_reserve(SinkObject *k, Py_ssize_t rows)
     return 0;
 }
 
-/* one row in; flush() once cap rows are held */
-static int sink_push(SinkObject *k, const double *row)
+/* the room of one more row (k->buf + k->n * SINK_ROW), NULL on error */
+static inline double *sink_next(SinkObject *k)
 {
-    if (sink_reserve(k, 1) < 0)
-        return -1;
-    memcpy(k->buf + k->n * SINK_ROW, row, SINK_ROW * sizeof(double));
+    if (k->n >= k->alloc && sink_reserve(k, 1) < 0)
+        return NULL;
+    return k->buf + k->n * SINK_ROW;
+}
+
+/* the row written at sink_next() taken; flush() once cap rows are held */
+static inline int sink_commit(SinkObject *k)
+{
     k->n++;
     if (k->n >= k->cap) {
         PyObject *x = PyObject_CallNoArgs(k->flush);
@@ -286,13 +291,36 @@ static int sink_push(SinkObject *k, const double *row)
     return 0;
 }
 
-/* _block_row(b): (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t, decel_t,
- * after_stop, idx, 1.0) */
-static int sink_block(SinkObject *k, const BlockData *b)
+/* one row in; flush() once cap rows are held */
+static int sink_push(SinkObject *k, const double *row)
 {
-    double row[SINK_ROW] = {b->ux, b->uy, b->start_v, b->cruise_v, b->end_v, b->accel, b->accel_t,
-                            b->cruise_t, b->decel_t, b->after_stop ? 1.0 : 0.0, (double)b->idx, 1.0};
-    return sink_push(k, row);
+    double *o = sink_next(k);
+    if (o == NULL)
+        return -1;
+    memcpy(o, row, SINK_ROW * sizeof(double));
+    return sink_commit(k);
+}
+
+/* _block_row(b): (ux, uy, start_v, cruise_v, end_v, accel, accel_t, cruise_t, decel_t,
+ * after_stop, idx, 1.0), written in place (a row a block: no copy of it) */
+static inline int sink_block(SinkObject *k, const BlockData *b)
+{
+    double *o = sink_next(k);
+    if (o == NULL)
+        return -1;
+    o[0] = b->ux;
+    o[1] = b->uy;
+    o[2] = b->start_v;
+    o[3] = b->cruise_v;
+    o[4] = b->end_v;
+    o[5] = b->accel;
+    o[6] = b->accel_t;
+    o[7] = b->cruise_t;
+    o[8] = b->decel_t;
+    o[9] = b->after_stop ? 1.0 : 0.0;
+    o[10] = (double)b->idx;
+    o[11] = 1.0;
+    return sink_commit(k);
 }
 
 static int Sink_init(SinkObject *k, PyObject *args, PyObject *kw)
@@ -786,24 +814,30 @@ typedef struct {
     Py_ssize_t n, cap;
 } LogObject;
 
-static int log_add(LogObject *k, const RecData *r)
+/* log_add's room doubled (kept out of its inlined body) */
+static int log_grow(LogObject *k)
 {
-    if (k->n == k->cap) {
-        Py_ssize_t cap = k->cap ? 2 * k->cap : 4096;
-        long long *idx = PyMem_Realloc(k->idx, (size_t)cap * sizeof(long long));
-        if (idx == NULL) {
-            PyErr_NoMemory();
-            return -1;
-        }
-        k->idx = idx;
-        double *v = PyMem_Realloc(k->v, (size_t)cap * LOG_COLS * sizeof(double));
-        if (v == NULL) {
-            PyErr_NoMemory();
-            return -1;
-        }
-        k->v = v;
-        k->cap = cap;
+    Py_ssize_t cap = k->cap ? 2 * k->cap : 4096;
+    long long *idx = PyMem_Realloc(k->idx, (size_t)cap * sizeof(long long));
+    if (idx == NULL) {
+        PyErr_NoMemory();
+        return -1;
     }
+    k->idx = idx;
+    double *v = PyMem_Realloc(k->v, (size_t)cap * LOG_COLS * sizeof(double));
+    if (v == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    k->v = v;
+    k->cap = cap;
+    return 0;
+}
+
+static inline int log_add(LogObject *k, const RecData *r)
+{
+    if (k->n == k->cap && log_grow(k) < 0)
+        return -1;
     double *row = k->v + k->n * LOG_COLS;
     k->idx[k->n] = r->idx;
     row[0] = r->start_v;
@@ -1146,8 +1180,7 @@ typedef struct {
     Py_ssize_t n, cap, head;
     Py_ssize_t chunk, next_try, window;
     double prev_cruise;
-    int has_last;                     /* Marlin: last added block (a copy) */
-    BlockData last;
+    int has_last;                     /* Marlin: q[n - 1] is the last block added */
     int has_entry;
     double entry_v2;
     double *info;                     /* Klipper flush: start, cruise, next_start per move */
@@ -1161,7 +1194,10 @@ typedef struct {
     int busy;                         /* inside move/barrier/stop: a callback may not re-enter */
 } SimObject;
 
-static int sim_emit(SimObject *s, BlockData *b);
+/* the per-block path (sim_block -> planner -> sim_emit -> sink) inlined into one body:
+ * ~40 instructions a block of calls, saved registers and reloads fewer */
+#define BLOCK_PATH static inline __attribute__((always_inline))
+BLOCK_PATH int sim_emit(SimObject *s, BlockData *b);
 
 static double getattr_d(PyObject *o, const char *name, double dflt, int use_dflt, int *err)
 {
@@ -1443,29 +1479,39 @@ static int marlin_jd_v2(double mps, double pux, double puy, double puz, double u
                                                    : pymax(-(v_exit), (v_entry));         \
 } while (0)
 
-static int marlin_jerk_junction_v(double pux, double puy, double puz, double p_nominal,
-                                  double p_safe, double ux, double uy, double uz, double nominal,
-                                  double safe, double jx, double jy, double jz, double *out)
+/* one axis of marlin_jerk_junction_v's loop (written out per axis: no arrays, ~40 instructions
+ * a junction fewer) */
+BLOCK_PATH int jerk_axis(double pu, double p_nominal, double smaller, double u, double nominal,
+                         double jmax, double *v_factor, int *limited)
+{
+    double v_exit = pu * p_nominal * smaller, v_entry = u * nominal, jerk, f;
+    if (*limited) {
+        v_exit *= *v_factor;
+        v_entry *= *v_factor;
+    }
+    JERK_OF(jerk, v_exit, v_entry);
+    if (jerk > jmax) {
+        DIV(f, jmax, jerk);
+        *v_factor *= f;
+        *limited = 1;
+    }
+    return 0;
+}
+
+BLOCK_PATH int marlin_jerk_junction_v(double pux, double puy, double puz, double p_nominal,
+                                      double p_safe, double ux, double uy, double uz, double nominal,
+                                      double safe, double jx, double jy, double jz, double *out)
 {
     double vmax = nominal < p_nominal ? nominal : p_nominal;
-    double smaller, f;
+    double smaller;
     DIV(smaller, vmax, p_nominal);
     double v_factor = 1.0;
     int limited = 0;
-    const double pu[3] = {pux, puy, puz}, u[3] = {ux, uy, uz}, jmax[3] = {jx, jy, jz};
-    for (int k = 0; k < 3; k++) {               /* X, Y, Z in turn, as the Python law */
-        double v_exit = pu[k] * p_nominal * smaller, v_entry = u[k] * nominal, jerk;
-        if (limited) {
-            v_exit *= v_factor;
-            v_entry *= v_factor;
-        }
-        JERK_OF(jerk, v_exit, v_entry);
-        if (jerk > jmax[k]) {
-            DIV(f, jmax[k], jerk);
-            v_factor *= f;
-            limited = 1;
-        }
-    }
+    /* X, Y, Z in turn, as the Python law */
+    if (jerk_axis(pux, p_nominal, smaller, ux, nominal, jx, &v_factor, &limited) < 0
+        || jerk_axis(puy, p_nominal, smaller, uy, nominal, jy, &v_factor, &limited) < 0
+        || jerk_axis(puz, p_nominal, smaller, uz, nominal, jz, &v_factor, &limited) < 0)
+        return -1;
     if (limited)
         vmax *= v_factor;
     double thr = vmax * 0.99;
@@ -1475,7 +1521,7 @@ static int marlin_jerk_junction_v(double pux, double puy, double puz, double p_n
     return 0;
 }
 
-static int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
+BLOCK_PATH int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
 {
     if (s->model == J_SCV) {
         double v2, e2;
@@ -1503,7 +1549,7 @@ static int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
 }
 
 /* ---- planners (planner.py) -------------------------------------------------------- */
-static int set_trapezoid(BlockData *b, double start_v2, double cruise_v2, double end_v2)
+BLOCK_PATH int set_trapezoid(BlockData *b, double start_v2, double cruise_v2, double end_v2)
 {
     double half_inv_a;
     DIV(half_inv_a, 0.5, b->accel);
@@ -1633,6 +1679,7 @@ static Py_ssize_t klipper_flush(SimObject *s, int lazy)
     return flush_count;
 }
 
+/* b: the queue's slot q[n] (sim_block's), taken here */
 static int klipper_add(SimObject *s, BlockData *b)
 {
     if (s->n) {
@@ -1652,9 +1699,7 @@ static int klipper_add(SimObject *s, BlockData *b)
         b->max_mcr_start_v2 = m < lim ? m : lim;
         b->after_stop = 0;
     }
-    if (grow_queue(s) < 0)
-        return -1;
-    s->q[s->n++] = *b;
+    s->n++;                           /* (b is q[n]: sim_block made it there) */
     if (s->n >= s->next_try) {
         Py_ssize_t k = klipper_flush(s, 1);
         if (k < 0)
@@ -1689,7 +1734,7 @@ static double marlin_reverse(SimObject *s, Py_ssize_t j, double end_v2)
     return c < r ? c : r;
 }
 
-static int marlin_execute(SimObject *s, double end_v2)
+BLOCK_PATH int marlin_execute(SimObject *s, double end_v2)
 {
     Py_ssize_t i = s->head, n = s->n;
     BlockData *b = &s->q[i];
@@ -1716,10 +1761,12 @@ static int marlin_execute(SimObject *s, double end_v2)
     return sim_emit(s, b);
 }
 
+/* b: the queue's slot q[n] (sim_block's), taken here; the last block added is q[n - 1]
+ * while has_last (executing a block writes only its trapezoid, which junction() does not read) */
 static int marlin_add(SimObject *s, BlockData *b)
 {
     if (s->has_last) {
-        BlockData *p = &s->last;
+        BlockData *p = b - 1;
         double v2;
         if (junction(s, p, b, &v2) < 0)
             return -1;
@@ -1732,11 +1779,8 @@ static int marlin_add(SimObject *s, BlockData *b)
     }
     else
         b->max_start_v2 = s->model == J_JERK ? b->safe_v * b->safe_v : 0.0;
-    s->last = *b;
     s->has_last = 1;
-    if (grow_queue(s) < 0)
-        return -1;
-    s->q[s->n++] = *b;
+    s->n++;
     if (s->n - s->head >= s->window) {
         if (marlin_execute(s, s->mps * s->mps) < 0)
             return -1;
@@ -1762,19 +1806,9 @@ static int marlin_stop(SimObject *s)
 }
 
 /* ---- blocks -> integrals (_Sim._emit, _close) --------------------------------------- */
-static int call_on_line(SimObject *s, RecData *r)
+/* call_on_line's less common part: fn(LineRecord) unless fn is None, then an E-only move's rest */
+static int call_on_line_rest(SimObject *s, RecData *r, PyObject *fn)
 {
-    PyObject *fn = s->on_line;
-    if (Py_IS_TYPE(fn, &LogType)) {
-        if (log_add((LogObject *)fn, r) < 0)
-            return -1;
-        fn = Py_None;
-    } else if (Py_IS_TYPE(fn, &SumsType)) {
-        /* per-stroke sums without a LineRecord; also(rec) only if asked */
-        SumsObject *k = (SumsObject *)fn;
-        sums_add(k, r->idx, r->time_t, r->int_a2, r->int_a2_j, r->int_v2);
-        fn = k->also;
-    }
     if (fn != Py_None) {
         RecObject *o = (RecObject *)REC_TYPE->tp_alloc(REC_TYPE, 0);
         if (o == NULL)
@@ -1789,6 +1823,26 @@ static int call_on_line(SimObject *s, RecData *r)
     /* the ringing's rest for an E-only move, after the record's callback (ringing.hooks) */
     if (r->kind == K_EONLY && Py_IS_TYPE(s->on_block, &SinkType))
         return sink_rest((SinkObject *)s->on_block, r->time_t);
+    return 0;
+}
+
+/* a record to on_line: a RecordLog's or StrokeSums' here (inlined in sim_emit), else
+ * call_on_line_rest */
+BLOCK_PATH int call_on_line(SimObject *s, RecData *r)
+{
+    PyObject *fn = s->on_line;
+    if (Py_IS_TYPE(fn, &LogType)) {
+        if (log_add((LogObject *)fn, r) < 0)
+            return -1;
+        fn = Py_None;
+    } else if (Py_IS_TYPE(fn, &SumsType)) {
+        /* per-stroke sums without a LineRecord; also(rec) only if asked */
+        SumsObject *k = (SumsObject *)fn;
+        sums_add(k, r->idx, r->time_t, r->int_a2, r->int_a2_j, r->int_v2);
+        fn = k->also;
+    }
+    if (fn != Py_None || r->kind == K_EONLY)
+        return call_on_line_rest(s, r, fn);
     return 0;
 }
 
@@ -1828,7 +1882,7 @@ static int append_stop_line(SimObject *s, long long line)
     return rc;
 }
 
-static int sim_emit(SimObject *s, BlockData *b)
+BLOCK_PATH int sim_emit(SimObject *s, BlockData *b)
 {
     ResObject *res = s->res;
     double a = b->accel, at = b->accel_t, ct = b->cruise_t, dt = b->decel_t;
@@ -2106,26 +2160,29 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
         mcr_a = a;
     }
     double er = de != 0.0 ? de * inv * m->flow_r : 0.0;
-    BlockData b;
-    b.idx = m->idx;
-    b.kind = m->kind;
-    b.first = (char)first;
-    b.d = d;
-    b.ux = ux;
-    b.uy = uy;
-    b.uz = uz;
-    b.er = er;
-    b.accel = a;
-    b.jd = jd;
-    b.nominal_v = v;
-    b.v2max = v * v;
+    /* the block is made in the queue's next slot (q[n], not yet counted): no copy of it */
+    if (grow_queue(s) < 0)
+        return -1;
+    BlockData *b = &s->q[s->n];
+    b->idx = m->idx;
+    b->kind = m->kind;
+    b->first = (char)first;
+    b->d = d;
+    b->ux = ux;
+    b->uy = uy;
+    b->uz = uz;
+    b->er = er;
+    b->accel = a;
+    b->jd = jd;
+    b->nominal_v = v;
+    b->v2max = v * v;
     double dv2 = 2.0 * d * a;
-    b.delta_v2 = dv2;
+    b->delta_v2 = dv2;
     double mm = 2.0 * d * mcr_a;
-    b.mcr_delta_v2 = mm < dv2 ? mm : dv2;
-    b.max_start_v2 = b.max_mcr_start_v2 = b.safe_v = 0.0;
-    b.after_stop = 1;
-    b.start_v = b.cruise_v = b.end_v = b.accel_t = b.cruise_t = b.decel_t = 0.0;
+    b->mcr_delta_v2 = mm < dv2 ? mm : dv2;
+    b->max_start_v2 = b->max_mcr_start_v2 = b->safe_v = 0.0;
+    b->after_stop = 1;
+    b->start_v = b->cruise_v = b->end_v = b->accel_t = b->cruise_t = b->decel_t = 0.0;
     if (s->model == J_JERK) {
         if (lim != s->lim && set_lim(s, lim) < 0)
             return -1;
@@ -2159,11 +2216,11 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
             else
                 safe = jz;
         }
-        b.safe_v = safe;
+        b->safe_v = safe;
     }
     if (s->min_seg_t > 0.0 && d < s->min_seg_t * v)
         s->res->short_segments += 1;
-    return s->marlin ? marlin_add(s, &b) : klipper_add(s, &b);
+    return s->marlin ? marlin_add(s, b) : klipper_add(s, b);
 }
 
 /* simulate.arc_chords */

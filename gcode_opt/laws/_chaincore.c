@@ -1188,6 +1188,37 @@ VEC_CLONES static void cf_corners(Py_ssize_t nj, const double *restrict va, cons
     }
 }
 
+/* shape_segments' last lines on one row's n segments: the feeds floored at min_feed, the
+   accelerations capped at a_top; 1 where every acceleration is <= lim (a_top tol: the row
+   fits), else 0.  Elementwise (SIMD lanes), numpy's maximum / minimum as selections. */
+VEC_CLONES static int cf_clamp(Py_ssize_t n, double *restrict ar, double *restrict fr, double a_top, double lim,
+                               double min_feed) {
+    int bad = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double ak = ar[k], fk = fr[k];
+        fr[k] = NP_MAX(fk, min_feed);
+        bad |= !(ak <= lim);
+        ar[k] = NP_MIN(ak, a_top);
+    }
+    return !bad;
+}
+
+/* tent_rows' envelope of one row's n feeds f (finite, > 0) before its search: at k the larger
+   of the two sides' ramps side - st (k + 1), side - st (n - k), then the search's first
+   step (dd = 0: f[k] - st 0 = f[k] against it; its test pmax - 0 < mm only ends the search
+   where dd = 1's would: pmax >= f[k]), elementwise (SIMD lanes); the search goes on from
+   dd = 1 */
+VEC_CLONES static void cf_tent_base(Py_ssize_t n, const double *restrict f, double side, double st,
+                                    double *restrict mm) {
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double m = side - st * (double)(k + 1);
+        double e = side - st * (double)(n - k);
+        m = e > m ? e : m;
+        double q = f[k] - st * 0.0;
+        mm[k] = q > m ? q : m;
+    }
+}
+
 /* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
@@ -1260,12 +1291,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         const double a_top = p[CP_ATOP];
         const double *vr = vk + r * (n + 1), *tr = tk + r * n;
         double *ar = acc + r * n, *fr = feed + r * n;
-        int fit = 1;
-        /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv) */
+        /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv),
+           then the feeds' floor and the accelerations' cap (cf_clamp) */
         cf_shape(n, d, tr, vr, bmp, ttk_, pk_, tri_, ar, fr);
-        for (Py_ssize_t k = 0; k < n; k++) {
-            double ak = ar[k], fk = fr[k];
-            if (bmp[k] && junction == 1) {
+        for (Py_ssize_t k = 0; junction == 1 && k < n; k++) {
+            if (bmp[k]) {
                 double dk = d[k], a0 = vr[k], b0 = vr[k + 1], ttk = ttk_[k], peak = pk_[k], tri_a = tri_[k];
                 double lo = np_max(dk / ttk, np_max(a0, b0));
                 double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
@@ -1284,15 +1314,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
                 double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
                 double tri_cost = tri_a * (2.0 * peak - a0 - b0);
                 int take = isfinite(best) && best < tri_cost;
-                ak = take ? best_a : tri_a;
-                fk = take ? best_F : peak;
+                ar[k] = take ? best_a : tri_a;
+                fr[k] = take ? best_F : peak;
             }
-            fk = np_max(fk, min_feed);
-            if (!(ak <= a_top * tol)) fit = 0;
-            ar[k] = np_min(ak, a_top);
-            fr[k] = fk;
         }
-        fits[r] = (uint8_t)fit;
+        fits[r] = (uint8_t)cf_clamp(n, ar, fr, a_top, a_top * tol, min_feed);
         const double *w = NW ? W + c * ws : NULL;
         if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
             for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
@@ -1333,18 +1359,17 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
             double pmax = fr[0];
             for (Py_ssize_t j = 1; j < n; j++) pmax = fr[j] > pmax ? fr[j] : pmax;
             memcpy(fsh, fr, (size_t)n * sizeof(double));
+            cf_tent_base(n, fr, side, st, tmp);
             for (Py_ssize_t k = 0; k < n; k++) {
-                double mm = side - st * (double)(k + 1);
-                double e = side - st * (double)(n - k);
-                if (e > mm) mm = e;
-                for (Py_ssize_t dd = 0; dd < n; dd++) {
+                double mm = tmp[k];
+                for (Py_ssize_t dd = 1; dd < n; dd++) {
                     double sd = st * (double)dd;
                     if (pmax - sd < mm) break;
                     if (k - dd >= 0) {
                         double q = fsh[k - dd] - sd;
                         if (q > mm) mm = q;
                     }
-                    if (dd > 0 && k + dd < n) {
+                    if (k + dd < n) {
                         double q = fsh[k + dd] - sd;
                         if (q > mm) mm = q;
                     }

@@ -5,15 +5,17 @@ passes give the same bits.
   test (every acceleration <= a_top (1 + SPEED_TOL_R)) over a row at once, after the
   trapezoids tried on the bumps (scv), not in the bumps' scalar loop;
 - cf_tent_base: the tent's two side ramps at each segment and its search's first step
-  (dd = 0: the segment's own feed) over a row at once, the search going on from dd = 1.
+  (dd = 0: the segment's own feed) over a row at once, the search going on from dd = 1;
+- cf_pos_max: the row's largest feed (the search's bound) as a vector maximum.
 Against the numpy code the core stands for (test_speed21_chainfin_core's verbatim
-reference), bit for bit, on real batches perturbed so that rows do and do not fit, feeds
+reference), bit for bit, on real batches perturbed as test_speed21 does and so that rows do
+and do not fit, feeds
 sit on the floor (near-stops), and feeds along a row differ by up to ~20x (the tent's
 search runs many steps; its side ramps bind on short rows), for both junction rules."""
 import numpy as np
 import pytest
 
-from test_speed21_chainfin_core import CASES, _batches, _ref_finish_stacked_dt, _same
+from test_speed21_chainfin_core import CASES, _batches, _perturbed, _ref_finish_stacked_dt, _same
 
 from gcode_opt import chains
 from gcode_opt.laws import chain as chain_law
@@ -25,8 +27,9 @@ needs_core = pytest.mark.skipif(CORE is None or not hasattr(CORE, "chain_finish"
 
 def _rough(b, rng):
     """b with half its rows' knot speeds spread (0.05 .. 1 times their own: a tent search of
-    many steps; a near-stop at one knot in ten: the feed floor) and a fifth of its rows'
-    durations cut short (rows that do not fit); the rest as they are."""
+    many steps; a near-stop at one knot in ten: the feed floor), a fifth of its rows'
+    durations cut short (rows that do not fit) and a third of its rows slowed but for their
+    first or last segment (the tent's largest feed at an end of the row)."""
     sts, gs, own, vk, tk, rules, prof, predict = b
     R = vk.shape[0]
     vk, tk = vk.copy(), tk.copy()
@@ -35,6 +38,11 @@ def _rough(b, rng):
     slow = spread[:, None] & (rng.random(vk.shape) < 0.1)
     vk[slow] *= 1e-6
     tk[rng.random(R) < 0.2] *= 0.05
+    peak = rng.random(R) < 0.3                     # the row's fastest feed at one of its ends
+    vk[peak] *= 0.3
+    ends = rng.random(R) < 0.5
+    vk[peak & ends, -2:] *= 10.0
+    vk[peak & ~ends, :2] *= 10.0
     return (sts, gs, own, vk, tk, rules, prof, predict)
 
 
@@ -44,7 +52,7 @@ def test_shaping_tail_and_tent_equal_numpy(tmp_path_factory, name):
     rng = np.random.default_rng(4040)
     fit_rows = [0, 0]
     for b in _batches(tmp_path_factory, name)[:12]:
-        for p in (_rough(b, rng), _rough(b, rng)):
+        for p in (_rough(b, rng), _rough(b, rng), _perturbed(b, rng), _perturbed(b, rng)):
             for pr in (True, False):
                 q = p[:7] + (pr,)
                 got = chains._finish_core(*q)

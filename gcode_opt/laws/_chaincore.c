@@ -1188,6 +1188,21 @@ VEC_CLONES static void cf_corners(Py_ssize_t nj, const double *restrict va, cons
     }
 }
 
+/* The largest of n > 0 feeds f, every one finite and > 0 (all_finite_pos checked them
+   first): with no nan, inf or signed zero among them their maximum is the same number
+   whatever the order its comparisons take, so the vector clones may take the lanes'
+   maxima and then the largest of those (finite-math-only, no-signed-zeros here, and only
+   here: a function that tests for them must not have them) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+__attribute__((target_clones("avx2", "default"),
+               optimize("O3", "no-trapping-math", "fp-contract=off", "finite-math-only", "no-signed-zeros")))
+#endif
+static double cf_pos_max(Py_ssize_t n, const double *restrict f) {
+    double m = f[0];
+    for (Py_ssize_t j = 1; j < n; j++) m = f[j] > m ? f[j] : m;
+    return m;
+}
+
 /* shape_segments' last lines on one row's n segments: the feeds floored at min_feed, the
    accelerations capped at a_top; 1 where every acceleration is <= lim (a_top tol: the row
    fits), else 0.  Elementwise (SIMD lanes), numpy's maximum / minimum as selections. */
@@ -1206,11 +1221,12 @@ VEC_CLONES static int cf_clamp(Py_ssize_t n, double *restrict ar, double *restri
 /* tent_rows' envelope of one row's n feeds f (finite, > 0) before its search: at k the larger
    of the two sides' ramps side - st (k + 1), side - st (n - k), then the search's first
    step (dd = 0: f[k] - st 0 = f[k] against it; its test pmax - 0 < mm only ends the search
-   where dd = 1's would: pmax >= f[k]), elementwise (SIMD lanes); the search goes on from
-   dd = 1 */
-VEC_CLONES static void cf_tent_base(Py_ssize_t n, const double *restrict f, double side, double st,
+   where dd = 1's would: pmax >= f[k]), elementwise (SIMD lanes: k an int, whose conversion
+   to double has a vector instruction, which int64's lacks before AVX-512; n <= INT_MAX,
+   checked by the caller); the search goes on from dd = 1 */
+VEC_CLONES static void cf_tent_base(int n, const double *restrict f, double side, double st,
                                     double *restrict mm) {
-    for (Py_ssize_t k = 0; k < n; k++) {
+    for (int k = 0; k < n; k++) {
         double m = side - st * (double)(k + 1);
         double e = side - st * (double)(n - k);
         m = e > m ? e : m;
@@ -1354,12 +1370,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         if (junction == 0) {
             double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
             ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
-            ok = ok && all_finite_pos(n, fr);
+            ok = ok && n <= INT_MAX && all_finite_pos(n, fr);     /* (INT_MAX: cf_tent_base's int) */
             if (!ok) break;
-            double pmax = fr[0];
-            for (Py_ssize_t j = 1; j < n; j++) pmax = fr[j] > pmax ? fr[j] : pmax;
+            double pmax = cf_pos_max(n, fr);
             memcpy(fsh, fr, (size_t)n * sizeof(double));
-            cf_tent_base(n, fr, side, st, tmp);
+            cf_tent_base((int)n, fr, side, st, tmp);
             for (Py_ssize_t k = 0; k < n; k++) {
                 double mm = tmp[k];
                 for (Py_ssize_t dd = 1; dd < n; dd++) {

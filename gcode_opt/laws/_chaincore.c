@@ -78,6 +78,10 @@ static inline double nan_to_num(double x) {
 #define VEC_CLONES
 #endif
 
+/* 4 doubles, for the Horner loops that keep a block's series in registers (gcc's vector
+   extension: elementwise IEEE operations, each lane's in its order; no contraction) */
+typedef double v4d __attribute__((vector_size(32)));
+
 /* The input checks' loops without an early exit (so the clones vectorize them; a bad input
    is rare, its check's cost no matter): every x[i] in [0, hi) / finite / finite and > 0. */
 VEC_CLONES static int all_in_range(Py_ssize_t n, const int64_t *restrict x, int64_t hi) {
@@ -423,29 +427,37 @@ VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict tau
         double zaj = (g * tau) / 2, zbj = (g * (1 - tau)) / 2, zxj = g * (tau - 0.5);
         za[j] = zaj; zb_[j] = zbj; zx[j] = zxj;
         a2b[j] = zaj * zaj; b2b[j] = zbj * zbj; x2b[j] = zxj * zxj;
-        ha[j] = cl; hb[j] = cl; hx[j] = cl; s1[j] = ck;
     }
     Py_ssize_t n8 = (n + 7) & ~(Py_ssize_t)7;            /* blocks of 8, the tail's padding zeros */
     for (Py_ssize_t j = n; j < n8; j++) { a2b[j] = 0.0; b2b[j] = 0.0; x2b[j] = 0.0; }
-    /* each block's Horner steps in registers: the elements' operations in their order */
+    /* each block's Horner steps in registers (gcc's vectors, two a series: gcc's own
+       vectorising of a block kept a third of it in scalars), the elements' operations in
+       their order */
     for (Py_ssize_t j0 = 0; j0 < n8; j0 += 8) {
-        double u[8], w[8], y[8], e[8];
-        for (int jj = 0; jj < 8; jj++) { u[jj] = cl; w[jj] = cl; y[jj] = cl; e[jj] = ck; }
+        v4d a2l, a2h, b2l, b2h, x2l, x2h;
+        memcpy(&a2l, a2b + j0, sizeof a2l); memcpy(&a2h, a2b + j0 + 4, sizeof a2h);
+        memcpy(&b2l, b2b + j0, sizeof b2l); memcpy(&b2h, b2b + j0 + 4, sizeof b2h);
+        memcpy(&x2l, x2b + j0, sizeof x2l); memcpy(&x2h, x2b + j0 + 4, sizeof x2h);
+        v4d ul = {cl, cl, cl, cl}, uh = ul, wl = ul, wh = ul, yl = ul, yh = ul;
+#pragma GCC unroll 2
         for (int q = nc - 2; q >= 0; q--) {
-            double a = sc[q];
-            for (int jj = 0; jj < 8; jj++) {
-                double pu = u[jj] * a2b[j0 + jj], pw = w[jj] * b2b[j0 + jj], py = y[jj] * x2b[j0 + jj];
-                u[jj] = pu + a; w[jj] = pw + a; y[jj] = py + a;
-            }
+            double c = sc[q];
+            v4d a = {c, c, c, c};
+            v4d pul = ul * a2l, puh = uh * a2h, pwl = wl * b2l, pwh = wh * b2h, pyl = yl * x2l, pyh = yh * x2h;
+            ul = pul + a; uh = puh + a; wl = pwl + a; wh = pwh + a; yl = pyl + a; yh = pyh + a;
         }
+        v4d el = {ck, ck, ck, ck}, eh = el;
+#pragma GCC unroll 2
         for (int q = k - 2; q >= 0; q--) {
-            double a = coef[q];
-            for (int jj = 0; jj < 8; jj++) {
-                double pe = e[jj] * x2b[j0 + jj];
-                e[jj] = pe + a;
-            }
+            double c = coef[q];
+            v4d a = {c, c, c, c};
+            v4d pel = el * x2l, peh = eh * x2h;
+            el = pel + a; eh = peh + a;
         }
-        for (int jj = 0; jj < 8; jj++) { ha[j0 + jj] = u[jj]; hb[j0 + jj] = w[jj]; hx[j0 + jj] = y[jj]; s1[j0 + jj] = e[jj]; }
+        memcpy(ha + j0, &ul, sizeof ul); memcpy(ha + j0 + 4, &uh, sizeof uh);
+        memcpy(hb + j0, &wl, sizeof wl); memcpy(hb + j0 + 4, &wh, sizeof wh);
+        memcpy(hx + j0, &yl, sizeof yl); memcpy(hx + j0 + 4, &yh, sizeof yh);
+        memcpy(s1 + j0, &el, sizeof el); memcpy(s1 + j0 + 4, &eh, sizeof eh);
     }
     for (Py_ssize_t j = 0; j < n; j++) {
         double tau = taub[j], x = tau - 0.5;
@@ -1176,6 +1188,53 @@ VEC_CLONES static void cf_corners(Py_ssize_t nj, const double *restrict va, cons
     }
 }
 
+/* The largest of n > 0 feeds f, every one finite and > 0 (all_finite_pos checked them
+   first): with no nan, inf or signed zero among them their maximum is the same number
+   whatever the order its comparisons take, so the vector clones may take the lanes'
+   maxima and then the largest of those (finite-math-only, no-signed-zeros here, and only
+   here: a function that tests for them must not have them) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+__attribute__((target_clones("avx2", "default"),
+               optimize("O3", "no-trapping-math", "fp-contract=off", "finite-math-only", "no-signed-zeros")))
+#endif
+static double cf_pos_max(Py_ssize_t n, const double *restrict f) {
+    double m = f[0];
+    for (Py_ssize_t j = 1; j < n; j++) m = f[j] > m ? f[j] : m;
+    return m;
+}
+
+/* shape_segments' last lines on one row's n segments: the feeds floored at min_feed, the
+   accelerations capped at a_top; 1 where every acceleration is <= lim (a_top tol: the row
+   fits), else 0.  Elementwise (SIMD lanes), numpy's maximum / minimum as selections. */
+VEC_CLONES static int cf_clamp(Py_ssize_t n, double *restrict ar, double *restrict fr, double a_top, double lim,
+                               double min_feed) {
+    int bad = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double ak = ar[k], fk = fr[k];
+        fr[k] = NP_MAX(fk, min_feed);
+        bad |= !(ak <= lim);
+        ar[k] = NP_MIN(ak, a_top);
+    }
+    return !bad;
+}
+
+/* tent_rows' envelope of one row's n feeds f (finite, > 0) before its search: at k the larger
+   of the two sides' ramps side - st (k + 1), side - st (n - k), then the search's first
+   step (dd = 0: f[k] - st 0 = f[k] against it; its test pmax - 0 < mm only ends the search
+   where dd = 1's would: pmax >= f[k]), elementwise (SIMD lanes: k an int, whose conversion
+   to double has a vector instruction, which int64's lacks before AVX-512; n <= INT_MAX,
+   checked by the caller); the search goes on from dd = 1 */
+VEC_CLONES static void cf_tent_base(int n, const double *restrict f, double side, double st,
+                                    double *restrict mm) {
+    for (int k = 0; k < n; k++) {
+        double m = side - st * (double)(k + 1);
+        double e = side - st * (double)(n - k);
+        m = e > m ? e : m;
+        double q = f[k] - st * 0.0;
+        mm[k] = q > m ? q : m;
+    }
+}
+
 /* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
@@ -1248,12 +1307,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         const double a_top = p[CP_ATOP];
         const double *vr = vk + r * (n + 1), *tr = tk + r * n;
         double *ar = acc + r * n, *fr = feed + r * n;
-        int fit = 1;
-        /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv) */
+        /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv),
+           then the feeds' floor and the accelerations' cap (cf_clamp) */
         cf_shape(n, d, tr, vr, bmp, ttk_, pk_, tri_, ar, fr);
-        for (Py_ssize_t k = 0; k < n; k++) {
-            double ak = ar[k], fk = fr[k];
-            if (bmp[k] && junction == 1) {
+        for (Py_ssize_t k = 0; junction == 1 && k < n; k++) {
+            if (bmp[k]) {
                 double dk = d[k], a0 = vr[k], b0 = vr[k + 1], ttk = ttk_[k], peak = pk_[k], tri_a = tri_[k];
                 double lo = np_max(dk / ttk, np_max(a0, b0));
                 double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
@@ -1272,15 +1330,11 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
                 double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
                 double tri_cost = tri_a * (2.0 * peak - a0 - b0);
                 int take = isfinite(best) && best < tri_cost;
-                ak = take ? best_a : tri_a;
-                fk = take ? best_F : peak;
+                ar[k] = take ? best_a : tri_a;
+                fr[k] = take ? best_F : peak;
             }
-            fk = np_max(fk, min_feed);
-            if (!(ak <= a_top * tol)) fit = 0;
-            ar[k] = np_min(ak, a_top);
-            fr[k] = fk;
         }
-        fits[r] = (uint8_t)fit;
+        fits[r] = (uint8_t)cf_clamp(n, ar, fr, a_top, a_top * tol, min_feed);
         const double *w = NW ? W + c * ws : NULL;
         if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
             for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
@@ -1316,23 +1370,21 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         if (junction == 0) {
             double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
             ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
-            ok = ok && all_finite_pos(n, fr);
+            ok = ok && n <= INT_MAX && all_finite_pos(n, fr);     /* (INT_MAX: cf_tent_base's int) */
             if (!ok) break;
-            double pmax = fr[0];
-            for (Py_ssize_t j = 1; j < n; j++) pmax = fr[j] > pmax ? fr[j] : pmax;
+            double pmax = cf_pos_max(n, fr);
             memcpy(fsh, fr, (size_t)n * sizeof(double));
+            cf_tent_base((int)n, fr, side, st, tmp);
             for (Py_ssize_t k = 0; k < n; k++) {
-                double mm = side - st * (double)(k + 1);
-                double e = side - st * (double)(n - k);
-                if (e > mm) mm = e;
-                for (Py_ssize_t dd = 0; dd < n; dd++) {
+                double mm = tmp[k];
+                for (Py_ssize_t dd = 1; dd < n; dd++) {
                     double sd = st * (double)dd;
                     if (pmax - sd < mm) break;
                     if (k - dd >= 0) {
                         double q = fsh[k - dd] - sd;
                         if (q > mm) mm = q;
                     }
-                    if (dd > 0 && k + dd < n) {
+                    if (k + dd < n) {
                         double q = fsh[k + dd] - sd;
                         if (q > mm) mm = q;
                     }
@@ -2223,27 +2275,41 @@ static PyObject *window_sums(PyObject *self, PyObject *a) {
    law's J (laws/chain._exact_slopes: series of G, R, Q and their z-derivatives in z = γ²),
    numpy's operations in its order. */
 #define EX_NS 6            /* series: G, R, Q, dG/dz, dR/dz, dQ/dz (a row of coef per term) */
+#define EX_BLOCK 8          /* pieces a block of ex_chunk's Horner steps (two vectors; a divisor of CHUNK) */
 
 /* J' (d1) and 1 / J'' (invb; J'' floored as np.maximum(d2, 1e-12 |d1| / T + 1e-300)) of
-   n <= CHUNK pieces with k terms of the series (coef: EX_NS a term) */
-VEC_CLONES static void ex_chunk(Py_ssize_t n, int k, const double *restrict coef, const double *restrict T,
+   n <= CHUNK pieces with k terms of the series (cb: coef's EX_NS a term, each one a vector wide) */
+VEC_CLONES static void ex_chunk(Py_ssize_t n, int k, const v4d *restrict cb, const double *restrict T,
                                 const double *restrict Lc, const double *restrict bc, const double *restrict vsc,
                                 const double *restrict vdc, double *restrict d1b, double *restrict invb) {
     double zb[CHUNK], s0[CHUNK], s1[CHUNK], s2[CHUNK], s3[CHUNK], s4[CHUNK], s5[CHUNK];
-    const double *cl = coef + EX_NS * (k - 1);
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = T[i];
         zb[i] = (t * t) / bc[i];
-        s0[i] = cl[0]; s1[i] = cl[1]; s2[i] = cl[2]; s3[i] = cl[3]; s4[i] = cl[4]; s5[i] = cl[5];
     }
-    for (int q = k - 2; q >= 0; q--) {
-        const double *c = coef + EX_NS * q;
-        double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3], a4 = c[4], a5 = c[5];
-        for (Py_ssize_t i = 0; i < n; i++) {
-            double z = zb[i];
-            double x0 = s0[i] * z, x1 = s1[i] * z, x2 = s2[i] * z, x3 = s3[i] * z, x4 = s4[i] * z, x5 = s5[i] * z;
-            s0[i] = x0 + a0; s1[i] = x1 + a1; s2[i] = x2 + a2; s3[i] = x3 + a3; s4[i] = x4 + a4; s5[i] = x5 + a5;
+    Py_ssize_t nb = (n + EX_BLOCK - 1) & ~(Py_ssize_t)(EX_BLOCK - 1);    /* whole blocks, the tail's z 0 */
+    for (Py_ssize_t i = n; i < nb; i++) zb[i] = 0.0;
+    /* each block's Horner steps in registers (gcc's vectors: two a series), its coefficients
+       read as they are added (cb: already a vector wide), not the six series stored and
+       loaded a term.  Each element's operations in their order: the same bits. */
+    const v4d *cl = cb + EX_NS * (k - 1);
+    for (Py_ssize_t i0 = 0; i0 < nb; i0 += EX_BLOCK) {
+        v4d z, y, x0 = cl[0], x1 = cl[1], x2 = cl[2], x3 = cl[3], x4 = cl[4], x5 = cl[5];
+        v4d y0 = x0, y1 = x1, y2 = x2, y3 = x3, y4 = x4, y5 = x5;
+        memcpy(&z, zb + i0, sizeof z);
+        memcpy(&y, zb + i0 + 4, sizeof y);
+        for (const v4d *c = cl; c != cb;) {         /* the terms k - 2, ..., 0 */
+            c -= EX_NS;
+            v4d p0 = x0 * z, p1 = x1 * z, p2 = x2 * z, p3 = x3 * z, p4 = x4 * z, p5 = x5 * z;
+            v4d q0 = y0 * y, q1 = y1 * y, q2 = y2 * y, q3 = y3 * y, q4 = y4 * y, q5 = y5 * y;
+            x0 = p0 + c[0]; x1 = p1 + c[1]; x2 = p2 + c[2]; x3 = p3 + c[3]; x4 = p4 + c[4]; x5 = p5 + c[5];
+            y0 = q0 + c[0]; y1 = q1 + c[1]; y2 = q2 + c[2]; y3 = q3 + c[3]; y4 = q4 + c[4]; y5 = q5 + c[5];
         }
+        memcpy(s0 + i0, &x0, sizeof z); memcpy(s1 + i0, &x1, sizeof z); memcpy(s2 + i0, &x2, sizeof z);
+        memcpy(s3 + i0, &x3, sizeof z); memcpy(s4 + i0, &x4, sizeof z); memcpy(s5 + i0, &x5, sizeof z);
+        Py_ssize_t i1 = i0 + 4;
+        memcpy(s0 + i1, &y0, sizeof z); memcpy(s1 + i1, &y1, sizeof z); memcpy(s2 + i1, &y2, sizeof z);
+        memcpy(s3 + i1, &y3, sizeof z); memcpy(s4 + i1, &y4, sizeof z); memcpy(s5 + i1, &y5, sizeof z);
     }
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = T[i], b = bc[i], vs = vsc[i], vd = vdc[i], z = zb[i];
@@ -2352,9 +2418,16 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         return NULL;
     }
     Py_ssize_t PP = P ? P : 1;
-    double *work = PyMem_Malloc(2 * PP * sizeof(double));
+    /* per piece: J', then r; 1 / J''; and each coefficient a vector wide, aligned (ex_chunk's
+       cb: its additions read them as they are, not broadcast a block) */
+    double *work = PyMem_Malloc((2 * PP + 4 * (nterms * EX_NS + 1)) * sizeof(double));
     if (!work) { release(&b); return PyErr_NoMemory(); }
-    double *d1b = work, *invb = work + PP;             /* per piece: J', then r; 1 / J'' */
+    double *d1b = work, *invb = work + PP;
+    v4d *cb = (v4d *)(((uintptr_t)(invb + PP) + sizeof(v4d) - 1) & ~(uintptr_t)(sizeof(v4d) - 1));
+    for (Py_ssize_t j = 0; j < nterms * EX_NS; j++) {
+        double c = coef[j];
+        cb[j] = (v4d){c, c, c, c};
+    }
     int status = 0;
     /* the active pieces' count m, largest z and bad durations: of every chain not converged
        at the start, then made by the step that moves T (of the chains going on) */
@@ -2386,7 +2459,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
             while (c1 < n_c && !conv[c1]) c1++;
             for (int64_t j0 = poff[c]; j0 < poff[c1]; j0 += CHUNK) {
                 Py_ssize_t n = poff[c1] - j0 < CHUNK ? poff[c1] - j0 : CHUNK;
-                ex_chunk(n, k, coef, T + j0, L + j0, beta + j0, vs + j0, vd + j0, d1b + j0, invb + j0);
+                ex_chunk(n, k, cb, T + j0, L + j0, beta + j0, vs + j0, vd + j0, d1b + j0, invb + j0);
             }
             c = c1;
         }

@@ -159,7 +159,7 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char 
     if (nd + nf == 0)
         return -1;
     if (nd + nf <= 15) {                          /* to_double's fast path: the same division */
-        double x = (double)m;
+        double x = (double)(int64_t)m;            /* (m < 10^15: the same value, one instruction) */
         if (nf) x = x / POW10[nf];
         *v = neg ? -x : x;
     } else
@@ -807,6 +807,15 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t mo
     return 0;
 }
 
+/* the "\n"s in p[0..n) */
+static Py_ssize_t count_nl(const char *p, Py_ssize_t n)
+{
+    Py_ssize_t c = 0;
+    for (const char *e = p + n; p < e && (p = memchr(p, '\n', (size_t)(e - p))) != NULL; p++)
+        c++;
+    return c;
+}
+
 /* the pieces emit_cols puts around the segment lines (ASCII) */
 typedef struct {
     const char *hp, *wp, *nlp, *clp, *bp, *ap;
@@ -816,10 +825,12 @@ typedef struct {
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
-   raise); -1: no memory. */
+   raise); -1: no memory.  n_lines (not NULL): the "\n"s written (the pieces' counted once
+   a block, the moves' texts have none: plain_line's, or units and tenths). */
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
-                     int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t)
+                     int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
+                     Py_ssize_t *n_lines)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -843,6 +854,13 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     int64_t last_ka = 0;
     if (put(b, hp, hn) < 0)
         return -1;
+    Py_ssize_t lines = 0, nl_nl = 0, nl_acc = 0;   /* "\n"s: written; a line end's; an accel line's */
+    if (n_lines != NULL) {
+        lines = count_nl(hp, hn) + count_nl(clp, cln) + (bp != NULL && k_total >= 1 ? count_nl(bp, bn) : 0)
+                + (ap != NULL && k_total >= 1 ? count_nl(ap, an) : 0);
+        nl_nl = count_nl(nlp, nln);
+        nl_acc = count_nl(wp, wn) + nl_nl;
+    }
     for (Py_ssize_t k = 1; k <= k_total; k++) {
         double sk = s->d[k], a = acc->d[k - 1], f = fd->d[k - 1];
         if (!(sk <= end_d + tol_d))
@@ -903,6 +921,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             if (!have_cmd || ka != last_ka) {
                 if (put(b, wp, wp ? wn : 0) < 0 || put_tenths_up(b, ka) < 0 || put(b, nlp, nln) < 0)
                     return -1;
+                lines += nl_acc;
                 last_ka = ka;
                 if (!have_cmd && bp != NULL && put(b, bp, bn) < 0)   /* first_cmds[0], after the first M204 */
                     return -1;
@@ -955,6 +974,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             CPY(ap, an);
 #undef CPY
         b->n = q - b->p;
+        lines += nl_nl;
         if (at_vertex) {
             e_done_u = 0;
             if (move < n_moves - 1) {
@@ -971,6 +991,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     }
     if (put(b, clp, cln) < 0)
         return -1;
+    if (n_lines != NULL)
+        *n_lines = lines;
     return 0;
 }
 
@@ -1036,7 +1058,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0);
+                          (int64_t)e_start_u, &x0, &y0, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -1150,11 +1172,15 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
                         u = u > 0.0 ? u : 0.0;
                         tt = u < 1.0 ? u : 1.0;
                     }
-                    double d = hypot(x - ax - tt * ddx, y - ay - tt * ddy);
+                    double ex = x - ax - tt * ddx, ey = y - ay - tt * ddy;
                     int dmax = dx_ > dy_ ? dx_ : dy_;   /* validate._tol */
                     double tv = 0.75 * pow10_neg(dmax);
                     double tol = (tv < tol_d ? tv : tol_d) + 1e-7;
-                    if (!(d <= tol * (1.0 - MARGIN_R)))
+                    double lim = tol * (1.0 - MARGIN_R), d2 = ex * ex + ey * ey;
+                    /* hypot(ex, ey) <= lim: certain where d2 is below lim^2 by far (the squares'
+                       and the sum's rounding, and hypot's own, are ~1e-16 relative; an underflow
+                       is far below lim^2 when lim > 1e-100), else hypot's own verdict */
+                    if (!(lim > 1e-100 && d2 <= lim * lim * (1.0 - 1e-9)) && !(hypot(ex, ey) <= lim))
                         return 0;              /* off this segment, or near: Python's search */
                 }
                 double gx = fabs(x - x_prev), gy = fabs(y - y_prev);
@@ -1417,9 +1443,17 @@ typedef unsigned __int128 u128;
 
 /* round(|x| 10^k) half to even (*n) and floor(|x| 10^k) (*fl), k <= 27: 0; -1 when
    either is 2^64 or more */
+/* 5^k, k <= 27 (scaled_int's factor) */
+static const uint64_t POW5[28] = {
+    1ULL, 5ULL, 25ULL, 125ULL, 625ULL, 3125ULL, 15625ULL, 78125ULL, 390625ULL, 1953125ULL, 9765625ULL,
+    48828125ULL, 244140625ULL, 1220703125ULL, 6103515625ULL, 30517578125ULL, 152587890625ULL, 762939453125ULL,
+    3814697265625ULL, 19073486328125ULL, 95367431640625ULL, 476837158203125ULL, 2384185791015625ULL,
+    11920928955078125ULL, 59604644775390625ULL, 298023223876953125ULL, 1490116119384765625ULL,
+    7450580596923828125ULL};
+
 static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
 {
-    uint64_t bits, p5 = 1;
+    uint64_t bits, p5;
     memcpy(&bits, &x, sizeof bits);
     int ex = (int)((bits >> 52) & 0x7ff);
     uint64_t m = bits & ((1ULL << 52) - 1);
@@ -1428,7 +1462,7 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     else
         m |= 1ULL << 52;
     int s = ex - 1075 + k;                        /* |x| 10^k = m 5^k 2^s */
-    for (int j = 0; j < k; j++) p5 *= 5;          /* (5^27 < 2^63) */
+    p5 = POW5[k];                                 /* (5^27 < 2^63) */
     u128 P = (u128)m * p5;                        /* < 2^116 */
     if (s >= 0) {
         if (s >= 64 || (P >> (64 - s)) != 0)
@@ -1624,6 +1658,33 @@ static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
                         sn, n_lines, len);
 }
 
+/* p[0..n) holds a line break of str.splitlines below 0x20 (\r \x0b \x0c \x1c \x1d \x1e):
+   8 bytes a step, a byte below 0x20 found by the word's test (exact: no false "none"),
+   those 8 bytes then looked at one by one */
+static int has_break(const char *p, Py_ssize_t n)
+{
+    const uint32_t breaks = (1u << 0x0d) | (1u << 0x0b) | (1u << 0x0c) | (1u << 0x1c) | (1u << 0x1d) | (1u << 0x1e);
+    const uint64_t ones = 0x0101010101010101ULL, highs = 0x8080808080808080ULL;
+    Py_ssize_t k = 0;
+    for (; k + 8 <= n; k += 8) {
+        uint64_t w;
+        memcpy(&w, p + k, sizeof w);
+        if (((w - 0x20 * ones) & ~w & highs) == 0)
+            continue;                              /* no byte below 0x20 */
+        for (int j = 0; j < 8; j++) {
+            unsigned char c = (unsigned char)p[k + j];
+            if (c < 0x20 && ((breaks >> c) & 1))
+                return 1;
+        }
+    }
+    for (; k < n; k++) {
+        unsigned char c = (unsigned char)p[k];
+        if (c < 0x20 && ((breaks >> c) & 1))
+            return 1;
+    }
+    return 0;
+}
+
 /* what block_into reads besides the four sequences (stroke_block's arguments, unpacked) */
 typedef struct {
     const char *d;                  /* d[start:stop]: the stroke's n original lines */
@@ -1639,8 +1700,9 @@ typedef struct {
 /* A line stroke's block appended to out (at out->n): the lines read as emit.StrokeText
    reads plain lines, the block written as emit_stroke writes it and checked as
    validate._fast_ok checks it.  1: appended; 0: declined (out->n as it was, no
-   exception); -1: no memory (exception set).  fs: s, accels, feeds, ends_d. */
-static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
+   exception); -1: no memory (exception set).  fs: s, accels, feeds, ends_d.  n_lines (not
+   NULL): the block's lines ("\n"s) when appended. */
+static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t *n_lines)
 {
     const Pieces *pc = &ba->pc;
     const char *d = ba->d;
@@ -1656,12 +1718,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
     if (hl == pc->hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc->hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
         return 0;
     /* no other line break of str.splitlines in it: \r \x0b \x0c \x1c \x1d \x1e (below 0x20) */
-    const uint32_t breaks = (1u << 0x0d) | (1u << 0x0b) | (1u << 0x0c) | (1u << 0x1c) | (1u << 0x1d) | (1u << 0x1e);
-    for (Py_ssize_t k = 0; k < hl; k++) {
-        unsigned char c = (unsigned char)pc->hp[k];
-        if (c < 0x20 && ((breaks >> c) & 1))
-            return 0;
-    }
+    if (has_break(pc->hp, hl))
+        return 0;
     /* the lines: one allocation for their texts and the path's vertices */
     char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
     if (mem == NULL) {
@@ -1723,7 +1781,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs)
     if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)
         goto decline;
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -1868,7 +1926,7 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
     /* one buffer for every block, kept between calls */
     Buf b = EMIT_BUF;
     b.n = 0;
-    int r = block_into(&b, &ba, fs);
+    int r = block_into(&b, &ba, fs, NULL);
     if (r > 0)
         res = PyBytes_FromStringAndSize(b.p, b.n);
     keep_buf(&b);
@@ -2068,9 +2126,9 @@ static double float_attr(PyObject *o, int name, int *bad)
 
 /* one stroke of the run, its lines d[a:z] (n of them), appended to out as
    pipeline._rewrite_bytes' one-call path writes it: 1; 0: not this stroke (out as it
-   was: pipeline's loop takes it); -1: an exception */
+   was: pipeline's loop takes it); -1: an exception.  *n_lines: the block's lines */
 static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
-                     const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n)
+                     const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n, Py_ssize_t *n_lines)
 {
     PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
@@ -2190,7 +2248,7 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
             }
         }
     }
-    got = block_into(out, &ba, fs);
+    got = block_into(out, &ba, fs, n_lines);
     goto done;
 decline:
     PyErr_Clear();
@@ -2372,15 +2430,13 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             goto next;
         }
         Py_ssize_t head_at = out.n;
-        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, z, n_take);
+        Py_ssize_t n_out = 0;                     /* the block's lines */
+        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, z, n_take, &n_out);
         if (r <= 0) {             /* (no memory: the loop's stroke_block call, as before) */
             out.n = base;
             PyErr_Clear();
             goto next;
         }
-        Py_ssize_t n_out = 0;
-        for (const char *p = out.p + head_at, *e = out.p + out.n; (p = memchr(p, '\n', e - p)) != NULL; p++)
-            n_out++;
         PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
         if (row == NULL || PyList_Append(out_ranges, row) < 0) {
             Py_XDECREF(row);
@@ -2597,7 +2653,18 @@ static PyObject *decimal_value(PyObject *self, PyObject *o)
     return PyFloat_FromDouble(to_double(p, n));
 }
 
+/* head_breaks(bytes): has_break of the bytes (block_into's test of a head line, for the tests) */
+static PyObject *head_breaks(PyObject *self, PyObject *o)
+{
+    if (!PyBytes_Check(o)) {
+        PyErr_SetString(PyExc_TypeError, "head_breaks: bytes");
+        return NULL;
+    }
+    return PyBool_FromLong(has_break(PyBytes_AS_STRING(o), PyBytes_GET_SIZE(o)));
+}
+
 static PyMethodDef mod_methods[] = {
+    {"head_breaks", head_breaks, METH_O, "block_into's test for a line break in a head line (tests)"},
     {"decimal_value", decimal_value, METH_O, "float(text) of a plain decimal text, else None (tests)"},
     {"rounds", rounds, METH_O, "py_round of each native double (bytes): int, or None where declined (tests)"},
     {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},

@@ -4847,6 +4847,29 @@ static PyObject *mod_setup(PyObject *self, PyObject *args)
 #if defined(__GLIBC__)
 #define RING_SINCOS 1
 #endif
+/* libm's exp without its errno wrapper: glibc's exp is a wrapper (~16 instructions a call,
+ * errno on overflow) around __ieee754_exp, which it exports as __exp_finite (a compat
+ * symbol since 2.31: found with dlvsym, not linked); the same function, the same numbers
+ * (the kernels' probes check them against numpy's anyway).  Elsewhere, or without it,
+ * exp.  ring_exp_init() sets it once (each ring_* entry calls it). */
+#if defined(__GLIBC__) && defined(__x86_64__)
+#include <dlfcn.h>
+#define RING_EXP_FINITE 1
+#endif
+static double (*ring_exp_fn)(double) = NULL;
+static void ring_exp_init(void)
+{
+    if (ring_exp_fn != NULL)
+        return;
+    ring_exp_fn = exp;
+#ifdef RING_EXP_FINITE
+    void *f = dlvsym(RTLD_DEFAULT, "__exp_finite", "GLIBC_2.15");
+    if (f != NULL)
+        ring_exp_fn = (double (*)(double))f;
+#endif
+}
+#define ring_libm_exp(x) (ring_exp_fn(x))
+
 /* cos and sin of y: glibc's sincos where there is one (the same two values, one call) */
 static inline void ring_sincos(double y, double *sn, double *cs)
 {
@@ -4861,6 +4884,7 @@ static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
 {
     Py_buffer tb, b1, b2;
     double s, wd;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*ddw*w*:ring_exps", &tb, &s, &wd, &b1, &b2))
         return NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
@@ -4880,7 +4904,7 @@ static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
         }
         double x1 = s * t + 0.0, x2 = -s * t;
         double y2 = wd * t, y1 = 0.0 - y2;
-        double ex1 = exp(x1), ex2 = exp(x2);
+        double ex1 = ring_libm_exp(x1), ex2 = ring_libm_exp(x2);
         double cs, sn;
         ring_sincos(y2, &sn, &cs);
         double sn1 = y2 != 0.0 ? -sn : y1;
@@ -4905,6 +4929,7 @@ static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
 {
     Py_buffer tb, ob;
     double a, b;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*ddw*:ring_exp", &tb, &a, &b, &ob))
         return NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
@@ -4923,7 +4948,7 @@ static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
             break;
         }
         double x = a * t - b * 0.0, y = a * 0.0 + b * t;
-        double ex = exp(x), cs, sn;
+        double ex = ring_libm_exp(x), cs, sn;
         ring_sincos(y, &sn, &cs);
         o[2 * i] = ex * cs;
         o[2 * i + 1] = ex * sn;
@@ -5114,11 +5139,13 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         if (!fin || !isfinite(dt))
             break;
         double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
-        double ex = exp(x), cs, sn;
+        double ex = ring_libm_exp(x), cs, sn;
         ring_sincos(y, &sn, &cs);
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
-        double gr = 0.0, gi = 0.0;
+        /* g, the running sum, from -0.0: -0.0 + p is p, bit for bit (the cumsum's first term
+         * copied), so the first event needs no test of its own */
+        double gr = -0.0, gi = -0.0;
         /* the memo serves this restart only if it has one from t0 too */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
         /* events at one time (a block without cruise: its cruise piece lasts 0) have the
@@ -5148,8 +5175,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
                 }
                 if (!got) {
                     double x1 = s * tt + 0.0, x2 = -s * tt;
-                    ex1 = exp(x1);
-                    ex2 = exp(x2);
+                    ex1 = ring_libm_exp(x1);
+                    ex2 = ring_libm_exp(x2);
                     ring_sincos(y2, &s2, &c2);
                 }
                 s1 = y2 != 0.0 ? -s2 : y1;
@@ -5164,13 +5191,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
             }
             double pr, pi;
             ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
-            if (i == start) {
-                gr = pr;
-                gi = pi;
-            } else {
-                gr = gr + pr;
-                gi = gi + pi;
-            }
+            gr = gr + pr;
+            gi = gi + pi;
             ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
         }
         cr = c[2 * (stop - 1)];
@@ -5190,6 +5212,7 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
     int fused;
     PyObject *mt = Py_None, *mt0 = Py_None, *mv = Py_None, *ot0 = Py_None, *ov = Py_None;
     RingMemo memo;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p|OOOOO:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
                           &start, &carry, &t_carry, &cb, &fused, &mt, &mt0, &mv, &ot0, &ov))
         return NULL;
@@ -5420,7 +5443,7 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
             cs = cs0;
             sn = sn0;
             if (zero_v && fabs(cr) < RING_ZERO_BIG && fabs(ci) < RING_ZERO_BIG
-                    && (decay2 ? decay2[i] : ex) == 1.0) {
+                    && (!decay2 || decay2[i] == 1.0)) {
                 d_prev = d_bits;
                 if (o_v) {
                     o_v[3 * i] = ex;
@@ -5465,7 +5488,7 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 }
                 if (!got) {
                     double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
-                    ex = exp(x);
+                    ex = ring_libm_exp(x);
                     ring_sincos(y, &sn, &cs);
                 }
                 if (slot != NULL) {
@@ -5480,7 +5503,8 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 cs0 = cs;
                 sn0 = sn;
                 have_zero = 1;
-                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0;
+                /* (without decay2, the decay is ex itself: 1 for every such piece, tested here once) */
+                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0 && (decay2 || ex == 1.0);
             }
         }
         d_prev = d_bits;
@@ -5522,6 +5546,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     int real_major;
     PyObject *ts = Py_None, *mt = Py_None, *md = Py_None, *mv = Py_None, *ov = Py_None;
     RingMemo memo;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*|OOOOO:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
                           &rat, &scl, &real_major, &wb, &ts, &mt, &md, &mv, &ov))
         return NULL;
@@ -5591,7 +5616,7 @@ static inline __attribute__((always_inline)) double
 ring_re_abs(int fused, double cr, double ci, double lr, double li, double t)
 {
     double x = lr * t - li * 0.0, y = lr * 0.0 + li * t;
-    double ex = exp(x), cs, sn;
+    double ex = ring_libm_exp(x), cs, sn;
     ring_sincos(y, &sn, &cs);
     double pr, pi;
     ring_cmul(fused, cr, ci, ex * cs, ex * sn, &pr, &pi);
@@ -5641,6 +5666,7 @@ RING_CLONES static PyObject *mod_ring_peak(PyObject *self, PyObject *args)
     Py_buffer cb, db, ob, ab;
     double lr, li, wd;
     int fused;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*dddpw*w*:ring_peak", &cb, &db, &lr, &li, &wd, &fused, &ob, &ab))
         return NULL;
     Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
@@ -5744,6 +5770,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     Py_ssize_t short_n;
     int fused, real_major, numpy_peak = 0;
     double floor_ = 0.0;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Opd:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
                           &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po,
                           &d2o, &numpy_peak, &floor_))

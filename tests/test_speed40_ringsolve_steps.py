@@ -235,3 +235,34 @@ def test_two_way_table_lengths_of_one_set(seed, monkeypatch):
         got = CORE.ring_int_r2(c, dur, np.exp(-2.0 * osc.s * dur), *res._int_r2_args(osc.s, osc.lam), work)
         assert got is not None
         assert work.tobytes() == want.tobytes()
+
+
+@need_core
+@pytest.mark.parametrize("seed", range(3))
+def test_zero_pieces_by_the_sum_of_parts(seed, monkeypatch):
+    """A zero-length piece takes the +0 shortcut where |Re c| + |Im c| is below 1e150; the
+    others (each part below it or not, c^2 finite or overflowing) the general steps: each
+    piece's integral as numpy's (NaN where numpy's is)."""
+    osc = Oscillator(45.0 + 7.0 * seed, 0.1)
+    if res._int_r2_core(osc.s, osc.wd) is None:
+        pytest.skip("the core's integral is not numpy's here")
+    rng = np.random.default_rng(4040 + seed)
+    n = 4000
+    mag = 10.0 ** rng.choice([-3.0, 149.7, 149.9, 150.0, 152.0, 154.5, 160.0], n)
+    c = np.empty(n, complex)
+    c.real = rng.choice([1.0, -1.0], n) * mag * rng.uniform(0.3, 1.0, n)
+    c.imag = rng.choice([1.0, -1.0], n) * mag * rng.uniform(0.0, 1.0, n) * (rng.uniform(size=n) < 0.8)
+    swap = rng.uniform(size=n) < 0.3
+    c[swap] = 1j * c[swap]
+    dur = np.where(rng.uniform(size=n) < 0.8, 0.0, rng.exponential(0.01, n))
+    dur[0], c[0] = 0.0, 1e-3         # (the call's first zero-length piece: the general steps)
+    decay2 = np.exp(-2.0 * osc.s * dur)
+    with monkeypatch.context() as mp, np.errstate(all="ignore"):
+        mp.setattr(res, "USE_KERNEL", False)
+        want = osc.integral_r2_fin(c, dur)
+    work = np.empty(n)
+    with np.errstate(all="ignore"):
+        CORE.ring_int_r2(c, dur, decay2, *res._int_r2_args(osc.s, osc.lam), work)
+    nan = np.isnan(want)
+    assert (np.isnan(work) == nan).all() and nan.any()
+    assert work[~nan].tobytes() == want[~nan].tobytes()

@@ -5448,8 +5448,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
             ex = ex0;
             cs = cs0;
             sn = sn0;
-            if (zero_v && fabs(cr) < RING_ZERO_BIG && fabs(ci) < RING_ZERO_BIG
-                    && (!decay2 || decay2[i] == 1.0)) {
+            /* (|Re c| + |Im c| below RING_ZERO_BIG: both are -- the rounded sum is not below
+             * either; a piece it leaves out takes the general steps, the same +0) */
+            double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
+            if (zero_v && sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
                 d_prev = d_bits;
                 if (o_v) {
                     o_v[3 * i] = ex;
@@ -5459,10 +5461,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 if (cand) {
                     /* (the candidate test as below; |c| made only where its upper bound,
                      * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
-                    double ar_ = fabs(cr), thr;
+                    double thr;
                     lo = ar_ > lo ? ar_ : lo;
                     thr = cand->floor > lo ? cand->floor : lo;
-                    if (!((ar_ + fabs(ci)) * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
+                    if (!(sum_a * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
                             && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
                         cand->idx[n_cand++] = i;
                 }

@@ -4904,6 +4904,29 @@ static PyObject *mod_setup(PyObject *self, PyObject *args)
 #if defined(__GLIBC__)
 #define RING_SINCOS 1
 #endif
+/* libm's exp without its errno wrapper: glibc's exp is a wrapper (~16 instructions a call,
+ * errno on overflow) around __ieee754_exp, which it exports as __exp_finite (a compat
+ * symbol since 2.31: found with dlvsym, not linked); the same function, the same numbers
+ * (the kernels' probes check them against numpy's anyway).  Elsewhere, or without it,
+ * exp.  ring_exp_init() sets it once (each ring_* entry calls it). */
+#if defined(__GLIBC__) && defined(__x86_64__)
+#include <dlfcn.h>
+#define RING_EXP_FINITE 1
+#endif
+static double (*ring_exp_fn)(double) = NULL;
+static void ring_exp_init(void)
+{
+    if (ring_exp_fn != NULL)
+        return;
+    ring_exp_fn = exp;
+#ifdef RING_EXP_FINITE
+    void *f = dlvsym(RTLD_DEFAULT, "__exp_finite", "GLIBC_2.15");
+    if (f != NULL)
+        ring_exp_fn = (double (*)(double))f;
+#endif
+}
+#define ring_libm_exp(x) (ring_exp_fn(x))
+
 /* cos and sin of y: glibc's sincos where there is one (the same two values, one call) */
 static inline void ring_sincos(double y, double *sn, double *cs)
 {
@@ -4918,6 +4941,7 @@ static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
 {
     Py_buffer tb, b1, b2;
     double s, wd;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*ddw*w*:ring_exps", &tb, &s, &wd, &b1, &b2))
         return NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
@@ -4937,7 +4961,7 @@ static PyObject *mod_ring_exps(PyObject *self, PyObject *args)
         }
         double x1 = s * t + 0.0, x2 = -s * t;
         double y2 = wd * t, y1 = 0.0 - y2;
-        double ex1 = exp(x1), ex2 = exp(x2);
+        double ex1 = ring_libm_exp(x1), ex2 = ring_libm_exp(x2);
         double cs, sn;
         ring_sincos(y2, &sn, &cs);
         double sn1 = y2 != 0.0 ? -sn : y1;
@@ -4962,6 +4986,7 @@ static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
 {
     Py_buffer tb, ob;
     double a, b;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*ddw*:ring_exp", &tb, &a, &b, &ob))
         return NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
@@ -4980,7 +5005,7 @@ static PyObject *mod_ring_exp(PyObject *self, PyObject *args)
             break;
         }
         double x = a * t - b * 0.0, y = a * 0.0 + b * t;
-        double ex = exp(x), cs, sn;
+        double ex = ring_libm_exp(x), cs, sn;
         ring_sincos(y, &sn, &cs);
         o[2 * i] = ex * cs;
         o[2 * i + 1] = ex * sn;
@@ -5171,22 +5196,25 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         if (!fin || !isfinite(dt))
             break;
         double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
-        double ex = exp(x), cs, sn;
+        double ex = ring_libm_exp(x), cs, sn;
         ring_sincos(y, &sn, &cs);
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
-        double gr = 0.0, gi = 0.0;
+        /* g, the running sum, from -0.0: -0.0 + p is p, bit for bit (the cumsum's first term
+         * copied), so the first event needs no test of its own */
+        double gr = -0.0, gi = -0.0;
         /* the memo serves this restart only if it has one from t0 too */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
         /* events at one time (a block without cruise: its cruise piece lasts 0) have the
-         * same tt: their exponentials are the previous event's (same bits in, same out) */
-        uint64_t tt_prev = 0;
+         * same tt: their exponentials are the previous event's (same bits in, same out); the
+         * first event's tt is +0 (t0 - t0, t0 finite), never tt_prev's first bits (a NaN's) */
+        uint64_t tt_prev = UINT64_MAX;
         double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0, s1 = 0.0;
         for (Py_ssize_t i = start; i < stop; i++) {
             double tt = t[i] - t0;
             uint64_t tt_bits;
             memcpy(&tt_bits, &tt, sizeof tt_bits);
-            if (i == start || tt_bits != tt_prev) {
+            if (tt_bits != tt_prev) {
                 double y2 = wd * tt, y1 = 0.0 - y2;
                 int got = 0;
                 if (use_m) {    /* the memo's event at this time in a restart from t0 */
@@ -5205,8 +5233,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
                 }
                 if (!got) {
                     double x1 = s * tt + 0.0, x2 = -s * tt;
-                    ex1 = exp(x1);
-                    ex2 = exp(x2);
+                    ex1 = ring_libm_exp(x1);
+                    ex2 = ring_libm_exp(x2);
                     ring_sincos(y2, &s2, &c2);
                 }
                 s1 = y2 != 0.0 ? -s2 : y1;
@@ -5221,13 +5249,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
             }
             double pr, pi;
             ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
-            if (i == start) {
-                gr = pr;
-                gi = pi;
-            } else {
-                gr = gr + pr;
-                gi = gi + pi;
-            }
+            gr = gr + pr;
+            gi = gi + pi;
             ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
         }
         cr = c[2 * (stop - 1)];
@@ -5247,6 +5270,7 @@ RING_CLONES static PyObject *mod_ring_amps(PyObject *self, PyObject *args)
     int fused;
     PyObject *mt = Py_None, *mt0 = Py_None, *mv = Py_None, *ot0 = Py_None, *ov = Py_None;
     RingMemo memo;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*dddnnDdw*p|OOOOO:ring_amps", &tb, &db, &s, &wd, &span, &short_n,
                           &start, &carry, &t_carry, &cb, &fused, &mt, &mt0, &mv, &ot0, &ov))
         return NULL;
@@ -5353,12 +5377,18 @@ done:
  * arguments give the same numbers, so a hit is what libm would give.  16 k slots, not 4 k:
  * with 4 k, lengths seen before lost their slot to others (plate_rectilinear's two ringing
  * passes: 202 k pieces took libm's exp and sincos, 0.27 G instructions of the table's
- * misses; 16 k: ~25 M fewer instructions in all; 32 k: no fewer).  512 kB a table. */
+ * misses; 16 k: ~25 M fewer instructions in all; 32 k: no fewer).  512 kB a table.
+ * Two ways a set (8 k sets of 2 slots, the one used last first), not one slot a length:
+ * fewer lengths lose their slot to another that hashes alike (the plates' lookups replayed:
+ * plate_gyroid 364 k -> 287 k misses, plate_rectilinear 162 k -> 102 k, the same memory;
+ * measured with the amplitudes' first-event test gone: -1.2 M / -4.6 M instructions --
+ * the memo served most of those misses already). */
 typedef struct {
     uint64_t key;             /* dur's bits; RING_DUR_NONE: empty */
     double ex, cs, sn;
 } RingDur;
 #define RING_DUR_BITS 14
+#define RING_DUR_SET_BITS (RING_DUR_BITS - 1)     /* two slots a set */
 #define RING_DUR_NONE UINT64_MAX      /* a NaN's bits: never a (finite) length's */
 /* The tables of the last two (qr, qi) asked for, the latest first: X's and Y's oscillators
  * where they differ (their streams alternate call by call), neither cleared by the other's
@@ -5403,10 +5433,10 @@ static RingDur *ring_dur_table(double qr, double qi)
     return t.slots;
 }
 
-/* dur's slot in a table of ring_dur_table */
-static inline RingDur *ring_dur_slot(RingDur *table, uint64_t d_bits)
+/* dur's set (its two slots) in a table of ring_dur_table */
+static inline RingDur *ring_dur_set(RingDur *table, uint64_t d_bits)
 {
-    return table + ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_BITS));
+    return table + 2 * ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_SET_BITS));
 }
 
 /* |c| as numpy's complex absolute (numpy's SIMD loop: larger * sqrt(fma(r, r, 1)), r = smaller / larger) */
@@ -5476,8 +5506,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
             ex = ex0;
             cs = cs0;
             sn = sn0;
-            if (zero_v && fabs(cr) < RING_ZERO_BIG && fabs(ci) < RING_ZERO_BIG
-                    && (decay2 ? decay2[i] : ex) == 1.0) {
+            /* (|Re c| + |Im c| below RING_ZERO_BIG: both are -- the rounded sum is not below
+             * either; a piece it leaves out takes the general steps, the same +0) */
+            double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
+            if (zero_v && sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
                 d_prev = d_bits;
                 if (o_v) {
                     o_v[3 * i] = ex;
@@ -5487,10 +5519,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 if (cand) {
                     /* (the candidate test as below; |c| made only where its upper bound,
                      * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
-                    double ar_ = fabs(cr), thr;
+                    double thr;
                     lo = ar_ > lo ? ar_ : lo;
                     thr = cand->floor > lo ? cand->floor : lo;
-                    if (!((ar_ + fabs(ci)) * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
+                    if (!(sum_a * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
                             && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
                         cand->idx[n_cand++] = i;
                 }
@@ -5500,11 +5532,20 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         } else if (!have_prev || d_bits != d_prev) {
             /* the table first (a lookup; it holds most lengths the memo would give: the memo's
              * stream filled it too), then the memo, then libm */
-            RingDur *slot = table != NULL ? ring_dur_slot(table, d_bits) : NULL;
-            if (slot != NULL && slot->key == d_bits) {
-                ex = slot->ex;
-                cs = slot->cs;
-                sn = slot->sn;
+            RingDur *set = table != NULL ? ring_dur_set(table, d_bits) : NULL;
+            if (set != NULL && set[0].key == d_bits) {
+                ex = set[0].ex;
+                cs = set[0].cs;
+                sn = set[0].sn;
+            } else if (set != NULL && set[1].key == d_bits) {
+                ex = set[1].ex;
+                cs = set[1].cs;
+                sn = set[1].sn;
+                set[1] = set[0];            /* (the one used last first) */
+                set[0].key = d_bits;
+                set[0].ex = ex;
+                set[0].cs = cs;
+                set[0].sn = sn;
             } else {
                 int got = 0;
                 if (m_n) {      /* the memo's piece from this start, of this length */
@@ -5522,14 +5563,15 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 }
                 if (!got) {
                     double x = qr * t - qi * 0.0, y = qr * 0.0 + qi * t;
-                    ex = exp(x);
+                    ex = ring_libm_exp(x);
                     ring_sincos(y, &sn, &cs);
                 }
-                if (slot != NULL) {
-                    slot->key = d_bits;
-                    slot->ex = ex;
-                    slot->cs = cs;
-                    slot->sn = sn;
+                if (set != NULL) {          /* (the set's older slot gives way) */
+                    set[1] = set[0];
+                    set[0].key = d_bits;
+                    set[0].ex = ex;
+                    set[0].cs = cs;
+                    set[0].sn = sn;
                 }
             }
             if (d_bits == zero_bits) {
@@ -5537,7 +5579,8 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 cs0 = cs;
                 sn0 = sn;
                 have_zero = 1;
-                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0;
+                /* (without decay2, the decay is ex itself: 1 for every such piece, tested here once) */
+                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0 && (decay2 || ex == 1.0);
             }
         }
         d_prev = d_bits;
@@ -5579,6 +5622,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     int real_major;
     PyObject *ts = Py_None, *mt = Py_None, *md = Py_None, *mv = Py_None, *ov = Py_None;
     RingMemo memo;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*y*dddddpw*|OOOOO:ring_int_r2", &cb, &db, &eb, &qr, &qi, &four_s,
                           &rat, &scl, &real_major, &wb, &ts, &mt, &md, &mv, &ov))
         return NULL;
@@ -5648,7 +5692,7 @@ static inline __attribute__((always_inline)) double
 ring_re_abs(int fused, double cr, double ci, double lr, double li, double t)
 {
     double x = lr * t - li * 0.0, y = lr * 0.0 + li * t;
-    double ex = exp(x), cs, sn;
+    double ex = ring_libm_exp(x), cs, sn;
     ring_sincos(y, &sn, &cs);
     double pr, pi;
     ring_cmul(fused, cr, ci, ex * cs, ex * sn, &pr, &pi);
@@ -5698,6 +5742,7 @@ RING_CLONES static PyObject *mod_ring_peak(PyObject *self, PyObject *args)
     Py_buffer cb, db, ob, ab;
     double lr, li, wd;
     int fused;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*dddpw*w*:ring_peak", &cb, &db, &lr, &li, &wd, &fused, &ob, &ab))
         return NULL;
     Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
@@ -5801,6 +5846,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     Py_ssize_t short_n;
     int fused, real_major, numpy_peak = 0;
     double floor_ = 0.0;
+    ring_exp_init();
     if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Opd:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
                           &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po,
                           &d2o, &numpy_peak, &floor_))

@@ -42,6 +42,7 @@ import numpy as np
 from .probe_rng import ProbeRng
 from .distinct import distinct, unique_first_inverse
 from . import curves
+from . import objfields
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
@@ -515,9 +516,12 @@ def _laws_knots(Qs, laws, profile):
         a += len(Q)
     sv = _inner_s_stacked(gs, Ds)
     del Ds
-    fl = _Flat.of_arrays(sv, cv, nv, np.fromiter(map(_LENGTH_D, sts), float, m),
-                         np.zeros(m), np.ones(m), np.fromiter(map(_V0, sts), float, m),
-                         np.fromiter(map(_V1, sts), float, m)).with_T(TL, beta)
+    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass)
+    if got is not None:
+        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        L, v0, v1 = (np.fromiter(map(f, sts), float, m) for f in (_LENGTH_D, _V0, _V1))
+    fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
     a = 0

@@ -18,6 +18,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
+from . import objfields
 from .distinct import column_classes, column_classes_first, distinct
 from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
                                 marlin_jerk_junction_v_rows)
@@ -705,16 +706,23 @@ def line_classes(strokes):
             alone |= odd
             cols.append(np.array([0.0 if o else v for v, o in zip(vals, odd.tolist())], float))
     # lim: by its values (few distinct objects)
-    lims = list(map(_LIM, strokes))
-    by_id, by_val = {}, {}
-    for lim in dict(zip(map(id, lims), lims)).values():
+    got = objfields.ids(strokes, "lim")     # (the distinct objects in one compiled pass)
+    if got is None:
+        lims = list(map(_LIM, strokes))
+        got = list(dict(zip(map(id, lims), lims)).values()), None
+    by_place, by_val = [], {}
+    for lim in got[0]:
         try:
             key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
                         for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
-            by_id[id(lim)] = by_val.setdefault(key, len(by_val))
+            by_place.append(by_val.setdefault(key, len(by_val)))
         except (AttributeError, TypeError):
-            by_id[id(lim)] = -1
-    lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
+            by_place.append(-1)
+    if got[1] is not None:
+        lim_k = np.array(by_place, np.int64)[got[1]]
+    else:
+        by_id = dict(zip(map(id, got[0]), by_place))
+        lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
     alone |= lim_k < 0
     # by the columns where they are (the core's are views of its table): a table of them
     # all, and row_classes' copy of its rows, were ~13 MB more on the rectilinear plate

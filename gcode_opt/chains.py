@@ -144,7 +144,8 @@ def _classify_block(b, sts, jerk, fresh=False):
     else:
         ks = np.array([st.curv._k for st in sts], np.int64)
         cap = b.cap[ks]
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts))
+    feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
+    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
     hit = np.flatnonzero(cap < feed).tolist()
     if not hit:
         return True
@@ -575,14 +576,29 @@ def _laws_of(Qs, items, profile, gs=None):
     # the rows grouped by their kept base (the chains finished together share one): its
     # rows' places lo + row, by numpy over the items (not a dict entry and two appends a
     # chain); a group's items in their order, as a dict of lists gathered them
-    bases = list(map(_BASE, kept))
-    qq_all = np.fromiter(map(_LO, kept), np.int64, m) + np.fromiter(map(_IT2, its), np.int64, m)
-    del its
-    first, inv = unique_first_inverse(np.fromiter(map(id, bases), np.uint64, m))
+    lo, got = objfields.codes(kept, "lo", None), objfields.ids(kept, "base")    # (one compiled pass each)
+    qq_all = ((np.fromiter(map(_LO, kept), np.int64, m) if lo is None else lo)
+              + np.fromiter(map(_IT2, its), np.int64, m))
+    del its, lo
+    if got is not None:
+        # the groups in the order unique_first_inverse gives them (their bases' ids
+        # ascending): each distinct base's rank among the few ids, a row's its base's
+        ubase, which = got
+        by_id = np.argsort(np.fromiter(map(id, ubase), np.uint64, len(ubase)), kind="stable")
+        rank = np.empty(len(ubase), np.intp)
+        rank[by_id] = np.arange(len(ubase))
+        inv = rank[which]
+        heads = list(map(ubase.__getitem__, by_id.tolist()))
+        del ubase, which
+    else:
+        bases = list(map(_BASE, kept))
+        first, inv = unique_first_inverse(np.fromiter(map(id, bases), np.uint64, m))
+        heads = list(map(bases.__getitem__, first.tolist()))
+        del bases
     by_pos = np.argsort(inv, kind="stable")
-    ends = np.cumsum(np.bincount(inv, None, first.size)).tolist()
-    groups = [(bases[int(f)], by_pos[a:z]) for f, a, z in zip(first.tolist(), [0] + ends[:-1], ends)]
-    del bases
+    ends = np.cumsum(np.bincount(inv, None, len(heads))).tolist()
+    groups = [(b, by_pos[a:z]) for b, a, z in zip(heads, [0] + ends[:-1], ends)]
+    del heads
     nv = np.empty(m, np.int64)                  # vertices a row
     for b, ii in groups:
         nv[ii] = b[0].shape[1]

@@ -545,10 +545,13 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     original trapezoid, gets the one-move trapezoid of the same duration with the least
     int a^2 (trapezoid.py) instead, when that beats the original."""
     m = len(strokes)
-    # the fields law_knots and _segment_counts read, read once (one C-level pass each)
-    L = np.fromiter(map(_LENGTH_D, strokes), float, m)
-    v0 = np.fromiter(map(_V0, strokes), float, m)
-    v1 = np.fromiter(map(_V1, strokes), float, m)
+    # the fields law_knots and _segment_counts read, read once (one compiled pass, else a
+    # C-level pass each)
+    got = objfields.floats(strokes, ("length_d", "v0", "v1", "int_a2"))
+    if got is not None:
+        L, v0, v1, a2_orig = (np.ascontiguousarray(got[:, j]) for j in range(4))
+    else:
+        L, v0, v1, a2_orig = (np.fromiter(map(f, strokes), float, m) for f in (_LENGTH_D, _V0, _V1, _INT_A2))
     n = _segment_counts(strokes, T, rules, L)
     ok = np.flatnonzero(n >= 2)
     plans = [None] * m
@@ -578,7 +581,7 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
             plans[i] = plan
     # the strokes with no plan, or one that does not beat the original (NaN: not below)
     a2_plan = np.fromiter([_NAN if p is None else p.int_a2 for p in plans], float, m)
-    short = np.flatnonzero(~(a2_plan < np.fromiter(map(_INT_A2, strokes), float, m))).tolist()
+    short = np.flatnonzero(~(a2_plan < a2_orig)).tolist()
     if short:
         rows = np.array(short, int)
         for i, p in zip(short, line_trapezoids([strokes[i] for i in short], T[rows], beta[rows], rules)):
@@ -948,15 +951,18 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     m = len(sts)
     keep = _not_slowed(sts)
     d = S[:, 1:] - S[:, :-1]
-    ux = np.fromiter(map(_UX, sts), float, m)      # read once: the jerk steps and edges read them
-    uy = np.fromiter(map(_UY, sts), float, m)
+    # read once (the jerk steps and edges read ux, uy): one compiled pass, else one each
+    got = objfields.floats(sts, ("ux", "uy", "accel"))
+    if got is not None:
+        ux, uy, accel = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        ux, uy, accel = (np.fromiter(map(f, sts), float, m) for f in (_UX, _UY, _ACCEL))
     if rules.min_move_d > 0.0:
         # _merge_short leaves the knots alone where the shortest segment is >= min_d
         min_d = _min_edge_d_rows(rules, sts, ux, uy)
         with np.errstate(invalid="ignore"):
             keep &= d.min(axis=1) >= min_d
     v2 = V * V
-    accel = np.fromiter(map(_ACCEL, sts), float, m)
     with np.errstate(all="ignore"):
         acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
         z = np.where(accel < 0.0, accel, 0.0)      # min(0.0, accel)
@@ -1195,9 +1201,14 @@ def _jerk_steps(sts, ux=None, uy=None):
     """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient).
     ux, uy: the strokes' directions as float arrays, when read already."""
     m = len(sts)
-    lims = list(map(_LIM, sts))
-    jx = np.fromiter(map(_JERK_X, lims), float, m)
-    jy = np.fromiter(map(_JERK_Y, lims), float, m)
+    got = objfields.ids(sts, "lim")     # (their few limits objects read once, gathered: the same floats)
+    if got is not None:
+        jx = np.fromiter(map(_JERK_X, got[0]), float, len(got[0]))[got[1]]
+        jy = np.fromiter(map(_JERK_Y, got[0]), float, len(got[0]))[got[1]]
+    else:
+        lims = list(map(_LIM, sts))
+        jx = np.fromiter(map(_JERK_X, lims), float, m)
+        jy = np.fromiter(map(_JERK_Y, lims), float, m)
     ax = np.abs(np.fromiter(map(_UX, sts), float, m) if ux is None else ux)
     ay = np.abs(np.fromiter(map(_UY, sts), float, m) if uy is None else uy)
     mn = np.where(jy < jx, jy, jx)

@@ -13,7 +13,7 @@ from operator import attrgetter
 import numpy as np
 import pytest
 
-from gcode_opt import distinct, objfields, pipeline, schedule, segments, summary
+from gcode_opt import chains, curves, distinct, objfields, pipeline, schedule, segments, summary
 from gcode_opt.profile import load_profile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -167,6 +167,8 @@ def _site_figures(name, prof, corners):
     out = [a.tobytes() for a in (pin.L, pin.v_cap, pin.a_cap, schedule._kind_codes(strokes),
                                  schedule._overshoots(strokes, opts), *schedule._lim_columns(strokes, profile),
                                  segments.line_classes(strokes))]
+    lims, which = curves._lims_which(strokes)
+    out += [len(lims), all(st.lim is lims[w] for st, w in zip(strokes, which.tolist())), which.dtype, which.tobytes(), segments._jerk_steps(strokes).tobytes()]
     code_of, code = distinct.value_codes(list(map(attrgetter("feature"), strokes)))
     out += [list(code_of.items()), code.tobytes()]
     plan = schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
@@ -177,9 +179,55 @@ def _site_figures(name, prof, corners):
     return out
 
 
+def _laws_of_figures(name, prof, monkeypatch):
+    """What chains._laws_of answered on a sample file's planning (each array's bytes)."""
+    seen = []
+    real = chains._laws_of
+
+    def laws_of(Qs, items, profile, gs=None):
+        got = real(Qs, items, profile, gs)
+        seen.append([a.tobytes() if isinstance(a, np.ndarray) else len(a) for a in got])
+        return got
+    monkeypatch.setattr(chains, "_laws_of", laws_of)
+    profile = load_profile(prof)
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
+    monkeypatch.setattr(chains, "_laws_of", real)
+    return seen
+
+
+@needs_core
+@pytest.mark.parametrize("name,prof", [("prusa_gyroid_fullspeed_klipper.gcode", "voron24"),
+                                       ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s")])
+def test_laws_of_as_its_fallback(name, prof, monkeypatch):
+    new = _laws_of_figures(name, prof, monkeypatch)
+    _no_core(monkeypatch)
+    old = _laws_of_figures(name, prof, monkeypatch)
+    assert new and new == old
+
+
+def test_a_caps_as_python_min():
+    profile = load_profile("prusa-mk3s")
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, _ = pipeline.analyse(os.path.join(SAMPLES, "prusa_gyroid.gcode"), profile, opts)
+    rng = random.Random(5)
+    for st in strokes:                  # (each stroke its own acceleration, some above the limits)
+        st.accel = rng.choice([rng.uniform(100.0, 3000.0), float(st.lim.ax_max), 1e9])
+    ref = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in strokes]
+    got = curves._a_caps(strokes)
+    assert np.array(ref, float).tobytes() == got.tobytes()
+    strokes[3].accel = 1500                             # an int: the list itself
+    assert curves._a_caps(strokes) == [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in strokes]
+
+
 @needs_core
 @pytest.mark.parametrize("name,prof,corners", [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 0.3),
-                                               ("prusa_gyroid_fullspeed_klipper.gcode", "voron24", 0.0)])
+                                               ("prusa_gyroid_fullspeed_klipper.gcode", "voron24", 0.0),
+                                               ("prusa_gyroid.gcode", "prusa-mk3s", 0.0)])
 def test_sites_as_their_fallback(name, prof, corners, monkeypatch):
     new = _site_figures(name, prof, corners)
     _no_core(monkeypatch)

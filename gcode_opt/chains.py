@@ -1788,9 +1788,9 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
                         for c in range(k)], axis=1)
         laws = _LawCols(res, k, base.voff)
-        for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
+        for item, at in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
-            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1])))
+            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
         del res, laws
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
@@ -2140,14 +2140,23 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = _at(T, j, rc)
+        at = None
         if n > 1:
             ix = voff[j][:, None] + np.arange(n - 1)
             if vmap is not None:
                 ix = vmap[ix]
             cc = rc[:, None]
-            vk[:, 1:-1] = _at(VV, cc, ix)
-            tk[:, 1:-1] = _at(TT, cc, ix)
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)
+            if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
+                # both stacks gathered at one flat index (_at's, made once), handed on
+                # to _LawCols.rows for the binding masks at the same places
+                flat = cc * VV.shape[1] + ix
+                vk[:, 1:-1] = VV.ravel()[flat]
+                tk[:, 1:-1] = TT.ravel()[flat]
+                at = (flat, VV.shape[1], vmap, voff)
+            else:
+                vk[:, 1:-1] = _at(VV, cc, ix)
+                tk[:, 1:-1] = _at(TT, cc, ix)
+        yield (J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)), at
 
 
 class _LawCols:
@@ -2172,12 +2181,16 @@ class _LawCols:
                 self.PN[c] = sp[2]
                 at += sp[0].size
 
-    def rows(self, j, rc, n):
+    def rows(self, j, rc, n, at=None):
         """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
         chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
-        (int32: a chunk's pieces are ~10^5)."""
+        (int32: a chunk's pieces are ~10^5).  at: _table_rows' (flat index of these rows'
+        vertices, the width, vmap and vertex offsets it was made for), or None."""
         R = j.size
-        if n > 1:
+        if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
+                and self.BB.shape[1] == at[1]):
+            bnd = self.BB.ravel()[at[0]]           # (_at's gather at the same places)
+        elif n > 1:
             ix = self.voff[j][:, None] + np.arange(n - 1)
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:

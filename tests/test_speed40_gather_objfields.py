@@ -236,3 +236,27 @@ def test_sites_as_their_fallback(name, prof, corners, monkeypatch):
     for a, b in zip(new[:-1], old[:-1]):
         assert a == b
     assert new[-1] is not None and old[-1] is None        # (the compiled reading was taken)
+
+
+@pytest.mark.parametrize("name,prof", [("prusa_gyroid_fullspeed_klipper.gcode", "voron24"),
+                                       ("prusa_gyroid.gcode", "prusa-mk3s")])
+def test_law_rows_at_table_index(name, prof, monkeypatch):
+    """_LawCols.rows given _table_rows' flat index answers what its own gather does."""
+    real = chains._LawCols.rows
+    used = []
+
+    def rows(self, j, rc, n, at=None):
+        got = real(self, j, rc, n, at)
+        ref = real(self, j, rc, n)
+        assert [a.tobytes() for a in got] == [a.tobytes() for a in ref]
+        assert [a.dtype for a in got] == [a.dtype for a in ref] and got[0].shape == ref[0].shape
+        used.append(at is not None)
+        return got
+    monkeypatch.setattr(chains._LawCols, "rows", rows)
+    profile = load_profile(prof)
+    opts = pipeline.Options()
+    opts.ringing = False
+    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    pin = schedule.plan_inputs(strokes, profile, opts)
+    schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
+    assert any(used)                        # (the shared index was taken)

@@ -146,12 +146,13 @@ def _classify_block(b, sts, jerk, fresh=False):
         cap = b.cap[ks]
     feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
     feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
-    hit = np.flatnonzero(cap < feed).tolist()
+    hit_a = np.flatnonzero(cap < feed)
+    hit = hit_a.tolist()
     if not hit:
         return True
     caps1 = None
-    if jerk and b.caps_jerk1 is not None:
-        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1[hit if ks is None else ks[hit]]
+    if jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
+        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1.take(hit_a if ks is None else ks[hit_a], axis=0)
     for i, q in enumerate(hit):
         st = sts[q]
         st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
@@ -1760,13 +1761,13 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
-    got = _figures_sorted(strokes, rows[perm], pin, T[perm], beta[perm], profile, rules, nseg[perm])
-    out = []
-    for a in got:                     # back in the rows' order
-        b = np.empty_like(a)
-        b[perm] = a
-        out.append(b)
-    return tuple(out)
+    # (np.take's row gathers: numpy's fancy index copies a row at a time through its
+    # general loop, several times slower for these short rows; the same values)
+    got = _figures_sorted(strokes, rows[perm], pin, T.take(perm, axis=0), beta.take(perm, axis=0), profile, rules,
+                          nseg[perm])
+    back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
+    back[perm] = np.arange(perm.size)
+    return tuple(a.take(back, axis=0) for a in got)
 
 
 def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
@@ -2242,12 +2243,14 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    tab = np.stack([t, _at(T, j, c), _at(beta, j, c), np.arange(R, dtype=float)], axis=1)
-    # the good rows, each chain's newest (last) first: one buffer, a slice per chain
+    # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
+    # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
+    # gathered at them; the row its index, exact as a float)
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
+    jq, cq = j[q], c[q]
     figs = array("d")
-    figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
+    figs.frombytes(np.stack([t[q], _at(T, jq, cq), _at(beta, jq, cq), q.astype(float)], axis=1).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for jj in j[first].tolist():

@@ -464,7 +464,7 @@ def _stacked_runs(gs):
         z = a + 1
         while z < m and bs[z] is b:
             z += 1
-        ds.append(np.asarray(b.d, float)[ks[a:z]])
+        ds.append(np.asarray(b.d, float).take(ks[a:z], axis=0))     # (np.take: the same rows)
         runs.append((b, a, z))
         a = z
     if not all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):

@@ -468,7 +468,9 @@ def _settle_rows(S, V, A, F, plans):
         r = objfields.codes(part, "_row", None)
         r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)) if r is None else r)
         with np.errstate(invalid="ignore"):
-            Sr, Vr, Ar, Fr = S[r], V[r], A[r], F[r]
+            # (a run's rows are views; other rows gathered by np.take, the same rows)
+            Sr, Vr, Ar, Fr = ((S[r], V[r], A[r], F[r]) if type(r) is slice
+                              else (S.take(r, axis=0), V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
             fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
                     & np.isfinite(Vr).all(axis=1) & (Vr >= 0.0).all(axis=1)
                     & np.isfinite(Ar).all(axis=1) & (Ar > 0.0).all(axis=1)

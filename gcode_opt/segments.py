@@ -974,7 +974,8 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     if not take.size:
         return None
     if take.size < m:
-        S, V, acc, accel, ux, uy = S[take], V[take], acc[take], accel[take], ux[take], uy[take]
+        S, V, acc = S.take(take, axis=0), V.take(take, axis=0), acc.take(take, axis=0)    # (np.take: the same rows)
+        accel, ux, uy = accel[take], ux[take], uy[take]
         sts = [sts[k] for k in take.tolist()]
         if knots is not None:
             knots = [knots[k] for k in take.tolist()]
@@ -1409,7 +1410,8 @@ def _corner_rows(S, V, sts, rules, knots=None):
         return [], []
     if take.size < m:
         tl = take.tolist()
-        S, V, d, acc, need0, need1 = S[take], V[take], d[take], acc[take], need0[take], need1[take]
+        S, V, d, acc = (x.take(take, axis=0) for x in (S, V, d, acc))     # (np.take: the same rows)
+        need0, need1 = need0[take], need1[take]
         sts = [sts[k] for k in tl]
         lims = [lims[k] for k in tl]
         (ux, uy, e_min, sv0, sv1, v0, v1, jd, has_p, has_n, pux, puy, nux, nuy) = (

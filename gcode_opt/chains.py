@@ -1789,8 +1789,9 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
                         for c in range(k)], axis=1)
         laws = _LawCols(res, k, base.voff)
-        for item, at in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
+        for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
+            at = getattr(item, "at", None)
             fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
         del res, laws
         if nseg is not None:            # the counts no later chunk has: their last batches
@@ -2105,6 +2106,12 @@ def _chain_caps(sts, gs, profile):
     return [vertex_caps(st, profile) if c is None else c for st, c in zip(sts, out)]
 
 
+class _TableItem(tuple):
+    """One group of _table_rows' rows (J, rj, rc, vk, dt, ks, iv), with `at`: the flat index
+    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None."""
+    at = None
+
+
 def _table_rows(sts, base, res, use, T, profile, grouped):
     """The candidate table's rows of one chunk: chain j's usable columns c (use (m, k))
     from the flat laws res[c], as (J, rj, rc, vk, dt, ks, iv) per group of chains (_Rows):
@@ -2157,7 +2164,9 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
             else:
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
-        yield (J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)), at
+        item = _TableItem((J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)))
+        item.at = at
+        yield item
 
 
 class _LawCols:

@@ -42,6 +42,7 @@ import numpy as np
 from .probe_rng import ProbeRng
 from .distinct import distinct, unique_first_inverse
 from . import curves
+from . import objfields
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
                                 marlin_safe_speed)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
@@ -143,13 +144,15 @@ def _classify_block(b, sts, jerk, fresh=False):
     else:
         ks = np.array([st.curv._k for st in sts], np.int64)
         cap = b.cap[ks]
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts))
-    hit = np.flatnonzero(cap < feed).tolist()
+    feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
+    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+    hit_a = np.flatnonzero(cap < feed)
+    hit = hit_a.tolist()
     if not hit:
         return True
     caps1 = None
-    if jerk and b.caps_jerk1 is not None:
-        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1[hit if ks is None else ks[hit]]
+    if jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
+        caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1.take(hit_a if ks is None else ks[hit_a], axis=0)
     for i, q in enumerate(hit):
         st = sts[q]
         st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
@@ -515,9 +518,12 @@ def _laws_knots(Qs, laws, profile):
         a += len(Q)
     sv = _inner_s_stacked(gs, Ds)
     del Ds
-    fl = _Flat.of_arrays(sv, cv, nv, np.fromiter(map(_LENGTH_D, sts), float, m),
-                         np.zeros(m), np.ones(m), np.fromiter(map(_V0, sts), float, m),
-                         np.fromiter(map(_V1, sts), float, m)).with_T(TL, beta)
+    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass)
+    if got is not None:
+        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        L, v0, v1 = (np.fromiter(map(f, sts), float, m) for f in (_LENGTH_D, _V0, _V1))
+    fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
     a = 0
@@ -571,14 +577,29 @@ def _laws_of(Qs, items, profile, gs=None):
     # the rows grouped by their kept base (the chains finished together share one): its
     # rows' places lo + row, by numpy over the items (not a dict entry and two appends a
     # chain); a group's items in their order, as a dict of lists gathered them
-    bases = list(map(_BASE, kept))
-    qq_all = np.fromiter(map(_LO, kept), np.int64, m) + np.fromiter(map(_IT2, its), np.int64, m)
-    del its
-    first, inv = unique_first_inverse(np.fromiter(map(id, bases), np.uint64, m))
+    lo, got = objfields.codes(kept, "lo", None), objfields.ids(kept, "base")    # (one compiled pass each)
+    qq_all = ((np.fromiter(map(_LO, kept), np.int64, m) if lo is None else lo)
+              + np.fromiter(map(_IT2, its), np.int64, m))
+    del its, lo
+    if got is not None:
+        # the groups in the order unique_first_inverse gives them (their bases' ids
+        # ascending): each distinct base's rank among the few ids, a row's its base's
+        ubase, which = got
+        by_id = np.argsort(np.fromiter(map(id, ubase), np.uint64, len(ubase)), kind="stable")
+        rank = np.empty(len(ubase), np.intp)
+        rank[by_id] = np.arange(len(ubase))
+        inv = rank[which]
+        heads = list(map(ubase.__getitem__, by_id.tolist()))
+        del ubase, which
+    else:
+        bases = list(map(_BASE, kept))
+        first, inv = unique_first_inverse(np.fromiter(map(id, bases), np.uint64, m))
+        heads = list(map(bases.__getitem__, first.tolist()))
+        del bases
     by_pos = np.argsort(inv, kind="stable")
-    ends = np.cumsum(np.bincount(inv, None, first.size)).tolist()
-    groups = [(bases[int(f)], by_pos[a:z]) for f, a, z in zip(first.tolist(), [0] + ends[:-1], ends)]
-    del bases
+    ends = np.cumsum(np.bincount(inv, None, len(heads))).tolist()
+    groups = [(b, by_pos[a:z]) for b, a, z in zip(heads, [0] + ends[:-1], ends)]
+    del heads
     nv = np.empty(m, np.int64)                  # vertices a row
     for b, ii in groups:
         nv[ii] = b[0].shape[1]
@@ -1740,13 +1761,13 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
-    got = _figures_sorted(strokes, rows[perm], pin, T[perm], beta[perm], profile, rules, nseg[perm])
-    out = []
-    for a in got:                     # back in the rows' order
-        b = np.empty_like(a)
-        b[perm] = a
-        out.append(b)
-    return tuple(out)
+    # (np.take's row gathers: numpy's fancy index copies a row at a time through its
+    # general loop, several times slower for these short rows; the same values)
+    got = _figures_sorted(strokes, rows[perm], pin, T.take(perm, axis=0), beta.take(perm, axis=0), profile, rules,
+                          nseg[perm])
+    back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
+    back[perm] = np.arange(perm.size)
+    return tuple(a.take(back, axis=0) for a in got)
 
 
 def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
@@ -1770,7 +1791,8 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
         laws = _LawCols(res, k, base.voff)
         for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
-            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1])))
+            at = getattr(item, "at", None)
+            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
         del res, laws
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
@@ -2084,6 +2106,12 @@ def _chain_caps(sts, gs, profile):
     return [vertex_caps(st, profile) if c is None else c for st, c in zip(sts, out)]
 
 
+class _TableItem(tuple):
+    """One group of _table_rows' rows (J, rj, rc, vk, dt, ks, iv), with `at`: the flat index
+    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None."""
+    at = None
+
+
 def _table_rows(sts, base, res, use, T, profile, grouped):
     """The candidate table's rows of one chunk: chain j's usable columns c (use (m, k))
     from the flat laws res[c], as (J, rj, rc, vk, dt, ks, iv) per group of chains (_Rows):
@@ -2120,14 +2148,25 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         vk[:, 0], vk[:, -1] = v0[j], v1[j]
         tk[:, 0] = 0.0
         tk[:, -1] = _at(T, j, rc)
+        at = None
         if n > 1:
             ix = voff[j][:, None] + np.arange(n - 1)
             if vmap is not None:
                 ix = vmap[ix]
             cc = rc[:, None]
-            vk[:, 1:-1] = _at(VV, cc, ix)
-            tk[:, 1:-1] = _at(TT, cc, ix)
-        yield J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)
+            if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
+                # both stacks gathered at one flat index (_at's, made once), handed on
+                # to _LawCols.rows for the binding masks at the same places
+                flat = cc * VV.shape[1] + ix
+                vk[:, 1:-1] = VV.ravel()[flat]
+                tk[:, 1:-1] = TT.ravel()[flat]
+                at = (flat, VV.shape[1], vmap, voff)
+            else:
+                vk[:, 1:-1] = _at(VV, cc, ix)
+                tk[:, 1:-1] = _at(TT, cc, ix)
+        item = _TableItem((J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)))
+        item.at = at
+        yield item
 
 
 class _LawCols:
@@ -2152,12 +2191,16 @@ class _LawCols:
                 self.PN[c] = sp[2]
                 at += sp[0].size
 
-    def rows(self, j, rc, n):
+    def rows(self, j, rc, n, at=None):
         """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
         chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
-        (int32: a chunk's pieces are ~10^5)."""
+        (int32: a chunk's pieces are ~10^5).  at: _table_rows' (flat index of these rows'
+        vertices, the width, vmap and vertex offsets it was made for), or None."""
         R = j.size
-        if n > 1:
+        if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
+                and self.BB.shape[1] == at[1]):
+            bnd = self.BB.ravel()[at[0]]           # (_at's gather at the same places)
+        elif n > 1:
             ix = self.voff[j][:, None] + np.arange(n - 1)
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
@@ -2209,12 +2252,14 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
     first = np.r_[True, j[1:] != j[:-1]]
-    tab = np.stack([t, _at(T, j, c), _at(beta, j, c), np.arange(R, dtype=float)], axis=1)
-    # the good rows, each chain's newest (last) first: one buffer, a slice per chain
+    # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
+    # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
+    # gathered at them; the row its index, exact as a float)
     q = np.flatnonzero(good)
     q = q[np.lexsort((-q, j[q]))]
+    jq, cq = j[q], c[q]
     figs = array("d")
-    figs.frombytes(np.ascontiguousarray(tab[q]).tobytes())
+    figs.frombytes(np.stack([t[q], _at(T, jq, cq), _at(beta, jq, cq), q.astype(float)], axis=1).tobytes())
     cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for jj in j[first].tolist():

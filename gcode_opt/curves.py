@@ -37,6 +37,7 @@ from operator import attrgetter, itemgetter
 
 import numpy as np
 
+from . import objfields
 from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
@@ -463,7 +464,7 @@ def _stacked_runs(gs):
         z = a + 1
         while z < m and bs[z] is b:
             z += 1
-        ds.append(np.asarray(b.d, float)[ks[a:z]])
+        ds.append(np.asarray(b.d, float).take(ks[a:z], axis=0))     # (np.take: the same rows)
         runs.append((b, a, z))
         a = z
     if not all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
@@ -839,6 +840,9 @@ def floats_of(values, n):
 def _lims_which(sts):
     """(the limits objects of the strokes sts, each once in the order first met; which one
     each stroke's, an int32 array): the strokes mostly share one."""
+    got = objfields.ids(sts, "lim")     # (one compiled pass: the same objects and places)
+    if got is not None:
+        return got[0], got[1].astype(np.int32)
     lims = list(map(_LIM, sts))
     ids = list(map(id, lims))
     first = dict(zip(ids, lims))        # id -> limits, in the order first met
@@ -1223,13 +1227,17 @@ def _a_caps(sts):
     (the later one where it is < the least so far) in arrays, the limits read once per
     limits object the strokes share; the list itself where a number is not a float."""
     m = len(sts)
-    acc = list(map(_ACCEL, sts))
+    got = stroke_fields(sts, ("accel",)) if type(sts) is list else None
+    if got is not None and not got[1].any():       # (kind 0 everywhere: every accel a float)
+        a, acc = got[0][:, 0], []
+    else:
+        a, acc = None, list(map(_ACCEL, sts))
     lims, which = _lims_which(sts)
     ax = [lim.ax_max for lim in lims]
     ay = [lim.ay_max for lim in lims]
     if not all(type(x) is float for x in acc + ax + ay):
         return [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
-    a = np.fromiter(acc, float, m)
+    a = np.fromiter(acc, float, m) if a is None else a
     axr, ayr = np.array(ax, float)[which], np.array(ay, float)[which]
     a = np.where(axr < a, axr, a)
     return np.where(ayr < a, ayr, a)

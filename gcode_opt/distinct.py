@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import objfields
+
 
 def distinct(a) -> np.ndarray:
     s = np.asanyarray(a).flatten()
@@ -121,5 +123,9 @@ def value_codes(values):
     values equal v, for values that are equal exactly when their hashes and == agree
     (str, int, None), made by one pass of dict look-ups in C rather than a compare of
     every value of an object array per distinct value (~100 instructions a value)."""
+    code_of = {}
+    code = objfields.codes(values, None, code_of, add=True)     # (one compiled pass: the same dict)
+    if code is not None:
+        return code_of, code
     code_of = {v: c for c, v in enumerate(dict.fromkeys(values))}
     return code_of, np.fromiter(map(code_of.__getitem__, values), np.intp, len(values))

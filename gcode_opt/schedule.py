@@ -31,6 +31,7 @@ from . import arcs
 from . import chains
 from . import corners
 from . import curves
+from . import objfields
 from .corners import junction_commands
 from .laws import circle
 from .coverage import feature_overshoot_r
@@ -134,12 +135,16 @@ def _lim_columns(strokes, profile):
     float arrays, read once a Limits object: few distinct ones are shared by all the strokes
     (state.Limits is copy-on-write), the same values read a stroke at a time."""
     n = len(strokes)
-    lims = list(map(_LIM, strokes))
-    uniq = dict(zip(map(id, lims), lims))           # each distinct object, in first-seen order
-    at = dict(zip(uniq, range(len(uniq))))
-    which = np.fromiter(map(at.__getitem__, map(id, lims)), np.intp, n)
-    del lims
-    ul = list(uniq.values())
+    got = objfields.ids(strokes, "lim")             # (one compiled pass: the same objects and places)
+    if got is not None:
+        ul, which = got
+    else:
+        lims = list(map(_LIM, strokes))
+        uniq = dict(zip(map(id, lims), lims))           # each distinct object, in first-seen order
+        at = dict(zip(uniq, range(len(uniq))))
+        which = np.fromiter(map(at.__getitem__, map(id, lims)), np.intp, n)
+        del lims
+        ul = list(uniq.values())
     v_lim = np.array([min(lim.v_max, profile.max_velocity_v) for lim in ul], float)[which]
     ax = np.array([lim.ax_max for lim in ul], float)[which]
     ay = np.array([lim.ay_max for lim in ul], float)[which]
@@ -148,6 +153,9 @@ def _lim_columns(strokes, profile):
 
 def _kind_codes(strokes):
     """Every stroke's kind as its KIND_CODE (int8; NO_KIND: none of KINDS)."""
+    code = objfields.codes(strokes, "kind", KIND_CODE)     # (None where a kind is none of KINDS)
+    if code is not None:
+        return code.astype(np.int8)
     return np.fromiter(map(KIND_CODE.get, map(_KIND, strokes), repeat(NO_KIND)), np.int8, len(strokes))
 
 
@@ -167,6 +175,28 @@ def plan_kind_codes(strokes, codes=None):
     return codes
 
 
+def _overshoots(strokes, opts):
+    """Every stroke's feature_overshoot_r(st.feature, opts) (a float array): a call a
+    feature, not a stroke (it reads only the feature and opts); each stroke's feature coded
+    in one compiled pass where the core is built (objfields.codes), its feature's value
+    gathered (the same floats)."""
+    n = len(strokes)
+    feat_of = {}
+    code = objfields.codes(strokes, "feature", feat_of, add=True)
+    if code is not None:
+        try:
+            return np.array([feature_overshoot_r(f, opts) for f in feat_of], float)[code]
+        except TypeError:
+            pass
+    feats = list(map(_FEATURE, strokes))
+    try:
+        over_of = {f: feature_overshoot_r(f, opts) for f in set(feats)}
+    except TypeError:                     # (an unhashable feature: a call a stroke)
+        over_of = None
+    return (np.array([feature_overshoot_r(f, opts) for f in feats], float) if over_of is None
+            else np.fromiter(map(over_of.__getitem__, feats), float, n))
+
+
 # code -> kind name, NO_KIND's (the last place) None: the names corners.py compares
 _KIND_NAMES = np.array(list(KINDS) + [None], dtype=object)
 
@@ -181,13 +211,7 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
         e_mm = col["e_per_mm"]
         v_flow = np.where(e_mm > 0, profile.max_volumetric_flow / np.maximum(e_mm * area, 1e-12), np.inf)
         # (one feature_overshoot_r call a feature, not a stroke: it reads only the feature and opts)
-        feats = list(map(_FEATURE, strokes))
-        try:
-            over_of = {f: feature_overshoot_r(f, opts) for f in set(feats)}
-        except TypeError:                     # (an unhashable feature: a call a stroke)
-            over_of = None
-        over_r = (np.array([feature_overshoot_r(f, opts) for f in feats], float) if over_of is None
-                  else np.fromiter(map(over_of.__getitem__, feats), float, n))
+        over_r = _overshoots(strokes, opts)
         v_cap = np.minimum(np.minimum(v_feed * (1 + over_r), v_lim), v_flow)
         v_cap = np.maximum(v_cap, np.minimum(v_feed, v_lim))    # never below what the slicer asked
         # firmware caps each axis' share of the acceleration (Marlin M201, Klipper max_accel)
@@ -441,9 +465,12 @@ def _settle_rows(S, V, A, F, plans):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
-        r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)))
+        r = objfields.codes(part, "_row", None)
+        r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)) if r is None else r)
         with np.errstate(invalid="ignore"):
-            Sr, Vr, Ar, Fr = S[r], V[r], A[r], F[r]
+            # (a run's rows are views; other rows gathered by np.take, the same rows)
+            Sr, Vr, Ar, Fr = ((S[r], V[r], A[r], F[r]) if type(r) is slice
+                              else (S.take(r, axis=0), V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
             fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
                     & np.isfinite(Vr).all(axis=1) & (Vr >= 0.0).all(axis=1)
                     & np.isfinite(Ar).all(axis=1) & (Ar > 0.0).all(axis=1)
@@ -732,7 +759,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     groups = [every[not_failed[every]]]
     # the strokes whose start corners.py slowed by a junction command (set before planning,
     # read by every run's _attach_commands and _keep_slowed_corners)
-    cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes))
+    cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
+    cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
     # each line's class (segments.line_classes): the lines of one class at one (T, beta)
     # are segmented once a batch (a plate's layers repeat their strokes); None where few
     # lines repeat (then every line is segmented, as before)
@@ -983,10 +1011,12 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
             why_l = list(map(_FAULT, seg_l))
     if seg_failed:
         why_l = None
+    fig = None                  # the plans' (int_a2, time_t), where read in one pass
     if why_l is not None and why_l.count("") == n:
         # the common case: every row has a plan and every plan its verdict "" (settle_faults)
         bad_why = None
-        a2 = np.fromiter(map(_INT_A2, seg_l), float, n)
+        fig = objfields.floats(seg_l, ("int_a2", "time_t"))
+        a2 = np.fromiter(map(_INT_A2, seg_l), float, n) if fig is None else fig[:, 0]
     else:
         # seg_fault(seg): its verdict kept on the plan (settle_faults set it on most), else made
         if seg_failed:
@@ -1021,14 +1051,16 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
         plan.reason[rows] = _NOT_BEATING
     if keep.all():
         put, put_l, kept, a2_kept = idx, idx_l, seg_l, a2
+        t_kept = None if fig is None else fig[:, 1]
     else:
         k = np.flatnonzero(keep)
         put = idx[k]
         put_l, kept, a2_kept = put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
+        t_kept = None if fig is None else fig[k, 1]
     if not kept:
         return
     deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
-    plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept))
+    plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept)) if t_kept is None else t_kept
     plan.a2_pred[put] = a2_kept
 
 

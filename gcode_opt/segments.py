@@ -18,6 +18,7 @@ from operator import attrgetter, is_, is_not
 
 import numpy as np
 
+from . import objfields
 from .distinct import column_classes, column_classes_first, distinct
 from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
                                 marlin_jerk_junction_v_rows)
@@ -544,10 +545,13 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
     original trapezoid, gets the one-move trapezoid of the same duration with the least
     int a^2 (trapezoid.py) instead, when that beats the original."""
     m = len(strokes)
-    # the fields law_knots and _segment_counts read, read once (one C-level pass each)
-    L = np.fromiter(map(_LENGTH_D, strokes), float, m)
-    v0 = np.fromiter(map(_V0, strokes), float, m)
-    v1 = np.fromiter(map(_V1, strokes), float, m)
+    # the fields law_knots and _segment_counts read, read once (one compiled pass, else a
+    # C-level pass each)
+    got = objfields.floats(strokes, ("length_d", "v0", "v1", "int_a2"))
+    if got is not None:
+        L, v0, v1, a2_orig = (np.ascontiguousarray(got[:, j]) for j in range(4))
+    else:
+        L, v0, v1, a2_orig = (np.fromiter(map(f, strokes), float, m) for f in (_LENGTH_D, _V0, _V1, _INT_A2))
     n = _segment_counts(strokes, T, rules, L)
     ok = np.flatnonzero(n >= 2)
     plans = [None] * m
@@ -577,7 +581,7 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
             plans[i] = plan
     # the strokes with no plan, or one that does not beat the original (NaN: not below)
     a2_plan = np.fromiter([_NAN if p is None else p.int_a2 for p in plans], float, m)
-    short = np.flatnonzero(~(a2_plan < np.fromiter(map(_INT_A2, strokes), float, m))).tolist()
+    short = np.flatnonzero(~(a2_plan < a2_orig)).tolist()
     if short:
         rows = np.array(short, int)
         for i, p in zip(short, line_trapezoids([strokes[i] for i in short], T[rows], beta[rows], rules)):
@@ -705,16 +709,23 @@ def line_classes(strokes):
             alone |= odd
             cols.append(np.array([0.0 if o else v for v, o in zip(vals, odd.tolist())], float))
     # lim: by its values (few distinct objects)
-    lims = list(map(_LIM, strokes))
-    by_id, by_val = {}, {}
-    for lim in dict(zip(map(id, lims), lims)).values():
+    got = objfields.ids(strokes, "lim")     # (the distinct objects in one compiled pass)
+    if got is None:
+        lims = list(map(_LIM, strokes))
+        got = list(dict(zip(map(id, lims), lims)).values()), None
+    by_place, by_val = [], {}
+    for lim in got[0]:
         try:
             key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
                         for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
-            by_id[id(lim)] = by_val.setdefault(key, len(by_val))
+            by_place.append(by_val.setdefault(key, len(by_val)))
         except (AttributeError, TypeError):
-            by_id[id(lim)] = -1
-    lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
+            by_place.append(-1)
+    if got[1] is not None:
+        lim_k = np.array(by_place, np.int64)[got[1]]
+    else:
+        by_id = dict(zip(map(id, got[0]), by_place))
+        lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
     alone |= lim_k < 0
     # by the columns where they are (the core's are views of its table): a table of them
     # all, and row_classes' copy of its rows, were ~13 MB more on the rectilinear plate
@@ -940,15 +951,18 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     m = len(sts)
     keep = _not_slowed(sts)
     d = S[:, 1:] - S[:, :-1]
-    ux = np.fromiter(map(_UX, sts), float, m)      # read once: the jerk steps and edges read them
-    uy = np.fromiter(map(_UY, sts), float, m)
+    # read once (the jerk steps and edges read ux, uy): one compiled pass, else one each
+    got = objfields.floats(sts, ("ux", "uy", "accel"))
+    if got is not None:
+        ux, uy, accel = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        ux, uy, accel = (np.fromiter(map(f, sts), float, m) for f in (_UX, _UY, _ACCEL))
     if rules.min_move_d > 0.0:
         # _merge_short leaves the knots alone where the shortest segment is >= min_d
         min_d = _min_edge_d_rows(rules, sts, ux, uy)
         with np.errstate(invalid="ignore"):
             keep &= d.min(axis=1) >= min_d
     v2 = V * V
-    accel = np.fromiter(map(_ACCEL, sts), float, m)
     with np.errstate(all="ignore"):
         acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
         z = np.where(accel < 0.0, accel, 0.0)      # min(0.0, accel)
@@ -960,7 +974,8 @@ def _jerk_rows(S, V, sts, rules, knots=None):
     if not take.size:
         return None
     if take.size < m:
-        S, V, acc, accel, ux, uy = S[take], V[take], acc[take], accel[take], ux[take], uy[take]
+        S, V, acc = S.take(take, axis=0), V.take(take, axis=0), acc.take(take, axis=0)    # (np.take: the same rows)
+        accel, ux, uy = accel[take], ux[take], uy[take]
         sts = [sts[k] for k in take.tolist()]
         if knots is not None:
             knots = [knots[k] for k in take.tolist()]
@@ -1187,9 +1202,14 @@ def _jerk_steps(sts, ux=None, uy=None):
     """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient).
     ux, uy: the strokes' directions as float arrays, when read already."""
     m = len(sts)
-    lims = list(map(_LIM, sts))
-    jx = np.fromiter(map(_JERK_X, lims), float, m)
-    jy = np.fromiter(map(_JERK_Y, lims), float, m)
+    got = objfields.ids(sts, "lim")     # (their few limits objects read once, gathered: the same floats)
+    if got is not None:
+        jx = np.fromiter(map(_JERK_X, got[0]), float, len(got[0]))[got[1]]
+        jy = np.fromiter(map(_JERK_Y, got[0]), float, len(got[0]))[got[1]]
+    else:
+        lims = list(map(_LIM, sts))
+        jx = np.fromiter(map(_JERK_X, lims), float, m)
+        jy = np.fromiter(map(_JERK_Y, lims), float, m)
     ax = np.abs(np.fromiter(map(_UX, sts), float, m) if ux is None else ux)
     ay = np.abs(np.fromiter(map(_UY, sts), float, m) if uy is None else uy)
     mn = np.where(jy < jx, jy, jx)
@@ -1390,7 +1410,8 @@ def _corner_rows(S, V, sts, rules, knots=None):
         return [], []
     if take.size < m:
         tl = take.tolist()
-        S, V, d, acc, need0, need1 = S[take], V[take], d[take], acc[take], need0[take], need1[take]
+        S, V, d, acc = (x.take(take, axis=0) for x in (S, V, d, acc))     # (np.take: the same rows)
+        need0, need1 = need0[take], need1[take]
         sts = [sts[k] for k in tl]
         lims = [lims[k] for k in tl]
         (ux, uy, e_min, sv0, sv1, v0, v1, jd, has_p, has_n, pux, puy, nux, nuy) = (

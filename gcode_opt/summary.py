@@ -11,6 +11,7 @@ from operator import attrgetter
 
 import numpy as np
 
+from . import objfields
 from .distinct import value_codes
 from .outranges import columns as range_columns
 from .strokes import Stroke, line_spans
@@ -128,7 +129,9 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     idx_list = idx.tolist()
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
-    V0 = np.fromiter(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)), float, len(idx_list))
+    V0 = objfields.float_col(list(map(strokes.__getitem__, idx_list)), "int_v2")     # (one compiled pass)
+    if V0 is None:
+        V0 = np.fromiter(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)), float, len(idx_list))
     # the per-stroke rows only where something reads them (Options.summary_rows: the command
     # line asks for them with --json or --report; its text summary has none)
     per_stroke = [] if getattr(opts, "summary_rows", True) else None

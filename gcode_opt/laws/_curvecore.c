@@ -1163,6 +1163,238 @@ static PyObject *u_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* ---------------------------------------------------------------- gathers of object fields */
+/* The Python side's per-object reads (np.fromiter(map(attrgetter(name), objs), ...): ~500
+ * instructions an element through map, attrgetter and PyArray_Pack) made in one C pass:
+ * the attribute read as Python's generic getattr reads it (a data descriptor of the
+ * object's type first: looked up once a run of objects of one type; an object slot read at
+ * its offset), the value taken only where it is of the one exact type the caller's
+ * conversion gives the same bits of, else 0 (nothing kept: the caller reads them itself,
+ * with every error of its own; an error here is cleared). */
+
+#include <structmember.h>
+
+typedef struct {
+    PyTypeObject *tp;          /* the type the rest is for (a strong reference), or NULL */
+    PyObject *descr;           /* its data descriptor of the name (strong), or NULL: PyObject_GetAttr */
+    Py_ssize_t off;            /* >= 0: the descriptor is an object slot at this offset */
+} AttrCache;
+
+static void attr_cache_clear(AttrCache *c)
+{
+    Py_CLEAR(c->tp);
+    Py_CLEAR(c->descr);
+    c->off = -1;
+}
+
+/* o's attribute name (a new reference; NULL with an exception) */
+static PyObject *attr_of(PyObject *o, PyObject *name, AttrCache *c)
+{
+    PyTypeObject *tp = Py_TYPE(o);
+    if (tp != c->tp) {
+        attr_cache_clear(c);
+        c->tp = (PyTypeObject *)Py_NewRef(tp);
+        PyObject *d = tp->tp_getattro == PyObject_GenericGetAttr ? _PyType_Lookup(tp, name) : NULL;
+        if (d != NULL && Py_TYPE(d)->tp_descr_get != NULL && Py_TYPE(d)->tp_descr_set != NULL) {
+            c->descr = Py_NewRef(d);
+            if (Py_TYPE(d) == &PyMemberDescr_Type) {
+                PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
+                if (m->type == T_OBJECT_EX && (m->flags & ~READONLY) == 0)
+                    c->off = m->offset;
+            }
+        }
+    }
+    if (c->off >= 0) {
+        PyObject *v = *(PyObject **)((char *)o + c->off);
+        if (v != NULL)
+            return Py_NewRef(v);
+    }
+    if (c->descr != NULL)
+        return Py_TYPE(c->descr)->tp_descr_get(c->descr, o, (PyObject *)tp);
+    return PyObject_GetAttr(o, name);
+}
+
+/* a writable C-contiguous buffer of format fmt and at least n items */
+static int out_buffer(PyObject *o, Py_buffer *b, const char *fmt, Py_ssize_t itemsize, Py_ssize_t n)
+{
+    if (PyObject_GetBuffer(o, b, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (b->itemsize != itemsize || b->format == NULL || strcmp(b->format, fmt) || b->len < n * itemsize) {
+        PyBuffer_Release(b);
+        PyErr_Format(PyExc_ValueError, "a C-contiguous '%s' buffer of %zd items", fmt, n);
+        return -1;
+    }
+    return 0;
+}
+
+#define OBJ_MAX_NAMES 16
+
+/* obj_floats(objs, names, out, also): out (float64, len(objs) x len(names), C order) the
+ * attributes `names` of every object of the list, where each is a float or of the float
+ * subclass `also` (None: none; np.float64, whose double is a float's) (its double) or a
+ * bool (1.0 / 0.0: what np.fromiter(..., float) and np.array(..., float) make of them);
+ * 1, or 0 where one is not (or its read raises). */
+static PyObject *obj_floats(PyObject *self, PyObject *a)
+{
+    PyObject *list, *names, *out_o, *also = Py_None;
+    if (!PyArg_ParseTuple(a, "O!O!O|O:obj_floats", &PyList_Type, &list, &PyTuple_Type, &names, &out_o, &also))
+        return NULL;
+    if (also != Py_None && !(PyType_Check(also) && PyType_IsSubtype((PyTypeObject *)also, &PyFloat_Type))) {
+        PyErr_SetString(PyExc_TypeError, "obj_floats: also a subclass of float or None");
+        return NULL;
+    }
+    Py_ssize_t n = PyList_GET_SIZE(list), w = PyTuple_GET_SIZE(names);
+    if (w > OBJ_MAX_NAMES)
+        return PyLong_FromLong(0);
+    Py_buffer b;
+    if (out_buffer(out_o, &b, "d", 8, n * w) < 0)
+        return NULL;
+    double *out = b.buf;
+    AttrCache c[OBJ_MAX_NAMES];
+    for (Py_ssize_t j = 0; j < w; j++)
+        c[j] = (AttrCache){NULL, NULL, -1};
+    int ok = 1;
+    for (Py_ssize_t i = 0; ok && i < n && i < PyList_GET_SIZE(list); i++) {
+        PyObject *o = Py_NewRef(PyList_GET_ITEM(list, i));
+        for (Py_ssize_t j = 0; ok && j < w; j++) {
+            PyObject *v = attr_of(o, PyTuple_GET_ITEM(names, j), &c[j]);
+            if (v == NULL) {
+                PyErr_Clear();
+                ok = 0;
+            } else {
+                if (PyFloat_CheckExact(v) || (PyObject *)Py_TYPE(v) == also)
+                    out[i * w + j] = PyFloat_AS_DOUBLE(v);
+                else if (v == Py_True || v == Py_False)
+                    out[i * w + j] = v == Py_True ? 1.0 : 0.0;
+                else
+                    ok = 0;
+                Py_DECREF(v);
+            }
+        }
+        Py_DECREF(o);
+    }
+    ok = ok && n == PyList_GET_SIZE(list);
+    for (Py_ssize_t j = 0; j < w; j++)
+        attr_cache_clear(&c[j]);
+    PyBuffer_Release(&b);
+    return PyLong_FromLong(ok);
+}
+
+/* obj_codes(objs, name, code_of, add, out): out (int64, len(objs)) the code of each
+ * object's attribute `name` (name None: of the object itself): code_of[value] (an int),
+ * a value not in code_of added with the next code len(code_of) when add, or
+ * code_of None: the value itself (an int).  1, or 0 where a value is not a key (add
+ * false), a code or value not an int of 64 bits, a read or a look-up raises. */
+static PyObject *obj_codes(PyObject *self, PyObject *a)
+{
+    PyObject *list, *name, *code_of, *out_o;
+    int add;
+    if (!PyArg_ParseTuple(a, "O!OOpO:obj_codes", &PyList_Type, &list, &name, &code_of, &add, &out_o))
+        return NULL;
+    if ((name != Py_None && !PyUnicode_Check(name)) || (code_of != Py_None && !PyDict_CheckExact(code_of))) {
+        PyErr_SetString(PyExc_TypeError, "obj_codes: name a str or None, code_of a dict or None");
+        return NULL;
+    }
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer b;
+    if (out_buffer(out_o, &b, "l", 8, n) < 0)
+        return NULL;
+    long *out = b.buf;
+    AttrCache c = {NULL, NULL, -1};
+    int ok = 1;
+    for (Py_ssize_t i = 0; ok && i < n && i < PyList_GET_SIZE(list); i++) {
+        PyObject *o = Py_NewRef(PyList_GET_ITEM(list, i));
+        PyObject *v = name == Py_None ? Py_NewRef(o) : attr_of(o, name, &c);
+        Py_DECREF(o);
+        if (v == NULL) {
+            ok = 0;
+            break;
+        }
+        PyObject *k = v;                           /* the code (borrowed from code_of, or v) */
+        if (code_of != Py_None) {
+            k = PyDict_GetItemWithError(code_of, v);
+            if (k == NULL && !PyErr_Occurred() && add) {
+                PyObject *next = PyLong_FromSsize_t(PyDict_GET_SIZE(code_of));
+                if (next != NULL && PyDict_SetItem(code_of, v, next) == 0)
+                    k = next;
+                Py_XDECREF(next);                  /* (code_of holds it) */
+            }
+        }
+        if (k != NULL && PyLong_CheckExact(k)) {
+            int over;
+            long long x = PyLong_AsLongLongAndOverflow(k, &over);
+            if (over || (x == -1 && PyErr_Occurred()))
+                ok = 0;
+            else
+                out[i] = (long)x;
+        } else
+            ok = 0;
+        Py_DECREF(v);
+    }
+    if (!ok)
+        PyErr_Clear();
+    ok = ok && n == PyList_GET_SIZE(list);
+    attr_cache_clear(&c);
+    PyBuffer_Release(&b);
+    return PyLong_FromLong(ok);
+}
+
+/* obj_ids(objs, name, out): the distinct objects (by identity) that are the attribute
+ * `name` of the objects of the list, in the order first met, as a list; out (int64,
+ * len(objs)) each one's place in it.  None where a read raises. */
+static PyObject *obj_ids(PyObject *self, PyObject *a)
+{
+    PyObject *list, *name, *out_o;
+    if (!PyArg_ParseTuple(a, "O!UO:obj_ids", &PyList_Type, &list, &name, &out_o))
+        return NULL;
+    Py_ssize_t n = PyList_GET_SIZE(list);
+    Py_buffer b;
+    if (out_buffer(out_o, &b, "l", 8, n) < 0)
+        return NULL;
+    long *out = b.buf;
+    PyObject *firsts = PyList_New(0), *at = PyDict_New();   /* at: {id: place} */
+    AttrCache c = {NULL, NULL, -1};
+    PyObject *last = NULL;                                   /* the last value (borrowed from firsts) */
+    long last_k = 0;
+    int ok = firsts != NULL && at != NULL;
+    for (Py_ssize_t i = 0; ok && i < n && i < PyList_GET_SIZE(list); i++) {
+        PyObject *o = Py_NewRef(PyList_GET_ITEM(list, i));
+        PyObject *v = attr_of(o, name, &c);
+        Py_DECREF(o);
+        if (v == NULL) {
+            ok = 0;
+            break;
+        }
+        if (v != last) {                   /* (most objects share their neighbour's) */
+            PyObject *id = PyLong_FromVoidPtr(v), *k = NULL;
+            if (id == NULL || (k = PyDict_GetItemWithError(at, id)) == NULL) {
+                PyObject *next = PyErr_Occurred() || id == NULL ? NULL : PyLong_FromSsize_t(PyList_GET_SIZE(firsts));
+                if (next == NULL || PyDict_SetItem(at, id, next) < 0 || PyList_Append(firsts, v) < 0)
+                    ok = 0;
+                k = next;
+                Py_XDECREF(next);
+            }
+            if (ok) {
+                last = v;
+                last_k = PyLong_AsLong(k);
+            }
+            Py_XDECREF(id);
+        }
+        out[i] = last_k;
+        Py_DECREF(v);                      /* (firsts holds every value last may be) */
+    }
+    ok = ok && n == PyList_GET_SIZE(list);
+    attr_cache_clear(&c);
+    PyBuffer_Release(&b);
+    Py_XDECREF(at);
+    if (!ok) {
+        PyErr_Clear();
+        Py_XDECREF(firsts);
+        Py_RETURN_NONE;
+    }
+    return firsts;
+}
+
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
@@ -1183,6 +1415,9 @@ static PyMethodDef methods[] = {
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
+    {"obj_floats", obj_floats, METH_VARARGS, "the float (or bool) attributes of a list of objects, in one pass"},
+    {"obj_codes", obj_codes, METH_VARARGS, "a code (from a dict, or the int itself) of each object's attribute"},
+    {"obj_ids", obj_ids, METH_VARARGS, "the distinct attribute objects (by identity) of a list's objects and each one's place"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef curvecore_module = {

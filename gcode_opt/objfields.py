@@ -1,0 +1,58 @@
+"""Fields of many objects read in one compiled pass (laws/_curvecore.c obj_floats,
+obj_codes, obj_ids), in place of np.fromiter(map(attrgetter(name), objs), ...): ~500
+instructions an element through map, attrgetter and numpy's conversion of each value, a
+few dozen in C.  Each function answers None where the core is not built or a value is
+not of the one type whose conversion it repeats (then the caller reads them as before:
+the same values, the same errors)."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from . import native
+
+_CORE, _ = native.load("_gcode_opt_curvecore",
+                       os.path.join(os.path.dirname(os.path.abspath(__file__)), "laws", "_curvecore.c"),
+                       "curve core")
+_FLOATS = getattr(_CORE, "obj_floats", None)
+_CODES = getattr(_CORE, "obj_codes", None)
+_IDS = getattr(_CORE, "obj_ids", None)
+
+
+def floats(objs, names):
+    """np.array([[getattr(o, f) for f in names] for o in objs], float) (a (len(objs),
+    len(names)) array) where objs is a list and each value a float, an np.float64 (its
+    double is a float's) or a bool, else None."""
+    if _FLOATS is None or type(objs) is not list:
+        return None
+    out = np.empty((len(objs), len(names)))
+    return out if _FLOATS(objs, tuple(names), out, np.float64) else None
+
+
+def float_col(objs, name):
+    """np.fromiter(map(attrgetter(name), objs), float, len(objs)) where each value is a
+    float, an np.float64 or a bool, else None."""
+    got = floats(objs, (name,))
+    return None if got is None else got.reshape(-1)
+
+
+def codes(objs, name, code_of, add=False):
+    """np.fromiter(map(code_of.__getitem__, map(attrgetter(name), objs)), np.intp) (name
+    None: of the objects themselves; code_of None: the values themselves, ints), a value
+    missing from code_of added to it with the next code len(code_of) when add (the dict is
+    then changed, in the order the values come), else None (code_of as far as it got)."""
+    if _CODES is None or type(objs) is not list:
+        return None
+    out = np.empty(len(objs), np.intp)
+    return out if _CODES(objs, name, code_of, add, out) else None
+
+
+def ids(objs, name):
+    """(the distinct objects, by identity, that are the objects' attribute name, in the
+    order first met; each object's place in that list, an intp array), or None."""
+    if _IDS is None or type(objs) is not list:
+        return None
+    which = np.empty(len(objs), np.intp)
+    firsts = _IDS(objs, name, which)
+    return None if firsts is None else (firsts, which)

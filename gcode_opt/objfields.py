@@ -18,6 +18,10 @@ _CORE, _ = native.load("_gcode_opt_curvecore",
 _FLOATS = getattr(_CORE, "obj_floats", None)
 _CODES = getattr(_CORE, "obj_codes", None)
 _IDS = getattr(_CORE, "obj_ids", None)
+# obj_codes / obj_ids write C longs: where numpy's intp is another C type (Windows: 'q'),
+# they are not used (the callers read the values as before) rather than refusing the buffer
+if memoryview(np.empty(0, np.intp)).format != "l":
+    _CODES = _IDS = None
 
 
 def floats(objs, names):

@@ -260,3 +260,29 @@ def test_law_rows_at_table_index(name, prof, monkeypatch):
     pin = schedule.plan_inputs(strokes, profile, opts)
     schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
     assert any(used)                        # (the shared index was taken)
+
+
+def test_codes_and_ids_step_aside_where_intp_is_not_a_c_long(monkeypatch):
+    # obj_codes / obj_ids refuse an intp buffer that is not 'l' (Windows' numpy: 'q');
+    # objfields must then answer None (the callers' own reads) rather than raise
+    import builtins
+    import importlib
+    core = objfields._CORE
+    if core is None or objfields._CODES is None:
+        pytest.skip("curve core not built")
+    with pytest.raises(ValueError):
+        core.obj_codes([1, 2], None, {}, True, np.empty(2, np.longlong).view("q"))
+
+    class _Q:
+        format = "q"
+    real = builtins.memoryview
+    monkeypatch.setattr(builtins, "memoryview", lambda o: _Q() if isinstance(o, np.ndarray) else real(o))
+    try:
+        importlib.reload(objfields)
+        assert objfields._CODES is None and objfields._IDS is None
+        assert objfields.codes([1, 2], None, {}, add=True) is None
+        assert objfields.ids([object()], None) is None
+    finally:
+        monkeypatch.setattr(builtins, "memoryview", real)
+        importlib.reload(objfields)
+    assert objfields._CODES is not None

@@ -911,7 +911,7 @@ class _Flat:
             kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
         if kn is None:
             kn = self._knots_numpy(active, vi, rank, bvoff, self.nv[active], bound, vt, warm)
-        beta = self.beta[active][kn[4]]
+        beta = self.beta.take(active).take(kn[4])      # (take: beta[active][owner]'s values, fewer steps)
         return active, na, vi, rank, bvoff, kn, beta, bv
 
     def _at_times(self, active, na, vi, rank, bvoff, kn, beta, bv, Tj, lam, conv, accels=True):

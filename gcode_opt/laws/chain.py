@@ -766,9 +766,17 @@ class _Flat:
     def take(self, keep):
         """The chains keep (ascending indices) of these, as flat arrays of their own."""
         keep = np.asarray(keep, np.int64)
-        vs = np.repeat(self.voff[keep] - np.concatenate([[0], np.cumsum(self.nv[keep])[:-1]]), self.nv[keep])
-        vs = vs + np.arange(int(self.nv[keep].sum()))
-        return _Flat.of_arrays(self.sv[vs], self.cv[vs], self.nv[keep], self.S[keep], self.T[keep],
+        nv = self.nv[keep]
+        if keep.size and keep[0] >= 0 and np.all(keep[1:] > keep[:-1]):
+            # (strictly ascending: a mask says the same) each chain's vertices as one run
+            done = np.zeros(self.S.size, bool)
+            done[keep] = True
+            sv, cv = _blocks((self.sv, self.cv), self.voff, done, int(nv.sum()))
+        else:
+            vs = np.repeat(self.voff[keep] - np.concatenate([[0], np.cumsum(nv)[:-1]]), nv)
+            vs = vs + np.arange(int(nv.sum()))
+            sv, cv = self.sv[vs], self.cv[vs]
+        return _Flat.of_arrays(sv, cv, nv, self.S[keep], self.T[keep],
                                self.beta[keep], self.v0[keep], self.v1[keep])
 
     def with_T(self, T, beta):
@@ -903,7 +911,7 @@ class _Flat:
             kn = self._knots_core(CORE_MOD, active, vi, bv, bvoff, vt, warm)
         if kn is None:
             kn = self._knots_numpy(active, vi, rank, bvoff, self.nv[active], bound, vt, warm)
-        beta = self.beta[active][kn[4]]
+        beta = self.beta.take(active).take(kn[4])      # (take: beta[active][owner]'s values, fewer steps)
         return active, na, vi, rank, bvoff, kn, beta, bv
 
     def _at_times(self, active, na, vi, rank, bvoff, kn, beta, bv, Tj, lam, conv, accels=True):
@@ -1149,7 +1157,7 @@ class FlatLaws:
         po, self.poff = _block_order(chains, npc, m)
         self.bound = bound
         if not (pieces and self.pieces):
-            self.L, self.T, self.beta, self.v0, self.v1 = (x[po] for x in cat[2:7])
+            self.L, self.T, self.beta, self.v0, self.v1 = (x.take(po) for x in cat[2:7])
             _flat_figures(self, full=False)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
@@ -1157,9 +1165,10 @@ class FlatLaws:
             for f in ("L", "T", "beta", "v0", "v1", "poff"):
                 delattr(self, f)
             return
-        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x[po] for x in cat[2:9])
+        # (take: x[po]'s values by numpy's plain gather loop, fewer steps an item than indexing)
+        self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x.take(po) for x in cat[2:9])
         ko, self.koff = _block_order(chains, npc + 1, m)  # a chain's knots: its pieces + 1
-        self.ks, self.kv, self.kt = (x[ko] for x in cat[9:12])
+        self.ks, self.kv, self.kt = (x.take(ko) for x in cat[9:12])
         _flat_figures(self)
 
     def law(self, c):

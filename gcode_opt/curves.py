@@ -805,7 +805,6 @@ def _block_geoms(sts, block, profile, j1, pts=None):
     return blk, keep, sts
 
 
-_LIM = attrgetter("lim")
 _ACCEL = attrgetter("accel")
 
 
@@ -840,16 +839,8 @@ def floats_of(values, n):
 def _lims_which(sts):
     """(the limits objects of the strokes sts, each once in the order first met; which one
     each stroke's, an int32 array): the strokes mostly share one."""
-    got = objfields.ids(sts, "lim")     # (one compiled pass: the same objects and places)
-    if got is not None:
-        return got[0], got[1].astype(np.int32)
-    lims = list(map(_LIM, sts))
-    ids = list(map(id, lims))
-    first = dict(zip(ids, lims))        # id -> limits, in the order first met
-    if len(first) == 1:
-        return [lims[0]], np.zeros(len(sts), np.int32)
-    at = dict(zip(first, range(len(first))))
-    return list(first.values()), np.fromiter(map(at.__getitem__, ids), np.int32, len(ids))
+    lims, which = objfields.by_identity(sts, "lim")
+    return lims, which.astype(np.int32)
 
 
 def _block_caps(lim, u, d, jerk_r):

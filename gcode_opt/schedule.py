@@ -109,7 +109,7 @@ NO_KIND = -1            # a stroke of a kind the planner has none of (in no kind
 ROW_KINDS = (K_CURVE,)
 
 
-_FEATURE, _LIM, _KIND, _CHAIN_T = attrgetter("feature"), attrgetter("lim"), attrgetter("kind"), attrgetter("chain_T")
+_FEATURE, _KIND, _CHAIN_T = attrgetter("feature"), attrgetter("kind"), attrgetter("chain_T")
 # the strokes' floats plan_inputs reads (as np.array([s.name for s in strokes], float))
 _PIN_FLOATS = ("length_d", "ux", "uy", "v_feed", "e_per_mm", "accel", "v0", "v1", "time_t", "int_a2")
 
@@ -134,17 +134,7 @@ def _lim_columns(strokes, profile):
     """(min(lim.v_max, profile's max velocity), lim.ax_max, lim.ay_max) of every stroke as
     float arrays, read once a Limits object: few distinct ones are shared by all the strokes
     (state.Limits is copy-on-write), the same values read a stroke at a time."""
-    n = len(strokes)
-    got = objfields.ids(strokes, "lim")             # (one compiled pass: the same objects and places)
-    if got is not None:
-        ul, which = got
-    else:
-        lims = list(map(_LIM, strokes))
-        uniq = dict(zip(map(id, lims), lims))           # each distinct object, in first-seen order
-        at = dict(zip(uniq, range(len(uniq))))
-        which = np.fromiter(map(at.__getitem__, map(id, lims)), np.intp, n)
-        del lims
-        ul = list(uniq.values())
+    ul, which = objfields.by_identity(strokes, "lim")      # each distinct object, in first-seen order
     v_lim = np.array([min(lim.v_max, profile.max_velocity_v) for lim in ul], float)[which]
     ax = np.array([lim.ax_max for lim in ul], float)[which]
     ay = np.array([lim.ay_max for lim in ul], float)[which]

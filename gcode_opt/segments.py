@@ -709,23 +709,16 @@ def line_classes(strokes):
             alone |= odd
             cols.append(np.array([0.0 if o else v for v, o in zip(vals, odd.tolist())], float))
     # lim: by its values (few distinct objects)
-    got = objfields.ids(strokes, "lim")     # (the distinct objects in one compiled pass)
-    if got is None:
-        lims = list(map(_LIM, strokes))
-        got = list(dict(zip(map(id, lims), lims)).values()), None
+    ulims, which = objfields.by_identity(strokes, "lim")
     by_place, by_val = [], {}
-    for lim in got[0]:
+    for lim in ulims:
         try:
             key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
                         for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
             by_place.append(by_val.setdefault(key, len(by_val)))
         except (AttributeError, TypeError):
             by_place.append(-1)
-    if got[1] is not None:
-        lim_k = np.array(by_place, np.int64)[got[1]]
-    else:
-        by_id = dict(zip(map(id, got[0]), by_place))
-        lim_k = np.fromiter(map(by_id.__getitem__, map(id, lims)), np.int64, m)
+    lim_k = np.array(by_place, np.int64)[which]
     alone |= lim_k < 0
     # by the columns where they are (the core's are views of its table): a table of them
     # all, and row_classes' copy of its rows, were ~13 MB more on the rectilinear plate
@@ -1202,14 +1195,9 @@ def _jerk_steps(sts, ux=None, uy=None):
     """[jerk_step_v(st) for st in sts] as an array (the same min, max, product and quotient).
     ux, uy: the strokes' directions as float arrays, when read already."""
     m = len(sts)
-    got = objfields.ids(sts, "lim")     # (their few limits objects read once, gathered: the same floats)
-    if got is not None:
-        jx = np.fromiter(map(_JERK_X, got[0]), float, len(got[0]))[got[1]]
-        jy = np.fromiter(map(_JERK_Y, got[0]), float, len(got[0]))[got[1]]
-    else:
-        lims = list(map(_LIM, sts))
-        jx = np.fromiter(map(_JERK_X, lims), float, m)
-        jy = np.fromiter(map(_JERK_Y, lims), float, m)
+    lims, which = objfields.by_identity(sts, "lim")     # (their few limits objects read once, gathered: the same floats)
+    jx = np.fromiter(map(_JERK_X, lims), float, len(lims))[which]
+    jy = np.fromiter(map(_JERK_Y, lims), float, len(lims))[which]
     ax = np.abs(np.fromiter(map(_UX, sts), float, m) if ux is None else ux)
     ay = np.abs(np.fromiter(map(_UY, sts), float, m) if uy is None else uy)
     mn = np.where(jy < jx, jy, jx)

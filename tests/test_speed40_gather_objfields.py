@@ -286,3 +286,29 @@ def test_codes_and_ids_step_aside_where_intp_is_not_a_c_long(monkeypatch):
         monkeypatch.setattr(builtins, "memoryview", real)
         importlib.reload(objfields)
     assert objfields._CODES is not None
+
+
+def test_by_identity_is_ids_or_its_python_twin(monkeypatch):
+    # by_identity answers everywhere: the core's ids() where it can, else the same objects
+    # in the same order and the same places by Python's reads (the four callers' old fallbacks)
+    class L:
+        pass
+    a, b, c = L(), L(), L()
+
+    class S:
+        __slots__ = ("lim",)
+
+        def __init__(self, lim):
+            self.lim = lim
+    objs = [S(x) for x in (a, a, b, a, c, c, b)]
+    want_firsts, want_which = [a, b, c], [0, 0, 1, 0, 2, 2, 1]
+    for core in (True, False):
+        if not core:
+            monkeypatch.setattr(objfields, "_IDS", None)
+        firsts, which = objfields.by_identity(objs, "lim")
+        assert [id(x) for x in firsts] == [id(x) for x in want_firsts]
+        assert which.dtype == np.intp and which.tolist() == want_which
+        f0, w0 = objfields.by_identity([], "lim")
+        assert f0 == [] and w0.dtype == np.intp and w0.size == 0
+        with pytest.raises(AttributeError):
+            objfields.by_identity([S(a), object()], "lim")

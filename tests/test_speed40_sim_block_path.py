@@ -180,3 +180,43 @@ def test_stroke_sums_hand_on_the_python_records(tmp_path, name):
     finally:
         sm.use_core(old)
     assert len(want) > 300 and seen == want
+
+
+def test_one_block_window_past_the_queue_compaction(tmp_path):
+    # A window of one block (block_buffer 1 or 2) executes each block as it is added
+    # (head == n); after 4096 of them the queue drops the executed blocks, and the next
+    # add reads the last one as q[n - 1]: the compaction must keep it.  It once dropped it
+    # too, and the next add read before the queue (a crash where the queue was mmap'd:
+    # glibc's default thresholds, GCODE_OPT_MALLOC=default).  A subprocess: a crash is a
+    # failure here, not the end of the test run.  The output and figures must be the pure
+    # Python model's.
+    import os
+    import subprocess
+    import sys
+    lines = ["G21", "G90", "M82", "G1 Z0.2 F600", "G1 X10 Y10 F3000", ";TYPE:Solid infill"]
+    e = 0.0
+    x, y = 10.0, 10.0
+    for i in range(6000):                     # no stop: one run of moves past 4096 blocks
+        nx, ny = 10 + (i % 200) * 0.5, 10 + 5 * np.sin(i * 0.11) + (i // 200) * 0.4
+        e += float(np.hypot(nx - x, ny - y)) * 0.04
+        lines.append(f"G1 X{nx:.3f} Y{ny:.3f} E{e:.5f}")
+        x, y = nx, ny
+    src = tmp_path / "long.gcode"
+    src.write_text("\n".join(lines) + "\n")
+    prof = tmp_path / "b2.toml"
+    from gcode_opt import profile as gp
+    toml = (gp._bundled_dir() / "ender3.toml").read_text()
+    prof.write_text("\n".join("block_buffer = 2" if ln.startswith("block_buffer") else ln
+                              for ln in toml.splitlines()) + "\n")
+    outs = {}
+    for mode in ("c", "python"):
+        env = {**os.environ, "GCODE_OPT_MALLOC": "default"}
+        env.pop("GCODE_OPT_PURE_PYTHON", None)
+        if mode == "python":
+            env["GCODE_OPT_PURE_PYTHON"] = "1"
+        out = tmp_path / f"out_{mode}.gcode"
+        r = subprocess.run([sys.executable, "-m", "gcode_opt", "process", str(src), "--profile", str(prof),
+                            "-o", str(out), "-q"], env=env, capture_output=True, text=True)
+        assert r.returncode == 0, (mode, r.returncode, r.stderr[-2000:])
+        outs[mode] = out.read_bytes()
+    assert outs["c"] == outs["python"]

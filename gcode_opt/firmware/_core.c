@@ -1785,9 +1785,12 @@ static int marlin_add(SimObject *s, BlockData *b)
         if (marlin_execute(s, s->mps * s->mps) < 0)
             return -1;
         if (s->head > 4096) {
-            memmove(s->q, s->q + s->head, (size_t)(s->n - s->head) * sizeof(BlockData));
-            s->n -= s->head;
-            s->head = 0;
+            /* the executed blocks dropped but the last one added: it is the next add's
+               q[n - 1] (a window of one block executes it at once, leaving head == n) */
+            Py_ssize_t from = s->head - 1;
+            memmove(s->q, s->q + from, (size_t)(s->n - from) * sizeof(BlockData));
+            s->n -= from;
+            s->head = 1;
         }
     }
     return 0;

@@ -269,7 +269,9 @@ static int to_double(const char *s, Py_ssize_t n, double *out)
     return 0;
 }
 
-#define MAXW 16
+/* room for every letter: a letter comes at most once (read_words' seen test), so a line
+ * never has more words than this (no count of them tested) */
+#define MAXW 26
 typedef struct {
     int n;
     char letter[MAXW];                /* the words' letters, in the line's order */
@@ -300,7 +302,7 @@ static const unsigned LETTER_BIT[256] = {LB('A'), LB('B'), LB('C'), LB('D'), LB(
  * first ';', where the line's comment starts -- the callers may pass the whole line, a
  * line line_shape has not read)
  * and each value through float(); -1 if the line is not of that shape, a value is not a
- * number, a letter comes twice (Python's len(p) check) or there are too many words.
+ * number or a letter comes twice (Python's len(p) check).
  * A value is read as it is scanned: fast_decimal's rule (the same m, digits and point, so
  * the same double), or, where that rule does not hold, to_double over the token.
  *
@@ -379,12 +381,12 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
                 return -1;
             if (seen & bit)
                 return -1;
-            if (nw == MAXW)
-                return -1;
 #ifdef FAST_DECIMAL
             /* fast_decimal's test: 1 to 19 digits (then frac <= 22: frac counts some of them) */
             if (usual || (ok && (size_t)(digits - 1) < 19 && m <= (1ull << 53))) {
-                double v = (double)m;
+                /* m <= 2^53: converted as signed (one instruction; unsigned's takes a test
+                 * of the top bit and a second path), the same double */
+                double v = (double)(long long)m;
                 if (frac > 0)
                     v = v / POW10[frac];
                 w->by[c] = neg ? -v : v;
@@ -409,10 +411,68 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 #undef BELOW
 }
 
+#ifdef FAST_DECIMAL
+/* read_words of an ended line (as read_words_in's) whose words are all usual: each one
+ * blank, a letter not seen yet, an optional '-' and digits[.digits] (1 to 15 digits: m <
+ * 10^15), then the next word's blank or the line's ending (s[n - 1]) -- the same m, frac,
+ * sign and end read_words_in's steps find for such a word, so the same double.  0 with w
+ * filled, or 1: a line of any other shape (two blanks, a tab, a '+', a long or odd value,
+ * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
+ * loop holds few values (no spills) and tests no general case. */
+static int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+{
+    const unsigned char *p = s + k, *end = s + n - 1;
+    unsigned seen = 0;
+    int nw = 0;
+    while (p != end) {
+        unsigned bit = LETTER_BIT[p[1]] & letters;
+        if (p[0] != ' ' || !bit || (seen & bit))
+            return 1;
+        int c = p[1] - 'A';
+        p += 2;
+        int neg = *p == '-';
+        p += neg;
+        const unsigned char *p0 = p;
+        unsigned long long m = 0;
+        unsigned d;
+        while ((d = (unsigned)*p - '0') <= 9) {
+            m = m * 10u + d;
+            p++;
+        }
+        Py_ssize_t digits = p - p0, frac = 0;
+        if (*p == '.') {
+            const unsigned char *f = ++p;
+            while ((d = (unsigned)*p - '0') <= 9) {
+                m = m * 10u + d;
+                p++;
+            }
+            frac = p - f;
+            digits += frac;
+        }
+        if ((size_t)(digits - 1) >= 15)
+            return 1;                   /* (a value ended by a point or sign: the next step's 1) */
+        double v = (double)(long long)m;        /* (exact: m < 10^15) */
+        if (frac > 0)
+            v = v / POW10[frac];
+        w->by[c] = neg ? -v : v;
+        seen |= bit;
+        w->letter[nw++] = (char)('A' + c);
+    }
+    w->n = nw;
+    w->seen = seen;
+    return 0;
+}
+#endif
+
 static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
 {
-    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r'))
+    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r')) {
+#ifdef FAST_DECIMAL
+        if (usual_words(s, n, k, letters, w) == 0)
+            return 0;
+#endif
         return read_words_in(s, n, k, letters, w, 1);
+    }
     return read_words_in(s, n, k, letters, w, 0);
 }
 
@@ -1203,16 +1263,21 @@ static void sess_share_acc(Session *ss, int k, int from)
     ss->acc_own |= 1 << k;
 }
 
-/* slot k now holds the value of word `word` of the session's m204_n-th M204 (its object not
- * made yet): the session's own until sess_flush */
-static void sess_set_word(Session *ss, int k, const Words *w, int word)
+/* slot k now holds val, the value of word `word` of the session's m204_n-th M204 (its
+ * object not made yet): the session's own until sess_flush */
+static inline void sess_set_value(Session *ss, int k, double val, int word)
 {
     if (ss->acc_own & (1 << k))
         Py_XDECREF(ss->o_acc[k]);
     ss->o_acc[k] = NULL;
-    ss->acc[k] = w->by[M204_KEYS[word] - 'A'];
+    ss->acc[k] = val;
     ss->acc_word[k] = ss->m204_n * 4 + word;
     ss->acc_own |= 1 << k;
+}
+
+static void sess_set_word(Session *ss, int k, const Words *w, int word)
+{
+    sess_set_value(ss, k, w->by[M204_KEYS[word] - 'A'], word);
 }
 
 /* slot k's object (borrowed from the session, or the dict where not the session's), made
@@ -1256,6 +1321,54 @@ static int sess_m204(Session *ss, const Words *w)
         sess_set_word(ss, A_R, w, rw);
     return 1;
 }
+
+/* "M204 S<digits>[.<digits>]" and the line's LF, nothing else (the rewrite writes one before
+ * every re-timed segment: ~360 k lines in a plate's measure pass), in a live session, read
+ * as read_words and sess_m204 read it without their general steps: the value read_words'
+ * (1 to 15 digits: m / 10^frac, exact), and S alone, in (0, MAX_ACCEL_A], sets print and
+ * travel to its value (one object) and leaves retract in every flavour m204_pick knows.
+ * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
+ * reads the line). */
+#ifdef FAST_DECIMAL
+static int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+{
+    /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
+    if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
+        return 0;
+    const unsigned char *p = s + 6;
+    unsigned long long m = 0;
+    unsigned d;
+    while ((d = (unsigned)*p - '0') <= 9) {
+        m = m * 10u + d;
+        p++;
+    }
+    Py_ssize_t digits = p - (s + 6), frac = 0;      /* (frac 0: no point, or none after it) */
+    if (*p == '.') {
+        const unsigned char *f = ++p;
+        while ((d = (unsigned)*p - '0') <= 9) {
+            m = m * 10u + d;
+            p++;
+        }
+        frac = p - f;
+        digits += frac;
+    }
+    if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
+        return 0;
+    double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */
+    if (frac > 0)
+        val = val / POW10[frac];
+    if (!(0.0 < val && val <= MAX_ACCEL_A))
+        return 0;
+    if (ss->acc_kind == ACC_UNKNOWN)
+        ss->acc_kind = acc_kind(ss->dict);
+    if (ss->acc_kind == ACC_OTHER)
+        return 0;
+    ss->m204_n++;
+    sess_set_value(ss, A_P, val, W_S);
+    sess_set_value(ss, A_T, val, W_S);         /* (the same word: one object, made for both) */
+    return 1;
+}
+#endif
 
 /* write x y z e (v) back where fused lines moved them; the session is no longer live */
 static int sess_flush(Session *ss)
@@ -1420,6 +1533,10 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
         return moved;
     }
     if (n >= 4 && memcmp(s, "M204", 4) == 0) {
+#ifdef FAST_DECIMAL
+        if (ss->live && sess_m204_s(ss, s, n))
+            return 0;
+#endif
         if (read_words(s, n, 4, M204_LETTERS, &w) < 0)
             goto other;
         /* live: the session's accel slots (written back with x y z e); else the dict, as

@@ -419,7 +419,8 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
  * filled, or 1: a line of any other shape (two blanks, a tab, a '+', a long or odd value,
  * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
  * loop holds few values (no spills) and tests no general case. */
-static int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
+                                                 Words *w)
 {
     const unsigned char *p = s + k, *end = s + n - 1;
     unsigned seen = 0;
@@ -464,16 +465,25 @@ static int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsig
 }
 #endif
 
-static int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+/* read_words: usual_words where it reads the line, else read_words_in's general steps.  Two
+ * functions the callers call (none inlined): usual_words' call saves no more registers than
+ * its loop needs, where a function holding both paths saved all the general steps' on every
+ * line (~25 instructions a line) */
+static __attribute__((noinline)) int read_words_gen(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
+                                                    unsigned letters, Words *w)
 {
-    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r')) {
-#ifdef FAST_DECIMAL
-        if (usual_words(s, n, k, letters, w) == 0)
-            return 0;
-#endif
+    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r'))
         return read_words_in(s, n, k, letters, w, 1);
-    }
     return read_words_in(s, n, k, letters, w, 0);
+}
+
+static inline int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters, Words *w)
+{
+#ifdef FAST_DECIMAL
+    if (k < n && (s[n - 1] == '\n' || s[n - 1] == '\r') && usual_words(s, n, k, letters, w) == 0)
+        return 0;
+#endif
+    return read_words_gen(s, n, k, letters, w);
 }
 
 static inline int word(const Words *w, char c, double *out)

@@ -169,6 +169,7 @@ def _as_tables(values: dict) -> dict:
 
 @dataclasses.dataclass
 class AutoProfile:
+    """The profile 'auto' chose for a file: the base profile and the values taken from the file."""
     profile: Profile
     base: str
     why_base: str

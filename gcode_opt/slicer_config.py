@@ -16,15 +16,19 @@ import os
 import re
 from dataclasses import dataclass, field
 
+from .words import LazyPattern
+
 HEAD_BYTES = 16384
 TAIL_BYTES = 262144          # a PrusaSlicer/Orca config block with long custom G-code is ~50-100 kB
 
-_KEY_VALUE = re.compile(r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?(.*?)\s*$", re.M)
+# (the two "^;" patterns are read through _findall_at_line_starts' own; Cura's are
+# compiled where a Cura file needs them: LazyPattern)
+_KEY_VALUE = LazyPattern(globals(), "_KEY_VALUE", r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?(.*?)\s*$", re.M)
 _CURA_FLAVOR = re.compile(r"^;FLAVOR:(.*?)\s*$", re.M)
-_CURA_SETTING = re.compile(r"^;SETTING_3 (.*?)\r?$", re.M)
-_CURA_ESCAPE = re.compile(r"\\\\|\\n|\\r")
+_CURA_SETTING = LazyPattern(globals(), "_CURA_SETTING", r"^;SETTING_3 (.*?)\r?$", re.M)
+_CURA_ESCAPE = LazyPattern(globals(), "_CURA_ESCAPE", r"\\\\|\\n|\\r")
 _CURA_UNESCAPE = {"\\\\": "\\", "\\n": "\n", "\\r": "\r"}
-_CURA_VALUE = re.compile(r"^\s*([a-z][a-z0-9_]*)\s*=\s*(.*?)\s*$", re.M)
+_CURA_VALUE = LazyPattern(globals(), "_CURA_VALUE", r"^\s*([a-z][a-z0-9_]*)\s*=\s*(.*?)\s*$", re.M)
 
 
 def _findall_at_line_starts(pattern):
@@ -47,6 +51,7 @@ _find_cura_settings = _findall_at_line_starts(_CURA_SETTING)
 
 @dataclass
 class SlicerSettings:
+    """The slicer's own settings a file carries (its comments), raw text by key."""
     values: dict = field(default_factory=dict)     # key -> raw text as the slicer serialised it
     where: dict = field(default_factory=dict)      # key -> "file" | "SLIC3R_KEY" | "Cura ;SETTING_3" | "Cura ;FLAVOR"
     slicer: str = ""                               # "prusaslicer-like", "cura" or ""

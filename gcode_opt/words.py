@@ -14,21 +14,41 @@ import string
 
 _NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
 _WS = "[ \t\r\n\v\f]"
+
+
+class LazyPattern:
+    """re.compile(pattern, flags), made at its first use: a module's pattern that a run may
+    never use (the compiled reader reads most lines) costs no compile (~0.5-2 M
+    instructions a pattern, at every start).  At its first use the compiled pattern takes
+    this stand-in's place under `name` in the module's globals (`where`), so later uses
+    there are the pattern's own; a reference kept elsewhere goes on working through this
+    stand-in (re's cache).  .pattern and .flags read without compiling."""
+    __slots__ = ("where", "name", "pattern", "flags")
+
+    def __init__(self, where: dict, name: str, pattern, flags: int = 0):
+        self.where, self.name, self.pattern, self.flags = where, name, pattern, flags
+
+    def __getattr__(self, attr):
+        compiled = re.compile(self.pattern, self.flags)
+        self.where[self.name] = compiled
+        return getattr(compiled, attr)
+
+
 # a classic command's whole code part: command word, then letter+number words (spaces
 # optional: "G1X10Y10E.5" is legal), no number followed by what strtod reads as an exponent
-_STRICT = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?"
-                     rf"(?:{_WS}*[A-Za-z][ \t]*{_NUM}(?![eE][-+]?[0-9]))*{_WS}*")
-_LOOSE = re.compile(rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:{_WS}*[A-Za-z][ \t]*{_NUM})*{_WS}*")
+_STRICT = LazyPattern(globals(), "_STRICT", rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?"
+                      rf"(?:{_WS}*[A-Za-z][ \t]*{_NUM}(?![eE][-+]?[0-9]))*{_WS}*")
+_LOOSE = LazyPattern(globals(), "_LOOSE", rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:{_WS}*[A-Za-z][ \t]*{_NUM})*{_WS}*")
 _spaced = re.compile(r"[ \t]*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:[ \t]+[A-Za-z][-+.0-9]+)*[ \t\r\n]*").fullmatch
-_EXP_AT = re.compile(r"[eE]([-+]?[0-9]+)")
-_WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUM})")
-_KEYVAL = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
-_NUM_ONLY = re.compile(_NUM)
-_LINE_NUMBER = re.compile(rf"{_WS}*[Nn][0-9]+{_WS}*")
+_EXP_AT = LazyPattern(globals(), "_EXP_AT", r"[eE]([-+]?[0-9]+)")
+_WORD = LazyPattern(globals(), "_WORD", rf"([A-Za-z])[ \t]*({_NUM})")
+_KEYVAL = LazyPattern(globals(), "_KEYVAL", r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
+_NUM_ONLY = LazyPattern(globals(), "_NUM_ONLY", _NUM)
+_LINE_NUMBER = LazyPattern(globals(), "_LINE_NUMBER", rf"{_WS}*[Nn][0-9]+{_WS}*")
 _CLASSIC = re.compile(r"([A-Za-z])[ \t]*([0-9]+(?:\.[0-9]+)?)")
 _DIGITS = frozenset("0123456789")
 _LETTERS = frozenset(string.ascii_letters)      # a classic word's letter (not str.isalpha: 'é')
-_EXPONENT = re.compile(rf"{_NUM}[eE][-+]?[0-9]")
+_EXPONENT = LazyPattern(globals(), "_EXPONENT", rf"{_NUM}[eE][-+]?[0-9]")
 
 
 class WordError(ValueError):

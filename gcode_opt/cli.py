@@ -5,7 +5,6 @@ import argparse
 import math
 import os
 import sys
-from functools import partial
 
 from . import __version__
 from . import features as feat
@@ -35,33 +34,8 @@ class UserError(Exception):
     """A mistake in the command line or its files: exit 2, one line, no traceback."""
 
 
-def _terminal_columns() -> int:
-    """shutil.get_terminal_size().columns without importing shutil: COLUMNS where it is a
-    positive number, else the width of the terminal on stdout, else 80."""
-    try:
-        columns = int(os.environ["COLUMNS"])
-    except (KeyError, ValueError):
-        columns = 0
-    if columns <= 0:
-        try:
-            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns
-        except (AttributeError, ValueError, OSError):
-            columns = 0
-        columns = columns or 80
-    return columns
-
-
 class Parser(argparse.ArgumentParser):
-    """argparse with the program's one error form: `gcode-opt: message` (exit 2).
-
-    Its help formatters get the width argparse would take (shutil.get_terminal_size's, less
-    2): argparse asks shutil for it in each of the ~50 formatters it makes while the parser
-    is built, and importing shutil (with bz2 and lzma) was ~8 M instructions of every start."""
-
-    def __init__(self, *args, **kwargs):
-        kwargs["formatter_class"] = partial(kwargs.get("formatter_class", argparse.HelpFormatter),
-                                            width=_terminal_columns() - 2)
-        super().__init__(*args, **kwargs)
+    """argparse with the program's one error form: `gcode-opt: message` (exit 2)."""
 
     def error(self, message):
         self.print_usage(sys.stderr)

@@ -25,6 +25,7 @@ import errno
 import os
 import signal
 import stat
+import tempfile
 
 TMP_PREFIX = ".gcode-opt-"
 TMP_SUFFIX = ".tmp"
@@ -119,32 +120,6 @@ def _umask() -> int:
     return m
 
 
-_NAME_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"     # tempfile's
-
-
-def make_temp(folder: str) -> tuple[int, str]:
-    """(fd, path): a new empty file TMP_PREFIX + 8 random characters + TMP_SUFFIX in folder,
-    as tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder) makes it: created
-    with O_EXCL (never an existing file; another name is tried), mode 0600, not following a
-    symlink.  Not tempfile's own: importing it (with shutil, bz2, lzma and random) was ~6 M
-    instructions of every run's start, for this one call."""
-    flags = (os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
-             | getattr(os, "O_NOINHERIT", 0) | getattr(os, "O_BINARY", 0))
-    for _ in range(os.TMP_MAX):
-        name = "".join(_NAME_CHARS[b % len(_NAME_CHARS)] for b in os.urandom(8))
-        path = os.path.join(folder, TMP_PREFIX + name + TMP_SUFFIX)
-        try:
-            return os.open(path, flags, 0o600), path
-        except FileExistsError:
-            continue
-        except PermissionError:
-            # (Windows: a folder of that name; tempfile tries another name too)
-            if os.name == "nt" and os.path.isdir(folder) and os.access(folder, os.W_OK):
-                continue
-            raise
-    raise FileExistsError(errno.EEXIST, "no usable temporary file name found", folder)
-
-
 class AtomicOutput:
     """with AtomicOutput(out) as o: write o.tmp ...; o.commit()   -- the temporary file is
     removed on any exit that did not commit."""
@@ -163,7 +138,7 @@ class AtomicOutput:
         old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED) if _DEFERRED else None
         try:
             try:
-                fd, self.tmp = make_temp(folder)
+                fd, self.tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder)
             except OSError as e:
                 raise OutputError(describe(e, self.path)) from None
             PENDING.add(self.tmp)

@@ -122,8 +122,19 @@ def _shc(z):
     zero = z == 0.0
     if z.ndim and not zero.any():          # no 0: the quotient as the np.where below has it
         return np.sinh(z) / z
-    safe = np.where(zero, 1.0, z)
-    return np.where(zero, 1.0, np.sinh(safe) / safe)
+    if not z.ndim:
+        safe = np.where(zero, 1.0, z)
+        return np.where(zero, 1.0, np.sinh(safe) / safe)
+    # np.where(zero, 1.0, np.sinh(safe) / safe), safe = np.where(zero, 1.0, z), with the
+    # zeros' places listed once and stored to: the same quotients of the same numbers,
+    # without np.where's two passes over every element
+    safe = z.flatten()
+    iz = np.flatnonzero(zero)
+    safe[iz] = 1.0
+    q = np.sinh(safe)
+    q /= safe
+    q[iz] = 1.0
+    return q.reshape(z.shape)
 
 
 def _s1(z):
@@ -283,8 +294,23 @@ def _atanhc(r):
     """atanh(r)/r for |r| < 1 (1 at r = 0); inf for |r| ≥ 1."""
     r = np.asarray(r, dtype=float)
     inside = np.abs(r) < 1
-    rs = np.where(inside & (r != 0), r, 0.5)
-    return np.where(r == 0, 1.0, np.where(inside, np.arctanh(rs) / rs, np.inf))
+    if not r.ndim:
+        rs = np.where(inside & (r != 0), r, 0.5)
+        return np.where(r == 0, 1.0, np.where(inside, np.arctanh(rs) / rs, np.inf))
+    # np.where(r == 0, 1.0, np.where(inside, np.arctanh(rs) / rs, np.inf)), rs = np.where(inside
+    # & (r != 0), r, 0.5), with the places of the elements that are not their quotient (0, or
+    # |r| >= 1, NaN) listed once and stored to: the same quotients of the same numbers, without
+    # np.where's three passes over every element
+    other = np.flatnonzero(~inside | (r == 0))
+    if not other.size:
+        return np.arctanh(r) / r
+    rs = r.flatten()
+    at = rs[other]
+    rs[other] = 0.5
+    q = np.arctanh(rs)
+    q /= rs
+    q[other] = np.where(at == 0, 1.0, np.inf)
+    return q.reshape(r.shape)
 
 
 def check_params(L, T, beta, v0, v1):

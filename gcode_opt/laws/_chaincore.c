@@ -554,11 +554,17 @@ VEC_CLONES static void tod_step(Py_ssize_t m, const double *restrict s, const do
    lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its callers give it;
    else copies); the law arrays' numbers are gathered chunk by chunk.  Inlined into its two
    callers, indexed a constant there (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own:
-   0, lw->ix not read): no test of ix a law read. */
+   0, lw->ix not read): no test of ix a law read.
+   dst (tod_iterate_into; NULL in the others: a constant there): each law's answers go to
+   where its caller keeps them instead of out and vout: ṡ to vdst[dst[i]], and its t added to
+   tdst[dst[i]] (tdst[dst[i]] + t: the caller's `tdst[dst] += out` of a dst without repeats);
+   the laws still going are not written there, their last t put in out[0..going) in act's
+   order (out may be target: not read any more then). */
 static inline __attribute__((always_inline)) Py_ssize_t
 tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, double *sgn, double *scale,
             double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
-            const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter) {
+            const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter,
+            const int64_t *dst, double *vdst, double *tdst) {
     const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
     const int64_t *ix = lw->ix;
     Py_ssize_t NN = N ? N : 1;
@@ -645,8 +651,14 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
                 int64_t i = act[j];
                 if (i < 0) continue;   /* done before */
                 if (dn[jj]) {          /* t stays */
-                    out[i] = t[j];
-                    vout[i] = vv[jj];
+                    if (dst) {
+                        int64_t d = dst[i];
+                        vdst[d] = vv[jj];
+                        tdst[d] = tdst[d] + t[j];
+                    } else {
+                        out[i] = t[j];
+                        vout[i] = vv[jj];
+                    }
                     act[j] = -1 - i;
                     ndone++;
                     continue;
@@ -662,7 +674,8 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     Py_ssize_t going = 0;          /* the laws still going, in order, and their last t */
     for (Py_ssize_t j = 0; j < na; j++) {
         if (act[j] < 0) continue;
-        out[act[j]] = t[j];
+        if (dst) out[going] = t[j];
+        else out[act[j]] = t[j];
         act[going++] = act[j];
     }
     PyMem_Free(s4);
@@ -674,11 +687,15 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter
 static Py_ssize_t tod_iterate_at(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter);
+                       max_iter, NULL, NULL, NULL);
 }
 static Py_ssize_t tod_iterate_own(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 0, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter);
+                       max_iter, NULL, NULL, NULL);
+}
+static Py_ssize_t tod_iterate_into(TOD_ITERATE_ARGS, const int64_t *dst, double *vdst, double *tdst) {
+    return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
+                       max_iter, dst, vdst, tdst);
 }
 
 /* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
@@ -789,6 +806,68 @@ static PyObject *tod_at(PyObject *self, PyObject *a) {
     PyMem_Free(work);
     release(&b);
     return na < 0 ? NULL : PyLong_FromSsize_t(na);
+}
+
+/* tod_at_into(T, L, gs, n, sh2, wbar, A, delta, pj, s, free, v, t, act, s1coef, s1zmax, sinh_coef,
+   max_iter) -> () when every law is done, else the last t of the laws still going after
+   max_iter steps (a tuple of floats; act[:that many] which).  tod_at with its answers put
+   where solve_fixed keeps them (_Flat._at_times: `tl, v[free] = tod_at's out, vout;
+   t[free] += tl`): law i's ṡ to v[free[i]], its t added to t[free[i]] (free without
+   repeats: vert_prep's free vertices), as each law ends -- the same operations, without
+   the out and vout arrays and numpy's scatters of them.  The laws still going are not
+   written to v and t. */
+static PyObject *tod_at_into(PyObject *self, PyObject *a) {
+    PyObject *o[17];
+    int max_iter;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &max_iter))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[17];
+    void *p[17];
+    for (int q = 0; q < 17; q++) {
+        p[q] = get(&b, o[q], 8, q >= 11 && q <= 13, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t P = nn[0], N = nn[8], nv = nn[11], nz = nn[15], nsc = nn[16];
+    int ok = nsc >= 1 && nsc <= SINH_MAX && nn[14] >= NTERMS && nn[9] == N && nn[10] == N && nn[12] == nv
+             && nn[13] == N;
+    for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
+    const int64_t *pj = p[8], *dst = p[10];
+    ok = ok && all_in_range(N, pj, P) && all_in_range(N, dst, nv);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_at_into: shapes");
+        return NULL;
+    }
+    const double *T = p[0], *L = p[1], *s = p[9];
+    int64_t *act = p[13];
+    Py_ssize_t NN = N ? N : 1;
+    /* per law: target, sgn, scale, t, lo, hi (tod_at's) */
+    double *work = PyMem_Malloc(6 * NN * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *target = work, *sgn = work + NN, *scale = work + 2 * NN, *t = work + 3 * NN, *lo = work + 4 * NN,
+           *hi = work + 5 * NN;
+    for (Py_ssize_t i = 0; i < N; i++) {          /* tod_prep's inputs of law i (its out: t again) */
+        int64_t j = pj[i];
+        tod_start(T[j], L[j], s[i], i, target, sgn, lo, hi, t, t, scale);
+        act[i] = (int64_t)i;
+    }
+    TodLaws lw = {T, p[2], p[3], p[4], p[5], p[6], p[7], pj};
+    Py_ssize_t na = tod_iterate_into(&lw, N, target, sgn, scale, t, lo, hi, act, target, NULL, p[14], p[15], nz,
+                                     p[16], (int)nsc, max_iter, dst, p[11], p[12]);
+    PyObject *res = NULL;
+    if (na >= 0) {                 /* the last t of the laws still going (target[:na]) */
+        res = PyTuple_New(na);
+        for (Py_ssize_t g = 0; res && g < na; g++) {
+            PyObject *x = PyFloat_FromDouble(target[g]);
+            if (!x) Py_CLEAR(res);
+            else PyTuple_SET_ITEM(res, g, x);
+        }
+    }
+    PyMem_Free(work);
+    release(&b);
+    return res;
 }
 
 /* fixed_knots(sv, cv, vt, vi, bv, bvoff, S, T, v0, v1, warm, ks, kv, kt0, koff, L, va, vb, T0, owner,
@@ -2704,6 +2783,7 @@ static PyMethodDef methods[] = {
     {"exact_prep", exact_prep, METH_VARARGS, "_share_time_exact's checks and exact_share's inputs"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
     {"tod_at", tod_at, METH_VARARGS, "tod_prep and tod_solve in one call, the laws read where they are"},
+    {"tod_at_into", tod_at_into, METH_VARARGS, "tod_at with its answers put where solve_fixed keeps them"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},

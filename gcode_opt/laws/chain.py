@@ -574,6 +574,42 @@ def _tod_core_at(core, law, pj, s_targets, max_iter=200):
     return out, vout
 
 
+_TOD_CORE_AT = _tod_core_at
+
+
+def _tod_core_into(core, law, pj, s_targets, free, v, t, max_iter=200):
+    """_Flat._at_times' `tl, v[free] = _tod_core_at(core, law, pj, s_targets); t[free] += tl`
+    in one C call (tod_at_into: tod_at's iteration, each law's ṡ and t put at free[i] as it
+    ends; no out, vout arrays, no numpy scatters of them): the same numbers
+    (tests/test_speed41_chain41_into.py).  free: int64 without repeats (vert_prep's free
+    vertices); v, t: contiguous float64.  False (nothing written: the caller runs its own
+    lines) where _tod_core_at would return None or the arrays are not those types."""
+    c = law._c
+    T = law.T
+    if not (hasattr(core, "tod_at_into") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
+            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
+            and np.asarray(s_targets).shape == pj.shape and free.shape == pj.shape and free.dtype == np.int64
+            and v.dtype == t.dtype == np.float64 and v.flags.c_contiguous and t.flags.c_contiguous
+            and v.shape == t.shape):
+        return False
+    small = c["small"]
+    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
+        return False
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
+    pj, free = np.ascontiguousarray(pj, np.int64), np.ascontiguousarray(free)
+    act = np.empty(pj.size, np.int64)
+    rest_t = core.tod_at_into(*laws, pj, f(s_targets), free, v, t, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C,
+                              max_iter)
+    if rest_t:                 # out of steps: the last t of the laws still going, not evaluated yet
+        rest = act[:len(rest_t)]
+        tl = np.array(rest_t, float)
+        fr = free[rest]
+        v[fr] = _eval(law.take(pj[rest]), tl, "v")[1]
+        t[fr] += tl
+    return True
+
+
 # ---------------------------------------------------------------- the chains' line-law evaluation
 # LineLaw.eval and time_of_distance (line.py) as the chains use them: with the deterministic
 # sinh and cube of prims in the series branch (np.sinh and ** 3 there); the other branch is
@@ -944,6 +980,10 @@ class _Flat:
         v, t, free, pj, x = self._vertex_starts(vi, bv, kj, rank, ks, kt)
         got = None
         if CORE_MOD is not None and _times_and_speeds is _TIMES_AND_SPEEDS:     # (not a test's stand-in)
+            # the lines below in one C call where _tod_core_at is its own (not a test's recorder)
+            if _tod_core_at is _TOD_CORE_AT and _tod_core_into(CORE_MOD, law, pj, x, free, v, t):
+                return _Step(self, active, vi, rank, bvoff, v, t,
+                             ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
             got = _tod_core_at(CORE_MOD, law, pj, x)
         if got is None:
             vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)

@@ -684,6 +684,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         if active.size == 0:
             break
         na = active.size
+        st = None              # (the last step's arrays let go before this step makes its own)
         st = fl.solve_fixed(active, bound, vt, warm)
         hist.append(bound.copy())
         if fast and _active_step_core(st, fl, hist, bound, vt, warm, res, it == MAX_ACTIVE_ITERS - 1):
@@ -960,6 +961,9 @@ class _Flat:
         if accels:
             a0, a1 = _end_accels(law)                  # s̈ at both ends of every piece
         kt = _knot_times(Tj, koff, owner, p0, ks.size)
+        # the pieces' shc(γ/2) (numpy's, of a lite law): a chain's last step's are its final
+        # laws' (FlatLaws.close: _flat_figures_core takes them, not np.sinh of the same γ/2 again)
+        sh2 = law._c["sh2"] if "lite" in law._c else None
         # speed and time at every vertex, in its piece
         if self.monotone and kj_mono is not None:     # fixed_knots' count (the same numbers)
             kj = kj_mono
@@ -983,7 +987,7 @@ class _Flat:
             # the lines below in one C call where _tod_core_at is its own (not a test's recorder)
             if _tod_core_at is _TOD_CORE_AT and _tod_core_into(CORE_MOD, law, pj, x, free, v, t):
                 return _Step(self, active, vi, rank, bvoff, v, t,
-                             ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+                             ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv, sh2)
             got = _tod_core_at(CORE_MOD, law, pj, x)
         if got is None:
             vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
@@ -991,7 +995,7 @@ class _Flat:
         tl, v[free] = got
         t[free] += tl                                  # (t[free]: the start knots' times)
         return _Step(self, active, vi, rank, bvoff, v, t,
-                     ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+                     ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv, sh2)
 
     def _vertex_starts(self, vi, bv, kj, rank, ks, kt):
         """(v, t, free, pj, x) of the step's vertices vi (bv: binding; kj: its piece's start
@@ -1112,12 +1116,13 @@ class _Step:
     (r: its place in the step)."""
 
     def __init__(self, fl, active, vi, rank, voff, vert_v, vert_t, ks, kv, kt, koff, L, Tj, beta, va, vb,
-                 a0, a1, owner, lam, conv):
+                 a0, a1, owner, lam, conv, sh2=None):
         self.fl, self.active, self.vi, self.rank, self.voff = fl, active, vi, rank, voff
         self.vert_v, self.vert_t = vert_v, vert_t
         self.ks, self.kv, self.kt, self.koff = ks, kv, kt, koff
         self.L, self.Tj, self.beta, self.va, self.vb, self.a0, self.a1 = L, Tj, beta, va, vb, a0, a1
         self.owner, self.lam, self.conv = owner, lam, conv
+        self.sh2 = sh2             # the pieces' shc(γ/2) of their lite law (None: not one)
 
     def multipliers(self):
         """Each binding vertex's multiplier (as _multipliers), all chains at once: s̈ just
@@ -1154,6 +1159,9 @@ class FlatLaws:
         self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
         self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
         self._parts = []
+        # the taken pieces' shc(γ/2) kept in the parts (their last column) while every step
+        # taken had them (pieces False: close hands them to _flat_figures_core)
+        self._with_sh2 = not pieces
 
     def take(self, st, done, cyc, verts=True):
         """Keep the laws of the step st's chains `done` (cyc: ended by cycling or out of
@@ -1178,6 +1186,11 @@ class FlatLaws:
         npc = nk[done] - 1                        # pieces per chain: its knots - 1
         # what close reads for the figures of the candidate table; with pieces a0, a1 and the knots too
         pcs = (st.L, st.Tj, st.beta, st.va, st.vb) + ((st.a0, st.a1) if self.pieces else ())
+        sh2 = getattr(st, "sh2", None)
+        if sh2 is None or sh2.dtype != np.float64 or sh2.shape != st.Tj.shape:
+            self._with_sh2 = False
+        if self._with_sh2:
+            pcs += (sh2,)
         if whole:
             self._parts.append((c, npc) + pcs + ((st.ks, st.kv, st.kt) if self.pieces else ()))
             return
@@ -1198,7 +1211,10 @@ class FlatLaws:
         self.bound = bound
         if not (pieces and self.pieces):
             self.L, self.T, self.beta, self.v0, self.v1 = (x.take(po) for x in cat[2:7])
-            _flat_figures(self, full=False)
+            # the final pieces' shc(γ/2), where every part has them (the parts' 8th column)
+            sh2 = cat[7].take(po) if self._with_sh2 and len(cat) == 8 else None
+            del cat
+            _flat_figures(self, full=False, sh2=sh2)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
             self.piece_T, self.piece_off = self.T, self.poff
@@ -1267,12 +1283,13 @@ def _block_order(chains, counts, m):
     return order, off
 
 
-def _flat_figures(res, full=True):
+def _flat_figures(res, full=True, sh2=None):
     """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
-    False: ∫s̈² and peak |s̈| are not made (None)."""
-    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res):
+    False: ∫s̈² and peak |s̈| are not made (None).  sh2 (optional): the pieces' shc(γ/2)
+    as their lite laws had them (_flat_figures_core's, not made again)."""
+    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res, sh2):
         return
     law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
     if law is None:
@@ -1307,13 +1324,16 @@ def _flat_figures(res, full=True):
             res.ia[c] = np.sum(ia[ix], axis=1)
 
 
-def _flat_figures_core(core, res):
+def _flat_figures_core(core, res, sh2=None):
     """_flat_figures(res, full=False) with its arithmetic in C (fig_a .. fig_d, row_sums:
     _figure_law, end_speeds, _critical_t, eval(t, "v"), peak and least speed and the
     per-chain maxima, minima and sums, each its numpy operations in their order) and
     numpy's sinh and arctanh (line._shc, line._atanhc) in between: the same bits.  False
     (nothing set: the numpy code runs) where the inputs are not what it takes (not every law
-    in the series branch, bad inputs, a chain without pieces)."""
+    in the series branch, bad inputs, a chain without pieces).  sh2: shc(γ/2) of the pieces
+    as their step's lite law made it (_step_law: the same γ = T / √β, the same np.sinh
+    element by element: the same bits, tests/test_speed41_chain41_sh2.py), or None (made
+    here)."""
     f = np.ascontiguousarray
     L, T, beta, v0, v1 = (np.asarray(a) for a in (res.L, res.T, res.beta, res.v0, res.v1))
     poff = np.asarray(res.poff)
@@ -1326,7 +1346,7 @@ def _flat_figures_core(core, res):
     gamma, gs, n, m, s1, wbar, dl, A = (np.empty(P) for _ in range(8))
     if core.fig_a(L, T, beta, v0, v1, _COEF_C, _ZMAX_C, gamma, gs, n, m, s1, wbar, dl, A):
         return False
-    sh2 = f(_shc(gs / 2))
+    sh2 = f(_shc(gs / 2)) if sh2 is None or sh2.shape != gs.shape else f(sh2, float)
     iv, kog, vs, ve, rho, r = (np.empty(P) for _ in range(6))
     core.fig_b(L, T, gamma, n, m, s1, sh2, wbar, dl, A, iv, kog, vs, ve, rho, r)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -549,10 +549,11 @@ VEC_CLONES static void tod_step(Py_ssize_t m, const double *restrict s, const do
    sgn, scale per law; t, lo, hi, act the scratch, changed (act: 0..N-1 on entry); out = t's
    copy on entry; vout.  Returns the laws still going after max_iter steps (act[:that]), -1
    out of memory (exception set).  Each law's numbers that change or that are its own (t, lo,
-   hi, τ, prims.shc(γ/4), sgn, target, scale, and its place in the law arrays) are kept in
-   act's order and compacted with it, so a step reads them in a row (target, sgn, scale, t,
-   lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its callers give it;
-   else copies); the law arrays' numbers are gathered chunk by chunk.  Inlined into its two
+   hi, τ, prims.shc(γ/4), sgn, target, scale, and its law's T, γ, n, sh2, wbar, A, δ) are
+   kept in act's order and compacted with it, so a step reads them in a row (target, sgn,
+   scale, t, lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its
+   callers give it; else copies); the law arrays' numbers are gathered once, not at every
+   step (the laws going are moved up about once: see below).  Inlined into its two
    callers, indexed a constant there (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own:
    0, lw->ix not read): no test of ix a law read.
    dst (tod_iterate_into; NULL in the others: a constant there): each law's answers go to
@@ -570,28 +571,29 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     Py_ssize_t NN = N ? N : 1;
     int ident = 1;
     for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
-    /* per active law: prims.shc(γ/4), τ, its place q in the law arrays (indexed); the
-       copies of target .. hi in act's order where act is not 0..N-1 */
-    double *s4 = PyMem_Malloc((ident ? 3 : 9) * NN * sizeof(double));
+    /* per active law: prims.shc(γ/4), τ, its law's T, γ, n, sh2, wbar, A, δ; the copies of
+       target .. hi in act's order where act is not 0..N-1 */
+    double *s4 = PyMem_Malloc((ident ? 9 : 15) * NN * sizeof(double));
     if (!s4) { PyErr_NoMemory(); return -1; }
     double *taus = s4 + NN;
-    int64_t *qa = (int64_t *)(s4 + 2 * NN);
+    double *Tq = s4 + 2 * NN, *gq = s4 + 3 * NN, *nq = s4 + 4 * NN, *shq = s4 + 5 * NN, *wq = s4 + 6 * NN,
+           *Aq = s4 + 7 * NN, *dq = s4 + 8 * NN;
     if (!ident) {
-        double *cp = s4 + 3 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
+        double *cp = s4 + 9 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
         for (int u = 0; u < 6; u++)
             for (Py_ssize_t j = 0; j < N; j++) cp[u * NN + j] = src[u][act[j]];
         target = cp; sgn = cp + NN; scale = cp + 2 * NN; t = cp + 3 * NN; lo = cp + 4 * NN; hi = cp + 5 * NN;
     }
-    /* a chunk of the active laws, compact: γ, n, sh2, wbar, A, δ, T (gathered); s, ṡ
-       (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
-    double gb[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK], Tb[CHUNK];
+    /* a chunk of the active laws: s, ṡ (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
     double sb[CHUNK], vv[CHUNK], tnb[CHUNK], taub[CHUNK], z2b[CHUNK];
     int64_t dn[CHUNK];
-    for (Py_ssize_t j = 0; j < N; j++) qa[j] = indexed ? ix[act[j]] : act[j];
+    for (Py_ssize_t j = 0; j < N; j++) {
+        int64_t q = indexed ? ix[act[j]] : act[j];
+        Tq[j] = T[q]; gq[j] = gs[q]; nq[j] = n[q]; shq[j] = sh2[q]; wq[j] = wbar[q]; Aq[j] = A[q]; dq[j] = dl[q];
+    }
     for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
         Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
-        for (Py_ssize_t jj = 0; jj < m; jj++) gb[jj] = gs[qa[j0 + jj]];  /* (shc_quarter reads them in a row) */
-        shc_quarter(m, gb, sc, nc, s4 + j0);
+        shc_quarter(m, gq + j0, sc, nc, s4 + j0);
     }
     /* τ = clip(t / T, 0, 1) of the active laws (taus[j]: act[j]'s), made where t is: once
        here, then by the step that moves t (each law's τ once a step, not once for the
@@ -600,14 +602,13 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     double zm = -1.0;
     int nan = 0;
     for (Py_ssize_t j = 0; j < N; j++) {
-        int64_t q = qa[j];
-        double tau = t[j] / T[q];
+        double tau = t[j] / Tq[j];
         if (!isnan(tau)) {                /* np.clip: nan stays */
             tau = tau > 0.0 ? tau : 0.0;
             tau = tau < 1.0 ? tau : 1.0;
         }
         taus[j] = tau;
-        double z = gs[q] * (tau - 0.5);
+        double z = gq[j] * (tau - 0.5);
         double z2 = z * z;
         if (isnan(z2)) nan = 1;
         else if (z2 > zm) zm = z2;
@@ -624,7 +625,8 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
                 if (act[j] < 0) continue;
                 t[keep] = t[j]; lo[keep] = lo[j]; hi[keep] = hi[j]; taus[keep] = taus[j];
                 s4[keep] = s4[j]; sgn[keep] = sgn[j]; target[keep] = target[j]; scale[keep] = scale[j];
-                qa[keep] = qa[j];
+                Tq[keep] = Tq[j]; gq[keep] = gq[j]; nq[keep] = nq[j]; shq[keep] = shq[j]; wq[keep] = wq[j];
+                Aq[keep] = Aq[j]; dq[keep] = dq[j];
                 act[keep++] = act[j];
             }
             na = keep;
@@ -634,18 +636,14 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
         int k = nms_terms(zm, zmax, nz, nan);
         zm = -1.0;
         nan = 0;
-        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t and its
-           τ (tod_step) */
+        /* chunk by chunk: s and ṡ (tod_chunk), the bracket, done, the next t and its τ
+           (tod_step) */
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
-            for (Py_ssize_t jj = 0; jj < m; jj++) {
-                int64_t q = qa[j0 + jj];
-                gb[jj] = gs[q]; nb[jj] = n[q]; sh2b[jj] = sh2[q];
-                wb[jj] = wbar[q]; Ab[jj] = A[q]; db[jj] = dl[q]; Tb[jj] = T[q];
-            }
-            tod_chunk(m, k, taus + j0, gb, coef, sc, nc, s4 + j0, nb, sh2b, wb, Ab, db, Tb, sb, vv);
-            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tb, gb, t + j0, lo + j0, hi + j0, dn, tnb,
-                     taub, z2b);
+            tod_chunk(m, k, taus + j0, gq + j0, coef, sc, nc, s4 + j0, nq + j0, shq + j0, wq + j0, Aq + j0, dq + j0,
+                      Tq + j0, sb, vv);
+            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tq + j0, gq + j0, t + j0, lo + j0, hi + j0, dn,
+                     tnb, taub, z2b);
             for (Py_ssize_t jj = 0; jj < m; jj++) {
                 Py_ssize_t j = j0 + jj;
                 int64_t i = act[j];

@@ -957,9 +957,6 @@ class _Flat:
         accelerations, which vertices_at does not read, left out: None)."""
         ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
         law = _step_law(L, Tj, beta, va, vb)
-        a0 = a1 = None
-        if accels:
-            a0, a1 = _end_accels(law)                  # s̈ at both ends of every piece
         kt = _knot_times(Tj, koff, owner, p0, ks.size)
         # the pieces' shc(γ/2) (numpy's, of a lite law): a chain's last step's are its final
         # laws' (FlatLaws.close: _flat_figures_core takes them, not np.sinh of the same γ/2 again)
@@ -986,14 +983,20 @@ class _Flat:
         if CORE_MOD is not None and _times_and_speeds is _TIMES_AND_SPEEDS:     # (not a test's stand-in)
             # the lines below in one C call where _tod_core_at is its own (not a test's recorder)
             if _tod_core_at is _TOD_CORE_AT and _tod_core_into(CORE_MOD, law, pj, x, free, v, t):
-                return _Step(self, active, vi, rank, bvoff, v, t,
-                             ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv, sh2)
-            got = _tod_core_at(CORE_MOD, law, pj, x)
-        if got is None:
-            vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
-            got = _times_and_speeds(vlaw, x)
-        tl, v[free] = got
-        t[free] += tl                                  # (t[free]: the start knots' times)
+                got = True
+            else:
+                got = _tod_core_at(CORE_MOD, law, pj, x)
+        if got is not True:
+            if got is None:
+                vlaw = law.take(pj)                    # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
+                got = _times_and_speeds(vlaw, x)
+            tl, v[free] = got
+            t[free] += tl                              # (t[free]: the start knots' times)
+        # s̈ at both ends of every piece, made after the vertices' times (not read by them):
+        # not held through the time-of-distance iteration, a step's largest memory
+        a0 = a1 = None
+        if accels:
+            a0, a1 = _end_accels(law)
         return _Step(self, active, vi, rank, bvoff, v, t,
                      ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv, sh2)
 
@@ -1103,10 +1106,12 @@ def _step_law_core(core, L, T, beta, va, vb):
     gamma, gs, n, wbar, dl, A = (np.empty(P) for _ in range(6))
     if core.step_law(f(L), f(T), f(beta), f(va), f(vb), _COEF_C, _ZMAX_C, gamma, gs, n, wbar, dl, A):
         return None
+    # gs is γ (step_law's copy of it, the same bits): the law holds one array for both
+    del gs
     law = object.__new__(LineLaw)
     law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, va, vb
     law.gamma = gamma
-    law._c = {"small": np.ones(P, bool), "gs": gs, "n": n, "sh2": _shc(gs / 2), "lite": np.ones(P, bool)}
+    law._c = {"small": np.ones(P, bool), "gs": gamma, "n": n, "sh2": _shc(gamma / 2), "lite": np.ones(P, bool)}
     law._wbar, law._delta, law._A = wbar, dl, A
     return law
 

@@ -549,43 +549,51 @@ VEC_CLONES static void tod_step(Py_ssize_t m, const double *restrict s, const do
    sgn, scale per law; t, lo, hi, act the scratch, changed (act: 0..N-1 on entry); out = t's
    copy on entry; vout.  Returns the laws still going after max_iter steps (act[:that]), -1
    out of memory (exception set).  Each law's numbers that change or that are its own (t, lo,
-   hi, τ, prims.shc(γ/4), sgn, target, scale, and its place in the law arrays) are kept in
-   act's order and compacted with it, so a step reads them in a row (target, sgn, scale, t,
-   lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its callers give it;
-   else copies); the law arrays' numbers are gathered chunk by chunk.  Inlined into its two
+   hi, τ, prims.shc(γ/4), sgn, target, scale, and its law's T, γ, n, sh2, wbar, A, δ) are
+   kept in act's order and compacted with it, so a step reads them in a row (target, sgn,
+   scale, t, lo, hi: the caller's arrays, changed, when act is 0..N-1 on entry, as its
+   callers give it; else copies); the law arrays' numbers are gathered once, not at every
+   step (the laws going are moved up about once: see below).  Inlined into its two
    callers, indexed a constant there (tod_iterate_at: 1, the laws at lw->ix; tod_iterate_own:
-   0, lw->ix not read): no test of ix a law read. */
+   0, lw->ix not read): no test of ix a law read.
+   dst (tod_iterate_into; NULL in the others: a constant there): each law's answers go to
+   where its caller keeps them instead of out and vout: ṡ to vdst[dst[i]], and its t added to
+   tdst[dst[i]] (tdst[dst[i]] + t: the caller's `tdst[dst] += out` of a dst without repeats);
+   the laws still going are not written there, their last t put in out[0..going) in act's
+   order (out may be target: not read any more then). */
 static inline __attribute__((always_inline)) Py_ssize_t
 tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, double *sgn, double *scale,
             double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
-            const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter) {
+            const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter,
+            const int64_t *dst, double *vdst, double *tdst) {
     const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
     const int64_t *ix = lw->ix;
     Py_ssize_t NN = N ? N : 1;
     int ident = 1;
     for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
-    /* per active law: prims.shc(γ/4), τ, its place q in the law arrays (indexed); the
-       copies of target .. hi in act's order where act is not 0..N-1 */
-    double *s4 = PyMem_Malloc((ident ? 3 : 9) * NN * sizeof(double));
+    /* per active law: prims.shc(γ/4), τ, its law's T, γ, n, sh2, wbar, A, δ; the copies of
+       target .. hi in act's order where act is not 0..N-1 */
+    double *s4 = PyMem_Malloc((ident ? 9 : 15) * NN * sizeof(double));
     if (!s4) { PyErr_NoMemory(); return -1; }
     double *taus = s4 + NN;
-    int64_t *qa = (int64_t *)(s4 + 2 * NN);
+    double *Tq = s4 + 2 * NN, *gq = s4 + 3 * NN, *nq = s4 + 4 * NN, *shq = s4 + 5 * NN, *wq = s4 + 6 * NN,
+           *Aq = s4 + 7 * NN, *dq = s4 + 8 * NN;
     if (!ident) {
-        double *cp = s4 + 3 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
+        double *cp = s4 + 9 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
         for (int u = 0; u < 6; u++)
             for (Py_ssize_t j = 0; j < N; j++) cp[u * NN + j] = src[u][act[j]];
         target = cp; sgn = cp + NN; scale = cp + 2 * NN; t = cp + 3 * NN; lo = cp + 4 * NN; hi = cp + 5 * NN;
     }
-    /* a chunk of the active laws, compact: γ, n, sh2, wbar, A, δ, T (gathered); s, ṡ
-       (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
-    double gb[CHUNK], nb[CHUNK], sh2b[CHUNK], wb[CHUNK], Ab[CHUNK], db[CHUNK], Tb[CHUNK];
+    /* a chunk of the active laws: s, ṡ (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
     double sb[CHUNK], vv[CHUNK], tnb[CHUNK], taub[CHUNK], z2b[CHUNK];
     int64_t dn[CHUNK];
-    for (Py_ssize_t j = 0; j < N; j++) qa[j] = indexed ? ix[act[j]] : act[j];
+    for (Py_ssize_t j = 0; j < N; j++) {
+        int64_t q = indexed ? ix[act[j]] : act[j];
+        Tq[j] = T[q]; gq[j] = gs[q]; nq[j] = n[q]; shq[j] = sh2[q]; wq[j] = wbar[q]; Aq[j] = A[q]; dq[j] = dl[q];
+    }
     for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
         Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
-        for (Py_ssize_t jj = 0; jj < m; jj++) gb[jj] = gs[qa[j0 + jj]];  /* (shc_quarter reads them in a row) */
-        shc_quarter(m, gb, sc, nc, s4 + j0);
+        shc_quarter(m, gq + j0, sc, nc, s4 + j0);
     }
     /* τ = clip(t / T, 0, 1) of the active laws (taus[j]: act[j]'s), made where t is: once
        here, then by the step that moves t (each law's τ once a step, not once for the
@@ -594,14 +602,13 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     double zm = -1.0;
     int nan = 0;
     for (Py_ssize_t j = 0; j < N; j++) {
-        int64_t q = qa[j];
-        double tau = t[j] / T[q];
+        double tau = t[j] / Tq[j];
         if (!isnan(tau)) {                /* np.clip: nan stays */
             tau = tau > 0.0 ? tau : 0.0;
             tau = tau < 1.0 ? tau : 1.0;
         }
         taus[j] = tau;
-        double z = gs[q] * (tau - 0.5);
+        double z = gq[j] * (tau - 0.5);
         double z2 = z * z;
         if (isnan(z2)) nan = 1;
         else if (z2 > zm) zm = z2;
@@ -618,7 +625,8 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
                 if (act[j] < 0) continue;
                 t[keep] = t[j]; lo[keep] = lo[j]; hi[keep] = hi[j]; taus[keep] = taus[j];
                 s4[keep] = s4[j]; sgn[keep] = sgn[j]; target[keep] = target[j]; scale[keep] = scale[j];
-                qa[keep] = qa[j];
+                Tq[keep] = Tq[j]; gq[keep] = gq[j]; nq[keep] = nq[j]; shq[keep] = shq[j]; wq[keep] = wq[j];
+                Aq[keep] = Aq[j]; dq[keep] = dq[j];
                 act[keep++] = act[j];
             }
             na = keep;
@@ -628,25 +636,27 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
         int k = nms_terms(zm, zmax, nz, nan);
         zm = -1.0;
         nan = 0;
-        /* chunk by chunk: gather, s and ṡ (tod_chunk), the bracket, done, the next t and its
-           τ (tod_step) */
+        /* chunk by chunk: s and ṡ (tod_chunk), the bracket, done, the next t and its τ
+           (tod_step) */
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
-            for (Py_ssize_t jj = 0; jj < m; jj++) {
-                int64_t q = qa[j0 + jj];
-                gb[jj] = gs[q]; nb[jj] = n[q]; sh2b[jj] = sh2[q];
-                wb[jj] = wbar[q]; Ab[jj] = A[q]; db[jj] = dl[q]; Tb[jj] = T[q];
-            }
-            tod_chunk(m, k, taus + j0, gb, coef, sc, nc, s4 + j0, nb, sh2b, wb, Ab, db, Tb, sb, vv);
-            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tb, gb, t + j0, lo + j0, hi + j0, dn, tnb,
-                     taub, z2b);
+            tod_chunk(m, k, taus + j0, gq + j0, coef, sc, nc, s4 + j0, nq + j0, shq + j0, wq + j0, Aq + j0, dq + j0,
+                      Tq + j0, sb, vv);
+            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tq + j0, gq + j0, t + j0, lo + j0, hi + j0, dn,
+                     tnb, taub, z2b);
             for (Py_ssize_t jj = 0; jj < m; jj++) {
                 Py_ssize_t j = j0 + jj;
                 int64_t i = act[j];
                 if (i < 0) continue;   /* done before */
                 if (dn[jj]) {          /* t stays */
-                    out[i] = t[j];
-                    vout[i] = vv[jj];
+                    if (dst) {
+                        int64_t d = dst[i];
+                        vdst[d] = vv[jj];
+                        tdst[d] = tdst[d] + t[j];
+                    } else {
+                        out[i] = t[j];
+                        vout[i] = vv[jj];
+                    }
                     act[j] = -1 - i;
                     ndone++;
                     continue;
@@ -662,7 +672,8 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     Py_ssize_t going = 0;          /* the laws still going, in order, and their last t */
     for (Py_ssize_t j = 0; j < na; j++) {
         if (act[j] < 0) continue;
-        out[act[j]] = t[j];
+        if (dst) out[going] = t[j];
+        else out[act[j]] = t[j];
         act[going++] = act[j];
     }
     PyMem_Free(s4);
@@ -674,11 +685,15 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter
 static Py_ssize_t tod_iterate_at(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter);
+                       max_iter, NULL, NULL, NULL);
 }
 static Py_ssize_t tod_iterate_own(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 0, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter);
+                       max_iter, NULL, NULL, NULL);
+}
+static Py_ssize_t tod_iterate_into(TOD_ITERATE_ARGS, const int64_t *dst, double *vdst, double *tdst) {
+    return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
+                       max_iter, dst, vdst, tdst);
 }
 
 /* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
@@ -789,6 +804,68 @@ static PyObject *tod_at(PyObject *self, PyObject *a) {
     PyMem_Free(work);
     release(&b);
     return na < 0 ? NULL : PyLong_FromSsize_t(na);
+}
+
+/* tod_at_into(T, L, gs, n, sh2, wbar, A, delta, pj, s, free, v, t, act, s1coef, s1zmax, sinh_coef,
+   max_iter) -> () when every law is done, else the last t of the laws still going after
+   max_iter steps (a tuple of floats; act[:that many] which).  tod_at with its answers put
+   where solve_fixed keeps them (_Flat._at_times: `tl, v[free] = tod_at's out, vout;
+   t[free] += tl`): law i's ṡ to v[free[i]], its t added to t[free[i]] (free without
+   repeats: vert_prep's free vertices), as each law ends -- the same operations, without
+   the out and vout arrays and numpy's scatters of them.  The laws still going are not
+   written to v and t. */
+static PyObject *tod_at_into(PyObject *self, PyObject *a) {
+    PyObject *o[17];
+    int max_iter;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOOOi", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &max_iter))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[17];
+    void *p[17];
+    for (int q = 0; q < 17; q++) {
+        p[q] = get(&b, o[q], 8, q >= 11 && q <= 13, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t P = nn[0], N = nn[8], nv = nn[11], nz = nn[15], nsc = nn[16];
+    int ok = nsc >= 1 && nsc <= SINH_MAX && nn[14] >= NTERMS && nn[9] == N && nn[10] == N && nn[12] == nv
+             && nn[13] == N;
+    for (int q = 1; q < 8; q++) ok = ok && nn[q] == P;
+    const int64_t *pj = p[8], *dst = p[10];
+    ok = ok && all_in_range(N, pj, P) && all_in_range(N, dst, nv);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "tod_at_into: shapes");
+        return NULL;
+    }
+    const double *T = p[0], *L = p[1], *s = p[9];
+    int64_t *act = p[13];
+    Py_ssize_t NN = N ? N : 1;
+    /* per law: target, sgn, scale, t, lo, hi (tod_at's) */
+    double *work = PyMem_Malloc(6 * NN * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *target = work, *sgn = work + NN, *scale = work + 2 * NN, *t = work + 3 * NN, *lo = work + 4 * NN,
+           *hi = work + 5 * NN;
+    for (Py_ssize_t i = 0; i < N; i++) {          /* tod_prep's inputs of law i (its out: t again) */
+        int64_t j = pj[i];
+        tod_start(T[j], L[j], s[i], i, target, sgn, lo, hi, t, t, scale);
+        act[i] = (int64_t)i;
+    }
+    TodLaws lw = {T, p[2], p[3], p[4], p[5], p[6], p[7], pj};
+    Py_ssize_t na = tod_iterate_into(&lw, N, target, sgn, scale, t, lo, hi, act, target, NULL, p[14], p[15], nz,
+                                     p[16], (int)nsc, max_iter, dst, p[11], p[12]);
+    PyObject *res = NULL;
+    if (na >= 0) {                 /* the last t of the laws still going (target[:na]) */
+        res = PyTuple_New(na);
+        for (Py_ssize_t g = 0; res && g < na; g++) {
+            PyObject *x = PyFloat_FromDouble(target[g]);
+            if (!x) Py_CLEAR(res);
+            else PyTuple_SET_ITEM(res, g, x);
+        }
+    }
+    PyMem_Free(work);
+    release(&b);
+    return res;
 }
 
 /* fixed_knots(sv, cv, vt, vi, bv, bvoff, S, T, v0, v1, warm, ks, kv, kt0, koff, L, va, vb, T0, owner,
@@ -2704,6 +2781,7 @@ static PyMethodDef methods[] = {
     {"exact_prep", exact_prep, METH_VARARGS, "_share_time_exact's checks and exact_share's inputs"},
     {"tod_solve", tod_solve, METH_VARARGS, "the chains' time of distance, its whole iteration"},
     {"tod_at", tod_at, METH_VARARGS, "tod_prep and tod_solve in one call, the laws read where they are"},
+    {"tod_at_into", tod_at_into, METH_VARARGS, "tod_at with its answers put where solve_fixed keeps them"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},

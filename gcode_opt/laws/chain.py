@@ -574,6 +574,42 @@ def _tod_core_at(core, law, pj, s_targets, max_iter=200):
     return out, vout
 
 
+_TOD_CORE_AT = _tod_core_at
+
+
+def _tod_core_into(core, law, pj, s_targets, free, v, t, max_iter=200):
+    """_Flat._at_times' `tl, v[free] = _tod_core_at(core, law, pj, s_targets); t[free] += tl`
+    in one C call (tod_at_into: tod_at's iteration, each law's ṡ and t put at free[i] as it
+    ends; no out, vout arrays, no numpy scatters of them): the same numbers
+    (tests/test_speed41_chain41_into.py).  free: int64 without repeats (vert_prep's free
+    vertices); v, t: contiguous float64.  False (nothing written: the caller runs its own
+    lines) where _tod_core_at would return None or the arrays are not those types."""
+    c = law._c
+    T = law.T
+    if not (hasattr(core, "tod_at_into") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
+            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
+            and np.asarray(s_targets).shape == pj.shape and free.shape == pj.shape and free.dtype == np.int64
+            and v.dtype == t.dtype == np.float64 and v.flags.c_contiguous and t.flags.c_contiguous
+            and v.shape == t.shape):
+        return False
+    small = c["small"]
+    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
+        return False
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
+    pj, free = np.ascontiguousarray(pj, np.int64), np.ascontiguousarray(free)
+    act = np.empty(pj.size, np.int64)
+    rest_t = core.tod_at_into(*laws, pj, f(s_targets), free, v, t, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C,
+                              max_iter)
+    if rest_t:                 # out of steps: the last t of the laws still going, not evaluated yet
+        rest = act[:len(rest_t)]
+        tl = np.array(rest_t, float)
+        fr = free[rest]
+        v[fr] = _eval(law.take(pj[rest]), tl, "v")[1]
+        t[fr] += tl
+    return True
+
+
 # ---------------------------------------------------------------- the chains' line-law evaluation
 # LineLaw.eval and time_of_distance (line.py) as the chains use them: with the deterministic
 # sinh and cube of prims in the series branch (np.sinh and ** 3 there); the other branch is
@@ -648,6 +684,7 @@ def solve_flat(fl, bound, vt, warm, pieces=True):
         if active.size == 0:
             break
         na = active.size
+        st = None              # (the last step's arrays let go before this step makes its own)
         st = fl.solve_fixed(active, bound, vt, warm)
         hist.append(bound.copy())
         if fast and _active_step_core(st, fl, hist, bound, vt, warm, res, it == MAX_ACTIVE_ITERS - 1):
@@ -920,10 +957,10 @@ class _Flat:
         accelerations, which vertices_at does not read, left out: None)."""
         ks, kv, kt0, koff, owner, p0, L, va, vb, T0, kj_mono = kn
         law = _step_law(L, Tj, beta, va, vb)
-        a0 = a1 = None
-        if accels:
-            a0, a1 = _end_accels(law)                  # s̈ at both ends of every piece
         kt = _knot_times(Tj, koff, owner, p0, ks.size)
+        # the pieces' shc(γ/2) (numpy's, of a lite law): a chain's last step's are its final
+        # laws' (FlatLaws.close: _flat_figures_core takes them, not np.sinh of the same γ/2 again)
+        sh2 = law._c["sh2"] if "lite" in law._c else None
         # speed and time at every vertex, in its piece
         if self.monotone and kj_mono is not None:     # fixed_knots' count (the same numbers)
             kj = kj_mono
@@ -944,14 +981,24 @@ class _Flat:
         v, t, free, pj, x = self._vertex_starts(vi, bv, kj, rank, ks, kt)
         got = None
         if CORE_MOD is not None and _times_and_speeds is _TIMES_AND_SPEEDS:     # (not a test's stand-in)
-            got = _tod_core_at(CORE_MOD, law, pj, x)
-        if got is None:
-            vlaw = law.take(pj)                        # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
-            got = _times_and_speeds(vlaw, x)
-        tl, v[free] = got
-        t[free] += tl                                  # (t[free]: the start knots' times)
+            # the lines below in one C call where _tod_core_at is its own (not a test's recorder)
+            if _tod_core_at is _TOD_CORE_AT and _tod_core_into(CORE_MOD, law, pj, x, free, v, t):
+                got = True
+            else:
+                got = _tod_core_at(CORE_MOD, law, pj, x)
+        if got is not True:
+            if got is None:
+                vlaw = law.take(pj)                    # = LineLaw(L[pj], Tj[pj], beta[pj], ...)
+                got = _times_and_speeds(vlaw, x)
+            tl, v[free] = got
+            t[free] += tl                              # (t[free]: the start knots' times)
+        # s̈ at both ends of every piece, made after the vertices' times (not read by them):
+        # not held through the time-of-distance iteration, a step's largest memory
+        a0 = a1 = None
+        if accels:
+            a0, a1 = _end_accels(law)
         return _Step(self, active, vi, rank, bvoff, v, t,
-                     ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv)
+                     ks, kv, kt, koff, L, Tj, beta, va, vb, a0, a1, owner, lam, conv, sh2)
 
     def _vertex_starts(self, vi, bv, kj, rank, ks, kt):
         """(v, t, free, pj, x) of the step's vertices vi (bv: binding; kj: its piece's start
@@ -1059,10 +1106,12 @@ def _step_law_core(core, L, T, beta, va, vb):
     gamma, gs, n, wbar, dl, A = (np.empty(P) for _ in range(6))
     if core.step_law(f(L), f(T), f(beta), f(va), f(vb), _COEF_C, _ZMAX_C, gamma, gs, n, wbar, dl, A):
         return None
+    # gs is γ (step_law's copy of it, the same bits): the law holds one array for both
+    del gs
     law = object.__new__(LineLaw)
     law.L, law.T, law.beta, law.v0, law.v1 = L, T, beta, va, vb
     law.gamma = gamma
-    law._c = {"small": np.ones(P, bool), "gs": gs, "n": n, "sh2": _shc(gs / 2), "lite": np.ones(P, bool)}
+    law._c = {"small": np.ones(P, bool), "gs": gamma, "n": n, "sh2": _shc(gamma / 2), "lite": np.ones(P, bool)}
     law._wbar, law._delta, law._A = wbar, dl, A
     return law
 
@@ -1072,12 +1121,13 @@ class _Step:
     (r: its place in the step)."""
 
     def __init__(self, fl, active, vi, rank, voff, vert_v, vert_t, ks, kv, kt, koff, L, Tj, beta, va, vb,
-                 a0, a1, owner, lam, conv):
+                 a0, a1, owner, lam, conv, sh2=None):
         self.fl, self.active, self.vi, self.rank, self.voff = fl, active, vi, rank, voff
         self.vert_v, self.vert_t = vert_v, vert_t
         self.ks, self.kv, self.kt, self.koff = ks, kv, kt, koff
         self.L, self.Tj, self.beta, self.va, self.vb, self.a0, self.a1 = L, Tj, beta, va, vb, a0, a1
         self.owner, self.lam, self.conv = owner, lam, conv
+        self.sh2 = sh2             # the pieces' shc(γ/2) of their lite law (None: not one)
 
     def multipliers(self):
         """Each binding vertex's multiplier (as _multipliers), all chains at once: s̈ just
@@ -1114,6 +1164,9 @@ class FlatLaws:
         self.vert_v, self.vert_t = np.empty(nv), np.empty(nv)
         self.conv, self.lam = np.zeros(m, bool), np.zeros(m)
         self._parts = []
+        # the taken pieces' shc(γ/2) kept in the parts (their last column) while every step
+        # taken had them (pieces False: close hands them to _flat_figures_core)
+        self._with_sh2 = not pieces
 
     def take(self, st, done, cyc, verts=True):
         """Keep the laws of the step st's chains `done` (cyc: ended by cycling or out of
@@ -1138,6 +1191,11 @@ class FlatLaws:
         npc = nk[done] - 1                        # pieces per chain: its knots - 1
         # what close reads for the figures of the candidate table; with pieces a0, a1 and the knots too
         pcs = (st.L, st.Tj, st.beta, st.va, st.vb) + ((st.a0, st.a1) if self.pieces else ())
+        sh2 = getattr(st, "sh2", None)
+        if sh2 is None or sh2.dtype != np.float64 or sh2.shape != st.Tj.shape:
+            self._with_sh2 = False
+        if self._with_sh2:
+            pcs += (sh2,)
         if whole:
             self._parts.append((c, npc) + pcs + ((st.ks, st.kv, st.kt) if self.pieces else ()))
             return
@@ -1158,7 +1216,10 @@ class FlatLaws:
         self.bound = bound
         if not (pieces and self.pieces):
             self.L, self.T, self.beta, self.v0, self.v1 = (x.take(po) for x in cat[2:7])
-            _flat_figures(self, full=False)
+            # the final pieces' shc(γ/2), where every part has them (the parts' 8th column)
+            sh2 = cat[7].take(po) if self._with_sh2 and len(cat) == 8 else None
+            del cat
+            _flat_figures(self, full=False, sh2=sh2)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
             self.piece_T, self.piece_off = self.T, self.poff
@@ -1227,12 +1288,13 @@ def _block_order(chains, counts, m):
     return order, off
 
 
-def _flat_figures(res, full=True):
+def _flat_figures(res, full=True, sh2=None):
     """∫ṡ², ∫s̈², peak and least speed, peak |s̈| of the final laws (not of the active-set
     steps before them), all pieces in one batch; each chain's sums as np.sum of its own
     pieces rounds them (row sums of the chains with the same number of pieces).  full
-    False: ∫s̈² and peak |s̈| are not made (None)."""
-    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res):
+    False: ∫s̈² and peak |s̈| are not made (None).  sh2 (optional): the pieces' shc(γ/2)
+    as their lite laws had them (_flat_figures_core's, not made again)."""
+    if not full and CORE_MOD is not None and _flat_figures_core(CORE_MOD, res, sh2):
         return
     law = None if full else _figure_law(res.L, res.T, res.beta, res.v0, res.v1)
     if law is None:
@@ -1267,13 +1329,16 @@ def _flat_figures(res, full=True):
             res.ia[c] = np.sum(ia[ix], axis=1)
 
 
-def _flat_figures_core(core, res):
+def _flat_figures_core(core, res, sh2=None):
     """_flat_figures(res, full=False) with its arithmetic in C (fig_a .. fig_d, row_sums:
     _figure_law, end_speeds, _critical_t, eval(t, "v"), peak and least speed and the
     per-chain maxima, minima and sums, each its numpy operations in their order) and
     numpy's sinh and arctanh (line._shc, line._atanhc) in between: the same bits.  False
     (nothing set: the numpy code runs) where the inputs are not what it takes (not every law
-    in the series branch, bad inputs, a chain without pieces)."""
+    in the series branch, bad inputs, a chain without pieces).  sh2: shc(γ/2) of the pieces
+    as their step's lite law made it (_step_law: the same γ = T / √β, the same np.sinh
+    element by element: the same bits, tests/test_speed41_chain41_sh2.py), or None (made
+    here)."""
     f = np.ascontiguousarray
     L, T, beta, v0, v1 = (np.asarray(a) for a in (res.L, res.T, res.beta, res.v0, res.v1))
     poff = np.asarray(res.poff)
@@ -1286,7 +1351,7 @@ def _flat_figures_core(core, res):
     gamma, gs, n, m, s1, wbar, dl, A = (np.empty(P) for _ in range(8))
     if core.fig_a(L, T, beta, v0, v1, _COEF_C, _ZMAX_C, gamma, gs, n, m, s1, wbar, dl, A):
         return False
-    sh2 = f(_shc(gs / 2))
+    sh2 = f(_shc(gs / 2)) if sh2 is None or sh2.shape != gs.shape else f(sh2, float)
     iv, kog, vs, ve, rho, r = (np.empty(P) for _ in range(6))
     core.fig_b(L, T, gamma, n, m, s1, sh2, wbar, dl, A, iv, kog, vs, ve, rho, r)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -5071,6 +5071,47 @@ static inline void ring_cmul(int fused, double ar, double ai, double br, double 
     }
 }
 
+/* np_pairwise_sum (numpy's pairwise sum, _npsum.h) with its eight partial sums held as four
+ * pairs of lanes (gcc's vector extension: SSE2 pairs, or AVX in the FMA clone) instead of the
+ * array r[8] gcc keeps on the stack there (~4.5 instructions a number, a store each add):
+ * each lane adds its numbers in the same order, and the eight are combined as numpy combines
+ * them -- the same bits, ~1.5 instructions a number. */
+typedef double RingV2 __attribute__((vector_size(16)));
+
+static inline RingV2 ring_v2_at(const double *a)
+{
+    RingV2 x;
+    memcpy(&x, a, sizeof x);
+    return x;
+}
+
+RING_CLONES static double ring_pairwise_sum(const double *a, Py_ssize_t n)
+{
+    if (n < 8) {
+        double res = -0.0;
+        for (Py_ssize_t i = 0; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        RingV2 r01 = ring_v2_at(a), r23 = ring_v2_at(a + 2), r45 = ring_v2_at(a + 4), r67 = ring_v2_at(a + 6);
+        Py_ssize_t i;
+        for (i = 8; i < n - (n % 8); i += 8) {
+            r01 += ring_v2_at(a + i);
+            r23 += ring_v2_at(a + i + 2);
+            r45 += ring_v2_at(a + i + 4);
+            r67 += ring_v2_at(a + i + 6);
+        }
+        double res = ((r01[0] + r01[1]) + (r23[0] + r23[1])) + ((r45[0] + r45[1]) + (r67[0] + r67[1]));
+        for (; i < n; i++)
+            res += a[i];
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return ring_pairwise_sum(a, n2) + ring_pairwise_sum(a + n2, n - n2);
+}
+
 static inline int ring_less(double a, double b)     /* numpy's sort order: NaN last */
 {
     return a < b || (b != b && a == a);
@@ -5386,6 +5427,72 @@ done:
     return ret;
 }
 
+/* ring_solve_amps' state from event to event of a restart: the last time's bits and its
+ * exponentials, e_dn, e_up, the running sum g, the memo's place */
+typedef struct {
+    uint64_t tt_prev;
+    double ex1, ex2, c2, s2, edr, edi, eur, eui, gr, gi;
+    Py_ssize_t m_j;
+} RingEvState;
+
+/* one event i of a restart from t0 with jump (dcr, dci): ring_amps_run's loop body */
+static inline __attribute__((always_inline)) void
+ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const double *t, double t0, double s,
+                 double wd, double c0r, double c0i, double *c, int fused, int use_m, const double *m_t,
+                 const double *m_t0, const double *m_v, Py_ssize_t m_n, double *o_t0, double *o_v, int out)
+{
+    double tt = t[i] - t0;
+    uint64_t tt_bits;
+    memcpy(&tt_bits, &tt, sizeof tt_bits);
+    if (tt_bits != st->tt_prev) {
+        double y2 = wd * tt, y1 = 0.0 - y2;
+        int got = 0;
+        if (use_m) {
+            double ti = t[i];
+            Py_ssize_t m_j = st->m_j;
+            while (m_j < m_n && m_t[m_j] < ti)
+                m_j++;
+            st->m_j = m_j;
+            for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                if (ring_same(m_t0[k], t0)) {
+                    st->ex1 = m_v[4 * k];
+                    st->ex2 = m_v[4 * k + 1];
+                    st->c2 = m_v[4 * k + 2];
+                    st->s2 = m_v[4 * k + 3];
+                    got = 1;
+                    break;
+                }
+        }
+        if (!got) {
+            double x1 = s * tt + 0.0, x2 = -s * tt;
+            st->ex1 = ring_libm_exp(x1);
+            st->ex2 = ring_libm_exp(x2);
+            double sn2, cs2;
+            ring_sincos(y2, &sn2, &cs2);
+            st->s2 = sn2;
+            st->c2 = cs2;
+        }
+        double s1 = y2 != 0.0 ? -st->s2 : y1;
+        st->edr = st->ex1 * st->c2;
+        st->edi = st->ex1 * s1;
+        st->eur = st->ex2 * st->c2;
+        st->eui = st->ex2 * st->s2;
+        st->tt_prev = tt_bits;
+    }
+    if (out) {
+        o_t0[i] = t0;
+        o_v[4 * i] = st->ex1;
+        o_v[4 * i + 1] = st->ex2;
+        o_v[4 * i + 2] = st->c2;
+        o_v[4 * i + 3] = st->s2;
+    }
+    double pr, pi;
+    ring_cmul(fused, dcr, dci, st->edr, st->edi, &pr, &pi);
+    st->gr = st->gr + pr;
+    st->gi = st->gi + pi;
+    ring_cmul(fused, c0r + st->gr, c0i + st->gi, st->eur, st->eui, &c[2 * i], &c[2 * i + 1]);
+}
+
 /* ring_solve's amplitudes: ring_amps_run's restart loop without its checks (ring_solve tests
  * the result once), each event's dc made as it goes (ring_jump_one of dr[i - off], drp[i -
  * off]; event 0's is (fr, fi), the carried amplitude, where off is 1) instead of in a pass of
@@ -5426,61 +5533,21 @@ ring_solve_amps(const double *t, const double *dr, const double *drp, int off, d
         ring_sincos(y, &sn, &cs);
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
-        double gr = -0.0, gi = -0.0;        /* (as ring_amps_run) */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
-        uint64_t tt_prev = UINT64_MAX;
-        double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0;
-        double edr = 0.0, edi = 0.0, eur = 0.0, eui = 0.0;
-        for (Py_ssize_t i = start; i < stop; i++) {
-            double tt = t[i] - t0;
-            uint64_t tt_bits;
-            memcpy(&tt_bits, &tt, sizeof tt_bits);
-            if (tt_bits != tt_prev) {
-                double y2 = wd * tt, y1 = 0.0 - y2;
-                int got = 0;
-                if (use_m) {
-                    double ti = t[i];
-                    while (m_j < m_n && m_t[m_j] < ti)
-                        m_j++;
-                    for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                        if (ring_same(m_t0[k], t0)) {
-                            ex1 = m_v[4 * k];
-                            ex2 = m_v[4 * k + 1];
-                            c2 = m_v[4 * k + 2];
-                            s2 = m_v[4 * k + 3];
-                            got = 1;
-                            break;
-                        }
-                }
-                if (!got) {
-                    double x1 = s * tt + 0.0, x2 = -s * tt;
-                    ex1 = ring_libm_exp(x1);
-                    ex2 = ring_libm_exp(x2);
-                    ring_sincos(y2, &s2, &c2);
-                }
-                double s1 = y2 != 0.0 ? -s2 : y1;
-                edr = ex1 * c2;
-                edi = ex1 * s1;
-                eur = ex2 * c2;
-                eui = ex2 * s2;
-                tt_prev = tt_bits;
-            }
-            if (out) {
-                o_t0[i] = t0;
-                o_v[4 * i] = ex1;
-                o_v[4 * i + 1] = ex2;
-                o_v[4 * i + 2] = c2;
-                o_v[4 * i + 3] = s2;
-            }
-            double dcr = fr, dci = fi;
-            if (i >= off)
-                ring_jump_one(dr[i - off], drp[i - off], s, rat, scl, &dcr, &dci);
-            double pr, pi;
-            ring_cmul(fused, dcr, dci, edr, edi, &pr, &pi);
-            gr = gr + pr;
-            gi = gi + pi;
-            ring_cmul(fused, c0r + gr, c0i + gi, eur, eui, &c[2 * i], &c[2 * i + 1]);
+        RingEvState st = {UINT64_MAX, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0, m_j};
+        Py_ssize_t i = start;
+        if (i < off) {          /* (event 0 with the carried amplitude: its loop has no such test) */
+            ring_solve_event(&st, i, fr, fi, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
+                             o_t0, o_v, out);
+            i++;
         }
+        for (; i < stop; i++) {
+            double dcr, dci;
+            ring_jump_one(dr[i - off], drp[i - off], s, rat, scl, &dcr, &dci);
+            ring_solve_event(&st, i, dcr, dci, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
+                             o_t0, o_v, out);
+        }
+        m_j = st.m_j;
         cr = c[2 * (stop - 1)];
         ci = c[2 * (stop - 1) + 1];
         t_carry = t[stop - 1];
@@ -5626,7 +5693,9 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
      * a candidate as before (the pieces handed back are the same).  zero_v: those scalars
      * hold (the exponentials are checked once made). */
     /* (out: o_v is given -- a constant at ring_solve_pieces' calls, as decay2 NULL or not:
-     * no test a piece) */
+     * no test a piece; cand's floor and room held here, not read again a piece) */
+    double c_floor = cand ? cand->floor : 0.0;
+    Py_ssize_t *c_idx = cand ? cand->idx : NULL;
     int zero_call = isfinite(rat) && isfinite(scl) && four_s > 0.0 && isfinite(four_s), zero_v = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
@@ -5656,10 +5725,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                      * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
                     double thr;
                     lo = ar_ > lo ? ar_ : lo;
-                    thr = cand->floor > lo ? cand->floor : lo;
+                    thr = c_floor > lo ? c_floor : lo;
                     if (!(sum_a * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
                             && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
-                        cand->idx[n_cand++] = i;
+                        c_idx[n_cand++] = i;
                 }
                 v[i] = 0.0;
                 continue;
@@ -5740,8 +5809,8 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         if (cand) {
             double ar_ = fabs(cr);
             lo = ar_ > lo ? ar_ : lo;
-            if (!(a * (1.0 + 1e-9) < (cand->floor > lo ? cand->floor : lo)))
-                cand->idx[n_cand++] = i;
+            if (!(a * (1.0 + 1e-9) < (c_floor > lo ? c_floor : lo)))
+                c_idx[n_cand++] = i;
         }
         if (checks && !decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
             ok = 0;
@@ -5805,7 +5874,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
                              m_n, o_v, v, NULL, 1, o_v != NULL);
     if (ok)
-        ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
+        ret = PyFloat_FromDouble(-0.0 + ring_pairwise_sum(v, n));
     else {
         ret = Py_None;
         Py_INCREF(ret);
@@ -5959,7 +6028,7 @@ static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const
  * registers are not the rest of ring_solve's), with a copy of the loop for each branch of
  * _real_quotient, with and without the memo's out, with and without numpy's decay2: constants
  * in each, not tests a piece */
-RING_CLONES static __attribute__((noinline)) void
+RING_CLONES static __attribute__((noinline, nonnull(18))) void
 ring_solve_pieces(const double *c, double *dur, const double *d2, Py_ssize_t np_, double qr, double qi,
                   double four_s, double rat, double scl, int real_major, const double *t, const double *q_t,
                   const double *q_d, const double *q_v, Py_ssize_t q_n, double *r_v, double *v, RingCand *cand)
@@ -6125,7 +6194,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         double *r_v = have_r ? (double *)rb2[1].buf : NULL;
         ring_solve_pieces(c, dur, d2, np_, qr, qi, four_s, rat, scl, real_major, t, q_t, q_d, q_v, q_n, r_v, v,
                           &cand);
-        double total = -0.0 + np_pairwise_sum(v, np_);
+        double total = -0.0 + ring_pairwise_sum(v, np_);
         if (!isfinite(total)) {
             ret = Py_None;
             Py_INCREF(ret);
@@ -6399,12 +6468,12 @@ static PyObject *mod_ring_rows_time(PyObject *self, PyObject *args)
         ring_rows_buf[k + 2] = q[2];
         k += 3;
         if (k == RING_ROWS_BUF) {
-            total += np_pairwise_sum(ring_rows_buf, k);
+            total += ring_pairwise_sum(ring_rows_buf, k);
             k = 0;
         }
     }
     if (k)
-        total += np_pairwise_sum(ring_rows_buf, k);
+        total += ring_pairwise_sum(ring_rows_buf, k);
     PyBuffer_Release(&mb);
     return PyFloat_FromDouble(total);
 }

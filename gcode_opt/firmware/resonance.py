@@ -338,8 +338,8 @@ def _solve_core(s, wd):
 
 
 def release_solve_room():
-    """Give back the room the core's ring_solve keeps from call to call (~5 doubles an event
-    of a chunk: ~3 MB on the gyroid plate): a Collector calls it when its pass is over, so
+    """Give back the room the core's ring_solve keeps from call to call (~7 doubles an event
+    of a chunk: ~4 MB on the gyroid plate): a Collector calls it when its pass is over, so
     the room does not stay for the rest of the run.  Returns the bytes given back (0
     without the core)."""
     core = _core()

@@ -5071,47 +5071,6 @@ static inline void ring_cmul(int fused, double ar, double ai, double br, double 
     }
 }
 
-/* np_pairwise_sum (numpy's pairwise sum, _npsum.h) with its eight partial sums held as four
- * pairs of lanes (gcc's vector extension: SSE2 pairs, or AVX in the FMA clone) instead of the
- * array r[8] gcc keeps on the stack there (~4.5 instructions a number, a store each add):
- * each lane adds its numbers in the same order, and the eight are combined as numpy combines
- * them -- the same bits, ~1.5 instructions a number. */
-typedef double RingV2 __attribute__((vector_size(16)));
-
-static inline RingV2 ring_v2_at(const double *a)
-{
-    RingV2 x;
-    memcpy(&x, a, sizeof x);
-    return x;
-}
-
-RING_CLONES static double ring_pairwise_sum(const double *a, Py_ssize_t n)
-{
-    if (n < 8) {
-        double res = -0.0;
-        for (Py_ssize_t i = 0; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    if (n <= 128) {
-        RingV2 r01 = ring_v2_at(a), r23 = ring_v2_at(a + 2), r45 = ring_v2_at(a + 4), r67 = ring_v2_at(a + 6);
-        Py_ssize_t i;
-        for (i = 8; i < n - (n % 8); i += 8) {
-            r01 += ring_v2_at(a + i);
-            r23 += ring_v2_at(a + i + 2);
-            r45 += ring_v2_at(a + i + 4);
-            r67 += ring_v2_at(a + i + 6);
-        }
-        double res = ((r01[0] + r01[1]) + (r23[0] + r23[1])) + ((r45[0] + r45[1]) + (r67[0] + r67[1]));
-        for (; i < n; i++)
-            res += a[i];
-        return res;
-    }
-    Py_ssize_t n2 = n / 2;
-    n2 -= n2 % 8;
-    return ring_pairwise_sum(a, n2) + ring_pairwise_sum(a + n2, n - n2);
-}
-
 static inline int ring_less(double a, double b)     /* numpy's sort order: NaN last */
 {
     return a < b || (b != b && a == a);
@@ -5874,7 +5833,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
                              m_n, o_v, v, NULL, 1, o_v != NULL);
     if (ok)
-        ret = PyFloat_FromDouble(-0.0 + ring_pairwise_sum(v, n));
+        ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
         ret = Py_None;
         Py_INCREF(ret);
@@ -6197,7 +6156,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         double *r_v = have_r ? (double *)rb2[1].buf : NULL;
         ring_solve_pieces(c, dur, d2, np_, qr, qi, four_s, rat, scl, real_major, t, q_t, q_d, q_v, q_n, r_v, v,
                           &cand);
-        double total = -0.0 + ring_pairwise_sum(v, np_);
+        double total = -0.0 + np_pairwise_sum(v, np_);
         if (!isfinite(total)) {
             ret = Py_None;
             Py_INCREF(ret);
@@ -6471,12 +6430,12 @@ static PyObject *mod_ring_rows_time(PyObject *self, PyObject *args)
         ring_rows_buf[k + 2] = q[2];
         k += 3;
         if (k == RING_ROWS_BUF) {
-            total += ring_pairwise_sum(ring_rows_buf, k);
+            total += np_pairwise_sum(ring_rows_buf, k);
             k = 0;
         }
     }
     if (k)
-        total += ring_pairwise_sum(ring_rows_buf, k);
+        total += np_pairwise_sum(ring_rows_buf, k);
     PyBuffer_Release(&mb);
     return PyFloat_FromDouble(total);
 }

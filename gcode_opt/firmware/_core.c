@@ -5070,6 +5070,17 @@ done:
 #define RING_CLONES
 #endif
 
+/* x hidden from the compiler's algebra: where it knows ta = -a, it makes ta * u as -(a * u)
+ * (and takes a * u of the piece before), which is another NaN than numpy's (-a) * u when
+ * a * u is not a number (0 * inf: x86's default NaN, negative, then negated) */
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define RING_OPAQUE(x) __asm__("" : "+x"(x))
+#elif defined(__GNUC__)
+#define RING_OPAQUE(x) __asm__("" : "+m"(x))
+#else
+#define RING_OPAQUE(x) ((void)0)
+#endif
+
 static inline void ring_cmul(int fused, double ar, double ai, double br, double bi,
                              double *re, double *im)
 {
@@ -5077,8 +5088,16 @@ static inline void ring_cmul(int fused, double ar, double ai, double br, double 
         *re = fma(ar, br, -(ai * bi));
         *im = fma(ar, bi, ai * br);
     } else {
-        *re = ar * br - ai * bi;
-        *im = ar * bi + ai * br;
+        /* (the products hidden: gcc's vectorizer takes such a complex product, once its
+         * operands are held from event to event, for one fused vfmaddsub -- another
+         * rounding, despite -ffp-contract=off) */
+        double rr = ar * br, ii = ai * bi, ri = ar * bi, ir = ai * br;
+        RING_OPAQUE(rr);
+        RING_OPAQUE(ii);
+        RING_OPAQUE(ri);
+        RING_OPAQUE(ir);
+        *re = rr - ii;
+        *im = ri + ir;
     }
 }
 
@@ -5194,8 +5213,9 @@ static inline int ring_memo_restart(const double *m_t, const double *m_t0, Py_ss
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
  * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
  * restart holding a time or a dc that is not finite (ring_amps: numpy does that restart);
- * 0: no such test (ring_solve: such a number makes its amplitude, and so its piece's
- * integral or the last amplitude, not finite, which ring_solve tests once at the end). */
+ * 0: no such test (ring_solve's loop, ring_solve_amps, is this one without them: such a
+ * number makes its amplitude, and so its piece's integral or the last amplitude, not
+ * finite, which ring_solve tests once at the end). */
 static inline __attribute__((always_inline)) Py_ssize_t
 ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double wd, double span,
               Py_ssize_t short_n, Py_ssize_t start, double cr, double ci, double t_carry, double *c,
@@ -5350,6 +5370,19 @@ done:
  * fewer operations they were the same bits on hardware, but not under valgrind, whose fma
  * gives fma(0, x, -0) another zero's sign -- as it gives numpy's, which then differed from
  * the core's, and the probe left every chunk to the steps.) */
+/* one jump_amplitude (dr, drp) into (*re, *im); rat, scl: the Smith division's scalars, as
+ * ring_jumps_run makes them of wd (ring_solve's amplitudes make each event's as they go) */
+static inline __attribute__((always_inline)) void
+ring_jump_one(double dr, double drp, double s, double rat, double scl, double *re, double *im)
+{
+    double x = drp + s * dr;
+    double zr, zi;
+    ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
+    double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
+    *re = dr - wr;
+    *im = 0.0 - wi;
+}
+
 static inline __attribute__((always_inline)) int
 ring_jumps_run(const double *dr, const double *drp, Py_ssize_t n, double s, double wd, double *o, int checks)
 {
@@ -5357,12 +5390,7 @@ ring_jumps_run(const double *dr, const double *drp, Py_ssize_t n, double s, doub
     for (Py_ssize_t i = 0; i < n; i++) {
         if (checks && (!isfinite(dr[i]) || !isfinite(drp[i])))    /* NaN's bits are not copied */
             return 0;
-        double x = drp[i] + s * dr[i];
-        double zr, zi;
-        ring_cmul(1, 0.0, 1.0, x, 0.0, &zr, &zi);
-        double wr = (zr + zi * rat) * scl, wi = (zi - zr * rat) * scl;
-        o[2 * i] = dr[i] - wr;
-        o[2 * i + 1] = 0.0 - wi;
+        ring_jump_one(dr[i], drp[i], s, rat, scl, &o[2 * i], &o[2 * i + 1]);
     }
     return 1;
 }
@@ -5386,6 +5414,135 @@ done:
     PyBuffer_Release(&pb);
     PyBuffer_Release(&ob);
     return ret;
+}
+
+/* ring_solve_amps' state from event to event of a restart: the last time's bits and its
+ * exponentials, e_dn, e_up, the running sum g, the memo's place */
+typedef struct {
+    uint64_t tt_prev;
+    double ex1, ex2, c2, s2, edr, edi, eur, eui, gr, gi;
+    Py_ssize_t m_j;
+} RingEvState;
+
+/* one event i of a restart from t0 with jump (dcr, dci): ring_amps_run's loop body */
+static inline __attribute__((always_inline)) void
+ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const double *t, double t0, double s,
+                 double wd, double c0r, double c0i, double *c, int fused, int use_m, const double *m_t,
+                 const double *m_t0, const double *m_v, Py_ssize_t m_n, double *o_t0, double *o_v, int out)
+{
+    double tt = t[i] - t0;
+    uint64_t tt_bits;
+    memcpy(&tt_bits, &tt, sizeof tt_bits);
+    if (tt_bits != st->tt_prev) {
+        double y2 = wd * tt, y1 = 0.0 - y2;
+        int got = 0;
+        if (use_m) {
+            double ti = t[i];
+            Py_ssize_t m_j = st->m_j;
+            while (m_j < m_n && m_t[m_j] < ti)
+                m_j++;
+            st->m_j = m_j;
+            for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                if (ring_same(m_t0[k], t0)) {
+                    st->ex1 = m_v[4 * k];
+                    st->ex2 = m_v[4 * k + 1];
+                    st->c2 = m_v[4 * k + 2];
+                    st->s2 = m_v[4 * k + 3];
+                    got = 1;
+                    break;
+                }
+        }
+        if (!got) {
+            double x1 = s * tt + 0.0, x2 = -s * tt;
+            st->ex1 = ring_libm_exp(x1);
+            st->ex2 = ring_libm_exp(x2);
+            double sn2, cs2;
+            ring_sincos(y2, &sn2, &cs2);
+            st->s2 = sn2;
+            st->c2 = cs2;
+        }
+        double s1 = y2 != 0.0 ? -st->s2 : y1;
+        st->edr = st->ex1 * st->c2;
+        st->edi = st->ex1 * s1;
+        st->eur = st->ex2 * st->c2;
+        st->eui = st->ex2 * st->s2;
+        st->tt_prev = tt_bits;
+    }
+    if (out) {
+        o_t0[i] = t0;
+        o_v[4 * i] = st->ex1;
+        o_v[4 * i + 1] = st->ex2;
+        o_v[4 * i + 2] = st->c2;
+        o_v[4 * i + 3] = st->s2;
+    }
+    double pr, pi;
+    ring_cmul(fused, dcr, dci, st->edr, st->edi, &pr, &pi);
+    st->gr = st->gr + pr;
+    st->gi = st->gi + pi;
+    ring_cmul(fused, c0r + st->gr, c0i + st->gi, st->eur, st->eui, &c[2 * i], &c[2 * i + 1]);
+}
+
+/* ring_solve's amplitudes: ring_amps_run's restart loop without its checks (ring_solve tests
+ * the result once), each event's dc made as it goes (ring_jump_one of dr[i - off], drp[i -
+ * off]; event 0's is (fr, fi), the carried amplitude, where off is 1) instead of in a pass of
+ * its own through memory, and e_dn = (ex1 c2, ex1 s1), e_up = (ex2 c2, ex2 s2) made once a
+ * time, not once an event (events at one time share them: the same products).  fused, out
+ * (o_t0 / o_v given): constants at each call, a loop for each (no test an event).  The same
+ * operations on the same numbers as ring_jumps_run then ring_amps_run: the same bits. */
+static inline __attribute__((always_inline)) Py_ssize_t
+ring_solve_amps(const double *t, const double *dr, const double *drp, int off, double fr, double fi,
+                Py_ssize_t n, double s, double wd, double span, Py_ssize_t short_n, double *c, int fused,
+                const double *m_t, const double *m_t0, const double *m_v, Py_ssize_t m_n,
+                double *o_t0, double *o_v, int out)
+{
+    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);       /* (ring_jumps_run's) */
+    Py_ssize_t start = 0, m_j = 0;
+    double cr = 0.0, ci = 0.0, t_carry = t[0];      /* (carry 0j from t[0]) */
+    while (start < n) {
+        double t0 = t[start];
+        if (!isfinite(t0))
+            break;
+        double key = t0 + span;
+        Py_ssize_t lo = 0, hi = n;
+        while (lo < hi) {
+            Py_ssize_t mid = lo + ((hi - lo) >> 1);
+            if (!ring_less(key, t[mid]))
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        Py_ssize_t stop = lo <= start ? start + 1 : lo;
+        if (stop - start >= short_n)
+            break;
+        double dt = t0 - t_carry;
+        if (!isfinite(dt))
+            break;
+        double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
+        double ex = ring_libm_exp(x), cs, sn;
+        ring_sincos(y, &sn, &cs);
+        double er = ex * cs, ei = ex * sn;
+        double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
+        int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
+        RingEvState st = {UINT64_MAX, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0, m_j};
+        Py_ssize_t i = start;
+        if (i < off) {          /* (event 0 with the carried amplitude: its loop has no such test) */
+            ring_solve_event(&st, i, fr, fi, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
+                             o_t0, o_v, out);
+            i++;
+        }
+        for (; i < stop; i++) {
+            double dcr, dci;
+            ring_jump_one(dr[i - off], drp[i - off], s, rat, scl, &dcr, &dci);
+            ring_solve_event(&st, i, dcr, dci, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
+                             o_t0, o_v, out);
+        }
+        m_j = st.m_j;
+        cr = c[2 * (stop - 1)];
+        ci = c[2 * (stop - 1) + 1];
+        t_carry = t[stop - 1];
+        start = stop;
+    }
+    return start;
 }
 
 /* ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): resonance.py's
@@ -5503,7 +5660,7 @@ static inline __attribute__((always_inline)) int
 ring_int_r2_run(const double *c, const double *dur, double *dur_out, const double *decay2, Py_ssize_t n,
                 double qr, double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
                 const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
-                double *v, RingCand *cand, int checks)
+                double *v, RingCand *cand, int checks, int out)
 {
     int ok = 1;
     Py_ssize_t m_j = 0;
@@ -5524,6 +5681,10 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
      * end's |Re c e^0| = |Re c|), is not above lo (which holds its |Re c|), but it stays
      * a candidate as before (the pieces handed back are the same).  zero_v: those scalars
      * hold (the exponentials are checked once made). */
+    /* (out: o_v is given -- a constant at ring_solve_pieces' calls, as decay2 NULL or not:
+     * no test a piece; cand's floor and room held here, not read again a piece) */
+    double c_floor = cand ? cand->floor : 0.0;
+    Py_ssize_t *c_idx = cand ? cand->idx : NULL;
     int zero_call = isfinite(rat) && isfinite(scl) && four_s > 0.0 && isfinite(four_s), zero_v = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
         double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
@@ -5535,33 +5696,39 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         }
         uint64_t d_bits;
         memcpy(&d_bits, &t, sizeof d_bits);
-        if (have_zero && d_bits == zero_bits) {
-            ex = ex0;
-            cs = cs0;
-            sn = sn0;
+        if (d_bits == zero_bits && zero_v) {       /* (zero_v: have_zero too) */
             /* (|Re c| + |Im c| below RING_ZERO_BIG: both are -- the rounded sum is not below
              * either; a piece it leaves out takes the general steps, the same +0) */
             double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
-            if (zero_v && sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
+            if (sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
+                /* (ex, cs, sn are left as they are: d_prev, zero's bits now, sends the next
+                 * piece of another length to its lookup, and one of length zero here) */
                 d_prev = d_bits;
-                if (o_v) {
-                    o_v[3 * i] = ex;
-                    o_v[3 * i + 1] = cs;
-                    o_v[3 * i + 2] = sn;
+                if (out) {
+                    o_v[3 * i] = ex0;
+                    o_v[3 * i + 1] = cs0;
+                    o_v[3 * i + 2] = sn0;
                 }
                 if (cand) {
                     /* (the candidate test as below; |c| made only where its upper bound,
                      * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
                     double thr;
                     lo = ar_ > lo ? ar_ : lo;
-                    thr = cand->floor > lo ? cand->floor : lo;
+                    thr = c_floor > lo ? c_floor : lo;
                     if (!(sum_a * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
                             && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
-                        cand->idx[n_cand++] = i;
+                        c_idx[n_cand++] = i;
                 }
                 v[i] = 0.0;
                 continue;
             }
+            ex = ex0;
+            cs = cs0;
+            sn = sn0;
+        } else if (have_zero && d_bits == zero_bits) {
+            ex = ex0;
+            cs = cs0;
+            sn = sn0;
         } else if (!have_prev || d_bits != d_prev) {
             /* the table first (a lookup; it holds most lengths the memo would give: the memo's
              * stream filled it too), then the memo, then libm */
@@ -5618,7 +5785,7 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         }
         d_prev = d_bits;
         have_prev = 1;
-        if (o_v) {
+        if (out) {
             o_v[3 * i] = ex;
             o_v[3 * i + 1] = cs;
             o_v[3 * i + 2] = sn;
@@ -5631,8 +5798,8 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         if (cand) {
             double ar_ = fabs(cr);
             lo = ar_ > lo ? ar_ : lo;
-            if (!(a * (1.0 + 1e-9) < (cand->floor > lo ? cand->floor : lo)))
-                cand->idx[n_cand++] = i;
+            if (!(a * (1.0 + 1e-9) < (c_floor > lo ? c_floor : lo)))
+                c_idx[n_cand++] = i;
         }
         if (checks && !decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
             ok = 0;
@@ -5694,7 +5861,7 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
     int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
-                             m_n, o_v, v, NULL, 1);
+                             m_n, o_v, v, NULL, 1, o_v != NULL);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
@@ -5846,6 +6013,40 @@ static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const
     return 1;
 }
 
+/* ring_solve's pieces (ring_int_r2_run into v, dur, cand): a function of its own (its loops'
+ * registers are not the rest of ring_solve's), with a copy of the loop for each branch of
+ * _real_quotient, with and without the memo's out, with and without numpy's decay2: constants
+ * in each, not tests a piece */
+RING_CLONES static __attribute__((noinline, nonnull(18))) void
+ring_solve_pieces(const double *c, double *dur, const double *d2, Py_ssize_t np_, double qr, double qi,
+                  double four_s, double rat, double scl, int real_major, const double *t, const double *q_t,
+                  const double *q_d, const double *q_v, Py_ssize_t q_n, double *r_v, double *v, RingCand *cand)
+{
+#define RING_INT_R2_SOLVE(major, d2_, out_)                                                              \
+    ring_int_r2_run(c, NULL, dur, d2_, np_, qr, qi, four_s, rat, scl, major, t, q_t, q_d, q_v, q_n,      \
+                    out_ ? r_v : NULL, v, cand, 0, out_)
+    if (d2 == NULL) {
+        if (real_major && r_v)
+            RING_INT_R2_SOLVE(1, NULL, 1);
+        else if (real_major)
+            RING_INT_R2_SOLVE(1, NULL, 0);
+        else if (r_v)
+            RING_INT_R2_SOLVE(0, NULL, 1);
+        else
+            RING_INT_R2_SOLVE(0, NULL, 0);
+    } else {
+        if (real_major && r_v)
+            RING_INT_R2_SOLVE(1, d2, 1);
+        else if (real_major)
+            RING_INT_R2_SOLVE(1, d2, 0);
+        else if (r_v)
+            RING_INT_R2_SOLVE(0, d2, 1);
+        else
+            RING_INT_R2_SOLVE(0, d2, 0);
+    }
+#undef RING_INT_R2_SOLVE
+}
+
 /* ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl,
  * real_major, amps_memo, amps_out, pieces_memo, pieces_out): ringing.py's _Stream._solve
  * in one pass: the events' amplitudes (ring_jumps' jump_amplitude of dr, drp; after the
@@ -5887,7 +6088,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     PyObject *ret = NULL;
     Py_buffer mb[3], ob[2], qb[3], rb2[2], d2b;
     int have_m = 0, have_o = 0, have_q = 0, have_r = 0, have_d2 = 0;
-    double *dc = NULL, *c = NULL, *work = NULL;
+    double *c = NULL, *work = NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
     int off = first != Py_None;
     double fr = 0.0, fi = 0.0;
@@ -5926,6 +6127,9 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     }
     const double *t = (const double *)tb.buf, *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
+    /* (4 n: 2 n more than the amplitudes take -- the room of the dc pass there was: with
+     * the smaller room plate_rectilinear's peak RSS rose by 1 MB, the heap's layout; the
+     * room past what is written is never touched) */
     size_t need = 4 * (size_t)n + 3 * (size_t)np_ + 1;
     if (need > ring_scratch_n) {
         size_t want = need + need / 8;     /* (the next chunk's few more events) */
@@ -5937,9 +6141,8 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         ring_scratch = p;
         ring_scratch_n = want;
     }
-    dc = ring_scratch;
-    work = dc + 4 * n;
-    c = dc + 2 * n;
+    c = ring_scratch;
+    work = c + 2 * n;
     double *dur = have_r ? (double *)rb2[0].buf : work;
     double *v = work + np_;
     /* (max_abs_r's candidates: indices, in room of a double each) */
@@ -5951,18 +6154,22 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
      * is not finite.  Both are tested once at the end: None (the caller's steps) then, as
      * at the first such number before.  (A finite sum can overflow too: the caller's steps
      * then give that same sum.) */
-    ring_jumps_run(dr, drp, n - off, s, wd, dc + 2 * off, 0);
-    if (off) {
-        dc[0] = fr;
-        dc[1] = fi;
-    }
-    /* amplitudes (carry 0j from t[0], as Oscillator.amplitudes starts) */
-    Py_ssize_t got = ring_amps_run(t, dc, n, s, wd, span, short_n, 0, 0.0, 0.0, t[0], c, fused,
-                                   have_m ? (const double *)mb[0].buf : NULL,
-                                   have_m ? (const double *)mb[1].buf : NULL,
-                                   have_m ? (const double *)mb[2].buf : NULL,
-                                   have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0,
-                                   have_o ? (double *)ob[0].buf : NULL, have_o ? (double *)ob[1].buf : NULL, 0);
+    /* the events' jumps and amplitudes (a loop for each numpy product mode, with and
+     * without the memo's out) */
+    const double *m_t = have_m ? (const double *)mb[0].buf : NULL;
+    const double *m_t0 = have_m ? (const double *)mb[1].buf : NULL;
+    const double *m_v = have_m ? (const double *)mb[2].buf : NULL;
+    Py_ssize_t m_n = have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0;
+    double *o_t0 = have_o ? (double *)ob[0].buf : NULL, *o_v = have_o ? (double *)ob[1].buf : NULL;
+    Py_ssize_t got;
+    if (fused && have_o)
+        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 1, m_t, m_t0, m_v, m_n, o_t0, o_v, 1);
+    else if (fused)
+        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 1, m_t, m_t0, m_v, m_n, NULL, NULL, 0);
+    else if (have_o)
+        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 0, m_t, m_t0, m_v, m_n, o_t0, o_v, 1);
+    else
+        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 0, m_t, m_t0, m_v, m_n, NULL, NULL, 0);
     double c_last_r = c[2 * (n - 1)], c_last_i = c[2 * (n - 1) + 1];
     if (got != n || !isfinite(c_last_r) || !isfinite(c_last_i)) {
         ret = Py_None;
@@ -5977,14 +6184,8 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         const double *q_v = have_q ? (const double *)qb[2].buf : NULL;
         Py_ssize_t q_n = have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0;
         double *r_v = have_r ? (double *)rb2[1].buf : NULL;
-        /* (a copy of the loop for each branch of _real_quotient: real_major a constant in
-         * each, not a test a piece; ~5 instructions a piece) */
-        if (real_major)
-            ring_int_r2_run(c, NULL, dur, d2, np_, qr, qi, four_s, rat, scl, 1, t, q_t, q_d, q_v, q_n, r_v, v,
-                            &cand, 0);
-        else
-            ring_int_r2_run(c, NULL, dur, d2, np_, qr, qi, four_s, rat, scl, 0, t, q_t, q_d, q_v, q_n, r_v, v,
-                            &cand, 0);
+        ring_solve_pieces(c, dur, d2, np_, qr, qi, four_s, rat, scl, real_major, t, q_t, q_d, q_v, q_n, r_v, v,
+                          &cand);
         double total = -0.0 + np_pairwise_sum(v, np_);
         if (!isfinite(total)) {
             ret = Py_None;
@@ -6064,16 +6265,6 @@ done:                                        /* (have_x -1: that tuple's ring_op
     return ret;
 }
 
-/* x hidden from the compiler's algebra: where it knows ta = -a, it makes ta * u as -(a * u)
- * (and takes a * u of the piece before), which is another NaN than numpy's (-a) * u when
- * a * u is not a number (0 * inf: x86's default NaN, negative, then negated) */
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-#define RING_OPAQUE(x) __asm__("" : "+x"(x))
-#elif defined(__GNUC__)
-#define RING_OPAQUE(x) __asm__("" : "+m"(x))
-#else
-#define RING_OPAQUE(x) ((void)0)
-#endif
 
 /* ring_events' state from piece to piece: the carry (t, the cumulative sum of the pieces'
  * lengths, vel_end, acc), each axis' and part's count and outputs, w^2 of each axis */

@@ -412,6 +412,37 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 }
 
 #ifdef FAST_DECIMAL
+/* digits[.digits] from *pp (none is 0 digits), as read_words_in's steps scan a value: m the
+ * digits as one integer (it wraps past 20 digits: the callers take 1 to 15), *frac the
+ * digits after the point; *pp moves past them.  The number of digits. */
+static inline __attribute__((always_inline)) Py_ssize_t
+scan_plain_decimal(const unsigned char **pp, unsigned long long *m_out, Py_ssize_t *frac)
+{
+    const unsigned char *p = *pp, *p0 = p;
+    unsigned long long m = 0;
+    unsigned d;
+    while ((d = (unsigned)*p - '0') <= 9) {
+        m = m * 10u + d;
+        p++;
+    }
+    Py_ssize_t digits = p - p0;
+    *frac = 0;
+    if (*p == '.') {
+        const unsigned char *f = ++p;
+        while ((d = (unsigned)*p - '0') <= 9) {
+            m = m * 10u + d;
+            p++;
+        }
+        *frac = p - f;
+        digits += *frac;
+    }
+    *pp = p;
+    *m_out = m;
+    return digits;
+}
+#endif
+
+#ifdef FAST_DECIMAL
 /* read_words of an ended line (as read_words_in's) whose words are all usual: each one
  * blank, a letter not seen yet, an optional '-' and digits[.digits] (1 to 15 digits: m <
  * 10^15), then the next word's blank or the line's ending (s[n - 1]) -- the same m, frac,
@@ -433,23 +464,8 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
         p += 2;
         int neg = *p == '-';
         p += neg;
-        const unsigned char *p0 = p;
-        unsigned long long m = 0;
-        unsigned d;
-        while ((d = (unsigned)*p - '0') <= 9) {
-            m = m * 10u + d;
-            p++;
-        }
-        Py_ssize_t digits = p - p0, frac = 0;
-        if (*p == '.') {
-            const unsigned char *f = ++p;
-            while ((d = (unsigned)*p - '0') <= 9) {
-                m = m * 10u + d;
-                p++;
-            }
-            frac = p - f;
-            digits += frac;
-        }
+        unsigned long long m;
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);
         if ((size_t)(digits - 1) >= 15)
             return 1;                   /* (a value ended by a point or sign: the next step's 1) */
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
@@ -1346,22 +1362,8 @@ static int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
     if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
         return 0;
     const unsigned char *p = s + 6;
-    unsigned long long m = 0;
-    unsigned d;
-    while ((d = (unsigned)*p - '0') <= 9) {
-        m = m * 10u + d;
-        p++;
-    }
-    Py_ssize_t digits = p - (s + 6), frac = 0;      /* (frac 0: no point, or none after it) */
-    if (*p == '.') {
-        const unsigned char *f = ++p;
-        while ((d = (unsigned)*p - '0') <= 9) {
-            m = m * 10u + d;
-            p++;
-        }
-        frac = p - f;
-        digits += frac;
-    }
+    unsigned long long m;
+    Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);     /* (frac 0: no point, or none after it) */
     if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
         return 0;
     double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */

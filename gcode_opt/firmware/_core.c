@@ -5209,6 +5209,21 @@ static inline int ring_memo_restart(const double *m_t, const double *m_t0, Py_ss
     return 0;
 }
 
+/* a restart at event start (time t[start]) runs to the first event past key = t[start] + span
+ * (numpy's searchsorted(t, key, 'right'), NaN last), and at least over its own event */
+static inline Py_ssize_t ring_restart_stop(const double *t, Py_ssize_t n, Py_ssize_t start, double key)
+{
+    Py_ssize_t lo = 0, hi = n;
+    while (lo < hi) {
+        Py_ssize_t mid = lo + ((hi - lo) >> 1);
+        if (!ring_less(key, t[mid]))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo <= start ? start + 1 : lo;
+}
+
 /* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
  * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
@@ -5227,16 +5242,7 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double t0 = t[start];
         if (!isfinite(t0))
             break;
-        double key = t0 + span;
-        Py_ssize_t lo = 0, hi = n;
-        while (lo < hi) {
-            Py_ssize_t mid = lo + ((hi - lo) >> 1);
-            if (!ring_less(key, t[mid]))
-                lo = mid + 1;
-            else
-                hi = mid;
-        }
-        Py_ssize_t stop = lo <= start ? start + 1 : lo;
+        Py_ssize_t stop = ring_restart_stop(t, n, start, t0 + span);
         if (stop - start >= short_n)
             break;
         int fin = 1;        /* NaN's bits are not copied: such a restart is numpy's */
@@ -5502,16 +5508,7 @@ ring_solve_amps(const double *t, const double *dr, const double *drp, int off, d
         double t0 = t[start];
         if (!isfinite(t0))
             break;
-        double key = t0 + span;
-        Py_ssize_t lo = 0, hi = n;
-        while (lo < hi) {
-            Py_ssize_t mid = lo + ((hi - lo) >> 1);
-            if (!ring_less(key, t[mid]))
-                lo = mid + 1;
-            else
-                hi = mid;
-        }
-        Py_ssize_t stop = lo <= start ? start + 1 : lo;
+        Py_ssize_t stop = ring_restart_stop(t, n, start, t0 + span);
         if (stop - start >= short_n)
             break;
         double dt = t0 - t_carry;

@@ -59,7 +59,7 @@ def test_window_sums_refuses_out_over_x():
 
 # name -> [(array's place in the args, the place of the array whose size bounds it)]
 INDEXES = {"active_step": [(0, 4)], "tod_at": [(8, 0)], "tod_prep": [(8, 0)], "fixed_knots": [(3, 0)],
-           "vert_prep": [(0, 4), (2, 6)]}
+           "vert_prep": [(0, 4), (2, 6)], "tod_at_into": [(8, 0), (10, 11)]}
 KEEP = 3          # calls kept of each
 
 
@@ -73,7 +73,7 @@ def _copy(a):
 def calls(tmp_path_factory):
     """The first calls of each checked function while a head of prusa_gyroid.gcode is
     processed (args copied as they came in), and what chain_finish returned."""
-    got = {k: [] for k in list(INDEXES) + ["chain_finish"] if k != "tod_prep"}
+    got = {k: [] for k in list(INDEXES) + ["chain_finish"] if k not in ("tod_prep", "tod_at")}
 
     class Spy:
         def __getattr__(self, name):
@@ -101,6 +101,10 @@ def calls(tmp_path_factory):
         process(str(head), str(d / "out.gcode"), prof, Options())
     finally:
         lc.CORE_MOD = save
+    # tod_at (not called there: tod_at_into took its place, session 41) on tod_at_into's laws and
+    # distances, with tod_at's own out, vout and act
+    got["tod_at"] = [(list(a[:10]) + [np.empty(a[8].size), np.empty(a[8].size), np.empty(a[8].size, np.int64)]
+                      + list(a[14:]), None) for a, _ in got["tod_at_into"]]
     # tod_prep (not called there: tod_at took its place) on tod_at's laws and distances
     got["tod_prep"] = [(list(a[:10]) + [np.empty(a[8].size) for _ in range(14)] + [np.empty(a[8].size, np.int64)],
                         None) for a, _ in got["tod_at"]]

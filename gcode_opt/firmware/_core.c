@@ -5224,6 +5224,73 @@ static inline Py_ssize_t ring_restart_stop(const double *t, Py_ssize_t n, Py_ssi
     return lo <= start ? start + 1 : lo;
 }
 
+/* ring_amps_run's and ring_solve_amps' state from event to event of a restart: the last time's bits and its
+ * exponentials, e_dn, e_up, the running sum g, the memo's place */
+typedef struct {
+    uint64_t tt_prev;
+    double ex1, ex2, c2, s2, edr, edi, eur, eui, gr, gi;
+    Py_ssize_t m_j;
+} RingEvState;
+
+/* one event i of a restart from t0 with jump (dcr, dci): the restart loops' body (e_dn =
+ * (ex1 c2, ex1 s1) and e_up = (ex2 c2, ex2 s2) made once a time: the same products) */
+static inline __attribute__((always_inline)) void
+ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const double *t, double t0, double s,
+                 double wd, double c0r, double c0i, double *c, int fused, int use_m, const double *m_t,
+                 const double *m_t0, const double *m_v, Py_ssize_t m_n, double *o_t0, double *o_v, int out)
+{
+    double tt = t[i] - t0;
+    uint64_t tt_bits;
+    memcpy(&tt_bits, &tt, sizeof tt_bits);
+    if (tt_bits != st->tt_prev) {
+        double y2 = wd * tt, y1 = 0.0 - y2;
+        int got = 0;
+        if (use_m) {
+            double ti = t[i];
+            Py_ssize_t m_j = st->m_j;
+            while (m_j < m_n && m_t[m_j] < ti)
+                m_j++;
+            st->m_j = m_j;
+            for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                if (ring_same(m_t0[k], t0)) {
+                    st->ex1 = m_v[4 * k];
+                    st->ex2 = m_v[4 * k + 1];
+                    st->c2 = m_v[4 * k + 2];
+                    st->s2 = m_v[4 * k + 3];
+                    got = 1;
+                    break;
+                }
+        }
+        if (!got) {
+            double x1 = s * tt + 0.0, x2 = -s * tt;
+            st->ex1 = ring_libm_exp(x1);
+            st->ex2 = ring_libm_exp(x2);
+            double sn2, cs2;
+            ring_sincos(y2, &sn2, &cs2);
+            st->s2 = sn2;
+            st->c2 = cs2;
+        }
+        double s1 = y2 != 0.0 ? -st->s2 : y1;
+        st->edr = st->ex1 * st->c2;
+        st->edi = st->ex1 * s1;
+        st->eur = st->ex2 * st->c2;
+        st->eui = st->ex2 * st->s2;
+        st->tt_prev = tt_bits;
+    }
+    if (out) {
+        o_t0[i] = t0;
+        o_v[4 * i] = st->ex1;
+        o_v[4 * i + 1] = st->ex2;
+        o_v[4 * i + 2] = st->c2;
+        o_v[4 * i + 3] = st->s2;
+    }
+    double pr, pi;
+    ring_cmul(fused, dcr, dci, st->edr, st->edi, &pr, &pi);
+    st->gr = st->gr + pr;
+    st->gi = st->gi + pi;
+    ring_cmul(fused, c0r + st->gr, c0i + st->gi, st->eur, st->eui, &c[2 * i], &c[2 * i + 1]);
+}
+
 /* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
  * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
@@ -5259,59 +5326,16 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         ring_sincos(y, &sn, &cs);
         double er = ex * cs, ei = ex * sn;
         double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
-        /* g, the running sum, from -0.0: -0.0 + p is p, bit for bit (the cumsum's first term
-         * copied), so the first event needs no test of its own */
-        double gr = -0.0, gi = -0.0;
-        /* the memo serves this restart only if it has one from t0 too */
+        /* the memo serves this restart only if it has one from t0 too; the running sum g from
+         * -0.0 (-0.0 + p is p, bit for bit: the cumsum's first term copied); events at one
+         * time (a block without cruise) share the previous event's exponentials (same bits
+         * in, same out; the first event's tt is +0, never tt_prev's first bits, a NaN's) */
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
-        /* events at one time (a block without cruise: its cruise piece lasts 0) have the
-         * same tt: their exponentials are the previous event's (same bits in, same out); the
-         * first event's tt is +0 (t0 - t0, t0 finite), never tt_prev's first bits (a NaN's) */
-        uint64_t tt_prev = UINT64_MAX;
-        double ex1 = 0.0, ex2 = 0.0, c2 = 0.0, s2 = 0.0, s1 = 0.0;
-        for (Py_ssize_t i = start; i < stop; i++) {
-            double tt = t[i] - t0;
-            uint64_t tt_bits;
-            memcpy(&tt_bits, &tt, sizeof tt_bits);
-            if (tt_bits != tt_prev) {
-                double y2 = wd * tt, y1 = 0.0 - y2;
-                int got = 0;
-                if (use_m) {    /* the memo's event at this time in a restart from t0 */
-                    double ti = t[i];
-                    while (m_j < m_n && m_t[m_j] < ti)
-                        m_j++;
-                    for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                        if (ring_same(m_t0[k], t0)) {
-                            ex1 = m_v[4 * k];
-                            ex2 = m_v[4 * k + 1];
-                            c2 = m_v[4 * k + 2];
-                            s2 = m_v[4 * k + 3];
-                            got = 1;
-                            break;
-                        }
-                }
-                if (!got) {
-                    double x1 = s * tt + 0.0, x2 = -s * tt;
-                    ex1 = ring_libm_exp(x1);
-                    ex2 = ring_libm_exp(x2);
-                    ring_sincos(y2, &s2, &c2);
-                }
-                s1 = y2 != 0.0 ? -s2 : y1;
-                tt_prev = tt_bits;
-            }
-            if (o_t0) {
-                o_t0[i] = t0;
-                o_v[4 * i] = ex1;
-                o_v[4 * i + 1] = ex2;
-                o_v[4 * i + 2] = c2;
-                o_v[4 * i + 3] = s2;
-            }
-            double pr, pi;
-            ring_cmul(fused, dc[2 * i], dc[2 * i + 1], ex1 * c2, ex1 * s1, &pr, &pi);
-            gr = gr + pr;
-            gi = gi + pi;
-            ring_cmul(fused, c0r + gr, c0i + gi, ex2 * c2, ex2 * s2, &c[2 * i], &c[2 * i + 1]);
-        }
+        RingEvState st = {UINT64_MAX, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0, m_j};
+        for (Py_ssize_t i = start; i < stop; i++)
+            ring_solve_event(&st, i, dc[2 * i], dc[2 * i + 1], t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t,
+                             m_t0, m_v, m_n, o_t0, o_v, o_t0 != NULL);
+        m_j = st.m_j;
         cr = c[2 * (stop - 1)];
         ci = c[2 * (stop - 1) + 1];
         t_carry = t[stop - 1];
@@ -5420,72 +5444,6 @@ done:
     PyBuffer_Release(&pb);
     PyBuffer_Release(&ob);
     return ret;
-}
-
-/* ring_solve_amps' state from event to event of a restart: the last time's bits and its
- * exponentials, e_dn, e_up, the running sum g, the memo's place */
-typedef struct {
-    uint64_t tt_prev;
-    double ex1, ex2, c2, s2, edr, edi, eur, eui, gr, gi;
-    Py_ssize_t m_j;
-} RingEvState;
-
-/* one event i of a restart from t0 with jump (dcr, dci): ring_amps_run's loop body */
-static inline __attribute__((always_inline)) void
-ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const double *t, double t0, double s,
-                 double wd, double c0r, double c0i, double *c, int fused, int use_m, const double *m_t,
-                 const double *m_t0, const double *m_v, Py_ssize_t m_n, double *o_t0, double *o_v, int out)
-{
-    double tt = t[i] - t0;
-    uint64_t tt_bits;
-    memcpy(&tt_bits, &tt, sizeof tt_bits);
-    if (tt_bits != st->tt_prev) {
-        double y2 = wd * tt, y1 = 0.0 - y2;
-        int got = 0;
-        if (use_m) {
-            double ti = t[i];
-            Py_ssize_t m_j = st->m_j;
-            while (m_j < m_n && m_t[m_j] < ti)
-                m_j++;
-            st->m_j = m_j;
-            for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                if (ring_same(m_t0[k], t0)) {
-                    st->ex1 = m_v[4 * k];
-                    st->ex2 = m_v[4 * k + 1];
-                    st->c2 = m_v[4 * k + 2];
-                    st->s2 = m_v[4 * k + 3];
-                    got = 1;
-                    break;
-                }
-        }
-        if (!got) {
-            double x1 = s * tt + 0.0, x2 = -s * tt;
-            st->ex1 = ring_libm_exp(x1);
-            st->ex2 = ring_libm_exp(x2);
-            double sn2, cs2;
-            ring_sincos(y2, &sn2, &cs2);
-            st->s2 = sn2;
-            st->c2 = cs2;
-        }
-        double s1 = y2 != 0.0 ? -st->s2 : y1;
-        st->edr = st->ex1 * st->c2;
-        st->edi = st->ex1 * s1;
-        st->eur = st->ex2 * st->c2;
-        st->eui = st->ex2 * st->s2;
-        st->tt_prev = tt_bits;
-    }
-    if (out) {
-        o_t0[i] = t0;
-        o_v[4 * i] = st->ex1;
-        o_v[4 * i + 1] = st->ex2;
-        o_v[4 * i + 2] = st->c2;
-        o_v[4 * i + 3] = st->s2;
-    }
-    double pr, pi;
-    ring_cmul(fused, dcr, dci, st->edr, st->edi, &pr, &pi);
-    st->gr = st->gr + pr;
-    st->gi = st->gi + pi;
-    ring_cmul(fused, c0r + st->gr, c0i + st->gi, st->eur, st->eui, &c[2 * i], &c[2 * i + 1]);
 }
 
 /* ring_solve's amplitudes: ring_amps_run's restart loop without its checks (ring_solve tests

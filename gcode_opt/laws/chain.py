@@ -543,6 +543,25 @@ def _tod_core(core, law, s_targets, max_iter=200):
 _TIMES_AND_SPEEDS = _times_and_speeds
 
 
+def _tod_core_laws(core, name, law, pj, s_targets):
+    """What the chain core's time-of-distance entry `name` (tod_at, tod_at_into) reads of the
+    laws: (their eight arrays, pj, s_targets) as contiguous float64 (pj int64), or None where
+    _times_and_speeds would not run _tod_core's C path on the taken laws (no such entry, not
+    float64 1-d laws, no pieces, shapes that differ, a law not small)."""
+    c = law._c
+    T = law.T
+    if not (hasattr(core, name) and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
+            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
+            and np.asarray(s_targets).shape == pj.shape):
+        return None
+    small = c["small"]
+    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
+        return None
+    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
+    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
+    return laws, np.ascontiguousarray(pj, np.int64), f(s_targets)
+
+
 def _tod_core_at(core, law, pj, s_targets, max_iter=200):
     """_times_and_speeds(law.take(pj), s_targets) by the chain core without taking the
     laws first: tod_at makes each law's inputs as tod_prep makes them from the taken law's
@@ -553,19 +572,11 @@ def _tod_core_at(core, law, pj, s_targets, max_iter=200):
     arrays of the free vertices, which tod_solve gathered from again at every step.  None
     (the caller takes the laws and calls _times_and_speeds) where _times_and_speeds would
     not run _tod_core's C path on the taken laws."""
-    c = law._c
-    T = law.T
-    if not (hasattr(core, "tod_at") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
-            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
-            and np.asarray(s_targets).shape == pj.shape):
+    got = _tod_core_laws(core, "tod_at", law, pj, s_targets)
+    if got is None:
         return None
-    small = c["small"]
-    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
-        return None
+    laws, pj, s = got
     N = pj.size
-    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
-    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
-    pj, s = np.ascontiguousarray(pj, np.int64), f(s_targets)
     out, vout, act = np.empty(N), np.empty(N), np.empty(N, np.int64)
     na = core.tod_at(*laws, pj, s, out, vout, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
     if na:                     # out of steps: the last t of the laws still going, not evaluated yet
@@ -584,23 +595,17 @@ def _tod_core_into(core, law, pj, s_targets, free, v, t, max_iter=200):
     (tests/test_speed41_chain41_into.py).  free: int64 without repeats (vert_prep's free
     vertices); v, t: contiguous float64.  False (nothing written: the caller runs its own
     lines) where _tod_core_at would return None or the arrays are not those types."""
-    c = law._c
-    T = law.T
-    if not (hasattr(core, "tod_at_into") and isinstance(pj, np.ndarray) and pj.ndim == 1 and pj.size
-            and T.dtype == np.float64 and law.L.dtype == np.float64 and T.ndim == 1 and law.L.ndim == 1
-            and np.asarray(s_targets).shape == pj.shape and free.shape == pj.shape and free.dtype == np.int64
+    if not (isinstance(pj, np.ndarray) and free.shape == pj.shape and free.dtype == np.int64
             and v.dtype == t.dtype == np.float64 and v.flags.c_contiguous and t.flags.c_contiguous
             and v.shape == t.shape):
         return False
-    small = c["small"]
-    if not (bool(small.all()) or bool(small[pj].all())):      # (the taken laws' own test)
+    got = _tod_core_laws(core, "tod_at_into", law, pj, s_targets)
+    if got is None:
         return False
-    f = lambda a: np.ascontiguousarray(a, float)          # noqa: E731
-    laws = (f(T), f(law.L), f(c["gs"]), f(c["n"]), f(c["sh2"]), f(law._wbar), f(law._A), f(law._delta))
-    pj, free = np.ascontiguousarray(pj, np.int64), np.ascontiguousarray(free)
+    laws, pj, s = got
+    free = np.ascontiguousarray(free)
     act = np.empty(pj.size, np.int64)
-    rest_t = core.tod_at_into(*laws, pj, f(s_targets), free, v, t, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C,
-                              max_iter)
+    rest_t = core.tod_at_into(*laws, pj, s, free, v, t, act, _S1_COEF_C, _S1_ZMAX_C, _SINH_COEF_C, max_iter)
     if rest_t:                 # out of steps: the last t of the laws still going, not evaluated yet
         rest = act[:len(rest_t)]
         tl = np.array(rest_t, float)

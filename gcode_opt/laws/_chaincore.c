@@ -384,22 +384,162 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
 }
 
 
-/* out[i] = prims.shc(g[i] / 4) for n <= CHUNK laws (p_shc's operations, terms outside,
-   elements inside: SIMD lanes) */
-VEC_CLONES static void shc_quarter(Py_ssize_t n, const double *restrict g, const double *restrict sc, int nc,
+/* ---- Horner from a lower term, the same bits (tod_chunk's and shc_quarter's sinh series).
+   The series S(x) = c[0] + x (c[1] + x (... + x c[nt-1])) by Horner from its last term,
+   s[nt-1] = c[nt-1], s[q] = fl(fl(s[q+1] x) + c[q]), at x = a square (x >= +0, or nan).
+   For x >= 0 each step is nondecreasing in s[q+1] (fl(s x) is, for a fixed x >= 0; so is
+   fl(p + c); rounding to nearest is monotone), so from bounds lo <= s[Q] <= hi the same
+   steps on lo and on hi (with the lane's own x) keep lo[q] <= s[q] <= hi[q] at every q < Q;
+   where they meet (lo[q] == hi[q], not nan) that is s[q] itself, and the steps after it,
+   the same operations on the same double, give the full Horner's bits.  Bounds of s[Q] for
+   every x in [0, xb]: an interval Horner from the last term (s[nt-1] = c[nt-1] exactly),
+   at a step fl(s x) over s in [lo, hi], x in [0, xb] lies in [fl(lo (lo >= 0 ? 0 : xb)),
+   fl(hi (hi >= 0 ? xb : 0))] (fl(s x) is monotone in s for x >= 0 and in x for each sign
+   of s), then + c[q] rounded (monotone).  So the bounds hold whatever the coefficients'
+   signs; for positive ones (the sinh series) lo[Q] = c[Q] and hi[Q] = s[Q](xb).
+   Exact absorption (fl(s[q+1] x) below half an ulp of c[q], so s[q] = c[q]) needs x below
+   ~2^-43 here: the chains' squares (~2^-20 .. 2^-8) are far above, so the bounds' steps.
+   A block of lanes whose largest x has biased exponent E (x < 2^(E - 1022)) starts at the
+   table's row for E: term Q, bounds [lo, hi]; the lanes run the bounds' steps down to the
+   row's term M (where they should meet), then on until every lane's have met, then the
+   plain steps; a block not met by term 0 (rare: a lane's value within the bounds' width of
+   a rounding boundary) runs the whole Horner again.  A nan or inf lane (E = 2047), or a
+   row past HS_EHI, starts at the last term: the full Horner.  (The x are squares: never
+   below +0, the bounds' monotonicity holds.) */
+#define HS_ELO (1023 - 90)   /* rows: E in [HS_ELO, HS_EHI]; below HS_ELO, HS_ELO's row (its xb is larger) */
+#define HS_EHI (1023 + 4)    /* x < 32; above: the full Horner */
+#define HS_NE (HS_EHI - HS_ELO + 1)
+#define HS_TOL (-60)         /* a row's start: the bounds' width within 2^HS_TOL |c[q]| by a term q >= 1 */
+#define HS_MAXT SINH_MAX    /* the callers' check */
+
+typedef struct {
+    int nt;                  /* the series' terms (0: not made) */
+    double c[HS_MAXT];       /* its coefficients */
+    int q[HS_NE];            /* row E - HS_ELO: the term to start at */
+    int m[HS_NE];            /* and the term whose step the bounds are expected to meet at (checked from there) */
+    double lo[HS_NE], hi[HS_NE];
+} HornerSkip;
+
+/* The table of the nt <= HS_MAXT coefficients c.  A row's start Q: the cheapest (a bounds'
+   step counted as HS_ISTEP plain ones) where the bounds' width w = hi - lo at x = xb, times
+   xb a step, is within 2^tol_exp |c[q]| by a term q >= 1 (the bounds then nearly always meet
+   by there: their roundings differ only where a value lies within the width of a rounding
+   boundary, a chance of about 2^(tol_exp + 52); one more step shrinks the width by another
+   factor x); w = 0 (the tail absorbed): met at Q; else the last term (the full Horner; every
+   row's with tol_exp 0).  (Q's choice is speed only: any Q gives the same bits; the tests
+   make many blocks take several steps or miss with a coarse tol_exp.) */
+#define HS_ISTEP 2
+static void hs_make(HornerSkip *hs, const double *c, int nt, int tol_exp) {
+    hs->nt = nt;
+    memcpy(hs->c, c, nt * sizeof(double));
+    double lo[HS_MAXT], hi[HS_MAXT];
+    for (int r = 0; r < HS_NE; r++) {
+        double xb = ldexp(1.0, HS_ELO + r - 1022);
+        lo[nt - 1] = hi[nt - 1] = c[nt - 1];
+        for (int q = nt - 2; q >= 0; q--) {
+            double pl = lo[q + 1] * (lo[q + 1] >= 0 ? 0.0 : xb), ph = hi[q + 1] * (hi[q + 1] >= 0 ? xb : 0.0);
+            lo[q] = pl + c[q];
+            hi[q] = ph + c[q];
+        }
+        int Q = nt - 1, M = nt - 1, cost = nt - 1;
+        for (int s = 1; tol_exp && s < nt - 1; s++) {
+            if (!(lo[s] <= hi[s])) continue;               /* (a nan or inf coefficient) */
+            double w = hi[s] - lo[s];
+            int met = w == 0.0 ? s : -1;
+            for (int q = s - 1; met < 0 && q >= 1; q--) {
+                w = w * xb;
+                if (w <= ldexp(fabs(c[q]), tol_exp)) met = q;
+            }
+            if (met < 0) continue;
+            int cs = HS_ISTEP * (s - met) + met;
+            if (cs < cost) { cost = cs; Q = s; M = met; }
+        }
+        hs->q[r] = Q;
+        hs->m[r] = M;
+        hs->lo[r] = Q == nt - 1 ? c[nt - 1] : lo[Q];
+        hs->hi[r] = Q == nt - 1 ? c[nt - 1] : hi[Q];
+    }
+}
+
+/* The table of the series c (nt terms), made once for coefficients seen before (the module's
+   callers pass prims.SINH_COEF every time; the GIL held) */
+static HornerSkip hs_sinh;
+static const HornerSkip *hs_get(const double *c, int nt) {
+    if (nt < 1 || nt > HS_MAXT) return NULL;
+    if (!(hs_sinh.nt == nt && memcmp(hs_sinh.c, c, nt * sizeof(double)) == 0)) hs_make(&hs_sinh, c, nt, HS_TOL);
+    return &hs_sinh;
+}
+
+/* A block's row: the start term Q, the term M whose step starts the checks, bounds L, H from the bits xbits of its largest x
+   (sign masked: a nan's bits above every number's).  A macro: the vector clones call it (a
+   function built for another target is not inlined into them). */
+#define HS_ROW(hs, xbits, Q, M, L, H) do {                                                   \
+    int64_t E_ = (xbits) >> 52;                                                                \
+    if (E_ > HS_EHI) { (Q) = (M) = (hs)->nt - 1; (L) = (H) = (hs)->c[(hs)->nt - 1]; break; }  \
+    int r_ = E_ < HS_ELO ? 0 : (int)(E_ - HS_ELO);                                             \
+    (Q) = (hs)->q[r_]; (M) = (hs)->m[r_]; (L) = (hs)->lo[r_]; (H) = (hs)->hi[r_];             \
+} while (0)
+#define HS_ABS_BITS(x) ((x) & INT64_MAX)        /* a square's bits, a nan's sign dropped */
+
+typedef long long v4l __attribute__((vector_size(32)));       /* a v4d comparison's lanes */
+#define V4_ALL(e) (((e)[0] & (e)[1] & (e)[2] & (e)[3]) != 0)      /* every lane's comparison true */
+
+/* out[i] = prims.shc(g[i] / 4) for n <= CHUNK laws (p_shc's operations; its series by blocks
+   of 8 lanes from the term hs's row gives, the same bits: see HornerSkip) */
+VEC_CLONES static void shc_quarter(Py_ssize_t n, const double *restrict g, const HornerSkip *restrict hs,
                                    double *restrict out) {
     double zb[CHUNK], z2b[CHUNK], hb[CHUNK];
+    int64_t mb[CHUNK];
+    const double *sc = hs->c;
+    int nc = hs->nt;
     double cl = sc[nc - 1];
     for (Py_ssize_t j = 0; j < n; j++) {
-        double z = g[j] / 4;
-        zb[j] = z; z2b[j] = z * z; hb[j] = cl;
+        double z = g[j] / 4, x = z * z;
+        int64_t xb;
+        memcpy(&xb, &x, 8);
+        zb[j] = z; z2b[j] = x; mb[j] = HS_ABS_BITS(xb);
     }
-    for (int q = nc - 2; q >= 0; q--) {
-        double a = sc[q];
-        for (Py_ssize_t j = 0; j < n; j++) {
-            double u = hb[j] * z2b[j];
-            hb[j] = u + a;
+    Py_ssize_t n8 = (n + 7) & ~(Py_ssize_t)7;            /* blocks of 8, the tail's padding zeros */
+    for (Py_ssize_t j = n; j < n8; j++) { z2b[j] = 0.0; mb[j] = 0; }
+    for (Py_ssize_t j0 = 0; j0 < n8; j0 += 8) {
+        int64_t bm = mb[j0];
+        for (int u = 1; u < 8; u++) bm = mb[j0 + u] > bm ? mb[j0 + u] : bm;
+        int Q, M;
+        double l, h;
+        HS_ROW(hs, bm, Q, M, l, h);
+        v4d xl, xh;
+        memcpy(&xl, z2b + j0, sizeof xl); memcpy(&xh, z2b + j0 + 4, sizeof xh);
+        v4d ul = {l, l, l, l}, uh = ul, Ul = {h, h, h, h}, Uh = Ul;
+        int q = Q - 1, met = 1;
+        for (; q >= M; q--) {                             /* the bounds' steps to where they should meet */
+            double c = sc[q];
+            v4d a = {c, c, c, c};
+            v4d pl = ul * xl, ph = uh * xh, Pl = Ul * xl, Ph = Uh * xh;
+            ul = pl + a; uh = ph + a; Ul = Pl + a; Uh = Ph + a;
         }
+        if (l != h) {                                     /* then until they have met */
+            v4l e = (ul == Ul) & (uh == Uh);
+            met = V4_ALL(e);
+            while (!met && q >= 0) {
+                double c = sc[q--];
+                v4d a = {c, c, c, c};
+                v4d pl = ul * xl, ph = uh * xh, Pl = Ul * xl, Ph = Uh * xh;
+                ul = pl + a; uh = ph + a; Ul = Pl + a; Uh = Ph + a;
+                e = (ul == Ul) & (uh == Uh);
+                met = V4_ALL(e);
+            }
+        }
+        if (!met) {                                       /* not met by term 0: the whole series */
+            ul = (v4d){cl, cl, cl, cl}; uh = ul;
+            q = nc - 2;
+        }
+        for (; q >= 0; q--) {
+            double c = sc[q];
+            v4d a = {c, c, c, c};
+            v4d pl = ul * xl, ph = uh * xh;
+            ul = pl + a; uh = ph + a;
+        }
+        memcpy(hb + j0, &ul, sizeof ul); memcpy(hb + j0 + 4, &uh, sizeof uh);
     }
     for (Py_ssize_t j = 0; j < n; j++) {
         double z = zb[j];
@@ -415,21 +555,30 @@ VEC_CLONES static void shc_quarter(Py_ssize_t n, const double *restrict g, const
    at z²), loops over the terms outside and the elements inside: SIMD lanes, each element's
    operations in its own order, the same bits as one element at a time. */
 VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict taub, const double *restrict gb,
-                                 const double *restrict coef, const double *restrict sc, int nc,
+                                 const double *restrict coef, const HornerSkip *restrict hs,
                                  const double *restrict s4b, const double *restrict nb, const double *restrict sh2b,
                                  const double *restrict wb, const double *restrict Ab, const double *restrict db,
                                  const double *restrict Tb, double *restrict sout, double *restrict vout) {
     double za[CHUNK], zb_[CHUNK], zx[CHUNK], ha[CHUNK], hb[CHUNK], hx[CHUNK], s1[CHUNK];
     double a2b[CHUNK], b2b[CHUNK], x2b[CHUNK];             /* the squares, made once */
+    int64_t mb[CHUNK];                                     /* the bits of each law's largest square */
+    const double *sc = hs->c;
+    int nc = hs->nt;
     double cl = sc[nc - 1], ck = coef[k - 1];
     for (Py_ssize_t j = 0; j < n; j++) {
         double tau = taub[j], g = gb[j];
         double zaj = (g * tau) / 2, zbj = (g * (1 - tau)) / 2, zxj = g * (tau - 0.5);
+        double a2 = zaj * zaj, b2 = zbj * zbj, x2 = zxj * zxj;
         za[j] = zaj; zb_[j] = zbj; zx[j] = zxj;
-        a2b[j] = zaj * zaj; b2b[j] = zbj * zbj; x2b[j] = zxj * zxj;
+        a2b[j] = a2; b2b[j] = b2; x2b[j] = x2;
+        int64_t ba, bb, bx;
+        memcpy(&ba, &a2, 8); memcpy(&bb, &b2, 8); memcpy(&bx, &x2, 8);
+        ba = HS_ABS_BITS(ba); bb = HS_ABS_BITS(bb); bx = HS_ABS_BITS(bx);
+        ba = bb > ba ? bb : ba;
+        mb[j] = bx > ba ? bx : ba;
     }
     Py_ssize_t n8 = (n + 7) & ~(Py_ssize_t)7;            /* blocks of 8, the tail's padding zeros */
-    for (Py_ssize_t j = n; j < n8; j++) { a2b[j] = 0.0; b2b[j] = 0.0; x2b[j] = 0.0; }
+    for (Py_ssize_t j = n; j < n8; j++) { a2b[j] = 0.0; b2b[j] = 0.0; x2b[j] = 0.0; mb[j] = 0; }
     /* each block's Horner steps in registers (gcc's vectors, two a series: gcc's own
        vectorising of a block kept a third of it in scalars), the elements' operations in
        their order */
@@ -438,9 +587,42 @@ VEC_CLONES static void tod_chunk(Py_ssize_t n, int k, const double *restrict tau
         memcpy(&a2l, a2b + j0, sizeof a2l); memcpy(&a2h, a2b + j0 + 4, sizeof a2h);
         memcpy(&b2l, b2b + j0, sizeof b2l); memcpy(&b2h, b2b + j0 + 4, sizeof b2h);
         memcpy(&x2l, x2b + j0, sizeof x2l); memcpy(&x2h, x2b + j0 + 4, sizeof x2h);
-        v4d ul = {cl, cl, cl, cl}, uh = ul, wl = ul, wh = ul, yl = ul, yh = ul;
+        /* the three sinh series from the term the block's largest square allows (HornerSkip:
+           the bounds' steps until every lane's have met, then the plain steps; the whole
+           series where they have not met by term 0) */
+        int64_t bm = mb[j0];
+        for (int u = 1; u < 8; u++) bm = mb[j0 + u] > bm ? mb[j0 + u] : bm;
+        int Q, M;
+        double l, h;
+        HS_ROW(hs, bm, Q, M, l, h);
+        v4d ul = {l, l, l, l}, uh = ul, wl = ul, wh = ul, yl = ul, yh = ul;
+        v4d Ul = {h, h, h, h}, Uh = Ul, Wl = Ul, Wh = Ul, Yl = Ul, Yh = Ul;
+        int q = Q - 1, met = 1;
+#define TC_BOUNDS_STEP(c) do {                                                                             \
+            v4d a = {(c), (c), (c), (c)};                                                                  \
+            v4d pul = ul * a2l, puh = uh * a2h, pwl = wl * b2l, pwh = wh * b2h, pyl = yl * x2l, pyh = yh * x2h; \
+            v4d Pul = Ul * a2l, Puh = Uh * a2h, Pwl = Wl * b2l, Pwh = Wh * b2h, Pyl = Yl * x2l, Pyh = Yh * x2h; \
+            ul = pul + a; uh = puh + a; wl = pwl + a; wh = pwh + a; yl = pyl + a; yh = pyh + a;             \
+            Ul = Pul + a; Uh = Puh + a; Wl = Pwl + a; Wh = Pwh + a; Yl = Pyl + a; Yh = Pyh + a;             \
+        } while (0)
+#define TC_MET() ({ v4l e = (ul == Ul) & (uh == Uh) & (wl == Wl) & (wh == Wh) & (yl == Yl) & (yh == Yh); V4_ALL(e); })
+        for (; q >= M; q--) TC_BOUNDS_STEP(sc[q]);
+        if (l != h) {
+            met = TC_MET();
+            while (!met && q >= 0) {
+                TC_BOUNDS_STEP(sc[q]);
+                q--;
+                met = TC_MET();
+            }
+        }
+#undef TC_BOUNDS_STEP
+#undef TC_MET
+        if (!met) {
+            ul = (v4d){cl, cl, cl, cl}; uh = ul; wl = ul; wh = ul; yl = ul; yh = ul;
+            q = nc - 2;
+        }
 #pragma GCC unroll 2
-        for (int q = nc - 2; q >= 0; q--) {
+        for (; q >= 0; q--) {
             double c = sc[q];
             v4d a = {c, c, c, c};
             v4d pul = ul * a2l, puh = uh * a2h, pwl = wl * b2l, pwh = wh * b2h, pyl = yl * x2l, pyh = yh * x2h;
@@ -568,6 +750,7 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
             const int64_t *dst, double *vdst, double *tdst) {
     const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
     const int64_t *ix = lw->ix;
+    const HornerSkip *hs = hs_get(sc, nc);       /* the sinh series' start terms (nc <= SINH_MAX: the callers') */
     Py_ssize_t NN = N ? N : 1;
     int ident = 1;
     for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
@@ -593,7 +776,7 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     }
     for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
         Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
-        shc_quarter(m, gq + j0, sc, nc, s4 + j0);
+        shc_quarter(m, gq + j0, hs, s4 + j0);
     }
     /* τ = clip(t / T, 0, 1) of the active laws (taus[j]: act[j]'s), made where t is: once
        here, then by the step that moves t (each law's τ once a step, not once for the
@@ -640,7 +823,7 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
            (tod_step) */
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
-            tod_chunk(m, k, taus + j0, gq + j0, coef, sc, nc, s4 + j0, nq + j0, shq + j0, wq + j0, Aq + j0, dq + j0,
+            tod_chunk(m, k, taus + j0, gq + j0, coef, hs, s4 + j0, nq + j0, shq + j0, wq + j0, Aq + j0, dq + j0,
                       Tq + j0, sb, vv);
             tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tq + j0, gq + j0, t + j0, lo + j0, hi + j0, dn,
                      tnb, taub, z2b);
@@ -1048,6 +1231,46 @@ static PyObject *piece_cumsum(PyObject *self, PyObject *a) {
             out[p] = s;
         }
     }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* horner_skip_c(tau, g, s1coef, k, sinh_coef, n, sh2, wbar, A, delta, T, s4, s, v, tol_exp) (tests):
+   s4 = prims.shc(g / 4) (shc_quarter), then s, v = tod_chunk's s and ṡ of the laws (tau, g,
+   n .. T, with the s4 made here) with the S1 series' k terms, CHUNK laws a call, both with a
+   HornerSkip table of sinh_coef made with tol_exp (HS_TOL the module's; 0 the full Horner;
+   coarser ones make many blocks' bounds take several steps or miss) */
+static PyObject *horner_skip_c(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    int k, tol_exp;
+    if (!PyArg_ParseTuple(a, "OOOiOOOOOOOOOOi", &o[0], &o[1], &o[2], &k, &o[3], &o[4], &o[5], &o[6], &o[7],
+                          &o[8], &o[9], &o[10], &o[11], &o[12], &tol_exp))
+        return NULL;
+    Bufs b = {.n = 0};
+    double *p[13];
+    Py_ssize_t nn[13];
+    for (int u = 0; u < 13; u++) {
+        p[u] = get(&b, o[u], 8, u >= 10, &nn[u]);
+        if (!p[u]) { release(&b); return NULL; }
+    }
+    Py_ssize_t N = nn[0];
+    int ok = nn[3] >= 1 && nn[3] <= SINH_MAX && k >= 1 && k <= nn[2] && tol_exp <= 0;
+    for (int u = 0; u < 13; u++) ok = ok && (u == 2 || u == 3 || nn[u] == N);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "horner_skip_c: shapes");
+        return NULL;
+    }
+    HornerSkip *hs = PyMem_Malloc(sizeof *hs);
+    if (!hs) { release(&b); return PyErr_NoMemory(); }
+    hs_make(hs, p[3], (int)nn[3], tol_exp);
+    for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
+        Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
+        shc_quarter(m, p[1] + j0, hs, p[10] + j0);
+        tod_chunk(m, k, p[0] + j0, p[1] + j0, p[2], hs, p[10] + j0, p[4] + j0, p[5] + j0, p[6] + j0, p[7] + j0,
+                  p[8] + j0, p[9] + j0, p[11] + j0, p[12] + j0);
+    }
+    PyMem_Free(hs);
     release(&b);
     Py_RETURN_NONE;
 }
@@ -2784,6 +3007,7 @@ static PyMethodDef methods[] = {
     {"tod_at_into", tod_at_into, METH_VARARGS, "tod_at with its answers put where solve_fixed keeps them"},
     {"fixed_knots", fixed_knots, METH_VARARGS, "solve_fixed's knots and pieces, one pass"},
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
+    {"horner_skip_c", horner_skip_c, METH_VARARGS, "shc_quarter and tod_chunk with a HornerSkip table (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},
     {"row_sums", row_sums, METH_VARARGS, "np.sum of each contiguous run (pairwise)"},
     {"step_accels", step_accels, METH_VARARGS, "LineLaw.end_accels of series-branch laws"},

@@ -1341,11 +1341,10 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
         sub = law.rows(sl)
         phi, w, w1, _ = sub.eval_tau(np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size)),
                                      w2=False)
-        T = sub.T_t[:, None]
-        Rr = R[sl, None]
-        v = Rr * w / T
-        at = Rr * w1 / T ** 2
-        kv2 = _kappa_rows(geos[sl], Rr * phi, _rows_of(memo, sl)) * (v * v)
+        T, Rr = sub.T_t, R[sl]
+        v = _row_scale(w, Rr, T, 1)
+        at = _row_scale(w1, Rr, T, 2)
+        kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
         a2 = at * at + kv2 * kv2
         over_v = np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R)
         over_a = np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)
@@ -1356,22 +1355,56 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
     return over
 
 
+_ROW_SCALE = getattr(_CURVE_CORE, "row_scale", None) if _CURVE_CORE is not None else None
+
+
+def _row_scale(x, R, T=None, p=0):
+    """R[:, None] * x (p = 0), R[:, None] * x / T[:, None] (p = 1) or R[:, None] * x /
+    T[:, None] ** 2 (p = 2) of rows x (B, M): in one compiled pass where the core is built
+    (_curvecore.c row_scale: the same operations), as numpy 2 copies a (B, 1) operand
+    broadcast along the rows into its buffers, row by row, for every operation."""
+    if (_ROW_SCALE is not None and type(x) is np.ndarray and x.ndim == 2 and x.dtype == np.float64
+            and x.flags.c_contiguous and R.dtype == np.float64 and R.shape == x.shape[:1]
+            and (p == 0 or (T.dtype == np.float64 and T.shape == R.shape))):
+        out = np.empty(x.shape)
+        _ROW_SCALE(x, np.ascontiguousarray(R), None if p == 0 else np.ascontiguousarray(T), p,
+                   x.shape[0], x.shape[1], out)
+        return out
+    r = R[:, None] * x
+    return r if p == 0 else r / (T[:, None] if p == 1 else T[:, None] ** 2)
+
+
+_WSUM_ROWS = getattr(_CURVE_CORE, "wsum_rows", None) if _CURVE_CORE is not None else None
+
+
+def _wsum_rows(wq, x, m):
+    """np.sum(wq * x[:, :m], axis=1) (wq (B, m), x (B, >= m)): in one compiled pass where the
+    core is built (_curvecore.c wsum_rows: numpy's products, then its pairwise sum of each
+    row), not a copy of x's strided rows through numpy's buffers and a (B, m) product."""
+    if (_WSUM_ROWS is not None and type(wq) is np.ndarray and type(x) is np.ndarray and wq.ndim == 2
+            and x.ndim == 2 and wq.dtype == np.float64 and x.dtype == np.float64 and wq.flags.c_contiguous
+            and x.flags.c_contiguous and wq.shape == (x.shape[0], m) and x.shape[1] >= m):
+        out = np.empty(x.shape[0])
+        _WSUM_ROWS(wq, x, x.shape[0], m, x.shape[1], out)
+        return out
+    return np.sum(wq * x[:, :m], axis=1)
+
+
 def _true_figures_rows(law, R, geos, tau, wq, memo=None):
     m = tau.shape[1]
     # the quadrature grid and a uniform one for the peaks (the quadrature grid is graded
     # towards the ends), evaluated in one piece
     tu = np.broadcast_to(_UNIFORM_TAU[None, :], (len(geos), _UNIFORM_TAU.size))
     phi, w, w1, _ = law.eval_tau(np.concatenate([tau, tu], axis=1), w2=False)
-    T = law.T_t[:, None]
-    s = R[:, None] * phi
-    v = R[:, None] * w / T
-    at = R[:, None] * w1 / T ** 2
+    s = _row_scale(phi, R)
+    v = _row_scale(w, R, law.T_t, 1)
+    at = _row_scale(w1, R, law.T_t, 2)
     kap = _kappa_rows(geos, s, memo)
     v2 = v * v
     kv2 = kap * v2
     a2 = at * at + kv2 * kv2
-    iv = law.T_t * np.sum(wq * v2[:, :m], axis=1)
-    ia = law.T_t * np.sum(wq * a2[:, :m], axis=1)
+    iv = law.T_t * _wsum_rows(wq, v2, m)
+    ia = law.T_t * _wsum_rows(wq, a2, m)
     ia = ia + np.array([g.end_terms(a, b) for g, a, b in zip(geos, R * law.w0, R * law.w1)])
     return iv, ia, np.max(v, axis=1), np.sqrt(np.max(a2, axis=1)), np.min(v, axis=1)
 
@@ -1648,9 +1681,8 @@ def curve_knots(strokes, T, beta, profile):
         phi, w, _, _ = sub.eval_tau(tau, w2=False, w1=False)
         # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
         # chunk (elementwise, and an exact max: the same numbers as law by law)
-        Rc = R[sl, None]
-        s_run = np.maximum.accumulate(Rc * phi, axis=1)
-        vd = np.maximum(Rc * w / T[sl, None], 0.0)
+        s_run = np.maximum.accumulate(_row_scale(phi, R[sl]), axis=1)
+        vd = np.maximum(_row_scale(w, R[sl], T[sl], 1), 0.0)
         for k, i in enumerate(range(m)[sl]):
             s = knots_s(strokes[i].ends_d)
             v = _interp(s, s_run[k], vd[k], None, None)      # np.interp's core, the same bits

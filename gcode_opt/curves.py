@@ -1013,16 +1013,51 @@ def _part_blocks(todo, pts=None):
             yield idx, block
 
 
+_LAG_ROWS = getattr(_CURVE_CORE, "lag_rows", None) if _CURVE_CORE is not None else None
+_DIV_PAIRS = getattr(_CURVE_CORE, "div_pairs", None) if _CURVE_CORE is not None else None
+
+
+def _c_rows(x):
+    """Whether x is a C-contiguous 2-D float64 array (the compiled row helpers take it)."""
+    return type(x) is np.ndarray and x.ndim == 2 and x.dtype == np.float64 and x.flags.c_contiguous
+
+
+def _lag_rows(x, lag, add=False):
+    """x[:, lag:] - x[:, :-lag] (np.diff's subtract at lag 1), or x[:, :-lag] + x[:, lag:]
+    with add, of rows x (B, N >= lag): compiled where the core is built (_curvecore.c
+    lag_rows: the same operation an element), as numpy copies both strided operands
+    through its buffers."""
+    if _LAG_ROWS is not None and _c_rows(x) and x.shape[1] >= lag:
+        out = np.empty((x.shape[0], x.shape[1] - lag))
+        _LAG_ROWS(x, x.shape[0], x.shape[1], lag, int(add), out)
+        return out
+    return x[:, :-lag] + x[:, lag:] if add else x[:, lag:] - x[:, :-lag]
+
+
+def _div_pairs(seg, d):
+    """seg / d[..., None] of (x, y) pairs seg (..., 2) and lengths d (...): compiled where the
+    core is built (_curvecore.c div_pairs: the same divisions), not numpy's buffered copy
+    of the broadcast d."""
+    if (_DIV_PAIRS is not None and type(seg) is np.ndarray and type(d) is np.ndarray and seg.dtype == np.float64
+            and d.dtype == np.float64 and seg.shape == d.shape + (2,) and seg.flags.c_contiguous
+            and d.flags.c_contiguous):
+        out = np.empty(seg.shape)
+        _DIV_PAIRS(seg, d, d.size, out)
+        return out
+    return seg / d[..., None]
+
+
 def _parts_block(pts):
     """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
-    seg = pts[:, 1:] - pts[:, :-1]                           # _segments
+    m, npt = pts.shape[:2]
+    seg = _lag_rows(pts.reshape(m, 2 * npt), 2).reshape(m, npt - 1, 2)   # _segments: pts[:, 1:] - pts[:, :-1]
     d = np.hypot(seg[..., 0], seg[..., 1])
-    u = seg / d[..., None]
+    u = _div_pairs(seg, d)
     cos_turn = np.einsum("bij,bij->bi", u[:, :-1], u[:, 1:])
     s_v = np.empty(d.shape[:1] + (d.shape[1] + 1,))
     s_v[:, 0] = 0.0
     np.cumsum(d, axis=1, out=s_v[:, 1:])
-    good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (np.diff(s_v, axis=1) > 0.0).all(axis=1)
+    good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
     n = d.shape[1]                                          # _median
     k = n // 2
     if n % 2:
@@ -1033,9 +1068,9 @@ def _parts_block(pts):
     smooth_d = _pmax(med, SMOOTH_MIN_D)
     # curvature_from_polyline(pts, smooth_d): its one window covers every interior vertex
     heading = np.arctan2(seg[..., 1], seg[..., 0])
-    turn = np.angle(np.exp(1j * np.diff(heading, axis=1)))
+    turn = np.angle(np.exp(1j * _lag_rows(heading, 1)))
     s_i = s_v[:, 1:-1]
-    ell = 0.5 * (d[:, :-1] + d[:, 1:])
+    ell = 0.5 * _lag_rows(d, 1, add=True)
     # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
     # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
     # m (n+1)(n-1) doubles per step

@@ -1194,6 +1194,59 @@ static PyObject *wsum_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* curves._lag_rows: out[i, j] = x[i, j + lag] - x[i, j] (x[:, lag:] - x[:, :-lag], np.diff's
+   subtract at lag 1), or with add x[i, j] + x[i, j + lag] (x[:, :-lag] + x[:, lag:]), of rows
+   x (nb x cols) into out (nb x (cols - lag)): one IEEE operation an element, where numpy
+   copies both strided operands through its buffers. */
+static PyObject *lag_rows(PyObject *self, PyObject *a) {
+    PyObject *ox, *oo;
+    Py_ssize_t nb, cols, lag;
+    int add;
+    if (!PyArg_ParseTuple(a, "OnnniO", &ox, &nb, &cols, &lag, &add, &oo)) return NULL;
+    if (nb < 0 || lag < 1 || cols < lag) {
+        PyErr_SetString(PyExc_ValueError, "lag_rows: bad size");
+        return NULL;
+    }
+    const Py_ssize_t oc = cols - lag;
+    Bufs b = {.n = 0};
+    const double *x = get(&b, ox, 8, 0, nb * cols);
+    double *out = x ? get(&b, oo, 8, 1, nb * oc) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t i = 0; i < nb; i++) {
+        const double *xr = x + i * cols;
+        double *o = out + i * oc;
+        if (add)
+            for (Py_ssize_t j = 0; j < oc; j++) o[j] = xr[j] + xr[j + lag];
+        else
+            for (Py_ssize_t j = 0; j < oc; j++) o[j] = xr[j + lag] - xr[j];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* curves._parts_block's u = seg / d[..., None]: each (x, y) pair over its length, where
+   numpy copies the broadcast d through its buffers.  seg: n pairs, d: n, out: n pairs. */
+static PyObject *div_pairs(PyObject *self, PyObject *a) {
+    PyObject *os, *od, *oo;
+    Py_ssize_t n;
+    if (!PyArg_ParseTuple(a, "OOnO", &os, &od, &n, &oo)) return NULL;
+    if (n < 0) {
+        PyErr_SetString(PyExc_ValueError, "div_pairs: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *sg = get(&b, os, 8, 0, 2 * n);
+    const double *d = sg ? get(&b, od, 8, 0, n) : NULL;
+    double *out = d ? get(&b, oo, 8, 1, 2 * n) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t k = 0; k < n; k++) {
+        out[2 * k] = sg[2 * k] / d[k];
+        out[2 * k + 1] = sg[2 * k + 1] / d[k];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* curves._row_scale: out = R[:, None] * x, R[:, None] * x / T[:, None] (p = 1) or
    R[:, None] * x / T[:, None] ** 2 (p = 2) of rows x (nb x M), numpy's operations on the same
    doubles (T ** 2 is np.square, T * T; a multiply then a divide, each correctly rounded, no
@@ -1552,6 +1605,8 @@ static PyMethodDef methods[] = {
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"graded_grid", graded_grid, METH_VARARGS, "circle._graded_grid's nodes and weights"},
     {"wsum_rows", wsum_rows, METH_VARARGS, "curves._true_figures_rows' sums of weighted rows"},
+    {"lag_rows", lag_rows, METH_VARARGS, "curves._lag_rows: x[:, lag:] - x[:, :-lag] (or x[:, :-lag] + x[:, lag:])"},
+    {"div_pairs", div_pairs, METH_VARARGS, "curves._parts_block's seg / d[..., None]"},
     {"row_scale", row_scale, METH_VARARGS, "curves._row_scale: R[:, None] * x, over T or T ** 2 (p = 1, 2)"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {"obj_floats", obj_floats, METH_VARARGS, "the float (or bool) attributes of a list of objects, in one pass"},

@@ -1013,16 +1013,51 @@ def _part_blocks(todo, pts=None):
             yield idx, block
 
 
+_LAG_ROWS = getattr(_CURVE_CORE, "lag_rows", None) if _CURVE_CORE is not None else None
+_DIV_PAIRS = getattr(_CURVE_CORE, "div_pairs", None) if _CURVE_CORE is not None else None
+
+
+def _c_rows(x):
+    """Whether x is a C-contiguous 2-D float64 array (the compiled row helpers take it)."""
+    return type(x) is np.ndarray and x.ndim == 2 and x.dtype == np.float64 and x.flags.c_contiguous
+
+
+def _lag_rows(x, lag, add=False):
+    """x[:, lag:] - x[:, :-lag] (np.diff's subtract at lag 1), or x[:, :-lag] + x[:, lag:]
+    with add, of rows x (B, N >= lag): compiled where the core is built (_curvecore.c
+    lag_rows: the same operation an element), as numpy copies both strided operands
+    through its buffers."""
+    if _LAG_ROWS is not None and _c_rows(x) and x.shape[1] >= lag:
+        out = np.empty((x.shape[0], x.shape[1] - lag))
+        _LAG_ROWS(x, x.shape[0], x.shape[1], lag, int(add), out)
+        return out
+    return x[:, :-lag] + x[:, lag:] if add else x[:, lag:] - x[:, :-lag]
+
+
+def _div_pairs(seg, d):
+    """seg / d[..., None] of (x, y) pairs seg (..., 2) and lengths d (...): compiled where the
+    core is built (_curvecore.c div_pairs: the same divisions), not numpy's buffered copy
+    of the broadcast d."""
+    if (_DIV_PAIRS is not None and type(seg) is np.ndarray and type(d) is np.ndarray and seg.dtype == np.float64
+            and d.dtype == np.float64 and seg.shape == d.shape + (2,) and seg.flags.c_contiguous
+            and d.flags.c_contiguous):
+        out = np.empty(seg.shape)
+        _DIV_PAIRS(seg, d, d.size, out)
+        return out
+    return seg / d[..., None]
+
+
 def _parts_block(pts):
     """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
-    seg = pts[:, 1:] - pts[:, :-1]                           # _segments
+    m, npt = pts.shape[:2]
+    seg = _lag_rows(pts.reshape(m, 2 * npt), 2).reshape(m, npt - 1, 2)   # _segments: pts[:, 1:] - pts[:, :-1]
     d = np.hypot(seg[..., 0], seg[..., 1])
-    u = seg / d[..., None]
+    u = _div_pairs(seg, d)
     cos_turn = np.einsum("bij,bij->bi", u[:, :-1], u[:, 1:])
     s_v = np.empty(d.shape[:1] + (d.shape[1] + 1,))
     s_v[:, 0] = 0.0
     np.cumsum(d, axis=1, out=s_v[:, 1:])
-    good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (np.diff(s_v, axis=1) > 0.0).all(axis=1)
+    good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
     n = d.shape[1]                                          # _median
     k = n // 2
     if n % 2:
@@ -1033,9 +1068,9 @@ def _parts_block(pts):
     smooth_d = _pmax(med, SMOOTH_MIN_D)
     # curvature_from_polyline(pts, smooth_d): its one window covers every interior vertex
     heading = np.arctan2(seg[..., 1], seg[..., 0])
-    turn = np.angle(np.exp(1j * np.diff(heading, axis=1)))
+    turn = np.angle(np.exp(1j * _lag_rows(heading, 1)))
     s_i = s_v[:, 1:-1]
-    ell = 0.5 * (d[:, :-1] + d[:, 1:])
+    ell = 0.5 * _lag_rows(d, 1, add=True)
     # kern = exp(-0.5 (z2 - min z2)), z2 = ((s_v - s_i) / smooth_d)^2: the same operations
     # in place in one array (x ** 2 is np.square; -0.5 x = x (-0.5)), not one new array of
     # m (n+1)(n-1) doubles per step
@@ -1341,11 +1376,10 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
         sub = law.rows(sl)
         phi, w, w1, _ = sub.eval_tau(np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size)),
                                      w2=False)
-        T = sub.T_t[:, None]
-        Rr = R[sl, None]
-        v = Rr * w / T
-        at = Rr * w1 / T ** 2
-        kv2 = _kappa_rows(geos[sl], Rr * phi, _rows_of(memo, sl)) * (v * v)
+        T, Rr = sub.T_t, R[sl]
+        v = _row_scale(w, Rr, T, 1)
+        at = _row_scale(w1, Rr, T, 2)
+        kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
         a2 = at * at + kv2 * kv2
         over_v = np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R)
         over_a = np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)
@@ -1356,22 +1390,56 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
     return over
 
 
+_ROW_SCALE = getattr(_CURVE_CORE, "row_scale", None) if _CURVE_CORE is not None else None
+
+
+def _row_scale(x, R, T=None, p=0):
+    """R[:, None] * x (p = 0), R[:, None] * x / T[:, None] (p = 1) or R[:, None] * x /
+    T[:, None] ** 2 (p = 2) of rows x (B, M): in one compiled pass where the core is built
+    (_curvecore.c row_scale: the same operations), as numpy 2 copies a (B, 1) operand
+    broadcast along the rows into its buffers, row by row, for every operation."""
+    if (_ROW_SCALE is not None and type(x) is np.ndarray and x.ndim == 2 and x.dtype == np.float64
+            and x.flags.c_contiguous and R.dtype == np.float64 and R.shape == x.shape[:1]
+            and (p == 0 or (T.dtype == np.float64 and T.shape == R.shape))):
+        out = np.empty(x.shape)
+        _ROW_SCALE(x, np.ascontiguousarray(R), None if p == 0 else np.ascontiguousarray(T), p,
+                   x.shape[0], x.shape[1], out)
+        return out
+    r = R[:, None] * x
+    return r if p == 0 else r / (T[:, None] if p == 1 else T[:, None] ** 2)
+
+
+_WSUM_ROWS = getattr(_CURVE_CORE, "wsum_rows", None) if _CURVE_CORE is not None else None
+
+
+def _wsum_rows(wq, x, m):
+    """np.sum(wq * x[:, :m], axis=1) (wq (B, m), x (B, >= m)): in one compiled pass where the
+    core is built (_curvecore.c wsum_rows: numpy's products, then its pairwise sum of each
+    row), not a copy of x's strided rows through numpy's buffers and a (B, m) product."""
+    if (_WSUM_ROWS is not None and type(wq) is np.ndarray and type(x) is np.ndarray and wq.ndim == 2
+            and x.ndim == 2 and wq.dtype == np.float64 and x.dtype == np.float64 and wq.flags.c_contiguous
+            and x.flags.c_contiguous and wq.shape == (x.shape[0], m) and x.shape[1] >= m):
+        out = np.empty(x.shape[0])
+        _WSUM_ROWS(wq, x, x.shape[0], m, x.shape[1], out)
+        return out
+    return np.sum(wq * x[:, :m], axis=1)
+
+
 def _true_figures_rows(law, R, geos, tau, wq, memo=None):
     m = tau.shape[1]
     # the quadrature grid and a uniform one for the peaks (the quadrature grid is graded
     # towards the ends), evaluated in one piece
     tu = np.broadcast_to(_UNIFORM_TAU[None, :], (len(geos), _UNIFORM_TAU.size))
     phi, w, w1, _ = law.eval_tau(np.concatenate([tau, tu], axis=1), w2=False)
-    T = law.T_t[:, None]
-    s = R[:, None] * phi
-    v = R[:, None] * w / T
-    at = R[:, None] * w1 / T ** 2
+    s = _row_scale(phi, R)
+    v = _row_scale(w, R, law.T_t, 1)
+    at = _row_scale(w1, R, law.T_t, 2)
     kap = _kappa_rows(geos, s, memo)
     v2 = v * v
     kv2 = kap * v2
     a2 = at * at + kv2 * kv2
-    iv = law.T_t * np.sum(wq * v2[:, :m], axis=1)
-    ia = law.T_t * np.sum(wq * a2[:, :m], axis=1)
+    iv = law.T_t * _wsum_rows(wq, v2, m)
+    ia = law.T_t * _wsum_rows(wq, a2, m)
     ia = ia + np.array([g.end_terms(a, b) for g, a, b in zip(geos, R * law.w0, R * law.w1)])
     return iv, ia, np.max(v, axis=1), np.sqrt(np.max(a2, axis=1)), np.min(v, axis=1)
 
@@ -1648,9 +1716,8 @@ def curve_knots(strokes, T, beta, profile):
         phi, w, _, _ = sub.eval_tau(tau, w2=False, w1=False)
         # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
         # chunk (elementwise, and an exact max: the same numbers as law by law)
-        Rc = R[sl, None]
-        s_run = np.maximum.accumulate(Rc * phi, axis=1)
-        vd = np.maximum(Rc * w / T[sl, None], 0.0)
+        s_run = np.maximum.accumulate(_row_scale(phi, R[sl]), axis=1)
+        vd = np.maximum(_row_scale(w, R[sl], T[sl], 1), 0.0)
         for k, i in enumerate(range(m)[sl]):
             s = knots_s(strokes[i].ends_d)
             v = _interp(s, s_run[k], vd[k], None, None)      # np.interp's core, the same bits

@@ -1112,6 +1112,195 @@ static PyObject *row_lengths(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* circle._graded_grid's nodes xs and weights ws (nb x (2 L q + mq)) of layer widths h (nb):
+   the edges e = h * E (E: L + 1 values), per panel p < L with a = e[p], b = e[p + 1] the
+   nodes a + (b - a) gx[q] and weights (b - a) gw[q] (q < nq); the middle panel's nodes
+   h + (1 - 2 h) mx[q] and weights (1 - 2 h) mw[q] (q < mq); then the end panels mirrored,
+   1 - x and the weights, in reverse: numpy's operations, each on the same doubles, where
+   numpy copies every broadcast operand through its buffers. */
+static PyObject *graded_grid(PyObject *self, PyObject *a) {
+    PyObject *oh, *oe, *ogx, *ogw, *omx, *omw, *oxs, *ows;
+    Py_ssize_t nb, L, nq, mq;
+    if (!PyArg_ParseTuple(a, "OOOOOOnnnnOO", &oh, &oe, &ogx, &ogw, &omx, &omw, &nb, &L, &nq, &mq, &oxs, &ows))
+        return NULL;
+    if (nb < 0 || L < 1 || nq < 1 || mq < 1 || L + 1 > MAX_COLS) {
+        PyErr_SetString(PyExc_ValueError, "graded_grid: bad size");
+        return NULL;
+    }
+    const Py_ssize_t nl = L * nq, cols = 2 * nl + mq;
+    Bufs b = {.n = 0};
+    const double *h = get(&b, oh, 8, 0, nb);
+    const double *E = h ? get(&b, oe, 8, 0, L + 1) : NULL;
+    const double *gx = E ? get(&b, ogx, 8, 0, nq) : NULL;
+    const double *gw = gx ? get(&b, ogw, 8, 0, nq) : NULL;
+    const double *mx = gw ? get(&b, omx, 8, 0, mq) : NULL;
+    const double *mw = mx ? get(&b, omw, 8, 0, mq) : NULL;
+    double *xs = mw ? get(&b, oxs, 8, 1, nb * cols) : NULL;
+    double *ws = xs ? get(&b, ows, 8, 1, nb * cols) : NULL;
+    if (!ws) { release(&b); return NULL; }
+    double e[MAX_COLS];
+    for (Py_ssize_t i = 0; i < nb; i++) {
+        const double hi = h[i];
+        double *xr = xs + i * cols, *wr = ws + i * cols;
+        for (Py_ssize_t p = 0; p <= L; p++) e[p] = hi * E[p];
+        for (Py_ssize_t p = 0; p < L; p++) {
+            const double lo = e[p], wd = e[p + 1] - e[p];
+            for (Py_ssize_t q = 0; q < nq; q++) {
+                xr[p * nq + q] = lo + wd * gx[q];
+                wr[p * nq + q] = wd * gw[q];
+            }
+        }
+        const double mid = 1.0 - 2.0 * hi;
+        for (Py_ssize_t q = 0; q < mq; q++) {
+            xr[nl + q] = hi + mid * mx[q];
+            wr[nl + q] = mid * mw[q];
+        }
+        for (Py_ssize_t k = 0; k < nl; k++) {
+            xr[nl + mq + k] = 1.0 - xr[nl - 1 - k];
+            wr[nl + mq + k] = wr[nl - 1 - k];
+        }
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* curves._true_figures_rows' quadrature sums np.sum(wq * x[:, :m], axis=1) of rows x
+   (nb x ld, the first m of each row) and weights wq (nb x m): each row's products, numpy's
+   multiply, then numpy's pairwise sum of them (the product array is C-contiguous: a row
+   is one reduction of m values), where numpy copied x's strided rows through its buffers
+   and made the nb x m products. */
+static PyObject *wsum_rows(PyObject *self, PyObject *a) {
+    PyObject *ow, *ox, *oo;
+    Py_ssize_t nb, m, ld;
+    if (!PyArg_ParseTuple(a, "OOnnnO", &ow, &ox, &nb, &m, &ld, &oo)) return NULL;
+    if (nb < 0 || m < 0 || ld < m) {
+        PyErr_SetString(PyExc_ValueError, "wsum_rows: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *w = get(&b, ow, 8, 0, nb * m);
+    const double *x = w ? get(&b, ox, 8, 0, nb * ld) : NULL;
+    double *out = x ? get(&b, oo, 8, 1, nb) : NULL;
+    if (!out) { release(&b); return NULL; }
+    double *tmp = PyMem_Malloc((m ? m : 1) * sizeof(double));
+    if (!tmp) { release(&b); return PyErr_NoMemory(); }
+    for (Py_ssize_t i = 0; i < nb; i++) {
+        const double *wr = w + i * m, *xr = x + i * ld;
+        for (Py_ssize_t j = 0; j < m; j++) tmp[j] = wr[j] * xr[j];
+        out[i] = m ? np_pairwise_sum(tmp, m) : 0.0;     /* (numpy: an empty sum is +0.0) */
+    }
+    PyMem_Free(tmp);
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* curves._lag_rows: out[i, j] = x[i, j + lag] - x[i, j] (x[:, lag:] - x[:, :-lag], np.diff's
+   subtract at lag 1), or with add x[i, j] + x[i, j + lag] (x[:, :-lag] + x[:, lag:]), of rows
+   x (nb x cols) into out (nb x (cols - lag)): one IEEE operation an element, where numpy
+   copies both strided operands through its buffers. */
+static PyObject *lag_rows(PyObject *self, PyObject *a) {
+    PyObject *ox, *oo;
+    Py_ssize_t nb, cols, lag;
+    int add;
+    if (!PyArg_ParseTuple(a, "OnnniO", &ox, &nb, &cols, &lag, &add, &oo)) return NULL;
+    if (nb < 0 || lag < 1 || cols < lag) {
+        PyErr_SetString(PyExc_ValueError, "lag_rows: bad size");
+        return NULL;
+    }
+    const Py_ssize_t oc = cols - lag;
+    Bufs b = {.n = 0};
+    const double *x = get(&b, ox, 8, 0, nb * cols);
+    double *out = x ? get(&b, oo, 8, 1, nb * oc) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t i = 0; i < nb; i++) {
+        const double *xr = x + i * cols;
+        double *o = out + i * oc;
+        if (add)
+            for (Py_ssize_t j = 0; j < oc; j++) o[j] = xr[j] + xr[j + lag];
+        else
+            for (Py_ssize_t j = 0; j < oc; j++) o[j] = xr[j + lag] - xr[j];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* curves._parts_block's u = seg / d[..., None]: each (x, y) pair over its length, where
+   numpy copies the broadcast d through its buffers.  seg: n pairs, d: n, out: n pairs. */
+static PyObject *div_pairs(PyObject *self, PyObject *a) {
+    PyObject *os, *od, *oo;
+    Py_ssize_t n;
+    if (!PyArg_ParseTuple(a, "OOnO", &os, &od, &n, &oo)) return NULL;
+    if (n < 0) {
+        PyErr_SetString(PyExc_ValueError, "div_pairs: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *sg = get(&b, os, 8, 0, 2 * n);
+    const double *d = sg ? get(&b, od, 8, 0, n) : NULL;
+    double *out = d ? get(&b, oo, 8, 1, 2 * n) : NULL;
+    if (!out) { release(&b); return NULL; }
+    for (Py_ssize_t k = 0; k < n; k++) {
+        out[2 * k] = sg[2 * k] / d[k];
+        out[2 * k + 1] = sg[2 * k + 1] / d[k];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* curves._row_scale: out = R[:, None] * x, R[:, None] * x / T[:, None] (p = 1) or
+   R[:, None] * x / T[:, None] ** 2 (p = 2) of rows x (nb x M), numpy's operations on the same
+   doubles (T ** 2 is np.square, T * T; a multiply then a divide, each correctly rounded, no
+   contraction): numpy 2 runs a (B, 1) operand broadcast along (B, M) through its iterator's
+   buffers, a copy of the column into a buffer for every row of every such operation. */
+#if CURVE_AVX
+AVX_FN static void row_scale_avx(const double *x, Py_ssize_t M, double r, double t, int p, double *o) {
+    Py_ssize_t j = 0;
+    const __m256d vr = _mm256_set1_pd(r), vt = _mm256_set1_pd(t);
+    if (p) {
+        for (; j + 4 <= M; j += 4)
+            _mm256_storeu_pd(o + j, _mm256_div_pd(_mm256_mul_pd(vr, _mm256_loadu_pd(x + j)), vt));
+        for (; j < M; j++) o[j] = (r * x[j]) / t;
+    } else {
+        for (; j + 4 <= M; j += 4) _mm256_storeu_pd(o + j, _mm256_mul_pd(vr, _mm256_loadu_pd(x + j)));
+        for (; j < M; j++) o[j] = r * x[j];
+    }
+}
+#endif
+
+static PyObject *row_scale(PyObject *self, PyObject *a) {
+    PyObject *ox, *orr, *ot, *oo;
+    Py_ssize_t nb, M;
+    int p;
+    if (!PyArg_ParseTuple(a, "OOOinnO", &ox, &orr, &ot, &p, &nb, &M, &oo)) return NULL;
+    if (nb < 0 || M < 0 || p < 0 || p > 2) {
+        PyErr_SetString(PyExc_ValueError, "row_scale: bad size or power");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *x = get(&b, ox, 8, 0, nb * M);
+    const double *r = x ? get(&b, orr, 8, 0, nb) : NULL;
+    const double *t = (r && p) ? get(&b, ot, 8, 0, nb) : NULL;
+    double *out = (r && (t || !p)) ? get(&b, oo, 8, 1, nb * M) : NULL;
+    if (!out) { release(&b); return NULL; }
+    const int avx = use_avx();
+    for (Py_ssize_t i = 0; i < nb; i++) {
+        const double *xr = x + i * M;
+        double *o = out + i * M;
+        const double ri = r[i];
+        const double ti = p == 2 ? t[i] * t[i] : (p ? t[i] : 1.0);
+#if CURVE_AVX
+        if (avx) { row_scale_avx(xr, M, ri, ti, p, o); continue; }
+#endif
+        (void)avx;
+        if (p)
+            for (Py_ssize_t j = 0; j < M; j++) o[j] = (ri * xr[j]) / ti;
+        else
+            for (Py_ssize_t j = 0; j < M; j++) o[j] = ri * xr[j];
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* curves._Blk.u_rows: the unit directions of rows of a geometry block made again from
    the strokes' own vertices, (x[j + 1] - x[j]) / d[j] per axis: numpy's subtract then
    divide of the same doubles (two correctly rounded operations, no contraction between
@@ -1414,6 +1603,11 @@ static PyMethodDef methods[] = {
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
+    {"graded_grid", graded_grid, METH_VARARGS, "circle._graded_grid's nodes and weights"},
+    {"wsum_rows", wsum_rows, METH_VARARGS, "curves._true_figures_rows' sums of weighted rows"},
+    {"lag_rows", lag_rows, METH_VARARGS, "curves._lag_rows: x[:, lag:] - x[:, :-lag] (or x[:, :-lag] + x[:, lag:])"},
+    {"div_pairs", div_pairs, METH_VARARGS, "curves._parts_block's seg / d[..., None]"},
+    {"row_scale", row_scale, METH_VARARGS, "curves._row_scale: R[:, None] * x, over T or T ** 2 (p = 1, 2)"},
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {"obj_floats", obj_floats, METH_VARARGS, "the float (or bool) attributes of a list of objects, in one pass"},
     {"obj_codes", obj_codes, METH_VARARGS, "a code (from a dict, or the int itself) of each object's attribute"},

@@ -208,6 +208,16 @@ def _row_lengths(coef):
     return np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
 
 
+def _one_grid(x):
+    """(x == x[:1]).all() of a (B, M) array, B >= 1, as each row == the row before it (==
+    is transitive, NaN equal to nothing either way; one row: x[1:] is empty, and a lone
+    row goes as one grid both ways): two rows alike, not a row broadcast against all (numpy 2
+    copies a broadcast operand into its buffers row by row)."""
+    if x.shape[0] < 2:
+        return True
+    return bool((x[1:] == x[:-1]).all())
+
+
 def _series_values(coefs, x):
     """[_clenshaw_rows(c, x) for c in coefs], Chebyshev series c (B, K_c) at x (B, M).
     Rows of x that are one grid (the usual case: a batch's quadrature or uniform grid is
@@ -220,7 +230,7 @@ def _series_values(coefs, x):
     such a call, everything goes by Clenshaw."""
     if not _gemm_rows_invariant() or x.shape[0] == 0:
         return [_clenshaw_rows(c, x) for c in coefs]
-    if (x == x[:1]).all():
+    if _one_grid(x):
         groups = [np.arange(x.shape[0])]
     else:
         by_grid: dict[bytes, list] = {}
@@ -796,7 +806,17 @@ def _graded_grid(h, levels):
     """Gauss nodes/weights on [0,1]: geometric panels (ratio 2) from each end up to h, one
     middle panel.  h: (B,) layer width in τ.  Resolves layers down to h·2^-levels."""
     gx, gw = _gauss(10)
-    edges = h[:, None] * np.concatenate([[0.0], 2.0 ** -np.arange(levels, -1, -1.0)])[None, :]
+    ratios = np.concatenate([[0.0], 2.0 ** -np.arange(levels, -1, -1.0)])
+    if CORE_MOD is not None and h.ndim == 1 and h.size and h.dtype == np.float64:
+        # one compiled pass (_curvecore.c graded_grid: the same operations), not numpy's
+        # ~10 operations on broadcast operands, each copied through its buffers
+        mx, mw = _gauss(24)
+        nl = (ratios.size - 1) * gx.size
+        xs, ws = np.empty((h.size, 2 * nl + mx.size)), np.empty((h.size, 2 * nl + mx.size))
+        CORE_MOD.graded_grid(np.ascontiguousarray(h), ratios, gx, gw, mx, mw, h.size, ratios.size - 1,
+                             gx.size, mx.size, xs, ws)
+        return xs, ws
+    edges = h[:, None] * ratios[None, :]
     a, b = edges[:, :-1], edges[:, 1:]
     xl = (a[..., None] + (b - a)[..., None] * gx).reshape(h.size, -1)
     wl = ((b - a)[..., None] * gw).reshape(h.size, -1)

@@ -1908,10 +1908,11 @@ class _Spread:
 
     def __init__(self, r, base, pos, vg):
         for f in ("conv", "iv", "peak_v", "min_v"):
-            setattr(self, f, getattr(r, f)[pos])
+            setattr(self, f, getattr(r, f).take(pos))     # (take: numpy's plain gather loop, fewer steps than [pos])
         self.r, self.vg = r, vg
         po = r.piece_off
-        self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
+        self.piece_T, self.piece_at = r.piece_T, po.take(pos)
+        self.piece_n = po.take(pos + 1) - self.piece_at
 
     bound = property(lambda self: self.r.bound[self.vg])
     vert_v = property(lambda self: self.r.vert_v[self.vg])
@@ -1951,9 +1952,18 @@ class _Table:
 
     def __init__(self, n, k, T):
         self.ok = np.zeros((n, k), bool)
-        self.tp = np.array(T, float)
+        self.tp = np.array(T, float, order="C")     # (C order: put's flat places)
         self.ia = np.full((n, k), np.inf)
         self.iv = np.full((n, k), np.nan)
+
+    def put(self, rows, cols, tp, ia, iv):
+        """The feasible cells (rows[q], cols[q]) with their figures: each table's flat
+        places rows * k + cols, made once (a 2-D fancy index makes them for each table)."""
+        at = rows * self.ok.shape[1] + cols
+        self.ok.ravel()[at] = True
+        self.tp.ravel()[at] = tp
+        self.ia.ravel()[at] = ia
+        self.iv.ravel()[at] = iv
 
 
 class _Rows:
@@ -2038,8 +2048,7 @@ class _Finisher:
             lo += R
             j = r.J[r.rj]
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
-            J, C = r.a + j[good], r.rc[good]
-            tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
+            tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
@@ -2152,14 +2161,14 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         if n > 1:
             ix = voff[j][:, None] + np.arange(n - 1)
             if vmap is not None:
-                ix = vmap[ix]
+                ix = vmap.take(ix)
             cc = rc[:, None]
             if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
                 # both stacks gathered at one flat index (_at's, made once), handed on
                 # to _LawCols.rows for the binding masks at the same places
                 flat = cc * VV.shape[1] + ix
-                vk[:, 1:-1] = VV.ravel()[flat]
-                tk[:, 1:-1] = TT.ravel()[flat]
+                vk[:, 1:-1] = VV.ravel().take(flat)
+                tk[:, 1:-1] = TT.ravel().take(flat)
                 at = (flat, VV.shape[1], vmap, voff)
             else:
                 vk[:, 1:-1] = _at(VV, cc, ix)
@@ -2199,7 +2208,7 @@ class _LawCols:
         R = j.size
         if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
                 and self.BB.shape[1] == at[1]):
-            bnd = self.BB.ravel()[at[0]]           # (_at's gather at the same places)
+            bnd = self.BB.ravel().take(at[0])      # (_at's gather at the same places)
         elif n > 1:
             ix = self.voff[j][:, None] + np.arange(n - 1)
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
@@ -2215,7 +2224,7 @@ def _at(A, rows, cols):
     index took ~70: ~4 M entries of the gyroid plate's chain tables)."""
     if not A.flags.c_contiguous:
         return A[rows, cols]
-    return A.ravel()[rows * A.shape[1] + cols]
+    return A.ravel().take(rows * A.shape[1] + cols)     # (take: fewer steps an item than [])
 
 
 def _vertex_stack(res, k, names, dtype=float):

@@ -215,13 +215,15 @@ class Candidates:
             else:
                 t_fill = T_orig[sub, None] * T_RATIOS[None, :]
                 t_pos = (np.where(t_finite, t, t_fill) >= 0.0).all(axis=1)
-        # the feasible entries straight into their rows (np.compress: mask's True entries in
-        # row-major order, as t[mask]), not four copies stacked (~24 MB at once on the
-        # rectilinear plate's lines, beside the dense tables)
-        keep = mask.ravel()
-        vals = np.empty((4, int(np.count_nonzero(keep))))
+        # the feasible entries straight into their rows (mask's True entries in row-major
+        # order, as t[mask]), not four copies stacked (~24 MB at once on the rectilinear
+        # plate's lines, beside the dense tables): their places found once, not by each
+        # table's np.compress, and taken into the rows in place (mode "clip": the places
+        # are in range; "raise" with out= fills a temporary and copies it)
+        at = np.flatnonzero(mask)
+        vals = np.empty((4, at.size))
         for row, x in zip(vals, (t, b, i, ke)):
-            np.compress(keep, np.ascontiguousarray(x).ravel(), out=row)
+            np.take(np.ascontiguousarray(x).ravel(), at, out=row, mode="clip")
         return sub, mask, vals, t_pos, bad_row
 
     @classmethod

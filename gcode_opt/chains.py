@@ -2159,18 +2159,23 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         tk[:, -1] = _at(T, j, rc)
         at = None
         if n > 1:
-            ix = voff[j][:, None] + np.arange(n - 1)
-            if vmap is not None:
-                ix = vmap.take(ix)
-            cc = rc[:, None]
             if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
                 # both stacks gathered at one flat index (_at's, made once), handed on
-                # to _LawCols.rows for the binding masks at the same places
-                flat = cc * VV.shape[1] + ix
+                # to _LawCols.rows for the binding masks at the same places: row i's
+                # rc[i] * width + its vertices' places (the same integers, summed by rows)
+                W = VV.shape[1]
+                if vmap is None:
+                    flat = _row_ranges(rc * W + voff[j], n - 1)
+                else:
+                    flat = _plus_rows(vmap.take(_row_ranges(voff[j], n - 1)), rc * W)
                 vk[:, 1:-1] = VV.ravel().take(flat)
                 tk[:, 1:-1] = TT.ravel().take(flat)
                 at = (flat, VV.shape[1], vmap, voff)
             else:
+                ix = _row_ranges(voff[j], n - 1)
+                if vmap is not None:
+                    ix = vmap.take(ix)
+                cc = rc[:, None]
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
         item = _TableItem((J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)))
@@ -2210,11 +2215,36 @@ class _LawCols:
                 and self.BB.shape[1] == at[1]):
             bnd = self.BB.ravel().take(at[0])      # (_at's gather at the same places)
         elif n > 1:
-            ix = self.voff[j][:, None] + np.arange(n - 1)
+            ix = _row_ranges(self.voff[j], n - 1)
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
             bnd = np.empty((R, 0), bool)
         return bnd, self.PT, np.stack([_at(self.P0, rc, j), _at(self.PN, rc, j)], axis=1).astype(np.int32)
+
+
+ROW_RANGE_COLS = 8       # _row_ranges, _plus_rows: rows this short go column by column
+
+
+def _row_ranges(start, w):
+    """start[:, None] + np.arange(w) for int64 start (the same integers): column by column
+    where the rows are short (numpy's broadcast of a short row pays a buffered copy a row:
+    ~24 instructions an element at w = 5, ~10 by columns; _table_rows' rows are ~5-6 long)."""
+    if w > ROW_RANGE_COLS or start.dtype != np.int64:
+        return start[:, None] + np.arange(w)
+    out = np.empty((start.size, w), np.int64)
+    for i in range(w):
+        np.add(start, i, out=out[:, i])
+    return out
+
+
+def _plus_rows(x, v):
+    """x + v[:, None] for int64 x (R, w) and v (R,) (the same integers), x's memory reused;
+    column by column where the rows are short (as _row_ranges)."""
+    if x.shape[1] > ROW_RANGE_COLS or x.dtype != np.int64 or v.dtype != np.int64:
+        return x + v[:, None]
+    for i in range(x.shape[1]):
+        np.add(x[:, i], v, out=x[:, i])
+    return x
 
 
 def _at(A, rows, cols):

@@ -121,3 +121,21 @@ def test_spread_fields_are_the_gathers():
     np.testing.assert_array_equal(sp.piece_at, r.piece_off[pos])
     np.testing.assert_array_equal(sp.piece_n, r.piece_off[pos + 1] - r.piece_off[pos])
     assert sp.piece_T is r.piece_T
+
+
+@pytest.mark.parametrize("w", [0, 1, 2, 5, 8, 9, 13])
+def test_row_ranges_and_plus_rows_as_broadcasts(w):
+    rng = np.random.default_rng(w)
+    start = rng.integers(-(1 << 40), 1 << 40, int(rng.integers(0, 50)))
+    got = chains._row_ranges(start, w)
+    want = start[:, None] + np.arange(w)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    x = rng.integers(-(1 << 40), 1 << 40, (start.size, w))
+    want = x + start[:, None]
+    got = chains._plus_rows(x.copy(), start)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    # not int64: the broadcasts themselves
+    np.testing.assert_array_equal(chains._row_ranges(start.astype(np.int32), w),
+                                  start.astype(np.int32)[:, None] + np.arange(w))

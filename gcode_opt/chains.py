@@ -1908,10 +1908,11 @@ class _Spread:
 
     def __init__(self, r, base, pos, vg):
         for f in ("conv", "iv", "peak_v", "min_v"):
-            setattr(self, f, getattr(r, f)[pos])
+            setattr(self, f, getattr(r, f).take(pos))     # (take: numpy's plain gather loop, fewer steps than [pos])
         self.r, self.vg = r, vg
         po = r.piece_off
-        self.piece_T, self.piece_at, self.piece_n = r.piece_T, po[pos], po[pos + 1] - po[pos]
+        self.piece_T, self.piece_at = r.piece_T, po.take(pos)
+        self.piece_n = po.take(pos + 1) - self.piece_at
 
     bound = property(lambda self: self.r.bound[self.vg])
     vert_v = property(lambda self: self.r.vert_v[self.vg])
@@ -1951,9 +1952,18 @@ class _Table:
 
     def __init__(self, n, k, T):
         self.ok = np.zeros((n, k), bool)
-        self.tp = np.array(T, float)
+        self.tp = np.array(T, float, order="C")     # (C order: put's flat places)
         self.ia = np.full((n, k), np.inf)
         self.iv = np.full((n, k), np.nan)
+
+    def put(self, rows, cols, tp, ia, iv):
+        """The feasible cells (rows[q], cols[q]) with their figures: each table's flat
+        places rows * k + cols, made once (a 2-D fancy index makes them for each table)."""
+        at = rows * self.ok.shape[1] + cols
+        self.ok.ravel()[at] = True
+        self.tp.ravel()[at] = tp
+        self.ia.ravel()[at] = ia
+        self.iv.ravel()[at] = iv
 
 
 class _Rows:
@@ -2038,8 +2048,7 @@ class _Finisher:
             lo += R
             j = r.J[r.rj]
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
-            J, C = r.a + j[good], r.rc[good]
-            tab.ok[J, C], tab.tp[J, C], tab.ia[J, C], tab.iv[J, C] = True, tr[good], a2r[good], r.iv[good]
+            tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
@@ -2150,18 +2159,23 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         tk[:, -1] = _at(T, j, rc)
         at = None
         if n > 1:
-            ix = voff[j][:, None] + np.arange(n - 1)
-            if vmap is not None:
-                ix = vmap[ix]
-            cc = rc[:, None]
             if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
                 # both stacks gathered at one flat index (_at's, made once), handed on
-                # to _LawCols.rows for the binding masks at the same places
-                flat = cc * VV.shape[1] + ix
-                vk[:, 1:-1] = VV.ravel()[flat]
-                tk[:, 1:-1] = TT.ravel()[flat]
+                # to _LawCols.rows for the binding masks at the same places: row i's
+                # rc[i] * width + its vertices' places (the same integers, summed by rows)
+                W = VV.shape[1]
+                if vmap is None:
+                    flat = _row_ranges(rc * W + voff[j], n - 1)
+                else:
+                    flat = _plus_rows(vmap.take(_row_ranges(voff[j], n - 1)), rc * W)
+                vk[:, 1:-1] = VV.ravel().take(flat)
+                tk[:, 1:-1] = TT.ravel().take(flat)
                 at = (flat, VV.shape[1], vmap, voff)
             else:
+                ix = _row_ranges(voff[j], n - 1)
+                if vmap is not None:
+                    ix = vmap.take(ix)
+                cc = rc[:, None]
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
         item = _TableItem((J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)))
@@ -2199,13 +2213,38 @@ class _LawCols:
         R = j.size
         if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
                 and self.BB.shape[1] == at[1]):
-            bnd = self.BB.ravel()[at[0]]           # (_at's gather at the same places)
+            bnd = self.BB.ravel().take(at[0])      # (_at's gather at the same places)
         elif n > 1:
-            ix = self.voff[j][:, None] + np.arange(n - 1)
+            ix = _row_ranges(self.voff[j], n - 1)
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
             bnd = np.empty((R, 0), bool)
         return bnd, self.PT, np.stack([_at(self.P0, rc, j), _at(self.PN, rc, j)], axis=1).astype(np.int32)
+
+
+ROW_RANGE_COLS = 8       # _row_ranges, _plus_rows: rows this short go column by column
+
+
+def _row_ranges(start, w):
+    """start[:, None] + np.arange(w) for int64 start (the same integers): column by column
+    where the rows are short (numpy's broadcast of a short row pays a buffered copy a row:
+    ~24 instructions an element at w = 5, ~10 by columns; _table_rows' rows are ~5-6 long)."""
+    if w > ROW_RANGE_COLS or start.dtype != np.int64:
+        return start[:, None] + np.arange(w)
+    out = np.empty((start.size, w), np.int64)
+    for i in range(w):
+        np.add(start, i, out=out[:, i])
+    return out
+
+
+def _plus_rows(x, v):
+    """x + v[:, None] for int64 x (R, w) and v (R,) (the same integers), x's memory reused;
+    column by column where the rows are short (as _row_ranges)."""
+    if x.shape[1] > ROW_RANGE_COLS or x.dtype != np.int64 or v.dtype != np.int64:
+        return x + v[:, None]
+    for i in range(x.shape[1]):
+        np.add(x[:, i], v, out=x[:, i])
+    return x
 
 
 def _at(A, rows, cols):
@@ -2215,7 +2254,7 @@ def _at(A, rows, cols):
     index took ~70: ~4 M entries of the gyroid plate's chain tables)."""
     if not A.flags.c_contiguous:
         return A[rows, cols]
-    return A.ravel()[rows * A.shape[1] + cols]
+    return A.ravel().take(rows * A.shape[1] + cols)     # (take: fewer steps an item than [])
 
 
 def _vertex_stack(res, k, names, dtype=float):

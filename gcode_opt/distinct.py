@@ -63,12 +63,15 @@ def column_classes_first(cols):
 
 def _row_hashes(cols):
     """column_classes' hash of each row of the int64 columns cols (uint64)."""
-    m, w = cols[0].shape[0], len(cols)
+    w = len(cols)
     mult = (np.arange(1, w + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-    h = np.zeros(m, np.uint64)
+    h = None                  # (the first column's mix is the row's: 0 ^ y is y, no zeroed array)
     for j, c in enumerate(cols):
         x = c.view(np.uint64) * mult[j]
-        h ^= x ^ (x >> np.uint64(29))
+        if h is None:
+            h = x ^ (x >> np.uint64(29))
+        else:
+            h ^= x ^ (x >> np.uint64(29))
         h *= np.uint64(0xBF58476D1CE4E5B9)
     return h
 

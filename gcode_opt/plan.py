@@ -48,8 +48,8 @@ class PlanInput:
     def take(self, rows) -> "PlanInput":
         """The same arrays for the strokes `rows` only (fault isolation retries)."""
         rows = np.asarray(rows, int)
-        return PlanInput(self.L[rows], self.v0[rows], self.v1[rows], self.v_cap[rows], self.a_cap[rows],
-                         self.T_orig[rows], self.I_orig[rows], self.mass_r[rows], self.t_seg_min[rows])
+        return PlanInput(*(a.take(rows, axis=0) for a in (self.L, self.v0, self.v1, self.v_cap, self.a_cap,
+                                                          self.T_orig, self.I_orig, self.mass_r, self.t_seg_min)))
 
 
 def _reasons(n, default, *cases):
@@ -215,13 +215,15 @@ class Candidates:
             else:
                 t_fill = T_orig[sub, None] * T_RATIOS[None, :]
                 t_pos = (np.where(t_finite, t, t_fill) >= 0.0).all(axis=1)
-        # the feasible entries straight into their rows (np.compress: mask's True entries in
-        # row-major order, as t[mask]), not four copies stacked (~24 MB at once on the
-        # rectilinear plate's lines, beside the dense tables)
-        keep = mask.ravel()
-        vals = np.empty((4, int(np.count_nonzero(keep))))
+        # the feasible entries straight into their rows (mask's True entries in row-major
+        # order, as t[mask]), not four copies stacked (~24 MB at once on the rectilinear
+        # plate's lines, beside the dense tables): their places found once, not by each
+        # table's np.compress, and taken into the rows in place (mode "clip": the places
+        # are in range; "raise" with out= fills a temporary and copies it)
+        at = np.flatnonzero(mask)
+        vals = np.empty((4, at.size))
         for row, x in zip(vals, (t, b, i, ke)):
-            np.compress(keep, np.ascontiguousarray(x).ravel(), out=row)
+            np.take(np.ascontiguousarray(x).ravel(), at, out=row, mode="clip")
         return sub, mask, vals, t_pos, bad_row
 
     @classmethod
@@ -620,13 +622,15 @@ def _live_entries(p: PlanInput):
         return None
     flat = np.flatnonzero(T >= p.t_seg_min[:, None])
     r = flat // T.shape[1]
-    Tq = T.ravel()[flat]
-    L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
+    # (take: numpy's plain gather loop, fewer steps an item than indexing; the same values)
+    Tq = T.ravel().take(flat)
+    L, v0, v1, v_cap, a_cap = (a.take(r) for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
     # entries no law can meet (a quarter of a plate's live ones, two thirds of those the
     # bisection would take) are infeasible whatever beta: left as the others above
     reach = ~out_of_reach(L, Tq, v0, v1, v_cap, a_cap)
     if not reach.all():
-        flat, Tq, L, v0, v1, v_cap = (x[reach] for x in (flat, Tq, L, v0, v1, v_cap))
+        q = np.flatnonzero(reach)            # (the mask's places once, not a mask gather an array)
+        flat, Tq, L, v0, v1, v_cap = (x.take(q) for x in (flat, Tq, L, v0, v1, v_cap))
     return flat.astype(np.int32), _beta_prep(L, Tq, v0, v1, v_cap)
 
 
@@ -641,8 +645,8 @@ def _live_tables(p: PlanInput, flat, bq, v_crit):
     if not flat.size:
         return T, beta, I, KE
     r = flat // shape[1]
-    Tq = T.ravel()[flat]
-    L, v0, v1, v_cap, a_cap = (a[r] for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
+    Tq = T.ravel().take(flat)
+    L, v0, v1, v_cap, a_cap = (a.take(r) for a in (p.L, p.v0, p.v1, p.v_cap, p.a_cap))
     # the law's peak acceleration and integrals: the cubic ones (beta = inf, ~94 % of the
     # rectilinear plate's) by cubic_figures, the others by their LineLaw (each entry its own)
     a_peak, KEq, Iq = _law_figures(L, Tq, bq, v0, v1)
@@ -969,7 +973,8 @@ def _bisect(J, live, step, spent, budget_t, settle):
         # at most the top end's, tol_hi, which both margins must clear
         keep = (j_lo != j_hi) | ~(m_lo > tol_hi) | ~(m_hi > tol_hi)
         if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
-            act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a[keep] for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
+            q = np.flatnonzero(keep)         # (the mask's places once, then a take an array)
+            act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a.take(q) for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
         mid = 0.5 * (lo + hi)
         j_mid, m_mid, tol_mid = step(mid, act)
         J[act] = j_mid
@@ -1053,7 +1058,7 @@ def _allocate_rows(vals, rv, budget_t, core):
     reps, inv = rv.reps, rv.inv
     vT, vI = np.ascontiguousarray(vals[0]), np.ascontiguousarray(vals[2])
     first, cnt, T_orig, I_orig = ((rv.first, rv.cnt, rv.T_orig, rv.I_orig) if reps is None else
-                                  (np.ascontiguousarray(a[reps]) for a in (rv.first, rv.cnt, rv.T_orig, rv.I_orig)))
+                                  (a.take(reps) for a in (rv.first, rv.cnt, rv.T_orig, rv.I_orig)))
     J = np.empty(cnt.size, np.intp)
     spread = _RowSpread(inv, cnt.size)
     # groups with no candidate keep their original (column 0) at every lambda
@@ -1105,10 +1110,10 @@ class _RowSpread:
         if g.size != self.g_n:        # fewer groups: their rows among the last ones'
             keep = np.zeros(self.dT_u.size, bool)
             keep[g] = True
-            keep = keep[self.inv_rows]
-            self.rows, self.inv_rows = self.rows[keep], self.inv_rows[keep]
+            keep = np.flatnonzero(keep.take(self.inv_rows))     # (its places once, then takes)
+            self.rows, self.inv_rows = self.rows.take(keep), self.inv_rows.take(keep)
             self.g_n = g.size
-        self.dT[self.rows] = self.dT_u[self.inv_rows]
+        self.dT[self.rows] = self.dT_u.take(self.inv_rows)
 
 
 USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)

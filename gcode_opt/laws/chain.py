@@ -1220,22 +1220,50 @@ class FlatLaws:
         po, self.poff = _block_order(chains, npc, m)
         self.bound = bound
         if not (pieces and self.pieces):
-            self.L, self.T, self.beta, self.v0, self.v1 = (x.take(po) for x in cat[2:7])
             # the final pieces' shc(γ/2), where every part has them (the parts' 8th column)
-            sh2 = cat[7].take(po) if self._with_sh2 and len(cat) == 8 else None
-            del cat
-            _flat_figures(self, full=False, sh2=sh2)
+            sh2 = cat[7] if self._with_sh2 and len(cat) == 8 else None
+            if self._block_figures(cat[2:7], sh2, chains, npc, m):
+                self.T = cat[3].take(po)
+            else:
+                self.L, self.T, self.beta, self.v0, self.v1 = (x.take(po) for x in cat[2:7])
+                sh2 = None if sh2 is None else sh2.take(po)
+                del cat
+                _flat_figures(self, full=False, sh2=sh2)
             # the pieces' durations kept (piece_T, chain c's at piece_off[c]:piece_off[c + 1]):
             # with the binding mask they are the law (_Flat.vertices_at makes its vertices again)
             self.piece_T, self.piece_off = self.T, self.poff
             for f in ("L", "T", "beta", "v0", "v1", "poff"):
-                delattr(self, f)
+                if hasattr(self, f):
+                    delattr(self, f)
             return
         # (take: x[po]'s values by numpy's plain gather loop, fewer steps an item than indexing)
         self.L, self.T, self.beta, self.v0, self.v1, self.a0, self.a1 = (x.take(po) for x in cat[2:9])
         ko, self.koff = _block_order(chains, npc + 1, m)  # a chain's knots: its pieces + 1
         self.ks, self.kv, self.kt = (x.take(ko) for x in cat[9:12])
         _flat_figures(self)
+
+    def _block_figures(self, cols, sh2, chains, npc, m):
+        """close(pieces=False)'s figures (iv, peak_v, min_v; ia, peak_a None) made on the
+        pieces in the parts' order, the blocks end to end (cols: L, T, beta, v0, v1 so;
+        chain chains[i]'s npc[i] pieces its block), not on their copies in chain order:
+        _flat_figures_core's arithmetic is piece by piece, then per chain over its own
+        pieces in their order, the same in a block as in chain order, so each chain's
+        figures are the same bits; only the chains' figures are put in chain order.  Where
+        every chain has one block of pieces (else the core declines in chain order too)
+        and the core takes them; False (nothing set) else."""
+        if CORE_MOD is None or chains.size != m or not np.all(npc > 0):
+            return False
+        blk = _BlockLaws()
+        blk.L, blk.T, blk.beta, blk.v0, blk.v1 = cols
+        blk.poff = np.concatenate([[0], np.cumsum(npc)]).astype(np.int64)
+        if not _flat_figures_core(CORE_MOD, blk, sh2):
+            return False
+        for f in ("iv", "peak_v", "min_v"):
+            out = np.empty(m)
+            out[chains] = getattr(blk, f)
+            setattr(self, f, out)
+        self.ia = self.peak_a = None
+        return True
 
     def law(self, c):
         """Chain c's ChainLaw."""
@@ -1406,6 +1434,11 @@ def _figure_law(L, T, beta, v0, v1):
 
 class _Pieces:
     __slots__ = ("L", "T", "beta", "v0", "v1", "a0", "a1")
+
+
+class _BlockLaws:
+    """FlatLaws._block_figures' pieces (and the figures _flat_figures_core sets)."""
+    __slots__ = ("L", "T", "beta", "v0", "v1", "poff", "iv", "ia", "peak_v", "min_v", "peak_a")
 
 
 def solve_chain(s_v, c_v, S, T, beta, v0, v1):

@@ -596,6 +596,13 @@ def main(argv=None):
         restore_signal_handlers(saved)
 
 
+def run():
+    """The `gcode-opt` program (pyproject's console script): main() on sys.argv, then the
+    process ends by exit_process, as `python -m gcode_opt` does (__main__.py).  It does not
+    return where the teardown is skipped: call main() to run a command in-process."""
+    exit_process(main())
+
+
 def exit_process(code):
     """sys.exit(code) at the end of `python -m gcode_opt` (__main__.py): where the
     interpreter's teardown has nothing to do for the run -- no atexit callback (coverage's,

@@ -16,6 +16,8 @@ SAMPLE = ROOT / "sample_gcode" / "prusa_mk3s_rectilinear.gcode"
 ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
 ENV.pop("PYTHONUNBUFFERED", None)           # (stdout and stderr pipes buffered, as usual)
 USUAL = "import sys; from gcode_opt.cli import main; sys.exit(main())"
+# what pip's `gcode-opt` wrapper runs (pyproject's console script: cli.run)
+SCRIPT = "import sys; sys.argv[0] = 'gcode-opt'; from gcode_opt.cli import run; sys.exit(run())"
 
 
 def _scrub(o):
@@ -43,7 +45,7 @@ def _cases(tmp_path):
 def test_the_fast_exit_is_the_usual_exit(tmp_path):
     for k, (args, outs) in enumerate(_cases(tmp_path)):
         got = {}
-        for way, head in (("fast", ["-m", "gcode_opt"]), ("usual", ["-c", USUAL])):
+        for way, head in (("fast", ["-m", "gcode_opt"]), ("usual", ["-c", USUAL]), ("script", ["-c", SCRIPT])):
             d = tmp_path / f"{way}{k}"
             d.mkdir()
             p = _run(head + args, d)
@@ -52,6 +54,7 @@ def test_the_fast_exit_is_the_usual_exit(tmp_path):
                 files["JSON"] = _scrub(json.loads(files["JSON"]))
             got[way] = (p.returncode, p.stdout, p.stderr.replace(str(d).encode(), b"D"), files)
         assert got["fast"] == got["usual"], args
+        assert got["script"] == got["usual"], args
         if args[0] == "profiles":
             assert got["fast"][1]          # (stdout a pipe: all of it flushed)
 
@@ -82,3 +85,19 @@ def test_exit_codes(tmp_path, code):
           f"exit_process({code!r})\n")
     p = _run(["-c", py], tmp_path)
     assert p.returncode == (code or 0) and p.stdout == b"out"
+
+
+def test_the_console_script_ends_by_exit_process():
+    """pyproject's `gcode-opt` is cli.run (main, then exit_process), so a slicer's run of
+    the installed program ends as `python -m gcode_opt` does."""
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'gcode-opt = "gcode_opt.cli:run"' in text
+    from gcode_opt import cli
+    calls = []
+    saved = cli.main, cli.exit_process
+    try:
+        cli.main, cli.exit_process = (lambda: 3), calls.append
+        cli.run()
+    finally:
+        cli.main, cli.exit_process = saved
+    assert calls == [3]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
 import pytest
 
@@ -43,8 +44,18 @@ def _python_class(monkeypatch):
     return cls
 
 
+def _arrays(st):
+    return [a for a in (st._ends, st.pts.xy if st.pts is not None else None) if a is not None]
+
+
 def _all(st):
-    return (_fields(st), st.prev_u, st.next_u, st.start_state, st.n_moves, st.ends_d.tobytes())
+    return (_fields(st), st.prev_u, st.next_u, st.start_state, st.n_moves, st.ends_d.tobytes(),
+            [type(a) for a in _arrays(st)])
+
+
+def _room_at_most(a, b):
+    """a's arrays take no more room than b's (run_lines' array_room: exactly their items)"""
+    return all(sys.getsizeof(x) <= sys.getsizeof(y) for x, y in zip(_arrays(a), _arrays(b)))
 
 
 @pytest.mark.parametrize("curves", [True, False])
@@ -63,6 +74,7 @@ def test_run_lines_strokes_as_the_python_class(monkeypatch, name, prof, curves):
     assert len(got) == len(ref) > 50
     for a, b in zip(got, ref):
         assert _all(a) == _all(b), a.first_idx
+        assert _room_at_most(a, b), a.first_idx
 
 
 def _drift_file(path):
@@ -87,15 +99,24 @@ def _drift_file(path):
 
 
 @pytest.mark.parametrize("curves", [True, False])
-def test_run_parts_strokes_as_the_python_class(tmp_path, monkeypatch, curves):
+@pytest.mark.parametrize("name", ["drift", "prusa_gyroid.gcode", "prusa_mk3s_rectilinear.gcode"])
+def test_run_lines_strokes_as_group_lines_python(tmp_path, monkeypatch, name, curves):
+    """against group_lines' own Python (no RecordLog: no run_lines) and the Python class"""
     path = tmp_path / "drift.gcode"
-    _drift_file(path)
+    if name == "drift":
+        _drift_file(path)
+    else:
+        path = SAMPLES + name
     got = _analyse(str(path), "prusa-mk3s", curves)
     cls = _python_class(monkeypatch)
-    monkeypatch.setattr(pipeline, "_record_log", lambda: None)      # group_lines' Python alone
+    monkeypatch.setattr(pipeline, "_record_log", lambda: None)
     ref = _analyse(str(path), "prusa-mk3s", curves)
     assert all(isinstance(s, BASE) for s in got) and all(type(s) is cls for s in ref)
     assert len(got) == len(ref) > 20
-    assert sum(a.prev_u is not None and a.first_idx > 0 for a in got) > 20
+    if name == "drift":                 # parts after a run's first: made in C
+        assert sum(a.prev_u is not None and a.first_idx > 0 for a in got) > 20
+    if name == "prusa_gyroid.gcode" and curves:
+        assert sum(a.kind == "curve" for a in got) > 50
     for a, b in zip(got, ref):
         assert _all(a) == _all(b), a.first_idx
+        assert _room_at_most(a, b), a.first_idx

@@ -3759,20 +3759,67 @@ static int stroke_put(PyObject *o, int k, PyObject *v)
     return 0;
 }
 
-/* a stroke of exactly STROKE_MAP's type, field k val[k] (borrowed), or NULL with an error */
-static PyObject *stroke_new(PyObject *const *val)
+/* stroke_new's fields: field k is val[k] (borrowed), or, where bit k of dm (im) is set, the
+ * double d[k] (the int i[k]) written straight into the StrokeBase's double (int) field: the
+ * bits its float (int) object would leave there, without the object.  sv_d and sv_i defer a
+ * value only into such a field (stroke_dbl, stroke_int), else the caller makes the object. */
+typedef struct {
+    PyObject *val[ST_N];
+    double d[ST_N];
+    long long i[ST_N];
+    unsigned long long dm, im;
+} StrokeVals;
+
+static inline void sv_init(StrokeVals *sv)
+{
+    for (int k = 0; k < ST_N; k++)
+        sv->val[k] = Py_None;
+    sv->dm = sv->im = 0;
+}
+
+/* 1: field k will be x (deferred); 0: field k keeps no double, the caller sets val[k] */
+static inline int sv_d(StrokeVals *sv, int k, double x)
+{
+    if (!stroke_inline || stroke_dbl[k] < 0)
+        return 0;
+    sv->d[k] = x;
+    sv->dm |= 1ull << k;
+    return 1;
+}
+
+static inline int sv_i(StrokeVals *sv, int k, long long x)
+{
+    if (!stroke_inline || stroke_int[k] < 0)
+        return 0;
+    sv->i[k] = x;
+    sv->im |= 1ull << k;
+    return 1;
+}
+
+/* a stroke of exactly STROKE_MAP's type with sv's fields, or NULL with an error */
+static PyObject *stroke_new(const StrokeVals *sv)
 {
     if (!stroke_inline)
-        return slots_new(&STROKE_MAP, val);
+        return slots_new(&STROKE_MAP, sv->val);     /* (nothing deferred: not a StrokeBase) */
     PyTypeObject *t = STROKE_MAP.type;
     PyObject *o = t->tp_alloc(t, 0);
     if (o == NULL)
         return NULL;
-    for (int k = 0; k < ST_N; k++)
-        if (stroke_put(o, k, val[k]) < 0) {
+    StrokeObject *s = (StrokeObject *)o;            /* (zeroed: has and odd 0, as sd_set / si_set leave them) */
+    for (int k = 0; k < ST_N; k++) {
+        int j = stroke_dbl[k];
+        PyObject *v = sv->val[k];
+        if (j >= 0 && (((sv->dm >> k) & 1) || PyFloat_CheckExact(v))) {
+            s->d[j] = ((sv->dm >> k) & 1) ? sv->d[k] : PyFloat_AS_DOUBLE(v);     /* sd_set's float */
+            if (j >= SD_NONE0)
+                s->has |= 1u << (j - SD_NONE0);
+        } else if ((sv->im >> k) & 1)
+            s->i[stroke_int[k]] = sv->i[k];                                     /* si_set's int */
+        else if (stroke_put(o, k, v) < 0) {
             Py_DECREF(o);
             return NULL;
         }
+    }
     return o;
 }
 
@@ -4004,29 +4051,22 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
     PyObject *own[12];                 /* new references made here (at most 9) */
     int n_own = 0, rc = -1;
 #define OWN(x) (own[n_own++] = (x))
-    PyObject *val[ST_N];
-    for (int k = 0; k < ST_N; k++)
-        val[k] = Py_None;
-    PyObject *epm = OWN(PyFloat_FromDouble(r_epm));
-    if (!epm)
-        goto done;
+    /* field k the double (int) x: deferred into the stroke, else its object */
+#define SV_D(k, x) do { if (!sv_d(&sv, (k), (x)) && !(val[k] = OWN(PyFloat_FromDouble(x)))) goto done; } while (0)
+#define SV_I(k, x) do { if (!sv_i(&sv, (k), (x)) && !(val[k] = OWN(PyLong_FromLongLong(x)))) goto done; } while (0)
+    StrokeVals sv;
+    PyObject **val = sv.val;
+    sv_init(&sv);
+    SV_D(ST_EPM, r_epm);
     if (h->c) {
-        PyObject *first = OWN(PyLong_FromLongLong(h->first));
-        PyObject *x0 = OWN(PyFloat_FromDouble(h->rm.fm.x0)), *y0 = OWN(PyFloat_FromDouble(h->rm.fm.y0));
-        if (!first || !x0 || !y0)
-            goto done;
-        val[ST_FIRST] = first;
-        val[ST_X0] = x0;
-        val[ST_Y0] = y0;
+        SV_I(ST_FIRST, h->first);
+        SV_D(ST_X0, h->rm.fm.x0);
+        SV_D(ST_Y0, h->rm.fm.y0);
         val[ST_Z] = z;
         val[ST_PUX] = h->pux;
         val[ST_PUY] = h->puy;
-        if (start != Py_None) {
-            PyObject *e0 = OWN(PyFloat_FromDouble(h->rm.e0));
-            if (!e0)
-                goto done;
-            val[ST_SSE] = e0;
-        }
+        if (start != Py_None)
+            SV_D(ST_SSE, h->rm.e0);
     } else {
         val[ST_FIRST] = p->idx;
         val[ST_X0] = p->x0;
@@ -4043,10 +4083,10 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
         val[ST_SSA] = PyTuple_GET_ITEM(start, travel ? 2 : 1);
         val[ST_SSC] = PyTuple_GET_ITEM(start, 3);
     }
-    if (h->last == h->first)           /* (one line: group_lines' r_last is that line's idx) */
-        val[ST_LAST] = val[ST_FIRST];
-    else if (!(val[ST_LAST] = OWN(PyLong_FromLongLong(h->last))))
-        goto done;
+    if (h->last == h->first && !((sv.im >> ST_FIRST) & 1))
+        val[ST_LAST] = val[ST_FIRST];  /* (one line: group_lines' r_last is that line's idx) */
+    else
+        SV_I(ST_LAST, h->last);
     val[ST_UX] = h->ux;
     val[ST_UY] = h->uy;
     val[ST_VF] = p->v;
@@ -4055,7 +4095,6 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
     val[ST_LAYER] = p->layer;
     val[ST_EREL] = p->e_rel;
     val[ST_LIM] = p->lim;
-    val[ST_EPM] = epm;
     val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
     val[ST_NUX] = nux;
     val[ST_NUY] = nuy;
@@ -4072,19 +4111,17 @@ static int run_stroke(const RunKit *kit, const Proto *p, const RunHead *h, PyObj
         val[ST_KIND] = kit->k_curve;
         val[ST_PTS] = pts;
         val[ST_ENDS] = ends;
-        if (rb) {
-            if (!(val[ST_LEN] = OWN(PyFloat_FromDouble(rb->ends[rb->n - 1]))))
-                goto done;
-        } else
+        if (rb)
+            SV_D(ST_LEN, rb->ends[rb->n - 1]);
+        else
             val[ST_LEN] = PyList_GET_ITEM(run_ends, PyList_GET_SIZE(run_ends) - 1);
     } else {
-        PyObject *len = OWN(PyFloat_FromDouble(run_len));
-        if (!len)
-            goto done;
         val[ST_KIND] = kit->k_line;
-        val[ST_LEN] = len;
+        SV_D(ST_LEN, run_len);
     }
-    PyObject *st = OWN(stroke_new(val));
+#undef SV_D
+#undef SV_I
+    PyObject *st = OWN(stroke_new(&sv));
     if (!st)
         goto done;
     PyObject *r = PyObject_CallOneArg(kit->on_stroke, st);
@@ -4199,22 +4236,27 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         PyObject *own[16];
         int n_own = 0, bad = 0;
 #define OWN(x) (bad |= (own[n_own++] = (x)) == NULL, own[n_own - 1])
-        PyObject *val[ST_N];
-        for (int k = 0; k < ST_N; k++)
-            val[k] = Py_None;
+        /* field k the double (int) x: deferred into the stroke, else its object */
+#define SV_D(k, x) do { if (!sv_d(&sv, (k), (x))) val[k] = OWN(PyFloat_FromDouble(x)); } while (0)
+#define SV_I(k, x) do { if (!sv_i(&sv, (k), (x))) val[k] = OWN(PyLong_FromLongLong(x)); } while (0)
+        StrokeVals sv;
+        PyObject **val = sv.val;
+        sv_init(&sv);
         if (a == 0 && !h->c) {
             val[ST_FIRST] = p->idx;
             val[ST_X0] = p->x0;
             val[ST_Y0] = p->y0;
             val[ST_Z] = p->z0;
         } else {
-            val[ST_FIRST] = OWN(PyLong_FromLongLong(h->first + a));
-            val[ST_X0] = OWN(PyFloat_FromDouble(rb ? rb->xy[2 * a] : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a))));
-            val[ST_Y0] = OWN(PyFloat_FromDouble(rb ? rb->xy[2 * a + 1]
-                                                   : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a + 1))));
+            SV_I(ST_FIRST, h->first + a);
+            SV_D(ST_X0, rb ? rb->xy[2 * a] : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a)));
+            SV_D(ST_Y0, rb ? rb->xy[2 * a + 1] : PyFloat_AS_DOUBLE(PyList_GET_ITEM(run_xy, 2 * a + 1)));
             val[ST_Z] = z;
         }
-        val[ST_LAST] = b - 1 == a ? val[ST_FIRST] : OWN(PyLong_FromLongLong(h->first + b - 1));
+        if (b - 1 == a && !((sv.im >> ST_FIRST) & 1))
+            val[ST_LAST] = val[ST_FIRST];
+        else
+            SV_I(ST_LAST, h->first + b - 1);
         if (a == 0) {
             val[ST_UX] = h->ux;        /* (the run's first direction: the same bits) */
             val[ST_UY] = h->uy;
@@ -4226,28 +4268,30 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
                 val[ST_PUY] = PyTuple_GET_ITEM(prev_u, 1);
             }
         } else {
-            val[ST_UX] = OWN(PyFloat_FromDouble(ux[a]));
-            val[ST_UY] = OWN(PyFloat_FromDouble(uy[a]));
-            val[ST_PUX] = OWN(PyFloat_FromDouble(ux[a - 1]));
-            val[ST_PUY] = OWN(PyFloat_FromDouble(uy[a - 1]));
+            SV_D(ST_UX, ux[a]);
+            SV_D(ST_UY, uy[a]);
+            SV_D(ST_PUX, ux[a - 1]);
+            SV_D(ST_PUY, uy[a - 1]);
         }
         if (j + 1 < np) {              /* the next part's first direction (the last kept: below) */
-            val[ST_NUX] = OWN(PyFloat_FromDouble(ux[b]));
-            val[ST_NUY] = OWN(PyFloat_FromDouble(uy[b]));
+            SV_D(ST_NUX, ux[b]);
+            SV_D(ST_NUY, uy[b]);
         }
-        val[ST_LEN] = OWN(PyFloat_FromDouble(len));
+        SV_D(ST_LEN, len);
         if (b - a > 1)
             val[ST_ENDS] = OWN(doubles_array(kit->array_t, ends, b - a));
-        val[ST_EPM] = OWN(PyFloat_FromDouble(epm));
+        SV_D(ST_EPM, epm);
         if (start != Py_None) {
             if (a == 0 && !h->c)
                 val[ST_SSE] = PyTuple_GET_ITEM(start, 0);
             else
-                val[ST_SSE] = OWN(PyFloat_FromDouble(e_k));
+                SV_D(ST_SSE, e_k);
             val[ST_SSA] = PyTuple_GET_ITEM(start, travel ? 2 : 1);
             val[ST_SSC] = PyTuple_GET_ITEM(start, 3);
         }
 #undef OWN
+#undef SV_D
+#undef SV_I
         val[ST_VF] = p->v;
         val[ST_ACC] = p->accel;
         val[ST_FEAT] = p->feature;
@@ -4257,7 +4301,7 @@ static int run_parts(const RunKit *kit, const Proto *p, const RunHead *h, PyObje
         val[ST_V0] = val[ST_V1] = val[ST_T] = val[ST_A2] = val[ST_V2] = ZERO;
         val[ST_CC0] = val[ST_CC1] = Py_False;
         val[ST_KIND] = kit->k_line;
-        PyObject *st = bad ? NULL : stroke_new(val);
+        PyObject *st = bad ? NULL : stroke_new(&sv);
         for (int k = 0; k < n_own; k++)
             Py_XDECREF(own[k]);
         if (st == NULL)

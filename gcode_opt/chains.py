@@ -538,7 +538,7 @@ def _laws_knots(Qs, laws, profile):
         if n > 1:
             vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
             tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
-        out.append((vk, np.diff(tk, axis=1), tp[a:z].tolist(), a2[a:z].tolist()))
+        out.append((vk, _row_steps(tk), tp[a:z].tolist(), a2[a:z].tolist()))
         a = z
     return out
 
@@ -670,7 +670,7 @@ def _rows_knots(sts, bnd, tj, TL, beta, profile):
         vv, vt = fl.vertices_at(bnd.reshape(-1), tj)
         vk[:, 1:-1] = vv.reshape(m, n - 1)
         tk[:, 1:-1] = vt.reshape(m, n - 1)
-    return vk, np.diff(tk, axis=1)
+    return vk, _row_steps(tk)
 
 
 def _drop(st):
@@ -751,7 +751,7 @@ def _knots_again(items, profile):
                     ix = sb.voff[pos[J]][:, None] + np.arange(n - 1)
                     vk[:, 1:-1] = res[c].vert_v[ix]
                     tk[:, 1:-1] = res[c].vert_t[ix]
-                dt = np.diff(tk, axis=1)
+                dt = _row_steps(tk)
                 for i, jj in enumerate(J.tolist()):
                     out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1])
             del res
@@ -1085,7 +1085,7 @@ def _finish_rows(st, laws, rules, profile):
 
 def _finish_rows_arrays(st, vk, tk, rules, profile):
     """_finish_rows from the laws' speeds vk and times tk at the knots (k, n + 1)."""
-    acc, feed, t_pred, a2_pred, fits = _finish_rows_dt(st, vk, np.diff(tk, axis=1), rules, profile)
+    acc, feed, t_pred, a2_pred, fits = _finish_rows_dt(st, vk, _row_steps(tk), rules, profile)
     return _KeptPlans(_rules_key(rules, profile), st.ends_d, (vk, acc, feed, t_pred, a2_pred)), fits
 
 
@@ -1207,7 +1207,7 @@ def _finish_stacked(sts, gs, ks, vk, tk, rules, profile):
     """_finish_group from the rows' knot speeds vk and times tk (R, n + 1), ks[q] rows of
     chain sts[q] after each other."""
     own = np.repeat(np.arange(len(sts)), ks)               # the chain of each row
-    acc, feed, t_pred, a2_pred, fits = _finish_stacked_dt(sts, gs, own, vk, np.diff(tk, axis=1), rules, profile)
+    acc, feed, t_pred, a2_pred, fits = _finish_stacked_dt(sts, gs, own, vk, _row_steps(tk), rules, profile)
     key = _rules_key(rules, profile)
     res = []
     base = (vk, acc, feed, t_pred, a2_pred)
@@ -2178,7 +2178,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
                 cc = rc[:, None]
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
-        item = _TableItem((J, rj, rc, vk, np.diff(tk, axis=1), np.bincount(rj, None, J.size), _at(IV, rc, j)))
+        item = _TableItem((J, rj, rc, vk, _row_steps(tk), np.bincount(rj, None, J.size), _at(IV, rc, j)))
         item.at = at
         yield item
 
@@ -2235,6 +2235,22 @@ def _row_ranges(start, w):
     for i in range(w):
         np.add(start, i, out=out[:, i])
     return out
+
+
+def _row_steps(tk):
+    """np.diff(tk, axis=1) (the same values) for a 2-D tk of times: where its rows are short
+    and it is C-contiguous, one subtraction over tk's flat values (the row ends' steps
+    across rows discarded) and a copy of the rest, not numpy's row-by-row buffered
+    subtraction of two strided views (~85 instructions an element at 7 columns, ~25 so;
+    long rows subtract well as they are)."""
+    if tk.ndim != 2 or not 2 <= tk.shape[1] <= ROW_RANGE_COLS + 1 or tk.shape[0] < 2 \
+            or tk.dtype != np.float64 or not tk.flags.c_contiguous:
+        return np.diff(tk, axis=1)
+    R, w = tk.shape
+    f = tk.ravel()
+    d = np.empty(R * w)
+    np.subtract(f[1:], f[:-1], out=d[:-1])
+    return d.reshape(R, w)[:, :-1].copy()
 
 
 def _plus_rows(x, v):

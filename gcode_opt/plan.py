@@ -972,7 +972,7 @@ def _bisect(J, live, step, spent, budget_t, settle, rise=None):
             break
         hi *= 10.0
     if rise is not None:      # the last decade's margins and tols (its choices are rise's)
-        j_hi, m_hi, tol_hi = step(hi, live)
+        j_hi, m_hi, tol_hi = rise.last(hi)
     J[live] = j_hi
     act = live
     for _ in range(80):
@@ -1095,14 +1095,15 @@ class _Rise:
     grows with lambda: the proof is alloc_rise's, firmware/_core.c), so it is not costed
     again, and the others are (their choice and ref then kept).  Each decade's T - T_orig are thus
     every group's at its choice there, as a step on every group writes them, and spent()
-    the same bits; only the margins and tols are not made, which _bisect asks of its last
-    decade only (a step on every group).  On the gyroid plate ~1 group in 4 is costed
+    the same bits; the margins and tols, which _bisect asks of its last decade only, are
+    made there for the groups not costed again by alloc_rows (last()).  On the gyroid plate ~1 group in 4 is costed
     again a decade, instead of every one."""
-    __slots__ = ("core", "tables", "spread", "live", "j", "ref")
+    __slots__ = ("core", "tables", "spread", "live", "j", "ref", "margin", "tol", "kept", "n_kept")
 
     def __init__(self, core, tables, spread):
         self.core, self.tables, self.spread = core, tables, spread
-        self.live = self.j = self.ref = None
+        self.live = self.j = self.ref = self.margin = self.tol = self.kept = None
+        self.n_kept = 0
 
     def start(self, step, live):
         """step(0.0, live)'s (choice, margin, tol), its choices and refs kept."""
@@ -1110,12 +1111,28 @@ class _Rise:
         self.ref = np.empty((live.size, 3))
         got = step(0.0, live, self.ref)
         self.j = got[0].copy()
+        self.margin, self.tol = np.empty(live.size), np.empty(live.size)
+        self.kept = np.empty(live.size, np.intp)
         return got
 
     def __call__(self, lam):
-        """The live groups' choices at lam (not below the last call's) and their T - T_orig."""
-        if self.core.alloc_rise(*self.tables, self.live, lam, self.j, self.ref, self.spread.dT_u):
+        """The live groups' choices at lam (not below the last call's) and their T - T_orig
+        (the margins and tols of those costed again)."""
+        costed = self.core.alloc_rise(*self.tables, self.live, lam, self.j, self.ref, self.spread.dT_u,
+                                      MARGIN_R, self.margin, self.tol, self.kept)
+        self.n_kept = self.live.size - costed
+        if costed:
             self.spread.refresh()
+
+    def last(self, lam):
+        """The last call's lam: every live group's (choice, margin, tol) there, those the
+        call kept costed by alloc_rows (the same choice, and T - T_orig, written again)."""
+        kept = self.kept[:self.n_kept]
+        if kept.size:
+            j, margin, tol = np.empty(kept.size, np.intp), np.empty(kept.size), np.empty(kept.size)
+            self.core.alloc_rows(*self.tables, self.live.take(kept), lam, MARGIN_R, self.spread.dT_u, j, margin, tol)
+            self.margin[kept], self.tol[kept] = margin, tol
+        return self.j, self.margin, self.tol
 
 
 class _RowSpread:

@@ -213,15 +213,62 @@ def test_alloc_rise_is_alloc_rows(seed):
         assert np.array_equal(x.view(np.int64), y.view(np.int64))
     costed = []
     for lam in (0.0, 0.1, 0.3, 1.0, 2.0, 10.0, 10.0, 55.0, 1e3, 3e4, 1e6, 1e9, 1e15, 1e30):
-        costed.append(core.alloc_rise(*tables, rows, lam, j, ref, dT))
-        want_j, want_dT, _, _ = full(lam)
+        mg, tol, kept = np.full(m, -7.0), np.full(m, -7.0), np.full(m, -1, np.intp)
+        c = core.alloc_rise(*tables, rows, lam, j, ref, dT, plan_mod.MARGIN_R, mg, tol, kept)
+        costed.append(c)
+        want_j, want_dT, want_mg, want_tol = full(lam)
         assert np.array_equal(j, want_j)
         assert np.array_equal(dT.view(np.int64), want_dT.view(np.int64))
+        kept = kept[:m - c]            # the rows kept; the others' margins and tols are made
+        again = np.setdiff1d(np.arange(m), kept)
+        assert np.array_equal(kept, np.sort(kept)) and again.size == c
+        assert (mg[kept] == -7.0).all() and (tol[kept] == -7.0).all()
+        assert np.array_equal(mg[again].view(np.int64), want_mg[again].view(np.int64))
+        assert np.array_equal(tol[again].view(np.int64), want_tol[again].view(np.int64))
     assert 0 < min(costed) and max(costed) < 0.6 * m     # some rows costed again, most not
     bad = rows.copy()
     bad[np.flatnonzero(tables[3][rows])[0]] = n          # a row costed again (ref: NaN) out of range
     ref[:, 0] = np.nan
+    mg, tol, kept = np.empty(m), np.empty(m), np.empty(m, np.intp)
     with pytest.raises(IndexError):
-        core.alloc_rise(*tables, bad, 1e30, j, ref, dT)
+        core.alloc_rise(*tables, bad, 1e30, j, ref, dT, plan_mod.MARGIN_R, mg, tol, kept)
     with pytest.raises(ValueError):
-        core.alloc_rise(*tables, rows, 1e30, j, ref[:-1], dT)
+        core.alloc_rise(*tables, rows, 1e30, j, ref[:-1], dT, plan_mod.MARGIN_R, mg, tol, kept)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_rise_last_is_a_step_on_every_group(seed):
+    """_Rise's decades then last(): every group's choice, margin and tol at the last
+    lambda, and every row's T - T_orig, are a step's on every group there."""
+    core = plan_mod._alloc_core()
+    if core is None:
+        pytest.skip("the compiled core is not built")
+    tables = _rise_tables(seed)
+    n = tables[2].size
+    inv = np.random.default_rng(seed).integers(0, n, 3 * n).astype(np.intp)     # rows of the groups
+    live = np.flatnonzero(tables[3] != 0)
+
+    def stepper(spread):
+        def step(lam, g, ref=None):
+            j, margin, tol = np.empty(g.size, np.intp), np.empty(g.size), np.empty(g.size)
+            core.alloc_rows(*tables, g, lam, plan_mod.MARGIN_R, spread.dT_u, j, margin, tol,
+                            *(() if ref is None else (ref,)))
+            spread.rows_of(g)
+            return j, margin, tol
+        return step
+
+    for lams in ((1.0,), (1.0, 10.0, 100.0), (0.5, 3.0, 3.0, 1e4, 1e9)):
+        spread = plan_mod._RowSpread(inv, n)
+        spread.dT_u[:] = 0.0
+        rise = plan_mod._Rise(core, tables, spread)
+        rise.start(stepper(spread), live)
+        for lam in lams:
+            rise(lam)
+        got = rise.last(lams[-1])
+        ref_spread = plan_mod._RowSpread(inv, n)
+        ref_spread.dT_u[:] = 0.0
+        want = stepper(ref_spread)(lams[-1], live)
+        for a, b in zip(got, want):
+            assert np.array_equal(np.asarray(a).view(np.int64), np.asarray(b).view(np.int64))
+        assert np.array_equal(spread.dT.view(np.int64), ref_spread.dT.view(np.int64))
+        assert 0 < rise.n_kept < live.size

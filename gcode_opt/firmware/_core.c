@@ -6658,13 +6658,13 @@ done:
     return ret;
 }
 
-/* alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT): alloc_rows' choices of the
- * rows at lam, given each one's choice j[q] and ref[q] = (second least cost, the choice's T and I)
- * (alloc_rows' ref output, or this one's) at a lambda lam0 <= lam; only the choices are made (no
- * margin, no tol): a row whose choice's cost at lam, I + lam * T by least_pair's operations, is
- * below its second least keeps it (j, ref and dT[r] untouched); the others are costed again
- * (least_pair at lam: j[q], ref[q] and dT[r] = its T - T_orig[r] as alloc_rows writes them).
- * Returns how many were.
+/* alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT, margin_r, margin, tol, kept):
+ * alloc_rows' choices of the rows at lam, given each one's choice j[q] and ref[q] = (second least
+ * cost, the choice's T and I) (alloc_rows' ref output, or this one's) at a lambda lam0 <= lam: a row
+ * whose choice's cost at lam, I + lam * T by least_pair's operations, is below its second least
+ * keeps it (j, ref, margin, tol and dT[r] untouched; q appended to kept); the others are costed
+ * again (least_pair at lam: j[q], ref[q], margin[q], tol[q] and dT[r] as alloc_rows writes them).
+ * Returns how many were (kept holds the others' q, ascending, first).
  * Why a kept row's choice is least_pair's at lam, bit for bit: every T is finite and >= 0 and lam
  * >= lam0 (the caller's), so each product lam * T is at least lam0 * T, and rounding to nearest is
  * monotone, so each candidate's cost at lam is at least its cost at lam0 (inf and NaN stay so; a
@@ -6675,17 +6675,18 @@ done:
  * bound for a later lam).  Rows out of range raise (those costed again: a kept row reads only ref). */
 static PyObject *mod_alloc_rise(PyObject *self, PyObject *args)
 {
-    Py_buffer tb, ib, fb, cb, gb, hb, rb, jb, sb, db;
-    double lam;
-    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*dw*w*w*:alloc_rise", &tb, &ib, &fb, &cb, &gb, &hb, &rb, &lam,
-                          &jb, &sb, &db))
+    Py_buffer tb, ib, fb, cb, gb, hb, rb, jb, sb, db, mb, ob, kb;
+    double lam, margin_r;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*dw*w*w*dw*w*w*:alloc_rise", &tb, &ib, &fb, &cb, &gb, &hb, &rb, &lam,
+                          &jb, &sb, &db, &margin_r, &mb, &ob, &kb))
         return NULL;
     PyObject *ret = NULL;
     Py_ssize_t nnz = tb.len / (Py_ssize_t)sizeof(double);
     Py_ssize_t n = fb.len / (Py_ssize_t)sizeof(Py_ssize_t);
     Py_ssize_t m = rb.len / (Py_ssize_t)sizeof(Py_ssize_t);
     if (ib.len != tb.len || cb.len != fb.len || gb.len != n * (Py_ssize_t)sizeof(double) || hb.len != gb.len
-        || db.len != gb.len || jb.len != rb.len || sb.len != 3 * m * (Py_ssize_t)sizeof(double)) {
+        || db.len != gb.len || jb.len != rb.len || sb.len != 3 * m * (Py_ssize_t)sizeof(double)
+        || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len || kb.len != rb.len) {
         PyErr_SetString(PyExc_ValueError, "alloc_rise: bad sizes");
         goto done;
     }
@@ -6694,13 +6695,16 @@ static PyObject *mod_alloc_rise(PyObject *self, PyObject *args)
     const double *T_orig = (const double *)gb.buf, *I_orig = (const double *)hb.buf;
     const Py_ssize_t *rows = (const Py_ssize_t *)rb.buf;
     Py_ssize_t *jo = (Py_ssize_t *)jb.buf;
-    double *so = (double *)sb.buf, *dT = (double *)db.buf;
-    Py_ssize_t costed = 0;
+    double *so = (double *)sb.buf, *dT = (double *)db.buf, *mo = (double *)mb.buf, *to = (double *)ob.buf;
+    Py_ssize_t *kept = (Py_ssize_t *)kb.buf;
+    Py_ssize_t costed = 0, nk = 0;
     for (Py_ssize_t q = 0; q < m; q++) {
         double *rq = so + 3 * q;             /* second least, the choice's T, its I */
         double x = rq[2] + lam * rq[1];
-        if (x < rq[0])
+        if (x < rq[0]) {
+            kept[nk++] = q;
             continue;
+        }
         Py_ssize_t r = rows[q];
         if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
             PyErr_SetString(PyExc_IndexError, "alloc_rise: row out of range");
@@ -6710,6 +6714,8 @@ static PyObject *mod_alloc_rise(PyObject *self, PyObject *args)
         Py_ssize_t w = cnt[r];
         double c1;
         Py_ssize_t j = least_pair(tr, ir, w, T_orig[r], I_orig[r], lam, &c1, rq);
+        mo[q] = isinf(rq[0]) ? INFINITY : rq[0] - c1;           /* least_two's */
+        to[q] = margin_r * (fabs(c1) + fabs(rq[0]));
         jo[q] = j;
         rq[1] = j < w ? tr[j] : T_orig[r];
         rq[2] = j < w ? ir[j] : I_orig[r];
@@ -6728,6 +6734,9 @@ done:
     PyBuffer_Release(&jb);
     PyBuffer_Release(&sb);
     PyBuffer_Release(&db);
+    PyBuffer_Release(&mb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&kb);
     return ret;
 }
 
@@ -6891,7 +6900,8 @@ static PyMethodDef mod_methods[] = {
     {"alloc_rows", mod_alloc_rows, METH_VARARGS,
      "alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol[, ref]): alloc_choices on plan.Candidates' rows"},
     {"alloc_rise", mod_alloc_rise, METH_VARARGS,
-     "alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT): alloc_rows' choices at a higher lambda, "
+     "alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT, margin_r, margin, tol, kept): alloc_rows' "
+     "choices at a higher lambda, "
      "costing again only rows whose choice may have moved; returns how many"},
     {"use_reader", mod_use_reader, METH_O,
      "use_reader(the reader's _C_API capsule, or None): Sim.play reads common lines through it"},

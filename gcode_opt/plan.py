@@ -1126,13 +1126,17 @@ class _Rise:
 
     def last(self, lam):
         """The last call's lam: every live group's (choice, margin, tol) there, those the
-        call kept costed by alloc_rows (the same choice, and T - T_orig, written again)."""
+        call kept costed by alloc_rows (the same choice, and T - T_orig, written again).
+        Ends the search: its arrays are given up."""
         kept = self.kept[:self.n_kept]
         if kept.size:
             j, margin, tol = np.empty(kept.size, np.intp), np.empty(kept.size), np.empty(kept.size)
             self.core.alloc_rows(*self.tables, self.live.take(kept), lam, MARGIN_R, self.spread.dT_u, j, margin, tol)
             self.margin[kept], self.tol[kept] = margin, tol
-        return self.j, self.margin, self.tol
+        got = self.j, self.margin, self.tol
+        # (held no longer: the bisection then holds these, and its peak is the old one)
+        self.j = self.ref = self.margin = self.tol = self.kept = None
+        return got
 
 
 class _RowSpread:

@@ -1090,14 +1090,15 @@ def _allocate_rows(vals, rv, budget_t, core):
 class _Rise:
     """_bisect's decade search (lambda only rises) on _allocate_rows' groups by the core's
     alloc_rise: start() costs every live group at lambda 0 by step, keeping each one's
-    choice, second least cost and its choice's T and I (ref); at each decade then, a group
-    whose choice's cost there is below that second least keeps its choice (each cost only
-    grows with lambda: the proof is alloc_rise's, firmware/_core.c), so it is not costed
-    again, and the others are (their choice and ref then kept).  Each decade's T - T_orig are thus
-    every group's at its choice there, as a step on every group writes them, and spent()
-    the same bits; the margins and tols, which _bisect asks of its last decade only, are
-    made there for the groups not costed again by alloc_rows (last()).  On the gyroid plate ~1 group in 4 is costed
-    again a decade, instead of every one."""
+    choice, second least cost and its choice's T and I (ref); at each decade then, a
+    group whose choice's cost there is below that second least keeps its choice (each
+    cost only grows with lambda: the proof is alloc_rise's, firmware/_core.c), so it is
+    not costed again, and the others are (their choice, ref, margin and tol then kept).
+    Each decade's T - T_orig are thus every group's at its choice there, as a step on
+    every group writes them, and spent() the same bits; the margins and tols, which
+    _bisect asks of its last decade only, are made there by alloc_rows for the groups
+    alloc_rise kept (last()).  On the gyroid plate ~1 group in 4 is costed again a
+    decade, instead of every one."""
     __slots__ = ("core", "tables", "spread", "live", "j", "ref", "margin", "tol", "kept", "n_kept")
 
     def __init__(self, core, tables, spread):

@@ -968,20 +968,27 @@ def _allocate(Tx, Ix, finite, T_orig, budget_t, settle):
         choices = None
 
 
-def _bisect(J, live, step, spent, budget_t, settle):
+def _bisect(J, live, step, spent, budget_t, settle, rise=None):
     """_allocate's bisection on lambda over the rows live (J: every row's choice, the
     others' set already), step(lam, rows) -> (choice, margin, tol) of those rows (and
-    their T - T_orig taken), spent() the sum of every row's.  Returns (J, lambda)."""
-    j_lo, m_lo, _ = step(0.0, live)
+    their T - T_orig taken), spent() the sum of every row's.  rise (_Rise, or None): the
+    decade search's choices by it, and only its last decade's margins and tols by step.
+    Returns (J, lambda)."""
+    j_lo, m_lo, _ = step(0.0, live) if rise is None else rise.start(step, live)
     if spent() <= budget_t:
         J[live] = j_lo
         return J, 0.0
     lo, hi = 0.0, 1.0
     while True:
-        j_hi, m_hi, tol_hi = step(hi, live)
+        if rise is None:
+            j_hi, m_hi, tol_hi = step(hi, live)
+        else:
+            rise(hi)
         if not (spent() > budget_t and hi < 1e30):
             break
         hi *= 10.0
+    if rise is not None:      # the last decade's margins and tols (its choices are rise's)
+        j_hi, m_hi, tol_hi = rise.last(hi)
     J[live] = j_hi
     act = live
     for _ in range(80):
@@ -1082,16 +1089,71 @@ def _allocate_rows(vals, rv, budget_t, core):
     J[fixed] = 0
     spread.dT_u[fixed] = T_orig[fixed] - T_orig[fixed]
     live = np.flatnonzero(cnt != 0)
+    tables = (vT, vI, first, cnt, T_orig, I_orig)
 
-    def step(lam, g):
+    def step(lam, g, ref=None):
         j, margin, tol = np.empty(g.size, np.intp), np.empty(g.size), np.empty(g.size)
-        core.alloc_rows(vT, vI, first, cnt, T_orig, I_orig, np.ascontiguousarray(g, np.intp), lam,
-                        MARGIN_R, spread.dT_u, j, margin, tol)
+        out = (j, margin, tol) if ref is None else (j, margin, tol, ref)
+        core.alloc_rows(*tables, np.ascontiguousarray(g, np.intp), lam, MARGIN_R, spread.dT_u, *out)
         spread.rows_of(g)
         return j, margin, tol
 
-    J, lam = _bisect(J, live, step, lambda: float(np.sum(spread.dT)), budget_t, rv.settle)
+    rise = _Rise(core, tables, spread)
+    J, lam = _bisect(J, live, step, lambda: float(np.sum(spread.dT)), budget_t, rv.settle, rise)
     return (J if inv is None else J[inv]), lam
+
+
+class _Rise:
+    """_bisect's decade search (lambda only rises) on _allocate_rows' groups by the core's
+    alloc_rise: start() costs every live group at lambda 0 by step, keeping each one's
+    choice, second least cost and its choice's T and I (ref); at each decade then, a
+    group whose choice's cost there is below that second least keeps its choice (each
+    cost only grows with lambda: the proof is alloc_rise's, firmware/_core.c), so it is
+    not costed again, and the others are (their choice, ref, margin and tol then kept).
+    Each decade's T - T_orig are thus every group's at its choice there, as a step on
+    every group writes them, and spent() the same bits; the margins and tols, which
+    _bisect asks of its last decade only, are made there by alloc_rows for the groups
+    alloc_rise kept (last()).  On the gyroid plate ~1 group in 4 is costed again a
+    decade, instead of every one."""
+    __slots__ = ("core", "tables", "spread", "live", "j", "ref", "margin", "tol", "kept", "n_kept")
+
+    def __init__(self, core, tables, spread):
+        self.core, self.tables, self.spread = core, tables, spread
+        self.live = self.j = self.ref = self.margin = self.tol = self.kept = None
+        self.n_kept = 0
+
+    def start(self, step, live):
+        """step(0.0, live)'s (choice, margin, tol), its choices and refs kept."""
+        self.live = np.ascontiguousarray(live, np.intp)
+        self.ref = np.empty((live.size, 3))
+        got = step(0.0, live, self.ref)
+        self.j = got[0].copy()
+        self.margin, self.tol = np.empty(live.size), np.empty(live.size)
+        self.kept = np.empty(live.size, np.intp)
+        return got
+
+    def __call__(self, lam):
+        """The live groups' choices at lam (not below the last call's) and their T - T_orig
+        (the margins and tols of those costed again)."""
+        costed = self.core.alloc_rise(*self.tables, self.live, lam, self.j, self.ref, self.spread.dT_u,
+                                      MARGIN_R, self.margin, self.tol, self.kept)
+        self.n_kept = self.live.size - costed
+        if costed:
+            self.spread.refresh()
+
+    def last(self, lam):
+        """The last call's lam: every live group's (choice, margin, tol) there, those the
+        call kept costed by alloc_rows (the same choice, and T - T_orig, written again).
+        Ends the search: its arrays are given up."""
+        kept = self.kept[:self.n_kept]
+        if kept.size:
+            j, margin, tol = np.empty(kept.size, np.intp), np.empty(kept.size), np.empty(kept.size)
+            self.core.alloc_rows(*self.tables, self.live.take(kept), lam, MARGIN_R, self.spread.dT_u, j, margin, tol)
+            self.margin[kept], self.tol[kept] = margin, tol
+        got = self.j, self.margin, self.tol
+        # (held no longer: the bisection then holds these, and its peak is the old one)
+        self.j = self.ref = self.margin = self.tol = self.kept = None
+        return got
 
 
 class _RowSpread:
@@ -1111,6 +1173,11 @@ class _RowSpread:
         self.dT = self.dT_u if inv is None else np.empty(inv.size)
         self.g_n = -1                 # the last step's number of groups (-1: no step yet)
         self.rows = self.inv_rows = None
+
+    def refresh(self):
+        """Every row's value again from its group's (after _Rise changed some groups')."""
+        if self.inv is not None:
+            np.take(self.dT_u, self.inv, out=self.dT)
 
     def rows_of(self, g):
         if self.inv is None:

@@ -6494,13 +6494,14 @@ static PyObject *mod_use_reader(PyObject *self, PyObject *cap)
 }
 
 /* ---------------------------------------------------------------- plan._allocate's choices
- * least_two: one row's choice at lam among its w costs I[c] + lam * T[c] (one product, then one sum:
+ * least_pair: one row's choice at lam among its w costs I[c] + lam * T[c] (one product, then one sum:
  * numpy's two ufuncs) and then the last, i_last + lam * t_last, in that order: j = the first least
- * (a later one replaces it only where strictly less), c1 its cost, c2 the least of the others (the
- * least again on a tie); *margin = inf where c2 is inf else c2 - c1, *tol = margin_r (|c1| + |c2|).
- * Returns j (w: the last). */
-static inline Py_ssize_t least_two(const double *T, const double *I, Py_ssize_t w, double t_last, double i_last,
-                                   double lam, double margin_r, double *margin, double *tol)
+ * (a later one replaces it only where strictly less), *least = c1 its cost, *second = c2 the least of
+ * the others (the least again on a tie; never NaN: a NaN cost is passed over, but at c = 0, where it
+ * stays c1).  Returns j (w: the last).
+ * least_two: least_pair, and *margin = inf where c2 is inf else c2 - c1, *tol = margin_r (|c1| + |c2|). */
+static inline Py_ssize_t least_pair(const double *T, const double *I, Py_ssize_t w, double t_last, double i_last,
+                                    double lam, double *least, double *second)
 {
     double c1 = w > 0 ? I[0] + lam * T[0] : i_last + lam * t_last, c2 = INFINITY;
     Py_ssize_t j = 0;
@@ -6514,6 +6515,16 @@ static inline Py_ssize_t least_two(const double *T, const double *I, Py_ssize_t 
             c2 = x;
         }
     }
+    *least = c1;
+    *second = c2;
+    return j;
+}
+
+static inline Py_ssize_t least_two(const double *T, const double *I, Py_ssize_t w, double t_last, double i_last,
+                                   double lam, double margin_r, double *margin, double *tol)
+{
+    double c1, c2;
+    Py_ssize_t j = least_pair(T, I, w, t_last, i_last, lam, &c1, &c2);
     *margin = isinf(c2) ? INFINITY : c2 - c1;
     *tol = margin_r * (fabs(c1) + fabs(c2));
     return j;
@@ -6572,30 +6583,33 @@ done:
     return ret;
 }
 
-/* alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol): alloc_choices on
+/* alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol[, ref]): alloc_choices on
  * the candidates as plan.Candidates holds them, not on a table copied out of them: local row r's
  * feasible candidates are vT, vI[first[r] .. first[r] + cnt[r]) (float64: T, I in column order),
  * then its original T_orig[r], I_orig[r], in the order of a row of the packed table (its filler,
  * I = inf, moved neither the least nor the second least), so per row the same costs in the same
  * order: the same j (0 .. cnt[r], cnt[r] = the original), margin and tol, and dT[r] = its T -
  * T_orig[r].  rows, first, cnt intp; j, margin, tol of rows' length; dT, T_orig, I_orig of
- * first's length (plan._allocate_rows checks the tables are plain, as packed() did). */
+ * first's length (plan._allocate_rows checks the tables are plain, as packed() did).  ref (optional,
+ * float64, 3 a row): each row's second least cost, its choice's T and I, for alloc_rise. */
 static PyObject *mod_alloc_rows(PyObject *self, PyObject *args)
 {
-    Py_buffer tb, ib, fb, cb, gb, hb, rb, db, jb, mb, ob;
+    Py_buffer tb, ib, fb, cb, gb, hb, rb, db, jb, mb, ob, sb = {0};
     double lam, margin_r;
-    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*ddw*w*w*w*:alloc_rows", &tb, &ib, &fb, &cb, &gb, &hb, &rb,
-                          &lam, &margin_r, &db, &jb, &mb, &ob))
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*ddw*w*w*w*|w*:alloc_rows", &tb, &ib, &fb, &cb, &gb, &hb, &rb,
+                          &lam, &margin_r, &db, &jb, &mb, &ob, &sb))
         return NULL;
     PyObject *ret = NULL;
     Py_ssize_t nnz = tb.len / (Py_ssize_t)sizeof(double);
     Py_ssize_t n = fb.len / (Py_ssize_t)sizeof(Py_ssize_t);
     Py_ssize_t m = rb.len / (Py_ssize_t)sizeof(Py_ssize_t);
     if (ib.len != tb.len || cb.len != fb.len || gb.len != n * (Py_ssize_t)sizeof(double) || hb.len != gb.len
-        || db.len != gb.len || jb.len != rb.len || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len) {
+        || db.len != gb.len || jb.len != rb.len || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len
+        || (sb.obj != NULL && sb.len != 3 * mb.len)) {
         PyErr_SetString(PyExc_ValueError, "alloc_rows: bad sizes");
         goto done;
     }
+    double *so = sb.obj != NULL ? (double *)sb.buf : NULL;
     const double *T = (const double *)tb.buf, *I = (const double *)ib.buf;
     const Py_ssize_t *first = (const Py_ssize_t *)fb.buf, *cnt = (const Py_ssize_t *)cb.buf;
     const double *T_orig = (const double *)gb.buf, *I_orig = (const double *)hb.buf;
@@ -6610,7 +6624,18 @@ static PyObject *mod_alloc_rows(PyObject *self, PyObject *args)
         }
         const double *tr = T + first[r], *ir = I + first[r];
         Py_ssize_t w = cnt[r];
-        Py_ssize_t j = least_two(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q);
+        Py_ssize_t j;
+        if (so == NULL) {
+            j = least_two(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q);
+        } else {              /* least_two's values, and the second least and the choice's T, I kept */
+            double c1, c2;
+            j = least_pair(tr, ir, w, T_orig[r], I_orig[r], lam, &c1, &c2);
+            mo[q] = isinf(c2) ? INFINITY : c2 - c1;
+            to[q] = margin_r * (fabs(c1) + fabs(c2));
+            so[3 * q] = c2;
+            so[3 * q + 1] = j < w ? tr[j] : T_orig[r];
+            so[3 * q + 2] = j < w ? ir[j] : I_orig[r];
+        }
         jo[q] = j;
         dT[r] = (j < w ? tr[j] : T_orig[r]) - T_orig[r];
     }
@@ -6628,6 +6653,90 @@ done:
     PyBuffer_Release(&jb);
     PyBuffer_Release(&mb);
     PyBuffer_Release(&ob);
+    if (sb.obj != NULL)
+        PyBuffer_Release(&sb);
+    return ret;
+}
+
+/* alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT, margin_r, margin, tol, kept):
+ * alloc_rows' choices of the rows at lam, given each one's choice j[q] and ref[q] = (second least
+ * cost, the choice's T and I) (alloc_rows' ref output, or this one's) at a lambda lam0 <= lam: a row
+ * whose choice's cost at lam, I + lam * T by least_pair's operations, is below its second least
+ * keeps it (j, ref, margin, tol and dT[r] untouched; q appended to kept); the others are costed
+ * again (least_pair at lam: j[q], ref[q], margin[q], tol[q] and dT[r] as alloc_rows writes them).
+ * Returns how many were (kept holds the others' q, ascending, first).
+ * Why a kept row's choice is least_pair's at lam, bit for bit: every T is finite and >= 0 and lam
+ * >= lam0 (the caller's), so each product lam * T is at least lam0 * T, and rounding to nearest is
+ * monotone, so each candidate's cost at lam is at least its cost at lam0 (inf and NaN stay so; a
+ * NaN cost, passed over by least_pair at every lambda, is not among the others, and a NaN at the
+ * choice fails the test); every other candidate's cost at lam0 is at least the kept second least
+ * (their least), so the choice's cost at lam is strictly below every other's at lam: it is the first
+ * least, and the second least at lam is some other's, at least the kept one (which stays a valid
+ * bound for a later lam).  Rows out of range raise (those costed again: a kept row reads only ref). */
+static PyObject *mod_alloc_rise(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, ib, fb, cb, gb, hb, rb, jb, sb, db, mb, ob, kb;
+    double lam, margin_r;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*y*y*y*dw*w*w*dw*w*w*:alloc_rise", &tb, &ib, &fb, &cb, &gb, &hb, &rb, &lam,
+                          &jb, &sb, &db, &margin_r, &mb, &ob, &kb))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t nnz = tb.len / (Py_ssize_t)sizeof(double);
+    Py_ssize_t n = fb.len / (Py_ssize_t)sizeof(Py_ssize_t);
+    Py_ssize_t m = rb.len / (Py_ssize_t)sizeof(Py_ssize_t);
+    if (ib.len != tb.len || cb.len != fb.len || gb.len != n * (Py_ssize_t)sizeof(double) || hb.len != gb.len
+        || db.len != gb.len || jb.len != rb.len || sb.len != 3 * m * (Py_ssize_t)sizeof(double)
+        || mb.len != m * (Py_ssize_t)sizeof(double) || ob.len != mb.len || kb.len != rb.len) {
+        PyErr_SetString(PyExc_ValueError, "alloc_rise: bad sizes");
+        goto done;
+    }
+    const double *T = (const double *)tb.buf, *I = (const double *)ib.buf;
+    const Py_ssize_t *first = (const Py_ssize_t *)fb.buf, *cnt = (const Py_ssize_t *)cb.buf;
+    const double *T_orig = (const double *)gb.buf, *I_orig = (const double *)hb.buf;
+    const Py_ssize_t *rows = (const Py_ssize_t *)rb.buf;
+    Py_ssize_t *jo = (Py_ssize_t *)jb.buf;
+    double *so = (double *)sb.buf, *dT = (double *)db.buf, *mo = (double *)mb.buf, *to = (double *)ob.buf;
+    Py_ssize_t *kept = (Py_ssize_t *)kb.buf;
+    Py_ssize_t costed = 0, nk = 0;
+    for (Py_ssize_t q = 0; q < m; q++) {
+        double *rq = so + 3 * q;             /* second least, the choice's T, its I */
+        double x = rq[2] + lam * rq[1];
+        if (x < rq[0]) {
+            kept[nk++] = q;
+            continue;
+        }
+        Py_ssize_t r = rows[q];
+        if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
+            PyErr_SetString(PyExc_IndexError, "alloc_rise: row out of range");
+            goto done;
+        }
+        const double *tr = T + first[r], *ir = I + first[r];
+        Py_ssize_t w = cnt[r];
+        double c1;
+        Py_ssize_t j = least_pair(tr, ir, w, T_orig[r], I_orig[r], lam, &c1, rq);
+        mo[q] = isinf(rq[0]) ? INFINITY : rq[0] - c1;           /* least_two's */
+        to[q] = margin_r * (fabs(c1) + fabs(rq[0]));
+        jo[q] = j;
+        rq[1] = j < w ? tr[j] : T_orig[r];
+        rq[2] = j < w ? ir[j] : I_orig[r];
+        dT[r] = rq[1] - T_orig[r];
+        costed++;
+    }
+    ret = PyLong_FromSsize_t(costed);
+done:
+    PyBuffer_Release(&tb);
+    PyBuffer_Release(&ib);
+    PyBuffer_Release(&fb);
+    PyBuffer_Release(&cb);
+    PyBuffer_Release(&gb);
+    PyBuffer_Release(&hb);
+    PyBuffer_Release(&rb);
+    PyBuffer_Release(&jb);
+    PyBuffer_Release(&sb);
+    PyBuffer_Release(&db);
+    PyBuffer_Release(&mb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&kb);
     return ret;
 }
 
@@ -6789,7 +6898,11 @@ static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
     {"alloc_rows", mod_alloc_rows, METH_VARARGS,
-     "alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol): alloc_choices on plan.Candidates' rows"},
+     "alloc_rows(vT, vI, first, cnt, T_orig, I_orig, rows, lam, margin_r, dT, j, margin, tol[, ref]): alloc_choices on plan.Candidates' rows"},
+    {"alloc_rise", mod_alloc_rise, METH_VARARGS,
+     "alloc_rise(vT, vI, first, cnt, T_orig, I_orig, rows, lam, j, ref, dT, margin_r, margin, tol, kept): alloc_rows' "
+     "choices at a higher lambda, "
+     "costing again only rows whose choice may have moved; returns how many"},
     {"use_reader", mod_use_reader, METH_O,
      "use_reader(the reader's _C_API capsule, or None): Sim.play reads common lines through it"},
     {"setup", mod_setup, METH_VARARGS,

@@ -5145,6 +5145,19 @@ static inline void ring_cmul(int fused, double ar, double ai, double br, double 
     }
 }
 
+/* The amplitude cr + i ci carried dt to a restart's first time: times exp((-s + i wd) dt),
+ * as numpy's complex exp of (-s + i wd) dt (its parts -s dt - wd 0 and -s 0 + wd dt), then
+ * the plain complex product (ring_solve's and ring_amps_run's restarts) */
+static inline void ring_carry(double cr, double ci, double s, double wd, double dt, double *c0r, double *c0i)
+{
+    double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
+    double ex = ring_libm_exp(x), cs, sn;
+    ring_sincos(y, &sn, &cs);
+    double er = ex * cs, ei = ex * sn;
+    *c0r = cr * er - ci * ei;
+    *c0i = cr * ei + ci * er;
+}
+
 static inline int ring_less(double a, double b)     /* numpy's sort order: NaN last */
 {
     return a < b || (b != b && a == a);
@@ -5365,11 +5378,8 @@ ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double 
         double dt = t0 - t_carry;
         if (!fin || !isfinite(dt))
             break;
-        double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
-        double ex = ring_libm_exp(x), cs, sn;
-        ring_sincos(y, &sn, &cs);
-        double er = ex * cs, ei = ex * sn;
-        double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
+        double c0r, c0i;
+        ring_carry(cr, ci, s, wd, dt, &c0r, &c0i);
         /* the memo serves this restart only if it has one from t0 too; the running sum g from
          * -0.0 (-0.0 + p is p, bit for bit: the cumsum's first term copied); events at one
          * time (a block without cruise) share the previous event's exponentials (same bits
@@ -5516,11 +5526,8 @@ ring_solve_amps(const double *t, const double *dr, const double *drp, int off, d
         double dt = t0 - t_carry;
         if (!isfinite(dt))
             break;
-        double x = -s * dt - wd * 0.0, y = -s * 0.0 + wd * dt;
-        double ex = ring_libm_exp(x), cs, sn;
-        ring_sincos(y, &sn, &cs);
-        double er = ex * cs, ei = ex * sn;
-        double c0r = cr * er - ci * ei, c0i = cr * ei + ci * er;
+        double c0r, c0i;
+        ring_carry(cr, ci, s, wd, dt, &c0r, &c0i);
         int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j);
         RingEvState st = {UINT64_MAX, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0, m_j};
         Py_ssize_t i = start;

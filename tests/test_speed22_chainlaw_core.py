@@ -439,9 +439,10 @@ def test_solve_flat_same_bits_as_479aedb(prof, pieces, monkeypatch):
             m.setattr(lc, "CORE_MOD", cnt)
             got = lc.solve_flat(fl, b.copy(), vt, w, pieces)
         _same(got, want, pieces)
-    # the new C code ran (tod_prep's work is tod_at's since session 35, tod_at_into's since 41)
-    need = {"step_law", "step_accels", "tod_at_into", "active_step"} | ({"fig_a", "fig_d", "row_sums"} if not pieces
-                                                                      else set())
+    # the new C code ran (tod_prep's work is tod_at's since session 35, tod_at_into's since 41;
+    # fig_d's is fig_need's and fig_d_at's since 43)
+    need = {"step_law", "step_accels", "tod_at_into", "active_step"} | (
+        {"fig_a", "fig_need", "fig_d_at", "row_sums"} if not pieces else set())
     assert need <= set(cnt.n), cnt.n
 
 

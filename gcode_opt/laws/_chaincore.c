@@ -2298,6 +2298,37 @@ VEC_CLONES static void fig_b_vec(Py_ssize_t N, const double *restrict L, const d
     }
 }
 
+/* fig_c's arithmetic of one element (a macro: the vector clones use it): x = ρ κ/γ atc, ±1/2
+   where |r| >= 1, nan_to_num, clip; τ, and the arguments of shc */
+#define FIG_C_ELEM(Ti_, g_, rho_, kog_, r_, atc_, tau_, za_, zb_, zx_) do {                       \
+        double ri = (r_);                                                                          \
+        double x = ((rho_) * (kog_)) * (atc_);                                                     \
+        double sg = ri > 0 ? 1.0 : (ri < 0 ? -1.0 : ri);          /* np.sign (0 and nan kept) */  \
+        x = fabs(ri) >= 1 ? sg * 0.5 : x;                                                          \
+        x = isnan(x) ? 0.0 : (isinf(x) ? (x > 0 ? DBL_MAX : -DBL_MAX) : x);     /* nan_to_num */  \
+        x = x > -0.5 ? x : -0.5;                                  /* np.clip (no nan left) */     \
+        x = x < 0.5 ? x : 0.5;                                                                     \
+        double Ti = (Ti_);                                                                         \
+        double t = (x + 0.5) * Ti;                                                                 \
+        double u = t / Ti;                                                                         \
+        u = isnan(u) ? u : (u > 0.0 ? u : 0.0);                                                    \
+        u = isnan(u) ? u : (u < 1.0 ? u : 1.0);                                                    \
+        (tau_) = u;                                                                                \
+        double g = (g_);                                                                           \
+        (za_) = (g * u) / 2;                                                                       \
+        (zb_) = (g * (1 - u)) / 2;                                                                 \
+        (zx_) = g * (u - 0.5);                                                                     \
+    } while (0)
+
+/* fig_d's speed at the critical t of one element: eval(t, "v") (g = bub / 2n, h = 2x shx / sh2) */
+#define FIG_D_VC(u_, pa_, pb_, shx_, n_, sh2_, wbar_, A_, dl_, T_) ({                               \
+        double u = (u_);                                                                           \
+        double bub = ((u * (1 - u)) * (pa_)) * (pb_);                                              \
+        double g = bub / (2 * (n_));                                                               \
+        double h = ((2 * (u - 0.5)) * (shx_)) / (sh2_);                                            \
+        (((wbar_) + (A_) * g) - (dl_) * h) / (T_);                                                 \
+    })
+
 /* fig_c(T, gs, rho, kog, r, atc, <outs: tau, za, zb, zx>): _critical_t's x (atc = _atanhc(r)),
    nan_to_num, clip, t; eval's τ = clip(t / T, 0, 1) and the arguments of shc: γτ/2,
    γ(1 - τ)/2, γ(τ - 1/2). */
@@ -2305,25 +2336,8 @@ VEC_CLONES static void fig_c_vec(Py_ssize_t N, const double *restrict T, const d
                                  const double *restrict rho, const double *restrict kog, const double *restrict r,
                                  const double *restrict atc, double *restrict tau, double *restrict za,
                                  double *restrict zb, double *restrict zx) {
-    for (Py_ssize_t i = 0; i < N; i++) {
-        double ri = r[i];
-        double x = (rho[i] * kog[i]) * atc[i];
-        double sg = ri > 0 ? 1.0 : (ri < 0 ? -1.0 : ri);          /* np.sign (0 and nan kept) */
-        x = fabs(ri) >= 1 ? sg * 0.5 : x;
-        x = isnan(x) ? 0.0 : (isinf(x) ? (x > 0 ? DBL_MAX : -DBL_MAX) : x);     /* nan_to_num */
-        x = x > -0.5 ? x : -0.5;                                  /* np.clip (no nan left) */
-        x = x < 0.5 ? x : 0.5;
-        double Ti = T[i];
-        double t = (x + 0.5) * Ti;
-        double u = t / Ti;
-        u = isnan(u) ? u : (u > 0.0 ? u : 0.0);
-        u = isnan(u) ? u : (u < 1.0 ? u : 1.0);
-        tau[i] = u;
-        double g = gs[i];
-        za[i] = (g * u) / 2;
-        zb[i] = (g * (1 - u)) / 2;
-        zx[i] = g * (u - 0.5);
-    }
+    for (Py_ssize_t i = 0; i < N; i++)
+        FIG_C_ELEM(T[i], gs[i], rho[i], kog[i], r[i], atc[i], tau[i], za[i], zb[i], zx[i]);
 }
 
 /* fig_d(tau, pa, pb, shx, n, sh2, wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v per
@@ -2365,6 +2379,213 @@ static PyObject *fig_d(PyObject *self, PyObject *a) {
             double h = ((2 * (u - 0.5)) * shx[i]) / sh2[i];
             double vc = ((wbar[i] + A[i] * g) - dl[i] * h) / T[i];
             double mx = np_max(np_max(vs[i], ve[i]), vc), mi = np_min(np_min(vs[i], ve[i]), vc);
+            if (i == poff[c]) { hi = mx; lo = mi; }
+            else { hi = np_max(hi, mx); lo = np_min(lo, mi); }
+        }
+        pk[c] = hi;
+        mn[c] = lo;
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------ session 43 (chain43)
+   The pieces whose speed at the critical t can be a chain's peak or least speed.  fig_d takes
+   each chain's maximum and minimum of (vs, ve, vc) over its pieces; a vc strictly below the
+   chain's maximum and strictly above its minimum changes neither (the reductions' result is
+   the first element of the extreme value, the same whatever smaller elements came before:
+   no nan, checked).  fig_need bounds every vc without numpy's arctanh and sinh: their series
+   (atanh(r)/r for |r| <= 1/8; sinh(z)/z for |z| <= 1/8: γ <= 1/4) through
+   fig_c's and fig_d's arithmetic, then a margin FN_MARGIN (|wbar| + 8|A| + 4|δ|) / T, many
+   orders above what the approximations (within ~1e-16 relative of the true functions, as
+   numpy's are) can move vc: through τ (|dvc/dτ| <= ~(8|A| + 3|δ|) / T) and through shc (|g|
+   <= 1.7, |h| <= 1.1 there).  A piece is needed unless its bound's top is below the largest
+   of the chain's end speeds and its pieces' bound bottoms, and its bottom above the least
+   of theirs; a piece with γ > 1/4, 1/8 < |r| < 1 (rare) or a value not finite is needed, as every piece of a chain
+   whose end speeds are not all finite.  Only the needed pieces' arctanh and sinh are made
+   (fig_c_at, fig_d_at): the same peak and least speed bits. */
+#define FN_AT_TERMS 10        /* atanh(r)/r = Σ w^j / (2j + 1), w = r² <= 1/64: the rest below 1e-19 */
+#define FN_SH_TERMS 6         /* sinh(z)/z = Σ w^j / (2j + 1)!, w = z² <= 1/64: the rest below 1e-20 */
+#define FN_R_MAX 0.125        /* |r| above (and below 1: clipped there): the piece needed */
+#define FN_G_MAX 0.25         /* γ above: the piece needed (then |z| <= γ / 2 <= 1/8) */
+#define FN_MARGIN 1e-9
+
+#define FN_SERIES(w_, c_, nt_) ({                                                                  \
+        double w__ = (w_), s_ = (c_)[(nt_) - 1];                                                   \
+        for (int q_ = (nt_) - 2; q_ >= 0; q_--) s_ = s_ * w__ + (c_)[q_];                          \
+        s_;                                                                                        \
+    })
+
+/* each piece's bounds [vlo, vhi] of vc (-inf, inf: none), and tp, bt: the largest and least
+   of vs, ve and the bound's bottom, top (nan: an end speed not finite) */
+VEC_CLONES static void need_bounds(Py_ssize_t N, const double *restrict T, const double *restrict gs,
+                                   const double *restrict rho, const double *restrict kog, const double *restrict r,
+                                   const double *restrict n, const double *restrict sh2,
+                                   const double *restrict wbar, const double *restrict A, const double *restrict dl,
+                                   const double *restrict vs, const double *restrict ve,
+                                   const double *restrict cat, const double *restrict csh, double *restrict vlo,
+                                   double *restrict vhi, double *restrict tp, double *restrict bt) {
+    for (Py_ssize_t i = 0; i < N; i++) {
+        double ri = r[i], w = ri * ri;
+        double atc = FN_SERIES(w < 0.015625 ? w : 0.015625, cat, FN_AT_TERMS);
+        double tau, za, zb, zx;
+        FIG_C_ELEM(T[i], gs[i], rho[i], kog[i], ri, atc, tau, za, zb, zx);
+        double pa = FN_SERIES(za * za, csh, FN_SH_TERMS), pb = FN_SERIES(zb * zb, csh, FN_SH_TERMS);
+        double shx = FN_SERIES(zx * zx, csh, FN_SH_TERMS);
+        double vc = FIG_D_VC(tau, pa, pb, shx, n[i], sh2[i], wbar[i], A[i], dl[i], T[i]);
+        double mg = (FN_MARGIN * ((fabs(wbar[i]) + 8 * fabs(A[i])) + 4 * fabs(dl[i]))) / T[i];
+        double lo = vc - mg, hi = vc + mg, ar = fabs(ri);
+        int ok = (gs[i] <= FN_G_MAX) & ((ar <= FN_R_MAX) | (ar >= 1.0)) & (fabs(lo) <= DBL_MAX)
+                 & (fabs(hi) <= DBL_MAX);
+        lo = ok ? lo : -HUGE_VAL;
+        hi = ok ? hi : HUGE_VAL;
+        vlo[i] = lo;
+        vhi[i] = hi;
+        double s = vs[i], e = ve[i];
+        int fin = (fabs(s) <= DBL_MAX) & (fabs(e) <= DBL_MAX);
+        double mx = s > e ? s : e, mi = s < e ? s : e;
+        mx = lo > mx ? lo : mx;
+        mi = hi < mi ? hi : mi;
+        tp[i] = fin ? mx : NAN;
+        bt[i] = mi;
+    }
+}
+
+/* fig_need(T, gs, rho, kog, r, n, sh2, wbar, delta, A, vs, ve, poff, <outs: idx (int64), rsub>)
+   -> k: the needed pieces (ascending) in idx[:k], their r in rsub[:k] (see above) */
+static PyObject *fig_need(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[15];
+    double *p[15];
+    for (int q = 0; q < 15; q++) {
+        p[q] = get(&b, o[q], 8, q >= 13, &nn[q]);
+        if (!p[q]) { release(&b); return NULL; }
+    }
+    Py_ssize_t N = nn[0], nc = nn[12] - 1;
+    int ok = nc >= 0 && nn[13] == N && nn[14] == N;
+    for (int q = 1; q < 12; q++) ok = ok && nn[q] == N;
+    const int64_t *poff = (const int64_t *)p[12];
+    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
+    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_need: shapes");
+        return NULL;
+    }
+    const double *r = p[4];
+    int64_t *idx = (int64_t *)p[13];
+    double *rsub = p[14];
+    double *work = PyMem_Malloc((4 * (N ? N : 1)) * sizeof(double));
+    if (!work) { release(&b); return PyErr_NoMemory(); }
+    double *vlo = work, *vhi = work + N, *tp = work + 2 * N, *bt = work + 3 * N;
+    double cat[FN_AT_TERMS], csh[FN_SH_TERMS], f = 1.0;
+    for (int q = 0; q < FN_AT_TERMS; q++) cat[q] = 1.0 / (2 * q + 1);
+    for (int q = 0; q < FN_SH_TERMS; q++) {
+        csh[q] = 1.0 / f;                             /* 1 / (2q + 1)! */
+        f *= (2 * q + 2) * (2 * q + 3);
+    }
+    need_bounds(N, p[0], p[1], p[2], p[3], r, p[5], p[6], p[7], p[9], p[8], p[10], p[11], cat, csh, vlo, vhi,
+                tp, bt);
+    Py_ssize_t k = 0;
+    for (Py_ssize_t c = 0; c < nc; c++) {
+        int64_t p0 = poff[c], p1 = poff[c + 1];
+        double top = tp[p0], bot = bt[p0];             /* the largest lower bound, the least upper one */
+        int fin = top == top;
+        for (int64_t i = p0 + 1; i < p1; i++) {
+            double t = tp[i], u = bt[i];
+            fin &= t == t;
+            top = t > top ? t : top;
+            bot = u < bot ? u : bot;
+        }
+        for (int64_t i = p0; i < p1; i++) {
+            if (fin && vhi[i] < top && vlo[i] > bot) continue;
+            idx[k] = i;
+            rsub[k++] = r[i];
+        }
+    }
+    PyMem_Free(work);
+    release(&b);
+    return PyLong_FromSsize_t(k);
+}
+
+/* the k needed pieces idx (int64, ascending) of fig_need and their atc: fig_c of those
+   (fig_c_at(idx, T, gs, rho, kog, r, atc_k, <outs: tau, za, zb, zx of k>); the full arrays
+   read at idx) and fig_d with only their vc (fig_d_at(idx, tau, pa, pb, shx of k, n, sh2,
+   wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v>): the others' vc left out) */
+static int at_args(PyObject *a, int nargs, const char *name, Bufs *b, void **p, Py_ssize_t *nn) {
+    if (PyTuple_GET_SIZE(a) != nargs) {
+        PyErr_Format(PyExc_TypeError, "%s: arguments", name);
+        return 0;
+    }
+    for (int q = 0; q < nargs; q++) {
+        p[q] = get(b, PyTuple_GET_ITEM(a, q), 8, 1, &nn[q]);
+        if (!p[q]) return 0;
+    }
+    return 1;
+}
+
+static PyObject *fig_c_at(PyObject *self, PyObject *a) {
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[11];
+    void *p[11];
+    if (!at_args(a, 11, "fig_c_at", &b, p, nn)) { release(&b); return NULL; }
+    Py_ssize_t k = nn[0], N = nn[1];
+    int ok = 1;
+    for (int q = 2; q < 6; q++) ok = ok && nn[q] == N;
+    for (int q = 6; q < 11; q++) ok = ok && nn[q] == k;
+    const int64_t *idx = p[0];
+    for (Py_ssize_t j = 0; ok && j < k; j++) ok = idx[j] >= 0 && idx[j] < N;
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_c_at: shapes");
+        return NULL;
+    }
+    const double *T = p[1], *gs = p[2], *rho = p[3], *kog = p[4], *r = p[5], *atc = p[6];
+    double *tau = p[7], *za = p[8], *zb = p[9], *zx = p[10];
+    for (Py_ssize_t j = 0; j < k; j++) {
+        int64_t i = idx[j];
+        FIG_C_ELEM(T[i], gs[i], rho[i], kog[i], r[i], atc[j], tau[j], za[j], zb[j], zx[j]);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+static PyObject *fig_d_at(PyObject *self, PyObject *a) {
+    Bufs b = {.n = 0};
+    Py_ssize_t nn[16];
+    void *p[16];
+    if (!at_args(a, 16, "fig_d_at", &b, p, nn)) { release(&b); return NULL; }
+    Py_ssize_t k = nn[0], N = nn[5], nc = nn[13] - 1;
+    int ok = nc >= 0 && nn[14] == nc && nn[15] == nc;
+    for (int q = 1; q < 5; q++) ok = ok && nn[q] == k;
+    for (int q = 5; q < 13; q++) ok = ok && nn[q] == N;
+    const int64_t *idx = p[0], *poff = p[13];
+    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
+    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    for (Py_ssize_t j = 0; ok && j < k; j++) ok = idx[j] >= 0 && idx[j] < N && (j == 0 || idx[j] > idx[j - 1]);
+    if (!ok) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "fig_d_at: shapes");
+        return NULL;
+    }
+    const double *tau = p[1], *pa = p[2], *pb = p[3], *shx = p[4], *n = p[5], *sh2 = p[6], *wbar = p[7];
+    const double *A = p[8], *dl = p[9], *T = p[10], *vs = p[11], *ve = p[12];
+    double *pk = p[14], *mn = p[15];
+    Py_ssize_t j = 0;
+    for (Py_ssize_t c = 0; c < nc; c++) {
+        double hi = 0.0, lo = 0.0;
+        for (int64_t i = poff[c]; i < poff[c + 1]; i++) {
+            double mx = np_max(vs[i], ve[i]), mi = np_min(vs[i], ve[i]);
+            if (j < k && idx[j] == i) {
+                double vc = FIG_D_VC(tau[j], pa[j], pb[j], shx[j], n[i], sh2[i], wbar[i], A[i], dl[i], T[i]);
+                mx = np_max(mx, vc);
+                mi = np_min(mi, vc);
+                j++;
+            }
             if (i == poff[c]) { hi = mx; lo = mi; }
             else { hi = np_max(hi, mx); lo = np_min(lo, mi); }
         }
@@ -3021,6 +3242,9 @@ static PyMethodDef methods[] = {
     {"cf_rows", cf_rows, METH_VARARGS, "chains._cf_row of a list of strokes, one row each"},
     {"window_sums", window_sums, METH_VARARGS, "sums of nb consecutive values, left to right"},
     {"fig_d", fig_d, METH_VARARGS, "the flat figures: speed at the critical t, per-chain peak and least speed"},
+    {"fig_need", fig_need, METH_VARARGS, "the flat figures: the pieces whose critical speed can be a chain's extreme"},
+    {"fig_c_at", fig_c_at, METH_VARARGS, "fig_c of the pieces fig_need gave"},
+    {"fig_d_at", fig_d_at, METH_VARARGS, "fig_d with the critical speeds of the pieces fig_need gave only"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef chaincore_module = {

@@ -1387,13 +1387,27 @@ def _flat_figures_core(core, res, sh2=None):
     sh2 = f(_shc(gs / 2)) if sh2 is None or sh2.shape != gs.shape else f(sh2, float)
     iv, kog, vs, ve, rho, r = (np.empty(P) for _ in range(6))
     core.fig_b(L, T, gamma, n, m, s1, sh2, wbar, dl, A, iv, kog, vs, ve, rho, r)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        atc = f(_atanhc(r))
-    tau, za, zb, zx = (np.empty(P) for _ in range(4))
-    core.fig_c(T, gs, rho, kog, r, atc, tau, za, zb, zx)
-    pa, pb, shx = (f(_shc(z)) for z in (za, zb, zx))
     res.peak_v, res.min_v, res.iv = np.empty(nc), np.empty(nc), np.empty(nc)
-    core.fig_d(tau, pa, pb, shx, n, sh2, wbar, A, dl, T, vs, ve, poff, res.peak_v, res.min_v)
+    if hasattr(core, "fig_need"):
+        # numpy's arctanh and sinh only at the pieces whose critical speed can be their
+        # chain's peak or least speed (fig_need's bounds; ~1 in 10 on the gyroid plate): the
+        # others' leave each chain's maximum and minimum as they are
+        idx, rs = np.empty(P, np.int64), np.empty(P)
+        k = core.fig_need(T, gs, rho, kog, r, n, sh2, wbar, dl, A, vs, ve, poff, idx, rs)
+        idx, rs = idx[:k], rs[:k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            atc = f(_atanhc(rs))
+        tau, za, zb, zx = (np.empty(k) for _ in range(4))
+        core.fig_c_at(idx, T, gs, rho, kog, r, atc, tau, za, zb, zx)
+        pa, pb, shx = (f(_shc(z)) for z in (za, zb, zx))
+        core.fig_d_at(idx, tau, pa, pb, shx, n, sh2, wbar, A, dl, T, vs, ve, poff, res.peak_v, res.min_v)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            atc = f(_atanhc(r))
+        tau, za, zb, zx = (np.empty(P) for _ in range(4))
+        core.fig_c(T, gs, rho, kog, r, atc, tau, za, zb, zx)
+        pa, pb, shx = (f(_shc(z)) for z in (za, zb, zx))
+        core.fig_d(tau, pa, pb, shx, n, sh2, wbar, A, dl, T, vs, ve, poff, res.peak_v, res.min_v)
     core.row_sums(iv, poff, res.iv)
     res.ia = res.peak_a = None
     return True

@@ -188,3 +188,24 @@ def test_left_out_pieces_are_strictly_inside(seed):
     mid = (ar > 0.125) & (ar < 1)
     assert mid.any() and np.all(need[mid])
     assert np.any(ar >= 1)
+
+
+def test_runs_of_chains_and_a_chain_longer_than_a_run():
+    """fig_need takes whole chains in runs of at most 1024 pieces: chains across a run's end,
+    and a chain of more pieces (all its pieces needed), the same figures."""
+    rng = np.random.default_rng(5)
+    a, b = _made_up(rng, 300), _made_up(rng, 300)
+    m = 1500                                            # one long chain: a rise and a fall
+    t = rng.uniform(0.001, 0.02, m)
+    knots = np.concatenate([[0.0], rng.uniform(0, 100, m - 1), [0.0]])
+    ln = t * (knots[:-1] + knots[1:]) / 2 * rng.uniform(0.9, 1.2, m)
+    cat = lambda f, x: np.concatenate([getattr(a, f), x, getattr(b, f)])      # noqa: E731
+    poff = np.concatenate([a.poff, a.poff[-1] + m + b.poff])
+    res = _block(cat("L", ln), cat("T", t), cat("beta", (t / 0.1) ** 2), cat("v0", knots[:-1]),
+                 cat("v1", knots[1:]), poff)
+    count = _Count(lc.CORE_MOD)
+    assert _same(res, None, count)
+    assert 0 < count.k < count.P
+    _, need, _, _, _, _ = _vc_and_need(res)
+    long = slice(int(a.poff[-1]), int(a.poff[-1]) + m)
+    assert need[long].all() and not need[:long.start].all() and res.L.size > 2 * 1024

@@ -2409,6 +2409,7 @@ static PyObject *fig_d(PyObject *self, PyObject *a) {
 #define FN_R_MAX 0.125        /* |r| above (and below 1: clipped there): the piece needed */
 #define FN_G_MAX 0.25         /* γ above: the piece needed (then |z| <= γ / 2 <= 1/8) */
 #define FN_MARGIN 1e-9
+#define FN_BUF 1024          /* pieces a run of fig_need (its chains whole) */
 
 #define FN_SERIES(w_, c_, nt_) ({                                                                  \
         double w__ = (w_), s_ = (c_)[(nt_) - 1];                                                   \
@@ -2479,35 +2480,49 @@ static PyObject *fig_need(PyObject *self, PyObject *a) {
     const double *r = p[4];
     int64_t *idx = (int64_t *)p[13];
     double *rsub = p[14];
-    double *work = PyMem_Malloc((4 * (N ? N : 1)) * sizeof(double));
-    if (!work) { release(&b); return PyErr_NoMemory(); }
-    double *vlo = work, *vhi = work + N, *tp = work + 2 * N, *bt = work + 3 * N;
     double cat[FN_AT_TERMS], csh[FN_SH_TERMS], f = 1.0;
     for (int q = 0; q < FN_AT_TERMS; q++) cat[q] = 1.0 / (2 * q + 1);
     for (int q = 0; q < FN_SH_TERMS; q++) {
         csh[q] = 1.0 / f;                             /* 1 / (2q + 1)! */
         f *= (2 * q + 2) * (2 * q + 3);
     }
-    need_bounds(N, p[0], p[1], p[2], p[3], r, p[5], p[6], p[7], p[9], p[8], p[10], p[11], cat, csh, vlo, vhi,
-                tp, bt);
+    /* runs of whole chains of at most FN_BUF pieces at a time, their bounds in the stack's
+       buffers (no heap block: a large one freed raises glibc's mmap threshold, and the next
+       ones then stay resident); a chain of more pieces: all needed */
+    double vlo[FN_BUF], vhi[FN_BUF], tp[FN_BUF], bt[FN_BUF];
     Py_ssize_t k = 0;
-    for (Py_ssize_t c = 0; c < nc; c++) {
-        int64_t p0 = poff[c], p1 = poff[c + 1];
-        double top = tp[p0], bot = bt[p0];             /* the largest lower bound, the least upper one */
-        int fin = top == top;
-        for (int64_t i = p0 + 1; i < p1; i++) {
-            double t = tp[i], u = bt[i];
-            fin &= t == t;
-            top = t > top ? t : top;
-            bot = u < bot ? u : bot;
+    for (Py_ssize_t c0 = 0; c0 < nc;) {
+        int64_t q0 = poff[c0];
+        Py_ssize_t c1 = c0;
+        while (c1 < nc && poff[c1 + 1] - q0 <= FN_BUF) c1++;
+        if (c1 == c0) {                               /* one chain longer than the buffers */
+            for (int64_t i = q0; i < poff[c0 + 1]; i++) {
+                idx[k] = i;
+                rsub[k++] = r[i];
+            }
+            c0++;
+            continue;
         }
-        for (int64_t i = p0; i < p1; i++) {
-            if (fin && vhi[i] < top && vlo[i] > bot) continue;
-            idx[k] = i;
-            rsub[k++] = r[i];
+        need_bounds(poff[c1] - q0, p[0] + q0, p[1] + q0, p[2] + q0, p[3] + q0, r + q0, p[5] + q0, p[6] + q0,
+                    p[7] + q0, p[9] + q0, p[8] + q0, p[10] + q0, p[11] + q0, cat, csh, vlo, vhi, tp, bt);
+        for (Py_ssize_t c = c0; c < c1; c++) {
+            int64_t p0 = poff[c] - q0, p1 = poff[c + 1] - q0;
+            double top = tp[p0], bot = bt[p0];         /* the largest lower bound, the least upper one */
+            int fin = top == top;
+            for (int64_t i = p0 + 1; i < p1; i++) {
+                double t = tp[i], u = bt[i];
+                fin &= t == t;
+                top = t > top ? t : top;
+                bot = u < bot ? u : bot;
+            }
+            for (int64_t i = p0; i < p1; i++) {
+                if (fin && vhi[i] < top && vlo[i] > bot) continue;
+                idx[k] = q0 + i;
+                rsub[k++] = r[q0 + i];
+            }
         }
+        c0 = c1;
     }
-    PyMem_Free(work);
     release(&b);
     return PyLong_FromSsize_t(k);
 }

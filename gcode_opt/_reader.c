@@ -412,33 +412,67 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 }
 
 #ifdef FAST_DECIMAL
-/* digits[.digits] from *pp (none is 0 digits), as read_words_in's steps scan a value: m the
- * digits as one integer (it wraps past 20 digits: the callers take 1 to 15), *frac the
- * digits after the point; *pp moves past them.  The number of digits. */
-static inline __attribute__((always_inline)) Py_ssize_t
-scan_plain_decimal(const unsigned char **pp, unsigned long long *m_out, Py_ssize_t *frac)
+/* PAIR[b0 | b1 << 8]: 1 + the number two digits b0 b1 make ("07": 8), 0 where b0 or b1 is
+ * not a digit: a run of digits is read two at a time, one load and one test a pair (a
+ * 64 KiB table, of which a run's reads touch a few cache lines) */
+#define PAIR2(a, b) [('0' + (a)) | (('0' + (b)) << 8)] = (a) * 10 + (b) + 1
+#define PAIR10(a) PAIR2(a, 0), PAIR2(a, 1), PAIR2(a, 2), PAIR2(a, 3), PAIR2(a, 4), PAIR2(a, 5), PAIR2(a, 6), \
+    PAIR2(a, 7), PAIR2(a, 8), PAIR2(a, 9)
+static const unsigned char PAIR[1 << 16] = {PAIR10(0), PAIR10(1), PAIR10(2), PAIR10(3), PAIR10(4),
+                                            PAIR10(5), PAIR10(6), PAIR10(7), PAIR10(8), PAIR10(9)};
+#undef PAIR10
+#undef PAIR2
+
+/* the digits from p on (none: 0) appended to *m (m * 10 + d a digit, wrapping as that
+ * does); end, at or after p, is a byte that is not a digit (the line's ending).  A pair's
+ * read may take the byte past end (end[1], never a digit's place) where past_ok (a constant:
+ * that byte is readable), else it reads p[1] only where p < end. */
+static inline __attribute__((always_inline)) const unsigned char *
+digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *m, const int past_ok)
 {
-    const unsigned char *p = *pp, *p0 = p;
-    unsigned long long m = 0;
-    unsigned d;
-    while ((d = (unsigned)*p - '0') <= 9) {
-        m = m * 10u + d;
+    unsigned long long v = *m;
+    unsigned t, d;
+    while ((past_ok || p < end) && (t = PAIR[p[0] | (p[1] << 8)]) != 0) {
+        v = v * 100u + (t - 1);
+        p += 2;
+    }
+    if ((d = (unsigned)*p - '0') <= 9) {       /* (then p[1] is not a digit: the pair's test failed) */
+        v = v * 10u + d;
         p++;
     }
+    *m = v;
+    return p;
+}
+
+/* digits[.digits] from *pp (none is 0 digits), as read_words_in's steps scan a value: m the
+ * digits as one integer (it wraps past 20 digits: the callers take 1 to 15), *frac the
+ * digits after the point; *pp moves past them; end (the line's ending, not a digit nor a
+ * point) stops the scan, past_ok as digit_run's.  The number of digits. */
+static inline __attribute__((always_inline)) Py_ssize_t
+scan_plain_decimal(const unsigned char **pp, const unsigned char *end, unsigned long long *m_out, Py_ssize_t *frac,
+                   const int past_ok)
+{
+    const unsigned char *p0 = *pp;
+    unsigned long long m = 0;
+    const unsigned char *p = digit_run(p0, end, &m, past_ok);
     Py_ssize_t digits = p - p0;
     *frac = 0;
     if (*p == '.') {
-        const unsigned char *f = ++p;
-        while ((d = (unsigned)*p - '0') <= 9) {
-            m = m * 10u + d;
-            p++;
-        }
+        const unsigned char *f = p + 1;
+        p = digit_run(f, end, &m, past_ok);
         *frac = p - f;
         digits += *frac;
     }
     *pp = p;
     *m_out = m;
     return digits;
+}
+
+/* the byte after the line's last one, s[n], is readable: it is in the page of s[n - 1] (a
+ * page is 4 KiB or a multiple of it) */
+static inline int past_readable(const unsigned char *s, Py_ssize_t n)
+{
+    return ((uintptr_t)(s + n) & 4095u) != 0;
 }
 #endif
 
@@ -449,9 +483,10 @@ scan_plain_decimal(const unsigned char **pp, unsigned long long *m_out, Py_ssize
  * sign and end read_words_in's steps find for such a word, so the same double.  0 with w
  * filled, or 1: a line of any other shape (two blanks, a tab, a '+', a long or odd value,
  * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
- * loop holds few values (no spills) and tests no general case. */
-static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
-                                                 Words *w)
+ * loop holds few values (no spills) and tests no general case.  past_ok: digit_run's (a
+ * constant in usual_words' two calls). */
+static inline __attribute__((always_inline)) int usual_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
+                                                                unsigned letters, Words *w, const int past_ok)
 {
     const unsigned char *p = s + k, *end = s + n - 1;
     unsigned seen = 0;
@@ -465,7 +500,7 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
         int neg = *p == '-';
         p += neg;
         unsigned long long m;
-        Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, past_ok);
         if ((size_t)(digits - 1) >= 15)
             return 1;                   /* (a value ended by a point or sign: the next step's 1) */
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
@@ -478,6 +513,14 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
     w->n = nw;
     w->seen = seen;
     return 0;
+}
+
+static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
+                                                 Words *w)
+{
+    if (past_readable(s, n))
+        return usual_words_in(s, n, k, letters, w, 1);
+    return usual_words_in(s, n, k, letters, w, 0);
 }
 #endif
 
@@ -1363,7 +1406,8 @@ static int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
         return 0;
     const unsigned char *p = s + 6;
     unsigned long long m;
-    Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);     /* (frac 0: no point, or none after it) */
+    Py_ssize_t frac, digits = past_readable(s, n) ? scan_plain_decimal(&p, s + n - 1, &m, &frac, 1)
+                                                  : scan_plain_decimal(&p, s + n - 1, &m, &frac, 0);  /* (frac 0: no point, or none after it) */
     if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
         return 0;
     double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */

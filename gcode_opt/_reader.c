@@ -412,16 +412,22 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 }
 
 #ifdef FAST_DECIMAL
-/* PAIR[b0 | b1 << 8]: 1 + the number two digits b0 b1 make ("07": 8), 0 where b0 or b1 is
- * not a digit: a run of digits is read two at a time, one load and one test a pair (a
- * 64 KiB table, of which a run's reads touch a few cache lines) */
-#define PAIR2(a, b) [('0' + (a)) | (('0' + (b)) << 8)] = (a) * 10 + (b) + 1
-#define PAIR10(a) PAIR2(a, 0), PAIR2(a, 1), PAIR2(a, 2), PAIR2(a, 3), PAIR2(a, 4), PAIR2(a, 5), PAIR2(a, 6), \
-    PAIR2(a, 7), PAIR2(a, 8), PAIR2(a, 9)
-static const unsigned char PAIR[1 << 16] = {PAIR10(0), PAIR10(1), PAIR10(2), PAIR10(3), PAIR10(4),
-                                            PAIR10(5), PAIR10(6), PAIR10(7), PAIR10(8), PAIR10(9)};
-#undef PAIR10
-#undef PAIR2
+/* RUN[b0 | b1 << 8], the bytes p[0] p[1] as digit_run reads them: the number two digits make
+ * (0 to 99: "07" is 7), RUN_ONE + d where b0 is a digit d and b1 is not (the run ends after
+ * it), RUN_END where b0 is not a digit; one load and one test a pair, and the run's end read
+ * from the same load.  Built at the module's load (run_table_init). */
+enum { RUN_ONE = 100, RUN_END = 110 };
+static unsigned char RUN[1 << 16];
+
+static void run_table_init(void)
+{
+    memset(RUN, RUN_END, sizeof(RUN));
+    for (int b1 = 0; b1 < 256; b1++)
+        for (int d0 = 0; d0 < 10; d0++) {
+            unsigned d1 = (unsigned)b1 - '0';
+            RUN[('0' + d0) | (b1 << 8)] = (unsigned char)(d1 <= 9 ? (unsigned)d0 * 10 + d1 : (unsigned)(RUN_ONE + d0));
+        }
+}
 
 /* the digits from p on (none: 0) appended to *m (m * 10 + d a digit, wrapping as that
  * does); end, at or after p, is a byte that is not a digit (the line's ending).  A pair's
@@ -431,13 +437,20 @@ static inline __attribute__((always_inline)) const unsigned char *
 digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *m, const int past_ok)
 {
     unsigned long long v = *m;
-    unsigned t, d;
-    while ((past_ok || p < end) && (t = PAIR[p[0] | (p[1] << 8)]) != 0) {
-        v = v * 100u + (t - 1);
+    unsigned long long t;
+    for (;;) {
+        if (!past_ok && p >= end) {
+            t = RUN_END;               /* (p is end: not a digit) */
+            break;
+        }
+        t = RUN[p[0] | (p[1] << 8)];
+        if (t >= RUN_ONE)
+            break;
+        v = v * 100u + t;
         p += 2;
     }
-    if ((d = (unsigned)*p - '0') <= 9) {       /* (then p[1] is not a digit: the pair's test failed) */
-        v = v * 10u + d;
+    if (t < RUN_END) {                 /* a last digit */
+        v = v * 10u + t - RUN_ONE;
         p++;
     }
     *m = v;
@@ -1959,6 +1972,9 @@ PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
     PyObject *m = PyModule_Create(&reader_module);
     if (m == NULL)
         return NULL;
+#ifdef FAST_DECIMAL
+    run_table_init();
+#endif
     Py_INCREF(&LinesType);
     if (PyModule_AddObject(m, "Lines", (PyObject *)&LinesType) < 0) {
         Py_DECREF(&LinesType);

@@ -24,6 +24,9 @@
 #include <float.h>
 #include <string.h>
 #include "_linestr.h"     /* line_str: a line's str as read_lines gives it */
+#ifdef __SSE2__
+#include <emmintrin.h>      /* split_scan's 16-byte scan */
+#endif
 
 /* ---------------------------------------------------------------- set up from state.py */
 enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_FEATURE,
@@ -1829,6 +1832,18 @@ static PyObject *make_method(PyObject *module, PyObject *unused)
     return m;
 }
 
+/* split_scan's starts with twice the room (*cap doubled), or NULL (start freed, error set) */
+static Py_ssize_t *grow_starts(Py_ssize_t *start, Py_ssize_t *cap)
+{
+    *cap *= 2;
+    Py_ssize_t *more = PyMem_Realloc(start, (size_t)*cap * sizeof(Py_ssize_t));
+    if (more == NULL) {
+        PyMem_Free(start);
+        PyErr_NoMemory();
+    }
+    return more;
+}
+
 /* The whole lines at the start of p[0..len) as read_lines reads them (open_text: newline=""):
  * a line ends after "\n", "\r\n" or a lone "\r".  The rest (a line without its ending, or a
  * "\r" at the very end, which may be the start of a "\r\n") waits for more bytes, unless
@@ -1857,6 +1872,23 @@ static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_
         return -1;
     }
     start[0] = 0;
+#ifdef __SSE2__
+    if (!cr) {
+        /* the '\n's 16 bytes at a time (one compare and mask), each line's end from the
+         * mask's bits: the same ends as the memchr steps below, without a call a line */
+        const __m128i nl16 = _mm_set1_epi8('\n');
+        Py_ssize_t j = 0;
+        for (; j + 16 <= len; j += 16) {
+            unsigned nl = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)(p + j)), nl16));
+            for (; nl != 0; nl &= nl - 1) {
+                if (n + 2 > cap && (start = grow_starts(start, &cap)) == NULL)
+                    return -1;
+                start[++n] = j + __builtin_ctz(nl) + 1;
+            }
+        }
+        s = p + start[n];              /* the rest, fewer than 16 bytes on from j: the steps below */
+    }
+#endif
     while (s < end) {
         const char *e;
         if (!cr) {
@@ -1875,16 +1907,8 @@ static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_
             e += (e + 1 < end && e[1] == '\n') ? 2 : 1;
         } else
             e++;
-        if (n + 2 > cap) {
-            cap *= 2;
-            Py_ssize_t *more = PyMem_Realloc(start, (size_t)cap * sizeof(Py_ssize_t));
-            if (more == NULL) {
-                PyMem_Free(start);
-                PyErr_NoMemory();
-                return -1;
-            }
-            start = more;
-        }
+        if (n + 2 > cap && (start = grow_starts(start, &cap)) == NULL)
+            return -1;
         start[++n] = e - p;
         s = e;
     }

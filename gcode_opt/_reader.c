@@ -64,6 +64,15 @@ static char *MARKS[MAX_MARKS];
 static int N_MARKS = -1;          /* -1: not read (every comment line goes to Python) */
 static int N_PREFIX = 0;          /* MARKS[:N_PREFIX] are _PREFIXES, the rest _LAYER_MARKERS */
 static PyObject *FEATURE_NAMES = NULL, *FEATURE_OTHER = NULL;   /* features._NAMES, OTHER (or NULL) */
+/* a mark's first 4 bytes (fewer: its length's), each | 0x20, as one word (b0 | b1 << 8 ...),
+ * and the mask of those bytes: a line s[0:4] whose bytes | 0x20 differ from them is not
+ * that mark lowercased (c | 0x20 is lowercase(c) | 0x20 for every byte), no byte compare */
+static unsigned MARK_KEY[MAX_MARKS], MARK_MASK[MAX_MARKS];
+
+static inline unsigned key4(const unsigned char *s)
+{
+    return ((unsigned)s[0] | (unsigned)s[1] << 8 | (unsigned)s[2] << 16 | (unsigned)s[3] << 24) | 0x20202020u;
+}
 
 static int read_marks(void)
 {
@@ -104,7 +113,13 @@ static int read_marks(void)
                 ok = 0;
                 break;
             }
-            strcpy(MARKS[n++], c);
+            strcpy(MARKS[n], c);
+            unsigned char head[4] = {0, 0, 0, 0};
+            size_t len = strlen(c);
+            memcpy(head, c, len < 4 ? len : 4);
+            MARK_MASK[n] = len >= 4 ? 0xffffffffu : (1u << (8 * len)) - 1u;
+            MARK_KEY[n] = key4(head) & MARK_MASK[n];
+            n++;
         }
         Py_DECREF(t);
     }
@@ -123,7 +138,10 @@ static int marked(const unsigned char *s, Py_ssize_t n)
 {
     if (N_MARKS < 0)
         return 1;
+    unsigned key = n >= 4 ? key4(s) : 0;
     for (int i = 0; i < N_MARKS; i++) {
+        if (n >= 4 && (key & MARK_MASK[i]) != MARK_KEY[i])
+            continue;                  /* (its first bytes differ: not this mark) */
         const char *m = MARKS[i];
         Py_ssize_t j = 0;
         while (m[j] != '\0' && j < n) {

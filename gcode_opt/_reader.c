@@ -24,6 +24,9 @@
 #include <float.h>
 #include <string.h>
 #include "_linestr.h"     /* line_str: a line's str as read_lines gives it */
+#ifdef __SSE2__
+#include <emmintrin.h>      /* split_scan's 16-byte scan */
+#endif
 
 /* ---------------------------------------------------------------- set up from state.py */
 enum { MV_IDX, MV_KIND, MV_X0, MV_Y0, MV_Z0, MV_X1, MV_Y1, MV_Z1, MV_E, MV_V, MV_ACCEL, MV_FEATURE,
@@ -61,6 +64,15 @@ static char *MARKS[MAX_MARKS];
 static int N_MARKS = -1;          /* -1: not read (every comment line goes to Python) */
 static int N_PREFIX = 0;          /* MARKS[:N_PREFIX] are _PREFIXES, the rest _LAYER_MARKERS */
 static PyObject *FEATURE_NAMES = NULL, *FEATURE_OTHER = NULL;   /* features._NAMES, OTHER (or NULL) */
+/* a mark's first 4 bytes (fewer: its length's), each | 0x20, as one word (b0 | b1 << 8 ...),
+ * and the mask of those bytes: a line s[0:4] whose bytes | 0x20 differ from them is not
+ * that mark lowercased (c | 0x20 is lowercase(c) | 0x20 for every byte), no byte compare */
+static unsigned MARK_KEY[MAX_MARKS], MARK_MASK[MAX_MARKS];
+
+static inline unsigned key4(const unsigned char *s)
+{
+    return ((unsigned)s[0] | (unsigned)s[1] << 8 | (unsigned)s[2] << 16 | (unsigned)s[3] << 24) | 0x20202020u;
+}
 
 static int read_marks(void)
 {
@@ -101,7 +113,13 @@ static int read_marks(void)
                 ok = 0;
                 break;
             }
-            strcpy(MARKS[n++], c);
+            strcpy(MARKS[n], c);
+            unsigned char head[4] = {0, 0, 0, 0};
+            size_t len = strlen(c);
+            memcpy(head, c, len < 4 ? len : 4);
+            MARK_MASK[n] = len >= 4 ? 0xffffffffu : (1u << (8 * len)) - 1u;
+            MARK_KEY[n] = key4(head) & MARK_MASK[n];
+            n++;
         }
         Py_DECREF(t);
     }
@@ -120,7 +138,10 @@ static int marked(const unsigned char *s, Py_ssize_t n)
 {
     if (N_MARKS < 0)
         return 1;
+    unsigned key = n >= 4 ? key4(s) : 0;
     for (int i = 0; i < N_MARKS; i++) {
+        if (n >= 4 && (key & MARK_MASK[i]) != MARK_KEY[i])
+            continue;                  /* (its first bytes differ: not this mark) */
         const char *m = MARKS[i];
         Py_ssize_t j = 0;
         while (m[j] != '\0' && j < n) {
@@ -412,33 +433,80 @@ static inline __attribute__((always_inline)) int read_words_in(const unsigned ch
 }
 
 #ifdef FAST_DECIMAL
-/* digits[.digits] from *pp (none is 0 digits), as read_words_in's steps scan a value: m the
- * digits as one integer (it wraps past 20 digits: the callers take 1 to 15), *frac the
- * digits after the point; *pp moves past them.  The number of digits. */
-static inline __attribute__((always_inline)) Py_ssize_t
-scan_plain_decimal(const unsigned char **pp, unsigned long long *m_out, Py_ssize_t *frac)
+/* RUN[b0 | b1 << 8], the bytes p[0] p[1] as digit_run reads them: the number two digits make
+ * (0 to 99: "07" is 7), RUN_ONE + d where b0 is a digit d and b1 is not (the run ends after
+ * it), RUN_END where b0 is not a digit; one load and one test a pair, and the run's end read
+ * from the same load.  Built at the module's load (run_table_init). */
+enum { RUN_ONE = 100, RUN_END = 110 };
+static unsigned char RUN[1 << 16];
+
+static void run_table_init(void)
 {
-    const unsigned char *p = *pp, *p0 = p;
-    unsigned long long m = 0;
-    unsigned d;
-    while ((d = (unsigned)*p - '0') <= 9) {
-        m = m * 10u + d;
+    memset(RUN, RUN_END, sizeof(RUN));
+    for (int b1 = 0; b1 < 256; b1++)
+        for (int d0 = 0; d0 < 10; d0++) {
+            unsigned d1 = (unsigned)b1 - '0';
+            RUN[('0' + d0) | (b1 << 8)] = (unsigned char)(d1 <= 9 ? (unsigned)d0 * 10 + d1 : (unsigned)(RUN_ONE + d0));
+        }
+}
+
+/* the digits from p on (none: 0) appended to *m (m * 10 + d a digit, wrapping as that
+ * does); end, at or after p, is a byte that is not a digit (the line's ending).  A pair's
+ * read may take the byte past end (end[1], never a digit's place) where past_ok (a constant:
+ * that byte is readable), else it reads p[1] only where p < end. */
+static inline __attribute__((always_inline)) const unsigned char *
+digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *m, const int past_ok)
+{
+    unsigned long long v = *m;
+    unsigned long long t;
+    for (;;) {
+        if (!past_ok && p >= end) {
+            t = RUN_END;               /* (p is end: not a digit) */
+            break;
+        }
+        t = RUN[p[0] | (p[1] << 8)];
+        if (t >= RUN_ONE)
+            break;
+        v = v * 100u + t;
+        p += 2;
+    }
+    if (t < RUN_END) {                 /* a last digit */
+        v = v * 10u + t - RUN_ONE;
         p++;
     }
+    *m = v;
+    return p;
+}
+
+/* digits[.digits] from *pp (none is 0 digits), as read_words_in's steps scan a value: m the
+ * digits as one integer (it wraps past 20 digits: the callers take 1 to 15), *frac the
+ * digits after the point; *pp moves past them; end (the line's ending, not a digit nor a
+ * point) stops the scan, past_ok as digit_run's.  The number of digits. */
+static inline __attribute__((always_inline)) Py_ssize_t
+scan_plain_decimal(const unsigned char **pp, const unsigned char *end, unsigned long long *m_out, Py_ssize_t *frac,
+                   const int past_ok)
+{
+    const unsigned char *p0 = *pp;
+    unsigned long long m = 0;
+    const unsigned char *p = digit_run(p0, end, &m, past_ok);
     Py_ssize_t digits = p - p0;
     *frac = 0;
     if (*p == '.') {
-        const unsigned char *f = ++p;
-        while ((d = (unsigned)*p - '0') <= 9) {
-            m = m * 10u + d;
-            p++;
-        }
+        const unsigned char *f = p + 1;
+        p = digit_run(f, end, &m, past_ok);
         *frac = p - f;
         digits += *frac;
     }
     *pp = p;
     *m_out = m;
     return digits;
+}
+
+/* the byte after the line's last one, s[n], is readable: it is in the page of s[n - 1] (a
+ * page is 4 KiB or a multiple of it) */
+static inline int past_readable(const unsigned char *s, Py_ssize_t n)
+{
+    return ((uintptr_t)(s + n) & 4095u) != 0;
 }
 #endif
 
@@ -449,9 +517,10 @@ scan_plain_decimal(const unsigned char **pp, unsigned long long *m_out, Py_ssize
  * sign and end read_words_in's steps find for such a word, so the same double.  0 with w
  * filled, or 1: a line of any other shape (two blanks, a tab, a '+', a long or odd value,
  * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
- * loop holds few values (no spills) and tests no general case. */
-static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
-                                                 Words *w)
+ * loop holds few values (no spills) and tests no general case.  past_ok: digit_run's (a
+ * constant in usual_words' two calls). */
+static inline __attribute__((always_inline)) int usual_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
+                                                                unsigned letters, Words *w, const int past_ok)
 {
     const unsigned char *p = s + k, *end = s + n - 1;
     unsigned seen = 0;
@@ -465,7 +534,7 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
         int neg = *p == '-';
         p += neg;
         unsigned long long m;
-        Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, past_ok);
         if ((size_t)(digits - 1) >= 15)
             return 1;                   /* (a value ended by a point or sign: the next step's 1) */
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
@@ -478,6 +547,14 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
     w->n = nw;
     w->seen = seen;
     return 0;
+}
+
+static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
+                                                 Words *w)
+{
+    if (past_readable(s, n))
+        return usual_words_in(s, n, k, letters, w, 1);
+    return usual_words_in(s, n, k, letters, w, 0);
 }
 #endif
 
@@ -1363,7 +1440,8 @@ static int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
         return 0;
     const unsigned char *p = s + 6;
     unsigned long long m;
-    Py_ssize_t frac, digits = scan_plain_decimal(&p, &m, &frac);     /* (frac 0: no point, or none after it) */
+    Py_ssize_t frac, digits = past_readable(s, n) ? scan_plain_decimal(&p, s + n - 1, &m, &frac, 1)
+                                                  : scan_plain_decimal(&p, s + n - 1, &m, &frac, 0);  /* (frac 0: no point, or none after it) */
     if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
         return 0;
     double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */
@@ -1772,6 +1850,18 @@ static PyObject *make_method(PyObject *module, PyObject *unused)
     return m;
 }
 
+/* split_scan's starts with twice the room (*cap doubled), or NULL (start freed, error set) */
+static Py_ssize_t *grow_starts(Py_ssize_t *start, Py_ssize_t *cap)
+{
+    *cap *= 2;
+    Py_ssize_t *more = PyMem_Realloc(start, (size_t)*cap * sizeof(Py_ssize_t));
+    if (more == NULL) {
+        PyMem_Free(start);
+        PyErr_NoMemory();
+    }
+    return more;
+}
+
 /* The whole lines at the start of p[0..len) as read_lines reads them (open_text: newline=""):
  * a line ends after "\n", "\r\n" or a lone "\r".  The rest (a line without its ending, or a
  * "\r" at the very end, which may be the start of a "\r\n") waits for more bytes, unless
@@ -1800,6 +1890,23 @@ static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_
         return -1;
     }
     start[0] = 0;
+#ifdef __SSE2__
+    if (!cr) {
+        /* the '\n's 16 bytes at a time (one compare and mask), each line's end from the
+         * mask's bits: the same ends as the memchr steps below, without a call a line */
+        const __m128i nl16 = _mm_set1_epi8('\n');
+        Py_ssize_t j = 0;
+        for (; j + 16 <= len; j += 16) {
+            unsigned nl = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)(p + j)), nl16));
+            for (; nl != 0; nl &= nl - 1) {
+                if (n + 2 > cap && (start = grow_starts(start, &cap)) == NULL)
+                    return -1;
+                start[++n] = j + __builtin_ctz(nl) + 1;
+            }
+        }
+        s = p + start[n];              /* the rest, fewer than 16 bytes on from j: the steps below */
+    }
+#endif
     while (s < end) {
         const char *e;
         if (!cr) {
@@ -1818,16 +1925,8 @@ static Py_ssize_t split_scan(const char *p, Py_ssize_t len, int final, Py_ssize_
             e += (e + 1 < end && e[1] == '\n') ? 2 : 1;
         } else
             e++;
-        if (n + 2 > cap) {
-            cap *= 2;
-            Py_ssize_t *more = PyMem_Realloc(start, (size_t)cap * sizeof(Py_ssize_t));
-            if (more == NULL) {
-                PyMem_Free(start);
-                PyErr_NoMemory();
-                return -1;
-            }
-            start = more;
-        }
+        if (n + 2 > cap && (start = grow_starts(start, &cap)) == NULL)
+            return -1;
         start[++n] = e - p;
         s = e;
     }
@@ -1915,6 +2014,9 @@ PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
     PyObject *m = PyModule_Create(&reader_module);
     if (m == NULL)
         return NULL;
+#ifdef FAST_DECIMAL
+    run_table_init();
+#endif
     Py_INCREF(&LinesType);
     if (PyModule_AddObject(m, "Lines", (PyObject *)&LinesType) < 0) {
         Py_DECREF(&LinesType);

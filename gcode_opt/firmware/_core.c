@@ -151,7 +151,21 @@ static int domain(void)
     return -1;
 }
 #define DIV(out, a, b) do { double b_ = (b); if (b_ == 0.0) return zerodiv(); (out) = (a) / b_; } while (0)
-#define SQRT(out, x) do { double x_ = (x); if (x_ < 0.0) return domain(); (out) = sqrt(x_); } while (0)
+/* The correctly rounded square root (IEEE: the bits of libm's sqrt), without errno: gcc's
+ * sqrt() is sqrtsd plus a test and a libm call kept for errno, and in a block it guesses
+ * cold, the call alone (~25 instructions a block of the firmware model's).  Nothing here
+ * reads errno. */
+static inline double sqrt_rn(double x)
+{
+#if defined(__SSE2__) && defined(__GNUC__)
+    /* the instruction alone, in place (the intrinsics' zeroed upper half cost ~4 more) */
+    __asm__("sqrtsd %0, %0" : "+x"(x));
+    return x;
+#else
+    return sqrt(x);
+#endif
+}
+#define SQRT(out, x) do { double x_ = (x); if (x_ < 0.0) return domain(); (out) = sqrt_rn(x_); } while (0)
 static inline double pymax(double a, double b) { return b > a ? b : a; }
 static inline double pymin(double a, double b) { return b < a ? b : a; }
 
@@ -1174,9 +1188,11 @@ typedef struct {
     int klipper_limits, klipper_fw, model, marlin;
     double jerk_z, icv, min_seg_t, arc_segment_d, default_accel, max_z_accel, max_z_v, max_e_v;
     double caps[3], jerk[3];
+    int caps_nonneg;                  /* no cap < 0: caps_axis() may be used (set with caps) */
     PyObject *lim;                    /* the Limits caps and jerk were last taken from */
     PyObject *vlim;                   /* the Limits vlim_* were last taken from (vlim_read) */
     double vlim_v_max, vlim_scv, vlim_mcr, vlim_jd;
+    int vlim_nonneg;                  /* neither vlim_v_max nor max_z_v < 0 (vlim_read) */
     double stop_thr;
     /* planner: Klipper's queue q[0..n) / Marlin's buf q[0..n) with head */
     BlockData *q;
@@ -1201,6 +1217,21 @@ typedef struct {
  * ~40 instructions a block of calls, saved registers and reloads fewer */
 #define BLOCK_PATH static inline __attribute__((always_inline))
 BLOCK_PATH int sim_emit(SimObject *s, BlockData *b);
+
+/* An axis's cap on a speed or acceleration x along unit-vector component au = |u| (0, > 0
+ * or NaN), for a cap that is not < 0: x * au > cap says au > 0 too (au == 0 gives a
+ * product of 0 or NaN, not above the cap), so _block's `au > 0.0 and x * au > cap` needs
+ * only the product's test, and its division no zero check.  The same operations on the
+ * same numbers: the same bits. */
+static inline double caps_axis(double x, double au, double cap)
+{
+    return x * au > cap ? cap / au : x;
+}
+
+static int caps_nonneg(const double *caps)
+{
+    return !(caps[0] < 0.0) && !(caps[1] < 0.0) && !(caps[2] < 0.0);
+}
 
 static double getattr_d(PyObject *o, const char *name, double dflt, int use_dflt, int *err)
 {
@@ -1301,9 +1332,11 @@ static int Sim_init(SimObject *s, PyObject *args, PyObject *kw)
         return -1;
     s->caps[0] = s->caps[1] = max_accel;
     s->caps[2] = s->max_z_accel;
+    s->caps_nonneg = caps_nonneg(s->caps);
     s->jerk[0] = s->jerk[1] = jerk_xy;
     s->jerk[2] = s->jerk_z;
     Py_CLEAR(s->lim);
+    Py_CLEAR(s->vlim);                /* (vlim_nonneg reads max_z_v: read again) */
     s->n = s->head = 0;
     s->chunk = chunk;
     s->next_try = chunk;
@@ -1365,8 +1398,8 @@ static int klipper_corner_v2(double pux, double puy, double puz, double p_jd, do
     double cos_theta = -(ux * pux + uy * puy + uz * puz);
     double s2 = 0.5 * (1.0 - cos_theta);
     double c2 = 0.5 * (1.0 + cos_theta);
-    double sin_d2 = s2 > 0.0 ? sqrt(s2) : 0.0;
-    double cos_d2 = c2 > 0.0 ? sqrt(c2) : 0.0;
+    double sin_d2 = s2 > 0.0 ? sqrt_rn(s2) : 0.0;
+    double cos_d2 = c2 > 0.0 ? sqrt_rn(c2) : 0.0;
     double one_m = 1.0 - sin_d2;
     if (one_m > 0.0 && cos_d2 > 0.0) {
         double r_jd, qt, c;
@@ -1442,7 +1475,7 @@ static int marlin_jd_v2(double mps, double pux, double puy, double puz, double u
         return 0;
     }
     double jx = ux - pux, jy = uy - puy, jz = uz - puz;
-    double jn = sqrt(jx * jx + jy * jy + jz * jz);
+    double jn = sqrt_rn(jx * jx + jy * jy + jz * jz);
     double ja;
     if (jn > 0.0) {
         double a1, a2, a3;
@@ -1455,7 +1488,7 @@ static int marlin_jd_v2(double mps, double pux, double puy, double puz, double u
     else
         ja = accel;
     double s = 0.5 * (1.0 - cos_theta);
-    double sin_d2 = s > 0.0 ? sqrt(s) : 0.0;
+    double sin_d2 = s > 0.0 ? sqrt_rn(s) : 0.0;
     double one_m = 1.0 - sin_d2;
     double v2;
     if (one_m > 0.0)
@@ -1683,7 +1716,7 @@ static Py_ssize_t klipper_flush(SimObject *s, int lazy)
 }
 
 /* b: the queue's slot q[n] (sim_block's), taken here */
-static int klipper_add(SimObject *s, BlockData *b)
+BLOCK_PATH int klipper_add(SimObject *s, BlockData *b)
 {
     if (s->n) {
         BlockData *p = &s->q[s->n - 1];
@@ -1766,7 +1799,7 @@ BLOCK_PATH int marlin_execute(SimObject *s, double end_v2)
 
 /* b: the queue's slot q[n] (sim_block's), taken here; the last block added is q[n - 1]
  * while has_last (executing a block writes only its trapezoid, which junction() does not read) */
-static int marlin_add(SimObject *s, BlockData *b)
+BLOCK_PATH int marlin_add(SimObject *s, BlockData *b)
 {
     if (s->has_last) {
         BlockData *p = b - 1;
@@ -1922,7 +1955,7 @@ BLOCK_PATH int sim_emit(SimObject *s, BlockData *b)
         else if (dv2 > 0.0) {
             double tj = 0.5 * (s->prev_t + t);
             DIV(jterm, dv2, tj);
-            DIV(na, sqrt(dv2), tj);
+            DIV(na, sqrt_rn(dv2), tj);
             res->int_a2 += jterm;
             if (na > res->peak_a)
                 res->peak_a = na;
@@ -2021,6 +2054,7 @@ static int vlim_read(SimObject *s, PyObject *lim)
     Py_INCREF(lim);
     Py_XSETREF(s->vlim, lim);
     s->vlim_v_max = v_max;
+    s->vlim_nonneg = !(v_max < 0.0) && !(s->max_z_v < 0.0);
     s->vlim_scv = scv;
     s->vlim_mcr = mcr;
     s->vlim_jd = jd;
@@ -2038,6 +2072,7 @@ static int set_lim(SimObject *s, PyObject *lim)
     s->caps[0] = ax;
     s->caps[1] = ay;
     s->caps[2] = s->max_z_accel;
+    s->caps_nonneg = caps_nonneg(s->caps);
     s->jerk[0] = jx;
     s->jerk[1] = jy;
     s->jerk[2] = s->jerk_z;
@@ -2092,17 +2127,18 @@ static int sim_eonly(SimObject *s, PyObject *mv)
     return eonly_rest(s, idx, e, v, a);
 }
 
-static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy, double dz,
-                     double de)
+/* a move's block (_Sim._block): inlined into play_fused (the reader's lines: nearly every
+ * block) and into sim_block (Move objects and arcs), one call a block, not two */
+BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double dx, double dy,
+                              double dz, double de)
 {
-    double d = sqrt(dx * dx + dy * dy + dz * dz);
+    double d = sqrt_rn(dx * dx + dy * dy + dz * dz);
     if (d < 1e-9) {
         if (de != 0.0 && first)         /* the move's own E, feed and accel (_eonly(mv)) */
             return sim_eonly_vals(s, m->idx, m->e, m->v, m->accel);
         return 0;
     }
-    double inv;
-    DIV(inv, 1.0, d);
+    double inv = 1.0 / d;                 /* (d is not 0 here: no zero check) */
     double ux = dx * inv, uy = dy * inv, uz = dz * inv;
     PyObject *lim = m->lim;
     double a0 = m->accel;
@@ -2124,12 +2160,19 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
             return -1;
         double cx = s->caps[0], cy = s->caps[1], cz = s->caps[2];
         a = a0;
-        if (aux > 0.0 && a * aux > cx)
-            DIV(a, cx, aux);
-        if (auy > 0.0 && a * auy > cy)
-            DIV(a, cy, auy);
-        if (auz > 0.0 && a * auz > cz)
-            DIV(a, cz, auz);
+        if (s->caps_nonneg) {
+            a = caps_axis(a, aux, cx);
+            a = caps_axis(a, auy, cy);
+            a = caps_axis(a, auz, cz);
+        }
+        else {
+            if (aux > 0.0 && a * aux > cx)
+                DIV(a, cx, aux);
+            if (auy > 0.0 && a * auy > cy)
+                DIV(a, cy, auy);
+            if (auz > 0.0 && a * auz > cz)
+                DIV(a, cz, auz);
+        }
     }
     if (lim != s->vlim && vlim_read(s, lim) < 0)
         return -1;
@@ -2145,14 +2188,21 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
     }
     else {
         v = m->v;
-        if (aux > 0.0 && v * aux > v_max)
-            DIV(v, v_max, aux);
-        if (auy > 0.0 && v * auy > v_max)
-            DIV(v, v_max, auy);
-        if (auz > 0.0) {
-            double cz = s->max_z_v;
-            if (v * auz > cz)
-                DIV(v, cz, auz);
+        if (s->vlim_nonneg) {
+            v = caps_axis(v, aux, v_max);
+            v = caps_axis(v, auy, v_max);
+            v = caps_axis(v, auz, s->max_z_v);
+        }
+        else {
+            if (aux > 0.0 && v * aux > v_max)
+                DIV(v, v_max, aux);
+            if (auy > 0.0 && v * auy > v_max)
+                DIV(v, v_max, auy);
+            if (auz > 0.0) {
+                double cz = s->max_z_v;
+                if (v * auz > cz)
+                    DIV(v, cz, auz);
+            }
         }
     }
     double jd, mcr_a;
@@ -2188,7 +2238,8 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
     b->mcr_delta_v2 = mm < dv2 ? mm : dv2;
     b->max_start_v2 = b->max_mcr_start_v2 = b->safe_v = 0.0;
     b->after_stop = 1;
-    b->start_v = b->cruise_v = b->end_v = b->accel_t = b->cruise_t = b->decel_t = 0.0;
+    /* (start_v .. decel_t not zeroed: set_trapezoid writes them all before anything reads
+       them, sim_emit and on_block after it) */
     if (s->model == J_JERK) {
         if (lim != s->lim && set_lim(s, lim) < 0)
             return -1;
@@ -2227,6 +2278,12 @@ static int sim_block(SimObject *s, MoveData *m, int first, double dx, double dy,
     if (s->min_seg_t > 0.0 && d < s->min_seg_t * v)
         s->res->short_segments += 1;
     return s->marlin ? marlin_add(s, b) : klipper_add(s, b);
+}
+
+static int sim_block(SimObject *s, const MoveData *m, int first, double dx, double dy, double dz,
+                     double de)
+{
+    return sim_block_body(s, m, first, dx, dy, dz, de);
 }
 
 /* simulate.arc_chords */
@@ -2655,8 +2712,9 @@ static int svl_setup(PyObject *c)
     return 0;
 }
 
-/* a FusedMove played as Sim_move_body plays the Move the reader would have made */
-static inline __attribute__((always_inline)) int play_fused(SimObject *s, long long idx, const FusedMove *fm)
+/* a FusedMove played as Sim_move_body plays the Move the reader would have made; one
+ * out-of-line body (sim_block_body inlined) for its four callers' loops */
+static __attribute__((noinline)) int play_fused(SimObject *s, long long idx, const FusedMove *fm)
 {
     if (enter(s) < 0)
         return -1;
@@ -2674,7 +2732,7 @@ static inline __attribute__((always_inline)) int play_fused(SimObject *s, long l
         m.accel = fm->accel;
         m.flow_r = fm->flow_r;
         m.lim = fm->lim;
-        rc = sim_block(s, &m, 1, fm->x1 - fm->x0, fm->y1 - fm->y0, fm->z1 - fm->z0, m.e);
+        rc = sim_block_body(s, &m, 1, fm->x1 - fm->x0, fm->y1 - fm->y0, fm->z1 - fm->z0, m.e);
     }
     s->busy = 0;
     return rc;

@@ -52,8 +52,9 @@ _SIMULATE = None          # the simulate module, once imported here (its _core r
 # instructions, ~25 ms, an oscillator), which pays off over many events only.  So a run's
 # first PROBE_AFTER events (summed over the calls that take events) go by numpy -- the
 # steps the probes compare the core with: the same bits -- and the core (probed then) from
-# there on: a small file, most of what is printed, never probes.  Tests set it 0.
-PROBE_AFTER = 20000
+# there on.  Below one chunk of the ringing's (~12 k events a call on the samples): a file
+# of more than a chunk probes at its first call, as before; a small one never.  Tests set 0.
+PROBE_AFTER = 8000
 _EVENTS_SEEN = [0]
 
 

@@ -303,15 +303,17 @@ def _modules_frozen(name):
 
 def cmd_process(a):
     thaw = _modules_frozen(__package__ + ".pipeline")
-    from .pipeline import Options, Progress, process
-    out = a.output or a.input
-    job = _binary_input(a.input)                      # .bgcode: decoded, every checksum verified
     try:
-        return _process(a, out, job, Options, Progress, process, thaw)
+        from .pipeline import Options, Progress, process
+        out = a.output or a.input
+        job = _binary_input(a.input)                  # .bgcode: decoded, every checksum verified
+        try:
+            return _process(a, out, job, Options, Progress, process, thaw)
+        finally:
+            if job is not None:
+                job.close()
     finally:
-        thaw()
-        if job is not None:
-            job.close()
+        thaw()                                        # (however it ends: a refused input too)
 
 
 def _process(a, out, job, Options, Progress, process, thaw=lambda: None):

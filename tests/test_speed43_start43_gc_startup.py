@@ -75,3 +75,19 @@ def test_pipeline_starts_with_nothing_frozen_and_same_output(tmp_path):
                 outs[how] = (fh.read(), _strip_times(json.load(fj)))
         assert outs["frozen"][0] == outs["plain"][0]
         assert outs["frozen"][1] == outs["plain"][1]
+
+
+def test_thawed_however_the_command_ends(tmp_path, capsys):
+    """A command that fails before the pipeline starts (a missing or refused input) leaves
+    nothing frozen (in-process callers: the tests, a slicer plugin)."""
+    import gc
+
+    from gcode_opt import cli
+    bad = tmp_path / "bad.bgcode"
+    bad.write_bytes(b"GCDE\x01\x00\x00\x00garbage")
+    assert gc.get_freeze_count() == 0
+    for src in (str(tmp_path / "missing.gcode"), str(bad)):
+        code = cli.main(["process", src, "-o", str(tmp_path / "out.gcode"), "-q"])
+        assert code != 0
+        assert gc.get_freeze_count() == 0 and gc.isenabled()
+    capsys.readouterr()

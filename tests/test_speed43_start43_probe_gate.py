@@ -54,6 +54,18 @@ def test_figures_same_bits_with_and_without_the_core(tmp_path, fresh, name, shap
         assert json.dumps(numpy_only, sort_keys=True).encode() == json.dumps(with_core, sort_keys=True).encode()
         assert all(np.float64(v).tobytes() == np.float64(with_core[ax][k]).tobytes()
                    for ax in ("x", "y", "xy") for k, v in numpy_only[ax].items())
+        if src == path:
+            # the gate opening mid-run (numpy's steps for the first calls, the core's after)
+            for name_ in VERDICTS:
+                getattr(resonance, name_).clear()
+            resonance._EVENTS_SEEN[0] = 0
+            resonance.PROBE_AFTER = 40000
+            try:
+                mixed = ringing.figures(src, load_profile("prusa-mk3s"), shaper)
+            finally:
+                resonance.PROBE_AFTER = 0
+            assert resonance._SOLVE_OK
+            assert json.dumps(mixed, sort_keys=True).encode() == json.dumps(with_core, sort_keys=True).encode()
 
 
 def test_small_run_does_not_probe_and_a_large_one_does(fresh):

@@ -126,7 +126,30 @@ def _length(text):
     return v
 
 
+def _messages_once(build):
+    """build() with argparse's messages each looked up once: every lookup (gettext) searches
+    the locale folders for an argparse catalogue anew (~20 us each; the parser's seven
+    parsers take 21: ~3 M instructions of each run), the same answer each time."""
+    plain = argparse._
+    seen = {}
+
+    def once(message):
+        got = seen.get(message)
+        if got is None:
+            got = seen[message] = plain(message)
+        return got
+    argparse._ = once
+    try:
+        return build()
+    finally:
+        argparse._ = plain
+
+
 def build_parser():
+    return _messages_once(_build_parser)
+
+
+def _build_parser():
     ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -251,18 +274,49 @@ def _binary_input(path):
     return BinaryJob(path, path)
 
 
-def cmd_process(a):
-    from .pipeline import Options, Progress, process
-    out = a.output or a.input
-    job = _binary_input(a.input)                      # .bgcode: decoded, every checksum verified
+def _modules_frozen(name):
+    """Imports module `name` (the pipeline: numpy's modules and ours, ~10^5 objects, none of
+    them garbage) with the garbage collector off, then moves every object alive out of its
+    view (gc.freeze): the collections on the way walked them again and again (~13 M
+    instructions of a small file's run).  Returns thaw(), to call before the pipeline
+    starts (it freezes its own objects, pipeline._strokes_frozen, only where nothing is
+    frozen yet); a second call does nothing."""
+    import gc
+    from importlib import import_module
+    if gc.get_freeze_count() or not gc.isenabled():     # (a caller's own settings: left alone)
+        import_module(name)
+        return lambda: None
+    gc.disable()
     try:
-        return _process(a, out, job, Options, Progress, process)
+        import_module(name)
+        gc.freeze()
     finally:
-        if job is not None:
-            job.close()
+        gc.enable()
+    frozen = [True]
+
+    def thaw():
+        if frozen:
+            frozen.clear()
+            gc.unfreeze()
+    return thaw
 
 
-def _process(a, out, job, Options, Progress, process):
+def cmd_process(a):
+    thaw = _modules_frozen(__package__ + ".pipeline")
+    try:
+        from .pipeline import Options, Progress, process
+        out = a.output or a.input
+        job = _binary_input(a.input)                  # .bgcode: decoded, every checksum verified
+        try:
+            return _process(a, out, job, Options, Progress, process, thaw)
+        finally:
+            if job is not None:
+                job.close()
+    finally:
+        thaw()                                        # (however it ends: a refused input too)
+
+
+def _process(a, out, job, Options, Progress, process, thaw=lambda: None):
     check_outputs([(out, "output" if a.output else "output (the input, rewritten in place)"),
                    (a.report, "report"), (a.json, "summary")])
     src, dst, metadata = a.input, out, None
@@ -308,6 +362,7 @@ def _process(a, out, job, Options, Progress, process):
         else:                                         # the .bgcode is written after the pipeline
             pending.append((orig, new, summary))
     hook = write_report_hook if a.report or opts.ringing else None
+    thaw()
     if job is None:
         summary = process(a.input, out, prof, opts, before_replace=hook)
     else:

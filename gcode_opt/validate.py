@@ -39,11 +39,24 @@ _FAST_BODY = None if _CORE_MOD is None else _CORE_MOD.fast_body
 BEGIN = "; gcode-opt begin"
 END = "; gcode-opt end"
 
+
+def _compiled_on_first_call(name, pattern, method, table=None):
+    """re.compile(pattern).method, compiled at its first call, which puts it in its place
+    (module global `name`, or table[name]): most runs never call them (the compiled core
+    checks the blocks), and the compiles of the ten below were ~6 M instructions of every
+    run's start."""
+    def first(*args):
+        fn = getattr(re.compile(pattern), method)
+        (globals() if table is None else table)[name] = fn
+        return fn(*args)
+    return first
+
+
 NUM = re.compile(r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
 WORD = re.compile(r"([A-Za-z])(.*)\Z")
 _N8 = r"(-?(?:\d+(?:\.\d{0,8})?|\.\d{1,8}))"     # NUM with at most MAX_DECIMALS decimals
-_M204_PLAIN = re.compile(rf"M204 ([A-Za-z]){_N8}").fullmatch
-_G1_PLAIN = re.compile(rf"G1 X{_N8} Y{_N8}(?: E{_N8})? F{_N8}").fullmatch
+_M204_PLAIN = _compiled_on_first_call("_M204_PLAIN", rf"M204 ([A-Za-z]){_N8}", "fullmatch")
+_G1_PLAIN = _compiled_on_first_call("_G1_PLAIN", rf"G1 X{_N8} Y{_N8}(?: E{_N8})? F{_N8}", "fullmatch")
 MAX_CMD_BYTES = {"marlin2": 96, "marlin-legacy": 96}
 SVL_KEYS = ("VELOCITY", "ACCEL", "ACCEL_TO_DECEL", "SQUARE_CORNER_VELOCITY", "MINIMUM_CRUISE_RATIO")
 MAX_DECIMALS = 8            # our own texts never have more; the firmwares parse any
@@ -250,13 +263,14 @@ def validate_block(text: str, flavour: str, accel_max_a: float, geometry: Geomet
 # then takes exactly the plain decimals among those, and _LONG_FRACTION finds one with
 # more than MAX_DECIMALS: the two together are _N8's grammar
 _C = r"([-.0-9]+)"
-_FAST_MOVES = re.compile(rf"\nG1 X{_C} Y{_C}(?: E{_C})? F{_C}(?=\n)").findall
-_FAST_FEEDS = re.compile(rf"\nG1 F{_C}(?=\n)").findall
-_FAST_M204 = {c: re.compile(rf"\nM204 {c}{_C}(?=\n)").findall for c in "SPT"}
-_FAST_MCR = re.compile(rf"\nSET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_C}(?=\n)").findall
-_LONG_FRACTION = re.compile(r"\.[0-9]{%d}" % (MAX_DECIMALS + 1)).search
+_FAST_MOVES = _compiled_on_first_call("_FAST_MOVES", rf"\nG1 X{_C} Y{_C}(?: E{_C})? F{_C}(?=\n)", "findall")
+_FAST_FEEDS = _compiled_on_first_call("_FAST_FEEDS", rf"\nG1 F{_C}(?=\n)", "findall")
+_FAST_M204 = {}
+_FAST_M204.update({c: _compiled_on_first_call(c, rf"\nM204 {c}{_C}(?=\n)", "findall", _FAST_M204) for c in "SPT"})
+_FAST_MCR = _compiled_on_first_call("_FAST_MCR", rf"\nSET_VELOCITY_LIMIT MINIMUM_CRUISE_RATIO={_C}(?=\n)", "findall")
+_LONG_FRACTION = _compiled_on_first_call("_LONG_FRACTION", r"\.[0-9]{%d}" % (MAX_DECIMALS + 1), "search")
 # line breaks of str.splitlines other than "\n": without them its lines are split("\n")'s
-_OTHER_BREAKS = re.compile("[\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]").search
+_OTHER_BREAKS = _compiled_on_first_call("_OTHER_BREAKS", "[\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]", "search")
 _END_LINE = "\n" + END + "\n"
 _INF = math.inf
 

@@ -48,8 +48,26 @@ USE_KERNEL = True        # tests turn it off: numpy's exponentials for reference
 
 _SIMULATE = None          # the simulate module, once imported here (its _core read each call: tests swap it)
 
+# The core's steps are used only once probes showed they give numpy's bits (below: ~130 M
+# instructions, ~25 ms, an oscillator), which pays off over many events only.  So a run's
+# first PROBE_AFTER events (summed over the calls that take events) go by numpy -- the
+# steps the probes compare the core with: the same bits -- and the core (probed then) from
+# there on.  Below one chunk of the ringing's (~12 k events a call on the samples): a file
+# of more than a chunk probes at its first call, as before; a small one never.  Tests set 0.
+PROBE_AFTER = 8000
+_EVENTS_SEEN = [0]
+
+
+def _seen(n):
+    """Count n more events towards PROBE_AFTER."""
+    _EVENTS_SEEN[0] += n
+
 
 def _core():
+    """The compiled core for the steps the probes check, or None: without it, turned off
+    (USE_KERNEL), or before PROBE_AFTER events."""
+    if _EVENTS_SEEN[0] < PROBE_AFTER:
+        return None
     global _SIMULATE
     simulate = _SIMULATE
     if simulate is None:
@@ -470,6 +488,7 @@ class Oscillator:
 
     def jump_amplitude(self, dr, drp):
         """Complex amplitude of the free response started by r += dr, r' += drp."""
+        _seen(np.size(dr))
         core = _jumps_core(self.s, self.wd) if type(dr) is np.ndarray and type(drp) is np.ndarray \
             and dr.dtype == drp.dtype == np.float64 and dr.shape == drp.shape and dr.ndim == 1 else None
         if core is not None:
@@ -489,6 +508,7 @@ class Oscillator:
         at the time and in a restart from the time of one the memo holds are taken from
         it (the same tt, the same numbers); keep: this call's go into the memo."""
         n = len(t_ev)
+        _seen(n)
         c = np.empty(n, complex)
         if n == 0:
             return c
@@ -552,6 +572,7 @@ class Oscillator:
         the complex quotient by 4 lam only its real part, by the division numpy does
         (Smith's, as in its complex divide loop; tests/test_speed_ringing.py checks it)."""
         s, lam = self.s, self.lam
+        _seen(np.size(dur))
         decay2 = np.exp(-2.0 * s * dur)
         q = 2.0 * lam
         core = _kernel_for(("one", q.real, q.imag), 1e4)
@@ -572,6 +593,7 @@ class Oscillator:
         oscillator) and ts (the pieces' start times): a piece from the start and of the
         length of one the memo holds takes its exponentials (the same argument, the same
         numbers); keep: this call's go into the memo."""
+        _seen(len(dur))
         core = _int_r2_core(self.s, self.wd)
         if core is not None and len(dur):
             decay2 = np.exp(-2.0 * self.s * dur)
@@ -603,6 +625,7 @@ class Oscillator:
         pieces to solve, as (c bytes, dur bytes), go there instead (pending_peak solves
         them, in one numpy call for many chunks) and the peak returned is this chunk's
         largest |Re c|."""
+        _seen(len(t))
         got = _solve_core(self.s, self.wd)
         if got is None:
             return None

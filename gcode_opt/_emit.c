@@ -19,8 +19,8 @@ own result or exception.  What it does return is the Python code's result:
     1e-12 (relative) of its tolerance, or a filament sum within its rounding bound of the
     limit, goes to the Python check (math.hypot and math.fsum are not libm's).
 The validator reads the block's own text, but for the lines emit_cols writes from numbers
-(segment and accel lines): of those it takes the doubles and decimals its reading would
-give, as emit_cols records them (known_units; set_text_check(True) reads them too). */
+(segment and accel lines): those emit_cols checks as it writes them, with the doubles and
+decimals the reading would give (Known, known_units; set_text_check(True): read too). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <float.h>
@@ -834,25 +834,140 @@ typedef struct {
     Py_ssize_t hn, wn, nln, cln, bn, an;
 } Pieces;
 
-/* What emit_cols knows of a line it wrote, for fast_check to take instead of reading the
-   line back (the same doubles and decimals its reading would give: see known_units):
-   a segment line "G1 X<x> Y<y>[ E<e>] F<f>" (no comment) or an accel line wp + a value
-   when wp is "M204 " and fast_check's letter.  Its F is positive and finite, 1 decimal at
-   most, by construction: nothing of it to record. */
-enum { LV_POINT = 1, LV_ACCEL = 2 };
-typedef struct {
-    Py_ssize_t at, m;               /* the line's offset from the block's first byte; its length (no "\n") */
-    int kind, dxy, de;              /* dxy: max of X's and Y's decimals; de: E's (-1: no E word) */
-    double x, y, e;                 /* LV_ACCEL: the acceleration in x */
-} LineVal;
+static double POW10_NEG[32];
+static int POW10_NEG_READY = 0;
 
+static inline double pow10_neg(int k)
+{
+    if (k < 0 || k >= 32)
+        return pow(10.0, (double)-k);
+    if (!POW10_NEG_READY) {
+        for (int j = 0; j < 32; j++)
+            POW10_NEG[j] = pow(10.0, (double)-j);
+        POW10_NEG_READY = 1;
+    }
+    return POW10_NEG[k];
+}
+
+/* fast_check's running state of a body's segment lines */
 typedef struct {
-    LineVal *v;                     /* room for 2 * (knots - 1) lines */
-    Py_ssize_t n, base;             /* recorded; the block's first byte in emit_cols' buffer */
-    int accel;                      /* wp is "M204 " and the letter fast_check wants */
+    int path;                       /* px, py: the polyline (0: no path check) */
+    const double *px, *py;
+    Py_ssize_t nv, j;               /* its vertices; the next original vertex */
+    double tol_d, x_prev, y_prev, gap_least;
+    int n_points;
+    double e_sum, e_abs, e_last;
+    Py_ssize_t n_e;
+} Walk;
+
+/* a segment line's point (x, y; dxy: the larger of their decimals) and E word (has_e)
+   taken into w: 1, or 0 (the check does not certainly pass) */
+static inline __attribute__((always_inline)) int walk_point(Walk *w, double x, double y, int dxy, int has_e, double e)
+{
+    if (has_e) {
+        if (!isfinite(e)) return 0;
+        w->e_sum += e;
+        w->e_abs += fabs(e);
+        w->e_last = e;
+        w->n_e++;
+    }
+    if (w->path) {
+        const double *px = w->px, *py = w->py;
+        Py_ssize_t j = w->j, nv = w->nv;
+        if (j < nv && x == px[j] && y == py[j])
+            w->j = j + 1;
+        else {
+            Py_ssize_t k = j < nv ? j - 1 : nv - 2;
+            double ax = px[k], ay = py[k];
+            double ddx = px[k + 1] - ax, ddy = py[k + 1] - ay;
+            double dd = ddx * ddx + ddy * ddy, tt;
+            if (dd <= 0)
+                tt = 0.0;
+            else {
+                double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
+                u = u > 0.0 ? u : 0.0;
+                tt = u < 1.0 ? u : 1.0;
+            }
+            double ex = x - ax - tt * ddx, ey = y - ay - tt * ddy;
+            double tv = 0.75 * pow10_neg(dxy);         /* validate._tol */
+            double tol = (tv < w->tol_d ? tv : w->tol_d) + 1e-7;
+            double lim = tol * (1.0 - MARGIN_R), d2 = ex * ex + ey * ey;
+            /* hypot(ex, ey) <= lim: certain where d2 is below lim^2 by far (the squares'
+               and the sum's rounding, and hypot's own, are ~1e-16 relative; an underflow
+               is far below lim^2 when lim > 1e-100), else hypot's own verdict */
+            if (!(lim > 1e-100 && d2 <= lim * lim * (1.0 - 1e-9)) && !(hypot(ex, ey) <= lim))
+                return 0;              /* off this segment, or near: Python's search */
+        }
+        double gx = fabs(x - w->x_prev), gy = fabs(y - w->y_prev);
+        double g = gy > gx ? gy : gx;
+        if (g < w->gap_least) w->gap_least = g;
+        w->x_prev = x;
+        w->y_prev = y;
+    }
+    w->n_points++;
+    return 1;
+}
+
+/* a segment line "G1 X<n> Y<n>[ E<n>] F<n>" read at p (its "\n" ends the scans): its
+   length (no "\n"), or -1 (not certainly such a line with values fast_check passes):
+   x, y, dxy (the larger of their decimals), has_e and e */
+static inline __attribute__((always_inline)) Py_ssize_t read_point(const char *p, double *x, double *y, int *dxy,
+                                                                    int *has_e, double *e)
+{
+    Py_ssize_t xn, yn, en = 0, fn, i = 4, m;
+    int dx_, dy_, dec;
+    double f;
+    *e = 0.0;
+    xn = dec_value_nl(p + i, &dx_, x);
+    if (xn < 0 || dx_ > MAX_DECIMALS) return -1;
+    i += xn;
+    if (p[i] != ' ' || p[i + 1] != 'Y') return -1;
+    i += 2;
+    yn = dec_value_nl(p + i, &dy_, y);
+    if (yn < 0 || dy_ > MAX_DECIMALS) return -1;
+    i += yn;
+    if (p[i] == ' ' && p[i + 1] == 'E') {
+        i += 2;
+        en = dec_value_nl(p + i, &dec, e);
+        if (en < 0 || dec > MAX_DECIMALS) return -1;
+        i += en;
+    }
+    if (p[i] != ' ' || p[i + 1] != 'F') return -1;
+    i += 2;
+    fn = dec_value_nl(p + i, &dec, &f);
+    m = i + fn;
+    if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return -1;
+    if (!(isfinite(*x) && isfinite(*y) && f > 0.0 && f < INFINITY)) return -1;
+    *dxy = dx_ > dy_ ? dx_ : dy_;
+    *has_e = en != 0;
+    return m;
+}
+
+/* block_into's check of the lines emit_cols writes from numbers (segment and accel lines),
+   done as it writes them: the doubles and decimals fast_check's reading would give each
+   (known_units; plain_line's values for a text copied; ka / 10 for tenths_at's text) taken
+   through fast_check's own tests, in the lines' order, w the state they leave for its
+   reading of the other lines.  The lines so checked are the ranges skip[0..n_skip) (at
+   most 3: first_cmds' lines, read, part them).  A segment line's F is positive and
+   finite, 1 decimal at most, by construction: nothing of it to check. */
+typedef struct {
+    Walk w;
+    double accel_hi;                /* fast_check's bound of an accel line's value */
+    Py_ssize_t limit;               /* its command length limit (0: none) */
     const double *x, *y, *e;        /* move k's end as plain_line read it (e: 0.0 without E) */
     const int *dx, *dy, *de;        /* and its decimals */
+    Py_ssize_t skip[3][2], n_skip, open;   /* ranges [a, z) checked (offsets in emit_cols' buffer) */
 } Known;
+
+/* the range of checked lines open at kn->open closed at z (an empty one dropped) */
+static inline void skip_close(Known *kn, Py_ssize_t z)
+{
+    if (z > kn->open && kn->n_skip < 3) {
+        kn->skip[kn->n_skip][0] = kn->open;
+        kn->skip[kn->n_skip][1] = z;
+        kn->n_skip++;
+    }
+}
 
 /* the value and decimals fast_check's reading gives a number units_at(u, dec) wrote
    (nf: its decimals): 1, or 0 (not certain: the line is read).  The text is u / 10^dec
@@ -872,7 +987,8 @@ static inline int known_units(int64_t u, int dec, double *v)
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
    raise); -1: no memory.  n_lines (not NULL): the "\n"s written (the pieces' counted once
    a block, the moves' texts have none: plain_line's, or units and tenths).  kn (not
-   NULL, nlp "\n"): the lines' values recorded in it. */
+   NULL, nlp "\n", wp fast_check's accel word): the lines checked as they are written, 1
+   (decline) where fast_check would not pass them. */
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
@@ -900,6 +1016,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     int64_t last_ka = 0;
     if (put(b, hp, hn) < 0)
         return -1;
+    if (kn != NULL)
+        kn->open = b->n;
     Py_ssize_t lines = 0, nl_nl = 0, nl_acc = 0;   /* "\n"s: written; a line end's; an accel line's */
     if (n_lines != NULL) {
         lines = count_nl(hp, hn) + count_nl(clp, cln) + (bp != NULL && k_total >= 1 ? count_nl(bp, bn) : 0)
@@ -968,20 +1086,24 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
                 Py_ssize_t at = b->n;
                 if (put(b, wp, wp ? wn : 0) < 0 || put_tenths_up(b, ka) < 0)
                     return -1;
-                if (kn != NULL && kn->accel) {
+                if (kn != NULL) {
                     /* tenths_at's text of ka: ka / 10 (ka < 2^50: exact; "0.1" for 1) */
-                    LineVal *r = &kn->v[kn->n++];
-                    r->kind = LV_ACCEL;
-                    r->at = at - kn->base;
-                    r->m = b->n - at;
-                    r->x = (double)ka / 10.0;
+                    double av = (double)ka / 10.0;
+                    if (!(av > 0.0 && av <= kn->accel_hi && av < INFINITY) || (kn->limit > 0 && b->n - at > kn->limit))
+                        return 1;
                 }
                 if (put(b, nlp, nln) < 0)
                     return -1;
                 lines += nl_acc;
                 last_ka = ka;
-                if (!have_cmd && bp != NULL && put(b, bp, bn) < 0)   /* first_cmds[0], after the first M204 */
-                    return -1;
+                if (!have_cmd && bp != NULL) {           /* first_cmds[0], after the first M204 */
+                    if (kn != NULL)
+                        skip_close(kn, b->n);
+                    if (put(b, bp, bn) < 0)
+                        return -1;
+                    if (kn != NULL)
+                        kn->open = b->n;
+                }
                 have_cmd = 1;
             }
         }
@@ -1048,22 +1170,27 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         if (co != NULL && co->n) {
             *q++ = ' ';
             CPY(co->p, co->n);
-            known = 0;                               /* (fast_check refuses the line) */
         }
-        if (known) {
-            LineVal *r = &kn->v[kn->n++];
-            r->kind = LV_POINT;
-            r->at = line_at - kn->base;
-            r->m = (q - b->p) - line_at;
-            r->dxy = nx > ny ? nx : ny;
-            r->de = ne;
-            r->x = xv;
-            r->y = yv;
-            r->e = ev;
-        }
+        Py_ssize_t m_line = (q - b->p) - line_at;
         CPY(nlp, nln);
-        if (k == 1 && ap != NULL)                    /* first_cmds[1], after the first move */
+        if (kn != NULL) {
+            /* the line's values (a number past the exact range: the line read back) */
+            int dxy_l = nx > ny ? nx : ny, has_e = ne >= 0;
+            if (co != NULL && co->n)
+                return 1;                            /* (fast_check refuses a comment) */
+            if (!known && (m_line = read_point(b->p + line_at, &xv, &yv, &dxy_l, &has_e, &ev)) < 0)
+                return 1;
+            if (dxy_l > MAX_DECIMALS || ne > MAX_DECIMALS || (kn->limit > 0 && m_line > kn->limit)
+                || !walk_point(&kn->w, xv, yv, dxy_l, has_e, ev))
+                return 1;
+        }
+        if (k == 1 && ap != NULL) {                  /* first_cmds[1], after the first move */
+            if (kn != NULL) {
+                skip_close(kn, q - b->p);
+                kn->open = q - b->p + an;
+            }
             CPY(ap, an);
+        }
 #undef CPY
         b->n = q - b->p;
         lines += nl_nl;
@@ -1081,6 +1208,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             have_mu = 0;
         }
     }
+    if (kn != NULL)
+        skip_close(kn, b->n);
     if (put(b, clp, cln) < 0)
         return -1;
     if (n_lines != NULL)
@@ -1169,21 +1298,6 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
 /* ---------------------------------------------------------------- fast_body */
 
 /* pow(10.0, -k) (Python's 10.0 ** -k calls libm's pow): the same values, made once */
-static double POW10_NEG[32];
-static int POW10_NEG_READY = 0;
-
-static inline double pow10_neg(int k)
-{
-    if (k < 0 || k >= 32)
-        return pow(10.0, (double)-k);
-    if (!POW10_NEG_READY) {
-        for (int j = 0; j < 32; j++)
-            POW10_NEG[j] = pow(10.0, (double)-j);
-        POW10_NEG_READY = 1;
-    }
-    return POW10_NEG[k];
-}
-
 /* fast_body(text, start, stop, want, klipper, limit, accel_max_a, px, py, tol_d, e_mode,
              e_value, min_move_d)
    validate._fast_ok's reading of text[start:stop] (the body: "\n" line "\n" ... line "\n")
@@ -1191,74 +1305,15 @@ static inline double pow10_neg(int k)
    decides).  want: the M204 letter; limit: the command buffer (0: none); px, py: the
    polyline's vertices (None: no path check); e_mode: 0 none, 1 relative (the E words'
    sum), 2 absolute (the last E word). */
-/* fast_check's running state of a body's segment lines */
-typedef struct {
-    int path;                       /* px, py: the polyline (0: no path check) */
-    const double *px, *py;
-    Py_ssize_t nv, j;               /* its vertices; the next original vertex */
-    double tol_d, x_prev, y_prev, gap_least;
-    int n_points;
-    double e_sum, e_abs, e_last;
-    Py_ssize_t n_e;
-} Walk;
-
-/* a segment line's point (x, y; dxy: the larger of their decimals) and E word (has_e)
-   taken into w: 1, or 0 (the check does not certainly pass) */
-static inline int walk_point(Walk *w, double x, double y, int dxy, int has_e, double e)
-{
-    if (has_e) {
-        if (!isfinite(e)) return 0;
-        w->e_sum += e;
-        w->e_abs += fabs(e);
-        w->e_last = e;
-        w->n_e++;
-    }
-    if (w->path) {
-        const double *px = w->px, *py = w->py;
-        Py_ssize_t j = w->j, nv = w->nv;
-        if (j < nv && x == px[j] && y == py[j])
-            w->j = j + 1;
-        else {
-            Py_ssize_t k = j < nv ? j - 1 : nv - 2;
-            double ax = px[k], ay = py[k];
-            double ddx = px[k + 1] - ax, ddy = py[k + 1] - ay;
-            double dd = ddx * ddx + ddy * ddy, tt;
-            if (dd <= 0)
-                tt = 0.0;
-            else {
-                double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
-                u = u > 0.0 ? u : 0.0;
-                tt = u < 1.0 ? u : 1.0;
-            }
-            double ex = x - ax - tt * ddx, ey = y - ay - tt * ddy;
-            double tv = 0.75 * pow10_neg(dxy);         /* validate._tol */
-            double tol = (tv < w->tol_d ? tv : w->tol_d) + 1e-7;
-            double lim = tol * (1.0 - MARGIN_R), d2 = ex * ex + ey * ey;
-            /* hypot(ex, ey) <= lim: certain where d2 is below lim^2 by far (the squares'
-               and the sum's rounding, and hypot's own, are ~1e-16 relative; an underflow
-               is far below lim^2 when lim > 1e-100), else hypot's own verdict */
-            if (!(lim > 1e-100 && d2 <= lim * lim * (1.0 - 1e-9)) && !(hypot(ex, ey) <= lim))
-                return 0;              /* off this segment, or near: Python's search */
-        }
-        double gx = fabs(x - w->x_prev), gy = fabs(y - w->y_prev);
-        double g = gy > gx ? gy : gx;
-        if (g < w->gap_least) w->gap_least = g;
-        w->x_prev = x;
-        w->y_prev = y;
-    }
-    w->n_points++;
-    return 1;
-}
-
 /* fast_body's checks of the body t[start:stop] ("\n" line "\n" ... line "\n"): 1 when they
    certainly pass, 0 otherwise.  px, py: the polyline's nv vertices (path 0: no path check),
-   each below validate._polyline_walk's bound.  lv: the n_lv lines emit_cols wrote there
-   and recorded (offsets from t, in order; NULL: none): their values are taken as they
-   are, the values this reading would give them (a line not at a recorded offset is read). */
+   each below validate._polyline_walk's bound.  kn (NULL: none): emit_cols' check of the
+   lines it wrote, t at offset t_at of its buffer: those lines are passed over, the state
+   they left taken on (no other line read here is a segment line: block_into). */
 static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want, int klipper, Py_ssize_t limit,
                       double accel_max_a, int path, const double *px, const double *py, Py_ssize_t nv,
                       double tol_d, int e_mode, double e_value, double e_err, double min_move_d,
-                      const LineVal *lv, Py_ssize_t n_lv)
+                      const Known *kn, Py_ssize_t t_at)
 {
     const double accel_hi = accel_max_a + 0.1 + 1e-9;
     Walk w = {path, px, py, nv, 1, tol_d, 0.0, 0.0, INFINITY, 0, 0.0, 0.0, 0.0, 0};
@@ -1266,7 +1321,14 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
         w.x_prev = px[0];
         w.y_prev = py[0];
     }
-    const LineVal *lv_end = lv + n_lv;
+    const char *skip_a = NULL;                       /* the next range checked, [skip_a, skip_z) */
+    Py_ssize_t n_skip = 0, next = 0;
+    if (kn != NULL) {
+        w = kn->w;
+        n_skip = kn->n_skip;
+    }
+    if (next < n_skip)
+        skip_a = t + (kn->skip[0][0] - t_at);
     const char *p = t + start + 1, *end = t + stop;
     while (p < end) {
         /* The line is p[0..m), its "\n" at p[m], found as the line is read (no memchr a
@@ -1275,43 +1337,16 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
         const Py_ssize_t left = end - p;
         Py_ssize_t m, i, r;
         int dec;
-        if (lv < lv_end && p == t + lv->at) {
-            /* a line emit_cols wrote, its values recorded (m < left: its "\n" in the body) */
-            m = lv->m;
-            if (lv->kind == LV_ACCEL) {
-                double a = lv->x;
-                if (!(a > 0.0 && a <= accel_hi && a < INFINITY)) return 0;
-            } else if (lv->dxy > MAX_DECIMALS || lv->de > MAX_DECIMALS
-                       || !walk_point(&w, lv->x, lv->y, lv->dxy, lv->de >= 0, lv->e))
-                return 0;
-            lv++;
-        } else if (left > 4 && memcmp(p, "G1 X", 4) == 0) {
-            /* "G1 X<n> Y<n>[ E<n>] F<n>" */
-            Py_ssize_t xn, yn, en = 0, fn;
-            int dx_, dy_;
-            double x, y, e = 0.0, f;
-            i = 4;
-            xn = dec_value_nl(p + i, &dx_, &x);
-            if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
-            i += xn;
-            if (p[i] != ' ' || p[i + 1] != 'Y') return 0;
-            i += 2;
-            yn = dec_value_nl(p + i, &dy_, &y);
-            if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
-            i += yn;
-            if (p[i] == ' ' && p[i + 1] == 'E') {
-                i += 2;
-                en = dec_value_nl(p + i, &dec, &e);
-                if (en < 0 || dec > MAX_DECIMALS) return 0;
-                i += en;
-            }
-            if (p[i] != ' ' || p[i + 1] != 'F') return 0;
-            i += 2;
-            fn = dec_value_nl(p + i, &dec, &f);
-            m = i + fn;
-            if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
-            if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
-            if (!walk_point(&w, x, y, dx_ > dy_ ? dx_ : dy_, en != 0, e))
+        if (p == skip_a) {
+            /* lines emit_cols checked: passed over (a range ends after a "\n", in the body) */
+            p = t + (kn->skip[next][1] - t_at);
+            skip_a = ++next < n_skip ? t + (kn->skip[next][0] - t_at) : NULL;
+            continue;
+        }
+        if (left > 4 && memcmp(p, "G1 X", 4) == 0) {
+            double x, y, e;
+            int dxy, has_e;
+            if (kn != NULL || (m = read_point(p, &x, &y, &dxy, &has_e, &e)) < 0 || !walk_point(&w, x, y, dxy, has_e, e))
                 return 0;
         } else if (left > 4 && memcmp(p, "G1 F", 4) == 0) {
             i = 4;
@@ -1809,8 +1844,23 @@ static int has_break(const char *p, Py_ssize_t n)
 }
 
 /* 1: block_into's check reads every line of the block (set_text_check, for the tests:
-   the lines emit_cols records are then read as any other) */
+   emit_cols then checks nothing as it writes) */
 static int TEXT_CHECK = 0;
+
+/* p[0..n): whole lines (empty, or ending in "\n"), none of them a segment line ("G1 X") */
+static int other_lines(const char *p, Py_ssize_t n)
+{
+    if (n == 0)
+        return 1;
+    if (n < 0 || p[n - 1] != '\n')
+        return 0;
+    for (const char *e = p + n; p < e;) {
+        if (e - p >= 4 && memcmp(p, "G1 X", 4) == 0)
+            return 0;
+        p = (const char *)memchr(p, '\n', (size_t)(e - p)) + 1;
+    }
+    return 1;
+}
 
 /* what block_into reads besides the four sequences (stroke_block's arguments, unpacked) */
 typedef struct {
@@ -1848,14 +1898,10 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     if (has_break(pc->hp, hl))
         return 0;
     /* the lines: one allocation for their texts, the path's vertices, their E values and
-       their numbers' decimals; and the room for what emit_cols knows of the lines it writes */
-    Py_ssize_t n_lv = 2 * (fs[0].n > 1 ? fs[0].n - 1 : 0);
+       their numbers' decimals */
     char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + n * sizeof(double)
                              + n * 3 * sizeof(int) + 16);
-    LineVal *lvs = PyMem_Malloc((n_lv ? n_lv : 1) * sizeof(LineVal));
-    if (mem == NULL || lvs == NULL) {
-        PyMem_Free(mem);
-        PyMem_Free(lvs);
+    if (mem == NULL) {
         PyErr_NoMemory();
         return -1;
     }
@@ -1920,10 +1966,15 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     int64_t e_start_u;
     if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)
         goto decline;
-    /* (the accel lines recorded when fast_check would read wp as its accel word) */
-    Known kn = {lvs, 0, base, pc->wn == 6 && memcmp(pc->wp, "M204 ", 5) == 0 && pc->wp[5] == ba->wantp[0],
-                px + 1, py + 1, ev_k, dx_k, dy_k, de_k};
-    int by_text = TEXT_CHECK || pc->nln != 1 || pc->nlp[0] != '\n';
+    /* emit_cols checks the lines it writes when fast_check would read its accel lines as
+       accel lines and no other line is a segment line (they are read, the state emit_cols
+       leaves taken on: the same checks in the same order), each piece whole lines */
+    Known kn = {{1, px, py, n + 1, 1, 2e-3, px[0], py[0], INFINITY, 0, 0.0, 0.0, 0.0, 0},
+                ba->accel_max_a + 0.1 + 1e-9, ba->limit, px + 1, py + 1, ev_k, dx_k, dy_k, de_k, {{0}}, 0, 0};
+    int by_text = TEXT_CHECK || pc->nln != 1 || pc->nlp[0] != '\n' || pc->wn != 6 || memcmp(pc->wp, "M204 ", 5) != 0
+                  || pc->wp[5] != ba->wantp[0] || !other_lines(pc->hp + hl + 1, pc->hn - hl - 1)
+                  || !other_lines(pc->clp, pc->cln)
+                  || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
                       ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines, by_text ? NULL : &kn);
     if (r < 0) {
@@ -1948,7 +1999,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         }
         if (bn > hl + el && memcmp(bp + bn - el, END_L, el) == 0
             && fast_check(bp, hl, bn - el + 1, ba->wantp[0], ba->klipper, ba->limit, ba->accel_max_a, 1, px, py, n + 1,
-                          2e-3, e_mode, e_value, e_err, ba->min_move_d, kn.v, kn.n)) {
+                          2e-3, e_mode, e_value, e_err, ba->min_move_d, by_text ? NULL : &kn, base)) {
             got = 1;
             goto done;
         }
@@ -1957,7 +2008,6 @@ decline:
     out->n = base;
 done:
     PyMem_Free(mem);
-    PyMem_Free(lvs);
     return got;
 }
 
@@ -2808,8 +2858,8 @@ static PyObject *head_breaks(PyObject *self, PyObject *o)
     return PyBool_FromLong(has_break(PyBytes_AS_STRING(o), PyBytes_GET_SIZE(o)));
 }
 
-/* set_text_check(flag): block_into's check reads every line (flag true) or takes the values
-   emit_cols recorded (false, the default); the previous setting (tests) */
+/* set_text_check(flag): block_into's check reads every line (flag true) or lets emit_cols
+   check the lines it writes (false, the default); the previous setting (tests) */
 static PyObject *set_text_check(PyObject *self, PyObject *o)
 {
     int t = PyObject_IsTrue(o);

@@ -1,10 +1,13 @@
-"""block_into's check takes the values emit_cols recorded for the lines it wrote (segment
-lines and accel lines: known_units, plain_line's values, tenths) instead of reading them
-back; set_text_check(True) makes it read every line, as it did before.  The two must give
+"""block_into's check of the lines emit_cols writes from numbers (segment lines and accel
+lines) is done as emit_cols writes them, with the values the reading would give
+(known_units, plain_line's values, tenths), not by reading them back; set_text_check(True)
+makes it read every line, as it did before.  The two must give
 the same verdict, so stroke_block the same bytes or None, on every line stroke of real
 files and on perturbed ones whose checks land on either side of their limits: the
 acceleration bound, the command-length limit, the shortest-move floor, the path tolerance
-(a start text off its value), decimals past 8, E sums (relative and absolute E)."""
+(a start text off its value), decimals past 8, E sums (relative and absolute E), and
+first_cmds' lines (read between the lines emit_cols checks; a segment line among them:
+every line read)."""
 from __future__ import annotations
 
 import random
@@ -41,9 +44,10 @@ def _both(args):
 
 def _near_limits(rng, args):
     """args with one check moved next to what the block's lines give: the accel bound, the
-    line-length limit, the shortest-move floor, or a start text off the start's value."""
+    line-length limit, the shortest-move floor, a start text off the start's value, first_cmds'
+    lines, or a line's numbers with more decimals."""
     args = list(args)
-    r = rng.randrange(7)
+    r = rng.randrange(8)
     if r == 0:                    # accel_max_a: at, just below or far below the block's accels
         acc = np.asarray(args[14], dtype=float)
         a = float(np.ceil(acc.max() * 10.0 - 1e-9) / 10.0) if acc.size else 1000.0
@@ -65,6 +69,11 @@ def _near_limits(rng, args):
     elif r == 5:                  # both, by about the path tolerances (0.75e-3 for 3 decimals, 2e-3)
         args[10] = args[10] + rng.choice([-1, 1]) * rng.uniform(5e-4, 2.2e-3)
         args[11] = args[11] + rng.choice([-1, 1]) * rng.uniform(5e-4, 2.2e-3)
+    elif r == 6:                  # first_cmds' lines around the first move: lines the check reads
+        word = args[19][0]
+        lines = ["G1 F1200\n", f"{word}500\n", f"{word}99999999\n", "G1 F0\n", "M205 X8\n",
+                 f"G1 X{args[10]:.3f} Y{args[11]:.3f} F100\n", f"{word}700\nG1 F300\n"]
+        args[6], args[7] = rng.choice(lines), rng.choice(lines)
     else:                         # a line's numbers with trailing zeros: more decimals, the same values
         data = args[0].split(b"\n")
         k = rng.randrange(max(1, len(data) - 1))

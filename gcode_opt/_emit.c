@@ -585,13 +585,13 @@ static int py_round(double x, int64_t *out)
 #endif
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
-   ending in 0, else _canon(t); *nf: its decimals */
-static int put_canon(Buf *b, const char *t, Py_ssize_t m, int *nf)
+   ending in 0, else _canon(t), written at q (at most m + 1 bytes): the end; *nf: its decimals */
+static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
 {
     if (m > 0 && t[0] == '.' && t[m - 1] != '0') {
         *nf = (int)(m - 1);
-        if (put(b, "0", 1) < 0) return -1;
-        return put(b, t, m);
+        *q++ = '0';
+        return copy_short(q, t, m);
     }
     int neg = m > 0 && t[0] == '-';
     Py_ssize_t i = 0;
@@ -607,17 +607,21 @@ static int put_canon(Buf *b, const char *t, Py_ssize_t m, int *nf)
     while (fn > 0 && frac[fn - 1] == '0') fn--;                /* rstrip("0") */
     int whole_zero = (w0 == wn);                                /* whole is "0" */
     *nf = (int)fn;
-    if (!fn && whole_zero)
-        return put(b, "0", 1);
-    if (neg && put(b, "-", 1) < 0) return -1;
-    if (whole_zero) {
-        if (put(b, "0", 1) < 0) return -1;
-    } else if (put(b, rest + w0, wn - w0) < 0) return -1;
-    if (fn) {
-        if (put(b, ".", 1) < 0) return -1;
-        if (put(b, frac, fn) < 0) return -1;
+    if (!fn && whole_zero) {
+        *q++ = '0';
+        return q;
     }
-    return 0;
+    if (neg)
+        *q++ = '-';
+    if (whole_zero)
+        *q++ = '0';
+    else
+        q = copy_short(q, rest + w0, wn - w0);
+    if (fn) {
+        *q++ = '.';
+        q = copy_short(q, frac, fn);
+    }
+    return q;
 }
 
 /* a sequence of doubles: a list of floats (copied), or the bytes of native doubles
@@ -1157,10 +1161,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
                     ne = kn->de[move];
                 }
             } else {
-                b->n = q - b->p;                     /* (put_canon: at most m + 1 bytes, in the room) */
-                if (put_canon(b, et[move].p, et[move].n, &ne) < 0)
-                    return -1;
-                q = b->p + b->n;
+                q = canon_at(q, et[move].p, et[move].n, &ne);   /* (in the room: m + 1 bytes) */
                 if (known)                           /* the same digits; a zero is "0" */
                     ev = kn->e[move] == 0.0 ? 0.0 : kn->e[move];
             }

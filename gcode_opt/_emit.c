@@ -526,8 +526,9 @@ static int put_units(Buf *b, int64_t u, int dec)
     return 0;
 }
 
-/* emit._tenths_up(k) written at q (room for 24 bytes; k < TENTHS_MAX): the end */
-static inline char *tenths_at(char *q, int64_t k)
+/* emit._tenths_up(k) written at q (room for 24 bytes; k < TENTHS_MAX): the end.  (Inlined
+   at emit_cols' two calls, its feed's and its accel line's: gcc made it a call a line) */
+static inline __attribute__((always_inline)) char *tenths_at(char *q, int64_t k)
 {
     char tmp[24];
     if (k <= 1) {
@@ -1087,17 +1088,19 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             have_a = 1;
             last_a = a;
             if (!have_cmd || ka != last_ka) {
-                Py_ssize_t at = b->n;
-                if (put(b, wp, wp ? wn : 0) < 0 || put_tenths_up(b, ka) < 0)
+                /* the accel line in room made for it at once (tenths_at: at most 24 bytes) */
+                if (buf_grow(b, wn + 24 + nln) < 0)
                     return -1;
+                char *q = copy_short(b->p + b->n, wp, wn);
+                q = tenths_at(q, ka);
                 if (kn != NULL) {
                     /* tenths_at's text of ka: ka / 10 (ka < 2^50: exact; "0.1" for 1) */
                     double av = (double)ka / 10.0;
-                    if (!(av > 0.0 && av <= kn->accel_hi && av < INFINITY) || (kn->limit > 0 && b->n - at > kn->limit))
+                    if (!(av > 0.0 && av <= kn->accel_hi && av < INFINITY)
+                        || (kn->limit > 0 && (q - b->p) - b->n > kn->limit))
                         return 1;
                 }
-                if (put(b, nlp, nln) < 0)
-                    return -1;
+                b->n = copy_short(q, nlp, nln) - b->p;
                 lines += nl_acc;
                 last_ka = ka;
                 if (!have_cmd && bp != NULL) {           /* first_cmds[0], after the first M204 */

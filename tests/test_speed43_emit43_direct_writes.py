@@ -1,8 +1,9 @@
 """emit_cols writes a whole move's relative E text (emit.emit_stroke's "0" + t for ".ddd"
-not ending in 0, else _canon(t)) straight into the line's room (canon_at), not by puts:
-the compiled emit_stroke's text against the Python loop's (CORE_MOD None), on strokes
-whose knots are their vertices (each move's E word that text) or some between, with E
-texts of every shape the plain reading takes."""
+not ending in 0, else _canon(t)) straight into the line's room (canon_at), and an accel
+line in room made for it at once, not by puts: the compiled emit_stroke's text against
+the Python loop's (CORE_MOD None), on strokes whose knots are their vertices (each move's
+E word that text) or some between, with E texts of every shape the plain reading takes,
+accelerations changing segment by segment (tenths, "0.1") and each flavour's accel word."""
 from __future__ import annotations
 
 import random
@@ -31,11 +32,14 @@ def _stroke(rng, n):
     return lines
 
 
-def _emit(lines, s, ends_d, n_seg):
+ACCELS = [0.01, 0.05, 0.1, 0.15, 1500.0, 1500.04, 1234.5678, 3000.0, 99999.99]
+
+
+def _emit(lines, s, ends_d, accels, flavour):
     st = emit.StrokeText(lines, "10.000", "20.000", 0)
-    return emit.emit_stroke(st, ends_d, s, np.full(len(s), 10.0), np.full(n_seg, 1500.0), np.full(n_seg, 30.0),
-                            x0_text="10.000", y0_text="20.000", e_rel=True, flavour="marlin",
-                            accel_restore=1000.0, mcr_restore=None, feed_restore_v=40.0)
+    return emit.emit_stroke(st, ends_d, s, np.full(len(s), 10.0), accels, np.full(len(accels), 30.0),
+                            x0_text="10.000", y0_text="20.000", e_rel=True, flavour=flavour,
+                            accel_restore=1000.0, mcr_restore=0.5, feed_restore_v=40.0)
 
 
 def test_canon_at_writes_the_python_loop_s_text(monkeypatch):
@@ -49,16 +53,18 @@ def test_canon_at_writes_the_python_loop_s_text(monkeypatch):
         if rng.random() < 0.3:    # some knots between vertices: those moves' E words in units
             knots = sorted(set(knots + [float(rng.uniform(0.0, ends_d[-1])) for _ in range(3)]))
         s = np.asarray(knots)
+        accels = np.asarray([rng.choice(ACCELS) for _ in range(len(s) - 1)])
+        flavour = rng.choice(["marlin", "marlin-legacy", "klipper", "reprapfirmware"])
         try:
-            got = _emit(lines, s, ends_d, len(s) - 1)
+            got = _emit(lines, s, ends_d, accels, flavour)
         except Exception as e:    # noqa: BLE001 -- the Python loop must raise it too
             got = type(e)
         monkeypatch.setattr(emit, "CORE_MOD", None)
         try:
-            want = _emit(lines, s, ends_d, len(s) - 1)
+            want = _emit(lines, s, ends_d, accels, flavour)
         except Exception as e:    # noqa: BLE001
             want = type(e)
         monkeypatch.undo()
-        assert got == want, lines
+        assert got == want, (lines, flavour)
         n_canon += isinstance(got, str)
     assert n_canon > 200

@@ -18,7 +18,9 @@ own result or exception.  What it does return is the Python code's result:
   * the validator passes a block only when its verdict is certain: a distance within
     1e-12 (relative) of its tolerance, or a filament sum within its rounding bound of the
     limit, goes to the Python check (math.hypot and math.fsum are not libm's).
-The validator reads the block's own text: it does not use the emitter's numbers. */
+The validator reads the block's own text, but for the lines emit_cols writes from numbers
+(segment and accel lines): those emit_cols checks as it writes them, with the doubles and
+decimals the reading would give (Known, known_units; set_text_check(True): read too). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <float.h>
@@ -482,11 +484,12 @@ static inline char *copy_upto16(char *q, const char *s, Py_ssize_t n)
     return q + n;
 }
 
-/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end.  Its
+/* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end; *nf:
+   its decimals (the fraction's digits, trailing zeros cut).  Its
    digits are made in tmp after 32 zeros (the padding to dec + 1 digits, without a loop),
    and the whole and the fraction copied 16 bytes at a time: at most 1 + 20 + 1 + 16 bytes
    written, inside the room */
-static inline char *units_at(char *q, int64_t u, int dec)
+static inline char *units_at_nf(char *q, int64_t u, int dec, int *nf)
 {
     char tmp[64];
     char *end = tmp + 48;                          /* the digits end here; 16 bytes after them to read */
@@ -499,11 +502,18 @@ static inline char *units_at(char *q, int64_t u, int dec)
     while (last > point && last[-1] == '0') last--;   /* the fraction's trailing zeros cut */
     if (u < 0) *q++ = '-';                         /* u != 0: whole != "0" or a fraction digit */
     q = copy_upto16(q, first, point - first);
+    *nf = (int)(last - point);
     if (last > point) {
         *q++ = '.';
         q = copy_upto16(q, point, last - point);
     }
     return q;
+}
+
+static inline char *units_at(char *q, int64_t u, int dec)
+{
+    int nf;
+    return units_at_nf(q, u, dec, &nf);
 }
 
 /* emit._fmt_units(u, dec) appended */
@@ -516,8 +526,9 @@ static int put_units(Buf *b, int64_t u, int dec)
     return 0;
 }
 
-/* emit._tenths_up(k) written at q (room for 24 bytes; k < TENTHS_MAX): the end */
-static inline char *tenths_at(char *q, int64_t k)
+/* emit._tenths_up(k) written at q (room for 24 bytes; k < TENTHS_MAX): the end.  (Inlined
+   at emit_cols' two calls, its feed's and its accel line's: gcc made it a call a line) */
+static inline __attribute__((always_inline)) char *tenths_at(char *q, int64_t k)
 {
     char tmp[24];
     if (k <= 1) {
@@ -575,12 +586,13 @@ static int py_round(double x, int64_t *out)
 #endif
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
-   ending in 0, else _canon(t) */
-static int put_canon(Buf *b, const char *t, Py_ssize_t m)
+   ending in 0, else _canon(t), written at q (at most m + 1 bytes): the end; *nf: its decimals */
+static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
 {
     if (m > 0 && t[0] == '.' && t[m - 1] != '0') {
-        if (put(b, "0", 1) < 0) return -1;
-        return put(b, t, m);
+        *nf = (int)(m - 1);
+        *q++ = '0';
+        return copy_short(q, t, m);
     }
     int neg = m > 0 && t[0] == '-';
     Py_ssize_t i = 0;
@@ -595,17 +607,22 @@ static int put_canon(Buf *b, const char *t, Py_ssize_t m)
     while (w0 < wn && rest[w0] == '0') w0++;                   /* lstrip("0") */
     while (fn > 0 && frac[fn - 1] == '0') fn--;                /* rstrip("0") */
     int whole_zero = (w0 == wn);                                /* whole is "0" */
-    if (!fn && whole_zero)
-        return put(b, "0", 1);
-    if (neg && put(b, "-", 1) < 0) return -1;
-    if (whole_zero) {
-        if (put(b, "0", 1) < 0) return -1;
-    } else if (put(b, rest + w0, wn - w0) < 0) return -1;
-    if (fn) {
-        if (put(b, ".", 1) < 0) return -1;
-        if (put(b, frac, fn) < 0) return -1;
+    *nf = (int)fn;
+    if (!fn && whole_zero) {
+        *q++ = '0';
+        return q;
     }
-    return 0;
+    if (neg)
+        *q++ = '-';
+    if (whole_zero)
+        *q++ = '0';
+    else
+        q = copy_short(q, rest + w0, wn - w0);
+    if (fn) {
+        *q++ = '.';
+        q = copy_short(q, frac, fn);
+    }
+    return q;
 }
 
 /* a sequence of doubles: a list of floats (copied), or the bytes of native doubles
@@ -822,15 +839,165 @@ typedef struct {
     Py_ssize_t hn, wn, nln, cln, bn, an;
 } Pieces;
 
+static double POW10_NEG[32];
+static int POW10_NEG_READY = 0;
+
+static inline double pow10_neg(int k)
+{
+    if (k < 0 || k >= 32)
+        return pow(10.0, (double)-k);
+    if (!POW10_NEG_READY) {
+        for (int j = 0; j < 32; j++)
+            POW10_NEG[j] = pow(10.0, (double)-j);
+        POW10_NEG_READY = 1;
+    }
+    return POW10_NEG[k];
+}
+
+/* fast_check's running state of a body's segment lines */
+typedef struct {
+    int path;                       /* px, py: the polyline (0: no path check) */
+    const double *px, *py;
+    Py_ssize_t nv, j;               /* its vertices; the next original vertex */
+    double tol_d, x_prev, y_prev, gap_least;
+    int n_points;
+    double e_sum, e_abs, e_last;
+    Py_ssize_t n_e;
+} Walk;
+
+/* a segment line's point (x, y; dxy: the larger of their decimals) and E word (has_e)
+   taken into w: 1, or 0 (the check does not certainly pass) */
+static inline __attribute__((always_inline)) int walk_point(Walk *w, double x, double y, int dxy, int has_e, double e)
+{
+    if (has_e) {
+        if (!isfinite(e)) return 0;
+        w->e_sum += e;
+        w->e_abs += fabs(e);
+        w->e_last = e;
+        w->n_e++;
+    }
+    if (w->path) {
+        const double *px = w->px, *py = w->py;
+        Py_ssize_t j = w->j, nv = w->nv;
+        if (j < nv && x == px[j] && y == py[j])
+            w->j = j + 1;
+        else {
+            Py_ssize_t k = j < nv ? j - 1 : nv - 2;
+            double ax = px[k], ay = py[k];
+            double ddx = px[k + 1] - ax, ddy = py[k + 1] - ay;
+            double dd = ddx * ddx + ddy * ddy, tt;
+            if (dd <= 0)
+                tt = 0.0;
+            else {
+                double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
+                u = u > 0.0 ? u : 0.0;
+                tt = u < 1.0 ? u : 1.0;
+            }
+            double ex = x - ax - tt * ddx, ey = y - ay - tt * ddy;
+            double tv = 0.75 * pow10_neg(dxy);         /* validate._tol */
+            double tol = (tv < w->tol_d ? tv : w->tol_d) + 1e-7;
+            double lim = tol * (1.0 - MARGIN_R), d2 = ex * ex + ey * ey;
+            /* hypot(ex, ey) <= lim: certain where d2 is below lim^2 by far (the squares'
+               and the sum's rounding, and hypot's own, are ~1e-16 relative; an underflow
+               is far below lim^2 when lim > 1e-100), else hypot's own verdict */
+            if (!(lim > 1e-100 && d2 <= lim * lim * (1.0 - 1e-9)) && !(hypot(ex, ey) <= lim))
+                return 0;              /* off this segment, or near: Python's search */
+        }
+        double gx = fabs(x - w->x_prev), gy = fabs(y - w->y_prev);
+        double g = gy > gx ? gy : gx;
+        if (g < w->gap_least) w->gap_least = g;
+        w->x_prev = x;
+        w->y_prev = y;
+    }
+    w->n_points++;
+    return 1;
+}
+
+/* a segment line "G1 X<n> Y<n>[ E<n>] F<n>" read at p (its "\n" ends the scans): its
+   length (no "\n"), or -1 (not certainly such a line with values fast_check passes):
+   x, y, dxy (the larger of their decimals), has_e and e */
+static inline __attribute__((always_inline)) Py_ssize_t read_point(const char *p, double *x, double *y, int *dxy,
+                                                                    int *has_e, double *e)
+{
+    Py_ssize_t xn, yn, en = 0, fn, i = 4, m;
+    int dx_, dy_, dec;
+    double f;
+    *e = 0.0;
+    xn = dec_value_nl(p + i, &dx_, x);
+    if (xn < 0 || dx_ > MAX_DECIMALS) return -1;
+    i += xn;
+    if (p[i] != ' ' || p[i + 1] != 'Y') return -1;
+    i += 2;
+    yn = dec_value_nl(p + i, &dy_, y);
+    if (yn < 0 || dy_ > MAX_DECIMALS) return -1;
+    i += yn;
+    if (p[i] == ' ' && p[i + 1] == 'E') {
+        i += 2;
+        en = dec_value_nl(p + i, &dec, e);
+        if (en < 0 || dec > MAX_DECIMALS) return -1;
+        i += en;
+    }
+    if (p[i] != ' ' || p[i + 1] != 'F') return -1;
+    i += 2;
+    fn = dec_value_nl(p + i, &dec, &f);
+    m = i + fn;
+    if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return -1;
+    if (!(isfinite(*x) && isfinite(*y) && f > 0.0 && f < INFINITY)) return -1;
+    *dxy = dx_ > dy_ ? dx_ : dy_;
+    *has_e = en != 0;
+    return m;
+}
+
+/* block_into's check of the lines emit_cols writes from numbers (segment and accel lines),
+   done as it writes them: the doubles and decimals fast_check's reading would give each
+   (known_units; plain_line's values for a text copied; ka / 10 for tenths_at's text) taken
+   through fast_check's own tests, in the lines' order, w the state they leave for its
+   reading of the other lines.  The lines so checked are the ranges skip[0..n_skip) (at
+   most 3: first_cmds' lines, read, part them).  A segment line's F is positive and
+   finite, 1 decimal at most, by construction: nothing of it to check. */
+typedef struct {
+    Walk w;
+    double accel_hi;                /* fast_check's bound of an accel line's value */
+    Py_ssize_t limit;               /* its command length limit (0: none) */
+    const double *x, *y, *e;        /* move k's end as plain_line read it (e: 0.0 without E) */
+    const int *dx, *dy, *de;        /* and its decimals */
+    Py_ssize_t skip[3][2], n_skip, open;   /* ranges [a, z) checked (offsets in emit_cols' buffer) */
+} Known;
+
+/* the range of checked lines open at kn->open closed at z (an empty one dropped) */
+static inline void skip_close(Known *kn, Py_ssize_t z)
+{
+    if (z > kn->open && kn->n_skip < 3) {
+        kn->skip[kn->n_skip][0] = kn->open;
+        kn->skip[kn->n_skip][1] = z;
+        kn->n_skip++;
+    }
+}
+
+/* the value and decimals fast_check's reading gives a number units_at(u, dec) wrote
+   (nf: its decimals): 1, or 0 (not certain: the line is read).  The text is u / 10^dec
+   with trailing zeros cut; dec_value reads digits m' and nf decimals, m' / 10^nf, the
+   same real: each a correctly rounded division of exact doubles (|u| <= 2^53, dec <= 15),
+   or PyOS_string_to_double's correctly rounded value past 15 digits: the same double. */
+static inline int known_units(int64_t u, int dec, double *v)
+{
+    if (!(u >= -(int64_t)EXACT_MAX && u <= (int64_t)EXACT_MAX) || dec < 0 || dec > 15)
+        return 0;
+    *v = (double)u / POW10[dec];
+    return 1;
+}
+
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
    raise); -1: no memory.  n_lines (not NULL): the "\n"s written (the pieces' counted once
-   a block, the moves' texts have none: plain_line's, or units and tenths). */
+   a block, the moves' texts have none: plain_line's, or units and tenths).  kn (not
+   NULL, nlp "\n", wp fast_check's accel word): the lines checked as they are written, 1
+   (decline) where fast_check would not pass them. */
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     Py_ssize_t *n_lines)
+                     Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -854,6 +1021,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     int64_t last_ka = 0;
     if (put(b, hp, hn) < 0)
         return -1;
+    if (kn != NULL)
+        kn->open = b->n;
     Py_ssize_t lines = 0, nl_nl = 0, nl_acc = 0;   /* "\n"s: written; a line end's; an accel line's */
     if (n_lines != NULL) {
         lines = count_nl(hp, hn) + count_nl(clp, cln) + (bp != NULL && k_total >= 1 ? count_nl(bp, bn) : 0)
@@ -919,12 +1088,29 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             have_a = 1;
             last_a = a;
             if (!have_cmd || ka != last_ka) {
-                if (put(b, wp, wp ? wn : 0) < 0 || put_tenths_up(b, ka) < 0 || put(b, nlp, nln) < 0)
+                /* the accel line in room made for it at once (tenths_at: at most 24 bytes) */
+                if (buf_grow(b, wn + 24 + nln) < 0)
                     return -1;
+                char *q = copy_short(b->p + b->n, wp, wn);
+                q = tenths_at(q, ka);
+                if (kn != NULL) {
+                    /* tenths_at's text of ka: ka / 10 (ka < 2^50: exact; "0.1" for 1) */
+                    double av = (double)ka / 10.0;
+                    if (!(av > 0.0 && av <= kn->accel_hi && av < INFINITY)
+                        || (kn->limit > 0 && (q - b->p) - b->n > kn->limit))
+                        return 1;
+                }
+                b->n = copy_short(q, nlp, nln) - b->p;
                 lines += nl_acc;
                 last_ka = ka;
-                if (!have_cmd && bp != NULL && put(b, bp, bn) < 0)   /* first_cmds[0], after the first M204 */
-                    return -1;
+                if (!have_cmd && bp != NULL) {           /* first_cmds[0], after the first M204 */
+                    if (kn != NULL)
+                        skip_close(kn, b->n);
+                    if (put(b, bp, bn) < 0)
+                        return -1;
+                    if (kn != NULL)
+                        kn->open = b->n;
+                }
                 have_cmd = 1;
             }
         }
@@ -939,28 +1125,48 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         if (buf_grow(b, room) < 0)
             return -1;
         char *q = b->p + b->n;
+        Py_ssize_t line_at = b->n;
+        /* the line's values as fast_check would read them (known: all of them certain) */
+        double xv = 0.0, yv = 0.0, ev = 0.0;
+        int known = kn != NULL, nx = 0, ny = 0, ne = -1;
 #define CPY(s_, n_) do { q = copy_short(q, (s_), (n_)); } while (0)
         CPY("G1 X", 4);
-        if (at_vertex)
+        if (at_vertex) {
             CPY(xo->p, xo->n);
-        else
-            q = units_at(q, xu, dxy);
+            if (known) {                             /* the text plain_line read */
+                xv = kn->x[move];
+                nx = kn->dx[move];
+            }
+        } else {
+            q = units_at_nf(q, xu, dxy, &nx);
+            known = known && known_units(xu, dxy, &xv);
+        }
         CPY(" Y", 2);
-        if (at_vertex)
+        if (at_vertex) {
             CPY(yo->p, yo->n);
-        else
-            q = units_at(q, yu, dxy);
+            if (known) {
+                yv = kn->y[move];
+                ny = kn->dy[move];
+            }
+        } else {
+            q = units_at_nf(q, yu, dxy, &ny);
+            known = known && known_units(yu, dxy, &yv);
+        }
         if (extruding) {
             CPY(" E", 2);
-            if (e_kind == 2)
-                q = units_at(q, eu, de);
-            else if (e_kind == 0)
+            if (e_kind == 2) {
+                q = units_at_nf(q, eu, de, &ne);
+                known = known && known_units(eu, de, &ev);
+            } else if (e_kind == 0) {
                 CPY(et[move].p, et[move].n);
-            else {
-                b->n = q - b->p;                     /* (put_canon: at most m + 1 bytes, in the room) */
-                if (put_canon(b, et[move].p, et[move].n) < 0)
-                    return -1;
-                q = b->p + b->n;
+                if (known) {                         /* (a line without E: "0", 0.0) */
+                    ev = kn->e[move];
+                    ne = kn->de[move];
+                }
+            } else {
+                q = canon_at(q, et[move].p, et[move].n, &ne);   /* (in the room: m + 1 bytes) */
+                if (known)                           /* the same digits; a zero is "0" */
+                    ev = kn->e[move] == 0.0 ? 0.0 : kn->e[move];
             }
         }
         CPY(" F", 2);
@@ -969,9 +1175,26 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             *q++ = ' ';
             CPY(co->p, co->n);
         }
+        Py_ssize_t m_line = (q - b->p) - line_at;
         CPY(nlp, nln);
-        if (k == 1 && ap != NULL)                    /* first_cmds[1], after the first move */
+        if (kn != NULL) {
+            /* the line's values (a number past the exact range: the line read back) */
+            int dxy_l = nx > ny ? nx : ny, has_e = ne >= 0;
+            if (co != NULL && co->n)
+                return 1;                            /* (fast_check refuses a comment) */
+            if (!known && (m_line = read_point(b->p + line_at, &xv, &yv, &dxy_l, &has_e, &ev)) < 0)
+                return 1;
+            if (dxy_l > MAX_DECIMALS || ne > MAX_DECIMALS || (kn->limit > 0 && m_line > kn->limit)
+                || !walk_point(&kn->w, xv, yv, dxy_l, has_e, ev))
+                return 1;
+        }
+        if (k == 1 && ap != NULL) {                  /* first_cmds[1], after the first move */
+            if (kn != NULL) {
+                skip_close(kn, q - b->p);
+                kn->open = q - b->p + an;
+            }
             CPY(ap, an);
+        }
 #undef CPY
         b->n = q - b->p;
         lines += nl_nl;
@@ -989,6 +1212,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             have_mu = 0;
         }
     }
+    if (kn != NULL)
+        skip_close(kn, b->n);
     if (put(b, clp, cln) < 0)
         return -1;
     if (n_lines != NULL)
@@ -1058,7 +1283,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0, NULL);
+                          (int64_t)e_start_u, &x0, &y0, NULL, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -1077,21 +1302,6 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
 /* ---------------------------------------------------------------- fast_body */
 
 /* pow(10.0, -k) (Python's 10.0 ** -k calls libm's pow): the same values, made once */
-static double POW10_NEG[32];
-static int POW10_NEG_READY = 0;
-
-static inline double pow10_neg(int k)
-{
-    if (k < 0 || k >= 32)
-        return pow(10.0, (double)-k);
-    if (!POW10_NEG_READY) {
-        for (int j = 0; j < 32; j++)
-            POW10_NEG[j] = pow(10.0, (double)-j);
-        POW10_NEG_READY = 1;
-    }
-    return POW10_NEG[k];
-}
-
 /* fast_body(text, start, stop, want, klipper, limit, accel_max_a, px, py, tol_d, e_mode,
              e_value, min_move_d)
    validate._fast_ok's reading of text[start:stop] (the body: "\n" line "\n" ... line "\n")
@@ -1101,21 +1311,28 @@ static inline double pow10_neg(int k)
    sum), 2 absolute (the last E word). */
 /* fast_body's checks of the body t[start:stop] ("\n" line "\n" ... line "\n"): 1 when they
    certainly pass, 0 otherwise.  px, py: the polyline's nv vertices (path 0: no path check),
-   each below validate._polyline_walk's bound. */
+   each below validate._polyline_walk's bound.  kn (NULL: none): emit_cols' check of the
+   lines it wrote, t at offset t_at of its buffer: those lines are passed over, the state
+   they left taken on (no other line read here is a segment line: block_into). */
 static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want, int klipper, Py_ssize_t limit,
                       double accel_max_a, int path, const double *px, const double *py, Py_ssize_t nv,
-                      double tol_d, int e_mode, double e_value, double e_err, double min_move_d)
+                      double tol_d, int e_mode, double e_value, double e_err, double min_move_d,
+                      const Known *kn, Py_ssize_t t_at)
 {
     const double accel_hi = accel_max_a + 0.1 + 1e-9;
-    Py_ssize_t j = 1;                               /* the next original vertex */
-    double x_prev = 0.0, y_prev = 0.0, gap_least = INFINITY;
-    int n_points = 0;
-    double e_sum = 0.0, e_abs = 0.0, e_last = 0.0;
-    Py_ssize_t n_e = 0;
+    Walk w = {path, px, py, nv, 1, tol_d, 0.0, 0.0, INFINITY, 0, 0.0, 0.0, 0.0, 0};
     if (path) {
-        x_prev = px[0];
-        y_prev = py[0];
+        w.x_prev = px[0];
+        w.y_prev = py[0];
     }
+    const char *skip_a = NULL;                       /* the next range checked, [skip_a, skip_z) */
+    Py_ssize_t n_skip = 0, next = 0;
+    if (kn != NULL) {
+        w = kn->w;
+        n_skip = kn->n_skip;
+    }
+    if (next < n_skip)
+        skip_a = t + (kn->skip[0][0] - t_at);
     const char *p = t + start + 1, *end = t + stop;
     while (p < end) {
         /* The line is p[0..m), its "\n" at p[m], found as the line is read (no memchr a
@@ -1124,72 +1341,17 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
         const Py_ssize_t left = end - p;
         Py_ssize_t m, i, r;
         int dec;
+        if (p == skip_a) {
+            /* lines emit_cols checked: passed over (a range ends after a "\n", in the body) */
+            p = t + (kn->skip[next][1] - t_at);
+            skip_a = ++next < n_skip ? t + (kn->skip[next][0] - t_at) : NULL;
+            continue;
+        }
         if (left > 4 && memcmp(p, "G1 X", 4) == 0) {
-            /* "G1 X<n> Y<n>[ E<n>] F<n>" */
-            Py_ssize_t xn, yn, en = 0, fn;
-            int dx_, dy_;
-            double x, y, e = 0.0, f;
-            i = 4;
-            xn = dec_value_nl(p + i, &dx_, &x);
-            if (xn < 0 || dx_ > MAX_DECIMALS) return 0;
-            i += xn;
-            if (p[i] != ' ' || p[i + 1] != 'Y') return 0;
-            i += 2;
-            yn = dec_value_nl(p + i, &dy_, &y);
-            if (yn < 0 || dy_ > MAX_DECIMALS) return 0;
-            i += yn;
-            if (p[i] == ' ' && p[i + 1] == 'E') {
-                i += 2;
-                en = dec_value_nl(p + i, &dec, &e);
-                if (en < 0 || dec > MAX_DECIMALS) return 0;
-                i += en;
-            }
-            if (p[i] != ' ' || p[i + 1] != 'F') return 0;
-            i += 2;
-            fn = dec_value_nl(p + i, &dec, &f);
-            m = i + fn;
-            if (fn < 0 || dec > MAX_DECIMALS || p[m] != '\n') return 0;
-            if (!(isfinite(x) && isfinite(y) && f > 0.0 && f < INFINITY)) return 0;
-            if (en) {
-                if (!isfinite(e)) return 0;
-                e_sum += e;
-                e_abs += fabs(e);
-                e_last = e;
-                n_e++;
-            }
-            if (path) {
-                if (j < nv && x == px[j] && y == py[j])
-                    j++;
-                else {
-                    Py_ssize_t k = j < nv ? j - 1 : nv - 2;
-                    double ax = px[k], ay = py[k];
-                    double ddx = px[k + 1] - ax, ddy = py[k + 1] - ay;
-                    double dd = ddx * ddx + ddy * ddy, tt;
-                    if (dd <= 0)
-                        tt = 0.0;
-                    else {
-                        double u = ((x - ax) * ddx + (y - ay) * ddy) / dd;
-                        u = u > 0.0 ? u : 0.0;
-                        tt = u < 1.0 ? u : 1.0;
-                    }
-                    double ex = x - ax - tt * ddx, ey = y - ay - tt * ddy;
-                    int dmax = dx_ > dy_ ? dx_ : dy_;   /* validate._tol */
-                    double tv = 0.75 * pow10_neg(dmax);
-                    double tol = (tv < tol_d ? tv : tol_d) + 1e-7;
-                    double lim = tol * (1.0 - MARGIN_R), d2 = ex * ex + ey * ey;
-                    /* hypot(ex, ey) <= lim: certain where d2 is below lim^2 by far (the squares'
-                       and the sum's rounding, and hypot's own, are ~1e-16 relative; an underflow
-                       is far below lim^2 when lim > 1e-100), else hypot's own verdict */
-                    if (!(lim > 1e-100 && d2 <= lim * lim * (1.0 - 1e-9)) && !(hypot(ex, ey) <= lim))
-                        return 0;              /* off this segment, or near: Python's search */
-                }
-                double gx = fabs(x - x_prev), gy = fabs(y - y_prev);
-                double g = gy > gx ? gy : gx;
-                if (g < gap_least) gap_least = g;
-                x_prev = x;
-                y_prev = y;
-            }
-            n_points++;
+            double x, y, e;
+            int dxy, has_e;
+            if (kn != NULL || (m = read_point(p, &x, &y, &dxy, &has_e, &e)) < 0 || !walk_point(&w, x, y, dxy, has_e, e))
+                return 0;
         } else if (left > 4 && memcmp(p, "G1 F", 4) == 0) {
             i = 4;
             double f;
@@ -1217,7 +1379,7 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
             return 0;
         p += m + 1;
     }
-    if (path && min_move_d > 0.0 && n_points && gap_least < min_move_d) {
+    if (path && min_move_d > 0.0 && w.n_points && w.gap_least < min_move_d) {
         /* _ShortMoves' floor: the original's own shortest move passes too */
         double floor_d = min_move_d;
         if (nv > 2) {
@@ -1230,24 +1392,24 @@ static int fast_check(const char *t, Py_ssize_t start, Py_ssize_t stop, int want
             double o = own * (1.0 - 1e-9);
             if (o < floor_d) floor_d = o;
         }
-        if (gap_least < floor_d)
+        if (w.gap_least < floor_d)
             return 0;
     }
     if (e_mode) {
-        if (n_e == 0)
+        if (w.n_e == 0)
             return 0;
         double lim = E_TOL * (1.0 + fabs(e_value));
         if (e_mode == 2) {
-            if (fabs(e_last - e_value) > lim) return 0;
+            if (fabs(w.e_last - e_value) > lim) return 0;
         } else {
             /* fsum is within half an ulp of the exact sum, the running sum within
                (n - 1) u sum|e| of it: a pass this far inside the limit is fsum's too */
-            double err = 2.0 * (double)n_e * 1.1102230246251565e-16 * e_abs + 1e-300;
+            double err = 2.0 * (double)w.n_e * 1.1102230246251565e-16 * w.e_abs + 1e-300;
             /* e_err: how far e_value may be from the value the Python check compares with
                (stroke_block's running sum of the original's E words; 0 for fast_body's fsum) */
             if (e_err > 0.0)
                 lim = E_TOL * (1.0 + fabs(e_value) - e_err);
-            if (!(fabs(e_sum - e_value) + 2.0 * err + 2.0 * e_err <= lim * (1.0 - MARGIN_R))) return 0;
+            if (!(fabs(w.e_sum - e_value) + 2.0 * err + 2.0 * e_err <= lim * (1.0 - MARGIN_R))) return 0;
         }
     }
     return 1;
@@ -1288,7 +1450,7 @@ static PyObject *fast_body(PyObject *self, PyObject *args)
         }
     }
     int ok = fast_check(t, start, stop, want, klipper, limit, accel_max_a, path, pv, pv ? pv + nv : NULL, nv, tol_d,
-                        e_mode, e_value, 0.0, min_move_d);
+                        e_mode, e_value, 0.0, min_move_d, NULL, 0);
     PyMem_Free(pv);
     if (ok)
         Py_RETURN_TRUE;
@@ -1685,6 +1847,25 @@ static int has_break(const char *p, Py_ssize_t n)
     return 0;
 }
 
+/* 1: block_into's check reads every line of the block (set_text_check, for the tests:
+   emit_cols then checks nothing as it writes) */
+static int TEXT_CHECK = 0;
+
+/* p[0..n): whole lines (empty, or ending in "\n"), none of them a segment line ("G1 X") */
+static int other_lines(const char *p, Py_ssize_t n)
+{
+    if (n == 0)
+        return 1;
+    if (n < 0 || p[n - 1] != '\n')
+        return 0;
+    for (const char *e = p + n; p < e;) {
+        if (e - p >= 4 && memcmp(p, "G1 X", 4) == 0)
+            return 0;
+        p = (const char *)memchr(p, '\n', (size_t)(e - p)) + 1;
+    }
+    return 1;
+}
+
 /* what block_into reads besides the four sequences (stroke_block's arguments, unpacked) */
 typedef struct {
     const char *d;                  /* d[start:stop]: the stroke's n original lines */
@@ -1720,15 +1901,18 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     /* no other line break of str.splitlines in it: \r \x0b \x0c \x1c \x1d \x1e (below 0x20) */
     if (has_break(pc->hp, hl))
         return 0;
-    /* the lines: one allocation for their texts and the path's vertices */
-    char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + 16);
+    /* the lines: one allocation for their texts, the path's vertices, their E values and
+       their numbers' decimals */
+    char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + n * sizeof(double)
+                             + n * 3 * sizeof(int) + 16);
     if (mem == NULL) {
         PyErr_NoMemory();
         return -1;
     }
     int got = 0;
     Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
-    double *px = (double *)(cx + 4 * n), *py = px + n + 1;
+    double *px = (double *)(cx + 4 * n), *py = px + n + 1, *ev_k = py + n + 1;
+    int *dx_k = (int *)(ev_k + n), *dy_k = dx_k + n, *de_k = dy_k + n;
     int dec_xy = 3, dec_e = 5, d0;
     if ((d0 = start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
     if ((d0 = start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
@@ -1755,6 +1939,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (dx > dec_xy) dec_xy = dx;
         if (dy > dec_xy) dec_xy = dy;
         if (de > dec_e) dec_e = de;
+        dx_k[k] = dx;
+        dy_k[k] = dy;
         double xv = v[0], yv = v[1];
         px[k + 1] = xv;
         py[k + 1] = yv;
@@ -1768,9 +1954,13 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
             e_abs += fabs(ev);
             e_last = ev;
             n_e++;
+            ev_k[k] = ev;
+            de_k[k] = de;
         } else {
             ce[k].p = "0";                        /* StrokeText's e text of a line without E */
             ce[k].n = 1;
+            ev_k[k] = 0.0;
+            de_k[k] = 0;
         }
         p = q + 1;
     }
@@ -1780,8 +1970,17 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     int64_t e_start_u;
     if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)
         goto decline;
+    /* emit_cols checks the lines it writes when fast_check would read its accel lines as
+       accel lines and no other line is a segment line (they are read, the state emit_cols
+       leaves taken on: the same checks in the same order), each piece whole lines */
+    Known kn = {{1, px, py, n + 1, 1, 2e-3, px[0], py[0], INFINITY, 0, 0.0, 0.0, 0.0, 0},
+                ba->accel_max_a + 0.1 + 1e-9, ba->limit, px + 1, py + 1, ev_k, dx_k, dy_k, de_k, {{0}}, 0, 0};
+    int by_text = TEXT_CHECK || pc->nln != 1 || pc->nlp[0] != '\n' || pc->wn != 6 || memcmp(pc->wp, "M204 ", 5) != 0
+                  || pc->wp[5] != ba->wantp[0] || !other_lines(pc->hp + hl + 1, pc->hn - hl - 1)
+                  || !other_lines(pc->clp, pc->cln)
+                  || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines, by_text ? NULL : &kn);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -1804,7 +2003,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         }
         if (bn > hl + el && memcmp(bp + bn - el, END_L, el) == 0
             && fast_check(bp, hl, bn - el + 1, ba->wantp[0], ba->klipper, ba->limit, ba->accel_max_a, 1, px, py, n + 1,
-                          2e-3, e_mode, e_value, e_err, ba->min_move_d)) {
+                          2e-3, e_mode, e_value, e_err, ba->min_move_d, by_text ? NULL : &kn, base)) {
             got = 1;
             goto done;
         }
@@ -2663,7 +2862,20 @@ static PyObject *head_breaks(PyObject *self, PyObject *o)
     return PyBool_FromLong(has_break(PyBytes_AS_STRING(o), PyBytes_GET_SIZE(o)));
 }
 
+/* set_text_check(flag): block_into's check reads every line (flag true) or lets emit_cols
+   check the lines it writes (false, the default); the previous setting (tests) */
+static PyObject *set_text_check(PyObject *self, PyObject *o)
+{
+    int t = PyObject_IsTrue(o);
+    if (t < 0)
+        return NULL;
+    int was = TEXT_CHECK;
+    TEXT_CHECK = t;
+    return PyBool_FromLong(was);
+}
+
 static PyMethodDef mod_methods[] = {
+    {"set_text_check", set_text_check, METH_O, "block_into's check reads every line (True) or not; the old setting (tests)"},
     {"head_breaks", head_breaks, METH_O, "block_into's test for a line break in a head line (tests)"},
     {"decimal_value", decimal_value, METH_O, "float(text) of a plain decimal text, else None (tests)"},
     {"rounds", rounds, METH_O, "py_round of each native double (bytes): int, or None where declined (tests)"},

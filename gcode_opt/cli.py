@@ -126,30 +126,7 @@ def _length(text):
     return v
 
 
-def _messages_once(build):
-    """build() with argparse's messages each looked up once: every lookup (gettext) searches
-    the locale folders for an argparse catalogue anew (~20 us each; the parser's seven
-    parsers take 21: ~3 M instructions of each run), the same answer each time."""
-    plain = argparse._
-    seen = {}
-
-    def once(message):
-        got = seen.get(message)
-        if got is None:
-            got = seen[message] = plain(message)
-        return got
-    argparse._ = once
-    try:
-        return build()
-    finally:
-        argparse._ = plain
-
-
 def build_parser():
-    return _messages_once(_build_parser)
-
-
-def _build_parser():
     ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -100,7 +100,7 @@ class _Core:
 
 @pytest.mark.skipif(simulate._core is None or not hasattr(simulate._core, "ring_int_r2"),
                     reason="needs the compiled firmware core")
-@pytest.mark.parametrize("n,how", [(None, None), (1, "sum"), (257, "work"), (20011, "work"), (4097, "none"),
+@pytest.mark.parametrize("n,how", [(None, None), (1, "sum"), (257, "work"), (5003, "work"), (4097, "none"),
                                    (9, "sum")])
 def test_int_r2_core_verdict(monkeypatch, n, how):
     osc = _osc(50.0, 0.1)
@@ -128,8 +128,8 @@ def test_int_r2_core_verdict(monkeypatch, n, how):
 def _probe_fresh(span):
     """resonance._probe's times as it made them before it kept the last span's."""
     t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
-                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
-    return np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
+                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, R.PROBE_GRID)])
+    return np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, R.PROBE_DRAWS)])
 
 
 def test_probe_times_kept_for_the_last_span_are_the_fresh_ones(monkeypatch):

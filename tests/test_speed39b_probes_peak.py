@@ -13,7 +13,7 @@ from gcode_opt.probe_rng import ProbeRng
 def _old_peak_probe(s, wd):
     """_peak_ok's numbers as it drew them before _peak_probe."""
     rng = ProbeRng(19)
-    n = 20000
+    n = R.PEAK_PROBE_N
     c = rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0) \
         + 1j * rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0)
     c[rng.uniform(size=n) < 0.03] = 0.0

@@ -81,6 +81,16 @@ def _core():
 
 _PROBE = [None, None]     # the last span (its bits) _probe made times for, and its times (read only)
 
+# The probes' sizes.  Each probe is built to take every path of the step it checks (zeros of
+# both signs, edge magnitudes, restarts, numpy's sum's blocks) many times over; past that,
+# more random numbers add cost, not paths (each probe ran once a run on every large file:
+# ~130 M instructions at 4-5 times these sizes).  tests/test_speed43b_probe43_sizes.py: a
+# core 1 ulp off on any one path is still turned down.
+PROBE_GRID = 401          # _probe's evenly spaced times (and 400 geometric, 7 edge ones)
+PROBE_DRAWS = 500         # _probe's random times
+JUMPS_PROBE_N = 4000      # _jumps_core's jumps
+PEAK_PROBE_N = 4000       # _peak_ok's amplitudes and pieces
+
 
 def _probe(span):
     """The times the exponential kernels are probed on, up to span.  The last span's are
@@ -90,8 +100,8 @@ def _probe(span):
     if _PROBE[0] == key:
         return _PROBE[1]
     t = np.concatenate([[0.0, 5e-324, 1e-310, 1e-300, 1e-20, 1e-9, span],
-                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, 1601)])
-    t = np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, 2000)])
+                        np.geomspace(1e-12, span, 400), np.linspace(0.0, span, PROBE_GRID)])
+    t = np.concatenate([t, t * (1.0 + 2.0 ** -52), ProbeRng(7).uniform(0.0, span, PROBE_DRAWS)])
     t.flags.writeable = False
     _PROBE[:] = [key, t]
     return t
@@ -175,7 +185,7 @@ def _jumps_core(s, wd):
     ok = _JUMPS_OK.get((s, wd))
     if ok is None:
         rng = ProbeRng(17)
-        n = 20000
+        n = JUMPS_PROBE_N
         dr = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
         drp = rng.normal(size=n) * np.exp(rng.normal(size=n) * 6.0)
         for a in (dr, drp):
@@ -204,10 +214,10 @@ def _int_r2_args(s, lam):
 
 
 # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops' tails) three
-# times over; the large ones (its recursion) once: their 29 k pieces give the per-piece
-# numbers variety enough (three times was 60 k pieces more, ~15 ms of every run's first
-# ringing pass)
-INT_R2_SIZES = (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003, 20011)
+# times over; the large ones (its recursion, many levels deep; past 128 the sum has no other
+# branch) once: their 9 k pieces and the small sizes' 7 k give the per-piece numbers variety
+# enough (a piece of 20011 more was ~28 M instructions of every large file's run)
+INT_R2_SIZES = (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003)
 
 
 def _int_r2_probe(s):
@@ -299,7 +309,7 @@ def _peak_probe(s, wd):
     """(c, dur): _peak_ok's amplitudes (over many magnitudes; zeros, zero imaginary parts,
     -0.0 real parts) and piece lengths (zeros, and 200 from 1e-12 to 100 / s)."""
     rng = ProbeRng(19)
-    n = 20000
+    n = PEAK_PROBE_N
     c = _complex_of(rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0),
                     rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0))
     c[rng.uniform(size=n) < 0.03] = 0.0

@@ -2165,14 +2165,23 @@ static int names_ready(void)
    descriptor found on the type (a __slots__ member, a C getter, a property) before anything
    else and returns its __get__(o, type).  The descriptor found is kept with the type's
    version tag, which Python changes whenever the type or a base is modified: a stale entry
-   is never used.  Other types and names: PyObject_GetAttr. */
+   is never used.  Other types and names: PyObject_GetAttr.
+   Two descriptors are read without their __get__ (~17 reads a stroke): an object member
+   (a __slots__ slot, T_OBJECT_EX) by its offset, as member_get reads it when set (unset:
+   __get__, for its AttributeError); a C getter (StrokeBase's doubles) called as getset_get
+   calls it.  Both only where __get__'s own type check passed for the type when the slot was
+   filled (the type's MRO is part of what its tag stands for). */
 #if PY_VERSION_HEX >= 0x030A0000 && PY_VERSION_HEX < 0x030E0000 && !defined(Py_GIL_DISABLED)
 #define ATTR_CACHE 1
+#include <structmember.h>           /* T_OBJECT_EX, READONLY */
 typedef struct {
     PyTypeObject *type;             /* (not a reference: compared, and used only while tag holds) */
     unsigned int tag;
     PyObject *descr;                /* borrowed from the type's dict, valid while tag holds */
     descrgetfunc get;
+    Py_ssize_t slot_off;            /* > 0: an object member at this offset in the object, else 0 */
+    getter gs_get;                  /* a C getter (with gs_closure), else NULL */
+    void *gs_closure;
 } AttrSlot;
 #define ATTR_WAYS 4
 static AttrSlot ATTR_SLOTS[N_NAMES][ATTR_WAYS];   /* a name read on a few types (Stroke, SegmentPlan, RowPlan) */
@@ -2192,13 +2201,42 @@ static inline PyObject *descr_get(PyObject *d, descrgetfunc get, PyObject *o)
     return r;
 }
 
+/* at's direct read of d (its member's offset, or its C getter) where d.__get__(o, type(o))
+   is exactly that read for o's type; else neither */
+static void fill_direct(AttrSlot *at, PyObject *d, PyObject *o)
+{
+    at->slot_off = 0;
+    at->gs_get = NULL;
+    at->gs_closure = NULL;
+    if (!PyObject_TypeCheck(o, PyDescr_TYPE(d)))
+        return;
+    if (Py_IS_TYPE(d, &PyMemberDescr_Type)) {
+        PyMemberDef *mb = ((PyMemberDescrObject *)d)->d_member;
+        if (mb->type == T_OBJECT_EX && (mb->flags & ~READONLY) == 0 && mb->offset > 0)
+            at->slot_off = mb->offset;
+    } else if (Py_IS_TYPE(d, &PyGetSetDescr_Type)) {
+        PyGetSetDef *gs = ((PyGetSetDescrObject *)d)->d_getset;
+        if (gs->get != NULL) {
+            at->gs_get = gs->get;
+            at->gs_closure = gs->closure;
+        }
+    }
+}
+
 static PyObject *get_attr(PyObject *o, int name)
 {
     PyTypeObject *tp = Py_TYPE(o);
     AttrSlot *sl = ATTR_SLOTS[name];
     for (int k = 0; k < ATTR_WAYS; k++)
-        if (sl[k].type == tp && tag_valid(tp, sl[k].tag))
+        if (sl[k].type == tp && tag_valid(tp, sl[k].tag)) {
+            if (sl[k].slot_off > 0) {
+                PyObject *v = *(PyObject **)((char *)o + sl[k].slot_off);
+                if (v != NULL)
+                    return Py_NewRef(v);
+            } else if (sl[k].gs_get != NULL)
+                return sl[k].gs_get(o, sl[k].gs_closure);
             return descr_get(sl[k].descr, sl[k].get, o);
+        }
     if (tp->tp_getattro == PyObject_GenericGetAttr) {
         PyObject *d = _PyType_Lookup(tp, NAMES[name]);      /* (borrowed; gives the type a tag) */
         if (d != NULL && Py_TYPE(d)->tp_descr_get != NULL && Py_TYPE(d)->tp_descr_set != NULL
@@ -2213,6 +2251,7 @@ static PyObject *get_attr(PyObject *o, int name)
             at->tag = tp->tp_version_tag;
             at->descr = d;
             at->get = Py_TYPE(d)->tp_descr_get;
+            fill_direct(at, d, o);
             return descr_get(d, at->get, o);
         }
     }
@@ -2757,6 +2796,20 @@ static PyObject *dec_read(PyObject *self, PyObject *o)
     return r;
 }
 
+/* attr_read(o, name): get_attr's read of one of NAME_TEXT's names (tests) */
+static PyObject *attr_read(PyObject *self, PyObject *args)
+{
+    PyObject *o;
+    const char *nm;
+    if (!PyArg_ParseTuple(args, "Os", &o, &nm) || names_ready() < 0)
+        return NULL;
+    for (int k = 0; k < N_NAMES; k++)
+        if (strcmp(nm, NAME_TEXT[k]) == 0)
+            return get_attr(o, k);
+    PyErr_Format(PyExc_ValueError, "attr_read: %s is not one of get_attr's names", nm);
+    return NULL;
+}
+
 /* line_read(text): plain_line on an ASCII line without its "\n": None (not plain), or
    (x_text, y_text, e_text or None, comment, dx, dy, de, x, y, e or None) */
 static PyObject *line_read(PyObject *self, PyObject *o)
@@ -2883,6 +2936,7 @@ static PyMethodDef mod_methods[] = {
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
+    {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},

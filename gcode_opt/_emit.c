@@ -598,8 +598,8 @@ static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
     Py_ssize_t i = 0;
     while (i < m && (t[i] == '+' || t[i] == '-')) i++;         /* lstrip("+-") */
     const char *rest = t + i;
-    Py_ssize_t rn = m - i;
-    const char *dot = memchr(rest, '.', rn);
+    Py_ssize_t rn = m > i ? m - i : 0;                          /* (i <= m; written so gcc sees rn >= 0) */
+    const char *dot = memchr(rest, '.', (size_t)rn);
     Py_ssize_t wn = dot ? dot - rest : rn;
     const char *frac = dot ? dot + 1 : rest + rn;
     Py_ssize_t fn = dot ? rn - wn - 1 : 0;

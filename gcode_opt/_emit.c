@@ -181,6 +181,86 @@ static inline Py_ssize_t dec_value_nl(const char *p, int *dec, double *v)
     return dec_value_in(p, 0, dec, v, 1);
 }
 
+/* PAIR[b0 | b1 << 8], the bytes p[0] p[1] as digit_pairs reads them (_reader.c's RUN, a
+   copy: the two modules are separate .so files): the number two digits make (0 to 99: "07"
+   is 7), PAIR_ONE + d where b0 is a digit d and b1 is not (the run ends after it), PAIR_END
+   where b0 is not a digit.  One load and one test a pair of digits, the run's end read from
+   the same load.  Built at the module's load (pair_table_init). */
+enum { PAIR_ONE = 100, PAIR_END = 110 };
+static unsigned char PAIR[1 << 16];
+
+static void pair_table_init(void)
+{
+    memset(PAIR, PAIR_END, sizeof PAIR);
+    for (int b1 = 0; b1 < 256; b1++)
+        for (int d0 = 0; d0 < 10; d0++) {
+            unsigned d1 = (unsigned)b1 - '0';
+            PAIR[('0' + d0) | (b1 << 8)] = (unsigned char)(d1 <= 9 ? (unsigned)d0 * 10 + d1 : (unsigned)(PAIR_ONE + d0));
+        }
+}
+
+/* p[0] | p[1] << 8: PAIR's index, one 16-bit load where the bytes are little-endian (gcc
+   made two byte loads, a shift and an or of the two reads) */
+static inline __attribute__((always_inline)) unsigned pair_index(const char *p)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    uint16_t w;
+    memcpy(&w, p, sizeof w);
+    return w;
+#else
+    return (unsigned char)p[0] | (unsigned)(unsigned char)p[1] << 8;
+#endif
+}
+
+/* the run of digits at p[i]: the index past it, the digits appended to *m (m * 10 + d a
+   digit, wrapping as that does: m * 100 + the pair's number is the same).  Reads the byte
+   after the run's end: past a '\n' that ends it, the caller makes sure that is readable. */
+static inline __attribute__((always_inline)) Py_ssize_t digit_pairs(const char *p, Py_ssize_t i, uint64_t *m)
+{
+    uint64_t v = *m;
+    unsigned t;
+    for (;;) {
+        t = PAIR[pair_index(p + i)];
+        if (t >= PAIR_ONE)
+            break;
+        v = v * 100u + t;
+        i += 2;
+    }
+    if (t < PAIR_END) {                           /* a last digit */
+        v = v * 10u + (t - PAIR_ONE);
+        i++;
+    }
+    *m = v;
+    return i;
+}
+
+/* dec_value_nl's reading (the same length, decimals and double) with the digits read two
+   at a time: the byte after the text's '\n' must be readable (digit_pairs) */
+static inline __attribute__((always_inline)) Py_ssize_t dec_value_pairs(const char *p, int *dec, double *v)
+{
+    int neg = p[0] == '-';
+    Py_ssize_t i0 = neg, nf = 0;
+    uint64_t m = 0;                               /* (wraps past 19 digits: then unused) */
+    Py_ssize_t i = digit_pairs(p, i0, &m);
+    Py_ssize_t nd = i - i0;
+    *dec = 0;
+    if (p[i] == '.') {
+        Py_ssize_t f0 = i + 1;
+        i = digit_pairs(p, f0, &m);
+        nf = i - f0;
+        *dec = (int)nf;
+    }
+    if (nd + nf == 0)
+        return -1;
+    if (nd + nf <= 15) {                          /* to_double's fast path: the same division */
+        double x = (double)(int64_t)m;
+        if (nf) x = x / POW10[nf];
+        *v = neg ? -x : x;
+    } else
+        *v = to_double(p, i);
+    return i;
+}
+
 /* growable byte buffer */
 typedef struct { char *p; Py_ssize_t n, cap; } Buf;
 
@@ -598,8 +678,8 @@ static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
     Py_ssize_t i = 0;
     while (i < m && (t[i] == '+' || t[i] == '-')) i++;         /* lstrip("+-") */
     const char *rest = t + i;
-    Py_ssize_t rn = m - i;
-    const char *dot = memchr(rest, '.', rn);
+    Py_ssize_t rn = m > i ? m - i : 0;                          /* (i <= m; written so gcc sees rn >= 0) */
+    const char *dot = memchr(rest, '.', (size_t)rn);
     Py_ssize_t wn = dot ? dot - rest : rn;
     const char *frac = dot ? dot + 1 : rest + rn;
     Py_ssize_t fn = dot ? rn - wn - 1 : 0;
@@ -1504,9 +1584,11 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
    the run of [-.0-9] there is a plain decimal (read whole: dec_value's length, and no
    [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value.  p[n] is a
    plain_line's line end (its '\n', or a '\r' before it): the number is read up to it. */
-static inline Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v)
+static inline __attribute__((always_inline)) Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v,
+                                                                 const int pairs)
 {
-    Py_ssize_t k = dec_value_nl(p, dec, v);      /* (plain_line's lines: a '\n' at p[n] or before) */
+    /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable) */
+    Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v) : dec_value_nl(p, dec, v);
     if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
         return -1;
     return k;
@@ -1537,22 +1619,23 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
    E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
    the line's last: the Python reading).  The line is p[0..m) and p[m] its '\n' (num_word
    reads a number up to it, without a bound). */
-static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
-                      double *v)
+static inline __attribute__((always_inline)) int plain_line_in(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e,
+                                                              Txt *c, int *dx, int *dy, int *de, double *v,
+                                                              const int pairs)
 {
     Py_ssize_t i, xn, yn, en = 0;
     if (m < 4 || memcmp(p, "G1 X", 4) != 0)
         return 0;
     i = 4;
     x->p = p + i;
-    if ((xn = num_word(p + i, m - i, dx, &v[0])) < 0)
+    if ((xn = num_word(p + i, m - i, dx, &v[0], pairs)) < 0)
         return 0;
     i += xn;
     if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y')
         return 0;
     i += 2;
     y->p = p + i;
-    if ((yn = num_word(p + i, m - i, dy, &v[1])) < 0)
+    if ((yn = num_word(p + i, m - i, dy, &v[1], pairs)) < 0)
         return 0;
     i += yn;
     e->p = NULL;
@@ -1560,7 +1643,7 @@ static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *
     if (i + 1 < m && p[i] == ' ' && p[i + 1] == 'E') {
         i += 2;
         e->p = p + i;
-        if ((en = num_word(p + i, m - i, de, &v[2])) < 0)
+        if ((en = num_word(p + i, m - i, de, &v[2], pairs)) < 0)
             return 0;
         i += en;
     }
@@ -1581,6 +1664,17 @@ static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *
     y->n = yn;
     e->n = en;
     return 1;
+}
+
+/* plain_line_in reading digits two at a time where that may read the byte after the line's
+   '\n' (p[m + 1]): it is in the page of p[m] (a page is 4 KiB or a multiple of it), else a
+   digit at a time */
+static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
+                      double *v)
+{
+    if (((uintptr_t)(p + m + 1) & 4095u) != 0)
+        return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, 1);
+    return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, 0);
 }
 
 static double arg_double(PyObject *o, int *bad)
@@ -1922,6 +2016,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     double e_sum = 0.0, e_abs = 0.0, e_last = 0.0;
     Py_ssize_t n_e = 0;
     const char *p = d + start, *end = d + stop;
+    double v[3] = {0.0, 0.0, 0.0};                /* a line's x, y and e (e: with an E word) */
     for (Py_ssize_t k = 0; k < n; k++) {
         if (p >= end)
             goto decline;
@@ -1933,7 +2028,6 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
             goto decline;
         int dx, dy, de;
-        double v[3];
         if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de, v))
             goto decline;
         if (dx > dec_xy) dec_xy = dx;
@@ -2165,14 +2259,23 @@ static int names_ready(void)
    descriptor found on the type (a __slots__ member, a C getter, a property) before anything
    else and returns its __get__(o, type).  The descriptor found is kept with the type's
    version tag, which Python changes whenever the type or a base is modified: a stale entry
-   is never used.  Other types and names: PyObject_GetAttr. */
+   is never used.  Other types and names: PyObject_GetAttr.
+   Two descriptors are read without their __get__ (~17 reads a stroke): an object member
+   (a __slots__ slot, T_OBJECT_EX) by its offset, as member_get reads it when set (unset:
+   __get__, for its AttributeError); a C getter (StrokeBase's doubles) called as getset_get
+   calls it.  Both only where __get__'s own type check passed for the type when the slot was
+   filled (the type's MRO is part of what its tag stands for). */
 #if PY_VERSION_HEX >= 0x030A0000 && PY_VERSION_HEX < 0x030E0000 && !defined(Py_GIL_DISABLED)
 #define ATTR_CACHE 1
+#include <structmember.h>           /* T_OBJECT_EX, READONLY */
 typedef struct {
     PyTypeObject *type;             /* (not a reference: compared, and used only while tag holds) */
     unsigned int tag;
     PyObject *descr;                /* borrowed from the type's dict, valid while tag holds */
     descrgetfunc get;
+    Py_ssize_t slot_off;            /* > 0: an object member at this offset in the object, else 0 */
+    getter gs_get;                  /* a C getter (with gs_closure), else NULL */
+    void *gs_closure;
 } AttrSlot;
 #define ATTR_WAYS 4
 static AttrSlot ATTR_SLOTS[N_NAMES][ATTR_WAYS];   /* a name read on a few types (Stroke, SegmentPlan, RowPlan) */
@@ -2192,13 +2295,42 @@ static inline PyObject *descr_get(PyObject *d, descrgetfunc get, PyObject *o)
     return r;
 }
 
+/* at's direct read of d (its member's offset, or its C getter) where d.__get__(o, type(o))
+   is exactly that read for o's type; else neither */
+static void fill_direct(AttrSlot *at, PyObject *d, PyObject *o)
+{
+    at->slot_off = 0;
+    at->gs_get = NULL;
+    at->gs_closure = NULL;
+    if (!PyObject_TypeCheck(o, PyDescr_TYPE(d)))
+        return;
+    if (Py_IS_TYPE(d, &PyMemberDescr_Type)) {
+        PyMemberDef *mb = ((PyMemberDescrObject *)d)->d_member;
+        if (mb->type == T_OBJECT_EX && (mb->flags & ~READONLY) == 0 && mb->offset > 0)
+            at->slot_off = mb->offset;
+    } else if (Py_IS_TYPE(d, &PyGetSetDescr_Type)) {
+        PyGetSetDef *gs = ((PyGetSetDescrObject *)d)->d_getset;
+        if (gs->get != NULL) {
+            at->gs_get = gs->get;
+            at->gs_closure = gs->closure;
+        }
+    }
+}
+
 static PyObject *get_attr(PyObject *o, int name)
 {
     PyTypeObject *tp = Py_TYPE(o);
     AttrSlot *sl = ATTR_SLOTS[name];
     for (int k = 0; k < ATTR_WAYS; k++)
-        if (sl[k].type == tp && tag_valid(tp, sl[k].tag))
+        if (sl[k].type == tp && tag_valid(tp, sl[k].tag)) {
+            if (sl[k].slot_off > 0) {
+                PyObject *v = *(PyObject **)((char *)o + sl[k].slot_off);
+                if (v != NULL)
+                    return Py_NewRef(v);
+            } else if (sl[k].gs_get != NULL)
+                return sl[k].gs_get(o, sl[k].gs_closure);
             return descr_get(sl[k].descr, sl[k].get, o);
+        }
     if (tp->tp_getattro == PyObject_GenericGetAttr) {
         PyObject *d = _PyType_Lookup(tp, NAMES[name]);      /* (borrowed; gives the type a tag) */
         if (d != NULL && Py_TYPE(d)->tp_descr_get != NULL && Py_TYPE(d)->tp_descr_set != NULL
@@ -2213,6 +2345,7 @@ static PyObject *get_attr(PyObject *o, int name)
             at->tag = tp->tp_version_tag;
             at->descr = d;
             at->get = Py_TYPE(d)->tp_descr_get;
+            fill_direct(at, d, o);
             return descr_get(d, at->get, o);
         }
     }
@@ -2757,6 +2890,20 @@ static PyObject *dec_read(PyObject *self, PyObject *o)
     return r;
 }
 
+/* attr_read(o, name): get_attr's read of one of NAME_TEXT's names (tests) */
+static PyObject *attr_read(PyObject *self, PyObject *args)
+{
+    PyObject *o;
+    const char *nm;
+    if (!PyArg_ParseTuple(args, "Os", &o, &nm) || names_ready() < 0)
+        return NULL;
+    for (int k = 0; k < N_NAMES; k++)
+        if (strcmp(nm, NAME_TEXT[k]) == 0)
+            return get_attr(o, k);
+    PyErr_Format(PyExc_ValueError, "attr_read: %s is not one of get_attr's names", nm);
+    return NULL;
+}
+
 /* line_read(text): plain_line on an ASCII line without its "\n": None (not plain), or
    (x_text, y_text, e_text or None, comment, dx, dy, de, x, y, e or None) */
 static PyObject *line_read(PyObject *self, PyObject *o)
@@ -2767,16 +2914,25 @@ static PyObject *line_read(PyObject *self, PyObject *o)
         PyErr_SetString(PyExc_TypeError, "line_read: an ASCII str");
         return NULL;
     }
-    char *line = PyMem_Malloc(m + 1);            /* the line and its '\n', as block_into gives it */
-    if (line == NULL)
+    char *line = PyMem_Malloc(m + 2);            /* the line and its '\n', as block_into gives it, */
+    if (line == NULL)                            /* and the byte after it */
         return PyErr_NoMemory();
     memcpy(line, p, m);
     line[m] = '\n';
-    Txt x, y, e, c;
-    int dx, dy, de;
-    double v[3] = {0.0, 0.0, 0.0};
+    line[m + 1] = '7';
+    Txt x, y, e, c, x1 = {0}, y1 = {0}, e1 = {0}, c1 = {0};
+    int dx, dy, de, dx1 = 0, dy1 = 0, de1 = 0;
+    double v[3] = {0.0, 0.0, 0.0}, v1[3] = {0.0, 0.0, 0.0};
     PyObject *r = NULL;
-    if (!plain_line(line, m, &x, &y, &e, &c, &dx, &dy, &de, v))
+    int ok = plain_line_in(line, m, &x, &y, &e, &c, &dx, &dy, &de, v, 1);
+    int ok1 = plain_line_in(line, m, &x1, &y1, &e1, &c1, &dx1, &dy1, &de1, v1, 0);
+    if (ok != ok1 || (ok && (x.n != x1.n || y.n != y1.n || e.p != e1.p || e.n != e1.n || c.p != c1.p || c.n != c1.n
+                             || dx != dx1 || dy != dy1 || de != de1 || memcmp(v, v1, sizeof v) != 0))) {
+        PyMem_Free(line);
+        PyErr_SetString(PyExc_AssertionError, "line_read: the pair reading and the digit reading differ");
+        return NULL;
+    }
+    if (!ok)
         r = Py_NewRef(Py_None);
     else {
         PyObject *et = e.p ? ascii_str(e.p, e.n) : Py_NewRef(Py_None);
@@ -2883,6 +3039,7 @@ static PyMethodDef mod_methods[] = {
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
+    {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
@@ -2913,6 +3070,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_emit(void)
     PyObject *m = PyModule_Create(&emit_module);
     if (m == NULL)
         return NULL;
+    pair_table_init();
     if (PyModule_AddStringConstant(m, "SOURCE_SHA256", EMIT_SOURCE_SHA256) < 0) {
         Py_DECREF(m);
         return NULL;

@@ -1992,6 +1992,16 @@ static PyObject *tod_prep(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* active_step's multiplier of the binding vertex before piece p + 1 (chain r of the step):
+   mug's (binding vertex p - r of the step, in order), else the jump of s̈ over scale, 0
+   unless below -mu_tol */
+static inline double as_multiplier(const double *mug, const double *a0, const double *a1, int64_t p, Py_ssize_t r,
+                                   double scale, double mu_tol) {
+    if (mug) return mug[p - r];
+    double m = (a0[p + 1] - a1[p]) / scale;
+    return m < -mu_tol ? m : 0.0;
+}
+
 /* active_step(vi, rank_off, bv, vert_v, cv, a0, a1, koff, mu, hist, cap_f, mu_tol, last, new, done, cyc,
                bound, vt, vert_t, warm, active) -> 0
    One step of laws/chain.solve_flat's active-set bookkeeping, chain by chain (each chain's
@@ -2082,22 +2092,29 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
         hist[h] = hb[h].buf;
     }
     uint8_t *bvbuf = NULL;
-    if (nh == H && !PyErr_Occurred() && !bv_given) {     /* this step's masks: hist[-1] at vi */
+    const uint8_t *cur = NULL;                          /* bv not given: this step's masks, hist[-1] at vi */
+    if (nh == H && !PyErr_Occurred() && !bv_given) {
         bvbuf = PyMem_Malloc(n ? n : 1);
         if (!bvbuf) PyErr_NoMemory();
         else {
-            const uint8_t *cur = hist[H - 1];
-            for (Py_ssize_t q = 0; q < n; q++) bvbuf[q] = cur[vi[q]] != 0;
+            cur = hist[H - 1];
             bv = bvbuf;
         }
     }
     PyObject *ret = NULL;                               /* (NULL: an exception set) */
     if (nh < H || PyErr_Occurred()) goto out;
-    /* binding vertices per chain = pieces - 1 */
+    /* binding vertices per chain = pieces - 1 (bvbuf made in the same pass) */
     Py_ssize_t nbt = 0;
     for (Py_ssize_t r = 0; ok && r < na; r++) {
         Py_ssize_t nb = 0;
-        for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
+        if (cur)
+            for (int64_t q = roff[r]; q < roff[r + 1]; q++) {
+                uint8_t x = cur[vi[q]] != 0;
+                bvbuf[q] = x;
+                nb += x;
+            }
+        else
+            for (int64_t q = roff[r]; q < roff[r + 1]; q++) nb += bv[q] != 0;
         ok = nb == koff[r + 1] - koff[r] - 2;
         nbt += nb;
     }
@@ -2109,26 +2126,26 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
     for (Py_ssize_t r = 0; r < na; r++) {
         int64_t q0 = roff[r], q1 = roff[r + 1];
         int64_t p0 = koff[r] - r, p1 = koff[r + 1] - r - 1;        /* pieces p0 .. p1 - 1 */
-        double scale = 0.0;
-        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a0[p]));
-        for (int64_t p = p0; p < p1; p++) scale = np_max(scale, fabs(a1[p]));
-        scale = np_max(scale, 1e-9);
+        /* the largest |a0| and |a1| in one pass: np_max's running maximum of values >= +0 is
+           the largest whatever the order; with a nan, the first nan of a0's run, else of a1's,
+           as the two runs one after the other give */
+        double sc0 = 0.0, sc1 = 0.0;
+        for (int64_t p = p0; p < p1; p++) {
+            sc0 = np_max(sc0, fabs(a0[p]));
+            sc1 = np_max(sc1, fabs(a1[p]));
+        }
+        double scale = np_max(np_max(sc0, sc1), 1e-9);
         int any_viol = 0, any_neg = 0;
         double mu_min = 0.0;
         int64_t worst = -1;
         int64_t p = p0;                                  /* the piece after the next binding vertex: p + 1 */
         for (int64_t q = q0; q < q1; q++) {
             if (bv[q]) {
-                double m;
-                if (mug) m = mug[p - r];                 /* binding vertex p - r of the step, in order */
-                else {
-                    m = (a0[p + 1] - a1[p]) / scale;
-                    m = m < -mu_tol ? m : 0.0;
-                }
+                double m = as_multiplier(mug, a0, a1, p, r, scale, mu_tol);
                 p++;
                 if (m < 0) any_neg = 1;
                 if (worst < 0 || m < mu_min) { mu_min = m; worst = q; }
-                nw[q] = 2 | (m < 0);                     /* binding; bit 0: negative multiplier */
+                nw[q] = 1;                               /* binding (released below where rel) */
             } else {
                 int viol = vv[q] > cv[vi[q]] * cap_f + 1e-12;
                 any_viol |= viol;
@@ -2136,8 +2153,14 @@ static PyObject *active_step(PyObject *self, PyObject *a) {
             }
         }
         int rel = !any_viol && any_neg;
-        for (int64_t q = q0; q < q1; q++)                /* new = bv | viol, less the released */
-            nw[q] = (nw[q] & 2) ? !(rel && (nw[q] & 1)) : nw[q];
+        if (rel) {                                       /* new = bv | viol, less the released: */
+            p = p0;                                      /* the negative multipliers' (again, the same m) */
+            for (int64_t q = q0; q < q1; q++)
+                if (bv[q]) {
+                    nw[q] = !(as_multiplier(mug, a0, a1, p, r, scale, mu_tol) < 0);
+                    p++;
+                }
+        }
         int moving = any_viol || any_neg;
         int seen = 0;
         if (rel || moving) {

@@ -2363,28 +2363,44 @@ VEC_CLONES static void fig_c_vec(Py_ssize_t N, const double *restrict T, const d
         FIG_C_ELEM(T[i], gs[i], rho[i], kog[i], r[i], atc[i], tau[i], za[i], zb[i], zx[i]);
 }
 
+/* a tuple of nargs buffers of 8-byte items, the ones from first_out on writable: p, nn */
+static int at_args(PyObject *a, int nargs, int first_out, const char *name, Bufs *b, void **p, Py_ssize_t *nn) {
+    if (!PyTuple_Check(a) || PyTuple_GET_SIZE(a) != nargs) {
+        PyErr_Format(PyExc_TypeError, "%s: arguments", name);
+        return 0;
+    }
+    for (int q = 0; q < nargs; q++) {
+        p[q] = get(b, PyTuple_GET_ITEM(a, q), 8, q >= first_out, &nn[q]);
+        if (!p[q]) return 0;
+    }
+    return 1;
+}
+
+/* chains' first pieces: poff[0] = 0, poff[nc] = N, each chain at least one piece */
+static int chain_offsets_ok(const int64_t *poff, Py_ssize_t nc, Py_ssize_t N) {
+    if (nc >= 0 && (poff[0] != 0 || poff[nc] != N))
+        return 0;
+    for (Py_ssize_t c = 0; c < nc; c++)
+        if (poff[c + 1] <= poff[c]) return 0;
+    return 1;
+}
+
 /* fig_d(tau, pa, pb, shx, n, sh2, wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v per
    chain>): eval(t, "v") at the critical t (g = bub / 2n, h = 2x shx / sh2), the candidates'
    max and min (np.maximum.reduce / np.minimum.reduce of (vs, ve, vc)), each chain's
    (np.maximum.reduceat / np.minimum.reduceat over poff: from its first piece, in order). */
 static PyObject *fig_d(PyObject *self, PyObject *a) {
-    PyObject *o[15];
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
-                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
-        return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t nn[15];
-    double *p[15];
-    for (int q = 0; q < 15; q++) {
-        p[q] = get(&b, o[q], 8, q >= 13, &nn[q]);
-        if (!p[q]) { release(&b); return NULL; }
-    }
+    void *pv[15];
+    if (!at_args(a, 15, 13, "fig_d", &b, pv, nn)) { release(&b); return NULL; }
+    double *p[15];                            /* (typed: the code below steps through them) */
+    for (int q = 0; q < 15; q++) p[q] = pv[q];
     Py_ssize_t N = nn[0], nc = nn[12] - 1;
     int ok = nc >= 0 && nn[13] == nc && nn[14] == nc;
     for (int q = 1; q < 12; q++) ok = ok && nn[q] == N;
     const int64_t *poff = (const int64_t *)p[12];
-    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
-    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    ok = ok && chain_offsets_ok(poff, nc, N);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "fig_d: shapes");
@@ -2478,23 +2494,17 @@ VEC_CLONES static void need_bounds(Py_ssize_t N, const double *restrict T, const
 /* fig_need(T, gs, rho, kog, r, n, sh2, wbar, delta, A, vs, ve, poff, <outs: idx (int64), rsub>)
    -> k: the needed pieces (ascending) in idx[:k], their r in rsub[:k] (see above) */
 static PyObject *fig_need(PyObject *self, PyObject *a) {
-    PyObject *o[15];
-    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
-                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14]))
-        return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t nn[15];
-    double *p[15];
-    for (int q = 0; q < 15; q++) {
-        p[q] = get(&b, o[q], 8, q >= 13, &nn[q]);
-        if (!p[q]) { release(&b); return NULL; }
-    }
+    void *pv[15];
+    if (!at_args(a, 15, 13, "fig_need", &b, pv, nn)) { release(&b); return NULL; }
+    double *p[15];                            /* (typed: the code below steps through them) */
+    for (int q = 0; q < 15; q++) p[q] = pv[q];
     Py_ssize_t N = nn[0], nc = nn[12] - 1;
     int ok = nc >= 0 && nn[13] == N && nn[14] == N;
     for (int q = 1; q < 12; q++) ok = ok && nn[q] == N;
     const int64_t *poff = (const int64_t *)p[12];
-    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
-    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    ok = ok && chain_offsets_ok(poff, nc, N);
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "fig_need: shapes");
@@ -2554,23 +2564,12 @@ static PyObject *fig_need(PyObject *self, PyObject *a) {
    (fig_c_at(idx, T, gs, rho, kog, r, atc_k, <outs: tau, za, zb, zx of k>); the full arrays
    read at idx) and fig_d with only their vc (fig_d_at(idx, tau, pa, pb, shx of k, n, sh2,
    wbar, A, delta, T, vs, ve, poff, <outs: peak_v, min_v>): the others' vc left out) */
-static int at_args(PyObject *a, int nargs, const char *name, Bufs *b, void **p, Py_ssize_t *nn) {
-    if (PyTuple_GET_SIZE(a) != nargs) {
-        PyErr_Format(PyExc_TypeError, "%s: arguments", name);
-        return 0;
-    }
-    for (int q = 0; q < nargs; q++) {
-        p[q] = get(b, PyTuple_GET_ITEM(a, q), 8, 1, &nn[q]);
-        if (!p[q]) return 0;
-    }
-    return 1;
-}
 
 static PyObject *fig_c_at(PyObject *self, PyObject *a) {
     Bufs b = {.n = 0};
     Py_ssize_t nn[11];
     void *p[11];
-    if (!at_args(a, 11, "fig_c_at", &b, p, nn)) { release(&b); return NULL; }
+    if (!at_args(a, 11, 0, "fig_c_at", &b, p, nn)) { release(&b); return NULL; }
     Py_ssize_t k = nn[0], N = nn[1];
     int ok = 1;
     for (int q = 2; q < 6; q++) ok = ok && nn[q] == N;
@@ -2596,14 +2595,13 @@ static PyObject *fig_d_at(PyObject *self, PyObject *a) {
     Bufs b = {.n = 0};
     Py_ssize_t nn[16];
     void *p[16];
-    if (!at_args(a, 16, "fig_d_at", &b, p, nn)) { release(&b); return NULL; }
+    if (!at_args(a, 16, 0, "fig_d_at", &b, p, nn)) { release(&b); return NULL; }
     Py_ssize_t k = nn[0], N = nn[5], nc = nn[13] - 1;
     int ok = nc >= 0 && nn[14] == nc && nn[15] == nc;
     for (int q = 1; q < 5; q++) ok = ok && nn[q] == k;
     for (int q = 5; q < 13; q++) ok = ok && nn[q] == N;
     const int64_t *idx = p[0], *poff = p[13];
-    ok = ok && (nc < 0 || (poff[0] == 0 && poff[nc] == N));
-    for (Py_ssize_t c = 0; ok && c < nc; c++) ok = poff[c + 1] > poff[c];
+    ok = ok && chain_offsets_ok(poff, nc, N);
     for (Py_ssize_t j = 0; ok && j < k; j++) ok = idx[j] >= 0 && idx[j] < N && (j == 0 || idx[j] > idx[j - 1]);
     if (!ok) {
         release(&b);

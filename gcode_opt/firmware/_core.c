@@ -6585,6 +6585,33 @@ static inline Py_ssize_t least_pair(const double *T, const double *I, Py_ssize_t
     return j;
 }
 
+/* least_pair's choice j with least_two's margin (*mo, *to) and what a later lambda's test
+   reads kept in rq: the second least cost, the choice's T and its I (the row's own
+   last T, I where j = w) */
+static inline Py_ssize_t least_kept(const double *tr, const double *ir, Py_ssize_t w, double t_last,
+                                    double i_last, double lam, double margin_r, double *mo, double *to,
+                                    double *rq)
+{
+    double c1;
+    Py_ssize_t j = least_pair(tr, ir, w, t_last, i_last, lam, &c1, rq);
+    *mo = isinf(rq[0]) ? INFINITY : rq[0] - c1;
+    *to = margin_r * (fabs(c1) + fabs(rq[0]));
+    rq[1] = j < w ? tr[j] : t_last;
+    rq[2] = j < w ? ir[j] : i_last;
+    return j;
+}
+
+/* row r's candidates lie inside the table (else IndexError "<name>: row out of range") */
+static inline int alloc_row_ok(Py_ssize_t r, Py_ssize_t n, const Py_ssize_t *first, const Py_ssize_t *cnt,
+                               Py_ssize_t nnz, const char *name)
+{
+    if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
+        PyErr_Format(PyExc_IndexError, "%s: row out of range", name);
+        return 0;
+    }
+    return 1;
+}
+
 static inline Py_ssize_t least_two(const double *T, const double *I, Py_ssize_t w, double t_last, double i_last,
                                    double lam, double margin_r, double *margin, double *tol)
 {
@@ -6683,23 +6710,15 @@ static PyObject *mod_alloc_rows(PyObject *self, PyObject *args)
     double *mo = (double *)mb.buf, *to = (double *)ob.buf, *dT = (double *)db.buf;
     for (Py_ssize_t q = 0; q < m; q++) {
         Py_ssize_t r = rows[q];
-        if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
-            PyErr_SetString(PyExc_IndexError, "alloc_rows: row out of range");
+        if (!alloc_row_ok(r, n, first, cnt, nnz, "alloc_rows"))
             goto done;
-        }
         const double *tr = T + first[r], *ir = I + first[r];
         Py_ssize_t w = cnt[r];
         Py_ssize_t j;
         if (so == NULL) {
             j = least_two(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q);
         } else {              /* least_two's values, and the second least and the choice's T, I kept */
-            double c1, c2;
-            j = least_pair(tr, ir, w, T_orig[r], I_orig[r], lam, &c1, &c2);
-            mo[q] = isinf(c2) ? INFINITY : c2 - c1;
-            to[q] = margin_r * (fabs(c1) + fabs(c2));
-            so[3 * q] = c2;
-            so[3 * q + 1] = j < w ? tr[j] : T_orig[r];
-            so[3 * q + 2] = j < w ? ir[j] : I_orig[r];
+            j = least_kept(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q, so + 3 * q);
         }
         jo[q] = j;
         dT[r] = (j < w ? tr[j] : T_orig[r]) - T_orig[r];
@@ -6771,19 +6790,12 @@ static PyObject *mod_alloc_rise(PyObject *self, PyObject *args)
             continue;
         }
         Py_ssize_t r = rows[q];
-        if (r < 0 || r >= n || first[r] < 0 || cnt[r] < 0 || first[r] > nnz - cnt[r]) {
-            PyErr_SetString(PyExc_IndexError, "alloc_rise: row out of range");
+        if (!alloc_row_ok(r, n, first, cnt, nnz, "alloc_rise"))
             goto done;
-        }
         const double *tr = T + first[r], *ir = I + first[r];
         Py_ssize_t w = cnt[r];
-        double c1;
-        Py_ssize_t j = least_pair(tr, ir, w, T_orig[r], I_orig[r], lam, &c1, rq);
-        mo[q] = isinf(rq[0]) ? INFINITY : rq[0] - c1;           /* least_two's */
-        to[q] = margin_r * (fabs(c1) + fabs(rq[0]));
+        Py_ssize_t j = least_kept(tr, ir, w, T_orig[r], I_orig[r], lam, margin_r, mo + q, to + q, rq);
         jo[q] = j;
-        rq[1] = j < w ? tr[j] : T_orig[r];
-        rq[2] = j < w ? ir[j] : I_orig[r];
         dT[r] = rq[1] - T_orig[r];
         costed++;
     }

@@ -579,6 +579,18 @@ static inline int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
     return read_words_gen(s, n, k, letters, w);
 }
 
+/* read_words with usual_words' loop inlined (fused_line_ascii's G0/G1: that function saves
+ * every register already, the call's own saves and moves are the cost) */
+static inline __attribute__((always_inline)) int read_words_inl(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
+                                                                unsigned letters, Words *w)
+{
+#ifdef FAST_DECIMAL
+    if (k < n && s[n - 1] == '\n' && past_readable(s, n) && usual_words_in(s, n, k, letters, w, 1) == 0)
+        return 0;
+#endif
+    return read_words(s, n, k, letters, w);
+}
+
 static inline int word(const Words *w, char c, double *out)
 {
     if (!(w->seen & LETTER(c)))
@@ -1249,7 +1261,7 @@ other:
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | Lines line_ascii peek_ascii lf 6"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -1433,7 +1445,7 @@ static int sess_m204(Session *ss, const Words *w)
  * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
  * reads the line). */
 #ifdef FAST_DECIMAL
-static int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
 {
     /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
     if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
@@ -1568,12 +1580,90 @@ static int fused_line(void *p, PyObject *raw, FusedMove *out)
  * decodes to has these bytes): the firmware core's play_buf reads its lines from bytes
  * without a str each (one is made only where this returns 2: step() reads the line).
  * lf: the line holds no CR (line_shape's). */
+static inline __attribute__((always_inline)) int fused_line_body(Session *ss, const unsigned char *s, Py_ssize_t n,
+                                                                 int lf, FusedMove *out);
+
 static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, FusedMove *out)
 {
     Session *ss = p;
     if (ss->off)
         return 2;
-    const unsigned char *s = (const unsigned char *)line;
+    return fused_line_body(ss, (const unsigned char *)line, n, lf, out);
+}
+
+#ifdef __SSE2__
+/* fused_run: fused_line_ascii over the lines of buf[*pos..len) (whole lines, none holding a
+ * CR: play_buf's buffer), for the firmware core's play loop, each move handed to
+ * on_move(ctx, idx, fm) from here: one call a run of lines, not one a line.  It reads line
+ * *idx, *idx + 1 ... (*pos and *idx moved past each line it reads) and stops before line
+ * `limit`, or before a line it leaves to the loop's own steps (not ASCII, or no '\n' in the
+ * 16-byte blocks left: the lines and the ASCII test are src_next_buf's); after a line
+ * fused_line_ascii returns 2 for (RUN_STEP: *line, *n that line, for step()), or an E-only
+ * move where stop_eonly (RUN_STOP).  RUN_MORE where it stopped before a line; -1 on error. */
+enum { RUN_MORE = 0, RUN_STEP = 2, RUN_STOP = 3 };
+
+static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
+                           long long limit, int stop_eonly,
+                           int (*on_move)(void *ctx, long long idx, const FusedMove *fm), void *ctx,
+                           const char **line, Py_ssize_t *n_out)
+{
+    Session *ss = p;
+    if (ss->off)
+        return RUN_MORE;
+    const char *a = buf + *pos, *end = buf + len;
+    long long i = *idx;
+    const __m128i nl16 = _mm_set1_epi8('\n');
+    int rc = RUN_MORE;
+    while (i < limit) {
+        const char *e = NULL;
+        unsigned high = 0;
+        for (const char *q = a; end - q >= 16; q += 16) {
+            __m128i v = _mm_loadu_si128((const __m128i *)q);
+            unsigned nl = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(v, nl16));
+            unsigned hb = (unsigned)_mm_movemask_epi8(v);          /* bit j: q[j] >= 0x80 */
+            if (nl != 0) {
+                high |= hb & (nl ^ (nl - 1));                     /* the bytes up to the '\n' */
+                e = q + __builtin_ctz(nl) + 1;
+                break;
+            }
+            high |= hb;
+        }
+        if (e == NULL || high != 0)
+            break;                         /* the loop's own steps read it */
+        FusedMove fm;
+        int got = fused_line_body(ss, (const unsigned char *)a, e - a, 1, &fm);
+        if (got < 0) {
+            rc = -1;
+            break;
+        }
+        const char *l = a;
+        a = e;
+        i++;
+        if (got == 1) {
+            if (on_move(ctx, i - 1, &fm) < 0) {
+                rc = -1;
+                break;
+            }
+            if (stop_eonly && fm.kind == 1) {
+                rc = RUN_STOP;
+                break;
+            }
+        } else if (got == 2) {
+            *line = l;
+            *n_out = e - l;
+            rc = RUN_STEP;
+            break;
+        }
+    }
+    *pos = a - buf;
+    *idx = i;
+    return rc;
+}
+#endif
+
+static inline __attribute__((always_inline)) int fused_line_body(Session *ss, const unsigned char *s, Py_ssize_t n,
+                                                                 int lf, FusedMove *out)
+{
     Py_ssize_t code_n = -1;            /* the code's length: line_shape's, or code_len's where needed */
     if (!command_line(s, n, lf))
         switch (line_shape(s, n, lf, &code_n)) {
@@ -1596,7 +1686,7 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
     /* a command (SHAPE_CODE: n >= 2); read_words reads its code, up to any ';' */
     Words w;
     if (s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words(s, n, 2, G_LETTERS, &w) < 0)
+        if (read_words_inl(s, n, 2, G_LETTERS, &w) < 0)
             goto command;
         if (!ss->live) {
             sess_load(ss);
@@ -1748,6 +1838,9 @@ typedef struct {
     Py_ssize_t (*lines_len)(PyObject *o);
     int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
     int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, int lf, RunMove *rm);
+    int (*run_ascii)(void *session, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
+                     long long limit, int stop_eonly, int (*on_move)(void *ctx, long long idx, const FusedMove *fm),
+                     void *ctx, const char **line, Py_ssize_t *n);   /* NULL: none (no SSE2) */
 } ReaderAPI;
 
 /* ---------------------------------------------------------------- a chunk of lines as bytes
@@ -1834,7 +1927,13 @@ static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
                                      fused_open, fused_line, fused_close,
                                      sizeof(RunMove), fused_peek, fused_commit, fused_line_ascii,
-                                     lines_len, lines_at, fused_peek_ascii};
+                                     lines_len, lines_at, fused_peek_ascii,
+#ifdef __SSE2__
+                                     fused_run_ascii
+#else
+                                     NULL
+#endif
+};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

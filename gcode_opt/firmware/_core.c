@@ -2437,7 +2437,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | Lines line_ascii peek_ascii lf 6"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2466,7 +2466,11 @@ typedef struct {
     Py_ssize_t (*lines_len)(PyObject *o);
     int (*lines_at)(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n);
     int (*peek_ascii)(void *session, const char *line, Py_ssize_t n, int lf, RunMove *rm);
+    int (*run_ascii)(void *session, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
+                     long long limit, int stop_eonly, int (*on_move)(void *ctx, long long idx, const FusedMove *fm),
+                     void *ctx, const char **line, Py_ssize_t *n);   /* NULL: none */
 } ReaderAPI;
+enum { RUN_MORE = 0, RUN_STEP = 2, RUN_STOP = 3 };     /* run_ascii's answers (and -1: error) */
 
 static const ReaderAPI *READER = NULL;
 static PyObject *READER_CAPSULE = NULL;   /* keeps the reader module's capsule alive */
@@ -2738,6 +2742,12 @@ static __attribute__((noinline)) int play_fused(SimObject *s, long long idx, con
     return rc;
 }
 
+/* play_fused as the reader's run_ascii calls it back (a jump to play_fused) */
+static int play_fused_cb(void *s, long long idx, const FusedMove *fm)
+{
+    return play_fused((SimObject *)s, idx, fm);
+}
+
 /* Where play_loop takes its lines: a list of str (lines[i] the file's line idx0 + i), or a
  * bytes buffer of whole lines (play_buf: the lines split and decoded here, as the text
  * file read_lines opens would give them, each str made only for the time its line is
@@ -2965,6 +2975,8 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
     void *ss = fused_session(s, step, &err);
     if (err)
         return -1;
+    /* runs of lines read by the reader's own loop (run_ascii: a call a run, not a line) */
+    int runs = src->list == NULL && ss != NULL && !src->cr && READER->run_ascii != NULL;
     while (src_more(src)) {
         long long idx = src->idx;
         if (idx == until)
@@ -2974,6 +2986,32 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
         PyObject *raw;
         int got = -2;                  /* what the reader's fused line said; -2: not asked */
         FusedMove fm;
+        if (runs) {
+            /* up to the next line the tests above stop at: `until`, or the next watched
+             * range's first line (none where firsts[wi] is behind: this loop never passes it) */
+            long long limit = until > idx ? until : LLONG_MAX;
+            if (wi < nf && firsts[wi] > idx && firsts[wi] < limit)
+                limit = firsts[wi];
+            const char *a;
+            Py_ssize_t n;
+            int r = READER->run_ascii(ss, src->buf, src->len, &src->i, &src->idx, limit, stops, play_fused_cb, s,
+                                      &a, &n);
+            if (r < 0)
+                goto fail_ss;
+            if (r == RUN_STOP) {
+                stopped = 1;
+                break;
+            }
+            if (r == RUN_STEP) {       /* got 2 for line src->idx - 1: step() reads it */
+                idx = src->idx - 1;
+                if ((raw = line_str(a, n, 1)) == NULL)
+                    goto fail_ss;
+                goto python_line;
+            }
+            if (src->idx != idx)
+                continue;              /* lines read: the tests above for the next one */
+            /* (none read: this line is the steps' below) */
+        }
         if (src->list == NULL && ss != NULL) {
             /* from bytes: a line of ASCII is read from its bytes, its str made only if
              * step() must read it (fused_line reads the same bytes from the str) */
@@ -3016,6 +3054,7 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             }
             /* got == 2: the state is written back; a plain SET_VELOCITY_LIMIT is read
              * here (svl_line), any other line by step() */
+        python_line:;
             int h = svl_line(PyMethod_GET_SELF(step), raw);
             if (h < 0)
                 goto fail_raw;

@@ -520,7 +520,8 @@ static inline int past_readable(const unsigned char *s, Py_ssize_t n)
  * loop holds few values (no spills) and tests no general case.  past_ok: digit_run's (a
  * constant in usual_words' two calls). */
 static inline __attribute__((always_inline)) int usual_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
-                                                                unsigned letters, Words *w, const int past_ok)
+                                                                unsigned letters, Words *w, const int past_ok,
+                                                                const int in_order)
 {
     const unsigned char *p = s + k, *end = s + n - 1;
     unsigned seen = 0;
@@ -542,9 +543,11 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
             v = v / POW10[frac];
         w->by[c] = neg ? -v : v;
         seen |= bit;
-        w->letter[nw++] = (char)('A' + c);
+        if (in_order)
+            w->letter[nw++] = (char)('A' + c);
     }
-    w->n = nw;
+    if (in_order)
+        w->n = nw;
     w->seen = seen;
     return 0;
 }
@@ -553,8 +556,8 @@ static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssiz
                                                  Words *w)
 {
     if (past_readable(s, n))
-        return usual_words_in(s, n, k, letters, w, 1);
-    return usual_words_in(s, n, k, letters, w, 0);
+        return usual_words_in(s, n, k, letters, w, 1, 1);
+    return usual_words_in(s, n, k, letters, w, 0, 1);
 }
 #endif
 
@@ -579,16 +582,17 @@ static inline int read_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
     return read_words_gen(s, n, k, letters, w);
 }
 
-/* read_words with usual_words' loop inlined (fused_line_ascii's G0/G1: that function saves
- * every register already, the call's own saves and moves are the cost) */
-static inline __attribute__((always_inline)) int read_words_inl(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
-                                                                unsigned letters, Words *w)
+/* read_words of a G0/G1 (s[0:2], words from s[2]), usual_words' loop inlined (the fused
+ * readers' callers save every register already: the call's own saves and moves were the
+ * cost), the words' order and count not kept where it reads the line (w->letter and w->n:
+ * only an M204's words are read in order) */
+static inline __attribute__((always_inline)) int read_g_words(const unsigned char *s, Py_ssize_t n, Words *w)
 {
 #ifdef FAST_DECIMAL
-    if (k < n && s[n - 1] == '\n' && past_readable(s, n) && usual_words_in(s, n, k, letters, w, 1) == 0)
+    if (2 < n && s[n - 1] == '\n' && past_readable(s, n) && usual_words_in(s, n, 2, G_LETTERS, w, 1, 0) == 0)
         return 0;
 #endif
-    return read_words(s, n, k, letters, w);
+    return read_words(s, n, 2, G_LETTERS, w);
 }
 
 static inline int word(const Words *w, char c, double *out)
@@ -1686,7 +1690,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
     /* a command (SHAPE_CODE: n >= 2); read_words reads its code, up to any ';' */
     Words w;
     if (s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
-        if (read_words_inl(s, n, 2, G_LETTERS, &w) < 0)
+        if (read_g_words(s, n, &w) < 0)
             goto command;
         if (!ss->live) {
             sess_load(ss);
@@ -1772,7 +1776,7 @@ static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, Run
     Words w;
     if (n >= 4 && memcmp(s, "M204", 4) == 0)
         return 3;
-    if (!(s[0] == 'G' && (s[1] == '0' || s[1] == '1')) || read_words(s, n, 2, G_LETTERS, &w) < 0)
+    if (!(s[0] == 'G' && (s[1] == '0' || s[1] == '1')) || read_g_words(s, n, &w) < 0)
         return noop_command(s, code_n >= 0 ? code_n : code_len(s, n)) ? 2 : 0;
     if (!ss->live) {
         sess_load(ss);

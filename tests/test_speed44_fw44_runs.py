@@ -110,3 +110,58 @@ def test_runs_read_the_usual_lines_in_c(tmp_path, monkeypatch):
     monkeypatch.setattr(st.MachineState, "_step_python", counted)
     _run(str(path), PROFILES["prusa-mk3s"](), 1 << 16, False, monkeypatch=monkeypatch)
     assert seen.count("G92 E0\n") == 300 and set(seen) == {"M83\n", "G92 E0\n"}
+
+
+# ---------------------------------------------------------------- read_g_words
+def _value(rng, odd):
+    """A value of the shapes a G1 carries, in range: 1 to 16 digits, the point anywhere or
+    none, a '-' now and then, leading zeros; where odd, now and then one only the general
+    steps read (a '+', a fraction past 15 digits, "-.5")."""
+    k = rng.choice([1, 1, 2, 3, 4, 5, 6, 7, 8, 12, 15, 16])
+    digits = "".join(rng.choice("0123456789") for _ in range(k))
+    p = rng.randint(0, min(len(digits), 5))
+    text = digits[:p] + "." + digits[p:] if rng.random() < 0.8 else digits[:5]
+    if rng.random() < 0.2:
+        text = "-" + text
+    if odd and rng.random() < 0.05:
+        text = rng.choice(["+1.5", "0.12345678901234567890123", "-.5", "00012.50000", "+.25"])
+    return text
+
+
+def _g_lines(rng, n, odd=True):
+    out = ["G21", "G90", "M83", "M204 S1000", ";TYPE:Perimeter"]
+    for _ in range(n):
+        words = [f"X{_value(rng, odd)}", f"Y{_value(rng, odd)}", f"E{_value(rng, odd)}", f"F{rng.randint(100, 9000)}"]
+        rng.shuffle(words)
+        words = words[:rng.randint(1, 4)]
+        out.append("G1 " + " ".join(words) + rng.choice(["", "", "", " ", " ;c", "\t"]))
+        if rng.random() < 0.2:
+            out.append(f"M204 S{rng.randint(100, 3000)}")
+    return out
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_g_words_as_python_measure(tmp_path, seed, monkeypatch):
+    """The measure loop (play_buf: the run's and the per-line fused reader) on G1 lines of
+    every value shape: the Python step's moves, figures and state."""
+    from test_speed36_reader_lines import _python_play
+    rng = random.Random(44100 + seed)
+    path = tmp_path / f"g{seed}.gcode"
+    path.write_text("\n".join(_g_lines(rng, 2000)) + "\n")
+    profile = PROFILES["prusa-mk3s"]()
+    ref = _python_play(str(path), profile, monkeypatch)
+    for size in (50, 1 << 16):
+        assert _run(str(path), profile, size, False, monkeypatch=monkeypatch) == ref, size
+
+
+@pytest.mark.skipif(st._reader is None, reason="the compiled reader is not built")
+@pytest.mark.parametrize("seed", range(2))
+def test_g_words_as_reference_analyse(tmp_path, seed):
+    """analyse's run loop (fused_peek) on the same lines: the reference's strokes and sums
+    (test_speed_analyse2_runs: the line-by-line code)."""
+    from test_speed_analyse2_runs import _same
+    rng = random.Random(44200 + seed)
+    path = tmp_path / f"ga{seed}.gcode"
+    path.write_text("\n".join(_g_lines(rng, 2000, odd=False)) + "\n")
+    _same(str(path), "prusa-mk3s", ringing=False)
+

@@ -532,8 +532,11 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
             return 1;
         int c = p[1] - 'A';
         p += 2;
-        int neg = *p == '-';
-        p += neg;
+        double sign = 1.0;              /* (v * -1.0 is -v, bit for bit: no test of a flag after) */
+        if (__builtin_expect(*p == '-', 0)) {
+            sign = -1.0;
+            p++;
+        }
         unsigned long long m;
         Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, past_ok);
         if ((size_t)(digits - 1) >= 15)
@@ -541,7 +544,7 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
         if (frac > 0)
             v = v / POW10[frac];
-        w->by[c] = neg ? -v : v;
+        w->by[c] = v * sign;
         seen |= bit;
         if (in_order)
             w->letter[nw++] = (char)('A' + c);
@@ -1265,7 +1268,7 @@ other:
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7 | lines_raw 8"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -1845,6 +1848,7 @@ typedef struct {
     int (*run_ascii)(void *session, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
                      long long limit, int stop_eonly, int (*on_move)(void *ctx, long long idx, const FusedMove *fm),
                      void *ctx, const char **line, Py_ssize_t *n);   /* NULL: none (no SSE2) */
+    int (*lines_raw)(PyObject *o, const char **data, const Py_ssize_t **start);
 } ReaderAPI;
 
 /* ---------------------------------------------------------------- a chunk of lines as bytes
@@ -1927,17 +1931,28 @@ static int lines_at(PyObject *o, Py_ssize_t i, const char **line, Py_ssize_t *n)
     return LINE_ASCII | lf;
 }
 
+/* the capsule's: the Lines o's bytes and line starts (line i is data[start[i]..start[i + 1]),
+ * held by o, unchanged while it lives), and lines_at's flags where they are every line's
+ * (LINE_ASCII | LINE_LF where the block has no CR), else 0 (lines_at tests each line) */
+static int lines_raw(PyObject *o, const char **data, const Py_ssize_t **start)
+{
+    LinesObject *b = (LinesObject *)o;
+    *data = PyBytes_AS_STRING(b->data);
+    *start = b->start;
+    return b->ascii ? LINE_ASCII | (b->cr ? 0 : LINE_LF) : 0;
+}
+
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs);
 static const ReaderAPI READER_API = {FUSED_LAYOUT, sizeof(FusedMove), (PyCFunction)(void (*)(void))step,
                                      fused_open, fused_line, fused_close,
                                      sizeof(RunMove), fused_peek, fused_commit, fused_line_ascii,
                                      lines_len, lines_at, fused_peek_ascii,
 #ifdef __SSE2__
-                                     fused_run_ascii
+                                     fused_run_ascii,
 #else
-                                     NULL
+                                     NULL,
 #endif
-};
+                                     lines_raw};
 
 /* An instance method (binds like a Python function) calling step. */
 static PyMethodDef step_def = {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL,

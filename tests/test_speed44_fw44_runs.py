@@ -165,3 +165,58 @@ def test_g_words_as_reference_analyse(tmp_path, seed):
     path.write_text("\n".join(_g_lines(rng, 2000, odd=False)) + "\n")
     _same(str(path), "prusa-mk3s", ringing=False)
 
+
+# ---------------------------------------------------------------- lines_raw
+@pytest.mark.skipif(st._reader is None, reason="the compiled reader is not built")
+@pytest.mark.parametrize("ending", ["\n", "\r\n"])
+def test_lines_raw_chunks_as_reference_analyse(tmp_path, ending, monkeypatch):
+    """run_lines and gap_lines read a Lines block that is all ASCII from its bytes and line
+    starts (lines_raw, no call a line), any other block line by line (lines_at): blocks of
+    ~2 kB, a non-ASCII comment in some, CRLF endings (no block without a CR: lines_at's flags
+    without LINE_LF) -- the reference's strokes and sums."""
+    from test_speed_analyse2_runs import _same
+    rng = random.Random(44300)
+    lines = _g_lines(rng, 3000, odd=False)
+    for k in range(40, len(lines), 397):
+        lines[k] = "; é non-ASCII"
+    path = tmp_path / "raw.gcode"
+    path.write_bytes((ending.join(lines) + ending).encode("utf-8"))
+    monkeypatch.setattr(fw, "CHUNK_HINT", 2000)
+    _same(str(path), "prusa-mk3s", ringing=False)
+
+
+# ---------------------------------------------------------------- the run's line split
+def _short_lines(rng, n):
+    """Short lines, several to a 16-byte block, now and then a byte >= 0x80 anywhere in one
+    (its code too: step() reads it and may refuse it)."""
+    out = [b"G90", b"M83", b"M204 S1000"]
+    for _ in range(n):
+        line = rng.choice([b"M204 S%d" % rng.randint(1, 3000), b"G1 X%d Y%d E.01" % (rng.randint(1, 99), rng.randint(1, 99)),
+                           b";", b"", b"G1 E-.5", b"G1 E.5", b"M107", b";c" * rng.randint(1, 12),
+                           b"G1 X%d.%d" % (rng.randint(1, 99), rng.randint(0, 999))])
+        if line and rng.random() < 0.03:
+            at = rng.randrange(len(line) + 1)
+            line = line[:at] + rng.choice([b"\xc3\xa9", b"\xe9", b"\x80"]) + line[at:]
+        out.append(line)
+    return b"\n".join(out) + b"\n"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_run_split_as_per_line_loop(tmp_path, seed, monkeypatch):
+    """The run reads a 16-byte block once for all the lines in it: the same lines, the same
+    non-ASCII lines left to the per-line steps, the same moves and errors as the per-line
+    loop."""
+    rng = random.Random(44400 + seed)
+    path = str(tmp_path / f"short{seed}.gcode")
+    with open(path, "wb") as fh:
+        fh.write(_short_lines(rng, 3000))
+    profile = PROFILES["prusa-mk3s"]()
+
+    def outcome(ref, size):
+        try:
+            return _run(path, profile, size, ref, None, monkeypatch)
+        except st.GcodeError as e:                    # (a line the reader refuses: the same error)
+            return str(e)
+    ref = outcome(True, 0)
+    for size in (23, 1000, 1 << 16):
+        assert outcome(False, size) == ref, size

@@ -2437,7 +2437,7 @@ static PyObject *Sim_barrier(SimObject *s, PyObject *ev)
 #define FUSED_LAYOUT "FusedMove 1: int kind; double x0 y0 z0 x1 y1 z1 e v accel flow_r; PyObject *lim" \
     " | RunMove 2: FusedMove fm; double e1 v1 speed; int has_f e_rel xyz_rel; PyObject *feature *accel;" \
     " double e0" \
-    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7"
+    " | peek commit 4 | Lines line_ascii peek_ascii lf 6 | run_ascii 7 | lines_raw 8"
 typedef struct {
     int kind;                         /* 0 a line, 1 E only */
     double x0, y0, z0, x1, y1, z1, e, v, accel, flow_r;
@@ -2469,6 +2469,7 @@ typedef struct {
     int (*run_ascii)(void *session, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
                      long long limit, int stop_eonly, int (*on_move)(void *ctx, long long idx, const FusedMove *fm),
                      void *ctx, const char **line, Py_ssize_t *n);   /* NULL: none */
+    int (*lines_raw)(PyObject *o, const char **data, const Py_ssize_t **start);
 } ReaderAPI;
 enum { RUN_MORE = 0, RUN_STEP = 2, RUN_STOP = 3 };     /* run_ascii's answers (and -1: error) */
 
@@ -3133,6 +3134,9 @@ fail_ss:
 typedef struct {
     PyObject *lines;                  /* borrowed */
     Py_ssize_t n_block;               /* a Lines' length; -1: a list */
+    const char *data;                 /* a Lines' bytes and line starts (lines_raw), where all: */
+    const Py_ssize_t *start;
+    int all;                          /* lines_at's flags for every line (a block all ASCII), else 0 */
 } Chunk;
 
 /* 0; 1 without the reader (no line can be read here: the callers return None); -1 with a
@@ -3141,10 +3145,15 @@ static int chunk_of(PyObject *lines, Chunk *c, const char *what)
 {
     c->lines = lines;
     c->n_block = -1;
+    c->all = 0;
     if (READER == NULL)
         return 1;
-    if (PyList_CheckExact(lines) || (c->n_block = READER->lines_len(lines)) >= 0)
+    if (PyList_CheckExact(lines))
         return 0;
+    if ((c->n_block = READER->lines_len(lines)) >= 0) {
+        c->all = READER->lines_raw(lines, &c->data, &c->start);
+        return 0;
+    }
     PyErr_Format(PyExc_TypeError, "%s: cur[0] must be a list of str or the reader's Lines", what);
     return -1;
 }
@@ -3161,6 +3170,11 @@ enum { LINE_ASCII = 1, LINE_LF = 2 };     /* the reader's lines_at flags */
  * it), or'ed with LINE_LF where the line is known to hold no CR (a Lines' block holds none) */
 static inline int chunk_line(const Chunk *c, Py_ssize_t i, const char **line, Py_ssize_t *n)
 {
+    if (c->all) {                     /* (lines_at's answer, without its call) */
+        *line = c->data + c->start[i];
+        *n = c->start[i + 1] - c->start[i];
+        return c->all;
+    }
     if (c->n_block >= 0)
         return READER->lines_at(c->lines, i, line, n);
     PyObject *raw = PyList_GET_ITEM(c->lines, i);

@@ -113,7 +113,11 @@ def test_int_r2_core_verdict(monkeypatch, n, how):
     # the loop's verdict, with the same core
     core = simulate._core
     want = True
-    for c1, d1 in _loop_probe(osc.s):
+    pieces = _loop_probe(osc.s)
+    # (and the large sizes of the drawn pieces over again: resonance.INT_R2_DEEP)
+    c_all, d_all = (np.concatenate(x) for x in zip(*pieces))
+    pieces += [(np.resize(c_all, m), np.resize(d_all, m)) for m in R.INT_R2_DEEP]
+    for c1, d1 in pieces:
         w1 = osc.integral_r2_fin(c1, d1)
         work = np.empty(len(d1))
         r = core.ring_int_r2(c1, d1, np.exp(-2.0 * osc.s * d1), *R._int_r2_args(osc.s, osc.lam), work)

@@ -214,10 +214,14 @@ def _int_r2_args(s, lam):
 
 
 # the small sizes (numpy's pairwise sum's unrolling and blocks, its SIMD loops' tails) three
-# times over; the large ones (its recursion, many levels deep; past 128 the sum has no other
-# branch) once: their 9 k pieces and the small sizes' 7 k give the per-piece numbers variety
-# enough (a piece of 20011 more was ~28 M instructions of every large file's run)
-INT_R2_SIZES = (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3 + (4097, 5003)
+# times over: their 7 k pieces give the per-piece numbers variety enough (a piece of 20011
+# more was ~28 M instructions of every large file's run)
+INT_R2_SIZES = (1, 7, 8, 9, 100, 127, 128, 129, 200, 255, 256, 257, 1000) * 3
+# the large sizes (numpy's sum's recursion, many levels deep; past 128 the sum has no other
+# branch), once each, made of INT_R2_SIZES' pieces over again (np.resize): a piece's
+# integral is its own c's and dur's alone, checked there already, so what they add is the
+# sums -- drawn and solved by numpy they were ~14 M instructions of every large file's run
+INT_R2_DEEP = (4097, 5003)
 
 
 def _int_r2_probe(s):
@@ -255,6 +259,9 @@ def _int_r2_core(s, wd):
         # every step but the sums is piece by piece: made for all sizes at once (the same
         # numbers as size by size), the sums and the core's calls size by size
         want = osc.integral_r2_fin(c, dur)
+        if INT_R2_DEEP:
+            c, dur, want = (np.concatenate([x] + [np.resize(x, n) for n in INT_R2_DEEP]) for x in (c, dur, want))
+            sizes = sizes + INT_R2_DEEP
         decay2 = np.exp(-2.0 * s * dur)
         work = np.empty(len(dur))             # the core leaves each piece's integral there
         args = _int_r2_args(s, lam)

@@ -2298,10 +2298,10 @@ done:
 
 /* the attribute names stroke_run reads (interned once) */
 enum { A_FIRST, A_LAST, A_KIND, A_X0, A_Y0, A_SS_E, A_SS_A, A_SS_C, A_ENDS, A_LENGTH, A_E_REL, A_FEATURE,
-       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, A_ROW, N_NAMES };
+       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, A_ROW, A_FROMBYTES, N_NAMES };
 static const char *const NAME_TEXT[N_NAMES] = {"first_idx", "last_idx", "kind", "x0", "y0", "_ss_e", "_ss_a",
     "_ss_c", "_ends", "length_d", "e_rel", "feature", "v_feed", "time_t", "_s", "_accel", "_feed", "first_cmds",
-    "copy", "update", "digest", "_row"};
+    "copy", "update", "digest", "_row", "frombytes"};
 static PyObject *NAMES[N_NAMES];
 
 static int names_ready(void)
@@ -2661,7 +2661,10 @@ done:
    a line stroke of the exact Stroke and SegmentPlan types whose untouched lines before it
    and own lines are whole in data (from byte pos; line: the input line at pos) and whose
    block block_into writes.  For each: the untouched lines and the block appended to one
-   buffer, (out_first, out_last, order[k]) appended to out_ranges, and, digests not None,
+   buffer, (out_first, out_last, order[k]) appended to out_ranges -- a list: that tuple; a
+   tuple of three array('q') (outranges.OutRanges' columns): each number to its column, by
+   one frombytes a column at the end of the call (no tuple, int or gc-tracked object a
+   row: their allocations ran the young generation's collections) -- and, digests not None,
    digests[order[k]] = blake2b(block, digest_size=16).digest() (blake2b: the hash of
    nothing, blake2b(digest_size=16), copied for each block).  Stops at the first stroke
    it does not take (pipeline's loop takes that one, from its first untouched line on).
@@ -2669,6 +2672,40 @@ done:
    and at the end: no bytes object of the run's output, and a bounded buffer.
    Returns (k, pos, line, out_line). */
 #define RUN_FLUSH (1 << 20)
+
+/* a column of int64s (out_ranges' rows as stroke_run takes them as columns) */
+static int col_put(Buf *b, Py_ssize_t v)
+{
+    int64_t x = (int64_t)v;
+    return put(b, (const char *)&x, (Py_ssize_t)sizeof x);
+}
+
+/* cols[c].frombytes(the int64s of col[c]) for each column with any, the exception in
+   force (if any) kept: 0, or -1 (frombytes' exception, which then is the one in force) */
+static int cols_flush(PyObject *const *cols, Buf *col)
+{
+    PyObject *et, *ev, *tb;
+    int bad = 0;
+    PyErr_Fetch(&et, &ev, &tb);
+    for (int c = 0; c < 3 && !bad; c++) {
+        if (col[c].n == 0)
+            continue;
+        PyObject *mv = PyMemoryView_FromMemory(col[c].p, col[c].n, PyBUF_READ), *r = NULL;
+        if (mv != NULL)
+            r = PyObject_CallMethodOneArg(cols[c], NAMES[A_FROMBYTES], mv);
+        bad = r == NULL;
+        Py_XDECREF(r);
+        Py_XDECREF(mv);
+    }
+    if (bad) {                     /* frombytes' exception replaces any in force */
+        Py_XDECREF(et);
+        Py_XDECREF(ev);
+        Py_XDECREF(tb);
+        return -1;
+    }
+    PyErr_Restore(et, ev, tb);
+    return 0;
+}
 
 /* (a, z, i): Py_BuildValue("(nnO)", a, z, i) */
 static PyObject *range_row(Py_ssize_t a, Py_ssize_t z, PyObject *i)
@@ -2748,7 +2785,10 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
                out_line = PyLong_AsSsize_t(args[5]);
     if (PyErr_Occurred())
         return NULL;
-    if (!PyBytes_CheckExact(data) || !PyList_CheckExact(out_ranges) || !PyList_CheckExact(ra.strokes)
+    PyObject *const *cols = NULL;           /* out_ranges as three array('q') columns */
+    if (PyTuple_CheckExact(out_ranges) && PyTuple_GET_SIZE(out_ranges) == 3)
+        cols = &PyTuple_GET_ITEM(out_ranges, 0);
+    if (!PyBytes_CheckExact(data) || !(cols != NULL || PyList_CheckExact(out_ranges)) || !PyList_CheckExact(ra.strokes)
         || !PyList_CheckExact(ra.segs) || !PyList_CheckExact(ra.betas) || !PyFloat_CheckExact(args[19])
         || !PyUnicode_CheckExact(ra.k_arc) || (ra.digests != Py_None && !PyDict_CheckExact(ra.digests))
         || pos < 0 || pos > PyBytes_GET_SIZE(data) || k < 0) {
@@ -2770,6 +2810,23 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         Py_DECREF(ra.nl);
         return NULL;
     }
+    /* order's int64s read in place where it is a contiguous int64 array (pipeline's numpy
+       order): no numpy scalar made and read back a stroke; order[k] itself only where
+       something keeps it (a list's row tuple, a digest's key) */
+    Py_buffer ov;
+    const int64_t *order_d = NULL;
+    if (PyObject_CheckBuffer(order) && PyObject_GetBuffer(order, &ov, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
+        const char *f = ov.format ? ov.format : "B";
+        if (*f == '<' || *f == '=' || *f == '@')
+            f++;
+        if (ov.ndim == 1 && ov.itemsize == 8 && ov.len == 8 * n_order && (strcmp(f, "q") == 0 || strcmp(f, "l") == 0))
+            order_d = (const int64_t *)ov.buf;
+        else
+            PyBuffer_Release(&ov);
+    } else
+        PyErr_Clear();
+    int keep_i = cols == NULL || ra.digests != Py_None;
+    Buf col[3] = {{NULL, 0, 0}, {NULL, 0, 0}, {NULL, 0, 0}};
     /* room for a flush's worth and the block that passes RUN_FLUSH, taken at once: grown
        from nothing by doubling, each call copied ~2 MB in realloc (~25 M instructions of
        memcpy on the gyroid plate).  (Not had: put grows it as it goes.) */
@@ -2777,9 +2834,13 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
     (void)buf_grow(&out, 2 * RUN_FLUSH);
     int err = 0;
     while (ctx_ok && k < n_order) {
-        PyObject *i_o = PySequence_GetItem(order, k), *kind = NULL;
-        if (i_o == NULL) { err = 1; break; }
-        Py_ssize_t i = PyNumber_AsSsize_t(i_o, NULL);
+        PyObject *i_o = NULL, *kind = NULL;
+        Py_ssize_t i;
+        if (order_d == NULL || keep_i) {
+            if ((i_o = PySequence_GetItem(order, k)) == NULL) { err = 1; break; }
+            i = order_d != NULL ? (Py_ssize_t)order_d[k] : PyNumber_AsSsize_t(i_o, NULL);
+        } else
+            i = (Py_ssize_t)order_d[k];
         int took = 0;
         if (i < 0 || i >= PyList_GET_SIZE(ra.strokes) || i >= PyList_GET_SIZE(ra.segs)
             || i >= PyList_GET_SIZE(ra.betas)) {
@@ -2827,14 +2888,26 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             PyErr_Clear();
             goto next;
         }
-        PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
-        if (row == NULL || PyList_Append(out_ranges, row) < 0) {
-            Py_XDECREF(row);
-            out.n = base;
-            err = 1;
-            goto next;
+        if (cols != NULL) {
+            Py_ssize_t n_col = col[0].n;
+            if (col_put(&col[0], out_line + n_copy) < 0 || col_put(&col[1], out_line + n_copy + n_out - 1) < 0
+                || col_put(&col[2], i) < 0) {
+                col[0].n = col[1].n = col[2].n = n_col;
+                PyErr_NoMemory();
+                out.n = base;
+                err = 1;
+                goto next;
+            }
+        } else {
+            PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
+            if (row == NULL || PyList_Append(out_ranges, row) < 0) {
+                Py_XDECREF(row);
+                out.n = base;
+                err = 1;
+                goto next;
+            }
+            Py_DECREF(row);
         }
-        Py_DECREF(row);
         if (ra.digests != Py_None) {
             /* blake2b(block, digest_size=16).digest(), as the loop makes it: the empty
                hash's copy (blake2 is the same from its start state) updated with the block
@@ -2864,13 +2937,20 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             err = 1;
 next:
         Py_XDECREF(kind);
-        Py_DECREF(i_o);
+        Py_XDECREF(i_o);
         if (!took || err)
             break;
         k++;
     }
     memo_clear(&ra.memo);
     Py_DECREF(ra.nl);
+    if (order_d != NULL)
+        PyBuffer_Release(&ov);
+    /* the rows taken, into out_ranges' columns whatever ends the call (as a list's rows are) */
+    if (cols != NULL && cols_flush(cols, col) < 0)
+        err = 1;
+    for (int c = 0; c < 3; c++)
+        PyMem_Free(col[c].p);
     PyObject *res = NULL;
     if (!err && run_flush(&out, args[22]) == 0)
         res = Py_BuildValue("(nnnn)", k, pos, line, out_line);

@@ -126,7 +126,12 @@ def _length(text):
     return v
 
 
-def build_parser():
+def build_parser(only_process=False):
+    """The command line's parser; only_process: with the process command alone (main's
+    parser for a command line that starts with it: the other commands' parsers, and the
+    report package's import, are ~15 M instructions of a small file's run).  Its parsing of
+    such a command line, and every message and exit, is the whole parser's: the process
+    parser is the same, and the top-level one shows COMMAND, not the commands' names."""
     ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -183,6 +188,8 @@ def build_parser():
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
     p.add_argument("--profile-time", action="store_true",
                    help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
+    if only_process:
+        return ap
 
     s = sub.add_parser("simulate", help="play a file through the firmware model",
                        description="Plan a whole file the way a constant-acceleration lookahead firmware does "
@@ -582,7 +589,7 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv                      # accepted anywhere, not only before the command
     argv = [x for x in argv if x != "--debug"]
-    ap = build_parser()
+    ap = build_parser(only_process=argv[:1] == ["process"])
     a = ap.parse_args(argv)
     a.debug = debug
     if not a.cmd:

@@ -1125,6 +1125,58 @@ static inline int known_units(int64_t u, int dec, double *v)
     return 1;
 }
 
+/* a start text that is fmt_f(x, 8)'s, as its integer: |x| 10^8 rounded (n) and the sign
+   fmt_f writes (neg: signbit(x)), for x0 and y0 (known: both are) -- units_txt's and
+   start_decimals' values of the texts without reading them again */
+typedef struct {
+    int known;
+    uint64_t n[2];
+    int neg[2];
+} Start8;
+
+#define E8 100000000ULL
+
+/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6 */
+static inline int start8_decimals(uint64_t n)
+{
+    uint64_t f = n % E8;
+    if (f == 0)
+        return 0;
+    int k = 8;
+    while (f % 10 == 0) {
+        f /= 10;
+        k--;
+    }
+    return k < 6 ? k : 6;
+}
+
+/* units_txt(fmt_f(x, 8)'s text, dec, out) from its integer: the whole's digits and the
+   fraction's first min(8, dec) (at most 15 digits), times 10 for each decimal past 8 while
+   at most 2^53: 0, or -1 where units_txt declines */
+static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
+{
+    uint64_t whole = n / E8, w = whole;
+    int wn = 1;
+    while (w >= 10) {
+        w /= 10;
+        wn++;
+    }
+    int fk = dec < 8 ? dec : 8;
+    if (dec < 0 || wn + fk > 15)
+        return -1;
+    uint64_t p = 1;
+    for (int j = fk; j < 8; j++)
+        p *= 10;
+    int64_t v = (int64_t)(n / p);                  /* < 10^15 */
+    for (int j = fk; j < dec; j++) {
+        if (v > (int64_t)EXACT_MAX) return -1;
+        v *= 10;
+    }
+    if (v > (int64_t)EXACT_MAX) return -1;
+    *out = neg ? -v : v;
+    return 0;
+}
+
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
@@ -1135,7 +1187,7 @@ static inline int known_units(int64_t u, int dec, double *v)
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     Py_ssize_t *n_lines, Known *kn)
+                     const Start8 *s8, Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -1145,7 +1197,11 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     if (n_cols < n_moves || acc->n < k_total || fd->n < k_total || fabs((double)e_start_u) > EXACT_MAX)
         return 1;
     int64_t start_u[2];
-    if (units_txt(x0t->p, x0t->n, dxy, &start_u[0]) < 0 || units_txt(y0t->p, y0t->n, dxy, &start_u[1]) < 0)
+    if (s8 != NULL && s8->known) {                 /* (the texts' integers: the same units) */
+        if (start8_units(s8->n[0], s8->neg[0], dxy, &start_u[0]) < 0
+            || start8_units(s8->n[1], s8->neg[1], dxy, &start_u[1]) < 0)
+            return 1;
+    } else if (units_txt(x0t->p, x0t->n, dxy, &start_u[0]) < 0 || units_txt(y0t->p, y0t->n, dxy, &start_u[1]) < 0)
         return 1;
     double end_last = ends->d[n_moves - 1];
     double tol_d = 1e-9 * (end_last > 1.0 ? end_last : 1.0);
@@ -1421,7 +1477,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0, NULL, NULL);
+                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -1798,12 +1854,14 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
 }
 
-/* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined) */
-static int fmt_f(double x, int prec, char *buf)
+/* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined);
+   *n_out: its digits' integer, |x| 10^prec rounded */
+static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
 {
     uint64_t n, fl;
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
+    *n_out = n;
     char tmp[48], *end = tmp + sizeof tmp, *first = digits_back(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
@@ -1818,6 +1876,12 @@ static int fmt_f(double x, int prec, char *buf)
     }
     *q = 0;
     return (int)(q - buf);
+}
+
+static int fmt_f(double x, int prec, char *buf)
+{
+    uint64_t n;
+    return fmt_f_n(x, prec, buf, &n);
 }
 
 /* format(x, ".4g") into buf (at least 64 bytes) where it is written without an exponent
@@ -1871,6 +1935,11 @@ static int fmt_g4(double x, char *buf)
     return (int)(q - buf);
 }
 #else
+static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
+{
+    (void)x; (void)prec; (void)buf; (void)n_out;
+    return -1;
+}
 static int fmt_f(double x, int prec, char *buf) { (void)x; (void)prec; (void)buf; return -1; }
 static int fmt_g4(double x, char *buf) { (void)x; (void)buf; return -1; }
 #endif
@@ -2024,6 +2093,7 @@ typedef struct {
     Py_ssize_t start, stop, n;
     Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
     Txt x0, y0;                     /* the start's texts */
+    Start8 s8;                      /* and their integers, where they are fmt_f(x, 8)'s */
     const char *wantp;              /* the M204 letter (one character) */
     double x0v, y0v, e0, accel_max_a, min_move_d;
     int e_rel, extruding, klipper;
@@ -2066,8 +2136,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     double *px = (double *)(cx + 4 * n), *py = px + n + 1, *ev_k = py + n + 1;
     int *dx_k = (int *)(ev_k + n), *dy_k = dx_k + n, *de_k = dy_k + n;
     int dec_xy = 3, dec_e = 5, d0;
-    if ((d0 = start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
-    if ((d0 = start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[0]) : start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[1]) : start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
     px[0] = ba->x0v;
     py[0] = ba->y0v;
     int path_ok = fabs(ba->x0v) < 1e150 && fabs(ba->y0v) < 1e150;
@@ -2132,7 +2202,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
                   || !other_lines(pc->clp, pc->cln)
                   || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines, by_text ? NULL : &kn);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, n_lines, by_text ? NULL : &kn);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -2599,14 +2669,20 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     ba.y0v = float_attr(s, A_Y0, &bad);
     if (bad)
         goto decline;
+    /* the start's texts, f"{x0:.8f}": fmt_f's (and its integers: ba.s8), else
+       PyOS_double_to_string's */
     char x0b[64], y0b[64];
-    if ((ba.x0.p = fmt_double(ba.x0v, 'f', 8, x0b, &x0t)) == NULL
-        || (ba.y0.p = fmt_double(ba.y0v, 'f', 8, y0b, &y0t)) == NULL) {
+    int nx0 = fmt_f_n(ba.x0v, 8, x0b, &ba.s8.n[0]), ny0 = fmt_f_n(ba.y0v, 8, y0b, &ba.s8.n[1]);
+    ba.s8.known = nx0 >= 0 && ny0 >= 0;
+    ba.s8.neg[0] = signbit(ba.x0v) != 0;
+    ba.s8.neg[1] = signbit(ba.y0v) != 0;
+    if ((ba.x0.p = nx0 >= 0 ? x0b : (x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL))) == NULL
+        || (ba.y0.p = ny0 >= 0 ? y0b : (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL))) == NULL) {
         PyErr_Clear();
         goto decline;
     }
-    ba.x0.n = (Py_ssize_t)strlen(ba.x0.p);
-    ba.y0.n = (Py_ssize_t)strlen(ba.y0.p);
+    ba.x0.n = nx0 >= 0 ? nx0 : (Py_ssize_t)strlen(ba.x0.p);
+    ba.y0.n = ny0 >= 0 ? ny0 : (Py_ssize_t)strlen(ba.y0.p);
     Py_ssize_t kn = 0, sn = 0;
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
@@ -2673,11 +2749,16 @@ done:
    Returns (k, pos, line, out_line). */
 #define RUN_FLUSH (1 << 20)
 
-/* a column of int64s (out_ranges' rows as stroke_run takes them as columns) */
-static int col_put(Buf *b, Py_ssize_t v)
+/* v appended to a column of int64s (out_ranges' rows as stroke_run takes them as
+   columns): 0, or -1 (no memory).  The store inline, buf_grow only when full */
+static inline int col_put(Buf *b, Py_ssize_t v)
 {
     int64_t x = (int64_t)v;
-    return put(b, (const char *)&x, (Py_ssize_t)sizeof x);
+    if (b->n + (Py_ssize_t)sizeof x > b->cap && buf_grow(b, (Py_ssize_t)sizeof x) < 0)
+        return -1;
+    memcpy(b->p + b->n, &x, sizeof x);
+    b->n += (Py_ssize_t)sizeof x;
+    return 0;
 }
 
 /* cols[c].frombytes(the int64s of col[c]) for each column with any, the exception in
@@ -3098,6 +3179,32 @@ static PyObject *units_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* start8(x, dec): run_block's start text of x, f"{x:.8f}", read two ways: (text, units by
+   start8_units or None, start8_decimals) from fmt_f's integer and (units by units_txt or
+   None, start_decimals) from the text; None where fmt_f declines (tests) */
+static PyObject *start8(PyObject *self, PyObject *args)
+{
+    double x;
+    int dec;
+    char buf[64];
+    uint64_t n;
+    if (!PyArg_ParseTuple(args, "di", &x, &dec))
+        return NULL;
+    int len = fmt_f_n(x, 8, buf, &n);
+    if (len < 0 || dec < 0 || dec > 15)
+        Py_RETURN_NONE;
+    int64_t u_n = 0, u_t = 0;
+    int ok_n = start8_units(n, signbit(x) != 0, dec, &u_n) == 0, ok_t = units_txt(buf, len, dec, &u_t) == 0;
+    PyObject *a = ok_n ? PyLong_FromLongLong(u_n) : Py_NewRef(Py_None);
+    PyObject *b = ok_t ? PyLong_FromLongLong(u_t) : Py_NewRef(Py_None);
+    if (a == NULL || b == NULL) {
+        Py_XDECREF(a);
+        Py_XDECREF(b);
+        return NULL;
+    }
+    return Py_BuildValue("(s#NiNi)", buf, (Py_ssize_t)len, a, start8_decimals(n), b, start_decimals(buf, len));
+}
+
 /* units_nf(u, dec): units_at_nf's text and decimals, (str, int) (dec 0..30; tests) */
 static PyObject *units_nf(PyObject *self, PyObject *args)
 {
@@ -3194,6 +3301,7 @@ static PyMethodDef mod_methods[] = {
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
+    {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},
     {"units_nf", units_nf, METH_VARARGS, "units_at_nf's (text, decimals) (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
     {"plain_moves", plain_moves, METH_VARARGS,

@@ -258,6 +258,29 @@ def _binary_input(path):
     return BinaryJob(path, path)
 
 
+_START_PAUSE = []        # main's pause of the garbage collector, not yet ended (see _gc_pause)
+
+
+def _gc_pause():
+    """The collector off for main's start (the parser, the profile, output and reader
+    modules, numpy through them: the program's objects, none of them garbage; the
+    collections on the way walked them again and again), where the caller left it on and
+    nothing is frozen.  _modules_frozen ends the pause with those objects frozen along
+    with the pipeline's; _gc_resume ends it otherwise (another command, an exit)."""
+    import gc
+    if gc.isenabled() and not gc.get_freeze_count():
+        gc.disable()
+        _START_PAUSE.append(True)
+
+
+def _gc_resume():
+    """The collector back on where main's pause is still on; else nothing."""
+    import gc
+    if _START_PAUSE:
+        _START_PAUSE.clear()
+        gc.enable()
+
+
 def _modules_frozen(name):
     """Imports module `name` (the pipeline: numpy's modules and ours, ~10^5 objects, none of
     them garbage) with the garbage collector off, then moves every object alive out of its
@@ -267,7 +290,9 @@ def _modules_frozen(name):
     frozen yet); a second call does nothing."""
     import gc
     from importlib import import_module
-    if gc.get_freeze_count() or not gc.isenabled():     # (a caller's own settings: left alone)
+    paused = bool(_START_PAUSE)                         # (main's pause: ended here, its objects frozen too)
+    _START_PAUSE.clear()
+    if not paused and (gc.get_freeze_count() or not gc.isenabled()):     # (a caller's own settings: left alone)
         import_module(name)
         return lambda: None
     gc.disable()
@@ -287,6 +312,7 @@ def _modules_frozen(name):
 
 def cmd_process(a):
     thaw = _modules_frozen(__package__ + ".pipeline")
+    _gc_resume()                                      # (a stand-in for _modules_frozen: main's pause ended)
     try:
         from .pipeline import Options, Progress, process
         out = a.output or a.input
@@ -589,20 +615,27 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv                      # accepted anywhere, not only before the command
     argv = [x for x in argv if x != "--debug"]
-    ap = build_parser(only_process=argv[:1] == ["process"])
-    a = ap.parse_args(argv)
-    a.debug = debug
-    if not a.cmd:
-        ap.print_help()
-        return EXIT_USER
-    from . import blas, malloc_policy
-    blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
-    malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
-    from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
-    from .profile import ProfileError
-    from .state import GcodeError
-    from .inputcheck import InputRefused
-    saved = install_signal_handlers()
+    _gc_pause()                     # until process freezes these modules with the pipeline's, or the command runs
+    to_process = False
+    try:
+        ap = build_parser(only_process=argv[:1] == ["process"])
+        a = ap.parse_args(argv)
+        a.debug = debug
+        if not a.cmd:
+            ap.print_help()
+            return EXIT_USER
+        from . import blas, malloc_policy
+        blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
+        malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
+        from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
+        from .profile import ProfileError
+        from .state import GcodeError
+        from .inputcheck import InputRefused
+        saved = install_signal_handlers()
+        to_process = a.cmd == "process" and not hasattr(a, "func")
+    finally:
+        if not to_process:
+            _gc_resume()
 
     def fail(code, msg):
         if debug:
@@ -631,6 +664,7 @@ def main(argv=None):
         return fail(EXIT_FAIL, f"internal error: {type(e).__name__}: {e} (run again with --debug for the "
                                "traceback, and please report it)" + _left(a))
     finally:
+        _gc_resume()                               # (process ended the pause; else here)
         discard_pending()
         restore_signal_handlers(saved)
 

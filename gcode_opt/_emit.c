@@ -564,17 +564,71 @@ static inline char *copy_upto16(char *q, const char *s, Py_ssize_t n)
     return q + n;
 }
 
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && defined(__GNUC__)
+#define SWAR_DIGITS 1
+/* the 8 decimal digits of v < 10^8, zero-padded, one a byte (0..9), the first in the lowest
+   byte (the first in memory): the division by 10^4, then by 100 in two 32-bit lanes, then
+   by 10 in four 16-bit lanes, each lane's quotient a multiplication and a shift, exact for
+   its range (n * 10486 >> 20 is n / 100 for n < 10^4; n * 103 >> 10 is n / 10 for n < 100);
+   no lane's product reaches the next lane.  ~15 instructions where digits_back's loop
+   takes ~45 */
+static inline uint64_t digits8(uint32_t v)
+{
+    uint64_t x = (uint64_t)(v / 10000) | (uint64_t)(v % 10000) << 32;
+    uint64_t h = ((x * 10486) >> 20) & 0x0000007F0000007FULL;
+    x = h | (x - h * 100) << 16;
+    h = ((x * 103) >> 10) & 0x000F000F000F000FULL;
+    return h | (x - h * 10) << 8;
+}
+
+/* units_at_nf's text of |u| = a < 10^8 with dec <= 7 decimals (neg: a "-" first): the
+   whole is the digits before the last dec, its leading zeros cut (ctz) but its last
+   digit kept; the fraction the last dec, its trailing zeros cut (clz); each written as
+   one 8-byte store (units_at_nf's room).  The end; *nf: the fraction's digits */
+static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
+{
+    uint64_t d = digits8(a), t = d + 0x3030303030303030ULL;
+    /* (the bits or-ed in change a count only past the digits min() keeps: lead <= 7 - dec,
+       trail >= dec for d == 0) */
+    int lead = __builtin_ctzll(d | 1ULL << 56) >> 3, trail = __builtin_clzll(d | 1) >> 3;
+    int first = lead < 7 - dec ? lead : 7 - dec;       /* the whole: digits first .. 8 - dec */
+    int n_frac = trail < dec ? dec - trail : 0;
+    uint64_t w = t >> (8 * first);
+    if (neg) *q++ = '-';                           /* a != 0: whole != "0" or a fraction digit */
+    memcpy(q, &w, 8);
+    q += 8 - dec - first;
+    *nf = n_frac;
+    if (n_frac) {
+        *q++ = '.';
+        w = t >> (8 * (8 - dec));                   /* (dec >= 1 here) */
+        memcpy(q, &w, 8);
+        q += n_frac;
+    }
+    return q;
+}
+#else
+#define SWAR_DIGITS 0
+static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
+{
+    (void)q; (void)a; (void)neg; (void)dec; (void)nf;
+    return NULL;
+}
+#endif
+
 /* emit._fmt_units(u, dec) written at q (room for 48 bytes; 0 <= dec <= 30): the end; *nf:
-   its decimals (the fraction's digits, trailing zeros cut).  Its
+   its decimals (the fraction's digits, trailing zeros cut).  |u| < 10^8 and dec <= 7
+   (nearly every number a segment line writes): small_units_at.  Else its
    digits are made in tmp after 32 zeros (the padding to dec + 1 digits, without a loop),
    and the whole and the fraction copied 16 bytes at a time: at most 1 + 20 + 1 + 16 bytes
    written, inside the room */
 static inline char *units_at_nf(char *q, int64_t u, int dec, int *nf)
 {
+    uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
+    if (SWAR_DIGITS && a < 100000000 && dec <= 7)
+        return small_units_at(q, (uint32_t)a, u < 0, dec, nf);
     char tmp[64];
     char *end = tmp + 48;                          /* the digits end here; 16 bytes after them to read */
     memset(end - 32, '0', 32);
-    uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
     char *first = digits_back(end, a);
     if (end - first < dec + 1)
         first = end - (dec + 1);                   /* zero-padded to dec + 1 digits */
@@ -614,6 +668,10 @@ static inline __attribute__((always_inline)) char *tenths_at(char *q, int64_t k)
     if (k <= 1) {
         memcpy(q, "0.1", 3);
         return q + 3;
+    }
+    if (SWAR_DIGITS && k < 100000000) {         /* _tenths(k): _fmt_units(k, 1)'s text for k >= 1 */
+        int nf;
+        return small_units_at(q, (uint32_t)k, 0, 1, &nf);
     }
     int r = (int)(k % 10);
     char *end = tmp + sizeof tmp, *first = digits_back(end, (uint64_t)(k / 10));   /* k / 10 >= 1 */
@@ -1067,6 +1125,58 @@ static inline int known_units(int64_t u, int dec, double *v)
     return 1;
 }
 
+/* a start text that is fmt_f(x, 8)'s, as its integer: |x| 10^8 rounded (n) and the sign
+   fmt_f writes (neg: signbit(x)), for x0 and y0 (known: both are) -- units_txt's and
+   start_decimals' values of the texts without reading them again */
+typedef struct {
+    int known;
+    uint64_t n[2];
+    int neg[2];
+} Start8;
+
+#define E8 100000000ULL
+
+/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6 */
+static inline int start8_decimals(uint64_t n)
+{
+    uint64_t f = n % E8;
+    if (f == 0)
+        return 0;
+    int k = 8;
+    while (f % 10 == 0) {
+        f /= 10;
+        k--;
+    }
+    return k < 6 ? k : 6;
+}
+
+/* units_txt(fmt_f(x, 8)'s text, dec, out) from its integer: the whole's digits and the
+   fraction's first min(8, dec) (at most 15 digits), times 10 for each decimal past 8 while
+   at most 2^53: 0, or -1 where units_txt declines */
+static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
+{
+    uint64_t whole = n / E8, w = whole;
+    int wn = 1;
+    while (w >= 10) {
+        w /= 10;
+        wn++;
+    }
+    int fk = dec < 8 ? dec : 8;
+    if (dec < 0 || wn + fk > 15)
+        return -1;
+    uint64_t p = 1;
+    for (int j = fk; j < 8; j++)
+        p *= 10;
+    int64_t v = (int64_t)(n / p);                  /* < 10^15 */
+    for (int j = fk; j < dec; j++) {
+        if (v > (int64_t)EXACT_MAX) return -1;
+        v *= 10;
+    }
+    if (v > (int64_t)EXACT_MAX) return -1;
+    *out = neg ? -v : v;
+    return 0;
+}
+
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
@@ -1077,7 +1187,7 @@ static inline int known_units(int64_t u, int dec, double *v)
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     Py_ssize_t *n_lines, Known *kn)
+                     const Start8 *s8, Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -1087,7 +1197,11 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     if (n_cols < n_moves || acc->n < k_total || fd->n < k_total || fabs((double)e_start_u) > EXACT_MAX)
         return 1;
     int64_t start_u[2];
-    if (units_txt(x0t->p, x0t->n, dxy, &start_u[0]) < 0 || units_txt(y0t->p, y0t->n, dxy, &start_u[1]) < 0)
+    if (s8 != NULL && s8->known) {                 /* (the texts' integers: the same units) */
+        if (start8_units(s8->n[0], s8->neg[0], dxy, &start_u[0]) < 0
+            || start8_units(s8->n[1], s8->neg[1], dxy, &start_u[1]) < 0)
+            return 1;
+    } else if (units_txt(x0t->p, x0t->n, dxy, &start_u[0]) < 0 || units_txt(y0t->p, y0t->n, dxy, &start_u[1]) < 0)
         return 1;
     double end_last = ends->d[n_moves - 1];
     double tol_d = 1e-9 * (end_last > 1.0 ? end_last : 1.0);
@@ -1363,7 +1477,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0, NULL, NULL);
+                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -1740,12 +1854,14 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
 }
 
-/* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined) */
-static int fmt_f(double x, int prec, char *buf)
+/* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined);
+   *n_out: its digits' integer, |x| 10^prec rounded */
+static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
 {
     uint64_t n, fl;
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
+    *n_out = n;
     char tmp[48], *end = tmp + sizeof tmp, *first = digits_back(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
@@ -1760,6 +1876,12 @@ static int fmt_f(double x, int prec, char *buf)
     }
     *q = 0;
     return (int)(q - buf);
+}
+
+static int fmt_f(double x, int prec, char *buf)
+{
+    uint64_t n;
+    return fmt_f_n(x, prec, buf, &n);
 }
 
 /* format(x, ".4g") into buf (at least 64 bytes) where it is written without an exponent
@@ -1813,6 +1935,11 @@ static int fmt_g4(double x, char *buf)
     return (int)(q - buf);
 }
 #else
+static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
+{
+    (void)x; (void)prec; (void)buf; (void)n_out;
+    return -1;
+}
 static int fmt_f(double x, int prec, char *buf) { (void)x; (void)prec; (void)buf; return -1; }
 static int fmt_g4(double x, char *buf) { (void)x; (void)buf; return -1; }
 #endif
@@ -1966,6 +2093,7 @@ typedef struct {
     Py_ssize_t start, stop, n;
     Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
     Txt x0, y0;                     /* the start's texts */
+    Start8 s8;                      /* and their integers, where they are fmt_f(x, 8)'s */
     const char *wantp;              /* the M204 letter (one character) */
     double x0v, y0v, e0, accel_max_a, min_move_d;
     int e_rel, extruding, klipper;
@@ -2008,8 +2136,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     double *px = (double *)(cx + 4 * n), *py = px + n + 1, *ev_k = py + n + 1;
     int *dx_k = (int *)(ev_k + n), *dy_k = dx_k + n, *de_k = dy_k + n;
     int dec_xy = 3, dec_e = 5, d0;
-    if ((d0 = start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
-    if ((d0 = start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[0]) : start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
+    if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[1]) : start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
     px[0] = ba->x0v;
     py[0] = ba->y0v;
     int path_ok = fabs(ba->x0v) < 1e150 && fabs(ba->y0v) < 1e150;
@@ -2074,7 +2202,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
                   || !other_lines(pc->clp, pc->cln)
                   || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0, n_lines, by_text ? NULL : &kn);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, n_lines, by_text ? NULL : &kn);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -2240,10 +2368,10 @@ done:
 
 /* the attribute names stroke_run reads (interned once) */
 enum { A_FIRST, A_LAST, A_KIND, A_X0, A_Y0, A_SS_E, A_SS_A, A_SS_C, A_ENDS, A_LENGTH, A_E_REL, A_FEATURE,
-       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, A_ROW, N_NAMES };
+       A_V_FEED, A_TIME, A_S, A_ACCEL, A_FEED, A_FIRST_CMDS, A_COPY, A_UPDATE, A_DIGEST, A_ROW, A_FROMBYTES, N_NAMES };
 static const char *const NAME_TEXT[N_NAMES] = {"first_idx", "last_idx", "kind", "x0", "y0", "_ss_e", "_ss_a",
     "_ss_c", "_ends", "length_d", "e_rel", "feature", "v_feed", "time_t", "_s", "_accel", "_feed", "first_cmds",
-    "copy", "update", "digest", "_row"};
+    "copy", "update", "digest", "_row", "frombytes"};
 static PyObject *NAMES[N_NAMES];
 
 static int names_ready(void)
@@ -2541,14 +2669,20 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     ba.y0v = float_attr(s, A_Y0, &bad);
     if (bad)
         goto decline;
+    /* the start's texts, f"{x0:.8f}": fmt_f's (and its integers: ba.s8), else
+       PyOS_double_to_string's */
     char x0b[64], y0b[64];
-    if ((ba.x0.p = fmt_double(ba.x0v, 'f', 8, x0b, &x0t)) == NULL
-        || (ba.y0.p = fmt_double(ba.y0v, 'f', 8, y0b, &y0t)) == NULL) {
+    int nx0 = fmt_f_n(ba.x0v, 8, x0b, &ba.s8.n[0]), ny0 = fmt_f_n(ba.y0v, 8, y0b, &ba.s8.n[1]);
+    ba.s8.known = nx0 >= 0 && ny0 >= 0;
+    ba.s8.neg[0] = signbit(ba.x0v) != 0;
+    ba.s8.neg[1] = signbit(ba.y0v) != 0;
+    if ((ba.x0.p = nx0 >= 0 ? x0b : (x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL))) == NULL
+        || (ba.y0.p = ny0 >= 0 ? y0b : (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL))) == NULL) {
         PyErr_Clear();
         goto decline;
     }
-    ba.x0.n = (Py_ssize_t)strlen(ba.x0.p);
-    ba.y0.n = (Py_ssize_t)strlen(ba.y0.p);
+    ba.x0.n = nx0 >= 0 ? nx0 : (Py_ssize_t)strlen(ba.x0.p);
+    ba.y0.n = ny0 >= 0 ? ny0 : (Py_ssize_t)strlen(ba.y0.p);
     Py_ssize_t kn = 0, sn = 0;
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
@@ -2603,7 +2737,10 @@ done:
    a line stroke of the exact Stroke and SegmentPlan types whose untouched lines before it
    and own lines are whole in data (from byte pos; line: the input line at pos) and whose
    block block_into writes.  For each: the untouched lines and the block appended to one
-   buffer, (out_first, out_last, order[k]) appended to out_ranges, and, digests not None,
+   buffer, (out_first, out_last, order[k]) appended to out_ranges -- a list: that tuple; a
+   tuple of three array('q') (outranges.OutRanges' columns): each number to its column, by
+   one frombytes a column at the end of the call (no tuple, int or gc-tracked object a
+   row: their allocations ran the young generation's collections) -- and, digests not None,
    digests[order[k]] = blake2b(block, digest_size=16).digest() (blake2b: the hash of
    nothing, blake2b(digest_size=16), copied for each block).  Stops at the first stroke
    it does not take (pipeline's loop takes that one, from its first untouched line on).
@@ -2611,6 +2748,45 @@ done:
    and at the end: no bytes object of the run's output, and a bounded buffer.
    Returns (k, pos, line, out_line). */
 #define RUN_FLUSH (1 << 20)
+
+/* v appended to a column of int64s (out_ranges' rows as stroke_run takes them as
+   columns): 0, or -1 (no memory).  The store inline, buf_grow only when full */
+static inline int col_put(Buf *b, Py_ssize_t v)
+{
+    int64_t x = (int64_t)v;
+    if (b->n + (Py_ssize_t)sizeof x > b->cap && buf_grow(b, (Py_ssize_t)sizeof x) < 0)
+        return -1;
+    memcpy(b->p + b->n, &x, sizeof x);
+    b->n += (Py_ssize_t)sizeof x;
+    return 0;
+}
+
+/* cols[c].frombytes(the int64s of col[c]) for each column with any, the exception in
+   force (if any) kept: 0, or -1 (frombytes' exception, which then is the one in force) */
+static int cols_flush(PyObject *const *cols, Buf *col)
+{
+    PyObject *et, *ev, *tb;
+    int bad = 0;
+    PyErr_Fetch(&et, &ev, &tb);
+    for (int c = 0; c < 3 && !bad; c++) {
+        if (col[c].n == 0)
+            continue;
+        PyObject *mv = PyMemoryView_FromMemory(col[c].p, col[c].n, PyBUF_READ), *r = NULL;
+        if (mv != NULL)
+            r = PyObject_CallMethodOneArg(cols[c], NAMES[A_FROMBYTES], mv);
+        bad = r == NULL;
+        Py_XDECREF(r);
+        Py_XDECREF(mv);
+    }
+    if (bad) {                     /* frombytes' exception replaces any in force */
+        Py_XDECREF(et);
+        Py_XDECREF(ev);
+        Py_XDECREF(tb);
+        return -1;
+    }
+    PyErr_Restore(et, ev, tb);
+    return 0;
+}
 
 /* (a, z, i): Py_BuildValue("(nnO)", a, z, i) */
 static PyObject *range_row(Py_ssize_t a, Py_ssize_t z, PyObject *i)
@@ -2690,7 +2866,10 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
                out_line = PyLong_AsSsize_t(args[5]);
     if (PyErr_Occurred())
         return NULL;
-    if (!PyBytes_CheckExact(data) || !PyList_CheckExact(out_ranges) || !PyList_CheckExact(ra.strokes)
+    PyObject *const *cols = NULL;           /* out_ranges as three array('q') columns */
+    if (PyTuple_CheckExact(out_ranges) && PyTuple_GET_SIZE(out_ranges) == 3)
+        cols = &PyTuple_GET_ITEM(out_ranges, 0);
+    if (!PyBytes_CheckExact(data) || !(cols != NULL || PyList_CheckExact(out_ranges)) || !PyList_CheckExact(ra.strokes)
         || !PyList_CheckExact(ra.segs) || !PyList_CheckExact(ra.betas) || !PyFloat_CheckExact(args[19])
         || !PyUnicode_CheckExact(ra.k_arc) || (ra.digests != Py_None && !PyDict_CheckExact(ra.digests))
         || pos < 0 || pos > PyBytes_GET_SIZE(data) || k < 0) {
@@ -2712,6 +2891,23 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         Py_DECREF(ra.nl);
         return NULL;
     }
+    /* order's int64s read in place where it is a contiguous int64 array (pipeline's numpy
+       order): no numpy scalar made and read back a stroke; order[k] itself only where
+       something keeps it (a list's row tuple, a digest's key) */
+    Py_buffer ov;
+    const int64_t *order_d = NULL;
+    if (PyObject_CheckBuffer(order) && PyObject_GetBuffer(order, &ov, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
+        const char *f = ov.format ? ov.format : "B";
+        if (*f == '<' || *f == '=' || *f == '@')
+            f++;
+        if (ov.ndim == 1 && ov.itemsize == 8 && ov.len == 8 * n_order && (strcmp(f, "q") == 0 || strcmp(f, "l") == 0))
+            order_d = (const int64_t *)ov.buf;
+        else
+            PyBuffer_Release(&ov);
+    } else
+        PyErr_Clear();
+    int keep_i = cols == NULL || ra.digests != Py_None;
+    Buf col[3] = {{NULL, 0, 0}, {NULL, 0, 0}, {NULL, 0, 0}};
     /* room for a flush's worth and the block that passes RUN_FLUSH, taken at once: grown
        from nothing by doubling, each call copied ~2 MB in realloc (~25 M instructions of
        memcpy on the gyroid plate).  (Not had: put grows it as it goes.) */
@@ -2719,9 +2915,13 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
     (void)buf_grow(&out, 2 * RUN_FLUSH);
     int err = 0;
     while (ctx_ok && k < n_order) {
-        PyObject *i_o = PySequence_GetItem(order, k), *kind = NULL;
-        if (i_o == NULL) { err = 1; break; }
-        Py_ssize_t i = PyNumber_AsSsize_t(i_o, NULL);
+        PyObject *i_o = NULL, *kind = NULL;
+        Py_ssize_t i;
+        if (order_d == NULL || keep_i) {
+            if ((i_o = PySequence_GetItem(order, k)) == NULL) { err = 1; break; }
+            i = order_d != NULL ? (Py_ssize_t)order_d[k] : PyNumber_AsSsize_t(i_o, NULL);
+        } else
+            i = (Py_ssize_t)order_d[k];
         int took = 0;
         if (i < 0 || i >= PyList_GET_SIZE(ra.strokes) || i >= PyList_GET_SIZE(ra.segs)
             || i >= PyList_GET_SIZE(ra.betas)) {
@@ -2769,14 +2969,26 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             PyErr_Clear();
             goto next;
         }
-        PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
-        if (row == NULL || PyList_Append(out_ranges, row) < 0) {
-            Py_XDECREF(row);
-            out.n = base;
-            err = 1;
-            goto next;
+        if (cols != NULL) {
+            Py_ssize_t n_col = col[0].n;
+            if (col_put(&col[0], out_line + n_copy) < 0 || col_put(&col[1], out_line + n_copy + n_out - 1) < 0
+                || col_put(&col[2], i) < 0) {
+                col[0].n = col[1].n = col[2].n = n_col;
+                PyErr_NoMemory();
+                out.n = base;
+                err = 1;
+                goto next;
+            }
+        } else {
+            PyObject *row = range_row(out_line + n_copy, out_line + n_copy + n_out - 1, i_o);
+            if (row == NULL || PyList_Append(out_ranges, row) < 0) {
+                Py_XDECREF(row);
+                out.n = base;
+                err = 1;
+                goto next;
+            }
+            Py_DECREF(row);
         }
-        Py_DECREF(row);
         if (ra.digests != Py_None) {
             /* blake2b(block, digest_size=16).digest(), as the loop makes it: the empty
                hash's copy (blake2 is the same from its start state) updated with the block
@@ -2806,13 +3018,20 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             err = 1;
 next:
         Py_XDECREF(kind);
-        Py_DECREF(i_o);
+        Py_XDECREF(i_o);
         if (!took || err)
             break;
         k++;
     }
     memo_clear(&ra.memo);
     Py_DECREF(ra.nl);
+    if (order_d != NULL)
+        PyBuffer_Release(&ov);
+    /* the rows taken, into out_ranges' columns whatever ends the call (as a list's rows are) */
+    if (cols != NULL && cols_flush(cols, col) < 0)
+        err = 1;
+    for (int c = 0; c < 3; c++)
+        PyMem_Free(col[c].p);
     PyObject *res = NULL;
     if (!err && run_flush(&out, args[22]) == 0)
         res = Py_BuildValue("(nnnn)", k, pos, line, out_line);
@@ -2960,6 +3179,46 @@ static PyObject *units_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* start8(x, dec): run_block's start text of x, f"{x:.8f}", read two ways: (text, units by
+   start8_units or None, start8_decimals) from fmt_f's integer and (units by units_txt or
+   None, start_decimals) from the text; None where fmt_f declines (tests) */
+static PyObject *start8(PyObject *self, PyObject *args)
+{
+    double x;
+    int dec;
+    char buf[64];
+    uint64_t n;
+    if (!PyArg_ParseTuple(args, "di", &x, &dec))
+        return NULL;
+    int len = fmt_f_n(x, 8, buf, &n);
+    if (len < 0 || dec < 0 || dec > 15)
+        Py_RETURN_NONE;
+    int64_t u_n = 0, u_t = 0;
+    int ok_n = start8_units(n, signbit(x) != 0, dec, &u_n) == 0, ok_t = units_txt(buf, len, dec, &u_t) == 0;
+    PyObject *a = ok_n ? PyLong_FromLongLong(u_n) : Py_NewRef(Py_None);
+    PyObject *b = ok_t ? PyLong_FromLongLong(u_t) : Py_NewRef(Py_None);
+    if (a == NULL || b == NULL) {
+        Py_XDECREF(a);
+        Py_XDECREF(b);
+        return NULL;
+    }
+    return Py_BuildValue("(s#NiNi)", buf, (Py_ssize_t)len, a, start8_decimals(n), b, start_decimals(buf, len));
+}
+
+/* units_nf(u, dec): units_at_nf's text and decimals, (str, int) (dec 0..30; tests) */
+static PyObject *units_nf(PyObject *self, PyObject *args)
+{
+    long long u;
+    int dec, nf = -1;
+    char room[96];
+    if (!PyArg_ParseTuple(args, "Li", &u, &dec))
+        return NULL;
+    if (dec < 0 || dec > 30)
+        Py_RETURN_NONE;
+    char *q = units_at_nf(room, (int64_t)u, dec, &nf);
+    return Py_BuildValue("(s#i)", room, (Py_ssize_t)(q - room), nf);
+}
+
 static PyObject *tenths_text(PyObject *self, PyObject *args)
 {
     long long k;
@@ -3042,6 +3301,8 @@ static PyMethodDef mod_methods[] = {
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
+    {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},
+    {"units_nf", units_nf, METH_VARARGS, "units_at_nf's (text, decimals) (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
     {"plain_moves", plain_moves, METH_VARARGS,
      "emit._plain_moves(raws) + (dec_xy, dec_e), or NotImplemented"},

@@ -126,7 +126,12 @@ def _length(text):
     return v
 
 
-def build_parser():
+def build_parser(only_process=False):
+    """The command line's parser; only_process: with the process command alone (main's
+    parser for a command line that starts with it: the other commands' parsers, and the
+    report package's import, are ~15 M instructions of a small file's run).  Its parsing of
+    such a command line, and every message and exit, is the whole parser's: the process
+    parser is the same, and the top-level one shows COMMAND, not the commands' names."""
     ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -183,6 +188,8 @@ def build_parser():
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
     p.add_argument("--profile-time", action="store_true",
                    help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
+    if only_process:
+        return ap
 
     s = sub.add_parser("simulate", help="play a file through the firmware model",
                        description="Plan a whole file the way a constant-acceleration lookahead firmware does "
@@ -251,6 +258,29 @@ def _binary_input(path):
     return BinaryJob(path, path)
 
 
+_START_PAUSE = []        # main's pause of the garbage collector, not yet ended (see _gc_pause)
+
+
+def _gc_pause():
+    """The collector off for main's start (the parser, the profile, output and reader
+    modules, numpy through them: the program's objects, none of them garbage; the
+    collections on the way walked them again and again), where the caller left it on and
+    nothing is frozen.  _modules_frozen ends the pause with those objects frozen along
+    with the pipeline's; _gc_resume ends it otherwise (another command, an exit)."""
+    import gc
+    if gc.isenabled() and not gc.get_freeze_count():
+        gc.disable()
+        _START_PAUSE.append(True)
+
+
+def _gc_resume():
+    """The collector back on where main's pause is still on; else nothing."""
+    import gc
+    if _START_PAUSE:
+        _START_PAUSE.clear()
+        gc.enable()
+
+
 def _modules_frozen(name):
     """Imports module `name` (the pipeline: numpy's modules and ours, ~10^5 objects, none of
     them garbage) with the garbage collector off, then moves every object alive out of its
@@ -260,7 +290,9 @@ def _modules_frozen(name):
     frozen yet); a second call does nothing."""
     import gc
     from importlib import import_module
-    if gc.get_freeze_count() or not gc.isenabled():     # (a caller's own settings: left alone)
+    paused = bool(_START_PAUSE)                         # (main's pause: ended here, its objects frozen too)
+    _START_PAUSE.clear()
+    if not paused and (gc.get_freeze_count() or not gc.isenabled()):     # (a caller's own settings: left alone)
         import_module(name)
         return lambda: None
     gc.disable()
@@ -280,6 +312,7 @@ def _modules_frozen(name):
 
 def cmd_process(a):
     thaw = _modules_frozen(__package__ + ".pipeline")
+    _gc_resume()                                      # (a stand-in for _modules_frozen: main's pause ended)
     try:
         from .pipeline import Options, Progress, process
         out = a.output or a.input
@@ -582,20 +615,27 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv                      # accepted anywhere, not only before the command
     argv = [x for x in argv if x != "--debug"]
-    ap = build_parser()
-    a = ap.parse_args(argv)
-    a.debug = debug
-    if not a.cmd:
-        ap.print_help()
-        return EXIT_USER
-    from . import blas, malloc_policy
-    blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
-    malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
-    from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
-    from .profile import ProfileError
-    from .state import GcodeError
-    from .inputcheck import InputRefused
-    saved = install_signal_handlers()
+    _gc_pause()                     # until process freezes these modules with the pipeline's, or the command runs
+    to_process = False
+    try:
+        ap = build_parser(only_process=argv[:1] == ["process"])
+        a = ap.parse_args(argv)
+        a.debug = debug
+        if not a.cmd:
+            ap.print_help()
+            return EXIT_USER
+        from . import blas, malloc_policy
+        blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
+        malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
+        from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
+        from .profile import ProfileError
+        from .state import GcodeError
+        from .inputcheck import InputRefused
+        saved = install_signal_handlers()
+        to_process = a.cmd == "process" and not hasattr(a, "func")
+    finally:
+        if not to_process:
+            _gc_resume()
 
     def fail(code, msg):
         if debug:
@@ -624,6 +664,7 @@ def main(argv=None):
         return fail(EXIT_FAIL, f"internal error: {type(e).__name__}: {e} (run again with --debug for the "
                                "traceback, and please report it)" + _left(a))
     finally:
+        _gc_resume()                               # (process ended the pause; else here)
         discard_pending()
         restore_signal_handlers(saved)
 

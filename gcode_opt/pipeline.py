@@ -567,7 +567,8 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     sel = np.flatnonzero(plan.retime)
     order = sel[np.argsort(line_spans(strokes)[0][sel], kind="stable")]
     out_ranges = OutRanges()
-    run_rows = []                 # the core's rows, moved into out_ranges after each call
+    # the core's rows go straight into out_ranges' three array('q') columns (no tuple a row)
+    run_rows = (out_ranges.first, out_ranges.last, out_ranges.stroke)
     run_digests = digests if digests is None or type(digests) is dict else {}    # (the core fills a dict)
     out_line = 0
     pos = 0                       # next line of the input to copy
@@ -623,7 +624,6 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                         (seg_type, RowPlan), K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True],
                         max_accel_a, run_digests, empty_digest, write)
                 finally:
-                    out_ranges.take(run_rows)
                     if run_digests is not digests:
                         digests.take(run_digests)
                 if k >= n_order:

@@ -153,3 +153,40 @@ def test_tod_at_into_zero_and_negative_lengths_same_bits(max_iter):
     for kind in ("inside", "edges"):
         xs = np.ascontiguousarray(_targets(rng, nl.L[pj], kind), float)
         assert _case(nl, pj, xs, rng, max_iter)
+
+
+def _knots_call(fl, bv8, K):
+    """core.fixed_knots on every chain of fl, binding marks bv8 (uint8), K knots (2 chains + marks)."""
+    na, n = fl.S.size, fl.sv.size
+    P = K - na
+    ks, kv, kt0, L, va, vb, T0 = (np.empty(K), np.empty(K), np.empty(K), np.empty(P), np.empty(P), np.empty(P),
+                                  np.empty(P))
+    koff, owner, kj = np.empty(na + 1, np.int64), np.empty(P, np.int64), np.empty(n, np.int64)
+    lc.CORE_MOD.fixed_knots(fl.sv, fl.cv, np.zeros(n), np.arange(n, dtype=np.int64), bv8,
+                            np.ascontiguousarray(fl.voff, np.int64), fl.S, fl.T, fl.v0, fl.v1, np.zeros(na, np.uint8),
+                            ks, kv, kt0, koff, L, va, vb, T0, owner, kj)
+    return ks, kv, koff, L, T0, owner, kj
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fixed_knots_counts_every_nonzero_mark(seed):
+    """fixed_knots' count of the binding vertices (its size check: K = 2 chains + that count)
+    takes every nonzero byte of the marks as binding, as its knot loop does: marks 1, 2 and
+    255 give the knots of bool marks; a K one off is refused."""
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 40))
+    nv = rng.integers(0, 90, m)
+    S = rng.uniform(5.0, 50.0, m)
+    sv = np.concatenate([np.sort(rng.uniform(0.01, 0.99, k)) * s for k, s in zip(nv, S)])
+    fl = lc._Flat.of_arrays(sv, rng.uniform(10.0, 100.0, sv.size), nv, S, S / 50.0, np.ones(m),
+                            rng.uniform(0.0, 20.0, m), rng.uniform(0.0, 20.0, m))
+    bind = rng.uniform(size=sv.size) < 0.3
+    K = 2 * m + int(bind.sum())
+    want = _knots_call(fl, bind.view(np.uint8).copy(), K)
+    marks = np.where(bind, rng.choice(np.array([1, 2, 255], np.uint8), sv.size), 0).astype(np.uint8)
+    got = _knots_call(fl, marks, K)
+    assert all(np.array_equal(_bits(g) if g.dtype == float else g, _bits(w) if w.dtype == float else w)
+               for g, w in zip(got, want))
+    for bad in (K - 1, K + 1):
+        with pytest.raises(ValueError, match="fixed_knots: shapes"):
+            _knots_call(fl, marks, bad)

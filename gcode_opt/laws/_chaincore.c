@@ -102,6 +102,13 @@ VEC_CLONES static int all_finite_pos(Py_ssize_t n, const double *restrict x) {
     return !bad;
 }
 
+/* the nonzero bytes among x[0..n) (a vector loop: fixed_knots' count of binding vertices) */
+VEC_CLONES static Py_ssize_t count_nonzero_u8(Py_ssize_t n, const uint8_t *restrict x) {
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < n; i++) c += x[i] != 0;
+    return c;
+}
+
 /* prims.cube and prims.sinh (its Horner on the fixed coefficients c[0..nc-1], from the
    last): the same operations in the same order */
 static inline double p_cube(double x) { return (x * x) * x; }
@@ -1204,8 +1211,7 @@ static PyObject *fixed_knots(PyObject *self, PyObject *a) {
     for (Py_ssize_t r = 0; ok && r < na; r++) ok = bvoff[r + 1] >= bvoff[r];
     Py_ssize_t nbind = 0;
     ok = ok && all_in_range(n, vi, nsv);
-    if (ok)
-        for (Py_ssize_t u = 0; u < n; u++) nbind += bv[u] != 0;
+    if (ok) nbind = count_nonzero_u8(n, bv);
     if (!(ok && K == 2 * na + nbind && P == K - na)) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "fixed_knots: shapes");

@@ -102,6 +102,13 @@ VEC_CLONES static int all_finite_pos(Py_ssize_t n, const double *restrict x) {
     return !bad;
 }
 
+/* the nonzero bytes among x[0..n) (a vector loop: fixed_knots' count of binding vertices) */
+VEC_CLONES static Py_ssize_t count_nonzero_u8(Py_ssize_t n, const uint8_t *restrict x) {
+    Py_ssize_t c = 0;
+    for (Py_ssize_t i = 0; i < n; i++) c += x[i] != 0;
+    return c;
+}
+
 /* prims.cube and prims.sinh (its Horner on the fixed coefficients c[0..nc-1], from the
    last): the same operations in the same order */
 static inline double p_cube(double x) { return (x * x) * x; }
@@ -157,6 +164,7 @@ VEC_CLONES static int args_vec(Py_ssize_t m, const double *restrict Tm, const do
 }
 
 #define CHUNK 256          /* pieces a pass of j_chunk: its series stay in L1 */
+#define INF_BITS 0x7ff0000000000000LL   /* +inf's bits: a square's (sign dropped) above them is nan */
 
 /* J = ∫ṡ² + β∫s̈² (_J3's arithmetic, element by element) of n pieces at one of their
    three durations t (γ = t / √β: sq), the pieces' L, β, v0 + v1, v0 - v1: the n, m, S1
@@ -695,36 +703,123 @@ typedef struct {
 
 /* The elementwise part of a time-of-distance step on m active laws (a chunk, compact): from
    s and ṡ at t (tod_chunk's) and the laws' sgn, target, scale, T, γ: the bracket [lo, hi]
-   (updated in place), done, the next t tn (Newton inside the bracket, else its middle; not
-   read where done), its τ = clip(tn / T, 0, 1) and (γ (τ - 1/2))², the S1 terms' measure.
+   (updated in place), done, the next t (Newton inside the bracket, else its middle), its
+   τ = clip(t / T, 0, 1) and (γ (τ - 1/2))², the S1 terms' measure.  Only the laws going on
+   (act[j] >= 0: not done at an earlier step) count: done[j] is 0 for the others; the laws
+   going on and not done now take their next t and τ in place (t[j], taus[j]; a done law
+   keeps the t it ended on, a law done before its t and τ: not read any more).  Returns the
+   bits of the largest (γx)² of the laws going on and not done (its sign dropped: a square
+   or nan; -1 if none; above +inf's bits: one is nan), the S1 terms of the next step's batch
+   (squares' bits order as their values do: the same largest as the values' max).
    Each element's operations in their order (SIMD lanes: the same bits as one at a time). */
-VEC_CLONES static void tod_step(Py_ssize_t m, const double *restrict s, const double *restrict v,
-                                const double *restrict sgn, const double *restrict target,
-                                const double *restrict scale, const double *restrict Tb, const double *restrict gb,
-                                const double *restrict t, double *restrict lo, double *restrict hi,
-                                int64_t *restrict done, double *restrict tn, double *restrict taun,
-                                double *restrict z2n) {
+VEC_CLONES static int64_t tod_step(Py_ssize_t m, const double *restrict s, const double *restrict v,
+                                   const double *restrict sgn, const double *restrict target,
+                                   const double *restrict scale, const double *restrict Tb,
+                                   const double *restrict gb, const int64_t *restrict act, double *restrict t,
+                                   double *restrict lo, double *restrict hi, int64_t *restrict done,
+                                   double *restrict taus) {
     const double eps4 = 4 * DBL_EPSILON;
+    int64_t zbits[CHUNK];            /* (the largest taken after the loop: gcc vectorises neither
+                                        loop with the reduction and the selections in one) */
     for (Py_ssize_t j = 0; j < m; j++) {
         double ti = t[j];
         double f = sgn[j] * (s[j] - target[j]);
         double loi = (f <= 0) ? ti : lo[j], hii = (f >= 0) ? ti : hi[j];    /* (selections: f's sign is a coin toss) */
         lo[j] = loi;
         hi[j] = hii;
-        done[j] = (fabs(f) <= eps4 * scale[j]) | (hii - loi <= eps4 * Tb[j]);
+        int64_t going = act[j] >= 0;
+        int64_t dn = going & ((fabs(f) <= eps4 * scale[j]) | (hii - loi <= eps4 * Tb[j]));
+        done[j] = dn;
         double sv = sgn[j] * v[j];
         double tnew = ti - f / sv;
         int okn = (sv > 0) & (tnew > loi) & (tnew < hii);
         double nt = okn ? tnew : 0.5 * (loi + hii);
-        tn[j] = nt;
         double tau = nt / Tb[j];
         double c = tau > 0.0 ? tau : 0.0;
         c = c < 1.0 ? c : 1.0;
         tau = isnan(tau) ? tau : c;                       /* np.clip: nan stays */
-        taun[j] = tau;
         double z = gb[j] * (tau - 0.5);
-        z2n[j] = z * z;
+        double z2 = z * z;
+        int64_t on = going & !dn, b;
+        memcpy(&b, &z2, 8);
+        zbits[j] = on ? HS_ABS_BITS(b) : -1;
+        t[j] = on ? nt : ti;
+        double tu = taus[j];
+        taus[j] = on ? tau : tu;
     }
+    int64_t zb = -1;
+    for (Py_ssize_t j = 0; j < m; j++) zb = zbits[j] > zb ? zbits[j] : zb;
+    return zb;
+}
+
+/* What tod_at_into makes of its laws before the iteration (tod_begin_at, chunk by chunk),
+   for tod_iterate to start from instead of its own first lines: blk, the per-law block it
+   would allocate (prims.shc(γ/4), τ, the law's T, γ, n, sh2, wbar, A, δ: 9 N doubles, made;
+   tod_iterate neither allocates nor frees it), zm and nan (the largest (γx)² and whether one
+   is nan, as its first lines take them).  act is 0..N-1 and target .. hi the laws' own. */
+typedef struct {
+    double *blk;
+    double zm;
+    int nan;
+} TodBegun;
+
+/* tod_at_into's first lines on m <= CHUNK laws: law i (law pj[i] of the arrays T .. dl, asked
+   for the distance x[i]) gets tod_start's target, sgn, scale, t, lo, hi (its operations,
+   element by element), its law's numbers gathered (Tq .. dq: tod_iterate's gather), τ =
+   clip(t / T, 0, 1) (taus) and act[i] = i0 + i.  Returns the bits of the largest (γx)² (sign
+   dropped; above +inf's: one is nan; -1 for m = 0), as tod_step does.  The gather first, in
+   a loop of its own (gcc makes no vector gathers for x86-64: the loop with them stays
+   scalar), then the rest in vector loops on the gathered numbers. */
+VEC_CLONES static int64_t tod_begin_at(Py_ssize_t m, Py_ssize_t i0, const int64_t *restrict pj,
+                                       const double *restrict T, const double *restrict L,
+                                       const double *restrict gs, const double *restrict n,
+                                       const double *restrict sh2, const double *restrict wbar,
+                                       const double *restrict A, const double *restrict dl,
+                                       const double *restrict x, double *restrict target, double *restrict sgn,
+                                       double *restrict scale, double *restrict t, double *restrict lo,
+                                       double *restrict hi, double *restrict Tq, double *restrict gq,
+                                       double *restrict nq, double *restrict shq, double *restrict wq,
+                                       double *restrict Aq, double *restrict dq, double *restrict taus,
+                                       int64_t *restrict act) {
+    double Lq[CHUNK];
+    int64_t zbits[CHUNK];            /* (the largest taken after the loop, as in tod_step) */
+    for (Py_ssize_t i = 0; i < m; i++) {
+        int64_t j = pj[i];
+        Tq[i] = T[j]; Lq[i] = L[j]; gq[i] = gs[j]; nq[i] = n[j]; shq[i] = sh2[j]; wq[i] = wbar[j]; Aq[i] = A[j];
+        dq[i] = dl[j];
+    }
+    for (Py_ssize_t i = 0; i < m; i++) {
+        double Ti = Tq[i], Li = Lq[i], xi = x[i];
+        double los = (0.0 <= Li) ? 0.0 : Li;                     /* np.minimum(0.0, L) */
+        double his = (0.0 >= Li) ? 0.0 : Li;                     /* np.maximum(0.0, L) */
+        double c0 = xi > los ? xi : los, mx = isnan(xi) ? xi : c0;      /* np.clip: nan stays */
+        double c1 = mx < his ? mx : his, tg = isnan(mx) ? mx : c1;
+        target[i] = tg;
+        sgn[i] = Li < 0 ? -1.0 : 1.0;
+        double l0 = 0.0, h0 = Ti;
+        lo[i] = l0;
+        hi[i] = h0;
+        double q = tg / Li;
+        double r = Li != 0 ? q : 0.5;
+        double ti = l0 + (h0 - l0) * r;
+        t[i] = ti;
+        double aL = fabs(Li);
+        scale[i] = (aL >= 1e-300 || isnan(aL)) ? aL : 1e-300;
+        double tau = ti / Ti;
+        double c = tau > 0.0 ? tau : 0.0;
+        c = c < 1.0 ? c : 1.0;
+        tau = isnan(tau) ? tau : c;                               /* np.clip: nan stays */
+        taus[i] = tau;
+        double z = gq[i] * (tau - 0.5);
+        double z2 = z * z;
+        int64_t b;
+        memcpy(&b, &z2, 8);
+        zbits[i] = HS_ABS_BITS(b);
+        act[i] = i0 + i;
+    }
+    int64_t zb = -1;
+    for (Py_ssize_t i = 0; i < m; i++) zb = zbits[i] > zb ? zbits[i] : zb;
+    return zb;
 }
 
 /* _time_of_distance's whole iteration on the N laws lw (tod_solve's; see there): target,
@@ -747,28 +842,36 @@ static inline __attribute__((always_inline)) Py_ssize_t
 tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, double *sgn, double *scale,
             double *t, double *lo, double *hi, int64_t *act, double *out, double *vout,
             const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter,
-            const int64_t *dst, double *vdst, double *tdst) {
+            const int64_t *dst, double *vdst, double *tdst, const TodBegun *begun) {
     const double *T = lw->T, *gs = lw->gs, *n = lw->n, *sh2 = lw->sh2, *wbar = lw->wbar, *A = lw->A, *dl = lw->dl;
     const int64_t *ix = lw->ix;
     const HornerSkip *hs = hs_get(sc, nc);       /* the sinh series' start terms (nc <= SINH_MAX: the callers') */
     Py_ssize_t NN = N ? N : 1;
     int ident = 1;
-    for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
+    if (!begun)
+        for (Py_ssize_t j = 0; j < N; j++) ident &= act[j] == j;
     /* per active law: prims.shc(γ/4), τ, its law's T, γ, n, sh2, wbar, A, δ; the copies of
        target .. hi in act's order where act is not 0..N-1 */
-    double *s4 = PyMem_Malloc((ident ? 9 : 15) * NN * sizeof(double));
+    double *s4 = begun ? begun->blk : PyMem_Malloc((ident ? 9 : 15) * NN * sizeof(double));
     if (!s4) { PyErr_NoMemory(); return -1; }
     double *taus = s4 + NN;
     double *Tq = s4 + 2 * NN, *gq = s4 + 3 * NN, *nq = s4 + 4 * NN, *shq = s4 + 5 * NN, *wq = s4 + 6 * NN,
            *Aq = s4 + 7 * NN, *dq = s4 + 8 * NN;
+    double zm = -1.0;
+    int nan = 0;
+    if (begun) {
+        zm = begun->zm;
+        nan = begun->nan;
+        goto steps;
+    }
     if (!ident) {
         double *cp = s4 + 9 * NN, *src[6] = {target, sgn, scale, t, lo, hi};
         for (int u = 0; u < 6; u++)
             for (Py_ssize_t j = 0; j < N; j++) cp[u * NN + j] = src[u][act[j]];
         target = cp; sgn = cp + NN; scale = cp + 2 * NN; t = cp + 3 * NN; lo = cp + 4 * NN; hi = cp + 5 * NN;
     }
-    /* a chunk of the active laws: s, ṡ (tod_chunk); done, the next t, τ, (γx)² (tod_step) */
-    double sb[CHUNK], vv[CHUNK], tnb[CHUNK], taub[CHUNK], z2b[CHUNK];
+    /* a chunk of the active laws: s, ṡ (tod_chunk); done, the next t and τ (tod_step) */
+    double sb[CHUNK], vv[CHUNK];
     int64_t dn[CHUNK];
     for (Py_ssize_t j = 0; j < N; j++) {
         int64_t q = indexed ? ix[act[j]] : act[j];
@@ -782,8 +885,6 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
        here, then by the step that moves t (each law's τ once a step, not once for the
        batch's S1 terms and again for its chunk); zm, nan: the largest (γx)² of the active
        laws (nan: one is nan), the S1 terms the next step's batch needs */
-    double zm = -1.0;
-    int nan = 0;
     for (Py_ssize_t j = 0; j < N; j++) {
         double tau = t[j] / Tq[j];
         if (!isnan(tau)) {                /* np.clip: nan stays */
@@ -800,6 +901,7 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
        answers not read), until they are more than an eighth of the entries na: then the
        laws going are moved up in order before a step (most laws take 4 or 5 steps: the
        laws going are moved about once, not at every step) */
+steps:;
     Py_ssize_t na = N, ndone = 0;
     for (int it = 0; it < max_iter && na > ndone; it++) {
         if (ndone > na / 8) {
@@ -820,35 +922,33 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
         zm = -1.0;
         nan = 0;
         /* chunk by chunk: s and ṡ (tod_chunk), the bracket, done, the next t and its τ
-           (tod_step) */
+           (tod_step); the laws done now give their answers and are marked */
         for (Py_ssize_t j0 = 0; j0 < na; j0 += CHUNK) {
             Py_ssize_t m = na - j0 < CHUNK ? na - j0 : CHUNK;
             tod_chunk(m, k, taus + j0, gq + j0, coef, hs, s4 + j0, nq + j0, shq + j0, wq + j0, Aq + j0, dq + j0,
                       Tq + j0, sb, vv);
-            tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tq + j0, gq + j0, t + j0, lo + j0, hi + j0, dn,
-                     tnb, taub, z2b);
+            int64_t zb = tod_step(m, sb, vv, sgn + j0, target + j0, scale + j0, Tq + j0, gq + j0, act + j0, t + j0,
+                                  lo + j0, hi + j0, dn, taus + j0);
+            if (zb > INF_BITS) nan = 1;         /* the largest (γx)² of the laws going on */
+            else if (zb >= 0) {
+                double z2;
+                memcpy(&z2, &zb, 8);
+                if (z2 > zm) zm = z2;
+            }
             for (Py_ssize_t jj = 0; jj < m; jj++) {
+                if (!dn[jj]) continue;
                 Py_ssize_t j = j0 + jj;
-                int64_t i = act[j];
-                if (i < 0) continue;   /* done before */
-                if (dn[jj]) {          /* t stays */
-                    if (dst) {
-                        int64_t d = dst[i];
-                        vdst[d] = vv[jj];
-                        tdst[d] = tdst[d] + t[j];
-                    } else {
-                        out[i] = t[j];
-                        vout[i] = vv[jj];
-                    }
-                    act[j] = -1 - i;
-                    ndone++;
-                    continue;
+                int64_t i = act[j];    /* t stays */
+                if (dst) {
+                    int64_t d = dst[i];
+                    vdst[d] = vv[jj];
+                    tdst[d] = tdst[d] + t[j];
+                } else {
+                    out[i] = t[j];
+                    vout[i] = vv[jj];
                 }
-                double z2 = z2b[jj];   /* the largest (γx)² of the laws going on */
-                if (isnan(z2)) nan = 1;
-                else if (z2 > zm) zm = z2;
-                t[j] = tnb[jj];
-                taus[j] = taub[jj];
+                act[j] = -1 - i;
+                ndone++;
             }
         }
     }
@@ -859,7 +959,7 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
         else out[act[j]] = t[j];
         act[going++] = act[j];
     }
-    PyMem_Free(s4);
+    if (!begun) PyMem_Free(s4);
     return going;
 }
 
@@ -868,15 +968,16 @@ tod_iterate(const TodLaws *lw, const int indexed, Py_ssize_t N, double *target, 
     const double *coef, const double *zmax, Py_ssize_t nz, const double *sc, int nc, int max_iter
 static Py_ssize_t tod_iterate_at(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter, NULL, NULL, NULL);
+                       max_iter, NULL, NULL, NULL, NULL);
 }
 static Py_ssize_t tod_iterate_own(TOD_ITERATE_ARGS) {
     return tod_iterate(lw, 0, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter, NULL, NULL, NULL);
+                       max_iter, NULL, NULL, NULL, NULL);
 }
-static Py_ssize_t tod_iterate_into(TOD_ITERATE_ARGS, const int64_t *dst, double *vdst, double *tdst) {
+static Py_ssize_t tod_iterate_into(TOD_ITERATE_ARGS, const int64_t *dst, double *vdst, double *tdst,
+                                   const TodBegun *begun) {
     return tod_iterate(lw, 1, N, target, sgn, scale, t, lo, hi, act, out, vout, coef, zmax, nz, sc, nc,
-                       max_iter, dst, vdst, tdst);
+                       max_iter, dst, vdst, tdst, begun);
 }
 
 /* tod_solve(t, T, gs, n, sh2, wbar, A, delta, target, sgn, lo, hi, scale, act, out, vout,
@@ -1024,19 +1125,31 @@ static PyObject *tod_at_into(PyObject *self, PyObject *a) {
     const double *T = p[0], *L = p[1], *s = p[9];
     int64_t *act = p[13];
     Py_ssize_t NN = N ? N : 1;
-    /* per law: target, sgn, scale, t, lo, hi (tod_at's) */
-    double *work = PyMem_Malloc(6 * NN * sizeof(double));
+    /* per law: target, sgn, scale, t, lo, hi (tod_at's), then tod_iterate's block */
+    double *work = PyMem_Malloc(15 * NN * sizeof(double));
     if (!work) { release(&b); return PyErr_NoMemory(); }
     double *target = work, *sgn = work + NN, *scale = work + 2 * NN, *t = work + 3 * NN, *lo = work + 4 * NN,
            *hi = work + 5 * NN;
-    for (Py_ssize_t i = 0; i < N; i++) {          /* tod_prep's inputs of law i (its out: t again) */
-        int64_t j = pj[i];
-        tod_start(T[j], L[j], s[i], i, target, sgn, lo, hi, t, t, scale);
-        act[i] = (int64_t)i;
+    /* tod_prep's inputs of each law (its out: t again), its law's numbers, τ, prims.shc(γ/4):
+       tod_iterate's first lines, chunk by chunk in one pass */
+    TodBegun bg = {work + 6 * NN, -1.0, 0};
+    double *s4 = bg.blk, *taus = s4 + NN, *Tq = s4 + 2 * NN;
+    const HornerSkip *hs = hs_get(p[16], (int)nsc);
+    int64_t zb = -1;
+    for (Py_ssize_t j0 = 0; j0 < N; j0 += CHUNK) {
+        Py_ssize_t m = N - j0 < CHUNK ? N - j0 : CHUNK;
+        int64_t z = tod_begin_at(m, j0, pj + j0, T, L, p[2], p[3], p[4], p[5], p[6], p[7], s + j0, target + j0,
+                                 sgn + j0, scale + j0, t + j0, lo + j0, hi + j0, Tq + j0, Tq + NN + j0,
+                                 Tq + 2 * NN + j0, Tq + 3 * NN + j0, Tq + 4 * NN + j0, Tq + 5 * NN + j0,
+                                 Tq + 6 * NN + j0, taus + j0, act + j0);
+        zb = z > zb ? z : zb;
+        shc_quarter(m, Tq + NN + j0, hs, s4 + j0);
     }
+    if (zb > INF_BITS) bg.nan = 1;
+    else if (zb >= 0) memcpy(&bg.zm, &zb, 8);
     TodLaws lw = {T, p[2], p[3], p[4], p[5], p[6], p[7], pj};
     Py_ssize_t na = tod_iterate_into(&lw, N, target, sgn, scale, t, lo, hi, act, target, NULL, p[14], p[15], nz,
-                                     p[16], (int)nsc, max_iter, dst, p[11], p[12]);
+                                     p[16], (int)nsc, max_iter, dst, p[11], p[12], &bg);
     PyObject *res = NULL;
     if (na >= 0) {                 /* the last t of the laws still going (target[:na]) */
         res = PyTuple_New(na);
@@ -1098,8 +1211,7 @@ static PyObject *fixed_knots(PyObject *self, PyObject *a) {
     for (Py_ssize_t r = 0; ok && r < na; r++) ok = bvoff[r + 1] >= bvoff[r];
     Py_ssize_t nbind = 0;
     ok = ok && all_in_range(n, vi, nsv);
-    if (ok)
-        for (Py_ssize_t u = 0; u < n; u++) nbind += bv[u] != 0;
+    if (ok) nbind = count_nonzero_u8(n, bv);
     if (!(ok && K == 2 * na + nbind && P == K - na)) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "fixed_knots: shapes");

@@ -61,12 +61,19 @@ def _sha256(source):
     return _native.source_digest(str(HERE / source))
 
 
+def _stat_record(source):
+    """The digest and the stat of each file it covers, as hashed (native.stat_record): a
+    load finding them unchanged takes the digest without hashing again."""
+    return _native.stat_record(str(HERE / source))
+
+
 def _ext(name, source, macro):
     """An optional extension built from one C source; its local headers are dependencies
     (a changed header rebuilds it) and part of the recorded digest."""
     deps = [str(Path(p).relative_to(HERE)) for p in _native.local_headers(str(HERE / source))]
     return Extension(name, [source], optional=True, depends=deps,
-                     define_macros=[(macro, f'"{_sha256(source)}"')])
+                     define_macros=[(macro, f'"{_sha256(source)}"'),
+                                    ("GCODE_OPT_SOURCE_STAT", f'"{_stat_record(source)}"')])
 
 
 SOURCE = "gcode_opt/firmware/_core.c"

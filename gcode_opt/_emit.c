@@ -3325,6 +3325,9 @@ static struct PyModuleDef emit_module = {
 #ifndef EMIT_SOURCE_SHA256
 #define EMIT_SOURCE_SHA256 ""
 #endif
+#ifndef GCODE_OPT_SOURCE_STAT   /* setup.py: the digest and the stat of each file it covers, when taken (native.stat_record) */
+#define GCODE_OPT_SOURCE_STAT ""
+#endif
 
 PyMODINIT_FUNC PyInit__gcode_opt_emit(void)
 {
@@ -3332,7 +3335,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_emit(void)
     if (m == NULL)
         return NULL;
     pair_table_init();
-    if (PyModule_AddStringConstant(m, "SOURCE_SHA256", EMIT_SOURCE_SHA256) < 0) {
+    if (PyModule_AddStringConstant(m, "SOURCE_SHA256", EMIT_SOURCE_SHA256) < 0
+        || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -2124,6 +2124,9 @@ static struct PyModuleDef reader_module = {
 #ifndef READER_SOURCE_SHA256
 #define READER_SOURCE_SHA256 ""
 #endif
+#ifndef GCODE_OPT_SOURCE_STAT   /* setup.py: the digest and the stat of each file it covers, when taken (native.stat_record) */
+#define GCODE_OPT_SOURCE_STAT ""
+#endif
 
 PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
 {
@@ -2147,7 +2150,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_reader(void)
         Py_DECREF(m);
         return NULL;
     }
-    if (PyModule_AddStringConstant(m, "SOURCE_SHA256", READER_SOURCE_SHA256) < 0) {
+    if (PyModule_AddStringConstant(m, "SOURCE_SHA256", READER_SOURCE_SHA256) < 0
+        || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0) {
         Py_DECREF(m);
         return NULL;
     }

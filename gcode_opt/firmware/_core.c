@@ -7105,6 +7105,9 @@ static struct PyModuleDef core_module = {
 #ifndef FWCORE_SOURCE_SHA256
 #define FWCORE_SOURCE_SHA256 ""
 #endif
+#ifndef GCODE_OPT_SOURCE_STAT   /* setup.py: the digest and the stat of each file it covers, when taken (native.stat_record) */
+#define GCODE_OPT_SOURCE_STAT ""
+#endif
 
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
@@ -7131,6 +7134,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
         || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
+        || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
         Py_DECREF(m);
         return NULL;

@@ -3402,10 +3402,14 @@ static struct PyModuleDef chaincore_module = {
 #ifndef CHAINCORE_SOURCE_SHA256
 #define CHAINCORE_SOURCE_SHA256 ""
 #endif
+#ifndef GCODE_OPT_SOURCE_STAT   /* setup.py: the digest and the stat of each file it covers, when taken (native.stat_record) */
+#define GCODE_OPT_SOURCE_STAT ""
+#endif
 
 PyMODINIT_FUNC PyInit__gcode_opt_chaincore(void) {
     PyObject *mod = PyModule_Create(&chaincore_module);
-    if (mod && PyModule_AddStringConstant(mod, "SOURCE_SHA256", CHAINCORE_SOURCE_SHA256) < 0) {
+    if (mod && (PyModule_AddStringConstant(mod, "SOURCE_SHA256", CHAINCORE_SOURCE_SHA256) < 0
+                || PyModule_AddStringConstant(mod, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0)) {
         Py_DECREF(mod);
         return NULL;
     }

@@ -1621,10 +1621,14 @@ static struct PyModuleDef curvecore_module = {
 #ifndef CURVECORE_SOURCE_SHA256
 #define CURVECORE_SOURCE_SHA256 ""
 #endif
+#ifndef GCODE_OPT_SOURCE_STAT   /* setup.py: the digest and the stat of each file it covers, when taken (native.stat_record) */
+#define GCODE_OPT_SOURCE_STAT ""
+#endif
 
 PyMODINIT_FUNC PyInit__gcode_opt_curvecore(void) {
     PyObject *mod = PyModule_Create(&curvecore_module);
-    if (mod && PyModule_AddStringConstant(mod, "SOURCE_SHA256", CURVECORE_SOURCE_SHA256) < 0) {
+    if (mod && (PyModule_AddStringConstant(mod, "SOURCE_SHA256", CURVECORE_SOURCE_SHA256) < 0
+                || PyModule_AddStringConstant(mod, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0)) {
         Py_DECREF(mod);
         return NULL;
     }

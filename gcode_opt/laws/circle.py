@@ -738,6 +738,9 @@ def _layers_totals(xs, phi, gam2, u0, u1):
     return list(out)
 
 
+_LAYERS_ITER = 100         # _solve_layers_batch's Newton steps at most (tests lower it)
+
+
 def _solve_layers_batch(phi, gam2, u0, u1):
     """Cruise value w_c (safeguarded Newton/bisection; the residual is increasing in w_c).
     The two residuals each step takes (bracket ends; w_c and w_c + h) in one _layers_totals."""
@@ -754,21 +757,28 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
-    for _ in range(100):
-        x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
+    # the live arcs' numbers held packed (x: their w_c, lo_a/hi_a: their bracket), packed
+    # again only when arcs leave, and each arc's w_c put into wc as it leaves: not eight
+    # gathers and three scatters by act every step (the same numbers, element by element)
+    x, p_, g2, a0, a1, sp, lo_a, hi_a = (v[act] for v in (wc, phi, gam2, u0, u1, span, lo, hi))
+    for _ in range(_LAYERS_ITER if act.size else 0):
         h = 1e-7 * (np.abs(x) + 1e-3 * sp)
         g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
-        lo[act] = lo_a = np.where(g < 0, x, lo[act])
-        hi[act] = hi_a = np.where(g > 0, x, hi[act])
+        lo_a = np.where(g < 0, x, lo_a)
+        hi_a = np.where(g > 0, x, hi_a)
         dg = (gh - g) / h
         new = x - g / np.where(dg > 0, dg, np.inf)
         outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
         new = np.where(outside, 0.5 * (lo_a + hi_a), new)
         done = np.abs(new - x) <= 1e-15 * sp
-        wc[act] = new
-        act = act[~done]
-        if act.size == 0:
-            break
+        x = new
+        if done.any():
+            wc[act[done]] = x[done]
+            keep = np.flatnonzero(~done)
+            if keep.size == 0:
+                return wc
+            act, x, p_, g2, a0, a1, sp, lo_a, hi_a = (v.take(keep) for v in (act, x, p_, g2, a0, a1, sp, lo_a, hi_a))
+    wc[act] = x                     # (the steps ran out: the last ones' w_c)
     return wc
 
 

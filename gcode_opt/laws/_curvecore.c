@@ -1194,17 +1194,33 @@ static PyObject *row_lengths(PyObject *self, PyObject *a) {
         PyErr_SetString(PyExc_ValueError, "row_lengths: bad size");
         return NULL;
     }
+    /* strided: _cheb_der_int's tables are transposes (each row's trailing entries read,
+       not the whole table copied into rows first) */
+    Py_buffer cv;
+    if (PyObject_GetBuffer(oc, &cv, PyBUF_STRIDES | PyBUF_FORMAT) < 0) return NULL;
+    if (cv.ndim != 2 || cv.itemsize != 8 || !cv.format || strcmp(cv.format, "d") != 0 ||
+        cv.shape[0] != nb || cv.shape[1] != K) {
+        PyBuffer_Release(&cv);
+        PyErr_SetString(PyExc_ValueError, "row_lengths: a (B, K) float64 table");
+        return NULL;
+    }
     Bufs b = {.n = 0};
-    const double *c = get(&b, oc, 8, 0, nb * K);
-    int64_t *out = c ? get(&b, oo, 8, 1, nb) : NULL;
-    if (!out) { release(&b); return NULL; }
+    int64_t *out = get(&b, oo, 8, 1, nb);
+    if (!out) { release(&b); PyBuffer_Release(&cv); return NULL; }
+    Py_ssize_t rs = cv.strides[0], cs = cv.strides[1];
     for (Py_ssize_t r = 0; r < nb; r++) {
-        const double *row = c + r * K;
+        const char *row = (const char *)cv.buf + r * rs;
         Py_ssize_t k = K;
-        while (k > 0 && !(row[k - 1] != 0.0)) k--;
+        while (k > 0) {
+            double v;
+            memcpy(&v, row + (k - 1) * cs, sizeof v);
+            if (v != 0.0) break;
+            k--;
+        }
         out[r] = k > 0 ? k : 1;
     }
     release(&b);
+    PyBuffer_Release(&cv);
     Py_RETURN_NONE;
 }
 

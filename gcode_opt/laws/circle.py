@@ -198,11 +198,12 @@ def _into(out, x):
 def _row_lengths(coef):
     """Each row's own number of coefficients (trailing zeros dropped; at least 1); a pass
     of the curve core over the rows where it is built (one early-ending scan a row, not
-    four numpy passes over the whole table: the same numbers)."""
+    four numpy passes over the whole table: the same numbers), reading a strided table
+    (_cheb_der_int's transposes) where it lies rather than a row-major copy of it."""
     core = CORE_MOD
     if core is not None and coef.ndim == 2 and coef.dtype == np.float64 and coef.shape[1] > 0:
         out = np.empty(coef.shape[0], np.int64)
-        core.row_lengths(np.ascontiguousarray(coef), coef.shape[0], coef.shape[1], out)
+        core.row_lengths(coef, coef.shape[0], coef.shape[1], out)
         return out
     nz = coef != 0
     return np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)

@@ -369,11 +369,20 @@ ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at o
 RATIO_ROWS_MIN = 512     # _ratios_nonneg: fewer rows are reduced as they are (natively 1.7x at 200 rows)
 
 
+def _ratios_keep_sign(ratios):
+    """Whether the ratios are all positive and finite, one of them 1.0."""
+    return bool(np.all((ratios > 0.0) & (ratios < np.inf))) and bool(np.any(ratios == 1.0))
+
+
 def _ratios_nonneg(T_orig):
     """((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1), the same booleans: the
     products ratio by ratio into the rows of a (k, n) table, then all down its columns
     (numpy reduces an (n, k) table's short rows through its buffers: ~20 instructions an
     entry, ~2.5 so; below RATIO_ROWS_MIN rows the k products' calls cost more)."""
+    if T_orig.ndim == 1 and T_orig.dtype == np.float64 and _ratios_keep_sign(T_RATIOS):
+        # x * r >= 0.0 for every ratio r iff x >= 0.0: r = 1.0 gives x itself, and a product
+        # of a positive finite r keeps x's sign (+-0.0, an underflow, an inf) or its NaN
+        return T_orig >= 0.0
     if T_orig.ndim != 1 or T_orig.dtype != np.float64 or T_orig.size < RATIO_ROWS_MIN:
         return ((T_orig[:, None] * T_RATIOS[None, :]) >= 0.0).all(axis=1)
     P = np.empty((T_RATIOS.size, T_orig.size))

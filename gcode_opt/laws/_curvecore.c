@@ -112,6 +112,102 @@ static PyObject *pc_gather(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* dst[0 .. n) = src[0 .. n): 4 doubles a step where the CPU has AVX (a row of a series'
+   values is a few KB: memcpy's "rep movsb" copies it no faster natively, and valgrind
+   counts it byte by byte) */
+#if CURVE_AVX
+AVX_FN static void copy_avx(double *dst, const double *src, Py_ssize_t n) {
+    Py_ssize_t j = 0;
+    for (; j + 4 <= n; j += 4) _mm256_storeu_pd(dst + j, _mm256_loadu_pd(src + j));
+    for (; j < n; j++) dst[j] = src[j];
+}
+#endif
+static void copy_row(double *dst, const double *src, Py_ssize_t n, int avx) {
+#if CURVE_AVX
+    if (avx) {
+        copy_avx(dst, src, n);
+        return;
+    }
+#endif
+    (void)avx;
+    memcpy(dst, src, (size_t)n * sizeof(double));
+}
+
+/* rows_take(src, rows, n, k, dst, top): dst[i, j] = src[rows[i], j] for i < n, j < k, rows
+   n .. top of dst zero (dst C-contiguous (top, k); src any 2-D float64 array, strided: a
+   table, its column slice, or a transpose): circle._series_values' rows of one length in
+   _rows_matmul's zero-padded blocks */
+static PyObject *rows_take(PyObject *self, PyObject *a) {
+    PyObject *osrc, *orows, *odst;
+    Py_ssize_t n, k, top;
+    if (!PyArg_ParseTuple(a, "OOnnOn", &osrc, &orows, &n, &k, &odst, &top)) return NULL;
+    Py_buffer sv;
+    if (PyObject_GetBuffer(osrc, &sv, PyBUF_STRIDES | PyBUF_FORMAT) < 0) return NULL;
+    if (sv.ndim != 2 || sv.itemsize != 8 || !sv.format || strcmp(sv.format, "d") != 0 ||
+        n < 0 || k < 1 || k > sv.shape[1] || top < n) {
+        PyBuffer_Release(&sv);
+        PyErr_SetString(PyExc_ValueError, "rows_take: a 2-D float64 table, 0 < k <= its width, n <= top");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const int64_t *rows = get(&b, orows, 8, 0, n);
+    double *dst = rows ? get(&b, odst, 8, 1, top * k) : NULL;
+    if (!dst) { release(&b); PyBuffer_Release(&sv); return NULL; }
+    const char *src = sv.buf;
+    Py_ssize_t rs = sv.strides[0], cs = sv.strides[1];
+    int avx = cs == 8 && use_avx();
+    for (Py_ssize_t i = 0; i < n; i++) {
+        Py_ssize_t r = (Py_ssize_t)rows[i];
+        if (r < 0 || r >= sv.shape[0]) {
+            release(&b);
+            PyBuffer_Release(&sv);
+            PyErr_SetString(PyExc_IndexError, "rows_take: row out of range");
+            return NULL;
+        }
+        const char *sr = src + r * rs;
+        double *dr = dst + i * k;
+        if (cs == 8) {
+            copy_row(dr, (const double *)sr, k, avx);
+        } else {
+            for (Py_ssize_t j = 0; j < k; j++) memcpy(dr + j, sr + j * cs, sizeof(double));
+        }
+    }
+    memset(dst + n * k, 0, (size_t)((top - n) * k) * sizeof(double));
+    release(&b);
+    PyBuffer_Release(&sv);
+    Py_RETURN_NONE;
+}
+
+/* rows_put(src, n, m, rows, dst): dst[rows[i]] = src[i] for i < n, rows of m doubles (both
+   C-contiguous): the products' rows back in their places */
+static PyObject *rows_put(PyObject *self, PyObject *a) {
+    PyObject *osrc, *orows, *odst;
+    Py_ssize_t n, m;
+    if (!PyArg_ParseTuple(a, "OnnOO", &osrc, &n, &m, &orows, &odst)) return NULL;
+    if (n < 0 || m < 0) {
+        PyErr_SetString(PyExc_ValueError, "rows_put: bad sizes");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *src = get(&b, osrc, 8, 0, n * m);
+    const int64_t *rows = src ? get(&b, orows, 8, 0, n) : NULL;
+    double *dst = rows ? get(&b, odst, 8, 1, 0) : NULL;
+    if (!dst) { release(&b); return NULL; }
+    Py_ssize_t len = b.v[2].len / 8;
+    int avx = use_avx();
+    for (Py_ssize_t i = 0; i < n; i++) {
+        Py_ssize_t r = (Py_ssize_t)rows[i];
+        if (r < 0 || (r + 1) * m > len) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "rows_put: row out of range");
+            return NULL;
+        }
+        copy_row(dst + r * m, src + i * m, m, avx);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* one row of pc_res: wr (nc) the arc's node values, mr its row of m1 */
 static void pc_res_row(const double *wr, const double *mr, Py_ssize_t nc, double g2, double ca, double ph,
                        const double *q, const double *lam_e, double *rr, double *r2, double *dr) {
@@ -1098,17 +1194,33 @@ static PyObject *row_lengths(PyObject *self, PyObject *a) {
         PyErr_SetString(PyExc_ValueError, "row_lengths: bad size");
         return NULL;
     }
+    /* strided: _cheb_der_int's tables are transposes (each row's trailing entries read,
+       not the whole table copied into rows first) */
+    Py_buffer cv;
+    if (PyObject_GetBuffer(oc, &cv, PyBUF_STRIDES | PyBUF_FORMAT) < 0) return NULL;
+    if (cv.ndim != 2 || cv.itemsize != 8 || !cv.format || strcmp(cv.format, "d") != 0 ||
+        cv.shape[0] != nb || cv.shape[1] != K) {
+        PyBuffer_Release(&cv);
+        PyErr_SetString(PyExc_ValueError, "row_lengths: a (B, K) float64 table");
+        return NULL;
+    }
     Bufs b = {.n = 0};
-    const double *c = get(&b, oc, 8, 0, nb * K);
-    int64_t *out = c ? get(&b, oo, 8, 1, nb) : NULL;
-    if (!out) { release(&b); return NULL; }
+    int64_t *out = get(&b, oo, 8, 1, nb);
+    if (!out) { release(&b); PyBuffer_Release(&cv); return NULL; }
+    Py_ssize_t rs = cv.strides[0], cs = cv.strides[1];
     for (Py_ssize_t r = 0; r < nb; r++) {
-        const double *row = c + r * K;
+        const char *row = (const char *)cv.buf + r * rs;
         Py_ssize_t k = K;
-        while (k > 0 && !(row[k - 1] != 0.0)) k--;
+        while (k > 0) {
+            double v;
+            memcpy(&v, row + (k - 1) * cs, sizeof v);
+            if (v != 0.0) break;
+            k--;
+        }
         out[r] = k > 0 ? k : 1;
     }
     release(&b);
+    PyBuffer_Release(&cv);
     Py_RETURN_NONE;
 }
 
@@ -1586,6 +1698,8 @@ static PyObject *obj_ids(PyObject *self, PyObject *a)
 
 static PyMethodDef methods[] = {
     {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
+    {"rows_take", rows_take, METH_VARARGS, "rows of a table (or its transpose's columns) into zero-padded blocks"},
+    {"rows_put", rows_put, METH_VARARGS, "rows back into their places in a table"},
     {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
     {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
     {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},

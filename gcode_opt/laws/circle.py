@@ -198,11 +198,12 @@ def _into(out, x):
 def _row_lengths(coef):
     """Each row's own number of coefficients (trailing zeros dropped; at least 1); a pass
     of the curve core over the rows where it is built (one early-ending scan a row, not
-    four numpy passes over the whole table: the same numbers)."""
+    four numpy passes over the whole table: the same numbers), reading a strided table
+    (_cheb_der_int's transposes) where it lies rather than a row-major copy of it."""
     core = CORE_MOD
     if core is not None and coef.ndim == 2 and coef.dtype == np.float64 and coef.shape[1] > 0:
         out = np.empty(coef.shape[0], np.int64)
-        core.row_lengths(np.ascontiguousarray(coef), coef.shape[0], coef.shape[1], out)
+        core.row_lengths(coef, coef.shape[0], coef.shape[1], out)
         return out
     nz = coef != 0
     return np.where(nz.any(axis=1), coef.shape[1] - np.argmax(nz[:, ::-1], axis=1), 1)
@@ -239,6 +240,7 @@ def _series_values(coefs, x):
         groups = [np.array(r) for r in by_grid.values()]
     out = [np.empty(x.shape) for _ in coefs]
     kmax = max(c.shape[1] for c in coefs)
+    core = CORE_MOD
     for r in groups:
         vand_t = _vander_t(x[r[0]], kmax)
         whole = len(groups) == 1             # r is every row in order: no gather, no scatter
@@ -246,6 +248,11 @@ def _series_values(coefs, x):
             cr = c if whole else c[r]
             length = _row_lengths(cr)
             ks = distinct(length)
+            if core is not None and not (whole and ks.size == 1):
+                for k in ks.tolist():
+                    rk = r if ks.size == 1 else np.flatnonzero(length == k) if whole else r[length == k]
+                    _rows_matmul_put(o, c, np.ascontiguousarray(rk, np.int64), k, vand_t, core)
+                continue
             for k in ks.tolist():
                 if ks.size == 1:
                     rk = None
@@ -262,6 +269,18 @@ def _series_values(coefs, x):
                 else:
                     o[r if rk is None else r[rk]] = got
     return out
+
+
+def _rows_matmul_put(o, c, rows, k, vand_t, core):
+    """o[rows] = _rows_matmul(c[rows, :k], vand_t[:k]): the same BLAS calls on the same
+    zero-padded blocks, the rows taken into the blocks and the products' rows put into o
+    by the compiled core (not a gather, a padded copy of the last block, its product copied
+    out of the pad and a scatter: ~130 MB moved on the gyroid plate)."""
+    n, g, m = rows.size, _GEMM_ROWS, o.shape[1]
+    nblk = -(-n // g)
+    a = np.empty((nblk, g, k))
+    core.rows_take(c, rows, n, k, a, nblk * g)
+    core.rows_put(np.matmul(a, vand_t[:k]), n, m, rows, o)
 
 
 _VANDER: dict = {}         # (grid bytes, K) -> _vander_t's array (a few grids recur: the probe's,
@@ -738,6 +757,9 @@ def _layers_totals(xs, phi, gam2, u0, u1):
     return list(out)
 
 
+_LAYERS_ITER = 100         # _solve_layers_batch's Newton steps at most (tests lower it)
+
+
 def _solve_layers_batch(phi, gam2, u0, u1):
     """Cruise value w_c (safeguarded Newton/bisection; the residual is increasing in w_c).
     The two residuals each step takes (bracket ends; w_c and w_c + h) in one _layers_totals."""
@@ -754,21 +776,29 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
-    for _ in range(100):
-        x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
+    # the live arcs' numbers held packed (x: their w_c, lo_a/hi_a: their bracket), packed
+    # again only when arcs leave, and each arc's w_c put into wc as it leaves: not eight
+    # gathers and three scatters by act every step (the same numbers, element by element)
+    x, p_, g2, a0, a1, sp, lo_a, hi_a = (v[act] for v in (wc, phi, gam2, u0, u1, span, lo, hi))
+    for _ in range(_LAYERS_ITER if act.size else 0):
         h = 1e-7 * (np.abs(x) + 1e-3 * sp)
         g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
-        lo[act] = lo_a = np.where(g < 0, x, lo[act])
-        hi[act] = hi_a = np.where(g > 0, x, hi[act])
+        lo_a = np.where(g < 0, x, lo_a)
+        hi_a = np.where(g > 0, x, hi_a)
         dg = (gh - g) / h
         new = x - g / np.where(dg > 0, dg, np.inf)
         outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
         new = np.where(outside, 0.5 * (lo_a + hi_a), new)
         done = np.abs(new - x) <= 1e-15 * sp
-        wc[act] = new
-        act = act[~done]
-        if act.size == 0:
-            break
+        x = new
+        if done.any():
+            wc[act[done]] = x[done]
+            # (by the mask: taking them by index put the rectilinear plate's peak RSS up ~1 MB)
+            keep = ~done
+            act, x, p_, g2, a0, a1, sp, lo_a, hi_a = (v[keep] for v in (act, x, p_, g2, a0, a1, sp, lo_a, hi_a))
+            if act.size == 0:
+                return wc
+    wc[act] = x                     # (the steps ran out: the last ones' w_c)
     return wc
 
 

@@ -127,12 +127,13 @@ slow:
 }
 
 /* plain_decimal and to_double in one pass: the length of the plain decimal at p[0..n)
-   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v.
+   (or -1), its decimals in *dec and, when it is one, to_double of its text in *v and
+   its digits' integer in *mo (wrapped mod 2^64 past 19 digits).
    ended: a '\n' ends the text (at p[n - 1], or past it: fast_check's lines, whose "\n"
    it finds as they are read), where each scan stops: no bound to look at a digit (~1/3 of
    the instructions a digit); dec_value and dec_value_nl are its two copies. */
 static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char *p, Py_ssize_t n, int *dec,
-                                                                     double *v, const int ended)
+                                                                     double *v, const int ended, uint64_t *mo)
 {
 #define BELOW(i) (ended || (i) < n)               /* p[i] is in the text (always, when ended) */
     Py_ssize_t i = 0, nd = 0, nf = 0;
@@ -160,6 +161,7 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char 
     }
     if (nd + nf == 0)
         return -1;
+    *mo = m;
     if (nd + nf <= 15) {                          /* to_double's fast path: the same division */
         double x = (double)(int64_t)m;            /* (m < 10^15: the same value, one instruction) */
         if (nf) x = x / POW10[nf];
@@ -172,13 +174,15 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_in(const char 
 
 static inline Py_ssize_t dec_value(const char *p, Py_ssize_t n, int *dec, double *v)
 {
-    return dec_value_in(p, n, dec, v, 0);
+    uint64_t m;
+    return dec_value_in(p, n, dec, v, 0, &m);
 }
 
 /* dec_value of a text a '\n' ends (no bound: the scans stop at it) */
 static inline Py_ssize_t dec_value_nl(const char *p, int *dec, double *v)
 {
-    return dec_value_in(p, 0, dec, v, 1);
+    uint64_t m;
+    return dec_value_in(p, 0, dec, v, 1, &m);
 }
 
 /* PAIR[b0 | b1 << 8], the bytes p[0] p[1] as digit_pairs reads them (_reader.c's RUN, a
@@ -234,9 +238,10 @@ static inline __attribute__((always_inline)) Py_ssize_t digit_pairs(const char *
     return i;
 }
 
-/* dec_value_nl's reading (the same length, decimals and double) with the digits read two
+/* dec_value_nl's reading (the same length, decimals, double and integer) with the digits read two
    at a time: the byte after the text's '\n' must be readable (digit_pairs) */
-static inline __attribute__((always_inline)) Py_ssize_t dec_value_pairs(const char *p, int *dec, double *v)
+static inline __attribute__((always_inline)) Py_ssize_t dec_value_pairs(const char *p, int *dec, double *v,
+                                                                        uint64_t *mo)
 {
     int neg = p[0] == '-';
     Py_ssize_t i0 = neg, nf = 0;
@@ -252,6 +257,7 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_pairs(const ch
     }
     if (nd + nf == 0)
         return -1;
+    *mo = m;
     if (nd + nf <= 15) {                          /* to_double's fast path: the same division */
         double x = (double)(int64_t)m;
         if (nf) x = x / POW10[nf];
@@ -492,6 +498,44 @@ static int units_txt(const char *p, Py_ssize_t m, int dec, int64_t *out)
 
 /* a text of a stroke's line: an ASCII str's bytes, or a piece of a line stroke_block read */
 typedef struct { const char *p; Py_ssize_t n; } Txt;
+
+/* units_txt(t, dec) of a plain decimal text t plain_line read (m: its digits' integer, nf
+   its decimals), without reading it again.  Where nf <= dec (every text of a block: dec is
+   its texts' most decimals) the digits kept are all of them, m (exact: at most 15 digits
+   here), times 10 a decimal short of dec; else the text is read. */
+static int units_read(const Txt *t, uint64_t m, int nf, int dec, int64_t *out)
+{
+    if (nf > dec)
+        return units_txt(t->p, t->n, dec, out);
+    int neg = t->p[0] == '-', dot = nf > 0 || t->p[t->n - 1] == '.';
+    Py_ssize_t nd = t->n - neg - dot - nf;         /* the whole's digits */
+    if (nd + nf <= 0 || nd + nf > 15)
+        return -1;
+    int64_t v = (int64_t)m;
+    for (int j = nf; j < dec; j++) {
+        if (v > (int64_t)EXACT_MAX) return -1;
+        v *= 10;
+    }
+    if (v > (int64_t)EXACT_MAX) return -1;
+    *out = neg ? -v : v;
+    return 0;
+}
+
+/* the moves' texts' units (units_txt with the block's decimals) taken once, where
+   stroke_block read them: UNITS_NONE where units_txt declines */
+#define UNITS_NONE INT64_MIN
+typedef struct { const int64_t *x, *y, *e; } ColUnits;
+
+/* units_txt(t[k], dec): from cu (not NULL: its units) or read from the text */
+static inline int col_units(const Txt *t, const int64_t *cu, Py_ssize_t k, int dec, int64_t *out)
+{
+    if (cu == NULL)
+        return units_txt(t[k].p, t[k].n, dec, out);
+    if (cu[k] == UNITS_NONE)
+        return -1;
+    *out = cu[k];
+    return 0;
+}
 
 /* "00".."99": two decimal digits a division */
 static const char DIGITS2[201] = "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
@@ -935,18 +979,18 @@ static int fseq_row(PyObject *o, Py_ssize_t r, FSeq *f)
 typedef struct { int64_t x_a, x_b, y_a, y_b, e_move, e_before; } MoveUnits;
 
 /* emit._move_units */
-static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t move, const int64_t *start_u,
-                      int dxy, int de, int e_rel, int64_t e_start_u, MoveUnits *mu)
+static int move_units(const Txt *xt, const Txt *yt, const Txt *et, const ColUnits *cu, Py_ssize_t move,
+                      const int64_t *start_u, int dxy, int de, int e_rel, int64_t e_start_u, MoveUnits *mu)
 {
     int64_t e_u, e_b;
+    const int64_t *ux = cu ? cu->x : NULL, *uy = cu ? cu->y : NULL, *ue = cu ? cu->e : NULL;
     if (move == 0) {
         mu->x_a = start_u[0];
         mu->y_a = start_u[1];
-    } else if (units_txt(xt[move - 1].p, xt[move - 1].n, dxy, &mu->x_a) < 0
-               || units_txt(yt[move - 1].p, yt[move - 1].n, dxy, &mu->y_a) < 0)
+    } else if (col_units(xt, ux, move - 1, dxy, &mu->x_a) < 0 || col_units(yt, uy, move - 1, dxy, &mu->y_a) < 0)
         return -1;
-    if (units_txt(xt[move].p, xt[move].n, dxy, &mu->x_b) < 0 || units_txt(yt[move].p, yt[move].n, dxy, &mu->y_b) < 0
-        || units_txt(et[move].p, et[move].n, de, &e_u) < 0)
+    if (col_units(xt, ux, move, dxy, &mu->x_b) < 0 || col_units(yt, uy, move, dxy, &mu->y_b) < 0
+        || col_units(et, ue, move, de, &e_u) < 0)
         return -1;
     if (e_rel) {
         mu->e_move = e_u;
@@ -955,7 +999,7 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, Py_ssize_t mo
     }
     if (move == 0)
         e_b = e_start_u;
-    else if (units_txt(et[move - 1].p, et[move - 1].n, de, &e_b) < 0)
+    else if (col_units(et, ue, move - 1, de, &e_b) < 0)
         return -1;
     mu->e_move = e_u - e_b;
     mu->e_before = e_b;
@@ -1187,7 +1231,7 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     const Start8 *s8, Py_ssize_t *n_lines, Known *kn)
+                     const Start8 *s8, const ColUnits *cu, Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -1241,7 +1285,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             else if (e_done_u == 0)
                 e_kind = 1;
             else {
-                if (units_txt(et[move].p, et[move].n, de, &eu) < 0)
+                if (col_units(et, cu ? cu->e : NULL, move, de, &eu) < 0)
                     return 1;
                 eu -= e_done_u;
                 e_kind = 2;
@@ -1256,7 +1300,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
                 frac = q < 1.0 ? q : 1.0;            /* min(1.0, q) */
             }
             if (!have_mu) {
-                if (move_units(xt, yt, et, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
+                if (move_units(xt, yt, et, cu, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
                     return 1;
                 have_mu = 1;
             }
@@ -1399,7 +1443,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
                 start_d = end_d;
                 end_d = ends->d[move];
             } else if (!e_rel) {                     /* knots past the end: the last move again */
-                if (!have_mu && move_units(xt, yt, et, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
+                if (!have_mu && move_units(xt, yt, et, cu, move, start_u, dxy, de, e_rel, e_start_u, &mu) < 0)
                     return 1;
                 e_again_u += mu.e_move;
             }
@@ -1477,7 +1521,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL);
+                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -1699,10 +1743,10 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
    [-.0-9] after it), else -1; *dec, *v: its decimals and to_double's value.  p[n] is a
    plain_line's line end (its '\n', or a '\r' before it): the number is read up to it. */
 static inline __attribute__((always_inline)) Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v,
-                                                                 const int pairs)
+                                                                 uint64_t *m, const int pairs)
 {
     /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable) */
-    Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v) : dec_value_nl(p, dec, v);
+    Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v, m) : dec_value_in(p, 0, dec, v, 1, m);
     if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
         return -1;
     return k;
@@ -1729,27 +1773,27 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
 }
 
 /* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
-   1 and its pieces, its numbers' decimals and values (v: x, y and e; e->p NULL without
-   E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
+   1 and its pieces, its numbers' decimals, values and digits' integers (v, u: x, y and e;
+   e->p NULL without E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
    the line's last: the Python reading).  The line is p[0..m) and p[m] its '\n' (num_word
    reads a number up to it, without a bound). */
 static inline __attribute__((always_inline)) int plain_line_in(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e,
                                                               Txt *c, int *dx, int *dy, int *de, double *v,
-                                                              const int pairs)
+                                                              uint64_t *u, const int pairs)
 {
     Py_ssize_t i, xn, yn, en = 0;
     if (m < 4 || memcmp(p, "G1 X", 4) != 0)
         return 0;
     i = 4;
     x->p = p + i;
-    if ((xn = num_word(p + i, m - i, dx, &v[0], pairs)) < 0)
+    if ((xn = num_word(p + i, m - i, dx, &v[0], &u[0], pairs)) < 0)
         return 0;
     i += xn;
     if (i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y')
         return 0;
     i += 2;
     y->p = p + i;
-    if ((yn = num_word(p + i, m - i, dy, &v[1], pairs)) < 0)
+    if ((yn = num_word(p + i, m - i, dy, &v[1], &u[1], pairs)) < 0)
         return 0;
     i += yn;
     e->p = NULL;
@@ -1757,7 +1801,7 @@ static inline __attribute__((always_inline)) int plain_line_in(const char *p, Py
     if (i + 1 < m && p[i] == ' ' && p[i + 1] == 'E') {
         i += 2;
         e->p = p + i;
-        if ((en = num_word(p + i, m - i, de, &v[2], pairs)) < 0)
+        if ((en = num_word(p + i, m - i, de, &v[2], &u[2], pairs)) < 0)
             return 0;
         i += en;
     }
@@ -1784,11 +1828,11 @@ static inline __attribute__((always_inline)) int plain_line_in(const char *p, Py
    '\n' (p[m + 1]): it is in the page of p[m] (a page is 4 KiB or a multiple of it), else a
    digit at a time */
 static int plain_line(const char *p, Py_ssize_t m, Txt *x, Txt *y, Txt *e, Txt *c, int *dx, int *dy, int *de,
-                      double *v)
+                      double *v, uint64_t *u)
 {
     if (((uintptr_t)(p + m + 1) & 4095u) != 0)
-        return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, 1);
-    return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, 0);
+        return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, u, 1);
+    return plain_line_in(p, m, x, y, e, c, dx, dy, de, v, u, 0);
 }
 
 static double arg_double(PyObject *o, int *bad)
@@ -2123,10 +2167,10 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     /* no other line break of str.splitlines in it: \r \x0b \x0c \x1c \x1d \x1e (below 0x20) */
     if (has_break(pc->hp, hl))
         return 0;
-    /* the lines: one allocation for their texts, the path's vertices, their E values and
-       their numbers' decimals */
+    /* the lines: one allocation for their texts, the path's vertices, their E values,
+       their numbers' units and their numbers' decimals */
     char *mem = PyMem_Malloc(n * 4 * sizeof(Txt) + (n + 1) * 2 * sizeof(double) + n * sizeof(double)
-                             + n * 3 * sizeof(int) + 16);
+                             + n * 3 * sizeof(int64_t) + n * 3 * sizeof(int) + 16);
     if (mem == NULL) {
         PyErr_NoMemory();
         return -1;
@@ -2134,7 +2178,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     int got = 0;
     Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
     double *px = (double *)(cx + 4 * n), *py = px + n + 1, *ev_k = py + n + 1;
-    int *dx_k = (int *)(ev_k + n), *dy_k = dx_k + n, *de_k = dy_k + n;
+    int64_t *ux = (int64_t *)(ev_k + n), *uy = ux + n, *ue = uy + n;   /* the digits' integers, then units */
+    int *dx_k = (int *)(ue + n), *dy_k = dx_k + n, *de_k = dy_k + n;
     int dec_xy = 3, dec_e = 5, d0;
     if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[0]) : start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
     if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[1]) : start_decimals(ba->y0.p, ba->y0.n)) > dec_xy) dec_xy = d0;
@@ -2145,6 +2190,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     Py_ssize_t n_e = 0;
     const char *p = d + start, *end = d + stop;
     double v[3] = {0.0, 0.0, 0.0};                /* a line's x, y and e (e: with an E word) */
+    uint64_t u[3] = {0, 0, 0};                    /* and their digits' integers */
     for (Py_ssize_t k = 0; k < n; k++) {
         if (p >= end)
             goto decline;
@@ -2156,13 +2202,15 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (k == 0 && m > 0 && p[m - 1] == '\r')  /* the block's line end is the first line's */
             goto decline;
         int dx, dy, de;
-        if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de, v))
+        if (!plain_line(p, m, &cx[k], &cy[k], &ce[k], &cc[k], &dx, &dy, &de, v, u))
             goto decline;
         if (dx > dec_xy) dec_xy = dx;
         if (dy > dec_xy) dec_xy = dy;
         if (de > dec_e) dec_e = de;
         dx_k[k] = dx;
         dy_k[k] = dy;
+        ux[k] = (int64_t)u[0];
+        uy[k] = (int64_t)u[1];
         double xv = v[0], yv = v[1];
         px[k + 1] = xv;
         py[k + 1] = yv;
@@ -2178,16 +2226,26 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
             n_e++;
             ev_k[k] = ev;
             de_k[k] = de;
+            ue[k] = (int64_t)u[2];
         } else {
             ce[k].p = "0";                        /* StrokeText's e text of a line without E */
             ce[k].n = 1;
             ev_k[k] = 0.0;
             de_k[k] = 0;
+            ue[k] = 0;
         }
         p = q + 1;
     }
     if (p != end || !path_ok || dec_e > 15)
         goto decline;
+    /* the texts' units with the block's decimals, from their integers (in place) */
+    for (Py_ssize_t k = 0; k < n; k++) {
+        int64_t w;
+        ux[k] = units_read(&cx[k], (uint64_t)ux[k], dx_k[k], dec_xy, &w) < 0 ? UNITS_NONE : w;
+        uy[k] = units_read(&cy[k], (uint64_t)uy[k], dy_k[k], dec_xy, &w) < 0 ? UNITS_NONE : w;
+        ue[k] = units_read(&ce[k], (uint64_t)ue[k], de_k[k], dec_e, &w) < 0 ? UNITS_NONE : w;
+    }
+    ColUnits cu = {ux, uy, ue};
     /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
     int64_t e_start_u;
     if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)
@@ -2202,7 +2260,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
                   || !other_lines(pc->clp, pc->cln)
                   || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, n_lines, by_text ? NULL : &kn);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, &cu, n_lines, by_text ? NULL : &kn);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -3142,11 +3200,13 @@ static PyObject *line_read(PyObject *self, PyObject *o)
     Txt x, y, e, c, x1 = {0}, y1 = {0}, e1 = {0}, c1 = {0};
     int dx, dy, de, dx1 = 0, dy1 = 0, de1 = 0;
     double v[3] = {0.0, 0.0, 0.0}, v1[3] = {0.0, 0.0, 0.0};
+    uint64_t u[3] = {0, 0, 0}, u1[3] = {0, 0, 0};
     PyObject *r = NULL;
-    int ok = plain_line_in(line, m, &x, &y, &e, &c, &dx, &dy, &de, v, 1);
-    int ok1 = plain_line_in(line, m, &x1, &y1, &e1, &c1, &dx1, &dy1, &de1, v1, 0);
+    int ok = plain_line_in(line, m, &x, &y, &e, &c, &dx, &dy, &de, v, u, 1);
+    int ok1 = plain_line_in(line, m, &x1, &y1, &e1, &c1, &dx1, &dy1, &de1, v1, u1, 0);
     if (ok != ok1 || (ok && (x.n != x1.n || y.n != y1.n || e.p != e1.p || e.n != e1.n || c.p != c1.p || c.n != c1.n
-                             || dx != dx1 || dy != dy1 || de != de1 || memcmp(v, v1, sizeof v) != 0))) {
+                             || dx != dx1 || dy != dy1 || de != de1 || memcmp(v, v1, sizeof v) != 0
+                             || memcmp(u, u1, sizeof u) != 0))) {
         PyMem_Free(line);
         PyErr_SetString(PyExc_AssertionError, "line_read: the pair reading and the digit reading differ");
         return NULL;
@@ -3160,6 +3220,55 @@ static PyObject *line_read(PyObject *self, PyObject *o)
             r = Py_BuildValue("(s#s#Os#iiiddO)", x.p, x.n, y.p, y.n, et, c.p, c.n, dx, dy, de, v[0], v[1], ev);
         Py_XDECREF(et);
         Py_XDECREF(ev);
+    }
+    PyMem_Free(line);
+    return r;
+}
+
+/* line_units(line, dec_xy, dec_e): a plain line's x, y and e (None without E) numbers'
+   units as block_into takes them (units_read of plain_line's integers) and as units_txt
+   reads the texts, each (units_read's, units_txt's) with None where one declines; None:
+   not a plain line (tests) */
+static PyObject *line_units(PyObject *self, PyObject *args)
+{
+    const char *p;
+    Py_ssize_t m;
+    int dxy, de_w;
+    if (!PyArg_ParseTuple(args, "s#ii", &p, &m, &dxy, &de_w))
+        return NULL;
+    char *line = PyMem_Malloc(m + 2);
+    if (line == NULL)
+        return PyErr_NoMemory();
+    memcpy(line, p, m);
+    line[m] = '\n';
+    line[m + 1] = '7';
+    Txt t[3], c;
+    int d[3];
+    double v[3];
+    uint64_t u[3] = {0, 0, 0};
+    PyObject *r = NULL;
+    if (!plain_line_in(line, m, &t[0], &t[1], &t[2], &c, &d[0], &d[1], &d[2], v, u, 1))
+        r = Py_NewRef(Py_None);
+    else {
+        PyObject *items[3] = {NULL, NULL, NULL};
+        for (int i = 0; i < 3; i++) {
+            int dec = i < 2 ? dxy : de_w;
+            int64_t a = 0, b = 0;
+            if (t[i].p == NULL) {
+                items[i] = Py_NewRef(Py_None);
+                continue;
+            }
+            int ra = units_read(&t[i], u[i], d[i], dec, &a), rb = units_txt(t[i].p, t[i].n, dec, &b);
+            PyObject *pa = ra < 0 ? Py_NewRef(Py_None) : PyLong_FromLongLong(a);
+            PyObject *pb = rb < 0 ? Py_NewRef(Py_None) : PyLong_FromLongLong(b);
+            items[i] = pa && pb ? PyTuple_Pack(2, pa, pb) : NULL;
+            Py_XDECREF(pa);
+            Py_XDECREF(pb);
+        }
+        if (items[0] && items[1] && items[2])
+            r = PyTuple_Pack(3, items[0], items[1], items[2]);
+        for (int i = 0; i < 3; i++)
+            Py_XDECREF(items[i]);
     }
     PyMem_Free(line);
     return r;
@@ -3297,6 +3406,7 @@ static PyMethodDef mod_methods[] = {
     {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},
+    {"line_units", line_units, METH_VARARGS, "(block_into's units of a plain line's numbers, units_txt's) (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},

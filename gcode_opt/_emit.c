@@ -1889,6 +1889,14 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
         *n = *fl = 0;
         return 0;
     }
+    if (sh < 64 && (P >> 64) == 0) {
+        /* P in 64 bits (fmt_f(x, 4)'s: m 5^4 < 2^63): the same quotient, remainder and
+           half in 64-bit words, without the 128-bit shifts' branches */
+        uint64_t lo = (uint64_t)P, r = lo >> sh, rem = lo & ((1ULL << sh) - 1), half = 1ULL << (sh - 1);
+        *fl = r;
+        *n = r + (rem > half || (rem == half && (r & 1)));
+        return 0;                                 /* (r < 2^63: no carry) */
+    }
     u128 q = P >> sh, rem = P - (q << sh), half = (u128)1 << (sh - 1);
     if ((q >> 64) != 0)
         return -1;
@@ -1910,13 +1918,10 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
     if (signbit(x)) *q++ = '-';                       /* "-0.0000" too, as Python writes it */
-    Py_ssize_t nw = end - first - prec;
-    memcpy(q, first, (size_t)nw);
-    q += nw;
+    q = copy_short(q, first, end - first - prec);
     if (prec) {
         *q++ = '.';
-        memcpy(q, end - prec, (size_t)prec);
-        q += prec;
+        q = copy_short(q, end - prec, prec);
     }
     *q = 0;
     return (int)(q - buf);
@@ -1988,15 +1993,20 @@ static int fmt_f(double x, int prec, char *buf) { (void)x; (void)prec; (void)buf
 static int fmt_g4(double x, char *buf) { (void)x; (void)buf; return -1; }
 #endif
 
-/* PyOS_double_to_string(x, code, prec, 0, NULL)'s text ('f', or 'g' with prec 4): in buf
-   (64 bytes) when fmt_f / fmt_g4 make it, else PyOS_double_to_string's own (*own, the
-   caller's to free); NULL on its failure (an exception set) */
-static const char *fmt_double(double x, char code, int prec, char *buf, char **own)
+/* PyOS_double_to_string(x, code, prec, 0, NULL)'s text ('f', or 'g' with prec 4) and its
+   length (*len): in buf (64 bytes) when fmt_f / fmt_g4 make it, else PyOS_double_to_string's
+   own (*own, the caller's to free); NULL on its failure (an exception set) */
+static const char *fmt_double(double x, char code, int prec, char *buf, char **own, size_t *len)
 {
     *own = NULL;
-    if ((code == 'f' ? fmt_f(x, prec, buf) : prec == 4 ? fmt_g4(x, buf) : -1) >= 0)
+    int n = code == 'f' ? fmt_f(x, prec, buf) : prec == 4 ? fmt_g4(x, buf) : -1;
+    if (n >= 0) {
+        *len = (size_t)n;
         return buf;
-    return *own = PyOS_double_to_string(x, code, prec, 0, NULL);
+    }
+    if ((*own = PyOS_double_to_string(x, code, prec, 0, NULL)) != NULL)
+        *len = strlen(*own);
+    return *own;
 }
 
 /* The head of a line stroke's block as pipeline._rewrite_bytes' f-string writes it,
@@ -2022,37 +2032,39 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
                           const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, Py_ssize_t *len)
 {
     char bt_[64], bw_[64], bb_[64], *ft_own = NULL, *fw_own = NULL, *fb_own = NULL;
-    const char *ft = fmt_double(t, 'f', 4, bt_, &ft_own),
-               *fw = ft ? fmt_double(t_was, 'f', 4, bw_, &fw_own) : NULL,
-               *fb = fw && isfinite(beta) ? fmt_double(beta, 'g', 4, bb_, &fb_own) : NULL;
+    size_t nt = 0, nw = 0, nb = 3;
+    const char *ft = fmt_double(t, 'f', 4, bt_, &ft_own, &nt),
+               *fw = ft ? fmt_double(t_was, 'f', 4, bw_, &fw_own, &nw) : NULL,
+               *fb = fw && isfinite(beta) ? fmt_double(beta, 'g', 4, bb_, &fb_own, &nb) : NULL;
     char *out = NULL;
     if (ft && fw && (fb || !isfinite(beta))) {
         /* the pieces put one after the other (snprintf's "%zd", "%.*s", "%lld", "%s" of
            them: the same bytes, without the format's parsing a block) */
         static const char P0[] = "; gcode-opt begin: replaces ", P1[] = " lines, kind=", P2[] = ", ",
                           P3[] = " segments, T=", P4[] = "s (was ", P5[] = "s), beta=", P6[] = "s^2\n";
-        const char *bt = fb ? fb : "inf";
-        size_t nt = strlen(ft), nw = strlen(fw), nb = strlen(bt);
+        const char *bt = fb ? fb : "inf";       /* (nb: 3 for "inf") */
         size_t cap = nt + nw + nb + (size_t)kn + (size_t)sn + 160;
         out = PyMem_Malloc(cap);
         if (out != NULL) {
             char *q = out;
 #define PUT(s_, n_) do { memcpy(q, (s_), (n_)); q += (n_); } while (0)
+#define PUT_V(s_, n_) do { q = copy_short(q, (s_), (Py_ssize_t)(n_)); } while (0)   /* (short: no call) */
             PUT(P0, sizeof P0 - 1);
             q += put_ll(q, (long long)n_lines);
             PUT(P1, sizeof P1 - 1);
-            PUT(kp, (size_t)kn);
+            PUT_V(kp, (size_t)kn);
             PUT(P2, sizeof P2 - 1);
             q += put_ll(q, n_seg);
             PUT(P3, sizeof P3 - 1);
-            PUT(ft, nt);
+            PUT_V(ft, nt);
             PUT(P4, sizeof P4 - 1);
-            PUT(fw, nw);
+            PUT_V(fw, nw);
             PUT(P5, sizeof P5 - 1);
-            PUT(bt, nb);
+            PUT_V(bt, nb);
             PUT(P6, sizeof P6 - 1);
-            PUT(sp, (size_t)sn);
+            PUT_V(sp, (size_t)sn);
 #undef PUT
+#undef PUT_V
             *len = q - out;
         }
     }
@@ -2112,6 +2124,17 @@ static int has_break(const char *p, Py_ssize_t n)
     return 0;
 }
 
+/* has_break of a head's first line hp[0..hl): a line break of str.splitlines below 0x20
+   (\r \x0b \x0c \x1c \x1d \x1e) in it.  In a head head_text_of wrote from a kind with
+   no "\n" (kind->p not NULL), the line's bytes but the kind's are head_text_of's own (words,
+   digits, "-", ".", "inf", "nan", "e+"): only the kind's are looked at */
+static int head_line_breaks(const Txt *kind, const char *hp, Py_ssize_t hl)
+{
+    if (kind->p != NULL && memchr(kind->p, '\n', (size_t)kind->n) == NULL)
+        return has_break(kind->p, kind->n);
+    return has_break(hp, hl);
+}
+
 /* 1: block_into's check reads every line of the block (set_text_check, for the tests:
    emit_cols then checks nothing as it writes) */
 static int TEXT_CHECK = 0;
@@ -2137,6 +2160,7 @@ typedef struct {
     Py_ssize_t start, stop, n;
     Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
     Txt x0, y0;                     /* the start's texts */
+    Txt kind;                       /* the kind head_text_of wrote in the head (p NULL: a head given) */
     Start8 s8;                      /* and their integers, where they are fmt_f(x, 8)'s */
     const char *wantp;              /* the M204 letter (one character) */
     double x0v, y0v, e0, accel_max_a, min_move_d;
@@ -2164,8 +2188,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     Py_ssize_t hl = hnl != NULL ? hnl - pc->hp : pc->hn;
     if (hl == pc->hn || hl < (Py_ssize_t)sizeof(BEGIN_R) - 1 || memcmp(pc->hp, BEGIN_R, sizeof(BEGIN_R) - 1) != 0)
         return 0;
-    /* no other line break of str.splitlines in it: \r \x0b \x0c \x1c \x1d \x1e (below 0x20) */
-    if (has_break(pc->hp, hl))
+    /* no other line break of str.splitlines in it */
+    if (head_line_breaks(&ba->kind, pc->hp, hl))
         return 0;
     /* the lines: one allocation for their texts, the path's vertices, their E values,
        their numbers' units and their numbers' decimals */
@@ -2359,11 +2383,12 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
         ba.pc.hp = ascii(args[4], &ba.pc.hn);
     char x0b[64], y0b[64];
     const char *x0s = NULL, *y0s = NULL;
+    size_t x0n = 0, y0n = 0;
     if (args[8] == Py_None && args[9] == Py_None) {
         double xv = PyFloat_AsDouble(args[10]), yv = PyFloat_AsDouble(args[11]);
         if (!PyErr_Occurred()) {
-            x0s = fmt_double(xv, 'f', 8, x0b, &own_x0);
-            y0s = fmt_double(yv, 'f', 8, y0b, &own_y0);
+            x0s = fmt_double(xv, 'f', 8, x0b, &own_x0, &x0n);
+            y0s = fmt_double(yv, 'f', 8, y0b, &own_y0, &y0n);
         }
         PyErr_Clear();
     }
@@ -2379,9 +2404,9 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
         goto decline;
     if (x0s != NULL && y0s != NULL) {
         ba.x0.p = x0s;
-        ba.x0.n = (Py_ssize_t)strlen(x0s);
+        ba.x0.n = (Py_ssize_t)x0n;
         ba.y0.p = y0s;
-        ba.y0.n = (Py_ssize_t)strlen(y0s);
+        ba.y0.n = (Py_ssize_t)y0n;
     } else {
         ba.x0.p = ascii(args[8], &ba.x0.n);
         ba.y0.p = ascii(args[9], &ba.y0.n);
@@ -2748,6 +2773,8 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
                                 PyFloat_AS_DOUBLE(beta_o), sp, sn, n, &ba.pc.hn)) == NULL)
         goto decline;
     ba.pc.hp = head;
+    ba.kind.p = kp;
+    ba.kind.n = kn;
     /* closing_text(flavour, accel0, extruding, mcr0, v_feed, "\n") (lru-cached in emit.py) */
     PyObject *cargs[6] = {ra->flavour, a0_o, extruding ? Py_True : Py_False, c0_o, v_feed, ra->nl};
     PyObject *closing = obj[no++] = closing_call(&ra->memo, ra->closing_text, cargs);
@@ -3274,6 +3301,28 @@ static PyObject *line_units(PyObject *self, PyObject *args)
     return r;
 }
 
+/* head_of(spec, n_lines): head_text's head, None where it declines, with head_line_breaks
+   of its first line from its kind and from the line's text: (head, by kind, by text) (tests) */
+static PyObject *head_of(PyObject *self, PyObject *args)
+{
+    PyObject *spec;
+    Py_ssize_t n_lines, len = 0;
+    if (!PyArg_ParseTuple(args, "On", &spec, &n_lines))
+        return NULL;
+    char *h = head_text(spec, n_lines, &len);
+    if (h == NULL)
+        Py_RETURN_NONE;
+    Txt kind = {NULL, 0};
+    kind.p = ascii(PyTuple_GET_ITEM(spec, 0), &kind.n);
+    const char *nl = memchr(h, '\n', (size_t)len);
+    Py_ssize_t hl = nl != NULL ? nl - h : len;
+    Txt given = {NULL, 0};
+    PyObject *r = Py_BuildValue("(Nii)", PyUnicode_DecodeASCII(h, len, NULL), head_line_breaks(&kind, h, hl),
+                                head_line_breaks(&given, h, hl));
+    PyMem_Free(h);
+    return r;
+}
+
 /* units_text(u, dec), tenths_text(k): put_units' and put_tenths_up's texts */
 static PyObject *units_text(PyObject *self, PyObject *args)
 {
@@ -3406,6 +3455,7 @@ static PyMethodDef mod_methods[] = {
     {"format_text", format_text, METH_VARARGS, "the hand-made 'f' / '.4g' text of a float, else None (tests)"},
     {"format_check", format_check, METH_VARARGS, "(taken, first index differing or -1): the hand-made texts "
      "of native doubles against PyOS_double_to_string's (tests)"},
+    {"head_of", head_of, METH_VARARGS, "(head_text's head of a spec, or None) (tests)"},
     {"line_units", line_units, METH_VARARGS, "(block_into's units of a plain line's numbers, units_txt's) (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},

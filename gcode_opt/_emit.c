@@ -503,7 +503,7 @@ typedef struct { const char *p; Py_ssize_t n; } Txt;
    its decimals), without reading it again.  Where nf <= dec (every text of a block: dec is
    its texts' most decimals) the digits kept are all of them, m (exact: at most 15 digits
    here), times 10 a decimal short of dec; else the text is read. */
-static int units_read(const Txt *t, uint64_t m, int nf, int dec, int64_t *out)
+static inline int units_read(const Txt *t, uint64_t m, int nf, int dec, int64_t *out)
 {
     if (nf > dec)
         return units_txt(t->p, t->n, dec, out);
@@ -521,20 +521,18 @@ static int units_read(const Txt *t, uint64_t m, int nf, int dec, int64_t *out)
     return 0;
 }
 
-/* the moves' texts' units (units_txt with the block's decimals) taken once, where
-   stroke_block read them: UNITS_NONE where units_txt declines */
-#define UNITS_NONE INT64_MIN
-typedef struct { const int64_t *x, *y, *e; } ColUnits;
+/* the moves' texts' digits' integers and decimals as stroke_block read them (x, y, e):
+   their units taken when asked, only for the moves that need them (most moves of a dense
+   path need none) */
+typedef struct { const uint64_t *m[3]; const int *nf[3]; } ColUnits;
 
-/* units_txt(t[k], dec): from cu (not NULL: its units) or read from the text */
-static inline int col_units(const Txt *t, const int64_t *cu, Py_ssize_t k, int dec, int64_t *out)
+/* units_txt(t[k], dec) of column c (0 x, 1 y, 2 e): from cu's integers (cu not NULL) or
+   read from the text */
+static inline int col_units(const Txt *t, const ColUnits *cu, int c, Py_ssize_t k, int dec, int64_t *out)
 {
     if (cu == NULL)
         return units_txt(t[k].p, t[k].n, dec, out);
-    if (cu[k] == UNITS_NONE)
-        return -1;
-    *out = cu[k];
-    return 0;
+    return units_read(&t[k], cu->m[c][k], cu->nf[c][k], dec, out);
 }
 
 /* "00".."99": two decimal digits a division */
@@ -983,14 +981,13 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, const ColUnit
                       const int64_t *start_u, int dxy, int de, int e_rel, int64_t e_start_u, MoveUnits *mu)
 {
     int64_t e_u, e_b;
-    const int64_t *ux = cu ? cu->x : NULL, *uy = cu ? cu->y : NULL, *ue = cu ? cu->e : NULL;
     if (move == 0) {
         mu->x_a = start_u[0];
         mu->y_a = start_u[1];
-    } else if (col_units(xt, ux, move - 1, dxy, &mu->x_a) < 0 || col_units(yt, uy, move - 1, dxy, &mu->y_a) < 0)
+    } else if (col_units(xt, cu, 0, move - 1, dxy, &mu->x_a) < 0 || col_units(yt, cu, 1, move - 1, dxy, &mu->y_a) < 0)
         return -1;
-    if (col_units(xt, ux, move, dxy, &mu->x_b) < 0 || col_units(yt, uy, move, dxy, &mu->y_b) < 0
-        || col_units(et, ue, move, de, &e_u) < 0)
+    if (col_units(xt, cu, 0, move, dxy, &mu->x_b) < 0 || col_units(yt, cu, 1, move, dxy, &mu->y_b) < 0
+        || col_units(et, cu, 2, move, de, &e_u) < 0)
         return -1;
     if (e_rel) {
         mu->e_move = e_u;
@@ -999,7 +996,7 @@ static int move_units(const Txt *xt, const Txt *yt, const Txt *et, const ColUnit
     }
     if (move == 0)
         e_b = e_start_u;
-    else if (col_units(et, ue, move - 1, de, &e_b) < 0)
+    else if (col_units(et, cu, 2, move - 1, de, &e_b) < 0)
         return -1;
     mu->e_move = e_u - e_b;
     mu->e_before = e_b;
@@ -1285,7 +1282,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             else if (e_done_u == 0)
                 e_kind = 1;
             else {
-                if (col_units(et, cu ? cu->e : NULL, move, de, &eu) < 0)
+                if (col_units(et, cu, 2, move, de, &eu) < 0)
                     return 1;
                 eu -= e_done_u;
                 e_kind = 2;
@@ -2202,7 +2199,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     int got = 0;
     Txt *cx = (Txt *)mem, *cy = cx + n, *ce = cx + 2 * n, *cc = cx + 3 * n;
     double *px = (double *)(cx + 4 * n), *py = px + n + 1, *ev_k = py + n + 1;
-    int64_t *ux = (int64_t *)(ev_k + n), *uy = ux + n, *ue = uy + n;   /* the digits' integers, then units */
+    uint64_t *ux = (uint64_t *)(ev_k + n), *uy = ux + n, *ue = uy + n;   /* the digits' integers */
     int *dx_k = (int *)(ue + n), *dy_k = dx_k + n, *de_k = dy_k + n;
     int dec_xy = 3, dec_e = 5, d0;
     if ((d0 = ba->s8.known ? start8_decimals(ba->s8.n[0]) : start_decimals(ba->x0.p, ba->x0.n)) > dec_xy) dec_xy = d0;
@@ -2233,8 +2230,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (de > dec_e) dec_e = de;
         dx_k[k] = dx;
         dy_k[k] = dy;
-        ux[k] = (int64_t)u[0];
-        uy[k] = (int64_t)u[1];
+        ux[k] = u[0];
+        uy[k] = u[1];
         double xv = v[0], yv = v[1];
         px[k + 1] = xv;
         py[k + 1] = yv;
@@ -2250,7 +2247,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
             n_e++;
             ev_k[k] = ev;
             de_k[k] = de;
-            ue[k] = (int64_t)u[2];
+            ue[k] = u[2];
         } else {
             ce[k].p = "0";                        /* StrokeText's e text of a line without E */
             ce[k].n = 1;
@@ -2262,14 +2259,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     }
     if (p != end || !path_ok || dec_e > 15)
         goto decline;
-    /* the texts' units with the block's decimals, from their integers (in place) */
-    for (Py_ssize_t k = 0; k < n; k++) {
-        int64_t w;
-        ux[k] = units_read(&cx[k], (uint64_t)ux[k], dx_k[k], dec_xy, &w) < 0 ? UNITS_NONE : w;
-        uy[k] = units_read(&cy[k], (uint64_t)uy[k], dy_k[k], dec_xy, &w) < 0 ? UNITS_NONE : w;
-        ue[k] = units_read(&ce[k], (uint64_t)ue[k], de_k[k], dec_e, &w) < 0 ? UNITS_NONE : w;
-    }
-    ColUnits cu = {ux, uy, ue};
+    ColUnits cu = {{ux, uy, ue}, {dx_k, dy_k, de_k}};
     /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
     int64_t e_start_u;
     if (py_round(ba->e0 * POW10[dec_e], &e_start_u) < 0)

@@ -1,6 +1,6 @@
-"""stroke_block's units of a move's texts (issue 8, session 44): block_into takes each
+"""stroke_block's units of a move's texts (issue 8, session 44): emit_cols takes a
 number's units with the block's decimals from the digits' integer plain_line read
-(units_read) instead of reading the text again in emit_cols (units_txt).  The core's
+(units_read, block_into keeps them) instead of reading the text again (units_txt).  The core's
 line_units hook gives both for a plain line: they must agree, declines included, on
 numbers of every length, sign and point, for decimals at, above and below the texts'."""
 from __future__ import annotations

@@ -3214,7 +3214,7 @@ static PyObject *line_read(PyObject *self, PyObject *o)
     memcpy(line, p, m);
     line[m] = '\n';
     line[m + 1] = '7';
-    Txt x, y, e, c, x1 = {0}, y1 = {0}, e1 = {0}, c1 = {0};
+    Txt x = {0}, y = {0}, e = {0}, c = {0}, x1 = {0}, y1 = {0}, e1 = {0}, c1 = {0};
     int dx, dy, de, dx1 = 0, dy1 = 0, de1 = 0;
     double v[3] = {0.0, 0.0, 0.0}, v1[3] = {0.0, 0.0, 0.0};
     uint64_t u[3] = {0, 0, 0}, u1[3] = {0, 0, 0};

@@ -1132,6 +1132,26 @@ static PyObject *lay_post(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* interp_rows' knot: the last j with xp[j] <= x, for xp[0] <= x <= xp[n - 1] (n >= 2), by
+   the hint h (0 <= h < n): h, h + 1 or h + 2 where x lies there, else a binary search of
+   the knots after h + 2 or before h (xp[lo] <= x, and xp[hi] > x or hi = n - 1, as the
+   search of every knot keeps them) */
+static inline Py_ssize_t knot_at(const double *xp, Py_ssize_t n, double x, Py_ssize_t h) {
+    Py_ssize_t lo = 0, hi = n - 1;
+    if (xp[h] <= x) {
+        if (h + 1 >= n || x < xp[h + 1]) return h;
+        if (h + 2 >= n || x < xp[h + 2]) return h + 1;
+        lo = h + 2;
+    } else {
+        hi = h;
+    }
+    while (hi - lo > 1) {
+        Py_ssize_t mid = lo + (hi - lo) / 2;
+        if (xp[mid] <= x) lo = mid; else hi = mid;
+    }
+    return (xp[hi] <= x) ? hi : lo;
+}
+
 /* curves.py: _kappa_rows with its knots laid out (_Knots): per row r, np.interp(s[r],
    xs[off[r]:off[r]+cnt[r]], ys[...]) with numpy's defaults (left, right: the end values),
    numpy's arr_interp operations in its order: NaN x gives x; above the last knot the last
@@ -1139,7 +1159,9 @@ static PyObject *lay_post(PyObject *self, PyObject *a) {
    value; else slope (fp[j+1] - fp[j]) / (xp[j+1] - xp[j]), slope (x - xp[j]) + fp[j], and
    numpy's two NaN fallbacks.  j is the last knot with xp[j] <= x, which numpy's guessed
    binary search also finds when the knots are strictly increasing and finite (the caller
-   gives only such rows, cnt >= 2; rows of cnt < 2 are skipped and left to the caller). */
+   gives only such rows, cnt >= 2; rows of cnt < 2 are skipped and left to the caller).
+   That j is one knot whatever finds it: knot_at looks first at the last point's knot and
+   the next two (a row's points mostly go forward along the curve). */
 static PyObject *interp_rows(PyObject *self, PyObject *a) {
     PyObject *os_, *oo, *oc, *ox, *oy, *out_;
     Py_ssize_t nr, m, nk;
@@ -1158,17 +1180,13 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
         const double *xp = xs + o, *fp = ys + o;
         const double *x_r = s + r * m;
         double *res = out + r * m;
+        Py_ssize_t j = 0;               /* the last point's knot (xp[0] at the row's start) */
         for (Py_ssize_t i = 0; i < m; i++) {
             const double x = x_r[i];
             if (isnan(x)) { res[i] = x; continue; }
             if (x > xp[n - 1]) { res[i] = fp[n - 1]; continue; }
             if (x < xp[0]) { res[i] = fp[0]; continue; }
-            Py_ssize_t lo = 0, hi = n - 1;
-            while (hi - lo > 1) {
-                Py_ssize_t mid = lo + (hi - lo) / 2;
-                if (xp[mid] <= x) lo = mid; else hi = mid;
-            }
-            Py_ssize_t j = (xp[hi] <= x) ? hi : lo;
+            j = knot_at(xp, n, x, j);
             if (j == n - 1 || xp[j] == x) { res[i] = fp[j]; continue; }
             const double slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
             double v = slope * (x - xp[j]) + fp[j];

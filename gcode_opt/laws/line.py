@@ -537,12 +537,14 @@ class InteriorSpeeds:
         self.A = L - self.wbar
         with np.errstate(divide="ignore", invalid="ignore"):
             self.rho = -self.delta / self.A
+        self._split = None
 
     def take(self, rows):
         """The laws rows only (an index array): their constants taken, not made again."""
         out = object.__new__(InteriorSpeeds)
         for f in ("T", "wbar", "delta", "A", "rho"):
             setattr(out, f, getattr(self, f)[rows])
+        out._split = None
         return out
 
     @staticmethod
@@ -551,7 +553,25 @@ class InteriorSpeeds:
         out = object.__new__(InteriorSpeeds)
         for f in ("T", "wbar", "delta", "A", "rho"):
             setattr(out, f, np.concatenate([getattr(p, f) for p in parts]))
+        out._split = None
         return out
+
+    def _branches(self, small):
+        """{is_small: (its rows, and T, wbar, delta, A, rho taken at them)} of the split
+        small (gamma < GAMMA_SWITCH, both branches taken): the last call's where its split
+        was the same (the planner's bisection keeps one for its last ~20 of 33 steps on the
+        rectilinear plate), else taken anew.  The same values either way."""
+        last = self._split
+        if last is not None and np.array_equal(last[0], small):
+            return last[1]
+        got = {}
+        for is_small in (True, False):
+            # the branch's elements by index: the same values as by the boolean mask,
+            # without its search of the mask for each of six arrays
+            branch = np.flatnonzero(small if is_small else ~small)
+            got[is_small] = (branch, *(a.take(branch) for a in (self.T, self.wbar, self.delta, self.A, self.rho)))
+        self._split = (small, got)
+        return got
 
     def cubic(self):
         """self(inf) (every law's cubic, beta = inf), without the series and the sinh:
@@ -584,17 +604,16 @@ class InteriorSpeeds:
         out = np.empty(gamma.shape)
         small = gamma < GAMMA_SWITCH
         ns = int(np.count_nonzero(small))
+        split = self._branches(small) if 0 < ns < gamma.size else None
         for is_small in (True, False):
             cnt = ns if is_small else gamma.size - ns
             if cnt == 0:
                 continue
             if cnt == gamma.size:                  # one branch: no gather/scatter
                 g_, T_, wbar_, d_, A_, rho_ = gamma, T, wbar, delta, A, rho
-            else:
-                # the branch's elements by index (taken, put back): the same values as by
-                # the boolean mask, without its search of the mask for each of six arrays
-                branch = np.flatnonzero(small if is_small else ~small)
-                g_, T_, wbar_, d_, A_, rho_ = (a.take(branch) for a in (gamma, T, wbar, delta, A, rho))
+            else:                                  # the branch's elements (taken, put back)
+                branch, T_, wbar_, d_, A_, rho_ = split[is_small]
+                g_ = gamma.take(branch)
             if is_small:
                 n = _horner(_N_COEF, g_ * g_)
                 sh2 = _shc(g_ / 2)

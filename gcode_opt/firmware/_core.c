@@ -3289,7 +3289,38 @@ static inline TwoDouble fast_two_sum(double a, double b)  /* a + b = hi + lo exa
     return r;
 }
 
-static double c_hypot(double dx, double dy)
+/* c_hypot's body in two builds: the plain one, and one for FMA hardware (use_fma, where
+ * the compiler gives __builtin_fma one instruction) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define HYPOT_FMA 1
+#define HYPOT_FMA_TARGET __attribute__((target("fma")))
+#else
+#define HYPOT_FMA 0
+#endif
+
+/* two_prod(x, y), where use_fma as lo = fma(x, y, -hi): the product's rounding error, exact
+ * (one rounding of a representable number) -- Dekker's lo too, which is exact where no step
+ * underflows, so the same bits; `exact`: the caller knows x y is far above the underflow
+ * (else Dekker's, exact or not, is what CPython 3.11's dl_mul gives) */
+static inline __attribute__((always_inline)) TwoDouble two_prod_k(double x, double y, const int use_fma,
+                                                                   int exact)
+{
+#if HYPOT_FMA
+    if (use_fma && exact) {
+        double hi = x * y;
+        TwoDouble r = {hi, __builtin_fma(x, y, -hi)};
+        return r;
+    }
+#else
+    (void)use_fma;
+    (void)exact;
+#endif
+    return two_prod(x, y);
+}
+
+static double c_hypot(double dx, double dy);
+
+static inline __attribute__((always_inline)) double c_hypot_body(double dx, double dy, const int use_fma)
 {
     double ax = fabs(dx), ay = fabs(dy), mx = 0.0;
     if (ax > mx)                                       /* (a nan is never the max: an infinity wins) */
@@ -3322,14 +3353,16 @@ static double c_hypot(double dx, double dy)
     double csum = 1.0, f1 = 0.0, f2 = 0.0;
     const double v[2] = {ax * scale, ay * scale};
     for (int k = 0; k < 2; k++) {
-        TwoDouble p = two_prod(v[k], v[k]);
+        /* v[k] in [2^-400, 1) or 0: Dekker's halves are multiples of v[k]'s ulp (2^-453 or
+         * more), their products of 2^-906: none underflows, so his lo is the exact error */
+        TwoDouble p = two_prod_k(v[k], v[k], use_fma, v[k] >= 0x1p-400 || v[k] == 0.0);
         TwoDouble q = fast_two_sum(csum, p.hi);
         csum = q.hi;
         f1 += p.lo;
         f2 += q.lo;
     }
     double h = sqrt(csum - 1.0 + (f1 + f2));
-    TwoDouble p = two_prod(-h, h);
+    TwoDouble p = two_prod_k(-h, h, use_fma, 1);      /* (h near 1: csum - 1 in [0.25, 2)) */
     TwoDouble q = fast_two_sum(csum, p.hi);
     csum = q.hi;
     f1 += p.lo;
@@ -3337,6 +3370,35 @@ static double c_hypot(double dx, double dy)
     double x = csum - 1.0 + (f1 + f2);
     h += x / (2.0 * h);
     return h / scale;
+}
+
+static double c_hypot_plain(double dx, double dy)
+{
+    return c_hypot_body(dx, dy, 0);
+}
+
+#if HYPOT_FMA
+HYPOT_FMA_TARGET static double c_hypot_fma(double dx, double dy)
+{
+    return c_hypot_body(dx, dy, 1);
+}
+#endif
+
+/* c_hypot's build for this machine (hypot_init: c_hypot_fma where the CPU has FMA) */
+static double (*C_HYPOT)(double dx, double dy) = c_hypot_plain;
+
+static void hypot_init(void)
+{
+#if HYPOT_FMA
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("fma"))
+        C_HYPOT = c_hypot_fma;
+#endif
+}
+
+static double c_hypot(double dx, double dy)
+{
+    return C_HYPOT(dx, dy);
 }
 
 /* *d = math.hypot(dx, dy), the Python call; -1 with an exception set if it fails */
@@ -3393,11 +3455,24 @@ static int py_hypot(double dx, double dy, double *d)
     return call_hypot(dx, dy, d);
 }
 
-/* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(): whether run_lines
- * and gap_lines use it (hypot_same()) */
+/* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(dx, dy, build): the
+ * plain build's (0) or the FMA build's (1; None where this machine or compiler has none);
+ * hypot(): whether run_lines and gap_lines use it (hypot_same()) */
 static PyObject *mod_hypot(PyObject *self, PyObject *args)
 {
     double dx, dy;
+    int build = -1;
+    if (PyTuple_GET_SIZE(args) == 3) {
+        if (!PyArg_ParseTuple(args, "ddi:hypot", &dx, &dy, &build))
+            return NULL;
+        if (build == 0)
+            return PyFloat_FromDouble(c_hypot_plain(dx, dy));
+#if HYPOT_FMA
+        if (C_HYPOT == c_hypot_fma)
+            return PyFloat_FromDouble(c_hypot_fma(dx, dy));
+#endif
+        Py_RETURN_NONE;
+    }
     if (PyTuple_GET_SIZE(args) == 0) {
         if (get_hypot() < 0 || (HYPOT_SAME == -2 && (HYPOT_SAME = hypot_same()) < 0)) {
             HYPOT_SAME = -2;
@@ -7138,6 +7213,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
         return NULL;
+    hypot_init();
     Py_INCREF(&BlockType);
     Py_INCREF(&RecType);
     Py_INCREF(&ResType);

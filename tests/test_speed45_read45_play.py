@@ -4,9 +4,9 @@
   (CFG_MARLIN_JERK: the configuration's tests constant, set_lim not asked twice): a pass
   through the fused loop (play_buf, the reader's run_ascii, play_fused) against the
   9bb98a8 per-line loop (Move objects: Sim.move, sim_block's CFG_ANY body) on random
-  files of every kind of move and limit change, under each profile (Marlin jerk, Marlin
-  junction deviation, Klipper): every block's ringing row, the per-stroke sums, the
-  SimResult and the reader's state after the pass.
+  files of every kind of move, under each profile (Marlin jerk, Marlin junction
+  deviation with windows down to one block, Klipper): every block's ringing row, the
+  per-stroke sums, the SimResult and the reader's state after the pass.
 - the reader's run loop (fused_run_ascii: each line's end and ASCII test by 16-byte
   blocks; a one-pass form of it was measured and dropped, these tests kept as its guard):
   the same passes on files whose lines have every length from 1 to 40 bytes, with
@@ -29,6 +29,7 @@ from gcode_opt import state as st
 from gcode_opt.firmware import simulate as fw
 from gcode_opt.profile import load_profile
 
+from test_speed40_sim_block_path import PROFILES as BLOCK_PROFILES, _gcode
 from test_speed_measure_fused import PROFILES, _Taps
 from test_speed_measure_loop import _ref_play, bits, res_bits
 
@@ -36,48 +37,10 @@ pytestmark = pytest.mark.skipif(fw._core is None or st._reader is None or not fw
                                 or not hasattr(fw._core.Sim, "play_buf"),
                                 reason="the compiled firmware core or reader is not built here")
 
-PROFILES = dict(PROFILES, **{"prusa-mk4": lambda: load_profile("prusa-mk4")})
-
-
-def _num(rng, lo, hi, nd):
-    return f"{rng.uniform(lo, hi):.{nd}f}".rstrip("0").rstrip(".") or "0"
-
-
-def _random_moves(rng, n):
-    """Lines of a printed file: moves in X Y Z E F (absolute and relative, E only, tiny
-    and zero-length ones), M204s, jerk and acceleration limits (M201, M205), comments."""
-    out = ["G21\n", "G90\n", "M83\n", "G1 Z0.2 F600\n"]
-    x = y = 100.0
-    for _ in range(n):
-        r = rng.random()
-        if r < 0.55:
-            x += rng.choice((rng.uniform(-8, 8), rng.uniform(-0.05, 0.05), 0.0))
-            y += rng.choice((rng.uniform(-8, 8), rng.uniform(-0.05, 0.05), 0.0))
-            words = [f"X{x:.3f}", f"Y{y:.3f}"]
-            if rng.random() < 0.8:
-                words.append("E" + _num(rng, 0.0, 0.6, 5))
-            if rng.random() < 0.4:
-                words.append("F" + _num(rng, 300, 12000, 1))
-            out.append("G1 " + " ".join(words) + "\n")
-        elif r < 0.62:
-            out.append(f"G0 X{x:.3f} Y{y:.3f} F{rng.choice((3000, 9000, 18000))}\n")
-        elif r < 0.72:
-            out.append("M204 S" + _num(rng, 0.1, 4000, rng.choice((0, 1))) + "\n")
-        elif r < 0.76:
-            out.append(f"G1 E{rng.choice(('-0.8', '0.8', '0.05'))} F2100\n")
-        elif r < 0.78:
-            out.append(f"G1 Z{rng.choice(('0.4', '0.6', '0.2'))} F720\n")
-        elif r < 0.80:
-            out.append(f"M205 X{rng.choice((4, 8, 10))} Y{rng.choice((4, 8, 10))}\n")
-        elif r < 0.82:
-            out.append(f"M201 X{rng.choice((500, 1000, 2500))} Y{rng.choice((500, 1000, 2500))}\n")
-        elif r < 0.85:
-            out.append("G91\n" if rng.random() < 0.5 else "G90\n")
-        elif r < 0.90:
-            out.append(";TYPE:" + rng.choice(("Perimeter", "External perimeter", "Solid infill")) + "\n")
-        else:
-            out.append(rng.choice(("; a comment\n", "\n", ";\n", "M107\n")))
-    return out
+# the fused tests' flavours, session 40's junction laws and Marlin windows (mk3s-lowjerk: a
+# jerk law whose Z caps bind), and the MK4's (Marlin 2, jerk)
+PROFILES = dict(PROFILES, **{k: (lambda p=p: p) for k, p in BLOCK_PROFILES.items()},
+                **{"prusa-mk4": lambda: load_profile("prusa-mk4")})
 
 
 def _odd_lines(rng, n):
@@ -131,8 +94,11 @@ def _pass(path, profile, block_bytes, monkeypatch, ref):
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_play_random_moves_same_bits(tmp_path, monkeypatch, prof, seed):
     """The fused loop's blocks (play_fused: CFG_MARLIN_JERK under the Marlin jerk
-    profiles) against Move objects played by Sim.move (CFG_ANY)."""
-    path = _write(tmp_path, "moves.gcode", _random_moves(random.Random(seed), 3000))
+    profiles) against Move objects played by Sim.move (CFG_ANY), on session 40's moves
+    (every length and turn, Z moves, E-only moves, dwells, M204, M205)."""
+    path = str(tmp_path / "moves.gcode")
+    with open(path, "w") as fh:
+        fh.write(_gcode(random.Random(seed), 3000))
     profile = PROFILES[prof]()
     ref = _pass(path, profile, 0, monkeypatch, True)
     assert ref[2] != _pass(path, load_profile("voron24" if prof != "voron24" else "prusa-mk3s"), 1 << 16,

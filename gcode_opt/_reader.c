@@ -1191,6 +1191,19 @@ static int line_shape(const unsigned char *s, Py_ssize_t n, int lf, Py_ssize_t *
     return n < 2 ? SHAPE_PYTHON : SHAPE_CODE;
 }
 
+/* line_shape for the fused readers: a line whose first byte is ';' and that holds no CR (lf)
+ * is a comment only (its code empty: code_len 0, no look for its ';'), marked or not --
+ * line_shape's answer without its call and memchr's (a written file's fences: ~80 k
+ * lines in the measure pass of a plate) */
+static inline int fused_shape(const unsigned char *s, Py_ssize_t n, int lf, Py_ssize_t *code_n)
+{
+    if (lf && n >= 1 && s[0] == ';') {
+        *code_n = 0;
+        return marked(s, n) ? SHAPE_MARKED : SHAPE_NOTHING;
+    }
+    return line_shape(s, n, lf, code_n);
+}
+
 /* step(self, idx, raw): the Move, None, or what MachineState._step_python returns. */
 static PyObject *step(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -1673,7 +1686,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
 {
     Py_ssize_t code_n = -1;            /* the code's length: line_shape's, or code_len's where needed */
     if (!command_line(s, n, lf))
-        switch (line_shape(s, n, lf, &code_n)) {
+        switch (fused_shape(s, n, lf, &code_n)) {
         case SHAPE_PYTHON:
             goto other;
         case SHAPE_NOTHING:
@@ -1768,7 +1781,7 @@ static int fused_peek_ascii(void *p, const char *line, Py_ssize_t n, int lf, Run
     const unsigned char *s = (const unsigned char *)line;
     Py_ssize_t code_n = -1;            /* as fused_line_ascii's */
     if (!command_line(s, n, lf))
-        switch (line_shape(s, n, lf, &code_n)) {
+        switch (fused_shape(s, n, lf, &code_n)) {
         case SHAPE_PYTHON:
             return 0;
         case SHAPE_NOTHING:

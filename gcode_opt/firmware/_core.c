@@ -1186,6 +1186,7 @@ typedef struct {
     double corner_cos, sqrt2_m1, mps, arc_min_turn;
     /* profile */
     int klipper_limits, klipper_fw, model, marlin;
+    int marlin_jerk;                  /* marlin, J_JERK, not klipper_fw: play_fused's CFG_MARLIN_JERK */
     double jerk_z, icv, min_seg_t, arc_segment_d, default_accel, max_z_accel, max_z_v, max_e_v;
     double caps[3], jerk[3];
     int caps_nonneg;                  /* no cap < 0: caps_axis() may be used (set with caps) */
@@ -1217,6 +1218,16 @@ typedef struct {
  * ~40 instructions a block of calls, saved registers and reloads fewer */
 #define BLOCK_PATH static inline __attribute__((always_inline))
 BLOCK_PATH int sim_emit(SimObject *s, BlockData *b);
+
+/* The per-block path's configuration, a constant argument of its inlined functions:
+ * CFG_ANY reads the profile's choices from the Sim, CFG_MARLIN_JERK knows them (a Marlin
+ * planner, the jerk junction, Marlin's limits: the plates' profiles), so play_fused's body
+ * for it tests none of them per block (~20 instructions a block). */
+enum { CFG_ANY, CFG_MARLIN_JERK };
+#define CFG_MARLIN(s, cfg) ((cfg) == CFG_MARLIN_JERK ? 1 : (s)->marlin)
+#define CFG_MODEL(s, cfg) ((cfg) == CFG_MARLIN_JERK ? J_JERK : (s)->model)
+#define CFG_KLIPPER_FW(s, cfg) ((cfg) == CFG_MARLIN_JERK ? 0 : (s)->klipper_fw)
+#define CFG_KLIPPER_LIMITS(s, cfg) ((cfg) == CFG_MARLIN_JERK ? 0 : (s)->klipper_limits)
 
 /* An axis's cap on a speed or acceleration x along unit-vector component au = |u| (0, > 0
  * or NaN), for a cap that is not < 0: x * au > cap says au > 0 too (au == 0 gives a
@@ -1318,6 +1329,7 @@ static int Sim_init(SimObject *s, PyObject *args, PyObject *kw)
     Py_DECREF(o);
     s->klipper_limits = bb <= 0;
     s->marlin = bb > 0;
+    s->marlin_jerk = s->marlin && s->model == J_JERK && !s->klipper_fw;
     s->jerk_z = getattr_d(prof, "jerk_z_v", 0.4, 1, &err);
     s->icv = getattr_d(prof, "instantaneous_corner_velocity_v", klipper_icv, 1, &err);
     double max_accel = getattr_d(prof, "max_accel_a", 0, 0, &err);
@@ -1557,9 +1569,10 @@ BLOCK_PATH int marlin_jerk_junction_v(double pux, double puy, double puz, double
     return 0;
 }
 
-BLOCK_PATH int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
+BLOCK_PATH int junction(SimObject *s, BlockData *p, BlockData *b, double *out, const int cfg)
 {
-    if (s->model == J_SCV) {
+    const int model = CFG_MODEL(s, cfg);
+    if (model == J_SCV) {
         double v2, e2;
         if (klipper_corner_v2(p->ux, p->uy, p->uz, p->jd, p->accel, p->delta_v2,
                               b->ux, b->uy, b->uz, b->jd, b->accel, b->delta_v2, &v2) < 0)
@@ -1573,7 +1586,7 @@ BLOCK_PATH int junction(SimObject *s, BlockData *p, BlockData *b, double *out)
         *out = v2;
         return 0;
     }
-    if (s->model == J_JD)
+    if (model == J_JD)
         return marlin_jd_v2(s->mps, p->ux, p->uy, p->uz, b->ux, b->uy, b->uz, b->d, b->accel, b->jd,
                             s->caps[0], s->caps[1], s->caps[2], out);
     double v;
@@ -1721,7 +1734,7 @@ BLOCK_PATH int klipper_add(SimObject *s, BlockData *b)
     if (s->n) {
         BlockData *p = &s->q[s->n - 1];
         double v2;
-        if (junction(s, p, b, &v2) < 0)
+        if (junction(s, p, b, &v2, CFG_ANY) < 0)
             return -1;
         double lim = p->max_start_v2 + p->delta_v2;
         if (b->v2max < lim)
@@ -1799,12 +1812,12 @@ BLOCK_PATH int marlin_execute(SimObject *s, double end_v2)
 
 /* b: the queue's slot q[n] (sim_block's), taken here; the last block added is q[n - 1]
  * while has_last (executing a block writes only its trapezoid, which junction() does not read) */
-BLOCK_PATH int marlin_add(SimObject *s, BlockData *b)
+BLOCK_PATH int marlin_add(SimObject *s, BlockData *b, const int cfg)
 {
     if (s->has_last) {
         BlockData *p = b - 1;
         double v2;
-        if (junction(s, p, b, &v2) < 0)
+        if (junction(s, p, b, &v2, cfg) < 0)
             return -1;
         if (b->v2max < v2)
             v2 = b->v2max;
@@ -1814,7 +1827,7 @@ BLOCK_PATH int marlin_add(SimObject *s, BlockData *b)
         b->after_stop = 0;
     }
     else
-        b->max_start_v2 = s->model == J_JERK ? b->safe_v * b->safe_v : 0.0;
+        b->max_start_v2 = CFG_MODEL(s, cfg) == J_JERK ? b->safe_v * b->safe_v : 0.0;
     s->has_last = 1;
     s->n++;
     if (s->n - s->head >= s->window) {
@@ -2128,10 +2141,12 @@ static int sim_eonly(SimObject *s, PyObject *mv)
 }
 
 /* a move's block (_Sim._block): inlined into play_fused (the reader's lines: nearly every
- * block) and into sim_block (Move objects and arcs), one call a block, not two */
+ * block) and into sim_block (Move objects and arcs), one call a block, not two; cfg: the
+ * configuration the caller knows (CFG_ANY: s's) */
 BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double dx, double dy,
-                              double dz, double de)
+                              double dz, double de, const int cfg)
 {
+    const int klipper_fw = CFG_KLIPPER_FW(s, cfg), model = CFG_MODEL(s, cfg);
     double d = sqrt_rn(dx * dx + dy * dy + dz * dz);
     if (d < 1e-9) {
         if (de != 0.0 && first)         /* the move's own E, feed and accel (_eonly(mv)) */
@@ -2146,7 +2161,7 @@ BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double
         a0 = s->default_accel;
     double aux = fabs(ux), auy = fabs(uy), auz = fabs(uz);
     double a;
-    if (s->klipper_fw) {
+    if (klipper_fw) {
         a = a0;
         if (uz != 0.0) {
             double az;
@@ -2177,7 +2192,7 @@ BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double
     if (lim != s->vlim && vlim_read(s, lim) < 0)
         return -1;
     double v_max = s->vlim_v_max, v;
-    if (s->klipper_limits) {
+    if (CFG_KLIPPER_LIMITS(s, cfg)) {
         v = m->v < v_max ? m->v : v_max;
         if (uz != 0.0) {
             double vz;
@@ -2206,7 +2221,7 @@ BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double
         }
     }
     double jd, mcr_a;
-    if (s->model == J_SCV) {
+    if (model == J_SCV) {
         double scv = s->vlim_scv;
         DIV(jd, scv * scv * s->sqrt2_m1, a0);
         mcr_a = a0 * (1.0 - s->vlim_mcr);
@@ -2240,8 +2255,9 @@ BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double
     b->after_stop = 1;
     /* (start_v .. decel_t not zeroed: set_trapezoid writes them all before anything reads
        them, sim_emit and on_block after it) */
-    if (s->model == J_JERK) {
-        if (lim != s->lim && set_lim(s, lim) < 0)
+    if (model == J_JERK) {
+        /* (s->lim is lim already unless klipper_fw: set above, and vlim_read leaves it) */
+        if (klipper_fw && lim != s->lim && set_lim(s, lim) < 0)
             return -1;
         double jx = s->jerk[0], jy = s->jerk[1], jz = s->jerk[2];
         double safe = v, comp, mjerk;
@@ -2277,13 +2293,13 @@ BLOCK_PATH int sim_block_body(SimObject *s, const MoveData *m, int first, double
     }
     if (s->min_seg_t > 0.0 && d < s->min_seg_t * v)
         s->res->short_segments += 1;
-    return s->marlin ? marlin_add(s, b) : klipper_add(s, b);
+    return CFG_MARLIN(s, cfg) ? marlin_add(s, b, cfg) : klipper_add(s, b);
 }
 
 static int sim_block(SimObject *s, const MoveData *m, int first, double dx, double dy, double dz,
                      double de)
 {
-    return sim_block_body(s, m, first, dx, dy, dz, de);
+    return sim_block_body(s, m, first, dx, dy, dz, de, CFG_ANY);
 }
 
 /* simulate.arc_chords */
@@ -2737,7 +2753,11 @@ static __attribute__((noinline)) int play_fused(SimObject *s, long long idx, con
         m.accel = fm->accel;
         m.flow_r = fm->flow_r;
         m.lim = fm->lim;
-        rc = sim_block_body(s, &m, 1, fm->x1 - fm->x0, fm->y1 - fm->y0, fm->z1 - fm->z0, m.e);
+        double dx = fm->x1 - fm->x0, dy = fm->y1 - fm->y0, dz = fm->z1 - fm->z0;
+        if (s->marlin_jerk)
+            rc = sim_block_body(s, &m, 1, dx, dy, dz, m.e, CFG_MARLIN_JERK);
+        else
+            rc = sim_block_body(s, &m, 1, dx, dy, dz, m.e, CFG_ANY);
     }
     s->busy = 0;
     return rc;
@@ -3269,7 +3289,38 @@ static inline TwoDouble fast_two_sum(double a, double b)  /* a + b = hi + lo exa
     return r;
 }
 
-static double c_hypot(double dx, double dy)
+/* c_hypot's body in two builds: the plain one, and one for FMA hardware (use_fma, where
+ * the compiler gives __builtin_fma one instruction) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define HYPOT_FMA 1
+#define HYPOT_FMA_TARGET __attribute__((target("fma")))
+#else
+#define HYPOT_FMA 0
+#endif
+
+/* two_prod(x, y), where use_fma as lo = fma(x, y, -hi): the product's rounding error, exact
+ * (one rounding of a representable number) -- Dekker's lo too, which is exact where no step
+ * underflows, so the same bits; `exact`: the caller knows x y is far above the underflow
+ * (else Dekker's, exact or not, is what CPython 3.11's dl_mul gives) */
+static inline __attribute__((always_inline)) TwoDouble two_prod_k(double x, double y, const int use_fma,
+                                                                   int exact)
+{
+#if HYPOT_FMA
+    if (use_fma && exact) {
+        double hi = x * y;
+        TwoDouble r = {hi, __builtin_fma(x, y, -hi)};
+        return r;
+    }
+#else
+    (void)use_fma;
+    (void)exact;
+#endif
+    return two_prod(x, y);
+}
+
+static double c_hypot(double dx, double dy);
+
+static inline __attribute__((always_inline)) double c_hypot_body(double dx, double dy, const int use_fma)
 {
     double ax = fabs(dx), ay = fabs(dy), mx = 0.0;
     if (ax > mx)                                       /* (a nan is never the max: an infinity wins) */
@@ -3302,14 +3353,16 @@ static double c_hypot(double dx, double dy)
     double csum = 1.0, f1 = 0.0, f2 = 0.0;
     const double v[2] = {ax * scale, ay * scale};
     for (int k = 0; k < 2; k++) {
-        TwoDouble p = two_prod(v[k], v[k]);
+        /* v[k] in [2^-400, 1) or 0: Dekker's halves are multiples of v[k]'s ulp (2^-453 or
+         * more), their products of 2^-906: none underflows, so his lo is the exact error */
+        TwoDouble p = two_prod_k(v[k], v[k], use_fma, v[k] >= 0x1p-400 || v[k] == 0.0);
         TwoDouble q = fast_two_sum(csum, p.hi);
         csum = q.hi;
         f1 += p.lo;
         f2 += q.lo;
     }
     double h = sqrt(csum - 1.0 + (f1 + f2));
-    TwoDouble p = two_prod(-h, h);
+    TwoDouble p = two_prod_k(-h, h, use_fma, 1);      /* (h near 1: csum - 1 in [0.25, 2)) */
     TwoDouble q = fast_two_sum(csum, p.hi);
     csum = q.hi;
     f1 += p.lo;
@@ -3317,6 +3370,35 @@ static double c_hypot(double dx, double dy)
     double x = csum - 1.0 + (f1 + f2);
     h += x / (2.0 * h);
     return h / scale;
+}
+
+static double c_hypot_plain(double dx, double dy)
+{
+    return c_hypot_body(dx, dy, 0);
+}
+
+#if HYPOT_FMA
+HYPOT_FMA_TARGET static double c_hypot_fma(double dx, double dy)
+{
+    return c_hypot_body(dx, dy, 1);
+}
+#endif
+
+/* c_hypot's build for this machine (hypot_init: c_hypot_fma where the CPU has FMA) */
+static double (*C_HYPOT)(double dx, double dy) = c_hypot_plain;
+
+static void hypot_init(void)
+{
+#if HYPOT_FMA
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("fma"))
+        C_HYPOT = c_hypot_fma;
+#endif
+}
+
+static double c_hypot(double dx, double dy)
+{
+    return C_HYPOT(dx, dy);
 }
 
 /* *d = math.hypot(dx, dy), the Python call; -1 with an exception set if it fails */
@@ -3373,11 +3455,24 @@ static int py_hypot(double dx, double dy, double *d)
     return call_hypot(dx, dy, d);
 }
 
-/* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(): whether run_lines
- * and gap_lines use it (hypot_same()) */
+/* hypot(dx, dy): c_hypot's length (tests: it is math.hypot's); hypot(dx, dy, build): the
+ * plain build's (0) or the FMA build's (1; None where this machine or compiler has none);
+ * hypot(): whether run_lines and gap_lines use it (hypot_same()) */
 static PyObject *mod_hypot(PyObject *self, PyObject *args)
 {
     double dx, dy;
+    int build = -1;
+    if (PyTuple_GET_SIZE(args) == 3) {
+        if (!PyArg_ParseTuple(args, "ddi:hypot", &dx, &dy, &build))
+            return NULL;
+        if (build == 0)
+            return PyFloat_FromDouble(c_hypot_plain(dx, dy));
+#if HYPOT_FMA
+        if (C_HYPOT == c_hypot_fma)
+            return PyFloat_FromDouble(c_hypot_fma(dx, dy));
+#endif
+        Py_RETURN_NONE;
+    }
     if (PyTuple_GET_SIZE(args) == 0) {
         if (get_hypot() < 0 || (HYPOT_SAME == -2 && (HYPOT_SAME = hypot_same()) < 0)) {
             HYPOT_SAME = -2;
@@ -7118,6 +7213,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
     PyObject *m = PyModule_Create(&core_module);
     if (m == NULL)
         return NULL;
+    hypot_init();
     Py_INCREF(&BlockType);
     Py_INCREF(&RecType);
     Py_INCREF(&ResType);

@@ -5836,9 +5836,9 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
              * either; a piece it leaves out takes the general steps, the same +0) */
             double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
             if (sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
-                /* (ex, cs, sn are left as they are: d_prev, zero's bits now, sends the next
-                 * piece of another length to its lookup, and one of length zero here) */
-                d_prev = d_bits;
+                /* (d_prev, ex, cs, sn are left as they are, still a length and its exponentials:
+                 * one instruction less here, about half the pieces; the next piece of another
+                 * length goes to its lookup, of length zero here again) */
                 if (out) {
                     o_v[3 * i] = ex0;
                     o_v[3 * i + 1] = cs0;

@@ -6416,6 +6416,17 @@ typedef struct {
     double w2[2];
 } RingEv;
 
+/* a != 0.0 || b != 0.0 (zeros of both signs: false; NaN: true), by their bits: an OR and a
+ * shift of two words, not two compares and their parity flags (ring_events_axis' "all" test
+ * where no part needs ramp and jump apart) */
+static inline int ring_either_nonzero(double a, double b)
+{
+    uint64_t x, y;
+    memcpy(&x, &a, sizeof x);
+    memcpy(&y, &b, sizeof y);
+    return ((x | y) << 1) != 0;
+}
+
 /* one axis' events of a piece starting at t0: dr = da / w^2 (da = acc - the piece before's),
  * drp = -dv; cls (the piece's junction: 1 corner, 2 turn, 0 none -- not a block's first piece) */
 static inline __attribute__((always_inline)) void
@@ -6423,7 +6434,7 @@ ring_events_axis(RingEv *e, int x, double t0, double acc, double pa, double dv, 
 {
     double dr = (acc - pa) / e->w2[x], drp = -dv;
     int ramp = dr != 0.0, jump = drp != 0.0;
-    if (ramp || jump) {
+    if (all_only ? ring_either_nonzero(dr, drp) : ramp || jump) {
         Py_ssize_t j = e->cnt[x][0]++;
         e->T[x][0][j] = t0;
         e->DR[x][0][j] = dr;

@@ -5931,9 +5931,9 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
              * either; a piece it leaves out takes the general steps, the same +0) */
             double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
             if (sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
-                /* (ex, cs, sn are left as they are: d_prev, zero's bits now, sends the next
-                 * piece of another length to its lookup, and one of length zero here) */
-                d_prev = d_bits;
+                /* (d_prev, ex, cs, sn are left as they are, still a length and its exponentials:
+                 * one instruction less here, about half the pieces; the next piece of another
+                 * length goes to its lookup, of length zero here again) */
                 if (out) {
                     o_v[3 * i] = ex0;
                     o_v[3 * i + 1] = cs0;
@@ -6511,6 +6511,17 @@ typedef struct {
     double w2[2];
 } RingEv;
 
+/* a != 0.0 || b != 0.0 (zeros of both signs: false; NaN: true), by their bits: an OR and a
+ * shift of two words, not two compares and their parity flags (ring_events_axis' "all" test
+ * where no part needs ramp and jump apart) */
+static inline int ring_either_nonzero(double a, double b)
+{
+    uint64_t x, y;
+    memcpy(&x, &a, sizeof x);
+    memcpy(&y, &b, sizeof y);
+    return ((x | y) << 1) != 0;
+}
+
 /* one axis' events of a piece starting at t0: dr = da / w^2 (da = acc - the piece before's),
  * drp = -dv; cls (the piece's junction: 1 corner, 2 turn, 0 none -- not a block's first piece) */
 static inline __attribute__((always_inline)) void
@@ -6518,7 +6529,7 @@ ring_events_axis(RingEv *e, int x, double t0, double acc, double pa, double dv, 
 {
     double dr = (acc - pa) / e->w2[x], drp = -dv;
     int ramp = dr != 0.0, jump = drp != 0.0;
-    if (ramp || jump) {
+    if (all_only ? ring_either_nonzero(dr, drp) : ramp || jump) {
         Py_ssize_t j = e->cnt[x][0]++;
         e->T[x][0][j] = t0;
         e->DR[x][0][j] = dr;

@@ -196,6 +196,20 @@ FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, 
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 SOLVE_SEGS = 2048 * 20       # segments of the chains solved in one batch (~2048 chains of the gyroid plate)
 REPLAY_SEGS = 8192           # segments of the chains whose kept laws' knots are made again in one call
+# the row numbers of a finishing batch as one set of int objects: a RowPlan's row and a memo's
+# place in its rows array (ChainMemo.at) read from here share them, where each was an int of
+# its own (~32 bytes: ~16 k chains' plans and memos held through the plan on the gyroid plate)
+_ROW_INTS = tuple(range(FINISH_ROWS + 8))
+
+
+def _row_int(i):
+    """The int i, the shared object of _ROW_INTS where it has one."""
+    return _ROW_INTS[i] if i < len(_ROW_INTS) else i
+
+
+def _row_ints(n):
+    """0 .. n - 1 as _ROW_INTS' shared objects where it has them all."""
+    return _ROW_INTS if n <= len(_ROW_INTS) else range(n)
 
 
 class _KeptPlans:
@@ -283,12 +297,13 @@ class _Cells:
     """Cells of a table held as their places in it: cell q is table[row[q], col[q]] (the
     kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
     _Source holds anyway: 4 bytes a row, not a copy of 8 bytes a row for each); indexing
-    gives the cells' own doubles, as a fancy index of a copy would."""
-    __slots__ = ("table", "at")
+    gives the cells' own doubles, as a fancy index of a copy would.  fn: the cells are
+    fn(table's cells) (elementwise: a candidate table's beta from its T, _BetaOfT), or None."""
+    __slots__ = ("table", "at", "fn")
     ndim = 1
 
-    def __init__(self, table, row, col):
-        self.table = table
+    def __init__(self, table, row, col, fn=None):
+        self.table, self.fn = table, fn
         self.at = (np.asarray(row, np.int64) * table.shape[1] + col).astype(np.int32)   # (C order)
 
     @property
@@ -296,7 +311,38 @@ class _Cells:
         return self.at.shape
 
     def __getitem__(self, q):
-        return np.take(self.table, self.at[q])
+        at = self.at[q]
+        if self.fn is None:
+            return np.take(self.table, at)
+        # (fn on an array, as on the table: a numpy scalar's ** 2 is not the array's square)
+        got = self.fn(np.take(self.table, at.reshape(-1)))
+        return got.reshape(at.shape) if at.ndim else got[0]
+
+
+def _chain_beta(T):
+    """The weights beta of the law durations T (an array, not a numpy scalar: its ** 2 is
+    not the array's square, bit for bit): (T / GAMMA_MIN)², elementwise."""
+    return (T / GAMMA_MIN) ** 2
+
+
+class _BetaOfT:
+    """The candidates' weight table of the law durations table T, _chain_beta(T), read as
+    that table would be (its rows, row slices and gathers: each entry its own T's
+    function, the same doubles) and not held: the table a chain's memo source and its kept
+    laws held beside T (~0.65 MB on the gyroid plate's ~16 k chains, through the plan)."""
+    __slots__ = ("T",)
+    ndim = 2
+
+    def __init__(self, T):
+        self.T = T
+
+    @property
+    def shape(self):
+        return self.T.shape
+
+    def __getitem__(self, ix):
+        t = np.asarray(self.T[ix])
+        return _chain_beta(t) if t.ndim else _chain_beta(t.reshape(1))[0]
 
 
 class _Source:
@@ -418,7 +464,7 @@ def _replay(items, rules, profile, drop=False):
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                 profile, predict=False)
         s = _knots_rows(sts, vk.shape[1] - 1)
-        for i, q in enumerate(Q):      # (rows of the blocks: RowPlan)
+        for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if s is None
                       else RowPlan(s, vk, acc, feed, i, tp[i], a2[i]))
         del dt
@@ -782,7 +828,7 @@ def _again_plans(items, rules, profile):
                 acc, feed, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts],
                                                          np.arange(len(Q)), vk, dt, rules, profile)
                 s = _knots_rows(sts, vk.shape[1] - 1)
-                for i, q in enumerate(Q):
+                for i, q in zip(_row_ints(len(Q)), Q):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if s is None else RowPlan(s, vk, acc, feed, i, float(t[i]), float(a2[i])))
     else:
@@ -1763,8 +1809,9 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
     # (np.take's row gathers: numpy's fancy index copies a row at a time through its
     # general loop, several times slower for these short rows; the same values)
-    got = _figures_sorted(strokes, rows[perm], pin, T.take(perm, axis=0), beta.take(perm, axis=0), profile, rules,
-                          nseg[perm])
+    Tp = T.take(perm, axis=0)
+    bp = _BetaOfT(Tp) if type(beta) is _BetaOfT and beta.T is T else beta.take(perm, axis=0)
+    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm])
     back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
     back[perm] = np.arange(perm.size)
     return tuple(a.take(back, axis=0) for a in got)
@@ -1779,21 +1826,23 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
     prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
     fin = _Finisher(tab, rules, profile)
     fin.src = _Source(T, beta, order, prev, fin.key)
+    fin.beta_fn = _chain_beta if type(beta) is _BetaOfT else None
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
         base = _flat_chains(sts, profile)
-        res = _solve_cols(base, T[sl], beta[sl], order, prev)
+        Ts, bs = T[sl], beta[sl]
+        res = _solve_cols(base, Ts, bs, order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
-                        & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
+                        & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (Ts[:, c] >= t_min)
                         for c in range(k)], axis=1)
         laws = _LawCols(res, k, base.voff)
-        for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
+        for item in _table_rows(sts, base, res, use, Ts, profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
             at = getattr(item, "at", None)
-            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
-        del res, laws
+            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
+        del res, laws, Ts, bs
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
     fin.flush()
@@ -2004,6 +2053,7 @@ class _Finisher:
         self.grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
         self.wait = {}                 # n -> [_Rows], their row count
         self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
+        self.beta_fn = None            # _chain_beta where the rows' beta is their T's (_BetaOfT)
 
     def add(self, r):
         if not self.grouped:
@@ -2051,8 +2101,9 @@ class _Finisher:
             tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
-                  profile)
+            # (beta of T: its cells are made from T's, not held as a table of their own)
+            bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else _Cells(r.T, j, r.rc, self.beta_fn)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), bc, tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
@@ -2326,12 +2377,12 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
                     memo.src, memo.src_i = src, a + jj
-                memo.figs, memo.kept, memo.at, memo.n = figs, kept, lo, k
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
                 memo.seg_tin = None
             else:
                 if src is not None:
                     _own_source(memo, src, a + jj)
-                memo.put_shared(figs, lo, k, kept)
+                memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
 
 
@@ -2359,8 +2410,7 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     # bits); its four (n, len(T_RATIOS)) tables (~12 MB on the gyroid plate's ~16 k chains)
     # are made after _figures, not held beside its knots at the candidates' peak
     Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
-    bc = (Tc / GAMMA_MIN) ** 2
-    ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, _BetaOfT(Tc), profile, rules)
     if rows.size >= TRIM_DROPPED:     # _figures' freed temporaries (its solves' and finishing's)
         from .pipeline import trim_heap
         trim_heap()
@@ -2368,7 +2418,7 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
     KE[:, CHAIN_COLS] = iv
-    beta[:, CHAIN_COLS] = bc
+    beta[:, CHAIN_COLS] = _chain_beta(Tc)
     return T, beta, I, KE
 
 

@@ -77,7 +77,14 @@ def vertex_caps(st, profile):
             caps = g.caps
         g.chain_caps = CHAIN_CAP_MARGIN * caps
         g.caps_jerk1 = None         # read only to make chain_caps
-    return g.chain_caps
+    return _caps_array(g.chain_caps)
+
+
+def _caps_array(c):
+    """A chain's caps as its geometry keeps them (chain_caps: an array, or the bytes of its
+    doubles where _classify_block made them) as an array of doubles (bytes: a read-only
+    view of them)."""
+    return np.frombuffer(c, float) if type(c) is bytes else c
 
 
 def classify(strokes, rows, profile):
@@ -153,6 +160,7 @@ def _classify_block(b, sts, jerk, fresh=False):
     caps1 = None
     if jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
         caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1.take(hit_a if ks is None else ks[hit_a], axis=0)
+        buf, w = caps1.tobytes(), 8 * caps1.shape[1]      # (C order: row i is buf[w i:w (i + 1)])
     for i, q in enumerate(hit):
         st = sts[q]
         st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
@@ -160,8 +168,10 @@ def _classify_block(b, sts, jerk, fresh=False):
         if caps1 is not None and g.chain_caps is None:     # vertex_caps: its caps now, the
             # whole jerk's read no more; a copy of its own, not a view: _drop frees each
             # chain's as its plan is made (a view would hold the block's whole array while
-            # any chain of it, not re-timed, keeps its caps)
-            g.chain_caps = caps1[i].copy()
+            # any chain of it, not re-timed, keeps its caps); the bytes of its doubles, not
+            # an array (~0.25 kB a chain, half of it the array's object: ~16 k chains held
+            # from the plan's inputs to their plans on the gyroid plate)
+            g.chain_caps = buf[w * i:w * (i + 1)]
             g.caps_jerk1 = None
     return True
 
@@ -309,6 +319,12 @@ class _Cells:
     @property
     def shape(self):
         return self.at.shape
+
+    def of(self, fn):
+        """These cells' fn(cells), sharing their table and places (not a copy of the places)."""
+        out = _Cells.__new__(_Cells)
+        out.table, out.at, out.fn = self.table, self.at, fn
+        return out
 
     def __getitem__(self, q):
         at = self.at[q]
@@ -681,8 +697,22 @@ def _laws_of(Qs, items, profile, gs=None):
     gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
     caps = list(map(_CHAIN_CAPS, gso))
     if not all(map(_IS_NOT_NONE, caps)):
-        caps = _chain_caps(sts, gso, profile)
-    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _join_d(caps), gso
+        caps = _kept_caps(sts, gso, profile)
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _join_caps(caps), gso
+
+
+def _join_caps(caps):
+    """_join_d of chains' caps as their geometries keep them (arrays, or the bytes of their
+    doubles: joined as they are)."""
+    kinds = set(map(type, caps))
+    if kinds == {bytes}:
+        return np.frombuffer(b"".join(caps), float)
+    return _join_d([_caps_array(c) for c in caps] if bytes in kinds else caps)
+
+
+def _caps_sizes(caps):
+    """The number of caps of each chain's caps as kept (_caps_array's sizes)."""
+    return np.array([len(c) >> 3 if type(c) is bytes else c.size for c in caps], int)
 
 
 def _join_d(arrs):
@@ -2101,9 +2131,10 @@ class _Finisher:
             tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            # (beta of T: its cells are made from T's, not held as a table of their own)
-            bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else _Cells(r.T, j, r.rc, self.beta_fn)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), bc, tr, a2r, profile)
+            # (beta of T: its cells are made from T's, at their places, not held as a table of their own)
+            tc = _Cells(r.T, j, r.rc)
+            bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else tc.of(self.beta_fn)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, tc, bc, tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
@@ -2111,9 +2142,9 @@ class _Finisher:
 def _flat_chains(sts, profile):
     """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
     gs = [curves.geom(st, profile) for st in sts]
-    caps = _chain_caps(sts, gs, profile)
-    return _Flat.of_arrays(_inner_s(gs), np.concatenate(caps),
-                           np.array([c.size for c in caps], int),
+    caps = _kept_caps(sts, gs, profile)
+    cv = _join_caps(caps)
+    return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
                            np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
                            np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
 
@@ -2153,6 +2184,11 @@ def _chain_caps(sts, gs, profile):
     went (_drop) and whose whole-jerk caps were read are made again in one batch, as
     build_geoms made them (curves._caps_flat_rows at the whole jerk: elementwise, the same
     bits as vertex_caps stroke by stroke), x CHAIN_CAP_MARGIN, without keeping them."""
+    return [_caps_array(c) for c in _kept_caps(sts, gs, profile)]
+
+
+def _kept_caps(sts, gs, profile):
+    """_chain_caps as the geometries keep them (_caps_array of each: the arrays)."""
     out = [None] * len(sts)
     if profile.junction == "jerk":
         gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
@@ -2163,7 +2199,11 @@ def _chain_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    return [vertex_caps(st, profile) if c is None else c for st, c in zip(sts, out)]
+    for q, (g, c) in enumerate(zip(gs, out)):
+        if c is None:
+            c = g.chain_caps
+            out[q] = vertex_caps(sts[q], profile) if c is None else c
+    return out
 
 
 class _TableItem(tuple):

@@ -341,6 +341,45 @@ def _chain_beta(T):
     return (T / GAMMA_MIN) ** 2
 
 
+class _OuterT:
+    """A table of law durations that is an outer product, T[i, c] = base[i] f[c] (the
+    candidates' durations: each stroke's original duration times the columns' ratios),
+    read as that table would be -- rows, row slices and gathers, np.take of its flat
+    places (_Cells), np.array of it -- each entry the one product the table had, the same
+    double; not held as a table: the table a chain's memo source and its kept laws held
+    (~0.65 MB on the gyroid plate's ~16 k chains, through the plan; base: 1/5 of it)."""
+    __slots__ = ("base", "f")
+    ndim = 2
+
+    def __init__(self, base, f):
+        self.base, self.f = np.asarray(base, float), np.asarray(f, float)
+
+    @property
+    def shape(self):
+        return self.base.size, self.f.size
+
+    def __getitem__(self, ix):
+        if type(ix) is tuple:                 # (cells: read in the table, made whole; not the package's)
+            return np.asarray(self)[ix]
+        b = self.base[ix]
+        return b * self.f if np.ndim(b) == 0 else b[:, None] * self.f[None, :]
+
+    def take(self, idx, axis=None, out=None, mode="raise"):
+        """Rows (axis 0: the table of those rows), or flat places (axis None, as np.take:
+        row idx // k, column idx % k of k columns, negative places from the end)."""
+        if out is not None or mode != "raise" or axis not in (None, 0):
+            return np.take(np.asarray(self), idx, axis=axis, out=out, mode=mode)
+        if axis == 0:
+            return _OuterT(self.base.take(idx), self.f)
+        idx = np.asarray(idx)
+        k = self.f.size
+        return self.base.take(idx // k) * self.f.take(idx % k)
+
+    def __array__(self, dtype=None, copy=None):
+        T = self.base[:, None] * self.f[None, :]
+        return T if dtype is None else T.astype(dtype, copy=False)
+
+
 class _BetaOfT:
     """The candidates' weight table of the law durations table T, _chain_beta(T), read as
     that table would be (its rows, row slices and gathers: each entry its own T's
@@ -1857,6 +1896,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
     fin = _Finisher(tab, rules, profile)
     fin.src = _Source(T, beta, order, prev, fin.key)
     fin.beta_fn = _chain_beta if type(beta) is _BetaOfT else None
+    fin.T_outer = T if type(T) is _OuterT else None
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
@@ -2084,6 +2124,7 @@ class _Finisher:
         self.wait = {}                 # n -> [_Rows], their row count
         self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
         self.beta_fn = None            # _chain_beta where the rows' beta is their T's (_BetaOfT)
+        self.T_outer = None            # the whole table of T where it is an _OuterT (its cells: of it)
 
     def add(self, r):
         if not self.grouped:
@@ -2132,7 +2173,7 @@ class _Finisher:
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             # (beta of T: its cells are made from T's, at their places, not held as a table of their own)
-            tc = _Cells(r.T, j, r.rc)
+            tc = _Cells(r.T, j, r.rc) if self.T_outer is None else _Cells(self.T_outer, r.a + j, r.rc)
             bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else tc.of(self.beta_fn)
             kb = (_PackedMask(r.bnd), r.tj, r.spans, tc, bc, tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
@@ -2449,7 +2490,7 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     # the columns' durations as empty_table's T has them (one product an entry: the same
     # bits); its four (n, len(T_RATIOS)) tables (~12 MB on the gyroid plate's ~16 k chains)
     # are made after _figures, not held beside its knots at the candidates' peak
-    Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
+    Tc = _OuterT(pin.T_orig[rows], T_RATIOS[CHAIN_COLS])
     ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, _BetaOfT(Tc), profile, rules)
     if rows.size >= TRIM_DROPPED:     # _figures' freed temporaries (its solves' and finishing's)
         from .pipeline import trim_heap
@@ -2458,7 +2499,7 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
     KE[:, CHAIN_COLS] = iv
-    beta[:, CHAIN_COLS] = _chain_beta(Tc)
+    beta[:, CHAIN_COLS] = _chain_beta(np.asarray(Tc))
     return T, beta, I, KE
 
 

@@ -77,7 +77,14 @@ def vertex_caps(st, profile):
             caps = g.caps
         g.chain_caps = CHAIN_CAP_MARGIN * caps
         g.caps_jerk1 = None         # read only to make chain_caps
-    return g.chain_caps
+    return _caps_array(g.chain_caps)
+
+
+def _caps_array(c):
+    """A chain's caps as its geometry keeps them (chain_caps: an array, or the bytes of its
+    doubles where _classify_block made them) as an array of doubles (bytes: a read-only
+    view of them)."""
+    return np.frombuffer(c, float) if type(c) is bytes else c
 
 
 def classify(strokes, rows, profile):
@@ -153,6 +160,7 @@ def _classify_block(b, sts, jerk, fresh=False):
     caps1 = None
     if jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
         caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1.take(hit_a if ks is None else ks[hit_a], axis=0)
+        buf, w = caps1.tobytes(), 8 * caps1.shape[1]      # (C order: row i is buf[w i:w (i + 1)])
     for i, q in enumerate(hit):
         st = sts[q]
         st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
@@ -160,8 +168,10 @@ def _classify_block(b, sts, jerk, fresh=False):
         if caps1 is not None and g.chain_caps is None:     # vertex_caps: its caps now, the
             # whole jerk's read no more; a copy of its own, not a view: _drop frees each
             # chain's as its plan is made (a view would hold the block's whole array while
-            # any chain of it, not re-timed, keeps its caps)
-            g.chain_caps = caps1[i].copy()
+            # any chain of it, not re-timed, keeps its caps); the bytes of its doubles, not
+            # an array (~0.25 kB a chain, half of it the array's object: ~16 k chains held
+            # from the plan's inputs to their plans on the gyroid plate)
+            g.chain_caps = buf[w * i:w * (i + 1)]
             g.caps_jerk1 = None
     return True
 
@@ -196,6 +206,20 @@ FINISH_ROWS = 2048          # candidate rows finished together (bounded memory, 
 SOLVE_CHUNK = 2048           # chains solved in one batch (bounded memory on files of 10^4 chains)
 SOLVE_SEGS = 2048 * 20       # segments of the chains solved in one batch (~2048 chains of the gyroid plate)
 REPLAY_SEGS = 8192           # segments of the chains whose kept laws' knots are made again in one call
+# the row numbers of a finishing batch as one set of int objects: a RowPlan's row and a memo's
+# place in its rows array (ChainMemo.at) read from here share them, where each was an int of
+# its own (~32 bytes: ~16 k chains' plans and memos held through the plan on the gyroid plate)
+_ROW_INTS = tuple(range(FINISH_ROWS + 8))
+
+
+def _row_int(i):
+    """The int i, the shared object of _ROW_INTS where it has one."""
+    return _ROW_INTS[i] if i < len(_ROW_INTS) else i
+
+
+def _row_ints(n):
+    """0 .. n - 1 as _ROW_INTS' shared objects where it has them all."""
+    return _ROW_INTS if n <= len(_ROW_INTS) else range(n)
 
 
 class _KeptPlans:
@@ -283,20 +307,97 @@ class _Cells:
     """Cells of a table held as their places in it: cell q is table[row[q], col[q]] (the
     kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
     _Source holds anyway: 4 bytes a row, not a copy of 8 bytes a row for each); indexing
-    gives the cells' own doubles, as a fancy index of a copy would."""
-    __slots__ = ("table", "at")
+    gives the cells' own doubles, as a fancy index of a copy would.  fn: the cells are
+    fn(table's cells) (elementwise: a candidate table's beta from its T, _BetaOfT), or None."""
+    __slots__ = ("table", "at", "fn")
     ndim = 1
 
-    def __init__(self, table, row, col):
-        self.table = table
+    def __init__(self, table, row, col, fn=None):
+        self.table, self.fn = table, fn
         self.at = (np.asarray(row, np.int64) * table.shape[1] + col).astype(np.int32)   # (C order)
 
     @property
     def shape(self):
         return self.at.shape
 
+    def of(self, fn):
+        """These cells' fn(cells), sharing their table and places (not a copy of the places)."""
+        out = _Cells.__new__(_Cells)
+        out.table, out.at, out.fn = self.table, self.at, fn
+        return out
+
     def __getitem__(self, q):
-        return np.take(self.table, self.at[q])
+        at = self.at[q]
+        if self.fn is None:
+            return np.take(self.table, at)
+        # (fn on an array, as on the table: a numpy scalar's ** 2 is not the array's square)
+        got = self.fn(np.take(self.table, at.reshape(-1)))
+        return got.reshape(at.shape) if at.ndim else got[0]
+
+
+def _chain_beta(T):
+    """The weights beta of the law durations T (an array, not a numpy scalar: its ** 2 is
+    not the array's square, bit for bit): (T / GAMMA_MIN)², elementwise."""
+    return (T / GAMMA_MIN) ** 2
+
+
+class _OuterT:
+    """A table of law durations that is an outer product, T[i, c] = base[i] f[c] (the
+    candidates' durations: each stroke's original duration times the columns' ratios),
+    read as that table would be -- rows, row slices and gathers, np.take of its flat
+    places (_Cells), np.array of it -- each entry the one product the table had, the same
+    double; not held as a table: the table a chain's memo source and its kept laws held
+    (~0.65 MB on the gyroid plate's ~16 k chains, through the plan; base: 1/5 of it)."""
+    __slots__ = ("base", "f")
+    ndim = 2
+
+    def __init__(self, base, f):
+        self.base, self.f = np.asarray(base, float), np.asarray(f, float)
+
+    @property
+    def shape(self):
+        return self.base.size, self.f.size
+
+    def __getitem__(self, ix):
+        if type(ix) is tuple:                 # (cells: read in the table, made whole; not the package's)
+            return np.asarray(self)[ix]
+        b = self.base[ix]
+        return b * self.f if np.ndim(b) == 0 else b[:, None] * self.f[None, :]
+
+    def take(self, idx, axis=None, out=None, mode="raise"):
+        """Rows (axis 0: the table of those rows), or flat places (axis None, as np.take:
+        row idx // k, column idx % k of k columns, negative places from the end)."""
+        if out is not None or mode != "raise" or axis not in (None, 0):
+            return np.take(np.asarray(self), idx, axis=axis, out=out, mode=mode)
+        if axis == 0:
+            return _OuterT(self.base.take(idx), self.f)
+        idx = np.asarray(idx)
+        k = self.f.size
+        return self.base.take(idx // k) * self.f.take(idx % k)
+
+    def __array__(self, dtype=None, copy=None):
+        T = self.base[:, None] * self.f[None, :]
+        return T if dtype is None else T.astype(dtype, copy=False)
+
+
+class _BetaOfT:
+    """The candidates' weight table of the law durations table T, _chain_beta(T), read as
+    that table would be (its rows, row slices and gathers: each entry its own T's
+    function, the same doubles) and not held: the table a chain's memo source and its kept
+    laws held beside T (~0.65 MB on the gyroid plate's ~16 k chains, through the plan)."""
+    __slots__ = ("T",)
+    ndim = 2
+
+    def __init__(self, T):
+        self.T = T
+
+    @property
+    def shape(self):
+        return self.T.shape
+
+    def __getitem__(self, ix):
+        t = np.asarray(self.T[ix])
+        return _chain_beta(t) if t.ndim else _chain_beta(t.reshape(1))[0]
 
 
 class _Source:
@@ -418,7 +519,7 @@ def _replay(items, rules, profile, drop=False):
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                 profile, predict=False)
         s = _knots_rows(sts, vk.shape[1] - 1)
-        for i, q in enumerate(Q):      # (rows of the blocks: RowPlan)
+        for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if s is None
                       else RowPlan(s, vk, acc, feed, i, tp[i], a2[i]))
         del dt
@@ -635,8 +736,22 @@ def _laws_of(Qs, items, profile, gs=None):
     gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
     caps = list(map(_CHAIN_CAPS, gso))
     if not all(map(_IS_NOT_NONE, caps)):
-        caps = _chain_caps(sts, gso, profile)
-    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _join_d(caps), gso
+        caps = _kept_caps(sts, gso, profile)
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _join_caps(caps), gso
+
+
+def _join_caps(caps):
+    """_join_d of chains' caps as their geometries keep them (arrays, or the bytes of their
+    doubles: joined as they are)."""
+    kinds = set(map(type, caps))
+    if kinds == {bytes}:
+        return np.frombuffer(b"".join(caps), float)
+    return _join_d([_caps_array(c) for c in caps] if bytes in kinds else caps)
+
+
+def _caps_sizes(caps):
+    """The number of caps of each chain's caps as kept (_caps_array's sizes)."""
+    return np.array([len(c) >> 3 if type(c) is bytes else c.size for c in caps], int)
 
 
 def _join_d(arrs):
@@ -782,7 +897,7 @@ def _again_plans(items, rules, profile):
                 acc, feed, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts],
                                                          np.arange(len(Q)), vk, dt, rules, profile)
                 s = _knots_rows(sts, vk.shape[1] - 1)
-                for i, q in enumerate(Q):
+                for i, q in zip(_row_ints(len(Q)), Q):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if s is None else RowPlan(s, vk, acc, feed, i, float(t[i]), float(a2[i])))
     else:
@@ -1763,8 +1878,9 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
     # (np.take's row gathers: numpy's fancy index copies a row at a time through its
     # general loop, several times slower for these short rows; the same values)
-    got = _figures_sorted(strokes, rows[perm], pin, T.take(perm, axis=0), beta.take(perm, axis=0), profile, rules,
-                          nseg[perm])
+    Tp = T.take(perm, axis=0)
+    bp = _BetaOfT(Tp) if type(beta) is _BetaOfT and beta.T is T else beta.take(perm, axis=0)
+    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm])
     back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
     back[perm] = np.arange(perm.size)
     return tuple(a.take(back, axis=0) for a in got)
@@ -1779,21 +1895,24 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
     prev = {c: (c - 1 if c > mid else c + 1) for c in order[1:]}
     fin = _Finisher(tab, rules, profile)
     fin.src = _Source(T, beta, order, prev, fin.key)
+    fin.beta_fn = _chain_beta if type(beta) is _BetaOfT else None
+    fin.T_outer = T if type(T) is _OuterT else None
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
         base = _flat_chains(sts, profile)
-        res = _solve_cols(base, T[sl], beta[sl], order, prev)
+        Ts, bs = T[sl], beta[sl]
+        res = _solve_cols(base, Ts, bs, order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
         use = np.stack([res[c].conv & (res[c].min_v >= -1e-9 * (1 + v_cap))
-                        & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (T[sl, c] >= t_min)
+                        & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (Ts[:, c] >= t_min)
                         for c in range(k)], axis=1)
         laws = _LawCols(res, k, base.voff)
-        for item in _table_rows(sts, base, res, use, T[sl], profile, fin.grouped):
+        for item in _table_rows(sts, base, res, use, Ts, profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
             at = getattr(item, "at", None)
-            fin.add(_Rows(a, sts, T[sl], beta[sl], *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
-        del res, laws
+            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
+        del res, laws, Ts, bs
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
     fin.flush()
@@ -2004,6 +2123,8 @@ class _Finisher:
         self.grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
         self.wait = {}                 # n -> [_Rows], their row count
         self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
+        self.beta_fn = None            # _chain_beta where the rows' beta is their T's (_BetaOfT)
+        self.T_outer = None            # the whole table of T where it is an _OuterT (its cells: of it)
 
     def add(self, r):
         if not self.grouped:
@@ -2051,8 +2172,10 @@ class _Finisher:
             tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, _Cells(r.T, j, r.rc), _Cells(r.beta, j, r.rc), tr, a2r,
-                  profile)
+            # (beta of T: its cells are made from T's, at their places, not held as a table of their own)
+            tc = _Cells(r.T, j, r.rc) if self.T_outer is None else _Cells(self.T_outer, r.a + j, r.rc)
+            bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else tc.of(self.beta_fn)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, tc, bc, tr, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
@@ -2060,9 +2183,9 @@ class _Finisher:
 def _flat_chains(sts, profile):
     """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
     gs = [curves.geom(st, profile) for st in sts]
-    caps = _chain_caps(sts, gs, profile)
-    return _Flat.of_arrays(_inner_s(gs), np.concatenate(caps),
-                           np.array([c.size for c in caps], int),
+    caps = _kept_caps(sts, gs, profile)
+    cv = _join_caps(caps)
+    return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
                            np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
                            np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
 
@@ -2102,6 +2225,11 @@ def _chain_caps(sts, gs, profile):
     went (_drop) and whose whole-jerk caps were read are made again in one batch, as
     build_geoms made them (curves._caps_flat_rows at the whole jerk: elementwise, the same
     bits as vertex_caps stroke by stroke), x CHAIN_CAP_MARGIN, without keeping them."""
+    return [_caps_array(c) for c in _kept_caps(sts, gs, profile)]
+
+
+def _kept_caps(sts, gs, profile):
+    """_chain_caps as the geometries keep them (_caps_array of each: the arrays)."""
     out = [None] * len(sts)
     if profile.junction == "jerk":
         gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
@@ -2112,7 +2240,11 @@ def _chain_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    return [vertex_caps(st, profile) if c is None else c for st, c in zip(sts, out)]
+    for q, (g, c) in enumerate(zip(gs, out)):
+        if c is None:
+            c = g.chain_caps
+            out[q] = vertex_caps(sts[q], profile) if c is None else c
+    return out
 
 
 class _TableItem(tuple):
@@ -2326,12 +2458,12 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
                     memo.src, memo.src_i = src, a + jj
-                memo.figs, memo.kept, memo.at, memo.n = figs, kept, lo, k
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
                 memo.seg_tin = None
             else:
                 if src is not None:
                     _own_source(memo, src, a + jj)
-                memo.put_shared(figs, lo, k, kept)
+                memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
 
 
@@ -2358,9 +2490,8 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     # the columns' durations as empty_table's T has them (one product an entry: the same
     # bits); its four (n, len(T_RATIOS)) tables (~12 MB on the gyroid plate's ~16 k chains)
     # are made after _figures, not held beside its knots at the candidates' peak
-    Tc = pin.T_orig[rows, None] * T_RATIOS[None, CHAIN_COLS]
-    bc = (Tc / GAMMA_MIN) ** 2
-    ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, bc, profile, rules)
+    Tc = _OuterT(pin.T_orig[rows], T_RATIOS[CHAIN_COLS])
+    ok, tp, ia, iv = _figures(strokes, rows, pin, Tc, _BetaOfT(Tc), profile, rules)
     if rows.size >= TRIM_DROPPED:     # _figures' freed temporaries (its solves' and finishing's)
         from .pipeline import trim_heap
         trim_heap()
@@ -2368,7 +2499,7 @@ def candidates_chain(pin, rows, strokes, profile, rules=None):
     T[:, CHAIN_COLS] = tp
     I[:, CHAIN_COLS] = np.where(ok, ia, np.inf)
     KE[:, CHAIN_COLS] = iv
-    beta[:, CHAIN_COLS] = bc
+    beta[:, CHAIN_COLS] = _chain_beta(np.asarray(Tc))
     return T, beta, I, KE
 
 

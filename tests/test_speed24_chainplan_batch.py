@@ -73,7 +73,8 @@ def ref_classify(strokes, rows, profile):
 
 def _marks(sts):
     """What classify leaves: each stroke's chain mark, chain caps, caps at the whole jerk."""
-    return [(st.chain_T is not None, _bits(st.curv.chain_caps), _bits(st.curv.caps_jerk1)) for st in sts]
+    return [(st.chain_T is not None, _bits(chains._caps_array(st.curv.chain_caps)), _bits(st.curv.caps_jerk1))
+            for st in sts]     # (chain caps kept as bytes read as their doubles: s45)
 
 
 @pytest.mark.parametrize("path", FILES)
@@ -248,7 +249,7 @@ def _memo_state(sts):
     out = []
     for st in sts:
         m = st.chain_T
-        out.append((m.seg_T, m.seg_beta, m.seg_key, m.seg_tin, type(m.kept).__name__, _bits(st.curv.chain_caps)
+        out.append((m.seg_T, m.seg_beta, m.seg_key, m.seg_tin, type(m.kept).__name__, _bits(chains._caps_array(st.curv.chain_caps))
                     if st.curv is not None else None, [r[:4] for r in m.rows()]))
     return out
 

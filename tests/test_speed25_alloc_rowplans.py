@@ -171,7 +171,11 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
         tracemalloc.stop()
     assert seen["knots"] > 1e5 and seen["held"] < 0.8 * seen["knots"]     # (s34: ~1.9e5, each array once)
     assert seen["alive"] < 0.1 * seen["knots"] and len(seen["refs"]) > 10   # (a base shared with a chain not planned here lives)
-    assert seen["first"] < seen["start"] - 0.5 * (seen["knots"] - seen["held"])
+    # (s45: the chains' caps kept as bytes and the kept T and beta cells sharing one places
+    # array: what the replay frees besides the kept arrays is smaller (held less before it),
+    # the drop measured 0.45 of their bytes, not 0.59; the kept arrays' own going is the weak
+    # references' test above)
+    assert seen["first"] < seen["start"] - 0.4 * (seen["knots"] - seen["held"])
 
 
 @pytest.mark.parametrize("name,prof", [CASES[0], CASES[2]])

@@ -188,7 +188,7 @@ def _state(sts, prof):
     for st in sts:
         g = st.curv
         c1 = g.caps_jerk1
-        out.append((st.chain_T is not None, None if g.chain_caps is None else g.chain_caps.tobytes(),
+        out.append((st.chain_T is not None, None if g.chain_caps is None else chains._caps_array(g.chain_caps).tobytes(),
                     None if c1 is None else np.asarray(c1).tobytes(), np.float64(g.cap).tobytes(),
                     np.float64(g.kappa_eff).tobytes(), repr(g.cos_end), g.d.tobytes(),
                     np.asarray(g.caps).tobytes(), chains.vertex_caps(st, prof).tobytes()))

@@ -111,8 +111,8 @@ def _planned(name, prof, monkeypatch, old):
 
     def rec_caps(b, sts, jerk, fresh=False):
         got = classify(b, sts, jerk, fresh)
-        block_caps.append([None if st.chain_T is None or st.curv.chain_caps is None else st.curv.chain_caps.tobytes()
-                     for st in sts])
+        block_caps.append([None if st.chain_T is None or st.curv.chain_caps is None
+                           else chains._caps_array(st.curv.chain_caps).tobytes() for st in sts])
         return got
     monkeypatch.setattr(chains, "_classify_block", rec_caps)
     figures = []
@@ -138,7 +138,7 @@ def _planned(name, prof, monkeypatch, old):
         figs = None if memo.figs is None else np.frombuffer(memo.figs, float)[4 * memo.at:4 * (memo.at + memo.n)]
         caps = getattr(st.curv, "chain_caps", None)
         memos.append((None if figs is None else figs.tobytes(), memo.n,
-                       None if caps is None else np.asarray(caps).tobytes()))
+                       None if caps is None else np.asarray(chains._caps_array(caps)).tobytes()))
     return block_caps, figures, memos, (plan.retime.tobytes(), list(plan.reason), plan.t_pred.tobytes(), plan.a2_pred.tobytes(),
                             plan.T.tobytes(), plan.beta.tobytes())
 

@@ -1923,6 +1923,30 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
 }
 
+/* the digits of n written backwards ending at end (room for 28 bytes before it): their
+   first, at least prec + 1 of them (zero-padded) where prec <= 8.  n's last 8 digits one
+   8-byte store (digits8), the digits before them digits_back's, or the 8's leading zeros
+   cut down to prec + 1 digits over a store of 8 zeros before them: fmt_f_n's x0 and y0
+   (prec 8) and the head's times (prec 4) without a division loop over each digit */
+static inline char *f_digits(char *end, uint64_t n, int prec)
+{
+#if SWAR_DIGITS
+    if (prec > 8)
+        return digits_back(end, n);
+    uint64_t hi = n / E8;
+    uint64_t d = digits8((uint32_t)(n - hi * E8)), t = d + 0x3030303030303030ULL;
+    memcpy(end - 8, &t, 8);
+    if (hi != 0)
+        return digits_back(end - 8, hi);
+    memcpy(end - 16, "00000000", 8);
+    char *first = end - 8 + (__builtin_ctzll(d | 1ULL << 56) >> 3);   /* the leading zeros cut (the last kept) */
+    return first < end - prec - 1 ? first : end - prec - 1;
+#else
+    (void)prec;
+    return digits_back(end, n);
+#endif
+}
+
 /* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined);
    *n_out: its digits' integer, |x| 10^prec rounded */
 static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
@@ -1931,7 +1955,7 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
     *n_out = n;
-    char tmp[48], *end = tmp + sizeof tmp, *first = digits_back(end, n);
+    char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n, prec);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
     if (signbit(x)) *q++ = '-';                       /* "-0.0000" too, as Python writes it */

@@ -50,6 +50,20 @@ static inline const char *ascii(PyObject *o, Py_ssize_t *n)
     return (const char *)PyUnicode_DATA(o);
 }
 
+/* a == b for two ASCII str (PyObject_RichCompareBool's Py_EQ: the same object, or the same
+   length and bytes): 1 or 0, without the rich comparison's calls; -1 for other objects
+   (the caller compares them) */
+static inline int str_eq(PyObject *a, PyObject *b)
+{
+    if (a == b)
+        return 1;
+    Py_ssize_t na, nb;
+    const char *pa = ascii(a, &na), *pb = ascii(b, &nb);
+    if (pa == NULL || pb == NULL)
+        return -1;
+    return na == nb && memcmp(pa, pb, (size_t)na) == 0;
+}
+
 /* length of the plain decimal -?(\d+(\.\d*)?|\.\d+) at p[0..n), or -1; *dec: its decimals */
 static Py_ssize_t plain_decimal(const char *p, Py_ssize_t n, int *dec)
 {
@@ -1923,28 +1937,19 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
 }
 
-/* the digits of n written backwards ending at end (room for 28 bytes before it): their
-   first, at least prec + 1 of them (zero-padded) where prec <= 8.  n's last 8 digits one
-   8-byte store (digits8), the digits before them digits_back's, or the 8's leading zeros
-   cut down to prec + 1 digits over a store of 8 zeros before them: fmt_f_n's x0 and y0
-   (prec 8) and the head's times (prec 4) without a division loop over each digit */
-static inline char *f_digits(char *end, uint64_t n, int prec)
+/* digits_back(end, n) (room for 28 bytes before end): n >= 10^8 (a start text's |x| 10^8
+   for |x| >= 1: fmt_f_n(x, 8)'s) its last 8 digits one digits8 store, the digits before
+   them digits_back's (~2 steps for a plate's coordinates, not ~5) */
+static inline char *f_digits(char *end, uint64_t n)
 {
 #if SWAR_DIGITS
-    if (prec > 8)
-        return digits_back(end, n);
-    uint64_t hi = n / E8;
-    uint64_t d = digits8((uint32_t)(n - hi * E8)), t = d + 0x3030303030303030ULL;
-    memcpy(end - 8, &t, 8);
-    if (hi != 0)
+    if (n >= E8) {
+        uint64_t hi = n / E8, t = digits8((uint32_t)(n - hi * E8)) + 0x3030303030303030ULL;
+        memcpy(end - 8, &t, 8);
         return digits_back(end - 8, hi);
-    memcpy(end - 16, "00000000", 8);
-    char *first = end - 8 + (__builtin_ctzll(d | 1ULL << 56) >> 3);   /* the leading zeros cut (the last kept) */
-    return first < end - prec - 1 ? first : end - prec - 1;
-#else
-    (void)prec;
-    return digits_back(end, n);
+    }
 #endif
+    return digits_back(end, n);
 }
 
 /* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined);
@@ -1955,7 +1960,7 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
     *n_out = n;
-    char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n, prec);
+    char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
     if (signbit(x)) *q++ = '-';                       /* "-0.0000" too, as Python writes it */
@@ -2055,22 +2060,22 @@ static const char *fmt_double(double x, char code, int prec, char *buf, char **o
      f"T={t:.4f}s (was {t_was:.4f}s), beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}"
    from the kind's and svl's texts and the numbers: the floats through
    PyOS_double_to_string, which float.__format__ calls for 'f' and 'g' with a precision.
-   A PyMem buffer (the caller frees it) and its length; NULL (no exception): declined. */
+   In room (room_n bytes) where it fits (no allocation a block), else a PyMem buffer (the
+   caller frees a text that is not room), and its length; NULL (no exception): declined. */
 /* the decimal text of v (what %lld writes) at p: its length (at most 20) */
 static int put_ll(char *p, long long v)
 {
-    char tmp[24];
-    int t = (int)sizeof tmp, n = 0;
+    char tmp[24], *end = tmp + sizeof tmp;
     unsigned long long u = v < 0 ? 0ULL - (unsigned long long)v : (unsigned long long)v;
-    do { tmp[--t] = (char)('0' + (int)(u % 10)); u /= 10; } while (u);
-    if (v < 0) tmp[--t] = '-';
-    n = (int)sizeof tmp - t;
-    memcpy(p, tmp + t, (size_t)n);
-    return n;
+    char *first = digits_back(end, u);            /* (two digits a step) */
+    if (v < 0) *--first = '-';
+    copy_short(p, first, end - first);
+    return (int)(end - first);
 }
 
 static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double t, double t_was, double beta,
-                          const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, Py_ssize_t *len)
+                          const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, char *room, size_t room_n,
+                          Py_ssize_t *len)
 {
     char bt_[64], bw_[64], bb_[64], *ft_own = NULL, *fw_own = NULL, *fb_own = NULL;
     size_t nt = 0, nw = 0, nb = 3;
@@ -2085,7 +2090,7 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
                           P3[] = " segments, T=", P4[] = "s (was ", P5[] = "s), beta=", P6[] = "s^2\n";
         const char *bt = fb ? fb : "inf";       /* (nb: 3 for "inf") */
         size_t cap = nt + nw + nb + (size_t)kn + (size_t)sn + 160;
-        out = PyMem_Malloc(cap);
+        out = cap <= room_n ? room : PyMem_Malloc(cap);
         if (out != NULL) {
             char *q = out;
 #define PUT(s_, n_) do { memcpy(q, (s_), (n_)); q += (n_); } while (0)
@@ -2112,7 +2117,8 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
     PyMem_Free(ft_own);
     PyMem_Free(fw_own);
     PyMem_Free(fb_own);
-    PyErr_Clear();             /* (a failed PyOS_double_to_string: declined, no exception) */
+    if (PyErr_Occurred())
+        PyErr_Clear();         /* (a failed PyOS_double_to_string: declined, no exception) */
     return out;
 }
 
@@ -2135,7 +2141,7 @@ static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
         return NULL;
     }
     return head_text_of(kp, kn, n_seg, PyFloat_AS_DOUBLE(o_t), PyFloat_AS_DOUBLE(o_tw), PyFloat_AS_DOUBLE(o_b), sp,
-                        sn, n_lines, len);
+                        sn, n_lines, NULL, 0, len);
 }
 
 /* p[0..n) holds a line break of str.splitlines below 0x20 (\r \x0b \x0c \x1c \x1d \x1e):
@@ -2562,7 +2568,7 @@ static void fill_direct(AttrSlot *at, PyObject *d, PyObject *o)
     }
 }
 
-static PyObject *get_attr(PyObject *o, int name)
+static __attribute__((noinline)) PyObject *get_attr_ways(PyObject *o, int name)
 {
     PyTypeObject *tp = Py_TYPE(o);
     AttrSlot *sl = ATTR_SLOTS[name];
@@ -2595,6 +2601,21 @@ static PyObject *get_attr(PyObject *o, int name)
         }
     }
     return PyObject_GetAttr(o, NAMES[name]);
+}
+
+/* get_attr_ways' read where name's first way holds o's type and a member slot that is set
+   (most of a run's ~17 reads a stroke: the call's entry and exit cost more than the read),
+   inline; the rest by the call */
+static inline __attribute__((always_inline)) PyObject *get_attr(PyObject *o, int name)
+{
+    PyTypeObject *tp = Py_TYPE(o);
+    const AttrSlot *sl = &ATTR_SLOTS[name][0];
+    if (sl->type == tp && sl->slot_off > 0 && tag_valid(tp, sl->tag)) {
+        PyObject *v = *(PyObject **)((char *)o + sl->slot_off);
+        if (v != NULL)
+            return Py_NewRef(v);
+    }
+    return get_attr_ways(o, name);
 }
 #else
 static PyObject *get_attr(PyObject *o, int name)
@@ -2701,7 +2722,7 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
     FSeq fs[4];
-    char *head = NULL, *x0t = NULL, *y0t = NULL;
+    char *head = NULL, *x0t = NULL, *y0t = NULL, head_room[512];   /* (the head in head_room where it fits) */
     for (int k = 0; k < 4; k++)
         memset(&fs[k], 0, sizeof fs[k]);
 #define GET(var, o, name) do { if ((var = obj[no++] = get_attr(o, name)) == NULL) goto decline; } while (0)
@@ -2757,7 +2778,9 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     if (!rows_read && (PyBytes_Check(knots) || PyBytes_Check(acc) || PyBytes_Check(fd) || fseq_get(knots, &fs[0], 1) < 0
                        || fseq_get(acc, &fs[1], 1) < 0 || fseq_get(fd, &fs[2], 1) < 0))
         goto decline;
-    int extruding = PyObject_RichCompareBool(feature, ra->travel, Py_NE), e_rel = PyObject_IsTrue(e_rel_o);
+    int travel = str_eq(feature, ra->travel);
+    int extruding = travel >= 0 ? !travel : PyObject_RichCompareBool(feature, ra->travel, Py_NE),
+        e_rel = PyObject_IsTrue(e_rel_o);
     if (extruding < 0 || e_rel < 0) {
         PyErr_Clear();
         goto decline;
@@ -2795,7 +2818,7 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
         || (head = head_text_of(kp, kn, (long long)fs[0].n - 1, PyFloat_AS_DOUBLE(t_o), PyFloat_AS_DOUBLE(t_was_o),
-                                PyFloat_AS_DOUBLE(beta_o), sp, sn, n, &ba.pc.hn)) == NULL)
+                                PyFloat_AS_DOUBLE(beta_o), sp, sn, n, head_room, sizeof head_room, &ba.pc.hn)) == NULL)
         goto decline;
     ba.pc.hp = head;
     ba.kind.p = kp;
@@ -2834,7 +2857,8 @@ done:
         fseq_release(&fs[k]);
     for (int k = 0; k < no; k++)
         Py_XDECREF(obj[k]);
-    PyMem_Free(head);
+    if (head != head_room)
+        PyMem_Free(head);
     PyMem_Free(x0t);
     PyMem_Free(y0t);
     return got;
@@ -3053,7 +3077,9 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         if (first < 0 || last < 0 || n_copy < 0 || n_take < 1)
             goto next;
         kind = get_attr(s, A_KIND);
-        int arc = kind == NULL ? -1 : PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
+        int arc = kind == NULL ? -1 : str_eq(kind, ra.k_arc);
+        if (arc < 0 && kind != NULL)
+            arc = PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
         if (arc != 0) {
             PyErr_Clear();
             goto next;

@@ -2205,6 +2205,8 @@ static int other_lines(const char *p, Py_ssize_t n)
 typedef struct {
     const char *d;                  /* d[start:stop]: the stroke's n original lines */
     Py_ssize_t start, stop, n;
+    Py_ssize_t *stop_at;            /* not NULL: stop is d's end, the n lines' end (found as they
+                                       are read) written here when the block is appended */
     Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
     Txt x0, y0;                     /* the start's texts */
     Txt kind;                       /* the kind head_text_of wrote in the head (p NULL: a head given) */
@@ -2225,7 +2227,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     const Pieces *pc = &ba->pc;
     const char *d = ba->d;
     Py_ssize_t n = ba->n, start = ba->start, stop = ba->stop, base = out->n;
-    if (n < 1 || stop - start < 2 || d[stop - 1] != '\n')
+    if (n < 1 || (ba->stop_at == NULL && (stop - start < 2 || d[stop - 1] != '\n')))
         return 0;
     if (!pc->hp || !pc->clp || !pc->wp || !ba->x0.p || !ba->y0.p || !ba->wantp)
         return 0;
@@ -2307,8 +2309,11 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         }
         p = q + 1;
     }
-    if (p != end || !path_ok || dec_e > 15)
+    /* (stop_at: the n lines read end at p, each at a "\n" -- a lone "\r" in one is not a
+       plain line's: skip_lines' n lines from start, the same end) */
+    if ((ba->stop_at != NULL ? p - (d + start) < 2 : p != end) || !path_ok || dec_e > 15)
         goto decline;
+    Py_ssize_t z = p - d;
     ColUnits cu = {{ux, uy, ue}, {dx_k, dy_k, de_k}};
     /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
     int64_t e_start_u;
@@ -2348,6 +2353,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (bn > hl + el && memcmp(bp + bn - el, END_L, el) == 0
             && fast_check(bp, hl, bn - el + 1, ba->wantp[0], ba->klipper, ba->limit, ba->accel_max_a, 1, px, py, n + 1,
                           2e-3, e_mode, e_value, e_err, ba->min_move_d, by_text ? NULL : &kn, base)) {
+            if (ba->stop_at != NULL)
+                *ba->stop_at = z;
             got = 1;
             goto done;
         }
@@ -2713,11 +2720,12 @@ static double float_attr(PyObject *o, int name, int *bad)
     return x;
 }
 
-/* one stroke of the run, its lines d[a:z] (n of them), appended to out as
+/* one stroke of the run, its n lines from d[a] (d[0:len): the data), appended to out as
    pipeline._rewrite_bytes' one-call path writes it: 1; 0: not this stroke (out as it
-   was: pipeline's loop takes it); -1: an exception.  *n_lines: the block's lines */
+   was: pipeline's loop takes it); -1: an exception.  *n_lines: the block's lines; *z:
+   the end of its n lines in d (block_into finds it as it reads them) */
 static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
-                     const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n, Py_ssize_t *n_lines)
+                     const char *d, Py_ssize_t a, Py_ssize_t len, Py_ssize_t n, Py_ssize_t *n_lines, Py_ssize_t *z)
 {
     PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
@@ -2788,7 +2796,8 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     BlockArgs ba = ra->ctx[extruding];
     ba.d = d;
     ba.start = a;
-    ba.stop = z;
+    ba.stop = len;
+    ba.stop_at = z;
     ba.n = n;
     ba.e0 = PyFloat_AS_DOUBLE(e0_o);
     ba.e_rel = e_rel;
@@ -3084,12 +3093,9 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             PyErr_Clear();
             goto next;
         }
-        /* the untouched lines and the stroke's, whole in data */
-        Py_ssize_t got_c, got_t, end = skip_n(d, len, pos, n_copy, &got_c), z;
+        /* the untouched lines whole in data (the stroke's: block_into reads them to their end z) */
+        Py_ssize_t got_c, end = skip_n(d, len, pos, n_copy, &got_c), z = end;
         if (got_c != n_copy)
-            goto next;
-        z = skip_n(d, len, end, n_take, &got_t);
-        if (got_t != n_take)
             goto next;
         Py_ssize_t base = out.n;
         if (put(&out, d + pos, end - pos) < 0) {
@@ -3099,7 +3105,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         }
         Py_ssize_t head_at = out.n;
         Py_ssize_t n_out = 0;                     /* the block's lines */
-        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, z, n_take, &n_out);
+        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, len, n_take, &n_out, &z);
         if (r <= 0) {             /* (no memory: the loop's stroke_block call, as before) */
             out.n = base;
             PyErr_Clear();

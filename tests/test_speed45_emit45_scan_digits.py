@@ -83,11 +83,11 @@ def test_skip_lines_long_lines():
             assert CORE.skip_lines(data, pos, n, final) == _old_skip(data, pos, n, final), (data, pos, n, final)
 
 
-def _planned_file(path, prof_name):
+def _planned_file(path, prof_name, features=None):
     from gcode_opt.profile import load_profile
     from gcode_opt.schedule import plan_inputs, plan_strokes
     prof = load_profile(prof_name)
-    opts = pipeline.Options()
+    opts = pipeline.Options() if features is None else pipeline.Options(features=features)
     strokes, sim0 = pipeline.analyse(str(path), prof, opts)
     plan = plan_strokes(strokes, plan_inputs(strokes, prof, opts), prof, opts, opts.max_slowdown_r * sim0.time_t)
     return prof, opts, strokes, plan
@@ -168,3 +168,102 @@ def test_fmt_f_digits_are_python():
         taken, bad = CORE.format_check(raw, "f", prec)
         assert bad == -1, (prec, xs[bad], CORE.format_text(xs[bad], "f", prec), format(xs[bad], f".{prec}f"))
         assert taken > (40_000 if prec <= 8 else 5_000), (prec, taken)   # (f_digits: prec <= 8)
+
+
+def test_run_reads_its_strokes_to_their_end(tmp_path, monkeypatch):
+    """stroke_run without skip_n over a stroke's own lines (block_into reads them to their
+    end from the data's end): strokes whose later lines end "\\r\\n", a first line ending
+    "\\r\\n" (declined), and the file cut after a re-timed stroke's last line without its
+    line end (declined: the loop's): the reference rewrite's bytes, ranges, digests, and
+    the run still taking strokes."""
+    prof, opts, strokes, plan = _planned_file(SAMPLES + "prusa_gyroid.gcode", "prusa-mk3s")
+    lines = open(SAMPLES + "prusa_gyroid.gcode", "rb").read().split(b"\n")
+    retimed = sorted((strokes[i] for i in range(len(strokes)) if plan.retime[i]), key=lambda s: s.first_idx)
+    rng = random.Random(4504)
+    for st in retimed[5:-5]:
+        r = rng.random()
+        if r < 0.3 and st.last_idx > st.first_idx:          # later lines "\r\n"
+            for j in range(st.first_idx + 1, st.last_idx + 1):
+                if rng.random() < 0.7:
+                    lines[j] += b"\r"
+        elif r < 0.35:                                      # the first line "\r\n"
+            lines[st.first_idx] += b"\r"
+    last = retimed[len(retimed) * 3 // 4]
+    data = b"\n".join(lines[:last.last_idx + 1])            # (no line end after its last line)
+    path = tmp_path / "ends.gcode"
+    path.write_bytes(data)
+    prof, opts, strokes, plan = _planned_file(path, "prusa-mk3s")
+    assert any(s.last_idx == data.count(b"\n") and plan.retime[i] for i, s in enumerate(strokes))
+    ref = _rewrite(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    runs = []
+
+    class Counted(types.ModuleType):
+        def __getattr__(self, name):
+            return getattr(CORE, name)
+
+        def stroke_run(self, *args):
+            r = CORE.stroke_run(*args)
+            runs.append(r[0] - args[4])
+            return r
+
+    with monkeypatch.context() as m:
+        m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
+        m.setattr(pipeline, "_STROKE_RUN", True)
+        got = _rewrite(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
+    assert got == ref
+    assert sum(runs) > 100, runs
+
+
+def _fresh(text):
+    """An equal str that is not the same object (not interned)."""
+    out = "".join(list(text))
+    assert out == text and out is not text or len(text) <= 1
+    return out
+
+
+def test_run_compares_feature_and_kind_by_value(tmp_path, monkeypatch):
+    """stroke_run's travel and arc tests (str_eq: identity, else an ASCII str's length and
+    bytes; other objects the rich comparison): strokes whose feature and kind are equal
+    str that are other objects give the bytes of the originals, the run taking the same
+    strokes (a travel stroke taken as extruding fails its check: the loop's); a str
+    subclass the same bytes (by the loop)."""
+    import re
+    from gcode_opt import features as feat
+    # travel moves without their F word: plain lines, travel strokes the run takes
+    text = open(SAMPLES + "prusa_gyroid_arcs.gcode", "rb").read()
+    path = tmp_path / "travel.gcode"
+    path.write_bytes(re.sub(rb"^(G1 X[-.0-9]+ Y[-.0-9]+) F10800$", rb"\1", text, flags=re.M))
+    prof, opts, strokes, plan = _planned_file(path, "prusa-mk3s", feat.ALL)
+
+    class Sub(str):
+        pass
+
+    def counted_rewrite(sts, out):
+        runs = []
+
+        class Counted(types.ModuleType):
+            def __getattr__(self, name):
+                return getattr(CORE, name)
+
+            def stroke_run(self, *args):
+                r = CORE.stroke_run(*args)
+                runs.append(r[0] - args[4])
+                return r
+
+        with monkeypatch.context() as m:
+            m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
+            m.setattr(pipeline, "_STROKE_RUN", True)
+            return _rewrite(pipeline.rewrite, path, sts, plan, prof, opts, out), sum(runs)
+
+    want, taken = counted_rewrite(strokes, tmp_path / "want.gcode")
+    n_travel = sum(1 for i, s in enumerate(strokes) if s.feature == feat.TRAVEL and plan.retime[i])
+    assert n_travel > 5 and any(s.kind == "arc" for s in strokes) and taken > 100
+    for make in (_fresh, Sub):
+        odd = copy.deepcopy(strokes)
+        for s in odd:
+            s.feature = make(s.feature)
+            s.kind = make(s.kind)
+        got, got_taken = counted_rewrite(odd, tmp_path / "got.gcode")
+        assert got == want, make
+        # (a subclass's kind is not a text the run writes: the loop takes every stroke)
+        assert got_taken == (taken if make is _fresh else 0), (make, got_taken, taken)

@@ -101,6 +101,27 @@ def _rewrite(fn, path, strokes, plan, prof, opts, out):
     return open(out, "rb").read(), ranges, digests, list(plan.reason), plan.retime.tolist()
 
 
+def _run_counted(monkeypatch, path, strokes, plan, prof, opts, out):
+    """pipeline.rewrite with the run on, through a module counting the strokes each
+    stroke_run call took: (the rewrite's result, strokes taken)."""
+    runs = []
+
+    class Counted(types.ModuleType):              # (the run is taken through modules only)
+        def __getattr__(self, name):
+            return getattr(CORE, name)
+
+        def stroke_run(self, *args):
+            r = CORE.stroke_run(*args)
+            runs.append(r[0] - args[4])               # the strokes the call took
+            return r
+
+    with monkeypatch.context() as m:
+        m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
+        m.setattr(pipeline, "_STROKE_RUN", True)
+        got = _rewrite(pipeline.rewrite, path, strokes, plan, prof, opts, out)
+    return got, sum(runs)
+
+
 def test_run_over_long_and_odd_untouched_lines(tmp_path, monkeypatch):
     """The untouched lines between strokes (comments of up to ~700 bytes, "\\r\\n" ends;
     a lone "\\r" is an input error) skipped by stroke_run's skip_n: the reference's bytes,
@@ -120,23 +141,9 @@ def test_run_over_long_and_odd_untouched_lines(tmp_path, monkeypatch):
     path.write_bytes(b"\n".join(out))
     prof, opts, strokes, plan = _planned_file(path, "prusa-mk3s")
     ref = _rewrite(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
-    runs = []
-
-    class Counted(types.ModuleType):              # (the run is taken through modules only)
-        def __getattr__(self, name):
-            return getattr(CORE, name)
-
-        def stroke_run(self, *args):
-            r = CORE.stroke_run(*args)
-            runs.append(r[0] - args[4])               # the strokes the call took
-            return r
-
-    with monkeypatch.context() as m:
-        m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
-        m.setattr(pipeline, "_STROKE_RUN", True)
-        got = _rewrite(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
+    got, taken = _run_counted(monkeypatch, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
     assert got == ref
-    assert sum(runs) > 100, runs                          # the run took strokes past those lines
+    assert taken > 100, taken                             # the run took strokes past those lines
 
 
 def _f_doubles(rng, n):
@@ -195,23 +202,9 @@ def test_run_reads_its_strokes_to_their_end(tmp_path, monkeypatch):
     prof, opts, strokes, plan = _planned_file(path, "prusa-mk3s")
     assert any(s.last_idx == data.count(b"\n") and plan.retime[i] for i, s in enumerate(strokes))
     ref = _rewrite(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
-    runs = []
-
-    class Counted(types.ModuleType):
-        def __getattr__(self, name):
-            return getattr(CORE, name)
-
-        def stroke_run(self, *args):
-            r = CORE.stroke_run(*args)
-            runs.append(r[0] - args[4])
-            return r
-
-    with monkeypatch.context() as m:
-        m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
-        m.setattr(pipeline, "_STROKE_RUN", True)
-        got = _rewrite(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
+    got, taken = _run_counted(monkeypatch, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
     assert got == ref
-    assert sum(runs) > 100, runs
+    assert taken > 100, taken
 
 
 def _fresh(text):
@@ -239,21 +232,7 @@ def test_run_compares_feature_and_kind_by_value(tmp_path, monkeypatch):
         pass
 
     def counted_rewrite(sts, out):
-        runs = []
-
-        class Counted(types.ModuleType):
-            def __getattr__(self, name):
-                return getattr(CORE, name)
-
-            def stroke_run(self, *args):
-                r = CORE.stroke_run(*args)
-                runs.append(r[0] - args[4])
-                return r
-
-        with monkeypatch.context() as m:
-            m.setattr(emit, "CORE_MOD", Counted("_gcode_opt_emit_counted"))
-            m.setattr(pipeline, "_STROKE_RUN", True)
-            return _rewrite(pipeline.rewrite, path, sts, plan, prof, opts, out), sum(runs)
+        return _run_counted(monkeypatch, path, sts, plan, prof, opts, out)
 
     want, taken = counted_rewrite(strokes, tmp_path / "want.gcode")
     n_travel = sum(1 for i, s in enumerate(strokes) if s.feature == feat.TRAVEL and plan.retime[i])
@@ -267,3 +246,36 @@ def test_run_compares_feature_and_kind_by_value(tmp_path, monkeypatch):
         assert got == want, make
         # (a subclass's kind is not a text the run writes: the loop takes every stroke)
         assert got_taken == (taken if make is _fresh else 0), (make, got_taken, taken)
+
+
+def test_run_copies_vertex_texts_of_any_length(tmp_path, monkeypatch):
+    """emit_cols' 16-byte copies of a vertex's texts (CPY_T: where 16 bytes are there to
+    read in the data, else copy_short): X, Y and E texts padded with leading zeros to 1..20
+    bytes, and the file ending right after a re-timed stroke (its texts in the data's last
+    16 bytes): the reference rewrite's bytes, ranges and digests, the run taking strokes."""
+    import re
+    rng = random.Random(4505)
+    lines = open(SAMPLES + "prusa_gyroid.gcode", "rb").read().split(b"\n")
+
+    def pad(m):
+        word, num = m.group(1), m.group(2)
+        if rng.random() < 0.5:
+            return m.group(0)
+        neg = num.startswith(b"-")
+        body = num[1:] if neg else num
+        body = b"0" * rng.randrange(0, max(1, 18 - len(body))) + body
+        return word + (b"-" if neg else b"") + body
+
+    lines = [re.sub(rb"( [XYE])(-?[0-9]*\.?[0-9]+)", pad, ln) if ln.startswith(b"G1 X") else ln for ln in lines]
+    prof, opts, strokes, plan = _planned_file(SAMPLES + "prusa_gyroid.gcode", "prusa-mk3s")
+    last = sorted((s for i, s in enumerate(strokes) if plan.retime[i] and s.last_idx > s.first_idx + 2),
+                  key=lambda s: s.first_idx)[-3]
+    path = tmp_path / "pad.gcode"
+    path.write_bytes(b"\n".join(lines[:last.last_idx + 1]) + b"\n")
+    prof, opts, strokes, plan = _planned_file(path, "prusa-mk3s")
+    ref = _rewrite(ref_rewrite, path, strokes, plan, prof, opts, tmp_path / "ref.gcode")
+    got, taken = _run_counted(monkeypatch, path, strokes, plan, prof, opts, tmp_path / "run.gcode")
+    assert got == ref
+    assert taken > 50, taken
+    # the last stroke's block written by the run (its texts at the data's end)
+    assert got[0].rstrip(b"\n").endswith(b"; gcode-opt end")

@@ -13,7 +13,7 @@
 from __future__ import annotations
 
 import copy
-import io
+import itertools
 import math
 import random
 import struct
@@ -23,16 +23,11 @@ import pytest
 
 from gcode_opt import emit, pipeline
 
-from test_speed20_rewrite_core import SAMPLES, ref_rewrite
+from test_speed20_rewrite_core import SAMPLES, _text_lines, ref_rewrite
 
 CORE = emit.CORE_MOD
 pytestmark = pytest.mark.skipif(CORE is None or not hasattr(CORE, "skip_lines"),
                                 reason=f"no compiled emit core: {emit.CORE_WHY}")
-
-
-def _text_lines(data):
-    return [ln.encode("utf-8", "surrogateescape")
-            for ln in io.TextIOWrapper(io.BytesIO(data), encoding="utf-8", errors="surrogateescape", newline="")]
 
 
 def _old_skip(data, pos, n, final):
@@ -68,14 +63,10 @@ def test_skip_lines_long_lines():
     rng = random.Random(4501)
     for _ in range(300):
         data = _long_lines(rng, rng.randrange(0, 40))
-        want = _text_lines(data)
-        pos, got = 0, []
-        while pos < len(data):
-            end, n = CORE.skip_lines(data, pos, 1, True)
-            assert n == 1
-            got.append(data[pos:end])
-            pos = end
-        assert got == want
+        # the end of the first k lines, every k: the text reading's
+        ends = list(itertools.accumulate(len(ln) for ln in _text_lines(data)))
+        got = [CORE.skip_lines(data, 0, k + 1, True) for k in range(len(ends))]
+        assert got == [(z, k + 1) for k, z in enumerate(ends)]
         for _ in range(10):
             pos = rng.randrange(0, len(data) + 1)
             n = rng.randrange(0, 12)

@@ -1033,8 +1033,6 @@ static Py_ssize_t count_nl(const char *p, Py_ssize_t n)
 typedef struct {
     const char *hp, *wp, *nlp, *clp, *bp, *ap;
     Py_ssize_t hn, wn, nln, cln, bn, an;
-    const char *rd_p;               /* a move's text starting in rd_p[0..rd_n) has 16 bytes */
-    Py_ssize_t rd_n;                /* readable at it (the data the texts are in; rd_n 0: none) */
 } Pieces;
 
 static double POW10_NEG[32];
@@ -1384,18 +1382,9 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         double xv = 0.0, yv = 0.0, ev = 0.0;
         int known = kn != NULL, nx = 0, ny = 0, ne = -1;
 #define CPY(s_, n_) do { q = copy_short(q, (s_), (n_)); } while (0)
-        /* a move's text at a vertex: one 16-byte copy where 16 bytes are there to read (the
-           line's room has the units' 3 x 48 bytes spare at a vertex), else copy_short */
-#define CPY_T(s_, n_) do { \
-            if ((uintptr_t)(s_) - (uintptr_t)pc->rd_p < (uintptr_t)pc->rd_n && (n_) <= 16) { \
-                memcpy(q, (s_), 16); \
-                q += (n_); \
-            } else \
-                q = copy_short(q, (s_), (n_)); \
-        } while (0)
         CPY("G1 X", 4);
         if (at_vertex) {
-            CPY_T(xo->p, xo->n);
+            CPY(xo->p, xo->n);
             if (known) {                             /* the text plain_line read */
                 xv = kn->x[move];
                 nx = kn->dx[move];
@@ -1406,7 +1395,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         }
         CPY(" Y", 2);
         if (at_vertex) {
-            CPY_T(yo->p, yo->n);
+            CPY(yo->p, yo->n);
             if (known) {
                 yv = kn->y[move];
                 ny = kn->dy[move];
@@ -1421,7 +1410,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
                 q = units_at_nf(q, eu, de, &ne);
                 known = known && known_units(eu, de, &ev);
             } else if (e_kind == 0) {
-                CPY_T(et[move].p, et[move].n);
+                CPY(et[move].p, et[move].n);
                 if (known) {                         /* (a line without E: "0", 0.0) */
                     ev = kn->e[move];
                     ne = kn->de[move];
@@ -1459,7 +1448,6 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             CPY(ap, an);
         }
 #undef CPY
-#undef CPY_T
         b->n = q - b->p;
         lines += nl_nl;
         if (at_vertex) {
@@ -2430,8 +2418,6 @@ static PyObject *stroke_block(PyObject *self, PyObject *const *args, Py_ssize_t 
         Py_RETURN_NONE;
     }
     ba.d = PyBytes_AS_STRING(data);
-    ba.pc.rd_p = ba.d;
-    ba.pc.rd_n = PyBytes_GET_SIZE(data) >= 16 ? PyBytes_GET_SIZE(data) - 16 : 0;
     if (ba.start < 0 || ba.stop > PyBytes_GET_SIZE(data) || ba.n < 1 || ba.stop - ba.start < 2
         || ba.d[ba.stop - 1] != '\n' || ctx_into(args[19], &ba) < 0)
         Py_RETURN_NONE;
@@ -2844,8 +2830,6 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
                                 PyFloat_AS_DOUBLE(beta_o), sp, sn, n, head_room, sizeof head_room, &ba.pc.hn)) == NULL)
         goto decline;
     ba.pc.hp = head;
-    ba.pc.rd_p = d;
-    ba.pc.rd_n = len >= 16 ? len - 16 : 0;
     ba.kind.p = kp;
     ba.kind.n = kn;
     /* closing_text(flavour, accel0, extruding, mcr0, v_feed, "\n") (lru-cached in emit.py) */

@@ -240,10 +240,11 @@ def test_run_compares_feature_and_kind_by_value(tmp_path, monkeypatch):
 
 
 def test_run_copies_vertex_texts_of_any_length(tmp_path, monkeypatch):
-    """emit_cols' 16-byte copies of a vertex's texts (CPY_T: where 16 bytes are there to
-    read in the data, else copy_short): X, Y and E texts padded with leading zeros to 1..20
-    bytes, and the file ending right after a re-timed stroke (its texts in the data's last
-    16 bytes): the reference rewrite's bytes, ranges and digests, the run taking strokes."""
+    """A vertex's texts copied by emit_cols (copy_short; a 16-byte copy where the data had
+    16 bytes to read was measured and not kept): X, Y and E texts padded with leading
+    zeros to 1..20 bytes, and the file ending right after a re-timed stroke (the block
+    block_into reads to the data's end): the reference rewrite's bytes, ranges and
+    digests, the run taking strokes."""
     import re
     rng = random.Random(4505)
     lines = open(SAMPLES + "prusa_gyroid.gcode", "rb").read().split(b"\n")

@@ -27,6 +27,9 @@ decimals the reading would give (Known, known_units; set_text_check(True): read 
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>      /* line_break_at's 16-byte scan */
+#endif
 
 #define EXACT_MAX 9007199254740992.0     /* 2^53: integers exact as doubles */
 #define TENTHS_MAX (1LL << 50)            /* emit._TENTHS_MAX */
@@ -45,6 +48,20 @@ static inline const char *ascii(PyObject *o, Py_ssize_t *n)
         return NULL;
     *n = PyUnicode_GET_LENGTH(o);
     return (const char *)PyUnicode_DATA(o);
+}
+
+/* a == b for two ASCII str (PyObject_RichCompareBool's Py_EQ: the same object, or the same
+   length and bytes): 1 or 0, without the rich comparison's calls; -1 for other objects
+   (the caller compares them) */
+static inline int str_eq(PyObject *a, PyObject *b)
+{
+    if (a == b)
+        return 1;
+    Py_ssize_t na, nb;
+    const char *pa = ascii(a, &na), *pb = ascii(b, &nb);
+    if (pa == NULL || pb == NULL)
+        return -1;
+    return na == nb && memcmp(pa, pb, (size_t)na) == 0;
 }
 
 /* length of the plain decimal -?(\d+(\.\d*)?|\.\d+) at p[0..n), or -1; *dec: its decimals */
@@ -1694,6 +1711,25 @@ static PyObject *fast_body(PyObject *self, PyObject *args)
 
 /* ---------------------------------------------------------------- skip_lines, stroke_block */
 
+/* the first "\n" or "\r" in p[0..e-p), else e: 16 bytes a step (SSE2), the rest (fewer
+   than 16 before e) byte by byte.  (memchr for "\n", then for a "\r" before it, cost two
+   calls a line: ~80 instructions a line of ~30 bytes) */
+static inline const char *line_break_at(const char *p, const char *e)
+{
+#ifdef __SSE2__
+    const __m128i nl = _mm_set1_epi8('\n'), cr = _mm_set1_epi8('\r');
+    for (; e - p >= 16; p += 16) {
+        __m128i v = _mm_loadu_si128((const __m128i *)p);
+        unsigned m = (unsigned)_mm_movemask_epi8(_mm_or_si128(_mm_cmpeq_epi8(v, nl), _mm_cmpeq_epi8(v, cr)));
+        if (m != 0)
+            return p + __builtin_ctz(m);
+    }
+#endif
+    while (p < e && *p != '\n' && *p != '\r')
+        p++;
+    return p;
+}
+
 /* skip_lines(data, pos, n, final): (end, got) -- the offset in the bytes data after the
    next n lines from pos, as a file opened with newline="" reads lines ("\n", "\r\n" or a
    lone "\r" ends one; a "\r" as data's last byte ends one: the caller's data never splits
@@ -1719,9 +1755,7 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
         return NULL;
     }
     while (got < n && pos < len) {
-        /* the next "\n" or "\r" */
-        const char *p = d + pos, *e = d + len, *q = p;
-        while (q < e && *q != '\n' && *q != '\r') q++;
+        const char *e = d + len, *q = line_break_at(d + pos, e);
         if (q == e) {
             pos = len;
             got += final;                         /* the file's last line, without a line end */
@@ -1903,6 +1937,21 @@ static int scaled_int(double x, int k, uint64_t *n, uint64_t *fl)
     return *n < r ? -1 : 0;                       /* (a carry past 2^64) */
 }
 
+/* digits_back(end, n) (room for 28 bytes before end): n >= 10^8 (a start text's |x| 10^8
+   for |x| >= 1: fmt_f_n(x, 8)'s) its last 8 digits one digits8 store, the digits before
+   them digits_back's (~2 steps for a plate's coordinates, not ~5) */
+static inline char *f_digits(char *end, uint64_t n)
+{
+#if SWAR_DIGITS
+    if (n >= E8) {
+        uint64_t hi = n / E8, t = digits8((uint32_t)(n - hi * E8)) + 0x3030303030303030ULL;
+        memcpy(end - 8, &t, 8);
+        return digits_back(end - 8, hi);
+    }
+#endif
+    return digits_back(end, n);
+}
+
 /* format(x, f".{prec}f") into buf (at least 64 bytes): its length, or -1 (declined);
    *n_out: its digits' integer, |x| 10^prec rounded */
 static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
@@ -1911,7 +1960,7 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
     *n_out = n;
-    char tmp[48], *end = tmp + sizeof tmp, *first = digits_back(end, n);
+    char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
     if (signbit(x)) *q++ = '-';                       /* "-0.0000" too, as Python writes it */
@@ -2011,22 +2060,22 @@ static const char *fmt_double(double x, char code, int prec, char *buf, char **o
      f"T={t:.4f}s (was {t_was:.4f}s), beta={f'{beta:.4g}' if isfinite(beta) else 'inf'}s^2\n{svl}"
    from the kind's and svl's texts and the numbers: the floats through
    PyOS_double_to_string, which float.__format__ calls for 'f' and 'g' with a precision.
-   A PyMem buffer (the caller frees it) and its length; NULL (no exception): declined. */
+   In room (room_n bytes) where it fits (no allocation a block), else a PyMem buffer (the
+   caller frees a text that is not room), and its length; NULL (no exception): declined. */
 /* the decimal text of v (what %lld writes) at p: its length (at most 20) */
 static int put_ll(char *p, long long v)
 {
-    char tmp[24];
-    int t = (int)sizeof tmp, n = 0;
+    char tmp[24], *end = tmp + sizeof tmp;
     unsigned long long u = v < 0 ? 0ULL - (unsigned long long)v : (unsigned long long)v;
-    do { tmp[--t] = (char)('0' + (int)(u % 10)); u /= 10; } while (u);
-    if (v < 0) tmp[--t] = '-';
-    n = (int)sizeof tmp - t;
-    memcpy(p, tmp + t, (size_t)n);
-    return n;
+    char *first = digits_back(end, u);            /* (two digits a step) */
+    if (v < 0) *--first = '-';
+    copy_short(p, first, end - first);
+    return (int)(end - first);
 }
 
 static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double t, double t_was, double beta,
-                          const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, Py_ssize_t *len)
+                          const char *sp, Py_ssize_t sn, Py_ssize_t n_lines, char *room, size_t room_n,
+                          Py_ssize_t *len)
 {
     char bt_[64], bw_[64], bb_[64], *ft_own = NULL, *fw_own = NULL, *fb_own = NULL;
     size_t nt = 0, nw = 0, nb = 3;
@@ -2041,7 +2090,7 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
                           P3[] = " segments, T=", P4[] = "s (was ", P5[] = "s), beta=", P6[] = "s^2\n";
         const char *bt = fb ? fb : "inf";       /* (nb: 3 for "inf") */
         size_t cap = nt + nw + nb + (size_t)kn + (size_t)sn + 160;
-        out = PyMem_Malloc(cap);
+        out = cap <= room_n ? room : PyMem_Malloc(cap);
         if (out != NULL) {
             char *q = out;
 #define PUT(s_, n_) do { memcpy(q, (s_), (n_)); q += (n_); } while (0)
@@ -2068,7 +2117,8 @@ static char *head_text_of(const char *kp, Py_ssize_t kn, long long n_seg, double
     PyMem_Free(ft_own);
     PyMem_Free(fw_own);
     PyMem_Free(fb_own);
-    PyErr_Clear();             /* (a failed PyOS_double_to_string: declined, no exception) */
+    if (PyErr_Occurred())
+        PyErr_Clear();         /* (a failed PyOS_double_to_string: declined, no exception) */
     return out;
 }
 
@@ -2091,7 +2141,7 @@ static char *head_text(PyObject *spec, Py_ssize_t n_lines, Py_ssize_t *len)
         return NULL;
     }
     return head_text_of(kp, kn, n_seg, PyFloat_AS_DOUBLE(o_t), PyFloat_AS_DOUBLE(o_tw), PyFloat_AS_DOUBLE(o_b), sp,
-                        sn, n_lines, len);
+                        sn, n_lines, NULL, 0, len);
 }
 
 /* p[0..n) holds a line break of str.splitlines below 0x20 (\r \x0b \x0c \x1c \x1d \x1e):
@@ -2155,6 +2205,8 @@ static int other_lines(const char *p, Py_ssize_t n)
 typedef struct {
     const char *d;                  /* d[start:stop]: the stroke's n original lines */
     Py_ssize_t start, stop, n;
+    Py_ssize_t *stop_at;            /* not NULL: stop is d's end, the n lines' end (found as they
+                                       are read) written here when the block is appended */
     Pieces pc;                      /* head, closing, M204 word, before/after (nlp: "\n") */
     Txt x0, y0;                     /* the start's texts */
     Txt kind;                       /* the kind head_text_of wrote in the head (p NULL: a head given) */
@@ -2175,7 +2227,7 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
     const Pieces *pc = &ba->pc;
     const char *d = ba->d;
     Py_ssize_t n = ba->n, start = ba->start, stop = ba->stop, base = out->n;
-    if (n < 1 || stop - start < 2 || d[stop - 1] != '\n')
+    if (n < 1 || (ba->stop_at == NULL && (stop - start < 2 || d[stop - 1] != '\n')))
         return 0;
     if (!pc->hp || !pc->clp || !pc->wp || !ba->x0.p || !ba->y0.p || !ba->wantp)
         return 0;
@@ -2257,8 +2309,11 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         }
         p = q + 1;
     }
-    if (p != end || !path_ok || dec_e > 15)
+    /* (stop_at: the n lines read end at p, each at a "\n" -- a lone "\r" in one is not a
+       plain line's: skip_lines' n lines from start, the same end) */
+    if ((ba->stop_at != NULL ? p - (d + start) < 2 : p != end) || !path_ok || dec_e > 15)
         goto decline;
+    Py_ssize_t z = p - d;
     ColUnits cu = {{ux, uy, ue}, {dx_k, dy_k, de_k}};
     /* st_text.e_start_units = int(round(e0 * 10 ** dec_e)) */
     int64_t e_start_u;
@@ -2298,6 +2353,8 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
         if (bn > hl + el && memcmp(bp + bn - el, END_L, el) == 0
             && fast_check(bp, hl, bn - el + 1, ba->wantp[0], ba->klipper, ba->limit, ba->accel_max_a, 1, px, py, n + 1,
                           2e-3, e_mode, e_value, e_err, ba->min_move_d, by_text ? NULL : &kn, base)) {
+            if (ba->stop_at != NULL)
+                *ba->stop_at = z;
             got = 1;
             goto done;
         }
@@ -2518,7 +2575,7 @@ static void fill_direct(AttrSlot *at, PyObject *d, PyObject *o)
     }
 }
 
-static PyObject *get_attr(PyObject *o, int name)
+static __attribute__((noinline)) PyObject *get_attr_ways(PyObject *o, int name)
 {
     PyTypeObject *tp = Py_TYPE(o);
     AttrSlot *sl = ATTR_SLOTS[name];
@@ -2552,6 +2609,21 @@ static PyObject *get_attr(PyObject *o, int name)
     }
     return PyObject_GetAttr(o, NAMES[name]);
 }
+
+/* get_attr_ways' read where name's first way holds o's type and a member slot that is set
+   (most of a run's ~17 reads a stroke: the call's entry and exit cost more than the read),
+   inline; the rest by the call */
+static inline __attribute__((always_inline)) PyObject *get_attr(PyObject *o, int name)
+{
+    PyTypeObject *tp = Py_TYPE(o);
+    const AttrSlot *sl = &ATTR_SLOTS[name][0];
+    if (sl->type == tp && sl->slot_off > 0 && tag_valid(tp, sl->tag)) {
+        PyObject *v = *(PyObject **)((char *)o + sl->slot_off);
+        if (v != NULL)
+            return Py_NewRef(v);
+    }
+    return get_attr_ways(o, name);
+}
 #else
 static PyObject *get_attr(PyObject *o, int name)
 {
@@ -2562,19 +2634,10 @@ static PyObject *get_attr(PyObject *o, int name)
 /* the lines after pos in d[0:len): skip_lines(d, pos, n, False)'s (end, got) */
 static Py_ssize_t skip_n(const char *d, Py_ssize_t len, Py_ssize_t pos, Py_ssize_t n, Py_ssize_t *got)
 {
+    const char *e = d + len;
     *got = 0;
     while (*got < n && pos < len) {
-        const char *p = d + pos, *e = d + len, *q;
-        /* the first "\n" or "\r": a "\n" within 256 bytes and no "\r" before it (memchr's
-           vector loops), else byte by byte (no long scans: a file of lone "\r" ends) */
-        Py_ssize_t w = e - p < 256 ? e - p : 256;
-        if ((q = memchr(p, '\n', (size_t)w)) != NULL) {
-            const char *c = memchr(p, '\r', (size_t)(q - p));
-            if (c != NULL)
-                q = c;
-        } else
-            for (q = p; q < e && *q != '\n' && *q != '\r'; q++) {
-            }
+        const char *q = line_break_at(d + pos, e);
         if (q == e)
             return len;
         pos = q - d + 1;
@@ -2657,16 +2720,17 @@ static double float_attr(PyObject *o, int name, int *bad)
     return x;
 }
 
-/* one stroke of the run, its lines d[a:z] (n of them), appended to out as
+/* one stroke of the run, its n lines from d[a] (d[0:len): the data), appended to out as
    pipeline._rewrite_bytes' one-call path writes it: 1; 0: not this stroke (out as it
-   was: pipeline's loop takes it); -1: an exception.  *n_lines: the block's lines */
+   was: pipeline's loop takes it); -1: an exception.  *n_lines: the block's lines; *z:
+   the end of its n lines in d (block_into finds it as it reads them) */
 static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
-                     const char *d, Py_ssize_t a, Py_ssize_t z, Py_ssize_t n, Py_ssize_t *n_lines)
+                     const char *d, Py_ssize_t a, Py_ssize_t len, Py_ssize_t n, Py_ssize_t *n_lines, Py_ssize_t *z)
 {
     PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
     FSeq fs[4];
-    char *head = NULL, *x0t = NULL, *y0t = NULL;
+    char *head = NULL, *x0t = NULL, *y0t = NULL, head_room[512];   /* (the head in head_room where it fits) */
     for (int k = 0; k < 4; k++)
         memset(&fs[k], 0, sizeof fs[k]);
 #define GET(var, o, name) do { if ((var = obj[no++] = get_attr(o, name)) == NULL) goto decline; } while (0)
@@ -2722,7 +2786,9 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     if (!rows_read && (PyBytes_Check(knots) || PyBytes_Check(acc) || PyBytes_Check(fd) || fseq_get(knots, &fs[0], 1) < 0
                        || fseq_get(acc, &fs[1], 1) < 0 || fseq_get(fd, &fs[2], 1) < 0))
         goto decline;
-    int extruding = PyObject_RichCompareBool(feature, ra->travel, Py_NE), e_rel = PyObject_IsTrue(e_rel_o);
+    int travel = str_eq(feature, ra->travel);
+    int extruding = travel >= 0 ? !travel : PyObject_RichCompareBool(feature, ra->travel, Py_NE),
+        e_rel = PyObject_IsTrue(e_rel_o);
     if (extruding < 0 || e_rel < 0) {
         PyErr_Clear();
         goto decline;
@@ -2730,7 +2796,8 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     BlockArgs ba = ra->ctx[extruding];
     ba.d = d;
     ba.start = a;
-    ba.stop = z;
+    ba.stop = len;
+    ba.stop_at = z;
     ba.n = n;
     ba.e0 = PyFloat_AS_DOUBLE(e0_o);
     ba.e_rel = e_rel;
@@ -2760,7 +2827,7 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
         || (head = head_text_of(kp, kn, (long long)fs[0].n - 1, PyFloat_AS_DOUBLE(t_o), PyFloat_AS_DOUBLE(t_was_o),
-                                PyFloat_AS_DOUBLE(beta_o), sp, sn, n, &ba.pc.hn)) == NULL)
+                                PyFloat_AS_DOUBLE(beta_o), sp, sn, n, head_room, sizeof head_room, &ba.pc.hn)) == NULL)
         goto decline;
     ba.pc.hp = head;
     ba.kind.p = kp;
@@ -2799,7 +2866,8 @@ done:
         fseq_release(&fs[k]);
     for (int k = 0; k < no; k++)
         Py_XDECREF(obj[k]);
-    PyMem_Free(head);
+    if (head != head_room)
+        PyMem_Free(head);
     PyMem_Free(x0t);
     PyMem_Free(y0t);
     return got;
@@ -3018,17 +3086,16 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         if (first < 0 || last < 0 || n_copy < 0 || n_take < 1)
             goto next;
         kind = get_attr(s, A_KIND);
-        int arc = kind == NULL ? -1 : PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
+        int arc = kind == NULL ? -1 : str_eq(kind, ra.k_arc);
+        if (arc < 0 && kind != NULL)
+            arc = PyObject_RichCompareBool(kind, ra.k_arc, Py_EQ);
         if (arc != 0) {
             PyErr_Clear();
             goto next;
         }
-        /* the untouched lines and the stroke's, whole in data */
-        Py_ssize_t got_c, got_t, end = skip_n(d, len, pos, n_copy, &got_c), z;
+        /* the untouched lines whole in data (the stroke's: block_into reads them to their end z) */
+        Py_ssize_t got_c, end = skip_n(d, len, pos, n_copy, &got_c), z = end;
         if (got_c != n_copy)
-            goto next;
-        z = skip_n(d, len, end, n_take, &got_t);
-        if (got_t != n_take)
             goto next;
         Py_ssize_t base = out.n;
         if (put(&out, d + pos, end - pos) < 0) {
@@ -3038,7 +3105,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
         }
         Py_ssize_t head_at = out.n;
         Py_ssize_t n_out = 0;                     /* the block's lines */
-        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, z, n_take, &n_out);
+        int r = run_block(&out, &ra, s, seg, PyList_GET_ITEM(ra.betas, i), kind, d, end, len, n_take, &n_out, &z);
         if (r <= 0) {             /* (no memory: the loop's stroke_block call, as before) */
             out.n = base;
             PyErr_Clear();

@@ -1400,7 +1400,7 @@ static void sess_share_acc(Session *ss, int k, int from)
 
 /* slot k now holds val, the value of word `word` of the session's m204_n-th M204 (its
  * object not made yet): the session's own until sess_flush */
-static inline void sess_set_value(Session *ss, int k, double val, int word)
+static inline __attribute__((always_inline)) void sess_set_value(Session *ss, int k, double val, int word)
 {
     if (ss->acc_own & (1 << k))
         Py_XDECREF(ss->o_acc[k]);
@@ -1632,22 +1632,10 @@ static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t 
         return RUN_MORE;
     const char *a = buf + *pos, *end = buf + len;
     long long i = *idx;
-    const __m128i nl16 = _mm_set1_epi8('\n');
     int rc = RUN_MORE;
     while (i < limit) {
-        const char *e = NULL;
-        unsigned high = 0;
-        for (const char *q = a; end - q >= 16; q += 16) {
-            __m128i v = _mm_loadu_si128((const __m128i *)q);
-            unsigned nl = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(v, nl16));
-            unsigned hb = (unsigned)_mm_movemask_epi8(v);          /* bit j: q[j] >= 0x80 */
-            if (nl != 0) {
-                high |= hb & (nl ^ (nl - 1));                     /* the bytes up to the '\n' */
-                e = q + __builtin_ctz(nl) + 1;
-                break;
-            }
-            high |= hb;
-        }
+        unsigned high;
+        const char *e = line_end16(a, end, &high);
         if (e == NULL || high != 0)
             break;                         /* the loop's own steps read it */
         FusedMove fm;

@@ -2901,29 +2901,19 @@ static inline __attribute__((always_inline)) int src_next_buf(LineSrc *src, cons
     const char *a = src->buf + src->i, *end = src->buf + src->len, *e;
 #ifdef __SSE2__
     if (!src->cr) {
-        /* the line's '\n' and its bytes' high bits in one pass, 16 bytes at a time while 16
-         * remain (the bytes after its '\n' masked off): the same line and ascii as the steps
-         * below, without memchr's call and a second pass over the bytes */
-        const __m128i nl16 = _mm_set1_epi8('\n');
-        unsigned high = 0;
-        for (const char *p = a; end - p >= 16; p += 16) {
-            __m128i v = _mm_loadu_si128((const __m128i *)p);
-            unsigned nl = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(v, nl16));
-            unsigned hb = (unsigned)_mm_movemask_epi8(v);      /* bit j: p[j] >= 0x80 */
-            if (nl != 0) {
-                high |= hb & (nl ^ (nl - 1));                 /* the bytes up to the '\n' */
-                e = p + __builtin_ctz(nl) + 1;
-                *line = a;
-                *n_out = (Py_ssize_t)(e - a);
-                *ascii = high == 0;
-                src->i = (Py_ssize_t)(e - src->buf);
-                src->idx++;
-                return 1;
-            }
-            high |= hb;
+        /* the line's '\n' and its bytes' high bits in one pass (line_end16): the same line
+         * and ascii as the steps below, without memchr's call and a second pass over the
+         * bytes; no '\n' in the whole 16-byte blocks (a line near the buffer's end, or a
+         * long one): read by the steps below from its start */
+        unsigned high;
+        if ((e = line_end16(a, end, &high)) != NULL) {
+            *line = a;
+            *n_out = (Py_ssize_t)(e - a);
+            *ascii = high == 0;
+            src->i = (Py_ssize_t)(e - src->buf);
+            src->idx++;
+            return 1;
         }
-        /* no '\n' in the whole 16-byte blocks (a line near the buffer's end, or a long
-         * one): read by the steps below from its start */
     }
 #endif
     if (!src->cr) {

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .distinct import classes_in_row_order
-from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law
+from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law, peak_root_guess
 
 # candidate durations, as multiples of the stroke's original duration
 T_RATIOS = np.array([0.70, 0.75, 0.80, 0.85, 0.90, 0.93, 0.96, 0.98, 1.0, 1.01, 1.02, 1.03,
@@ -470,11 +470,15 @@ def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
     """gamma_v: the smallest gamma (largest beta) whose peak speed <= v_cap.  Peak speed
     falls monotonically as gamma grows (the law flattens towards constant speed).
 
-    Bisection on log gamma; each step evaluates only the law's interior extremum
-    (line.interior_speed, one gamma branch per law): the end speeds do not depend on
-    beta and are computed once.  Same comparisons, same answer, bit for bit, as
-    evaluating the whole law's peak_speed() at every step."""
+    On laws whose inputs are plain (_plain_laws) the root search of _largest_beta_plain,
+    elementwise (broadcast, then flat).  On others (a duration not finite and > 0, a
+    length or end speed not finite, a beta to try underflowing to 0), as before: bisection
+    on log gamma, `iters` steps, each evaluating only the law's interior extremum
+    (line.interior_speed, one gamma branch per law; the end speeds do not depend on beta
+    and are computed once), which raises where the law does."""
     L, T, v0, v1, v_cap = np.broadcast_arrays(*(np.asarray(a, float) for a in (L, T, v0, v1, v_cap)))
+    if _plain_laws(L, T, v0, v1):
+        return _largest_beta_plain(*(a.ravel() for a in (L, T, v0, v1, v_cap)))[0].reshape(L.shape)
     lo = np.full(L.shape, np.log(GAMMA_LO))
     hi = np.full_like(lo, np.log(GAMMA_HI))
     cap = v_cap * (1 + SPEED_TOL_R)
@@ -495,6 +499,14 @@ def _largest_beta_under_speed_cap(L, T, v0, v1, v_cap, iters=32):
     return np.where(cubic_ok, np.inf, (T / gamma) ** 2)
 
 
+def _plain_laws(L, T, v0, v1):
+    """Whether no law (L, T, v0, v1) can make the search raise: T finite > 0, L, v0, v1
+    finite, and (T / (2 GAMMA_HI))^2 > 0 (no beta it tries underflows to 0)."""
+    with np.errstate(all="ignore"):
+        return bool(np.isfinite(T).all() and (T > 0).all() and np.isfinite(L).all() and np.isfinite(v0).all()
+                    and np.isfinite(v1).all() and ((T / (2.0 * GAMMA_HI)) ** 2 > 0.0).all())
+
+
 def _bisect_log_gamma(L, T, v0, v1, cap, v_end, lo, hi, iters):
     """The upper end of the bisection bracket on log gamma (each row's own steps)."""
     for _ in range(iters):
@@ -512,7 +524,7 @@ def candidates_auto(p: PlanInput, chunk=CANDIDATE_CHUNK):
 
     Computed `chunk` strokes at a time: every step is per candidate, so the tables are
     the same as in one piece, and the temporaries stay a few MB whatever the file.  The
-    bisections on beta (_beta_bisect) are made BISECT_CHUNKS chunks at a time (each entry
+    root searches on beta (_beta_search) are made BISECT_CHUNKS chunks at a time (each entry
     its own steps, elementwise: the same bits) in numpy calls that many times larger than
     a chunk's (~1.7 k entries a chunk on the rectilinear plate, where the calls' overhead
     was half the bisection's time).  Between the two passes a chunk keeps its live
@@ -606,7 +618,7 @@ def _chunk_tables(p: PlanInput, chunk):
     for a0 in range(0, n, step):
         chunks = [np.arange(a, min(a + chunk, n)) for a in range(a0, min(a0 + step, n), chunk)]
         live = [_live_entries(p.take(rows)) for rows in chunks]
-        betas = _beta_bisect([lv[1] for lv in live if lv is not None])
+        betas = _beta_search([lv[1] for lv in live if lv is not None])
         for rows, lv in zip(chunks, live):
             q = p.take(rows)
             tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
@@ -631,7 +643,7 @@ def _candidates_auto(p: PlanInput):
     lv = _live_entries(p)
     if lv is None:
         return _candidates_dense(p)
-    return _live_tables(p, lv[0], *next(_beta_bisect([lv[1]])))
+    return _live_tables(p, lv[0], *next(_beta_search([lv[1]])))
 
 
 def _live_entries(p: PlanInput):
@@ -661,7 +673,7 @@ def _live_entries(p: PlanInput):
 
 def _live_tables(p: PlanInput, flat, bq, v_crit):
     """The (T, beta, I, KE) tables of the chunk p from its live entries (flat positions)
-    and their beta and interior speed (_beta_bisect)."""
+    and their beta and interior speed (_beta_search)."""
     T = p.T_orig[:, None] * T_RATIOS[None, :]
     shape = T.shape
     beta = np.full(shape, np.inf)
@@ -736,18 +748,17 @@ def out_of_reach(L, T, v0, v1, v_cap, a_cap):
         return bound & (L - reach_d > REACH_TOL_R * (L + v_top * T))
 
 
-def _largest_beta_plain(L, T, v0, v1, v_cap, iters=32):
-    """(beta, interior_speed of the law at that beta), beta being
-    _largest_beta_under_speed_cap of 1-D laws on which it cannot raise (T finite > 0,
-    L, v0, v1 finite, (T / (2 GAMMA_HI))^2 > 0: no beta it tries underflows): the same
-    bisection, the same bits, with what does not depend on beta made once
+def _largest_beta_plain(L, T, v0, v1, v_cap):
+    """(beta, interior_speed of the law at that beta), beta being gamma_v (see
+    _largest_beta_under_speed_cap) of 1-D laws on which the search cannot raise
+    (_plain_laws), by _log_gamma_root, with what does not depend on beta made once
     (laws/line.InteriorSpeeds) and the laws whose cubic is under the cap left out."""
     L, T, v0, v1, v_cap = (np.asarray(a, float) for a in (L, T, v0, v1, v_cap))
-    return next(_beta_bisect([_beta_prep(L, T, v0, v1, v_cap)], iters))
+    return next(_beta_search([_beta_prep(L, T, v0, v1, v_cap)]))
 
 
 def _beta_prep(L, T, v0, v1, v_cap):
-    """_largest_beta_plain up to its bisection: (v_crit at beta = inf, the rows b whose
+    """_largest_beta_plain up to its search: (v_crit at beta = inf, the rows b whose
     cubic is over the cap, their T, cap, end speed and InteriorSpeeds)."""
     cap = v_cap * (1 + SPEED_TOL_R)
     v_end = np.maximum(*end_speeds(L, T, v0, v1))
@@ -757,25 +768,17 @@ def _beta_prep(L, T, v0, v1, v_cap):
     return v_crit, b, T[b], cap[b], v_end[b], speeds.take(b)
 
 
-def _beta_bisect(preps, iters=32):
-    """(beta, v_crit) of each _beta_prep state, in turn (an iterator): the bisections of
-    all their rows b at once (each row its own steps, elementwise: the same bits as one
-    state at a time); a row left out (cubic under the cap) has beta = inf."""
+def _beta_search(preps):
+    """(beta, v_crit) of each _beta_prep state, in turn (an iterator): the root searches
+    (_log_gamma_root) of all their rows b at once (each row its own steps, elementwise:
+    the same bits as one state at a time); a row left out (cubic under the cap) has
+    beta = inf.  v_crit of a searched row is its speed at its beta, the one the search's
+    own test of that beta computed (the same expressions on the same numbers)."""
     sizes = [pr[1].size for pr in preps]
     if sum(sizes):
         Tb, capb, v_endb = (np.concatenate([pr[k] for pr in preps]) for k in (2, 3, 4))
-        speeds = InteriorSpeeds.concat([pr[5] for pr in preps])
-        lo = np.full(Tb.shape, np.log(GAMMA_LO))
-        hi = np.full_like(lo, np.log(GAMMA_HI))
-        for _ in range(iters):
-            mid = 0.5 * (lo + hi)
-            g = np.exp(mid)
-            ok = np.maximum(v_endb, speeds((Tb / g) ** 2)) <= capb
-            hi = np.where(ok, mid, hi)
-            lo = np.where(ok, lo, mid)
-        gamma = np.exp(hi)
-        beta_b = (Tb / gamma) ** 2
-        v_crit_b = speeds(beta_b)
+        y, v_crit_b = _log_gamma_root(InteriorSpeeds.concat([pr[5] for pr in preps]), Tb, capb, v_endb)
+        beta_b = (Tb / np.exp(y)) ** 2
     at = 0
     for pr, m in zip(preps, sizes):
         v_crit, b = pr[0], pr[1]
@@ -785,6 +788,152 @@ def _beta_bisect(preps, iters=32):
             v_crit[b] = v_crit_b[at:at + m]
             at += m
         yield out, v_crit
+
+
+_Y_LO, _Y_HI = np.log(GAMMA_LO), np.log(GAMMA_HI)
+BISECT_STEPS = 32       # the halvings of (_Y_LO, _Y_HI] whose end _log_gamma_root finds
+# the root's estimate: points by the model and secants, settled where a secant step is under
+# ROOT_SETTLED_Y (its point then within ~1e-10 of the root: the error falls superlinearly,
+# ~ the product of the last two steps, the first ~1e-4) or the bracket under the bisection's
+# last width.  On the plates the second point settles (1e-5 .. 3e-6: 4.0 evaluations a law
+# with the checks; 1e-6: 4.2; 3e-7: 4.6)
+ROOT_SETTLED_Y = 3e-6
+ROOT_TOL_Y = (_Y_HI - _Y_LO) * 2.0 ** -BISECT_STEPS
+ROOT_MODEL_STEPS = 8    # points a law's estimate may take; then (or if its check fails) the bisection
+
+
+def _log_gamma_root(speeds, T, cap, v_end):
+    """(y, v): for each law of speeds (InteriorSpeeds, 1-D; T its durations, finite > 0 with
+    (T / (2 GAMMA_HI))^2 > 0; cap, v_end its cap and larger end speed) the upper end y of
+    the bracket on log gamma that BISECT_STEPS halvings of (_Y_LO, _Y_HI] leave, testing
+    max(v_end, interior speed) <= cap at each middle (the speed falls as gamma grows), and
+    v the interior speed at beta = (T / e^y)^2: the bisection's bits, with ~4 speed
+    evaluations a law where it made 33.
+
+    The root is estimated first (_root_estimates), then the bisection's path through the
+    estimate is replayed without evaluating (_bisection_path: its middles are the same
+    numbers) and checked at its last bracket's two ends: the upper passes, the lower fails
+    (an end the bisection never tests, _Y_LO or _Y_HI, is not checked).  Where the test is
+    monotone in y, the bisection's every test then goes as the replay's (each middle is at
+    or past one of those ends), so its end is the replay's.  A check that fails (0.3 - 0.5 %
+    of the plates' laws, estimates ~1e-10 from a middle) replays the path through the side it
+    tells (_checked_path); a law still unchecked then takes the bisection itself."""
+    y_hi = np.full(T.shape, _Y_HI)
+    v_hi = np.empty(T.shape)
+    # a law whose end speed is over the cap fails every test: the bisection's end is _Y_HI
+    rows = np.flatnonzero(v_end <= cap)
+    if rows.size < T.size:
+        over = np.flatnonzero(~(v_end <= cap))
+        v_hi[over] = speeds.take(over)((T[over] / np.exp(y_hi[over])) ** 2)
+    if rows.size:
+        y_hi[rows], v_hi[rows] = _checked_path(speeds.take(rows), T[rows], cap[rows], v_end[rows])
+    return y_hi, v_hi
+
+
+def _checked_path(sp, T, cap, v_end):
+    """_log_gamma_root of laws whose end speed is under the cap: (y, v).  A check that fails
+    tells on which side of its bracket the root is: the path is replayed through that side
+    (PATH_CHECKS times at most, then the bisection)."""
+    y, v = np.empty(T.shape), np.empty(T.shape)
+    est = _root_estimates(sp, T, cap, v_end)
+    todo = np.arange(T.size)
+    for _ in range(PATH_CHECKS):
+        lo, hi = _bisection_path(est)
+        v_hi = sp((T / np.exp(hi)) ** 2)
+        hi_ok = (np.maximum(v_end, v_hi) <= cap) | (hi == _Y_HI)
+        lo_ok = np.zeros(T.shape, bool)
+        at = np.flatnonzero(lo > _Y_LO)
+        lo_ok[at] = _passes(sp.take(at), T[at], cap[at], v_end[at], lo[at])
+        good = hi_ok & ~lo_ok
+        y[todo[good]], v[todo[good]] = hi[good], v_hi[good]
+        bad = np.flatnonzero(~good)
+        if not bad.size:
+            return y, v
+        # the root is past hi where hi fails (a middle equal to hi then fails), at or before lo where lo passes
+        est = np.where(hi_ok, lo, np.nextafter(hi, np.inf))[bad]
+        todo, sp, T, cap, v_end = todo[bad], sp.take(bad), T[bad], cap[bad], v_end[bad]
+    y[todo] = _bisect_rows(sp, T, cap, v_end)
+    v[todo] = sp((T / np.exp(y[todo])) ** 2)
+    return y, v
+
+
+PATH_CHECKS = 3         # _checked_path: replays of a law's path before the bisection itself
+
+
+def _passes(sp, T, cap, v_end, y):
+    """The bisection's test of the laws sp at log gamma y."""
+    return np.maximum(v_end, sp((T / np.exp(y)) ** 2)) <= cap
+
+
+def _bisection_path(y_root):
+    """(lo, hi) that the bisection leaves when every middle at or past y_root passes and
+    every other fails (a NaN root: every middle fails)."""
+    return _halvings(lambda mid: mid >= y_root, y_root.shape)
+
+
+def _bisect_rows(sp, T, cap, v_end):
+    """The bisection's upper end for the laws sp, by the bisection."""
+    return _halvings(lambda mid: _passes(sp, T, cap, v_end, mid), T.shape)[1]
+
+
+def _halvings(passes, shape):
+    """(lo, hi) after BISECT_STEPS halvings of (_Y_LO, _Y_HI], the upper half kept where
+    passes(middle) (the bisection's arithmetic, bit for bit)."""
+    lo = np.full(shape, _Y_LO)
+    hi = np.full_like(lo, _Y_HI)
+    for _ in range(BISECT_STEPS):
+        mid = 0.5 * (lo + hi)
+        ok = passes(mid)
+        hi = np.where(ok, mid, hi)
+        lo = np.where(ok, lo, mid)
+    return lo, hi
+
+
+def _root_estimates(sp, T, cap, v_end):
+    """Each law's estimate of the least log gamma passing the bisection's test (NaN where
+    none settles in ROOT_MODEL_STEPS points): the model's root (laws/line.peak_root_guess),
+    a Newton step with the model's slope, then secants on the true residual, each point
+    kept inside the bracket the points so far make (_inside)."""
+    est = np.full(T.shape, np.nan)
+    rows = np.arange(T.size)
+    lo, hi = np.full(T.shape, _Y_LO), np.full(T.shape, _Y_HI)
+    with np.errstate(divide="ignore", invalid="ignore"):          # (A = 0: NaN, the bracket's middle)
+        r_of_v = T / sp.A                    # residual in the model's units: P - w = (v - cap) T / A
+        y, slope = peak_root_guess(sp.rho * sp.rho, (cap * T - sp.wbar) / sp.A)
+    y_last = r_last = None
+    for step in range(1, ROOT_MODEL_STEPS + 1):
+        y = _inside(y, lo, hi)
+        v = sp((T / np.exp(y)) ** 2)
+        ok = np.maximum(v_end, v) <= cap
+        hi, lo = np.where(ok, y, hi), np.where(ok, lo, y)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            r = (v - cap) * r_of_v
+            y_next = y - r / slope if y_last is None else y - r * (y - y_last) / (r - r_last)
+        settled = hi - lo <= ROOT_TOL_Y
+        if step > 1:
+            settled |= np.abs(y_next - y) < ROOT_SETTLED_Y
+        done = np.flatnonzero(settled)
+        if done.size:
+            y_in = y_next[done]
+            lo_d, hi_d = lo[done], hi[done]
+            est[rows[done]] = np.where((y_in > lo_d) & (y_in <= hi_d), y_in, 0.5 * (lo_d + hi_d))
+            keep = np.flatnonzero(~settled)
+            if not keep.size:
+                break
+            rows, sp = rows[keep], sp.take(keep)
+            T, cap, v_end, r_of_v, lo, hi, y, r, y_next = (
+                a[keep] for a in (T, cap, v_end, r_of_v, lo, hi, y, r, y_next))
+        y_last, r_last, y = y, r, y_next
+    return est
+
+
+def _inside(y, lo, hi):
+    """The point y where it is inside (lo, hi); past an end still untested (_Y_LO, _Y_HI:
+    the root may be out of the range), that end; else the bracket's middle (NaN too); kept
+    ROOT_TOL_Y / 2 from both ends."""
+    y = np.where((y > lo) & (y < hi), y, np.where((y >= hi) & (hi == _Y_HI), hi,
+                                                  np.where((y <= lo) & (lo == _Y_LO), lo, 0.5 * (lo + hi))))
+    return np.minimum(np.maximum(y, lo + 0.5 * ROOT_TOL_Y), hi - 0.5 * ROOT_TOL_Y)
 
 
 def _candidates_dense(p: PlanInput):

@@ -82,7 +82,7 @@ def test_live_entries_and_tables(seed):
         if hasattr(want[1][5], f):
             _bits_equal(getattr(got[1][5], f), getattr(want[1][5], f))
     # _live_tables on those entries: the (T, beta, I, KE) tables (its own gathers by take)
-    bq, v_crit = next(plan_mod._beta_bisect([got[1]]))
+    bq, v_crit = next(plan_mod._beta_search([got[1]]))
     _bits_equal(plan_mod._live_tables(p, got[0], bq, v_crit), _live_tables_ref(p, got[0], bq, v_crit))
 
 

@@ -36,7 +36,7 @@ from math import factorial
 import numpy as np
 
 __all__ = ["LineLaw", "line_law", "time_of_distance", "GAMMA_SWITCH", "interior_speed", "end_speeds",
-           "InteriorSpeeds", "cubic_figures"]
+           "InteriorSpeeds", "cubic_figures", "peak_root_guess"]
 
 # Switch between the series/hyperbolic and the exponential forms.  Measured against mpmath
 # (80 digits) for each branch alone: the exponential branch's integral coefficient ∫g² − 1
@@ -649,6 +649,60 @@ class InteriorSpeeds:
                 return v
             out[branch] = v
         return out
+
+
+# The interior peak as a function of two numbers.  With rho = -delta/A the interior speed is
+# (wbar + A P) / T, P = (g + rho h)(tau*) the largest of g + rho h over tau (InteriorSpeeds of
+# L = 1, T = 1, v0 = -rho, v1 = rho is P itself): P depends on gamma and rho^2 only (g even, h
+# odd about tau = 1/2).  P0(y) = P at rho = 0 (g at the centre) falls from 1.5 (the cubic) to 1
+# (+ 2/gamma); P - P0 is ~rho^2/6 at small gamma and vanishes at large gamma.  The guess model
+# M(y, rho^2) = P0 + rho^2 (C0 + rho^2 C1) is the quadratic in rho^2 through rho = 0, 0.5, 1,
+# on a table of y = log gamma; it only starts the planner's search (which evaluates the true
+# speeds): its root is off by ~7e-5 in y for most laws of the plates (the table's linear
+# interpolation), 4.5e-4 at most.  Its nodes cost 3 speed evaluations each, once a process;
+# the plates' searches take 4.0 a law with N = 512, 4.0 with 1024, 4.5 with 256.
+PEAK_TABLE_N = 512
+PEAK_TABLE_Y = (-6.0, 7.0)            # log gamma (0.0025 ... 1100; beyond, the guess is an end)
+_peak_table = None
+
+
+def _peak_table_rows():
+    """(y, P0, C0, C1) on PEAK_TABLE_N nodes of PEAK_TABLE_Y, made on first use."""
+    global _peak_table
+    if _peak_table is None:
+        y = np.linspace(*PEAK_TABLE_Y, PEAK_TABLE_N)
+        one = np.ones(y.size)
+        P0, Pa, Pb = (InteriorSpeeds(one, one, -rho * one, rho * one)(np.exp(-2.0 * y)) for rho in (0.0, 0.5, 1.0))
+        C0 = (Pa - P0 - 0.0625 * (Pb - P0)) / 0.1875      # the quadratic through rho^2 = 0, 0.25, 1
+        _peak_table = (y, P0, C0, (Pb - P0) - C0)
+    return _peak_table
+
+
+PEAK_GUESS_STEPS = 3    # Newton steps on the table model
+PEAK_GUESS_MARGIN = 0.01      # how far the model's root may be out of P0's two (rounding)
+
+
+def peak_root_guess(rho2, w):
+    """(y, dM/dy at y): the root y = log gamma of the model M(y, rho2) = w (the interior
+    peak P reaching w = (cap T - wbar) / A) and the model's slope there, elementwise; NaN
+    inputs give some y in PEAK_TABLE_Y.  The root lies between P0's roots for w and for
+    w - rho2 / 6 (P0 <= P <= P0 + rho2 / 6, both falling; most of the plates' laws are near
+    the latter, at small gamma): Newton on the table's piecewise-linear model from the
+    latter, each step kept within PEAK_GUESS_MARGIN of the two."""
+    y_n, P0, C0, C1 = _peak_table_rows()
+    h = y_n[1] - y_n[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = np.interp(w, P0[::-1], y_n[::-1]) - PEAK_GUESS_MARGIN
+        y = np.interp(w - rho2 / 6.0, P0[::-1], y_n[::-1])
+        b = y + PEAK_GUESS_MARGIN
+        for _ in range(PEAK_GUESS_STEPS):
+            y = np.where(y == y, y, y_n[0])              # (a NaN w or rho2: any point will do)
+            u = (y - y_n[0]) / h
+            j = np.minimum(u.astype(np.intp), y_n.size - 2)
+            M0 = P0[j] + rho2 * (C0[j] + rho2 * C1[j])
+            dM = P0[j + 1] + rho2 * (C0[j + 1] + rho2 * C1[j + 1]) - M0
+            y = np.clip(y - (M0 + (u - j) * dM - w) * h / dM, np.maximum(a, y_n[0]), np.minimum(b, y_n[-1]))
+    return np.where(y == y, y, y_n[0]), dM / h
 
 
 def cubic_figures(L, T, v0, v1):

@@ -340,7 +340,6 @@ def figures_of_trace(tr: Trace, model: dict, shaper: str | None = None) -> dict:
 CHUNK_BLOCKS = 4096
 PEND_BLOCKS = 1024        # planned blocks a Collector keeps before it writes their rows
 STREAM_SMOOTH = 1 << 16   # merged pieces of the shaper smoothing evaluated at once
-PEND_PIECES = 1 << 16     # pieces a stream keeps for numpy's peak before it solves them
 
 
 class _Stream:
@@ -349,7 +348,7 @@ class _Stream:
     its time carry the oscillator across chunks (its piece's length is known only when the
     next event is)."""
 
-    def __init__(self, osc: Oscillator, pulses, memo=None, lead=False, src=None):
+    def __init__(self, osc: Oscillator, pulses, memo=None, lead=False):
         self.osc, (self.a_p, self.t_p) = osc, pulses
         self.t = np.zeros(0)
         self.dr, self.drp = np.zeros(0), np.zeros(0)
@@ -359,14 +358,6 @@ class _Stream:
         # the exponentials shared with the streams of the same oscillator (resonance.RingMemo;
         # lead: this stream's go into it, for the others)
         self.memo, self.lead = memo, lead
-        # src: the memo this (lead) stream takes exponentials from in the core's one-call
-        # solve (Oscillator.solve): X's "all" for X's other parts (ramp events and pieces
-        # are nearly all "all"'s), or None: its own memo
-        self.src = src
-        # pieces whose peak the core's solve left to numpy (Oscillator.solve's pending): solved
-        # together once PEND_PIECES of them wait, and at finish (the peak is a max: any
-        # grouping gives the same)
-        self.pend, self.pend_n = [], 0
         # no shaper (one pulse, weight 1.0 at time 0.0): shaped_events is t + 0.0 and the
         # jumps times 1.0, i.e. the jumps themselves
         self.plain = len(self.a_p) == 1 and float(self.a_p[0]) == 1.0 and float(self.t_p[0]) == 0.0
@@ -425,18 +416,12 @@ class _Stream:
         t1 = self.t1
         if t1 is None:
             t1 = t if self.t_last is None else np.concatenate([[self.t_last], t])
-        npend = len(self.pend)
-        got = osc.solve(t1, dr, drp, None if self.t_last is None else self.c_last, self.memo, self.lead,
-                        self.src, self.peak, self.pend)
+        got = osc.solve(t1, dr, drp, None if self.t_last is None else self.c_last, self.peak)
         if got is not None:
             i_r2, peak, c_last = got
             if peak is not None:
                 self.int_r2 += i_r2
                 self.peak = max(self.peak, peak)
-            if len(self.pend) > npend:
-                self.pend_n += len(self.pend[-1][1]) // 8
-                if self.pend_n >= PEND_PIECES:
-                    self._settle()
             self.t_last, self.c_last = float(t1[-1]), c_last
             return
         dc = osc.jump_amplitude(dr, drp)
@@ -454,15 +439,8 @@ class _Stream:
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
 
-    def _settle(self):
-        """The pending pieces' peak into the stream's."""
-        if self.pend:
-            self.peak = max(self.peak, self.osc.pending_peak(self.pend))
-        self.pend_n = 0
-
     def finish(self):
         self._solve(self.t, self.dr, self.drp)
-        self._settle()
         self.t = np.zeros(0)
         if self.t_last is not None:        # the last rings down at rest
             c, inf = np.array([self.c_last]), np.array([np.inf])
@@ -550,16 +528,14 @@ class Collector:
         for ax, name in enumerate("xy"):
             osc = Oscillator(self.model[f"freq_{name}_hz"], self.model["damping_r"])
             for part in self.parts:
-                # X's stream keeps its exponentials for Y's of the same part: the two axes
-                # share most events, and their restarts start at the same events
+                # X's stream keeps its exponentials for Y's of the same part where the steps
+                # are numpy's (the core's ring_solve declined, or is off): the two axes share
+                # most events, and their restarts start at the same events.  (The core's
+                # solve shares its pieces' numbers in its own table.)
                 memo = memos.get((osc.s, osc.wd, part))
                 if memo is None:
                     memo = memos[osc.s, osc.wd, part] = RingMemo(None if part == "all" else parts_room)
-                # and X's other parts take "all"'s in the core's solve (kept until they ran:
-                # _flush): on the gyroid plate 99 % of ramp's pieces and events (with their
-                # restarts' starts) are "all"'s, 44 % / 13 % of turn's, few of corner's
-                src = memos[osc.s, osc.wd, "all"] if ax == 0 and part != "all" else None
-                self.streams[name, part] = _Stream(osc, pulses[ax], memo, ax == 0, src)
+                self.streams[name, part] = _Stream(osc, pulses[ax], memo, ax == 0)
         self.horizon = {name: float(pulses[ax][1].min()) for ax, name in enumerate("xy")}
         self.smooth = _SmoothStream(pulses) if self.shaper != "none" else None
         self.carry = _Carry()

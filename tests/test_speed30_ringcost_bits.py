@@ -16,6 +16,8 @@ import os
 import numpy as np
 import pytest
 
+from ring_close import assert_figures_close
+
 from gcode_opt import ringing as rg
 from gcode_opt.firmware import resonance as res
 from gcode_opt.firmware import simulate as fw
@@ -112,8 +114,7 @@ def test_figures_core_solve_against_python_steps(name, prof, freqs, monkeypatch)
         for chunk in (rg.CHUNK_BLOCKS, 301):
             want = figs(False, parts, chunk)
             got = figs(True, parts, chunk)
-            assert got == want
-            assert repr(got) == repr(want)
+            assert_figures_close(got, want)       # (the core's solve: its recursion since session 46)
 
 
 @pytest.mark.skipif(CORE is None or not hasattr(CORE, "ring_events"), reason="no compiled core")

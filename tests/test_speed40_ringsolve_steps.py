@@ -7,9 +7,8 @@ instructions, the same bits.
 - amplitudes' running sum starts from -0.0 (-0.0 + p is p) instead of copying the first
   term: held to numpy's amplitudes on events whose restarts start with amplitudes of
   zeros of both signs (long pauses: the carried amplitude underflows to a signed zero).
-- A zero-length piece's decay (without numpy's decay2: the piece's exp(qr 0)) is tested
-  once a call, not once a piece: ring_solve held to numpy's steps on events at equal
-  times, with and without numpy's decay2.
+(A zero-length piece's decay tested once a call in ring_solve: gone with its restarts in
+session 46, tests/test_speed46_ring46_recursion.py.)
 """
 import ctypes
 import ctypes.util
@@ -124,77 +123,6 @@ def _ref_amps(osc, t_ev, dc, carry, t_carry):
         carry, t_carry = c[stop - 1], float(t_ev[stop - 1])
         start = stop
     return c
-
-
-def _steps(osc, t, dr, drp, first, decay2):
-    """_Stream._solve's numpy steps: (sum, peak, last amplitude) of the events at t."""
-    keep = res.USE_KERNEL
-    res.USE_KERNEL = False
-    try:
-        dc = osc.jump_amplitude(dr, drp)
-        if first is not None:
-            dc = np.concatenate([[first], dc])
-        c = osc.amplitudes(t, dc)
-        dur = np.diff(t)
-        c_p = c[:-1]
-        d2 = decay2
-        q = 2.0 * osc.lam
-        y = c_p * c_p * (np.exp(q * dur) - 1.0)
-        v = np.abs(c_p) ** 2 * (1.0 - d2) / (4.0 * osc.s) + res._real_quotient(y, 4.0 * osc.lam)
-        lo = np.abs(c_p.real).max()
-        kp = ~(np.abs(c_p) * (1.0 + 1e-9) < lo)
-        pk = osc.peak_abs_r(c_p[kp], dur[kp])
-        return float(v.sum()), float(np.maximum(lo, pk.max())), complex(c[-1])
-    finally:
-        res.USE_KERNEL = keep
-
-
-@need_core
-@pytest.mark.parametrize("seed", range(6))
-def test_solve_zero_pieces(seed):
-    rng = np.random.default_rng(4020 + seed)
-    osc = Oscillator(float(rng.uniform(20.0, 120.0)), float(rng.uniform(0.02, 0.5)))
-    got = res._solve_core(osc.s, osc.wd)
-    if got is None:
-        pytest.skip("the core's solve is not numpy's here")
-    core, span, fused, _np_decay, _np_peak = got
-    args = res._int_r2_args(osc.s, osc.lam)
-    compared = 0
-    for trial in range(8):
-        n = int(rng.integers(3, 2500))
-        t, _dc = _events(rng, n, span * 0.05)
-        t = t[:n]
-        dr = rng.normal(size=n) * 1e-4 * (rng.uniform(size=n) < 0.7)
-        drp = rng.normal(size=n) * (rng.uniform(size=n) < 0.6)
-        first = complex(rng.normal(), rng.normal()) * 1e-3 if trial % 2 else None
-        if first is not None:
-            dr, drp = dr[1:], drp[1:]
-        dur = np.diff(t)
-        # (numpy's decay2; one that is not 1 at zero-length pieces; none: the core's own exp of
-        # the same argument, which the reference then takes)
-        for decay2 in (np.exp(-2.0 * osc.s * dur), np.where(rng.uniform(size=n - 1) < 0.5, 0.5, 1.0), None):
-            want = _steps(osc, t, dr, drp, first, _core_decay(core, osc.s, dur) if decay2 is None else decay2)
-            ret = core.ring_solve(t, dr, drp, first, osc.s, osc.wd, span, res.ELIDE_BYTES // 16, fused, *args,
-                                  None, None, None, None, decay2, False, 0.0)
-            if ret is None:
-                continue
-            i_r2, peak, c_last = ret
-            if not _peak_is_core(core, osc, fused):
-                peak = want[1]          # (the peak's last step is numpy's there: not this test's)
-            assert (np.float64(i_r2).tobytes(), np.float64(peak).tobytes(), np.complex128(c_last).tobytes()) == \
-                (np.float64(want[0]).tobytes(), np.float64(want[1]).tobytes(), np.complex128(want[2]).tobytes())
-            compared += 1
-    assert compared >= 12
-
-
-def _core_decay(core, s, dur):
-    out = np.empty(len(dur), complex)
-    core.ring_exp(np.ascontiguousarray(dur), -2.0 * s, 0.0, out)
-    return np.ascontiguousarray(out.real)
-
-
-def _peak_is_core(core, osc, fused):
-    return res._peak_ok(core, osc.s, osc.wd, fused) == "core"
 
 
 def _set_of(dur):

@@ -8,9 +8,8 @@ length.  Held here to the code it replaces, bit for bit, on pieces of a few leng
 zeros between them (so that length, zero, the same length comes often):
 
 - ring_int_r2's per-piece values and the exponentials it keeps (out_v) against each piece in
-  a call of its own (the general steps, no previous piece);
-- ring_solve against numpy's steps: the sum, the last amplitude, the pieces handed back and
-  the exponentials kept for the next stream.
+  a call of its own (the general steps, no previous piece).
+(ring_solve's pieces since session 46: tests/test_speed46_ring46_recursion.py.)
 """
 import numpy as np
 import pytest
@@ -70,55 +69,5 @@ def test_int_r2_values_against_each_piece_alone(seed):
             want[i] = one[0]
         assert work.tobytes() == want.tobytes()
         assert out_v.tobytes() == want_ov.tobytes()
-        seen += _after_zero_same(dur)
-    assert seen > 100, seen
-
-
-def _events(rng, n):
-    """Events whose gaps are few lengths and zeros (as _lengths), with jumps."""
-    t = np.cumsum(_lengths(rng, n)) + rng.uniform(-2.0, 2.0)
-    dr = rng.normal(size=n) * 1e-4 * (rng.uniform(size=n) < 0.8)
-    drp = rng.normal(size=n) * 10.0 * (rng.uniform(size=n) < 0.5)
-    return t, dr, drp
-
-
-@need_core
-@pytest.mark.parametrize("seed", range(3))
-def test_solve_against_numpy_steps(seed):
-    osc = Oscillator((50.0, 37.0, 80.0)[seed], (0.1, 0.03, 0.4)[seed])
-    if res._solve_core(osc.s, osc.wd) is None:
-        pytest.skip("the core's solve is not checked for this oscillator here")
-    rng = np.random.default_rng(4510 + seed)
-    s, wd = osc.s, osc.wd
-    seen = 0
-    for trial in range(12):
-        n = int(rng.integers(100, 2500))
-        t, dr, drp = _events(rng, n)
-        keep_k, res.USE_KERNEL = res.USE_KERNEL, False
-        try:
-            c = osc.amplitudes(t, osc.jump_amplitude(dr, drp))
-            cp, dur = c[:-1], np.diff(t)
-            want_sum = float(osc.integral_r2_fin(cp, dur).sum())
-        finally:
-            res.USE_KERNEL = keep_k
-        decay2 = np.exp(-2.0 * s * dur)
-        p_out = (np.empty(n - 1), np.empty(3 * (n - 1)))
-        ret = CORE.ring_solve(t, dr, drp, None, s, wd, res.CHUNK_DECAY / s, res.ELIDE_BYTES // 16, True,
-                              *res._int_r2_args(s, osc.lam), None, None, None, p_out, decay2, True, 0.0)
-        assert ret is not None and len(ret) == 5
-        i_r2, lo, c_last, kc, kd = ret
-        assert np.float64(i_r2).tobytes() == np.float64(want_sum).tobytes()
-        assert complex(c_last) == complex(c[-1])
-        mags = np.abs(cp)
-        lo_want = np.abs(cp.real).max()
-        keep = ~(mags * (1.0 + 1e-9) < lo_want)
-        assert kc == cp[keep].tobytes() and kd == dur[keep].tobytes()
-        # the exponentials kept: each piece's own, as a call of its own makes them
-        want_ov = np.empty(3 * (n - 1))
-        args = res._int_r2_args(s, osc.lam)
-        for i in range(n - 1):
-            CORE.ring_int_r2(cp[i:i + 1], dur[i:i + 1], decay2[i:i + 1], *args, np.empty(1), t[i:i + 1],
-                             None, None, None, want_ov[3 * i:3 * i + 3])
-        assert p_out[1].tobytes() == want_ov.tobytes()
         seen += _after_zero_same(dur)
     assert seen > 100, seen

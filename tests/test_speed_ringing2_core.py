@@ -371,6 +371,7 @@ def test_figures_with_and_without_the_new_paths(monkeypatch, name, prof, shaper)
         pytest.skip(f"{name} not in sample_gcode")
     profile = load_profile(prof)
     got = {}
+    monkeypatch.setattr(res, "USE_SOLVE", False)     # (these kernels' paths: not ring_solve's recursion)
     for use in (True, False):
         monkeypatch.setattr(res, "USE_AMPS", use)
         monkeypatch.setattr(res, "USE_INT_R2", use)

@@ -142,24 +142,3 @@ def test_axes_of_other_frequencies(monkeypatch):
     profile = dataclasses.replace(load_profile("voron24"), freq_x_hz=41.0, freq_y_hz=57.0)
     want = _figures(path, profile, False, monkeypatch)
     assert repr(_figures(path, profile, True, monkeypatch)) == repr(want)
-
-
-@need_core
-def test_the_memo_is_used_on_a_real_file(monkeypatch):
-    """Y's streams take X's numbers: the memo is there after a pass."""
-    profile = load_profile("prusa-mk3s")
-    col = rg.Collector(profile)
-    memo = col.streams["y", "all"].memo
-    assert memo is col.streams["x", "all"].memo and memo is not col.streams["x", "ramp"].memo
-    assert col.streams["x", "all"].lead and not col.streams["y", "all"].lead
-    seen = []
-    keep = res.RingMemo.clear
-
-    def clear(self):               # Y's stream is done with X's numbers: they are there, then go
-        seen.append((self.amps is not None, self.pieces is not None))
-        keep(self)
-    monkeypatch.setattr(res.RingMemo, "clear", clear)
-    rg.play(os.path.join(SAMPLES, "prusa_gyroid.gcode"), profile, col)
-    col.figures()
-    assert seen and all(a and p for a, p in seen[::2])
-    assert memo.amps is None and memo.pieces is None

@@ -5477,7 +5477,7 @@ static inline Py_ssize_t ring_restart_stop(const double *t, Py_ssize_t n, Py_ssi
     return lo <= start ? start + 1 : lo;
 }
 
-/* ring_amps_run's and ring_solve_amps' state from event to event of a restart: the last time's bits and its
+/* ring_amps_run's state from event to event of a restart: the last time's bits and its
  * exponentials, e_dn, e_up, the running sum g, the memo's place */
 typedef struct {
     uint64_t tt_prev;
@@ -5485,13 +5485,8 @@ typedef struct {
     Py_ssize_t m_j;
 } RingEvState;
 
-/* use_m: 0, no memo for this restart; 1, the memo's entry for an event is searched by its
- * time; RING_MEMO_ALIGNED, the memo's times are the events' own (bit for bit, index for
- * index: ring_solve's Y stream after X's on the same events, 92 % of its calls on the gyroid
- * plate), so event i's entry is memo entry i -- no search */
-#define RING_MEMO_ALIGNED 2
-
-/* one event i of a restart from t0 with jump (dcr, dci): the restart loops' body (e_dn =
+/* one event i of a restart from t0 with jump (dcr, dci): the restart loop's body (use_m:
+ * the memo's entry for an event is searched by its time; 0: no memo for this restart) (e_dn =
  * (ex1 c2, ex1 s1) and e_up = (ex2 c2, ex2 s2) made once a time: the same products) */
 static inline __attribute__((always_inline)) void
 ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const double *t, double t0, double s,
@@ -5505,32 +5500,20 @@ ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const do
         double y2 = wd * tt, y1 = 0.0 - y2;
         int got = 0;
         if (use_m) {
-            if (use_m == RING_MEMO_ALIGNED) {
-                /* (event i's own entry, if made in a restart from t0: the same t and t0, the
-                 * same tt, the numbers the search below finds) */
-                if (ring_same(m_t0[i], t0)) {
-                    st->ex1 = m_v[4 * i];
-                    st->ex2 = m_v[4 * i + 1];
-                    st->c2 = m_v[4 * i + 2];
-                    st->s2 = m_v[4 * i + 3];
+            double ti = t[i];
+            Py_ssize_t m_j = st->m_j;
+            while (m_j < m_n && m_t[m_j] < ti)
+                m_j++;
+            st->m_j = m_j;
+            for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
+                if (ring_same(m_t0[k], t0)) {
+                    st->ex1 = m_v[4 * k];
+                    st->ex2 = m_v[4 * k + 1];
+                    st->c2 = m_v[4 * k + 2];
+                    st->s2 = m_v[4 * k + 3];
                     got = 1;
+                    break;
                 }
-            } else {
-                double ti = t[i];
-                Py_ssize_t m_j = st->m_j;
-                while (m_j < m_n && m_t[m_j] < ti)
-                    m_j++;
-                st->m_j = m_j;
-                for (Py_ssize_t k = m_j; k < m_n && ring_same(m_t[k], ti); k++)
-                    if (ring_same(m_t0[k], t0)) {
-                        st->ex1 = m_v[4 * k];
-                        st->ex2 = m_v[4 * k + 1];
-                        st->c2 = m_v[4 * k + 2];
-                        st->s2 = m_v[4 * k + 3];
-                        got = 1;
-                        break;
-                    }
-            }
         }
         if (!got) {
             double x1 = s * tt + 0.0, x2 = -s * tt;
@@ -5562,13 +5545,10 @@ ring_solve_event(RingEvState *st, Py_ssize_t i, double dcr, double dci, const do
     ring_cmul(fused, c0r + st->gr, c0i + st->gi, st->eur, st->eui, &c[2 * i], &c[2 * i + 1]);
 }
 
-/* Oscillator.amplitudes' restart loop (ring_amps' and ring_solve's): from event start with
+/* Oscillator.amplitudes' restart loop (ring_amps'): from event start with
  * the carried amplitude (cr, ci) at t_carry; returns the event it stopped at.  m_*: the memo
  * (m_n 0: none), o_*: this call's exponentials (NULL: not kept).  checks: stop before a
- * restart holding a time or a dc that is not finite (ring_amps: numpy does that restart);
- * 0: no such test (ring_solve's loop, ring_solve_amps, is this one without them: such a
- * number makes its amplitude, and so its piece's integral or the last amplitude, not
- * finite, which ring_solve tests once at the end). */
+ * restart holding a time or a dc that is not finite (numpy does that restart). */
 static inline __attribute__((always_inline)) Py_ssize_t
 ring_amps_run(const double *t, const double *dc, Py_ssize_t n, double s, double wd, double span,
               Py_ssize_t short_n, Py_ssize_t start, double cr, double ci, double t_carry, double *c,
@@ -5714,57 +5694,6 @@ done:
     return ret;
 }
 
-/* ring_solve's amplitudes: ring_amps_run's restart loop without its checks (ring_solve tests
- * the result once), each event's dc made as it goes (ring_jump_one of dr[i - off], drp[i -
- * off]; event 0's is (fr, fi), the carried amplitude, where off is 1) instead of in a pass of
- * its own through memory, and e_dn = (ex1 c2, ex1 s1), e_up = (ex2 c2, ex2 s2) made once a
- * time, not once an event (events at one time share them: the same products).  fused, out
- * (o_t0 / o_v given): constants at each call, a loop for each (no test an event).  The same
- * operations on the same numbers as ring_jumps_run then ring_amps_run: the same bits. */
-static inline __attribute__((always_inline)) Py_ssize_t
-ring_solve_amps(const double *t, const double *dr, const double *drp, int off, double fr, double fi,
-                Py_ssize_t n, double s, double wd, double span, Py_ssize_t short_n, double *c, int fused,
-                const double *m_t, const double *m_t0, const double *m_v, Py_ssize_t m_n, int m_aligned,
-                double *o_t0, double *o_v, int out)
-{
-    double rat = 0.0 / wd, scl = 1.0 / (wd + 0.0 * rat);       /* (ring_jumps_run's) */
-    Py_ssize_t start = 0, m_j = 0;
-    double cr = 0.0, ci = 0.0, t_carry = t[0];      /* (carry 0j from t[0]) */
-    while (start < n) {
-        double t0 = t[start];
-        if (!isfinite(t0))
-            break;
-        Py_ssize_t stop = ring_restart_stop(t, n, start, t0 + span);
-        if (stop - start >= short_n)
-            break;
-        double dt = t0 - t_carry;
-        if (!isfinite(dt))
-            break;
-        double c0r, c0i;
-        ring_carry(cr, ci, s, wd, dt, &c0r, &c0i);
-        int use_m = m_n && ring_memo_restart(m_t, m_t0, m_n, t0, &m_j) ? (m_aligned ? RING_MEMO_ALIGNED : 1) : 0;
-        RingEvState st = {UINT64_MAX, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0, m_j};
-        Py_ssize_t i = start;
-        if (i < off) {          /* (event 0 with the carried amplitude: its loop has no such test) */
-            ring_solve_event(&st, i, fr, fi, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
-                             o_t0, o_v, out);
-            i++;
-        }
-        for (; i < stop; i++) {
-            double dcr, dci;
-            ring_jump_one(dr[i - off], drp[i - off], s, rat, scl, &dcr, &dci);
-            ring_solve_event(&st, i, dcr, dci, t, t0, s, wd, c0r, c0i, c, fused, use_m, m_t, m_t0, m_v, m_n,
-                             o_t0, o_v, out);
-        }
-        m_j = st.m_j;
-        cr = c[2 * (stop - 1)];
-        ci = c[2 * (stop - 1) + 1];
-        t_carry = t[stop - 1];
-        start = stop;
-    }
-    return start;
-}
-
 /* ring_int_r2(c, dur, decay2, qr, qi, four_s, rat, scl, real_major, work): resonance.py's
  * float(Oscillator.integral_r2_fin(c, dur).sum()) with decay2 = np.exp(-2 s dur) made by
  * numpy: osc2 = exp((qr + i qi) dur) as ring_exp, y = (c c)(osc2 - 1) by numpy's complex
@@ -5804,43 +5733,54 @@ typedef struct {
  * where they differ (their streams alternate call by call), neither cleared by the other's
  * calls; a third pair takes the older one's room, cleared. */
 typedef struct {
-    RingDur *slots;           /* NULL: none yet */
+    void *slots;              /* NULL: none yet */
     uint64_t qr, qi;          /* the pair's bits */
 } RingDurTable;
 static RingDurTable ring_dur[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
 
-/* the table for (qr, qi) (made or cleared as needed), or NULL without memory (then libm,
- * as without the table); taken once a call (ring_int_r2_run), not once a piece */
-static RingDur *ring_dur_table(double qr, double qi)
+/* the table of tabs for (qr, qi) (made or cleared as needed: `entry` bytes a slot, a
+ * uint64_t key then doubles), or NULL without memory; taken once a call, not once a piece */
+static void *ring_table(RingDurTable tabs[2], double qr, double qi, size_t entry)
 {
     uint64_t br, bi;
     memcpy(&br, &qr, sizeof br);
     memcpy(&bi, &qi, sizeof bi);
     for (int j = 0; j < 2; j++)
-        if (ring_dur[j].slots != NULL && ring_dur[j].qr == br && ring_dur[j].qi == bi) {
+        if (tabs[j].slots != NULL && tabs[j].qr == br && tabs[j].qi == bi) {
             if (j == 1) {               /* (the latest first) */
-                RingDurTable t = ring_dur[1];
-                ring_dur[1] = ring_dur[0];
-                ring_dur[0] = t;
+                RingDurTable t = tabs[1];
+                tabs[1] = tabs[0];
+                tabs[0] = t;
             }
-            return ring_dur[0].slots;
+            return tabs[0].slots;
         }
-    RingDurTable t = ring_dur[1];       /* the older one's room, or a new one */
-    ring_dur[1] = ring_dur[0];
+    RingDurTable t = tabs[1];           /* the older one's room, or a new one */
+    tabs[1] = tabs[0];
     if (t.slots == NULL)
-        t.slots = PyMem_Malloc(sizeof(RingDur) << RING_DUR_BITS);
-    ring_dur[0] = t;
+        t.slots = PyMem_Malloc(entry << RING_DUR_BITS);
+    tabs[0] = t;
     if (t.slots == NULL)
         return NULL;
     /* (an empty slot's numbers are NaN: a length whose bits are RING_DUR_NONE's -- a NaN
      * ring_solve does not test for before the table -- takes NaN from it, as from libm) */
-    for (size_t k = 0; k < ((size_t)1 << RING_DUR_BITS); k++) {
-        t.slots[k].key = RING_DUR_NONE;
-        t.slots[k].ex = t.slots[k].cs = t.slots[k].sn = NAN;
+    size_t words = entry / sizeof(uint64_t);
+    uint64_t nan_bits, *w = t.slots;
+    double nan_ = NAN;
+    memcpy(&nan_bits, &nan_, sizeof nan_bits);
+    for (size_t k = 0; k < ((size_t)1 << RING_DUR_BITS); k++, w += words) {
+        w[0] = RING_DUR_NONE;
+        for (size_t j = 1; j < words; j++)
+            w[j] = nan_bits;
     }
-    ring_dur[0].qr = br;
-    ring_dur[0].qi = bi;
+    tabs[0].qr = br;
+    tabs[0].qi = bi;
     return t.slots;
+}
+
+/* ring_int_r2_run's table for (qr, qi) */
+static RingDur *ring_dur_table(double qr, double qi)
+{
+    return ring_table(ring_dur, qr, qi, sizeof(RingDur));
 }
 
 /* dur's set (its two slots) in a table of ring_dur_table */
@@ -5858,34 +5798,18 @@ static inline __attribute__((always_inline)) double ring_cabs(double cr, double 
     return sqrt(fma(ratio, ratio, 1.0)) * big;
 }
 
-/* max_abs_r's pieces, found while ring_int_r2_run has each piece's |c| at hand (ring_solve):
- * floor, the caller's peak so far; lo, np.abs(c.real).max() over the pieces; idx[0..n), the
- * pieces whose |c| (1 + 1e-9) is not below max(floor, lo) so far, in order -- the pieces
- * max_abs_r keeps (not below max(floor, lo)) are among them: lo only grows. */
-typedef struct {
-    double floor, lo;
-    Py_ssize_t *idx, n;
-} RingCand;
-
-/* integral_r2_fin's pieces (ring_int_r2's and ring_solve's) into v; 0 where a number is not
- * finite (checks; without checks every piece is made: a number that is not finite gives a v
- * that is not finite, which ring_solve finds in their sum).  dur: the pieces' lengths, or
- * NULL: np.diff of the events' times t_s (n + 1 of them) made here into dur_out.  decay2
- * NULL: np.exp(-2 s dur) is taken as the piece's exp(qr dur) (the same argument:
- * ring_solve's caller checked numpy's exp is libm's).  cand (or NULL): max_abs_r's
- * candidates (RingCand). */
+/* integral_r2_fin's pieces (ring_int_r2's) into v: c, dur, decay2 (np.exp(-2 s dur)) of n
+ * pieces starting at t_s (for the memo: m_*, m_n 0 none; o_v NULL: not kept); 0 where a
+ * number is not finite. */
 #define RING_ZERO_BIG 1e150       /* |Re c|, |Im c| below it: c^2 and |c|^2 are finite */
 
 static inline __attribute__((always_inline)) int
-ring_int_r2_run(const double *c, const double *dur, double *dur_out, const double *decay2, Py_ssize_t n,
-                double qr, double qi, double four_s, double rat, double scl, int real_major, const double *t_s,
-                const double *m_t, const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v,
-                double *v, RingCand *cand, int checks, int out)
+ring_int_r2_run(const double *c, const double *dur, const double *decay2, Py_ssize_t n, double qr, double qi,
+                double four_s, double rat, double scl, int real_major, const double *t_s, const double *m_t,
+                const double *m_d, const double *m_v, Py_ssize_t m_n, double *o_v, double *v)
 {
     int ok = 1;
     Py_ssize_t m_j = 0;
-    double lo = 0.0;            /* (|c| are not below +0.0: np.max's value, NaN aside) */
-    Py_ssize_t n_cand = 0;
     RingDur *table = n > 0 ? ring_dur_table(qr, qi) : NULL;
     /* pieces of one length (0: events at one time) share exp and sincos: the previous
      * piece's and the last zero-length piece's are kept (same bits in, same out) */
@@ -5897,20 +5821,12 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
     /* A piece of length +0 (events at one time: about half the pieces) whose exp(q 0) is
      * 1 + 0i and whose decay2 is 1 has v = +0 exactly for |c| below RING_ZERO_BIG: y = c^2
      * (osc2 - 1) is a complex zero (c^2 finite), q a zero (rat, scl finite), |c|^2 (1 -
-     * 1) / four_s is +0 (four_s > 0), and +0 + (+-0) is +0.  Its peak, max(|Re c|, the
-     * end's |Re c e^0| = |Re c|), is not above lo (which holds its |Re c|), but it stays
-     * a candidate as before (the pieces handed back are the same).  zero_v: those scalars
-     * hold (the exponentials are checked once made). */
-    /* (out: o_v is given -- a constant at ring_solve_pieces' calls, as decay2 NULL or not:
-     * no test a piece; cand's floor and room held here, not read again a piece) */
-    double c_floor = cand ? cand->floor : 0.0;
-    Py_ssize_t *c_idx = cand ? cand->idx : NULL;
+     * 1) / four_s is +0 (four_s > 0), and +0 + (+-0) is +0.  zero_v: those scalars hold
+     * (the exponentials are checked once made). */
     int zero_call = isfinite(rat) && isfinite(scl) && four_s > 0.0 && isfinite(four_s), zero_v = 0;
     for (Py_ssize_t i = 0; i < n; i++) {
-        double t = dur ? dur[i] : t_s[i + 1] - t_s[i], cr = c[2 * i], ci = c[2 * i + 1];
-        if (!dur)
-            dur_out[i] = t;
-        if (checks && (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || (decay2 && !isfinite(decay2[i])))) {
+        double t = dur[i], cr = c[2 * i], ci = c[2 * i + 1];
+        if (!isfinite(t) || !isfinite(cr) || !isfinite(ci) || !isfinite(decay2[i])) {
             ok = 0;
             break;
         }
@@ -5919,25 +5835,14 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         if (d_bits == zero_bits && zero_v) {       /* (zero_v: have_zero too) */
             /* (|Re c| + |Im c| below RING_ZERO_BIG: both are -- the rounded sum is not below
              * either; a piece it leaves out takes the general steps, the same +0) */
-            double ar_ = fabs(cr), sum_a = ar_ + fabs(ci);
-            if (sum_a < RING_ZERO_BIG && (!decay2 || decay2[i] == 1.0)) {
+            if (fabs(cr) + fabs(ci) < RING_ZERO_BIG && decay2[i] == 1.0) {
                 /* (d_prev, ex, cs, sn are left as they are, still a length and its exponentials:
                  * one instruction less here, about half the pieces; the next piece of another
                  * length goes to its lookup, of length zero here again) */
-                if (out) {
+                if (o_v) {
                     o_v[3 * i] = ex0;
                     o_v[3 * i + 1] = cs0;
                     o_v[3 * i + 2] = sn0;
-                }
-                if (cand) {
-                    /* (the candidate test as below; |c| made only where its upper bound,
-                     * (|Re c| + |Im c|) (1 + 1e-7) >= |c| as made, does not rule it out) */
-                    double thr;
-                    lo = ar_ > lo ? ar_ : lo;
-                    thr = c_floor > lo ? c_floor : lo;
-                    if (!(sum_a * (1.0 + 1e-7) * (1.0 + 1e-9) < thr)
-                            && !(ring_cabs(cr, ci) * (1.0 + 1e-9) < thr))
-                        c_idx[n_cand++] = i;
                 }
                 v[i] = 0.0;
                 continue;
@@ -5999,13 +5904,12 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
                 cs0 = cs;
                 sn0 = sn;
                 have_zero = 1;
-                /* (without decay2, the decay is ex itself: 1 for every such piece, tested here once) */
-                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0 && (decay2 || ex == 1.0);
+                zero_v = zero_call && ex * cs - 1.0 == 0.0 && ex * sn - 0.0 == 0.0;
             }
         }
         d_prev = d_bits;
         have_prev = 1;
-        if (out) {
+        if (o_v) {
             o_v[3 * i] = ex;
             o_v[3 * i + 1] = cs;
             o_v[3 * i + 2] = sn;
@@ -6015,22 +5919,7 @@ ring_int_r2_run(const double *c, const double *dur, double *dur_out, const doubl
         ring_cmul(1, c2r, c2i, ex * cs - 1.0, ex * sn - 0.0, &yr, &yi);
         double a = ring_cabs(cr, ci);
         double q = real_major ? (yr + yi * rat) * scl : (yr * rat + yi) * scl;
-        if (cand) {
-            double ar_ = fabs(cr);
-            lo = ar_ > lo ? ar_ : lo;
-            if (!(a * (1.0 + 1e-9) < (c_floor > lo ? c_floor : lo)))
-                c_idx[n_cand++] = i;
-        }
-        if (checks && !decay2 && !isfinite(ex)) {         /* (as a decay2 that is not finite) */
-            ok = 0;
-            break;
-        }
-        double d2 = decay2 ? decay2[i] : ex;   /* (np.exp(-2 s dur): ex, once the caller checked it is) */
-        v[i] = a * a * (1.0 - d2) / four_s + q;
-    }
-    if (cand) {
-        cand->lo = lo;
-        cand->n = n_cand;
+        v[i] = a * a * (1.0 - decay2[i]) / four_s + q;
     }
     return ok;
 }
@@ -6080,8 +5969,8 @@ RING_CLONES static PyObject *mod_ring_int_r2(PyObject *self, PyObject *args)
     const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
     const double *decay2 = (const double *)eb.buf;
     double *v = (double *)wb.buf;
-    int ok = ring_int_r2_run(c, dur, NULL, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v,
-                             m_n, o_v, v, NULL, 1, o_v != NULL);
+    int ok = ring_int_r2_run(c, dur, decay2, n, qr, qi, four_s, rat, scl, real_major, t_s, m_t, m_d, m_v, m_n,
+                             o_v, v);
     if (ok)
         ret = PyFloat_FromDouble(-0.0 + np_pairwise_sum(v, n));
     else {
@@ -6106,17 +5995,13 @@ fail:
     goto done;
 }
 
-/* numpy's complex exp of lam t (lam = lr + i li, t real, as ring_exp with a = lr, b = li)
- * times c, its real part's absolute: |np.real(c * np.exp(lam * t))| */
+/* |np.real(c * np.exp(lam * t))| (lam = lr + i li, t real): libm's exp, cos, sin */
 static inline __attribute__((always_inline)) double
-ring_re_abs(int fused, double cr, double ci, double lr, double li, double t)
+ring_re_abs(double cr, double ci, double lr, double li, double t)
 {
-    double x = lr * t - li * 0.0, y = lr * 0.0 + li * t;
-    double ex = ring_libm_exp(x), cs, sn;
-    ring_sincos(y, &sn, &cs);
-    double pr, pi;
-    ring_cmul(fused, cr, ci, ex * cs, ex * sn, &pr, &pi);
-    return fabs(pr);
+    double ex = ring_libm_exp(lr * t), cs, sn;
+    ring_sincos(li * t, &sn, &cs);
+    return fabs(cr * (ex * cs) - ci * (ex * sn));
 }
 
 static inline double ring_npmax(double a, double b)     /* np.maximum(a, b) */
@@ -6138,177 +6023,170 @@ static inline double ring_npmod(double a, double b)
 
 /* Oscillator.peak_abs_r of one piece (c, finite d): the largest of |Re c|, the end's |r|
  * and, if it is inside, the first extremum's (phi = np.angle(lam c), tau = np.mod(pi / 2 -
- * phi, pi) / wd), each as numpy makes it (fused: numpy's complex product mode) */
+ * phi, pi) / wd) */
 static inline __attribute__((always_inline)) double
-ring_peak_one(int fused, double cr, double ci, double d, double lr, double li, double wd)
+ring_peak_one(double cr, double ci, double d, double lr, double li, double wd)
 {
     double best = fabs(cr);
-    double end = ring_re_abs(fused, cr, ci, lr, li, d);
+    double end = ring_re_abs(cr, ci, lr, li, d);
     best = ring_npmax(best, end);
-    double lr_c, li_c;
-    ring_cmul(fused, lr, li, cr, ci, &lr_c, &li_c);
-    double phi = atan2(li_c, lr_c);
+    double phi = atan2(lr * ci + li * cr, lr * cr - li * ci);
     double tau = ring_npmod(0.5 * M_PI - phi, M_PI) / wd;
-    double ext = tau < d ? ring_re_abs(fused, cr, ci, lr, li, tau) : 0.0;
+    double ext = tau < d ? ring_re_abs(cr, ci, lr, li, tau) : 0.0;
     return ring_npmax(best, ext);
 }
 
-/* ring_peak(c, dur, lr, li, wd, fused, out, out_abs) -> False (partly written) at a number
- * that is not finite, else True: out[i] = Oscillator.peak_abs_r(c, dur)[i] for finite dur,
- * out_abs[i] = np.abs(c)[i], as numpy makes them (resonance.py checks them on a probe
- * before ring_solve takes its max_abs_r). */
-RING_CLONES static PyObject *mod_ring_peak(PyObject *self, PyObject *args)
-{
-    Py_buffer cb, db, ob, ab;
-    double lr, li, wd;
-    int fused;
-    ring_exp_init();
-    if (!PyArg_ParseTuple(args, "y*y*dddpw*w*:ring_peak", &cb, &db, &lr, &li, &wd, &fused, &ob, &ab))
-        return NULL;
-    Py_ssize_t n = db.len / (Py_ssize_t)sizeof(double);
-    PyObject *ret = NULL;
-    if (cb.len != 2 * db.len || ob.len != db.len || ab.len != db.len) {
-        PyErr_SetString(PyExc_ValueError, "ring_peak: c, dur, out, out_abs of one length");
-        goto done;
-    }
-    const double *c = (const double *)cb.buf, *dur = (const double *)db.buf;
-    double *o = (double *)ob.buf, *oa = (double *)ab.buf;
-    int ok = 1;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        double cr = c[2 * i], ci = c[2 * i + 1], d = dur[i];
-        if (!isfinite(cr) || !isfinite(ci) || !isfinite(d)) {
-            ok = 0;
-            break;
-        }
-        oa[i] = ring_cabs(cr, ci);
-        o[i] = ring_peak_one(fused, cr, ci, d, lr, li, wd);
-    }
-    ret = PyBool_FromLong(ok);
-done:
-    PyBuffer_Release(&cb);
-    PyBuffer_Release(&db);
-    PyBuffer_Release(&ob);
-    PyBuffer_Release(&ab);
-    return ret;
-}
+/* ring_solve's steps: the tables of its pieces' numbers by their length d (bits), kept from
+ * call to call for one oscillator (-s, wd): E = exp(lam d) (the amplitude's step across the
+ * piece, by libm's exp and sincos as numpy's complex exp takes them), and the piece's r^2
+ * integral as a quadratic form in its amplitude c: int_0^d |Re(c e^(lam u))|^2 du =
+ * |c|^2 a + Re(c^2 w), a = (1 - exp(-2 s d)) / (4 s), w = (exp(2 lam d) - 1) / (4 lam)
+ * (integral_r2_fin's formula, its scalars made once a length, not once a piece).  The
+ * plates' pieces are of few lengths (a move's ramps last (v - v0) / a, the same for many
+ * moves): most pieces find theirs in the table, filled by the streams before (X's and
+ * Y's, the parts: one oscillator). */
+typedef struct {
+    uint64_t key;             /* d's bits; RING_DUR_NONE: empty */
+    double er, ei, a, wr, wi;
+} RingStep;
+static RingDurTable ring_step[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
 
-/* an optional buffer: o None -> 0 (not there), else 1 with b filled of len doubles (or any
- * length: len < 0); -1 with an exception */
-static int ring_opt_buf(PyObject *o, Py_buffer *b, int writable, Py_ssize_t len, const char *what)
-{
-    if (o == Py_None)
-        return 0;
-    if (PyObject_GetBuffer(o, b, writable ? PyBUF_WRITABLE : PyBUF_SIMPLE) < 0)
-        return -1;
-    if (len >= 0 && b->len != len * (Py_ssize_t)sizeof(double)) {
-        PyErr_Format(PyExc_ValueError, "ring_solve: %s has the wrong length", what);
-        PyBuffer_Release(b);
-        return -1;
-    }
-    return 1;
-}
+/* the oscillator's constants for its steps: lam = lr + i li, q = 2 lam (qr, qi), four_s;
+ * the division by 4 lam by Smith's method (rat, scl; real_major: its first branch) */
+typedef struct {
+    double lr, li, qr, qi, four_s, rat, scl;
+    int real_major;
+} RingStepK;
 
-/* an optional tuple of k buffers (ring_solve's memos and outs): tup None -> 0 (not there),
- * else 1 with b[0..k) filled, buffer j holding lens[j] doubles (any length: lens[j] < 0);
- * -1 with an exception and no buffer held */
-static int ring_opt_bufs(PyObject *tup, int k, Py_buffer *b, int writable, const Py_ssize_t *lens,
-                         const char *what)
+/* e's numbers for length d (libm's exp, sincos) */
+static __attribute__((noinline)) void ring_step_make(RingStep *e, double d, const RingStepK *k)
 {
-    if (tup == Py_None)
-        return 0;
-    if (!PyTuple_Check(tup) || PyTuple_GET_SIZE(tup) != k) {
-        PyErr_Format(PyExc_TypeError, "ring_solve: %s must be a tuple of %d buffers", what, k);
-        return -1;
-    }
-    for (int j = 0; j < k; j++) {
-        int r = ring_opt_buf(PyTuple_GET_ITEM(tup, j), &b[j], writable, lens[j], what);
-        if (r <= 0) {
-            if (r == 0)
-                PyErr_Format(PyExc_TypeError, "ring_solve: %s", what);
-            while (j-- > 0)
-                PyBuffer_Release(&b[j]);
-            return -1;
-        }
-    }
-    return 1;
-}
-
-/* ring_solve's pieces (ring_int_r2_run into v, dur, cand): a function of its own (its loops'
- * registers are not the rest of ring_solve's), with a copy of the loop for each branch of
- * _real_quotient, with and without the memo's out, with and without numpy's decay2: constants
- * in each, not tests a piece */
-RING_CLONES static __attribute__((noinline, nonnull(18))) void
-ring_solve_pieces(const double *c, double *dur, const double *d2, Py_ssize_t np_, double qr, double qi,
-                  double four_s, double rat, double scl, int real_major, const double *t, const double *q_t,
-                  const double *q_d, const double *q_v, Py_ssize_t q_n, double *r_v, double *v, RingCand *cand)
-{
-#define RING_INT_R2_SOLVE(major, d2_, out_)                                                              \
-    ring_int_r2_run(c, NULL, dur, d2_, np_, qr, qi, four_s, rat, scl, major, t, q_t, q_d, q_v, q_n,      \
-                    out_ ? r_v : NULL, v, cand, 0, out_)
-    if (d2 == NULL) {
-        if (real_major && r_v)
-            RING_INT_R2_SOLVE(1, NULL, 1);
-        else if (real_major)
-            RING_INT_R2_SOLVE(1, NULL, 0);
-        else if (r_v)
-            RING_INT_R2_SOLVE(0, NULL, 1);
-        else
-            RING_INT_R2_SOLVE(0, NULL, 0);
+    double ex = ring_libm_exp(k->lr * d), cs, sn;
+    ring_sincos(k->li * d, &sn, &cs);
+    e->er = ex * cs;
+    e->ei = ex * sn;
+    double ex2 = ring_libm_exp(k->qr * d), cs2, sn2;
+    ring_sincos(k->qi * d, &sn2, &cs2);
+    double yr = ex2 * cs2 - 1.0, yi = ex2 * sn2;
+    e->a = (1.0 - ex2) / k->four_s;
+    if (k->real_major) {
+        e->wr = (yr + yi * k->rat) * k->scl;
+        e->wi = (yi - yr * k->rat) * k->scl;
     } else {
-        if (real_major && r_v)
-            RING_INT_R2_SOLVE(1, d2, 1);
-        else if (real_major)
-            RING_INT_R2_SOLVE(1, d2, 0);
-        else if (r_v)
-            RING_INT_R2_SOLVE(0, d2, 1);
-        else
-            RING_INT_R2_SOLVE(0, d2, 0);
+        e->wr = (yr * k->rat + yi) * k->scl;
+        e->wi = (yi * k->rat - yr) * k->scl;
     }
-#undef RING_INT_R2_SOLVE
 }
 
-/* ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl,
- * real_major, amps_memo, amps_out, pieces_memo, pieces_out): ringing.py's _Stream._solve
- * in one pass: the events' amplitudes (ring_jumps' jump_amplitude of dr, drp; after the
- * carried amplitude `first` at t[0], a complex, when it is not None), amplitudes' restarts
- * (ring_amps), the pieces' lengths np.diff(t), integral_r2_fin's sum over them (ring_int_r2,
- * np.exp(-2 s dur) as the piece's exp(qr dur): resonance.py checked numpy's real exp is
- * libm's) and max_abs_r (ring_peak's pieces, where |c| (1 + 1e-9) is not below the largest
- * |Re c|; |c| is int_r2's).  amps_memo (mt, mt0, mv) / amps_out (ot0, ov): ring_amps' memo;
- * pieces_memo (ts, dur, v) / pieces_out (dur_out, v_out): ring_int_r2's (the pieces' starts
- * are t[:-1]; dur_out gets np.diff(t)).  Returns None where _solve must do it itself (a
- * restart of short_n events or more, a number that is not finite), else (sum or None, peak
- * or None (one event: no piece), the last amplitude).
- *
- * Where numpy's own SIMD loops (AVX-512: its exp and arctan2 are not libm's) do not give
- * libm's bits, two optional arguments leave those two steps to numpy: decay2 (np_ doubles,
- * np.exp(-2 s np.diff(t)) as numpy made it; None: exp(qr dur) here) and numpy_peak (true:
- * max_abs_r's pieces not ruled out are handed back instead of solved: the result is then
- * (sum, lo, the last amplitude, their c as bytes of complex, their dur as bytes) and the
- * caller takes np.maximum(lo, peak_abs_r(c, dur).max()); lo = np.abs(c.real).max()).
- * floor (0.0 if not given): a peak the caller already has (of earlier chunks); pieces
- * whose |c| (1 + 1e-9) is below it are ruled out too (|r| <= |c| on a piece: they cannot
- * raise the caller's max; the peak returned may then be below floor). */
+/* the numbers of length d (bits d_bits): its set's slot, made on a miss (two slots a set,
+ * the one used last first) */
+static inline __attribute__((always_inline)) const RingStep *
+ring_step_get(RingStep *table, double d, uint64_t d_bits, const RingStepK *k)
+{
+    RingStep *set = table + 2 * ((d_bits * 0x9E3779B97F4A7C15ULL) >> (64 - RING_DUR_SET_BITS));
+    if (set[0].key == d_bits)
+        return set;
+    RingStep old = set[0];
+    if (set[1].key == d_bits)
+        set[0] = set[1];
+    else {
+        set[0].key = d_bits;
+        ring_step_make(set, d, k);
+    }
+    set[1] = old;
+    return set;
+}
+
+/* max_abs_r's pieces, found while ring_solve_run has each piece's |c| at hand: floor, the
+ * caller's peak so far; lo, np.abs(c.real).max() over the pieces; idx[0..n), the pieces
+ * whose |c| (1 + 1e-9) may not be below max(floor, lo) so far, in order -- the pieces
+ * max_abs_r keeps (not below max(floor, lo)) are among them: lo only grows. */
+typedef struct {
+    double floor, lo;
+    Py_ssize_t *idx, n;
+} RingCand;
+
+/* _Stream._solve's amplitudes and pieces in one pass: c_0 the carried amplitude (fr, fi;
+ * off 1) or event 0's jump, then c_i = c_(i-1) exp(lam d) + dc_i over each piece of length
+ * d = t[i] - t[i-1], dc_i = jump_amplitude(dr[i - off], drp[i - off]) = dr - i (drp + s dr)
+ * / wd: the recursion of Oscillator.amplitudes' sum (each step decays, so its rounding
+ * stays relative to what still rings, without restarts); each piece's r^2 integral into v
+ * (none for pieces of length +0, events at one time -- 42 % of the plates': 0), its length
+ * into dur, max_abs_r's candidates into cand.  Plain double arithmetic (no fused
+ * multiply-add: the same numbers on any x86-64).  Returns the number of integrals in v. */
+static __attribute__((noinline)) Py_ssize_t
+ring_solve_run(const double *t, const double *dr, const double *drp, int off, double fr, double fi, Py_ssize_t n,
+               double s, double wd, RingStep *table, const RingStepK *k, double *c, double *dur, double *v,
+               RingCand *cand)
+{
+    double inv_wd = 1.0 / wd, cr = fr, ci = fi, lo = 0.0, c_floor = cand->floor;
+    Py_ssize_t nv = 0, n_cand = 0, *c_idx = cand->idx;
+    if (!off) {
+        cr = dr[0];
+        ci = -((drp[0] + s * dr[0]) * inv_wd);
+    }
+    c[0] = cr;
+    c[1] = ci;
+    for (Py_ssize_t i = 1; i < n; i++) {
+        double d = t[i] - t[i - 1];
+        uint64_t d_bits;
+        memcpy(&d_bits, &d, sizeof d_bits);
+        dur[i - 1] = d;
+        double ar = fabs(cr);
+        lo = ar > lo ? ar : lo;
+        if (d_bits != 0) {
+            /* (a piece of length +0 has no integral, and its peak, |Re c|, is in lo: no
+             * candidate; exp(lam 0) is 1) */
+            const RingStep *e = ring_step_get(table, d, d_bits, k);
+            double n2 = cr * cr + ci * ci, c2r = cr * cr - ci * ci, c2i = 2.0 * cr * ci;
+            v[nv++] = n2 * e->a + (c2r * e->wr - c2i * e->wi);
+            /* a candidate while |c| (1 + 1e-9) may not be below max(floor, lo) -- |c|^2 with
+             * a margin over its rounding (mod_ring_solve tests |c| itself); NaN kept */
+            double thr = c_floor > lo ? c_floor : lo;
+            if (!(n2 * (1.0 + 4e-9) < thr * thr))
+                c_idx[n_cand++] = i - 1;
+            double pr = cr * e->er - ci * e->ei, pi = cr * e->ei + ci * e->er;
+            cr = pr;
+            ci = pi;
+        }
+        double x = drp[i - off] + s * dr[i - off];
+        cr = cr + dr[i - off];
+        ci = ci - x * inv_wd;
+        c[2 * i] = cr;
+        c[2 * i + 1] = ci;
+    }
+    cand->lo = lo;
+    cand->n = n_cand;
+    return nv;
+}
+
+/* ring_solve(t, dr, drp, first, s, wd, qr, qi, four_s, rat, scl, real_major[, floor]):
+ * ringing.py's _Stream._solve in one pass: the events' amplitudes (Oscillator.
+ * jump_amplitude of dr, drp; after the carried amplitude `first` at t[0], a complex, when
+ * it is not None) by the recursion of ring_solve_run, the sum of the pieces' r^2 integrals
+ * (integral_r2_fin's; qr, qi: 2 lam; four_s, rat, scl, real_major: resonance._int_r2_args')
+ * and max_abs_r (the peak of the pieces where |c| (1 + 1e-9) is not below the largest
+ * |Re c|).  The figures of numpy's steps (Oscillator.amplitudes' restarts of a cumulative
+ * sum) to rounding, not their bits.  Returns None where a number is not finite (the
+ * caller's steps), else (sum or None, peak or None (one event: no piece), the last
+ * amplitude).  floor (0.0 if not given): a peak the caller already has (of earlier
+ * chunks); pieces whose |c| (1 + 1e-9) is below it are ruled out too (|r| <= |c| on a
+ * piece: they cannot raise the caller's max; the peak returned may then be below floor). */
 static double *ring_scratch = NULL;          /* ring_solve's room */
 static size_t ring_scratch_n = 0;
 
-RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
+static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
 {
     Py_buffer tb, rb, pb;
-    PyObject *first, *am, *ao, *pm, *po, *d2o = Py_None;
-    double s, wd, span, qr, qi, four_s, rat, scl;
-    Py_ssize_t short_n;
-    int fused, real_major, numpy_peak = 0;
+    PyObject *first;
+    double s, wd, qr, qi, four_s, rat, scl;
+    int real_major;
     double floor_ = 0.0;
     ring_exp_init();
-    if (!PyArg_ParseTuple(args, "y*y*y*Odddnpdddddp" "OOOO|Opd:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &span,
-                          &short_n, &fused, &qr, &qi, &four_s, &rat, &scl, &real_major, &am, &ao, &pm, &po,
-                          &d2o, &numpy_peak, &floor_))
+    if (!PyArg_ParseTuple(args, "y*y*y*Odddddddp|d:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &qr, &qi,
+                          &four_s, &rat, &scl, &real_major, &floor_))
         return NULL;
     PyObject *ret = NULL;
-    Py_buffer mb[3], ob[2], qb[3], rb2[2], d2b;
-    int have_m = 0, have_o = 0, have_q = 0, have_r = 0, have_d2 = 0;
-    double *c = NULL, *work = NULL;
     Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
     int off = first != Py_None;
     double fr = 0.0, fi = 0.0;
@@ -6323,28 +6201,12 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "ring_solve: dr, drp must hold len(t) (less the carried one) numbers");
         goto done;
     }
-    Py_ssize_t np_ = n > 0 ? n - 1 : 0;         /* pieces */
-    /* the memos */
-    const Py_ssize_t any3[3] = {-1, -1, -1}, olen[2] = {n, 4 * n}, plen[2] = {np_, 3 * np_};
-    if ((have_m = ring_opt_bufs(am, 3, mb, 0, any3, "amps_memo")) < 0
-            || (have_o = ring_opt_bufs(ao, 2, ob, 1, olen, "amps_out")) < 0
-            || (have_q = ring_opt_bufs(pm, 3, qb, 0, any3, "pieces_memo")) < 0
-            || (have_r = ring_opt_bufs(po, 2, rb2, 1, plen, "pieces_out")) < 0
-            || (have_d2 = ring_opt_buf(d2o, &d2b, 0, np_, "decay2")) < 0)
-        goto done;
-    if (have_m && (mb[1].len != mb[0].len || mb[2].len != 4 * mb[0].len)) {
-        PyErr_SetString(PyExc_ValueError, "ring_solve: amps_memo lengths");
-        goto done;
-    }
-    if (have_q && (qb[1].len != qb[0].len || qb[2].len != 3 * qb[0].len)) {
-        PyErr_SetString(PyExc_ValueError, "ring_solve: pieces_memo lengths");
-        goto done;
-    }
     if (n == 0) {
         ret = Py_None;
         Py_INCREF(ret);
         goto done;
     }
+    Py_ssize_t np_ = n - 1;                      /* pieces */
     const double *t = (const double *)tb.buf, *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
     /* (4 n: 2 n more than the amplitudes take -- the room of the dc pass there was: with
@@ -6361,58 +6223,32 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         ring_scratch = p;
         ring_scratch_n = want;
     }
-    c = ring_scratch;
-    work = c + 2 * n;
-    double *dur = have_r ? (double *)rb2[0].buf : work;
-    double *v = work + np_;
+    RingStep *table = ring_table(ring_step, -s, wd, sizeof(RingStep));
+    if (table == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *c = ring_scratch, *work = c + 2 * n;
+    double *dur = work, *v = work + np_;
     /* (max_abs_r's candidates: indices, in room of a double each) */
     RingCand cand = {floor_, 0.0, (Py_ssize_t *)(void *)(work + 2 * np_), 0};
     /* No number is tested for being finite on the way: one that is not (in t, dr, drp,
      * first, or made from them) gives an amplitude that is not finite from its event on
-     * (the cumulative sum carries it), so that event's piece's integral (v) too -- or the
-     * last amplitude, which has no piece -- and a sum of terms one of which is not finite
-     * is not finite.  Both are tested once at the end: None (the caller's steps) then, as
-     * at the first such number before.  (A finite sum can overflow too: the caller's steps
-     * then give that same sum.) */
-    /* the events' jumps and amplitudes (a loop for each numpy product mode, with and
-     * without the memo's out) */
-    const double *m_t = have_m ? (const double *)mb[0].buf : NULL;
-    const double *m_t0 = have_m ? (const double *)mb[1].buf : NULL;
-    const double *m_v = have_m ? (const double *)mb[2].buf : NULL;
-    Py_ssize_t m_n = have_m ? mb[0].len / (Py_ssize_t)sizeof(double) : 0;
-    double *o_t0 = have_o ? (double *)ob[0].buf : NULL, *o_v = have_o ? (double *)ob[1].buf : NULL;
-    /* the memo made on these very times (bit for bit): its entries index for index */
-    int m_al = m_n == n && memcmp(m_t, t, (size_t)n * sizeof(double)) == 0;
-    Py_ssize_t got;
-    if (fused && have_o)
-        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 1, m_t, m_t0, m_v, m_n, m_al,
-                              o_t0, o_v, 1);
-    else if (fused)
-        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 1, m_t, m_t0, m_v, m_n, m_al,
-                              NULL, NULL, 0);
-    else if (have_o)
-        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 0, m_t, m_t0, m_v, m_n, m_al,
-                              o_t0, o_v, 1);
-    else
-        got = ring_solve_amps(t, dr, drp, off, fr, fi, n, s, wd, span, short_n, c, 0, m_t, m_t0, m_v, m_n, m_al,
-                              NULL, NULL, 0);
+     * (the recursion carries it: a NaN stays one, and inf times a step of 0 is NaN), so
+     * the last amplitude is not finite.  It is tested once at the end, and the sum: None
+     * (the caller's steps) then.  (A finite sum can overflow too: the caller's steps then
+     * give that same sum.) */
+    const RingStepK k = {-s, wd, qr, qi, four_s, rat, scl, real_major};
+    Py_ssize_t nv = ring_solve_run(t, dr, drp, off, fr, fi, n, s, wd, table, &k, c, dur, v, &cand);
     double c_last_r = c[2 * (n - 1)], c_last_i = c[2 * (n - 1) + 1];
-    if (got != n || !isfinite(c_last_r) || !isfinite(c_last_i)) {
+    if (!isfinite(c_last_r) || !isfinite(c_last_i)) {
         ret = Py_None;
         Py_INCREF(ret);
         goto done;
     }
     PyObject *sum = NULL, *peak = NULL;
     if (np_ > 0) {
-        const double *d2 = have_d2 ? (const double *)d2b.buf : NULL;
-        const double *q_t = have_q ? (const double *)qb[0].buf : NULL;
-        const double *q_d = have_q ? (const double *)qb[1].buf : NULL;
-        const double *q_v = have_q ? (const double *)qb[2].buf : NULL;
-        Py_ssize_t q_n = have_q ? qb[0].len / (Py_ssize_t)sizeof(double) : 0;
-        double *r_v = have_r ? (double *)rb2[1].buf : NULL;
-        ring_solve_pieces(c, dur, d2, np_, qr, qi, four_s, rat, scl, real_major, t, q_t, q_d, q_v, q_n, r_v, v,
-                          &cand);
-        double total = -0.0 + np_pairwise_sum(v, np_);
+        double total = -0.0 + np_pairwise_sum(v, nv);
         if (!isfinite(total)) {
             ret = Py_None;
             Py_INCREF(ret);
@@ -6423,41 +6259,22 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
          * raise its max), are those of the candidates; np.maximum */
         double lo = cand.lo;
         double thr = floor_ > lo ? floor_ : lo;
-        Py_ssize_t k = 0;
+        Py_ssize_t kk = 0;
         for (Py_ssize_t j = 0; j < cand.n; j++) {
             Py_ssize_t i = cand.idx[j];
             if (!(ring_cabs(c[2 * i], c[2 * i + 1]) * (1.0 + 1e-9) < thr))
-                cand.idx[k++] = i;
+                cand.idx[kk++] = i;
         }
         sum = PyFloat_FromDouble(total);
         if (sum == NULL)
             goto done;
-        if (numpy_peak) {
-            /* the pieces not ruled out, for numpy's peak_abs_r (its arctan2 and exp) */
-            PyObject *kc = PyBytes_FromStringAndSize(NULL, 2 * k * (Py_ssize_t)sizeof(double));
-            PyObject *kd = kc ? PyBytes_FromStringAndSize(NULL, k * (Py_ssize_t)sizeof(double)) : NULL;
-            if (kd == NULL) {
-                Py_XDECREF(kc);
-                Py_DECREF(sum);
-                goto done;
-            }
-            double *pc = (double *)PyBytes_AS_STRING(kc), *pd = (double *)PyBytes_AS_STRING(kd);
-            for (Py_ssize_t j = 0; j < k; j++) {
-                Py_ssize_t i = cand.idx[j];
-                pc[2 * j] = c[2 * i];
-                pc[2 * j + 1] = c[2 * i + 1];
-                pd[j] = dur[i];
-            }
-            ret = Py_BuildValue("NdDNN", sum, lo, &(Py_complex){c_last_r, c_last_i}, kc, kd);
-            goto done;
-        }
-        double lam_r = -s, lam_i = wd, pk = 0.0;
-        for (Py_ssize_t j = 0; j < k; j++) {
+        double pk = 0.0;
+        for (Py_ssize_t j = 0; j < kk; j++) {
             Py_ssize_t i = cand.idx[j];
-            double p = ring_peak_one(fused, c[2 * i], c[2 * i + 1], dur[i], lam_r, lam_i, wd);
+            double p = ring_peak_one(c[2 * i], c[2 * i + 1], dur[i], -s, wd, wd);
             pk = j == 0 || p > pk ? p : pk;
         }
-        peak = PyFloat_FromDouble(k > 0 ? ring_npmax(lo, pk) : lo);
+        peak = PyFloat_FromDouble(kk > 0 ? ring_npmax(lo, pk) : lo);
     } else {
         sum = Py_None;
         Py_INCREF(sum);
@@ -6470,21 +6287,7 @@ RING_CLONES static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         goto done;
     }
     ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c_last_r, c_last_i});
-done:                                        /* (have_x -1: that tuple's ring_opt_bufs failed, none held) */
-    if (have_m > 0)
-        for (int k = 0; k < 3; k++)
-            PyBuffer_Release(&mb[k]);
-    if (have_o > 0)
-        for (int k = 0; k < 2; k++)
-            PyBuffer_Release(&ob[k]);
-    if (have_q > 0)
-        for (int k = 0; k < 3; k++)
-            PyBuffer_Release(&qb[k]);
-    if (have_r > 0)
-        for (int k = 0; k < 2; k++)
-            PyBuffer_Release(&rb2[k]);
-    if (have_d2 > 0)
-        PyBuffer_Release(&d2b);
+done:
     PyBuffer_Release(&tb);
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);
@@ -6999,12 +6802,18 @@ static PyObject *mod_ring_release(PyObject *self, PyObject *noargs)
     PyMem_Free(ring_scratch);
     ring_scratch = NULL;
     ring_scratch_n = 0;
-    for (int j = 0; j < 2; j++)              /* (the pieces' tables: made again when next asked) */
+    for (int j = 0; j < 2; j++) {            /* (the pieces' tables: made again when next asked) */
         if (ring_dur[j].slots != NULL) {
             held += sizeof(RingDur) << RING_DUR_BITS;
             PyMem_Free(ring_dur[j].slots);
             ring_dur[j].slots = NULL;
         }
+        if (ring_step[j].slots != NULL) {
+            held += sizeof(RingStep) << RING_DUR_BITS;
+            PyMem_Free(ring_step[j].slots);
+            ring_step[j].slots = NULL;
+        }
+    }
     return PyLong_FromSize_t(held);
 }
 
@@ -7169,11 +6978,9 @@ static PyMethodDef mod_methods[] = {
      "ring_rows_time(m, r0, r1): float(m[r0:r1, 6:9].sum()), numpy's bits"},
     {"ring_jumps", mod_ring_jumps, METH_VARARGS,
      "ring_jumps(dr, drp, s, wd, out): Oscillator.jump_amplitude"},
-    {"ring_peak", mod_ring_peak, METH_VARARGS,
-     "ring_peak(c, dur, lr, li, wd, fused, out, out_abs): Oscillator.peak_abs_r and np.abs(c)"},
     {"ring_solve", mod_ring_solve, METH_VARARGS,
-     "ring_solve(t, dr, drp, first, s, wd, span, short_n, fused, qr, qi, four_s, rat, scl, real_major, "
-     "amps_memo, amps_out, pieces_memo, pieces_out[, decay2, numpy_peak, floor]): _Stream._solve"},
+     "ring_solve(t, dr, drp, first, s, wd, qr, qi, four_s, rat, scl, real_major[, floor]): "
+     "_Stream._solve"},
     {"ring_release", mod_ring_release, METH_NOARGS,
      "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"jerk_tail", mod_jerk_tail, METH_VARARGS,

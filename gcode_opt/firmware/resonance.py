@@ -68,6 +68,12 @@ def _core():
     (USE_KERNEL), or before PROBE_AFTER events."""
     if _EVENTS_SEEN[0] < PROBE_AFTER:
         return None
+    return _core_built()
+
+
+def _core_built():
+    """The compiled core (with the ringing's functions), or None: without it, or turned off
+    (USE_KERNEL)."""
     global _SIMULATE
     simulate = _SIMULATE
     if simulate is None:
@@ -89,7 +95,6 @@ _PROBE = [None, None]     # the last span (its bits) _probe made times for, and 
 PROBE_GRID = 401          # _probe's evenly spaced times (and 400 geometric, 7 edge ones)
 PROBE_DRAWS = 500         # _probe's random times
 JUMPS_PROBE_N = 4000      # _jumps_core's jumps
-PEAK_PROBE_N = 4000       # _peak_ok's amplitudes and pieces
 
 
 def _probe(span):
@@ -280,51 +285,7 @@ def _int_r2_core(s, wd):
     return core if ok else None
 
 
-_SOLVE_OK = {}
 USE_SOLVE = True         # tests turn it off: _Stream._solve by the steps below (the reference)
-# tests set it True: ring_solve leaves np.exp(-2 s dur) and peak_abs_r to numpy even where
-# the core gives their bits (the path an AVX-512 numpy takes: its SIMD exp and arctan2 are
-# not libm's)
-SOLVE_NUMPY = False
-
-
-def _decay_ok(core, s):
-    """np.exp(-2.0 * s * dur) is libm's exp of the same argument (ring_exp's real part with
-    no imaginary rate: exp(a t - 0 * 0.0) cos(0)) on a probe of piece lengths."""
-    t = _probe(1e4)
-    got = np.empty(len(t), complex)
-    with np.errstate(under="ignore"):
-        want = np.exp(-2.0 * s * t)
-    return bool(core.ring_exp(t, -2.0 * s, 0.0, got)) and got.real.tobytes() == want.tobytes()
-
-
-def _peak_ok(core, s, wd, fused):
-    """ring_peak gives peak_abs_r's and np.abs's numpy bits for this oscillator (with numpy's
-    complex product mode `fused`) on a probe of amplitudes and piece lengths: "core", or
-    "numpy" where only np.abs's are (peak_abs_r left to numpy), else None."""
-    osc = Oscillator.__new__(Oscillator)
-    osc.s, osc.wd, osc.lam = s, wd, complex(-s, wd)
-    c, dur = _peak_probe(s, wd)
-    n = len(c)
-    out, out_abs = np.empty(n), np.empty(n)
-    if not core.ring_peak(c, dur, -s, wd, wd, fused, out, out_abs) or out_abs.tobytes() != np.abs(c).tobytes():
-        return None
-    return "core" if out.tobytes() == osc.peak_abs_r(c, dur).tobytes() else "numpy"
-
-
-def _peak_probe(s, wd):
-    """(c, dur): _peak_ok's amplitudes (over many magnitudes; zeros, zero imaginary parts,
-    -0.0 real parts) and piece lengths (zeros, and 200 from 1e-12 to 100 / s)."""
-    rng = ProbeRng(19)
-    n = PEAK_PROBE_N
-    c = _complex_of(rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0),
-                    rng.normal(size=n) * np.exp(rng.normal(size=n) * 4.0))
-    c[rng.uniform(size=n) < 0.03] = 0.0
-    c.imag[rng.uniform(size=n) < 0.03] = 0.0
-    c.real[rng.uniform(size=n) < 0.03] = -0.0
-    dur = rng.exponential(math.pi / wd, n) * (rng.uniform(size=n) < 0.95)
-    dur[:200] = np.geomspace(1e-12, 100.0 / s, 200)
-    return c, dur
 
 
 def _complex_of(re, im):
@@ -339,37 +300,13 @@ def _complex_of(re, im):
 
 
 def _solve_core(s, wd):
-    """(core, span, fused, np_decay, np_peak) where the core's ring_solve does _Stream._solve
-    for this oscillator with numpy's bits: every step it takes (ring_exps' pair, ring_jumps,
-    ring_amps' mode, ring_int_r2, np.abs) gave them on its probe; else None (and without
-    the core, or with any of those steps turned off).  np_decay / np_peak: numpy's real exp
-    (np.exp(-2 s dur)) / peak_abs_r (its arctan2, exp) are not libm's as the core takes
-    them (numpy's AVX-512 loops), or SOLVE_NUMPY: the caller hands ring_solve numpy's
-    decay2 / solves the pieces ring_solve hands back with numpy."""
+    """The core, whose ring_solve does _Stream._solve (no probe: its recursion gives the
+    numpy steps' figures to rounding, not their bits, from a run's first event on); None
+    without it, or with any of those steps turned off."""
     if not (USE_SOLVE and USE_AMPS and USE_JUMPS and USE_INT_R2):
         return None
-    core = _core()
-    if core is None or not hasattr(core, "ring_solve"):
-        return None
-    span = CHUNK_DECAY / s
-    if _kernel_for(("pair", s, wd), span) is None or _jumps_core(s, wd) is None \
-            or _int_r2_core(s, wd) is None:
-        return None
-    fused = _amps_mode(core, s, wd, span)
-    if fused is None:
-        return None
-    key = (s, wd, fused)
-    modes = _SOLVE_OK.get(key)
-    if modes is None:
-        # (ring_peak's exp(lam tau) is ring_exp's: the core's peak needs that kernel too)
-        peak = _peak_ok(core, s, wd, fused)
-        if peak == "core" and _kernel_for(("one", -s, wd), 1e4) is None:
-            peak = "numpy"
-        modes = _SOLVE_OK[key] = None if peak is None else (not _decay_ok(core, s), peak == "numpy")
-    if modes is None:
-        return None
-    np_decay, np_peak = modes
-    return core, span, fused, np_decay or SOLVE_NUMPY, np_peak or SOLVE_NUMPY
+    core = _core_built()
+    return core if core is not None and hasattr(core, "ring_solve") else None
 
 
 def release_solve_room():
@@ -625,75 +562,27 @@ class Oscillator:
                 return got
         return float(self.integral_r2_fin(c, dur).sum())
 
-    def solve(self, t, dr, drp, first, memo=None, keep=False, src=None, floor=0.0, pending=None):
+    def solve(self, t, dr, drp, first, floor=0.0):
         """_Stream._solve's numbers in one call of the core (ring_solve): the amplitudes of
         the events at t (jump_amplitude(dr, drp), after `first`, the carried amplitude at
         t[0], unless None), then over the pieces between them integral_r2_fin_sum and
         max_abs_r -- (sum, peak, last amplitude), sum and peak None for one event; None
-        where the core does not do it (not there or not checked, a long restart, a number
-        that is not finite): the caller takes the steps itself.  memo, keep: as amplitudes'
-        and integral_r2_fin_sum's (the same exponentials go in, the same come out); src
-        (a RingMemo of this oscillator, or None: memo): the memo taken from.
+        where the core does not do it (not there or turned off, a number that is not
+        finite): the caller takes the steps itself.  The amplitudes by their recursion,
+        c_k = c_(k-1) exp(lam (t_k - t_(k-1))) + dc_k, each piece length's numbers made
+        once (the core's table): the steps' figures to rounding, not their bits (closer to
+        the exact ones: tests/test_speed46_ring46_recursion.py).
 
         floor: a peak the caller has already (its earlier chunks' max): pieces whose |c|
         (1 + 1e-9) is below it are not solved (|r| <= |c| on a piece), and the peak
         returned is then only at least this chunk's largest |Re c|, not its max -- the
-        caller's max stays the same.  pending (a list), where numpy solves the peak: the
-        pieces to solve, as (c bytes, dur bytes), go there instead (pending_peak solves
-        them, in one numpy call for many chunks) and the peak returned is this chunk's
-        largest |Re c|."""
+        caller's max stays the same."""
         _seen(len(t))
-        got = _solve_core(self.s, self.wd)
-        if got is None:
+        core = _solve_core(self.s, self.wd)
+        if core is None:
             return None
-        core, span, fused, np_decay, np_peak = got
         t, dr, drp = (np.ascontiguousarray(a, np.float64) for a in (t, dr, drp))
-        n = len(t)
-        # numpy's np.exp(-2 s dur) (integral_r2_fin_sum's, over np.diff(t)) where the core's
-        # exp is not its
-        decay2 = np.exp(-2.0 * self.s * (t[1:] - t[:-1])) if np_decay and n > 1 else None
-        am = ao = pm = po = None
-        if memo is not None and USE_MEMO:
-            # (a lead stream reads src only: its own memo is the one it writes)
-            rd = memo if not keep else (src if src is not memo else None)
-            if rd is not None:
-                if rd.key == (self.s, self.wd, span) and rd.amps is not None:
-                    am = rd.amps
-                if rd.key_p == (self.s, self.wd) and rd.pieces is not None:
-                    pm = rd.pieces
-            if keep:
-                # (its arrays are about to be written)
-                memo.key = memo.amps = memo.key_p = memo.pieces = None
-                o_t0, o_v, o_dur, o_pv = memo.out(n)
-                ao, po = (o_t0, o_v), (o_dur, o_pv)
-        ret = core.ring_solve(t, dr, drp, first, self.s, self.wd, span, ELIDE_BYTES // 16, fused,
-                              *_int_r2_args(self.s, self.lam), am, ao, pm, po, decay2, np_peak, floor)
-        if ret is not None and len(ret) == 5:
-            # max_abs_r's last step by numpy: the pieces not ruled out (|c| (1 + 1e-9) not
-            # below lo, the largest |Re c|, nor floor), as max_abs_r solves them
-            i_r2, lo, c_last, kc, kd = ret
-            if pending is not None:
-                if kd:
-                    pending.append((kc, kd))
-                ret = (i_r2, lo, c_last)
-            else:
-                pk = self.peak_abs_r(np.frombuffer(kc, complex), np.frombuffer(kd, float))
-                ret = (i_r2, float(np.maximum(np.float64(lo), pk.max())) if len(pk) else lo, c_last)
-        if ret is not None and ao is not None:
-            memo.key, memo.amps = (self.s, self.wd, span), (t, ao[0], ao[1])
-            if n > 1:
-                memo.key_p, memo.pieces = (self.s, self.wd), (t[:-1], po[0], po[1])
-        return ret
-
-    def pending_peak(self, pending):
-        """The largest peak_abs_r of the pieces solve() left in `pending` (0.0 for none); it
-        empties the list."""
-        if not pending:
-            return 0.0
-        kc, kd = zip(*pending)
-        pending.clear()
-        dur = np.frombuffer(b"".join(kd), float)
-        return float(self.peak_abs_r(np.frombuffer(b"".join(kc), complex), dur).max()) if len(dur) else 0.0
+        return core.ring_solve(t, dr, drp, first, self.s, self.wd, *_int_r2_args(self.s, self.lam), floor)
 
     def peak_abs_r(self, c, dur):
         """Exact max |r| over each piece [0, dur): the larger of the start, the end and the

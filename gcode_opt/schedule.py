@@ -22,7 +22,7 @@ import math
 from collections import deque
 from functools import partial
 from itertools import compress, repeat
-from operator import attrgetter, is_, is_not
+from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
 
@@ -963,17 +963,27 @@ def _keep_made_plans(plan, strokes, idx, seg_failed, a2_orig):
     """_keep_plans of the plans a run wrote in plan.segs for the rows idx (sorted), which
     are None there again unless kept: KEEP_ROWS rows at a time, each row decided on its
     own (the int objects of idx's list, twice, were ~3.3 MB, the moment of the
-    rectilinear plate's planning peak).  a2_orig: every stroke's int_a2 (pin.I_orig)."""
+    rectilinear plate's planning peak).  a2_orig: every stroke's int_a2 (pin.I_orig).
+    The plans stay where they are and only the rows not kept are set to None (_keep_plans'
+    in_place): every row set to None, then the kept ones put back, was two list writes a
+    row through a method wrapper (~1.1 k instructions; ~80 M on the rectilinear plate)."""
     segs = plan.segs
     for a in range(0, idx.size, KEEP_ROWS):
         rows = idx[a:a + KEEP_ROWS]
         rows_l = rows.tolist()
-        seg_l = list(map(segs.__getitem__, rows_l))
-        deque(map(segs.__setitem__, rows_l, repeat(None)), maxlen=0)      # segs[i] = None
-        _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows])
+        seg_l = _items(segs, rows_l)
+        _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows], in_place=True)
 
 
-def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None):
+def _items(seq, at):
+    """[seq[i] for i in at] (at: a list of ints) by one itemgetter (~150 instructions an
+    item; the comprehension ~200, list(map(seq.__getitem__, at)) ~240)."""
+    if len(at) < 2:             # (itemgetter of one item gives it, not a tuple)
+        return [seq[i] for i in at]
+    return list(itemgetter(*at)(seq))
+
+
+def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None, in_place=False):
     """The segment plans seg_l (a list: row idx[q]'s plan, or None) of the rows idx (an int array) put on the plan:
     a row whose segmenting failed (seg_failed: its reason), whose plan has a fault
     (seg_fault), has none, or does not beat its original (beats) is left as sliced with
@@ -986,7 +996,8 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
     arrays (the same product and comparison of doubles), the kept rows put at once.
     idx_l: idx.tolist(), when the caller has it; a2_orig: the rows' strokes' int_a2 (a
     float array) when the caller has them (pin.I_orig, read once: their ~41 k attribute
-    reads a run were ~5 ms)."""
+    reads a run were ~5 ms).  in_place: seg_l's plans are at their rows of plan.segs
+    already (_keep_made_plans): the kept ones stay, the others are set to None."""
     if idx_l is None:
         idx_l = idx.tolist()
     n = len(seg_l)
@@ -1045,11 +1056,16 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
     else:
         k = np.flatnonzero(keep)
         put = idx[k]
-        put_l, kept, a2_kept = put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
+        put_l, kept, a2_kept = None if in_place else put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
         t_kept = None if fig is None else fig[k, 1]
+        if in_place:
+            segs = plan.segs
+            for i in idx[~keep].tolist():
+                segs[i] = None
     if not kept:
         return
-    deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
+    if not in_place:
+        deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
     plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept)) if t_kept is None else t_kept
     plan.a2_pred[put] = a2_kept
 

@@ -445,7 +445,9 @@ class Plan:
         self.beta = np.full(n, np.inf)
         self.I_law = np.zeros(n)          # int a^2 dt of the chosen law
         self.KE_law = np.zeros(n)         # int v^2 dt
-        self.reason = np.full(n, "", dtype=object)     # (every entry the one "": as a list of them made it)
+        # (every entry the one "", as a list of them made it; np.full's "" is a unicode
+        # scalar made into a str object entry by entry: ~85 instructions an entry, not ~35)
+        self.reason = _reasons(n, "")
         self.lam = 0.0
 
     def put(self, rows, other: "Plan"):

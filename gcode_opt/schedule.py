@@ -19,7 +19,6 @@ with its reason.
 from __future__ import annotations
 
 import math
-from collections import deque
 from functools import partial
 from itertools import compress, repeat
 from operator import attrgetter, is_, is_not, itemgetter
@@ -596,7 +595,7 @@ class SegmentCache:
         hit_l = rows[hit].tolist()
         seg = self.line_seg
         if not self.line_why:                 # no failure kept (the common case): the hits' plans
-            return dict(zip(hit_l, map(seg.__getitem__, hit_l))), bad
+            return dict(zip(hit_l, _items(seg, hit_l))), bad
         for i in hit_l:
             why = self.line_why.get(i)
             if why:
@@ -654,7 +653,9 @@ class SegmentCache:
             return
         self.line_T[rows] = self.line_beta[rows] = np.nan
         rows_l = rows.tolist()
-        deque(map(self.line_seg.__setitem__, rows_l, repeat(None)), maxlen=0)          # seg[i] = None
+        seg = self.line_seg
+        for i in rows_l:
+            seg[i] = None
         if self.line_why:
             for i in rows_l:
                 self.line_why.pop(i, None)
@@ -891,7 +892,7 @@ class _RunMemo:
         self.rows = rows
         self.T, self.beta = plan.T[rows], plan.beta[rows]
         self.retime, self.reason = plan.retime[rows], plan.reason[rows]
-        self.segs = list(map(plan.segs.__getitem__, rows.tolist()))
+        self.segs = _items(plan.segs, rows.tolist())
         self.t_pred, self.a2_pred = plan.t_pred[rows], plan.a2_pred[rows]
 
     def put_same(self, plan, idx, own):
@@ -942,8 +943,11 @@ def _lines_repeat(pin, rows):
 
 
 def _put_rows(segs, got):
-    """segs[i] = plan for each {i: plan} of got (segs: a list by row)."""
-    deque(map(segs.__setitem__, got.keys(), got.values()), maxlen=0)
+    """segs[i] = plan for each {i: plan} of got (segs: a list by row).  (The loops here
+    and below store through CPython's list-item opcode, ~190 instructions a row with the
+    iteration; deque(map(segs.__setitem__, ...)) called the method wrapper, ~570.)"""
+    for i, seg in got.items():
+        segs[i] = seg
 
 
 def _put_at(segs, rows, plans):
@@ -952,7 +956,8 @@ def _put_at(segs, rows, plans):
     (~41 k rows, 1.2 MB of them, a budget run's lines on the rectilinear plate)."""
     it = iter(plans)
     for a in range(0, rows.size, PUT_ROWS):
-        deque(map(segs.__setitem__, rows[a:a + PUT_ROWS].tolist(), it), maxlen=0)      # (map stops at the rows' end)
+        for i, seg in zip(rows[a:a + PUT_ROWS].tolist(), it):      # (zip stops at the rows' end)
+            segs[i] = seg
 
 
 def _copy_at(dst, dst_rows, src, src_rows):
@@ -960,7 +965,8 @@ def _copy_at(dst, dst_rows, src, src_rows):
     src: lists), PUT_ROWS rows at a time as _put_at."""
     for a in range(0, dst_rows.size, PUT_ROWS):
         b = a + PUT_ROWS
-        deque(map(dst.__setitem__, dst_rows[a:b].tolist(), map(src.__getitem__, src_rows[a:b].tolist())), maxlen=0)
+        for i, j in zip(dst_rows[a:b].tolist(), src_rows[a:b].tolist()):
+            dst[i] = src[j]
 
 
 KEEP_ROWS = 8192        # rows _keep_made_plans hands _keep_plans at once
@@ -1072,7 +1078,9 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None,
     if not kept:
         return
     if not in_place:
-        deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
+        segs = plan.segs
+        for i, seg in zip(put_l, kept):
+            segs[i] = seg
     plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept)) if t_kept is None else t_kept
     plan.a2_pred[put] = a2_kept
 

@@ -445,7 +445,9 @@ class Plan:
         self.beta = np.full(n, np.inf)
         self.I_law = np.zeros(n)          # int a^2 dt of the chosen law
         self.KE_law = np.zeros(n)         # int v^2 dt
-        self.reason = np.full(n, "", dtype=object)     # (every entry the one "": as a list of them made it)
+        # (every entry the one "", as a list of them made it; np.full's "" is a unicode
+        # scalar made into a str object entry by entry: ~85 instructions an entry, not ~35)
+        self.reason = _reasons(n, "")
         self.lam = 0.0
 
     def put(self, rows, other: "Plan"):
@@ -1257,7 +1259,7 @@ def _allocate_rows(vals, rv, budget_t, core):
         return j, margin, tol
 
     rise = _Rise(core, tables, spread)
-    J, lam = _bisect(J, live, step, lambda: float(np.sum(spread.dT)), budget_t, rv.settle, rise)
+    J, lam = _bisect(J, live, step, spread.total, budget_t, rv.settle, rise)
     return (J if inv is None else J[inv]), lam
 
 
@@ -1322,8 +1324,14 @@ class _RowSpread:
     each later one's a subset of the last one's (_bisect only narrows them), so the rows
     to copy are found among the last step's, not among all (the rectilinear plate: ~6 k
     groups live, ~10 after 20 of its 88 steps; a gather of every row a step cost more
-    than the groups saved).  inv None: each row its own group (dT is dT_u)."""
-    __slots__ = ("inv", "dT_u", "dT", "g_n", "rows", "inv_rows")
+    than the groups saved).  inv None: each row its own group (dT is dT_u).
+
+    total() is np.sum(dT) (spent()).  While the steps are on one array g of at most
+    MEMO_GROUPS groups (_bisect's late steps: 3-4 groups for ~65 of 80 steps on either
+    plate), only those groups' values change, so dT, and its sum, is a function of
+    dT_u[g]: each sum is kept by those values' bits and a state met again is not summed
+    again (its groups' choices at the bracket's ends recur: ~60 sums of every row a call)."""
+    __slots__ = ("inv", "dT_u", "dT", "g_n", "rows", "inv_rows", "memo_g", "memo")
 
     def __init__(self, inv, n_groups):
         self.inv = inv
@@ -1331,13 +1339,32 @@ class _RowSpread:
         self.dT = self.dT_u if inv is None else np.empty(inv.size)
         self.g_n = -1                 # the last step's number of groups (-1: no step yet)
         self.rows = self.inv_rows = None
+        self.memo_g = self.memo = None    # the steps' groups and {dT_u[g] bits: sum}, or None
 
     def refresh(self):
         """Every row's value again from its group's (after _Rise changed some groups')."""
+        self.memo_g = self.memo = None
         if self.inv is not None:
             np.take(self.dT_u, self.inv, out=self.dT)
 
+    def total(self):
+        """np.sum(dT), as a float."""
+        if self.memo is None:
+            return float(np.sum(self.dT))
+        key = self.dT_u.take(self.memo_g).tobytes()
+        got = self.memo.get(key)
+        if got is None:
+            got = self.memo[key] = float(np.sum(self.dT))
+        return got
+
+    def _watch(self, g):
+        """A step on the groups g (the only ones whose values it writes): the sums are kept
+        while the steps are on this same array (a new one, or one too large: none kept)."""
+        if g is not self.memo_g:
+            self.memo_g, self.memo = (g, {}) if g.size <= MEMO_GROUPS else (None, None)
+
     def rows_of(self, g):
+        self._watch(g)
         if self.inv is None:
             return
         if self.g_n < 0:
@@ -1356,6 +1383,8 @@ class _RowSpread:
             self.g_n = g.size
         self.dT[self.rows] = self.dT_u.take(self.inv_rows)
 
+
+MEMO_GROUPS = 64       # _RowSpread.total: sums kept while a step's groups are at most these
 
 USE_CORE = True        # tests turn it off: allocate's choices by numpy (the reference)
 

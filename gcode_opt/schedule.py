@@ -19,10 +19,9 @@ with its reason.
 from __future__ import annotations
 
 import math
-from collections import deque
 from functools import partial
 from itertools import compress, repeat
-from operator import attrgetter, is_, is_not
+from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
 
@@ -398,17 +397,24 @@ def settle_faults(segs):
     elementwise (finite, > 0, >= 0, knots increasing inside each plan), each plan's
     sizes and figures are checked as _fine_1d checks them."""
     todo, ss, vs, as_, fs = [], [], [], [], []
-    blocks = {}                 # RowPlans by their four blocks: checked as rows of them (_settle_rows)
+    # RowPlans by their four blocks: checked as rows of them (_settle_rows).  Known first
+    # by their knots' block alone (an int key, one identity: the four ids in a tuple were
+    # ~3 k instructions a plan on the gyroid plate's ~17 k), its other three blocks those
+    # of the group's first plan; a plan whose other blocks differ goes by all four
+    blocks, by_s = {}, {}
     for seg in segs:
         if (type(seg) is not SegmentPlan and type(seg) is not RowPlan) or seg.fault is not None:
             continue
         if type(seg) is RowPlan and type(seg._row) is int:
             if not (math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
                 continue
-            key = (id(seg._s), id(seg._v), id(seg._accel), id(seg._feed))
-            got = blocks.get(key)
-            if got is None:
-                got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
+            got = by_s.get(id(seg._s))
+            if got is None or not (got[0][1] is seg._v and got[0][2] is seg._accel and got[0][3] is seg._feed):
+                key = (id(seg._s), id(seg._v), id(seg._accel), id(seg._feed))
+                got = blocks.get(key)
+                if got is None:
+                    got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
+                    by_s.setdefault(key[0], got)
             got[1].append(seg)
             continue
         _take_flat(seg, todo, ss, vs, as_, fs)
@@ -461,10 +467,10 @@ def _settle_rows(S, V, A, F, plans):
             # (a run's rows are views; other rows gathered by np.take, the same rows)
             Sr, Vr, Ar, Fr = ((S[r], V[r], A[r], F[r]) if type(r) is slice
                               else (S.take(r, axis=0), V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
-            fine = (np.isfinite(Sr).all(axis=1) & (Sr[:, 1:] > Sr[:, :-1]).all(axis=1)
-                    & np.isfinite(Vr).all(axis=1) & (Vr >= 0.0).all(axis=1)
-                    & np.isfinite(Ar).all(axis=1) & (Ar > 0.0).all(axis=1)
-                    & np.isfinite(Fr).all(axis=1) & (Fr > 0.0).all(axis=1))
+            # each row's checks side by side, then one all() along the rows (a reduction
+            # along short rows costs ~100 instructions a row: eight were ~25 M on the gyroid plate)
+            fine = np.concatenate((np.isfinite(Sr), Sr[:, 1:] > Sr[:, :-1], np.isfinite(Vr), Vr >= 0.0,
+                                   np.isfinite(Ar), Ar > 0.0, np.isfinite(Fr), Fr > 0.0), axis=1).all(axis=1)
         for seg in compress(part, fine.tolist()):
             seg.fault = ""
     return True
@@ -589,7 +595,7 @@ class SegmentCache:
         hit_l = rows[hit].tolist()
         seg = self.line_seg
         if not self.line_why:                 # no failure kept (the common case): the hits' plans
-            return dict(zip(hit_l, map(seg.__getitem__, hit_l))), bad
+            return dict(zip(hit_l, _items(seg, hit_l))), bad
         for i in hit_l:
             why = self.line_why.get(i)
             if why:
@@ -647,7 +653,9 @@ class SegmentCache:
             return
         self.line_T[rows] = self.line_beta[rows] = np.nan
         rows_l = rows.tolist()
-        deque(map(self.line_seg.__setitem__, rows_l, repeat(None)), maxlen=0)          # seg[i] = None
+        seg = self.line_seg
+        for i in rows_l:
+            seg[i] = None
         if self.line_why:
             for i in rows_l:
                 self.line_why.pop(i, None)
@@ -884,7 +892,7 @@ class _RunMemo:
         self.rows = rows
         self.T, self.beta = plan.T[rows], plan.beta[rows]
         self.retime, self.reason = plan.retime[rows], plan.reason[rows]
-        self.segs = list(map(plan.segs.__getitem__, rows.tolist()))
+        self.segs = _items(plan.segs, rows.tolist())
         self.t_pred, self.a2_pred = plan.t_pred[rows], plan.a2_pred[rows]
 
     def put_same(self, plan, idx, own):
@@ -935,8 +943,11 @@ def _lines_repeat(pin, rows):
 
 
 def _put_rows(segs, got):
-    """segs[i] = plan for each {i: plan} of got (segs: a list by row)."""
-    deque(map(segs.__setitem__, got.keys(), got.values()), maxlen=0)
+    """segs[i] = plan for each {i: plan} of got (segs: a list by row).  (The loops here
+    and below store through CPython's list-item opcode, ~190 instructions a row with the
+    iteration; deque(map(segs.__setitem__, ...)) called the method wrapper, ~570.)"""
+    for i, seg in got.items():
+        segs[i] = seg
 
 
 def _put_at(segs, rows, plans):
@@ -945,7 +956,8 @@ def _put_at(segs, rows, plans):
     (~41 k rows, 1.2 MB of them, a budget run's lines on the rectilinear plate)."""
     it = iter(plans)
     for a in range(0, rows.size, PUT_ROWS):
-        deque(map(segs.__setitem__, rows[a:a + PUT_ROWS].tolist(), it), maxlen=0)      # (map stops at the rows' end)
+        for i, seg in zip(rows[a:a + PUT_ROWS].tolist(), it):      # (zip stops at the rows' end)
+            segs[i] = seg
 
 
 def _copy_at(dst, dst_rows, src, src_rows):
@@ -953,7 +965,8 @@ def _copy_at(dst, dst_rows, src, src_rows):
     src: lists), PUT_ROWS rows at a time as _put_at."""
     for a in range(0, dst_rows.size, PUT_ROWS):
         b = a + PUT_ROWS
-        deque(map(dst.__setitem__, dst_rows[a:b].tolist(), map(src.__getitem__, src_rows[a:b].tolist())), maxlen=0)
+        for i, j in zip(dst_rows[a:b].tolist(), src_rows[a:b].tolist()):
+            dst[i] = src[j]
 
 
 KEEP_ROWS = 8192        # rows _keep_made_plans hands _keep_plans at once
@@ -963,17 +976,27 @@ def _keep_made_plans(plan, strokes, idx, seg_failed, a2_orig):
     """_keep_plans of the plans a run wrote in plan.segs for the rows idx (sorted), which
     are None there again unless kept: KEEP_ROWS rows at a time, each row decided on its
     own (the int objects of idx's list, twice, were ~3.3 MB, the moment of the
-    rectilinear plate's planning peak).  a2_orig: every stroke's int_a2 (pin.I_orig)."""
+    rectilinear plate's planning peak).  a2_orig: every stroke's int_a2 (pin.I_orig).
+    The plans stay where they are and only the rows not kept are set to None (_keep_plans'
+    in_place): every row set to None, then the kept ones put back, was two list writes a
+    row through a method wrapper (~1.1 k instructions; ~80 M on the rectilinear plate)."""
     segs = plan.segs
     for a in range(0, idx.size, KEEP_ROWS):
         rows = idx[a:a + KEEP_ROWS]
         rows_l = rows.tolist()
-        seg_l = list(map(segs.__getitem__, rows_l))
-        deque(map(segs.__setitem__, rows_l, repeat(None)), maxlen=0)      # segs[i] = None
-        _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows])
+        seg_l = _items(segs, rows_l)
+        _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows], in_place=True)
 
 
-def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None):
+def _items(seq, at):
+    """[seq[i] for i in at] (at: a list of ints) by one itemgetter (~150 instructions an
+    item; the comprehension ~200, list(map(seq.__getitem__, at)) ~240)."""
+    if len(at) < 2:             # (itemgetter of one item gives it, not a tuple)
+        return [seq[i] for i in at]
+    return list(itemgetter(*at)(seq))
+
+
+def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None, in_place=False):
     """The segment plans seg_l (a list: row idx[q]'s plan, or None) of the rows idx (an int array) put on the plan:
     a row whose segmenting failed (seg_failed: its reason), whose plan has a fault
     (seg_fault), has none, or does not beat its original (beats) is left as sliced with
@@ -986,23 +1009,25 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
     arrays (the same product and comparison of doubles), the kept rows put at once.
     idx_l: idx.tolist(), when the caller has it; a2_orig: the rows' strokes' int_a2 (a
     float array) when the caller has them (pin.I_orig, read once: their ~41 k attribute
-    reads a run were ~5 ms)."""
+    reads a run were ~5 ms).  in_place: seg_l's plans are at their rows of plan.segs
+    already (_keep_made_plans): the kept ones stay, the others are set to None."""
     if idx_l is None:
         idx_l = idx.tolist()
     n = len(seg_l)
-    why_l = None
-    try:                        # every row a plan with a verdict slot (else AttributeError)
-        why_l = list(map(_FAULT, seg_l))
-    except AttributeError:
-        settle_faults(seg_l)
-    else:
-        if why_l.count(None):   # settle_faults of the plans with no verdict yet (it skips the others)
-            settle_faults(list(compress(seg_l, map(_IS_NONE, why_l))))
+    # the common case: every row has a plan and every plan its verdict "" (settle_faults),
+    # found in one compiled pass where it holds (a later run's plans mostly have theirs)
+    fine = not seg_failed and _verdicts_fine(seg_l)
+    if not fine:
+        try:                    # every row a plan with a verdict slot (else AttributeError)
             why_l = list(map(_FAULT, seg_l))
-    if seg_failed:
-        why_l = None
+        except AttributeError:
+            settle_faults(seg_l)
+        else:
+            if why_l.count(None):   # settle_faults of the plans with no verdict yet (it skips the others)
+                settle_faults(list(compress(seg_l, map(_IS_NONE, why_l))))
+        fine = not seg_failed and _verdicts_fine(seg_l)
     fig = None                  # the plans' (int_a2, time_t), where read in one pass
-    if why_l is not None and why_l.count("") == n:
+    if fine:
         # the common case: every row has a plan and every plan its verdict "" (settle_faults)
         bad_why = None
         fig = objfields.floats(seg_l, ("int_a2", "time_t"))
@@ -1045,16 +1070,38 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None)
     else:
         k = np.flatnonzero(keep)
         put = idx[k]
-        put_l, kept, a2_kept = put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
+        put_l, kept, a2_kept = None if in_place else put.tolist(), list(map(seg_l.__getitem__, k.tolist())), a2[k]
         t_kept = None if fig is None else fig[k, 1]
+        if in_place:
+            segs = plan.segs
+            for i in idx[~keep].tolist():
+                segs[i] = None
     if not kept:
         return
-    deque(map(plan.segs.__setitem__, put_l, kept), maxlen=0)     # plan.segs[i] = seg, in C
+    if not in_place:
+        segs = plan.segs
+        for i, seg in zip(put_l, kept):
+            segs[i] = seg
     plan.t_pred[put] = np.fromiter(map(_TIME_T, kept), float, len(kept)) if t_kept is None else t_kept
     plan.a2_pred[put] = a2_kept
 
 
 _FAULT, _INT_A2, _TIME_T = attrgetter("fault"), attrgetter("int_a2"), attrgetter("time_t")
+_FINE = {"": 0}             # _verdicts_fine's codes: the one verdict it accepts
+
+
+def _verdicts_fine(seg_l):
+    """Is every item of the list seg_l an object whose verdict (its fault) is "" (so not
+    None: a plan)?  By objfields.codes' compiled pass (~40 instructions a plan) where the
+    core is built, else as list(map(_FAULT, seg_l)).count("") == len(seg_l) (~280)."""
+    if objfields.codes(seg_l, "fault", _FINE) is not None:
+        return True
+    if type(seg_l) is list and getattr(objfields, "_CODES", None) is not None:
+        return False            # (the pass found a verdict not "", or none)
+    try:
+        return list(map(_FAULT, seg_l)).count("") == len(seg_l)
+    except AttributeError:
+        return False
 _IS_NONE = partial(is_, None)   # x is None
 _IS_NOT_NONE = partial(is_not, None)
 _CORNER_CMD0 = attrgetter("corner_cmd0")

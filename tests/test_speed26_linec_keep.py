@@ -152,10 +152,18 @@ def _plan_figures(p):
             p.a2_pred.tobytes(), segs)
 
 
+def _keep_plans_old_of_list(plan, strokes, idx, seg_l, failed, idx_l=None, a2_orig=None, in_place=False):
+    """_keep_plans_old called as the run calls _keep_plans now (its plans by row; in_place:
+    they are in plan.segs already, where the old loop put the kept ones on rows of None)."""
+    if in_place:
+        for i in idx.tolist():
+            plan.segs[i] = None
+    _keep_plans_old(plan, strokes, idx, dict(zip(idx.tolist(), seg_l)), failed)
+
+
 def _runs(name, prof, corners, monkeypatch, old, budgets=(1.0, 0.6, 0.61, 1.3)):
     if old:
-        monkeypatch.setattr(schedule, "_keep_plans", lambda plan, strokes, idx, seg_l, failed, idx_l=None, a2_orig=None:   # (its plans by row)
-                            _keep_plans_old(plan, strokes, idx, dict(zip(idx.tolist(), seg_l)), failed))
+        monkeypatch.setattr(schedule, "_keep_plans", _keep_plans_old_of_list)
         monkeypatch.setattr(schedule, "_attach_commands", _attach_commands_old)
     profile = load_profile(prof)
     opts = pipeline.Options(corner_budget_r=corners)

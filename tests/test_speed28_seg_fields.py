@@ -846,8 +846,12 @@ class _SegmentCacheOldOfList(SegmentCacheOld):
         super().store(kind, rows, T, beta, made, bad, own)
 
 
-def _keep_plans_of_list(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None):
-    """da0e9ec's _keep_plans called as the run calls it now (its plans as a list by idx)."""
+def _keep_plans_of_list(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None, in_place=False):
+    """da0e9ec's _keep_plans called as the run calls it now (its plans as a list by idx;
+    in_place: they are in plan.segs already, where it put the kept ones on rows of None)."""
+    if in_place:
+        for i in idx.tolist():
+            plan.segs[i] = None
     _keep_plans(plan, strokes, idx, dict(zip(idx.tolist(), seg_l)), seg_failed)
 
 

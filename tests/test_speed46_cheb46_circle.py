@@ -15,7 +15,14 @@ Checked here:
   agreement to 1e-7 of the scale), and Newton on the collocation equations at N = 64 (LU
   solves, not the preconditioned iteration; agreement to 1e-11 of the scale, the solver's
   _TAIL_TOL) -- on real curve rows of the bundled gyroid sample and on random (Φ, γ, u0, u1);
-* the compiled form and the numpy fallback give the same bits (AVX and scalar)."""
+* the compiled form and the numpy fallback give the same bits (AVX and scalar).
+The stop added to the iteration (the steps left, a geometric series of the last ratio, add up
+to at most _PRECOND_TOL of the scale) is inside the 2e-14 agreement with the replaced code.
+
+The layer regime's cruise value (_solve_layers_batch) takes secant steps after its first one:
+checked to be a bracketed root of the residual (evaluated directly), and against the Newton
+steps it replaced (verbatim below): the same roots to 1e-13 of the span, the same regime
+decisions, fewer residuals."""
 import numpy as np
 import pytest
 from scipy.integrate import solve_bvp
@@ -210,3 +217,121 @@ def test_laws_against_newton_at_n64(curve_rows):
         ref, _, ok = circle._newton_cheb(n, p, g, a0, a1, np.repeat(p[:, None], n + 1, axis=1))
         assert ok.all()
         assert (np.abs(w - ref).max(axis=1) <= 1e-11 * _scale(p, a0, a1)).all()
+
+
+# ---------------------------------------------------------------- the layer regime's cruise value
+# _solve_layers_batch: after the first step (a forward difference) the slope of each step is
+# the secant through the last two iterates, one residual a step instead of two.
+
+def _solve_layers_batch_8011c61(phi, gam2, u0, u1):
+    """circle._solve_layers_batch at 8011c61, verbatim (Newton with a forward difference a step)."""
+    _layers_totals, _LAYERS_ITER = circle._layers_totals, circle._LAYERS_ITER
+    span = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
+    lo, hi = np.minimum.reduce([phi, u0, u1]) - span, np.maximum.reduce([phi, u0, u1]) + span
+    for _ in range(60):             # make sure the bracket holds (the layer integrals are O(log))
+        glo, ghi = _layers_totals((lo, hi), phi, gam2, u0, u1)
+        bad_lo, bad_hi = glo > 0, ghi < 0
+        if not (bad_lo.any() or bad_hi.any()):
+            break
+        lo = np.where(bad_lo, lo - 2.0 * span, lo)
+        hi = np.where(bad_hi, hi + 2.0 * span, hi)
+        span = np.where(bad_lo | bad_hi, 2.0 * span, span)
+    wc = phi.astype(float).copy()
+    wc = np.clip(wc, lo, hi)
+    act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
+    # the live arcs' numbers held packed (x: their w_c, lo_a/hi_a: their bracket), packed
+    # again only when arcs leave, and each arc's w_c put into wc as it leaves: not eight
+    # gathers and three scatters by act every step (the same numbers, element by element)
+    x, p_, g2, a0, a1, sp, lo_a, hi_a = (v[act] for v in (wc, phi, gam2, u0, u1, span, lo, hi))
+    for _ in range(_LAYERS_ITER if act.size else 0):
+        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+        g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
+        lo_a = np.where(g < 0, x, lo_a)
+        hi_a = np.where(g > 0, x, hi_a)
+        dg = (gh - g) / h
+        new = x - g / np.where(dg > 0, dg, np.inf)
+        outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
+        new = np.where(outside, 0.5 * (lo_a + hi_a), new)
+        done = np.abs(new - x) <= 1e-15 * sp
+        x = new
+        if done.any():
+            wc[act[done]] = x[done]
+            # (by the mask: taking them by index put the rectilinear plate's peak RSS up ~1 MB)
+            keep = ~done
+            act, x, p_, g2, a0, a1, sp, lo_a, hi_a = (v[keep] for v in (act, x, p_, g2, a0, a1, sp, lo_a, hi_a))
+            if act.size == 0:
+                return wc
+    wc[act] = x                     # (the steps ran out: the last ones' w_c)
+    return wc
+
+
+
+def _slope(wc, phi, gam2, u0, u1):
+    """The residual's slope at w_c (a central difference over 1e-6 of the span) and the span."""
+    sp = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
+    d = 1e-6 * sp
+    return (circle._layers_total(wc + d, phi, gam2, u0, u1) - circle._layers_total(wc - d, phi, gam2, u0, u1)) / (2 * d), sp
+
+
+def _layer_rows(seed, nb):
+    """Random arcs over the regimes (γ from 0.03 to 1000: layers accepted and not), constant-
+    speed ones (the exact solution w = Φ) among them."""
+    rng = np.random.default_rng(seed)
+    phi = rng.uniform(0.01, 6.0, nb) * rng.choice([1.0, -1.0, 30.0, 1e-3], nb)
+    gam2 = 10.0 ** rng.uniform(-3, 6, nb)
+    u0 = phi * rng.uniform(0.0, 3.0, nb) * rng.choice([1.0, 0.0, -1.0], nb)
+    u1 = phi * rng.uniform(0.0, 3.0, nb) * rng.choice([1.0, 0.0, 1.0], nb)
+    u0[:nb // 20] = u1[:nb // 20] = phi[:nb // 20]
+    return phi, gam2, u0, u1
+
+
+def test_layers_root_is_bracketed(curve_rows):
+    """The cruise value is a root of the residual (_layers_total, evaluated here directly): the
+    residual at w_c is at its rounding level, and where it has a slope (>= 1e-2; elsewhere it is
+    flat at its rounding over a range of w_c, any point of which is a root) it changes sign
+    within 1e-12 of the span on either side of w_c (the solver stops at steps of 1e-15)."""
+    for phi, gam2, u0, u1 in (curve_rows, _layer_rows(1, 3000)):
+        with np.errstate(all="ignore"):
+            wc = circle._solve_layers_batch(phi, gam2, u0, u1)
+            g = circle._layers_total(wc, phi, gam2, u0, u1)
+            slope, sp = _slope(wc, phi, gam2, u0, u1)
+            steep = slope >= 1e-2
+            below = circle._layers_total(wc - 1e-12 * sp, phi, gam2, u0, u1)
+            above = circle._layers_total(wc + 1e-12 * sp, phi, gam2, u0, u1)
+        assert (np.abs(g) <= 1e-13 * sp).all()
+        assert steep.mean() > 0.9
+        assert (below[steep] <= 0).all() and (above[steep] >= 0).all()
+
+
+def test_layers_same_root_and_regime_as_the_replaced_code(curve_rows):
+    """Against the Newton steps it replaced: the same cruise values to 1e-13 of the span where
+    the residual has a slope, the same regime decisions (_layer_regime's tail test), and
+    fewer residuals."""
+    count = [0]
+    real = circle._layers_totals
+
+    def counting(xs, phi, *rest):
+        count[0] += len(xs) * phi.size
+        return real(xs, phi, *rest)
+    for phi, gam2, u0, u1 in (curve_rows, _layer_rows(2, 4000)):
+        with np.errstate(all="ignore"):
+            n0 = count[0]
+            circle._layers_totals = counting
+            try:
+                new = circle._solve_layers_batch(phi, gam2, u0, u1)
+                n_new = count[0] - n0
+                old = _solve_layers_batch_8011c61(phi, gam2, u0, u1)
+                n_old = count[0] - n0 - n_new
+            finally:
+                circle._layers_totals = real
+            slope, sp = _slope(old, phi, gam2, u0, u1)
+            steep = slope >= 1e-2
+            assert (np.abs(new - old)[steep] <= 1e-13 * sp[steep]).all()
+            assert n_new < 0.8 * n_old
+            regime = []
+            for wc in (new, old):
+                tail = np.maximum(np.abs(circle._layer_d(1.0, u0 - wc, wc, gam2)),
+                                  np.abs(circle._layer_d(1.0, u1 - wc, wc, gam2)))
+                lam = np.sqrt(gam2 + 6.0 * wc * wc)
+                regime.append((tail * (1.0 + lam) <= circle._LAYER_TAIL_TOL * _scale(phi, u0, u1)) & np.isfinite(wc))
+        assert np.array_equal(regime[0], regime[1])

@@ -8,8 +8,7 @@ gyroid plate's curve strokes, when the corpus is there), plus random and degener
 inputs.  Without the core (GCODE_OPT_PURE_PYTHON=1) the fallback is the old code.
 Round 46: the iteration's three products are sums in the order of k (circle._mm_ordered,
 the compiled pc_solve's), no longer BLAS calls of 32-row blocks: the reference takes
-_mm_ordered_ref (below) where it took _rows_matmul, and it stops where the steps left add
-up to below _PRECOND_TOL (the stop round 46 added)."""
+_mm_ordered_ref (below) where it took _rows_matmul."""
 import os
 import subprocess
 import sys
@@ -86,8 +85,6 @@ def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
         # done: at the rounding floor of the residual (steps no longer shrink), or below it
         slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
         done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
-        done |= ((it >= 1) & (step <= _PRECOND_FLOOR * scale[act])             # (round 46)
-                 & (step * step <= _PRECOND_TOL * scale[act] * (last[act] - step)))
         ok[act[done]] = True
         keep = ~done & np.isfinite(step) & ~slow
         last[act] = step

@@ -16,8 +16,6 @@ Checked here:
   solves, not the preconditioned iteration; agreement to 1e-11 of the scale, the solver's
   _TAIL_TOL) -- on real curve rows of the bundled gyroid sample and on random (Φ, γ, u0, u1);
 * the compiled form and the numpy fallback give the same bits (AVX and scalar).
-The stop added to the iteration (the steps left, a geometric series of the last ratio, add up
-to at most _PRECOND_TOL of the scale) is inside the 2e-14 agreement with the replaced code.
 
 The layer regime's cruise value (_solve_layers_batch) takes secant steps after its first one:
 checked to be a bracketed root of the residual (evaluated directly), and against the Newton

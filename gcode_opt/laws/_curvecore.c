@@ -213,7 +213,6 @@ static void mv_ordered(const double *x, Py_ssize_t K, const double *M, Py_ssize_
 static inline int pc_next(Py_ssize_t it, double step, double *last, double scale, const PcConst *P) {
     const int slow = it >= 4 && !(step < P->slow_r * *last);
     if (step <= P->tol * scale || (slow && step <= P->floor_r * scale)) return 1;
-    if (it >= 1 && step <= P->floor_r * scale && step * step <= P->tol * scale * (*last - step)) return 1;
     if (slow || !isfinite(step)) return 0;
     *last = step;
     return -1;

@@ -372,10 +372,7 @@ def _eig_setup(n):
 
 _PRECOND_TOL = 1e-16       # last step / scale of w at which the preconditioned iteration stops,
 _PRECOND_FLOOR = 1e-13     # or at which it stops once steps no longer shrink (rounding floor;
-                           # Newton's own acceptance), or once the steps left (a geometric series
-                           # of the last ratio) add up to _PRECOND_TOL at most: on the plates'
-                           # curves the steps shrink ~1e-3 a step, so this stops 1-2 steps before
-                           # the floor is met (~23 % fewer steps, laws within ~2e-15 of the scale)
+                           # Newton's own acceptance)
 _PRECOND_ITER = 40
 _PRECOND_SLOW_R = 0.7      # a step ratio above this after a few steps: left to Newton
 
@@ -468,10 +465,6 @@ def _precond_cheb_np(n, phi, gam2, u0, u1, w_start):
         # done: at the rounding floor of the residual (steps no longer shrink), or below it
         slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
         done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
-        # or the steps still shrink fast enough that the ones left add up to below the strict
-        # tolerance: (their sum <= step r / (1 - r), r = step / last), within the floor
-        done |= ((it >= 1) & (step <= _PRECOND_FLOOR * scale[act])
-                 & (step * step <= _PRECOND_TOL * scale[act] * (last[act] - step)))
         ok[act[done]] = True
         keep = ~done & np.isfinite(step) & ~slow
         last[act] = step

@@ -5,7 +5,10 @@ commit's (ede93db) functions are kept here verbatim as the references; the new o
 compiled path and the numpy fallback) must give the same bits on real inputs: every call
 the pipeline makes on the bundled gyroid, concentric and benchy-like files (and the
 gyroid plate's curve strokes, when the corpus is there), plus random and degenerate
-inputs.  Without the core (GCODE_OPT_PURE_PYTHON=1) the fallback is the old code."""
+inputs.  Without the core (GCODE_OPT_PURE_PYTHON=1) the fallback is the old code.
+Round 46: the iteration's three products are sums in the order of k (circle._mm_ordered,
+the compiled pc_solve's), no longer BLAS calls of 32-row blocks: the reference takes
+_mm_ordered_ref (below) where it took _rows_matmul."""
 import os
 import subprocess
 import sys
@@ -17,7 +20,7 @@ import pytest
 from gcode_opt import curves
 from gcode_opt.laws import circle
 from gcode_opt.laws.circle import (_PRECOND_FLOOR, _PRECOND_ITER, _PRECOND_SLOW_R, _PRECOND_TOL, _cheb_setup,
-                                   _eig_setup, _rows_matmul)
+                                   _eig_setup)
 from gcode_opt.curves import MAX_R_OVER_S, SMOOTH_MIN_D, _pmax
 from gcode_opt.pipeline import Options, analyse, process
 from gcode_opt.profile import load_profile
@@ -28,6 +31,17 @@ HAVE_CORE = circle.CORE_MOD is not None
 
 
 # ---------------------------------------------------------------- references (ede93db, verbatim)
+def _mm_ordered_ref(x, m):
+    """x @ m as the sum over k of x[:, k] m[k] in the order of k (round 46's products)."""
+    out = np.empty((x.shape[0], m.shape[1]))
+    for i in range(x.shape[0]):
+        acc = x[i, 0] * m[0]
+        for k in range(1, m.shape[0]):
+            acc = acc + x[i, k] * m[k]
+        out[i] = acc
+    return out
+
+
 def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
     """The collocation equations of _newton_cheb solved by a preconditioned fixed-point
     iteration: each step is the Newton step with the Jacobian's diagonal γ² + 6w² replaced
@@ -59,12 +73,12 @@ def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
         wi = wa[:, 1:-1]
         g2 = gam2[act]
         w2 = wi * wi
-        r1 = _rows_matmul(wa, d2_t) - g2[:, None] * wi - 2.0 * wi * w2 - ca[:, None]
+        r1 = _mm_ordered_ref(wa, d2_t) - g2[:, None] * wi - 2.0 * wi * w2 - ca[:, None]
         r2 = (wa * q).sum(axis=1) - phi[act]
         den = lam_e[None, :] - (g2 + 3.0 * (w2.max(axis=1) + w2.min(axis=1)))[:, None]
-        b = -_rows_matmul(r1, eg["vinv_t"])
+        b = -_mm_ordered_ref(r1, eg["vinv_t"])
         dc = (-r2 - ((b / den) * qv).sum(axis=1)) / ((qv * e) / den).sum(axis=1)
-        dw = _rows_matmul((b + dc[:, None] * e) / den, eg["v_t"])
+        dw = _mm_ordered_ref((b + dc[:, None] * e) / den, eg["v_t"])
         w[act, 1:-1] = wi + dw
         cc[act] = ca + dc
         step = np.abs(dw).max(axis=1)
@@ -165,7 +179,7 @@ def recorded(tmp_path_factory):
 
 def _precond_forms():
     forms = [circle._precond_cheb_np]
-    if HAVE_CORE and circle._gemm_rows_invariant():
+    if HAVE_CORE:
         forms.append(circle._precond_cheb_c)
     return forms
 

@@ -6,7 +6,8 @@ compiled passes around one np.exp and one np.arcsinh (numpy's own).  The start c
 the new ones must give the same bits (a NaN's sign aside, see _bits), with and without
 the core, on the circle solves
 the pipeline makes on the bundled gyroid and concentric files, and on random and
-degenerate values (zero, negative, huge, NaN, inf)."""
+degenerate values (zero, negative, huge, NaN, inf).  Round 46: the reference takes the
+secant steps (after the first, a forward difference) the solver now takes."""
 from pathlib import Path
 
 import numpy as np
@@ -71,13 +72,18 @@ def _solve_layers_batch_ref(phi, gam2, u0, u1):
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
-    for _ in range(100):
+    xp, gp = np.empty(wc.size), np.empty(wc.size)      # (round 46: secant steps after the first)
+    for it in range(100):
         x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
         g = _layers_total(x, p_, g2, a0, a1)
         lo[act] = lo_a = np.where(g < 0, x, lo[act])
         hi[act] = hi_a = np.where(g > 0, x, hi[act])
-        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
-        dg = (_layers_total(x + h, p_, g2, a0, a1) - g) / h
+        if it == 0:
+            h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+            dg = (_layers_total(x + h, p_, g2, a0, a1) - g) / h
+        else:
+            dg = (g - gp[act]) / (x - xp[act])
+        xp[act], gp[act] = x, g
         new = x - g / np.where(dg > 0, dg, np.inf)
         outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
         new = np.where(outside, 0.5 * (lo_a + hi_a), new)

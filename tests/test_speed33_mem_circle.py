@@ -54,7 +54,10 @@ def test_levels_solved_in_chunks_are_the_whole_levels_laws(monkeypatch):
 def test_levels_in_chunks_hold_less(monkeypatch):
     """30 k gentle arcs (the size of a plate's curve candidates): the solve's memory above
     what it returns is at most 60 % of the whole-level path's (measured 4.5 vs 10.5 MB at
-    1024 arcs a chunk; the default 4096 holds ~8 MB, a quarter of the arcs at once)."""
+    1024 arcs a chunk; the default 4096 holds ~8 MB, a quarter of the arcs at once).
+    Round 46: the preconditioned iteration holds no work arrays any more (pc_solve works on
+    each arc's row in place), which took the whole-level path down to 5.5 MB (the chunked
+    one stays at 4.6 MB): at most 90 %."""
     if not circle.rows_invariant():
         pytest.skip("this BLAS does not give rows their own bits: the whole-level path only")
     monkeypatch.setattr(circle, "_COEF_CHUNK", 1024)
@@ -70,4 +73,4 @@ def test_levels_in_chunks_hold_less(monkeypatch):
             tracemalloc.stop()
         over[chunked] = peak - held
         del got
-    assert over[True] < 0.6 * over[False], over
+    assert over[True] < 0.9 * over[False], over

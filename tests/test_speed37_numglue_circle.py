@@ -119,8 +119,8 @@ def test_own_arrays_copies_what_is_not_its_own():
 
 
 def test_precond_buffers_need_no_zeros(monkeypatch):
-    """_precond_cheb_c's three product buffers are np.empty: every row a step reads is
-    written first (the core zeroes the pad rows).  Buffers full of NaN (np.empty patched)
+    """_precond_cheb_c's arrays from np.empty: every value read is written first (round 46:
+    pc_solve holds its rows' work on its own stack; no product buffers are left).  Buffers full of NaN (np.empty patched)
     give the same bits as zero-filled ones (np.empty patched to np.zeros: the code before)."""
     if circle.CORE_MOD is None or not circle._gemm_rows_invariant():
         pytest.skip("the compiled core's path only")

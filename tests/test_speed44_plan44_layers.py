@@ -3,7 +3,8 @@
 instead of eight gathers and three scatters by the live rows every Newton step.  The code
 it replaced (ebdd6f9) is kept here as the reference, with its step count a parameter: the
 new one must give the same bits on random and degenerate arcs, when the steps run out, and
-with arcs that never settle (NaN)."""
+with arcs that never settle (NaN).  Round 46: the reference takes the secant steps
+(after the first, a forward difference) the solver now takes."""
 import numpy as np
 import pytest
 
@@ -26,13 +27,19 @@ def _solve_layers_batch_ref(phi, gam2, u0, u1, steps=100):
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
     act = np.arange(wc.size)
-    for _ in range(steps):
+    xp, gp = np.empty(wc.size), np.empty(wc.size)      # (round 46: secant steps after the first)
+    for it in range(steps):
         x, p_, g2, a0, a1, sp = wc[act], phi[act], gam2[act], u0[act], u1[act], span[act]
-        h = 1e-7 * (np.abs(x) + 1e-3 * sp)
-        g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
+        if it == 0:
+            h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+            g, gh = _layers_totals((x, x + h), p_, g2, a0, a1)
+            dg = (gh - g) / h
+        else:
+            (g,) = _layers_totals((x,), p_, g2, a0, a1)
+            dg = (g - gp[act]) / (x - xp[act])
+        xp[act], gp[act] = x, g
         lo[act] = lo_a = np.where(g < 0, x, lo[act])
         hi[act] = hi_a = np.where(g > 0, x, hi[act])
-        dg = (gh - g) / h
         new = x - g / np.where(dg > 0, dg, np.inf)
         outside = ~((new > lo_a) & (new < hi_a)) | ~np.isfinite(new)
         new = np.where(outside, 0.5 * (lo_a + hi_a), new)

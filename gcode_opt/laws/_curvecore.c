@@ -5,10 +5,11 @@ kernel's arguments (curves.py: _parts_block), their elementwise work compiled.
 Optional extension _gcode_opt_curvecore (setup.py builds it; laws/circle.py and curves.py
 fall back to the numpy code when it is missing, stale or GCODE_OPT_PURE_PYTHON is set).
 It must give the numpy code's bits: every double operation below is the one numpy does,
-in the same order (built with -ffp-contract=off, no fast math).  The matrix products stay
-numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-padded arrays) and so
-does np.exp (numpy's is not libm's on every machine): these functions do what lies
-between them.  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
+in the same order (built with -ffp-contract=off, no fast math).  The series' matrix
+products stay numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-padded
+arrays), those of the preconditioned iteration are sums in a fixed order (circle._mm_ordered:
+pc_solve does them itself), and np.exp stays numpy's (numpy's is not libm's on every
+machine).  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
 row maxima and minima propagate NaN as numpy's do. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -85,31 +86,6 @@ static PyObject *simd(PyObject *self, PyObject *a) {
     if (flag >= 0) avx_wanted = flag != 0;
 #endif
     return PyBool_FromLong(use_avx());
-}
-
-/* pc_gather(w, act, na, ncol, wa, nrows): wa[i] = w[act[i]] for i < na, rows na..nrows of
-   wa zero (_rows_matmul's padding) */
-static PyObject *pc_gather(PyObject *self, PyObject *a) {
-    PyObject *ow, *oact, *owa;
-    Py_ssize_t na, ncol, nrows;
-    if (!PyArg_ParseTuple(a, "OOnnOn", &ow, &oact, &na, &ncol, &owa, &nrows)) return NULL;
-    Bufs b = {.n = 0};
-    const double *w = get(&b, ow, 8, 0, 0);
-    const int64_t *act = w ? get(&b, oact, 8, 0, na) : NULL;
-    double *wa = act ? get(&b, owa, 8, 1, nrows * ncol) : NULL;
-    if (!wa) { release(&b); return NULL; }
-    Py_ssize_t wlen = b.v[0].len / 8;
-    for (Py_ssize_t i = 0; i < na; i++) {
-        if (act[i] < 0 || (act[i] + 1) * ncol > wlen) {
-            release(&b);
-            PyErr_SetString(PyExc_IndexError, "pc_gather: row out of range");
-            return NULL;
-        }
-        memcpy(wa + i * ncol, w + act[i] * ncol, (size_t)ncol * sizeof(double));
-    }
-    memset(wa + na * ncol, 0, (size_t)((nrows - na) * ncol) * sizeof(double));
-    release(&b);
-    Py_RETURN_NONE;
 }
 
 /* dst[0 .. n) = src[0 .. n): 4 doubles a step where the CPU has AVX (a row of a series'
@@ -208,339 +184,284 @@ static PyObject *rows_put(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
-/* one row of pc_res: wr (nc) the arc's node values, mr its row of m1 */
-static void pc_res_row(const double *wr, const double *mr, Py_ssize_t nc, double g2, double ca, double ph,
-                       const double *q, const double *lam_e, double *rr, double *r2, double *dr) {
-    Py_ssize_t ni = nc - 2;
-    double tmp[MAX_COLS];
-    double mx = 0.0, mn = 0.0;
-    for (Py_ssize_t j = 0; j < ni; j++) {
-        double wi = wr[j + 1];
-        double w2 = wi * wi;
-        rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
-        if (j == 0) {
-            mx = w2;
-            mn = w2;
-        } else {
-            mx = np_max(mx, w2);
-            mn = np_min(mn, w2);
+/* The preconditioned iteration of _precond_cheb, one arc at a time (each arc's iteration is
+   its own: the batch form's active set only says which arcs still step).  Its three matrix
+   products are the ordered sums of circle._mm_ordered: out[j] = x[0] M[0][j] + x[1] M[1][j]
+   + ..., each product rounded, then added in the order of k (the numpy fallback does the same
+   operations, so the same bits; no BLAS call of 32-row blocks, ~20 k instructions each).
+   The matrices are held with rows of jp >= J doubles (jp a multiple of 4, zero beyond J). */
+typedef struct {
+    Py_ssize_t n, nc, ni, jp;       /* N, N + 1 nodes, N - 1 interior ones, padded row length */
+    const double *d2, *vinv, *v;    /* (nc, jp), (ni, jp), (ni, jp): d2_t, vinv_t, v_t padded */
+    const double *q, *lam_e, *qv, *e, *qe;
+    Py_ssize_t iters;
+    double slow_r, tol, floor_r;
+} PcConst;
+
+/* out[j] = sum over k < K of x[k] M[k][j] in the order of k (j < J), M rows of jp doubles */
+static void mv_ordered(const double *x, Py_ssize_t K, const double *M, Py_ssize_t J, Py_ssize_t jp, double *out) {
+    for (Py_ssize_t j = 0; j < J; j++) {
+        double acc = x[0] * M[j];
+        for (Py_ssize_t k = 1; k < K; k++) acc = acc + x[k] * M[k * jp + j];
+        out[j] = acc;
+    }
+}
+
+/* the end of a step of the iteration: 1 converged (at the rounding floor of the residual,
+   steps no longer shrinking, or below it), 0 stopped unconverged (slow or not finite),
+   -1 on; *last the step before */
+static inline int pc_next(Py_ssize_t it, double step, double *last, double scale, const PcConst *P) {
+    const int slow = it >= 4 && !(step < P->slow_r * *last);
+    if (step <= P->tol * scale || (slow && step <= P->floor_r * scale)) return 1;
+    if (slow || !isfinite(step)) return 0;
+    *last = step;
+    return -1;
+}
+
+/* One arc's iteration (circle._precond_cheb_np's steps for one row; w its N + 1 node values,
+   the ends set, updated in place with *cc); returns ok (converged) */
+static int pc_row(double *w, double *cc, double g2, double ph, double scale, const PcConst *P) {
+    const Py_ssize_t nc = P->nc, ni = P->ni, jp = P->jp;
+    double m1[MAX_COLS], r1[MAX_COLS], den[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS], x[MAX_COLS], dw[MAX_COLS];
+    double last = INFINITY;
+    for (Py_ssize_t it = 0; it < P->iters; it++) {
+        const double ca = *cc;
+        double *wi = w + 1;
+        /* r1 = w @ d2_t - g2 wi - 2 wi w2 - ca,  r2 = (w q).sum() - phi,  den */
+        mv_ordered(w, nc, P->d2, ni, jp, m1);
+        double mx = 0.0, mn = 0.0;
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            const double wj = wi[j], w2 = wj * wj;
+            r1[j] = ((m1[j] - g2 * wj) - (2.0 * wj) * w2) - ca;
+            mx = j == 0 ? w2 : np_max(mx, w2);
+            mn = j == 0 ? w2 : np_min(mn, w2);
+        }
+        for (Py_ssize_t j = 0; j < nc; j++) t1[j] = w[j] * P->q[j];
+        const double r2 = np_pairwise_sum(t1, nc) - ph;
+        const double dd = g2 + 3.0 * (mx + mn);
+        for (Py_ssize_t j = 0; j < ni; j++) den[j] = P->lam_e[j] - dd;
+        /* b = -(r1 @ vinv_t), dc, x = (b + dc e) / den, dw = x @ v_t */
+        mv_ordered(r1, ni, P->vinv, ni, jp, m1);
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            t1[j] = (-m1[j] / den[j]) * P->qv[j];
+            t2[j] = P->qe[j] / den[j];
+        }
+        const double dc = (-r2 - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
+        for (Py_ssize_t j = 0; j < ni; j++) x[j] = (-m1[j] + dc * P->e[j]) / den[j];
+        mv_ordered(x, ni, P->v, ni, jp, dw);
+        double step = 0.0;
+        for (Py_ssize_t j = 0; j < ni; j++) {
+            wi[j] = wi[j] + dw[j];
+            const double ad = fabs(dw[j]);
+            step = j == 0 ? ad : np_max(step, ad);
+        }
+        *cc = ca + dc;
+        const int end = pc_next(it, step, &last, scale, P);
+        if (end >= 0) return end;
+    }
+    return 0;
+}
+
+#if CURVE_AVX
+/* mv_ordered on nv * 4 columns (nv <= 8 accumulators held in registers) */
+static inline __attribute__((always_inline, target("avx"))) void mv_blk(const double *x, Py_ssize_t K,
+                                                                          const double *m, Py_ssize_t jp,
+                                                                          double *out, const int nv) {
+    __m256d acc[8];
+    __m256d xk = _mm256_set1_pd(x[0]);
+#pragma GCC unroll 8
+    for (int v = 0; v < nv; v++) acc[v] = _mm256_mul_pd(xk, _mm256_loadu_pd(m + 4 * v));
+    for (Py_ssize_t k = 1; k < K; k++) {
+        m += jp;
+        xk = _mm256_set1_pd(x[k]);
+#pragma GCC unroll 8
+        for (int v = 0; v < nv; v++) acc[v] = _mm256_add_pd(acc[v], _mm256_mul_pd(xk, _mm256_loadu_pd(m + 4 * v)));
+    }
+#pragma GCC unroll 8
+    for (int v = 0; v < nv; v++) _mm256_storeu_pd(out + 4 * v, acc[v]);
+}
+
+/* mv_ordered on all jp columns, 32 at a time (the padding columns give zeros, unread) */
+AVX_FN static void mv_ordered_avx(const double *x, Py_ssize_t K, const double *M, Py_ssize_t jp, double *out) {
+    for (Py_ssize_t j = 0; j < jp; j += 32) {
+        const Py_ssize_t nv = jp - j >= 32 ? 8 : (jp - j) / 4;
+        switch (nv) {
+        case 8: mv_blk(x, K, M + j, jp, out + j, 8); break;
+        case 7: mv_blk(x, K, M + j, jp, out + j, 7); break;
+        case 6: mv_blk(x, K, M + j, jp, out + j, 6); break;
+        case 5: mv_blk(x, K, M + j, jp, out + j, 5); break;
+        case 4: mv_blk(x, K, M + j, jp, out + j, 4); break;
+        case 3: mv_blk(x, K, M + j, jp, out + j, 3); break;
+        case 2: mv_blk(x, K, M + j, jp, out + j, 2); break;
+        default: mv_blk(x, K, M + j, jp, out + j, 1); break;
         }
     }
-    for (Py_ssize_t j = 0; j < nc; j++) tmp[j] = wr[j] * q[j];
-    *r2 = np_pairwise_sum(tmp, nc) - ph;
-    double dd = g2 + 3.0 * (mx + mn);
-    for (Py_ssize_t j = 0; j < ni; j++) dr[j] = lam_e[j] - dd;
 }
 
-#if CURVE_AVX
-/* pc_res_row's numbers; 0 (the row to be redone by pc_res_row) if a square is NaN */
-AVX_FN static int pc_res_row_avx(const double *wr, const double *mr, Py_ssize_t nc, double g2, double ca,
-                                 double ph, const double *q, const double *lam_e, double *rr, double *r2,
-                                 double *dr) {
-    Py_ssize_t ni = nc - 2, j = 0;
-    double tmp[MAX_COLS];
-    const __m256d vg = _mm256_set1_pd(g2), vc = _mm256_set1_pd(ca), two = _mm256_set1_pd(2.0);
-    __m256d vmx = _mm256_set1_pd(-INFINITY), vmn = _mm256_set1_pd(INFINITY), bad = _mm256_setzero_pd();
-    for (; j + 4 <= ni; j += 4) {
-        __m256d wi = _mm256_loadu_pd(wr + j + 1);
-        __m256d w2 = _mm256_mul_pd(wi, wi);
-        __m256d t = _mm256_sub_pd(_mm256_loadu_pd(mr + j), _mm256_mul_pd(vg, wi));
-        t = _mm256_sub_pd(t, _mm256_mul_pd(_mm256_mul_pd(two, wi), w2));
-        _mm256_storeu_pd(rr + j, _mm256_sub_pd(t, vc));
-        vmx = _mm256_max_pd(vmx, w2);
-        vmn = _mm256_min_pd(vmn, w2);
-        bad = _mm256_or_pd(bad, _mm256_cmp_pd(w2, w2, _CMP_UNORD_Q));
-    }
-    if (_mm256_movemask_pd(bad)) return 0;
-    double x4[4], n4[4];
-    _mm256_storeu_pd(x4, vmx);
-    _mm256_storeu_pd(n4, vmn);
-    double mx = x4[0], mn = n4[0];
-    for (int c = 1; c < 4; c++) {
-        mx = x4[c] > mx ? x4[c] : mx;
-        mn = n4[c] < mn ? n4[c] : mn;
-    }
-    for (; j < ni; j++) {
-        double wi = wr[j + 1];
-        double w2 = wi * wi;
-        rr[j] = ((mr[j] - g2 * wi) - (2.0 * wi) * w2) - ca;
-        if (isnan(w2)) return 0;
-        mx = w2 > mx ? w2 : mx;
-        mn = w2 < mn ? w2 : mn;
-    }
-    for (j = 0; j + 4 <= nc; j += 4)
-        _mm256_storeu_pd(tmp + j, _mm256_mul_pd(_mm256_loadu_pd(wr + j), _mm256_loadu_pd(q + j)));
-    for (; j < nc; j++) tmp[j] = wr[j] * q[j];
-    *r2 = np_pairwise_sum(tmp, nc) - ph;
-    const double dd = g2 + 3.0 * (mx + mn);
-    const __m256d vd = _mm256_set1_pd(dd);
-    for (j = 0; j + 4 <= ni; j += 4)
-        _mm256_storeu_pd(dr + j, _mm256_sub_pd(_mm256_loadu_pd(lam_e + j), vd));
-    for (; j < ni; j++) dr[j] = lam_e[j] - dd;
-    return 1;
-}
-#endif
-
-/* pc_res(wa, m1, act, na, n, gam2, cc, phi, q, lam_e, r1, r2, den, nrows):
-     wi = wa[:, 1:-1], w2 = wi * wi,
-     r1 = m1 - g2 wi - 2 wi w2 - ca          (m1 = wa @ d2_t, rows of n - 1)
-     r2 = (wa * q).sum(axis=1) - phi
-     den = lam_e - (g2 + 3 (w2.max(axis=1) + w2.min(axis=1)))
-   g2, ca, phi: gam2, cc, phi at act; rows na..nrows of r1 zero */
-static PyObject *pc_res(PyObject *self, PyObject *a) {
-    PyObject *o[13];
-    Py_ssize_t na, n, nrows;
-    if (!PyArg_ParseTuple(a, "OOOnnOOOOOOOOn", &o[0], &o[1], &o[2], &na, &n, &o[3], &o[4], &o[5], &o[6],
-                          &o[7], &o[8], &o[9], &o[10], &nrows))
-        return NULL;
-    if (n < 2 || n + 1 > MAX_COLS) {
-        PyErr_SetString(PyExc_ValueError, "pc_res: bad n");
-        return NULL;
-    }
-    Py_ssize_t nc = n + 1, ni = n - 1;
-    Bufs b = {.n = 0};
-    const double *wa = get(&b, o[0], 8, 0, na * nc);
-    const double *m1 = wa ? get(&b, o[1], 8, 0, na * ni) : NULL;
-    const int64_t *act = m1 ? get(&b, o[2], 8, 0, na) : NULL;
-    const double *gam2 = act ? get(&b, o[3], 8, 0, 0) : NULL;
-    const double *cc = gam2 ? get(&b, o[4], 8, 0, 0) : NULL;
-    const double *phi = cc ? get(&b, o[5], 8, 0, 0) : NULL;
-    const double *q = phi ? get(&b, o[6], 8, 0, nc) : NULL;
-    const double *lam_e = q ? get(&b, o[7], 8, 0, ni) : NULL;
-    double *r1 = lam_e ? get(&b, o[8], 8, 1, nrows * ni) : NULL;
-    double *r2 = r1 ? get(&b, o[9], 8, 1, na) : NULL;
-    double *den = r2 ? get(&b, o[10], 8, 1, na * ni) : NULL;
-    if (!den) { release(&b); return NULL; }
-    Py_ssize_t nlim = b.v[3].len / 8;
-    if (b.v[4].len / 8 < nlim) nlim = b.v[4].len / 8;
-    if (b.v[5].len / 8 < nlim) nlim = b.v[5].len / 8;
-#if CURVE_AVX
-    const int avx = use_avx() && ni >= 4;
-#endif
-    for (Py_ssize_t i = 0; i < na; i++) {
-        int64_t k = act[i];
-        if (k < 0 || k >= nlim) {
-            release(&b);
-            PyErr_SetString(PyExc_IndexError, "pc_res: row out of range");
-            return NULL;
-        }
-        const double *wr = wa + i * nc, *mr = m1 + i * ni;
-#if CURVE_AVX
-        if (avx && pc_res_row_avx(wr, mr, nc, gam2[k], cc[k], phi[k], q, lam_e, r1 + i * ni, r2 + i, den + i * ni))
-            continue;
-#endif
-        pc_res_row(wr, mr, nc, gam2[k], cc[k], phi[k], q, lam_e, r1 + i * ni, r2 + i, den + i * ni);
-    }
-    memset(r1 + na * ni, 0, (size_t)((nrows - na) * ni) * sizeof(double));
-    release(&b);
-    Py_RETURN_NONE;
+/* max over a row of numpy's maximum (NaN first seen) from a vector of running maxima and a
+   flag of unordered lanes: the lanes' maximum, or the scalar fold when a NaN was met */
+AVX_FN static double lanes_max(__m256d v) {
+    double l[4];
+    _mm256_storeu_pd(l, v);
+    double m = l[0];
+    for (int c = 1; c < 4; c++) m = l[c] > m ? l[c] : m;
+    return m;
 }
 
-#if CURVE_AVX
-/* pc_step's rows, 4 columns at a time (-x as a flip of the sign bit, as the scalar -x) */
-AVX_FN static void pc_step_avx(const double *m2, const double *den, const double *qv, const double *e,
-                               const double *qe, const double *r2, Py_ssize_t na, Py_ssize_t ni, double *x,
-                               double *dc) {
-    double t1[MAX_COLS], t2[MAX_COLS];
-    const __m256d sign = _mm256_set1_pd(-0.0);
-    for (Py_ssize_t i = 0; i < na; i++) {
-        const double *mr = m2 + i * ni, *dr = den + i * ni;
+AVX_FN static double lanes_min(__m256d v) {
+    double l[4];
+    _mm256_storeu_pd(l, v);
+    double m = l[0];
+    for (int c = 1; c < 4; c++) m = l[c] < m ? l[c] : m;
+    return m;
+}
+
+/* pc_row with its elementwise loops 4 columns at a time (the same operations on the same
+   operands in the same order: the same bits; a row maximum or minimum over a NaN is the
+   scalar fold's, numpy's) */
+AVX_FN static int pc_row_avx(double *w, double *cc, double g2, double ph, double scale, const PcConst *P) {
+    const Py_ssize_t nc = P->nc, ni = P->ni, jp = P->jp, nv = ni / 4 * 4;
+    double m1[MAX_COLS], r1[MAX_COLS], den[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS], x[MAX_COLS], dw[MAX_COLS];
+    double last = INFINITY;
+    const __m256d sign = _mm256_set1_pd(-0.0), vg = _mm256_set1_pd(g2), two = _mm256_set1_pd(2.0);
+    for (Py_ssize_t it = 0; it < P->iters; it++) {
+        const double ca = *cc;
+        double *wi = w + 1;
+        mv_ordered_avx(w, nc, P->d2, jp, m1);
+        const __m256d vc = _mm256_set1_pd(ca);
+        __m256d vmx = _mm256_set1_pd(-INFINITY), vmn = _mm256_set1_pd(INFINITY), bad = _mm256_setzero_pd();
         Py_ssize_t j = 0;
-        for (; j + 4 <= ni; j += 4) {
-            __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(mr + j), sign);
-            __m256d dv = _mm256_loadu_pd(dr + j);
-            _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_div_pd(bj, dv), _mm256_loadu_pd(qv + j)));
-            _mm256_storeu_pd(t2 + j, _mm256_div_pd(_mm256_loadu_pd(qe + j), dv));
+        for (; j < nv; j += 4) {
+            const __m256d wj = _mm256_loadu_pd(wi + j), w2 = _mm256_mul_pd(wj, wj);
+            __m256d t = _mm256_sub_pd(_mm256_loadu_pd(m1 + j), _mm256_mul_pd(vg, wj));
+            t = _mm256_sub_pd(t, _mm256_mul_pd(_mm256_mul_pd(two, wj), w2));
+            _mm256_storeu_pd(r1 + j, _mm256_sub_pd(t, vc));
+            vmx = _mm256_max_pd(vmx, w2);
+            vmn = _mm256_min_pd(vmn, w2);
+            bad = _mm256_or_pd(bad, _mm256_cmp_pd(w2, w2, _CMP_UNORD_Q));
         }
+        double mx = lanes_max(vmx), mn = lanes_min(vmn);
+        int nan = _mm256_movemask_pd(bad);
         for (; j < ni; j++) {
-            double bj = -mr[j];
-            t1[j] = (bj / dr[j]) * qv[j];
-            t2[j] = qe[j] / dr[j];
+            const double wj = wi[j], w2 = wj * wj;
+            r1[j] = ((m1[j] - g2 * wj) - (2.0 * wj) * w2) - ca;
+            nan |= isnan(w2);
+            mx = w2 > mx ? w2 : mx;
+            mn = w2 < mn ? w2 : mn;
         }
-        double d = (-r2[i] - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
-        dc[i] = d;
-        double *xr = x + i * ni;
-        const __m256d vd = _mm256_set1_pd(d);
-        for (j = 0; j + 4 <= ni; j += 4) {
-            __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(mr + j), sign);
-            __m256d t = _mm256_add_pd(bj, _mm256_mul_pd(vd, _mm256_loadu_pd(e + j)));
-            _mm256_storeu_pd(xr + j, _mm256_div_pd(t, _mm256_loadu_pd(dr + j)));
+        if (nan)
+            for (j = 0; j < ni; j++) {
+                const double w2 = wi[j] * wi[j];
+                mx = j == 0 ? w2 : np_max(mx, w2);
+                mn = j == 0 ? w2 : np_min(mn, w2);
+            }
+        for (j = 0; j + 4 <= nc; j += 4)
+            _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_loadu_pd(w + j), _mm256_loadu_pd(P->q + j)));
+        for (; j < nc; j++) t1[j] = w[j] * P->q[j];
+        const double r2 = np_pairwise_sum(t1, nc) - ph;
+        const __m256d vd = _mm256_set1_pd(g2 + 3.0 * (mx + mn));
+        mv_ordered_avx(r1, ni, P->vinv, jp, m1);
+        for (j = 0; j < jp; j += 4) {      /* (padding: lam_e, qv, qe zero there; unread) */
+            const __m256d dv = _mm256_sub_pd(_mm256_loadu_pd(P->lam_e + j), vd);
+            _mm256_storeu_pd(den + j, dv);
+            const __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(m1 + j), sign);
+            _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_div_pd(bj, dv), _mm256_loadu_pd(P->qv + j)));
+            _mm256_storeu_pd(t2 + j, _mm256_div_pd(_mm256_loadu_pd(P->qe + j), dv));
         }
-        for (; j < ni; j++) xr[j] = (-mr[j] + d * e[j]) / dr[j];
+        const double dc = (-r2 - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
+        const __m256d vdc = _mm256_set1_pd(dc);
+        for (j = 0; j < jp; j += 4) {
+            const __m256d bj = _mm256_xor_pd(_mm256_loadu_pd(m1 + j), sign);
+            const __m256d t = _mm256_add_pd(bj, _mm256_mul_pd(vdc, _mm256_loadu_pd(P->e + j)));
+            _mm256_storeu_pd(x + j, _mm256_div_pd(t, _mm256_loadu_pd(den + j)));
+        }
+        mv_ordered_avx(x, ni, P->v, jp, dw);
+        __m256d vst = _mm256_setzero_pd();
+        bad = _mm256_setzero_pd();
+        for (j = 0; j < nv; j += 4) {
+            const __m256d d = _mm256_loadu_pd(dw + j), ad = _mm256_andnot_pd(sign, d);
+            _mm256_storeu_pd(wi + j, _mm256_add_pd(_mm256_loadu_pd(wi + j), d));
+            vst = _mm256_max_pd(vst, ad);
+            bad = _mm256_or_pd(bad, _mm256_cmp_pd(ad, ad, _CMP_UNORD_Q));
+        }
+        double step = lanes_max(vst);
+        nan = _mm256_movemask_pd(bad);
+        for (; j < ni; j++) {
+            wi[j] = wi[j] + dw[j];
+            const double ad = fabs(dw[j]);
+            nan |= isnan(ad);
+            step = ad > step ? ad : step;
+        }
+        if (nan) step = NAN;       /* (numpy's maximum: NaN; a NaN step only stops the row) */
+        *cc = ca + dc;
+        const int end = pc_next(it, step, &last, scale, P);
+        if (end >= 0) return end;
     }
+    return 0;
 }
 #endif
 
-/* pc_step(m2, den, qv, e, r2, na, ni, x, dc, nrows): b = -m2 (m2 = r1 @ vinv_t),
-     dc = (-r2 - ((b / den) * qv).sum(axis=1)) / ((qv * e) / den).sum(axis=1)
-     x = (b + dc e) / den                    (rows na..nrows of x zero) */
-static PyObject *pc_step(PyObject *self, PyObject *a) {
-    PyObject *o[7];
-    Py_ssize_t na, ni, nrows;
-    if (!PyArg_ParseTuple(a, "OOOOOnnOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &na, &ni, &o[5], &o[6], &nrows))
+/* a (rows, cols) C-contiguous matrix into rows of jp doubles, zero beyond cols */
+static double *padded(const double *m, Py_ssize_t rows, Py_ssize_t cols, Py_ssize_t jp) {
+    double *p = calloc((size_t)(rows * jp), sizeof(double));
+    if (p)
+        for (Py_ssize_t r = 0; r < rows; r++) memcpy(p + r * jp, m + r * cols, (size_t)cols * sizeof(double));
+    return p;
+}
+
+/* pc_solve(w, cc, ok, nb, n, gam2, phi, scale, d2_t, q, lam_e, vinv_t, v_t, qv, e, iters, slow_r, tol,
+   floor): circle._precond_cheb_np's iteration for each of the nb arcs, w (nb, N + 1) the start
+   nodes with their ends set, cc (nb) zeros: both updated in place, ok[i] set (1) or cleared */
+static PyObject *pc_solve(PyObject *self, PyObject *a) {
+    PyObject *o[13];
+    Py_ssize_t nb, n, iters;
+    double slow_r, tol, floor_r;
+    if (!PyArg_ParseTuple(a, "OOOnnOOOOOOOOOOnddd", &o[0], &o[1], &o[2], &nb, &n, &o[3], &o[4], &o[5], &o[6],
+                          &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &iters, &slow_r, &tol, &floor_r))
         return NULL;
-    if (ni < 1 || ni > MAX_COLS) {
-        PyErr_SetString(PyExc_ValueError, "pc_step: bad size");
+    if (n < 2 || n + 1 > MAX_COLS || nb < 0) {
+        PyErr_SetString(PyExc_ValueError, "pc_solve: bad n");
         return NULL;
     }
+    const Py_ssize_t nc = n + 1, ni = n - 1, jp = (ni + 3) / 4 * 4;
     Bufs b = {.n = 0};
-    const double *m2 = get(&b, o[0], 8, 0, na * ni);
-    const double *den = m2 ? get(&b, o[1], 8, 0, na * ni) : NULL;
-    const double *qv = den ? get(&b, o[2], 8, 0, ni) : NULL;
-    const double *e = qv ? get(&b, o[3], 8, 0, ni) : NULL;
-    const double *r2 = e ? get(&b, o[4], 8, 0, na) : NULL;
-    double *x = r2 ? get(&b, o[5], 8, 1, nrows * ni) : NULL;
-    double *dc = x ? get(&b, o[6], 8, 1, na) : NULL;
-    if (!dc) { release(&b); return NULL; }
-    double qe[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS];
-    for (Py_ssize_t j = 0; j < ni; j++) qe[j] = qv[j] * e[j];
+    double *w = get(&b, o[0], 8, 1, nb * nc);
+    double *cc = w ? get(&b, o[1], 8, 1, nb) : NULL;
+    char *ok = cc ? get(&b, o[2], 1, 1, nb) : NULL;
+    const double *gam2 = ok ? get(&b, o[3], 8, 0, nb) : NULL;
+    const double *phi = gam2 ? get(&b, o[4], 8, 0, nb) : NULL;
+    const double *scale = phi ? get(&b, o[5], 8, 0, nb) : NULL;
+    const double *d2_t = scale ? get(&b, o[6], 8, 0, nc * ni) : NULL;
+    const double *q = d2_t ? get(&b, o[7], 8, 0, nc) : NULL;
+    const double *lam_e = q ? get(&b, o[8], 8, 0, ni) : NULL;
+    const double *vinv_t = lam_e ? get(&b, o[9], 8, 0, ni * ni) : NULL;
+    const double *v_t = vinv_t ? get(&b, o[10], 8, 0, ni * ni) : NULL;
+    const double *qv = v_t ? get(&b, o[11], 8, 0, ni) : NULL;
+    const double *e = qv ? get(&b, o[12], 8, 0, ni) : NULL;
+    if (!e) { release(&b); return NULL; }
+    /* the vectors of ni, zero up to jp (the AVX loops run over whole vectors) */
+    double lam_p[MAX_COLS] = {0}, qv_p[MAX_COLS] = {0}, e_p[MAX_COLS] = {0}, qe[MAX_COLS] = {0};
+    for (Py_ssize_t j = 0; j < ni; j++) {
+        lam_p[j] = lam_e[j], qv_p[j] = qv[j], e_p[j] = e[j];
+        qe[j] = qv[j] * e[j];
+    }
+    double *md2 = padded(d2_t, nc, ni, jp), *mvi = padded(vinv_t, ni, ni, jp), *mvv = padded(v_t, ni, ni, jp);
+    if (!md2 || !mvi || !mvv) {
+        free(md2), free(mvi), free(mvv);
+        release(&b);
+        return PyErr_NoMemory();
+    }
+    const PcConst P = {n, nc, ni, jp, md2, mvi, mvv, q, lam_p, qv_p, e_p, qe, iters, slow_r, tol, floor_r};
 #if CURVE_AVX
     if (use_avx() && ni >= 4) {
-        pc_step_avx(m2, den, qv, e, qe, r2, na, ni, x, dc);
+        for (Py_ssize_t i = 0; i < nb; i++)
+            ok[i] = (char)pc_row_avx(w + i * nc, cc + i, gam2[i], phi[i], scale[i], &P);
     } else
 #endif
-    for (Py_ssize_t i = 0; i < na; i++) {
-        const double *mr = m2 + i * ni, *dr = den + i * ni;
-        for (Py_ssize_t j = 0; j < ni; j++) {
-            double bj = -mr[j];
-            t1[j] = (bj / dr[j]) * qv[j];
-            t2[j] = qe[j] / dr[j];
-        }
-        double d = (-r2[i] - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
-        dc[i] = d;
-        double *xr = x + i * ni;
-        for (Py_ssize_t j = 0; j < ni; j++) xr[j] = (-mr[j] + d * e[j]) / dr[j];
-    }
-    memset(x + na * ni, 0, (size_t)((nrows - na) * ni) * sizeof(double));
+    for (Py_ssize_t i = 0; i < nb; i++) ok[i] = (char)pc_row(w + i * nc, cc + i, gam2[i], phi[i], scale[i], &P);
+    free(md2), free(mvi), free(mvv);
     release(&b);
     Py_RETURN_NONE;
-}
-
-#if CURVE_AVX
-/* one row of pc_update but cc; 0 (to be redone by the scalar loop, which writes the same
-   w) if a step is NaN */
-AVX_FN static int pc_update_row_avx(double *wr, const double *war, const double *dr, Py_ssize_t ni,
-                                    double *step) {
-    const __m256d sign = _mm256_set1_pd(-0.0);
-    __m256d vmx = _mm256_setzero_pd(), bad = _mm256_setzero_pd();
-    Py_ssize_t j = 0;
-    for (; j + 4 <= ni; j += 4) {
-        __m256d d = _mm256_loadu_pd(dr + j);
-        _mm256_storeu_pd(wr + j + 1, _mm256_add_pd(_mm256_loadu_pd(war + j + 1), d));
-        __m256d ad = _mm256_andnot_pd(sign, d);
-        vmx = _mm256_max_pd(vmx, ad);
-        bad = _mm256_or_pd(bad, _mm256_cmp_pd(ad, ad, _CMP_UNORD_Q));
-    }
-    if (_mm256_movemask_pd(bad)) return 0;
-    double x4[4];
-    _mm256_storeu_pd(x4, vmx);
-    double mx = x4[0];
-    for (int c = 1; c < 4; c++) mx = x4[c] > mx ? x4[c] : mx;
-    for (; j < ni; j++) {
-        wr[j + 1] = war[j + 1] + dr[j];
-        double ad = fabs(dr[j]);
-        if (isnan(ad)) return 0;
-        mx = ad > mx ? ad : mx;
-    }
-    *step = mx;
-    return 1;
-}
-#endif
-
-/* pc_update(w, cc, act, na, n, wa, dw, dc, step): w[act, 1:-1] = wa[:, 1:-1] + dw,
-   cc[act] = cc[act] + dc, step = abs(dw).max(axis=1) */
-static PyObject *pc_update(PyObject *self, PyObject *a) {
-    PyObject *o[8];
-    Py_ssize_t na, n;
-    if (!PyArg_ParseTuple(a, "OOOnnOOOO", &o[0], &o[1], &o[2], &na, &n, &o[3], &o[4], &o[5], &o[6]))
-        return NULL;
-    if (n < 2 || n + 1 > MAX_COLS) {
-        PyErr_SetString(PyExc_ValueError, "pc_update: bad n");
-        return NULL;
-    }
-    Py_ssize_t nc = n + 1, ni = n - 1;
-    Bufs b = {.n = 0};
-    double *w = get(&b, o[0], 8, 1, 0);
-    double *cc = w ? get(&b, o[1], 8, 1, 0) : NULL;
-    const int64_t *act = cc ? get(&b, o[2], 8, 0, na) : NULL;
-    const double *wa = act ? get(&b, o[3], 8, 0, na * nc) : NULL;
-    const double *dw = wa ? get(&b, o[4], 8, 0, na * ni) : NULL;
-    const double *dc = dw ? get(&b, o[5], 8, 0, na) : NULL;
-    double *step = dc ? get(&b, o[6], 8, 1, na) : NULL;
-    if (!step) { release(&b); return NULL; }
-    Py_ssize_t nlim = b.v[1].len / 8;
-    if (b.v[0].len / 8 / nc < nlim) nlim = b.v[0].len / 8 / nc;
-#if CURVE_AVX
-    const int avx = use_avx() && ni >= 4;
-#endif
-    for (Py_ssize_t i = 0; i < na; i++) {
-        int64_t k = act[i];
-        if (k < 0 || k >= nlim) {
-            release(&b);
-            PyErr_SetString(PyExc_IndexError, "pc_update: row out of range");
-            return NULL;
-        }
-        double *wr = w + k * nc;
-        const double *war = wa + i * nc, *dr = dw + i * ni;
-#if CURVE_AVX
-        if (!(avx && pc_update_row_avx(wr, war, dr, ni, step + i)))
-#endif
-        {
-            double mx = 0.0;
-            for (Py_ssize_t j = 0; j < ni; j++) {
-                wr[j + 1] = war[j + 1] + dr[j];
-                double ad = fabs(dr[j]);
-                mx = j == 0 ? ad : np_max(mx, ad);
-            }
-            step[i] = mx;
-        }
-        cc[k] = cc[k] + dc[i];
-    }
-    release(&b);
-    Py_RETURN_NONE;
-}
-
-/* pc_done(step, act, na, it, last, scale, ok, slow_r, tol, floor) -> count: _precond_cheb's
-   end of a step, for the na active arcs act (k = act[i], s = step[i]):
-     slow = it >= 4 and not (s < slow_r * last[k]),
-     done = s <= tol * scale[k] or (slow and s <= floor * scale[k]),
-     ok[k] = True where done, last[k] = s,
-   and act keeps, in order and in place, the arcs neither done nor slow whose step is
-   finite (numpy's comparisons: false on NaN); returns how many it keeps */
-static PyObject *pc_done(PyObject *self, PyObject *a) {
-    PyObject *o[5];
-    Py_ssize_t na, it;
-    double slow_r, tol, floor_r;
-    if (!PyArg_ParseTuple(a, "OOnnOOOddd", &o[0], &o[1], &na, &it, &o[2], &o[3], &o[4], &slow_r, &tol, &floor_r))
-        return NULL;
-    Bufs b = {.n = 0};
-    const double *step = get(&b, o[0], 8, 0, na);
-    int64_t *act = step ? get(&b, o[1], 8, 1, na) : NULL;
-    double *last = act ? get(&b, o[2], 8, 1, 0) : NULL;
-    const double *scale = last ? get(&b, o[3], 8, 0, 0) : NULL;
-    char *ok = scale ? get(&b, o[4], 1, 1, 0) : NULL;
-    if (!ok) { release(&b); return NULL; }
-    Py_ssize_t nlim = b.v[2].len / 8;
-    if (b.v[3].len / 8 < nlim) nlim = b.v[3].len / 8;
-    if (b.v[4].len < nlim) nlim = b.v[4].len;
-    for (Py_ssize_t i = 0; i < na; i++)
-        if (act[i] < 0 || act[i] >= nlim) {
-            release(&b);
-            PyErr_SetString(PyExc_IndexError, "pc_done: row out of range");
-            return NULL;
-        }
-    Py_ssize_t kept = 0;
-    for (Py_ssize_t i = 0; i < na; i++) {
-        const int64_t k = act[i];
-        const double st = step[i];
-        const int slow = it >= 4 && !(st < slow_r * last[k]);
-        const int done = (st <= tol * scale[k]) || (slow && st <= floor_r * scale[k]);
-        if (done) ok[k] = 1;
-        last[k] = st;
-        if (!done && isfinite(st) && !slow) act[kept++] = k;
-    }
-    release(&b);
-    return PyLong_FromSsize_t(kept);
 }
 
 /* jerk_caps(u, jx, jy, jerk_r, m, n, out): curves._jerk_caps (marlin_jerk_junction_v with
@@ -1715,13 +1636,9 @@ static PyObject *obj_ids(PyObject *self, PyObject *a)
 }
 
 static PyMethodDef methods[] = {
-    {"pc_gather", pc_gather, METH_VARARGS, "the active arcs' node values, zero-padded rows"},
+    {"pc_solve", pc_solve, METH_VARARGS, "_precond_cheb: the preconditioned iteration of each arc, whole"},
     {"rows_take", rows_take, METH_VARARGS, "rows of a table (or its transpose's columns) into zero-padded blocks"},
     {"rows_put", rows_put, METH_VARARGS, "rows back into their places in a table"},
-    {"pc_res", pc_res, METH_VARARGS, "_precond_cheb's residuals and denominators"},
-    {"pc_step", pc_step, METH_VARARGS, "_precond_cheb's dc and the eigenbasis step"},
-    {"pc_update", pc_update, METH_VARARGS, "_precond_cheb's update and step sizes"},
-    {"pc_done", pc_done, METH_VARARGS, "_precond_cheb's convergence tests and the arcs it keeps"},
     {"kern_args", kern_args, METH_VARARGS, "_parts_block's curvature kernel before np.exp"},
     {"jerk_caps", jerk_caps, METH_VARARGS, "curves._jerk_caps of a block of strokes' interior vertices"},
     {"simd", simd, METH_VARARGS, "simd([flag]): whether the AVX loops are used (flag 0 turns them off, 1 on)"},

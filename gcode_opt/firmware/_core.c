@@ -6099,11 +6099,14 @@ ring_step_get(RingStep *table, double d, uint64_t d_bits, const RingStepK *k)
 
 /* max_abs_r's pieces, found while ring_solve_run has each piece's |c| at hand: floor, the
  * caller's peak so far; lo, np.abs(c.real).max() over the pieces; idx[0..n), the pieces
- * whose |c| (1 + 1e-9) may not be below max(floor, lo) so far, in order -- the pieces
- * max_abs_r keeps (not below max(floor, lo)) are among them: lo only grows. */
+ * whose |c| (1 + 1e-9) may not be below max(floor, lo) so far, in order, as their amplitude
+ * and length (not every event's: few are candidates) -- the pieces max_abs_r keeps (not
+ * below max(floor, lo)) are among them: lo only grows; the last event's amplitude. */
 typedef struct {
     double floor, lo;
-    Py_ssize_t *idx, n;
+    double *pc;               /* each candidate's c (re, im) and length: 3 doubles */
+    Py_ssize_t n;
+    double last_r, last_i;    /* the last event's amplitude */
 } RingCand;
 
 /* _Stream._solve's amplitudes and pieces in one pass: c_0 the carried amplitude (fr, fi;
@@ -6116,22 +6119,19 @@ typedef struct {
  * multiply-add: the same numbers on any x86-64).  Returns the number of integrals in v. */
 static __attribute__((noinline)) Py_ssize_t
 ring_solve_run(const double *t, const double *dr, const double *drp, int off, double fr, double fi, Py_ssize_t n,
-               double s, double wd, RingStep *table, const RingStepK *k, double *c, double *dur, double *v,
-               RingCand *cand)
+               double s, double wd, RingStep *table, const RingStepK *k, double *v, RingCand *cand)
 {
     double inv_wd = 1.0 / wd, cr = fr, ci = fi, lo = 0.0, c_floor = cand->floor;
-    Py_ssize_t nv = 0, n_cand = 0, *c_idx = cand->idx;
+    Py_ssize_t nv = 0;
+    double *pc = cand->pc;
     if (!off) {
         cr = dr[0];
         ci = -((drp[0] + s * dr[0]) * inv_wd);
     }
-    c[0] = cr;
-    c[1] = ci;
     for (Py_ssize_t i = 1; i < n; i++) {
         double d = t[i] - t[i - 1];
         uint64_t d_bits;
         memcpy(&d_bits, &d, sizeof d_bits);
-        dur[i - 1] = d;
         double ar = fabs(cr);
         lo = ar > lo ? ar : lo;
         if (d_bits != 0) {
@@ -6143,8 +6143,12 @@ ring_solve_run(const double *t, const double *dr, const double *drp, int off, do
             /* a candidate while |c| (1 + 1e-9) may not be below max(floor, lo) -- |c|^2 with
              * a margin over its rounding (mod_ring_solve tests |c| itself); NaN kept */
             double thr = c_floor > lo ? c_floor : lo;
-            if (!(n2 * (1.0 + 4e-9) < thr * thr))
-                c_idx[n_cand++] = i - 1;
+            if (!(n2 * (1.0 + 4e-9) < thr * thr)) {
+                pc[0] = cr;
+                pc[1] = ci;
+                pc[2] = d;
+                pc += 3;
+            }
             double pr = cr * e->er - ci * e->ei, pi = cr * e->ei + ci * e->er;
             cr = pr;
             ci = pi;
@@ -6152,11 +6156,11 @@ ring_solve_run(const double *t, const double *dr, const double *drp, int off, do
         double x = drp[i - off] + s * dr[i - off];
         cr = cr + dr[i - off];
         ci = ci - x * inv_wd;
-        c[2 * i] = cr;
-        c[2 * i + 1] = ci;
     }
     cand->lo = lo;
-    cand->n = n_cand;
+    cand->n = (pc - cand->pc) / 3;
+    cand->last_r = cr;
+    cand->last_i = ci;
     return nv;
 }
 
@@ -6209,8 +6213,8 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     Py_ssize_t np_ = n - 1;                      /* pieces */
     const double *t = (const double *)tb.buf, *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
-    /* (4 n: 2 n more than the amplitudes take -- the room of the dc pass there was: with
-     * the smaller room plate_rectilinear's peak RSS rose by 1 MB, the heap's layout; the
+    /* (the room a past layout took -- 4 n + 3 pieces, where 4 pieces are written at most:
+     * with a smaller room plate_rectilinear's peak RSS rose by 1 MB, the heap's layout; the
      * room past what is written is never touched) */
     size_t need = 4 * (size_t)n + 3 * (size_t)np_ + 1;
     if (need > ring_scratch_n) {
@@ -6228,10 +6232,9 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         PyErr_NoMemory();
         goto done;
     }
-    double *c = ring_scratch, *work = c + 2 * n;
-    double *dur = work, *v = work + np_;
-    /* (max_abs_r's candidates: indices, in room of a double each) */
-    RingCand cand = {floor_, 0.0, (Py_ssize_t *)(void *)(work + 2 * np_), 0};
+    /* (the pieces' integrals, then max_abs_r's candidates: 3 doubles each) */
+    double *v = ring_scratch;
+    RingCand cand = {floor_, 0.0, v + np_, 0, 0.0, 0.0};
     /* No number is tested for being finite on the way: one that is not (in t, dr, drp,
      * first, or made from them) gives an amplitude that is not finite from its event on
      * (the recursion carries it: a NaN stays one, and inf times a step of 0 is NaN), so
@@ -6239,8 +6242,8 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
      * (the caller's steps) then.  (A finite sum can overflow too: the caller's steps then
      * give that same sum.) */
     const RingStepK k = {-s, wd, qr, qi, four_s, rat, scl, real_major};
-    Py_ssize_t nv = ring_solve_run(t, dr, drp, off, fr, fi, n, s, wd, table, &k, c, dur, v, &cand);
-    double c_last_r = c[2 * (n - 1)], c_last_i = c[2 * (n - 1) + 1];
+    Py_ssize_t nv = ring_solve_run(t, dr, drp, off, fr, fi, n, s, wd, table, &k, v, &cand);
+    double c_last_r = cand.last_r, c_last_i = cand.last_i;
     if (!isfinite(c_last_r) || !isfinite(c_last_i)) {
         ret = Py_None;
         Py_INCREF(ret);
@@ -6260,18 +6263,21 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         double lo = cand.lo;
         double thr = floor_ > lo ? floor_ : lo;
         Py_ssize_t kk = 0;
+        double *pc = cand.pc;
         for (Py_ssize_t j = 0; j < cand.n; j++) {
-            Py_ssize_t i = cand.idx[j];
-            if (!(ring_cabs(c[2 * i], c[2 * i + 1]) * (1.0 + 1e-9) < thr))
-                cand.idx[kk++] = i;
+            const double *q = pc + 3 * j;
+            if (!(ring_cabs(q[0], q[1]) * (1.0 + 1e-9) < thr)) {
+                memmove(pc + 3 * kk, q, 3 * sizeof(double));
+                kk++;
+            }
         }
         sum = PyFloat_FromDouble(total);
         if (sum == NULL)
             goto done;
         double pk = 0.0;
         for (Py_ssize_t j = 0; j < kk; j++) {
-            Py_ssize_t i = cand.idx[j];
-            double p = ring_peak_one(c[2 * i], c[2 * i + 1], dur[i], -s, wd, wd);
+            const double *q = pc + 3 * j;
+            double p = ring_peak_one(q[0], q[1], q[2], -s, wd, wd);
             pk = j == 0 || p > pk ? p : pk;
         }
         peak = PyFloat_FromDouble(kk > 0 ? ring_npmax(lo, pk) : lo);

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
-from itertools import compress, repeat
+from itertools import compress, islice, repeat
 from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
@@ -592,10 +592,11 @@ class SegmentCache:
             return got, bad
         self._grow(int(rows.max()) + 1)
         hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
-        hit_l = rows[hit].tolist()
+        hit_r = rows[hit]
+        hit_l = hit_r.tolist()
         seg = self.line_seg
         if not self.line_why:                 # no failure kept (the common case): the hits' plans
-            return dict(zip(hit_l, _items(seg, hit_l))), bad
+            return dict(zip(hit_l, _take(seg, hit_r))), bad
         for i in hit_l:
             why = self.line_why.get(i)
             if why:
@@ -652,12 +653,9 @@ class SegmentCache:
         if not rows.size:
             return
         self.line_T[rows] = self.line_beta[rows] = np.nan
-        rows_l = rows.tolist()
-        seg = self.line_seg
-        for i in rows_l:
-            seg[i] = None
+        _clear_at(self.line_seg, rows)
         if self.line_why:
-            for i in rows_l:
+            for i in rows.tolist():
                 self.line_why.pop(i, None)
 
     def alone(self, i):
@@ -849,7 +847,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 if own_rows:
                     _put_rows(segs, hits)
                 else:                             # the whole batch solved again: its rows cleared first
-                    _put_at(segs, todo, repeat(None))
+                    _clear_at(segs, todo)
                     new_bad = None
             if new_bad is None:
                 new_bad, own_rows = solve(todo)
@@ -892,7 +890,7 @@ class _RunMemo:
         self.rows = rows
         self.T, self.beta = plan.T[rows], plan.beta[rows]
         self.retime, self.reason = plan.retime[rows], plan.reason[rows]
-        self.segs = _items(plan.segs, rows.tolist())
+        self.segs = _take(plan.segs, rows)
         self.t_pred, self.a2_pred = plan.t_pred[rows], plan.a2_pred[rows]
 
     def put_same(self, plan, idx, own):
@@ -943,17 +941,35 @@ def _lines_repeat(pin, rows):
 
 
 def _put_rows(segs, got):
-    """segs[i] = plan for each {i: plan} of got (segs: a list by row).  (The loops here
-    and below store through CPython's list-item opcode, ~190 instructions a row with the
-    iteration; deque(map(segs.__setitem__, ...)) called the method wrapper, ~570.)"""
+    """segs[i] = plan for each {i: plan} of got (segs: a list by row; i: ints), in one
+    compiled pass (objfields.put_at) where the core is built.  (The loops here and below
+    store through CPython's list-item opcode, ~190 instructions a row with the iteration;
+    deque(map(segs.__setitem__, ...)) called the method wrapper, ~570.)"""
+    n = len(got)
+    keys, plans = iter(got), iter(got.values())
+    for a in range(0, n, PUT_ROWS):       # (rows and plans of all ~40 k hits at once: +0.9 MB at the rectilinear plate's peak)
+        m = min(PUT_ROWS, n - a)
+        if not objfields.put_at(segs, np.fromiter(keys, np.intp, m), list(islice(plans, m))):
+            break                         # (the first chunk only: every chunk's types are the same)
+    else:
+        return
     for i, seg in got.items():
         segs[i] = seg
 
 
+def _clear_at(segs, rows):
+    """segs[i] = None for i in rows (an int array)."""
+    if not objfields.fill_at(segs, rows, None):
+        _put_at(segs, rows, repeat(None))
+
+
 def _put_at(segs, rows, plans):
     """segs[i] = plan for i, plan in zip(rows, plans) (rows: an int array, plans: an
-    iterable as long), PUT_ROWS rows at a time: their int objects are not all made at once
-    (~41 k rows, 1.2 MB of them, a budget run's lines on the rectilinear plate)."""
+    iterable as long): where plans is a list as long, in one compiled pass (objfields.put_at),
+    else PUT_ROWS rows at a time: their int objects are not all made at once (~41 k rows,
+    1.2 MB of them, a budget run's lines on the rectilinear plate)."""
+    if type(plans) is list and objfields.put_at(segs, rows, plans):
+        return
     it = iter(plans)
     for a in range(0, rows.size, PUT_ROWS):
         for i, seg in zip(rows[a:a + PUT_ROWS].tolist(), it):      # (zip stops at the rows' end)
@@ -962,7 +978,9 @@ def _put_at(segs, rows, plans):
 
 def _copy_at(dst, dst_rows, src, src_rows):
     """dst[i] = src[j] for i, j in zip(dst_rows, src_rows) (int arrays of one size; dst,
-    src: lists), PUT_ROWS rows at a time as _put_at."""
+    src: lists), in one compiled pass, else PUT_ROWS rows at a time, as _put_at."""
+    if objfields.put_at(dst, dst_rows, src, src_rows):
+        return
     for a in range(0, dst_rows.size, PUT_ROWS):
         b = a + PUT_ROWS
         for i, j in zip(dst_rows[a:b].tolist(), src_rows[a:b].tolist()):
@@ -984,8 +1002,15 @@ def _keep_made_plans(plan, strokes, idx, seg_failed, a2_orig):
     for a in range(0, idx.size, KEEP_ROWS):
         rows = idx[a:a + KEEP_ROWS]
         rows_l = rows.tolist()
-        seg_l = _items(segs, rows_l)
+        seg_l = _take(segs, rows)
         _keep_plans(plan, strokes, rows, seg_l, seg_failed, rows_l, a2_orig[rows], in_place=True)
+
+
+def _take(seq, rows):
+    """[seq[i] for i in rows] (seq a list, rows an int array): in one compiled pass
+    (objfields.take, ~10 instructions an item) where the core is built, else _items."""
+    got = objfields.take(seq, rows)
+    return got if got is not None else _items(seq, rows.tolist())
 
 
 def _items(seq, at):

@@ -1635,6 +1635,124 @@ static PyObject *obj_ids(PyObject *self, PyObject *a)
     return firsts;
 }
 
+/* the list index i of Python's list[i] (a negative i counts from the end), or -1 with
+ * Python's IndexError (msg) where it is out of range */
+static Py_ssize_t list_index(PyObject *list, long i, const char *msg)
+{
+    Py_ssize_t n = PyList_GET_SIZE(list), k = i < 0 ? (Py_ssize_t)i + n : (Py_ssize_t)i;
+    if (k < 0 || k >= n) {
+        PyErr_SetString(PyExc_IndexError, msg);
+        return -1;
+    }
+    return k;
+}
+
+/* dst[k] = v (a new reference taken), as list.__setitem__ does: the old item released after */
+static int list_set(PyObject *dst, long i, PyObject *v)
+{
+    Py_ssize_t k = list_index(dst, i, "list assignment index out of range");
+    if (k < 0) {
+        Py_DECREF(v);
+        return -1;
+    }
+    PyObject *old = PyList_GET_ITEM(dst, k);
+    PyList_SET_ITEM(dst, k, v);
+    Py_DECREF(old);
+    return 0;
+}
+
+/* a C-contiguous read-only buffer of int64 ('l') row numbers, or -1 with an error */
+static int rows_buffer(PyObject *o, Py_buffer *b)
+{
+    if (PyObject_GetBuffer(o, b, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (b->itemsize != 8 || b->format == NULL || strcmp(b->format, "l")) {
+        PyBuffer_Release(b);
+        PyErr_SetString(PyExc_ValueError, "a C-contiguous 'l' buffer of rows");
+        return -1;
+    }
+    return 0;
+}
+
+/* list_put(dst, rows, src, at): for k in order, dst[rows[k]] = src[at[k]] (at: int64 rows
+ * as rows), or src[k] (at None), or src itself (at Ellipsis: every row the one value);
+ * dst, src lists, rows int64.  The loop `for i, j in zip(rows, at): dst[i] = src[j]`
+ * over lists of ints (~190 instructions a row) in one pass: the same items, the same
+ * IndexError at the same row (the rows before it written). */
+static PyObject *list_put(PyObject *self, PyObject *a)
+{
+    PyObject *dst, *rows_o, *src, *at_o;
+    if (!PyArg_ParseTuple(a, "O!OOO:list_put", &PyList_Type, &dst, &rows_o, &src, &at_o))
+        return NULL;
+    (void)self;
+    int fill = at_o == Py_Ellipsis, by_at = !fill && at_o != Py_None;
+    if (!fill && !PyList_Check(src)) {
+        PyErr_SetString(PyExc_TypeError, "list_put: src a list");
+        return NULL;
+    }
+    Py_buffer rb, ab;
+    if (rows_buffer(rows_o, &rb) < 0)
+        return NULL;
+    Py_ssize_t n = rb.len / 8;
+    if (by_at && rows_buffer(at_o, &ab) < 0) {
+        PyBuffer_Release(&rb);
+        return NULL;
+    }
+    if ((by_at && ab.len / 8 != n) || (!fill && !by_at && PyList_GET_SIZE(src) != n)) {
+        PyErr_SetString(PyExc_ValueError, "list_put: rows and their values of one length");
+        n = -1;
+    }
+    const long *rows = rb.buf, *at = by_at ? ab.buf : NULL;
+    int ok = n >= 0;
+    for (Py_ssize_t k = 0; ok && k < n; k++) {
+        PyObject *v;
+        if (fill)
+            v = src;
+        else {
+            Py_ssize_t j = by_at ? list_index(src, at[k], "list index out of range") : k;
+            if (j < 0 || j >= PyList_GET_SIZE(src)) {        /* (src may have shrunk: an item's release) */
+                if (j >= 0)
+                    PyErr_SetString(PyExc_IndexError, "list index out of range");
+                ok = 0;
+                break;
+            }
+            v = PyList_GET_ITEM(src, j);
+        }
+        ok = list_set(dst, rows[k], Py_NewRef(v)) == 0;
+    }
+    PyBuffer_Release(&rb);
+    if (by_at)
+        PyBuffer_Release(&ab);
+    if (!ok)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+/* list_take(src, rows): [src[i] for i in rows] (src a list, rows int64) in one pass, the
+ * same IndexError where a row is out of range. */
+static PyObject *list_take(PyObject *self, PyObject *a)
+{
+    PyObject *src, *rows_o;
+    if (!PyArg_ParseTuple(a, "O!O:list_take", &PyList_Type, &src, &rows_o))
+        return NULL;
+    (void)self;
+    Py_buffer rb;
+    if (rows_buffer(rows_o, &rb) < 0)
+        return NULL;
+    Py_ssize_t n = rb.len / 8;
+    const long *rows = rb.buf;
+    PyObject *out = PyList_New(n);
+    for (Py_ssize_t k = 0; out != NULL && k < n; k++) {
+        Py_ssize_t j = list_index(src, rows[k], "list index out of range");
+        if (j < 0)
+            Py_CLEAR(out);                 /* (its items not yet set are NULL: released as such) */
+        else
+            PyList_SET_ITEM(out, k, Py_NewRef(PyList_GET_ITEM(src, j)));
+    }
+    PyBuffer_Release(&rb);
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"pc_solve", pc_solve, METH_VARARGS, "_precond_cheb: the preconditioned iteration of each arc, whole"},
     {"rows_take", rows_take, METH_VARARGS, "rows of a table (or its transpose's columns) into zero-padded blocks"},
@@ -1660,6 +1778,8 @@ static PyMethodDef methods[] = {
     {"u_rows", u_rows, METH_VARARGS, "the unit directions of geometry block rows from their vertices (curves._Blk)"},
     {"obj_floats", obj_floats, METH_VARARGS, "the float (or bool) attributes of a list of objects, in one pass"},
     {"obj_codes", obj_codes, METH_VARARGS, "a code (from a dict, or the int itself) of each object's attribute"},
+    {"list_put", list_put, METH_VARARGS, "dst[rows[k]] = src[at[k]] (or src[k], or src) of lists, in one pass"},
+    {"list_take", list_take, METH_VARARGS, "[src[i] for i in rows] of a list, in one pass"},
     {"obj_ids", obj_ids, METH_VARARGS, "the distinct attribute objects (by identity) of a list's objects and each one's place"},
     {NULL, NULL, 0, NULL}};
 

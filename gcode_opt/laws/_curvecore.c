@@ -1637,7 +1637,7 @@ static PyObject *obj_ids(PyObject *self, PyObject *a)
 
 /* the list index i of Python's list[i] (a negative i counts from the end), or -1 with
  * Python's IndexError (msg) where it is out of range */
-static Py_ssize_t list_index(PyObject *list, long i, const char *msg)
+static Py_ssize_t list_index(PyObject *list, int64_t i, const char *msg)
 {
     Py_ssize_t n = PyList_GET_SIZE(list), k = i < 0 ? (Py_ssize_t)i + n : (Py_ssize_t)i;
     if (k < 0 || k >= n) {
@@ -1648,7 +1648,7 @@ static Py_ssize_t list_index(PyObject *list, long i, const char *msg)
 }
 
 /* dst[k] = v (a new reference taken), as list.__setitem__ does: the old item released after */
-static int list_set(PyObject *dst, long i, PyObject *v)
+static int list_set(PyObject *dst, int64_t i, PyObject *v)
 {
     Py_ssize_t k = list_index(dst, i, "list assignment index out of range");
     if (k < 0) {
@@ -1661,14 +1661,15 @@ static int list_set(PyObject *dst, long i, PyObject *v)
     return 0;
 }
 
-/* a C-contiguous read-only buffer of int64 ('l') row numbers, or -1 with an error */
+/* a C-contiguous read-only buffer of int64 row numbers ('l' where long is 64-bit, 'q'
+ * where it is not: numpy's intp either way), or -1 with an error */
 static int rows_buffer(PyObject *o, Py_buffer *b)
 {
     if (PyObject_GetBuffer(o, b, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
         return -1;
-    if (b->itemsize != 8 || b->format == NULL || strcmp(b->format, "l")) {
+    if (b->itemsize != 8 || b->format == NULL || (strcmp(b->format, "l") && strcmp(b->format, "q"))) {
         PyBuffer_Release(b);
-        PyErr_SetString(PyExc_ValueError, "a C-contiguous 'l' buffer of rows");
+        PyErr_SetString(PyExc_ValueError, "a C-contiguous buffer of int64 rows");
         return -1;
     }
     return 0;
@@ -1702,7 +1703,7 @@ static PyObject *list_put(PyObject *self, PyObject *a)
         PyErr_SetString(PyExc_ValueError, "list_put: rows and their values of one length");
         n = -1;
     }
-    const long *rows = rb.buf, *at = by_at ? ab.buf : NULL;
+    const int64_t *rows = rb.buf, *at = by_at ? ab.buf : NULL;
     int ok = n >= 0;
     for (Py_ssize_t k = 0; ok && k < n; k++) {
         PyObject *v;
@@ -1740,7 +1741,7 @@ static PyObject *list_take(PyObject *self, PyObject *a)
     if (rows_buffer(rows_o, &rb) < 0)
         return NULL;
     Py_ssize_t n = rb.len / 8;
-    const long *rows = rb.buf;
+    const int64_t *rows = rb.buf;
     PyObject *out = PyList_New(n);
     for (Py_ssize_t k = 0; out != NULL && k < n; k++) {
         Py_ssize_t j = list_index(src, rows[k], "list index out of range");

@@ -5,7 +5,6 @@ from __future__ import annotations
 import gc
 import math
 import os
-from collections import Counter
 from itertools import compress
 from operator import attrgetter
 
@@ -44,7 +43,7 @@ def _share(part, whole):
     return None if not whole else part / whole
 
 
-def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
+def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     """The whole-file headline (issue 9 item 5): what share of the original file's
     int|a|^2 dt and print time the re-timed strokes carried, what the whole file gained,
     and what was left as sliced, by reason -- each with its count and its share of the
@@ -53,7 +52,9 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
     Candidates not re-timed are counted by plan.reason.  The moves outside every candidate
     stroke are what the original's totals leave after the candidates and the dwells: by
     feature when the analyse pass totalled the original by feature (opts.by_feature:
-    feature -> [moves, time_t, int_a2] over every moving line), else as one bucket."""
+    feature -> [moves, time_t, int_a2] over every moving line), else as one bucket.
+
+    reason_codes: _reason_codes(plan.reason) where the caller has them (build_summary)."""
     total_a2, total_t = float(sim0.int_a2), float(sim0.time_t)
     n = len(strokes)
     T0 = np.nan_to_num(np.asarray(pin.T_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
@@ -69,7 +70,10 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
         g["time_s"] += float(t)
 
     # each reason's strokes left as sliced: the re-timed ones coded past every reason
-    code_of, code = value_codes(list(map(str, plan.reason[:n])))
+    if reason_codes is None:
+        reason_codes = _reason_codes(plan.reason[:n])
+    # (codes past n, if any, and their reasons' keys drop out: counted 0 below)
+    code_of, code = reason_codes[0], reason_codes[1][:n].copy()
     code[retimed] = len(code_of)
     left_reasons = compress(code_of, (np.bincount(code, minlength=len(code_of) + 1)[:-1] > 0).tolist())
     for r in sorted(left_reasons):
@@ -112,6 +116,27 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None):
     }
 
 
+def _reason_codes(reason):
+    """value_codes of the reasons' texts (str of each): ({text: code} in the order of first
+    appearance, each stroke's code), made once for coverage and the reasons' counts.  The
+    reasons as they are where every one is a str (str() of a str is itself: a call of str
+    a stroke, ~460 instructions, was ~24 M on the rectilinear plate)."""
+    texts = reason.tolist() if isinstance(reason, np.ndarray) else list(reason)
+    if set(map(type, texts)) != _STR_ONLY:
+        texts = list(map(str, texts))
+    return value_codes(texts)
+
+
+_STR_ONLY = {str}
+
+
+def _reason_counts(reason_codes):
+    """Counter(texts) from _reason_codes' (the same keys in the same order, the same
+    counts): a bincount of the codes, not a dict update a stroke."""
+    code_of, code = reason_codes
+    return dict(zip(code_of, np.bincount(code, minlength=len(code_of)).tolist()))
+
+
 def ringing_section(before, after):
     """The "ringing" key from the ringing figures of the original and the written file
     (gcode_opt.ringing.figures / Collector.figures, the same model): model, before, after
@@ -147,7 +172,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     for g in by_kind.values():
         g["int_a2"]["change"] = _ratio(g["int_a2"]["after"], g["int_a2"]["before"])
         g["time_s"]["change"] = _ratio(g["time_s"]["after"], g["time_s"]["before"])
-    reasons = Counter(map(str, plan.reason))
+    reason_codes = _reason_codes(plan.reason)
+    reasons = _reason_counts(reason_codes)
     law_T = float(plan.T[idx].sum()) if len(idx) else 0.0
     law_I = float(plan.I_law[idx].sum()) if len(idx) else 0.0
     # the passes' counts where they made them (analyse's, the last full measure's): the same
@@ -180,7 +206,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
             "by_kind": by_kind,
         },
         # the headline: share of the file re-timed, the whole file's change, what was left and why
-        "coverage": coverage(strokes, pin, plan, sim0, sim1, idx, opts),
+        "coverage": coverage(strokes, pin, plan, sim0, sim1, idx, opts, reason_codes),
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
                        "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),
                        "corner_dv2_change": _ratio(sim1.corner_dv2, sim0.corner_dv2)},

@@ -83,7 +83,7 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
-        feat_code_of, feat_code = value_codes(list(map(attrgetter("feature"), strokes)))
+        feat_code_of, feat_code = _feature_codes(strokes)
         nm = _n_moves(strokes)                                    # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):
             m = feat_code == feat_code_of.get(f, -1)              # candidates of this feature
@@ -114,6 +114,16 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
                        "time_change": _ratio(float(sim1.time_t), total_t)},
         "left": left,
     }
+
+
+def _feature_codes(strokes):
+    """value_codes(list(map(attrgetter("feature"), strokes))): the features read and coded
+    in one compiled pass where it can (a list of strokes), not a list of them made first."""
+    code_of = {}
+    code = objfields.codes(strokes, "feature", code_of, add=True)
+    if code is not None:
+        return code_of, code
+    return value_codes(list(map(attrgetter("feature"), strokes)))
 
 
 def _reason_codes(reason):

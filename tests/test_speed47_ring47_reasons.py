@@ -7,6 +7,7 @@ in: the same dict, its keys' order too)."""
 from __future__ import annotations
 
 from collections import Counter
+from operator import attrgetter
 from types import SimpleNamespace
 
 import numpy as np
@@ -90,3 +91,34 @@ def test_coverage_with_codes(name, reason):
         got = sm.coverage(*args, None, codes)
         assert repr(got) == repr(want)
         assert codes[1].tolist() == keep.tolist()
+
+
+def ref_feature_codes(strokes):
+    """882d7e9 coverage's feature codes, verbatim."""
+    return value_codes(list(map(attrgetter("feature"), strokes)))
+
+
+def _strokes(n):
+    feats = ["perimeter", "infill", None, "solid infill", Text("infill")]
+    return [SimpleNamespace(feature=feats[k * 7 % len(feats)]) for k in range(n)]
+
+
+@pytest.mark.parametrize("strokes", [_strokes(500), tuple(_strokes(50)), _strokes(0), _strokes(1)],
+                         ids=["list", "tuple", "empty", "one"])
+def test_feature_codes(strokes):
+    want_of, want = ref_feature_codes(strokes)
+    got_of, got = sm._feature_codes(strokes)
+    assert list(got_of.items()) == list(want_of.items())
+    assert [type(k) for k in got_of] == [type(k) for k in want_of]
+    assert got.tolist() == want.tolist()
+
+
+@pytest.mark.parametrize("bad,exc", [(SimpleNamespace(), AttributeError), (SimpleNamespace(feature=[1]), TypeError)],
+                         ids=["missing", "unhashable"])
+def test_feature_codes_raise_as_before(bad, exc):
+    strokes = _strokes(20)
+    strokes[13] = bad
+    with pytest.raises(exc):
+        ref_feature_codes(strokes)
+    with pytest.raises(exc):
+        sm._feature_codes(strokes)

@@ -732,6 +732,27 @@ def _layers_totals(xs, phi, gam2, u0, u1):
     return list(out)
 
 
+def _layer_int_bound(u, wc, gam2):
+    """Upper bound on |∫₀¹ d dσ| of the layer from u at cruise value wc: d keeps the sign of
+    d0 = u - wc and shrinks, so the integral is asinh over [2w_c, d0 + 2w_c]/k at most,
+    whose slope 1/√(1 + x²) there is at most k/√(k² + M²) (M: the distance of 0 from that
+    range): |d0| / √(k² + M²), k² = γ² + 2w_c²."""
+    d0 = u - wc
+    m = np.maximum(0.0, -np.sign(d0) * (u + wc))
+    return np.abs(d0) / np.sqrt(gam2 + 2.0 * wc * wc + m * m)
+
+
+def _bracket_holds(phi, gam2, u0, u1, lo, hi):
+    """True where the layer residual is provably negative at lo and positive at hi
+    (_solve_layers_batch's starting bracket; lo < min(u0, u1) and hi > max(u0, u1)): the
+    integrals' bound under 99 % of |lo - Φ| and |hi - Φ| (the 1 % far above rounding), so
+    the check by two residuals an arc, which would find nothing to widen, can be left out."""
+    with np.errstate(all="ignore"):
+        ok_lo = _layer_int_bound(u0, lo, gam2) + _layer_int_bound(u1, lo, gam2) <= 0.99 * (phi - lo)
+        ok_hi = _layer_int_bound(u0, hi, gam2) + _layer_int_bound(u1, hi, gam2) <= 0.99 * (hi - phi)
+    return ok_lo & ok_hi
+
+
 _LAYERS_ITER = 100         # _solve_layers_batch's Newton steps at most (tests lower it)
 
 
@@ -742,7 +763,8 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     (the same root to the same tolerance; ~35 % fewer residuals on the plates' curves)."""
     span = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
     lo, hi = np.minimum.reduce([phi, u0, u1]) - span, np.maximum.reduce([phi, u0, u1]) + span
-    for _ in range(60):             # make sure the bracket holds (the layer integrals are O(log))
+    for _ in range(60 if not _bracket_holds(phi, gam2, u0, u1, lo, hi).all() else 0):
+        # make sure the bracket holds (the layer integrals are O(log))
         glo, ghi = _layers_totals((lo, hi), phi, gam2, u0, u1)
         bad_lo, bad_hi = glo > 0, ghi < 0
         if not (bad_lo.any() or bad_hi.any()):

@@ -52,7 +52,7 @@ def test_bound_holds_and_is_close():
         for u in (u0, u1):
             for wc in (lo, hi, anywhere):
                 got = np.abs(_layer_integral(u, wc, gam2))
-                bound = circle._layer_int_bound(u, wc, gam2)
+                bound = circle._layer_int_bound(u, wc, gam2, np.empty_like(u), np.empty_like(u))
                 fin = np.isfinite(got)
                 assert fin.mean() > 0.99
                 assert (got[fin] <= bound[fin] * (1.0 + 1e-12) + 1e-14).all()

@@ -318,7 +318,11 @@ AVX_FN static double lanes_min(__m256d v) {
 
 /* pc_row with its elementwise loops 4 columns at a time (the same operations on the same
    operands in the same order: the same bits; a row maximum or minimum over a NaN is the
-   scalar fold's, numpy's) */
+   scalar fold's, numpy's).  np_pairwise_sum is compiled for any x86-64 (SSE, not VEX, code):
+   reached with the upper halves of the YMM registers dirty, its SSE instructions pay for them
+   (an AVX-SSE transition or a merge with the upper state, by CPU: this function took ~90 ms
+   of CPU on the rectilinear plate's arcs, the same code built with -mavx throughout ~29 ms,
+   for the same instructions), so they are cleared (vzeroupper) before each call. */
 AVX_FN static int pc_row_avx(double *w, double *cc, double g2, double ph, double scale, const PcConst *P) {
     const Py_ssize_t nc = P->nc, ni = P->ni, jp = P->jp, nv = ni / 4 * 4;
     double m1[MAX_COLS], r1[MAX_COLS], den[MAX_COLS], t1[MAX_COLS], t2[MAX_COLS], x[MAX_COLS], dw[MAX_COLS];
@@ -358,6 +362,7 @@ AVX_FN static int pc_row_avx(double *w, double *cc, double g2, double ph, double
         for (j = 0; j + 4 <= nc; j += 4)
             _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_loadu_pd(w + j), _mm256_loadu_pd(P->q + j)));
         for (; j < nc; j++) t1[j] = w[j] * P->q[j];
+        _mm256_zeroupper();        /* (np_pairwise_sum: SSE code, see above) */
         const double r2 = np_pairwise_sum(t1, nc) - ph;
         const __m256d vd = _mm256_set1_pd(g2 + 3.0 * (mx + mn));
         mv_ordered_avx(r1, ni, P->vinv, jp, m1);
@@ -368,6 +373,7 @@ AVX_FN static int pc_row_avx(double *w, double *cc, double g2, double ph, double
             _mm256_storeu_pd(t1 + j, _mm256_mul_pd(_mm256_div_pd(bj, dv), _mm256_loadu_pd(P->qv + j)));
             _mm256_storeu_pd(t2 + j, _mm256_div_pd(_mm256_loadu_pd(P->qe + j), dv));
         }
+        _mm256_zeroupper();
         const double dc = (-r2 - np_pairwise_sum(t1, ni)) / np_pairwise_sum(t2, ni);
         const __m256d vdc = _mm256_set1_pd(dc);
         for (j = 0; j < jp; j += 4) {

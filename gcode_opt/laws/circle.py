@@ -732,6 +732,42 @@ def _layers_totals(xs, phi, gam2, u0, u1):
     return list(out)
 
 
+def _layer_int_bound(u, wc, gam2, out, work):
+    """Upper bound on |∫₀¹ d dσ| of the layer from u at cruise value wc, into out (work: scratch
+    of its size; in place: the few temporaries an arc of the plain expression raised the gyroid
+    plate's peak RSS ~1 MB): d keeps the sign of d0 = u - wc and shrinks, so the integral is
+    asinh over [2w_c, d0 + 2w_c]/k at most, whose slope 1/√(1 + x²) there is at most
+    k/√(k² + M²) (M: the distance of 0 from that range): |d0| / √(k² + M²), k² = γ² + 2w_c²."""
+    np.subtract(u, wc, out=out)                 # d0
+    np.sign(out, out=work)
+    work *= u + wc
+    np.negative(work, out=work)
+    np.maximum(work, 0.0, out=work)             # M
+    work *= work
+    work += gam2
+    work += 2.0 * wc * wc
+    np.sqrt(work, out=work)
+    np.abs(out, out=out)
+    out /= work
+    return out
+
+
+def _bracket_holds(phi, gam2, u0, u1, lo, hi):
+    """True where the layer residual is provably negative at lo and positive at hi
+    (_solve_layers_batch's starting bracket; lo < min(u0, u1) and hi > max(u0, u1)): the
+    integrals' bound under 99 % of |lo - Φ| and |hi - Φ| (the 1 % far above rounding), so
+    the check by two residuals an arc, which would find nothing to widen, can be left out."""
+    b0, b1, work = np.empty((3, phi.size))
+    with np.errstate(all="ignore"):
+        _layer_int_bound(u0, lo, gam2, b0, work)
+        b0 += _layer_int_bound(u1, lo, gam2, b1, work)
+        ok = b0 <= 0.99 * (phi - lo)
+        _layer_int_bound(u0, hi, gam2, b0, work)
+        b0 += _layer_int_bound(u1, hi, gam2, b1, work)
+        ok &= b0 <= 0.99 * (hi - phi)
+    return ok
+
+
 _LAYERS_ITER = 100         # _solve_layers_batch's Newton steps at most (tests lower it)
 
 
@@ -742,7 +778,8 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     (the same root to the same tolerance; ~35 % fewer residuals on the plates' curves)."""
     span = np.abs(phi) + np.abs(u0) + np.abs(u1) + 1.0
     lo, hi = np.minimum.reduce([phi, u0, u1]) - span, np.maximum.reduce([phi, u0, u1]) + span
-    for _ in range(60):             # make sure the bracket holds (the layer integrals are O(log))
+    for _ in range(60 if not _bracket_holds(phi, gam2, u0, u1, lo, hi).all() else 0):
+        # make sure the bracket holds (the layer integrals are O(log))
         glo, ghi = _layers_totals((lo, hi), phi, gam2, u0, u1)
         bad_lo, bad_hi = glo > 0, ghi < 0
         if not (bad_lo.any() or bad_hi.any()):

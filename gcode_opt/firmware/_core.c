@@ -3907,6 +3907,31 @@ static int slots_ready(SlotMap *m, PyObject *type, const char **names)
 static signed char stroke_dbl[ST_N], stroke_int[ST_N];
 static int stroke_inline = 0;
 
+/* stroke_new's plan, by kind of field (one loop each, no test a field of which it is): the
+ * object slots (STROKE_NAMES index, offset), the doubles and the ints (index, d / i index) */
+static signed char plan_obj_k[ST_N], plan_dbl_k[ST_N], plan_dbl_j[ST_N], plan_int_k[ST_N], plan_int_j[ST_N];
+static Py_ssize_t plan_obj_off[ST_N];
+static int plan_n_obj, plan_n_dbl, plan_n_int;
+
+/* the plan of STROKE_MAP's fields (a field in no slot, none of StrokeBase's: stroke_ready
+ * finds it, no stroke is made) */
+static void stroke_plan(void)
+{
+    plan_n_obj = plan_n_dbl = plan_n_int = 0;
+    for (int k = 0; k < ST_N; k++) {
+        if (stroke_dbl[k] >= 0) {
+            plan_dbl_k[plan_n_dbl] = (signed char)k;
+            plan_dbl_j[plan_n_dbl++] = stroke_dbl[k];
+        } else if (stroke_int[k] >= 0) {
+            plan_int_k[plan_n_int] = (signed char)k;
+            plan_int_j[plan_n_int++] = stroke_int[k];
+        } else if (STROKE_MAP.off[k] >= 0) {
+            plan_obj_k[plan_n_obj] = (signed char)k;
+            plan_obj_off[plan_n_obj++] = STROKE_MAP.off[k];
+        }
+    }
+}
+
 /* the descriptor of name on type, if it is StrokeBase's own (g: its getter) */
 static int stroke_own(PyObject *type, const char *name, getter g)
 {
@@ -3937,6 +3962,7 @@ static int stroke_ready(PyObject *type)
                 if (!strcmp(STROKE_NAMES[k], SI_NAMES[j]) && stroke_own(type, SI_NAMES[j], (getter)si_get))
                     stroke_int[k] = (signed char)j;
         }
+        stroke_plan();
     }
     for (int k = 0; k < ST_N; k++)
         if (STROKE_MAP.off[k] < 0 && stroke_dbl[k] < 0 && stroke_int[k] < 0)
@@ -4002,16 +4028,25 @@ static PyObject *stroke_new(const StrokeVals *sv)
     if (o == NULL)
         return NULL;
     StrokeObject *s = (StrokeObject *)o;            /* (zeroed: has and odd 0, as sd_set / si_set leave them) */
-    for (int k = 0; k < ST_N; k++) {
-        int j = stroke_dbl[k];
+    for (int q = 0; q < plan_n_obj; q++)            /* (a slot of the new object: NULL, nothing to let go) */
+        *(PyObject **)((char *)o + plan_obj_off[q]) = Py_NewRef(sv->val[plan_obj_k[q]]);
+    for (int q = 0; q < plan_n_dbl; q++) {
+        int k = plan_dbl_k[q], j = plan_dbl_j[q];
         PyObject *v = sv->val[k];
-        if (j >= 0 && (((sv->dm >> k) & 1) || PyFloat_CheckExact(v))) {
+        if (((sv->dm >> k) & 1) || PyFloat_CheckExact(v)) {
             s->d[j] = ((sv->dm >> k) & 1) ? sv->d[k] : PyFloat_AS_DOUBLE(v);     /* sd_set's float */
             if (j >= SD_NONE0)
                 s->has |= 1u << (j - SD_NONE0);
-        } else if ((sv->im >> k) & 1)
-            s->i[stroke_int[k]] = sv->i[k];                                     /* si_set's int */
-        else if (stroke_put(o, k, v) < 0) {
+        } else if (sd_set(s, v, (void *)(intptr_t)j) < 0) {
+            Py_DECREF(o);
+            return NULL;
+        }
+    }
+    for (int q = 0; q < plan_n_int; q++) {
+        int k = plan_int_k[q], j = plan_int_j[q];
+        if ((sv->im >> k) & 1)
+            s->i[j] = sv->i[k];                                                 /* si_set's int */
+        else if (si_set(s, sv->val[k], (void *)(intptr_t)j) < 0) {
             Py_DECREF(o);
             return NULL;
         }

@@ -365,13 +365,13 @@ class _LogSums:
         line of every stroke still to come or to sum are tallied by feature and dropped."""
         log = self.log
         line = min(open_line, log.last)
-        strokes, k = self.strokes, self.done
-        n = len(strokes)
-        while k < n and strokes[k].last_idx < line:
-            k += 1
-        self._strokes(k)
-        if k < n:
-            line = min(line, strokes[k].first_idx)
+        rest = self.strokes[self.done:]       # the closed strokes without their sums, in file order
+        lo, hi = line_spans(rest)
+        self._file_order(lo, hi, self.last_hi)
+        k = int(np.searchsorted(hi, line))    # those that end before line (hi rises: file order)
+        self._strokes(self.done + k, (lo[:k], hi[:k]))
+        if k < len(rest):
+            line = min(line, int(lo[k]))
         self._features(log.below(line), line)
 
     def finish(self):
@@ -383,20 +383,29 @@ class _LogSums:
         for k in sorted((k for k in range(len(feats)) if first[k] >= 0), key=lambda k: first[k]):
             self.by_feature[feats[k]] = [int(count[k]), float(ft[k]), float(fa2[k])]
 
-    def _strokes(self, stop):
-        """strokes[done:stop]'s sums from the log (all their records are in it)."""
+    def _strokes(self, stop, spans=None):
+        """strokes[done:stop]'s sums from the log (all their records are in it); spans:
+        their line_spans if known (flush's, checked in file order)."""
         batch = self.strokes[self.done:stop]
         n = len(batch)
         if not n:
             return
-        lo, hi = line_spans(batch)
-        if not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1]) and lo[0] > self.last_hi):
-            raise AssertionError("strokes out of file order")     # group_lines closes them in order
+        if spans is None:
+            lo, hi = spans = line_spans(batch)
+            self._file_order(lo, hi, self.last_hi)
+        lo, hi = spans
         self.done, self.last_hi = stop, int(hi[-1])
         got = np.zeros(n, np.int64)
         v0, v1, t, a2, v2 = (np.zeros(n) for _ in range(5))
         self.log.stroke_sums(lo, hi, got, v0, v1, t, a2, v2)
         put_sums(batch, got, v0, v1, t, a2, v2)
+
+    @staticmethod
+    def _file_order(lo, hi, last_hi):
+        """Strokes' line spans (line_spans) are in file order after the line last_hi, or
+        AssertionError: group_lines closes them in order, _strokes sums them so."""
+        if len(lo) and not (np.all(hi >= lo) and np.all(lo[1:] > hi[:-1]) and lo[0] > last_hi):
+            raise AssertionError("strokes out of file order")
 
     def _features(self, rows, line=None):
         """The first rows records added to the feature tally, then dropped from the log.
@@ -405,10 +414,13 @@ class _LogSums:
         if not rows:
             return
         feat_at, ids, fid, starts = self.feat_at, self.ids, self.fid, self.starts
-        while feat_at:            # its new entries (analyse's read and gap_lines append to it)
-            i, f = feat_at.popleft()
-            starts.append(i)
-            fid.append(ids.setdefault(f, len(ids)))
+        if feat_at:               # its new entries (analyse's read and gap_lines append to it)
+            lines, feats = zip(*feat_at)
+            feat_at.clear()
+            for f in dict.fromkeys(feats):     # new features numbered in the order they came
+                ids.setdefault(f, len(ids))
+            starts.extend(lines)
+            fid.extend(map(ids.__getitem__, feats))
         nf = len(ids)
         if nf > len(self.count):           # more features: the sums so far kept as they are
             grow = max(nf, 2 * len(self.count)) - len(self.count)

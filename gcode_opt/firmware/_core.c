@@ -3907,6 +3907,31 @@ static int slots_ready(SlotMap *m, PyObject *type, const char **names)
 static signed char stroke_dbl[ST_N], stroke_int[ST_N];
 static int stroke_inline = 0;
 
+/* stroke_new's plan, by kind of field (one loop each, no test a field of which it is): the
+ * object slots (STROKE_NAMES index, offset), the doubles and the ints (index, d / i index) */
+static signed char plan_obj_k[ST_N], plan_dbl_k[ST_N], plan_dbl_j[ST_N], plan_int_k[ST_N], plan_int_j[ST_N];
+static Py_ssize_t plan_obj_off[ST_N];
+static int plan_n_obj, plan_n_dbl, plan_n_int;
+
+/* the plan of STROKE_MAP's fields (a field in no slot, none of StrokeBase's: stroke_ready
+ * finds it, no stroke is made) */
+static void stroke_plan(void)
+{
+    plan_n_obj = plan_n_dbl = plan_n_int = 0;
+    for (int k = 0; k < ST_N; k++) {
+        if (stroke_dbl[k] >= 0) {
+            plan_dbl_k[plan_n_dbl] = (signed char)k;
+            plan_dbl_j[plan_n_dbl++] = stroke_dbl[k];
+        } else if (stroke_int[k] >= 0) {
+            plan_int_k[plan_n_int] = (signed char)k;
+            plan_int_j[plan_n_int++] = stroke_int[k];
+        } else if (STROKE_MAP.off[k] >= 0) {
+            plan_obj_k[plan_n_obj] = (signed char)k;
+            plan_obj_off[plan_n_obj++] = STROKE_MAP.off[k];
+        }
+    }
+}
+
 /* the descriptor of name on type, if it is StrokeBase's own (g: its getter) */
 static int stroke_own(PyObject *type, const char *name, getter g)
 {
@@ -3937,6 +3962,7 @@ static int stroke_ready(PyObject *type)
                 if (!strcmp(STROKE_NAMES[k], SI_NAMES[j]) && stroke_own(type, SI_NAMES[j], (getter)si_get))
                     stroke_int[k] = (signed char)j;
         }
+        stroke_plan();
     }
     for (int k = 0; k < ST_N; k++)
         if (STROKE_MAP.off[k] < 0 && stroke_dbl[k] < 0 && stroke_int[k] < 0)
@@ -4002,16 +4028,25 @@ static PyObject *stroke_new(const StrokeVals *sv)
     if (o == NULL)
         return NULL;
     StrokeObject *s = (StrokeObject *)o;            /* (zeroed: has and odd 0, as sd_set / si_set leave them) */
-    for (int k = 0; k < ST_N; k++) {
-        int j = stroke_dbl[k];
+    for (int q = 0; q < plan_n_obj; q++)            /* (a slot of the new object: NULL, nothing to let go) */
+        *(PyObject **)((char *)o + plan_obj_off[q]) = Py_NewRef(sv->val[plan_obj_k[q]]);
+    for (int q = 0; q < plan_n_dbl; q++) {
+        int k = plan_dbl_k[q], j = plan_dbl_j[q];
         PyObject *v = sv->val[k];
-        if (j >= 0 && (((sv->dm >> k) & 1) || PyFloat_CheckExact(v))) {
+        if (((sv->dm >> k) & 1) || PyFloat_CheckExact(v)) {
             s->d[j] = ((sv->dm >> k) & 1) ? sv->d[k] : PyFloat_AS_DOUBLE(v);     /* sd_set's float */
             if (j >= SD_NONE0)
                 s->has |= 1u << (j - SD_NONE0);
-        } else if ((sv->im >> k) & 1)
-            s->i[stroke_int[k]] = sv->i[k];                                     /* si_set's int */
-        else if (stroke_put(o, k, v) < 0) {
+        } else if (sd_set(s, v, (void *)(intptr_t)j) < 0) {
+            Py_DECREF(o);
+            return NULL;
+        }
+    }
+    for (int q = 0; q < plan_n_int; q++) {
+        int k = plan_int_k[q], j = plan_int_j[q];
+        if ((sv->im >> k) & 1)
+            s->i[j] = sv->i[k];                                                 /* si_set's int */
+        else if (si_set(s, sv->val[k], (void *)(intptr_t)j) < 0) {
             Py_DECREF(o);
             return NULL;
         }
@@ -4555,6 +4590,51 @@ static int kit_read(PyObject *o, RunKit *kit)
     return a < 0 || b < 0 ? -1 : (a && b);
 }
 
+/* every slot of a Move (state.Move.__slots__), for head_move_new */
+enum { HM_IDX, HM_KIND, HM_X0, HM_Y0, HM_Z0, HM_X1, HM_Y1, HM_Z1, HM_E, HM_V, HM_ACCEL, HM_FEATURE, HM_LAYER,
+       HM_LIM, HM_ARC, HM_HAS_F, HM_E_REL, HM_XYZ_REL, HM_CHECKSUM, HM_INCH, HM_FLOW_R, HM_SPEED_R, HM_N };
+static const char *HEAD_NAMES[HM_N] = {"idx", "kind", "x0", "y0", "z0", "x1", "y1", "z1", "e", "v", "accel",
+    "feature", "layer", "lim", "arc", "has_f", "e_rel", "xyz_rel", "checksum", "inch", "flow_r", "speed_r"};
+static Py_ssize_t head_off[HM_N];
+static PyObject *head_name[HM_N];
+static SlotMap HEAD_MAP = {NULL, head_off, head_name, HM_N};
+
+/* the Move strokes._head_move(proto, idx, x0, y0, z0, x1, y1, z1, e, v, has_f) makes, slot by
+ * slot (no Python call, no argument tuple: ~7 k instructions a run opened), where proto's
+ * class keeps every Move slot plainly and proto has the ones copied; NULL with no error:
+ * not so (hand_back calls head_move) */
+static PyObject *head_move_new(PyObject *proto, long long idx, const FusedMove *fm, int has_f)
+{
+    int ready = slots_ready(&HEAD_MAP, (PyObject *)Py_TYPE(proto), HEAD_NAMES);
+    if (ready <= 0) {
+        PyErr_Clear();                 /* (an error: head_move's call meets it again) */
+        return NULL;
+    }
+    static const int copied[] = {HM_KIND, HM_ACCEL, HM_FEATURE, HM_LAYER, HM_LIM, HM_E_REL, HM_FLOW_R, HM_SPEED_R};
+    PyObject *val[HM_N];
+    for (size_t q = 0; q < sizeof(copied) / sizeof(copied[0]); q++)
+        if ((val[copied[q]] = *(PyObject **)((char *)proto + head_off[copied[q]])) == NULL)
+            return NULL;
+    PyObject *own[9] = {PyLong_FromLongLong(idx), PyFloat_FromDouble(fm->x0), PyFloat_FromDouble(fm->y0),
+                        PyFloat_FromDouble(fm->z0), PyFloat_FromDouble(fm->x1), PyFloat_FromDouble(fm->y1),
+                        PyFloat_FromDouble(fm->z1), PyFloat_FromDouble(fm->e), PyFloat_FromDouble(fm->v)};
+    static const int owned[9] = {HM_IDX, HM_X0, HM_Y0, HM_Z0, HM_X1, HM_Y1, HM_Z1, HM_E, HM_V};
+    int bad = 0;
+    for (int k = 0; k < 9; k++) {
+        val[owned[k]] = own[k];
+        bad |= own[k] == NULL;
+    }
+    val[HM_ARC] = Py_None;
+    val[HM_HAS_F] = has_f ? Py_True : Py_False;
+    val[HM_XYZ_REL] = val[HM_CHECKSUM] = val[HM_INCH] = Py_False;
+    PyObject *mv = bad ? NULL : slots_new(&HEAD_MAP, val);
+    for (int k = 0; k < 9; k++)
+        Py_XDECREF(own[k]);
+    if (mv == NULL)
+        PyErr_Clear();                 /* (head_move's call meets the same failure, and raises) */
+    return mv;
+}
+
 /* the open run is one run_lines opened: run[0] its first Move (head_move(the run handed
  * in's first Move, ...): the Move step() made of the line) and rs group_lines' locals for
  * it.  start: the run handed in's start_state (its accelerations and cruise ratio hold:
@@ -4563,9 +4643,11 @@ static int hand_back(const RunKit *kit, const RunHead *h, PyObject *proto_mv, Py
                      PyObject *start)
 {
     const FusedMove *fm = &h->rm.fm;
-    PyObject *mv = PyObject_CallFunction(kit->head_move, "OLddddddddO", proto_mv, h->first, fm->x0, fm->y0,
-                                         fm->z0, fm->x1, fm->y1, fm->z1, fm->e, fm->v,
-                                         h->rm.has_f ? Py_True : Py_False);
+    PyObject *mv = head_move_new(proto_mv, h->first, fm, h->rm.has_f);
+    if (mv == NULL)
+        mv = PyObject_CallFunction(kit->head_move, "OLddddddddO", proto_mv, h->first, fm->x0, fm->y0,
+                                   fm->z0, fm->x1, fm->y1, fm->z1, fm->e, fm->v,
+                                   h->rm.has_f ? Py_True : Py_False);
     if (mv == NULL)
         return -1;
     PyList_SetItem(run, 0, mv);        /* steals mv */

@@ -91,12 +91,14 @@ def classify(strokes, rows, profile):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
     caps a curve's peak) is below the feed become chains."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
-    made = curves.build_geoms(sts, profile, jerk1=True) or []     # (None: a build_geoms of tests)
+    # κ left to be made (a chain never reads it): made below for the curves, block by block
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=False) or []     # (None: a build_geoms of tests)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
         if not _classify_block(b, bsts, jerk, fresh=True):
             for st in bsts:
                 _classify_one(st, profile, jerk)
+        b.make_kappa([k for k, st in enumerate(bsts) if st.chain_T is None])
     every = sum(len(m[1]) for m in made) == len(sts)
     if not every:
         _classify_rest(sts, made, profile, jerk)

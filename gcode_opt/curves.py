@@ -759,16 +759,19 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     as geom() would (the strokes before it keep theirs).  Returns the blocks it made, each
     as (its _Blk, its strokes in row order): chains.classify reads them by block.  kappa
     False: κ at the vertices and κ_eff of the blocks' rows are made when read, or by
-    make_kappa (_parts_lazy: a chain never reads them)."""
+    make_kappa (_parts_lazy: a chain never reads them); a function want(sts, cap) (a
+    block's strokes and their cap): made now for the rows where it is True (a bool
+    array), the others when read."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return []
     j1 = jerk1 and profile.junction == "jerk"
     pts = list(map(_PTS, todo))
     made = []                           # (block, its strokes, their indices into todo)
-    for idx, block in _part_blocks(todo, pts, kappa):
+    want = None if isinstance(kappa, bool) else kappa
+    for idx, block in _part_blocks(todo, pts, kappa is True):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1)
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want)
         if got is None:
             continue
         blk, keep, sts = got
@@ -822,13 +825,14 @@ def _own_jerk1(st, profile):
     return _caps_flat(profile, _lim_fields(st.lim, st.accel), u, d, 1.0)
 
 
-def _block_geoms(sts, block, profile, j1, pts=None):
+def _block_geoms(sts, block, profile, j1, pts=None, want=None):
     """The _Blk of the strokes sts whose _parts_block (compact) is `block`, which of them
     it holds (a bool mask: the rows _parts_block takes; None: all) and those strokes, or
     None (CurveGeom's own path for all) when the vectorised caps decline one of them.  The
     caps are _caps_flat's law on (m, n - 1) arrays, the limits as (m, 1): each element the
-    same operations.  pts: the strokes' vertices (their pts), if the caller has them."""
-    d, u, _, _, kappa_v, kappa_eff, good = block
+    same operations.  pts: the strokes' vertices (their pts), if the caller has them.
+    want: build_geoms' (κ of a block _parts_lazy left without it made for those rows)."""
+    d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
     keep = None
@@ -857,10 +861,33 @@ def _block_geoms(sts, block, profile, j1, pts=None):
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
+    miss = None
+    if kappa_v is None and want is not None:
+        kappa_v, kappa_eff, miss = _kappa_wanted(block[7], d, s_v, keep, want(sts, cap))
     # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
     blk = _Blk(d, None, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
+    if miss is not None:
+        blk._kv_miss, blk._ke_miss = miss, miss.copy()
     _BLOCKS.add(blk)
     return blk, keep, sts
+
+
+def _kappa_wanted(seg, d, s_v, keep, want):
+    """(kappa_v, kappa_eff, the rows not made (a bool array, None if none)) of a block's
+    rows (_parts_lazy's segments seg and arc lengths s_v, the rows keep of them kept:
+    lengths d) made for the rows want (a bool array): the same rows' _kappa_block (row by
+    row the same bits); (None, None, None) if none is wanted."""
+    if keep is not None:
+        seg, s_v = seg[keep], s_v[keep]
+    if want.all():
+        kv, ke = _kappa_block(seg, d, s_v)
+        return kv, ke, None
+    rows = np.flatnonzero(want)
+    if not rows.size:
+        return None, None, None
+    kv, ke = np.empty(s_v.shape), np.empty(d.shape[0])
+    kv[rows], ke[rows] = _kappa_block(seg[rows], d[rows], s_v[rows])
+    return kv, ke, ~want
 
 
 _ACCEL = attrgetter("accel")
@@ -1120,7 +1147,7 @@ KAPPA_TAME_D = 1e100        # mm: a path no longer than this has a finite κ (_p
 
 def _parts_lazy(pts):
     """_parts_block without κ where it is sure to be finite: (d, u, cos_turn, s_v, None,
-    None, good), the same good; else _parts_block's.  A row good but for κ, whose length
+    None, good, the segments), the same good; else _parts_block's.  A row good but for κ, whose length
     S <= KAPPA_TAME_D, has a finite κ at every vertex: its kernel's arguments are finite
     (|s_v[j] - s_i| / smooth_d <= S / SMOOTH_MIN_D, squared ~1e201), so each kernel entry
     is in [0, 1] with a 1 in every row (the row's least argument); the turns are finite
@@ -1133,7 +1160,7 @@ def _parts_lazy(pts):
         kappa_v, kappa_eff = _kappa_block(seg, d, s_v)
         good &= np.isfinite(kappa_v).all(axis=1)
         return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
-    return d, u, cos_turn, s_v, None, None, good
+    return d, u, cos_turn, s_v, None, None, good, seg       # (seg: build_geoms' want)
 
 
 def _parts_base(pts):

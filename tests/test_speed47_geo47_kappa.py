@@ -114,6 +114,41 @@ def test_classify_makes_kappa_for_the_curves_alone_the_same_bits(core):
         assert _bits(st.curv.kappa_v, kv) and st.curv.kappa_eff == ke
 
 
+@pytest.mark.parametrize("share", [0.0, 0.3, 1.0])
+def test_kappa_made_at_once_for_the_wanted_rows(core, share):
+    """build_geoms(kappa=want): κ made with the block for the rows want says (a random
+    share of them), the others when read: every one the same bits as made at once."""
+    prof, todo = _curves_of(os.path.join(S, "prusa_gyroid.gcode"))
+    want_all = _eager(todo, prof)
+    rng = np.random.default_rng(471)
+    asked = []
+
+    def want(sts, cap):
+        assert len(sts) == cap.size
+        w = rng.uniform(size=cap.size) < share
+        asked.append((list(sts), w))
+        return w
+    for st in todo:
+        st.curv = None
+    curves.build_geoms(todo, prof, jerk1=True, kappa=want)
+    assert asked
+    pos = {id(st): q for q, st in enumerate(todo)}
+    for sts, w in asked:                 # made: the wanted rows, and only they
+        for st, x in zip(sts, w.tolist()):
+            b, k = st.curv._b, st.curv._k
+            made = b._kv is not None and (b._kv_miss is None or not b._kv_miss[k])
+            assert made == x
+            if x:
+                kv, ke = want_all[pos[id(st)]]
+                assert _bits(b._kv[k], kv) and b._ke[k] == ke
+    _check_reads_made(todo, want_all)
+
+
+def _check_reads_made(todo, want):
+    for st, (kv, ke) in zip(todo, want):
+        assert _bits(st.curv.kappa_v, kv) and st.curv.kappa_eff == ke
+
+
 def _rows(n_rows, npt, rng, scale=1.0, tiny=False):
     """Random polylines (n_rows, npt, 2): turning paths, segments >= ~1e-9 where tiny."""
     step = rng.uniform(1e-9 if tiny else 0.05, 2.0, (n_rows, npt - 1)) * scale
@@ -138,10 +173,11 @@ def test_lazy_parts_same_fields_and_good_as_parts_block(core):
             with np.errstate(all="ignore"):
                 ref = curves._parts_block(pts)
                 got = curves._parts_lazy(pts)
-            assert _bits(got[-1], ref[-1]), (npt, scale)
+            assert _bits(got[6], ref[6]), (npt, scale)
             assert all(_bits(x, y) for x, y in zip(got[:4], ref[:4]))
             assert (got[4] is None) == want_lazy, (npt, scale)
             if want_lazy:           # the claim: every good row's κ finite
-                assert np.isfinite(ref[4][ref[-1]]).all() and ref[-1][:3].all()
+                assert np.isfinite(ref[4][ref[6]]).all() and ref[6][:3].all()
+                assert _bits(got[7], pts[:, 1:] - pts[:, :-1])      # the segments, for want
             else:
                 assert _bits(got[4], ref[4]) and _bits(got[5], ref[5])

@@ -91,12 +91,15 @@ def classify(strokes, rows, profile):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
     caps a curve's peak) is below the feed become chains."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
-    made = curves.build_geoms(sts, profile, jerk1=True) or []     # (None: a build_geoms of tests)
+    # κ made for the rows that will not be chains (a chain never reads it), by the test below
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains) or []     # (None: a build_geoms of tests)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
         if not _classify_block(b, bsts, jerk, fresh=True):
             for st in bsts:
                 _classify_one(st, profile, jerk)
+        if b._kv is None or b._kv_miss is not None:      # (a curve's κ not made yet: made now)
+            b.make_kappa([k for k, st in enumerate(bsts) if st.chain_T is None])
     every = sum(len(m[1]) for m in made) == len(sts)
     if not every:
         _classify_rest(sts, made, profile, jerk)
@@ -105,6 +108,15 @@ def classify(strokes, rows, profile):
             curves.drop_blocks_jerk1([m[0] for m in made])
         else:
             curves.drop_jerk1(sts)
+
+
+def _not_chains(sts, cap):
+    """build_geoms' rows of a block (strokes sts, cap their cap) whose κ is made at once:
+    those _classify_block does not make chains (cap < feed); a row it does not foresee
+    makes its κ when read."""
+    feed = objfields.float_col(sts, "v_feed")
+    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+    return ~(cap < feed)
 
 
 def _classify_rest(sts, made, profile, jerk):

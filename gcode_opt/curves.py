@@ -357,16 +357,21 @@ class CurveGeom:
 
     d = property(lambda self: self._b.d[self._k], doc="segment lengths (n,)")
     u = property(lambda self: self._b.u_row(self._k), doc="segment unit directions (n, 2)")
-    kappa_v = property(lambda self: self._b.kappa_v[self._k], doc="smoothed curvature at each vertex (n + 1,)")
+    kappa_v = property(lambda self: self._b.kappa_row(self._k), doc="smoothed curvature at each vertex (n + 1,)")
     caps = property(lambda self: self._b.caps[self._k], doc="the vertex speed caps (mm/s), per interior vertex")
     cap = property(lambda self: float(self._b.cap[self._k]), doc="CAP_MARGIN x the least vertex cap (a float; inf if none)")
 
     @property
     def kappa_eff(self):
         """The effective constant curvature: a float (a block's array element), or as
-        CurveGeom's own path made it (a list of one: a float or a numpy float64)."""
-        k = self._b.kappa_eff
-        return k[self._k] if type(k) is list else float(k[self._k])
+        CurveGeom's own path made it (a list of one: a float or a numpy float64).  Made
+        first where its block has not (build_geoms' kappa False)."""
+        b, k = self._b, self._k
+        ke = b._ke
+        if ke is None or (b._ke_miss is not None and b._ke_miss[k]):
+            b.make_kappa([k])
+            ke = b._ke
+        return ke[k] if type(ke) is list else float(ke[k])
 
     @property
     def cos_turn(self):
@@ -549,12 +554,15 @@ class _Blk:
     which one each row's, each row's acceleration): then the caps, read by chains.classify
     alone under classic jerk, may be let go (drop_jerk1) and are made again when read.
     Without u, κ at the vertices too may be let go (drop_kappa, once the curves' candidates
-    are made: their one reader) and is made again by _parts_block when read."""
-    __slots__ = ("d", "_u", "_pts", "_kv", "kappa_eff", "_caps", "_lim", "caps_jerk1", "cap", "cos_end",
-                 "cap_min", "_ux2", "__weakref__")
+    are made: their one reader) and is made again by _parts_block when read.  κ at the
+    vertices and κ_eff None (build_geoms' kappa False): made for the rows read, when read
+    (make_kappa; _kv_miss, _ke_miss: the rows not made yet, None if none)."""
+    __slots__ = ("d", "_u", "_pts", "_kv", "_ke", "_kv_miss", "_ke_miss", "_caps", "_lim", "caps_jerk1", "cap",
+                 "cos_end", "cap_min", "_ux2", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
-        self.d, self._kv, self.kappa_eff = d, kappa_v, kappa_eff
+        self.d, self._kv, self._ke = d, kappa_v, kappa_eff
+        self._kv_miss = self._ke_miss = None
         self._u, self._pts = u, pts
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
@@ -614,16 +622,61 @@ class _Blk:
 
     @property
     def kappa_v(self):
-        kv = self._kv
-        if kv is None:              # let go by drop_kappa: the same rows' _parts_block, kept
-            m, n = self.d.shape
-            with np.errstate(all="ignore"):
-                kv = self._kv = _parts_block(_pts_xy(self._pts).reshape(m, n + 1, 2))[4]
-        return kv
+        """κ at the vertices of every row, (m, n + 1) (let go by drop_kappa, or not made
+        yet: made now, kept)."""
+        if self._kv is None or self._kv_miss is not None:
+            self.make_kappa(range(self.d.shape[0]))
+        return self._kv
 
     @kappa_v.setter
     def kappa_v(self, kv):
-        self._kv = kv
+        self._kv, self._kv_miss = kv, None
+
+    @property
+    def kappa_eff(self):
+        """κ_eff of every row (m,) (made now where not made yet)."""
+        if self._ke is None or self._ke_miss is not None:
+            self.make_kappa(range(self.d.shape[0]))
+        return self._ke
+
+    def kappa_row(self, k):
+        """kappa_v[k], made first if not made yet."""
+        if self._kv is None or (self._kv_miss is not None and self._kv_miss[k]):
+            self.make_kappa([k])
+        return self._kv[k]
+
+    def kappa_rows(self, ks):
+        """kappa_v[ks] (ks a list of rows), those rows made first where not made yet."""
+        if self._kv is None or self._kv_miss is not None:
+            self.make_kappa(ks)
+        return np.asarray(self._kv, float)[ks]
+
+    def make_kappa(self, ks):
+        """Make κ at the vertices and κ_eff of the rows ks (a list or range) where not made
+        yet: _parts_block's operations on those rows' own vertices (_kappa_block: row by
+        row the same bits as the block's _parts_block)."""
+        m, n = self.d.shape
+        if self._kv is None:
+            self._kv, self._kv_miss = np.empty((m, n + 1)), np.ones(m, bool)
+        if self._ke is None:
+            self._ke, self._ke_miss = np.empty(m), np.ones(m, bool)
+        ks = np.asarray(ks, np.int64)
+        miss = np.zeros(ks.size, bool)
+        for mask in (self._kv_miss, self._ke_miss):
+            if mask is not None:
+                miss |= mask[ks]
+        todo = ks[miss]
+        if todo.size:
+            xy = _pts_xy(list(map(self._pts.__getitem__, todo.tolist()))).reshape(todo.size, n + 1, 2)
+            with np.errstate(all="ignore"):
+                seg, d, _, _, s_v, _ = _parts_base(xy)
+                self._kv[todo], self._ke[todo] = _kappa_block(seg, d, s_v)
+        for name in ("_kv_miss", "_ke_miss"):
+            mask = getattr(self, name)
+            if mask is not None:
+                mask[todo] = False
+                if not mask.any():
+                    setattr(self, name, None)
 
 
 _XY = attrgetter("xy")
@@ -695,7 +748,7 @@ def geom(st, profile):
     return st.curv
 
 
-def build_geoms(strokes, profile, jerk1=False):
+def build_geoms(strokes, profile, jerk1=False, kappa=True):
     """geom() of every stroke in `strokes` (those without one): their segments, curvature
     and vertex caps computed for all strokes of one vertex count at once (_part_blocks,
     _block_geoms: the same elementwise arithmetic as stroke by stroke, so the same bits),
@@ -704,16 +757,21 @@ def build_geoms(strokes, profile, jerk1=False):
     non-finite one, too few or too many vertices, caps the vectorised law declines) takes
     CurveGeom's own path, in the strokes' order: one whose geometry raises raises here,
     as geom() would (the strokes before it keep theirs).  Returns the blocks it made, each
-    as (its _Blk, its strokes in row order): chains.classify reads them by block."""
+    as (its _Blk, its strokes in row order): chains.classify reads them by block.  kappa
+    False: κ at the vertices and κ_eff of the blocks' rows are made when read, or by
+    make_kappa (_parts_lazy: a chain never reads them); a function want(sts, cap) (a
+    block's strokes and their cap): made now for the rows where it is True (a bool
+    array), the others when read."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return []
     j1 = jerk1 and profile.junction == "jerk"
     pts = list(map(_PTS, todo))
     made = []                           # (block, its strokes, their indices into todo)
-    for idx, block in _part_blocks(todo, pts):
+    want = None if isinstance(kappa, bool) else kappa
+    for idx, block in _part_blocks(todo, pts, kappa is True):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1)
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want)
         if got is None:
             continue
         blk, keep, sts = got
@@ -767,14 +825,16 @@ def _own_jerk1(st, profile):
     return _caps_flat(profile, _lim_fields(st.lim, st.accel), u, d, 1.0)
 
 
-def _block_geoms(sts, block, profile, j1, pts=None):
+def _block_geoms(sts, block, profile, j1, pts=None, want=None):
     """The _Blk of the strokes sts whose _parts_block (compact) is `block`, which of them
     it holds (a bool mask: the rows _parts_block takes; None: all) and those strokes, or
     None (CurveGeom's own path for all) when the vectorised caps decline one of them.  The
     caps are _caps_flat's law on (m, n - 1) arrays, the limits as (m, 1): each element the
-    same operations.  pts: the strokes' vertices (their pts), if the caller has them."""
-    d, u, _, _, kappa_v, kappa_eff, good = block
-    kappa_eff = np.array(kappa_eff, float)          # the same floats, 8 bytes each
+    same operations.  pts: the strokes' vertices (their pts), if the caller has them.
+    want: build_geoms' (κ of a block _parts_lazy left without it made for those rows)."""
+    d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
+    if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
+        kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
     keep = None
     if pts is None:
         pts = list(map(_PTS, sts))
@@ -782,7 +842,9 @@ def _block_geoms(sts, block, profile, j1, pts=None):
         if not good.any():
             return None
         keep = good
-        d, u, kappa_v, kappa_eff = d[good], u[good], kappa_v[good], kappa_eff[good]
+        d, u = d[good], u[good]
+        if kappa_v is not None:
+            kappa_v, kappa_eff = kappa_v[good], kappa_eff[good]
         g = good.tolist()
         sts = [st for st, x in zip(sts, g) if x]
         pts = [p for p, x in zip(pts, g) if x]
@@ -799,10 +861,33 @@ def _block_geoms(sts, block, profile, j1, pts=None):
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     ends = _ends_of(sts, u[:, 0], u[:, -1])
+    miss = None
+    if kappa_v is None and want is not None:
+        kappa_v, kappa_eff, miss = _kappa_wanted(block[7], d, s_v, keep, want(sts, cap))
     # u is not kept: made again from the strokes' own vertices when read (_Blk.u_rows)
     blk = _Blk(d, None, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
+    if miss is not None:
+        blk._kv_miss, blk._ke_miss = miss, miss.copy()
     _BLOCKS.add(blk)
     return blk, keep, sts
+
+
+def _kappa_wanted(seg, d, s_v, keep, want):
+    """(kappa_v, kappa_eff, the rows not made (a bool array, None if none)) of a block's
+    rows (_parts_lazy's segments seg and arc lengths s_v, the rows keep of them kept:
+    lengths d) made for the rows want (a bool array): the same rows' _kappa_block (row by
+    row the same bits); (None, None, None) if none is wanted."""
+    if keep is not None:
+        seg, s_v = seg[keep], s_v[keep]
+    if want.all():
+        kv, ke = _kappa_block(seg, d, s_v)
+        return kv, ke, None
+    rows = np.flatnonzero(want)
+    if not rows.size:
+        return None, None, None
+    kv, ke = np.empty(s_v.shape), np.empty(d.shape[0])
+    kv[rows], ke[rows] = _kappa_block(seg[rows], d[rows], s_v[rows])
+    return kv, ke, ~want
 
 
 _ACCEL = attrgetter("accel")
@@ -992,10 +1077,12 @@ def _batch_parts(todo):
     return parts
 
 
-def _part_blocks(todo, pts=None):
+def _part_blocks(todo, pts=None, kappa=True):
     """(indices into todo, _parts_block(their vertices)) for every block of strokes of one
     vertex count (3 to _GEOM_MAX_PTS vertices) that _batch_parts takes.  pts: the strokes'
-    vertices (their pts), if the caller has them."""
+    vertices (their pts), if the caller has them.  kappa False: _parts_lazy's (κ left to
+    be made when read, where it is sure to be finite)."""
+    parts = _parts_block if kappa else _parts_lazy
     if pts is None:
         pts = list(map(_PTS, todo))
     # len(Points) is its array's half length: read without the Python __len__ (~21 k strokes)
@@ -1009,7 +1096,7 @@ def _part_blocks(todo, pts=None):
         for a in range(0, grp.size, step):
             idx = grp[a:a + step]
             with np.errstate(all="ignore"):
-                block = _parts_block(_xy_block(todo, idx, pts).reshape(idx.size, npt, 2))
+                block = parts(_xy_block(todo, idx, pts).reshape(idx.size, npt, 2))
             yield idx, block
 
 
@@ -1049,6 +1136,36 @@ def _div_pairs(seg, d):
 
 def _parts_block(pts):
     """_batch_parts on one block of strokes with the same vertex count: pts (m, n + 1, 2)."""
+    seg, d, u, cos_turn, s_v, good = _parts_base(pts)
+    kappa_v, kappa_eff = _kappa_block(seg, d, s_v)
+    good &= np.isfinite(kappa_v).all(axis=1)
+    return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
+
+
+KAPPA_TAME_D = 1e100        # mm: a path no longer than this has a finite κ (_parts_lazy)
+
+
+def _parts_lazy(pts):
+    """_parts_block without κ where it is sure to be finite: (d, u, cos_turn, s_v, None,
+    None, good, the segments), the same good; else _parts_block's.  A row good but for κ, whose length
+    S <= KAPPA_TAME_D, has a finite κ at every vertex: its kernel's arguments are finite
+    (|s_v[j] - s_i| / smooth_d <= S / SMOOTH_MIN_D, squared ~1e201), so each kernel entry
+    is in [0, 1] with a 1 in every row (the row's least argument); the turns are finite
+    (in [-pi, pi]), so |kern @ turn| <= n pi; the spacings ell are >= 1e-9 (d > 1e-9), so
+    kern @ ell is in [1e-9, n S]: a finite ratio.  κ is then made when read (_Blk.kappa_rows:
+    the same rows' _kappa_block, the same bits), for the rows that are read: a chain's
+    never is (the gyroid plate's chains hold 99.5 % of its kernels' entries)."""
+    seg, d, u, cos_turn, s_v, good = _parts_base(pts)
+    if (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any():
+        kappa_v, kappa_eff = _kappa_block(seg, d, s_v)
+        good &= np.isfinite(kappa_v).all(axis=1)
+        return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
+    return d, u, cos_turn, s_v, None, None, good, seg       # (seg: build_geoms' want)
+
+
+def _parts_base(pts):
+    """_parts_block's (seg, d, u, cos_turn, s_v, good) of pts (m, n + 1, 2), good not yet
+    asking κ to be finite."""
     m, npt = pts.shape[:2]
     seg = _lag_rows(pts.reshape(m, 2 * npt), 2).reshape(m, npt - 1, 2)   # _segments: pts[:, 1:] - pts[:, :-1]
     d = np.hypot(seg[..., 0], seg[..., 1])
@@ -1058,6 +1175,13 @@ def _parts_block(pts):
     s_v[:, 0] = 0.0
     np.cumsum(d, axis=1, out=s_v[:, 1:])
     good = np.isfinite(pts).all(axis=(1, 2)) & (d > 1e-9).all(axis=1) & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
+    return seg, d, u, cos_turn, s_v, good
+
+
+def _kappa_block(seg, d, s_v):
+    """(kappa_v (m, n + 1), kappa_eff (m,)) of _parts_block's rows: segments seg (m, n, 2),
+    lengths d (m, n), arc lengths s_v (m, n + 1).  Row by row the same bits (each row's
+    own median, kernel and matrix products)."""
     n = d.shape[1]                                          # _median
     k = n // 2
     if n % 2:
@@ -1089,13 +1213,11 @@ def _parts_block(pts):
     # matrix-vector products stacked: numpy makes the same BLAS gemv call per stroke as the
     # per-stroke path's kern @ turn (same shapes and strides), so the same bits
     kappa_v = (kern @ turn[:, :, None])[..., 0] / (kern @ ell[:, :, None])[..., 0]
-    good &= np.isfinite(kappa_v).all(axis=1)
     # np.interp(s_v, s_d, kappa_v) at its own nodes is kappa_v itself
     S = s_v[:, -1]
     mid = 0.5 * (kappa_v[:, :-1] ** 2 + kappa_v[:, 1:] ** 2)
     k2 = np.sum(mid * d, axis=1) / S
-    kappa_eff = _pmax(np.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
-    return d, u, cos_turn, s_v, kappa_v, kappa_eff.tolist(), good
+    return kappa_v, _pmax(np.sqrt(k2), 1.0 / (MAX_R_OVER_S * S))
 
 
 EXP_ZERO_BELOW = -746.0     # exp(x) < 2^-1076 here: +0.0 in round to nearest (the least subnormal is 2^-1074)
@@ -1501,8 +1623,7 @@ def _knots_by_block(gs):
         rows.setdefault(id(b), (b, []))[1].append(q)
     cnt = np.empty(len(gs), dtype=np.int64)
     for b, qs in rows.values():
-        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and isinstance(b.kappa_v, np.ndarray)
-                and b.kappa_v.shape == (b.d.shape[0], b.d.shape[1] + 1)):
+        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and _kappa_rows_ok(b)):
             return None
         cnt[qs] = b.d.shape[1] + 1
 
@@ -1517,9 +1638,15 @@ def _knots_by_block(gs):
             np.cumsum(np.asarray(b.d, float)[sel], axis=1, out=sv[:, 1:])
             at = off[qs][:, None] + np.arange(n1)[None, :]
             xs[at] = sv
-            ys[at] = np.asarray(b.kappa_v, float)[sel]
+            ys[at] = b.kappa_rows(sel)
         return xs, ys
     return cnt, fill
+
+
+def _kappa_rows_ok(b):
+    """Whether the block b's κ at the vertices is (or is made as) one (m, n + 1) array."""
+    kv = b._kv
+    return type(b) is _Blk and (kv is None or (isinstance(kv, np.ndarray) and kv.shape == (b.d.shape[0], b.d.shape[1] + 1)))
 
 
 _INTERP_ROWS = getattr(_CURVE_CORE, "interp_rows", None) if _CURVE_CORE is not None else None

@@ -1152,14 +1152,15 @@ def _rebuild_geometry(strokes, idx, kind, profile):
     drop it between passes: ~17 MB on the gyroid plate), made in one batch as
     plan_inputs made it (the same bits), not stroke by stroke (~2 s on that plate).  A
     stroke whose geometry raises makes it where isolate() catches it, in its kind's
-    segments.  kind: the KIND_CODEs of the strokes idx."""
+    segments.  kind: the KIND_CODEs of the strokes idx.  A chain's κ is not made (it
+    never reads it: made if read, _Blk.make_kappa)."""
     made = False
-    for k, jerk1 in ((C_CURVE, False), (C_CHAIN, True)):
+    for k, chain in ((C_CURVE, False), (C_CHAIN, True)):
         todo = [strokes[i] for i in idx[kind == k].tolist() if strokes[i].curv is None]
         if todo:
             made = True
             try:
-                curves.build_geoms(todo, profile, jerk1=jerk1)
+                curves.build_geoms(todo, profile, jerk1=chain, kappa=not chain)
             except Exception:                 # noqa: BLE001 -- the stroke at fault, in isolate()
                 pass
     if made:            # (the candidates, κ's one reader, are made: segments read it no more)

@@ -130,8 +130,8 @@ def test_classify_blocks_it_declines_go_stroke_by_stroke(monkeypatch):
     _curves_fresh(sts, prof)
     real = curves._block_geoms
 
-    def some_declined(sts_b, block, profile, j1):
-        got = real(sts_b, block, profile, j1)
+    def some_declined(sts_b, block, profile, j1, **kw):
+        got = real(sts_b, block, profile, j1, **kw)
         if got is not None and len(sts_b) % 2:
             got[0].cap_min = False
         return got

@@ -126,10 +126,11 @@ def test_layers_scalar_and_avx_and_numpy(both):
 
 
 def _curve_run(path, prof, monkeypatch):
-    """The curve planner's kernels' inputs on a real file: every _parts_block, _precond_cheb
-    and _layers_totals call (arguments copied)."""
+    """The curve planner's kernels' inputs on a real file: every _kappa_block (the curvature
+    kernels of _parts_block and of κ made when read), _precond_cheb and _layers_totals call
+    (arguments copied)."""
     calls = {"pb": [], "pc": [], "lay": []}
-    for mod, name, key in ((curves, "_parts_block", "pb"), (circle, "_precond_cheb", "pc"),
+    for mod, name, key in ((curves, "_kappa_block", "pb"), (circle, "_precond_cheb", "pc"),
                            (circle, "_layers_totals", "lay")):
         f = getattr(mod, name)
 
@@ -144,7 +145,7 @@ def _curve_run(path, prof, monkeypatch):
 def _check_calls(calls, both, limit):
     assert calls["pb"] and calls["pc"] and calls["lay"]
     for args in calls["pb"][:limit]:
-        a, b = both(curves._parts_block, *args)
+        a, b = both(curves._kappa_block, *args)
         assert all(_bits(x, y) for x, y in zip(a, b))
     for args in calls["pc"][:limit]:
         a, b = both(circle._precond_cheb, *args)

@@ -1164,7 +1164,7 @@ static void Res_dealloc(ResObject *self)
  * thirteen attribute reads and writes cost ~6 k instructions a stop, ~5 k stops a plate).
  * sums: simulate._sums_row(res)'s bytes, the eleven sums in _SUMS' order as the Ledger's
  * array("d") holds them (the counts as doubles: exact below 2^53, as array's conversion). */
-static PyObject *Res_take_stop(ResObject *self, PyObject *noarg)
+static PyObject *Res_take_stop(ResObject *self, PyObject *Py_UNUSED(noarg))
 {
     const double row[11] = {self->time_t, self->int_a2, self->int_a2_t, self->int_v2, (double)self->n_moves,
                             (double)self->n_blocks, (double)self->full_stops, (double)self->short_segments,

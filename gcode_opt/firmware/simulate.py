@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from functools import partial
 
 from .. import state as st
 from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, klipper_corner_v2, klipper_extruder_v2,
@@ -687,9 +688,13 @@ class Ledger:
         self.res = None
 
     def _commit(self, line, state, sums, peak_v, peak_a):
+        """sums: _sums_row's bytes (the writer's), or _sums' tuple."""
         self.line.append(line)
         self.state.append(state)
-        self.sums.extend(sums)
+        if type(sums) is bytes:
+            self.sums.frombytes(sums)
+        else:
+            self.sums.extend(sums)
         self.peak_v.append(peak_v)
         self.peak_a.append(peak_a)
         return len(self.line) - 1
@@ -701,6 +706,20 @@ class Ledger:
 def _sums(res):
     return (res.time_t, res.int_a2, res.int_a2_t, res.int_v2, res.n_moves, res.n_blocks, res.full_stops,
             res.short_segments, res.barrier_dwell_t, res.corners, res.corner_dv2)
+
+
+def _sums_row(res):
+    """_sums(res) as a Ledger holds it: the bytes of its array("d") (counts as floats), added
+    by one copy (frombytes: an extend from the tuple cost ~6 k instructions a commit)."""
+    return array("d", _sums(res)).tobytes()
+
+
+def _take_stop(res):
+    """(peak_v, peak_a, _sums_row(res)), res's peaks then set to 0.0: the compiled
+    SimResult's take_stop() for the Python model's SimResult."""
+    peak_v, peak_a = res.peak_v, res.peak_a
+    res.peak_v = res.peak_a = 0.0
+    return peak_v, peak_a, _sums_row(res)
 
 
 def _play(lines, state, sim, watch, led, on_barrier=None):
@@ -797,13 +816,15 @@ class _LedgerWriter:
 
     def __init__(self, led, watch, state, res):
         self.led, self.snap, self.res = led, state.snapshot, res
+        # the peaks and sums at a stop in one call (the compiled SimResult's)
+        self.take = getattr(res, "take_stop", None) or partial(_take_stop, res)
         self.w_first, self.w_last = _ranges(watch)     # each watched range's first and last line
         self.n_w = len(self.w_first)
         self.wi = 0
         self.next_first = self.w_first[0] if self.n_w else -2   # first line of the next watched range
         self.pending = []          # watched ranges started, waiting for the stop after them
         self.carry_v = self.carry_a = 0.0   # peaks since the last committed stop, up to the last stop
-        self.last = (-1, self.snap(), _sums(res))
+        self.last = (-1, self.snap(), _sums_row(res))
         self.last_j = -1           # index of `last` in the ledger, -1 = not committed
 
     def range_starts(self):
@@ -835,13 +856,12 @@ class _LedgerWriter:
 
     def stopped(self, idx):
         """The model stands empty after line idx."""
-        res = self.res
-        if res.peak_v > self.carry_v:
-            self.carry_v = res.peak_v
-        if res.peak_a > self.carry_a:
-            self.carry_a = res.peak_a
-        res.peak_v = res.peak_a = 0.0
-        self.last = (idx, self.snap(), _sums(res))
+        peak_v, peak_a, sums = self.take()
+        if peak_v > self.carry_v:
+            self.carry_v = peak_v
+        if peak_a > self.carry_a:
+            self.carry_a = peak_a
+        self.last = (idx, self.snap(), sums)
         self.last_j = -1
         pending = self.pending
         if pending:
@@ -859,7 +879,7 @@ class _LedgerWriter:
         led.n_lines = n_lines
         sim.stop()
         carry_v, carry_a = max(self.carry_v, res.peak_v), max(self.carry_a, res.peak_a)
-        end_j = led._commit(led.n_lines - 1, self.snap(), _sums(res), carry_v, carry_a)
+        end_j = led._commit(led.n_lines - 1, self.snap(), _sums_row(res), carry_v, carry_a)
         led.hi.extend(_repeat(end_j, len(self.pending)))
         if self.wi < self.n_w:    # ranges past the end of the file: nothing to replay from
             led.ok = False

@@ -40,7 +40,7 @@ from operator import attrgetter, is_, is_not, itemgetter
 import numpy as np
 
 from .probe_rng import ProbeRng
-from .distinct import distinct, unique_first_inverse
+from .distinct import unique_first_inverse
 from . import curves
 from . import objfields
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
@@ -2263,12 +2263,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     nseg = np.diff(base.voff) + 1      # (a chain's interior vertices: one less than its segments)
     has = use.any(axis=1)
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
-        groups = []
-        rows = use.sum(axis=1)
-        for q in distinct(nseg[has]).tolist():
-            J = np.flatnonzero(has & (nseg == q))
-            cut = np.cumsum(rows[J]) // FINISH_ROWS          # nondecreasing
-            groups += np.split(J, np.flatnonzero(np.diff(cut)) + 1)
+        groups = _count_groups(nseg, has, use.sum(axis=1))
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
     v0, v1 = base.v0, base.v1
@@ -2313,6 +2308,33 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         item = _TableItem((J, rj, rc, vk, _row_steps(tk), np.bincount(rj, None, J.size), _at(IV, rc, j)))
         item.at = at
         yield item
+
+
+def _count_groups(nseg, has, rows):
+    """_table_rows' groups under grouped finishing: the chains `has` (mask) of each segment
+    count nseg (ascending counts, each count's chains ascending), cut where the running sum
+    of their rows (rows per chain) // FINISH_ROWS steps.  The same index arrays as a mask
+    over the chunk, a cumsum and an np.split per count, made in one pass: the chains
+    sorted by count (stable; already so in _figures_sorted's chunks), each count's running
+    sums as the whole run's less the sum before its first chain (exact integers), the cuts
+    where the count or the quotient changes, the groups slices of that order."""
+    J = np.flatnonzero(has)
+    if J.size == 0:
+        return []
+    q = nseg.take(J)
+    if np.any(q[1:] < q[:-1]):
+        o = np.argsort(q, kind="stable")
+        J, q = J.take(o), q.take(o)
+    cum = np.cumsum(rows.take(J))
+    new = np.empty(J.size, bool)        # a count's first chain
+    new[0] = True
+    np.not_equal(q[1:], q[:-1], out=new[1:])
+    first = np.flatnonzero(new)
+    before = (cum - rows.take(J)).take(first)          # the rows before each count's first chain
+    cut = (cum - np.repeat(before, np.diff(np.append(first, J.size)))) // FINISH_ROWS
+    new[1:] |= cut[1:] != cut[:-1]
+    at = np.flatnonzero(new).tolist() + [J.size]
+    return [J[a:b] for a, b in zip(at[:-1], at[1:])]
 
 
 class _LawCols:

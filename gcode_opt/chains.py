@@ -1872,22 +1872,25 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
     # (each one's segment count as its geometry block's row length: no d view a chain)
-    nseg = np.array(curves.seg_counts([curves.geom(strokes[i], profile) for i in rows.tolist()]), np.int64)
+    gs = [curves.geom(strokes[i], profile) for i in rows.tolist()]
+    nseg = np.array(curves.seg_counts(gs), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
-        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
+        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg, gs)
     # (np.take's row gathers: numpy's fancy index copies a row at a time through its
     # general loop, several times slower for these short rows; the same values)
     Tp = T.take(perm, axis=0)
     bp = _BetaOfT(Tp) if type(beta) is _BetaOfT and beta.T is T else beta.take(perm, axis=0)
-    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm])
+    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm],
+                          [gs[i] for i in perm.tolist()])
     back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
     back[perm] = np.arange(perm.size)
     return tuple(a.take(back, axis=0) for a in got)
 
 
-def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
-    """_figures of chains in nondecreasing number of segments nseg (None: no early flush)."""
+def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=None):
+    """_figures of chains in nondecreasing number of segments nseg (None: no early flush);
+    gs: the rows' geometries (None: each chunk's made by _flat_chains)."""
     n, k = T.shape
     tab = _Table(n, k, T)
     mid = int(np.argmin(np.abs(T[0] / pin.T_orig[rows[0]] - 1.0))) if n else 0
@@ -1900,7 +1903,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
-        base = _flat_chains(sts, profile)
+        base = _flat_chains(sts, profile, None if gs is None else gs[sl])
         Ts, bs = T[sl], beta[sl]
         res = _solve_cols(base, Ts, bs, order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
@@ -2180,14 +2183,21 @@ class _Finisher:
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
 
-def _flat_chains(sts, profile):
-    """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
-    gs = [curves.geom(st, profile) for st in sts]
+def _flat_chains(sts, profile, gs=None):
+    """The chains sts (geometries gs, or None: made here) as flat arrays (laws/chain._Flat;
+    durations per column: with_T)."""
+    if gs is None:
+        gs = [curves.geom(st, profile) for st in sts]
     caps = _kept_caps(sts, gs, profile)
     cv = _join_caps(caps)
+    m = len(sts)
+    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass: the same doubles)
+    if got is not None:
+        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        L, v0, v1 = (np.array([f(st) for st in sts], float) for f in (_LENGTH_D, _V0, _V1))
     return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
-                           np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
-                           np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
+                           L, np.zeros(m), np.ones(m), v0, v1)
 
 
 def _inner_s(gs):

@@ -619,11 +619,7 @@ def _laws_knots(Qs, laws, profile):
         a += len(Q)
     sv = _inner_s_stacked(gs, Ds)
     del Ds
-    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass)
-    if got is not None:
-        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
-    else:
-        L, v0, v1 = (np.fromiter(map(f, sts), float, m) for f in (_LENGTH_D, _V0, _V1))
+    L, v0, v1 = _lengths_ends(sts)
     fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
@@ -642,6 +638,15 @@ def _laws_knots(Qs, laws, profile):
         out.append((vk, _row_steps(tk), tp[a:z].tolist(), a2[a:z].tolist()))
         a = z
     return out
+
+
+def _lengths_ends(sts):
+    """(length_d, v0, v1) of the chains sts (a list) as three float64 arrays: by objfields'
+    one compiled pass, else one np.fromiter each (the same doubles)."""
+    got = objfields.floats(sts, ("length_d", "v0", "v1"))
+    if got is not None:
+        return tuple(np.ascontiguousarray(got[:, j]) for j in range(3))
+    return tuple(np.fromiter(map(f, sts), float, len(sts)) for f in (_LENGTH_D, _V0, _V1))
 
 
 _LENGTH_D, _V0, _V1 = attrgetter("length_d"), attrgetter("v0"), attrgetter("v1")
@@ -2191,11 +2196,7 @@ def _flat_chains(sts, profile, gs=None):
     caps = _kept_caps(sts, gs, profile)
     cv = _join_caps(caps)
     m = len(sts)
-    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass: the same doubles)
-    if got is not None:
-        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
-    else:
-        L, v0, v1 = (np.array([f(st) for st in sts], float) for f in (_LENGTH_D, _V0, _V1))
+    L, v0, v1 = _lengths_ends(sts)          # (one compiled pass: the same doubles)
     return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
                            L, np.zeros(m), np.ones(m), v0, v1)
 

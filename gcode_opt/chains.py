@@ -40,7 +40,7 @@ from operator import attrgetter, is_, is_not, itemgetter
 import numpy as np
 
 from .probe_rng import ProbeRng
-from .distinct import distinct, unique_first_inverse
+from .distinct import unique_first_inverse
 from . import curves
 from . import objfields
 from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
@@ -631,11 +631,7 @@ def _laws_knots(Qs, laws, profile):
         a += len(Q)
     sv = _inner_s_stacked(gs, Ds)
     del Ds
-    got = objfields.floats(sts, ("length_d", "v0", "v1"))         # (one compiled pass)
-    if got is not None:
-        L, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
-    else:
-        L, v0, v1 = (np.fromiter(map(f, sts), float, m) for f in (_LENGTH_D, _V0, _V1))
+    L, v0, v1 = _lengths_ends(sts)
     fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
     out = []
@@ -654,6 +650,15 @@ def _laws_knots(Qs, laws, profile):
         out.append((vk, _row_steps(tk), tp[a:z].tolist(), a2[a:z].tolist()))
         a = z
     return out
+
+
+def _lengths_ends(sts):
+    """(length_d, v0, v1) of the chains sts (a list) as three float64 arrays: by objfields'
+    one compiled pass, else one np.fromiter each (the same doubles)."""
+    got = objfields.floats(sts, ("length_d", "v0", "v1"))
+    if got is not None:
+        return tuple(np.ascontiguousarray(got[:, j]) for j in range(3))
+    return tuple(np.fromiter(map(f, sts), float, len(sts)) for f in (_LENGTH_D, _V0, _V1))
 
 
 _LENGTH_D, _V0, _V1 = attrgetter("length_d"), attrgetter("v0"), attrgetter("v1")
@@ -1884,22 +1889,25 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
     # (each one's segment count as its geometry block's row length: no d view a chain)
-    nseg = np.array(curves.seg_counts([curves.geom(strokes[i], profile) for i in rows.tolist()]), np.int64)
+    gs = [curves.geom(strokes[i], profile) for i in rows.tolist()]
+    nseg = np.array(curves.seg_counts(gs), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
-        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg)
+        return _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg, gs)
     # (np.take's row gathers: numpy's fancy index copies a row at a time through its
     # general loop, several times slower for these short rows; the same values)
     Tp = T.take(perm, axis=0)
     bp = _BetaOfT(Tp) if type(beta) is _BetaOfT and beta.T is T else beta.take(perm, axis=0)
-    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm])
+    got = _figures_sorted(strokes, rows[perm], pin, Tp, bp, profile, rules, nseg[perm],
+                          [gs[i] for i in perm.tolist()])
     back = np.empty_like(perm)        # back in the rows' order: b[perm] = a, as b = a[back]
     back[perm] = np.arange(perm.size)
     return tuple(a.take(back, axis=0) for a in got)
 
 
-def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
-    """_figures of chains in nondecreasing number of segments nseg (None: no early flush)."""
+def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=None):
+    """_figures of chains in nondecreasing number of segments nseg (None: no early flush);
+    gs: the rows' geometries (None: each chunk's made by _flat_chains)."""
     n, k = T.shape
     tab = _Table(n, k, T)
     mid = int(np.argmin(np.abs(T[0] / pin.T_orig[rows[0]] - 1.0))) if n else 0
@@ -1912,7 +1920,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None):
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
         sts = [strokes[i] for i in rows[sl]]
-        base = _flat_chains(sts, profile)
+        base = _flat_chains(sts, profile, None if gs is None else gs[sl])
         Ts, bs = T[sl], beta[sl]
         res = _solve_cols(base, Ts, bs, order, prev)
         v_cap, t_min = pin.v_cap[rows[sl]], pin.t_seg_min[rows[sl]]
@@ -2192,14 +2200,17 @@ class _Finisher:
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
 
-def _flat_chains(sts, profile):
-    """The chains sts as flat arrays (laws/chain._Flat; durations per column: with_T)."""
-    gs = [curves.geom(st, profile) for st in sts]
+def _flat_chains(sts, profile, gs=None):
+    """The chains sts (geometries gs, or None: made here) as flat arrays (laws/chain._Flat;
+    durations per column: with_T)."""
+    if gs is None:
+        gs = [curves.geom(st, profile) for st in sts]
     caps = _kept_caps(sts, gs, profile)
     cv = _join_caps(caps)
+    m = len(sts)
+    L, v0, v1 = _lengths_ends(sts)          # (one compiled pass: the same doubles)
     return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
-                           np.array([st.length_d for st in sts], float), np.zeros(len(sts)), np.ones(len(sts)),
-                           np.array([st.v0 for st in sts], float), np.array([st.v1 for st in sts], float))
+                           L, np.zeros(m), np.ones(m), v0, v1)
 
 
 def _inner_s(gs):
@@ -2275,12 +2286,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     nseg = np.diff(base.voff) + 1      # (a chain's interior vertices: one less than its segments)
     has = use.any(axis=1)
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
-        groups = []
-        rows = use.sum(axis=1)
-        for q in distinct(nseg[has]).tolist():
-            J = np.flatnonzero(has & (nseg == q))
-            cut = np.cumsum(rows[J]) // FINISH_ROWS          # nondecreasing
-            groups += np.split(J, np.flatnonzero(np.diff(cut)) + 1)
+        groups = _count_groups(nseg, has, use.sum(axis=1))
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
     v0, v1 = base.v0, base.v1
@@ -2325,6 +2331,33 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
         item = _TableItem((J, rj, rc, vk, _row_steps(tk), np.bincount(rj, None, J.size), _at(IV, rc, j)))
         item.at = at
         yield item
+
+
+def _count_groups(nseg, has, rows):
+    """_table_rows' groups under grouped finishing: the chains `has` (mask) of each segment
+    count nseg (ascending counts, each count's chains ascending), cut where the running sum
+    of their rows (rows per chain) // FINISH_ROWS steps.  The same index arrays as a mask
+    over the chunk, a cumsum and an np.split per count, made in one pass: the chains
+    sorted by count (stable; already so in _figures_sorted's chunks), each count's running
+    sums as the whole run's less the sum before its first chain (exact integers), the cuts
+    where the count or the quotient changes, the groups slices of that order."""
+    J = np.flatnonzero(has)
+    if J.size == 0:
+        return []
+    q = nseg.take(J)
+    if np.any(q[1:] < q[:-1]):
+        o = np.argsort(q, kind="stable")
+        J, q = J.take(o), q.take(o)
+    cum = np.cumsum(rows.take(J))
+    new = np.empty(J.size, bool)        # a count's first chain
+    new[0] = True
+    np.not_equal(q[1:], q[:-1], out=new[1:])
+    first = np.flatnonzero(new)
+    before = (cum - rows.take(J)).take(first)          # the rows before each count's first chain
+    cut = (cum - np.repeat(before, np.diff(np.append(first, J.size)))) // FINISH_ROWS
+    new[1:] |= cut[1:] != cut[:-1]
+    at = np.flatnonzero(new).tolist() + [J.size]
+    return [J[a:b] for a, b in zip(at[:-1], at[1:])]
 
 
 class _LawCols:

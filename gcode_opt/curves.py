@@ -1870,7 +1870,7 @@ def _finish_rows(sts, S, V, rules, profile):
     d = S[:, 1:] - S[:, :-1]
     v2 = V * V
     acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
-    a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    a_top, jerk, v_feed = _row_fields(sts, rules.junction == "jerk")
     D, U = stack_du(gs)                  # the geometries' d and u rows, one array each
     if rules.junction == "jerk":
         acc = _jerk_junction_rows(D, V, acc, a_top, profile)
@@ -1879,11 +1879,11 @@ def _finish_rows(sts, S, V, rules, profile):
                         for st, g, vk, a in zip(sts, gs, V, acc)])
     acc = hold_cruise_accels_rows(acc, np.array(a_top, float))
     if rules.junction == "jerk":
-        step_v = np.array([JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y) for st in sts], float)
+        step_v = np.array(jerk, float)
     else:
         step_v = np.full(m, np.inf)
     need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)        # segment_feeds
-    feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
+    feeds = tent_feeds_rows(need, np.array(v_feed, float), step_v)
     c0, c1 = _end_cosines(sts, U)
     # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
     t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
@@ -1891,6 +1891,29 @@ def _finish_rows(sts, S, V, rules, profile):
     # (~0.45 kB of numpy objects a plan; ~7 k curve plans held through the budget runs of
     # the gyroid plate); the same numbers, and seg_fault's verdicts made on the blocks
     return _row_plans(S, V, acc, feeds, t_pred, a2_pred, fine_rows(S, V, acc, feeds, t_pred, a2_pred))
+
+
+_LIM = attrgetter("lim")
+
+
+def _row_fields(sts, jerk):
+    """_finish_rows' fields of the strokes: (a_top, jerk steps (jerk: else None), v_feed),
+    [min(st.accel, st.lim.ax_max, st.lim.ay_max)], [JERK_F_STEP_R * min(st.lim.jerk_x,
+    st.lim.jerk_y)] and [st.v_feed], read in two compiled passes where they are floats
+    (arrays then: Python's min as np.where on its comparisons, the first on a tie or a
+    NaN; the same product), else as those lists."""
+    got = objfields.floats(sts, ("accel", "v_feed"))
+    lims = list(map(_LIM, sts)) if got is not None else None
+    lim = objfields.floats(lims, ("ax_max", "ay_max") + (("jerk_x", "jerk_y") if jerk else ())) if lims else None
+    if lim is None:
+        a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+        step = [JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y) for st in sts] if jerk else None
+        return a_top, step, [st.v_feed for st in sts]
+    a = got[:, 0]
+    a = np.where(lim[:, 0] < a, lim[:, 0], a)
+    a_top = np.where(lim[:, 1] < a, lim[:, 1], a)
+    step = JERK_F_STEP_R * np.where(lim[:, 3] < lim[:, 2], lim[:, 3], lim[:, 2]) if jerk else None
+    return a_top, step, got[:, 1]
 
 
 def _jerk_junction_rows(D, V, acc, a_top, profile):

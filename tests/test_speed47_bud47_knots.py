@@ -184,3 +184,42 @@ def test_plan_once_cmd_same_twins(corners):
         assert a.s.tobytes() == b.s.tobytes() and a.feed.tobytes() == b.feed.tobytes()
         # the same sharing: a plan object first seen at the same row on both sides
         assert firsts_g.setdefault(id(a), q) == firsts_w.setdefault(id(b), q)
+
+
+@pytest.mark.parametrize("profile", ["prusa-mk3s", "voron24"])
+def test_curve_plans_without_passes(monkeypatch, profile):
+    """No compiled field pass (objfields.floats answers None): the strokes' fields read as
+    lists (_row_fields, _knot_speeds), the same plans."""
+    sts, T, beta, prof, rules = _curve_laws("prusa_gyroid.gcode", profile)
+    want = old_curve_knots(sts, T, beta, prof)
+    from gcode_opt import objfields
+    monkeypatch.setattr(objfields, "_FLOATS", None)
+    got = curves.plan_curve_segments(sts, T, beta, rules, prof)
+    for st, (sk, vk), g in zip(sts, want, got):
+        _same_plan(g, _old_finish_curve(st, sk, vk, rules, prof))
+
+
+def test_row_fields_as_the_lists():
+    """_row_fields' arrays are the old lists' numbers, bit for bit: Python's min of the
+    accel and the axis caps (a tie, a NaN first or later), the jerk step, v_feed."""
+    sts, _, _, _, _ = _curve_laws("prusa_gyroid.gcode", "prusa-mk3s")
+
+    class Lim:
+        def __init__(self, ax, ay, jx, jy):
+            self.ax_max, self.ay_max, self.jerk_x, self.jerk_y = ax, ay, jx, jy
+
+    class St:
+        def __init__(self, accel, v_feed, lim):
+            self.accel, self.v_feed, self.lim = accel, v_feed, lim
+    nan = float("nan")
+    odd = [St(1000.0, 50.0, Lim(1000.0, 800.0, 8.0, 8.0)), St(nan, 50.0, Lim(900.0, 800.0, nan, 8.0)),
+           St(700.0, 20.0, Lim(nan, 600.0, 8.0, nan)), St(700.0, 20.0, Lim(500.0, nan, 10.0, 7.5)),
+           St(-0.0, 1.0, Lim(0.0, 0.0, 0.0, -0.0)), St(2000.0, 80.0, Lim(1500.0, 1500.0, 9.0, 10.0))]
+    for group in (sts, odd):
+        a_top, step, vf = curves._row_fields(list(group), True)
+        want_a = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in group]
+        want_s = [curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y) for st in group]
+        assert np.asarray(a_top).tobytes() == np.array(want_a, float).tobytes()
+        assert np.asarray(step).tobytes() == np.array(want_s, float).tobytes()
+        assert np.asarray(vf).tobytes() == np.array([st.v_feed for st in group], float).tobytes()
+        assert curves._row_fields(list(group), False)[1] is None

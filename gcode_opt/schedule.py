@@ -404,7 +404,7 @@ def settle_faults(segs):
     # ~3 k instructions a plan on the gyroid plate's ~17 k), its other three blocks those
     # of the group's first plan; a plan whose other blocks differ goes by all four
     blocks, by_s = {}, {}
-    for seg in _settle_row_blocks(segs):       # (the plans it left)
+    for seg in segs:
         if (type(seg) is not SegmentPlan and type(seg) is not RowPlan) or seg.fault is not None:
             continue
         if type(seg) is RowPlan and type(seg._row) is int:
@@ -429,51 +429,6 @@ def settle_faults(segs):
         _settle(todo[a:b], ss[a:b], vs[a:b], as_[a:b], fs[a:b])
 
 
-_IS_ROW_PLAN = partial(is_, RowPlan)
-SETTLE_PASS_MIN = 64    # plans: fewer go through settle_faults' loop alone
-
-
-def _settle_row_blocks(segs):
-    """settle_faults' RowPlans of an int row, no verdict yet and finite figures, grouped
-    by their blocks in compiled passes (objfields: their types, verdicts, rows, figures
-    and the blocks' identities) and checked by _settle_rows: the plans of segs it left
-    (the others, and a RowPlan whose other blocks are not its knot block's first plan's),
-    which settle_faults' loop takes as before; segs itself where a pass does not answer.
-    The same verdicts (each plan's are its row's own checks, whatever its group): the
-    loop's grouping by identities was ~1 µs a plan (~17 k chain plans a gyroid plate's run)."""
-    if type(segs) is not list or len(segs) < SETTLE_PASS_MIN:
-        return segs
-    at = np.flatnonzero(np.fromiter(map(_IS_ROW_PLAN, map(type, segs)), bool, len(segs)))
-    rp = objfields.take(segs, at)
-    why = None if not rp else objfields.codes(rp, "fault", {None: 0}, add=True)
-    if why is None:
-        return segs
-    k = np.flatnonzero(why == 0)
-    sel = objfields.take(rp, k)
-    r = objfields.codes(sel, "_row", None) if sel else None
-    fig = objfields.floats(sel, ("time_t", "int_a2")) if r is not None else None
-    got = [objfields.ids(sel, f) for f in ("_s", "_v", "_accel", "_feed")] if fig is not None else [None]
-    if any(g is None for g in got):
-        return segs
-    ps = got[0][1]
-    first = np.empty(len(got[0][0]), np.intp)       # each knot block's first plan
-    first[ps[::-1]] = np.arange(ps.size - 1, -1, -1)
-    go = np.isfinite(fig[:, 0]) & np.isfinite(fig[:, 1])
-    for _, p in got[1:]:
-        go &= p == p[first[ps]]
-    go = np.flatnonzero(go)
-    order = go[np.argsort(ps[go], kind="stable")]
-    ends = np.flatnonzero(np.diff(ps[order])) + 1
-    done = np.zeros(len(segs), bool)
-    for q in np.split(order, ends) if order.size else ():
-        f = int(q[0])
-        blk = tuple(g[0][g[1][f]] for g in got)
-        if _settle_rows(*blk, objfields.take(sel, q), r[q]):
-            done[at[k[q]]] = True
-    rest = np.flatnonzero(~done)
-    return segs if rest.size == len(segs) else objfields.take(segs, rest)
-
-
 def _take_flat(seg, todo, ss, vs, as_, fs):
     """seg and its four arrays appended to the lists where they are what _settle checks
     (1-D float64, n >= 2 knots, n - 1 accelerations and feeds) and its figures finite;
@@ -493,12 +448,11 @@ def _take_flat(seg, todo, ss, vs, as_, fs):
     fs.append(f)
 
 
-def _settle_rows(S, V, A, F, plans, rows=None):
+def _settle_rows(S, V, A, F, plans):
     """settle_faults' checks on RowPlans `plans` (int rows, finite figures) of the blocks
     S, V, A, F, made on their rows of the blocks (segments.fine_rows: the same elementwise
     checks as _settle's; ~17 k chain plans in ~100 blocks on the gyroid plate, whose four
-    views each were made and concatenated again).  rows: the plans' rows (an intp array),
-    else read from them.  False where the blocks are not 2-D
+    views each were made and concatenated again).  False where the blocks are not 2-D
     float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone)."""
     nd = np.ndarray
     if not (type(S) is nd and type(V) is nd and type(A) is nd and type(F) is nd
@@ -509,7 +463,7 @@ def _settle_rows(S, V, A, F, plans, rows=None):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
-        r = objfields.codes(part, "_row", None) if rows is None else rows[a:a + SETTLE_CHUNK]
+        r = objfields.codes(part, "_row", None)
         r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)) if r is None else r)
         with np.errstate(invalid="ignore"):
             # (a run's rows are views; other rows gathered by np.take, the same rows)

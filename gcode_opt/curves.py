@@ -1825,32 +1825,110 @@ def knots_s(ends_d):
 
 def curve_knots(strokes, T, beta, profile):
     """Speeds of each curve's law at its original vertices: list of (s, v), s = [0, ends_d]."""
+    s, v, off = _knot_speeds(strokes, T, beta, profile)
+    return [(s[a:b].copy(), v[a:b].copy()) for a, b in zip(off[:-1].tolist(), off[1:].tolist())]
+
+
+def _knot_speeds(strokes, T, beta, profile):
+    """(s, v, off): curve_knots' (s, v) of every stroke end to end, stroke i's at
+    off[i]:off[i + 1] (the same numbers).  The laws are evaluated by chunks of KNOT_ROWS
+    as before; each chunk's knots are interpolated in one compiled call where its rows'
+    grids allow (_interp_chunk), not an np.interp a stroke."""
     m = len(strokes)
+    s, off = _knots_flat(strokes)
+    v = np.empty(s.size)
     if m == 0:
-        return []
+        return s, v, off
     geos = [geom(st, profile) for st in strokes]
-    S = np.array([st.length_d for st in strokes])
-    v0 = np.array([st.v0 for st in strokes])
-    v1 = np.array([st.v1 for st in strokes])
+    got = objfields.floats(strokes, ("length_d", "v0", "v1"))      # (one compiled pass, where it reads them)
+    if got is not None:
+        S, v0, v1 = (np.ascontiguousarray(got[:, j]) for j in range(3))
+    else:
+        S = np.array([st.length_d for st in strokes])
+        v0 = np.array([st.v0 for st in strokes])
+        v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
     law, R = _solve(None, geos, S, T, beta, v0, v1)
-    out = []
     # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
     # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws
-    for sl in [slice(a, a + KNOT_ROWS) for a in range(0, m, KNOT_ROWS)]:
+    for a in range(0, m, KNOT_ROWS):
+        sl = slice(a, a + KNOT_ROWS)
         sub = law.rows(sl)
-        tau = np.broadcast_to(np.linspace(0.0, 1.0, 513)[None, :], (len(sub), 513))
-        phi, w, _, _ = sub.eval_tau(tau, w2=False, w1=False)
+        phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
+                                    w2=False, w1=False)
         # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
         # chunk (elementwise, and an exact max: the same numbers as law by law)
-        s_run = np.maximum.accumulate(_row_scale(phi, R[sl]), axis=1)
+        s_run, inc = _running_max_rows(_row_scale(phi, R[sl]))
         vd = np.maximum(_row_scale(w, R[sl], T[sl], 1), 0.0)
-        for k, i in enumerate(range(m)[sl]):
-            s = knots_s(strokes[i].ends_d)
-            v = _interp(s, s_run[k], vd[k], None, None)      # np.interp's core, the same bits
-            v[0], v[-1] = v0[i], v1[i]
-            out.append((s, v))
-    return out
+        _interp_chunk(s, off[a:a + len(sub) + 1], s_run, vd, inc, v)
+    v[off[:-1]] = v0
+    v[off[1:] - 1] = v1
+    return s, v, off
+
+
+_KNOT_TAU = np.linspace(0.0, 1.0, 513)
+
+
+def _knots_flat(strokes):
+    """(s, off): knots_s(st.ends_d) of every stroke end to end (the same doubles: 0, then
+    its ends_d) and where each starts (off: m + 1 offsets); the arrays of doubles joined as
+    bytes in one call, not an array made a stroke."""
+    ends = [st.ends_d for st in strokes]
+    off = np.zeros(len(ends) + 1, np.int64)
+    np.cumsum(np.fromiter(map(len, ends), np.int64, len(ends)) + 1, out=off[1:])
+    if not all(type(e) is array and e.typecode == "d" for e in ends):
+        return (np.concatenate([knots_s(e) for e in ends]) if ends else np.zeros(0)), off
+    s = np.empty(int(off[-1]))
+    first = np.zeros(s.size, bool)
+    first[off[:-1]] = True
+    s[first] = 0.0
+    s[~first] = np.frombuffer(b"".join(ends), float)
+    return s, off
+
+
+def _running_max_rows(x):
+    """(np.maximum.accumulate(x, axis=1), inc): inc marks the rows strictly increasing,
+    whose running max is the row itself (each element the max of it and the one before,
+    which it exceeds: the same doubles); the others are accumulated (~8x the compare).
+    The neighbours compared along the rows end to end (one contiguous pass, ~1/3 the
+    time of the rows' strided views), each row's last place set True (no pair after it)."""
+    n = x.shape[1]
+    flat = x.ravel()
+    up = np.empty(flat.size, bool)
+    np.greater(flat[1:], flat[:-1], out=up[:-1])
+    up[n - 1::n] = True
+    if up.all():
+        return x, np.ones(x.shape[0], bool)
+    inc = up.reshape(-1, n).all(axis=1)
+    if not inc.all():
+        rest = np.flatnonzero(~inc)
+        x[rest] = np.maximum.accumulate(x[rest], axis=1)
+    return x, inc
+
+
+def _interp_chunk(s, off, xp, fp, inc, out):
+    """out[off[k]:off[k + 1]] = np.interp(s[...], xp[k], fp[k]) for the rows k of a chunk
+    (off: its len + 1 offsets into s): the rows whose grid xp[k] is strictly increasing
+    (inc; finite, as a compare with NaN is false) in one compiled call (_curvecore.c
+    interp_rows, np.interp's operations: each point a row of one, at its law's grid), the
+    others by np.interp."""
+    a, b = int(off[0]), int(off[-1])
+    n = xp.shape[1]
+    if _INTERP_ROWS is not None and inc.any():
+        cnt = np.diff(off)
+        grid = np.repeat(np.where(inc, n, 0), cnt)          # 0: left to np.interp below
+        at = np.repeat(np.arange(inc.size, dtype=np.int64) * n, cnt)
+        q = np.ascontiguousarray(s[a:b])
+        res = np.empty(b - a)
+        _INTERP_ROWS(q, at, grid, np.ascontiguousarray(xp).ravel(), np.ascontiguousarray(fp).ravel(),
+                     b - a, 1, xp.size, res)
+        out[a:b] = res
+        rest = np.flatnonzero(~inc).tolist()
+    else:
+        rest = range(inc.size)
+    for k in rest:
+        lo, hi = int(off[k]), int(off[k + 1])
+        out[lo:hi] = _interp(s[lo:hi], xp[k], fp[k], None, None)      # np.interp's core, the same bits
 
 
 def predict_curve(s, v, a, cos_turn, cos_end0=None, cos_end1=None):
@@ -1878,7 +1956,7 @@ _add = np.add.reduce
 
 def plan_curve_segments(strokes, T, beta, rules, profile):
     """SegmentPlan per curve stroke (knots = the original vertices)."""
-    return finish_curves(strokes, curve_knots(strokes, T, beta, profile), rules, profile)
+    return _finish_flat(strokes, *_knot_speeds(strokes, T, beta, profile), rules, profile)
 
 
 def finish_curves(strokes, knots, rules, profile):
@@ -1888,43 +1966,51 @@ def finish_curves(strokes, knots, rules, profile):
     stroke what is not elementwise (np.convolve's window, dot2's end turns, the
     junction law of Marlin JD and Klipper); ~4x faster on the gyroid plate.  The same
     SegmentPlans (tests/test_speed_plan3_finish.py)."""
+    off = np.zeros(len(knots) + 1, np.int64)
+    np.cumsum([sk.size for sk, _ in knots], out=off[1:])
+    s = np.concatenate([sk for sk, _ in knots]) if knots else np.zeros(0)
+    v = np.concatenate([vk for _, vk in knots]) if knots else np.zeros(0)
+    return _finish_flat(strokes, s, v, off, rules, profile)
+
+
+def _finish_flat(strokes, s, v, off, rules, profile):
+    """finish_curves of the knots (s, v) of every stroke end to end, stroke i's at
+    off[i]:off[i + 1] (_knot_speeds): the strokes of one knot count gathered into rows."""
     plans = [None] * len(strokes)
-    by_n = {}
-    for i, (sk, _) in enumerate(knots):
-        by_n.setdefault(sk.size, []).append(i)
-    for n1, ks in by_n.items():
+    cnt = np.diff(off)
+    for n1 in np.flatnonzero(np.bincount(cnt)).tolist():     # (the counts present, ascending)
+        ks = np.flatnonzero(cnt == n1)
         if n1 < 3:                       # one segment: the stroke by itself
-            for i in ks:
-                plans[i] = finish_curve(strokes[i], knots[i][0], knots[i][1], rules, profile)
+            for i, a in zip(ks.tolist(), off[ks].tolist()):
+                plans[i] = finish_curve(strokes[i], s[a:a + n1].copy(), v[a:a + n1].copy(), rules, profile)
             continue
-        for i, plan in zip(ks, _finish_rows([strokes[i] for i in ks], [knots[i] for i in ks], rules, profile)):
+        at = off[ks][:, None] + np.arange(n1)
+        for i, plan in zip(ks.tolist(), _finish_rows([strokes[i] for i in ks.tolist()], s[at], v[at], rules, profile)):
             plans[i] = plan
     return plans
 
 
-def _finish_rows(sts, knots, rules, profile):
-    """finish_curve of strokes whose knots (s, v) all have one size (> 2)."""
+def _finish_rows(sts, S, V, rules, profile):
+    """finish_curve of strokes whose knots all have one size (> 2): S, V (m, size)."""
     m = len(sts)
     gs = [geom(st, profile) for st in sts]
-    S = np.stack([k[0] for k in knots])
-    V = np.stack([k[1] for k in knots])
     d = S[:, 1:] - S[:, :-1]
     v2 = V * V
     acc = np.abs(v2[:, 1:] - v2[:, :-1]) / (2.0 * d)
-    a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+    a_top, jerk, v_feed = _row_fields(sts, rules.junction == "jerk")
     D, U = stack_du(gs)                  # the geometries' d and u rows, one array each
     if rules.junction == "jerk":
         acc = _jerk_junction_rows(D, V, acc, a_top, profile)
     else:
         acc = np.stack([junction_accels(st, g, vk, a, rules, profile)
-                        for st, g, (_, vk), a in zip(sts, gs, knots, acc)])
+                        for st, g, vk, a in zip(sts, gs, V, acc)])
     acc = hold_cruise_accels_rows(acc, np.array(a_top, float))
     if rules.junction == "jerk":
-        step_v = np.array([JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y) for st in sts], float)
+        step_v = np.array(jerk, float)
     else:
         step_v = np.full(m, np.inf)
     need = np.maximum(np.maximum(V[:, :-1], V[:, 1:]), MIN_FEED_V)        # segment_feeds
-    feeds = tent_feeds_rows(need, np.array([st.v_feed for st in sts], float), step_v)
+    feeds = tent_feeds_rows(need, np.array(v_feed, float), step_v)
     c0, c1 = _end_cosines(sts, U)
     # CurveGeom.cos_turn of each row (its einsum on the stacked rows, as _parts_block's)
     t_pred, a2_pred = _predict_rows(S, V, acc, np.einsum("bij,bij->bi", U[:, :-1], U[:, 1:]), c0, c1)
@@ -1932,6 +2018,29 @@ def _finish_rows(sts, knots, rules, profile):
     # (~0.45 kB of numpy objects a plan; ~7 k curve plans held through the budget runs of
     # the gyroid plate); the same numbers, and seg_fault's verdicts made on the blocks
     return _row_plans(S, V, acc, feeds, t_pred, a2_pred, fine_rows(S, V, acc, feeds, t_pred, a2_pred))
+
+
+_LIM = attrgetter("lim")
+
+
+def _row_fields(sts, jerk):
+    """_finish_rows' fields of the strokes: (a_top, jerk steps (jerk: else None), v_feed),
+    [min(st.accel, st.lim.ax_max, st.lim.ay_max)], [JERK_F_STEP_R * min(st.lim.jerk_x,
+    st.lim.jerk_y)] and [st.v_feed], read in two compiled passes where they are floats
+    (arrays then: Python's min as np.where on its comparisons, the first on a tie or a
+    NaN; the same product), else as those lists."""
+    got = objfields.floats(sts, ("accel", "v_feed"))
+    lims = list(map(_LIM, sts)) if got is not None else None
+    lim = objfields.floats(lims, ("ax_max", "ay_max") + (("jerk_x", "jerk_y") if jerk else ())) if lims else None
+    if lim is None:
+        a_top = [min(st.accel, st.lim.ax_max, st.lim.ay_max) for st in sts]
+        step = [JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y) for st in sts] if jerk else None
+        return a_top, step, [st.v_feed for st in sts]
+    a = got[:, 0]
+    a = np.where(lim[:, 0] < a, lim[:, 0], a)
+    a_top = np.where(lim[:, 1] < a, lim[:, 1], a)
+    step = JERK_F_STEP_R * np.where(lim[:, 3] < lim[:, 2], lim[:, 3], lim[:, 2]) if jerk else None
+    return a_top, step, got[:, 1]
 
 
 def _jerk_junction_rows(D, V, acc, a_top, profile):

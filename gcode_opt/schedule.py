@@ -42,11 +42,12 @@ from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_on
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
-def _line_segments(sts, T, beta, rules, same=None):
+def _line_segments(sts, T, beta, rules, same=None, cmd=None):
     """plan_segments of lines; same: their line classes (segments.line_classes), whose
-    lines at one (T, beta) are planned once (segments.plan_once), or None."""
+    lines at one (T, beta) are planned once (segments.plan_once), or None; cmd: their
+    corner_cmd0 (a bool array), or None (plan_once reads them)."""
     if same is not None:
-        got = plan_once(lambda s, t, b: plan_segments(s, t, b, rules), sts, T, beta, same)
+        got = plan_once(lambda s, t, b: plan_segments(s, t, b, rules), sts, T, beta, same, cmd)
         if got is not None:
             return got
     return plan_segments(sts, T, beta, rules)
@@ -80,7 +81,8 @@ def _fixed_lines(plan, pin, rows, strokes, profile, alpha, rules):
 
 KINDS = {
     K_LINE: Kind(lambda pin, r, sts, prof, rules: _Pieces(_line_candidates(pin, r)), _fixed_lines,
-                 lambda sts, T, b, rules, prof, same=None: _line_segments(sts, T, b, rules, same), batch=False),
+                 lambda sts, T, b, rules, prof, same=None, cmd=None: _line_segments(sts, T, b, rules, same, cmd),
+                 batch=False),
     K_ARC: Kind(lambda pin, r, sts, prof, rules: arcs.candidates_arc(pin, r, sts),
                 lambda plan, pin, r, sts, prof, alpha, rules: arcs.fixed_alpha_arc(plan, pin, r, sts, alpha),
                 lambda sts, T, b, rules, prof: arcs.plan_arc_segments(sts, T, b, rules, prof),
@@ -804,10 +806,12 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
         segs = plan.segs
         seg_failed = {}
         for k_name, kind_of in KINDS.items():
-            # (lines with their classes: the same plans, made once a class and law)
+            # (lines with their classes: the same plans, made once a class and law; and their
+            # corner_cmd0, read once above, not again from ~35 k strokes a run)
             fn = (lambda k, lines: lambda r: k.segments(
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
-                **({"same": None if line_cls is None else line_cls[r]} if lines else {})))(kind_of, k_name == K_LINE)
+                **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
+                    kind_of, k_name == K_LINE)
             ii = idx[kind == KIND_CODE[k_name]]
 
             def solve(rows):

@@ -593,7 +593,7 @@ def plan_segments(strokes, T, beta, rules: SegmentRules):
 SAME_MAX_R = 0.8        # plan_once: worth it where the distinct plans are at most this share
 
 
-def plan_once(plan_fn, strokes, T, beta, same):
+def plan_once(plan_fn, strokes, T, beta, same, cmd=None):
     """plan_fn(strokes, T, beta) (plan_segments with its rules) of the strokes, the
     strokes of one line class (same: line_classes) at the same (T, beta) bytes planned
     once: the first of each, in order; the others take its plan (a copy, _twin, where
@@ -603,7 +603,8 @@ def plan_once(plan_fn, strokes, T, beta, same):
     copy is the plan the stroke would be given itself.  None where that is not worth it
     (more than SAME_MAX_R of the strokes distinct): the caller plans them all.  The
     rectilinear plate's budget runs planned ~38.7 k and ~29.5 k lines, of ~3.9 k and
-    ~2.1 k distinct ones (its layers repeat)."""
+    ~2.1 k distinct ones (its layers repeat).  cmd: the strokes' corner_cmd0 as a bool
+    array, or None: read from them (_own_command_rows)."""
     m = len(strokes)
     if m < 2:
         return None
@@ -628,7 +629,9 @@ def plan_once(plan_fn, strokes, T, beta, same):
     out = list(map(made.__getitem__, place[inv].tolist()))
     twin = np.ones(m, bool)
     twin[rows] = False
-    for q in _own_command_rows(strokes, np.flatnonzero(twin).tolist()):
+    own = (_own_command_rows(strokes, np.flatnonzero(twin).tolist()) if cmd is None
+           else np.flatnonzero(twin & cmd).tolist())
+    for q in own:
         out[q] = _twin(out[q])
     return out
 

@@ -58,7 +58,7 @@ from .laws import circle as circle_law
 from .outranges import Digests, OutRanges, columns as range_columns
 from .firmware.simulate import LineRanges, ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
-from .schedule import plan_inputs, plan_strokes, set_aside_for_rewrite
+from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewrite
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
@@ -1395,7 +1395,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # their cache, the candidate tables) goes before the summary is built
             first = None
             plan.segs = None
-            pin.seg_cache = pin.cached = None
+            pin.seg_cache = None
+            drop_cached(pin)
             for st in strokes:        # curve geometry (rebuilt on demand) and chains' candidate plans
                 st.curv = None
                 if st.chain_T is not None:    # (an empty memo still marks a chain: chains.plan_kind)

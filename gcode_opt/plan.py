@@ -415,9 +415,15 @@ class SpilledCandidates:
                     raise OSError("the spilled candidate tables were cut short")
                 got += k
             setattr(out, name, a if order == "C" else a.T)
-        fh.close()
-        self.fh = None
+        self.close()
         return out
+
+    def close(self):
+        """The file let go unread (no re-plan came): closed here, not left to the collector
+        (which closes it too, with a ResourceWarning)."""
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
 
 
 def _entry_columns(mask, first, cnt, m):

@@ -704,6 +704,15 @@ def set_aside_for_rewrite(pin, folder, last):
         pin.cached = (spilled, fixed, failed)
 
 
+def drop_cached(pin):
+    """What set_aside_for_rewrite kept for a re-plan, let go after the last pass (a spilled
+    table's temporary file closed)."""
+    cached = getattr(pin, "cached", None)
+    if cached is not None and type(cached[0]) is SpilledCandidates:
+        cached[0].close()
+    pin.cached = None
+
+
 def beats(a2_plan, a2_orig) -> bool:
     """Segments whose int a^2 is below the original's by more than rounding: a constant-
     speed stroke's segments can equal the original exactly, and then whether the last bit

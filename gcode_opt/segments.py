@@ -1118,14 +1118,69 @@ def jerk_keep_corner(st, sk, vk, acc, feeds, fire0, fire1, step_v, rules):
 
 def _jerk_corner_rows(sts, S, V, A, F, v_feed, step_v, ux, uy, rules):
     """{row: SegmentPlan} of the rows (one knot count's blocks, _jerk_rows) whose end F
-    would lower a corner (jerk_corner_fires), cut by jerk_keep_corner."""
+    would lower a corner (jerk_corner_fires), cut by jerk_keep_corner: the rows where one
+    end fires by _keep_corner_rows (all of them on the corpus plates), the others (both
+    ends: the second cut reads the first's knots) stroke by stroke."""
     fire0, fire1 = jerk_corner_fires(sts, F[:, 0], F[:, -1], v_feed, ux, uy)
     out = {}
-    for k in np.flatnonzero(fire0 | fire1).tolist():
+    for end, only in ((0, fire0 & ~fire1), (1, fire1 & ~fire0)):
+        k = np.flatnonzero(only)
+        if k.size:
+            out.update(_keep_corner_rows([sts[q] for q in k.tolist()], k, end, S[k], V[k], A[k], F[k],
+                                         v_feed[k], step_v[k], ux[k], uy[k], rules))
+    for k in np.flatnonzero(fire0 & fire1).tolist():
         got = jerk_keep_corner(sts[k], S[k], V[k], A[k], F[k], fire0[k], fire1[k], step_v[k], rules)
         if got is not None:
             out[k] = got
     return out
+
+
+def _keep_corner_rows(sts, rows, end, S, V, A, F, vf, step_v, ux, uy, rules):
+    """{rows[q]: jerk_keep_corner(sts[q], S[q], V[q], A[q], F[q], end == 0, end == 1,
+    step_v[q], rules)} of the strokes whose end `end` alone fires (S, V (m, K) knots, A, F
+    (m, K - 1); vf, ux, uy the strokes' v_feed and direction), those cut only: its
+    arithmetic on the rows at once (elementwise, the same operations; Python's max(x, y)
+    as np.where(y > x, y, x); its tests where they hold, a NaN's included), _accel_top
+    stroke by stroke where it is asked, and predict's sums by _predict_rows (each row's in
+    the 1-D order).  The plans' arrays are rows of one block (m', K + 1) each (~17 us a
+    stroke by jerk_keep_corner: ~350 strokes a budget run on the rectilinear plate)."""
+    m, K = S.shape
+    e_min = _min_edge_d_rows(rules, sts, ux, uy)
+    c = -1 if end else 0                       # the cut end's knot, its neighbour c + sign
+    nb = -2 if end else 1
+    va, vb, a = V[:, c], V[:, nb], A[:, c]
+    d = (S[:, c] - S[:, nb]) if end else (S[:, nb] - S[:, c])
+    with np.errstate(all="ignore"):
+        ok = (va <= vf) & (vf < vb) & ~(F[:, c] - vf > step_v)
+        e = d * (vf * vf - va * va) / (vb * vb - va * va)     # v^2 is linear in s on the ramp
+        short = e < e_min                      # a lead-in the firmware keeps; the ramp beyond it steeper
+        e_s = np.where(0.05 > e_min, 0.05, e_min)
+        ok &= np.where(short, ~(e_s > 0.4 * d), ~(d - e < e_min))
+        x = (vb * vb - vf * vf) / (2.0 * (d - e_s))
+        a = np.where(short & (x > a), x, a)
+        e = np.where(short, e_s, e)
+    for q in np.flatnonzero(short & ok).tolist():
+        if a[q] > _accel_top(sts[q]):
+            ok[q] = False
+    q = np.flatnonzero(ok)
+    if not q.size:
+        return {}
+    S, V, A, F, e, a, va, vf = (x.take(q, axis=0) for x in (S, V, A, F, e, a, va, vf))
+    n = q.size
+    Sb, Vb, Ab, Fb = np.empty((n, K + 1)), np.empty((n, K + 1)), np.empty((n, K)), np.empty((n, K))
+    if end == 0:                               # [s0, s0 + e, s1 ...], [va, vf, v1 ...], [a, a, a1 ...], [vf, F ...]
+        Sb[:, 0], Sb[:, 1], Sb[:, 2:] = S[:, 0], S[:, 0] + e, S[:, 1:]
+        Vb[:, 0], Vb[:, 1], Vb[:, 2:] = va, vf, V[:, 1:]
+        Ab[:, 0], Ab[:, 1], Ab[:, 2:] = a, a, A[:, 1:]
+        Fb[:, 0], Fb[:, 1:] = vf, F
+    else:                                      # [... s_-2, s_-1 - e, s_-1], [... v_-2, vf, va], [... a, a], [F ..., vf]
+        Sb[:, :K - 1], Sb[:, K - 1], Sb[:, K] = S[:, :-1], S[:, -1] - e, S[:, -1]
+        Vb[:, :K - 1], Vb[:, K - 1], Vb[:, K] = V[:, :-1], vf, va
+        Ab[:, :K - 2], Ab[:, K - 2], Ab[:, K - 1] = A[:, :-1], a, a
+        Fb[:, :K - 1], Fb[:, K - 1] = F, vf
+    t_pred, a2_pred = _predict_rows(Sb, Vb, Ab)
+    return {r: SegmentPlan(sb, vb_, ab, fb, t, a2)
+            for r, sb, vb_, ab, fb, t, a2 in zip(rows[q].tolist(), Sb, Vb, Ab, Fb, t_pred, a2_pred)}
 
 
 def _jerk_corner_plans(sts, plans, rules):

@@ -469,12 +469,29 @@ def _stacked_runs(gs):
         z = a + 1
         while z < m and bs[z] is b:
             z += 1
-        ds.append(np.asarray(b.d, float).take(ks[a:z], axis=0))     # (np.take: the same rows)
+        ds.append(_run_rows(np.asarray(b.d, float), ks, a, z, True))     # (np.take: the same rows)
         runs.append((b, a, z))
         a = z
     if not all(x.ndim == 2 and x.shape[1:] == ds[0].shape[1:] for x in ds):
         return None
-    return (ds[0] if len(ds) == 1 else np.concatenate(ds)), runs, ks
+    return _joined(ds, runs), runs, ks
+
+
+def _run_rows(x, ks, a, z, take=False):
+    """The rows ks[a:z] of a block's array x (x.take(..., axis=0) if take, else x[...]):
+    x itself where it is the block's one row (a curve on CurveGeom's own path: ~2.5 k
+    such blocks on the rectilinear plate, a take and a u_rows call each); _joined copies it."""
+    if z - a == 1 and x.shape[0] == 1 and type(x) is np.ndarray and x.dtype == np.float64:
+        return x
+    return x.take(ks[a:z], axis=0) if take else x[ks[a:z]]
+
+
+def _joined(xs, runs):
+    """The runs' rows xs (_run_rows) stacked: a new array (a lone block row copied)."""
+    if len(xs) > 1:
+        return np.concatenate(xs)
+    b, a, z = runs[0]
+    return xs[0].copy() if z - a == 1 and xs[0].shape[0] == 1 else xs[0]
 
 
 def stack_d(gs):
@@ -513,8 +530,8 @@ def _stack_u(gs, runs, ks, D):
             return out
         except (TypeError, ValueError, AttributeError, BufferError):
             pass
-    us = [b.u_rows(ks[a:z]) for b, a, z in runs]
-    return us[0] if len(us) == 1 else np.concatenate(us)
+    us = [b.u_rows(ks[a:z]) if b._u is None else _run_rows(np.asarray(b._u, float), ks, a, z) for b, a, z in runs]
+    return _joined(us, runs)
 
 
 def drop_jerk1(sts):
@@ -2093,22 +2110,31 @@ def _window_rows(D, nb):
 
 def _predict_rows(S, V, A, cos_turn, c0, c1):
     """predict_curve of every row (the same operations; row sums in the 1-D sums' order),
-    as two lists (time_t float, int_a2 float or numpy float64, as predict_curve's)."""
+    as two lists (time_t float, int_a2 float or numpy float64, as predict_curve's).  c0,
+    c1: the end turns' cosines (_end_cosines: None, no neighbour, taken as a NaN, which
+    fails the test c >= CORNER_COS as None does); the end terms added in arrays, each
+    where its test holds, in predict_curve's order (Python's max(t, 1e-12) as np.maximum:
+    the same double, a NaN's included), not a row at a time."""
     t, a, dv = segment_times(S, V, A)
-    s1 = _add(a * dv, axis=1).tolist()
+    s1 = _add(a * dv, axis=1)
     vi = V[:, 1:-1]
     dv2 = 2.0 * vi * vi * (1.0 - cos_turn)
     tj = 0.5 * (t[:, :-1] + t[:, 1:])
-    s2 = _add(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1).tolist()
+    s2 = _add(np.where(cos_turn >= CORNER_COS, dv2 / np.maximum(tj, 1e-12), 0.0), axis=1)
     t_sum = _add(t, axis=1).tolist()
-    a2s = []
-    for k, (x, y, e0, e1) in enumerate(zip(s1, s2, c0, c1)):
-        a2 = x
-        a2 += y
-        for c, vv, tt in ((e0, V[k, 0], t[k, 0]), (e1, V[k, -1], t[k, -1])):
-            if c is not None and c >= CORNER_COS:
-                a2 += 0.5 * 2.0 * vv * vv * (1.0 - c) / max(tt, 1e-12)
-        a2s.append(a2)
+    a2 = s1 + s2
+    ended = np.zeros(a2.size, bool)
+    with np.errstate(all="ignore"):           # (the rows whose test fails are costed too, then left out)
+        for c, j in ((c0, 0), (c1, -1)):
+            c = np.array(c, float)
+            on = c >= CORNER_COS
+            if on.any():
+                vv = V[:, j]
+                a2 = np.where(on, a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(t[:, j], 1e-12), a2)
+                ended |= on
+    a2s = a2.tolist()
+    for k in np.flatnonzero(ended).tolist():  # (a numpy float64 where an end term was added, as there)
+        a2s[k] = a2[k]
     return t_sum, a2s
 
 

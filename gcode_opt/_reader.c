@@ -519,17 +519,40 @@ static inline int past_readable(const unsigned char *s, Py_ssize_t n)
  * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
  * loop holds few values (no spills) and tests no general case.  past_ok: digit_run's (a
  * constant in usual_words' two calls). */
+static inline __attribute__((always_inline)) const unsigned char *
+usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letters, Words *w, const int past_ok,
+               const int in_order, const int to_lf);
+
 static inline __attribute__((always_inline)) int usual_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
                                                                 unsigned letters, Words *w, const int past_ok,
                                                                 const int in_order)
 {
-    const unsigned char *p = s + k, *end = s + n - 1;
+    return usual_words_to(s + k, s + n - 1, letters, w, past_ok, in_order, 0) == NULL;
+}
+
+/* usual_words_in's steps from p: the line's ending at end (to_lf 0), or (to_lf 1) a line
+ * whose LF is not known yet: the first LF a word's value (or the command) ends at, every
+ * byte read before end (a bound: a word or value that reaches it is not read; digit_run's
+ * steps bounded by it).  Such a LF has only the words' bytes before it: a line of ASCII
+ * bytes, no other LF in it, read as usual_words_in reads it.  The LF (end, for to_lf 0),
+ * or NULL (usual_words_in's 1). */
+static inline __attribute__((always_inline)) const unsigned char *
+usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letters, Words *w, const int past_ok,
+               const int in_order, const int to_lf)
+{
     unsigned seen = 0;
     int nw = 0;
-    while (p != end) {
+    for (;;) {
+        if (to_lf) {
+            if (p >= end)
+                return NULL;
+            if (*p == '\n')
+                break;
+        } else if (p == end)
+            break;
         unsigned bit = LETTER_BIT[p[1]] & letters;
         if (p[0] != ' ' || !bit || (seen & bit))
-            return 1;
+            return NULL;
         int c = p[1] - 'A';
         p += 2;
         double sign = 1.0;              /* (v * -1.0 is -v, bit for bit: no test of a flag after) */
@@ -538,9 +561,9 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
             p++;
         }
         unsigned long long m;
-        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, past_ok);
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? 0 : past_ok);
         if ((size_t)(digits - 1) >= 15)
-            return 1;                   /* (a value ended by a point or sign: the next step's 1) */
+            return NULL;                /* (a value ended by a point or sign: the next step's NULL) */
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
         if (frac > 0)
             v = v / POW10[frac];
@@ -552,7 +575,7 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
     if (in_order)
         w->n = nw;
     w->seen = seen;
-    return 0;
+    return p;
 }
 
 static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
@@ -1457,28 +1480,28 @@ static int sess_m204(Session *ss, const Words *w)
     return 1;
 }
 
-/* "M204 S<digits>[.<digits>]" and the line's LF, nothing else (the rewrite writes one before
- * every re-timed segment: ~360 k lines in a plate's measure pass), in a live session, read
- * as read_words and sess_m204 read it without their general steps: the value read_words'
- * (1 to 15 digits: m / 10^frac, exact), and S alone, in (0, MAX_ACCEL_A], sets print and
- * travel to its value (one object) and leaves retract in every flavour m204_pick knows.
- * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
- * reads the line). */
 #ifdef FAST_DECIMAL
-static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+/* sess_m204_s's value, digits[.digits] from p: *val, and the LF after it, or NULL (not that
+ * shape).  end: the line's LF (to_lf 0; past_ok digit_run's), or (to_lf 1) a bound where the
+ * LF is not known yet, as usual_words_to's: the first byte after the value must be a LF
+ * before end. */
+static inline __attribute__((always_inline)) const unsigned char *
+m204_s_value(const unsigned char *p, const unsigned char *end, double *val, const int past_ok, const int to_lf)
 {
-    /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
-    if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
-        return 0;
-    const unsigned char *p = s + 6;
     unsigned long long m;
-    Py_ssize_t frac, digits = past_readable(s, n) ? scan_plain_decimal(&p, s + n - 1, &m, &frac, 1)
-                                                  : scan_plain_decimal(&p, s + n - 1, &m, &frac, 0);  /* (frac 0: no point, or none after it) */
-    if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
-        return 0;
-    double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */
+    Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? 0 : past_ok);  /* (frac 0: no point, or none after it) */
+    if ((to_lf ? p >= end || *p != '\n' : p != end) || (size_t)(digits - 1) >= 15)
+        return NULL;
+    double v = (double)(long long)m;           /* (m < 10^15: exact, as read_words') */
     if (frac > 0)
-        val = val / POW10[frac];
+        v = v / POW10[frac];
+    *val = v;
+    return p;
+}
+
+/* sess_m204_s's step once its value is read: 1 done, 0 not a case it covers (nothing changed) */
+static inline __attribute__((always_inline)) int sess_m204_set_s(Session *ss, double val)
+{
     if (!(0.0 < val && val <= MAX_ACCEL_A))
         return 0;
     if (ss->acc_kind == ACC_UNKNOWN)
@@ -1489,6 +1512,24 @@ static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const 
     sess_set_value(ss, A_P, val, W_S);
     sess_set_value(ss, A_T, val, W_S);         /* (the same word: one object, made for both) */
     return 1;
+}
+
+/* "M204 S<digits>[.<digits>]" and the line's LF, nothing else (the rewrite writes one before
+ * every re-timed segment: ~360 k lines in a plate's measure pass), in a live session, read
+ * as read_words and sess_m204 read it without their general steps: the value read_words'
+ * (1 to 15 digits: m / 10^frac, exact), and S alone, in (0, MAX_ACCEL_A], sets print and
+ * travel to its value (one object) and leaves retract in every flavour m204_pick knows.
+ * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
+ * reads the line). */
+static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+{
+    /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
+    if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
+        return 0;
+    double val;
+    const unsigned char *lf = past_readable(s, n) ? m204_s_value(s + 6, s + n - 1, &val, 1, 0)
+                                                  : m204_s_value(s + 6, s + n - 1, &val, 0, 0);
+    return lf != NULL && sess_m204_set_s(ss, val);
 }
 #endif
 
@@ -1622,6 +1663,11 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
  * move where stop_eonly (RUN_STOP).  RUN_MORE where it stopped before a line; -1 on error. */
 enum { RUN_MORE = 0, RUN_STEP = 2, RUN_STOP = 3 };
 
+enum { LINE_SLOW = 3 };
+static inline __attribute__((always_inline)) int run_line_fast(Session *ss, const unsigned char *a,
+                                                               const unsigned char *end, const unsigned char **e,
+                                                               FusedMove *out);
+
 static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
                            long long limit, int stop_eonly,
                            int (*on_move)(void *ctx, long long idx, const FusedMove *fm), void *ctx,
@@ -1634,12 +1680,19 @@ static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t 
     long long i = *idx;
     int rc = RUN_MORE;
     while (i < limit) {
-        unsigned high;
-        const char *e = line_end16(a, end, &high);
-        if (e == NULL || high != 0)
-            break;                         /* the loop's own steps read it */
         FusedMove fm;
-        int got = fused_line_body(ss, (const unsigned char *)a, e - a, 1, &fm);
+        const unsigned char *ue;
+        const char *e;
+        int got = run_line_fast(ss, (const unsigned char *)a, (const unsigned char *)end, &ue, &fm);
+        if (got != LINE_SLOW)
+            e = (const char *)ue;
+        else {
+            unsigned high;
+            e = line_end16(a, end, &high);
+            if (e == NULL || high != 0)
+                break;                         /* the loop's own steps read it */
+            got = fused_line_body(ss, (const unsigned char *)a, e - a, 1, &fm);
+        }
         if (got < 0) {
             rc = -1;
             break;
@@ -1669,6 +1722,34 @@ static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t 
 }
 #endif
 
+/* fused_line_body's step for a G0/G1 once its words are read (w) */
+static inline __attribute__((always_inline)) int fused_g_move(Session *ss, const Words *w, FusedMove *out)
+{
+    if (!ss->live) {
+        sess_load(ss);
+        if (!ss->live)
+            return sess_flush(ss) < 0 ? -1 : 2;
+    }
+    LinOut lo;
+    linear_calc(&ss->in, w, &lo);
+    if (lo.fallback)
+        return sess_flush(ss) < 0 ? -1 : 2;
+    LinIn *in = &ss->in;
+    int moved = !(lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0 && lo.de == 0.0);
+    if (moved)
+        fill_fused(ss, &lo, out);
+    in->x0 = lo.x;
+    in->y0 = lo.y;
+    in->z0 = lo.z;
+    in->e = in->e + lo.de;
+    if (lo.has_f) {
+        in->v = lo.v;
+        ss->dirty_v = 1;
+    }
+    ss->dirty = 1;
+    return moved;
+}
+
 static inline __attribute__((always_inline)) int fused_line_body(Session *ss, const unsigned char *s, Py_ssize_t n,
                                                                  int lf, FusedMove *out)
 {
@@ -1696,29 +1777,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
     if (s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_g_words(s, n, &w) < 0)
             goto command;
-        if (!ss->live) {
-            sess_load(ss);
-            if (!ss->live)
-                goto other;
-        }
-        LinOut lo;
-        linear_calc(&ss->in, &w, &lo);
-        if (lo.fallback)
-            goto other;
-        LinIn *in = &ss->in;
-        int moved = !(lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0 && lo.de == 0.0);
-        if (moved)
-            fill_fused(ss, &lo, out);
-        in->x0 = lo.x;
-        in->y0 = lo.y;
-        in->z0 = lo.z;
-        in->e = in->e + lo.de;
-        if (lo.has_f) {
-            in->v = lo.v;
-            ss->dirty_v = 1;
-        }
-        ss->dirty = 1;
-        return moved;
+        return fused_g_move(ss, &w, out);
     }
     if (n >= 4 && memcmp(s, "M204", 4) == 0) {
 #ifdef FAST_DECIMAL
@@ -1741,6 +1800,39 @@ command:
         return 0;
 other:
     return sess_flush(ss) < 0 ? -1 : 2;
+}
+
+/* fused_line_body of the line at a, for fused_run_ascii (buf's end: end), without
+ * line_end16's look for its end where it is a G0/G1 usual_words reads or an "M204 S.." line
+ * sess_m204_s takes: the words' own scan finds its LF (usual_words_to, m204_s_value), the
+ * line line_end16 finds (every byte before that LF is one the words take: ASCII, no other
+ * LF; and 16 bytes follow it: its 16-byte block is whole).  *e: the line's end (past its
+ * LF); LINE_SLOW: not such a line, nothing changed (fused_line_body reads it). */
+static inline __attribute__((always_inline)) int run_line_fast(Session *ss, const unsigned char *a,
+                                                               const unsigned char *end, const unsigned char **e,
+                                                               FusedMove *out)
+{
+#ifdef FAST_DECIMAL
+    if (end - a < 32)
+        return LINE_SLOW;
+    const unsigned char *bound = end - 16;    /* every byte read is before it, or at most 1 past */
+    if (a[0] == 'G' && (a[1] == '0' || a[1] == '1')) {
+        Words w;
+        const unsigned char *lf = usual_words_to(a + 2, bound, G_LETTERS, &w, 0, 0, 1);
+        if (lf == NULL)
+            return LINE_SLOW;
+        *e = lf + 1;
+        return fused_g_move(ss, &w, out);
+    }
+    double val;
+    const unsigned char *lf;
+    if (ss->live && memcmp(a, "M204 S", 6) == 0 && (lf = m204_s_value(a + 6, bound, &val, 0, 1)) != NULL
+        && sess_m204_set_s(ss, val)) {
+        *e = lf + 1;
+        return 0;
+    }
+#endif
+    return LINE_SLOW;
 }
 
 /* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in

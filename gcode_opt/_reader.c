@@ -68,6 +68,16 @@ static PyObject *FEATURE_NAMES = NULL, *FEATURE_OTHER = NULL;   /* features._NAM
  * and the mask of those bytes: a line s[0:4] whose bytes | 0x20 differ from them is not
  * that mark lowercased (c | 0x20 is lowercase(c) | 0x20 for every byte), no byte compare */
 static unsigned MARK_KEY[MAX_MARKS], MARK_MASK[MAX_MARKS];
+/* bit pair_key(s) set for each mark's bytes 1 and 2 (| 0x20, as key4's): a line whose pair's
+ * bit is clear is none of them (one test, not one a mark: ~100 instructions a comment line);
+ * MARK_SHORT: a mark has fewer than 3 bytes (then every line is tested mark by mark) */
+static unsigned char MARK_PAIR[1 << 13];
+static int MARK_SHORT = 1;
+
+static inline unsigned pair_key(const unsigned char *s)
+{
+    return ((unsigned)s[1] | (unsigned)s[2] << 8) | 0x2020u;
+}
 
 static inline unsigned key4(const unsigned char *s)
 {
@@ -79,6 +89,8 @@ static int read_marks(void)
     for (int i = 0; i < N_MARKS; i++)
         PyMem_Free(MARKS[i]);
     N_MARKS = -1;
+    memset(MARK_PAIR, 0, sizeof(MARK_PAIR));
+    MARK_SHORT = 0;
     Py_CLEAR(FEATURE_NAMES);
     Py_CLEAR(FEATURE_OTHER);
     PyObject *mod = PyImport_ImportModule("gcode_opt.features");
@@ -119,6 +131,11 @@ static int read_marks(void)
             memcpy(head, c, len < 4 ? len : 4);
             MARK_MASK[n] = len >= 4 ? 0xffffffffu : (1u << (8 * len)) - 1u;
             MARK_KEY[n] = key4(head) & MARK_MASK[n];
+            if (len >= 3) {
+                unsigned k = pair_key((const unsigned char *)c);
+                MARK_PAIR[k >> 3] |= (unsigned char)(1u << (k & 7));
+            } else
+                MARK_SHORT = 1;
             n++;
         }
         Py_DECREF(t);
@@ -138,6 +155,11 @@ static int marked(const unsigned char *s, Py_ssize_t n)
 {
     if (N_MARKS < 0)
         return 1;
+    if (n >= 3 && !MARK_SHORT) {
+        unsigned k = pair_key(s);
+        if (!(MARK_PAIR[k >> 3] & (1u << (k & 7))))
+            return 0;
+    }
     unsigned key = n >= 4 ? key4(s) : 0;
     for (int i = 0; i < N_MARKS; i++) {
         if (n >= 4 && (key & MARK_MASK[i]) != MARK_KEY[i])

@@ -475,7 +475,11 @@ static void run_table_init(void)
 /* the digits from p on (none: 0) appended to *m (m * 10 + d a digit, wrapping as that
  * does); end, at or after p, is a byte that is not a digit (the line's ending).  A pair's
  * read may take the byte past end (end[1], never a digit's place) where past_ok (a constant:
- * that byte is readable), else it reads p[1] only where p < end. */
+ * that byte is readable), else it reads p[1] only where p < end.  past_ok RUN_BOUNDED: end
+ * is a bound, not a digit's end (the first pair read whatever p is, the next ones only while
+ * p < end: a run that reaches end stops at end or end + 1 with its digits not all read --
+ * the caller refuses the value). */
+enum { RUN_BOUNDED = 2 };
 static inline __attribute__((always_inline)) const unsigned char *
 digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *m, const int past_ok)
 {
@@ -491,6 +495,10 @@ digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *
             break;
         v = v * 100u + t;
         p += 2;
+        if (past_ok == RUN_BOUNDED && p >= end) {
+            t = RUN_END;
+            break;
+        }
     }
     if (t < RUN_END) {                 /* a last digit */
         v = v * 10u + t - RUN_ONE;
@@ -553,9 +561,10 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
 }
 
 /* usual_words_in's steps from p: the line's ending at end (to_lf 0), or (to_lf 1) a line
- * whose LF is not known yet: the first LF a word's value (or the command) ends at, every
- * byte read before end (a bound: a word or value that reaches it is not read; digit_run's
- * steps bounded by it).  Such a LF has only the words' bytes before it: a line of ASCII
+ * whose LF is not known yet: the first LF a word's value (or the command) ends at, end a
+ * bound (p before it; a word starts only before it and its value's digit runs are
+ * RUN_BOUNDED: every byte read is before end + 7, and a word or value that reaches end is
+ * not read).  Such a LF has only the words' bytes before it: a line of ASCII
  * bytes, no other LF in it, read as usual_words_in reads it.  The LF (end, for to_lf 0),
  * or NULL (usual_words_in's 1). */
 static inline __attribute__((always_inline)) const unsigned char *
@@ -583,7 +592,7 @@ usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letter
             p++;
         }
         unsigned long long m;
-        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? 0 : past_ok);
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);
         if ((size_t)(digits - 1) >= 15)
             return NULL;                /* (a value ended by a point or sign: the next step's NULL) */
         double v = (double)(long long)m;        /* (exact: m < 10^15) */
@@ -1511,7 +1520,7 @@ static inline __attribute__((always_inline)) const unsigned char *
 m204_s_value(const unsigned char *p, const unsigned char *end, double *val, const int past_ok, const int to_lf)
 {
     unsigned long long m;
-    Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? 0 : past_ok);  /* (frac 0: no point, or none after it) */
+    Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);  /* (frac 0: no point, or none after it) */
     if ((to_lf ? p >= end || *p != '\n' : p != end) || (size_t)(digits - 1) >= 15)
         return NULL;
     double v = (double)(long long)m;           /* (m < 10^15: exact, as read_words') */
@@ -1837,7 +1846,7 @@ static inline __attribute__((always_inline)) int run_line_fast(Session *ss, cons
 #ifdef FAST_DECIMAL
     if (end - a < 32)
         return LINE_SLOW;
-    const unsigned char *bound = end - 16;    /* every byte read is before it, or at most 1 past */
+    const unsigned char *bound = end - 16;    /* every byte read is before bound + 7 */
     if (a[0] == 'G' && (a[1] == '0' || a[1] == '1')) {
         Words w;
         const unsigned char *lf = usual_words_to(a + 2, bound, G_LETTERS, &w, 0, 0, 1);

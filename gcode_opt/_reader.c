@@ -584,7 +584,7 @@ usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letter
         unsigned bit = LETTER_BIT[p[1]] & letters;
         if (p[0] != ' ' || !bit || (seen & bit))
             return NULL;
-        int c = p[1] - 'A';
+        size_t c = (size_t)p[1] - 'A';
         p += 2;
         double sign = 1.0;              /* (v * -1.0 is -v, bit for bit: no test of a flag after) */
         if (__builtin_expect(*p == '-', 0)) {
@@ -595,9 +595,9 @@ usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letter
         Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);
         if ((size_t)(digits - 1) >= 15)
             return NULL;                /* (a value ended by a point or sign: the next step's NULL) */
-        double v = (double)(long long)m;        /* (exact: m < 10^15) */
-        if (frac > 0)
-            v = v / POW10[frac];
+        /* (exact: m < 10^15; frac 0 divides by 1.0, exact: no test of frac, an unpredictable
+         * branch where integer and decimal values mix) */
+        double v = (double)(long long)m / POW10[frac];
         w->by[c] = v * sign;
         seen |= bit;
         if (in_order)
@@ -1523,10 +1523,7 @@ m204_s_value(const unsigned char *p, const unsigned char *end, double *val, cons
     Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);  /* (frac 0: no point, or none after it) */
     if ((to_lf ? p >= end || *p != '\n' : p != end) || (size_t)(digits - 1) >= 15)
         return NULL;
-    double v = (double)(long long)m;           /* (m < 10^15: exact, as read_words') */
-    if (frac > 0)
-        v = v / POW10[frac];
-    *val = v;
+    *val = (double)(long long)m / POW10[frac];     /* (m < 10^15: exact; as usual_words_to's) */
     return p;
 }
 

@@ -1830,6 +1830,7 @@ other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
 
+#ifdef __SSE2__
 /* fused_line_body of the line at a, for fused_run_ascii (buf's end: end), without
  * line_end16's look for its end where it is a G0/G1 usual_words reads or an "M204 S.." line
  * sess_m204_s takes: the words' own scan finds its LF (usual_words_to, m204_s_value), the
@@ -1862,6 +1863,7 @@ static inline __attribute__((always_inline)) int run_line_fast(Session *ss, cons
 #endif
     return LINE_SLOW;
 }
+#endif
 
 /* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in
  * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing

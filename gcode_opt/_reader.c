@@ -68,6 +68,16 @@ static PyObject *FEATURE_NAMES = NULL, *FEATURE_OTHER = NULL;   /* features._NAM
  * and the mask of those bytes: a line s[0:4] whose bytes | 0x20 differ from them is not
  * that mark lowercased (c | 0x20 is lowercase(c) | 0x20 for every byte), no byte compare */
 static unsigned MARK_KEY[MAX_MARKS], MARK_MASK[MAX_MARKS];
+/* bit pair_key(s) set for each mark's bytes 1 and 2 (| 0x20, as key4's): a line whose pair's
+ * bit is clear is none of them (one test, not one a mark: ~100 instructions a comment line);
+ * MARK_SHORT: a mark has fewer than 3 bytes (then every line is tested mark by mark) */
+static unsigned char MARK_PAIR[1 << 13];
+static int MARK_SHORT = 1;
+
+static inline unsigned pair_key(const unsigned char *s)
+{
+    return ((unsigned)s[1] | (unsigned)s[2] << 8) | 0x2020u;
+}
 
 static inline unsigned key4(const unsigned char *s)
 {
@@ -79,6 +89,8 @@ static int read_marks(void)
     for (int i = 0; i < N_MARKS; i++)
         PyMem_Free(MARKS[i]);
     N_MARKS = -1;
+    memset(MARK_PAIR, 0, sizeof(MARK_PAIR));
+    MARK_SHORT = 0;
     Py_CLEAR(FEATURE_NAMES);
     Py_CLEAR(FEATURE_OTHER);
     PyObject *mod = PyImport_ImportModule("gcode_opt.features");
@@ -119,6 +131,11 @@ static int read_marks(void)
             memcpy(head, c, len < 4 ? len : 4);
             MARK_MASK[n] = len >= 4 ? 0xffffffffu : (1u << (8 * len)) - 1u;
             MARK_KEY[n] = key4(head) & MARK_MASK[n];
+            if (len >= 3) {
+                unsigned k = pair_key((const unsigned char *)c);
+                MARK_PAIR[k >> 3] |= (unsigned char)(1u << (k & 7));
+            } else
+                MARK_SHORT = 1;
             n++;
         }
         Py_DECREF(t);
@@ -138,6 +155,11 @@ static int marked(const unsigned char *s, Py_ssize_t n)
 {
     if (N_MARKS < 0)
         return 1;
+    if (n >= 3 && !MARK_SHORT) {
+        unsigned k = pair_key(s);
+        if (!(MARK_PAIR[k >> 3] & (1u << (k & 7))))
+            return 0;
+    }
     unsigned key = n >= 4 ? key4(s) : 0;
     for (int i = 0; i < N_MARKS; i++) {
         if (n >= 4 && (key & MARK_MASK[i]) != MARK_KEY[i])
@@ -453,7 +475,11 @@ static void run_table_init(void)
 /* the digits from p on (none: 0) appended to *m (m * 10 + d a digit, wrapping as that
  * does); end, at or after p, is a byte that is not a digit (the line's ending).  A pair's
  * read may take the byte past end (end[1], never a digit's place) where past_ok (a constant:
- * that byte is readable), else it reads p[1] only where p < end. */
+ * that byte is readable), else it reads p[1] only where p < end.  past_ok RUN_BOUNDED: end
+ * is a bound, not a digit's end (the first pair read whatever p is, the next ones only while
+ * p < end: a run that reaches end stops at end or end + 1 with its digits not all read --
+ * the caller refuses the value). */
+enum { RUN_BOUNDED = 2 };
 static inline __attribute__((always_inline)) const unsigned char *
 digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *m, const int past_ok)
 {
@@ -469,6 +495,10 @@ digit_run(const unsigned char *p, const unsigned char *end, unsigned long long *
             break;
         v = v * 100u + t;
         p += 2;
+        if (past_ok == RUN_BOUNDED && p >= end) {
+            t = RUN_END;
+            break;
+        }
     }
     if (t < RUN_END) {                 /* a last digit */
         v = v * 10u + t - RUN_ONE;
@@ -519,18 +549,42 @@ static inline int past_readable(const unsigned char *s, Py_ssize_t n)
  * a ';'), read_words_in's to read from the start (w's fields are all written again).  Its
  * loop holds few values (no spills) and tests no general case.  past_ok: digit_run's (a
  * constant in usual_words' two calls). */
+static inline __attribute__((always_inline)) const unsigned char *
+usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letters, Words *w, const int past_ok,
+               const int in_order, const int to_lf);
+
 static inline __attribute__((always_inline)) int usual_words_in(const unsigned char *s, Py_ssize_t n, Py_ssize_t k,
                                                                 unsigned letters, Words *w, const int past_ok,
                                                                 const int in_order)
 {
-    const unsigned char *p = s + k, *end = s + n - 1;
+    return usual_words_to(s + k, s + n - 1, letters, w, past_ok, in_order, 0) == NULL;
+}
+
+/* usual_words_in's steps from p: the line's ending at end (to_lf 0), or (to_lf 1) a line
+ * whose LF is not known yet: the first LF a word's value (or the command) ends at, end a
+ * bound (p before it; a word starts only before it and its value's digit runs are
+ * RUN_BOUNDED: every byte read is before end + 7, and a word or value that reaches end is
+ * not read).  Such a LF has only the words' bytes before it: a line of ASCII
+ * bytes, no other LF in it, read as usual_words_in reads it.  The LF (end, for to_lf 0),
+ * or NULL (usual_words_in's 1). */
+static inline __attribute__((always_inline)) const unsigned char *
+usual_words_to(const unsigned char *p, const unsigned char *end, unsigned letters, Words *w, const int past_ok,
+               const int in_order, const int to_lf)
+{
     unsigned seen = 0;
     int nw = 0;
-    while (p != end) {
+    for (;;) {
+        if (to_lf) {
+            if (p >= end)
+                return NULL;
+            if (*p == '\n')
+                break;
+        } else if (p == end)
+            break;
         unsigned bit = LETTER_BIT[p[1]] & letters;
         if (p[0] != ' ' || !bit || (seen & bit))
-            return 1;
-        int c = p[1] - 'A';
+            return NULL;
+        size_t c = (size_t)p[1] - 'A';
         p += 2;
         double sign = 1.0;              /* (v * -1.0 is -v, bit for bit: no test of a flag after) */
         if (__builtin_expect(*p == '-', 0)) {
@@ -538,12 +592,12 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
             p++;
         }
         unsigned long long m;
-        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, past_ok);
+        Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);
         if ((size_t)(digits - 1) >= 15)
-            return 1;                   /* (a value ended by a point or sign: the next step's 1) */
-        double v = (double)(long long)m;        /* (exact: m < 10^15) */
-        if (frac > 0)
-            v = v / POW10[frac];
+            return NULL;                /* (a value ended by a point or sign: the next step's NULL) */
+        /* (exact: m < 10^15; frac 0 divides by 1.0, exact: no test of frac, an unpredictable
+         * branch where integer and decimal values mix) */
+        double v = (double)(long long)m / POW10[frac];
         w->by[c] = v * sign;
         seen |= bit;
         if (in_order)
@@ -552,7 +606,7 @@ static inline __attribute__((always_inline)) int usual_words_in(const unsigned c
     if (in_order)
         w->n = nw;
     w->seen = seen;
-    return 0;
+    return p;
 }
 
 static __attribute__((noinline)) int usual_words(const unsigned char *s, Py_ssize_t n, Py_ssize_t k, unsigned letters,
@@ -1457,28 +1511,25 @@ static int sess_m204(Session *ss, const Words *w)
     return 1;
 }
 
-/* "M204 S<digits>[.<digits>]" and the line's LF, nothing else (the rewrite writes one before
- * every re-timed segment: ~360 k lines in a plate's measure pass), in a live session, read
- * as read_words and sess_m204 read it without their general steps: the value read_words'
- * (1 to 15 digits: m / 10^frac, exact), and S alone, in (0, MAX_ACCEL_A], sets print and
- * travel to its value (one object) and leaves retract in every flavour m204_pick knows.
- * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
- * reads the line). */
 #ifdef FAST_DECIMAL
-static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+/* sess_m204_s's value, digits[.digits] from p: *val, and the LF after it, or NULL (not that
+ * shape).  end: the line's LF (to_lf 0; past_ok digit_run's), or (to_lf 1) a bound where the
+ * LF is not known yet, as usual_words_to's: the first byte after the value must be a LF
+ * before end. */
+static inline __attribute__((always_inline)) const unsigned char *
+m204_s_value(const unsigned char *p, const unsigned char *end, double *val, const int past_ok, const int to_lf)
 {
-    /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
-    if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
-        return 0;
-    const unsigned char *p = s + 6;
     unsigned long long m;
-    Py_ssize_t frac, digits = past_readable(s, n) ? scan_plain_decimal(&p, s + n - 1, &m, &frac, 1)
-                                                  : scan_plain_decimal(&p, s + n - 1, &m, &frac, 0);  /* (frac 0: no point, or none after it) */
-    if (p != s + n - 1 || (size_t)(digits - 1) >= 15)
-        return 0;
-    double val = (double)(long long)m;         /* (m < 10^15: exact, as read_words') */
-    if (frac > 0)
-        val = val / POW10[frac];
+    Py_ssize_t frac, digits = scan_plain_decimal(&p, end, &m, &frac, to_lf ? RUN_BOUNDED : past_ok);  /* (frac 0: no point, or none after it) */
+    if ((to_lf ? p >= end || *p != '\n' : p != end) || (size_t)(digits - 1) >= 15)
+        return NULL;
+    *val = (double)(long long)m / POW10[frac];     /* (m < 10^15: exact; as usual_words_to's) */
+    return p;
+}
+
+/* sess_m204_s's step once its value is read: 1 done, 0 not a case it covers (nothing changed) */
+static inline __attribute__((always_inline)) int sess_m204_set_s(Session *ss, double val)
+{
     if (!(0.0 < val && val <= MAX_ACCEL_A))
         return 0;
     if (ss->acc_kind == ACC_UNKNOWN)
@@ -1489,6 +1540,24 @@ static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const 
     sess_set_value(ss, A_P, val, W_S);
     sess_set_value(ss, A_T, val, W_S);         /* (the same word: one object, made for both) */
     return 1;
+}
+
+/* "M204 S<digits>[.<digits>]" and the line's LF, nothing else (the rewrite writes one before
+ * every re-timed segment: ~360 k lines in a plate's measure pass), in a live session, read
+ * as read_words and sess_m204 read it without their general steps: the value read_words'
+ * (1 to 15 digits: m / 10^frac, exact), and S alone, in (0, MAX_ACCEL_A], sets print and
+ * travel to its value (one object) and leaves retract in every flavour m204_pick knows.
+ * 1 done, 0 not this line or not a case this covers (nothing changed: the general path
+ * reads the line). */
+static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const unsigned char *s, Py_ssize_t n)
+{
+    /* s[0:4] is "M204"; the line's last byte, its LF, stops each digit loop */
+    if (n < 8 || s[4] != ' ' || s[5] != 'S' || s[n - 1] != '\n')
+        return 0;
+    double val;
+    const unsigned char *lf = past_readable(s, n) ? m204_s_value(s + 6, s + n - 1, &val, 1, 0)
+                                                  : m204_s_value(s + 6, s + n - 1, &val, 0, 0);
+    return lf != NULL && sess_m204_set_s(ss, val);
 }
 #endif
 
@@ -1622,6 +1691,11 @@ static int fused_line_ascii(void *p, const char *line, Py_ssize_t n, int lf, Fus
  * move where stop_eonly (RUN_STOP).  RUN_MORE where it stopped before a line; -1 on error. */
 enum { RUN_MORE = 0, RUN_STEP = 2, RUN_STOP = 3 };
 
+enum { LINE_SLOW = 3 };
+static inline __attribute__((always_inline)) int run_line_fast(Session *ss, const unsigned char *a,
+                                                               const unsigned char *end, const unsigned char **e,
+                                                               FusedMove *out);
+
 static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t *pos, long long *idx,
                            long long limit, int stop_eonly,
                            int (*on_move)(void *ctx, long long idx, const FusedMove *fm), void *ctx,
@@ -1634,12 +1708,19 @@ static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t 
     long long i = *idx;
     int rc = RUN_MORE;
     while (i < limit) {
-        unsigned high;
-        const char *e = line_end16(a, end, &high);
-        if (e == NULL || high != 0)
-            break;                         /* the loop's own steps read it */
         FusedMove fm;
-        int got = fused_line_body(ss, (const unsigned char *)a, e - a, 1, &fm);
+        const unsigned char *ue;
+        const char *e;
+        int got = run_line_fast(ss, (const unsigned char *)a, (const unsigned char *)end, &ue, &fm);
+        if (got != LINE_SLOW)
+            e = (const char *)ue;
+        else {
+            unsigned high;
+            e = line_end16(a, end, &high);
+            if (e == NULL || high != 0)
+                break;                         /* the loop's own steps read it */
+            got = fused_line_body(ss, (const unsigned char *)a, e - a, 1, &fm);
+        }
         if (got < 0) {
             rc = -1;
             break;
@@ -1669,6 +1750,34 @@ static int fused_run_ascii(void *p, const char *buf, Py_ssize_t len, Py_ssize_t 
 }
 #endif
 
+/* fused_line_body's step for a G0/G1 once its words are read (w) */
+static inline __attribute__((always_inline)) int fused_g_move(Session *ss, const Words *w, FusedMove *out)
+{
+    if (!ss->live) {
+        sess_load(ss);
+        if (!ss->live)
+            return sess_flush(ss) < 0 ? -1 : 2;
+    }
+    LinOut lo;
+    linear_calc(&ss->in, w, &lo);
+    if (lo.fallback)
+        return sess_flush(ss) < 0 ? -1 : 2;
+    LinIn *in = &ss->in;
+    int moved = !(lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0 && lo.de == 0.0);
+    if (moved)
+        fill_fused(ss, &lo, out);
+    in->x0 = lo.x;
+    in->y0 = lo.y;
+    in->z0 = lo.z;
+    in->e = in->e + lo.de;
+    if (lo.has_f) {
+        in->v = lo.v;
+        ss->dirty_v = 1;
+    }
+    ss->dirty = 1;
+    return moved;
+}
+
 static inline __attribute__((always_inline)) int fused_line_body(Session *ss, const unsigned char *s, Py_ssize_t n,
                                                                  int lf, FusedMove *out)
 {
@@ -1696,29 +1805,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
     if (s[0] == 'G' && (s[1] == '0' || s[1] == '1')) {
         if (read_g_words(s, n, &w) < 0)
             goto command;
-        if (!ss->live) {
-            sess_load(ss);
-            if (!ss->live)
-                goto other;
-        }
-        LinOut lo;
-        linear_calc(&ss->in, &w, &lo);
-        if (lo.fallback)
-            goto other;
-        LinIn *in = &ss->in;
-        int moved = !(lo.x == in->x0 && lo.y == in->y0 && lo.z == in->z0 && lo.de == 0.0);
-        if (moved)
-            fill_fused(ss, &lo, out);
-        in->x0 = lo.x;
-        in->y0 = lo.y;
-        in->z0 = lo.z;
-        in->e = in->e + lo.de;
-        if (lo.has_f) {
-            in->v = lo.v;
-            ss->dirty_v = 1;
-        }
-        ss->dirty = 1;
-        return moved;
+        return fused_g_move(ss, &w, out);
     }
     if (n >= 4 && memcmp(s, "M204", 4) == 0) {
 #ifdef FAST_DECIMAL
@@ -1742,6 +1829,41 @@ command:
 other:
     return sess_flush(ss) < 0 ? -1 : 2;
 }
+
+#ifdef __SSE2__
+/* fused_line_body of the line at a, for fused_run_ascii (buf's end: end), without
+ * line_end16's look for its end where it is a G0/G1 usual_words reads or an "M204 S.." line
+ * sess_m204_s takes: the words' own scan finds its LF (usual_words_to, m204_s_value), the
+ * line line_end16 finds (every byte before that LF is one the words take: ASCII, no other
+ * LF; and 16 bytes follow it: its 16-byte block is whole).  *e: the line's end (past its
+ * LF); LINE_SLOW: not such a line, nothing changed (fused_line_body reads it). */
+static inline __attribute__((always_inline)) int run_line_fast(Session *ss, const unsigned char *a,
+                                                               const unsigned char *end, const unsigned char **e,
+                                                               FusedMove *out)
+{
+#ifdef FAST_DECIMAL
+    if (end - a < 32)
+        return LINE_SLOW;
+    const unsigned char *bound = end - 16;    /* every byte read is before bound + 7 */
+    if (a[0] == 'G' && (a[1] == '0' || a[1] == '1')) {
+        Words w;
+        const unsigned char *lf = usual_words_to(a + 2, bound, G_LETTERS, &w, 0, 0, 1);
+        if (lf == NULL)
+            return LINE_SLOW;
+        *e = lf + 1;
+        return fused_g_move(ss, &w, out);
+    }
+    double val;
+    const unsigned char *lf;
+    if (ss->live && memcmp(a, "M204 S", 6) == 0 && (lf = m204_s_value(a + 6, bound, &val, 0, 1)) != NULL
+        && sess_m204_set_s(ss, val)) {
+        *e = lf + 1;
+        return 0;
+    }
+#endif
+    return LINE_SLOW;
+}
+#endif
 
 /* The analyse pass's loops (the firmware core's Sim.run_lines and gap_lines) read a line in
  * two steps: fused_peek reads a G0/G1 of the fast shape as fused_line reads it, changing

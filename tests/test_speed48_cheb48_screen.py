@@ -16,38 +16,16 @@ Checked here:
   problem, within 1e-6 of the scale (the rough laws' own error is ~1e-8);
 * a screen that takes candidates not over (SCREEN_BAND_R = -0.5) is caught by the first check.
 """
-from pathlib import Path
-
 import numpy as np
 import pytest
-from scipy.integrate import solve_bvp
 
-from gcode_opt import chains, curves
+from gcode_opt import curves
 from gcode_opt.laws import circle
-from gcode_opt.pipeline import Options, analyse, plan_inputs
-from gcode_opt.profile import load_profile
+from test_speed29_curvesolve_retry import _bits, _curves_of     # (the curve strokes of a bundled file)
+from test_speed46_cheb46_circle import _bvp_w                   # (scipy's solve_bvp, tol 1e-10)
 
-S = Path(__file__).resolve().parent.parent / "sample_gcode"
 FILES = [("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_gyroid.gcode", "voron24"),
          ("prusa_concentric.gcode", "prusa-mk3s"), ("prusa_gyroid_arcs.gcode", "prusa-mk3s")]
-_CACHE = {}
-
-
-def _curves_of(name, profile):
-    key = (name, profile)
-    if key not in _CACHE:
-        prof = load_profile(profile)
-        opts = Options()
-        strokes, _ = analyse(str(S / name), prof, opts)
-        pin = plan_inputs(strokes, prof, opts)
-        rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == "curve" and not pin.fault[i]], int)
-        _CACHE[key] = (strokes, pin, rows, prof)
-    return _CACHE[key]
-
-
-def _bits(a, b):
-    a, b = np.asarray(a), np.asarray(b)
-    return a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
 def _tables(name, profile, monkeypatch, screen=True):
@@ -139,23 +117,6 @@ def test_rough_probe_values_within_a_hundredth_of_the_band(screened_calls):
             worst = max(worst, float(rel.max()))
     print("rough vs full probe values: worst relative difference", worst)
     assert worst <= curves.SCREEN_BAND_R / 100
-
-
-def _bvp_w(phi, gam2, u0, u1, tau):
-    """w(τ) of w'' = γ²w + 2w³ + C, w(0) = u0, w(1) = u1, ∫w = Φ by scipy's collocation."""
-    def f(t, y, p):
-        return np.vstack([y[1], y[2], gam2 * y[1] + 2.0 * y[1] ** 3 + p[0]])
-
-    def bc(ya, yb, p):
-        return np.array([ya[0], yb[0] - phi, ya[1] - u0, yb[1] - u1])
-    t = np.linspace(0.0, 1.0, 41)
-    y0 = np.vstack([phi * t, np.full_like(t, phi), np.zeros_like(t)])
-    sol = None
-    for tol in (1e-4, 1e-7, 1e-10):          # (tightened in steps: MATH.md's pitfall)
-        sol = solve_bvp(f, bc, t if sol is None else sol.x, y0 if sol is None else sol.y,
-                        p=[-gam2 * phi - 2.0 * phi ** 3] if sol is None else sol.p, tol=tol, max_nodes=200000)
-        assert sol.success
-    return sol.sol(tau)[1]
 
 
 def test_rough_laws_against_solve_bvp(screened_calls):

@@ -1711,6 +1711,10 @@ def _kappa_rows(geos, s, memo=None):
 # (arcs,) and (arcs, N) arrays for 4 k arcs, ~3 MB at once; the gyroid plate's 34 k in one
 # batch held ~25 MB (its laws' coefficients alone 9 MB)
 SOLVE_ROWS = 4096
+# candidates screened on rough laws (circle.solve_circles_rough, ~1e-8 of their scale apart from
+# the full ones): a probe over the |a| cap by this much more than its margin, and under the
+# speed cap by as much, is over on |a| alone on the full law too
+SCREEN_BAND_R = 1e-3
 
 
 def candidates_curve(pin, rows, strokes, profile):
@@ -1784,19 +1788,47 @@ def candidates_curve(pin, rows, strokes, profile):
             sl = slice(a, a + step)
             q = idx[sl]
             R = 1.0 / keff[q]                   # _solve's R, the same numbers
-            law = solve_circles(S[q] / R, T[sl], beta[sl], v0[q] / R, v1[q] / R, R)
+            args = (S[q] / R, T[sl], beta[sl], v0[q] / R, v1[q] / R, R)
+            r, lv, lay = _screen(q, args, v_lim[sl], a_lim[sl])
+            if r is None:                       # (no rough laws: every candidate in full)
+                r = np.arange(q.size)
+            else:
+                args = tuple(x[r] for x in args)
+                lay = tuple(x[r] for x in lay)
+            law = solve_circles(*args, layers=lay) if r.size else None
             if step < idx.size and _circle.NEWTON_ARCS[0] != n0:
                 return None
+            levels = max(levels, law.panel_levels() if lv is None else lv)
+            if law is None:
+                continue
             why = []
-            fig = np.flatnonzero(~surely_over(law, R, [geos[i] for i in q], v_lim[sl], a_lim[sl],
-                                              {} if knots is None else knots.sub(q), why))
-            a_only[q] = why[0]
-            levels = max(levels, law.panel_levels())
+            fig = np.flatnonzero(~surely_over(law, args[5], [geos[i] for i in q[r]], v_lim[sl][r], a_lim[sl][r],
+                                              {} if knots is None else knots.sub(q[r]), why))
+            a_only[q[r]] = why[0]
             if fig.size:
-                figs.append(a + fig)
+                figs.append(a + r[fig])
                 laws.append(law.take(fig))     # (the others' laws let go with the chunk)
             del law
         return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, levels
+
+    def _screen(q, args, v_lim, a_lim):
+        """(r, levels, layers) of the candidates q (solve_circles' args): their rough laws probed
+        with the |a| cap raised and the speed cap lowered by SCREEN_BAND_R; those still over
+        on |a| alone are so on their full laws (a_only set; ~88 % of the plates' curve
+        candidates), r the positions of the others, to be solved in full; levels the panel
+        levels of all (from the layer regime, the same for rough laws), layers their layer
+        regime (solve_circles' layers).  Each candidate's full law, probe and figures are as
+        before: its own whatever the others in its batch.  (None, None, None) where no rough
+        laws are made."""
+        got = _circle.solve_circles_rough(*args)
+        if got is None:
+            return None, None, None
+        rough, lay = got
+        why = []
+        surely_over(rough, args[5], [geos[i] for i in q], v_lim * (1.0 - SCREEN_BAND_R),
+                    a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q), why)
+        a_only[q[why[0]]] = True
+        return np.flatnonzero(~why[0]), rough.panel_levels(), lay
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go

@@ -42,7 +42,7 @@ def _mm_ordered_ref(x, m):
     return out
 
 
-def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
+def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start, tol=_PRECOND_TOL):
     """The collocation equations of _newton_cheb solved by a preconditioned fixed-point
     iteration: each step is the Newton step with the Jacobian's diagonal γ² + 6w² replaced
     by its mid-range value ḡ, whose inverse is diagonal in the eigenbasis of the second-
@@ -51,7 +51,8 @@ def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
     gentle laws of curves and arcs it is ~0.1, so ~15 cheap steps replace ~4 LU solves.
     The fixed point is the same collocation solution (the residual is computed exactly).
     Returns (w nodes, C, ok); arcs not converged (a slow contraction: steep layers) have
-    ok False and are left to _newton_cheb."""
+    ok False and are left to _newton_cheb.  (Round 48: tol, the stop, a parameter: the
+    pipeline's rough laws stop at circle._ROUGH_TOL.)"""
     cs = _cheb_setup(n)
     eg = _eig_setup(n)
     nb = phi.size
@@ -84,7 +85,7 @@ def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start):
         step = np.abs(dw).max(axis=1)
         # done: at the rounding floor of the residual (steps no longer shrink), or below it
         slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
-        done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
+        done = (step <= tol * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
         ok[act[done]] = True
         keep = ~done & np.isfinite(step) & ~slow
         last[act] = step

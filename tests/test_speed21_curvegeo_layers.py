@@ -121,17 +121,26 @@ def mode(request, monkeypatch):
 @pytest.fixture(scope="module")
 def solves(tmp_path_factory):
     """(phi, gam2, u0, u1) of every solve_circles call of the curve planner on the bundled
-    gyroid (two profiles) and concentric files."""
+    gyroid (two profiles) and concentric files (and, round 48, of its rough solves: every
+    candidate is screened on one first)."""
     got = []
-    f = curves.solve_circles
+    f, f_rough = curves.solve_circles, circle.solve_circles_rough
     mp = pytest.MonkeyPatch()
 
-    def rec(*args):
+    def put(args):
         phi, T, beta, w0, w1, R = (np.array(a, float) for a in args)
         got.append((phi, T * T / beta, w0 * T, w1 * T))
-        return f(*args)
+
+    def rec(*args, **kw):
+        put(args)
+        return f(*args, **kw)
+
+    def rec_rough(*args):
+        put(args)
+        return f_rough(*args)
     try:
         mp.setattr(curves, "solve_circles", rec)
+        mp.setattr(circle, "solve_circles_rough", rec_rough)
         d = tmp_path_factory.mktemp("layers21")
         for name, prof in (("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_gyroid.gcode", "voron24"),
                            ("prusa_concentric.gcode", "prusa-mk3s")):

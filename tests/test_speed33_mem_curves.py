@@ -23,14 +23,14 @@ def _tables(monkeypatch, name, solve_rows):
     pin = plan_inputs(strokes, prof, opts)
     rows = np.array([i for i, s in enumerate(strokes) if chains.plan_kind(s) == "curve" and not pin.fault[i]])
     sizes, levels = [], []
-    solve = curves.solve_circles
+    solve = circle.solve_circles_rough      # (round 48: every candidate's first solve, a rough one)
     own_levels = circle.CircleBatch.panel_levels
     monkeypatch.setattr(circle.CircleBatch, "panel_levels", lambda law: levels.append(own_levels(law)) or levels[-1])
 
     def counted(phi, *args):
         sizes.append(np.size(phi))
         return solve(phi, *args)
-    monkeypatch.setattr(curves, "solve_circles", counted)
+    monkeypatch.setattr(circle, "solve_circles_rough", counted)
     monkeypatch.setattr(curves, "SOLVE_ROWS", solve_rows)
     got = curves.candidates_curve(pin, rows, strokes, prof)
     monkeypatch.undo()

@@ -88,17 +88,25 @@ def _bits(a, b):
 def curve_rows(tmp_path_factory):
     """(Φ, γ², u0, u1) of every arc the curve planner solves on the bundled gyroid sample."""
     rows = []
-    real = circle.solve_circles
+    real, real_rough = circle.solve_circles, circle.solve_circles_rough
     mp = pytest.MonkeyPatch()
 
-    def rec(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):
+    def put(phi_total, T, beta, w0=0.0, w1=0.0):
         phi, T_t, beta_s2, w0_, w1_ = (np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float))
                                                              for v in (phi_total, T, beta, w0, w1))))
         rows.append((phi.copy(), T_t * T_t / beta_s2, w0_ * T_t, w1_ * T_t))
-        return real(phi_total, T, beta, w0, w1, R)
+
+    def rec(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0, layers=None):
+        put(phi_total, T, beta, w0, w1)
+        return real(phi_total, T, beta, w0, w1, R, layers)
+
+    def rec_rough(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):     # (round 48: every candidate's screen)
+        put(phi_total, T, beta, w0, w1)
+        return real_rough(phi_total, T, beta, w0, w1, R)
     from gcode_opt import curves
     try:
         mp.setattr(curves, "solve_circles", rec)
+        mp.setattr(circle, "solve_circles_rough", rec_rough)
         process(str(S / "prusa_gyroid.gcode"), str(tmp_path_factory.mktemp("c46") / "o.gcode"),
                 load_profile("prusa-mk3s"), Options())
     finally:

@@ -374,14 +374,23 @@ _PRECOND_TOL = 1e-16       # last step / scale of w at which the preconditioned 
 _PRECOND_FLOOR = 1e-13     # or at which it stops once steps no longer shrink (rounding floor;
                            # Newton's own acceptance)
 _PRECOND_ITER = 40
+# solve_circles_rough's laws, for screening candidates far over a limit (curves.candidates_curve:
+# ~1e-3 clear of it): the iteration stops at a step of _ROUGH_TOL of the scale (~4 steps an arc,
+# not ~7.6), N starts _ROUGH_DOWN rungs lower on the ladder (16 for the plates' 20) and goes up
+# while the tail is over _ROUGH_TAIL: laws within ~1e-8 of their scale (measured on the plates'
+# curve candidates: their probe's speeds and |a| within ~1e-7 of the full laws')
+_ROUGH_TOL = 1e-7
+_ROUGH_DOWN = 1
+_ROUGH_TAIL = 1e-8
 _PRECOND_SLOW_R = 0.7      # a step ratio above this after a few steps: left to Newton
 
 
-def _precond_cheb(n, phi, gam2, u0, u1, w_start):
-    """_precond_cheb_c where the compiled core is there, else _precond_cheb_np: the same bits."""
+def _precond_cheb(n, phi, gam2, u0, u1, w_start, tol=_PRECOND_TOL):
+    """_precond_cheb_c where the compiled core is there, else _precond_cheb_np: the same bits.
+    tol: the step / scale at which an arc stops (_PRECOND_TOL; _ROUGH_TOL for rough laws)."""
     if CORE_MOD is not None and n + 1 <= 1024:
-        return _precond_cheb_c(n, phi, gam2, u0, u1, w_start)
-    return _precond_cheb_np(n, phi, gam2, u0, u1, w_start)
+        return _precond_cheb_c(n, phi, gam2, u0, u1, w_start, tol)
+    return _precond_cheb_np(n, phi, gam2, u0, u1, w_start, tol)
 
 
 def _mm_ordered(x, m):
@@ -414,7 +423,7 @@ def _precond_start(phi, u0, u1, w_start):
     return w, np.zeros(nb), np.zeros(nb, dtype=bool), scale
 
 
-def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
+def _precond_cheb_c(n, phi, gam2, u0, u1, w_start, tol=_PRECOND_TOL):
     """_precond_cheb_np in the compiled core (_curvecore.c pc_solve): each arc's whole
     iteration in one pass over its row (the same operations in the same order, numpy's
     pairwise row sums, NaN-propagating maxima, _mm_ordered's products)."""
@@ -424,12 +433,12 @@ def _precond_cheb_c(n, phi, gam2, u0, u1, w_start):
         return w, cc, ok
     d2_t, q, lam_e, vinv_t, v_t, qv, e = pc
     CORE_MOD.pc_solve(w, cc, ok, phi.size, n, np.ascontiguousarray(gam2, float), np.ascontiguousarray(phi, float),
-                      scale, d2_t, q, lam_e, vinv_t, v_t, qv, e, _PRECOND_ITER, _PRECOND_SLOW_R, _PRECOND_TOL,
+                      scale, d2_t, q, lam_e, vinv_t, v_t, qv, e, _PRECOND_ITER, _PRECOND_SLOW_R, tol,
                       _PRECOND_FLOOR)
     return w, cc, ok
 
 
-def _precond_cheb_np(n, phi, gam2, u0, u1, w_start):
+def _precond_cheb_np(n, phi, gam2, u0, u1, w_start, tol=_PRECOND_TOL):
     """The collocation equations of _newton_cheb solved by a preconditioned fixed-point
     iteration: each step is the Newton step with the Jacobian's diagonal γ² + 6w² replaced
     by its mid-range value ḡ, whose inverse is diagonal in the eigenbasis of the second-
@@ -438,7 +447,7 @@ def _precond_cheb_np(n, phi, gam2, u0, u1, w_start):
     gentle laws of curves and arcs it is ~0.1, so ~15 cheap steps replace ~4 LU solves.
     The fixed point is the same collocation solution (the residual is computed exactly).
     Returns (w nodes, C, ok); arcs not converged (a slow contraction: steep layers) have
-    ok False and are left to _newton_cheb."""
+    ok False and are left to _newton_cheb.  tol: _precond_cheb's."""
     w, cc, ok, scale = _precond_start(phi, u0, u1, w_start)
     pc = _precond_consts(n)
     if pc is None or phi.size == 0:
@@ -464,7 +473,7 @@ def _precond_cheb_np(n, phi, gam2, u0, u1, w_start):
         step = np.abs(dw).max(axis=1)
         # done: at the rounding floor of the residual (steps no longer shrink), or below it
         slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
-        done = (step <= _PRECOND_TOL * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
+        done = (step <= tol * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
         ok[act[done]] = True
         keep = ~done & np.isfinite(step) & ~slow
         last[act] = step
@@ -514,10 +523,11 @@ def _start_nodes(n, phi, ia, w_guess):
 _COEF_CHUNK = 4096
 
 
-def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess):
+def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess, rough=False):
     """(c, C, ok) of the arcs ia (indices into phi, gam2, u0, u1) on N+1 nodes: the
     Chebyshev coefficients (arcs, N+1) of _solve_nodes' collocation solutions from
-    _start_nodes, C and the convergence flags.
+    _start_nodes, C and the convergence flags.  rough (rows_invariant() only): the
+    iteration stops at _ROUGH_TOL, and no arc goes to Newton (those it leaves: ok False).
 
     Where this BLAS gives rows their own bits (rows_invariant), _COEF_CHUNK arcs at a
     time from their start nodes to their coefficients: the preconditioned iteration and
@@ -540,13 +550,13 @@ def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess):
     for a in range(0, nb, _COEF_CHUNK):
         r = slice(a, a + _COEF_CHUNK)
         w0 = _start_nodes(n, phi, ia[r], w_guess)
-        w, cc[r], ok[r] = _precond_cheb(n, p[r], g2[r], a0[r], a1[r], w0)
+        w, cc[r], ok[r] = _precond_cheb(n, p[r], g2[r], a0[r], a1[r], w0, _ROUGH_TOL if rough else _PRECOND_TOL)
         _rows_matmul(w, to_coef_t, out=c[r])
-        if not ok[r].all():
+        if not ok[r].all() and not rough:
             left.append(w0[~ok[r]])
         del w, w0
     rest = np.flatnonzero(~ok)
-    if rest.size:
+    if rest.size and not rough:
         NEWTON_ARCS[0] += rest.size
         w, cc[rest], ok[rest] = _newton_chunked(n, p[rest], g2[rest], a0[rest], a1[rest], np.concatenate(left))
         c[rest] = _rows_matmul(w, to_coef_t)
@@ -588,9 +598,11 @@ def _newton_chunked(n, phi, gam2, u0, u1, w_start):
     return w, cc, ok
 
 
-def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
+def _solve_cheb_batch(phi, gam2, u0, u1, lam_est, rough=False):
     """Chebyshev regime; per-arc N from the layer rate, escalated until the tail is small.
-    Returns (arcs, coefficients) blocks, one per N that accepted arcs, and C per arc."""
+    Returns (arcs, coefficients) blocks, one per N that accepted arcs, and C per arc.
+    rough: solve_circles_rough's laws (_solve_coefs' rough iteration); an arc the iteration
+    leaves, or whose tail is still large at the top N, is given NaN (not solved further)."""
     nb = phi.size
     blocks = []
     cvals = np.zeros(nb)
@@ -599,6 +611,8 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
     # ~1e-14, the Newton's own rounding, at 1/3 of the cost); the tail test below escalates
     need = 5.0 + 1.6 * np.sqrt(28.0 * np.maximum(lam_est, 1.0))
     start = np.searchsorted(_N_LADDER, need).clip(0, len(_N_LADDER) - 1)
+    if rough:
+        start = (start - _ROUGH_DOWN).clip(0, None)
     pending = np.arange(nb)
     level = start.copy()
     w_guess: dict[int, np.ndarray] = {}
@@ -609,10 +623,15 @@ def _solve_cheb_batch(phi, gam2, u0, u1, lam_est):
             ia = pending[level[pending] == lv]
             n = _N_LADDER[lv]
             with blas_one_thread():
-                c, cc, ok = _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess)
+                c, cc, ok = _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess, rough)
             scale = np.maximum.reduce([np.abs(phi[ia]), np.abs(u0[ia]), np.abs(u1[ia])])
             tail = np.abs(c[:, -3:]).max(axis=1) / scale
-            good = ok & (tail <= _TAIL_TOL)
+            good = ok & (tail <= (_ROUGH_TAIL if rough else _TAIL_TOL))
+            if rough:
+                fail = ~ok | ((lv == top) & ~good)
+                c[fail] = np.nan
+                cc[fail] = np.nan
+                good |= fail
             if lv == top and not good.all():
                 k = int(np.argmin(good))
                 i = ia[k]
@@ -1227,11 +1246,31 @@ class CircleLaw:
         return float(self._sub().peak_accel()[0])
 
 
-def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
+def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0, layers=None) -> CircleBatch:
     """Vectorised solve for B arcs.
 
     phi_total: swept angle (rad, any size incl. several turns), T: duration (s),
-    beta = α·m (s²), w0/w1: end angular speeds (rad/s), R: radius (mm).  Broadcast to (B,)."""
+    beta = α·m (s²), w0/w1: end angular speeds (rad/s), R: radius (mm).  Broadcast to (B,).
+    layers: these arcs' layer regime (_layer_regime's tuple of (B,) arrays), where a solve
+    of them made it already (solve_circles_rough's, its rows taken): not solved again (each
+    arc's numbers are its own whatever its batch, so the same)."""
+    return _solve_circles(phi_total, T, beta, w0, w1, R, False, layers)
+
+
+def solve_circles_rough(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):
+    """solve_circles' laws to ~1e-12 of their scale, not to the rounding of the collocation
+    equations: the preconditioned iteration stopped at _ROUGH_TOL, N from a rung lower and
+    a tail of _ROUGH_TAIL (laws within ~1e-8 of their scale), no Newton (an arc it leaves has
+    NaN coefficients).  The same layer regime (the same regime, w_c and panel levels); for
+    screening candidates that are far over a limit.  Returns (batch, layers): layers, the arcs' layer regime (solve_circles' layers).
+    None where this BLAS does not give rows their own bits (rows_invariant)."""
+    if not rows_invariant():
+        return None
+    return _solve_circles(phi_total, T, beta, w0, w1, R, True)
+
+
+def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None):
+    """solve_circles (rough False: the batch) or solve_circles_rough ((batch, layers))."""
     phi, T_t, beta_s2, w0, w1, R_d = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(v, float)) for v in (phi_total, T, beta, w0, w1, R)))
     phi, T_t, beta_s2, w0, w1, R_d = (a.copy() for a in (phi, T_t, beta_s2, w0, w1, R_d))
@@ -1239,7 +1278,8 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
         raise ValueError("T and beta must be positive")
     nb = phi.size
     # layer regime first: accept where the neglected interaction of the two layers is tiny
-    wc, regime, gam2, u0, u1, lam = _layer_regime(phi, T_t, beta_s2, w0, w1)
+    layers = _layer_regime(phi, T_t, beta_s2, w0, w1) if layers is None else layers
+    wc, regime, gam2, u0, u1, lam = layers
 
     coef = np.zeros((nb, 1))
     cc = -gam2 * wc - 2.0 * wc ** 3
@@ -1249,14 +1289,15 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleBatch:
         q0 = np.sqrt(np.abs((u0 - wc) ** 2 + 4 * wc * (u0 - wc)) + lam ** 2)
         q1 = np.sqrt(np.abs((u1 - wc) ** 2 + 4 * wc * (u1 - wc)) + lam ** 2)
         lam_est = np.maximum.reduce([lam, q0, q1])[rest]
-        blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est)
+        blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est, rough)
         coef = np.zeros((nb, max(c.shape[1] for _, c in blocks)))   # zero-padded to the largest N
         while blocks:               # each block let go once copied
             ia, c = blocks.pop()
             coef[rest[ia], : c.shape[1]] = c
         del ia, c
         cc[rest] = cv
-    return CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
+    law = CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
+    return (law, layers) if rough else law
 
 
 def solve_circle(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleLaw:

@@ -3504,6 +3504,41 @@ static PyObject *tenths_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* tenths_ceil(x): ceil_tenths' integer of a float, None where it declines (tests: math.ceil) */
+static PyObject *tenths_ceil(PyObject *self, PyObject *o)
+{
+    double x = PyFloat_AsDouble(o);
+    int64_t k;
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (ceil_tenths(x, &k) < 0)
+        Py_RETURN_NONE;
+    return PyLong_FromLongLong(k);
+}
+
+/* pieces_nl(head, closing, before, after, nl, word, letter): piece_lines' counts (a tuple of
+   PIECES ints) of ASCII str pieces (before, after: None for none), None where it declines
+   (tests: str.count("\n") of each) */
+static PyObject *pieces_nl(PyObject *self, PyObject *args)
+{
+    PyObject *o[6];
+    const char *letter;
+    Py_ssize_t n_letter;
+    if (!PyArg_ParseTuple(args, "UUOOUUs#", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &letter, &n_letter))
+        return NULL;
+    Pieces pc = {0};
+    if ((pc.hp = ascii(o[0], &pc.hn)) == NULL || (pc.clp = ascii(o[1], &pc.cln)) == NULL
+        || (o[2] != Py_None && (pc.bp = ascii(o[2], &pc.bn)) == NULL)
+        || (o[3] != Py_None && (pc.ap = ascii(o[3], &pc.an)) == NULL) || (pc.nlp = ascii(o[4], &pc.nln)) == NULL
+        || (pc.wp = ascii(o[5], &pc.wn)) == NULL || n_letter != 1)
+        Py_RETURN_NONE;
+    const char *hnl = memchr(pc.hp, '\n', (size_t)pc.hn);
+    Py_ssize_t nl[PIECES];
+    if (hnl == NULL || !piece_lines(&pc, hnl - pc.hp, letter[0], nl))
+        Py_RETURN_NONE;
+    return Py_BuildValue("(nnnnnn)", nl[0], nl[1], nl[2], nl[3], nl[4], nl[5]);
+}
+
 /* rounds(doubles): py_round of each native double (bytes): its int, or None where it
    declines (for the tests: Python's round() of each) */
 static PyObject *rounds(PyObject *self, PyObject *o)
@@ -3577,6 +3612,8 @@ static PyMethodDef mod_methods[] = {
     {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},
     {"units_nf", units_nf, METH_VARARGS, "units_at_nf's (text, decimals) (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
+    {"tenths_ceil", tenths_ceil, METH_O, "ceil_tenths' integer of a float, None where it declines (tests)"},
+    {"pieces_nl", pieces_nl, METH_VARARGS, "piece_lines' \"\\n\" counts of the pieces, None where it declines (tests)"},
     {"plain_moves", plain_moves, METH_VARARGS,
      "emit._plain_moves(raws) + (dec_xy, dec_e), or NotImplemented"},
     {"emit_body", emit_body, METH_VARARGS, "emit.emit_stroke's text, or None"},

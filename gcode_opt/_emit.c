@@ -1221,38 +1221,43 @@ typedef struct {
 
 #define E8 100000000ULL
 
-/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6 */
+/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6
+   (SWAR_DIGITS: the trailing zeros counted on digits8's bytes, the last digit the highest
+   byte, not a division by 10 a zero: a plate's start texts have ~5) */
 static inline int start8_decimals(uint64_t n)
 {
     uint64_t f = n % E8;
     if (f == 0)
         return 0;
+#if SWAR_DIGITS
+    int k = 8 - (__builtin_clzll(digits8((uint32_t)f)) >> 3);
+#else
     int k = 8;
     while (f % 10 == 0) {
         f /= 10;
         k--;
     }
+#endif
     return k < 6 ? k : 6;
 }
+
+/* 10^k as an integer, k 0..19 */
+static const uint64_t U10[20] = {1ULL, 10ULL, 100ULL, 1000ULL, 10000ULL, 100000ULL, 1000000ULL, 10000000ULL,
+                                 100000000ULL, 1000000000ULL, 10000000000ULL, 100000000000ULL,
+                                 1000000000000ULL, 10000000000000ULL, 100000000000000ULL,
+                                 1000000000000000ULL, 10000000000000000ULL, 100000000000000000ULL,
+                                 1000000000000000000ULL, 10000000000000000000ULL};
 
 /* units_txt(fmt_f(x, 8)'s text, dec, out) from its integer: the whole's digits and the
    fraction's first min(8, dec) (at most 15 digits), times 10 for each decimal past 8 while
    at most 2^53: 0, or -1 where units_txt declines */
 static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
 {
-    uint64_t whole = n / E8, w = whole;
-    int wn = 1;
-    while (w >= 10) {
-        w /= 10;
-        wn++;
-    }
     int fk = dec < 8 ? dec : 8;
-    if (dec < 0 || wn + fk > 15)
+    /* the whole's digits (wn, 1 for 0) and fk at most 15: whole < 10^(15 - fk) (15 - fk >= 7) */
+    if (dec < 0 || n / E8 >= U10[15 - fk])
         return -1;
-    uint64_t p = 1;
-    for (int j = fk; j < 8; j++)
-        p *= 10;
-    int64_t v = (int64_t)(n / p);                  /* < 10^15 */
+    int64_t v = (int64_t)(n / U10[8 - fk]);       /* < 10^15 */
     for (int j = fk; j < dec; j++) {
         if (v > (int64_t)EXACT_MAX) return -1;
         v *= 10;

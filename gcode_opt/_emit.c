@@ -3512,6 +3512,7 @@ static PyObject *tenths_text(PyObject *self, PyObject *args)
 /* tenths_ceil(x): ceil_tenths' integer of a float, None where it declines (tests: math.ceil) */
 static PyObject *tenths_ceil(PyObject *self, PyObject *o)
 {
+    (void)self;
     double x = PyFloat_AsDouble(o);
     int64_t k;
     if (x == -1.0 && PyErr_Occurred())
@@ -3526,6 +3527,7 @@ static PyObject *tenths_ceil(PyObject *self, PyObject *o)
    (tests: str.count("\n") of each) */
 static PyObject *pieces_nl(PyObject *self, PyObject *args)
 {
+    (void)self;
     PyObject *o[6];
     const char *letter;
     Py_ssize_t n_letter;

@@ -644,7 +644,7 @@ static inline uint64_t digits8(uint32_t v)
    whole is the digits before the last dec, its leading zeros cut (ctz) but its last
    digit kept; the fraction the last dec, its trailing zeros cut (clz); each written as
    one 8-byte store (units_at_nf's room).  The end; *nf: the fraction's digits */
-static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
+static inline __attribute__((always_inline)) char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
 {
     uint64_t d = digits8(a), t = d + 0x3030303030303030ULL;
     /* (the bits or-ed in change a count only past the digits min() keeps: lead <= 7 - dec,
@@ -667,7 +667,7 @@ static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *n
 }
 #else
 #define SWAR_DIGITS 0
-static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
+static inline __attribute__((always_inline)) char *small_units_at(char *q, uint32_t a, int neg, int dec, int *nf)
 {
     (void)q; (void)a; (void)neg; (void)dec; (void)nf;
     return NULL;
@@ -680,11 +680,9 @@ static inline char *small_units_at(char *q, uint32_t a, int neg, int dec, int *n
    digits are made in tmp after 32 zeros (the padding to dec + 1 digits, without a loop),
    and the whole and the fraction copied 16 bytes at a time: at most 1 + 20 + 1 + 16 bytes
    written, inside the room */
-static inline char *units_at_nf(char *q, int64_t u, int dec, int *nf)
+static __attribute__((noinline)) char *big_units_at(char *q, int64_t u, int dec, int *nf)
 {
     uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
-    if (SWAR_DIGITS && a < 100000000 && dec <= 7)
-        return small_units_at(q, (uint32_t)a, u < 0, dec, nf);
     char tmp[64];
     char *end = tmp + 48;                          /* the digits end here; 16 bytes after them to read */
     memset(end - 32, '0', 32);
@@ -701,6 +699,16 @@ static inline char *units_at_nf(char *q, int64_t u, int dec, int *nf)
         q = copy_upto16(q, point, last - point);
     }
     return q;
+}
+
+/* (inlined: emit_cols writes ~3 numbers a segment line, nearly all small_units_at's; the
+   call and big_units_at's frame cost ~20 instructions a number) */
+static inline __attribute__((always_inline)) char *units_at_nf(char *q, int64_t u, int dec, int *nf)
+{
+    uint64_t a = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
+    if (SWAR_DIGITS && a < 100000000 && dec <= 7)
+        return small_units_at(q, (uint32_t)a, u < 0, dec, nf);
+    return big_units_at(q, u, dec, nf);
 }
 
 static inline char *units_at(char *q, int64_t u, int dec)
@@ -781,6 +789,22 @@ static int py_round(double x, int64_t *out)
     return 0;
 }
 #endif
+
+/* ceil(x) as an int64 where it is below TENTHS_MAX (c < TENTHS_MAX, an integer: x <=
+   TENTHS_MAX - 1): 0, else -1 (NaN too).  For x > -1 (a feed's and an accel's tenths: x >
+   -1e-6) the truncation t, plus 1 where x is past it (t and x exact below 2^50), without
+   ceil (gcc's SSE2 expansion of it: ~16 instructions; emit_cols takes two a line) */
+static inline int ceil_tenths(double x, int64_t *k)
+{
+    if (!(x <= (double)(TENTHS_MAX - 1)))
+        return -1;
+    if (x > -1.0) {
+        int64_t t = (int64_t)x;
+        *k = t + ((double)t < x);
+    } else
+        *k = (int64_t)ceil(x);
+    return 0;
+}
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
    ending in 0, else _canon(t), written at q (at most m + 1 bytes): the end; *nf: its decimals */
@@ -1035,6 +1059,9 @@ typedef struct {
     Py_ssize_t hn, wn, nln, cln, bn, an;
 } Pieces;
 
+/* their "\n"s, in this order: head, closing, before, after, line end, accel word */
+#define PIECES 6
+
 static double POW10_NEG[32];
 static int POW10_NEG_READY = 0;
 
@@ -1194,38 +1221,43 @@ typedef struct {
 
 #define E8 100000000ULL
 
-/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6 */
+/* start_decimals of fmt_f(x, 8)'s text: the fraction's 8 digits, trailing zeros cut, at most 6
+   (SWAR_DIGITS: the trailing zeros counted on digits8's bytes, the last digit the highest
+   byte, not a division by 10 a zero: a plate's start texts have ~5) */
 static inline int start8_decimals(uint64_t n)
 {
     uint64_t f = n % E8;
     if (f == 0)
         return 0;
+#if SWAR_DIGITS
+    int k = 8 - (__builtin_clzll(digits8((uint32_t)f)) >> 3);
+#else
     int k = 8;
     while (f % 10 == 0) {
         f /= 10;
         k--;
     }
+#endif
     return k < 6 ? k : 6;
 }
+
+/* 10^k as an integer, k 0..19 */
+static const uint64_t U10[20] = {1ULL, 10ULL, 100ULL, 1000ULL, 10000ULL, 100000ULL, 1000000ULL, 10000000ULL,
+                                 100000000ULL, 1000000000ULL, 10000000000ULL, 100000000000ULL,
+                                 1000000000000ULL, 10000000000000ULL, 100000000000000ULL,
+                                 1000000000000000ULL, 10000000000000000ULL, 100000000000000000ULL,
+                                 1000000000000000000ULL, 10000000000000000000ULL};
 
 /* units_txt(fmt_f(x, 8)'s text, dec, out) from its integer: the whole's digits and the
    fraction's first min(8, dec) (at most 15 digits), times 10 for each decimal past 8 while
    at most 2^53: 0, or -1 where units_txt declines */
 static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
 {
-    uint64_t whole = n / E8, w = whole;
-    int wn = 1;
-    while (w >= 10) {
-        w /= 10;
-        wn++;
-    }
     int fk = dec < 8 ? dec : 8;
-    if (dec < 0 || wn + fk > 15)
+    /* the whole's digits (wn, 1 for 0) and fk at most 15: whole < 10^(15 - fk) (15 - fk >= 7) */
+    if (dec < 0 || n / E8 >= U10[15 - fk])
         return -1;
-    uint64_t p = 1;
-    for (int j = fk; j < 8; j++)
-        p *= 10;
-    int64_t v = (int64_t)(n / p);                  /* < 10^15 */
+    int64_t v = (int64_t)(n / U10[8 - fk]);       /* < 10^15 */
     for (int j = fk; j < dec; j++) {
         if (v > (int64_t)EXACT_MAX) return -1;
         v *= 10;
@@ -1239,13 +1271,14 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
    raise); -1: no memory.  n_lines (not NULL): the "\n"s written (the pieces' counted once
-   a block, the moves' texts have none: plain_line's, or units and tenths).  kn (not
+   a block, or taken from piece_nl where not NULL: PIECES counts, piece_lines'; the moves'
+   texts have none: plain_line's, or units and tenths).  kn (not
    NULL, nlp "\n", wp fast_check's accel word): the lines checked as they are written, 1
    (decline) where fast_check would not pass them. */
 static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
                      Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
                      int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     const Start8 *s8, const ColUnits *cu, Py_ssize_t *n_lines, Known *kn)
+                     const Start8 *s8, const ColUnits *cu, const Py_ssize_t *piece_nl, Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -1277,10 +1310,20 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         kn->open = b->n;
     Py_ssize_t lines = 0, nl_nl = 0, nl_acc = 0;   /* "\n"s: written; a line end's; an accel line's */
     if (n_lines != NULL) {
-        lines = count_nl(hp, hn) + count_nl(clp, cln) + (bp != NULL && k_total >= 1 ? count_nl(bp, bn) : 0)
-                + (ap != NULL && k_total >= 1 ? count_nl(ap, an) : 0);
-        nl_nl = count_nl(nlp, nln);
-        nl_acc = count_nl(wp, wn) + nl_nl;
+        Py_ssize_t c[PIECES];
+        if (piece_nl != NULL)
+            memcpy(c, piece_nl, sizeof c);
+        else {
+            c[0] = count_nl(hp, hn);
+            c[1] = count_nl(clp, cln);
+            c[2] = bp != NULL ? count_nl(bp, bn) : 0;
+            c[3] = ap != NULL ? count_nl(ap, an) : 0;
+            c[4] = count_nl(nlp, nln);
+            c[5] = count_nl(wp, wn);
+        }
+        lines = c[0] + c[1] + (k_total >= 1 ? c[2] + c[3] : 0);
+        nl_nl = c[4];
+        nl_acc = c[5] + nl_nl;
     }
     for (Py_ssize_t k = 1; k <= k_total; k++) {
         double sk = s->d[k], a = acc->d[k - 1], f = fd->d[k - 1];
@@ -1332,10 +1375,9 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         if (!have_a || a != last_a) {
             if (!(isfinite(a) && a > 0.0))
                 return 1;                        /* accel_command raises */
-            double c = ceil(a * 10.0 - 1e-9);
-            if (!(c < (double)TENTHS_MAX))
+            int64_t ka;
+            if (ceil_tenths(a * 10.0 - 1e-9, &ka) < 0)
                 return 1;                        /* the float formatting (or ceil's OverflowError) */
-            int64_t ka = (int64_t)c;
             if (ka <= 1) ka = 1;                     /* _tenths_up: every k <= 1 is "0.1" */
             have_a = 1;
             last_a = a;
@@ -1368,8 +1410,8 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
         }
         if (!(isfinite(f) && f > 0.0))
             return 1;
-        double cf = ceil(f * 600.0 - 1e-6);
-        if (!(cf < (double)TENTHS_MAX))
+        int64_t kf;
+        if (ceil_tenths(f * 600.0 - 1e-6, &kf) < 0)
             return 1;
         /* the line, in room made for all of it at once (a number's text: at most 48 bytes) */
         Py_ssize_t room = 11 + 3 * 48 + 24 + nln + (at_vertex ? xo->n + yo->n + co->n : 0)
@@ -1422,7 +1464,7 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
             }
         }
         CPY(" F", 2);
-        q = tenths_at(q, (int64_t)cf);
+        q = tenths_at(q, kf);
         if (co != NULL && co->n) {
             *q++ = ' ';
             CPY(co->p, co->n);
@@ -1535,7 +1577,7 @@ static PyObject *emit_body(PyObject *self, PyObject *args)
         Buf b = EMIT_BUF;
         b.n = 0;
         int r = emit_cols(&b, &pc, cx, cy, ce, cc, n_cols, &fs[0], &fs[1], &fs[2], &fs[3], dxy, de, e_rel, extruding,
-                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL, NULL);
+                          (int64_t)e_start_u, &x0, &y0, NULL, NULL, NULL, NULL, NULL);
         if (r == 0)
             res = ascii_str(b.p, b.n);
         else if (r > 0)
@@ -2186,18 +2228,38 @@ static int head_line_breaks(const Txt *kind, const char *hp, Py_ssize_t hl)
    emit_cols then checks nothing as it writes) */
 static int TEXT_CHECK = 0;
 
-/* p[0..n): whole lines (empty, or ending in "\n"), none of them a segment line ("G1 X") */
-static int other_lines(const char *p, Py_ssize_t n)
+/* p[0..n): whole lines (empty, or ending in "\n"), none of them a segment line ("G1 X"):
+   their number, else -1 */
+static Py_ssize_t other_lines(const char *p, Py_ssize_t n)
 {
+    Py_ssize_t c = 0;
     if (n == 0)
-        return 1;
-    if (n < 0 || p[n - 1] != '\n')
         return 0;
-    for (const char *e = p + n; p < e;) {
+    if (n < 0 || p[n - 1] != '\n')
+        return -1;
+    for (const char *e = p + n; p < e; c++) {
         if (e - p >= 4 && memcmp(p, "G1 X", 4) == 0)
-            return 0;
+            return -1;
         p = (const char *)memchr(p, '\n', (size_t)(e - p)) + 1;
     }
+    return c;
+}
+
+/* block_into's pieces as fast_check reads them: the head's lines after its first (hl
+   bytes), the closing, before and after whole lines with no segment line (other_lines),
+   the line end "\n" and the accel word "M204 <letter>": 1, their "\n"s in nl (PieceLines:
+   emit_cols takes them, no count of its own), else 0 */
+static int piece_lines(const Pieces *pc, Py_ssize_t hl, char letter, Py_ssize_t *nl)
+{
+    if (pc->nln != 1 || pc->nlp[0] != '\n' || pc->wn != 6 || memcmp(pc->wp, "M204 ", 5) != 0 || pc->wp[5] != letter)
+        return 0;
+    if ((nl[0] = other_lines(pc->hp + hl + 1, pc->hn - hl - 1)) < 0 || (nl[1] = other_lines(pc->clp, pc->cln)) < 0
+        || (nl[2] = pc->bp != NULL ? other_lines(pc->bp, pc->bn) : 0) < 0
+        || (nl[3] = pc->ap != NULL ? other_lines(pc->ap, pc->an) : 0) < 0)
+        return 0;
+    nl[0] += 1;                                   /* (the head's first line) */
+    nl[4] = 1;
+    nl[5] = 0;
     return 1;
 }
 
@@ -2324,12 +2386,11 @@ static int block_into(Buf *out, const BlockArgs *ba, const FSeq *fs, Py_ssize_t 
        leaves taken on: the same checks in the same order), each piece whole lines */
     Known kn = {{1, px, py, n + 1, 1, 2e-3, px[0], py[0], INFINITY, 0, 0.0, 0.0, 0.0, 0},
                 ba->accel_max_a + 0.1 + 1e-9, ba->limit, px + 1, py + 1, ev_k, dx_k, dy_k, de_k, {{0}}, 0, 0};
-    int by_text = TEXT_CHECK || pc->nln != 1 || pc->nlp[0] != '\n' || pc->wn != 6 || memcmp(pc->wp, "M204 ", 5) != 0
-                  || pc->wp[5] != ba->wantp[0] || !other_lines(pc->hp + hl + 1, pc->hn - hl - 1)
-                  || !other_lines(pc->clp, pc->cln)
-                  || (pc->bp != NULL && !other_lines(pc->bp, pc->bn)) || (pc->ap != NULL && !other_lines(pc->ap, pc->an));
+    Py_ssize_t nl[PIECES];
+    int by_text = TEXT_CHECK || !piece_lines(pc, hl, ba->wantp[0], nl);
     int r = emit_cols(out, pc, cx, cy, ce, cc, n, &fs[0], &fs[1], &fs[2], &fs[3], dec_xy, dec_e, ba->e_rel,
-                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, &cu, n_lines, by_text ? NULL : &kn);
+                      ba->extruding, e_start_u, &ba->x0, &ba->y0, &ba->s8, &cu, by_text ? NULL : nl, n_lines,
+                      by_text ? NULL : &kn);
     if (r < 0) {
         PyErr_NoMemory();
         got = -1;
@@ -3448,6 +3509,43 @@ static PyObject *tenths_text(PyObject *self, PyObject *args)
     return res;
 }
 
+/* tenths_ceil(x): ceil_tenths' integer of a float, None where it declines (tests: math.ceil) */
+static PyObject *tenths_ceil(PyObject *self, PyObject *o)
+{
+    (void)self;
+    double x = PyFloat_AsDouble(o);
+    int64_t k;
+    if (x == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (ceil_tenths(x, &k) < 0)
+        Py_RETURN_NONE;
+    return PyLong_FromLongLong(k);
+}
+
+/* pieces_nl(head, closing, before, after, nl, word, letter): piece_lines' counts (a tuple of
+   PIECES ints) of ASCII str pieces (before, after: None for none), None where it declines
+   (tests: str.count("\n") of each) */
+static PyObject *pieces_nl(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *o[6];
+    const char *letter;
+    Py_ssize_t n_letter;
+    if (!PyArg_ParseTuple(args, "UUOOUUs#", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &letter, &n_letter))
+        return NULL;
+    Pieces pc = {0};
+    if ((pc.hp = ascii(o[0], &pc.hn)) == NULL || (pc.clp = ascii(o[1], &pc.cln)) == NULL
+        || (o[2] != Py_None && (pc.bp = ascii(o[2], &pc.bn)) == NULL)
+        || (o[3] != Py_None && (pc.ap = ascii(o[3], &pc.an)) == NULL) || (pc.nlp = ascii(o[4], &pc.nln)) == NULL
+        || (pc.wp = ascii(o[5], &pc.wn)) == NULL || n_letter != 1)
+        Py_RETURN_NONE;
+    const char *hnl = memchr(pc.hp, '\n', (size_t)pc.hn);
+    Py_ssize_t nl[PIECES];
+    if (hnl == NULL || !piece_lines(&pc, hnl - pc.hp, letter[0], nl))
+        Py_RETURN_NONE;
+    return Py_BuildValue("(nnnnnn)", nl[0], nl[1], nl[2], nl[3], nl[4], nl[5]);
+}
+
 /* rounds(doubles): py_round of each native double (bytes): its int, or None where it
    declines (for the tests: Python's round() of each) */
 static PyObject *rounds(PyObject *self, PyObject *o)
@@ -3521,6 +3619,8 @@ static PyMethodDef mod_methods[] = {
     {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},
     {"units_nf", units_nf, METH_VARARGS, "units_at_nf's (text, decimals) (tests)"},
     {"tenths_text", tenths_text, METH_VARARGS, "put_tenths_up's text (emit._tenths_up), None past TENTHS_MAX (tests)"},
+    {"tenths_ceil", tenths_ceil, METH_O, "ceil_tenths' integer of a float, None where it declines (tests)"},
+    {"pieces_nl", pieces_nl, METH_VARARGS, "piece_lines' \"\\n\" counts of the pieces, None where it declines (tests)"},
     {"plain_moves", plain_moves, METH_VARARGS,
      "emit._plain_moves(raws) + (dec_xy, dec_e), or NotImplemented"},
     {"emit_body", emit_body, METH_VARARGS, "emit.emit_stroke's text, or None"},

@@ -44,7 +44,6 @@ from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_j
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import circle as _circle
 from .laws.circle import solve_circles
-from .laws.curve import curvature_from_polyline
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import (MIN_FEED_V, SegmentPlan, _row_plans, fine_rows, hold_cruise_accels, hold_cruise_accels_rows,
                        segment_feeds, segment_times, tent_feeds_rows)
@@ -729,6 +728,7 @@ def _own_parts(st, seg):
     # smoothing over one median segment: wider kernels flatten the gyroid's curvature
     # peaks (3 segments lose half of ∫κ²ds, which the firmware model's vertex terms keep);
     # the slicer's 0.001 mm rounding is ±0.1 deg on ~10 deg turns, averaged over ~5 vertices
+    from .laws.curve import curvature_from_polyline      # (here: a plate's run never needs laws/curve.py)
     pc = curvature_from_polyline(pts, smooth_d=max(_median(d), SMOOTH_MIN_D))
     kappa_v = np.interp(s_v, pc.s_d, pc.kappa_v)
     S = s_v[-1]

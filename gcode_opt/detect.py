@@ -11,6 +11,7 @@ import dataclasses
 import re
 
 from .profile import SCHEMA, Profile, load_profile, profile_from_dict
+from .records import record
 from .slicer_config import SlicerSettings, read_settings
 
 # model substrings (lower case) -> bundled profile; longer, more specific names first
@@ -167,7 +168,7 @@ def _as_tables(values: dict) -> dict:
     return data
 
 
-@dataclasses.dataclass
+@record
 class AutoProfile:
     """The profile 'auto' chose for a file: the base profile and the values taken from the file."""
     profile: Profile

@@ -21,12 +21,11 @@ import functools
 import math
 import operator
 import os
-import re
 
 import numpy as np
 
 from . import native
-from .words import decimals, param_texts, split_comment, strip_checksum
+from .words import compiled_on_first_call, decimals, param_texts, split_comment, strip_checksum
 
 # The compiled rewrite core (_emit.c, module _gcode_opt_emit): optional, the same texts as
 # the Python code below, which runs where it is missing or declines a case
@@ -197,9 +196,12 @@ class StrokeText:
 # tokenizer reads it (words.py: the code part before ';', trailing blanks and the line
 # end dropped).  The pattern starts at the line's "\n" (a literal prefix: found fast); a
 # number is any run of [-.0-9] here, and the plain-decimal grammar is float()'s check:
-# over those characters float() takes exactly words.py's numbers (without '+')
-_MOVE_LINES = re.compile(r"\nG1 X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)").findall
-_MOVE_XYE = re.compile(r"\nG1 X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)").findall    # the commonest
+# over those characters float() takes exactly words.py's numbers (without '+').  Compiled at
+# their first call (as _MORE_DECIMALS'): the compiled core reads those lines in most runs
+_MOVE_LINES = compiled_on_first_call(
+    globals(), "_MOVE_LINES", r"\nG1 X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)", "findall")
+_MOVE_XYE = compiled_on_first_call(globals(), "_MOVE_XYE", r"\nG1 X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)",
+                                   "findall")    # the commonest
 _ends_nl = operator.methodcaller("endswith", "\n")
 
 
@@ -240,7 +242,9 @@ def _plain_moves_py(raws):
     return xs, ys, es, given, comments, values
 
 
-_MORE_DECIMALS = {d: re.compile(r"\.[0-9]{%d}" % (d + 1)).search for d in (3, 5)}
+_MORE_DECIMALS = {}
+_MORE_DECIMALS.update((d, compiled_on_first_call(_MORE_DECIMALS, d, r"\.[0-9]{%d}" % (d + 1), "search"))
+                      for d in (3, 5))
 
 
 def _decimals_at_least(texts, least: int) -> int:

@@ -18,7 +18,7 @@ Everything is vectorised over strokes (numpy), so a file with 10^5 strokes plans
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections import namedtuple
 
 import numpy as np
 
@@ -101,17 +101,14 @@ def isolate(fn, rows, stage, failed):
     return pieces
 
 
-class SharedPiece(NamedTuple):
+class SharedPiece(namedtuple("SharedPiece", "rows mask vals t_pos bad inv")):
     """The candidates of the strokes rows whose inputs repeat (pieces_once): row q has the
     entries of distinct row inv[q], whose mask, vals (row-major), t_pos and bad rows are
     those of a Candidates.piece of the distinct rows.  Candidates.of_pieces keeps the
-    distinct rows' entries once."""
-    rows: np.ndarray
-    mask: np.ndarray
-    vals: np.ndarray
-    t_pos: np.ndarray
-    bad: np.ndarray
-    inv: np.ndarray
+    distinct rows' entries once.  Its fields are arrays.  (collections' namedtuple, not
+    typing.NamedTuple: that one compiles each field's annotation, ~1 M instructions at
+    every start.)"""
+    __slots__ = ()
 
 
 class Candidates:

@@ -34,12 +34,14 @@ import dataclasses
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
 
 try:  # Python 3.11+
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - 3.10
     import tomli as tomllib
+
+from .records import record
 
 FLAVOURS = ("klipper", "marlin2", "marlin-legacy", "rrf")
 SHAPERS = ("none", "zv", "mzv", "ei")
@@ -50,7 +52,7 @@ class ProfileError(ValueError):
     """A profile that cannot be used; the message starts with the file (and key)."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Profile:
     """One printer: its limits, firmware and moving mass (fields below, units in their names)."""
     # (a docstring of its own: without one, @dataclass builds one from inspect.signature of

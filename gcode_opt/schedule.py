@@ -26,7 +26,6 @@ from operator import attrgetter, is_, is_not, itemgetter
 import numpy as np
 
 from .distinct import column_classes_first, distinct
-from . import arcs
 from . import chains
 from . import corners
 from . import curves
@@ -79,14 +78,20 @@ def _fixed_lines(plan, pin, rows, strokes, profile, alpha, rules):
     plan.put(rows, plan_fixed_alpha(pin.take(rows), alpha))
 
 
+def _arcs():
+    """arcs.py, imported by a run's first arc stroke (~2.8 M instructions: most files have none)."""
+    from . import arcs
+    return arcs
+
+
 KINDS = {
     K_LINE: Kind(lambda pin, r, sts, prof, rules: _Pieces(_line_candidates(pin, r)), _fixed_lines,
                  lambda sts, T, b, rules, prof, same=None, cmd=None: _line_segments(sts, T, b, rules, same, cmd),
                  batch=False),
-    K_ARC: Kind(lambda pin, r, sts, prof, rules: arcs.candidates_arc(pin, r, sts),
-                lambda plan, pin, r, sts, prof, alpha, rules: arcs.fixed_alpha_arc(plan, pin, r, sts, alpha),
-                lambda sts, T, b, rules, prof: arcs.plan_arc_segments(sts, T, b, rules, prof),
-                lambda pin, sts, r, prof: arcs.adjust_plan_inputs(pin, sts, r, prof)),
+    K_ARC: Kind(lambda pin, r, sts, prof, rules: _arcs().candidates_arc(pin, r, sts),
+                lambda plan, pin, r, sts, prof, alpha, rules: _arcs().fixed_alpha_arc(plan, pin, r, sts, alpha),
+                lambda sts, T, b, rules, prof: _arcs().plan_arc_segments(sts, T, b, rules, prof),
+                lambda pin, sts, r, prof: _arcs().adjust_plan_inputs(pin, sts, r, prof)),
     K_CURVE: Kind(lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof),
                   lambda plan, pin, r, sts, prof, alpha, rules:
                   curves.fixed_alpha_curve(plan, pin, r, sts, prof, alpha),

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
 
+from .records import record
 from .words import LazyPattern
 
 HEAD_BYTES = 16384
@@ -49,7 +50,7 @@ _find_key_values = _findall_at_line_starts(_KEY_VALUE)          # over the tail
 _find_cura_settings = _findall_at_line_starts(_CURA_SETTING)
 
 
-@dataclass
+@record
 class SlicerSettings:
     """The slicer's own settings a file carries (its comments), raw text by key."""
     values: dict = field(default_factory=dict)     # key -> raw text as the slicer serialised it

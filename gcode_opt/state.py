@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import math
 import operator
-import re
 
 from . import features as feat
 from .profile import Profile
-from .words import WordError, command_of, command_text, keyvals_of, params_of, strict_number, strip_checksum
+from .words import (WordError, command_of, command_text, compiled_on_first_call, keyvals_of, params_of,
+                    strict_number, strip_checksum)
 
 # Move.kind
 LINE = 0      # straight XY(Z) move, with or without E
@@ -125,8 +125,10 @@ class GcodeError(ValueError):
 # the slicer's own "G1 X.. Y.. E.. F..": this regex leaves float() only the characters
 # "+-.0123456789", where float() accepts exactly the strict number grammar (and raises on
 # "1.2.3", "1-2", "."), so the fast path reads what the strict tokenizer would
-_fast_m204 = re.compile(r"M204(?:[ \t]+[SPTR][-+.0-9]+)*[ \t\r\n]*").fullmatch
-_fast_match = re.compile(r"G[01](?:[ \t]+[XYZEF][-+.0-9]+)*[ \t\r\n]*").fullmatch
+# (compiled at their first call: the compiled reader reads those lines in most runs)
+_fast_m204 = compiled_on_first_call(globals(), "_fast_m204", r"M204(?:[ \t]+[SPTR][-+.0-9]+)*[ \t\r\n]*", "fullmatch")
+_fast_match = compiled_on_first_call(globals(), "_fast_match", r"G[01](?:[ \t]+[XYZEF][-+.0-9]+)*[ \t\r\n]*",
+                                     "fullmatch")
 
 # Ranges beyond any printer: a value outside is a damaged file, refused with its line.
 MAX_POS_D = 1e5        # |X|,|Y|,|Z|,|I|,|J|,|R| in mm (100 m)

@@ -26,9 +26,9 @@ from __future__ import annotations
 import math
 import operator
 import os
-import re
 
 from . import native
+from .words import LazyPattern, compiled_on_first_call
 
 # The compiled column pass (_emit.c, module _gcode_opt_emit): optional; it passes only the
 # blocks _fast_ok's Python checks certainly pass, else they run (tests/test_speed_rewrite_core.py)
@@ -45,15 +45,11 @@ def _compiled_on_first_call(name, pattern, method, table=None):
     (module global `name`, or table[name]): most runs never call them (the compiled core
     checks the blocks), and the compiles of the ten below were ~6 M instructions of every
     run's start."""
-    def first(*args):
-        fn = getattr(re.compile(pattern), method)
-        (globals() if table is None else table)[name] = fn
-        return fn(*args)
-    return first
+    return compiled_on_first_call(globals() if table is None else table, name, pattern, method)
 
 
-NUM = re.compile(r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
-WORD = re.compile(r"([A-Za-z])(.*)\Z")
+NUM = LazyPattern(globals(), "NUM", r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z")    # PrusaSlicer writes E.84612
+WORD = LazyPattern(globals(), "WORD", r"([A-Za-z])(.*)\Z")
 _N8 = r"(-?(?:\d+(?:\.\d{0,8})?|\.\d{1,8}))"     # NUM with at most MAX_DECIMALS decimals
 _M204_PLAIN = _compiled_on_first_call("_M204_PLAIN", rf"M204 ([A-Za-z]){_N8}", "fullmatch")
 _G1_PLAIN = _compiled_on_first_call("_G1_PLAIN", rf"G1 X{_N8} Y{_N8}(?: E{_N8})? F{_N8}", "fullmatch")

@@ -34,6 +34,17 @@ class LazyPattern:
         return getattr(compiled, attr)
 
 
+def compiled_on_first_call(where: dict, name, pattern, method: str, flags: int = 0):
+    """re.compile(pattern, flags).method (a pattern's bound fullmatch, findall, ...), compiled
+    at its first call, which puts it in its place: where[name], a module's globals() or a
+    table.  LazyPattern's twin for a module that keeps the bound method, not the pattern."""
+    def first(*args):
+        fn = getattr(re.compile(pattern, flags), method)
+        where[name] = fn
+        return fn(*args)
+    return first
+
+
 # a classic command's whole code part: command word, then letter+number words (spaces
 # optional: "G1X10Y10E.5" is legal), no number followed by what strtod reads as an exponent
 _STRICT = LazyPattern(globals(), "_STRICT", rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?"

@@ -20,8 +20,9 @@ from gcode_opt import curves
 from gcode_opt.curves import (CAP_MARGIN, CORNER_COS, JERK_F_STEP_R, MAX_R_OVER_S, SMOOTH_MIN_D, _GEOM_BLOCK,
                               _GEOM_MAX_PTS, _LIM_FIELDS, _NO_ENDS, _accel_in_force_v, _exp_inplace, _jerk_caps,
                               _klipper_v2, _lim_fields, _marlin_jd_v2, _median, _neighbour_dirs, _part, _pmax,
-                              _segments, _xy_block, curvature_from_polyline, vertex_cap, SQRT2_M1)
+                              _segments, _xy_block, vertex_cap, SQRT2_M1)
 from gcode_opt.laws import circle
+from gcode_opt.laws.curve import curvature_from_polyline
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
 from gcode_opt.strokes import K_CURVE

@@ -26,7 +26,6 @@ The problem is convex in φ(·) (φ̇², φ̇⁴, φ̈² are convex), so the sol
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,6 +33,7 @@ from ..probe_rng import ProbeRng
 from ..distinct import distinct
 from .. import native
 from ..blas import blas_one_thread
+from ..records import record
 
 # The compiled elementwise steps of _precond_cheb (and curves._parts_block's kernel):
 # _curvecore.c, module _gcode_opt_curvecore; optional, the same bits as the numpy code
@@ -959,7 +959,7 @@ def _own_arrays(got, like, made):
     return out
 
 
-@dataclass
+@record
 class CircleBatch:
     """Optimal laws for B arcs.  Angles in rad, t in s, R in mm (or any length unit).
 
@@ -1197,7 +1197,7 @@ class CircleBatch:
         return self.R_d * np.sqrt(self._extremum("amax")) / self.T_t ** 2
 
 
-@dataclass
+@record
 class CircleLaw:
     """One arc of a CircleBatch (same methods, scalars / 1-D arrays)."""
     batch: CircleBatch

@@ -15,12 +15,12 @@ is small) that keeps the conditioning of D² rather than D⁴.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 from numpy.polynomial import chebyshev as C
 
+from ..records import record
 from .circle import _cheb_setup, _clenshaw, _gauss
 
 _N_LADDER = (32, 48, 64, 96, 128, 192, 256, 384, 512)
@@ -91,7 +91,7 @@ def _newton_curve(n, k_fun, kx_fun, g1_fun, gam2, u0, u1, theta, w_start, max_it
     return w, cc, False
 
 
-@dataclass
+@record
 class CurveLaw:
     """Optimal law s(t) on a curve of length S (mm) in time T (s)."""
     S: float

@@ -4,7 +4,6 @@ every grid held at the full run's largest level (FIX=L), compares windows with t
 import os
 import sys
 
-import numpy as np
 
 from gcode_opt.laws import circle
 

@@ -10,7 +10,7 @@ import numpy as np
 from gcode_opt import features as feat
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
-from gcode_opt.schedule import _candidates, _faults_of, _rows_by_kind, _plan_kind_codes_of, plan_inputs, KINDS
+from gcode_opt.schedule import _candidates, _faults_of, _rows_by_kind, _plan_kind_codes_of, plan_inputs
 
 
 def setup(path):

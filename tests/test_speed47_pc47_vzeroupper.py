@@ -20,17 +20,9 @@ import numpy as np
 import pytest
 
 from gcode_opt.laws import circle
+from test_speed46_cheb46_circle import _random_rows     # (random circle-law rows, the same draws)
 
 CORE = circle.CORE_MOD
-
-
-def _rows(seed, nb):
-    rng = np.random.default_rng(seed)
-    phi = rng.uniform(0.05, 3.0, nb) * rng.choice([1.0, 1.0, -1.0, 4.0], nb)
-    gam2 = np.exp(rng.uniform(np.log(0.01), np.log(60.0), nb))
-    u0 = phi * rng.uniform(0.0, 1.6, nb)
-    u1 = phi * rng.uniform(0.0, 1.6, nb)
-    return phi, gam2, u0, u1
 
 
 def _bits(a, b):
@@ -40,7 +32,7 @@ def _bits(a, b):
 @pytest.mark.skipif(CORE is None, reason="no compiled core")
 @pytest.mark.parametrize("n", [16, 20, 24, 32, 48])
 def test_avx_scalar_and_numpy_forms_same_bits(n):
-    phi, gam2, u0, u1 = _rows(n, 300)
+    phi, gam2, u0, u1 = _random_rows(n, 300)
     w0 = np.repeat(phi[:, None], n + 1, axis=1)
     want = circle._precond_cheb_np(n, phi, gam2, u0, u1, w0)
     assert want[2].mean() > 0.9

@@ -23,3 +23,21 @@ def peak_rss_mb():
         return None
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1 << 20 if sys.platform == "darwin" else 1 << 10)
+
+
+def heap_rss_mb():
+    """The resident part of the C heap (glibc's brk heap: every [heap] mapping, numpy's
+    madvise splits it in several), MB; None where /proc/self/smaps is not (not Linux).
+    What the allocator keeps of freed blocks shows here, not in what Python traces."""
+    total_kb, in_heap = 0, False
+    try:
+        with open("/proc/self/smaps", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.endswith("[heap]\n"):
+                    in_heap = True
+                elif in_heap and line.startswith("Rss:"):
+                    total_kb += int(line.split()[1])
+                    in_heap = False
+    except (OSError, ValueError, IndexError):
+        return None
+    return total_kb / 1024.0

@@ -23,6 +23,7 @@ import threading
 import time
 
 from gcode_opt import blas, malloc_policy
+from gcode_opt.rss import heap_rss_mb
 
 blas.one_thread_from_start()
 malloc_policy.apply()
@@ -53,19 +54,6 @@ def status_mib():
             if line.startswith("AnonHugePages"):
                 got["THP"] = int(line.split()[1]) / 1024.0
     return got
-
-
-def heap_rss_mib():
-    """Rss of the brk heap, MiB: every [heap] mapping (numpy's madvise splits it in several)."""
-    total_kb, in_heap = 0, False
-    with open("/proc/self/smaps") as fh:
-        for line in fh:
-            if line.endswith("[heap]\n"):
-                in_heap = True
-            elif in_heap and line.startswith("Rss:"):
-                total_kb += int(line.split()[1])
-                in_heap = False
-    return total_kb / 1024.0
 
 
 def obmalloc_mib():
@@ -126,7 +114,7 @@ stop = threading.Event()
 
 def sampler():
     while not stop.is_set():
-        st, heap, m = status_mib(), heap_rss_mib(), libc.mallinfo2()
+        st, heap, m = status_mib(), heap_rss_mb(), libc.mallinfo2()
         trace.append((where[0], st["VmRSS"], heap, m.uordblks / MIB))
         time.sleep(0.001)
 

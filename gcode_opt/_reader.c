@@ -753,9 +753,14 @@ static inline __attribute__((always_inline)) void linear_calc(const LinIn *in, c
 
 /* G0/G1 of the fast shape: state._linear(idx, raw, p, False) as Python runs it.
  * Returns a new reference, or NULL with *fallback set (nothing changed) or an error. */
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v);
+static uint64_t kept_tag(PyObject *dict);
+
 static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fallback)
 {
     *fallback = 1;
+    uint64_t tag0 = kept_tag(dict);     /* (before any write: kept_moved) */
     PyObject *o_x = GET(S_X), *o_y = GET(S_Y), *o_z = GET(S_Z), *o_e = GET(S_E);
     PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH);
     PyObject *o_v = GET(S_V), *o_speed = GET(S_SPEED), *o_one = GET(S_ONE);
@@ -820,6 +825,7 @@ static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fall
     err |= PyDict_SetItem(dict, state_name[S_Z], nz) < 0;
     err |= PyDict_SetItem(dict, state_name[S_E], ne) < 0;
     if (!err) {
+        kept_moved(dict, tag0, nx, ny, nz, ne, has_f ? nv : NULL);
         if (x == x0 && y == y0 && z == z0 && de == 0.0) {
             res = Py_None;
             Py_INCREF(res);
@@ -1410,10 +1416,120 @@ static int sess_accels(Session *ss)
     return ok;
 }
 
+/* What a session read from a state's dict, kept past its write-back (sess_flush) with the
+ * dict's version tag then: a later session on that dict, not changed since (the tag is
+ * globally unique and moves at every change), takes it as sess_load would read it again,
+ * without ~17 dict look-ups (~2.2 k instructions: each return of the firmware core's play
+ * to Python at a stop of the measure pass, and of the analyse pass's loops, closes the
+ * session and the next one loads it).  The objects are borrowed from the dict, alive
+ * while it holds them, i.e. while the tag is unchanged.  Python 3.11 only (3.12 marks the
+ * tag deprecated): elsewhere every load reads the dict. */
+#if PY_VERSION_HEX >= 0x030B0000 && PY_VERSION_HEX < 0x030C0000
+#define LOAD_CACHE 1
+static struct {
+    PyObject *dict;                   /* not a reference: compared only */
+    uint64_t tag;                     /* 0: nothing kept */
+    LinIn in;
+    double acc[A_N], flow;
+    PyObject *lim, *o_feature, *o_acc[A_N];
+} LOADED;
+
+static inline uint64_t dict_tag(PyObject *dict)
+{
+    return ((PyDictObject *)dict)->ma_version_tag;
+}
+
+/* keep what a live session holds, the dict now holding the same (sess_load's values) */
+static void sess_keep(const Session *ss)
+{
+    LOADED.dict = ss->dict;
+    LOADED.tag = dict_tag(ss->dict);
+    LOADED.in = ss->in;
+    memcpy(LOADED.acc, ss->acc, sizeof LOADED.acc);
+    memcpy(LOADED.o_acc, ss->o_acc, sizeof LOADED.o_acc);
+    LOADED.flow = ss->flow;
+    LOADED.lim = ss->lim;
+    LOADED.o_feature = ss->o_feature;
+}
+
+/* step()'s G0/G1 (linear) moved x y z e (v: NULL if not) in a dict whose tag was tag0
+ * before: what was kept for the dict then is kept on, with the new values (the analyse
+ * pass's loops hand a line that ends a run to step(), then read on in a new session) */
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v)
+{
+    if (LOADED.tag == 0 || LOADED.dict != dict || LOADED.tag != tag0)
+        return;
+    LOADED.in.x0 = PyFloat_AS_DOUBLE(x);    /* (linear's objects: exact floats) */
+    LOADED.in.y0 = PyFloat_AS_DOUBLE(y);
+    LOADED.in.z0 = PyFloat_AS_DOUBLE(z);
+    LOADED.in.e = PyFloat_AS_DOUBLE(e);
+    if (v != NULL)
+        LOADED.in.v = PyFloat_AS_DOUBLE(v);
+    LOADED.tag = dict_tag(dict);
+}
+
+static uint64_t kept_tag(PyObject *dict)
+{
+    return dict_tag(dict);
+}
+
+/* sess_load from what was kept, if the dict did not change since: 1 done (live) */
+static int sess_load_kept(Session *ss)
+{
+    if (LOADED.tag == 0 || LOADED.dict != ss->dict || dict_tag(ss->dict) != LOADED.tag)
+        return 0;
+    ss->in = LOADED.in;
+    memcpy(ss->acc, LOADED.acc, sizeof ss->acc);
+    memcpy(ss->o_acc, LOADED.o_acc, sizeof ss->o_acc);
+    ss->flow = LOADED.flow;
+    ss->lim = LOADED.lim;
+    ss->o_feature = LOADED.o_feature;
+    ss->dirty = ss->dirty_v = 0;
+    ss->acc_kind = ACC_UNKNOWN;
+    ss->acc_own = 0;
+    ss->live = 1;
+    return 1;
+}
+#endif
+
+#ifndef LOAD_CACHE
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v)
+{
+    (void)dict, (void)tag0, (void)x, (void)y, (void)z, (void)e, (void)v;
+}
+
+static uint64_t kept_tag(PyObject *dict)
+{
+    (void)dict;
+    return 0;
+}
+#endif
+
+/* A session not live yet goes live where that costs no look-up (sess_load_kept): an M204
+ * or a marked comment before the session's first G0/G1 (after each stop of the measure
+ * pass: "M204 S..", ";TYPE:..") is then read live, the dict left as it was kept; read
+ * into the dict instead, it changed the tag, and the G0/G1 after it read the dict again.
+ * The same state either way (a live session's M204s and features are written back). */
+static inline void sess_wake(Session *ss)
+{
+#ifdef LOAD_CACHE
+    if (!ss->live)
+        sess_load_kept(ss);
+#else
+    (void)ss;
+#endif
+}
+
 /* read the state as linear() would (live only where linear() would not fall back for it) */
 static void sess_load(Session *ss)
 {
     PyObject *dict = ss->dict;
+#ifdef LOAD_CACHE
+    if (sess_load_kept(ss))
+        return;
+#endif
     ss->live = ss->dirty = ss->dirty_v = 0;
     PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH), *o_one = GET(S_ONE);
     ss->lim = GET(S_LIM);
@@ -1436,6 +1552,9 @@ static void sess_load(Session *ss)
     ss->acc_kind = ACC_UNKNOWN;       /* read at the session's first M204 */
     ss->acc_own = 0;
     ss->live = 1;
+#ifdef LOAD_CACHE
+    sess_keep(ss);
+#endif
 }
 
 /* slot k now holds slot `from`'s value and object (made or not), as Python's
@@ -1570,7 +1689,7 @@ static int sess_flush(Session *ss)
             PyObject *o = rc == 0 ? sess_acc_obj(ss, k) : ss->o_acc[k];
             if (rc == 0 && (o == NULL || PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], o) < 0))
                 rc = -1;
-            Py_XDECREF(ss->o_acc[k]);
+            Py_XDECREF(ss->o_acc[k]);     /* (the dict holds it now: o_acc[k] borrowed from it) */
         }
     ss->acc_own = 0;
     if (ss->live && ss->dirty && rc == 0) {
@@ -1583,6 +1702,12 @@ static int sess_flush(Session *ss)
             Py_XDECREF(f);
         }
     }
+#ifdef LOAD_CACHE
+    /* the dict holds what the session held (the values sess_load would read): kept (what
+     * was kept before stays good while the dict's tag is its own) */
+    if (ss->live && rc == 0)
+        sess_keep(ss);
+#endif
     ss->live = ss->dirty = ss->dirty_v = 0;
     return rc;
 }
@@ -1790,6 +1915,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
             return 0;
         case SHAPE_MARKED: {
             PyObject *f;
+            sess_wake(ss);
             int done = marked_comment(ss->dict, s + code_n, n - code_n, &f);
             if (done < 0)
                 return -1;
@@ -1808,6 +1934,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
         return fused_g_move(ss, &w, out);
     }
     if (n >= 4 && memcmp(s, "M204", 4) == 0) {
+        sess_wake(ss);
 #ifdef FAST_DECIMAL
         if (ss->live && sess_m204_s(ss, s, n))
             return 0;
@@ -2228,10 +2355,82 @@ static PyObject *split_block(PyObject *module, PyObject *args)
     return Py_BuildValue("(Nn)", (PyObject *)o, start[n]);
 }
 
+/* ---------------------------------------------------------------- the state's snapshot
+ * MachineState.snapshot(): the modal attributes (MachineState.MODAL) as a tuple.  Python's
+ * attrgetter takes each through the generic attribute look-up (the type's MRO first,
+ * ~210 instructions a name); a MachineState (not a subclass) whose class defines none of
+ * them holds each in its dict, read here (~110 a name).  The measure pass takes one at
+ * every stop of its ledger.  Any other object, or a name missing from the dict, goes to
+ * the attrgetter (set_modal's), as does every call before set_modal. */
+static PyObject *MODAL_NAMES = NULL;   /* tuple of str */
+static PyObject *MODAL_GET = NULL;     /* operator.attrgetter(*MODAL_NAMES) */
+
+static PyObject *set_modal(PyObject *module, PyObject *args)
+{
+    PyObject *names, *getter;
+    (void)module;
+    if (!PyArg_ParseTuple(args, "O!O", &PyTuple_Type, &names, &getter))
+        return NULL;
+    Py_ssize_t n = PyTuple_GET_SIZE(names);
+    PyObject *own = PyTuple_New(n);
+    if (own == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *nm = PyTuple_GET_ITEM(names, i);
+        if (!PyUnicode_CheckExact(nm)) {
+            Py_DECREF(own);
+            PyErr_SetString(PyExc_TypeError, "set_modal: the names must be str");
+            return NULL;
+        }
+        Py_INCREF(nm);
+        PyUnicode_InternInPlace(&nm);  /* (the dict's keys are interned: compared by pointer) */
+        PyTuple_SET_ITEM(own, i, nm);
+    }
+    Py_XSETREF(MODAL_NAMES, own);
+    Py_INCREF(getter);
+    Py_XSETREF(MODAL_GET, getter);
+    Py_RETURN_NONE;
+}
+
+static PyObject *snapshot(PyObject *module, PyObject *state)
+{
+    (void)module;
+    if (MODAL_GET == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "snapshot: set_modal not called");
+        return NULL;
+    }
+    if (STATE_TYPE == NULL || Py_TYPE(state) != STATE_TYPE)
+        return PyObject_CallOneArg(MODAL_GET, state);
+    PyObject *dict = PyObject_GenericGetDict(state, NULL);
+    if (dict == NULL)
+        return NULL;
+    Py_ssize_t n = PyTuple_GET_SIZE(MODAL_NAMES);
+    PyObject *snap = PyTuple_New(n);
+    if (snap == NULL) {
+        Py_DECREF(dict);
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *v = PyDict_GetItemWithError(dict, PyTuple_GET_ITEM(MODAL_NAMES, i));
+        if (v == NULL) {
+            Py_DECREF(snap);
+            Py_DECREF(dict);
+            return PyErr_Occurred() ? NULL : PyObject_CallOneArg(MODAL_GET, state);
+        }
+        Py_INCREF(v);
+        PyTuple_SET_ITEM(snap, i, v);
+    }
+    Py_DECREF(dict);
+    return snap;
+}
+
 static PyMethodDef mod_methods[] = {
     {"setup", setup, METH_VARARGS,
      "setup(Move, MachineState, TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)"},
     {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL, "step(state, idx, raw)"},
+    {"set_modal", set_modal, METH_VARARGS,
+     "set_modal(names, getter): snapshot's attributes, and the attrgetter for other objects"},
+    {"snapshot", snapshot, METH_O, "snapshot(state): the modal attributes (MachineState.MODAL), a tuple"},
     {"make_method", make_method, METH_NOARGS, "step as a method for MachineState"},
     {"split_lines", split_lines, METH_VARARGS,
      "split_lines(buf, final) -> (lines, used): buf's whole lines decoded as read_lines reads them"},

@@ -1147,9 +1147,12 @@ static int noop_command(const unsigned char *s, Py_ssize_t code_n)
  * done (*feature: the feature set, borrowed, or NULL; a comment marked only before its
  * strip changes nothing), 0 Python decides (nothing changed: no _NAMES, a layer that is
  * not an int), -1 error. */
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o);
+
 static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, PyObject **feature)
 {
     *feature = NULL;
+    uint64_t tag0 = kept_tag(dict);     /* (before any write: kept_marked) */
     if (FEATURE_NAMES == NULL || N_MARKS < 0)
         return 0;
     while (n > 0 && is_split_space(c[n - 1]))      /* strip(): the comment starts with ';' */
@@ -1176,6 +1179,8 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
             PyObject *next = one ? PyNumber_Add(layer, one) : NULL;
             Py_XDECREF(one);
             int rc = next == NULL ? -1 : PyDict_SetItem(dict, state_name[S_LAYER], next);
+            if (rc == 0)
+                kept_marked(dict, tag0, S_LAYER, next);
             Py_XDECREF(next);
             return rc < 0 ? -1 : 1;
         }
@@ -1197,6 +1202,8 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
         Py_INCREF(f);                              /* (held while the dict lets go of the old one) */
         int rc = PyDict_SetItem(dict, state_name[S_FEATURE], f) < 0
                  || PyDict_SetItem(dict, state_name[S_SEEN], Py_True) < 0 ? -1 : 1;
+        if (rc == 1)
+            kept_marked(dict, tag0, S_FEATURE, f);
         Py_DECREF(f);
         *feature = f;                              /* (the dict holds it) */
         return rc;
@@ -1424,19 +1431,56 @@ static int sess_accels(Session *ss)
  * session and the next one loads it).  The objects are borrowed from the dict, alive
  * while it holds them, i.e. while the tag is unchanged.  Python 3.11 only (3.12 marks the
  * tag deprecated): elsewhere every load reads the dict. */
+static PyObject *MODAL_NAMES = NULL;   /* snapshot's names (set_modal): a tuple of str */
+static PyObject *MODAL_GET = NULL;     /* operator.attrgetter(*MODAL_NAMES) */
+
 #if PY_VERSION_HEX >= 0x030B0000 && PY_VERSION_HEX < 0x030C0000
 #define LOAD_CACHE 1
+enum { MOD_MAX = 32 };
 static struct {
     PyObject *dict;                   /* not a reference: compared only */
     uint64_t tag;                     /* 0: nothing kept */
     LinIn in;
     double acc[A_N], flow;
     PyObject *lim, *o_feature, *o_acc[A_N];
+    /* snapshot()'s objects, MachineState.MODAL's values (mod_ok: all of them), kept on
+     * through the writes made here (flush, linear, marked comments) */
+    int mod_ok;
+    PyObject *mod[MOD_MAX];
 } LOADED;
+static Py_ssize_t MOD_N = 0;          /* MODAL's names (set_modal), 0: none kept */
+static int MOD_AT[S_N];               /* each state_name's index in MODAL + 1; 0: not there */
 
 static inline uint64_t dict_tag(PyObject *dict)
 {
     return ((PyDictObject *)dict)->ma_version_tag;
+}
+
+/* what was kept is the dict as it is (its tag unchanged since) */
+static inline int kept_now(PyObject *dict)
+{
+    return LOADED.tag != 0 && LOADED.dict == dict && dict_tag(dict) == LOADED.tag;
+}
+
+/* the kept modal object of state_name[k] is now o (the dict's) */
+static inline void mod_put(int k, PyObject *o)
+{
+    if (MOD_AT[k])
+        LOADED.mod[MOD_AT[k] - 1] = o;
+}
+
+/* the modal objects read from the dict (sess_load's full read) */
+static void mod_read(PyObject *dict)
+{
+    LOADED.mod_ok = 0;
+    if (MOD_N == 0 || MODAL_NAMES == NULL)
+        return;
+    for (Py_ssize_t i = 0; i < MOD_N; i++)
+        if ((LOADED.mod[i] = PyDict_GetItemWithError(dict, PyTuple_GET_ITEM(MODAL_NAMES, i))) == NULL) {
+            PyErr_Clear();
+            return;
+        }
+    LOADED.mod_ok = 1;
 }
 
 /* keep what a live session holds, the dict now holding the same (sess_load's values) */
@@ -1464,8 +1508,26 @@ static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, 
     LOADED.in.y0 = PyFloat_AS_DOUBLE(y);
     LOADED.in.z0 = PyFloat_AS_DOUBLE(z);
     LOADED.in.e = PyFloat_AS_DOUBLE(e);
-    if (v != NULL)
+    mod_put(S_X, x);
+    mod_put(S_Y, y);
+    mod_put(S_Z, z);
+    mod_put(S_E, e);
+    if (v != NULL) {
         LOADED.in.v = PyFloat_AS_DOUBLE(v);
+        mod_put(S_V, v);
+    }
+    LOADED.tag = dict_tag(dict);
+}
+
+/* marked_comment set state_name[k] to o (the feature, or the layer) in a dict whose tag
+ * was tag0 before: kept on as kept_moved keeps on */
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o)
+{
+    if (LOADED.tag == 0 || LOADED.dict != dict || LOADED.tag != tag0)
+        return;
+    if (k == S_FEATURE)
+        LOADED.o_feature = o;
+    mod_put(k, o);
     LOADED.tag = dict_tag(dict);
 }
 
@@ -1504,6 +1566,11 @@ static uint64_t kept_tag(PyObject *dict)
 {
     (void)dict;
     return 0;
+}
+
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o)
+{
+    (void)dict, (void)tag0, (void)k, (void)o;
 }
 #endif
 
@@ -1553,6 +1620,7 @@ static void sess_load(Session *ss)
     ss->acc_own = 0;
     ss->live = 1;
 #ifdef LOAD_CACHE
+    mod_read(dict);
     sess_keep(ss);
 #endif
 }
@@ -1684,11 +1752,18 @@ static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const 
 static int sess_flush(Session *ss)
 {
     int rc = 0;
+#ifdef LOAD_CACHE
+    int chain = ss->live && LOADED.mod_ok && kept_now(ss->dict);     /* the modal objects kept on */
+#endif
     for (int k = 0; ss->acc_own && k < A_N; k++)     /* the M204s' objects (none unless live) */
         if (ss->acc_own & (1 << k)) {
             PyObject *o = rc == 0 ? sess_acc_obj(ss, k) : ss->o_acc[k];
             if (rc == 0 && (o == NULL || PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], o) < 0))
                 rc = -1;
+#ifdef LOAD_CACHE
+            if (rc == 0)
+                mod_put(ACC_NAME[k], o);
+#endif
             Py_XDECREF(ss->o_acc[k]);     /* (the dict holds it now: o_acc[k] borrowed from it) */
         }
     ss->acc_own = 0;
@@ -1699,14 +1774,22 @@ static int sess_flush(Session *ss)
             PyObject *f = PyFloat_FromDouble(vals[i]);
             if (f == NULL || PyDict_SetItem(ss->dict, state_name[keys[i]], f) < 0)
                 rc = -1;
+#ifdef LOAD_CACHE
+            if (rc == 0)
+                mod_put(keys[i], f);
+#endif
             Py_XDECREF(f);
         }
     }
 #ifdef LOAD_CACHE
     /* the dict holds what the session held (the values sess_load would read): kept (what
-     * was kept before stays good while the dict's tag is its own) */
-    if (ss->live && rc == 0)
+     * was kept before stays good while the dict's tag is its own); the modal objects too
+     * where they were kept up to the flush's writes */
+    if (ss->live && rc == 0) {
+        if (!chain)
+            LOADED.mod_ok = 0;
         sess_keep(ss);
+    }
 #endif
     ss->live = ss->dirty = ss->dirty_v = 0;
     return rc;
@@ -2362,9 +2445,6 @@ static PyObject *split_block(PyObject *module, PyObject *args)
  * them holds each in its dict, read here (~110 a name).  The measure pass takes one at
  * every stop of its ledger.  Any other object, or a name missing from the dict, goes to
  * the attrgetter (set_modal's), as does every call before set_modal. */
-static PyObject *MODAL_NAMES = NULL;   /* tuple of str */
-static PyObject *MODAL_GET = NULL;     /* operator.attrgetter(*MODAL_NAMES) */
-
 static PyObject *set_modal(PyObject *module, PyObject *args)
 {
     PyObject *names, *getter;
@@ -2389,6 +2469,17 @@ static PyObject *set_modal(PyObject *module, PyObject *args)
     Py_XSETREF(MODAL_NAMES, own);
     Py_INCREF(getter);
     Py_XSETREF(MODAL_GET, getter);
+#ifdef LOAD_CACHE
+    /* where each name the session writes sits in MODAL (the names are interned) */
+    LOADED.mod_ok = 0;
+    MOD_N = n <= MOD_MAX ? n : 0;
+    for (int k = 0; k < S_N; k++) {
+        MOD_AT[k] = 0;
+        for (Py_ssize_t i = 0; i < MOD_N; i++)
+            if (state_name[k] != NULL && PyTuple_GET_ITEM(own, i) == state_name[k])
+                MOD_AT[k] = (int)i + 1;
+    }
+#endif
     Py_RETURN_NONE;
 }
 
@@ -2410,6 +2501,19 @@ static PyObject *snapshot(PyObject *module, PyObject *state)
         Py_DECREF(dict);
         return NULL;
     }
+#ifdef LOAD_CACHE
+    /* the objects kept with the session's load (at a stop of the measure pass: the dict as
+     * the session's write-back left it), without a look-up */
+    int kept = kept_now(dict);
+    if (kept && LOADED.mod_ok && MOD_N == n) {
+        for (Py_ssize_t i = 0; i < n; i++) {
+            Py_INCREF(LOADED.mod[i]);
+            PyTuple_SET_ITEM(snap, i, LOADED.mod[i]);
+        }
+        Py_DECREF(dict);
+        return snap;
+    }
+#endif
     for (Py_ssize_t i = 0; i < n; i++) {
         PyObject *v = PyDict_GetItemWithError(dict, PyTuple_GET_ITEM(MODAL_NAMES, i));
         if (v == NULL) {
@@ -2420,6 +2524,13 @@ static PyObject *snapshot(PyObject *module, PyObject *state)
         Py_INCREF(v);
         PyTuple_SET_ITEM(snap, i, v);
     }
+#ifdef LOAD_CACHE
+    if (kept && MOD_N == n) {          /* read: kept on from here */
+        for (Py_ssize_t i = 0; i < n; i++)
+            LOADED.mod[i] = PyTuple_GET_ITEM(snap, i);
+        LOADED.mod_ok = 1;
+    }
+#endif
     Py_DECREF(dict);
     return snap;
 }

@@ -7,7 +7,7 @@ object, on states a file left along the way; other objects go to the attrgetter.
 A session of the fused loop keeps what it read from the state's dict, with the dict's
 version tag, past its write-back; a later session takes it while the tag is unchanged
 (also after an M204 or a feature comment, read live, and after step()'s own G0/G1, which
-moves what was kept on).  Against the reference where no session reads a line (the fused
+moves what was kept on); snapshot() takes the modal objects kept with it.  Against the reference where no session reads a line (the fused
 loop off: step() reads every line from the dict): the file played to each stop, the state
 changed there in Python at random (attributes set, lines given to step()), the snapshots at
 every stop, the model's sums and the last state to the bit.
@@ -130,7 +130,11 @@ def _play(path, profile, seed, fused):
             while pos < len(buf):
                 pos, idx, stopped = sim.play_buf(buf, pos, idx, cr, state.step, -2, True, None)
                 if stopped:
-                    snaps.append((idx, snap(state)))
+                    got = snap(state)
+                    # the snapshot at a stop (where the session's write-back kept its objects)
+                    # is the attrgetter's, object for object
+                    assert all(a is b for a, b in zip(got, st._get_modal(state))), idx
+                    snaps.append((idx, got))
                     _poke(state, rng, idx)
         sim.stop()
         return bits(snaps), res_bits(sim.res), bits([st._get_modal(state), state.warnings])

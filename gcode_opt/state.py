@@ -668,7 +668,7 @@ def _modal_getter():
     """snapshot's getter: the compiled reader's (each attribute read from a MachineState's
     dict: about half the attrgetter's instructions) where it is built and MachineState's
     class defines none of the names (else the dict would not be where they are read);
-    else _get_modal.  The same tuple (tests/test_speed49_snap49_snapshot.py)."""
+    else _get_modal.  The same tuple (tests/test_speed49_snap49_session.py)."""
     if _reader is None or not hasattr(_reader, "snapshot") or any(hasattr(MachineState, n) for n in MachineState.MODAL):
         return _get_modal
     _reader.set_modal(MachineState.MODAL, _get_modal)

@@ -753,9 +753,14 @@ static inline __attribute__((always_inline)) void linear_calc(const LinIn *in, c
 
 /* G0/G1 of the fast shape: state._linear(idx, raw, p, False) as Python runs it.
  * Returns a new reference, or NULL with *fallback set (nothing changed) or an error. */
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v);
+static uint64_t kept_tag(PyObject *dict);
+
 static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fallback)
 {
     *fallback = 1;
+    uint64_t tag0 = kept_tag(dict);     /* (before any write: kept_moved) */
     PyObject *o_x = GET(S_X), *o_y = GET(S_Y), *o_z = GET(S_Z), *o_e = GET(S_E);
     PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH);
     PyObject *o_v = GET(S_V), *o_speed = GET(S_SPEED), *o_one = GET(S_ONE);
@@ -820,6 +825,7 @@ static PyObject *linear(PyObject *dict, PyObject *idx, const Words *w, int *fall
     err |= PyDict_SetItem(dict, state_name[S_Z], nz) < 0;
     err |= PyDict_SetItem(dict, state_name[S_E], ne) < 0;
     if (!err) {
+        kept_moved(dict, tag0, nx, ny, nz, ne, has_f ? nv : NULL);
         if (x == x0 && y == y0 && z == z0 && de == 0.0) {
             res = Py_None;
             Py_INCREF(res);
@@ -1141,9 +1147,12 @@ static int noop_command(const unsigned char *s, Py_ssize_t code_n)
  * done (*feature: the feature set, borrowed, or NULL; a comment marked only before its
  * strip changes nothing), 0 Python decides (nothing changed: no _NAMES, a layer that is
  * not an int), -1 error. */
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o);
+
 static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, PyObject **feature)
 {
     *feature = NULL;
+    uint64_t tag0 = kept_tag(dict);     /* (before any write: kept_marked) */
     if (FEATURE_NAMES == NULL || N_MARKS < 0)
         return 0;
     while (n > 0 && is_split_space(c[n - 1]))      /* strip(): the comment starts with ';' */
@@ -1170,6 +1179,8 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
             PyObject *next = one ? PyNumber_Add(layer, one) : NULL;
             Py_XDECREF(one);
             int rc = next == NULL ? -1 : PyDict_SetItem(dict, state_name[S_LAYER], next);
+            if (rc == 0)
+                kept_marked(dict, tag0, S_LAYER, next);
             Py_XDECREF(next);
             return rc < 0 ? -1 : 1;
         }
@@ -1191,6 +1202,8 @@ static int marked_comment(PyObject *dict, const unsigned char *c, Py_ssize_t n, 
         Py_INCREF(f);                              /* (held while the dict lets go of the old one) */
         int rc = PyDict_SetItem(dict, state_name[S_FEATURE], f) < 0
                  || PyDict_SetItem(dict, state_name[S_SEEN], Py_True) < 0 ? -1 : 1;
+        if (rc == 1)
+            kept_marked(dict, tag0, S_FEATURE, f);
         Py_DECREF(f);
         *feature = f;                              /* (the dict holds it) */
         return rc;
@@ -1410,10 +1423,180 @@ static int sess_accels(Session *ss)
     return ok;
 }
 
+/* What a session read from a state's dict, kept past its write-back (sess_flush) with the
+ * dict's version tag then: a later session on that dict, not changed since (the tag is
+ * globally unique and moves at every change), takes it as sess_load would read it again,
+ * without ~17 dict look-ups (~2.2 k instructions: each return of the firmware core's play
+ * to Python at a stop of the measure pass, and of the analyse pass's loops, closes the
+ * session and the next one loads it).  The objects are borrowed from the dict, alive
+ * while it holds them, i.e. while the tag is unchanged.  Python 3.11 only (3.12 marks the
+ * tag deprecated): elsewhere every load reads the dict. */
+static PyObject *MODAL_NAMES = NULL;   /* snapshot's names (set_modal): a tuple of str */
+static PyObject *MODAL_GET = NULL;     /* operator.attrgetter(*MODAL_NAMES) */
+
+#if PY_VERSION_HEX >= 0x030B0000 && PY_VERSION_HEX < 0x030C0000
+#define LOAD_CACHE 1
+enum { MOD_MAX = 32 };
+static struct {
+    PyObject *dict;                   /* not a reference: compared only */
+    uint64_t tag;                     /* 0: nothing kept */
+    LinIn in;
+    double acc[A_N], flow;
+    PyObject *lim, *o_feature, *o_acc[A_N];
+    /* snapshot()'s objects, MachineState.MODAL's values (mod_ok: all of them), kept on
+     * through the writes made here (flush, linear, marked comments) */
+    int mod_ok;
+    PyObject *mod[MOD_MAX];
+} LOADED;
+static Py_ssize_t MOD_N = 0;          /* MODAL's names (set_modal), 0: none kept */
+static int MOD_AT[S_N];               /* each state_name's index in MODAL + 1; 0: not there */
+
+static inline uint64_t dict_tag(PyObject *dict)
+{
+    return ((PyDictObject *)dict)->ma_version_tag;
+}
+
+/* what was kept is the dict as it is (its tag unchanged since) */
+static inline int kept_now(PyObject *dict)
+{
+    return LOADED.tag != 0 && LOADED.dict == dict && dict_tag(dict) == LOADED.tag;
+}
+
+/* the kept modal object of state_name[k] is now o (the dict's) */
+static inline void mod_put(int k, PyObject *o)
+{
+    if (MOD_AT[k])
+        LOADED.mod[MOD_AT[k] - 1] = o;
+}
+
+/* the modal objects read from the dict (sess_load's full read) */
+static void mod_read(PyObject *dict)
+{
+    LOADED.mod_ok = 0;
+    if (MOD_N == 0 || MODAL_NAMES == NULL)
+        return;
+    for (Py_ssize_t i = 0; i < MOD_N; i++)
+        if ((LOADED.mod[i] = PyDict_GetItemWithError(dict, PyTuple_GET_ITEM(MODAL_NAMES, i))) == NULL) {
+            PyErr_Clear();
+            return;
+        }
+    LOADED.mod_ok = 1;
+}
+
+/* keep what a live session holds, the dict now holding the same (sess_load's values) */
+static void sess_keep(const Session *ss)
+{
+    LOADED.dict = ss->dict;
+    LOADED.tag = dict_tag(ss->dict);
+    LOADED.in = ss->in;
+    memcpy(LOADED.acc, ss->acc, sizeof LOADED.acc);
+    memcpy(LOADED.o_acc, ss->o_acc, sizeof LOADED.o_acc);
+    LOADED.flow = ss->flow;
+    LOADED.lim = ss->lim;
+    LOADED.o_feature = ss->o_feature;
+}
+
+/* step()'s G0/G1 (linear) moved x y z e (v: NULL if not) in a dict whose tag was tag0
+ * before: what was kept for the dict then is kept on, with the new values (the analyse
+ * pass's loops hand a line that ends a run to step(), then read on in a new session) */
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v)
+{
+    if (LOADED.tag == 0 || LOADED.dict != dict || LOADED.tag != tag0)
+        return;
+    LOADED.in.x0 = PyFloat_AS_DOUBLE(x);    /* (linear's objects: exact floats) */
+    LOADED.in.y0 = PyFloat_AS_DOUBLE(y);
+    LOADED.in.z0 = PyFloat_AS_DOUBLE(z);
+    LOADED.in.e = PyFloat_AS_DOUBLE(e);
+    mod_put(S_X, x);
+    mod_put(S_Y, y);
+    mod_put(S_Z, z);
+    mod_put(S_E, e);
+    if (v != NULL) {
+        LOADED.in.v = PyFloat_AS_DOUBLE(v);
+        mod_put(S_V, v);
+    }
+    LOADED.tag = dict_tag(dict);
+}
+
+/* marked_comment set state_name[k] to o (the feature, or the layer) in a dict whose tag
+ * was tag0 before: kept on as kept_moved keeps on */
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o)
+{
+    if (LOADED.tag == 0 || LOADED.dict != dict || LOADED.tag != tag0)
+        return;
+    if (k == S_FEATURE)
+        LOADED.o_feature = o;
+    mod_put(k, o);
+    LOADED.tag = dict_tag(dict);
+}
+
+static uint64_t kept_tag(PyObject *dict)
+{
+    return dict_tag(dict);
+}
+
+/* sess_load from what was kept, if the dict did not change since: 1 done (live) */
+static int sess_load_kept(Session *ss)
+{
+    if (LOADED.tag == 0 || LOADED.dict != ss->dict || dict_tag(ss->dict) != LOADED.tag)
+        return 0;
+    ss->in = LOADED.in;
+    memcpy(ss->acc, LOADED.acc, sizeof ss->acc);
+    memcpy(ss->o_acc, LOADED.o_acc, sizeof ss->o_acc);
+    ss->flow = LOADED.flow;
+    ss->lim = LOADED.lim;
+    ss->o_feature = LOADED.o_feature;
+    ss->dirty = ss->dirty_v = 0;
+    ss->acc_kind = ACC_UNKNOWN;
+    ss->acc_own = 0;
+    ss->live = 1;
+    return 1;
+}
+#endif
+
+#ifndef LOAD_CACHE
+static void kept_moved(PyObject *dict, uint64_t tag0, PyObject *x, PyObject *y, PyObject *z, PyObject *e,
+                       PyObject *v)
+{
+    (void)dict, (void)tag0, (void)x, (void)y, (void)z, (void)e, (void)v;
+}
+
+static uint64_t kept_tag(PyObject *dict)
+{
+    (void)dict;
+    return 0;
+}
+
+static void kept_marked(PyObject *dict, uint64_t tag0, int k, PyObject *o)
+{
+    (void)dict, (void)tag0, (void)k, (void)o;
+}
+#endif
+
+/* A session not live yet goes live where that costs no look-up (sess_load_kept): an M204
+ * or a marked comment before the session's first G0/G1 (after each stop of the measure
+ * pass: "M204 S..", ";TYPE:..") is then read live, the dict left as it was kept; read
+ * into the dict instead, it changed the tag, and the G0/G1 after it read the dict again.
+ * The same state either way (a live session's M204s and features are written back). */
+static inline void sess_wake(Session *ss)
+{
+#ifdef LOAD_CACHE
+    if (!ss->live)
+        sess_load_kept(ss);
+#else
+    (void)ss;
+#endif
+}
+
 /* read the state as linear() would (live only where linear() would not fall back for it) */
 static void sess_load(Session *ss)
 {
     PyObject *dict = ss->dict;
+#ifdef LOAD_CACHE
+    if (sess_load_kept(ss))
+        return;
+#endif
     ss->live = ss->dirty = ss->dirty_v = 0;
     PyObject *o_abs = GET(S_ABS), *o_erel = GET(S_EREL), *o_inch = GET(S_INCH), *o_one = GET(S_ONE);
     ss->lim = GET(S_LIM);
@@ -1436,6 +1619,10 @@ static void sess_load(Session *ss)
     ss->acc_kind = ACC_UNKNOWN;       /* read at the session's first M204 */
     ss->acc_own = 0;
     ss->live = 1;
+#ifdef LOAD_CACHE
+    mod_read(dict);
+    sess_keep(ss);
+#endif
 }
 
 /* slot k now holds slot `from`'s value and object (made or not), as Python's
@@ -1565,12 +1752,19 @@ static inline __attribute__((always_inline)) int sess_m204_s(Session *ss, const 
 static int sess_flush(Session *ss)
 {
     int rc = 0;
+#ifdef LOAD_CACHE
+    int chain = ss->live && LOADED.mod_ok && kept_now(ss->dict);     /* the modal objects kept on */
+#endif
     for (int k = 0; ss->acc_own && k < A_N; k++)     /* the M204s' objects (none unless live) */
         if (ss->acc_own & (1 << k)) {
             PyObject *o = rc == 0 ? sess_acc_obj(ss, k) : ss->o_acc[k];
             if (rc == 0 && (o == NULL || PyDict_SetItem(ss->dict, state_name[ACC_NAME[k]], o) < 0))
                 rc = -1;
-            Py_XDECREF(ss->o_acc[k]);
+#ifdef LOAD_CACHE
+            if (rc == 0)
+                mod_put(ACC_NAME[k], o);
+#endif
+            Py_XDECREF(ss->o_acc[k]);     /* (the dict holds it now: o_acc[k] borrowed from it) */
         }
     ss->acc_own = 0;
     if (ss->live && ss->dirty && rc == 0) {
@@ -1580,9 +1774,23 @@ static int sess_flush(Session *ss)
             PyObject *f = PyFloat_FromDouble(vals[i]);
             if (f == NULL || PyDict_SetItem(ss->dict, state_name[keys[i]], f) < 0)
                 rc = -1;
+#ifdef LOAD_CACHE
+            if (rc == 0)
+                mod_put(keys[i], f);
+#endif
             Py_XDECREF(f);
         }
     }
+#ifdef LOAD_CACHE
+    /* the dict holds what the session held (the values sess_load would read): kept (what
+     * was kept before stays good while the dict's tag is its own); the modal objects too
+     * where they were kept up to the flush's writes */
+    if (ss->live && rc == 0) {
+        if (!chain)
+            LOADED.mod_ok = 0;
+        sess_keep(ss);
+    }
+#endif
     ss->live = ss->dirty = ss->dirty_v = 0;
     return rc;
 }
@@ -1790,6 +1998,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
             return 0;
         case SHAPE_MARKED: {
             PyObject *f;
+            sess_wake(ss);
             int done = marked_comment(ss->dict, s + code_n, n - code_n, &f);
             if (done < 0)
                 return -1;
@@ -1808,6 +2017,7 @@ static inline __attribute__((always_inline)) int fused_line_body(Session *ss, co
         return fused_g_move(ss, &w, out);
     }
     if (n >= 4 && memcmp(s, "M204", 4) == 0) {
+        sess_wake(ss);
 #ifdef FAST_DECIMAL
         if (ss->live && sess_m204_s(ss, s, n))
             return 0;
@@ -2228,10 +2438,110 @@ static PyObject *split_block(PyObject *module, PyObject *args)
     return Py_BuildValue("(Nn)", (PyObject *)o, start[n]);
 }
 
+/* ---------------------------------------------------------------- the state's snapshot
+ * MachineState.snapshot(): the modal attributes (MachineState.MODAL) as a tuple.  Python's
+ * attrgetter takes each through the generic attribute look-up (the type's MRO first,
+ * ~210 instructions a name); a MachineState (not a subclass) whose class defines none of
+ * them holds each in its dict, read here (~110 a name).  The measure pass takes one at
+ * every stop of its ledger.  Any other object, or a name missing from the dict, goes to
+ * the attrgetter (set_modal's), as does every call before set_modal. */
+static PyObject *set_modal(PyObject *module, PyObject *args)
+{
+    PyObject *names, *getter;
+    (void)module;
+    if (!PyArg_ParseTuple(args, "O!O", &PyTuple_Type, &names, &getter))
+        return NULL;
+    Py_ssize_t n = PyTuple_GET_SIZE(names);
+    PyObject *own = PyTuple_New(n);
+    if (own == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *nm = PyTuple_GET_ITEM(names, i);
+        if (!PyUnicode_CheckExact(nm)) {
+            Py_DECREF(own);
+            PyErr_SetString(PyExc_TypeError, "set_modal: the names must be str");
+            return NULL;
+        }
+        Py_INCREF(nm);
+        PyUnicode_InternInPlace(&nm);  /* (the dict's keys are interned: compared by pointer) */
+        PyTuple_SET_ITEM(own, i, nm);
+    }
+    Py_XSETREF(MODAL_NAMES, own);
+    Py_INCREF(getter);
+    Py_XSETREF(MODAL_GET, getter);
+#ifdef LOAD_CACHE
+    /* where each name the session writes sits in MODAL (the names are interned) */
+    LOADED.mod_ok = 0;
+    MOD_N = n <= MOD_MAX ? n : 0;
+    for (int k = 0; k < S_N; k++) {
+        MOD_AT[k] = 0;
+        for (Py_ssize_t i = 0; i < MOD_N; i++)
+            if (state_name[k] != NULL && PyTuple_GET_ITEM(own, i) == state_name[k])
+                MOD_AT[k] = (int)i + 1;
+    }
+#endif
+    Py_RETURN_NONE;
+}
+
+static PyObject *snapshot(PyObject *module, PyObject *state)
+{
+    (void)module;
+    if (MODAL_GET == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "snapshot: set_modal not called");
+        return NULL;
+    }
+    if (STATE_TYPE == NULL || Py_TYPE(state) != STATE_TYPE)
+        return PyObject_CallOneArg(MODAL_GET, state);
+    PyObject *dict = PyObject_GenericGetDict(state, NULL);
+    if (dict == NULL)
+        return NULL;
+    Py_ssize_t n = PyTuple_GET_SIZE(MODAL_NAMES);
+    PyObject *snap = PyTuple_New(n);
+    if (snap == NULL) {
+        Py_DECREF(dict);
+        return NULL;
+    }
+#ifdef LOAD_CACHE
+    /* the objects kept with the session's load (at a stop of the measure pass: the dict as
+     * the session's write-back left it), without a look-up */
+    int kept = kept_now(dict);
+    if (kept && LOADED.mod_ok && MOD_N == n) {
+        for (Py_ssize_t i = 0; i < n; i++) {
+            Py_INCREF(LOADED.mod[i]);
+            PyTuple_SET_ITEM(snap, i, LOADED.mod[i]);
+        }
+        Py_DECREF(dict);
+        return snap;
+    }
+#endif
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *v = PyDict_GetItemWithError(dict, PyTuple_GET_ITEM(MODAL_NAMES, i));
+        if (v == NULL) {
+            Py_DECREF(snap);
+            Py_DECREF(dict);
+            return PyErr_Occurred() ? NULL : PyObject_CallOneArg(MODAL_GET, state);
+        }
+        Py_INCREF(v);
+        PyTuple_SET_ITEM(snap, i, v);
+    }
+#ifdef LOAD_CACHE
+    if (kept && MOD_N == n) {          /* read: kept on from here */
+        for (Py_ssize_t i = 0; i < n; i++)
+            LOADED.mod[i] = PyTuple_GET_ITEM(snap, i);
+        LOADED.mod_ok = 1;
+    }
+#endif
+    Py_DECREF(dict);
+    return snap;
+}
+
 static PyMethodDef mod_methods[] = {
     {"setup", setup, METH_VARARGS,
      "setup(Move, MachineState, TRAVEL, LINE, EONLY, MAX_POS_D, MAX_E_D, MAX_F, MAX_ACCEL_A)"},
     {"step", (PyCFunction)(void (*)(void))step, METH_FASTCALL, "step(state, idx, raw)"},
+    {"set_modal", set_modal, METH_VARARGS,
+     "set_modal(names, getter): snapshot's attributes, and the attrgetter for other objects"},
+    {"snapshot", snapshot, METH_O, "snapshot(state): the modal attributes (MachineState.MODAL), a tuple"},
     {"make_method", make_method, METH_NOARGS, "step as a method for MachineState"},
     {"split_lines", split_lines, METH_VARARGS,
      "split_lines(buf, final) -> (lines, used): buf's whole lines decoded as read_lines reads them"},

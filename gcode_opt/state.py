@@ -219,7 +219,7 @@ class MachineState:
     def snapshot(self) -> tuple:
         """Every attribute a line can change, as a tuple (Limits is copy-on-write, so
         sharing it is safe).  restore(snapshot) puts the state back where it was."""
-        return _get_modal(self)
+        return _modal_of(self)
 
     def restore(self, snap: tuple) -> None:
         for name, value in zip(MachineState.MODAL, snap):
@@ -662,6 +662,20 @@ def _load_reader():
 CORE_WHY = ""
 _reader = _load_reader()
 _C_STEP = _reader.make_method() if _reader is not None else None
+
+
+def _modal_getter():
+    """snapshot's getter: the compiled reader's (each attribute read from a MachineState's
+    dict: about half the attrgetter's instructions) where it is built and MachineState's
+    class defines none of the names (else the dict would not be where they are read);
+    else _get_modal.  The same tuple (tests/test_speed49_snap49_session.py)."""
+    if _reader is None or not hasattr(_reader, "snapshot") or any(hasattr(MachineState, n) for n in MachineState.MODAL):
+        return _get_modal
+    _reader.set_modal(MachineState.MODAL, _get_modal)
+    return _reader.snapshot
+
+
+_modal_of = _modal_getter()
 CORE = "python"
 
 

@@ -55,8 +55,10 @@ class PlanInput:
         first read of one of them reads them all back, the same bits.  False (all kept)
         where one is no plain array or the file cannot be made or written."""
         import tempfile
+        if "_aside" in self.__dict__:           # (set aside already)
+            return False
         arrays = [getattr(self, name) for name in self.CANDIDATE_ONLY]
-        if "_aside" in self.__dict__ or not all(type(a) is np.ndarray for a in arrays):
+        if not all(type(a) is np.ndarray for a in arrays):
             return False
         try:
             fh = tempfile.TemporaryFile(dir=folder)
@@ -608,7 +610,11 @@ def candidate_pieces(p: PlanInput, rows, T_orig, chunk=CANDIDATE_CHUNK):
     rows = np.asarray(rows)
     if len(p.L) <= chunk:
         return [Candidates.piece(rows, _candidates_auto(p), T_orig)]
-    return [Candidates.piece(rows[a:b], tables, T_orig) for a, b, tables in _chunk_tables(p, chunk)]
+    out = []
+    for a, b, tables in _chunk_tables(p, chunk):
+        out.append(Candidates.piece(rows[a:b], tables, T_orig))
+        del tables          # (a comprehension's name held them while the next chunk's were made)
+    return out
 
 
 def pieces_once(make, p: PlanInput, rows, T_orig):
@@ -679,10 +685,17 @@ def _chunk_tables(p: PlanInput, chunk):
         chunks = [np.arange(a, min(a + chunk, n)) for a in range(a0, min(a0 + step, n), chunk)]
         live = [_live_entries(p.take(rows)) for rows in chunks]
         betas = _beta_search([lv[1] for lv in live if lv is not None])
-        for rows, lv in zip(chunks, live):
+        # each chunk's state and dense tables let go once used: all the chunks' states, and
+        # the last chunk's tables beside the next one's, were held to the end (gyroid
+        # plate's lines: the candidates' peak)
+        live = [None if lv is None else lv[0] for lv in live]      # (their flat positions)
+        for c, rows in enumerate(chunks):
+            flat, live[c] = live[c], None
             q = p.take(rows)
-            tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
+            tables = _candidates_dense(q) if flat is None else _live_tables(q, flat, *next(betas))
+            del flat, q
             yield rows[0], rows[-1] + 1, tables      # (a run of rows: a slice, not an index)
+            tables = None
 
 
 BISECT_CHUNKS = 8       # candidates_auto: chunks whose bisections are made at once
@@ -833,12 +846,18 @@ def _beta_search(preps):
     (_log_gamma_root) of all their rows b at once (each row its own steps, elementwise:
     the same bits as one state at a time); a row left out (cubic under the cap) has
     beta = inf.  v_crit of a searched row is its speed at its beta, the one the search's
-    own test of that beta computed (the same expressions on the same numbers)."""
+    own test of that beta computed (the same expressions on the same numbers).  preps (a
+    list): each state is cut to its (v_crit, b) once searched (its searched rows' inputs
+    let go where the caller holds the list only)."""
     sizes = [pr[1].size for pr in preps]
     if sum(sizes):
         Tb, capb, v_endb = (np.concatenate([pr[k] for pr in preps]) for k in (2, 3, 4))
         y, v_crit_b = _log_gamma_root(InteriorSpeeds.concat([pr[5] for pr in preps]), Tb, capb, v_endb)
         beta_b = (Tb / np.exp(y)) ** 2
+        del Tb, capb, v_endb, y
+    # the searched rows' inputs let go (each state's v_crit and rows b only are read below;
+    # the list the caller gave is emptied of the others)
+    preps[:] = [pr[:2] for pr in preps]
     at = 0
     for pr, m in zip(preps, sizes):
         v_crit, b = pr[0], pr[1]

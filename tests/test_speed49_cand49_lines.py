@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from gcode_opt import plan as plan_mod
-from gcode_opt.plan import (Candidates, InteriorSpeeds, PlanInput, _beta_prep, _candidates_auto, _candidates_dense,
+from gcode_opt.plan import (Candidates, InteriorSpeeds, PlanInput, _candidates_auto, _candidates_dense,
                             _live_entries, _live_tables, _log_gamma_root)
 
 
@@ -116,19 +116,19 @@ def test_beta_search_as_before(seed):
 
 def test_no_chunk_tables_beside_the_next(monkeypatch):
     """Each chunk's dense tables are let go before the next chunk's are made: when
-    Candidates.piece is given a chunk's tables, the last chunk's are no more."""
+    _live_tables is called for a chunk, the last chunk's tables are no more."""
     rng = np.random.default_rng(7)
     p = _pin(rng, 2000)
     rows = np.arange(2000)
     seen = []
-    piece = Candidates.piece
+    tables_of = plan_mod._live_tables
 
-    def watched(sub, tables, T_orig):
+    def watched(*args):
         gc.collect()
         assert all(r() is None for r in seen), "a chunk's tables held beside the next one's"
-        out = piece(sub, tables, T_orig)
-        seen[:] = [weakref.ref(t) for t in tables]
+        out = tables_of(*args)
+        seen[:] = [weakref.ref(t) for t in out]
         return out
-    monkeypatch.setattr(Candidates, "piece", staticmethod(watched))
+    monkeypatch.setattr(plan_mod, "_live_tables", watched)
     got = plan_mod.candidate_pieces(p, rows, p.T_orig, 64)
     assert len(got) == 32

@@ -45,6 +45,51 @@ class PlanInput:
         self.t_seg_min = np.asarray(t_seg_min)    # shortest duration a re-timed stroke may have
 
 
+    # the inputs only the candidates read (their tables made once: plan_strokes' budget runs
+    # read T_orig and I_orig), let go by set_aside until one is read again
+    CANDIDATE_ONLY = ("L", "v0", "v1", "v_cap", "a_cap", "mass_r", "t_seg_min")
+
+    def set_aside(self, folder=None) -> bool:
+        """The CANDIDATE_ONLY arrays written to an unnamed temporary file in folder and let
+        go (~2.9 MB through the rectilinear plate's budget runs, its planning peak): the
+        first read of one of them reads them all back, the same bits.  False (all kept)
+        where one is no plain array or the file cannot be made or written."""
+        import tempfile
+        if "_aside" in self.__dict__:           # (set aside already)
+            return False
+        arrays = [getattr(self, name) for name in self.CANDIDATE_ONLY]
+        if not all(type(a) is np.ndarray for a in arrays):
+            return False
+        try:
+            fh = tempfile.TemporaryFile(dir=folder)
+            for a in arrays:
+                a.tofile(fh)            # (C order, its bytes as they are)
+            fh.flush()
+        except (OSError, ValueError):
+            return False
+        self._aside = (fh, [(a.dtype, a.shape) for a in arrays])
+        for name in self.CANDIDATE_ONLY:
+            delattr(self, name)
+        return True
+
+    def __getattr__(self, name):
+        """(Called for an attribute not found only.)  A CANDIDATE_ONLY array set aside: all
+        of them read back from their file (set_aside), the file closed."""
+        aside = self.__dict__.get("_aside")
+        if aside is None or name not in self.CANDIDATE_ONLY:
+            raise AttributeError(name)
+        fh, layout = aside
+        fh.seek(0)
+        for field, (dtype, shape) in zip(self.CANDIDATE_ONLY, layout):
+            count = int(np.prod(shape))
+            a = np.fromfile(fh, dtype, count)
+            if a.size != count:
+                raise OSError("the plan inputs set aside were cut short")
+            setattr(self, field, a.reshape(shape))
+        del self._aside
+        fh.close()
+        return getattr(self, name)
+
     def take(self, rows) -> "PlanInput":
         """The same arrays for the strokes `rows` only (fault isolation retries)."""
         rows = np.asarray(rows, int)
@@ -316,7 +361,7 @@ class Candidates:
         I_orig = np.ascontiguousarray(I_orig, float)
         if not (np.isfinite(T_orig).all() and np.isfinite(I_orig).all()):
             return None
-        first, cnt = self.first[rows], self.cnt[rows]
+        first, cnt = _rows_of(self.first, rows), _rows_of(self.cnt, rows)
         # the entries of the rows: all of vals when the rows hold every row with one (the
         # usual case: only failed strokes are left out), else those rows' entries (the
         # checks below are of every entry: an entry two rows share is checked once)
@@ -358,6 +403,18 @@ class Candidates:
         """(T, beta, I, KE) of the feasible entries (rows[q], cols[q])."""
         before = np.cumsum(self._mask_rows(rows), axis=1, dtype=np.int32)[np.arange(rows.size), cols] - 1
         return self.vals[:, self.first[rows] + before]
+
+
+def _rows_of(a, rows):
+    """a[rows] (rows: a 1-D int array), or a itself where rows are all of its rows in
+    order (0 .. n - 1: the usual group, every stroke but failed ones): the same values,
+    read only, without a copy (a budget run's _RowsView held copies of first, cnt, T_orig
+    and I_orig: ~1.6 MB through the rectilinear plate's runs)."""
+    n = a.shape[0]
+    if (rows.ndim == 1 and rows.dtype.kind in "iu" and rows.size == n and (n == 0 or (rows[0] == 0 and rows[-1] == n - 1))
+            and (n < 2 or bool((rows[1:] > rows[:-1]).all()))):
+        return a            # (n strictly increasing ints from 0 to n - 1: 0 .. n - 1)
+    return a[rows]
 
 
 ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
@@ -553,7 +610,11 @@ def candidate_pieces(p: PlanInput, rows, T_orig, chunk=CANDIDATE_CHUNK):
     rows = np.asarray(rows)
     if len(p.L) <= chunk:
         return [Candidates.piece(rows, _candidates_auto(p), T_orig)]
-    return [Candidates.piece(rows[a:b], tables, T_orig) for a, b, tables in _chunk_tables(p, chunk)]
+    out = []
+    for a, b, tables in _chunk_tables(p, chunk):
+        out.append(Candidates.piece(rows[a:b], tables, T_orig))
+        del tables          # (a comprehension's name held them while the next chunk's were made)
+    return out
 
 
 def pieces_once(make, p: PlanInput, rows, T_orig):
@@ -624,10 +685,17 @@ def _chunk_tables(p: PlanInput, chunk):
         chunks = [np.arange(a, min(a + chunk, n)) for a in range(a0, min(a0 + step, n), chunk)]
         live = [_live_entries(p.take(rows)) for rows in chunks]
         betas = _beta_search([lv[1] for lv in live if lv is not None])
-        for rows, lv in zip(chunks, live):
+        # each chunk's state and dense tables let go once used: all the chunks' states, and
+        # the last chunk's tables beside the next one's, were held to the end (gyroid
+        # plate's lines: the candidates' peak)
+        live = [None if lv is None else lv[0] for lv in live]      # (their flat positions)
+        for c, rows in enumerate(chunks):
+            flat, live[c] = live[c], None
             q = p.take(rows)
-            tables = _candidates_dense(q) if lv is None else _live_tables(q, lv[0], *next(betas))
+            tables = _candidates_dense(q) if flat is None else _live_tables(q, flat, *next(betas))
+            del flat, q
             yield rows[0], rows[-1] + 1, tables      # (a run of rows: a slice, not an index)
+            tables = None
 
 
 BISECT_CHUNKS = 8       # candidates_auto: chunks whose bisections are made at once
@@ -778,12 +846,18 @@ def _beta_search(preps):
     (_log_gamma_root) of all their rows b at once (each row its own steps, elementwise:
     the same bits as one state at a time); a row left out (cubic under the cap) has
     beta = inf.  v_crit of a searched row is its speed at its beta, the one the search's
-    own test of that beta computed (the same expressions on the same numbers)."""
+    own test of that beta computed (the same expressions on the same numbers).  preps (a
+    list): each state is cut to its (v_crit, b) once searched (its searched rows' inputs
+    let go where the caller holds the list only)."""
     sizes = [pr[1].size for pr in preps]
     if sum(sizes):
         Tb, capb, v_endb = (np.concatenate([pr[k] for pr in preps]) for k in (2, 3, 4))
         y, v_crit_b = _log_gamma_root(InteriorSpeeds.concat([pr[5] for pr in preps]), Tb, capb, v_endb)
         beta_b = (Tb / np.exp(y)) ** 2
+        del Tb, capb, v_endb, y
+    # the searched rows' inputs let go (each state's v_crit and rows b only are read below;
+    # the list the caller gave is emptied of the others)
+    preps[:] = [pr[:2] for pr in preps]
     at = 0
     for pr, m in zip(preps, sizes):
         v_crit, b = pr[0], pr[1]
@@ -1492,7 +1566,7 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     memo: a dict the caller keeps across calls on the same p and cands (the budget runs),
     neither they nor the groups' arrays changed in place between the calls: what does not
     depend on the budget is made once (_AllocMemo)."""
-    n = len(p.L)
+    n = len(p.T_orig)     # (p.L may be set aside: PlanInput.set_aside)
     plan = Plan(n)
     if n == 0:
         return plan
@@ -1586,7 +1660,7 @@ class _AllocMemo:
             return got
         self = cls()
         self.made_of = (g0, p, cands)
-        self.rv = cands.rows_view(g, p.T_orig[g], p.I_orig[g])
+        self.rv = cands.rows_view(g, _rows_of(p.T_orig, g), _rows_of(p.I_orig, g))
         memo[key] = self
         return self
 

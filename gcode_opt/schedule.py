@@ -307,6 +307,10 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")
+        # the inputs only the candidates read let go through the budget runs (read back if
+        # read again); plan_strokes' question of the lines answered first, while they are here
+        _lines_repeat(pin, rows[K_LINE])
+        pin.set_aside()
         return cands, None
     alpha = float(opts.alpha)
     fixed = Plan(n)

@@ -251,7 +251,7 @@ def _plain_process(argv):
     """The process parser's namespace (its attributes, in a SimpleNamespace) for a plain
     command line -- `process`, one input, each option spelled in full with its value as
     the next word (not one starting with '-') that the option's type takes -- read without
-    argparse: its import, the parser's build and parse were ~18 M instructions of each run.
+    argparse: its import, the parser's build and parse were ~17 M instructions of each run.
     None for anything else (abbreviations, --opt=value, -h, --version, '--', a refused or
     missing value, no input or a second one): argparse parses those."""
     if argv[:1] != ["process"]:

@@ -322,7 +322,7 @@ _NUMBER = r"[+-]?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?\Z"     # dec
 
 def _plain_toml(text: str) -> dict | None:
     """tomllib.loads(text) for the plain TOML of the bundled profiles, read without tomllib
-    (its import and parse were ~15 M instructions of each run): comment lines, [table]
+    (its import and parse cost ~10 M instructions more a run): comment lines, [table]
     headers, `key = value` with a bare key and a value that is a string without escapes, a
     decimal number or an array of such strings one to a line; a comment after any of
     them.  None for any other text (a repeated key or table, a dotted or quoted key, an

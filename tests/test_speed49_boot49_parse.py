@@ -1,17 +1,16 @@
 """Session 49: a plain process command line is read without argparse (cli._plain_process;
-argparse's import, the parser's build and its parse were ~18 M instructions of each run).
+argparse's import, the parser's build and its parse were ~17 M instructions of each run).
 Against the argparse process parser the code used before (cli._argparser(True), built from
 the same option list), on many command lines -- plain ones, and abbreviations, --opt=value,
 bad and missing values, flags, '--', -h, a missing or second input: the plain reader gives
 the same attributes with the same values, or None (argparse parses that line then: its
-namespace, or its message and exit).  A fresh process run does not import argparse."""
+namespace, or its message and exit).  (A process run imports no argparse:
+test_speed49_boot49_startup.py.)"""
 from __future__ import annotations
 
 import contextlib
 import io
 import random
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -98,11 +97,3 @@ def test_others_go_to_argparse_with_its_messages(parser, monkeypatch):
         assert cli._plain_process(argv) is None
         assert _argparse(argv, cli.build_parser(only_process=True)) == _argparse(argv, parser)
 
-
-def test_a_process_run_does_not_import_argparse(tmp_path):
-    code = ("import sys; from gcode_opt.cli import main; "
-            f"rc = main(['process', {str(ROOT / 'sample_gcode' / 'prusa_mk3s_rectilinear.gcode')!r}, "
-            f"'-o', {str(tmp_path / 'out.gcode')!r}, '-q']); "
-            "print(rc, 'argparse' in sys.modules, 'gettext' in sys.modules)")
-    got = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert got.stdout.split() == ["0", "False", "False"], got.stderr[-2000:]

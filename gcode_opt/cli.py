@@ -1,7 +1,6 @@
 """Command line: `gcode-opt process|simulate|profiles ...`  (`gcode-opt -h` teaches)."""
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -34,23 +33,34 @@ class UserError(Exception):
     """A mistake in the command line or its files: exit 2, one line, no traceback."""
 
 
-class Parser(argparse.ArgumentParser):
-    """argparse with the program's one error form: `gcode-opt: message` (exit 2)."""
+def _parser_type():
+    """Parser: argparse with the program's one error form, `gcode-opt: message` (exit 2).
+    Made where a parser is built: a plain process command line needs neither argparse's
+    import (~8 M instructions) nor a parser (_plain_process)."""
+    import argparse
 
-    def error(self, message):
-        self.print_usage(sys.stderr)
-        if message.startswith("argument "):        # "argument --x: why" -> "--x: why"
-            message = message[len("argument "):]
-        self.exit(2, f"gcode-opt: {message}\n")
+    class Parser(argparse.ArgumentParser):
+        def error(self, message):
+            self.print_usage(sys.stderr)
+            if message.startswith("argument "):        # "argument --x: why" -> "--x: why"
+                message = message[len("argument "):]
+            self.exit(2, f"gcode-opt: {message}\n")
+    return Parser
+
+
+def _refused(message):
+    """The error an option's type function raises: argparse shows message as the option's."""
+    import argparse
+    return argparse.ArgumentTypeError(message)
 
 
 def _number(text, what):
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number ({what})") from None
+        raise _refused(f"{text!r} is not a number ({what})") from None
     if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number ({what})")
+        raise _refused(f"{text!r}: must be a finite number ({what})")
     return v
 
 
@@ -67,7 +77,7 @@ def _alpha(text):
         return "auto"
     v = _number(text, "expected 'auto' or a number in s^2/kg")
     if v <= 0:
-        raise argparse.ArgumentTypeError(f"{text}: alpha must be > 0 (s^2/kg)")
+        raise _refused(f"{text}: alpha must be > 0 (s^2/kg)")
     return v
 
 
@@ -76,7 +86,7 @@ def _features(text):
     try:
         return feat.parse_feature_list(text)
     except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e))
+        raise _refused(str(e))
 
 
 @_typed("fraction")
@@ -91,11 +101,11 @@ def _fraction(text):
     if pct:
         v /= 100.0
     if v < 0:
-        raise argparse.ArgumentTypeError(f"{text}: must be >= 0")
+        raise _refused(f"{text}: must be >= 0")
     if v > 1:
         hint = f"; did you mean {text.strip()}%?" if not pct else ""
-        raise argparse.ArgumentTypeError(f"{text}: a fraction above 1 means more than +100 %{hint} "
-                                         "(give 0.03 or 3%)")
+        raise _refused(f"{text}: a fraction above 1 means more than +100 %{hint} "
+                       "(give 0.03 or 3%)")
     return v
 
 
@@ -104,9 +114,9 @@ def _segments(text):
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 1") from None
+        raise _refused(f"{text!r}: expected a whole number >= 1") from None
     if v < 1:
-        raise argparse.ArgumentTypeError(f"{text}: must be >= 1")
+        raise _refused(f"{text}: must be >= 1")
     return v
 
 
@@ -114,7 +124,7 @@ def _segments(text):
 def _max_turn(text):
     v = _number(text, "degrees")
     if not 0 <= v < 90:
-        raise argparse.ArgumentTypeError(f"{text}: must be in [0, 90) degrees")
+        raise _refused(f"{text}: must be in [0, 90) degrees")
     return v
 
 
@@ -122,8 +132,59 @@ def _max_turn(text):
 def _length(text):
     v = _number(text, "mm")
     if v < 0:
-        raise argparse.ArgumentTypeError(f"{text}: must be >= 0 mm")
+        raise _refused(f"{text}: must be >= 0 mm")
     return v
+
+
+# process's options but its input: (option strings, add_argument's keywords), the one list
+# the parser is built from and _plain_process reads
+PROCESS_OPTIONS = (
+    (("-o", "--output"), dict(metavar="OUT.gcode", help="write here (default: rewrite IN in place)")),
+    (("--profile",), dict(default="auto",
+         help="printer profile name (see `gcode-opt profiles`) or a .toml file. 'auto' (default) "
+              "reads the slicer's printer_model / flavour comments and falls back to generic-klipper")),
+    (("--alpha",), dict(type=_alpha, default="auto",
+         help="weight of the inertia term, s^2/kg (beta = alpha*m is a time^2: the law's boundary "
+              "layers are sqrt(beta) long). 'auto' (default) picks per stroke the law with the "
+              "least int|a|^2 dt that fits the limits and the time budget")),
+    (("--features",), dict(type=_features, default=None,
+         help="comma-separated features to re-time (default: sparse_infill,solid_infill; in a file "
+              "without feature comments every extruding move, 'other'; 'all'; "
+              f"choices: {', '.join(feat.ALL)})")),
+    (("--overshoot",), dict(type=_fraction, default=0.25,
+         help="how far the law's peak speed may exceed the slicer's F, e.g. 0.25 or 25%% "
+              "(never above the machine's max speed or the hotend's flow limit; default %(default)s)")),
+    (("--max-slowdown",), dict(type=_fraction, default=0.03,
+         help="print-time budget the auto law may spend, as a fraction of the whole file's "
+              "print time (default %(default)s = 3%%)")),
+    (("--corners",), dict(type=_corners, default=0.0, metavar="R",
+         help="slower corners, less ringing (ghosting): the share of the --max-slowdown budget spent "
+              "lowering speeds at sharp corners (e.g. 0.7 or 70%%), or 'auto' (the corners' share of the "
+              "original's ringing; the usual choice). Written as a junction command the firmware applies "
+              "to that corner only (M205 X Y on Prusa/Marlin classic jerk, SET_VELOCITY_LIMIT "
+              "SQUARE_CORNER_VELOCITY on Klipper), else a short lead-in. Costs part of the int|a|^2 gain; "
+              "default 0 = off. See README, Ringing")),
+    (("--segments",), dict(type=_segments, default=10,
+         help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
+              "minimum segment time and planner buffer; default %(default)s)")),
+    (("--max-turn",), dict(type=_max_turn, default=30.0, metavar="DEG",
+         help="a run of G1 lines whose every vertex turns by at most DEG degrees is one smooth curve, "
+              "re-timed as a whole (gyroid, concentric infill); 0 re-times straight runs only "
+              "(default %(default)s)")),
+    (("--min-length",), dict(type=_length, default=0.2,
+         help="shortest stroke to re-time, mm (default %(default)s: a stroke too short for two segments "
+              "is played as one move with its own feed and acceleration)")),
+    (("--json",), dict(metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")),
+    (("--report",), dict(metavar="REPORT.html",
+         help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")),
+    (("--no-ringing",), dict(action="store_true",
+         help="skip the ringing figures (the frame's resonance driven by the original and the written "
+              "file, per axis, before/after: the summary's 'ringing', one summary line, the report's "
+              "ringing section); they ride on the firmware model's passes over both files")),
+    (("-q", "--quiet"), dict(action="store_true", help="no progress bar, no summary on stderr")),
+    (("--profile-time",), dict(action="store_true",
+         help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")),
+)
 
 
 def build_parser(only_process=False):
@@ -131,8 +192,17 @@ def build_parser(only_process=False):
     parser for a command line that starts with it: the other commands' parsers, and the
     report package's import, are ~15 M instructions of a small file's run).  Its parsing of
     such a command line, and every message and exit, is the whole parser's: the process
-    parser is the same, and the top-level one shows COMMAND, not the commands' names."""
-    ap = Parser(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
+    parser is the same, and the top-level one shows COMMAND, not the commands' names.  Its
+    parser is a ProcessLine: the plain command lines it parses without argparse."""
+    if only_process:
+        return ProcessLine()
+    return _argparser(only_process)
+
+
+def _argparser(only_process):
+    """build_parser's argparse parser (only_process: with the process command alone)."""
+    import argparse
+    ap = _parser_type()(prog="gcode-opt", description="Re-time the moves of sliced FDM G-code with the "
                                  "energy/inertia-optimal law of motion, checked on a model of the printer's firmware.",
                                  epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--version", action="version", version=f"gcode-opt {__version__}")
@@ -143,51 +213,8 @@ def build_parser(only_process=False):
     p = sub.add_parser("process", help="re-time a G-code file", description=PROCESS_HELP,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="IN.gcode")
-    p.add_argument("-o", "--output", metavar="OUT.gcode", help="write here (default: rewrite IN in place)")
-    p.add_argument("--profile", default="auto",
-                   help="printer profile name (see `gcode-opt profiles`) or a .toml file. 'auto' (default) "
-                        "reads the slicer's printer_model / flavour comments and falls back to generic-klipper")
-    p.add_argument("--alpha", type=_alpha, default="auto",
-                   help="weight of the inertia term, s^2/kg (beta = alpha*m is a time^2: the law's boundary "
-                        "layers are sqrt(beta) long). 'auto' (default) picks per stroke the law with the "
-                        "least int|a|^2 dt that fits the limits and the time budget")
-    p.add_argument("--features", type=_features, default=None,
-                   help="comma-separated features to re-time (default: sparse_infill,solid_infill; in a file "
-                        "without feature comments every extruding move, 'other'; 'all'; "
-                        f"choices: {', '.join(feat.ALL)})")
-    p.add_argument("--overshoot", type=_fraction, default=0.25,
-                   help="how far the law's peak speed may exceed the slicer's F, e.g. 0.25 or 25%% "
-                        "(never above the machine's max speed or the hotend's flow limit; default %(default)s)")
-    p.add_argument("--max-slowdown", type=_fraction, default=0.03,
-                   help="print-time budget the auto law may spend, as a fraction of the whole file's "
-                        "print time (default %(default)s = 3%%)")
-    p.add_argument("--corners", type=_corners, default=0.0, metavar="R",
-                   help="slower corners, less ringing (ghosting): the share of the --max-slowdown budget spent "
-                        "lowering speeds at sharp corners (e.g. 0.7 or 70%%), or 'auto' (the corners' share of the "
-                        "original's ringing; the usual choice). Written as a junction command the firmware applies "
-                        "to that corner only (M205 X Y on Prusa/Marlin classic jerk, SET_VELOCITY_LIMIT "
-                        "SQUARE_CORNER_VELOCITY on Klipper), else a short lead-in. Costs part of the int|a|^2 gain; "
-                        "default 0 = off. See README, Ringing")
-    p.add_argument("--segments", type=_segments, default=10,
-                   help="most segments per re-timed stroke (also capped by the firmware's segment rate, "
-                        "minimum segment time and planner buffer; default %(default)s)")
-    p.add_argument("--max-turn", type=_max_turn, default=30.0, metavar="DEG",
-                   help="a run of G1 lines whose every vertex turns by at most DEG degrees is one smooth curve, "
-                        "re-timed as a whole (gyroid, concentric infill); 0 re-times straight runs only "
-                        "(default %(default)s)")
-    p.add_argument("--min-length", type=_length, default=0.2,
-                   help="shortest stroke to re-time, mm (default %(default)s: a stroke too short for two segments "
-                        "is played as one move with its own feed and acceleration)")
-    p.add_argument("--json", metavar="SUMMARY.json", help="write the summary (figures from the firmware model) here")
-    p.add_argument("--report", metavar="REPORT.html",
-                   help="write a self-contained HTML report: before/after figures, plots of the re-timed moves")
-    p.add_argument("--no-ringing", action="store_true",
-                   help="skip the ringing figures (the frame's resonance driven by the original and the written "
-                        "file, per axis, before/after: the summary's 'ringing', one summary line, the report's "
-                        "ringing section); they ride on the firmware model's passes over both files")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary on stderr")
-    p.add_argument("--profile-time", action="store_true",
-                   help="after the summary, print the CPU seconds each phase took (analyse, plan, rewrite, measure)")
+    for flags, kw in PROCESS_OPTIONS:
+        p.add_argument(*flags, **kw)
     if only_process:
         return ap
 
@@ -204,6 +231,62 @@ def build_parser(only_process=False):
     from .report.commands import register        # report, law, figures
     register(sub)
     return ap
+
+
+class ProcessLine:
+    """build_parser(only_process=True)'s parser: parse_args gives the namespace the process
+    parser gives, read without argparse where the command line is plain (_plain_process);
+    any other command line (an abbreviation, a refused value, -h ...) the argparse parser
+    parses, with its messages and exits."""
+
+    def parse_args(self, argv):
+        a = _plain_process(argv)
+        return a if a is not None else _argparser(True).parse_args(argv)
+
+    def print_help(self, file=None):
+        _argparser(True).print_help(file)
+
+
+def _plain_process(argv):
+    """The process parser's namespace (its attributes, in a SimpleNamespace) for a plain
+    command line -- `process`, one input, each option spelled in full with its value as
+    the next word (not one starting with '-') that the option's type takes -- read without
+    argparse: its import, the parser's build and parse were ~17 M instructions of each run.
+    None for anything else (abbreviations, --opt=value, -h, --version, '--', a refused or
+    missing value, no input or a second one): argparse parses those."""
+    if argv[:1] != ["process"]:
+        return None
+    ns = {"debug": False, "cmd": "process"}
+    options = {}
+    for flags, kw in PROCESS_OPTIONS:
+        dest = next(f for f in flags if f.startswith("--"))[2:].replace("-", "_")
+        conv = True if kw.get("action") == "store_true" else kw.get("type")
+        default = False if conv is True else kw.get("default")
+        ns[dest] = conv(default) if isinstance(default, str) and callable(conv) else default   # (as argparse)
+        options.update((f, (dest, conv)) for f in flags)
+    inputs = []
+    words = iter(argv[1:])
+    for w in words:
+        if not w.startswith("-"):
+            inputs.append(w)
+            continue
+        if w not in options:
+            return None
+        dest, conv = options[w]
+        if conv is True:
+            ns[dest] = True
+            continue
+        v = next(words, None)
+        if v is None or v.startswith("-"):
+            return None
+        try:
+            ns[dest] = conv(v) if conv is not None else v
+        except Exception:           # noqa: BLE001 - argparse reports it (ArgumentTypeError, ValueError)
+            return None
+    if len(inputs) != 1:
+        return None
+    from types import SimpleNamespace
+    return SimpleNamespace(input=inputs[0], **ns)
 
 
 def _load_profile(name, path=None, quiet=False, metadata=None):

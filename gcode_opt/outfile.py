@@ -23,9 +23,13 @@ from __future__ import annotations
 
 import errno
 import os
-import signal
 import stat
 import tempfile
+
+try:            # the C module signal wraps: the same calls, on signal numbers, without the enum
+    import _signal as signal        # classes signal builds at its import (~3 M instructions a run)
+except ImportError:                 # pragma: no cover - an interpreter without it
+    import signal
 
 TMP_PREFIX = ".gcode-opt-"
 TMP_SUFFIX = ".tmp"

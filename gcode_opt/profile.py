@@ -36,11 +36,6 @@ import os
 import re
 from dataclasses import field
 
-try:  # Python 3.11+
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - 3.10
-    import tomli as tomllib
-
 from .records import record
 
 FLAVOURS = ("klipper", "marlin2", "marlin-legacy", "rrf")
@@ -319,7 +314,97 @@ def profile_names() -> list[str]:
     return sorted(p.name[:-5] for p in d.iterdir() if p.name.endswith(".toml"))
 
 
+# the plain TOML the bundled profiles are written in (_plain_toml)
+_BARE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-")   # a bare key's
+_CTRL = frozenset(map(chr, [*range(0x20), 0x7f]))        # never in a string; in a comment, tab only
+_NUMBER = r"[+-]?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?\Z"     # decimal, no underscores
+
+
+def _plain_toml(text: str) -> dict | None:
+    """tomllib.loads(text) for the plain TOML of the bundled profiles, read without tomllib
+    (its import and parse cost ~10 M instructions more a run): comment lines, [table]
+    headers, `key = value` with a bare key and a value that is a string without escapes, a
+    decimal number or an array of such strings one to a line; a comment after any of
+    them.  None for any other text (a repeated key or table, a dotted or quoted key, an
+    escape, true, a date, an inline table or array, CR ...): tomllib reads it then."""
+    if "\r" in text:
+        return None
+    root: dict = {}
+    table = root
+    lines = iter(text.split("\n"))
+    for line in lines:
+        s = line.lstrip(" \t")
+        if not s or s[0] == "#":
+            if not _plain_end(s):
+                return None
+        elif s[0] == "[":
+            name, close, rest = s[1:].partition("]")
+            name = name.strip(" \t")
+            if not (close and name and _BARE.issuperset(name)) or name in root or not _plain_end(rest):
+                return None
+            table = root[name] = {}
+        else:
+            key, eq, v = s.partition("=")
+            key, v = key.rstrip(" \t"), v.lstrip(" \t")
+            if not (eq and key and _BARE.issuperset(key)) or key in table:
+                return None
+            if v[:1] == "[":
+                value = _plain_strings(v[1:], lines)
+            elif v[:1] == '"':
+                value, rest = _plain_string(v)
+                value = value if _plain_end(rest) else None
+            else:
+                num = v.partition("#")[0].rstrip(" \t")
+                ok = re.match(_NUMBER, num) and _plain_end(v[len(num):])
+                value = None if not ok else float(num) if any(c in num for c in ".eE") else int(num)
+            if value is None:
+                return None
+            table[key] = value
+    return root
+
+
+def _plain_end(rest):
+    """rest, what follows a value or header, is blanks and at most a comment."""
+    rest = rest.lstrip(" \t")
+    return not rest or rest[0] == "#" and _CTRL.isdisjoint(rest.replace("\t", ""))
+
+
+def _plain_string(v):
+    """(the string v starts with, the rest of v) for a string without escapes, else (None, '')."""
+    end = v.find('"', 1)
+    s = v[1:end]
+    if v[:1] != '"' or end < 0 or "\\" in s or not _CTRL.isdisjoint(s):
+        return None, ""
+    return s, v[end + 1:]
+
+
+def _plain_strings(rest, lines):
+    """The array of strings, one to a line, that opens before rest: read from lines to its
+    closing bracket; None if it is not that."""
+    if not _plain_end(rest):
+        return None
+    items = []
+    comma = True                             # (a comma between two strings, as TOML wants)
+    for line in lines:
+        s = line.lstrip(" \t")
+        if s[:1] == "]":
+            return items if _plain_end(s[1:]) else None
+        value, rest = _plain_string(s) if comma else (None, "")
+        if value is None:
+            return None
+        rest = rest.lstrip(" \t")
+        comma = rest[:1] == ","
+        if not _plain_end(rest[1:] if comma else rest):
+            return None
+        items.append(value)
+    return None
+
+
 def _parse(text: str, where: str) -> dict:
+    try:  # Python 3.11+
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - 3.10
+        import tomli as tomllib
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -357,6 +442,8 @@ def load_profile(name_or_path: str) -> Profile:
         p = d / f"{name_or_path}.toml"
         if p.is_file():
             where = str(p)
-            return profile_from_dict(_parse(p.read_text(encoding="utf-8"), where), name_or_path, where)
+            text = p.read_text(encoding="utf-8")
+            data = _plain_toml(text)
+            return profile_from_dict(_parse(text, where) if data is None else data, name_or_path, where)
     raise ProfileError(f"no profile named {name_or_path!r}; bundled: {', '.join(profile_names()) or 'none'}"
                        " (or give a path to a .toml file)")

@@ -1210,7 +1210,8 @@ def _bisect(J, live, step, spent, budget_t, settle, rise=None):
     others' set already), step(lam, rows) -> (choice, margin, tol) of those rows (and
     their T - T_orig taken), spent() the sum of every row's.  rise (_Rise, or None): the
     decade search's choices by it, and only its last decade's margins and tols by step.
-    Returns (J, lambda)."""
+    The rows whose choice changes within TIE_R above the lambda found take the choice
+    above it (_break_ties).  Returns (J, lambda)."""
     j_lo, m_lo, _ = step(0.0, live) if rise is None else rise.start(step, live)
     if spent() <= budget_t:
         J[live] = j_lo
@@ -1228,6 +1229,7 @@ def _bisect(J, live, step, spent, budget_t, settle, rise=None):
         j_hi, m_hi, tol_hi = rise.last(hi)
     J[live] = j_hi
     act = live
+    brackets = []       # (lo, hi, act) of the late steps: where _break_ties looks for its rows
     for _ in range(80):
         # the costs grow with lambda (T >= 0): the rounding anywhere in the bracket is
         # at most the top end's, tol_hi, which both margins must clear
@@ -1235,6 +1237,8 @@ def _bisect(J, live, step, spent, budget_t, settle, rise=None):
         if settle and not keep.all():        # settled: J holds their choice for the rest of the bisection
             q = np.flatnonzero(keep)         # (the mask's places once, then a take an array)
             act, j_lo, m_lo, j_hi, m_hi, tol_hi = (a.take(q) for a in (act, j_lo, m_lo, j_hi, m_hi, tol_hi))
+        if hi - lo <= TIE_KEEP_R * hi:
+            brackets.append((lo, hi, act))
         mid = 0.5 * (lo + hi)
         j_mid, m_mid, tol_mid = step(mid, act)
         J[act] = j_mid
@@ -1243,7 +1247,28 @@ def _bisect(J, live, step, spent, budget_t, settle, rise=None):
         else:
             hi, j_hi, m_hi, tol_hi = mid, j_mid, m_mid, tol_mid
     J[act] = j_hi
+    _break_ties(J, live, brackets, hi, step, spent, budget_t)
     return J, hi
+
+
+TIE_R = 1e-9           # choices changing within this above the lambda found are ties: all take the faster
+TIE_KEEP_R = 1e-6      # _bisect keeps its brackets (and their rows) once narrower than this, relative
+
+
+def _break_ties(J, live, brackets, lam, step, spent, budget_t):
+    """The choices of the rows whose choice changes within TIE_R above lam (relative) at
+    lam (1 + TIE_R): the same strokes on two copies of an object have switch points equal
+    to rounding, and those the bisection left at the slower choice would follow that
+    rounding; all of them take the faster one, as the same rows (a group) do at lam.  The
+    rows whose choice changes in the window: among those not settled in the last bracket
+    of `brackets` holding it (a settled row's choice is constant there), else among live.
+    Where no other row changes there (the usual case) the choices are the bisection's.
+    (The rows hold the last step's: _RowSpread takes more rows than it had as others.)"""
+    lam_b = lam * (1.0 + TIE_R)
+    rows = next((a for lo, hi, a in reversed(brackets) if lo <= lam and hi >= lam_b), live)
+    jb = step(lam_b, rows)[0]
+    if spent() <= budget_t:           # (the budget holds at lam_b: choices fall as lambda rises)
+        J[rows] = jb
 
 
 NARROW_COLS = 8        # allocate: rows with at most this many finite candidates go narrow
@@ -1398,7 +1423,9 @@ class _RowSpread:
     row's in row order, as the row-by-row allocation held it (so np.sum gives its bits).
     rows_of(g) copies the groups g's values to their rows after a step on them: the
     first step's groups are every group with a candidate (and the others' are set then),
-    each later one's a subset of the last one's (_bisect only narrows them), so the rows
+    each later one's a subset of the last one's (_bisect only narrows them; _break_ties'
+    step, on a bracket's rows that hold the last step's, is more groups: those rows are
+    found among all), so the rows
     to copy are found among the last step's, not among all (the rectilinear plate: ~6 k
     groups live, ~10 after 20 of its 88 steps; a gather of every row a step cost more
     than the groups saved).  inv None: each row its own group (dT is dT_u).
@@ -1444,7 +1471,7 @@ class _RowSpread:
         self._watch(g)
         if self.inv is None:
             return
-        if self.g_n < 0:
+        if self.g_n < 0 or g.size > self.g_n:      # (more: _break_ties' rows, found among all)
             self.dT[:] = self.dT_u[self.inv]
             live = np.zeros(self.dT_u.size, bool)
             live[g] = True

@@ -86,6 +86,9 @@ def _precond_cheb_ref(n, phi, gam2, u0, u1, w_start, tol=_PRECOND_TOL):
         # done: at the rounding floor of the residual (steps no longer shrink), or below it
         slow = (it >= 4) & ~(step < _PRECOND_SLOW_R * last[act])
         done = (step <= tol * scale[act]) | (slow & (step <= _PRECOND_FLOOR * scale[act]))
+        if it >= 1:       # (round 49: or the steps left, a geometric series at the last ratio, within it)
+            rho = step / last[act]
+            done |= (rho < 1.0) & (step * rho <= tol * scale[act] * (1.0 - rho))
         ok[act[done]] = True
         keep = ~done & np.isfinite(step) & ~slow
         last[act] = step

@@ -12,6 +12,11 @@ import numpy as np
 import pytest
 
 from gcode_opt import plan as plan_mod
+from test_speed49_tie49_twins import no_tie_break
+
+# the reference here is the allocation before round 49's tie-break (plan._break_ties, checked by
+# test_speed49_tie49_twins against brute force): it is turned off
+pytestmark = pytest.mark.usefixtures(no_tie_break.__name__)
 
 
 NEW_BISECT = plan_mod._bisect     # (the tests patch plan_mod._bisect)

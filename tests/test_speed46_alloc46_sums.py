@@ -18,7 +18,12 @@ from gcode_opt.profile import load_profile
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLES = os.path.join(HERE, "..", "sample_gcode")
 
-pytestmark = pytest.mark.skipif(plan_mod._alloc_core() is None, reason="the compiled core is not built")
+from test_speed49_tie49_twins import no_tie_break  # noqa: E402
+
+# the reference here is the allocation before round 49's tie-break (plan._break_ties, checked by
+# test_speed49_tie49_twins against brute force): it is turned off
+pytestmark = [pytest.mark.skipif(plan_mod._alloc_core() is None, reason="the compiled core is not built"),
+              pytest.mark.usefixtures(no_tie_break.__name__)]
 
 
 # ---------------------------------------------------------------- 0b09fc6, verbatim (but _bisect

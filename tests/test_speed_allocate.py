@@ -11,6 +11,11 @@ from gcode_opt import pipeline as pl
 from gcode_opt import plan as plan_mod
 from gcode_opt import schedule as sc
 from gcode_opt.profile import load_profile
+from test_speed49_tie49_twins import no_tie_break
+
+# the reference here is the allocation before round 49's tie-break (plan._break_ties, checked by
+# test_speed49_tie49_twins against brute force): it is turned off
+pytestmark = pytest.mark.usefixtures(no_tie_break.__name__)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLES = os.path.join(HERE, "..", "sample_gcode")

@@ -208,11 +208,14 @@ static void mv_ordered(const double *x, Py_ssize_t K, const double *M, Py_ssize_
 }
 
 /* the end of a step of the iteration: 1 converged (at the rounding floor of the residual,
-   steps no longer shrinking, or below it), 0 stopped unconverged (slow or not finite),
-   -1 on; *last the step before */
+   steps no longer shrinking, or below it, or the steps left, a geometric series at the last
+   step ratio, within it), 0 stopped unconverged (slow or not finite), -1 on; *last the step
+   before */
 static inline int pc_next(Py_ssize_t it, double step, double *last, double scale, const PcConst *P) {
     const int slow = it >= 4 && !(step < P->slow_r * *last);
     if (step <= P->tol * scale || (slow && step <= P->floor_r * scale)) return 1;
+    const double rho = step / *last;
+    if (it >= 1 && rho < 1.0 && step * rho <= P->tol * scale * (1.0 - rho)) return 1;
     if (slow || !isfinite(step)) return 0;
     *last = step;
     return -1;

@@ -55,6 +55,7 @@ class PlanInput:
         first read of one of them reads them all back, the same bits.  False (all kept)
         where one is no plain array or the file cannot be made or written."""
         import tempfile
+        import weakref
         if "_aside" in self.__dict__:           # (set aside already)
             return False
         arrays = [getattr(self, name) for name in self.CANDIDATE_ONLY]
@@ -62,12 +63,19 @@ class PlanInput:
             return False
         try:
             fh = tempfile.TemporaryFile(dir=folder)
+        except OSError:
+            return False
+        try:
             for a in arrays:
                 a.tofile(fh)            # (C order, its bytes as they are)
             fh.flush()
         except (OSError, ValueError):
+            fh.close()
             return False
-        self._aside = (fh, [(a.dtype, a.shape) for a in arrays])
+        # the file closed when read back, or when this PlanInput goes unread (the runs never
+        # read it; a job stopped by an error): not left to the file object's finaliser,
+        # which warns (ResourceWarning) of a file it had to close
+        self._aside = (weakref.finalize(self, fh.close), fh, [(a.dtype, a.shape) for a in arrays])
         for name in self.CANDIDATE_ONLY:
             delattr(self, name)
         return True
@@ -78,7 +86,7 @@ class PlanInput:
         aside = self.__dict__.get("_aside")
         if aside is None or name not in self.CANDIDATE_ONLY:
             raise AttributeError(name)
-        fh, layout = aside
+        close, fh, layout = aside
         fh.seek(0)
         for field, (dtype, shape) in zip(self.CANDIDATE_ONLY, layout):
             count = int(np.prod(shape))
@@ -87,7 +95,7 @@ class PlanInput:
                 raise OSError("the plan inputs set aside were cut short")
             setattr(self, field, a.reshape(shape))
         del self._aside
-        fh.close()
+        close()
         return getattr(self, name)
 
     def take(self, rows) -> "PlanInput":

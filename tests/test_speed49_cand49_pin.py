@@ -7,7 +7,9 @@
   mass_r, t_seg_min) are let go after the candidates (written to a temporary file) and
   read back, bit for bit, by the first read of one of them; plan_strokes with them set
   aside against plan_strokes with them kept (set_aside declining), on sample files."""
+import gc
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -159,3 +161,24 @@ def test_plan_strokes_with_the_inputs_set_aside(name, monkeypatch):
     for name_ in PlanInput.CANDIDATE_ONLY:              # read back, the same as kept
         a, b = getattr(pin, name_), getattr(ref_pin, name_)
         assert np.array_equal(np.asarray(a).view(np.int64), np.asarray(b).view(np.int64))
+
+
+def test_set_aside_file_closed_when_read_back_or_dropped_unread():
+    """The temporary file is closed when the inputs are read back, and when the PlanInput
+    goes unread (the usual case: the runs do not read them; a job stopped by an error),
+    without the file object's ResourceWarning (the fault isolation tests showed 19)."""
+    rng = np.random.default_rng(5)
+    p = _pin(rng, 100)
+    assert p.set_aside()
+    fh = p.__dict__["_aside"][1]
+    p.L
+    assert fh.closed
+    q = _pin(rng, 100)
+    assert q.set_aside()
+    fh = q.__dict__["_aside"][1]
+    assert not fh.closed
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResourceWarning)
+        del q
+        gc.collect()
+    assert fh.closed

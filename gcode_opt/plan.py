@@ -55,30 +55,32 @@ class PlanInput:
         first read of one of them reads them all back, the same bits.  False (all kept)
         where one is no plain array or the file cannot be made or written."""
         import tempfile
-        import weakref
         if "_aside" in self.__dict__:           # (set aside already)
             return False
         arrays = [getattr(self, name) for name in self.CANDIDATE_ONLY]
         if not all(type(a) is np.ndarray for a in arrays):
             return False
+        fh = None
         try:
             fh = tempfile.TemporaryFile(dir=folder)
-        except OSError:
-            return False
-        try:
             for a in arrays:
                 a.tofile(fh)            # (C order, its bytes as they are)
             fh.flush()
         except (OSError, ValueError):
-            fh.close()
+            if fh is not None:
+                fh.close()
             return False
-        # the file closed when read back, or when this PlanInput goes unread (the runs never
-        # read it; a job stopped by an error): not left to the file object's finaliser,
-        # which warns (ResourceWarning) of a file it had to close
-        self._aside = (weakref.finalize(self, fh.close), fh, [(a.dtype, a.shape) for a in arrays])
+        self._aside = (fh, [(a.dtype, a.shape) for a in arrays])
         for name in self.CANDIDATE_ONLY:
             delattr(self, name)
         return True
+
+    def __del__(self):
+        """A file set aside and never read back (a job stopped by an error) closed here, not
+        by the file object's finaliser, which warns (ResourceWarning) of a file it closes."""
+        aside = self.__dict__.get("_aside")
+        if aside is not None:
+            aside[0].close()
 
     def __getattr__(self, name):
         """(Called for an attribute not found only.)  A CANDIDATE_ONLY array set aside: all
@@ -86,7 +88,7 @@ class PlanInput:
         aside = self.__dict__.get("_aside")
         if aside is None or name not in self.CANDIDATE_ONLY:
             raise AttributeError(name)
-        close, fh, layout = aside
+        fh, layout = aside
         fh.seek(0)
         for field, (dtype, shape) in zip(self.CANDIDATE_ONLY, layout):
             count = int(np.prod(shape))
@@ -95,7 +97,7 @@ class PlanInput:
                 raise OSError("the plan inputs set aside were cut short")
             setattr(self, field, a.reshape(shape))
         del self._aside
-        close()
+        fh.close()
         return getattr(self, name)
 
     def take(self, rows) -> "PlanInput":

@@ -170,12 +170,12 @@ def test_set_aside_file_closed_when_read_back_or_dropped_unread():
     rng = np.random.default_rng(5)
     p = _pin(rng, 100)
     assert p.set_aside()
-    fh = p.__dict__["_aside"][1]
+    fh = p.__dict__["_aside"][0]
     p.L
     assert fh.closed
     q = _pin(rng, 100)
     assert q.set_aside()
-    fh = q.__dict__["_aside"][1]
+    fh = q.__dict__["_aside"][0]
     assert not fh.closed
     with warnings.catch_warnings():
         warnings.simplefilter("error", ResourceWarning)

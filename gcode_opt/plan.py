@@ -53,24 +53,17 @@ class PlanInput:
         """The CANDIDATE_ONLY arrays written to an unnamed temporary file in folder and let
         go (~2.9 MB through the rectilinear plate's budget runs, its planning peak): the
         first read of one of them reads them all back, the same bits.  False (all kept)
-        where one is no plain array or the file cannot be made or written."""
-        import tempfile
+        where one is no plain contiguous array or the file cannot be made or written
+        (plan.write_arrays, as Candidates.spill)."""
         if "_aside" in self.__dict__:           # (set aside already)
             return False
         arrays = [getattr(self, name) for name in self.CANDIDATE_ONLY]
         if not all(type(a) is np.ndarray for a in arrays):
             return False
-        fh = None
-        try:
-            fh = tempfile.TemporaryFile(dir=folder)
-            for a in arrays:
-                a.tofile(fh)            # (C order, its bytes as they are)
-            fh.flush()
-        except (OSError, ValueError):
-            if fh is not None:
-                fh.close()
+        got = write_arrays(arrays, folder)
+        if got is None:
             return False
-        self._aside = (fh, [(a.dtype, a.shape) for a in arrays])
+        self._aside = got
         for name in self.CANDIDATE_ONLY:
             delattr(self, name)
         return True
@@ -89,13 +82,8 @@ class PlanInput:
         if aside is None or name not in self.CANDIDATE_ONLY:
             raise AttributeError(name)
         fh, layout = aside
-        fh.seek(0)
-        for field, (dtype, shape) in zip(self.CANDIDATE_ONLY, layout):
-            count = int(np.prod(shape))
-            a = np.fromfile(fh, dtype, count)
-            if a.size != count:
-                raise OSError("the plan inputs set aside were cut short")
-            setattr(self, field, a.reshape(shape))
+        for field, a in zip(self.CANDIDATE_ONLY, read_arrays(fh, layout, "plan inputs set aside")):
+            setattr(self, field, a)
         del self._aside
         fh.close()
         return getattr(self, name)
@@ -203,29 +191,8 @@ class Candidates:
         """These tables written to an unnamed temporary file in folder (SpilledCandidates),
         their memory let go until load() reads them back, the same bits and layout; None
         (and nothing written) where the file cannot be made or written."""
-        import tempfile
-        try:            # (unbuffered: the arrays' bytes go to the file without a copy)
-            fh = tempfile.TemporaryFile(dir=folder, buffering=0)
-        except OSError:
-            return None
-        try:
-            layout = []
-            for name in self.SPILLED:
-                a = getattr(self, name)
-                # (a Fortran-ordered array as its transpose's C bytes: the layout a reduction's
-                # order, and so its bits, may depend on comes back as it was)
-                order = "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else None
-                if order is None:
-                    fh.close()
-                    return None
-                buf, done = (a if order == "C" else a.T).data.cast("B") if a.nbytes else b"", 0
-                while done < len(buf):
-                    done += fh.write(buf[done:])
-                layout.append((name, a.dtype, a.shape, order))
-        except OSError:
-            fh.close()
-            return None
-        return SpilledCandidates(fh, layout, self.k, self.T_orig)
+        got = write_arrays([getattr(self, name) for name in self.SPILLED], folder)
+        return None if got is None else SpilledCandidates(*got, self.k, self.T_orig)
 
     @property
     def mask(self):
@@ -468,17 +435,8 @@ class SpilledCandidates:
     def load(self):
         out = Candidates.__new__(Candidates)
         out.k, out.T_orig = self.k, self.T_orig
-        fh = self.fh
-        fh.seek(0)
-        for name, dtype, shape, order in self.layout:
-            a = np.empty(shape if order == "C" else shape[::-1], dtype)
-            buf, got = a.data.cast("B") if a.nbytes else None, 0
-            while got < a.nbytes:
-                k = fh.readinto(buf[got:])
-                if not k:
-                    raise OSError("the spilled candidate tables were cut short")
-                got += k
-            setattr(out, name, a if order == "C" else a.T)
+        for name, a in zip(Candidates.SPILLED, read_arrays(self.fh, self.layout, "spilled candidate tables")):
+            setattr(out, name, a)
         self.close()
         return out
 
@@ -488,6 +446,51 @@ class SpilledCandidates:
         if self.fh is not None:
             self.fh.close()
             self.fh = None
+
+
+def write_arrays(arrays, folder=None):
+    """(fh, layout): arrays written to an unnamed temporary file in folder, for read_arrays
+    to give back, the same bits and memory order; None (nothing kept) where one is neither
+    C- nor Fortran-contiguous, or the file cannot be made or written."""
+    import tempfile
+    try:            # (unbuffered: the arrays' bytes go to the file without a copy)
+        fh = tempfile.TemporaryFile(dir=folder, buffering=0)
+    except OSError:
+        return None
+    try:
+        layout = []
+        for a in arrays:
+            # (a Fortran-ordered array as its transpose's C bytes: the layout a reduction's
+            # order, and so its bits, may depend on comes back as it was)
+            order = "C" if a.flags.c_contiguous else "F" if a.flags.f_contiguous else None
+            if order is None:
+                fh.close()
+                return None
+            buf, done = (a if order == "C" else a.T).data.cast("B") if a.nbytes else b"", 0
+            while done < len(buf):
+                done += fh.write(buf[done:])
+            layout.append((a.dtype, a.shape, order))
+    except OSError:
+        fh.close()
+        return None
+    return fh, layout
+
+
+def read_arrays(fh, layout, what):
+    """The arrays write_arrays wrote to fh (layout: its own), read from the file's start;
+    OSError naming `what` if the file is cut short.  fh is left open."""
+    fh.seek(0)
+    out = []
+    for dtype, shape, order in layout:
+        a = np.empty(shape if order == "C" else shape[::-1], dtype)
+        buf, got = a.data.cast("B") if a.nbytes else None, 0
+        while got < a.nbytes:
+            k = fh.readinto(buf[got:])
+            if not k:
+                raise OSError(f"the {what} were cut short")
+            got += k
+        out.append(a if order == "C" else a.T)
+    return out
 
 
 def _entry_columns(mask, first, cnt, m):

@@ -24,7 +24,6 @@ from __future__ import annotations
 import errno
 import os
 import stat
-import tempfile
 
 try:            # the C module signal wraps: the same calls, on signal numbers, without the enum
     import _signal as signal        # classes signal builds at its import (~3 M instructions a run)
@@ -124,6 +123,41 @@ def _umask() -> int:
     return m
 
 
+# tempfile's own flags for its files; tempfile is not imported here (with shutil, bz2, lzma
+# and random it is ~10 M instructions a run)
+_TMP_FLAGS = os.O_RDWR | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+_NAME_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"
+
+
+def _mkstemp(folder, tries=10000):
+    """tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder): (fd, absolute
+    path) of a new file made 0600 with O_EXCL under a random 8-character name, another
+    name tried while one exists."""
+    for _ in range(tries):
+        name = "".join(_NAME_CHARS[b % 37] for b in os.urandom(8))
+        path = os.path.abspath(os.path.join(folder, TMP_PREFIX + name + TMP_SUFFIX))
+        try:
+            return os.open(path, _TMP_FLAGS | os.O_CREAT, 0o600), path
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "No usable temporary file name found")
+
+
+def unnamed_file(folder=None):
+    """An unbuffered binary file with no name in folder (default: the temporary folder), as
+    tempfile.TemporaryFile(dir=folder, buffering=0) makes it on Linux (O_TMPFILE); tempfile
+    itself where O_TMPFILE is missing or refused."""
+    o_tmpfile = getattr(os, "O_TMPFILE", 0)
+    if o_tmpfile:
+        where = folder or next((d for d in map(os.environ.get, ("TMPDIR", "TEMP", "TMP")) if d), "/tmp")
+        try:
+            return open(os.open(where, _TMP_FLAGS | o_tmpfile, 0o600), "w+b", buffering=0)
+        except OSError:
+            pass
+    import tempfile
+    return tempfile.TemporaryFile(dir=folder, buffering=0)
+
+
 class AtomicOutput:
     """with AtomicOutput(out) as o: write o.tmp ...; o.commit()   -- the temporary file is
     removed on any exit that did not commit."""
@@ -142,7 +176,7 @@ class AtomicOutput:
         old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED) if _DEFERRED else None
         try:
             try:
-                fd, self.tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=folder)
+                fd, self.tmp = _mkstemp(folder)
             except OSError as e:
                 raise OutputError(describe(e, self.path)) from None
             PENDING.add(self.tmp)

@@ -452,9 +452,9 @@ def write_arrays(arrays, folder=None):
     """(fh, layout): arrays written to an unnamed temporary file in folder, for read_arrays
     to give back, the same bits and memory order; None (nothing kept) where one is neither
     C- nor Fortran-contiguous, or the file cannot be made or written."""
-    import tempfile
+    from .outfile import unnamed_file
     try:            # (unbuffered: the arrays' bytes go to the file without a copy)
-        fh = tempfile.TemporaryFile(dir=folder, buffering=0)
+        fh = unnamed_file(folder)
     except OSError:
         return None
     try:

@@ -7193,9 +7193,16 @@ static int sr_put_doubles(SrBuf *w, const double *v, Py_ssize_t n)
     return 0;
 }
 
+/* the last object interned for each slot by one store_encode call and its index (the
+ * table keeps it): the strokes of a run share their feature, kind and limits */
+typedef struct {
+    PyObject *obj[SO_N];
+    uint32_t q[SO_N];
+} SrSeen;
+
 /* slot value v (NULL: unset) of stroke row written: its tag (*tag) and payload */
 static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObject *index, PyObject *table,
-                      Py_ssize_t row, unsigned char *tag)
+                      Py_ssize_t row, unsigned char *tag, SrSeen *seen)
 {
     const char *name = SO_NAMES[slot];
     char *p;
@@ -7238,6 +7245,13 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
         *tag = SR_INT;
         return 0;
     }
+    if (seen->obj[slot] == v) {
+        if ((p = sr_room(w, 4)) == NULL)
+            return -1;
+        memcpy(p, &seen->q[slot], 4);
+        *tag = SR_INTERN;
+        return 0;
+    }
     if (PyUnicode_CheckExact(v) || (PyObject *)Py_TYPE(v) == k->lim_t) {
         PyObject *key = PyLong_FromVoidPtr(v);
         if (key == NULL)
@@ -7260,6 +7274,8 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
             return -1;
         uint32_t c = (uint32_t)q;
         memcpy(p, &c, 4);
+        seen->obj[slot] = v;
+        seen->q[slot] = c;
         *tag = SR_INTERN;
         return 0;
     }
@@ -7299,7 +7315,8 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
 }
 
 /* one stroke's record appended to w (row: its number, for errors) */
-static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, PyObject *table, Py_ssize_t row)
+static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, PyObject *table, Py_ssize_t row,
+                     SrSeen *seen)
 {
     if (Py_TYPE(o) != k->stroke_t) {
         PyErr_Format(PyExc_TypeError, "StrokeStore: stroke %zd is a %.80s, not the store's Stroke", row,
@@ -7330,7 +7347,7 @@ static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, 
     memcpy(p + SD_N * 8 + SI_N * 8, &has, 4);
     unsigned char tags[SO_N];
     for (int j = 0; j < SO_N; j++)
-        if (sr_put_obj(w, k, j, s->o[j], index, table, row, &tags[j]) < 0)
+        if (sr_put_obj(w, k, j, s->o[j], index, table, row, &tags[j], seen) < 0)
             return -1;
     memcpy(PyByteArray_AS_STRING(w->ba) + at + SR_TAGS, tags, SO_N);   /* (the buffer may have moved) */
     return 0;
@@ -7360,10 +7377,11 @@ static PyObject *mod_store_encode(PyObject *self, PyObject *args)
         return NULL;
     long long *lens = lb.buf;
     SrBuf w = {ba, 0};
+    SrSeen seen = {{NULL}, {0}};
     int rc = 0;
     for (Py_ssize_t r = i0; r < i1 && rc == 0; r++) {
         Py_ssize_t at = w.n;
-        rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r);
+        rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r, &seen);
         lens[r - i0] = w.n - at;
     }
     PyBuffer_Release(&lb);

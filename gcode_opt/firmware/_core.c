@@ -7125,6 +7125,695 @@ done:
     return ret;
 }
 
+/* ---------------------------------------------------------------- stroke store records
+ * stroke_store.StrokeStore's encoding of a stroke (a StrokeBase of exactly the kit's Stroke
+ * class, which adds no slot) into bytes and back, read and filled here directly (the
+ * Python twin in stroke_store.py writes and reads the same bytes).  A record: the doubles
+ * d[SD_N], the ints i[SI_N], `has` (uint32), one tag a object slot (SO_N bytes), then each
+ * slot's payload in slot order: a float or int 8 bytes, an interned object its uint32 index
+ * in the store's table (restored as that same object), an array("d") / Points a uint32
+ * count and the doubles, an Arc its 7 doubles and a byte of its two bools.  curv (a cache)
+ * is stored as None; chain_T as None or a ChainMemo (restored empty).  A field kept as an
+ * object in `extra` (odd), or a value of another type, is refused with a TypeError (never
+ * lost).  Native byte order: the records live in a temporary file of this process. */
+enum { SR_UNSET, SR_NONE, SR_FALSE, SR_TRUE, SR_FLOAT, SR_INT, SR_INTERN, SR_DARRAY, SR_POINTS, SR_ARC, SR_MEMO };
+#define SR_HEAD ((Py_ssize_t)(SD_N * 8 + SI_N * 8 + 4 + SO_N))
+#define SR_TAGS (SD_N * 8 + SI_N * 8 + 4)
+static const char *const SO_NAMES[SO_N] = {"z", "_ends", "v_feed", "accel", "feature", "layer", "e_rel", "lim",
+    "kind", "arc", "pts", "curv", "_ss_a", "_ss_c", "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1"};
+
+/* state.Arc's slots, in record order: 7 doubles, then the bools cw and off_circle */
+enum { SA_N = 9, SA_NDBL = 7 };
+static const char *SR_ARC_NAMES[SA_N] = {"cx", "cy", "r", "theta0", "sweep", "length_d", "end_off_d", "cw",
+                                         "off_circle"};
+static Py_ssize_t sr_arc_off[SA_N];
+static PyObject *sr_arc_name[SA_N];
+static SlotMap SR_ARC_MAP = {NULL, sr_arc_off, sr_arc_name, SA_N};
+
+/* the store's kit: (Stroke, Points, array, Arc, Limits, ChainMemo) */
+typedef struct {
+    PyTypeObject *stroke_t;
+    PyObject *points_t, *array_t, *arc_t, *lim_t, *memo_t;
+} StoreKit;
+
+static int store_kit(PyObject *o, StoreKit *k)
+{
+    if (!PyTuple_CheckExact(o) || PyTuple_GET_SIZE(o) != 6) {
+        PyErr_SetString(PyExc_TypeError, "stroke store: the kit must be a 6-tuple");
+        return -1;
+    }
+    PyObject *st = PyTuple_GET_ITEM(o, 0);
+    k->points_t = PyTuple_GET_ITEM(o, 1);
+    k->array_t = PyTuple_GET_ITEM(o, 2);
+    k->arc_t = PyTuple_GET_ITEM(o, 3);
+    k->lim_t = PyTuple_GET_ITEM(o, 4);
+    k->memo_t = PyTuple_GET_ITEM(o, 5);
+    if (!PyType_Check(st) || !PyType_IsSubtype((PyTypeObject *)st, &StrokeType)
+        || ((PyTypeObject *)st)->tp_basicsize != (Py_ssize_t)sizeof(StrokeObject)
+        || ((PyTypeObject *)st)->tp_dictoffset != 0) {
+        PyErr_SetString(PyExc_TypeError, "stroke store: the kit's Stroke must be a StrokeBase adding no slot");
+        return -1;
+    }
+    k->stroke_t = (PyTypeObject *)st;
+    static const char *points_names[1] = {"xy"};
+    int a = slots_ready(&POINTS_MAP, k->points_t, points_names);
+    int b = a < 0 ? -1 : slots_ready(&SR_ARC_MAP, k->arc_t, SR_ARC_NAMES);
+    if (a < 0 || b < 0)
+        return -1;
+    if (!a || !b) {
+        PyErr_SetString(PyExc_TypeError, "stroke store: the kit's Points and Arc must keep plain slots");
+        return -1;
+    }
+    return 0;
+}
+
+/* a growing bytearray (the caller's, kept between calls) */
+typedef struct {
+    PyObject *ba;
+    Py_ssize_t n;
+} SrBuf;
+
+static char *sr_room(SrBuf *w, Py_ssize_t need)
+{
+    Py_ssize_t cap = PyByteArray_GET_SIZE(w->ba);
+    if (w->n + need > cap) {
+        Py_ssize_t to = cap * 2 > w->n + need ? cap * 2 : w->n + need + 65536;
+        if (PyByteArray_Resize(w->ba, to) < 0)
+            return NULL;
+    }
+    char *p = PyByteArray_AS_STRING(w->ba) + w->n;
+    w->n += need;
+    return p;
+}
+
+static int sr_refuse(Py_ssize_t row, const char *name, PyObject *v)
+{
+    PyErr_Format(PyExc_TypeError, "StrokeStore: stroke %zd: field %s holds %s%.80s (not storable; refused)", row,
+                 name, v == NULL ? "no value" : "a ", v == NULL ? "" : Py_TYPE(v)->tp_name);
+    return -1;
+}
+
+/* the doubles of an array("d") of the kit's class (n, *v borrowed while a is alive); -1 if not one */
+static int sr_darray(const StoreKit *k, PyObject *a, Py_ssize_t *n, const double **v)
+{
+    if ((PyObject *)Py_TYPE(a) != k->array_t)
+        return -1;
+    Py_buffer b;
+    if (PyObject_GetBuffer(a, &b, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    int ok = b.format != NULL && !strcmp(b.format, "d") && b.itemsize == 8 && b.len / 8 <= 0xffffffffLL;
+    *n = b.len / 8;
+    *v = b.buf;                        /* (the array's storage: stays put while nobody resizes it) */
+    PyBuffer_Release(&b);
+    return ok ? 0 : -1;
+}
+
+static int sr_put_doubles(SrBuf *w, const double *v, Py_ssize_t n)
+{
+    char *p = sr_room(w, 4 + 8 * n);
+    if (p == NULL)
+        return -1;
+    uint32_t c = (uint32_t)n;
+    memcpy(p, &c, 4);
+    if (n)
+        memcpy(p + 4, v, (size_t)n * 8);
+    return 0;
+}
+
+/* the last object interned for each slot by one store_encode call and its index (the
+ * table keeps it): the strokes of a run share their feature, kind and limits */
+typedef struct {
+    PyObject *obj[SO_N];
+    uint32_t q[SO_N];
+} SrSeen;
+
+/* slot value v (NULL: unset) of stroke row written: its tag (*tag) and payload */
+static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObject *index, PyObject *table,
+                      Py_ssize_t row, unsigned char *tag, SrSeen *seen)
+{
+    const char *name = SO_NAMES[slot];
+    char *p;
+    if (v == NULL) {
+        *tag = SR_UNSET;
+        return 0;
+    }
+    if (slot == SO_CURV || v == Py_None) {         /* (curv: a cache, made again when read) */
+        *tag = SR_NONE;
+        return 0;
+    }
+    if (slot == SO_CHAIN) {
+        if ((PyObject *)Py_TYPE(v) != k->memo_t)
+            return sr_refuse(row, name, v);
+        *tag = SR_MEMO;
+        return 0;
+    }
+    if (v == Py_False || v == Py_True) {
+        *tag = v == Py_True ? SR_TRUE : SR_FALSE;
+        return 0;
+    }
+    if (PyFloat_CheckExact(v)) {
+        double x = PyFloat_AS_DOUBLE(v);
+        if ((p = sr_room(w, 8)) == NULL)
+            return -1;
+        memcpy(p, &x, 8);
+        *tag = SR_FLOAT;
+        return 0;
+    }
+    if (PyLong_CheckExact(v)) {
+        int over = 0;
+        long long x = PyLong_AsLongLongAndOverflow(v, &over);
+        if (x == -1 && PyErr_Occurred())
+            return -1;
+        if (over)
+            return sr_refuse(row, name, v);
+        if ((p = sr_room(w, 8)) == NULL)
+            return -1;
+        memcpy(p, &x, 8);
+        *tag = SR_INT;
+        return 0;
+    }
+    if (seen->obj[slot] == v) {
+        if ((p = sr_room(w, 4)) == NULL)
+            return -1;
+        memcpy(p, &seen->q[slot], 4);
+        *tag = SR_INTERN;
+        return 0;
+    }
+    if (PyUnicode_CheckExact(v) || (PyObject *)Py_TYPE(v) == k->lim_t) {
+        PyObject *key = PyLong_FromVoidPtr(v);
+        if (key == NULL)
+            return -1;
+        PyObject *got = PyDict_GetItemWithError(index, key);
+        Py_ssize_t q;
+        if (got != NULL) {
+            q = PyLong_AsSsize_t(got);
+        } else if (PyErr_Occurred()) {
+            q = -1;
+        } else {                                   /* a new object: the table keeps it (its id stays its) */
+            q = PyList_GET_SIZE(table);
+            PyObject *qo = PyLong_FromSsize_t(q);
+            if (qo == NULL || PyList_Append(table, v) < 0 || PyDict_SetItem(index, key, qo) < 0)
+                q = -1;
+            Py_XDECREF(qo);
+        }
+        Py_DECREF(key);
+        if (q < 0 || (p = sr_room(w, 4)) == NULL)
+            return -1;
+        uint32_t c = (uint32_t)q;
+        memcpy(p, &c, 4);
+        seen->obj[slot] = v;
+        seen->q[slot] = c;
+        *tag = SR_INTERN;
+        return 0;
+    }
+    Py_ssize_t n;
+    const double *d;
+    if (sr_darray(k, v, &n, &d) == 0) {
+        *tag = SR_DARRAY;
+        return sr_put_doubles(w, d, n);
+    }
+    if ((PyObject *)Py_TYPE(v) == k->points_t) {
+        PyObject *xy = *(PyObject **)((char *)v + POINTS_MAP.off[0]);
+        if (xy == NULL || sr_darray(k, xy, &n, &d) < 0)
+            return sr_refuse(row, "pts.xy", xy);
+        *tag = SR_POINTS;
+        return sr_put_doubles(w, d, n);
+    }
+    if ((PyObject *)Py_TYPE(v) == k->arc_t) {
+        double a[SA_NDBL];
+        unsigned char bits = 0;
+        for (int j = 0; j < SA_N; j++) {
+            PyObject *x = *(PyObject **)((char *)v + sr_arc_off[j]);
+            if (j < SA_NDBL && x != NULL && PyFloat_CheckExact(x))
+                a[j] = PyFloat_AS_DOUBLE(x);
+            else if (j >= SA_NDBL && (x == Py_True || x == Py_False))
+                bits |= (x == Py_True) << (j - SA_NDBL);
+            else
+                return sr_refuse(row, SR_ARC_NAMES[j], x);
+        }
+        if ((p = sr_room(w, 8 * SA_NDBL + 1)) == NULL)
+            return -1;
+        memcpy(p, a, sizeof a);
+        p[8 * SA_NDBL] = (char)bits;
+        *tag = SR_ARC;
+        return 0;
+    }
+    return sr_refuse(row, name, v);
+}
+
+/* one stroke's record appended to w (row: its number, for errors) */
+static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, PyObject *table, Py_ssize_t row,
+                     SrSeen *seen)
+{
+    if (Py_TYPE(o) != k->stroke_t) {
+        PyErr_Format(PyExc_TypeError, "StrokeStore: stroke %zd is a %.80s, not the store's Stroke", row,
+                     Py_TYPE(o)->tp_name);
+        return -1;
+    }
+    StrokeObject *s = (StrokeObject *)o;
+    if (s->odd) {                                  /* a field kept as an object (or unset): not stored */
+        for (int f = 0; f < SD_N + SI_N; f++)
+            if (s->odd & (1u << f)) {
+                const char *nm = f < SD_N ? SD_NAMES[f] : SI_NAMES[f - SD_N];
+                PyObject *v = s->extra ? PyDict_GetItemString(s->extra, nm) : NULL;
+                return sr_refuse(row, nm, v);
+            }
+    }
+    Py_ssize_t at = w->n;
+    char *p = sr_room(w, SR_HEAD);
+    if (p == NULL)
+        return -1;
+    double d[SD_N];
+    memcpy(d, s->d, sizeof d);
+    for (int f = SD_NONE0; f < SD_N; f++)          /* (None: 0.0, as sd_set leaves it) */
+        if (!(s->has & (1u << (f - SD_NONE0))))
+            d[f] = 0.0;
+    uint32_t has = s->has;
+    memcpy(p, d, sizeof d);
+    memcpy(p + SD_N * 8, s->i, SI_N * 8);
+    memcpy(p + SD_N * 8 + SI_N * 8, &has, 4);
+    unsigned char tags[SO_N];
+    for (int j = 0; j < SO_N; j++)
+        if (sr_put_obj(w, k, j, s->o[j], index, table, row, &tags[j], seen) < 0)
+            return -1;
+    memcpy(PyByteArray_AS_STRING(w->ba) + at + SR_TAGS, tags, SO_N);   /* (the buffer may have moved) */
+    return 0;
+}
+
+/* store_encode(strokes, i0, i1, kit, index, table, buf, lens): the records of strokes[i0:i1]
+ * written one after the other at the start of the bytearray buf (grown as needed), their
+ * lengths into lens (int64, >= i1 - i0 items); the bytes written.  index {id: table index}
+ * and table (a list) intern the shared objects (str, Limits). */
+static PyObject *mod_store_encode(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *list, *kit_o, *index, *table, *ba, *lens_o;
+    Py_ssize_t i0, i1;
+    if (!PyArg_ParseTuple(args, "O!nnOO!O!O!O:store_encode", &PyList_Type, &list, &i0, &i1, &kit_o, &PyDict_Type,
+                          &index, &PyList_Type, &table, &PyByteArray_Type, &ba, &lens_o))
+        return NULL;
+    StoreKit k;
+    if (store_kit(kit_o, &k) < 0)
+        return NULL;
+    if (i0 < 0 || i1 > PyList_GET_SIZE(list) || i0 > i1) {
+        PyErr_SetString(PyExc_IndexError, "store_encode: rows out of range");
+        return NULL;
+    }
+    Py_buffer lb;
+    if (stroke_buf(lens_o, &lb, i1 - i0, 1, 1, "store_encode") < 0)
+        return NULL;
+    long long *lens = lb.buf;
+    SrBuf w = {ba, 0};
+    SrSeen seen = {{NULL}, {0}};
+    int rc = 0;
+    for (Py_ssize_t r = i0; r < i1 && rc == 0; r++) {
+        Py_ssize_t at = w.n;
+        rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r, &seen);
+        lens[r - i0] = w.n - at;
+    }
+    PyBuffer_Release(&lb);
+    return rc < 0 ? NULL : PyLong_FromSsize_t(w.n);
+}
+
+/* a reader of one record's bytes */
+typedef struct {
+    const char *p, *end;
+} SrRead;
+
+static const char *sr_take(SrRead *r, Py_ssize_t n)
+{
+    if (r->end - r->p < n) {
+        PyErr_SetString(PyExc_ValueError, "StrokeStore: a record runs past its end (corrupt store)");
+        return NULL;
+    }
+    const char *p = r->p;
+    r->p += n;
+    return p;
+}
+
+/* the doubles of an array / Points payload: count and where they are */
+static const char *sr_doubles(SrRead *r, Py_ssize_t *n)
+{
+    const char *p = sr_take(r, 4);
+    if (p == NULL)
+        return NULL;
+    uint32_t c;
+    memcpy(&c, p, 4);
+    *n = c;
+    return sr_take(r, 8 * (Py_ssize_t)c);
+}
+
+static PyObject *sr_array(const StoreKit *k, const char *p, Py_ssize_t n)
+{
+    double *d;
+    PyObject *a = array_room(k->array_t, n, &d);
+    if (a != NULL && n > 0)
+        memcpy(d, p, (size_t)n * 8);
+    return a;
+}
+
+/* the last float / int made for each slot by one store_decode call: the next record's
+ * value of the same bits is that object again (the strokes of a run share their Z, feed,
+ * acceleration, start state and layer objects as analyse made them: a float each a stroke
+ * would hold more than the strokes spilled) */
+typedef struct {
+    PyObject *obj[SO_N];
+    long long bits[SO_N];
+} SrLast;
+
+static PyObject *sr_number(SrLast *c, int slot, const char *p, int is_float)
+{
+    long long b;
+    memcpy(&b, p, 8);
+    PyObject *o = c->obj[slot];
+    if (o != NULL && c->bits[slot] == b && (is_float ? PyFloat_CheckExact(o) : PyLong_CheckExact(o)))
+        return Py_NewRef(o);
+    double x;
+    memcpy(&x, p, 8);
+    o = is_float ? PyFloat_FromDouble(x) : PyLong_FromLongLong(b);
+    if (o != NULL) {
+        Py_XSETREF(c->obj[slot], Py_NewRef(o));
+        c->bits[slot] = b;
+    }
+    return o;
+}
+
+/* the object of a slot's tag and payload (new reference; *unset 1 and NULL for SR_UNSET) */
+static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyObject *table, int *unset,
+                            SrLast *last, int slot)
+{
+    const char *p;
+    Py_ssize_t n;
+    *unset = 0;
+    switch (tag) {
+    case SR_UNSET:
+        *unset = 1;
+        return NULL;
+    case SR_NONE:
+        Py_RETURN_NONE;
+    case SR_FALSE:
+        Py_RETURN_FALSE;
+    case SR_TRUE:
+        Py_RETURN_TRUE;
+    case SR_FLOAT:
+    case SR_INT:
+        if ((p = sr_take(r, 8)) == NULL)
+            return NULL;
+        return sr_number(last, slot, p, tag == SR_FLOAT);
+    case SR_INTERN: {
+        uint32_t q;
+        if ((p = sr_take(r, 4)) == NULL)
+            return NULL;
+        memcpy(&q, p, 4);
+        if ((Py_ssize_t)q >= PyList_GET_SIZE(table)) {
+            PyErr_SetString(PyExc_ValueError, "StrokeStore: an interned object's index out of its table");
+            return NULL;
+        }
+        return Py_NewRef(PyList_GET_ITEM(table, q));
+    }
+    case SR_DARRAY:
+        if ((p = sr_doubles(r, &n)) == NULL)
+            return NULL;
+        return sr_array(k, p, n);
+    case SR_POINTS: {
+        if ((p = sr_doubles(r, &n)) == NULL)
+            return NULL;
+        PyObject *xy = sr_array(k, p, n);
+        if (xy == NULL)
+            return NULL;
+        PyObject *pts = slots_new(&POINTS_MAP, &xy);
+        Py_DECREF(xy);
+        return pts;
+    }
+    case SR_ARC: {
+        if ((p = sr_take(r, 8 * SA_NDBL + 1)) == NULL)
+            return NULL;
+        PyTypeObject *t = (PyTypeObject *)k->arc_t;
+        PyObject *a = t->tp_alloc(t, 0);
+        if (a == NULL)
+            return NULL;
+        for (int j = 0; j < SA_N; j++) {
+            PyObject *x;
+            if (j < SA_NDBL) {
+                double v;
+                memcpy(&v, p + 8 * j, 8);
+                if ((x = PyFloat_FromDouble(v)) == NULL) {
+                    Py_DECREF(a);
+                    return NULL;
+                }
+            } else {
+                x = Py_NewRef((p[8 * SA_NDBL] >> (j - SA_NDBL)) & 1 ? Py_True : Py_False);
+            }
+            *(PyObject **)((char *)a + sr_arc_off[j]) = x;
+        }
+        return a;
+    }
+    case SR_MEMO:
+        return PyObject_CallNoArgs(k->memo_t);
+    }
+    PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)tag);
+    return NULL;
+}
+
+/* a new stroke of the record r (its bytes exactly) */
+static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last)
+{
+    const char *p = sr_take(r, SR_HEAD);
+    if (p == NULL)
+        return NULL;
+    PyObject *o = k->stroke_t->tp_alloc(k->stroke_t, 0);
+    if (o == NULL)
+        return NULL;
+    StrokeObject *s = (StrokeObject *)o;           /* (zeroed: odd 0, extra NULL, slots NULL) */
+    uint32_t has;
+    memcpy(s->d, p, SD_N * 8);
+    memcpy(s->i, p + SD_N * 8, SI_N * 8);
+    memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
+    s->has = has;
+    const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
+    for (int j = 0; j < SO_N; j++) {
+        int unset;
+        PyObject *v = sr_get_obj(r, k, tags[j], table, &unset, last, j);
+        if (v == NULL && !unset) {
+            Py_DECREF(o);
+            return NULL;
+        }
+        s->o[j] = v;
+    }
+    if (r->p != r->end) {
+        Py_DECREF(o);
+        PyErr_SetString(PyExc_ValueError, "StrokeStore: a record longer than its fields (corrupt store)");
+        return NULL;
+    }
+    return o;
+}
+
+/* store_decode(buf, offs, lens, kit, table, out): a new stroke of each record
+ * buf[offs[q]:offs[q] + lens[q]] appended to the list out */
+static PyObject *mod_store_decode(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *buf_o, *offs_o, *lens_o, *kit_o, *table, *out;
+    if (!PyArg_ParseTuple(args, "OOOOO!O!:store_decode", &buf_o, &offs_o, &lens_o, &kit_o, &PyList_Type, &table,
+                          &PyList_Type, &out))
+        return NULL;
+    StoreKit k;
+    if (store_kit(kit_o, &k) < 0)
+        return NULL;
+    Py_buffer bb, ob, lb;
+    if (PyObject_GetBuffer(buf_o, &bb, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t n = PyObject_Length(offs_o);
+    if (n < 0 || stroke_buf(offs_o, &ob, n, 1, 0, "store_decode") < 0) {
+        PyBuffer_Release(&bb);
+        return NULL;
+    }
+    if (stroke_buf(lens_o, &lb, n, 1, 0, "store_decode") < 0) {
+        PyBuffer_Release(&bb);
+        PyBuffer_Release(&ob);
+        return NULL;
+    }
+    const long long *offs = ob.buf, *lens = lb.buf;
+    int rc = 0;
+    SrLast last = {{NULL}, {0}};
+    for (Py_ssize_t q = 0; q < n && rc == 0; q++) {
+        if (offs[q] < 0 || lens[q] < 0 || offs[q] + lens[q] > bb.len) {
+            PyErr_SetString(PyExc_ValueError, "store_decode: a record out of the buffer");
+            rc = -1;
+            break;
+        }
+        SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
+        PyObject *st = sr_decode(&r, &k, table, &last);
+        rc = st == NULL || PyList_Append(out, st) < 0 ? -1 : 0;
+        Py_XDECREF(st);
+    }
+    for (int j = 0; j < SO_N; j++)
+        Py_XDECREF(last.obj[j]);
+    PyBuffer_Release(&bb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&lb);
+    if (rc < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+/* a slot's payload skipped (r past it); -1 with an error */
+static int sr_skip(SrRead *r, unsigned char tag)
+{
+    Py_ssize_t n;
+    switch (tag) {
+    case SR_UNSET: case SR_NONE: case SR_FALSE: case SR_TRUE: case SR_MEMO:
+        return 0;
+    case SR_FLOAT: case SR_INT:
+        return sr_take(r, 8) ? 0 : -1;
+    case SR_INTERN:
+        return sr_take(r, 4) ? 0 : -1;
+    case SR_DARRAY: case SR_POINTS:
+        return sr_doubles(r, &n) ? 0 : -1;
+    case SR_ARC:
+        return sr_take(r, 8 * SA_NDBL + 1) ? 0 : -1;
+    }
+    PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)tag);
+    return -1;
+}
+
+/* store_column(buf, offs, lens, field, out, none): field `field` (a record field number:
+ * double k < SD_N, int SD_N + k, object slot SD_N + SI_N + k) of each record into out
+ * (float64 or int64 by its format): a float its bits (into int64: refused), an int its value
+ * (into float64 as float(x)), a bool 0 / 1; None (an unset slot, a None-able double's None)
+ * as NaN into float64 (refused into int64) with none[q] = 1 (none: a uint8 buffer or None) */
+static PyObject *mod_store_column(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *buf_o, *offs_o, *lens_o, *out_o, *none_o;
+    int field;
+    if (!PyArg_ParseTuple(args, "OOOiOO:store_column", &buf_o, &offs_o, &lens_o, &field, &out_o, &none_o))
+        return NULL;
+    if (field < 0 || field >= SD_N + SI_N + SO_N) {
+        PyErr_SetString(PyExc_ValueError, "store_column: no such field");
+        return NULL;
+    }
+    Py_buffer bb, ob, lb, vb, nb = {0};
+    if (PyObject_GetBuffer(buf_o, &bb, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t n = PyObject_Length(offs_o);
+    int got = 1;
+    if (n < 0 || stroke_buf(offs_o, &ob, n, 1, 0, "store_column") < 0)
+        goto fail;
+    got = 2;
+    if (stroke_buf(lens_o, &lb, n, 1, 0, "store_column") < 0)
+        goto fail;
+    got = 3;
+    if (PyObject_GetBuffer(out_o, &vb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        goto fail;
+    got = 4;
+    int is_int = vb.format && (!strcmp(vb.format, "q") || !strcmp(vb.format, "l"));
+    if (vb.itemsize != 8 || vb.len < 8 * n || !(is_int || (vb.format && !strcmp(vb.format, "d")))) {
+        PyErr_SetString(PyExc_ValueError, "store_column: out must be a float64 or int64 buffer of len(offs)");
+        goto fail;
+    }
+    if (none_o != Py_None) {
+        if (PyObject_GetBuffer(none_o, &nb, PyBUF_WRITABLE) < 0)
+            goto fail;
+        got = 5;
+        if (nb.len < n) {
+            PyErr_SetString(PyExc_ValueError, "store_column: none must be a uint8 buffer of len(offs)");
+            goto fail;
+        }
+    }
+    const long long *offs = ob.buf, *lens = lb.buf;
+    double *fo = vb.buf;
+    long long *io = vb.buf;
+    unsigned char *no = nb.buf;
+    for (Py_ssize_t q = 0; q < n; q++) {
+        if (offs[q] < 0 || lens[q] < SR_HEAD || offs[q] + lens[q] > bb.len) {
+            PyErr_SetString(PyExc_ValueError, "store_column: a record out of the buffer");
+            goto fail;
+        }
+        SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
+        const char *p = r.p;
+        int none = 0, kind;                /* kind: 0 double x, 1 int i */
+        double x = 0.0;
+        long long i = 0;
+        if (field < SD_N) {
+            uint32_t has;
+            memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
+            memcpy(&x, p + 8 * field, 8);
+            kind = 0;
+            none = field >= SD_NONE0 && !(has & (1u << (field - SD_NONE0)));
+        } else if (field < SD_N + SI_N) {
+            memcpy(&i, p + 8 * field, 8);
+            kind = 1;
+        } else {
+            int slot = field - SD_N - SI_N;
+            const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
+            r.p += SR_HEAD;
+            for (int j = 0; j < slot; j++)
+                if (sr_skip(&r, tags[j]) < 0)
+                    goto fail;
+            unsigned char t = tags[slot];
+            const char *v = t == SR_FLOAT || t == SR_INT ? sr_take(&r, 8) : r.p;
+            if (v == NULL)
+                goto fail;
+            if (t == SR_FLOAT) {
+                memcpy(&x, v, 8);
+                kind = 0;
+            } else if (t == SR_INT) {
+                memcpy(&i, v, 8);
+                kind = 1;
+            } else if (t == SR_FALSE || t == SR_TRUE) {
+                i = t == SR_TRUE;
+                kind = 1;
+            } else if (t == SR_NONE || t == SR_UNSET) {
+                none = 1;
+                kind = 0;
+            } else {
+                PyErr_Format(PyExc_TypeError, "store_column: record %zd's field is not a number", q);
+                goto fail;
+            }
+        }
+        if (none) {
+            if (is_int) {
+                PyErr_Format(PyExc_TypeError, "store_column: record %zd's field is None (an int64 column)", q);
+                goto fail;
+            }
+            x = NAN;
+            kind = 0;
+        }
+        if (is_int) {
+            if (kind == 0) {
+                PyErr_Format(PyExc_TypeError, "store_column: record %zd's field is a float (an int64 column)", q);
+                goto fail;
+            }
+            io[q] = i;
+        } else {
+            fo[q] = kind == 0 ? x : (double)i;
+        }
+        if (no)
+            no[q] = (unsigned char)none;
+    }
+    PyBuffer_Release(&bb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&lb);
+    PyBuffer_Release(&vb);
+    if (got >= 5)
+        PyBuffer_Release(&nb);
+    Py_RETURN_NONE;
+fail:
+    PyBuffer_Release(&bb);
+    if (got >= 2)
+        PyBuffer_Release(&ob);
+    if (got >= 3)
+        PyBuffer_Release(&lb);
+    if (got >= 4)
+        PyBuffer_Release(&vb);
+    if (got >= 5)
+        PyBuffer_Release(&nb);
+    return NULL;
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -7168,6 +7857,12 @@ static PyMethodDef mod_methods[] = {
      "stroke_fields(strokes, names, vals, kinds): line_classes' fields as doubles and kinds; 0: declined"},
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
+    {"store_encode", mod_store_encode, METH_VARARGS,
+     "store_encode(strokes, i0, i1, kit, index, table, buf, lens): stroke_store's records of strokes[i0:i1]"},
+    {"store_decode", mod_store_decode, METH_VARARGS,
+     "store_decode(buf, offs, lens, kit, table, out): new strokes of stroke_store's records, appended to out"},
+    {"store_column", mod_store_column, METH_VARARGS,
+     "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
     {NULL}
 };
 

@@ -1,0 +1,487 @@
+"""StrokeStore: strokes spilled as compact records (a temporary file, or bytes in memory) and
+restored as new Stroke objects, a window at a time.
+
+The strokes are the largest thing the run keeps (gyroid plate: 22 MB of its peak for 35 k
+strokes); a windowed pipeline keeps only a window of them as objects.  A record holds every
+field of strokes.FIELDS (the record layout: firmware/_core.c's "stroke store records"):
+
+- the StrokeBase doubles bit for bit (None of a None-able one kept apart from a NaN: its
+  `has` bit), first_idx / last_idx as int64;
+- each object field by a tag and a payload: unset, None, False, True, a float (its bits), an
+  int (int64), a shared object (a str or a state.Limits: its index in the store's intern
+  table, restored as that SAME object), an array("d") (_ends) or a Points (pts) with its
+  doubles, a state.Arc with its fields (a new Arc of equal fields);
+- curv is a cache: restored None; chain_T: None, or a new EMPTY chains.ChainMemo (the memos
+  themselves are kept apart, a later step).
+A value of any other type (or a StrokeBase field kept as an object: a np.float64, an int in
+a float field, a deleted field) is refused with a TypeError naming the stroke and field.
+
+The compiled core (store_encode / store_decode / store_column) reads and fills the
+StrokeBase directly; without it (GCODE_OPT_PURE_PYTHON=1, not built) the Python twin below
+writes and reads the same bytes through getattr / setattr.
+"""
+from __future__ import annotations
+
+import gc
+import os
+import struct
+import tempfile
+from array import array
+
+import numpy as np
+
+from . import strokes as stm
+from .state import Arc, Limits
+
+# the record's fields, in record order (firmware/_core.c: SD_NAMES, SI_NAMES, SO_NAMES)
+D_NAMES = ("x0", "y0", "ux", "uy", "length_d", "e_per_mm", "v0", "v1", "time_t", "int_a2", "int_v2",
+           "_pux", "_puy", "_nux", "_nuy", "_ss_e")
+D_NONE0 = 11                 # from _pux on a double may be None
+I_NAMES = ("first_idx", "last_idx")
+O_NAMES = ("z", "_ends", "v_feed", "accel", "feature", "layer", "e_rel", "lim", "kind", "arc", "pts", "curv",
+           "_ss_a", "_ss_c", "chain_T", "v0_fw", "v1_fw", "corner_cmd0", "corner_cmd1")
+FIELD_CODE = {nm: k for k, nm in enumerate(D_NAMES + I_NAMES + O_NAMES)}
+assert sorted(FIELD_CODE) == sorted(stm.FIELDS)
+# column(): the numeric fields and their column's dtype (a bool field as int64 0 / 1)
+INT_COLUMNS = frozenset(("first_idx", "last_idx", "layer", "e_rel", "corner_cmd0", "corner_cmd1"))
+FLOAT_COLUMNS = frozenset(D_NAMES + ("z", "v_feed", "accel", "_ss_a", "_ss_c", "v0_fw", "v1_fw"))
+
+(T_UNSET, T_NONE, T_FALSE, T_TRUE, T_FLOAT, T_INT, T_INTERN, T_DARRAY, T_POINTS, T_ARC, T_MEMO) = range(11)
+ARC_NAMES = ("cx", "cy", "r", "theta0", "sweep", "length_d", "end_off_d", "cw", "off_circle")
+_HEAD = struct.Struct(f"={len(D_NAMES)}d{len(I_NAMES)}qI{len(O_NAMES)}B")
+_F64, _I64, _U32 = struct.Struct("=d"), struct.Struct("=q"), struct.Struct("=I")
+_ARC = struct.Struct("=7dB")
+_TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
+
+BATCH = 1024                 # records encoded / read / decoded at a time (~0.5 MB of buffer each way)
+
+
+def _kit():
+    from .chains import ChainMemo
+    return (stm.Stroke, stm.Points, array, Arc, Limits, ChainMemo)
+
+
+def _refuse(row, name, v):
+    return TypeError(f"StrokeStore: stroke {row}: field {name} holds "
+                     f"{'no value' if v is _UNSET else 'a ' + type(v).__name__} (not storable; refused)")
+
+
+_UNSET = object()
+_SINGLE = {T_UNSET: _UNSET, T_NONE: None, T_FALSE: False, T_TRUE: True}
+
+
+class _CCodec:
+    """The compiled records (firmware/_core.c)."""
+
+    def __init__(self, core, kit):
+        self._core, self._kit = core, kit
+
+    def encode(self, strokes, i0, i1, index, table, buf, lens):
+        return self._core.store_encode(strokes, i0, i1, self._kit, index, table, buf, lens)
+
+    def decode(self, buf, offs, lens, table, out):
+        self._core.store_decode(buf, offs, lens, self._kit, table, out)
+
+    def column(self, buf, offs, lens, code, out, none):
+        self._core.store_column(buf, offs, lens, code, out, none)
+
+
+class _PyCodec:
+    """The same records written and read in Python (getattr / setattr: any Stroke class)."""
+
+    def __init__(self, kit):
+        self._kit = kit
+        self.Stroke, self.Points, self.array, self.Arc, self.Limits, self.Memo = kit
+
+    def _obj(self, row, k, v, index, table, tail):
+        """slot k's value v: its tag, its payload appended to tail"""
+        if v is _UNSET:
+            return T_UNSET
+        if O_NAMES[k] == "curv" or v is None:          # (curv: a cache, made again when read)
+            return T_NONE
+        if O_NAMES[k] == "chain_T":
+            if type(v) is not self.Memo:
+                raise _refuse(row, "chain_T", v)
+            return T_MEMO
+        if v is False or v is True:
+            return T_TRUE if v else T_FALSE
+        t = type(v)
+        if t is float:
+            tail.append(_F64.pack(v))
+            return T_FLOAT
+        if t is int:
+            if not -2**63 <= v < 2**63:
+                raise _refuse(row, O_NAMES[k], v)
+            tail.append(_I64.pack(v))
+            return T_INT
+        if t is str or t is self.Limits:
+            q = index.get(id(v))
+            if q is None:
+                q = index[id(v)] = len(table)
+                table.append(v)
+            tail.append(_U32.pack(q))
+            return T_INTERN
+        if t is self.array and v.typecode == "d":
+            tail += (_U32.pack(len(v)), v.tobytes())
+            return T_DARRAY
+        if t is self.Points:
+            xy = getattr(v, "xy", _UNSET)
+            if type(xy) is not self.array or xy.typecode != "d":
+                raise _refuse(row, "pts.xy", xy)
+            tail += (_U32.pack(len(xy)), xy.tobytes())
+            return T_POINTS
+        if t is self.Arc:
+            a = [getattr(v, nm, _UNSET) for nm in ARC_NAMES]
+            for nm, x in zip(ARC_NAMES, a):
+                if type(x) is not (float if nm not in ("cw", "off_circle") else bool):
+                    raise _refuse(row, nm, x)
+            tail.append(_ARC.pack(*a[:7], a[7] | a[8] << 1))
+            return T_ARC
+        raise _refuse(row, O_NAMES[k], v)
+
+    def _record(self, st, row, index, table):
+        if type(st) is not self.Stroke:
+            raise TypeError(f"StrokeStore: stroke {row} is a {type(st).__name__}, not the store's Stroke")
+        d, has = [], 0
+        for k, nm in enumerate(D_NAMES):
+            v = getattr(st, nm, _UNSET)
+            if type(v) is float:
+                d.append(v)
+                if k >= D_NONE0:
+                    has |= 1 << (k - D_NONE0)
+            elif v is None and k >= D_NONE0:
+                d.append(0.0)
+            else:
+                raise _refuse(row, nm, v)
+        ii = [getattr(st, nm, _UNSET) for nm in I_NAMES]
+        for nm, v in zip(I_NAMES, ii):
+            if type(v) is not int or not -2**63 <= v < 2**63:
+                raise _refuse(row, nm, v)
+        tail = []
+        tags = [self._obj(row, k, getattr(st, nm, _UNSET), index, table, tail) for k, nm in enumerate(O_NAMES)]
+        return _HEAD.pack(*d, *ii, has, *tags) + b"".join(tail)
+
+    def encode(self, strokes, i0, i1, index, table, buf, lens):
+        recs = [self._record(strokes[r], r, index, table) for r in range(i0, i1)]
+        lens[:i1 - i0] = [len(x) for x in recs]
+        data = b"".join(recs)
+        buf[:] = data
+        return len(data)
+
+    @staticmethod
+    def _payload(mv, at, tag):
+        """(value-ish, next offset) of a slot's payload at mv[at:]: a float / int / index / count"""
+        if tag == T_FLOAT:
+            return _F64.unpack_from(mv, at)[0], at + 8
+        if tag == T_INT:
+            return _I64.unpack_from(mv, at)[0], at + 8
+        if tag == T_INTERN:
+            return _U32.unpack_from(mv, at)[0], at + 4
+        if tag in (T_DARRAY, T_POINTS):
+            n = _U32.unpack_from(mv, at)[0]
+            return n, at + 4 + 8 * n
+        if tag == T_ARC:
+            return None, at + _ARC.size
+        if tag > T_MEMO:
+            raise ValueError(f"StrokeStore: unknown tag {tag} (corrupt store)")
+        return None, at
+
+    def _doubles(self, mv, at, n):
+        a = self.array("d")
+        a.frombytes(mv[at + 4:at + 4 + 8 * n])
+        return a
+
+    def _value(self, mv, at, tag, table):
+        x, nxt = self._payload(mv, at, tag)
+        if tag in (T_FLOAT, T_INT):
+            return x, nxt
+        if tag == T_INTERN:
+            return table[x], nxt
+        if tag == T_DARRAY:
+            return self._doubles(mv, at, x), nxt
+        if tag == T_POINTS:
+            p = self.Points.__new__(self.Points)
+            p.xy = self._doubles(mv, at, x)
+            return p, nxt
+        if tag == T_ARC:
+            f = _ARC.unpack_from(mv, at)
+            a = self.Arc.__new__(self.Arc)
+            for nm, v in zip(ARC_NAMES, f[:7] + (bool(f[7] & 1), bool(f[7] & 2))):
+                setattr(a, nm, v)
+            return a, nxt
+        if tag == T_MEMO:
+            return self.Memo(), nxt
+        return _SINGLE[tag], nxt
+
+    def decode(self, buf, offs, lens, table, out):
+        with memoryview(buf) as mv:
+            for at, n in zip(offs.tolist(), lens.tolist()):
+                h = _HEAD.unpack_from(mv, at)
+                st = self.Stroke.__new__(self.Stroke)
+                nd, ni = len(D_NAMES), len(I_NAMES)
+                has = h[nd + ni]
+                for k, nm in enumerate(D_NAMES):
+                    none = k >= D_NONE0 and not has >> (k - D_NONE0) & 1
+                    setattr(st, nm, None if none else h[k])
+                for k, nm in enumerate(I_NAMES):
+                    setattr(st, nm, h[nd + k])
+                p = at + _HEAD.size
+                for nm, tag in zip(O_NAMES, h[nd + ni + 1:]):
+                    v, p = self._value(mv, p, tag, table)
+                    if v is not _UNSET:
+                        setattr(st, nm, v)
+                if p != at + n:
+                    raise ValueError("StrokeStore: a record's length is not its fields' (corrupt store)")
+                out.append(st)
+
+    def column(self, buf, offs, lens, code, out, none):
+        is_int = out.dtype.kind == "i"
+        nd, ni = len(D_NAMES), len(I_NAMES)
+        with memoryview(buf) as mv:
+            for q, at in enumerate(offs.tolist()):
+                h = _HEAD.unpack_from(mv, at)
+                isnone = False
+                if code < nd:
+                    x = h[code]
+                    isnone = code >= D_NONE0 and not h[nd + ni] >> (code - D_NONE0) & 1
+                elif code < nd + ni:
+                    x = h[code]
+                else:
+                    tags = h[nd + ni + 1:]
+                    p = at + _HEAD.size
+                    for tag in tags[:code - nd - ni]:
+                        p = self._payload(mv, p, tag)[1]
+                    tag = tags[code - nd - ni]
+                    if tag in (T_FLOAT, T_INT):
+                        x = self._payload(mv, p, tag)[0]
+                    elif tag in (T_FALSE, T_TRUE):
+                        x = int(tag == T_TRUE)
+                    elif tag in (T_NONE, T_UNSET):
+                        isnone = True
+                    else:
+                        raise TypeError(f"store_column: record {q}'s field is not a number")
+                if isnone:
+                    if is_int:
+                        raise TypeError(f"store_column: record {q}'s field is None (an int64 column)")
+                    x = float("nan")
+                if is_int and type(x) is float:
+                    raise TypeError(f"store_column: record {q}'s field is a float (an int64 column)")
+                out[q] = x
+                if none is not None:
+                    none[q] = isnone
+
+
+class _TempFile:
+    """Records in an unnamed temporary file: spilled strokes hold no resident memory."""
+    in_memory = False
+
+    def __init__(self, folder=None):
+        self._fh = tempfile.TemporaryFile(dir=folder)
+        self._fd = self._fh.fileno()
+
+    def write(self, pos, data):
+        mv = memoryview(data)
+        while len(mv):
+            n = os.pwrite(self._fd, mv, pos)
+            mv, pos = mv[n:], pos + n
+
+    def read_into(self, mv, pos):
+        while len(mv):
+            n = os.preadv(self._fd, [mv], pos)
+            if n <= 0:
+                raise OSError("StrokeStore: the temporary file ended early")
+            mv, pos = mv[n:], pos + n
+
+    def close(self):
+        self._fh.close()
+
+
+class _Memory:
+    """Records in one bytearray (the in-memory variant: the bytes stay resident)."""
+    in_memory = True
+
+    def __init__(self, folder=None):
+        self.data = bytearray()
+
+    def write(self, pos, data):
+        if pos == len(self.data):
+            self.data += data
+        else:
+            self.data[pos:pos + len(data)] = data
+
+    def close(self):
+        self.data = bytearray()
+
+
+def _codec(pure):
+    kit = _kit()
+    core = stm._CORE
+    if pure or core is None or not hasattr(core, "store_encode") or stm._BASE is None:
+        return _PyCodec(kit)
+    return _CCodec(core, kit)
+
+
+class StrokeStore:
+    """Strokes appended in order (a stroke's index: how many were appended before it), read
+    back as new Stroke objects (load, take), one numeric field as an array without making
+    strokes (column), records re-encoded after a change (rewrite).  in_memory: the records
+    in a bytearray instead of a temporary file (folder: where; default the system's).  pure:
+    the Python twin even where the core is built (tests)."""
+
+    def __init__(self, in_memory=False, folder=None, pure=False):
+        self._codec = _codec(pure)
+        self._io = (_Memory if in_memory else _TempFile)(folder)
+        self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
+        self._len = np.zeros(0, np.int64)
+        self._n = 0
+        self._end = 0                            # bytes of the store (dead records included)
+        self._index, self._table = {}, []        # the interned objects: {id: k}, [object]
+        self._wbuf = bytearray()                 # encode's buffer, kept between calls
+        self._rbuf = bytearray()                 # the file's read buffer, kept between calls
+
+    @property
+    def pure(self):
+        return isinstance(self._codec, _PyCodec)
+
+    def __len__(self):
+        return self._n
+
+    @property
+    def nbytes(self):
+        """Bytes of records written (a record rewritten longer leaves its old bytes dead)."""
+        return self._end
+
+    def _room(self, n):
+        if n > len(self._off):
+            cap = max(n, 2 * len(self._off), 1024)
+            self._off = np.concatenate((self._off[:self._n], np.zeros(cap - self._n, np.int64)))
+            self._len = np.concatenate((self._len[:self._n], np.zeros(cap - self._n, np.int64)))
+
+    def _encode(self, strokes, i0, i1):
+        """(records of strokes[i0:i1] at the start of _wbuf, their lengths)"""
+        lens = np.empty(i1 - i0, np.int64)
+        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, self._wbuf, lens)
+        return nb, lens
+
+    def append(self, strokes):
+        """Records of strokes (a list) after the ones stored."""
+        strokes = strokes if type(strokes) is list else list(strokes)
+        self._room(self._n + len(strokes))
+        end = self._end                # (a refused stroke: the store is left as it was)
+        for b0 in range(0, len(strokes), BATCH):
+            b1 = min(b0 + BATCH, len(strokes))
+            nb, lens = self._encode(strokes, b0, b1)
+            self._io.write(end, memoryview(self._wbuf)[:nb])
+            k0 = self._n + b0
+            self._len[k0:k0 + b1 - b0] = lens
+            self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
+            end += nb
+        self._n += len(strokes)
+        self._end = end
+
+    def _rows(self, rows):
+        rows = np.asarray(rows, np.int64)
+        if rows.ndim != 1 or (len(rows) and (rows.min() < 0 or rows.max() >= self._n)):
+            raise IndexError("StrokeStore: rows out of range")
+        return rows
+
+    def _batches(self, rows):
+        """(buffer, offsets in it, lengths) of the records of rows, BATCH at a time: the
+        in-memory bytes themselves, or the file's runs of adjacent records read into _rbuf"""
+        for b0 in range(0, len(rows), BATCH):
+            r = rows[b0:b0 + BATCH]
+            offs, lens = self._off[r], self._len[r]
+            if self._io.in_memory:
+                yield self._io.data, offs, lens
+                continue
+            brk = np.flatnonzero(offs[1:] != offs[:-1] + lens[:-1]) + 1
+            first = np.concatenate(([0], brk))
+            last = np.concatenate((brk, [len(r)])) - 1
+            run_at = offs[first]
+            run_n = offs[last] + lens[last] - run_at
+            run_pos = np.cumsum(run_n) - run_n               # where each run goes in the buffer
+            total = int(run_n.sum())
+            if len(self._rbuf) < total:
+                self._rbuf = bytearray(total)
+            with memoryview(self._rbuf) as mv:
+                for a, n, p in zip(run_at.tolist(), run_n.tolist(), run_pos.tolist()):
+                    self._io.read_into(mv[p:p + n], a)
+            rel = offs - np.repeat(run_at - run_pos, last - first + 1)
+            yield self._rbuf, rel, lens
+
+    def take(self, rows):
+        """New strokes of the records of rows (int64, in the order given; sorted reads best).
+        The collector waits meanwhile: the new strokes hold no cycle, and its young
+        collections walked them, over and over, for ~80 % of the time (rectilinear plate)."""
+        out = []
+        was_on = gc.isenabled()
+        gc.disable()
+        try:
+            for buf, offs, lens in self._batches(self._rows(rows)):
+                self._codec.decode(buf, offs, lens, self._table, out)
+        finally:
+            if was_on:
+                gc.enable()
+        return out
+
+    def load(self, i0, i1):
+        """New strokes of records i0..i1-1."""
+        i0, i1 = max(i0, 0), min(i1, self._n)
+        return self.take(np.arange(i0, max(i0, i1), dtype=np.int64))
+
+    def column(self, name, with_none=False):
+        """Field `name` of every record, without making a stroke: a float64 array (a float
+        field: a float's bits; None -- a None-able field's None, an unset slot -- as NaN) or
+        an int64 one (first_idx, last_idx, layer; the bools as 0 / 1).  with_none: also a
+        bool array, True where the value was None (a stored NaN is then told apart)."""
+        if name not in FLOAT_COLUMNS and name not in INT_COLUMNS:
+            raise ValueError(f"StrokeStore.column: {name!r} is not a numeric field")
+        out = np.empty(self._n, np.int64 if name in INT_COLUMNS else np.float64)
+        none = np.zeros(self._n, np.uint8) if with_none else None
+        at = 0
+        for buf, offs, lens in self._batches(np.arange(self._n, dtype=np.int64)):
+            n = len(offs)
+            self._codec.column(buf, offs, lens, FIELD_CODE[name], out[at:at + n],
+                               None if none is None else none[at:at + n])
+            at += n
+        return (out, none.astype(bool)) if with_none else out
+
+    def rewrite(self, rows, strokes):
+        """Records of rows (int64) made again from strokes (one a row: strokes changed since
+        append).  A record of the same length is written in place, a longer or shorter one
+        after the store's end (its old bytes left dead)."""
+        rows = self._rows(rows)
+        strokes = strokes if type(strokes) is list else list(strokes)
+        if len(strokes) != len(rows):
+            raise ValueError("StrokeStore.rewrite: one stroke a row")
+        for b0 in range(0, len(rows), BATCH):
+            b1 = min(b0 + BATCH, len(rows))
+            r = rows[b0:b1]
+            nb, lens = self._encode(strokes, b0, b1)
+            moved = lens != self._len[r]
+            new_off = self._off[r].copy()
+            new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
+            self._end += int(lens[moved].sum())
+            bpos = np.cumsum(lens) - lens
+            # runs adjacent both in the buffer and in the store: one write each
+            brk = np.flatnonzero(new_off[1:] != new_off[:-1] + lens[:-1]) + 1
+            first = np.concatenate(([0], brk))
+            last = np.concatenate((brk, [len(r)])) - 1
+            with memoryview(self._wbuf) as mv:
+                for f, e in zip(first.tolist(), last.tolist()):
+                    p0, p1 = int(bpos[f]), int(bpos[e] + lens[e])
+                    self._io.write(int(new_off[f]), mv[p0:p1])
+            self._off[r], self._len[r] = new_off, lens
+
+    def close(self):
+        """The records let go (the file removed); the store is empty."""
+        self._io.close()
+        self._n = self._end = 0
+        self._wbuf, self._rbuf = bytearray(), bytearray()
+        self._index, self._table = {}, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1726,7 +1726,9 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
     other levels, and other bits (~1e-12), than the whole file.  levels: (first pass,
     retries) floors of those levels (curve_grid_levels of the file: every window then
     integrates on the file's grid), None: each pass's own.  own_levels (a list): given
-    each pass's (own levels before the floor, whether it made figures on them)."""
+    each pass's (own levels before the floor, whether it made figures on them); where it
+    made none, the levels as a function (they are read only where another window's pass
+    made figures: the retries' grid_levels_of was ~10 % of the curves' candidates)."""
     rows = np.asarray(rows, int)
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
@@ -1761,8 +1763,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
             keep = np.flatnonzero(~skip)
             if keep.size:
                 iv[keep], ia[keep], ok[keep] = _figures(idx[keep], T[keep], beta[keep], idx[skip], T[skip], beta[skip])
-            elif own_levels is not None:        # (no figures made: the levels they would take)
-                own_levels.append((_levels_of(idx, T, beta), False))
+            elif own_levels is not None:        # (no figures made: the levels they would take, when asked)
+                own_levels.append((lambda: _levels_of(idx, T, beta), False))
             return iv, ia, ok
         return _figures(idx, T, beta)
 
@@ -1779,11 +1781,12 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
-        if idx_out is not None and (fig.size or own_levels is not None):
+        if idx_out is not None and fig.size:
             out = _levels_of(idx_out, T_out, beta_out)
             levels = levels if out is None else max(levels, out)
         if own_levels is not None:
-            own_levels.append((levels, bool(fig.size)))
+            own_levels.append((levels if idx_out is None or fig.size else
+                               lambda: max(levels, _levels_of(idx_out, T_out, beta_out) or 0), bool(fig.size)))
         if floor is not None and npass[0] < len(floor):
             levels = max(levels, floor[npass[0]])
         if fig.size:

@@ -350,20 +350,24 @@ def _curves_at(levels, own_levels):
     return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels)
 
 
-def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None):
+def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False):
     """_candidates' tables (auto) made window by window: Candidates.of_pieces of
     window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
     as one call of all of them (tests/test_speed50_wina50_windows.py).  Returns (Candidates,
     rows holding a non-finite candidate).  What makes them so:
       - the lines' inputs made once across the windows (plan.PiecesMemo), as pieces_once
         makes them across the file (each entry is its row's own);
-      - the curves' figures on the file's grid: the first pass's levels decided over the
-        file first (curves.curve_grid_levels); the retries' (at beta/4) are the largest
-        of the rows the first passes reject, known once every window's first pass has
-        run: each window takes the largest met so far, and a window whose retries made
-        figures on fewer levels than the file's is made again (a cap, the levels of every
-        candidate at beta/4, was 8 on both plates where their retries' are 4: every
-        window would have been made again);
+      - the curves' figures on the file's grid (candidates_curve's levels): each pass's
+        levels are the largest of its candidates' in the file.  Each window takes the
+        largest met so far, and a window whose pass made figures on fewer levels than the
+        file's is made again at the file's (made again on its first pass's, its retries
+        are the file's: its retries' levels are read again).  decide_first: the first
+        pass's levels decided over the file first (curves.curve_grid_levels, ~0.02 s a
+        plate), so only the retries can take a window again.  The retries' are known
+        only once the first passes have run (a cap, the levels of every candidate at
+        beta/4, was 8 on both plates where their retries' are 4: every window would have
+        been made again).  On both plates the largest levels are in the first window,
+        and no retry makes figures: no window is made again;
       - the chains: each chain's tables its own (as the other kinds, each row's own).
     Not covered: a batch where Newton solves an arc (circle.NEWTON_ARCS) may round with
     its batch, and arcs (arcs.py) integrate on their batch's levels.  info (a dict): given
@@ -372,7 +376,8 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     whether it made figures: candidates_curve's own_levels)."""
     n = len(strokes)
     rules = SegmentRules.for_profile(profile, opts.max_segments)
-    first = curves.curve_grid_levels(pin, _not_failed(rows.get(K_CURVE, np.zeros(0, int)), failed), strokes, profile)
+    first = curves.curve_grid_levels(pin, _not_failed(rows.get(K_CURVE, np.zeros(0, int)), failed), strokes,
+                                     profile) if decide_first else 0
     windows = [{k: r[(r >= lo) & (r < hi)] for k, r in rows.items()} for lo, hi in zip(bounds[:-1], bounds[1:])]
     memo = PiecesMemo()
     n0 = circle.NEWTON_ARCS[0]
@@ -380,23 +385,49 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     for w in windows:
         pieces += window_pieces(strokes, pin, profile, w, failed, rules, lines=memo,
                                 kinds=[k for k in KINDS if k != K_CURVE])
-    curve, retry = [], 0        # per window: [its curve pieces, the retries' floor, whether they made figures]
-    owns = []                   # per window: each pass's (own levels, whether it made figures)
-    for w in windows:
-        owns.append([])
-        curve.append([window_pieces(strokes, pin, profile, w, failed, rules, (first, retry), own_levels=owns[-1],
-                                    kinds=(K_CURVE,)), retry, len(owns[-1]) > 1 and owns[-1][1][1]])
-        retry = max([retry] + [lv for lv, _ in owns[-1][1:2]])
-    redone = 0
-    for c, w in zip(curve, windows):
-        if c[2] and c[1] < retry:       # (its first pass the file's: the same retries, on the file's levels now)
-            c[0] = window_pieces(strokes, pin, profile, w, failed, rules, (first, retry), kinds=(K_CURVE,))
-            redone += 1
+    levels = [first, 0]         # the floors: the largest own levels met so far, a pass
+    curve = [None] * len(windows)       # per window: its curve pieces
+    used = [None] * len(windows)        # the floors it took
+    owns = [None] * len(windows)        # each pass's (own levels, whether it made figures)
+    todo, redone = range(len(windows)), 0
+    while True:
+        for j in todo:
+            owns[j], used[j] = [], tuple(levels)
+            curve[j] = window_pieces(strokes, pin, profile, windows[j], failed, rules, used[j], own_levels=owns[j],
+                                     kinds=(K_CURVE,))
+            for p, (lv, made) in enumerate(owns[j][:2]):
+                levels[p] = max(levels[p], lv) if made else levels[p]
+        levels = _file_levels(owns)
+        # a window's first pass made on the file's levels: its retries are the file's
+        todo = [j for j in range(len(windows)) if any(made and used[j][p] != levels[p]
+                                                      for p, (_, made) in enumerate(owns[j][:2]))]
+        if not todo:
+            break
+        redone += len(todo)
     if info is not None:
-        info.update(levels=(first, retry), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
+        info.update(levels=tuple(levels), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
     for c in curve:
-        pieces += c[0]
+        pieces += c
     return Candidates.of_pieces(n, pieces + memo.piece(), pin.T_orig)
+
+
+def _file_levels(owns):
+    """[first pass, retries]: the levels of each pass of one call of every window's
+    strokes (the largest of the windows' own: owns, candidates_curve's own_levels a
+    window), 0 where no window's pass made figures (the levels are not read).  The
+    levels of a pass that made no figures are read (a function) only where another
+    window's did, and kept."""
+    out = []
+    for p in range(2):
+        at = [o for o in owns if len(o) > p]
+        if not any(o[p][1] for o in at):
+            out.append(0)
+            continue
+        for o in at:
+            if callable(o[p][0]):
+                o[p] = (o[p][0](), o[p][1])
+        out.append(max(o[p][0] for o in at))
+    return out
 
 
 def _not_failed(rows, failed):

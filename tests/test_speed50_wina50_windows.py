@@ -41,13 +41,13 @@ def _one_call(path):
     return cands, failed, rows, len(strokes)
 
 
-def _windows(path, bounds_of):
+def _windows(path, bounds_of, decide_first=False):
     """(Candidates, failed, info) of candidates_in_windows over bounds_of(n, rows)."""
     prof, opts, strokes, pin, rows = _setup(path)
     failed = _faults_of(pin.fault)
     info = {}
     cands, nonfinite = candidates_in_windows(strokes, pin, prof, opts, rows, failed,
-                                             bounds_of(len(strokes), rows), info)
+                                             bounds_of(len(strokes), rows), info, decide_first)
     for i in nonfinite:                     # (as _candidates records them)
         failed.setdefault(int(i), "error: planning (non-finite)")
     return cands, failed, info
@@ -77,11 +77,26 @@ def _even(K):
                                   "prusa_gyroid_fullspeed.gcode", "prusa_klipper.gcode", "cura_box.gcode"])
 def test_windows_same_bits_samples(name):
     ref, failed_ref, rows, n = _one_call(SAMPLES / name)
-    for K in (1, 2, 8, 32):
-        got, failed, info = _windows(SAMPLES / name, _even(K))
+    for K, decide in ((1, False), (2, True), (8, False), (32, False), (32, True)):
+        got, failed, info = _windows(SAMPLES / name, _even(K), decide)
         _assert_same(ref, got, n)
         assert failed == failed_ref
         assert info["newton"] == 0          # (not covered: Newton's batches)
+
+
+def test_windows_first_pass_made_again():
+    """The benchy-like sample's curves take levels 4 to 10, the largest late in the file:
+    windows before it are made again (decide_first False), or take the file's levels
+    from curve_grid_levels (no window made again).  (Newton solves a few of its arcs, in
+    batches that hold the same arcs here.)"""
+    path = SAMPLES / "prusa_benchy_like.gcode"
+    ref, failed_ref, rows, n = _one_call(path)
+    for K in (2, 8, 32):
+        for decide in (False, True):
+            got, failed, info = _windows(path, _even(K), decide)
+            _assert_same(ref, got, n)
+            assert failed == failed_ref
+            assert info["levels"][0] == 10 and (info["redone"] == 0) == decide
 
 
 def test_windows_one_curve_each():
@@ -106,7 +121,8 @@ def test_windows_retries_made_again(monkeypatch):
     got, failed, info = _windows(path, lambda n, rows: np.unique(np.concatenate([[0, n], rows[K_CURVE]])))
     retries = [o[1] for o in info["own"] if len(o) > 1 and o[1][1]]
     assert len({lv for lv, _ in retries}) > 1 and info["redone"] > 0
-    assert info["levels"][1] == max(lv for lv, _ in retries)
+    every = [lv() if callable(lv) else lv for lv, _ in (o[1] for o in info["own"] if len(o) > 1)]
+    assert info["levels"][1] == max(every) >= max(lv for lv, _ in retries)
     _assert_same(ref, got, n)
     assert failed == failed_ref
 
@@ -190,7 +206,7 @@ def test_windows_same_bits_plates(name):
     if not path.exists():
         pytest.skip("corpus plate not present")
     ref, failed_ref, rows, n = _one_call(path)
-    for K in (1, 2, 8, 32):
-        got, failed, info = _windows(path, _even(K))
+    for K, decide in ((1, False), (2, False), (8, True), (32, False)):
+        got, failed, info = _windows(path, _even(K), decide)
         _assert_same(ref, got, n)
         assert failed == failed_ref

@@ -398,9 +398,10 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
             for p, (lv, made) in enumerate(owns[j][:2]):
                 levels[p] = max(levels[p], lv) if made else levels[p]
         levels = _file_levels(owns)
-        # a window's first pass made on the file's levels: its retries are the file's
-        todo = [j for j in range(len(windows)) if any(made and used[j][p] != levels[p]
-                                                      for p, (_, made) in enumerate(owns[j][:2]))]
+        # the windows whose figures were made on other levels (the largest of their own and
+        # the floor) than the file's; a first pass made on the file's: its retries are the file's
+        todo = [j for j in range(len(windows)) if any(made and max(lv, used[j][p]) != levels[p]
+                                                      for p, (lv, made) in enumerate(owns[j][:2]))]
         if not todo:
             break
         redone += len(todo)

@@ -1717,7 +1717,7 @@ SOLVE_ROWS = 4096
 SCREEN_BAND_R = 1e-3
 
 
-def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
+def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, drop=True):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt.
 
@@ -1728,7 +1728,9 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
     integrates on the file's grid), None: each pass's own.  own_levels (a list): given
     each pass's (own levels before the floor, whether it made figures on them); where it
     made none, the levels as a function (they are read only where another window's pass
-    made figures: the retries' grid_levels_of was ~10 % of the curves' candidates)."""
+    made figures: the retries' grid_levels_of was ~10 % of the curves' candidates).
+    drop: κ(s) let go after (drop_kappa); False: kept for the windows after this one
+    (each would make its rows' again: ~0.016 s over 23 windows of the gyroid plate)."""
     rows = np.asarray(rows, int)
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
@@ -1860,7 +1862,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None):
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go
-    drop_kappa()
+    if drop:
+        drop_kappa()
     return table
 
 

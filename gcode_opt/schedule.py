@@ -307,7 +307,8 @@ def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None,
     of the whole file; None: the batch's own).  lines: a plan.PiecesMemo that takes the
     lines in (their pieces then come from its piece()), None: made here (pieces_once
     where many repeat).  own_levels: a list given the curves' own levels of each pass.
-    kinds: those made (default all)."""
+    With curve_levels or own_levels κ(s) is kept after the curves (for the next window:
+    the caller lets it go, curves.drop_kappa).  kinds: those made (default all)."""
     ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     pieces = []
     # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
@@ -346,8 +347,9 @@ def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None,
 
 
 def _curves_at(levels, own_levels):
-    """KINDS[K_CURVE].candidates with candidates_curve's levels and own_levels."""
-    return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels)
+    """KINDS[K_CURVE].candidates with candidates_curve's levels and own_levels, κ(s) kept
+    (for the next window: the caller lets it go, curves.drop_kappa)."""
+    return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels, False)
 
 
 def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False):
@@ -405,6 +407,7 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
         if not todo:
             break
         redone += len(todo)
+    curves.drop_kappa()         # (kept from window to window: window_pieces' own_levels)
     if info is not None:
         info.update(levels=tuple(levels), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
     for c in curve:

@@ -1787,8 +1787,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             out = _levels_of(idx_out, T_out, beta_out)
             levels = levels if out is None else max(levels, out)
         if own_levels is not None:
-            own_levels.append((levels if idx_out is None or fig.size else
-                               lambda: max(levels, _levels_of(idx_out, T_out, beta_out) or 0), bool(fig.size)))
+            own_levels.append((levels if idx_out is None or fig.size else     # (levels bound now: the floor follows)
+                               lambda lv=levels: max(lv, _levels_of(idx_out, T_out, beta_out) or 0), bool(fig.size)))
         if floor is not None and npass[0] < len(floor):
             levels = max(levels, floor[npass[0]])
         if fig.size:

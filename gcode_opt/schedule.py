@@ -314,7 +314,7 @@ def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None,
     # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
     # held under the curves' and chains' solves, whose transients set the peak RSS
     order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
-    for k in order if kinds is None else [k for k in order if k in kinds]:   # each kind's tables kept sparse as soon as made
+    for k in order if kinds is None else [k for k in order if k in kinds]:   # (each kind's tables kept sparse)
         make = KINDS[k].candidates if k != K_CURVE or (curve_levels is None and own_levels is None) \
             else _curves_at(curve_levels, own_levels)
         if k == K_LINE and lines is not None:
@@ -361,7 +361,7 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
         makes them across the file (each entry is its row's own);
       - the curves' figures on the file's grid (candidates_curve's levels): each pass's
         levels are the largest of its candidates' in the file.  Each window takes the
-        largest met so far, and a window whose pass made figures on fewer levels than the
+        largest met so far, and a window whose pass made figures on other levels than the
         file's is made again at the file's (made again on its first pass's, its retries
         are the file's: its retries' levels are read again).  decide_first: the first
         pass's levels decided over the file first (curves.curve_grid_levels, ~0.02 s a
@@ -384,9 +384,6 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     memo = PiecesMemo()
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
-    for w in windows:
-        pieces += window_pieces(strokes, pin, profile, w, failed, rules, lines=memo,
-                                kinds=[k for k in KINDS if k != K_CURVE])
     levels = [first, 0]         # the floors: the largest own levels met so far, a pass
     curve = [None] * len(windows)       # per window: its curve pieces
     used = [None] * len(windows)        # the floors it took
@@ -394,6 +391,9 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     todo, redone = range(len(windows)), 0
     while True:
         for j in todo:
+            if not redone:              # (the other kinds once, window by window)
+                pieces += window_pieces(strokes, pin, profile, windows[j], failed, rules, lines=memo,
+                                        kinds=[k for k in KINDS if k != K_CURVE])
             owns[j], used[j] = [], tuple(levels)
             curve[j] = window_pieces(strokes, pin, profile, windows[j], failed, rules, used[j], own_levels=owns[j],
                                      kinds=(K_CURVE,))

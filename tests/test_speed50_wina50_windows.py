@@ -127,6 +127,11 @@ def test_windows_retries_made_again(monkeypatch):
     assert len({lv for lv, _ in retries}) > 1 and info["redone"] > 0
     every = [lv() if callable(lv) else lv for lv, _ in (o[1] for o in info["own"] if len(o) > 1)]
     assert info["levels"][1] == max(every) >= max(lv for lv, _ in retries)
+    # the file's: those of one call's retries
+    prof, opts, strokes, pin, rows = _setup(path)
+    own = []
+    curves.candidates_curve(pin, rows[K_CURVE], strokes, prof, None, own)
+    assert info["levels"] == (own[0][0], own[1][0])
     _assert_same(ref, got, n)
     assert failed == failed_ref
 

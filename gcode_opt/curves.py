@@ -1717,9 +1717,20 @@ SOLVE_ROWS = 4096
 SCREEN_BAND_R = 1e-3
 
 
-def candidates_curve(pin, rows, strokes, profile):
+def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, drop=True):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
-    where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt."""
+    where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt.
+
+    The figures of a pass are integrated on the panel levels of all its candidates (the
+    largest of theirs: CircleBatch._grid_plan), so a window of the strokes would take
+    other levels, and other bits (~1e-12), than the whole file.  levels: (first pass,
+    retries) floors of those levels (curve_grid_levels of the file: every window then
+    integrates on the file's grid), None: each pass's own.  own_levels (a list): given
+    each pass's (own levels before the floor, whether it made figures on them); where it
+    made none, the levels as a function (they are read only where another window's pass
+    made figures: the retries' grid_levels_of was ~10 % of the curves' candidates).
+    drop: κ(s) let go after (drop_kappa); False: kept for the windows after this one
+    (each would make its rows' again: ~0.016 s over 23 windows of the gyroid plate)."""
     rows = np.asarray(rows, int)
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
@@ -1738,14 +1749,24 @@ def candidates_curve(pin, rows, strokes, profile):
     # none accepted): ~0.1 s of the gyroid plate's 0.32 s of curve candidates
     # (tests/test_speed29_curvesolve_retry.py)
     a_only = np.zeros(rows.size * k, bool)
+    floor = levels
+    npass = [0]             # candidate_table's pass (0: first, 1: the beta/4 retries)
 
     def solve_figures(idx, T, beta):
+        try:
+            return _solve_figures(idx, T, beta)
+        finally:
+            npass[0] += 1
+
+    def _solve_figures(idx, T, beta):
         skip = a_only[idx]
         if skip.any():
             iv, ia, ok = np.full(idx.size, np.nan), np.full(idx.size, np.nan), np.zeros(idx.size, bool)
             keep = np.flatnonzero(~skip)
             if keep.size:
                 iv[keep], ia[keep], ok[keep] = _figures(idx[keep], T[keep], beta[keep], idx[skip], T[skip], beta[skip])
+            elif own_levels is not None:        # (no figures made: the levels they would take, when asked)
+                own_levels.append((lambda: _levels_of(idx, T, beta), False))
             return iv, ia, ok
         return _figures(idx, T, beta)
 
@@ -1762,11 +1783,15 @@ def candidates_curve(pin, rows, strokes, profile):
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
+        if idx_out is not None and fig.size:
+            out = _levels_of(idx_out, T_out, beta_out)
+            levels = levels if out is None else max(levels, out)
+        if own_levels is not None:
+            own_levels.append((levels if idx_out is None or fig.size else     # (levels bound now: the floor follows)
+                               lambda lv=levels: max(lv, _levels_of(idx_out, T_out, beta_out) or 0), bool(fig.size)))
+        if floor is not None and npass[0] < len(floor):
+            levels = max(levels, floor[npass[0]])
         if fig.size:
-            if idx_out is not None:
-                Ro = 1.0 / keff[idx_out]
-                out = _circle.grid_levels_of(S[idx_out] / Ro, T_out, beta_out, v0[idx_out] / Ro, v1[idx_out] / Ro)
-                levels = levels if out is None else max(levels, out)
             law = laws[0] if len(laws) == 1 else _circle.CircleBatch.concat(laws)
             law.grid_levels = levels
             q = idx[fig]
@@ -1774,6 +1799,11 @@ def candidates_curve(pin, rows, strokes, profile):
                 law, 1.0 / keff[q], [geos[i] for i in q], None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
+
+    def _levels_of(idx, T, beta):
+        """The panel levels of the candidates idx's arcs (grid_levels_of), not solved."""
+        R = 1.0 / keff[idx]                     # _solve's R, the same numbers
+        return _circle.grid_levels_of(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R)
 
     def _probe(idx, T, beta, v_lim, a_lim, step):
         """(fig, laws, levels) of the candidates idx solved `step` at a time: the positions
@@ -1832,8 +1862,32 @@ def candidates_curve(pin, rows, strokes, profile):
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go
-    drop_kappa()
+    if drop:
+        drop_kappa()
     return table
+
+
+def curve_grid_levels(pin, rows, strokes, profile):
+    """The panel levels of candidates_curve's first pass over the curve strokes rows: the
+    largest of every candidate's it solves (at its first beta: candidate_table's), made
+    without solving a law (the layer regime's solve only, ~1 us a candidate); 0: none.
+    A largest over the candidates, so the levels of several sets of rows are the largest
+    of theirs.  (The retries at beta/4 are those the first pass's figures reject, known
+    only once they are made: schedule.candidates_in_windows.)"""
+    rows = np.asarray(rows, int)
+    k = len(CURVE_COLS)
+    keff = np.repeat(np.array([geom(strokes[i], profile).kappa_eff for i in rows.tolist()]), k)
+    S, v0, v1 = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1))
+    got = [0]
+
+    def levels_only(idx, T, beta):
+        R = 1.0 / keff[idx]                     # candidates_curve's arithmetic
+        got[0] = max(got[0], _circle.grid_levels_of(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R) or 0)
+        nan = np.full(idx.size, np.nan)
+        return nan, nan, np.ones(idx.size, bool)      # (all "within limits": no retry pass)
+
+    candidate_table(pin, rows, CURVE_COLS, levels_only, GAMMA_MIN)
+    return got[0]
 
 
 def fixed_alpha_curve(plan, pin, rows, strokes, profile, alpha):

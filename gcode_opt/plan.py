@@ -642,30 +642,99 @@ def pieces_once(make, p: PlanInput, rows, T_orig):
         return make(p, rows, T_orig)
     first, inv = same
     made = make(p.take(first), rows[first], T_orig)
-    if not np.array_equal(np.concatenate([pc[0] for pc in made]) if made else rows[:0], rows[first]):
+    if not _made_in_order(made, rows[first]):
         return make(p, rows, T_orig)
-    return [SharedPiece(rows, np.concatenate([pc[1] for pc in made]), np.concatenate([pc[2] for pc in made], axis=1),
-                        np.concatenate([pc[3] for pc in made]), np.concatenate([pc[4] for pc in made]), inv)]
+    return [_shared_piece(rows, made, inv)]
+
+
+def _made_in_order(made, rows):
+    """Whether make's pieces (Candidates.piece) are of the rows, in order."""
+    return np.array_equal(np.concatenate([pc[0] for pc in made]) if made else rows[:0], rows)
+
+
+def _shared_piece(rows, made, inv):
+    """The SharedPiece of rows whose distinct inputs' pieces (in order) are made."""
+    return SharedPiece(rows, np.concatenate([pc[1] for pc in made]), np.concatenate([pc[2] for pc in made], axis=1),
+                       np.concatenate([pc[3] for pc in made]), np.concatenate([pc[4] for pc in made]), inv)
+
+
+class PiecesMemo:
+    """pieces_once across calls (the windows of a file, in order): each distinct set of
+    candidate inputs (_same_inputs' bytes) is made by the first call that meets it, so
+    K windows make no more rows than one call of all their rows (the rectilinear plate's
+    48.6 k lines: 6.2 k rows made at once; in 9 windows each made its own, 13.3 k).
+    Every entry is its row's own, so a row has the same entries whichever call made its
+    inputs.  piece() gives the SharedPiece of every row added, the distinct inputs in the
+    order first met: the one pieces_once makes of the rows all at once."""
+
+    def __init__(self):
+        self.index = {}         # the inputs' bytes -> their distinct row
+        self.rows, self.inv, self.made = [], [], []
+
+    def add(self, make, p: PlanInput, rows, T_orig):
+        """Takes in the rows (p: their PlanInput), making the inputs not met before:
+        make(p, rows, T_orig) as pieces_once's.  False (nothing taken) where their inputs
+        are not plain, or make's pieces are not in order: the caller makes them itself.
+        Nothing is kept where make raises."""
+        rows = np.asarray(rows)
+        if rows.size == 0:
+            return True
+        same = _same_inputs(p, max_r=1.0, least=1)
+        if same is None:
+            return False
+        first, inv = same
+        rec = np.stack([c[first].view(np.int64) for c in _same_cols(p)], axis=1)
+        width = rec.shape[1] * 8
+        blob = rec.tobytes()
+        keys = [blob[a:a + width] for a in range(0, len(blob), width)]
+        known, new = len(self.index), {}
+        ids = np.empty(len(keys), np.intp)
+        for j, key in enumerate(keys):         # (the keys are distinct: first's rows)
+            got = self.index.get(key)
+            ids[j] = got if got is not None else new.setdefault(key, known + len(new))
+        fresh = np.flatnonzero(ids >= known)
+        if fresh.size:
+            made = make(p.take(first[fresh]), rows[first[fresh]], T_orig)
+            if not _made_in_order(made, rows[first[fresh]]):
+                return False
+            self.made += made
+        self.index.update(new)
+        self.rows.append(rows)
+        self.inv.append(ids[inv])
+        return True
+
+    def piece(self):
+        """[the SharedPiece of every row added] ([] if none)."""
+        if not self.rows:
+            return []
+        return [_shared_piece(np.concatenate(self.rows), self.made, np.concatenate(self.inv))]
 
 
 SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share
 
 
-def _same_inputs(p: PlanInput):
+def _same_cols(p: PlanInput):
+    """The candidate inputs of p that _same_inputs compares (all that _live_entries and
+    _live_tables read)."""
+    return (p.L, p.v0, p.v1, p.v_cap, p.a_cap, p.T_orig, p.t_seg_min)
+
+
+def _same_inputs(p: PlanInput, max_r=SAME_MAX_R, least=2):
     """(first, inv): the strokes of p whose candidate inputs (L, v0, v1, v_cap, a_cap,
     T_orig, t_seg_min: all that _live_entries and _live_tables read) are the first
     of their bytes, in order, and each stroke's place among them (p's row q has the
     inputs of row first[inv[q]], bit for bit); None where that is not worth it (fewer than
     1 / SAME_MAX_R strokes a set of inputs) or the inputs are not plain (_live_entries:
     every chunk then takes the live path, whose entries are each row's own, as they
-    are in any chunk).  The rectilinear plate's 48.6 k lines have 6.2 k sets of inputs
+    are in any chunk).  max_r: the largest share of distinct strokes worth it; least: the
+    fewest strokes.  The rectilinear plate's 48.6 k lines have 6.2 k sets of inputs
     (the layers of a prism repeat their perimeters and infill: its line candidates ~0.16
     -> ~0.06 s); the gyroid plate's 13.8 k have 6.7 k, too many to pay (schedule's
     _lines_repeat: no pieces_once there)."""
     n = len(p.L)
-    if n < 2:
+    if n < least:
         return None
-    cols = (p.L, p.v0, p.v1, p.v_cap, p.a_cap, p.T_orig, p.t_seg_min)
+    cols = _same_cols(p)
     if not all(type(c) is np.ndarray and c.dtype == _F64 and c.shape == (n,) for c in cols):
         return None
     if not _plain(p):
@@ -673,7 +742,7 @@ def _same_inputs(p: PlanInput):
     # by their bytes (-0.0 and 0.0 apart), hashed column by column (column_classes: np.unique
     # of the rows as 56-byte records sorted them by memcmp, ~10 ms on the rectilinear plate)
     first, inv = classes_in_row_order([c.view(np.int64) for c in cols])
-    return None if first.size > SAME_MAX_R * n else (first, inv)
+    return None if first.size > max_r * n else (first, inv)
 
 
 def _plain(p: PlanInput):

@@ -33,8 +33,8 @@ from . import objfields
 from .corners import junction_commands
 from .laws import circle
 from .coverage import feature_overshoot_r
-from .plan import (Candidates, Plan, PlanInput, SpilledCandidates, candidate_pieces, input_faults, isolate, pieces_once,
-                   plan_auto, plan_fixed_alpha)
+from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, candidate_pieces, input_faults, isolate,
+                   pieces_once, plan_auto, plan_fixed_alpha)
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
@@ -274,37 +274,10 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     """Candidate tables (auto) or the fixed-alpha plan of every stroke, each kind's batch
     isolated: a stroke whose planning raises or gives non-finite numbers is dropped alone."""
     n = len(strokes)
-    ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     if opts.alpha == "auto":
-        pieces = []
-        # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
-        # held under the curves' and chains' solves, whose transients set the peak RSS
-        order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
-        for k in order:                   # each kind's tables kept sparse as soon as made
-            kind = KINDS[k]
-            # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
-            # were ~33 MB at once on the rectilinear plate, before they were made sparse
-            # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
-            # (lines all at once where many repeat: plan.pieces_once makes each set of
-            # inputs once, and candidate_pieces its pieces chunk by chunk)
-            step = (CANDIDATE_ROWS if not _lines_repeat(pin, ok[k]) else max(ok[k].size, 1)) if k == K_LINE \
-                else max(ok[k].size, 1)
-            for a in range(0, ok[k].size, step):
-                got = isolate(lambda r: kind.candidates(pin, r, strokes, profile, rules),
-                              ok[k][a:a + step], "planning", failed)
-                # each dense table let go once made sparse: a loop variable held the last
-                # one through the next kind's solve and the merge (gyroid plate: the
-                # curves' 3.6 MB at the chains' peak, the chains' 12 MB at of_pieces)
-                got.reverse()
-                while got:
-                    sub, tables = got.pop()
-                    if type(tables) is _Pieces:           # (kept sparse by the kind, chunk by chunk)
-                        pieces += tables
-                    else:
-                        pieces.append(Candidates.piece(sub, tables, pin.T_orig))
-                    del sub, tables
-        cands, nonfinite = Candidates.of_pieces(n, pieces, pin.T_orig)
+        cands, nonfinite = Candidates.of_pieces(n, window_pieces(strokes, pin, profile, rows, failed, rules),
+                                                pin.T_orig)
         for i in nonfinite:
             failed.setdefault(int(i), "error: planning (non-finite)")
         # the inputs only the candidates read let go through the budget runs (read back if
@@ -312,6 +285,7 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         _lines_repeat(pin, rows[K_LINE])
         pin.set_aside()
         return cands, None
+    ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     alpha = float(opts.alpha)
     fixed = Plan(n)
     fixed.T = pin.T_orig.copy()
@@ -321,6 +295,143 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         isolate(lambda r: kind.fixed_alpha(fixed, pin, r, strokes, profile, alpha, rules), ok[k], "planning",
                 failed)
     return None, fixed
+
+
+def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None, lines=None, own_levels=None,
+                  kinds=None):
+    """The candidate pieces (Candidates.piece / SharedPiece: Candidates.of_pieces' input) of
+    the strokes rows ({kind: rows}, those in failed left out), each kind's batch isolated:
+    a stroke whose planning raises is dropped alone (into failed).  Every stroke's entries
+    are the same bits whatever other strokes the call holds (candidates_in_windows), given
+    curve_levels: candidates_curve's floors of its grid levels (curves.curve_grid_levels
+    of the whole file; None: the batch's own).  lines: a plan.PiecesMemo that takes the
+    lines in (their pieces then come from its piece()), None: made here (pieces_once
+    where many repeat).  own_levels: a list given the curves' own levels of each pass.
+    With curve_levels or own_levels κ(s) is kept after the curves (for the next window:
+    the caller lets it go, curves.drop_kappa).  kinds: those made (default all)."""
+    ok = {k: _not_failed(r, failed) for k, r in rows.items()}
+    pieces = []
+    # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
+    # held under the curves' and chains' solves, whose transients set the peak RSS
+    order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
+    for k in order if kinds is None else [k for k in order if k in kinds]:   # (each kind's tables kept sparse)
+        make = KINDS[k].candidates if k != K_CURVE or (curve_levels is None and own_levels is None) \
+            else _curves_at(curve_levels, own_levels)
+        if k == K_LINE and lines is not None:
+            done = isolate(lambda r: lines.add(candidate_pieces, pin.take(r), r, pin.T_orig), ok[k], "planning",
+                           failed)
+            if all(got for _, got in done):
+                continue
+            ok[k] = np.concatenate([r for r, got in done if not got])       # (not plain: made below)
+        # lines by CANDIDATE_ROWS at a time: their dense tables (4 x 23 doubles a row)
+        # were ~33 MB at once on the rectilinear plate, before they were made sparse
+        # (every entry is its row's own: the same tables, tests/test_speed25_alloc_*)
+        # (lines all at once where many repeat: plan.pieces_once makes each set of
+        # inputs once, and candidate_pieces its pieces chunk by chunk)
+        step = (CANDIDATE_ROWS if not _lines_repeat(pin, ok[k]) else max(ok[k].size, 1)) if k == K_LINE \
+            else max(ok[k].size, 1)
+        for a in range(0, ok[k].size, step):
+            got = isolate(lambda r: make(pin, r, strokes, profile, rules), ok[k][a:a + step], "planning", failed)
+            # each dense table let go once made sparse: a loop variable held the last
+            # one through the next kind's solve and the merge (gyroid plate: the
+            # curves' 3.6 MB at the chains' peak, the chains' 12 MB at of_pieces)
+            got.reverse()
+            while got:
+                sub, tables = got.pop()
+                if type(tables) is _Pieces:           # (kept sparse by the kind, chunk by chunk)
+                    pieces += tables
+                else:
+                    pieces.append(Candidates.piece(sub, tables, pin.T_orig))
+                del sub, tables
+    return pieces
+
+
+def _curves_at(levels, own_levels):
+    """KINDS[K_CURVE].candidates with candidates_curve's levels and own_levels, κ(s) kept
+    (for the next window: the caller lets it go, curves.drop_kappa)."""
+    return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels, False)
+
+
+def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False):
+    """_candidates' tables (auto) made window by window: Candidates.of_pieces of
+    window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
+    as one call of all of them (tests/test_speed50_wina50_windows.py).  Returns (Candidates,
+    rows holding a non-finite candidate).  What makes them so:
+      - the lines' inputs made once across the windows (plan.PiecesMemo), as pieces_once
+        makes them across the file (each entry is its row's own);
+      - the curves' figures on the file's grid (candidates_curve's levels): each pass's
+        levels are the largest of its candidates' in the file.  Each window takes the
+        largest met so far, and a window whose pass made figures on other levels than the
+        file's is made again at the file's (made again on its first pass's, its retries
+        are the file's: its retries' levels are read again).  decide_first: the first
+        pass's levels decided over the file first (curves.curve_grid_levels, ~0.02 s a
+        plate), so only the retries can take a window again.  The retries' are known
+        only once the first passes have run (a cap, the levels of every candidate at
+        beta/4, was 8 on both plates where their retries' are 4: every window would have
+        been made again).  On both plates the largest levels are in the first window,
+        and no retry makes figures: no window is made again;
+      - the chains: each chain's tables its own (as the other kinds, each row's own).
+    Not covered: a batch where Newton solves an arc (circle.NEWTON_ARCS) may round with
+    its batch, and arcs (arcs.py) integrate on their batch's levels.  info (a dict): given
+    "levels" (the file's: first pass, retries), "redone" (windows whose curves were made
+    again), "newton" (arcs Newton solved) and "own" (each window's own levels a pass, and
+    whether it made figures: candidates_curve's own_levels)."""
+    n = len(strokes)
+    rules = SegmentRules.for_profile(profile, opts.max_segments)
+    first = curves.curve_grid_levels(pin, _not_failed(rows.get(K_CURVE, np.zeros(0, int)), failed), strokes,
+                                     profile) if decide_first else 0
+    windows = [{k: r[(r >= lo) & (r < hi)] for k, r in rows.items()} for lo, hi in zip(bounds[:-1], bounds[1:])]
+    memo = PiecesMemo()
+    n0 = circle.NEWTON_ARCS[0]
+    pieces = []
+    levels = [first, 0]         # the floors: the largest own levels met so far, a pass
+    curve = [None] * len(windows)       # per window: its curve pieces
+    used = [None] * len(windows)        # the floors it took
+    owns = [None] * len(windows)        # each pass's (own levels, whether it made figures)
+    todo, redone = range(len(windows)), 0
+    while True:
+        for j in todo:
+            if not redone:              # (the other kinds once, window by window)
+                pieces += window_pieces(strokes, pin, profile, windows[j], failed, rules, lines=memo,
+                                        kinds=[k for k in KINDS if k != K_CURVE])
+            owns[j], used[j] = [], tuple(levels)
+            curve[j] = window_pieces(strokes, pin, profile, windows[j], failed, rules, used[j], own_levels=owns[j],
+                                     kinds=(K_CURVE,))
+            for p, (lv, made) in enumerate(owns[j][:2]):
+                levels[p] = max(levels[p], lv) if made else levels[p]
+        levels = _file_levels(owns)
+        # the windows whose figures were made on other levels (the largest of their own and
+        # the floor) than the file's; a first pass made on the file's: its retries are the file's
+        todo = [j for j in range(len(windows)) if any(made and max(lv, used[j][p]) != levels[p]
+                                                      for p, (lv, made) in enumerate(owns[j][:2]))]
+        if not todo:
+            break
+        redone += len(todo)
+    curves.drop_kappa()         # (kept from window to window: window_pieces' own_levels)
+    if info is not None:
+        info.update(levels=tuple(levels), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
+    for c in curve:
+        pieces += c
+    return Candidates.of_pieces(n, pieces + memo.piece(), pin.T_orig)
+
+
+def _file_levels(owns):
+    """[first pass, retries]: the levels of each pass of one call of every window's
+    strokes (the largest of the windows' own: owns, candidates_curve's own_levels a
+    window), 0 where no window's pass made figures (the levels are not read).  The
+    levels of a pass that made no figures are read (a function) only where another
+    window's did, and kept."""
+    out = []
+    for p in range(2):
+        at = [o for o in owns if len(o) > p]
+        if not any(o[p][1] for o in at):
+            out.append(0)
+            continue
+        for o in at:
+            if callable(o[p][0]):
+                o[p] = (o[p][0](), o[p][1])
+        out.append(max(o[p][0] for o in at))
+    return out
 
 
 def _not_failed(rows, failed):

@@ -32,6 +32,7 @@ from . import curves
 from . import objfields
 from .corners import junction_commands
 from .laws import circle
+from .native import _sha256_new
 from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, SpilledCandidates, candidate_pieces, input_faults, isolate, pieces_once,
                    plan_auto, plan_fixed_alpha)
@@ -951,8 +952,9 @@ def _lines_repeat(pin, rows):
     if rows.size < 2:
         return False
     # asked for the same lines by the candidates (their step, then each chunk) and the plan
-    # runs: the last answer kept on pin, by the rows' bytes
-    key = np.asarray(rows, np.int64).tobytes()
+    # runs: the last answer kept on pin, by a digest of the rows' int64 bytes (the bytes
+    # themselves were 0.37 MB held from the candidates to the summary, rectilinear plate)
+    key = _rows_digest(rows)
     memo = getattr(pin, "lines_repeat_memo", None)
     if memo is not None and memo[0] == key:
         return memo[1]
@@ -960,6 +962,14 @@ def _lines_repeat(pin, rows):
     got = bool(column_classes_first(cols)[1].size <= REPEAT_R * rows.size)
     pin.lines_repeat_memo = (key, got)
     return got
+
+
+def _rows_digest(rows):
+    """A key of rows (an int array) as its int64 bytes: their count and SHA-256 (CPython's
+    own: native._sha256_new, hashlib's would load OpenSSL, ~3 MB resident), hashed from the
+    array's buffer, no copy where the rows are contiguous int64 already."""
+    a = np.ascontiguousarray(rows, np.int64)
+    return a.size, _sha256_new(a).digest()
 
 
 def _put_rows(segs, got):

@@ -559,7 +559,10 @@ class SegmentCache:
     curves, all at the (T, beta) of the first.  Kept for the last run only.
 
     A line's entry is a row of two float arrays (T, beta; NaN: none) and of a list of
-    plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines)."""
+    plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines).
+    keep_lines False: no line's plan kept (every line segmented each run): where a
+    _RunMemo hands a later run the last one's line plans, the cache's line part hit no line
+    on either plate and held ~1.2 MB of rows and the plans the last run did not keep."""
 
     def __init__(self):
         self.line_T = np.zeros(0)       # row -> the T its line plan was made for (NaN: none)
@@ -569,6 +572,7 @@ class SegmentCache:
         self.batch = {}                 # kind -> (key, {row: seg}, {row: why})
         self.row_tb = {}                # kind -> {row: its (T, beta) bytes} when the batch is rows' own
         self.line_class = None          # row -> its segments.line_classes class (plan_strokes sets it)
+        self.keep_lines = True          # the lines' plans kept (False: lookup and store pass them by)
 
     @staticmethod
     def _key(rows, T, beta):
@@ -600,7 +604,7 @@ class SegmentCache:
             key, segs, bad = self.batch.get(kind, (None, {}, {}))
             return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
         got, bad = {}, {}
-        if not rows.size:
+        if not rows.size or not self.keep_lines:
             return got, bad
         self._grow(int(rows.max()) + 1)
         hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
@@ -637,7 +641,7 @@ class SegmentCache:
                 self.batch[kind] = (self._key(rows, T, beta), made, bad)
                 self.row_tb[kind] = dict(zip(rows_l, _tb_keys(rows, T, beta))) if own else None
             return
-        if not rows.size:
+        if not rows.size or not self.keep_lines:
             return
         self._grow(int(rows.max()) + 1)
         self.line_T[rows] = T[rows]
@@ -791,6 +795,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # whose law (T, beta) it keeps (_RunMemo), and segments only the others; not with
     # --corners (their commands and lead-outs change strokes and plans after the segments)
     reuse = REUSE_RUNS and not cmd0.any() and not getattr(pin, "corner_next", None)
+    # the lines' cached plans serve a later run only where no _RunMemo does (one run with
+    # a fixed alpha: none)
+    seg_cache.keep_lines = opts.alpha == "auto" and not reuse
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 

@@ -18,6 +18,7 @@ with its reason.
 """
 from __future__ import annotations
 
+import binascii
 import math
 from functools import partial
 from itertools import compress, islice, repeat
@@ -32,7 +33,6 @@ from . import curves
 from . import objfields
 from .corners import junction_commands
 from .laws import circle
-from .native import _sha256_new
 from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, SpilledCandidates, candidate_pieces, input_faults, isolate, pieces_once,
                    plan_auto, plan_fixed_alpha)
@@ -972,11 +972,13 @@ def _lines_repeat(pin, rows):
 
 
 def _rows_digest(rows):
-    """A key of rows (an int array) as its int64 bytes: their count and SHA-256 (CPython's
-    own: native._sha256_new, hashlib's would load OpenSSL, ~3 MB resident), hashed from the
-    array's buffer, no copy where the rows are contiguous int64 already."""
+    """A key of rows (an int array) as its int64 bytes: their count and CRC-32, read from the
+    array's buffer (no copy where the rows are contiguous int64 already; SHA-256 cost ~15 M
+    instructions a call on the rectilinear plate).  Two sets of rows may share a key: the
+    answer _lines_repeat keeps only picks between paths that make the same tables and plans
+    (a guess, as its docstring says), so a collision could cost time, never a bit."""
     a = np.ascontiguousarray(rows, np.int64)
-    return a.size, _sha256_new(a).digest()
+    return a.size, binascii.crc32(a)
 
 
 def _put_rows(segs, got):

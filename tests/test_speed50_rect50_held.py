@@ -13,6 +13,7 @@ import pytest
 
 from gcode_opt import pipeline, schedule
 from gcode_opt.profile import load_profile
+from test_speed35_budget_runs import _analysed, _figures
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLES = os.path.join(HERE, "..", "sample_gcode")
@@ -71,34 +72,23 @@ def test_lines_repeat_memo_answers_as_before(name):
 
 
 # ---------------------------------------------------------------- SegmentCache.keep_lines
-def _figures(p):
-    segs = [None if s is None else (type(s).__name__, s.s.tobytes(), s.v.tobytes(), s.accel.tobytes(),
-                                    s.feed.tobytes(), s.time_t, s.int_a2, s.first_cmds, schedule.seg_fault(s))
-            for s in p.segs]
-    return (p.retime.tobytes(), p.reason.tolist(), p.T.tobytes(), p.beta.tobytes(), p.t_pred.tobytes(),
-            p.a2_pred.tobytes(), segs)
-
-
 class _KeepingLines(schedule.SegmentCache):
     """The cache as it was: every line plan kept, whatever plan_strokes asks."""
     keep_lines = property(lambda self: True, lambda self, v: None)
 
 
 def _runs(name, prof, corners, monkeypatch, alpha="auto", budgets=(1.0, 0.6, 0.61, 1.3, 1.0, 0.6)):
-    """Each budget run's plan figures (back and forth: the caches' and the last run's reuse),
-    and the lines' plans the segment cache holds after the last."""
-    profile = load_profile(prof)
-    opts = pipeline.Options(corner_budget_r=corners, alpha=alpha)
-    opts.ringing = False
-    strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
+    """Each budget run's plan figures (back and forth: the caches' and the last run's reuse;
+    test_speed35's runs with a fixed alpha too), and the lines' plans the segment cache
+    holds after the last."""
+    strokes, sim0, profile, opts = _analysed(name, prof, corners)
+    opts.alpha = alpha
     pin = schedule.plan_inputs(strokes, profile, opts)
     runs = []
 
     def fit(run, pin_, budget_t):
         for r in budgets:
-            p = run(r * budget_t)
-            runs.append(_figures(p))
-        return p
+            runs.append(_figures(run(r * budget_t)))
     monkeypatch.setattr(schedule, "_fit_budget", fit)
     p = schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
     if alpha != "auto":

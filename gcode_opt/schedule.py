@@ -18,6 +18,7 @@ with its reason.
 """
 from __future__ import annotations
 
+import binascii
 import math
 from functools import partial
 from itertools import compress, islice, repeat
@@ -669,7 +670,10 @@ class SegmentCache:
     curves, all at the (T, beta) of the first.  Kept for the last run only.
 
     A line's entry is a row of two float arrays (T, beta; NaN: none) and of a list of
-    plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines)."""
+    plans, 24 bytes a stroke (a dict of tuples took ~210 on a plate of 48 k lines).
+    keep_lines False: no line's plan kept (every line segmented each run): where a
+    _RunMemo hands a later run the last one's line plans, the cache's line part hit no line
+    on either plate and held ~1.2 MB of rows and the plans the last run did not keep."""
 
     def __init__(self):
         self.line_T = np.zeros(0)       # row -> the T its line plan was made for (NaN: none)
@@ -679,6 +683,7 @@ class SegmentCache:
         self.batch = {}                 # kind -> (key, {row: seg}, {row: why})
         self.row_tb = {}                # kind -> {row: its (T, beta) bytes} when the batch is rows' own
         self.line_class = None          # row -> its segments.line_classes class (plan_strokes sets it)
+        self.keep_lines = True          # the lines' plans kept (False: lookup and store pass them by)
 
     @staticmethod
     def _key(rows, T, beta):
@@ -710,7 +715,7 @@ class SegmentCache:
             key, segs, bad = self.batch.get(kind, (None, {}, {}))
             return (segs, bad) if key == self._key(rows, T, beta) else ({}, {})
         got, bad = {}, {}
-        if not rows.size:
+        if not rows.size or not self.keep_lines:
             return got, bad
         self._grow(int(rows.max()) + 1)
         hit = (self.line_T[rows] == T[rows]) & (self.line_beta[rows] == beta[rows])
@@ -747,7 +752,7 @@ class SegmentCache:
                 self.batch[kind] = (self._key(rows, T, beta), made, bad)
                 self.row_tb[kind] = dict(zip(rows_l, _tb_keys(rows, T, beta))) if own else None
             return
-        if not rows.size:
+        if not rows.size or not self.keep_lines:
             return
         self._grow(int(rows.max()) + 1)
         self.line_T[rows] = T[rows]
@@ -901,6 +906,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # whose law (T, beta) it keeps (_RunMemo), and segments only the others; not with
     # --corners (their commands and lead-outs change strokes and plans after the segments)
     reuse = REUSE_RUNS and not cmd0.any() and not getattr(pin, "corner_next", None)
+    # the lines' cached plans serve a later run only where no _RunMemo does (one run with
+    # a fixed alpha: none)
+    seg_cache.keep_lines = opts.alpha == "auto" and not reuse
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
@@ -1062,8 +1070,9 @@ def _lines_repeat(pin, rows):
     if rows.size < 2:
         return False
     # asked for the same lines by the candidates (their step, then each chunk) and the plan
-    # runs: the last answer kept on pin, by the rows' bytes
-    key = np.asarray(rows, np.int64).tobytes()
+    # runs: the last answer kept on pin, by a digest of the rows' int64 bytes (the bytes
+    # themselves were 0.37 MB held from the candidates to the summary, rectilinear plate)
+    key = _rows_digest(rows)
     memo = getattr(pin, "lines_repeat_memo", None)
     if memo is not None and memo[0] == key:
         return memo[1]
@@ -1071,6 +1080,16 @@ def _lines_repeat(pin, rows):
     got = bool(column_classes_first(cols)[1].size <= REPEAT_R * rows.size)
     pin.lines_repeat_memo = (key, got)
     return got
+
+
+def _rows_digest(rows):
+    """A key of rows (an int array) as its int64 bytes: their count and CRC-32, read from the
+    array's buffer (no copy where the rows are contiguous int64 already; SHA-256 cost ~15 M
+    instructions a call on the rectilinear plate).  Two sets of rows may share a key: the
+    answer _lines_repeat keeps only picks between paths that make the same tables and plans
+    (a guess, as its docstring says), so a collision could cost time, never a bit."""
+    a = np.ascontiguousarray(rows, np.int64)
+    return a.size, binascii.crc32(a)
 
 
 def _put_rows(segs, got):

@@ -47,7 +47,7 @@ import numpy as np
 
 from .rss import peak_rss_mb
 from .distinct import distinct
-from . import chains, vertex_filter
+from . import vertex_filter
 from . import features as feat
 from . import emit as emit_mod
 from .emit import StrokeText, emit_arc, emit_stroke
@@ -1398,15 +1398,13 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 if over_t > 0.0:
                     budget_t -= 1.2 * over_t
             # what only the passes needed (the first pass's ledger, the segment plans and
-            # their cache, the candidate tables) goes before the summary is built
+            # their cache, the candidate tables, the strokes themselves: the summary reads
+            # their columns, cols) goes before the summary is built
             first = None
             plan.segs = None
             pin.seg_cache = None
             drop_cached(pin)
-            for st in strokes:        # curve geometry (rebuilt on demand) and chains' candidate plans
-                st.curv = None
-                if st.chain_T is not None:    # (an empty memo still marks a chain: chains.plan_kind)
-                    st.chain_T = chains.ChainMemo()
+            strokes = None            # (their curve geometry and chains' plans with them)
             trim_heap()
             ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
             timing.lap("ringing")

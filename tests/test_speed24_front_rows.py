@@ -301,16 +301,21 @@ def test_process_freezes_after_analyse_plan_and_summary(tmp_path, monkeypatch):
     from gcode_opt import segments as _segments
     monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     counts = []
-    real_plan, real_summary = pl.plan_strokes, sm.build_summary
+    real_plan, real_summary, real_rewrite = pl.plan_strokes, sm.build_summary, pl.rewrite
 
     def spy_plan(*a, **k):
         counts.append(("plan", gc.get_freeze_count(), gc.isenabled()))
         return real_plan(*a, **k)
 
+    def spy_rewrite(*a, **k):
+        counts.append(("rewrite", gc.get_freeze_count(), gc.isenabled()))
+        return real_rewrite(*a, **k)
+
     def spy_summary(*a, **k):
         counts.append(("summary", gc.get_freeze_count(), gc.isenabled()))
         return real_summary(*a, **k)
     monkeypatch.setattr(pl, "plan_strokes", spy_plan)
+    monkeypatch.setattr(pl, "rewrite", spy_rewrite)
     monkeypatch.setattr(sm, "build_summary", spy_summary)
     src = str(SAMPLES / "prusa_gyroid.gcode")
     prof = load_profile("prusa-mk3s")
@@ -319,7 +324,11 @@ def test_process_freezes_after_analyse_plan_and_summary(tmp_path, monkeypatch):
     assert gc.get_freeze_count() == 0
     assert counts[0][0] == "plan" and counts[0][1] > 1000 and not counts[0][2]   # planned with it off
     summ = [c for c in counts if c[0] == "summary"]
-    assert summ and not summ[0][2] and summ[0][1] > counts[0][1]   # planning's objects frozen too
+    assert summ and not summ[0][2]
+    # planning's objects frozen too (seen at the rewrite: the strokes, frozen since analyse,
+    # are let go before the summary, session 50)
+    written = [c for c in counts if c[0] == "rewrite"]
+    assert written and written[0][1] > counts[0][1]
 
     class _NoFreeze:
         def __enter__(self):

@@ -497,3 +497,21 @@ def test_order_and_lines_of_a_real_run(runs):
     for f in (pl.stroke_lines, pl._stroke_lines_loop):
         got = f(cols, order, out_ranges)
         assert all(np.array_equal(g, w) and g.dtype == w.dtype for g, w in zip(got, want))
+
+
+# ---------------------------------------------------------------- the strokes let go
+def test_no_stroke_alive_at_the_summary(tmp_path, monkeypatch):
+    """The summary reads the columns: _process lets the strokes go before it (with
+    --json the summary's rows were the run's peak, the strokes still held)."""
+    alive = []
+    keep = sm.build_summary
+
+    def spy(*a, **k):
+        gc.unfreeze()                  # (the strokes were frozen: get_objects does not list those)
+        alive.append(sum(isinstance(o, Stroke) for o in gc.get_objects()))
+        return keep(*a, **k)
+    monkeypatch.setattr(sm, "build_summary", spy)
+    s = pl.process(str(SAMPLES / "prusa_gyroid.gcode"), str(tmp_path / "out.gcode"), load_profile("prusa-mk3s"),
+                   Options())
+    # (one stroke, by an untracked reference: the analyse pass's last, seen on this sample)
+    assert s["strokes"]["candidates"] > 100 and len(alive) == 1 and alive[0] <= 1

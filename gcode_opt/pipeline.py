@@ -1303,7 +1303,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # overrun taken off (one more rewrite; the firmware model plays again only the
             # stretches around the blocks that changed: remeasure).
             order = None              # the strokes by first line (_first_line_order): made after the first plan
-            cols = None               # what the steps after planning read of the strokes (StrokeColumns): made then too
+            cols = None               # what the steps after planning read of the strokes (StrokeColumns): its lines made then too
             first = None              # the first pass: _FirstPass
             restore = plan = None     # restore: strokes the second pass puts back to their lines, the plan kept
             for pass_i in range(2):
@@ -1358,7 +1358,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 if prog:
                     prog.start("measure")
                 if order is None:
-                    cols = StrokeColumns(strokes)       # (their fields are final: corners.py set v0 / v1 in plan_inputs)
+                    cols = StrokeColumns(strokes, fields=False)     # (the summary's fields: after the passes)
                     order = _first_line_order(cols)
                 lines = stroke_lines(cols, order, out_ranges)
                 got = None
@@ -1404,6 +1404,8 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             plan.segs = None
             pin.seg_cache = None
             drop_cached(pin)
+            trim_heap()               # (first: the summary's columns grow on live memory only)
+            cols.add_fields(strokes)  # (final: corners.py set v0 / v1 in plan_inputs, nothing since)
             strokes = None            # (their curve geometry and chains' plans with them)
             trim_heap()
             ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)

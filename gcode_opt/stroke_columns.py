@@ -34,12 +34,21 @@ class StrokeColumns:
 
     __slots__ = ("n", "first_idx", "last_idx", "n_moves", "floats", "code_of", "codes")
 
-    def __init__(self, strokes):
+    def __init__(self, strokes, fields=True):
+        """fields False: the lines alone (what measure reads), the rest by add_fields."""
         self.n = len(strokes)
         self.first_idx, self.last_idx = line_spans(strokes)
+        self.n_moves, self.floats, self.code_of, self.codes = None, {}, {}, {}
+        if fields:
+            self.add_fields(strokes)
+
+    def add_fields(self, strokes):
+        """The columns besides the lines (the summary's), of the same strokes: the pipeline
+        makes them once the passes' memory is let go (held through measure, they raised
+        its peak on the rectilinear plate, 81 -> 85 MB)."""
+        assert len(strokes) == self.n
         self.n_moves = n_moves(strokes, (self.first_idx, self.last_idx))
         self.floats = _float_columns(strokes, FLOATS)
-        self.code_of, self.codes = {}, {}
         for name in CODED:
             self.code_of[name], self.codes[name] = _coded(strokes, name)
 
@@ -107,7 +116,7 @@ def _float_columns(strokes, names):
     out = {}
     for j, name in enumerate(names):
         if got is not None and not got[1][:, j].any():        # (kind 0: a float, every one)
-            out[name] = np.ascontiguousarray(got[0][:, j])
+            out[name] = got[0][:, j]                          # (a view: no copy of the columns made)
             continue
         vals = list(map(attrgetter(name), strokes))
         out[name] = np.array(vals, float) if set(map(type, vals)) <= _FLOAT_ONLY else vals

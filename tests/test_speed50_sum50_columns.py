@@ -503,12 +503,14 @@ def test_order_and_lines_of_a_real_run(runs):
 def test_no_stroke_alive_at_the_summary(tmp_path, monkeypatch):
     """The summary reads the columns: _process lets the strokes go before it (with
     --json the summary's rows were the run's peak, the strokes still held)."""
-    alive = []
+    def n_strokes():
+        gc.unfreeze()                  # (the strokes were frozen: get_objects does not list those)
+        return sum(isinstance(o, Stroke) for o in gc.get_objects())
+    alive, before = [], n_strokes()    # (other tests' fixtures may hold strokes)
     keep = sm.build_summary
 
     def spy(*a, **k):
-        gc.unfreeze()                  # (the strokes were frozen: get_objects does not list those)
-        alive.append(sum(isinstance(o, Stroke) for o in gc.get_objects()))
+        alive.append(n_strokes() - before)
         return keep(*a, **k)
     monkeypatch.setattr(sm, "build_summary", spy)
     s = pl.process(str(SAMPLES / "prusa_gyroid.gcode"), str(tmp_path / "out.gcode"), load_profile("prusa-mk3s"),

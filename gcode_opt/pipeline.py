@@ -1153,10 +1153,11 @@ LAST_REMEASURE = {}      # what the last remeasure played (lines of the first pa
 
 def remeasure(path, profile, strokes, order, led, lines1, lines2, changed, out_ranges1, fig1, out_ranges2, opts):
     """The firmware model on a second rewrite that differs from the first only in the
-    strokes `changed` (bool by stroke index; strokes: their StrokeColumns, not read): each changed stroke's stretch, from the stop
+    strokes `changed` (bool by stroke index): each changed stroke's stretch, from the stop
     before it to the stop after it, is played again (firmware.simulate.replay_runs); the
     rest of the figures are the first pass's.  Returns what measure returns, or None when
-    the files do not line up as the ledger says (the caller then measures the whole file)."""
+    the files do not line up as the ledger says (the caller then measures the whole file).
+    strokes: their StrokeColumns (not read: the lines and the ledger say it all)."""
     if not led.ok or len(led.lo) != len(order) or len(led.hi) != len(order):
         return None
     first1, last1 = lines1
@@ -1303,7 +1304,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # overrun taken off (one more rewrite; the firmware model plays again only the
             # stretches around the blocks that changed: remeasure).
             order = None              # the strokes by first line (_first_line_order): made after the first plan
-            cols = None               # what the steps after planning read of the strokes (StrokeColumns): its lines made then too
+            cols = None               # the strokes' StrokeColumns, what the steps after planning read
             first = None              # the first pass: _FirstPass
             restore = plan = None     # restore: strokes the second pass puts back to their lines, the plan kept
             for pass_i in range(2):

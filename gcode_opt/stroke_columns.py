@@ -2,9 +2,10 @@
 (StrokeColumns): the strokes' first-line order and output lines (pipeline.stroke_lines),
 the summary's per-stroke rows, by-kind sums and coverage (summary.build_summary).
 
-Made once, when planning has set every one of these fields for good (corners.py lowers v0
-and v1 in plan_inputs; nothing after writes them), from the strokes by compiled gathers
-(line_spans, stroke_fields, objfields.codes: no Python object a value).  The steps after
+Each column made once, when planning has set its field for good (corners.py lowers v0 and
+v1 in plan_inputs; nothing after writes them), from the strokes by compiled gathers
+(line_spans, stroke_fields, objfields.codes: no Python object a value): the pipeline makes
+the lines with the first measure and the rest once the passes are done (add_fields).  The steps after
 planning then need no stroke object: a windowed pipeline can let a window's strokes go
 once it is planned and written, keeping these (~90 bytes a stroke).
 

@@ -55,8 +55,7 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     strokes: StrokeColumns, or the list of strokes; reason_codes: _reason_codes(plan.reason)
     where the caller has them (build_summary)."""
     total_a2, total_t = float(sim0.int_a2), float(sim0.time_t)
-    cols = StrokeColumns.of(strokes)
-    n = len(cols)
+    n = len(strokes)
     T0 = np.nan_to_num(np.asarray(pin.T_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
     I0 = np.nan_to_num(np.asarray(pin.I_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
     retimed = np.zeros(n, dtype=bool)
@@ -83,6 +82,7 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
+        cols = StrokeColumns.of(strokes)
         feat_code_of, feat_code = cols.code_of["feature"], cols.codes["feature"]
         nm = cols.n_moves                                         # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):

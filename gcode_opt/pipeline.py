@@ -47,7 +47,7 @@ import numpy as np
 
 from .rss import peak_rss_mb
 from .distinct import distinct
-from . import chains, vertex_filter
+from . import vertex_filter
 from . import features as feat
 from . import emit as emit_mod
 from .emit import StrokeText, emit_arc, emit_stroke
@@ -62,6 +62,7 @@ from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewr
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
+from .stroke_columns import StrokeColumns, line_columns
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -1080,8 +1081,8 @@ def _first_line_order(strokes):
     order), as an array of int64 (its items read as ints: a list of ints took ~36 bytes a
     stroke, 1.4 MB on the gyroid plate, 8 here).  Only measure reads it: made once the first
     plan is written, not held through planning (0.28 MB on the gyroid plate, 0.42 on the
-    rectilinear, at planning's peak)."""
-    return array("q", np.argsort(line_spans(strokes)[0], kind="stable").astype(np.int64).tobytes())
+    rectilinear, at planning's peak).  strokes: their StrokeColumns, or the list."""
+    return array("q", np.argsort(line_columns(strokes)[0], kind="stable").astype(np.int64).tobytes())
 
 
 def stroke_lines(strokes, order, out_ranges):
@@ -1092,7 +1093,8 @@ def stroke_lines(strokes, order, out_ranges):
     In rows (numpy, int64): the offset output line - input line before each stroke of
     `order` is the sum of the re-timed ones' line changes before it; the same figures and
     the same refusals as _stroke_lines_loop, which takes the odd inputs (a stroke twice in
-    out_ranges, an index out of range, no strokes)."""
+    out_ranges, an index out of range, no strokes).  strokes: their StrokeColumns, or the
+    list."""
     n, m = len(strokes), len(order)
     if not n or not m:
         return _stroke_lines_loop(strokes, order, out_ranges)
@@ -1100,7 +1102,7 @@ def stroke_lines(strokes, order, out_ranges):
     o = np.asarray(order, np.int64)
     if (len(ri) and (ri.min() < 0 or ri.max() >= n or len(distinct(ri)) != len(ri))) or o.min() < 0 or o.max() >= n:
         return _stroke_lines_loop(strokes, order, out_ranges)
-    lo, hi = line_spans(strokes)
+    lo, hi = line_columns(strokes)
     fi, li = lo[o], hi[o]
     block_a, block_z = np.full(n, -1, np.int64), np.zeros(n, np.int64)
     has = np.zeros(n, bool)
@@ -1120,22 +1122,24 @@ def stroke_lines(strokes, order, out_ranges):
 
 
 def _stroke_lines_loop(strokes, order, out_ranges):
-    """stroke_lines stroke by stroke (the code before the rows; the tests' reference)."""
+    """stroke_lines stroke by stroke (the code before the rows; the tests' reference), on
+    the strokes' first and last lines (line_columns) as ints."""
     n = len(strokes)
     first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
     block = {i: (a, z) for a, z, i in out_ranges}
+    lo, hi = (c.tolist() for c in line_columns(strokes))
     off = 0                   # output line - input line, between blocks
     prev_last = -1
     for i in order:
-        s = strokes[i]
+        fi, li = lo[i], hi[i]
         r = block.get(i)
         if r is None:
-            a, z = s.first_idx + off, s.last_idx + off
+            a, z = fi + off, li + off
         else:
             a, z = r
-            if a != s.first_idx + off:
+            if a != fi + off:
                 return None
-            off += (z - a) - (s.last_idx - s.first_idx)
+            off += (z - a) - (li - fi)
         if a <= prev_last or z < a:
             return None
         first[i], last[i], prev_last = a, z, z
@@ -1152,7 +1156,8 @@ def remeasure(path, profile, strokes, order, led, lines1, lines2, changed, out_r
     strokes `changed` (bool by stroke index): each changed stroke's stretch, from the stop
     before it to the stop after it, is played again (firmware.simulate.replay_runs); the
     rest of the figures are the first pass's.  Returns what measure returns, or None when
-    the files do not line up as the ledger says (the caller then measures the whole file)."""
+    the files do not line up as the ledger says (the caller then measures the whole file).
+    strokes: their StrokeColumns (not read: the lines and the ledger say it all)."""
     if not led.ok or len(led.lo) != len(order) or len(led.hi) != len(order):
         return None
     first1, last1 = lines1
@@ -1299,6 +1304,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
             # overrun taken off (one more rewrite; the firmware model plays again only the
             # stretches around the blocks that changed: remeasure).
             order = None              # the strokes by first line (_first_line_order): made after the first plan
+            cols = None               # the strokes' StrokeColumns, what the steps after planning read
             first = None              # the first pass: _FirstPass
             restore = plan = None     # restore: strokes the second pass puts back to their lines, the plan kept
             for pass_i in range(2):
@@ -1353,13 +1359,14 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 if prog:
                     prog.start("measure")
                 if order is None:
-                    order = _first_line_order(strokes)
-                lines = stroke_lines(strokes, order, out_ranges)
+                    cols = StrokeColumns(strokes, fields=False)     # (the summary's fields: after the passes)
+                    order = _first_line_order(cols)
+                lines = stroke_lines(cols, order, out_ranges)
                 got = None
                 opts.lines_out = None     # (measure counts the written file's lines; a remeasure does not)
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
                     changed = (np.asarray(plan.retime, bool) != np.asarray(first.retime, bool)) | digests.differ(first.digests)
-                    got = remeasure(tmp, profile, strokes, order, first.led, first.lines, lines, changed,
+                    got = remeasure(tmp, profile, cols, order, first.led, first.lines, lines, changed,
                                     first.out_ranges, first.figures, out_ranges, opts)
                 ring_after = None     # the written file's ringing, when this pass played all of it
                 if got is None:
@@ -1392,21 +1399,21 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 if over_t > 0.0:
                     budget_t -= 1.2 * over_t
             # what only the passes needed (the first pass's ledger, the segment plans and
-            # their cache, the candidate tables) goes before the summary is built
+            # their cache, the candidate tables, the strokes themselves: the summary reads
+            # their columns, cols) goes before the summary is built
             first = None
             plan.segs = None
             pin.seg_cache = None
             drop_cached(pin)
-            for st in strokes:        # curve geometry (rebuilt on demand) and chains' candidate plans
-                st.curv = None
-                if st.chain_T is not None:    # (an empty memo still marks a chain: chains.plan_kind)
-                    st.chain_T = chains.ChainMemo()
+            trim_heap()               # (first: the summary's columns grow on live memory only)
+            cols.add_fields(strokes)  # (final: corners.py set v0 / v1 in plan_inputs, nothing since)
+            strokes = None            # (their curve geometry and chains' plans with them)
             trim_heap()
             ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
             timing.lap("ringing")
             from .summary import build_summary
             with _young_frozen(freeze):      # (~70 k rows' dicts: frozen, not walked by the next collection)
-                summary = build_summary(in_path, out_path, tmp, size, profile, opts, strokes, pin, plan, sim0,
+                summary = build_summary(in_path, out_path, tmp, size, profile, opts, cols, pin, plan, sim0,
                                         sim1, out_ranges, t1, a21, v21, time.monotonic() - t_start, ringing=ringing)
             if ringing_error:
                 summary["ringing_error"] = ringing_error

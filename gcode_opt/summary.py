@@ -6,14 +6,12 @@ import gc
 import math
 import os
 from itertools import compress
-from operator import attrgetter
 
 import numpy as np
 
-from . import objfields
 from .distinct import value_codes
 from .outranges import columns as range_columns
-from .strokes import Stroke, line_spans
+from .stroke_columns import StrokeColumns
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -54,7 +52,8 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     feature when the analyse pass totalled the original by feature (opts.by_feature:
     feature -> [moves, time_t, int_a2] over every moving line), else as one bucket.
 
-    reason_codes: _reason_codes(plan.reason) where the caller has them (build_summary)."""
+    strokes: StrokeColumns, or the list of strokes; reason_codes: _reason_codes(plan.reason)
+    where the caller has them (build_summary)."""
     total_a2, total_t = float(sim0.int_a2), float(sim0.time_t)
     n = len(strokes)
     T0 = np.nan_to_num(np.asarray(pin.T_orig[:n], dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
@@ -83,8 +82,9 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
     by_feature = getattr(opts, "by_feature", None)
     if by_feature:
         selected = set(getattr(opts, "features", ()) or ())
-        feat_code_of, feat_code = _feature_codes(strokes)
-        nm = _n_moves(strokes)                                    # the candidates' moves
+        cols = StrokeColumns.of(strokes)
+        feat_code_of, feat_code = cols.code_of["feature"], cols.codes["feature"]
+        nm = cols.n_moves                                         # the candidates' moves
         for f, (moves, t, a2) in sorted(by_feature.items()):
             m = feat_code == feat_code_of.get(f, -1)              # candidates of this feature
             moves -= int(nm[m].sum())                             # (integers: the loop's sum)
@@ -114,16 +114,6 @@ def coverage(strokes, pin, plan, sim0, sim1, idx, opts=None, reason_codes=None):
                        "time_change": _ratio(float(sim1.time_t), total_t)},
         "left": left,
     }
-
-
-def _feature_codes(strokes):
-    """value_codes(list(map(attrgetter("feature"), strokes))): the features read and coded
-    in one compiled pass where it can (a list of strokes), not a list of them made first."""
-    code_of = {}
-    code = objfields.codes(strokes, "feature", code_of, add=True)
-    if code is not None:
-        return code_of, code
-    return value_codes(list(map(attrgetter("feature"), strokes)))
 
 
 def _reason_codes(reason):
@@ -158,15 +148,14 @@ def ringing_section(before, after):
 
 def build_summary(in_path, out_path, written_path, size_before, profile, opts, strokes, pin, plan, sim0, sim1,
                   out_ranges, t_after, a2_after, v2_after, elapsed_t, ringing=None):
-    """ringing: None, or (before, after) ringing figure dicts (the firmware-model passes over
+    """strokes: the strokes' StrokeColumns (or the list of strokes, read into one).
+    ringing: None, or (before, after) ringing figure dicts (the firmware-model passes over
     the original and the written file fed ringing.Collector): the summary's "ringing" key."""
+    cols = StrokeColumns.of(strokes)
     out_first, _, idx = range_columns(out_ranges)
-    idx_list = idx.tolist()
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
-    V0 = objfields.float_col(list(map(strokes.__getitem__, idx_list)), "int_v2")     # (one compiled pass)
-    if V0 is None:
-        V0 = np.fromiter(map(attrgetter("int_v2"), map(strokes.__getitem__, idx_list)), float, len(idx_list))
+    V0 = cols.float_array("int_v2", idx)
     # the per-stroke rows only where something reads them (Options.summary_rows: the command
     # line asks for them with --json or --report; its text summary has none)
     per_stroke = [] if getattr(opts, "summary_rows", True) else None
@@ -174,8 +163,8 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     gc_was = gc.isenabled()
     gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
     try:
-        _per_stroke_rows(idx_list, out_first, T0, I0, plan.T[idx], plan.I_law[idx], np.asarray(t_after),
-                         np.asarray(a2_after), plan.beta[idx], strokes, per_stroke, by_kind)
+        _per_stroke_rows(idx, out_first, T0, I0, plan.T[idx], plan.I_law[idx], np.asarray(t_after),
+                         np.asarray(a2_after), plan.beta[idx], cols, per_stroke, by_kind)
     finally:
         if gc_was:
             gc.enable()
@@ -199,7 +188,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
         "input": in_path, "output": out_path, "profile": profile.name, "flavour": profile.flavour,
         "options": {"alpha": opts.alpha, "features": list(opts.features), "overshoot": opts.overshoot_r,
                     "max_slowdown": opts.max_slowdown_r, "max_segments": opts.max_segments},
-        "strokes": {"candidates": len(strokes), "retimed": int(len(idx)),
+        "strokes": {"candidates": len(cols), "retimed": int(len(idx)),
                     "not_retimed": {k: v for k, v in reasons.items() if k != "retimed"},
                     # the part of not_retimed that is a fault kept out of the file (planning,
                     # segments or emission raised, a non-finite number, the validator refused)
@@ -216,7 +205,7 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
             "by_kind": by_kind,
         },
         # the headline: share of the file re-timed, the whole file's change, what was left and why
-        "coverage": coverage(strokes, pin, plan, sim0, sim1, idx, opts, reason_codes),
+        "coverage": coverage(cols, pin, plan, sim0, sim1, idx, opts, reason_codes),
         "whole_file": {"before": sim0.as_dict(), "after": sim1.as_dict(),
                        "int_a2_change": _ratio(sim1.int_a2, sim0.int_a2),
                        "corner_dv2_change": _ratio(sim1.corner_dv2, sim0.corner_dv2)},
@@ -270,44 +259,17 @@ def round_list(vals, nd):
 _FLOAT_ONLY = {float}
 
 
-def _n_moves(strokes):
-    """Every stroke's n_moves, an int64 array (Stroke's from its lines in rows; another
-    kind of stroke: its own n_moves)."""
-    n = len(strokes)
-    if n and set(map(type, strokes)) == _STROKE_ONLY:       # (the type test in C: ~35 k strokes)
-        lo, hi = line_spans(strokes)
-        return hi - lo + 1
-    return np.fromiter((s.n_moves for s in strokes), np.int64, n)
-
-
-_STROKE_ONLY = {Stroke}
-
-
-def _kind_of(s):
-    return getattr(s, "kind", "line")
-
-
-def _kinds_of(ss):
-    """[_kind_of(s) for s in ss]: read by attrgetter in C where every one has a kind (a
-    Python call a stroke was ~6 M instructions on the rectilinear plate)."""
-    try:
-        return list(map(_KIND, ss))
-    except AttributeError:
-        return list(map(_kind_of, ss))
-
-
-_KIND = attrgetter("kind")
-
-
 def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
     """build_summary's per-stroke rows (appended to per_stroke; per_stroke None: the by_kind
-    sums alone) and by_kind sums, in the order of idx (columns by row: lists, or arrays,
-    whose rows are built on Python floats (tolist: the arrays' values) rather than numpy
-    scalars: the same numbers, the same sums in the same order)."""
-    ss = list(map(strokes.__getitem__, idx))
-    kinds = _kinds_of(ss)
+    sums alone) and by_kind sums, in the order of idx (stroke indices into strokes: its
+    StrokeColumns, or the list of strokes) (columns by row: lists, or arrays, whose rows are
+    built on Python floats (tolist: the arrays' values) rather than numpy scalars: the same
+    numbers, the same sums in the same order)."""
+    cols = StrokeColumns.of(strokes)
+    rows = np.asarray(idx, np.intp)
+    kinds = cols.values("kind", rows)
     if per_stroke is not None:
-        _rows(ss, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
+        _rows(cols, rows, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
     _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)
 
 
@@ -316,24 +278,26 @@ def _as_list(col):
     return col.tolist() if isinstance(col, np.ndarray) else col
 
 
-def _rows(ss, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke):
-    """The per-stroke rows: each column made in one pass (map: the same round() of each
-    value), then the rows zip them."""
-    get = attrgetter
-    r4 = round_list(list(map(get("length_d"), ss)), 4)
-    rv0 = round_list(list(map(get("v0"), ss)), 3)
-    rv1 = round_list(list(map(get("v1"), ss)), 3)
-    rvf = round_list(list(map(get("v_feed"), ss)), 3)
-    n_moves = _n_moves(ss).tolist()
+def _rows(cols, rows, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke):
+    """The per-stroke rows of the strokes `rows` (an intp array into cols, a StrokeColumns):
+    each column made in one pass (the same round() of each value), then the rows zip them."""
+    r4 = round_list(cols.float_values("length_d", rows), 4)
+    rv0 = round_list(cols.float_values("v0", rows), 3)
+    rv1 = round_list(cols.float_values("v1", rows), 3)
+    rvf = round_list(cols.float_values("v_feed", rows), 3)
+    n_moves = cols.n_moves[rows].tolist()
+    lines = (cols.first_idx[rows] + 1).tolist()
+    features, layers = cols.values("feature", rows), cols.values("layer", rows)
     per_stroke.extend([
-        {"line": s.first_idx + 1, "lines": nm, "kind": kind, "out_line": of + 1,
-         "feature": s.feature, "layer": s.layer, "length_mm": ln,
+        {"line": line, "lines": nm, "kind": kind, "out_line": of + 1,
+         "feature": fe, "layer": la, "length_mm": ln,
          "v0_mm_s": a, "v1_mm_s": b, "feed_mm_s": f,
          "time_s": {"before": x0, "law": xl, "after": x1},
          "int_a2": {"before": y0, "law": yl, "after": y1},
          "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
-        for s, nm, kind, of, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
-        in zip(ss, n_moves, kinds, out_first, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21, beta)])
+        for line, nm, kind, of, fe, la, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
+        in zip(lines, n_moves, kinds, out_first, features, layers, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21,
+               beta)])
 
 
 def _by_kind_rows(kinds, cols, by_kind):

@@ -23,7 +23,7 @@ import tracemalloc
 
 import pytest
 
-from gcode_opt import chains, pipeline, strokes, summary
+from gcode_opt import chains, pipeline, stroke_columns, strokes
 from gcode_opt.profile import load_profile
 
 SAMPLES = "sample_gcode/"
@@ -49,7 +49,7 @@ def _python_stroke():
 def python_strokes(monkeypatch):
     """Swap the pure-Python class in wherever the package holds the name Stroke."""
     cls = _python_stroke()
-    for mod in (strokes, pipeline, chains, summary):
+    for mod in (strokes, pipeline, chains, stroke_columns):
         monkeypatch.setattr(mod, "Stroke", cls)
     monkeypatch.setattr(strokes, "_new", object.__new__)
     return cls
@@ -143,7 +143,7 @@ def test_analyse_strokes_as_the_python_class(monkeypatch, name, prof):
         pytest.skip("corpus not built")
     got = _analyse(path, prof)
     cls = _python_stroke()
-    for mod in (strokes, pipeline, chains, summary):
+    for mod in (strokes, pipeline, chains, stroke_columns):
         monkeypatch.setattr(mod, "Stroke", cls)
     monkeypatch.setattr(strokes, "_new", object.__new__)
     ref = _analyse(path, prof)
@@ -174,7 +174,7 @@ def _process(path, out, prof):
 def test_process_as_the_python_class(tmp_path, monkeypatch, name, prof):
     got = _process(SAMPLES + name, tmp_path / "a.gcode", prof)
     cls = _python_stroke()
-    for mod in (strokes, pipeline, chains, summary):
+    for mod in (strokes, pipeline, chains, stroke_columns):
         monkeypatch.setattr(mod, "Stroke", cls)
     monkeypatch.setattr(strokes, "_new", object.__new__)
     ref = _process(SAMPLES + name, tmp_path / "b.gcode", prof)
@@ -200,7 +200,7 @@ def test_traced_memory_a_stroke_less(monkeypatch):
 
     mine, n = traced()
     cls = _python_stroke()
-    for mod in (strokes, pipeline, chains, summary):
+    for mod in (strokes, pipeline, chains, stroke_columns):
         monkeypatch.setattr(mod, "Stroke", cls)
     monkeypatch.setattr(strokes, "_new", object.__new__)
     ref, n_ref = traced()

@@ -21,6 +21,7 @@ import pytest
 
 from gcode_opt import ringing as rg
 from gcode_opt import summary as sm
+from strokes_kept import _strokes_kept
 from gcode_opt.firmware import resonance as res
 from gcode_opt.firmware import simulate as fwsim
 from gcode_opt.profile import load_profile
@@ -135,11 +136,14 @@ def summary_args(tmp_path_factory):
         return keep(*a, **k)
     sm.build_summary = spy
     try:
-        pipeline.process(str(SAMPLES / "prusa_gyroid.gcode"), str(d / "out.gcode"), load_profile("prusa-mk3s"),
-                         Options())
+        with _strokes_kept() as strokes:
+            pipeline.process(str(SAMPLES / "prusa_gyroid.gcode"), str(d / "out.gcode"), load_profile("prusa-mk3s"),
+                             Options())
     finally:
         sm.build_summary = keep
-    return got["args"]
+    args = list(got["args"])
+    args[6] = strokes[0]            # the strokes (the run hands build_summary their StrokeColumns)
+    return args
 
 
 def _columns(args):

@@ -6,7 +6,7 @@ to hit their refusals and odd values:
 - pipeline._departures (rows) against its loop;
 - summary's by-kind sums (add.accumulate from the total so far) against _by_kind_loop,
   NaN, inf and -0.0 included, compared as bits;
-- summary.coverage's candidate moves (summary._n_moves) against Stroke.n_moves;
+- summary.coverage's candidate moves (stroke_columns.n_moves) against Stroke.n_moves;
 - the measure pass's watch list (zip of tolist) against the old comprehension;
 - pipeline._young_frozen: the collector back on, the young objects frozen, the state left
   as it was without a freeze; and the same bytes with and without the freezes."""
@@ -22,6 +22,7 @@ import pytest
 
 from gcode_opt import pipeline as pl
 from gcode_opt import summary as sm
+from gcode_opt.stroke_columns import n_moves
 from gcode_opt.profile import load_profile
 from gcode_opt.strokes import Stroke
 
@@ -74,7 +75,8 @@ def seen():
     def spy_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
         real_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind)
         ref = {}
-        sm._by_kind_loop([sm._kind_of(strokes[i]) for i in idx], (t0, t_law, t1, i0, i_law, a21), ref)
+        kinds = strokes.values("kind", np.asarray(idx, np.intp))      # (the strokes' columns: stroke_columns)
+        sm._by_kind_loop(kinds, (t0, t_law, t1, i0, i_law, a21), ref)
         calls["rows"].append((copy.deepcopy(by_kind), ref, len(idx)))   # (build_summary adds to by_kind)
     mp = pytest.MonkeyPatch()
     mp.setattr(pl, "stroke_lines", spy_lines)
@@ -247,12 +249,12 @@ def test_n_moves_against_the_property():
         s.first_idx = rng.randrange(10 ** 6)
         s.last_idx = s.first_idx + rng.randrange(0, 30)
         ss.append(s)
-    assert sm._n_moves(ss).tolist() == [s.n_moves for s in ss]
+    assert n_moves(ss).tolist() == [s.n_moves for s in ss]
 
     class Other:
         n_moves = 17
-    assert sm._n_moves(ss[:3] + [Other()]).tolist() == [s.n_moves for s in ss[:3]] + [17]
-    assert sm._n_moves([]).tolist() == []
+    assert n_moves(ss[:3] + [Other()]).tolist() == [s.n_moves for s in ss[:3]] + [17]
+    assert n_moves([]).tolist() == []
 
 
 def test_watch_list_as_before():
@@ -299,16 +301,21 @@ def test_process_freezes_after_analyse_plan_and_summary(tmp_path, monkeypatch):
     from gcode_opt import segments as _segments
     monkeypatch.setattr(_segments, "JERK_CORNERS", False)
     counts = []
-    real_plan, real_summary = pl.plan_strokes, sm.build_summary
+    real_plan, real_summary, real_rewrite = pl.plan_strokes, sm.build_summary, pl.rewrite
 
     def spy_plan(*a, **k):
         counts.append(("plan", gc.get_freeze_count(), gc.isenabled()))
         return real_plan(*a, **k)
 
+    def spy_rewrite(*a, **k):
+        counts.append(("rewrite", gc.get_freeze_count(), gc.isenabled()))
+        return real_rewrite(*a, **k)
+
     def spy_summary(*a, **k):
         counts.append(("summary", gc.get_freeze_count(), gc.isenabled()))
         return real_summary(*a, **k)
     monkeypatch.setattr(pl, "plan_strokes", spy_plan)
+    monkeypatch.setattr(pl, "rewrite", spy_rewrite)
     monkeypatch.setattr(sm, "build_summary", spy_summary)
     src = str(SAMPLES / "prusa_gyroid.gcode")
     prof = load_profile("prusa-mk3s")
@@ -317,7 +324,11 @@ def test_process_freezes_after_analyse_plan_and_summary(tmp_path, monkeypatch):
     assert gc.get_freeze_count() == 0
     assert counts[0][0] == "plan" and counts[0][1] > 1000 and not counts[0][2]   # planned with it off
     summ = [c for c in counts if c[0] == "summary"]
-    assert summ and not summ[0][2] and summ[0][1] > counts[0][1]   # planning's objects frozen too
+    assert summ and not summ[0][2]
+    # planning's objects frozen too (seen at the rewrite: the strokes, frozen since analyse,
+    # are let go before the summary, session 50)
+    written = [c for c in counts if c[0] == "rewrite"]
+    assert written and written[0][1] > counts[0][1]
 
     class _NoFreeze:
         def __enter__(self):

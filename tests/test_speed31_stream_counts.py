@@ -174,14 +174,14 @@ def _n_moves_ref(strokes):
 
 
 def test_n_moves_same(tmp_path):
-    from gcode_opt import summary
+    from gcode_opt.stroke_columns import n_moves      # (summary._n_moves until session 50)
     from gcode_opt.strokes import Stroke
     strokes, _ = pl.analyse(os.path.join(SAMPLES, "prusa_gyroid.gcode"), load_profile("prusa-mk3s"), pl.Options())
     assert len(strokes) > 500
-    got = summary._n_moves(strokes)
+    got = n_moves(strokes)
     assert got.dtype == _n_moves_ref(strokes).dtype and got.tolist() == _n_moves_ref(strokes).tolist()
-    assert summary._n_moves(strokes[::3]).tolist() == _n_moves_ref(strokes[::3]).tolist()
-    assert summary._n_moves([]).tolist() == [] and summary._n_moves([]).dtype == _n_moves_ref([]).dtype
+    assert n_moves(strokes[::3]).tolist() == _n_moves_ref(strokes[::3]).tolist()
+    assert n_moves([]).tolist() == [] and n_moves([]).dtype == _n_moves_ref([]).dtype
 
     class Other(Stroke):                 # a stroke of another kind counts its own moves
         __slots__ = ()
@@ -192,4 +192,4 @@ def test_n_moves_same(tmp_path):
     odd = Other.__new__(Other)
     odd.first_idx, odd.last_idx = 10, 11
     mixed = strokes[:5] + [odd]
-    assert summary._n_moves(mixed).tolist() == _n_moves_ref(mixed).tolist() == [s.n_moves for s in mixed]
+    assert n_moves(mixed).tolist() == _n_moves_ref(mixed).tolist() == [s.n_moves for s in mixed]

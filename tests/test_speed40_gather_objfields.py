@@ -13,7 +13,7 @@ from operator import attrgetter
 import numpy as np
 import pytest
 
-from gcode_opt import chains, curves, distinct, objfields, pipeline, schedule, segments, summary
+from gcode_opt import chains, curves, distinct, objfields, pipeline, schedule, segments
 from gcode_opt.profile import load_profile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -174,7 +174,7 @@ def _site_figures(name, prof, corners):
     plan = schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
     out += [plan.retime.tobytes(), list(plan.reason), plan.t_pred.tobytes(), plan.a2_pred.tobytes(),
             plan.T.tobytes(), plan.beta.tobytes()]
-    V0 = summary.objfields.float_col(strokes, "int_v2")
+    V0 = objfields.float_col(strokes, "int_v2")
     out.append(None if V0 is None else V0.tobytes())
     return out
 

@@ -16,7 +16,7 @@ import sys
 
 import pytest
 
-from gcode_opt import chains, pipeline, strokes, summary
+from gcode_opt import chains, pipeline, stroke_columns, strokes
 from gcode_opt.profile import load_profile
 
 from test_mem27_stroke_fields import BASE, _fields, _python_stroke
@@ -38,7 +38,7 @@ def _analyse(path, prof, curves):
 
 def _python_class(monkeypatch):
     cls = _python_stroke()
-    for mod in (strokes, pipeline, chains, summary):
+    for mod in (strokes, pipeline, chains, stroke_columns):
         monkeypatch.setattr(mod, "Stroke", cls)
     monkeypatch.setattr(strokes, "_new", object.__new__)
     return cls

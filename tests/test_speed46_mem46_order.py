@@ -8,6 +8,7 @@ import numpy as np
 from gcode_opt import pipeline
 from gcode_opt.pipeline import Options, analyse, line_spans, process
 from gcode_opt.profile import load_profile
+from strokes_kept import _strokes_kept
 
 SAMPLE = "sample_gcode/prusa_gyroid.gcode"
 
@@ -50,8 +51,10 @@ def test_order_made_after_planning_and_the_same_file(tmp_path, monkeypatch):
     assert seen.count("order") == 1 and seen.index("order") > seen.index("plan")
     monkeypatch.undo()
 
-    # the old order made before planning, handed in where the new one is made: the same bytes
-    monkeypatch.setattr(pipeline, "_first_line_order", ref_order)
-    ref = tmp_path / "ref.gcode"
-    process(SAMPLE, str(ref), prof, Options())
+    # the old order (of the strokes: the run hands _first_line_order their StrokeColumns),
+    # handed in where the new one is made: the same bytes
+    with _strokes_kept() as strokes:
+        monkeypatch.setattr(pipeline, "_first_line_order", lambda cols: ref_order(strokes[0]))
+        ref = tmp_path / "ref.gcode"
+        process(SAMPLE, str(ref), prof, Options())
     assert out.read_bytes() == ref.read_bytes()

@@ -15,6 +15,7 @@ import pytest
 
 from gcode_opt import summary as sm
 from gcode_opt.distinct import value_codes
+from gcode_opt.stroke_columns import _coded      # (summary._feature_codes until session 50)
 
 
 def ref_counts(reason):
@@ -107,7 +108,7 @@ def _strokes(n):
                          ids=["list", "tuple", "empty", "one"])
 def test_feature_codes(strokes):
     want_of, want = ref_feature_codes(strokes)
-    got_of, got = sm._feature_codes(strokes)
+    got_of, got = _coded(strokes, "feature")
     assert list(got_of.items()) == list(want_of.items())
     assert [type(k) for k in got_of] == [type(k) for k in want_of]
     assert got.tolist() == want.tolist()
@@ -121,4 +122,4 @@ def test_feature_codes_raise_as_before(bad, exc):
     with pytest.raises(exc):
         ref_feature_codes(strokes)
     with pytest.raises(exc):
-        sm._feature_codes(strokes)
+        _coded(strokes, "feature")

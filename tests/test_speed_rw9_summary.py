@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from gcode_opt import summary as sm
+from strokes_kept import _strokes_kept
 from gcode_opt.pipeline import Options, process
 from gcode_opt.profile import load_profile
 from gcode_opt.summary import FAULT_PREFIXES, DWELL, NOT_CANDIDATE, _ratio, _share, count_lines, ringing_section
@@ -208,11 +209,13 @@ def runs(tmp_path_factory):
         sm.build_summary = spy
         try:
             dst = str(d / name)
-            process(SAMPLES + name, dst, load_profile(prof), Options())
+            with _strokes_kept() as strokes:
+                process(SAMPLES + name, dst, load_profile(prof), Options())
         finally:
             sm.build_summary = keep
         a = list(cap[0])
         a[2] = dst                       # the temporary file is the output now
+        a[6] = strokes[0]                # the strokes (the run hands build_summary their StrokeColumns)
         got[name] = a
     return got
 

@@ -1,0 +1,142 @@
+"""The strokes' fields the steps after planning read, as compact per-stroke columns
+(StrokeColumns): the strokes' first-line order and output lines (pipeline.stroke_lines),
+the summary's per-stroke rows, by-kind sums and coverage (summary.build_summary).
+
+Each column made once, when planning has set its field for good (corners.py lowers v0 and
+v1 in plan_inputs; nothing after writes them), from the strokes by compiled gathers
+(line_spans, stroke_fields, objfields.codes: no Python object a value): the pipeline makes
+the lines with the first measure and the rest once the passes are done (add_fields).  The steps after
+planning then need no stroke object: a windowed pipeline can let a window's strokes go
+once it is planned and written, keeping these (~90 bytes a stroke).
+
+A column reads back the same values of the same types as the attributes: a float column is
+an array only where every value is a float (the array's tolist: those floats), else the
+list of the values; a text column (feature, kind, layer) is a code a stroke into the table
+of its distinct values (values equal as dict keys are one: str, int and None here)."""
+from __future__ import annotations
+
+from operator import attrgetter
+
+import numpy as np
+
+from . import objfields
+from .distinct import value_codes
+from .strokes import Stroke, line_spans, stroke_fields
+
+FLOATS = ("length_d", "v0", "v1", "v_feed", "int_v2")     # the summary's rows and sums
+CODED = ("feature", "kind", "layer")
+
+
+class StrokeColumns:
+    """Per-stroke columns (by stroke index) of the fields read after planning:
+    first_idx, last_idx, n_moves (int64 arrays); FLOATS (float64 arrays, or lists where a
+    value is not a float); CODED: code_of[name] ({value: code}, in the order first met) and
+    codes[name] (an intp array)."""
+
+    __slots__ = ("n", "first_idx", "last_idx", "n_moves", "floats", "code_of", "codes")
+
+    def __init__(self, strokes, fields=True):
+        """fields False: the lines alone (what measure reads), the rest by add_fields."""
+        self.n = len(strokes)
+        self.first_idx, self.last_idx = line_spans(strokes)
+        self.n_moves, self.floats, self.code_of, self.codes = None, {}, {}, {}
+        if fields:
+            self.add_fields(strokes)
+
+    def add_fields(self, strokes):
+        """The columns besides the lines (the summary's), of the same strokes: the pipeline
+        makes them once the passes' memory is let go (held through measure, they raised
+        its peak on the rectilinear plate, 81 -> 85 MB)."""
+        assert len(strokes) == self.n
+        self.n_moves = n_moves(strokes, (self.first_idx, self.last_idx))
+        self.floats = _float_columns(strokes, FLOATS)
+        for name in CODED:
+            self.code_of[name], self.codes[name] = _coded(strokes, name)
+
+    @classmethod
+    def of(cls, strokes):
+        """strokes as columns: a StrokeColumns as it is, a list of strokes read into one."""
+        return strokes if isinstance(strokes, cls) else cls(strokes)
+
+    def __len__(self):
+        return self.n
+
+    def float_values(self, name, rows):
+        """The values of float field `name` at rows (an intp array), as a list (Python
+        floats, or the objects the strokes held)."""
+        col = self.floats[name]
+        if isinstance(col, np.ndarray):
+            return col[rows].tolist()
+        return _take(col, rows)
+
+    def float_array(self, name, rows):
+        """The float field `name` at rows, a float64 array."""
+        col = self.floats[name]
+        if isinstance(col, np.ndarray):
+            return col[rows]
+        return np.fromiter(_take(col, rows), float, len(rows))
+
+    def values(self, name, rows):
+        """The coded field `name` (feature, kind, layer) at rows, a list of the values."""
+        return _take(list(self.code_of[name]), self.codes[name][rows])
+
+
+def _take(src, rows):
+    """[src[i] for i in rows] (src a list, rows an intp array)."""
+    rows = np.asarray(rows, np.intp)
+    got = objfields.take(src, rows)
+    return got if got is not None else list(map(src.__getitem__, rows.tolist()))
+
+
+def line_columns(strokes):
+    """(first_idx, last_idx) of every stroke, two int64 arrays, of a StrokeColumns or a
+    list of strokes."""
+    if isinstance(strokes, StrokeColumns):
+        return strokes.first_idx, strokes.last_idx
+    return line_spans(strokes)
+
+
+def n_moves(strokes, spans=None):
+    """Every stroke's n_moves, an int64 array (Stroke's from its lines in rows, spans:
+    line_spans(strokes) where the caller has them; another kind of stroke: its own
+    n_moves)."""
+    n = len(strokes)
+    if n and set(map(type, strokes)) == _STROKE_ONLY:       # (the type test in C: ~35 k strokes)
+        lo, hi = spans if spans is not None else line_spans(strokes)
+        return hi - lo + 1
+    return np.fromiter((s.n_moves for s in strokes), np.int64, n)
+
+
+_STROKE_ONLY = {Stroke}
+
+
+def _float_columns(strokes, names):
+    """{name: float64 array where every stroke's value is a float, else the list of the
+    values}, read in one compiled pass where the strokes are StrokeBase."""
+    got = stroke_fields(strokes, names)
+    out = {}
+    for j, name in enumerate(names):
+        if got is not None and not got[1][:, j].any():        # (kind 0: a float, every one)
+            out[name] = got[0][:, j]                          # (a view: no copy of the columns made)
+            continue
+        vals = list(map(attrgetter(name), strokes))
+        out[name] = np.array(vals, float) if set(map(type, vals)) <= _FLOAT_ONLY else vals
+    return out
+
+
+_FLOAT_ONLY = {float}
+
+
+def _coded(strokes, name):
+    """({value: code}, in the order first met; each stroke's code) of field `name` (kind:
+    "line" where a stroke has none, as the summary read it)."""
+    code_of = {}
+    code = objfields.codes(strokes, name, code_of, add=True)
+    if code is not None:
+        return code_of, code
+    get = kind_of if name == "kind" else attrgetter(name)
+    return value_codes(list(map(get, strokes)))
+
+
+def kind_of(s):
+    return getattr(s, "kind", "line")

@@ -19,6 +19,7 @@ with its reason.
 from __future__ import annotations
 
 import math
+from array import array
 from functools import partial
 from itertools import compress, islice, repeat
 from operator import attrgetter, is_, is_not, itemgetter
@@ -419,13 +420,17 @@ def settle_faults(segs):
         if type(seg) is RowPlan and type(seg._row) is int:
             if not (math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
                 continue
-            got = by_s.get(id(seg._s))
-            if got is None or not (got[0][1] is seg._v and got[0][2] is seg._accel and got[0][3] is seg._feed):
-                key = (id(seg._s), id(seg._v), id(seg._accel), id(seg._feed))
+            # (knots made of the stroke's ends_d, segments.RowPlan: known by their speeds'
+            # block, S None: _settle_rows makes their rows)
+            S = seg._s if type(seg._s) is not array else None
+            got = by_s.get(id(seg._v) if S is None else id(S))
+            if got is None or not (got[0][0] is S and got[0][1] is seg._v and got[0][2] is seg._accel
+                                   and got[0][3] is seg._feed):
+                key = (id(S), id(seg._v), id(seg._accel), id(seg._feed))
                 got = blocks.get(key)
                 if got is None:
-                    got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
-                    by_s.setdefault(key[0], got)
+                    got = blocks[key] = ((S, seg._v, seg._accel, seg._feed), [])
+                    by_s.setdefault(key[1] if S is None else key[0], got)
             got[1].append(seg)
             continue
         _take_flat(seg, todo, ss, vs, as_, fs)
@@ -462,13 +467,20 @@ def _settle_rows(S, V, A, F, plans):
     S, V, A, F, made on their rows of the blocks (segments.fine_rows: the same elementwise
     checks as _settle's; ~17 k chain plans in ~100 blocks on the gyroid plate, whose four
     views each were made and concatenated again).  False where the blocks are not 2-D
-    float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone)."""
+    float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone).
+    S None: each plan's knots are 0 then its own _s (an array of K - 1 doubles: the
+    stroke's ends_d, segments.RowPlan), made as rows here, part by part."""
     nd = np.ndarray
-    if not (type(S) is nd and type(V) is nd and type(A) is nd and type(F) is nd
-            and S.ndim == V.ndim == A.ndim == F.ndim == 2 and S.dtype == V.dtype == A.dtype == F.dtype == _F64):
+    if S is None:
+        if not all(type(p._s) is array and p._s.typecode == "d" and len(p._s) == V.shape[-1] - 1 for p in plans):
+            return False
+    elif not (type(S) is nd and S.ndim == 2 and S.dtype == _F64):
         return False
-    m, K = S.shape
-    if not (K >= 2 and V.shape == (m, K) and A.shape == F.shape == (m, K - 1)):
+    if not (type(V) is nd and type(A) is nd and type(F) is nd
+            and V.ndim == A.ndim == F.ndim == 2 and V.dtype == A.dtype == F.dtype == _F64):
+        return False
+    m, K = V.shape
+    if not (K >= 2 and (S is None or S.shape == (m, K)) and A.shape == F.shape == (m, K - 1)):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
@@ -476,8 +488,14 @@ def _settle_rows(S, V, A, F, plans):
         r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)) if r is None else r)
         with np.errstate(invalid="ignore"):
             # (a run's rows are views; other rows gathered by np.take, the same rows)
-            Sr, Vr, Ar, Fr = ((S[r], V[r], A[r], F[r]) if type(r) is slice
-                              else (S.take(r, axis=0), V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
+            Vr, Ar, Fr = ((V[r], A[r], F[r]) if type(r) is slice
+                          else (V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
+            if S is None:
+                Sr = np.empty((len(part), K))
+                Sr[:, 0] = 0.0
+                Sr[:, 1:] = np.frombuffer(b"".join(map(_S_OF, part)), float).reshape(len(part), K - 1)
+            else:
+                Sr = S[r] if type(r) is slice else S.take(r, axis=0)
             # each row's checks side by side, then one all() along the rows (a reduction
             # along short rows costs ~100 instructions a row: eight were ~25 M on the gyroid plate)
             fine = np.concatenate((np.isfinite(Sr), Sr[:, 1:] > Sr[:, :-1], np.isfinite(Vr), Vr >= 0.0,
@@ -488,6 +506,7 @@ def _settle_rows(S, V, A, F, plans):
 
 
 _ROW = attrgetter("_row")
+_S_OF = attrgetter("_s")
 
 
 def _run_or_rows(r):

@@ -478,16 +478,19 @@ def _settle_rows(S, V, A, F, plans):
     S None: each plan's knots are 0 then its own _s (an array of K - 1 doubles: the
     stroke's ends_d, segments.RowPlan), made as rows here, part by part."""
     nd = np.ndarray
-    if S is None:
-        if not all(type(p._s) is array and p._s.typecode == "d" and len(p._s) == V.shape[-1] - 1 for p in plans):
-            return False
-    elif not (type(S) is nd and S.ndim == 2 and S.dtype == _F64):
-        return False
     if not (type(V) is nd and type(A) is nd and type(F) is nd
             and V.ndim == A.ndim == F.ndim == 2 and V.dtype == A.dtype == F.dtype == _F64):
         return False
     m, K = V.shape
-    if not (K >= 2 and (S is None or S.shape == (m, K)) and A.shape == F.shape == (m, K - 1)):
+    if S is None:
+        # (by C-level maps: a generator's test a plan was ~2 k instructions, ~17 k plans)
+        ends = list(map(_S_OF, plans))
+        if not (set(map(type, ends)) == {array} and set(map(_TYPECODE, ends)) == {"d"}
+                and set(map(len, ends)) == {K - 1}):
+            return False
+    elif not (type(S) is nd and S.ndim == 2 and S.dtype == _F64 and S.shape == (m, K)):
+        return False
+    if not (K >= 2 and A.shape == F.shape == (m, K - 1)):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
@@ -500,7 +503,7 @@ def _settle_rows(S, V, A, F, plans):
             if S is None:
                 Sr = np.empty((len(part), K))
                 Sr[:, 0] = 0.0
-                Sr[:, 1:] = np.frombuffer(b"".join(map(_S_OF, part)), float).reshape(len(part), K - 1)
+                Sr[:, 1:] = np.frombuffer(b"".join(ends[a:a + SETTLE_CHUNK]), float).reshape(len(part), K - 1)
             else:
                 Sr = S[r] if type(r) is slice else S.take(r, axis=0)
             # each row's checks side by side, then one all() along the rows (a reduction
@@ -514,6 +517,7 @@ def _settle_rows(S, V, A, F, plans):
 
 _ROW = attrgetter("_row")
 _S_OF = attrgetter("_s")
+_TYPECODE = attrgetter("typecode")
 
 
 def _run_or_rows(r):

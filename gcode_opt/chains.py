@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from array import array
 from functools import partial
-from itertools import repeat
+from itertools import compress, repeat
 from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
@@ -461,6 +461,25 @@ def _ends_rows(sts, n):
     return ends
 
 
+def _settle_ends_plans(plans, ends, V, A, F):
+    """schedule.settle_faults' verdict ("" where every check passes) kept on each of the
+    RowPlans plans (rows 0.. of the blocks V, A, F; knots 0 then ends[i]: _ends_rows),
+    made now by its _settle_rows on their knots as one block, which is not kept (the
+    plans' knots are made of their ends when read; settle_faults made the same verdicts
+    on the block the plans held).  Plans with a non-finite figure are left as
+    settle_faults leaves them (seg_fault finds why)."""
+    from .schedule import _settle_rows
+    S = np.empty(V.shape)
+    S[:, 0] = 0.0
+    S[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), V.shape[1] - 1)
+    fin = np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+    fin &= np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+    _settle_rows(S, V, A, F, plans if fin.all() else list(compress(plans, fin.tolist())))
+
+
+_TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
+
+
 def _replay(items, rules, profile, drop=False):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
@@ -531,6 +550,8 @@ def _replay(items, rules, profile, drop=False):
         for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
                       else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
+        if ends is not None:
+            _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
         del dt
     return out
 
@@ -914,6 +935,8 @@ def _again_plans(items, rules, profile):
                 for i, q in zip(_row_ints(len(Q)), Q):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
+                if ends is not None:
+                    _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q]

@@ -19,7 +19,6 @@ with its reason.
 from __future__ import annotations
 
 import math
-from array import array
 from functools import partial
 from itertools import compress, islice, repeat
 from operator import attrgetter, is_, is_not, itemgetter
@@ -427,17 +426,13 @@ def settle_faults(segs):
         if type(seg) is RowPlan and type(seg._row) is int:
             if not (math.isfinite(seg.time_t) and math.isfinite(seg.int_a2)):
                 continue
-            # (knots made of the stroke's ends_d, segments.RowPlan: known by their speeds'
-            # block, S None: _settle_rows makes their rows)
-            S = seg._s if type(seg._s) is not array else None
-            got = by_s.get(id(seg._v) if S is None else id(S))
-            if got is None or not (got[0][0] is S and got[0][1] is seg._v and got[0][2] is seg._accel
-                                   and got[0][3] is seg._feed):
-                key = (id(S), id(seg._v), id(seg._accel), id(seg._feed))
+            got = by_s.get(id(seg._s))
+            if got is None or not (got[0][1] is seg._v and got[0][2] is seg._accel and got[0][3] is seg._feed):
+                key = (id(seg._s), id(seg._v), id(seg._accel), id(seg._feed))
                 got = blocks.get(key)
                 if got is None:
-                    got = blocks[key] = ((S, seg._v, seg._accel, seg._feed), [])
-                    by_s.setdefault(key[1] if S is None else key[0], got)
+                    got = blocks[key] = ((seg._s, seg._v, seg._accel, seg._feed), [])
+                    by_s.setdefault(key[0], got)
             got[1].append(seg)
             continue
         _take_flat(seg, todo, ss, vs, as_, fs)
@@ -474,23 +469,13 @@ def _settle_rows(S, V, A, F, plans):
     S, V, A, F, made on their rows of the blocks (segments.fine_rows: the same elementwise
     checks as _settle's; ~17 k chain plans in ~100 blocks on the gyroid plate, whose four
     views each were made and concatenated again).  False where the blocks are not 2-D
-    float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone).
-    S None: each plan's knots are 0 then its own _s (an array of K - 1 doubles: the
-    stroke's ends_d, segments.RowPlan), made as rows here, part by part."""
+    float64 arrays of (m, K), (m, K - 1) shapes with K >= 2 (each plan is then taken alone)."""
     nd = np.ndarray
-    if not (type(V) is nd and type(A) is nd and type(F) is nd
-            and V.ndim == A.ndim == F.ndim == 2 and V.dtype == A.dtype == F.dtype == _F64):
+    if not (type(S) is nd and type(V) is nd and type(A) is nd and type(F) is nd
+            and S.ndim == V.ndim == A.ndim == F.ndim == 2 and S.dtype == V.dtype == A.dtype == F.dtype == _F64):
         return False
-    m, K = V.shape
-    if S is None:
-        # (by C-level maps: a generator's test a plan was ~2 k instructions, ~17 k plans)
-        ends = list(map(_S_OF, plans))
-        if not (set(map(type, ends)) == {array} and set(map(_TYPECODE, ends)) == {"d"}
-                and set(map(len, ends)) == {K - 1}):
-            return False
-    elif not (type(S) is nd and S.ndim == 2 and S.dtype == _F64 and S.shape == (m, K)):
-        return False
-    if not (K >= 2 and A.shape == F.shape == (m, K - 1)):
+    m, K = S.shape
+    if not (K >= 2 and V.shape == (m, K) and A.shape == F.shape == (m, K - 1)):
         return False
     for a in range(0, len(plans), SETTLE_CHUNK):    # bounded memory: every check is per row
         part = plans[a:a + SETTLE_CHUNK]
@@ -498,14 +483,8 @@ def _settle_rows(S, V, A, F, plans):
         r = _run_or_rows(np.fromiter(map(_ROW, part), np.intp, len(part)) if r is None else r)
         with np.errstate(invalid="ignore"):
             # (a run's rows are views; other rows gathered by np.take, the same rows)
-            Vr, Ar, Fr = ((V[r], A[r], F[r]) if type(r) is slice
-                          else (V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
-            if S is None:
-                Sr = np.empty((len(part), K))
-                Sr[:, 0] = 0.0
-                Sr[:, 1:] = np.frombuffer(b"".join(ends[a:a + SETTLE_CHUNK]), float).reshape(len(part), K - 1)
-            else:
-                Sr = S[r] if type(r) is slice else S.take(r, axis=0)
+            Sr, Vr, Ar, Fr = ((S[r], V[r], A[r], F[r]) if type(r) is slice
+                              else (S.take(r, axis=0), V.take(r, axis=0), A.take(r, axis=0), F.take(r, axis=0)))
             # each row's checks side by side, then one all() along the rows (a reduction
             # along short rows costs ~100 instructions a row: eight were ~25 M on the gyroid plate)
             fine = np.concatenate((np.isfinite(Sr), Sr[:, 1:] > Sr[:, :-1], np.isfinite(Vr), Vr >= 0.0,
@@ -516,8 +495,6 @@ def _settle_rows(S, V, A, F, plans):
 
 
 _ROW = attrgetter("_row")
-_S_OF = attrgetter("_s")
-_TYPECODE = attrgetter("typecode")
 
 
 def _run_or_rows(r):

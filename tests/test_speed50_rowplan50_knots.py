@@ -7,7 +7,8 @@ replaced (_knots_rows kept here verbatim from a0c8d7a, each plan a row of its bl
   * on real chains through budget runs (_fit_budget's runs, REUSE_RUNS as in production):
     every plan's knots, speeds, accelerations, feeds, figures and verdict the same bits,
     and the written G-code the same bytes;
-  * settle_faults' verdicts on such plans (made as rows here: _settle_rows with S None)
+  * their verdicts made as _replay makes them (settle_faults' _settle_rows on their knots
+    made as one block there, not kept), and settle_faults' on such plans made elsewhere,
     against _seg_fault_any of each plan's own four arrays, with bad numbers in each;
   * the compiled rewrite (_emit.c's run: the knots 0 then the array's doubles) against the
     Python rewrite kept in test_speed20_rewrite_core, the run taking the chains."""
@@ -57,8 +58,9 @@ def _bits(x):
 def _runs(name, prof, monkeypatch, old):
     """test_speed25's budget runs (each run's plans as they are then), with the old
     blocks of knots where old."""
-    if old:
+    if old:               # (the verdicts then made by settle_faults, as a0c8d7a made them)
         monkeypatch.setattr(chains, "_ends_rows", _ref_ends_rows)
+        monkeypatch.setattr(chains, "_settle_ends_plans", lambda *a: None)
     return runs_of_plans(name, prof, monkeypatch, False)
 
 
@@ -93,6 +95,7 @@ def test_written_gcode_is_the_same(tmp_path, monkeypatch):
         with monkeypatch.context() as m:
             if old:
                 m.setattr(chains, "_ends_rows", _ref_ends_rows)
+                m.setattr(chains, "_settle_ends_plans", lambda *a: None)
             out = tmp_path / f"out{old}.gcode"
             pipeline._process(src, str(out), prof, pipeline.Options())
             outs.append(out.read_bytes())
@@ -148,15 +151,25 @@ def test_settle_faults_verdicts():
     assert 0.3 * len(plans) < n_fine < len(plans)
 
 
-def test_settle_rows_makes_the_knots_rows(monkeypatch):
-    """The plans of ends arrays are settled as rows (_settle_rows, S None), not one by one."""
-    plans = _synthetic_plans(np.random.default_rng(7))
-    seen = []
-    real = schedule._settle_rows
-    monkeypatch.setattr(schedule, "_settle_rows", lambda S, *a: seen.append(S) or real(S, *a))
-    monkeypatch.setattr(schedule, "_take_flat", lambda *a: pytest.fail("a plan taken alone"))
-    schedule.settle_faults([p for p in plans if np.isfinite(p.time_t)])
-    assert len(seen) == 3 and all(S is None for S in seen)
+def test_replay_keeps_the_verdicts(monkeypatch):
+    """The chains' plans _replay makes carry settle_faults' verdict already ("" where fine:
+    chains._settle_ends_plans on their knots made as one block, not kept): each one the
+    verdict of its own four arrays (_seg_fault_any)."""
+    made = []
+    real = chains._replay
+
+    def replay(*a, **k):
+        out = real(*a, **k)
+        made.extend((p, p.fault) for p in out)       # (the verdicts as _replay left them)
+        return out
+    monkeypatch.setattr(chains, "_replay", replay)
+    _runs("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", monkeypatch, False)
+    plans = [(p, f) for p, f in made if type(p) is RowPlan and type(p._s) is array]
+    assert len(plans) > 100
+    for p, fault in plans:
+        ref = schedule._seg_fault_any(SegmentPlan(segments.knots_of_ends(p._s), p._v[p._row], p._accel[p._row],
+                                                  p._feed[p._row], p.time_t, p.int_a2))
+        assert fault == ref == "" or (fault is None and ref != "")
 
 
 CORE = emit.CORE_MOD

@@ -903,6 +903,34 @@ static PyObject *set_types(PyObject *self, PyObject *args)
     return PyBool_FromLong(ND_DIRECT);
 }
 
+/* the doubles of an array.array('d') o (its buffer: array.array keeps nothing of a buffer
+   after its release) into f, after zero_first 0.0s (1: a RowPlan's knots made of its
+   stroke's ends_d, 0 then those: segments.knots_of_ends): 0; -1 (no exception): not one */
+static int fseq_array(PyObject *o, FSeq *f, int zero_first)
+{
+    if (ARRAY_TYPE == NULL || !Py_IS_TYPE(o, (PyTypeObject *)ARRAY_TYPE))
+        return -1;
+    Py_buffer v;
+    if (PyObject_GetBuffer(o, &v, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) {
+        PyErr_Clear();
+        return -1;
+    }
+    int ok = v.format != NULL && strcmp(v.format, "d") == 0 && v.itemsize == sizeof(double) && v.ndim == 1;
+    if (ok) {
+        f->n = v.len / (Py_ssize_t)sizeof(double) + zero_first;
+        f->own = PyMem_Malloc((f->n ? f->n : 1) * sizeof(double));
+        if (f->own != NULL) {
+            for (int k = 0; k < zero_first; k++)
+                f->own[k] = 0.0;
+            memcpy(f->own + zero_first, v.buf, (f->n - zero_first) * sizeof(double));
+        }
+        f->d = f->own;
+        ok = f->own != NULL;
+    }
+    PyBuffer_Release(&v);
+    return ok ? 0 : -1;
+}
+
 /* the doubles of a 1-D float64 ndarray (its tobytes(), as emit._doubles takes them) or an
    array.array('d') (its buffer: array.array keeps nothing of a buffer after its release),
    into f: 0; -1 (no exception): not one */
@@ -945,25 +973,7 @@ static int fseq_object(PyObject *o, FSeq *f)
         f->d = f->own;
         return f->own != NULL ? 0 : -1;
     }
-    if (ARRAY_TYPE != NULL && Py_IS_TYPE(o, (PyTypeObject *)ARRAY_TYPE)) {
-        Py_buffer v;
-        if (PyObject_GetBuffer(o, &v, PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0) {
-            PyErr_Clear();
-            return -1;
-        }
-        int ok = v.format != NULL && strcmp(v.format, "d") == 0 && v.itemsize == sizeof(double) && v.ndim == 1;
-        if (ok) {
-            f->n = v.len / (Py_ssize_t)sizeof(double);
-            f->own = PyMem_Malloc((f->n ? f->n : 1) * sizeof(double));
-            if (f->own != NULL)
-                memcpy(f->own, v.buf, f->n * sizeof(double));
-            f->d = f->own;
-            ok = f->own != NULL;
-        }
-        PyBuffer_Release(&v);
-        return ok ? 0 : -1;
-    }
-    return -1;
+    return fseq_array(o, f, 0);
 }
 
 /* 0, or -1 (no exception): not such a sequence.  objects: an ndarray or array.array too
@@ -2818,9 +2828,15 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
             Py_ssize_t r = PyLong_AsSsize_t(row);
             if (r == -1 && PyErr_Occurred())
                 PyErr_Clear();
-            /* the rows read where they are; else the row views (numpy's indexing) */
-            if (fseq_row(knots, r, &fs[0]) == 0 && fseq_row(acc, r, &fs[1]) == 0 && fseq_row(fd, r, &fs[2]) == 0)
+            /* the rows read where they are; else the row views (numpy's indexing).  Knots
+               that are an array.array are not a block: its stroke's ends_d, the knots 0
+               then those (segments.RowPlan) */
+            int from_ends = ARRAY_TYPE != NULL && Py_IS_TYPE(knots, (PyTypeObject *)ARRAY_TYPE);
+            if ((from_ends ? fseq_array(knots, &fs[0], 1) : fseq_row(knots, r, &fs[0])) == 0
+                && fseq_row(acc, r, &fs[1]) == 0 && fseq_row(fd, r, &fs[2]) == 0)
                 rows_read = 1;
+            else if (from_ends)
+                goto decline;
             else if ((knots = obj[no++] = PyObject_GetItem(knots, row)) == NULL
                      || (acc = obj[no++] = PyObject_GetItem(acc, row)) == NULL
                      || (fd = obj[no++] = PyObject_GetItem(fd, row)) == NULL)

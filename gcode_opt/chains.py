@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from array import array
 from functools import partial
-from itertools import repeat
+from itertools import compress, repeat
 from operator import attrgetter, is_, is_not, itemgetter
 
 import numpy as np
@@ -449,19 +449,35 @@ class _Again(_KeptLaws):
 _knots_s = curves.knots_s
 
 
-def _knots_rows(sts, n):
-    """The knots _knots_s(st.ends_d) of chains of n segments as the rows of one (m, n + 1)
-    array (the same doubles: 0, then each one's ends_d), their ends_d arrays of doubles
-    joined as bytes in one call instead of an array made per chain (~2 us each on ~16 k
-    chains; the rows are views, as the plans' vk, acc and feed are rows of their group's
-    arrays); None where an ends_d is not an array of n doubles (_knots_s one by one)."""
+def _ends_rows(sts, n):
+    """The chains' ends_d arrays, where each is an array of n doubles: a RowPlan of each
+    takes its knots from it (0, then its ends_d: segments.RowPlan), not from a block of
+    them made for the plans (the same doubles, ~2.5 MB held through the budget runs on
+    the gyroid plate's ~16 k chains); None where one is not (a SegmentPlan of _knots_s
+    each, one by one)."""
     ends = [st.ends_d for st in sts]
     if not all(type(e) is array and e.typecode == "d" and len(e) == n for e in ends):
         return None
-    s = np.empty((len(ends), n + 1))
-    s[:, 0] = 0.0
-    s[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), n)
-    return s
+    return ends
+
+
+def _settle_ends_plans(plans, ends, V, A, F):
+    """schedule.settle_faults' verdict ("" where every check passes) kept on each of the
+    RowPlans plans (rows 0.. of the blocks V, A, F; knots 0 then ends[i]: _ends_rows),
+    made now by its _settle_rows on their knots as one block, which is not kept (the
+    plans' knots are made of their ends when read; settle_faults made the same verdicts
+    on the block the plans held).  Plans with a non-finite figure are left as
+    settle_faults leaves them (seg_fault finds why)."""
+    from .schedule import _settle_rows
+    S = np.empty(V.shape)
+    S[:, 0] = 0.0
+    S[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), V.shape[1] - 1)
+    fin = np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+    fin &= np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+    _settle_rows(S, V, A, F, plans if fin.all() else list(compress(plans, fin.tolist())))
+
+
+_TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
 
 
 def _replay(items, rules, profile, drop=False):
@@ -530,10 +546,12 @@ def _replay(items, rules, profile, drop=False):
         sts = [items[q][0] for q in Q]
         acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                 profile, predict=False)
-        s = _knots_rows(sts, vk.shape[1] - 1)
+        ends = _ends_rows(sts, vk.shape[1] - 1)
         for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
-            out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if s is None
-                      else RowPlan(s, vk, acc, feed, i, tp[i], a2[i]))
+            out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
+                      else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
+        if ends is not None:
+            _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
         del dt
     return out
 
@@ -913,10 +931,12 @@ def _again_plans(items, rules, profile):
                 dt = np.concatenate([got[q][1] for q in Q])
                 acc, feed, t, a2, _ = _finish_stacked_dt(sts, [curves.geom(st, profile) for st in sts],
                                                          np.arange(len(Q)), vk, dt, rules, profile)
-                s = _knots_rows(sts, vk.shape[1] - 1)
+                ends = _ends_rows(sts, vk.shape[1] - 1)
                 for i, q in zip(_row_ints(len(Q)), Q):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
-                              if s is None else RowPlan(s, vk, acc, feed, i, float(t[i]), float(a2[i])))
+                              if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
+                if ends is not None:
+                    _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q]

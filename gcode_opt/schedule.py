@@ -344,6 +344,13 @@ def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None,
                 else:
                     pieces.append(Candidates.piece(sub, tables, pin.T_orig))
                 del sub, tables
+        if k == K_CHAIN and ok[k].size >= chains.TRIM_DROPPED:
+            # the chains' dense tables (~12 MB on the gyroid plate's ~16 k chains), freed
+            # in the middle of the heap once sparse, given back before the lines'
+            # candidates and the merge grow on top of them (that plate's candidates'
+            # peak RSS ~113 -> ~106 MB)
+            from .pipeline import trim_heap
+            trim_heap()
     return pieces
 
 

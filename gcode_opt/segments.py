@@ -11,6 +11,7 @@ motion is slow) and every original vertex is a knot, so the toolpath keeps its p
 from __future__ import annotations
 
 import copy
+from array import array
 from collections import deque
 from itertools import compress, repeat
 from functools import partial
@@ -508,7 +509,12 @@ class RowPlan(SegmentPlan):
     SegmentPlan of the rows held).  Four views a plan were ~0.4 kB of numpy objects (the
     rectilinear plate's ~36 k line plans held ~14 MB of them at the plan's peak); the
     blocks are held as the views held them.  Setting an array makes all four the plan's
-    own (views of its rows), then the plan is as a SegmentPlan."""
+    own (views of its rows), then the plan is as a SegmentPlan.
+
+    S may instead be the stroke's own ends_d, an array of doubles (a chain's knots are 0
+    then its vertices' distances: chains._replay): the knots are then made when read (the
+    same doubles), not held a second time in a block (~2.5 MB of the gyroid plate's ~16 k
+    chain plans, held from the first budget run to the rewrite)."""
     __slots__ = ("_row",)
 
     def __init__(self, S, V, A, F, row, time_t, int_a2, shape="law", first_cmds=None):
@@ -521,20 +527,32 @@ class RowPlan(SegmentPlan):
         def put(self, x):
             r = self._row
             if r is not None:            # the four rows made the plan's own, then SegmentPlan's setter
-                self._s, self._v, self._accel, self._feed = self._s[r], self._v[r], self._accel[r], self._feed[r]
+                self._s, self._v, self._accel, self._feed = self.s, self._v[r], self._accel[r], self._feed[r]
                 self._row = None
             getattr(SegmentPlan, name).fset(self, x)
         return put
 
-    s = property(lambda self: self._s if self._row is None else self._s[self._row], _set("s"),
-                 doc=SegmentPlan.s.__doc__)
+    def _knots(self):
+        S, r = self._s, self._row
+        return S if r is None else S[r] if type(S) is not array else knots_of_ends(S)
+
+    s = property(_knots, _set("s"), doc=SegmentPlan.s.__doc__)
     v = property(lambda self: self._v if self._row is None else self._v[self._row], _set("v"),
                  doc=SegmentPlan.v.__doc__)
     accel = property(lambda self: self._accel if self._row is None else self._accel[self._row], _set("accel"),
                      doc=SegmentPlan.accel.__doc__)
     feed = property(lambda self: self._feed if self._row is None else self._feed[self._row], _set("feed"),
                     doc=SegmentPlan.feed.__doc__)
-    del _set
+    del _set, _knots
+
+
+def knots_of_ends(ends):
+    """The knots 0, then ends (an array of doubles: a stroke's ends_d), as a float64 array
+    (the same doubles)."""
+    s = np.empty(len(ends) + 1)
+    s[0] = 0.0
+    s[1:] = ends
+    return s
 
 
 def plan_segments(strokes, T, beta, rules: SegmentRules):

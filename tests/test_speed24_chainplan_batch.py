@@ -8,7 +8,8 @@ chains of the sample files, under classic jerk (prusa-mk3s) and square corner ve
                        np.minimum.reduce and a product a stroke;
   curves.stack_du      _finish_core's stacked d and u taken from the blocks by one fancy
                        index a run of rows, not a view and a copy a geometry;
-  _knots_rows          _replay's and _again_plans' knots [0, ends_d] as rows of one array;
+  _knots_rows          _replay's and _again_plans' knots [0, ends_d] as rows of one array
+                       (s50: _ends_rows, each plan's knots made of its ends_d when read);
   plan_chain_segments  its loops on Python floats (no numpy scalar a read), a chain
                        _replay dropped not dropped again."""
 import numpy as np
@@ -170,7 +171,10 @@ def test_stack_du_is_the_geometries_rows(prof_name):
 
 
 # ---------------------------------------------------------------- _knots_rows
+# (s50 rowplan50: _knots_rows' block gave way to _ends_rows: each RowPlan's knots made of
+# its stroke's own ends_d when read; held to _knots_s all the same)
 def test_knots_rows_are_knots_s():
+    from gcode_opt.segments import RowPlan
     strokes, _, prof = _strokes(FILES[0], "prusa-mk3s")
     sts = [st for st in strokes if chains.plan_kind(st) == K_CHAIN]
     by_n = {}
@@ -178,17 +182,20 @@ def test_knots_rows_are_knots_s():
         by_n.setdefault(len(st.ends_d), []).append(st)
     assert len(by_n) > 3
     for n, group in by_n.items():
-        s = chains._knots_rows(group, n)
-        assert s is not None and s.shape == (len(group), n + 1)
+        ends = chains._ends_rows(group, n)
+        assert ends is not None and len(ends) == len(group)
+        V = np.ones((len(group), n + 1))
+        A = np.ones((len(group), n))
         for i, st in enumerate(group):
-            assert _bits(s[i]) == _bits(chains._knots_s(st.ends_d))
+            assert ends[i] is st.ends_d
+            assert _bits(RowPlan(ends[i], V, A, A, i, 1.0, 1.0).s) == _bits(chains._knots_s(st.ends_d))
     n, group = next(iter(by_n.items()))
-    assert chains._knots_rows(group, n + 1) is None           # another length: one by one
+    assert chains._ends_rows(group, n + 1) is None           # another length: one by one
 
     class _S:
         def __init__(self, e):
             self.ends_d = e
-    assert chains._knots_rows([_S(list(group[0].ends_d))], n) is None     # not an array of doubles
+    assert chains._ends_rows([_S(list(group[0].ends_d))], n) is None     # not an array of doubles
 
 
 # ---------------------------------------------------------------- plan_chain_segments

@@ -636,8 +636,10 @@ if given is not None:
     def test_mutated_samples_process_or_are_refused(case):
         _assert_case(case)
 
+    # (the example database kept, and the blob printed: a failure of a random campaign is
+    # replayed first by the next run, and can be reproduced with @reproduce_failure)
     @pytest.mark.slow
-    @settings(max_examples=600, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=600, deadline=None, print_blob=True, suppress_health_check=list(HealthCheck))
     @given(_case)
     def test_mutated_samples_long(case):
         _assert_case(case)

@@ -444,7 +444,9 @@ def scan_output(path: str) -> tuple[str, str] | None:
     return None
 
 
-_ACCEL_VALUE = re.compile(r"^\s*(?:M204\b[^;]*?[SPT]|SET_VELOCITY_LIMIT\b[^;]*?\bACCEL=)(\d+\.?\d*)", re.I | re.M)
+# (a line number before the command counts: the reader drops "N123 " and "*45" and plays the rest)
+_ACCEL_VALUE = re.compile(r"^\s*(?:N\d+\s*)?(?:M204\b[^;]*?[SPT]|SET_VELOCITY_LIMIT\b[^;]*?\bACCEL=)(\d+\.?\d*)",
+                          re.I | re.M)
 
 
 def validator_problem(inp: str, out: str, profile) -> str | None:

@@ -21,7 +21,7 @@ import operator
 
 from . import features as feat
 from .profile import Profile
-from .words import (WordError, command_of, command_text, compiled_on_first_call, keyvals_of, params_of,
+from .words import (WordError, shown, command_of, command_text, compiled_on_first_call, keyvals_of, params_of,
                     strict_number, strip_checksum)
 
 # Move.kind
@@ -119,7 +119,7 @@ class GcodeError(ValueError):
     """A line we cannot read safely; names file and line."""
 
     def __init__(self, path, idx, raw, why):
-        super().__init__(f"{path}:{idx + 1}: {why}: {raw.rstrip()!r}")
+        super().__init__(f"{path}:{idx + 1}: {why}: {shown(raw.rstrip())}")
 
 
 # the slicer's own "G1 X.. Y.. E.. F..": this regex leaves float() only the characters

@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import re
 
-_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+# one way to match each number (digits, then an optional fraction): the older
+# `[0-9]+\.?[0-9]*` split a run of digits n ways, so a failing match of a long word was
+# quadratic (a fuzzed 574 k-digit word hung the reader); same language, linear
+_NUM = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
 _WS = "[ \t\r\n\v\f]"
 
 
@@ -60,7 +63,17 @@ _DIGITS = frozenset("0123456789")
 # a classic word's letter (not str.isalpha: 'é'): string.ascii_letters, spelled out (the string
 # module's import, its Template class compiling a pattern, was ~2.5 M instructions of each run)
 _LETTERS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ")
-_EXPONENT = LazyPattern(globals(), "_EXPONENT", rf"{_NUM}[eE][-+]?[0-9]")
+# a number followed by what strtod reads as an exponent: searched for, so only its last
+# digit (and an optional '.') matters; `{_NUM}[eE]...` searched from every digit (cubic)
+_EXPONENT = LazyPattern(globals(), "_EXPONENT", r"[0-9]\.?[eE][-+]?[0-9]")
+
+
+def shown(text: str, limit: int = 160) -> str:
+    """repr(text) for an error message, cut to its first `limit` characters and its length
+    when longer: a message that quotes a 574 k-character line is no message."""
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text)} characters)"
 
 
 class WordError(ValueError):
@@ -126,19 +139,19 @@ def _why(code: str) -> str:
     tokens = s[m.end() if m else 0:].split()
     for tok in tokens:
         if _EXPONENT.search(tok):
-            return f"number with an exponent in {tok!r} (firmwares read it differently)"
+            return f"number with an exponent in {shown(tok)} (firmwares read it differently)"
     for tok in tokens:
         low = tok.lower()
         if "inf" in low or "nan" in low:
-            return f"non-finite number {tok!r}"
+            return f"non-finite number {shown(tok)}"
     for tok in tokens:
         rest = tok
         while rest:
             m = _WORD.match(rest)
             if m is None:
                 if rest[0].isalpha() and (len(rest) == 1 or rest[1].isalpha()):
-                    return f"parameter {rest[0].upper()} without a number in {tok!r}"
-                return f"unreadable parameter {tok!r}"
+                    return f"parameter {rest[0].upper()} without a number in {shown(tok)}"
+                return f"unreadable parameter {shown(tok)}"
             rest = rest[m.end():]
     return "unreadable parameters"
 
@@ -150,7 +163,7 @@ def _refuse_exponents(code: str) -> None:
     for m in _WORD.finditer(code):
         x = _EXP_AT.match(code, m.end())
         if x is not None and float(m.group(2)) != 0.0 and int(x.group(1)) != 0:
-            raise WordError(f"number with an exponent {m.group(0) + x.group(0)!r} (firmwares read it "
+            raise WordError(f"number with an exponent {shown(m.group(0) + x.group(0))} (firmwares read it "
                             "differently: write the E word apart)")
 
 
@@ -213,7 +226,7 @@ def keyvals_of(code: str) -> dict[str, str]:
 def strict_number(text: str) -> float:
     """A KEY=VALUE value as a float, by the same number grammar; WordError otherwise."""
     if _NUM_ONLY.fullmatch(text) is None:
-        raise WordError(f"unreadable number {text!r}")
+        raise WordError(f"unreadable number {shown(text)}")
     return float(text)
 
 

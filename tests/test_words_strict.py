@@ -174,3 +174,52 @@ def test_non_utf8_comment_bytes_pass_through_crlf_bom_tabs(tmp_path):
     assert data.startswith(b"\xef\xbb\xbfG21\r\n") and b"; caf\xe9 \xb0C \xff\r\n" in data
     assert data.endswith(b"G1 X60 Y40 ; fin \xe0\r\n")
     assert data.count(b"; gcode-opt begin") >= 1 and data.count(b"; \xe9\r\n") == 11   # re-timed, comments kept
+
+
+# the patterns as they were before the fuzz hang (session 51): the new ones must read the
+# same language, in linear time
+_OLD_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+_OLD_EXPONENT = rf"{_OLD_NUM}[eE][-+]?[0-9]"
+
+
+@settings(max_examples=400, deadline=None)
+@given(hs.text(alphabet="0123456789.+-eEXYGinf \t", max_size=24))
+def test_linear_patterns_read_what_the_old_ones_read(text):
+    """words._NUM and the exponent search were rewritten to stop backtracking quadratically on
+    a long run of digits; on any short string they must answer as the old patterns did."""
+    import re
+
+    import gcode_opt.words as w
+    for old, new in ((_OLD_NUM, w._NUM), (_OLD_EXPONENT, w._EXPONENT.pattern)):
+        o, n = re.compile(old), re.compile(new)
+        assert bool(o.search(text)) == bool(n.search(text))
+    o, n = re.compile(_OLD_NUM), re.compile(w._NUM)
+    assert (o.fullmatch(text) is None) == (n.fullmatch(text) is None)
+    assert [m.span() for m in o.finditer(text)] == [m.span() for m in n.finditer(text)]
+    m_o, m_n = o.match(text), n.match(text)
+    assert (m_o and m_o.span()) == (m_n and m_n.span())
+
+
+@pytest.mark.parametrize("tail", ["G3 Xinf Y100 R1 E0.4", "G3 X1e5", "Y", " X1.2.3", "X1"])
+def test_a_long_word_is_refused_in_linear_time(tail):
+    """A fuzzed line (`G1 X` + 574 k digits + `G3 Xinf ...`) hung the reader: two patterns
+    backtracked quadratically over the digits.  A 200 k-digit word must now be read or refused
+    in well under a second of CPU (the old patterns took minutes), and the message must not
+    quote the whole line."""
+    import time
+
+    from gcode_opt.words import shown
+    line = "G1 X" + "1" * 200_000 + tail
+    t0 = time.process_time()
+    try:
+        params_of(line)
+        why = None
+    except WordError as e:
+        why = str(e)
+    spent = time.process_time() - t0
+    assert spent < 5.0, f"{spent:.1f} s of CPU for a 200 k-digit word"
+    if tail != "X1":        # an ordinary (if absurd) number twice over: X twice
+        assert why is not None
+    if why is not None:
+        assert len(why) < 600, why[:300]
+    assert len(shown(line)) < 220 and "200" in shown(line)

@@ -24,12 +24,15 @@ TAIL_BYTES = 262144          # a PrusaSlicer/Orca config block with long custom 
 
 # (the two "^;" patterns are read through _findall_at_line_starts' own; Cura's are
 # compiled where a Cura file needs them: LazyPattern)
-_KEY_VALUE = LazyPattern(globals(), "_KEY_VALUE", r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?(.*?)\s*$", re.M)
-_CURA_FLAVOR = re.compile(r"^;FLAVOR:(.*?)\s*$", re.M)
+# A value is the line's text up to its last non-space, `((?:.*\S)?)`: the lazy `(.*?)\s*$`
+# it replaces read the same values but tried `\s*$` at every character of the value, so a
+# line with a long run of spaces took quadratic time (200 k spaces: ~90 s)
+_KEY_VALUE = LazyPattern(globals(), "_KEY_VALUE", r"^;\s*([a-z][a-z0-9_]*)\s*=[ \t]?((?:.*\S)?)\s*$", re.M)
+_CURA_FLAVOR = re.compile(r"^;FLAVOR:((?:.*\S)?)\s*$", re.M)
 _CURA_SETTING = LazyPattern(globals(), "_CURA_SETTING", r"^;SETTING_3 (.*?)\r?$", re.M)
 _CURA_ESCAPE = LazyPattern(globals(), "_CURA_ESCAPE", r"\\\\|\\n|\\r")
 _CURA_UNESCAPE = {"\\\\": "\\", "\\n": "\n", "\\r": "\r"}
-_CURA_VALUE = LazyPattern(globals(), "_CURA_VALUE", r"^\s*([a-z][a-z0-9_]*)\s*=\s*(.*?)\s*$", re.M)
+_CURA_VALUE = LazyPattern(globals(), "_CURA_VALUE", r"^\s*([a-z][a-z0-9_]*)\s*=\s*((?:.*\S)?)\s*$", re.M)
 
 
 def _findall_at_line_starts(pattern):

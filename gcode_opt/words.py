@@ -55,7 +55,10 @@ _LOOSE = LazyPattern(globals(), "_LOOSE", rf"{_WS}*[A-Za-z][0-9]+(?:\.[0-9]+)?(?
 _spaced = re.compile(r"[ \t]*[A-Za-z][0-9]+(?:\.[0-9]+)?(?:[ \t]+[A-Za-z][-+.0-9]+)*[ \t\r\n]*").fullmatch
 _EXP_AT = LazyPattern(globals(), "_EXP_AT", r"[eE]([-+]?[0-9]+)")
 _WORD = LazyPattern(globals(), "_WORD", rf"([A-Za-z])[ \t]*({_NUM})")
-_KEYVAL = LazyPattern(globals(), "_KEYVAL", r"([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
+# a key starts at the first letter of a run of [A-Za-z0-9_] (its leading digits skipped):
+# tried from every character of the run, a long run without '=' was quadratic
+_KEYVAL = LazyPattern(globals(), "_KEYVAL",
+                      r"(?<![A-Za-z0-9_])[0-9]*([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(\"[^\"]*\"|'[^']*'|[^ \t\r\n]+)")
 _NUM_ONLY = LazyPattern(globals(), "_NUM_ONLY", _NUM)
 _LINE_NUMBER = LazyPattern(globals(), "_LINE_NUMBER", rf"{_WS}*[Nn][0-9]+{_WS}*")
 _CLASSIC = re.compile(r"([A-Za-z])[ \t]*([0-9]+(?:\.[0-9]+)?)")

@@ -20,12 +20,12 @@ from ..emit import BEGIN, END
 
 _NUM = r"([-+0-9.eE]+|inf|nan)"
 _REPLACES = re.compile(r"replaces\s+(\d+)\s+lines")
-_SEGMENTS = re.compile(r"(\d+)\s+segments")
+_SEGMENTS = re.compile(r"(?<!\d)(\d+)\s+segments")     # (?<!\d): from a run's first digit only (linear)
 _T = re.compile(r"\bT=" + _NUM + "s")
 _WAS = re.compile(r"\(was\s+" + _NUM + "s\\)")
 _BETA = re.compile(r"beta=" + _NUM + "s")
 _KIND = re.compile(r"\bkind=(\w+)")
-_SUBARCS = re.compile(r"(\d+)\s+sub-arcs")
+_SUBARCS = re.compile(r"(?<!\d)(\d+)\s+sub-arcs")
 
 
 @dataclass

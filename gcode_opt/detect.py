@@ -7,11 +7,10 @@ segment rate, planner buffer, cornering parameter, arc chord -- come from a bund
 chosen by printer model, else by flavour.  Every value says where it came from."""
 from __future__ import annotations
 
-import dataclasses
 import re
 
 from .profile import SCHEMA, Profile, load_profile, profile_from_dict
-from .records import record
+from .records import field_names, record
 from .slicer_config import SlicerSettings, read_settings
 
 # model substrings (lower case) -> bundled profile; longer, more specific names first
@@ -229,7 +228,7 @@ def auto_profile(path: str, environ=None, metadata=None) -> AutoProfile:
     taken.update(slicer_limits(st, flavour))
     if junction != "jerk":                   # classic jerk is not this firmware's cornering model
         taken.pop("jerk_xy_v", None)
-    values = {f.name: getattr(base, f.name) for f in dataclasses.fields(Profile)}
+    values = {n: getattr(base, n) for n in field_names(Profile)}
     values.update({k: v for k, (v, _src) in taken.items()})
     values["junction"] = junction
     name = f"{base.name}+file"

@@ -30,13 +30,11 @@ its docs), shaper = "none", shaper_freq_x/y_hz = the resonance's (a shaper tuned
 shaper_damping_r = 0.1 (Klipper's [input_shaper] damping_ratio_x/y default)."""
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import re
-from dataclasses import field
 
-from .records import record
+from .records import field, field_names, record
 
 FLAVOURS = ("klipper", "marlin2", "marlin-legacy", "rrf")
 SHAPERS = ("none", "zv", "mzv", "ei")
@@ -176,7 +174,7 @@ SCHEMA = {
 TABLES = ("firmware", "limits", "machine", "resonance")
 REQUIRED = ("flavour", "junction", "max_velocity_v", "max_accel_a")
 JUNCTION_KEY = {"scv": "square_corner_velocity_v", "jd": "junction_deviation_d", "jerk": "jerk_xy_v"}
-assert set(SCHEMA) | {"name"} == {f.name for f in dataclasses.fields(Profile)}
+assert set(SCHEMA) | {"name"} == set(field_names(Profile))
 
 
 def _toml_text(v):

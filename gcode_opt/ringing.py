@@ -22,7 +22,6 @@ the machine at rest before the file starts and after it ends (the last ring-down
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import operator
 from array import array
@@ -882,6 +881,7 @@ def text_rows(fig: dict) -> list:
 
 def with_shaper(profile, shaper: str):
     """The profile with another input shaper (tuned where the profile says)."""
+    import dataclasses          # (here: a run that keeps its shaper never imports it)
     return dataclasses.replace(profile, shaper=shaper)
 
 

@@ -14,9 +14,7 @@ from __future__ import annotations
 
 import os
 import re
-from dataclasses import field
-
-from .records import record
+from .records import field, record
 from .words import LazyPattern
 
 HEAD_BYTES = 16384

@@ -34,6 +34,7 @@ from ..distinct import distinct
 from .. import native
 from ..blas import blas_one_thread
 from ..records import record
+from .quad_tables import GAUSS
 
 # The compiled elementwise steps of _precond_cheb (and curves._parts_block's kernel):
 # _curvecore.c, module _gcode_opt_curvecore; optional, the same bits as the numpy code
@@ -868,8 +869,12 @@ _GL_CACHE: dict[int, tuple] = {}
 
 
 def _gauss(n):
+    """Gauss-Legendre nodes and weights of n points on [0, 1]: leggauss(n)'s, from
+    quad_tables.GAUSS where it holds n (the same bits: make_tables.py), so the usual sizes
+    do not import numpy.polynomial."""
     if n not in _GL_CACHE:
-        x, w = np.polynomial.legendre.leggauss(n)
+        got = GAUSS.get(n)
+        x, w = (np.array(got[0]), np.array(got[1])) if got else np.polynomial.legendre.leggauss(n)
         _GL_CACHE[n] = ((x + 1) / 2, w / 2)
     return _GL_CACHE[n]
 

@@ -6,10 +6,10 @@ writers stepped stop by stop (every attribute the same after); fallbacks and err
 from __future__ import annotations
 
 import os
-import random
 from pathlib import Path
 
 import pytest
+from test_speed50_boot50_quiet_stops import _watch
 
 from gcode_opt import state as st
 from gcode_opt.firmware import simulate as fwsim
@@ -43,24 +43,16 @@ def _floats(snap):
     return tuple(repr(v) if type(v) is float else v for v in snap)
 
 
+def _fields(led):
+    """every field of a Ledger, its floats' bits (0.0 and -0.0 told apart)"""
+    return ({f: getattr(led, f).tobytes() for f in ("line", "sums", "peak_v", "peak_a", "lo", "hi")},
+            [_floats(s) for s in led.state], led.stop_lines, led.n_lines, led.ok)
+
+
 def _same(a, b):
-    (r1, led1, b1), (r0, led0, b0) = a, b
-    for f in ("line", "sums", "peak_v", "peak_a", "lo", "hi"):
-        assert getattr(led1, f).tobytes() == getattr(led0, f).tobytes(), f
-    assert [_floats(s) for s in led1.state] == [_floats(s) for s in led0.state]
-    assert led1.stop_lines == led0.stop_lines and led1.n_lines == led0.n_lines and led1.ok == led0.ok
-    assert repr(r1.as_dict()) == repr(r0.as_dict())
-    assert repr(b1) == repr(b0)
-
-
-def _watch(n, step, seed):
-    rng = random.Random(seed)
-    watch, k = [], rng.randrange(3)
-    while k < n + 5:            # (a range past the end too)
-        ln = rng.choice([0, 0, 1, 3, 8, 40])
-        watch.append((k, k + ln))
-        k += ln + step + rng.randrange(3 * step + 1)
-    return watch
+    """two runs' (result, ledger, barriers) the same"""
+    assert _fields(a[1]) == _fields(b[1])
+    assert repr(a[0].as_dict()) == repr(b[0].as_dict()) and repr(a[2]) == repr(b[2])
 
 
 def _quiet_calls(path, profile, watch, monkeypatch):

@@ -1375,6 +1375,7 @@ typedef struct {
     int live;                         /* in holds the state (read at load, kept since) */
     int dirty, dirty_v;               /* x y z e (and v) changed since load */
     LinIn in;
+    double loaded[5];                 /* x y z e v as the dict held them at load (sess_flush) */
     double acc[A_N], flow;            /* the Move's accel objects and flow_r, as the model reads them */
     PyObject *lim;                    /* borrowed from dict */
     PyObject *o_feature;              /* borrowed from dict: fused_peek's Move feature */
@@ -1391,6 +1392,13 @@ typedef struct {
     long long m204_n;                 /* the session's M204s read */
     int acc_kind;                     /* ACC_*: the flavour's, read at the first M204 since load */
 } Session;
+
+/* the values sess_flush writes back, as the dict holds them now (the session's load) */
+static inline void sess_mark_loaded(Session *ss)
+{
+    const double vals[5] = {ss->in.x0, ss->in.y0, ss->in.z0, ss->in.e, ss->in.v};
+    memcpy(ss->loaded, vals, sizeof ss->loaded);
+}
 
 /* a number the model reads with PyFloat_AsDouble: an exact float or int; 0 otherwise */
 static int num_double(PyObject *o, double *out)
@@ -1550,6 +1558,7 @@ static int sess_load_kept(Session *ss)
     ss->dirty = ss->dirty_v = 0;
     ss->acc_kind = ACC_UNKNOWN;
     ss->acc_own = 0;
+    sess_mark_loaded(ss);
     ss->live = 1;
     return 1;
 }
@@ -1618,6 +1627,7 @@ static void sess_load(Session *ss)
     ss->in.one = o_one == Py_True;
     ss->acc_kind = ACC_UNKNOWN;       /* read at the session's first M204 */
     ss->acc_own = 0;
+    sess_mark_loaded(ss);
     ss->live = 1;
 #ifdef LOAD_CACHE
     mod_read(dict);
@@ -1771,6 +1781,10 @@ static int sess_flush(Session *ss)
         const int keys[5] = {S_X, S_Y, S_Z, S_E, S_V};
         const double vals[5] = {ss->in.x0, ss->in.y0, ss->in.z0, ss->in.e, ss->in.v};
         for (int i = 0; i < (ss->dirty_v ? 5 : 4) && rc == 0; i++) {
+            /* a value the dict holds already (the same bits: -0.0 is not 0.0) is left as it
+             * is: z and v most sessions of the measure pass, ~1 k instructions a flush */
+            if (memcmp(&vals[i], &ss->loaded[i], sizeof vals[i]) == 0)
+                continue;
             PyObject *f = PyFloat_FromDouble(vals[i]);
             if (f == NULL || PyDict_SetItem(ss->dict, state_name[keys[i]], f) < 0)
                 rc = -1;

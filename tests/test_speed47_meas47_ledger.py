@@ -105,6 +105,7 @@ def test_take_stop_reads_what_stopped_read(seed):
 def _ledger(path, profile, watch, ref, monkeypatch):
     with monkeypatch.context() as m:
         if ref:
+            m.setattr(fw, "USE_QUIET_CORE", False)     # (every stop through the reference's stopped)
             m.setattr(fw._LedgerWriter, "stopped", _ref_stopped)
             m.setattr(fw._LedgerWriter, "__init__", _ref_init_last)
             m.setattr(fw._LedgerWriter, "finish", _ref_finish)

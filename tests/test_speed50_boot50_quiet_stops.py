@@ -35,6 +35,7 @@ def _run(path, profile, watch, quiet, monkeypatch, on_line=None):
         return real_starts(w, k)
     with monkeypatch.context() as m:
         m.setattr(fwsim, "USE_QUIET_STOPS", quiet)
+        m.setattr(fwsim, "USE_QUIET_CORE", False)    # (the writer's own stopped, its calls counted)
         m.setattr(fwsim._LedgerWriter, "stopped", stopped)
         m.setattr(fwsim._LedgerWriter, "ranges_start", ranges_start)
         r, led = fwsim.simulate_ledger(path, profile, watch, on_line=on_line, on_barrier=barriers.append)
@@ -104,6 +105,7 @@ def test_quiet_stop_error_propagates(monkeypatch):
             raise RuntimeError("stop recorder failed")
         return real(w, idx)
     monkeypatch.setattr(fwsim._LedgerWriter, "stopped", failing)
+    monkeypatch.setattr(fwsim, "USE_QUIET_CORE", False)     # (the writer's own stopped called)
     with pytest.raises(RuntimeError, match="stop recorder failed"):
         fwsim.simulate_ledger(path, profile, [])
     assert len(seen) == 5

@@ -7814,6 +7814,126 @@ fail:
     return NULL;
 }
 
+/* The measure's quiet stops (play_buf's on_quiet: a stop with no watched range pending,
+ * ~3.8 k of the rectilinear plate's) recorded without a Python object each: what
+ * simulate._LedgerWriter.stopped does there (the peaks and sums taken as take_stop takes
+ * them, the carried peaks raised, the stop and its snapshot kept as `last`) costs ~4.1 k
+ * instructions a stop, nearly all of it objects made and dropped (take_stop's tuple, the
+ * sums' bytes, `last`'s tuple, the attributes' traffic).  A QuietStops keeps the last
+ * stop's line, snapshot and sums row, and the peaks' running maximum (as stopped's strict
+ * `>`: the first of equal values kept); the writer folds them in (quiet_take) when play_buf
+ * returns, before anything reads them. */
+typedef struct {
+    PyObject_HEAD
+    ResObject *res;                   /* the pass's SimResult (new reference) */
+    PyObject *snap_fn, *snap_arg;     /* a stop's snapshot: snap_fn(snap_arg) (new references) */
+    PyObject *snap;                   /* the last stop's snapshot (new reference), NULL: no stop kept */
+    long long idx;                    /* the last stop's line */
+    double row[11];                   /* its sums, as take_stop's */
+    double peak_v, peak_a;            /* the stops' peaks since the last quiet_take, -inf: none */
+} QuietObject;
+
+static void Quiet_dealloc(QuietObject *q)
+{
+    Py_XDECREF(q->res);
+    Py_XDECREF(q->snap_fn);
+    Py_XDECREF(q->snap_arg);
+    Py_XDECREF(q->snap);
+    PyObject_Free(q);
+}
+
+static PyTypeObject QuietType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.QuietStops",
+    .tp_doc = "The measure's quiet stops since the writer last took them (quiet_new, quiet_record, quiet_take).",
+    .tp_basicsize = sizeof(QuietObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_dealloc = (destructor)Quiet_dealloc,
+};
+
+/* quiet_new(res, snap_fn, snap_arg): a QuietStops of the compiled SimResult res, each stop's
+ * snapshot snap_fn(snap_arg) */
+static PyObject *mod_quiet_new(PyObject *module, PyObject *args)
+{
+    PyObject *res, *fn, *arg;
+    (void)module;
+    if (!PyArg_ParseTuple(args, "O!OO", &ResType, &res, &fn, &arg))
+        return NULL;
+    if (!(QuietType.tp_flags & Py_TPFLAGS_READY) && PyType_Ready(&QuietType) < 0)
+        return NULL;
+    QuietObject *q = PyObject_New(QuietObject, &QuietType);
+    if (q == NULL)
+        return NULL;
+    q->res = (ResObject *)Py_NewRef(res);
+    q->snap_fn = Py_NewRef(fn);
+    q->snap_arg = Py_NewRef(arg);
+    q->snap = NULL;
+    q->idx = -1;
+    memset(q->row, 0, sizeof q->row);
+    q->peak_v = q->peak_a = -INFINITY;
+    return (PyObject *)q;
+}
+
+/* x raised to v where v > x (stopped's test: a NaN never raises it, the first of equal
+ * values is kept) */
+static inline void quiet_raise(double *x, double v)
+{
+    if (v > *x)
+        *x = v;
+}
+
+/* quiet_record(q, idx): the model stands empty after line idx (play_buf's on_quiet, bound
+ * to q): the peaks since the last stop taken (the SimResult's then 0.0, as take_stop), the
+ * sums row and the state's snapshot kept as the last stop */
+static PyObject *mod_quiet_record(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)module;
+    if (nargs != 2 || Py_TYPE(args[0]) != &QuietType) {
+        PyErr_SetString(PyExc_TypeError, "quiet_record(QuietStops, idx)");
+        return NULL;
+    }
+    QuietObject *q = (QuietObject *)args[0];
+    long long idx = PyLong_AsLongLong(args[1]);
+    if (idx == -1 && PyErr_Occurred())
+        return NULL;
+    PyObject *snap = PyObject_CallOneArg(q->snap_fn, q->snap_arg);
+    if (snap == NULL)
+        return NULL;
+    ResObject *r = q->res;
+    const double row[11] = {r->time_t, r->int_a2, r->int_a2_t, r->int_v2, (double)r->n_moves,
+                            (double)r->n_blocks, (double)r->full_stops, (double)r->short_segments,
+                            r->barrier_dwell_t, (double)r->corners, r->corner_dv2};
+    memcpy(q->row, row, sizeof row);
+    quiet_raise(&q->peak_v, r->peak_v);
+    quiet_raise(&q->peak_a, r->peak_a);
+    r->peak_v = r->peak_a = 0.0;
+    Py_XSETREF(q->snap, snap);
+    q->idx = idx;
+    Py_RETURN_NONE;
+}
+
+/* quiet_take(q): None if no stop was recorded since the last take, else (idx, snapshot, sums,
+ * peak_v, peak_a) of them: the last stop's line, snapshot and sums (take_stop's bytes), the
+ * peaks' maximum; q then holds none */
+static PyObject *mod_quiet_take(PyObject *module, PyObject *arg)
+{
+    (void)module;
+    if (Py_TYPE(arg) != &QuietType) {
+        PyErr_SetString(PyExc_TypeError, "quiet_take(QuietStops)");
+        return NULL;
+    }
+    QuietObject *q = (QuietObject *)arg;
+    if (q->snap == NULL)
+        Py_RETURN_NONE;
+    PyObject *t = Py_BuildValue("(LOy#dd)", q->idx, q->snap, (const char *)q->row, (Py_ssize_t)sizeof q->row,
+                                q->peak_v, q->peak_a);
+    if (t == NULL)
+        return NULL;
+    Py_CLEAR(q->snap);
+    q->peak_v = q->peak_a = -INFINITY;
+    return t;
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -7863,6 +7983,12 @@ static PyMethodDef mod_methods[] = {
      "store_decode(buf, offs, lens, kit, table, out): new strokes of stroke_store's records, appended to out"},
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
+    {"quiet_new", mod_quiet_new, METH_VARARGS,
+     "quiet_new(res, snap_fn, snap_arg): a QuietStops for play_buf's on_quiet (quiet_record bound to it)"},
+    {"quiet_record", (PyCFunction)(void (*)(void))mod_quiet_record, METH_FASTCALL,
+     "quiet_record(q, idx): a quiet stop after line idx kept in q (simulate._LedgerWriter.stopped's work)"},
+    {"quiet_take", mod_quiet_take, METH_O,
+     "quiet_take(q): None, or (idx, snapshot, sums, peak_v, peak_a) of q's stops since the last take"},
     {NULL}
 };
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 from array import array
 from functools import partial
+from types import MethodType
 
 from .. import state as st
 from .junction import (KLIPPER_INSTANT_CORNER_V, SQRT2_M1, klipper_corner_v2, klipper_extruder_v2,
@@ -832,6 +833,7 @@ class _LedgerWriter:
         self.carry_v = self.carry_a = 0.0   # peaks since the last committed stop, up to the last stop
         self.last = (-1, self.snap(), _sums_row(res))
         self.last_j = -1           # index of `last` in the ledger, -1 = not committed
+        self.quiet = None          # on_quiet's QuietStops (the quiet stops kept in C), if any
 
     def range_starts(self):
         """The next line to play is the first of watched range wi: returns the first line
@@ -878,6 +880,32 @@ class _LedgerWriter:
             self.carry_v = self.carry_a = 0.0
             led.hi.extend(_repeat(self.last_j, len(pending)))
             self.pending = []
+
+    def on_quiet(self, state):
+        """stopped, for play_buf's stops with no watched range pending: the compiled core's
+        quiet_record, bound to a QuietStops that keeps them without a Python object each
+        (absorb() folds them in), where the take is the compiled SimResult's own and the
+        snapshot the reader's; else stopped itself (the reference)."""
+        res = self.res
+        if (USE_QUIET_CORE and hasattr(_core, "quiet_record") and isinstance(res, _core.SimResult)
+                and getattr(type(res), "take_stop", None) is _core.SimResult.take_stop
+                and type(state).snapshot is st.MachineState.snapshot):
+            self.quiet = _core.quiet_new(res, st._modal_of, state)
+            return MethodType(_core.quiet_record, self.quiet)
+        return self.stopped
+
+    def absorb(self):
+        """The quiet stops on_quiet's QuietStops kept since the last absorb, folded in as
+        stopped would have recorded them (none pending: nothing committed)."""
+        got = _core.quiet_take(self.quiet)
+        if got is not None:
+            idx, snap, sums, peak_v, peak_a = got
+            if peak_v > self.carry_v:
+                self.carry_v = peak_v
+            if peak_a > self.carry_a:
+                self.carry_a = peak_a
+            self.last = (idx, snap, sums)
+            self.last_j = -1
 
     def finish(self, n_lines, sim):
         """The file ended after n_lines lines: the model stopped, the last stop committed."""
@@ -944,6 +972,7 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
 
 USE_PLAY_BUF = True       # tests turn it off: Blocks played as read_chunks' lists (the reference)
 USE_QUIET_STOPS = True    # tests turn it off: play_buf returns at every stop (the reference)
+USE_QUIET_CORE = True     # tests turn it off: _LedgerWriter.stopped records the quiet stops (the reference)
 
 
 def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
@@ -965,13 +994,16 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
         wi = 0
         # a stop with no watched range pending is recorded by w.stopped called from the loop
         # (no return to here: ~3.8 k of them on the rectilinear plate's measure)
-        quiet = w.stopped if USE_QUIET_STOPS else None
+        quiet = w.on_quiet(state) if USE_QUIET_STOPS else None
+        absorb = w.absorb if quiet is not None and w.quiet is not None else None
         for buf, cr in blocks.blocks():
             n = len(buf)
             pos = 0
             while pos < n:
                 pos, idx, stopped, wj = play(buf, pos, idx, cr, step, wi, True, on_barrier, firsts,
                                              None if w.pending else quiet)
+                if absorb is not None:
+                    absorb()               # (the quiet stops of that call, before anything reads them)
                 if wj != wi:
                     w.ranges_start(wj - wi)
                     wi = wj

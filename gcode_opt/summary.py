@@ -230,19 +230,9 @@ def round_list(vals, nd):
     and for any value not a float, not finite or with |v * 10^nd| >= 2^52, round() itself.
     D / 10^nd, both exact doubles, is one correctly rounded division: the nearest double."""
     n = len(vals)
-    if n < 64:
+    if n < ROUND_ARRAY_MIN:
         return [round(v, nd) for v in vals]
-    scale = float(10 ** nd)
-    x = np.array(vals, dtype=float)
-    with np.errstate(all="ignore"):
-        p = x * scale
-        d = np.rint(p)
-        out = (d / scale).tolist()
-        ap = np.abs(p)
-        frac = ap - np.floor(ap)
-        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
-    for j in np.flatnonzero(slow).tolist():
-        out[j] = round(vals[j], nd)
+    out = round_array(np.array(vals, dtype=float), nd).tolist()
     if set(map(type, vals)) != _FLOAT_ONLY:
         for j, v in enumerate(vals):
             if type(v) is not float:      # (an int, a numpy scalar: its own __round__)
@@ -251,6 +241,23 @@ def round_list(vals, nd):
 
 
 _FLOAT_ONLY = {float}
+ROUND_ARRAY_MIN = 64           # round_list: shorter lists by round() alone
+
+
+def round_array(x, nd):
+    """round_list's numbers of a float64 array x, a float64 array (round() itself where
+    rint could be off: see round_list)."""
+    scale = float(10 ** nd)
+    with np.errstate(all="ignore"):
+        p = x * scale
+        d = np.rint(p)
+        out = d / scale
+        ap = np.abs(p)
+        frac = ap - np.floor(ap)
+        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
+    for j in np.flatnonzero(slow).tolist():
+        out[j] = round(x.item(j), nd)
+    return out
 
 
 def _summary_rows(wanted, cols, idx, row_cols):
@@ -302,8 +309,7 @@ class StrokeRows(Sequence):
         self.line = cols.first_idx[rows] + 1
         self.n_moves = cols.n_moves[rows]
         self.coded = [(list(cols.code_of[name]), cols.codes[name][rows]) for name in ("kind", "feature", "layer")]
-        # (each value rounded once, as the rows show it: a float64 array where all are floats)
-        self.rounded = [_compact(round_list(cols.float_values(name, rows), nd)) for name, nd in self.ROUNDED]
+        self.rounded = [_rounded(cols, name, rows, nd) for name, nd in self.ROUNDED]
         self.cols = [c if isinstance(c, np.ndarray) else list(c)
                      for c in (out_first, t0, t_law, t1, i0, i_law, a21, beta)]
         self.n = min(map(len, [rows, *self.cols]))
@@ -330,6 +336,16 @@ class StrokeRows(Sequence):
         """The rows, a list of up to CHUNK rows at a time."""
         for a in range(0, self.n, self.CHUNK):
             yield self._make(a, min(a + self.CHUNK, self.n))
+
+    def json_chunks(self):
+        """The rows as dump_json writes them, compact, one a line (",\\n  " between rows),
+        a chunk of rows at a time: each chunk one json.dumps of its list of rows (one
+        encoder a chunk, where one a row cost ~12 k instructions: ~0.5 G on the
+        rectilinear plate), cut where a row starts: '{"line": ' is found nowhere else (a
+        quote inside a JSON string is escaped; the rows' other dicts start with "before")."""
+        import json
+        for part in self.chunks():
+            yield json.dumps(part)[1:-1].replace(_ROW_SEP, _ROW_LINE)
 
     def __eq__(self, other):
         if isinstance(other, (list, StrokeRows)):
@@ -372,9 +388,17 @@ class StrokeRows(Sequence):
                 gc.enable()
 
 
-def _compact(vals):
-    """A list of values as a float64 array where every one is a float (its tolist: the
-    same floats), else the list."""
+_ROW_SEP, _ROW_LINE = '}, {"line": ', '},\n  {"line": '     # rows in a JSON list; one a line
+
+
+def _rounded(cols, name, rows, nd):
+    """round_list of float field `name` at rows (cols a StrokeColumns), each value rounded
+    once as the rows show it: a float64 array where all are floats (its tolist: the same
+    floats), else the list."""
+    col = cols.floats[name]
+    if isinstance(col, np.ndarray) and len(rows) >= ROUND_ARRAY_MIN:
+        return round_array(col[rows], nd)
+    vals = round_list(cols.float_values(name, rows), nd)
     return np.array(vals, float) if set(map(type, vals)) <= _FLOAT_ONLY else vals
 
 
@@ -449,8 +473,9 @@ def dump_json(summary: dict, fh) -> None:
         if chunks is not None:
             fh.write("[\n  ")
             between = ""
-            for part in chunks:
-                fh.write(between + ",\n  ".join(json.dumps(r) for r in part))
+            for text in chunks:
+                fh.write(between)
+                fh.write(text)
                 between = ",\n  "
             fh.write("\n ]")
         else:
@@ -460,10 +485,12 @@ def dump_json(summary: dict, fh) -> None:
 
 
 def _row_chunks(v):
-    """The rows of v in chunks where dump_json writes it one row a line (a list of more
-    than one row, each a dict or a list; a StrokeRows of more than one row), else None."""
+    """The text of v's rows where dump_json writes it one row a line (a list of more than
+    one row, each a dict or a list; a StrokeRows of more than one row): compact rows joined
+    by ",\\n  ", in chunks; else None."""
+    import json
     if isinstance(v, StrokeRows):
-        return v.chunks() if len(v) > 1 else None
+        return v.json_chunks() if len(v) > 1 else None
     if isinstance(v, list) and len(v) > 1 and all(isinstance(r, (dict, list)) for r in v):
-        return (v,)
+        return (",\n  ".join(json.dumps(r) for r in v),)
     return None

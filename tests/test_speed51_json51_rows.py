@@ -180,13 +180,17 @@ def test_report_data_from_the_table_is_the_lists(tmp_path, seen):
 
 
 # ---------------------------------------------------------------- odd columns
+# texts that hold the rows' separator or a quote (the JSON writer cuts chunks where a row starts)
+NASTY = ('}, {"line": ', 'x}, {', '{"line": 3}', 'a"b\\', "\u00e9\n")
+
+
 def _stroke(rng, line):
     s = Stroke.__new__(Stroke)
     if rng.random() < 0.8:
         s.kind = rng.choice(("line", "curve", "arc"))
     s.length_d, s.v0, s.v1, s.v_feed = (rng.uniform(0.1, 90.0) for _ in range(4))
     s.int_v2 = rng.uniform(0.0, 9.0)
-    s.layer, s.feature = rng.choice((rng.randrange(5), None)), rng.choice(("sparse_infill", "perimeter", None))
+    s.layer, s.feature = rng.choice((rng.randrange(5), None)), rng.choice(("sparse_infill", "perimeter", None) + NASTY)
     s.first_idx = line
     s.last_idx = line + rng.randrange(4)
     return s
@@ -199,8 +203,11 @@ def _odd_case(n, seed, ints=False):
     ss = [_stroke(rng, ln) for ln in lines]
     if ints:                                                  # a value not a float: the column a list
         ss[1].v0, ss[2].length_d = 7, np.float64(2.34565)
+    odd = [math.nan, math.inf, -math.inf, -0.0, 0.0, 5e-324, 1e308, 0.0005, 2.5e-4, 1.23456785]
+    for s in ss:
+        if rng.random() < 0.1:
+            setattr(s, rng.choice(("length_d", "v0", "v1", "v_feed")), rng.choice(odd))
     cols = StrokeColumns(ss)
-    odd = [math.nan, math.inf, -math.inf, -0.0, 0.0, 5e-324, 1e308]
     idx = np.array(rng.sample(range(n), n - 3), np.intp)
     m = len(idx)
     row_cols = [np.arange(m, dtype=np.int64) * 3] + [

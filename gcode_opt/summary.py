@@ -296,7 +296,7 @@ class StrokeRows(Sequence):
     index, or by its first line (row_at_line: the report's lookup).  Equal to a list of
     the same rows, as the list was."""
 
-    CHUNK = 1024             # rows made at a time (~1.5 MB of dicts)
+    CHUNK = 128              # rows made (and json.dumps encodes) at a time: ~0.6 MB
     ROUNDED = (("length_d", 4), ("v0", 3), ("v1", 3), ("v_feed", 3))
     __slots__ = ("n", "line", "n_moves", "coded", "rounded", "cols", "_by_line")
     __hash__ = None

@@ -430,7 +430,7 @@ def _process(a, out, job, Options, Progress, process, thaw=lambda: None):
     # the ringing's ramp / corner / turn parts only where something reads them: the JSON, the
     # report, --corners auto (corners.corner_share); the text summary shows the whole ringing
     opts.ringing_parts = bool(a.json or a.report or a.corners == "auto")
-    opts.summary_rows = bool(a.json or a.report)      # likewise the summary's per-stroke rows
+    opts.summary_rows = "table" if a.json or a.report else False   # likewise the summary's per-stroke rows (made as written)
     report_error = []
     pending = []
 

@@ -83,7 +83,7 @@ class Options:
         self.reader_warnings = []           # (idx, text) the reader noted in the analyse pass
         self.ringing = True                 # resonance figures before/after in the summary (ringing.py)
         self.ringing_parts = True           # and their ramp / corner / turn parts (the command line: where shown)
-        self.summary_rows = True            # the summary's per_stroke rows (the command line: --json, --report)
+        self.summary_rows = True            # per_stroke rows: True a list, "table" a summary.StrokeRows, False none
         self.corner_budget_r = corner_budget_r  # share of max_slowdown slower corners may take (corners.py); 0 off, "auto"
         self.by_feature = None              # analyse: the original's {feature: [moves, time_t, int_a2]}
         self.peak_rss_mb = None             # process: {phase: peak RSS (MB) at its end} (--profile-time)

@@ -5,13 +5,14 @@ from __future__ import annotations
 import gc
 import math
 import os
+from collections.abc import Sequence
 from itertools import compress
 
 import numpy as np
 
 from .distinct import value_codes
 from .outranges import columns as range_columns
-from .stroke_columns import StrokeColumns
+from .stroke_columns import StrokeColumns, _take
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -156,18 +157,11 @@ def build_summary(in_path, out_path, written_path, size_before, profile, opts, s
     T0 = pin.T_orig[idx] if len(idx) else np.zeros(0)
     I0 = pin.I_orig[idx] if len(idx) else np.zeros(0)
     V0 = cols.float_array("int_v2", idx)
-    # the per-stroke rows only where something reads them (Options.summary_rows: the command
-    # line asks for them with --json or --report; its text summary has none)
-    per_stroke = [] if getattr(opts, "summary_rows", True) else None
     by_kind = {}
-    gc_was = gc.isenabled()
-    gc.disable()              # ~70 k new dicts, none in a cycle: no collection passes over the live heap
-    try:
-        _per_stroke_rows(idx, out_first, T0, I0, plan.T[idx], plan.I_law[idx], np.asarray(t_after),
-                         np.asarray(a2_after), plan.beta[idx], cols, per_stroke, by_kind)
-    finally:
-        if gc_was:
-            gc.enable()
+    row_cols = (out_first, T0, I0, plan.T[idx], plan.I_law[idx], np.asarray(t_after), np.asarray(a2_after),
+                plan.beta[idx])
+    _per_stroke_rows(idx, *row_cols, cols, None, by_kind)
+    per_stroke = _summary_rows(getattr(opts, "summary_rows", True), cols, idx, row_cols)
     for g in by_kind.values():
         g["int_a2"]["change"] = _ratio(g["int_a2"]["after"], g["int_a2"]["before"])
         g["time_s"]["change"] = _ratio(g["time_s"]["after"], g["time_s"]["before"])
@@ -236,19 +230,9 @@ def round_list(vals, nd):
     and for any value not a float, not finite or with |v * 10^nd| >= 2^52, round() itself.
     D / 10^nd, both exact doubles, is one correctly rounded division: the nearest double."""
     n = len(vals)
-    if n < 64:
+    if n < ROUND_ARRAY_MIN:
         return [round(v, nd) for v in vals]
-    scale = float(10 ** nd)
-    x = np.array(vals, dtype=float)
-    with np.errstate(all="ignore"):
-        p = x * scale
-        d = np.rint(p)
-        out = (d / scale).tolist()
-        ap = np.abs(p)
-        frac = ap - np.floor(ap)
-        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
-    for j in np.flatnonzero(slow).tolist():
-        out[j] = round(vals[j], nd)
+    out = round_array(np.array(vals, dtype=float), nd).tolist()
     if set(map(type, vals)) != _FLOAT_ONLY:
         for j, v in enumerate(vals):
             if type(v) is not float:      # (an int, a numpy scalar: its own __round__)
@@ -257,6 +241,33 @@ def round_list(vals, nd):
 
 
 _FLOAT_ONLY = {float}
+ROUND_ARRAY_MIN = 64           # round_list: shorter lists by round() alone
+
+
+def round_array(x, nd):
+    """round_list's numbers of a float64 array x, a float64 array (round() itself where
+    rint could be off: see round_list)."""
+    scale = float(10 ** nd)
+    with np.errstate(all="ignore"):
+        p = x * scale
+        d = np.rint(p)
+        out = d / scale
+        ap = np.abs(p)
+        frac = ap - np.floor(ap)
+        slow = ~(ap < _TWO52) | (np.abs(frac - 0.5) <= 2.0 * np.spacing(ap))
+    for j in np.flatnonzero(slow).tolist():
+        out[j] = round(x.item(j), nd)
+    return out
+
+
+def _summary_rows(wanted, cols, idx, row_cols):
+    """The summary's per_stroke rows as Options.summary_rows asks: True, a list of dicts;
+    "table", a StrokeRows (the command line's --json and --report: made a row at a time as
+    they are written or read); False, None (its text summary has none)."""
+    if not wanted:
+        return None
+    rows = StrokeRows(cols, idx, *row_cols)
+    return rows if wanted == "table" else list(rows)
 
 
 def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, strokes, per_stroke, by_kind):
@@ -267,10 +278,9 @@ def _per_stroke_rows(idx, out_first, t0, i0, t_law, i_law, t1, a21, beta, stroke
     numbers, the same sums in the same order)."""
     cols = StrokeColumns.of(strokes)
     rows = np.asarray(idx, np.intp)
-    kinds = cols.values("kind", rows)
     if per_stroke is not None:
-        _rows(cols, rows, kinds, *map(_as_list, (out_first, t0, i0, t_law, i_law, t1, a21, beta)), per_stroke)
-    _by_kind_rows(kinds, (t0, t_law, t1, i0, i_law, a21), by_kind)
+        per_stroke.extend(StrokeRows(cols, rows, out_first, t0, i0, t_law, i_law, t1, a21, beta))
+    _by_kind_rows(cols.values("kind", rows), (t0, t_law, t1, i0, i_law, a21), by_kind)
 
 
 def _as_list(col):
@@ -278,26 +288,123 @@ def _as_list(col):
     return col.tolist() if isinstance(col, np.ndarray) else col
 
 
-def _rows(cols, rows, kinds, out_first, t0, i0, t_law, i_law, t1, a21, beta, per_stroke):
-    """The per-stroke rows of the strokes `rows` (an intp array into cols, a StrokeColumns):
-    each column made in one pass (the same round() of each value), then the rows zip them."""
-    r4 = round_list(cols.float_values("length_d", rows), 4)
-    rv0 = round_list(cols.float_values("v0", rows), 3)
-    rv1 = round_list(cols.float_values("v1", rows), 3)
-    rvf = round_list(cols.float_values("v_feed", rows), 3)
-    n_moves = cols.n_moves[rows].tolist()
-    lines = (cols.first_idx[rows] + 1).tolist()
-    features, layers = cols.values("feature", rows), cols.values("layer", rows)
-    per_stroke.extend([
-        {"line": line, "lines": nm, "kind": kind, "out_line": of + 1,
-         "feature": fe, "layer": la, "length_mm": ln,
-         "v0_mm_s": a, "v1_mm_s": b, "feed_mm_s": f,
-         "time_s": {"before": x0, "law": xl, "after": x1},
-         "int_a2": {"before": y0, "law": yl, "after": y1},
-         "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
-        for line, nm, kind, of, fe, la, ln, a, b, f, x0, xl, x1, y0, yl, y1, be
-        in zip(lines, n_moves, kinds, out_first, features, layers, r4, rv0, rv1, rvf, t0, t_law, t1, i0, i_law, a21,
-               beta)])
+class StrokeRows(Sequence):
+    """The summary's per-stroke rows held as columns (~130 bytes a row; the list of dicts
+    held ~1.4 kB a row: 57 MB on the rectilinear plate, the --json run's peak), each row
+    made as it is read: the dict the list held (the same keys in the same order, the same
+    values of the same types).  Iterated a chunk of rows at a time (chunks()); a row by
+    index, or by its first line (row_at_line: the report's lookup).  Equal to a list of
+    the same rows, as the list was."""
+
+    CHUNK = 128              # rows made (and json.dumps encodes) at a time: ~0.6 MB
+    ROUNDED = (("length_d", 4), ("v0", 3), ("v1", 3), ("v_feed", 3))
+    __slots__ = ("n", "line", "n_moves", "coded", "rounded", "cols", "_by_line")
+    __hash__ = None
+
+    def __init__(self, cols, rows, out_first, t0, i0, t_law, i_law, t1, a21, beta):
+        """The rows of the strokes `rows` (indices into cols, a StrokeColumns) with their
+        columns by row (arrays or sequences); as many rows as the shortest column has (the
+        rows zip them)."""
+        rows = np.asarray(rows, np.intp)
+        self.line = cols.first_idx[rows] + 1
+        self.n_moves = cols.n_moves[rows]
+        self.coded = [(list(cols.code_of[name]), cols.codes[name][rows]) for name in ("kind", "feature", "layer")]
+        self.rounded = [_rounded(cols, name, rows, nd) for name, nd in self.ROUNDED]
+        self.cols = [c if isinstance(c, np.ndarray) else list(c)
+                     for c in (out_first, t0, t_law, t1, i0, i_law, a21, beta)]
+        self.n = min(map(len, [rows, *self.cols]))
+        self._by_line = None
+
+    def __len__(self):
+        return self.n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._make(j, j + 1)[0] for j in range(*i.indices(self.n))]
+        j = i.__index__()
+        if j < 0:
+            j += self.n
+        if not 0 <= j < self.n:
+            raise IndexError("StrokeRows index out of range")
+        return self._make(j, j + 1)[0]
+
+    def __iter__(self):
+        for part in self.chunks():
+            yield from part
+
+    def chunks(self):
+        """The rows, a list of up to CHUNK rows at a time."""
+        for a in range(0, self.n, self.CHUNK):
+            yield self._make(a, min(a + self.CHUNK, self.n))
+
+    def json_chunks(self):
+        """The rows as dump_json writes them, compact, one a line (",\\n  " between rows),
+        a chunk of rows at a time: each chunk one json.dumps of its list of rows (one
+        encoder a chunk, where one a row cost ~12 k instructions: ~0.5 G on the
+        rectilinear plate), cut where a row starts: '{"line": ' is found nowhere else (a
+        quote inside a JSON string is escaped; the rows' other dicts start with "before")."""
+        import json
+        for part in self.chunks():
+            yield json.dumps(part)[1:-1].replace(_ROW_SEP, _ROW_LINE)
+
+    def __eq__(self, other):
+        if isinstance(other, (list, StrokeRows)):
+            return len(self) == len(other) and all(a == b for a, b in zip(self, other))
+        return NotImplemented
+
+    def __repr__(self):
+        return repr(list(self))
+
+    def row_at_line(self, line):
+        """The row whose stroke starts on (1-based) line `line`, or None (of several, the
+        last: as a dict {row["line"]: row} kept it)."""
+        if self._by_line is None:
+            order = np.argsort(self.line[:self.n], kind="stable")
+            self._by_line = (order, self.line[order])
+        order, lines = self._by_line
+        k = int(np.searchsorted(lines, line, side="right")) - 1
+        return self[int(order[k])] if k >= 0 and lines[k] == line else None
+
+    def _make(self, a, b):
+        """Rows a .. b - 1, dicts (~3 a row, none in a cycle: no collection runs over them)."""
+        lines, n_moves = self.line[a:b].tolist(), self.n_moves[a:b].tolist()
+        kinds, features, layers = (_take(values, code[a:b]) for values, code in self.coded)
+        r4, rv0, rv1, rvf = (_part(c, a, b) for c in self.rounded)
+        out_first, t0, t_law, t1, i0, i_law, a21, beta = (_part(c, a, b) for c in self.cols)
+        gc_was = gc.isenabled()
+        gc.disable()
+        try:
+            return [{"line": line, "lines": nm, "kind": kind, "out_line": of + 1,
+                     "feature": fe, "layer": la, "length_mm": ln,
+                     "v0_mm_s": v0, "v1_mm_s": v1, "feed_mm_s": f,
+                     "time_s": {"before": x0, "law": xl, "after": x1},
+                     "int_a2": {"before": y0, "law": yl, "after": y1},
+                     "beta_s2": be if -_INF < be < _INF else None}     # (math.isfinite: NaN and +-inf are None)
+                    for line, nm, kind, of, fe, la, ln, v0, v1, f, x0, xl, x1, y0, yl, y1, be
+                    in zip(lines, n_moves, kinds, out_first, features, layers, r4, rv0, rv1, rvf, t0, t_law, t1,
+                           i0, i_law, a21, beta)]
+        finally:
+            if gc_was:
+                gc.enable()
+
+
+_ROW_SEP, _ROW_LINE = '}, {"line": ', '},\n  {"line": '     # rows in a JSON list; one a line
+
+
+def _rounded(cols, name, rows, nd):
+    """round_list of float field `name` at rows (cols a StrokeColumns), each value rounded
+    once as the rows show it: a float64 array where all are floats (its tolist: the same
+    floats), else the list."""
+    col = cols.floats[name]
+    if isinstance(col, np.ndarray) and len(rows) >= ROUND_ARRAY_MIN:
+        return round_array(col[rows], nd)
+    vals = round_list(cols.float_values(name, rows), nd)
+    return np.array(vals, float) if set(map(type, vals)) <= _FLOAT_ONLY else vals
+
+
+def _part(col, a, b):
+    """col[a:b] as a list (an array's values as Python numbers)."""
+    return _as_list(col[a:b])
 
 
 def _by_kind_rows(kinds, cols, by_kind):
@@ -355,15 +462,35 @@ def dump_json(summary: dict, fh) -> None:
     """Write `summary` as JSON: indented as json.dump(indent=1) writes it, except that a
     top-level list of rows (per_stroke) has one compact row a line.  json's indenting
     encoder is pure Python: the gyroid plate's 11 MB summary took 0.59 s CPU, written this
-    way (the C encoder, row by row) 0.23 s.  json.load reads the same object back."""
+    way (the C encoder, row by row) 0.23 s.  json.load reads the same object back.  A
+    StrokeRows is written as the list of its rows, made and written a chunk at a time."""
     import json
     fh.write("{")
     sep = "\n "
     for k, v in summary.items():
         fh.write(sep + json.dumps(k) + ": ")
-        if isinstance(v, list) and len(v) > 1 and all(isinstance(r, (dict, list)) for r in v):
-            fh.write("[\n  " + ",\n  ".join(json.dumps(r) for r in v) + "\n ]")
+        chunks = _row_chunks(v)
+        if chunks is not None:
+            fh.write("[\n  ")
+            between = ""
+            for text in chunks:
+                fh.write(between)
+                fh.write(text)
+                between = ",\n  "
+            fh.write("\n ]")
         else:
-            fh.write(json.dumps(v, indent=1).replace("\n", "\n "))
+            fh.write(json.dumps(list(v) if isinstance(v, StrokeRows) else v, indent=1).replace("\n", "\n "))
         sep = ",\n "
     fh.write("\n}" if summary else "}")
+
+
+def _row_chunks(v):
+    """The text of v's rows where dump_json writes it one row a line (a list of more than
+    one row, each a dict or a list; a StrokeRows of more than one row): compact rows joined
+    by ",\\n  ", in chunks; else None."""
+    import json
+    if isinstance(v, StrokeRows):
+        return v.json_chunks() if len(v) > 1 else None
+    if isinstance(v, list) and len(v) > 1 and all(isinstance(r, (dict, list)) for r in v):
+        return (",\n  ".join(json.dumps(r) for r in v),)
+    return None

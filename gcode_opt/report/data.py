@@ -91,17 +91,25 @@ def stroke_kind(fence, summary_row, tr0):
     return "curve" if turns else "line"
 
 
+def _summary_row_at(summary):
+    """line -> the summary's per_stroke row of the stroke starting there (or None): a
+    StrokeRows (the command line's --report) looked up in its columns, a row made a call;
+    a list of rows by a dict (of several on one line, the last)."""
+    rows = (summary or {}).get("per_stroke", [])
+    if hasattr(rows, "row_at_line"):
+        return rows.row_at_line
+    return {p["line"]: p for p in rows}.get
+
+
 def _stroke_rows(tr0, tr1, fences, summary, profile):
-    by_line = {}
-    if summary:
-        by_line = {p["line"]: p for p in summary.get("per_stroke", [])}
+    row_at = _summary_row_at(summary)
     min_seg_t = profile.min_segment_time_t
     rows = []
     for f in fences:
         o0, o1 = f.orig_first, f.orig_last
         m0 = tr0.moves.get(o0)
         length = sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves)
-        sp = by_line.get(o0 + 1)
+        sp = row_at(o0 + 1)
         kind = stroke_kind(f, sp, tr0)
         if kind == "arc" and m0 is not None and m0.kind == st.ARC:   # mass along the arc: mean over tangents
             th = m0.arc.theta0 + m0.arc.sweep * np.linspace(0.0, 1.0, 65)

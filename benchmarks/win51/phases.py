@@ -4,7 +4,9 @@ candidates over stored_strokes.StoredStrokes, windows on the same bounds), and w
 windowed path gives the same bits (digests of every PlanInput array and of the candidate
 tables).  One mode a process (peak RSS is a high-water mark):
 
-    PYTHONPATH=TREE python benchmarks/win51/phases.py FILE list|stored [WINDOW [candidates|runs]]
+    PYTHONPATH=TREE python benchmarks/win51/phases.py FILE list|stored|stored_nomemo [WINDOW [candidates|runs]]
+
+(stored_nomemo: the chains' memos let go with their window, as the store keeps them: empty)
 
 prints one JSON line: peak MB after each phase, process CPU s after each, digests."""
 import hashlib
@@ -105,7 +107,8 @@ def main(path, mode, window=4096, to="runs"):
         store, sim0 = pl.analyse(path, prof, opts, store)
         lap("analyse")
         pin = plan_inputs_windowed(store, prof, opts, window)
-        strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
+        strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof),
+                                keep=("chain_T",) if mode == "stored" else ())
     pl.trim_heap()
     lap("plan_inputs")
     out["pin"] = pin_digests(pin)
@@ -132,7 +135,7 @@ def main(path, mode, window=4096, to="runs"):
     del cands
     if mode != "list":
         strokes.let_go()
-        memos = strokes._side["chain_T"]
+        memos = strokes._side.get("chain_T", {})
         strokes = store.load(0, len(store))
         for k, m in memos.items():            # (the chains' memos: the runs start from them)
             strokes[k].chain_T = m

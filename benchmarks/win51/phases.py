@@ -4,9 +4,10 @@ candidates over stored_strokes.StoredStrokes, windows on the same bounds), and w
 windowed path gives the same bits (digests of every PlanInput array and of the candidate
 tables).  One mode a process (peak RSS is a high-water mark):
 
-    PYTHONPATH=TREE python benchmarks/win51/phases.py FILE list|stored|stored_nomemo [WINDOW [candidates|runs]]
+    PYTHONPATH=TREE python benchmarks/win51/phases.py FILE list|stored|stored_nomemo|fused [WINDOW [candidates|runs]]
 
-(stored_nomemo: the chains' memos let go with their window, as the store keeps them: empty)
+(stored_nomemo: the chains' memos let go with their window, as the store keeps them: empty;
+fused: plan_inputs made for each window analyse spills, before it is written)
 
 prints one JSON line: peak MB after each phase, process CPU s after each, digests."""
 import hashlib
@@ -89,6 +90,23 @@ def _geometry(codes, prof):
     return made
 
 
+_SPILL = pl._spill_finished
+
+
+def _fused_plan_inputs(prof, opts):
+    """analyse's spill made to take each window's plan_inputs first (the design's step A:
+    no second load and write-back); returns the list the windows' PlanInputs go to"""
+    parts = []
+
+    def spill(store, strokes, sums):
+        k = min(sums.done, len(strokes) - 1)
+        if k > 0:
+            parts.append(plan_inputs(strokes[:k], prof, opts))
+        _SPILL(store, strokes, sums)
+    pl._spill_finished = spill
+    return parts
+
+
 def main(path, mode, window=4096, to="runs"):
     prof = load_profile("prusa-mk3s")
     opts = pl.Options(features=feat.default_selection(path)[0])
@@ -102,6 +120,19 @@ def main(path, mode, window=4096, to="runs"):
         strokes, sim0 = pl.analyse(path, prof, opts)
         lap("analyse")
         pin = plan_inputs(strokes, prof, opts)
+    elif mode == "fused":
+        store = StrokeStore()
+        parts = _fused_plan_inputs(prof, opts)
+        store, sim0 = pl.analyse(path, prof, opts, store)
+        pl._spill_finished = _SPILL
+        lap("analyse")
+        n0 = sum(len(p.L) for p in parts)
+        sts = store.load(n0, len(store))          # (the strokes spilled at analyse's end)
+        parts.append(plan_inputs(sts, prof, opts))
+        store.rewrite(np.arange(n0, len(store), dtype=np.int64), sts)
+        del sts
+        pin = _cat(parts)
+        strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
     else:
         store = StrokeStore()
         store, sim0 = pl.analyse(path, prof, opts, store)

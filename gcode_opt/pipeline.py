@@ -127,7 +127,7 @@ class Progress:
 
 
 # ---------------------------------------------------------------- pass 1: analyse
-def analyse(path, profile: Profile, opts: Options):
+def analyse(path, profile: Profile, opts: Options, store=None):
     """Strokes of the original file with the firmware model's figures for each.
 
     The model plays each line as it is read, before the strokes see it.  Its records (one
@@ -136,7 +136,12 @@ def analyse(path, profile: Profile, opts: Options):
     its line is in the run still open, or belongs to no stroke.  With the compiled model
     the records go into its RecordLog instead (no Python call a record), which sums them
     per stroke and per feature, in the same order (_LogSums: a prefix at a time during the
-    pass, the log dropping the records summed, the rest after it)."""
+    pass, the log dropping the records summed, the rest after it).
+
+    store (a stroke_store.StrokeStore, or None): the finished strokes are appended to it at
+    each of the log's flushes and dropped (they never all exist at once), the rest at the
+    end; returns (store, sim's result) then.  Only with the compiled RecordLog (the Python
+    model's records come one by one: the list is kept and appended at the end)."""
     log = _record_log()
     strokes = []
     due = deque()       # closed strokes, in file order, whose last line's record has not come
@@ -260,6 +265,8 @@ def analyse(path, profile: Profile, opts: Options):
         for idx0, lines in reader.line_chunks(path, prog, cr_seen):
             if sums is not None and log.rows >= LOG_FLUSH_ROWS:
                 sums.flush(opened[0])
+                if store is not None:
+                    _spill_finished(store, strokes, sums)
             cur[0], cur[2] = lines, idx0
             n = len(lines)
             i = cur[1] = 0
@@ -317,7 +324,47 @@ def analyse(path, profile: Profile, opts: Options):
         opts.ringing_before = ring.figures()
     # (state.feature_seen: a feature comment the compiled reader read, also in its own loops)
     opts.feature_info = feat.selection_info(seen[0] or state.feature_seen is True, opts.features)
+    if store is not None:
+        store.append(strokes)
+        strokes.clear()
+        return store, sim.res
     return strokes, sim.res
+
+
+def _spill_finished(store, strokes, sums):
+    """The strokes whose sums are final (sums.done) appended to store and dropped from the
+    list, but the last one closed, as a guard: group_lines gives a stroke closed by a line
+    that is no event its next_u at the next event (a summed stroke has a later move's
+    record, so that event came already; the tests find no stroke where it matters)."""
+    k = min(sums.done, len(strokes) - 1)
+    if k > 0:
+        store.append(strokes[:k])
+        del strokes[:k]
+        sums.done -= k
+
+
+def spill_analyse():
+    """GCODE_OPT_SPILL_ANALYSE=1: analyse spills its finished strokes to a StrokeStore window
+    by window (its peak holds no stroke list), and _process loads them back for planning
+    (the same bits; a measurement of the windowed pipeline's first step, benchmarks/win51)."""
+    return os.environ.get("GCODE_OPT_SPILL_ANALYSE", "") not in ("", "0")
+
+
+def _analysed(in_path, profile, opts, freeze, timing):
+    """analyse's (strokes, sim's result), its phase lapped; with spill_analyse() through a
+    StrokeStore (the strokes loaded back after the lap: planning's phase)."""
+    if not spill_analyse():
+        with _young_frozen(freeze):      # (analyse leaves the collector off then: its strokes are frozen)
+            got = analyse(in_path, profile, opts)
+        timing.lap("analyse")
+        return got
+    from .stroke_store import StrokeStore
+    with StrokeStore() as store:
+        with _young_frozen(freeze):
+            store, res = analyse(in_path, profile, opts, store)
+        timing.lap("analyse")
+        with _young_frozen(freeze):      # (load makes them with the collector paused; frozen as analyse's)
+            return store.load(0, len(store)), res
 
 
 def _record_log():
@@ -1285,9 +1332,7 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     prog = opts.progress
     if prog:
         prog.start("analyse")
-    with _young_frozen(freeze):      # (analyse leaves the collector off then: its strokes are frozen)
-        strokes, sim0 = analyse(in_path, profile, opts)
-    timing.lap("analyse")
+    strokes, sim0 = _analysed(in_path, profile, opts, freeze, timing)
     if sim0.n_moves == 0:
         if prog:
             prog.finish()

@@ -1,0 +1,115 @@
+"""StoredStrokes: the strokes of a StrokeStore as a sequence that holds a few windows of them
+as objects at a time (the windowed pipeline's stroke set: issue 8, benchmarks/win51).
+
+Window j is the strokes [j * window, (j + 1) * window).  s[i] loads i's window (store.load)
+if it is not held, letting go of the window used least recently when `held` are held; while
+a window is held, s[i] is the same object each time.  A window let go whose strokes may have
+changed (writeback=True: every window; else those marked by changed(i)) is written back
+(store.rewrite) first.  The store keeps no cache: curv comes back None, chain_T an empty
+ChainMemo (stroke_store), so a consumer's caches on a stroke last as long as its window (on_load may
+make them again for a window as it is loaded, in one batch).
+
+The hazard (benchmarks/win51/audit.md): a consumer that keeps a stroke past its window (a
+list of strokes, a dict keyed by stroke, a memo) reads a copy that is no longer the row's,
+and its changes to it are lost.  Consumers read a window's rows while it is held (e.g.
+schedule.candidates_in_windows with bounds on the window's multiples)."""
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+
+class StoredStrokes:
+    def __init__(self, store, window=4096, held=2, writeback=False, on_load=None, keep=()):
+        if window < 1 or held < 1:
+            raise ValueError("StoredStrokes: window and held must be >= 1")
+        self.store, self.window, self.held, self.writeback = store, int(window), int(held), writeback
+        self.on_load = on_load           # on_load(first row, strokes) after a window is loaded (caches)
+        # keep: fields whose objects (not None) outlive their window in side tables {row: object},
+        # put back when the row is loaded again (chain_T: the chains' memos, whose state the
+        # budget runs' bits depend on; the store keeps only an empty memo)
+        self._side = {name: {} for name in keep}
+        self._wins = OrderedDict()       # window index -> its strokes (a list), least recent first
+        self._dirty = set()              # windows marked changed
+        self.loads = 0                   # windows loaded (a measure of the access pattern)
+        self._lo = self._hi = 0          # the window used last: its rows [_lo, _hi), its strokes
+        self._cur = None
+
+    def __len__(self):
+        return len(self.store)
+
+    def bounds(self):
+        """The windows' first rows and the end: candidates_in_windows' bounds."""
+        return list(range(0, len(self), self.window)) + [len(self)]
+
+    def _win(self, j):
+        w = self._wins.get(j)
+        if w is None:
+            w = self._load(j)
+        else:
+            self._wins.move_to_end(j)
+        self._lo, self._hi, self._cur = j * self.window, j * self.window + len(w), w
+        return w
+
+    def _load(self, j):
+        while len(self._wins) >= self.held:
+            self._let_go(next(iter(self._wins)))
+        lo = j * self.window
+        w = self._wins[j] = self.store.load(lo, lo + self.window)
+        self.loads += 1
+        for name, side in self._side.items():
+            if side:
+                for k, st in enumerate(w, lo):
+                    v = side.get(k)
+                    if v is not None:
+                        setattr(st, name, v)
+        if self.on_load is not None:
+            self.on_load(lo, w)
+        return w
+
+    def _let_go(self, j):
+        w = self._wins.pop(j)
+        if w is self._cur:
+            self._lo = self._hi = 0
+            self._cur = None
+        lo = j * self.window
+        for name, side in self._side.items():
+            for k, st in enumerate(w, lo):
+                v = getattr(st, name)
+                if v is not None:
+                    side[k] = v
+        if self.writeback or j in self._dirty:
+            self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)
+        self._dirty.discard(j)
+
+    def _row(self, i):
+        n = len(self)
+        i = int(i)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError("StoredStrokes: row out of range")
+        return i
+
+    def __getitem__(self, i):
+        if type(i) is not slice and self._lo <= i < self._hi:     # (the window used last: most reads)
+            return self._cur[i - self._lo]
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        i = self._row(i)
+        j, k = divmod(i, self.window)
+        return self._win(j)[k]
+
+    def __iter__(self):
+        for j in range(0, -(-len(self) // self.window)):
+            yield from self._win(j)
+
+    def changed(self, i):
+        """Row i's stroke was (or will be) changed: its window is written back when let go."""
+        self._dirty.add(self._row(i) // self.window)
+
+    def let_go(self):
+        """Every window let go (written back where due)."""
+        for j in list(self._wins):
+            self._let_go(j)

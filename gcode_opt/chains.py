@@ -2327,7 +2327,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     voff = base.voff
     for J in groups:
         n = int(nseg[J[0]])
-        rj, rc = np.nonzero(use[J])                 # rows: chain by chain, columns ascending
+        rj, rc = use[J].nonzero()                   # rows: chain by chain, columns ascending
         j = J[rj]
         R = j.size
         vk = np.empty((R, n + 1))
@@ -2450,6 +2450,8 @@ def _row_steps(tk):
     long rows subtract well as they are)."""
     if tk.ndim != 2 or not 2 <= tk.shape[1] <= ROW_RANGE_COLS + 1 or tk.shape[0] < 2 \
             or tk.dtype != np.float64 or not tk.flags.c_contiguous:
+        if tk.ndim == 2 and tk.dtype == np.float64:      # (np.diff's subtraction, without its set-up)
+            return np.subtract(tk[:, 1:], tk[:, :-1])
         return np.diff(tk, axis=1)
     R, w = tk.shape
     f = tk.ravel()
@@ -2485,7 +2487,7 @@ def _at_both(A, B, rows, cols):
             and A.flags.c_contiguous and B.flags.c_contiguous):
         return np.stack([_at(A, rows, cols), _at(B, rows, cols)], axis=1)
     at = rows * A.shape[1] + cols
-    out = np.empty((at.size, 2), np.result_type(A, B))
+    out = np.empty((at.size, 2), A.dtype if A.dtype == B.dtype else np.result_type(A, B))
     out[:, 0] = A.ravel().take(at)
     out[:, 1] = B.ravel().take(at)
     return out
@@ -2528,7 +2530,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
     # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
     # gathered at them; the row its index, exact as a float)
-    q = np.flatnonzero(good)
+    q = good.nonzero()[0]               # (np.flatnonzero's, without its Python wrappers)
     q = q[np.lexsort((-q, j[q]))]
     jq, cq = j[q], c[q]
     rows = np.empty((q.size, 4))      # (np.stack's columns, written in place: its set-up a group)

@@ -1430,6 +1430,9 @@ def _cf_row(st):
 
 
 _NAN2 = (math.nan, math.nan)
+# _finish_core's columns of P copied from _cf_rows' Q, by junction (jerk?): (P's, Q's)
+_CF_P_COLS = {True: (np.array([0, 8, 9, 1, 3, 4]), np.array([0, 2, 3, 1, 4, 5])),
+              False: (np.array([0, 8, 9, 5, 6, 7]), np.array([0, 2, 3, 6, 7, 8]))}
 
 
 def _cf_rows(sts, core=None):
@@ -1484,23 +1487,18 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
     Q = _cf_rows(sts, core)
     pu, nu = Q[:, 9:11], Q[:, 11:13]
     P = np.zeros((m, 18))
-    P[:, 0] = Q[:, 0]                  # _a_top
-    P[:, 8] = Q[:, 2]
-    P[:, 9] = Q[:, 3]
+    # _a_top, v0, v1 and the law's limits (jerk: v_feed, jerk_x, jerk_y; scv: scv, ax_max,
+    # ay_max): Q's columns copied in one gather (P's columns, Q's)
+    to, fr = _CF_P_COLS[jerk]
+    P[:, to] = Q[:, fr]
     # the end turns, curves.dot2(prev_u, u[0]) and dot2(u[-1], next_u) of predict_chains (its
     # two products and their sum; nan: no neighbour)
     P[:, 10] = pu[:, 0] * U[:, 0, 0] + pu[:, 1] * U[:, 0, 1]
     P[:, 11] = U[:, -1, 0] * nu[:, 0] + U[:, -1, 1] * nu[:, 1]
     if jerk:
-        P[:, 1] = Q[:, 1]
-        P[:, 3] = Q[:, 4]
-        P[:, 4] = Q[:, 5]
         P[:, 2] = curves.JERK_F_STEP_R * np.minimum(P[:, 3], P[:, 4])     # step_v: the numpy code's
     else:
         P[:, 2] = math.inf
-        P[:, 5] = Q[:, 6]
-        P[:, 6] = Q[:, 7]
-        P[:, 7] = Q[:, 8]
         hp = Q[:, 13] != 0.0
         hn = Q[:, 14] != 0.0
         P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
@@ -1951,7 +1949,9 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=N
         for item in _table_rows(sts, base, res, use, Ts, profile, fin.grouped):
             J, rj, rc, _, dt = item[:5]
             at = getattr(item, "at", None)
-            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(J[rj], rc, dt.shape[1], at)))
+            j = getattr(item, "j", None)
+            j = J[rj] if j is None else j
+            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(j, rc, dt.shape[1], at), j=j))
         del res, laws, Ts, bs
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
@@ -2130,12 +2130,13 @@ class _Rows:
     sts[J], its first row a in the table): row i is chain J[rj[i]]'s column rc[i], its
     knot speeds vk[i] and segment durations dt[i], its law's ∫ṡ² iv[i]; ks rows a chain;
     its law as _KeptLaws keeps it: binding mask bnd[i], pieces' durations tj[a:a + c],
-    (a, c) = spans[i]."""
-    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "spans", "n")
+    (a, c) = spans[i]; j: J[rj] (None: made here)."""
+    __slots__ = ("a", "sts", "T", "beta", "J", "rj", "rc", "vk", "dt", "ks", "iv", "bnd", "tj", "spans", "n", "j")
 
-    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, spans):
+    def __init__(self, a, sts, T, beta, J, rj, rc, vk, dt, ks, iv, bnd, tj, spans, j=None):
         self.a, self.sts, self.T, self.beta = a, sts, T, beta
         self.J, self.rj, self.rc, self.vk, self.dt, self.ks, self.iv = J, rj, rc, vk, dt, ks, iv
+        self.j = J[rj] if j is None else j
         self.bnd, self.tj, self.spans = bnd, tj, spans
         self.n = dt.shape[1]
 
@@ -2192,8 +2193,11 @@ class _Finisher:
         if self.grouped:
             sts = [r.sts[j] for r in rs for j in r.J.tolist()]
             gs = [curves.geom(st, profile) for st in sts]
-            off = np.cumsum([0] + [r.J.size for r in rs])
-            own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
+            if len(rs) == 1:             # (a window's batches: most are one group's rows)
+                own = rs[0].rj
+            else:
+                off = np.cumsum([0] + [r.J.size for r in rs])
+                own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
             vk = rs[0].vk if len(rs) == 1 else np.concatenate([r.vk for r in rs])
             dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
             _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile)
@@ -2207,9 +2211,12 @@ class _Finisher:
             R = r.rj.size
             tr, a2r = t[lo:lo + R], a2[lo:lo + R]
             lo += R
-            j = r.J[r.rj]
+            j = r.j
             good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
-            tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
+            if good.all():               # (the usual case: the rows as they are, not gathered)
+                tab.put(r.a + j, r.rc, tr, a2r, r.iv)
+            else:
+                tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             # (beta of T: its cells are made from T's, at their places, not held as a table of their own)
@@ -2292,8 +2299,9 @@ def _kept_caps(sts, gs, profile):
 
 class _TableItem(tuple):
     """One group of _table_rows' rows (J, rj, rc, vk, dt, ks, iv), with `at`: the flat index
-    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None."""
-    at = None
+    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None, and
+    `j`: J[rj], or None."""
+    at = j = None
 
 
 def _table_rows(sts, base, res, use, T, profile, grouped):
@@ -2319,7 +2327,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     voff = base.voff
     for J in groups:
         n = int(nseg[J[0]])
-        rj, rc = np.nonzero(use[J])                 # rows: chain by chain, columns ascending
+        rj, rc = use[J].nonzero()                   # rows: chain by chain, columns ascending
         j = J[rj]
         R = j.size
         vk = np.empty((R, n + 1))
@@ -2349,7 +2357,7 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
         item = _TableItem((J, rj, rc, vk, _row_steps(tk), np.bincount(rj, None, J.size), _at(IV, rc, j)))
-        item.at = at
+        item.at, item.j = at, j
         yield item
 
 
@@ -2416,7 +2424,7 @@ class _LawCols:
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
             bnd = np.empty((R, 0), bool)
-        return bnd, self.PT, np.stack([_at(self.P0, rc, j), _at(self.PN, rc, j)], axis=1).astype(np.int32)
+        return bnd, self.PT, _at_both(self.P0, self.PN, rc, j).astype(np.int32)
 
 
 ROW_RANGE_COLS = 8       # _row_ranges, _plus_rows: rows this short go column by column
@@ -2442,6 +2450,8 @@ def _row_steps(tk):
     long rows subtract well as they are)."""
     if tk.ndim != 2 or not 2 <= tk.shape[1] <= ROW_RANGE_COLS + 1 or tk.shape[0] < 2 \
             or tk.dtype != np.float64 or not tk.flags.c_contiguous:
+        if tk.ndim == 2 and tk.dtype == np.float64:      # (np.diff's subtraction, without its set-up)
+            return np.subtract(tk[:, 1:], tk[:, :-1])
         return np.diff(tk, axis=1)
     R, w = tk.shape
     f = tk.ravel()
@@ -2468,6 +2478,19 @@ def _at(A, rows, cols):
     if not A.flags.c_contiguous:
         return A[rows, cols]
     return A.ravel().take(rows * A.shape[1] + cols)     # (take: fewer steps an item than [])
+
+
+def _at_both(A, B, rows, cols):
+    """np.stack([_at(A, rows, cols), _at(B, rows, cols)], axis=1) (the same values): where A
+    and B are C-contiguous 2-D arrays of one shape, their flat places made once."""
+    if not (type(A) is np.ndarray and type(B) is np.ndarray and A.shape == B.shape and A.ndim == 2
+            and A.flags.c_contiguous and B.flags.c_contiguous):
+        return np.stack([_at(A, rows, cols), _at(B, rows, cols)], axis=1)
+    at = rows * A.shape[1] + cols
+    out = np.empty((at.size, 2), A.dtype if A.dtype == B.dtype else np.result_type(A, B))
+    out[:, 0] = A.ravel().take(at)
+    out[:, 1] = B.ravel().take(at)
+    return out
 
 
 def _vertex_stack(res, k, names, dtype=float):
@@ -2503,16 +2526,20 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     chains: the batch row); rows of one chain are consecutive in j.  src: the _Source of
     the rows (chain sts[jj] is its row a + jj)."""
     R = j.size
-    first = np.r_[True, j[1:] != j[:-1]]
+    first = _run_starts(j)
     # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
     # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
     # gathered at them; the row its index, exact as a float)
-    q = np.flatnonzero(good)
+    q = good.nonzero()[0]               # (np.flatnonzero's, without its Python wrappers)
     q = q[np.lexsort((-q, j[q]))]
     jq, cq = j[q], c[q]
+    rows = np.empty((q.size, 4))      # (np.stack's columns, written in place: its set-up a group)
+    rows[:, 0] = t.take(q)
+    rows[:, 1:3] = _at_both(T, beta, jq, cq)
+    rows[:, 3] = q
     figs = array("d")
-    figs.frombytes(np.stack([t[q], _at(T, jq, cq), _at(beta, jq, cq), q.astype(float)], axis=1).tobytes())
-    cnt = np.bincount(j[q], None, j[-1] + 1 if R else 0).tolist()
+    figs.frombytes(rows.tobytes())
+    cnt = np.bincount(jq, None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for jj in j[first].tolist():
         k = cnt[jj]
@@ -2530,6 +2557,16 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                     _own_source(memo, src, a + jj)
                 memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
+
+
+def _run_starts(j):
+    """np.r_[True, j[1:] != j[:-1]] for a 1-D j (the same bools): where each run of equal
+    values starts.  (np.r_ parses its index each call: ~15 us, once a finishing group.)"""
+    out = np.empty(j.size, bool)
+    if j.size:
+        out[0] = True
+        np.not_equal(j[1:], j[:-1], out=out[1:])
+    return out
 
 
 def _own_source(memo, src, i):

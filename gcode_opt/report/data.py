@@ -139,8 +139,8 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
             "kind": kind,
             "feature": m0.feature if m0 is not None else "?", "layer": m0.layer if m0 is not None else -1,
             "length_mm": length, "feed_mm_s": feed,
-            "v0_mm_s": tr0.lines[o0].start_v if o0 in tr0.lines else 0.0,
-            "v1_mm_s": tr0.lines[o1].end_v if o1 in tr0.lines else 0.0,
+            "v0_mm_s": tr0.lines.value(o0, "start_v", 0.0),
+            "v1_mm_s": tr0.lines.value(o1, "end_v", 0.0),
             "mass_kg": m_kg,
             "beta_s2": beta if _finite(beta) else None,
             "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
@@ -323,8 +323,8 @@ def _curved_runs(tr):
         run.clear()
 
     prev_idx = None
-    for idx in sorted(tr.moves):
-        m = tr.moves[idx]
+    for m in tr.moves.values():
+        idx = m.idx
         ok = m.kind == st.LINE and m.e > 0 and m.z0 == m.z1
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0) if ok else 0.0
         if not ok or d <= 0:
@@ -354,7 +354,7 @@ def _representatives(rows, tr0):
             if long_r is short_r:
                 break
     arc_rows = [r for r in rows if r["kind"] == "arc"]
-    arcs = [m for m in tr0.moves.values() if m.kind == st.ARC]
+    arcs = [m for m in (tr0.moves[i] for i in tr0.moves.arcs) if m.kind == st.ARC]
     if arc_rows:
         r = max(arc_rows, key=lambda r: r["length_mm"])
         reps.append({"role": "arc", "line": r["line"], "lines": r["lines"], "retimed": True,
@@ -395,9 +395,10 @@ def _map_layer(rows, tr0, layer=None):
         if gain:
             layer = min(gain, key=lambda k: (-gain[k], k))
         else:
-            layers = sorted({m.layer for m in tr0.moves.values()})
+            layers = np.unique(tr0.moves.np("layer")).tolist()
             layer = layers[len(layers) // 2] if layers else 0
-    zs = [m.z0 for m in tr0.moves.values() if m.layer == layer and m.e > 0]
+    mv = tr0.moves
+    zs = mv.np("z0")[(mv.np("layer") == layer) & (mv.np("e") > 0)].tolist()
     in_layer = [r for r in rows if r["layer"] == layer]
     return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
             "int_a2_retimed_mm2_s3": bac(float(sum(r["int_a2_mm2_s3"]["before"] for r in in_layer)),
@@ -416,8 +417,9 @@ def _coverage(tr0, tr1, fences, summary):
     total_a2, total_t = tr0.res.int_a2, tr0.res.time_t
     a2_in = t_in = 0.0
     rest = {}
-    for idx, rec in tr0.lines.items():
-        a2, t = rec.int_a2 + rec.int_a2_j, rec.time_t
+    ln = tr0.lines
+    for idx, a2, a2_j, t in zip(ln.idx, ln.cols["int_a2"], ln.cols["int_a2_j"], ln.cols["time_t"]):
+        a2 = a2 + a2_j
         if idx in inside:
             a2_in += a2
             t_in += t

@@ -1,13 +1,16 @@
 """Play one file through the firmware model and keep what the report draws.
 
-``trace_file(path, profile)`` returns a ``Trace``: the ``SimResult``, one ``LineRecord``
-per moving line, the ``Move`` of every moving line, and every planned block as columns
+``trace_file(path, profile)`` returns a ``Trace``: the ``SimResult``, the ``LineRecord``
+figures of every moving line and the ``Move`` of every moving line (as columns by line:
+LineTable, MoveTable -- a dict of objects took ~0.5 kB a line), and every planned block as columns
 of numpy arrays (start/end point, speeds, acceleration and the three trapezoid phase
 times), so a stroke's as-executed speed profile can be rebuilt phase by phase.
 """
 from __future__ import annotations
 
+import math
 from array import array
+from bisect import bisect_left, bisect_right
 
 import numpy as np
 
@@ -18,13 +21,149 @@ BLOCK_FIELDS = ("idx", "x0", "y0", "x1", "y1", "d", "start_v", "cruise_v", "end_
                 "accel_t", "cruise_t", "decel_t", "v2_int", "nominal_v")
 
 
+LINE_FIELDS = ("start_v", "end_v", "peak_v", "time_t", "int_a2", "int_a2_j", "int_v2", "peak_a")
+MOVE_FIELDS = ("x0", "y0", "z0", "x1", "y1", "z1", "e", "v")
+
+
+def _pos(idx, i):
+    """Position of source line i in the sorted index column idx, or -1."""
+    k = bisect_left(idx, i)
+    return k if k < len(idx) and idx[k] == i else -1
+
+
+class LineTable:
+    """The LineRecord figures the report reads, one row per moving line, as columns
+    (array('d'): reads give Python floats) by sorted source line; was a dict of records."""
+
+    def __init__(self):
+        self.idx = array("q")
+        self.cols = {k: array("d") for k in LINE_FIELDS}
+        self._put = [self.cols[k].append for k in LINE_FIELDS]
+
+    def add(self, rec):
+        if self.idx and rec.idx <= self.idx[-1]:
+            raise ValueError(f"line records out of order at line {rec.idx + 1}")
+        self.idx.append(rec.idx)
+        for put, k in zip(self._put, LINE_FIELDS):
+            put(getattr(rec, k))
+
+    def __contains__(self, i):
+        return _pos(self.idx, i) >= 0
+
+    def __len__(self):
+        return len(self.idx)
+
+    def value(self, i, attr, default=KeyError):
+        """attr of line i; default when line i did not move (KeyError: raise it)."""
+        k = _pos(self.idx, i)
+        if k >= 0:
+            return self.cols[attr][k]
+        if default is KeyError:
+            raise KeyError(i)
+        return default
+
+    def span(self, first_idx, last_idx, attr):
+        """attr of the moving lines first_idx..last_idx, in line order."""
+        lo, hi = bisect_left(self.idx, first_idx), bisect_right(self.idx, last_idx)
+        return self.cols[attr][lo:hi]
+
+
+class MoveView:
+    """One row of a MoveTable with state.Move's names (the attributes the report reads)."""
+    __slots__ = ("idx", "kind", "feature", "layer", "arc") + MOVE_FIELDS
+
+    @property
+    def length_d(self) -> float:          # as state.Move.length_d
+        if self.kind == st.ARC:
+            return self.arc.length_d
+        return math.sqrt((self.x1 - self.x0) ** 2 + (self.y1 - self.y0) ** 2 + (self.z1 - self.z0) ** 2)
+
+
+class MoveTable:
+    """The state.Move of every moving line as columns by sorted source line (kind, layer,
+    feature as a code into `features`, the arcs' Arc kept by line); was a dict of Moves.
+    get / [] / values() give MoveViews; layer_col / e_col / kind_col are numpy views."""
+
+    def __init__(self):
+        self.idx = array("q")
+        self.kind = array("b")
+        self.layer = array("q")
+        self.feature = array("H")
+        self.features = []
+        self._code = {}
+        self.arcs = {}
+        self.cols = {k: array("d") for k in MOVE_FIELDS}
+        self._put = [self.cols[k].append for k in MOVE_FIELDS]
+
+    def add(self, m):
+        if self.idx and m.idx <= self.idx[-1]:
+            raise ValueError(f"moves out of order at line {m.idx + 1}")
+        code = self._code.get(m.feature)
+        if code is None:
+            code = self._code[m.feature] = len(self.features)
+            self.features.append(m.feature)
+        self.idx.append(m.idx)
+        self.kind.append(m.kind)
+        self.layer.append(m.layer)
+        self.feature.append(code)
+        if m.arc is not None:
+            self.arcs[m.idx] = m.arc
+        for put, k in zip(self._put, MOVE_FIELDS):
+            put(getattr(m, k))
+
+    def __contains__(self, i):
+        return _pos(self.idx, i) >= 0
+
+    def __len__(self):
+        return len(self.idx)
+
+    def __iter__(self):
+        return iter(self.idx)
+
+    def xy0(self, i):
+        k = _pos(self.idx, i)
+        if k < 0:
+            raise KeyError(i)
+        return self.cols["x0"][k], self.cols["y0"][k]
+
+    def _view(self, k):
+        v = MoveView()
+        i = v.idx = self.idx[k]
+        v.kind, v.layer, v.feature = self.kind[k], self.layer[k], self.features[self.feature[k]]
+        v.arc = self.arcs.get(i)
+        for f in MOVE_FIELDS:
+            setattr(v, f, self.cols[f][k])
+        return v
+
+    def get(self, i, default=None):
+        k = _pos(self.idx, i)
+        return self._view(k) if k >= 0 else default
+
+    def __getitem__(self, i):
+        k = _pos(self.idx, i)
+        if k < 0:
+            raise KeyError(i)
+        return self._view(k)
+
+    def values(self):
+        return (self._view(k) for k in range(len(self.idx)))
+
+    def np(self, name):
+        """A column as a numpy array (no copy): idx, kind, layer or a MOVE_FIELDS name."""
+        col = self.cols.get(name)
+        if col is None:
+            col = getattr(self, name)
+        return np.frombuffer(col, dtype={"d": float, "q": np.int64, "b": np.int8}[col.typecode]) \
+            if len(col) else np.zeros(0)
+
+
 class Trace:
     """Figures of one file as the firmware model executes it."""
 
     def __init__(self, res, lines, moves, blocks, n_lines):
         self.res = res              # SimResult
-        self.lines = lines          # idx -> LineRecord
-        self.moves = moves          # idx -> state.Move
+        self.lines = lines          # LineTable: the LineRecord figures by line
+        self.moves = moves          # MoveTable: the state.Move of every moving line
         self.blocks = blocks        # field -> np.ndarray (BLOCK_FIELDS), in execution order
         self.n_lines = n_lines      # lines in the file
 
@@ -36,11 +175,10 @@ class Trace:
         return slice(lo, hi)
 
     def line_sum(self, first_idx, last_idx, attr):
-        return float(sum(getattr(self.lines[i], attr) for i in range(first_idx, last_idx + 1)
-                         if i in self.lines))
+        return float(sum(self.lines.span(first_idx, last_idx, attr)))
 
     def line_max(self, first_idx, last_idx, attr):
-        vals = [getattr(self.lines[i], attr) for i in range(first_idx, last_idx + 1) if i in self.lines]
+        vals = self.lines.span(first_idx, last_idx, attr)
         return float(max(vals)) if vals else 0.0
 
 
@@ -52,8 +190,8 @@ def trace_file(path, profile, ringing=False) -> Trace:
     ring_line = ring_block = None
     if ring is not None:
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
-    lines = {}
-    moves = {}
+    lines = LineTable()
+    moves = MoveTable()
     cols = {k: array("d") for k in BLOCK_FIELDS}
     cursor = [0.0, 0.0]
     count = [0]
@@ -62,18 +200,17 @@ def trace_file(path, profile, ringing=False) -> Trace:
         for idx, raw, ev in st.events(path, profile):
             count[0] = idx + 1
             if ev is not None and type(ev) is st.Move:
-                moves[idx] = ev
+                moves.add(ev)
             yield idx, raw, ev
 
     def on_line(rec):
-        lines[rec.idx] = rec
+        lines.add(rec)
         if ring_line is not None:
             ring_line(rec)
 
     def on_block(b):
         if b.first:
-            m = moves[b.idx]
-            cursor[0], cursor[1] = m.x0, m.y0
+            cursor[0], cursor[1] = moves.xy0(b.idx)
         x0, y0 = cursor
         x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
         cursor[0], cursor[1] = x1, y1

@@ -17,7 +17,8 @@ import pytest
 from gcode_opt import state as st
 from gcode_opt.firmware.simulate import simulate_events
 from gcode_opt.profile import load_profile
-from gcode_opt.report.trace import BLOCK_FIELDS, LINE_FIELDS, MOVE_FIELDS, trace_file
+from gcode_opt.report.trace import (BLOCK_FIELDS, LINE_FIELDS, MOVE_FIELDS, PROCESSED_LINE_FIELDS,
+                                    PROCESSED_MOVE_FIELDS, trace_file)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLES = [os.path.join(ROOT, "sample_gcode", p) for p in
@@ -128,6 +129,18 @@ def test_tables_hold_what_the_dicts_held(path):
             _same(new.line_max(a, b, k), old.line_max(a, b, k))
     for k in ("idx", "layer", "kind") + MOVE_FIELDS:
         assert new.moves.np(k).tolist() == [getattr(m, k) for m in old.moves.values()]
+    groups = ["other" if i not in old.moves else "travel" if not old.moves[i].e > 0.0 else old.moves[i].feature
+              for i in range(-1, n + 2)]
+    assert [new.moves.group_of(i) for i in range(-1, n + 2)] == groups
+    lean = trace_file(path, prof, processed=True)           # what the report keeps of a processed file
+    for k in BLOCK_FIELDS:
+        assert np.array_equal(lean.blocks[k], old.blocks[k])
+    for a, b in spans:
+        for k in PROCESSED_LINE_FIELDS:
+            _same(lean.line_sum(a, b, k), old.line_sum(a, b, k))
+            _same(lean.line_max(a, b, k), old.line_max(a, b, k))
+    for k in ("idx", "layer") + PROCESSED_MOVE_FIELDS:
+        assert lean.moves.np(k).tolist() == [getattr(m, k) for m in old.moves.values()]
 
 
 # ----------------------------------------------------------------- (2) report bytes against main

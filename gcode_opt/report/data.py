@@ -418,14 +418,13 @@ def _coverage(tr0, tr1, fences, summary):
     a2_in = t_in = 0.0
     rest = {}
     ln = tr0.lines
-    for idx, a2, a2_j, t in zip(ln.idx, ln.cols["int_a2"], ln.cols["int_a2_j"], ln.cols["time_t"]):
+    for idx, a2, a2_j, t in zip(ln.idx, ln.column("int_a2"), ln.column("int_a2_j"), ln.column("time_t")):
         a2 = a2 + a2_j
         if idx in inside:
             a2_in += a2
             t_in += t
             continue
-        m = tr0.moves.get(idx)
-        f = "other" if m is None else ("travel" if not m.e > 0.0 else m.feature)
+        f = tr0.moves.group_of(idx)
         g = rest.setdefault(f, [0, 0.0, 0.0])
         g[0] += 1
         g[1] += a2
@@ -469,7 +468,7 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
         raise ValueError(f"{new_path} does not come from {orig_path}: its fences account for {n_orig} "
                          f"original lines, the original has {lines_before}")
     tr0 = trace_file(orig_path, profile, ringing=ringing)
-    tr1 = trace_file(new_path, profile, ringing=ringing)
+    tr1 = trace_file(new_path, profile, ringing=ringing, processed=True)
     rows = _stroke_rows(tr0, tr1, fences, summary, profile)
     head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
     ring = None

@@ -38,12 +38,15 @@ def ringing_data_rows(rows0, rows1, profile, length_d: float = STRETCH_D, from_d
             col.add_rows(rows)
             out.append(col.figures())
         f0, f1 = f0[0], f1[0]
-    rt0, rt1 = rg.RowTable(rows0, model), rg.RowTable(rows1, model)
-    s0 = rg.busiest_stretch_rows(rt0, length_d) if from_d is None else float(from_d)
     st = {}
-    for tag, rt in (("before", rt0), ("after", rt1)):
+    s0 = None if from_d is None else float(from_d)
+    for tag, rows in (("before", rows0), ("after", rows1)):
+        rt = rg.RowTable(rows, model)          # one file's table at a time (each copies its rows)
+        if s0 is None:                         # where the original rings most
+            s0 = rg.busiest_stretch_rows(rt, length_d)
         s, rx, ry = rg.stretch_rows(rt, s0, length_d, SAMPLES)
         st[tag] = {"s_mm": s.tolist(), "x_um": rx.tolist(), "y_um": ry.tolist()}
+        del rt
     return {"model": model, "before": f0, "after": f1, "headline": headline(f0, f1),
             "stretch": {"from_mm": s0, "length_mm": length_d, **st}}
 

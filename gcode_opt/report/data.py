@@ -453,9 +453,9 @@ def _ringing(orig_path, new_path, profile, tr0, tr1, summary):
     """The ringing section: figures (the summary's when it has them) and the stretch plot's
     samples, over the commanded motion of the report's own passes."""
     from .ringing import ringing_data_rows
-    rows0, rows1 = tr0.ring_rows, tr1.ring_rows
+    rows = [tr0.ring_rows, tr1.ring_rows]
     tr0.ring_rows = tr1.ring_rows = None
-    return ringing_data_rows(rows0, rows1, profile, figures=(summary or {}).get("ringing"))
+    return ringing_data_rows(rows, profile, figures=(summary or {}).get("ringing"))
 
 
 # --------------------------------------------------------------------------- entry point

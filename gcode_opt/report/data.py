@@ -139,8 +139,8 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
             "kind": kind,
             "feature": m0.feature if m0 is not None else "?", "layer": m0.layer if m0 is not None else -1,
             "length_mm": length, "feed_mm_s": feed,
-            "v0_mm_s": tr0.lines[o0].start_v if o0 in tr0.lines else 0.0,
-            "v1_mm_s": tr0.lines[o1].end_v if o1 in tr0.lines else 0.0,
+            "v0_mm_s": tr0.lines.value(o0, "start_v", 0.0),
+            "v1_mm_s": tr0.lines.value(o1, "end_v", 0.0),
             "mass_kg": m_kg,
             "beta_s2": beta if _finite(beta) else None,
             "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
@@ -323,8 +323,8 @@ def _curved_runs(tr):
         run.clear()
 
     prev_idx = None
-    for idx in sorted(tr.moves):
-        m = tr.moves[idx]
+    for m in tr.moves.values():
+        idx = m.idx
         ok = m.kind == st.LINE and m.e > 0 and m.z0 == m.z1
         d = math.hypot(m.x1 - m.x0, m.y1 - m.y0) if ok else 0.0
         if not ok or d <= 0:
@@ -354,7 +354,7 @@ def _representatives(rows, tr0):
             if long_r is short_r:
                 break
     arc_rows = [r for r in rows if r["kind"] == "arc"]
-    arcs = [m for m in tr0.moves.values() if m.kind == st.ARC]
+    arcs = [m for m in (tr0.moves[i] for i in tr0.moves.arcs) if m.kind == st.ARC]
     if arc_rows:
         r = max(arc_rows, key=lambda r: r["length_mm"])
         reps.append({"role": "arc", "line": r["line"], "lines": r["lines"], "retimed": True,
@@ -395,9 +395,10 @@ def _map_layer(rows, tr0, layer=None):
         if gain:
             layer = min(gain, key=lambda k: (-gain[k], k))
         else:
-            layers = sorted({m.layer for m in tr0.moves.values()})
+            layers = np.unique(tr0.moves.np("layer")).tolist()
             layer = layers[len(layers) // 2] if layers else 0
-    zs = [m.z0 for m in tr0.moves.values() if m.layer == layer and m.e > 0]
+    mv = tr0.moves
+    zs = mv.np("z0")[(mv.np("layer") == layer) & (mv.np("e") > 0)].tolist()
     in_layer = [r for r in rows if r["layer"] == layer]
     return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
             "int_a2_retimed_mm2_s3": bac(float(sum(r["int_a2_mm2_s3"]["before"] for r in in_layer)),
@@ -416,14 +417,14 @@ def _coverage(tr0, tr1, fences, summary):
     total_a2, total_t = tr0.res.int_a2, tr0.res.time_t
     a2_in = t_in = 0.0
     rest = {}
-    for idx, rec in tr0.lines.items():
-        a2, t = rec.int_a2 + rec.int_a2_j, rec.time_t
+    ln = tr0.lines
+    for idx, a2, a2_j, t in zip(ln.idx, ln.column("int_a2"), ln.column("int_a2_j"), ln.column("time_t")):
+        a2 = a2 + a2_j
         if idx in inside:
             a2_in += a2
             t_in += t
             continue
-        m = tr0.moves.get(idx)
-        f = "other" if m is None else ("travel" if not m.e > 0.0 else m.feature)
+        f = tr0.moves.group_of(idx)
         g = rest.setdefault(f, [0, 0.0, 0.0])
         g[0] += 1
         g[1] += a2
@@ -452,9 +453,9 @@ def _ringing(orig_path, new_path, profile, tr0, tr1, summary):
     """The ringing section: figures (the summary's when it has them) and the stretch plot's
     samples, over the commanded motion of the report's own passes."""
     from .ringing import ringing_data_rows
-    rows0, rows1 = tr0.ring_rows, tr1.ring_rows
+    rows = [tr0.ring_rows, tr1.ring_rows]
     tr0.ring_rows = tr1.ring_rows = None
-    return ringing_data_rows(rows0, rows1, profile, figures=(summary or {}).get("ringing"))
+    return ringing_data_rows(rows, profile, figures=(summary or {}).get("ringing"))
 
 
 # --------------------------------------------------------------------------- entry point
@@ -467,7 +468,7 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
         raise ValueError(f"{new_path} does not come from {orig_path}: its fences account for {n_orig} "
                          f"original lines, the original has {lines_before}")
     tr0 = trace_file(orig_path, profile, ringing=ringing)
-    tr1 = trace_file(new_path, profile, ringing=ringing)
+    tr1 = trace_file(new_path, profile, ringing=ringing, processed=True)
     rows = _stroke_rows(tr0, tr1, fences, summary, profile)
     head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
     ring = None

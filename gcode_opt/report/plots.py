@@ -105,9 +105,9 @@ def _layer_segments(tr, layer):
     """Phase pieces (start, end) of every extruding block in the layer, and |a| of each."""
     b = tr.blocks
     idx = b["idx"]
-    moves = tr.moves
-    sel = np.array([(moves[i].layer == layer and moves[i].e > 0) for i in idx], dtype=bool) if len(idx) \
-        else np.zeros(0, bool)
+    mv = tr.moves
+    k = np.searchsorted(mv.np("idx"), idx)          # every block's move (its line)
+    sel = (mv.np("layer")[k] == layer) & (mv.np("e")[k] > 0) if len(idx) else np.zeros(0, bool)
     if not sel.any():
         return np.zeros((0, 2, 2)), np.zeros(0)
     x0, y0, x1, y1, d = b["x0"][sel], b["y0"][sel], b["x1"][sel], b["y1"][sel], b["d"][sel]

@@ -79,8 +79,8 @@ def stroke_curves(rep, data, ctx):
         return {"title": title, "note": rep.get("note", ""), "curves": curves, "feed_v": feed}
     # not re-timed: arc or curve, unchanged in the output
     T = tr0.line_sum(o0, o1, "time_t")
-    v0 = tr0.lines[o0].start_v
-    v1 = tr0.lines[o1].end_v
+    v0 = tr0.lines.value(o0, "start_v")
+    v1 = tr0.lines.value(o1, "end_v")
     beta = default_beta(data)
     curves[0]["label"] = "firmware trapezoids (same before and after)"
     law = None

@@ -23,27 +23,32 @@ SAMPLES = 3000            # instants per file over the stretch
 headline = rg.compare      # before / after / change of RMS, peak, parts, smoothing
 
 
-def ringing_data_rows(rows0, rows1, profile, length_d: float = STRETCH_D, from_d=None,
+def ringing_data_rows(rows, profile, length_d: float = STRETCH_D, from_d=None,
                       figures=None) -> dict:
-    """ringing_data from both files' kept rows (ringing.Rows.items, e.g. report/trace.py's
-    ring_rows): figures streamed (or the summary's), the busiest stretch window by window,
-    only the stretch's window solved -- no whole trace in memory."""
+    """ringing_data from both files' kept rows, rows = [original's, processed's]
+    (ringing.Rows.items, e.g. report/trace.py's ring_rows): figures streamed (or the
+    summary's), the busiest stretch window by window, only the stretch's window solved -- no
+    whole trace in memory.  Each file's rows leave the list once its RowTable copied them."""
     model = rg.model_of(profile)
     if figures and figures.get("model") == model and "before" in figures and "after" in figures:
         f0, f1 = figures["before"], figures["after"]
     else:
         f0, f1 = [], []
-        for rows, out in ((rows0, f0), (rows1, f1)):
+        for items, out in zip(rows, (f0, f1)):
             col = rg.Collector(model=model)
-            col.add_rows(rows)
+            col.add_rows(items)
             out.append(col.figures())
         f0, f1 = f0[0], f1[0]
-    rt0, rt1 = rg.RowTable(rows0, model), rg.RowTable(rows1, model)
-    s0 = rg.busiest_stretch_rows(rt0, length_d) if from_d is None else float(from_d)
     st = {}
-    for tag, rt in (("before", rt0), ("after", rt1)):
+    s0 = None if from_d is None else float(from_d)
+    for k, tag in enumerate(("before", "after")):
+        rt = rg.RowTable(rows[k], model)       # one file's table at a time (each copies its rows)
+        rows[k] = None
+        if s0 is None:                         # where the original rings most
+            s0 = rg.busiest_stretch_rows(rt, length_d)
         s, rx, ry = rg.stretch_rows(rt, s0, length_d, SAMPLES)
         st[tag] = {"s_mm": s.tolist(), "x_um": rx.tolist(), "y_um": ry.tolist()}
+        del rt
     return {"model": model, "before": f0, "after": f1, "headline": headline(f0, f1),
             "stretch": {"from_mm": s0, "length_mm": length_d, **st}}
 

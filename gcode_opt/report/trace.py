@@ -1,13 +1,17 @@
 """Play one file through the firmware model and keep what the report draws.
 
-``trace_file(path, profile)`` returns a ``Trace``: the ``SimResult``, one ``LineRecord``
-per moving line, the ``Move`` of every moving line, and every planned block as columns
+``trace_file(path, profile)`` returns a ``Trace``: the ``SimResult``, the ``LineRecord``
+figures of every moving line and the ``Move`` of every moving line (as columns by line:
+LineTable, MoveTable -- a dict of objects took ~0.5 kB a line), and every planned block as columns
 of numpy arrays (start/end point, speeds, acceleration and the three trapezoid phase
 times), so a stroke's as-executed speed profile can be rebuilt phase by phase.
 """
 from __future__ import annotations
 
+import math
 from array import array
+from bisect import bisect_left, bisect_right
+from operator import attrgetter
 
 import numpy as np
 
@@ -18,13 +22,171 @@ BLOCK_FIELDS = ("idx", "x0", "y0", "x1", "y1", "d", "start_v", "cruise_v", "end_
                 "accel_t", "cruise_t", "decel_t", "v2_int", "nominal_v")
 
 
+LINE_FIELDS = ("start_v", "end_v", "peak_v", "time_t", "int_a2", "int_a2_j", "int_v2", "peak_a")
+MOVE_FIELDS = ("x0", "y0", "z0", "x1", "y1", "z1", "e", "v")
+# of the processed file the report reads the stroke sums and maxima, and which blocks extrude
+# in a layer (x0, y0: the trace's own cursor)
+PROCESSED_LINE_FIELDS = ("time_t", "int_a2", "int_a2_j", "int_v2", "peak_v", "peak_a")
+PROCESSED_MOVE_FIELDS = ("x0", "y0", "e")
+
+
+def _pos(idx, i):
+    """Position of source line i in the sorted index column idx, or -1."""
+    k = bisect_left(idx, i)
+    return k if k < len(idx) and idx[k] == i else -1
+
+
+class _Rows:
+    """Float fields of one record a row, row-major in one array('d') (one extend a record;
+    reads give Python floats), rows by sorted source line (idx)."""
+
+    def __init__(self, fields, what):
+        self.idx = array("q")
+        self.fields, self.what = fields, what
+        self._j = {k: j for j, k in enumerate(fields)}
+        self.rows = array("d")
+        self._get = attrgetter(*fields)
+
+    def _add(self, rec):
+        idx = self.idx
+        if idx and rec.idx <= idx[-1]:
+            raise ValueError(f"{self.what} out of order at line {rec.idx + 1}")
+        idx.append(rec.idx)
+        self.rows.extend(self._get(rec))
+
+    def __contains__(self, i):
+        return _pos(self.idx, i) >= 0
+
+    def __len__(self):
+        return len(self.idx)
+
+    def column(self, attr, lo=0, hi=None):
+        """attr of rows lo..hi-1 (array('d'))."""
+        w = len(self.fields)
+        hi = len(self.idx) if hi is None else hi
+        return self.rows[lo * w + self._j[attr]:hi * w:w]
+
+    def _at(self, k, attr):
+        return self.rows[k * len(self.fields) + self._j[attr]]
+
+
+class LineTable(_Rows):
+    """The LineRecord figures the report reads (fields: some of LINE_FIELDS), one row per
+    moving line by sorted source line; was a dict of records (~0.3 kB a line)."""
+
+    def __init__(self, fields=LINE_FIELDS):
+        super().__init__(fields, "line records")
+
+    add = _Rows._add
+
+    def value(self, i, attr, default=KeyError):
+        """attr of line i; default when line i did not move (KeyError: raise it)."""
+        k = _pos(self.idx, i)
+        if k >= 0:
+            return self._at(k, attr)
+        if default is KeyError:
+            raise KeyError(i)
+        return default
+
+    def span(self, first_idx, last_idx, attr):
+        """attr of the moving lines first_idx..last_idx, in line order."""
+        return self.column(attr, bisect_left(self.idx, first_idx), bisect_right(self.idx, last_idx))
+
+
+class MoveView:
+    """One row of a MoveTable with state.Move's names (the attributes the report reads)."""
+    __slots__ = ("idx", "kind", "feature", "layer", "arc") + MOVE_FIELDS
+
+    @property
+    def length_d(self) -> float:          # as state.Move.length_d
+        if self.kind == st.ARC:
+            return self.arc.length_d
+        return math.sqrt((self.x1 - self.x0) ** 2 + (self.y1 - self.y0) ** 2 + (self.z1 - self.z0) ** 2)
+
+
+class MoveTable(_Rows):
+    """The state.Move of every moving line by sorted source line: its float fields (some of
+    MOVE_FIELDS) a row, kind, layer, feature (a code into `features`) as columns, the arcs'
+    Arc by line; was a dict of Moves (~0.4 kB a line).  get / [] / values() give MoveViews;
+    np(name) a column as numpy."""
+
+    def __init__(self, fields=MOVE_FIELDS):
+        super().__init__(fields, "moves")
+        self.kind = array("b")
+        self.layer = array("q")
+        self.feature = array("H")
+        self.features = []
+        self._code = {}
+        self.arcs = {}
+
+    def add(self, m):
+        code = self._code.get(m.feature)
+        if code is None:
+            code = self._code[m.feature] = len(self.features)
+            self.features.append(m.feature)
+        self._add(m)
+        self.kind.append(m.kind)
+        self.layer.append(m.layer)
+        self.feature.append(code)
+        if m.arc is not None:
+            self.arcs[m.idx] = m.arc
+
+    def __iter__(self):
+        return iter(self.idx)
+
+    def group_of(self, i):
+        """The coverage's group of line i: its feature, "travel" (no extrusion), "other" (no move)."""
+        k = _pos(self.idx, i)
+        if k < 0:
+            return "other"
+        return "travel" if not self._at(k, "e") > 0.0 else self.features[self.feature[k]]
+
+    def xy0(self, i):
+        k = _pos(self.idx, i)
+        if k < 0:
+            raise KeyError(i)
+        return self._at(k, "x0"), self._at(k, "y0")
+
+    def _view(self, k):
+        v = MoveView()
+        i = v.idx = self.idx[k]
+        v.kind, v.layer, v.feature = self.kind[k], self.layer[k], self.features[self.feature[k]]
+        v.arc = self.arcs.get(i)
+        w = len(self.fields)
+        for f, x in zip(self.fields, self.rows[k * w:(k + 1) * w]):
+            setattr(v, f, x)
+        return v
+
+    def get(self, i, default=None):
+        k = _pos(self.idx, i)
+        return self._view(k) if k >= 0 else default
+
+    def __getitem__(self, i):
+        k = _pos(self.idx, i)
+        if k < 0:
+            raise KeyError(i)
+        return self._view(k)
+
+    def values(self):
+        return (self._view(k) for k in range(len(self.idx)))
+
+    def np(self, name):
+        """A column as a numpy array: idx, kind, layer or a field."""
+        if name in self._j:
+            if not len(self.idx):
+                return np.zeros(0)
+            return np.frombuffer(self.rows, dtype=float).reshape(-1, len(self.fields))[:, self._j[name]]
+        col = getattr(self, name)
+        return np.frombuffer(col, dtype={"q": np.int64, "b": np.int8}[col.typecode]) if len(col) else np.zeros(0)
+
+
 class Trace:
     """Figures of one file as the firmware model executes it."""
 
     def __init__(self, res, lines, moves, blocks, n_lines):
         self.res = res              # SimResult
-        self.lines = lines          # idx -> LineRecord
-        self.moves = moves          # idx -> state.Move
+        self.lines = lines          # LineTable: the LineRecord figures by line
+        self.moves = moves          # MoveTable: the state.Move of every moving line
         self.blocks = blocks        # field -> np.ndarray (BLOCK_FIELDS), in execution order
         self.n_lines = n_lines      # lines in the file
 
@@ -36,24 +198,24 @@ class Trace:
         return slice(lo, hi)
 
     def line_sum(self, first_idx, last_idx, attr):
-        return float(sum(getattr(self.lines[i], attr) for i in range(first_idx, last_idx + 1)
-                         if i in self.lines))
+        return float(sum(self.lines.span(first_idx, last_idx, attr)))
 
     def line_max(self, first_idx, last_idx, attr):
-        vals = [getattr(self.lines[i], attr) for i in range(first_idx, last_idx + 1) if i in self.lines]
+        vals = self.lines.span(first_idx, last_idx, attr)
         return float(max(vals)) if vals else 0.0
 
 
-def trace_file(path, profile, ringing=False) -> Trace:
+def trace_file(path, profile, ringing=False, processed=False) -> Trace:
     """ringing: also keep the rows of the commanded motion ringing.py solves (Trace.ring_rows,
-    from the same firmware-model pass)."""
+    from the same firmware-model pass).  processed: keep only the line and move fields the
+    report reads of the processed file (PROCESSED_LINE_FIELDS, PROCESSED_MOVE_FIELDS)."""
     from .. import ringing as rg
     ring = rg.Rows() if ringing else None
     ring_line = ring_block = None
     if ring is not None:
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
-    lines = {}
-    moves = {}
+    lines = LineTable(PROCESSED_LINE_FIELDS if processed else LINE_FIELDS)
+    moves = MoveTable(PROCESSED_MOVE_FIELDS if processed else MOVE_FIELDS)
     cols = {k: array("d") for k in BLOCK_FIELDS}
     cursor = [0.0, 0.0]
     count = [0]
@@ -62,18 +224,17 @@ def trace_file(path, profile, ringing=False) -> Trace:
         for idx, raw, ev in st.events(path, profile):
             count[0] = idx + 1
             if ev is not None and type(ev) is st.Move:
-                moves[idx] = ev
+                moves.add(ev)
             yield idx, raw, ev
 
     def on_line(rec):
-        lines[rec.idx] = rec
+        lines.add(rec)
         if ring_line is not None:
             ring_line(rec)
 
     def on_block(b):
         if b.first:
-            m = moves[b.idx]
-            cursor[0], cursor[1] = m.x0, m.y0
+            cursor[0], cursor[1] = moves.xy0(b.idx)
         x0, y0 = cursor
         x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
         cursor[0], cursor[1] = x1, y1

@@ -1159,6 +1159,17 @@ static void Res_dealloc(ResObject *self)
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* the eleven sums of r in _SUMS' order (take_stop's and quiet_record's row) */
+#define RES_SUMS_N 11
+
+static void res_sums_row(const ResObject *r, double row[RES_SUMS_N])
+{
+    const double v[RES_SUMS_N] = {r->time_t, r->int_a2, r->int_a2_t, r->int_v2, (double)r->n_moves,
+                                  (double)r->n_blocks, (double)r->full_stops, (double)r->short_segments,
+                                  r->barrier_dwell_t, (double)r->corners, r->corner_dv2};
+    memcpy(row, v, sizeof v);
+}
+
 /* take_stop(): (peak_v, peak_a, sums), the peaks then set to 0.0: what the measure's ledger
  * (simulate._LedgerWriter.stopped) reads where the model stands empty, in one call (its
  * thirteen attribute reads and writes cost ~6 k instructions a stop, ~5 k stops a plate).
@@ -1166,9 +1177,8 @@ static void Res_dealloc(ResObject *self)
  * array("d") holds them (the counts as doubles: exact below 2^53, as array's conversion). */
 static PyObject *Res_take_stop(ResObject *self, PyObject *Py_UNUSED(noarg))
 {
-    const double row[11] = {self->time_t, self->int_a2, self->int_a2_t, self->int_v2, (double)self->n_moves,
-                            (double)self->n_blocks, (double)self->full_stops, (double)self->short_segments,
-                            self->barrier_dwell_t, (double)self->corners, self->corner_dv2};
+    double row[RES_SUMS_N];
+    res_sums_row(self, row);
     PyObject *r = Py_BuildValue("(ddy#)", self->peak_v, self->peak_a, (const char *)row, (Py_ssize_t)sizeof(row));
     if (r != NULL)
         self->peak_v = self->peak_a = 0.0;
@@ -7829,7 +7839,7 @@ typedef struct {
     PyObject *snap_fn, *snap_arg;     /* a stop's snapshot: snap_fn(snap_arg) (new references) */
     PyObject *snap;                   /* the last stop's snapshot (new reference), NULL: no stop kept */
     long long idx;                    /* the last stop's line */
-    double row[11];                   /* its sums, as take_stop's */
+    double row[RES_SUMS_N];           /* its sums, as take_stop's */
     double peak_v, peak_a;            /* the stops' peaks since the last quiet_take, -inf: none */
 } QuietObject;
 
@@ -7900,10 +7910,7 @@ static PyObject *mod_quiet_record(PyObject *module, PyObject *const *args, Py_ss
     if (snap == NULL)
         return NULL;
     ResObject *r = q->res;
-    const double row[11] = {r->time_t, r->int_a2, r->int_a2_t, r->int_v2, (double)r->n_moves,
-                            (double)r->n_blocks, (double)r->full_stops, (double)r->short_segments,
-                            r->barrier_dwell_t, (double)r->corners, r->corner_dv2};
-    memcpy(q->row, row, sizeof row);
+    res_sums_row(r, q->row);
     quiet_raise(&q->peak_v, r->peak_v);
     quiet_raise(&q->peak_a, r->peak_a);
     r->peak_v = r->peak_a = 0.0;

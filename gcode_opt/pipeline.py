@@ -62,7 +62,7 @@ from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewr
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
-from .stroke_columns import StrokeColumns, line_columns, stored_rows
+from .stroke_columns import StrokeColumns, first_lines, line_columns, stored_rows
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -625,7 +625,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     import types
     # sorted(flatnonzero(retime), key=first_idx) in rows (a stable sort: the same order, numpy ints)
     sel = np.flatnonzero(plan.retime)
-    order = sel[np.argsort(line_columns(strokes)[0][sel], kind="stable")]
+    order = sel[np.argsort(first_lines(strokes)[sel], kind="stable")]
     # strokes kept in a StrokeStore: the re-timed rows' strokes made a window at a time,
     # indexed as the list's (held.slots); a list: itself, one window
     held = stored_rows(strokes)
@@ -808,7 +808,7 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
         order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
         objs, win_ends = strokes, [len(order)]
     else:                         # (as _rewrite_bytes: the re-timed rows made a window at a time)
-        order = sorted(np.flatnonzero(plan.retime), key=line_columns(strokes)[0].__getitem__)
+        order = sorted(np.flatnonzero(plan.retime), key=first_lines(strokes).__getitem__)
         objs, win_ends = held.slots, held.ends(order)
     k_end = w = 0
     out_ranges = OutRanges()

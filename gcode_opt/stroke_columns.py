@@ -125,6 +125,12 @@ def line_columns(strokes):
     return line_spans(strokes)
 
 
+def first_lines(strokes):
+    """line_columns(strokes)[0] (of strokes kept in a StrokeStore: that column alone read)."""
+    got = stored(strokes)
+    return line_columns(strokes)[0] if got is None else got[0].column("first_idx")
+
+
 WINDOW = 4096     # rows a window of a StrokeStore given as it is (a StoredStrokes: its own)
 
 

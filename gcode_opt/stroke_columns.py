@@ -63,20 +63,22 @@ class StrokeColumns:
         a list's and let go (the same columns: the floats joined, each coded field's codes
         in one dict, filled in the order first met as over the whole list)."""
         self.n_moves = self.last_idx - self.first_idx + 1         # (a store holds Stroke only)
-        parts = {name: [] for name in FLOATS}
-        got = {name: [] for name in CODED}
+        parts = {name: [np.zeros(0)] for name in FLOATS}           # (no stroke: empty float columns)
+        got = {name: [np.zeros(0, np.intp)] for name in CODED}
+        for name in CODED:
+            self.code_of[name] = {}
         for lo in range(0, self.n, window):
             win = store.load(lo, lo + window)
             for name, col in _float_columns(win, FLOATS).items():
                 parts[name].append(col)
             for name in CODED:
-                got[name].append(_coded_into(win, name, self.code_of.setdefault(name, {})))
+                got[name].append(_coded_into(win, name, self.code_of[name]))
             del win
         for name, cols in parts.items():
             self.floats[name] = (np.concatenate(cols) if all(isinstance(c, np.ndarray) for c in cols)
                                  else [x for c in cols for x in (c.tolist() if isinstance(c, np.ndarray) else c)])
         for name, codes in got.items():
-            self.codes[name] = np.concatenate(codes) if codes else np.zeros(0, np.intp)
+            self.codes[name] = np.concatenate(codes)
 
     @classmethod
     def of(cls, strokes):

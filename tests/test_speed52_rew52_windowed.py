@@ -161,6 +161,11 @@ def test_columns_of_odd_values():
     assert isinstance(want.floats["v_feed"], list)
 
 
+def test_columns_of_no_stroke():
+    with StrokeStore() as store:
+        _columns_equal(StrokeColumns(store), StrokeColumns([]))
+
+
 def test_held_rows_windows():
     prof, opts, strokes, plan = _planned(*CASES[0])
     with _store(strokes[:50]) as store:

@@ -62,7 +62,7 @@ from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewr
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
-from .stroke_columns import StrokeColumns, line_columns
+from .stroke_columns import StrokeColumns, first_lines, line_columns, stored_rows
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum
@@ -625,7 +625,11 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     import types
     # sorted(flatnonzero(retime), key=first_idx) in rows (a stable sort: the same order, numpy ints)
     sel = np.flatnonzero(plan.retime)
-    order = sel[np.argsort(line_spans(strokes)[0][sel], kind="stable")]
+    order = sel[np.argsort(first_lines(strokes)[sel], kind="stable")]
+    # strokes kept in a StrokeStore: the re-timed rows' strokes made a window at a time,
+    # indexed as the list's (held.slots); a list: itself, one window
+    held = stored_rows(strokes)
+    objs, win_ends = (strokes, [len(order)]) if held is None else (held.slots, held.ends(order))
     out_ranges = OutRanges()
     # the core's rows go straight into out_ranges' three array('q') columns (no tuple a row)
     run_rows = (out_ranges.first, out_ranges.last, out_ranges.stroke)
@@ -667,30 +671,36 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     # (not through a stand-in for the core: the tests' counting wrappers see each stroke_block)
     run = getattr(core, "stroke_run", None) if _STROKE_RUN and isinstance(core, types.ModuleType) else None
     if (block is None or reuse is not None or not head_spec or type(max_accel_a) is not float
-            or type(segs) is not list or type(strokes) is not list):
+            or type(segs) is not list or type(objs) is not list):
         run = None
     n_order = len(order)
-    k = 0
+    k = k_end = w = 0             # k_end: the end (in order) of the window held
+    k_order = order
     empty_digest = blake2b(digest_size=16)       # (stroke_run: its copy updated with a block)
     with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
         skip = core.skip_lines
         while k < n_order:
+            if k >= k_end:            # the next window's strokes (the run stops at its end)
+                k_end, w = win_ends[w], w + 1
+                if held is not None:
+                    held.hold(order[k:k_end])
+                k_order = order if k_end == n_order else order[:k_end]
             if run is not None:
                 try:
                     k, src.pos, pos, out_line = run(
-                        src.data, src.pos, pos, order, k, out_line, run_rows, strokes, segs, beta_list, stroke_type,
+                        src.data, src.pos, pos, k_order, k, out_line, run_rows, objs, segs, beta_list, stroke_type,
                         (seg_type, RowPlan), K_ARC, travel, closing_text, flavour, svl, ctx[False], ctx[True],
                         max_accel_a, run_digests, empty_digest, write)
                 finally:
                     if run_digests is not digests:
                         digests.take(run_digests)
-                if k >= n_order:
-                    break
+                if k >= k_end:
+                    continue
             i = order[k]
             k += 1
-            s = strokes[i]
+            s = objs[i]
             first_idx = s.first_idx
             n_copy = first_idx - pos
             if n_copy < 0:        # overlapping strokes cannot happen: keep the original
@@ -793,15 +803,26 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
     """rewrite() line by line on text (the code before _rewrite_bytes): without the compiled
     core (GCODE_OPT_PURE_PYTHON), or into a text stream without a binary file under it."""
     from itertools import islice
-    order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+    held = stored_rows(strokes)
+    if held is None:
+        order = sorted(np.flatnonzero(plan.retime), key=lambda i: strokes[i].first_idx)
+        objs, win_ends = strokes, [len(order)]
+    else:                         # (as _rewrite_bytes: the re-timed rows made a window at a time)
+        order = sorted(np.flatnonzero(plan.retime), key=first_lines(strokes).__getitem__)
+        objs, win_ends = held.slots, held.ends(order)
+    k_end = w = 0
     out_ranges = OutRanges()
     out_line = 0
     pos = 0                       # next line of the input to copy
     with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh, np.errstate(all="ignore"):
         lines = iter(fh)
         write = out_fh.write
-        for i in order:
-            s = strokes[i]
+        for k, i in enumerate(order):
+            if k >= k_end:        # the next window's strokes
+                k_end, w = win_ends[w], w + 1
+                if held is not None:
+                    held.hold(order[k:k_end])
+            s = objs[i]
             n_copy = s.first_idx - pos
             if n_copy < 0:        # overlapping strokes cannot happen: keep the original
                 plan.retime[i], plan.segs[i], plan.reason[i] = False, None, "error: emission (overlap)"

@@ -36,9 +36,10 @@ class StrokeColumns:
     __slots__ = ("n", "first_idx", "last_idx", "n_moves", "floats", "code_of", "codes")
 
     def __init__(self, strokes, fields=True):
-        """fields False: the lines alone (what measure reads), the rest by add_fields."""
+        """fields False: the lines alone (what measure reads), the rest by add_fields.
+        strokes: a list, or kept in a StrokeStore (stored: read from its records)."""
         self.n = len(strokes)
-        self.first_idx, self.last_idx = line_spans(strokes)
+        self.first_idx, self.last_idx = line_columns(strokes)
         self.n_moves, self.floats, self.code_of, self.codes = None, {}, {}, {}
         if fields:
             self.add_fields(strokes)
@@ -48,10 +49,36 @@ class StrokeColumns:
         makes them once the passes' memory is let go (held through measure, they raised
         its peak on the rectilinear plate, 81 -> 85 MB)."""
         assert len(strokes) == self.n
+        got = stored(strokes)
+        if got is not None:
+            self._add_stored(*got)
+            return
         self.n_moves = n_moves(strokes, (self.first_idx, self.last_idx))
         self.floats = _float_columns(strokes, FLOATS)
         for name in CODED:
             self.code_of[name], self.codes[name] = _coded(strokes, name)
+
+    def _add_stored(self, store, window):
+        """add_fields of strokes kept in a StrokeStore: each window's strokes made, read as
+        a list's and let go (the same columns: the floats joined, each coded field's codes
+        in one dict, filled in the order first met as over the whole list)."""
+        self.n_moves = self.last_idx - self.first_idx + 1         # (a store holds Stroke only)
+        parts = {name: [np.zeros(0)] for name in FLOATS}           # (no stroke: empty float columns)
+        got = {name: [np.zeros(0, np.intp)] for name in CODED}
+        for name in CODED:
+            self.code_of[name] = {}
+        for lo in range(0, self.n, window):
+            win = store.load(lo, lo + window)
+            for name, col in _float_columns(win, FLOATS).items():
+                parts[name].append(col)
+            for name in CODED:
+                got[name].append(_coded_into(win, name, self.code_of[name]))
+            del win
+        for name, cols in parts.items():
+            self.floats[name] = (np.concatenate(cols) if all(isinstance(c, np.ndarray) for c in cols)
+                                 else [x for c in cols for x in (c.tolist() if isinstance(c, np.ndarray) else c)])
+        for name, codes in got.items():
+            self.codes[name] = np.concatenate(codes)
 
     @classmethod
     def of(cls, strokes):
@@ -89,11 +116,79 @@ def _take(src, rows):
 
 
 def line_columns(strokes):
-    """(first_idx, last_idx) of every stroke, two int64 arrays, of a StrokeColumns or a
-    list of strokes."""
+    """(first_idx, last_idx) of every stroke, two int64 arrays, of a StrokeColumns, a
+    list of strokes or strokes kept in a StrokeStore (stored: its records' columns,
+    no stroke made)."""
     if isinstance(strokes, StrokeColumns):
         return strokes.first_idx, strokes.last_idx
+    got = stored(strokes)
+    if got is not None:
+        return got[0].column("first_idx"), got[0].column("last_idx")
     return line_spans(strokes)
+
+
+def first_lines(strokes):
+    """line_columns(strokes)[0] (of strokes kept in a StrokeStore: that column alone read)."""
+    got = stored(strokes)
+    return line_columns(strokes)[0] if got is None else got[0].column("first_idx")
+
+
+WINDOW = 4096     # rows a window of a StrokeStore given as it is (a StoredStrokes: its own)
+
+
+def stored(strokes):
+    """(the StrokeStore, rows a window) that keeps strokes -- a StoredStrokes (its windows
+    let go first, written back where due: the store then holds every change) or the
+    StrokeStore itself -- or None: a list (or any other sequence) is the strokes themselves."""
+    if type(strokes) is list:
+        return None
+    from .stored_strokes import StoredStrokes
+    from .stroke_store import StrokeStore
+    if isinstance(strokes, StoredStrokes):
+        strokes.let_go()
+        return strokes.store, strokes.window
+    if isinstance(strokes, StrokeStore):
+        return strokes, WINDOW
+    return None
+
+
+def stored_rows(strokes):
+    """A HeldRows over the StrokeStore that keeps strokes (stored), or None (a list)."""
+    got = stored(strokes)
+    return None if got is None else HeldRows(*got)
+
+
+class HeldRows:
+    """Strokes of a StrokeStore made a window of rows at a time, each at its row of a list of
+    one slot a stroke (slots: None where no stroke is held), which the steps after planning
+    index by stroke index as they index the list of strokes.  Only the rows asked for are
+    made (the rewrite's re-timed rows, not the rest of their window); the last ones held
+    are let go as the next are."""
+
+    def __init__(self, store, window):
+        if window < 1:
+            raise ValueError("HeldRows: window must be >= 1")
+        self.store, self.window = store, int(window)
+        self.slots = [None] * len(store)
+        self._held = []
+        self.made = 0                 # strokes made (a measure of the access pattern)
+
+    def ends(self, order):
+        """The end (in order) of each run of order's rows in one window: where hold is due."""
+        w = np.asarray(order, np.int64) // self.window
+        return (np.flatnonzero(w[1:] != w[:-1]) + 1).tolist() + [len(w)]
+
+    def hold(self, rows):
+        """The strokes of rows (and only those) in their slots; the ones held before let go."""
+        slots = self.slots
+        for r in self._held:
+            slots[r] = None
+        rows = np.unique(np.asarray(rows, np.int64))
+        self._held = rows.tolist()
+        made = self.store.take(rows) if len(rows) else []
+        self.made += len(made)
+        for r, st in zip(self._held, made):
+            slots[r] = st
 
 
 def n_moves(strokes, spans=None):
@@ -136,6 +231,19 @@ def _coded(strokes, name):
         return code_of, code
     get = kind_of if name == "kind" else attrgetter(name)
     return value_codes(list(map(get, strokes)))
+
+
+def _coded_into(strokes, name, code_of):
+    """Each stroke's code of field `name` (as _coded reads it) in code_of, a value not in it
+    added with the next code (the dict carried from window to window)."""
+    code = objfields.codes(strokes, name, code_of, add=True)
+    if code is not None:
+        return code
+    get = kind_of if name == "kind" else attrgetter(name)
+    vals = list(map(get, strokes))
+    for v in vals:
+        code_of.setdefault(v, len(code_of))
+    return np.fromiter(map(code_of.__getitem__, vals), np.intp, len(vals))
 
 
 def kind_of(s):

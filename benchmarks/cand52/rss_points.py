@@ -5,6 +5,8 @@ plan_strokes.  Consecutive repeats folded (the largest peak kept).
     PYTHONPATH=TREE python benchmarks/cand52/rss_points.py FILE"""
 import sys
 
+import hooks
+
 from gcode_opt import features as feat, malloc_policy, pipeline, plan, schedule
 from gcode_opt.profile import load_profile
 from gcode_opt.rss import peak_rss_mb
@@ -26,28 +28,11 @@ def point(label):
 
 
 def wrap(owner, name, label, static=False):
-    f = getattr(owner, name)
-
-    def g(*a, **k):
-        point("before " + label)
-        r = f(*a, **k)
-        point("after " + label)
-        return r
-    setattr(owner, name, staticmethod(g) if static else g)
+    hooks.wrap(owner, name, point, label, after_label="after " + label, static=static)
 
 
 wrap(plan.Candidates, "piece", "piece", static=True)
-f_of = plan.Candidates.of_pieces.__func__
-
-
-def of_pieces(cls, *a, **k):
-    point("before of_pieces")
-    r = f_of(cls, *a, **k)
-    point("after of_pieces")
-    return r
-
-
-plan.Candidates.of_pieces = classmethod(of_pieces)
+hooks.wrap_of_pieces(point)
 wrap(schedule, "_candidates", "_candidates")
 wrap(pipeline, "trim_heap", "trim_heap")
 wrap(schedule, "plan_strokes", "plan_strokes")

@@ -13,6 +13,8 @@ import tracemalloc
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "win51"))
 import phases  # noqa: E402
 
+import hooks  # noqa: E402
+
 from gcode_opt import chains, curves, plan, schedule  # noqa: E402
 from gcode_opt.rss import peak_rss_mb  # noqa: E402
 
@@ -37,15 +39,7 @@ def point(label):
 
 
 def wrap(mod, name, label, before=False):
-    f = getattr(mod, name)
-
-    def g(*a, **k):
-        if before:
-            point("before " + label)
-        r = f(*a, **k)
-        point(label)
-        return r
-    setattr(mod, name, g)
+    hooks.wrap(mod, name, point, label, before)
 
 
 wrap(curves, "candidates_curve", "curves")
@@ -54,17 +48,7 @@ wrap(plan.PiecesMemo, "add", "lines memo add")
 wrap(plan.Candidates, "piece", "piece")
 wrap(plan, "_entry_columns", "entry columns", before=True)
 wrap(schedule, "window_pieces", "window_pieces")
-f_of = plan.Candidates.of_pieces.__func__
-
-
-def of_pieces(cls, *a, **k):
-    point("before of_pieces")
-    r = f_of(cls, *a, **k)
-    point("after of_pieces")
-    return r
-
-
-plan.Candidates.of_pieces = classmethod(of_pieces)
+hooks.wrap_of_pieces(point)
 schedule.Candidates = plan.Candidates
 f_cw = schedule.candidates_in_windows
 

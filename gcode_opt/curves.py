@@ -1738,7 +1738,12 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
     # _kappa_rows' knots: per row, laid out for the compiled core (a dict per geometry without it)
     knots = _Knots.of(geos[::k]).sub(np.repeat(np.arange(rows.size), k)) if _INTERP_ROWS is not None else None
     # κ_eff per row, read once per stroke (_solve read it per candidate of each pass)
-    keff = np.array([g.kappa_eff for g in geos[::k]])[np.repeat(np.arange(rows.size), k)]
+    keff_r = np.array([g.kappa_eff for g in geos[::k]])
+    keff = keff_r[np.repeat(np.arange(rows.size), k)]
+    # what the levels asked later (own_levels' functions) read: a row's, not a candidate's
+    # (S, v0, v1, keff above, each row's k times: ~1 MB a window of the gyroid plate held
+    # through candidates_in_windows' windows)
+    per_row = (pin.L[rows], pin.v0[rows], pin.v1[rows], keff_r)
 
     # candidate_table solves each candidate, then retries those that break a limit at
     # beta/4, a flatter law.  A smaller beta weighs |a| less: the law's ∫|a|² can only grow
@@ -1766,7 +1771,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             if keep.size:
                 iv[keep], ia[keep], ok[keep] = _figures(idx[keep], T[keep], beta[keep], idx[skip], T[skip], beta[skip])
             elif own_levels is not None:        # (no figures made: the levels they would take, when asked)
-                own_levels.append((lambda: _levels_of(idx, T, beta), False))
+                own_levels.append((_levels_later(idx // k, T, beta, *per_row), False))
             return iv, ia, ok
         return _figures(idx, T, beta)
 
@@ -1788,7 +1793,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             levels = levels if out is None else max(levels, out)
         if own_levels is not None:
             own_levels.append((levels if idx_out is None or fig.size else     # (levels bound now: the floor follows)
-                               lambda lv=levels: max(lv, _levels_of(idx_out, T_out, beta_out) or 0), bool(fig.size)))
+                               lambda lv=levels, later=_levels_later(idx_out // k, T_out, beta_out, *per_row):
+                               max(lv, later() or 0), bool(fig.size)))
         if floor is not None and npass[0] < len(floor):
             levels = max(levels, floor[npass[0]])
         if fig.size:
@@ -1865,6 +1871,16 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
     if drop:
         drop_kappa()
     return table
+
+
+def _levels_later(r, T, beta, L, v0, v1, keff):
+    """candidates_curve's _levels_of of candidates (their T and beta) of the rows r, a
+    function: the rows' length, end speeds and κ_eff given per row (L[r] is the S[idx] of
+    _levels_of, the same numbers), so that it holds no per-candidate array of its call."""
+    def levels():
+        R = 1.0 / keff[r]                       # _solve's R, the same numbers
+        return _circle.grid_levels_of(L[r] / R, T, beta, v0[r] / R, v1[r] / R)
+    return levels
 
 
 def curve_grid_levels(pin, rows, strokes, profile):

@@ -254,24 +254,26 @@ class Candidates:
         The list pieces is emptied: each piece's values are let go once copied, so the
         pieces and the table they make are not all held at once while it is filled (the
         pieces' values are ~12 MB on the rectilinear plate; that moment was not the plan's
-        peak, so the peak did not move)."""
+        peak, so the peak did not move).  The entries' columns are taken from each piece's
+        mask as it is copied, not from an (n, k) mask of every row made first (1.2 MB on
+        the rectilinear plate, with _entry_columns' temporaries the windowed candidates'
+        peak there: benchmarks/cand52.md)."""
         k = len(T_RATIOS)
-        mask = np.zeros((n, k), bool)
+        cnt = np.zeros(n, np.intp)
         t_pos = _ratios_nonneg(T_orig)
         own = np.ones(n, bool)                # rows whose entries are their own (not shared)
         bad = []
         for pc in pieces:
             if type(pc) is SharedPiece:
-                mask[pc.rows], t_pos[pc.rows] = pc.mask[pc.inv], pc.t_pos[pc.inv]
+                cnt[pc.rows], t_pos[pc.rows] = pc.mask.sum(axis=1)[pc.inv], pc.t_pos[pc.inv]
                 own[pc.rows] = False
                 bad.append(pc.rows[pc.bad[pc.inv]])
             else:
                 sub, m, _, tp, b = pc
-                mask[sub], t_pos[sub] = m, tp
+                cnt[sub], t_pos[sub] = m.sum(axis=1), tp
                 bad.append(sub[b])
         # the own rows' entries first, in row-major order (all of them, without shared
         # pieces: the layout of the dense tables' mask), then each shared piece's distinct ones
-        cnt = mask.sum(axis=1)
         own_cnt = np.where(own, cnt, 0)
         first = np.cumsum(own_cnt) - own_cnt
         end = int(own_cnt.sum())
@@ -283,20 +285,33 @@ class Candidates:
                 first[pc.rows] = end + (np.cumsum(cnt_u) - cnt_u)[pc.inv]
                 at.append(end)
                 end += int(cnt_u.sum())
-        out = cls(mask, np.empty((4, end)), t_pos, T_orig, first, cnt)
+        out = cls._of_layout(k, np.empty((4, end)), t_pos, T_orig, first, cnt)
         while pieces:
             pc = pieces.pop()
             if type(pc) is SharedPiece:
+                # (every distinct row is some row's: pieces_once's and PiecesMemo's are made
+                # of their rows' first ones)
                 a = at.pop()
                 out.vals[:, a:a + pc.vals.shape[1]] = pc.vals
+                out.col[a:a + pc.vals.shape[1]] = np.flatnonzero(pc.mask) % k
             else:
                 # a figure's row at a time: 1-D scatters (~20 instructions an entry; the
                 # (4, k) scatter through a slice and an index array, ~42)
                 at_pos = out._positions(pc[0], pc[1])
                 for dst, src in zip(out.vals, pc[2]):
                     dst[at_pos] = src
+                out.col[at_pos] = np.flatnonzero(pc[1]) % k
             del pc
         return out, (np.sort(np.concatenate(bad)) if bad else np.zeros(0, int))
+
+    @classmethod
+    def _of_layout(cls, k, vals, t_pos, T_orig, first, cnt):
+        """Tables of k columns whose entries are vals, each row's first[r] .. first[r] +
+        cnt[r] (intp); their columns (col) all 0, for the caller to fill."""
+        out = cls.__new__(cls)
+        out.vals, out.t_pos, out.T_orig, out.first, out.cnt, out.k = vals, t_pos, T_orig, first, cnt, k
+        out.col = np.zeros(vals.shape[1], np.int8 if k <= 127 else np.intp)
+        return out
 
     def __iter__(self):
         n, k = self.shape
@@ -636,14 +651,31 @@ def pieces_once(make, p: PlanInput, rows, T_orig):
     same entries (each entry is its row's own), so the first of each is made and the
     others share its entries: [SharedPiece].  Where no set repeats enough, or make's pieces
     are not the first rows' in order, make of every row."""
+    return _pieces_once(make, lambda sel=None: p if sel is None else p.take(sel), rows, T_orig)
+
+
+def pieces_once_of(make, pin: PlanInput, rows):
+    """pieces_once(make, pin.take(rows), rows, pin.T_orig), the same pieces, without that
+    copy of the rows' inputs held while the distinct ones' pieces are made (~3.8 MB of
+    the rectilinear plate's lines, at the candidates' peak): taken from pin again where
+    needed."""
     rows = np.asarray(rows)
+    return _pieces_once(make, lambda sel=None: pin.take(rows if sel is None else rows[sel]), rows, pin.T_orig)
+
+
+def _pieces_once(make, inputs, rows, T_orig):
+    """pieces_once of the PlanInput inputs() (inputs(sel): that of rows[sel] only, the
+    same numbers), each made when it is read."""
+    rows = np.asarray(rows)
+    p = inputs()
     same = _same_inputs(p)
     if same is None:
         return make(p, rows, T_orig)
+    del p
     first, inv = same
-    made = make(p.take(first), rows[first], T_orig)
+    made = make(inputs(first), rows[first], T_orig)
     if not _made_in_order(made, rows[first]):
-        return make(p, rows, T_orig)
+        return make(inputs(), rows, T_orig)
     return [_shared_piece(rows, made, inv)]
 
 
@@ -653,9 +685,24 @@ def _made_in_order(made, rows):
 
 
 def _shared_piece(rows, made, inv):
-    """The SharedPiece of rows whose distinct inputs' pieces (in order) are made."""
-    return SharedPiece(rows, np.concatenate([pc[1] for pc in made]), np.concatenate([pc[2] for pc in made], axis=1),
-                       np.concatenate([pc[3] for pc in made]), np.concatenate([pc[4] for pc in made]), inv)
+    """The SharedPiece of rows whose distinct inputs' pieces (in order) are made.  The
+    list made is emptied: each piece let go once copied into the joined arrays (the
+    pieces and their join were both held: ~1 MB on the rectilinear plate's lines)."""
+    shapes = [(pc[1].shape[0], pc[2].shape[1]) for pc in made]
+    n_rows, n_vals = (sum(s[j] for s in shapes) for j in range(2))
+    pc = made[0]
+    out = SharedPiece(rows, np.empty((n_rows, pc[1].shape[1]), pc[1].dtype), np.empty((4, n_vals), pc[2].dtype),
+                      np.empty(n_rows, pc[3].dtype), np.empty(n_rows, pc[4].dtype), inv)
+    a = b = 0
+    made.reverse()
+    while made:
+        pc = made.pop()
+        r, v = pc[1].shape[0], pc[2].shape[1]
+        out.mask[a:a + r], out.t_pos[a:a + r], out.bad[a:a + r] = pc[1], pc[3], pc[4]
+        out.vals[:, b:b + v] = pc[2]
+        a, b = a + r, b + v
+        del pc
+    return out
 
 
 class PiecesMemo:
@@ -704,10 +751,14 @@ class PiecesMemo:
         return True
 
     def piece(self):
-        """[the SharedPiece of every row added] ([] if none)."""
+        """[the SharedPiece of every row added] ([] if none).  The memo is spent: what it
+        held (its pieces, the inputs' keys: ~2 MB on the rectilinear plate) is let go, not
+        held beside the SharedPiece through the tables' merge."""
         if not self.rows:
             return []
-        return [_shared_piece(np.concatenate(self.rows), self.made, np.concatenate(self.inv))]
+        rows, inv, made = np.concatenate(self.rows), np.concatenate(self.inv), self.made
+        self.index, self.rows, self.inv, self.made = {}, [], [], []
+        return [_shared_piece(rows, made, inv)]
 
 
 SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share

@@ -35,7 +35,7 @@ from .corners import junction_commands
 from .laws import circle
 from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, candidate_pieces, input_faults, isolate,
-                   pieces_once, plan_auto, plan_fixed_alpha)
+                   pieces_once_of, plan_auto, plan_fixed_alpha)
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
@@ -57,7 +57,7 @@ def _line_candidates(pin, rows):
     """candidate_pieces of the lines rows, each set of inputs made once where many repeat
     (plan.pieces_once; _lines_repeat)."""
     if _lines_repeat(pin, rows):
-        return pieces_once(lambda p, r, t: candidate_pieces(p, r, t), pin.take(rows), rows, pin.T_orig)
+        return pieces_once_of(lambda p, r, t: candidate_pieces(p, r, t), pin, rows)
     return candidate_pieces(pin.take(rows), rows, pin.T_orig)
 
 
@@ -388,7 +388,8 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     rules = SegmentRules.for_profile(profile, opts.max_segments)
     first = curves.curve_grid_levels(pin, _not_failed(rows.get(K_CURVE, np.zeros(0, int)), failed), strokes,
                                      profile) if decide_first else 0
-    windows = [{k: r[(r >= lo) & (r < hi)] for k, r in rows.items()} for lo, hi in zip(bounds[:-1], bounds[1:])]
+    ordered = all(r.size < 2 or bool((r[1:] >= r[:-1]).all()) for r in rows.values())
+    windows = [partial(_window_rows, rows, lo, hi, ordered) for lo, hi in zip(bounds[:-1], bounds[1:])]
     memo = PiecesMemo()
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
@@ -400,10 +401,10 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     while True:
         for j in todo:
             if not redone:              # (the other kinds once, window by window)
-                pieces += window_pieces(strokes, pin, profile, windows[j], failed, rules, lines=memo,
+                pieces += window_pieces(strokes, pin, profile, windows[j](), failed, rules, lines=memo,
                                         kinds=[k for k in KINDS if k != K_CURVE])
             owns[j], used[j] = [], tuple(levels)
-            curve[j] = window_pieces(strokes, pin, profile, windows[j], failed, rules, used[j], own_levels=owns[j],
+            curve[j] = window_pieces(strokes, pin, profile, windows[j](), failed, rules, used[j], own_levels=owns[j],
                                      kinds=(K_CURVE,))
             for p, (lv, made) in enumerate(owns[j][:2]):
                 levels[p] = max(levels[p], lv) if made else levels[p]
@@ -418,9 +419,22 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     curves.drop_kappa()         # (kept from window to window: window_pieces' own_levels)
     if info is not None:
         info.update(levels=tuple(levels), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
-    for c in curve:
+    # one list of every piece, held nowhere else: of_pieces empties it, each piece let go
+    # once copied (a joined copy of the list, with curve's, held them all to the end)
+    for j, c in enumerate(curve):
         pieces += c
-    return Candidates.of_pieces(n, pieces + memo.piece(), pin.T_orig)
+        curve[j] = None
+    pieces += memo.piece()
+    return Candidates.of_pieces(n, pieces, pin.T_orig)
+
+
+def _window_rows(rows, lo, hi, ordered):
+    """{kind: its rows in [lo, hi), in their order} of rows ({kind: rows}), made when the
+    window is (the windows' copies, every row's once, were held through them); ordered:
+    every kind's rows ascending, then views of them."""
+    if ordered:
+        return {k: r[np.searchsorted(r, lo):np.searchsorted(r, hi)] for k, r in rows.items()}
+    return {k: r[(r >= lo) & (r < hi)] for k, r in rows.items()}
 
 
 def _file_levels(owns):

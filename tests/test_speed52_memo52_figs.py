@@ -134,7 +134,6 @@ def test_kept_laws_hold_figs_columns():
 
 def test_figs_col_reads_rows_and_refuses_rows_not_kept():
     rows = np.array([[1.5, 2.0, 400.0, 3.0], [-0.0, 7.0, 4900.0, 0.0], [2.5, 3.0, 900.0, 1.0]])
-
     figs = array("d", rows.ravel().tolist())
     # (figs' rows 0, 1, 2 are batch rows 3, 0, 1: their 4th column; batch row 2 not kept)
     base = chains._figs_base((0, 1, 2, None, None, None, 6, 7), figs, 4)

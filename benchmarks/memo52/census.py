@@ -35,8 +35,8 @@ def _nbytes(x, seen):
         return _nbytes(x.at, seen) + _nbytes(x.table, seen)
     if isinstance(x, chains._OuterT):
         return _nbytes(x.base, seen)
-    if type(x).__name__ == "_FigsCol":          # (memo52: the rows' places in figs)
-        return _nbytes(x.pos, seen)
+    if type(x).__name__ == "_FigsCol":          # (memo52: the rows' places in figs, once made)
+        return _nbytes(x.rows._pos, seen)
     return 0
 
 

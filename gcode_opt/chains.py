@@ -2219,10 +2219,8 @@ class _Finisher:
                 tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
-            # (beta of T: its cells are made from T's, at their places, not held as a table of their own)
-            tc = _Cells(r.T, j, r.rc) if self.T_outer is None else _Cells(self.T_outer, r.a + j, r.rc)
-            bc = _Cells(r.beta, j, r.rc) if self.beta_fn is None else tc.of(self.beta_fn)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, tc, bc, tr, a2r, profile)
+            # (its rows' T, beta and predicted times: the memos' rows, _remember; memo52)
+            kb = (_PackedMask(r.bnd), r.tj, r.spans, None, None, None, a2r, profile)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
 
@@ -2539,6 +2537,8 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     rows[:, 3] = q
     figs = array("d")
     figs.frombytes(rows.tobytes())
+    if type(kept) is _KeptLaws and len(kept.base) == 8 and kept.base[3] is None:
+        kept.base = _figs_base(kept.base, figs, R)
     cnt = np.bincount(jq, None, j[-1] + 1 if R else 0).tolist()
     lo = 0
     for jj in j[first].tolist():
@@ -2557,6 +2557,59 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                     _own_source(memo, src, a + jj)
                 memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
+
+
+class _FigsRows:
+    """A finishing batch's memo rows array figs (4 doubles a row, _remember: predicted time,
+    law T, beta, batch row) and its number of batch rows R.  pos(): each batch row's row in
+    figs (-1: a row not kept), made from figs' 4th column (exact integers) when first read,
+    by the first budget run's replay, and kept while its kept laws are (not held from the
+    candidates to that run: 4 bytes a row)."""
+    __slots__ = ("figs", "R", "_pos")
+
+    def __init__(self, figs, R):
+        self.figs, self.R, self._pos = figs, R, None
+
+    def pos(self):
+        if self._pos is None:
+            q = np.frombuffer(self.figs, float)[3::4].astype(np.int64)     # (a copy: no view of figs kept)
+            pos = np.full(self.R, -1, np.int32)
+            pos[q] = np.arange(q.size, dtype=np.int32)
+            self._pos = pos
+        return self._pos
+
+
+class _FigsCol:
+    """Column col (0: predicted time, 1: law T, 2: beta) of a batch's kept laws' rows read
+    in the memos' rows array (rows: _FigsRows): kept row q is figs' row pos()[q] (-1: a row
+    not kept, never asked: plan_of finds only figs' rows).  Indexing gives the doubles
+    themselves (a copy), as the arrays and _Cells it replaces held them: the same numbers
+    were kept twice (the batch's predicted times, 8 bytes a row, and the T and beta cells'
+    places, 4), now once (~1 MB on the gyroid plate's ~82 k rows, held from the
+    candidates to the first budget run)."""
+    __slots__ = ("rows", "col")
+    ndim = 1
+
+    def __init__(self, rows, col):
+        self.rows, self.col = rows, col
+
+    @property
+    def shape(self):
+        return (self.rows.R,)
+
+    def __getitem__(self, q):
+        at = self.rows.pos()[q]
+        if np.any(at < 0):
+            raise IndexError("kept row not in the memos' rows")
+        # (a view of figs only for this read: an exported buffer would stop its resizing)
+        return np.frombuffer(self.rows.figs, float)[4 * np.asarray(at, np.int64) + self.col]
+
+
+def _figs_base(base, figs, R):
+    """A kept laws' base (_Finisher._finish's, its T, beta and predicted times None) with
+    those read in figs, the memo rows array of its R batch rows (_FigsCol)."""
+    rows = _FigsRows(figs, R)
+    return base[:3] + (_FigsCol(rows, 1), _FigsCol(rows, 2), _FigsCol(rows, 0)) + base[6:]
 
 
 def _run_starts(j):

@@ -180,7 +180,11 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     # array: what the replay frees besides the kept arrays is smaller (held less before it),
     # the drop measured 0.45 of their bytes, not 0.59; the kept arrays' own going is the weak
     # references' test above)
-    assert seen["first"] < seen["start"] - 0.4 * (seen["knots"] - seen["held"])
+    # (s52, memo52: the kept rows' T, beta and predicted times read in the memos' rows,
+    # which the replay does not free, not held by the bases, and their places there made
+    # by the replay: the kept arrays are fewer bytes, the chosen rows' laws copied out the
+    # same, the drop measured 0.29 of them)
+    assert seen["first"] < seen["start"] - 0.25 * (seen["knots"] - seen["held"])
 
 
 @pytest.mark.parametrize("name,prof", [CASES[0], CASES[2]])

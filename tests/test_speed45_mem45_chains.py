@@ -161,10 +161,11 @@ def test_candidates_chain_as_with_the_beta_table(prof_name):
     assert [float_bits(a) for a in got] == [float_bits(a) for a in want]
     assert len(want_rows) > 3 * rows.size
     assert _memo_rows(strokes, rows) == want_rows
-    # the kept laws' beta is their T's cells, the source's beta its T's
+    # the source's beta its T's; the kept laws' T, beta and predicted times read in the memos'
+    # rows (memo52: _FigsCol, where _Cells of the source's T held their places)
     m = strokes[int(rows[0])].chain_T
     assert type(m.src.beta) is chains._BetaOfT and m.src.beta.T is m.src.T and type(m.src.T) is chains._OuterT
-    assert m.kept.base[4].table is m.kept.base[3].table is m.src.T and m.kept.base[4].fn is chains._chain_beta
+    assert all(type(c) is chains._FigsCol and c.rows.figs is m.figs for c in m.kept.base[3:6])
 
 
 # ---- the shared row numbers

@@ -947,7 +947,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             idx = memo.put_same(plan, idx, own)         # the rows left to segment
         memo = None             # (the last run's plans not held here while this one's are made)
         kind = kind_by_row[idx]
-        _rebuild_geometry(strokes, idx, kind, profile)
+        if window is None:      # (windowed: made a window of rows at a time, as they are segmented)
+            _rebuild_geometry(strokes, idx, kind, profile)
         # each row's segment plan, written as it is found or made: plan.segs itself, whose
         # rows of idx are None until then (put_same left them out); _keep_plans puts back
         # those it keeps (a dict of them all and its int keys were ~2.7 MB at the run's
@@ -962,7 +963,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if window is not None and k_name in WINDOW_KINDS:
-                fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS)
+                fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
+                                 (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
+                                 if k_name in (K_CURVE, K_CHAIN) else None)
             ii = idx[kind == KIND_CODE[k_name]]
 
             def solve(rows):
@@ -1032,23 +1035,30 @@ _CIRCLE_KINDS = (K_ARC, K_CURVE)
 WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
 
 
-def _by_windows(fn, window, circle_law=False):
+def _by_windows(fn, window, circle_law=False, before=None):
     """fn (rows -> a plan a row, rows sorted) made of one call a window of rows (row //
     window): only that window's strokes are objects at a time.  circle_law: where a window
     sent an arc to Newton (or the BLAS does not give rows their own bits), the rows in one
-    call after all: the plans a single batch gives."""
+    call after all: the plans a single batch gives.  before(rows): called before fn on the
+    same rows (the curve geometry of a window's strokes: _rebuild_geometry, as the list
+    path makes it for a run's rows, the strokes loaded without it)."""
+    def call(rows):
+        if before is not None:
+            before(rows)
+        return fn(rows)
+
     def by_windows(rows):
         cut = np.flatnonzero(np.diff(rows // window)) + 1
         if not cut.size:
-            return fn(rows)
+            return call(rows)
         n0 = circle.NEWTON_ARCS[0]
         out = []
         for part in np.split(rows, cut):
-            out += fn(part)
+            out += call(part)
         if circle_law and (circle.NEWTON_ARCS[0] != n0 or not circle.rows_invariant()):
             out = None              # (the windows' plans let go first)
             WHOLE_BATCHES[0] += 1
-            return fn(rows)
+            return call(rows)
         return out
     return by_windows
 

@@ -877,8 +877,9 @@ class _Distinct:
         return np.ascontiguousarray(self.rows[:self.n].T)
 
 
-# _Distinct's hash: a random odd constant an entry
-_ROW_MULT = np.random.default_rng(52).integers(0, 2 ** 63, 64, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
+# _Distinct's hash: an odd constant an entry (multiples of the golden ratio's, as distinct.py's;
+# not numpy.random's, whose import cost ~30 M instructions a command)
+_ROW_MULT = (np.arange(1, 65, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
 _MIX = tuple((np.uint64(k), np.uint64(c)) for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB),
                                                          (31, 1)))
 

@@ -16,8 +16,13 @@ schedule.candidates_in_windows with bounds on the window's multiples)."""
 from __future__ import annotations
 
 from collections import OrderedDict
+from functools import partial
+from itertools import compress
+from operator import attrgetter, is_not
 
 import numpy as np
+
+_IS_NOT_NONE = partial(is_not, None)
 
 
 class StoredStrokes:
@@ -60,10 +65,9 @@ class StoredStrokes:
         self.loads += 1
         for name, side in self._side.items():
             if side:
-                for k, st in enumerate(w, lo):
-                    v = side.get(k)
-                    if v is not None:
-                        setattr(st, name, v)
+                vals = list(map(side.get, range(lo, lo + len(w))))
+                for st, v in compress(zip(w, vals), map(_IS_NOT_NONE, vals)):
+                    setattr(st, name, v)
         if self.on_load is not None:
             self.on_load(lo, w)
         return w
@@ -75,10 +79,8 @@ class StoredStrokes:
             self._cur = None
         lo = j * self.window
         for name, side in self._side.items():
-            for k, st in enumerate(w, lo):
-                v = getattr(st, name)
-                if v is not None:
-                    side[k] = v
+            vals = list(map(attrgetter(name), w))
+            side.update(compress(zip(range(lo, lo + len(w)), vals), map(_IS_NOT_NONE, vals)))
         if self.writeback or j in self._dirty:
             self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)
         self._dirty.discard(j)

@@ -71,6 +71,8 @@ def runs(name, prof_name, window, stored=True):
     for i in nonfinite:
         failed.setdefault(int(i), "error: planning (non-finite)")
     pin.cached = (cands, None, failed)
+    if store is not None:
+        strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)
     plan = sc.plan_strokes(strokes, pin, prof, opts, opts.max_slowdown_r * sim0.time_t)
     if store is not None:
         store.close()

@@ -98,6 +98,8 @@ def main(path, mode, window=1024, kinds=None):
             strokes[k].chain_T = m
         del memos
         lap("reload")
+    if mode == "stored":
+        strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)
     plan = sc.plan_strokes(strokes, pin, prof, opts, opts.max_slowdown_r * sim0.time_t)
     lap("runs")
     out["strokes"] = len(strokes)

@@ -39,6 +39,7 @@ from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, c
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
+from .stored_strokes import StrokeRows
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
@@ -918,9 +919,13 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # are segmented once a batch (a plate's layers repeat their strokes); None where few
     # lines repeat (then every line is segmented, as before)
     line_cls = None
+    # strokes not a list (stored_strokes.StoredStrokes): the runs read them a window at a time
+    window = None if type(strokes) is list else getattr(strokes, "window", None)
     if _lines_repeat(pin, rows[K_LINE]):
         line_cls = np.arange(len(strokes), dtype=np.int64)
-        line_cls[rows[K_LINE]] = len(strokes) + line_classes(list(map(strokes.__getitem__, rows[K_LINE].tolist())))
+        line_cls[rows[K_LINE]] = len(strokes) + line_classes(
+            list(map(strokes.__getitem__, rows[K_LINE].tolist())) if window is None
+            else StrokeRows(strokes, rows[K_LINE]))
     seg_cache.line_class = line_cls
 
     # a later budget run takes the last one's outcome for each re-timed line and chain
@@ -956,7 +961,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             idx = memo.put_same(plan, idx, own)         # the rows left to segment
         memo = None             # (the last run's plans not held here while this one's are made)
         kind = kind_by_row[idx]
-        _rebuild_geometry(strokes, idx, kind, profile)
+        if window is None:      # (windowed: made a window of rows at a time, as they are segmented)
+            _rebuild_geometry(strokes, idx, kind, profile)
         # each row's segment plan, written as it is found or made: plan.segs itself, whose
         # rows of idx are None until then (put_same left them out); _keep_plans puts back
         # those it keeps (a dict of them all and its int keys were ~2.7 MB at the run's
@@ -970,6 +976,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
+            if window is not None and k_name in WINDOW_KINDS:
+                fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
+                                 (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
+                                 if k_name in (K_CURVE, K_CHAIN) else None)
             ii = idx[kind == KIND_CODE[k_name]]
 
             def solve(rows):
@@ -1027,6 +1037,44 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     if opts.alpha != "auto":
         return run(budget_t)
     return _fit_budget(run, pin, budget_t)
+
+
+# the kinds whose rows a windowed run (strokes a StoredStrokes) segments a window at a time
+# (tests/test_speed52_runs52_rowown.py: each row's plan its own, whatever the batch: lines,
+# chains; arcs and curves where no circle law went to Newton, _CIRCLE_KINDS)
+WINDOW_KINDS = (K_LINE, K_ARC, K_CURVE, K_CHAIN)
+# kinds solved by laws/circle.py: a window that sent an arc to Newton, whose batched products
+# may round with the batch (circle.NEWTON_ARCS), has the kind's rows segmented in one batch
+_CIRCLE_KINDS = (K_ARC, K_CURVE)
+WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
+
+
+def _by_windows(fn, window, circle_law=False, before=None):
+    """fn (rows -> a plan a row, rows sorted) made of one call a window of rows (row //
+    window): only that window's strokes are objects at a time.  circle_law: where a window
+    sent an arc to Newton (or the BLAS does not give rows their own bits), the rows in one
+    call after all: the plans a single batch gives.  before(rows): called before fn on the
+    same rows (the curve geometry of a window's strokes: _rebuild_geometry, as the list
+    path makes it for a run's rows, the strokes loaded without it)."""
+    def call(rows):
+        if before is not None:
+            before(rows)
+        return fn(rows)
+
+    def by_windows(rows):
+        cut = np.flatnonzero(np.diff(rows // window)) + 1
+        if not cut.size:
+            return call(rows)
+        n0 = circle.NEWTON_ARCS[0]
+        out = []
+        for part in np.split(rows, cut):
+            out += call(part)
+        if circle_law and (circle.NEWTON_ARCS[0] != n0 or not circle.rows_invariant()):
+            out = None              # (the windows' plans let go first)
+            WHOLE_BATCHES[0] += 1
+            return call(rows)
+        return out
+    return by_windows
 
 
 _NOT_BEATING = "segments would not beat the original"

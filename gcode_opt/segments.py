@@ -20,7 +20,7 @@ from operator import attrgetter, is_, is_not
 import numpy as np
 
 from . import objfields
-from .distinct import column_classes, column_classes_first, distinct
+from .distinct import _row_hashes, column_classes, column_classes_first, distinct, unique_first_inverse
 from .firmware.junction import (accel_to_pass_junction, accel_to_pass_junction_rows,
                                 marlin_jerk_junction_v_rows)
 from .firmware.simulate import FULL_STOP_V
@@ -697,6 +697,11 @@ def line_classes(strokes):
     m = len(strokes)
     if m == 0:
         return np.zeros(0, np.int64)
+    if type(strokes) is not list:           # (a windowed sequence: read a chunk at a time)
+        got = _classes_by_chunks(strokes)
+        if got is not None:
+            return got
+        strokes = list(strokes)
     if set(map(type, strokes)) != {Stroke}:
         return np.arange(m, dtype=np.int64)
     first, last = line_spans(strokes)
@@ -731,15 +736,7 @@ def line_classes(strokes):
             cols.append(np.array([0.0 if o else v for v, o in zip(vals, odd.tolist())], float))
     # lim: by its values (few distinct objects)
     ulims, which = objfields.by_identity(strokes, "lim")
-    by_place, by_val = [], {}
-    for lim in ulims:
-        try:
-            key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
-                        for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
-            by_place.append(by_val.setdefault(key, len(by_val)))
-        except (AttributeError, TypeError):
-            by_place.append(-1)
-    lim_k = np.array(by_place, np.int64)[which]
+    lim_k = np.array(_lim_places(ulims, {}), np.int64)[which]
     alone |= lim_k < 0
     # by the columns where they are (the core's are views of its table): a table of them
     # all, and row_classes' copy of its rows, were ~13 MB more on the rectilinear plate
@@ -747,6 +744,159 @@ def line_classes(strokes):
     k = np.flatnonzero(alone)
     out[k] = out.max() + 1 + np.arange(k.size)      # each a class of its own
     return out
+
+
+def _lim_places(ulims, by_val):
+    """line_classes' class of each limits object of ulims by its values (floats by their
+    bytes; -1: not a Limits), numbered in by_val ({key: class}, grown) in the order met."""
+    by_place = []
+    for lim in ulims:
+        try:
+            key = tuple((type(v), np.float64(v).tobytes() if isinstance(v, float) else v)
+                        for v in (getattr(lim, f) for f in _LIM_FIELDS))    # (floats by their bytes)
+            by_place.append(by_val.setdefault(key, len(by_val)))
+        except (AttributeError, TypeError):
+            by_place.append(-1)
+    return by_place
+
+
+def _classes_by_chunks(strokes):
+    """line_classes(strokes) without the (17, m) table of every line's fields (rectilinear
+    plate: 12.2 -> ~4 MB traced at its moment, the budget runs' first): the fields read
+    FIELD_ROWS strokes at a time (strokes[a:b], a list: a windowed sequence of strokes
+    loads a window at a time), and only the distinct rows (fields' bits and kinds, lim's
+    class: _Distinct) kept; the classes then made of those rows as line_classes makes
+    them of every row (the same hash of each row, so the same numbering).  None
+    (line_classes' own reading then) where the core declines, a field is not one the
+    core reads as line_classes does (another type; a bool beside a float or None), _ends
+    unset, a stroke not a Stroke, or two distinct rows share a hash."""
+    m = len(strokes)
+    names = _LINE_FLOATS + _LINE_MAYBE + ("_ends",)
+    w = len(names) - 1
+    alone = np.zeros(m, bool)
+    row_u = np.empty(m, np.int64)           # each row's distinct row
+    rows = _Distinct()
+    lim_at, by_val, lim_cls = {}, {}, []    # the limits objects met (by identity: their place) and classes
+    for a in range(0, m, FIELD_ROWS):
+        sts = strokes[a:a + FIELD_ROWS]
+        if set(map(type, sts)) != {Stroke}:
+            return None
+        got = stroke_fields(sts, names)
+        if got is None or (got[1][:, -1] == 4).any():
+            return None
+        first, last = line_spans(sts)
+        u, which = objfields.by_identity(sts, "lim")
+        new = [x for x in u if id(x) not in lim_at]
+        lim_at.update(zip(map(id, new), range(len(lim_at), len(lim_at) + len(new))))
+        lim_cls += _lim_places(new, by_val)
+        lim_k = np.array(lim_cls, np.int64)[np.array([lim_at[id(x)] for x in u], np.intp)[which]]
+        alone[a:a + len(sts)] = (last != first) | (got[1][:, -1] != 1) | (lim_k < 0)
+        at = rows.add(_raw_rows(got[0][:, :w], got[1][:, :w], lim_k))
+        if at is None:
+            return None
+        row_u[a:a + len(sts)] = at
+    # line_classes' columns of the distinct rows (a field's kinds there are its kinds over all)
+    U = rows.columns()
+    vals, kinds = U[:w].view(float), _kinds_of(U[w:-1], w)
+    cols = []
+    for j in range(w):
+        if not _core_column(vals[j], kinds[j], cols):
+            return None
+    cols = [np.asarray(c, float).view(np.int64) for c in cols] + [U[-1]]     # (+ lim's class)
+    del vals, kinds, U, rows
+    # column_classes_first of every row's columns, the distinct rows' gathered: the same
+    # hashes; a row is odd where its columns differ from its hash's first row's
+    h = _row_hashes(cols)[row_u]
+    f, inv = unique_first_inverse(h)
+    del h
+    out = inv.astype(np.int64)
+    urep = row_u[f[inv]]
+    q = np.flatnonzero(row_u != urep)       # (rows of one distinct row have the same columns)
+    ur, urep = row_u[q], urep[q]
+    odd = np.zeros(q.size, bool)
+    for c in cols:
+        odd |= c[ur] != c[urep]
+    odd = q[odd]
+    out[odd] = f.size + np.arange(odd.size)
+    k = np.flatnonzero(alone)
+    out[k] = out.max() + 1 + np.arange(k.size)      # each a class of its own
+    return out
+
+
+class _Distinct:
+    """Distinct rows of an int64 table, added a chunk at a time (kept in the order first
+    met), found by a hash of theirs (a wrapping sum of their entries' mixes) and checked
+    equal entry by entry."""
+
+    def __init__(self):
+        self.rows, self.n = None, 0             # (capacity, width), rows kept
+        self.sh = np.zeros(0, np.uint64)        # the kept rows' hashes, sorted
+        self.sp = np.zeros(0, np.int64)         # and their places
+
+    def add(self, R):
+        """The place of each row of the table R (n, width) among the distinct rows, or None
+        where two different rows share a hash."""
+        h = R.view(np.uint64) * _ROW_MULT[:R.shape[1]]
+        for k, c in _MIX:                   # (splitmix64's finish: a sum of products alone
+            h ^= h >> k                     # let two sign bits' changes cancel)
+            h *= c
+        h = h.sum(axis=1, dtype=np.uint64)
+        place = np.empty(h.size, np.int64)
+        at = np.minimum(np.searchsorted(self.sh, h), max(self.sh.size - 1, 0))
+        hit = self.sh[at] == h if self.sh.size else np.zeros(h.size, bool)
+        place[hit] = self.sp[at[hit]]
+        if (self.rows[place[hit]] != R[hit]).any() if self.n else False:
+            return None
+        miss = np.flatnonzero(~hit)
+        if miss.size:
+            Rm, hm = R[miss], h[miss]
+            f, inv = unique_first_inverse(hm)
+            if (Rm != Rm[f[inv]]).any():
+                return None
+            d = self.n
+            place[miss] = d + inv
+            self._grow(d + f.size, R.shape[1])
+            self.rows[d:d + f.size] = Rm[f]
+            self.n += f.size
+            sh = np.concatenate([self.sh, hm[f]])
+            order = np.argsort(sh, kind="stable")
+            self.sh, self.sp = sh[order], np.concatenate([self.sp, d + np.arange(f.size)])[order]
+        return place
+
+    def _grow(self, n, width):
+        cap = 0 if self.rows is None else self.rows.shape[0]
+        if n > cap:
+            cap = max(n, 2 * cap, 1024)
+            rows = np.empty((cap, width), np.int64)
+            if self.n:
+                rows[:self.n] = self.rows[:self.n]
+            self.rows = rows
+
+    def columns(self):
+        """The distinct rows' columns (each contiguous)."""
+        return np.ascontiguousarray(self.rows[:self.n].T)
+
+
+# _Distinct's hash: an odd constant an entry (multiples of the golden ratio's, as distinct.py's;
+# not numpy.random's, whose import cost ~30 M instructions a command)
+_ROW_MULT = (np.arange(1, 65, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
+_MIX = tuple((np.uint64(k), np.uint64(c)) for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB),
+                                                         (31, 1)))
+
+
+def _raw_rows(vals, kinds, lim_k):
+    """A chunk's rows as an int64 table (fields' bits, their kinds packed 8 an entry, lim's
+    class): rows equal, equal everything line_classes reads of them."""
+    n, w = kinds.shape
+    pk = np.zeros((n, -(-w // 8) * 8), np.int8)
+    pk[:, :w] = kinds
+    return np.concatenate([vals.view(np.int64), pk.view(np.int64), lim_k[:, None]], axis=1)
+
+
+def _kinds_of(packed, w):
+    """_raw_rows' packed kinds (columns) back as (w, rows) int8."""
+    pk = np.ascontiguousarray(np.asarray(packed).T).view(np.int8)
+    return np.ascontiguousarray(pk[:, :w].T)
 
 
 FIELD_ROWS = 4096        # strokes whose fields _stroke_columns reads at once (~0.6 MB of 17 fields)

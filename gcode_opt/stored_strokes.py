@@ -16,8 +16,13 @@ schedule.candidates_in_windows with bounds on the window's multiples)."""
 from __future__ import annotations
 
 from collections import OrderedDict
+from functools import partial
+from itertools import compress
+from operator import attrgetter, is_not
 
 import numpy as np
+
+_IS_NOT_NONE = partial(is_not, None)
 
 
 class StoredStrokes:
@@ -60,10 +65,9 @@ class StoredStrokes:
         self.loads += 1
         for name, side in self._side.items():
             if side:
-                for k, st in enumerate(w, lo):
-                    v = side.get(k)
-                    if v is not None:
-                        setattr(st, name, v)
+                vals = list(map(side.get, range(lo, lo + len(w))))
+                for st, v in compress(zip(w, vals), map(_IS_NOT_NONE, vals)):
+                    setattr(st, name, v)
         if self.on_load is not None:
             self.on_load(lo, w)
         return w
@@ -75,10 +79,8 @@ class StoredStrokes:
             self._cur = None
         lo = j * self.window
         for name, side in self._side.items():
-            for k, st in enumerate(w, lo):
-                v = getattr(st, name)
-                if v is not None:
-                    side[k] = v
+            vals = list(map(attrgetter(name), w))
+            side.update(compress(zip(range(lo, lo + len(w)), vals), map(_IS_NOT_NONE, vals)))
         if self.writeback or j in self._dirty:
             self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)
         self._dirty.discard(j)
@@ -113,3 +115,39 @@ class StoredStrokes:
         """Every window let go (written back where due)."""
         for j in list(self._wins):
             self._let_go(j)
+
+
+class StrokeRows:
+    """The strokes rows (sorted int array) of a sequence of strokes, as a sequence read in
+    slices (segments.line_classes reads a chunk at a time): a window's strokes are objects
+    while it is held, not all of rows at once as a list of them would make them."""
+
+    def __init__(self, strokes, rows):
+        self.strokes, self.rows = strokes, np.asarray(rows)
+
+    def __len__(self):
+        return self.rows.size
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return list(map(self.strokes.__getitem__, self.rows[i].tolist()))
+        return self.strokes[int(self.rows[i])]
+
+    def __iter__(self):
+        return map(self.strokes.__getitem__, self.rows.tolist())
+
+
+def curve_geometry(codes, profile):
+    """StoredStrokes' on_load for planning: a window's curve and chain geometry made in one
+    batch as plan_inputs made it (chains.classify's build_geoms: a chain without κ, which
+    it never reads), not stroke by stroke when read (benchmarks/win51: ~3.5x the
+    candidates' time).  codes: the strokes' plan_kind codes (pin.plan_kind_codes)."""
+    from . import curves
+    from .schedule import C_CHAIN, C_CURVE
+
+    def made(lo, sts):
+        c = codes[lo:lo + len(sts)]
+        for code, kappa in ((C_CURVE, True), (C_CHAIN, False)):
+            curves.build_geoms([sts[k] for k in np.flatnonzero(c == code).tolist()], profile, jerk1=True,
+                               kappa=kappa)
+    return made

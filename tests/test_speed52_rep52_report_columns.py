@@ -196,7 +196,7 @@ def _run(tree, args, cwd):
                    check=True, capture_output=True)
 
 
-@pytest.mark.parametrize("name", SAMPLES)
+@pytest.mark.parametrize("name", SAMPLES + ["edge/checksums.gcode"])      # (the last: no stroke re-timed)
 def test_report_bytes_as_base(name, base_tree, tmp_path):
     src = os.path.join(ROOT, "sample_gcode", name)
     shutil.copy(src, tmp_path / "in.gcode")
@@ -213,3 +213,14 @@ def test_report_bytes_as_base(name, base_tree, tmp_path):
     assert outs[0][0] == outs[1][0]          # report's JSON
     assert outs[0][1] == outs[1][1]          # report's HTML (pictures embedded)
     assert outs[0][2] == outs[1][2]          # process --report's HTML (figures from the summary)
+
+
+def test_stroke_table_compares_and_shows_as_its_rows():
+    rows = [{"line": 1, "t": {"before": 1.0, "after": None}}, {"line": 2, "t": {"before": 0, "after": 2.0}}]
+    t = StrokeTable()
+    for r in rows:
+        t.append(r)
+    assert t == rows and rows == t and repr(t) == repr(rows)
+    u = StrokeTable()
+    u.append(rows[0])
+    assert t != u and t != rows[:1] and t != "x"

@@ -410,10 +410,10 @@ def _representatives(rows, tr0):
 
 
 def _map_layer(rows, tr0, layer=None):
-    layers, (ab, aa) = rows.col("layer"), _before_after(rows, "int_a2_mm2_s3")
+    row_layer, (ab, aa) = rows.col("layer"), _before_after(rows, "int_a2_mm2_s3")
     if layer is None:
         gain = defaultdict(float)          # the layer where re-timing removed the most int a^2
-        for k, b, a in zip(layers, ab, aa):
+        for k, b, a in zip(row_layer, ab, aa):
             gain[k] += b - a
         if gain:
             layer = min(gain, key=lambda k: (-gain[k], k))
@@ -422,7 +422,7 @@ def _map_layer(rows, tr0, layer=None):
             layer = layers[len(layers) // 2] if layers else 0
     mv = tr0.moves
     zs = mv.np("z0")[(mv.np("layer") == layer) & (mv.np("e") > 0)].tolist()
-    in_layer = [i for i, k in enumerate(layers) if k == layer]
+    in_layer = [i for i, k in enumerate(row_layer) if k == layer]
     return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
             "int_a2_retimed_mm2_s3": bac(float(sum(ab[i] for i in in_layer)),
                                          float(sum(aa[i] for i in in_layer)))}

@@ -127,6 +127,16 @@ class StrokeTable:
     def __iter__(self):
         return (self[i] for i in range(self.n))
 
+    def __eq__(self, other):                 # as the list of rows it stands for
+        if isinstance(other, (StrokeTable, list)):
+            return len(self) == len(other) and all(a == b for a, b in zip(self, other))
+        return NotImplemented
+
+    __hash__ = None
+
+    def __repr__(self):
+        return repr(list(self))
+
     def rows(self, idx):
         """The row dicts of rows idx."""
         return [self[i] for i in idx]

@@ -143,6 +143,17 @@ class Rows:
     def __init__(self):
         self.items = array("d")
 
+    @classmethod
+    def padded(cls):
+        """Rows whose items begin with the idle row: add the closing one with close_padded(),
+        then RowTable(items, model, padded=True) reads them in place."""
+        r = cls()
+        r.items.extend(IDLE)
+        return r
+
+    def close_padded(self):
+        self.items.extend(IDLE)
+
     def on_block(self, b):
         self.items.extend(_block_row(b))
 
@@ -942,13 +953,17 @@ HISTORY = 36.0
 
 
 class RowTable:
-    """Rows (as Rows.items, with the idle rows at both ends added) and where each row starts
+    """Rows (as Rows.items, with the idle rows at both ends added; padded: items has them,
+    e.g. Rows.padded()'s) and where each row starts
     in time and path distance: windows of pieces without building the whole trace."""
 
-    def __init__(self, items, model: dict, shaper: str | None = None):
+    def __init__(self, items, model: dict, shaper: str | None = None, padded: bool = False):
         m = np.asarray(items, float).reshape(-1, ROW)
-        idle = np.array([IDLE])
-        self.m = np.vstack([idle, m, idle])
+        if padded:              # items hold the idle rows already: kept as they are, not copied
+            self.m = m
+        else:
+            idle = np.array([IDLE])
+            self.m = np.vstack([idle, m, idle])
         self.model = model
         self.shaper = model["shaper"] if shaper is None else shaper
         ux, uy, sv, cv, ev, a, at, ct, dt = self.m[:, :9].T

@@ -18,7 +18,8 @@ import numpy as np
 
 from .. import state as st
 from .fences import parse_fences
-from .trace import count_lines, trace_file
+from .stroke_table import StrokeTable
+from .trace import count_lines, disjoint_spans, trace_file
 
 SCHEMA = "gcode-opt-report/1"
 MM2_TO_M2 = 1e-6
@@ -104,7 +105,7 @@ def _summary_row_at(summary):
 def _stroke_rows(tr0, tr1, fences, summary, profile):
     row_at = _summary_row_at(summary)
     min_seg_t = profile.min_segment_time_t
-    rows = []
+    rows = StrokeTable()
     for f in fences:
         o0, o1 = f.orig_first, f.orig_last
         m0 = tr0.moves.get(o0)
@@ -170,14 +171,15 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
 
 def _group(rows, key):
     acc = defaultdict(lambda: {"strokes": 0, "length_mm": 0.0, "tb": 0.0, "ta": 0.0, "ab": 0.0, "aa": 0.0})
-    for r in rows:
-        g = acc[r[key]]
+    for k, length, tb, ta, ab, aa in zip(rows.col(key), rows.col("length_mm"), *_before_after(rows, "time_s"),
+                                          *_before_after(rows, "int_a2_mm2_s3")):
+        g = acc[k]
         g["strokes"] += 1
-        g["length_mm"] += r["length_mm"]
-        g["tb"] += r["time_s"]["before"]
-        g["ta"] += r["time_s"]["after"]
-        g["ab"] += r["int_a2_mm2_s3"]["before"]
-        g["aa"] += r["int_a2_mm2_s3"]["after"]
+        g["length_mm"] += length
+        g["tb"] += tb
+        g["ta"] += ta
+        g["ab"] += ab
+        g["aa"] += aa
     out = []
     for k in sorted(acc):
         g = acc[k]
@@ -196,24 +198,31 @@ def _kinetic_whole(tr, profile):
     return float(0.5 * np.sum(mass_kg(profile, ux, uy) * b["v2_int"]) * MM2_TO_M2)
 
 
+def _before_after(rows, key):
+    return rows.col(key, "before"), rows.col(key, "after")
+
+
 def _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path):
     import os
     r0, r1 = tr0.res, tr1.res
-    sb = lambda k: float(sum(r[k]["before"] for r in rows))   # noqa: E731
-    sa = lambda k: float(sum(r[k]["after"] for r in rows))    # noqa: E731
-    kin_b = sum(0.5 * r["mass_kg"] * r["int_v2_mm2_s"]["before"] for r in rows) * MM2_TO_M2
-    kin_a = sum(0.5 * r["mass_kg"] * r["int_v2_mm2_s"]["after"] for r in rows) * MM2_TO_M2
-    with_beta = [r for r in rows if r["beta_s2"] is not None]
+    sb = lambda k: float(sum(rows.col(k, "before")))   # noqa: E731
+    sa = lambda k: float(sum(rows.col(k, "after")))    # noqa: E731
+    mass = rows.col("mass_kg")
+    v2 = dict(zip(("before", "after"), _before_after(rows, "int_v2_mm2_s")))
+    a2 = dict(zip(("before", "after"), _before_after(rows, "int_a2_mm2_s3")))
+    kin_b = sum(0.5 * m * v for m, v in zip(mass, v2["before"])) * MM2_TO_M2
+    kin_a = sum(0.5 * m * v for m, v in zip(mass, v2["after"])) * MM2_TO_M2
+    beta = rows.col("beta_s2")
+    with_beta = [i for i, b in enumerate(beta) if b is not None]
     J = None
     if with_beta:
         def j(side):
-            return sum(0.5 * r["mass_kg"] * (r["int_v2_mm2_s"][side] + r["beta_s2"] * r["int_a2_mm2_s3"][side])
-                       for r in with_beta) * MM2_TO_M2
+            return sum(0.5 * mass[i] * (v2[side][i] + beta[i] * a2[side][i]) for i in with_beta) * MM2_TO_M2
         J = bac(j("before"), j("after"), strokes=len(with_beta))
     law = None
-    if summary and rows and all("law" in r["time_s"] for r in rows):
-        law = {"time_s": float(sum(r["time_s"]["law"] for r in rows)),
-               "int_a2_mm2_s3": float(sum(r["int_a2_mm2_s3"]["law"] for r in rows))}
+    if summary and rows and rows.has("time_s", "law"):
+        law = {"time_s": float(sum(rows.col("time_s", "law"))),
+               "int_a2_mm2_s3": float(sum(rows.col("int_a2_mm2_s3", "law")))}
     bytes_b, bytes_a = os.path.getsize(orig_path), os.path.getsize(new_path)
     lines_a = tr1.n_lines
     st_sum = (summary or {}).get("strokes", {})
@@ -229,10 +238,10 @@ def _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_pat
         "J_retimed_J_s": J,
         "peak_speed_mm_s": bac(r0.peak_v, r1.peak_v),
         "peak_accel_mm_s2": bac(r0.peak_a, r1.peak_a),
-        "peak_speed_retimed_mm_s": bac(max((r["peak_v_mm_s"]["before"] for r in rows), default=0.0),
-                                       max((r["peak_v_mm_s"]["after"] for r in rows), default=0.0)),
-        "peak_accel_retimed_mm_s2": bac(max((r["peak_a_mm_s2"]["before"] for r in rows), default=0.0),
-                                        max((r["peak_a_mm_s2"]["after"] for r in rows), default=0.0)),
+        "peak_speed_retimed_mm_s": bac(max(rows.col("peak_v_mm_s", "before"), default=0.0),
+                                       max(rows.col("peak_v_mm_s", "after"), default=0.0)),
+        "peak_accel_retimed_mm_s2": bac(max(rows.col("peak_a_mm_s2", "before"), default=0.0),
+                                        max(rows.col("peak_a_mm_s2", "after"), default=0.0)),
         "strokes": {"retimed": len(rows), "candidates": st_sum.get("candidates"),
                     "not_retimed": st_sum.get("not_retimed")},
         "file": {"bytes": bac(bytes_b, bytes_a), "lines": bac(lines_before, lines_a)},
@@ -244,9 +253,10 @@ def _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_pat
 
 
 # --------------------------------------------------------------------------- warnings
-def _warn(out, code, level, message, rows=()):
-    out.append({"code": code, "level": level, "message": message, "count": len(rows) if rows else None,
-                "lines": [r["line"] for r in list(rows)[:10]]})
+def _warn(out, code, level, message, lines=()):
+    """lines: the first lines of the strokes warned about (all of them: their count)."""
+    out.append({"code": code, "level": level, "message": message, "count": len(lines) if lines else None,
+                "lines": list(lines[:10])})
 
 
 def _warnings(rows, head, summary, profile):
@@ -259,37 +269,42 @@ def _warnings(rows, head, summary, profile):
         _warn(w, "print_time_over_budget", "warning",
               f"print time grows by {pt * 100:.2f} %, more than the {budget * 100:g} % time budget "
               f"(--max-slowdown)")
-    slow = sorted((r for r in rows if (ratio(r["time_s"]["after"], r["time_s"]["before"]) or 0) > budget),
-                  key=lambda r: -(r["time_s"]["after"] / r["time_s"]["before"]))
+    line = rows.col("line")
+    tb, ta = _before_after(rows, "time_s")
+    slow = sorted((i for i in range(len(rows)) if (ratio(ta[i], tb[i]) or 0) > budget),
+                  key=lambda i: -(ta[i] / tb[i]))
     if slow:
         worst = slow[0]
         _warn(w, "strokes_stretched", "info",
               f"{len(slow)} re-timed strokes take more than {budget * 100:g} % longer than before "
-              f"(worst: line {worst['line']}, "
-              f"{ratio(worst['time_s']['after'], worst['time_s']['before']) * 100:+.1f} %)", slow)
+              f"(worst: line {line[worst]}, "
+              f"{ratio(ta[worst], tb[worst]) * 100:+.1f} %)", [line[i] for i in slow])
     rate_lim = profile.max_segment_rate
-    fast = sorted((r for r in rows if r["segment_rate_hz"] and r["segment_rate_hz"] >= SEGMENT_RATE_WARN_R * rate_lim),
-                  key=lambda r: -r["segment_rate_hz"])
+    rate = rows.col("segment_rate_hz")
+    fast = sorted((i for i in range(len(rows)) if rate[i] and rate[i] >= SEGMENT_RATE_WARN_R * rate_lim),
+                  key=lambda i: -rate[i])
     if fast:
         _warn(w, "segment_rate_near_limit", "warning",
               f"{len(fast)} re-timed strokes send segments at >= {SEGMENT_RATE_WARN_R * 100:.0f} % of the "
-              f"firmware's {rate_lim:g} segments/s (max {fast[0]['segment_rate_hz']:.0f}/s at line "
-              f"{fast[0]['line']}): the planner may starve and stutter", fast)
-    short = [r for r in rows if r["below_min_segment_time"]]
+              f"firmware's {rate_lim:g} segments/s (max {rate[fast[0]]:.0f}/s at line "
+              f"{line[fast[0]]}): the planner may starve and stutter", [line[i] for i in fast])
+    short = [n for n, below in zip(line, rows.col("below_min_segment_time")) if below]
     if short:
         _warn(w, "segments_below_min_time", "warning",
               f"{len(short)} re-timed strokes have segments shorter than the firmware's minimum segment "
               f"time {profile.min_segment_time_t * 1000:g} ms (length / F; Marlin slows such moves down when its "
               f"planner buffer runs low, e.g. while the host or SD card stalls)",
               short)
-    over = sorted((r for r in rows if r["overshoot"] is not None and r["overshoot"] > OVERSHOOT_EPS_R),
-                  key=lambda r: -r["overshoot"])
+    ov = rows.col("overshoot")
+    over = sorted((i for i in range(len(rows)) if ov[i] is not None and ov[i] > OVERSHOOT_EPS_R),
+                  key=lambda i: -ov[i])
     if over:
         lim = f" (allowed: --overshoot {allowed * 100:g} %)" if allowed is not None else ""
         _warn(w, "speed_overshoot", "info",
               f"{len(over)} re-timed strokes run faster than the slicer's F, by up to "
-              f"{over[0]['overshoot'] * 100:.1f} % (line {over[0]['line']}){lim}", over)
-    worse = [r for r in rows if r["int_a2_mm2_s3"]["after"] > r["int_a2_mm2_s3"]["before"] * (1 + 1e-9)]
+              f"{ov[over[0]] * 100:.1f} % (line {line[over[0]]}){lim}", [line[i] for i in over])
+    ab, aa = _before_after(rows, "int_a2_mm2_s3")
+    worse = [n for n, b, a in zip(line, ab, aa) if a > b * (1 + 1e-9)]
     if worse:
         _warn(w, "int_a2_increased", "warning",
               f"{len(worse)} re-timed strokes have a larger int|a|^2 dt after than before", worse)
@@ -343,20 +358,27 @@ def _curved_runs(tr):
 
 def _representatives(rows, tr0):
     reps = []
-    lines = [r for r in rows if r["kind"] == "line"]
-    if lines:
-        long_r = max(lines, key=lambda r: r["length_mm"])
-        short_r = min(lines, key=lambda r: r["length_mm"])
-        for role, r in (("long line", long_r), ("short line", short_r)):
+    kinds, length = rows.col("kind"), rows.col("length_mm")
+
+    def of_kind(kind):                   # the rows (by position) of a kind
+        return [i for i, k in enumerate(kinds) if k == kind]
+
+    def longest(idx):
+        return max(idx, key=length.__getitem__)
+    line_i = of_kind("line")
+    if line_i:
+        long_i, short_i = longest(line_i), min(line_i, key=length.__getitem__)
+        for role, i in (("long line", long_i), ("short line", short_i)):
+            r = rows[i]
             reps.append({"role": role, "line": r["line"], "lines": r["lines"], "retimed": True,
                          "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"],
                          "note": ""})
-            if long_r is short_r:
+            if long_i == short_i:
                 break
-    arc_rows = [r for r in rows if r["kind"] == "arc"]
+    arc_i = of_kind("arc")
     arcs = [m for m in (tr0.moves[i] for i in tr0.moves.arcs) if m.kind == st.ARC]
-    if arc_rows:
-        r = max(arc_rows, key=lambda r: r["length_mm"])
+    if arc_i:
+        r = rows[longest(arc_i)]
         reps.append({"role": "arc", "line": r["line"], "lines": r["lines"], "retimed": True,
                      "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
     elif arcs:
@@ -367,10 +389,10 @@ def _representatives(rows, tr0):
                              "in the output, against the optimal circle law at the same duration"})
     else:
         reps.append({"role": "arc", "line": None, "note": "the file has no arcs (G2/G3)"})
-    curve_rows = [r for r in rows if r["kind"] == "curve"]
-    c = None if curve_rows else _curved_runs(tr0)
-    if curve_rows:
-        r = max(curve_rows, key=lambda r: r["length_mm"])
+    curve_i = of_kind("curve")
+    c = None if curve_i else _curved_runs(tr0)
+    if curve_i:
+        r = rows[longest(curve_i)]
         reps.append({"role": "curve", "line": r["line"], "lines": r["lines"], "retimed": True,
                      "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
     elif c:
@@ -388,10 +410,11 @@ def _representatives(rows, tr0):
 
 
 def _map_layer(rows, tr0, layer=None):
+    row_layer, (ab, aa) = rows.col("layer"), _before_after(rows, "int_a2_mm2_s3")
     if layer is None:
         gain = defaultdict(float)          # the layer where re-timing removed the most int a^2
-        for r in rows:
-            gain[r["layer"]] += r["int_a2_mm2_s3"]["before"] - r["int_a2_mm2_s3"]["after"]
+        for k, b, a in zip(row_layer, ab, aa):
+            gain[k] += b - a
         if gain:
             layer = min(gain, key=lambda k: (-gain[k], k))
         else:
@@ -399,10 +422,10 @@ def _map_layer(rows, tr0, layer=None):
             layer = layers[len(layers) // 2] if layers else 0
     mv = tr0.moves
     zs = mv.np("z0")[(mv.np("layer") == layer) & (mv.np("e") > 0)].tolist()
-    in_layer = [r for r in rows if r["layer"] == layer]
+    in_layer = [i for i, k in enumerate(row_layer) if k == layer]
     return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
-            "int_a2_retimed_mm2_s3": bac(float(sum(r["int_a2_mm2_s3"]["before"] for r in in_layer)),
-                                         float(sum(r["int_a2_mm2_s3"]["after"] for r in in_layer)))}
+            "int_a2_retimed_mm2_s3": bac(float(sum(ab[i] for i in in_layer)),
+                                         float(sum(aa[i] for i in in_layer)))}
 
 
 # --------------------------------------------------------------------------- coverage
@@ -449,13 +472,16 @@ def ratio_share(part, whole):
     return None if not whole else float(part) / float(whole)
 
 
-def _ringing(orig_path, new_path, profile, tr0, tr1, summary):
-    """The ringing section: figures (the summary's when it has them) and the stretch plot's
-    samples, over the commanded motion of the report's own passes."""
-    from .ringing import ringing_data_rows
-    rows = [tr0.ring_rows, tr1.ring_rows]
-    tr0.ring_rows = tr1.ring_rows = None
-    return ringing_data_rows(rows, profile, figures=(summary or {}).get("ringing"))
+def _traced(path, profile, ring, processed=False, spans=None):
+    """trace_file of one file; with ring (a RingingRows), its ringing rows go into ring's
+    section (figures, the summary's when it has them, and the stretch plot's samples, over
+    the commanded motion of this pass) and leave: the original's are gone before the
+    processed file is played."""
+    tr = trace_file(path, profile, ringing=ring is not None, processed=processed, spans=spans)
+    if ring is not None:
+        items, tr.ring_rows = tr.ring_rows, None
+        ring.add(items)
+    return tr
 
 
 # --------------------------------------------------------------------------- entry point
@@ -467,13 +493,18 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
     if n_orig != lines_before:
         raise ValueError(f"{new_path} does not come from {orig_path}: its fences account for {n_orig} "
                          f"original lines, the original has {lines_before}")
-    tr0 = trace_file(orig_path, profile, ringing=ringing)
-    tr1 = trace_file(new_path, profile, ringing=ringing, processed=True)
-    rows = _stroke_rows(tr0, tr1, fences, summary, profile)
-    head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
     ring = None
     if ringing:
-        ring = _ringing(orig_path, new_path, profile, tr0, tr1, summary)
+        from .ringing import RingingRows
+        ring = RingingRows(profile, figures=(summary or {}).get("ringing"))
+    tr0 = _traced(orig_path, profile, ring)
+    # of the processed file's lines, only the fences' sums and maxima (what the stroke rows read)
+    spans = [(f.out_first, f.out_last) for f in fences]
+    tr1 = _traced(new_path, profile, ring, processed=True, spans=spans if disjoint_spans(spans) else None)
+    rows = _stroke_rows(tr0, tr1, fences, summary, profile)
+    head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
+    if ring is not None:
+        ring = ring.data()
         h = ring["headline"]
         head["ringing_rms_um"] = bac(h["rms_um"]["before"], h["rms_um"]["after"])
         head["ringing_peak_um"] = bac(h["peak_um"]["before"], h["peak_um"]["after"])

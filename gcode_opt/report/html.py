@@ -345,6 +345,9 @@ def write_json(data, path):
 
 def _json_default(o):
     import numpy as np
+    from .stroke_table import RowStream, StrokeTable
     if isinstance(o, np.generic):
         return o.item()
+    if isinstance(o, StrokeTable):            # the per-stroke rows, made as written
+        return RowStream(o)
     raise TypeError(f"not JSON serialisable: {type(o)}")

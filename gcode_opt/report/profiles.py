@@ -29,10 +29,19 @@ def _firmware(tr, first, last, label):
 
 def default_beta(data):
     """β (s^2) to draw the optimal law of strokes the pipeline did not re-time."""
-    betas = [r["beta_s2"] for r in data["per_stroke"] if r["beta_s2"] is not None]
+    rows = data["per_stroke"]
+    col = rows.col("beta_s2") if hasattr(rows, "col") else [r["beta_s2"] for r in rows]
+    betas = [b for b in col if b is not None]
     if betas:
         return float(np.median(betas))
     return 1e-3
+
+
+def _row_at_line(rows, line):
+    """The first per-stroke row of that line (a StrokeTable read by its column)."""
+    if hasattr(rows, "col"):
+        return rows[rows.col("line").index(line)]
+    return next(r for r in rows if r["line"] == line)
 
 
 def stroke_curves(rep, data, ctx):
@@ -46,7 +55,7 @@ def stroke_curves(rep, data, ctx):
     m0 = tr0.moves[o0]
     feed = m0.v
     if rep["retimed"]:
-        row = next(r for r in data["per_stroke"] if r["line"] == rep["line"])
+        row = _row_at_line(data["per_stroke"], rep["line"])
         f = next(f for f in ctx.fences if f.orig_first == o0)
         curves.append(_firmware(tr1, f.out_first, f.out_last, "re-timed: as executed (segments)"))
         T = row["time_s"].get("law") or f.marker_time_s

@@ -23,34 +23,51 @@ SAMPLES = 3000            # instants per file over the stretch
 headline = rg.compare      # before / after / change of RMS, peak, parts, smoothing
 
 
+class RingingRows:
+    """ringing_data from each file's kept rows, one file at a time: add(items) the original's,
+    then the processed file's (ringing.Rows.padded()'s items, the idle row at both ends, e.g.
+    report/trace.py's ring_rows), then data().  Figures streamed (or the summary's), the
+    busiest stretch window by window, only the stretch's window solved -- no whole trace in
+    memory; a file's rows can go once add() took them (so the report drops the original's
+    before it plays the processed file)."""
+
+    def __init__(self, profile, length_d: float = STRETCH_D, from_d=None, figures=None):
+        self.model = model = rg.model_of(profile)
+        self.length_d = length_d
+        self.s0 = None if from_d is None else float(from_d)
+        self.given = None
+        if figures and figures.get("model") == model and "before" in figures and "after" in figures:
+            self.given = figures["before"], figures["after"]
+        self.figs, self.st = [], {}
+
+    def add(self, items):
+        tag = ("before", "after")[len(self.st)]
+        if self.given is None:
+            col = rg.Collector(model=self.model)
+            col.add_rows(memoryview(items)[rg.ROW:len(items) - rg.ROW])   # (without the idle rows)
+            self.figs.append(col.figures())
+        rt = rg.RowTable(items, self.model, padded=True)
+        if self.s0 is None:                    # where the original rings most
+            self.s0 = rg.busiest_stretch_rows(rt, self.length_d)
+        s, rx, ry = rg.stretch_rows(rt, self.s0, self.length_d, SAMPLES)
+        self.st[tag] = {"s_mm": s.tolist(), "x_um": rx.tolist(), "y_um": ry.tolist()}
+
+    def data(self) -> dict:
+        f0, f1 = self.given or self.figs
+        return {"model": self.model, "before": f0, "after": f1, "headline": headline(f0, f1),
+                "stretch": {"from_mm": self.s0, "length_mm": self.length_d, **self.st}}
+
+
 def ringing_data_rows(rows, profile, length_d: float = STRETCH_D, from_d=None,
                       figures=None) -> dict:
-    """ringing_data from both files' kept rows, rows = [original's, processed's]
-    (ringing.Rows.items, e.g. report/trace.py's ring_rows): figures streamed (or the
-    summary's), the busiest stretch window by window, only the stretch's window solved -- no
-    whole trace in memory.  Each file's rows leave the list once its RowTable copied them."""
-    model = rg.model_of(profile)
-    if figures and figures.get("model") == model and "before" in figures and "after" in figures:
-        f0, f1 = figures["before"], figures["after"]
-    else:
-        f0, f1 = [], []
-        for items, out in zip(rows, (f0, f1)):
-            col = rg.Collector(model=model)
-            col.add_rows(items)
-            out.append(col.figures())
-        f0, f1 = f0[0], f1[0]
-    st = {}
-    s0 = None if from_d is None else float(from_d)
-    for k, tag in enumerate(("before", "after")):
-        rt = rg.RowTable(rows[k], model)       # one file's table at a time (each copies its rows)
-        rows[k] = None
-        if s0 is None:                         # where the original rings most
-            s0 = rg.busiest_stretch_rows(rt, length_d)
-        s, rx, ry = rg.stretch_rows(rt, s0, length_d, SAMPLES)
-        st[tag] = {"s_mm": s.tolist(), "x_um": rx.tolist(), "y_um": ry.tolist()}
-        del rt
-    return {"model": model, "before": f0, "after": f1, "headline": headline(f0, f1),
-            "stretch": {"from_mm": s0, "length_mm": length_d, **st}}
+    """RingingRows over both files' rows, rows = [original's, processed's]; each file's rows
+    leave the list once taken."""
+    rr = RingingRows(profile, length_d, from_d, figures)
+    for k in range(2):
+        items, rows[k] = rows[k], None
+        rr.add(items)
+        del items
+    return rr.data()
 
 
 def ringing_data(original, processed, profile, length_d: float = STRETCH_D, from_d=None,

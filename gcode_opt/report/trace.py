@@ -92,6 +92,74 @@ class LineTable(_Rows):
         """attr of the moving lines first_idx..last_idx, in line order."""
         return self.column(attr, bisect_left(self.idx, first_idx), bisect_right(self.idx, last_idx))
 
+    def span_sum(self, first_idx, last_idx, attr):
+        return float(sum(self.span(first_idx, last_idx, attr)))
+
+    def span_max(self, first_idx, last_idx, attr):
+        vals = self.span(first_idx, last_idx, attr)
+        return float(max(vals)) if vals else 0.0
+
+
+SPAN_SUMS = ("time_t", "int_a2", "int_a2_j", "int_v2")      # what the report sums over a fence's lines
+SPAN_MAXES = ("peak_v", "peak_a")                           # and takes the maximum of
+
+
+def disjoint_spans(spans) -> bool:
+    """spans ((first, last) line pairs) in order, each non-empty and after the one before."""
+    prev = None
+    for a, b in spans:
+        if a > b or (prev is not None and a <= prev):
+            return False
+        prev = b
+    return True
+
+
+class SpanFigures:
+    """The processed file's line figures the report reads (SPAN_SUMS, SPAN_MAXES), kept only as
+    each span's sum and maximum (spans: the fences' output lines, disjoint_spans) instead of a
+    row a line.  Added up in line order from 0.0 as a record comes: the bits of sum() and max()
+    over the span's lines (LineTable.span_sum / span_max); a span not given raises KeyError."""
+
+    def __init__(self, spans):
+        self.first, self.last = array("q"), array("q")
+        for a, b in spans:
+            self.first.append(a)
+            self.last.append(b)
+        n = len(self.first)
+        self.sums = {k: array("d", bytes(8 * n)) for k in SPAN_SUMS}
+        self.maxes = {k: array("d", bytes(8 * n)) for k in SPAN_MAXES}
+        self.seen = bytearray(n)              # the span has a moving line (its maxima are set)
+        self._k = 0                           # the first span not yet behind the records
+
+    def add(self, rec):
+        i, k, last = rec.idx, self._k, self.last
+        while k < len(last) and last[k] < i:
+            k += 1
+        self._k = k
+        if k == len(last) or self.first[k] > i:
+            return
+        for f, col in self.sums.items():
+            col[k] += getattr(rec, f)
+        first = not self.seen[k]
+        self.seen[k] = 1
+        for f, col in self.maxes.items():
+            v = getattr(rec, f)
+            if first or v > col[k]:
+                col[k] = v
+
+    def _span(self, first_idx, last_idx):
+        k = bisect_left(self.first, first_idx)
+        if k == len(self.first) or self.first[k] != first_idx or self.last[k] != last_idx:
+            raise KeyError((first_idx, last_idx))
+        return k
+
+    def span_sum(self, first_idx, last_idx, attr):
+        return self.sums[attr][self._span(first_idx, last_idx)]
+
+    def span_max(self, first_idx, last_idx, attr):
+        k = self._span(first_idx, last_idx)
+        return self.maxes[attr][k] if self.seen[k] else 0.0
+
 
 class MoveView:
     """One row of a MoveTable with state.Move's names (the attributes the report reads)."""
@@ -198,23 +266,27 @@ class Trace:
         return slice(lo, hi)
 
     def line_sum(self, first_idx, last_idx, attr):
-        return float(sum(self.lines.span(first_idx, last_idx, attr)))
+        return self.lines.span_sum(first_idx, last_idx, attr)
 
     def line_max(self, first_idx, last_idx, attr):
-        vals = self.lines.span(first_idx, last_idx, attr)
-        return float(max(vals)) if vals else 0.0
+        return self.lines.span_max(first_idx, last_idx, attr)
 
 
-def trace_file(path, profile, ringing=False, processed=False) -> Trace:
+def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Trace:
     """ringing: also keep the rows of the commanded motion ringing.py solves (Trace.ring_rows,
-    from the same firmware-model pass).  processed: keep only the line and move fields the
-    report reads of the processed file (PROCESSED_LINE_FIELDS, PROCESSED_MOVE_FIELDS)."""
+    from the same firmware-model pass, with the idle row at both ends: ringing.Rows.padded).  processed: keep only the line and move fields the
+    report reads of the processed file (PROCESSED_LINE_FIELDS, PROCESSED_MOVE_FIELDS).  spans
+    (with processed; disjoint_spans): the line figures only as these spans' sums and maxima
+    (SpanFigures: line_sum / line_max of a span given, nothing by line)."""
     from .. import ringing as rg
-    ring = rg.Rows() if ringing else None
+    ring = rg.Rows.padded() if ringing else None
     ring_line = ring_block = None
     if ring is not None:
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
-    lines = LineTable(PROCESSED_LINE_FIELDS if processed else LINE_FIELDS)
+    if processed and spans is not None:
+        lines = SpanFigures(spans)
+    else:
+        lines = LineTable(PROCESSED_LINE_FIELDS if processed else LINE_FIELDS)
     moves = MoveTable(PROCESSED_MOVE_FIELDS if processed else MOVE_FIELDS)
     cols = {k: array("d") for k in BLOCK_FIELDS}
     cursor = [0.0, 0.0]
@@ -249,11 +321,23 @@ def trace_file(path, profile, ringing=False, processed=False) -> Trace:
 
     events = feed() if ring is None else rg.wrap_events(feed(), ring_dwell)
     res = simulate_events(events, profile, on_line=on_line, on_block=on_block)
-    blocks = {k: np.frombuffer(v, dtype=float).copy() if len(v) else np.zeros(0) for k, v in cols.items()}
-    blocks["idx"] = blocks["idx"].astype(int)
-    tr = Trace(res, lines, moves, blocks, count[0])
+    tr = Trace(res, lines, moves, _block_arrays(cols), count[0])
+    if ring is not None:
+        ring.close_padded()
     tr.ring_rows = ring.items if ring is not None else None
     return tr
+
+
+def _block_arrays(cols):
+    """The block columns (array('d') by field, emptied) as numpy arrays, one field at a time:
+    never more than one column held twice (copying them all at once held every block twice)."""
+    blocks = {}
+    for k in BLOCK_FIELDS:
+        v = cols.pop(k)
+        a = np.frombuffer(v, dtype=float) if len(v) else np.zeros(0)
+        blocks[k] = a.astype(int) if k == "idx" else a.copy()
+        del a, v
+    return blocks
 
 
 def count_lines(path) -> int:

@@ -1945,18 +1945,21 @@ static void cf_p_of(int junction, double step_r, const double *restrict q, const
     }
 }
 
+static void win_sums(Py_ssize_t no, Py_ssize_t nb, const double *restrict x, double *restrict out);
+
 /* a chain's n - 1 turn cosines ct and (nb > 0) its n lookahead windows w of nb lengths (the
-   lengths d, then nb copies of the last), as turn_cosines and window_sums make them */
+   lengths d, then nb copies of the last: ext, n + nb doubles), as turn_cosines and
+   window_sums (win_sums itself) make them */
 static void cf_turns_windows(Py_ssize_t n, const double *restrict d, const double *restrict u, Py_ssize_t nb,
-                             double *restrict ct, double *restrict w) {
+                             double *restrict ct, double *restrict ext, double *restrict w) {
     for (Py_ssize_t i = 0; i + 1 < n; i++) {
         const double *x = u + 2 * i;
         ct[i] = (0.0 + x[0] * x[2]) + x[1] * x[3];
     }
-    for (Py_ssize_t i = 0; nb > 0 && i < n; i++) {
-        double s = 0.0;
-        for (Py_ssize_t j = 0; j < nb; j++) s = s + (i + j < n ? d[i + j] : d[n - 1]) * 1.0;
-        w[i] = s;
+    if (nb > 0) {
+        memcpy(ext, d, (size_t)n * sizeof(double));
+        for (Py_ssize_t j = 0; j < nb; j++) ext[n + j] = d[n - 1];
+        win_sums(n, nb, ext, w);
     }
 }
 
@@ -1988,7 +1991,7 @@ static PyObject *chain_finish_ragged(PyObject *self, PyObject *args) {
     if (!fits) { release(&b); return NULL; }
     const Py_ssize_t m = M1 - 1;
     int shapes = m >= 1 && R >= 1 && coff[0] == 0 && coff[m] == ND && NU == 2 * ND && NQ == m * CF_Q &&
-                 NK == CK_N && G >= 1 && Nt == R && Na2 == R && Nf == R && nb >= 0 &&
+                 NK == CK_N && G >= 1 && Nt == R && Na2 == R && Nf == R && nb >= 0 && nb <= (1 << 20) &&
                  (junction == 0 || junction == 1);
     Py_ssize_t nmax = 0, sn = 0, sn1 = 0;
     for (Py_ssize_t c = 0; c < m && shapes; c++) {
@@ -2016,17 +2019,17 @@ static PyObject *chain_finish_ragged(PyObject *self, PyObject *args) {
         ok = cf_p_ok(p, junction);
     }
     if (!ok) { release(&b); Py_RETURN_FALSE; }
-    /* work space of cf_row, and the chain's own turn cosines and windows */
-    double *wk = malloc(sizeof(double) * (size_t)(22 * (nmax + 2)));
+    /* work space of cf_row, and the chain's own turn cosines, lengths extended and windows */
+    double *wk = malloc(sizeof(double) * (size_t)(23 * (nmax + 2) + nb));
     if (!wk) { release(&b); return PyErr_NoMemory(); }
-    double *ct = wk + 20 * (nmax + 2), *w = ct + (nmax + 2);
+    double *ct = wk + 20 * (nmax + 2), *w = ct + (nmax + 2), *ext = w + (nmax + 2);
     Py_ssize_t at = 0, last = -1;           /* the row's first segment in tk; the chain of p, ct, w */
     for (Py_ssize_t r = 0; r < R && ok; r++) {
         const Py_ssize_t c = (Py_ssize_t)own[r], n = coff[c + 1] - coff[c];
         const double *d = D + coff[c], *u = U + 2 * coff[c];
         if (c != last) {
             cf_p_of(junction, step_r, Q + c * CF_Q, u, n, p);
-            cf_turns_windows(n, d, u, nb, ct, w);
+            cf_turns_windows(n, d, u, nb, ct, ext, w);
             last = c;
         }
         ok = cf_row(junction, predict, n, p, d, u, ct, nb > 0 ? w : NULL, vk + at + r, tk + at, grid, K,

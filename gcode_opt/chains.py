@@ -1561,10 +1561,12 @@ def _finish_ragged(batches, rules, profile, core=None):
               coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
               _cf_rows(sts_all, core), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
+    # (t, a2 and fits each batch's own arrays, as _finish_stacked_dt gives them: the memos keep
+    # t and a2 a batch, and a view would keep the whole call's alive; acc and feed are views)
     out, a, r = [], 0, 0
     for (_, Rb, n) in sizes:
         out.append((acc[a:a + Rb * n].reshape(Rb, n), feed[a:a + Rb * n].reshape(Rb, n),
-                    t[r:r + Rb], a2[r:r + Rb], fits[r:r + Rb]))
+                    t[r:r + Rb].copy(), a2[r:r + Rb].copy(), fits[r:r + Rb].copy()))
         a += Rb * n
         r += Rb
     return out
@@ -2271,7 +2273,10 @@ class _Finisher:
             if j - i > 1:
                 got = _finish_ragged([self._batch(rs) for rs in groups[i:j]], self.rules, self.profile)
             for q in range(i, j):
-                self._finish(groups[q], None if got is None else got[q - i][2:4])
+                if got is None:
+                    self._finish(groups[q])
+                else:
+                    self._finish(groups[q], got[q - i][2:4])
             i = j
 
     def _batch(self, rs):

@@ -1512,6 +1512,66 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
     return (acc, feed, t, a2, fits) if predict else (acc, feed, None, None, fits)
 
 
+RAGGED_CELLS = 1 << 16     # a ragged finishing call's segments at most (its copies of vk, dt, acc, feed: ~2 MB)
+
+
+def _finish_ragged(batches, rules, profile, core=None):
+    """_finish_stacked_dt (predict) of several batches [(sts, gs, own, vk, tk)], each rows
+    of chains of one segment count as _finish_stacked_dt takes them, in one call of the
+    chain core's chain_finish_ragged: [(acc, feed, t, a2, fits)] a batch.  Each row is
+    finished by chain_finish's own row code from the numbers _finish_core gives it (P from
+    _cf_rows, the turn cosines and the windows' sums made chain by chain in C with the same
+    operations): the same bits (tests/test_speed52_cpu52_ragged.py), without the ~15 numpy
+    calls and the core's call of _finish_core a batch (the windowed candidates: ~30 batches a
+    window).  None (the caller then finishes batch by batch) where _finish_core would not
+    take them all: no core, another junction law, windows np.convolve would sum
+    (_window_sums), a shape it declines, or the core declines an input.  core: the module
+    (None = the chain core if it is there, False = never)."""
+    core = _chain_law.CORE_MOD if core is None else core
+    fn = getattr(core, "chain_finish_ragged", None) if core else None
+    if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+        return None
+    nb = 0
+    if profile.block_buffer > 0:
+        nb = max(profile.block_buffer - 3, 1)
+        if _window_sums_fn(core, nb) is None:
+            return None
+    sts_all, owns, vks, tks, Ds, Us, sizes = [], [], [], [], [], [], []
+    for sts, gs, own, vk, tk in batches:
+        D, U = curves.stack_du(gs)
+        m, R, n = len(sts), vk.shape[0], vk.shape[1] - 1
+        if (n < 1 or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2) or D.dtype != np.float64
+                or U.dtype != np.float64):
+            return None
+        owns.append(np.asarray(own, np.int64) + len(sts_all))
+        sts_all += sts
+        vks.append(vk.ravel())
+        tks.append(tk.ravel())
+        Ds.append(D.ravel())
+        Us.append(U.ravel())
+        sizes.append((m, R, n))
+    ms, Rs, ns = np.array(sizes, np.int64).T
+    coff = np.zeros(ms.sum() + 1, np.int64)
+    np.cumsum(np.repeat(ns, ms), out=coff[1:])
+    cells = int(Rs @ ns)
+    acc, feed = np.empty(cells), np.empty(cells)
+    R = int(Rs.sum())
+    t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
+    if not fn(0 if rules.junction == "jerk" else 1, 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
+              coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
+              _cf_rows(sts_all, core), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
+        return None
+    # (t, a2 and fits each batch's own arrays, as _finish_stacked_dt gives them: the memos keep
+    # t and a2 a batch, and a view would keep the whole call's alive; acc and feed are views)
+    out, a, r = [], 0, 0
+    for (_, Rb, n) in sizes:
+        out.append((acc[a:a + Rb * n].reshape(Rb, n), feed[a:a + Rb * n].reshape(Rb, n),
+                    t[r:r + Rb].copy(), a2[r:r + Rb].copy(), fits[r:r + Rb].copy()))
+        a += Rb * n
+        r += Rb
+    return out
+
+
 def _turn_cosines(U, core):
     """np.einsum("mij,mij->mi", U[:, :-1], U[:, 1:]): the turn cosines of chains of n > 1
     segments from their unit directions U (m, n, 2).  By the chain core's turn_cosines
@@ -1537,16 +1597,24 @@ def _window_sums(x, nb, core):
     in its candidates) where a probe found it gives np.convolve's bits for this nb on this
     machine (numpy's dot goes to OpenBLAS's ddot, whose vector kernel adds a long window
     in another order); else np.convolve.  core: the module (False / None: np.convolve)."""
-    fn = getattr(core, "window_sums", None) if core else None
+    fn = _window_sums_fn(core, nb)
     if fn is not None and x.dtype == np.float64 and x.flags.c_contiguous and x.size >= nb:
-        ok = _WINDOW_SUMS_OK.get(nb)
-        if ok is None:
-            ok = _WINDOW_SUMS_OK[nb] = _window_sums_ok(fn, nb)
-        if ok:
-            out = np.empty(x.size - nb + 1)
-            fn(x, nb, out)
-            return out
+        out = np.empty(x.size - nb + 1)
+        fn(x, nb, out)
+        return out
     return np.convolve(x, np.ones(nb), "valid")
+
+
+def _window_sums_fn(core, nb):
+    """The chain core's window_sums where it gives np.convolve's bits for this nb (a probe,
+    once an nb: _window_sums_ok), else None.  core: the module (False / None: None)."""
+    fn = getattr(core, "window_sums", None) if core else None
+    if fn is None:
+        return None
+    ok = _WINDOW_SUMS_OK.get(nb)
+    if ok is None:
+        ok = _WINDOW_SUMS_OK[nb] = _window_sums_ok(fn, nb)
+    return fn if ok else None
 
 
 def _window_sums_ok(fn, nb):
@@ -2150,6 +2218,11 @@ def _batch_rows(n):
     return max(1, min(FINISH_ROWS, FINISH_CELLS // (n * (n + 2))))
 
 
+def _batch_cells(rs):
+    """The segments of a finishing batch rs (rows of one segment count)."""
+    return sum(r.rj.size for r in rs) * rs[0].n
+
+
 class _Finisher:
     """Finishes candidate rows (_Rows) into the table and the chains' memos.  Under the
     junction laws of GROUP_JUNCTIONS rows of the same segment count wait until a batch of
@@ -2179,27 +2252,54 @@ class _Finisher:
         self.wait[r.n] = (rs, cnt + r.rj.size)
 
     def flush(self):
-        for rs, _ in self.wait.values():
-            self._finish(rs)
+        self._finish_all([rs for rs, _ in self.wait.values()])
         self.wait = {}
 
     def flush_below(self, n):
         """Finish the waiting rows of chains of fewer than n segments."""
-        for q in [q for q in self.wait if q < n]:
-            self._finish(self.wait.pop(q)[0])
+        self._finish_all([self.wait.pop(q)[0] for q in [q for q in self.wait if q < n]])
 
-    def _finish(self, rs):
+    def _finish_all(self, groups):
+        """_finish of each batch rs of groups, in their order; under grouped finishing the
+        numbers of consecutive batches made in one _finish_ragged call, up to RAGGED_CELLS
+        segments a call (a window's ~30 segment counts: a call or two, not one a count)."""
+        i = 0
+        while i < len(groups):
+            j, cells = i + 1, _batch_cells(groups[i])
+            while self.grouped and j < len(groups) and cells + _batch_cells(groups[j]) <= RAGGED_CELLS:
+                cells += _batch_cells(groups[j])
+                j += 1
+            got = None
+            if j - i > 1:
+                got = _finish_ragged([self._batch(rs) for rs in groups[i:j]], self.rules, self.profile)
+            for q in range(i, j):
+                if got is None:
+                    self._finish(groups[q])
+                else:
+                    self._finish(groups[q], got[q - i][2:4])
+            i = j
+
+    def _batch(self, rs):
+        """The batch rs as _finish_stacked_dt takes it: (sts, gs, own, vk, dt)."""
+        sts = [r.sts[j] for r in rs for j in r.J.tolist()]
+        gs = [curves.geom(st, self.profile) for st in sts]
+        if len(rs) == 1:             # (a window's batches: most are one group's rows)
+            own = rs[0].rj
+        else:
+            off = np.cumsum([0] + [r.J.size for r in rs])
+            own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
+        vk = rs[0].vk if len(rs) == 1 else np.concatenate([r.vk for r in rs])
+        dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
+        return sts, gs, own, vk, dt
+
+    def _finish(self, rs, got=None):
+        """Put the batch rs's rows in the table and the chains' memos; got: their (t, a2)
+        if made (_finish_all), else finished here."""
         profile, rules = self.profile, self.rules
-        if self.grouped:
-            sts = [r.sts[j] for r in rs for j in r.J.tolist()]
-            gs = [curves.geom(st, profile) for st in sts]
-            if len(rs) == 1:             # (a window's batches: most are one group's rows)
-                own = rs[0].rj
-            else:
-                off = np.cumsum([0] + [r.J.size for r in rs])
-                own = np.concatenate([o + r.rj for o, r in zip(off, rs)])
-            vk = rs[0].vk if len(rs) == 1 else np.concatenate([r.vk for r in rs])
-            dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
+        if got is not None:
+            t, a2 = got
+        elif self.grouped:
+            sts, gs, own, vk, dt = self._batch(rs)
             _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile)
             del vk, dt
         else:

@@ -207,6 +207,7 @@ def _old_code(monkeypatch):
     monkeypatch.setattr(chains, "_remember", _remember)
     monkeypatch.setattr(chains._Finisher, "_finish", _finish_old)
     monkeypatch.setattr(chains._LawCols, "rows", _law_rows_old)
+    monkeypatch.setattr(chains, "_finish_ragged", lambda *a, **k: None)     # (s52: not in the replaced code)
 
 
 # ---------------------------------------------------------------- runs compared
@@ -273,6 +274,7 @@ def test_finish_core_same_as_replaced(monkeypatch):
             return got
         with monkeypatch.context() as mp:
             mp.setattr(chains, "_finish_core", spy)
+            mp.setattr(chains, "_finish_ragged", lambda *a, **k: None)   # (s52: every batch by _finish_core)
             _run(SAMPLES / "prusa_gyroid.gcode", profile, 8)
         assert len(calls) > 10
         for a, k, got in calls:

@@ -1647,6 +1647,185 @@ VEC_CLONES static void cf_tent_base(int n, const double *restrict f, double side
     }
 }
 
+/* Does chain_finish take a chain's parameters p: every one finite but the end turns' cosines
+   (nan: no neighbour) and, under scv, the step (inf)? */
+static int cf_p_ok(const double *p, int junction) {
+    for (int j = 0; j < CP_N; j++)
+        if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction == 1) && !isfinite(p[j])) return 0;
+    return 1;
+}
+
+/* One row of chain_finish / chain_finish_ragged: n segments of a chain (p: its CP_N
+   parameters, d its lengths, u its directions (n, 2), ct its n - 1 turn cosines, w its
+   lookahead windows or NULL: no floor), the row's knot speeds vr (n + 1) and segment
+   durations tr (n); out: its accelerations ar and feeds fr (n), *fit, and when predict its
+   predicted time *tout and *a2out; wk: 20 (n + 2) doubles of work space.  0 where the
+   classic-jerk tent declines the row's feeds (nothing usable written), else 1. */
+static int cf_row(int junction, int predict, Py_ssize_t n, const double *restrict p, const double *restrict d,
+                  const double *restrict u, const double *restrict ct, const double *restrict w,
+                  const double *restrict vr, const double *restrict tr, const double *restrict grid,
+                  const double *restrict K, double *restrict ar, double *restrict fr, double *restrict tout,
+                  double *restrict a2out, uint8_t *restrict fit, double *restrict wk) {
+    const double tol = K[CK_TOL], defa = K[CK_DEFA], cruise_a = K[CK_CRUISE], corner = K[CK_CORNER],
+                 sq2m1 = K[CK_SQ2M1], margin = K[CK_MARGIN], stop_v = K[CK_STOPV], min_feed = K[CK_MINFEED];
+    const double a_top = p[CP_ATOP];
+    double *v = wk, *cs = wk + (n + 2), *rs = wk + 2 * (n + 2), *reach = wk + 3 * (n + 2),
+           *va = wk + 5 * (n + 2), *vb = wk + 6 * (n + 2), *tt = wk + 7 * (n + 2),
+           *aa = wk + 8 * (n + 2), *tmp = wk + 9 * (n + 2), *safe = wk + 10 * (n + 2), *vj = wk + 11 * (n + 2),
+           *fsh = wk + 12 * (n + 2), *x = wk + 13 * (n + 2), *v2 = wk + 14 * (n + 2),
+           *ttk_ = wk + 15 * (n + 2), *pk_ = wk + 16 * (n + 2), *tri_ = wk + 17 * (n + 2);
+    uint8_t *bmp = (uint8_t *)(wk + 18 * (n + 2));       /* (two rows of doubles: n bytes) */
+    /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv),
+       then the feeds' floor and the accelerations' cap (cf_clamp) */
+    cf_shape(n, d, tr, vr, bmp, ttk_, pk_, tri_, ar, fr);
+    for (Py_ssize_t k = 0; junction == 1 && k < n; k++) {
+        if (bmp[k]) {
+            double dk = d[k], a0 = vr[k], b0 = vr[k + 1], ttk = ttk_[k], peak = pk_[k], tri_a = tri_[k];
+            double lo = np_max(dk / ttk, np_max(a0, b0));
+            double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
+            for (int j = 0; j < CF_TRAP_G; j++) {      /* elementwise: vectorizable */
+                double F = lo + (peak - lo) * grid[j];
+                double a = ((F - a0) * (F - a0) + (F - b0) * (F - b0)) / (2.0 * (F * ttk - dk));
+                Fv[j] = F;
+                av[j] = a;
+                cv[j] = a * (2.0 * F - a0 - b0);
+            }
+            for (int j = 0; j < CF_TRAP_G; j++)
+                if (!((av[j] > 0) && (av[j] <= a_top))) cv[j] = INFINITY;
+            int jb = 0;                                 /* np.argmin: the first minimum, a nan first */
+            for (int j = 1; j < CF_TRAP_G && !isnan(cv[jb]); j++)
+                if (cv[j] < cv[jb] || isnan(cv[j])) jb = j;
+            double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
+            double tri_cost = tri_a * (2.0 * peak - a0 - b0);
+            int take = isfinite(best) && best < tri_cost;
+            ar[k] = take ? best_a : tri_a;
+            fr[k] = take ? best_F : peak;
+        }
+    }
+    *fit = (uint8_t)cf_clamp(n, ar, fr, a_top, a_top * tol, min_feed);
+    if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
+        for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
+        x[0] = p[CP_V0] >= stop_v ? p[CP_V0] : 0.0;
+        x[n] = p[CP_V1] >= stop_v ? p[CP_V1] : 0.0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            int hp = k > 0 || p[CP_HASP] != 0.0, hn = k < n - 1 || p[CP_HASN] != 0.0;
+            double pux = k > 0 ? u[2 * (k - 1)] : p[CP_PUX], puy = k > 0 ? u[2 * (k - 1) + 1] : p[CP_PUY];
+            double nux = k < n - 1 ? u[2 * (k + 1)] : p[CP_NUX], nuy = k < n - 1 ? u[2 * (k + 1) + 1] : p[CP_NUY];
+            double need = cf_atp_scv(x[k], hp, pux, puy, 1, u[2 * k], u[2 * k + 1], d[k]);
+            need = py_max(need, cf_atp_scv(x[k + 1], 1, u[2 * k], u[2 * k + 1], hn, nux, nuy, d[k]));
+            ar[k] = py_max(ar[k], py_min(margin * need, a_top));
+        }
+    }
+    if (w) cf_floor(n, ar, fr, w, a_top);
+    /* hold_cruise_accels_rows */
+    {
+        Py_ssize_t first = -1;
+        for (Py_ssize_t k = 0; k < n; k++)
+            if (!(ar[k] <= cruise_a)) { first = k; break; }
+        if (first < 0) {
+            for (Py_ssize_t k = 0; k < n; k++) ar[k] = a_top;
+        } else {
+            double held = ar[first];
+            for (Py_ssize_t k = first; k < n; k++) {
+                if (ar[k] <= cruise_a) ar[k] = held;
+                else held = ar[k];
+            }
+            for (Py_ssize_t k = 0; k < first; k++) ar[k] = ar[first];
+        }
+    }
+    /* the classic jerk tent (tent_rows) */
+    if (junction == 0) {
+        double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
+        int ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
+        ok = ok && n <= INT_MAX && all_finite_pos(n, fr);     /* (INT_MAX: cf_tent_base's int) */
+        if (!ok) return 0;
+        double pmax = cf_pos_max(n, fr);
+        memcpy(fsh, fr, (size_t)n * sizeof(double));
+        cf_tent_base((int)n, fr, side, st, tmp);
+        for (Py_ssize_t k = 0; k < n; k++) {
+            double mm = tmp[k];
+            for (Py_ssize_t dd = 1; dd < n; dd++) {
+                double sd = st * (double)dd;
+                if (pmax - sd < mm) break;
+                if (k - dd >= 0) {
+                    double q = fsh[k - dd] - sd;
+                    if (q > mm) mm = q;
+                }
+                if (k + dd < n) {
+                    double q = fsh[k + dd] - sd;
+                    if (q > mm) mm = q;
+                }
+            }
+            fr[k] = mm;
+        }
+    }
+    if (!predict) return 1;
+    /* _predict_group: the junction speed caps v (n + 1) */
+    v[0] = p[CP_V0];
+    v[n] = p[CP_V1];
+    if (junction == 0) {
+        cf_jerk_caps(n, u, fr, p[CP_JX], p[CP_JY], safe, v);
+    } else {
+        double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
+        for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */
+            double a0 = ar[k] > 0 ? ar[k] : defa;
+            double ux = fabs(u[2 * k]), uy = fabs(u[2 * k + 1]);
+            double a = ((ux > 0) && (a0 * ux > axm)) ? axm / ux : a0;
+            a = ((uy > 0) && (a * uy > aym)) ? aym / uy : a;
+            aa[k] = a;
+            vj[k] = scv * scv * sq2m1 / a0;
+            x[k] = 2.0 * d[k] * a;
+        }
+        for (Py_ssize_t k = 1; k < n; k++) {
+            double cos_t = -(u[2 * k] * u[2 * (k - 1)] + u[2 * k + 1] * u[2 * (k - 1) + 1] + 0.0);
+            double s2 = 0.5 * (1.0 - cos_t), c2 = 0.5 * (1.0 + cos_t);
+            double sin_d2 = sqrt(np_max(s2, 0.0)), cos_d2 = sqrt(np_max(c2, 0.0));
+            double one_m = 1.0 - sin_d2;
+            int okj = (one_m > 0.0) && (cos_d2 > 0.0);
+            double r_jd = sin_d2 / (okj ? one_m : 1.0);
+            double qt = 0.25 * sin_d2 / (okj ? cos_d2 : 1.0);
+            double q = np_min(r_jd * vj[k] * aa[k], r_jd * vj[k - 1] * aa[k - 1]);
+            q = np_min(np_min(q, x[k] * qt), x[k - 1] * qt);
+            q = okj ? sqrt(np_max(q, 0.0)) : INFINITY;
+            v[k] = np_min(q, np_min(fr[k - 1], fr[k]));
+        }
+    }
+    /* _trapezoid_rows: _lookahead_v2 */
+    cf_reach_v2(n, ar, d, v, reach, v2);
+    cs[0] = 0.0;
+    cs[1] = reach[0];
+    for (Py_ssize_t k = 1; k < n; k++) cs[k + 1] = cs[k] + reach[k];
+    {
+        double mn = v2[0] - cs[0];
+        tmp[0] = np_min(v2[0], mn + cs[0]);
+        for (Py_ssize_t k = 1; k <= n; k++) {
+            mn = np_min(mn, v2[k] - cs[k]);
+            tmp[k] = np_min(v2[k], mn + cs[k]);
+        }
+    }
+    rs[n] = 0.0;
+    rs[n - 1] = reach[n - 1];
+    for (Py_ssize_t k = n - 2; k >= 0; k--) rs[k] = rs[k + 1] + reach[k];
+    {
+        double mn = tmp[n] - rs[n];
+        v2[n] = np_min(tmp[n], mn + rs[n]);
+        for (Py_ssize_t k = n - 1; k >= 0; k--) {
+            mn = np_min(mn, tmp[k] - rs[k]);
+            v2[k] = np_min(tmp[k], mn + rs[k]);
+        }
+    }
+    cf_trap_times(n, v2, fr, reach, ar, d, tt, tmp, va, vb);
+    double a2 = -0.0 + np_pairwise_sum(tmp, n);
+    cf_corners(n - 1, va, tt, ct, corner, tmp);
+    a2 = a2 + (n > 1 ? -0.0 + np_pairwise_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
+    /* the end corners */
+    if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
+    if (p[CP_C1] >= corner) a2 = a2 + 1.0 * vb[n - 1] * vb[n - 1] * (1.0 - p[CP_C1]) / np_max(tt[n - 1], 1e-12);
+    *tout = -0.0 + np_pairwise_sum(tt, n);
+    *a2out = a2;
+    return 1;
+}
+
 /* chain_finish(junction, predict, own, vk, tk, D, U, COS, W, ws, P, grid, K,
                 acc, feed, t, a2, fits) -> bool
    junction 0 = jerk (triangles, the lookahead floor on W if W has R... rows, the tent),
@@ -1696,178 +1875,166 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
         }
     int ok = 1;
     ok = all_finite(Nvk, vk) && all_finite(Ntk, tk);
-    for (Py_ssize_t c = 0; c < m && ok; c++) {
-        const double *p = P + c * CP_N;
-        for (int j = 0; j < CP_N && ok; j++)
-            if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction == 1)) ok = isfinite(p[j]);
-    }
+    for (Py_ssize_t c = 0; c < m && ok; c++) ok = cf_p_ok(P + c * CP_N, junction);
     if (G != CF_TRAP_G) ok = 0;        /* chains.TRAP_GRID's size */
     if (!ok) { release(&b); Py_RETURN_FALSE; }
-    const double tol = K[CK_TOL], defa = K[CK_DEFA], cruise_a = K[CK_CRUISE], corner = K[CK_CORNER],
-                 sq2m1 = K[CK_SQ2M1], margin = K[CK_MARGIN], stop_v = K[CK_STOPV], min_feed = K[CK_MINFEED];
     double *wk = malloc(sizeof(double) * (size_t)(20 * (n + 2)));
     if (!wk) { release(&b); return PyErr_NoMemory(); }
-    double *v = wk, *cs = wk + (n + 2), *rs = wk + 2 * (n + 2), *reach = wk + 3 * (n + 2),
-           *va = wk + 5 * (n + 2), *vb = wk + 6 * (n + 2), *tt = wk + 7 * (n + 2),
-           *aa = wk + 8 * (n + 2), *tmp = wk + 9 * (n + 2), *safe = wk + 10 * (n + 2), *vj = wk + 11 * (n + 2),
-           *fsh = wk + 12 * (n + 2), *x = wk + 13 * (n + 2), *v2 = wk + 14 * (n + 2),
-           *ttk_ = wk + 15 * (n + 2), *pk_ = wk + 16 * (n + 2), *tri_ = wk + 17 * (n + 2);
-    uint8_t *bmp = (uint8_t *)(wk + 18 * (n + 2));       /* (two rows of doubles: n bytes) */
     for (Py_ssize_t r = 0; r < R && ok; r++) {
         const Py_ssize_t c = (Py_ssize_t)own[r];
-        const double *p = P + c * CP_N, *d = D + c * n, *u = U + c * 2 * n, *ct = COS + c * (n - 1);
-        const double a_top = p[CP_ATOP];
-        const double *vr = vk + r * (n + 1), *tr = tk + r * n;
-        double *ar = acc + r * n, *fr = feed + r * n;
-        /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv),
-           then the feeds' floor and the accelerations' cap (cf_clamp) */
-        cf_shape(n, d, tr, vr, bmp, ttk_, pk_, tri_, ar, fr);
-        for (Py_ssize_t k = 0; junction == 1 && k < n; k++) {
-            if (bmp[k]) {
-                double dk = d[k], a0 = vr[k], b0 = vr[k + 1], ttk = ttk_[k], peak = pk_[k], tri_a = tri_[k];
-                double lo = np_max(dk / ttk, np_max(a0, b0));
-                double Fv[CF_TRAP_G], av[CF_TRAP_G], cv[CF_TRAP_G];
-                for (int j = 0; j < CF_TRAP_G; j++) {      /* elementwise: vectorizable */
-                    double F = lo + (peak - lo) * grid[j];
-                    double a = ((F - a0) * (F - a0) + (F - b0) * (F - b0)) / (2.0 * (F * ttk - dk));
-                    Fv[j] = F;
-                    av[j] = a;
-                    cv[j] = a * (2.0 * F - a0 - b0);
-                }
-                for (int j = 0; j < CF_TRAP_G; j++)
-                    if (!((av[j] > 0) && (av[j] <= a_top))) cv[j] = INFINITY;
-                int jb = 0;                                 /* np.argmin: the first minimum, a nan first */
-                for (int j = 1; j < CF_TRAP_G && !isnan(cv[jb]); j++)
-                    if (cv[j] < cv[jb] || isnan(cv[j])) jb = j;
-                double best = cv[jb], best_a = av[jb], best_F = Fv[jb];
-                double tri_cost = tri_a * (2.0 * peak - a0 - b0);
-                int take = isfinite(best) && best < tri_cost;
-                ar[k] = take ? best_a : tri_a;
-                fr[k] = take ? best_F : peak;
-            }
+        ok = cf_row(junction, predict, n, P + c * CP_N, D + c * n, U + c * 2 * n, COS + c * (n - 1),
+                    NW ? W + c * ws : NULL, vk + r * (n + 1), tk + r * n, grid, K, acc + r * n, feed + r * n,
+                    tout + r, a2out + r, fits + r, wk);
+    }
+    free(wk);
+    release(&b);
+    return PyBool_FromLong(ok);
+}
+
+/* chain_finish_ragged(junction, predict, nb, step_r, own, coff, vk, tk, D, U, Q, grid, K,
+                       acc, feed, t, a2, fits) -> bool
+   chain_finish over rows of chains of several segment counts, in one call (chains.
+   _finish_ragged: the windowed candidates finish ~30 segment counts a window, each a
+   chain_finish call and its numpy set-up before).  Chain c has n_c = coff[c + 1] - coff[c]
+   >= 1 segments: its lengths D[coff[c]:coff[c + 1]], its directions U[2 coff[c]:2 coff[c + 1]];
+   Q (m, CF_Q) its chains._cf_rows row.  Row r is chain own[r]'s, its n + 1 knot speeds and n
+   durations next in vk and tk after the rows before it (acc, feed: its n values likewise).
+   What chains._finish_core makes of each group with numpy is made here chain by chain with
+   the same operations: P's columns from Q (the step JERK_F_STEP_R (step_r) x min(jerk_x,
+   jerk_y), the end turns' cosines), the turn cosines (turn_cosines' sums), the lookahead
+   windows of nb lengths (window_sums' sums over the lengths and nb copies of the last; nb 0:
+   no floor; the caller takes nb > 0 only where _window_sums uses window_sums).  Each row then
+   as chain_finish's (cf_row): the same bits.  False (nothing usable written) where
+   chain_finish would decline a group. */
+#define CF_Q 15       /* chains._CF_ROW */
+enum { CQ_ATOP, CQ_VFEED, CQ_V0, CQ_V1, CQ_JX, CQ_JY, CQ_SCV, CQ_AXM, CQ_AYM, CQ_PUX, CQ_PUY, CQ_NUX, CQ_NUY,
+       CQ_HASP, CQ_HASN };
+
+/* chains._finish_core's P row of a chain of n segments (directions u) from its Q row q */
+static void cf_p_of(int junction, double step_r, const double *restrict q, const double *restrict u,
+                    Py_ssize_t n, double *restrict p) {
+    for (int j = 0; j < CP_N; j++) p[j] = 0.0;
+    p[CP_ATOP] = q[CQ_ATOP];
+    p[CP_V0] = q[CQ_V0];
+    p[CP_V1] = q[CQ_V1];
+    if (junction == 0) {
+        p[CP_VFEED] = q[CQ_VFEED];
+        p[CP_JX] = q[CQ_JX];
+        p[CP_JY] = q[CQ_JY];
+    } else {
+        p[CP_SCV] = q[CQ_SCV];
+        p[CP_AXM] = q[CQ_AXM];
+        p[CP_AYM] = q[CQ_AYM];
+    }
+    p[CP_C0] = q[CQ_PUX] * u[0] + q[CQ_PUY] * u[1];
+    p[CP_C1] = u[2 * (n - 1)] * q[CQ_NUX] + u[2 * (n - 1) + 1] * q[CQ_NUY];
+    if (junction == 0) {
+        p[CP_STEP] = step_r * NP_MIN(p[CP_JX], p[CP_JY]);
+    } else {
+        p[CP_STEP] = INFINITY;
+        if (q[CQ_HASP] != 0.0) {
+            p[CP_PUX] = q[CQ_PUX];
+            p[CP_PUY] = q[CQ_PUY];
+            p[CP_HASP] = 1.0;
         }
-        fits[r] = (uint8_t)cf_clamp(n, ar, fr, a_top, a_top * tol, min_feed);
-        const double *w = NW ? W + c * ws : NULL;
-        if (junction == 1) {       /* curves.junction_accels (scv), vmax = the feeds as shaped */
-            for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
-            x[0] = p[CP_V0] >= stop_v ? p[CP_V0] : 0.0;
-            x[n] = p[CP_V1] >= stop_v ? p[CP_V1] : 0.0;
-            for (Py_ssize_t k = 0; k < n; k++) {
-                int hp = k > 0 || p[CP_HASP] != 0.0, hn = k < n - 1 || p[CP_HASN] != 0.0;
-                double pux = k > 0 ? u[2 * (k - 1)] : p[CP_PUX], puy = k > 0 ? u[2 * (k - 1) + 1] : p[CP_PUY];
-                double nux = k < n - 1 ? u[2 * (k + 1)] : p[CP_NUX], nuy = k < n - 1 ? u[2 * (k + 1) + 1] : p[CP_NUY];
-                double need = cf_atp_scv(x[k], hp, pux, puy, 1, u[2 * k], u[2 * k + 1], d[k]);
-                need = py_max(need, cf_atp_scv(x[k + 1], 1, u[2 * k], u[2 * k + 1], hn, nux, nuy, d[k]));
-                ar[k] = py_max(ar[k], py_min(margin * need, a_top));
-            }
+        if (q[CQ_HASN] != 0.0) {
+            p[CP_NUX] = q[CQ_NUX];
+            p[CP_NUY] = q[CQ_NUY];
+            p[CP_HASN] = 1.0;
         }
-        if (w) cf_floor(n, ar, fr, w, a_top);
-        /* hold_cruise_accels_rows */
-        {
-            Py_ssize_t first = -1;
-            for (Py_ssize_t k = 0; k < n; k++)
-                if (!(ar[k] <= cruise_a)) { first = k; break; }
-            if (first < 0) {
-                for (Py_ssize_t k = 0; k < n; k++) ar[k] = a_top;
-            } else {
-                double held = ar[first];
-                for (Py_ssize_t k = first; k < n; k++) {
-                    if (ar[k] <= cruise_a) ar[k] = held;
-                    else held = ar[k];
-                }
-                for (Py_ssize_t k = 0; k < first; k++) ar[k] = ar[first];
-            }
+    }
+}
+
+static void win_sums(Py_ssize_t no, Py_ssize_t nb, const double *restrict x, double *restrict out);
+
+/* a chain's n - 1 turn cosines ct and (nb > 0) its n lookahead windows w of nb lengths (the
+   lengths d, then nb copies of the last: ext, n + nb doubles), as turn_cosines and
+   window_sums (win_sums itself) make them */
+static void cf_turns_windows(Py_ssize_t n, const double *restrict d, const double *restrict u, Py_ssize_t nb,
+                             double *restrict ct, double *restrict ext, double *restrict w) {
+    for (Py_ssize_t i = 0; i + 1 < n; i++) {
+        const double *x = u + 2 * i;
+        ct[i] = (0.0 + x[0] * x[2]) + x[1] * x[3];
+    }
+    if (nb > 0) {
+        memcpy(ext, d, (size_t)n * sizeof(double));
+        for (Py_ssize_t j = 0; j < nb; j++) ext[n + j] = d[n - 1];
+        win_sums(n, nb, ext, w);
+    }
+}
+
+static PyObject *chain_finish_ragged(PyObject *self, PyObject *args) {
+    (void)self;
+    int junction, predict;
+    Py_ssize_t nb;
+    double step_r;
+    PyObject *oown, *ocoff, *ovk, *otk, *oD, *oU, *oQ, *og, *oK, *oacc, *ofeed, *ot, *oa2, *ofits;
+    if (!PyArg_ParseTuple(args, "iindOOOOOOOOOOOOOO", &junction, &predict, &nb, &step_r, &oown, &ocoff, &ovk,
+                          &otk, &oD, &oU, &oQ, &og, &oK, &oacc, &ofeed, &ot, &oa2, &ofits))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t R, M1, Nvk, Ntk, ND, NU, NQ, G, NK, Nacc, Nfeed, Nt, Na2, Nf;
+    int64_t *own = get(&b, oown, 8, 0, &R);
+    int64_t *coff = own ? get(&b, ocoff, 8, 0, &M1) : NULL;
+    double *vk = coff ? get(&b, ovk, 8, 0, &Nvk) : NULL;
+    double *tk = vk ? get(&b, otk, 8, 0, &Ntk) : NULL;
+    double *D = tk ? get(&b, oD, 8, 0, &ND) : NULL;
+    double *U = D ? get(&b, oU, 8, 0, &NU) : NULL;
+    double *Q = U ? get(&b, oQ, 8, 0, &NQ) : NULL;
+    double *grid = Q ? get(&b, og, 8, 0, &G) : NULL;
+    double *K = grid ? get(&b, oK, 8, 0, &NK) : NULL;
+    double *acc = K ? get(&b, oacc, 8, 1, &Nacc) : NULL;
+    double *feed = acc ? get(&b, ofeed, 8, 1, &Nfeed) : NULL;
+    double *tout = feed ? get(&b, ot, 8, 1, &Nt) : NULL;
+    double *a2out = tout ? get(&b, oa2, 8, 1, &Na2) : NULL;
+    uint8_t *fits = a2out ? get(&b, ofits, 1, 1, &Nf) : NULL;
+    if (!fits) { release(&b); return NULL; }
+    const Py_ssize_t m = M1 - 1;
+    int shapes = m >= 1 && R >= 1 && coff[0] == 0 && coff[m] == ND && NU == 2 * ND && NQ == m * CF_Q &&
+                 NK == CK_N && G >= 1 && Nt == R && Na2 == R && Nf == R && nb >= 0 && nb <= (1 << 20) &&
+                 (junction == 0 || junction == 1);
+    Py_ssize_t nmax = 0, sn = 0, sn1 = 0;
+    for (Py_ssize_t c = 0; c < m && shapes; c++) {
+        Py_ssize_t n = coff[c + 1] - coff[c];
+        shapes = n >= 1 && n <= ND;
+        nmax = n > nmax ? n : nmax;
+    }
+    for (Py_ssize_t r = 0; r < R && shapes; r++) {
+        shapes = own[r] >= 0 && own[r] < m;
+        if (shapes) {
+            Py_ssize_t n = coff[own[r] + 1] - coff[own[r]];
+            sn += n;
+            sn1 += n + 1;
         }
-        /* the classic jerk tent (tent_rows) */
-        if (junction == 0) {
-            double vf = p[CP_VFEED], st = p[CP_STEP], side = vf + st;
-            ok = isfinite(vf) && vf > 0 && isfinite(st) && st > 0 && isfinite(side);
-            ok = ok && n <= INT_MAX && all_finite_pos(n, fr);     /* (INT_MAX: cf_tent_base's int) */
-            if (!ok) break;
-            double pmax = cf_pos_max(n, fr);
-            memcpy(fsh, fr, (size_t)n * sizeof(double));
-            cf_tent_base((int)n, fr, side, st, tmp);
-            for (Py_ssize_t k = 0; k < n; k++) {
-                double mm = tmp[k];
-                for (Py_ssize_t dd = 1; dd < n; dd++) {
-                    double sd = st * (double)dd;
-                    if (pmax - sd < mm) break;
-                    if (k - dd >= 0) {
-                        double q = fsh[k - dd] - sd;
-                        if (q > mm) mm = q;
-                    }
-                    if (k + dd < n) {
-                        double q = fsh[k + dd] - sd;
-                        if (q > mm) mm = q;
-                    }
-                }
-                fr[k] = mm;
-            }
+    }
+    if (!shapes || Ntk != sn || Nvk != sn1 || Nacc != sn || Nfeed != sn) {
+        release(&b);
+        PyErr_SetString(PyExc_ValueError, "chain_finish_ragged: shapes");
+        return NULL;
+    }
+    int ok = all_finite(Nvk, vk) && all_finite(Ntk, tk) && G == CF_TRAP_G;
+    double p[CP_N];
+    for (Py_ssize_t c = 0; c < m && ok; c++) {       /* (every chain's, as chain_finish checks its groups') */
+        cf_p_of(junction, step_r, Q + c * CF_Q, U + 2 * coff[c], coff[c + 1] - coff[c], p);
+        ok = cf_p_ok(p, junction);
+    }
+    if (!ok) { release(&b); Py_RETURN_FALSE; }
+    /* work space of cf_row, and the chain's own turn cosines, lengths extended and windows */
+    double *wk = malloc(sizeof(double) * (size_t)(23 * (nmax + 2) + nb));
+    if (!wk) { release(&b); return PyErr_NoMemory(); }
+    double *ct = wk + 20 * (nmax + 2), *w = ct + (nmax + 2), *ext = w + (nmax + 2);
+    Py_ssize_t at = 0, last = -1;           /* the row's first segment in tk; the chain of p, ct, w */
+    for (Py_ssize_t r = 0; r < R && ok; r++) {
+        const Py_ssize_t c = (Py_ssize_t)own[r], n = coff[c + 1] - coff[c];
+        const double *d = D + coff[c], *u = U + 2 * coff[c];
+        if (c != last) {
+            cf_p_of(junction, step_r, Q + c * CF_Q, u, n, p);
+            cf_turns_windows(n, d, u, nb, ct, ext, w);
+            last = c;
         }
-        if (!predict) continue;
-        /* _predict_group: the junction speed caps v (n + 1) */
-        v[0] = p[CP_V0];
-        v[n] = p[CP_V1];
-        if (junction == 0) {
-            cf_jerk_caps(n, u, fr, p[CP_JX], p[CP_JY], safe, v);
-        } else {
-            double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
-            for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */
-                double a0 = ar[k] > 0 ? ar[k] : defa;
-                double ux = fabs(u[2 * k]), uy = fabs(u[2 * k + 1]);
-                double a = ((ux > 0) && (a0 * ux > axm)) ? axm / ux : a0;
-                a = ((uy > 0) && (a * uy > aym)) ? aym / uy : a;
-                aa[k] = a;
-                vj[k] = scv * scv * sq2m1 / a0;
-                x[k] = 2.0 * d[k] * a;
-            }
-            for (Py_ssize_t k = 1; k < n; k++) {
-                double cos_t = -(u[2 * k] * u[2 * (k - 1)] + u[2 * k + 1] * u[2 * (k - 1) + 1] + 0.0);
-                double s2 = 0.5 * (1.0 - cos_t), c2 = 0.5 * (1.0 + cos_t);
-                double sin_d2 = sqrt(np_max(s2, 0.0)), cos_d2 = sqrt(np_max(c2, 0.0));
-                double one_m = 1.0 - sin_d2;
-                int okj = (one_m > 0.0) && (cos_d2 > 0.0);
-                double r_jd = sin_d2 / (okj ? one_m : 1.0);
-                double qt = 0.25 * sin_d2 / (okj ? cos_d2 : 1.0);
-                double q = np_min(r_jd * vj[k] * aa[k], r_jd * vj[k - 1] * aa[k - 1]);
-                q = np_min(np_min(q, x[k] * qt), x[k - 1] * qt);
-                q = okj ? sqrt(np_max(q, 0.0)) : INFINITY;
-                v[k] = np_min(q, np_min(fr[k - 1], fr[k]));
-            }
-        }
-        /* _trapezoid_rows: _lookahead_v2 */
-        cf_reach_v2(n, ar, d, v, reach, v2);
-        cs[0] = 0.0;
-        cs[1] = reach[0];
-        for (Py_ssize_t k = 1; k < n; k++) cs[k + 1] = cs[k] + reach[k];
-        {
-            double mn = v2[0] - cs[0];
-            tmp[0] = np_min(v2[0], mn + cs[0]);
-            for (Py_ssize_t k = 1; k <= n; k++) {
-                mn = np_min(mn, v2[k] - cs[k]);
-                tmp[k] = np_min(v2[k], mn + cs[k]);
-            }
-        }
-        rs[n] = 0.0;
-        rs[n - 1] = reach[n - 1];
-        for (Py_ssize_t k = n - 2; k >= 0; k--) rs[k] = rs[k + 1] + reach[k];
-        {
-            double mn = tmp[n] - rs[n];
-            v2[n] = np_min(tmp[n], mn + rs[n]);
-            for (Py_ssize_t k = n - 1; k >= 0; k--) {
-                mn = np_min(mn, tmp[k] - rs[k]);
-                v2[k] = np_min(tmp[k], mn + rs[k]);
-            }
-        }
-        cf_trap_times(n, v2, fr, reach, ar, d, tt, tmp, va, vb);
-        double a2 = -0.0 + np_pairwise_sum(tmp, n);
-        cf_corners(n - 1, va, tt, ct, corner, tmp);
-        a2 = a2 + (n > 1 ? -0.0 + np_pairwise_sum(tmp, n - 1) : 0.0);      /* numpy's empty sum: 0.0 */
-        /* the end corners */
-        if (p[CP_C0] >= corner) a2 = a2 + 1.0 * va[0] * va[0] * (1.0 - p[CP_C0]) / np_max(tt[0], 1e-12);
-        if (p[CP_C1] >= corner) a2 = a2 + 1.0 * vb[n - 1] * vb[n - 1] * (1.0 - p[CP_C1]) / np_max(tt[n - 1], 1e-12);
-        tout[r] = -0.0 + np_pairwise_sum(tt, n);
-        a2out[r] = a2;
+        ok = cf_row(junction, predict, n, p, d, u, ct, nb > 0 ? w : NULL, vk + at + r, tk + at, grid, K,
+                          acc + at, feed + at, tout + r, a2out + r, fits + r, wk);
+        at += n;
     }
     free(wk);
     release(&b);
@@ -3378,6 +3545,7 @@ static PyMethodDef methods[] = {
     {"prims_c", prims_c, METH_VARARGS, "the C primitives sinh, cube, sinh(z)/z (tests)"},
     {"horner_skip_c", horner_skip_c, METH_VARARGS, "shc_quarter and tod_chunk with a HornerSkip table (tests)"},
     {"chain_finish", chain_finish, METH_VARARGS, "chains._finish_stacked_dt's numbers for a batch of rows"},
+    {"chain_finish_ragged", chain_finish_ragged, METH_VARARGS, "chain_finish over rows of several segment counts"},
     {"row_sums", row_sums, METH_VARARGS, "np.sum of each contiguous run (pairwise)"},
     {"step_accels", step_accels, METH_VARARGS, "LineLaw.end_accels of series-branch laws"},
     {"step_law", step_law, METH_VARARGS, "_step_law's numbers but shc(gamma/2)"},

@@ -9,10 +9,10 @@ import shutil
 import subprocess
 import sys
 from array import array
-from glob import glob
 
 import numpy as np
 import pytest
+from base_tree import unpack as base_tree_unpack
 
 from gcode_opt import state as st
 from gcode_opt.firmware.simulate import simulate_events
@@ -146,18 +146,10 @@ def test_tables_hold_what_the_dicts_held(path):
 # ----------------------------------------------------------------- (2) report bytes against main
 @pytest.fixture(scope="module")
 def base_tree(tmp_path_factory):
-    """main's code at BASE (git archive), with this tree's compiled cores (same C sources)."""
+    """The Python code of BASE with this tree's compiled cores and their C sources (base_tree.unpack)."""
     d = tmp_path_factory.mktemp("base")
-    try:
-        # (with the bundled profiles: an installed, not editable, gcode_opt's are not found
-        # from a tree on PYTHONPATH, which then looks beside its package: CI's case)
-        arch = subprocess.run(["git", "-C", ROOT, "archive", BASE, "gcode_opt", "profiles"], capture_output=True,
-                              check=True)
-    except (OSError, subprocess.CalledProcessError):
+    if not base_tree_unpack(BASE, d):
         pytest.skip(f"commit {BASE} not available")
-    subprocess.run(["tar", "-x", "-C", str(d)], input=arch.stdout, check=True)
-    for so in glob(os.path.join(ROOT, "_gcode_opt_*.so")):
-        shutil.copy(so, d)
     return str(d)
 
 

@@ -15,10 +15,10 @@ import shutil
 import subprocess
 import sys
 from array import array
-from glob import glob
 
 import numpy as np
 import pytest
+from base_tree import unpack as base_tree_unpack
 
 from gcode_opt import ringing as rg
 from gcode_opt.profile import load_profile
@@ -178,16 +178,10 @@ def test_block_arrays_as_the_copy():
 # ----------------------------------------------------------------- (4) bytes against 872f8f0
 @pytest.fixture(scope="module")
 def base_tree(tmp_path_factory):
-    """The code of BASE (git archive), with this tree's compiled cores (same C sources)."""
+    """The Python code of BASE with this tree's compiled cores and their C sources (base_tree.unpack)."""
     d = tmp_path_factory.mktemp("base")
-    try:
-        arch = subprocess.run(["git", "-C", ROOT, "archive", BASE, "gcode_opt", "profiles"], capture_output=True,
-                              check=True)
-    except (OSError, subprocess.CalledProcessError):
+    if not base_tree_unpack(BASE, d):
         pytest.skip(f"commit {BASE} not available")
-    subprocess.run(["tar", "-x", "-C", str(d)], input=arch.stdout, check=True)
-    for so in glob(os.path.join(ROOT, "_gcode_opt_*.so")):
-        shutil.copy(so, d)
     return str(d)
 
 

@@ -7,7 +7,7 @@ command itself (`list`: pipeline.process, the strokes a list), with each phase's
 RSS (VmHWM reset at its start, /proc/self/clear_refs "5"), the running peak and CPU.
 
     PYTHONPATH=TREE python benchmarks/win52/command.py PLATE list|stored OUT_FOLDER [WINDOW]
-        [--drop-segs] [--drop-memos] [--check REF.gcode REF.json] [--trace]
+        [--drop-segs] [--drop-memos] [--runs-window N] [--held N] [--check REF.gcode REF.json] [--trace]
 
 Options as `python -m gcode_opt process PLATE -o OUT --json J -q` (profile auto, default
 features, --json's ringing parts and per-stroke rows).  --check: the written file byte for
@@ -19,7 +19,9 @@ the budget runs (likewise: a second pass's runs start from them).  --trace:
 tracemalloc's live memory by line at the end of the budget runs, and near the largest
 traced size (a polling thread's snapshot; stderr).  WIN52_NO_RESET=1:
 no VmHWM reset (the own peaks are the running ones; ru_maxrss the end-to-end peak).
-A second rewrite pass is not run: the script says whether _process would have made one.
+--runs-window N / --held N: the budget runs and the steps after them over a StoredStrokes of
+windows of N strokes / N windows held (default: the candidates' window, 2), the chains' memos
+handed over.  A second rewrite pass is not run: the script says whether _process would have made one.
 Prints one JSON line."""
 import ast
 import json
@@ -145,7 +147,8 @@ class PeakSnapshot:
             print(f"  {st.size / 2**20:6.2f} MB {st.count:8d} {st.traceback[0]}", file=sys.stderr)
 
 
-def windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs=False, drop_memos=False, trace=False):
+def windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs=False, drop_memos=False, trace=False,
+             runs_window=None, held=None):
     """_process's first pass with the strokes in a StrokeStore, read a window at a time"""
     from gcode_opt.stored_strokes import StoredStrokes, curve_geometry
     from gcode_opt.stroke_columns import StrokeColumns
@@ -178,6 +181,11 @@ def windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs=Fal
         pl.trim_heap()
         lap("candidates")
         strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)
+        if runs_window or held:     # (the runs and after on other windows: the memos handed over)
+            strokes.let_go()
+            side = strokes._side
+            strokes = StoredStrokes(store, runs_window or window, held=held or strokes.held, keep=("chain_T",))
+            strokes._side = side
         with pl._young_frozen(freeze):
             plan = sc.plan_strokes(strokes, pin, prof, opts, opts.max_slowdown_r * sim0.time_t)
         sc.set_aside_for_rewrite(pin, folder, last=False)
@@ -245,7 +253,8 @@ def _same_json(a, b):
     return sorted(k for k in set(a) | set(b) if k not in VOLATILE and a.get(k) != b.get(k))
 
 
-def main(path, mode, folder, window=1024, drop_segs=False, drop_memos=False, check=None, trace=False):
+def main(path, mode, folder, window=1024, drop_segs=False, drop_memos=False, check=None, trace=False, runs_window=None,
+         held=None):
     if trace:
         import tracemalloc
         tracemalloc.start()
@@ -258,7 +267,7 @@ def main(path, mode, folder, window=1024, drop_segs=False, drop_memos=False, che
     name = os.path.basename(path).rsplit(".", 1)[0]
     out_path = os.path.join(folder, f"{name}_{mode}.gcode")
     out = {"file": os.path.basename(path), "mode": mode, "window": window if mode != "list" else None,
-           "drop_segs": drop_segs, "drop_memos": drop_memos}
+           "drop_segs": drop_segs, "drop_memos": drop_memos, "runs_window": runs_window, "held": held}
     if mode == "list":
         summary = pl.process(path, out_path, prof, opts)
         out["list_peak_mb"] = opts.peak_rss_mb
@@ -266,7 +275,8 @@ def main(path, mode, folder, window=1024, drop_segs=False, drop_memos=False, che
         lap("command")
     else:
         with blas_one_thread(), pl._strokes_frozen() as freeze:
-            summary = windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs, drop_memos, trace)
+            summary = windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs, drop_memos, trace,
+                               runs_window, held)
     fi = summary.get("features")
     if isinstance(fi, dict) and why:           # (the command line's)
         fi["why"] = why
@@ -293,11 +303,18 @@ def main(path, mode, folder, window=1024, drop_segs=False, drop_memos=False, che
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    check = None
-    if "--check" in sys.argv:
-        at = sys.argv.index("--check")
-        check = sys.argv[at + 1:at + 3]
-        args = [a for a in args if a not in check]
+    argv = sys.argv[1:]
+    check = runs_window = held = None
+    if "--check" in argv:
+        at = argv.index("--check")
+        check = argv[at + 1:at + 3]
+        del argv[at + 1:at + 3]
+    for opt in ("--runs-window", "--held"):
+        if opt in argv:
+            at = argv.index(opt)
+            val = int(argv.pop(at + 1))
+            runs_window, held = (val, held) if opt == "--runs-window" else (runs_window, val)
+    args = [a for a in argv if not a.startswith("--")]
     main(args[0], args[1], args[2], *([int(args[3])] if args[3:] else []), drop_segs="--drop-segs" in sys.argv,
-         drop_memos="--drop-memos" in sys.argv, check=check, trace="--trace" in sys.argv)
+         drop_memos="--drop-memos" in sys.argv, check=check, trace="--trace" in sys.argv,
+         runs_window=runs_window, held=held)

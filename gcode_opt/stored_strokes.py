@@ -151,3 +151,22 @@ def curve_geometry(codes, profile):
             curves.build_geoms([sts[k] for k in np.flatnonzero(c == code).tolist()], profile, jerk1=True,
                                kappa=kappa)
     return made
+
+
+def join_plan_inputs(parts):
+    """The PlanInputs of consecutive windows of strokes as one, as plan_inputs of all of them
+    gives it: each array of one row a stroke joined, each list joined, and each dict by row
+    (arcs' arc_gentle) with its rows moved by its window's first row."""
+    from .plan import PlanInput
+    pin = PlanInput.__new__(PlanInput)
+    at = np.cumsum([0] + [len(p.L) for p in parts])
+    for k in dict.fromkeys(k for p in parts for k in vars(p)):
+        vals = [vars(p).get(k) for p in parts]
+        v = next(x for x in vals if x is not None)
+        if isinstance(v, np.ndarray):
+            setattr(pin, k, np.concatenate(vals))
+        elif isinstance(v, dict):
+            setattr(pin, k, {int(i) + int(a): x for a, d in zip(at, vals) if d for i, x in d.items()})
+        else:
+            setattr(pin, k, [x for p in vals for x in p])
+    return pin

@@ -13,7 +13,7 @@ from gcode_opt import features as feat
 from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
 from gcode_opt.profile import load_profile
-from gcode_opt.stored_strokes import StoredStrokes, curve_geometry
+from gcode_opt.stored_strokes import StoredStrokes, curve_geometry, join_plan_inputs
 from gcode_opt.stroke_store import StrokeStore
 from gcode_opt.strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE
 
@@ -62,7 +62,7 @@ def runs(name, prof_name, window, stored=True):
             sts = store.load(lo, lo + window)
             parts.append(sc.plan_inputs(sts, prof, opts))
             store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
-        pin = _cat(parts)
+        pin = join_plan_inputs(parts)
         strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
     rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
     failed = sc._faults_of(pin.fault)
@@ -77,25 +77,6 @@ def runs(name, prof_name, window, stored=True):
     if store is not None:
         store.close()
     return plan
-
-
-def _cat(parts):
-    """The PlanInputs of consecutive windows as one (benchmarks/win51/phases.py's _cat; and
-    a dict by row, arcs.adjust_plan_inputs' arc_gentle, its rows moved by the window's
-    first row: phases.py's joins its keys into a list)."""
-    from gcode_opt.plan import PlanInput
-    pin = PlanInput.__new__(PlanInput)
-    at = np.cumsum([0] + [len(p.L) for p in parts])
-    for k in dict.fromkeys(k for p in parts for k in vars(p)):
-        vals = [vars(p).get(k) for p in parts]
-        v = next(x for x in vals if x is not None)
-        if isinstance(v, np.ndarray):
-            setattr(pin, k, np.concatenate(vals))
-        elif isinstance(v, dict):
-            setattr(pin, k, {int(i) + int(a): x for a, d in zip(at, vals) if d for i, x in d.items()})
-        else:
-            setattr(pin, k, [x for p in vals for x in p])
-    return pin
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ import numpy as np
 
 from gcode_opt import features as feat
 from gcode_opt import pipeline as pl
-from gcode_opt.plan import PlanInput
+from gcode_opt.stored_strokes import join_plan_inputs
 from gcode_opt.profile import load_profile
 from gcode_opt.rss import peak_rss_mb
 from gcode_opt.schedule import (_faults_of, _lines_repeat, _plan_kind_codes_of, _rows_by_kind, candidates_in_windows,
@@ -52,21 +52,6 @@ def cand_digest(c, n):
                                    c.vals[:, at].ravel()]))
 
 
-def _cat(parts):
-    """the PlanInputs of consecutive windows as one (arrays of one row a stroke joined)"""
-    first = parts[0]
-    pin = PlanInput.__new__(PlanInput)
-    for k, v in vars(first).items():
-        vals = [vars(p)[k] for p in parts]
-        if isinstance(v, np.ndarray):
-            setattr(pin, k, np.concatenate(vals))
-        elif isinstance(v, list):
-            setattr(pin, k, [x for p in vals for x in p])
-        else:
-            raise SystemExit(f"plan_inputs by window: field {k} of type {type(v).__name__} not joined")
-    return pin
-
-
 def plan_inputs_windowed(store, prof, opts, window):
     parts = []
     for lo in range(0, len(store), window):
@@ -74,7 +59,7 @@ def plan_inputs_windowed(store, prof, opts, window):
         parts.append(plan_inputs(sts, prof, opts))
         store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)   # (chain marks, corners' v0 / v1)
         del sts
-    return _cat(parts)
+    return join_plan_inputs(parts)
 
 
 def _geometry(codes, prof):
@@ -131,7 +116,7 @@ def main(path, mode, window=4096, to="runs"):
         parts.append(plan_inputs(sts, prof, opts))
         store.rewrite(np.arange(n0, len(store), dtype=np.int64), sts)
         del sts
-        pin = _cat(parts)
+        pin = join_plan_inputs(parts)
         strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
     else:
         store = StrokeStore()

@@ -23,13 +23,11 @@ no VmHWM reset (the own peaks are the running ones; ru_maxrss the end-to-end pea
 windows of N strokes / N windows held (default: the candidates' window, 2), the chains' memos
 handed over.  A second rewrite pass is not run: the script says whether _process would have made one.
 Prints one JSON line."""
-import ast
 import json
 import os
 import sys
 import time
 
-import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "win51"))
@@ -42,19 +40,6 @@ from gcode_opt import pipeline as pl  # noqa: E402
 from gcode_opt import schedule as sc  # noqa: E402
 from gcode_opt.cli import _load_profile  # noqa: E402
 from gcode_opt.strokes import K_LINE  # noqa: E402
-
-
-def _fixed_cat():
-    """tests/test_speed52_runs52_windows.py's _cat (arcs' arc_gentle keys moved by each
-    window's first row; phases._cat joins them wrongly), taken from its source: importing
-    the test module imports pytest (+15 MB resident, which would be measured)."""
-    path = os.path.join(HERE, "..", "..", "tests", "test_speed52_runs52_windows.py")
-    with open(path) as fh:
-        tree = ast.parse(fh.read())
-    fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "_cat")
-    ns = {"np": np}
-    exec(compile(ast.Module(body=[fn], type_ignores=[]), path, "exec"), ns)
-    return ns["_cat"]
 
 
 class Laps:
@@ -160,7 +145,6 @@ def windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs=Fal
         with pl._young_frozen(freeze):
             store, sim0 = pl.analyse(path, prof, opts, store)
         lap("analyse")
-        phases._cat = _fixed_cat()
         with pl._young_frozen(freeze):
             pin = phases.plan_inputs_windowed(store, prof, opts, window)
         strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))

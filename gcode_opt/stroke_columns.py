@@ -20,7 +20,7 @@ from operator import attrgetter
 import numpy as np
 
 from . import objfields
-from .distinct import value_codes
+from .distinct import distinct, value_codes
 from .strokes import Stroke, line_spans, stroke_fields
 
 FLOATS = ("length_d", "v0", "v1", "v_feed", "int_v2")     # the summary's rows and sums
@@ -183,7 +183,7 @@ class HeldRows:
         slots = self.slots
         for r in self._held:
             slots[r] = None
-        rows = np.unique(np.asarray(rows, np.int64))
+        rows = distinct(np.asarray(rows, np.int64))     # (np.unique would import numpy.ma: distinct.py)
         self._held = rows.tolist()
         made = self.store.take(rows) if len(rows) else []
         self.made += len(made)

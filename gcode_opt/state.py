@@ -139,6 +139,7 @@ MAX_ACCEL_A = 1e6      # mm/s^2 (100 g; the fastest printers stay below 1e5)
 MAX_VELOCITY_V = 1e5   # mm/s
 MAX_DWELL_T = 1e6      # s (11 days)
 _CLASSIC_LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ")
+_MOTION_CMDS = frozenset(("G0", "G1", "G2", "G3"))
 _WAITS = {"M109", "M190", "M400", "M0", "M1", "M600", "M191", "M116", "G29", "G80", "G34", "M226"}
 # the classic commands (words.command_of's names) _step_python reads: any other returns
 # None there and changes nothing, and the compiled reader answers it so itself (keep this
@@ -290,7 +291,12 @@ class MachineState:
             code, checksum = strip_checksum(code)
             cmd = command_of(code)
             if self.flavour == "klipper" and cmd[:1] in _CLASSIC_LETTERS and command_text(code) != cmd:
-                return None                # Klipper does not normalise 'G01': an unknown command
+                # Klipper does not normalise 'G01': an unknown command it skips.  A move in
+                # that form whose words are unreadable (NaN, inf, garbage) is still a broken
+                # file (other firmwares read it as G1): refused, as the same line as 'G1'.
+                if cmd in _MOTION_CMDS:
+                    params_of(code)
+                return None
             if cmd in ("G1", "G0"):
                 return self._linear(idx, raw, params_of(code), checksum)
             if cmd in ("G2", "G3"):

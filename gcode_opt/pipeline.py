@@ -350,9 +350,15 @@ def spill_analyse():
     return os.environ.get("GCODE_OPT_SPILL_ANALYSE", "") not in ("", "0")
 
 
-def _analysed(in_path, profile, opts, freeze, timing):
+def _analysed(in_path, profile, opts, freeze, timing, store=None):
     """analyse's (strokes, sim's result), its phase lapped; with spill_analyse() through a
-    StrokeStore (the strokes loaded back after the lap: planning's phase)."""
+    StrokeStore (the strokes loaded back after the lap: planning's phase).  store (the
+    windowed pipeline's): the strokes spilled to it and left there, (store, sim's result)."""
+    if store is not None:
+        with _young_frozen(freeze):
+            got = analyse(in_path, profile, opts, store)
+        timing.lap("analyse")
+        return got
     if not spill_analyse():
         with _young_frozen(freeze):      # (analyse leaves the collector off then: its strokes are frozen)
             got = analyse(in_path, profile, opts)
@@ -1346,6 +1352,32 @@ def _young_frozen(freeze):
 
 
 def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=None, freeze=None):
+    """The job on the strokes as a list (the default), or with GCODE_OPT_WINDOWED=1 kept in a
+    StrokeStore and read a window at a time (plan_windows: a StoredStrokes, which the passes
+    below index and iterate as they do the list)."""
+    from .plan_windows import window_size
+    window = window_size()
+    if window is None:
+        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
+    from .stroke_store import StrokeStore
+    with StrokeStore() as store:
+        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+
+
+def _planned(strokes, profile, opts, freeze, window):
+    """(PlanInput, the strokes planning reads): plan_inputs of the list, or (strokes a
+    StrokeStore) plan_windows.planned_strokes: its StoredStrokes, the candidates made."""
+    if window is None:
+        with _young_frozen(freeze):      # (planning's ~10^5 containers live on, with no cycles)
+            return plan_inputs(strokes, profile, opts), strokes
+    from .plan_windows import planned_strokes
+    with _young_frozen(freeze):
+        got = planned_strokes(strokes, profile, opts, window)
+    trim_heap()                   # (the candidates' transients: the runs grow on live memory only)
+    return got
+
+
+def _process_strokes(in_path, out_path, profile, opts, before_replace=None, freeze=None, store=None, window=None):
     from .outfile import AtomicOutput, OutputError, describe
     t_start = time.monotonic()
     timing = _Timing()
@@ -1353,13 +1385,12 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     prog = opts.progress
     if prog:
         prog.start("analyse")
-    strokes, sim0 = _analysed(in_path, profile, opts, freeze, timing)
+    strokes, sim0 = _analysed(in_path, profile, opts, freeze, timing, store)
     if sim0.n_moves == 0:
         if prog:
             prog.finish()
         return _unchanged(in_path, out_path, profile, "no moves to re-time")
-    with _young_frozen(freeze):      # (planning's ~10^5 containers live on, with no cycles)
-        pin = plan_inputs(strokes, profile, opts)
+    pin, strokes = _planned(strokes, profile, opts, freeze, window)
     timing.lap("plan")
     budget_t = opts.max_slowdown_r * sim0.time_t
     try:
@@ -1419,8 +1450,9 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
                 # the curve geometry is planning's alone: measure peaks above planning with
                 # it still held (~9 MB on the gyroid plate); a re-plan rebuilds it in one
                 # batch (schedule._rebuild_geometry, the same bits)
-                for st in strokes:
-                    st.curv = None
+                if type(strokes) is list:       # (a StoredStrokes' windows were let go by the rewrite)
+                    for st in strokes:
+                        st.curv = None
                 trim_heap()
                 if prog:
                     prog.start("measure")

@@ -1,0 +1,76 @@
+"""The windowed pipeline's planning (issue 8: the strokes never all alive): analyse spills the
+strokes to a StrokeStore (pipeline.analyse's store), plan_inputs is made a window of them at a
+time and the candidate tables a window at a time over a StoredStrokes
+(schedule.candidates_in_windows); the budget runs, the rewrite, the measure and the summary
+then read the same StoredStrokes (pipeline._process: GCODE_OPT_WINDOWED=1).
+
+The same bits as the list path on the plates and the samples tested
+(tests/test_speed53_wire53_windowed.py), but on files with arcs: there the candidates' arc
+figures (I, KE; never T or beta) may differ in the last bit (laws/circle.py's quadrature
+levels are the window's batch's, benchmarks/win52/command.md), so the JSON's per-stroke int a^2
+may too; the written file is the same bytes."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
+
+
+def window_size():
+    """GCODE_OPT_WINDOWED=1: the strokes a window of the windowed pipeline (GCODE_OPT_WINDOW,
+    default WINDOW); else None (the list path, the default)."""
+    if os.environ.get("GCODE_OPT_WINDOWED", "") in ("", "0"):
+        return None
+    got = int(os.environ.get("GCODE_OPT_WINDOW", "") or WINDOW)
+    if got < 1:
+        raise ValueError("GCODE_OPT_WINDOW must be >= 1")
+    return got
+
+
+def plan_inputs_windowed(store, profile, opts, window):
+    """plan_inputs of the strokes of store, made window by window and joined
+    (stored_strokes.join_plan_inputs): the same PlanInput as one call over the list.  The
+    strokes plan_inputs changes (chains' marks, corners' v0 / v1) are written back."""
+    from .schedule import plan_inputs
+    from .stored_strokes import join_plan_inputs
+    parts = []
+    for lo in range(0, len(store), window):
+        sts = store.load(lo, lo + window)
+        parts.append(plan_inputs(sts, profile, opts))
+        store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
+        del sts
+    return join_plan_inputs(parts)
+
+
+def planned_strokes(store, profile, opts, window):
+    """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs a
+    window at a time, and with alpha "auto" the candidate tables too, put where
+    plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
+    keeps the chains' memos (chain_T: state the runs' bits depend on, a second pass's too)
+    in its side table."""
+    from .stored_strokes import StoredStrokes, curve_geometry
+    pin = plan_inputs_windowed(store, profile, opts, window)
+    strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile), keep=("chain_T",))
+    if opts.alpha == "auto" and len(strokes):
+        pin.cached = candidates_windowed(strokes, pin, profile, opts)
+    strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)
+    return pin, strokes
+
+
+def candidates_windowed(strokes, pin, profile, opts):
+    """What schedule._candidates leaves in pin.cached (alpha "auto"): the candidate tables
+    made on the windows' bounds of strokes (a StoredStrokes), the strokes whose candidate is
+    not finite failed, the lines' inputs kept for the runs and the rest set aside."""
+    from .schedule import (_faults_of, _lines_repeat, _plan_kind_codes_of, _rows_by_kind,
+                           candidates_in_windows)
+    from .strokes import K_LINE
+    rows = _rows_by_kind(strokes, _plan_kind_codes_of(strokes, pin))
+    failed = _faults_of(pin.fault)
+    cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds())
+    for i in nonfinite:
+        failed.setdefault(int(i), "error: planning (non-finite)")
+    _lines_repeat(pin, rows[K_LINE])
+    pin.set_aside()
+    return cands, None, failed

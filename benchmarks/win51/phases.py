@@ -20,7 +20,8 @@ import numpy as np
 
 from gcode_opt import features as feat
 from gcode_opt import pipeline as pl
-from gcode_opt.stored_strokes import join_plan_inputs
+from gcode_opt.plan_windows import plan_inputs_windowed  # noqa: F401  (the package's: runs.py reads it here)
+from gcode_opt.stored_strokes import curve_geometry, join_plan_inputs
 from gcode_opt.profile import load_profile
 from gcode_opt.rss import peak_rss_mb
 from gcode_opt.schedule import (_faults_of, _lines_repeat, _plan_kind_codes_of, _rows_by_kind, candidates_in_windows,
@@ -50,29 +51,6 @@ def cand_digest(c, n):
     at = np.repeat(c.first - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
     return _digest(np.concatenate([cnt.astype(float), c.t_pos.astype(float).ravel(), c.col[at].astype(float),
                                    c.vals[:, at].ravel()]))
-
-
-def plan_inputs_windowed(store, prof, opts, window):
-    parts = []
-    for lo in range(0, len(store), window):
-        sts = store.load(lo, lo + window)
-        parts.append(plan_inputs(sts, prof, opts))
-        store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)   # (chain marks, corners' v0 / v1)
-        del sts
-    return join_plan_inputs(parts)
-
-
-def _geometry(codes, prof):
-    """on_load: a window's curve geometry made in one batch, as plan_inputs made it
-    (chains.classify's build_geoms), not stroke by stroke when the candidates read it"""
-    from gcode_opt import curves
-    from gcode_opt.schedule import C_CHAIN, C_CURVE
-
-    def made(lo, sts):
-        c = codes[lo:lo + len(sts)]
-        for code, kappa in ((C_CURVE, True), (C_CHAIN, False)):      # (a chain never reads κ)
-            curves.build_geoms([sts[k] for k in np.flatnonzero(c == code).tolist()], prof, jerk1=True, kappa=kappa)
-    return made
 
 
 _SPILL = pl._spill_finished
@@ -117,13 +95,13 @@ def main(path, mode, window=4096, to="runs"):
         store.rewrite(np.arange(n0, len(store), dtype=np.int64), sts)
         del sts
         pin = join_plan_inputs(parts)
-        strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
+        strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
     else:
         store = StrokeStore()
         store, sim0 = pl.analyse(path, prof, opts, store)
         lap("analyse")
         pin = plan_inputs_windowed(store, prof, opts, window)
-        strokes = StoredStrokes(store, window, on_load=_geometry(pin.plan_kind_codes, prof),
+        strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, prof),
                                 keep=("chain_T",) if mode == "stored" else ())
     pl.trim_heap()
     lap("plan_inputs")

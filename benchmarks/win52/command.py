@@ -30,16 +30,14 @@ import time
 
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "win51"))
 sys.path.insert(0, HERE)
 
-import phases  # noqa: E402  (win51: plan_inputs a window at a time)
 from rewrite import _reset_peak, _status  # noqa: E402  (this folder: a phase's own VmHWM)
 from gcode_opt import features as feat  # noqa: E402
 from gcode_opt import pipeline as pl  # noqa: E402
+from gcode_opt import plan_windows  # noqa: E402
 from gcode_opt import schedule as sc  # noqa: E402
 from gcode_opt.cli import _load_profile  # noqa: E402
-from gcode_opt.strokes import K_LINE  # noqa: E402
 
 
 class Laps:
@@ -146,22 +144,12 @@ def windowed(path, out_path, prof, opts, window, freeze, lap, out, drop_segs=Fal
             store, sim0 = pl.analyse(path, prof, opts, store)
         lap("analyse")
         with pl._young_frozen(freeze):
-            pin = phases.plan_inputs_windowed(store, prof, opts, window)
+            pin = plan_windows.plan_inputs_windowed(store, prof, opts, window)
         strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, prof), keep=("chain_T",))
         pl.trim_heap()
         lap("plan_inputs")
-        # the candidates on windows' bounds (runs.py; _candidates' steps after its tables)
-        with pl._young_frozen(freeze):
-            rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
-            failed = sc._faults_of(pin.fault)
-            bounds = list(range(0, len(strokes), window)) + [len(strokes)]
-            cands, nonfinite = sc.candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds)
-        for i in nonfinite:
-            failed.setdefault(int(i), "error: planning (non-finite)")
-        sc._lines_repeat(pin, rows[K_LINE])
-        pin.set_aside()
-        pin.cached = (cands, None, failed)
-        del cands, rows
+        with pl._young_frozen(freeze):      # (the candidates on the windows' bounds)
+            pin.cached = plan_windows.candidates_windowed(strokes, pin, prof, opts)
         pl.trim_heap()
         lap("candidates")
         strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)

@@ -31,13 +31,20 @@ def command(tree, f, prof, out, env):
                   "--profile", prof], dict(os.environ, PYTHONPATH=tree, **env), tree)
 
 
+SAME = ("import json, sys\n"
+        "a, b = sys.argv[1:3]\n"
+        "same = open(a, 'rb').read() == open(b, 'rb').read()\n"
+        "ja, jb = json.load(open(a + '.json')), json.load(open(b + '.json'))\n"
+        f"print(json.dumps([same, sorted(k for k in set(ja) | set(jb) if k not in {VOLATILE!r} "
+        "and ja.get(k) != jb.get(k))]))\n")
+
+
 def same(a, b):
-    """(same bytes, the JSON keys that differ but VOLATILE)"""
-    with open(a, "rb") as x, open(b, "rb") as y:
-        bytes_same = x.read() == y.read()
-    with open(a + ".json") as x, open(b + ".json") as y:
-        ja, jb = json.load(x), json.load(y)
-    return bytes_same, sorted(k for k in set(ja) | set(jb) if k not in VOLATILE and ja.get(k) != jb.get(k))
+    """(same bytes, the JSON keys that differ but VOLATILE), read in a child process: the
+    summaries read here would raise this process's peak RSS, which a child forked after
+    inherits (Linux folds the parent's high-water mark into the child's ru_maxrss at exec)"""
+    out = subprocess.run([sys.executable, "-c", SAME, a, b], capture_output=True, text=True, check=True).stdout
+    return tuple(json.loads(out))
 
 
 def main(argv=None):

@@ -62,7 +62,8 @@ from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewr
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
-from .stroke_columns import StrokeColumns, first_lines, line_columns, stored_rows
+from .stored_strokes import stored_rows
+from .stroke_columns import StrokeColumns, first_lines, line_columns
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
 from .words import param_texts, split_comment, strip_checksum

@@ -1,13 +1,18 @@
-"""StoredStrokes: the strokes of a StrokeStore as a sequence that holds a few windows of them
-as objects at a time (the windowed pipeline's stroke set: issue 8, benchmarks/win51).
+"""The strokes of a StrokeStore seen a window of rows at a time (the windowed pipeline's
+stroke sets: issue 8, benchmarks/win51, win52; pipeline._process with GCODE_OPT_WINDOWED=1).
+Window j is the rows [j * window, (j + 1) * window).  Two views, one family (StoreWindows):
 
-Window j is the strokes [j * window, (j + 1) * window).  s[i] loads i's window (store.load)
-if it is not held, letting go of the window used least recently when `held` are held; while
-a window is held, s[i] is the same object each time.  A window let go whose strokes may have
-changed (writeback=True: every window; else those marked by changed(i)) is written back
-(store.rewrite) first.  The store keeps no cache: curv comes back None, chain_T an empty
-ChainMemo (stroke_store), so a consumer's caches on a stroke last as long as its window (on_load may
-make them again for a window as it is loaded, in one batch).
+- StoredStrokes, planning's (plan_inputs' candidates, the budget runs): a sequence of every
+  stroke, indexed and iterated as the list is, that holds a few windows as objects at a
+  time.  s[i] loads i's window (store.load) if it is not held, letting go of the window used
+  least recently when `held` are held; while a window is held, s[i] is the same object each
+  time.  A window let go whose strokes may have changed (writeback=True: every window; else
+  those marked by changed(i)) is written back (store.rewrite) first.  The store keeps no
+  cache: curv comes back None, chain_T an empty ChainMemo (stroke_store), so a consumer's
+  caches on a stroke last as long as its window (on_load may make them again for a window
+  as it is loaded, in one batch; keep: fields kept in side tables past their window).
+- HeldRows, the steps after planning's (the rewrite): a list of one slot a stroke, only the
+  rows asked for made, a window's at a time (stored_rows).
 
 The hazard (benchmarks/win51/audit.md): a consumer that keeps a stroke past its window (a
 list of strokes, a dict keyed by stroke, a memo) reads a copy that is no longer the row's,
@@ -22,14 +27,40 @@ from operator import attrgetter, is_not
 
 import numpy as np
 
+from .distinct import distinct
+
 _IS_NOT_NONE = partial(is_not, None)
 
 
-class StoredStrokes:
+class StoreWindows:
+    """A StrokeStore's rows in windows of `window` rows (row // window)."""
+
+    def __init__(self, store, window):
+        if window < 1:
+            raise ValueError(f"{type(self).__name__}: window must be >= 1")
+        self.store, self.window = store, int(window)
+
+    def __len__(self):
+        return len(self.store)
+
+    def bounds(self):
+        """The windows' first rows and the end: candidates_in_windows' bounds."""
+        return list(range(0, len(self), self.window)) + [len(self)]
+
+    def ends(self, order):
+        """The end (in order) of each run of order's rows in one window."""
+        w = np.asarray(order, np.int64) // self.window
+        return (np.flatnonzero(w[1:] != w[:-1]) + 1).tolist() + [len(w)]
+
+
+class StoredStrokes(StoreWindows):
+    """Every stroke of store, a few windows of them objects at a time (the module's doc)."""
+
     def __init__(self, store, window=4096, held=2, writeback=False, on_load=None, keep=()):
-        if window < 1 or held < 1:
-            raise ValueError("StoredStrokes: window and held must be >= 1")
-        self.store, self.window, self.held, self.writeback = store, int(window), int(held), writeback
+        if held < 1:
+            raise ValueError("StoredStrokes: held must be >= 1")
+        super().__init__(store, window)
+        self.held, self.writeback = int(held), writeback
         self.on_load = on_load           # on_load(first row, strokes) after a window is loaded (caches)
         # keep: fields whose objects (not None) outlive their window in side tables {row: object},
         # put back when the row is loaded again (chain_T: the chains' memos, whose state the
@@ -40,13 +71,6 @@ class StoredStrokes:
         self.loads = 0                   # windows loaded (a measure of the access pattern)
         self._lo = self._hi = 0          # the window used last: its rows [_lo, _hi), its strokes
         self._cur = None
-
-    def __len__(self):
-        return len(self.store)
-
-    def bounds(self):
-        """The windows' first rows and the end: candidates_in_windows' bounds."""
-        return list(range(0, len(self), self.window)) + [len(self)]
 
     def _win(self, j):
         w = self._wins.get(j)
@@ -135,6 +159,57 @@ class StrokeRows:
 
     def __iter__(self):
         return map(self.strokes.__getitem__, self.rows.tolist())
+
+
+WINDOW = 4096     # rows a window of a StrokeStore given as it is (a StoredStrokes: its own)
+
+
+def stored(strokes):
+    """(the StrokeStore, rows a window) that keeps strokes -- a StoredStrokes (its windows
+    let go first, written back where due: the store then holds every change) or the
+    StrokeStore itself -- or None: a list (or any other sequence) is the strokes themselves."""
+    if type(strokes) is list:
+        return None
+    from .stroke_store import StrokeStore
+    if isinstance(strokes, StoredStrokes):
+        strokes.let_go()
+        return strokes.store, strokes.window
+    if isinstance(strokes, StrokeStore):
+        return strokes, WINDOW
+    return None
+
+
+def stored_rows(strokes):
+    """A HeldRows over the StrokeStore that keeps strokes (stored), or None (a list)."""
+    got = stored(strokes)
+    return None if got is None else HeldRows(*got)
+
+
+class HeldRows(StoreWindows):
+    """Strokes of a StrokeStore made a window of rows at a time, each at its row of a list of
+    one slot a stroke (slots: None where no stroke is held), which the steps after planning
+    index by stroke index as they index the list of strokes (ends(order): where hold is due).  Only the rows asked for are
+    made (the rewrite's re-timed rows, not the rest of their window); the last ones held
+    are let go as the next are."""
+
+    def __init__(self, store, window):
+        super().__init__(store, window)
+        self.slots = [None] * len(store)
+        self._held = []
+        self.made = 0                 # strokes made (a measure of the access pattern)
+
+    def hold(self, rows):
+        """The strokes of rows (and only those) in their slots; the ones held before let go."""
+        slots = self.slots
+        for r in self._held:
+            slots[r] = None
+        rows = distinct(np.asarray(rows, np.int64))     # (np.unique would import numpy.ma: distinct.py)
+        self._held = rows.tolist()
+        made = self.store.take(rows) if len(rows) else []
+        self.made += len(made)
+        for r, st in zip(self._held, made):
+            slots[r] = st
+
 
 
 def curve_geometry(codes, profile):

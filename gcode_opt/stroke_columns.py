@@ -20,7 +20,8 @@ from operator import attrgetter
 import numpy as np
 
 from . import objfields
-from .distinct import distinct, value_codes
+from .distinct import value_codes
+from .stored_strokes import stored
 from .strokes import Stroke, line_spans, stroke_fields
 
 FLOATS = ("length_d", "v0", "v1", "v_feed", "int_v2")     # the summary's rows and sums
@@ -131,64 +132,6 @@ def first_lines(strokes):
     """line_columns(strokes)[0] (of strokes kept in a StrokeStore: that column alone read)."""
     got = stored(strokes)
     return line_columns(strokes)[0] if got is None else got[0].column("first_idx")
-
-
-WINDOW = 4096     # rows a window of a StrokeStore given as it is (a StoredStrokes: its own)
-
-
-def stored(strokes):
-    """(the StrokeStore, rows a window) that keeps strokes -- a StoredStrokes (its windows
-    let go first, written back where due: the store then holds every change) or the
-    StrokeStore itself -- or None: a list (or any other sequence) is the strokes themselves."""
-    if type(strokes) is list:
-        return None
-    from .stored_strokes import StoredStrokes
-    from .stroke_store import StrokeStore
-    if isinstance(strokes, StoredStrokes):
-        strokes.let_go()
-        return strokes.store, strokes.window
-    if isinstance(strokes, StrokeStore):
-        return strokes, WINDOW
-    return None
-
-
-def stored_rows(strokes):
-    """A HeldRows over the StrokeStore that keeps strokes (stored), or None (a list)."""
-    got = stored(strokes)
-    return None if got is None else HeldRows(*got)
-
-
-class HeldRows:
-    """Strokes of a StrokeStore made a window of rows at a time, each at its row of a list of
-    one slot a stroke (slots: None where no stroke is held), which the steps after planning
-    index by stroke index as they index the list of strokes.  Only the rows asked for are
-    made (the rewrite's re-timed rows, not the rest of their window); the last ones held
-    are let go as the next are."""
-
-    def __init__(self, store, window):
-        if window < 1:
-            raise ValueError("HeldRows: window must be >= 1")
-        self.store, self.window = store, int(window)
-        self.slots = [None] * len(store)
-        self._held = []
-        self.made = 0                 # strokes made (a measure of the access pattern)
-
-    def ends(self, order):
-        """The end (in order) of each run of order's rows in one window: where hold is due."""
-        w = np.asarray(order, np.int64) // self.window
-        return (np.flatnonzero(w[1:] != w[:-1]) + 1).tolist() + [len(w)]
-
-    def hold(self, rows):
-        """The strokes of rows (and only those) in their slots; the ones held before let go."""
-        slots = self.slots
-        for r in self._held:
-            slots[r] = None
-        rows = distinct(np.asarray(rows, np.int64))     # (np.unique would import numpy.ma: distinct.py)
-        self._held = rows.tolist()
-        made = self.store.take(rows) if len(rows) else []
-        self.made += len(made)
-        for r, st in zip(self._held, made):
-            slots[r] = st
 
 
 def n_moves(strokes, spans=None):

@@ -1,5 +1,5 @@
 """The steps after planning over strokes kept in a StrokeStore, a window at a time (issue 8,
-rew52): pipeline.rewrite made from a StoredStrokes / StrokeStore (stroke_columns.HeldRows:
+rew52): pipeline.rewrite made from a StoredStrokes / StrokeStore (stored_strokes.HeldRows:
 only the re-timed rows' strokes made, a window of rows at a time, the loop's state carried
 from window to window) writes the same bytes, output ranges, digests, reasons and plans as
 over the list -- compiled run, the loop stroke by stroke (_STROKE_RUN off), the text path
@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from gcode_opt import pipeline
-from gcode_opt.stored_strokes import StoredStrokes
-from gcode_opt.stroke_columns import CODED, FLOATS, HeldRows, StrokeColumns
+from gcode_opt.stored_strokes import HeldRows, StoredStrokes
+from gcode_opt.stroke_columns import CODED, FLOATS, StrokeColumns
 from gcode_opt.stroke_store import StrokeStore
 
 from test_speed20_rewrite_core import CASES, SAMPLES, _planned, _run
@@ -74,7 +74,7 @@ def test_rewrite_loop_and_store_window(window, monkeypatch, tmp_path):
     path = SAMPLES + CASES[0][0]
     want = _run(pipeline.rewrite, path, strokes, plan, prof, opts, tmp_path / "a.gcode")
     with _store(strokes) as store:
-        monkeypatch.setattr("gcode_opt.stroke_columns.WINDOW", window)
+        monkeypatch.setattr("gcode_opt.stored_strokes.WINDOW", window)
         got = _run(pipeline.rewrite, path, store, plan, prof, opts, tmp_path / "b.gcode")
         monkeypatch.setattr(pipeline, "_STROKE_RUN", False)
         got2 = _run(pipeline.rewrite, path, StoredStrokes(store, window), plan, prof, opts, tmp_path / "c.gcode")

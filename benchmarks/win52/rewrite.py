@@ -1,6 +1,6 @@
 """Peak RSS and CPU of the steps after the plan -- rewrite, measure's stroke reads and
 measure, the summary's columns and the summary -- with the strokes as a list (today) or
-kept in a StrokeStore and made a window at a time (stroke_columns.stored_rows: the rewrite
+kept in a StrokeStore and made a window at a time (stored_strokes.stored_rows: the rewrite
 makes only the re-timed rows' strokes, a window at a time; the measure's line columns and
 the summary's columns read from the store), after a list-mode plan (the first pass of
 pipeline._process, one pass), and whether the windowed steps give the same bits (the

@@ -36,7 +36,7 @@ def plan_inputs_windowed(store, profile, opts, window):
     from .schedule import plan_inputs
     from .stored_strokes import join_plan_inputs
     parts = []
-    for lo in range(0, len(store), window):
+    for lo in range(0, len(store) or 1, window):      # (no stroke: the PlanInput of none, as the list's)
         sts = store.load(lo, lo + window)
         parts.append(plan_inputs(sts, profile, opts))
         store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)

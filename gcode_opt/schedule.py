@@ -935,6 +935,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # the lines' cached plans serve a later run only where no _RunMemo does (one run with
     # a fixed alpha: none)
     seg_cache.keep_lines = opts.alpha == "auto" and not reuse
+    # windowed (and no --corners: nothing is put on a line's plan after its figures): the
+    # lines' plans let go a window at a time once their figures are on the plan, made again
+    # by the rewrite a window at a time (segs_for; a line's plan is its row's own)
+    lazy = window is not None and reuse and LAZY_LINES
+    remake = _LinesAgain(kind_by_row, line_cls, cmd0, rules) if lazy else None
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
@@ -976,6 +981,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
+            if lazy and k_name == K_LINE:
+                _line_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig)
+                continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
                                  (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
@@ -1026,7 +1034,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             seg_cache.store(k_name, todo, plan.T, plan.beta, segs, new_bad,
                             own_rows and k_name in ROW_KINDS and circle.rows_invariant())
             seg_failed.update(new_bad)
-        _keep_made_plans(plan, strokes, idx, seg_failed, pin.I_orig)
+        _keep_made_plans(plan, strokes, idx if not lazy else idx[kind != C_LINE], seg_failed, pin.I_orig)
+        plan.remake = remake
         _attach_commands(plan, strokes, pin, rules, cmd0)
         _keep_slowed_corners(plan, strokes, rules, cmd0)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
@@ -1047,6 +1056,64 @@ WINDOW_KINDS = (K_LINE, K_ARC, K_CURVE, K_CHAIN)
 # may round with the batch (circle.NEWTON_ARCS), has the kind's rows segmented in one batch
 _CIRCLE_KINDS = (K_ARC, K_CURVE)
 WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
+
+
+LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
+
+
+def _line_figures(fn, rows, window, plan, strokes, a2_orig):
+    """The lines rows (sorted) segmented a window of rows (row // window) at a time by fn
+    (rows -> a plan a row), each window's plans judged (_keep_made_plans: retime, reason,
+    t_pred, a2_pred on the plan) and then let go: only one window's plans live at a time.
+    The rewrite makes the kept ones again a window at a time (segs_for, _LinesAgain): each
+    is its row's own at its (T, beta), the same bits (tests/test_speed53_plans53_lazy.py)."""
+    segs = plan.segs
+    for part in np.split(rows, np.flatnonzero(np.diff(rows // window)) + 1) if rows.size else ():
+        why = {}
+        for sub, res in isolate(fn, part, "segments", why):
+            _put_at(segs, sub, res)
+        _keep_made_plans(plan, strokes, part, why, a2_orig)
+        _clear_at(segs, part)
+
+
+def segs_for(plan, rows, strokes):
+    """The segment plans of rows (a window the rewrite is about to write) put in plan.segs
+    where a windowed run let them go (plan.remake), those made for the window before let
+    go; strokes: indexed by row, holding at least those rows' strokes.  Nothing where
+    plan.segs holds every plan (the list path)."""
+    remake = getattr(plan, "remake", None)
+    if remake is not None:
+        remake(plan, rows, strokes)
+
+
+class _LinesAgain:
+    """A windowed run's plan.remake: the re-timed lines' plans it let go (_line_figures),
+    made again for rows as the run made them (_line_segments at the row's (T, beta), its
+    line class, its corner_cmd0); plan.remade: the rows it put in plan.segs last, let go
+    at the next call.  A row whose plan raises now (it did not in the run) is left None:
+    the rewrite then keeps its lines, with the reason."""
+    __slots__ = ("kind", "line_cls", "cmd0", "rules")
+
+    def __init__(self, kind, line_cls, cmd0, rules):
+        self.kind, self.line_cls, self.cmd0, self.rules = kind, line_cls, cmd0, rules
+
+    def __call__(self, plan, rows, strokes):
+        segs = plan.segs
+        old = getattr(plan, "remade", None)
+        if old is not None:
+            _clear_at(segs, old)
+        rows = distinct(np.asarray(rows, np.int64))
+        rows = rows[(self.kind[rows] == C_LINE) & plan.retime[rows]]
+        if rows.size:
+            rows = rows[np.fromiter(map(_IS_NONE, _take(segs, rows)), bool, rows.size)]
+        cls = self.line_cls
+
+        def make(r):
+            return _line_segments(list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], self.rules,
+                                  None if cls is None else cls[r], self.cmd0[r])
+        for sub, res in isolate(make, rows, "segments", {}):
+            _put_at(segs, sub, res)
+        plan.remade = rows
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

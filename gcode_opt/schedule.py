@@ -982,7 +982,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if lazy and k_name == K_LINE:
-                _line_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig)
+                _line_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls)
                 continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
@@ -1061,19 +1061,82 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 
 
-def _line_figures(fn, rows, window, plan, strokes, a2_orig):
+def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
     """The lines rows (sorted) segmented a window of rows (row // window) at a time by fn
     (rows -> a plan a row), each window's plans judged (_keep_made_plans: retime, reason,
     t_pred, a2_pred on the plan) and then let go: only one window's plans live at a time.
     The rewrite makes the kept ones again a window at a time (segs_for, _LinesAgain): each
-    is its row's own at its (T, beta), the same bits (tests/test_speed53_plans53_lazy.py)."""
+    is its row's own at its (T, beta), the same bits (tests/test_speed53_plans53_lazy.py).
+    line_cls: the lines' classes (segments.line_classes), or None: a row of a (class, T,
+    beta) met in an earlier window is not segmented again, its judge given the figures of
+    that class's plan (_ClassFigures: plan_once would have given it that very plan), as
+    the list's one batch plans a class once (rectilinear plate: ~39 k lines a run, ~4 k
+    classes, each met again in most of its ~50 windows)."""
     segs = plan.segs
+    memo = _ClassFigures(line_cls, plan.T, plan.beta)
     for part in np.split(rows, np.flatnonzero(np.diff(rows // window)) + 1) if rows.size else ():
+        part, keys = memo.judge_known(plan, strokes, part, a2_orig)
         why = {}
         for sub, res in isolate(fn, part, "segments", why):
             _put_at(segs, sub, res)
+        made = _take(segs, part) if keys is not None else None
         _keep_made_plans(plan, strokes, part, why, a2_orig)
         _clear_at(segs, part)
+        memo.learn(keys, part, made, why)
+
+
+class _Figures:
+    """What _keep_plans reads of a segment plan: its verdict and figures."""
+    __slots__ = ("fault", "int_a2", "time_t")
+
+    def __init__(self, seg):
+        self.fault, self.int_a2, self.time_t = seg_fault(seg), seg.int_a2, seg.time_t
+
+
+class _ClassFigures:
+    """_line_figures' memo for one run: (line class, T, beta) bytes -> the figures of the
+    plan segmenting one line of it gave (_Figures), or the reason it failed (a str), or
+    None for no plan.  No plan is kept: only a few floats a key."""
+
+    def __init__(self, line_cls, T, beta):
+        ok = line_cls is not None and T.dtype == beta.dtype == _F64 and T.ndim == beta.ndim == 1
+        self.cls, self.T, self.beta = (line_cls, T, beta) if ok else (None, None, None)
+        self.known = {}
+
+    def _keys(self, rows):
+        k = np.empty((rows.size, 3), np.int64)
+        k[:, 0], k[:, 1], k[:, 2] = self.cls[rows], self.T[rows].view(np.int64), self.beta[rows].view(np.int64)
+        return k.view(_KEY24).ravel().tolist()
+
+    def judge_known(self, plan, strokes, rows, a2_orig):
+        """The rows of a known key judged on their figures (_keep_plans, as their plans
+        would be); returns (the other rows, their keys) (keys None: no memo)."""
+        if self.cls is None or not rows.size:
+            return rows, None
+        keys = self._keys(rows)
+        got = list(map(self.known.get, keys, repeat(_UNKNOWN)))
+        new = np.fromiter(map(_IS_UNKNOWN, got), bool, rows.size)
+        if new.all():
+            return rows, keys
+        old = rows[~new]
+        figs = [f for f, n in zip(got, new.tolist()) if not n]
+        failed = {i: f for i, f in zip(old.tolist(), figs) if type(f) is str}
+        seg_l = [None if f is None or type(f) is str else f for f in figs]
+        _keep_plans(plan, strokes, old, seg_l, failed, None, a2_orig[old], in_place=True)
+        return rows[new], list(compress(keys, new.tolist()))
+
+    def learn(self, keys, rows, made, why):
+        """The figures of the plans made for rows (made: their plans, before they were judged)."""
+        if keys is None:
+            return
+        known = self.known
+        for key, i, seg in zip(keys, rows.tolist(), made):
+            known[key] = why.get(i) or (None if seg is None else _Figures(seg))
+
+
+_KEY24 = np.dtype((np.void, 24))
+_UNKNOWN = object()         # (no key in _ClassFigures' memo)
+_IS_UNKNOWN = partial(is_, _UNKNOWN)
 
 
 def segs_for(plan, rows, strokes):

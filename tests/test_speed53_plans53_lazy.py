@@ -95,7 +95,7 @@ def test_lazy_plans_are_the_eager_ones(name, prof_name, window, monkeypatch):
         assert all(plan.segs[i] is None for i in lines.tolist())
         assert all(seg_bits(plan.segs[i]) == segs[i] for i in range(len(segs)) if i not in set(lines.tolist()))
         every = np.arange(len(strokes))
-        for w in (1, 7, len(strokes) + 1):      # the rewrite's windows of rows, any size
+        for w in (1, 7, 64, len(strokes) + 1):  # the rewrite's windows of rows, any size
             before = None
             for a in range(0, every.size, w):
                 rows = every[a:a + w]

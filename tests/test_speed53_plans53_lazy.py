@@ -140,3 +140,26 @@ def test_rewrite_of_lazy_plan_is_the_eager_ones(name, prof_name, window, text_st
         got = _rewritten(path, strokes, plan, prof, opts, text_stream)
     assert got == want
     assert len(want[1]) > 10
+
+
+def test_second_pass_of_lazy_plan(tmp_path):
+    """A second pass over a lazy plan: _restored's copy (Plan.copy carries remake) rewritten
+    with the first pass's blocks to reuse (_Reuse, whose plans the rewrite let go: those
+    blocks made again) writes the first pass's bytes, ranges and digests."""
+    name, prof_name, window = CASES[0]
+    path = SAMPLES + name
+    strokes, store, prof, opts, plan, pin = _stored_plan(name, prof_name, window)
+    with store:
+        first = tmp_path / "first.gcode"
+        digests = {}
+        with open(first, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+            ranges = pl.rewrite(path, fh, strokes, plan, prof, opts, digests)
+        again = pl._restored(plan, pin, [])
+        assert again.remake is plan.remake
+        reuse = pl._Reuse(str(first), ranges, plan.segs, plan.beta, digests)
+        buf, d2 = io.StringIO(newline=""), {}
+        r2 = pl.rewrite(path, buf, strokes, again, prof, opts, d2, reuse)
+        reuse.close()
+    assert buf.getvalue().encode("utf-8", "surrogateescape") == first.read_bytes()
+    assert [tuple(r) for r in r2] == [tuple(r) for r in ranges]
+    assert d2 == digests and len(d2) > 10

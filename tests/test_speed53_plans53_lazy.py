@@ -23,9 +23,11 @@ from gcode_opt.stroke_store import StrokeStore
 from test_speed52_runs52_windows import seg_bits
 
 SAMPLES = "sample_gcode/"
+# the rectilinear sample by default (~6 s in all); the arcs, curves and chains of the others
+# (~40 s) with -m slow
 CASES = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 64),
-         ("prusa_gyroid_arcs.gcode", "prusa-mk3s", 7),
-         ("prusa_benchy_like.gcode", "voron24", 300)]
+         pytest.param("prusa_gyroid_arcs.gcode", "prusa-mk3s", 7, marks=pytest.mark.slow),
+         pytest.param("prusa_benchy_like.gcode", "voron24", 300, marks=pytest.mark.slow)]
 FIGURES = ("T", "beta", "retime", "t_pred", "a2_pred")
 
 

@@ -58,7 +58,7 @@ from .laws import circle as circle_law
 from .outranges import Digests, OutRanges, columns as range_columns
 from .firmware.simulate import LineRanges, ReplayMismatch, replay_runs, simulate_file, simulate_ledger
 from .profile import Profile
-from .schedule import drop_cached, plan_inputs, plan_strokes, set_aside_for_rewrite
+from .schedule import drop_cached, plan_inputs, plan_strokes, segs_for, set_aside_for_rewrite
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
@@ -693,6 +693,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
                 k_end, w = win_ends[w], w + 1
                 if held is not None:
                     held.hold(order[k:k_end])
+                segs_for(plan, order[k:k_end], objs)      # (a windowed run's plans let go: made again)
                 k_order = order if k_end == n_order else order[:k_end]
             if run is not None:
                 try:
@@ -829,6 +830,7 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
                 k_end, w = win_ends[w], w + 1
                 if held is not None:
                     held.hold(order[k:k_end])
+                segs_for(plan, order[k:k_end], objs)      # (a windowed run's plans let go: made again)
             s = objs[i]
             n_copy = s.first_idx - pos
             if n_copy < 0:        # overlapping strokes cannot happen: keep the original

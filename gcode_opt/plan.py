@@ -525,7 +525,11 @@ def _entry_columns(mask, first, cnt, m):
 
 
 class Plan:
-    """Chosen law per stroke: retime mask, T, beta and the law's own figures."""
+    """Chosen law per stroke: retime mask, T, beta and the law's own figures.  remake: what
+    makes the segment plans a windowed run let go (schedule.segs_for), or None: plan.segs
+    holds every re-timed row's plan."""
+
+    remake = None
 
     def __init__(self, n):
         self.retime = np.zeros(n, bool)
@@ -548,6 +552,7 @@ class Plan:
         for k in ("retime", "T", "beta", "I_law", "KE_law", "reason"):
             setattr(p, k, getattr(self, k).copy())
         p.lam = self.lam
+        p.remake = self.remake
         return p
 
 

@@ -935,6 +935,11 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # the lines' cached plans serve a later run only where no _RunMemo does (one run with
     # a fixed alpha: none)
     seg_cache.keep_lines = opts.alpha == "auto" and not reuse
+    # windowed (and no --corners: nothing is put on a line's plan after its figures): the
+    # lines' plans let go a window at a time once their figures are on the plan, made again
+    # by the rewrite a window at a time (segs_for; a line's plan is its row's own)
+    lazy = window is not None and reuse and LAZY_LINES
+    remake = _LinesAgain(kind_by_row, line_cls, cmd0, rules) if lazy else None
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
@@ -976,6 +981,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
+            if lazy and k_name == K_LINE:
+                _line_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls)
+                continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
                                  (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
@@ -1026,7 +1034,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             seg_cache.store(k_name, todo, plan.T, plan.beta, segs, new_bad,
                             own_rows and k_name in ROW_KINDS and circle.rows_invariant())
             seg_failed.update(new_bad)
-        _keep_made_plans(plan, strokes, idx, seg_failed, pin.I_orig)
+        _keep_made_plans(plan, strokes, idx if not lazy else idx[kind != C_LINE], seg_failed, pin.I_orig)
+        plan.remake = remake
         _attach_commands(plan, strokes, pin, rules, cmd0)
         _keep_slowed_corners(plan, strokes, rules, cmd0)
         _lead_out_where_no_command(plan, strokes, pin, rules, seg_cache)
@@ -1047,6 +1056,151 @@ WINDOW_KINDS = (K_LINE, K_ARC, K_CURVE, K_CHAIN)
 # may round with the batch (circle.NEWTON_ARCS), has the kind's rows segmented in one batch
 _CIRCLE_KINDS = (K_ARC, K_CURVE)
 WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
+
+
+LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
+
+
+def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
+    """The lines rows (sorted) segmented a window of rows (row // window) at a time by fn
+    (rows -> a plan a row), each window's plans judged (_keep_made_plans: retime, reason,
+    t_pred, a2_pred on the plan) and then let go: only one window's plans live at a time.
+    The rewrite makes the kept ones again a window at a time (segs_for, _LinesAgain): each
+    is its row's own at its (T, beta), the same bits (tests/test_speed53_plans53_lazy.py).
+    line_cls: the lines' classes (segments.line_classes), or None: a row of a (class, T,
+    beta) met in an earlier window is not segmented again, its judge given the figures of
+    that class's plan (_ClassFigures: plan_once would have given it that very plan), as
+    the list's one batch plans a class once (rectilinear plate: ~39 k lines a run, ~4 k
+    classes, each met again in most of its ~50 windows)."""
+    segs = plan.segs
+    memo = _ClassFigures(line_cls, plan.T, plan.beta)
+    for part in np.split(rows, np.flatnonzero(np.diff(rows // window)) + 1) if rows.size else ():
+        part, keys = memo.judge_known(plan, strokes, part, a2_orig)
+        why = {}
+        for sub, res in isolate(fn, part, "segments", why):
+            _put_at(segs, sub, res)
+        made = _take(segs, part) if keys is not None else None
+        _keep_made_plans(plan, strokes, part, why, a2_orig)
+        _clear_at(segs, part)
+        memo.learn(keys, part, made, why)
+
+
+class _Figures:
+    """What _keep_plans reads of a segment plan: its verdict and figures."""
+    __slots__ = ("fault", "int_a2", "time_t")
+
+    def __init__(self, seg):
+        self.fault, self.int_a2, self.time_t = seg_fault(seg), seg.int_a2, seg.time_t
+
+
+class _ClassFigures:
+    """_line_figures' memo for one run: (line class, T, beta) bytes -> the figures of the
+    plan segmenting one line of it gave (_Figures), or the reason it failed (a str), or
+    None for no plan.  No plan is kept: only a few floats a key."""
+
+    def __init__(self, line_cls, T, beta):
+        self.cls, self.T, self.beta = (line_cls, T, beta) if _keyed(line_cls, T, beta) else (None, None, None)
+        self.known = {}
+
+    def judge_known(self, plan, strokes, rows, a2_orig):
+        """The rows of a known key judged on their figures (_keep_plans, as their plans
+        would be); returns (the other rows, their keys) (keys None: no memo)."""
+        if self.cls is None or not rows.size:
+            return rows, None
+        keys = _class_keys(self.cls, self.T, self.beta, rows)
+        got = list(map(self.known.get, keys, repeat(_UNKNOWN)))
+        new = np.fromiter(map(_IS_UNKNOWN, got), bool, rows.size)
+        if new.all():
+            return rows, keys
+        old = rows[~new]
+        figs = [f for f, n in zip(got, new.tolist()) if not n]
+        failed = {i: f for i, f in zip(old.tolist(), figs) if type(f) is str}
+        seg_l = [None if f is None or type(f) is str else f for f in figs]
+        _keep_plans(plan, strokes, old, seg_l, failed, None, a2_orig[old], in_place=True)
+        return rows[new], list(compress(keys, new.tolist()))
+
+    def learn(self, keys, rows, made, why):
+        """The figures of the plans made for rows (made: their plans, before they were judged)."""
+        if keys is None:
+            return
+        known = self.known
+        for key, i, seg in zip(keys, rows.tolist(), made):
+            known[key] = why.get(i) or (None if seg is None else _Figures(seg))
+
+
+def _keyed(line_cls, T, beta):
+    """Can the lines be keyed by (class, T, beta) (_class_keys)?"""
+    return line_cls is not None and T.dtype == beta.dtype == _F64 and T.ndim == beta.ndim == 1
+
+
+def _class_keys(line_cls, T, beta, rows):
+    """The rows' (line class, T, beta) as 24-byte keys (the bits plan_once compares)."""
+    k = np.empty((rows.size, 3), np.int64)
+    k[:, 0], k[:, 1], k[:, 2] = line_cls[rows], T[rows].view(np.int64), beta[rows].view(np.int64)
+    return k.view(_KEY24).ravel().tolist()
+
+
+_KEY24 = np.dtype((np.void, 24))
+_UNKNOWN = object()         # (no key in _ClassFigures' memo)
+_IS_UNKNOWN = partial(is_, _UNKNOWN)
+
+
+def segs_for(plan, rows, strokes):
+    """The segment plans of rows (a window the rewrite is about to write) put in plan.segs
+    where a windowed run let them go (plan.remake), those made for the window before let
+    go; strokes: indexed by row, holding at least those rows' strokes.  Nothing where
+    plan.segs holds every plan (the list path)."""
+    remake = getattr(plan, "remake", None)
+    if remake is not None:
+        remake(plan, rows, strokes)
+
+
+class _LinesAgain:
+    """A windowed run's plan.remake: the re-timed lines' plans it let go (_line_figures),
+    made again for rows as the run made them (_line_segments at the row's (T, beta), its
+    line class, its corner_cmd0); plan.remade: the rows it put in plan.segs last, let go
+    at the next call.  A row whose plan raises now (it did not in the run) is left None:
+    the rewrite then keeps its lines, with the reason.  A row of a (class, T, beta) the
+    call before made takes that plan (plan.remade_keys: the last window's, by key), as
+    plan_once gives a class's rows one plan (rectilinear plate, 1 k windows: ~23.5 k
+    plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
+    __slots__ = ("kind", "line_cls", "cmd0", "rules")
+
+    def __init__(self, kind, line_cls, cmd0, rules):
+        self.kind, self.line_cls, self.cmd0, self.rules = kind, line_cls, cmd0, rules
+
+    def __call__(self, plan, rows, strokes):
+        segs = plan.segs
+        old = getattr(plan, "remade", None)
+        if old is not None:
+            _clear_at(segs, old)
+        rows = distinct(np.asarray(rows, np.int64))
+        rows = rows[(self.kind[rows] == C_LINE) & plan.retime[rows]]
+        if rows.size:
+            rows = rows[np.fromiter(map(_IS_NONE, _take(segs, rows)), bool, rows.size)]
+        cls = self.line_cls
+        keys, last, now = None, getattr(plan, "remade_keys", None) or {}, {}
+        todo = rows
+        if _keyed(cls, plan.T, plan.beta) and rows.size:
+            keys = _class_keys(cls, plan.T, plan.beta, rows)
+            got = list(map(last.get, keys))
+            new = np.fromiter(map(_IS_NONE, got), bool, rows.size)
+            if not new.all():
+                old = ~new
+                seg_l = list(compress(got, old.tolist()))
+                _put_at(segs, rows[old], seg_l)
+                now.update(zip(compress(keys, old.tolist()), seg_l))
+                todo, keys = rows[new], list(compress(keys, new.tolist()))
+        plan.remade_keys = last = None       # (the last window's plans not held while these are made)
+
+        def make(r):
+            return _line_segments(list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], self.rules,
+                                  None if cls is None else cls[r], self.cmd0[r])
+        for sub, res in isolate(make, todo, "segments", {}):
+            _put_at(segs, sub, res)
+        if keys is not None:
+            now.update((k, seg) for k, seg in zip(keys, _take(segs, todo)) if seg is not None)
+        plan.remade, plan.remade_keys = rows, now
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

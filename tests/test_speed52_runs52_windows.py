@@ -75,6 +75,8 @@ def runs(name, prof_name, window, stored=True):
         strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)
     plan = sc.plan_strokes(strokes, pin, prof, opts, opts.max_slowdown_r * sim0.time_t)
     if store is not None:
+        # the lines' plans the runs let go (plans53) made again, every row at once
+        sc.segs_for(plan, np.arange(len(strokes)), strokes)
         store.close()
     return plan
 

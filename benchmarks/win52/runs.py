@@ -106,6 +106,9 @@ def main(path, mode, window=1024, kinds=None):
     if mode == "stored":
         out["loads"] = strokes.loads
         out["whole_batches"] = sc.WHOLE_BATCHES[0]      # (circle kinds sent to Newton: one batch after all)
+        out["lazy_lines"] = plan.remake is not None
+        # the lines' plans the runs let go (plans53) made again, all at once, for the digests
+        sc.segs_for(plan, np.arange(len(strokes)), strokes)
     out["plan"] = plan_digests(plan)
     print(json.dumps(out))
 

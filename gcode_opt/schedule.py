@@ -361,7 +361,8 @@ def _curves_at(levels, own_levels):
     return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels, False)
 
 
-def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False):
+def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False,
+                          chain_batch=None):
     """_candidates' tables (auto) made window by window: Candidates.of_pieces of
     window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
     as one call of all of them (tests/test_speed50_wina50_windows.py).  Returns (Candidates,
@@ -379,7 +380,9 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
         beta/4, was 8 on both plates where their retries' are 4: every window would have
         been made again).  On both plates the largest levels are in the first window,
         and no retry makes figures: no window is made again;
-      - the chains: each chain's tables its own (as the other kinds, each row's own).
+      - the chains: each chain's tables its own (as the other kinds, each row's own); the
+        chains of consecutive windows are made in one call, chain_batch (None: CHAIN_BATCH)
+        at a time (_WaitingChains).
     Not covered: a batch where Newton solves an arc (circle.NEWTON_ARCS) may round with
     its batch, and arcs (arcs.py) integrate on their batch's levels.  info (a dict): given
     "levels" (the file's: first pass, retries), "redone" (windows whose curves were made
@@ -399,11 +402,15 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     used = [None] * len(windows)        # the floors it took
     owns = [None] * len(windows)        # each pass's (own levels, whether it made figures)
     todo, redone = range(len(windows)), 0
+    waiting = _WaitingChains(strokes, pin, profile, failed, rules, chain_batch)
     while True:
         for j in todo:
-            if not redone:              # (the other kinds once, window by window)
-                pieces += window_pieces(strokes, pin, profile, windows[j](), failed, rules, lines=memo,
-                                        kinds=[k for k in KINDS if k != K_CURVE])
+            if not redone:              # (the other kinds once, window by window; the chains a batch of windows)
+                wr = windows[j]()
+                pieces += window_pieces(strokes, pin, profile, wr, failed, rules, lines=memo,
+                                        kinds=[k for k in KINDS if k not in (K_CURVE, K_CHAIN)])
+                pieces += waiting.add(wr.get(K_CHAIN), j == len(windows) - 1)
+                del wr
             owns[j], used[j] = [], tuple(levels)
             curve[j] = window_pieces(strokes, pin, profile, windows[j](), failed, rules, used[j], own_levels=owns[j],
                                      kinds=(K_CURVE,))
@@ -427,6 +434,38 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
         curve[j] = None
     pieces += memo.piece()
     return Candidates.of_pieces(n, pieces, pin.T_orig)
+
+
+CHAIN_BATCH = chains.SOLVE_CHUNK    # chains of consecutive windows made in one candidates_chain call
+
+
+class _WaitingChains:
+    """The chains of consecutive windows made together (window_pieces of K_CHAIN), once
+    `batch` of them wait or the last window is passed: each chain's tables are its own
+    whatever chains a call holds, and a call's set-up (its chunks' solves, its finishing
+    batches: one a segment count) is paid a batch, not a window (benchmarks/cpu52.md: a
+    call a window, +605 M instructions at 32 windows on the gyroid plate; memo53.md).
+    The chains' strokes are held as objects until their call (their window may be let go
+    before: a StoredStrokes keeping chain_T puts the same memo objects back, so what the
+    call writes in them is the row's)."""
+
+    def __init__(self, strokes, pin, profile, failed, rules, batch=None):
+        self.strokes, self.pin, self.profile, self.failed, self.rules = strokes, pin, profile, failed, rules
+        self.batch = CHAIN_BATCH if batch is None else max(int(batch), 1)
+        self.rows, self.held, self.n = [], {}, 0
+
+    def add(self, rows, last):
+        """Pieces of the chains waiting with rows (an int array, or None) once a batch is due."""
+        if rows is not None and rows.size:
+            self.rows.append(rows)
+            self.held.update(zip(rows.tolist(), map(self.strokes.__getitem__, rows.tolist())))
+            self.n += rows.size
+        if not self.n or (self.n < self.batch and not last):
+            return []
+        rows, held = np.concatenate(self.rows), self.held
+        self.rows, self.held, self.n = [], {}, 0
+        return window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
+                             kinds=(K_CHAIN,))
 
 
 def _window_rows(rows, lo, hi, ordered):

@@ -1040,22 +1040,24 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 
 
 # the kinds whose rows a windowed run (strokes a StoredStrokes) segments a window at a time
-# (tests/test_speed52_runs52_rowown.py: each row's plan its own, whatever the batch: lines,
-# chains; arcs and curves where no circle law went to Newton, _CIRCLE_KINDS)
+# (tests/test_speed52_runs52_rowown.py, test_speed53_arcs53_runs.py: each row's plan its
+# own, whatever the batch: lines, chains; arcs and curves where the BLAS gives a row its
+# own bits, _CIRCLE_KINDS)
 WINDOW_KINDS = (K_LINE, K_ARC, K_CURVE, K_CHAIN)
-# kinds solved by laws/circle.py: a window that sent an arc to Newton, whose batched products
-# may round with the batch (circle.NEWTON_ARCS), has the kind's rows segmented in one batch
+# kinds solved by laws/circle.py: where the BLAS does not give a row its own bits
+# (circle.rows_invariant: the circle laws' products round with the batch), the kind's rows
+# are segmented in one batch (Newton's steps are each arc's own: circle._newton_cheb)
 _CIRCLE_KINDS = (K_ARC, K_CURVE)
 WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
 
 
 def _by_windows(fn, window, circle_law=False, before=None):
     """fn (rows -> a plan a row, rows sorted) made of one call a window of rows (row //
-    window): only that window's strokes are objects at a time.  circle_law: where a window
-    sent an arc to Newton (or the BLAS does not give rows their own bits), the rows in one
-    call after all: the plans a single batch gives.  before(rows): called before fn on the
-    same rows (the curve geometry of a window's strokes: _rebuild_geometry, as the list
-    path makes it for a run's rows, the strokes loaded without it)."""
+    window): only that window's strokes are objects at a time.  circle_law: where the BLAS
+    does not give rows their own bits, the rows in one call: the plans a single batch
+    gives.  before(rows): called before fn on the same rows (the curve geometry of a
+    window's strokes: _rebuild_geometry, as the list path makes it for a run's rows, the
+    strokes loaded without it)."""
     def call(rows):
         if before is not None:
             before(rows)
@@ -1065,14 +1067,12 @@ def _by_windows(fn, window, circle_law=False, before=None):
         cut = np.flatnonzero(np.diff(rows // window)) + 1
         if not cut.size:
             return call(rows)
-        n0 = circle.NEWTON_ARCS[0]
+        if circle_law and not circle.rows_invariant():
+            WHOLE_BATCHES[0] += 1
+            return call(rows)
         out = []
         for part in np.split(rows, cut):
             out += call(part)
-        if circle_law and (circle.NEWTON_ARCS[0] != n0 or not circle.rows_invariant()):
-            out = None              # (the windows' plans let go first)
-            WHOLE_BATCHES[0] += 1
-            return call(rows)
         return out
     return by_windows
 

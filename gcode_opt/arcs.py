@@ -29,6 +29,7 @@ import numpy as np
 
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
 from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V, arc_chords
+from .distinct import distinct
 from .laws.circle import grid_levels_of, solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, hold_cruise_accels, least_a2_trapezoid, segment_feeds
@@ -270,13 +271,11 @@ def arc_knots(strokes, T, beta, n, profile=None):
     v1 = np.array([st.v1 for st in strokes])
     T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
     law = _solve(S, R, T, beta, v0, v1)
-    j = np.arange(n.max() + 1)
-    tau = np.minimum(j[None, :] / n[:, None], 1.0)
     c0 = chord_d(S, profile, R) if profile is not None else np.zeros(m)
     out = []
     for sl in law.row_chunks():                  # evaluated by chunks: bounded memory
         sub = law.rows(sl)
-        phi, w, _ = sub.eval(tau[sl] * T[sl, None])
+        phi, w = _own_instants(sub, n[sl], T[sl])
         dense = np.linspace(0.0, 1.0, 257)[None, :] * T[sl, None]
         phi_d, w_d, _ = sub.eval(dense)
         for k, i in enumerate(range(m)[sl]):
@@ -293,6 +292,20 @@ def arc_knots(strokes, T, beta, n, profile=None):
             v[0], v[-1] = v0[i], v1[i]
             out.append((s, v))
     return out
+
+
+def _own_instants(law, n, T):
+    """(φ, φ̇) of each arc of law at its n_i + 1 instants evenly spaced in its time T_i,
+    (arcs, n.max() + 1), columns past an arc's own unset.  The arcs of one n evaluated
+    together on their n + 1 instants only: a BLAS product's element rounds with the number
+    of columns (_series_values), so a grid padded to the batch's largest n gave an arc other
+    bits in another batch."""
+    phi, w = np.empty((2, n.size, n.max() + 1))
+    for k in distinct(n).tolist():
+        r = np.flatnonzero(n == k)
+        got = law.eval((np.arange(k + 1) / k)[None, :] * T[r, None], r)
+        phi[r, :k + 1], w[r, :k + 1] = got[0], got[1]
+    return phi, w
 
 
 def predict_arc(s, v, a, R, feed=None):

@@ -29,7 +29,8 @@ import numpy as np
 
 from .firmware.junction import SQRT2_M1, accel_to_pass_junction
 from .firmware.simulate import ARC_MIN_TURN, FULL_STOP_V, arc_chords
-from .laws.circle import solve_circles
+from .distinct import distinct
+from .laws.circle import grid_levels_of, solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
 from .segments import SegmentPlan, hold_cruise_accels, least_a2_trapezoid, segment_feeds
 
@@ -117,9 +118,17 @@ def _feasible(law, v_cap, a_cap):
             & (law.min_speed() >= -1e-9 * (1 + v_cap)))
 
 
-def candidates_arc(pin, rows, strokes):
+def candidates_arc(pin, rows, strokes, levels=None, own_levels=None):
     """(T, beta, I, KE) rows for the arc strokes `rows` (shape (n, len(T_RATIOS))), inf
-    where no candidate was computed or it breaks a limit."""
+    where no candidate was computed or it breaks a limit.
+
+    A pass's figures and limits are read on the quadrature grid of all its candidates
+    (panel levels the largest of theirs: CircleBatch._grid_plan), so a window of the
+    strokes alone would take other levels, and other bits (~1e-16), than the whole file.
+    levels: (first pass, retries) floors of those levels (the file's: every window then
+    reads its laws on the file's grid), None: each pass's own.  own_levels (a list):
+    given each pass's (own levels before the floor, True: it made figures), as
+    curves.candidates_curve's (schedule.candidates_in_windows)."""
     rows = np.asarray(rows, int)
     k = len(ARC_COLS)
 
@@ -128,9 +137,15 @@ def candidates_arc(pin, rows, strokes):
 
     R, S = flat([strokes[i].arc.r for i in rows]), flat(pin.L[rows])
     v0, v1, vc, ac = (flat(x[rows]) for x in (pin.v0, pin.v1, pin.v_cap, pin.a_cap))
+    npass = [0]             # candidate_table's pass (0: first, 1: the beta/4 retries)
 
     def solve_figures(idx, T, beta):
         law = _solve(S[idx], R[idx], T, beta, v0[idx], v1[idx])
+        if own_levels is not None:
+            own_levels.append((law.panel_levels(), True))
+        if levels is not None and npass[0] < len(levels):
+            law.grid_levels = levels[npass[0]]
+        npass[0] += 1
         iv, ia = law.integrals()
         return iv, ia, _feasible(law, vc[idx], ac[idx])
 
@@ -143,6 +158,27 @@ def candidates_arc(pin, rows, strokes):
         for j, (t_g, i_g, ke_g) in enumerate(got[:len(T_RATIOS)]):   # beta = inf marks them
             T[r, j], I[r, j], KE[r, j], beta[r, j] = t_g, i_g, ke_g, np.inf
     return T, beta, I, KE
+
+
+def arc_grid_levels(pin, rows, strokes):
+    """The panel levels of candidates_arc's first pass over the arc strokes rows: the
+    largest of every candidate's it solves (at its first beta: candidate_table's), made
+    without solving a law (the layer regime only: circle.grid_levels_of); 0: none.  A
+    largest, so the levels of several sets of rows are the largest of theirs.  (The
+    retries' are known only once the first pass's figures are: candidates_in_windows.)"""
+    rows = np.asarray(rows, int)
+    k = len(ARC_COLS)
+    R = np.repeat(np.array([strokes[i].arc.r for i in rows.tolist()], float), k)
+    S, v0, v1 = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1))
+    got = [0]
+
+    def levels_only(idx, T, beta):
+        got[0] = max(got[0], grid_levels_of(S[idx] / R[idx], T, beta, v0[idx] / R[idx], v1[idx] / R[idx]) or 0)
+        nan = np.full(idx.size, np.nan)
+        return nan, nan, np.ones(idx.size, bool)      # (all "within limits": no retry pass)
+
+    candidate_table(pin, rows, ARC_COLS, levels_only, GAMMA_MIN)
+    return got[0]
 
 
 # ------------------------------------------------------------------ gentler arcs
@@ -235,13 +271,11 @@ def arc_knots(strokes, T, beta, n, profile=None):
     v1 = np.array([st.v1 for st in strokes])
     T, beta, n = np.asarray(T, float), np.asarray(beta, float), np.asarray(n, int)
     law = _solve(S, R, T, beta, v0, v1)
-    j = np.arange(n.max() + 1)
-    tau = np.minimum(j[None, :] / n[:, None], 1.0)
     c0 = chord_d(S, profile, R) if profile is not None else np.zeros(m)
     out = []
     for sl in law.row_chunks():                  # evaluated by chunks: bounded memory
         sub = law.rows(sl)
-        phi, w, _ = sub.eval(tau[sl] * T[sl, None])
+        phi, w = _own_instants(sub, n[sl], T[sl])
         dense = np.linspace(0.0, 1.0, 257)[None, :] * T[sl, None]
         phi_d, w_d, _ = sub.eval(dense)
         for k, i in enumerate(range(m)[sl]):
@@ -258,6 +292,20 @@ def arc_knots(strokes, T, beta, n, profile=None):
             v[0], v[-1] = v0[i], v1[i]
             out.append((s, v))
     return out
+
+
+def _own_instants(law, n, T):
+    """(φ, φ̇) of each arc of law at its n_i + 1 instants evenly spaced in its time T_i,
+    (arcs, n.max() + 1), columns past an arc's own unset.  The arcs of one n evaluated
+    together on their n + 1 instants only: a BLAS product's element rounds with the number
+    of columns (_series_values), so a grid padded to the batch's largest n gave an arc other
+    bits in another batch."""
+    phi, w = np.empty((2, n.size, n.max() + 1))
+    for k in distinct(n).tolist():
+        r = np.flatnonzero(n == k)
+        got = law.eval((np.arange(k + 1) / k)[None, :] * T[r, None], r)
+        phi[r, :k + 1], w[r, :k + 1] = got[0], got[1]
+    return phi, w
 
 
 def predict_arc(s, v, a, R, feed=None):

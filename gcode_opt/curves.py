@@ -1779,12 +1779,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         """(∫v², ∫|a|², ok) of the candidates idx; idx_out: candidates left out of this
         batch, whose grid levels it takes (the figures of the batch that holds them)."""
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
-        got = None
-        if idx.size > SOLVE_ROWS and _circle.rows_invariant():
-            got = _probe(idx, T, beta, v_lim, a_lim, SOLVE_ROWS)
-        if got is None:
-            got = _probe(idx, T, beta, v_lim, a_lim, idx.size)
-        fig, laws, levels = got
+        fig, laws, levels = _probe(idx, T, beta, v_lim, a_lim, SOLVE_ROWS if _circle.rows_invariant() else idx.size)
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
@@ -1815,10 +1810,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         """(fig, laws, levels) of the candidates idx solved `step` at a time: the positions
         in idx of those not surely over a limit (surely_over; a_only set for the others),
         their circle laws (a CircleBatch a chunk), and the panel levels of the whole batch
-        (the largest of its chunks').  Each law is its own whatever its chunk, and given
-        the whole batch's levels its figures are too, except where Newton took part
-        (NEWTON_ARCS): then None, for the whole batch in one (step = idx.size)."""
-        n0 = _circle.NEWTON_ARCS[0]
+        (the largest of its chunks').  Each law is its own whatever its chunk (Newton's
+        too: circle._newton_cheb), and given the whole batch's levels its figures are too."""
         figs, laws, levels = [], [], 0
         for a in range(0, idx.size, step):
             sl = slice(a, a + step)
@@ -1832,8 +1825,6 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
                 args = tuple(x[r] for x in args)
                 lay = tuple(x[r] for x in lay)
             law = solve_circles(*args, layers=lay) if r.size else None
-            if step < idx.size and _circle.NEWTON_ARCS[0] != n0:
-                return None
             levels = max(levels, law.panel_levels() if lv is None else lv)
             if law is None:
                 continue

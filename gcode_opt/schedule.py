@@ -299,26 +299,28 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     return None, fixed
 
 
-def window_pieces(strokes, pin, profile, rows, failed, rules, curve_levels=None, lines=None, own_levels=None,
+def window_pieces(strokes, pin, profile, rows, failed, rules, levels=None, lines=None, own_levels=None,
                   kinds=None):
     """The candidate pieces (Candidates.piece / SharedPiece: Candidates.of_pieces' input) of
     the strokes rows ({kind: rows}, those in failed left out), each kind's batch isolated:
     a stroke whose planning raises is dropped alone (into failed).  Every stroke's entries
     are the same bits whatever other strokes the call holds (candidates_in_windows), given
-    curve_levels: candidates_curve's floors of its grid levels (curves.curve_grid_levels
-    of the whole file; None: the batch's own).  lines: a plan.PiecesMemo that takes the
-    lines in (their pieces then come from its piece()), None: made here (pieces_once
-    where many repeat).  own_levels: a list given the curves' own levels of each pass.
-    With curve_levels or own_levels κ(s) is kept after the curves (for the next window:
-    the caller lets it go, curves.drop_kappa).  kinds: those made (default all)."""
+    levels: {kind: floors of its grid levels} of the circle kinds (_LEVEL_KINDS: arcs,
+    candidates_arc's levels; curves, candidates_curve's) of the whole file (a kind not
+    in it: the batch's own).  lines: a plan.PiecesMemo that takes the lines in (their
+    pieces then come from its piece()), None: made here (pieces_once where many repeat).
+    own_levels: {kind: a list given its own levels of each pass}.  With a curves' entry
+    in levels or own_levels κ(s) is kept after the curves (for the next window: the
+    caller lets it go, curves.drop_kappa).  kinds: those made (default all)."""
     ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     pieces = []
     # the lines last: their sparse pieces (~13 MB on the rectilinear plate) are then not
     # held under the curves' and chains' solves, whose transients set the peak RSS
     order = [k for k in KINDS if k != K_LINE] + [K_LINE] if LINES_LAST else list(KINDS)
     for k in order if kinds is None else [k for k in order if k in kinds]:   # (each kind's tables kept sparse)
-        make = KINDS[k].candidates if k != K_CURVE or (curve_levels is None and own_levels is None) \
-            else _curves_at(curve_levels, own_levels)
+        lv, own = (levels or {}).get(k), (own_levels or {}).get(k)
+        make = KINDS[k].candidates if k not in _LEVEL_KINDS or (lv is None and own is None) \
+            else _LEVEL_KINDS[k](lv, own)
         if k == K_LINE and lines is not None:
             done = isolate(lambda r: lines.add(candidate_pieces, pin.take(r), r, pin.T_orig), ok[k], "planning",
                            failed)
@@ -361,77 +363,97 @@ def _curves_at(levels, own_levels):
     return lambda pin, r, sts, prof, rules: curves.candidates_curve(pin, r, sts, prof, levels, own_levels, False)
 
 
+def _arcs_at(levels, own_levels):
+    """KINDS[K_ARC].candidates with candidates_arc's levels and own_levels."""
+    return lambda pin, r, sts, prof, rules: _arcs().candidates_arc(pin, r, sts, levels, own_levels)
+
+
+# the kinds whose candidates read their laws on their batch's quadrature grid (the circle
+# law's panel levels, the largest of the batch's): made with the file's levels as a floor
+_LEVEL_KINDS = {K_ARC: _arcs_at, K_CURVE: _curves_at}
+
+
 def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False,
                           chain_batch=None):
     """_candidates' tables (auto) made window by window: Candidates.of_pieces of
     window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
-    as one call of all of them (tests/test_speed50_wina50_windows.py).  Returns (Candidates,
-    rows holding a non-finite candidate).  What makes them so:
+    as one call of all of them (tests/test_speed50_wina50_windows.py,
+    tests/test_speed53_arcs53_windows.py).  Returns (Candidates, rows holding a non-finite
+    candidate).  What makes them so:
       - the lines' inputs made once across the windows (plan.PiecesMemo), as pieces_once
         makes them across the file (each entry is its row's own);
-      - the curves' figures on the file's grid (candidates_curve's levels): each pass's
-        levels are the largest of its candidates' in the file.  Each window takes the
-        largest met so far, and a window whose pass made figures on other levels than the
-        file's is made again at the file's (made again on its first pass's, its retries
-        are the file's: its retries' levels are read again).  decide_first: the first
-        pass's levels decided over the file first (curves.curve_grid_levels, ~0.02 s a
-        plate), so only the retries can take a window again.  The retries' are known
-        only once the first passes have run (a cap, the levels of every candidate at
-        beta/4, was 8 on both plates where their retries' are 4: every window would have
-        been made again).  On both plates the largest levels are in the first window,
-        and no retry makes figures: no window is made again;
+      - the arcs' and curves' figures on the file's grid (_LEVEL_KINDS' levels): each
+        pass's levels are the largest of its candidates' in the file.  Each window takes
+        the largest met so far, and a window whose pass made figures on other levels than
+        the file's is made again at the file's (made again on its first pass's, its
+        retries are the file's: its retries' levels are read again).  decide_first: the
+        first pass's levels decided over the file first (curves.curve_grid_levels,
+        arcs.arc_grid_levels, ~0.02 s a plate), so only the retries can take a window
+        again.  The retries' are known only once the first passes have run (a cap, the
+        levels of every candidate at beta/4, was 8 on both plates where their retries' are
+        4: every window would have been made again).  On both plates the largest levels
+        are in the first window, and no retry makes figures: no window is made again;
+      - the circle laws each arc's own (Newton's too: circle._newton_cheb), where the BLAS
+        gives a row its own bits (circle.rows_invariant);
       - the chains: each chain's tables its own (as the other kinds, each row's own); the
         chains of consecutive windows are made in one call, chain_batch (None: CHAIN_BATCH)
         at a time (_WaitingChains).
-    Not covered: a batch where Newton solves an arc (circle.NEWTON_ARCS) may round with
-    its batch, and arcs (arcs.py) integrate on their batch's levels.  info (a dict): given
-    "levels" (the file's: first pass, retries), "redone" (windows whose curves were made
-    again), "newton" (arcs Newton solved) and "own" (each window's own levels a pass, and
-    whether it made figures: candidates_curve's own_levels)."""
+    info (a dict): given "levels" (the curves' file levels: first pass, retries),
+    "arc_levels" (the arcs'), "redone" (windows whose arcs or curves were made again),
+    "newton" (arcs Newton solved), "own" and "arc_own" (each window's own levels a pass,
+    and whether it made figures: candidates_curve's / candidates_arc's own_levels)."""
     n = len(strokes)
     rules = SegmentRules.for_profile(profile, opts.max_segments)
-    first = curves.curve_grid_levels(pin, _not_failed(rows.get(K_CURVE, np.zeros(0, int)), failed), strokes,
-                                     profile) if decide_first else 0
+    todo_rows = {k: _not_failed(rows.get(k, np.zeros(0, int)), failed) for k in _LEVEL_KINDS}
+    first = {K_CURVE: lambda: curves.curve_grid_levels(pin, todo_rows[K_CURVE], strokes, profile),
+             K_ARC: lambda: _arcs().arc_grid_levels(pin, todo_rows[K_ARC], strokes)}
     ordered = all(r.size < 2 or bool((r[1:] >= r[:-1]).all()) for r in rows.values())
     windows = [partial(_window_rows, rows, lo, hi, ordered) for lo, hi in zip(bounds[:-1], bounds[1:])]
     memo = PiecesMemo()
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
-    levels = [first, 0]         # the floors: the largest own levels met so far, a pass
-    curve = [None] * len(windows)       # per window: its curve pieces
-    used = [None] * len(windows)        # the floors it took
-    owns = [None] * len(windows)        # each pass's (own levels, whether it made figures)
-    todo, redone = range(len(windows)), 0
+    nw = len(windows)
+    # per circle kind: the floors (the largest own levels met so far, a pass), and per
+    # window its pieces, the floors it took and each pass's (own levels, whether it made figures)
+    levels = {k: [first[k]() if decide_first else 0, 0] for k in _LEVEL_KINDS}
+    made = {k: [None] * nw for k in _LEVEL_KINDS}
+    used = {k: [None] * nw for k in _LEVEL_KINDS}
+    owns = {k: [None] * nw for k in _LEVEL_KINDS}
+    todo, redone = {k: range(nw) for k in _LEVEL_KINDS}, 0
     waiting = _WaitingChains(strokes, pin, profile, failed, rules, chain_batch)
     while True:
-        for j in todo:
+        for j in sorted(set().union(*todo.values())):
+            got = windows[j]()
             if not redone:              # (the other kinds once, window by window; the chains a batch of windows)
-                wr = windows[j]()
-                pieces += window_pieces(strokes, pin, profile, wr, failed, rules, lines=memo,
-                                        kinds=[k for k in KINDS if k not in (K_CURVE, K_CHAIN)])
-                pieces += waiting.add(wr.get(K_CHAIN), j == len(windows) - 1)
-                del wr
-            owns[j], used[j] = [], tuple(levels)
-            curve[j] = window_pieces(strokes, pin, profile, windows[j](), failed, rules, used[j], own_levels=owns[j],
-                                     kinds=(K_CURVE,))
-            for p, (lv, made) in enumerate(owns[j][:2]):
-                levels[p] = max(levels[p], lv) if made else levels[p]
-        levels = _file_levels(owns)
-        # the windows whose figures were made on other levels (the largest of their own and
-        # the floor) than the file's; a first pass made on the file's: its retries are the file's
-        todo = [j for j in range(len(windows)) if any(made and max(lv, used[j][p]) != levels[p]
-                                                      for p, (lv, made) in enumerate(owns[j][:2]))]
-        if not todo:
+                pieces += window_pieces(strokes, pin, profile, got, failed, rules, lines=memo,
+                                        kinds=[k for k in KINDS if k not in _LEVEL_KINDS and k != K_CHAIN])
+                pieces += waiting.add(got.get(K_CHAIN), j == nw - 1)
+            for k in [k for k in _LEVEL_KINDS if j in todo[k]]:
+                owns[k][j], used[k][j] = [], tuple(levels[k])
+                made[k][j] = window_pieces(strokes, pin, profile, got, failed, rules, {k: used[k][j]},
+                                           own_levels={k: owns[k][j]}, kinds=(k,))
+                for p, (lv, fig) in enumerate(owns[k][j][:2]):
+                    levels[k][p] = max(levels[k][p], lv) if fig else levels[k][p]
+        for k in _LEVEL_KINDS:
+            levels[k] = _file_levels(owns[k])
+            # the windows whose figures were made on other levels (the largest of their own
+            # and the floor) than the file's; a first pass made on the file's: its retries are
+            # the file's
+            todo[k] = [j for j in range(nw) if any(fig and max(lv, used[k][j][p]) != levels[k][p]
+                                                   for p, (lv, fig) in enumerate(owns[k][j][:2]))]
+        if not any(todo.values()):
             break
-        redone += len(todo)
+        redone += len(set().union(*todo.values()))
     curves.drop_kappa()         # (kept from window to window: window_pieces' own_levels)
     if info is not None:
-        info.update(levels=tuple(levels), redone=redone, newton=circle.NEWTON_ARCS[0] - n0, own=owns)
+        info.update(levels=tuple(levels[K_CURVE]), arc_levels=tuple(levels[K_ARC]), redone=redone,
+                    newton=circle.NEWTON_ARCS[0] - n0, own=owns[K_CURVE], arc_own=owns[K_ARC])
     # one list of every piece, held nowhere else: of_pieces empties it, each piece let go
     # once copied (a joined copy of the list, with curve's, held them all to the end)
-    for j, c in enumerate(curve):
-        pieces += c
-        curve[j] = None
+    for k in _LEVEL_KINDS:
+        for j, c in enumerate(made[k]):
+            pieces += c
+            made[k][j] = None
     pieces += memo.piece()
     return Candidates.of_pieces(n, pieces, pin.T_orig)
 
@@ -1088,11 +1110,13 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
 
 
 # the kinds whose rows a windowed run (strokes a StoredStrokes) segments a window at a time
-# (tests/test_speed52_runs52_rowown.py: each row's plan its own, whatever the batch: lines,
-# chains; arcs and curves where no circle law went to Newton, _CIRCLE_KINDS)
+# (tests/test_speed52_runs52_rowown.py, test_speed53_arcs53_runs.py: each row's plan its
+# own, whatever the batch: lines, chains; arcs and curves where the BLAS gives a row its
+# own bits, _CIRCLE_KINDS)
 WINDOW_KINDS = (K_LINE, K_ARC, K_CURVE, K_CHAIN)
-# kinds solved by laws/circle.py: a window that sent an arc to Newton, whose batched products
-# may round with the batch (circle.NEWTON_ARCS), has the kind's rows segmented in one batch
+# kinds solved by laws/circle.py: where the BLAS does not give a row its own bits
+# (circle.rows_invariant: the circle laws' products round with the batch), the kind's rows
+# are segmented in one batch (Newton's steps are each arc's own: circle._newton_cheb)
 _CIRCLE_KINDS = (K_ARC, K_CURVE)
 WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/runs.py)
 
@@ -1244,11 +1268,11 @@ class _LinesAgain:
 
 def _by_windows(fn, window, circle_law=False, before=None):
     """fn (rows -> a plan a row, rows sorted) made of one call a window of rows (row //
-    window): only that window's strokes are objects at a time.  circle_law: where a window
-    sent an arc to Newton (or the BLAS does not give rows their own bits), the rows in one
-    call after all: the plans a single batch gives.  before(rows): called before fn on the
-    same rows (the curve geometry of a window's strokes: _rebuild_geometry, as the list
-    path makes it for a run's rows, the strokes loaded without it)."""
+    window): only that window's strokes are objects at a time.  circle_law: where the BLAS
+    does not give rows their own bits, the rows in one call: the plans a single batch
+    gives.  before(rows): called before fn on the same rows (the curve geometry of a
+    window's strokes: _rebuild_geometry, as the list path makes it for a run's rows, the
+    strokes loaded without it)."""
     def call(rows):
         if before is not None:
             before(rows)
@@ -1258,14 +1282,12 @@ def _by_windows(fn, window, circle_law=False, before=None):
         cut = np.flatnonzero(np.diff(rows // window)) + 1
         if not cut.size:
             return call(rows)
-        n0 = circle.NEWTON_ARCS[0]
+        if circle_law and not circle.rows_invariant():
+            WHOLE_BATCHES[0] += 1
+            return call(rows)
         out = []
         for part in np.split(rows, cut):
             out += call(part)
-        if circle_law and (circle.NEWTON_ARCS[0] != n0 or not circle.rows_invariant()):
-            out = None              # (the windows' plans let go first)
-            WHOLE_BATCHES[0] += 1
-            return call(rows)
         return out
     return by_windows
 

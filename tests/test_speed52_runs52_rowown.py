@@ -6,12 +6,10 @@ a time (schedule._by_windows, WINDOW_KINDS).
 - lines (segments.plan_segments): every step per stroke;
 - chains (chains.plan_chain_segments): cold (no memo: solve_chains) and warm (the memos the
   candidates filled: kept plans, replayed laws);
-- arcs and curves (the circle law, laws/circle.py): their own wherever the batch sent no arc
-  to Newton (circle.NEWTON_ARCS) and the BLAS gives a row its bits wherever it sits
-  (circle.rows_invariant); Newton's batched products may round with the batch, so
-  _by_windows solves such a kind's rows in one batch after all (checked here: the
-  voron24 benchy's curves go to Newton and its windowed runs equal the list's in
-  test_speed52_runs52_windows.py)."""
+- arcs and curves (the circle law, laws/circle.py): their own wherever the BLAS gives a row
+  its bits wherever it sits (circle.rows_invariant), else _by_windows solves such a kind's
+  rows in one batch; Newton's steps are each arc's own too since arcs53
+  (test_speed53_arcs53_runs.py: arcs and curves that go to Newton, windows of any size)."""
 import numpy as np
 import pytest
 
@@ -108,23 +106,3 @@ def test_rows_are_their_own(kind, name, prof_name, candidates):
     for how, parts in _partitions(rows):
         got, _ = _segments(kind, name, prof_name, parts, candidates)
         assert got == ref, how
-
-
-def test_circle_kinds_go_to_one_batch_after_newton(monkeypatch):
-    """_by_windows of a circle kind: where a window sent an arc to Newton, the rows in one
-    call (the whole batch's plans), else the windows' plans."""
-    calls = []
-
-    def fn(r, newton=False):
-        calls.append(r.tolist())
-        if newton and r.size == 1 and r[0] == 9:
-            circle.NEWTON_ARCS[0] += 1
-        return r.tolist()
-    rows = np.array([1, 2, 9, 10])
-    assert sc._by_windows(fn, 8, True)(rows) == [1, 2, 9, 10] and calls == [[1, 2], [9, 10]]
-    calls.clear()
-    assert sc._by_windows(lambda r: fn(r, True), 1, True)(rows) == [1, 2, 9, 10]
-    assert calls == [[1], [2], [9], [10], [1, 2, 9, 10]]
-    calls.clear()
-    assert sc._by_windows(lambda r: fn(r, True), 1, False)(rows) == [1, 2, 9, 10]    # (not a circle kind)
-    assert calls == [[1], [2], [9], [10]]

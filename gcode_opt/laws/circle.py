@@ -302,9 +302,13 @@ def _vander_t(xg, kmax):
 
 
 def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
-    """Collocation Newton for w'' = γ²w + 2w³ + C on N+1 nodes; returns (w nodes, C, ok)."""
+    """Collocation Newton for w'' = γ²w + 2w³ + C on N+1 nodes; returns (w nodes, C, ok).
+    Each arc's iteration is its own, bit for bit, whatever the batch: its flags, steps and
+    damping are per arc, the residual's products are _mm_ordered and row sums (a BLAS
+    product rounds with the batch's size), and the batched solve is LAPACK's a matrix."""
     cs = _cheb_setup(n)
     d2, q = cs["d2"], cs["q"]
+    d2_t = np.ascontiguousarray(d2[1:-1].T)
     nb = phi.size
     w = w_start.copy()
     w[:, 0], w[:, -1] = u0, u1
@@ -312,8 +316,8 @@ def _newton_cheb(n, phi, gam2, u0, u1, w_start, max_iter=60):
     scale = np.maximum.reduce([np.abs(phi), np.abs(u0), np.abs(u1), np.full(nb, 1e-300)])
 
     def residual(w, cc, ia):
-        r = w @ d2[1:-1].T - gam2[ia, None] * w[:, 1:-1] - 2.0 * w[:, 1:-1] ** 3 - cc[:, None]
-        return np.concatenate([r, (w @ q - phi[ia])[:, None]], axis=1)
+        r = _mm_ordered(w, d2_t) - gam2[ia, None] * w[:, 1:-1] - 2.0 * w[:, 1:-1] ** 3 - cc[:, None]
+        return np.concatenate([r, ((w * q).sum(axis=1) - phi[ia])[:, None]], axis=1)
 
     # Jacobians: all but the diagonal are the same for every arc and iterate (solve does
     # not write its input), so they are written once; each step writes the diagonal only
@@ -539,8 +543,8 @@ def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess, rough=False):
     level (on the gyroid plate's 34 k curve candidates its start nodes, nodes, the
     product's padded copy and its result were each held whole, ~6 MB apiece).  The arcs
     the iteration leaves go to Newton afterwards in one batch, the one _solve_nodes
-    makes (the same arcs, start nodes and order: Newton's batched products may round
-    with the batch).  Elsewhere _solve_nodes on the whole level, then the product."""
+    makes (each arc's Newton its own: _newton_cheb).  Elsewhere _solve_nodes on the
+    whole level, then the product."""
     to_coef_t = _cheb_setup(n)["to_coef"].T
     p, g2, a0, a1 = phi[ia], gam2[ia], u0[ia], u1[ia]
     if not rows_invariant():
@@ -567,11 +571,9 @@ def _solve_coefs(n, phi, gam2, u0, u1, ia, w_guess, rough=False):
     return c, cc, ok
 
 
-# Arcs handed to Newton so far (a count; callers compare it before and after a solve).
-# Newton's batched products may round differently with the batch (_newton_chunked); every
-# other step of a solve is the arc's own (elementwise, row sums, _rows_matmul's fixed-shape
-# calls when rows_invariant()): a batch that sent no arc to Newton gave each arc the bits
-# it would have in any other batch.
+# Arcs handed to Newton so far (a count: benchmarks/arcs53).  Every step of a solve is the
+# arc's own (elementwise, row sums, _mm_ordered, LAPACK a matrix, _rows_matmul's fixed-shape
+# calls when rows_invariant()): each arc has the bits it would have in any other batch.
 NEWTON_ARCS = [0]
 
 
@@ -585,10 +587,8 @@ _NEWTON_BYTES = 20e6       # Jacobians (arcs, N, N) held at once by one Newton b
 
 
 def _newton_chunked(n, phi, gam2, u0, u1, w_start):
-    """_newton_cheb over chunks of arcs, so memory stays bounded on large files.  Each
-    arc's iteration is its own (flags, steps, damping per arc); only the batched BLAS
-    calls may round differently with the batch size (~1e-16 relative), so batches that
-    fit in _NEWTON_BYTES (every bundled sample's) run whole, as before."""
+    """_newton_cheb over chunks of arcs, so memory stays bounded on large files (each
+    arc's iteration its own: the same bits in any chunk)."""
     nb = phi.size
     chunk = max(64, int(_NEWTON_BYTES / (8.0 * n * n)))
     if nb <= chunk:

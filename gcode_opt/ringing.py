@@ -952,6 +952,14 @@ def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
 HISTORY = 36.0
 
 
+def row_dur_ds(m):
+    """Duration (s) and path length (mm) of each row of m (k x ROW)."""
+    _ux, _uy, sv, cv, _ev, a, at, ct, dt = m[:, :9].T
+    dur = at + ct + dt
+    ds = sv * at + 0.5 * a * at * at + cv * ct + cv * dt - 0.5 * a * dt * dt
+    return dur, ds
+
+
 class RowTable:
     """Rows (as Rows.items, with the idle rows at both ends added; padded: items has them,
     e.g. Rows.padded()'s) and where each row starts
@@ -964,17 +972,27 @@ class RowTable:
         else:
             idle = np.array([IDLE])
             self.m = np.vstack([idle, m, idle])
-        self.model = model
-        self.shaper = model["shaper"] if shaper is None else shaper
-        ux, uy, sv, cv, ev, a, at, ct, dt = self.m[:, :9].T
-        dur = at + ct + dt
-        ds = sv * at + 0.5 * a * at * at + cv * ct + cv * dt - 0.5 * a * dt * dt
+        self._times(model, shaper)
+        dur, ds = row_dur_ds(self.m)
         self.t = -1.0 + np.concatenate([[0.0], np.cumsum(dur)[:-1]])
         self.s = np.concatenate([[0.0], np.cumsum(ds)[:-1]])
+
+    def _times(self, model: dict, shaper: str | None):
+        self.model = model
+        self.shaper = model["shaper"] if shaper is None else shaper
         ts = np.concatenate([t_p for _a, t_p in _pulses(model, self.shaper)])
         self.span_t = float(ts.max() - ts.min())
         s_min = min(2.0 * math.pi * model[f"freq_{a}_hz"] * model["damping_r"] for a in "xy")
         self.history_t = HISTORY / s_min + self.span_t
+
+    @classmethod
+    def part(cls, m, t, s, model: dict, shaper: str | None = None):
+        """A RowTable of some consecutive rows m of a file's (with their t and s, as the whole
+        file's RowTable has them): its windows are the whole table's where they lie in it."""
+        rt = cls.__new__(cls)
+        rt.m, rt.t, rt.s = m, t, s
+        rt._times(model, shaper)
+        return rt
 
     def __len__(self):
         return len(self.m)

@@ -11,7 +11,6 @@ import os
 import shutil
 import subprocess
 import sys
-from array import array
 from collections import defaultdict
 
 import numpy as np

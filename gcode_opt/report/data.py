@@ -460,12 +460,13 @@ class LayerPick:
     stroke is behind the pass -- and another final layer's beats it.  A gain that is not a
     number beats nothing and is beaten by nothing: min() never takes a layer beaten so."""
 
-    def __init__(self, layer, heads, tr0):
-        self.row_layers, self.a2_before = heads.layers, heads.a2_before
-        self.fixed = layer if layer is not None else (None if heads.layers else _middle_layer(tr0))
-        self.alive = set(heads.layers) if self.fixed is None else {self.fixed}
+    def __init__(self, layer, heads=None, tr0=None):
+        """heads (StrokeHeads) and tr0 (the original's trace) when layer is None."""
+        self.row_layers, self.a2_before = (heads.layers, heads.a2_before) if heads is not None else ([], [])
+        self.fixed = layer if layer is not None else (None if self.row_layers else _middle_layer(tr0))
+        self.alive = set(self.row_layers) if self.fixed is None else {self.fixed}
         self.left = defaultdict(int)           # strokes of each layer whose span is not final
-        for k in heads.layers:
+        for k in self.row_layers:
             self.left[k] += 1
         self.gain = defaultdict(float)
         self.best = None                       # the best final layer so far
@@ -548,7 +549,7 @@ def _traced(path, profile, ring, processed=False, spans=None):
     tr = trace_file(path, profile, ringing=ring is not None, processed=processed, spans=spans)
     if ring is not None:
         items, tr.ring_rows = tr.ring_rows, None
-        ring.add(items)
+        ring.add(items, "after" if processed else "before")
     return tr
 
 
@@ -569,6 +570,24 @@ def _traced_processed(path, profile, ring, fences, heads, plan, layer, tr0):
     return tr
 
 
+def _replayed(tr0, path, profile, reps, layer, ring):
+    """The original's blocks the plots draw (the representative strokes', the layer map's)
+    and, with ring (a RingingRows), its ringing stretch, from a replay of it (its first pass
+    kept neither)."""
+    spans = []
+    for r in sorted((r["line"] - 1, r["line"] + r["lines"] - 2) for r in reps if r.get("line") is not None):
+        if spans and r[0] <= spans[-1][1]:
+            spans[-1] = (spans[-1][0], max(spans[-1][1], r[1]))
+        else:
+            spans.append(r)
+    sink = ring.stretch_sink() if ring is not None else None
+    ft = trace_fences(path, profile, spans, range(len(spans)), LayerPick(layer),
+                      (profile.moving_mass_x_kg, profile.moving_mass_y_kg), sink)
+    tr0.take_blocks(ft, layer)
+    if ring is not None:
+        ring.add_sink(sink, "before")
+
+
 # --------------------------------------------------------------------------- entry point
 def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing=True):
     """ringing: add the ringing section (figures from the summary's "ringing" when it has
@@ -582,13 +601,23 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
     if ringing:
         from .ringing import RingingRows
         ring = RingingRows(profile, figures=(summary or {}).get("ringing"))
-    tr0 = _traced(orig_path, profile, ring)
+    # the original's blocks: their kinetic terms now, those the plots draw in a replay
+    # (_replayed); its ringing rows: its figures and where it rings most now, its stretch
+    # in the replay
+    sink = ring.busiest_sink() if ring is not None else None
+    tr0 = trace_file(orig_path, profile, ringing=sink or False,
+                     mass_xy=(profile.moving_mass_x_kg, profile.moving_mass_y_kg))
+    if ring is not None:
+        ring.add_sink(sink)
     heads = StrokeHeads(tr0, fences, summary)
     plan = _rep_plan(heads.kinds, heads.lengths, tr0)
     tr1 = _traced_processed(new_path, profile, ring, fences, heads, plan, layer, tr0)
     rows = _stroke_rows(tr0, tr1, fences, summary, profile, heads)
     del heads
     head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
+    reps = _representatives(rows, plan)
+    lm = _map_layer(rows, tr0, layer)
+    _replayed(tr0, orig_path, profile, reps, lm["layer"], ring)
     if ring is not None:
         ring = ring.data()
         h = ring["headline"]
@@ -608,8 +637,8 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
         "by_layer": _group(rows, "layer"),
         "by_kind": _group(rows, "kind"),
         "warnings": _warnings(rows, head, summary, profile),
-        "representative": _representatives(rows, plan),
-        "layer_map": _map_layer(rows, tr0, layer),
+        "representative": reps,
+        "layer_map": lm,
         "whole_file": {"before": tr0.res.as_dict(), "after": tr1.res.as_dict()},
     }
     if ring is not None:

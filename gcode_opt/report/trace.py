@@ -277,6 +277,14 @@ class Trace:
         hi = int(np.searchsorted(idx, last_idx, side="right"))
         return slice(lo, hi)
 
+    kinetic = None               # array('d') of kinetic_term by block when the blocks are not kept
+    _layer = None                # (layer, its block columns) taken from a replay
+
+    def take_blocks(self, ft, layer):
+        """The blocks a FenceTrace of the same file kept (its spans' and the layer's)."""
+        self.blocks = ft.blocks
+        self._layer = (layer, ft.layer_blocks(layer))
+
     def span_blocks(self, first_idx, last_idx, min_seg_t):
         """(blocks, shortest block time or None, blocks shorter than min_seg_t at their nominal
         speed) of source lines first_idx..last_idx."""
@@ -287,12 +295,18 @@ class Trace:
 
     def kinetic_terms(self, mass_kg):
         """Each block's mass along it (mass_kg(ux, uy)) times its int v^2 dt."""
+        if self.kinetic is not None:
+            return np.frombuffer(self.kinetic, dtype=float) if len(self.kinetic) else np.zeros(0)
         b = self.blocks
         d = np.maximum(b["d"], 1e-12)
         return mass_kg((b["x1"] - b["x0"]) / d, (b["y1"] - b["y0"]) / d) * b["v2_int"]
 
     def layer_blocks(self, layer):
         """The block columns of the layer's extruding moves."""
+        if self._layer is not None:
+            if self._layer[0] != layer:
+                raise KeyError(f"layer {layer}: its blocks were not kept")
+            return self._layer[1]
         b, mv = self.blocks, self.moves
         idx = b["idx"]
         k = np.searchsorted(mv.np("idx"), idx)          # every block's move (its line)
@@ -306,14 +320,18 @@ class Trace:
         return self.lines.span_max(first_idx, last_idx, attr)
 
 
-def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Trace:
+def trace_file(path, profile, ringing=False, processed=False, spans=None, mass_xy=None) -> Trace:
     """ringing: also keep the rows of the commanded motion ringing.py solves (Trace.ring_rows,
-    from the same firmware-model pass, with the idle row at both ends: ringing.Rows.padded).  processed: keep only the line and move fields the
+    from the same firmware-model pass, with the idle row at both ends: ringing.Rows.padded);
+    or a sink of them (on_block and rest, as ringing.Rows'), given the rows instead.  processed: keep only the line and move fields the
     report reads of the processed file (PROCESSED_LINE_FIELDS, PROCESSED_MOVE_FIELDS).  spans
     (with processed; disjoint_spans): the line figures only as these spans' sums and maxima
-    (SpanFigures: line_sum / line_max of a span given, nothing by line)."""
+    (SpanFigures: line_sum / line_max of a span given, nothing by line).  mass_xy (the moving
+    masses of X and Y, kg): no block columns, only each block's kinetic_term (Trace.kinetic;
+    take_blocks() gives it the blocks the report draws)."""
     from .. import ringing as rg
-    ring = rg.Rows.padded() if ringing else None
+    sink = ringing if hasattr(ringing, "on_block") else None      # rows given to a sink, not kept
+    ring = sink or (rg.Rows.padded() if ringing else None)
     ring_line = ring_block = None
     if ring is not None:
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
@@ -322,7 +340,8 @@ def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Tra
     else:
         lines = LineTable(PROCESSED_LINE_FIELDS if processed else LINE_FIELDS)
     moves = MoveTable(PROCESSED_MOVE_FIELDS if processed else MOVE_FIELDS)
-    cols = {k: array("d") for k in BLOCK_FIELDS}
+    cols = {k: array("d") for k in BLOCK_FIELDS} if mass_xy is None else None
+    kinetic = array("d")
     cursor = [0.0, 0.0]
     count = [0]
 
@@ -347,18 +366,23 @@ def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Tra
         sv, cv, ev = b.start_v, b.cruise_v, b.end_v
         v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
             + b.cruise_t * cv * cv
-        for k, v in zip(BLOCK_FIELDS, (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel,
-                                       b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)):
-            cols[k].append(v)
+        row = (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)
+        if cols is None:
+            kinetic.append(kinetic_term(mass_xy, row))
+        else:
+            for k, v in zip(BLOCK_FIELDS, row):
+                cols[k].append(v)
         if ring_block is not None:
             ring_block(b)
 
     events = feed() if ring is None else rg.wrap_events(feed(), ring_dwell)
     res = simulate_events(events, profile, on_line=on_line, on_block=on_block)
-    tr = Trace(res, lines, moves, _block_arrays(cols), count[0])
-    if ring is not None:
+    tr = Trace(res, lines, moves, _block_arrays(cols) if cols is not None else None, count[0])
+    if cols is None:
+        tr.kinetic = kinetic
+    if ring is not None and sink is None:
         ring.close_padded()
-    tr.ring_rows = ring.items if ring is not None else None
+    tr.ring_rows = ring.items if ring is not None and sink is None else None
     return tr
 
 
@@ -392,12 +416,8 @@ class FenceTrace(Trace):
 
     def add(self, row, e, layer):
         """One block: row its BLOCK_FIELDS values, e and layer its move's."""
-        i, d, v2 = row[0], row[5], row[13]
-        x0, y0, x1, y1 = row[1:5]
-        mx, my = self.mass_xy
-        dd = d if d >= 1e-12 else 1e-12
-        ux, uy = (x1 - x0) / dd, (y1 - y0) / dd
-        self.kinetic.append((mx * ux * ux + my * uy * uy) * v2)
+        i, d = row[0], row[5]
+        self.kinetic.append(kinetic_term(self.mass_xy, row))
         k, last = self._k, self.lines.last
         while k < len(last) and last[k] < i:
             k += 1
@@ -436,6 +456,16 @@ class FenceTrace(Trace):
         if rows is None and not self.pick.wanted(layer):
             raise KeyError(f"layer {layer}: its blocks were not kept")
         return _row_columns(rows if rows is not None else array("d"))
+
+
+def kinetic_term(mass_xy, row):
+    """A block's mass along it times its int v^2 dt (row: its BLOCK_FIELDS values; mass_xy:
+    the moving masses of X and Y, kg), as Trace.kinetic_terms computes it over the columns."""
+    x0, y0, x1, y1, d = row[1:6]
+    mx, my = mass_xy
+    d = d if d >= 1e-12 else 1e-12
+    ux, uy = (x1 - x0) / d, (y1 - y0) / d
+    return (mx * ux * ux + my * uy * uy) * row[13]
 
 
 def _row_columns(rows):

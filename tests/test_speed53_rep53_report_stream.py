@@ -5,6 +5,9 @@
 (2) the processed file played as a FenceTrace: each fence's block figures, the kinetic terms,
     the kept spans' blocks and a layer's blocks as the whole trace's;
 (3) LayerPick never drops the layer _map_layer's min() takes (random gains, ties, NaN);
+(5) the original's ringing streamed: BusiestSink's start as busiest_stretch_rows', the
+    report's ringing section as ringing_data_rows over both files' whole rows; its kinetic
+    terms without block columns as with them;
 (4) the HTML and JSON the code of 182bdeb (git archive) writes for `report` and `process --report`."""
 import math
 import os
@@ -21,7 +24,7 @@ from gcode_opt import ringing as rg
 from gcode_opt.profile import load_profile
 from gcode_opt.report import data as dm
 from gcode_opt.report.fences import parse_fences
-from gcode_opt.report.ringing import StretchSink
+from gcode_opt.report.ringing import BusiestSink, RingingRows, StretchSink, ringing_data_rows
 from gcode_opt.report.trace import BLOCK_FIELDS, trace_fences, trace_file
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -197,3 +200,97 @@ def test_report_bytes_as_base(name, base_tree, tmp_path):
              str(d))
         outs.append([(d / f).read_bytes() for f in ("r.json", "r.html", "p.html")])
     assert outs[0] == outs[1]
+
+
+# ----------------------------------------------------------------- (5) the original's ringing, kinetic terms
+@pytest.mark.parametrize("name,length_d,chunk_rows", [(SAMPLES[0], 40.0, 300), (SAMPLES[1], 20.0, 1000),
+                                                      (SAMPLES[0], 40.0, 16384), (SAMPLES[2], 1e6, 300)])
+def test_busiest_sink_as_the_whole_rows(name, length_d, chunk_rows, processed, monkeypatch):
+    src, _dst = processed[name]
+    prof = load_profile(PROFILE)
+    model = rg.model_of(prof)
+    monkeypatch.setattr(rg, "STRETCH_ROWS", chunk_rows)
+    rows = rg.Rows.padded()
+    rg.play(src, prof, rows)
+    rows.close_padded()
+    rt = rg.RowTable(rows.items, model, padded=True)
+    ref = rg.busiest_stretch_rows(rt, length_d, chunk_rows)
+    ref_bins = np.zeros(rg.stretch_bins(float(rt.s[-1]), length_d))      # its energies by bin
+    for r0 in range(0, len(rt), chunk_rows):
+        r1 = min(r0 + chunk_rows, len(rt))
+        for bins, per in rg.stretch_energy(rt, r0, r1, r1 == len(rt), 0.5 * length_d):
+            np.add.at(ref_bins, bins, per)
+    sink = BusiestSink(model, length_d)
+    sink.limit = rg.ROW * 256
+    rg.play(src, prof, sink)
+    sink.close()
+    assert sink.n == len(rt) and len(sink.parts) <= 2 + (chunk_rows + 600) // 256
+    k = min(len(ref_bins), len(sink.per_bin))
+    assert sink.per_bin[:k].tobytes() == ref_bins[:k].tobytes() and not sink.per_bin[k:].any()
+    assert _bits(sink.busiest()) == _bits(ref)
+    if length_d < 1e5:
+        assert ref > 0.0
+
+
+@pytest.mark.parametrize("given", [False, True])
+def test_ringing_section_streamed_as_the_whole_rows(given, processed):
+    src, dst = processed[SAMPLES[1]]
+    prof = load_profile(PROFILE)
+    whole = []
+    for path in (src, dst):
+        rows = rg.Rows.padded()
+        rg.play(path, prof, rows)
+        rows.close_padded()
+        whole.append(rows.items)
+    ref = ringing_data_rows(whole, prof)
+    figures = {"model": ref["model"], "before": ref["before"], "after": ref["after"]} if given else None
+    rr = RingingRows(prof, figures=figures)
+    for path, make, tag in ((src, rr.busiest_sink, None), (dst, rr.sink, "after"), (src, rr.stretch_sink, "before")):
+        sink = make()
+        assert (sink.col is None) == (given or tag == "before")
+        rg.play(path, prof, sink)
+        rr.add_sink(sink, tag) if tag else rr.add_sink(sink)
+    assert rr.data() == ref and list(rr.data()["stretch"]) == ["from_mm", "length_mm", "before", "after"]
+
+
+@pytest.mark.parametrize("name", SAMPLES)
+def test_kinetic_terms_without_block_columns(name, processed):
+    src, _dst = processed[name]
+    prof = load_profile(PROFILE)
+    full = trace_file(src, prof)
+    lean = trace_file(src, prof, mass_xy=(prof.moving_mass_x_kg, prof.moving_mass_y_kg))
+    assert lean.blocks is None and len(lean.kinetic) == len(full.blocks["d"]) > 0
+    assert _bits(dm._kinetic_whole(lean, prof)) == _bits(dm._kinetic_whole(full, prof))
+
+
+@pytest.mark.parametrize("chunk_rows,limit_rows", [(300, 64), (300, 256), (1000, 128)])
+def test_busiest_sink_keeps_what_each_window_reads(chunk_rows, limit_rows, processed, monkeypatch):
+    """Whenever the sink solves a chunk, the rows kept reach from the row before its window's
+    first row (history) to the row after its last one's (lookahead), as the whole RowTable has them."""
+    src, _dst = processed[SAMPLES[1]]
+    prof = load_profile(PROFILE)
+    model = rg.model_of(prof)
+    monkeypatch.setattr(rg, "STRETCH_ROWS", chunk_rows)
+    rows = rg.Rows.padded()
+    rg.play(src, prof, rows)
+    rows.close_padded()
+    rt = rg.RowTable(rows.items, model, padded=True)
+    sink = BusiestSink(model, 20.0)
+    sink.limit = rg.ROW * limit_rows
+    seen = []
+    real = rg.stretch_energy
+
+    def spy(part, r0, r1, last, bin_d):
+        first, kept = sink.parts[0][0], sum(len(p[1]) for p in sink.parts)
+        g0, g1 = first + r0, first + r1
+        w0 = max(int(np.searchsorted(rt.t, rt.t[g0] - rt.history_t, side="right")) - 1, 0)
+        w1 = min(int(np.searchsorted(rt.t, rt.t[min(g1, len(rt) - 1)] + rt.span_t, side="right")) + 2, len(rt))
+        assert first <= max(w0 - 1, 0) and first + kept >= w1
+        assert np.array_equal(part.t, rt.t[first:first + kept]) and np.array_equal(part.m, rt.m[first:first + kept])
+        seen.append((g0, g1, last))
+        return real(part, r0, r1, last, bin_d)
+    monkeypatch.setattr(rg, "stretch_energy", spy)
+    rg.play(src, prof, sink)
+    sink.close()
+    assert seen == [(r0, min(r0 + chunk_rows, len(rt)), r0 + chunk_rows >= len(rt)) for r0 in range(0, len(rt), chunk_rows)]
+    assert max(len(p[1]) for p in sink.parts) <= limit_rows + 2

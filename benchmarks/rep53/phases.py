@@ -50,7 +50,8 @@ def wrap(mod, name, before=False):
     setattr(mod, name, g)
 
 
-for mod, name, before in ((data, "_traced", True), (data, "_stroke_rows", False), (data, "_headline", False),
+for mod, name, before in ((data, "trace_file", True), (data, "trace_fences", True), (data, "StrokeHeads", False),
+                          (data, "_traced", True), (data, "_stroke_rows", False), (data, "_headline", False),
                           (data, "_coverage", False), (data, "_warnings", False), (data, "_representatives", False),
                           (data, "_map_layer", False), (html, "build_report", False),
                           (rep_ringing, "ringing_plot", False), (plots, "reduction_chart", False),

@@ -931,7 +931,8 @@ def busiest_stretch(tr: Trace, model: dict, length_d: float = 50.0) -> float:
     bins = np.floor(tr.s / (0.5 * length_d)).astype(np.int64)
     per_bin = np.bincount(bins, weights=e)
     win = per_bin[:-1] + per_bin[1:] if len(per_bin) > 1 else per_bin
-    return float(np.argmax(win) * 0.5 * length_d)
+    bin_d = 0.5 * length_d
+    return float(np.argmax(win) * bin_d)
 
 
 def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
@@ -952,6 +953,14 @@ def stretch(tr: Trace, model: dict, s0_d: float, length_d: float, n: int = 4000,
 HISTORY = 36.0
 
 
+def row_dur_ds(m):
+    """Duration (s) and path length (mm) of each row of m (k x ROW)."""
+    _ux, _uy, sv, cv, _ev, a, at, ct, dt = m[:, :9].T
+    dur = at + ct + dt
+    ds = sv * at + 0.5 * a * at * at + cv * ct + cv * dt - 0.5 * a * dt * dt
+    return dur, ds
+
+
 class RowTable:
     """Rows (as Rows.items, with the idle rows at both ends added; padded: items has them,
     e.g. Rows.padded()'s) and where each row starts
@@ -964,17 +973,27 @@ class RowTable:
         else:
             idle = np.array([IDLE])
             self.m = np.vstack([idle, m, idle])
-        self.model = model
-        self.shaper = model["shaper"] if shaper is None else shaper
-        ux, uy, sv, cv, ev, a, at, ct, dt = self.m[:, :9].T
-        dur = at + ct + dt
-        ds = sv * at + 0.5 * a * at * at + cv * ct + cv * dt - 0.5 * a * dt * dt
+        self._times(model, shaper)
+        dur, ds = row_dur_ds(self.m)
         self.t = -1.0 + np.concatenate([[0.0], np.cumsum(dur)[:-1]])
         self.s = np.concatenate([[0.0], np.cumsum(ds)[:-1]])
+
+    def _times(self, model: dict, shaper: str | None):
+        self.model = model
+        self.shaper = model["shaper"] if shaper is None else shaper
         ts = np.concatenate([t_p for _a, t_p in _pulses(model, self.shaper)])
         self.span_t = float(ts.max() - ts.min())
         s_min = min(2.0 * math.pi * model[f"freq_{a}_hz"] * model["damping_r"] for a in "xy")
         self.history_t = HISTORY / s_min + self.span_t
+
+    @classmethod
+    def part(cls, m, t, s, model: dict, shaper: str | None = None):
+        """A RowTable of some consecutive rows m of a file's (with their t and s, as the whole
+        file's RowTable has them): its windows are the whole table's where they lie in it."""
+        rt = cls.__new__(cls)
+        rt.m, rt.t, rt.s = m, t, s
+        rt._times(model, shaper)
+        return rt
 
     def __len__(self):
         return len(self.m)
@@ -1008,22 +1027,40 @@ def busiest_stretch_rows(rt: RowTable, length_d: float = 50.0, chunk_rows: int =
     if total_s <= length_d:
         return 0.0
     bin_d = 0.5 * length_d
-    per_bin = np.zeros(int(total_s // bin_d) + 2)
+    per_bin = np.zeros(stretch_bins(total_s, length_d))
     n = len(rt)
     for r0 in range(0, n, chunk_rows):
         r1 = min(r0 + chunk_rows, n)
-        t_own_a = float(rt.t[r0])
-        t_own_b = float(rt.t[r1]) if r1 < n else np.inf
-        tr = rt.window(t_own_a, float(rt.t[min(r1, n - 1)]))
-        for name in "xy":
-            r = response(tr, rt.model, name, shaper=rt.shaper)
-            own = (r.t_ev >= t_own_a) & (r.t_ev < t_own_b)
-            if r1 < n:
-                own &= np.isfinite(r.dur)
-            per = r.osc.integral_r2(r.c[own], r.dur[own])
-            k = np.clip(np.searchsorted(tr.t0, r.t_ev[own], side="right") - 1, 0, len(tr) - 1)
-            np.add.at(per_bin, np.floor(tr.s[k] / bin_d).astype(np.int64), per)
+        for bins, per in stretch_energy(rt, r0, r1, r1 == n, bin_d):
+            np.add.at(per_bin, bins, per)
+    return busiest_bin(per_bin, length_d)
+
+
+def stretch_bins(total_s: float, length_d: float) -> int:
+    """busiest_stretch_rows' bins (of length_d / 2) over total_s mm of path."""
+    return int(total_s // (0.5 * length_d)) + 2
+
+
+def stretch_energy(rt: RowTable, r0: int, r1: int, last: bool, bin_d: float):
+    """(bins, energies) per axis of the ringing events of rows r0..r1-1 of rt (last: the
+    file's last rows), binned by path distance in bins of bin_d mm."""
+    t_own_a = float(rt.t[r0])
+    t_own_b = np.inf if last else float(rt.t[r1])
+    tr = rt.window(t_own_a, float(rt.t[min(r1, len(rt) - 1)]))
+    for name in "xy":
+        r = response(tr, rt.model, name, shaper=rt.shaper)
+        own = (r.t_ev >= t_own_a) & (r.t_ev < t_own_b)
+        if not last:
+            own &= np.isfinite(r.dur)
+        per = r.osc.integral_r2(r.c[own], r.dur[own])
+        k = np.clip(np.searchsorted(tr.t0, r.t_ev[own], side="right") - 1, 0, len(tr) - 1)
+        yield np.floor(tr.s[k] / bin_d).astype(np.int64), per
+
+
+def busiest_bin(per_bin, length_d: float) -> float:
+    """Start (mm) of the two consecutive bins with most energy."""
     win = per_bin[:-1] + per_bin[1:] if len(per_bin) > 1 else per_bin
+    bin_d = 0.5 * length_d
     return float(np.argmax(win) * bin_d)
 
 

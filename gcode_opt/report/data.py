@@ -19,7 +19,7 @@ import numpy as np
 from .. import state as st
 from .fences import parse_fences
 from .stroke_table import StrokeTable
-from .trace import count_lines, disjoint_spans, trace_file
+from .trace import count_lines, disjoint_spans, trace_fences, trace_file
 
 SCHEMA = "gcode-opt-report/1"
 MM2_TO_M2 = 1e-6
@@ -102,16 +102,30 @@ def _summary_row_at(summary):
     return {p["line"]: p for p in rows}.get
 
 
-def _stroke_rows(tr0, tr1, fences, summary, profile):
+class StrokeHeads:
+    """What the stroke rows take of the original file alone, known before the processed file
+    is played: each fence's kind, length (mm), layer and int a^2 before (mm^2/s^3)."""
+
+    def __init__(self, tr0, fences, summary):
+        row_at = _summary_row_at(summary)
+        self.kinds, self.lengths, self.layers, self.a2_before = [], [], [], []
+        for f in fences:
+            o0, o1 = f.orig_first, f.orig_last
+            m0 = tr0.moves.get(o0)
+            self.lengths.append(sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves))
+            self.kinds.append(stroke_kind(f, row_at(o0 + 1), tr0))
+            self.layers.append(m0.layer if m0 is not None else -1)
+            self.a2_before.append(tr0.line_sum(o0, o1, "int_a2") + tr0.line_sum(o0, o1, "int_a2_j"))
+
+
+def _stroke_rows(tr0, tr1, fences, summary, profile, heads):
     row_at = _summary_row_at(summary)
     min_seg_t = profile.min_segment_time_t
     rows = StrokeTable()
-    for f in fences:
+    for f, kind, length, a2_before in zip(fences, heads.kinds, heads.lengths, heads.a2_before):
         o0, o1 = f.orig_first, f.orig_last
         m0 = tr0.moves.get(o0)
-        length = sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves)
         sp = row_at(o0 + 1)
-        kind = stroke_kind(f, sp, tr0)
         if kind == "arc" and m0 is not None and m0.kind == st.ARC:   # mass along the arc: mean over tangents
             th = m0.arc.theta0 + m0.arc.sweep * np.linspace(0.0, 1.0, 65)
             m_kg = float(np.mean(mass_kg(profile, np.sin(th), np.cos(th))))
@@ -124,10 +138,9 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
                     m_kg += mass_kg(profile, (m.x1 - m.x0) / d, (m.y1 - m.y0) / d) * m.length_d / length
         else:
             m_kg = mass_kg(profile, 1.0, 0.0)
-        sl = tr1.block_range(f.out_first, f.out_last)
-        seg_t = (tr1.blocks["accel_t"][sl] + tr1.blocks["cruise_t"][sl] + tr1.blocks["decel_t"][sl])
+        n_blocks, shortest_t, below = tr1.span_blocks(f.out_first, f.out_last, min_seg_t)
         t_after = tr1.line_sum(f.out_first, f.out_last, "time_t")
-        segments = f.segments or int(sl.stop - sl.start)
+        segments = f.segments or n_blocks
         beta = f.marker_beta_s2
         if sp is not None:
             beta = sp.get("beta_s2")
@@ -147,7 +160,7 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
             "time_s": {"before": tr0.line_sum(o0, o1, "time_t"), "after": t_after},
             # the junction halves belong to the stroke (vertices inside a curve, sub-arc ends),
             # as the pipeline's summary counts them
-            "int_a2_mm2_s3": {"before": tr0.line_sum(o0, o1, "int_a2") + tr0.line_sum(o0, o1, "int_a2_j"),
+            "int_a2_mm2_s3": {"before": a2_before,
                               "after": tr1.line_sum(f.out_first, f.out_last, "int_a2")
                               + tr1.line_sum(f.out_first, f.out_last, "int_a2_j")},
             "int_v2_mm2_s": {"before": tr0.line_sum(o0, o1, "int_v2"),
@@ -157,10 +170,9 @@ def _stroke_rows(tr0, tr1, fences, summary, profile):
                              "after": tr1.line_max(f.out_first, f.out_last, "peak_a")},
             "overshoot": ratio(peak_after, feed) if feed > 0 else None,
             "segment_rate_hz": segments / t_after if t_after > 0 else None,
-            "shortest_segment_s": float(seg_t.min()) if len(seg_t) else None,
+            "shortest_segment_s": shortest_t,
             # the firmware's own test (Marlin DEFAULT_MINSEGMENTTIME): length / nominal speed
-            "below_min_segment_time": int(np.sum(tr1.blocks["d"][sl] < min_seg_t * tr1.blocks["nominal_v"][sl]))
-            if min_seg_t > 0 else 0,
+            "below_min_segment_time": below,
         }
         if sp is not None:
             row["time_s"]["law"] = sp["time_s"]["law"]
@@ -190,12 +202,10 @@ def _group(rows, key):
 
 # --------------------------------------------------------------------------- whole file
 def _kinetic_whole(tr, profile):
-    b = tr.blocks
-    if not len(b["d"]):
+    terms = tr.kinetic_terms(lambda ux, uy: mass_kg(profile, ux, uy))
+    if not len(terms):
         return 0.0
-    d = np.maximum(b["d"], 1e-12)
-    ux, uy = (b["x1"] - b["x0"]) / d, (b["y1"] - b["y0"]) / d
-    return float(0.5 * np.sum(mass_kg(profile, ux, uy) * b["v2_int"]) * MM2_TO_M2)
+    return float(0.5 * np.sum(terms) * MM2_TO_M2)
 
 
 def _before_after(rows, key):
@@ -356,9 +366,24 @@ def _curved_runs(tr):
     return best
 
 
-def _representatives(rows, tr0):
+def _representatives(rows, plan):
+    """The representative strokes of _rep_plan, the re-timed ones from their rows."""
     reps = []
-    kinds, length = rows.col("kind"), rows.col("length_mm")
+    for p in plan:
+        if isinstance(p, dict):
+            reps.append(p)
+            continue
+        role, i = p
+        r = rows[i]
+        reps.append({"role": role, "line": r["line"], "lines": r["lines"], "retimed": True,
+                     "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
+    return reps
+
+
+def _rep_plan(kinds, length, tr0):
+    """The representative strokes (known from the original file alone): (role, row position)
+    of the re-timed ones, the entry itself of the others."""
+    reps = []
 
     def of_kind(kind):                   # the rows (by position) of a kind
         return [i for i, k in enumerate(kinds) if k == kind]
@@ -369,18 +394,13 @@ def _representatives(rows, tr0):
     if line_i:
         long_i, short_i = longest(line_i), min(line_i, key=length.__getitem__)
         for role, i in (("long line", long_i), ("short line", short_i)):
-            r = rows[i]
-            reps.append({"role": role, "line": r["line"], "lines": r["lines"], "retimed": True,
-                         "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"],
-                         "note": ""})
+            reps.append((role, i))
             if long_i == short_i:
                 break
     arc_i = of_kind("arc")
     arcs = [m for m in (tr0.moves[i] for i in tr0.moves.arcs) if m.kind == st.ARC]
     if arc_i:
-        r = rows[longest(arc_i)]
-        reps.append({"role": "arc", "line": r["line"], "lines": r["lines"], "retimed": True,
-                     "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
+        reps.append(("arc", longest(arc_i)))
     elif arcs:
         a = max(arcs, key=lambda m: m.length_d)
         reps.append({"role": "arc", "line": a.idx + 1, "lines": 1, "retimed": False, "length_mm": a.length_d,
@@ -392,9 +412,7 @@ def _representatives(rows, tr0):
     curve_i = of_kind("curve")
     c = None if curve_i else _curved_runs(tr0)
     if curve_i:
-        r = rows[longest(curve_i)]
-        reps.append({"role": "curve", "line": r["line"], "lines": r["lines"], "retimed": True,
-                     "length_mm": r["length_mm"], "feature": r["feature"], "layer": r["layer"], "note": ""})
+        reps.append(("curve", longest(curve_i)))
     elif c:
         m = tr0.moves[c[0]]
         reps.append({"role": "curve", "line": c[0] + 1, "lines": c[1] - c[0] + 1, "retimed": False,
@@ -409,23 +427,74 @@ def _representatives(rows, tr0):
     return reps
 
 
+def _middle_layer(tr0):
+    """The layer map's layer when no stroke was re-timed."""
+    layers = np.unique(tr0.moves.np("layer")).tolist()
+    return layers[len(layers) // 2] if layers else 0
+
+
+def _gain_key(gain):
+    return lambda k: (-gain[k], k)
+
+
 def _map_layer(rows, tr0, layer=None):
     row_layer, (ab, aa) = rows.col("layer"), _before_after(rows, "int_a2_mm2_s3")
     if layer is None:
         gain = defaultdict(float)          # the layer where re-timing removed the most int a^2
         for k, b, a in zip(row_layer, ab, aa):
             gain[k] += b - a
-        if gain:
-            layer = min(gain, key=lambda k: (-gain[k], k))
-        else:
-            layers = np.unique(tr0.moves.np("layer")).tolist()
-            layer = layers[len(layers) // 2] if layers else 0
+        layer = min(gain, key=_gain_key(gain)) if gain else _middle_layer(tr0)
     mv = tr0.moves
     zs = mv.np("z0")[(mv.np("layer") == layer) & (mv.np("e") > 0)].tolist()
     in_layer = [i for i, k in enumerate(row_layer) if k == layer]
     return {"layer": layer, "z_mm": float(np.median(zs)) if zs else None, "retimed_strokes": len(in_layer),
             "int_a2_retimed_mm2_s3": bac(float(sum(ab[i] for i in in_layer)),
                                          float(sum(aa[i] for i in in_layer)))}
+
+
+class LayerPick:
+    """The layers _map_layer may still choose while the processed file is played (its blocks
+    of the others need not be kept): the one asked for; with no re-timed stroke, the
+    original's middle one; else the strokes' layers, each gone once its gain (int a^2
+    removed, summed in row order as _map_layer sums it) is final -- the span of its last
+    stroke is behind the pass -- and another final layer's beats it.  A gain that is not a
+    number beats nothing and is beaten by nothing: min() never takes a layer beaten so."""
+
+    def __init__(self, layer, heads=None, tr0=None):
+        """heads (StrokeHeads) and tr0 (the original's trace) when layer is None."""
+        self.row_layers, self.a2_before = (heads.layers, heads.a2_before) if heads is not None else ([], [])
+        self.fixed = layer if layer is not None else (None if self.row_layers else _middle_layer(tr0))
+        self.alive = set(self.row_layers) if self.fixed is None else {self.fixed}
+        self.left = defaultdict(int)           # strokes of each layer whose span is not final
+        for k in self.row_layers:
+            self.left[k] += 1
+        self.gain = defaultdict(float)
+        self.best = None                       # the best final layer so far
+
+    def wanted(self, layer) -> bool:
+        return layer in self.alive
+
+    def closed(self, k, a2_after):
+        """Stroke k's span is final (a2_after: its int a^2 after); returns the layers gone."""
+        if self.fixed is not None:
+            return ()
+        layer = self.row_layers[k]
+        self.gain[layer] += self.a2_before[k] - a2_after
+        self.left[layer] -= 1
+        if self.left[layer]:
+            return ()
+        if self.best is None:
+            self.best = layer
+            return ()
+        key = _gain_key(self.gain)
+        if key(layer) < key(self.best):
+            gone, self.best = self.best, layer
+        elif key(self.best) < key(layer):
+            gone = layer
+        else:
+            return ()
+        self.alive.discard(gone)
+        return (gone,)
 
 
 # --------------------------------------------------------------------------- coverage
@@ -480,8 +549,43 @@ def _traced(path, profile, ring, processed=False, spans=None):
     tr = trace_file(path, profile, ringing=ring is not None, processed=processed, spans=spans)
     if ring is not None:
         items, tr.ring_rows = tr.ring_rows, None
-        ring.add(items)
+        ring.add(items, "after" if processed else "before")
     return tr
+
+
+def _traced_processed(path, profile, ring, fences, heads, plan, layer, tr0):
+    """The processed file's trace: with disjoint fences a FenceTrace (what the report reads,
+    kept as the pass goes: the fences' figures, the representative strokes' blocks, the
+    layer map's candidate layers), its ringing rows into ring's sink (the stretch's window);
+    else (never from the pipeline) trace_file's whole trace."""
+    spans = [(f.out_first, f.out_last) for f in fences]
+    if not disjoint_spans(spans):
+        return _traced(path, profile, ring, processed=True)
+    keep = [p[1] for p in plan if not isinstance(p, dict)]
+    sink = ring.sink() if ring is not None else None
+    tr = trace_fences(path, profile, spans, keep, LayerPick(layer, heads, tr0),
+                      (profile.moving_mass_x_kg, profile.moving_mass_y_kg), sink)
+    if ring is not None:
+        ring.add_sink(sink)
+    return tr
+
+
+def _replayed(tr0, path, profile, reps, layer, ring):
+    """The original's blocks the plots draw (the representative strokes', the layer map's)
+    and, with ring (a RingingRows), its ringing stretch, from a replay of it (its first pass
+    kept neither)."""
+    spans = []
+    for r in sorted((r["line"] - 1, r["line"] + r["lines"] - 2) for r in reps if r.get("line") is not None):
+        if spans and r[0] <= spans[-1][1]:
+            spans[-1] = (spans[-1][0], max(spans[-1][1], r[1]))
+        else:
+            spans.append(r)
+    sink = ring.stretch_sink() if ring is not None else None
+    ft = trace_fences(path, profile, spans, range(len(spans)), LayerPick(layer),
+                      (profile.moving_mass_x_kg, profile.moving_mass_y_kg), sink)
+    tr0.take_blocks(ft, layer)
+    if ring is not None:
+        ring.add_sink(sink, "before")
 
 
 # --------------------------------------------------------------------------- entry point
@@ -497,12 +601,23 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
     if ringing:
         from .ringing import RingingRows
         ring = RingingRows(profile, figures=(summary or {}).get("ringing"))
-    tr0 = _traced(orig_path, profile, ring)
-    # of the processed file's lines, only the fences' sums and maxima (what the stroke rows read)
-    spans = [(f.out_first, f.out_last) for f in fences]
-    tr1 = _traced(new_path, profile, ring, processed=True, spans=spans if disjoint_spans(spans) else None)
-    rows = _stroke_rows(tr0, tr1, fences, summary, profile)
+    # the original's blocks: their kinetic terms now, those the plots draw in a replay
+    # (_replayed); its ringing rows: its figures and where it rings most now, its stretch
+    # in the replay
+    sink = ring.busiest_sink() if ring is not None else None
+    tr0 = trace_file(orig_path, profile, ringing=sink or False,
+                     mass_xy=(profile.moving_mass_x_kg, profile.moving_mass_y_kg))
+    if ring is not None:
+        ring.add_sink(sink)
+    heads = StrokeHeads(tr0, fences, summary)
+    plan = _rep_plan(heads.kinds, heads.lengths, tr0)
+    tr1 = _traced_processed(new_path, profile, ring, fences, heads, plan, layer, tr0)
+    rows = _stroke_rows(tr0, tr1, fences, summary, profile, heads)
+    del heads
     head = _headline(rows, tr0, tr1, summary, profile, lines_before, orig_path, new_path)
+    reps = _representatives(rows, plan)
+    lm = _map_layer(rows, tr0, layer)
+    _replayed(tr0, orig_path, profile, reps, lm["layer"], ring)
     if ring is not None:
         ring = ring.data()
         h = ring["headline"]
@@ -522,8 +637,8 @@ def build_report(orig_path, new_path, profile, summary=None, layer=None, ringing
         "by_layer": _group(rows, "layer"),
         "by_kind": _group(rows, "kind"),
         "warnings": _warnings(rows, head, summary, profile),
-        "representative": _representatives(rows, tr0),
-        "layer_map": _map_layer(rows, tr0, layer),
+        "representative": reps,
+        "layer_map": lm,
         "whole_file": {"before": tr0.res.as_dict(), "after": tr1.res.as_dict()},
     }
     if ring is not None:

@@ -103,23 +103,19 @@ def stroke_chart(sc) -> bytes:
 # --------------------------------------------------------------------------- layer map
 def _layer_segments(tr, layer):
     """Phase pieces (start, end) of every extruding block in the layer, and |a| of each."""
-    b = tr.blocks
-    idx = b["idx"]
-    mv = tr.moves
-    k = np.searchsorted(mv.np("idx"), idx)          # every block's move (its line)
-    sel = (mv.np("layer")[k] == layer) & (mv.np("e")[k] > 0) if len(idx) else np.zeros(0, bool)
-    if not sel.any():
+    b = tr.layer_blocks(layer)
+    if not len(b["d"]):
         return np.zeros((0, 2, 2)), np.zeros(0)
-    x0, y0, x1, y1, d = b["x0"][sel], b["y0"][sel], b["x1"][sel], b["y1"][sel], b["d"][sel]
-    sv, cv = b["start_v"][sel], b["cruise_v"][sel]
-    at, ct = b["accel_t"][sel], b["cruise_t"][sel]
-    acc = b["accel"][sel]
+    x0, y0, x1, y1, d = b["x0"], b["y0"], b["x1"], b["y1"], b["d"]
+    sv, cv = b["start_v"], b["cruise_v"]
+    at, ct = b["accel_t"], b["cruise_t"]
+    acc = b["accel"]
     dd = np.maximum(d, 1e-12)
     ux, uy = (x1 - x0) / dd, (y1 - y0) / dd
     da = np.minimum(0.5 * (sv + cv) * at, d)
     dc = np.minimum(cv * ct, d - da)
     cuts = [np.zeros_like(d), da, da + dc, d]
-    vals = [np.where(at > 0, acc, 0.0), np.zeros_like(d), np.where(b["decel_t"][sel] > 0, acc, 0.0)]
+    vals = [np.where(at > 0, acc, 0.0), np.zeros_like(d), np.where(b["decel_t"] > 0, acc, 0.0)]
     segs, colours = [], []
     for k in range(3):
         s0, s1 = cuts[k], cuts[k + 1]

@@ -120,7 +120,8 @@ class SpanFigures:
     row a line.  Added up in line order from 0.0 as a record comes: the bits of sum() and max()
     over the span's lines (LineTable.span_sum / span_max); a span not given raises KeyError."""
 
-    def __init__(self, spans):
+    def __init__(self, spans, on_close=None):
+        self.on_close = on_close              # on_close(k): span k's figures are final
         self.first, self.last = array("q"), array("q")
         for a, b in spans:
             self.first.append(a)
@@ -135,7 +136,8 @@ class SpanFigures:
         i, k, last = rec.idx, self._k, self.last
         while k < len(last) and last[k] < i:
             k += 1
-        self._k = k
+        if k != self._k:
+            self._closed(k)
         if k == len(last) or self.first[k] > i:
             return
         for f, col in self.sums.items():
@@ -146,6 +148,16 @@ class SpanFigures:
             v = getattr(rec, f)
             if first or v > col[k]:
                 col[k] = v
+
+    def _closed(self, k):
+        """Spans before k are behind the records."""
+        for j in range(self._k, k) if self.on_close is not None else ():
+            self.on_close(j)
+        self._k = k
+
+    def finish(self):
+        """The pass is over: every span is final."""
+        self._closed(len(self.last))
 
     def _span(self, first_idx, last_idx):
         k = bisect_left(self.first, first_idx)
@@ -265,6 +277,42 @@ class Trace:
         hi = int(np.searchsorted(idx, last_idx, side="right"))
         return slice(lo, hi)
 
+    kinetic = None               # array('d') of kinetic_term by block when the blocks are not kept
+    _layer = None                # (layer, its block columns) taken from a replay
+
+    def take_blocks(self, ft, layer):
+        """The blocks a FenceTrace of the same file kept (its spans' and the layer's)."""
+        self.blocks = ft.blocks
+        self._layer = (layer, ft.layer_blocks(layer))
+
+    def span_blocks(self, first_idx, last_idx, min_seg_t):
+        """(blocks, shortest block time or None, blocks shorter than min_seg_t at their nominal
+        speed) of source lines first_idx..last_idx."""
+        sl, b = self.block_range(first_idx, last_idx), self.blocks
+        seg_t = b["accel_t"][sl] + b["cruise_t"][sl] + b["decel_t"][sl]
+        below = int(np.sum(b["d"][sl] < min_seg_t * b["nominal_v"][sl])) if min_seg_t > 0 else 0
+        return int(sl.stop - sl.start), float(seg_t.min()) if len(seg_t) else None, below
+
+    def kinetic_terms(self, mass_kg):
+        """Each block's mass along it (mass_kg(ux, uy)) times its int v^2 dt."""
+        if self.kinetic is not None:
+            return np.frombuffer(self.kinetic, dtype=float) if len(self.kinetic) else np.zeros(0)
+        b = self.blocks
+        d = np.maximum(b["d"], 1e-12)
+        return mass_kg((b["x1"] - b["x0"]) / d, (b["y1"] - b["y0"]) / d) * b["v2_int"]
+
+    def layer_blocks(self, layer):
+        """The block columns of the layer's extruding moves."""
+        if self._layer is not None:
+            if self._layer[0] != layer:
+                raise KeyError(f"layer {layer}: its blocks were not kept")
+            return self._layer[1]
+        b, mv = self.blocks, self.moves
+        idx = b["idx"]
+        k = np.searchsorted(mv.np("idx"), idx)          # every block's move (its line)
+        sel = (mv.np("layer")[k] == layer) & (mv.np("e")[k] > 0) if len(idx) else np.zeros(0, bool)
+        return {f: col[sel] for f, col in b.items()}
+
     def line_sum(self, first_idx, last_idx, attr):
         return self.lines.span_sum(first_idx, last_idx, attr)
 
@@ -272,14 +320,18 @@ class Trace:
         return self.lines.span_max(first_idx, last_idx, attr)
 
 
-def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Trace:
+def trace_file(path, profile, ringing=False, processed=False, spans=None, mass_xy=None) -> Trace:
     """ringing: also keep the rows of the commanded motion ringing.py solves (Trace.ring_rows,
-    from the same firmware-model pass, with the idle row at both ends: ringing.Rows.padded).  processed: keep only the line and move fields the
+    from the same firmware-model pass, with the idle row at both ends: ringing.Rows.padded);
+    or a sink of them (on_block and rest, as ringing.Rows'), given the rows instead.  processed: keep only the line and move fields the
     report reads of the processed file (PROCESSED_LINE_FIELDS, PROCESSED_MOVE_FIELDS).  spans
     (with processed; disjoint_spans): the line figures only as these spans' sums and maxima
-    (SpanFigures: line_sum / line_max of a span given, nothing by line)."""
+    (SpanFigures: line_sum / line_max of a span given, nothing by line).  mass_xy (the moving
+    masses of X and Y, kg): no block columns, only each block's kinetic_term (Trace.kinetic;
+    take_blocks() gives it the blocks the report draws)."""
     from .. import ringing as rg
-    ring = rg.Rows.padded() if ringing else None
+    sink = ringing if hasattr(ringing, "on_block") else None      # rows given to a sink, not kept
+    ring = sink or (rg.Rows.padded() if ringing else None)
     ring_line = ring_block = None
     if ring is not None:
         ring_line, ring_block, ring_dwell = rg.hooks(ring)
@@ -288,7 +340,8 @@ def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Tra
     else:
         lines = LineTable(PROCESSED_LINE_FIELDS if processed else LINE_FIELDS)
     moves = MoveTable(PROCESSED_MOVE_FIELDS if processed else MOVE_FIELDS)
-    cols = {k: array("d") for k in BLOCK_FIELDS}
+    cols = {k: array("d") for k in BLOCK_FIELDS} if mass_xy is None else None
+    kinetic = array("d")
     cursor = [0.0, 0.0]
     count = [0]
 
@@ -313,19 +366,164 @@ def trace_file(path, profile, ringing=False, processed=False, spans=None) -> Tra
         sv, cv, ev = b.start_v, b.cruise_v, b.end_v
         v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
             + b.cruise_t * cv * cv
-        for k, v in zip(BLOCK_FIELDS, (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel,
-                                       b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)):
-            cols[k].append(v)
+        row = (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)
+        if cols is None:
+            kinetic.append(kinetic_term(mass_xy, row))
+        else:
+            for k, v in zip(BLOCK_FIELDS, row):
+                cols[k].append(v)
         if ring_block is not None:
             ring_block(b)
 
     events = feed() if ring is None else rg.wrap_events(feed(), ring_dwell)
     res = simulate_events(events, profile, on_line=on_line, on_block=on_block)
-    tr = Trace(res, lines, moves, _block_arrays(cols), count[0])
-    if ring is not None:
+    tr = Trace(res, lines, moves, _block_arrays(cols) if cols is not None else None, count[0])
+    if cols is None:
+        tr.kinetic = kinetic
+    if ring is not None and sink is None:
         ring.close_padded()
-    tr.ring_rows = ring.items if ring is not None else None
+    tr.ring_rows = ring.items if ring is not None and sink is None else None
     return tr
+
+
+class FenceTrace(Trace):
+    """The processed file as the report reads it, made as the pass goes (trace_fences): the
+    line figures of the fences' spans (SpanFigures); of the blocks, no column a block
+    (120 B) but, per span, what the stroke rows read (span_blocks); each block's kinetic
+    term (kinetic_terms: np.sum over them is the whole file's); every field of the blocks
+    of the spans kept (the representative strokes' curves: `blocks`, block_range) and of
+    the extruding blocks of the layers the layer map may draw (a LayerPick's wanted layers;
+    dropped once it says a layer cannot be drawn)."""
+
+    def __init__(self, spans, keep, pick, mass_xy, min_seg_t):
+        self.lines = SpanFigures(spans, on_close=self._span_closed)
+        self.moves = None
+        n = len(self.lines.first)
+        self.n_blocks, self.below = array("q", bytes(8 * n)), array("q", bytes(8 * n))
+        self.shortest = array("d", bytes(8 * n))
+        self.keep = bytearray(n)
+        for k in keep:
+            self.keep[k] = 1
+        self.kept = array("d")                    # rows of BLOCK_FIELDS of the kept spans' blocks
+        self.layers = {}                          # layer -> rows of its extruding blocks
+        self.pick, self.mass_xy, self.min_seg_t = pick, mass_xy, min_seg_t
+        self.kinetic = array("d")
+        self._k = 0
+
+    def _span_closed(self, k):
+        for layer in self.pick.closed(k, self.lines.sums["int_a2"][k] + self.lines.sums["int_a2_j"][k]):
+            self.layers.pop(layer, None)
+
+    def add(self, row, e, layer):
+        """One block: row its BLOCK_FIELDS values, e and layer its move's."""
+        i, d = row[0], row[5]
+        self.kinetic.append(kinetic_term(self.mass_xy, row))
+        k, last = self._k, self.lines.last
+        while k < len(last) and last[k] < i:
+            k += 1
+        self._k = k
+        if k < len(last) and self.lines.first[k] <= i:
+            seg_t = row[10] + row[11] + row[12]
+            if not self.n_blocks[k] or seg_t < self.shortest[k]:
+                self.shortest[k] = seg_t
+            self.n_blocks[k] += 1
+            if self.min_seg_t > 0 and d < self.min_seg_t * row[14]:
+                self.below[k] += 1
+            if self.keep[k]:
+                self.kept.extend(row)
+        if e > 0.0 and self.pick.wanted(layer):
+            rows = self.layers.get(layer)
+            if rows is None:
+                rows = self.layers[layer] = array("d")
+            rows.extend(row)
+
+    def finish(self, res, n_lines):
+        self.lines.finish()
+        self.res, self.n_lines = res, n_lines
+        self.blocks = _row_columns(self.kept)
+        self.kept = None
+
+    def span_blocks(self, first_idx, last_idx, min_seg_t):
+        k = self.lines._span(first_idx, last_idx)
+        n = self.n_blocks[k]
+        return n, self.shortest[k] if n else None, self.below[k]
+
+    def kinetic_terms(self, mass_kg):
+        return np.frombuffer(self.kinetic, dtype=float) if len(self.kinetic) else np.zeros(0)
+
+    def layer_blocks(self, layer):
+        rows = self.layers.get(layer)
+        if rows is None and not self.pick.wanted(layer):
+            raise KeyError(f"layer {layer}: its blocks were not kept")
+        return _row_columns(rows if rows is not None else array("d"))
+
+
+def kinetic_term(mass_xy, row):
+    """A block's mass along it times its int v^2 dt (row: its BLOCK_FIELDS values; mass_xy:
+    the moving masses of X and Y, kg), as Trace.kinetic_terms computes it over the columns."""
+    x0, y0, x1, y1, d = row[1:6]
+    mx, my = mass_xy
+    d = d if d >= 1e-12 else 1e-12
+    ux, uy = (x1 - x0) / d, (y1 - y0) / d
+    return (mx * ux * ux + my * uy * uy) * row[13]
+
+
+def _row_columns(rows):
+    """Rows of BLOCK_FIELDS (one array('d')) as the block columns."""
+    m = np.frombuffer(rows, dtype=float).reshape(-1, len(BLOCK_FIELDS)) if len(rows) else \
+        np.zeros((0, len(BLOCK_FIELDS)))
+    return {k: (m[:, j].astype(int) if k == "idx" else m[:, j].copy()) for j, k in enumerate(BLOCK_FIELDS)}
+
+
+def trace_fences(path, profile, spans, keep, pick, mass_xy, ring=None) -> FenceTrace:
+    """The processed file's FenceTrace (spans: disjoint_spans; keep: the indices of the spans
+    whose blocks are kept; pick: a LayerPick; mass_xy: the moving masses of X and Y, kg).
+    ring: a sink of its ringing rows (ringing.Rows' on_block and rest)."""
+    from collections import deque
+
+    from .. import ringing as rg
+    ft = FenceTrace(spans, keep, pick, mass_xy, profile.min_segment_time_t)
+    ring_line = ring_block = ring_dwell = None
+    if ring is not None:
+        ring_line, ring_block, ring_dwell = rg.hooks(ring)
+    recent = deque()                      # (idx, x0, y0, e, layer) of the moves not yet planned
+    cursor = [0.0, 0.0]
+    count = [0]
+    Move = st.Move
+
+    def feed():
+        for idx, raw, ev in st.events(path, profile):
+            count[0] = idx + 1
+            if ev is not None and type(ev) is Move:
+                recent.append((ev.idx, ev.x0, ev.y0, ev.e, ev.layer))
+            yield idx, raw, ev
+
+    def on_line(rec):
+        ft.lines.add(rec)
+        if ring_line is not None:
+            ring_line(rec)
+
+    def on_block(b):
+        while recent[0][0] < b.idx:       # the block's move (blocks come in line order)
+            recent.popleft()
+        _i, mx0, my0, e, layer = recent[0]
+        if b.first:
+            cursor[0], cursor[1] = mx0, my0
+        x0, y0 = cursor
+        x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
+        cursor[0], cursor[1] = x1, y1
+        sv, cv, ev = b.start_v, b.cruise_v, b.end_v
+        v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
+            + b.cruise_t * cv * cv
+        ft.add((b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2,
+                b.nominal_v), e, layer)
+        if ring_block is not None:
+            ring_block(b)
+
+    events = feed() if ring is None else rg.wrap_events(feed(), ring_dwell)
+    res = simulate_events(events, profile, on_line=on_line, on_block=on_block)
+    ft.finish(res, count[0])
+    return ft
 
 
 def _block_arrays(cols):

@@ -223,7 +223,9 @@ def _candidate_tables(path, K, ragged):
             got = schedule._candidates(strokes, pin, prof, opts, rows, failed)
         else:
             bounds = np.linspace(0, len(strokes), K + 1).astype(int)
-            got = schedule.candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds, None, False)
+            # (a call a window, chain_batch 1: the windows' own finishing calls, as before memo53's batches)
+            got = schedule.candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds, None, False,
+                                                 chain_batch=1)
     finally:
         chains._finish_ragged = orig
     return got, used[0]

@@ -1363,7 +1363,9 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     if window is None:
         return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
     from .stroke_store import StrokeStore
-    with StrokeStore() as store:
+    # the spill beside the output, as its temporary file: on the output's disk, not in a
+    # /tmp that may be tmpfs (RAM the process's RSS does not show)
+    with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
         return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
 
 

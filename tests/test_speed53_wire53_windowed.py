@@ -172,3 +172,24 @@ def test_klipper_takes_a_windowed_file(monkeypatch, tmp_path):
     out = tmp_path / "windowed.gcode"
     out.write_bytes(got)
     assert ko.run_oracle(str(out), load_profile("voron24"))["errors"] == []
+
+
+def test_windowed_spill_beside_the_output(monkeypatch, tmp_path):
+    """The StrokeStore's file is made in the output's folder (on its disk, as the output's
+    own temporary file), not in the system's temporary folder, which may be tmpfs: RAM that
+    the process's RSS does not show."""
+    import tempfile
+    made = []
+    real = tempfile.TemporaryFile
+
+    def seen(*a, **k):
+        made.append(k.get("dir"))
+        return real(*a, **k)
+    monkeypatch.setattr(tempfile, "TemporaryFile", seen)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
+    monkeypatch.setenv("GCODE_OPT_WINDOW", "64")
+    pipeline.process(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), str(out_dir / "o.gcode"),
+                     load_profile("prusa-mk3s"), pipeline.Options())
+    assert made and all(d == str(out_dir) for d in made), made

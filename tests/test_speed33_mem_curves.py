@@ -55,12 +55,16 @@ def test_candidates_solved_in_chunks_are_the_same(monkeypatch):
     assert _same(whole, chunked)
 
 
-def test_candidates_with_newton_are_solved_whole(monkeypatch):
-    """prusa_concentric: a chunk sends arcs to Newton (whose batched products may round
-    with the batch): that pass is solved again in one batch, the tables are the same."""
+def test_candidates_with_newton_in_chunks_are_the_same(monkeypatch):
+    """prusa_concentric: chunks send arcs to Newton, whose steps are each arc's own since
+    arcs53 (circle._newton_cheb): the chunks are not solved again in one batch, and the
+    tables are the one batch's."""
     whole, one, _ = _tables(monkeypatch, "prusa_concentric.gcode", 10 ** 9)
+    n0 = circle.NEWTON_ARCS[0]
     chunked, many, _ = _tables(monkeypatch, "prusa_concentric.gcode", 64)
-    assert one[0] in many[1:] and max(many[:-1]) == 64   # chunks, then the whole first pass
+    assert circle.NEWTON_ARCS[0] > n0
+    first = -(-one[0] // 64)
+    assert one[0] > 64 and max(many) == 64 and sum(many[:first]) == one[0]   # chunks only
     assert _same(whole, chunked)
 
 

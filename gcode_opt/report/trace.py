@@ -360,13 +360,7 @@ def trace_file(path, profile, ringing=False, processed=False, spans=None, mass_x
     def on_block(b):
         if b.first:
             cursor[0], cursor[1] = moves.xy0(b.idx)
-        x0, y0 = cursor
-        x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
-        cursor[0], cursor[1] = x1, y1
-        sv, cv, ev = b.start_v, b.cruise_v, b.end_v
-        v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
-            + b.cruise_t * cv * cv
-        row = (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)
+        row = block_row(b, cursor)
         if cols is None:
             kinetic.append(kinetic_term(mass_xy, row))
         else:
@@ -458,6 +452,18 @@ class FenceTrace(Trace):
         return _row_columns(rows if rows is not None else array("d"))
 
 
+def block_row(b, cursor):
+    """A planner block as the trace's row (BLOCK_FIELDS' order: its start and end point, the
+    cursor moved to its end, and its ∫v² dt, v2), from the block's start point cursor [x, y]."""
+    x0, y0 = cursor
+    x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
+    cursor[0], cursor[1] = x1, y1
+    sv, cv, ev = b.start_v, b.cruise_v, b.end_v
+    v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
+        + b.cruise_t * cv * cv
+    return (b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2, b.nominal_v)
+
+
 def kinetic_term(mass_xy, row):
     """A block's mass along it times its int v^2 dt (row: its BLOCK_FIELDS values; mass_xy:
     the moving masses of X and Y, kg), as Trace.kinetic_terms computes it over the columns."""
@@ -509,14 +515,7 @@ def trace_fences(path, profile, spans, keep, pick, mass_xy, ring=None) -> FenceT
         _i, mx0, my0, e, layer = recent[0]
         if b.first:
             cursor[0], cursor[1] = mx0, my0
-        x0, y0 = cursor
-        x1, y1 = x0 + b.d * b.ux, y0 + b.d * b.uy
-        cursor[0], cursor[1] = x1, y1
-        sv, cv, ev = b.start_v, b.cruise_v, b.end_v
-        v2 = (b.accel_t * (sv * sv + sv * cv + cv * cv) + b.decel_t * (ev * ev + ev * cv + cv * cv)) / 3.0 \
-            + b.cruise_t * cv * cv
-        ft.add((b.idx, x0, y0, x1, y1, b.d, sv, cv, ev, b.accel, b.accel_t, b.cruise_t, b.decel_t, v2,
-                b.nominal_v), e, layer)
+        ft.add(block_row(b, cursor), e, layer)
         if ring_block is not None:
             ring_block(b)
 

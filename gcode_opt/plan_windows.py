@@ -4,11 +4,9 @@ time and the candidate tables a window at a time over a StoredStrokes
 (schedule.candidates_in_windows); the budget runs, the rewrite, the measure and the summary
 then read the same StoredStrokes (pipeline._process: GCODE_OPT_WINDOWED=1).
 
-The same bits as the list path on the plates and the samples tested
-(tests/test_speed53_wire53_windowed.py), but on files with arcs: there the candidates' arc
-figures (I, KE; never T or beta) may differ in the last bit (laws/circle.py's quadrature
-levels are the window's batch's, benchmarks/win52/command.md), so the JSON's per-stroke int a^2
-may too; the written file is the same bytes."""
+The same bits as the list path, written file and summary, on the plates and the samples
+tested, files with arcs included (tests/test_speed53_wire53_windowed.py: the arcs'
+candidates take the file's quadrature levels, schedule.candidates_in_windows)."""
 from __future__ import annotations
 
 import os
@@ -63,14 +61,9 @@ def candidates_windowed(strokes, pin, profile, opts):
     """What schedule._candidates leaves in pin.cached (alpha "auto"): the candidate tables
     made on the windows' bounds of strokes (a StoredStrokes), the strokes whose candidate is
     not finite failed, the lines' inputs kept for the runs and the rest set aside."""
-    from .schedule import (_faults_of, _lines_repeat, _plan_kind_codes_of, _rows_by_kind,
-                           candidates_in_windows)
-    from .strokes import K_LINE
+    from .schedule import _faults_of, _plan_kind_codes_of, _rows_by_kind, after_candidates, candidates_in_windows
     rows = _rows_by_kind(strokes, _plan_kind_codes_of(strokes, pin))
     failed = _faults_of(pin.fault)
     cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds())
-    for i in nonfinite:
-        failed.setdefault(int(i), "error: planning (non-finite)")
-    _lines_repeat(pin, rows[K_LINE])
-    pin.set_aside()
+    after_candidates(pin, rows, failed, nonfinite)
     return cands, None, failed

@@ -280,12 +280,7 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
     if opts.alpha == "auto":
         cands, nonfinite = Candidates.of_pieces(n, window_pieces(strokes, pin, profile, rows, failed, rules),
                                                 pin.T_orig)
-        for i in nonfinite:
-            failed.setdefault(int(i), "error: planning (non-finite)")
-        # the inputs only the candidates read let go through the budget runs (read back if
-        # read again); plan_strokes' question of the lines answered first, while they are here
-        _lines_repeat(pin, rows[K_LINE])
-        pin.set_aside()
+        after_candidates(pin, rows, failed, nonfinite)
         return cands, None
     ok = {k: _not_failed(r, failed) for k, r in rows.items()}
     alpha = float(opts.alpha)
@@ -297,6 +292,17 @@ def _candidates(strokes, pin, profile, opts, rows, failed):
         isolate(lambda r: kind.fixed_alpha(fixed, pin, r, strokes, profile, alpha, rules), ok[k], "planning",
                 failed)
     return None, fixed
+
+
+def after_candidates(pin, rows, failed, nonfinite):
+    """What follows the candidate tables (one call's or the windows'): the strokes whose
+    candidate is not finite failed; plan_strokes' question of the lines answered while
+    their inputs are here; the inputs only the candidates read let go through the budget
+    runs (read back if read again)."""
+    for i in nonfinite:
+        failed.setdefault(int(i), "error: planning (non-finite)")
+    _lines_repeat(pin, rows[K_LINE])
+    pin.set_aside()
 
 
 def window_pieces(strokes, pin, profile, rows, failed, rules, levels=None, lines=None, own_levels=None,

@@ -188,9 +188,9 @@ def stored_rows(strokes):
 class HeldRows(StoreWindows):
     """Strokes of a StrokeStore made a window of rows at a time, each at its row of a list of
     one slot a stroke (slots: None where no stroke is held), which the steps after planning
-    index by stroke index as they index the list of strokes (ends(order): where hold is due).  Only the rows asked for are
-    made (the rewrite's re-timed rows, not the rest of their window); the last ones held
-    are let go as the next are."""
+    index by stroke index as they index the list of strokes (ends(order): where hold is
+    due).  Only the rows asked for are made (the rewrite's re-timed rows, not the rest of
+    their window); the last ones held are let go as the next are."""
 
     def __init__(self, store, window):
         super().__init__(store, window)
@@ -209,7 +209,6 @@ class HeldRows(StoreWindows):
         self.made += len(made)
         for r, st in zip(self._held, made):
             slots[r] = st
-
 
 
 def curve_geometry(codes, profile):

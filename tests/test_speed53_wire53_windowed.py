@@ -2,14 +2,11 @@
 makes pipeline._process keep the strokes in a StrokeStore (plan_windows: plan_inputs and the
 candidates a window at a time, GCODE_OPT_WINDOW strokes) and run its passes over a
 StoredStrokes.  Checked against the list path (the default) on real samples: the written file
-byte for byte, the summary equal but for its volatile keys -- on files with arcs or curves at
-small windows the candidates' law figures (the per-stroke int_a2.law) may differ in the last
-bit (laws/circle.py's quadrature levels are the window's batch's, benchmarks/win52/command.md),
-so there the summary is compared within 1e-12 relative; on the second passes (a departed
-stroke restored, a re-plan) too; and real Klipper takes a windowed output without an error.
+byte for byte and the summary equal but for its volatile keys, files with arcs at small
+windows included (arcs53: the arcs' candidates on the file's quadrature levels); on the
+second passes (a departed stroke restored, a re-plan) too; and real Klipper takes a windowed output without an error.
 Windows of 7 strokes put window edges inside every feature."""
 import json
-import math
 import os
 
 import numpy as np
@@ -64,43 +61,23 @@ def _run(monkeypatch, tmp_path, name, prof, window=None, features=None, **kw):
     return out.read_bytes(), s
 
 
-def _close(a, b, rel=1e-12, at="summary"):
-    """a == b, floats within rel of each other (relative, as math.isclose)."""
-    if isinstance(a, float) and isinstance(b, float):
-        assert a == b or math.isclose(a, b, rel_tol=rel, abs_tol=0.0), (at, a, b)
-    elif isinstance(a, dict) and isinstance(b, dict):
-        assert sorted(a) == sorted(b), at
-        for k in a:
-            _close(a[k], b[k], rel, f"{at}.{k}")
-    elif isinstance(a, list) and isinstance(b, list):
-        assert len(a) == len(b), at
-        for k, (x, y) in enumerate(zip(a, b)):
-            _close(x, y, rel, f"{at}[{k}]")
-    else:
-        assert a == b, (at, a, b)
+# (file, profile, window): PrusaSlicer, Cura, Klipper flavour, arcs
+SAMPLED = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 7),
+           ("cura_box.gcode", "prusa-mk3s", 64),
+           ("prusa_klipper.gcode", "voron24", 64),
+           ("prusa_gyroid_arcs.gcode", "prusa-mk3s", 37),      # arcs at a window edge (arcs53: file-wide levels)
+           ("prusa_gyroid_arcs.gcode", "prusa-mk3s", 1024),
+           ("edge/checksums.gcode", "prusa-mk3s", 7)]                # moves, but no stroke
 
 
-# (file, profile, window, the summary exact): PrusaSlicer, Cura, Klipper flavour, arcs
-SAMPLED = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 7, True),
-           ("cura_box.gcode", "prusa-mk3s", 64, True),
-           ("prusa_klipper.gcode", "voron24", 64, True),
-           ("prusa_gyroid_arcs.gcode", "prusa-mk3s", 37, False),     # arcs: the law figures' last bits
-           ("prusa_gyroid_arcs.gcode", "prusa-mk3s", 1024, True),
-           ("edge/checksums.gcode", "prusa-mk3s", 7, True)]                # moves, but no stroke
-
-
-@pytest.mark.parametrize("name,prof,window,exact", SAMPLED)
-def test_windowed_writes_the_list_paths_file(monkeypatch, tmp_path, spy, name, prof, window, exact):
+@pytest.mark.parametrize("name,prof,window", SAMPLED)
+def test_windowed_writes_the_list_paths_file(monkeypatch, tmp_path, spy, name, prof, window):
     want = _run(monkeypatch, tmp_path, name, prof)
     assert spy["planned"] == 0
     got = _run(monkeypatch, tmp_path, name, prof, window)
     # the windowed path ran, and never made more strokes at once than a window holds
     assert spy["planned"] == 1 and spy["most_made"] <= window
     assert got[0] == want[0]
-    if not exact:       # the arcs' known gap: only the per-stroke law figures, in their last bits
-        for a, b in zip(got[1]["per_stroke"], want[1]["per_stroke"]):
-            for part in ("int_a2", "time_s"):
-                _close(a[part].pop("law", None), b[part].pop("law", None))
     assert got[1] == want[1]
 
 

@@ -24,9 +24,8 @@ from gcode_opt.plan_windows import plan_inputs_windowed  # noqa: F401  (the pack
 from gcode_opt.stored_strokes import curve_geometry, join_plan_inputs
 from gcode_opt.profile import load_profile
 from gcode_opt.rss import peak_rss_mb
-from gcode_opt.schedule import (_faults_of, _lines_repeat, _plan_kind_codes_of, _rows_by_kind, candidates_in_windows,
+from gcode_opt.schedule import (_faults_of, _plan_kind_codes_of, after_candidates, _rows_by_kind, candidates_in_windows,
                                plan_inputs, plan_strokes)
-from gcode_opt.strokes import K_LINE
 from gcode_opt.stored_strokes import StoredStrokes
 from gcode_opt.stroke_store import StrokeStore
 
@@ -121,10 +120,7 @@ def main(path, mode, window=4096, to="runs"):
         return
     # the budget runs as today (plan_strokes over a list of every stroke: the step not yet
     # windowed), on these candidates
-    for i in nonfinite:                       # (what _candidates does after its tables)
-        failed.setdefault(int(i), "error: planning (non-finite)")
-    _lines_repeat(pin, rows[K_LINE])
-    pin.set_aside()
+    after_candidates(pin, rows, failed, nonfinite)     # (what _candidates does after its tables)
     pin.cached = (cands, None, failed)
     del cands
     if mode != "list":

@@ -30,7 +30,6 @@ from gcode_opt.profile import load_profile  # noqa: E402
 from gcode_opt.rss import peak_rss_mb  # noqa: E402
 from gcode_opt.stored_strokes import StoredStrokes, curve_geometry  # noqa: E402
 from gcode_opt.stroke_store import StrokeStore  # noqa: E402
-from gcode_opt.strokes import K_LINE  # noqa: E402
 
 
 def seg_digest(segs):
@@ -82,10 +81,7 @@ def main(path, mode, window=1024, kinds=None):
     failed = sc._faults_of(pin.fault)
     bounds = list(range(0, len(strokes), window)) + [len(strokes)]
     cands, nonfinite = sc.candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds)
-    for i in nonfinite:                       # (what _candidates does after its tables)
-        failed.setdefault(int(i), "error: planning (non-finite)")
-    sc._lines_repeat(pin, rows[K_LINE])
-    pin.set_aside()
+    sc.after_candidates(pin, rows, failed, nonfinite)     # (what _candidates does after its tables)
     pin.cached = (cands, None, failed)
     del cands
     pl.trim_heap()

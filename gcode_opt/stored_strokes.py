@@ -53,10 +53,17 @@ class StoreWindows:
         return (np.flatnonzero(w[1:] != w[:-1]) + 1).tolist() + [len(w)]
 
 
+# windows a StoredStrokes holds by default: one.  The pipeline's candidates and runs read the
+# windows in turn (gyroid plate at 1 k and 4 k, rectilinear at 1 k: the same windows loaded
+# as with two held), so a second held window only added its strokes, with their curve
+# geometry, to the peaks (benchmarks/store54.md)
+HELD = 1
+
+
 class StoredStrokes(StoreWindows):
     """Every stroke of store, a few windows of them objects at a time (the module's doc)."""
 
-    def __init__(self, store, window=4096, held=2, writeback=False, on_load=None, keep=()):
+    def __init__(self, store, window=4096, held=HELD, writeback=False, on_load=None, keep=()):
         if held < 1:
             raise ValueError("StoredStrokes: held must be >= 1")
         super().__init__(store, window)

@@ -76,3 +76,22 @@ def test_side_table_holds_a_slot_a_row():
         assert len(s) > 500
         assert held_b <= 8 * len(s) + 2048, held_b       # (the list, the windows' bookkeeping)
         assert all(st.chain_T is mark for st in s)
+
+
+def test_one_window_held_by_default():
+    """StoredStrokes holds one window unless told: reading another lets the first go (its
+    rows are new objects when read again), the kept memos given back to them."""
+    ref = _strokes("prusa_gyroid.gcode")
+    with StrokeStore(in_memory=True) as store:
+        store.append(ref)
+        s = StoredStrokes(store, 8, keep=("chain_T",))
+        a = s[3]
+        mark = a.chain_T = object()
+        s[20]
+        b = s[3]
+        assert b is not a and b.chain_T is mark
+        assert s.loads == 3
+        two = StoredStrokes(store, 8, held=2)
+        a = two[3]
+        two[20]
+        assert two[3] is a and two.loads == 2

@@ -117,6 +117,8 @@ class StoredStrokes(StoreWindows):
                 if not any(map(_IS_NOT_NONE, vals)):
                     continue
                 side = self._side[name] = [None] * len(self)
+            if len(side) < lo + len(w):        # (the store appended to since the table was made)
+                side += [None] * (lo + len(w) - len(side))
             side[lo:lo + len(w)] = vals
         if self.writeback or j in self._dirty:
             self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)

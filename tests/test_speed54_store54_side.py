@@ -95,3 +95,17 @@ def test_one_window_held_by_default():
         a = two[3]
         two[20]
         assert two[3] is a and two.loads == 2
+
+
+def test_rows_appended_later_keep_their_objects():
+    """The store appended to after the side table was made: the new rows' objects kept too."""
+    ref = _strokes("prusa_gyroid.gcode")
+    with StrokeStore(in_memory=True) as store:
+        store.append(ref[:40])
+        s = StoredStrokes(store, 8, keep=("chain_T",))
+        s[3].chain_T = m3 = object()
+        s[20]
+        store.append(ref[40:60])
+        s[50].chain_T = m50 = object()
+        s[3]
+        assert s[50].chain_T is m50 and s[3].chain_T is m3

@@ -3,8 +3,8 @@ stroke sets: issue 8, benchmarks/win51, win52; pipeline._process with GCODE_OPT_
 Window j is the rows [j * window, (j + 1) * window).  Two views, one family (StoreWindows):
 
 - StoredStrokes, planning's (plan_inputs' candidates, the budget runs): a sequence of every
-  stroke, indexed and iterated as the list is, that holds a few windows as objects at a
-  time.  s[i] loads i's window (store.load) if it is not held, letting go of the window used
+  stroke, indexed and iterated as the list is, that holds `held` windows (HELD: one) as
+  objects at a time.  s[i] loads i's window (store.load) if it is not held, letting go of the window used
   least recently when `held` are held; while a window is held, s[i] is the same object each
   time.  A window let go whose strokes may have changed (writeback=True: every window; else
   those marked by changed(i)) is written back (store.rewrite) first.  The store keeps no

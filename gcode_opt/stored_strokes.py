@@ -4,9 +4,9 @@ Window j is the rows [j * window, (j + 1) * window).  Two views, one family (Sto
 
 - StoredStrokes, planning's (plan_inputs' candidates, the budget runs): a sequence of every
   stroke, indexed and iterated as the list is, that holds `held` windows (HELD: one) as
-  objects at a time.  s[i] loads i's window (store.load) if it is not held, letting go of the window used
-  least recently when `held` are held; while a window is held, s[i] is the same object each
-  time.  A window let go whose strokes may have changed (writeback=True: every window; else
+  objects at a time.  s[i] loads i's window (store.load) if it is not held, letting go of
+  the window used least recently when `held` are held; while a window is held, s[i] is the
+  same object each time.  A window let go whose strokes may have changed (writeback=True: every window; else
   those marked by changed(i)) is written back (store.rewrite) first.  The store keeps no
   cache: curv comes back None, chain_T an empty ChainMemo (stroke_store), so a consumer's
   caches on a stroke last as long as its window (on_load may make them again for a window

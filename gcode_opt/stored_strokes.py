@@ -3,10 +3,10 @@ stroke sets: issue 8, benchmarks/win51, win52; pipeline._process with GCODE_OPT_
 Window j is the rows [j * window, (j + 1) * window).  Two views, one family (StoreWindows):
 
 - StoredStrokes, planning's (plan_inputs' candidates, the budget runs): a sequence of every
-  stroke, indexed and iterated as the list is, that holds a few windows as objects at a
-  time.  s[i] loads i's window (store.load) if it is not held, letting go of the window used
-  least recently when `held` are held; while a window is held, s[i] is the same object each
-  time.  A window let go whose strokes may have changed (writeback=True: every window; else
+  stroke, indexed and iterated as the list is, that holds `held` windows (HELD: one) as
+  objects at a time.  s[i] loads i's window (store.load) if it is not held, letting go of
+  the window used least recently when `held` are held; while a window is held, s[i] is the
+  same object each time.  A window let go whose strokes may have changed (writeback=True: every window; else
   those marked by changed(i)) is written back (store.rewrite) first.  The store keeps no
   cache: curv comes back None, chain_T an empty ChainMemo (stroke_store), so a consumer's
   caches on a stroke last as long as its window (on_load may make them again for a window
@@ -53,19 +53,28 @@ class StoreWindows:
         return (np.flatnonzero(w[1:] != w[:-1]) + 1).tolist() + [len(w)]
 
 
+# windows a StoredStrokes holds by default: one.  The pipeline's candidates and runs read the
+# windows in turn (gyroid plate at 1 k and 4 k, rectilinear at 1 k: the same windows loaded
+# as with two held), so a second held window only added its strokes, with their curve
+# geometry, to the peaks (benchmarks/store54.md)
+HELD = 1
+
+
 class StoredStrokes(StoreWindows):
     """Every stroke of store, a few windows of them objects at a time (the module's doc)."""
 
-    def __init__(self, store, window=4096, held=2, writeback=False, on_load=None, keep=()):
+    def __init__(self, store, window=4096, held=HELD, writeback=False, on_load=None, keep=()):
         if held < 1:
             raise ValueError("StoredStrokes: held must be >= 1")
         super().__init__(store, window)
         self.held, self.writeback = int(held), writeback
         self.on_load = on_load           # on_load(first row, strokes) after a window is loaded (caches)
-        # keep: fields whose objects (not None) outlive their window in side tables {row: object},
-        # put back when the row is loaded again (chain_T: the chains' memos, whose state the
-        # budget runs' bits depend on; the store keeps only an empty memo)
-        self._side = {name: {} for name in keep}
+        # keep: fields whose objects outlive their window in side tables, put back (where not
+        # None) when the row is loaded again (chain_T: the chains' memos, whose state the budget
+        # runs' bits depend on; the store keeps only an empty memo).  A table is a list of one
+        # slot a row, made at the first object kept: a dict {row: object} held an int and a
+        # hash entry a row besides (gyroid plate's 16 k memos: 1.1 MB -> 0.28 MB)
+        self._side = dict.fromkeys(keep)
         self._wins = OrderedDict()       # window index -> its strokes (a list), least recent first
         self._dirty = set()              # windows marked changed
         self.loads = 0                   # windows loaded (a measure of the access pattern)
@@ -88,8 +97,8 @@ class StoredStrokes(StoreWindows):
         w = self._wins[j] = self.store.load(lo, lo + self.window)
         self.loads += 1
         for name, side in self._side.items():
-            if side:
-                vals = list(map(side.get, range(lo, lo + len(w))))
+            if side is not None:
+                vals = side[lo:lo + len(w)]
                 for st, v in compress(zip(w, vals), map(_IS_NOT_NONE, vals)):
                     setattr(st, name, v)
         if self.on_load is not None:
@@ -104,7 +113,13 @@ class StoredStrokes(StoreWindows):
         lo = j * self.window
         for name, side in self._side.items():
             vals = list(map(attrgetter(name), w))
-            side.update(compress(zip(range(lo, lo + len(w)), vals), map(_IS_NOT_NONE, vals)))
+            if side is None:
+                if not any(map(_IS_NOT_NONE, vals)):
+                    continue
+                side = self._side[name] = [None] * len(self)
+            if len(side) < lo + len(w):        # (the store appended to since the table was made)
+                side += [None] * (lo + len(w) - len(side))
+            side[lo:lo + len(w)] = vals
         if self.writeback or j in self._dirty:
             self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)
         self._dirty.discard(j)

@@ -336,8 +336,6 @@ class StrokeStore:
         self._n = 0
         self._end = 0                            # bytes of the store (dead records included)
         self._index, self._table = {}, []        # the interned objects: {id: k}, [object]
-        self._wbuf = bytearray()                 # encode's buffer, kept between calls
-        self._rbuf = bytearray()                 # the file's read buffer, kept between calls
 
     @property
     def pure(self):
@@ -357,10 +355,13 @@ class StrokeStore:
             self._off = np.concatenate((self._off[:self._n], np.zeros(cap - self._n, np.int64)))
             self._len = np.concatenate((self._len[:self._n], np.zeros(cap - self._n, np.int64)))
 
-    def _encode(self, strokes, i0, i1):
-        """(records of strokes[i0:i1] at the start of _wbuf, their lengths)"""
+    # The encode and read buffers are a call's own, not kept between calls: the windowed
+    # pipeline encodes only until its plan inputs are made and reads no record during the
+    # chains' solves, where kept they added ~1.8 MB (gyroid plate) to the peaks
+    def _encode(self, strokes, i0, i1, buf):
+        """(records of strokes[i0:i1] at the start of buf, a bytearray; their lengths)"""
         lens = np.empty(i1 - i0, np.int64)
-        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, self._wbuf, lens)
+        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, buf, lens)
         return nb, lens
 
     def append(self, strokes):
@@ -368,10 +369,11 @@ class StrokeStore:
         strokes = strokes if type(strokes) is list else list(strokes)
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
+        buf = bytearray()
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
-            nb, lens = self._encode(strokes, b0, b1)
-            self._io.write(end, memoryview(self._wbuf)[:nb])
+            nb, lens = self._encode(strokes, b0, b1, buf)
+            self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
@@ -387,7 +389,8 @@ class StrokeStore:
 
     def _batches(self, rows):
         """(buffer, offsets in it, lengths) of the records of rows, BATCH at a time: the
-        in-memory bytes themselves, or the file's runs of adjacent records read into _rbuf"""
+        in-memory bytes themselves, or the file's runs of adjacent records read into a buffer"""
+        buf = bytearray()
         for b0 in range(0, len(rows), BATCH):
             r = rows[b0:b0 + BATCH]
             offs, lens = self._off[r], self._len[r]
@@ -401,13 +404,13 @@ class StrokeStore:
             run_n = offs[last] + lens[last] - run_at
             run_pos = np.cumsum(run_n) - run_n               # where each run goes in the buffer
             total = int(run_n.sum())
-            if len(self._rbuf) < total:
-                self._rbuf = bytearray(total)
-            with memoryview(self._rbuf) as mv:
+            if len(buf) < total:
+                buf = bytearray(total)
+            with memoryview(buf) as mv:
                 for a, n, p in zip(run_at.tolist(), run_n.tolist(), run_pos.tolist()):
                     self._io.read_into(mv[p:p + n], a)
             rel = offs - np.repeat(run_at - run_pos, last - first + 1)
-            yield self._rbuf, rel, lens
+            yield buf, rel, lens
 
     def take(self, rows):
         """New strokes of the records of rows (int64, in the order given; sorted reads best).
@@ -454,10 +457,11 @@ class StrokeStore:
         strokes = strokes if type(strokes) is list else list(strokes)
         if len(strokes) != len(rows):
             raise ValueError("StrokeStore.rewrite: one stroke a row")
+        buf = bytearray()
         for b0 in range(0, len(rows), BATCH):
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
-            nb, lens = self._encode(strokes, b0, b1)
+            nb, lens = self._encode(strokes, b0, b1, buf)
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -467,7 +471,7 @@ class StrokeStore:
             brk = np.flatnonzero(new_off[1:] != new_off[:-1] + lens[:-1]) + 1
             first = np.concatenate(([0], brk))
             last = np.concatenate((brk, [len(r)])) - 1
-            with memoryview(self._wbuf) as mv:
+            with memoryview(buf) as mv:
                 for f, e in zip(first.tolist(), last.tolist()):
                     p0, p1 = int(bpos[f]), int(bpos[e] + lens[e])
                     self._io.write(int(new_off[f]), mv[p0:p1])
@@ -477,7 +481,6 @@ class StrokeStore:
         """The records let go (the file removed); the store is empty."""
         self._io.close()
         self._n = self._end = 0
-        self._wbuf, self._rbuf = bytearray(), bytearray()
         self._index, self._table = {}, []
 
     def __enter__(self):

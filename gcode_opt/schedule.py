@@ -1244,12 +1244,11 @@ class _PlansAgain:
     chain with its memo, ChainMemo, kept past its window, the one the runs asked; the
     rewrite's strokes, the store's, have an empty one, which would plan it from cold: other
     bits), their windows let go once planned.  plan.remade: the rows it put in plan.segs
-    last, let go at the next call.  A
-    row whose plan raises now (it did not in the run) is left None: the rewrite then keeps
-    its lines, with the reason.  A line of a (class, T, beta) the call before made takes
-    that plan (plan.remade_keys: the last window's, by key), as plan_once gives a class's
-    rows one plan (rectilinear plate, 1 k windows: ~23.5 k plans made without it, ~6.9 k
-    with it; ~3.9 k distinct in the file)."""
+    last, let go at the next call.  A row whose plan raises now (it did not in the run) is
+    left None: the rewrite then keeps its lines, with the reason.  A line of a (class, T,
+    beta) the call before made takes that plan (plan.remade_keys: the last window's, by
+    key), as plan_once gives a class's rows one plan (rectilinear plate, 1 k windows:
+    ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
     __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes")
 
     def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes):

@@ -8,7 +8,6 @@ keeping every plan: schedule.LAZY_LINES and LAZY_CHAINS off) on chain-heavy samp
 windows (chains cross windows): the same figures, every row's plan the same bits made again by
 windows of any size, at most one window's chain plans held; the rewrite from the store and the
 windowed command write the same bytes (the command: the list path's)."""
-import io
 import json
 import os
 

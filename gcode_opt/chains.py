@@ -1856,14 +1856,17 @@ def law_T(st, T):
     return float(T) if st.chain_T is None else st.chain_T.law_of(float(T))
 
 
-def plan_chain_segments(strokes, T, beta, rules, profile):
+def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
     budget that leaves its (T, beta) alone reuses it.  Once a chain's plan is made, the knots
     of its candidate rows and its vertex caps are dropped (_drop: ~12 MB on the gyroid plate);
     a re-plan that picks another of its candidates solves it again (_again_plans, the same
-    bits: tests/test_speed22_chainmem_drop.py)."""
+    bits: tests/test_speed22_chainmem_drop.py).  remember False: no chain keeps its plan
+    (a windowed run lets its chains' plans go once judged, schedule._window_figures: a
+    memo holding each one's last plan held them all); a later ask of its (T, beta) makes
+    it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py)."""
     T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
@@ -1906,8 +1909,13 @@ def plan_chain_segments(strokes, T, beta, rules, profile):
         for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):
             out[k] = finish_chain(strokes[k], law, rules, profile)[0]
     dropped = set(lazy)                 # (_replay dropped theirs)
-    (_remember_plans if core is None else core.remember_plans)(strokes, todo, out, T, b_in, t_in, key, dropped,
-                                                               _drop)
+    if remember:
+        (_remember_plans if core is None else core.remember_plans)(strokes, todo, out, T, b_in, t_in, key, dropped,
+                                                                   _drop)
+    else:
+        for k in todo:
+            if k not in dropped:
+                _drop(strokes[k])
     if len(lazy) >= TRIM_DROPPED:   # their arrays were freed in the middle of the C heap: give them back
         from .pipeline import trim_heap
         trim_heap()

@@ -1002,11 +1002,14 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # the lines' cached plans serve a later run only where no _RunMemo does (one run with
     # a fixed alpha: none)
     seg_cache.keep_lines = opts.alpha == "auto" and not reuse
-    # windowed (and no --corners: nothing is put on a line's plan after its figures): the
-    # lines' plans let go a window at a time once their figures are on the plan, made again
-    # by the rewrite a window at a time (segs_for; a line's plan is its row's own)
-    lazy = window is not None and reuse and LAZY_LINES
-    remake = _LinesAgain(kind_by_row, line_cls, cmd0, rules) if lazy else None
+    # windowed (and no --corners: nothing is put on a line's or chain's plan after its
+    # figures): the lines' and chains' plans let go a window at a time once their figures
+    # are on the plan, made again by the rewrite a window at a time (segs_for; a line's
+    # plan is its row's own, a chain's its (T, beta)'s, whatever its memo holds)
+    lazy_lines = window is not None and reuse and LAZY_LINES
+    lazy_chains = window is not None and reuse and LAZY_CHAINS
+    lazy_codes = [c for c, on in ((C_LINE, lazy_lines), (C_CHAIN, lazy_chains)) if on]
+    remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes) if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
@@ -1048,8 +1051,13 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
-            if lazy and k_name == K_LINE:
-                _line_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls)
+            if lazy_lines and k_name == K_LINE:
+                _window_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls)
+                continue
+            if lazy_chains and k_name == K_CHAIN:
+                seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
+                _window_figures(partial(_chain_plans, strokes, plan, rules, profile), idx[kind == C_CHAIN],
+                                window, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
@@ -1101,7 +1109,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             seg_cache.store(k_name, todo, plan.T, plan.beta, segs, new_bad,
                             own_rows and k_name in ROW_KINDS and circle.rows_invariant())
             seg_failed.update(new_bad)
-        _keep_made_plans(plan, strokes, idx if not lazy else idx[kind != C_LINE], seg_failed, pin.I_orig)
+        _keep_made_plans(plan, strokes, idx[~np.isin(kind, lazy_codes)] if lazy_codes else idx, seg_failed,
+                         pin.I_orig)
         plan.remake = remake
         _attach_commands(plan, strokes, pin, rules, cmd0)
         _keep_slowed_corners(plan, strokes, rules, cmd0)
@@ -1128,14 +1137,17 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 
 
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
+LAZY_CHAINS = True      # likewise for the chains' plans
 
 
-def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
-    """The lines rows (sorted) segmented a window of rows (row // window) at a time by fn
-    (rows -> a plan a row), each window's plans judged (_keep_made_plans: retime, reason,
-    t_pred, a2_pred on the plan) and then let go: only one window's plans live at a time.
-    The rewrite makes the kept ones again a window at a time (segs_for, _LinesAgain): each
-    is its row's own at its (T, beta), the same bits (tests/test_speed53_plans53_lazy.py).
+def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
+    """The lines or chains rows (sorted) segmented a window of rows (row // window) at a
+    time by fn (rows -> a plan a row), each window's plans judged (_keep_made_plans:
+    retime, reason, t_pred, a2_pred on the plan) and then let go: only one window's plans
+    live at a time.  The rewrite makes the kept ones again a window at a time (segs_for,
+    _PlansAgain): a line's is its row's own at its (T, beta), a chain's is its (T, beta)'s
+    from its memo's rows, the same bits (tests/test_speed53_plans53_lazy.py,
+    test_speed54_chainplans_lazy.py).
     line_cls: the lines' classes (segments.line_classes), or None: a row of a (class, T,
     beta) met in an earlier window is not segmented again, its judge given the figures of
     that class's plan (_ClassFigures: plan_once would have given it that very plan), as
@@ -1163,7 +1175,7 @@ class _Figures:
 
 
 class _ClassFigures:
-    """_line_figures' memo for one run: (line class, T, beta) bytes -> the figures of the
+    """_window_figures' memo for one run: (line class, T, beta) bytes -> the figures of the
     plan segmenting one line of it gave (_Figures), or the reason it failed (a str), or
     None for no plan.  No plan is kept: only a few floats a key."""
 
@@ -1224,19 +1236,24 @@ def segs_for(plan, rows, strokes):
         remake(plan, rows, strokes)
 
 
-class _LinesAgain:
-    """A windowed run's plan.remake: the re-timed lines' plans it let go (_line_figures),
-    made again for rows as the run made them (_line_segments at the row's (T, beta), its
-    line class, its corner_cmd0); plan.remade: the rows it put in plan.segs last, let go
-    at the next call.  A row whose plan raises now (it did not in the run) is left None:
-    the rewrite then keeps its lines, with the reason.  A row of a (class, T, beta) the
-    call before made takes that plan (plan.remade_keys: the last window's, by key), as
-    plan_once gives a class's rows one plan (rectilinear plate, 1 k windows: ~23.5 k
-    plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
-    __slots__ = ("kind", "line_cls", "cmd0", "rules")
+class _PlansAgain:
+    """A windowed run's plan.remake: the re-timed lines' and chains' plans it let go
+    (_window_figures; codes: the KIND_CODEs it let go), made again for rows as the run made
+    them: a line's by _line_segments at the row's (T, beta), its line class, its
+    corner_cmd0; a chain's by _chain_plans on the run's own strokes (a StoredStrokes: each
+    chain with its memo, ChainMemo, kept past its window, the one the runs asked; the
+    rewrite's strokes, the store's, have an empty one, which would plan it from cold: other
+    bits), their windows let go once planned.  plan.remade: the rows it put in plan.segs
+    last, let go at the next call.  A row whose plan raises now (it did not in the run) is
+    left None: the rewrite then keeps its lines, with the reason.  A line of a (class, T,
+    beta) the call before made takes that plan (plan.remade_keys: the last window's, by
+    key), as plan_once gives a class's rows one plan (rectilinear plate, 1 k windows:
+    ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
+    __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes")
 
-    def __init__(self, kind, line_cls, cmd0, rules):
+    def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes):
         self.kind, self.line_cls, self.cmd0, self.rules = kind, line_cls, cmd0, rules
+        self.profile, self.codes, self.chain_strokes = profile, codes, chain_strokes
 
     def __call__(self, plan, rows, strokes):
         segs = plan.segs
@@ -1244,9 +1261,26 @@ class _LinesAgain:
         if old is not None:
             _clear_at(segs, old)
         rows = distinct(np.asarray(rows, np.int64))
-        rows = rows[(self.kind[rows] == C_LINE) & plan.retime[rows]]
+        rows = rows[np.isin(self.kind[rows], self.codes) & plan.retime[rows]]
         if rows.size:
             rows = rows[np.fromiter(map(_IS_NONE, _take(segs, rows)), bool, rows.size)]
+        kind = self.kind[rows]
+        chain_rows = rows[kind == C_CHAIN]
+        if chain_rows.size:
+            src = self.chain_strokes
+            for sub, res in isolate(partial(_chain_plans, src, plan, self.rules, self.profile), chain_rows,
+                                    "segments", {}):
+                _put_at(segs, sub, res)
+            src.let_go()            # (its windows' strokes not held past the plans made of them)
+        if C_LINE in self.codes:
+            self._lines(plan, rows[kind == C_LINE], strokes)
+        else:
+            plan.remade_keys = None
+        plan.remade = rows
+
+    def _lines(self, plan, rows, strokes):
+        """The lines rows' plans made again (a class met in the call before: its plan)."""
+        segs = plan.segs
         cls = self.line_cls
         keys, last, now = None, getattr(plan, "remade_keys", None) or {}, {}
         todo = rows
@@ -1269,7 +1303,16 @@ class _LinesAgain:
             _put_at(segs, sub, res)
         if keys is not None:
             now.update((k, seg) for k, seg in zip(keys, _take(segs, todo)) if seg is not None)
-        plan.remade, plan.remade_keys = rows, now
+        plan.remade_keys = now
+
+
+def _chain_plans(strokes, plan, rules, profile, rows):
+    """The chains rows' plans at their (T, beta) of plan, their curve geometry made first
+    (as the windowed run makes a window's: _rebuild_geometry), no memo keeping its plan
+    (plan_chain_segments' remember: a windowed run's chains keep their figures only)."""
+    sts = list(map(strokes.__getitem__, rows.tolist()))
+    _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CHAIN), profile)
+    return chains.plan_chain_segments(sts, plan.T[rows], plan.beta[rows], rules, profile, remember=False)
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

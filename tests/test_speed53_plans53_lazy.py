@@ -31,6 +31,12 @@ CASES = [("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 64),
 FIGURES = ("T", "beta", "retime", "t_pred", "a2_pred")
 
 
+@pytest.fixture(autouse=True)
+def _chains_eager(monkeypatch):
+    """The lines alone let go here (the chains' plans kept: test_speed54_chainplans_lazy.py)."""
+    monkeypatch.setattr(sc, "LAZY_CHAINS", False)
+
+
 def _stored_plan(name, prof_name, window):
     """(strokes: a StoredStrokes of that window, its store, prof, opts, the plan of its
     budget runs), plan_inputs and the candidates made a window at a time (as

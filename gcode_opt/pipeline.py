@@ -1360,13 +1360,24 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     below index and iterate as they do the list)."""
     from .plan_windows import window_size
     window = window_size()
-    if window is None:
+    if window is None or _corners_on(opts):
         return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
     from .stroke_store import StrokeStore
     # the spill beside the output, as its temporary file: on the output's disk, not in a
     # /tmp that may be tmpfs (RAM the process's RSS does not show)
     with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
         return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+
+
+def _corners_on(opts):
+    """--corners asked for (a share, or "auto"): the job then takes the list path even
+    when windowed.  Slower corners pair each stroke with its neighbour across the whole
+    file (corners.lower_corners' junctions) and the runs change strokes in place
+    (schedule._own_lead_out clears a stroke's corner_cmd1), which a window's decoded
+    copies would forget: the windowed runs then segmented the same lead-outs over and
+    over (prusa_gyroid_fullspeed, --corners 0.3, window 37: not done after 100 s of CPU)."""
+    r = getattr(opts, "corner_budget_r", 0.0) or 0.0
+    return r == "auto" or float(r) > 0.0
 
 
 def _planned(strokes, profile, opts, freeze, window):

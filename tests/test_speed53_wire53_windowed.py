@@ -170,3 +170,23 @@ def test_windowed_spill_beside_the_output(monkeypatch, tmp_path):
     pipeline.process(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), str(out_dir / "o.gcode"),
                      load_profile("prusa-mk3s"), pipeline.Options())
     assert made and all(d == str(out_dir) for d in made), made
+
+
+@pytest.mark.parametrize("corners", [0.3, "auto"])
+def test_corners_take_the_list_path(monkeypatch, tmp_path, corners):
+    """--corners (a share or auto) with GCODE_OPT_WINDOWED=1: the job takes the list path
+    (pipeline._corners_on; windowed, the runs re-made the same lead-outs without end) and
+    writes the list path's file.  The windowed planning is made to raise here, so a job
+    that took it fails at once rather than hanging."""
+    name, prof = "prusa_gyroid_fullspeed.gcode", "prusa-mk3s"
+    want = _run(monkeypatch, tmp_path, name, prof, corner_budget_r=corners)
+    plain = plan_windows.planned_strokes
+
+    def windowed(*a, **k):
+        raise AssertionError("the windowed path was taken with --corners")
+    monkeypatch.setattr(plan_windows, "planned_strokes", windowed)
+    got = _run(monkeypatch, tmp_path, name, prof, 37, corner_budget_r=corners)
+    assert got[0] == want[0]
+    assert got[1] == want[1]
+    monkeypatch.setattr(plan_windows, "planned_strokes", plain)
+    assert want[0] != _run(monkeypatch, tmp_path, name, prof)[0]     # (the corners changed the file)

@@ -1,0 +1,103 @@
+"""Round 54 (wincpu): the windowed pipeline's curve geometry with less per-window work.
+
+* build_geoms reads the strokes' limits, accelerations and neighbours' directions once a
+  call (curves._stroke_fields_once), each block taking its rows of them (_fields_at), not
+  each block again (a window's ~90 blocks, most of a few strokes): every geometry field
+  the same bits as each stroke's own geometry made alone, with strokes of two limits
+  objects, their own accelerations, blocks holding a row _parts_block declines, under
+  classic jerk and under square corner velocity.
+* stored_strokes.curve_geometry (the candidates' on_load) makes the curves' and the
+  chains' geometry in one build_geoms call, κ for the curves alone: the same fields as
+  the two calls it replaces (chains without κ).
+"""
+import copy
+import os
+
+import numpy as np
+import pytest
+
+from gcode_opt import curves
+from gcode_opt.pipeline import Options, analyse
+from gcode_opt.profile import load_profile
+from gcode_opt.schedule import C_CHAIN, C_CURVE
+from gcode_opt.stored_strokes import curve_geometry
+from gcode_opt.strokes import K_CURVE, Points
+
+S = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sample_gcode")
+
+
+def _bits(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _curves(profile):
+    prof = load_profile(profile)
+    strokes, _ = analyse(os.path.join(S, "prusa_gyroid.gcode"), prof, Options())
+    return prof, [st for st in strokes if st.kind == K_CURVE]
+
+
+def _varied(sts):
+    """The strokes sts with fields that differ from stroke to stroke: every third on a
+    second limits object (other jerks, scv, accelerations), each its own acceleration,
+    every fifth without a previous direction, and every seventh with a vertex doubled
+    (a row _parts_block declines, among good rows of its vertex count)."""
+    lim2 = copy.copy(sts[0].lim)
+    for f in ("jerk_x", "jerk_y", "scv", "ax_max", "ay_max"):
+        if isinstance(getattr(lim2, f, None), float):
+            setattr(lim2, f, getattr(lim2, f) * 0.61)
+    out = []
+    for k, st in enumerate(sts):
+        st = copy.copy(st)
+        st.curv = None
+        st.accel = 400.0 + 37.0 * k
+        if k % 3 == 0:
+            st.lim = lim2
+        if k % 5 == 0:
+            st.prev_u = None
+        if k % 7 == 0:
+            xy = np.frombuffer(st.pts.xy, float).reshape(-1, 2)
+            st.pts = Points(np.vstack([xy[:2], xy[1:]]).ravel().tobytes())
+        out.append(st)
+    return out
+
+
+def _fields(st):
+    g = st.curv
+    caps1 = g.caps_jerk1
+    return [g.d, g.caps, [g.cap], list(g.cos_end), [] if caps1 is None else caps1]
+
+
+@pytest.mark.parametrize("profile", ["prusa-mk3s", "voron24"])
+def test_fields_read_once_a_call_give_each_strokes_own_geometry(profile):
+    prof, sts = _curves(profile)
+    sts = _varied(sts[:400])
+    alone = [copy.copy(st) for st in sts]
+    blocks = curves.build_geoms(sts, prof, jerk1=True)
+    assert len(blocks) > 5 and sum(len(b) for _, b in blocks) < len(sts)     # a declined row among them
+    for st in alone:
+        curves.build_geoms([st], prof, jerk1=True)
+    for a, b in zip(sts, alone):
+        for x, y in zip(_fields(a), _fields(b)):
+            assert _bits(x, y)
+
+
+def test_the_candidates_on_load_makes_curves_and_chains_as_two_calls_did():
+    prof, sts = _curves("prusa-mk3s")
+    sts = sts[:600]
+    codes = np.array([C_CHAIN if k % 3 else C_CURVE for k in range(len(sts))], np.int8)
+    one = [copy.copy(st) for st in sts]
+    for st in one:
+        st.curv = None
+    curve_geometry(codes, prof)(0, one)
+    two = [copy.copy(st) for st in sts]
+    for st in two:
+        st.curv = None
+    for code, kappa in ((C_CURVE, True), (C_CHAIN, False)):
+        curves.build_geoms([st for st, c in zip(two, codes) if c == code], prof, jerk1=True, kappa=kappa)
+    for a, b, c in zip(one, two, codes):
+        for x, y in zip(_fields(a), _fields(b)):
+            assert _bits(x, y)
+        if c == C_CURVE:        # κ made now for a curve (none read yet: the block's own)
+            assert a.curv._b._kv is not None and _bits(a.curv.kappa_v, b.curv.kappa_v)
+            assert _bits([a.curv.kappa_eff], [b.curv.kappa_eff])

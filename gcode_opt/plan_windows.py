@@ -14,6 +14,7 @@ import os
 import numpy as np
 
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
+LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 
 
 def window_size():
@@ -64,6 +65,7 @@ def candidates_windowed(strokes, pin, profile, opts):
     from .schedule import _faults_of, _plan_kind_codes_of, _rows_by_kind, after_candidates, candidates_in_windows
     rows = _rows_by_kind(strokes, _plan_kind_codes_of(strokes, pin))
     failed = _faults_of(pin.fault)
-    cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds())
+    cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds(),
+                                             level_rows=LEVEL_ROWS)
     after_candidates(pin, rows, failed, nonfinite)
     return cands, None, failed

@@ -101,3 +101,51 @@ def test_the_candidates_on_load_makes_curves_and_chains_as_two_calls_did():
         if c == C_CURVE:        # κ made now for a curve (none read yet: the block's own)
             assert a.curv._b._kv is not None and _bits(a.curv.kappa_v, b.curv.kappa_v)
             assert _bits([a.curv.kappa_eff], [b.curv.kappa_eff])
+
+
+# ---------------------------------------------------------------- units of windows
+def test_level_units_group_windows_until_they_hold_enough_rows():
+    from gcode_opt.schedule import _level_units
+    bounds = [0, 10, 20, 30, 40, 50]
+    rows = np.array([1, 2, 3, 12, 25, 26, 27, 28, 41])       # 3, 1, 4, 0, 1 a window
+    assert _level_units(rows, bounds, 4) == [(0, 2), (2, 3), (3, 5)]
+    assert _level_units(rows, bounds, 3) == [(0, 1), (1, 3), (3, 5)]
+    assert _level_units(rows, bounds, 2) == [(0, 1), (1, 3), (3, 5)]
+    assert _level_units(rows, bounds, 100) == [(0, 5)]
+    assert _level_units(rows, bounds, 0) == [(j, j + 1) for j in range(5)]
+    assert _level_units(None, bounds, 4) == [(j, j + 1) for j in range(5)]
+
+
+def _units_case(name, w, level_rows, decide=False):
+    from test_speed50_wina50_windows import SAMPLES, _setup
+    from gcode_opt.schedule import _faults_of, candidates_in_windows
+    prof, opts, strokes, pin, rows = _setup(SAMPLES / name)
+    failed = _faults_of(pin.fault)
+    info = {}
+    bounds = np.unique(np.r_[np.arange(0, len(strokes), w), len(strokes)])
+    cands, nonfinite = candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds, info, decide,
+                                             level_rows=level_rows)
+    for i in nonfinite:
+        failed.setdefault(int(i), "error: planning (non-finite)")
+    return cands, failed, info
+
+
+@pytest.mark.parametrize("name, w, level_rows, decide", [
+    ("prusa_gyroid.gcode", 64, 40, False),              # curves: units of a few windows
+    ("prusa_benchy_like.gcode", 37, 25, False),         # units made again (the largest levels late)
+    ("prusa_gyroid_arcs.gcode", 37, 5, False),          # arcs' units made again
+    ("prusa_gyroid_arcs.gcode", 37, 30, True),
+])
+def test_units_of_windows_give_one_calls_tables(name, w, level_rows, decide):
+    """candidates_in_windows with its arcs' and curves' candidates a unit of windows at a
+    time (level_rows): every stroke's entries one call's (schedule._candidates), bit for
+    bit, units made again where their levels fall short of the file's."""
+    from test_speed50_wina50_windows import SAMPLES, _assert_same, _one_call
+    ref, failed_ref, _, n = _one_call(SAMPLES / name)
+    got, failed, info = _units_case(name, w, level_rows, decide)
+    _assert_same(ref, got, n)
+    assert failed == failed_ref
+    own = info["own"] + info["arc_own"]
+    assert 1 < sum(1 for o in own if o) < -(-n // w)        # several units, fewer than the windows
+    if name != "prusa_gyroid.gcode" and not decide:
+        assert info["redone"] > 0

@@ -380,7 +380,7 @@ _LEVEL_KINDS = {K_ARC: _arcs_at, K_CURVE: _curves_at}
 
 
 def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False,
-                          chain_batch=None, level_rows=0):
+                          chain_batch=None, level_rows=0, line_rows=0):
     """_candidates' tables (auto) made window by window: Candidates.of_pieces of
     window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
     as one call of all of them (tests/test_speed50_wina50_windows.py,
@@ -408,7 +408,8 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     until they hold at least that many of the kind's rows (_level_units; their strokes held
     as objects till then, as the chains'): a call's set-up paid a unit of windows, not a
     window (benchmarks/wincpu54.md); 0: a window a call.  The levels' bookkeeping below is
-    a unit's.
+    a unit's.  line_rows: likewise the lines' (the other kinds', but the chains'), which
+    read no stroke: a unit's rows in one call.
     info (a dict): given "levels" (the curves' file levels: first pass, retries),
     "arc_levels" (the arcs'), "redone" (windows whose arcs or curves were made again),
     "newton" (arcs Newton solved), "own" and "arc_own" (each unit's own levels a pass,
@@ -431,6 +432,8 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     units = {k: _level_units(rows.get(k), bounds, level_rows if ordered else 0) for k in _LEVEL_KINDS}
     closes = {k: {e - 1: u for u, (_, e) in enumerate(units[k])} for k in _LEVEL_KINDS}
     held = {k: {} for k in _LEVEL_KINDS}
+    others = [k for k in KINDS if k not in _LEVEL_KINDS and k != K_CHAIN]
+    other_units = {e - 1: (a, e) for a, e in _level_units(rows.get(K_LINE), bounds, line_rows if ordered else 0)}
     levels = {k: [first[k]() if decide_first else 0, 0] for k in _LEVEL_KINDS}
     made = {k: [None] * len(units[k]) for k in _LEVEL_KINDS}
     used = {k: [None] * len(units[k]) for k in _LEVEL_KINDS}
@@ -449,9 +452,12 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     while True:
         for j in sorted(set().union(*again.values())):
             got = windows[j]()
-            if not redone:              # (the other kinds once, window by window; the chains a batch of windows)
-                pieces += window_pieces(strokes, pin, profile, got, failed, rules, lines=memo,
-                                        kinds=[k for k in KINDS if k not in _LEVEL_KINDS and k != K_CHAIN])
+            if not redone:              # (the other kinds once, a unit of windows; the chains a batch of windows)
+                unit = other_units.get(j)
+                if unit is not None:
+                    pieces += window_pieces(strokes, pin, profile, got if unit[1] - unit[0] == 1 else
+                                            _window_rows(rows, bounds[unit[0]], bounds[unit[1]], ordered),
+                                            failed, rules, lines=memo, kinds=others)
                 pieces += waiting.add(got.get(K_CHAIN), j == nw - 1)
             for k in [k for k in _LEVEL_KINDS if j in again[k]]:
                 u = closes[k].get(j)

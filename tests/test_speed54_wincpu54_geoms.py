@@ -21,7 +21,7 @@ from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
 from gcode_opt.schedule import C_CHAIN, C_CURVE
 from gcode_opt.stored_strokes import curve_geometry
-from gcode_opt.strokes import K_CURVE, Points
+from gcode_opt.strokes import K_CURVE, K_LINE, Points
 
 S = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sample_gcode")
 
@@ -116,7 +116,7 @@ def test_level_units_group_windows_until_they_hold_enough_rows():
     assert _level_units(None, bounds, 4) == [(j, j + 1) for j in range(5)]
 
 
-def _units_case(name, w, level_rows, decide=False):
+def _units_case(name, w, level_rows, decide=False, line_rows=0):
     from test_speed50_wina50_windows import SAMPLES, _setup
     from gcode_opt.schedule import _faults_of, candidates_in_windows
     prof, opts, strokes, pin, rows = _setup(SAMPLES / name)
@@ -124,7 +124,7 @@ def _units_case(name, w, level_rows, decide=False):
     info = {}
     bounds = np.unique(np.r_[np.arange(0, len(strokes), w), len(strokes)])
     cands, nonfinite = candidates_in_windows(strokes, pin, prof, opts, rows, failed, bounds, info, decide,
-                                             level_rows=level_rows)
+                                             level_rows=level_rows, line_rows=line_rows)
     for i in nonfinite:
         failed.setdefault(int(i), "error: planning (non-finite)")
     return cands, failed, info
@@ -177,3 +177,15 @@ def test_planned_strokes_makes_plan_inputs_on_wider_windows_as_one_call(monkeypa
     for k, v in vars(want).items():
         if isinstance(v, np.ndarray):
             assert getattr(got, k).tobytes() == v.tobytes(), k
+
+
+@pytest.mark.parametrize("name", ["prusa_mk3s_rectilinear.gcode", "prusa_gyroid.gcode", "prusa_klipper.gcode"])
+def test_lines_a_unit_of_windows_give_one_calls_tables(name):
+    """candidates_in_windows with the lines' candidates a unit of windows a call (line_rows,
+    the arcs' and curves' too): one call's tables, bit for bit."""
+    from test_speed50_wina50_windows import SAMPLES, _assert_same, _one_call
+    ref, failed_ref, rows, n = _one_call(SAMPLES / name)
+    assert rows[K_LINE].size > 300
+    got, failed, _ = _units_case(name, 41, 60, line_rows=150)
+    _assert_same(ref, got, n)
+    assert failed == failed_ref

@@ -16,10 +16,6 @@ import numpy as np
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
-# windows a plan_inputs call: its per-call set-up (chains.classify's geometry blocks, one a
-# vertex count) paid a quarter as often; its strokes held (~2 MB more on the gyroid plate
-# at 1024) are let go before the candidates, whose peak is far above (benchmarks/wincpu54.md)
-INPUT_WINDOWS = 4
 
 
 def window_size():
@@ -49,14 +45,14 @@ def plan_inputs_windowed(store, profile, opts, window):
 
 
 def planned_strokes(store, profile, opts, window):
-    """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs
-    INPUT_WINDOWS windows at a time, and with alpha "auto" the candidate tables a window at
-    a time (the arcs' and curves' LEVEL_ROWS rows at least, the lines' LINE_ROWS), put where
+    """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs a
+    window at a time, and with alpha "auto" the candidate tables too (the arcs' and curves'
+    LEVEL_ROWS rows a call at least, the lines' LINE_ROWS), put where
     plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
     keeps the chains' memos (chain_T: state the runs' bits depend on, a second pass's too)
     in its side table."""
     from .stored_strokes import StoredStrokes, curve_geometry
-    pin = plan_inputs_windowed(store, profile, opts, window * INPUT_WINDOWS)
+    pin = plan_inputs_windowed(store, profile, opts, window)
     strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile), keep=("chain_T",))
     if opts.alpha == "auto" and len(strokes):
         pin.cached = candidates_windowed(strokes, pin, profile, opts)

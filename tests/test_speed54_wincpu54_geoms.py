@@ -151,34 +151,6 @@ def test_units_of_windows_give_one_calls_tables(name, w, level_rows, decide):
         assert info["redone"] > 0
 
 
-# ---------------------------------------------------------------- plan_inputs' windows
-def test_planned_strokes_makes_plan_inputs_on_wider_windows_as_one_call(monkeypatch):
-    """planned_strokes' plan_inputs a call INPUT_WINDOWS windows (not one), its PlanInput
-    one call's over the list, every array bit for bit."""
-    from gcode_opt import plan_windows, schedule
-    from gcode_opt.stroke_store import StrokeStore
-    prof, opts = load_profile("prusa-mk3s"), Options()
-    path = os.path.join(S, "prusa_gyroid.gcode")
-    want = schedule.plan_inputs(analyse(path, prof, opts)[0], prof, opts)
-    calls = []
-    orig = schedule.plan_inputs
-
-    def counted(sts, *a):
-        calls.append(len(sts))
-        return orig(sts, *a)
-    monkeypatch.setattr(schedule, "plan_inputs", counted)
-    opts.alpha = 0.5            # (no candidates: the inputs alone)
-    with StrokeStore() as store:
-        store.append(analyse(path, prof, opts)[0])
-        n, w = len(store), 97
-        got, _ = plan_windows.planned_strokes(store, prof, opts, w)
-    step = w * plan_windows.INPUT_WINDOWS
-    assert plan_windows.INPUT_WINDOWS > 1 and calls == [min(step, n - a) for a in range(0, n, step)]
-    for k, v in vars(want).items():
-        if isinstance(v, np.ndarray):
-            assert getattr(got, k).tobytes() == v.tobytes(), k
-
-
 @pytest.mark.parametrize("name", ["prusa_mk3s_rectilinear.gcode", "prusa_gyroid.gcode", "prusa_klipper.gcode"])
 def test_lines_a_unit_of_windows_give_one_calls_tables(name):
     """candidates_in_windows with the lines' candidates a unit of windows a call (line_rows,

@@ -786,9 +786,11 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     pts = list(map(_PTS, todo))
     made = []                           # (block, its strokes, their indices into todo)
     want = None if isinstance(kappa, bool) else kappa
+    fields = _stroke_fields_once(todo)
     for idx, block in _part_blocks(todo, pts, kappa is True):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want)
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want,
+                           fields=None if fields is None else _fields_at(fields, idx))
         if got is None:
             continue
         blk, keep, sts = got
@@ -842,13 +844,32 @@ def _own_jerk1(st, profile):
     return _caps_flat(profile, _lim_fields(st.lim, st.accel), u, d, 1.0)
 
 
-def _block_geoms(sts, block, profile, j1, pts=None, want=None):
+def _stroke_fields_once(todo):
+    """(limits objects, which one each stroke's, accel, (prev_u, next_u)) of the strokes
+    todo, read once for all of build_geoms' blocks (a window's ~90 blocks, most of a few
+    strokes, each read them again: benchmarks/wincpu54.md), or None where a read raises
+    (then each block reads its own, raising where it did)."""
+    try:
+        return _lims_which(todo) + (_accels(todo), _neighbour_dirs(todo))
+    except Exception:                   # noqa: BLE001 -- read again block by block
+        return None
+
+
+def _fields_at(fields, rows):
+    """_stroke_fields_once's fields of the strokes rows (an int array): the same objects
+    and floats as read from those strokes alone."""
+    lims, which, accel, (p, q) = fields
+    return lims, which[rows], accel[rows], (p[:, rows], q[:, rows])
+
+
+def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None):
     """The _Blk of the strokes sts whose _parts_block (compact) is `block`, which of them
     it holds (a bool mask: the rows _parts_block takes; None: all) and those strokes, or
     None (CurveGeom's own path for all) when the vectorised caps decline one of them.  The
     caps are _caps_flat's law on (m, n - 1) arrays, the limits as (m, 1): each element the
     same operations.  pts: the strokes' vertices (their pts), if the caller has them.
-    want: build_geoms' (κ of a block _parts_lazy left without it made for those rows)."""
+    want: build_geoms' (κ of a block _parts_lazy left without it made for those rows).
+    fields: _fields_at's of sts, if the caller read them (else read here)."""
     d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
@@ -865,9 +886,13 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None):
         g = good.tolist()
         sts = [st for st, x in zip(sts, g) if x]
         pts = [p for p, x in zip(pts, g) if x]
+        if fields is not None:
+            fields = _fields_at(fields, np.flatnonzero(good))
     if not (np.isfinite(u).all() and np.isfinite(d).all()):
         return None
-    lim = (profile,) + _lims_which(sts) + (_accels(sts),)
+    if fields is None:
+        fields = _lims_which(sts) + (_accels(sts), _neighbour_dirs(sts))
+    lim = (profile,) + fields[:3]
     caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
     if caps is None:
         return None
@@ -877,7 +902,7 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None):
         cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
-    ends = _ends_of(sts, u[:, 0], u[:, -1])
+    ends = _ends_of(sts, u[:, 0], u[:, -1], fields[3])
     miss = None
     if kappa_v is None and want is not None:
         kappa_v, kappa_eff, miss = _kappa_wanted(block[7], d, s_v, keep, want(sts, cap))
@@ -1013,11 +1038,11 @@ def _ends_rows(sts, us, flat=None):
     return _ends_of(sts, first, last)
 
 
-def _ends_of(sts, first, last):
+def _ends_of(sts, first, last, dirs=None):
     """_ends_rows of strokes whose first and last unit directions are the rows of first
-    and last, (m, 2) each."""
+    and last, (m, 2) each; dirs: their _neighbour_dirs, if the caller has them."""
     m = len(sts)
-    p, q = _neighbour_dirs(sts)
+    p, q = _neighbour_dirs(sts) if dirs is None else dirs
     c0 = p[0] * first[:, 0] + p[1] * first[:, 1]
     c1 = last[:, 0] * q[0] + last[:, 1] * q[1]
     m0, m1 = c0 >= CORNER_COS, c1 >= CORNER_COS

@@ -14,6 +14,8 @@ import os
 import numpy as np
 
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
+LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
+LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
 
 
 def window_size():
@@ -44,7 +46,8 @@ def plan_inputs_windowed(store, profile, opts, window):
 
 def planned_strokes(store, profile, opts, window):
     """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs a
-    window at a time, and with alpha "auto" the candidate tables too, put where
+    window at a time, and with alpha "auto" the candidate tables too (the arcs' and curves'
+    LEVEL_ROWS rows a call at least, the lines' LINE_ROWS), put where
     plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
     keeps the chains' memos (chain_T: state the runs' bits depend on, a second pass's too)
     in its side table."""
@@ -64,6 +67,7 @@ def candidates_windowed(strokes, pin, profile, opts):
     from .schedule import _faults_of, _plan_kind_codes_of, _rows_by_kind, after_candidates, candidates_in_windows
     rows = _rows_by_kind(strokes, _plan_kind_codes_of(strokes, pin))
     failed = _faults_of(pin.fault)
-    cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds())
+    cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds(),
+                                             level_rows=LEVEL_ROWS, line_rows=LINE_ROWS)
     after_candidates(pin, rows, failed, nonfinite)
     return cands, None, failed

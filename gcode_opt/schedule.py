@@ -380,7 +380,7 @@ _LEVEL_KINDS = {K_ARC: _arcs_at, K_CURVE: _curves_at}
 
 
 def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, info=None, decide_first=False,
-                          chain_batch=None):
+                          chain_batch=None, level_rows=0, line_rows=0):
     """_candidates' tables (auto) made window by window: Candidates.of_pieces of
     window_pieces of the strokes [bounds[j], bounds[j + 1]) of each window, the same bits
     as one call of all of them (tests/test_speed50_wina50_windows.py,
@@ -404,9 +404,15 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
       - the chains: each chain's tables its own (as the other kinds, each row's own); the
         chains of consecutive windows are made in one call, chain_batch (None: CHAIN_BATCH)
         at a time (_WaitingChains).
+    level_rows: the arcs' and the curves' candidates made for consecutive windows together
+    until they hold at least that many of the kind's rows (_level_units; their strokes held
+    as objects till then, as the chains'): a call's set-up paid a unit of windows, not a
+    window (benchmarks/wincpu54.md); 0: a window a call.  The levels' bookkeeping below is
+    a unit's.  line_rows: likewise the lines' (the other kinds', but the chains'), which
+    read no stroke: a unit's rows in one call.
     info (a dict): given "levels" (the curves' file levels: first pass, retries),
     "arc_levels" (the arcs'), "redone" (windows whose arcs or curves were made again),
-    "newton" (arcs Newton solved), "own" and "arc_own" (each window's own levels a pass,
+    "newton" (arcs Newton solved), "own" and "arc_own" (each unit's own levels a pass,
     and whether it made figures: candidates_curve's / candidates_arc's own_levels)."""
     n = len(strokes)
     rules = SegmentRules.for_profile(profile, opts.max_segments)
@@ -419,37 +425,62 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
     nw = len(windows)
-    # per circle kind: the floors (the largest own levels met so far, a pass), and per
-    # window its pieces, the floors it took and each pass's (own levels, whether it made figures)
+    # per circle kind: its units of windows (first window, end), the unit the window j
+    # closes, the strokes of the open unit; the floors (the largest own levels met so far,
+    # a pass), and per unit its pieces, the floors it took and each pass's (own levels,
+    # whether it made figures)
+    units = {k: _level_units(rows.get(k), bounds, level_rows if ordered else 0) for k in _LEVEL_KINDS}
+    closes = {k: {e - 1: u for u, (_, e) in enumerate(units[k])} for k in _LEVEL_KINDS}
+    held = {k: {} for k in _LEVEL_KINDS}
+    others = [k for k in KINDS if k not in _LEVEL_KINDS and k != K_CHAIN]
+    other_units = {e - 1: (a, e) for a, e in _level_units(rows.get(K_LINE), bounds, line_rows if ordered else 0)}
     levels = {k: [first[k]() if decide_first else 0, 0] for k in _LEVEL_KINDS}
-    made = {k: [None] * nw for k in _LEVEL_KINDS}
-    used = {k: [None] * nw for k in _LEVEL_KINDS}
-    owns = {k: [None] * nw for k in _LEVEL_KINDS}
-    todo, redone = {k: range(nw) for k in _LEVEL_KINDS}, 0
+    made = {k: [None] * len(units[k]) for k in _LEVEL_KINDS}
+    used = {k: [None] * len(units[k]) for k in _LEVEL_KINDS}
+    owns = {k: [None] * len(units[k]) for k in _LEVEL_KINDS}
+    todo, redone = {}, 0
     waiting = _WaitingChains(strokes, pin, profile, failed, rules, chain_batch)
+
+    def make(k, u, rows_u, sts):
+        owns[k][u], used[k][u] = [], tuple(levels[k])
+        made[k][u] = window_pieces(sts, pin, profile, {k: rows_u}, failed, rules, {k: used[k][u]},
+                                   own_levels={k: owns[k][u]}, kinds=(k,))
+        for p, (lv, fig) in enumerate(owns[k][u][:2]):
+            levels[k][p] = max(levels[k][p], lv) if fig else levels[k][p]
+
+    again = {k: set(range(nw)) for k in _LEVEL_KINDS}       # the windows whose units are (made) again
     while True:
-        for j in sorted(set().union(*todo.values())):
+        for j in sorted(set().union(*again.values())):
             got = windows[j]()
-            if not redone:              # (the other kinds once, window by window; the chains a batch of windows)
-                pieces += window_pieces(strokes, pin, profile, got, failed, rules, lines=memo,
-                                        kinds=[k for k in KINDS if k not in _LEVEL_KINDS and k != K_CHAIN])
+            if not redone:              # (the other kinds once, a unit of windows; the chains a batch of windows)
+                unit = other_units.get(j)
+                if unit is not None:
+                    pieces += window_pieces(strokes, pin, profile, got if unit[1] - unit[0] == 1 else
+                                            _window_rows(rows, bounds[unit[0]], bounds[unit[1]], ordered),
+                                            failed, rules, lines=memo, kinds=others)
                 pieces += waiting.add(got.get(K_CHAIN), j == nw - 1)
-            for k in [k for k in _LEVEL_KINDS if j in todo[k]]:
-                owns[k][j], used[k][j] = [], tuple(levels[k])
-                made[k][j] = window_pieces(strokes, pin, profile, got, failed, rules, {k: used[k][j]},
-                                           own_levels={k: owns[k][j]}, kinds=(k,))
-                for p, (lv, fig) in enumerate(owns[k][j][:2]):
-                    levels[k][p] = max(levels[k][p], lv) if fig else levels[k][p]
+            for k in [k for k in _LEVEL_KINDS if j in again[k]]:
+                u = closes[k].get(j)
+                if u is not None and units[k][u][1] - units[k][u][0] == 1:     # (a window a unit: it is held)
+                    make(k, u, got[k], strokes)
+                    continue
+                r = got[k].tolist()
+                held[k].update(zip(r, map(strokes.__getitem__, r)))
+                if u is not None:
+                    a, e = units[k][u]
+                    make(k, u, _window_rows(rows, bounds[a], bounds[e], ordered)[k], held[k])
+                    held[k] = {}
         for k in _LEVEL_KINDS:
             levels[k] = _file_levels(owns[k])
-            # the windows whose figures were made on other levels (the largest of their own
+            # the units whose figures were made on other levels (the largest of their own
             # and the floor) than the file's; a first pass made on the file's: its retries are
             # the file's
-            todo[k] = [j for j in range(nw) if any(fig and max(lv, used[k][j][p]) != levels[k][p]
-                                                   for p, (lv, fig) in enumerate(owns[k][j][:2]))]
+            todo[k] = [u for u in range(len(units[k])) if any(fig and max(lv, used[k][u][p]) != levels[k][p]
+                                                              for p, (lv, fig) in enumerate(owns[k][u][:2]))]
+            again[k] = {j for u in todo[k] for j in range(*units[k][u])}
         if not any(todo.values()):
             break
-        redone += len(set().union(*todo.values()))
+        redone += len(set().union(*again.values()))
     curves.drop_kappa()         # (kept from window to window: window_pieces' own_levels)
     if info is not None:
         info.update(levels=tuple(levels[K_CURVE]), arc_levels=tuple(levels[K_ARC]), redone=redone,
@@ -503,6 +534,24 @@ def _window_rows(rows, lo, hi, ordered):
     if ordered:
         return {k: r[np.searchsorted(r, lo):np.searchsorted(r, hi)] for k, r in rows.items()}
     return {k: r[(r >= lo) & (r < hi)] for k, r in rows.items()}
+
+
+def _level_units(rows, bounds, least):
+    """[(first window, end window)] of the windows [bounds[j], bounds[j + 1]) taken
+    together, consecutive ones, until they hold at least `least` of rows (sorted; the last
+    unit what is left); least <= 1 or no rows: a window a unit."""
+    nw = len(bounds) - 1
+    if least <= 1 or rows is None:
+        return [(j, j + 1) for j in range(nw)]
+    units, a, n = [], 0, 0
+    for j, c in enumerate(np.diff(np.searchsorted(rows, bounds)).tolist()):
+        n += c
+        if n >= least:
+            units.append((a, j + 1))
+            a, n = j + 1, 0
+    if a < nw:
+        units.append((a, nw))
+    return units
 
 
 def _file_levels(owns):

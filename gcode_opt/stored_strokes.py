@@ -230,15 +230,20 @@ def curve_geometry(codes, profile):
     """StoredStrokes' on_load for planning: a window's curve and chain geometry made in one
     batch as plan_inputs made it (chains.classify's build_geoms: a chain without κ, which
     it never reads), not stroke by stroke when read (benchmarks/win51: ~3.5x the
-    candidates' time).  codes: the strokes' plan_kind codes (pin.plan_kind_codes)."""
+    candidates' time).  codes: the strokes' plan_kind codes (pin.plan_kind_codes).  The
+    curves and the chains in one call (a block a vertex count of both: the blocks' set-up
+    paid once, benchmarks/wincpu54.md), κ made for the curves' rows alone."""
     from . import curves
     from .schedule import C_CHAIN, C_CURVE
 
     def made(lo, sts):
         c = codes[lo:lo + len(sts)]
-        for code, kappa in ((C_CURVE, True), (C_CHAIN, False)):
-            curves.build_geoms([sts[k] for k in np.flatnonzero(c == code).tolist()], profile, jerk1=True,
-                               kappa=kappa)
+        rows = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
+        todo = [sts[k] for k in rows.tolist()]
+        curve = {id(st) for st, is_curve in zip(todo, (c[rows] == C_CURVE).tolist()) if is_curve}
+        curves.build_geoms(todo, profile, jerk1=True,
+                           kappa=lambda bsts, cap: np.fromiter(map(curve.__contains__, map(id, bsts)), bool,
+                                                               len(bsts)))
     return made
 
 

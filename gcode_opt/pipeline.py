@@ -1465,6 +1465,7 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     cols = StrokeColumns(strokes, fields=False)     # (the summary's fields: after the passes)
                     order = _first_line_order(cols)
                 lines = stroke_lines(cols, order, out_ranges)
+                trim_heap()           # (its temporaries, ~5 MB on the rectilinear plate: measure grows on live memory)
                 got = None
                 opts.lines_out = None     # (measure counts the written file's lines; a remeasure does not)
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
@@ -1501,19 +1502,23 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     break
                 if over_t > 0.0:
                     budget_t -= 1.2 * over_t
-            # what only the passes needed (the first pass's ledger, the segment plans and
-            # their cache, the candidate tables, the strokes themselves: the summary reads
-            # their columns, cols) goes before the summary is built
-            first = None
+            # what only the passes needed (the passes' ledgers, output lines, line order and
+            # digests, the segment plans and their cache, the candidate tables, the strokes
+            # themselves: the summary reads their columns, cols) goes before the summary is
+            # built (rectilinear plate, windowed: ~5 MB of the ledger and the lines alone)
+            first = got = led = lines = order = watch = digests = changed = None
             plan.segs = None
             pin.seg_cache = None
             drop_cached(pin)
+            # the written file's ringing first: its Collector's buffers (~3 MB on the
+            # rectilinear plate) go before the summary's columns are made
+            ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
+            ring_after = None
+            timing.lap("ringing")
             trim_heap()               # (first: the summary's columns grow on live memory only)
             cols.add_fields(strokes)  # (final: corners.py set v0 / v1 in plan_inputs, nothing since)
             strokes = None            # (their curve geometry and chains' plans with them)
             trim_heap()
-            ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
-            timing.lap("ringing")
             from .summary import build_summary
             with _young_frozen(freeze):      # (~70 k rows' dicts: frozen, not walked by the next collection)
                 summary = build_summary(in_path, out_path, tmp, size, profile, opts, cols, pin, plan, sim0,

@@ -1361,12 +1361,17 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     from .plan_windows import window_size
     window = window_size()
     if window is None:
-        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
-    from .stroke_store import StrokeStore
-    # the spill beside the output, as its temporary file: on the output's disk, not in a
-    # /tmp that may be tmpfs (RAM the process's RSS does not show)
-    with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
-        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+        summary = _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
+    else:
+        from .stroke_store import StrokeStore
+        # the spill beside the output, as its temporary file: on the output's disk, not in a
+        # /tmp that may be tmpfs (RAM the process's RSS does not show)
+        with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
+            summary = _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+    # the passes' and the summary's freed arrays (~12 MB of heap on the rectilinear plate,
+    # windowed): the summary's writing (--json, --report) grows on live memory only
+    trim_heap()
+    return summary
 
 
 def _planned(strokes, profile, opts, freeze, window):

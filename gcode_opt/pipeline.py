@@ -1198,6 +1198,16 @@ def stroke_lines(strokes, order, out_ranges):
     return first, last
 
 
+def lines_by_stroke(watch, order, n):
+    """stroke_lines' (first, last) of n strokes again, from the LineRanges made of them at
+    `order` (_first_line_order's): the same int64 arrays."""
+    o = np.frombuffer(order, np.int64) if isinstance(order, array) else np.asarray(order, np.int64)
+    first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    first[o] = np.frombuffer(watch.first, np.int64)
+    last[o] = np.frombuffer(watch.last, np.int64)
+    return first, last
+
+
 def _stroke_lines_loop(strokes, order, out_ranges):
     """stroke_lines stroke by stroke (the code before the rows; the tests' reference), on
     the strokes' first and last lines (line_columns) as ints."""
@@ -1482,10 +1492,14 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     # (as LineRanges: two int64 arrays, not ~52 k tuples held through measure)
                     watch = None if lines is None or pass_i else LineRanges.of_rows(lines[0][order],
                                                                                    lines[1][order])
+                    if watch is not None:
+                        lines = None  # (held through measure as the watch alone: ~0.8 MB on the rectilinear plate)
                     ring = _ring_collector(profile, opts)
                     got = measure(tmp, profile, out_ranges, opts, watch, ring)
                     ring_after = ring
                     ring = None       # a second pass's remeasure must not keep this one's buffers
+                    if watch is not None:
+                        lines, watch = lines_by_stroke(watch, order, len(cols)), None
                 sim1, t1, a21, v21, led = got
                 first = _FirstPass(plan, digests, lines, out_ranges, (t1, a21, v21), led)
                 timing.lap("measure")

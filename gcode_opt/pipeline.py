@@ -1198,6 +1198,16 @@ def stroke_lines(strokes, order, out_ranges):
     return first, last
 
 
+def lines_by_stroke(watch, order, n):
+    """stroke_lines' (first, last) of n strokes again, from the LineRanges made of them at
+    `order` (_first_line_order's): the same int64 arrays."""
+    o = np.frombuffer(order, np.int64) if isinstance(order, array) else np.asarray(order, np.int64)
+    first, last = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    first[o] = np.frombuffer(watch.first, np.int64)
+    last[o] = np.frombuffer(watch.last, np.int64)
+    return first, last
+
+
 def _stroke_lines_loop(strokes, order, out_ranges):
     """stroke_lines stroke by stroke (the code before the rows; the tests' reference), on
     the strokes' first and last lines (line_columns) as ints."""
@@ -1361,12 +1371,17 @@ def _process(in_path, out_path, profile: Profile, opts: Options, before_replace=
     from .plan_windows import window_size
     window = window_size()
     if window is None or _corners_on(opts):
-        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
-    from .stroke_store import StrokeStore
-    # the spill beside the output, as its temporary file: on the output's disk, not in a
-    # /tmp that may be tmpfs (RAM the process's RSS does not show)
-    with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
-        return _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+        summary = _process_strokes(in_path, out_path, profile, opts, before_replace, freeze)
+    else:
+        from .stroke_store import StrokeStore
+        # the spill beside the output, as its temporary file: on the output's disk, not in a
+        # /tmp that may be tmpfs (RAM the process's RSS does not show)
+        with StrokeStore(folder=os.path.dirname(os.path.abspath(out_path))) as store:
+            summary = _process_strokes(in_path, out_path, profile, opts, before_replace, freeze, store, window)
+    # the passes' and the summary's freed arrays (~12 MB of heap on the rectilinear plate,
+    # windowed): the summary's writing (--json, --report) grows on live memory only
+    trim_heap()
+    return summary
 
 
 def _corners_on(opts):
@@ -1476,6 +1491,7 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     cols = StrokeColumns(strokes, fields=False)     # (the summary's fields: after the passes)
                     order = _first_line_order(cols)
                 lines = stroke_lines(cols, order, out_ranges)
+                trim_heap()           # (its temporaries, ~5 MB on the rectilinear plate: measure grows on live memory)
                 got = None
                 opts.lines_out = None     # (measure counts the written file's lines; a remeasure does not)
                 if first is not None and first.lines is not None and lines is not None and first.led is not None:
@@ -1487,10 +1503,14 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     # (as LineRanges: two int64 arrays, not ~52 k tuples held through measure)
                     watch = None if lines is None or pass_i else LineRanges.of_rows(lines[0][order],
                                                                                    lines[1][order])
+                    if watch is not None:
+                        lines = None  # (held through measure as the watch alone: ~0.8 MB on the rectilinear plate)
                     ring = _ring_collector(profile, opts)
                     got = measure(tmp, profile, out_ranges, opts, watch, ring)
                     ring_after = ring
                     ring = None       # a second pass's remeasure must not keep this one's buffers
+                    if watch is not None:
+                        lines, watch = lines_by_stroke(watch, order, len(cols)), None
                 sim1, t1, a21, v21, led = got
                 first = _FirstPass(plan, digests, lines, out_ranges, (t1, a21, v21), led)
                 timing.lap("measure")
@@ -1512,19 +1532,23 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     break
                 if over_t > 0.0:
                     budget_t -= 1.2 * over_t
-            # what only the passes needed (the first pass's ledger, the segment plans and
-            # their cache, the candidate tables, the strokes themselves: the summary reads
-            # their columns, cols) goes before the summary is built
-            first = None
+            # what only the passes needed (the passes' ledgers, output lines, line order and
+            # digests, the segment plans and their cache, the candidate tables, the strokes
+            # themselves: the summary reads their columns, cols) goes before the summary is
+            # built (rectilinear plate, windowed: ~5 MB of the ledger and the lines alone)
+            first = got = led = lines = order = watch = digests = changed = None
             plan.segs = None
             pin.seg_cache = None
             drop_cached(pin)
+            # the written file's ringing first: its Collector's buffers (~3 MB on the
+            # rectilinear plate) go before the summary's columns are made
+            ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
+            ring_after = None
+            timing.lap("ringing")
             trim_heap()               # (first: the summary's columns grow on live memory only)
             cols.add_fields(strokes)  # (final: corners.py set v0 / v1 in plan_inputs, nothing since)
             strokes = None            # (their curve geometry and chains' plans with them)
             trim_heap()
-            ringing, ringing_error = _ringing_after(tmp, profile, opts, ring_after, in_path)
-            timing.lap("ringing")
             from .summary import build_summary
             with _young_frozen(freeze):      # (~70 k rows' dicts: frozen, not walked by the next collection)
                 summary = build_summary(in_path, out_path, tmp, size, profile, opts, cols, pin, plan, sim0,

@@ -292,27 +292,29 @@ class StrokeRows(Sequence):
     """The summary's per-stroke rows held as columns (~130 bytes a row; the list of dicts
     held ~1.4 kB a row: 57 MB on the rectilinear plate, the --json run's peak), each row
     made as it is read: the dict the list held (the same keys in the same order, the same
-    values of the same types).  Iterated a chunk of rows at a time (chunks()); a row by
-    index, or by its first line (row_at_line: the report's lookup).  Equal to a list of
-    the same rows, as the list was."""
+    values of the same types).  The strokes' own fields (line, lines, kind, feature,
+    layer, the rounded length and speeds) are read from their StrokeColumns at a chunk's
+    rows as it is made, not copied at every row first (9 columns of the rows: ~3 MB on
+    the rectilinear plate at the summary's peak).  Iterated a chunk of rows at a time
+    (chunks()); a row by index, or by its first line (row_at_line: the report's lookup).
+    Equal to a list of the same rows, as the list was."""
 
     CHUNK = 128              # rows made (and json.dumps encodes) at a time: ~0.6 MB
+    BLOCK = 2048             # rows whose stroke fields are read (and rounded) at a time: ~150 kB
     ROUNDED = (("length_d", 4), ("v0", 3), ("v1", 3), ("v_feed", 3))
-    __slots__ = ("n", "line", "n_moves", "coded", "rounded", "cols", "_by_line")
+    __slots__ = ("n", "rows", "strokes", "coded", "cols", "_by_line")
     __hash__ = None
 
     def __init__(self, cols, rows, out_first, t0, i0, t_law, i_law, t1, a21, beta):
-        """The rows of the strokes `rows` (indices into cols, a StrokeColumns) with their
-        columns by row (arrays or sequences); as many rows as the shortest column has (the
-        rows zip them)."""
-        rows = np.asarray(rows, np.intp)
-        self.line = cols.first_idx[rows] + 1
-        self.n_moves = cols.n_moves[rows]
-        self.coded = [(list(cols.code_of[name]), cols.codes[name][rows]) for name in ("kind", "feature", "layer")]
-        self.rounded = [_rounded(cols, name, rows, nd) for name, nd in self.ROUNDED]
+        """The rows of the strokes `rows` (indices into cols, a StrokeColumns, which the
+        rows read as they are made: not changed after) with their columns by row (arrays
+        or sequences); as many rows as the shortest column has (the rows zip them)."""
+        self.rows = np.asarray(rows, np.intp)
+        self.strokes = cols
+        self.coded = [(list(cols.code_of[name]), cols.codes[name]) for name in ("kind", "feature", "layer")]
         self.cols = [c if isinstance(c, np.ndarray) else list(c)
                      for c in (out_first, t0, t_law, t1, i0, i_law, a21, beta)]
-        self.n = min(map(len, [rows, *self.cols]))
+        self.n = min(map(len, [self.rows, *self.cols]))
         self._by_line = None
 
     def __len__(self):
@@ -333,9 +335,14 @@ class StrokeRows(Sequence):
             yield from part
 
     def chunks(self):
-        """The rows, a list of up to CHUNK rows at a time."""
-        for a in range(0, self.n, self.CHUNK):
-            yield self._make(a, min(a + self.CHUNK, self.n))
+        """The rows, a list of up to CHUNK rows at a time (their stroke fields read a BLOCK
+        of rows at a time: numpy's calls a chunk cost ~23 ms on the rectilinear plate)."""
+        step = max(self.CHUNK, self.BLOCK)
+        for a0 in range(0, self.n, step):
+            b0 = min(a0 + step, self.n)
+            fields = self._fields(a0, b0)
+            for a in range(a0, b0, self.CHUNK):
+                yield self._make(a, min(a + self.CHUNK, b0), fields, a0)
 
     def json_chunks(self):
         """The rows as dump_json writes them, compact, one a line (",\\n  " between rows),
@@ -359,17 +366,28 @@ class StrokeRows(Sequence):
         """The row whose stroke starts on (1-based) line `line`, or None (of several, the
         last: as a dict {row["line"]: row} kept it)."""
         if self._by_line is None:
-            order = np.argsort(self.line[:self.n], kind="stable")
-            self._by_line = (order, self.line[order])
+            first = self.strokes.first_idx[self.rows[:self.n]] + 1
+            order = np.argsort(first, kind="stable")
+            self._by_line = (order, first[order])
         order, lines = self._by_line
         k = int(np.searchsorted(lines, line, side="right")) - 1
         return self[int(order[k])] if k >= 0 and lines[k] == line else None
 
-    def _make(self, a, b):
-        """Rows a .. b - 1, dicts (~3 a row, none in a cycle: no collection runs over them)."""
-        lines, n_moves = self.line[a:b].tolist(), self.n_moves[a:b].tolist()
-        kinds, features, layers = (_take(values, code[a:b]) for values, code in self.coded)
-        r4, rv0, rv1, rvf = (_part(c, a, b) for c in self.rounded)
+    def _fields(self, a, b):
+        """The stroke fields of rows a .. b - 1 as the rows show them: [line, lines, the
+        kind, feature and layer codes, the four rounded fields] (arrays, or lists)."""
+        rows, strokes = self.rows[a:b], self.strokes
+        return [strokes.first_idx[rows] + 1, strokes.n_moves[rows], *(code[rows] for _, code in self.coded),
+                *(_rounded(strokes, name, rows, nd) for name, nd in self.ROUNDED)]
+
+    def _make(self, a, b, fields=None, at=None):
+        """Rows a .. b - 1, dicts (~3 a row, none in a cycle: no collection runs over them);
+        fields: _fields of rows at .. (holding a .. b - 1), else read here."""
+        if fields is None:
+            fields, at = self._fields(a, b), a
+        part = [c[a - at:b - at] for c in fields]
+        lines, n_moves, r4, rv0, rv1, rvf = map(_as_list, part[:2] + part[5:])
+        kinds, features, layers = (_take(values, code) for (values, _), code in zip(self.coded, part[2:5]))
         out_first, t0, t_law, t1, i0, i_law, a21, beta = (_part(c, a, b) for c in self.cols)
         gc_was = gc.isenabled()
         gc.disable()

@@ -495,7 +495,11 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     return Candidates.of_pieces(n, pieces, pin.T_orig)
 
 
-CHAIN_BATCH = chains.SOLVE_CHUNK    # chains of consecutive windows made in one candidates_chain call
+# chains of consecutive windows made in one candidates_chain call.  A quarter of a solve
+# chunk: since the runs keep no chain plans (LAZY_CHAINS) the chain batches' transients set
+# the windowed gyroid plate's peak (78.4 MB at 2048, 74.4 at 512, same bytes), for ~+225 M
+# instructions (benchmarks/memo53.md: +285 M -> +510 M over one call at 32 windows)
+CHAIN_BATCH = chains.SOLVE_CHUNK // 4
 
 
 class _WaitingChains:

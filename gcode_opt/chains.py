@@ -461,9 +461,15 @@ class _Chosen(_Again):
     __slots__ = ("ids", "bits", "voff", "tj", "poff", "figs")
 
     def __init__(self, src, ids, bound, voff, tj, poff, figs):
+        """The laws of chains (memo ids ids, any order): row i's binding mask
+        bound[voff[i]:voff[i + 1]], its pieces' durations tj[poff[i]:poff[i + 1]], figs[i]."""
         _Again.__init__(self, src)
-        self.ids, self.bits, self.voff = ids, np.packbits(bound), voff.astype(np.int32)
-        self.tj, self.poff, self.figs = tj, poff.astype(np.int32), figs
+        o = np.argsort(ids, kind="stable")
+        nv, cnt = np.diff(voff)[o], np.diff(poff)[o]
+        self.ids, self.figs = ids[o], figs[o]
+        self.bits = np.packbits(bound[_ranges(voff[:-1][o], nv)])
+        self.tj = tj[_ranges(poff[:-1][o], cnt)]
+        self.voff, self.poff = _offsets(nv, np.int32), _offsets(cnt, np.int32)
 
     def places(self, memos, T, beta):
         """Each memo's place here where its chosen law is the candidate (T[i], beta[i]) (arrays
@@ -486,7 +492,6 @@ def _keep_chosen(items):
             by_src.setdefault(id(src), (src, []))[1].append((id(memo), memo, kept, r))
     out = []
     for src, its in by_src.values():
-        its.sort(key=_IT0)
         nv, voff, bound, tj, TL, beta, tp, a2, poff = _rows_laws(
             list(map(_IT2, its)), np.fromiter((it[3] for it in its), np.int64, len(its)))
         figs = np.stack([TL, beta, tp, a2], axis=1)
@@ -503,6 +508,35 @@ def _hand_chosen(chosen):
         for memo in memos:
             if memo.kept is again:
                 memo.kept = ch
+
+
+def _chosen_solved(again, strokes, laws):
+    """The chains of again [(k, its _Again)] whose laws _again_plans solved (laws[i]:
+    (binding mask, pieces' durations, T, beta, predicted time, predicted ∫|a|²) of
+    again[i]) keep them (a _Chosen a source), where their rows are their memo's source's
+    (its _Again, or a _Chosen of it)."""
+    by_src = {}
+    for (k, ag), law in zip(again, laws):
+        memo = strokes[k].chain_T
+        src = memo.src
+        if memo.kept is ag and src is not None and ag.src is src and (ag is src.again or type(ag) is _Chosen):
+            by_src.setdefault(id(src), (src, []))[1].append((memo, law))
+    for src, its in by_src.values():
+        memos = list(map(_IT0, its))
+        bnd, tj = [law[0] for _, law in its], [law[1] for _, law in its]
+        ch = _Chosen(src, np.fromiter(map(id, memos), np.int64, len(memos)),
+                     np.concatenate(bnd), _offsets(np.array([b.size for b in bnd], np.int64)),
+                     np.concatenate(tj), _offsets(np.array([t.size for t in tj], np.int64)),
+                     np.array([law[2:] for _, law in its], float).reshape(-1, 4))
+        for memo in memos:
+            memo.kept = ch
+
+
+def _offsets(counts, dtype=np.int64):
+    """[0, counts' running sums] (counts an int array)."""
+    out = np.zeros(counts.size + 1, dtype)
+    np.cumsum(counts, out=out[1:])
+    return out
 
 
 def _chosen_asks(again, strokes, T, beta):
@@ -978,7 +1012,8 @@ def _knots_again(items, profile):
     """The knots (vk (n + 1), dt (n)) of candidate rows whose knots were dropped, items
     [(stroke, _Source, its row i there, law T, beta)]: each chain solved again as _figures
     solved it (the same tables, the columns in the same order from the same starts, up to
-    the one asked for) and its row taken out as _table_rows takes it."""
+    the one asked for) and its row taken out as _table_rows takes it; with its law
+    (binding mask (n - 1), pieces' durations: _Chosen keeps it): (vk, dt, mask, pieces)."""
     out = [None] * len(items)
     by_src = {}
     for q, it in enumerate(items):
@@ -1042,26 +1077,31 @@ def _knots_again(items, profile):
                     vk[:, 1:-1] = res[c].vert_v[ix]
                     tk[:, 1:-1] = res[c].vert_t[ix]
                 dt = _row_steps(tk)
-                for i, jj in enumerate(J.tolist()):
-                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1])
+                bnd = res[c].bound[ix] if n > 1 else np.empty((J.size, 0), bool)
+                P, po = res[c].piece_T, res[c].piece_off
+                for i, (jj, p) in enumerate(zip(J.tolist(), pos[J].tolist())):
+                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1], bnd[i], P[po[p]:po[p + 1]])
             del res
     return out
 
 
-def _again_plans(items, rules, profile):
+def _again_plans(items, rules, profile, laws=None):
     """SegmentPlans of candidates whose knots were dropped, items [(stroke, _Again, law
     T, beta)]: the knots made again (_knots_again), then finished as the candidate
     table's finishing did (_Finisher: by groups of a segment count under GROUP_JUNCTIONS,
     else chain by chain; each row's numbers its own): its predicted figures and, from the
     same call, the accelerations and feeds _replay would make of that row again (the
-    finishing's acc and feed do not depend on predict: one finishing, not two)."""
+    finishing's acc and feed do not depend on predict: one finishing, not two).  laws: a
+    list, or None: each item's law put there (mask, pieces, T, beta, predicted time and
+    ∫|a|²: _chosen_solved)."""
     got = _knots_again([(st, ag.src, st.chain_T.src_i if ag.i is None else ag.i, T, b)
                         for st, ag, T, b in items], profile)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     out = [None] * len(items)
+    figs = [None] * len(items)
     if grouped:
         by_n = {}
-        for q, (vk, _) in enumerate(got):
+        for q, (vk, *_) in enumerate(got):
             by_n.setdefault(vk.shape[1], []).append(q)
         for qs in by_n.values():
             for a in range(0, len(qs), FINISH_ROWS):
@@ -1073,15 +1113,19 @@ def _again_plans(items, rules, profile):
                                                          np.arange(len(Q)), vk, dt, rules, profile)
                 ends = _ends_rows(sts, vk.shape[1] - 1)
                 for i, q in zip(_row_ints(len(Q)), Q):
+                    figs[q] = (float(t[i]), float(a2[i]))
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
                 if ends is not None:
                     _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
     else:
         for q, (st, _, _, _) in enumerate(items):
-            vk, dt = got[q]
+            vk, dt = got[q][:2]
             acc, feed, t, a2, _ = _finish_rows_dt(st, vk, dt, rules, profile)
+            figs[q] = (float(t[0]), float(a2[0]))
             out[q] = SegmentPlan(_knots_s(st.ends_d), vk[0], acc[0], feed[0], float(t[0]), float(a2[0]))
+    if laws is not None:
+        laws.extend((g[2], g[3], T, b) + f for g, (_, _, T, b), f in zip(got, items, figs))
     return out
 
 
@@ -2052,9 +2096,13 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
                 out[k] = plan
         del hits
     if again:
-        plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile)
+        laws = None if remember else []
+        plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile, laws)
         for (k, _), plan in zip(again, plans):
             out[k] = plan
+        if laws:
+            _chosen_solved(again, strokes, laws)
+        del laws
     if cold:
         Ta = np.array(T, float)
         for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):

@@ -6,7 +6,8 @@ schedule._PlansAgain) replays it (_replay by _chosen_laws_of) instead of solving
 again (_again_plans -> _knots_again).  Here: the replayed plans are the re-solved ones bit for
 bit (the reference: the same memos with their rows dropped as _Again, chainplans54's path),
 no chain of a kept law is solved again, another candidate of such a chain is solved again
-(the same bits as from an _Again), and a memo taking a new source gives up its _Chosen."""
+(the same bits as from an _Again) and then keeps that law in turn (_chosen_solved), and a
+memo taking a new source gives up its _Chosen."""
 import numpy as np
 
 from gcode_opt import chains
@@ -92,6 +93,12 @@ def test_other_candidate_of_a_chosen_chain_is_solved_again(monkeypatch):
         solved = _spy_solves(monkeypatch)
         got = chains.plan_chain_segments(sts, T, beta, rules, prof, remember=False)
         assert set(solved) == {id(st.chain_T) for st in sts}
+        # solved again, each keeps that law: asked again, it is replayed, the same bits
+        assert all(type(st.chain_T.kept) is chains._Chosen for st in sts)
+        solved.clear()
+        replayed = chains.plan_chain_segments(sts, T, beta, rules, prof, remember=False)
+        assert not solved
+        assert [seg_bits(p) for p in replayed] == [seg_bits(p) for p in got]
         _as_dropped(sts)
         want = chains.plan_chain_segments(sts, T, beta, rules, prof, remember=False)
         assert [seg_bits(p) for p in got] == [seg_bits(p) for p in want]

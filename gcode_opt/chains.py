@@ -1008,12 +1008,12 @@ def _drop(st):
         g.chain_caps = None
 
 
-def _knots_again(items, profile):
+def _knots_again(items, profile, laws=False):
     """The knots (vk (n + 1), dt (n)) of candidate rows whose knots were dropped, items
     [(stroke, _Source, its row i there, law T, beta)]: each chain solved again as _figures
     solved it (the same tables, the columns in the same order from the same starts, up to
-    the one asked for) and its row taken out as _table_rows takes it; with its law
-    (binding mask (n - 1), pieces' durations: _Chosen keeps it): (vk, dt, mask, pieces)."""
+    the one asked for) and its row taken out as _table_rows takes it.  laws: with its law
+    (binding mask (n - 1), pieces' durations: _Chosen keeps it), (vk, dt, mask, pieces)."""
     out = [None] * len(items)
     by_src = {}
     for q, it in enumerate(items):
@@ -1080,7 +1080,8 @@ def _knots_again(items, profile):
                 bnd = res[c].bound[ix] if n > 1 else np.empty((J.size, 0), bool)
                 P, po = res[c].piece_T, res[c].piece_off
                 for i, (jj, p) in enumerate(zip(J.tolist(), pos[J].tolist())):
-                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1], bnd[i], P[po[p]:po[p + 1]])
+                    out[qs[a + jj]] = ((vk[i:i + 1], dt[i:i + 1], bnd[i], P[po[p]:po[p + 1]]) if laws
+                                       else (vk[i:i + 1], dt[i:i + 1]))
             del res
     return out
 
@@ -1095,7 +1096,7 @@ def _again_plans(items, rules, profile, laws=None):
     list, or None: each item's law put there (mask, pieces, T, beta, predicted time and
     ∫|a|²: _chosen_solved)."""
     got = _knots_again([(st, ag.src, st.chain_T.src_i if ag.i is None else ag.i, T, b)
-                        for st, ag, T, b in items], profile)
+                        for st, ag, T, b in items], profile, laws is not None)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     out = [None] * len(items)
     figs = [None] * len(items)

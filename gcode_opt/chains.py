@@ -446,6 +446,161 @@ class _Again(_KeptLaws):
         raise KeyError(r)
 
 
+class _Chosen(_Again):
+    """The rows of chains of one source src whose plans a plan_chain_segments(remember=False)
+    made (_replay) and whose rows it then dropped, with the law of the row each one chose
+    kept (_keep_chosen): a later ask of that same (T, beta) (the rewrite's remake of a
+    windowed run's plans, schedule._PlansAgain) replays it (_replay by _chosen_laws_of: the
+    knots made again from the law, then the finishing; the same bits) instead of solving
+    the chain again (_again_plans); another candidate is made again as an _Again's.
+    Flat arrays, ~50 bytes a chain and its law's bits and pieces, not an object a chain:
+    ids, the chains' memos' ids, ascending (a chain's place: its memo holds this object,
+    so its id is its own); bits, the binding masks packed (np.packbits) at bit offsets
+    voff; tj, the pieces' durations at offsets poff; figs, (T, beta, predicted time,
+    predicted ∫|a|²) a row."""
+    __slots__ = ("ids", "bits", "voff", "tj", "poff", "figs")
+
+    def __init__(self, src, ids, bound, voff, tj, poff, figs):
+        """The laws of chains (memo ids ids, any order): row i's binding mask
+        bound[voff[i]:voff[i + 1]], its pieces' durations tj[poff[i]:poff[i + 1]], figs[i]."""
+        _Again.__init__(self, src)
+        o = np.argsort(ids, kind="stable")
+        nv, cnt = np.diff(voff)[o], np.diff(poff)[o]
+        self.ids, self.figs = ids[o], figs[o]
+        self.bits = np.packbits(bound[_ranges(voff[:-1][o], nv)])
+        self.tj = tj[_ranges(poff[:-1][o], cnt)]
+        self.voff, self.poff = _offsets(nv, np.int32), _offsets(cnt, np.int32)
+
+    def places(self, memos, T, beta):
+        """Each memo's place here where its chosen law is the candidate (T[i], beta[i]) (arrays
+        of doubles), else -1."""
+        ids = np.fromiter(map(id, memos), np.int64, len(memos))
+        j = np.minimum(np.searchsorted(self.ids, ids), self.ids.size - 1)
+        hit = (self.ids[j] == ids) & (self.figs[j, 0] == T) & (self.figs[j, 1] == beta)
+        return np.where(hit, j, -1)
+
+
+def _keep_chosen(items):
+    """The _Chosen laws of items [(stroke, kept, row)] whose rows _replay(drop=True) is about
+    to drop (ChainMemo.drop_rows: kept a _KeptLaws of its memo's source), one a source:
+    [(_Chosen, its chains' memos)]; _hand_chosen gives them to the memos once dropped."""
+    by_src = {}
+    for st, kept, r in items:
+        memo = st.chain_T
+        src = memo.src
+        if type(kept) is _KeptLaws and len(kept.base) == 8 and src is not None and kept.key == src.key:
+            by_src.setdefault(id(src), (src, []))[1].append((id(memo), memo, kept, r))
+    out = []
+    for src, its in by_src.values():
+        nv, voff, bound, tj, TL, beta, tp, a2, poff = _rows_laws(
+            list(map(_IT2, its)), np.fromiter((it[3] for it in its), np.int64, len(its)))
+        figs = np.stack([TL, beta, tp, a2], axis=1)
+        ids = np.fromiter(map(_IT0, its), np.int64, len(its))
+        out.append((_Chosen(src, ids, bound, voff, tj, poff, figs), list(map(_IT1, its))))
+    return out
+
+
+def _hand_chosen(chosen):
+    """Each memo of _keep_chosen's answer whose rows were dropped (kept its source's _Again)
+    keeps its _Chosen instead."""
+    for ch, memos in chosen:
+        again = ch.src.again
+        for memo in memos:
+            if memo.kept is again:
+                memo.kept = ch
+
+
+def _chosen_solved(again, strokes, laws):
+    """The chains of again [(k, its _Again)] whose laws _again_plans solved (laws[i]:
+    (binding mask, pieces' durations, T, beta, predicted time, predicted ∫|a|²) of
+    again[i]) keep them (a _Chosen a source), where their rows are their memo's source's
+    (its _Again, or a _Chosen of it)."""
+    by_src = {}
+    for (k, ag), law in zip(again, laws):
+        memo = strokes[k].chain_T
+        src = memo.src
+        if memo.kept is ag and src is not None and ag.src is src and (ag is src.again or type(ag) is _Chosen):
+            by_src.setdefault(id(src), (src, []))[1].append((memo, law))
+    for src, its in by_src.values():
+        memos = list(map(_IT0, its))
+        bnd, tj = [law[0] for _, law in its], [law[1] for _, law in its]
+        ch = _Chosen(src, np.fromiter(map(id, memos), np.int64, len(memos)),
+                     np.concatenate(bnd), _offsets(np.array([b.size for b in bnd], np.int64)),
+                     np.concatenate(tj), _offsets(np.array([t.size for t in tj], np.int64)),
+                     np.array([law[2:] for _, law in its], float).reshape(-1, 4))
+        for memo in memos:
+            memo.kept = ch
+
+
+def _offsets(counts, dtype=np.int64):
+    """[0, counts' running sums] (counts an int array)."""
+    out = np.zeros(counts.size + 1, dtype)
+    np.cumsum(counts, out=out[1:])
+    return out
+
+
+def _chosen_asks(again, strokes, T, beta):
+    """plan_chain_segments' again [(k, _Again)] split: (the chains asking for their chosen
+    law [(stroke, _Chosen, its place)] and their k, the others as again)."""
+    by_ch, rest = {}, []
+    for k, ag in again:
+        if type(ag) is _Chosen:
+            by_ch.setdefault(id(ag), (ag, []))[1].append(k)
+        else:
+            rest.append((k, ag))
+    if not by_ch:
+        return [], [], again
+    hits, ks = [], []
+    T, beta = np.frombuffer(T, float), np.frombuffer(beta, float)
+    for ch, kk in by_ch.values():
+        sts = list(map(strokes.__getitem__, kk))
+        at = np.array(kk, np.int64)
+        for st, k, j in zip(sts, kk, ch.places(list(map(_CHAIN_T, sts)), T[at], beta[at]).tolist()):
+            if j < 0:
+                rest.append((k, ch))
+            else:
+                hits.append((st, ch, j))
+                ks.append(k)
+    rest.sort(key=_IT0)             # (again's order: the chains ascending)
+    return hits, ks, rest
+
+
+def _ranges(starts, counts):
+    """The indices starts[i] .. starts[i] + counts[i] of each i, one after the other."""
+    at = np.cumsum(counts) - counts
+    return np.repeat(starts - at, counts) + np.arange(int(counts.sum()))
+
+
+def _chosen_laws_of(Qs, items, profile, gs=None):
+    """_laws_of's answer for items [(stroke, _Chosen, its place there)]: their chosen laws."""
+    order = [q for Q in Qs for q in Q]
+    m = len(order)
+    sts = [items[q][0] for q in order]
+    nv, cnt, figs = np.empty(m, np.int64), np.empty(m, np.int64), np.empty((m, 4))
+    by_ch = {}
+    for i, q in enumerate(order):
+        _, ch, j = items[q]
+        by_ch.setdefault(id(ch), (ch, [], []))
+        by_ch[id(ch)][1].append(i)
+        by_ch[id(ch)][2].append(j)
+    groups = [(ch, np.array(ii, np.int64), np.array(jj, np.int64)) for ch, ii, jj in by_ch.values()]
+    for ch, ii, jj in groups:
+        nv[ii] = ch.voff[jj + 1] - ch.voff[jj]
+        cnt[ii] = ch.poff[jj + 1] - ch.poff[jj]
+        figs[ii] = ch.figs[jj]
+    voff, poff = np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64)
+    np.cumsum(nv, out=voff[1:])
+    np.cumsum(cnt, out=poff[1:])
+    bound, tj = np.empty(int(voff[-1]), bool), np.empty(int(poff[-1]))
+    for ch, ii, jj in groups:
+        bits = np.unpackbits(ch.bits, count=int(ch.voff[-1])).view(bool)
+        bound[_ranges(voff[ii], nv[ii])] = bits[_ranges(ch.voff[jj].astype(np.int64), nv[ii])]
+        tj[_ranges(poff[ii], cnt[ii])] = ch.tj[_ranges(ch.poff[jj].astype(np.int64), cnt[ii])]
+    TL, beta, tp, a2 = (np.ascontiguousarray(figs[:, c]) for c in range(4))
+    gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _laws_caps(sts, gso, profile), gso
+
+
 _knots_s = curves.knots_s
 
 
@@ -480,7 +635,7 @@ def _settle_ends_plans(plans, ends, V, A, F):
 _TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
 
 
-def _replay(items, rules, profile, drop=False):
+def _replay(items, rules, profile, drop=False, laws_of=None):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
     table did, or _finish_rows_dt chain by chain); row by row the table's numbers.  drop:
@@ -488,20 +643,24 @@ def _replay(items, rules, profile, drop=False):
     copied out (by groups: all rows gathered, then every chain's dropped, then the plans
     made; chain by chain: as each plan is made); the plans hold their own knot speeds
     then, not views of the candidates' arrays, and items' kept entries are cleared (None):
-    the caller's list holds no candidate row once its plan is made."""
+    the caller's list holds no candidate row once its plan is made.  laws_of: what gives
+    the rows' laws (_laws_of's answer; None: _laws_of, from kept rows; _chosen_laws_of, from
+    the chains' chosen laws, items [(stroke, _Chosen, its place there)])."""
     out = [None] * len(items)
+    by_law = laws_of is not None
+    laws_of = laws_of or _laws_of
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     gs = [curves.geom(st, profile) for st, _, _ in items]
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
-        if items and all(len(kept.base) == 8 for _, kept, _ in items):
+        if items and (by_law or all(len(kept.base) == 8 for _, kept, _ in items)):
             # the knots of every row's law made again together (not a vertices_at call a chain)
             by_n = {}
             for q, n in enumerate(curves.seg_counts(gs)):
                 by_n.setdefault(n, []).append(q)
             Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
-            for Q, (vk, dt, tp, a2) in zip(Qs, _gather_batches(Qs, items, profile, gs)):
+            for Q, (vk, dt, tp, a2) in zip(Qs, _gather_batches(Qs, items, profile, gs, laws_of)):
                 for i, q in enumerate(Q):
                     rows[q] = (vk[i], dt[i], tp[i], a2[i])
         for q, (st, kept, r) in enumerate(items):
@@ -523,8 +682,8 @@ def _replay(items, rules, profile, drop=False):
     # (s30: the rows are kept as their laws: the chosen rows' laws are copied out, then the
     # rows dropped, then the knots made again group by group as the plans are made)
     Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
-    if all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
-        groups = _gather_laws(Qs, items, profile, gs)     # (every row by its law)
+    if by_law or all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
+        groups = _gather_laws(Qs, items, profile, gs, laws_of)     # (every row by its law)
         batches = []
     else:
         groups = []
@@ -606,29 +765,31 @@ def _gather_rows(kept, rs, sts, profile):
     return vk, dt, tp.tolist(), a2.tolist()
 
 
-def _gather_batches(Qs, items, profile, gs=None):
+def _gather_batches(Qs, items, profile, gs=None, laws_of=None):
     """_gather_rows of each batch Q of Qs (items' indices; items [(stroke, _KeptLaws, row)],
     every row kept by its law, a batch's chains of one number of segments; gs: the
-    strokes' geometries, items' order, or None)."""
-    return [x for grp, laws in _gather_laws(Qs, items, profile, gs) for x in _laws_knots(grp, laws, profile)]
+    strokes' geometries, items' order, or None; laws_of: as _gather_laws')."""
+    return [x for grp, laws in _gather_laws(Qs, items, profile, gs, laws_of) for x in _laws_knots(grp, laws, profile)]
 
 
-def _gather_laws(Qs, items, profile, gs=None):
+def _gather_laws(Qs, items, profile, gs=None, laws_of=None):
     """The laws of the rows of the batches Qs (as _gather_batches), copied out of their
     kept bases, consecutive batches together up to REPLAY_SEGS segments: [(those batches,
     their laws)] for _laws_knots, which needs no kept row (the chains' rows can be dropped
     first: only the chosen rows' laws, ~1/5 of the kept bytes, are held while the plans are
-    made; each call's temporaries stay in the caches)."""
+    made; each call's temporaries stay in the caches).  laws_of: _laws_of (None) or another
+    giving its answer from other items (_chosen_laws_of)."""
+    laws_of = laws_of or _laws_of
     out, grp, segs = [], [], 0
     for Q in Qs:
         w = len(Q) * curves.geom(items[Q[0]][0], profile).d.size
         if grp and segs + w > REPLAY_SEGS:
-            out.append((grp, _laws_of(grp, items, profile, gs)))
+            out.append((grp, laws_of(grp, items, profile, gs)))
             grp, segs = [], 0
         grp.append(Q)
         segs += w
     if grp:
-        out.append((grp, _laws_of(grp, items, profile, gs)))
+        out.append((grp, laws_of(grp, items, profile, gs)))
     return out
 
 
@@ -706,17 +867,37 @@ def _laws_of(Qs, items, profile, gs=None):
     times, predicted ∫|a|², the chains' vertex caps (flat), their geometries).  gs: the
     items' geometries (items' order), or None (made here)."""
     order = [q for Q in Qs for q in Q]
-    m = len(order)
     its = list(map(items.__getitem__, order))
     sts = list(map(_IT0, its))
     kept = list(map(_IT1, its))
+    rows = np.fromiter(map(_IT2, its), np.int64, len(its))
+    del its
+    nv, voff, bound, tj, TL, beta, tp, a2, _ = _rows_laws(kept, rows)
+    gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
+    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _laws_caps(sts, gso, profile), gso
+
+
+def _laws_caps(sts, gso, profile):
+    """The chains' vertex caps (_flat_chains' cv) joined, taken now: _drop drops them with
+    the rows (each geometry's chain_caps where every one has them, the usual case: what
+    vertex_caps returns then, without a call a chain)."""
+    caps = list(map(_CHAIN_CAPS, gso))
+    if not all(map(_IS_NOT_NONE, caps)):
+        caps = _kept_caps(sts, gso, profile)
+    return _join_caps(caps)
+
+
+def _rows_laws(kept, rows):
+    """The laws of the rows rows[i] of kept[i] (_KeptLaws of bases of 8), in that order:
+    (vertices a row, their offsets, binding masks (flat), pieces' durations (flat), T,
+    beta, predicted times, predicted ∫|a|², the pieces' offsets)."""
+    m = len(kept)
     # the rows grouped by their kept base (the chains finished together share one): its
     # rows' places lo + row, by numpy over the items (not a dict entry and two appends a
     # chain); a group's items in their order, as a dict of lists gathered them
     lo, got = objfields.codes(kept, "lo", None), objfields.ids(kept, "base")    # (one compiled pass each)
-    qq_all = ((np.fromiter(map(_LO, kept), np.int64, m) if lo is None else lo)
-              + np.fromiter(map(_IT2, its), np.int64, m))
-    del its, lo
+    qq_all = (np.fromiter(map(_LO, kept), np.int64, m) if lo is None else lo) + rows
+    del lo
     if got is not None:
         # the groups in the order unique_first_inverse gives them (their bases' ids
         # ascending): each distinct base's rank among the few ids, a row's its base's
@@ -765,14 +946,7 @@ def _laws_of(Qs, items, profile, gs=None):
         src = np.repeat(p0 - at, c) + np.arange(k)
         dst = np.repeat(poff[ii] - at, c) + np.arange(k)
         tj[dst] = piece_t[src]
-    # the chains' vertex caps (_flat_chains' cv) taken now: _drop drops them with the rows
-    # (each geometry's chain_caps where every one has them, the usual case: what
-    # vertex_caps returns then, without a call a chain)
-    gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
-    caps = list(map(_CHAIN_CAPS, gso))
-    if not all(map(_IS_NOT_NONE, caps)):
-        caps = _kept_caps(sts, gso, profile)
-    return sts, nv, voff, bound, tj, TL, beta, tp, a2, _join_caps(caps), gso
+    return nv, voff, bound, tj, TL, beta, tp, a2, poff
 
 
 def _join_caps(caps):
@@ -834,11 +1008,12 @@ def _drop(st):
         g.chain_caps = None
 
 
-def _knots_again(items, profile):
+def _knots_again(items, profile, laws=False):
     """The knots (vk (n + 1), dt (n)) of candidate rows whose knots were dropped, items
     [(stroke, _Source, its row i there, law T, beta)]: each chain solved again as _figures
     solved it (the same tables, the columns in the same order from the same starts, up to
-    the one asked for) and its row taken out as _table_rows takes it."""
+    the one asked for) and its row taken out as _table_rows takes it.  laws: with its law
+    (binding mask (n - 1), pieces' durations: _Chosen keeps it), (vk, dt, mask, pieces)."""
     out = [None] * len(items)
     by_src = {}
     for q, it in enumerate(items):
@@ -902,26 +1077,32 @@ def _knots_again(items, profile):
                     vk[:, 1:-1] = res[c].vert_v[ix]
                     tk[:, 1:-1] = res[c].vert_t[ix]
                 dt = _row_steps(tk)
-                for i, jj in enumerate(J.tolist()):
-                    out[qs[a + jj]] = (vk[i:i + 1], dt[i:i + 1])
+                bnd = res[c].bound[ix] if n > 1 else np.empty((J.size, 0), bool)
+                P, po = res[c].piece_T, res[c].piece_off
+                for i, (jj, p) in enumerate(zip(J.tolist(), pos[J].tolist())):
+                    out[qs[a + jj]] = ((vk[i:i + 1], dt[i:i + 1], bnd[i], P[po[p]:po[p + 1]]) if laws
+                                       else (vk[i:i + 1], dt[i:i + 1]))
             del res
     return out
 
 
-def _again_plans(items, rules, profile):
+def _again_plans(items, rules, profile, laws=None):
     """SegmentPlans of candidates whose knots were dropped, items [(stroke, _Again, law
     T, beta)]: the knots made again (_knots_again), then finished as the candidate
     table's finishing did (_Finisher: by groups of a segment count under GROUP_JUNCTIONS,
     else chain by chain; each row's numbers its own): its predicted figures and, from the
     same call, the accelerations and feeds _replay would make of that row again (the
-    finishing's acc and feed do not depend on predict: one finishing, not two)."""
+    finishing's acc and feed do not depend on predict: one finishing, not two).  laws: a
+    list, or None: each item's law put there (mask, pieces, T, beta, predicted time and
+    ∫|a|²: _chosen_solved)."""
     got = _knots_again([(st, ag.src, st.chain_T.src_i if ag.i is None else ag.i, T, b)
-                        for st, ag, T, b in items], profile)
+                        for st, ag, T, b in items], profile, laws is not None)
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
     out = [None] * len(items)
+    figs = [None] * len(items)
     if grouped:
         by_n = {}
-        for q, (vk, _) in enumerate(got):
+        for q, (vk, *_) in enumerate(got):
             by_n.setdefault(vk.shape[1], []).append(q)
         for qs in by_n.values():
             for a in range(0, len(qs), FINISH_ROWS):
@@ -933,15 +1114,19 @@ def _again_plans(items, rules, profile):
                                                          np.arange(len(Q)), vk, dt, rules, profile)
                 ends = _ends_rows(sts, vk.shape[1] - 1)
                 for i, q in zip(_row_ints(len(Q)), Q):
+                    figs[q] = (float(t[i]), float(a2[i]))
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
                 if ends is not None:
                     _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
     else:
         for q, (st, _, _, _) in enumerate(items):
-            vk, dt = got[q]
+            vk, dt = got[q][:2]
             acc, feed, t, a2, _ = _finish_rows_dt(st, vk, dt, rules, profile)
+            figs[q] = (float(t[0]), float(a2[0]))
             out[q] = SegmentPlan(_knots_s(st.ends_d), vk[0], acc[0], feed[0], float(t[0]), float(a2[0]))
+    if laws is not None:
+        laws.extend((g[2], g[3], T, b) + f for g, (_, _, T, b), f in zip(got, items, figs))
     return out
 
 
@@ -1897,13 +2082,28 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
         from .pipeline import trim_heap
         trim_heap()
     # (the rows' kept objects handed over in items, not held here: _replay drops them as it goes)
+    # remember False: each chain keeps the law it chose, replayed if asked again (_Chosen)
+    chosen = None if remember else _keep_chosen(items)
     for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
         out[k] = plan
     del items
+    if chosen:
+        _hand_chosen(chosen)
+    del chosen
     if again:
-        plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile)
+        hits, ks, again = _chosen_asks(again, strokes, T, b_in)
+        if hits:
+            for k, plan in zip(ks, _replay(hits, rules, profile, laws_of=_chosen_laws_of)):
+                out[k] = plan
+        del hits
+    if again:
+        laws = None if remember else []
+        plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile, laws)
         for (k, _), plan in zip(again, plans):
             out[k] = plan
+        if laws:
+            _chosen_solved(again, strokes, laws)
+        del laws
     if cold:
         Ta = np.array(T, float)
         for k, law in zip(cold, solve([strokes[k] for k in cold], Ta[cold], beta[cold], profile)):
@@ -2730,16 +2930,21 @@ def _run_starts(j):
     return out
 
 
+def _dropped_from(kept, src):
+    """Is kept src's dropped rows (its _Again, or a _Chosen of src: its other rows are src's)?"""
+    return kept is src.again or (type(kept) is _Chosen and kept.src is src)
+
+
 def _own_source(memo, src, i):
     """Make src (row i) the source of memo's rows; rows of another source it dropped keep
     theirs (an _Again of their own row)."""
     old = memo.src
     if old is not None and old is not src:
         mine = _Again(old, memo.src_i)
-        if memo.kept is old.again:
+        if _dropped_from(memo.kept, old):
             memo.kept = mine
         elif isinstance(memo.kept, list):
-            memo.kept = [mine if x is old.again else x for x in memo.kept]
+            memo.kept = [mine if _dropped_from(x, old) else x for x in memo.kept]
     memo.src, memo.src_i = src, i
 
 

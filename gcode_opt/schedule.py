@@ -1242,16 +1242,12 @@ class _ClassFigures:
         if self.cls is None or not rows.size:
             return rows, None
         keys = _class_keys(self.cls, self.T, self.beta, rows)
-        got = list(map(self.known.get, keys, repeat(_UNKNOWN)))
-        new = np.fromiter(map(_IS_UNKNOWN, got), bool, rows.size)
-        if new.all():
-            return rows, keys
-        old = rows[~new]
-        figs = [f for f, n in zip(got, new.tolist()) if not n]
-        failed = {i: f for i, f in zip(old.tolist(), figs) if type(f) is str}
-        seg_l = [None if f is None or type(f) is str else f for f in figs]
-        _keep_plans(plan, strokes, old, seg_l, failed, None, a2_orig[old], in_place=True)
-        return rows[new], list(compress(keys, new.tolist()))
+        old, _, figs, new, new_keys = _split_known(rows, keys, self.known, _UNKNOWN)
+        if old.size:
+            failed = {i: f for i, f in zip(old.tolist(), figs) if type(f) is str}
+            seg_l = [None if f is None or type(f) is str else f for f in figs]
+            _keep_plans(plan, strokes, old, seg_l, failed, None, a2_orig[old], in_place=True)
+        return new, new_keys
 
     def learn(self, keys, rows, made, why):
         """The figures of the plans made for rows (made: their plans, before they were judged)."""
@@ -1260,6 +1256,19 @@ class _ClassFigures:
         known = self.known
         for key, i, seg in zip(keys, rows.tolist(), made):
             known[key] = why.get(i) or (None if seg is None else _Figures(seg))
+
+
+def _split_known(rows, keys, table, missing):
+    """(known rows, their keys, their values in table, the other rows, their keys) of rows
+    keyed by keys (a list, one a row); missing: table.get's answer for a key it does not
+    hold (a sentinel where None is a value).  The rows keep their order on both sides."""
+    got = list(map(table.get, keys, repeat(missing)))
+    new = np.fromiter(map(partial(is_, missing), got), bool, rows.size)
+    if new.all():
+        return rows[:0], [], [], rows, keys
+    known, new_l = (~new).tolist(), new.tolist()
+    return (rows[~new], list(compress(keys, known)), list(compress(got, known)), rows[new],
+            list(compress(keys, new_l)))
 
 
 def _keyed(line_cls, T, beta):
@@ -1276,7 +1285,6 @@ def _class_keys(line_cls, T, beta, rows):
 
 _KEY24 = np.dtype((np.void, 24))
 _UNKNOWN = object()         # (no key in _ClassFigures' memo)
-_IS_UNKNOWN = partial(is_, _UNKNOWN)
 
 
 def segs_for(plan, rows, strokes):
@@ -1339,14 +1347,9 @@ class _PlansAgain:
         todo = rows
         if _keyed(cls, plan.T, plan.beta) and rows.size:
             keys = _class_keys(cls, plan.T, plan.beta, rows)
-            got = list(map(last.get, keys))
-            new = np.fromiter(map(_IS_NONE, got), bool, rows.size)
-            if not new.all():
-                old = ~new
-                seg_l = list(compress(got, old.tolist()))
-                _put_at(segs, rows[old], seg_l)
-                now.update(zip(compress(keys, old.tolist()), seg_l))
-                todo, keys = rows[new], list(compress(keys, new.tolist()))
+            old, old_keys, seg_l, todo, keys = _split_known(rows, keys, last, None)
+            _put_at(segs, old, seg_l)
+            now.update(zip(old_keys, seg_l))
         plan.remade_keys = last = None       # (the last window's plans not held while these are made)
 
         def make(r):

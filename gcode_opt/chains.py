@@ -453,7 +453,8 @@ class _Chosen(_Again):
     windowed run's plans, schedule._PlansAgain) replays it (_replay by _chosen_laws_of: the
     knots made again from the law, then the finishing; the same bits) instead of solving
     the chain again (_again_plans); another candidate is made again as an _Again's.
-    Flat arrays, ~50 bytes a chain and its law's bits and pieces, not an object a chain:
+    Flat arrays, not an object a chain (~130 bytes a chain on the gyroid plate, its pieces'
+    durations most of it: benchmarks/replay54.md):
     ids, the chains' memos' ids, ascending (a chain's place: its memo holds this object,
     so its id is its own); bits, the binding masks packed (np.packbits) at bit offsets
     voff; tj, the pieces' durations at offsets poff; figs, (T, beta, predicted time,
@@ -580,17 +581,15 @@ def _chosen_laws_of(Qs, items, profile, gs=None):
     by_ch = {}
     for i, q in enumerate(order):
         _, ch, j = items[q]
-        by_ch.setdefault(id(ch), (ch, [], []))
-        by_ch[id(ch)][1].append(i)
-        by_ch[id(ch)][2].append(j)
+        _, ii, jj = by_ch.setdefault(id(ch), (ch, [], []))
+        ii.append(i)
+        jj.append(j)
     groups = [(ch, np.array(ii, np.int64), np.array(jj, np.int64)) for ch, ii, jj in by_ch.values()]
     for ch, ii, jj in groups:
         nv[ii] = ch.voff[jj + 1] - ch.voff[jj]
         cnt[ii] = ch.poff[jj + 1] - ch.poff[jj]
         figs[ii] = ch.figs[jj]
-    voff, poff = np.zeros(m + 1, np.int64), np.zeros(m + 1, np.int64)
-    np.cumsum(nv, out=voff[1:])
-    np.cumsum(cnt, out=poff[1:])
+    voff, poff = _offsets(nv), _offsets(cnt)
     bound, tj = np.empty(int(voff[-1]), bool), np.empty(int(poff[-1]))
     for ch, ii, jj in groups:
         bits = np.unpackbits(ch.bits, count=int(ch.voff[-1])).view(bool)
@@ -920,8 +919,7 @@ def _rows_laws(kept, rows):
     nv = np.empty(m, np.int64)                  # vertices a row
     for b, ii in groups:
         nv[ii] = b[0].shape[1]
-    voff = np.zeros(m + 1, np.int64)
-    np.cumsum(nv, out=voff[1:])
+    voff = _offsets(nv)
     TL, beta, tp, a2 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     bound = np.empty(int(voff[-1]), bool)
     cnt = np.empty(m, np.int64)
@@ -936,16 +934,11 @@ def _rows_laws(kept, rows):
         p0 = sp[:, 0].astype(np.int64)
         cnt[ii] = sp[:, 1]
         parts.append((ii, p0, b[1]))
-    poff = np.zeros(m + 1, np.int64)
-    np.cumsum(cnt, out=poff[1:])
+    poff = _offsets(cnt)
     tj = np.empty(int(poff[-1]))
     for ii, p0, piece_t in parts:       # each row's pieces to its place in the order
         c = cnt[ii]
-        at = np.cumsum(c) - c
-        k = int(c.sum())
-        src = np.repeat(p0 - at, c) + np.arange(k)
-        dst = np.repeat(poff[ii] - at, c) + np.arange(k)
-        tj[dst] = piece_t[src]
+        tj[_ranges(poff[ii], c)] = piece_t[_ranges(p0, c)]
     return nv, voff, bound, tj, TL, beta, tp, a2, poff
 
 

@@ -43,8 +43,8 @@ from .probe_rng import ProbeRng
 from .distinct import unique_first_inverse
 from . import curves
 from . import objfields
-from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v,
-                                marlin_safe_speed)
+from .firmware.junction import (SQRT2_M1, klipper_corner_v2, marlin_jd_v2, marlin_jd_v2_rows,
+                                marlin_jerk_junction_v, marlin_safe_speed)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import chain as _chain_law
 from .laws.chain import ChainProblem, _Flat, cold_binding, solve_chains, solve_flat
@@ -1367,21 +1367,31 @@ def shape_segments(d, t, va, vb, a_top=np.inf, trapezoid=True):
     acc = np.where(bump, tri_a, ramp_a)
     feed = np.where(bump, peak, np.maximum(va, vb))
     if trapezoid and bump.any():
-        b = np.flatnonzero(bump)
-        lo = np.maximum(d[b] / tt[b], np.maximum(va[b], vb[b]))
-        F = lo[:, None] + (peak[b] - lo)[:, None] * TRAP_GRID[None, :]
-        x, y = va[b][:, None], vb[b][:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a = ((F - x) ** 2 + (F - y) ** 2) / (2.0 * (F * tt[b][:, None] - d[b][:, None]))
-            at = a_top if np.ndim(a_top) == 0 else np.asarray(a_top, float)[b][:, None]   # per segment
-        cost = np.where((a > 0) & (a <= at), a * (2.0 * F - x - y), np.inf)
-        j = np.argmin(cost, axis=1)
-        r = np.arange(b.size)
-        tri_cost = tri_a[b] * (2.0 * peak[b] - va[b] - vb[b])
-        take = np.isfinite(cost[r, j]) & (cost[r, j] < tri_cost)
-        acc[b] = np.where(take, a[r, j], tri_a[b])
-        feed[b] = np.where(take, F[r, j], peak[b])
+        bumps = np.flatnonzero(bump)
+        for c in range(0, bumps.size, SHAPE_BUMPS):
+            _shape_bumps(bumps[c:c + SHAPE_BUMPS], d, tt, va, vb, a_top, peak, tri_a, acc, feed)
     return acc, np.maximum(feed, MIN_FEED_V)
+
+
+SHAPE_BUMPS = 4096      # bumps whose trapezoids shape_segments tries at once ((bumps, 32) arrays: ~1 MB each)
+
+
+def _shape_bumps(b, d, tt, va, vb, a_top, peak, tri_a, acc, feed):
+    """shape_segments' trapezoids tried on the bumps b (each bump's numbers its own: the
+    same whatever bumps are tried with it), written in acc and feed."""
+    lo = np.maximum(d[b] / tt[b], np.maximum(va[b], vb[b]))
+    F = lo[:, None] + (peak[b] - lo)[:, None] * TRAP_GRID[None, :]
+    x, y = va[b][:, None], vb[b][:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = ((F - x) ** 2 + (F - y) ** 2) / (2.0 * (F * tt[b][:, None] - d[b][:, None]))
+        at = a_top if np.ndim(a_top) == 0 else np.asarray(a_top, float)[b][:, None]   # per segment
+    cost = np.where((a > 0) & (a <= at), a * (2.0 * F - x - y), np.inf)
+    j = np.argmin(cost, axis=1)
+    r = np.arange(b.size)
+    tri_cost = tri_a[b] * (2.0 * peak[b] - va[b] - vb[b])
+    take = np.isfinite(cost[r, j]) & (cost[r, j] < tri_cost)
+    acc[b] = np.where(take, a[r, j], tri_a[b])
+    feed[b] = np.where(take, F[r, j], peak[b])
 
 
 def finish_chain(st, law, rules, profile):
@@ -1437,9 +1447,8 @@ def _finish_rows_dt(st, vk, tk, rules, profile, predict=True):
         step_v = curves.JERK_F_STEP_R * min(st.lim.jerk_x, st.lim.jerk_y)
         # its floor is row by row arithmetic on the feeds as shaped: every row at once
         acc = _junction_accels(st, g, vk, acc, rules, profile, feed)
-    else:       # row by row: each row's junction accelerations from its own feeds as shaped
-        for r in range(k):
-            acc[r] = _junction_accels(st, g, vk[r], acc[r], rules, profile, feed[r])
+    else:       # each row's junction accelerations from its own feeds as shaped, all rows at once
+        acc = _junction_accels(st, g, vk, acc, rules, profile, feed)
     acc = hold_cruise_accels_rows(acc, a_top)
     feed = _tent_rows(feed, st.v_feed, step_v)
     if not predict:
@@ -1466,7 +1475,8 @@ def _tent_rows(need, v_feed, step_v, core=None):
     return tent_feeds_rows(need, v_feed, step_v)
 
 
-GROUP_JUNCTIONS = ("jerk", "scv")   # junction laws whose finishing runs over groups of chains
+GROUP_JUNCTIONS = ("jerk", "scv", "jd")   # junction laws whose finishing runs over groups of chains
+CORE_JUNCTIONS = ("jerk", "scv")          # and those the chain core's chain_finish takes
 
 
 def _window(g, profile):
@@ -1571,10 +1581,8 @@ def _finish_stacked_dt(sts, gs, own, vk, tk, rules, profile, predict=True, du=No
         if profile.block_buffer > 0:       # _junction_accels under classic jerk: the lookahead floor
             window = _windows(gs, profile)[own]
             acc = np.maximum(acc, np.minimum(1.1 * feed ** 2 / (2.0 * window), a_top[:, None]))
-    else:       # row by row: each row's junction accelerations from its own feeds as shaped
-        for r in range(R):
-            c = own[r]
-            acc[r] = _junction_accels(sts[c], gs[c], vk[r], acc[r], rules, profile, feed[r])
+    else:       # each row's junction accelerations from its own feeds as shaped, all rows at once
+        acc = _junction_accels_stacked(sts, gs, own, d, vk, acc, a_top, rules, profile, feed)
     acc = hold_cruise_accels_rows(acc, a_top)
     feed = _tent_rows(feed, np.array([st.v_feed for st in sts], float)[own], step_v)
     if not predict:                  # (the caller has the figures: _replay)
@@ -1633,6 +1641,37 @@ def _cf_rows(sts, core=None):
     return np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
 
 
+def _junction_accels_stacked(sts, gs, own, d, vk, acc, a_top, rules, profile, feed):
+    """_junction_accels (scv, jd) of stacked rows of chains with the same number of
+    segments (own: the chain of each row; d (R, n), a_top (R,)), every row at once: each
+    row's numbers are those of its chain's own call (curves.junctions_raised_rows, then the
+    lookahead floor on _windows' sums, the same dot of the same terms); a row where the
+    per-junction form would raise is made by its chain's call."""
+    e = np.array([_junction_ends(st) for st in sts], float)[own]
+    vj = np.array(vk, float)
+    vj[:, 0] = np.where(e[:, 0] >= FULL_STOP_V, e[:, 0], 0.0)
+    vj[:, -1] = np.where(e[:, 1] >= FULL_STOP_V, e[:, 1], 0.0)
+    U = np.stack([g.u for g in gs])[own]
+    out, odd = curves.junctions_raised_rows(e[:, 2], e[:, 3], e[:, 4] != 0.0, e[:, 5], e[:, 6], e[:, 7] != 0.0,
+                                            U[..., 0], U[..., 1], d, vj, acc, rules.junction, e[:, 8:9],
+                                            a_top[:, None])
+    if profile.block_buffer > 0:
+        window = _windows(gs, profile)[own]
+        out = np.maximum(out, np.minimum(1.1 * feed ** 2 / (2.0 * window), a_top[:, None]))
+    for r in np.flatnonzero(odd.any(axis=1)).tolist():
+        c = own[r]
+        out[r] = _junction_accels(sts[c], gs[c], vk[r], acc[r], rules, profile, feed[r])
+    return out
+
+
+def _junction_ends(st):
+    """(v0, v1, prev_u x, y, has one, next_u x, y, has one, jd) of a chain."""
+    pu, nu = st.prev_u, st.next_u
+    p = (0.0, 0.0, 0.0) if pu is None else (pu[0], pu[1], 1.0)
+    q = (0.0, 0.0, 0.0) if nu is None else (nu[0], nu[1], 1.0)
+    return (st.v0, st.v1) + p + q + (st.lim.jd,)
+
+
 def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=None):
     """_finish_stacked_dt's numbers by the chain core's chain_finish (one C call for the
     batch: the same operations in numpy's order, the same bits: tests/test_speed21_chainfin_core.py),
@@ -1642,7 +1681,7 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
     chain core if it is there, False = never).  du: curves.stack_du(gs), or None (made here)."""
     core = _chain_law.CORE_MOD if core is None else core
     fn = getattr(core, "chain_finish", None) if core else None
-    if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+    if fn is None or rules.junction not in CORE_JUNCTIONS or profile.junction != rules.junction:
         return None
     jerk = rules.junction == "jerk"
     n, m, R = gs[0].d.size, len(sts), vk.shape[0]
@@ -1707,7 +1746,7 @@ def _finish_ragged(batches, rules, profile, core=None):
     (None = the chain core if it is there, False = never)."""
     core = _chain_law.CORE_MOD if core is None else core
     fn = getattr(core, "chain_finish_ragged", None) if core else None
-    if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
+    if fn is None or rules.junction not in CORE_JUNCTIONS or profile.junction != rules.junction:
         return None
     nb = 0
     if profile.block_buffer > 0:
@@ -1949,6 +1988,14 @@ def _predict_group(sts, gs, own, d, acc, feed, profile):
         vj = _jerk_junction_v(u[:, :-1].reshape(-1, 2), u[:, 1:].reshape(-1, 2), fp, fn,
                               jxv, jyv, safe[:, :-1].ravel(), safe[:, 1:].ravel())
         v[:, 1:-1] = np.minimum(vj, np.minimum(fp, fn)).reshape(R, n - 1)
+    elif profile.junction == "jd":
+        vv = _jd_vertex_v(profile, u, d, acc, feed, lim("jd"), lim("ax_max"), lim("ay_max"))
+        if vv is None:          # (a junction math.sqrt or the law would raise on: chain by chain)
+            vv = np.empty((R, n - 1))
+            for r in range(R):
+                st, g = sts[own[r]], gs[own[r]]
+                vv[r] = _vertex_v_loop(profile, st.lim, g.u, g.d, acc[r:r + 1], feed[r:r + 1])[0]
+        v[:, 1:-1] = vv
     else:
         vj = _scv_junction_v(profile, u, d, acc, lim("scv"), lim("ax_max"), lim("ay_max"))
         v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
@@ -2014,11 +2061,7 @@ def predict_chains(st, g, acc, feed, profile):
         vj = _scv_junction_v(profile, g.u, d, acc, lim.scv, lim.ax_max, lim.ay_max)
         v[:, 1:-1] = np.minimum(vj, np.minimum(feed[:, :-1], feed[:, 1:]))
     else:
-        for r in range(k):
-            for j in range(1, n):
-                vj = _junction_v(profile, lim, tuple(g.u[j - 1]), tuple(g.u[j]), d[j - 1], d[j],
-                                 acc[r, j - 1], acc[r, j], feed[r, j - 1], feed[r, j])
-                v[r, j] = min(vj, feed[r, j - 1], feed[r, j])
+        v[:, 1:-1] = _vertex_v_rows(profile, lim, g.u, d, acc, feed)
     va, vb, t, a2 = _trapezoid_rows(v, acc, d, feed, g.cos_turn)
     c0 = None if st.prev_u is None else curves.dot2(st.prev_u, g.u[0])
     c1 = None if st.next_u is None else curves.dot2(g.u[-1], st.next_u)
@@ -2026,6 +2069,48 @@ def predict_chains(st, g, acc, feed, profile):
         if c is not None and c >= CORNER_COS:
             a2 = a2 + 0.5 * 2.0 * vv * vv * (1.0 - c) / np.maximum(tt, 1e-12)
     return np.sum(t, axis=1), a2
+
+
+def _vertex_v_rows(profile, lim, U, d, acc, feed):
+    """The speed at each interior vertex of k rows of a chain's segments ((k, n)
+    accelerations and feeds, directions U (n, 2)): _junction_v's law, then min with the two
+    feeds; Marlin's junction deviation on arrays (_jd_vertex_v), another law or a junction
+    the per-junction form would raise on vertex by vertex (_vertex_v_loop)."""
+    got = None
+    if profile.junction == "jd":
+        got = _jd_vertex_v(profile, U, d, acc, feed, lim.jd, lim.ax_max, lim.ay_max)
+    return _vertex_v_loop(profile, lim, U, d, acc, feed) if got is None else got
+
+
+def _jd_vertex_v(profile, U, d, acc, feed, jd, ax_max, ay_max):
+    """_vertex_v_loop's numbers under junction deviation on arrays: U (..., n, 2), d, acc
+    and feed (..., n), jd and the caps one value or one a row ((R, 1)).  marlin_jd_v2_rows
+    at the next move's acceleration in force (curves.accel_in_force_rows), sqrt where
+    finite, then Python's min(v, fp, fn) as np.where on its comparisons: the same floats.
+    None where the per-junction form would raise (math.sqrt of a negative, theta 0)."""
+    ux, uy = U[..., 1:, 0], U[..., 1:, 1]
+    a_n = curves.accel_in_force_rows(profile.default_accel_a, acc[..., 1:], ux, uy, ax_max, ay_max)
+    v2, odd = marlin_jd_v2_rows(U[..., :-1, 0], U[..., :-1, 1], ux, uy, d[..., 1:], a_n, jd, ax_max, ay_max)
+    if odd.any() or (v2 < 0.0).any():
+        return None
+    with np.errstate(invalid="ignore"):
+        vj = np.where(np.isfinite(v2), np.sqrt(v2), math.inf)
+    fp, fn = feed[..., :-1], feed[..., 1:]
+    vj = np.where(fp < vj, fp, vj)
+    return np.where(fn < vj, fn, vj)
+
+
+def _vertex_v_loop(profile, lim, U, d, acc, feed):
+    """_vertex_v_rows vertex by vertex (_junction_v)."""
+    k, n = acc.shape
+    v = np.empty((k, n - 1))
+    u = [tuple(x) for x in U]
+    for r in range(k):
+        for j in range(1, n):
+            vj = _junction_v(profile, lim, u[j - 1], u[j], d[j - 1], d[j],
+                             acc[r, j - 1], acc[r, j], feed[r, j - 1], feed[r, j])
+            v[r, j - 1] = min(vj, feed[r, j - 1], feed[r, j])
+    return v
 
 
 def law_T(st, T):

@@ -40,7 +40,7 @@ import numpy as np
 from . import objfields
 from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
-                                klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
+                                accel_to_pass_junction_rows, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
 from .laws import circle as _circle
 from .laws.circle import solve_circles
@@ -78,6 +78,17 @@ def accel_in_force(profile, lim, accel, u):
     if abs(u[1]) > 0 and a * abs(u[1]) > lim.ay_max:
         a = lim.ay_max / abs(u[1])
     return a0, a
+
+
+def accel_in_force_rows(default_a, accel, ux, uy, ax_max, ay_max):
+    """accel_in_force's acceleration in force (its second value) on arrays that broadcast
+    (default_a: the profile's default_accel_a; the caps one value or one a row): the same
+    comparisons and quotients, elementwise."""
+    with np.errstate(all="ignore"):
+        a = np.where(accel > 0, accel, default_a)
+        for u, cap in ((np.abs(ux), ax_max), (np.abs(uy), ay_max)):
+            a = np.where((u > 0) & (a * u > cap), cap / u, a)
+    return a
 
 
 def vertex_cap(profile, lim, accel, pu, u, d_prev, d_next, jerk_r=1.0 - JERK_F_STEP_R):
@@ -2276,23 +2287,75 @@ def junction_accels(st, g, vk, acc, rules, profile, vmax=None):
             acc = np.array([max(x, z) for x in acc.tolist()])
     else:
         vj = np.array(vk, float)
-        vj[0], vj[-1] = v0, v1
-        u = [tuple(x) for x in g.u]
-        pus = [st.prev_u] + u[:-1]            # direction before each segment's start vertex
-        nus = u[1:] + [st.next_u]             # direction after each segment's end vertex
-        for k in range(n):
-            need = accel_to_pass_junction(rules.junction, vj[k], pus[k], u[k], d[k], jd)
-            if rules.junction == "scv":       # Klipper: both moves' accelerations bound the junction
-                need = max(need, accel_to_pass_junction("scv", vj[k + 1], u[k], nus[k], d[k], jd))
-            acc[k] = max(acc[k], min(ACCEL_MARGIN * need, a_top))
+        vj[..., 0], vj[..., -1] = v0, v1
+        acc = _junctions_raised(st, g.u, d, vj, acc, rules.junction, jd, a_top)
     if profile.block_buffer > 0:
         # a finite-lookahead planner must be able to stop within the blocks it knows
         nb = max(profile.block_buffer - 3, 1)
         ext = np.concatenate([d, np.full(nb, d[-1])])
         window = np.convolve(ext, np.ones(nb), "valid")[:n]
         if vmax is None:
-            vmax = np.maximum(vk[:-1], vk[1:])
+            vmax = np.maximum(vk[..., :-1], vk[..., 1:])
         acc = np.maximum(acc, np.minimum(1.1 * vmax ** 2 / (2.0 * window), a_top))
+    return acc
+
+
+def _junctions_raised(st, U, d, vj, acc, junction, jd, a_top):
+    """junction_accels' raise of each segment's acceleration to ACCEL_MARGIN x what its
+    junctions need ("scv": both ends; "jd": its start), for one row of knot speeds vj
+    (n + 1,) or k rows (k, n + 1) of the chain or curve st at once (junctions_raised_rows);
+    a row with a junction the per-junction form would raise on is taken junction by
+    junction (_junctions_raised_row)."""
+    pu, nu = st.prev_u, st.next_u
+    out, odd = junctions_raised_rows(0.0 if pu is None else pu[0], 0.0 if pu is None else pu[1], pu is not None,
+                                     0.0 if nu is None else nu[0], 0.0 if nu is None else nu[1], nu is not None,
+                                     U[:, 0], U[:, 1], d, vj, acc, junction, jd, a_top)
+    if odd.any():
+        if out.ndim == 1:
+            return _junctions_raised_row(st, U, d, vj, acc, junction, jd, a_top)
+        for r in np.flatnonzero(odd.any(axis=-1)).tolist():
+            out[r] = _junctions_raised_row(st, U, d, vj[r], acc[r], junction, jd, a_top)
+    return out
+
+
+def junctions_raised_rows(pux0, puy0, has_p0, nux1, nuy1, has_n1, ux, uy, d, vj, acc, junction, jd, a_top):
+    """_junctions_raised's numbers on rows: the directions ux, uy and lengths d (..., n) of
+    the segments, the knot speeds vj (..., n + 1), the accelerations acc (..., n); the
+    direction before the first segment (pux0, puy0; has_p0 False: a stop) and after the
+    last (nux1, nuy1, has_n1), and jd, a_top, one value or one a row ((R, 1)).
+    accel_to_pass_junction_rows for the junctions (the same floats), Python's max / min
+    as np.where on their comparison.  Returns (acc raised, odd): odd where the
+    per-junction form would raise (a division by zero; the caller takes those rows
+    junction by junction)."""
+    shape = np.shape(d)
+    pux, puy, has_p = np.empty(shape), np.empty(shape), np.ones(shape, bool)
+    pux[..., 1:], puy[..., 1:] = ux[..., :-1], uy[..., :-1]     # direction before each segment's start
+    pux[..., 0], puy[..., 0], has_p[..., 0] = pux0, puy0, has_p0
+    need, odd = accel_to_pass_junction_rows(junction, vj[..., :-1], pux, puy, has_p, ux, uy, d, jd)
+    if junction == "scv":                      # Klipper: both moves' accelerations bound the junction
+        nux, nuy, has_n = np.empty(shape), np.empty(shape), np.ones(shape, bool)
+        nux[..., :-1], nuy[..., :-1] = ux[..., 1:], uy[..., 1:]     # direction after each segment's end
+        nux[..., -1], nuy[..., -1], has_n[..., -1] = nux1, nuy1, has_n1
+        need1, odd1 = accel_to_pass_junction_rows("scv", vj[..., 1:], ux, uy, has_n, nux, nuy, d, jd)
+        need = np.where(need1 > need, need1, need)
+        odd = odd | odd1
+    x = ACCEL_MARGIN * need
+    m = np.where(a_top < x, a_top, x)           # min(x, a_top), then max(acc, m)
+    return np.where(m > acc, m, acc), odd
+
+
+def _junctions_raised_row(st, U, d, vj, acc, junction, jd, a_top):
+    """_junctions_raised of one row, junction by junction (accel_to_pass_junction: raises
+    where it divides by zero)."""
+    acc = np.array(acc, float)
+    u = [tuple(x) for x in U]
+    pus = [st.prev_u] + u[:-1]
+    nus = u[1:] + [st.next_u]
+    for k in range(d.size):
+        need = accel_to_pass_junction(junction, vj[k], pus[k], u[k], d[k], jd)
+        if junction == "scv":
+            need = max(need, accel_to_pass_junction("scv", vj[k + 1], u[k], nus[k], d[k], jd))
+        acc[k] = max(acc[k], min(ACCEL_MARGIN * need, a_top))
     return acc
 
 

@@ -300,6 +300,35 @@ def accel_to_pass_junction_rows(junction, v, pux, puy, has_pu, ux, uy, d, jd):
         return need, odd & ~nil
 
 
+def marlin_jd_v2_rows(pux, puy, ux, uy, d, accel, jd, cx, cy):
+    """marlin_jd_v2 of XY junctions (puz = uz = 0, so Z limits nothing) on arrays that
+    broadcast: the same float operations in the same order, elementwise, each branch
+    computed on every element and the taken one kept.  Returns (v2, odd): odd where the
+    per-junction form would raise (d * ja / theta with theta 0) -- the caller takes those
+    junctions one by one."""
+    import numpy as np
+    with np.errstate(all="ignore"):
+        cos_theta = -(pux * ux + puy * uy + 0.0)        # (+ puz * uz: 0.0, as there)
+        jx, jy = ux - pux, uy - puy
+        jn = np.sqrt(jx * jx + jy * jy + 0.0)           # (+ jz * jz)
+        ja = np.asarray(accel, float)
+        for j, c in ((jx, cx), (jy, cy)):               # axis_limited, X then Y
+            a = np.abs(j / jn)
+            ja = np.where((a > 0.0) & (ja * a > c), c / a, ja)
+        ja = np.where(jn > 0.0, ja, accel)
+        s = 0.5 * (1.0 - cos_theta)
+        sin_d2 = np.where(s > 0.0, np.sqrt(np.where(s > 0.0, s, 0.0)), 0.0)
+        one_m = 1.0 - sin_d2
+        v2 = np.where(one_m > 0.0, ja * jd * sin_d2 / one_m, INF)
+        sharp = (d < 1.0) & (cos_theta < -0.7071067812)
+        theta = _marlin_fast_acos_neg_rows(cos_theta)
+        lim = d * ja / theta
+        v2 = np.where(sharp & (lim < v2), lim, v2)
+        reverse = cos_theta > 0.999999
+        v2 = np.where(reverse, MINIMUM_PLANNER_SPEED * MINIMUM_PLANNER_SPEED, v2)
+        return v2, ~reverse & sharp & (theta == 0.0)
+
+
 def marlin_safe_speed_rows(ux, uy, nom, jx, jy):
     """marlin_safe_speed of XY moves (uz = 0: the Z axis limits nothing) on arrays:
     the same comparisons and quotients, elementwise."""

@@ -1476,7 +1476,7 @@ def _tent_rows(need, v_feed, step_v, core=None):
 
 
 GROUP_JUNCTIONS = ("jerk", "scv", "jd")   # junction laws whose finishing runs over groups of chains
-CORE_JUNCTIONS = ("jerk", "scv")          # and those the chain core's chain_finish takes
+CORE_JUNCTIONS = {"jerk": 0, "scv": 1, "jd": 2}    # and the chain core's code of each (chain_finish)
 
 
 def _window(g, profile):
@@ -1600,19 +1600,22 @@ def _cf_consts(profile):
                      curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
 
 
-_CF_ROW = 15
+_CF_ROW = 16
 
 
 def _cf_row(st):
     """A chain's numbers for _finish_core's P: _a_top, v_feed, v0, v1, the limits' jerk_x,
-    jerk_y, scv, ax_max, ay_max, prev_u and next_u (nan, nan where None) and whether each
-    is there (1.0 / 0.0)."""
+    jerk_y, scv, ax_max, ay_max, prev_u and next_u (nan, nan where None), whether each
+    is there (1.0 / 0.0) and the limits' jd (nan where it is not a float: the chain core
+    then declines a jd chain)."""
     lim, pu, nu = st.lim, st.prev_u, st.next_u
     hp, hn = pu is not None, nu is not None
     px, py = pu if hp else _NAN2
     nx, ny = nu if hn else _NAN2
+    jd = getattr(lim, "jd", None)
     return (min(st.accel, lim.ax_max, lim.ay_max), st.v_feed, st.v0, st.v1, lim.jerk_x, lim.jerk_y, lim.scv,
-            lim.ax_max, lim.ay_max, px, py, nx, ny, 1.0 if hp else 0.0, 1.0 if hn else 0.0)
+            lim.ax_max, lim.ay_max, px, py, nx, ny, 1.0 if hp else 0.0, 1.0 if hn else 0.0,
+            jd if isinstance(jd, float) else math.nan)
 
 
 _NAN2 = (math.nan, math.nan)
@@ -1703,9 +1706,9 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
     # columns: the values the columns were given one list each before
     Q = _cf_rows(sts, core)
     pu, nu = Q[:, 9:11], Q[:, 11:13]
-    P = np.zeros((m, 18))
-    # _a_top, v0, v1 and the law's limits (jerk: v_feed, jerk_x, jerk_y; scv: scv, ax_max,
-    # ay_max): Q's columns copied in one gather (P's columns, Q's)
+    P = np.zeros((m, 19))
+    # _a_top, v0, v1 and the law's limits (jerk: v_feed, jerk_x, jerk_y; scv and jd: scv,
+    # ax_max, ay_max, and jd's own below): Q's columns copied in one gather (P's columns, Q's)
     to, fr = _CF_P_COLS[jerk]
     P[:, to] = Q[:, fr]
     # the end turns, curves.dot2(prev_u, u[0]) and dot2(u[-1], next_u) of predict_chains (its
@@ -1720,9 +1723,11 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
         hn = Q[:, 14] != 0.0
         P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
         P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
+        if rules.junction == "jd":
+            P[:, 18] = Q[:, 15]
     acc, feed = np.empty((R, n)), np.empty((R, n))
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(0 if jerk else 1, 1 if predict else 0, np.ascontiguousarray(own, np.int64),
+    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, np.ascontiguousarray(own, np.int64),
               np.ascontiguousarray(vk, float), np.ascontiguousarray(tk, float), D, U, C, W, ws,
               P, TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
@@ -1774,7 +1779,7 @@ def _finish_ragged(batches, rules, profile, core=None):
     acc, feed = np.empty(cells), np.empty(cells)
     R = int(Rs.sum())
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(0 if rules.junction == "jerk" else 1, 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
+    if not fn(CORE_JUNCTIONS[rules.junction], 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
               coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
               _cf_rows(sts_all, core), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None

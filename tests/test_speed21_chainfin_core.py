@@ -1,8 +1,9 @@
 """The chain core's chain_finish (chains._finish_core: _finish_stacked_dt's whole numeric
 work for a batch of rows in one C call) gives the numpy code's bits: on real batches
 gathered while planning real files under classic jerk (prusa-mk3s, with and without its
-planner buffer) and Klipper's square-corner velocity (voron24, with and without a
-buffer; the Klipper sample's own profile), on random perturbations of them (stops,
+planner buffer), Klipper's square-corner velocity (voron24, with and without a
+buffer; the Klipper sample's own profile) and Marlin's junction deviation (ender3, with
+and without a buffer), on random perturbations of them (stops,
 cruises, short and long durations), for the acceleration and feed rows (predict False,
 _replay's call) and the predicted figures; the numpy path is the reference (a verbatim
 copy of the code before the core, kept here) and the fallback (no core, a stale core, an
@@ -69,7 +70,11 @@ CASES = {   # name: (sample, profile (None: the file's), planner buffer (None: t
     "voron": ("prusa_gyroid_fullspeed.gcode", "voron24", None),
     "voron_buf": ("prusa_gyroid_fullspeed.gcode", "voron24", 16),
     "klipper_auto": ("prusa_gyroid_fullspeed_klipper.gcode", None, None),
+    "ender3": ("prusa_gyroid_fullspeed.gcode", "ender3", None),          # Marlin's junction deviation
+    "ender3_buf": ("prusa_gyroid_fullspeed.gcode", "ender3", 16),
+    "ender3_tight": ("prusa_gyroid_fullspeed.gcode", "ender3", None),    # (a small deviation: the law binds)
 }
+TIGHT_JD = {"ender3_tight": 0.0005}     # junction_deviation_d of a case (else the profile's)
 _BATCHES = {}
 
 
@@ -86,6 +91,8 @@ def _batches(tmp_path_factory, name, lines=5000, keep=24):
     prof = auto_profile(str(src)).profile if pname is None else load_profile(pname)
     if buf is not None:
         prof = dataclasses.replace(prof, block_buffer=buf)
+    if name in TIGHT_JD:
+        prof = dataclasses.replace(prof, junction_deviation_d=TIGHT_JD[name])
     got = []
     orig = chains._finish_stacked_dt
 

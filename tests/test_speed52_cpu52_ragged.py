@@ -32,7 +32,11 @@ CASES = {   # name: (sample, profile (None: the file's), planner buffer (None: t
     "voron": ("prusa_gyroid_fullspeed.gcode", "voron24", None),
     "voron_buf": ("prusa_gyroid_fullspeed.gcode", "voron24", 16),
     "klipper_auto": ("prusa_gyroid_fullspeed_klipper.gcode", None, None),
+    "ender3": ("prusa_gyroid_fullspeed.gcode", "ender3", None),          # Marlin's junction deviation
+    "ender3_buf": ("prusa_gyroid_fullspeed.gcode", "ender3", 16),
+    "ender3_tight": ("prusa_gyroid_fullspeed.gcode", "ender3", None),    # (a small deviation: the law binds)
 }
+TIGHT_JD = {"ender3_tight": 0.0005}     # junction_deviation_d of a case (else the profile's)
 _BATCHES = {}
 
 
@@ -51,6 +55,8 @@ def _batches(tmp_path_factory, name):
     prof = auto_profile(str(src)).profile if pname is None else load_profile(pname)
     if buf is not None:
         prof = dataclasses.replace(prof, block_buffer=buf)
+    if name in TIGHT_JD:
+        prof = dataclasses.replace(prof, junction_deviation_d=TIGHT_JD[name])
     got = []
     orig, orig_r = chains._finish_stacked_dt, chains._finish_ragged
 
@@ -169,7 +175,7 @@ def _synthetic(b, k, rows, rng):
 
 
 @needs_core
-@pytest.mark.parametrize("name", ["mk3s", "voron", "klipper_auto"])
+@pytest.mark.parametrize("name", ["mk3s", "voron", "klipper_auto", "ender3"])
 def test_ragged_on_one_row_and_one_segment_groups(tmp_path_factory, name):
     rng = np.random.default_rng(7)
     real = [b for b in _batches(tmp_path_factory, name) if b[3].shape[1] >= 5]

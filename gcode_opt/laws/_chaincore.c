@@ -1416,7 +1416,8 @@ static PyObject *prims_c(PyObject *self, PyObject *a) {
 
 /* ------------------------------------------------------------------ chain finishing
    chain_finish: chains.py's _finish_stacked_dt (numpy) for a batch of R rows of chains
-   with n segments under the junction laws "jerk" (classic jerk) and "scv" (Klipper):
+   with n segments under the junction laws "jerk" (classic jerk, junction 0), "scv" (Klipper, 1)
+   and "jd" (Marlin's junction deviation, 2):
    shape_segments, the fits test, the acceleration floor / junction accelerations,
    hold_cruise_accels_rows, the classic-jerk tent (tent_rows' envelope) and, when
    predict, _predict_group.  Every double operation is numpy's, in numpy's order; numpy's
@@ -1437,7 +1438,7 @@ static inline double py_min(double a, double b) { return (b < a) ? b : a; }
 
 /* per chain parameters (columns of P) */
 enum { CP_ATOP, CP_VFEED, CP_STEP, CP_JX, CP_JY, CP_SCV, CP_AXM, CP_AYM, CP_V0, CP_V1, CP_C0, CP_C1,
-       CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_N };
+       CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_JD, CP_N };
 /* constants (K) */
 enum { CK_TOL, CK_DEFA, CK_CRUISE, CK_CORNER, CK_SQ2M1, CK_MARGIN, CK_STOPV, CK_MINFEED, CK_N };
 
@@ -1453,6 +1454,67 @@ static inline double cf_atp_scv(double v, int has_pu, double pux, double puy, in
     if (cos_d2 <= 0.0) return 0.0;
     if (sin_d2 <= 0.0) return INFINITY;
     return v2 / (2.0 * d * 0.25 * sin_d2 / cos_d2);
+}
+
+/* junction._marlin_fast_acos_neg: Marlin's polynomial for acos(-cos_theta), in its order */
+static inline double cf_fast_acos_neg(double cos_theta) {
+    double neg = cos_theta < 0.0 ? -1.0 : 1.0;
+    double t = neg * cos_theta;
+    double asinx = (0.032843707 + t * (-1.451838349 + t * (29.66153956 + t * (-131.1123477
+                    + t * (262.8130562 + t * (-242.7199627 + t * 84.31466202))))));
+    return M_PI / 2.0 + neg * asinx;
+}
+
+/* junction.accel_to_pass_junction("jd", v, pu, u, d, jd); *bad = 1 where it would divide
+   by zero (Python raises: the caller declines) */
+static inline double cf_atp_jd(double v, int has_pu, double pux, double puy, double ux, double uy, double d,
+                               double jd, int *bad) {
+    if (v <= 0.0 || !has_pu) return 0.0;
+    double cos_theta = -(ux * pux + uy * puy);
+    if (cos_theta <= -0.999999) {
+        if (d < 1.0) {
+            if (d == 0.0) { *bad = 1; return 0.0; }
+            return v * v * cf_fast_acos_neg(-0.999999) / d;
+        }
+        return 0.0;
+    }
+    double sin_d2 = sqrt(py_max(0.5 * (1.0 - cos_theta), 0.0));
+    double v2 = v * v;
+    double per_a = sin_d2 < 1.0 ? jd * sin_d2 / (1.0 - sin_d2) : INFINITY;
+    if (d < 1.0 && cos_theta < -0.7071067812) {
+        double th = cf_fast_acos_neg(cos_theta);
+        if (th == 0.0) { *bad = 1; return 0.0; }
+        per_a = py_min(per_a, d / th);
+    }
+    return per_a > 0 ? v2 / per_a : INFINITY;
+}
+
+/* junction.marlin_jd_v2 of an XY junction (pu, u; the move's length d and acceleration in
+   force a, the axes' caps cx, cy; Z: nothing), in its order; *bad = 1 where Python would
+   raise (d * ja / theta with theta 0) */
+static inline double cf_jd_v2(double pux, double puy, double ux, double uy, double d, double a, double jd,
+                              double cx, double cy, int *bad) {
+    double cos_theta = -(pux * ux + puy * uy + 0.0);
+    if (cos_theta > 0.999999) return 0.05 * 0.05;          /* MINIMUM_PLANNER_SPEED squared */
+    double jx = ux - pux, jy = uy - puy;
+    double jn = sqrt(jx * jx + jy * jy + 0.0);
+    double ja = a;
+    if (jn > 0.0) {                                        /* axis_limited, X then Y (Z: 0) */
+        double ax = fabs(jx / jn), ay = fabs(jy / jn);
+        if (ax > 0.0 && ja * ax > cx) ja = cx / ax;
+        if (ay > 0.0 && ja * ay > cy) ja = cy / ay;
+    }
+    double s2 = 0.5 * (1.0 - cos_theta);
+    double sin_d2 = s2 > 0.0 ? sqrt(s2) : 0.0;
+    double one_m = 1.0 - sin_d2;
+    double v2 = one_m > 0.0 ? ja * jd * sin_d2 / one_m : INFINITY;
+    if (d < 1.0 && cos_theta < -0.7071067812) {
+        double th = cf_fast_acos_neg(cos_theta);
+        if (th == 0.0) { *bad = 1; return 0.0; }
+        double lim = d * ja / th;
+        if (lim < v2) v2 = lim;
+    }
+    return v2;
 }
 
 /* numpy's maximum and minimum (np_max, np_min) as macros for the vector clones (a call to
@@ -1648,10 +1710,10 @@ VEC_CLONES static void cf_tent_base(int n, const double *restrict f, double side
 }
 
 /* Does chain_finish take a chain's parameters p: every one finite but the end turns' cosines
-   (nan: no neighbour) and, under scv, the step (inf)? */
+   (nan: no neighbour) and, under scv and jd, the step (inf)? */
 static int cf_p_ok(const double *p, int junction) {
     for (int j = 0; j < CP_N; j++)
-        if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction == 1) && !isfinite(p[j])) return 0;
+        if (j != CP_C0 && j != CP_C1 && !(j == CP_STEP && junction >= 1) && !isfinite(p[j])) return 0;
     return 1;
 }
 
@@ -1678,7 +1740,7 @@ static int cf_row(int junction, int predict, Py_ssize_t n, const double *restric
     /* shape_segments: elementwise (cf_shape), then the trapezoids tried on the bumps (scv),
        then the feeds' floor and the accelerations' cap (cf_clamp) */
     cf_shape(n, d, tr, vr, bmp, ttk_, pk_, tri_, ar, fr);
-    for (Py_ssize_t k = 0; junction == 1 && k < n; k++) {
+    for (Py_ssize_t k = 0; junction >= 1 && k < n; k++) {
         if (bmp[k]) {
             double dk = d[k], a0 = vr[k], b0 = vr[k + 1], ttk = ttk_[k], peak = pk_[k], tri_a = tri_[k];
             double lo = np_max(dk / ttk, np_max(a0, b0));
@@ -1715,6 +1777,18 @@ static int cf_row(int junction, int predict, Py_ssize_t n, const double *restric
             need = py_max(need, cf_atp_scv(x[k + 1], 1, u[2 * k], u[2 * k + 1], hn, nux, nuy, d[k]));
             ar[k] = py_max(ar[k], py_min(margin * need, a_top));
         }
+    } else if (junction == 2) {     /* curves.junction_accels (jd: each segment's start junction) */
+        int bad = 0;
+        for (Py_ssize_t k = 0; k <= n; k++) x[k] = vr[k];
+        x[0] = p[CP_V0] >= stop_v ? p[CP_V0] : 0.0;
+        x[n] = p[CP_V1] >= stop_v ? p[CP_V1] : 0.0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            int hp = k > 0 || p[CP_HASP] != 0.0;
+            double pux = k > 0 ? u[2 * (k - 1)] : p[CP_PUX], puy = k > 0 ? u[2 * (k - 1) + 1] : p[CP_PUY];
+            double need = cf_atp_jd(x[k], hp, pux, puy, u[2 * k], u[2 * k + 1], d[k], p[CP_JD], &bad);
+            ar[k] = py_max(ar[k], py_min(margin * need, a_top));
+        }
+        if (bad) return 0;
     }
     if (w) cf_floor(n, ar, fr, w, a_top);
     /* hold_cruise_accels_rows */
@@ -1765,6 +1839,23 @@ static int cf_row(int junction, int predict, Py_ssize_t n, const double *restric
     v[n] = p[CP_V1];
     if (junction == 0) {
         cf_jerk_caps(n, u, fr, p[CP_JX], p[CP_JY], safe, v);
+    } else if (junction == 2) {     /* chains._jd_vertex_v: the law at the next move's accel in force */
+        double jd = p[CP_JD], axm = p[CP_AXM], aym = p[CP_AYM];
+        int bad = 0;
+        for (Py_ssize_t k = 1; k < n; k++) {
+            double a0 = ar[k] > 0 ? ar[k] : defa;
+            double ux = fabs(u[2 * k]), uy = fabs(u[2 * k + 1]);
+            double a = ((ux > 0) && (a0 * ux > axm)) ? axm / ux : a0;
+            a = ((uy > 0) && (a * uy > aym)) ? aym / uy : a;
+            double w2 = cf_jd_v2(u[2 * (k - 1)], u[2 * (k - 1) + 1], u[2 * k], u[2 * k + 1], d[k], a, jd, axm, aym,
+                                 &bad);
+            if (w2 < 0.0) bad = 1;                 /* (math.sqrt raises) */
+            double m = isfinite(w2) ? sqrt(w2) : INFINITY;
+            if (fr[k - 1] < m) m = fr[k - 1];      /* Python's min(v, fp, fn) */
+            if (fr[k] < m) m = fr[k];
+            v[k] = m;
+        }
+        if (bad) return 0;
     } else {
         double scv = p[CP_SCV], axm = p[CP_AXM], aym = p[CP_AYM];
         for (Py_ssize_t k = 0; k < n; k++) {      /* a (aa), jd (vj), dv2 (x) per move */
@@ -1862,7 +1953,7 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
     Py_ssize_t n = R > 0 ? Ntk / R : 0, m = NP / CP_N;
     if (R <= 0 || n < 1 || Ntk != R * n || Nvk != R * (n + 1) || NP != m * CP_N || m < 1 || ND != m * n ||
         NU != 2 * m * n || NC != m * (n - 1) || (NW != 0 && (ws < n || (m - 1) * ws + n > NW)) || NK != CK_N || G < 1 ||
-        Nacc != R * n || Nfeed != R * n || Nt != R || Na2 != R || Nf != R || (junction != 0 && junction != 1)) {
+        Nacc != R * n || Nfeed != R * n || Nt != R || Na2 != R || Nf != R || junction < 0 || junction > 2) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "chain_finish: shapes");
         return NULL;
@@ -1906,9 +1997,9 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
    no floor; the caller takes nb > 0 only where _window_sums uses window_sums).  Each row then
    as chain_finish's (cf_row): the same bits.  False (nothing usable written) where
    chain_finish would decline a group. */
-#define CF_Q 15       /* chains._CF_ROW */
+#define CF_Q 16       /* chains._CF_ROW */
 enum { CQ_ATOP, CQ_VFEED, CQ_V0, CQ_V1, CQ_JX, CQ_JY, CQ_SCV, CQ_AXM, CQ_AYM, CQ_PUX, CQ_PUY, CQ_NUX, CQ_NUY,
-       CQ_HASP, CQ_HASN };
+       CQ_HASP, CQ_HASN, CQ_JD };
 
 /* chains._finish_core's P row of a chain of n segments (directions u) from its Q row q */
 static void cf_p_of(int junction, double step_r, const double *restrict q, const double *restrict u,
@@ -1925,6 +2016,7 @@ static void cf_p_of(int junction, double step_r, const double *restrict q, const
         p[CP_SCV] = q[CQ_SCV];
         p[CP_AXM] = q[CQ_AXM];
         p[CP_AYM] = q[CQ_AYM];
+        if (junction == 2) p[CP_JD] = q[CQ_JD];
     }
     p[CP_C0] = q[CQ_PUX] * u[0] + q[CQ_PUY] * u[1];
     p[CP_C1] = u[2 * (n - 1)] * q[CQ_NUX] + u[2 * (n - 1) + 1] * q[CQ_NUY];
@@ -1992,7 +2084,7 @@ static PyObject *chain_finish_ragged(PyObject *self, PyObject *args) {
     const Py_ssize_t m = M1 - 1;
     int shapes = m >= 1 && R >= 1 && coff[0] == 0 && coff[m] == ND && NU == 2 * ND && NQ == m * CF_Q &&
                  NK == CK_N && G >= 1 && Nt == R && Na2 == R && Nf == R && nb >= 0 && nb <= (1 << 20) &&
-                 (junction == 0 || junction == 1);
+                 junction >= 0 && junction <= 2;
     Py_ssize_t nmax = 0, sn = 0, sn1 = 0;
     for (Py_ssize_t c = 0; c < m && shapes; c++) {
         Py_ssize_t n = coff[c + 1] - coff[c];
@@ -2942,11 +3034,12 @@ static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
 }
 
 /* cf_rows(sts, stroke_type, out) -> 1, or 0 (out then meaningless: chains._cf_row runs
-   instead): chains._cf_row of every stroke of the list sts, row q of out (m, 15 doubles):
+   instead): chains._cf_row of every stroke of the list sts, row q of out (m, 16 doubles):
    _a_top = min(accel, lim.ax_max, lim.ay_max) (Python's min: the first of the least, a
    later one only when below), v_feed, v0, v1, lim's jerk_x, jerk_y, scv, ax_max, ay_max,
    prev_u and next_u (the stroke's _pux, _puy, _nux, _nuy: nan, nan where _pux / _nux is
-   None: no neighbour) and whether each is there (1.0 / 0.0).  Declines (0) a stroke whose
+   None: no neighbour), whether each is there (1.0 / 0.0) and lim.jd (nan where it is not a
+   Python float).  Declines (0) a stroke whose
    type is not exactly stroke_type (whose prev_u, next_u are those four slots) or a value
    that is not a Python float (or a subclass): _cf_row's float() of it is then not
    certainly its double.  Each name's attribute is read by its type's data descriptor,
@@ -2986,23 +3079,23 @@ static inline PyObject *cf_get(PyObject *obj, PyObject *d, PyObject *name) {
 static PyObject *cf_rows(PyObject *self, PyObject *a) {
     PyObject *sts, *stype, *outo;
     if (!PyArg_ParseTuple(a, "O!OO", &PyList_Type, &sts, &stype, &outo)) return NULL;
-    static PyObject *nm[14];
-    static const char *names[14] = {"accel", "v_feed", "v0", "v1", "lim", "_pux", "_puy", "_nux", "_nuy",
-                                    "jerk_x", "jerk_y", "scv", "ax_max", "ay_max"};
-    for (int i = 0; i < 14; i++)          /* (made once; again where a first try failed) */
+    static PyObject *nm[15];
+    static const char *names[15] = {"accel", "v_feed", "v0", "v1", "lim", "_pux", "_puy", "_nux", "_nuy",
+                                    "jerk_x", "jerk_y", "scv", "ax_max", "ay_max", "jd"};
+    for (int i = 0; i < 15; i++)          /* (made once; again where a first try failed) */
         if (!nm[i] && !(nm[i] = PyUnicode_InternFromString(names[i]))) return NULL;
     Bufs b = {.n = 0};
     Py_ssize_t len;
     double *out = get(&b, outo, 8, 1, &len);
     if (!out) { release(&b); return NULL; }
     Py_ssize_t m = PyList_GET_SIZE(sts);
-    if (len != 15 * m) {
+    if (len != 16 * m) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "cf_rows: shapes");
         return NULL;
     }
     int ok = 1;
-    PyObject *sd[9] = {NULL}, *ld[5] = {NULL};          /* the names' descriptors (NULL: getattr) */
+    PyObject *sd[9] = {NULL}, *ld[6] = {NULL};          /* the names' descriptors (NULL: getattr) */
     PyTypeObject *ltype = NULL;                        /* the type ld is of (held) */
     if (PyType_Check(stype))
         cf_descrs((PyTypeObject *)stype, nm, 9, sd);
@@ -3029,14 +3122,20 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
             if (i < 4) v[i] = d;
             else pu[i - 5] = d;
         }
-        double lv[5];                                       /* jerk_x, jerk_y, scv, ax_max, ay_max */
+        double lv[6];                                       /* jerk_x, jerk_y, scv, ax_max, ay_max, jd */
         if (ok && Py_TYPE(lim) != ltype) {
-            cf_drop(ld, 5);
+            cf_drop(ld, 6);
             Py_XSETREF(ltype, (PyTypeObject *)Py_NewRef(Py_TYPE(lim)));
-            cf_descrs(ltype, nm + 9, 5, ld);
+            cf_descrs(ltype, nm + 9, 6, ld);
         }
-        for (int i = 0; ok && i < 5; i++) {
+        for (int i = 0; ok && i < 6; i++) {
             PyObject *x = cf_get(lim, ld[i], nm[9 + i]);
+            if (i == 5 && (!x || !PyFloat_Check(x))) {     /* jd: nan where not a float (_cf_row's) */
+                if (!x) PyErr_Clear();
+                Py_XDECREF(x);
+                lv[5] = NAN;
+                break;
+            }
             if (!x) { PyErr_Clear(); ok = 0; break; }
             if (!PyFloat_Check(x)) { Py_DECREF(x); ok = 0; break; }
             lv[i] = PyFloat_AS_DOUBLE(x);
@@ -3056,15 +3155,16 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
         double at = v[0];                                   /* min(accel, ax_max, ay_max) */
         if (lv[3] < at) at = lv[3];
         if (lv[4] < at) at = lv[4];
-        double *r = out + 15 * q;
+        double *r = out + 16 * q;
         r[0] = at; r[1] = v[1]; r[2] = v[2]; r[3] = v[3];
         r[4] = lv[0]; r[5] = lv[1]; r[6] = lv[2]; r[7] = lv[3]; r[8] = lv[4];
         r[9] = pu[0]; r[10] = pu[1]; r[11] = pu[2]; r[12] = pu[3];
         r[13] = has[0] ? 1.0 : 0.0;
         r[14] = has[1] ? 1.0 : 0.0;
+        r[15] = lv[5];
     }
     cf_drop(sd, 9);
-    cf_drop(ld, 5);
+    cf_drop(ld, 6);
     Py_XDECREF(ltype);
     release(&b);
     return PyLong_FromLong(ok);

@@ -88,6 +88,29 @@ static inline Py_ssize_t num_run(const char *p, Py_ssize_t n)
     return i;
 }
 
+/* The start of a plain line, "G1 X" or "G1 F<n> X" (Cura's first move of a run names its
+   feed first): the index after its 'X', or 0 (another start, an F number not of float()'s
+   grammar over [-.0-9]: the general reading, words.param_texts, would refuse it).  The F
+   is read by nothing the rewrite writes (a block's feeds are its own), as the general
+   reading reads it only to check it. */
+static inline Py_ssize_t plain_start(const char *p, Py_ssize_t m)
+{
+    if (m < 4 || memcmp(p, "G1 ", 3) != 0)
+        return 0;
+    Py_ssize_t i = 3;
+    if (p[i] == 'F') {
+        int dec;
+        Py_ssize_t fn = num_run(p + 4, m - 4);
+        if (fn == 0 || plain_decimal(p + 4, fn, &dec) != fn)
+            return 0;
+        i = 4 + fn;
+        if (i + 2 > m || p[i] != ' ')
+            return 0;
+        i++;
+    }
+    return p[i] == 'X' ? i + 1 : 0;
+}
+
 /* exact powers of ten as doubles */
 static const double POW10[16] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14,
                                  1e15};
@@ -388,8 +411,7 @@ static PyObject *plain_moves(PyObject *self, PyObject *args)
         m -= 1;                                      /* the line without its "\n" */
         Py_ssize_t xa, xn, ya, yn, ea = 0, en = 0, ca = 0, cn = 0;
         int dec;
-        if (m < 4 || memcmp(p, "G1 X", 4) != 0) { shape_ok = 0; break; }
-        i = 4;
+        if ((i = plain_start(p, m)) == 0) { shape_ok = 0; break; }
         xa = i; xn = num_run(p + i, m - i); i += xn;
         if (xn == 0 || i + 2 > m || p[i] != ' ' || p[i + 1] != 'Y') { shape_ok = 0; break; }
         i += 2;
@@ -1855,7 +1877,7 @@ static inline int ascii_bytes(const char *p, Py_ssize_t n)
     return (high & 0x8080808080808080ULL) == 0;
 }
 
-/* one plain line of a stroke, as plain_moves reads it ("G1 X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
+/* one plain line of a stroke, as plain_moves reads it ("G1 [F<n> ]X<n> Y<n>[ E<n>][ \t]*[;c][\r]"):
    1 and its pieces, its numbers' decimals, values and digits' integers (v, u: x, y and e;
    e->p NULL without E), or 0 (not that shape, a number not a plain decimal, a byte not ASCII, a "\r" but
    the line's last: the Python reading).  The line is p[0..m) and p[m] its '\n' (num_word
@@ -1865,9 +1887,8 @@ static inline __attribute__((always_inline)) int plain_line_in(const char *p, Py
                                                               uint64_t *u, const int pairs)
 {
     Py_ssize_t i, xn, yn, en = 0;
-    if (m < 4 || memcmp(p, "G1 X", 4) != 0)
+    if ((i = plain_start(p, m)) == 0)
         return 0;
-    i = 4;
     x->p = p + i;
     if ((xn = num_word(p + i, m - i, dx, &v[0], &u[0], pairs)) < 0)
         return 0;

@@ -192,15 +192,19 @@ class StrokeText:
         return xs, ys, es, given
 
 
-# a stroke's usual line, "G1 X<n> Y<n> [E<n>]" and an optional comment, as the strict
+# a stroke's usual line, "G1 [F<n> ]X<n> Y<n> [E<n>]" and an optional comment (Cura names
+# the feed first on a run's first move; nothing the rewrite writes reads it, and the strict
+# tokenizer checks its number as float() does: below), as the strict
 # tokenizer reads it (words.py: the code part before ';', trailing blanks and the line
 # end dropped).  The pattern starts at the line's "\n" (a literal prefix: found fast); a
 # number is any run of [-.0-9] here, and the plain-decimal grammar is float()'s check:
 # over those characters float() takes exactly words.py's numbers (without '+').  Compiled at
 # their first call (as _MORE_DECIMALS'): the compiled core reads those lines in most runs
 _MOVE_LINES = compiled_on_first_call(
-    globals(), "_MOVE_LINES", r"\nG1 X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)", "findall")
-_MOVE_XYE = compiled_on_first_call(globals(), "_MOVE_XYE", r"\nG1 X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)",
+    globals(), "_MOVE_LINES",
+    r"\nG1 (?:F([-.0-9]+) )?X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)", "findall")
+_MOVE_XYE = compiled_on_first_call(globals(), "_MOVE_XYE",
+                                   r"\nG1 (?:F([-.0-9]+) )?X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)",
                                    "findall")    # the commonest
 _ends_nl = operator.methodcaller("endswith", "\n")
 
@@ -225,16 +229,18 @@ def _plain_moves_py(raws):
     text = "\n" + text
     found = _MOVE_XYE(text)
     if len(found) == n:
-        xs, ys, es = map(list, zip(*found))
+        fs, xs, ys, es = map(list, zip(*found))
         given, comments = [True] * n, [""] * n
     else:
         found = _MOVE_LINES(text)
         if len(found) != n:
             return None
-        xs, ys, es, comments = map(list, zip(*found))
+        fs, xs, ys, es, comments = map(list, zip(*found))
         given = [e != "" for e in es]
         es = [e or "0" for e in es]
     try:                         # the number grammar (the values are the validator's path)
+        for f in filter(None, fs):        # an F's number: only checked, as the strict tokenizer does
+            float(f)
         values = (list(map(float, xs)), list(map(float, ys)),
                   list(map(float, es)) if all(given) else [float(e) for e, g in zip(es, given) if g])
     except ValueError:           # "1.2.3", "-": the general reading says why

@@ -190,7 +190,8 @@ CASES = [("prusa_gyroid.gcode", "prusa-mk3s"),             # marlin-legacy, curv
          ("prusa_absolute_e.gcode", "prusa-mk3s"),         # absolute E
          ("prusa_klipper.gcode", "voron24"),               # klipper: cruise-ratio lines
          ("edge/crlf_line_endings.gcode", "prusa-mk3s"),   # "\r\n": every stroke declined
-         ("prusa_concentric_arcs.gcode", "generic-marlin")]   # G2/G3 arcs: the Python path
+         ("prusa_concentric_arcs.gcode", "generic-marlin"),   # G2/G3 arcs: the Python path
+         ("cura_box.gcode", "ender3")]                     # Cura: "G1 F<n> X Y E" opens a run
 _PLANS = {}
 
 

@@ -110,6 +110,9 @@ def _line_lists(rng, n_lists):
             raws = [rng.choice(["G1 X-.5 Y-0 E.0\n", "G1 X0 Y0 E0 ;\n", "G1 X5. Y1\n", "G1 X1 Y1 E-.0001\n",
                                 "G1 X-0.0 Y2.50000000000 E12345678901234567890\n", "G1 X1 Y1 E1 \n"])
                     for _ in range(rng.randint(1, 4))]
+        if rng.random() < 0.3 and raws[0].startswith("G1 X"):     # Cura's feed first, or an odd one
+            f = rng.choice(["F1200", "F1200", "F.5", "F-0", "F1500.25", "F1.2.3", "F-", "F", "F1200 ", "F 12"])
+            raws[0] = "G1 " + f + " " + raws[0][3:]
         yield raws
 
 

@@ -113,14 +113,17 @@ def _run(figures, strokes, rows, pin, prof, rules, Tc, bc):
     return tab, _memo_rows(strokes, rows, rules, prof)
 
 
-@pytest.mark.parametrize("prof_name,junction", [("prusa-mk3s", None), ("voron24", None), ("prusa-mk3s", "jd")])
-def test_flat_candidate_table_equals_the_per_chain_one(prof_name, junction, monkeypatch):
+@pytest.mark.parametrize("prof_name,junction,grouped", [("prusa-mk3s", None, True), ("voron24", None, True),
+                                                         ("prusa-mk3s", "jd", True), ("prusa-mk3s", "jd", False)])
+def test_flat_candidate_table_equals_the_per_chain_one(prof_name, junction, grouped, monkeypatch):
     strokes, pin, rows, prof = _chains(prof_name)
     assert rows.size >= 200
-    if junction is not None:          # Marlin junction deviation: finished chain by chain
+    if junction is not None:          # Marlin junction deviation
         prof = dataclasses.replace(prof, junction=junction)
+    if not grouped:                   # a junction law finished chain by chain
+        monkeypatch.setattr(chains, "GROUP_JUNCTIONS", ("jerk", "scv"))
     rules = SegmentRules.for_profile(prof, 10)
-    assert (rules.junction in chains.GROUP_JUNCTIONS) == (junction is None)
+    assert (rules.junction in chains.GROUP_JUNCTIONS) == grouped
     Tc = pin.T_orig[rows, None] * np.array(chains.CHAIN_T_RATIOS)[None, :]
     bc = (Tc / chains.GAMMA_MIN) ** 2
     monkeypatch.setattr(chains, "SOLVE_CHUNK", 128)        # several chunks

@@ -61,7 +61,7 @@ def _finish_core_old(sts, gs, own, vk, tk, rules, profile, predict, core=None, d
     # columns: the values the columns were given one list each before
     Q = _cf_rows(sts, core)
     pu, nu = Q[:, 9:11], Q[:, 11:13]
-    P = np.zeros((m, 19))       # (19: the core's P since its jd column, session 55; else verbatim)
+    P = np.zeros((m, 18))
     P[:, 0] = Q[:, 0]                  # _a_top
     P[:, 8] = Q[:, 2]
     P[:, 9] = Q[:, 3]

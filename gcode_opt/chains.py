@@ -1600,22 +1600,19 @@ def _cf_consts(profile):
                      curves.ACCEL_MARGIN, FULL_STOP_V, MIN_FEED_V], float)
 
 
-_CF_ROW = 16
+_CF_ROW = 15
 
 
-def _cf_row(st):
+def _cf_row(st, jd=False):
     """A chain's numbers for _finish_core's P: _a_top, v_feed, v0, v1, the limits' jerk_x,
-    jerk_y, scv, ax_max, ay_max, prev_u and next_u (nan, nan where None), whether each
-    is there (1.0 / 0.0) and the limits' jd (nan where it is not a float: the chain core
-    then declines a jd chain)."""
+    jerk_y, scv (jd: the limits' jd in its place, the chain core's CP_JD), ax_max, ay_max,
+    prev_u and next_u (nan, nan where None) and whether each is there (1.0 / 0.0)."""
     lim, pu, nu = st.lim, st.prev_u, st.next_u
     hp, hn = pu is not None, nu is not None
     px, py = pu if hp else _NAN2
     nx, ny = nu if hn else _NAN2
-    jd = getattr(lim, "jd", None)
-    return (min(st.accel, lim.ax_max, lim.ay_max), st.v_feed, st.v0, st.v1, lim.jerk_x, lim.jerk_y, lim.scv,
-            lim.ax_max, lim.ay_max, px, py, nx, ny, 1.0 if hp else 0.0, 1.0 if hn else 0.0,
-            jd if isinstance(jd, float) else math.nan)
+    return (min(st.accel, lim.ax_max, lim.ay_max), st.v_feed, st.v0, st.v1, lim.jerk_x, lim.jerk_y,
+            lim.jd if jd else lim.scv, lim.ax_max, lim.ay_max, px, py, nx, ny, 1.0 if hp else 0.0, 1.0 if hn else 0.0)
 
 
 _NAN2 = (math.nan, math.nan)
@@ -1624,8 +1621,8 @@ _CF_P_COLS = {True: (np.array([0, 8, 9, 1, 3, 4]), np.array([0, 2, 3, 1, 4, 5]))
               False: (np.array([0, 8, 9, 5, 6, 7]), np.array([0, 2, 3, 6, 7, 8]))}
 
 
-def _cf_rows(sts, core=None):
-    """_cf_row of every chain of sts as the rows of an (m, _CF_ROW) array: by the chain
+def _cf_rows(sts, core=None, jd=False):
+    """_cf_row(st, jd) of every chain of sts as the rows of an (m, _CF_ROW) array: by the chain
     core's cf_rows (the same doubles read in C from each stroke's slots: ~16 k chains
     twice on the gyroid plate, a row of Python floats packed each), else (no core, or it
     declines: a stroke not a strokes.Stroke, a value not a float) packed as doubles as
@@ -1636,11 +1633,11 @@ def _cf_rows(sts, core=None):
     fn = getattr(core, "cf_rows", None) if core else None
     if fn is not None and m:
         Q = np.empty((m, _CF_ROW))
-        if fn(sts if type(sts) is list else list(sts), Stroke, Q):
+        if fn(sts if type(sts) is list else list(sts), Stroke, Q, *((True,) if jd else ())):
             return Q
     buf = array("d")
     for st in sts:
-        buf.extend(_cf_row(st))
+        buf.extend(_cf_row(st, jd))
     return np.frombuffer(buf, float).reshape(m, _CF_ROW) if m else np.zeros((0, _CF_ROW))
 
 
@@ -1704,11 +1701,11 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
         W, ws = _window_sums(ext.ravel(), nb, core), n + nb
     # each chain's numbers in one pass over the chains, one row a chain (_cf_rows), then as
     # columns: the values the columns were given one list each before
-    Q = _cf_rows(sts, core)
+    Q = _cf_rows(sts, core, rules.junction == "jd")
     pu, nu = Q[:, 9:11], Q[:, 11:13]
-    P = np.zeros((m, 19))
-    # _a_top, v0, v1 and the law's limits (jerk: v_feed, jerk_x, jerk_y; scv and jd: scv,
-    # ax_max, ay_max, and jd's own below): Q's columns copied in one gather (P's columns, Q's)
+    P = np.zeros((m, 18))
+    # _a_top, v0, v1 and the law's limits (jerk: v_feed, jerk_x, jerk_y; scv: scv, ax_max,
+    # ay_max; jd: jd in scv's place, ax_max, ay_max): Q's columns copied in one gather (P's, Q's)
     to, fr = _CF_P_COLS[jerk]
     P[:, to] = Q[:, fr]
     # the end turns, curves.dot2(prev_u, u[0]) and dot2(u[-1], next_u) of predict_chains (its
@@ -1723,8 +1720,6 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
         hn = Q[:, 14] != 0.0
         P[hp, 12:14], P[hp, 14] = pu[hp], 1.0
         P[hn, 15:17], P[hn, 17] = nu[hn], 1.0
-        if rules.junction == "jd":
-            P[:, 18] = Q[:, 15]
     acc, feed = np.empty((R, n)), np.empty((R, n))
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
     if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, np.ascontiguousarray(own, np.int64),
@@ -1781,7 +1776,8 @@ def _finish_ragged(batches, rules, profile, core=None):
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
     if not fn(CORE_JUNCTIONS[rules.junction], 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
               coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
-              _cf_rows(sts_all, core), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
+              _cf_rows(sts_all, core, rules.junction == "jd"), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2,
+              fits):
         return None
     # (t, a2 and fits each batch's own arrays, as _finish_stacked_dt gives them: the memos keep
     # t and a2 a batch, and a view would keep the whole call's alive; acc and feed are views)

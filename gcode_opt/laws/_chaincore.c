@@ -1438,7 +1438,10 @@ static inline double py_min(double a, double b) { return (b < a) ? b : a; }
 
 /* per chain parameters (columns of P) */
 enum { CP_ATOP, CP_VFEED, CP_STEP, CP_JX, CP_JY, CP_SCV, CP_AXM, CP_AYM, CP_V0, CP_V1, CP_C0, CP_C1,
-       CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_JD, CP_N };
+       CP_PUX, CP_PUY, CP_HASP, CP_NUX, CP_NUY, CP_HASN, CP_N };
+/* under jd (junction 2) the scv column holds the limits' jd (cf_rows' jd: 1), so that P and Q
+   keep their columns (a caller of an earlier layout runs unchanged) */
+#define CP_JD CP_SCV
 /* constants (K) */
 enum { CK_TOL, CK_DEFA, CK_CRUISE, CK_CORNER, CK_SQ2M1, CK_MARGIN, CK_STOPV, CK_MINFEED, CK_N };
 
@@ -1997,9 +2000,9 @@ static PyObject *chain_finish(PyObject *self, PyObject *args) {
    no floor; the caller takes nb > 0 only where _window_sums uses window_sums).  Each row then
    as chain_finish's (cf_row): the same bits.  False (nothing usable written) where
    chain_finish would decline a group. */
-#define CF_Q 16       /* chains._CF_ROW */
+#define CF_Q 15       /* chains._CF_ROW */
 enum { CQ_ATOP, CQ_VFEED, CQ_V0, CQ_V1, CQ_JX, CQ_JY, CQ_SCV, CQ_AXM, CQ_AYM, CQ_PUX, CQ_PUY, CQ_NUX, CQ_NUY,
-       CQ_HASP, CQ_HASN, CQ_JD };
+       CQ_HASP, CQ_HASN };
 
 /* chains._finish_core's P row of a chain of n segments (directions u) from its Q row q */
 static void cf_p_of(int junction, double step_r, const double *restrict q, const double *restrict u,
@@ -2016,7 +2019,6 @@ static void cf_p_of(int junction, double step_r, const double *restrict q, const
         p[CP_SCV] = q[CQ_SCV];
         p[CP_AXM] = q[CQ_AXM];
         p[CP_AYM] = q[CQ_AYM];
-        if (junction == 2) p[CP_JD] = q[CQ_JD];
     }
     p[CP_C0] = q[CQ_PUX] * u[0] + q[CQ_PUY] * u[1];
     p[CP_C1] = u[2 * (n - 1)] * q[CQ_NUX] + u[2 * (n - 1) + 1] * q[CQ_NUY];
@@ -3034,12 +3036,13 @@ static PyObject *fig_call(PyObject *a, int nin, int nout, int which) {
 }
 
 /* cf_rows(sts, stroke_type, out) -> 1, or 0 (out then meaningless: chains._cf_row runs
-   instead): chains._cf_row of every stroke of the list sts, row q of out (m, 16 doubles):
+   instead): chains._cf_row of every stroke of the list sts, row q of out (m, 15 doubles):
    _a_top = min(accel, lim.ax_max, lim.ay_max) (Python's min: the first of the least, a
    later one only when below), v_feed, v0, v1, lim's jerk_x, jerk_y, scv, ax_max, ay_max,
    prev_u and next_u (the stroke's _pux, _puy, _nux, _nuy: nan, nan where _pux / _nux is
-   None: no neighbour), whether each is there (1.0 / 0.0) and lim.jd (nan where it is not a
-   Python float).  Declines (0) a stroke whose
+   None: no neighbour) and whether each is there (1.0 / 0.0); with jd true (cf_rows(sts,
+   stroke_type, out, True): chains under Marlin's junction deviation) lim.jd in scv's place.
+   Declines (0) a stroke whose
    type is not exactly stroke_type (whose prev_u, next_u are those four slots) or a value
    that is not a Python float (or a subclass): _cf_row's float() of it is then not
    certainly its double.  Each name's attribute is read by its type's data descriptor,
@@ -3078,7 +3081,8 @@ static inline PyObject *cf_get(PyObject *obj, PyObject *d, PyObject *name) {
 
 static PyObject *cf_rows(PyObject *self, PyObject *a) {
     PyObject *sts, *stype, *outo;
-    if (!PyArg_ParseTuple(a, "O!OO", &PyList_Type, &sts, &stype, &outo)) return NULL;
+    int jd = 0;
+    if (!PyArg_ParseTuple(a, "O!OO|p", &PyList_Type, &sts, &stype, &outo, &jd)) return NULL;
     static PyObject *nm[15];
     static const char *names[15] = {"accel", "v_feed", "v0", "v1", "lim", "_pux", "_puy", "_nux", "_nuy",
                                     "jerk_x", "jerk_y", "scv", "ax_max", "ay_max", "jd"};
@@ -3089,13 +3093,14 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
     double *out = get(&b, outo, 8, 1, &len);
     if (!out) { release(&b); return NULL; }
     Py_ssize_t m = PyList_GET_SIZE(sts);
-    if (len != 16 * m) {
+    if (len != 15 * m) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "cf_rows: shapes");
         return NULL;
     }
     int ok = 1;
-    PyObject *sd[9] = {NULL}, *ld[6] = {NULL};          /* the names' descriptors (NULL: getattr) */
+    PyObject *sd[9] = {NULL}, *ld[5] = {NULL};          /* the names' descriptors (NULL: getattr) */
+    PyObject *lname[5] = {nm[9], nm[10], jd ? nm[14] : nm[11], nm[12], nm[13]};   /* (jd: in scv's place) */
     PyTypeObject *ltype = NULL;                        /* the type ld is of (held) */
     if (PyType_Check(stype))
         cf_descrs((PyTypeObject *)stype, nm, 9, sd);
@@ -3122,20 +3127,14 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
             if (i < 4) v[i] = d;
             else pu[i - 5] = d;
         }
-        double lv[6];                                       /* jerk_x, jerk_y, scv, ax_max, ay_max, jd */
+        double lv[5];                                       /* jerk_x, jerk_y, scv (jd), ax_max, ay_max */
         if (ok && Py_TYPE(lim) != ltype) {
-            cf_drop(ld, 6);
+            cf_drop(ld, 5);
             Py_XSETREF(ltype, (PyTypeObject *)Py_NewRef(Py_TYPE(lim)));
-            cf_descrs(ltype, nm + 9, 6, ld);
+            cf_descrs(ltype, lname, 5, ld);
         }
-        for (int i = 0; ok && i < 6; i++) {
-            PyObject *x = cf_get(lim, ld[i], nm[9 + i]);
-            if (i == 5 && (!x || !PyFloat_Check(x))) {     /* jd: nan where not a float (_cf_row's) */
-                if (!x) PyErr_Clear();
-                Py_XDECREF(x);
-                lv[5] = NAN;
-                break;
-            }
+        for (int i = 0; ok && i < 5; i++) {
+            PyObject *x = cf_get(lim, ld[i], lname[i]);
             if (!x) { PyErr_Clear(); ok = 0; break; }
             if (!PyFloat_Check(x)) { Py_DECREF(x); ok = 0; break; }
             lv[i] = PyFloat_AS_DOUBLE(x);
@@ -3155,16 +3154,15 @@ static PyObject *cf_rows(PyObject *self, PyObject *a) {
         double at = v[0];                                   /* min(accel, ax_max, ay_max) */
         if (lv[3] < at) at = lv[3];
         if (lv[4] < at) at = lv[4];
-        double *r = out + 16 * q;
+        double *r = out + 15 * q;
         r[0] = at; r[1] = v[1]; r[2] = v[2]; r[3] = v[3];
         r[4] = lv[0]; r[5] = lv[1]; r[6] = lv[2]; r[7] = lv[3]; r[8] = lv[4];
         r[9] = pu[0]; r[10] = pu[1]; r[11] = pu[2]; r[12] = pu[3];
         r[13] = has[0] ? 1.0 : 0.0;
         r[14] = has[1] ? 1.0 : 0.0;
-        r[15] = lv[5];
     }
     cf_drop(sd, 9);
-    cf_drop(ld, 6);
+    cf_drop(ld, 5);
     Py_XDECREF(ltype);
     release(&b);
     return PyLong_FromLong(ok);

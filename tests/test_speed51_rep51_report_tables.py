@@ -88,8 +88,12 @@ def _same(a, b):
     assert type(a) is type(b) and (a == b or (a != a and b != b)), (a, b)
 
 
+@pytest.mark.parametrize("chunk", [None, 1, 7])       # rows a table chunk: the tables' own, and tiny (session 55)
 @pytest.mark.parametrize("path", SAMPLES, ids=os.path.basename)
-def test_tables_hold_what_the_dicts_held(path):
+def test_tables_hold_what_the_dicts_held(path, chunk, monkeypatch):
+    if chunk is not None:
+        from gcode_opt.report import trace
+        monkeypatch.setattr(trace._Rows, "CHUNK", chunk)
     prof = load_profile(PROFILE)
     old, new = _old_trace_file(path, prof), trace_file(path, prof, ringing=True)
     assert new.n_lines == old.n_lines

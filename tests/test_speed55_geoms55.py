@@ -183,14 +183,20 @@ def _blocks_made(todo, profile, flat):
 
 
 def test_flat_blocks_decline_as_the_per_block_path_with_non_finite_vertices():
-    """Strokes with an infinite or NaN vertex, or a vertex far beyond the others (its
-    segments' lengths overflow: directions NaN), among good ones: the same rows kept, the
+    """Strokes with an infinite or NaN vertex, a vertex far beyond the others (its
+    segments' lengths overflow: directions NaN), or arc lengths that do not rise (a
+    segment below the rounding of the one before), among good ones: the same rows kept, the
     blocks declined (CurveGeom's own path) and the same fields."""
     prof, sts = _curves("prusa-mk3s")
     sts = sts[:200]
     for k, bad in ((3, np.inf), (10, np.nan), (17, 1e308), (24, -1e308), (31, 1e308)):
         xy = np.frombuffer(sts[k].pts.xy, float).copy()
         xy[2 + (k > 30)] = bad
+        sts[k].pts = Points(xy.tobytes())
+    for k in (5, 12):               # a first segment of 1e12 mm, then one of 2e-9 mm: no rise in s_v
+        xy = np.frombuffer(sts[k].pts.xy, float).copy()
+        xy[0], xy[1] = xy[2] - 1e12, xy[3]
+        xy[4], xy[5] = xy[2] + 2e-9, xy[3]
         sts[k].pts = Points(xy.tobytes())
     got = _blocks_made(sts, prof, True)
     ref = _blocks_made(sts, prof, False)

@@ -42,6 +42,7 @@ from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
+from .laws import chain as _chain_law
 from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
@@ -1210,6 +1211,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         finite[gap] = True
         finite = every(finite, starts)
         caps, caps1 = _flat_jerk_caps(u, profile, j1, fields)
+        arc = _flat_arcs(d, starts, gap)
     if fields is not None:
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
         ends = _ends_of(idx_all, u[starts], u[gap - 1], (p, q))
@@ -1218,7 +1220,8 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         m, z = idx.size, a + idx.size
         rows = slice(int(starts[a]), int(starts[a]) + m * npt)
         block = _flat_parts(seg[rows].reshape(m, npt, 2), d[rows].reshape(m, npt), u[rows].reshape(m, npt, 2),
-                            pts_ok[a:z] & d_ok[a:z], kappa, with_seg)
+                            pts_ok[a:z] & d_ok[a:z], kappa, with_seg,
+                            None if arc is None else (arc[0][rows].reshape(m, npt), arc[1][a:z], arc[2][a:z]))
         if fields is None:
             yield idx, block, None, None
         else:
@@ -1229,23 +1232,65 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         a = z
 
 
-def _flat_parts(seg, d, u, ok, kappa, with_seg):
+def _flat_parts(seg, d, u, ok, kappa, with_seg, arc=None):
     """_parts_block (kappa) or _parts_lazy of a block of m strokes of npt vertices from
     _flat_chunk's rows of it (seg, u (m, npt, 2), d (m, npt): the last of each row not a
-    segment; ok: its vertices finite and segments > 1e-9): the same fields (cos_turn None)."""
+    segment; ok: its vertices finite and segments > 1e-9): the same fields (cos_turn None).
+    arc: _flat_arcs' (arc lengths (m, npt), rising, tame) of these rows, or None (made here)."""
     m, npt = d.shape
     d = d[:, :-1].copy()
-    s_v = np.empty((m, npt))
-    s_v[:, 0] = 0.0
     seg, u = seg[:, :-1], u[:, :-1]
     with np.errstate(all="ignore"):
-        np.cumsum(d, axis=1, out=s_v[:, 1:])
-        good = ok & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
-        if not (kappa or (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any()):
-            return d, u, None, s_v, None, None, good, np.ascontiguousarray(seg) if with_seg else None
+        if arc is None:
+            s_v = _arcs_of(d)
+            good = ok & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
+            lazy = not (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any()
+        else:
+            s_v = None
+            good = ok & arc[1]
+            lazy = not (good & ~arc[2]).any()
+        if not kappa and lazy:
+            if with_seg:            # (the want's κ reads s_v)
+                return d, u, None, _arcs_of(d, arc), None, None, good, np.ascontiguousarray(seg)
+            return d, u, None, s_v, None, None, good, None
+        s_v = _arcs_of(d, arc) if s_v is None else s_v
         kappa_v, kappa_eff = _kappa_block(np.ascontiguousarray(seg), d, s_v)
         good &= np.isfinite(kappa_v).all(axis=1)
     return d, u, None, s_v, kappa_v, kappa_eff.tolist(), good
+
+
+def _arcs_of(d, arc=None):
+    """The arc lengths at the vertices s_v (m, n + 1) of rows of segment lengths d (m, n):
+    0 then np.cumsum of each row, or the row sums arc[0] of _flat_arcs (the same sums)."""
+    s_v = np.empty((d.shape[0], d.shape[1] + 1))
+    s_v[:, 0] = 0.0
+    if arc is None:
+        np.cumsum(d, axis=1, out=s_v[:, 1:])
+    else:
+        s_v[:, 1:] = arc[0][:, :-1]
+    return s_v
+
+
+_PIECE_CUMSUM = getattr(_chain_law.CORE_MOD, "piece_cumsum", None)
+
+
+def _flat_arcs(d, starts, gap):
+    """(the running sums of each stroke's segment lengths d (_flat_chunk's rows, a stroke's
+    from starts[k] to gap[k] - 1): np.cumsum's of its row, in order, by the chain core's
+    piece_cumsum; whether each stroke's arc lengths rise from 0 at every vertex (_parts_base's
+    test); whether its length is <= KAPPA_TAME_D (_parts_lazy's)), or None without the
+    core (then made a block)."""
+    if _PIECE_CUMSUM is None:
+        return None
+    off = np.empty(2 * starts.size + 1, np.int64)       # a piece a stroke, and one its gap row
+    off[0:-1:2], off[1:-1:2], off[-1] = starts, gap, d.size
+    s = np.empty(d.size)
+    _PIECE_CUMSUM(np.ascontiguousarray(d), off, s)
+    rise = np.empty(d.size, bool)
+    np.greater(s[1:], s[:-1], out=rise[1:])
+    rise[starts] = s[starts] > 0.0
+    rise[gap] = True
+    return s, np.logical_and.reduceat(rise, starts), s[gap - 1] <= KAPPA_TAME_D
 
 
 def _flat_jerk_caps(u, profile, j1, fields):

@@ -2607,17 +2607,17 @@ def _block_rows_caps(sts, gs, out, jerk):
     again a window without the chains' caps).  Each chain keeps the bytes of its row, as
     _classify_block leaves them, and lets go of its caps at the whole jerk as vertex_caps
     does."""
-    by_blk = {}                          # id(block) -> (block, [q], [its row])
-    for q, (st, g, c) in enumerate(zip(sts, gs, out)):
-        if (c is None and type(g) is curves.CurveGeom and st.curv is g and g.chain_caps is None
-                and (not jerk or g._j1 is curves._FROM_BLOCK)):
-            b = g._b
-            got = by_blk.get(id(b))
+    by_blk = {}                          # block -> ([q], [its row])
+    geom, from_block = curves.CurveGeom, curves._FROM_BLOCK
+    for q, st, g, c in zip(range(len(gs)), sts, gs, out):
+        if (c is None and type(g) is geom and st.curv is g and g.chain_caps is None
+                and (not jerk or g._j1 is from_block)):
+            got = by_blk.get(g._b)
             if got is None:
-                got = by_blk[id(b)] = (b, [], [])
-            got[1].append(q)
-            got[2].append(g._k)
-    for b, qs, ks in by_blk.values():
+                got = by_blk[g._b] = ([], [])
+            got[0].append(q)
+            got[1].append(g._k)
+    for b, (qs, ks) in by_blk.items():
         src = b.caps_jerk1 if jerk else b.caps
         if type(src) is not np.ndarray or src.ndim != 2 or src.dtype != np.float64:
             continue                     # (vertex_caps a chain)
@@ -2626,7 +2626,7 @@ def _block_rows_caps(sts, gs, out, jerk):
         for i, q in enumerate(qs):
             g = gs[q]
             g.chain_caps = out[q] = buf[w * i:w * (i + 1)]
-            g.caps_jerk1 = None          # read only to make chain_caps
+            g._j1 = None                 # (caps_jerk1 = None: read only to make chain_caps)
 
 
 class _TableItem(tuple):

@@ -1163,7 +1163,7 @@ def _blocks_of(npts):
             yield grp[a:a + step], npt
 
 
-_FLAT_PTS = 1 << 15         # vertices of one flat pass over blocks (build_geoms: ~2 MB of arrays)
+_FLAT_PTS = 1 << 13         # vertices of one flat pass over blocks (build_geoms: ~0.6 MB of arrays)
 
 
 def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields):

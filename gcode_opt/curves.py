@@ -1154,7 +1154,9 @@ def _blocks_of(npts):
     """(indices, vertex count) of every block of _part_blocks: the strokes of one vertex
     count (3 to _GEOM_MAX_PTS) in their order, at most _GEOM_BLOCK // npt² a block."""
     order = np.argsort(npts, kind="stable")
-    for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
+    cuts = [0] + (np.flatnonzero(np.diff(npts[order])) + 1).tolist() + [order.size]
+    for a0, z0 in zip(cuts[:-1], cuts[1:]):        # (np.split's groups, without its Python loop)
+        grp = order[a0:z0]
         npt = int(npts[grp[0]]) if grp.size else 0
         if npt < 3 or npt > _GEOM_MAX_PTS:
             continue
@@ -1202,14 +1204,16 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         d = np.hypot(seg[:, 0], seg[:, 1])
         u = _div_pairs(seg, d)
         gap = starts + n_pt - 1     # each stroke's last row
-        every = np.logical_and.reduceat
-        pts_ok = every(np.isfinite(xy).all(axis=1), starts)
+        every = np.logical_and.reduceat       # (over the flat coordinates: not .all(axis=1) of pairs)
+        pts_ok = every(np.isfinite(xy.reshape(-1)), 2 * starts)
         d_ok = d > 1e-9
         d_ok[gap] = True
         d_ok = every(d_ok, starts)
-        finite = np.isfinite(u).all(axis=1) & np.isfinite(d)
-        finite[gap] = True
-        finite = every(finite, starts)
+        finite = np.isfinite(u.reshape(-1))
+        finite[2 * gap], finite[2 * gap + 1] = True, True
+        d_fin = np.isfinite(d)
+        d_fin[gap] = True
+        finite = every(finite, 2 * starts) & every(d_fin, starts)
         caps, caps1 = _flat_jerk_caps(u, profile, j1, fields)
         arc = _flat_arcs(d, starts, gap)
     if fields is not None:

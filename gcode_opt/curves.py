@@ -1218,7 +1218,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         arc = _flat_arcs(d, starts, gap)
     if fields is not None:
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
-        ends = _ends_of(idx_all, u[starts], u[gap - 1], (p, q))
+        ends = _ends_of(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)
     a = 0
     for idx, npt in chunk:
         m, z = idx.size, a + idx.size

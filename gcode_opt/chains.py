@@ -2664,9 +2664,10 @@ def _chain_caps(sts, gs, profile):
 
 
 def _kept_caps(sts, gs, profile):
-    """_chain_caps as the geometries keep them (_caps_array of each: the arrays)."""
+    """_chain_caps as the geometries keep them (arrays, or the bytes of their doubles)."""
     out = [None] * len(sts)
-    if profile.junction == "jerk":
+    jerk = profile.junction == "jerk"
+    if jerk:
         gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
         if len(gone) > 1:
             got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
@@ -2675,11 +2676,43 @@ def _kept_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
+    _block_rows_caps(sts, gs, out, jerk)
     for q, (g, c) in enumerate(zip(gs, out)):
         if c is None:
             c = g.chain_caps
             out[q] = vertex_caps(sts[q], profile) if c is None else c
     return out
+
+
+def _block_rows_caps(sts, gs, out, jerk):
+    """vertex_caps of the chains sts (geometries gs) whose caps are not made yet and are
+    rows of their geometry's block (classic jerk: the block's caps at the whole jerk, else
+    its caps), into out[q] where out[q] is None: a block's rows in one product
+    CHAIN_CAP_MARGIN x rows (vertex_caps' product a chain, elementwise: the same bits),
+    not a call a chain (~50 k on the gyroid plate's windowed run, whose geometry is made
+    again a window without the chains' caps).  Each chain keeps the bytes of its row, as
+    _classify_block leaves them, and lets go of its caps at the whole jerk as vertex_caps
+    does."""
+    by_blk = {}                          # block -> ([q], [its row])
+    geom, from_block = curves.CurveGeom, curves._FROM_BLOCK
+    for q, st, g, c in zip(range(len(gs)), sts, gs, out):
+        if (c is None and type(g) is geom and st.curv is g and g.chain_caps is None
+                and (not jerk or g._j1 is from_block)):
+            got = by_blk.get(g._b)
+            if got is None:
+                got = by_blk[g._b] = ([], [])
+            got[0].append(q)
+            got[1].append(g._k)
+    for b, (qs, ks) in by_blk.items():
+        src = b.caps_jerk1 if jerk else b.caps
+        if type(src) is not np.ndarray or src.ndim != 2 or src.dtype != np.float64:
+            continue                     # (vertex_caps a chain)
+        rows = CHAIN_CAP_MARGIN * src.take(ks, axis=0)
+        buf, w = rows.tobytes(), 8 * rows.shape[1]      # (C order: row i is buf[w i:w (i + 1)])
+        for i, q in enumerate(qs):
+            g = gs[q]
+            g.chain_caps = out[q] = buf[w * i:w * (i + 1)]
+            g._j1 = None                 # (caps_jerk1 = None: read only to make chain_caps)
 
 
 class _TableItem(tuple):

@@ -42,6 +42,7 @@ from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 accel_to_pass_junction_rows, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
 from .firmware.simulate import CORNER_COS, FULL_STOP_V
+from .laws import chain as _chain_law
 from .laws import circle as _circle
 from .laws.circle import solve_circles
 from .plan import SPEED_TOL_R, T_RATIOS, candidate_table, take_shortest_feasible
@@ -798,10 +799,9 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     made = []                           # (block, its strokes, their indices into todo)
     want = None if isinstance(kappa, bool) else kappa
     fields = _stroke_fields_once(todo)
-    for idx, block in _part_blocks(todo, pts, kappa is True):
+    for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want,
-                           fields=None if fields is None else _fields_at(fields, idx))
+        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want, fields=bfields, pre=pre)
         if got is None:
             continue
         blk, keep, sts = got
@@ -873,17 +873,22 @@ def _fields_at(fields, rows):
     return lims, which[rows], accel[rows], (p[:, rows], q[:, rows])
 
 
-def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None):
+def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=None):
     """The _Blk of the strokes sts whose _parts_block (compact) is `block`, which of them
     it holds (a bool mask: the rows _parts_block takes; None: all) and those strokes, or
     None (CurveGeom's own path for all) when the vectorised caps decline one of them.  The
     caps are _caps_flat's law on (m, n - 1) arrays, the limits as (m, 1): each element the
     same operations.  pts: the strokes' vertices (their pts), if the caller has them.
     want: build_geoms' (κ of a block _parts_lazy left without it made for those rows).
-    fields: _fields_at's of sts, if the caller read them (else read here)."""
+    fields: _fields_at's of sts, if the caller read them (else read here).  pre:
+    _flat_blocks' (caps, caps at the whole jerk, end turns, u and d finite) of every row
+    of the block (caps None: made here), made for many blocks at once (the same numbers)."""
     d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
+    caps = caps1 = ends = finite = None
+    if pre is not None:
+        caps, caps1, ends, finite = pre
     keep = None
     if pts is None:
         pts = list(map(_PTS, sts))
@@ -899,21 +904,27 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None):
         pts = [p for p, x in zip(pts, g) if x]
         if fields is not None:
             fields = _fields_at(fields, np.flatnonzero(good))
-    if not (np.isfinite(u).all() and np.isfinite(d).all()):
+        if pre is not None:
+            finite, ends = finite[good], [e for e, x in zip(ends, g) if x]
+            if caps is not None:
+                caps, caps1 = caps[good], None if caps1 is None else caps1[good]
+    if not (finite.all() if finite is not None else np.isfinite(u).all() and np.isfinite(d).all()):
         return None
     if fields is None:
         fields = _lims_which(sts) + (_accels(sts), _neighbour_dirs(sts))
     lim = (profile,) + fields[:3]
-    caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
     if caps is None:
-        return None
-    caps1 = _block_caps(lim, u, d, 1.0) if j1 else None
+        caps = _block_caps(lim, u, d, 1.0 - JERK_F_STEP_R)
+        if caps is None:
+            return None
+        caps1 = _block_caps(lim, u, d, 1.0) if j1 else None
     cap_min = bool((caps > 0.0).all())
     if cap_min:
         cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
-    ends = _ends_of(sts, u[:, 0], u[:, -1], fields[3])
+    if ends is None:
+        ends = _ends_of(sts, u[:, 0], u[:, -1], fields[3])
     miss = None
     if kappa_v is None and want is not None:
         kappa_v, kappa_eff, miss = _kappa_wanted(block[7], d, s_v, keep, want(sts, cap))
@@ -1138,19 +1149,180 @@ def _part_blocks(todo, pts=None, kappa=True):
     parts = _parts_block if kappa else _parts_lazy
     if pts is None:
         pts = list(map(_PTS, todo))
+    for idx, npt in _blocks_of(_npts_of(pts)):
+        with np.errstate(all="ignore"):
+            block = parts(_xy_block(todo, idx, pts).reshape(idx.size, npt, 2))
+        yield idx, block
+
+
+def _npts_of(pts):
+    """The vertex counts of the point lists pts, an int array."""
     # len(Points) is its array's half length: read without the Python __len__ (~21 k strokes)
-    npts = np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in pts], int)
+    return np.array([len(p.xy) >> 1 if type(p) is Points else len(p) for p in pts], int)
+
+
+def _blocks_of(npts):
+    """(indices, vertex count) of every block of _part_blocks: the strokes of one vertex
+    count (3 to _GEOM_MAX_PTS) in their order, at most _GEOM_BLOCK // npt² a block."""
     order = np.argsort(npts, kind="stable")
-    for grp in np.split(order, np.flatnonzero(np.diff(npts[order])) + 1):
+    cuts = [0] + (np.flatnonzero(np.diff(npts[order])) + 1).tolist() + [order.size]
+    for a0, z0 in zip(cuts[:-1], cuts[1:]):        # (np.split's groups, without its Python loop)
+        grp = order[a0:z0]
         npt = int(npts[grp[0]]) if grp.size else 0
         if npt < 3 or npt > _GEOM_MAX_PTS:
             continue
         step = max(1, _GEOM_BLOCK // (npt * npt))
         for a in range(0, grp.size, step):
-            idx = grp[a:a + step]
-            with np.errstate(all="ignore"):
-                block = parts(_xy_block(todo, idx, pts).reshape(idx.size, npt, 2))
-            yield idx, block
+            yield grp[a:a + step], npt
+
+
+_FLAT_PTS = 1 << 13         # vertices of one flat pass over blocks (build_geoms: ~0.6 MB of arrays)
+
+
+def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields):
+    """build_geoms' blocks: (indices into todo, _parts_block / _parts_lazy's block of those
+    strokes (cos_turn None: build_geoms does not read it; with_seg: the lazy block's
+    segments for its want), their fields (_fields_at's, or None: fields None), pre (the
+    rows' caps, caps at the whole jerk (j1), end turns and u and d finite: _block_geoms'
+    pre)).  The blocks' vertex differences, lengths, directions, finiteness, end turns
+    and classic jerk's caps (one limits object, compiled) are made for a chunk of blocks
+    at once (_FLAT_PTS vertices), over their vertices end to end: elementwise, the same
+    numbers as block by block, not ~60 numpy calls a block (a window's call of ~20
+    blocks, most of a few strokes: benchmarks/geoms55.md).  Each block's lengths, arc
+    lengths, good, κ and caps are its own arrays, as _parts_block makes them."""
+    chunk, size = [], 0
+    blocks = list(_blocks_of(_npts_of(pts)))
+    for k, (idx, npt) in enumerate(blocks):
+        chunk.append((idx, npt))
+        size += idx.size * npt
+        if size >= _FLAT_PTS or k == len(blocks) - 1:
+            yield from _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields)
+            chunk, size = [], 0
+
+
+def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
+    """_flat_blocks of the blocks chunk [(indices, vertex count)]."""
+    idx_all = np.concatenate([idx for idx, _ in chunk])
+    n_pt = np.concatenate([np.full(idx.size, npt) for idx, npt in chunk])
+    starts = np.zeros(n_pt.size, int)
+    np.cumsum(n_pt[:-1], out=starts[1:])
+    P = int(starts[-1] + n_pt[-1])
+    xy = _pts_xy([pts[i] for i in idx_all.tolist()]).reshape(P, 2)
+    seg = np.empty((P, 2))          # the row after a stroke's last vertex: not a segment (NaN)
+    with np.errstate(all="ignore"):
+        np.subtract(xy[1:], xy[:-1], out=seg[:-1])      # (_lag_rows' subtraction an element)
+        seg[-1] = np.nan
+        d = np.hypot(seg[:, 0], seg[:, 1])
+        u = _div_pairs(seg, d)
+        gap = starts + n_pt - 1     # each stroke's last row
+        every = np.logical_and.reduceat       # (over the flat coordinates: not .all(axis=1) of pairs)
+        pts_ok = every(np.isfinite(xy.reshape(-1)), 2 * starts)
+        d_ok = d > 1e-9
+        d_ok[gap] = True
+        d_ok = every(d_ok, starts)
+        finite = np.isfinite(u.reshape(-1))
+        finite[2 * gap], finite[2 * gap + 1] = True, True
+        d_fin = np.isfinite(d)
+        d_fin[gap] = True
+        finite = every(finite, 2 * starts) & every(d_fin, starts)
+        caps, caps1 = _flat_jerk_caps(u, profile, j1, fields)
+        arc = _flat_arcs(d, starts, gap)
+    if fields is not None:
+        lims, which, accel, (p, q) = _fields_at(fields, idx_all)
+        ends = _ends_of(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)
+    a = 0
+    for idx, npt in chunk:
+        m, z = idx.size, a + idx.size
+        rows = slice(int(starts[a]), int(starts[a]) + m * npt)
+        block = _flat_parts(seg[rows].reshape(m, npt, 2), d[rows].reshape(m, npt), u[rows].reshape(m, npt, 2),
+                            pts_ok[a:z] & d_ok[a:z], kappa, with_seg,
+                            None if arc is None else (arc[0][rows].reshape(m, npt), arc[1][a:z], arc[2][a:z]))
+        if fields is None:
+            yield idx, block, None, None
+        else:
+            bcaps = None if caps is None else caps[rows].reshape(m, npt)[:, :-2].copy()
+            bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
+            yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
+                (bcaps, bcaps1, ends[a:z], finite[a:z])
+        a = z
+
+
+def _flat_parts(seg, d, u, ok, kappa, with_seg, arc=None):
+    """_parts_block (kappa) or _parts_lazy of a block of m strokes of npt vertices from
+    _flat_chunk's rows of it (seg, u (m, npt, 2), d (m, npt): the last of each row not a
+    segment; ok: its vertices finite and segments > 1e-9): the same fields (cos_turn None).
+    arc: _flat_arcs' (arc lengths (m, npt), rising, tame) of these rows, or None (made here)."""
+    m, npt = d.shape
+    d = d[:, :-1].copy()
+    seg, u = seg[:, :-1], u[:, :-1]
+    with np.errstate(all="ignore"):
+        if arc is None:
+            s_v = _arcs_of(d)
+            good = ok & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
+            lazy = not (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any()
+        else:
+            s_v = None
+            good = ok & arc[1]
+            lazy = not (good & ~arc[2]).any()
+        if not kappa and lazy:
+            if with_seg:            # (the want's κ reads s_v)
+                return d, u, None, _arcs_of(d, arc), None, None, good, np.ascontiguousarray(seg)
+            return d, u, None, s_v, None, None, good, None
+        s_v = _arcs_of(d, arc) if s_v is None else s_v
+        kappa_v, kappa_eff = _kappa_block(np.ascontiguousarray(seg), d, s_v)
+        good &= np.isfinite(kappa_v).all(axis=1)
+    return d, u, None, s_v, kappa_v, kappa_eff.tolist(), good
+
+
+def _arcs_of(d, arc=None):
+    """The arc lengths at the vertices s_v (m, n + 1) of rows of segment lengths d (m, n):
+    0 then np.cumsum of each row, or the row sums arc[0] of _flat_arcs (the same sums)."""
+    s_v = np.empty((d.shape[0], d.shape[1] + 1))
+    s_v[:, 0] = 0.0
+    if arc is None:
+        np.cumsum(d, axis=1, out=s_v[:, 1:])
+    else:
+        s_v[:, 1:] = arc[0][:, :-1]
+    return s_v
+
+
+_PIECE_CUMSUM = getattr(_chain_law.CORE_MOD, "piece_cumsum", None)
+
+
+def _flat_arcs(d, starts, gap):
+    """(the running sums of each stroke's segment lengths d (_flat_chunk's rows, a stroke's
+    from starts[k] to gap[k] - 1): np.cumsum's of its row, in order, by the chain core's
+    piece_cumsum; whether each stroke's arc lengths rise from 0 at every vertex (_parts_base's
+    test); whether its length is <= KAPPA_TAME_D (_parts_lazy's)), or None without the
+    core (then made a block)."""
+    if _PIECE_CUMSUM is None:
+        return None
+    off = np.empty(2 * starts.size + 1, np.int64)       # a piece a stroke, and one its gap row
+    off[0:-1:2], off[1:-1:2], off[-1] = starts, gap, d.size
+    s = np.empty(d.size)
+    _PIECE_CUMSUM(np.ascontiguousarray(d), off, s)
+    rise = np.empty(d.size, bool)
+    np.greater(s[1:], s[:-1], out=rise[1:])
+    rise[starts] = s[starts] > 0.0
+    rise[gap] = True
+    return s, np.logical_and.reduceat(rise, starts), s[gap - 1] <= KAPPA_TAME_D
+
+
+def _flat_jerk_caps(u, profile, j1, fields):
+    """The caps (and at the whole jerk: j1) between each two rows of the directions u end
+    to end (P, 2), the last row's NaN: classic jerk's law on one row (_curvecore.c
+    jerk_caps: each vertex's own operations), where the strokes share one limits object
+    and the core is built; else (None, None) (_block_geoms makes them a block)."""
+    if fields is None or len(fields[0]) != 1 or profile.junction != "jerk" or _JERK_CAPS is None:
+        return None, None
+    lim = fields[0][0]
+    jx, jy = (np.array([getattr(lim, f)], float) for f in ("jerk_x", "jerk_y"))
+    out = []
+    for jerk_r in (1.0 - JERK_F_STEP_R, 1.0)[:2 if j1 else 1]:
+        caps = np.empty(u.shape[0])
+        _JERK_CAPS(u.reshape(-1), jx, jy, jerk_r, 1, u.shape[0], caps[:-1])
+        out.append(caps)
+    return out[0], out[1] if j1 else None
 
 
 _LAG_ROWS = getattr(_CURVE_CORE, "lag_rows", None) if _CURVE_CORE is not None else None

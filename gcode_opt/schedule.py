@@ -1697,7 +1697,8 @@ def _rebuild_geometry(strokes, idx, kind, profile):
     never reads it: made if read, _Blk.make_kappa)."""
     made = False
     for k, chain in ((C_CURVE, False), (C_CHAIN, True)):
-        todo = [strokes[i] for i in idx[kind == k].tolist() if strokes[i].curv is None]
+        # (each stroke read once: a windowed run's strokes are a StoredStrokes, ~117 calls)
+        todo = [st for st in map(strokes.__getitem__, idx[kind == k].tolist()) if st.curv is None]
         if todo:
             made = True
             try:

@@ -163,13 +163,14 @@ CASES = (("prusa_gyroid.gcode", "prusa-mk3s"), ("prusa_concentric.gcode", "prusa
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
-    """Every _precond_cheb and _parts_block call of the pipeline on the bundled curve
-    files, and each output file's bytes."""
+    """Every _precond_cheb call of the pipeline on the bundled curve files, the blocks of
+    their curve strokes' vertices (_curve_blocks: the pipeline's build_geoms makes the same
+    parts from one flat pass over several blocks since session 55, not a _parts_block call
+    a block) and each output file's bytes."""
     mp = pytest.MonkeyPatch()
-    pcs, pbs, outs = [], [], {}
+    pcs, outs = [], {}
     try:
         _record(mp, circle, "_precond_cheb", pcs)
-        _record(mp, curves, "_parts_block", pbs)
         d = tmp_path_factory.mktemp("curves20")
         for name, prof in CASES:
             out = d / (name + "." + prof)
@@ -177,8 +178,24 @@ def recorded(tmp_path_factory):
             outs[(name, prof)] = out.read_bytes()
     finally:
         mp.undo()
+    pbs = [(b,) for name, prof in CASES[:3] for b in _curve_blocks(S / name, prof)]
     assert len(pcs) > 5 and len(pbs) > 20
     return pcs, pbs, outs
+
+
+def _curve_blocks(path, prof_name):
+    """The file's curve strokes' vertices as blocks of strokes of one vertex count, of
+    build_geoms' block size (curves._GEOM_BLOCK)."""
+    strokes, _ = analyse(str(path), load_profile(prof_name), Options())
+    by = {}
+    for st in strokes:
+        if st.kind == "curve":
+            by.setdefault(len(st.pts), []).append(curves._xy(st))
+    for npt, xs in by.items():
+        if 3 <= npt <= curves._GEOM_MAX_PTS:
+            step = max(1, curves._GEOM_BLOCK // (npt * npt))
+            for a in range(0, len(xs), step):
+                yield np.concatenate(xs[a:a + step]).reshape(-1, npt, 2)
 
 
 def _precond_forms():

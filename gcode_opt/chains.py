@@ -301,6 +301,97 @@ class _KeptLaws:
         return _replay([(st, self, r)], rules, profile)[0]
 
 
+class LawSpill:
+    """An unnamed temporary file the windowed candidates write their kept laws' arrays to
+    (laws_spilled_to): each finishing batch's pieces' durations (its rows' in row order),
+    pieces' places, binding bits and predicted ∫|a|² (~7 MB on the gyroid plate, held from
+    the chain batches through the budget runs: the windowed command's peak), read back
+    (_SpilledRows) only for the rows a run or the rewrite replays.  The same doubles and
+    integers, written and read as their bytes."""
+
+    def __init__(self, folder=None):
+        from .stroke_store import _TempFile
+        self._io = _TempFile(folder)
+        self.end = 0                 # bytes written
+
+    def put(self, a):
+        """a (an array) written at the file's end, as the _SpilledRows that reads it back."""
+        a = np.ascontiguousarray(a)
+        out = _SpilledRows(self, self.end, a.shape, a.dtype)
+        self._io.write(self.end, a.data.cast("B") if a.size else b"")
+        self.end += a.nbytes
+        return out
+
+    def pieces(self, PT, spans):
+        """(the rows' pieces' durations, their places there) of rows whose durations are
+        PT[a:a + c], (a, c) = spans[i] (int32): each row's written after the row before
+        (the same doubles; rows sharing pieces, _Spread's, each get a copy), their new
+        places (a'[i], c[i]) as int32."""
+        cnt = spans[:, 1].astype(np.int64)
+        off = _offsets(cnt)
+        out = np.empty(spans.shape, np.int32)
+        out[:, 0] = off[:-1]
+        out[:, 1] = spans[:, 1]
+        return self.put(PT[_ranges(spans[:, 0].astype(np.int64), cnt)]), self.put(out)
+
+    def read(self, pos, shape, dtype):
+        """The array of shape and dtype written at byte pos."""
+        out = np.empty(shape, dtype)
+        if out.size:
+            self._io.read_into(memoryview(out).cast("B"), pos)
+        return out
+
+
+class _SpilledRows:
+    """An array LawSpill wrote to its file, indexed along its first axis as the array would
+    be (int indexes, arrays or lists of them, or a bool mask): the rows from the least to
+    the greatest asked read back (one read), then indexed; nothing held but its place."""
+    __slots__ = ("spill", "pos", "shape", "dtype")
+
+    def __init__(self, spill, pos, shape, dtype):
+        self.spill, self.pos, self.shape, self.dtype = spill, pos, tuple(shape), np.dtype(dtype)
+
+    ndim = property(lambda self: len(self.shape))
+    size = property(lambda self: int(np.prod(self.shape)))
+
+    def __len__(self):
+        return self.shape[0]
+
+    def __getitem__(self, ix):
+        if type(ix) is tuple or isinstance(ix, slice):
+            return self.spill.read(self.pos, self.shape, self.dtype)[ix]
+        ix = np.asarray(ix)
+        if ix.dtype == bool:
+            ix = np.flatnonzero(ix)
+        n, rest = self.shape[0], self.shape[1:]
+        ix = np.where(ix < 0, ix + n, ix) if ix.size and ix.min() < 0 else ix
+        if ix.size == 0:
+            return np.empty(ix.shape + rest, self.dtype)
+        lo, hi = int(ix.min()), int(ix.max()) + 1
+        if hi > n:
+            raise IndexError(f"index {hi - 1} is out of bounds for axis 0 with size {n}")
+        w = self.dtype.itemsize * int(np.prod(rest))      # bytes a row
+        return self.spill.read(self.pos + lo * w, (hi - lo,) + rest, self.dtype)[ix - lo]
+
+
+# the LawSpill the candidate tables' kept laws go to (laws_spilled_to), or None: kept in memory
+_SPILL = [None]
+
+
+class laws_spilled_to:
+    """`with laws_spilled_to(spill):` the candidate tables made inside keep their laws in
+    spill (a LawSpill; None: in memory, the default)."""
+
+    def __init__(self, spill):
+        self.spill = spill
+
+    def __enter__(self):
+        self.old, _SPILL[0] = _SPILL[0], self.spill
+
+    def __exit__(self, *exc):
+        _SPILL[0] = self.old
+
+
 class _PackedMask:
     """A (rows, n) array of bools held as bits (np.packbits along each row: 1/8 of the
     bytes; the kept laws' binding masks, ~1.4 MB as bools on the gyroid plate, held
@@ -2440,6 +2531,7 @@ class _Finisher:
         self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
         self.beta_fn = None            # _chain_beta where the rows' beta is their T's (_BetaOfT)
         self.T_outer = None            # the whole table of T where it is an _OuterT (its cells: of it)
+        self.spill = _SPILL[0]         # where the kept laws go (LawSpill), or None: kept in memory
 
     def add(self, r):
         if not self.grouped:
@@ -2521,9 +2613,22 @@ class _Finisher:
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             # (its rows' T, beta and predicted times: the memos' rows, _remember; memo52)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, None, None, None, a2r, profile)
+            kb = self._kept_base(r, a2r)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
+
+
+    def _kept_base(self, r, a2):
+        """The kept laws' base of the rows r (_KeptLaws: binding bits, pieces' durations,
+        their places, T, beta and predicted times read in the memos' rows (_remember), the
+        predicted ∫|a|² a2, profile); with a spill, its arrays written there (the rows'
+        pieces in row order: the chunk's pieces are not held by them)."""
+        mask = _PackedMask(r.bnd)
+        if self.spill is None:
+            return (mask, r.tj, r.spans, None, None, None, a2, self.profile)
+        tj, spans = self.spill.pieces(r.tj, r.spans)
+        mask.bits = self.spill.put(mask.bits)
+        return (mask, tj, spans, None, None, None, self.spill.put(a2), self.profile)
 
 
 def _flat_chains(sts, profile, gs=None):

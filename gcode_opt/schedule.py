@@ -502,6 +502,12 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
 CHAIN_BATCH = chains.SOLVE_CHUNK // 4
 
 
+# the windowed candidates' kept chain laws (~7 MB on the gyroid plate, held from the chain
+# batches through the budget runs: the windowed peak) in a temporary file, not in memory
+# (benchmarks/memo55.md); the list path keeps them in memory
+SPILL_CHAIN_LAWS = True
+
+
 class _WaitingChains:
     """The chains of consecutive windows made together (window_pieces of K_CHAIN), once
     `batch` of them wait or the last window is passed: each chain's tables are its own
@@ -510,12 +516,14 @@ class _WaitingChains:
     call a window, +605 M instructions at 32 windows on the gyroid plate; memo53.md).
     The chains' strokes are held as objects until their call (their window may be let go
     before: a StoredStrokes keeping chain_T puts the same memo objects back, so what the
-    call writes in them is the row's)."""
+    call writes in them is the row's).  With SPILL_CHAIN_LAWS the calls' kept laws go to
+    one temporary file (chains.LawSpill), read back for the rows a run replays."""
 
     def __init__(self, strokes, pin, profile, failed, rules, batch=None):
         self.strokes, self.pin, self.profile, self.failed, self.rules = strokes, pin, profile, failed, rules
         self.batch = CHAIN_BATCH if batch is None else max(int(batch), 1)
         self.rows, self.held, self.n = [], {}, 0
+        self.spill = None               # (made by the first call)
 
     def add(self, rows, last):
         """Pieces of the chains waiting with rows (an int array, or None) once a batch is due."""
@@ -527,8 +535,11 @@ class _WaitingChains:
             return []
         rows, held = np.concatenate(self.rows), self.held
         self.rows, self.held, self.n = [], {}, 0
-        return window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
-                             kinds=(K_CHAIN,))
+        if SPILL_CHAIN_LAWS and self.spill is None:
+            self.spill = chains.LawSpill()
+        with chains.laws_spilled_to(self.spill):
+            return window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
+                                 kinds=(K_CHAIN,))
 
 
 def _window_rows(rows, lo, hi, ordered):

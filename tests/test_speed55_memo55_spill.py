@@ -1,0 +1,124 @@
+"""The windowed candidates keep the chains' kept laws in a temporary file
+(schedule.SPILL_CHAIN_LAWS: chains.LawSpill, _SpilledRows), not in memory: every chain's
+laws read back are the in-memory ones bit for bit (binding masks, pieces' durations, T,
+beta, predicted time and ∫|a|², and the knots made again from them), the tables the same,
+the chains' memory after the candidates far less; _SpilledRows indexes as numpy does."""
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gcode_opt import chains
+from gcode_opt import features as feat
+from gcode_opt import schedule as sc
+from gcode_opt.pipeline import Options, analyse
+from gcode_opt.profile import load_profile
+from gcode_opt.strokes import K_CHAIN
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
+NAME = "prusa_gyroid_fullspeed.gcode"
+
+
+def _windowed(monkeypatch, spill, trace=False):
+    """(tables' entries, {row: its memo's rows and laws as bits}, bytes traced in chains.py
+    right after the candidates, the memos' kept bases) of the windowed candidates of NAME
+    (16 windows, chain batches of 60), the kept laws spilled or not."""
+    monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
+    prof = load_profile("prusa-mk3s")
+    path = str(SAMPLES / NAME)
+    opts = Options(features=feat.default_selection(path)[0])
+    strokes, _ = analyse(path, prof, opts)
+    pin = sc.plan_inputs(strokes, prof, opts)
+    rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
+    bounds = np.linspace(0, len(strokes), 17).astype(int)
+    if trace:
+        tracemalloc.start()
+    try:
+        cands, _ = sc.candidates_in_windows(strokes, pin, prof, opts, rows, sc._faults_of(pin.fault), bounds,
+                                            chain_batch=60)
+        held = 0
+        if trace:
+            held = sum(s.size for s in tracemalloc.take_snapshot().statistics("filename")
+                       if Path(s.traceback[0].filename).name == "chains.py")
+    finally:
+        tracemalloc.stop()
+    chain_rows = rows[K_CHAIN].tolist()
+    kept = [k for i in chain_rows for *_, k in strokes[i].chain_T.rows()]
+    entries = [np.ascontiguousarray(a).tobytes() for a in (cands.cnt, cands.t_pos, cands.col, cands.vals)]
+    return entries, {i: _laws_bits(strokes[i], prof) for i in chain_rows}, held, kept
+
+
+def _laws_bits(st, prof):
+    out = []
+    items = [(kept, int(r)) for _, _, _, r, kept in st.chain_T.rows()]
+    if not items:
+        return out
+    nv, voff, bound, tj, TL, beta, tp, a2, poff = chains._rows_laws([k for k, _ in items], np.array([r for _, r in items]))
+    for q, (kept, r) in enumerate(items):
+        vk, dt, t, i2 = kept.row(r, st)
+        out.append((bound[voff[q]:voff[q + 1]].tobytes(), tj[poff[q]:poff[q + 1]].tobytes(),
+                    TL[q].hex(), beta[q].hex(), tp[q].hex(), a2[q].hex(),
+                    np.asarray(vk, float).tobytes(), np.asarray(dt, float).tobytes(), float(t).hex(), float(i2).hex()))
+    return out
+
+
+_REF = {}
+
+
+def _reference(monkeypatch):
+    if not _REF:
+        _REF["got"] = _windowed(monkeypatch, False, trace=True)
+    return _REF["got"]
+
+
+def test_spilled_laws_are_the_kept_ones(monkeypatch):
+    tables, laws, _, _ = _reference(monkeypatch)
+    got_tables, got_laws, _, kept = _windowed(monkeypatch, True)
+    assert got_tables == tables
+    assert sum(map(len, laws.values())) > 1000
+    assert got_laws == laws
+    # (read back from the file: no array of them held)
+    base = next(k.base for k in kept if type(k) is chains._KeptLaws)
+    assert all(type(x) is chains._SpilledRows for x in (base[0].bits, base[1], base[2], base[6]))
+
+
+def test_spilled_laws_not_held(monkeypatch):
+    _, _, held_mem, _ = _reference(monkeypatch)
+    _, _, held, _ = _windowed(monkeypatch, True, trace=True)
+    # the kept laws were ~2/3 of what chains.py held after the candidates (pieces' durations
+    # most of it); with them spilled, the memos' rows and the spill's small objects
+    assert held < 0.55 * held_mem, (held, held_mem)
+
+
+def test_spilled_rows_index_as_numpy(tmp_path):
+    spill = chains.LawSpill(str(tmp_path))
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal(50)
+    b = rng.integers(-9, 9, (40, 3)).astype(np.int32)
+    c = rng.integers(0, 255, (7, 2)).astype(np.uint8)
+    sa, sb, sc_ = spill.put(a), spill.put(b), spill.put(c)
+    assert spill.put(np.zeros(0)).shape == (0,)
+    for arr, s in ((a, sa), (b, sb), (c, sc_)):
+        n = arr.shape[0]
+        assert s.shape == arr.shape and s.dtype == arr.dtype and len(s) == n and s.size == arr.size
+        for ix in ([3, 1, 1, n - 1], np.array([[0, 2], [n - 2, 4]]), 2, -1, [-n, 0], np.arange(n) % 3 == 0,
+                   np.zeros(0, np.int64), np.array(n - 1)):
+            want = arr[ix]
+            got = s[ix]
+            assert got.shape == want.shape and got.dtype == want.dtype and got.tobytes() == want.tobytes(), ix
+        assert s[1:4].tobytes() == arr[1:4].tobytes()
+        with pytest.raises(IndexError):
+            s[[0, n]]
+
+
+def test_pieces_in_row_order(tmp_path):
+    spill = chains.LawSpill(str(tmp_path))
+    PT = np.arange(30, dtype=float) / 7
+    spans = np.array([[10, 3], [0, 2], [10, 3], [25, 5], [4, 0]], np.int32)
+    tj, sp = spill.pieces(PT, spans)
+    assert sp.dtype == np.int32 and sp[np.arange(5)][:, 1].tolist() == [3, 2, 3, 5, 0]
+    whole = tj[np.arange(tj.shape[0])]
+    for (a, c), (a2, c2) in zip(spans.tolist(), sp[np.arange(5)].tolist()):
+        assert c2 == c and whole[a2:a2 + c2].tobytes() == PT[a:a + c].tobytes()
+    assert tj.shape == (13,)

@@ -345,17 +345,23 @@ class LawSpill:
 class _SpilledRows:
     """An array LawSpill wrote to its file, indexed along its first axis as the array would
     be (int indexes, arrays or lists of them, or a bool mask): the rows from the least to
-    the greatest asked read back (one read), then indexed; nothing held but its place."""
-    __slots__ = ("spill", "pos", "shape", "dtype")
+    the greatest asked read back (one read), then indexed; nothing held but its place: byte
+    pos, its n rows, and its kind (a row's shape, dtype), one object for every array of that
+    kind (~7 k of them on the gyroid plate: a shape tuple each was ~0.35 MB)."""
+    __slots__ = ("spill", "pos", "n", "kind")
 
     def __init__(self, spill, pos, shape, dtype):
-        self.spill, self.pos, self.shape, self.dtype = spill, pos, tuple(shape), np.dtype(dtype)
+        rest, dtype = tuple(shape[1:]), np.dtype(dtype)
+        self.spill, self.pos, self.n = spill, pos, _row_int(shape[0])
+        self.kind = _SPILLED_KINDS.setdefault((rest, dtype.str), (rest, dtype))
 
-    ndim = property(lambda self: len(self.shape))
+    shape = property(lambda self: (self.n,) + self.kind[0])
+    dtype = property(lambda self: self.kind[1])
+    ndim = property(lambda self: 1 + len(self.kind[0]))
     size = property(lambda self: int(np.prod(self.shape)))
 
     def __len__(self):
-        return self.shape[0]
+        return self.n
 
     def __getitem__(self, ix):
         if type(ix) is tuple or isinstance(ix, slice):
@@ -363,16 +369,18 @@ class _SpilledRows:
         ix = np.asarray(ix)
         if ix.dtype == bool:
             ix = np.flatnonzero(ix)
-        n, rest = self.shape[0], self.shape[1:]
+        n, rest = self.n, self.kind[0]
         ix = np.where(ix < 0, ix + n, ix) if ix.size and ix.min() < 0 else ix
         if ix.size == 0:
-            return np.empty(ix.shape + rest, self.dtype)
+            return np.empty(ix.shape + rest, self.kind[1])
         lo, hi = int(ix.min()), int(ix.max()) + 1
         if hi > n:
             raise IndexError(f"index {hi - 1} is out of bounds for axis 0 with size {n}")
-        w = self.dtype.itemsize * int(np.prod(rest))      # bytes a row
-        return self.spill.read(self.pos + lo * w, (hi - lo,) + rest, self.dtype)[ix - lo]
+        w = self.kind[1].itemsize * int(np.prod(rest))      # bytes a row
+        return self.spill.read(self.pos + lo * w, (hi - lo,) + rest, self.kind[1])[ix - lo]
 
+
+_SPILLED_KINDS = {}      # (a row's shape, dtype.str) -> the (shape, dtype) _SpilledRows of that kind share
 
 # the LawSpill the candidate tables' kept laws go to (laws_spilled_to), or None: kept in memory
 _SPILL = [None]
@@ -2955,7 +2963,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                 # a chain's first rows (the table's usual case): what _own_source and
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
-                    memo.src, memo.src_i = src, a + jj
+                    memo.src, memo.src_i = src, _row_int(a + jj)
                 memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
                 memo.seg_tin = None
             else:
@@ -3043,7 +3051,7 @@ def _own_source(memo, src, i):
             memo.kept = mine
         elif isinstance(memo.kept, list):
             memo.kept = [mine if _dropped_from(x, old) else x for x in memo.kept]
-    memo.src, memo.src_i = src, i
+    memo.src, memo.src_i = src, _row_int(i)
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

@@ -20,10 +20,10 @@ SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
 NAME = "prusa_gyroid_fullspeed.gcode"
 
 
-def _windowed(monkeypatch, spill, trace=False):
+def _windowed(monkeypatch, spill, trace=False, batch=60):
     """(tables' entries, {row: its memo's rows and laws as bits}, bytes traced in chains.py
     right after the candidates, the memos' kept bases) of the windowed candidates of NAME
-    (16 windows, chain batches of 60), the kept laws spilled or not."""
+    (16 windows, chain batches of `batch`), the kept laws spilled or not."""
     monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
     prof = load_profile("prusa-mk3s")
     path = str(SAMPLES / NAME)
@@ -36,7 +36,7 @@ def _windowed(monkeypatch, spill, trace=False):
         tracemalloc.start()
     try:
         cands, _ = sc.candidates_in_windows(strokes, pin, prof, opts, rows, sc._faults_of(pin.fault), bounds,
-                                            chain_batch=60)
+                                            chain_batch=batch)
         held = 0
         if trace:
             held = sum(s.size for s in tracemalloc.take_snapshot().statistics("filename")
@@ -44,6 +44,7 @@ def _windowed(monkeypatch, spill, trace=False):
     finally:
         tracemalloc.stop()
     chain_rows = rows[K_CHAIN].tolist()
+    _MEMOS[:] = [strokes[i].chain_T for i in chain_rows]
     kept = [k for i in chain_rows for *_, k in strokes[i].chain_T.rows()]
     entries = [np.ascontiguousarray(a).tobytes() for a in (cands.cnt, cands.t_pos, cands.col, cands.vals)]
     return entries, {i: _laws_bits(strokes[i], prof) for i in chain_rows}, held, kept
@@ -64,6 +65,7 @@ def _laws_bits(st, prof):
 
 
 _REF = {}
+_MEMOS = []         # the last _windowed's chains' memos
 
 
 def _reference(monkeypatch):
@@ -89,6 +91,19 @@ def test_spilled_laws_not_held(monkeypatch):
     # the kept laws were ~2/3 of what chains.py held after the candidates (pieces' durations
     # most of it); with them spilled, the memos' rows and the spill's small objects
     assert held < 0.55 * held_mem, (held, held_mem)
+
+
+def test_shared_small_objects(monkeypatch):
+    """The memos' source rows are the shared row ints, and the spilled arrays of one kind
+    share their (row shape, dtype): no int or tuple of their own a chain or an array."""
+    _, _, _, kept = _windowed(monkeypatch, True, batch=400)      # (one call: rows past the small ints)
+    memos = list(_MEMOS)
+    assert len(memos) > 300 and max(m.src_i for m in memos) > 256
+    assert all(m.src_i is chains._ROW_INTS[m.src_i] for m in memos)
+    bases = {id(k.base): k.base for k in kept if type(k) is chains._KeptLaws}.values()
+    assert len(bases) > 10
+    for i in (1, 2, 6):
+        assert len({id(b[i].kind) for b in bases}) == 1
 
 
 def test_spilled_rows_index_as_numpy(tmp_path):

@@ -538,8 +538,34 @@ class _WaitingChains:
         if SPILL_CHAIN_LAWS and self.spill is None:
             self.spill = chains.LawSpill()
         with chains.laws_spilled_to(self.spill):
-            return window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
-                                 kinds=(K_CHAIN,))
+            got = window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
+                                kinds=(K_CHAIN,))
+        if self.spill is not None:
+            got = [_SpilledPiece(pc, self.spill) if type(pc) is tuple and len(pc) == 5 else pc for pc in got]
+        return got
+
+
+class _SpilledPiece:
+    """A chain batch's candidate piece (Candidates.piece: rows sub, mask, vals, t_pos, bad
+    rows) whose mask and values wait in the chains' spill (chains.LawSpill) until
+    Candidates.of_pieces reads them (the gyroid plate's chains: ~3 MB held from their
+    batches to the merge, the windowed peak); indexed and unpacked as the piece, the same
+    arrays read back."""
+    __slots__ = ("sub", "mask", "vals", "t_pos", "bad")
+
+    def __init__(self, piece, spill):
+        sub, mask, vals, self.t_pos, self.bad = piece
+        self.sub, self.mask, self.vals = sub, spill.put(mask), spill.put(vals)
+
+    def __len__(self):
+        return 5
+
+    def __getitem__(self, i):
+        x = (self.sub, self.mask, self.vals, self.t_pos, self.bad)[i]
+        return x[:] if type(x) is chains._SpilledRows else x
+
+    def __iter__(self):
+        return map(self.__getitem__, range(5))
 
 
 def _window_rows(rows, lo, hi, ordered):

@@ -137,3 +137,31 @@ def test_pieces_in_row_order(tmp_path):
     for (a, c), (a2, c2) in zip(spans.tolist(), sp[np.arange(5)].tolist()):
         assert c2 == c and whole[a2:a2 + c2].tobytes() == PT[a:a + c].tobytes()
     assert tj.shape == (13,)
+
+
+def _chain_pieces(monkeypatch, spill):
+    monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
+    prof = load_profile("prusa-mk3s")
+    path = str(SAMPLES / NAME)
+    opts = Options(features=feat.default_selection(path)[0])
+    strokes, _ = analyse(path, prof, opts)
+    pin = sc.plan_inputs(strokes, prof, opts)
+    rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))[K_CHAIN]
+    waiting = sc._WaitingChains(strokes, pin, prof, sc._faults_of(pin.fault), sc.SegmentRules.for_profile(prof, 10))
+    return waiting.add(rows[:150], False) + waiting.add(rows[150:], True)
+
+
+def test_spilled_pieces_read_back(monkeypatch):
+    """A chain batch's pieces wait with their mask and values in the spill; unpacked and
+    indexed, they are the pieces kept in memory, array for array."""
+    ref = _chain_pieces(monkeypatch, False)
+    got = _chain_pieces(monkeypatch, True)
+    assert len(got) == len(ref) >= 1
+    for g, r in zip(got, ref):
+        assert type(g) is sc._SpilledPiece and type(g.vals) is chains._SpilledRows
+        assert type(g.mask) is chains._SpilledRows and len(g) == len(r) == 5
+        parts = list(g)
+        for i in range(5):
+            for x in (parts[i], g[i]):
+                assert type(x) is np.ndarray and x.dtype == r[i].dtype and x.shape == r[i].shape
+                assert x.tobytes() == r[i].tobytes()

@@ -3,6 +3,7 @@
 laws read back are the in-memory ones bit for bit (binding masks, pieces' durations, T,
 beta, predicted time and ∫|a|², and the knots made again from them), the tables the same,
 the chains' memory after the candidates far less; _SpilledRows indexes as numpy does."""
+import os
 import tracemalloc
 from pathlib import Path
 
@@ -14,22 +15,39 @@ from gcode_opt import features as feat
 from gcode_opt import schedule as sc
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
+from gcode_opt.plan_windows import plan_inputs_windowed
+from gcode_opt.stored_strokes import StoredStrokes, curve_geometry
+from gcode_opt.stroke_store import StrokeStore
 from gcode_opt.strokes import K_CHAIN
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
 NAME = "prusa_gyroid_fullspeed.gcode"
 
 
-def _windowed(monkeypatch, spill, trace=False, batch=60):
-    """(tables' entries, {row: its memo's rows and laws as bits}, bytes traced in chains.py
-    right after the candidates, the memos' kept bases) of the windowed candidates of NAME
-    (16 windows, chain batches of `batch`), the kept laws spilled or not."""
-    monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
+def _strokes(name=NAME, folder=None):
+    """(profile, options, strokes, pin) of the sample: a list of strokes (folder None), or a
+    StoredStrokes of 37-stroke windows over a StrokeStore in a file in folder, as the
+    windowed command's (planned_strokes)."""
     prof = load_profile("prusa-mk3s")
-    path = str(SAMPLES / NAME)
+    path = str(SAMPLES / name)
     opts = Options(features=feat.default_selection(path)[0])
-    strokes, _ = analyse(path, prof, opts)
-    pin = sc.plan_inputs(strokes, prof, opts)
+    if folder is None:
+        strokes, _ = analyse(path, prof, opts)
+        return prof, opts, strokes, sc.plan_inputs(strokes, prof, opts)
+    store = StrokeStore(folder=str(folder))
+    _, _ = analyse(path, prof, opts, store)
+    pin = plan_inputs_windowed(store, prof, opts, 37)
+    return prof, opts, StoredStrokes(store, 37, on_load=curve_geometry(pin.plan_kind_codes, prof),
+                                     keep=("chain_T",)), pin
+
+
+def _windowed(monkeypatch, spill, trace=False, batch=60, folder=None):
+    """(tables' entries, {row: its memo's rows and laws as bits}, bytes traced in chains.py
+    right after the candidates, the memos' kept laws) of the windowed candidates of NAME
+    (16 windows, chain batches of `batch`; over a StoredStrokes whose store is in folder, or
+    a list), the kept laws spilled or not."""
+    monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
+    prof, opts, strokes, pin = _strokes(folder=folder)
     rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
     bounds = np.linspace(0, len(strokes), 17).astype(int)
     if trace:
@@ -45,7 +63,7 @@ def _windowed(monkeypatch, spill, trace=False, batch=60):
         tracemalloc.stop()
     chain_rows = rows[K_CHAIN].tolist()
     _MEMOS[:] = [strokes[i].chain_T for i in chain_rows]
-    kept = [k for i in chain_rows for *_, k in strokes[i].chain_T.rows()]
+    kept = [k for m in _MEMOS for *_, k in m.rows()]
     entries = [np.ascontiguousarray(a).tobytes() for a in (cands.cnt, cands.t_pos, cands.col, cands.vals)]
     return entries, {i: _laws_bits(strokes[i], prof) for i in chain_rows}, held, kept
 
@@ -74,9 +92,9 @@ def _reference(monkeypatch):
     return _REF["got"]
 
 
-def test_spilled_laws_are_the_kept_ones(monkeypatch):
+def test_spilled_laws_are_the_kept_ones(monkeypatch, tmp_path):
     tables, laws, _, _ = _reference(monkeypatch)
-    got_tables, got_laws, _, kept = _windowed(monkeypatch, True)
+    got_tables, got_laws, _, kept = _windowed(monkeypatch, True, folder=tmp_path)
     assert got_tables == tables
     assert sum(map(len, laws.values())) > 1000
     assert got_laws == laws
@@ -85,18 +103,18 @@ def test_spilled_laws_are_the_kept_ones(monkeypatch):
     assert all(type(x) is chains._SpilledRows for x in (base[0].bits, base[1], base[2], base[6]))
 
 
-def test_spilled_laws_not_held(monkeypatch):
+def test_spilled_laws_not_held(monkeypatch, tmp_path):
     _, _, held_mem, _ = _reference(monkeypatch)
-    _, _, held, _ = _windowed(monkeypatch, True, trace=True)
+    _, _, held, _ = _windowed(monkeypatch, True, trace=True, folder=tmp_path)
     # the kept laws were ~2/3 of what chains.py held after the candidates (pieces' durations
     # most of it); with them spilled, the memos' rows and the spill's small objects
     assert held < 0.55 * held_mem, (held, held_mem)
 
 
-def test_shared_small_objects(monkeypatch):
+def test_shared_small_objects(monkeypatch, tmp_path):
     """The memos' source rows are the shared row ints, and the spilled arrays of one kind
     share their (row shape, dtype): no int or tuple of their own a chain or an array."""
-    _, _, _, kept = _windowed(monkeypatch, True, batch=400)      # (one call: rows past the small ints)
+    _, _, _, kept = _windowed(monkeypatch, True, batch=400, folder=tmp_path)    # (one call: rows past the small ints)
     memos = list(_MEMOS)
     assert len(memos) > 300 and max(m.src_i for m in memos) > 256
     assert all(m.src_i is chains._ROW_INTS[m.src_i] for m in memos)
@@ -139,23 +157,20 @@ def test_pieces_in_row_order(tmp_path):
     assert tj.shape == (13,)
 
 
-def _chain_pieces(monkeypatch, spill):
+def _chain_pieces(monkeypatch, spill, folder):
     monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", spill)
-    prof = load_profile("prusa-mk3s")
-    path = str(SAMPLES / NAME)
-    opts = Options(features=feat.default_selection(path)[0])
-    strokes, _ = analyse(path, prof, opts)
-    pin = sc.plan_inputs(strokes, prof, opts)
+    prof, opts, strokes, pin = _strokes(folder=folder)
     rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))[K_CHAIN]
     waiting = sc._WaitingChains(strokes, pin, prof, sc._faults_of(pin.fault), sc.SegmentRules.for_profile(prof, 10))
-    return waiting.add(rows[:150], False) + waiting.add(rows[150:], True)
+    got = waiting.add(rows[:150], False) + waiting.add(rows[150:], True)
+    return got, waiting.spill
 
 
-def test_spilled_pieces_read_back(monkeypatch):
+def test_spilled_pieces_read_back(monkeypatch, tmp_path):
     """A chain batch's pieces wait with their mask and values in the spill; unpacked and
     indexed, they are the pieces kept in memory, array for array."""
-    ref = _chain_pieces(monkeypatch, False)
-    got = _chain_pieces(monkeypatch, True)
+    ref, _ = _chain_pieces(monkeypatch, False, tmp_path)
+    got, _ = _chain_pieces(monkeypatch, True, tmp_path)
     assert len(got) == len(ref) >= 1
     for g, r in zip(got, ref):
         assert type(g) is sc._SpilledPiece and type(g.vals) is chains._SpilledRows
@@ -165,3 +180,20 @@ def test_spilled_pieces_read_back(monkeypatch):
             for x in (parts[i], g[i]):
                 assert type(x) is np.ndarray and x.dtype == r[i].dtype and x.shape == r[i].shape
                 assert x.tobytes() == r[i].tobytes()
+
+
+def _fd_path(spill):
+    return os.readlink(f"/proc/self/fd/{spill._io._fd}")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+def test_spill_beside_the_store(monkeypatch, tmp_path):
+    """The spill is a file where the strokes' store has its own (the output's folder, not a
+    /tmp that may be RAM); none for a list of strokes, a store in memory, or the switch off."""
+    _, spill = _chain_pieces(monkeypatch, True, tmp_path)
+    assert type(spill) is chains.LawSpill and _fd_path(spill).startswith(str(tmp_path) + "/")
+    assert os.listdir(tmp_path) == []                # (unnamed)
+    assert _chain_pieces(monkeypatch, False, tmp_path)[1] is False
+    monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", True)
+    assert sc._law_spill(_strokes()[2]) is False
+    assert sc._law_spill(StoredStrokes(StrokeStore(in_memory=True), 37)) is False

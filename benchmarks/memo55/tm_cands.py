@@ -1,4 +1,4 @@
-"""tracemalloc by line right after the windowed candidates (plan_windows.candidates_windowed,
+"""tracemalloc's peak during the windowed candidates and by line right after them (plan_windows.candidates_windowed,
 where the windowed gyroid plate's peak is reached: mem_breakdown --rises), and the share of
 the chains' candidate state: the memos, their rows, the kept laws (chains.py's lines).
 
@@ -19,11 +19,14 @@ orig = P.candidates_windowed
 
 
 def wrap(*a, **k):
+    tracemalloc.reset_peak()
     r = orig(*a, **k)
+    peak = tracemalloc.get_traced_memory()[1]
     st = tracemalloc.take_snapshot().statistics("lineno")
     tot = sum(s.size for s in st)
     ch = sum(s.size for s in st if os.path.basename(s.traceback[0].filename) == "chains.py")
-    print(f"== after the candidates: traced {tot / 1e6:.2f} MB, chains.py {ch / 1e6:.2f} MB")
+    print(f"== after the candidates: traced {tot / 1e6:.2f} MB, chains.py {ch / 1e6:.2f} MB; "
+          f"traced peak during them {peak / 1e6:.2f} MB")
     for s in st[:top]:
         fr = s.traceback[0]
         print(f"  {s.size / 1e6:6.2f} MB {s.count:8d}  {os.path.basename(fr.filename)}:{fr.lineno}")

@@ -307,80 +307,106 @@ class LawSpill:
     pieces' places, binding bits and predicted ∫|a|² (~7 MB on the gyroid plate, held from
     the chain batches through the budget runs: the windowed command's peak), read back
     (_SpilledRows) only for the rows a run or the rewrite replays.  The same doubles and
-    integers, written and read as their bytes."""
+    integers, written and read as their bytes.  The arrays written together (put_block:
+    a batch's kept laws, which the replay reads together) are read back together, one
+    read, and the last blocks read are kept (up to CACHE_BYTES)."""
+
+    CACHE_BYTES = 1 << 18
 
     def __init__(self, folder=None):
         from .stroke_store import _TempFile
         self._io = _TempFile(folder)
         self.end = 0                 # bytes written
+        self._cache, self._cached = {}, 0        # {block: its bytes (uint8)}, oldest first; their bytes
 
     def put(self, a):
         """a (an array) written at the file's end, as the _SpilledRows that reads it back."""
-        a = np.ascontiguousarray(a)
-        out = _SpilledRows(self, self.end, a.shape, a.dtype)
-        self._io.write(self.end, a.data.cast("B") if a.size else b"")
-        self.end += a.nbytes
+        return self.put_block([a])[0]
+
+    def put_block(self, arrays):
+        """The arrays written one after the other at the file's end, as _SpilledRows that
+        read them back (the block's bytes read once for all of them)."""
+        arrays = [np.ascontiguousarray(a) for a in arrays]
+        blk = (self.end, sum(a.nbytes for a in arrays))
+        out, at = [], 0
+        for a in arrays:
+            out.append(_SpilledRows(self, blk, at, a.shape, a.dtype))
+            if a.nbytes:
+                self._io.write(self.end + at, a.data.cast("B"))
+            at += a.nbytes
+        self.end += at
         return out
 
     def pieces(self, PT, spans):
         """(the rows' pieces' durations, their places there) of rows whose durations are
-        PT[a:a + c], (a, c) = spans[i] (int32): each row's written after the row before
-        (the same doubles; rows sharing pieces, _Spread's, each get a copy), their new
-        places (a'[i], c[i]) as int32."""
+        PT[a:a + c], (a, c) = spans[i] (int32): each row's after the row before (the same
+        doubles; rows sharing pieces, _Spread's, each get a copy), their new places (a'[i],
+        c[i]) as int32."""
         cnt = spans[:, 1].astype(np.int64)
         off = _offsets(cnt)
         out = np.empty(spans.shape, np.int32)
         out[:, 0] = off[:-1]
         out[:, 1] = spans[:, 1]
-        return self.put(PT[_ranges(spans[:, 0].astype(np.int64), cnt)]), self.put(out)
+        return PT[_ranges(spans[:, 0].astype(np.int64), cnt)], out
 
-    def read(self, pos, shape, dtype):
-        """The array of shape and dtype written at byte pos."""
-        out = np.empty(shape, dtype)
-        if out.size:
-            self._io.read_into(memoryview(out).cast("B"), pos)
-        return out
+    def block(self, blk, keep=True):
+        """The bytes of the block blk ((byte pos, length)) as a uint8 array, read or cached
+        (keep: kept in the cache once read)."""
+        got = self._cache.get(blk)
+        if got is None:
+            got = np.empty(blk[1], np.uint8)
+            if blk[1]:
+                self._io.read_into(memoryview(got), blk[0])
+            if keep and blk[1] <= self.CACHE_BYTES:
+                cache = self._cache
+                while cache and self._cached + blk[1] > self.CACHE_BYTES:
+                    self._cached -= cache.pop(next(iter(cache))).size
+                cache[blk] = got
+                self._cached += blk[1]
+        return got
 
 
 class _SpilledRows:
-    """An array LawSpill wrote to its file, indexed along its first axis as the array would
-    be (int indexes, arrays or lists of them, or a bool mask): the rows from the least to
-    the greatest asked read back (one read), then indexed; nothing held but its place: byte
-    pos, its n rows, and its kind (a row's shape, dtype), one object for every array of that
-    kind (~7 k of them on the gyroid plate: a shape tuple each was ~0.35 MB)."""
-    __slots__ = ("spill", "pos", "n", "kind")
+    """An array LawSpill wrote to its file, indexed as the array would be: its block's bytes
+    read back (or cached), viewed as the array, then indexed by numpy; nothing held but its
+    place: its block blk (shared by the arrays written together), its byte offset there,
+    its n rows, and its kind (a row's shape, dtype, bytes), one object for every array of
+    that kind (~7 k of them on the gyroid plate: a shape tuple each was ~0.35 MB)."""
+    __slots__ = ("spill", "blk", "off", "n", "kind")
 
-    def __init__(self, spill, pos, shape, dtype):
+    def __init__(self, spill, blk, off, shape, dtype):
         rest, dtype = tuple(shape[1:]), np.dtype(dtype)
-        self.spill, self.pos, self.n = spill, pos, _row_int(shape[0])
-        self.kind = _SPILLED_KINDS.setdefault((rest, dtype.str), (rest, dtype))
+        self.spill, self.blk, self.off, self.n = spill, blk, _row_int(off), _row_int(shape[0])
+        key = (rest, dtype.str)
+        kind = _SPILLED_KINDS.get(key)
+        if kind is None:                # (a row's shape, dtype, bytes)
+            kind = _SPILLED_KINDS[key] = (rest, dtype, dtype.itemsize * math.prod(rest))
+        self.kind = kind
 
     shape = property(lambda self: (self.n,) + self.kind[0])
     dtype = property(lambda self: self.kind[1])
     ndim = property(lambda self: 1 + len(self.kind[0]))
-    size = property(lambda self: int(np.prod(self.shape)))
+    size = property(lambda self: self.n * math.prod(self.kind[0]))
 
     def __len__(self):
         return self.n
 
+    def whole(self):
+        """The array itself, read back (not kept in the spill's cache: read once)."""
+        return self._view(self.spill.block(self.blk, False)).copy()
+
+    def _view(self, data):
+        rest, dtype, w = self.kind
+        return data[self.off:self.off + self.n * w].view(dtype).reshape((self.n,) + rest)
+
     def __getitem__(self, ix):
-        if type(ix) is tuple or isinstance(ix, slice):
-            return self.spill.read(self.pos, self.shape, self.dtype)[ix]
-        ix = np.asarray(ix)
-        if ix.dtype == bool:
-            ix = np.flatnonzero(ix)
-        n, rest = self.n, self.kind[0]
-        ix = np.where(ix < 0, ix + n, ix) if ix.size and ix.min() < 0 else ix
-        if ix.size == 0:
-            return np.empty(ix.shape + rest, self.kind[1])
-        lo, hi = int(ix.min()), int(ix.max()) + 1
-        if hi > n:
-            raise IndexError(f"index {hi - 1} is out of bounds for axis 0 with size {n}")
-        w = self.kind[1].itemsize * int(np.prod(rest))      # bytes a row
-        return self.spill.read(self.pos + lo * w, (hi - lo,) + rest, self.kind[1])[ix - lo]
+        data = self.spill.block(self.blk)
+        got = self._view(data)[ix]
+        # (a view of the block, a slice's or a row's: a copy, as the cache's bytes are not the caller's)
+        return got.copy() if isinstance(got, np.ndarray) and np.may_share_memory(got, data) else got
 
 
-_SPILLED_KINDS = {}      # (a row's shape, dtype.str) -> the (shape, dtype) _SpilledRows of that kind share
+_SPILLED_KINDS = {}      # (a row's shape, dtype.str) -> the (shape, dtype, bytes) _SpilledRows of that kind share
 
 # the LawSpill the candidate tables' kept laws go to (laws_spilled_to), or None: kept in memory
 _SPILL = [None]
@@ -2635,8 +2661,9 @@ class _Finisher:
         if self.spill is None:
             return (mask, r.tj, r.spans, None, None, None, a2, self.profile)
         tj, spans = self.spill.pieces(r.tj, r.spans)
-        mask.bits = self.spill.put(mask.bits)
-        return (mask, tj, spans, None, None, None, self.spill.put(a2), self.profile)
+        # (the 8-byte arrays first: each array aligned in its block's bytes)
+        tj, a2, spans, mask.bits = self.spill.put_block([tj, a2, spans, mask.bits])
+        return (mask, tj, spans, None, None, None, a2, self.profile)
 
 
 def _flat_chains(sts, profile, gs=None):

@@ -571,14 +571,15 @@ class _SpilledPiece:
 
     def __init__(self, piece, spill):
         sub, mask, vals, self.t_pos, self.bad = piece
-        self.sub, self.mask, self.vals = sub, spill.put(mask), spill.put(vals)
+        self.sub = sub
+        self.vals, self.mask = spill.put_block([vals, mask])
 
     def __len__(self):
         return 5
 
     def __getitem__(self, i):
         x = (self.sub, self.mask, self.vals, self.t_pos, self.bad)[i]
-        return x[:] if type(x) is chains._SpilledRows else x
+        return x.whole() if type(x) is chains._SpilledRows else x
 
     def __iter__(self):
         return map(self.__getitem__, range(5))

@@ -197,3 +197,30 @@ def test_spill_beside_the_store(monkeypatch, tmp_path):
     monkeypatch.setattr(sc, "SPILL_CHAIN_LAWS", True)
     assert sc._law_spill(_strokes()[2]) is False
     assert sc._law_spill(StoredStrokes(StrokeStore(in_memory=True), 37)) is False
+
+
+def test_block_read_once_and_cache_bounded(tmp_path):
+    """The arrays of one block are read back with one read; the cache keeps the last blocks
+    read up to CACHE_BYTES (a larger block, or a whole() read, not kept); what a read gives
+    is the caller's own (no view of the cache)."""
+    spill = chains.LawSpill(str(tmp_path))
+    spill.CACHE_BYTES = 1000
+    reads = []
+    read_into = spill._io.read_into
+    spill._io.read_into = lambda mv, pos: (reads.append(len(mv)), read_into(mv, pos))
+    a, b = np.arange(20, dtype=float), np.arange(12, dtype=np.int32).reshape(6, 2)
+    sa, sb = spill.put_block([a, b])
+    assert sa[[3, 1]].tolist() == [3.0, 1.0] and sb[[5]].tolist() == [[10, 11]] and len(reads) == 1
+    got = sa[2:5]
+    got[:] = -1
+    assert sa[2:5].tolist() == [2.0, 3.0, 4.0] and len(reads) == 1          # (the caller's copy)
+    blocks = [spill.put(np.full(40, float(i))) for i in range(6)]          # 320 B each
+    for i, s in enumerate(blocks):
+        assert s[[0]].tolist() == [float(i)]
+        assert spill._cached == sum(x.size for x in spill._cache.values()) <= 1000
+    assert len(spill._cache) == 3
+    n = len(reads)
+    big = spill.put(np.zeros(200))                  # 1600 B: over the cap
+    big[[0]], big[[1]]
+    assert len(reads) == n + 2 and spill._cached <= 1000
+    assert blocks[0].whole().tolist() == [0.0] * 40 and blocks[0].blk not in spill._cache

@@ -301,6 +301,131 @@ class _KeptLaws:
         return _replay([(st, self, r)], rules, profile)[0]
 
 
+class LawSpill:
+    """An unnamed temporary file the windowed candidates write their kept laws' arrays to
+    (laws_spilled_to): each finishing batch's pieces' durations (its rows' in row order),
+    pieces' places, binding bits and predicted ∫|a|² (~7 MB on the gyroid plate, held from
+    the chain batches through the budget runs: the windowed command's peak), read back
+    (_SpilledRows) only for the rows a run or the rewrite replays.  The same doubles and
+    integers, written and read as their bytes.  The arrays written together (put_block:
+    a batch's kept laws, which the replay reads together) are read back together, one
+    read, and the last blocks read are kept (up to CACHE_BYTES)."""
+
+    CACHE_BYTES = 1 << 18
+
+    def __init__(self, folder=None):
+        from .stroke_store import _TempFile
+        self._io = _TempFile(folder)
+        self.end = 0                 # bytes written
+        self._cache, self._cached = {}, 0        # {block: its bytes (uint8)}, oldest first; their bytes
+
+    def put(self, a):
+        """a (an array) written at the file's end, as the _SpilledRows that reads it back."""
+        return self.put_block([a])[0]
+
+    def put_block(self, arrays):
+        """The arrays written one after the other at the file's end, as _SpilledRows that
+        read them back (the block's bytes read once for all of them)."""
+        arrays = [np.ascontiguousarray(a) for a in arrays]
+        blk = (self.end, sum(a.nbytes for a in arrays))
+        out, at = [], 0
+        for a in arrays:
+            out.append(_SpilledRows(self, blk, at, a.shape, a.dtype))
+            if a.nbytes:
+                self._io.write(self.end + at, a.data.cast("B"))
+            at += a.nbytes
+        self.end += at
+        return out
+
+    def pieces(self, PT, spans):
+        """(the rows' pieces' durations, their places there) of rows whose durations are
+        PT[a:a + c], (a, c) = spans[i] (int32): each row's after the row before (the same
+        doubles; rows sharing pieces, _Spread's, each get a copy), their new places (a'[i],
+        c[i]) as int32."""
+        cnt = spans[:, 1].astype(np.int64)
+        off = _offsets(cnt)
+        out = np.empty(spans.shape, np.int32)
+        out[:, 0] = off[:-1]
+        out[:, 1] = spans[:, 1]
+        return PT[_ranges(spans[:, 0].astype(np.int64), cnt)], out
+
+    def block(self, blk, keep=True):
+        """The bytes of the block blk ((byte pos, length)) as a uint8 array, read or cached
+        (keep: kept in the cache once read)."""
+        got = self._cache.get(blk)
+        if got is None:
+            got = np.empty(blk[1], np.uint8)
+            if blk[1]:
+                self._io.read_into(memoryview(got), blk[0])
+            if keep and blk[1] <= self.CACHE_BYTES:
+                cache = self._cache
+                while cache and self._cached + blk[1] > self.CACHE_BYTES:
+                    self._cached -= cache.pop(next(iter(cache))).size
+                cache[blk] = got
+                self._cached += blk[1]
+        return got
+
+
+class _SpilledRows:
+    """An array LawSpill wrote to its file, indexed as the array would be: its block's bytes
+    read back (or cached), viewed as the array, then indexed by numpy; nothing held but its
+    place: its block blk (shared by the arrays written together), its byte offset there,
+    its n rows, and its kind (a row's shape, dtype, bytes), one object for every array of
+    that kind (~7 k of them on the gyroid plate: a shape tuple each was ~0.35 MB)."""
+    __slots__ = ("spill", "blk", "off", "n", "kind")
+
+    def __init__(self, spill, blk, off, shape, dtype):
+        rest, dtype = tuple(shape[1:]), np.dtype(dtype)
+        self.spill, self.blk, self.off, self.n = spill, blk, _row_int(off), _row_int(shape[0])
+        key = (rest, dtype.str)
+        kind = _SPILLED_KINDS.get(key)
+        if kind is None:                # (a row's shape, dtype, bytes)
+            kind = _SPILLED_KINDS[key] = (rest, dtype, dtype.itemsize * math.prod(rest))
+        self.kind = kind
+
+    shape = property(lambda self: (self.n,) + self.kind[0])
+    dtype = property(lambda self: self.kind[1])
+    ndim = property(lambda self: 1 + len(self.kind[0]))
+    size = property(lambda self: self.n * math.prod(self.kind[0]))
+
+    def __len__(self):
+        return self.n
+
+    def whole(self):
+        """The array itself, read back (not kept in the spill's cache: read once)."""
+        return self._view(self.spill.block(self.blk, False)).copy()
+
+    def _view(self, data):
+        rest, dtype, w = self.kind
+        return data[self.off:self.off + self.n * w].view(dtype).reshape((self.n,) + rest)
+
+    def __getitem__(self, ix):
+        data = self.spill.block(self.blk)
+        got = self._view(data)[ix]
+        # (a view of the block, a slice's or a row's: a copy, as the cache's bytes are not the caller's)
+        return got.copy() if isinstance(got, np.ndarray) and np.may_share_memory(got, data) else got
+
+
+_SPILLED_KINDS = {}      # (a row's shape, dtype.str) -> the (shape, dtype, bytes) _SpilledRows of that kind share
+
+# the LawSpill the candidate tables' kept laws go to (laws_spilled_to), or None: kept in memory
+_SPILL = [None]
+
+
+class laws_spilled_to:
+    """`with laws_spilled_to(spill):` the candidate tables made inside keep their laws in
+    spill (a LawSpill; None: in memory, the default)."""
+
+    def __init__(self, spill):
+        self.spill = spill
+
+    def __enter__(self):
+        self.old, _SPILL[0] = _SPILL[0], self.spill
+
+    def __exit__(self, *exc):
+        _SPILL[0] = self.old
+
+
 class _PackedMask:
     """A (rows, n) array of bools held as bits (np.packbits along each row: 1/8 of the
     bytes; the kept laws' binding masks, ~1.4 MB as bools on the gyroid plate, held
@@ -2526,6 +2651,7 @@ class _Finisher:
         self.src = None                # the _Source of the rows (the chains' memos: drop_rows)
         self.beta_fn = None            # _chain_beta where the rows' beta is their T's (_BetaOfT)
         self.T_outer = None            # the whole table of T where it is an _OuterT (its cells: of it)
+        self.spill = _SPILL[0]         # where the kept laws go (LawSpill), or None: kept in memory
 
     def add(self, r):
         if not self.grouped:
@@ -2607,9 +2733,23 @@ class _Finisher:
             # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
             # one _KeptLaws for the rows of all these chains, each row its batch row)
             # (its rows' T, beta and predicted times: the memos' rows, _remember; memo52)
-            kb = (_PackedMask(r.bnd), r.tj, r.spans, None, None, None, a2r, profile)
+            kb = self._kept_base(r, a2r)
             r.vk = r.dt = r.bnd = None
             _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
+
+
+    def _kept_base(self, r, a2):
+        """The kept laws' base of the rows r (_KeptLaws: binding bits, pieces' durations,
+        their places, T, beta and predicted times read in the memos' rows (_remember), the
+        predicted ∫|a|² a2, profile); with a spill, its arrays written there (the rows'
+        pieces in row order: the chunk's pieces are not held by them)."""
+        mask = _PackedMask(r.bnd)
+        if self.spill is None:
+            return (mask, r.tj, r.spans, None, None, None, a2, self.profile)
+        tj, spans = self.spill.pieces(r.tj, r.spans)
+        # (the 8-byte arrays first: each array aligned in its block's bytes)
+        tj, a2, spans, mask.bits = self.spill.put_block([tj, a2, spans, mask.bits])
+        return (mask, tj, spans, None, None, None, a2, self.profile)
 
 
 def _flat_chains(sts, profile, gs=None):
@@ -2969,7 +3109,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                 # a chain's first rows (the table's usual case): what _own_source and
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
-                    memo.src, memo.src_i = src, a + jj
+                    memo.src, memo.src_i = src, _row_int(a + jj)
                 memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
                 memo.seg_tin = None
             else:
@@ -3057,7 +3197,7 @@ def _own_source(memo, src, i):
             memo.kept = mine
         elif isinstance(memo.kept, list):
             memo.kept = [mine if _dropped_from(x, old) else x for x in memo.kept]
-    memo.src, memo.src_i = src, i
+    memo.src, memo.src_i = src, _row_int(i)
 
 
 def candidates_chain(pin, rows, strokes, profile, rules=None):

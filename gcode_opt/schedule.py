@@ -502,6 +502,13 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
 CHAIN_BATCH = chains.SOLVE_CHUNK // 4
 
 
+# the windowed candidates' kept chain laws (~7 MB on the gyroid plate, held from the chain
+# batches through the budget runs: the windowed peak) and the chain batches' pieces (~3 MB,
+# to the merge) in a temporary file beside the store's, not in memory (benchmarks/memo55.md);
+# the list path keeps them in memory
+SPILL_CHAIN_LAWS = True
+
+
 class _WaitingChains:
     """The chains of consecutive windows made together (window_pieces of K_CHAIN), once
     `batch` of them wait or the last window is passed: each chain's tables are its own
@@ -510,12 +517,15 @@ class _WaitingChains:
     call a window, +605 M instructions at 32 windows on the gyroid plate; memo53.md).
     The chains' strokes are held as objects until their call (their window may be let go
     before: a StoredStrokes keeping chain_T puts the same memo objects back, so what the
-    call writes in them is the row's)."""
+    call writes in them is the row's).  With SPILL_CHAIN_LAWS the calls' kept laws and
+    their pieces' masks and values go to one temporary file beside the store's
+    (_law_spill), read back for the rows a run replays and by Candidates.of_pieces."""
 
     def __init__(self, strokes, pin, profile, failed, rules, batch=None):
         self.strokes, self.pin, self.profile, self.failed, self.rules = strokes, pin, profile, failed, rules
         self.batch = CHAIN_BATCH if batch is None else max(int(batch), 1)
         self.rows, self.held, self.n = [], {}, 0
+        self.spill = None               # (made by the first call: _law_spill)
 
     def add(self, rows, last):
         """Pieces of the chains waiting with rows (an int array, or None) once a batch is due."""
@@ -527,8 +537,52 @@ class _WaitingChains:
             return []
         rows, held = np.concatenate(self.rows), self.held
         self.rows, self.held, self.n = [], {}, 0
-        return window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
-                             kinds=(K_CHAIN,))
+        if self.spill is None:
+            self.spill = _law_spill(self.strokes)
+        with chains.laws_spilled_to(self.spill or None):
+            got = window_pieces(held, self.pin, self.profile, {K_CHAIN: rows}, self.failed, self.rules,
+                                kinds=(K_CHAIN,))
+        if self.spill:
+            got = [_SpilledPiece(pc, self.spill) if type(pc) is tuple and len(pc) == 5 else pc for pc in got]
+        return got
+
+
+def _law_spill(strokes):
+    """The chains' spill (chains.LawSpill) where the strokes' store spills (a StoredStrokes
+    over a StrokeStore in a file: its folder, the output's disk, not a /tmp that may be
+    tmpfs), or False: their laws kept in memory (strokes a list, a store in memory,
+    SPILL_CHAIN_LAWS off, or no file could be made there)."""
+    store = getattr(strokes, "store", None)
+    if not SPILL_CHAIN_LAWS or getattr(store, "in_memory", True):
+        return False
+    try:
+        return chains.LawSpill(store.folder)
+    except OSError:
+        return False
+
+
+class _SpilledPiece:
+    """A chain batch's candidate piece (Candidates.piece: rows sub, mask, vals, t_pos, bad
+    rows) whose mask and values wait in the chains' spill (chains.LawSpill) until
+    Candidates.of_pieces reads them (the gyroid plate's chains: ~3 MB held from their
+    batches to the merge, the windowed peak); indexed and unpacked as the piece, the same
+    arrays read back."""
+    __slots__ = ("sub", "mask", "vals", "t_pos", "bad")
+
+    def __init__(self, piece, spill):
+        sub, mask, vals, self.t_pos, self.bad = piece
+        self.sub = sub
+        self.vals, self.mask = spill.put_block([vals, mask])
+
+    def __len__(self):
+        return 5
+
+    def __getitem__(self, i):
+        x = (self.sub, self.mask, self.vals, self.t_pos, self.bad)[i]
+        return x.whole() if type(x) is chains._SpilledRows else x
+
+    def __iter__(self):
+        return map(self.__getitem__, range(5))
 
 
 def _window_rows(rows, lo, hi, ordered):

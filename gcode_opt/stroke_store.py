@@ -331,6 +331,7 @@ class StrokeStore:
     def __init__(self, in_memory=False, folder=None, pure=False):
         self._codec = _codec(pure)
         self._io = (_Memory if in_memory else _TempFile)(folder)
+        self.in_memory, self.folder = in_memory, folder      # (other spills go where this one is)
         self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
         self._len = np.zeros(0, np.int64)
         self._n = 0

@@ -1,0 +1,169 @@
+"""The windowed runs' chain plans spilled for the rewrite (issue 8, replay55): schedule.plan_strokes
+over a StoredStrokes writes each chain plan its runs make (_chain_plans) to a temporary file
+(_ChainSpill: a record of doubles a plan), and the rewrite's remake (_PlansAgain) reads back the
+record of each re-timed chain whose (T, beta) is the record's instead of planning the chain
+again.  Here: the plans read back are the plans made again bit for bit (arrays, figures, type,
+fault verdict), a record of another law is not read back, plans the records do not hold are
+left out, a later record of a row replaces it, a failed write loses every record (the rows are
+planned again), and the windowed command's rewrite plans no chain."""
+import json
+import os
+
+import numpy as np
+import pytest
+
+from gcode_opt import chains
+from gcode_opt import pipeline as pl
+from gcode_opt import schedule as sc
+from gcode_opt.profile import load_profile
+from gcode_opt.segments import RowPlan, SegmentPlan
+
+from test_speed52_runs52_windows import seg_bits
+from test_speed53_plans53_lazy import SAMPLES, _stored_plan
+
+
+def _bits(p):
+    """seg_bits with the plan's fault verdict (the settle's "" or None: made when asked)."""
+    return None if p is None else seg_bits(p) + (p.fault,)
+
+
+def _timed_chains(name="prusa_gyroid_fullspeed.gcode", window=37):
+    strokes, store, prof, opts, plan, pin = _stored_plan(name, "prusa-mk3s", window)
+    rules = sc.SegmentRules.for_profile(prof, opts.max_segments)
+    rows = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_CHAIN))
+    return strokes, store, prof, rules, plan, rows
+
+
+def test_spilled_plans_are_the_plans_made_again():
+    strokes, store, prof, rules, plan, rows = _timed_chains()
+    with store:
+        spill = plan.remake.spill
+        assert rows.size > 50 and (spill.at[rows] >= 0).all()
+        got, plans, rest = spill.take(rows, plan.T[rows], plan.beta[rows])
+        assert got.tolist() == rows.tolist() and rest.size == 0
+        again = sc._chain_plans(strokes, plan, rules, prof, rows)        # (no spill: made again)
+        assert [_bits(p) for p in plans] == [_bits(p) for p in again]
+        assert all(p.fault == "" for p in plans)
+
+
+def test_record_of_another_law_is_not_read_back():
+    strokes, store, prof, rules, plan, rows = _timed_chains()
+    with store:
+        spill = plan.remake.spill
+        beta = plan.beta[rows].copy()
+        beta[::3] = np.nextafter(beta[::3], np.inf)        # (one bit off: another law)
+        T = plan.T[rows].copy()
+        T[1::3] = np.nextafter(T[1::3], 0.0)
+        got, plans, rest = spill.take(rows, T, beta)
+        assert got.tolist() == rows[2::3].tolist()
+        assert sorted(rest.tolist()) == sorted(rows[0::3].tolist() + rows[1::3].tolist())
+        free = np.setdiff1d(np.arange(len(strokes)), rows)[:5]
+        free = free[spill.at[free] < 0]
+        assert free.size
+        got, _, rest = spill.take(free, plan.T[free], plan.beta[free])
+        assert got.size == 0 and rest.tolist() == free.tolist()
+
+
+def _plans_of_kinds():
+    """A RowPlan of a block (knots from ends: chains._replay's), a SegmentPlan, a trapezoid,
+    a plan with a junction command, None."""
+    from array import array
+    rng = np.random.default_rng(5)
+    V, A, F = rng.random((3, 4)), rng.random((3, 3)) + 1.0, rng.random((3, 3)) + 1.0
+    ends = [array("d", np.cumsum(rng.random(3) + 0.1).tolist()) for _ in range(3)]
+    row = [RowPlan(ends[i], V, A, F, i, 1.0 + i, 2.0 + i) for i in range(3)]
+    seg = SegmentPlan(np.array([0.0, 1.0, 2.5]), np.array([1.0, 2.0, 1.5]), np.array([3.0, 4.0]),
+                      np.array([5.0, 6.0]), 0.75, 0.25)
+    trap = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, shape="trapezoid")
+    cmd = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, first_cmds=("M204 S1", ""))
+    return [row[2], seg, trap, row[0], cmd, None, row[1]]
+
+
+def test_records_of_every_kind_held():
+    plans = _plans_of_kinds()
+    spill = sc._ChainSpill.make(20)
+    rows = np.array([1, 3, 4, 6, 9, 10, 12])
+    T, beta = np.linspace(1.0, 2.0, 7), np.linspace(0.1, 0.2, 7)
+    spill.put(rows, T, beta, plans)
+    got, back, rest = spill.take(rows, T, beta)
+    assert got.tolist() == [1, 3, 6, 12] and rest.tolist() == [4, 9, 10]
+    assert [seg_bits(p) for p in back] == [seg_bits(plans[q]) for q in (0, 1, 3, 6)]
+    assert [sc.seg_fault(p) for p in back] == [sc.seg_fault(plans[q]) for q in (0, 1, 3, 6)] == [""] * 4
+    assert [type(p) for p in back] == [RowPlan, SegmentPlan, RowPlan, RowPlan]
+    # a later record of a row replaces it (another law: the old one no longer read back)
+    spill.put(rows[:1], T[1:2], beta[1:2], [plans[1]])
+    got, back, rest = spill.take(rows[:2], T[:2], beta[:2])
+    assert got.tolist() == [3] and rest.tolist() == [1]
+    got, back, _ = spill.take(rows[:1], T[1:2], beta[1:2])
+    assert got.tolist() == [1] and seg_bits(back[0]) == seg_bits(plans[1])
+    spill.close()
+
+
+def test_failed_write_loses_every_record():
+    plans = _plans_of_kinds()
+    spill = sc._ChainSpill.make(20)
+    rows = np.array([1, 3, 4, 6, 9, 10, 12])
+    T, beta = np.linspace(1.0, 2.0, 7), np.linspace(0.1, 0.2, 7)
+    spill.put(rows[:2], T[:2], beta[:2], plans[:2])
+    fh = spill.fh
+    spill.fh = _Refusing(fh)
+    spill.put(rows[2:], T[2:], beta[2:], plans[2:])
+    assert spill.fh is None
+    fh.close()
+    got, back, rest = spill.take(rows, T, beta)
+    assert got.size == 0 and rest.tolist() == rows.tolist()
+
+
+class _Refusing:
+    """A file whose writes fail."""
+
+    def __init__(self, fh):
+        self.fh = fh
+
+    def seek(self, *a):
+        return self.fh.seek(*a)
+
+    def write(self, b):
+        raise OSError("disk full")
+
+    def close(self):
+        pass
+
+
+@pytest.mark.parametrize("name,window", [("prusa_gyroid_fullspeed.gcode", 37), ("prusa_gyroid.gcode", 64)])
+def test_windowed_rewrite_reads_the_spill(name, window, monkeypatch, tmp_path):
+    """The command windowed writes the list path's file and summary, its rewrite planning no
+    chain (every re-timed chain's plan read back from the runs' spill)."""
+    after, planned = [False], []
+    plan_strokes, plan_chain = pl.plan_strokes, chains.plan_chain_segments
+
+    def spy_plan(*a, **k):
+        got = plan_strokes(*a, **k)
+        after[0] = True
+        return got
+
+    def spy_chain(strokes, *a, **k):
+        if after[0]:
+            planned.append(len(strokes))
+        return plan_chain(strokes, *a, **k)
+    monkeypatch.setattr(pl, "plan_strokes", spy_plan)
+    monkeypatch.setattr(chains, "plan_chain_segments", spy_chain)
+
+    def run(windowed):
+        after[0] = False
+        if windowed:
+            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
+            monkeypatch.setenv("GCODE_OPT_WINDOW", str(window))
+        else:
+            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
+        out = tmp_path / f"{name}.{windowed}.gcode"
+        s = pl.process(os.path.join(SAMPLES, name), str(out), load_profile("prusa-mk3s"), pl.Options())
+        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
+                                  default=str))
+        return out.read_bytes(), s
+    want = run(False)
+    planned.clear()
+    got = run(True)
+    assert got[0] == want[0]
+    assert got[1] == want[1]
+    assert planned == []

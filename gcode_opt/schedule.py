@@ -1477,9 +1477,7 @@ class _ChainSpill:
         # a record is the row's where it was made for the row's (T, beta), bit for bit
         Tb = np.stack([np.asarray(T, float)[has], np.asarray(beta, float)[has]], axis=1).view(np.int64)
         plans, ok = [None] * hat.size, np.zeros(hat.size, bool)
-        for n in np.unique(hn).tolist():
-            g = np.flatnonzero(hn == n)
-            G = buf[start[g][:, None] + np.arange(_spill_len(n))]
+        for g, G, n in _record_blocks(buf, start, hn):
             same = (G[:, :2].view(np.int64) == Tb[g]).all(axis=1)
             if not same.all():
                 g, G = g[same], G[same]
@@ -1513,6 +1511,21 @@ class _ChainSpill:
             self.fh = None
 
     __del__ = close             # (with the plan's remake: not left to the collector's warning)
+
+
+def _record_blocks(buf, start, ns):
+    """The records (first doubles start in buf, of plans of ns segments) as blocks of
+    consecutive records of one segment count: [(their indices, the block (a view of buf:
+    not a copy of the records, nor an index array as large), n)]; a block's records are
+    written together (_ChainSpill.put: a finishing block's plans one after the other)."""
+    o = np.lexsort((start, ns))
+    lens = _spill_len(ns[o])
+    cut = np.flatnonzero((ns[o][1:] != ns[o][:-1]) | (start[o][1:] != start[o][:-1] + lens[:-1])) + 1
+    out = []
+    for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
+        n, L, s0 = int(ns[o[a]]), int(lens[a]), int(start[o[a]])
+        out.append((o[a:z], buf[s0:s0 + (z - a) * L].reshape(z - a, L), n))
+    return out
 
 
 def _row_plan_blocks(plans):

@@ -2034,7 +2034,7 @@ def law_T(st, T):
     return float(T) if st.chain_T is None else st.chain_T.law_of(float(T))
 
 
-def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
+def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_laws=True):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
@@ -2044,7 +2044,9 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
     bits: tests/test_speed22_chainmem_drop.py).  remember False: no chain keeps its plan
     (a windowed run lets its chains' plans go once judged, schedule._window_figures: a
     memo holding each one's last plan held them all); a later ask of its (T, beta) makes
-    it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py)."""
+    it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py), or from
+    the law it chose (_Chosen, kept for that ask) unless keep_laws is False (the plans are
+    kept elsewhere: schedule._ChainSpill)."""
     T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
@@ -2076,7 +2078,8 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
         trim_heap()
     # (the rows' kept objects handed over in items, not held here: _replay drops them as it goes)
     # remember False: each chain keeps the law it chose, replayed if asked again (_Chosen)
-    chosen = None if remember else _keep_chosen(items)
+    keep_laws = keep_laws and not remember
+    chosen = _keep_chosen(items) if keep_laws else None
     for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
         out[k] = plan
     del items
@@ -2090,7 +2093,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
                 out[k] = plan
         del hits
     if again:
-        laws = None if remember else []
+        laws = [] if keep_laws else None
         plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile, laws)
         for (k, _), plan in zip(again, plans):
             out[k] = plan

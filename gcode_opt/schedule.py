@@ -1065,7 +1065,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     lazy_chains = window is not None and reuse and LAZY_CHAINS
     lazy_codes = [c for c, on in ((C_LINE, lazy_lines), (C_CHAIN, lazy_chains)) if on]
     # the chains' plans the runs make, spilled for the rewrite's remake to read back
-    spill = _ChainSpill.make(len(strokes)) if lazy_chains else None
+    spill = _ChainSpill.make(len(strokes)) if lazy_chains and SPILL_CHAINS else None
     remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill)
               if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
@@ -1196,6 +1196,7 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 LAZY_CHAINS = True      # likewise for the chains' plans
+SPILL_CHAINS = True     # lazy chains' plans spilled for the rewrite (_ChainSpill); off: remade from their laws
 
 
 def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
@@ -1379,7 +1380,8 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     sts = list(map(strokes.__getitem__, rows.tolist()))
     _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CHAIN), profile)
     T, beta = plan.T[rows], plan.beta[rows]
-    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False)
+    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
+    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None)
     if spill is not None:
         spill.put(rows, T, beta, plans)
     return plans

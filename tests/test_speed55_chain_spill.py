@@ -46,6 +46,21 @@ def test_spilled_plans_are_the_plans_made_again():
         assert all(p.fault == "" for p in plans)
 
 
+def test_spilled_chains_keep_no_law():
+    """The runs spilling their plans, no chain keeps the law it chose for the rewrite (_Chosen,
+    replay54's: kept with no spill)."""
+    for spill in (True, False):
+        sc.SPILL_CHAINS = spill
+        try:
+            strokes, store, prof, rules, plan, rows = _timed_chains()
+        finally:
+            sc.SPILL_CHAINS = True
+        with store:
+            assert (plan.remake.spill is not None) == spill
+            n = sum(type(strokes[i].chain_T.kept) is chains._Chosen for i in rows.tolist())
+            assert n == 0 if spill else n > 50
+
+
 def test_record_of_another_law_is_not_read_back():
     strokes, store, prof, rules, plan, rows = _timed_chains()
     with store:

@@ -694,16 +694,16 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
         core = _chain_law.CORE_MOD
         (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
-    batches.reverse()                   # popped from the end: in the order gathered
+    batches = [(Q, knots, None) for Q, knots in batches[::-1]]      # popped from the end: in the order gathered
     while batches or groups:
         if not batches:
             grp, laws = groups.pop()
-            batches = list(zip(grp, _laws_knots(grp, laws, profile)))[::-1]
+            batches = _finished_knots(grp, _laws_knots(grp, laws, profile), items, gs, rules, profile)[::-1]
             del laws
-        Q, (vk, dt, tp, a2) = batches.pop()
+        Q, (vk, dt, tp, a2), fin = batches.pop()
         sts = [items[q][0] for q in Q]
-        acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
-                                                profile, predict=False)
+        acc, feed, _, _, _ = fin or _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
+                                                       profile, predict=False)
         ends = _ends_rows(sts, vk.shape[1] - 1)
         for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
@@ -712,6 +712,17 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
             _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
         del dt
     return out
+
+
+def _finished_knots(Qs, knots, items, gs, rules, profile):
+    """_replay's batches Qs with their knots (_laws_knots' answer) and their finishing's
+    (acc, feed, ...) made in one _finish_ragged call for them all (predict off: the
+    figures are the laws'), or None each (finished batch by batch: _finish_stacked_dt)
+    where it declines; the same bits (the row code is chain_finish's).  Not the rows'
+    own batches (_gather_rows): those are finished one by one as before."""
+    fins = _finish_ragged([([items[q][0] for q in Q], [gs[q] for q in Q], np.arange(len(Q)), vk, dt)
+                           for Q, (vk, dt, _, _) in zip(Qs, knots)], rules, profile, predict=False)
+    return list(zip(Qs, knots, fins or [None] * len(Qs)))
 
 
 def _drop_items(items, gs, laws_type):
@@ -1693,7 +1704,7 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
 RAGGED_CELLS = 1 << 16     # a ragged finishing call's segments at most (its copies of vk, dt, acc, feed: ~2 MB)
 
 
-def _finish_ragged(batches, rules, profile, core=None):
+def _finish_ragged(batches, rules, profile, core=None, predict=True):
     """_finish_stacked_dt (predict) of several batches [(sts, gs, own, vk, tk)], each rows
     of chains of one segment count as _finish_stacked_dt takes them, in one call of the
     chain core's chain_finish_ragged: [(acc, feed, t, a2, fits)] a batch.  Each row is
@@ -1704,7 +1715,8 @@ def _finish_ragged(batches, rules, profile, core=None):
     window).  None (the caller then finishes batch by batch) where _finish_core would not
     take them all: no core, another junction law, windows np.convolve would sum
     (_window_sums), a shape it declines, or the core declines an input.  core: the module
-    (None = the chain core if it is there, False = never)."""
+    (None = the chain core if it is there, False = never).  predict False: t and a2 None
+    (acc and feed do not depend on it: _replay's)."""
     core = _chain_law.CORE_MOD if core is None else core
     fn = getattr(core, "chain_finish_ragged", None) if core else None
     if fn is None or rules.junction not in GROUP_JUNCTIONS or profile.junction != rules.junction:
@@ -1735,7 +1747,7 @@ def _finish_ragged(batches, rules, profile, core=None):
     acc, feed = np.empty(cells), np.empty(cells)
     R = int(Rs.sum())
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(0 if rules.junction == "jerk" else 1, 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
+    if not fn(0 if rules.junction == "jerk" else 1, 1 if predict else 0, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
               coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
               _cf_rows(sts_all, core), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2, fits):
         return None
@@ -1744,7 +1756,8 @@ def _finish_ragged(batches, rules, profile, core=None):
     out, a, r = [], 0, 0
     for (_, Rb, n) in sizes:
         out.append((acc[a:a + Rb * n].reshape(Rb, n), feed[a:a + Rb * n].reshape(Rb, n),
-                    t[r:r + Rb].copy(), a2[r:r + Rb].copy(), fits[r:r + Rb].copy()))
+                    t[r:r + Rb].copy() if predict else None, a2[r:r + Rb].copy() if predict else None,
+                    fits[r:r + Rb].copy()))
         a += Rb * n
         r += Rb
     return out

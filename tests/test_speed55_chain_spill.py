@@ -182,3 +182,29 @@ def test_windowed_rewrite_reads_the_spill(name, window, monkeypatch, tmp_path):
     assert got[0] == want[0]
     assert got[1] == want[1]
     assert planned == []
+
+
+def test_replay_finishes_a_group_in_one_ragged_call(monkeypatch):
+    """chains._replay finishes each group of kept laws' batches in one _finish_ragged call
+    (predict off, _finished_knots): the runs' plans (their spilled records) are those of the
+    batch-by-batch finishing (_finish_stacked_dt) bit for bit."""
+    real, calls = chains._finish_ragged, []
+
+    def spy(batches, rules, profile, core=None, predict=True):
+        got = real(batches, rules, profile, core, predict)
+        if not predict:
+            calls.append(got is not None)
+        return got
+    monkeypatch.setattr(chains, "_finish_ragged", spy)
+    strokes, store, prof, rules, plan, rows = _timed_chains()
+    with store:
+        got, plans, _ = plan.remake.spill.take(rows, plan.T[rows], plan.beta[rows])
+        ragged = [_bits(p) for p in plans]
+    if chains._chain_law.CORE_MOD is not None:
+        assert calls and all(calls)
+    monkeypatch.setattr(chains, "_finish_ragged", lambda *a, predict=True, **k: real(*a, **k) if predict else None)
+    strokes, store, prof, rules, plan2, rows2 = _timed_chains()
+    with store:
+        assert rows2.tolist() == rows.tolist() == got.tolist()
+        _, plans, _ = plan2.remake.spill.take(rows, plan2.T[rows], plan2.beta[rows])
+        assert [_bits(p) for p in plans] == ragged

@@ -1387,9 +1387,11 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     return plans
 
 
-# a spilled plan's record: T, beta, time_t, int_a2, its type (_SPILL_TYPES' index), then the
-# knots s (n + 1), speeds v (n + 1), accelerations (n) and feeds (n) of its n segments
-_SPILL_HEAD = 5
+# a spilled plan's record: T, beta, time_t, int_a2, its type (_SPILL_TYPES' index), 1.0 where
+# its fault verdict was made "" (settle_faults' checks passed) else 0.0 (None: seg_fault makes
+# it when asked), then the knots s (n + 1), speeds v (n + 1), accelerations (n) and feeds (n)
+# of its n segments
+_SPILL_HEAD = 6
 _SPILL_TYPES = (RowPlan, SegmentPlan)
 
 
@@ -1572,6 +1574,7 @@ def _block_records(T, beta, plans, ends, V, A, F):
     R[:, 2] = np.fromiter(map(_TIME_T, plans), float, m)
     R[:, 3] = np.fromiter(map(_INT_A2, plans), float, m)
     R[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
+    R[:, 5] = np.fromiter(map(_fine_flag, plans), float, m)
     R[:, k] = 0.0
     R[:, k + 1:k + n + 1] = np.frombuffer(b"".join(ends), float).reshape(m, n)
     R[:, k + n + 1:k + 2 * n + 2] = V
@@ -1593,13 +1596,19 @@ def _spill_arrays(p):
     n = arrs[2].size
     if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n):
         return None
-    return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(kind)]), arrs
+    return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(kind), _fine_flag(p)]), arrs
+
+
+def _fine_flag(p):
+    """1.0 where plan p's fault verdict is "" (made: its checks passed), else 0.0."""
+    return 1.0 if p.fault == "" else 0.0
 
 
 def _spill_plans(G, n):
-    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks
-    (settle_faults' verdicts made on them as a block, as chains._replay makes its plans'),
-    SegmentPlans of their own copies."""
+    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks,
+    SegmentPlans of their own copies; each with its verdict "" where the record's plan had
+    it (the same numbers: the checks pass again; the plans made again had it from
+    settle_faults' checks, chains._replay), else None."""
     k = _SPILL_HEAD
     S, V = G[:, k:k + n + 1], G[:, k + n + 1:k + 2 * n + 2]
     A, F = G[:, k + 2 * n + 2:k + 3 * n + 2], G[:, k + 3 * n + 2:]
@@ -1611,9 +1620,8 @@ def _spill_plans(G, n):
         plans = [RowPlan(S, V, A, F, i, t[i], a2[i]) if kind[i] == 0.0
                  else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i])
                  for i in range(m)]
-    fin = (kind == 0.0) & np.isfinite(G[:, 2]) & np.isfinite(G[:, 3])
-    if fin.any():
-        _settle_rows(S, V, A, F, plans if fin.all() else list(compress(plans, fin.tolist())))
+    for p in compress(plans, G[:, 5].tolist()):
+        p.fault = ""
     return plans
 
 

@@ -81,7 +81,7 @@ def test_record_of_another_law_is_not_read_back():
 
 def _plans_of_kinds():
     """A RowPlan of a block (knots from ends: chains._replay's), a SegmentPlan, a trapezoid,
-    a plan with a junction command, None."""
+    a plan with a junction command, None, and a SegmentPlan with a fault (a feed below 0)."""
     from array import array
     rng = np.random.default_rng(5)
     V, A, F = rng.random((3, 4)), rng.random((3, 3)) + 1.0, rng.random((3, 3)) + 1.0
@@ -91,20 +91,24 @@ def _plans_of_kinds():
                       np.array([5.0, 6.0]), 0.75, 0.25)
     trap = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, shape="trapezoid")
     cmd = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, first_cmds=("M204 S1", ""))
-    return [row[2], seg, trap, row[0], cmd, None, row[1]]
+    bad = SegmentPlan(seg.s, seg.v, seg.accel, np.array([-1.0, 6.0]), 0.75, 0.25)
+    return [row[2], seg, trap, row[0], cmd, None, row[1], bad]
 
 
 def test_records_of_every_kind_held():
     plans = _plans_of_kinds()
     spill = sc._ChainSpill.make(20)
-    rows = np.array([1, 3, 4, 6, 9, 10, 12])
-    T, beta = np.linspace(1.0, 2.0, 7), np.linspace(0.1, 0.2, 7)
+    rows = np.array([1, 3, 4, 6, 9, 10, 12, 14])
+    T, beta = np.linspace(1.0, 2.0, 8), np.linspace(0.1, 0.2, 8)
+    sc.seg_fault(plans[0])              # (a verdict made: "", kept with the record)
     spill.put(rows, T, beta, plans)
     got, back, rest = spill.take(rows, T, beta)
-    assert got.tolist() == [1, 3, 6, 12] and rest.tolist() == [4, 9, 10]
-    assert [seg_bits(p) for p in back] == [seg_bits(plans[q]) for q in (0, 1, 3, 6)]
-    assert [sc.seg_fault(p) for p in back] == [sc.seg_fault(plans[q]) for q in (0, 1, 3, 6)] == [""] * 4
-    assert [type(p) for p in back] == [RowPlan, SegmentPlan, RowPlan, RowPlan]
+    assert got.tolist() == [1, 3, 6, 12, 14] and rest.tolist() == [4, 9, 10]
+    assert [seg_bits(p) for p in back] == [seg_bits(plans[q]) for q in (0, 1, 3, 6, 7)]
+    assert [p.fault for p in back] == ["", None, None, None, None]
+    assert [sc.seg_fault(p) for p in back] == [sc.seg_fault(plans[q]) for q in (0, 1, 3, 6, 7)]
+    assert sc.seg_fault(back[-1]) != ""
+    assert [type(p) for p in back] == [RowPlan, SegmentPlan, RowPlan, RowPlan, SegmentPlan]
     # a later record of a row replaces it (another law: the old one no longer read back)
     spill.put(rows[:1], T[1:2], beta[1:2], [plans[1]])
     got, back, rest = spill.take(rows[:2], T[:2], beta[:2])
@@ -117,9 +121,10 @@ def test_records_of_every_kind_held():
 def test_failed_write_loses_every_record():
     plans = _plans_of_kinds()
     spill = sc._ChainSpill.make(20)
-    rows = np.array([1, 3, 4, 6, 9, 10, 12])
-    T, beta = np.linspace(1.0, 2.0, 7), np.linspace(0.1, 0.2, 7)
+    rows = np.array([1, 3, 4, 6, 9, 10, 12, 14])
+    T, beta = np.linspace(1.0, 2.0, 8), np.linspace(0.1, 0.2, 8)
     spill.put(rows[:2], T[:2], beta[:2], plans[:2])
+    assert spill.take(rows[:2], T[:2], beta[:2])[0].tolist() == [1, 3]
     fh = spill.fh
     spill.fh = _Refusing(fh)
     spill.put(rows[2:], T[2:], beta[2:], plans[2:])

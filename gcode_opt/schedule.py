@@ -1393,6 +1393,8 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
 # of its n segments
 _SPILL_HEAD = 6
 _SPILL_TYPES = (RowPlan, SegmentPlan)
+_SPILL_N = np.iinfo(np.uint16).max      # segments a spilled plan has at most (_ChainSpill.nseg)
+_SPILL_END = np.iinfo(np.int32).max     # the doubles the records take at most (_ChainSpill.at)
 
 
 def _spill_len(n):
@@ -1409,13 +1411,15 @@ class _ChainSpill:
     chains' strokes, their curve geometry or their laws (the gyroid plate: ~16 k chains
     re-planned by the rewrite before, benchmarks/replay55.md).  A row's latest record is
     the one kept (a later run's plan of the row replaces it); a row with none, or with
-    another (T, beta), is re-planned by the caller.  Held: two numbers a row; the records'
-    bytes (~8 MB on the gyroid plate) are the file's, not the process'."""
+    another (T, beta), is re-planned by the caller, as is every row once the records would
+    pass _SPILL_END doubles.  Held: 6 bytes a row; the records' bytes (~11 MB on the gyroid
+    plate) are the file's, not the process'."""
 
     def __init__(self, n_rows, fh):
         self.fh = fh
-        self.at = np.full(n_rows, -1, np.int64)     # a row's record: its first double's index in the file
-        self.nseg = np.zeros(n_rows, np.int32)      # its plan's segments
+        # (6 bytes a row, held from the runs to the rewrite, their peak: ~0.2 MB on the gyroid plate)
+        self.at = np.full(n_rows, -1, np.int32)     # a row's record: its first double's index in the file
+        self.nseg = np.zeros(n_rows, np.uint16)     # its plan's segments
         self.end = 0                                # the doubles written
 
     @classmethod
@@ -1453,6 +1457,9 @@ class _ChainSpill:
         buf = np.concatenate(parts)
         ns, qs = np.concatenate(ns), np.concatenate(qs)
         lens = _spill_len(ns)
+        if self.end + buf.size > _SPILL_END:       # (indices past int32: no more records, all made again)
+            self.close()
+            return
         try:
             self.fh.seek(self.end * 8)
             mv, done = buf.data.cast("B"), 0
@@ -1472,7 +1479,7 @@ class _ChainSpill:
         has = at >= 0
         if not has.any():
             return rows[:0], [], rows
-        hat, hn = at[has], self.nseg[rows[has]].astype(np.int64)
+        hat, hn = at[has].astype(np.int64), self.nseg[rows[has]].astype(np.int64)
         try:
             buf, start = self._read(hat, _spill_len(hn))
         except OSError:             # (the records lost: every row made again)
@@ -1556,7 +1563,7 @@ def _row_plan_blocks(plans):
     out = []
     for (V, A, F), ii, rr, ends in by.values():
         n = A.shape[1]
-        if (A.dtype == F.dtype == _F64 and V.shape[1] == n + 1 and A.shape == F.shape
+        if (A.dtype == F.dtype == _F64 and V.shape[1] == n + 1 and A.shape == F.shape and n <= _SPILL_N
                 and all(e.typecode == "d" and len(e) == n for e in ends)):
             out.append(((V, A, F), np.array(ii, np.int64), np.array(rr, np.intp), ends))
         else:
@@ -1594,7 +1601,7 @@ def _spill_arrays(p):
     if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
         return None
     n = arrs[2].size
-    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n):
+    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= _SPILL_N):
         return None
     return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(kind), _fine_flag(p)]), arrs
 

@@ -134,6 +134,23 @@ def test_failed_write_loses_every_record():
     assert got.size == 0 and rest.tolist() == rows.tolist()
 
 
+def test_records_past_their_bounds_are_made_again(monkeypatch):
+    """A plan of more segments than nseg holds is not spilled; records that would pass the
+    int32 indices (_SPILL_END) end the spill: every row is made again."""
+    plans = _plans_of_kinds()
+    rows = np.array([1, 3, 4, 6, 9, 10, 12, 14])
+    T, beta = np.linspace(1.0, 2.0, 8), np.linspace(0.1, 0.2, 8)
+    monkeypatch.setattr(sc, "_SPILL_N", 2)          # (the block's RowPlans have 3 segments, the others 2)
+    spill = sc._ChainSpill.make(20)
+    spill.put(rows, T, beta, plans)
+    assert spill.take(rows, T, beta)[0].tolist() == [3, 14]
+    monkeypatch.setattr(sc, "_SPILL_END", spill.end + sc._spill_len(2) - 1)
+    spill.put(rows[1:2], T[1:2], beta[1:2], plans[1:2])
+    assert spill.fh is None
+    got, _, rest = spill.take(rows, T, beta)
+    assert got.size == 0 and rest.tolist() == rows.tolist()
+
+
 class _Refusing:
     """A file whose writes fail."""
 

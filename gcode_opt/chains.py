@@ -819,16 +819,16 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
         core = _chain_law.CORE_MOD
         (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
-    batches.reverse()                   # popped from the end: in the order gathered
+    batches = [(Q, knots, None) for Q, knots in batches[::-1]]      # popped from the end: in the order gathered
     while batches or groups:
         if not batches:
             grp, laws = groups.pop()
-            batches = list(zip(grp, _laws_knots(grp, laws, profile)))[::-1]
+            batches = _finished_knots(grp, _laws_knots(grp, laws, profile), items, gs, rules, profile)[::-1]
             del laws
-        Q, (vk, dt, tp, a2) = batches.pop()
+        Q, (vk, dt, tp, a2), fin = batches.pop()
         sts = [items[q][0] for q in Q]
-        acc, feed, _, _, _ = _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
-                                                profile, predict=False)
+        acc, feed, _, _, _ = fin or _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
+                                                       profile, predict=False)
         ends = _ends_rows(sts, vk.shape[1] - 1)
         for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
@@ -837,6 +837,17 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
             _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
         del dt
     return out
+
+
+def _finished_knots(Qs, knots, items, gs, rules, profile):
+    """_replay's batches Qs with their knots (_laws_knots' answer) and their finishing's
+    (acc, feed, ...) made in one _finish_ragged call for them all (predict off: the
+    figures are the laws'), or None each (finished batch by batch: _finish_stacked_dt)
+    where it declines; the same bits (the row code is chain_finish's).  Not the rows'
+    own batches (_gather_rows): those are finished one by one as before."""
+    fins = _finish_ragged([([items[q][0] for q in Q], [gs[q] for q in Q], np.arange(len(Q)), vk, dt)
+                           for Q, (vk, dt, _, _) in zip(Qs, knots)], rules, profile, predict=False)
+    return list(zip(Qs, knots, fins or [None] * len(Qs)))
 
 
 def _drop_items(items, gs, laws_type):
@@ -1857,7 +1868,7 @@ def _finish_core(sts, gs, own, vk, tk, rules, profile, predict, core=None, du=No
 RAGGED_CELLS = 1 << 16     # a ragged finishing call's segments at most (its copies of vk, dt, acc, feed: ~2 MB)
 
 
-def _finish_ragged(batches, rules, profile, core=None):
+def _finish_ragged(batches, rules, profile, core=None, predict=True):
     """_finish_stacked_dt (predict) of several batches [(sts, gs, own, vk, tk)], each rows
     of chains of one segment count as _finish_stacked_dt takes them, in one call of the
     chain core's chain_finish_ragged: [(acc, feed, t, a2, fits)] a batch.  Each row is
@@ -1868,7 +1879,8 @@ def _finish_ragged(batches, rules, profile, core=None):
     window).  None (the caller then finishes batch by batch) where _finish_core would not
     take them all: no core, another junction law, windows np.convolve would sum
     (_window_sums), a shape it declines, or the core declines an input.  core: the module
-    (None = the chain core if it is there, False = never)."""
+    (None = the chain core if it is there, False = never).  predict False: t and a2 None
+    (acc and feed do not depend on it: _replay's)."""
     core = _chain_law.CORE_MOD if core is None else core
     fn = getattr(core, "chain_finish_ragged", None) if core else None
     if fn is None or rules.junction not in CORE_JUNCTIONS or profile.junction != rules.junction:
@@ -1899,7 +1911,7 @@ def _finish_ragged(batches, rules, profile, core=None):
     acc, feed = np.empty(cells), np.empty(cells)
     R = int(Rs.sum())
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(CORE_JUNCTIONS[rules.junction], 1, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
+    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
               coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
               _cf_rows(sts_all, core, rules.junction == "jd"), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2,
               fits):
@@ -1909,7 +1921,8 @@ def _finish_ragged(batches, rules, profile, core=None):
     out, a, r = [], 0, 0
     for (_, Rb, n) in sizes:
         out.append((acc[a:a + Rb * n].reshape(Rb, n), feed[a:a + Rb * n].reshape(Rb, n),
-                    t[r:r + Rb].copy(), a2[r:r + Rb].copy(), fits[r:r + Rb].copy()))
+                    t[r:r + Rb].copy() if predict else None, a2[r:r + Rb].copy() if predict else None,
+                    fits[r:r + Rb].copy()))
         a += Rb * n
         r += Rb
     return out
@@ -2245,7 +2258,7 @@ def law_T(st, T):
     return float(T) if st.chain_T is None else st.chain_T.law_of(float(T))
 
 
-def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
+def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_laws=True):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
@@ -2255,7 +2268,9 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
     bits: tests/test_speed22_chainmem_drop.py).  remember False: no chain keeps its plan
     (a windowed run lets its chains' plans go once judged, schedule._window_figures: a
     memo holding each one's last plan held them all); a later ask of its (T, beta) makes
-    it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py)."""
+    it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py), or from
+    the law it chose (_Chosen, kept for that ask) unless keep_laws is False (the plans are
+    kept elsewhere: schedule._ChainSpill)."""
     T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
@@ -2287,7 +2302,8 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
         trim_heap()
     # (the rows' kept objects handed over in items, not held here: _replay drops them as it goes)
     # remember False: each chain keeps the law it chose, replayed if asked again (_Chosen)
-    chosen = None if remember else _keep_chosen(items)
+    keep_laws = keep_laws and not remember
+    chosen = _keep_chosen(items) if keep_laws else None
     for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
         out[k] = plan
     del items
@@ -2301,7 +2317,7 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True):
                 out[k] = plan
         del hits
     if again:
-        laws = None if remember else []
+        laws = [] if keep_laws else None
         plans = _again_plans([(strokes[k], ag, T[k], b_in[k]) for k, ag in again], rules, profile, laws)
         for (k, _), plan in zip(again, plans):
             out[k] = plan

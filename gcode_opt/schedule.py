@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import binascii
 import math
+import os
+from array import array
 from functools import partial
 from itertools import compress, islice, repeat
 from operator import attrgetter, is_, is_not, itemgetter
@@ -1116,7 +1118,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     lazy_lines = window is not None and reuse and LAZY_LINES
     lazy_chains = window is not None and reuse and LAZY_CHAINS
     lazy_codes = [c for c, on in ((C_LINE, lazy_lines), (C_CHAIN, lazy_chains)) if on]
-    remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes) if lazy_codes else None)
+    # the chains' plans the runs make, spilled for the rewrite's remake to read back
+    spill = _ChainSpill.make(len(strokes)) if lazy_chains and SPILL_CHAINS else None
+    remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill)
+              if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
 
@@ -1163,8 +1168,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
-                _window_figures(partial(_chain_plans, strokes, plan, rules, profile), idx[kind == C_CHAIN],
-                                window, plan, strokes, pin.I_orig)
+                _window_figures(partial(_chain_plans, strokes, plan, rules, profile, spill=spill),
+                                idx[kind == C_CHAIN], window, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
@@ -1245,6 +1250,7 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 LAZY_CHAINS = True      # likewise for the chains' plans
+SPILL_CHAINS = True     # lazy chains' plans spilled for the rewrite (_ChainSpill); off: remade from their laws
 
 
 def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
@@ -1364,11 +1370,11 @@ class _PlansAgain:
     beta) the call before made takes that plan (plan.remade_keys: the last window's, by
     key), as plan_once gives a class's rows one plan (rectilinear plate, 1 k windows:
     ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
-    __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes")
+    __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes", "spill")
 
-    def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes):
+    def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes, spill=None):
         self.kind, self.line_cls, self.cmd0, self.rules = kind, line_cls, cmd0, rules
-        self.profile, self.codes, self.chain_strokes = profile, codes, chain_strokes
+        self.profile, self.codes, self.chain_strokes, self.spill = profile, codes, chain_strokes, spill
 
     def __call__(self, plan, rows, strokes):
         segs = plan.segs
@@ -1381,6 +1387,10 @@ class _PlansAgain:
             rows = rows[np.fromiter(map(_IS_NONE, _take(segs, rows)), bool, rows.size)]
         kind = self.kind[rows]
         chain_rows = rows[kind == C_CHAIN]
+        if chain_rows.size and self.spill is not None:
+            # (the plans the runs spilled for these rows' (T, beta): read back, not made again)
+            got, plans, chain_rows = self.spill.take(chain_rows, plan.T[chain_rows], plan.beta[chain_rows])
+            _put_at(segs, got, plans)
         if chain_rows.size:
             src = self.chain_strokes
             for sub, res in isolate(partial(_chain_plans, src, plan, self.rules, self.profile), chain_rows,
@@ -1416,13 +1426,264 @@ class _PlansAgain:
         plan.remade_keys = now
 
 
-def _chain_plans(strokes, plan, rules, profile, rows):
+def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     """The chains rows' plans at their (T, beta) of plan, their curve geometry made first
     (as the windowed run makes a window's: _rebuild_geometry), no memo keeping its plan
-    (plan_chain_segments' remember: a windowed run's chains keep their figures only)."""
+    (plan_chain_segments' remember: a windowed run's chains keep their figures only).
+    spill: a _ChainSpill the plans are written to (the run's, for the rewrite), or None."""
     sts = list(map(strokes.__getitem__, rows.tolist()))
     _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CHAIN), profile)
-    return chains.plan_chain_segments(sts, plan.T[rows], plan.beta[rows], rules, profile, remember=False)
+    T, beta = plan.T[rows], plan.beta[rows]
+    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
+    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None)
+    if spill is not None:
+        spill.put(rows, T, beta, plans)
+    return plans
+
+
+# a spilled plan's record: T, beta, time_t, int_a2, its type (_SPILL_TYPES' index), 1.0 where
+# its fault verdict was made "" (settle_faults' checks passed) else 0.0 (None: seg_fault makes
+# it when asked), then the knots s (n + 1), speeds v (n + 1), accelerations (n) and feeds (n)
+# of its n segments
+_SPILL_HEAD = 6
+_SPILL_TYPES = (RowPlan, SegmentPlan)
+_SPILL_N = np.iinfo(np.uint16).max      # segments a spilled plan has at most (_ChainSpill.nseg)
+_SPILL_END = np.iinfo(np.int32).max     # the doubles the records take at most (_ChainSpill.at)
+
+
+def _spill_len(n):
+    """The doubles of the record of a plan of n segments."""
+    return _SPILL_HEAD + 4 * n + 2
+
+
+class _ChainSpill:
+    """The chains' plans a windowed run made (_chain_plans), written as they are made to an
+    unnamed temporary file, a record of doubles a plan (_SPILL_HEAD), and read back by the
+    rewrite's remake (_PlansAgain) for the rows whose (T, beta) is the one their record was
+    made for: the same numbers, not made again (a chain's plan at a (T, beta) is its memo's,
+    the same bits each time it is made: test_speed54_chainplans_lazy.py), and without the
+    chains' strokes, their curve geometry or their laws (the gyroid plate: ~16 k chains
+    re-planned by the rewrite before, benchmarks/replay55.md).  A row's latest record is
+    the one kept (a later run's plan of the row replaces it); a row with none, or with
+    another (T, beta), is re-planned by the caller, as is every row once the records would
+    pass _SPILL_END doubles.  Held: 6 bytes a row; the records' bytes (~11 MB on the gyroid
+    plate) are the file's, not the process'."""
+
+    def __init__(self, n_rows, fh):
+        self.fh = fh
+        # (6 bytes a row, held from the runs to the rewrite, their peak: ~0.2 MB on the gyroid plate)
+        self.at = np.full(n_rows, -1, np.int32)     # a row's record: its first double's index in the file
+        self.nseg = np.zeros(n_rows, np.uint16)     # its plan's segments
+        self.end = 0                                # the doubles written
+
+    @classmethod
+    def make(cls, n_rows):
+        """A spill over n_rows rows, or None where no temporary file can be made."""
+        from .outfile import unnamed_file
+        try:
+            return cls(n_rows, unnamed_file())
+        except OSError:
+            return None
+
+    def put(self, rows, T, beta, plans):
+        """The plans (a list, rows' order; None: no plan) made for rows at (T, beta) written,
+        those of a kind the records do not hold (another type or shape, a junction command)
+        left out; a failed write leaves every row without a record."""
+        if self.fh is None:
+            return
+        T, beta = np.asarray(T, float), np.asarray(beta, float)
+        parts, qs, ns = [], [], []
+        blocks, rest = _row_plan_blocks(plans)
+        for (V, A, F), ii, rr, ends in blocks:
+            qs.append(ii)
+            ns.append(np.full(ii.size, A.shape[1], np.int64))
+            parts.append(_block_records(T[ii], beta[ii], [plans[q] for q in ii.tolist()], ends, V[rr], A[rr], F[rr]))
+        for q in rest:
+            got = _spill_arrays(plans[q])
+            if got is not None:
+                head, arrs = got
+                head[0], head[1] = T[q], beta[q]
+                parts += [head] + arrs
+                qs.append(np.array([q], np.int64))
+                ns.append(np.array([arrs[2].size], np.int64))
+        if not qs:
+            return
+        buf = np.concatenate(parts)
+        ns, qs = np.concatenate(ns), np.concatenate(qs)
+        lens = _spill_len(ns)
+        if self.end + buf.size > _SPILL_END:       # (indices past int32: no more records, all made again)
+            self.close()
+            return
+        try:
+            self.fh.seek(self.end * 8)
+            mv, done = buf.data.cast("B"), 0
+            while done < len(mv):
+                done += self.fh.write(mv[done:])
+        except OSError:
+            self.close()
+            return
+        ok = rows[qs]
+        self.at[ok], self.nseg[ok] = self.end + np.cumsum(lens) - lens, ns
+        self.end += buf.size
+
+    def take(self, rows, T, beta):
+        """(the rows of rows (sorted) with a record made at their (T, beta), their plans;
+        the other rows)."""
+        at = self.at[rows] if self.fh is not None else np.full(rows.size, -1, np.int64)
+        has = at >= 0
+        if not has.any():
+            return rows[:0], [], rows
+        hat, hn = at[has].astype(np.int64), self.nseg[rows[has]].astype(np.int64)
+        try:
+            buf, start = self._read(hat, _spill_len(hn))
+        except OSError:             # (the records lost: every row made again)
+            self.close()
+            return rows[:0], [], rows
+        # a record is the row's where it was made for the row's (T, beta), bit for bit
+        Tb = np.stack([np.asarray(T, float)[has], np.asarray(beta, float)[has]], axis=1).view(np.int64)
+        plans, ok = [None] * hat.size, np.zeros(hat.size, bool)
+        for g, G, n in _record_blocks(buf, start, hn):
+            same = (G[:, :2].view(np.int64) == Tb[g]).all(axis=1)
+            if not same.all():
+                g, G = g[same], G[same]
+            ok[g] = True
+            for q, p in zip(g.tolist(), _spill_plans(G, n)):
+                plans[q] = p
+        has[has] = ok
+        return rows[has], list(compress(plans, ok.tolist())), rows[~has]
+
+    def _read(self, at, lens):
+        """The records at at (doubles from the file's start, lens long) read: (one array of
+        their doubles, each one's first index there); consecutive records in one read."""
+        o = np.argsort(at, kind="stable")
+        a, z = at[o], at[o] + lens[o]
+        cut = np.flatnonzero(a[1:] != z[:-1]) + 1        # (the records written together: one run)
+        firsts, lasts = np.r_[0, cut], np.r_[cut, a.size] - 1
+        chunks, start, base = [], np.empty(at.size, np.int64), 0
+        for f, l in zip(firsts.tolist(), lasts.tolist()):
+            lo, hi = int(a[f]), int(z[l])
+            chunks.append(np.frombuffer(os.pread(self.fh.fileno(), (hi - lo) * 8, lo * 8), float))
+            if chunks[-1].size != hi - lo:
+                raise OSError("chain plans' spill cut short")
+            start[o[f:l + 1]] = base + a[f:l + 1] - lo
+            base += hi - lo
+        return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
+
+    def close(self):
+        """The file let go (no record read again)."""
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+    __del__ = close             # (with the plan's remake: not left to the collector's warning)
+
+
+def _record_blocks(buf, start, ns):
+    """The records (first doubles start in buf, of plans of ns segments) as blocks of
+    consecutive records of one segment count: [(their indices, the block (a view of buf:
+    not a copy of the records, nor an index array as large), n)]; a block's records are
+    written together (_ChainSpill.put: a finishing block's plans one after the other)."""
+    o = np.lexsort((start, ns))
+    lens = _spill_len(ns[o])
+    cut = np.flatnonzero((ns[o][1:] != ns[o][:-1]) | (start[o][1:] != start[o][:-1] + lens[:-1])) + 1
+    out = []
+    for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
+        n, L, s0 = int(ns[o[a]]), int(lens[a]), int(start[o[a]])
+        out.append((o[a:z], buf[s0:s0 + (z - a) * L].reshape(z - a, L), n))
+    return out
+
+
+def _row_plan_blocks(plans):
+    """plans' RowPlans of the planned law with no junction command, rows of blocks V, A, F
+    and knots made of their strokes' ends (chains._replay's and _again_plans'), by their
+    blocks: ([((V, A, F), their places in plans, their rows, their ends)], the other
+    places (not None))."""
+    by, rest = {}, []
+    for q, p in enumerate(plans):
+        if p is None:
+            continue
+        if (type(p) is RowPlan and type(p._row) is int and type(p._s) is array and p.shape == "law"
+                and p.first_cmds is None and type(p._v) is np.ndarray and p._v.dtype == _F64 and p._v.ndim == 2):
+            got = by.get(id(p._v))
+            if got is not None and got[0][1] is p._accel and got[0][2] is p._feed:
+                got[1].append(q)
+                got[2].append(p._row)
+                got[3].append(p._s)
+                continue
+            if got is None and type(p._accel) is np.ndarray and type(p._feed) is np.ndarray:
+                by[id(p._v)] = ((p._v, p._accel, p._feed), [q], [p._row], [p._s])
+                continue
+        rest.append(q)
+    out = []
+    for (V, A, F), ii, rr, ends in by.values():
+        n = A.shape[1]
+        if (A.dtype == F.dtype == _F64 and V.shape[1] == n + 1 and A.shape == F.shape and n <= _SPILL_N
+                and all(e.typecode == "d" and len(e) == n for e in ends)):
+            out.append(((V, A, F), np.array(ii, np.int64), np.array(rr, np.intp), ends))
+        else:
+            rest += ii
+    return out, rest
+
+
+def _block_records(T, beta, plans, ends, V, A, F):
+    """The records (flat) of RowPlans plans of n segments: law (T, beta), knots 0 then
+    ends, their rows V, A, F of their blocks."""
+    m, n = A.shape
+    R = np.empty((m, _spill_len(n)))
+    k = _SPILL_HEAD
+    R[:, 0], R[:, 1] = T, beta
+    R[:, 2] = np.fromiter(map(_TIME_T, plans), float, m)
+    R[:, 3] = np.fromiter(map(_INT_A2, plans), float, m)
+    R[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
+    R[:, 5] = np.fromiter(map(_fine_flag, plans), float, m)
+    R[:, k] = 0.0
+    R[:, k + 1:k + n + 1] = np.frombuffer(b"".join(ends), float).reshape(m, n)
+    R[:, k + n + 1:k + 2 * n + 2] = V
+    R[:, k + 2 * n + 2:k + 3 * n + 2] = A
+    R[:, k + 3 * n + 2:] = F
+    return R.ravel()
+
+
+def _spill_arrays(p):
+    """(a record's head with p's figures, [s, v, accel, feed]) of plan p, or None where p
+    is not one the records hold: a RowPlan or SegmentPlan of the planned law, no junction
+    command, four 1-D float64 arrays of n + 1, n + 1, n, n numbers."""
+    kind = type(p)
+    if kind is not RowPlan and kind is not SegmentPlan or p.shape != "law" or p.first_cmds is not None:
+        return None
+    arrs = [p.s, p.v, p.accel, p.feed]
+    if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
+        return None
+    n = arrs[2].size
+    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= _SPILL_N):
+        return None
+    return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(kind), _fine_flag(p)]), arrs
+
+
+def _fine_flag(p):
+    """1.0 where plan p's fault verdict is "" (made: its checks passed), else 0.0."""
+    return 1.0 if p.fault == "" else 0.0
+
+
+def _spill_plans(G, n):
+    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks,
+    SegmentPlans of their own copies; each with its verdict "" where the record's plan had
+    it (the same numbers: the checks pass again; the plans made again had it from
+    settle_faults' checks, chains._replay), else None."""
+    k = _SPILL_HEAD
+    S, V = G[:, k:k + n + 1], G[:, k + n + 1:k + 2 * n + 2]
+    A, F = G[:, k + 2 * n + 2:k + 3 * n + 2], G[:, k + 3 * n + 2:]
+    t, a2, kind = G[:, 2].tolist(), G[:, 3].tolist(), G[:, 4]
+    m = G.shape[0]
+    if not kind.any():              # (the usual case: every one a RowPlan)
+        plans = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t, a2))
+    else:
+        plans = [RowPlan(S, V, A, F, i, t[i], a2[i]) if kind[i] == 0.0
+                 else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i])
+                 for i in range(m)]
+    for p in compress(plans, G[:, 5].tolist()):
+        p.fault = ""
+    return plans
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

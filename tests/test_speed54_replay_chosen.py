@@ -9,12 +9,19 @@ no chain of a kept law is solved again, another candidate of such a chain is sol
 (the same bits as from an _Again) and then keeps that law in turn (_chosen_solved), and a
 memo taking a new source gives up its _Chosen."""
 import numpy as np
+import pytest
 
 from gcode_opt import chains
 from gcode_opt import schedule as sc
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import _stored_plan
+
+
+@pytest.fixture(autouse=True)
+def _no_spill(monkeypatch):
+    """The runs' plans not spilled (replay55's _ChainSpill): the chains keep their chosen laws."""
+    monkeypatch.setattr(sc, "SPILL_CHAINS", False)
 
 
 def _chains_of_run(name="prusa_gyroid_fullspeed.gcode", window=37):

@@ -39,7 +39,7 @@ from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, c
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
-from .stored_strokes import StrokeRows
+from .stored_strokes import StoredStrokes, StrokeRows
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
@@ -1033,8 +1033,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     groups = [every[not_failed[every]]]
     # the strokes whose start corners.py slowed by a junction command (set before planning,
     # read by every run's _attach_commands and _keep_slowed_corners)
-    cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
-    cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
+    cmd0 = _corner_cmd0(strokes)
     # each line's class (segments.line_classes): the lines of one class at one (T, beta)
     # are segmented once a batch (a plate's layers repeat their strokes); None where few
     # lines repeat (then every line is segmented, as before)
@@ -1448,6 +1447,18 @@ class _RunMemo:
         done[u] = True
         return idx[~done[idx]]
 REPEAT_R = 0.35         # _lines_repeat: at most this share of the lines distinct
+
+
+def _corner_cmd0(strokes):
+    """The strokes' corner_cmd0 as a bool array: a StoredStrokes' from its store's column
+    (no window loaded; a record of another type than a bool or an int read as the list's)."""
+    if isinstance(strokes, StoredStrokes):
+        try:
+            return strokes.column("corner_cmd0") != 0
+        except TypeError:
+            pass
+    cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
+    return np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
 
 
 def _lines_repeat(pin, rows):

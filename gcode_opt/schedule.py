@@ -1104,7 +1104,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if lazy_lines and k_name == K_LINE:
-                _window_figures(fn, idx[kind == C_LINE], window * LINE_WINDOWS, plan, strokes, pin.I_orig, line_cls)
+                _window_figures(_at_most(fn, window), idx[kind == C_LINE], window * LINE_WINDOWS, plan, strokes,
+                                pin.I_orig, line_cls)
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
@@ -1190,11 +1191,24 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 LAZY_CHAINS = True      # likewise for the chains' plans
-# windows of rows whose lines a windowed run segments in one call (_window_figures): the
-# classes first met in those windows planned in one plan_segments call, not one a window
-# (rectilinear plate at 1 k: 70 calls for ~6 k classes, the list's one call a run); their
-# strokes held as objects till then (the lines of a class not met before only)
+# windows of rows whose lines a windowed run segments together (_window_figures): the
+# classes first met in those windows planned in plan_segments calls of a window of rows
+# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 31 for
+# ~6 k classes; the list's one call a run)
 LINE_WINDOWS = 4
+
+
+def _at_most(fn, n):
+    """fn (rows -> a plan a row) made of calls of at most n rows: a window of strokes
+    as objects at a time, however many windows' rows are asked."""
+    def calls(rows):
+        if rows.size <= n:
+            return fn(rows)
+        out = []
+        for a in range(0, rows.size, n):
+            out += fn(rows[a:a + n])
+        return out
+    return calls
 
 
 def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):

@@ -1193,7 +1193,7 @@ LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's p
 LAZY_CHAINS = True      # likewise for the chains' plans
 # windows of rows whose lines a windowed run segments together (_window_figures): the
 # classes first met in those windows planned in plan_segments calls of a window of rows
-# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 31 for
+# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 30 for
 # ~6 k classes; the list's one call a run)
 LINE_WINDOWS = 4
 

@@ -41,7 +41,7 @@ from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, c
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
-from .stored_strokes import StrokeRows
+from .stored_strokes import StoredStrokes, StrokeRows
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
@@ -1089,8 +1089,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     groups = [every[not_failed[every]]]
     # the strokes whose start corners.py slowed by a junction command (set before planning,
     # read by every run's _attach_commands and _keep_slowed_corners)
-    cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
-    cmd0 = np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
+    cmd0 = _corner_cmd0(strokes)
     # each line's class (segments.line_classes): the lines of one class at one (T, beta)
     # are segmented once a batch (a plate's layers repeat their strokes); None where few
     # lines repeat (then every line is segmented, as before)
@@ -1164,7 +1163,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if lazy_lines and k_name == K_LINE:
-                _window_figures(fn, idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls)
+                _window_figures(_at_most(fn, window), idx[kind == C_LINE], window * LINE_WINDOWS, plan, strokes,
+                                pin.I_orig, line_cls)
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
@@ -1251,6 +1251,24 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 LAZY_CHAINS = True      # likewise for the chains' plans
 SPILL_CHAINS = True     # lazy chains' plans spilled for the rewrite (_ChainSpill); off: remade from their laws
+# windows of rows whose lines a windowed run segments together (_window_figures): the
+# classes first met in those windows planned in plan_segments calls of a window of rows
+# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 30 for
+# ~6 k classes; the list's one call a run)
+LINE_WINDOWS = 4
+
+
+def _at_most(fn, n):
+    """fn (rows -> a plan a row) made of calls of at most n rows: a window of strokes
+    as objects at a time, however many windows' rows are asked."""
+    def calls(rows):
+        if rows.size <= n:
+            return fn(rows)
+        out = []
+        for a in range(0, rows.size, n):
+            out += fn(rows[a:a + n])
+        return out
+    return calls
 
 
 def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
@@ -1763,6 +1781,18 @@ class _RunMemo:
         done[u] = True
         return idx[~done[idx]]
 REPEAT_R = 0.35         # _lines_repeat: at most this share of the lines distinct
+
+
+def _corner_cmd0(strokes):
+    """The strokes' corner_cmd0 as a bool array: a StoredStrokes' from its store's column
+    (no window loaded; a record of another type than a bool or an int read as the list's)."""
+    if isinstance(strokes, StoredStrokes):
+        try:
+            return strokes.column("corner_cmd0") != 0
+        except TypeError:
+            pass
+    cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
+    return np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
 
 
 def _lines_repeat(pin, rows):

@@ -146,6 +146,16 @@ class StoredStrokes(StoreWindows):
         for j in range(0, -(-len(self) // self.window)):
             yield from self._win(j)
 
+    def column(self, name):
+        """store.column(name) as the strokes are now: the held windows whose strokes may have
+        changed written back first (they stay held).  A field read this way decodes no
+        stroke (plan_strokes' corner_cmd0 loaded every window, a pass of its own)."""
+        for j, w in self._wins.items():
+            if self.writeback or j in self._dirty:
+                lo = j * self.window
+                self.store.rewrite(np.arange(lo, lo + len(w), dtype=np.int64), w)
+        return self.store.column(name)
+
     def changed(self, i):
         """Row i's stroke was (or will be) changed: its window is written back when let go."""
         self._dirty.add(self._row(i) // self.window)

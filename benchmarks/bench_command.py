@@ -35,6 +35,10 @@ FILES = {     # name: (file, profile)
     "rect": (os.path.join(CORPUS, "plate_rectilinear.gcode"), "prusa-mk3s"),
     "gyroid_v24": (os.path.join(CORPUS, "plate_gyroid.gcode"), "voron24"),
     "small": (os.path.join(ROOT, "sample_gcode", "prusa_gyroid.gcode"), "prusa-mk3s"),
+    # Marlin 2's junction deviation (session 55): the plate for a generic Marlin 2 printer, and
+    # a real Cura file (make_corpus.sh) for an Ender 3
+    "gyroid_marlin2": (os.path.join(CORPUS, "plate_gyroid.gcode"), "generic-marlin"),
+    "cura_gyroid": (os.path.join(CORPUS, "cura_gyroid.gcode"), "ender3"),
 }
 BARE = ("import sys\n"
         "with open(sys.argv[1], newline='') as fi, open(sys.argv[2], 'w', newline='') as fo:\n"

@@ -141,7 +141,7 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, "prusa_gyroid_fullspeed.gcode"), profile, opts)
     pin = schedule.plan_inputs(strokes, profile, opts)
     seen = {}
-    real_replay, real_finish = chains._replay, chains._finish_stacked_dt
+    real_replay, real_finish, real_ragged = chains._replay, chains._finish_stacked_dt, chains._finish_ragged
 
     def replay(items, rules, prof, drop=False):
         bases = {id(k.base): k.base for _, k, _ in items if type(k) is chains._KeptLaws}
@@ -157,7 +157,8 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
         return {id(kp.base[1]) for st in strokes if st.chain_T is not None
                 for *_, kp in st.chain_T.rows() if type(kp) is chains._KeptLaws}
 
-    def finish(*a, **k):
+    def first_finishing(k):
+        """At the replay's first finishing call (predict False): what of the knots lives."""
         if "start" in seen and "first" not in seen and k.get("predict", True) is False:
             seen["first"] = tracemalloc.get_traced_memory()[0]
             held = held_pieces()
@@ -165,9 +166,17 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
             seen["held"] = sum(n for x, n in live if id(x) in held)
             seen["alive"] = sum(n for x, n in live if id(x) not in held)
             live = None
+
+    def finish(*a, **k):
+        first_finishing(k)
         return real_finish(*a, **k)
+
+    def ragged(*a, **k):            # (the replay's groups in one call since session 55)
+        first_finishing(k)
+        return real_ragged(*a, **k)
     monkeypatch.setattr(chains, "_replay", replay)
     monkeypatch.setattr(chains, "_finish_stacked_dt", finish)
+    monkeypatch.setattr(chains, "_finish_ragged", ragged)
     monkeypatch.setattr(schedule, "_fit_budget", lambda run, pin_, budget_t: run(budget_t))
     tracemalloc.start()
     try:
@@ -184,7 +193,12 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     # which the replay does not free, not held by the bases, and their places there made
     # by the replay: the kept arrays are fewer bytes, the chosen rows' laws copied out the
     # same, the drop measured 0.29 of them)
-    assert seen["first"] < seen["start"] - 0.25 * (seen["knots"] - seen["held"])
+    # (s55, replay55: the replay finishes a group's batches in one ragged call, so at its first
+    # finishing the knots of the whole group made again are held (vk, dt): measured +0.36 of
+    # the kept arrays' bytes above the start on this sample, where a batch at a time was
+    # -0.29; the kept arrays' going is still the weak references' test above, and the
+    # command's peak did not move: benchmarks/replay55.md)
+    assert seen["first"] < seen["start"] + 0.6 * (seen["knots"] - seen["held"])
 
 
 @pytest.mark.parametrize("name,prof", [CASES[0], CASES[2]])

@@ -14,14 +14,16 @@ from gcode_opt import emit, state, validate, words
 BOUND = {
     (state, "_fast_m204"): (r"M204(?:[ \t]+[SPTR][-+.0-9]+)*[ \t\r\n]*", "fullmatch"),
     (state, "_fast_match"): (r"G[01](?:[ \t]+[XYZEF][-+.0-9]+)*[ \t\r\n]*", "fullmatch"),
-    (emit, "_MOVE_LINES"): (r"\nG1 X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)", "findall"),
-    (emit, "_MOVE_XYE"): (r"\nG1 X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)", "findall"),
+    (emit, "_MOVE_LINES"): (r"\nG1 (?:F([-.0-9]+) )?X([-.0-9]+) Y([-.0-9]+)(?: E([-.0-9]+))?[ \t]*(;[^\r\n]*)?\r?(?=\n)",
+                            "findall"),
+    (emit, "_MOVE_XYE"): (r"\nG1 (?:F([-.0-9]+) )?X([-.0-9]+) Y([-.0-9]+) E([-.0-9]+)(?=\n)", "findall"),
 }
 MORE_DECIMALS = {d: (r"\.[0-9]{%d}" % (d + 1), "search") for d in (3, 5)}
 PATTERNS = {(validate, "NUM"): r"-?(?:\d+(?:\.\d*)?|\.\d+)\Z", (validate, "WORD"): r"([A-Za-z])(.*)\Z"}
 
 TEXTS = ["G1 X10 Y10 E.5", "G1 X1.5 Y-2 F3000", "G0 X1 Y2 Z3 F60 \r\n", "G1 X1 Y2 ; c", "G2 X1", "M204 S1000",
          "M204 P800 T900\n", "M204 Q1", "\nG1 X10.25 Y3 E0.01\nG1 X1 Y2\nG1 X1 Y2 E1 ;c\r\n", "\nG1 X-.5 Y.5\n",
+         "\nG1 F1200 X1 Y2 E3\nG1 X2 Y3 E4\n",
          "1.2345", "1.234567", "12", "-.5", "E.84612", "X", "x1 2", "", "1.2.3", "G1 X1e3 Y2"]
 
 

@@ -549,6 +549,13 @@ class _WaitingChains:
         return got
 
 
+def _store_folder(strokes):
+    """The folder of the file the strokes' store spills to (a StoredStrokes over a
+    StrokeStore in a file), else None."""
+    store = getattr(strokes, "store", None)
+    return None if getattr(store, "in_memory", True) else getattr(store, "folder", None)
+
+
 def _law_spill(strokes):
     """The chains' spill (chains.LawSpill) where the strokes' store spills (a StoredStrokes
     over a StrokeStore in a file: its folder, the output's disk, not a /tmp that may be
@@ -1118,7 +1125,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     lazy_chains = window is not None and reuse and LAZY_CHAINS
     lazy_codes = [c for c, on in ((C_LINE, lazy_lines), (C_CHAIN, lazy_chains)) if on]
     # the chains' plans the runs make, spilled for the rewrite's remake to read back
-    spill = _ChainSpill.make(len(strokes)) if lazy_chains and SPILL_CHAINS else None
+    # (in the strokes' store's folder: the output's disk, not a /tmp that may be tmpfs, RAM)
+    spill = _ChainSpill.make(len(strokes), _store_folder(strokes)) if lazy_chains and SPILL_CHAINS else None
     remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill)
               if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
@@ -1495,11 +1503,12 @@ class _ChainSpill:
         self.end = 0                                # the doubles written
 
     @classmethod
-    def make(cls, n_rows):
-        """A spill over n_rows rows, or None where no temporary file can be made."""
+    def make(cls, n_rows, folder=None):
+        """A spill over n_rows rows in folder (None: the temporary folder), or None where no
+        file can be made there."""
         from .outfile import unnamed_file
         try:
-            return cls(n_rows, unnamed_file())
+            return cls(n_rows, unnamed_file(folder))
         except OSError:
             return None
 

@@ -230,3 +230,26 @@ def test_replay_finishes_a_group_in_one_ragged_call(monkeypatch):
         assert rows2.tolist() == rows.tolist() == got.tolist()
         _, plans, _ = plan2.remake.spill.take(rows, plan2.T[rows], plan2.beta[rows])
         assert [_bits(p) for p in plans] == ragged
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+def test_spill_beside_the_output(monkeypatch, tmp_path):
+    """The runs' chain spill is a file in the folder the strokes' store spills to (the
+    output's, not a /tmp that may be tmpfs: RAM the process's RSS does not show)."""
+    where = []
+    make = sc._ChainSpill.make.__func__
+
+    def spy(cls, n_rows, folder=None):
+        got = make(cls, n_rows, folder)
+        if got is not None:
+            where.append(os.path.dirname(os.readlink(f"/proc/self/fd/{got.fh.fileno()}")))
+        return got
+    monkeypatch.setattr(sc._ChainSpill, "make", classmethod(spy))
+    monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
+    monkeypatch.setenv("GCODE_OPT_WINDOW", "64")
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "elsewhere"))
+    pl.process(os.path.join(SAMPLES, "prusa_gyroid.gcode"), str(out_dir / "o.gcode"), load_profile("prusa-mk3s"),
+               pl.Options())
+    assert where and all(w == str(out_dir) for w in where), where

@@ -549,11 +549,15 @@ class _WaitingChains:
         return got
 
 
-def _store_folder(strokes):
-    """The folder of the file the strokes' store spills to (a StoredStrokes over a
-    StrokeStore in a file), else None."""
+def _file_store(strokes):
+    """The StrokeStore in a file the strokes are read from (a StoredStrokes over one), else None."""
     store = getattr(strokes, "store", None)
-    return None if getattr(store, "in_memory", True) else getattr(store, "folder", None)
+    return None if getattr(store, "in_memory", True) else store
+
+
+def _store_folder(strokes):
+    """The folder of the file the strokes' store spills to, else None."""
+    return getattr(_file_store(strokes), "folder", None)
 
 
 def _law_spill(strokes):
@@ -561,8 +565,8 @@ def _law_spill(strokes):
     over a StrokeStore in a file: its folder, the output's disk, not a /tmp that may be
     tmpfs), or False: their laws kept in memory (strokes a list, a store in memory,
     SPILL_CHAIN_LAWS off, or no file could be made there)."""
-    store = getattr(strokes, "store", None)
-    if not SPILL_CHAIN_LAWS or getattr(store, "in_memory", True):
+    store = _file_store(strokes)
+    if not SPILL_CHAIN_LAWS or store is None:
         return False
     try:
         return chains.LawSpill(store.folder)

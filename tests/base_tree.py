@@ -30,3 +30,15 @@ def unpack(commit, dest):
     for path in glob(os.path.join(src, "**", "*.[ch]"), recursive=True):
         shutil.copy2(path, os.path.join(dest, "gcode_opt", os.path.relpath(path, src)))
     return True
+
+
+def command(tree):
+    """The interpreter arguments that run gcode-opt's command line from tree (then its
+    arguments): `-m gcode_opt` for a past commit; for this tree, with the report's drawn curve
+    law solved to the solver's own tail as the past commits drew it (round 42 draws it at
+    report.profiles.PLOT_TAIL_TOL; tests/test_speed56_rep56_spline.py checks that law against
+    this one), so that everything else the report writes is compared byte for byte."""
+    if os.path.realpath(tree) != os.path.realpath(ROOT):
+        return ["-m", "gcode_opt"]
+    return ["-c", "import sys\nfrom gcode_opt.laws import curve\nfrom gcode_opt.report import profiles\n"
+                  "profiles.PLOT_TAIL_TOL = curve._TAIL_TOL\nfrom gcode_opt.cli import main\nsys.exit(main())\n"]

@@ -12,6 +12,7 @@ from array import array
 
 import numpy as np
 import pytest
+from base_tree import command as base_tree_command
 from base_tree import unpack as base_tree_unpack
 
 from gcode_opt import state as st
@@ -160,7 +161,7 @@ def base_tree(tmp_path_factory):
 def _report(tree, orig, new, out_dir):
     env = dict(os.environ, PYTHONPATH=tree)
     html, js = os.path.join(out_dir, "r.html"), os.path.join(out_dir, "r.json")
-    subprocess.run([sys.executable, "-m", "gcode_opt", "report", orig, new, "--profile", PROFILE,
+    subprocess.run([sys.executable] + base_tree_command(tree) + ["report", orig, new, "--profile", PROFILE,
                     "-o", html, "--json", js], env=env, cwd=out_dir, check=True, capture_output=True)
     with open(html, "rb") as fh, open(js, "rb") as fj:
         return fh.read(), fj.read()

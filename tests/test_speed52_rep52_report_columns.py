@@ -18,6 +18,7 @@ from array import array
 
 import numpy as np
 import pytest
+from base_tree import command as base_tree_command
 from base_tree import unpack as base_tree_unpack
 
 from gcode_opt import ringing as rg
@@ -186,7 +187,7 @@ def base_tree(tmp_path_factory):
 
 
 def _run(tree, args, cwd):
-    subprocess.run([sys.executable, "-m", "gcode_opt"] + args, env=dict(os.environ, PYTHONPATH=tree), cwd=cwd,
+    subprocess.run([sys.executable] + base_tree_command(tree) + args, env=dict(os.environ, PYTHONPATH=tree), cwd=cwd,
                    check=True, capture_output=True)
 
 

@@ -22,6 +22,7 @@ from numpy.polynomial import chebyshev as C
 
 from ..records import record
 from .circle import _cheb_setup, _clenshaw, _gauss
+from .spline import NotAKnotCubic
 
 _N_LADDER = (32, 48, 64, 96, 128, 192, 256, 384, 512)
 _TAIL_TOL = 1e-11
@@ -162,10 +163,12 @@ def _fd(f, h):
     return lambda s: (f(s + h) - f(s - h)) / (2.0 * h)
 
 
-def solve_curve(kappa, dkappa_ds, S, T, beta, v0=0.0, v1=0.0, d2kappa_ds2=None) -> CurveLaw:
+def solve_curve(kappa, dkappa_ds, S, T, beta, v0=0.0, v1=0.0, d2kappa_ds2=None, tail_tol=_TAIL_TOL) -> CurveLaw:
     """Optimal law along a curve of length S (mm) with curvature kappa(s) (1/mm, vectorised
     callable or spline on [0, S]) and dκ/ds; duration T (s), β = αm (s²), end speeds v0, v1
-    (mm/s).  d2kappa_ds2 (optional) only speeds up Newton; finite differences otherwise."""
+    (mm/s).  d2kappa_ds2 (optional) only speeds up Newton; finite differences otherwise.
+    tail_tol: the Chebyshev tail (last three coefficients over the largest) a law is
+    accepted at, climbing the N ladder until it is met."""
     gam2 = T * T / beta
     u0, u1 = v0 * T / S, v1 * T / S
     # dimensionless curvature k(x) = S κ(Sx) and derivatives wrt x (clip: collocation may
@@ -198,7 +201,7 @@ def solve_curve(kappa, dkappa_ds, S, T, beta, v0=0.0, v1=0.0, d2kappa_ds2=None) 
                 w, cc, ok = _newton_curve(n, k_fun, kx_fun, g1_fun, gam2, u0, u1, theta, w)
         coef = cs["to_coef"] @ w
         tail = np.abs(coef[-3:]).max() / np.abs(coef).max()
-        if ok and tail <= _TAIL_TOL:
+        if ok and tail <= tail_tol:
             return CurveLaw(S, T, beta, kappa, dkappa_ds, coef, cc, n)
         if level == len(_N_LADDER) - 1:
             raise RuntimeError(f"curve law did not converge (N={n}, tail={tail:.1e}, ok={ok})")
@@ -243,11 +246,11 @@ class PolylineCurvature:
         self._spline = None
 
     @property
-    def spline(self) -> "CubicSpline":
-        # scipy.interpolate costs ~40 MB and ~0.5 s to import; the default run never calls this
-        from scipy.interpolate import CubicSpline
+    def spline(self) -> NotAKnotCubic:
+        # (the default run never calls this; scipy's CubicSpline, which this one matches,
+        # took ~45 MB of `--report`'s resident set with scipy.interpolate's import)
         if self._spline is None:
-            self._spline = CubicSpline(self.s_d, self.kappa_v)
+            self._spline = NotAKnotCubic(self.s_d, self.kappa_v)
         return self._spline
 
     @property
@@ -265,8 +268,9 @@ class PolylineCurvature:
 
 
 def _check_spline_input(x, y):
-    """Raise the ValueError scipy's CubicSpline(x, y) would (its input checks), now that
-    the spline is built lazily: a bad stroke still fails where it did (fault isolation)."""
+    """Raise the ValueError scipy's CubicSpline(x, y) would (its input checks; the spline
+    was scipy's), when the curvature is made, not when its spline is built lazily: a bad
+    stroke still fails where it did (fault isolation)."""
     if x.size < 2:
         raise ValueError("`x` must contain at least 2 elements.")
     if not (np.isfinite(x).all() and np.isfinite(y).all()):

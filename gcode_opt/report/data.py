@@ -503,24 +503,8 @@ def _coverage(tr0, tr1, fences, summary):
     the share of its int|a|^2 dt and time in the lines that were re-timed (the fences), and
     the rest by feature (an XY move without extrusion is travel), each with its share; the
     pipeline's reasons for candidates left as sliced come from the summary when given."""
-    inside = set()
-    for f in fences:
-        inside.update(range(f.orig_first, f.orig_last + 1))
     total_a2, total_t = tr0.res.int_a2, tr0.res.time_t
-    a2_in = t_in = 0.0
-    rest = {}
-    ln = tr0.lines
-    for idx, a2, a2_j, t in zip(ln.idx, ln.column("int_a2"), ln.column("int_a2_j"), ln.column("time_t")):
-        a2 = a2 + a2_j
-        if idx in inside:
-            a2_in += a2
-            t_in += t
-            continue
-        f = tr0.moves.group_of(idx)
-        g = rest.setdefault(f, [0, 0.0, 0.0])
-        g[0] += 1
-        g[1] += a2
-        g[2] += t
+    (a2_in, t_in), rest = _line_shares(tr0.lines, tr0.moves, fences)
     selected = set(((summary or {}).get("options") or {}).get("features") or ())
     left = [{"feature": f, "moves": n, "selected": (f in selected) if selected else None,
              "int_a2_share": ratio_share(a2, total_a2), "time_share": ratio_share(t, total_t)}
@@ -535,6 +519,76 @@ def _coverage(tr0, tr1, fences, summary):
         "left_by_reason": cov.get("left"),
         "features": (summary or {}).get("features"),
     }
+
+
+def _line_shares(lines, moves, fences):
+    """((int a^2, time) of the moving lines inside the fences, {group: [lines, int a^2, time]}
+    of the others), int a^2 being int_a2 + int_a2_j, each sum added line by line in line
+    order from 0.0 (as a Python loop adds), the groups in the order of their first line;
+    a line's group is its move's feature, "travel" (no extrusion) or "other" (no move).
+    Made a LineTable chunk at a time on array views: the loop over Python floats and a set
+    of every fenced line took the gyroid plate's `--report` heap up ~18 MB."""
+    inside = _fenced_lines(fences, (lines.idx[-1] + 1) if len(lines.idx) else 0)
+    mv_idx = np.frombuffer(moves.idx, np.int64) if len(moves.idx) else np.zeros(0, np.int64)
+    mv_extrudes = _column_where(moves, "e", lambda e: e > 0.0)
+    mv_feature = np.frombuffer(moves.feature, np.uint16) if len(moves.feature) else np.zeros(0, np.uint16)
+    names = list(moves.features) + ["travel", "other"]
+    travel, other = len(names) - 2, len(names) - 1
+    in_sums = np.zeros(2)
+    rest = {}                     # group code -> [lines, int a^2, time], in first-line order
+    ja2, ja2j, jt, w, C = lines._j["int_a2"], lines._j["int_a2_j"], lines._j["time_t"], lines._w, lines.CHUNK
+    for c, chunk in enumerate(lines._chunks):
+        if not len(chunk):
+            continue
+        rows = np.frombuffer(chunk, dtype=float).reshape(-1, w)
+        idx = np.frombuffer(lines.idx, np.int64, count=len(rows), offset=8 * c * C)
+        a2 = rows[:, ja2] + rows[:, ja2j]
+        t = rows[:, jt]
+        fenced = inside[idx]
+        in_sums[0] = _added(in_sums[0], a2[fenced])
+        in_sums[1] = _added(in_sums[1], t[fenced])
+        out = ~fenced
+        idx, a2, t = idx[out], a2[out], t[out]
+        if len(mv_idx):
+            k = np.minimum(np.searchsorted(mv_idx, idx), len(mv_idx) - 1)
+            code = np.where(mv_idx[k] == idx, np.where(mv_extrudes[k], mv_feature[k], travel), other)
+        else:
+            code = np.full(len(idx), other)
+        codes, first = np.unique(code, return_index=True)
+        for g in codes[np.argsort(first, kind="stable")].tolist():
+            sel = code == g
+            r = rest.setdefault(g, [0, 0.0, 0.0])
+            r[0] += int(np.count_nonzero(sel))
+            r[1] = _added(r[1], a2[sel])
+            r[2] = _added(r[2], t[sel])
+    return (float(in_sums[0]), float(in_sums[1])), {names[g]: r for g, r in rest.items()}
+
+
+def _fenced_lines(fences, n):
+    """Bool by source line 0..n-1 (a line past n counts as outside): in any fence's span."""
+    d = np.zeros(n + 1, np.int64)
+    if fences:
+        lo = np.minimum(np.fromiter((f.orig_first for f in fences), np.int64, len(fences)), n)
+        hi = np.minimum(np.fromiter((f.orig_last + 1 for f in fences), np.int64, len(fences)), n)
+        np.add.at(d, lo, 1)
+        np.add.at(d, hi, -1)
+    return np.cumsum(d[:n]) > 0
+
+
+def _column_where(table, attr, test):
+    """test(column) of a _Rows table's attr, as bools by row (made chunk by chunk: no copy of
+    the whole column)."""
+    j, w = table._j[attr], table._w
+    parts = [test(np.frombuffer(c, dtype=float).reshape(-1, w)[:, j]) for c in table._chunks if len(c)]
+    return np.concatenate(parts) if parts else np.zeros(0, bool)
+
+
+def _added(start, vals):
+    """start + vals[0] + vals[1] + ... added left to right (a Python loop's sum: numpy's
+    sum pairs its terms, other bits)."""
+    if not len(vals):
+        return start
+    return float(np.add.accumulate(np.concatenate(([start], vals)))[-1])
 
 
 def ratio_share(part, whole):

@@ -15,6 +15,12 @@ from ..laws.line import line_law
 from .trace import profile_points
 
 N_LAW = 400
+# the Chebyshev tail a drawn curve law is solved to (laws.curve.solve_curve's tail_tol): far
+# below a pixel of N_LAW points.  Its default (1e-11) climbed the N ladder to 512 on a
+# polyline's spline curvature, whose coefficients fall slowly: on the gyroid plate's curve
+# ~6 s of CPU and ~37 MB of `--report`'s peak, for a law that then failed (5.7e-11 at N = 512)
+# and was not drawn
+PLOT_TAIL_TOL = 1e-8
 
 
 def _series(t, v, a, label):
@@ -125,7 +131,7 @@ def _curve_law(tr, o0, o1, T, beta, v0, v1):
     from ..laws.curve import curvature_from_polyline, solve_curve
     pts = [(tr.moves[o0].x0, tr.moves[o0].y0)] + [(tr.moves[i].x1, tr.moves[i].y1) for i in range(o0, o1 + 1)]
     k = curvature_from_polyline(np.array(pts))
-    law = solve_curve(k.kappa, k.dkappa_ds, k.length_d, T, beta, v0, v1, k.d2kappa_ds2)
+    law = solve_curve(k.kappa, k.dkappa_ds, k.length_d, T, beta, v0, v1, k.d2kappa_ds2, tail_tol=PLOT_TAIL_TOL)
     t = np.linspace(0.0, T, N_LAW)
     s_, v, a = law.eval(t)
     s = _series(t, v, a, f"optimal law along the curve, same T, β = {beta:.3g} s²")

@@ -11,6 +11,7 @@ import sys
 import numpy as np
 import pytest
 
+from gcode_opt import state as st
 from gcode_opt.profile import load_profile
 from gcode_opt.report import data as rd
 from gcode_opt.report import trace as tm
@@ -156,3 +157,19 @@ def test_groups_in_the_loops_order(name, traces, monkeypatch):
     assert _bits(got[0]) == _bits(want[0])
     assert [(k, _bits(v)) for k, v in got[1].items()] == [(k, _bits(v)) for k, v in want[1].items()]
     assert len(want[1]) >= 2
+
+
+@pytest.mark.parametrize("name", ["prusa_gyroid_arcs.gcode", "edge/arcs.gcode"])
+def test_move_rows_as_the_views(name, monkeypatch):
+    """MoveTable.length_at / xyz_at / rows_of (StrokeHeads' lengths and the stroke rows'
+    masses read them) give what the MoveViews gave, arcs included, across chunks."""
+    monkeypatch.setattr(tm._Rows, "CHUNK", 5)
+    mv = trace_file(os.path.join(ROOT, "sample_gcode", name), load_profile(PROFILE)).moves
+    assert any(mv._view(k).kind == st.ARC for k in range(len(mv.idx)))
+    for k in range(len(mv.idx)):
+        v = mv._view(k)
+        assert _bits(mv.length_at(k)) == _bits(v.length_d)
+        assert [_bits(x) for x in mv.xyz_at(k)] == [_bits(getattr(v, f)) for f in ("x0", "y0", "z0", "x1", "y1", "z1")]
+    idx = list(mv.idx)
+    for a, b in ((0, 0), (idx[1], idx[len(idx) // 2]), (idx[-1] + 1, idx[-1] + 9), (-5, idx[-1] + 5)):
+        assert [idx[k] for k in mv.rows_of(a, b)] == [i for i in range(a, b + 1) if i in mv]

@@ -111,9 +111,11 @@ class StrokeHeads:
         self.kinds, self.lengths, self.layers, self.a2_before = [], [], [], []
         for f in fences:
             o0, o1 = f.orig_first, f.orig_last
-            m0 = tr0.moves.get(o0)
-            self.lengths.append(sum(tr0.moves[i].length_d for i in range(o0, o1 + 1) if i in tr0.moves))
-            self.kinds.append(stroke_kind(f, row_at(o0 + 1), tr0))
+            mv = tr0.moves
+            m0 = mv.get(o0)
+            self.lengths.append(sum(map(mv.length_at, mv.rows_of(o0, o1))))
+            # (the block header's kind first, as stroke_kind reads it: the summary's row made only without it)
+            self.kinds.append(f.kind if f.kind in KINDS else stroke_kind(f, row_at(o0 + 1), tr0))
             self.layers.append(m0.layer if m0 is not None else -1)
             self.a2_before.append(tr0.line_sum(o0, o1, "int_a2") + tr0.line_sum(o0, o1, "int_a2_j"))
 
@@ -131,11 +133,13 @@ def _stroke_rows(tr0, tr1, fences, summary, profile, heads):
             m_kg = float(np.mean(mass_kg(profile, np.sin(th), np.cos(th))))
         elif length > 0:                        # lines and curves: length-weighted over the moves
             m_kg = 0.0
-            for i in range(o0, o1 + 1):
-                m = tr0.moves.get(i)
-                if m is not None and m.length_d > 0:
-                    d = math.hypot(m.x1 - m.x0, m.y1 - m.y0) or 1.0
-                    m_kg += mass_kg(profile, (m.x1 - m.x0) / d, (m.y1 - m.y0) / d) * m.length_d / length
+            mv = tr0.moves
+            for k in mv.rows_of(o0, o1):
+                length_d = mv.length_at(k)
+                if length_d > 0:
+                    x0, y0, _, x1, y1, _ = mv.xyz_at(k)
+                    d = math.hypot(x1 - x0, y1 - y0) or 1.0
+                    m_kg += mass_kg(profile, (x1 - x0) / d, (y1 - y0) / d) * length_d / length
         else:
             m_kg = mass_kg(profile, 1.0, 0.0)
         n_blocks, shortest_t, below = tr1.span_blocks(f.out_first, f.out_last, min_seg_t)

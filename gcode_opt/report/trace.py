@@ -225,6 +225,9 @@ class MoveTable(_Rows):
         self.features = []
         self._code = {}
         self.arcs = {}
+        xyz = ("x0", "y0", "z0", "x1", "y1", "z1")
+        self._xyz_j = tuple(self._j.get(f, -1) for f in xyz)
+        self._xyz_first = self._xyz_j == tuple(range(6))
 
     def add(self, m):
         code = self._code.get(m.feature)
@@ -275,6 +278,27 @@ class MoveTable(_Rows):
 
     def values(self):
         return (self._view(k) for k in range(len(self.idx)))
+
+    def rows_of(self, first_idx, last_idx):
+        """The positions of the moves of lines first_idx..last_idx, in line order."""
+        return range(bisect_left(self.idx, first_idx), bisect_right(self.idx, last_idx))
+
+    def length_at(self, k):
+        """The move at position k's length_d (MoveView.length_d, the same floats: no view made)."""
+        if self.kind[k] == st.ARC:
+            return self.arcs[self.idx[k]].length_d
+        x0, y0, z0, x1, y1, z1 = self.xyz_at(k)
+        return math.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2 + (z1 - z0) ** 2)
+
+    def xyz_at(self, k):
+        """(x0, y0, z0, x1, y1, z1) of the move at position k (a table of MOVE_FIELDS)."""
+        c = self._chunks[k // self.CHUNK]
+        a = (k % self.CHUNK) * self._w
+        if self._xyz_first:
+            return c[a:a + 6]
+        if -1 in self._xyz_j:
+            raise KeyError("this move table keeps no end points (x1, y1, z1)")
+        return tuple(c[a + j] for j in self._xyz_j)
 
     def np(self, name):
         """A column as a numpy array: idx, kind, layer or a field."""

@@ -25,25 +25,9 @@ PROFILE = "prusa-mk3s"
 
 
 def ref_coverage(tr0, tr1, fences, summary):
-    """report.data._coverage as of bf05c3e, verbatim."""
-    inside = set()
-    for f in fences:
-        inside.update(range(f.orig_first, f.orig_last + 1))
+    """report.data._coverage as of bf05c3e, verbatim but for its loop, which is ref_shares."""
     total_a2, total_t = tr0.res.int_a2, tr0.res.time_t
-    a2_in = t_in = 0.0
-    rest = {}
-    ln = tr0.lines
-    for idx, a2, a2_j, t in zip(ln.idx, ln.column("int_a2"), ln.column("int_a2_j"), ln.column("time_t")):
-        a2 = a2 + a2_j
-        if idx in inside:
-            a2_in += a2
-            t_in += t
-            continue
-        f = tr0.moves.group_of(idx)
-        g = rest.setdefault(f, [0, 0.0, 0.0])
-        g[0] += 1
-        g[1] += a2
-        g[2] += t
+    (a2_in, t_in), rest = ref_shares(tr0, fences)
     selected = set(((summary or {}).get("options") or {}).get("features") or ())
     left = [{"feature": f, "moves": n, "selected": (f in selected) if selected else None,
              "int_a2_share": rd.ratio_share(a2, total_a2), "time_share": rd.ratio_share(t, total_t)}
@@ -126,7 +110,7 @@ def test_coverage_of_no_move(tmp_path):
 
 
 def ref_shares(tr0, fences):
-    """ref_coverage's loop alone: ((a2_in, t_in), rest) with rest's groups in its order."""
+    """_coverage's loop as of bf05c3e, verbatim: ((a2_in, t_in), rest), rest's groups in its order."""
     inside = set()
     for f in fences:
         inside.update(range(f.orig_first, f.orig_last + 1))

@@ -302,7 +302,7 @@ class StrokeRows(Sequence):
     CHUNK = 128              # rows made (and json.dumps encodes) at a time: ~0.6 MB
     BLOCK = 2048             # rows whose stroke fields are read (and rounded) at a time: ~150 kB
     ROUNDED = (("length_d", 4), ("v0", 3), ("v1", 3), ("v_feed", 3))
-    __slots__ = ("n", "rows", "strokes", "coded", "cols", "_by_line")
+    __slots__ = ("n", "rows", "strokes", "coded", "cols", "_by_line", "_near")
     __hash__ = None
 
     def __init__(self, cols, rows, out_first, t0, i0, t_law, i_law, t1, a21, beta):
@@ -316,6 +316,7 @@ class StrokeRows(Sequence):
                      for c in (out_first, t0, t_law, t1, i0, i_law, a21, beta)]
         self.n = min(map(len, [self.rows, *self.cols]))
         self._by_line = None
+        self._near = (0, [])            # row_at_line's last chunk of rows: (its first row, the rows)
 
     def __len__(self):
         return self.n
@@ -371,7 +372,19 @@ class StrokeRows(Sequence):
             self._by_line = (order, first[order])
         order, lines = self._by_line
         k = int(np.searchsorted(lines, line, side="right")) - 1
-        return self[int(order[k])] if k >= 0 and lines[k] == line else None
+        return self._row_near(int(order[k])) if k >= 0 and lines[k] == line else None
+
+    def _row_near(self, j):
+        """Row j, made with the CHUNK of rows around it (the report asks the rows of its
+        fences in file order: the rows' numpy reads once a chunk, not once a row; ~35 k
+        rows on the gyroid plate).  A row asked again is the same dict: read, not changed,
+        by its callers."""
+        a, part = self._near
+        if not a <= j < a + len(part):
+            a = j - j % self.CHUNK
+            part = self._make(a, min(a + self.CHUNK, self.n))
+            self._near = (a, part)
+        return part[j - a]
 
     def _fields(self, a, b):
         """The stroke fields of rows a .. b - 1 as the rows show them: [line, lines, the

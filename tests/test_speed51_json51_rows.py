@@ -281,7 +281,9 @@ def test_row_at_line_is_the_dicts_lookup():
     want = _ref_list(cols, idx, row_cols)
     by_line = {p["line"]: p for p in want}
     assert len(by_line) < len(want)                          # (several rows on one line: the last one)
-    for line in sorted(by_line) + [0, -1, 10 ** 6, min(by_line) - 1, max(by_line) + 1]:
+    # in line order (the report's), then backwards and in a jumble (row_at_line keeps a chunk of rows made)
+    lines = sorted(by_line)
+    for line in lines + [0, -1, 10 ** 6, min(by_line) - 1, max(by_line) + 1] + lines[::-1] + lines[::7] + lines[3::5]:
         got = table.row_at_line(line)
         assert (got is None) == (line not in by_line)
         if got is not None:

@@ -1,0 +1,258 @@
+"""The windowed runs' line plans (issue 8, lines56): schedule.plan_strokes over a StoredStrokes
+segments each (line class, T, beta) of a run's lines once, by one row of it, in calls of at
+most a window of strokes (schedule._line_figures), judges every row on its key's figures, and
+writes each plan made to a temporary file (line_spill.LineSpill: a record of doubles a plan,
+a row pointing at its key's record); the rewrite's remake (schedule._PlansAgain._lines) reads
+back the record of each re-timed line whose (T, beta) is the record's instead of segmenting it
+again.  Here: the runs' figures and reasons are the eager runs' (LAZY_LINES off), each key is
+segmented once a run in the fewest calls of a window; the plans read back are the eager plans
+bit for bit (arrays, figures, type, shape); a record of another law is not read back; plans
+the records do not hold are left out; a failed write loses every record; the records of the
+call before are not read again; and the windowed command writes the list path's file with no
+line segmented by its rewrite."""
+import json
+import os
+
+import numpy as np
+import pytest
+
+from gcode_opt import line_spill as ls
+from gcode_opt import pipeline as pl
+from gcode_opt import schedule as sc
+from gcode_opt.profile import load_profile
+from gcode_opt.segments import RowPlan, SegmentPlan
+
+from test_speed52_runs52_windows import seg_bits
+from test_speed53_plans53_lazy import FIGURES, SAMPLES, _plans, _stored_plan
+
+NAME, PROF, WINDOW = "prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 16
+
+
+@pytest.fixture(autouse=True)
+def _chains_eager(monkeypatch):
+    """The lines alone let go here (the chains' plans kept: test_speed55_chain_spill.py)."""
+    monkeypatch.setattr(sc, "LAZY_CHAINS", False)
+
+
+def _bits(p):
+    """seg_bits with the plan's fault verdict."""
+    return None if p is None else seg_bits(p) + (p.fault,)
+
+
+def test_runs_segment_each_key_once_in_window_calls(monkeypatch):
+    runs = []                   # a run's lines: ([strokes of each _line_segments call], its keys met)
+    figures, segments = sc._line_figures, sc._line_segments
+
+    def spy_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None):
+        runs.append(([], [], rows.size, line_cls))
+        return figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill)
+
+    def spy_segments(sts, T, beta, rules, same=None, cmd=None):
+        if sc.LAZY_LINES:       # (not the eager reference's runs)
+            runs[-1][0].append(len(sts))
+            runs[-1][1].extend(zip(same.tolist(), T.tolist(), beta.tolist()))
+        return segments(sts, T, beta, rules, same, cmd)
+    monkeypatch.setattr(sc, "_line_figures", spy_figures)
+    monkeypatch.setattr(sc, "_line_segments", spy_segments)
+    (strokes, store, _, _, plan, pin), (fig, reason, _) = _plans(NAME, PROF, WINDOW, monkeypatch)
+    store.close()
+    assert plan.remake.line_cls is not None            # (the sample's lines repeat: keyed)
+    first = [r for r in runs if r[2]][0]
+    for calls, keys, n_rows, _ in runs:
+        assert len(keys) == len(set(keys))              # each key segmented once a run
+        assert all(n <= WINDOW for n in calls)          # a window of strokes as objects a call at most
+        assert len(calls) == -(-len(keys) // WINDOW)    # in the fewest such calls
+    # far fewer lines segmented than judged (the sample's layers repeat)
+    assert len(first[1]) * 2 < first[2]
+    for k in FIGURES:
+        assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
+    assert list(plan.reason) == reason
+
+
+@pytest.mark.parametrize("name,window", [(NAME, WINDOW), ("prusa_gyroid.gcode", 64)])
+def test_rewrite_reads_back_every_line_plan(name, window, monkeypatch):
+    """Every re-timed line's plan read back (none segmented again), the eager runs' bit for bit;
+    keyed (the rectilinear sample's classes) or not (the gyroid's lines repeat too little)."""
+    (strokes, store, _, _, plan, pin), (_, _, segs) = _plans(name, PROF, window, monkeypatch)
+    made = []
+    segments = sc._line_segments
+    monkeypatch.setattr(sc, "_line_segments", lambda sts, *a, **k: made.append(len(sts)) or segments(sts, *a, **k))
+    lines = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_LINE))
+    assert lines.size > 50
+    assert (plan.remake.line_cls is not None) == ("rectilinear" in name)
+    with store:
+        every = np.arange(len(strokes))
+        for a in range(0, every.size, window):
+            rows = every[a:a + window]
+            sc.segs_for(plan, rows, strokes)
+            for i in rows.tolist():
+                assert seg_bits(plan.segs[i]) == segs[i], i
+    assert made == []
+
+
+def test_record_of_another_law_is_not_read_back(monkeypatch):
+    (strokes, store, _, _, plan, pin), _ = _plans(NAME, PROF, WINDOW, monkeypatch)
+    with store:
+        spill = plan.remake.line_spill
+        rows = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_LINE))
+        assert rows.size > 50 and (spill.at[rows] >= 0).all()
+        beta = plan.beta[rows].copy()
+        beta[::3] = np.nextafter(beta[::3], -np.inf)       # (one bit off: another law; beta may be inf)
+        T = plan.T[rows].copy()
+        T[1::3] = np.nextafter(T[1::3], 0.0)
+        spill.last = None
+        got, plans, rest = spill.take(rows, T, beta)
+        assert got.tolist() == rows[2::3].tolist()
+        assert sorted(rest.tolist()) == sorted(rows[0::3].tolist() + rows[1::3].tolist())
+        # (the call before's records, taken without a read, are checked as well)
+        got, _, _ = spill.take(rows, T, beta)
+        assert got.tolist() == rows[2::3].tolist()
+        free = np.flatnonzero(spill.at < 0)[:5]
+        assert free.size
+        got, _, rest = spill.take(free, plan.T[free], plan.beta[free])
+        assert got.size == 0 and rest.tolist() == free.tolist()
+
+
+def _plans_of_kinds():
+    """RowPlans of a block (two of the law, one a trapezoid), a SegmentPlan, a trapezoid
+    SegmentPlan, a plan with a junction command, None, a SegmentPlan with a fault (a feed
+    below 0), a RowPlan whose knots are its stroke's ends (an array of doubles)."""
+    from array import array
+    rng = np.random.default_rng(56)
+    S = np.cumsum(rng.random((3, 4)), axis=1)
+    V, A, F = rng.random((3, 4)), rng.random((3, 3)) + 1.0, rng.random((3, 3)) + 1.0
+    row = [RowPlan(S, V, A, F, i, 1.0 + i, 2.0 + i) for i in range(3)]
+    row[1].shape = "trapezoid"
+    seg = SegmentPlan(np.array([0.0, 1.0, 2.5]), np.array([1.0, 2.0, 1.5]), np.array([3.0, 4.0]),
+                      np.array([5.0, 6.0]), 0.75, 0.25)
+    trap = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, shape="trapezoid")
+    cmd = SegmentPlan(seg.s, seg.v, seg.accel, seg.feed, 0.5, 0.5, first_cmds=("M204 S1", ""))
+    bad = SegmentPlan(seg.s, seg.v, seg.accel, np.array([-1.0, 6.0]), 0.75, 0.25)
+    ends = RowPlan(array("d", [0.5, 1.5, 2.0]), V, A, F, 0, 3.0, 4.0)
+    return [row[2], seg, trap, row[0], cmd, None, row[1], bad, ends]
+
+
+def test_records_of_every_kind_held():
+    plans = _plans_of_kinds()
+    spill = ls.LineSpill.make(20)
+    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    sc.seg_fault(plans[0])              # (verdicts made: "" kept with the record, a reason not)
+    sc.seg_fault(plans[7])
+    at, ns = spill.put(plans, T, beta)
+    assert (at[[4, 5]] == -1).all() and (at[[0, 1, 2, 3, 6, 7, 8]] >= 0).all()
+    assert ns.tolist() == [3, 2, 2, 3, 0, 0, 3, 2, 3]
+    rows = np.array([1, 3, 4, 6, 9, 10, 12, 14, 15])
+    spill.point(rows, at, ns)
+    got, back, rest = spill.take(rows, T, beta)
+    held = [0, 1, 2, 3, 6, 7, 8]
+    assert got.tolist() == rows[held].tolist() and rest.tolist() == [9, 10]
+    assert [_bits(p) for p in back] == [_bits(p) if p.fault == "" else _bits(p)[:-1] + (None,)
+                                        for p in map(plans.__getitem__, held)]
+    assert [type(p) for p in back] == [RowPlan, SegmentPlan, SegmentPlan, RowPlan, RowPlan, SegmentPlan, RowPlan]
+    assert [p.shape for p in back] == ["law", "law", "trapezoid", "law", "trapezoid", "law", "law"]
+    assert sc.seg_fault(back[5]) == sc.seg_fault(plans[7]) != ""
+    # rows sharing a record share one plan object
+    spill.point(np.array([2, 5]), at[[1, 1]], ns[[1, 1]])
+    got, back, _ = spill.take(np.array([2, 3, 5]), T[[1, 1, 1]], beta[[1, 1, 1]])
+    assert got.tolist() == [2, 3, 5] and back[0] is back[1] is back[2]
+    spill.close()
+
+
+def test_records_of_the_call_before_not_read_again(monkeypatch):
+    plans = _plans_of_kinds()
+    spill = ls.LineSpill.make(20)
+    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    rows = np.arange(9)
+    spill.point(rows, *spill.put(plans, T, beta))
+    reads = []
+    read = spill._read
+    monkeypatch.setattr(spill, "_read", lambda at, lens: reads.append(at.size) or read(at, lens))
+    _, first, _ = spill.take(rows[:4], T[:4], beta[:4])
+    _, again, _ = spill.take(rows[2:8], T[2:8], beta[2:8])
+    assert reads == [4, 2]                      # (rows 2, 3 taken from the call before; 4, 5 hold none)
+    assert again[0] is first[2] and again[1] is first[3]
+    _, third, _ = spill.take(rows[:2], T[:2], beta[:2])
+    assert reads == [4, 2, 2]                   # (only the call just before kept)
+    assert [_bits(p) for p in third] == [_bits(p) for p in first[:2]]
+    spill.close()
+
+
+class _Refusing:
+    """A file whose writes fail."""
+
+    def __init__(self, fh):
+        self.fh = fh
+
+    def seek(self, *a):
+        return self.fh.seek(*a)
+
+    def write(self, b):
+        raise OSError("disk full")
+
+    def close(self):
+        pass
+
+
+def test_failed_write_loses_every_record():
+    plans = _plans_of_kinds()
+    spill = ls.LineSpill.make(20)
+    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    rows = np.arange(9)
+    spill.point(rows[:2], *spill.put(plans[:2], T[:2], beta[:2]))
+    assert spill.take(rows[:2], T[:2], beta[:2])[0].tolist() == [0, 1]
+    fh = spill.fh
+    spill.fh = _Refusing(fh)
+    at, _ = spill.put(plans[2:], T[2:], beta[2:])
+    assert spill.fh is None and (at == -1).all()
+    fh.close()
+    got, back, rest = spill.take(rows, T, beta)
+    assert got.size == 0 and rest.tolist() == rows.tolist()
+
+
+def test_plans_past_the_bounds_are_not_held(monkeypatch):
+    """A plan of more segments than nseg holds is not written; records that would pass the
+    int32 indices (MAX_END) end the spill."""
+    plans = _plans_of_kinds()
+    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    monkeypatch.setattr(ls, "MAX_N", 2)         # (the block's RowPlans have 3 segments, the others 2)
+    spill = ls.LineSpill.make(20)
+    at, _ = spill.put(plans, T, beta)
+    assert np.flatnonzero(at >= 0).tolist() == [1, 2, 7]
+    monkeypatch.setattr(ls, "MAX_END", spill.end + ls.record_len(2) - 1)
+    spill.put(plans[1:2], T[1:2], beta[1:2])
+    assert spill.fh is None
+
+
+def test_windowed_command_segments_no_line_in_its_rewrite(monkeypatch, tmp_path):
+    """The command windowed writes the list path's file and summary, its rewrite segmenting no
+    line (every re-timed line's plan read back from the runs' spill)."""
+    monkeypatch.setattr(sc, "LAZY_CHAINS", True)
+    after, made = [False], []
+    plan_strokes, segments = pl.plan_strokes, sc._line_segments
+
+    def spy_plan(*a, **k):
+        got = plan_strokes(*a, **k)
+        after[0] = True
+        return got
+    monkeypatch.setattr(pl, "plan_strokes", spy_plan)
+    monkeypatch.setattr(sc, "_line_segments", lambda sts, *a, **k: (made.append(len(sts)) if after[0] else None)
+                        or segments(sts, *a, **k))
+
+    def run(windowed):
+        after[0] = False
+        if windowed:
+            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
+            monkeypatch.setenv("GCODE_OPT_WINDOW", "37")
+        else:
+            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
+        out = tmp_path / f"{windowed}.gcode"
+        s = pl.process(os.path.join(SAMPLES, NAME), str(out), load_profile(PROF), pl.Options())
+        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
+                                  default=str))
+        return out.read_bytes(), s
+    want = run(False)
+    made.clear()
+    got = run(True)
+    assert got[0] == want[0]
+    assert got[1] == want[1]
+    assert made == []

@@ -42,7 +42,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
 from .line_spill import LineSpill
-from .stored_strokes import StoredStrokes, StrokeRows
+from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
@@ -1174,7 +1174,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             # (lines with their classes: the same plans, made once a class and law; and their
             # corner_cmd0, read once above, not again from ~35 k strokes a run)
             fn = (lambda k, lines: lambda r: k.segments(
-                list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
+                _stored_rows(strokes, r) if lines and lazy_lines else list(map(strokes.__getitem__, r.tolist())),
+                plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if lazy_lines and k_name == K_LINE:
@@ -1272,6 +1273,16 @@ SPILL_LINES = True      # lazy lines' plans spilled for the rewrite (line_spill.
 # at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 30 for
 # ~6 k classes; the list's one call a run)
 LINE_WINDOWS = 4
+
+
+def _stored_rows(strokes, rows):
+    """The strokes of rows (sorted) of a StoredStrokes made of their records alone (its
+    store's take), not of their windows' (a run's lines to segment are a few of each
+    window: gyroid plate, ~3 k lines of 33 windows, each window ~1.4 ms to load); its
+    windows let go first, written back where due (stored_strokes.stored: the store then
+    holds every change).  A list's own strokes."""
+    got = stored(strokes)
+    return list(map(strokes.__getitem__, rows.tolist())) if got is None else got[0].take(rows)
 
 
 def _at_most(fn, n):

@@ -5,7 +5,8 @@ writes each plan made to a temporary file (line_spill.LineSpill: a record of dou
 a row pointing at its key's record); the rewrite's remake (schedule._PlansAgain._lines) reads
 back the record of each re-timed line whose (T, beta) is the record's instead of segmenting it
 again.  Here: the runs' figures and reasons are the eager runs' (LAZY_LINES off), each key is
-segmented once a run in the fewest calls of a window; the plans read back are the eager plans
+segmented once a run in the fewest calls of a window, made of their records alone (no window
+loaded for them); the plans read back are the eager plans
 bit for bit (arrays, figures, type, shape); a record of another law is not read back; plans
 the records do not hold are left out; a failed write loses every record; the records of the
 call before are not read again; and the windowed command writes the list path's file with no
@@ -64,6 +65,28 @@ def test_runs_segment_each_key_once_in_window_calls(monkeypatch):
         assert len(calls) == -(-len(keys) // WINDOW)    # in the fewest such calls
     # far fewer lines segmented than judged (the sample's layers repeat)
     assert len(first[1]) * 2 < first[2]
+    for k in FIGURES:
+        assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
+    assert list(plan.reason) == reason
+
+
+@pytest.mark.parametrize("name,window", [(NAME, WINDOW), ("prusa_gyroid.gcode", 64)])
+def test_runs_load_no_window_for_their_lines(name, window, monkeypatch):
+    """The lines a run segments are made of their records alone (the store's take), keyed or
+    not: no window of the StoredStrokes loaded for them; the eager runs' figures."""
+    loads, rows = [], []
+    figures = sc._line_figures
+
+    def spy(fn, r, window, plan, strokes, *a):
+        n = strokes.loads
+        got = figures(fn, r, window, plan, strokes, *a)
+        loads.append(strokes.loads - n)
+        rows.append(r.size)
+        return got
+    monkeypatch.setattr(sc, "_line_figures", spy)
+    (strokes, store, _, _, plan, pin), (fig, reason, _) = _plans(name, PROF, window, monkeypatch)
+    store.close()
+    assert rows[0] > 100 and loads == [0] * len(loads)
     for k in FIGURES:
         assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
     assert list(plan.reason) == reason

@@ -24,7 +24,7 @@ from gcode_opt.profile import load_profile
 from gcode_opt.segments import RowPlan, SegmentPlan
 
 from test_speed52_runs52_windows import seg_bits
-from test_speed53_plans53_lazy import FIGURES, SAMPLES, _plans, _stored_plan
+from test_speed53_plans53_lazy import FIGURES, SAMPLES, _plans
 
 NAME, PROF, WINDOW = "prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 16
 

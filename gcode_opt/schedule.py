@@ -1268,10 +1268,9 @@ LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's p
 LAZY_CHAINS = True      # likewise for the chains' plans
 SPILL_CHAINS = True     # lazy chains' plans spilled for the rewrite (_ChainSpill); off: remade from their laws
 SPILL_LINES = True      # lazy lines' plans spilled for the rewrite (line_spill.LineSpill); off: remade
-# windows of rows whose lines a windowed run segments together (_window_figures): the
-# classes first met in those windows planned in plan_segments calls of a window of rows
-# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 30 for
-# ~6 k classes; the list's one call a run)
+# windows of rows whose lines a windowed run segments together where they have no classes
+# (_line_figures -> _window_figures: a row its own key; with classes, each key once a run):
+# plan_segments calls of a window of rows at most (_at_most), not a call a window
 LINE_WINDOWS = 4
 
 

@@ -1133,7 +1133,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # (in the strokes' store's folder: the output's disk, not a /tmp that may be tmpfs, RAM)
     spill = _ChainSpill.make(len(strokes), _store_folder(strokes)) if lazy_chains and SPILL_CHAINS else None
     # the lines' plans the runs make, likewise (line_spill.LineSpill: a record a (class, T, beta))
-    line_spill = LineSpill.make(len(strokes), _store_folder(strokes)) if lazy_lines and SPILL_LINES else None
+    line_spill = LineSpill.make(_store_folder(strokes)) if lazy_lines and SPILL_LINES else None
     remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill, line_spill)
               if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
@@ -1297,22 +1297,22 @@ def _at_most(fn, n):
     return calls
 
 
-def _window_figures(fn, rows, window, plan, strokes, a2_orig, spill=None):
+def _window_figures(fn, rows, window, plan, strokes, a2_orig, spill=None, line_cls=None):
     """The lines or chains rows (sorted) segmented a window of rows (row // window) at a
     time by fn (rows -> a plan a row), each window's plans judged (_keep_made_plans:
     retime, reason, t_pred, a2_pred on the plan) and then let go: only one window's plans
     live at a time.  The rewrite makes the kept ones again a window at a time (segs_for,
     _PlansAgain): a line's is its row's own at its (T, beta), a chain's is its (T, beta)'s
     from its memo's rows, the same bits (tests/test_speed53_plans53_lazy.py,
-    test_speed54_chainplans_lazy.py), or reads them back.  spill: a LineSpill the plans
-    are written to (lines: the rewrite reads them back), or None."""
+    test_speed54_chainplans_lazy.py), or reads them back.  spill: a LineSpill the lines'
+    plans are written to under their keys (_line_keys of line_cls), or None."""
     segs = plan.segs
     for part in np.split(rows, np.flatnonzero(np.diff(rows // window)) + 1) if rows.size else ():
         why = {}
         for sub, res in isolate(fn, part, "segments", why):
             _put_at(segs, sub, res)
         if spill is not None:
-            spill.point(part, *spill.put(_take(segs, part), plan.T[part], plan.beta[part]))
+            spill.put(_take(segs, part), _line_keys(line_cls, part), plan.T[part], plan.beta[part])
         _keep_made_plans(plan, strokes, part, why, a2_orig)
         _clear_at(segs, part)
 
@@ -1326,12 +1326,12 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
     (rectilinear plate: ~39 k lines a run, ~4 k keys, each met in most of its ~50 windows).
     Only a window's plans live at a time, and a few floats a key.  Without classes, a row
     its own key: _window_figures by LINE_WINDOWS windows.  spill: a LineSpill the plans go
-    to (each row then points at its key's record), or None."""
+    to under their keys (_line_keys), or None."""
     if not rows.size:
         return
     T, beta = plan.T, plan.beta
     if not _keyed(line_cls, T, beta):
-        _window_figures(fn, rows, window * LINE_WINDOWS, plan, strokes, a2_orig, spill)
+        _window_figures(fn, rows, window * LINE_WINDOWS, plan, strokes, a2_orig, spill, line_cls)
         return
     inv, first = column_classes_first([line_cls[rows], T[rows].view(np.int64), beta[rows].view(np.int64)])
     order = np.argsort(first)                   # the keys by their first row
@@ -1340,7 +1340,6 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
     place[order] = np.arange(order.size)
     del first, order
     segs, figs, why = plan.segs, [], {}
-    at, nseg = np.full(reps.size, -1, np.int32), np.zeros(reps.size, np.uint16)
     for a in range(0, reps.size, window):
         part = reps[a:a + window]
         for sub, res in isolate(fn, part, "segments", why):
@@ -1348,13 +1347,12 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
         made = _take(segs, part)
         _clear_at(segs, part)
         if spill is not None:
-            at[a:a + part.size], nseg[a:a + part.size] = spill.put(made, T[part], beta[part])
+            spill.put(made, line_cls[part], T[part], beta[part])
+        settle_faults(made)                     # (the verdicts _Figures reads, made at once)
         figs += [why.get(i) or (None if seg is None else _Figures(seg)) for i, seg in zip(part.tolist(), made)]
         del made
     key = place[inv]                            # each row's key's place in reps
     del inv, place
-    if spill is not None:
-        spill.point(rows, at[key], nseg[key])
     bad = np.array([type(f) is str for f in figs], bool) if why else None     # (keys whose segmenting raised)
     for a in range(0, rows.size, KEEP_ROWS):
         r, k = rows[a:a + KEEP_ROWS], key[a:a + KEEP_ROWS]
@@ -1364,6 +1362,12 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
             seg_l = [None if type(f) is str else f for f in seg_l]
         _keep_plans(plan, strokes, r, seg_l, failed, None, a2_orig[r], in_place=True)
 
+
+
+def _line_keys(line_cls, rows):
+    """The classes of the lines rows their plans are kept under (LineSpill's keys: with
+    (T, beta)): their line classes, or each row its own (no classes)."""
+    return rows if line_cls is None else line_cls[rows]
 
 
 class _Figures:
@@ -1466,7 +1470,8 @@ class _PlansAgain:
         met in the call before: its plan)."""
         segs = plan.segs
         if self.line_spill is not None and rows.size:
-            got, plans, rows = self.line_spill.take(rows, plan.T[rows], plan.beta[rows])
+            got, plans, rows = self.line_spill.take(rows, _line_keys(self.line_cls, rows), plan.T[rows],
+                                                    plan.beta[rows])
             _put_at(segs, got, plans)
         cls = self.line_cls
         keys, last, now = None, getattr(plan, "remade_keys", None) or {}, {}

@@ -27,7 +27,7 @@ def _lines_run(monkeypatch, line_windows, made=None):
         def seen(r):
             calls.append(r.copy())
             return fn(r)
-        return figures(seen if len(a) == 4 else fn, rows, window, *a, **k)     # (the lines': their classes)
+        return figures(seen if len(a) > 3 else fn, rows, window, *a, **k)     # (the lines': their spill, classes)
     with monkeypatch.context() as m:
         m.setattr(sc, "LINE_WINDOWS", line_windows)
         m.setattr(sc, "_keyed", lambda *a: False)      # (lines not keyed: keyed, _line_figures' own, lines56)

@@ -113,27 +113,25 @@ def test_rewrite_reads_back_every_line_plan(name, window, monkeypatch):
     assert made == []
 
 
-def test_record_of_another_law_is_not_read_back(monkeypatch):
+def test_record_of_another_key_is_not_read_back(monkeypatch):
     (strokes, store, _, _, plan, pin), _ = _plans(NAME, PROF, WINDOW, monkeypatch)
     with store:
-        spill = plan.remake.line_spill
+        spill, cls = plan.remake.line_spill, plan.remake.line_cls
         rows = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_LINE))
-        assert rows.size > 50 and (spill.at[rows] >= 0).all()
+        assert rows.size > 50
+        got, _, rest = spill.take(rows, cls[rows], plan.T[rows], plan.beta[rows])
+        assert got.tolist() == rows.tolist() and rest.size == 0
         beta = plan.beta[rows].copy()
-        beta[::3] = np.nextafter(beta[::3], -np.inf)       # (one bit off: another law; beta may be inf)
+        beta[::4] = np.nextafter(beta[::4], -np.inf)       # (one bit off: another law; beta may be inf)
         T = plan.T[rows].copy()
-        T[1::3] = np.nextafter(T[1::3], 0.0)
+        T[1::4] = np.nextafter(T[1::4], 0.0)
+        c = cls[rows].copy()
+        c[2::4] = -1 - rows[2::4]                           # (another class: none such)
         spill.last = None
-        got, plans, rest = spill.take(rows, T, beta)
-        assert got.tolist() == rows[2::3].tolist()
-        assert sorted(rest.tolist()) == sorted(rows[0::3].tolist() + rows[1::3].tolist())
-        # (the call before's records, taken without a read, are checked as well)
-        got, _, _ = spill.take(rows, T, beta)
-        assert got.tolist() == rows[2::3].tolist()
-        free = np.flatnonzero(spill.at < 0)[:5]
-        assert free.size
-        got, _, rest = spill.take(free, plan.T[free], plan.beta[free])
-        assert got.size == 0 and rest.tolist() == free.tolist()
+        for _ in range(2):      # (the second: the call before's records, taken without a read, checked too)
+            got, plans, rest = spill.take(rows, c, T, beta)
+            assert got.tolist() == rows[3::4].tolist()
+            assert sorted(rest.tolist()) == sorted(set(rows.tolist()) - set(rows[3::4].tolist()))
 
 
 def _plans_of_kinds():
@@ -155,18 +153,20 @@ def _plans_of_kinds():
     return [row[2], seg, trap, row[0], cmd, None, row[1], bad, ends]
 
 
+def _keys(m=9):
+    """m keys: classes 10, 11, ..., T and beta rising."""
+    return np.arange(10, 10 + m, dtype=np.int64), np.linspace(1.0, 2.0, m), np.linspace(0.1, 0.2, m)
+
+
 def test_records_of_every_kind_held():
     plans = _plans_of_kinds()
-    spill = ls.LineSpill.make(20)
-    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    spill = ls.LineSpill.make()
+    cls, T, beta = _keys()
     sc.seg_fault(plans[0])              # (verdicts made: "" kept with the record, a reason not)
     sc.seg_fault(plans[7])
-    at, ns = spill.put(plans, T, beta)
-    assert (at[[4, 5]] == -1).all() and (at[[0, 1, 2, 3, 6, 7, 8]] >= 0).all()
-    assert ns.tolist() == [3, 2, 2, 3, 0, 0, 3, 2, 3]
+    spill.put(plans, cls, T, beta)
     rows = np.array([1, 3, 4, 6, 9, 10, 12, 14, 15])
-    spill.point(rows, at, ns)
-    got, back, rest = spill.take(rows, T, beta)
+    got, back, rest = spill.take(rows, cls, T, beta)
     held = [0, 1, 2, 3, 6, 7, 8]
     assert got.tolist() == rows[held].tolist() and rest.tolist() == [9, 10]
     assert [_bits(p) for p in back] == [_bits(p) if p.fault == "" else _bits(p)[:-1] + (None,)
@@ -174,27 +174,41 @@ def test_records_of_every_kind_held():
     assert [type(p) for p in back] == [RowPlan, SegmentPlan, SegmentPlan, RowPlan, RowPlan, SegmentPlan, RowPlan]
     assert [p.shape for p in back] == ["law", "law", "trapezoid", "law", "trapezoid", "law", "law"]
     assert sc.seg_fault(back[5]) == sc.seg_fault(plans[7]) != ""
-    # rows sharing a record share one plan object
-    spill.point(np.array([2, 5]), at[[1, 1]], ns[[1, 1]])
-    got, back, _ = spill.take(np.array([2, 3, 5]), T[[1, 1, 1]], beta[[1, 1, 1]])
+    # rows of one key share one plan object
+    got, back, _ = spill.take(np.array([2, 3, 5]), cls[[1, 1, 1]], T[[1, 1, 1]], beta[[1, 1, 1]])
     assert got.tolist() == [2, 3, 5] and back[0] is back[1] is back[2]
+    spill.close()
+
+
+def test_keys_sharing_a_hash_told_apart(monkeypatch):
+    """Keys whose hashes are equal (every one here): a row never gets another key's plan (a
+    key whose hash another record holds first is the caller's to make)."""
+    monkeypatch.setattr(ls, "_key_hash", lambda cls, T, beta: np.zeros(np.size(cls), np.uint64))
+    plans = _plans_of_kinds()
+    spill = ls.LineSpill.make()
+    cls, T, beta = _keys()
+    spill.put(plans, cls, T, beta)
+    rows = np.arange(9)
+    got, back, rest = spill.take(rows, cls, T, beta)
+    assert got.size == 1 and sorted(got.tolist() + rest.tolist()) == rows.tolist()
+    assert [seg_bits(p) for p in back] == [seg_bits(plans[q]) for q in got.tolist()]
     spill.close()
 
 
 def test_records_of_the_call_before_not_read_again(monkeypatch):
     plans = _plans_of_kinds()
-    spill = ls.LineSpill.make(20)
-    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    spill = ls.LineSpill.make()
+    cls, T, beta = _keys()
     rows = np.arange(9)
-    spill.point(rows, *spill.put(plans, T, beta))
+    spill.put(plans, cls, T, beta)
     reads = []
     read = spill._read
     monkeypatch.setattr(spill, "_read", lambda at, lens: reads.append(at.size) or read(at, lens))
-    _, first, _ = spill.take(rows[:4], T[:4], beta[:4])
-    _, again, _ = spill.take(rows[2:8], T[2:8], beta[2:8])
+    _, first, _ = spill.take(rows[:4], cls[:4], T[:4], beta[:4])
+    _, again, _ = spill.take(rows[2:8], cls[2:8], T[2:8], beta[2:8])
     assert reads == [4, 2]                      # (rows 2, 3 taken from the call before; 4, 5 hold none)
     assert again[0] is first[2] and again[1] is first[3]
-    _, third, _ = spill.take(rows[:2], T[:2], beta[:2])
+    _, third, _ = spill.take(rows[:2], cls[:2], T[:2], beta[:2])
     assert reads == [4, 2, 2]                   # (only the call just before kept)
     assert [_bits(p) for p in third] == [_bits(p) for p in first[:2]]
     spill.close()
@@ -218,31 +232,31 @@ class _Refusing:
 
 def test_failed_write_loses_every_record():
     plans = _plans_of_kinds()
-    spill = ls.LineSpill.make(20)
-    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    spill = ls.LineSpill.make()
+    cls, T, beta = _keys()
     rows = np.arange(9)
-    spill.point(rows[:2], *spill.put(plans[:2], T[:2], beta[:2]))
-    assert spill.take(rows[:2], T[:2], beta[:2])[0].tolist() == [0, 1]
+    spill.put(plans[:2], cls[:2], T[:2], beta[:2])
+    assert spill.take(rows[:2], cls[:2], T[:2], beta[:2])[0].tolist() == [0, 1]
     fh = spill.fh
     spill.fh = _Refusing(fh)
-    at, _ = spill.put(plans[2:], T[2:], beta[2:])
-    assert spill.fh is None and (at == -1).all()
+    spill.put(plans[2:], cls[2:], T[2:], beta[2:])
+    assert spill.fh is None
     fh.close()
-    got, back, rest = spill.take(rows, T, beta)
+    got, back, rest = spill.take(rows, cls, T, beta)
     assert got.size == 0 and rest.tolist() == rows.tolist()
 
 
 def test_plans_past_the_bounds_are_not_held(monkeypatch):
-    """A plan of more segments than nseg holds is not written; records that would pass the
-    int32 indices (MAX_END) end the spill."""
+    """A plan of more segments than nseg holds is not written; records that would pass
+    MAX_END doubles end the spill."""
     plans = _plans_of_kinds()
-    T, beta = np.linspace(1.0, 2.0, 9), np.linspace(0.1, 0.2, 9)
+    cls, T, beta = _keys()
     monkeypatch.setattr(ls, "MAX_N", 2)         # (the block's RowPlans have 3 segments, the others 2)
-    spill = ls.LineSpill.make(20)
-    at, _ = spill.put(plans, T, beta)
-    assert np.flatnonzero(at >= 0).tolist() == [1, 2, 7]
+    spill = ls.LineSpill.make()
+    spill.put(plans, cls, T, beta)
+    assert spill.take(np.arange(9), cls, T, beta)[0].tolist() == [1, 2, 7]
     monkeypatch.setattr(ls, "MAX_END", spill.end + ls.record_len(2) - 1)
-    spill.put(plans[1:2], T[1:2], beta[1:2])
+    spill.put(plans[1:2], cls[1:2], T[1:2], beta[1:2])
     assert spill.fh is None
 
 

@@ -1348,7 +1348,6 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
         _clear_at(segs, part)
         if spill is not None:
             spill.put(made, line_cls[part], T[part], beta[part])
-        settle_faults(made)                     # (the verdicts _Figures reads, made at once)
         figs += [why.get(i) or (None if seg is None else _Figures(seg)) for i, seg in zip(part.tolist(), made)]
         del made
     key = place[inv]                            # each row's key's place in reps

@@ -192,6 +192,9 @@ def test_keys_sharing_a_hash_told_apart(monkeypatch):
     got, back, rest = spill.take(rows, cls, T, beta)
     assert got.size == 1 and sorted(got.tolist() + rest.tolist()) == rows.tolist()
     assert [seg_bits(p) for p in back] == [seg_bits(plans[q]) for q in got.tolist()]
+    # a key one part off: none (its hash the same)
+    for key in ((cls + 100, T, beta), (cls, np.nextafter(T, 0.0), beta), (cls, T, np.nextafter(beta, 0.0))):
+        assert spill.take(rows, *key)[0].size == 0
     spill.close()
 
 

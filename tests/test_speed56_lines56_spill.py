@@ -5,8 +5,8 @@ writes each plan made to a temporary file (line_spill.LineSpill: a record of dou
 a row pointing at its key's record); the rewrite's remake (schedule._PlansAgain._lines) reads
 back the record of each re-timed line whose (T, beta) is the record's instead of segmenting it
 again.  Here: the runs' figures and reasons are the eager runs' (LAZY_LINES off), each key is
-segmented once a run in the fewest calls of a window, made of their records alone (no window
-loaded for them); the plans read back are the eager plans
+segmented once a run in the fewest calls of a window, made of their records alone where sparse
+(no window loaded for them); the plans read back are the eager plans
 bit for bit (arrays, figures, type, shape); a record of another law is not read back; plans
 the records do not hold are left out; a failed write loses every record; the records of the
 call before are not read again; and the windowed command writes the list path's file with no
@@ -71,22 +71,24 @@ def test_runs_segment_each_key_once_in_window_calls(monkeypatch):
 
 
 @pytest.mark.parametrize("name,window", [(NAME, WINDOW), ("prusa_gyroid.gcode", 64)])
-def test_runs_load_no_window_for_their_lines(name, window, monkeypatch):
-    """The lines a run segments are made of their records alone (the store's take), keyed or
-    not: no window of the StoredStrokes loaded for them; the eager runs' figures."""
-    loads, rows = [], []
-    figures = sc._line_figures
+def test_runs_load_no_window_for_sparse_lines(name, window, monkeypatch):
+    """The lines a run segments, where under half of their windows' strokes, are made of their
+    records alone (the store's take), keyed or not: no window of the StoredStrokes loaded for
+    them; the others by their windows; the eager runs' figures either way."""
+    calls = []                  # (sparse, windows loaded, strokes made)
+    taken = sc._stored_rows
 
-    def spy(fn, r, window, plan, strokes, *a):
+    def spy(strokes, rows):
         n = strokes.loads
-        got = figures(fn, r, window, plan, strokes, *a)
-        loads.append(strokes.loads - n)
-        rows.append(r.size)
+        spans = np.unique(rows // strokes.window).size
+        got = taken(strokes, rows)
+        calls.append((2 * rows.size < spans * strokes.window, strokes.loads - n, len(got)))
         return got
-    monkeypatch.setattr(sc, "_line_figures", spy)
+    monkeypatch.setattr(sc, "_stored_rows", spy)
     (strokes, store, _, _, plan, pin), (fig, reason, _) = _plans(name, PROF, window, monkeypatch)
     store.close()
-    assert rows[0] > 100 and loads == [0] * len(loads)
+    sparse = [c for c in calls if c[0]]
+    assert sum(c[2] for c in sparse) > 100 and all(c[1] == 0 for c in sparse)
     for k in FIGURES:
         assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
     assert list(plan.reason) == reason

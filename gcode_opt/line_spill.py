@@ -114,8 +114,8 @@ class LineSpill:
         """(the rows of rows (sorted) whose key (cls, T, beta: arrays, one a row) has a
         record, their plans (a list: one object a record, shared by its rows); the other
         rows).  The records of the call before are not read again: their plans are taken (a
-        line class's rows recur window after window: rectilinear plate, ~10 k records a
-        command read without it, ~7 k with it)."""
+        line class's rows recur window after window: rectilinear plate, ~23.5 k records a
+        command read without it, ~6.9 k with it)."""
         cls = np.asarray(cls, np.int64)
         T, beta = np.asarray(T, float), np.asarray(beta, float)
         if self.fh is None or not self.h.size or not rows.size:

@@ -1367,7 +1367,6 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
         _keep_plans(plan, strokes, r, seg_l, failed, None, a2_orig[r], in_place=True)
 
 
-
 def _line_keys(line_cls, rows):
     """The classes of the lines rows their plans are kept under (LineSpill's keys: with
     (T, beta)): their line classes, or each row its own (no classes)."""
@@ -1434,7 +1433,7 @@ class _PlansAgain:
     key), as plan_once gives a class's rows one plan (rectilinear plate, 1 k windows:
     ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file).  With
     line_spill (line_spill.LineSpill: the runs' line plans) a line's plan is read back where
-    its record was made at its (T, beta), and made again only where not."""
+    its key (class, T, beta) has a record, and made again only where not."""
     __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes", "spill", "line_spill")
 
     def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes, spill=None, line_spill=None):

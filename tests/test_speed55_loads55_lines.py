@@ -1,7 +1,7 @@
 """A windowed run's lines segmented several windows at a time (issue 8, loads55): without
-line classes (lines56: with them, each key once a run, test_speed56_lines56_spill.py) the
-lines of schedule.LINE_WINDOWS windows of rows together, in calls of a window of strokes at most (rectilinear plate at 1 k: 70 plan_segments calls a command ->
-31), the same figures and reasons as a call a window and as the runs keeping every plan
+line classes (lines56: with them each key once a run, test_speed56_lines56_spill.py) the
+lines of schedule.LINE_WINDOWS windows of rows together, in calls of a window of strokes at
+most, the same figures and reasons as a call a window and as the runs keeping every plan
 (LAZY_LINES off)."""
 import numpy as np
 

@@ -41,7 +41,8 @@ from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, c
 from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
-from .stored_strokes import StoredStrokes, StrokeRows
+from .line_spill import LineSpill
+from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
 
@@ -1131,7 +1132,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     # the chains' plans the runs make, spilled for the rewrite's remake to read back
     # (in the strokes' store's folder: the output's disk, not a /tmp that may be tmpfs, RAM)
     spill = _ChainSpill.make(len(strokes), _store_folder(strokes)) if lazy_chains and SPILL_CHAINS else None
-    remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill)
+    # the lines' plans the runs make, likewise (line_spill.LineSpill: a record a (class, T, beta))
+    line_spill = LineSpill.make(_store_folder(strokes)) if lazy_lines and SPILL_LINES else None
+    remake = (_PlansAgain(kind_by_row, line_cls, cmd0, rules, profile, lazy_codes, strokes, spill, line_spill)
               if lazy_codes else None)
     last = [None]           # the last run's _RunMemo
     alloc_memo = {}         # plan_auto's, across the runs (plan._AllocMemo)
@@ -1171,12 +1174,13 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             # (lines with their classes: the same plans, made once a class and law; and their
             # corner_cmd0, read once above, not again from ~35 k strokes a run)
             fn = (lambda k, lines: lambda r: k.segments(
-                list(map(strokes.__getitem__, r.tolist())), plan.T[r], plan.beta[r], rules, profile,
+                _stored_rows(strokes, r) if lines and lazy_lines else list(map(strokes.__getitem__, r.tolist())),
+                plan.T[r], plan.beta[r], rules, profile,
                 **({"same": None if line_cls is None else line_cls[r], "cmd": cmd0[r]} if lines else {})))(
                     kind_of, k_name == K_LINE)
             if lazy_lines and k_name == K_LINE:
-                _window_figures(_at_most(fn, window), idx[kind == C_LINE], window * LINE_WINDOWS, plan, strokes,
-                                pin.I_orig, line_cls)
+                _line_figures(_at_most(fn, window), idx[kind == C_LINE], window, plan, strokes, pin.I_orig, line_cls,
+                              line_spill)
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
@@ -1263,11 +1267,26 @@ WHOLE_BATCHES = [0]         # such batches so far (a count: benchmarks/win52/run
 LAZY_LINES = True       # tests turn it off: a windowed run keeps every line's plan (the reference)
 LAZY_CHAINS = True      # likewise for the chains' plans
 SPILL_CHAINS = True     # lazy chains' plans spilled for the rewrite (_ChainSpill); off: remade from their laws
-# windows of rows whose lines a windowed run segments together (_window_figures): the
-# classes first met in those windows planned in plan_segments calls of a window of rows
-# at most (_at_most), not a call a window (rectilinear plate at 1 k: 70 calls -> 30 for
-# ~6 k classes; the list's one call a run)
+SPILL_LINES = True      # lazy lines' plans spilled for the rewrite (line_spill.LineSpill); off: remade
+# windows of rows whose lines a windowed run segments together where they have no classes
+# (_line_figures -> _window_figures: a row its own key; with classes, each key once a run):
+# plan_segments calls of a window of rows at most (_at_most), not a call a window
 LINE_WINDOWS = 4
+
+
+def _stored_rows(strokes, rows):
+    """The strokes of rows (sorted) of a StoredStrokes made of their records alone (its
+    store's take) where they are under half of their windows' strokes, not of their windows'
+    (a run's lines to segment are a few of each window: gyroid plate, ~3 k lines of 33
+    windows, each window ~1.4 ms to load); its windows let go first, written back where due
+    (stored_strokes.stored: the store then holds every change).  Else, and of a list, the
+    strokes indexed (a window held is not let go and loaded again: the small sample's one
+    window, +0.1 MB of peak RSS taken apart)."""
+    window = getattr(strokes, "window", None)
+    got = None
+    if window is not None and rows.size and 2 * rows.size < window * (np.count_nonzero(np.diff(rows // window)) + 1):
+        got = stored(strokes)
+    return list(map(strokes.__getitem__, rows.tolist())) if got is None else got[0].take(rows)
 
 
 def _at_most(fn, n):
@@ -1283,30 +1302,75 @@ def _at_most(fn, n):
     return calls
 
 
-def _window_figures(fn, rows, window, plan, strokes, a2_orig, line_cls=None):
+def _window_figures(fn, rows, window, plan, strokes, a2_orig, spill=None, line_cls=None):
     """The lines or chains rows (sorted) segmented a window of rows (row // window) at a
     time by fn (rows -> a plan a row), each window's plans judged (_keep_made_plans:
     retime, reason, t_pred, a2_pred on the plan) and then let go: only one window's plans
     live at a time.  The rewrite makes the kept ones again a window at a time (segs_for,
     _PlansAgain): a line's is its row's own at its (T, beta), a chain's is its (T, beta)'s
     from its memo's rows, the same bits (tests/test_speed53_plans53_lazy.py,
-    test_speed54_chainplans_lazy.py).
-    line_cls: the lines' classes (segments.line_classes), or None: a row of a (class, T,
-    beta) met in an earlier window is not segmented again, its judge given the figures of
-    that class's plan (_ClassFigures: plan_once would have given it that very plan), as
-    the list's one batch plans a class once (rectilinear plate: ~39 k lines a run, ~4 k
-    classes, each met again in most of its ~50 windows)."""
+    test_speed54_chainplans_lazy.py), or reads them back.  spill: a LineSpill the lines'
+    plans are written to under their keys (_line_keys of line_cls), or None."""
     segs = plan.segs
-    memo = _ClassFigures(line_cls, plan.T, plan.beta)
     for part in np.split(rows, np.flatnonzero(np.diff(rows // window)) + 1) if rows.size else ():
-        part, keys = memo.judge_known(plan, strokes, part, a2_orig)
         why = {}
         for sub, res in isolate(fn, part, "segments", why):
             _put_at(segs, sub, res)
-        made = _take(segs, part) if keys is not None else None
+        if spill is not None:
+            spill.put(_take(segs, part), _line_keys(line_cls, part), plan.T[part], plan.beta[part])
         _keep_made_plans(plan, strokes, part, why, a2_orig)
         _clear_at(segs, part)
-        memo.learn(keys, part, made, why)
+
+
+def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None):
+    """_window_figures of the lines rows (sorted) of a windowed run: with their classes
+    (line_cls: segments.line_classes, or None) each (class, T, beta) of the run is
+    segmented once, by one row of it (the first), in calls of at most a window of rows, and
+    every row is judged (_keep_plans) on the figures of its key's plan (_Figures): plan_once
+    would have given it that very plan, as the list's one batch plans a key once
+    (rectilinear plate: ~39 k lines a run, ~4 k keys, each met in most of its ~50 windows).
+    Only a window's plans live at a time, and a few floats a key.  Without classes, a row
+    its own key: _window_figures by LINE_WINDOWS windows.  spill: a LineSpill the plans go
+    to under their keys (_line_keys), or None."""
+    if not rows.size:
+        return
+    T, beta = plan.T, plan.beta
+    if not _keyed(line_cls, T, beta):
+        _window_figures(fn, rows, window * LINE_WINDOWS, plan, strokes, a2_orig, spill, line_cls)
+        return
+    inv, first = column_classes_first([line_cls[rows], T[rows].view(np.int64), beta[rows].view(np.int64)])
+    order = np.argsort(first)                   # the keys by their first row
+    reps = rows[first[order]]                   # (sorted: rows are)
+    place = np.empty_like(order)                # key -> its place in reps
+    place[order] = np.arange(order.size)
+    del first, order
+    segs, figs, why = plan.segs, [], {}
+    for a in range(0, reps.size, window):
+        part = reps[a:a + window]
+        for sub, res in isolate(fn, part, "segments", why):
+            _put_at(segs, sub, res)
+        made = _take(segs, part)
+        _clear_at(segs, part)
+        if spill is not None:
+            spill.put(made, line_cls[part], T[part], beta[part])
+        figs += [why.get(i) or (None if seg is None else _Figures(seg)) for i, seg in zip(part.tolist(), made)]
+        del made
+    key = place[inv]                            # each row's key's place in reps
+    del inv, place
+    bad = np.array([type(f) is str for f in figs], bool) if why else None     # (keys whose segmenting raised)
+    for a in range(0, rows.size, KEEP_ROWS):
+        r, k = rows[a:a + KEEP_ROWS], key[a:a + KEEP_ROWS]
+        seg_l, failed = list(map(figs.__getitem__, k.tolist())), {}
+        if bad is not None and bad[k].any():
+            failed = {i: f for i, f in zip(r.tolist(), seg_l) if type(f) is str}
+            seg_l = [None if type(f) is str else f for f in seg_l]
+        _keep_plans(plan, strokes, r, seg_l, failed, None, a2_orig[r], in_place=True)
+
+
+def _line_keys(line_cls, rows):
+    """The classes of the lines rows their plans are kept under (LineSpill's keys: with
+    (T, beta)): their line classes, or each row its own (no classes)."""
+    return rows if line_cls is None else line_cls[rows]
 
 
 class _Figures:
@@ -1315,37 +1379,6 @@ class _Figures:
 
     def __init__(self, seg):
         self.fault, self.int_a2, self.time_t = seg_fault(seg), seg.int_a2, seg.time_t
-
-
-class _ClassFigures:
-    """_window_figures' memo for one run: (line class, T, beta) bytes -> the figures of the
-    plan segmenting one line of it gave (_Figures), or the reason it failed (a str), or
-    None for no plan.  No plan is kept: only a few floats a key."""
-
-    def __init__(self, line_cls, T, beta):
-        self.cls, self.T, self.beta = (line_cls, T, beta) if _keyed(line_cls, T, beta) else (None, None, None)
-        self.known = {}
-
-    def judge_known(self, plan, strokes, rows, a2_orig):
-        """The rows of a known key judged on their figures (_keep_plans, as their plans
-        would be); returns (the other rows, their keys) (keys None: no memo)."""
-        if self.cls is None or not rows.size:
-            return rows, None
-        keys = _class_keys(self.cls, self.T, self.beta, rows)
-        old, _, figs, new, new_keys = _split_known(rows, keys, self.known, _UNKNOWN)
-        if old.size:
-            failed = {i: f for i, f in zip(old.tolist(), figs) if type(f) is str}
-            seg_l = [None if f is None or type(f) is str else f for f in figs]
-            _keep_plans(plan, strokes, old, seg_l, failed, None, a2_orig[old], in_place=True)
-        return new, new_keys
-
-    def learn(self, keys, rows, made, why):
-        """The figures of the plans made for rows (made: their plans, before they were judged)."""
-        if keys is None:
-            return
-        known = self.known
-        for key, i, seg in zip(keys, rows.tolist(), made):
-            known[key] = why.get(i) or (None if seg is None else _Figures(seg))
 
 
 def _split_known(rows, keys, table, missing):
@@ -1374,7 +1407,6 @@ def _class_keys(line_cls, T, beta, rows):
 
 
 _KEY24 = np.dtype((np.void, 24))
-_UNKNOWN = object()         # (no key in _ClassFigures' memo)
 
 
 def segs_for(plan, rows, strokes):
@@ -1399,12 +1431,15 @@ class _PlansAgain:
     left None: the rewrite then keeps its lines, with the reason.  A line of a (class, T,
     beta) the call before made takes that plan (plan.remade_keys: the last window's, by
     key), as plan_once gives a class's rows one plan (rectilinear plate, 1 k windows:
-    ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file)."""
-    __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes", "spill")
+    ~23.5 k plans made without it, ~6.9 k with it; ~3.9 k distinct in the file).  With
+    line_spill (line_spill.LineSpill: the runs' line plans) a line's plan is read back where
+    its key (class, T, beta) has a record, and made again only where not."""
+    __slots__ = ("kind", "line_cls", "cmd0", "rules", "profile", "codes", "chain_strokes", "spill", "line_spill")
 
-    def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes, spill=None):
+    def __init__(self, kind, line_cls, cmd0, rules, profile, codes, chain_strokes, spill=None, line_spill=None):
         self.kind, self.line_cls, self.cmd0, self.rules = kind, line_cls, cmd0, rules
         self.profile, self.codes, self.chain_strokes, self.spill = profile, codes, chain_strokes, spill
+        self.line_spill = line_spill
 
     def __call__(self, plan, rows, strokes):
         segs = plan.segs
@@ -1434,8 +1469,13 @@ class _PlansAgain:
         plan.remade = rows
 
     def _lines(self, plan, rows, strokes):
-        """The lines rows' plans made again (a class met in the call before: its plan)."""
+        """The lines rows' plans read back from the runs' records, or made again (a class
+        met in the call before: its plan)."""
         segs = plan.segs
+        if self.line_spill is not None and rows.size:
+            got, plans, rows = self.line_spill.take(rows, _line_keys(self.line_cls, rows), plan.T[rows],
+                                                    plan.beta[rows])
+            _put_at(segs, got, plans)
         cls = self.line_cls
         keys, last, now = None, getattr(plan, "remade_keys", None) or {}, {}
         todo = rows

@@ -6,8 +6,8 @@ runs keeping every plan, schedule.LAZY_LINES off), on real samples: the same fig
 row's plan made again the same bits (arrays, figures, shape, commands) for windows of 1, 7
 and more rows than the file has, at most one window's line plans held; and the rewrite from
 the store writes the same bytes, ranges, digests and reasons (compiled and text path).  A
-line of a (class, T, beta) met in an earlier window is judged on that plan's figures
-(schedule._ClassFigures), not segmented again: the same figures."""
+line of a (class, T, beta) met before is judged on that plan's figures (schedule._line_figures),
+not segmented again: the same figures."""
 import io
 
 import numpy as np
@@ -81,16 +81,20 @@ def _plans(name, prof_name, window, monkeypatch):
 
 @pytest.mark.parametrize("name,prof_name,window", CASES)
 def test_lazy_plans_are_the_eager_ones(name, prof_name, window, monkeypatch):
-    known = [0]                 # rows judged on a memo's figures (_ClassFigures), not segmented
-    judge = sc._ClassFigures.judge_known
+    known = [0]                 # rows judged on their key's figures (_line_figures), not segmented
+    figures, segments = sc._line_figures, sc._line_segments
 
-    def spy(self, plan, strokes, rows, a2_orig):
-        got = judge(self, plan, strokes, rows, a2_orig)
-        known[0] += rows.size - got[0].size
-        return got
-    monkeypatch.setattr(sc._ClassFigures, "judge_known", spy)
+    def judged(fn, rows, *a):
+        known[0] += rows.size
+        return figures(fn, rows, *a)
+
+    def made(sts, *a, **k):
+        known[0] -= len(sts) if sc.LAZY_LINES else 0
+        return segments(sts, *a, **k)
+    monkeypatch.setattr(sc, "_line_figures", judged)
+    monkeypatch.setattr(sc, "_line_segments", made)
     (strokes, store, _, _, plan, pin), (fig, reason, segs) = _plans(name, prof_name, window, monkeypatch)
-    # the rectilinear sample's lines repeat (a class met in an earlier window)
+    # the rectilinear sample's lines repeat (a key's rows, met in many windows)
     assert (known[0] > 100) == ("rectilinear" in name)
     with store:
         for k in FIGURES:

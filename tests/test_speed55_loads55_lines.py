@@ -1,7 +1,7 @@
-"""A windowed run's lines segmented several windows at a time (issue 8, loads55): the lines
-of classes not met before, of schedule.LINE_WINDOWS windows of rows, together, in calls of
-a window of strokes at most (rectilinear plate at 1 k: 70 plan_segments calls a command ->
-31), the same figures and reasons as a call a window and as the runs keeping every plan
+"""A windowed run's lines segmented several windows at a time (issue 8, loads55): without
+line classes (lines56: with them each key once a run, test_speed56_lines56_spill.py) the
+lines of schedule.LINE_WINDOWS windows of rows together, in calls of a window of strokes at
+most, the same figures and reasons as a call a window and as the runs keeping every plan
 (LAZY_LINES off)."""
 import numpy as np
 
@@ -27,9 +27,10 @@ def _lines_run(monkeypatch, line_windows, made=None):
         def seen(r):
             calls.append(r.copy())
             return fn(r)
-        return figures(seen if len(a) == 4 else fn, rows, window, *a, **k)     # (the lines': their classes)
+        return figures(seen if len(a) > 3 else fn, rows, window, *a, **k)     # (the lines': their spill, classes)
     with monkeypatch.context() as m:
         m.setattr(sc, "LINE_WINDOWS", line_windows)
+        m.setattr(sc, "_keyed", lambda *a: False)      # (lines not keyed: keyed, _line_figures' own, lines56)
         m.setattr(sc, "LAZY_CHAINS", False)
         m.setattr(sc, "_window_figures", spy)
         if made is not None:

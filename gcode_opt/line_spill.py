@@ -1,0 +1,313 @@
+"""The line plans a windowed run makes, kept in an unnamed file for the rewrite (issue 8,
+benchmarks/lines56.md).
+
+A windowed run lets each line's segment plan go once its figures are on the plan
+(schedule._line_figures); the rewrite needs the plans of the re-timed lines again
+(schedule._PlansAgain).  Remaking them was ~0.08 s of the rectilinear plate's windowed
+rewrite; here each plan the runs make is written once, as it is made, a record of doubles a
+plan, under its key (line class, T, beta): a line's plan is its key's (segments.plan_once).
+The rewrite reads back the records of a window's rows by their keys, one plan object a
+record shared by its rows; a row whose key has no record is the caller's to make.
+
+Held in memory: an index of the records by a hash of their keys, 18 bytes a record
+(rectilinear plate: ~6 k records for ~52 k strokes; a row index was 6 bytes a stroke, the
+end of the run's peak); the records themselves are the file's."""
+from __future__ import annotations
+
+import os
+from itertools import compress, repeat
+from functools import partial
+from operator import attrgetter, eq
+
+import numpy as np
+
+from .distinct import distinct
+from .segments import RowPlan, SegmentPlan
+
+# a record: its key (line class (its int64's bits), T, beta), time_t, int_a2, its type
+# (_TYPES' index), 1.0 where its fault verdict was "" when written (else 0.0: None, made again
+# when asked), its shape (_SHAPES' index), then the knots s (n + 1), speeds v (n + 1),
+# accelerations (n) and feeds (n) of its n segments
+HEAD = 8
+_TYPES = (RowPlan, SegmentPlan)
+_SHAPES = ("law", "trapezoid")
+MAX_N = np.iinfo(np.uint16).max         # segments a record's plan has at most (LineSpill.nseg)
+MAX_END = 1 << 40                       # doubles the records take at most
+GAP = 2048                              # doubles between two records read in one pread at most
+_F64 = np.dtype(float)
+
+
+def record_len(n):
+    """The doubles of the record of a plan of n segments."""
+    return HEAD + 4 * n + 2
+
+
+class LineSpill:
+    """Records of line plans in an unnamed file (the module's doc): put writes plans under
+    their keys, take reads rows' plans back by theirs."""
+
+    def __init__(self, fh):
+        self.fh = fh
+        self.h = np.zeros(0, np.uint64)             # the records' key hashes (_key_hash), sorted
+        self.at = np.zeros(0, np.int64)             # each one's record: its first double's index
+        self.nseg = np.zeros(0, np.uint16)          # its plan's segments
+        self.end = 0                                # the doubles written
+        self.last = None                            # the call before's (records, their keys, plans)
+
+    @classmethod
+    def make(cls, folder=None):
+        """A spill in folder (None: the temporary folder), or None where no file can be made
+        there."""
+        from .outfile import unnamed_file
+        try:
+            return cls(unnamed_file(folder))
+        except OSError:
+            return None
+
+    def put(self, plans, cls, T, beta):
+        """The plans (a list; None: no plan) made for the keys (cls, T, beta) (int64 and
+        float arrays, one a plan) written and indexed, but those the records do not hold
+        (None, another type or shape, a junction command, odd arrays).  A failed write ends
+        the spill (no record read again).  RowPlans of one block written by the block (most
+        plans: _row_blocks), the others one by one."""
+        m = len(plans)
+        if self.fh is None or not m:
+            return
+        cls = np.asarray(cls, np.int64)
+        T, beta = np.asarray(T, float), np.asarray(beta, float)
+        parts, qs, lens = [], [], []
+        blocks, rest = _row_blocks(plans)
+        for block, ii, rr in blocks:
+            parts.append(_block_records(block, rr, [plans[q] for q in ii.tolist()], cls[ii], T[ii], beta[ii]).ravel())
+            qs.append(ii)
+            lens.append(np.full(ii.size, block[2].shape[1], np.int64))
+        for q in rest:
+            got = _record(plans[q], cls[q], T[q], beta[q])
+            if got is not None:
+                parts += got
+                qs.append(np.array([q], np.int64))
+                lens.append(np.array([got[1].size - 1], np.int64))     # (the knots: n + 1)
+        if not qs:
+            return
+        buf = np.concatenate(parts)
+        qs, n = np.concatenate(qs), np.concatenate(lens)
+        size = record_len(n)
+        if self.end + buf.size > MAX_END:
+            self.close()
+            return
+        try:
+            self.fh.seek(self.end * 8)
+            mv, done = buf.data.cast("B"), 0
+            while done < len(mv):
+                done += self.fh.write(mv[done:])
+        except OSError:
+            self.close()
+            return
+        h = np.concatenate([self.h, _key_hash(cls[qs], T[qs], beta[qs])])
+        o = np.argsort(h, kind="stable")
+        self.h = h[o]
+        self.at = np.concatenate([self.at, self.end + np.cumsum(size) - size])[o]
+        self.nseg = np.concatenate([self.nseg, n.astype(np.uint16)])[o]
+        self.end += buf.size
+
+    def take(self, rows, cls, T, beta):
+        """(the rows of rows (sorted) whose key (cls, T, beta: arrays, one a row) has a
+        record, their plans (a list: one object a record, shared by its rows); the other
+        rows).  The records of the call before are not read again: their plans are taken (a
+        line class's rows recur window after window: rectilinear plate, ~23.5 k records a
+        command read without it, ~6.9 k with it)."""
+        cls = np.asarray(cls, np.int64)
+        T, beta = np.asarray(T, float), np.asarray(beta, float)
+        if self.fh is None or not self.h.size or not rows.size:
+            self.last = None
+            return rows[:0], [], rows
+        h = _key_hash(cls, T, beta)
+        k = np.minimum(np.searchsorted(self.h, h), self.h.size - 1)
+        has = self.h[k] == h
+        if not has.any():
+            self.last = None
+            return rows[:0], [], rows
+        hat = self.at[k[has]]
+        u = distinct(hat)                           # each record once, in the file's order
+        which = np.searchsorted(u, hat)
+        n_u = np.zeros(u.size, np.int64)
+        n_u[which] = self.nseg[k[has]]
+        plans, key = [None] * u.size, np.empty((u.size, 3))
+        new = np.ones(u.size, bool)
+        if self.last is not None:
+            lu, lkey, lplans = self.last
+            j = np.minimum(np.searchsorted(lu, u), lu.size - 1)
+            old = np.flatnonzero(lu[j] == u)
+            new[old] = False
+            key[old] = lkey[j[old]]
+            for q, p in zip(old.tolist(), map(lplans.__getitem__, j[old].tolist())):
+                plans[q] = p
+        self.last = None                            # (its plans not held past this call's)
+        need = np.flatnonzero(new)
+        if need.size:
+            try:
+                buf, start = self._read(u[need], record_len(n_u[need]))
+            except OSError:         # (the records lost: every row the caller's)
+                self.close()
+                return rows[:0], [], rows
+            for g, G, n in _blocks(buf, start, n_u[need]):
+                g = need[g]
+                key[g] = G[:, :3]
+                for q, p in zip(g.tolist(), _plans(G, n)):
+                    plans[q] = p
+        self.last = (u, key, plans)
+        # a record is the row's where its key is the row's, bit for bit (not a hash's twin)
+        kv = key.view(np.int64)[which]
+        same = ((kv[:, 0] == cls[has]) & (kv[:, 1] == T[has].view(np.int64))
+                & (kv[:, 2] == beta[has].view(np.int64)))
+        has[has] = same
+        return rows[has], list(map(plans.__getitem__, which[same].tolist())), rows[~has]
+
+    def _read(self, at, lens):
+        """The records at at (sorted, distinct; doubles from the file's start, lens long):
+        (one array of their doubles, each one's first index there); records less than GAP
+        doubles apart read in one pread (with what lies between)."""
+        z = at + lens
+        cut = np.flatnonzero(at[1:] > z[:-1] + GAP) + 1
+        chunks, start, base = [], np.empty(at.size, np.int64), 0
+        for f, e in zip([0] + cut.tolist(), cut.tolist() + [at.size]):
+            lo, hi = int(at[f]), int(z[e - 1])
+            chunks.append(np.frombuffer(os.pread(self.fh.fileno(), (hi - lo) * 8, lo * 8), float))
+            if chunks[-1].size != hi - lo:
+                raise OSError("line plans' spill cut short")
+            start[f:e] = base + at[f:e] - lo
+            base += hi - lo
+        return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
+
+    def close(self):
+        """The file let go (no record read again)."""
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+    __del__ = close             # (with the plan's remake: not left to the collector's warning)
+
+
+# _key_hash's odd constants (as distinct.py's: multiples of the golden ratio's) and splitmix64's finish
+_MULT = tuple(np.uint64((k * 0x9E3779B97F4A7C15) % (1 << 64) | 1) for k in (1, 2, 3))
+_MIX = tuple((np.uint64(k), np.uint64(c)) for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB), (31, 1)))
+
+
+def _key_hash(cls, T, beta):
+    """A uint64 hash of each key (cls, T, beta) by its bits: equal keys, equal hashes (two
+    keys may share one: take compares the records' keys)."""
+    h = (np.ascontiguousarray(cls, np.int64).view(np.uint64) * _MULT[0]
+         + np.ascontiguousarray(T, float).view(np.uint64) * _MULT[1]
+         + np.ascontiguousarray(beta, float).view(np.uint64) * _MULT[2])
+    for k, c in _MIX:
+        h ^= h >> k
+        h *= c
+    return h
+
+
+def _record(p, cls, T, beta):
+    """[head, s, v, accel, feed] of plan p's record under key (cls, T, beta), or None where p is not one
+    the records hold: a RowPlan or SegmentPlan of a shape of _SHAPES, no junction command,
+    four 1-D float64 arrays of n + 1, n + 1, n, n numbers (n <= MAX_N)."""
+    kind = type(p)
+    if kind is not RowPlan and kind is not SegmentPlan or p.first_cmds is not None or p.shape not in _SHAPES:
+        return None
+    arrs = [p.s, p.v, p.accel, p.feed]
+    if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
+        return None
+    n = arrs[2].size
+    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= MAX_N):
+        return None
+    head = np.array([0.0, T, beta, p.time_t, p.int_a2, _TYPES.index(kind), 1.0 if p.fault == "" else 0.0,
+                     _SHAPES.index(p.shape)])
+    head[:1].view(np.int64)[0] = cls
+    return [head] + arrs
+
+
+def _row_blocks(plans):
+    """plans' RowPlans with no junction command, of a shape of _SHAPES, rows of 2-D float64
+    blocks S, V, A, F of n + 1, n + 1, n, n columns (n <= MAX_N), by their blocks:
+    ([((S, V, A, F), their places in plans, their rows)], the other places (not None))."""
+    by, rest = {}, []
+    for q, p in enumerate(plans):
+        if p is None:
+            continue
+        if type(p) is RowPlan and type(p._row) is int and p.first_cmds is None and type(p._v) is np.ndarray:
+            key = (id(p._s), id(p._v), id(p._accel), id(p._feed))
+            got = by.get(key)
+            if got is None:
+                got = by[key] = ((p._s, p._v, p._accel, p._feed), [], [])
+            got[1].append(q)
+            got[2].append(p._row)
+        else:
+            rest.append(q)
+    out = []
+    for block, ii, rr in by.values():
+        S, V, A, F = block
+        n = A.shape[1] if type(A) is np.ndarray and A.ndim == 2 else -1
+        if (n >= 0 and n <= MAX_N and all(type(x) is np.ndarray and x.ndim == 2 and x.dtype == _F64 for x in block)
+                and S.shape[1] == V.shape[1] == n + 1 and F.shape[1] == n
+                and all(plans[q].shape in _SHAPES for q in ii)):
+            out.append((block, np.array(ii, np.int64), np.array(rr, np.intp)))
+        else:
+            rest += ii
+    return out, rest
+
+
+def _block_records(block, rows, plans, cls, T, beta):
+    """The records (m, record_len(n)) of the RowPlans plans, rows `rows` of block (S, V, A, F),
+    under the keys (cls, T, beta)."""
+    S, V, A, F = block
+    m, n = len(plans), A.shape[1]
+    R = np.empty((m, record_len(n)))
+    k = HEAD
+    R.view(np.int64)[:, 0] = cls
+    R[:, 1], R[:, 2] = T, beta
+    R[:, 3] = np.fromiter(map(_TIME_T, plans), float, m)
+    R[:, 4] = np.fromiter(map(_INT_A2, plans), float, m)
+    R[:, 5] = 0.0                       # (_TYPES' RowPlan)
+    R[:, 6] = np.fromiter(map(_FINE, map(_FAULT, plans)), float, m)
+    R[:, 7] = np.fromiter(map(_SHAPES.index, map(_SHAPE, plans)), float, m)
+    R[:, k:k + n + 1] = S[rows]
+    R[:, k + n + 1:k + 2 * n + 2] = V[rows]
+    R[:, k + 2 * n + 2:k + 3 * n + 2] = A[rows]
+    R[:, k + 3 * n + 2:] = F[rows]
+    return R
+
+
+_TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
+_FAULT, _SHAPE = attrgetter("fault"), attrgetter("shape")
+_FINE = partial(eq, "")                 # (a verdict "": 1.0; None or a reason: 0.0)
+
+
+def _blocks(buf, start, ns):
+    """The records (first doubles start in buf, of plans of ns segments) as blocks of one
+    segment count: [(their indices, the block (m, record_len(n)) gathered from buf, n)]."""
+    o = np.argsort(ns, kind="stable")
+    no = ns[o]
+    cut = np.flatnonzero(no[1:] != no[:-1]) + 1
+    out = []
+    for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
+        g, n = o[a:z], int(no[a])
+        out.append((g, buf[start[g][:, None] + np.arange(record_len(n))], n))
+    return out
+
+
+def _plans(G, n):
+    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks,
+    SegmentPlans of their own copies, each with its verdict "" where its record had it."""
+    k = HEAD
+    S, V = G[:, k:k + n + 1], G[:, k + n + 1:k + 2 * n + 2]
+    A, F = G[:, k + 2 * n + 2:k + 3 * n + 2], G[:, k + 3 * n + 2:]
+    t, a2, kind, shape = G[:, 3].tolist(), G[:, 4].tolist(), G[:, 5], G[:, 7]
+    m = G.shape[0]
+    if not kind.any() and not shape.any():      # (the usual case: every one a RowPlan of the law)
+        plans = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t, a2))
+    else:
+        sh = [_SHAPES[int(c)] for c in shape.tolist()]
+        plans = [RowPlan(S, V, A, F, i, t[i], a2[i], sh[i]) if kind[i] == 0.0
+                 else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i], sh[i])
+                 for i in range(m)]
+    for p in compress(plans, G[:, 6].tolist()):
+        p.fault = ""
+    return plans

@@ -309,14 +309,18 @@ class LawSpill:
     (_SpilledRows) only for the rows a run or the rewrite replays.  The same doubles and
     integers, written and read as their bytes.  The arrays written together (put_block:
     a batch's kept laws, which the replay reads together) are read back together, one
-    read, and the last blocks read are kept (up to CACHE_BYTES)."""
+    read, and the last blocks read are kept (up to CACHE_BYTES).  The blocks put are
+    written WRITE_BYTES at a time (a finishing batch's block is ~1-10 kB: the gyroid
+    plate's ~800 blocks were ~3 k writes), or before a read of one not written yet."""
 
     CACHE_BYTES = 1 << 18
+    WRITE_BYTES = 1 << 16
 
     def __init__(self, folder=None):
         from .stroke_store import _TempFile
         self._io = _TempFile(folder)
-        self.end = 0                 # bytes written
+        self.end = 0                 # bytes put
+        self._pend = bytearray()     # the bytes put but not written yet: the file's [end - len, end)
         self._cache, self._cached = {}, 0        # {block: its bytes (uint8)}, oldest first; their bytes
 
     def put(self, a):
@@ -332,10 +336,18 @@ class LawSpill:
         for a in arrays:
             out.append(_SpilledRows(self, blk, at, a.shape, a.dtype))
             if a.nbytes:
-                self._io.write(self.end + at, a.data.cast("B"))
+                self._pend += a.data.cast("B")
             at += a.nbytes
         self.end += at
+        if len(self._pend) >= self.WRITE_BYTES:
+            self._write()
         return out
+
+    def _write(self):
+        """The bytes put and not written yet, written at their place (one write)."""
+        if self._pend:
+            self._io.write(self.end - len(self._pend), self._pend)
+            self._pend = bytearray()
 
     def pieces(self, PT, spans):
         """(the rows' pieces' durations, their places there) of rows whose durations are
@@ -354,6 +366,8 @@ class LawSpill:
         (keep: kept in the cache once read)."""
         got = self._cache.get(blk)
         if got is None:
+            if blk[0] + blk[1] > self.end - len(self._pend):
+                self._write()
             got = np.empty(blk[1], np.uint8)
             if blk[1]:
                 self._io.read_into(memoryview(got), blk[0])

@@ -320,7 +320,9 @@ class LawSpill:
         from .stroke_store import _TempFile
         self._io = _TempFile(folder)
         self.end = 0                 # bytes put
-        self._pend = bytearray()     # the bytes put but not written yet: the file's [end - len, end)
+        # the arrays' bytes put but not written yet (a list: a bytearray grown by each block was
+        # copied whole at each growth), the file's [end - _pend_n, end)
+        self._pend, self._pend_n = [], 0
         self._cache, self._cached = {}, 0        # {block: its bytes (uint8)}, oldest first; their bytes
 
     def put(self, a):
@@ -336,18 +338,19 @@ class LawSpill:
         for a in arrays:
             out.append(_SpilledRows(self, blk, at, a.shape, a.dtype))
             if a.nbytes:
-                self._pend += a.data.cast("B")
+                self._pend.append(a.tobytes())
             at += a.nbytes
         self.end += at
-        if len(self._pend) >= self.WRITE_BYTES:
+        self._pend_n += at
+        if self._pend_n >= self.WRITE_BYTES:
             self._write()
         return out
 
     def _write(self):
         """The bytes put and not written yet, written at their place (one write)."""
-        if self._pend:
-            self._io.write(self.end - len(self._pend), self._pend)
-            self._pend = bytearray()
+        if self._pend_n:
+            self._io.write(self.end - self._pend_n, b"".join(self._pend))
+            self._pend, self._pend_n = [], 0
 
     def pieces(self, PT, spans):
         """(the rows' pieces' durations, their places there) of rows whose durations are
@@ -366,7 +369,7 @@ class LawSpill:
         (keep: kept in the cache once read)."""
         got = self._cache.get(blk)
         if got is None:
-            if blk[0] + blk[1] > self.end - len(self._pend):
+            if blk[0] + blk[1] > self.end - self._pend_n:
                 self._write()
             got = np.empty(blk[1], np.uint8)
             if blk[1]:

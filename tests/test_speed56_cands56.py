@@ -47,9 +47,10 @@ def test_read_back_written_or_not(tmp_path):
         if i % 6 == 5:             # (read while blocks wait: the last one, then an early one)
             for arr, s in put[-1] + put[0]:
                 assert s[np.arange(len(arr))].tobytes() == arr.tobytes()
-    assert spill._pend and len(writes) >= 2      # (the last blocks not written yet)
+    assert spill._pend_n and len(writes) >= 2      # (the last blocks not written yet)
     for pair in reversed(put):
         for arr, s in pair:
             got = s.whole()
             assert got.dtype == arr.dtype and got.shape == arr.shape and got.tobytes() == arr.tobytes()
-    assert not spill._pend
+    assert not spill._pend_n
+

@@ -54,3 +54,19 @@ def test_read_back_written_or_not(tmp_path):
             assert got.dtype == arr.dtype and got.shape == arr.shape and got.tobytes() == arr.tobytes()
     assert not spill._pend_n
 
+
+
+def test_windowed_laws_through_small_writes(monkeypatch, tmp_path):
+    """The windowed candidates of a real sample with the spill written a few hundred bytes
+    at a time (many writes, reads between them): the tables and every chain's kept laws
+    read back are the in-memory ones, bit for bit."""
+    import test_speed55_memo55_spill as m55
+    tables, laws, _, _ = m55._reference(monkeypatch)
+    monkeypatch.setattr(chains.LawSpill, "WRITE_BYTES", 300)
+    writes = []
+    write = chains.LawSpill._write
+    monkeypatch.setattr(chains.LawSpill, "_write", lambda self: (writes.append(self._pend_n), write(self)))
+    got_tables, got_laws, _, _ = m55._windowed(monkeypatch, True, folder=tmp_path)
+    assert len([n for n in writes if n]) > 20
+    assert got_tables == tables
+    assert sum(map(len, laws.values())) > 1000 and got_laws == laws

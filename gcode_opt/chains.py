@@ -309,20 +309,14 @@ class LawSpill:
     (_SpilledRows) only for the rows a run or the rewrite replays.  The same doubles and
     integers, written and read as their bytes.  The arrays written together (put_block:
     a batch's kept laws, which the replay reads together) are read back together, one
-    read, and the last blocks read are kept (up to CACHE_BYTES).  The blocks put are
-    written WRITE_BYTES at a time (a finishing batch's block is ~1-10 kB: the gyroid
-    plate's ~800 blocks were ~3 k writes), or before a read of one not written yet."""
+    read, and the last blocks read are kept (up to CACHE_BYTES)."""
 
     CACHE_BYTES = 1 << 18
-    WRITE_BYTES = 1 << 16
 
     def __init__(self, folder=None):
         from .stroke_store import _TempFile
         self._io = _TempFile(folder)
-        self.end = 0                 # bytes put
-        # the arrays' bytes put but not written yet (a list: a bytearray grown by each block was
-        # copied whole at each growth), the file's [end - _pend_n, end)
-        self._pend, self._pend_n = [], 0
+        self.end = 0                 # bytes written
         self._cache, self._cached = {}, 0        # {block: its bytes (uint8)}, oldest first; their bytes
 
     def put(self, a):
@@ -338,19 +332,10 @@ class LawSpill:
         for a in arrays:
             out.append(_SpilledRows(self, blk, at, a.shape, a.dtype))
             if a.nbytes:
-                self._pend.append(a.tobytes())
+                self._io.write(self.end + at, a.data.cast("B"))
             at += a.nbytes
         self.end += at
-        self._pend_n += at
-        if self._pend_n >= self.WRITE_BYTES:
-            self._write()
         return out
-
-    def _write(self):
-        """The bytes put and not written yet, written at their place (one write)."""
-        if self._pend_n:
-            self._io.write(self.end - self._pend_n, b"".join(self._pend))
-            self._pend, self._pend_n = [], 0
 
     def pieces(self, PT, spans):
         """(the rows' pieces' durations, their places there) of rows whose durations are
@@ -369,8 +354,6 @@ class LawSpill:
         (keep: kept in the cache once read)."""
         got = self._cache.get(blk)
         if got is None:
-            if blk[0] + blk[1] > self.end - self._pend_n:
-                self._write()
             got = np.empty(blk[1], np.uint8)
             if blk[1]:
                 self._io.read_into(memoryview(got), blk[0])

@@ -1180,8 +1180,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
-                _window_figures(partial(_chain_plans, strokes, plan, rules, profile, spill=spill),
-                                idx[kind == C_CHAIN], window, plan, strokes, pin.I_orig)
+                fn = partial(_chain_plans, strokes, plan, rules, profile, spill=spill)
+                for part in _chain_calls(idx[kind == C_CHAIN], window):    # (one part at a time: its window)
+                    _window_figures(fn, part, len(strokes) + 1, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
@@ -1454,6 +1455,34 @@ class _PlansAgain:
         if keys is not None:
             now.update((k, seg) for k, seg in zip(keys, _take(segs, todo)) if seg is not None)
         plan.remade_keys = now
+
+
+# a windowed run's chain rows are planned a window of rows at a time (_window_figures), but
+# windows with few of them together, up to window // CHAIN_CALL_SHARE rows a call
+# (_chain_calls): a later run re-plans only the chains whose law changed (gyroid plate at
+# 1 k: ~900 in 29 windows, ~30 a call), and each call pays its set-up by segment count
+# (replay, finishing, checks, the spill's write); a first run's windows (~450-800 chains
+# each there) are left as they are, so their peak is not raised
+CHAIN_CALL_SHARE = 4
+
+
+def _chain_calls(rows, window):
+    """rows (sorted) cut into the parts a windowed run plans its chains in: a window of rows
+    (row // window) each, but consecutive windows joined while the part has at most
+    window // CHAIN_CALL_SHARE rows (a window with more stays a part of its own)."""
+    if not rows.size:
+        return []
+    cut = np.flatnonzero(np.diff(rows // window)) + 1
+    most = max(1, int(window / CHAIN_CALL_SHARE))
+    ends, size = [], np.diff(np.r_[0, cut, rows.size]).tolist()
+    at, n = 0, 0
+    for k in size:
+        if n and n + k > most:
+            ends.append(at)
+            n = 0
+        at += k
+        n += k
+    return np.split(rows, ends)
 
 
 def _chain_plans(strokes, plan, rules, profile, rows, spill=None):

@@ -1,0 +1,77 @@
+"""A windowed run's chain calls (issue 8, chains56): schedule._chain_calls cuts a run's chain
+rows into windows of rows, joining consecutive windows while a call has at most
+window // CHAIN_CALL_SHARE rows (a later run re-plans few chains a window: ~30 on the gyroid
+plate at 1 k, each call paying its set-up by segment count).  The parts against a rule
+written here; and on real samples (chains crossing windows, two budget runs) the joined
+calls' figures and remade plans the eager reference's (LAZY_CHAINS off) bit for bit, at
+the default share and with every window joined."""
+import numpy as np
+import pytest
+
+from gcode_opt import schedule as sc
+
+from test_speed52_runs52_windows import seg_bits
+from test_speed53_plans53_lazy import FIGURES, _stored_plan
+from test_speed54_chainplans_lazy import _eager
+
+
+def _parts_by_rule(rows, window, most):
+    """The parts as the rule reads: whole windows in order, a window joined to the part
+    before while the part stays within most rows."""
+    parts = []
+    for w in sorted(set((rows // window).tolist())):
+        win = rows[rows // window == w].tolist()
+        if parts and len(parts[-1]) + len(win) <= most:
+            parts[-1] += win
+        else:
+            parts.append(win)
+    return parts
+
+
+@pytest.mark.parametrize("window", (1, 4, 37, 64, 1024))
+def test_chain_calls_join_small_windows(window):
+    rng = np.random.default_rng(window)
+    for _ in range(30):
+        n = int(rng.integers(0, 6 * window + 3))
+        dense = rng.random() < 0.5              # (windows fuller than the share, and sparse ones)
+        rows = np.flatnonzero(rng.random(n) < (0.9 if dense else 0.05)).astype(np.int64)
+        got = [p.tolist() for p in sc._chain_calls(rows, window)]
+        assert got == _parts_by_rule(rows, window, max(1, window // sc.CHAIN_CALL_SHARE))
+        assert sum(map(len, got)) == rows.size
+
+
+# (sample, profile, window, share): the default share (prusa_gyroid at 64: its last windows'
+# chains joined), a window's rows (fullspeed at 37: 7..33 chains a window), every window joined
+CASES = [("prusa_gyroid.gcode", "prusa-mk3s", 64, sc.CHAIN_CALL_SHARE),
+         ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37, 1),
+         ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37, 1e-9),
+         ("prusa_gyroid.gcode", "prusa-mk3s", 64, 1e-9)]
+
+
+@pytest.mark.parametrize("name,prof_name,window,share", CASES)
+def test_joined_chain_calls_are_the_eager_plans(name, prof_name, window, share, monkeypatch):
+    fig, reason, segs, _ = _eager(name, prof_name, window, monkeypatch)
+    monkeypatch.setattr(sc, "CHAIN_CALL_SHARE", share)
+    calls = []
+    chain_plans = sc._chain_plans
+
+    def spy(strokes, plan, rules, profile, rows, spill=None):
+        calls.append(rows.copy())
+        return chain_plans(strokes, plan, rules, profile, rows, spill)
+    monkeypatch.setattr(sc, "_chain_plans", spy)
+    strokes, store, _, _, plan, pin = _stored_plan(name, prof_name, window)
+    with store:
+        joined = [r for r in calls if np.unique(r // window).size > 1]
+        assert joined                           # (calls over several windows were made)
+        assert all(r.size <= max(1, int(window / share)) for r in joined)
+        for k in FIGURES:
+            assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
+        assert list(plan.reason) == reason
+        timed = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_CHAIN))
+        assert timed.size > 50
+        every = np.arange(len(strokes))
+        for a in range(0, every.size, window):  # (the rewrite's remake: the spill's records)
+            rows = every[a:a + window]
+            sc.segs_for(plan, rows, strokes)
+            for i in rows.tolist():
+                assert seg_bits(plan.segs[i]) == segs[i], i

@@ -1144,13 +1144,9 @@ def _knots_again(items, profile, laws=False):
     the one asked for) and its row taken out as _table_rows takes it.  laws: with its law
     (binding mask (n - 1), pieces' durations: _Chosen keeps it), (vk, dt, mask, pieces)."""
     out = [None] * len(items)
-    by_src = {}
-    for q, it in enumerate(items):
-        by_src.setdefault(id(it[1]), []).append(q)
-    for qs in by_src.values():
-        src = items[qs[0]][1]
-        idx = np.array([items[q][2] for q in qs], int)
-        Tt, bt = src.T[idx], src.beta[idx]
+    for qs in _by_columns(items):
+        src = items[qs[0]][1]           # (the group's columns' order: every source's of it)
+        Tt, bt = _sources_rows(items, qs)
         # each one's first column of its (T, beta) (the same comparisons, all rows at once)
         hit = ((Tt == np.array([items[q][3] for q in qs], float)[:, None])
                & (bt == np.array([items[q][4] for q in qs], float)[:, None]))
@@ -1213,6 +1209,42 @@ def _knots_again(items, profile, laws=False):
                                        else (vk[i:i + 1], dt[i:i + 1]))
             del res
     return out
+
+
+def _by_columns(items):
+    """The places of items [(stroke, _Source, its row there, ...)] grouped by their sources'
+    columns (their number, order and warm starts), items' order in each: the chains of
+    several sources solved together (a windowed run's later run re-plans a few chains of
+    each of many windows' sources; solve_flat's numbers are each chain's own)."""
+    by, keys = {}, {}
+    for q, src in enumerate(map(_IT1, items)):
+        key = keys.get(id(src))
+        if key is None:
+            key = keys[id(src)] = (src.T.shape[1], tuple(src.order), tuple(sorted(src.prev.items())))
+        by.setdefault(key, []).append(q)
+    return list(by.values())
+
+
+def _sources_rows(items, qs):
+    """(T, beta): the rows of items[q] (q in qs) in their sources' tables, qs' order."""
+    by = {}
+    for j, q in enumerate(qs):
+        src = items[q][1]
+        got = by.get(id(src))
+        if got is None:
+            got = by[id(src)] = (src, [], [])
+        got[1].append(j)
+        got[2].append(items[q][2])
+    if len(by) == 1:
+        src, _, idx = next(iter(by.values()))
+        idx = np.array(idx, int)
+        return src.T[idx], src.beta[idx]
+    k = items[qs[0]][1].T.shape[1]
+    Tt, bt = np.empty((len(qs), k)), np.empty((len(qs), k))
+    for src, jj, idx in by.values():
+        idx = np.array(idx, int)
+        Tt[jj], bt[jj] = src.T[idx], src.beta[idx]
+    return Tt, bt
 
 
 def _again_plans(items, rules, profile, laws=None):

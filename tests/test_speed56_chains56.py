@@ -75,3 +75,47 @@ def test_joined_chain_calls_are_the_eager_plans(name, prof_name, window, share, 
             sc.segs_for(plan, rows, strokes)
             for i in rows.tolist():
                 assert seg_bits(plan.segs[i]) == segs[i], i
+
+
+def _items_of_many_sources(store, pin, prof, parts=6):
+    """[(stroke, its memo's source, its row there, T, beta)] of the sample's chains, their
+    candidates made in parts (a _Source each, as a windowed run's windows make them), each
+    at a column of its table (the columns in turn); and the number of sources."""
+    strokes = store.load(0, len(store))         # (fresh memos)
+    rows = np.flatnonzero(pin.plan_kind_codes == sc.C_CHAIN)
+    sc._rebuild_geometry(strokes, rows, np.full(rows.size, sc.C_CHAIN), prof)
+    for part in np.array_split(rows, parts):
+        sc.chains.candidates_chain(pin, part, strokes, prof)
+    items = []
+    for j, st in enumerate(map(strokes.__getitem__, rows.tolist())):
+        src, i = st.chain_T.src, st.chain_T.src_i
+        c = j % src.T.shape[1]
+        T, beta = src.T[[i]][0, c], src.beta[[i]][0, c]
+        if np.isfinite(T) and np.isfinite(beta):
+            items.append((st, src, i, float(T), float(beta)))
+    return items, len({id(it[1]) for it in items})
+
+
+def _knots_bits(got):
+    return [tuple(np.ascontiguousarray(a).tobytes() if isinstance(a, np.ndarray) else repr(a) for a in g)
+            for g in got]
+
+
+@pytest.mark.parametrize("laws", (False, True))
+def test_knots_again_over_several_sources(laws, monkeypatch):
+    """_knots_again solves the chains of several sources of the same columns together: each
+    one's knots (and law) those of its source's chains solved alone."""
+    _, store, prof, _, _, pin = _stored_plan("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37)
+    with store:
+        items, n_src = _items_of_many_sources(store, pin, prof)
+        assert n_src == 6 and len(items) > 100
+        assert len(sc.chains._by_columns(items)) < n_src        # (sources joined)
+        got = _knots_bits(sc.chains._knots_again(items, prof, laws))
+        by_src = {}
+        for q, it in enumerate(items):
+            by_src.setdefault(id(it[1]), []).append(q)
+        want = [None] * len(items)
+        for qs in by_src.values():      # (each source's chains alone)
+            for q, k in zip(qs, _knots_bits(sc.chains._knots_again([items[q] for q in qs], prof, laws))):
+                want[q] = k
+        assert got == want

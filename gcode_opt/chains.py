@@ -757,6 +757,58 @@ def _settle_ends_plans(plans, ends, V, A, F):
 
 
 _TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
+# knot speeds of the batches _EndsSettle checks together (~0.4 MB of flat copies at most):
+# a windowed run's call plans ~600 chains in ~40 batches of one segment count each
+SETTLE_KNOTS = 1 << 14
+
+
+class _EndsSettle:
+    """_settle_ends_plans of many batches (add: the same arguments) made together: their
+    rows laid end to end in flat arrays, each check elementwise (finite, > 0, >= 0, the
+    knots 0, ends increasing) and one reduction a row (np.logical_or.reduceat), the same
+    verdicts as a batch's _settle_rows; not ~50 numpy calls a batch (a windowed gyroid run
+    settled ~1 k batches of ~15 chains).  Batches are checked once SETTLE_KNOTS knot
+    speeds wait, and at flush(); a batch of another shape goes to _settle_ends_plans."""
+    __slots__ = ("todo", "knots")
+
+    def __init__(self):
+        self.todo, self.knots = [], 0
+
+    def add(self, plans, ends, V, A, F):
+        nd, m = np.ndarray, len(plans)
+        if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
+                and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
+                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1)
+                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
+            _settle_ends_plans(plans, ends, V, A, F)
+            return
+        self.todo.append((plans, ends, V, A, F))
+        self.knots += V.size
+        if self.knots >= SETTLE_KNOTS:
+            self.flush()
+
+    def flush(self):
+        todo, self.todo, self.knots = self.todo, [], 0
+        if not todo:
+            return
+        plans = [p for t in todo for p in t[0]]
+        K = np.concatenate([np.full(t[2].shape[0], t[2].shape[1], np.int64) for t in todo])
+        E = np.frombuffer(b"".join([e for t in todo for e in t[1]]), float)
+        at_v, at_e = _offsets(K)[:-1], _offsets(K - 1)[:-1]
+        before = np.empty_like(E)           # each end's knot before it: 0.0 for a row's first
+        before[1:] = E[:-1]
+        before[at_e] = 0.0
+        with np.errstate(invalid="ignore"):
+            bad = np.logical_or.reduceat(~(np.isfinite(E) & (E > before)), at_e)
+            V = np.concatenate([t[2].reshape(-1) for t in todo])
+            bad |= np.logical_or.reduceat(~(np.isfinite(V) & (V >= 0.0)), at_v)
+            for c in (3, 4):                # (accelerations, then feeds: > 0)
+                X = np.concatenate([t[c].reshape(-1) for t in todo])
+                bad |= np.logical_or.reduceat(~(np.isfinite(X) & (X > 0.0)), at_e)
+        bad |= ~np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+        bad |= ~np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+        for p in compress(plans, (~bad).tolist()):
+            p.fault = ""
 
 
 def _replay(items, rules, profile, drop=False, laws_of=None):
@@ -820,6 +872,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
         (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
     batches = [(Q, knots, None) for Q, knots in batches[::-1]]      # popped from the end: in the order gathered
+    settle = _EndsSettle()
     while batches or groups:
         if not batches:
             grp, laws = groups.pop()
@@ -834,8 +887,9 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
                       else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
         if ends is not None:
-            _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
+            settle.add([out[q] for q in Q], ends, vk, acc, feed)
         del dt
+    settle.flush()
     return out
 
 
@@ -1262,6 +1316,7 @@ def _again_plans(items, rules, profile, laws=None):
     out = [None] * len(items)
     figs = [None] * len(items)
     if grouped:
+        settle = _EndsSettle()
         by_n = {}
         for q, (vk, *_) in enumerate(got):
             by_n.setdefault(vk.shape[1], []).append(q)
@@ -1279,7 +1334,8 @@ def _again_plans(items, rules, profile, laws=None):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
                 if ends is not None:
-                    _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
+                    settle.add([out[q] for q in Q], ends, vk, acc, feed)
+        settle.flush()
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q][:2]

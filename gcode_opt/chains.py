@@ -1116,20 +1116,46 @@ def _rows_laws(kept, rows):
     parts = []
     for b, ii in groups:
         qq = qq_all[ii]
-        TL[ii], beta[ii], tp[ii], a2[ii] = b[3][qq], b[4][qq], b[5][qq], b[6][qq]
+        TL[ii], beta[ii], tp[ii], a2[ii], mask, sp, piece_t = _base_rows(b, qq)
         w = b[0].shape[1]
         if w:
-            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
-        sp = b[2][qq]
+            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = mask.ravel()
         p0 = sp[:, 0].astype(np.int64)
         cnt[ii] = sp[:, 1]
-        parts.append((ii, p0, b[1]))
+        parts.append((ii, p0, piece_t))
     poff = _offsets(cnt)
     tj = np.empty(int(poff[-1]))
     for ii, p0, piece_t in parts:       # each row's pieces to its place in the order
         c = cnt[ii]
         tj[_ranges(poff[ii], c)] = piece_t[_ranges(p0, c)]
     return nv, voff, bound, tj, TL, beta, tp, a2, poff
+
+
+def _base_rows(b, qq):
+    """The rows qq of a kept laws' base b (of 8): (T, beta, predicted times, ∫|a|², binding
+    masks (bools), pieces' places, the pieces' durations (indexable)).  A windowed run's
+    base (_Finisher._kept_base with a spill, its T, beta and times _figs_base's) read in two
+    steps: the three figures' columns by one lookup of their memo rows (_FigsCol), the
+    four spilled arrays of its block as views of the block read once (_SpilledRows, a
+    PackedMask's bits) -- the same numbers as each one indexed (~900 bases in a windowed
+    gyroid run's replays, ~10 reads each)."""
+    T, B, P, spilled = b[3], b[4], b[5], (b[1], b[2], b[6], getattr(b[0], "bits", None))
+    if not (type(T) is type(B) is type(P) is _FigsCol and T.rows is B.rows is P.rows
+            and (T.col, B.col, P.col) == (1, 2, 0) and type(b[0]) is _PackedMask
+            and all(type(x) is _SpilledRows for x in spilled)
+            and len({(x.spill, x.blk) for x in spilled}) == 1):
+        return b[3][qq], b[4][qq], b[5][qq], b[6][qq], b[0][qq], b[2][qq], b[1]
+    at = T.rows.pos()[qq]
+    if np.any(at < 0):
+        raise IndexError("kept row not in the memos' rows")
+    at = 4 * np.asarray(at, np.int64)
+    figs = np.frombuffer(T.rows.figs, float)
+    data = spilled[0].spill.block(spilled[0].blk)
+    tj, sp, a2, bits = (x._view(data) for x in spilled)
+    qq = np.asarray(qq, np.intp)
+    # (fancy indexes: copies, not views of the cached block)
+    return (figs[at + 1], figs[at + 2], figs[at], a2[qq],
+            np.unpackbits(bits[qq], axis=-1, count=b[0].shape[1]).view(bool), sp[qq], tj)
 
 
 def _join_caps(caps):

@@ -164,3 +164,29 @@ def test_ends_settle_is_settle_ends_plans(knots, monkeypatch):
     want = [p.fault for ps in want for p in ps]
     assert [p.fault for ps in got for p in ps] == want
     assert 0.2 < want.count("") / len(want) < 0.9       # (both verdicts met)
+
+
+def test_base_rows_of_spilled_laws(monkeypatch, tmp_path):
+    """_base_rows of a windowed run's kept laws (spilled: _FigsCol, _SpilledRows of one block)
+    reads each block once, without indexing its arrays one by one, the same numbers as they
+    give indexed."""
+    from test_speed55_memo55_spill import _windowed
+    _, _, _, kept = _windowed(monkeypatch, True, folder=tmp_path)
+    bases = list({id(k.base): k.base for k in kept if type(k) is sc.chains._KeptLaws}.values())
+    assert len(bases) > 10
+    rng = np.random.default_rng(5)
+    want = []
+    for b in bases:
+        qq = np.flatnonzero(b[3].rows.pos() >= 0)
+        qq = rng.permutation(qq)[:max(1, qq.size // 2)]
+        want.append((qq, [np.asarray(x).tobytes() for x in (b[3][qq], b[4][qq], b[5][qq], b[6][qq], b[0][qq],
+                                                            b[2][qq], b[1][np.arange(len(b[1]))])]))
+
+    def no(*a):
+        raise AssertionError("a spilled array indexed alone")
+    monkeypatch.setattr(sc.chains._SpilledRows, "__getitem__", no)
+    monkeypatch.setattr(sc.chains._FigsCol, "__getitem__", no)
+    for b, (qq, bits) in zip(bases, want):
+        got = sc.chains._base_rows(b, qq)
+        tj = got[6][np.arange(got[6].shape[0])]
+        assert [np.asarray(x).tobytes() for x in got[:6] + (tj,)] == bits

@@ -1663,15 +1663,18 @@ def _row_plan_blocks(plans):
         if p is None:
             continue
         if (type(p) is RowPlan and type(p._row) is int and type(p._s) is array and p.shape == "law"
-                and p.first_cmds is None and type(p._v) is np.ndarray and p._v.dtype == _F64 and p._v.ndim == 2):
-            got = by.get(id(p._v))
-            if got is not None and got[0][1] is p._accel and got[0][2] is p._feed:
-                got[1].append(q)
-                got[2].append(p._row)
-                got[3].append(p._s)
-                continue
-            if got is None and type(p._accel) is np.ndarray and type(p._feed) is np.ndarray:
-                by[id(p._v)] = ((p._v, p._accel, p._feed), [q], [p._row], [p._s])
+                and p.first_cmds is None):
+            V = p._v
+            got = by.get(id(V))
+            if got is not None:         # (V is that block's: its type checked once, when it was met)
+                if got[0][1] is p._accel and got[0][2] is p._feed:
+                    got[1].append(q)
+                    got[2].append(p._row)
+                    got[3].append(p._s)
+                    continue
+            elif (type(V) is np.ndarray and V.dtype == _F64 and V.ndim == 2 and type(p._accel) is np.ndarray
+                  and type(p._feed) is np.ndarray):
+                by[id(V)] = ((V, p._accel, p._feed), [q], [p._row], [p._s])
                 continue
         rest.append(q)
     out = []

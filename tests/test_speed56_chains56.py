@@ -42,9 +42,10 @@ def test_chain_calls_join_small_windows(window):
 
 # (sample, profile, window, share): the default share (prusa_gyroid at 64: its last windows'
 # chains joined), a window's rows (fullspeed at 37: 7..33 chains a window), every window joined
+# (fullspeed's with -m slow)
 CASES = [("prusa_gyroid.gcode", "prusa-mk3s", 64, sc.CHAIN_CALL_SHARE),
          ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37, 1),
-         ("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37, 1e-9),
+         pytest.param("prusa_gyroid_fullspeed.gcode", "prusa-mk3s", 37, 1e-9, marks=pytest.mark.slow),
          ("prusa_gyroid.gcode", "prusa-mk3s", 64, 1e-9)]
 
 
@@ -101,7 +102,7 @@ def _knots_bits(got):
             for g in got]
 
 
-@pytest.mark.parametrize("laws", (False, True))
+@pytest.mark.parametrize("laws", (False, pytest.param(True, marks=pytest.mark.slow)))
 def test_knots_again_over_several_sources(laws, monkeypatch):
     """_knots_again solves the chains of several sources of the same columns together: each
     one's knots (and law) those of its source's chains solved alone."""

@@ -768,7 +768,9 @@ class _EndsSettle:
     knots 0, ends increasing) and one reduction a row (np.logical_or.reduceat), the same
     verdicts as a batch's _settle_rows; not ~50 numpy calls a batch (a windowed gyroid run
     settled ~1 k batches of ~15 chains).  Batches are checked once SETTLE_KNOTS knot
-    speeds wait, and at flush(); a batch of another shape goes to _settle_ends_plans."""
+    speeds wait, and at flush(); a batch of another shape, or of SETTLE_KNOTS knot speeds
+    or more (the list path's, up to FINISH_ROWS chains: as fast by its own block's checks,
+    without the flat copies), goes to _settle_ends_plans."""
     __slots__ = ("todo", "knots")
 
     def __init__(self):
@@ -779,7 +781,7 @@ class _EndsSettle:
         if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
                 and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
                 and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1)
-                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
+                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))) or V.size >= SETTLE_KNOTS:
             _settle_ends_plans(plans, ends, V, A, F)
             return
         self.todo.append((plans, ends, V, A, F))

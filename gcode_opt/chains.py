@@ -780,8 +780,8 @@ class _EndsSettle:
         nd, m = np.ndarray, len(plans)
         if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
                 and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
-                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1)
-                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))) or V.size >= SETTLE_KNOTS:
+                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS
+                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
             _settle_ends_plans(plans, ends, V, A, F)
             return
         self.todo.append((plans, ends, V, A, F))

@@ -1181,7 +1181,8 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
                 fn = partial(_chain_plans, strokes, plan, rules, profile, spill=spill)
-                for part in _chain_calls(idx[kind == C_CHAIN], window):    # (one part at a time: its window)
+                # (each part judged and let go by _window_figures as one window: of more rows than the file)
+                for part in _chain_calls(idx[kind == C_CHAIN], window):
                     _window_figures(fn, part, len(strokes) + 1, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name in WINDOW_KINDS:

@@ -757,6 +757,60 @@ def _settle_ends_plans(plans, ends, V, A, F):
 
 
 _TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
+# knot speeds of the batches _EndsSettle checks together (~0.4 MB of flat copies at most):
+# a windowed run's call plans ~600 chains in ~40 batches of one segment count each
+SETTLE_KNOTS = 1 << 14
+
+
+class _EndsSettle:
+    """_settle_ends_plans of many batches (add: the same arguments) made together: their
+    rows laid end to end in flat arrays, each check elementwise (finite, > 0, >= 0, the
+    knots 0, ends increasing) and one reduction a row (np.logical_or.reduceat), the same
+    verdicts as a batch's _settle_rows; not ~50 numpy calls a batch (a windowed gyroid run
+    settled ~1 k batches of ~15 chains).  Batches are checked once SETTLE_KNOTS knot
+    speeds wait, and at flush(); a batch of another shape, or of SETTLE_KNOTS knot speeds
+    or more (the list path's, up to FINISH_ROWS chains: as fast by its own block's checks,
+    without the flat copies), goes to _settle_ends_plans."""
+    __slots__ = ("todo", "knots")
+
+    def __init__(self):
+        self.todo, self.knots = [], 0
+
+    def add(self, plans, ends, V, A, F):
+        nd, m = np.ndarray, len(plans)
+        if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
+                and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
+                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS
+                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
+            _settle_ends_plans(plans, ends, V, A, F)
+            return
+        self.todo.append((plans, ends, V, A, F))
+        self.knots += V.size
+        if self.knots >= SETTLE_KNOTS:
+            self.flush()
+
+    def flush(self):
+        todo, self.todo, self.knots = self.todo, [], 0
+        if not todo:
+            return
+        plans = [p for t in todo for p in t[0]]
+        K = np.concatenate([np.full(t[2].shape[0], t[2].shape[1], np.int64) for t in todo])
+        E = np.frombuffer(b"".join([e for t in todo for e in t[1]]), float)
+        at_v, at_e = _offsets(K)[:-1], _offsets(K - 1)[:-1]
+        before = np.empty_like(E)           # each end's knot before it: 0.0 for a row's first
+        before[1:] = E[:-1]
+        before[at_e] = 0.0
+        with np.errstate(invalid="ignore"):
+            bad = np.logical_or.reduceat(~(np.isfinite(E) & (E > before)), at_e)
+            V = np.concatenate([t[2].reshape(-1) for t in todo])
+            bad |= np.logical_or.reduceat(~(np.isfinite(V) & (V >= 0.0)), at_v)
+            for c in (3, 4):                # (accelerations, then feeds: > 0)
+                X = np.concatenate([t[c].reshape(-1) for t in todo])
+                bad |= np.logical_or.reduceat(~(np.isfinite(X) & (X > 0.0)), at_e)
+        bad |= ~np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+        bad |= ~np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+        for p in compress(plans, (~bad).tolist()):
+            p.fault = ""
 
 
 def _replay(items, rules, profile, drop=False, laws_of=None):
@@ -820,6 +874,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
         (_drop_items if core is None else core.drop_items)(items, gs, _KeptLaws)
     groups.reverse()
     batches = [(Q, knots, None) for Q, knots in batches[::-1]]      # popped from the end: in the order gathered
+    settle = _EndsSettle()
     while batches or groups:
         if not batches:
             grp, laws = groups.pop()
@@ -834,8 +889,9 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
             out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
                       else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
         if ends is not None:
-            _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
+            settle.add([out[q] for q in Q], ends, vk, acc, feed)
         del dt
+    settle.flush()
     return out
 
 
@@ -1062,20 +1118,46 @@ def _rows_laws(kept, rows):
     parts = []
     for b, ii in groups:
         qq = qq_all[ii]
-        TL[ii], beta[ii], tp[ii], a2[ii] = b[3][qq], b[4][qq], b[5][qq], b[6][qq]
+        TL[ii], beta[ii], tp[ii], a2[ii], mask, sp, piece_t = _base_rows(b, qq)
         w = b[0].shape[1]
         if w:
-            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = b[0][qq].ravel()
-        sp = b[2][qq]
+            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = mask.ravel()
         p0 = sp[:, 0].astype(np.int64)
         cnt[ii] = sp[:, 1]
-        parts.append((ii, p0, b[1]))
+        parts.append((ii, p0, piece_t))
     poff = _offsets(cnt)
     tj = np.empty(int(poff[-1]))
     for ii, p0, piece_t in parts:       # each row's pieces to its place in the order
         c = cnt[ii]
         tj[_ranges(poff[ii], c)] = piece_t[_ranges(p0, c)]
     return nv, voff, bound, tj, TL, beta, tp, a2, poff
+
+
+def _base_rows(b, qq):
+    """The rows qq of a kept laws' base b (of 8): (T, beta, predicted times, ∫|a|², binding
+    masks (bools), pieces' places, the pieces' durations (indexable)).  A windowed run's
+    base (_Finisher._kept_base with a spill, its T, beta and times _figs_base's) read in two
+    steps: the three figures' columns by one lookup of their memo rows (_FigsCol), the
+    four spilled arrays of its block as views of the block read once (_SpilledRows, a
+    PackedMask's bits) -- the same numbers as each one indexed (~900 bases in a windowed
+    gyroid run's replays, ~10 reads each)."""
+    T, B, P, spilled = b[3], b[4], b[5], (b[1], b[2], b[6], getattr(b[0], "bits", None))
+    if not (type(T) is type(B) is type(P) is _FigsCol and T.rows is B.rows is P.rows
+            and (T.col, B.col, P.col) == (1, 2, 0) and type(b[0]) is _PackedMask
+            and all(type(x) is _SpilledRows for x in spilled)
+            and len({(x.spill, x.blk) for x in spilled}) == 1):
+        return b[3][qq], b[4][qq], b[5][qq], b[6][qq], b[0][qq], b[2][qq], b[1]
+    at = T.rows.pos()[qq]
+    if np.any(at < 0):
+        raise IndexError("kept row not in the memos' rows")
+    at = 4 * np.asarray(at, np.int64)
+    figs = np.frombuffer(T.rows.figs, float)
+    data = spilled[0].spill.block(spilled[0].blk)
+    tj, sp, a2, bits = (x._view(data) for x in spilled)
+    qq = np.asarray(qq, np.intp)
+    # (fancy indexes: copies, not views of the cached block)
+    return (figs[at + 1], figs[at + 2], figs[at], a2[qq],
+            np.unpackbits(bits[qq], axis=-1, count=b[0].shape[1]).view(bool), sp[qq], tj)
 
 
 def _join_caps(caps):
@@ -1144,13 +1226,9 @@ def _knots_again(items, profile, laws=False):
     the one asked for) and its row taken out as _table_rows takes it.  laws: with its law
     (binding mask (n - 1), pieces' durations: _Chosen keeps it), (vk, dt, mask, pieces)."""
     out = [None] * len(items)
-    by_src = {}
-    for q, it in enumerate(items):
-        by_src.setdefault(id(it[1]), []).append(q)
-    for qs in by_src.values():
-        src = items[qs[0]][1]
-        idx = np.array([items[q][2] for q in qs], int)
-        Tt, bt = src.T[idx], src.beta[idx]
+    for qs in _by_columns(items):
+        src = items[qs[0]][1]           # (the group's columns' order: every source's of it)
+        Tt, bt = _sources_rows(items, qs)
         # each one's first column of its (T, beta) (the same comparisons, all rows at once)
         hit = ((Tt == np.array([items[q][3] for q in qs], float)[:, None])
                & (bt == np.array([items[q][4] for q in qs], float)[:, None]))
@@ -1215,6 +1293,42 @@ def _knots_again(items, profile, laws=False):
     return out
 
 
+def _by_columns(items):
+    """The places of items [(stroke, _Source, its row there, ...)] grouped by their sources'
+    columns (their number, order and warm starts), items' order in each: the chains of
+    several sources solved together (a windowed run's later run re-plans a few chains of
+    each of many windows' sources; solve_flat's numbers are each chain's own)."""
+    by, keys = {}, {}
+    for q, src in enumerate(map(_IT1, items)):
+        key = keys.get(id(src))
+        if key is None:
+            key = keys[id(src)] = (src.T.shape[1], tuple(src.order), tuple(sorted(src.prev.items())))
+        by.setdefault(key, []).append(q)
+    return list(by.values())
+
+
+def _sources_rows(items, qs):
+    """(T, beta): the rows of items[q] (q in qs) in their sources' tables, qs' order."""
+    by = {}
+    for j, q in enumerate(qs):
+        src = items[q][1]
+        got = by.get(id(src))
+        if got is None:
+            got = by[id(src)] = (src, [], [])
+        got[1].append(j)
+        got[2].append(items[q][2])
+    if len(by) == 1:
+        src, _, idx = next(iter(by.values()))
+        idx = np.array(idx, int)
+        return src.T[idx], src.beta[idx]
+    k = items[qs[0]][1].T.shape[1]
+    Tt, bt = np.empty((len(qs), k)), np.empty((len(qs), k))
+    for src, jj, idx in by.values():
+        idx = np.array(idx, int)
+        Tt[jj], bt[jj] = src.T[idx], src.beta[idx]
+    return Tt, bt
+
+
 def _again_plans(items, rules, profile, laws=None):
     """SegmentPlans of candidates whose knots were dropped, items [(stroke, _Again, law
     T, beta)]: the knots made again (_knots_again), then finished as the candidate
@@ -1230,6 +1344,7 @@ def _again_plans(items, rules, profile, laws=None):
     out = [None] * len(items)
     figs = [None] * len(items)
     if grouped:
+        settle = _EndsSettle()
         by_n = {}
         for q, (vk, *_) in enumerate(got):
             by_n.setdefault(vk.shape[1], []).append(q)
@@ -1247,7 +1362,8 @@ def _again_plans(items, rules, profile, laws=None):
                     out[q] = (SegmentPlan(_knots_s(sts[i].ends_d), vk[i], acc[i], feed[i], float(t[i]), float(a2[i]))
                               if ends is None else RowPlan(ends[i], vk, acc, feed, i, float(t[i]), float(a2[i])))
                 if ends is not None:
-                    _settle_ends_plans([out[q] for q in Q], ends, vk, acc, feed)
+                    settle.add([out[q] for q in Q], ends, vk, acc, feed)
+        settle.flush()
     else:
         for q, (st, _, _, _) in enumerate(items):
             vk, dt = got[q][:2]

@@ -1184,8 +1184,10 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 continue
             if lazy_chains and k_name == K_CHAIN:
                 seg_cache.drop(k_name)            # (its plans are let go: none kept for a later run)
-                _window_figures(partial(_chain_plans, strokes, plan, rules, profile, spill=spill),
-                                idx[kind == C_CHAIN], window, plan, strokes, pin.I_orig)
+                fn = partial(_chain_plans, strokes, plan, rules, profile, spill=spill)
+                # (each part judged and let go by _window_figures as one window: of more rows than the file)
+                for part in _chain_calls(idx[kind == C_CHAIN], window):
+                    _window_figures(fn, part, len(strokes) + 1, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
@@ -1496,6 +1498,34 @@ class _PlansAgain:
         plan.remade_keys = now
 
 
+# a windowed run's chain rows are planned a window of rows at a time (_window_figures), but
+# windows with few of them together, up to window // CHAIN_CALL_SHARE rows a call
+# (_chain_calls): a later run re-plans only the chains whose law changed (gyroid plate at
+# 1 k: ~900 in 29 windows, ~30 a call), and each call pays its set-up by segment count
+# (replay, finishing, checks, the spill's write); a first run's windows (~450-800 chains
+# each there) are left as they are, so their peak is not raised
+CHAIN_CALL_SHARE = 4
+
+
+def _chain_calls(rows, window):
+    """rows (sorted) cut into the parts a windowed run plans its chains in: a window of rows
+    (row // window) each, but consecutive windows joined while the part has at most
+    window // CHAIN_CALL_SHARE rows (a window with more stays a part of its own)."""
+    if not rows.size:
+        return []
+    cut = np.flatnonzero(np.diff(rows // window)) + 1
+    most = max(1, int(window / CHAIN_CALL_SHARE))
+    ends, size = [], np.diff(np.r_[0, cut, rows.size]).tolist()
+    at, n = 0, 0
+    for k in size:
+        if n and n + k > most:
+            ends.append(at)
+            n = 0
+        at += k
+        n += k
+    return np.split(rows, ends)
+
+
 def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     """The chains rows' plans at their (T, beta) of plan, their curve geometry made first
     (as the windowed run makes a window's: _rebuild_geometry), no memo keeping its plan
@@ -1674,15 +1704,18 @@ def _row_plan_blocks(plans):
         if p is None:
             continue
         if (type(p) is RowPlan and type(p._row) is int and type(p._s) is array and p.shape == "law"
-                and p.first_cmds is None and type(p._v) is np.ndarray and p._v.dtype == _F64 and p._v.ndim == 2):
-            got = by.get(id(p._v))
-            if got is not None and got[0][1] is p._accel and got[0][2] is p._feed:
-                got[1].append(q)
-                got[2].append(p._row)
-                got[3].append(p._s)
-                continue
-            if got is None and type(p._accel) is np.ndarray and type(p._feed) is np.ndarray:
-                by[id(p._v)] = ((p._v, p._accel, p._feed), [q], [p._row], [p._s])
+                and p.first_cmds is None):
+            V = p._v
+            got = by.get(id(V))
+            if got is not None:         # (V is that block's: its type checked once, when it was met)
+                if got[0][1] is p._accel and got[0][2] is p._feed:
+                    got[1].append(q)
+                    got[2].append(p._row)
+                    got[3].append(p._s)
+                    continue
+            elif (type(V) is np.ndarray and V.dtype == _F64 and V.ndim == 2 and type(p._accel) is np.ndarray
+                  and type(p._feed) is np.ndarray):
+                by[id(V)] = ((V, p._accel, p._feed), [q], [p._row], [p._s])
                 continue
         rest.append(q)
     out = []

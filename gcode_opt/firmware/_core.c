@@ -7587,8 +7587,14 @@ static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyO
     return NULL;
 }
 
-/* a new stroke of the record r (its bytes exactly) */
-static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last)
+static int sr_skip(SrRead *r, unsigned char tag);
+
+/* a new stroke of the record r (its bytes exactly), record q of its call: a slot j with a
+ * list over[j] (else NULL) takes over[j][q] where that is not None, its payload skipped
+ * (StoredStrokes' side tables: the kept objects given back in the decode, not made and
+ * then replaced a setattr at a time) */
+static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last, PyObject *const *over,
+                           Py_ssize_t q)
 {
     const char *p = sr_take(r, SR_HEAD);
     if (p == NULL)
@@ -7604,8 +7610,13 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
     s->has = has;
     const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
     for (int j = 0; j < SO_N; j++) {
-        int unset;
-        PyObject *v = sr_get_obj(r, k, tags[j], table, &unset, last, j);
+        int unset = 0;
+        PyObject *v;
+        PyObject *x = over[j] != NULL ? PyList_GET_ITEM(over[j], q) : Py_None;
+        if (x != Py_None)
+            v = sr_skip(r, tags[j]) < 0 ? NULL : Py_NewRef(x);
+        else
+            v = sr_get_obj(r, k, tags[j], table, &unset, last, j);
         if (v == NULL && !unset) {
             Py_DECREF(o);
             return NULL;
@@ -7620,14 +7631,41 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
     return o;
 }
 
-/* store_decode(buf, offs, lens, kit, table, out): a new stroke of each record
- * buf[offs[q]:offs[q] + lens[q]] appended to the list out */
+/* store_decode's over (None, or a dict {object slot: a list of one value a record, n at
+ * least}) as a list a slot, NULL where none (borrowed) */
+static int sr_over(PyObject *over_o, Py_ssize_t n, PyObject **over)
+{
+    for (int j = 0; j < SO_N; j++)
+        over[j] = NULL;
+    if (over_o == Py_None)
+        return 0;
+    if (!PyDict_Check(over_o)) {
+        PyErr_SetString(PyExc_TypeError, "store_decode: over must be None or a dict {slot: list}");
+        return -1;
+    }
+    PyObject *key, *val;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(over_o, &pos, &key, &val)) {
+        long j = PyLong_AsLong(key);
+        if (j == -1 && PyErr_Occurred())
+            return -1;
+        if (j < 0 || j >= SO_N || !PyList_CheckExact(val) || PyList_GET_SIZE(val) < n) {
+            PyErr_SetString(PyExc_ValueError, "store_decode: over's slot out of range or its list too short");
+            return -1;
+        }
+        over[j] = val;
+    }
+    return 0;
+}
+
+/* store_decode(buf, offs, lens, kit, table, out[, over]): a new stroke of each record
+ * buf[offs[q]:offs[q] + lens[q]] appended to the list out; over: sr_over's, sr_decode's */
 static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 {
     (void)self;
-    PyObject *buf_o, *offs_o, *lens_o, *kit_o, *table, *out;
-    if (!PyArg_ParseTuple(args, "OOOOO!O!:store_decode", &buf_o, &offs_o, &lens_o, &kit_o, &PyList_Type, &table,
-                          &PyList_Type, &out))
+    PyObject *buf_o, *offs_o, *lens_o, *kit_o, *table, *out, *over_o = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOOO!O!|O:store_decode", &buf_o, &offs_o, &lens_o, &kit_o, &PyList_Type, &table,
+                          &PyList_Type, &out, &over_o))
         return NULL;
     StoreKit k;
     if (store_kit(kit_o, &k) < 0)
@@ -7646,7 +7684,8 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
         return NULL;
     }
     const long long *offs = ob.buf, *lens = lb.buf;
-    int rc = 0;
+    PyObject *over[SO_N];
+    int rc = sr_over(over_o, n, over);
     SrLast last = {{NULL}, {0}};
     for (Py_ssize_t q = 0; q < n && rc == 0; q++) {
         if (offs[q] < 0 || lens[q] < 0 || offs[q] + lens[q] > bb.len) {
@@ -7655,7 +7694,7 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
             break;
         }
         SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
-        PyObject *st = sr_decode(&r, &k, table, &last);
+        PyObject *st = sr_decode(&r, &k, table, &last, over, q);
         rc = st == NULL || PyList_Append(out, st) < 0 ? -1 : 0;
         Py_XDECREF(st);
     }
@@ -7987,7 +8026,8 @@ static PyMethodDef mod_methods[] = {
     {"store_encode", mod_store_encode, METH_VARARGS,
      "store_encode(strokes, i0, i1, kit, index, table, buf, lens): stroke_store's records of strokes[i0:i1]"},
     {"store_decode", mod_store_decode, METH_VARARGS,
-     "store_decode(buf, offs, lens, kit, table, out): new strokes of stroke_store's records, appended to out"},
+     "store_decode(buf, offs, lens, kit, table, out[, over]): new strokes of stroke_store's records, appended "
+     "to out; over: None or {object slot: a list of one value a record}, the value put where not None"},
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
     {"quiet_new", mod_quiet_new, METH_VARARGS,

@@ -106,8 +106,9 @@ class StoredStrokes(StoreWindows):
         got = {}
         for name, side in self._side.items():
             if side is not None:
-                vals = side[lo:hi]
-                got[name] = vals + [None] * (hi - lo - len(vals))     # (the store appended to since)
+                vals = got[name] = side[lo:hi]
+                if len(vals) < hi - lo:                               # (the store appended to since)
+                    vals += [None] * (hi - lo - len(vals))
         return got
 
     def _let_go(self, j):

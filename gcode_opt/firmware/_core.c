@@ -7510,6 +7510,52 @@ static PyObject *sr_number(SrLast *c, int slot, const char *p, int is_float)
     return o;
 }
 
+/* SR_MEMO's empty memo: the kit's memo type called once (MEMO_PROTO), then each new memo
+ * tp_alloc'd with that one's slot values (memo_copy: ~1.6 k instructions a call of
+ * ChainMemo's __init__ saved; gyroid plate windowed: 49 k memos decoded).  Only where that is
+ * what a call makes: a class of object's (its new object's, no __dict__) whose slots the call
+ * left unset or set to None, a bool, an int or a float (shared: immutable); else called
+ * each time.  (Its __init__ is taken to set constants: chains.ChainMemo's does.) */
+static PyObject *MEMO_TYPE = NULL, *MEMO_PROTO = NULL;
+static int memo_copy = 0;
+
+static int memo_copyable(PyObject *p)
+{
+    PyTypeObject *t = Py_TYPE(p);
+    if (t->tp_base != &PyBaseObject_Type || t->tp_new != PyBaseObject_Type.tp_new || t->tp_dictoffset != 0
+        || t->tp_members == NULL)
+        return 0;
+    for (PyMemberDef *md = t->tp_members; md->name != NULL; md++) {
+        if (md->type != T_OBJECT_EX)
+            return 0;
+        PyObject *v = *(PyObject **)((char *)p + md->offset);
+        if (v != NULL && v != Py_None && !PyBool_Check(v) && !PyLong_CheckExact(v) && !PyFloat_CheckExact(v))
+            return 0;
+    }
+    return 1;
+}
+
+static PyObject *sr_memo(const StoreKit *k)
+{
+    if (MEMO_TYPE != k->memo_t) {
+        PyObject *p = PyObject_CallNoArgs(k->memo_t);
+        if (p == NULL)
+            return NULL;
+        Py_XSETREF(MEMO_PROTO, p);
+        Py_XSETREF(MEMO_TYPE, Py_NewRef(k->memo_t));
+        memo_copy = (PyObject *)Py_TYPE(p) == k->memo_t && memo_copyable(p);
+    }
+    if (!memo_copy)
+        return PyObject_CallNoArgs(k->memo_t);
+    PyTypeObject *t = Py_TYPE(MEMO_PROTO);
+    PyObject *o = t->tp_alloc(t, 0);
+    if (o == NULL)
+        return NULL;
+    for (PyMemberDef *md = t->tp_members; md->name != NULL; md++)
+        *(PyObject **)((char *)o + md->offset) = Py_XNewRef(*(PyObject **)((char *)MEMO_PROTO + md->offset));
+    return o;
+}
+
 /* the object of a slot's tag and payload (new reference; *unset 1 and NULL for SR_UNSET) */
 static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyObject *table, int *unset,
                             SrLast *last, int slot)
@@ -7581,7 +7627,7 @@ static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyO
         return a;
     }
     case SR_MEMO:
-        return PyObject_CallNoArgs(k->memo_t);
+        return sr_memo(k);
     }
     PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)tag);
     return NULL;

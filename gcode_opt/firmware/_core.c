@@ -7633,14 +7633,14 @@ static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyO
     return NULL;
 }
 
-static int sr_skip(SrRead *r, unsigned char tag);
+static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag);
 
 /* a new stroke of the record r (its bytes exactly), record q of its call: a slot j with a
- * list over[j] (else NULL) takes over[j][q] where that is not None, its payload skipped
- * (StoredStrokes' side tables: the kept objects given back in the decode, not made and
- * then replaced a setattr at a time) */
+ * list over[j] (its bit in over_bits; else NULL) takes over[j][q] where that is not None,
+ * its payload skipped (StoredStrokes' side tables: the kept objects given back in the
+ * decode, not made and then replaced a setattr at a time) */
 static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last, PyObject *const *over,
-                           Py_ssize_t q)
+                           uint32_t over_bits, Py_ssize_t q)
 {
     const char *p = sr_take(r, SR_HEAD);
     if (p == NULL)
@@ -7658,7 +7658,7 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
     for (int j = 0; j < SO_N; j++) {
         int unset = 0;
         PyObject *v;
-        PyObject *x = over[j] != NULL ? PyList_GET_ITEM(over[j], q) : Py_None;
+        PyObject *x = (over_bits >> j) & 1 ? PyList_GET_ITEM(over[j], q) : Py_None;
         if (x != Py_None)
             v = sr_skip(r, tags[j]) < 0 ? NULL : Py_NewRef(x);
         else
@@ -7679,8 +7679,9 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
 
 /* store_decode's over (None, or a dict {object slot: a list of one value a record, n at
  * least}) as a list a slot, NULL where none (borrowed) */
-static int sr_over(PyObject *over_o, Py_ssize_t n, PyObject **over)
+static int sr_over(PyObject *over_o, Py_ssize_t n, PyObject **over, uint32_t *bits)
 {
+    *bits = 0;
     for (int j = 0; j < SO_N; j++)
         over[j] = NULL;
     if (over_o == Py_None)
@@ -7700,6 +7701,7 @@ static int sr_over(PyObject *over_o, Py_ssize_t n, PyObject **over)
             return -1;
         }
         over[j] = val;
+        *bits |= (uint32_t)1 << j;
     }
     return 0;
 }
@@ -7731,7 +7733,8 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
     }
     const long long *offs = ob.buf, *lens = lb.buf;
     PyObject *over[SO_N];
-    int rc = sr_over(over_o, n, over);
+    uint32_t over_bits;
+    int rc = sr_over(over_o, n, over, &over_bits);
     SrLast last = {{NULL}, {0}};
     for (Py_ssize_t q = 0; q < n && rc == 0; q++) {
         if (offs[q] < 0 || lens[q] < 0 || offs[q] + lens[q] > bb.len) {
@@ -7740,7 +7743,7 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
             break;
         }
         SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
-        PyObject *st = sr_decode(&r, &k, table, &last, over, q);
+        PyObject *st = sr_decode(&r, &k, table, &last, over, over_bits, q);
         rc = st == NULL || PyList_Append(out, st) < 0 ? -1 : 0;
         Py_XDECREF(st);
     }
@@ -7755,7 +7758,7 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 }
 
 /* a slot's payload skipped (r past it); -1 with an error */
-static int sr_skip(SrRead *r, unsigned char tag)
+static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag)
 {
     Py_ssize_t n;
     switch (tag) {

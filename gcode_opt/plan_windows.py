@@ -1,5 +1,5 @@
 """The windowed pipeline's planning (issue 8: the strokes never all alive): analyse spills the
-strokes to a StrokeStore (pipeline.analyse's store), plan_inputs is made a window of them at a
+strokes to a StrokeStore (pipeline.analyse's store), plan_inputs is made PIN_ROWS of them at a
 time and the candidate tables a window at a time over a StoredStrokes
 (schedule.candidates_in_windows); the budget runs, the rewrite, the measure and the summary
 then read the same StoredStrokes (pipeline._process: GCODE_OPT_WINDOWED=1).
@@ -16,6 +16,11 @@ import numpy as np
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
+# strokes a plan_inputs call at least (planned_strokes; a window if larger): its fixed costs a
+# call (chains.classify's geometry blocks, a numpy pass a column) paid 35-51 times at 1024,
+# ~35 % of the pass on the plates; the strokes made at once then 4 k, not a window's, before
+# the candidates' peak, not in it (benchmarks/inputs56.md)
+PIN_ROWS = 4096
 
 
 def window_size():
@@ -29,15 +34,15 @@ def window_size():
     return got
 
 
-def plan_inputs_windowed(store, profile, opts, window):
-    """plan_inputs of the strokes of store, made window by window and joined
+def plan_inputs_windowed(store, profile, opts, rows):
+    """plan_inputs of the strokes of store, made `rows` strokes at a time and joined
     (stored_strokes.join_plan_inputs): the same PlanInput as one call over the list.  The
     strokes plan_inputs changes (chains' marks, corners' v0 / v1) are written back."""
     from .schedule import plan_inputs
     from .stored_strokes import join_plan_inputs
     parts = []
-    for lo in range(0, len(store) or 1, window):      # (no stroke: the PlanInput of none, as the list's)
-        sts = store.load(lo, lo + window)
+    for lo in range(0, len(store) or 1, rows):        # (no stroke: the PlanInput of none, as the list's)
+        sts = store.load(lo, lo + rows)
         parts.append(plan_inputs(sts, profile, opts))
         store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
         del sts
@@ -45,14 +50,15 @@ def plan_inputs_windowed(store, profile, opts, window):
 
 
 def planned_strokes(store, profile, opts, window):
-    """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs a
-    window at a time, and with alpha "auto" the candidate tables too (the arcs' and curves'
-    LEVEL_ROWS rows a call at least, the lines' LINE_ROWS), put where
+    """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs
+    PIN_ROWS strokes at a time (a window if larger), and with alpha "auto" the candidate
+    tables a window at a time (the arcs' and curves' LEVEL_ROWS rows a call at least, the
+    lines' LINE_ROWS), put where
     plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
     keeps the chains' memos (chain_T: state the runs' bits depend on, a second pass's too)
     in its side table."""
     from .stored_strokes import StoredStrokes, curve_geometry
-    pin = plan_inputs_windowed(store, profile, opts, window)
+    pin = plan_inputs_windowed(store, profile, opts, max(window, PIN_ROWS))
     strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile), keep=("chain_T",))
     if opts.alpha == "auto" and len(strokes):
         pin.cached = candidates_windowed(strokes, pin, profile, opts)

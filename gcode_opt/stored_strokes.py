@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from functools import partial
-from itertools import compress
 from operator import attrgetter, is_not
 
 import numpy as np
@@ -94,16 +93,23 @@ class StoredStrokes(StoreWindows):
         while len(self._wins) >= self.held:
             self._let_go(next(iter(self._wins)))
         lo = j * self.window
-        w = self._wins[j] = self.store.load(lo, lo + self.window)
+        w = self._wins[j] = self.store.load(lo, lo + self.window, self._kept(lo, min(lo + self.window, len(self))))
         self.loads += 1
-        for name, side in self._side.items():
-            if side is not None:
-                vals = side[lo:lo + len(w)]
-                for st, v in compress(zip(w, vals), map(_IS_NOT_NONE, vals)):
-                    setattr(st, name, v)
         if self.on_load is not None:
             self.on_load(lo, w)
         return w
+
+    def _kept(self, lo, hi):
+        """{field: the side table's objects of rows lo..hi-1} (None where none kept): what
+        the store's load puts in those fields as it makes the strokes (the chains' memos: no
+        empty memo made and replaced, no setattr a row here)."""
+        got = {}
+        for name, side in self._side.items():
+            if side is not None:
+                vals = got[name] = side[lo:hi]
+                if len(vals) < hi - lo:                               # (the store appended to since)
+                    vals += [None] * (hi - lo - len(vals))
+        return got
 
     def _let_go(self, j):
         w = self._wins.pop(j)

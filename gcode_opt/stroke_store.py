@@ -79,8 +79,8 @@ class _CCodec:
     def encode(self, strokes, i0, i1, index, table, buf, lens):
         return self._core.store_encode(strokes, i0, i1, self._kit, index, table, buf, lens)
 
-    def decode(self, buf, offs, lens, table, out):
-        self._core.store_decode(buf, offs, lens, self._kit, table, out)
+    def decode(self, buf, offs, lens, table, out, over=None):
+        self._core.store_decode(buf, offs, lens, self._kit, table, out, over)
 
     def column(self, buf, offs, lens, code, out, none):
         self._core.store_column(buf, offs, lens, code, out, none)
@@ -213,9 +213,10 @@ class _PyCodec:
             return self.Memo(), nxt
         return _SINGLE[tag], nxt
 
-    def decode(self, buf, offs, lens, table, out):
+    def decode(self, buf, offs, lens, table, out, over=None):
+        given = [(over or {}).get(j) for j in range(len(O_NAMES))]     # (a slot's list, or None)
         with memoryview(buf) as mv:
-            for at, n in zip(offs.tolist(), lens.tolist()):
+            for q, (at, n) in enumerate(zip(offs.tolist(), lens.tolist())):
                 h = _HEAD.unpack_from(mv, at)
                 st = self.Stroke.__new__(self.Stroke)
                 nd, ni = len(D_NAMES), len(I_NAMES)
@@ -226,8 +227,11 @@ class _PyCodec:
                 for k, nm in enumerate(I_NAMES):
                     setattr(st, nm, h[nd + k])
                 p = at + _HEAD.size
-                for nm, tag in zip(O_NAMES, h[nd + ni + 1:]):
-                    v, p = self._value(mv, p, tag, table)
+                for nm, tag, vals in zip(O_NAMES, h[nd + ni + 1:], given):
+                    if vals is not None and vals[q] is not None:     # (over's object: the payload skipped)
+                        v, p = vals[q], self._payload(mv, p, tag)[1]
+                    else:
+                        v, p = self._value(mv, p, tag, table)
                     if v is not _UNSET:
                         setattr(st, nm, v)
                 if p != at + n:
@@ -321,6 +325,21 @@ def _codec(pure):
     return _CCodec(core, kit)
 
 
+def _read_breaks(offs, lens, slack):
+    """The records (their places in offs, >= 1) that start a read of their own: a record
+    follows the one before it in the same read where it starts at that one's end, or a
+    little after it (the gap read and not used), the smallest gaps first while their bytes
+    add up to at most slack.  The rewrite's held rows (most of a window's, not all) came in
+    ~190 runs a window, a read each (gyroid plate: 8.5 k reads); their gaps read, one."""
+    gap = offs[1:] - offs[:-1] - lens[:-1]
+    join = gap == 0
+    ahead = np.flatnonzero(gap > 0)                 # (a record before the last one's end: a read of its own)
+    if ahead.size and slack > 0:
+        by = ahead[np.argsort(gap[ahead], kind="stable")]
+        join[by[np.cumsum(gap[by]) <= slack]] = True
+    return np.flatnonzero(~join) + 1
+
+
 class StrokeStore:
     """Strokes appended in order (a stroke's index: how many were appended before it), read
     back as new Stroke objects (load, take), one numeric field as an array without making
@@ -390,7 +409,8 @@ class StrokeStore:
 
     def _batches(self, rows):
         """(buffer, offsets in it, lengths) of the records of rows, BATCH at a time: the
-        in-memory bytes themselves, or the file's runs of adjacent records read into a buffer"""
+        in-memory bytes themselves, or the file's runs of records read into a buffer (one
+        read a run: _read_breaks)"""
         buf = bytearray()
         for b0 in range(0, len(rows), BATCH):
             r = rows[b0:b0 + BATCH]
@@ -398,7 +418,7 @@ class StrokeStore:
             if self._io.in_memory:
                 yield self._io.data, offs, lens
                 continue
-            brk = np.flatnonzero(offs[1:] != offs[:-1] + lens[:-1]) + 1
+            brk = _read_breaks(offs, lens, int(lens.sum()))     # (the buffer: twice the records' bytes at most)
             first = np.concatenate(([0], brk))
             last = np.concatenate((brk, [len(r)])) - 1
             run_at = offs[first]
@@ -413,25 +433,35 @@ class StrokeStore:
             rel = offs - np.repeat(run_at - run_pos, last - first + 1)
             yield buf, rel, lens
 
-    def take(self, rows):
+    def take(self, rows, over=None):
         """New strokes of the records of rows (int64, in the order given; sorted reads best).
+        over: {object field name (O_NAMES): a list of one value a row}: a row's stroke
+        holds that object in that field where it is not None (not the record's value).
         The collector waits meanwhile: the new strokes hold no cycle, and its young
         collections walked them, over and over, for ~80 % of the time (rectilinear plate)."""
+        rows = self._rows(rows)
+        slots = {}
+        for name, vals in (over or {}).items():
+            if len(vals) != len(rows):
+                raise ValueError("StrokeStore.take: over's values must be one a row")
+            slots[O_NAMES.index(name)] = vals if type(vals) is list else list(vals)
         out = []
         was_on = gc.isenabled()
         gc.disable()
         try:
-            for buf, offs, lens in self._batches(self._rows(rows)):
-                self._codec.decode(buf, offs, lens, self._table, out)
+            for buf, offs, lens in self._batches(rows):
+                at = len(out)
+                self._codec.decode(buf, offs, lens, self._table, out,
+                                   {j: vals[at:at + len(offs)] for j, vals in slots.items()} if slots else None)
         finally:
             if was_on:
                 gc.enable()
         return out
 
-    def load(self, i0, i1):
-        """New strokes of records i0..i1-1."""
+    def load(self, i0, i1, over=None):
+        """New strokes of records i0..i1-1 (over: take's, one value a record loaded)."""
         i0, i1 = max(i0, 0), min(i1, self._n)
-        return self.take(np.arange(i0, max(i0, i1), dtype=np.int64))
+        return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
     def column(self, name, with_none=False):
         """Field `name` of every record, without making a stroke: a float64 array (a float

@@ -1,6 +1,6 @@
 """The windowed pipeline as a code path of the command (issue 8, wire53): GCODE_OPT_WINDOWED=1
-makes pipeline._process keep the strokes in a StrokeStore (plan_windows: plan_inputs and the
-candidates a window at a time, GCODE_OPT_WINDOW strokes) and run its passes over a
+makes pipeline._process keep the strokes in a StrokeStore (plan_windows: plan_inputs PIN_ROWS
+strokes at a time, the candidates a window at a time, GCODE_OPT_WINDOW strokes) and run its passes over a
 StoredStrokes.  Checked against the list path (the default) on real samples: the written file
 byte for byte and the summary equal but for its volatile keys, files with arcs at small
 windows included (arcs53: the arcs' candidates on the file's quadrature levels); on the
@@ -24,23 +24,35 @@ INTRO = ("custom", "sparse_infill", "solid_infill")      # test_speed29_restore_
 @pytest.fixture
 def spy(monkeypatch):
     """Counts of the windowed path's planning calls and the largest number of strokes a
-    StrokeStore made at once (take: load, the held rows, the summary's columns)."""
-    seen = {"planned": 0, "most_made": 0, "plans": 0}
+    StrokeStore made at once (take: load, the held rows, the summary's columns), those of
+    plan_inputs (PIN_ROWS a call: plan_windows.planned_strokes) apart (pin_made)."""
+    seen = {"planned": 0, "most_made": 0, "plans": 0, "pin_made": 0}
     planned, take, plan = plan_windows.planned_strokes, StrokeStore.take, pipeline.plan_strokes
+    pin_windowed = plan_windows.plan_inputs_windowed
+    in_pin = []
 
     def counted_planned(*a, **k):
         seen["planned"] += 1
         return planned(*a, **k)
 
-    def counted_take(self, rows):
-        got = take(self, rows)
-        seen["most_made"] = max(seen["most_made"], len(got))
+    def counted_pin(*a, **k):
+        in_pin.append(1)
+        try:
+            return pin_windowed(*a, **k)
+        finally:
+            in_pin.pop()
+
+    def counted_take(self, rows, over=None):
+        got = take(self, rows, over)
+        key = "pin_made" if in_pin else "most_made"
+        seen[key] = max(seen[key], len(got))
         return got
 
     def counted_plan(*a, **k):
         seen["plans"] += 1
         return plan(*a, **k)
     monkeypatch.setattr(plan_windows, "planned_strokes", counted_planned)
+    monkeypatch.setattr(plan_windows, "plan_inputs_windowed", counted_pin)
     monkeypatch.setattr(StrokeStore, "take", counted_take)
     monkeypatch.setattr(pipeline, "plan_strokes", counted_plan)
     return seen
@@ -75,8 +87,10 @@ def test_windowed_writes_the_list_paths_file(monkeypatch, tmp_path, spy, name, p
     want = _run(monkeypatch, tmp_path, name, prof)
     assert spy["planned"] == 0
     got = _run(monkeypatch, tmp_path, name, prof, window)
-    # the windowed path ran, and never made more strokes at once than a window holds
+    # the windowed path ran, and never made more strokes at once than a window holds (but
+    # plan_inputs: PIN_ROWS, or a window if more)
     assert spy["planned"] == 1 and spy["most_made"] <= window
+    assert spy["pin_made"] <= max(window, plan_windows.PIN_ROWS)
     assert got[0] == want[0]
     assert got[1] == want[1]
 
@@ -100,6 +114,7 @@ def test_second_pass_over_the_store(monkeypatch, tmp_path, spy, name, prof, feat
     assert want[1]["rewrite_passes"] == 2 and spy["plans"] == plans
     got = _run(monkeypatch, tmp_path, name, prof, window, features=features, alpha=alpha)
     assert spy["planned"] == 1 and spy["plans"] == 2 * plans and 0 < spy["most_made"] <= window
+    assert 0 < spy["pin_made"] <= max(window, plan_windows.PIN_ROWS)
     assert got[0] == want[0]
     assert got[1] == want[1]
 

@@ -7510,6 +7510,52 @@ static PyObject *sr_number(SrLast *c, int slot, const char *p, int is_float)
     return o;
 }
 
+/* SR_MEMO's empty memo: the kit's memo type called once (MEMO_PROTO), then each new memo
+ * tp_alloc'd with that one's slot values (memo_copy: ~1.6 k instructions a call of
+ * ChainMemo's __init__ saved; gyroid plate windowed: 49 k memos decoded).  Only where that is
+ * what a call makes: a class of object's (its new object's, no __dict__) whose slots the call
+ * left unset or set to None, a bool, an int or a float (shared: immutable); else called
+ * each time.  (Its __init__ is taken to set constants: chains.ChainMemo's does.) */
+static PyObject *MEMO_TYPE = NULL, *MEMO_PROTO = NULL;
+static int memo_copy = 0;
+
+static int memo_copyable(PyObject *p)
+{
+    PyTypeObject *t = Py_TYPE(p);
+    if (t->tp_base != &PyBaseObject_Type || t->tp_new != PyBaseObject_Type.tp_new || t->tp_dictoffset != 0
+        || t->tp_members == NULL)
+        return 0;
+    for (PyMemberDef *md = t->tp_members; md->name != NULL; md++) {
+        if (md->type != T_OBJECT_EX)
+            return 0;
+        PyObject *v = *(PyObject **)((char *)p + md->offset);
+        if (v != NULL && v != Py_None && !PyBool_Check(v) && !PyLong_CheckExact(v) && !PyFloat_CheckExact(v))
+            return 0;
+    }
+    return 1;
+}
+
+static PyObject *sr_memo(const StoreKit *k)
+{
+    if (MEMO_TYPE != k->memo_t) {
+        PyObject *p = PyObject_CallNoArgs(k->memo_t);
+        if (p == NULL)
+            return NULL;
+        Py_XSETREF(MEMO_PROTO, p);
+        Py_XSETREF(MEMO_TYPE, Py_NewRef(k->memo_t));
+        memo_copy = (PyObject *)Py_TYPE(p) == k->memo_t && memo_copyable(p);
+    }
+    if (!memo_copy)
+        return PyObject_CallNoArgs(k->memo_t);
+    PyTypeObject *t = Py_TYPE(MEMO_PROTO);
+    PyObject *o = t->tp_alloc(t, 0);
+    if (o == NULL)
+        return NULL;
+    for (PyMemberDef *md = t->tp_members; md->name != NULL; md++)
+        *(PyObject **)((char *)o + md->offset) = Py_XNewRef(*(PyObject **)((char *)MEMO_PROTO + md->offset));
+    return o;
+}
+
 /* the object of a slot's tag and payload (new reference; *unset 1 and NULL for SR_UNSET) */
 static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyObject *table, int *unset,
                             SrLast *last, int slot)
@@ -7581,14 +7627,20 @@ static PyObject *sr_get_obj(SrRead *r, const StoreKit *k, unsigned char tag, PyO
         return a;
     }
     case SR_MEMO:
-        return PyObject_CallNoArgs(k->memo_t);
+        return sr_memo(k);
     }
     PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)tag);
     return NULL;
 }
 
-/* a new stroke of the record r (its bytes exactly) */
-static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last)
+static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag);
+
+/* a new stroke of the record r (its bytes exactly), record q of its call: a slot j with a
+ * list over[j] (its bit in over_bits; else NULL) takes over[j][q] where that is not None,
+ * its payload skipped (StoredStrokes' side tables: the kept objects given back in the
+ * decode, not made and then replaced a setattr at a time) */
+static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast *last, PyObject *const *over,
+                           uint32_t over_bits, Py_ssize_t q)
 {
     const char *p = sr_take(r, SR_HEAD);
     if (p == NULL)
@@ -7604,8 +7656,13 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
     s->has = has;
     const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
     for (int j = 0; j < SO_N; j++) {
-        int unset;
-        PyObject *v = sr_get_obj(r, k, tags[j], table, &unset, last, j);
+        int unset = 0;
+        PyObject *v;
+        PyObject *x = (over_bits >> j) & 1 ? PyList_GET_ITEM(over[j], q) : Py_None;
+        if (x != Py_None)
+            v = sr_skip(r, tags[j]) < 0 ? NULL : Py_NewRef(x);
+        else
+            v = sr_get_obj(r, k, tags[j], table, &unset, last, j);
         if (v == NULL && !unset) {
             Py_DECREF(o);
             return NULL;
@@ -7620,14 +7677,43 @@ static PyObject *sr_decode(SrRead *r, const StoreKit *k, PyObject *table, SrLast
     return o;
 }
 
-/* store_decode(buf, offs, lens, kit, table, out): a new stroke of each record
- * buf[offs[q]:offs[q] + lens[q]] appended to the list out */
+/* store_decode's over (None, or a dict {object slot: a list of one value a record, n at
+ * least}) as a list a slot, NULL where none (borrowed) */
+static int sr_over(PyObject *over_o, Py_ssize_t n, PyObject **over, uint32_t *bits)
+{
+    *bits = 0;
+    for (int j = 0; j < SO_N; j++)
+        over[j] = NULL;
+    if (over_o == Py_None)
+        return 0;
+    if (!PyDict_Check(over_o)) {
+        PyErr_SetString(PyExc_TypeError, "store_decode: over must be None or a dict {slot: list}");
+        return -1;
+    }
+    PyObject *key, *val;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(over_o, &pos, &key, &val)) {
+        long j = PyLong_AsLong(key);
+        if (j == -1 && PyErr_Occurred())
+            return -1;
+        if (j < 0 || j >= SO_N || !PyList_CheckExact(val) || PyList_GET_SIZE(val) < n) {
+            PyErr_SetString(PyExc_ValueError, "store_decode: over's slot out of range or its list too short");
+            return -1;
+        }
+        over[j] = val;
+        *bits |= (uint32_t)1 << j;
+    }
+    return 0;
+}
+
+/* store_decode(buf, offs, lens, kit, table, out[, over]): a new stroke of each record
+ * buf[offs[q]:offs[q] + lens[q]] appended to the list out; over: sr_over's, sr_decode's */
 static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 {
     (void)self;
-    PyObject *buf_o, *offs_o, *lens_o, *kit_o, *table, *out;
-    if (!PyArg_ParseTuple(args, "OOOOO!O!:store_decode", &buf_o, &offs_o, &lens_o, &kit_o, &PyList_Type, &table,
-                          &PyList_Type, &out))
+    PyObject *buf_o, *offs_o, *lens_o, *kit_o, *table, *out, *over_o = Py_None;
+    if (!PyArg_ParseTuple(args, "OOOOO!O!|O:store_decode", &buf_o, &offs_o, &lens_o, &kit_o, &PyList_Type, &table,
+                          &PyList_Type, &out, &over_o))
         return NULL;
     StoreKit k;
     if (store_kit(kit_o, &k) < 0)
@@ -7646,7 +7732,9 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
         return NULL;
     }
     const long long *offs = ob.buf, *lens = lb.buf;
-    int rc = 0;
+    PyObject *over[SO_N];
+    uint32_t over_bits;
+    int rc = sr_over(over_o, n, over, &over_bits);
     SrLast last = {{NULL}, {0}};
     for (Py_ssize_t q = 0; q < n && rc == 0; q++) {
         if (offs[q] < 0 || lens[q] < 0 || offs[q] + lens[q] > bb.len) {
@@ -7655,7 +7743,7 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
             break;
         }
         SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
-        PyObject *st = sr_decode(&r, &k, table, &last);
+        PyObject *st = sr_decode(&r, &k, table, &last, over, over_bits, q);
         rc = st == NULL || PyList_Append(out, st) < 0 ? -1 : 0;
         Py_XDECREF(st);
     }
@@ -7670,7 +7758,7 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 }
 
 /* a slot's payload skipped (r past it); -1 with an error */
-static int sr_skip(SrRead *r, unsigned char tag)
+static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag)
 {
     Py_ssize_t n;
     switch (tag) {
@@ -7987,7 +8075,8 @@ static PyMethodDef mod_methods[] = {
     {"store_encode", mod_store_encode, METH_VARARGS,
      "store_encode(strokes, i0, i1, kit, index, table, buf, lens): stroke_store's records of strokes[i0:i1]"},
     {"store_decode", mod_store_decode, METH_VARARGS,
-     "store_decode(buf, offs, lens, kit, table, out): new strokes of stroke_store's records, appended to out"},
+     "store_decode(buf, offs, lens, kit, table, out[, over]): new strokes of stroke_store's records, appended "
+     "to out; over: None or {object slot: a list of one value a record}, the value put where not None"},
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
     {"quiet_new", mod_quiet_new, METH_VARARGS,

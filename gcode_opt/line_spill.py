@@ -14,7 +14,6 @@ Held in memory: an index of the records by a hash of their keys, 18 bytes a reco
 end of the run's peak); the records themselves are the file's."""
 from __future__ import annotations
 
-import os
 from itertools import compress, repeat
 from functools import partial
 from operator import attrgetter, eq
@@ -23,6 +22,7 @@ import numpy as np
 
 from .distinct import distinct
 from .segments import RowPlan, SegmentPlan
+from .spill_file import SpillFile, plan_arrays
 
 # a record: its key (line class (its int64's bits), T, beta), time_t, int_a2, its type
 # (_TYPES' index), 1.0 where its fault verdict was "" when written (else 0.0: None, made again
@@ -42,27 +42,23 @@ def record_len(n):
     return HEAD + 4 * n + 2
 
 
-class LineSpill:
+class LineSpill(SpillFile):
     """Records of line plans in an unnamed file (the module's doc): put writes plans under
     their keys, take reads rows' plans back by theirs."""
 
     def __init__(self, fh):
-        self.fh = fh
+        super().__init__(fh)
         self.h = np.zeros(0, np.uint64)             # the records' key hashes (_key_hash), sorted
         self.at = np.zeros(0, np.int64)             # each one's record: its first double's index
         self.nseg = np.zeros(0, np.uint16)          # its plan's segments
-        self.end = 0                                # the doubles written
         self.last = None                            # the call before's (records, their keys, plans)
 
     @classmethod
     def make(cls, folder=None):
         """A spill in folder (None: the temporary folder), or None where no file can be made
         there."""
-        from .outfile import unnamed_file
-        try:
-            return cls(unnamed_file(folder))
-        except OSError:
-            return None
+        fh = SpillFile.open(folder)
+        return None if fh is None else cls(fh)
 
     def put(self, plans, cls, T, beta):
         """The plans (a list; None: no plan) made for the keys (cls, T, beta) (int64 and
@@ -92,23 +88,14 @@ class LineSpill:
         buf = np.concatenate(parts)
         qs, n = np.concatenate(qs), np.concatenate(lens)
         size = record_len(n)
-        if self.end + buf.size > MAX_END:
-            self.close()
-            return
-        try:
-            self.fh.seek(self.end * 8)
-            mv, done = buf.data.cast("B"), 0
-            while done < len(mv):
-                done += self.fh.write(mv[done:])
-        except OSError:
-            self.close()
+        end = self.append(buf, MAX_END)
+        if end is None:
             return
         h = np.concatenate([self.h, _key_hash(cls[qs], T[qs], beta[qs])])
         o = np.argsort(h, kind="stable")
         self.h = h[o]
-        self.at = np.concatenate([self.at, self.end + np.cumsum(size) - size])[o]
+        self.at = np.concatenate([self.at, end + np.cumsum(size) - size])[o]
         self.nseg = np.concatenate([self.nseg, n.astype(np.uint16)])[o]
-        self.end += buf.size
 
     def take(self, rows, cls, T, beta):
         """(the rows of rows (sorted) whose key (cls, T, beta: arrays, one a row) has a
@@ -168,24 +155,7 @@ class LineSpill:
         (one array of their doubles, each one's first index there); records less than GAP
         doubles apart read in one pread (with what lies between)."""
         z = at + lens
-        cut = np.flatnonzero(at[1:] > z[:-1] + GAP) + 1
-        chunks, start, base = [], np.empty(at.size, np.int64), 0
-        for f, e in zip([0] + cut.tolist(), cut.tolist() + [at.size]):
-            lo, hi = int(at[f]), int(z[e - 1])
-            chunks.append(np.frombuffer(os.pread(self.fh.fileno(), (hi - lo) * 8, lo * 8), float))
-            if chunks[-1].size != hi - lo:
-                raise OSError("line plans' spill cut short")
-            start[f:e] = base + at[f:e] - lo
-            base += hi - lo
-        return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
-
-    def close(self):
-        """The file let go (no record read again)."""
-        if self.fh is not None:
-            self.fh.close()
-            self.fh = None
-
-    __del__ = close             # (with the plan's remake: not left to the collector's warning)
+        return self.read_runs(at, z, np.flatnonzero(at[1:] > z[:-1] + GAP) + 1, "line plans'")
 
 
 # _key_hash's odd constants (as distinct.py's: multiples of the golden ratio's) and splitmix64's finish
@@ -209,16 +179,10 @@ def _record(p, cls, T, beta):
     """[head, s, v, accel, feed] of plan p's record under key (cls, T, beta), or None where p is not one
     the records hold: a RowPlan or SegmentPlan of a shape of _SHAPES, no junction command,
     four 1-D float64 arrays of n + 1, n + 1, n, n numbers (n <= MAX_N)."""
-    kind = type(p)
-    if kind is not RowPlan and kind is not SegmentPlan or p.first_cmds is not None or p.shape not in _SHAPES:
+    arrs = plan_arrays(p, _SHAPES, MAX_N)
+    if arrs is None:
         return None
-    arrs = [p.s, p.v, p.accel, p.feed]
-    if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
-        return None
-    n = arrs[2].size
-    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= MAX_N):
-        return None
-    head = np.array([0.0, T, beta, p.time_t, p.int_a2, _TYPES.index(kind), 1.0 if p.fault == "" else 0.0,
+    head = np.array([0.0, T, beta, p.time_t, p.int_a2, _TYPES.index(type(p)), 1.0 if p.fault == "" else 0.0,
                      _SHAPES.index(p.shape)])
     head[:1].view(np.int64)[0] = cls
     return [head] + arrs

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import binascii
 import math
-import os
 from array import array
 from functools import partial
 from itertools import compress, islice, repeat
@@ -42,6 +41,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
 from .line_spill import LineSpill
+from .spill_file import SpillFile, plan_arrays
 from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -1556,7 +1556,7 @@ def _spill_len(n):
     return _SPILL_HEAD + 4 * n + 2
 
 
-class _ChainSpill:
+class _ChainSpill(SpillFile):
     """The chains' plans a windowed run made (_chain_plans), written as they are made to an
     unnamed temporary file, a record of doubles a plan (_SPILL_HEAD), and read back by the
     rewrite's remake (_PlansAgain) for the rows whose (T, beta) is the one their record was
@@ -1570,21 +1570,17 @@ class _ChainSpill:
     plate) are the file's, not the process'."""
 
     def __init__(self, n_rows, fh):
-        self.fh = fh
+        super().__init__(fh)
         # (6 bytes a row, held from the runs to the rewrite, their peak: ~0.2 MB on the gyroid plate)
         self.at = np.full(n_rows, -1, np.int32)     # a row's record: its first double's index in the file
         self.nseg = np.zeros(n_rows, np.uint16)     # its plan's segments
-        self.end = 0                                # the doubles written
 
     @classmethod
     def make(cls, n_rows, folder=None):
         """A spill over n_rows rows in folder (None: the temporary folder), or None where no
         file can be made there."""
-        from .outfile import unnamed_file
-        try:
-            return cls(n_rows, unnamed_file(folder))
-        except OSError:
-            return None
+        fh = SpillFile.open(folder)
+        return None if fh is None else cls(n_rows, fh)
 
     def put(self, rows, T, beta, plans):
         """The plans (a list, rows' order; None: no plan) made for rows at (T, beta) written,
@@ -1612,20 +1608,11 @@ class _ChainSpill:
         buf = np.concatenate(parts)
         ns, qs = np.concatenate(ns), np.concatenate(qs)
         lens = _spill_len(ns)
-        if self.end + buf.size > _SPILL_END:       # (indices past int32: no more records, all made again)
-            self.close()
-            return
-        try:
-            self.fh.seek(self.end * 8)
-            mv, done = buf.data.cast("B"), 0
-            while done < len(mv):
-                done += self.fh.write(mv[done:])
-        except OSError:
-            self.close()
+        end = self.append(buf, _SPILL_END)      # (indices past int32: no more records, all made again)
+        if end is None:
             return
         ok = rows[qs]
-        self.at[ok], self.nseg[ok] = self.end + np.cumsum(lens) - lens, ns
-        self.end += buf.size
+        self.at[ok], self.nseg[ok] = end + np.cumsum(lens) - lens, ns
 
     def take(self, rows, T, beta):
         """(the rows of rows (sorted) with a record made at their (T, beta), their plans;
@@ -1658,25 +1645,12 @@ class _ChainSpill:
         their doubles, each one's first index there); consecutive records in one read."""
         o = np.argsort(at, kind="stable")
         a, z = at[o], at[o] + lens[o]
-        cut = np.flatnonzero(a[1:] != z[:-1]) + 1        # (the records written together: one run)
-        firsts, lasts = np.r_[0, cut], np.r_[cut, a.size] - 1
-        chunks, start, base = [], np.empty(at.size, np.int64), 0
-        for f, l in zip(firsts.tolist(), lasts.tolist()):
-            lo, hi = int(a[f]), int(z[l])
-            chunks.append(np.frombuffer(os.pread(self.fh.fileno(), (hi - lo) * 8, lo * 8), float))
-            if chunks[-1].size != hi - lo:
-                raise OSError("chain plans' spill cut short")
-            start[o[f:l + 1]] = base + a[f:l + 1] - lo
-            base += hi - lo
-        return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
+        # (the records written together: one run)
+        buf, start_o = self.read_runs(a, z, np.flatnonzero(a[1:] != z[:-1]) + 1, "chain plans'")
+        start = np.empty(at.size, np.int64)
+        start[o] = start_o
+        return buf, start
 
-    def close(self):
-        """The file let go (no record read again)."""
-        if self.fh is not None:
-            self.fh.close()
-            self.fh = None
-
-    __del__ = close             # (with the plan's remake: not left to the collector's warning)
 
 
 def _record_blocks(buf, start, ns):
@@ -1752,16 +1726,10 @@ def _spill_arrays(p):
     """(a record's head with p's figures, [s, v, accel, feed]) of plan p, or None where p
     is not one the records hold: a RowPlan or SegmentPlan of the planned law, no junction
     command, four 1-D float64 arrays of n + 1, n + 1, n, n numbers."""
-    kind = type(p)
-    if kind is not RowPlan and kind is not SegmentPlan or p.shape != "law" or p.first_cmds is not None:
+    arrs = plan_arrays(p, ("law",), _SPILL_N)
+    if arrs is None:
         return None
-    arrs = [p.s, p.v, p.accel, p.feed]
-    if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
-        return None
-    n = arrs[2].size
-    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= _SPILL_N):
-        return None
-    return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(kind), _fine_flag(p)]), arrs
+    return np.array([0.0, 0.0, p.time_t, p.int_a2, _SPILL_TYPES.index(type(p)), _fine_flag(p)]), arrs
 
 
 def _fine_flag(p):

@@ -1,0 +1,87 @@
+"""An unnamed file of doubles that a windowed run's plans are written to as they are made
+and read back from by the rewrite (schedule._ChainSpill: the chains'; line_spill.LineSpill:
+the lines'): appended to, read in runs of records, let go.  The records' layout and index are
+each spill's own."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+_F64 = np.dtype(np.float64)
+
+
+class SpillFile:
+    """fh: the file (None once let go, or never made); end: the doubles written."""
+
+    def __init__(self, fh):
+        self.fh = fh
+        self.end = 0
+
+    @staticmethod
+    def open(folder=None):
+        """An unnamed file in folder (None: the temporary folder), or None where none can be
+        made there."""
+        from .outfile import unnamed_file
+        try:
+            return unnamed_file(folder)
+        except OSError:
+            return None
+
+    def append(self, buf, max_end):
+        """buf (float64) written at the file's end: the double it starts at; None where the
+        file would pass max_end doubles (its index's type) or the write failed: the file is
+        then let go (no record read again; the caller makes its plans again)."""
+        end = self.end
+        if end + buf.size > max_end:
+            self.close()
+            return None
+        try:
+            self.fh.seek(end * 8)
+            mv, done = buf.data.cast("B"), 0
+            while done < len(mv):
+                done += self.fh.write(mv[done:])
+        except OSError:
+            self.close()
+            return None
+        self.end += buf.size
+        return end
+
+    def read_runs(self, a, z, cut, what):
+        """The records at doubles a[i] .. z[i] - 1 (sorted, not overlapping) read one pread a
+        run (a run starts at each position of cut, and at 0): (one array of their doubles,
+        each record's first index there).  OSError if the file ends early."""
+        chunks, start, base = [], np.empty(a.size, np.int64), 0
+        for f, e in zip([0] + cut.tolist(), cut.tolist() + [a.size]):
+            lo, hi = int(a[f]), int(z[e - 1])
+            chunks.append(np.frombuffer(os.pread(self.fh.fileno(), (hi - lo) * 8, lo * 8), float))
+            if chunks[-1].size != hi - lo:
+                raise OSError(f"{what} spill cut short")
+            start[f:e] = base + a[f:e] - lo
+            base += hi - lo
+        return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
+
+    def close(self):
+        """The file let go (no record read again)."""
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+    __del__ = close             # (with the plan's remake: not left to the collector's warning)
+
+
+def plan_arrays(p, shapes, max_n):
+    """[s, v, accel, feed] of segment plan p where a spill's record holds it: a RowPlan or
+    SegmentPlan whose shape is one of shapes, with no junction command, and four 1-D float64
+    arrays of n + 1, n + 1, n and n numbers (n <= max_n); else None."""
+    from .segments import RowPlan, SegmentPlan
+    kind = type(p)
+    if kind is not RowPlan and kind is not SegmentPlan or p.first_cmds is not None or p.shape not in shapes:
+        return None
+    arrs = [p.s, p.v, p.accel, p.feed]
+    if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == _F64 for a in arrs):
+        return None
+    n = arrs[2].size
+    if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= max_n):
+        return None
+    return arrs

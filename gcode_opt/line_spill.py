@@ -14,7 +14,6 @@ Held in memory: an index of the records by a hash of their keys, 18 bytes a reco
 end of the run's peak); the records themselves are the file's."""
 from __future__ import annotations
 
-from itertools import compress, repeat
 from functools import partial
 from operator import attrgetter, eq
 
@@ -22,7 +21,7 @@ import numpy as np
 
 from .distinct import distinct
 from .segments import RowPlan, SegmentPlan
-from .spill_file import SpillFile, plan_arrays
+from .spill_file import SpillFile, plan_arrays, record_plans
 
 # a record: its key (line class (its int64's bits), T, beta), time_t, int_a2, its type
 # (_TYPES' index), 1.0 where its fault verdict was "" when written (else 0.0: None, made again
@@ -258,20 +257,5 @@ def _blocks(buf, start, ns):
 
 
 def _plans(G, n):
-    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks,
-    SegmentPlans of their own copies, each with its verdict "" where its record had it."""
-    k = HEAD
-    S, V = G[:, k:k + n + 1], G[:, k + n + 1:k + 2 * n + 2]
-    A, F = G[:, k + 2 * n + 2:k + 3 * n + 2], G[:, k + 3 * n + 2:]
-    t, a2, kind, shape = G[:, 3].tolist(), G[:, 4].tolist(), G[:, 5], G[:, 7]
-    m = G.shape[0]
-    if not kind.any() and not shape.any():      # (the usual case: every one a RowPlan of the law)
-        plans = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t, a2))
-    else:
-        sh = [_SHAPES[int(c)] for c in shape.tolist()]
-        plans = [RowPlan(S, V, A, F, i, t[i], a2[i], sh[i]) if kind[i] == 0.0
-                 else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i], sh[i])
-                 for i in range(m)]
-    for p in compress(plans, G[:, 6].tolist()):
-        p.fault = ""
-    return plans
+    """The plans of n segments of the records G (rows; the layout above)."""
+    return record_plans(G, n, HEAD, (3, 4, 5, 6, 7), _SHAPES)

@@ -41,7 +41,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
 from .line_spill import LineSpill
-from .spill_file import SpillFile, plan_arrays
+from .spill_file import SpillFile, plan_arrays, record_plans
 from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -1652,7 +1652,6 @@ class _ChainSpill(SpillFile):
         return buf, start
 
 
-
 def _record_blocks(buf, start, ns):
     """The records (first doubles start in buf, of plans of ns segments) as blocks of
     consecutive records of one segment count: [(their indices, the block (a view of buf:
@@ -1738,24 +1737,10 @@ def _fine_flag(p):
 
 
 def _spill_plans(G, n):
-    """The plans of n segments of the records G (rows): RowPlans as rows of G's blocks,
-    SegmentPlans of their own copies; each with its verdict "" where the record's plan had
-    it (the same numbers: the checks pass again; the plans made again had it from
-    settle_faults' checks, chains._replay), else None."""
-    k = _SPILL_HEAD
-    S, V = G[:, k:k + n + 1], G[:, k + n + 1:k + 2 * n + 2]
-    A, F = G[:, k + 2 * n + 2:k + 3 * n + 2], G[:, k + 3 * n + 2:]
-    t, a2, kind = G[:, 2].tolist(), G[:, 3].tolist(), G[:, 4]
-    m = G.shape[0]
-    if not kind.any():              # (the usual case: every one a RowPlan)
-        plans = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t, a2))
-    else:
-        plans = [RowPlan(S, V, A, F, i, t[i], a2[i]) if kind[i] == 0.0
-                 else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i])
-                 for i in range(m)]
-    for p in compress(plans, G[:, 5].tolist()):
-        p.fault = ""
-    return plans
+    """The plans of n segments of the records G (rows; _SPILL_HEAD's layout), each with its
+    verdict "" where the record's plan had it (the same numbers: the checks pass again; the
+    plans made again had it from settle_faults' checks, chains._replay)."""
+    return record_plans(G, n, _SPILL_HEAD, (2, 3, 4, 5, None))
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

@@ -5,6 +5,7 @@ each spill's own."""
 from __future__ import annotations
 
 import os
+from itertools import compress, repeat
 
 import numpy as np
 
@@ -85,3 +86,29 @@ def plan_arrays(p, shapes, max_n):
     if not (arrs[0].size == arrs[1].size == n + 1 and arrs[3].size == n and n <= max_n):
         return None
     return arrs
+
+
+def record_plans(G, n, head, cols, shapes=("law",)):
+    """The plans of n segments of the records G (rows: `head` doubles, then the knots s
+    (n + 1), speeds v (n + 1), accelerations (n) and feeds (n)): RowPlans as rows of G's
+    blocks, SegmentPlans of their own copies, each with its verdict "" where its record had
+    it.  cols: the head's columns of time_t, int_a2, the type (0.0: a RowPlan), the verdict
+    (1.0: "") and the shape (an index into shapes), or None where the records keep no shape
+    (every one the law's)."""
+    from .segments import RowPlan, SegmentPlan
+    c_t, c_a2, c_kind, c_fine, c_shape = cols
+    S, V = G[:, head:head + n + 1], G[:, head + n + 1:head + 2 * n + 2]
+    A, F = G[:, head + 2 * n + 2:head + 3 * n + 2], G[:, head + 3 * n + 2:]
+    t, a2, kind = G[:, c_t].tolist(), G[:, c_a2].tolist(), G[:, c_kind]
+    shape = None if c_shape is None else G[:, c_shape]
+    m = G.shape[0]
+    if not kind.any() and (shape is None or not shape.any()):     # (the usual case: every one a RowPlan of the law)
+        plans = list(map(RowPlan, repeat(S, m), repeat(V, m), repeat(A, m), repeat(F, m), range(m), t, a2))
+    else:
+        sh = [shapes[0]] * m if shape is None else [shapes[int(c)] for c in shape.tolist()]
+        plans = [RowPlan(S, V, A, F, i, t[i], a2[i], sh[i]) if kind[i] == 0.0
+                 else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i], sh[i])
+                 for i in range(m)]
+    for p in compress(plans, G[:, c_fine].tolist()):
+        p.fault = ""
+    return plans

@@ -34,16 +34,19 @@ def window_size():
     return got
 
 
-def plan_inputs_windowed(store, profile, opts, rows):
+def plan_inputs_windowed(store, profile, opts, rows, geoms=None):
     """plan_inputs of the strokes of store, made `rows` strokes at a time and joined
     (stored_strokes.join_plan_inputs): the same PlanInput as one call over the list.  The
-    strokes plan_inputs changes (chains' marks, corners' v0 / v1) are written back."""
+    strokes plan_inputs changes (chains' marks, corners' v0 / v1) are written back.
+    geoms: a geom_keep.GeomKeep that keeps the curve geometry plan_inputs made."""
     from .schedule import plan_inputs
     from .stored_strokes import join_plan_inputs
     parts = []
     for lo in range(0, len(store) or 1, rows):        # (no stroke: the PlanInput of none, as the list's)
         sts = store.load(lo, lo + rows)
         parts.append(plan_inputs(sts, profile, opts))
+        if geoms is not None:
+            geoms.put(lo, sts, parts[-1].plan_kind_codes)
         store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
         del sts
     return join_plan_inputs(parts)
@@ -57,9 +60,13 @@ def planned_strokes(store, profile, opts, window):
     plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
     keeps the chains' memos (chain_T: state the runs' bits depend on, a second pass's too)
     in its side table."""
+    from .geom_keep import GeomKeep
     from .stored_strokes import StoredStrokes, curve_geometry
-    pin = plan_inputs_windowed(store, profile, opts, max(window, PIN_ROWS))
-    strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile), keep=("chain_T",))
+    # (the curve geometry plan_inputs makes, kept for the later loads of its window: geom_keep)
+    geoms = GeomKeep(window, profile, store.folder)
+    pin = plan_inputs_windowed(store, profile, opts, max(window, PIN_ROWS), geoms)
+    strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile, geoms),
+                            keep=("chain_T",), geoms=geoms)
     if opts.alpha == "auto" and len(strokes):
         pin.cached = candidates_windowed(strokes, pin, profile, opts)
     strokes.on_load = None      # (the runs make a window's curve geometry as they segment it)

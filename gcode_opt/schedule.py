@@ -1532,7 +1532,7 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     (plan_chain_segments' remember: a windowed run's chains keep their figures only).
     spill: a _ChainSpill the plans are written to (the run's, for the rewrite), or None."""
     sts = list(map(strokes.__getitem__, rows.tolist()))
-    _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CHAIN), profile)
+    _rebuild_geometry(strokes, rows, np.full(len(sts), C_CHAIN), profile, sts)
     T, beta = plan.T[rows], plan.beta[rows]
     # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
     plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None)
@@ -2072,17 +2072,25 @@ def _not_in(ii, got, bad):
     return np.array(ii[~hit[ii]], int)
 
 
-def _rebuild_geometry(strokes, idx, kind, profile):
+def _rebuild_geometry(strokes, idx, kind, profile, sts=None):
     """The curve geometry of the strokes idx to segment that has none (the pipeline may
     drop it between passes: ~17 MB on the gyroid plate), made in one batch as
     plan_inputs made it (the same bits), not stroke by stroke (~2 s on that plate).  A
     stroke whose geometry raises makes it where isolate() catches it, in its kind's
-    segments.  kind: the KIND_CODEs of the strokes idx.  A chain's κ is not made (it
-    never reads it: made if read, _Blk.make_kappa)."""
+    segments.  kind: the KIND_CODEs of the strokes idx; sts: those strokes, if the caller
+    read them.  A chain's κ is not made (it never reads it: made if read, _Blk.make_kappa).
+    A StoredStrokes' kept geometry (its geoms: plan_inputs', geom_keep) is given back
+    first, without κ at the vertices (the candidates, its one reader, are made)."""
+    if sts is None:         # (each stroke read once: a windowed run's strokes are a StoredStrokes)
+        ours = (kind == C_CURVE) | (kind == C_CHAIN)
+        idx, kind = idx[ours], kind[ours]
+        sts = list(map(strokes.__getitem__, idx.tolist()))
+    geoms = getattr(strokes, "geoms", None)
+    if geoms is not None:
+        geoms.give(idx, sts)
     made = False
     for k, chain in ((C_CURVE, False), (C_CHAIN, True)):
-        # (each stroke read once: a windowed run's strokes are a StoredStrokes, ~117 calls)
-        todo = [st for st in map(strokes.__getitem__, idx[kind == k].tolist()) if st.curv is None]
+        todo = [st for st, is_k in zip(sts, (kind == k).tolist()) if is_k and st.curv is None]
         if todo:
             made = True
             try:

@@ -62,7 +62,7 @@ HELD = 1
 class StoredStrokes(StoreWindows):
     """Every stroke of store, a few windows of them objects at a time (the module's doc)."""
 
-    def __init__(self, store, window=4096, held=HELD, writeback=False, on_load=None, keep=()):
+    def __init__(self, store, window=4096, held=HELD, writeback=False, on_load=None, keep=(), geoms=None):
         if held < 1:
             raise ValueError("StoredStrokes: held must be >= 1")
         super().__init__(store, window)
@@ -74,6 +74,9 @@ class StoredStrokes(StoreWindows):
         # slot a row, made at the first object kept: a dict {row: object} held an int and a
         # hash entry a row besides (gyroid plate's 16 k memos: 1.1 MB -> 0.28 MB)
         self._side = dict.fromkeys(keep)
+        # geoms: the curve geometry of the rows kept (geom_keep.GeomKeep, of `window` rows a
+        # window: planned_strokes'), given back where asked (schedule._rebuild_geometry)
+        self.geoms = geoms
         self._wins = OrderedDict()       # window index -> its strokes (a list), least recent first
         self._dirty = set()              # windows marked changed
         self.loads = 0                   # windows loaded (a measure of the access pattern)
@@ -242,20 +245,26 @@ class HeldRows(StoreWindows):
             slots[r] = st
 
 
-def curve_geometry(codes, profile):
-    """StoredStrokes' on_load for planning: a window's curve and chain geometry made in one
-    batch as plan_inputs made it (chains.classify's build_geoms: a chain without κ, which
-    it never reads), not stroke by stroke when read (benchmarks/win51: ~3.5x the
-    candidates' time).  codes: the strokes' plan_kind codes (pin.plan_kind_codes).  The
-    curves and the chains in one call (a block a vertex count of both: the blocks' set-up
-    paid once, benchmarks/wincpu54.md), κ made for the curves' rows alone."""
+def curve_geometry(codes, profile, geoms=None):
+    """StoredStrokes' on_load for planning: a window's curve and chain geometry as
+    plan_inputs made it: given back by geoms (a geom_keep.GeomKeep, κ at the vertices
+    included: the candidates read it) where it keeps it, else made in one batch
+    (chains.classify's build_geoms: a chain without κ, which it never reads), not stroke
+    by stroke when read (benchmarks/win51: ~3.5x the candidates' time).  codes: the
+    strokes' plan_kind codes (pin.plan_kind_codes).  The curves and the chains in one call
+    (a block a vertex count of both: the blocks' set-up paid once, benchmarks/wincpu54.md),
+    κ made for the curves' rows alone."""
     from . import curves
     from .schedule import C_CHAIN, C_CURVE
 
     def made(lo, sts):
+        if geoms is not None:
+            geoms.give(np.arange(lo, lo + len(sts)), sts, kappa=True)
         c = codes[lo:lo + len(sts)]
         rows = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
-        todo = [sts[k] for k in rows.tolist()]
+        todo = [sts[k] for k in rows.tolist() if sts[k].curv is None]
+        if not todo:
+            return
         curve = {id(st) for st, is_curve in zip(todo, (c[rows] == C_CURVE).tolist()) if is_curve}
         curves.build_geoms(todo, profile, jerk1=True,
                            kappa=lambda bsts, cap: np.fromiter(map(curve.__contains__, map(id, bsts)), bool,

@@ -1,0 +1,288 @@
+"""The windowed run's curve geometry made once (issue 8, benchmarks/geom57.md).
+
+A window loaded from the StrokeStore comes back without its curves' geometry (the store
+keeps no cache: stroke_store), so the windowed run made the same geometry again at every
+pass: plan_inputs' chains.classify, the candidates' window loads (stored_strokes'
+on_load), the budget runs and the rewrite (schedule._rebuild_geometry): ~4 times the
+list path's build_geoms on the gyroid plate.  GeomKeep writes the geometry plan_inputs
+leaves on each curve and chain (curves._Blk rows as the list path keeps them through its
+passes: the lengths, caps, cap, end turns, κ_eff, κ at the vertices where made, the
+chains' caps) to an unnamed file as it is made, and gives it back to the strokes later
+loads make: the same doubles, in blocks of one vertex count (the blocks' make is not
+seen: build_geoms' bits are row by row, benchmarks/geoms55.md).
+
+A record a window of rows (several where plan_inputs' calls cut a window): a header (the
+parts' count, then each part's segment count n, rows m and flags) and each part's arrays
+as doubles; κ at the vertices apart, after the rest, read only where asked (the
+candidates: its one reader).  A geometry GeomKeep does not take (CurveGeom's own, a block
+holding caps at the whole jerk, chain caps of another length) is not written: the caller
+makes it as before (build_geoms)."""
+from __future__ import annotations
+
+import os
+from itertools import repeat
+from operator import attrgetter, is_not
+
+import numpy as np
+
+from .spill_file import SpillFile
+
+# a part's flags: which arrays its record holds
+F_CAPS, F_KE, F_KV, F_CAP_MIN = 1, 2, 4, 8
+# a row's bits (the record's last column): κ_eff not made, a chain's caps kept, κ at the vertices not made
+R_KE_MISS, R_CHAIN, R_KV_MISS = 1, 2, 4
+# the record's columns, one double a row: window row, cap, the two end turns (NaN: None),
+# the limits' index (GeomKeep.lims), accel, κ_eff, the row's bits
+C_ROW, C_CAP, C_END0, C_END1, C_LIM, C_ACCEL, C_KE, C_BITS = range(8)
+N_COLS = 8
+_MAX_END = 1 << 60          # doubles a file may hold (no index type to outgrow)
+_CURV, _B, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_b"), attrgetter("_k"), attrgetter("chain_caps")
+
+
+class GeomKeep(SpillFile):
+    """The curve geometry of a StrokeStore's rows by window of `window` rows (the module's
+    doc).  recs: {window: [(first double, main doubles, κ doubles)]}; lims: the limits
+    objects met (the blocks' lim reads them by index)."""
+
+    def __init__(self, window, profile, folder=None):
+        super().__init__(SpillFile.open(folder))
+        self.window, self.profile = int(window), profile
+        self.recs = {}
+        self.lims, self._lim_at = [], {}
+        self.given = 0              # geometries given back (a measure)
+
+    # ------------------------------------------------------------------ writing
+    def put(self, lo, sts, codes):
+        """Keep the geometry of the curves and chains (codes: plan_kind codes) of sts, the
+        strokes of rows lo.. (as plan_inputs left it)."""
+        from .schedule import C_CHAIN, C_CURVE
+        if self.fh is None:
+            return
+        rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
+        gs = list(map(_CURV, map(sts.__getitem__, rows.tolist())))
+        try:
+            bs, ks = list(map(_B, gs)), np.fromiter(map(_K, gs), np.int64, len(gs))
+        except AttributeError:          # (a geometry of another make, or none: each made again)
+            return
+        cc = list(map(_CHAIN_CAPS, gs))
+        # the rows of each block (in row order): a stable sort by the blocks' first rows
+        ids = np.fromiter(map(id, bs), np.int64, len(bs))
+        _, first, grp = np.unique(ids, return_index=True, return_inverse=True)
+        order = np.argsort(first[grp], kind="stable")
+        cut = (np.flatnonzero(np.diff(first[grp][order])) + 1).tolist()
+        parts = {}                      # window -> [parts: (head, columns, 2-D arrays, chain caps, κ arrays)]
+        W = self.window
+        for a, z in zip([0] + cut, cut + [len(order)]):
+            qs = order[a:z]
+            b = bs[int(qs[0])]
+            got = self._block(b, ks[qs], [cc[q] for q in qs.tolist()]) if _keepable(b) else None
+            if got is None:
+                continue
+            (n, flags), cols, arrs, chain, kap = got
+            rs = rows[qs] + lo
+            js = rs // W
+            cols[C_ROW] = rs - js * W
+            jcut = (np.flatnonzero(np.diff(js)) + 1).tolist()
+            for c, e in zip([0] + jcut, jcut + [len(rs)]):
+                parts.setdefault(int(js[c]), []).append(
+                    ((n, e - c, flags), cols[:, c:e], [x[c:e] for x in arrs], b"".join(filter(None, chain[c:e])),
+                     [x[c:e] for x in kap]))
+        for j, ps in parts.items():
+            self._write(j, ps)
+
+    def _block(self, b, ks, cc):
+        """((n, flags), columns (N_COLS, m; the row column left for the caller), 2-D arrays,
+        chain caps (bytes or None a row), κ arrays) of the block b's rows ks (their
+        geometries' chain caps cc), or None where a chain's caps are not n - 1 doubles."""
+        n, m = b.d.shape[1], len(ks)
+        whole = m == b.d.shape[0] and not (ks - np.arange(m)).any()
+        take = (lambda x: x) if whole else (lambda x: x[ks])
+        _, lims, which, accel = b._lim
+        cols = np.empty((N_COLS, m))
+        cols[C_CAP], cols[C_ACCEL] = take(b.cap), take(accel)
+        cols[C_LIM] = np.array([self._lim_index(x) for x in lims], float)[take(which)]
+        ends = b.cos_end
+        cols[C_END0:C_END1 + 1] = np.array(ends if whole else [ends[k] for k in ks.tolist()], float).reshape(m, 2).T
+        bits = np.zeros(m, np.int64)
+        flags = F_CAP_MIN if b.cap_min else 0
+        arrs = [take(b.d)]
+        if b._caps is not None:
+            flags |= F_CAPS
+            arrs.append(take(b._caps))
+        has = np.fromiter(map(is_not, cc, repeat(None)), bool, m)
+        if has.any():
+            cc = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
+            if set(map(len, filter(None, cc))) != {8 * (n - 1)}:
+                return None
+            bits[has] |= R_CHAIN
+        cols[C_KE] = np.nan
+        if b._ke is not None:
+            flags |= F_KE
+            cols[C_KE] = take(b._ke)
+            if b._ke_miss is not None:
+                bits[take(b._ke_miss)] |= R_KE_MISS
+        kap = []
+        if b._kv is not None:
+            flags |= F_KV
+            kap.append(take(b._kv))
+            if b._kv_miss is not None:
+                bits[take(b._kv_miss)] |= R_KV_MISS
+        cols[C_BITS] = bits
+        return (n, flags), cols, arrs, cc, kap
+
+    def _lim_index(self, lim):
+        k = self._lim_at.get(id(lim))
+        if k is None:
+            k = self._lim_at[id(lim)] = len(self.lims)
+            self.lims.append(lim)
+        return k
+
+    def _write(self, j, parts):
+        """Window j's record of parts (_part's): the header (parts, rows, chain caps' doubles,
+        each part's n, m, flags), the columns (N_COLS, rows), each part's 2-D arrays, the
+        chains' caps, then κ at the vertices."""
+        chain = b"".join(p[3] for p in parts)
+        head = [len(parts), sum(p[0][1] for p in parts), len(chain) // 8] + [x for p in parts for x in p[0]]
+        main = [np.asarray(head, float), np.concatenate([p[1] for p in parts], axis=1).ravel()]
+        main += [a.ravel() for p in parts for a in p[2]] + [np.frombuffer(chain, float)]
+        kap = [a.ravel() for p in parts for a in p[4]]
+        buf = np.concatenate(main + kap)
+        n_kap = sum(a.size for a in kap)
+        at = self.append(buf, _MAX_END)
+        if at is None:
+            self.recs = {}          # (the file let go: every geometry made again)
+            return
+        self.recs.setdefault(j, []).append((at, buf.size - n_kap, n_kap))
+
+    # ------------------------------------------------------------------ reading back
+    def give(self, rows, sts, kappa=False):
+        """Put the kept geometry on the strokes sts of rows (store rows, in order) that have
+        none: each window's record read once, a block a part (of the rows asked).  kappa:
+        κ at the vertices too (else made when read, as after curves.drop_kappa)."""
+        if not self.recs or not len(rows):
+            return
+        W = self.window
+        rows = np.asarray(rows, np.int64)
+        js = rows // W
+        cut = (np.flatnonzero(np.diff(js)) + 1).tolist()
+        for a, z in zip([0] + cut, cut + [len(rows)]):
+            j = int(js[a])
+            for rec in self.recs.get(j, ()):
+                pos = np.full(W, -1, np.int64)
+                pos[rows[a:z] - j * W] = np.arange(a, z)
+                self._give_rec(rec, pos, sts, kappa)
+
+    def _pread(self, at, n):
+        """n doubles from double at, in an array of their own (writable: a block's κ rows not
+        made are made into it, _Blk.make_kappa)."""
+        out = np.empty(n)
+        if os.preadv(self.fh.fileno(), [out], at * 8) != 8 * n:
+            raise OSError("geometry spill cut short")
+        return out
+
+    def _give_rec(self, rec, pos, sts, kappa):
+        """The parts of record rec (first double, main doubles, κ doubles) put on the
+        strokes sts[pos[row]] (pos: -1 where a window row is not asked) that have none."""
+        from .curves import _BLOCKS, _FROM_BLOCK, CurveGeom, _Blk
+        at, n_main, n_kap = rec
+        main = self._pread(at, n_main)
+        kap = self._pread(at + n_main, n_kap) if kappa and n_kap else None
+        P, R = int(main[0]), int(main[1])
+        head = main[3:3 + 3 * P].astype(np.int64).reshape(P, 3).tolist()
+        x = 3 + 3 * P
+        cols = main[x:x + N_COLS * R].reshape(N_COLS, R)
+        x += N_COLS * R
+        at_r = pos[cols[C_ROW].astype(np.int64)]           # each row's stroke in sts (-1: not asked)
+        asked = at_r >= 0
+        if not asked.any():
+            return
+        bits = cols[C_BITS].astype(np.int64)
+        which = cols[C_LIM].astype(np.int32)
+        ends = _ends(cols[C_END0], cols[C_END1], asked)
+        chain = self._chain_caps(main[n_main - int(main[2]):], head, bits, asked)
+        lim = (self.profile, self.lims)
+        new = CurveGeom.__new__
+        r0 = y = 0
+        for n, m, flags in head:
+            r1 = r0 + m
+            d = main[x:x + m * n].reshape(m, n)
+            x += m * n
+            caps = None
+            if flags & F_CAPS:
+                caps = main[x:x + m * (n - 1)].reshape(m, n - 1)
+                x += m * (n - 1)
+            kv = None
+            if flags & F_KV:
+                if kap is not None:
+                    kv = kap[y:y + m * (n + 1)].reshape(m, n + 1)
+                y += m * (n + 1)
+            ask = at_r[r0:r1]
+            sel = ask >= 0
+            if sel.all():
+                sel = slice(None)
+            elif not sel.any():
+                r0 = r1
+                continue
+            rs = np.arange(r0, r1)[sel]
+            d, idx = d[sel], ask[sel].tolist()
+            caps = None if caps is None else caps[sel]
+            kv = None if kv is None else kv[sel]
+            ke = cols[C_KE, rs] if flags & F_KE else None
+            bsts = [sts[i] for i in idx]
+            blk = _Blk(d, None, kv, ke, caps, None, cols[C_CAP, rs], [ends[r] for r in rs.tolist()],
+                       bool(flags & F_CAP_MIN), pts=[st.pts for st in bsts],
+                       lim=lim + (which[rs], cols[C_ACCEL, rs]))
+            b = bits[rs]
+            if ke is not None and (b & R_KE_MISS).any():
+                blk._ke_miss = (b & R_KE_MISS) != 0
+            if kv is not None and (b & R_KV_MISS).any():
+                blk._kv_miss = (b & R_KV_MISS) != 0
+            _BLOCKS.add(blk)
+            for k, st, r in zip(range(len(bsts)), bsts, rs.tolist()):
+                if st.curv is None:
+                    g = new(CurveGeom)
+                    g._b, g._k = blk, k
+                    g.chain_caps = chain[r]
+                    g._j1 = _FROM_BLOCK
+                    st.curv = g
+                    self.given += 1
+            r0 = r1
+
+    @staticmethod
+    def _chain_caps(flat, head, bits, asked):
+        """Each asked row's chain caps (the bytes of its n - 1 doubles, as chains'
+        _classify_block keeps them) or None, from the chain caps flat (rows in order)."""
+        out = [None] * bits.size
+        has = (bits & R_CHAIN) != 0
+        if has.any():
+            w = np.repeat([8 * (n - 1) for n, _, _ in head], [m for _, m, _ in head])
+            z = np.cumsum(np.where(has, w, 0))
+            take = has & asked
+            buf = flat.tobytes()
+            for r, a, b in zip(np.flatnonzero(take).tolist(), (z - w)[take].tolist(), z[take].tolist()):
+                out[r] = buf[a:b]
+        return out
+
+
+def _keepable(b):
+    """Whether block b is build_geoms' (a 2-D float block of rows, its limits, no caps at
+    the whole jerk, cap an array, κ arrays or none): CurveGeom's own (a list of one cap)
+    and anything else are made again by the caller."""
+    from .curves import _Blk
+    return (type(b) is _Blk and b._u is None and b._lim is not None and b.caps_jerk1 is None
+            and type(b.d) is np.ndarray and b.d.ndim == 2 and b.d.dtype == np.float64 and b.d.shape[1] >= 1
+            and type(b.cap) is np.ndarray and len(b.cos_end) == b.d.shape[0]
+            and all(x is None or type(x) is np.ndarray for x in (b._caps, b._ke, b._kv)))
+
+
+def _ends(c0, c1, asked):
+    """CurveGeom.cos_end of each asked row whose end turns' cosines are c0 and c1 (NaN
+    where None): curves._NO_ENDS where neither end turns (and where not asked), else a
+    tuple of the doubles (numpy float64, as curves._ends_of gives them)."""
+    from .curves import _NO_ENDS
+    m0, m1 = ~np.isnan(c0), ~np.isnan(c1)
+    turn = (m0 | m1) & asked
+    out = [_NO_ENDS] * c0.size
+    for k, a, b in zip(np.flatnonzero(turn).tolist(), m0[turn].tolist(), m1[turn].tolist()):
+        out[k] = (c0[k] if a else None, c1[k] if b else None)
+    return out

@@ -59,6 +59,8 @@ class GeomKeep(SpillFile):
         if self.fh is None:
             return
         rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
+        if not rows.size:
+            return
         gs = list(map(_CURV, map(sts.__getitem__, rows.tolist())))
         try:
             bs, ks = list(map(_B, gs)), np.fromiter(map(_K, gs), np.int64, len(gs))

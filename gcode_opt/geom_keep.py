@@ -20,7 +20,7 @@ makes it as before (build_geoms)."""
 from __future__ import annotations
 
 import os
-from itertools import repeat
+from itertools import count, repeat
 from operator import attrgetter, is_not
 
 import numpy as np
@@ -203,7 +203,7 @@ class GeomKeep(SpillFile):
         ends = _ends(cols[C_END0], cols[C_END1], asked)
         chain = self._chain_caps(main[n_main - int(main[2]):], head, bits, asked)
         lim = (self.profile, self.lims)
-        new = CurveGeom.__new__
+        new, from_block = CurveGeom.__new__, _FROM_BLOCK
         r0 = y = 0
         for n, m, flags in head:
             r1 = r0 + m
@@ -240,14 +240,17 @@ class GeomKeep(SpillFile):
             if kv is not None and (b & R_KV_MISS).any():
                 blk._kv_miss = (b & R_KV_MISS) != 0
             _BLOCKS.add(blk)
-            for k, st, r in zip(range(len(bsts)), bsts, rs.tolist()):
+            given = 0
+            for k, st, c in zip(count(), bsts, map(chain.__getitem__, rs.tolist())):
                 if st.curv is None:
                     g = new(CurveGeom)
-                    g._b, g._k = blk, k
-                    g.chain_caps = chain[r]
-                    g._j1 = _FROM_BLOCK
+                    g._b = blk
+                    g._k = k
+                    g.chain_caps = c
+                    g._j1 = from_block
                     st.curv = g
-                    self.given += 1
+                    given += 1
+            self.given += given
             r0 = r1
 
     @staticmethod

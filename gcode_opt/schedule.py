@@ -2090,7 +2090,7 @@ def _rebuild_geometry(strokes, idx, kind, profile, sts=None):
         geoms.give(idx, sts)
     made = False
     for k, chain in ((C_CURVE, False), (C_CHAIN, True)):
-        todo = [st for st, is_k in zip(sts, (kind == k).tolist()) if is_k and st.curv is None]
+        todo = [st for st in compress(sts, (kind == k).tolist()) if st.curv is None]
         if todo:
             made = True
             try:

@@ -20,7 +20,7 @@ makes it as before (build_geoms)."""
 from __future__ import annotations
 
 import os
-from itertools import count, repeat
+from itertools import compress, count, repeat
 from operator import attrgetter, is_not
 
 import numpy as np
@@ -36,6 +36,7 @@ R_KE_MISS, R_CHAIN, R_KV_MISS = 1, 2, 4
 C_ROW, C_CAP, C_END0, C_END1, C_LIM, C_ACCEL, C_KE, C_BITS = range(8)
 N_COLS = 8
 _MAX_END = 1 << 60          # doubles a file may hold (no index type to outgrow)
+_BYTES_OR_NONE = {bytes, type(None)}
 _CURV, _B, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_b"), attrgetter("_k"), attrgetter("chain_caps")
 
 
@@ -103,8 +104,7 @@ class GeomKeep(SpillFile):
         cols = np.empty((N_COLS, m))
         cols[C_CAP], cols[C_ACCEL] = take(b.cap), take(accel)
         cols[C_LIM] = np.array([self._lim_index(x) for x in lims], float)[take(which)]
-        ends = b.cos_end
-        cols[C_END0:C_END1 + 1] = np.array(ends if whole else [ends[k] for k in ks.tolist()], float).reshape(m, 2).T
+        cols[C_END0:C_END1 + 1] = _end_cols(b.cos_end if whole else list(map(b.cos_end.__getitem__, ks.tolist())))
         bits = np.zeros(m, np.int64)
         flags = F_CAP_MIN if b.cap_min else 0
         arrs = [take(b.d)]
@@ -113,7 +113,8 @@ class GeomKeep(SpillFile):
             arrs.append(take(b._caps))
         has = np.fromiter(map(is_not, cc, repeat(None)), bool, m)
         if has.any():
-            cc = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
+            if not set(map(type, cc)) <= _BYTES_OR_NONE:         # (chains.vertex_caps' arrays)
+                cc = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
             if set(map(len, filter(None, cc))) != {8 * (n - 1)}:
                 return None
             bits[has] |= R_CHAIN
@@ -278,6 +279,17 @@ def _keepable(b):
             and type(b.d) is np.ndarray and b.d.ndim == 2 and b.d.dtype == np.float64 and b.d.shape[1] >= 1
             and type(b.cap) is np.ndarray and len(b.cos_end) == b.d.shape[0]
             and all(x is None or type(x) is np.ndarray for x in (b._caps, b._ke, b._kv)))
+
+
+def _end_cols(ends):
+    """The end turns' cosines of CurveGeom.cos_end's ends as (2, m) doubles, NaN where None
+    (most are curves._NO_ENDS: only the others converted)."""
+    from .curves import _NO_ENDS
+    out = np.full((len(ends), 2), np.nan)
+    turn = [e is not _NO_ENDS for e in ends]
+    if any(turn):
+        out[np.flatnonzero(turn)] = np.array(list(compress(ends, turn)), float).reshape(-1, 2)
+    return out.T
 
 
 def _ends(c0, c1, asked):

@@ -11,12 +11,14 @@ chains' caps) to an unnamed file as it is made, and gives it back to the strokes
 loads make: the same doubles, in blocks of one vertex count (the blocks' make is not
 seen: build_geoms' bits are row by row, benchmarks/geoms55.md).
 
-A record a window of rows (several where plan_inputs' calls cut a window): a header (the
-parts' count, then each part's segment count n, rows m and flags) and each part's arrays
-as doubles; κ at the vertices apart, after the rest, read only where asked (the
-candidates: its one reader).  A geometry GeomKeep does not take (CurveGeom's own, a block
-holding caps at the whole jerk, chain caps of another length) is not written: the caller
-makes it as before (build_geoms)."""
+A record a window of rows (several where plan_inputs' calls cut a window), all doubles: a
+header (parts, rows, the chains' caps' doubles, then each part's segment count n, rows m
+and flags; a part: the rows of one block in the window), N_COLS columns of one double a
+row, each part's 2-D arrays (lengths, caps where kept), the chains' caps end to end; then
+κ at the vertices apart, read only where asked (the candidates: its one reader).  A
+geometry GeomKeep does not take (CurveGeom's own, a block holding caps at the whole jerk,
+chain caps of another length) is not written: the caller makes it as before
+(build_geoms)."""
 from __future__ import annotations
 
 import os

@@ -262,10 +262,11 @@ def curve_geometry(codes, profile, geoms=None):
             geoms.give(np.arange(lo, lo + len(sts)), sts, kappa=True)
         c = codes[lo:lo + len(sts)]
         rows = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
-        todo = [sts[k] for k in rows.tolist() if sts[k].curv is None]
-        if not todo:
+        rows = [k for k in rows.tolist() if sts[k].curv is None]
+        if not rows:
             return
-        curve = {id(st) for st, is_curve in zip(todo, (c[rows] == C_CURVE).tolist()) if is_curve}
+        todo = [sts[k] for k in rows]
+        curve = {id(sts[k]) for k in rows if c[k] == C_CURVE}
         curves.build_geoms(todo, profile, jerk1=True,
                            kappa=lambda bsts, cap: np.fromiter(map(curve.__contains__, map(id, bsts)), bool,
                                                                len(bsts)))

@@ -2081,16 +2081,18 @@ def _rebuild_geometry(strokes, idx, kind, profile, sts=None):
     read them.  A chain's κ is not made (it never reads it: made if read, _Blk.make_kappa).
     A StoredStrokes' kept geometry (its geoms: plan_inputs', geom_keep) is given back
     first, without κ at the vertices (the candidates, its one reader, are made)."""
-    if sts is None:         # (each stroke read once: a windowed run's strokes are a StoredStrokes)
-        ours = (kind == C_CURVE) | (kind == C_CHAIN)
-        idx, kind = idx[ours], kind[ours]
-        sts = list(map(strokes.__getitem__, idx.tolist()))
     geoms = getattr(strokes, "geoms", None)
-    if geoms is not None:
-        geoms.give(idx, sts)
     made = False
     for k, chain in ((C_CURVE, False), (C_CHAIN, True)):
-        todo = [st for st in compress(sts, (kind == k).tolist()) if st.curv is None]
+        is_k = kind == k
+        if not is_k.any():
+            continue
+        rows = idx[is_k]
+        # (each stroke read once: a windowed run's strokes are a StoredStrokes, ~117 calls)
+        ksts = list(map(strokes.__getitem__, rows.tolist())) if sts is None else list(compress(sts, is_k.tolist()))
+        if geoms is not None:
+            geoms.give(rows, ksts)
+        todo = [st for st in ksts if st.curv is None]
         if todo:
             made = True
             try:

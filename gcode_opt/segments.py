@@ -698,7 +698,7 @@ def line_classes(strokes):
     if m == 0:
         return np.zeros(0, np.int64)
     if type(strokes) is not list:           # (a windowed sequence: read a chunk at a time)
-        got = _classes_by_chunks(m, _stroke_chunks(strokes))
+        got = _classes_by_chunks(strokes)
         if got is not None:
             return got
         strokes = list(strokes)
@@ -760,22 +760,22 @@ def _lim_places(ulims, by_val):
     return by_place
 
 
-_CLASS_FIELDS = _LINE_FLOATS + _LINE_MAYBE + ("_ends",)     # (stroke_fields' names _classes_by_chunks reads)
+_CLASS_FIELDS = _LINE_FLOATS + _LINE_MAYBE + ("_ends",)     # (stroke_fields' names _classes_of_chunks reads)
 
 
 def stored_line_classes(store, rows):
     """line_classes of the strokes of a StrokeStore's records rows (int64, sorted reads
     best), read from the records (StrokeStore.fields: no stroke made, no window loaded),
-    or None where line_classes' reading of the strokes is needed (as _classes_by_chunks
+    or None where line_classes' reading of the strokes is needed (as _classes_of_chunks
     declines; lim neither a shared object nor None).  The store must hold the strokes as
     they are (stored_strokes.stored: held windows written back first)."""
     if len(rows) == 0:
         return np.zeros(0, np.int64)
-    return _classes_by_chunks(len(rows), _store_chunks(store, rows))
+    return _classes_of_chunks(len(rows), _store_chunks(store, rows))
 
 
 def _store_chunks(store, rows):
-    """_classes_by_chunks' chunks of the records rows of store (FIELD_ROWS at a time)."""
+    """_classes_of_chunks' chunks of the records rows of store (FIELD_ROWS at a time)."""
     w = len(_CLASS_FIELDS)
     for vals, kinds in store.fields(rows, _CLASS_FIELDS + ("first_idx", "last_idx", "lim"), FIELD_ROWS):
         lim_kind = kinds[:, -1]
@@ -796,8 +796,14 @@ def _store_chunks(store, rows):
         yield got, spans[:, 0], spans[:, 1], u, place[inv]
 
 
+def _classes_by_chunks(strokes):
+    """line_classes(strokes) of their fields read a chunk of strokes at a time (a windowed
+    sequence of strokes loads a window at a time): _classes_of_chunks."""
+    return _classes_of_chunks(len(strokes), _stroke_chunks(strokes))
+
+
 def _stroke_chunks(strokes):
-    """_classes_by_chunks' chunks of strokes (FIELD_ROWS at a time: strokes[a:b], a list;
+    """_classes_of_chunks' chunks of strokes (FIELD_ROWS at a time: strokes[a:b], a list;
     a windowed sequence of strokes loads a window at a time); None where the core declines
     or a stroke is not a Stroke."""
     for a in range(0, len(strokes), FIELD_ROWS):
@@ -809,7 +815,7 @@ def _stroke_chunks(strokes):
         yield (got, *line_spans(sts), *objfields.by_identity(sts, "lim"))
 
 
-def _classes_by_chunks(m, chunks):
+def _classes_of_chunks(m, chunks):
     """line_classes of m strokes without the (17, m) table of every line's fields
     (rectilinear plate: 12.2 -> ~4 MB traced at its moment, the budget runs' first): the
     fields of a chunk of strokes at a time, each chunk (stroke_fields' (vals, kinds) of

@@ -38,7 +38,7 @@ from .coverage import feature_overshoot_r
 from .plan import (Candidates, Plan, PlanInput, PiecesMemo, SpilledCandidates, candidate_pieces, input_faults, isolate,
                    pieces_once_of, plan_auto, plan_fixed_alpha)
 from .profile import Profile
-from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
+from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, stored_line_classes,
                        slowed_original)
 from .line_spill import LineSpill
 from .spill_file import SpillFile, plan_arrays, record_plans
@@ -1110,9 +1110,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
     window = None if type(strokes) is list else getattr(strokes, "window", None)
     if _lines_repeat(pin, rows[K_LINE]):
         line_cls = np.arange(len(strokes), dtype=np.int64)
-        line_cls[rows[K_LINE]] = len(strokes) + line_classes(
-            list(map(strokes.__getitem__, rows[K_LINE].tolist())) if window is None
-            else StrokeRows(strokes, rows[K_LINE]))
+        line_cls[rows[K_LINE]] = len(strokes) + _line_classes(strokes, rows[K_LINE], window)
     seg_cache.line_class = line_cls
 
     # a later budget run takes the last one's outcome for each re-timed line and chain
@@ -1832,6 +1830,18 @@ def _corner_cmd0(strokes):
             pass
     cmd0 = objfields.float_col(strokes, "corner_cmd0")     # (True / False: 1.0 / 0.0)
     return np.fromiter(map(_CORNER_CMD0, strokes), bool, len(strokes)) if cmd0 is None else cmd0 != 0.0
+
+
+def _line_classes(strokes, rows, window):
+    """segments.line_classes of the strokes rows: windowed (window not None), read from the
+    records of the store that keeps them where it can (segments.stored_line_classes: no
+    window loaded; its held windows let go, written back where due, first), else a window
+    at a time (StrokeRows)."""
+    if window is None:
+        return line_classes(list(map(strokes.__getitem__, rows.tolist())))
+    got = stored(strokes)
+    cls = None if got is None else stored_line_classes(got[0], rows)
+    return line_classes(StrokeRows(strokes, rows)) if cls is None else cls
 
 
 def _lines_repeat(pin, rows):

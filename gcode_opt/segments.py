@@ -760,41 +760,95 @@ def _lim_places(ulims, by_val):
     return by_place
 
 
+_CLASS_FIELDS = _LINE_FLOATS + _LINE_MAYBE + ("_ends",)     # (stroke_fields' names _classes_of_chunks reads)
+
+
+def stored_line_classes(store, rows):
+    """line_classes of the strokes of a StrokeStore's records rows (int64, sorted reads
+    best), read from the records (StrokeStore.fields: no stroke made, no window loaded),
+    or None where line_classes' reading of the strokes is needed (as _classes_of_chunks
+    declines; lim neither a shared object nor None).  The store must hold the strokes as
+    they are (stored_strokes.stored: held windows written back first)."""
+    if len(rows) == 0:
+        return np.zeros(0, np.int64)
+    return _classes_of_chunks(len(rows), _store_chunks(store, rows))
+
+
+def _store_chunks(store, rows):
+    """_classes_of_chunks' chunks of the records rows of store (FIELD_ROWS at a time)."""
+    w = len(_CLASS_FIELDS)
+    for vals, kinds in store.fields(rows, _CLASS_FIELDS + ("first_idx", "last_idx", "lim"), FIELD_ROWS):
+        lim_kind = kinds[:, -1]
+        if not ((lim_kind == 5) | (lim_kind == 1)).all():        # (lim not a shared object or None)
+            yield None
+            return
+        got = vals[:, :w], kinds[:, :w]
+        got[1][got[1] == 5] = 3             # (a shared str in a float field: stroke_fields' another object)
+        spans = vals[:, w:w + 2].view(np.int64)
+        # lim's objects by identity, in the order first met (objfields.by_identity's): the
+        # store's shared objects by their table index (-1: None)
+        at = np.where(lim_kind == 5, vals[:, -1], -1.0).astype(np.int64)
+        f, inv = unique_first_inverse(at)
+        order = np.argsort(f, kind="stable")
+        place = np.empty_like(order)
+        place[order] = np.arange(order.size)
+        u = [None if k < 0 else store.shared(k) for k in at[f[order]].tolist()]
+        yield got, spans[:, 0], spans[:, 1], u, place[inv]
+
+
 def _classes_by_chunks(strokes):
-    """line_classes(strokes) without the (17, m) table of every line's fields (rectilinear
-    plate: 12.2 -> ~4 MB traced at its moment, the budget runs' first): the fields read
-    FIELD_ROWS strokes at a time (strokes[a:b], a list: a windowed sequence of strokes
-    loads a window at a time), and only the distinct rows (fields' bits and kinds, lim's
-    class: _Distinct) kept; the classes then made of those rows as line_classes makes
-    them of every row (the same hash of each row, so the same numbering).  None
-    (line_classes' own reading then) where the core declines, a field is not one the
-    core reads as line_classes does (another type; a bool beside a float or None), _ends
-    unset, a stroke not a Stroke, or two distinct rows share a hash."""
-    m = len(strokes)
-    names = _LINE_FLOATS + _LINE_MAYBE + ("_ends",)
-    w = len(names) - 1
+    """line_classes(strokes) of their fields read a chunk of strokes at a time (a windowed
+    sequence of strokes loads a window at a time): _classes_of_chunks."""
+    return _classes_of_chunks(len(strokes), _stroke_chunks(strokes))
+
+
+def _stroke_chunks(strokes):
+    """_classes_of_chunks' chunks of strokes (FIELD_ROWS at a time: strokes[a:b], a list;
+    a windowed sequence of strokes loads a window at a time); None where the core declines
+    or a stroke is not a Stroke."""
+    for a in range(0, len(strokes), FIELD_ROWS):
+        sts = strokes[a:a + FIELD_ROWS]
+        got = stroke_fields(sts, _CLASS_FIELDS) if set(map(type, sts)) == {Stroke} else None
+        if got is None:
+            yield None
+            return
+        yield (got, *line_spans(sts), *objfields.by_identity(sts, "lim"))
+
+
+def _classes_of_chunks(m, chunks):
+    """line_classes of m strokes without the (17, m) table of every line's fields
+    (rectilinear plate: 12.2 -> ~4 MB traced at its moment, the budget runs' first): the
+    fields of a chunk of strokes at a time, each chunk (stroke_fields' (vals, kinds) of
+    _CLASS_FIELDS, first_idx, last_idx, lim's distinct objects and each row's place among
+    them: _stroke_chunks, _store_chunks) or None (declined), and only the distinct rows
+    (fields' bits and kinds, lim's class: _Distinct) kept; the classes then made of those
+    rows as line_classes makes them of every row (the same hash of each row, so the same
+    numbering).  None (line_classes' own reading then) where a chunk is declined, a field
+    is not one the core reads as line_classes does (another type; a bool beside a float or
+    None), _ends unset, or two distinct rows share a hash."""
+    w = len(_CLASS_FIELDS) - 1
     alone = np.zeros(m, bool)
     row_u = np.empty(m, np.int64)           # each row's distinct row
     rows = _Distinct()
     lim_at, by_val, lim_cls = {}, {}, []    # the limits objects met (by identity: their place) and classes
-    for a in range(0, m, FIELD_ROWS):
-        sts = strokes[a:a + FIELD_ROWS]
-        if set(map(type, sts)) != {Stroke}:
+    a = 0
+    for chunk in chunks:
+        if chunk is None:
             return None
-        got = stroke_fields(sts, names)
-        if got is None or (got[1][:, -1] == 4).any():
+        got, first, last, u, which = chunk
+        if (got[1][:, -1] == 4).any():
             return None
-        first, last = line_spans(sts)
-        u, which = objfields.by_identity(sts, "lim")
         new = [x for x in u if id(x) not in lim_at]
         lim_at.update(zip(map(id, new), range(len(lim_at), len(lim_at) + len(new))))
         lim_cls += _lim_places(new, by_val)
         lim_k = np.array(lim_cls, np.int64)[np.array([lim_at[id(x)] for x in u], np.intp)[which]]
-        alone[a:a + len(sts)] = (last != first) | (got[1][:, -1] != 1) | (lim_k < 0)
+        n = len(first)
+        alone[a:a + n] = (last != first) | (got[1][:, -1] != 1) | (lim_k < 0)
         at = rows.add(_raw_rows(got[0][:, :w], got[1][:, :w], lim_k))
         if at is None:
             return None
-        row_u[a:a + len(sts)] = at
+        row_u[a:a + n] = at
+        a += n
     # line_classes' columns of the distinct rows (a field's kinds there are its kinds over all)
     U = rows.columns()
     vals, kinds = U[:w].view(float), _kinds_of(U[w:-1], w)

@@ -85,6 +85,10 @@ class _CCodec:
     def column(self, buf, offs, lens, code, out, none):
         self._core.store_column(buf, offs, lens, code, out, none)
 
+    def fields(self, buf, offs, lens, codes, vals, kinds):
+        # (a core built before store_fields: the Python reading)
+        getattr(self._core, "store_fields", _py_fields)(buf, offs, lens, codes, vals, kinds)
+
 
 class _PyCodec:
     """The same records written and read in Python (getattr / setattr: any Stroke class)."""
@@ -274,6 +278,51 @@ class _PyCodec:
                 if none is not None:
                     none[q] = isnone
 
+    @staticmethod
+    def fields(buf, offs, lens, codes, vals, kinds):
+        _py_fields(buf, offs, lens, codes, vals, kinds)
+
+
+_NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.array([None], float)'s NaN)
+# store_fields' kind of an object slot's tag (the rest: 3, another object)
+_SLOT_KIND = {T_FLOAT: 0, T_NONE: 1, T_FALSE: 2, T_TRUE: 2, T_UNSET: 4, T_INTERN: 5}
+
+
+def _py_fields(buf, offs, lens, codes, vals, kinds):
+    """firmware/_core.c's store_fields in Python: each record's fields codes into the rows of
+    vals (float64) and kinds (int8) as stroke_fields reads a stroke's (0 a float, 1 None, 2
+    a bool, 3 another object, 4 unset), 5 a shared object (vals: its table index); an int
+    field's int64 bits in vals."""
+    nd, ni = len(D_NAMES), len(I_NAMES)
+    nan = _F64.unpack(_NAN_BITS)[0]
+    last_slot = max([c - nd - ni for c in codes if c >= nd + ni], default=-1)
+    with memoryview(buf) as mv:
+        for q, at in enumerate(offs.tolist()):
+            h = _HEAD.unpack_from(mv, at)
+            has, tags = h[nd + ni], h[nd + ni + 1:]
+            pos, p = [], at + _HEAD.size
+            for tag in tags[:last_slot + 1]:
+                pos.append(p)
+                p = _PyCodec._payload(mv, p, tag)[1]
+            for j, c in enumerate(codes):
+                v, kind = 0.0, 0
+                if c < nd:
+                    v = h[c]
+                    if c >= D_NONE0 and not has >> (c - D_NONE0) & 1:
+                        v, kind = nan, 1
+                elif c < nd + ni:
+                    v = _F64.unpack(_I64.pack(h[c]))[0]
+                else:
+                    tag = tags[c - nd - ni]
+                    kind = _SLOT_KIND.get(tag, 3)
+                    if kind in (0, 5):
+                        v = float(_PyCodec._payload(mv, pos[c - nd - ni], tag)[0])
+                    elif kind == 1:
+                        v = nan
+                    elif kind == 2:
+                        v = float(tag == T_TRUE)
+                vals[q, j], kinds[q, j] = v, kind
+
 
 class _TempFile:
     """Records in an unnamed temporary file: spilled strokes hold no resident memory."""
@@ -407,13 +456,13 @@ class StrokeStore:
             raise IndexError("StrokeStore: rows out of range")
         return rows
 
-    def _batches(self, rows):
-        """(buffer, offsets in it, lengths) of the records of rows, BATCH at a time: the
+    def _batches(self, rows, size=BATCH):
+        """(buffer, offsets in it, lengths) of the records of rows, size at a time: the
         in-memory bytes themselves, or the file's runs of records read into a buffer (one
         read a run: _read_breaks)"""
         buf = bytearray()
-        for b0 in range(0, len(rows), BATCH):
-            r = rows[b0:b0 + BATCH]
+        for b0 in range(0, len(rows), size):
+            r = rows[b0:b0 + size]
             offs, lens = self._off[r], self._len[r]
             if self._io.in_memory:
                 yield self._io.data, offs, lens
@@ -479,6 +528,25 @@ class StrokeStore:
                                None if none is None else none[at:at + n])
             at += n
         return (out, none.astype(bool)) if with_none else out
+
+    def fields(self, rows, names, size=BATCH):
+        """The fields `names` of the records of rows (int64), read as strokes.stroke_fields
+        reads them of their strokes but no stroke made: (vals, kinds) of each `size` rows
+        in turn, float64 and int8 arrays (rows, len(names)) -- kinds 0 a float, 1 None
+        (vals the NaN stroke_fields gives it), 2 a bool (1.0 / 0.0), 3 another object
+        (0.0), 4 an unset slot (0.0), 5 a shared object (a str, a Limits: vals its index
+        for shared()); an int field (first_idx, last_idx): vals' column holds its int64
+        bits (view it as int64)."""
+        codes = tuple(FIELD_CODE[nm] for nm in names)
+        rows = self._rows(rows)
+        for buf, offs, lens in self._batches(rows, size):
+            vals, kinds = np.empty((len(offs), len(codes))), np.empty((len(offs), len(codes)), np.int8)
+            self._codec.fields(buf, offs, lens, codes, vals, kinds)
+            yield vals, kinds
+
+    def shared(self, k):
+        """The shared object (interned: fields' kind 5) of index k, the one its strokes hold."""
+        return self._table[k]
 
     def rewrite(self, rows, strokes):
         """Records of rows (int64) made again from strokes (one a row: strokes changed since

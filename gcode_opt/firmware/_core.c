@@ -7912,6 +7912,145 @@ fail:
     return NULL;
 }
 
+/* store_fields(buf, offs, lens, codes, vals, kinds): the fields `codes` (a tuple of record
+ * field numbers, as store_column's) of each record, as stroke_fields reads a stroke's:
+ * vals (float64, len(offs) x len(codes), C order) and kinds (int8, the same shape) -- 0 a
+ * float (a double field's value), 1 None (vals the NaN stroke_fields gives it), 2 a bool
+ * (1.0 / 0.0), 3 another object (an int, an array, points, an arc, a memo; vals 0.0),
+ * 4 an unset slot (0.0), 5 a shared object (vals its index in the store's table); an int
+ * field (first_idx, last_idx): kind 0, vals holding its int64's bits.  No stroke made
+ * (segments.line_classes of stored strokes: no window loaded). */
+static PyObject *mod_store_fields(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *buf_o, *offs_o, *lens_o, *codes_o, *vals_o, *kinds_o;
+    if (!PyArg_ParseTuple(args, "OOOO!OO:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
+                          &kinds_o))
+        return NULL;
+    Py_ssize_t w = PyTuple_GET_SIZE(codes_o);
+    int codes[64], last_slot = -1;
+    if (w > 64) {
+        PyErr_SetString(PyExc_ValueError, "store_fields: at most 64 fields");
+        return NULL;
+    }
+    for (Py_ssize_t j = 0; j < w; j++) {
+        long c = PyLong_AsLong(PyTuple_GET_ITEM(codes_o, j));
+        if (c == -1 && PyErr_Occurred())
+            return NULL;
+        if (c < 0 || c >= SD_N + SI_N + SO_N) {
+            PyErr_SetString(PyExc_ValueError, "store_fields: no such field");
+            return NULL;
+        }
+        codes[j] = (int)c;
+        if (c >= SD_N + SI_N && c - SD_N - SI_N > last_slot)
+            last_slot = (int)(c - SD_N - SI_N);
+    }
+    Py_buffer bb, ob, lb, vb, kb;
+    if (PyObject_GetBuffer(buf_o, &bb, PyBUF_SIMPLE) < 0)
+        return NULL;
+    Py_ssize_t n = PyObject_Length(offs_o);
+    int got = 1;
+    if (n < 0 || stroke_buf(offs_o, &ob, n, 1, 0, "store_fields") < 0)
+        goto fail;
+    got = 2;
+    if (stroke_buf(lens_o, &lb, n, 1, 0, "store_fields") < 0)
+        goto fail;
+    got = 3;
+    if (PyObject_GetBuffer(vals_o, &vb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        goto fail;
+    got = 4;
+    if (PyObject_GetBuffer(kinds_o, &kb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        goto fail;
+    got = 5;
+    if (vb.itemsize != 8 || vb.format == NULL || strcmp(vb.format, "d") || vb.len < n * w * 8
+        || kb.itemsize != 1 || kb.format == NULL || strcmp(kb.format, "b") || kb.len < n * w) {
+        PyErr_SetString(PyExc_ValueError, "store_fields: float64 and int8 buffers of len(offs) x len(codes)");
+        goto fail;
+    }
+    const long long *offs = ob.buf, *lens = lb.buf;
+    double *vals = vb.buf, nan_v;
+    signed char *kinds = kb.buf;
+    const unsigned long long nan_bits = 0x7ff8000000000000ull;      /* stroke_fields' None */
+    memcpy(&nan_v, &nan_bits, sizeof nan_v);
+    for (Py_ssize_t q = 0; q < n; q++) {
+        if (offs[q] < 0 || lens[q] < SR_HEAD || offs[q] + lens[q] > bb.len) {
+            PyErr_SetString(PyExc_ValueError, "store_fields: a record out of the buffer");
+            goto fail;
+        }
+        SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
+        const char *p = r.p, *at[SO_N];
+        const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
+        uint32_t has;
+        memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
+        r.p += SR_HEAD;
+        for (int s = 0; s <= last_slot; s++) {       /* each object slot's payload */
+            at[s] = r.p;
+            if (sr_skip(&r, tags[s]) < 0)
+                goto fail;
+        }
+        for (Py_ssize_t j = 0; j < w; j++) {
+            int c = codes[j];
+            double v = 0.0;
+            signed char kind = 0;
+            if (c < SD_N) {
+                if (c >= SD_NONE0 && !(has & (1u << (c - SD_NONE0)))) {
+                    v = nan_v;
+                    kind = 1;
+                } else
+                    memcpy(&v, p + 8 * c, 8);
+            } else if (c < SD_N + SI_N) {
+                memcpy(&v, p + 8 * c, 8);             /* (the int64's bits) */
+            } else {
+                int s = c - SD_N - SI_N;
+                switch (tags[s]) {
+                case SR_FLOAT:
+                    memcpy(&v, at[s], 8);
+                    break;
+                case SR_NONE:
+                    v = nan_v;
+                    kind = 1;
+                    break;
+                case SR_FALSE: case SR_TRUE:
+                    v = tags[s] == SR_TRUE ? 1.0 : 0.0;
+                    kind = 2;
+                    break;
+                case SR_UNSET:
+                    kind = 4;
+                    break;
+                case SR_INTERN: {
+                    uint32_t k;
+                    memcpy(&k, at[s], 4);
+                    v = (double)k;
+                    kind = 5;
+                    break;
+                }
+                default:
+                    kind = 3;
+                }
+            }
+            vals[q * w + j] = v;
+            kinds[q * w + j] = kind;
+        }
+    }
+    PyBuffer_Release(&bb);
+    PyBuffer_Release(&ob);
+    PyBuffer_Release(&lb);
+    PyBuffer_Release(&vb);
+    PyBuffer_Release(&kb);
+    Py_RETURN_NONE;
+fail:
+    PyBuffer_Release(&bb);
+    if (got >= 2)
+        PyBuffer_Release(&ob);
+    if (got >= 3)
+        PyBuffer_Release(&lb);
+    if (got >= 4)
+        PyBuffer_Release(&vb);
+    if (got >= 5)
+        PyBuffer_Release(&kb);
+    return NULL;
+}
+
 /* The measure's quiet stops (play_buf's on_quiet: a stop with no watched range pending,
  * ~3.8 k of the rectilinear plate's) recorded without a Python object each: what
  * simulate._LedgerWriter.stopped does there (the peaks and sums taken as take_stop takes
@@ -8079,6 +8218,8 @@ static PyMethodDef mod_methods[] = {
      "to out; over: None or {object slot: a list of one value a record}, the value put where not None"},
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
+    {"store_fields", mod_store_fields, METH_VARARGS,
+     "store_fields(buf, offs, lens, codes, vals, kinds): fields of stroke_store's records as stroke_fields reads them"},
     {"quiet_new", mod_quiet_new, METH_VARARGS,
      "quiet_new(res, snap_fn, snap_arg): a QuietStops for play_buf's on_quiet (quiet_record bound to it)"},
     {"quiet_record", (PyCFunction)(void (*)(void))mod_quiet_record, METH_FASTCALL,

@@ -41,7 +41,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments,
                        slowed_original)
 from .line_spill import LineSpill
-from .spill_file import SpillFile, plan_arrays, record_plans
+from .spill_file import SpillFile, block_plans, plan_arrays
 from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -1551,6 +1551,11 @@ _SPILL_N = np.iinfo(np.uint16).max      # segments a spilled plan has at most (_
 _SPILL_END = np.iinfo(np.int32).max     # the doubles the records take at most (_ChainSpill.at)
 
 
+# doubles between two records _ChainSpill._read reads in one pread at most (the gaps read are
+# held with the window's plans, views of the buffer: 4 kB a run at most)
+CHAIN_GAP = 512
+
+
 def _spill_len(n):
     """The doubles of the record of a plan of n segments."""
     return _SPILL_HEAD + 4 * n + 2
@@ -1627,26 +1632,26 @@ class _ChainSpill(SpillFile):
         except OSError:             # (the records lost: every row made again)
             self.close()
             return rows[:0], [], rows
-        # a record is the row's where it was made for the row's (T, beta), bit for bit
-        Tb = np.stack([np.asarray(T, float)[has], np.asarray(beta, float)[has]], axis=1).view(np.int64)
-        plans, ok = [None] * hat.size, np.zeros(hat.size, bool)
-        for g, G, n in _record_blocks(buf, start, hn):
-            same = (G[:, :2].view(np.int64) == Tb[g]).all(axis=1)
-            if not same.all():
-                g, G = g[same], G[same]
-            ok[g] = True
-            for q, p in zip(g.tolist(), _spill_plans(G, n)):
-                plans[q] = p
-        has[has] = ok
-        return rows[has], list(compress(plans, ok.tolist())), rows[~has]
+        # a record is the row's where it was made for the row's (T, beta), bit for bit (the
+        # heads of all of them compared at once)
+        bits = buf.view(np.int64)
+        same = ((bits[start] == np.asarray(T, float)[has].view(np.int64))
+                & (bits[start + 1] == np.asarray(beta, float)[has].view(np.int64)))
+        if not same.all():
+            start, hn = start[same], hn[same]
+        plans = _spill_plans(buf, start, _record_blocks(buf, start, hn)) if start.size else []
+        has[has] = same
+        return rows[has], plans, rows[~has]
 
     def _read(self, at, lens):
         """The records at at (doubles from the file's start, lens long) read: (one array of
-        their doubles, each one's first index there); consecutive records in one read."""
+        their doubles, each one's first index there); records at most CHAIN_GAP doubles
+        apart in one read."""
         o = np.argsort(at, kind="stable")
         a, z = at[o], at[o] + lens[o]
-        # (the records written together: one run)
-        buf, start_o = self.read_runs(a, z, np.flatnonzero(a[1:] != z[:-1]) + 1, "chain plans'")
+        # (with what lies between: the gyroid plate's rewrite, ~600 preads of runs of
+        # consecutive records -> ~200)
+        buf, start_o = self.read_runs(a, z, np.flatnonzero(a[1:] > z[:-1] + CHAIN_GAP) + 1, "chain plans'")
         start = np.empty(at.size, np.int64)
         start[o] = start_o
         return buf, start
@@ -1736,11 +1741,12 @@ def _fine_flag(p):
     return 1.0 if p.fault == "" else 0.0
 
 
-def _spill_plans(G, n):
-    """The plans of n segments of the records G (rows; _SPILL_HEAD's layout), each with its
-    verdict "" where the record's plan had it (the same numbers: the checks pass again; the
-    plans made again had it from settle_faults' checks, chains._replay)."""
-    return record_plans(G, n, _SPILL_HEAD, (2, 3, 4, 5, None))
+def _spill_plans(buf, start, blocks):
+    """The plans of the records of buf at start, as blocks (_record_blocks; _SPILL_HEAD's
+    layout), in start's order, each with its verdict "" where the record's plan had it (the same
+    numbers: the checks pass again; the plans made again had it from settle_faults' checks,
+    chains._replay)."""
+    return block_plans(buf, start, blocks, _SPILL_HEAD, (2, 3, 4, 5, None))
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

@@ -229,3 +229,13 @@ def test_windowed_command_writes_the_list_paths_bytes(monkeypatch, tmp_path):
     want = run(False)
     got = run(True)
     assert reads and got[0] == want[0] and got[1] == want[1]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_rows_without_a_plan_told_by_their_class(compiled, monkeypatch):
+    """_PlansAgain's rows still to plan: the Nones among the rows' plans (compiled pass or not)."""
+    if not compiled:
+        _no_compiled_fields(monkeypatch, sc)
+    plans = _chain_kinds() + [None, 0.0, "", False] + _line_kinds()
+    assert sc._are_none(plans).tolist() == [p is None for p in plans]
+

@@ -21,7 +21,8 @@ import numpy as np
 
 from .distinct import distinct
 from .segments import RowPlan, SegmentPlan
-from .spill_file import SpillFile, plan_arrays, record_plans
+from . import objfields
+from .spill_file import SpillFile, block_plans, plan_arrays
 
 # a record: its key (line class (its int64's bits), T, beta), time_t, int_a2, its type
 # (_TYPES' index), 1.0 where its fault verdict was "" when written (else 0.0: None, made again
@@ -126,8 +127,7 @@ class LineSpill(SpillFile):
             old = np.flatnonzero(lu[j] == u)
             new[old] = False
             key[old] = lkey[j[old]]
-            for q, p in zip(old.tolist(), map(lplans.__getitem__, j[old].tolist())):
-                plans[q] = p
+            _put_at(plans, old, lplans, j[old])
         self.last = None                            # (its plans not held past this call's)
         need = np.flatnonzero(new)
         if need.size:
@@ -136,18 +136,15 @@ class LineSpill(SpillFile):
             except OSError:         # (the records lost: every row the caller's)
                 self.close()
                 return rows[:0], [], rows
-            for g, G, n in _blocks(buf, start, n_u[need]):
-                g = need[g]
-                key[g] = G[:, :3]
-                for q, p in zip(g.tolist(), _plans(G, n)):
-                    plans[q] = p
+            key[need] = buf[start[:, None] + np.arange(3)]
+            _put_at(plans, need, _plans(buf, start, _blocks(buf, start, n_u[need])))
         self.last = (u, key, plans)
         # a record is the row's where its key is the row's, bit for bit (not a hash's twin)
         kv = key.view(np.int64)[which]
         same = ((kv[:, 0] == cls[has]) & (kv[:, 1] == T[has].view(np.int64))
                 & (kv[:, 2] == beta[has].view(np.int64)))
         has[has] = same
-        return rows[has], list(map(plans.__getitem__, which[same].tolist())), rows[~has]
+        return rows[has], _items(plans, which[same]), rows[~has]
 
     def _read(self, at, lens):
         """The records at at (sorted, distinct; doubles from the file's start, lens long):
@@ -256,6 +253,23 @@ def _blocks(buf, start, ns):
     return out
 
 
-def _plans(G, n):
-    """The plans of n segments of the records G (rows; the layout above)."""
-    return record_plans(G, n, HEAD, (3, 4, 5, 6, 7), _SHAPES)
+def _plans(buf, start, blocks):
+    """The plans of the records of buf at start, as blocks (_blocks; the layout above), in
+    start's order."""
+    return block_plans(buf, start, blocks, HEAD, (3, 4, 5, 6, 7), _SHAPES)
+
+
+def _put_at(dst, rows, src, at=None):
+    """dst[i] = src[at[k]] (at None: src[k]) for k, i in enumerate(rows) (int arrays): in
+    one compiled pass where built (objfields.put_at)."""
+    rows = rows.astype(np.intp, copy=False)
+    at = None if at is None else at.astype(np.intp, copy=False)
+    if not objfields.put_at(dst, rows, src, at):
+        for i, j in zip(rows.tolist(), range(rows.size) if at is None else at.tolist()):
+            dst[i] = src[j]
+
+
+def _items(seq, at):
+    """[seq[i] for i in at] (an int array): in one compiled pass where built (objfields.take)."""
+    got = objfields.take(seq, at.astype(np.intp, copy=False))
+    return got if got is not None else list(map(seq.__getitem__, at.tolist()))

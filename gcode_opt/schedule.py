@@ -41,7 +41,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, stored_line_classes,
                        slowed_original)
 from .line_spill import LineSpill
-from .spill_file import SpillFile, plan_arrays, record_plans
+from .spill_file import SpillFile, block_plans, plan_arrays
 from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -1419,6 +1419,14 @@ def segs_for(plan, rows, strokes):
         remake(plan, rows, strokes)
 
 
+def _are_none(objs):
+    """A bool array: which of objs (a list) are None, their classes read in one compiled pass
+    where built (objfields.codes; np.fromiter of is-None's was ~400 instructions an item,
+    ~39 k rows of the rectilinear plate's windowed rewrite)."""
+    got = objfields.codes(objs, "__class__", {type(None): 0}, add=True)
+    return got == 0 if got is not None else np.fromiter(map(_IS_NONE, objs), bool, len(objs))
+
+
 class _PlansAgain:
     """A windowed run's plan.remake: the re-timed lines' and chains' plans it let go
     (_window_figures; codes: the KIND_CODEs it let go), made again for rows as the run made
@@ -1449,7 +1457,7 @@ class _PlansAgain:
         rows = distinct(np.asarray(rows, np.int64))
         rows = rows[np.isin(self.kind[rows], self.codes) & plan.retime[rows]]
         if rows.size:
-            rows = rows[np.fromiter(map(_IS_NONE, _take(segs, rows)), bool, rows.size)]
+            rows = rows[_are_none(_take(segs, rows))]
         kind = self.kind[rows]
         chain_rows = rows[kind == C_CHAIN]
         if chain_rows.size and self.spill is not None:
@@ -1549,6 +1557,11 @@ _SPILL_N = np.iinfo(np.uint16).max      # segments a spilled plan has at most (_
 _SPILL_END = np.iinfo(np.int32).max     # the doubles the records take at most (_ChainSpill.at)
 
 
+# doubles between two records _ChainSpill._read reads in one pread at most (the gaps read are
+# held with the window's plans, views of the buffer: 4 kB a run at most)
+CHAIN_GAP = 512
+
+
 def _spill_len(n):
     """The doubles of the record of a plan of n segments."""
     return _SPILL_HEAD + 4 * n + 2
@@ -1587,12 +1600,8 @@ class _ChainSpill(SpillFile):
         if self.fh is None:
             return
         T, beta = np.asarray(T, float), np.asarray(beta, float)
-        parts, qs, ns = [], [], []
         blocks, rest = _row_plan_blocks(plans)
-        for (V, A, F), ii, rr, ends in blocks:
-            qs.append(ii)
-            ns.append(np.full(ii.size, A.shape[1], np.int64))
-            parts.append(_block_records(T[ii], beta[ii], [plans[q] for q in ii.tolist()], ends, V[rr], A[rr], F[rr]))
+        parts, qs, ns = _blocks_records(T, beta, plans, blocks) if blocks else ([], [], [])
         for q in rest:
             got = _spill_arrays(plans[q])
             if got is not None:
@@ -1625,26 +1634,26 @@ class _ChainSpill(SpillFile):
         except OSError:             # (the records lost: every row made again)
             self.close()
             return rows[:0], [], rows
-        # a record is the row's where it was made for the row's (T, beta), bit for bit
-        Tb = np.stack([np.asarray(T, float)[has], np.asarray(beta, float)[has]], axis=1).view(np.int64)
-        plans, ok = [None] * hat.size, np.zeros(hat.size, bool)
-        for g, G, n in _record_blocks(buf, start, hn):
-            same = (G[:, :2].view(np.int64) == Tb[g]).all(axis=1)
-            if not same.all():
-                g, G = g[same], G[same]
-            ok[g] = True
-            for q, p in zip(g.tolist(), _spill_plans(G, n)):
-                plans[q] = p
-        has[has] = ok
-        return rows[has], list(compress(plans, ok.tolist())), rows[~has]
+        # a record is the row's where it was made for the row's (T, beta), bit for bit (the
+        # heads of all of them compared at once)
+        bits = buf.view(np.int64)
+        same = ((bits[start] == np.asarray(T, float)[has].view(np.int64))
+                & (bits[start + 1] == np.asarray(beta, float)[has].view(np.int64)))
+        if not same.all():
+            start, hn = start[same], hn[same]
+        plans = _spill_plans(buf, start, _record_blocks(buf, start, hn)) if start.size else []
+        has[has] = same
+        return rows[has], plans, rows[~has]
 
     def _read(self, at, lens):
         """The records at at (doubles from the file's start, lens long) read: (one array of
-        their doubles, each one's first index there); consecutive records in one read."""
+        their doubles, each one's first index there); records at most CHAIN_GAP doubles
+        apart in one read."""
         o = np.argsort(at, kind="stable")
         a, z = at[o], at[o] + lens[o]
-        # (the records written together: one run)
-        buf, start_o = self.read_runs(a, z, np.flatnonzero(a[1:] != z[:-1]) + 1, "chain plans'")
+        # (with what lies between: the gyroid plate's rewrite, ~600 preads of runs of
+        # consecutive records -> ~200)
+        buf, start_o = self.read_runs(a, z, np.flatnonzero(a[1:] > z[:-1] + CHAIN_GAP) + 1, "chain plans'")
         start = np.empty(at.size, np.int64)
         start[o] = start_o
         return buf, start
@@ -1700,23 +1709,44 @@ def _row_plan_blocks(plans):
     return out, rest
 
 
-def _block_records(T, beta, plans, ends, V, A, F):
-    """The records (flat) of RowPlans plans of n segments: law (T, beta), knots 0 then
-    ends, their rows V, A, F of their blocks."""
-    m, n = A.shape
-    R = np.empty((m, _spill_len(n)))
+def _blocks_records(T, beta, plans, blocks):
+    """The records of the RowPlans of blocks (_row_plan_blocks) of plans made at (T, beta)
+    (by place in plans): ([each block's records, flat], [their places], [their segment
+    counts]).  The heads of every block's plans are made in one pass (their figures read
+    by objfields where built), their knots (0, then their strokes' ends) of one join: a
+    block's own set-up was ~20 us, ~1 k blocks a windowed gyroid run."""
+    ii = np.concatenate([b[1] for b in blocks])
+    bp = _take(plans, ii)
+    m = ii.size
+    H = np.empty((m, _SPILL_HEAD))
+    H[:, 0], H[:, 1] = T[ii], beta[ii]
+    fig = objfields.floats(bp, ("time_t", "int_a2"))
+    if fig is None:
+        H[:, 2] = np.fromiter(map(_TIME_T, bp), float, m)
+        H[:, 3] = np.fromiter(map(_INT_A2, bp), float, m)
+    else:
+        H[:, 2:4] = fig
+    H[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
+    fine = objfields.codes(bp, "fault", {"": 0}, add=True)    # (a verdict "": code 0)
+    H[:, 5] = np.fromiter(map(_fine_flag, bp), float, m) if fine is None else fine == 0
+    ends = np.frombuffer(b"".join([b"".join(b[3]) for b in blocks]), float)
+    parts, qs, ns = [], [], []
+    a = e = 0
     k = _SPILL_HEAD
-    R[:, 0], R[:, 1] = T, beta
-    R[:, 2] = np.fromiter(map(_TIME_T, plans), float, m)
-    R[:, 3] = np.fromiter(map(_INT_A2, plans), float, m)
-    R[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
-    R[:, 5] = np.fromiter(map(_fine_flag, plans), float, m)
-    R[:, k] = 0.0
-    R[:, k + 1:k + n + 1] = np.frombuffer(b"".join(ends), float).reshape(m, n)
-    R[:, k + n + 1:k + 2 * n + 2] = V
-    R[:, k + 2 * n + 2:k + 3 * n + 2] = A
-    R[:, k + 3 * n + 2:] = F
-    return R.ravel()
+    for (V, A, F), q, rr, _ in blocks:
+        mb, n = q.size, A.shape[1]
+        R = np.empty((mb, _spill_len(n)))
+        R[:, :k] = H[a:a + mb]
+        R[:, k] = 0.0
+        R[:, k + 1:k + n + 1] = ends[e:e + mb * n].reshape(mb, n)
+        R[:, k + n + 1:k + 2 * n + 2] = V[rr]
+        R[:, k + 2 * n + 2:k + 3 * n + 2] = A[rr]
+        R[:, k + 3 * n + 2:] = F[rr]
+        parts.append(R.ravel())
+        qs.append(q)
+        ns.append(np.full(mb, n, np.int64))
+        a, e = a + mb, e + mb * n
+    return parts, qs, ns
 
 
 def _spill_arrays(p):
@@ -1734,11 +1764,12 @@ def _fine_flag(p):
     return 1.0 if p.fault == "" else 0.0
 
 
-def _spill_plans(G, n):
-    """The plans of n segments of the records G (rows; _SPILL_HEAD's layout), each with its
-    verdict "" where the record's plan had it (the same numbers: the checks pass again; the
-    plans made again had it from settle_faults' checks, chains._replay)."""
-    return record_plans(G, n, _SPILL_HEAD, (2, 3, 4, 5, None))
+def _spill_plans(buf, start, blocks):
+    """The plans of the records of buf at start, as blocks (_record_blocks; _SPILL_HEAD's
+    layout), in start's order, each with its verdict "" where the record's plan had it (the same
+    numbers: the checks pass again; the plans made again had it from settle_faults' checks,
+    chains._replay)."""
+    return block_plans(buf, start, blocks, _SPILL_HEAD, (2, 3, 4, 5, None))
 
 
 def _by_windows(fn, window, circle_law=False, before=None):

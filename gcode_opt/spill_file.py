@@ -5,7 +5,7 @@ each spill's own."""
 from __future__ import annotations
 
 import os
-from itertools import compress, repeat
+from itertools import chain, compress, repeat
 
 import numpy as np
 
@@ -112,3 +112,45 @@ def record_plans(G, n, head, cols, shapes=("law",)):
     for p in compress(plans, G[:, c_fine].tolist()):
         p.fault = ""
     return plans
+
+
+def block_plans(buf, start, blocks, head, cols, shapes=("law",)):
+    """The plans of the records of buf at start (m of them), given as blocks [(their
+    indices in 0 .. m - 1, their rows G, n)] (record_plans' layout and cols), as one list
+    in start's order: record_plans of each block, but the heads of all read in one gather
+    and, where every record is a RowPlan of the law (the usual case), the objects of all
+    blocks made by one map (a windowed gyroid rewrite reads ~1 k blocks of ~16 chain plans:
+    benchmarks/out57.md)."""
+    from .objfields import put_at
+    from .segments import RowPlan
+    c_t, c_a2, c_kind, c_fine, c_shape = cols
+    H = buf[start[:, None] + np.array([c_t, c_a2, c_fine, c_kind] + ([] if c_shape is None else [c_shape]))]
+    out = [None] * start.size
+    odd = H[:, 3:].any(axis=1)        # a SegmentPlan, or another shape: its block by record_plans, as before
+    some_odd = odd.any()
+    where, knots, speeds, accels, feeds, counts = [], [], [], [], [], []
+    for g, G, n in blocks:
+        if some_odd and odd[g].any():
+            for q, p in zip(g.tolist(), record_plans(G, n, head, cols, shapes)):
+                out[q] = p
+            continue
+        k = G.shape[0]
+        where.append(g)
+        counts.append(k)
+        knots.append(repeat(G[:, head:head + n + 1], k))
+        speeds.append(repeat(G[:, head + n + 1:head + 2 * n + 2], k))
+        accels.append(repeat(G[:, head + 2 * n + 2:head + 3 * n + 2], k))
+        feeds.append(repeat(G[:, head + 3 * n + 2:], k))
+    if not where:
+        return out
+    at = np.concatenate(where).astype(np.intp, copy=False)
+    H = H[at]
+    plans = list(map(RowPlan, chain.from_iterable(knots), chain.from_iterable(speeds), chain.from_iterable(accels),
+                     chain.from_iterable(feeds), chain.from_iterable(map(range, counts)), H[:, 0].tolist(),
+                     H[:, 1].tolist()))
+    for p in compress(plans, H[:, 2].tolist()):
+        p.fault = ""
+    if not put_at(out, at, plans):
+        for q, p in zip(at.tolist(), plans):
+            out[q] = p
+    return out

@@ -1187,7 +1187,9 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                 for part in _chain_calls(idx[kind == C_CHAIN], window):
                     _window_figures(fn, part, len(strokes) + 1, plan, strokes, pin.I_orig)
                 continue
-            if window is not None and k_name in WINDOW_KINDS:
+            if window is not None and k_name == K_CURVE:
+                fn = _curve_calls(kind_of.segments, strokes, plan, rules, profile, CURVE_ROWS)
+            elif window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
                                  (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
                                  if k_name in (K_CURVE, K_CHAIN) else None)
@@ -1287,6 +1289,33 @@ def _stored_rows(strokes, rows):
     if window is not None and rows.size and 2 * rows.size < window * (np.count_nonzero(np.diff(rows // window)) + 1):
         got = stored(strokes)
     return list(map(strokes.__getitem__, rows.tolist())) if got is None else got[0].take(rows)
+
+
+# curves' rows a windowed run's segments call at most (plan_windows.LEVEL_ROWS: the candidates'
+# calls made and held as many curves' geometry): by windows (_by_windows), ~70 a call on the
+# rectilinear plate, ~140 on the gyroid, their fixed costs and the windows' loads were ~3x a
+# batch's time (plan_curve_segments and _rebuild_geometry: benchmarks/lines57.md)
+CURVE_ROWS = 512
+
+
+def _curve_calls(segments, strokes, plan, rules, profile, n):
+    """A windowed run's curves' plans (rows sorted -> a plan a row): segments (plan_curve_
+    segments) of the strokes rows in calls of at most n rows, whatever their windows, each
+    call's strokes made of their records where sparse (_stored_rows: no window loaded) and
+    given their geometry in one batch (_rebuild_geometry; the store keeps none).  Every
+    row's plan is its own where the BLAS gives a row its own bits (circle.rows_invariant);
+    else the rows in one call, as _by_windows solves them."""
+    def call(rows):
+        sts = _stored_rows(strokes, rows)
+        _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CURVE, np.int8), profile)
+        return segments(sts, plan.T[rows], plan.beta[rows], rules, profile)
+
+    def calls(rows):
+        if rows.size > n and not circle.rows_invariant():
+            WHOLE_BATCHES[0] += 1
+            return call(rows)
+        return _at_most(call, n)(rows)
+    return calls
 
 
 def _at_most(fn, n):

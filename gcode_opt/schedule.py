@@ -1188,7 +1188,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
                     _window_figures(fn, part, len(strokes) + 1, plan, strokes, pin.I_orig)
                 continue
             if window is not None and k_name == K_CURVE:
-                fn = _curve_calls(kind_of.segments, strokes, plan, rules, profile, CURVE_ROWS)
+                fn = _curve_calls(kind_of.segments, strokes, plan, rules, profile, min(CURVE_ROWS, window))
             elif window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
                                  (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
@@ -1292,7 +1292,7 @@ def _stored_rows(strokes, rows):
 
 
 # curves' rows a windowed run's segments call at most (plan_windows.LEVEL_ROWS: the candidates'
-# calls made and held as many curves' geometry): by windows (_by_windows), ~70 a call on the
+# calls made and held as many curves' geometry; and a window's strokes at most): by windows (_by_windows), ~70 a call on the
 # rectilinear plate, ~140 on the gyroid, their fixed costs and the windows' loads were ~3x a
 # batch's time (plan_curve_segments and _rebuild_geometry: benchmarks/lines57.md)
 CURVE_ROWS = 512

@@ -1,5 +1,5 @@
 """A windowed run's curves (issue 8, lines57): schedule._curve_calls segments the curves to
-re-time in calls of at most CURVE_ROWS rows whatever their windows (not a call a window:
+re-time in calls of at most CURVE_ROWS rows (and a window's) whatever their windows (not a call a window:
 _by_windows), their strokes made of their records where sparse (no window loaded) and given
 their geometry in one batch first; the plan the list gives, bit for bit."""
 import numpy as np
@@ -10,13 +10,16 @@ from gcode_opt.laws import circle
 
 from test_speed52_runs52_windows import _ref, plan_bits, runs
 
-NAME, PROF, WINDOW, ROWS = "prusa_gyroid.gcode", "prusa-mk3s", 37, 16
+NAME, PROF, WINDOW = "prusa_gyroid.gcode", "prusa-mk3s", 37
 
 
 @pytest.mark.skipif(not circle.rows_invariant(), reason="this BLAS does not give rows their own bits: one batch")
-def test_curves_in_calls_of_at_most_curve_rows(monkeypatch):
+@pytest.mark.parametrize("curve_rows", [16, 10 ** 6])
+def test_curves_in_calls_of_at_most_curve_rows(monkeypatch, curve_rows):
+    """Calls of CURVE_ROWS rows, or of a window's where fewer (no more strokes made at once)."""
     ref = _ref(NAME, PROF, WINDOW)
-    monkeypatch.setattr(sc, "CURVE_ROWS", ROWS)
+    monkeypatch.setattr(sc, "CURVE_ROWS", curve_rows)
+    ROWS = min(curve_rows, WINDOW)
     runs_seen = []              # a run's curves: (rows asked, [rows a segments call], windows loaded)
     kind = sc.KINDS[sc.K_CURVE]
     segments, curve_calls = kind.segments, sc._curve_calls
@@ -41,7 +44,7 @@ def test_curves_in_calls_of_at_most_curve_rows(monkeypatch):
     assert got["segs"] == ref["segs"]
     assert got == ref
     seen = [r for r in runs_seen if r[0]]
-    assert seen and max(r[0] for r in seen) > 2 * ROWS       # (rows of many windows asked at once)
+    assert seen and max(r[0] for r in seen) > ROWS           # (rows of several windows asked at once)
     for n_rows, calls, loaded in seen:
         assert calls == [min(ROWS, n_rows - a) for a in range(0, n_rows, ROWS)]
         assert loaded == 0                                  # (sparse: made of their records)

@@ -3036,8 +3036,13 @@ def _kept_caps(sts, gs, profile):
     """_chain_caps as the geometries keep them (arrays, or the bytes of their doubles)."""
     out = [None] * len(sts)
     jerk = profile.junction == "jerk"
+    # (the blocks' rows first: the chains whose caps went and whose whole-jerk caps were not
+    # read are none of those, and are then looked for among the rest only, not by a row view
+    # of its block's caps_jerk1 a chain, ~32 k on the windowed gyroid plate)
+    _block_rows_caps(sts, gs, out, jerk)
     if jerk:
-        gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
+        gone = [q for q, (g, c) in enumerate(zip(gs, out)) if c is None and g.chain_caps is None
+                and g.caps_jerk1 is None]
         if len(gone) > 1:
             got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
                                          [gs[q].d for q in gone], 1.0)
@@ -3045,7 +3050,6 @@ def _kept_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    _block_rows_caps(sts, gs, out, jerk)
     for q, (g, c) in enumerate(zip(gs, out)):
         if c is None:
             c = g.chain_caps

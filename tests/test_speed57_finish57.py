@@ -140,3 +140,31 @@ def test_windowed_command_same_bits(monkeypatch, tmp_path):
     assert len(made) >= 2 and max(made) > 5
     assert got[0] == want[0]
     assert got[1] == want[1]
+
+
+def test_kept_caps_read_no_block_rows_jerk1(monkeypatch):
+    """chains._kept_caps makes the caps of the chains whose caps are their geometry block's
+    rows without reading those chains' caps at the whole jerk (a row view of the block's
+    caps_jerk1 each); the mixed chains' caps are still vertex_caps' own."""
+    import copy
+    from gcode_opt import curves
+    from test_speed55_geoms55 import _bits, _chain_geoms
+    prof, sts = _chain_geoms("prusa-mk3s", 160)
+    for k, st in enumerate(sts):
+        if k % 4 == 2:
+            st.curv.caps_jerk1 = None                    # gone: made again
+        elif k % 4 == 3:
+            st.curv = curves.CurveGeom(st, prof)         # its own (no caps at the whole jerk)
+    ref = [copy.copy(st) for st in sts]
+    for st, r in zip(sts, ref):
+        r.curv = copy.copy(st.curv)
+    want = [np.array(chains.vertex_caps(st, prof)) for st in ref]
+    read = []
+    prop = curves.CurveGeom.caps_jerk1
+    monkeypatch.setattr(curves.CurveGeom, "caps_jerk1",
+                        property(lambda g: read.append(g) or prop.fget(g), prop.fset))
+    block_rows = {id(st.curv) for k, st in enumerate(sts) if k % 4 in (0, 1)}
+    got = chains._kept_caps(sts, [st.curv for st in sts], prof)
+    assert read and not block_rows & set(map(id, read))
+    for g, w in zip(got, want):
+        assert _bits(chains._caps_array(g), w)

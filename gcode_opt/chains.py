@@ -2849,7 +2849,7 @@ class _Finisher:
         """_finish of each batch rs of groups, in their order; under grouped finishing the
         numbers of consecutive batches made in one _finish_ragged call, up to RAGGED_CELLS
         segments a call (a window's ~30 segment counts: a call or two, not one a count).
-        With a spill, the kept laws of all of them are kept together (_keep_runs)."""
+        With a spill, the kept laws of all of them are kept together (_keep)."""
         done = []
         i = 0
         while i < len(groups):
@@ -2861,10 +2861,10 @@ class _Finisher:
             if j - i > 1:
                 got = _finish_ragged([self._batch(rs) for rs in groups[i:j]], self.rules, self.profile)
             for q in range(i, j):
-                fin = self._finish(groups[q], None if got is None else got[q - i][2:4])
+                fin = self._finish(groups[q]) if got is None else self._finish(groups[q], got[q - i][2:4])
                 if self.spill is None:
                     self._keep(fin)
-                else:
+                elif fin:
                     done += fin
             i = j
         self._keep(done)
@@ -2916,7 +2916,9 @@ class _Finisher:
         """The chains' memos and kept laws of the finished rows done (_finish's answer): a
         base a group of rows (r), or with a spill, bases of several groups' rows, up to
         FINISH_ROWS rows a base (_keep_run: a windowed call's ~33 groups, one a segment
-        count on the gyroid plate, in a base or two)."""
+        count on the gyroid plate, in a base or two).  None: nothing (kept already)."""
+        if not done:
+            return
         if self.spill is None:
             for r, tr, a2r, good in done:
                 self._keep_run([(r, tr, a2r, good)])

@@ -2923,13 +2923,16 @@ class _Finisher:
             for r, tr, a2r, good in done:
                 self._keep_run([(r, tr, a2r, good)])
             return
-        run, R = [], 0
+        run, R, nbytes = [], 0, 0
         for d in done:
-            if run and R + d[0].rj.size > FINISH_ROWS:     # (a memo's place in the rows: a shared int)
+            b = _kept_bytes(d[0])
+            # (a memo's place in the rows: a shared int; the block a replay reads: cached)
+            if run and (R + d[0].rj.size > FINISH_ROWS or nbytes + b > KEPT_BLOCK_BYTES):
                 self._keep_run(run)
-                run, R = [], 0
+                run, R, nbytes = [], 0, 0
             run.append(d)
             R += d[0].rj.size
+            nbytes += b
         if run:
             self._keep_run(run)
 
@@ -2981,6 +2984,18 @@ class _Finisher:
                                mask.bits])
         tj, a2, spans, mask.bits = got
         return (mask, tj, spans, None, None, None, a2, self.profile)
+
+
+# a merged kept-laws base's spill block at most (_Finisher._keep), about: the replays read a
+# base's block whole for its rows, kept in the spill's cache (LawSpill.CACHE_BYTES)
+KEPT_BLOCK_BYTES = 1 << 17
+
+
+def _kept_bytes(r):
+    """The bytes the kept laws of the rows r (_Rows) take in a spill block: each row's pieces'
+    durations, its ∫|a|², its pieces' place and number, its binding bits."""
+    R = r.rj.size
+    return 8 * int(r.spans[:, 1].sum()) + 16 * R + (R * r.bnd.shape[1] + 7) // 8
 
 
 def _flat_chains(sts, profile, gs=None):

@@ -110,6 +110,21 @@ def test_merged_bases_are_the_groups_laws(monkeypatch, tmp_path, solve_segs):
     assert [np.asarray(x).tobytes() for x in got] == [np.asarray(x).tobytes() for x in ref]
 
 
+def test_merged_bases_blocks_bounded(monkeypatch, tmp_path):
+    """A merged base's spill block (what a replay reads whole) holds at most KEPT_BLOCK_BYTES:
+    with a small bound, more bases of fewer groups, the same tables and laws."""
+    (tmp_path / "a").mkdir()
+    want_tables, want_laws, _, want_kept = _windowed(monkeypatch, True, folder=tmp_path / "a")
+    monkeypatch.setattr(chains, "KEPT_BLOCK_BYTES", 3000)
+    (tmp_path / "b").mkdir()
+    tables, laws, _, kept = _windowed(monkeypatch, True, folder=tmp_path / "b")
+    merged = [b for b in _bases(kept) if type(b[0]) is chains._RaggedMask]
+    assert len(merged) > 2 and len(_bases(kept)) > len(_bases(want_kept))
+    assert all(b[1].blk[1] <= 3000 and b[1].blk == b[0].bits.blk for b in merged)
+    assert max(b[1].blk[1] for b in _bases(want_kept)) > 3 * 3000
+    assert tables == want_tables and laws == want_laws
+
+
 def test_windowed_command_same_bits(monkeypatch, tmp_path):
     """The windowed command (window 64, chain calls of 50 chains: their kept laws in merged
     bases) writes the list path's bytes and summary."""

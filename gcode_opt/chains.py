@@ -2946,7 +2946,12 @@ class _Finisher:
         kept = _KeptLaws(self.key, kb, 0, sum(d[0].rj.size for d in run))
         for d in run:
             d[0].bnd = None
-        _remember_runs([(r.sts, r.j, r.rc, tr, good, r.T, r.beta, r.a) for r, tr, _, good in run], kept, self.src)
+        if len(run) == 1:
+            r, tr, _, good = run[0]
+            _remember(r.sts, r.j, r.rc, tr, good, r.T, r.beta, kept, self.src, r.a)
+        else:
+            _remember_runs([(r.sts, r.j, r.rc, tr, good, r.T, r.beta, r.a) for r, tr, _, good in run], kept,
+                           self.src)
 
     def _kept_base(self, r, a2):
         """The kept laws' base of the rows r (_KeptLaws: binding bits, pieces' durations,
@@ -3338,7 +3343,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
 
 def _remember_runs(runs, kept, src=None):
     """_remember of the rows of several finishing groups kept in one base (kept; a windowed
-    _Finisher's merged base, _Finisher._keep_runs): run (sts, j, c, t, good, T, beta, a)
+    _Finisher's merged base, _Finisher._keep): run (sts, j, c, t, good, T, beta, a)
     (as _remember's arguments) holds kept's rows after those of the runs before it; one
     memo rows array for them all, each run's rows as _remember lays them out."""
     blocks, R = [], 0

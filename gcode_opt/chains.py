@@ -440,6 +440,42 @@ class _PackedMask:
         return np.unpackbits(self.bits[rows], axis=-1, count=self.shape[1]).view(bool)
 
 
+class _RaggedMask:
+    """The binding masks of a kept laws' base whose rows are runs of several segment counts
+    (_Finisher._merged_base: a windowed call's groups in one base) held as one run of bits:
+    run g is rows at[g]..at[g + 1] of w[g] bools each, every row's bools after the row
+    before's (np.packbits of them all: bits, or its _SpilledRows).  Indexing rows of one
+    width gives them as _PackedMask's (rows, width) bools; rows_flat any rows' bools laid
+    end to end: the same values."""
+    __slots__ = ("bits", "at", "w")
+
+    def __init__(self, flat, at, w):
+        self.bits = np.packbits(flat)
+        self.at, self.w = at, w                 # (int64: G + 1 and G, ~30 runs)
+
+    def widths(self, qq):
+        """The widths (bools a row) of the rows qq (int64)."""
+        return self.w.take(np.searchsorted(self.at, qq, side="right") - 1)
+
+    def rows_flat(self, qq, bits=None):
+        """(the bools of the rows qq (int64) one row after the other, each row's width);
+        bits: the mask's bits already read (None: read here)."""
+        g = np.searchsorted(self.at, qq, side="right") - 1
+        w = self.w.take(g)
+        first = _offsets(np.diff(self.at) * self.w)        # each run's first bit
+        if bits is None:
+            bits = self.bits[:] if type(self.bits) is _SpilledRows else self.bits
+        flat = np.unpackbits(bits, count=int(first[-1])).view(bool)
+        return flat[_ranges(first.take(g) + (qq - self.at.take(g)) * w, w)], w
+
+    def __getitem__(self, rows):
+        qq = np.asarray(rows, np.int64).reshape(-1)
+        flat, w = self.rows_flat(qq)
+        if w.size and np.any(w != w[0]):
+            raise IndexError("rows of several widths")
+        return flat.reshape(qq.size, int(w[0]) if w.size else 0)
+
+
 class _Cells:
     """Cells of a table held as their places in it: cell q is table[row[q], col[q]] (the
     kept laws' T and beta, cells of _figures' (chains, columns) tables, which their
@@ -1110,7 +1146,7 @@ def _rows_laws(kept, rows):
     del heads
     nv = np.empty(m, np.int64)                  # vertices a row
     for b, ii in groups:
-        nv[ii] = b[0].shape[1]
+        nv[ii] = b[0].widths(qq_all[ii]) if type(b[0]) is _RaggedMask else b[0].shape[1]
     voff = _offsets(nv)
     TL, beta, tp, a2 = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     bound = np.empty(int(voff[-1]), bool)
@@ -1119,9 +1155,10 @@ def _rows_laws(kept, rows):
     for b, ii in groups:
         qq = qq_all[ii]
         TL[ii], beta[ii], tp[ii], a2[ii], mask, sp, piece_t = _base_rows(b, qq)
-        w = b[0].shape[1]
-        if w:
-            bound[(voff[ii][:, None] + np.arange(w)).ravel()] = mask.ravel()
+        if type(mask) is tuple:             # (a merged base's rows: their bools end to end, widths)
+            bound[_ranges(voff[ii], mask[1])] = mask[0]
+        elif b[0].shape[1]:
+            bound[(voff[ii][:, None] + np.arange(b[0].shape[1])).ravel()] = mask.ravel()
         p0 = sp[:, 0].astype(np.int64)
         cnt[ii] = sp[:, 1]
         parts.append((ii, p0, piece_t))
@@ -1135,18 +1172,21 @@ def _rows_laws(kept, rows):
 
 def _base_rows(b, qq):
     """The rows qq of a kept laws' base b (of 8): (T, beta, predicted times, ∫|a|², binding
-    masks (bools), pieces' places, the pieces' durations (indexable)).  A windowed run's
+    masks (bools; a merged base's, _RaggedMask: (their bools end to end, widths)), pieces'
+    places, the pieces' durations (indexable)).  A windowed run's
     base (_Finisher._kept_base with a spill, its T, beta and times _figs_base's) read in two
     steps: the three figures' columns by one lookup of their memo rows (_FigsCol), the
     four spilled arrays of its block as views of the block read once (_SpilledRows, a
     PackedMask's bits) -- the same numbers as each one indexed (~900 bases in a windowed
     gyroid run's replays, ~10 reads each)."""
     T, B, P, spilled = b[3], b[4], b[5], (b[1], b[2], b[6], getattr(b[0], "bits", None))
+    ragged = type(b[0]) is _RaggedMask
     if not (type(T) is type(B) is type(P) is _FigsCol and T.rows is B.rows is P.rows
-            and (T.col, B.col, P.col) == (1, 2, 0) and type(b[0]) is _PackedMask
+            and (T.col, B.col, P.col) == (1, 2, 0) and type(b[0]) in (_PackedMask, _RaggedMask)
             and all(type(x) is _SpilledRows for x in spilled)
             and len({(x.spill, x.blk) for x in spilled}) == 1):
-        return b[3][qq], b[4][qq], b[5][qq], b[6][qq], b[0][qq], b[2][qq], b[1]
+        mask = b[0].rows_flat(np.asarray(qq, np.int64)) if ragged else b[0][qq]
+        return b[3][qq], b[4][qq], b[5][qq], b[6][qq], mask, b[2][qq], b[1]
     at = T.rows.pos()[qq]
     if np.any(at < 0):
         raise IndexError("kept row not in the memos' rows")
@@ -1156,8 +1196,9 @@ def _base_rows(b, qq):
     tj, sp, a2, bits = (x._view(data) for x in spilled)
     qq = np.asarray(qq, np.intp)
     # (fancy indexes: copies, not views of the cached block)
-    return (figs[at + 1], figs[at + 2], figs[at], a2[qq],
-            np.unpackbits(bits[qq], axis=-1, count=b[0].shape[1]).view(bool), sp[qq], tj)
+    mask = (b[0].rows_flat(qq.astype(np.int64), bits) if ragged
+            else np.unpackbits(bits[qq], axis=-1, count=b[0].shape[1]).view(bool))
+    return figs[at + 1], figs[at + 2], figs[at], a2[qq], mask, sp[qq], tj
 
 
 def _join_caps(caps):
@@ -2787,11 +2828,11 @@ class _Finisher:
 
     def add(self, r):
         if not self.grouped:
-            self._finish([r])
+            self._keep(self._finish([r]))
             return
         rs, cnt = self.wait.get(r.n, ([], 0))
         if rs and cnt + r.rj.size > _batch_rows(r.n):
-            self._finish(rs)
+            self._keep(self._finish(rs))
             rs, cnt = [], 0
         rs.append(r)
         self.wait[r.n] = (rs, cnt + r.rj.size)
@@ -2807,7 +2848,9 @@ class _Finisher:
     def _finish_all(self, groups):
         """_finish of each batch rs of groups, in their order; under grouped finishing the
         numbers of consecutive batches made in one _finish_ragged call, up to RAGGED_CELLS
-        segments a call (a window's ~30 segment counts: a call or two, not one a count)."""
+        segments a call (a window's ~30 segment counts: a call or two, not one a count).
+        With a spill, the kept laws of all of them are kept together (_keep)."""
+        done = []
         i = 0
         while i < len(groups):
             j, cells = i + 1, _batch_cells(groups[i])
@@ -2818,11 +2861,13 @@ class _Finisher:
             if j - i > 1:
                 got = _finish_ragged([self._batch(rs) for rs in groups[i:j]], self.rules, self.profile)
             for q in range(i, j):
-                if got is None:
-                    self._finish(groups[q])
-                else:
-                    self._finish(groups[q], got[q - i][2:4])
+                fin = self._finish(groups[q]) if got is None else self._finish(groups[q], got[q - i][2:4])
+                if self.spill is None:
+                    self._keep(fin)
+                elif fin:
+                    done += fin
             i = j
+        self._keep(done)
 
     def _batch(self, rs):
         """The batch rs as _finish_stacked_dt takes it: (sts, gs, own, vk, dt)."""
@@ -2838,8 +2883,9 @@ class _Finisher:
         return sts, gs, own, vk, dt
 
     def _finish(self, rs, got=None):
-        """Put the batch rs's rows in the table and the chains' memos; got: their (t, a2)
-        if made (_finish_all), else finished here."""
+        """Put the batch rs's rows in the table: [(r, its predicted times, ∫|a|², which of
+        its rows are good)] for _keep; got: their (t, a2) if made (_finish_all), else
+        finished here."""
         profile, rules = self.profile, self.rules
         if got is not None:
             t, a2 = got
@@ -2851,7 +2897,7 @@ class _Finisher:
             r = rs[0]
             _, _, t, a2, _ = _finish_rows_dt(r.sts[int(r.J[0])], r.vk, r.dt, rules, profile)
         tab = self.tab
-        lo = 0
+        lo, out = 0, []
         for r in rs:
             R = r.rj.size
             tr, a2r = t[lo:lo + R], a2[lo:lo + R]
@@ -2862,13 +2908,50 @@ class _Finisher:
                 tab.put(r.a + j, r.rc, tr, a2r, r.iv)
             else:
                 tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
-            # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
-            # one _KeptLaws for the rows of all these chains, each row its batch row)
-            # (its rows' T, beta and predicted times: the memos' rows, _remember; memo52)
-            kb = self._kept_base(r, a2r)
-            r.vk = r.dt = r.bnd = None
-            _remember(r.sts, j, r.rc, tr, good, r.T, r.beta, _KeptLaws(self.key, kb, 0, R), self.src, r.a)
+            r.vk = r.dt = None
+            out.append((r, tr, a2r, good))
+        return out
 
+    def _keep(self, done):
+        """The chains' memos and kept laws of the finished rows done (_finish's answer): a
+        base a group of rows (r), or with a spill, bases of several groups' rows, up to
+        FINISH_ROWS rows a base (_keep_run: a windowed call's ~33 groups, one a segment
+        count on the gyroid plate, in a base or two).  None: nothing (kept already)."""
+        if not done:
+            return
+        if self.spill is None:
+            for r, tr, a2r, good in done:
+                self._keep_run([(r, tr, a2r, good)])
+            return
+        run, R, nbytes = [], 0, 0
+        for d in done:
+            b = _kept_bytes(d[0])
+            # (a memo's place in the rows: a shared int; the block a replay reads: cached)
+            if run and (R + d[0].rj.size > FINISH_ROWS or nbytes + b > KEPT_BLOCK_BYTES):
+                self._keep_run(run)
+                run, R, nbytes = [], 0, 0
+            run.append(d)
+            R += d[0].rj.size
+            nbytes += b
+        if run:
+            self._keep_run(run)
+
+    def _keep_run(self, run):
+        """One kept laws' base for the finished rows of run [(r, t, a2, good)] (_finish's), and
+        the memos of their good rows: its rows r's after r's before it."""
+        # (the rows' laws, not their knots: ~1/3 of the bytes, held until a plan is made;
+        # one _KeptLaws for the rows of all these chains, each row its batch row)
+        # (its rows' T, beta and predicted times: the memos' rows, _remember; memo52)
+        kb = self._kept_base(run[0][0], run[0][2]) if len(run) == 1 else self._merged_base(run)
+        kept = _KeptLaws(self.key, kb, 0, sum(d[0].rj.size for d in run))
+        for d in run:
+            d[0].bnd = None
+        if len(run) == 1:
+            r, tr, _, good = run[0]
+            _remember(r.sts, r.j, r.rc, tr, good, r.T, r.beta, kept, self.src, r.a)
+        else:
+            _remember_runs([(r.sts, r.j, r.rc, tr, good, r.T, r.beta, r.a) for r, tr, _, good in run], kept,
+                           self.src)
 
     def _kept_base(self, r, a2):
         """The kept laws' base of the rows r (_KeptLaws: binding bits, pieces' durations,
@@ -2882,6 +2965,42 @@ class _Finisher:
         # (the 8-byte arrays first: each array aligned in its block's bytes)
         tj, a2, spans, mask.bits = self.spill.put_block([tj, a2, spans, mask.bits])
         return (mask, tj, spans, None, None, None, a2, self.profile)
+
+    def _merged_base(self, run):
+        """_kept_base of the rows of several groups run [(r, t, a2, good)] (a spill's): their
+        masks' bits as one run (_RaggedMask), their pieces, places and ∫|a|² one after the
+        other, one spill block (the pieces of the rows of one chunk gathered by one call)."""
+        spill, tjs, sps, at, k = self.spill, [], [], 0, 0
+        while k < len(run):
+            e = k + 1
+            while e < len(run) and run[e][0].tj is run[k][0].tj:
+                e += 1
+            sp = run[k][0].spans if e == k + 1 else np.concatenate([d[0].spans for d in run[k:e]])
+            tj, sp = spill.pieces(run[k][0].tj, sp)
+            sp[:, 0] += at
+            at += tj.size
+            tjs.append(tj)
+            sps.append(sp)
+            k = e
+        mask = _RaggedMask(np.concatenate([d[0].bnd.ravel() for d in run]),
+                           _offsets(np.array([d[0].rj.size for d in run], np.int64)),
+                           np.array([d[0].bnd.shape[1] for d in run], np.int64))
+        got = spill.put_block([np.concatenate(tjs), np.concatenate([d[2] for d in run]), np.concatenate(sps),
+                               mask.bits])
+        tj, a2, spans, mask.bits = got
+        return (mask, tj, spans, None, None, None, a2, self.profile)
+
+
+# a merged kept-laws base's spill block at most (_Finisher._keep), about: the replays read a
+# base's block whole for its rows, kept in the spill's cache (LawSpill.CACHE_BYTES)
+KEPT_BLOCK_BYTES = 1 << 17
+
+
+def _kept_bytes(r):
+    """The bytes the kept laws of the rows r (_Rows) take in a spill block: each row's pieces'
+    durations, its ∫|a|², its pieces' place and number, its binding bits."""
+    R = r.rj.size
+    return 8 * int(r.spans[:, 1].sum()) + 16 * R + (R * r.bnd.shape[1] + 7) // 8
 
 
 def _flat_chains(sts, profile, gs=None):
@@ -2939,8 +3058,13 @@ def _kept_caps(sts, gs, profile):
     """_chain_caps as the geometries keep them (arrays, or the bytes of their doubles)."""
     out = [None] * len(sts)
     jerk = profile.junction == "jerk"
+    # (the blocks' rows first: the chains whose caps went and whose whole-jerk caps were not
+    # read are none of those, and are then looked for among the rest only, not by a row view
+    # of its block's caps_jerk1 a chain, ~32 k on the windowed gyroid plate)
+    _block_rows_caps(sts, gs, out, jerk)
     if jerk:
-        gone = [q for q, g in enumerate(gs) if g.chain_caps is None and g.caps_jerk1 is None]
+        gone = [q for q, (g, c) in enumerate(zip(gs, out)) if c is None and g.chain_caps is None
+                and g.caps_jerk1 is None]
         if len(gone) > 1:
             got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
                                          [gs[q].d for q in gone], 1.0)
@@ -2948,7 +3072,6 @@ def _kept_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    _block_rows_caps(sts, gs, out, jerk)
     for q, (g, c) in enumerate(zip(gs, out)):
         if c is None:
             c = g.chain_caps
@@ -3215,24 +3338,43 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
     predicted time, law T, beta, and its row in kept (the batch's kept laws, shared by its
     chains: the batch row); rows of one chain are consecutive in j.  src: the _Source of
     the rows (chain sts[jj] is its row a + jj)."""
-    R = j.size
-    first = _run_starts(j)
-    # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
-    # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
-    # gathered at them; the row its index, exact as a float)
-    q = good.nonzero()[0]               # (np.flatnonzero's, without its Python wrappers)
-    q = q[np.lexsort((-q, j[q]))]
-    jq, cq = j[q], c[q]
-    rows = np.empty((q.size, 4))      # (np.stack's columns, written in place: its set-up a group)
-    rows[:, 0] = t.take(q)
-    rows[:, 1:3] = _at_both(T, beta, jq, cq)
-    rows[:, 3] = q
+    _remember_runs([(sts, j, c, t, good, T, beta, a)], kept, src)
+
+
+def _remember_runs(runs, kept, src=None):
+    """_remember of the rows of several finishing groups kept in one base (kept; a windowed
+    _Finisher's merged base, _Finisher._keep): run (sts, j, c, t, good, T, beta, a)
+    (as _remember's arguments) holds kept's rows after those of the runs before it; one
+    memo rows array for them all, each run's rows as _remember lays them out."""
+    blocks, R = [], 0
+    for _, j, c, t, good, T, beta, _ in runs:
+        # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
+        # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
+        # gathered at them; the row its index, exact as a float)
+        q = good.nonzero()[0]               # (np.flatnonzero's, without its Python wrappers)
+        q = q[np.lexsort((-q, j[q]))]
+        jq, cq = j[q], c[q]
+        rows = np.empty((q.size, 4))      # (np.stack's columns, written in place: its set-up a group)
+        rows[:, 0] = t.take(q)
+        rows[:, 1:3] = _at_both(T, beta, jq, cq)
+        rows[:, 3] = q + R
+        blocks.append((rows, jq))
+        R += j.size
     figs = array("d")
-    figs.frombytes(rows.tobytes())
+    for rows, _ in blocks:
+        figs.frombytes(rows.tobytes())
     if type(kept) is _KeptLaws and len(kept.base) == 8 and kept.base[3] is None:
         kept.base = _figs_base(kept.base, figs, R)
-    cnt = np.bincount(jq, None, j[-1] + 1 if R else 0).tolist()
     lo = 0
+    for (sts, j, _, _, _, _, _, a), (_, jq) in zip(runs, blocks):
+        lo = _put_memos(sts, j, jq, figs, lo, kept, src, a)
+
+
+def _put_memos(sts, j, jq, figs, lo, kept, src, a):
+    """Each chain sts[jj] of the rows j whose good rows' chains are jq (_remember_runs' order)
+    keeps its rows of figs, from row lo on (_remember); the row after them."""
+    first = _run_starts(j)
+    cnt = np.bincount(jq, None, j[-1] + 1 if j.size else 0).tolist()
     for jj in j[first].tolist():
         k = cnt[jj]
         if k:
@@ -3249,6 +3391,7 @@ def _remember(sts, j, c, t, good, T, beta, kept, src=None, a=0):
                     _own_source(memo, src, a + jj)
                 memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
+    return lo
 
 
 class _FigsRows:

@@ -119,7 +119,7 @@ def test_shared_small_objects(monkeypatch, tmp_path):
     assert len(memos) > 300 and max(m.src_i for m in memos) > 256
     assert all(m.src_i is chains._ROW_INTS[m.src_i] for m in memos)
     bases = {id(k.base): k.base for k in kept if type(k) is chains._KeptLaws}.values()
-    assert len(bases) > 10
+    assert len(bases) >= 2          # (finish57: a call's groups kept in bases of up to FINISH_ROWS rows)
     for i in (1, 2, 6):
         assert len({id(b[i].kind) for b in bases}) == 1
 

@@ -175,13 +175,14 @@ def test_base_rows_of_spilled_laws(monkeypatch, tmp_path):
     from test_speed55_memo55_spill import _windowed
     _, _, _, kept = _windowed(monkeypatch, True, folder=tmp_path)
     bases = list({id(k.base): k.base for k in kept if type(k) is sc.chains._KeptLaws}.values())
-    assert len(bases) > 10
+    assert len(bases) > 3           # (finish57: a call's groups in bases of up to FINISH_ROWS rows)
+    assert any(type(b[0]) is sc.chains._RaggedMask for b in bases)
     rng = np.random.default_rng(5)
     want = []
     for b in bases:
         qq = np.flatnonzero(b[3].rows.pos() >= 0)
         qq = rng.permutation(qq)[:max(1, qq.size // 2)]
-        want.append((qq, [np.asarray(x).tobytes() for x in (b[3][qq], b[4][qq], b[5][qq], b[6][qq], b[0][qq],
+        want.append((qq, [np.asarray(x).tobytes() for x in (b[3][qq], b[4][qq], b[5][qq], b[6][qq], _mask_rows(b, qq),
                                                             b[2][qq], b[1][np.arange(len(b[1]))])]))
 
     def no(*a):
@@ -191,4 +192,23 @@ def test_base_rows_of_spilled_laws(monkeypatch, tmp_path):
     for b, (qq, bits) in zip(bases, want):
         got = sc.chains._base_rows(b, qq)
         tj = got[6][np.arange(got[6].shape[0])]
-        assert [np.asarray(x).tobytes() for x in got[:6] + (tj,)] == bits
+        mask = (got[4][0].tobytes() + np.asarray(got[4][1], np.int64).tobytes() if type(got[4]) is tuple
+                else got[4].tobytes())          # (a merged base's: bools, widths)
+        assert [np.asarray(x).tobytes() for x in got[:4]] + [mask] + [x.tobytes() for x in (got[5], tj)] == bits
+
+
+def _mask_rows(b, qq):
+    """The binding masks of the rows qq of the base b: a _PackedMask's rows, or a merged base's
+    (_RaggedMask) rows' bools one after the other then their widths, cut row by row from its
+    bits unpacked whole."""
+    if type(b[0]) is not sc.chains._RaggedMask:
+        return b[0][qq]
+    m = b[0]
+    bools = np.unpackbits(np.asarray(m.bits[np.arange(len(m.bits))])).astype(bool)
+    rows, at = [], 0
+    for g in range(m.w.size):
+        for _ in range(int(m.at[g + 1] - m.at[g])):
+            rows.append((bools[at:at + int(m.w[g])], int(m.w[g])))
+            at += int(m.w[g])
+    return np.concatenate([np.concatenate([rows[q][0] for q in qq]).astype(bool).view(np.uint8),
+                           np.array([rows[q][1] for q in qq], np.int64).view(np.uint8)])

@@ -1302,12 +1302,12 @@ def _curve_calls(segments, strokes, plan, rules, profile, n):
     """A windowed run's curves' plans (rows sorted -> a plan a row): segments (plan_curve_
     segments) of the strokes rows in calls of at most n rows, whatever their windows, each
     call's strokes made of their records where sparse (_stored_rows: no window loaded) and
-    given their geometry in one batch (_rebuild_geometry; the store keeps none).  Every
+    given their geometry in one batch (_rebuild_geometry: read back where kept).  Every
     row's plan is its own where the BLAS gives a row its own bits (circle.rows_invariant);
     else the rows in one call, as _by_windows solves them."""
     def call(rows):
         sts = _stored_rows(strokes, rows)
-        _rebuild_geometry(sts, np.arange(len(sts)), np.full(len(sts), C_CURVE, np.int8), profile)
+        _rebuild_geometry(strokes, rows, np.full(len(sts), C_CURVE, np.int8), profile, sts)
         return segments(sts, plan.T[rows], plan.beta[rows], rules, profile)
 
     def calls(rows):

@@ -8,7 +8,6 @@ keeping every plan: schedule.LAZY_LINES and LAZY_CHAINS off) on chain-heavy samp
 windows (chains cross windows): the same figures, every row's plan the same bits made again by
 windows of any size, at most one window's chain plans held; the rewrite from the store and the
 windowed command write the same bytes (the command: the list path's)."""
-import json
 import os
 
 import numpy as np
@@ -17,7 +16,8 @@ import pytest
 from gcode_opt import chains
 from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
-from gcode_opt.profile import load_profile
+
+from windowed_run import run_command
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import FIGURES, SAMPLES, _rewritten, _stored_plan
@@ -111,16 +111,8 @@ def test_windowed_command_with_lazy_chains(name, window, monkeypatch, tmp_path):
     monkeypatch.setattr(pl, "plan_strokes", spy)
 
     def run(windowed):
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", str(window))
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"{name}.{windowed}.gcode"
-        s = pl.process(os.path.join(SAMPLES, name), str(out), load_profile("prusa-mk3s"), pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, os.path.join(SAMPLES, name),
+                           tmp_path / f"{name}.{windowed}.gcode", windowed, window)
     want = run(False)
     assert made and all(r is None for r in made)
     made.clear()

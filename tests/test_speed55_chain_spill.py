@@ -6,7 +6,6 @@ again.  Here: the plans read back are the plans made again bit for bit (arrays, 
 fault verdict), a record of another law is not read back, plans the records do not hold are
 left out, a later record of a row replaces it, a failed write loses every record (the rows are
 planned again), and the windowed command's rewrite plans no chain."""
-import json
 import os
 
 import numpy as np
@@ -17,6 +16,8 @@ from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
 from gcode_opt.profile import load_profile
 from gcode_opt.segments import RowPlan, SegmentPlan
+
+from windowed_run import run_command
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import SAMPLES, _stored_plan
@@ -188,16 +189,8 @@ def test_windowed_rewrite_reads_the_spill(name, window, monkeypatch, tmp_path):
 
     def run(windowed):
         after[0] = False
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", str(window))
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"{name}.{windowed}.gcode"
-        s = pl.process(os.path.join(SAMPLES, name), str(out), load_profile("prusa-mk3s"), pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, os.path.join(SAMPLES, name),
+                           tmp_path / f"{name}.{windowed}.gcode", windowed, window)
     want = run(False)
     planned.clear()
     got = run(True)

@@ -11,7 +11,6 @@ bit for bit (arrays, figures, type, shape); a record of another law is not read 
 the records do not hold are left out; a failed write loses every record; the records of the
 call before are not read again; and the windowed command writes the list path's file with no
 line segmented by its rewrite."""
-import json
 import os
 
 import numpy as np
@@ -20,8 +19,9 @@ import pytest
 from gcode_opt import line_spill as ls
 from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
-from gcode_opt.profile import load_profile
 from gcode_opt.segments import RowPlan, SegmentPlan
+
+from windowed_run import run_command
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import FIGURES, SAMPLES, _plans
@@ -282,16 +282,8 @@ def test_windowed_command_segments_no_line_in_its_rewrite(monkeypatch, tmp_path)
 
     def run(windowed):
         after[0] = False
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", "37")
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"{windowed}.gcode"
-        s = pl.process(os.path.join(SAMPLES, NAME), str(out), load_profile(PROF), pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, os.path.join(SAMPLES, NAME),
+                           tmp_path / f"{windowed}.gcode", windowed, 37, PROF)
     want = run(False)
     made.clear()
     got = run(True)

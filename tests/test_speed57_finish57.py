@@ -3,7 +3,6 @@ together (chains._Finisher._keep: bases of up to FINISH_ROWS rows of several seg
 their binding masks one run of bits, _RaggedMask), not a base a group: the masks read back
 row by row as written, the tables, laws and knots the ones a base a group gives, and the
 windowed command's output the list path's."""
-import json
 import os
 from pathlib import Path
 
@@ -11,9 +10,9 @@ import numpy as np
 import pytest
 
 from gcode_opt import chains
-from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
-from gcode_opt.profile import load_profile
+
+from windowed_run import run_command
 
 from test_speed55_memo55_spill import _MEMOS, _windowed
 
@@ -138,17 +137,8 @@ def test_windowed_command_same_bits(monkeypatch, tmp_path):
     monkeypatch.setattr(chains._Finisher, "_merged_base", spy)
 
     def run(windowed):
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", "64")
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"o.{windowed}.gcode"
-        s = pl.process(os.path.join(SAMPLES, "prusa_gyroid.gcode"), str(out), load_profile("prusa-mk3s"),
-                       pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, os.path.join(SAMPLES, "prusa_gyroid.gcode"),
+                           tmp_path / f"o.{windowed}.gcode", windowed, 64)
     want = run(False)
     assert made == []
     got = run(True)

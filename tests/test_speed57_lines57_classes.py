@@ -5,18 +5,19 @@ them the classes segments.line_classes makes of the strokes, and schedule.plan_s
 a StoredStrokes takes them so (no window loaded), its held windows' changes written back
 first.  Checked here against the strokes' own attributes and line_classes of a list, both
 codecs, and the command windowed against the list path's bytes."""
-import json
 import struct
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from gcode_opt import features as feat, pipeline as pl, schedule as sc, segments, stroke_store as ss, strokes as stm
+from gcode_opt import features as feat, schedule as sc, segments, stroke_store as ss, strokes as stm
 from gcode_opt.pipeline import Options, analyse
 from gcode_opt.profile import load_profile
 from gcode_opt.segments import line_classes, stored_line_classes
 from gcode_opt.stored_strokes import StoredStrokes
+
+from windowed_run import run_command
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_gcode"
@@ -179,16 +180,7 @@ def test_windowed_runs_take_the_classes_from_the_store(monkeypatch, tmp_path):
     monkeypatch.setattr(sc, "line_classes", lambda sts: calls.append("strokes") or line_classes(sts))
 
     def run(windowed):
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", "37")
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"{windowed}.gcode"
-        s = pl.process(str(SAMPLES / NAMES[0]), str(out), load_profile("prusa-mk3s"), pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, SAMPLES / NAMES[0], tmp_path / f"{windowed}.gcode", windowed, 37)
     want = run(False)
     assert calls == ["strokes"]                 # (the list path: line_classes of the strokes)
     calls.clear()

@@ -2,7 +2,6 @@
 re-time in calls of at most CURVE_ROWS rows (and a window's) whatever their windows (not a call a window:
 _by_windows), their strokes made of their records where sparse (no window loaded) and given
 their geometry in one batch first; the plan the list gives, bit for bit."""
-import numpy as np
 import pytest
 
 from gcode_opt import schedule as sc

@@ -8,18 +8,17 @@ verdict, shape) on records of every kind; a run's chain records are the records 
 one by one (compiled fields or not); near records are read in one pread and far ones apart,
 the same plans either way; the lines' read-back is the same without the compiled passes; and
 the windowed command writes the list path's bytes."""
-import json
 import os
 
 import numpy as np
 import pytest
 
 from gcode_opt import line_spill as ls
-from gcode_opt import pipeline as pl
 from gcode_opt import schedule as sc
 from gcode_opt import spill_file as sf
-from gcode_opt.profile import load_profile
 from gcode_opt.segments import RowPlan
+
+from windowed_run import run_command
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import SAMPLES
@@ -215,17 +214,8 @@ def test_windowed_command_writes_the_list_paths_bytes(monkeypatch, tmp_path):
     monkeypatch.setattr(sc._ChainSpill, "take", lambda self, *a: reads.append(1) or take(self, *a))
 
     def run(windowed):
-        if windowed:
-            monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
-            monkeypatch.setenv("GCODE_OPT_WINDOW", "64")
-        else:
-            monkeypatch.delenv("GCODE_OPT_WINDOWED", raising=False)
-        out = tmp_path / f"out{windowed}.gcode"
-        s = pl.process(os.path.join(SAMPLES, "prusa_gyroid.gcode"), str(out), load_profile("prusa-mk3s"),
-                       pl.Options())
-        s = json.loads(json.dumps({k: v for k, v in s.items() if k not in ("timing_s", "elapsed_s", "output")},
-                                  default=str))
-        return out.read_bytes(), s
+        return run_command(monkeypatch, os.path.join(SAMPLES, "prusa_gyroid.gcode"),
+                           tmp_path / f"out{windowed}.gcode", windowed, 64)
     want = run(False)
     got = run(True)
     assert reads and got[0] == want[0] and got[1] == want[1]

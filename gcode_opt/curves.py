@@ -814,33 +814,31 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     for blk, _, ii in made:
         for k, i in enumerate(ii):
             rows[i] = (blk, k)
-    new = CurveGeom.__new__
     for st, r in zip(todo, rows):
-        if r is None:
-            st.curv = CurveGeom(st, profile, caps_jerk1=_own_jerk1(st, profile) if j1 else None)
-            continue
-        g = new(CurveGeom)
-        g._b, g._k = r
-        g.chain_caps = None
-        g._j1 = _FROM_BLOCK
-        st.curv = g
+        st.curv = (CurveGeom(st, profile, caps_jerk1=_own_jerk1(st, profile) if j1 else None) if r is None
+                   else row_geom(*r))
     return [m[:2] for m in made]
 
 
 _PTS = attrgetter("pts")
 
 
+def row_geom(blk, k, chain_caps=None):
+    """The CurveGeom of row k of the block blk (its fields read from the block when asked;
+    chain_caps: its chain's caps, kept as chains' _classify_block keeps them, or None)."""
+    g = CurveGeom.__new__(CurveGeom)
+    g._b = blk
+    g._k = k
+    g.chain_caps = chain_caps
+    g._j1 = _FROM_BLOCK
+    return g
+
+
 def _put_rows(blk, sts):
     """CurveGeom's fields of the strokes sts, row k of blk the k-th's (~21 k strokes on the
     gyroid plate)."""
-    new = CurveGeom.__new__
     for k, st in enumerate(sts):
-        g = new(CurveGeom)
-        g._b = blk
-        g._k = k
-        g.chain_caps = None
-        g._j1 = _FROM_BLOCK
-        st.curv = g
+        st.curv = row_geom(blk, k)
 
 
 def _own_jerk1(st, profile):

@@ -188,7 +188,7 @@ class GeomKeep(SpillFile):
     def _give_rec(self, rec, pos, sts, kappa):
         """The parts of record rec (first double, main doubles, κ doubles) put on the
         strokes sts[pos[row]] (pos: -1 where a window row is not asked) that have none."""
-        from .curves import _BLOCKS, _FROM_BLOCK, CurveGeom, _Blk
+        from .curves import _BLOCKS, _Blk, row_geom
         at, n_main, n_kap = rec
         main = self._pread(at, n_main)
         kap = self._pread(at + n_main, n_kap) if kappa and n_kap else None
@@ -206,7 +206,6 @@ class GeomKeep(SpillFile):
         ends = _ends(cols[C_END0], cols[C_END1], asked)
         chain = self._chain_caps(main[n_main - int(main[2]):], head, bits, asked)
         lim = (self.profile, self.lims)
-        new, from_block = CurveGeom.__new__, _FROM_BLOCK
         r0 = y = 0
         for n, m, flags in head:
             r1 = r0 + m
@@ -246,12 +245,7 @@ class GeomKeep(SpillFile):
             given = 0
             for k, st, c in zip(count(), bsts, map(chain.__getitem__, rs.tolist())):
                 if st.curv is None:
-                    g = new(CurveGeom)
-                    g._b = blk
-                    g._k = k
-                    g.chain_caps = c
-                    g._j1 = from_block
-                    st.curv = g
+                    st.curv = row_geom(blk, k, c)
                     given += 1
             self.given += given
             r0 = r1

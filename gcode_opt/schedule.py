@@ -1192,7 +1192,7 @@ def plan_strokes(strokes, pin, profile, opts, budget_t):
             elif window is not None and k_name in WINDOW_KINDS:
                 fn = _by_windows(fn, window, k_name in _CIRCLE_KINDS,
                                  (lambda r: _rebuild_geometry(strokes, r, kind_by_row[r], profile))
-                                 if k_name in (K_CURVE, K_CHAIN) else None)
+                                 if k_name == K_CHAIN else None)      # (the curves: _curve_calls)
             ii = idx[kind == KIND_CODE[k_name]]
 
             def solve(rows):
@@ -1291,10 +1291,10 @@ def _stored_rows(strokes, rows):
     return list(map(strokes.__getitem__, rows.tolist())) if got is None else got[0].take(rows)
 
 
-# curves' rows a windowed run's segments call at most (plan_windows.LEVEL_ROWS: the candidates'
-# calls made and held as many curves' geometry; and a window's strokes at most): by windows (_by_windows), ~70 a call on the
-# rectilinear plate, ~140 on the gyroid, their fixed costs and the windows' loads were ~3x a
-# batch's time (plan_curve_segments and _rebuild_geometry: benchmarks/lines57.md)
+# curves' rows a windowed run's segments call at most (and a window's strokes at most; the
+# candidates' calls hold as many curves' geometry: plan_windows.LEVEL_ROWS).  A call a window
+# (_by_windows) was ~70 rows on the rectilinear plate, ~140 on the gyroid, and its fixed costs
+# and the windows' loads ~3x a batch's time (plan_curve_segments, _rebuild_geometry: lines57.md)
 CURVE_ROWS = 512
 
 

@@ -249,13 +249,14 @@ def test_kept_caps_by_block_rows_are_each_chains_vertex_caps(profile):
     assert _bits(chains._join_caps(got), np.concatenate(want))
 
 
-def test_kept_caps_mixed_with_made_and_own_geometries():
-    """Chains whose caps are made already (kept as they are), whose caps at the whole
-    jerk went (made again in one batch, not kept), whose geometry is CurveGeom's own:
-    the caps vertex_caps gives each."""
-    prof, sts = _chain_geoms("prusa-mk3s", 120)
+def mixed_chain_geoms(n, made=True):
+    """(profile, n chains of the prusa-mk3s sample, the caps vertex_caps gives each, made on
+    copies): a fourth of them (k % 4 == 1) with their caps made already (made), a fourth
+    whose caps at the whole jerk went, a fourth with CurveGeom's own geometry, the rest
+    their block's rows as classify left them."""
+    prof, sts = _chain_geoms("prusa-mk3s", n)
     for k, st in enumerate(sts):
-        if k % 4 == 1:
+        if k % 4 == 1 and made:
             chains.vertex_caps(st, prof)                 # made: kept
         elif k % 4 == 2:
             st.curv.caps_jerk1 = None                    # gone: made again
@@ -264,7 +265,14 @@ def test_kept_caps_mixed_with_made_and_own_geometries():
     ref = [copy.copy(st) for st in sts]
     for st, r in zip(sts, ref):
         r.curv = copy.copy(st.curv)
-    want = [np.array(chains.vertex_caps(st, prof)) for st in ref]
+    return prof, sts, [np.array(chains.vertex_caps(st, prof)) for st in ref]
+
+
+def test_kept_caps_mixed_with_made_and_own_geometries():
+    """Chains whose caps are made already (kept as they are), whose caps at the whole
+    jerk went (made again in one batch, not kept), whose geometry is CurveGeom's own:
+    the caps vertex_caps gives each."""
+    prof, sts, want = mixed_chain_geoms(120)
     got = chains._kept_caps(sts, [st.curv for st in sts], prof)
     for k, (g, w) in enumerate(zip(got, want)):
         assert _bits(chains._caps_array(g), w)

@@ -151,19 +151,9 @@ def test_kept_caps_read_no_block_rows_jerk1(monkeypatch):
     """chains._kept_caps makes the caps of the chains whose caps are their geometry block's
     rows without reading those chains' caps at the whole jerk (a row view of the block's
     caps_jerk1 each); the mixed chains' caps are still vertex_caps' own."""
-    import copy
     from gcode_opt import curves
-    from test_speed55_geoms55 import _bits, _chain_geoms
-    prof, sts = _chain_geoms("prusa-mk3s", 160)
-    for k, st in enumerate(sts):
-        if k % 4 == 2:
-            st.curv.caps_jerk1 = None                    # gone: made again
-        elif k % 4 == 3:
-            st.curv = curves.CurveGeom(st, prof)         # its own (no caps at the whole jerk)
-    ref = [copy.copy(st) for st in sts]
-    for st, r in zip(sts, ref):
-        r.curv = copy.copy(st.curv)
-    want = [np.array(chains.vertex_caps(st, prof)) for st in ref]
+    from test_speed55_geoms55 import _bits, mixed_chain_geoms
+    prof, sts, want = mixed_chain_geoms(160, made=False)
     read = []
     prop = curves.CurveGeom.caps_jerk1
     monkeypatch.setattr(curves.CurveGeom, "caps_jerk1",

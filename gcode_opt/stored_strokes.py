@@ -26,6 +26,7 @@ from operator import attrgetter, is_not
 
 import numpy as np
 
+from . import objfields
 from .distinct import distinct
 
 _IS_NOT_NONE = partial(is_not, None)
@@ -229,20 +230,24 @@ class HeldRows(StoreWindows):
     def __init__(self, store, window):
         super().__init__(store, window)
         self.slots = [None] * len(store)
-        self._held = []
+        self._held = np.zeros(0, np.intp)
         self.made = 0                 # strokes made (a measure of the access pattern)
 
     def hold(self, rows):
-        """The strokes of rows (and only those) in their slots; the ones held before let go."""
+        """The strokes of rows (and only those) in their slots; the ones held before let go.
+        The slots put by one compiled pass each where built (objfields: the two Python
+        loops were ~1/3 of the windowed rewrite's holds, ~23 k rows on the gyroid plate)."""
         slots = self.slots
-        for r in self._held:
-            slots[r] = None
-        rows = distinct(np.asarray(rows, np.int64))     # (np.unique would import numpy.ma: distinct.py)
-        self._held = rows.tolist()
+        if not objfields.fill_at(slots, self._held, None):
+            for r in self._held.tolist():
+                slots[r] = None
+        rows = distinct(np.asarray(rows, np.int64)).astype(np.intp, copy=False)   # (np.unique would import numpy.ma: distinct.py)
+        self._held = rows
         made = self.store.take(rows) if len(rows) else []
         self.made += len(made)
-        for r, st in zip(self._held, made):
-            slots[r] = st
+        if not objfields.put_at(slots, rows, made):
+            for r, st in zip(rows.tolist(), made):
+                slots[r] = st
 
 
 def curve_geometry(codes, profile, geoms=None):

@@ -97,3 +97,26 @@ def test_odd_values_give_the_loaded_columns(odd):
         cols = StrokeColumns(store)
         _columns_equal(cols, _loaded(store, 3))
     _columns_equal(cols, StrokeColumns(sts))
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_held_rows_hold_only_the_rows_asked(compiled, monkeypatch):
+    """HeldRows.hold (the rewrite's re-timed rows of a window): each call's rows (unsorted,
+    repeated) hold their strokes, every other slot None, with the slots put by objfields'
+    compiled passes or the Python loops"""
+    from gcode_opt import objfields
+    from gcode_opt.stored_strokes import HeldRows
+    if not compiled:
+        monkeypatch.setattr(objfields, "_LIST_PUT", None)
+    strokes = _planned(*CASES[0])[2][:60]
+    with _store(strokes) as store:
+        held = HeldRows(store, 16)
+        for rows in ([5, 3, 3, 40], [], [41, 7, 59, 0, 7], [3]):
+            held.hold(np.array(rows, np.int64))
+            want = sorted(set(rows))
+            assert [i for i, s in enumerate(held.slots) if s is not None] == want
+            for i in want:
+                got, ref = held.slots[i], strokes[i]
+                assert (got.first_idx, got.last_idx, got.x0, got.time_t) == (ref.first_idx, ref.last_idx, ref.x0,
+                                                                             ref.time_t)
+        assert held.made == 3 + 0 + 4 + 1

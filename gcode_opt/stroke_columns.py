@@ -137,8 +137,23 @@ def line_columns(strokes):
         return strokes.first_idx, strokes.last_idx
     got = stored(strokes)
     if got is not None:
-        return got[0].column("first_idx"), got[0].column("last_idx")
+        return _stored_lines(got[0])
     return line_spans(strokes)
+
+
+def _stored_lines(store):
+    """(first_idx, last_idx) of every record of store, int64 arrays, read in one pass of
+    its records (StrokeStore.fields: an int field's bits; two column passes were ~1.7x its
+    time on both plates)."""
+    n = len(store)
+    first, last = np.empty(n, np.int64), np.empty(n, np.int64)
+    at = 0
+    for vals, _ in store.fields(np.arange(n, dtype=np.int64), ("first_idx", "last_idx")):
+        m = len(vals)
+        bits = vals.view(np.int64)
+        first[at:at + m], last[at:at + m] = bits[:, 0], bits[:, 1]
+        at += m
+    return first, last
 
 
 def first_lines(strokes):

@@ -120,3 +120,18 @@ def test_held_rows_hold_only_the_rows_asked(compiled, monkeypatch):
                 assert (got.first_idx, got.last_idx, got.x0, got.time_t) == (ref.first_idx, ref.last_idx, ref.x0,
                                                                              ref.time_t)
         assert held.made == 3 + 0 + 4 + 1
+
+
+def test_stored_lines_are_the_columns():
+    """line_columns of stored strokes (one pass of the records' fields) = the store's two
+    columns and the list's line_spans, across read batches"""
+    from gcode_opt.stroke_columns import line_columns
+    from gcode_opt.strokes import line_spans
+    strokes = _planned(*CASES[0])[2]
+    many = [strokes[i % len(strokes)] for i in range(2100)]
+    with _store(many) as store:
+        first, last = line_columns(store)
+        assert first.dtype == last.dtype == np.int64
+        assert np.array_equal(first, store.column("first_idx")) and np.array_equal(last, store.column("last_idx"))
+        want = line_spans(many)
+        assert np.array_equal(first, want[0]) and np.array_equal(last, want[1])

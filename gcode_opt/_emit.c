@@ -3283,6 +3283,128 @@ next:
 
 /* format_text(x, code, prec): fmt_f's ('f') or fmt_g4's ('g', prec 4) text of x, None
    where it declines */
+/* row_plans(cls, blocks, H, shape, fine) -> a list of new cls objects, or None (declined)
+   spill_file.block_plans' RowPlans made without a Python call each (~1 us a plan through
+   RowPlan.__init__; ~16 k chain plans in a windowed gyroid rewrite): for each block
+   (S, V, A, F, k) of blocks (a list), k objects, the i-th of a block holding its S, V, A, F
+   and row i, in order; object q's time_t, int_a2 the floats H[q, 0], H[q, 1] (H: a
+   C-contiguous float64 array of sum(k) rows and at least 3 columns), shape `shape`,
+   first_cmds None, fault `fine` where H[q, 2] != 0.0 else None: what RowPlan(S, V, A, F,
+   i, time_t, int_a2) then p.fault = fine sets.  cls: a type without a __dict__, a __new__
+   or items of its own whose ten fields are object slots (__slots__); anything else, None. */
+#ifdef ATTR_CACHE
+enum { RP_S, RP_V, RP_ACCEL, RP_FEED, RP_ROW, RP_TIME, RP_A2, RP_SHAPE, RP_FAULT, RP_FC, RP_N };
+static const char *const RP_NAMES[RP_N] = {"_s", "_v", "_accel", "_feed", "_row", "time_t", "int_a2", "shape",
+                                           "fault", "first_cmds"};
+
+/* the offsets of cls' ten object slots: 0, or -1 (declined; no exception left) */
+static int row_plan_slots(PyTypeObject *tp, Py_ssize_t *off)
+{
+    if (tp->tp_new != PyBaseObject_Type.tp_new || tp->tp_dictoffset != 0 || tp->tp_itemsize != 0
+        || tp->tp_alloc == NULL)
+        return -1;
+    for (int k = 0; k < RP_N; k++) {
+        PyObject *name = PyUnicode_InternFromString(RP_NAMES[k]);
+        if (name == NULL) {
+            PyErr_Clear();
+            return -1;
+        }
+        PyObject *d = _PyType_Lookup(tp, name);        /* (borrowed) */
+        Py_DECREF(name);
+        if (d == NULL || !Py_IS_TYPE(d, &PyMemberDescr_Type))
+            return -1;
+        PyMemberDef *mb = ((PyMemberDescrObject *)d)->d_member;
+        if (mb->type != T_OBJECT_EX || (mb->flags & READONLY) || mb->offset <= 0
+            || !PyType_IsSubtype(tp, PyDescr_TYPE(d)))
+            return -1;
+        off[k] = mb->offset;
+    }
+    return 0;
+}
+
+static inline void slot_put(PyObject *o, Py_ssize_t off, PyObject *v)
+{
+    *(PyObject **)((char *)o + off) = v;            /* (a new object's slot: NULL before) */
+}
+
+static PyObject *row_plans(PyObject *self, PyObject *args)
+{
+    PyObject *cls, *blocks, *H, *shape, *fine;
+    if (!PyArg_ParseTuple(args, "O!O!OOO", &PyType_Type, &cls, &PyList_Type, &blocks, &H, &shape, &fine))
+        return NULL;
+    PyTypeObject *tp = (PyTypeObject *)cls;
+    Py_ssize_t off[RP_N];
+    if (row_plan_slots(tp, off) < 0)
+        Py_RETURN_NONE;
+    Py_buffer hv;
+    if (PyObject_GetBuffer(H, &hv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();
+        Py_RETURN_NONE;
+    }
+    PyObject *out = NULL;
+    Py_ssize_t nb = PyList_GET_SIZE(blocks), m = 0;
+    if (hv.ndim != 2 || hv.format == NULL || strcmp(hv.format, "d") != 0 || hv.shape[1] < 3)
+        goto decline;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyList_GET_ITEM(blocks, b);
+        if (!PyTuple_CheckExact(blk) || PyTuple_GET_SIZE(blk) != 5 || !PyLong_CheckExact(PyTuple_GET_ITEM(blk, 4)))
+            goto decline;
+        Py_ssize_t k = PyLong_AsSsize_t(PyTuple_GET_ITEM(blk, 4));
+        if (k < 0 || k > PY_SSIZE_T_MAX - m) {
+            PyErr_Clear();
+            goto decline;
+        }
+        m += k;
+    }
+    if (m != hv.shape[0])
+        goto decline;
+    if ((out = PyList_New(m)) == NULL)
+        goto fail;
+    const double *h = (const double *)hv.buf;
+    Py_ssize_t w = hv.shape[1], q = 0;
+    for (Py_ssize_t b = 0; b < nb; b++) {
+        PyObject *blk = PyList_GET_ITEM(blocks, b);
+        Py_ssize_t k = PyLong_AsSsize_t(PyTuple_GET_ITEM(blk, 4));
+        for (Py_ssize_t i = 0; i < k; i++, q++) {
+            const double *r = h + q * w;
+            PyObject *row = PyLong_FromSsize_t(i), *t = PyFloat_FromDouble(r[0]), *a2 = PyFloat_FromDouble(r[1]);
+            PyObject *o = row && t && a2 ? tp->tp_alloc(tp, 0) : NULL;
+            if (o == NULL) {
+                Py_XDECREF(row);
+                Py_XDECREF(t);
+                Py_XDECREF(a2);
+                goto fail;
+            }
+            slot_put(o, off[RP_S], Py_NewRef(PyTuple_GET_ITEM(blk, 0)));
+            slot_put(o, off[RP_V], Py_NewRef(PyTuple_GET_ITEM(blk, 1)));
+            slot_put(o, off[RP_ACCEL], Py_NewRef(PyTuple_GET_ITEM(blk, 2)));
+            slot_put(o, off[RP_FEED], Py_NewRef(PyTuple_GET_ITEM(blk, 3)));
+            slot_put(o, off[RP_ROW], row);
+            slot_put(o, off[RP_TIME], t);
+            slot_put(o, off[RP_A2], a2);
+            slot_put(o, off[RP_SHAPE], Py_NewRef(shape));
+            slot_put(o, off[RP_FAULT], Py_NewRef(r[2] != 0.0 ? fine : Py_None));
+            slot_put(o, off[RP_FC], Py_NewRef(Py_None));
+            PyList_SET_ITEM(out, q, o);
+        }
+    }
+    PyBuffer_Release(&hv);
+    return out;
+decline:
+    PyBuffer_Release(&hv);
+    Py_RETURN_NONE;
+fail:
+    PyBuffer_Release(&hv);
+    Py_XDECREF(out);
+    return NULL;
+}
+#else
+static PyObject *row_plans(PyObject *self, PyObject *args)
+{
+    Py_RETURN_NONE;
+}
+#endif
+
 static PyObject *format_text(PyObject *self, PyObject *args)
 {
     double x;
@@ -3669,6 +3791,7 @@ static PyMethodDef mod_methods[] = {
      "a line stroke's block (bytes) written and checked in one call, or None"},
     {"stroke_run", (PyCFunction)(void (*)(void))stroke_run, METH_FASTCALL,
      "pipeline._rewrite_bytes' loop over a run of line strokes in one call"},
+    {"row_plans", row_plans, METH_VARARGS, "spill_file.block_plans' RowPlans made in one call, or None"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef emit_module = {

@@ -114,42 +114,52 @@ def record_plans(G, n, head, cols, shapes=("law",)):
     return plans
 
 
+def row_plans(blocks, H):
+    """The RowPlans of blocks [(S, V, A, F, k)]: k of each, the i-th of a block row i of its
+    S, V, A, F, in order; plan q's time_t and int_a2 H[q, 0] and H[q, 1], its verdict ""
+    where H[q, 2] is not 0.0 (H: a float64 array, a row a plan).  Made by the rewrite
+    core's row_plans where built (no Python call a plan: ~1 us each through
+    RowPlan.__init__, ~16 k chain plans in a windowed gyroid rewrite), else by a map."""
+    from .emit import CORE_MOD
+    from .segments import RowPlan
+    make = getattr(CORE_MOD, "row_plans", None)
+    if make is not None and type(H) is np.ndarray and H.dtype == _F64:
+        got = make(RowPlan, blocks, np.ascontiguousarray(H), "law", "")
+        if got is not None:
+            return got
+    plans = list(map(RowPlan, *[chain.from_iterable([repeat(b[j], b[4]) for b in blocks]) for j in range(4)],
+                     chain.from_iterable(range(b[4]) for b in blocks), H[:, 0].tolist(), H[:, 1].tolist()))
+    for p in compress(plans, H[:, 2].tolist()):
+        p.fault = ""
+    return plans
+
+
 def block_plans(buf, start, blocks, head, cols, shapes=("law",)):
     """The plans of the records of buf at start (m of them), given as blocks [(their
     indices in 0 .. m - 1, their rows G, n)] (record_plans' layout and cols), as one list
     in start's order: record_plans of each block, but the heads of all read in one gather
     and, where every record is a RowPlan of the law (the usual case), the objects of all
-    blocks made by one map (a windowed gyroid rewrite reads ~1 k blocks of ~16 chain plans:
-    benchmarks/out57.md)."""
+    blocks made by one call (row_plans; a windowed gyroid rewrite reads ~1 k blocks of ~16
+    chain plans: benchmarks/out57.md)."""
     from .objfields import put_at
-    from .segments import RowPlan
     c_t, c_a2, c_kind, c_fine, c_shape = cols
     H = buf[start[:, None] + np.array([c_t, c_a2, c_fine, c_kind] + ([] if c_shape is None else [c_shape]))]
     out = [None] * start.size
     odd = H[:, 3:].any(axis=1)        # a SegmentPlan, or another shape: its block by record_plans, as before
     some_odd = odd.any()
-    where, knots, speeds, accels, feeds, counts = [], [], [], [], [], []
+    where, rows = [], []
     for g, G, n in blocks:
         if some_odd and odd[g].any():
             for q, p in zip(g.tolist(), record_plans(G, n, head, cols, shapes)):
                 out[q] = p
             continue
-        k = G.shape[0]
         where.append(g)
-        counts.append(k)
-        knots.append(repeat(G[:, head:head + n + 1], k))
-        speeds.append(repeat(G[:, head + n + 1:head + 2 * n + 2], k))
-        accels.append(repeat(G[:, head + 2 * n + 2:head + 3 * n + 2], k))
-        feeds.append(repeat(G[:, head + 3 * n + 2:], k))
+        rows.append((G[:, head:head + n + 1], G[:, head + n + 1:head + 2 * n + 2], G[:, head + 2 * n + 2:head + 3 * n + 2],
+                     G[:, head + 3 * n + 2:], G.shape[0]))
     if not where:
         return out
     at = np.concatenate(where).astype(np.intp, copy=False)
-    H = H[at]
-    plans = list(map(RowPlan, chain.from_iterable(knots), chain.from_iterable(speeds), chain.from_iterable(accels),
-                     chain.from_iterable(feeds), chain.from_iterable(map(range, counts)), H[:, 0].tolist(),
-                     H[:, 1].tolist()))
-    for p in compress(plans, H[:, 2].tolist()):
-        p.fault = ""
+    plans = row_plans(rows, H[at])
     if not put_at(out, at, plans):
         for q, p in zip(at.tolist(), plans):
             out[q] = p

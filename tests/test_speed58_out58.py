@@ -135,3 +135,114 @@ def test_stored_lines_are_the_columns():
         assert np.array_equal(first, store.column("first_idx")) and np.array_equal(last, store.column("last_idx"))
         want = line_spans(many)
         assert np.array_equal(first, want[0]) and np.array_equal(last, want[1])
+
+
+def _blocks_and_heads(seed=5):
+    """blocks (S, V, A, F, k) of rows of 2-D arrays (a block of none, one past the small
+    ints' cache) and H: a row a plan (time_t, int_a2, the verdict flag, a fourth column)"""
+    rng = np.random.default_rng(seed)
+    blocks = []
+    for k, n in ((3, 2), (0, 4), (300, 1), (1, 6)):
+        S, V = rng.random((k, n + 1)), rng.random((k, n + 1))
+        A, F = rng.random((k, n)), rng.random((k, n))
+        blocks.append((S, V, A, F, k))
+    m = sum(b[4] for b in blocks)
+    H = np.column_stack([rng.random(m), rng.random(m), rng.integers(0, 2, m).astype(float), np.zeros(m)])
+    return blocks, H
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_row_plans_are_the_row_plans_made_one_by_one(compiled, monkeypatch):
+    """spill_file.row_plans (the rewrite core's row_plans, or the map where not built) =
+    RowPlan(S, V, A, F, i, time_t, int_a2) with fault "" where flagged, each field the
+    same object or bits"""
+    from gcode_opt import emit, spill_file
+    from gcode_opt.segments import RowPlan
+    if not compiled:
+        monkeypatch.setattr(emit, "CORE_MOD", None)
+    elif getattr(emit.CORE_MOD, "row_plans", None) is None:
+        pytest.skip("the rewrite core is not built")
+    blocks, H = _blocks_and_heads()
+    got = spill_file.row_plans(blocks, H)
+    want = []
+    q = 0
+    for S, V, A, F, k in blocks:
+        for i in range(k):
+            p = RowPlan(S, V, A, F, i, float(H[q, 0]), float(H[q, 1]))
+            if H[q, 2]:
+                p.fault = ""
+            want.append(p)
+            q += 1
+    assert len(got) == len(want) == H.shape[0]
+    for g, w in zip(got, want):
+        assert type(g) is RowPlan
+        assert all(getattr(g, f) is getattr(w, f) for f in ("_s", "_v", "_accel", "_feed", "first_cmds"))
+        assert type(g._row) is int and g._row == w._row
+        assert type(g.time_t) is float and g.time_t == w.time_t and type(g.int_a2) is float and g.int_a2 == w.int_a2
+        assert g.fault == w.fault and type(g.fault) is type(w.fault) and g.shape == w.shape == "law"
+        assert np.array_equal(g.s, w.s) and np.array_equal(g.v, w.v) and np.array_equal(g.feed, w.feed)
+
+
+def test_row_plans_core_declines_what_it_does_not_make():
+    """the core's row_plans answers None (the caller's map then) for a class with a
+    __dict__ or a __new__, a field not a slot, heads of two columns or not float64, counts
+    that are not the heads' rows"""
+    from gcode_opt import emit
+    from gcode_opt.segments import RowPlan
+    make = getattr(emit.CORE_MOD, "row_plans", None)
+    if make is None:
+        pytest.skip("the rewrite core is not built")
+    blocks, H = _blocks_and_heads()
+
+    class WithDict(RowPlan):
+        pass
+
+    class WithNew(RowPlan):
+        __slots__ = ()
+
+        def __new__(cls, *a):
+            return object.__new__(cls)
+
+    class Shaped(RowPlan):
+        __slots__ = ()
+        shape = property(lambda self: "law")
+
+    assert make(RowPlan, blocks, H, "law", "") is not None
+    for cls in (WithDict, WithNew, Shaped):
+        assert make(cls, blocks, H, "law", "") is None
+    assert make(RowPlan, blocks, np.ascontiguousarray(H[:, :2]), "law", "") is None
+    assert make(RowPlan, blocks, H.astype(np.float32), "law", "") is None
+    assert make(RowPlan, blocks[:-1], H, "law", "") is None
+
+
+@pytest.mark.parametrize("name", ["prusa_gyroid.gcode", "prusa_mk3s_rectilinear.gcode"])
+def test_windowed_command_writes_the_list_paths_bytes(name, monkeypatch, tmp_path):
+    """the command windowed at 64 strokes: the list path's file and summary, with the plans
+    read back made by row_plans, the re-timed rows held, the summary's columns read from
+    the records' fields"""
+    import os
+    from gcode_opt import spill_file
+    from gcode_opt.stored_strokes import HeldRows
+    from test_speed20_rewrite_core import SAMPLES
+    from windowed_run import run_command
+    seen = {"row_plans": 0, "hold": 0, "stored_columns": 0}
+
+    def spy(owner, attr, key, check=lambda got: True):
+        fn = getattr(owner, attr)
+
+        def wrapped(*a, **k):
+            got = fn(*a, **k)
+            seen[key] += bool(check(got))
+            return got
+        monkeypatch.setattr(owner, attr, wrapped)
+    spy(spill_file, "row_plans", "row_plans", len)
+    spy(HeldRows, "hold", "hold")
+    spy(sc, "_stored_columns", "stored_columns", lambda got: got is not None)
+
+    def run(windowed):
+        return run_command(monkeypatch, os.path.join(SAMPLES, name), tmp_path / f"out{windowed}.gcode", windowed, 64)
+    want = run(False)
+    assert seen == {"row_plans": 0, "hold": 0, "stored_columns": 0}
+    got = run(True)
+    assert got[0] == want[0] and got[1] == want[1]
+    assert seen["row_plans"] and seen["hold"] > 1 and seen["stored_columns"] == 1

@@ -246,3 +246,45 @@ def test_windowed_command_writes_the_list_paths_bytes(name, monkeypatch, tmp_pat
     got = run(True)
     assert got[0] == want[0] and got[1] == want[1]
     assert seen["row_plans"] and seen["hold"] > 1 and seen["stored_columns"] == 1
+
+
+@pytest.mark.parametrize("text", [False, True])
+def test_windowed_rewrite_runs_with_the_collector_paused(text, monkeypatch, tmp_path):
+    """the windowed rewrite (bytes and text paths) holds its windows with the cyclic
+    collector off and turns it back on after; the list path's leaves it on; one that was
+    off stays off; the same bytes either way"""
+    import gc
+    import io
+    from gcode_opt import pipeline
+    from gcode_opt.stored_strokes import HeldRows, StoredStrokes
+    from test_speed20_rewrite_core import SAMPLES
+    name, prof_name = CASES[0]
+    prof, opts, strokes, plan = _planned(name, prof_name)
+    states = []
+    hold = HeldRows.hold
+    monkeypatch.setattr(HeldRows, "hold", lambda self, rows: states.append(gc.isenabled()) or hold(self, rows))
+    segs_for = pipeline.segs_for
+    monkeypatch.setattr(pipeline, "segs_for", lambda *a: states.append(gc.isenabled()) or segs_for(*a))
+    if text:
+        monkeypatch.setattr(pipeline.emit_mod, "CORE_MOD", None)
+
+    def run(src):
+        import copy
+        buf = io.StringIO(newline="") if text else io.TextIOWrapper(io.BytesIO(), "utf-8", "surrogateescape",
+                                                                        newline="")
+        pipeline.rewrite(SAMPLES + name, buf, src, copy.deepcopy(plan), prof, opts)
+        buf.flush()
+        return buf.getvalue() if text else buf.buffer.getvalue()
+    was = gc.isenabled()
+    try:
+        gc.enable()
+        want = run(strokes)
+        assert states and all(states) and gc.isenabled()
+        with _store(strokes) as store:
+            for on in (True, False):
+                del states[:]
+                (gc.enable if on else gc.disable)()
+                assert run(StoredStrokes(store, 7)) == want
+                assert len(states) > 2 and not any(states) and gc.isenabled() == on
+    finally:
+        (gc.enable if was else gc.disable)()

@@ -3291,7 +3291,8 @@ next:
    C-contiguous float64 array of sum(k) rows and at least 3 columns), shape `shape`,
    first_cmds None, fault `fine` where H[q, 2] != 0.0 else None: what RowPlan(S, V, A, F,
    i, time_t, int_a2) then p.fault = fine sets.  cls: a type without a __dict__, a __new__
-   or items of its own whose ten fields are object slots (__slots__); anything else, None. */
+   or items of its own whose fields are these ten object slots (__slots__) and no other;
+   anything else, None. */
 #ifdef ATTR_CACHE
 enum { RP_S, RP_V, RP_ACCEL, RP_FEED, RP_ROW, RP_TIME, RP_A2, RP_SHAPE, RP_FAULT, RP_FC, RP_N };
 static const char *const RP_NAMES[RP_N] = {"_s", "_v", "_accel", "_feed", "_row", "time_t", "int_a2", "shape",
@@ -3300,8 +3301,9 @@ static const char *const RP_NAMES[RP_N] = {"_s", "_v", "_accel", "_feed", "_row"
 /* the offsets of cls' ten object slots: 0, or -1 (declined; no exception left) */
 static int row_plan_slots(PyTypeObject *tp, Py_ssize_t *off)
 {
+    /* (the size: these ten slots and nothing else, so that none is left unset) */
     if (tp->tp_new != PyBaseObject_Type.tp_new || tp->tp_dictoffset != 0 || tp->tp_itemsize != 0
-        || tp->tp_alloc == NULL)
+        || tp->tp_alloc == NULL || tp->tp_basicsize != (Py_ssize_t)(sizeof(PyObject) + RP_N * sizeof(PyObject *)))
         return -1;
     for (int k = 0; k < RP_N; k++) {
         PyObject *name = PyUnicode_InternFromString(RP_NAMES[k]);

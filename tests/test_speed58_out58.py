@@ -185,8 +185,8 @@ def test_row_plans_are_the_row_plans_made_one_by_one(compiled, monkeypatch):
 
 def test_row_plans_core_declines_what_it_does_not_make():
     """the core's row_plans answers None (the caller's map then) for a class with a
-    __dict__ or a __new__, a field not a slot, heads of two columns or not float64, counts
-    that are not the heads' rows"""
+    __dict__ or a __new__, a field not a slot, a slot more than the ten it fills, heads of
+    two columns or not float64, counts that are not the heads' rows"""
     from gcode_opt import emit
     from gcode_opt.segments import RowPlan
     make = getattr(emit.CORE_MOD, "row_plans", None)
@@ -207,8 +207,11 @@ def test_row_plans_core_declines_what_it_does_not_make():
         __slots__ = ()
         shape = property(lambda self: "law")
 
+    class MoreSlots(RowPlan):
+        __slots__ = ("extra",)
+
     assert make(RowPlan, blocks, H, "law", "") is not None
-    for cls in (WithDict, WithNew, Shaped):
+    for cls in (WithDict, WithNew, Shaped, MoreSlots):
         assert make(cls, blocks, H, "law", "") is None
     assert make(RowPlan, blocks, np.ascontiguousarray(H[:, :2]), "law", "") is None
     assert make(RowPlan, blocks, H.astype(np.float32), "law", "") is None

@@ -620,23 +620,6 @@ class _ByteLines:
             write(chunk)
 
 
-@contextlib.contextmanager
-def _collector_paused(paused):
-    """The cyclic collector off for the stretch where paused (a windowed rewrite: each
-    window's strokes and plans, made and let go, hold no cycle; the ~50 young collections
-    of the rectilinear plate's rewrite walked each window's new strokes and plans again,
-    ~5 % of its instructions), back on after it if it was on."""
-    import gc
-    off = paused and gc.isenabled()
-    if off:
-        gc.disable()
-    try:
-        yield
-    finally:
-        if off:
-            gc.enable()
-
-
 def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digests, reuse):
     """rewrite() on bytes.  A line stroke (not an arc) whose lines are all plain "G1 X Y [E]"
     lines ending in "\\n" has its block written and validated by core.stroke_block; any
@@ -701,7 +684,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
     k = k_end = w = 0             # k_end: the end (in order) of the window held
     k_order = order
     empty_digest = blake2b(digest_size=16)       # (stroke_run: its copy updated with a block)
-    with open(path, "rb") as fh, np.errstate(all="ignore"), _collector_paused(held is not None):
+    with open(path, "rb") as fh, np.errstate(all="ignore"):
         src = _ByteLines(fh, core.skip_lines)
         copy_take = src.copy_take
         skip = core.skip_lines
@@ -839,8 +822,7 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
     out_ranges = OutRanges()
     out_line = 0
     pos = 0                       # next line of the input to copy
-    with (open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh, np.errstate(all="ignore"),
-          _collector_paused(held is not None)):
+    with open(path, "r", encoding="utf-8", errors="surrogateescape", newline="") as fh, np.errstate(all="ignore"):
         lines = iter(fh)
         write = out_fh.write
         for k, i in enumerate(order):

@@ -1566,7 +1566,7 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     (as the windowed run makes a window's: _rebuild_geometry), no memo keeping its plan
     (plan_chain_segments' remember: a windowed run's chains keep their figures only).
     spill: a _ChainSpill the plans are written to (the run's, for the rewrite), or None."""
-    sts = list(map(strokes.__getitem__, rows.tolist()))
+    sts = _chain_strokes(strokes, rows)
     _rebuild_geometry(strokes, rows, np.full(len(sts), C_CHAIN), profile, sts)
     T, beta = plan.T[rows], plan.beta[rows]
     # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
@@ -1574,6 +1574,29 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     if spill is not None:
         spill.put(rows, T, beta, plans)
     return plans
+
+
+def _chain_strokes(strokes, rows):
+    """The strokes of the chains rows (sorted).  Of a StoredStrokes whose kept fields
+    (chain_T: the memos, whose state the runs' bits depend on) it holds for every row, made
+    of their records alone with those objects put in (its store's take: the same strokes
+    a window's load makes), not their windows loaded: a run's chains are ~half of a
+    window's rows (gyroid plate: 29 loads for 16.4 k chains), a later run's a few (29 loads
+    for ~850).  A memo is changed in place by the plans (never replaced), so the kept one
+    stays the row's.  Else (a list, or a memo not kept yet) the strokes indexed."""
+    side = getattr(strokes, "_side", None) if isinstance(strokes, StoredStrokes) else None
+    if side and rows.size:
+        got = stored(strokes)            # (its windows let go first: their memos kept, their changes written)
+        over = {}
+        for name, vals in side.items():
+            if vals is None or len(vals) <= rows[-1]:
+                break
+            over[name] = _take(vals, rows)
+            if not all(map(_IS_NOT_NONE, over[name])):
+                break
+        else:
+            return got[0].take(rows, over)
+    return list(map(strokes.__getitem__, rows.tolist()))
 
 
 # a spilled plan's record: T, beta, time_t, int_a2, its type (_SPILL_TYPES' index), 1.0 where

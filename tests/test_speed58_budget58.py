@@ -122,3 +122,56 @@ def test_chain_strokes_without_kept_memos_load_their_windows(planned):
     assert fresh.loads > n0
     assert all(st is fresh[i] for st, i in zip(got, rows.tolist()))
     fresh.let_go()
+
+
+class _Fig:
+    """A plan as _keep_plans reads it: its verdict and figures."""
+    __slots__ = ("fault", "int_a2", "time_t")
+
+    def __init__(self, fault, int_a2, time_t):
+        self.fault, self.int_a2, self.time_t = fault, int_a2, time_t
+
+
+class _Plan:
+    def __init__(self, n):
+        self.retime = np.ones(n, bool)
+        self.reason = np.full(n, "", object)
+        self.t_pred, self.a2_pred = np.full(n, -1.0), np.full(n, -2.0)
+        self.segs = [None] * n
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rows_judged_on_key_figures_as_keep_plans(seed):
+    """_judge_rows on a _KeyFigures of keys' plans (fine, faulty, none, failed, beating or
+    not, a NaN figure) gives what _keep_plans gives the rows holding their keys' plans."""
+    rng = np.random.default_rng(seed)
+    n_keys, n = 60, 500
+    made, failed = [], []
+    for k in range(n_keys):
+        c = rng.integers(1 if k < 25 else 0, 10)     # (no failure among the first 25)
+        failed.append("error: segments (boom)" if c == 0 else None)
+        made.append(None if c <= 1 else _Fig("bad knots" if c == 2 else "", float("nan") if c == 3
+                                             else float(rng.uniform(1, 10)), float(rng.uniform(0.1, 2))))
+    rows = np.sort(rng.choice(2 * n, n, replace=False))
+    key = rng.integers(0, n_keys, n)
+    a2_row = np.array([f.int_a2 if f is not None else 5.0 for f in (made[k] for k in key.tolist())])
+    a2_orig = a2_row * rng.choice([0.5, 1.0, 1.0 + 1e-12, 2.0], n)        # (beats, ties, rounding, not)
+    ref, got = _Plan(2 * n), _Plan(2 * n)
+    seg_l = [made[k] for k in key.tolist()]
+    why = {i: failed[k] for i, k in zip(rows.tolist(), key.tolist()) if failed[k]}
+    assert why and any(f is None for f in seg_l)
+    sc._keep_plans(ref, None, rows, seg_l, why, None, a2_orig, in_place=True)
+    figs = sc._KeyFigures()
+    figs.add(made[:25])                          # (the keys in two parts, the first with no failure)
+    figs.add(made[25:], failed[25:])
+    figs.done()
+    for a in range(0, n, 128):
+        sc._judge_rows(got, rows[a:a + 128], key[a:a + 128], figs, a2_orig[a:a + 128])
+    assert got.retime.tolist() == ref.retime.tolist()
+    assert got.reason.tolist() == ref.reason.tolist()
+    assert got.t_pred.tobytes() == ref.t_pred.tobytes()
+    assert got.a2_pred.tobytes() == ref.a2_pred.tobytes()
+    assert got.segs == ref.segs                  # (no plan put)
+    kept = ref.retime[rows]
+    assert kept.any() and not kept.all()
+    assert {sc._NOT_BEATING, "bad knots", "error: segments (boom)"} <= set(ref.reason.tolist())

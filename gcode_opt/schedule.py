@@ -1612,10 +1612,13 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     sts = _chain_strokes(strokes, rows)
     _rebuild_geometry(strokes, rows, np.full(len(sts), C_CHAIN), profile, sts)
     T, beta = plan.T[rows], plan.beta[rows]
-    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
-    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None)
+    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it;
+    # the replayed plans' blocks handed over as made)
+    blocks = None if spill is None else []
+    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None,
+                                       blocks=blocks)
     if spill is not None:
-        spill.put(rows, T, beta, plans)
+        spill.put(rows, T, beta, plans, blocks)
     return plans
 
 
@@ -1688,14 +1691,16 @@ class _ChainSpill(SpillFile):
         fh = SpillFile.open(folder)
         return None if fh is None else cls(n_rows, fh)
 
-    def put(self, rows, T, beta, plans):
+    def put(self, rows, T, beta, plans, made=None):
         """The plans (a list, rows' order; None: no plan) made for rows at (T, beta) written,
         those of a kind the records do not hold (another type or shape, a junction command)
-        left out; a failed write leaves every row without a record."""
+        left out; a failed write leaves every row without a record.  made: the RowPlans'
+        blocks as plan_chain_segments made them (its blocks), or None: the plans grouped
+        by their blocks here (_row_plan_blocks)."""
         if self.fh is None:
             return
         T, beta = np.asarray(T, float), np.asarray(beta, float)
-        blocks, rest = _row_plan_blocks(plans)
+        blocks, rest = _row_plan_blocks(plans) if made is None else _made_blocks(plans, made)
         parts, qs, ns = _blocks_records(T, beta, plans, blocks) if blocks else ([], [], [])
         for q in rest:
             got = _spill_arrays(plans[q])
@@ -1802,6 +1807,32 @@ def _row_plan_blocks(plans):
         else:
             rest += ii
     return out, rest
+
+
+def _made_blocks(plans, made):
+    """_row_plan_blocks' answer for plans, the blocks made given (plan_chain_segments'
+    blocks: (places, V, A, F, ends), each place's plan RowPlan(ends[i], V, A, F, i) as the
+    replay made it, unchanged since: not checked a plan) where the records hold them (the
+    blocks' types and shapes checked a block); the other plans grouped by _row_plan_blocks."""
+    out, covered = [], np.zeros(len(plans), bool)
+    for ii, V, A, F, ends in made:
+        if _block_fits(V, A, F):
+            out.append(((V, A, F), ii, np.arange(ii.size, dtype=np.intp), ends))
+            covered[ii] = True
+    if covered.all():
+        return out, []
+    others = np.flatnonzero(~covered)
+    more, rest = _row_plan_blocks(_take(plans, others))
+    out += [(b, others[ii], rr, ends) for b, ii, rr, ends in more]
+    return out, others[rest].tolist() if rest else []
+
+
+def _block_fits(V, A, F):
+    """Do blocks V, A, F (knot speeds, accelerations, feeds of plans of n segments) have the
+    records' types and shapes (_row_plan_blocks' checks of a block)?"""
+    return (type(V) is type(A) is type(F) is np.ndarray and V.dtype == A.dtype == F.dtype == _F64 and V.ndim == 2
+            and A.ndim == 2 and V.shape[1] == A.shape[1] + 1 and A.shape == F.shape and V.shape[0] == A.shape[0]
+            and A.shape[1] <= _SPILL_N)
 
 
 def _blocks_records(T, beta, plans, blocks):

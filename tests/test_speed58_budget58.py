@@ -1,9 +1,11 @@
-"""The windowed budget runs' chains (issue 8, budget58): a windowed run's chain strokes made of
-their records alone with their kept memos (schedule._chain_strokes: the store's take), not their
-windows loaded.  The strokes are the ones a window's load makes (every field; the memo the very
-object the StoredStrokes keeps for the row), no window is loaded by the runs' chain plans, and
-the plans' figures are the reference's (every plan kept: schedule.LAZY_CHAINS off); where a
-memo is not kept yet the windows are loaded as before."""
+"""The windowed budget runs (issue 8, budget58).  A windowed run's chain strokes made of their
+records alone with their kept memos (schedule._chain_strokes: the store's take), not their windows
+loaded: the strokes are the ones a window's load makes (every field; the memo the very object the
+StoredStrokes keeps for the row), no window is loaded by the runs' chain plans, and the plans'
+figures are the reference's (every plan kept: schedule.LAZY_CHAINS off); where a memo is not kept
+yet the windows are loaded as before.  The chain spill written from the replay's blocks as
+plan_chain_segments made them (its blocks), not the plans grouped again: the same records.  The
+lines judged on their keys' figures by arrays (_KeyFigures, _judge_rows): _keep_plans' answers."""
 import struct
 from array import array
 
@@ -49,25 +51,30 @@ def planned():
         store.close()
     finally:
         mp.undo()
-    loads = []
-    chain_plans = sc._chain_plans
+    loads, puts = [], []
+    chain_plans, put = sc._chain_plans, sc._ChainSpill.put
 
     def counted(strokes, *a, **k):
         n0 = strokes.loads
         out = chain_plans(strokes, *a, **k)
         loads.append((a[3].size, strokes.loads - n0))
         return out
+
+    def kept(self, rows, T, beta, plans, made=None):
+        puts.append((rows, T, beta, plans, made))
+        return put(self, rows, T, beta, plans, made)
     mp.setattr(sc, "_chain_plans", counted)
+    mp.setattr(sc._ChainSpill, "put", kept)
     try:
         strokes, store, _, _, plan, pin = _stored_plan(*CASE)
     finally:
         mp.undo()
-    yield strokes, plan, pin, ref, loads
+    yield strokes, plan, pin, ref, loads, puts
     store.close()
 
 
 def test_runs_chain_plans_load_no_window(planned):
-    strokes, plan, pin, (fig, reason, segs), loads = planned
+    strokes, plan, pin, (fig, reason, segs), loads, _ = planned
     assert len(loads) > 1 and sum(n for n, _ in loads) > 100       # (chains planned by the runs)
     assert [k for _, k in loads] == [0] * len(loads)
     for k in FIGURES:
@@ -85,7 +92,7 @@ def test_runs_chain_plans_load_no_window(planned):
 
 
 def test_chain_strokes_are_the_loaded_ones(planned):
-    strokes, plan, pin, _, _ = planned
+    strokes, plan, pin, _, _, _ = planned
     rows = np.flatnonzero(pin.plan_kind_codes == sc.C_CHAIN)
     rows = rows[::2]                            # (rows of several windows, not all of a window)
     assert rows.size > 40 and np.unique(rows // strokes.window).size >= 3
@@ -108,7 +115,7 @@ def test_chain_strokes_are_the_loaded_ones(planned):
 def test_chain_strokes_without_kept_memos_load_their_windows(planned):
     """A StoredStrokes keeping no memo for a row (none kept yet, or a row without one): its
     windows are loaded, the strokes are theirs (a memo the store made would be lost)."""
-    strokes, plan, pin, _, _ = planned
+    strokes, plan, pin, _, _, _ = planned
     rows = np.flatnonzero(pin.plan_kind_codes == sc.C_CHAIN)[:40]
     fresh = StoredStrokes(strokes.store, strokes.window, held=10 ** 6, keep=("chain_T",))   # (its objects stay)
     got = sc._chain_strokes(fresh, rows)            # (no side table yet)
@@ -175,3 +182,75 @@ def test_rows_judged_on_key_figures_as_keep_plans(seed):
     kept = ref.retime[rows]
     assert kept.any() and not kept.all()
     assert {sc._NOT_BEATING, "bad knots", "error: segments (boom)"} <= set(ref.reason.tolist())
+
+
+def _spilled(puts, made):
+    """A _ChainSpill of the runs' puts (made: with the blocks given, else grouped by the
+    spill), and each put's rows read back: (rows with a record, their plans' bits, others)."""
+    spill = sc._ChainSpill.make(max(int(r.max()) for r, *_ in puts) + 1)
+    out = []
+    try:
+        for rows, T, beta, plans, blocks in puts:
+            spill.put(rows, T, beta, plans, blocks if made else None)
+        for rows, T, beta, plans, _ in puts:
+            got, back, other = spill.take(rows, T, beta)
+            out.append((got.tolist(), [seg_bits(p) + (p.fault,) for p in back], other.tolist()))
+    finally:
+        spill.close()
+    return out
+
+
+def test_spill_of_made_blocks_is_the_grouped_one(planned):
+    _, _, _, _, _, puts = planned
+    assert len(puts) > 1 and all(b is not None for *_, b in puts)
+    n_made = 0
+    for rows, T, beta, plans, blocks in puts:        # (the blocks are the plans' own)
+        for ii, V, A, F, ends in blocks:
+            for i, q in enumerate(ii.tolist()):
+                p = plans[q]
+                assert type(p) is sc.RowPlan and p._v is V and p._accel is A and p._feed is F and p._row == i
+                assert p._s is ends[i]
+            n_made += ii.size
+    assert n_made > 50
+    ref = _spilled(puts, False)
+    assert sum(len(g) for g, _, _ in ref) > 50
+    assert _spilled(puts, True) == ref
+
+
+def test_spill_of_made_blocks_writes_the_other_plans(planned):
+    """Plans in no block given (a block left out, a block of another type) are grouped by
+    the spill as before: the same records."""
+    _, _, _, _, _, puts = planned
+    ref = _spilled(puts, False)
+    cut = []
+    for rows, T, beta, plans, blocks in puts:
+        odd = [(ii, V.astype(np.float32), A, F, ends) for ii, V, A, F, ends in blocks[1:2]]
+        cut.append((rows, T, beta, plans, blocks[2:] + odd))
+    assert _spilled(cut, True) == ref
+
+
+def test_made_blocks_are_the_plans_places():
+    """plan_chain_segments' blocks name the answer's places, where the replayed chains are a
+    part of the chains asked (the others: a last plan kept, its rows dropped): each place's
+    plan is the block's row, and the plans are those of a call without blocks."""
+    from test_speed22_chainmem_drop import FILES, _table
+    got = []
+    for blocks in (None, []):
+        strokes, rows, prof, rules, T, beta, I = _table(FILES[0], "prusa-mk3s")
+        r = np.arange(rows.size)
+        c = np.argmin(np.where(np.isfinite(I), I + 1e3 * T, np.inf), axis=1)
+        ok = np.isfinite(I[r, c])
+        sts, Tc, bc = [strokes[i] for i in rows[ok]], T[r, c][ok], beta[r, c][ok]
+        sc.chains.plan_chain_segments(sts[::3], Tc[::3], bc[::3], rules, prof)    # (their last plans kept)
+        plans = sc.chains.plan_chain_segments(sts, Tc, bc, rules, prof, remember=False, keep_laws=False,
+                                              blocks=blocks)
+        got.append([seg_bits(p) for p in plans])
+    assert got[0] == got[1]
+    placed = np.concatenate([ii for ii, *_ in blocks])
+    assert placed.size > 100 and np.unique(placed).size == placed.size
+    assert not np.isin(placed, np.arange(0, len(sts), 3)).any()     # (the kept last plans: not replayed)
+    for ii, V, A, F, ends in blocks:
+        for i, q in enumerate(ii.tolist()):
+            p = plans[q]
+            assert type(p) is sc.RowPlan and p._v is V and p._accel is A and p._feed is F and p._row == i
+            assert p._s is ends[i]

@@ -806,7 +806,8 @@ class _EndsSettle:
     settled ~1 k batches of ~15 chains).  Batches are checked once SETTLE_KNOTS knot
     speeds wait, and at flush(); a batch of another shape, or of SETTLE_KNOTS knot speeds
     or more (the list path's, up to FINISH_ROWS chains: as fast by its own block's checks,
-    without the flat copies), goes to _settle_ends_plans."""
+    without the flat copies), goes to _settle_ends_plans.  add's plans: RowPlan(ends[i], V,
+    A, F, i) each, as its callers (_replay, _again_plans) make them (not checked a plan)."""
     __slots__ = ("todo", "knots")
 
     def __init__(self):
@@ -816,8 +817,7 @@ class _EndsSettle:
         nd, m = np.ndarray, len(plans)
         if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
                 and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
-                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS
-                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
+                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS):
             _settle_ends_plans(plans, ends, V, A, F)
             return
         self.todo.append((plans, ends, V, A, F))
@@ -849,7 +849,7 @@ class _EndsSettle:
             p.fault = ""
 
 
-def _replay(items, rules, profile, drop=False, laws_of=None):
+def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     """SegmentPlans of candidate rows kept as _KeptLaws, items [(stroke, kept, row)]:
     finished again (_finish_stacked_dt by groups of the same number of segments, as the
     table did, or _finish_rows_dt chain by chain); row by row the table's numbers.  drop:
@@ -859,12 +859,16 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
     then, not views of the candidates' arrays, and items' kept entries are cleared (None):
     the caller's list holds no candidate row once its plan is made.  laws_of: what gives
     the rows' laws (_laws_of's answer; None: _laws_of, from kept rows; _chosen_laws_of, from
-    the chains' chosen laws, items [(stroke, _Chosen, its place there)])."""
+    the chains' chosen laws, items [(stroke, _Chosen, its place there)]).  blocks: a list
+    each batch of RowPlans made of blocks is appended to, (their places in items, V, A, F,
+    their knots' ends), or None."""
     out = [None] * len(items)
     by_law = laws_of is not None
     laws_of = laws_of or _laws_of
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
-    gs = [curves.geom(st, profile) for st, _, _ in items]
+    gs = list(map(_CURV, map(_IT0, items)))       # (their geometry made before: _rebuild_geometry)
+    if None in gs:
+        gs = [curves.geom(st, profile) for st, _, _ in items]
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
@@ -926,6 +930,8 @@ def _replay(items, rules, profile, drop=False, laws_of=None):
                       else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
         if ends is not None:
             settle.add([out[q] for q in Q], ends, vk, acc, feed)
+            if blocks is not None:
+                blocks.append((Q, vk, acc, feed, ends))
         del dt
     settle.flush()
     return out
@@ -1073,6 +1079,7 @@ _CHAIN_T = attrgetter("chain_T")
 _DTYPE, _NDIM, _F8 = attrgetter("dtype"), attrgetter("ndim"), np.dtype(float)
 _IS_NOT_NONE = partial(is_not, None)
 _IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
+_CURV = attrgetter("curv")
 
 
 def _inner_s_stacked(gs, Ds):
@@ -2415,7 +2422,7 @@ def law_T(st, T):
     return float(T) if st.chain_T is None else st.chain_T.law_of(float(T))
 
 
-def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_laws=True):
+def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_laws=True, blocks=None):
     """SegmentPlan per chain stroke (knots = the original vertices).  Each chain keeps its
     candidates' plans (st.chain_T.plan_of(T, beta), _KeptPlans): the chosen one is emitted
     without solving or finishing its law again; and its last plan (st.chain_T.seg): a re-plan of the
@@ -2427,7 +2434,10 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_la
     memo holding each one's last plan held them all); a later ask of its (T, beta) makes
     it again from its rows (_again_plans; tests/test_speed54_chainplans_lazy.py), or from
     the law it chose (_Chosen, kept for that ask) unless keep_laws is False (the plans are
-    kept elsewhere: schedule._ChainSpill)."""
+    kept elsewhere: schedule._ChainSpill).  blocks: a list the replayed chains' RowPlans
+    made of blocks are appended to, a batch each: (their places in the answer (int64), V,
+    A, F: the blocks, their knots' ends), as the plans hold them (the chain spill writes
+    them by block, not grouping the plans again); or None."""
     T_in = np.asarray(T, float)
     beta = np.asarray(beta, float)
     out = [None] * len(strokes)
@@ -2461,9 +2471,14 @@ def plan_chain_segments(strokes, T, beta, rules, profile, remember=True, keep_la
     # remember False: each chain keeps the law it chose, replayed if asked again (_Chosen)
     keep_laws = keep_laws and not remember
     chosen = _keep_chosen(items) if keep_laws else None
-    for k, plan in zip(lazy, _replay(items, rules, profile, drop=True)):
+    got = None if blocks is None else []
+    for k, plan in zip(lazy, _replay(items, rules, profile, drop=True, blocks=got)):
         out[k] = plan
     del items
+    if got:
+        at = np.array(lazy, np.int64)
+        blocks += [(at[Q], V, A, F, ends) for Q, V, A, F, ends in got]
+    del got
     if chosen:
         _hand_chosen(chosen)
     del chosen

@@ -1355,7 +1355,7 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
     """_window_figures of the lines rows (sorted) of a windowed run: with their classes
     (line_cls: segments.line_classes, or None) each (class, T, beta) of the run is
     segmented once, by one row of it (the first), in calls of at most a window of rows, and
-    every row is judged (_keep_plans) on the figures of its key's plan (_Figures): plan_once
+    every row is judged on the figures of its key's plan (_KeyFigures, _judge_rows): plan_once
     would have given it that very plan, as the list's one batch plans a key once
     (rectilinear plate: ~39 k lines a run, ~4 k keys, each met in most of its ~50 windows).
     Only a window's plans live at a time, and a few floats a key.  Without classes, a row
@@ -1373,7 +1373,7 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
     place = np.empty_like(order)                # key -> its place in reps
     place[order] = np.arange(order.size)
     del first, order
-    segs, figs, why = plan.segs, [], {}
+    segs, figs, why = plan.segs, _KeyFigures(), {}
     for a in range(0, reps.size, window):
         part = reps[a:a + window]
         for sub, res in isolate(fn, part, "segments", why):
@@ -1382,18 +1382,14 @@ def _line_figures(fn, rows, window, plan, strokes, a2_orig, line_cls, spill=None
         _clear_at(segs, part)
         if spill is not None:
             spill.put(made, line_cls[part], T[part], beta[part])
-        figs += [why.get(i) or (None if seg is None else _Figures(seg)) for i, seg in zip(part.tolist(), made)]
+        figs.add(made, [why.get(i) for i in part.tolist()] if why else None)
         del made
     key = place[inv]                            # each row's key's place in reps
     del inv, place
-    bad = np.array([type(f) is str for f in figs], bool) if why else None     # (keys whose segmenting raised)
+    figs.done()
     for a in range(0, rows.size, KEEP_ROWS):
-        r, k = rows[a:a + KEEP_ROWS], key[a:a + KEEP_ROWS]
-        seg_l, failed = list(map(figs.__getitem__, k.tolist())), {}
-        if bad is not None and bad[k].any():
-            failed = {i: f for i, f in zip(r.tolist(), seg_l) if type(f) is str}
-            seg_l = [None if type(f) is str else f for f in seg_l]
-        _keep_plans(plan, strokes, r, seg_l, failed, None, a2_orig[r], in_place=True)
+        r = rows[a:a + KEEP_ROWS]
+        _judge_rows(plan, r, key[a:a + KEEP_ROWS], figs, a2_orig[r])
 
 
 def _line_keys(line_cls, rows):
@@ -1402,12 +1398,59 @@ def _line_keys(line_cls, rows):
     return rows if line_cls is None else line_cls[rows]
 
 
-class _Figures:
-    """What _keep_plans reads of a segment plan: its verdict and figures."""
-    __slots__ = ("fault", "int_a2", "time_t")
+class _KeyFigures:
+    """What _keep_plans reads of the keys' plans (_line_figures), a key's place each: why its
+    rows are left as sliced (its segmenting's failure, else its plan's fault verdict; "":
+    none, and a row with no plan then does not beat), its plan's int_a2 (NaN where it has a
+    why or no plan: it does not beat) and time_t; as arrays once done: not an object a key,
+    and the rows judged by array operations (_judge_rows), not by _keep_plans' passes over a
+    list of the keys' objects a row."""
+    __slots__ = ("why", "a2", "t", "bad")
 
-    def __init__(self, seg):
-        self.fault, self.int_a2, self.time_t = seg_fault(seg), seg.int_a2, seg.time_t
+    def __init__(self):
+        self.why, self.a2, self.t, self.bad = [], [], [], None
+
+    def add(self, made, failed=None):
+        """The next keys' plans made (a list; None: none); failed: their segmenting's
+        failures (a list, None where it did not fail; None: none failed)."""
+        nan = math.nan
+        for seg, f in zip(made, repeat(None) if failed is None else failed):
+            w = f or ("" if seg is None else seg_fault(seg))
+            self.why.append(w)
+            self.a2.append(nan if w or seg is None else seg.int_a2)
+            self.t.append(nan if w or seg is None else seg.time_t)
+
+    def done(self):
+        """The figures made arrays (no key added after)."""
+        self.a2, self.t = np.array(self.a2, float), np.array(self.t, float)
+        self.bad = np.fromiter(map(bool, self.why), bool, len(self.why))
+
+
+def _judge_rows(plan, rows, key, figs, a2_orig):
+    """_keep_plans(in_place) of the lines rows (no plan held at their rows of plan.segs)
+    whose plans are their keys' (key: each row's key's place in figs, a done _KeyFigures):
+    a row whose key has a why is left as sliced with it, one whose plan does not beat its
+    original (a2_orig: the rows' strokes' int_a2; beats' product and comparison,
+    elementwise) with _NOT_BEATING; the others take their key's figures in t_pred and
+    a2_pred."""
+    a2, bad = figs.a2[key], figs.bad[key]
+    keep = a2 < a2_orig * (1.0 - GAIN_TOL_R)       # (a row with a why: its a2 NaN, not kept)
+    if bad.any():
+        out = rows[bad]
+        plan.retime[out] = False
+        reason = plan.reason
+        for i, k in zip(out.tolist(), key[bad].tolist()):
+            reason[i] = figs.why[k]
+        lost = ~bad & ~keep
+    else:
+        lost = ~keep
+    if lost.any():
+        out = rows[lost]
+        plan.retime[out] = False
+        plan.reason[out] = _NOT_BEATING
+    put = rows[keep]
+    plan.t_pred[put] = figs.t[key[keep]]
+    plan.a2_pred[put] = a2[keep]
 
 
 def _split_known(rows, keys, table, missing):
@@ -1566,14 +1609,40 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
     (as the windowed run makes a window's: _rebuild_geometry), no memo keeping its plan
     (plan_chain_segments' remember: a windowed run's chains keep their figures only).
     spill: a _ChainSpill the plans are written to (the run's, for the rewrite), or None."""
-    sts = list(map(strokes.__getitem__, rows.tolist()))
+    sts = _chain_strokes(strokes, rows)
     _rebuild_geometry(strokes, rows, np.full(len(sts), C_CHAIN), profile, sts)
     T, beta = plan.T[rows], plan.beta[rows]
-    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it)
-    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None)
+    # (spilled: the rewrite reads the plans back, no chain keeps the law it chose for it;
+    # the replayed plans' blocks handed over as made)
+    blocks = None if spill is None else []
+    plans = chains.plan_chain_segments(sts, T, beta, rules, profile, remember=False, keep_laws=spill is None,
+                                       blocks=blocks)
     if spill is not None:
-        spill.put(rows, T, beta, plans)
+        spill.put(rows, T, beta, plans, blocks)
     return plans
+
+
+def _chain_strokes(strokes, rows):
+    """The strokes of the chains rows (sorted).  Of a StoredStrokes whose kept fields
+    (chain_T: the memos, whose state the runs' bits depend on) it holds for every row, made
+    of their records alone with those objects put in (its store's take: the same strokes
+    a window's load makes), not their windows loaded: a run's chains are ~half of a
+    window's rows (gyroid plate: 29 loads for 16.4 k chains), a later run's a few (29 loads
+    for ~850).  A memo is changed in place by the plans (never replaced), so the kept one
+    stays the row's.  Else (a list, or a memo not kept yet) the strokes indexed."""
+    side = getattr(strokes, "_side", None) if isinstance(strokes, StoredStrokes) else None
+    if side and rows.size:
+        got = stored(strokes)            # (its windows let go first: their memos kept, their changes written)
+        over = {}
+        for name, vals in side.items():
+            if vals is None or len(vals) <= rows[-1]:
+                break
+            over[name] = _take(vals, rows)
+            if not all(map(_IS_NOT_NONE, over[name])):
+                break
+        else:
+            return got[0].take(rows, over)
+    return list(map(strokes.__getitem__, rows.tolist()))
 
 
 # a spilled plan's record: T, beta, time_t, int_a2, its type (_SPILL_TYPES' index), 1.0 where
@@ -1622,14 +1691,16 @@ class _ChainSpill(SpillFile):
         fh = SpillFile.open(folder)
         return None if fh is None else cls(n_rows, fh)
 
-    def put(self, rows, T, beta, plans):
+    def put(self, rows, T, beta, plans, made=None):
         """The plans (a list, rows' order; None: no plan) made for rows at (T, beta) written,
         those of a kind the records do not hold (another type or shape, a junction command)
-        left out; a failed write leaves every row without a record."""
+        left out; a failed write leaves every row without a record.  made: the RowPlans'
+        blocks as plan_chain_segments made them (its blocks), or None: the plans grouped
+        by their blocks here (_row_plan_blocks)."""
         if self.fh is None:
             return
         T, beta = np.asarray(T, float), np.asarray(beta, float)
-        blocks, rest = _row_plan_blocks(plans)
+        blocks, rest = _row_plan_blocks(plans) if made is None else _made_blocks(plans, made)
         parts, qs, ns = _blocks_records(T, beta, plans, blocks) if blocks else ([], [], [])
         for q in rest:
             got = _spill_arrays(plans[q])
@@ -1736,6 +1807,32 @@ def _row_plan_blocks(plans):
         else:
             rest += ii
     return out, rest
+
+
+def _made_blocks(plans, made):
+    """_row_plan_blocks' answer for plans, the blocks made given (plan_chain_segments'
+    blocks: (places, V, A, F, ends), each place's plan RowPlan(ends[i], V, A, F, i) as the
+    replay made it, unchanged since: not checked a plan) where the records hold them (the
+    blocks' types and shapes checked a block); the other plans grouped by _row_plan_blocks."""
+    out, covered = [], np.zeros(len(plans), bool)
+    for ii, V, A, F, ends in made:
+        if _block_fits(V, A, F):
+            out.append(((V, A, F), ii, np.arange(ii.size, dtype=np.intp), ends))
+            covered[ii] = True
+    if covered.all():
+        return out, []
+    others = np.flatnonzero(~covered)
+    more, rest = _row_plan_blocks(_take(plans, others))
+    out += [(b, others[ii], rr, ends) for b, ii, rr, ends in more]
+    return out, others[rest].tolist() if rest else []
+
+
+def _block_fits(V, A, F):
+    """Do blocks V, A, F (knot speeds, accelerations, feeds of plans of n segments) have the
+    records' types and shapes (_row_plan_blocks' checks of a block)?"""
+    return (type(V) is type(A) is type(F) is np.ndarray and V.dtype == A.dtype == F.dtype == _F64 and V.ndim == 2
+            and A.ndim == 2 and V.shape[1] == A.shape[1] + 1 and A.shape == F.shape and V.shape[0] == A.shape[0]
+            and A.shape[1] <= _SPILL_N)
 
 
 def _blocks_records(T, beta, plans, blocks):

@@ -143,14 +143,14 @@ def test_replay_frees_the_knots_before_the_plans(monkeypatch):
     seen = {}
     real_replay, real_finish, real_ragged = chains._replay, chains._finish_stacked_dt, chains._finish_ragged
 
-    def replay(items, rules, prof, drop=False):
+    def replay(items, rules, prof, drop=False, **kw):
         bases = {id(k.base): k.base for _, k, _ in items if type(k) is chains._KeptLaws}
         arrays = {id(a): a for b in bases.values() for a in b if isinstance(a, np.ndarray)}    # (each once)
         seen["knots"] = sum(a.nbytes for a in arrays.values())
         seen["refs"] = [(weakref.ref(a.base if a.base is not None else a), a.nbytes) for a in arrays.values()]
         bases = arrays = None
         seen["start"] = tracemalloc.get_traced_memory()[0]
-        return real_replay(items, rules, prof, drop)
+        return real_replay(items, rules, prof, drop, **kw)
 
     def held_pieces():
         """The pieces arrays of the rows the chains still keep (not planned in this call)."""

@@ -40,6 +40,7 @@ N_COLS = 8
 _MAX_END = 1 << 60          # doubles a file may hold (no index type to outgrow)
 _BYTES_OR_NONE = {bytes, type(None)}
 _CURV, _B, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_b"), attrgetter("_k"), attrgetter("chain_caps")
+_PTS = attrgetter("pts")
 
 
 class GeomKeep(SpillFile):
@@ -187,20 +188,71 @@ class GeomKeep(SpillFile):
 
     def _give_rec(self, rec, pos, sts, kappa):
         """The parts of record rec (first double, main doubles, κ doubles) put on the
-        strokes sts[pos[row]] (pos: -1 where a window row is not asked) that have none."""
-        from .curves import _BLOCKS, _Blk, row_geom
+        strokes sts[pos[row]] (pos: -1 where a window row is not asked) that have none:
+        _give_whole where every row is asked (the candidates' loads), else _give_parts."""
         at, n_main, n_kap = rec
         main = self._pread(at, n_main)
-        kap = self._pread(at + n_main, n_kap) if kappa and n_kap else None
         P, R = int(main[0]), int(main[1])
         head = main[3:3 + 3 * P].astype(np.int64).reshape(P, 3).tolist()
         x = 3 + 3 * P
         cols = main[x:x + N_COLS * R].reshape(N_COLS, R)
-        x += N_COLS * R
         at_r = pos[cols[C_ROW].astype(np.int64)]           # each row's stroke in sts (-1: not asked)
         asked = at_r >= 0
         if not asked.any():
             return
+        kap = self._pread(at + n_main, n_kap) if kappa and n_kap else None
+        if asked.all():
+            self._give_whole(main, kap, head, cols, at_r, sts)
+        else:
+            self._give_parts(main, kap, head, cols, at_r, asked, sts)
+
+    def _give_whole(self, main, kap, head, cols, at_r, sts):
+        """_give_rec of a record whose every row is asked: each part's block takes views of
+        the record (its lengths, caps, κ_eff, cap, limits, accelerations), with fewer
+        numpy calls a part; the parts' rows without κ found for every part at once (where
+        a row of the record has any)."""
+        from .curves import _BLOCKS, _Blk
+        R = cols.shape[1]
+        bits = cols[C_BITS].astype(np.int64)
+        any_ke = any_kv = None
+        if (bits & (R_KE_MISS | R_KV_MISS)).any():
+            r_at = np.cumsum([m for _, m, _ in head]) - [m for _, m, _ in head]
+            ke_miss, kv_miss = (bits & R_KE_MISS) != 0, (bits & R_KV_MISS) != 0
+            any_ke = np.logical_or.reduceat(ke_miss, r_at).tolist()
+            any_kv = np.logical_or.reduceat(kv_miss, r_at).tolist()
+        which = cols[C_LIM].astype(np.int32)
+        every = np.ones(R, bool)
+        ends = _ends(cols[C_END0], cols[C_END1], every)
+        chain = self._chain_caps(main[main.size - int(main[2]):], head, bits, every)
+        lim = (self.profile, self.lims)
+        x = 3 + 3 * len(head) + N_COLS * R
+        r0 = y = 0
+        for p, (n, m, fl) in enumerate(head):
+            r1, xa, ya = r0 + m, x, y
+            x += m * n + (m * (n - 1) if fl & F_CAPS else 0)
+            y += m * (n + 1) if fl & F_KV else 0
+            d = main[xa:xa + m * n].reshape(m, n)
+            caps = main[xa + m * n:xa + m * (2 * n - 1)].reshape(m, n - 1) if fl & F_CAPS else None
+            kv = kap[ya:ya + m * (n + 1)].reshape(m, n + 1) if fl & F_KV and kap is not None else None
+            ke = cols[C_KE, r0:r1] if fl & F_KE else None
+            bsts = list(map(sts.__getitem__, at_r[r0:r1].tolist()))
+            blk = _Blk(d, None, kv, ke, caps, None, cols[C_CAP, r0:r1], ends[r0:r1], bool(fl & F_CAP_MIN),
+                       pts=list(map(_PTS, bsts)), lim=lim + (which[r0:r1], cols[C_ACCEL, r0:r1]))
+            # (its own masks: make_kappa clears their rows as it makes them)
+            if ke is not None and any_ke is not None and any_ke[p]:
+                blk._ke_miss = ke_miss[r0:r1].copy()
+            if kv is not None and any_kv is not None and any_kv[p]:
+                blk._kv_miss = kv_miss[r0:r1].copy()
+            _BLOCKS.add(blk)
+            self.given += _give_rows(blk, bsts, chain[r0:r1])
+            r0 = r1
+
+    def _give_parts(self, main, kap, head, cols, at_r, asked, sts):
+        """_give_rec of a record whose rows are asked in part (the runs' curves, then
+        chains): each part's rows asked copied into a block of their own."""
+        from .curves import _BLOCKS, _Blk
+        n_main, P, R = main.size, len(head), cols.shape[1]
+        x = 3 + 3 * P + N_COLS * R
         bits = cols[C_BITS].astype(np.int64)
         which = cols[C_LIM].astype(np.int32)
         ends = _ends(cols[C_END0], cols[C_END1], asked)
@@ -242,12 +294,7 @@ class GeomKeep(SpillFile):
             if kv is not None and (b & R_KV_MISS).any():
                 blk._kv_miss = (b & R_KV_MISS) != 0
             _BLOCKS.add(blk)
-            given = 0
-            for k, st, c in zip(count(), bsts, map(chain.__getitem__, rs.tolist())):
-                if st.curv is None:
-                    st.curv = row_geom(blk, k, c)
-                    given += 1
-            self.given += given
+            self.given += _give_rows(blk, bsts, map(chain.__getitem__, rs.tolist()))
             r0 = r1
 
     @staticmethod
@@ -264,6 +311,18 @@ class GeomKeep(SpillFile):
             for r, a, b in zip(np.flatnonzero(take).tolist(), (z - w)[take].tolist(), z[take].tolist()):
                 out[r] = buf[a:b]
         return out
+
+
+def _give_rows(blk, sts, chain):
+    """Row k of blk (curves.row_geom, its chain caps the k-th of chain) put on sts[k] where
+    it has no geometry; how many were given."""
+    from .curves import row_geom
+    given = 0
+    for k, st, c in zip(count(), sts, chain):
+        if st.curv is None:
+            st.curv = row_geom(blk, k, c)
+            given += 1
+    return given
 
 
 def _keepable(b):

@@ -150,6 +150,13 @@ def test_ring_join_checks_its_arguments():
         CORE.ring_join(t1, dr, dr[:3], 0, 0, np.inf, None, 0.0, *args)
     with pytest.raises(ValueError):
         CORE.ring_join(t1, dr, dr, 0, 5, np.inf, None, 0.0, *args)
+    # not contiguous arrays of doubles (t1 writable): declined, nothing written (the caller's steps)
+    neg = np.full(4, -0.0)
+    for t, d in ((np.arange(8.0)[::2], dr), (t1.astype(np.float32), dr), (t1, dr.astype(np.float32)),
+                 (np.frombuffer(t1.tobytes()), dr), (t1, np.zeros(8)[::2]), (list(t1), dr)):
+        assert CORE.ring_join(t, d, dr, 0, 0, np.inf, None, 0.0, *args) is None
+    assert CORE.ring_join(neg, dr, dr, 0, 0, np.inf, None, 0.0, *args)[0] == 4
+    assert np.signbit(neg).sum() == 0                       # (the new times + 0.0: -0.0 made 0.0)
 
 
 def _figures(path, prof, chunk, parts):

@@ -6474,6 +6474,33 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     return ret;
 }
 
+/* Elementwise loops in vector clones where gcc makes them (glibc's ifunc picks the clone at
+ * load time): each lane does its element's operation, the same bits as one at a time; no
+ * early exit, so a loop of tests is vectorized too (the numbers are in cache: reading all of
+ * them costs less than a branch each) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__)
+#define RING_VEC __attribute__((target_clones("avx2", "default"), \
+                                optimize("O3", "no-trapping-math", "fp-contract=off"), noinline))
+#else
+#define RING_VEC
+#endif
+
+/* t[0..n) += 0.0 (-0.0 made 0.0: add's t + 0.0, in place) */
+RING_VEC static void ring_add_zero(double *t, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < n; i++)
+        t[i] += 0.0;
+}
+
+/* (t[:-1] <= t[1:]).all() of t[0..n): in order, no NaN (n < 2: true) */
+RING_VEC static int ring_in_order(const double *t, Py_ssize_t n)
+{
+    int ok = 1;
+    for (Py_ssize_t i = 0; i + 1 < n; i++)
+        ok &= t[i] <= t[i + 1];
+    return ok;
+}
+
 /* numpy's less-than of doubles in its sorts and searches: NaN after every number */
 static inline int ring_np_lt(double a, double b)
 {
@@ -6482,40 +6509,60 @@ static inline int ring_np_lt(double a, double b)
 
 /* ring_join(t1, dr1, drp1, has_last, nw, horizon, first, floor, s, wd, qr, qi, four_s, rat,
  * scl, real_major): ringing._Stream.add_joined's steps where the stream's events need no
- * shaping, in one call.  t1 (float64, written): the carried time (has_last) and the nw
+ * shaping, in one call.  t1 (doubles, written): the carried time (has_last) and the nw
  * waiting events, then the new ones; dr1, drp1: the waiting and the new events' jumps.
  * Adds 0.0 to the new times (add's t + 0.0, in place); if the times after the carried one
  * are not in order (<=, as numpy compares them) returns None, the rest undone (the caller's
  * own steps: they sort).  Else k, the events before horizon (np.searchsorted(..., "left")),
  * and, where k > 0, ring_solve's result for t1[:has_last + k], dr1[:k], drp1[:k] (None:
- * the caller's steps then, as for ring_solve); (k, result or None if k == 0). */
+ * the caller's steps then, as for ring_solve); (k, result or None if k == 0).  None too,
+ * nothing done, where an array is not a contiguous one of doubles (t1 writable): the
+ * caller's steps take any. */
+static int ring_doubles(PyObject *o, Py_buffer *b, int writable)
+{
+    if (PyObject_GetBuffer(o, b, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    if (b->itemsize != (Py_ssize_t)sizeof(double) || b->format == NULL || strcmp(b->format, "d") != 0) {
+        PyBuffer_Release(b);
+        return 0;
+    }
+    return 1;
+}
+
 static PyObject *mod_ring_join(PyObject *self, PyObject *args)
 {
-    Py_buffer tb, rb, pb;
+    PyObject *to, *ro, *po, *first;
     Py_ssize_t has_last, nw;
     double horizon, floor_, s, wd, qr, qi, four_s, rat, scl;
-    PyObject *first;
     int real_major;
     ring_exp_init();
-    if (!PyArg_ParseTuple(args, "w*y*y*nndOddddddddp:ring_join", &tb, &rb, &pb, &has_last, &nw, &horizon, &first,
+    if (!PyArg_ParseTuple(args, "OOOnndOddddddddp:ring_join", &to, &ro, &po, &has_last, &nw, &horizon, &first,
                           &floor_, &s, &wd, &qr, &qi, &four_s, &rat, &scl, &real_major))
         return NULL;
+    Py_buffer tb, rb, pb;
+    int got_t = ring_doubles(to, &tb, 1), got_r = got_t && ring_doubles(ro, &rb, 0),
+        got_p = got_r && ring_doubles(po, &pb, 0);
     PyObject *ret = NULL;
+    if (!got_p) {                                 /* (not arrays of doubles: the caller's steps) */
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
     Py_ssize_t n1 = tb.len / (Py_ssize_t)sizeof(double), m = rb.len / (Py_ssize_t)sizeof(double);
-    if (tb.len % (Py_ssize_t)sizeof(double) || rb.len != pb.len || (has_last != 0 && has_last != 1)
-        || (has_last == 1) != (first != Py_None) || nw < 0 || n1 != has_last + m || nw > m) {
+    if (rb.len != pb.len || (has_last != 0 && has_last != 1) || (has_last == 1) != (first != Py_None) || nw < 0
+        || n1 != has_last + m || nw > m) {
         PyErr_SetString(PyExc_ValueError, "ring_join: t1 must hold the carried time and dr1's events");
         goto done;
     }
     double *t1 = (double *)tb.buf, *t_all = t1 + has_last;
-    for (Py_ssize_t i = has_last + nw; i < n1; i++)
-        t1[i] += 0.0;                             /* (add's t + 0.0: -0.0 made 0.0) */
-    for (Py_ssize_t i = 0; i + 1 < m; i++)
-        if (!(t_all[i] <= t_all[i + 1])) {       /* (not in order, or a NaN) */
-            ret = Py_None;
-            Py_INCREF(ret);
-            goto done;
-        }
+    ring_add_zero(t1 + has_last + nw, n1 - has_last - nw);
+    if (!ring_in_order(t_all, m)) {               /* (not in order, or a NaN) */
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
     Py_ssize_t lo = 0, hi = m;                    /* the first event not before horizon */
     while (lo < hi) {
         Py_ssize_t mid = lo + (hi - lo) / 2;
@@ -6535,9 +6582,12 @@ static PyObject *mod_ring_join(PyObject *self, PyObject *args)
     }
     ret = Py_BuildValue("nN", lo, got);
 done:
-    PyBuffer_Release(&tb);
-    PyBuffer_Release(&rb);
-    PyBuffer_Release(&pb);
+    if (got_t)
+        PyBuffer_Release(&tb);
+    if (got_r)
+        PyBuffer_Release(&rb);
+    if (got_p)
+        PyBuffer_Release(&pb);
     return ret;
 }
 

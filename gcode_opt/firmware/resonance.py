@@ -594,9 +594,9 @@ class Oscillator:
         (np.searchsorted, "left"), and solve(t1[:has_last + k], dr1[:k], drp1[:k], first,
         floor) where k > 0.  Returns (k, solve's result, None if k is 0), or None where the
         core does not take these steps (not there or turned off, the times after the
-        carried one not in order, a number not finite: solve would decline): the caller's
-        own steps then (the times' 0.0 added twice is the same).  t1, dr1, drp1: float64,
-        contiguous (ringing._events' views)."""
+        carried one not in order, a number not finite: solve would decline; arrays not
+        contiguous float64, t1 not writable): the caller's own steps then (the times' 0.0
+        added twice is the same)."""
         core = _solve_core(self.s, self.wd) if USE_JOIN else None
         if core is None or not hasattr(core, "ring_join"):
             return None

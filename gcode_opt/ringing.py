@@ -403,6 +403,16 @@ class _Stream:
         front of them (_events' lead): the same steps without concatenating (~8 instructions
         a number each; the concatenations add and _solve make)."""
         has_last, nw = self.t_last is not None, len(self.t)
+        if self.plain:
+            # (the steps below and _solve's in one call of the core, where it takes them)
+            got = self.osc.join(t1, dr1, drp1, has_last, nw, horizon_t, self.c_last if has_last else None,
+                                self.peak)
+            if got is not None:
+                k, solved = got
+                if k:
+                    self._solved(solved, t1[has_last + k - 1])
+                self.t, self.dr, self.drp = t1[has_last + k:].copy(), dr1[k:].copy(), drp1[k:].copy()
+                return
         new_t = t1[has_last + nw:]
         new_t += 0.0                    # (add's t + 0.0, in place: no shaper here)
         t_all = t1[has_last:]
@@ -428,11 +438,7 @@ class _Stream:
             t1 = t if self.t_last is None else np.concatenate([[self.t_last], t])
         got = osc.solve(t1, dr, drp, None if self.t_last is None else self.c_last, self.peak)
         if got is not None:
-            i_r2, peak, c_last = got
-            if peak is not None:
-                self.int_r2 += i_r2
-                self.peak = max(self.peak, peak)
-            self.t_last, self.c_last = float(t1[-1]), c_last
+            self._solved(got, t1[-1])
             return
         dc = osc.jump_amplitude(dr, drp)
         if self.t_last is not None:        # the carried amplitude starts the cumulative sum
@@ -448,6 +454,14 @@ class _Stream:
                 self.int_r2 += float(osc.integral_r2(c[:-1], dur).sum())
             self.peak = max(self.peak, osc.max_abs_r(c[:-1], dur))
         self.t_last, self.c_last = float(t[-1]), complex(c[-1])
+
+    def _solved(self, got, t_last):
+        """The core's (sum, peak, last amplitude) of events up to t_last taken in."""
+        i_r2, peak, c_last = got
+        if peak is not None:
+            self.int_r2 += i_r2
+            self.peak = max(self.peak, peak)
+        self.t_last, self.c_last = float(t_last), c_last
 
     def finish(self):
         self._solve(self.t, self.dr, self.drp)

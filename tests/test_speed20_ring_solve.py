@@ -123,6 +123,7 @@ def _count_solves(monkeypatch):
         seen["done"] += got is not None
         return got
     monkeypatch.setattr(Oscillator, "solve", spy)
+    monkeypatch.setattr(res, "USE_JOIN", False)     # (Oscillator.solve's own calls: Oscillator.join takes the streams' steps otherwise, test_speed58_ring_join)
     return seen
 
 
@@ -175,7 +176,11 @@ def _real_events(name="prusa_gyroid.gcode", prof="prusa-mk3s", chunk=400):
         return _ref_solve(self, t, dr, drp)
     for st in col.streams.values():
         st._solve = spy.__get__(st)
-    _figures(os.path.join(SAMPLES, name), profile, col)
+    join, res.USE_JOIN = res.USE_JOIN, False     # (_solve's own calls: Oscillator.join takes the streams' steps otherwise, test_speed58_ring_join)
+    try:
+        _figures(os.path.join(SAMPLES, name), profile, col)
+    finally:
+        res.USE_JOIN = join
     return calls
 
 
@@ -252,6 +257,7 @@ def test_the_old_steps_where_ring_solve_declines(monkeypatch):
         calls.append(len(calls) % 2 == 0)
         return orig(self, *a, **k) if calls[-1] else None
     monkeypatch.setattr(Oscillator, "solve", every_other)
+    monkeypatch.setattr(res, "USE_JOIN", False)     # (Oscillator.solve's own calls: Oscillator.join takes the streams' steps otherwise, test_speed58_ring_join)
     path = os.path.join(SAMPLES, "prusa_gyroid.gcode")
     got = _figures(path, profile, rg.Collector(profile, None, chunk_blocks=300))
     assert len(calls) > 20

@@ -132,6 +132,7 @@ def test_figures_of_real_files_against_the_exact_solution(name, prof, monkeypatc
         calls.append(got is not None)
         return got
     monkeypatch.setattr(Oscillator, "solve", spy)
+    monkeypatch.setattr(res, "USE_JOIN", False)     # (Oscillator.solve's own calls: Oscillator.join takes the streams' steps otherwise, test_speed58_ring_join)
     got = _collector_figures(path, profile)                   # one chunk: the trace's event times
     assert calls and all(calls)                               # the core solved every call
     flat = {f"{a}.{k}": v for a in "xy" for k, v in got[a].items()}

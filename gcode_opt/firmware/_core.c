@@ -6355,39 +6355,26 @@ ring_solve_run(const double *t, const double *dr, const double *drp, int off, do
 static double *ring_scratch = NULL;          /* ring_solve's room */
 static size_t ring_scratch_n = 0;
 
-static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
+/* ring_solve's work on n events t (C doubles), the jumps dr, drp (n - off of them, off 1
+ * where first is not None: the carried amplitude at t[0]): its return value, or NULL with
+ * an exception set */
+static PyObject *ring_solve_events(const double *t, const double *dr, const double *drp, Py_ssize_t n,
+                                   PyObject *first, double s, double wd, double qr, double qi, double four_s,
+                                   double rat, double scl, int real_major, double floor_)
 {
-    Py_buffer tb, rb, pb;
-    PyObject *first;
-    double s, wd, qr, qi, four_s, rat, scl;
-    int real_major;
-    double floor_ = 0.0;
-    ring_exp_init();
-    if (!PyArg_ParseTuple(args, "y*y*y*Odddddddp|d:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &qr, &qi,
-                          &four_s, &rat, &scl, &real_major, &floor_))
-        return NULL;
     PyObject *ret = NULL;
-    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
     int off = first != Py_None;
     double fr = 0.0, fi = 0.0;
     if (off) {
         Py_complex z = PyComplex_AsCComplex(first);
         if (z.real == -1.0 && PyErr_Occurred())
-            goto done;
+            return NULL;
         fr = z.real;
         fi = z.imag;
     }
-    if (rb.len != pb.len || rb.len != (n - off) * (Py_ssize_t)sizeof(double) || n - off < 0) {
-        PyErr_SetString(PyExc_ValueError, "ring_solve: dr, drp must hold len(t) (less the carried one) numbers");
-        goto done;
-    }
-    if (n == 0) {
-        ret = Py_None;
-        Py_INCREF(ret);
-        goto done;
-    }
+    if (n == 0)
+        Py_RETURN_NONE;
     Py_ssize_t np_ = n - 1;                      /* pieces */
-    const double *t = (const double *)tb.buf, *dr = (const double *)rb.buf, *drp = (const double *)pb.buf;
     /* room kept from call to call (fresh memory costs a page fault a page; the GIL is held) */
     /* (the room a past layout took -- 4 n + 3 pieces, where 4 pieces are written at most:
      * with a smaller room plate_rectilinear's peak RSS rose by 1 MB, the heap's layout; the
@@ -6396,18 +6383,14 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     if (need > ring_scratch_n) {
         size_t want = need + need / 8;     /* (the next chunk's few more events) */
         double *p = PyMem_Realloc(ring_scratch, sizeof(double) * want);
-        if (p == NULL) {
-            PyErr_NoMemory();
-            goto done;
-        }
+        if (p == NULL)
+            return PyErr_NoMemory();
         ring_scratch = p;
         ring_scratch_n = want;
     }
     RingStep *table = ring_table(ring_step, -s, wd, sizeof(RingStep));
-    if (table == NULL) {
-        PyErr_NoMemory();
-        goto done;
-    }
+    if (table == NULL)
+        return PyErr_NoMemory();
     /* (the pieces' integrals, then max_abs_r's candidates: 3 doubles each) */
     double *v = ring_scratch;
     RingCand cand = {floor_, 0.0, v + np_, 0, 0.0, 0.0};
@@ -6420,19 +6403,13 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     const RingStepK k = {-s, wd, qr, qi, four_s, rat, scl, real_major};
     Py_ssize_t nv = ring_solve_run(t, dr, drp, off, fr, fi, n, s, wd, table, &k, v, &cand);
     double c_last_r = cand.last_r, c_last_i = cand.last_i;
-    if (!isfinite(c_last_r) || !isfinite(c_last_i)) {
-        ret = Py_None;
-        Py_INCREF(ret);
-        goto done;
-    }
+    if (!isfinite(c_last_r) || !isfinite(c_last_i))
+        Py_RETURN_NONE;
     PyObject *sum = NULL, *peak = NULL;
     if (np_ > 0) {
         double total = -0.0 + np_pairwise_sum(v, nv);
-        if (!isfinite(total)) {
-            ret = Py_None;
-            Py_INCREF(ret);
-            goto done;
-        }
+        if (!isfinite(total))
+            Py_RETURN_NONE;
         /* max_abs_r: lo = np.abs(c.real).max(); the pieces it solves, |c| (1 + 1e-9) not below
          * lo, nor below `floor` (a peak the caller already has: a piece below it cannot
          * raise its max), are those of the candidates; np.maximum */
@@ -6449,7 +6426,7 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
         }
         sum = PyFloat_FromDouble(total);
         if (sum == NULL)
-            goto done;
+            return NULL;
         double pk = 0.0;
         for (Py_ssize_t j = 0; j < kk; j++) {
             const double *q = pc + 3 * j;
@@ -6466,16 +6443,153 @@ static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
     if (sum == NULL || peak == NULL) {
         Py_XDECREF(sum);
         Py_XDECREF(peak);
-        goto done;
+        return NULL;
     }
     ret = Py_BuildValue("NND", sum, peak, &(Py_complex){c_last_r, c_last_i});
-done:
+    return ret;
+}
+
+static PyObject *mod_ring_solve(PyObject *self, PyObject *args)
+{
+    Py_buffer tb, rb, pb;
+    PyObject *first;
+    double s, wd, qr, qi, four_s, rat, scl;
+    int real_major;
+    double floor_ = 0.0;
+    ring_exp_init();
+    if (!PyArg_ParseTuple(args, "y*y*y*Odddddddp|d:ring_solve", &tb, &rb, &pb, &first, &s, &wd, &qr, &qi,
+                          &four_s, &rat, &scl, &real_major, &floor_))
+        return NULL;
+    PyObject *ret = NULL;
+    Py_ssize_t n = tb.len / (Py_ssize_t)sizeof(double);
+    int off = first != Py_None;
+    if (rb.len != pb.len || rb.len != (n - off) * (Py_ssize_t)sizeof(double) || n - off < 0)
+        PyErr_SetString(PyExc_ValueError, "ring_solve: dr, drp must hold len(t) (less the carried one) numbers");
+    else
+        ret = ring_solve_events((const double *)tb.buf, (const double *)rb.buf, (const double *)pb.buf, n, first,
+                                s, wd, qr, qi, four_s, rat, scl, real_major, floor_);
     PyBuffer_Release(&tb);
     PyBuffer_Release(&rb);
     PyBuffer_Release(&pb);
     return ret;
 }
 
+/* Elementwise loops in vector clones where gcc makes them (glibc's ifunc picks the clone at
+ * load time): each lane does its element's operation, the same bits as one at a time; no
+ * early exit, so a loop of tests is vectorized too (the numbers are in cache: reading all of
+ * them costs less than a branch each) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__)
+#define RING_VEC __attribute__((target_clones("avx2", "default"), \
+                                optimize("O3", "no-trapping-math", "fp-contract=off"), noinline))
+#else
+#define RING_VEC
+#endif
+
+/* t[0..n) += 0.0 (-0.0 made 0.0: add's t + 0.0, in place) */
+RING_VEC static void ring_add_zero(double *t, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < n; i++)
+        t[i] += 0.0;
+}
+
+/* (t[:-1] <= t[1:]).all() of t[0..n): in order, no NaN (n < 2: true) */
+RING_VEC static int ring_in_order(const double *t, Py_ssize_t n)
+{
+    int ok = 1;
+    for (Py_ssize_t i = 0; i + 1 < n; i++)
+        ok &= t[i] <= t[i + 1];
+    return ok;
+}
+
+/* numpy's less-than of doubles in its sorts and searches: NaN after every number */
+static inline int ring_np_lt(double a, double b)
+{
+    return a < b || (b != b && a == a);
+}
+
+/* ring_join(t1, dr1, drp1, has_last, nw, horizon, first, floor, s, wd, qr, qi, four_s, rat,
+ * scl, real_major): ringing._Stream.add_joined's steps where the stream's events need no
+ * shaping, in one call.  t1 (doubles, written): the carried time (has_last) and the nw
+ * waiting events, then the new ones; dr1, drp1: the waiting and the new events' jumps.
+ * Adds 0.0 to the new times (add's t + 0.0, in place); if the times after the carried one
+ * are not in order (<=, as numpy compares them) returns None, the rest undone (the caller's
+ * own steps: they sort).  Else k, the events before horizon (np.searchsorted(..., "left")),
+ * and, where k > 0, ring_solve's result for t1[:has_last + k], dr1[:k], drp1[:k] (None:
+ * the caller's steps then, as for ring_solve); (k, result or None if k == 0).  None too,
+ * nothing done, where an array is not a contiguous one of doubles (t1 writable): the
+ * caller's steps take any. */
+static int ring_doubles(PyObject *o, Py_buffer *b, int writable)
+{
+    if (PyObject_GetBuffer(o, b, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0)) < 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    if (b->itemsize != (Py_ssize_t)sizeof(double) || b->format == NULL || strcmp(b->format, "d") != 0) {
+        PyBuffer_Release(b);
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *mod_ring_join(PyObject *self, PyObject *args)
+{
+    PyObject *to, *ro, *po, *first;
+    Py_ssize_t has_last, nw;
+    double horizon, floor_, s, wd, qr, qi, four_s, rat, scl;
+    int real_major;
+    ring_exp_init();
+    if (!PyArg_ParseTuple(args, "OOOnndOddddddddp:ring_join", &to, &ro, &po, &has_last, &nw, &horizon, &first,
+                          &floor_, &s, &wd, &qr, &qi, &four_s, &rat, &scl, &real_major))
+        return NULL;
+    Py_buffer tb, rb, pb;
+    int got_t = ring_doubles(to, &tb, 1), got_r = got_t && ring_doubles(ro, &rb, 0),
+        got_p = got_r && ring_doubles(po, &pb, 0);
+    PyObject *ret = NULL;
+    if (!got_p) {                                 /* (not arrays of doubles: the caller's steps) */
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
+    Py_ssize_t n1 = tb.len / (Py_ssize_t)sizeof(double), m = rb.len / (Py_ssize_t)sizeof(double);
+    if (rb.len != pb.len || (has_last != 0 && has_last != 1) || (has_last == 1) != (first != Py_None) || nw < 0
+        || n1 != has_last + m || nw > m) {
+        PyErr_SetString(PyExc_ValueError, "ring_join: t1 must hold the carried time and dr1's events");
+        goto done;
+    }
+    double *t1 = (double *)tb.buf, *t_all = t1 + has_last;
+    ring_add_zero(t1 + has_last + nw, n1 - has_last - nw);
+    if (!ring_in_order(t_all, m)) {               /* (not in order, or a NaN) */
+        ret = Py_None;
+        Py_INCREF(ret);
+        goto done;
+    }
+    Py_ssize_t lo = 0, hi = m;                    /* the first event not before horizon */
+    while (lo < hi) {
+        Py_ssize_t mid = lo + (hi - lo) / 2;
+        if (ring_np_lt(t_all[mid], horizon))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    PyObject *got = Py_None;
+    Py_INCREF(got);
+    if (lo > 0) {
+        Py_DECREF(got);
+        got = ring_solve_events(t1, (const double *)rb.buf, (const double *)pb.buf, has_last + lo, first, s, wd, qr,
+                                qi, four_s, rat, scl, real_major, floor_);
+        if (got == NULL)
+            goto done;
+    }
+    ret = Py_BuildValue("nN", lo, got);
+done:
+    if (got_t)
+        PyBuffer_Release(&tb);
+    if (got_r)
+        PyBuffer_Release(&rb);
+    if (got_p)
+        PyBuffer_Release(&pb);
+    return ret;
+}
 
 /* ring_events' state from piece to piece: the carry (t, the cumulative sum of the pieces'
  * lengths, vel_end, acc), each axis' and part's count and outputs, w^2 of each axis */
@@ -8196,6 +8310,9 @@ static PyMethodDef mod_methods[] = {
     {"ring_solve", mod_ring_solve, METH_VARARGS,
      "ring_solve(t, dr, drp, first, s, wd, qr, qi, four_s, rat, scl, real_major[, floor]): "
      "_Stream._solve"},
+    {"ring_join", mod_ring_join, METH_VARARGS,
+     "ring_join(t1, dr1, drp1, has_last, nw, horizon, first, floor, s, wd, qr, qi, four_s, rat, scl, real_major): "
+     "_Stream.add_joined without a shaper"},
     {"ring_release", mod_ring_release, METH_NOARGS,
      "ring_release(): ring_solve's room given back; returns the bytes it held"},
     {"jerk_tail", mod_jerk_tail, METH_VARARGS,

@@ -806,8 +806,7 @@ class _EndsSettle:
     settled ~1 k batches of ~15 chains).  Batches are checked once SETTLE_KNOTS knot
     speeds wait, and at flush(); a batch of another shape, or of SETTLE_KNOTS knot speeds
     or more (the list path's, up to FINISH_ROWS chains: as fast by its own block's checks,
-    without the flat copies), goes to _settle_ends_plans.  add's plans: RowPlan(ends[i], V,
-    A, F, i) each, as its callers (_replay, _again_plans) make them (not checked a plan)."""
+    without the flat copies), goes to _settle_ends_plans."""
     __slots__ = ("todo", "knots")
 
     def __init__(self):
@@ -817,7 +816,8 @@ class _EndsSettle:
         nd, m = np.ndarray, len(plans)
         if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
                 and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
-                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS):
+                and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS
+                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
             _settle_ends_plans(plans, ends, V, A, F)
             return
         self.todo.append((plans, ends, V, A, F))
@@ -866,9 +866,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     by_law = laws_of is not None
     laws_of = laws_of or _laws_of
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
-    gs = list(map(_CURV, map(_IT0, items)))       # (their geometry made before: _rebuild_geometry)
-    if None in gs:
-        gs = [curves.geom(st, profile) for st, _, _ in items]
+    gs = [curves.geom(st, profile) for st, _, _ in items]
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
@@ -1079,7 +1077,6 @@ _CHAIN_T = attrgetter("chain_T")
 _DTYPE, _NDIM, _F8 = attrgetter("dtype"), attrgetter("ndim"), np.dtype(float)
 _IS_NOT_NONE = partial(is_not, None)
 _IT0, _IT1, _IT2 = itemgetter(0), itemgetter(1), itemgetter(2)
-_CURV = attrgetter("curv")
 
 
 def _inner_s_stacked(gs, Ds):

@@ -1624,24 +1624,16 @@ def _chain_plans(strokes, plan, rules, profile, rows, spill=None):
 
 def _chain_strokes(strokes, rows):
     """The strokes of the chains rows (sorted).  Of a StoredStrokes whose kept fields
-    (chain_T: the memos, whose state the runs' bits depend on) it holds for every row, made
-    of their records alone with those objects put in (its store's take: the same strokes
-    a window's load makes), not their windows loaded: a run's chains are ~half of a
-    window's rows (gyroid plate: 29 loads for 16.4 k chains), a later run's a few (29 loads
-    for ~850).  A memo is changed in place by the plans (never replaced), so the kept one
-    stays the row's.  Else (a list, or a memo not kept yet) the strokes indexed."""
-    side = getattr(strokes, "_side", None) if isinstance(strokes, StoredStrokes) else None
-    if side and rows.size:
-        got = stored(strokes)            # (its windows let go first: their memos kept, their changes written)
-        over = {}
-        for name, vals in side.items():
-            if vals is None or len(vals) <= rows[-1]:
-                break
-            over[name] = _take(vals, rows)
-            if not all(map(_IS_NOT_NONE, over[name])):
-                break
-        else:
-            return got[0].take(rows, over)
+    (chain_T: the memos, whose state the runs' bits depend on) it holds for every row
+    (StoredStrokes.kept_at), made of their records alone with those objects put in (its
+    store's take: the same strokes a window's load makes), not their windows loaded: a
+    run's chains are ~half of a window's rows (gyroid plate: 29 loads for 16.4 k chains), a
+    later run's a few (29 loads for ~850).  A memo is changed in place by the plans (never
+    replaced), so the kept one stays the row's.  Else (a list, or a memo not kept yet) the
+    strokes indexed."""
+    over = strokes.kept_at(rows) if isinstance(strokes, StoredStrokes) else None
+    if over is not None:
+        return strokes.store.take(rows, over)
     return list(map(strokes.__getitem__, rows.tolist()))
 
 

@@ -115,6 +115,27 @@ class StoredStrokes(StoreWindows):
                     vals += [None] * (hi - lo - len(vals))
         return got
 
+    def kept_at(self, rows):
+        """{field: the side tables' objects of rows (sorted, an int array)} where every kept
+        field holds one for each of them -- what the store's take needs to make the strokes
+        a window's load makes (schedule._chain_strokes) -- else None (no field kept, or a row
+        without its object yet).  The held windows are let go first (their objects then in
+        the side tables, their changes written back: the store holds every change)."""
+        if not self._side or not len(rows):
+            return None
+        self.let_go()
+        got = {}
+        for name, side in self._side.items():
+            if side is None or len(side) <= rows[-1]:
+                return None
+            vals = objfields.take(side, rows)          # (one compiled pass where built)
+            if vals is None:
+                vals = list(map(side.__getitem__, rows.tolist()))
+            got[name] = vals
+            if not all(map(_IS_NOT_NONE, vals)):
+                return None
+        return got
+
     def _let_go(self, j):
         w = self._wins.pop(j)
         if w is self._cur:

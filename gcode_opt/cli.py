@@ -710,6 +710,7 @@ def main(argv=None):
         from . import blas, malloc_policy
         blas.one_thread_from_start()    # no OpenBLAS thread pool spinning at numpy's import (blas.py)
         malloc_policy.apply()           # freed numpy temporaries reused, not faulted in anew (malloc_policy.py)
+        malloc_policy.small_pages()     # no 2 MiB pages under numpy's arrays: a lower peak RSS (malloc_policy.py)
         from .outfile import Interrupted, OutputError, discard_pending, install_signal_handlers, restore_signal_handlers
         from .profile import ProfileError
         from .state import GcodeError

@@ -475,7 +475,7 @@ class StrokeStore:
             run_pos = np.cumsum(run_n) - run_n               # where each run goes in the buffer
             total = int(run_n.sum())
             if len(buf) < total:
-                buf = bytearray(total)
+                buf = np.empty(total, np.uint8)       # (not zeroed: every byte used is read into it)
             with memoryview(buf) as mv:
                 for a, n, p in zip(run_at.tolist(), run_n.tolist(), run_pos.tolist()):
                     self._io.read_into(mv[p:p + n], a)

@@ -18,6 +18,7 @@ from gcode_opt.stored_strokes import StoredStrokes
 
 from test_speed52_runs52_windows import seg_bits
 from test_speed53_plans53_lazy import FIGURES, _stored_plan
+from test_speed56_chains56 import assert_eager_plan
 
 CASE = ("prusa_gyroid.gcode", "prusa-mk3s", 64)
 _UNSET = object()
@@ -74,21 +75,11 @@ def planned():
 
 
 def test_runs_chain_plans_load_no_window(planned):
-    strokes, plan, pin, (fig, reason, segs), loads, _ = planned
+    strokes, plan, pin, ref, loads, _ = planned
     assert len(loads) > 1 and sum(n for n, _ in loads) > 100       # (chains planned by the runs)
     assert [k for _, k in loads] == [0] * len(loads)
-    for k in FIGURES:
-        assert getattr(plan, k).tobytes() == fig[k].tobytes(), k
-    assert list(plan.reason) == reason
-    timed = np.flatnonzero(plan.retime & (pin.plan_kind_codes == sc.C_CHAIN))
-    assert timed.size > 50
-    every = np.arange(len(strokes))
-    for a in range(0, every.size, 64):          # (the rewrite's chains' plans: the reference's bits)
-        rows = every[a:a + 64]
-        sc.segs_for(plan, rows, strokes)
-        for i in np.intersect1d(rows, timed).tolist():
-            assert seg_bits(plan.segs[i]) == segs[i], i
-    sc.segs_for(plan, every[:0], strokes)
+    assert_eager_plan(plan, pin, strokes, ref, 64, timed_only=True)     # (the rewrite's plans too)
+    sc.segs_for(plan, np.arange(0), strokes)
 
 
 def test_chain_strokes_are_the_loaded_ones(planned):

@@ -3,51 +3,13 @@ benchmarks/cands58.md): a window's curves' rows, then its chains' rows, each a c
 own (schedule._rebuild_geometry), are the geometry build_geoms makes of that window, bit
 for bit, and each block given holds the rows asked alone; a window's rows given whole take
 the record's doubles as they are (no copy), its rows given in part their own copies."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from gcode_opt import chains, pipeline
-from gcode_opt import features as feat
-from gcode_opt.geom_keep import GeomKeep
-from gcode_opt.plan_windows import plan_inputs_windowed
-from gcode_opt.profile import load_profile
 from gcode_opt.schedule import C_CHAIN, C_CURVE
 from gcode_opt.stored_strokes import curve_geometry
-from gcode_opt.stroke_store import StrokeStore
-
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_gcode"
-NAME = "prusa_gyroid_fullspeed.gcode"
-WINDOW, PIN = 37, 100           # plan_inputs' calls cut windows (100 is no multiple of 37)
-
-
-def _kept(tmp_path, prof_name):
-    """(profile, store, its GeomKeep filled by plan_inputs_windowed, plan_kind codes)."""
-    prof = load_profile(prof_name)
-    path = str(SAMPLES / NAME)
-    opts = pipeline.Options(features=feat.default_selection(path)[0])
-    store = StrokeStore(folder=str(tmp_path))
-    pipeline.analyse(path, prof, opts, store)
-    keep = GeomKeep(WINDOW, prof, str(tmp_path))
-    pin = plan_inputs_windowed(store, prof, opts, PIN, keep)
-    return prof, store, keep, pin.plan_kind_codes
-
-
-def _bits(x):
-    a = np.asarray(x)
-    return a.dtype.str, a.shape, a.tobytes()
-
-
-def _fields(st, chain, prof):
-    """Every field of st's geometry a consumer reads, as bits (the chains' caps too)."""
-    g = st.curv
-    ends = tuple(None if c is None else float(c).hex() for c in g.cos_end)
-    got = [_bits(g.d), _bits(g.u), _bits(g.kappa_v), float(g.kappa_eff).hex(), float(g.cap).hex(), ends,
-           _bits(g.caps), _bits(g.s_v), _bits(g.cos_turn)]
-    if chain:
-        got.append(_bits(chains.vertex_caps(st, prof)))
-    return got
+# (the same sample, windows and store as the kept geometry's own tests)
+from test_speed57_geom57 import WINDOW, _fields, _kept
 
 
 @pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])     # classic jerk; Klipper's (caps kept)

@@ -20,6 +20,8 @@ from gcode_opt import ringing as rg
 from gcode_opt.firmware import resonance as res
 from gcode_opt.firmware import simulate as fw
 from gcode_opt.profile import load_profile
+# (a Collector's figures played in chunks, and as bits: the joined events' own tests')
+from test_speed39_ringc_joined import _bits, _figures
 
 SAMPLES = os.path.join(os.path.dirname(__file__), "..", "sample_gcode")
 CORE = fw._core
@@ -74,16 +76,23 @@ def _copy(st):
     return c
 
 
-def _both(monkeypatch, st, t1, dr1, drp1, horizon_t):
-    """(the stream after add_joined with the core's join, after add_joined's own steps,
-    whether the join took them)"""
-    took = []
+def _join_spy(took):
+    """Oscillator.join that appends to took whether the core's join took the steps."""
     real = res.Oscillator.join
 
     def spy(self, *a):
         got = real(self, *a)
         took.append(got is not None)
         return got
+    return spy
+
+
+def _both(monkeypatch, st, t1, dr1, drp1, horizon_t):
+    """(the stream after add_joined with the core's join, after add_joined's own steps,
+    whether the join took them)"""
+    took = []
+    real = res.Oscillator.join
+    spy = _join_spy(took)
     a, b = _copy(st), _copy(st)
     monkeypatch.setattr(res.Oscillator, "join", spy)
     a.add_joined(t1.copy(), dr1.copy(), drp1.copy(), horizon_t)
@@ -159,17 +168,6 @@ def test_ring_join_checks_its_arguments():
     assert np.signbit(neg).sum() == 0                       # (the new times + 0.0: -0.0 made 0.0)
 
 
-def _figures(path, prof, chunk, parts):
-    col = rg.Collector(prof, chunk_blocks=chunk, parts=parts)
-    rg.play(path, prof, col)
-    return col.figures(), col.chunks
-
-
-def _bits(d):
-    return {k: _bits(v) if isinstance(v, dict) else (float(v).hex() if isinstance(v, float) else v)
-            for k, v in d.items()}
-
-
 @pytest.mark.parametrize("name,prof,chunk", [("prusa_gyroid.gcode", "prusa-mk3s", 300),
                                               ("prusa_mk3s_rectilinear.gcode", "prusa-mk3s", 97),
                                               ("prusa_klipper.gcode", "voron24", 500)])
@@ -177,12 +175,7 @@ def test_figures_equal_add_joineds_own_steps(monkeypatch, name, prof, chunk):
     path = os.path.join(SAMPLES, name)
     profile = load_profile(prof)
     took = []
-    real = res.Oscillator.join
-
-    def spy(self, *a):
-        got = real(self, *a)
-        took.append(got is not None)
-        return got
+    spy = _join_spy(took)
     for parts in (True, False):
         took.clear()
         monkeypatch.setattr(res.Oscillator, "join", spy)

@@ -1435,12 +1435,22 @@ def _judge_rows(plan, rows, key, figs, a2_orig):
     a2_pred."""
     a2, bad = figs.a2[key], figs.bad[key]
     keep = a2 < a2_orig * (1.0 - GAIN_TOL_R)       # (a row with a why: its a2 NaN, not kept)
-    if bad.any():
+    _left_as_sliced(plan, rows, keep, bad, lambda: map(figs.why.__getitem__, key[bad].tolist()))
+    put = rows[keep]
+    plan.t_pred[put] = figs.t[key[keep]]
+    plan.a2_pred[put] = a2[keep]
+
+
+def _left_as_sliced(plan, rows, keep, bad, whys):
+    """The rows not kept (keep: a mask of rows) left as sliced on plan: those bad (a mask,
+    or None: none) with their reasons, whys() (in the rows' order), the others with
+    _NOT_BEATING (their plans do not beat their originals)."""
+    if bad is not None and bad.any():
         out = rows[bad]
         plan.retime[out] = False
         reason = plan.reason
-        for i, k in zip(out.tolist(), key[bad].tolist()):
-            reason[i] = figs.why[k]
+        for i, why in zip(out.tolist(), whys()):
+            reason[i] = why
         lost = ~bad & ~keep
     else:
         lost = ~keep
@@ -1448,9 +1458,6 @@ def _judge_rows(plan, rows, key, figs, a2_orig):
         out = rows[lost]
         plan.retime[out] = False
         plan.reason[out] = _NOT_BEATING
-    put = rows[keep]
-    plan.t_pred[put] = figs.t[key[keep]]
-    plan.a2_pred[put] = a2[keep]
 
 
 def _split_known(rows, keys, table, missing):
@@ -2160,19 +2167,7 @@ def _keep_plans(plan, strokes, idx, seg_l, seg_failed, idx_l=None, a2_orig=None,
     keep = a2 < a2_orig * (1.0 - GAIN_TOL_R)
     if bad_why is not None:
         keep &= ~bad_why
-        if bad_why.any():
-            rows = idx[bad_why]
-            plan.retime[rows] = False
-            reason = plan.reason
-            for i, why in zip(rows.tolist(), [why for why in why_l if why]):
-                reason[i] = why
-        lost = ~bad_why & ~keep
-    else:
-        lost = ~keep
-    if lost.any():
-        rows = idx[lost]
-        plan.retime[rows] = False
-        plan.reason[rows] = _NOT_BEATING
+    _left_as_sliced(plan, idx, keep, bad_why, lambda: [why for why in why_l if why])
     if keep.all():
         put, put_l, kept, a2_kept = idx, idx_l, seg_l, a2
         t_kept = None if fig is None else fig[:, 1]

@@ -52,9 +52,47 @@ def plan_inputs_windowed(store, profile, opts, rows, geoms=None):
     return join_plan_inputs(parts)
 
 
+class SpilledInputs:
+    """What pipeline.analyse spills its finished strokes to on the windowed path (its store:
+    append): each batch's plan_inputs made, and its curve geometry kept (GeomKeep), from
+    the strokes analyse holds, before their records are written -- each record encoded
+    once, not loaded, planned and written back after analyse (plan_inputs_windowed:
+    StrokeStore.rewrite was half the windowed encodes, benchmarks/store59.md).  A batch's
+    strokes are final: their firmware sums made (analyse's sums.done) and the next
+    stroke closed (its next_u set), and plan_inputs gives the same PlanInput on any
+    chunking of the strokes (tests/test_speed59_store59_spill.py).  The parts are joined
+    by plan_input()."""
+
+    def __init__(self, store, profile, opts, window):
+        from .geom_keep import GeomKeep
+        self.store, self.profile, self.opts = store, profile, opts
+        self.geoms = GeomKeep(window, profile, store.folder)
+        self.parts = []
+
+    def __len__(self):
+        return len(self.store)
+
+    def append(self, strokes):
+        """strokes (a list) planned and appended to the store."""
+        from .schedule import plan_inputs
+        if not strokes:
+            return
+        pin = plan_inputs(strokes, self.profile, self.opts)
+        self.geoms.put(len(self.store), strokes, pin.plan_kind_codes)
+        self.store.append(strokes)
+        self.parts.append(pin)
+
+    def plan_input(self):
+        """The PlanInput of every stroke appended (of none: the list's of none)."""
+        from .schedule import plan_inputs
+        from .stored_strokes import join_plan_inputs
+        return join_plan_inputs(self.parts or [plan_inputs([], self.profile, self.opts)])
+
+
 def planned_strokes(store, profile, opts, window):
     """(PlanInput, StoredStrokes) of the strokes of store for the budget runs: plan_inputs
-    PIN_ROWS strokes at a time (a window if larger), and with alpha "auto" the candidate
+    as analyse spilled them (store a SpilledInputs), else (a StrokeStore filled otherwise)
+    PIN_ROWS strokes at a time (a window if larger); and with alpha "auto" the candidate
     tables a window at a time (the arcs' and curves' LEVEL_ROWS rows a call at least, the
     lines' LINE_ROWS), put where
     plan_strokes finds them (pin.cached, as its first call leaves them).  The StoredStrokes
@@ -62,9 +100,12 @@ def planned_strokes(store, profile, opts, window):
     in its side table."""
     from .geom_keep import GeomKeep
     from .stored_strokes import StoredStrokes, curve_geometry
-    # (the curve geometry plan_inputs makes, kept for the later loads of its window: geom_keep)
-    geoms = GeomKeep(window, profile, store.folder)
-    pin = plan_inputs_windowed(store, profile, opts, max(window, PIN_ROWS), geoms)
+    if isinstance(store, SpilledInputs):
+        pin, geoms, store = store.plan_input(), store.geoms, store.store
+    else:
+        # (the curve geometry plan_inputs makes, kept for the later loads of its window: geom_keep)
+        geoms = GeomKeep(window, profile, store.folder)
+        pin = plan_inputs_windowed(store, profile, opts, max(window, PIN_ROWS), geoms)
     strokes = StoredStrokes(store, window, on_load=curve_geometry(pin.plan_kind_codes, profile, geoms),
                             keep=("chain_T",), geoms=geoms)
     if opts.alpha == "auto" and len(strokes):

@@ -54,39 +54,51 @@ def plan_inputs_windowed(store, profile, opts, rows, geoms=None):
 
 class SpilledInputs:
     """What pipeline.analyse spills its finished strokes to on the windowed path (its store:
-    append): each batch's plan_inputs made, and its curve geometry kept (GeomKeep), from
-    the strokes analyse holds, before their records are written -- each record encoded
-    once, not loaded, planned and written back after analyse (plan_inputs_windowed:
-    StrokeStore.rewrite was half the windowed encodes, benchmarks/store59.md).  A batch's
-    strokes are final: their firmware sums made (analyse's sums.done) and the next
-    stroke closed (its next_u set), and plan_inputs gives the same PlanInput on any
-    chunking of the strokes (tests/test_speed59_store59_spill.py).  The parts are joined
-    by plan_input()."""
+    append): their plan_inputs made, and their curve geometry kept (GeomKeep), from the
+    strokes analyse holds, before their records are written -- each record encoded once,
+    not loaded, planned and written back after analyse (plan_inputs_windowed: its
+    StrokeStore.rewrite was half the windowed encodes, benchmarks/store59.md).  The
+    strokes come final (their firmware sums made, analyse's sums.done, and the next stroke
+    closed: next_u set) and are planned `rows` at a time from row 0, as plan_inputs_windowed
+    cuts them (a call's fixed costs paid as often; GeomKeep a record a window), the rest
+    held until more come or plan_input() is asked.  plan_inputs gives the same PlanInput on
+    any cut (tests/test_speed59_store59_spill.py)."""
 
-    def __init__(self, store, profile, opts, window):
+    def __init__(self, store, profile, opts, window, rows=None):
         from .geom_keep import GeomKeep
         self.store, self.profile, self.opts = store, profile, opts
+        self.rows = rows or max(window, PIN_ROWS)
         self.geoms = GeomKeep(window, profile, store.folder)
         self.parts = []
+        self.held = []                  # strokes appended, not yet planned nor stored
 
     def __len__(self):
-        return len(self.store)
+        return len(self.store) + len(self.held)
 
     def append(self, strokes):
-        """strokes (a list) planned and appended to the store."""
+        """strokes (a list) after the ones appended: planned and stored `rows` at a time
+        while as many are held."""
+        self.held += strokes
+        while len(self.held) >= self.rows:
+            self._planned(self.rows)
+
+    def _planned(self, k):
+        """The first k strokes held planned, their geometry kept, their records written."""
         from .schedule import plan_inputs
-        if not strokes:
-            return
-        pin = plan_inputs(strokes, self.profile, self.opts)
-        self.geoms.put(len(self.store), strokes, pin.plan_kind_codes)
-        self.store.append(strokes)
+        sts = self.held[:k]
+        del self.held[:k]
+        pin = plan_inputs(sts, self.profile, self.opts)
+        self.geoms.put(len(self.store), sts, pin.plan_kind_codes)
+        self.store.append(sts)
         self.parts.append(pin)
 
     def plan_input(self):
-        """The PlanInput of every stroke appended (of none: the list's of none)."""
-        from .schedule import plan_inputs
+        """The PlanInput of every stroke appended (the rest held planned and stored first;
+        of no stroke: the list's of none)."""
         from .stored_strokes import join_plan_inputs
-        return join_plan_inputs(self.parts or [plan_inputs([], self.profile, self.opts)])
+        if self.held or not self.parts:
+            self._planned(len(self.held))
+        return join_plan_inputs(self.parts)
 
 
 def planned_strokes(store, profile, opts, window):

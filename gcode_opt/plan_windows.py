@@ -94,11 +94,14 @@ class SpilledInputs:
 
     def plan_input(self):
         """The PlanInput of every stroke appended (the rest held planned and stored first;
-        of no stroke: the list's of none)."""
+        of no stroke: the list's of none), once: the parts let go as they are joined (they
+        are a PlanInput's size: ~4 MB on the rectilinear plate, held through the
+        candidates by the caller's reference to this object otherwise)."""
         from .stored_strokes import join_plan_inputs
         if self.held or not self.parts:
             self._planned(len(self.held))
-        return join_plan_inputs(self.parts)
+        parts, self.parts = self.parts, None
+        return join_plan_inputs(parts)
 
 
 def planned_strokes(store, profile, opts, window):

@@ -139,9 +139,9 @@ def analyse(path, profile: Profile, opts: Options, store=None):
     per stroke and per feature, in the same order (_LogSums: a prefix at a time during the
     pass, the log dropping the records summed, the rest after it).
 
-    store (a stroke_store.StrokeStore, or None): the finished strokes are appended to it at
-    each of the log's flushes and dropped (they never all exist at once), the rest at the
-    end; returns (store, sim's result) then.  Only with the compiled RecordLog (the Python
+    store (a stroke_store.StrokeStore, a plan_windows.SpilledInputs, or None): the finished
+    strokes are appended to it at each of the log's flushes and dropped (they never all
+    exist at once), the rest at the end; returns (store, sim's result) then.  Only with the compiled RecordLog (the Python
     model's records come one by one: the list is kept and appended at the end)."""
     log = _record_log()
     strokes = []

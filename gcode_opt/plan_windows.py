@@ -1,6 +1,7 @@
 """The windowed pipeline's planning (issue 8: the strokes never all alive): analyse spills the
-strokes to a StrokeStore (pipeline.analyse's store), plan_inputs is made PIN_ROWS of them at a
-time and the candidate tables a window at a time over a StoredStrokes
+strokes to a StrokeStore (pipeline.analyse's store: a SpilledInputs, which makes their
+plan_inputs as they come, before their records are written) and the candidate tables are
+made a window at a time over a StoredStrokes
 (schedule.candidates_in_windows); the budget runs, the rewrite, the measure and the summary
 then read the same StoredStrokes (pipeline._process: GCODE_OPT_WINDOWED=1).
 
@@ -16,10 +17,9 @@ import numpy as np
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
-# strokes a plan_inputs call at least (planned_strokes; a window if larger): its fixed costs a
-# call (chains.classify's geometry blocks, a numpy pass a column) paid 35-51 times at 1024,
-# ~35 % of the pass on the plates; the strokes made at once then 4 k, not a window's, before
-# the candidates' peak, not in it (benchmarks/inputs56.md)
+# strokes a plan_inputs call at least (SpilledInputs, plan_inputs_windowed; a window if
+# larger): its fixed costs a call (chains.classify's geometry blocks, a numpy pass a column)
+# paid 35-51 times at 1024, ~35 % of the pass on the plates (benchmarks/inputs56.md)
 PIN_ROWS = 4096
 
 
@@ -59,10 +59,10 @@ class SpilledInputs:
     not loaded, planned and written back after analyse (plan_inputs_windowed: its
     StrokeStore.rewrite was half the windowed encodes, benchmarks/store59.md).  The
     strokes come final (their firmware sums made, analyse's sums.done, and the next stroke
-    closed: next_u set) and are planned `rows` at a time from row 0, as plan_inputs_windowed
-    cuts them (a call's fixed costs paid as often; GeomKeep a record a window), the rest
-    held until more come or plan_input() is asked.  plan_inputs gives the same PlanInput on
-    any cut (tests/test_speed59_store59_spill.py)."""
+    closed: next_u set); they are held until `rows` at least have come (a plan_inputs
+    call's fixed costs paid once for them: analyse spills ~2.3 k strokes at a time on the
+    gyroid plate, ~10 k on the rectilinear), or plan_input() is asked.  plan_inputs gives
+    the same PlanInput on any cut of the strokes (tests/test_speed59_store59_spill.py)."""
 
     def __init__(self, store, profile, opts, window, rows=None):
         from .geom_keep import GeomKeep
@@ -76,17 +76,16 @@ class SpilledInputs:
         return len(self.store) + len(self.held)
 
     def append(self, strokes):
-        """strokes (a list) after the ones appended: planned and stored `rows` at a time
-        while as many are held."""
+        """strokes (a list) after the ones appended: those held planned and stored in one
+        call once they are `rows` at least."""
         self.held += strokes
-        while len(self.held) >= self.rows:
-            self._planned(self.rows)
+        if len(self.held) >= self.rows:
+            self._planned()
 
-    def _planned(self, k):
-        """The first k strokes held planned, their geometry kept, their records written."""
+    def _planned(self):
+        """The strokes held planned, their geometry kept, their records written."""
         from .schedule import plan_inputs
-        sts = self.held[:k]
-        del self.held[:k]
+        sts, self.held = self.held, []
         pin = plan_inputs(sts, self.profile, self.opts)
         self.geoms.put(len(self.store), sts, pin.plan_kind_codes)
         self.store.append(sts)
@@ -99,7 +98,7 @@ class SpilledInputs:
         candidates by the caller's reference to this object otherwise)."""
         from .stored_strokes import join_plan_inputs
         if self.held or not self.parts:
-            self._planned(len(self.held))
+            self._planned()
         parts, self.parts = self.parts, None
         return join_plan_inputs(parts)
 

@@ -89,10 +89,12 @@ def _check_spilled_pin(monkeypatch, path, prof, flush_rows=None, rows=None):
 @pytest.mark.parametrize("flush_rows,rows", [(97, 1), (300, 37), (1000, 1000)])
 def test_spilled_plan_input_is_the_lists(monkeypatch, path, prof, flush_rows, rows):
     """The small samples spilled in batches of a few to a few hundred strokes (the log
-    flushed every flush_rows records), planned `rows` strokes a call: the list's
-    PlanInput, arcs' arc_gentle included."""
+    flushed every flush_rows records), planned as they come (rows 1: cuts of every size)
+    or once `rows` are held: the list's PlanInput, arcs' arc_gentle included."""
     sizes = _check_spilled_pin(monkeypatch, path, prof, flush_rows, rows)
-    assert all(k == rows for k in sizes[:-1]) and 0 < sizes[-1] <= rows
+    assert all(k >= rows for k in sizes[:-1]) and sizes[-1] > 0
+    if rows == 1 and pipeline._record_log() is not None:     # (the Python model: one batch, at the end)
+        assert len(set(sizes)) >= 3
 
 
 @pytest.mark.parametrize("path,prof", SAMPLED)
@@ -119,8 +121,8 @@ def test_spilled_plan_input_is_the_lists_on_plates(monkeypatch, path, prof):
     if not os.path.exists(path):
         pytest.skip(f"{path} not made (sample_gcode/make_corpus.sh)")
     sizes = _check_spilled_pin(monkeypatch, path, prof)
-    rows = max(64, plan_windows.PIN_ROWS)           # (the command's cut: plan_inputs_windowed's)
-    assert sizes[:-1] == [rows] * (len(sizes) - 1) and 0 < sizes[-1] <= rows
+    rows = max(64, plan_windows.PIN_ROWS)           # (the command's least strokes a call)
+    assert len(sizes) > 3 and all(k >= rows for k in sizes[:-1]) and sizes[-1] > 0
 
 
 @pytest.mark.parametrize("path,prof", SAMPLED[:3])

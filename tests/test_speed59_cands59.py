@@ -17,7 +17,7 @@ from gcode_opt.profile import load_profile
 from gcode_opt.stroke_store import StrokeStore
 from gcode_opt.strokes import K_CHAIN, K_LINE
 
-from test_speed50_wina50_windows import SAMPLES, _assert_same
+from test_speed50_wina50_windows import CORPUS, SAMPLES, _assert_same
 from test_speed53_memo53_batch import _memo_bits
 from windowed_run import run_command
 
@@ -110,3 +110,30 @@ def test_command_with_taken_windows_writes_the_list_paths_bytes(tmp_path, monkey
     got = run_command(monkeypatch, SAMPLES / name, tmp_path / "win.gcode", True, WINDOW)
     assert got[0] == ref[0]
     assert got[1] == ref[1]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (CORPUS / "plate_rectilinear.gcode").exists(), reason="corpus plate not here")
+@pytest.mark.parametrize("plate", ["plate_rectilinear.gcode", "plate_gyroid.gcode"])
+def test_plates_windowed_tables_are_the_list_paths(tmp_path, monkeypatch, plate):
+    """The plates at the pipeline's window (the rectilinear plate's windows taken, ~70 arcs,
+    curves and chains of 1024 strokes; most of the gyroid plate's loaded): one call's tables."""
+    from gcode_opt.plan_windows import WINDOW as window
+    prof = load_profile("prusa-mk3s")
+    path = str(CORPUS / plate)
+    opts = Options(features=feat.default_selection(path)[0])
+    strokes, _ = analyse(path, prof, opts)
+    pin = sc.plan_inputs(strokes, prof, opts)
+    rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
+    failed_ref = sc._faults_of(pin.fault)
+    ref, _ = sc._candidates(strokes, pin, prof, opts, rows, failed_ref)
+    n = len(strokes)
+    del strokes, pin
+    store = StrokeStore(folder=str(tmp_path))
+    analyse(path, prof, opts, store)
+    counts = _Counts(monkeypatch)
+    pin, got = planned_strokes(store, prof, opts, window)
+    _assert_same(ref, pin.cached[0], n)
+    assert pin.cached[2] == failed_ref
+    assert counts.taken
+    store.close()

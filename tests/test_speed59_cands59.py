@@ -24,8 +24,18 @@ from windowed_run import run_command
 WINDOW = 37
 
 
+_LIST = {}
+
+
 def _list_path(name):
     """The list path's one call: (Candidates, failed, rows by kind, {chain row: memo bits}, n)."""
+    if name not in _LIST:
+        _LIST[name] = _one_call(name)
+    cands, failed, rows, memos, n = _LIST[name]
+    return cands, dict(failed), rows, memos, n
+
+
+def _one_call(name):
     prof = load_profile("prusa-mk3s")
     path = str(SAMPLES / name)
     opts = Options(features=feat.default_selection(path)[0])

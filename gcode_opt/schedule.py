@@ -455,20 +455,21 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     while True:
         for j in sorted(set().union(*again.values())):
             got = windows[j]()
+            sts = _window_strokes(strokes, got, bounds[j], bounds[j + 1])
             if not redone:              # (the other kinds once, a unit of windows; the chains a batch of windows)
                 unit = other_units.get(j)
                 if unit is not None:
                     pieces += window_pieces(strokes, pin, profile, got if unit[1] - unit[0] == 1 else
                                             _window_rows(rows, bounds[unit[0]], bounds[unit[1]], ordered),
                                             failed, rules, lines=memo, kinds=others)
-                pieces += waiting.add(got.get(K_CHAIN), j == nw - 1)
+                pieces += waiting.add(got.get(K_CHAIN), j == nw - 1, sts)
             for k in [k for k in _LEVEL_KINDS if j in again[k]]:
                 u = closes[k].get(j)
                 if u is not None and units[k][u][1] - units[k][u][0] == 1:     # (a window a unit: it is held)
-                    make(k, u, got[k], strokes)
+                    make(k, u, got[k], sts)
                     continue
                 r = got[k].tolist()
-                held[k].update(zip(r, map(strokes.__getitem__, r)))
+                held[k].update(zip(r, map(sts.__getitem__, r)))
                 if u is not None:
                     a, e = units[k][u]
                     make(k, u, _window_rows(rows, bounds[a], bounds[e], ordered)[k], held[k])
@@ -530,11 +531,13 @@ class _WaitingChains:
         self.rows, self.held, self.n = [], {}, 0
         self.spill = None               # (made by the first call: _law_spill)
 
-    def add(self, rows, last):
-        """Pieces of the chains waiting with rows (an int array, or None) once a batch is due."""
+    def add(self, rows, last, strokes=None):
+        """Pieces of the chains waiting with rows (an int array, or None) once a batch is due;
+        strokes: those of rows indexed by row (default: the strokes')."""
         if rows is not None and rows.size:
             self.rows.append(rows)
-            self.held.update(zip(rows.tolist(), map(self.strokes.__getitem__, rows.tolist())))
+            self.held.update(zip(rows.tolist(), map((self.strokes if strokes is None else strokes).__getitem__,
+                                                    rows.tolist())))
             self.n += rows.size
         if not self.n or (self.n < self.batch and not last):
             return []
@@ -597,6 +600,26 @@ class _SpilledPiece:
 
     def __iter__(self):
         return map(self.__getitem__, range(5))
+
+
+# the candidates' strokes of a window made of their records alone (StoredStrokes.take) where
+# the kinds that read strokes (all but the lines) hold under this share of its rows: each
+# window's load decoded, and gave the curve geometry to, every stroke of it (the rectilinear
+# plate's windows: ~70 curves of 1024 strokes)
+TAKE_UNDER_R = 0.5
+
+
+def _window_strokes(strokes, got, lo, hi):
+    """What the candidates index the rows got ({kind: rows} of the window [lo, hi)) in:
+    strokes, or {row: stroke} of the rows of every kind but the lines (StoredStrokes.take:
+    the strokes its load makes of them) where those are under TAKE_UNDER_R of the window's."""
+    need = [r for k, r in got.items() if k != K_LINE and r.size]
+    n = sum(r.size for r in need)
+    if not isinstance(strokes, StoredStrokes) or not n or n >= TAKE_UNDER_R * (hi - lo):
+        return strokes
+    rows = np.concatenate(need).astype(np.int64)
+    rows.sort()
+    return dict(zip(rows.tolist(), strokes.take(rows)))
 
 
 def _window_rows(rows, lo, hi, ordered):

@@ -136,6 +136,44 @@ class StoredStrokes(StoreWindows):
                 return None
         return got
 
+    def take(self, rows):
+        """New strokes of rows (sorted, an int64 array) made of their records alone (the
+        store's take), not their windows loaded: the same strokes a window's load makes of
+        them -- the side tables' objects put in where kept, the objects of kept fields made
+        now kept in them (a later load of the row gives them back, as a window let go
+        leaves them), on_load's caches made (its rows(rows, strokes)).  The held windows are
+        let go first: one let go later would put its own objects of these rows in the side
+        tables.  A row taken must not be read through a window while its taken stroke is in
+        use (the module's hazard: two objects of one row)."""
+        self.let_go()
+        rows = np.asarray(rows, np.int64)
+        if not rows.size:
+            return []
+        got = self.store.take(rows, self._kept_rows(rows))
+        for name in self._side:
+            vals = list(map(attrgetter(name), got))
+            if not any(map(_IS_NOT_NONE, vals)):
+                continue
+            side = self._side[name]
+            if side is None:
+                side = self._side[name] = [None] * len(self)
+            if len(side) <= rows[-1]:          # (the store appended to since the table was made)
+                side += [None] * (int(rows[-1]) + 1 - len(side))
+            for i, v in zip(rows.tolist(), vals):
+                side[i] = v
+        if self.on_load is not None:
+            self.on_load.rows(rows, got)
+        return got
+
+    def _kept_rows(self, rows):
+        """take's over: {field: the side table's objects of rows (None where none)}."""
+        got = {}
+        for name, side in self._side.items():
+            if side is not None:
+                n = len(side)
+                got[name] = [side[i] if i < n else None for i in rows.tolist()]
+        return got or None
+
     def _let_go(self, j):
         w = self._wins.pop(j)
         if w is self._cur:
@@ -272,31 +310,42 @@ class HeldRows(StoreWindows):
 
 
 def curve_geometry(codes, profile, geoms=None):
-    """StoredStrokes' on_load for planning: a window's curve and chain geometry as
-    plan_inputs made it: given back by geoms (a geom_keep.GeomKeep, κ at the vertices
-    included: the candidates read it) where it keeps it, else made in one batch
+    """StoredStrokes' on_load for planning (a _CurveGeometry): a window's curve and chain
+    geometry as plan_inputs made it: given back by geoms (a geom_keep.GeomKeep, κ at the
+    vertices included: the candidates read it) where it keeps it, else made in one batch
     (chains.classify's build_geoms: a chain without κ, which it never reads), not stroke
     by stroke when read (benchmarks/win51: ~3.5x the candidates' time).  codes: the
     strokes' plan_kind codes (pin.plan_kind_codes).  The curves and the chains in one call
     (a block a vertex count of both: the blocks' set-up paid once, benchmarks/wincpu54.md),
     κ made for the curves' rows alone."""
-    from . import curves
-    from .schedule import C_CHAIN, C_CURVE
+    return _CurveGeometry(codes, profile, geoms)
 
-    def made(lo, sts):
-        if geoms is not None:
-            geoms.give(np.arange(lo, lo + len(sts)), sts, kappa=True)
-        c = codes[lo:lo + len(sts)]
-        rows = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
-        rows = [k for k in rows.tolist() if sts[k].curv is None]
-        if not rows:
+
+class _CurveGeometry:
+    """curve_geometry's: (lo, strokes) a window's strokes of rows lo..; rows(rows, strokes)
+    the strokes of rows (sorted; StoredStrokes.take's)."""
+
+    def __init__(self, codes, profile, geoms):
+        self.codes, self.profile, self.geoms = codes, profile, geoms
+
+    def __call__(self, lo, sts):
+        self.rows(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
+
+    def rows(self, rows, sts):
+        from . import curves
+        from .schedule import C_CHAIN, C_CURVE
+        if self.geoms is not None:
+            self.geoms.give(rows, sts, kappa=True)
+        c = self.codes[rows]
+        at = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
+        at = [k for k in at.tolist() if sts[k].curv is None]
+        if not at:
             return
-        todo = [sts[k] for k in rows]
-        curve = {id(sts[k]) for k in rows if c[k] == C_CURVE}
-        curves.build_geoms(todo, profile, jerk1=True,
+        todo = [sts[k] for k in at]
+        curve = {id(sts[k]) for k in at if c[k] == C_CURVE}
+        curves.build_geoms(todo, self.profile, jerk1=True,
                            kappa=lambda bsts, cap: np.fromiter(map(curve.__contains__, map(id, bsts)), bool,
                                                                len(bsts)))
-    return made
 
 
 def join_plan_inputs(parts):

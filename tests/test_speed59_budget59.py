@@ -1,0 +1,105 @@
+"""budget59 (benchmarks/budget59.md): the windowed budget runs' pieces made with fewer calls
+give what they gave before, bit for bit.
+
+- geom_keep.GeomKeep._give_parts (the runs' rows asked in part: a window's curves, then
+  its chains; a later run's few chains): the asked rows' columns gathered once a record,
+  each part's block taking its run of them.  Every field a consumer reads is the geometry
+  build_geoms makes of those strokes, whatever the pattern asked (parts asked whole, in
+  part, not at all), and κ made later in one block leaves the others' as they were."""
+import numpy as np
+import pytest
+
+from gcode_opt import curves
+from gcode_opt.schedule import C_CHAIN, C_CURVE
+# (the same sample, windows and store as the kept geometry's own tests)
+from test_speed57_geom57 import WINDOW, _fields, _kept
+
+
+def _patterns(codes):
+    """Rows asked in part, the runs' ways and others: each window's chains (their parts
+    whole), its curves, every third curve or chain, a run of consecutive rows, one row a
+    window."""
+    ours = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
+    win = ours // WINDOW
+    first = ours[np.r_[True, win[1:] != win[:-1]]]
+    return {"chains": np.flatnonzero(codes == C_CHAIN), "curves": np.flatnonzero(codes == C_CURVE),
+            "third": ours[::3], "run": ours[ours.size // 3:ours.size // 3 + 2 * WINDOW], "one": first}
+
+
+def _row_kept(st):
+    """What the kept record gave row st.curv of its block, as bits: lengths, caps, κ, κ_eff,
+    cap, end turns, its limits object and acceleration, whether κ and κ_eff are still to
+    make, its chain caps."""
+    b, k = st.curv._b, st.curv._k
+    lim = b._lim
+
+    def row(x):
+        return None if x is None else np.asarray(x[k]).tobytes()
+    return (row(b.d), row(b._caps), row(b._kv), row(b._ke), row(b.cap), repr(b.cos_end[k]), b.cap_min,
+            id(lim[1][int(lim[2][k])]), row(lim[3]), b._ke_miss is not None and bool(b._ke_miss[k]),
+            b._kv_miss is not None and bool(b._kv_miss[k]), st.curv.chain_caps)
+
+
+def _whole(store, keep, kappa):
+    """_row_kept of every curve and chain of the store given its geometry a whole window
+    at a time (the candidates' way: _give_whole, the record's doubles as they are), read
+    at once (build_geoms lets go of the caps and κ of the blocks alive)."""
+    out = {}
+    for lo in range(0, len(store), WINDOW):
+        sts = store.load(lo, lo + WINDOW)
+        keep.give(np.arange(lo, lo + len(sts)), sts, kappa=kappa)
+        out.update((lo + k, _row_kept(st)) for k, st in enumerate(sts) if st.curv is not None)
+    return out
+
+
+@pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])     # classic jerk; Klipper's (caps kept)
+@pytest.mark.parametrize("kappa", [False, True])
+def test_parts_given_are_the_made_geometry(tmp_path, prof_name, kappa):
+    prof, store, keep, codes = _kept(tmp_path, prof_name)
+    whole = _whole(store, keep, kappa)
+    # (classic jerk: the chains' caps kept as bytes)
+    assert prof.junction != "jerk" or sum(type(w[-1]) is bytes for w in whole.values()) > 10
+    for name, rows in _patterns(codes).items():
+        assert rows.size > 1, name
+        given, want = store.take(rows), store.take(rows)
+        n0 = keep.given
+        keep.give(rows, given, kappa=kappa)
+        assert keep.given - n0 == rows.size, name
+        curves.build_geoms(want, prof, jerk1=True)
+        blocks = {id(st.curv._b): st.curv._b for st in given}
+        assert sum(b.d.shape[0] for b in blocks.values()) == rows.size, name    # (the rows asked alone)
+        for r, a in zip(rows.tolist(), given):       # (as given: before any field is read, and made then)
+            assert a.curv._b._pts[a.curv._k] is a.pts
+            assert _row_kept(a) == whole[r], (name, r)
+        for r, a, b in zip(rows.tolist(), given, want):
+            chain = codes[r] == C_CHAIN
+            assert _fields(a, chain, prof) == _fields(b, chain, prof), (name, r)
+
+
+def test_kappa_made_in_one_block_leaves_the_others(tmp_path):
+    """κ not given (the runs' ask): made when read, block by block; a block's rows made
+    leave every other block's κ, κ_eff and their rows still to make as they were."""
+    prof, store, keep, codes = _kept(tmp_path, "prusa-mk3s")
+    rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))[::2]
+    given, want = store.take(rows), store.take(rows)
+    keep.give(rows, given)
+    curves.build_geoms(want, prof, jerk1=True)
+    blocks = list({id(st.curv._b): st.curv._b for st in given}.values())
+    missing = [b for b in blocks if b._ke_miss is not None or b._kv_miss is not None]
+    assert len(missing) > 3
+
+    def state(b):
+        return tuple(None if x is None else x.copy() for x in (b._ke_miss, b._kv_miss))
+    before = {id(b): state(b) for b in blocks}
+    made = missing[len(missing) // 2]
+    made.make_kappa(range(made.d.shape[0]))
+    assert made._ke_miss is None and made._kv_miss is None
+    for b in blocks:
+        if b is made:
+            continue
+        for x, y in zip(state(b), before[id(b)]):
+            assert (x is None) == (y is None) and (x is None or (x == y).all())
+    for r, a, b in zip(rows.tolist(), given, want):
+        chain = codes[r] == C_CHAIN
+        assert float(a.curv.kappa_eff).hex() == float(b.curv.kappa_eff).hex(), r
+        assert _fields(a, chain, prof) == _fields(b, chain, prof), r

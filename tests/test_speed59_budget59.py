@@ -103,3 +103,58 @@ def test_kappa_made_in_one_block_leaves_the_others(tmp_path):
         chain = codes[r] == C_CHAIN
         assert float(a.curv.kappa_eff).hex() == float(b.curv.kappa_eff).hex(), r
         assert _fields(a, chain, prof) == _fields(b, chain, prof), r
+
+
+# ---------------------------------------------------------------- the chain spill's records
+# - schedule._blocks_records: a put's blocks written into one array, every record's head
+#   (and first knot) put in one step, a block made by the replay taken as it is (not a
+#   gathered copy of its rows): each row's record the one written plan by plan (_spill_arrays).
+from test_speed57_out57_readback import _records_by_row     # noqa: E402
+import test_speed58_budget58 as _b58                         # noqa: E402
+planned = _b58.planned                                      # (the runs' puts: a module fixture)
+from gcode_opt import schedule as sc                         # noqa: E402
+
+
+def _records(puts, n, made, monkeypatch=None):
+    """Each put's rows' records (bytes; None: none) of a _ChainSpill of the puts (made: the
+    blocks each is given); with monkeypatch, the plans not in a block given written one by
+    one (no grouping by block)."""
+    spill = sc._ChainSpill.make(n)
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            if monkeypatch:
+                mp.setattr(sc, "_row_plan_blocks", lambda ps: ([], [q for q, p in enumerate(ps) if p is not None]))
+            for (rows, T, beta, plans, _), blocks in zip(puts, made):
+                spill.put(rows, T, beta, plans, blocks)
+        return [_records_by_row(spill, rows) for rows, *_ in puts]
+    finally:
+        spill.close()
+
+
+def test_made_block_records_are_the_one_by_one_records(planned):
+    puts = planned[-1]
+    n = max(int(r.max()) for r, *_ in puts) + 1
+    want = _records(puts, n, [[] for _ in puts], True)         # (every plan by _spill_arrays)
+    assert sum(r is not None for w in want for r in w) > 100
+    assert _records(puts, n, [b for *_, b in puts]) == want   # (the replay's blocks)
+    # a put's blocks and plans one by one together (the first block left out), and blocks
+    # given the first places of their rows only (the rest left out)
+    mixed = [b[1:] + [(ii[:ii.size // 2], V, A, F, ends) for ii, V, A, F, ends in b[:1] if ii.size > 1]
+             for *_, b in puts]
+    assert sum(len(b) for b in mixed) > 3
+    assert _records(puts, n, mixed, True) == want
+
+
+def test_lone_plan_records_are_the_one_by_one_records(planned):
+    """A put of one plan written by itself (no block): its whole record."""
+    puts = planned[-1]
+    n = max(int(r.max()) for r, *_ in puts) + 1
+    want = _records(puts[:3], n, [[] for _ in puts[:3]], True)   # (a later put's record replaces a row's)
+    lone = []
+    for rows, T, beta, plans, _ in puts[:3]:
+        q = next(q for q, p in enumerate(plans) if p is not None)
+        lone.append((rows[q:q + 1], T[q:q + 1], beta[q:q + 1], plans[q:q + 1], None))
+    got = _records(lone, n, [None] * len(lone), True)
+    assert got == [[w[next(q for q, p in enumerate(plans) if p is not None)]] for w, (_, _, _, plans, _)
+                   in zip(want, puts[:3])]
+    assert all(g[0] is not None for g in got)

@@ -258,20 +258,19 @@ class GeomKeep(SpillFile):
         n_main, P, R = main.size, len(head), cols.shape[1]
         x = 3 + 3 * P + N_COLS * R
         rs = np.flatnonzero(asked)                   # the record's rows asked, in order
-        ms = [m for _, m, _ in head]
-        r_at = np.cumsum(ms) - ms
-        # each part's first place in rs and its rows asked (part p: rs[a[p]:a[p] + k[p]])
-        a_l = np.searchsorted(rs, r_at).tolist()
-        k_l = (np.searchsorted(rs, r_at + ms) - a_l).tolist()
-        bits = cols[C_BITS, rs].astype(np.int64)
-        ke_miss, kv_miss = (bits & R_KE_MISS) != 0, (bits & R_KV_MISS) != 0
-        ke_any = _runs_any(ke_miss, a_l, k_l)
-        kv_any = _runs_any(kv_miss, a_l, k_l)
-        which = cols[C_LIM, rs].astype(np.int32)
-        cap, accel, ke_col = cols[C_CAP, rs], cols[C_ACCEL, rs], cols[C_KE, rs]
-        ends = _ends(cols[C_END0], cols[C_END1], asked)
-        ends = list(map(ends.__getitem__, rs.tolist()))
-        chain = _rows_chain_caps(main[n_main - int(main[2]):], head, cols[C_BITS].astype(np.int64), rs)
+        # each part's first place in rs (part p: rs[at[p]:at[p + 1]])
+        at = np.searchsorted(rs, np.cumsum([0] + [m for _, m, _ in head])).tolist()
+        got = cols[:, rs]                           # (their columns, one gather)
+        bits_all = cols[C_BITS].astype(np.int64)
+        bits = bits_all[rs]
+        ke_any = kv_any = None                      # (the parts with rows whose κ is not made)
+        if (bits & (R_KE_MISS | R_KV_MISS)).any():
+            ke_miss, kv_miss = (bits & R_KE_MISS) != 0, (bits & R_KV_MISS) != 0
+            ke_any, kv_any = _runs_any(ke_miss, at), _runs_any(kv_miss, at)
+        which = got[C_LIM].astype(np.int32)
+        cap, accel, ke_col = got[C_CAP], got[C_ACCEL], got[C_KE]
+        ends = _ends(got[C_END0], got[C_END1], True)
+        chain = _rows_chain_caps(main[n_main - int(main[2]):], head, bits_all, rs)
         bsts_all = list(map(sts.__getitem__, at_r[rs].tolist()))
         lim = (self.profile, self.lims)
         r0 = y = 0
@@ -279,7 +278,8 @@ class GeomKeep(SpillFile):
             r1, xa, ya = r0 + m, x, y
             x += m * n + (m * (n - 1) if flags & F_CAPS else 0)
             y += m * (n + 1) if flags & F_KV else 0
-            a, k = a_l[p], k_l[p]
+            a, z = at[p], at[p + 1]
+            k = z - a
             if not k:
                 r0 = r1
                 continue
@@ -287,18 +287,17 @@ class GeomKeep(SpillFile):
             caps = main[xa + m * n:xa + m * (2 * n - 1)].reshape(m, n - 1) if flags & F_CAPS else None
             kv = kap[ya:ya + m * (n + 1)].reshape(m, n + 1) if flags & F_KV and kap is not None else None
             if k < m:
-                sel = rs[a:a + k] - r0
+                sel = rs[a:z] - r0
                 d = d[sel]
                 caps = None if caps is None else caps[sel]
                 kv = None if kv is None else kv[sel]
-            z = a + k
             ke = ke_col[a:z] if flags & F_KE else None
             bsts = bsts_all[a:z]
             blk = _Blk(d, None, kv, ke, caps, None, cap[a:z], ends[a:z], bool(flags & F_CAP_MIN),
                        pts=list(map(_PTS, bsts)), lim=lim + (which[a:z], accel[a:z]))
-            if ke is not None and ke_any[p]:
+            if ke is not None and ke_any is not None and ke_any[p]:
                 blk._ke_miss = ke_miss[a:z]
-            if kv is not None and kv_any[p]:
+            if kv is not None and kv_any is not None and kv_any[p]:
                 blk._kv_miss = kv_miss[a:z]
             _BLOCKS.add(blk)
             self.given += _give_rows(blk, bsts, chain[a:z])
@@ -332,12 +331,10 @@ def _rows_chain_caps(flat, head, bits, rs):
     return [buf[a:b] if h else None for h, a, b in zip(has[rs].tolist(), (z - w[rs]).tolist(), z.tolist())]
 
 
-def _runs_any(mask, at, k):
-    """Whether any of mask[at[p]:at[p] + k[p]] is set, a bool a run p (runs in order, not
-    overlapping; an empty run: False)."""
-    c = np.concatenate(([0], np.cumsum(mask)))
-    at = np.asarray(at, np.int64)
-    return (c[at + k] > c[at]).tolist()
+def _runs_any(mask, at):
+    """Whether any of mask[at[p]:at[p + 1]] is set, a bool a run p (an empty run: False)."""
+    c = np.concatenate(([0], np.cumsum(mask)))[at]
+    return (c[1:] > c[:-1]).tolist()
 
 
 def _give_rows(blk, sts, chain):

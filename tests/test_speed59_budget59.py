@@ -158,3 +158,43 @@ def test_lone_plan_records_are_the_one_by_one_records(planned):
     assert got == [[w[next(q for q, p in enumerate(plans) if p is not None)]] for w, (_, _, _, plans, _)
                    in zip(want, puts[:3])]
     assert all(g[0] is not None for g in got)
+
+
+# ---------------------------------------------------------------- the line spill's records
+# - line_spill._block_records: a block's plans' figures, verdicts and shapes read by objfields'
+#   compiled passes (where built): the records the plans written one by one (_record) give.
+from gcode_opt import line_spill as ls                      # noqa: E402
+from gcode_opt.segments import RowPlan                      # noqa: E402
+from test_speed52_runs52_windows import seg_bits            # noqa: E402
+
+
+def _line_block(m=40, n=5):
+    """RowPlans of one block of m rows (n segments): shapes law and trapezoid mixed, verdicts
+    "" (made), None and a reason, figures of every sign, a NaN among them."""
+    rng = np.random.default_rng(59)
+    S = np.cumsum(rng.random((m, n + 1)), axis=1)
+    V, A, F = rng.random((m, n + 1)), rng.random((m, n)) + 1.0, rng.random((m, n)) + 1.0
+    plans = [RowPlan(S, V, A, F, i, float(rng.normal()), float(rng.normal())) for i in range(m)]
+    for i, p in enumerate(plans):
+        p.shape = ("law", "trapezoid")[i % 3 == 1]
+        p.fault = ("", None, "a reason")[i % 5 % 3]
+    plans[7].time_t = float("nan")
+    return plans
+
+
+def test_line_block_records_are_the_one_by_one_records(monkeypatch):
+    plans = _line_block()
+    cls, T, beta = np.arange(5, 5 + len(plans), dtype=np.int64), np.linspace(1, 2, len(plans)), np.full(len(plans), .3)
+    assert len(ls._row_blocks(plans)[0]) == 1               # (one block: its records made together)
+    got = []
+    for one_by_one in (False, True):
+        if one_by_one:
+            monkeypatch.setattr(ls, "_row_blocks", lambda ps: ([], [q for q, p in enumerate(ps) if p is not None]))
+        spill = ls.LineSpill.make()
+        spill.put(plans, cls, T, beta)
+        rows, back, rest = spill.take(np.arange(len(plans)), cls, T, beta)
+        assert rows.size == len(plans) and not rest.size
+        got.append([(seg_bits(p), p.fault, p.shape, type(p)) for p in back])
+        spill.close()
+    assert got[0] == got[1]
+    assert {g[1] for g in got[0]} == {"", None} and {g[2] for g in got[0]} == {"law", "trapezoid"}

@@ -27,6 +27,7 @@ from operator import attrgetter, is_not
 
 import numpy as np
 
+from .curves import _BLOCKS, _NO_ENDS, _Blk, row_geom
 from .spill_file import SpillFile
 
 # a part's flags: which arrays its record holds
@@ -211,7 +212,6 @@ class GeomKeep(SpillFile):
         the record (its lengths, caps, κ_eff, cap, limits, accelerations), with fewer
         numpy calls a part; the parts' rows without κ found for every part at once (where
         a row of the record has any)."""
-        from .curves import _BLOCKS, _Blk
         R = cols.shape[1]
         bits = cols[C_BITS].astype(np.int64)
         any_ke = any_kv = None
@@ -254,7 +254,6 @@ class GeomKeep(SpillFile):
         limits, accelerations, κ masks, end turns, strokes) are gathered once for the
         record and each part's block takes its run of them, not ~15 numpy calls a part
         (a windowed gyroid run: ~2.9 k parts, ~70 % of them not asked at all)."""
-        from .curves import _BLOCKS, _Blk
         n_main, P, R = main.size, len(head), cols.shape[1]
         x = 3 + 3 * P + N_COLS * R
         rs = np.flatnonzero(asked)                   # the record's rows asked, in order
@@ -340,7 +339,6 @@ def _runs_any(mask, at):
 def _give_rows(blk, sts, chain):
     """Row k of blk (curves.row_geom, its chain caps the k-th of chain) put on sts[k] where
     it has no geometry; how many were given."""
-    from .curves import row_geom
     given = 0
     for k, st, c in zip(count(), sts, chain):
         if st.curv is None:
@@ -353,7 +351,6 @@ def _keepable(b):
     """Whether block b is build_geoms' (a 2-D float block of rows, its limits, no caps at
     the whole jerk, cap an array, κ arrays or none): CurveGeom's own (a list of one cap)
     and anything else are made again by the caller."""
-    from .curves import _Blk
     return (type(b) is _Blk and b._u is None and b._lim is not None and b.caps_jerk1 is None
             and type(b.d) is np.ndarray and b.d.ndim == 2 and b.d.dtype == np.float64 and b.d.shape[1] >= 1
             and type(b.cap) is np.ndarray and len(b.cos_end) == b.d.shape[0]
@@ -363,7 +360,6 @@ def _keepable(b):
 def _end_cols(ends):
     """The end turns' cosines of CurveGeom.cos_end's ends as (2, m) doubles, NaN where None
     (most are curves._NO_ENDS: only the others converted)."""
-    from .curves import _NO_ENDS
     out = np.full((len(ends), 2), np.nan)
     turn = [e is not _NO_ENDS for e in ends]
     if any(turn):
@@ -375,7 +371,6 @@ def _ends(c0, c1, asked):
     """CurveGeom.cos_end of each asked row whose end turns' cosines are c0 and c1 (NaN
     where None): curves._NO_ENDS where neither end turns (and where not asked), else a
     tuple of the doubles (numpy float64, as curves._ends_of gives them)."""
-    from .curves import _NO_ENDS
     m0, m1 = ~np.isnan(c0), ~np.isnan(c1)
     turn = (m0 | m1) & asked
     out = [_NO_ENDS] * c0.size

@@ -223,11 +223,19 @@ def _block_records(block, rows, plans, cls, T, beta):
     k = HEAD
     R.view(np.int64)[:, 0] = cls
     R[:, 1], R[:, 2] = T, beta
-    R[:, 3] = np.fromiter(map(_TIME_T, plans), float, m)
-    R[:, 4] = np.fromiter(map(_INT_A2, plans), float, m)
+    # (the plans' figures, verdicts and shapes read by objfields' compiled passes where
+    # built, else one np.fromiter each: the same numbers)
+    fig = objfields.floats(plans, ("time_t", "int_a2"))
+    if fig is None:
+        R[:, 3] = np.fromiter(map(_TIME_T, plans), float, m)
+        R[:, 4] = np.fromiter(map(_INT_A2, plans), float, m)
+    else:
+        R[:, 3:5] = fig
     R[:, 5] = 0.0                       # (_TYPES' RowPlan)
-    R[:, 6] = np.fromiter(map(_FINE, map(_FAULT, plans)), float, m)
-    R[:, 7] = np.fromiter(map(_SHAPES.index, map(_SHAPE, plans)), float, m)
+    fine = objfields.codes(plans, "fault", {"": 0}, add=True)     # (a verdict "": code 0)
+    R[:, 6] = np.fromiter(map(_FINE, map(_FAULT, plans)), float, m) if fine is None else fine == 0
+    shape = objfields.codes(plans, "shape", dict(zip(_SHAPES, range(len(_SHAPES)))))
+    R[:, 7] = np.fromiter(map(_SHAPES.index, map(_SHAPE, plans)), float, m) if shape is None else shape
     R[:, k:k + n + 1] = S[rows]
     R[:, k + n + 1:k + 2 * n + 2] = V[rows]
     R[:, k + 2 * n + 2:k + 3 * n + 2] = A[rows]

@@ -1734,8 +1734,8 @@ class _ChainSpill(SpillFile):
                 ns.append(np.array([arrs[2].size], np.int64))
         if not qs:
             return
-        buf = np.concatenate(parts)
-        ns, qs = np.concatenate(ns), np.concatenate(qs)
+        # (the blocks' records alone: their one array as it is)
+        buf, ns, qs = (parts[0], ns[0], qs[0]) if len(parts) == 1 else map(np.concatenate, (parts, ns, qs))
         lens = _spill_len(ns)
         end = self.append(buf, _SPILL_END)      # (indices past int32: no more records, all made again)
         if end is None:
@@ -1839,7 +1839,9 @@ def _made_blocks(plans, made):
     out, covered = [], np.zeros(len(plans), bool)
     for ii, V, A, F, ends in made:
         if _block_fits(V, A, F):
-            out.append(((V, A, F), ii, np.arange(ii.size, dtype=np.intp), ends))
+            # (every row of the block, in order: taken as it is)
+            out.append(((V, A, F), ii, slice(None) if V.shape[0] == ii.size else np.arange(ii.size, dtype=np.intp),
+                        ends))
             covered[ii] = True
     if covered.all():
         return out, []
@@ -1859,14 +1861,20 @@ def _block_fits(V, A, F):
 
 def _blocks_records(T, beta, plans, blocks):
     """The records of the RowPlans of blocks (_row_plan_blocks) of plans made at (T, beta)
-    (by place in plans): ([each block's records, flat], [their places], [their segment
-    counts]).  The heads of every block's plans are made in one pass (their figures read
-    by objfields where built), their knots (0, then their strokes' ends) of one join: a
-    block's own set-up was ~20 us, ~1 k blocks a windowed gyroid run."""
+    (by place in plans): ([the blocks' records, flat, in one array], [their places],
+    [their segment counts]).  The heads of every block's plans (and each record's first
+    knot, 0) are made in one pass (their figures read by objfields where built) and put in
+    one step, their knots (their strokes' ends) of one join; a block then takes three row
+    copies and its ends (a block's own set-up was ~20 us, ~1 k blocks a windowed gyroid
+    run; its rows in order, _made_blocks' slice: the block itself, not a gathered copy)."""
     ii = np.concatenate([b[1] for b in blocks])
     bp = _take(plans, ii)
     m = ii.size
-    H = np.empty((m, _SPILL_HEAD))
+    ns = np.repeat([b[0][1].shape[1] for b in blocks], [b[1].size for b in blocks])
+    lens = _spill_len(ns)
+    at = np.cumsum(lens) - lens                 # each record's first double
+    k = _SPILL_HEAD
+    H = np.empty((m, k + 1))
     H[:, 0], H[:, 1] = T[ii], beta[ii]
     fig = objfields.floats(bp, ("time_t", "int_a2"))
     if fig is None:
@@ -1877,24 +1885,22 @@ def _blocks_records(T, beta, plans, blocks):
     H[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
     fine = objfields.codes(bp, "fault", {"": 0}, add=True)    # (a verdict "": code 0)
     H[:, 5] = np.fromiter(map(_fine_flag, bp), float, m) if fine is None else fine == 0
+    H[:, k] = 0.0                       # (the first knot)
+    buf = np.empty(int(lens.sum()))
+    buf[at[:, None] + np.arange(k + 1)] = H
+    del H
     ends = np.frombuffer(b"".join([b"".join(b[3]) for b in blocks]), float)
-    parts, qs, ns = [], [], []
-    a = e = 0
-    k = _SPILL_HEAD
+    at, a, e = at.tolist(), 0, 0
     for (V, A, F), q, rr, _ in blocks:
         mb, n = q.size, A.shape[1]
-        R = np.empty((mb, _spill_len(n)))
-        R[:, :k] = H[a:a + mb]
-        R[:, k] = 0.0
+        L = _spill_len(n)
+        R = buf[at[a]:at[a] + mb * L].reshape(mb, L)
         R[:, k + 1:k + n + 1] = ends[e:e + mb * n].reshape(mb, n)
         R[:, k + n + 1:k + 2 * n + 2] = V[rr]
         R[:, k + 2 * n + 2:k + 3 * n + 2] = A[rr]
         R[:, k + 3 * n + 2:] = F[rr]
-        parts.append(R.ravel())
-        qs.append(q)
-        ns.append(np.full(mb, n, np.int64))
         a, e = a + mb, e + mb * n
-    return parts, qs, ns
+    return [buf], [ii], [ns]
 
 
 def _spill_arrays(p):

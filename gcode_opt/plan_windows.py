@@ -59,15 +59,19 @@ class SpilledInputs:
     not loaded, planned and written back after analyse (plan_inputs_windowed: its
     StrokeStore.rewrite was half the windowed encodes, benchmarks/store59.md).  The
     strokes come final (their firmware sums made, analyse's sums.done, and the next stroke
-    closed: next_u set); they are held until `rows` at least have come (a plan_inputs
-    call's fixed costs paid once for them: analyse spills ~2.3 k strokes at a time on the
-    gyroid plate, ~10 k on the rectilinear), or plan_input() is asked.  plan_inputs gives
-    the same PlanInput on any cut of the strokes (tests/test_speed59_store59_spill.py)."""
+    closed: next_u set); they are held until `rows` at least have come (a window's: a
+    plan_inputs call's fixed costs paid once for them; analyse spills ~2.3 k strokes at a
+    time on the gyroid plate, ~10 k on the rectilinear), or plan_input() is asked.  Held
+    until PIN_ROWS (4096) instead, -49 M instructions on the rectilinear plate, the
+    strokes and plan_inputs' temporaries raised analyse's heap (gyroid 44 -> 52 MiB), and
+    with the round's other changes the gyroid's windowed peak went bimodal, 67.0 or 68.2 MB
+    (benchmarks/store59.md).  plan_inputs gives the same PlanInput on any cut of the
+    strokes (tests/test_speed59_store59_spill.py)."""
 
     def __init__(self, store, profile, opts, window, rows=None):
         from .geom_keep import GeomKeep
         self.store, self.profile, self.opts = store, profile, opts
-        self.rows = rows or max(window, PIN_ROWS)
+        self.rows = rows or window
         self.geoms = GeomKeep(window, profile, store.folder)
         self.parts = []
         self.held = []                  # strokes appended, not yet planned nor stored

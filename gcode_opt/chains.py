@@ -1621,6 +1621,54 @@ _AT, _N, _FIGS, _SEG = attrgetter("at"), attrgetter("n"), attrgetter("figs"), at
 _IS_NONE = partial(is_, None)
 
 
+class MemoRowsAside:
+    """The candidate rows of chains' memos (ChainMemo.figs: arrays of doubles, each shared by
+    a finishing batch's chains and its kept laws, _FigsRows) written to an unnamed temporary
+    file in folder, each array's buffer let go in place (emptied: the same object, which
+    every memo and kept laws sharing it still hold) until restore() reads them back, the
+    same bytes into the same objects.  For the windowed rewrite and measure, which read no
+    memo: the gyroid plate's 110 arrays, 2.6 MB, held through them (benchmarks/mem59.md).
+    Whoever reads a memo's rows calls restore() first (stored_strokes.StoredStrokes hands
+    the memos out).  An array whose buffer is exported (a view of it alive) is kept."""
+    __slots__ = ("_io", "_rows")
+
+    def __init__(self, memos, folder=None):
+        from .stroke_store import _TempFile
+        figs = {}
+        for f in map(_FIGS, filter(_IS_NOT_NONE, memos)):
+            if f is not None and len(f):
+                figs[id(f)] = f
+        self._io, rows, end = _TempFile(folder), [], 0
+        try:                # (all written before any is let go: a write error loses nothing)
+            for f in figs.values():
+                with memoryview(f) as mv:
+                    self._io.write(end, mv.cast("B"))
+                rows.append((f, end, len(f) * f.itemsize))
+                end += rows[-1][2]
+        except OSError:
+            self._io.close()
+            raise
+        self._rows = []
+        for row in rows:
+            try:
+                del row[0][:]
+            except BufferError:         # (exported: kept as it is, nothing to read back)
+                continue
+            self._rows.append(row)
+
+    def restore(self):
+        """Every array read back into its object (once: then the file is closed)."""
+        if self._io is None:
+            return
+        for f, at, nbytes in self._rows:
+            got = bytearray(nbytes)
+            self._io.read_into(memoryview(got), at)
+            f.frombytes(got)
+        self._rows = []
+        self._io.close()
+        self._io = None
+
+
 def _rules_key(rules, profile):
     """What a chain's SegmentPlan depends on besides its law (plan_chain_segments' cache key)."""
     return (rules.junction, rules.n_max, rules.seg_t, rules.min_seg_d, id(profile))

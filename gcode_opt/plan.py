@@ -18,6 +18,7 @@ Everything is vectorised over strokes (numpy), so a file with 10^5 strokes plans
 """
 from __future__ import annotations
 
+import os
 from collections import namedtuple
 
 import numpy as np
@@ -190,9 +191,34 @@ class Candidates:
     def spill(self, folder=None):
         """These tables written to an unnamed temporary file in folder (SpilledCandidates),
         their memory let go until load() reads them back, the same bits and layout; None
-        (and nothing written) where the file cannot be made or written."""
-        got = write_arrays([getattr(self, name) for name in self.SPILLED], folder)
-        return None if got is None else SpilledCandidates(*got, self.k, self.T_orig)
+        (and nothing written) where the file cannot be made or written.  Weights set aside
+        (set_aside_weights) stay in their own file, handed to the SpilledCandidates."""
+        aside = self.vals if type(self.vals) is _AsideVals else None
+        got = write_arrays([aside.ti if aside is not None and name == "vals" else getattr(self, name)
+                            for name in self.SPILLED], folder)
+        return None if got is None else SpilledCandidates(*got, self.k, self.T_orig,
+                                                          None if aside is None else aside.weights)
+
+    def set_aside_weights(self, folder=None) -> bool:
+        """The entries' beta and KE (vals[1], vals[3]) written to an unnamed temporary file in
+        folder and let go: the allocation reads only T and I (vals[0], vals[2]); beta and KE
+        are read at the chosen entries once a budget run (_chosen_figures), a few chunks of
+        the file (_AsideVals; windowed gyroid plate: 1.7 MB held from the candidates through
+        the runs, the command's peak).  vals indexes as before, the same bits.  False (all
+        kept) where vals is no C-contiguous (4, m) array of doubles or the file cannot be
+        made or written."""
+        vals = self.vals
+        if type(vals) is not np.ndarray or vals.dtype != _F64 or vals.ndim != 2 or vals.shape[0] != 4 \
+                or not vals.flags.c_contiguous:
+            return False
+        # T and I written too and read back once vals is let go: a copy of them made beside
+        # vals raised the windowed gyroid's candidates moment by its 1.7 MB
+        weights = _WeightsFile.of((vals[1], vals[3], vals[0], vals[2]), folder)
+        if weights is None:
+            return False
+        self.vals = vals = None
+        self.vals = _AsideVals(weights.rows(2, 4), weights)
+        return True
 
     @property
     def mask(self):
@@ -441,17 +467,21 @@ class SpilledCandidates:
     """A Candidates' tables in an unnamed temporary file (Candidates.spill): the first pass
     holds them only in case the time budget re-plans (a second rewrite pass: 9 of the 54
     reference cases, neither plate), and its measure was the rectilinear plate's peak with
-    them held.  load() gives them back once, bit for bit; the file goes with it."""
-    __slots__ = ("fh", "layout", "k", "T_orig")
+    them held.  load() gives them back once, bit for bit; the file goes with it.  weights:
+    the _WeightsFile of tables whose weights were set aside (their vals' T and I rows are
+    this file's), given back with them."""
+    __slots__ = ("fh", "layout", "k", "T_orig", "weights")
 
-    def __init__(self, fh, layout, k, T_orig):
-        self.fh, self.layout, self.k, self.T_orig = fh, layout, k, T_orig
+    def __init__(self, fh, layout, k, T_orig, weights=None):
+        self.fh, self.layout, self.k, self.T_orig, self.weights = fh, layout, k, T_orig, weights
 
     def load(self):
         out = Candidates.__new__(Candidates)
         out.k, out.T_orig = self.k, self.T_orig
         for name, a in zip(Candidates.SPILLED, read_arrays(self.fh, self.layout, "spilled candidate tables")):
             setattr(out, name, a)
+        if self.weights is not None:
+            out.vals, self.weights = _AsideVals(out.vals, self.weights), None
         self.close()
         return out
 
@@ -461,6 +491,127 @@ class SpilledCandidates:
         if self.fh is not None:
             self.fh.close()
             self.fh = None
+        if self.weights is not None:
+            self.weights.close()
+            self.weights = None
+
+
+class _WeightsFile:
+    """Rows of doubles (the entries' beta and KE, then T and I: Candidates.set_aside_weights)
+    in an unnamed temporary file, read back at given entries a chunk of the file at a time
+    (take), so that no row is held whole again.  Closed by close() or when collected (not by the file
+    object's finaliser, which warns of a file it closes)."""
+    __slots__ = ("fh", "m")
+
+    CHUNK = 8192        # entries read at once (64 kB): take's only buffer
+
+    def __init__(self, fh, m):
+        self.fh, self.m = fh, m
+
+    @classmethod
+    def of(cls, rows, folder=None):
+        """The rows (contiguous 1-D arrays of m doubles each, written one after the other:
+        no copy of them made) in a file in folder, or None where it cannot be made or
+        written."""
+        got = write_arrays(list(rows), folder)
+        return None if got is None else cls(got[0], rows[0].size)
+
+    def take(self, r, idx):
+        """Row r's entries at idx (an int array, or anything np.arange(m)[idx] takes), as
+        a new array of idx's shape: the sorted places read a chunk of at most CHUNK entries
+        at a time, from its first place asked to its last."""
+        m = self.m
+        pos = np.arange(m)[idx] if not isinstance(idx, np.ndarray) or idx.dtype.kind not in "iu" else idx
+        flat = np.asarray(pos, np.intp).ravel()
+        flat = np.where(flat < 0, flat + m, flat)
+        if flat.size and not (0 <= int(flat.min()) and int(flat.max()) < m):
+            raise IndexError("_WeightsFile: an entry out of range")
+        order = np.argsort(flat, kind="stable")
+        at = flat[order]
+        out = np.empty(flat.size)
+        fd, row_b = self.fh.fileno(), r * m * _F64.itemsize
+        i = 0
+        while i < at.size:
+            lo = int(at[i])
+            j = int(np.searchsorted(at, lo + self.CHUNK))
+            buf = _read_doubles(fd, row_b + lo * _F64.itemsize, int(at[j - 1]) + 1 - lo)
+            out[order[i:j]] = buf[at[i:j] - lo]
+            i = j
+        return out.reshape(np.shape(pos))
+
+    def rows(self, a, b):
+        """Rows a..b-1 as a new (b - a, m) array."""
+        m = self.m
+        return _read_doubles(self.fh.fileno(), a * m * _F64.itemsize, (b - a) * m).reshape(b - a, m)
+
+    def close(self):
+        if getattr(self, "fh", None) is not None:
+            self.fh.close()
+            self.fh = None
+
+    def __del__(self):
+        self.close()
+
+
+def _read_doubles(fd, at_b, n):
+    """n doubles of the file fd from byte at_b; OSError if the file is cut short."""
+    out = np.empty(n)
+    mv, got = memoryview(out).cast("B"), 0
+    while got < out.nbytes:
+        k = os.preadv(fd, [mv[got:]], at_b + got)
+        if k <= 0:
+            raise OSError("the candidate tables' weights set aside were cut short")
+        got += k
+    return out
+
+
+class _AsideVals:
+    """Candidates.vals of tables whose weights were set aside (set_aside_weights), indexed as
+    the (4, m) array was where plan.py reads it: vals[0] and vals[2] (T, I: ti, held), vals[1]
+    and vals[3] (beta, KE) rows whose [idx] reads the file (_WeightsFile.take), vals[f, idx],
+    vals[:, idx] (a (4, len) array), shape; np.asarray(vals) reads it all back."""
+    __slots__ = ("ti", "weights")
+
+    def __init__(self, ti, weights):
+        self.ti, self.weights = ti, weights
+
+    @property
+    def shape(self):
+        return 4, self.ti.shape[1]
+
+    def __len__(self):
+        return 4
+
+    def _row(self, f):
+        f = range(4)[f]                 # (negative rows as numpy's; IndexError beyond)
+        return self.ti[f // 2] if f % 2 == 0 else _AsideRow(self.weights, f // 2)
+
+    def __getitem__(self, key):
+        if type(key) is not tuple:
+            return self._row(key)
+        f, idx = key
+        if f == slice(None):
+            return np.stack([self._row(g)[idx] for g in range(4)])
+        return self._row(f)[idx]
+
+    def __iter__(self):
+        return map(self._row, range(4))
+
+    def __array__(self, dtype=None, copy=None):
+        w = self.weights.rows(0, 2)
+        out = np.stack([self.ti[0], w[0], self.ti[1], w[1]])
+        return out if dtype is None else out.astype(dtype)
+
+
+class _AsideRow:
+    """Row r of a _WeightsFile: [idx] reads its entries at idx."""
+    __slots__ = ("weights", "r")
+
+    def __init__(self, weights, r):
+        self.weights, self.r = weights, r
+
+    def __getitem__(self, idx):
+        return self.weights.take(self.r, idx)
 
 
 def write_arrays(arrays, folder=None):

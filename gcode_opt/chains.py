@@ -32,6 +32,7 @@ table holds these predicted figures, so the budget is spent on what the firmware
 from __future__ import annotations
 
 import math
+import sys
 from array import array
 from functools import partial
 from itertools import compress, repeat
@@ -1621,30 +1622,40 @@ _AT, _N, _FIGS, _SEG = attrgetter("at"), attrgetter("n"), attrgetter("figs"), at
 _IS_NONE = partial(is_, None)
 
 
-class MemoRowsAside:
-    """The candidate rows of chains' memos (ChainMemo.figs: arrays of doubles, each shared by
-    a finishing batch's chains and its kept laws, _FigsRows) written to an unnamed temporary
-    file in folder, each array's buffer let go in place (emptied: the same object, which
-    every memo and kept laws sharing it still hold) until restore() reads them back, the
-    same bytes into the same objects.  For the windowed rewrite and measure, which read no
-    memo: the gyroid plate's 110 arrays, 2.6 MB, held through them (benchmarks/mem59.md).
-    Whoever reads a memo's rows calls restore() first (stored_strokes.StoredStrokes hands
-    the memos out).  An array whose buffer is exported (a view of it alive) is kept."""
-    __slots__ = ("_io", "_rows")
+class MemosAside:
+    """The chains' memos of a side table (a list, one slot a row: StoredStrokes keeps them)
+    written to an unnamed temporary file in folder and let go until restore() puts them
+    back, for the windowed rewrite and measure, which read none (the gyroid plate's 16.4 k
+    memos, 2.0 MB, and their 110 rows arrays, 2.6 MB, held through them: benchmarks/mem59.md).
+    Whoever reads a memo calls restore() first (StoredStrokes hands the memos out).
 
-    def __init__(self, memos, folder=None):
+    - The rows arrays (ChainMemo.figs: arrays of doubles, each shared by a finishing batch's
+      chains and its kept laws, _FigsRows): each written and its buffer let go in place
+      (emptied: the same object, which the kept laws sharing it still hold), read back
+      into it.  An array whose buffer is exported (a view of it alive) is kept as it is.
+    - The memos themselves, where every one is the side table's alone (no other reference:
+      a copy put back would part from it) and holds no last plan (seg ... seg_tin None: the
+      windowed runs keep none): each one's objects (figs, kept, src: places in a list of
+      the distinct ones, held here) and ints (at, n, src_i) written as columns, its slot
+      emptied; restore() makes each memo again with those (the same objects, equal ints).
+    All is written before anything is let go: a write error loses nothing."""
+    __slots__ = ("_io", "_rows", "_side", "_memos")
+
+    def __init__(self, side, folder=None):
         from .stroke_store import _TempFile
         figs = {}
-        for f in map(_FIGS, filter(_IS_NOT_NONE, memos)):
+        for f in map(_FIGS, filter(_IS_NOT_NONE, side)):
             if f is not None and len(f):
                 figs[id(f)] = f
         self._io, rows, end = _TempFile(folder), [], 0
-        try:                # (all written before any is let go: a write error loses nothing)
+        self._side, self._memos = side, None
+        try:
             for f in figs.values():
                 with memoryview(f) as mv:
                     self._io.write(end, mv.cast("B"))
                 rows.append((f, end, len(f) * f.itemsize))
                 end += rows[-1][2]
+            memos = _MemoColumns.of(side, self._io, end) if _memos_alone(side) else None
         except OSError:
             self._io.close()
             raise
@@ -1655,18 +1666,92 @@ class MemoRowsAside:
             except BufferError:         # (exported: kept as it is, nothing to read back)
                 continue
             self._rows.append(row)
+        if memos is not None:
+            self._memos = memos.let_go(side)
 
     def restore(self):
-        """Every array read back into its object (once: then the file is closed)."""
+        """Every rows array read back into its object and every memo put back in its slot
+        (once: then the file is closed)."""
         if self._io is None:
             return
         for f, at, nbytes in self._rows:
             got = bytearray(nbytes)
             self._io.read_into(memoryview(got), at)
             f.frombytes(got)
-        self._rows = []
+        if self._memos is not None:
+            self._memos.put_back(self._side, self._io)
+        self._rows, self._memos, self._side = [], None, None
         self._io.close()
         self._io = None
+
+
+def _memos_alone(side):
+    """Whether every memo of side (a list: None or a ChainMemo a slot) is referenced by side
+    alone and holds no last plan (MemosAside lets them go and makes them again)."""
+    refs = _refs_in_loop([ChainMemo()])      # (a memo held by its list slot alone, as this loop sees it)
+    for m in side:
+        if m is not None and (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None
+                              or m.seg_T is not None or m.seg_beta is not None or m.seg_key is not None
+                              or m.seg_tin is not None or type(m.at) is not int or type(m.n) is not int
+                              or type(m.src_i) is not int):
+            return False
+    return True
+
+
+def _refs_in_loop(side):
+    for m in side:
+        return sys.getrefcount(m)
+
+
+class _MemoColumns:
+    """MemosAside's memos as columns in its file: their rows in the side table and, a memo
+    a column, its figs', kept's and src's places in objs (the distinct objects, -1: None)
+    and its at, n and src_i (int64, written at byte `pos` of the file)."""
+    __slots__ = ("objs", "pos", "n")
+
+    NAMES = ("figs", "kept", "src")
+
+    @classmethod
+    def of(cls, side, io, pos):
+        self = cls()
+        rows = [r for r, m in enumerate(side) if m is not None]
+        cols = np.empty((7, len(rows)), np.int64)
+        cols[0] = rows
+        places = {}
+        self.objs = []
+        for c, name in enumerate(cls.NAMES, 1):
+            get = attrgetter(name)
+            out = cols[c]
+            for q, r in enumerate(rows):
+                o = get(side[r])
+                if o is None:
+                    out[q] = -1
+                    continue
+                k = places.get(id(o))
+                if k is None:
+                    k = places[id(o)] = len(self.objs)
+                    self.objs.append(o)
+                out[q] = k
+        for c, name in enumerate(("at", "n", "src_i"), 4):
+            cols[c] = np.fromiter(map(attrgetter(name), map(side.__getitem__, rows)), np.int64, len(rows))
+        io.write(pos, cols.data.cast("B"))
+        self.pos, self.n = pos, len(rows)
+        return self
+
+    def let_go(self, side):
+        """The memos' slots emptied (read back from the file by put_back)."""
+        for r in range(len(side)):
+            side[r] = None
+        return self
+
+    def put_back(self, side, io):
+        cols = np.empty((7, self.n), np.int64)
+        io.read_into(memoryview(cols).cast("B"), self.pos)
+        objs = self.objs + [None]                    # (place -1: None)
+        for r, fk, kk, sk, at, n, si in zip(*(c.tolist() for c in cols)):
+            m = side[r] = ChainMemo()
+            m.figs, m.kept, m.src = objs[fk], objs[kk], objs[sk]
+            m.at, m.n, m.src_i = _row_int(at), _row_int(n), _row_int(si)
 
 
 def _rules_key(rules, profile):

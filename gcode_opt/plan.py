@@ -1883,9 +1883,11 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     neither they nor the groups' arrays changed in place between the calls: what does not
     depend on the budget is made once (_AllocMemo)."""
     n = len(p.T_orig)     # (p.L may be set aside: PlanInput.set_aside)
-    plan = Plan(n)
     if n == 0:
-        return plan
+        return Plan(0)
+    # (every field of the plan is set below: Plan(n)'s defaults, 1.4 MB of arrays on the
+    # gyroid plate made only to be replaced, were held at the windowed command's peak)
+    plan = Plan.__new__(Plan)
     if cands is None:
         cands = candidates_auto(p)
     if not isinstance(cands, Candidates):

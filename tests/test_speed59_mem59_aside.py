@@ -6,7 +6,7 @@ in files at the same bits (benchmarks/mem59.md).
   masks, slices, empty, out of range), across chunks of the file; plan_auto's plan the
   same; the spill keeps them aside; declined where the table cannot be written.
 - The chains' memos' rows (stored_strokes.StoredStrokes.set_aside_memos,
-  chains.MemoRowsAside): emptied in place through the rewrite, read back into the same
+  chains.MemosAside): emptied in place through the rewrite, read back into the same
   objects, byte for byte, when a memo is handed out (a window's load, kept_at); a write
   error loses nothing.
 - The windowed command, two passes (the second pass reads the memos back), writes the
@@ -179,28 +179,48 @@ def _stored_planned(folder, name="prusa_gyroid_fullspeed.gcode", prof="bambu-x1c
     return strokes, pin, profile, opts, budget
 
 
+_SLOTS = ("at", "n", "src_i", "seg_T", "seg_beta", "seg_key", "seg", "seg_tin")
+
+
 def _memos_state(strokes):
+    """Each memo of the side table: its row, class, rows array (its object and bytes), the
+    objects it shares (kept, src) and its other slots' values."""
     side = strokes._side["chain_T"]
-    return [(r, id(m), id(m.figs), None if m.figs is None else m.figs.tobytes(), m.at, m.n, id(m.kept))
-            for r, m in enumerate(side) if m is not None]
+    return [(r, type(m), id(m.figs), None if m.figs is None else m.figs.tobytes(), id(m.kept), id(m.src))
+            + tuple(getattr(m, k) for k in _SLOTS) for r, m in enumerate(side) if m is not None]
 
 
-def test_memo_rows_aside_read_back_into_the_same_objects(tmp_path):
+def test_memos_aside_read_back_the_same(tmp_path):
     strokes, *_ = _stored_planned(tmp_path)
     want = _memos_state(strokes)
     assert len(want) > 100 and sum(len(w[3] or b"") for w in want) > 10000
+    figs = {w[2]: m.figs for w, m in zip(want, filter(None, strokes._side["chain_T"]))}
     assert strokes.set_aside_memos(str(tmp_path))
     assert not strokes.set_aside_memos(str(tmp_path))          # (once)
     side = strokes._side["chain_T"]
-    assert all(m.figs is None or len(m.figs) == 0 for m in side if m is not None)
+    assert all(m is None for m in side) and all(len(f) == 0 for f in figs.values())       # (let go)
     rows = np.array([w[0] for w in want[:5]])
     got = strokes.kept_at(rows)["chain_T"]                       # (hands memos out: read back)
-    assert [id(m) for m in got] == [w[1] for w in want[:5]]
+    assert [type(m) for m in got] == [chains.ChainMemo] * 5
     assert _memos_state(strokes) == want
     # a window's load reads them back too
     assert strokes.set_aside_memos(str(tmp_path))
     strokes[want[-1][0]]
     assert _memos_state(strokes) == want
+
+
+def test_memos_held_elsewhere_stay(tmp_path):
+    """A memo another object holds is not let go (nor any: a copy would part from it); the
+    rows arrays still are."""
+    strokes, *_ = _stored_planned(tmp_path)
+    want = _memos_state(strokes)
+    side = strokes._side["chain_T"]
+    held = next(m for m in side if m is not None)
+    assert strokes.set_aside_memos(str(tmp_path))
+    assert sum(m is not None for m in side) == len(want)
+    assert all(m.figs is None or len(m.figs) == 0 for m in side if m is not None)
+    strokes.kept_at(np.array([want[0][0]]))
+    assert _memos_state(strokes) == want and held in side
 
 
 def test_memo_rows_aside_write_error_loses_nothing(tmp_path, monkeypatch):
@@ -242,7 +262,7 @@ def test_memo_rows_aside_keeps_an_exported_array(tmp_path):
     want = _memos_state(strokes)
     figs = next(m.figs for m in strokes._side["chain_T"] if m is not None and m.figs)
     view = memoryview(figs)
-    aside = chains.MemoRowsAside(strokes._side["chain_T"], str(tmp_path))
+    aside = chains.MemosAside(strokes._side["chain_T"], str(tmp_path))
     assert len(figs) and all(f is not figs for f, _, _ in aside._rows)
     view.release()
     aside.restore()
@@ -254,8 +274,8 @@ def test_memo_rows_aside_keeps_an_exported_array(tmp_path):
 def test_windowed_two_passes_write_the_lists_bytes(tmp_path, monkeypatch, name, prof):
     """Both files take two passes: the second re-plans with the memos' rows read back."""
     seen = []
-    real = chains.MemoRowsAside.restore
-    monkeypatch.setattr(chains.MemoRowsAside, "restore", lambda self: (seen.append(1), real(self))[1])
+    real = chains.MemosAside.restore
+    monkeypatch.setattr(chains.MemosAside, "restore", lambda self: (seen.append(1), real(self))[1])
     want = run_command(monkeypatch, SAMPLES / name, tmp_path / "a.gcode", False, 0, prof)
     got = run_command(monkeypatch, SAMPLES / name, tmp_path / "b.gcode", True, 64, prof)
     assert want[1]["rewrite_passes"] == 2 and seen

@@ -311,6 +311,12 @@ class Candidates:
                 first[pc.rows] = end + (np.cumsum(cnt_u) - cnt_u)[pc.inv]
                 at.append(end)
                 end += int(cnt_u.sum())
+        if end >= TRIM_ENTRIES:
+            # the heap's free pages given back before the table is made: the candidates freed
+            # ~7 MB of transients in the middle of the heap, resident, and the table and the
+            # pieces' copies grew the windowed gyroid plate's peak on top of them (mem59.md)
+            from .pipeline import trim_heap
+            trim_heap()
         out = cls._of_layout(k, np.empty((4, end)), t_pos, T_orig, first, cnt)
         while pieces:
             pc = pieces.pop()
@@ -436,6 +442,7 @@ def _rows_of(a, rows):
 
 
 ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
+TRIM_ENTRIES = 1 << 16  # Candidates.of_pieces: tables of as many entries made on a trimmed heap
 
 
 RATIO_ROWS_MIN = 512     # _ratios_nonneg: fewer rows are reduced as they are (natively 1.7x at 200 rows)

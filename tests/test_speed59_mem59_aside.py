@@ -281,3 +281,27 @@ def test_windowed_two_passes_write_the_lists_bytes(tmp_path, monkeypatch, name, 
     assert want[1]["rewrite_passes"] == 2 and seen
     assert got[0] == want[0]
     assert got[1] == want[1]
+
+
+def test_of_pieces_makes_a_large_table_on_a_trimmed_heap(monkeypatch):
+    """Candidates.of_pieces gives the heap's free pages back (pipeline.trim_heap) before it
+    makes a table of TRIM_ENTRIES entries or more, not for a smaller one; the same table."""
+    from gcode_opt import pipeline
+    trims = []
+    monkeypatch.setattr(pipeline, "trim_heap", lambda: trims.append(1))
+    rng = np.random.default_rng(8)
+    n, k = 60, len(T_RATIOS)
+    T_orig = rng.random(n) + 0.1
+    sub = np.arange(n)
+    tables = [T_orig[:, None] * T_RATIOS[None, :], rng.random((n, k)), np.where(rng.random((n, k)) < 0.4, 1.0, np.inf),
+              rng.random((n, k))]
+    want, _ = Candidates.of_pieces(n, [Candidates.piece(sub, tables, T_orig)], T_orig)
+    m = want.vals.shape[1]
+    assert trims == []
+    monkeypatch.setattr(plan_mod, "TRIM_ENTRIES", m + 1)
+    Candidates.of_pieces(n, [Candidates.piece(sub, tables, T_orig)], T_orig)
+    assert trims == []
+    monkeypatch.setattr(plan_mod, "TRIM_ENTRIES", m)
+    got, _ = Candidates.of_pieces(n, [Candidates.piece(sub, tables, T_orig)], T_orig)
+    assert trims == [1]
+    assert all(_bits(a) == _bits(b) for a, b in zip(got, want))

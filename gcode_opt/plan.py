@@ -525,24 +525,29 @@ class _WeightsFile:
 
     def take(self, r, idx):
         """Row r's entries at idx (an int array, or anything np.arange(m)[idx] takes), as
-        a new array of idx's shape: the sorted places read a chunk of at most CHUNK entries
-        at a time, from its first place asked to its last."""
+        a new array of idx's shape: the places grouped by chunk of CHUNK entries (a radix
+        sort of their chunks: a sort of the places themselves was ~10 M instructions a call
+        on the rectilinear plate), each chunk's read from its first place asked to its last."""
         m = self.m
         pos = np.arange(m)[idx] if not isinstance(idx, np.ndarray) or idx.dtype.kind not in "iu" else idx
         flat = np.asarray(pos, np.intp).ravel()
         flat = np.where(flat < 0, flat + m, flat)
         if flat.size and not (0 <= int(flat.min()) and int(flat.max()) < m):
             raise IndexError("_WeightsFile: an entry out of range")
-        order = np.argsort(flat, kind="stable")
+        chunk = flat // self.CHUNK
+        if m // self.CHUNK < 1 << 15:
+            chunk = chunk.astype(np.int16)       # (numpy sorts 16-bit ints stably by radix)
+        order = np.argsort(chunk, kind="stable")
         at = flat[order]
+        ends = (np.flatnonzero(np.diff(chunk[order])) + 1).tolist() + [at.size]
         out = np.empty(flat.size)
         fd, row_b = self.fh.fileno(), r * m * _F64.itemsize
         i = 0
-        while i < at.size:
-            lo = int(at[i])
-            j = int(np.searchsorted(at, lo + self.CHUNK))
-            buf = _read_doubles(fd, row_b + lo * _F64.itemsize, int(at[j - 1]) + 1 - lo)
-            out[order[i:j]] = buf[at[i:j] - lo]
+        for j in ends if at.size else ():
+            part = at[i:j]
+            lo = int(part.min())
+            buf = _read_doubles(fd, row_b + lo * _F64.itemsize, int(part.max()) + 1 - lo)
+            out[order[i:j]] = buf[part - lo]
             i = j
         return out.reshape(np.shape(pos))
 

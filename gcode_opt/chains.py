@@ -1689,17 +1689,20 @@ def _memos_alone(side):
     """Whether every memo of side (a list: None or a ChainMemo a slot) is referenced by side
     alone and holds no last plan (MemosAside lets them go and makes them again)."""
     refs = _refs_in_loop([ChainMemo()])      # (a memo held by its list slot alone, as this loop sees it)
-    for m in side:
-        if m is not None and (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None
-                              or m.seg_T is not None or m.seg_beta is not None or m.seg_key is not None
-                              or m.seg_tin is not None or type(m.at) is not int or type(m.n) is not int
-                              or type(m.src_i) is not int):
+    memos = list(filter(_IS_NOT_NONE, side))     # (the slots' Nones passed over in C: ~55 k on the rectilinear plate)
+    for m in memos:
+        if (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None or m.seg_T is not None
+                or m.seg_beta is not None or m.seg_key is not None or m.seg_tin is not None
+                or type(m.at) is not int or type(m.n) is not int or type(m.src_i) is not int):
             return False
     return True
 
 
 def _refs_in_loop(side):
-    for m in side:
+    """A memo's references as _memos_alone's loop sees it: its slot in side, the filtered
+    list's, the loop's name and getrefcount's argument."""
+    memos = list(filter(_IS_NOT_NONE, side))
+    for m in memos:
         return sys.getrefcount(m)
 
 
@@ -1714,7 +1717,7 @@ class _MemoColumns:
     @classmethod
     def of(cls, side, io, pos):
         self = cls()
-        rows = [r for r, m in enumerate(side) if m is not None]
+        rows = np.flatnonzero(np.fromiter(map(_IS_NOT_NONE, side), bool, len(side))).tolist()
         cols = np.empty((7, len(rows)), np.int64)
         cols[0] = rows
         places = {}
@@ -1739,9 +1742,9 @@ class _MemoColumns:
         return self
 
     def let_go(self, side):
-        """The memos' slots emptied (read back from the file by put_back)."""
-        for r in range(len(side)):
-            side[r] = None
+        """The memos' slots emptied (read back from the file by put_back): every slot, the
+        others' None already."""
+        side[:] = repeat(None, len(side))
         return self
 
     def put_back(self, side, io):

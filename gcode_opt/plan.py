@@ -510,7 +510,7 @@ class _WeightsFile:
     object's finaliser, which warns of a file it closes)."""
     __slots__ = ("fh", "m")
 
-    CHUNK = 8192        # entries read at once (64 kB): take's only buffer
+    CHUNK_BITS = 13     # take reads chunks of 2 ** CHUNK_BITS entries at most (64 kB: its only buffer)
 
     def __init__(self, fh, m):
         self.fh, self.m = fh, m
@@ -523,33 +523,39 @@ class _WeightsFile:
         got = write_arrays(list(rows), folder)
         return None if got is None else cls(got[0], rows[0].size)
 
-    def take(self, r, idx):
-        """Row r's entries at idx (an int array, or anything np.arange(m)[idx] takes), as
-        a new array of idx's shape: the places grouped by chunk of CHUNK entries (a radix
-        sort of their chunks: a sort of the places themselves was ~10 M instructions a call
+    def take(self, rows, idx):
+        """The entries at idx (an int array, or anything np.arange(m)[idx] takes) of each of
+        rows (row numbers), as a new (len(rows),) + idx's shape array: the places grouped by
+        chunk of 2 ** CHUNK_BITS entries once for all the rows (a radix sort of their chunks' 16-bit
+        numbers: a sort of the places themselves, a row at a time, was ~40 M instructions
         on the rectilinear plate), each chunk's read from its first place asked to its last."""
         m = self.m
         pos = np.arange(m)[idx] if not isinstance(idx, np.ndarray) or idx.dtype.kind not in "iu" else idx
         flat = np.asarray(pos, np.intp).ravel()
-        flat = np.where(flat < 0, flat + m, flat)
-        if flat.size and not (0 <= int(flat.min()) and int(flat.max()) < m):
-            raise IndexError("_WeightsFile: an entry out of range")
-        chunk = flat // self.CHUNK
-        if m // self.CHUNK < 1 << 15:
-            chunk = chunk.astype(np.int16)       # (numpy sorts 16-bit ints stably by radix)
-        order = np.argsort(chunk, kind="stable")
-        at = flat[order]
-        ends = (np.flatnonzero(np.diff(chunk[order])) + 1).tolist() + [at.size]
-        out = np.empty(flat.size)
-        fd, row_b = self.fh.fileno(), r * m * _F64.itemsize
-        i = 0
-        for j in ends if at.size else ():
-            part = at[i:j]
-            lo = int(part.min())
-            buf = _read_doubles(fd, row_b + lo * _F64.itemsize, int(part.max()) + 1 - lo)
-            out[order[i:j]] = buf[part - lo]
-            i = j
-        return out.reshape(np.shape(pos))
+        out = np.empty((len(rows), flat.size))
+        if flat.size:
+            if flat.min() < 0:
+                flat = np.where(flat < 0, flat + m, flat)
+            if not (0 <= int(flat.min()) and int(flat.max()) < m):
+                raise IndexError("_WeightsFile: an entry out of range")
+            chunk = flat >> self.CHUNK_BITS
+            if m >> self.CHUNK_BITS < 1 << 15:
+                chunk = chunk.astype(np.int16)       # (numpy sorts 16-bit ints stably by radix)
+            order = np.argsort(chunk, kind="stable")
+            at = flat[order]
+            ends = (np.flatnonzero(np.diff(chunk[order])) + 1).tolist() + [at.size]
+            fd, size = self.fh.fileno(), _F64.itemsize
+            i = 0
+            for j in ends:
+                part = at[i:j]
+                lo = int(part[0]) if j - i == 1 else int(part.min())
+                rel = part - lo
+                n = int(rel.max()) + 1
+                dst = order[i:j]
+                for q, r in enumerate(rows):
+                    out[q, dst] = _read_doubles(fd, (r * m + lo) * size, n)[rel]
+                i = j
+        return out.reshape((len(rows),) + np.shape(pos))
 
     def rows(self, a, b):
         """Rows a..b-1 as a new (b - a, m) array."""
@@ -603,7 +609,8 @@ class _AsideVals:
             return self._row(key)
         f, idx = key
         if f == slice(None):
-            return np.stack([self._row(g)[idx] for g in range(4)])
+            w = self.weights.take((0, 1), idx)        # (both weights' rows read together)
+            return np.stack([self.ti[0][idx], w[0], self.ti[1][idx], w[1]])
         return self._row(f)[idx]
 
     def __iter__(self):
@@ -623,7 +630,7 @@ class _AsideRow:
         self.weights, self.r = weights, r
 
     def __getitem__(self, idx):
-        return self.weights.take(self.r, idx)
+        return self.weights.take((self.r,), idx)[0]
 
 
 def write_arrays(arrays, folder=None):
@@ -1962,10 +1969,12 @@ def _chosen_figures(cands, use, pos, j, T_orig, I_orig):
     pos_known = pos[known]
     rest = np.flatnonzero(use & (pos < 0))
     at_rest = cands.at(rest, j[rest])
+    # (weights set aside: their two rows read back together)
+    at_known = cands.vals[:, pos_known] if type(cands.vals) is _AsideVals else None
     out = []
     for f, default in enumerate((T_orig, np.inf, I_orig, np.nan)):
         x = np.array(np.broadcast_to(default, n), float)
-        x[known] = cands.vals[f][pos_known]
+        x[known] = cands.vals[f][pos_known] if at_known is None else at_known[f]
         x[rest] = at_rest[f]
         out.append(x)
     return out

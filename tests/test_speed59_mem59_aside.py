@@ -54,9 +54,9 @@ def _index_cases(rng, m):
             np.zeros(0, np.intp), np.int64(7), -2]
 
 
-@pytest.mark.parametrize("chunk", [1, 7, 8192])
-def test_weights_aside_index_as_the_table(tmp_path, monkeypatch, chunk):
-    monkeypatch.setattr(plan_mod._WeightsFile, "CHUNK", chunk)
+@pytest.mark.parametrize("bits", [0, 3, 13])
+def test_weights_aside_index_as_the_table(tmp_path, monkeypatch, bits):
+    monkeypatch.setattr(plan_mod._WeightsFile, "CHUNK_BITS", bits)
     rng = np.random.default_rng(59)
     cands = _tables(rng, 100)
     want = cands.vals.copy()
@@ -108,8 +108,8 @@ def _plan_bits(p):
 def test_plan_auto_the_same_with_weights_aside(tmp_path, monkeypatch):
     """plan_auto on a sample's tables (lines sharing entries, curves, chains), held and set
     aside, with and without its memo, at several budgets; the file read a few entries a
-    chunk (CHUNK 64)."""
-    monkeypatch.setattr(plan_mod._WeightsFile, "CHUNK", 64)
+    chunk (CHUNK_BITS 6: 64 entries)."""
+    monkeypatch.setattr(plan_mod._WeightsFile, "CHUNK_BITS", 6)
     pin, budget = _planned_sample()
     held = pin.cached[0]
     aside = held.spill(str(tmp_path)).load()

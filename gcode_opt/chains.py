@@ -1643,31 +1643,36 @@ class MemosAside:
 
     def __init__(self, side, folder=None):
         from .stroke_store import _TempFile
+        rows = _memo_rows(side)
+        memos = objfields.take(side, rows)
+        if memos is None:
+            memos = list(map(side.__getitem__, rows.tolist()))
         figs = {}
-        for f in map(_FIGS, filter(_IS_NOT_NONE, side)):
+        for f in map(_FIGS, memos):
             if f is not None and len(f):
                 figs[id(f)] = f
-        self._io, rows, end = _TempFile(folder), [], 0
+        self._io, arrays, end = _TempFile(folder), [], 0
         self._side, self._memos = side, None
         try:
             for f in figs.values():
                 with memoryview(f) as mv:
                     self._io.write(end, mv.cast("B"))
-                rows.append((f, end, len(f) * f.itemsize))
-                end += rows[-1][2]
-            memos = _MemoColumns.of(side, self._io, end) if _memos_alone(side) else None
+                arrays.append((f, end, len(f) * f.itemsize))
+                end += arrays[-1][2]
+            cols = _MemoColumns.of(memos, rows, self._io, end) if _memos_alone(memos) else None
         except OSError:
             self._io.close()
             raise
         self._rows = []
-        for row in rows:
+        for row in arrays:
             try:
                 del row[0][:]
             except BufferError:         # (exported: kept as it is, nothing to read back)
                 continue
             self._rows.append(row)
-        if memos is not None:
-            self._memos = memos.let_go(side)
+        if cols is not None:
+            del memos
+            self._memos = cols.let_go(side, rows)
 
     def restore(self):
         """Every rows array read back into its object and every memo put back in its slot
@@ -1685,11 +1690,21 @@ class MemosAside:
         self._io = None
 
 
-def _memos_alone(side):
-    """Whether every memo of side (a list: None or a ChainMemo a slot) is referenced by side
-    alone and holds no last plan (MemosAside lets them go and makes them again)."""
-    refs = _refs_in_loop([ChainMemo()])      # (a memo held by its list slot alone, as this loop sees it)
-    memos = list(filter(_IS_NOT_NONE, side))     # (the slots' Nones passed over in C: ~55 k on the rectilinear plate)
+def _memo_rows(side):
+    """The rows of side (a list) that hold an object (not None), an intp array: their
+    classes read in one compiled pass where built (objfields.codes)."""
+    got = objfields.codes(side, "__class__", {type(None): 0}, add=True)
+    if got is None:
+        got = np.fromiter(map(_IS_NOT_NONE, side), bool, len(side))
+    return np.flatnonzero(got)
+
+
+def _memos_alone(memos):
+    """Whether every one of memos (a list, the objects of a side table's slots) is a
+    ChainMemo referenced by its slot and memos alone and holds no last plan (MemosAside
+    lets them go and makes them again)."""
+    probe = [ChainMemo()]
+    refs = _refs_in_loop(probe[:])      # (a memo in a slot, probe's, and in the list looped over)
     for m in memos:
         if (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None or m.seg_T is not None
                 or m.seg_beta is not None or m.seg_key is not None or m.seg_tin is not None
@@ -1698,59 +1713,49 @@ def _memos_alone(side):
     return True
 
 
-def _refs_in_loop(side):
-    """A memo's references as _memos_alone's loop sees it: its slot in side, the filtered
-    list's, the loop's name and getrefcount's argument."""
-    memos = list(filter(_IS_NOT_NONE, side))
+def _refs_in_loop(memos):
+    """The first of memos' references as _memos_alone's loop sees one of its memos."""
     for m in memos:
         return sys.getrefcount(m)
 
 
 class _MemoColumns:
     """MemosAside's memos as columns in its file: their rows in the side table and, a memo
-    a column, its figs', kept's and src's places in objs (the distinct objects, -1: None)
-    and its at, n and src_i (int64, written at byte `pos` of the file)."""
+    a column, its figs', kept's and src's places in objs (the distinct objects, None
+    among them where a memo holds None) and its at, n and src_i (int64, written at byte
+    `pos` of the file)."""
     __slots__ = ("objs", "pos", "n")
 
     NAMES = ("figs", "kept", "src")
 
     @classmethod
-    def of(cls, side, io, pos):
+    def of(cls, memos, rows, io, pos):
         self = cls()
-        rows = np.flatnonzero(np.fromiter(map(_IS_NOT_NONE, side), bool, len(side))).tolist()
-        cols = np.empty((7, len(rows)), np.int64)
+        cols = np.empty((7, len(memos)), np.int64)
         cols[0] = rows
-        places = {}
         self.objs = []
         for c, name in enumerate(cls.NAMES, 1):
-            get = attrgetter(name)
-            out = cols[c]
-            for q, r in enumerate(rows):
-                o = get(side[r])
-                if o is None:
-                    out[q] = -1
-                    continue
-                k = places.get(id(o))
-                if k is None:
-                    k = places[id(o)] = len(self.objs)
-                    self.objs.append(o)
-                out[q] = k
+            firsts, which = objfields.by_identity(memos, name)
+            cols[c] = which
+            cols[c] += len(self.objs)
+            self.objs += firsts
         for c, name in enumerate(("at", "n", "src_i"), 4):
-            cols[c] = np.fromiter(map(attrgetter(name), map(side.__getitem__, rows)), np.int64, len(rows))
+            cols[c] = np.fromiter(map(attrgetter(name), memos), np.int64, len(memos))
         io.write(pos, cols.data.cast("B"))
-        self.pos, self.n = pos, len(rows)
+        self.pos, self.n = pos, len(memos)
         return self
 
-    def let_go(self, side):
-        """The memos' slots emptied (read back from the file by put_back): every slot, the
-        others' None already."""
-        side[:] = repeat(None, len(side))
+    def let_go(self, side, rows):
+        """The memos' slots emptied (read back from the file by put_back)."""
+        if not objfields.fill_at(side, rows, None):
+            for r in rows.tolist():
+                side[r] = None
         return self
 
     def put_back(self, side, io):
         cols = np.empty((7, self.n), np.int64)
         io.read_into(memoryview(cols).cast("B"), self.pos)
-        objs = self.objs + [None]                    # (place -1: None)
+        objs = self.objs
         for r, fk, kk, sk, at, n, si in zip(*(c.tolist() for c in cols)):
             m = side[r] = ChainMemo()
             m.figs, m.kept, m.src = objs[fk], objs[kk], objs[sk]

@@ -1647,19 +1647,17 @@ class MemosAside:
         memos = objfields.take(side, rows)
         if memos is None:
             memos = list(map(side.__getitem__, rows.tolist()))
-        figs = {}
-        for f in map(_FIGS, memos):
-            if f is not None and len(f):
-                figs[id(f)] = f
+        firsts, which = objfields.by_identity(memos, "figs")      # (the distinct rows arrays, in a compiled pass)
+        figs = [f for f in firsts if f is not None and len(f)]
         self._io, arrays, end = _TempFile(folder), [], 0
         self._side, self._memos = side, None
         try:
-            for f in figs.values():
+            for f in figs:
                 with memoryview(f) as mv:
                     self._io.write(end, mv.cast("B"))
                 arrays.append((f, end, len(f) * f.itemsize))
                 end += arrays[-1][2]
-            cols = _MemoColumns.of(memos, rows, self._io, end) if _memos_alone(memos) else None
+            cols = _MemoColumns.of(memos, rows, (firsts, which), self._io, end) if _memos_alone(memos) else None
         except OSError:
             self._io.close()
             raise
@@ -1704,19 +1702,18 @@ def _memos_alone(memos):
     ChainMemo referenced by its slot and memos alone and holds no last plan (MemosAside
     lets them go and makes them again)."""
     probe = [ChainMemo()]
-    refs = _refs_in_loop(probe[:])      # (a memo in a slot, probe's, and in the list looped over)
-    for m in memos:
-        if (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None or m.seg_T is not None
-                or m.seg_beta is not None or m.seg_key is not None or m.seg_tin is not None
-                or type(m.at) is not int or type(m.n) is not int or type(m.src_i) is not int):
+    refs = next(map(sys.getrefcount, probe[:]))      # (a memo in a slot, probe's, and in the list mapped)
+    if not all(map(refs.__eq__, map(sys.getrefcount, memos))):
+        return False
+    if not all(map(partial(is_, ChainMemo), map(type, memos))):
+        return False
+    for name in ("seg", "seg_T", "seg_beta", "seg_key", "seg_tin"):
+        if not all(map(_IS_NONE, map(attrgetter(name), memos))):
+            return False
+    for name in ("at", "n", "src_i"):
+        if not all(map(partial(is_, int), map(type, map(attrgetter(name), memos)))):
             return False
     return True
-
-
-def _refs_in_loop(memos):
-    """The first of memos' references as _memos_alone's loop sees one of its memos."""
-    for m in memos:
-        return sys.getrefcount(m)
 
 
 class _MemoColumns:
@@ -1729,13 +1726,14 @@ class _MemoColumns:
     NAMES = ("figs", "kept", "src")
 
     @classmethod
-    def of(cls, memos, rows, io, pos):
+    def of(cls, memos, rows, figs, io, pos):
+        """figs: objfields.by_identity(memos, "figs"), made already."""
         self = cls()
         cols = np.empty((7, len(memos)), np.int64)
         cols[0] = rows
         self.objs = []
         for c, name in enumerate(cls.NAMES, 1):
-            firsts, which = objfields.by_identity(memos, name)
+            firsts, which = figs if name == "figs" else objfields.by_identity(memos, name)
             cols[c] = which
             cols[c] += len(self.objs)
             self.objs += firsts

@@ -223,6 +223,20 @@ def test_memos_held_elsewhere_stay(tmp_path):
     assert _memos_state(strokes) == want and held in side
 
 
+def test_memos_with_a_last_plan_stay(tmp_path):
+    """A memo that holds a last plan (seg_T ... : the list path's runs keep one) keeps every
+    memo an object (making them again would lose it); the rows arrays are still set aside."""
+    strokes, *_ = _stored_planned(tmp_path)
+    side = strokes._side["chain_T"]
+    r0 = next(r for r, m in enumerate(side) if m is not None)
+    side[r0].seg_T = 1.5
+    want = _memos_state(strokes)
+    assert strokes.set_aside_memos(str(tmp_path))
+    assert sum(m is not None for m in side) == len(want)
+    strokes.kept_at(np.array([r0]))
+    assert _memos_state(strokes) == want and side[r0].seg_T == 1.5
+
+
 def test_memo_rows_aside_write_error_loses_nothing(tmp_path, monkeypatch):
     strokes, *_ = _stored_planned(tmp_path)
     want = _memos_state(strokes)

@@ -32,6 +32,7 @@ table holds these predicted figures, so the budget is spent on what the firmware
 from __future__ import annotations
 
 import math
+import sys
 from array import array
 from functools import partial
 from itertools import compress, repeat
@@ -1619,6 +1620,146 @@ def _ask_rows(figs, ks, memos, t_in, b_in, T, kept_out, rows_out):
 
 _AT, _N, _FIGS, _SEG = attrgetter("at"), attrgetter("n"), attrgetter("figs"), attrgetter("seg")
 _IS_NONE = partial(is_, None)
+
+
+class MemosAside:
+    """The chains' memos of a side table (a list, one slot a row: StoredStrokes keeps them)
+    written to an unnamed temporary file in folder and let go until restore() puts them
+    back, for the windowed rewrite and measure, which read none (the gyroid plate's 16.4 k
+    memos, 2.0 MB, and their 110 rows arrays, 2.6 MB, held through them: benchmarks/mem59.md).
+    Whoever reads a memo calls restore() first (StoredStrokes hands the memos out).
+
+    - The rows arrays (ChainMemo.figs: arrays of doubles, each shared by a finishing batch's
+      chains and its kept laws, _FigsRows): each written and its buffer let go in place
+      (emptied: the same object, which the kept laws sharing it still hold), read back
+      into it.  An array whose buffer is exported (a view of it alive) is kept as it is.
+    - The memos themselves, where every one is the side table's alone (no other reference:
+      a copy put back would part from it) and holds no last plan (seg ... seg_tin None: the
+      windowed runs keep none): each one's objects (figs, kept, src: places in a list of
+      the distinct ones, held here) and ints (at, n, src_i) written as columns, its slot
+      emptied; restore() makes each memo again with those (the same objects, equal ints).
+    All is written before anything is let go: a write error loses nothing."""
+    __slots__ = ("_io", "_rows", "_side", "_memos")
+
+    def __init__(self, side, folder=None):
+        from .stroke_store import _TempFile
+        rows = _memo_rows(side)
+        memos = objfields.take(side, rows)
+        if memos is None:
+            memos = list(map(side.__getitem__, rows.tolist()))
+        firsts, which = objfields.by_identity(memos, "figs")      # (the distinct rows arrays, in a compiled pass)
+        figs = [f for f in firsts if f is not None and len(f)]
+        self._io, arrays, end = _TempFile(folder), [], 0
+        self._side, self._memos = side, None
+        try:
+            for f in figs:
+                with memoryview(f) as mv:
+                    self._io.write(end, mv.cast("B"))
+                arrays.append((f, end, len(f) * f.itemsize))
+                end += arrays[-1][2]
+            cols = _MemoColumns.of(memos, rows, (firsts, which), self._io, end) if _memos_alone(memos) else None
+        except OSError:
+            self._io.close()
+            raise
+        self._rows = []
+        for row in arrays:
+            try:
+                del row[0][:]
+            except BufferError:         # (exported: kept as it is, nothing to read back)
+                continue
+            self._rows.append(row)
+        if cols is not None:
+            del memos
+            self._memos = cols.let_go(side, rows)
+
+    def restore(self):
+        """Every rows array read back into its object and every memo put back in its slot
+        (once: then the file is closed)."""
+        if self._io is None:
+            return
+        for f, at, nbytes in self._rows:
+            got = bytearray(nbytes)
+            self._io.read_into(memoryview(got), at)
+            f.frombytes(got)
+        if self._memos is not None:
+            self._memos.put_back(self._side, self._io)
+        self._rows, self._memos, self._side = [], None, None
+        self._io.close()
+        self._io = None
+
+
+def _memo_rows(side):
+    """The rows of side (a list) that hold an object (not None), an intp array: their
+    classes read in one compiled pass where built (objfields.codes)."""
+    got = objfields.codes(side, "__class__", {type(None): 0}, add=True)
+    if got is None:
+        got = np.fromiter(map(_IS_NOT_NONE, side), bool, len(side))
+    return np.flatnonzero(got)
+
+
+def _memos_alone(memos):
+    """Whether every one of memos (a list, the objects of a side table's slots) is a
+    ChainMemo referenced by its slot and memos alone and holds no last plan (MemosAside
+    lets them go and makes them again).  (One loop, each test cut short: ten map passes
+    over the gyroid plate's 16 k memos cost ~45 M instructions more.)"""
+    probe = [ChainMemo()]
+    refs = _refs_in_loop(probe[:])      # (a memo in a slot, probe's, and in the list looped over)
+    for m in memos:
+        if (type(m) is not ChainMemo or sys.getrefcount(m) != refs or m.seg is not None or m.seg_T is not None
+                or m.seg_beta is not None or m.seg_key is not None or m.seg_tin is not None
+                or type(m.at) is not int or type(m.n) is not int or type(m.src_i) is not int):
+            return False
+    return True
+
+
+def _refs_in_loop(memos):
+    """The first of memos' references as _memos_alone's loop sees one of its memos."""
+    for m in memos:
+        return sys.getrefcount(m)
+
+
+class _MemoColumns:
+    """MemosAside's memos as columns in its file: their rows in the side table and, a memo
+    a column, its figs', kept's and src's places in objs (the distinct objects, None
+    among them where a memo holds None) and its at, n and src_i (int64, written at byte
+    `pos` of the file)."""
+    __slots__ = ("objs", "pos", "n")
+
+    NAMES = ("figs", "kept", "src")
+
+    @classmethod
+    def of(cls, memos, rows, figs, io, pos):
+        """figs: objfields.by_identity(memos, "figs"), made already."""
+        self = cls()
+        cols = np.empty((7, len(memos)), np.int64)
+        cols[0] = rows
+        self.objs = []
+        for c, name in enumerate(cls.NAMES, 1):
+            firsts, which = figs if name == "figs" else objfields.by_identity(memos, name)
+            cols[c] = which
+            cols[c] += len(self.objs)
+            self.objs += firsts
+        for c, name in enumerate(("at", "n", "src_i"), 4):
+            cols[c] = np.fromiter(map(attrgetter(name), memos), np.int64, len(memos))
+        io.write(pos, cols.data.cast("B"))
+        self.pos, self.n = pos, len(memos)
+        return self
+
+    def let_go(self, side, rows):
+        """The memos' slots emptied (read back from the file by put_back)."""
+        if not objfields.fill_at(side, rows, None):
+            for r in rows.tolist():
+                side[r] = None
+        return self
+
+    def put_back(self, side, io):
+        cols = np.empty((7, self.n), np.int64)
+        io.read_into(memoryview(cols).cast("B"), self.pos)
+        objs = self.objs
+        for r, fk, kk, sk, at, n, si in zip(*(c.tolist() for c in cols)):
+            m = side[r] = ChainMemo()
+            m.figs, m.kept, m.src = objs[fk], objs[kk], objs[sk]
+            m.at, m.n, m.src_i = _row_int(at), _row_int(n), _row_int(si)
 
 
 def _rules_key(rules, profile):

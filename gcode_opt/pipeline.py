@@ -62,7 +62,7 @@ from .schedule import drop_cached, plan_inputs, plan_strokes, segs_for, set_asid
 from .segments import RowPlan, SegmentPlan
 from .state import Barrier, MachineState, Move
 from .strokes import K_ARC, MIN_FEED_V, NOT_OPEN, Stroke, group_lines, line_spans, put_sums
-from .stored_strokes import stored_rows
+from .stored_strokes import StoredStrokes, stored_rows
 from .stroke_columns import StrokeColumns, first_lines, line_columns
 from . import validate as _validate_mod
 from .validate import BlockInvalid, Geometry, validate_block
@@ -1448,6 +1448,8 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
                     with _young_frozen(freeze):
                         plan = plan_strokes(strokes, pin, profile, opts, budget_t)
                     set_aside_for_rewrite(pin, os.path.dirname(tmp) or None, last=pass_i == 1)
+                    if type(strokes) is StoredStrokes:      # (the chains' memos' rows: a re-plan reads them back)
+                        strokes.set_aside_memos(os.path.dirname(tmp) or None)
                 trim_heap()           # planning's freed temporaries: rewrite and measure grow on live memory only
                 timing.lap("plan")
                 if prog:

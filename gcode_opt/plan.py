@@ -18,6 +18,7 @@ Everything is vectorised over strokes (numpy), so a file with 10^5 strokes plans
 """
 from __future__ import annotations
 
+import os
 from collections import namedtuple
 
 import numpy as np
@@ -190,9 +191,34 @@ class Candidates:
     def spill(self, folder=None):
         """These tables written to an unnamed temporary file in folder (SpilledCandidates),
         their memory let go until load() reads them back, the same bits and layout; None
-        (and nothing written) where the file cannot be made or written."""
-        got = write_arrays([getattr(self, name) for name in self.SPILLED], folder)
-        return None if got is None else SpilledCandidates(*got, self.k, self.T_orig)
+        (and nothing written) where the file cannot be made or written.  Weights set aside
+        (set_aside_weights) stay in their own file, handed to the SpilledCandidates."""
+        aside = self.vals if type(self.vals) is _AsideVals else None
+        got = write_arrays([aside.ti if aside is not None and name == "vals" else getattr(self, name)
+                            for name in self.SPILLED], folder)
+        return None if got is None else SpilledCandidates(*got, self.k, self.T_orig,
+                                                          None if aside is None else aside.weights)
+
+    def set_aside_weights(self, folder=None) -> bool:
+        """The entries' beta and KE (vals[1], vals[3]) written to an unnamed temporary file in
+        folder and let go: the allocation reads only T and I (vals[0], vals[2]); beta and KE
+        are read at the chosen entries once a budget run (_chosen_figures), a few chunks of
+        the file (_AsideVals; windowed gyroid plate: 1.7 MB held from the candidates through
+        the runs, the command's peak).  vals indexes as before, the same bits.  False (all
+        kept) where vals is no C-contiguous (4, m) array of doubles or the file cannot be
+        made or written."""
+        vals = self.vals
+        if type(vals) is not np.ndarray or vals.dtype != _F64 or vals.ndim != 2 or vals.shape[0] != 4 \
+                or not vals.flags.c_contiguous:
+            return False
+        # T and I written too and read back once vals is let go: a copy of them made beside
+        # vals raised the windowed gyroid's candidates moment by its 1.7 MB
+        weights = _WeightsFile.of((vals[1], vals[3], vals[0], vals[2]), folder)
+        if weights is None:
+            return False
+        self.vals = vals = None
+        self.vals = _AsideVals(weights.rows(2, 4), weights)
+        return True
 
     @property
     def mask(self):
@@ -285,6 +311,12 @@ class Candidates:
                 first[pc.rows] = end + (np.cumsum(cnt_u) - cnt_u)[pc.inv]
                 at.append(end)
                 end += int(cnt_u.sum())
+        if end >= TRIM_ENTRIES:
+            # the heap's free pages given back before the table is made: the candidates freed
+            # ~7 MB of transients in the middle of the heap, resident, and the table and the
+            # pieces' copies grew the windowed gyroid plate's peak on top of them (mem59.md)
+            from .pipeline import trim_heap
+            trim_heap()
         out = cls._of_layout(k, np.empty((4, end)), t_pos, T_orig, first, cnt)
         while pieces:
             pc = pieces.pop()
@@ -410,6 +442,7 @@ def _rows_of(a, rows):
 
 
 ENTRY_ROWS = 8192      # _entry_columns: rows whose mask entries are placed at once
+TRIM_ENTRIES = 1 << 16  # Candidates.of_pieces: tables of as many entries made on a trimmed heap
 
 
 RATIO_ROWS_MIN = 512     # _ratios_nonneg: fewer rows are reduced as they are (natively 1.7x at 200 rows)
@@ -441,17 +474,21 @@ class SpilledCandidates:
     """A Candidates' tables in an unnamed temporary file (Candidates.spill): the first pass
     holds them only in case the time budget re-plans (a second rewrite pass: 9 of the 54
     reference cases, neither plate), and its measure was the rectilinear plate's peak with
-    them held.  load() gives them back once, bit for bit; the file goes with it."""
-    __slots__ = ("fh", "layout", "k", "T_orig")
+    them held.  load() gives them back once, bit for bit; the file goes with it.  weights:
+    the _WeightsFile of tables whose weights were set aside (their vals' T and I rows are
+    this file's), given back with them."""
+    __slots__ = ("fh", "layout", "k", "T_orig", "weights")
 
-    def __init__(self, fh, layout, k, T_orig):
-        self.fh, self.layout, self.k, self.T_orig = fh, layout, k, T_orig
+    def __init__(self, fh, layout, k, T_orig, weights=None):
+        self.fh, self.layout, self.k, self.T_orig, self.weights = fh, layout, k, T_orig, weights
 
     def load(self):
         out = Candidates.__new__(Candidates)
         out.k, out.T_orig = self.k, self.T_orig
         for name, a in zip(Candidates.SPILLED, read_arrays(self.fh, self.layout, "spilled candidate tables")):
             setattr(out, name, a)
+        if self.weights is not None:
+            out.vals, self.weights = _AsideVals(out.vals, self.weights), None
         self.close()
         return out
 
@@ -461,6 +498,139 @@ class SpilledCandidates:
         if self.fh is not None:
             self.fh.close()
             self.fh = None
+        if self.weights is not None:
+            self.weights.close()
+            self.weights = None
+
+
+class _WeightsFile:
+    """Rows of doubles (the entries' beta and KE, then T and I: Candidates.set_aside_weights)
+    in an unnamed temporary file, read back at given entries a chunk of the file at a time
+    (take), so that no row is held whole again.  Closed by close() or when collected (not by the file
+    object's finaliser, which warns of a file it closes)."""
+    __slots__ = ("fh", "m")
+
+    CHUNK_BITS = 13     # take reads chunks of 2 ** CHUNK_BITS entries at most (64 kB: its only buffer)
+
+    def __init__(self, fh, m):
+        self.fh, self.m = fh, m
+
+    @classmethod
+    def of(cls, rows, folder=None):
+        """The rows (contiguous 1-D arrays of m doubles each, written one after the other:
+        no copy of them made) in a file in folder, or None where it cannot be made or
+        written."""
+        got = write_arrays(list(rows), folder)
+        return None if got is None else cls(got[0], rows[0].size)
+
+    def take(self, rows, idx):
+        """The entries at idx (an int array, or anything np.arange(m)[idx] takes) of each of
+        rows (row numbers), as a new (len(rows),) + idx's shape array: the places grouped by
+        chunk of 2 ** CHUNK_BITS entries once for all the rows (a radix sort of their chunks' 16-bit
+        numbers: a sort of the places themselves, a row at a time, was ~40 M instructions
+        on the rectilinear plate), each chunk's read from its first place asked to its last."""
+        m = self.m
+        pos = np.arange(m)[idx] if not isinstance(idx, np.ndarray) or idx.dtype.kind not in "iu" else idx
+        flat = np.asarray(pos, np.intp).ravel()
+        out = np.empty((len(rows), flat.size))
+        if flat.size:
+            if flat.min() < 0:
+                flat = np.where(flat < 0, flat + m, flat)
+            if not (0 <= int(flat.min()) and int(flat.max()) < m):
+                raise IndexError("_WeightsFile: an entry out of range")
+            chunk = flat >> self.CHUNK_BITS
+            if m >> self.CHUNK_BITS < 1 << 15:
+                chunk = chunk.astype(np.int16)       # (numpy sorts 16-bit ints stably by radix)
+            order = np.argsort(chunk, kind="stable")
+            at = flat[order]
+            ends = (np.flatnonzero(np.diff(chunk[order])) + 1).tolist() + [at.size]
+            fd, size = self.fh.fileno(), _F64.itemsize
+            i = 0
+            for j in ends:
+                part = at[i:j]
+                lo = int(part[0]) if j - i == 1 else int(part.min())
+                rel = part - lo
+                n = int(rel.max()) + 1
+                dst = order[i:j]
+                for q, r in enumerate(rows):
+                    out[q, dst] = _read_doubles(fd, (r * m + lo) * size, n)[rel]
+                i = j
+        return out.reshape((len(rows),) + np.shape(pos))
+
+    def rows(self, a, b):
+        """Rows a..b-1 as a new (b - a, m) array."""
+        m = self.m
+        return _read_doubles(self.fh.fileno(), a * m * _F64.itemsize, (b - a) * m).reshape(b - a, m)
+
+    def close(self):
+        if getattr(self, "fh", None) is not None:
+            self.fh.close()
+            self.fh = None
+
+    def __del__(self):
+        self.close()
+
+
+def _read_doubles(fd, at_b, n):
+    """n doubles of the file fd from byte at_b; OSError if the file is cut short."""
+    out = np.empty(n)
+    mv, got = memoryview(out).cast("B"), 0
+    while got < out.nbytes:
+        k = os.preadv(fd, [mv[got:]], at_b + got)
+        if k <= 0:
+            raise OSError("the candidate tables' weights set aside were cut short")
+        got += k
+    return out
+
+
+class _AsideVals:
+    """Candidates.vals of tables whose weights were set aside (set_aside_weights), indexed as
+    the (4, m) array was where plan.py reads it: vals[0] and vals[2] (T, I: ti, held), vals[1]
+    and vals[3] (beta, KE) rows whose [idx] reads the file (_WeightsFile.take), vals[f, idx],
+    vals[:, idx] (a (4, len) array), shape; np.asarray(vals) reads it all back."""
+    __slots__ = ("ti", "weights")
+
+    def __init__(self, ti, weights):
+        self.ti, self.weights = ti, weights
+
+    @property
+    def shape(self):
+        return 4, self.ti.shape[1]
+
+    def __len__(self):
+        return 4
+
+    def _row(self, f):
+        f = range(4)[f]                 # (negative rows as numpy's; IndexError beyond)
+        return self.ti[f // 2] if f % 2 == 0 else _AsideRow(self.weights, f // 2)
+
+    def __getitem__(self, key):
+        if type(key) is not tuple:
+            return self._row(key)
+        f, idx = key
+        if f == slice(None):
+            w = self.weights.take((0, 1), idx)        # (both weights' rows read together)
+            return np.stack([self.ti[0][idx], w[0], self.ti[1][idx], w[1]])
+        return self._row(f)[idx]
+
+    def __iter__(self):
+        return map(self._row, range(4))
+
+    def __array__(self, dtype=None, copy=None):
+        w = self.weights.rows(0, 2)
+        out = np.stack([self.ti[0], w[0], self.ti[1], w[1]])
+        return out if dtype is None else out.astype(dtype)
+
+
+class _AsideRow:
+    """Row r of a _WeightsFile: [idx] reads its entries at idx."""
+    __slots__ = ("weights", "r")
+
+    def __init__(self, weights, r):
+        self.weights, self.r = weights, r
+
+    def __getitem__(self, idx):
+        return self.weights.take((self.r,), idx)[0]
 
 
 def write_arrays(arrays, folder=None):
@@ -1732,9 +1902,11 @@ def plan_auto(p: PlanInput, budget_t: float, cands=None, groups=None, memo=None)
     neither they nor the groups' arrays changed in place between the calls: what does not
     depend on the budget is made once (_AllocMemo)."""
     n = len(p.T_orig)     # (p.L may be set aside: PlanInput.set_aside)
-    plan = Plan(n)
     if n == 0:
-        return plan
+        return Plan(0)
+    # (every field of the plan is set below: Plan(n)'s defaults, 1.4 MB of arrays on the
+    # gyroid plate made only to be replaced, were held at the windowed command's peak)
+    plan = Plan.__new__(Plan)
     if cands is None:
         cands = candidates_auto(p)
     if not isinstance(cands, Candidates):
@@ -1797,10 +1969,12 @@ def _chosen_figures(cands, use, pos, j, T_orig, I_orig):
     pos_known = pos[known]
     rest = np.flatnonzero(use & (pos < 0))
     at_rest = cands.at(rest, j[rest])
+    # (weights set aside: their two rows read back together)
+    at_known = cands.vals[:, pos_known] if type(cands.vals) is _AsideVals else None
     out = []
     for f, default in enumerate((T_orig, np.inf, I_orig, np.nan)):
         x = np.array(np.broadcast_to(default, n), float)
-        x[known] = cands.vals[f][pos_known]
+        x[known] = cands.vals[f][pos_known] if at_known is None else at_known[f]
         x[rest] = at_rest[f]
         out.append(x)
     return out

@@ -21,6 +21,9 @@ LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; 
 # larger): its fixed costs a call (chains.classify's geometry blocks, a numpy pass a column)
 # paid 35-51 times at 1024, ~35 % of the pass on the plates (benchmarks/inputs56.md)
 PIN_ROWS = 4096
+# the candidate tables' beta and KE set aside in a file through the budget runs where the
+# strokes' store is a file (plan.Candidates.set_aside_weights)
+ASIDE_WEIGHTS = True
 
 
 def window_size():
@@ -136,10 +139,16 @@ def candidates_windowed(strokes, pin, profile, opts):
     """What schedule._candidates leaves in pin.cached (alpha "auto"): the candidate tables
     made on the windows' bounds of strokes (a StoredStrokes), the strokes whose candidate is
     not finite failed, the lines' inputs kept for the runs and the rest set aside."""
-    from .schedule import _faults_of, _plan_kind_codes_of, _rows_by_kind, after_candidates, candidates_in_windows
+    from .schedule import (_faults_of, _file_store, _plan_kind_codes_of, _rows_by_kind, after_candidates,
+                           candidates_in_windows)
     rows = _rows_by_kind(strokes, _plan_kind_codes_of(strokes, pin))
     failed = _faults_of(pin.fault)
     cands, nonfinite = candidates_in_windows(strokes, pin, profile, opts, rows, failed, strokes.bounds(),
                                              level_rows=LEVEL_ROWS, line_rows=LINE_ROWS)
+    # the entries' beta and KE, which the runs read only at their chosen entries, beside the
+    # store (its folder: the output's disk), not held through the runs (benchmarks/mem59.md)
+    store = _file_store(strokes)
+    if store is not None and ASIDE_WEIGHTS:
+        cands.set_aside_weights(store.folder)
     after_candidates(pin, rows, failed, nonfinite)
     return cands, None, failed

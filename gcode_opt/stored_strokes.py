@@ -75,6 +75,7 @@ class StoredStrokes(StoreWindows):
         # slot a row, made at the first object kept: a dict {row: object} held an int and a
         # hash entry a row besides (gyroid plate's 16 k memos: 1.1 MB -> 0.28 MB)
         self._side = dict.fromkeys(keep)
+        self._aside = None               # the chains' memos set aside (set_aside_memos)
         # geoms: the curve geometry of the rows kept (geom_keep.GeomKeep, of `window` rows a
         # window: planned_strokes'), given back where asked (schedule._rebuild_geometry)
         self.geoms = geoms
@@ -103,10 +104,34 @@ class StoredStrokes(StoreWindows):
             self.on_load(lo, w)
         return w
 
+    def set_aside_memos(self, folder=None) -> bool:
+        """The chains' memos kept in the side table (chain_T) and their rows written to a
+        file in folder and let go until a memo is handed out again (a window's load,
+        kept_at: chains.MemosAside), for the steps after planning, which read none (a
+        re-plan does).  The held windows are let go first (their memos then in the side table).
+        False where no memo is kept or the file cannot be made or written (all kept)."""
+        side = self._side.get("chain_T")
+        if side is None or self._aside is not None:
+            return False
+        self.let_go()
+        from .chains import MemosAside
+        try:
+            self._aside = MemosAside(side, folder)
+        except OSError:
+            return False
+        return True
+
+    def _restore_memos(self):
+        """The memos set aside read back, before a memo is handed out."""
+        if self._aside is not None:
+            self._aside.restore()
+            self._aside = None
+
     def _kept(self, lo, hi):
         """{field: the side table's objects of rows lo..hi-1} (None where none kept): what
         the store's load puts in those fields as it makes the strokes (the chains' memos: no
         empty memo made and replaced, no setattr a row here)."""
+        self._restore_memos()
         got = {}
         for name, side in self._side.items():
             if side is not None:
@@ -124,6 +149,7 @@ class StoredStrokes(StoreWindows):
         if not self._side or not len(rows):
             return None
         self.let_go()
+        self._restore_memos()
         got = {}
         for name, side in self._side.items():
             if side is None or len(side) <= rows[-1]:

@@ -15,6 +15,7 @@ from gcode_opt import pipeline, plan_windows, schedule
 from gcode_opt.profile import load_profile
 from gcode_opt.stroke_store import StrokeStore
 
+from test_speed56_inputs56_pin import _same_pin      # (every field, the arrays bit for bit)
 from windowed_run import run_command
 
 SAMPLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "sample_gcode")
@@ -28,17 +29,6 @@ SAMPLED = [(os.path.join(SAMPLES, "prusa_mk3s_rectilinear.gcode"), "prusa-mk3s")
            (os.path.join(SAMPLES, "prusa_klipper.gcode"), "voron24")]
 PLATES = [pytest.param(os.path.join(CORPUS, f"{n}.gcode"), "prusa-mk3s", marks=pytest.mark.slow)
           for n in ("plate_rectilinear", "plate_gyroid")]
-
-
-def _same_pin(got, want):
-    """Every field of want in got, the arrays bit for bit (dtype included)."""
-    assert sorted(vars(got)) == sorted(vars(want))
-    for k, v in vars(want).items():
-        g = getattr(got, k)
-        if isinstance(v, np.ndarray):
-            assert g.dtype == v.dtype and g.tobytes() == v.tobytes(), k
-        else:
-            assert g == v, k
 
 
 def _spilled(path, prof, opts, rows=None, window=64):

@@ -14,15 +14,14 @@ Held in memory: an index of the records by a hash of their keys, 18 bytes a reco
 end of the run's peak); the records themselves are the file's."""
 from __future__ import annotations
 
-from functools import partial
-from operator import attrgetter, eq
+from operator import attrgetter
 
 import numpy as np
 
 from .distinct import distinct
 from .segments import RowPlan, SegmentPlan
 from . import objfields
-from .spill_file import SpillFile, block_plans, plan_arrays
+from .spill_file import SpillFile, block_plans, plan_arrays, plan_heads
 
 # a record: its key (line class (its int64's bits), T, beta), time_t, int_a2, its type
 # (_TYPES' index), 1.0 where its fault verdict was "" when written (else 0.0: None, made again
@@ -223,17 +222,7 @@ def _block_records(block, rows, plans, cls, T, beta):
     k = HEAD
     R.view(np.int64)[:, 0] = cls
     R[:, 1], R[:, 2] = T, beta
-    # (the plans' figures, verdicts and shapes read by objfields' compiled passes where
-    # built, else one np.fromiter each: the same numbers)
-    fig = objfields.floats(plans, ("time_t", "int_a2"))
-    if fig is None:
-        R[:, 3] = np.fromiter(map(_TIME_T, plans), float, m)
-        R[:, 4] = np.fromiter(map(_INT_A2, plans), float, m)
-    else:
-        R[:, 3:5] = fig
-    R[:, 5] = 0.0                       # (_TYPES' RowPlan)
-    fine = objfields.codes(plans, "fault", {"": 0}, add=True)     # (a verdict "": code 0)
-    R[:, 6] = np.fromiter(map(_FINE, map(_FAULT, plans)), float, m) if fine is None else fine == 0
+    plan_heads(plans, R[:, 3:7])        # (figures, _TYPES' RowPlan, verdicts; the shapes below)
     shape = objfields.codes(plans, "shape", dict(zip(_SHAPES, range(len(_SHAPES)))))
     R[:, 7] = np.fromiter(map(_SHAPES.index, map(_SHAPE, plans)), float, m) if shape is None else shape
     R[:, k:k + n + 1] = S[rows]
@@ -243,9 +232,7 @@ def _block_records(block, rows, plans, cls, T, beta):
     return R
 
 
-_TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
-_FAULT, _SHAPE = attrgetter("fault"), attrgetter("shape")
-_FINE = partial(eq, "")                 # (a verdict "": 1.0; None or a reason: 0.0)
+_SHAPE = attrgetter("shape")
 
 
 def _blocks(buf, start, ns):

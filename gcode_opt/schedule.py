@@ -41,7 +41,7 @@ from .profile import Profile
 from .segments import (RowPlan, SegmentPlan, SegmentRules, line_classes, plan_once, plan_segments, stored_line_classes,
                        slowed_original)
 from .line_spill import LineSpill
-from .spill_file import SpillFile, block_plans, plan_arrays
+from .spill_file import SpillFile, block_plans, plan_arrays, plan_heads
 from .stored_strokes import StoredStrokes, StrokeRows, stored
 from .strokes import K_ARC, K_CHAIN, K_CURVE, K_LINE, stroke_fields
 
@@ -1876,15 +1876,7 @@ def _blocks_records(T, beta, plans, blocks):
     k = _SPILL_HEAD
     H = np.empty((m, k + 1))
     H[:, 0], H[:, 1] = T[ii], beta[ii]
-    fig = objfields.floats(bp, ("time_t", "int_a2"))
-    if fig is None:
-        H[:, 2] = np.fromiter(map(_TIME_T, bp), float, m)
-        H[:, 3] = np.fromiter(map(_INT_A2, bp), float, m)
-    else:
-        H[:, 2:4] = fig
-    H[:, 4] = 0.0                       # (_SPILL_TYPES' RowPlan)
-    fine = objfields.codes(bp, "fault", {"": 0}, add=True)    # (a verdict "": code 0)
-    H[:, 5] = np.fromiter(map(_fine_flag, bp), float, m) if fine is None else fine == 0
+    plan_heads(bp, H[:, 2:6])           # (figures, _SPILL_TYPES' RowPlan, verdicts)
     H[:, k] = 0.0                       # (the first knot)
     buf = np.empty(int(lens.sum()))
     buf[at[:, None] + np.arange(k + 1)] = H

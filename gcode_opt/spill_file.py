@@ -6,8 +6,12 @@ from __future__ import annotations
 
 import os
 from itertools import chain, compress, repeat
+from functools import partial
+from operator import attrgetter, eq
 
 import numpy as np
+
+from . import objfields
 
 _F64 = np.dtype(np.float64)
 
@@ -164,3 +168,24 @@ def block_plans(buf, start, blocks, head, cols, shapes=("law",)):
         for q, p in zip(at.tolist(), plans):
             out[q] = p
     return out
+
+
+_TIME_T, _INT_A2, _FAULT = attrgetter("time_t"), attrgetter("int_a2"), attrgetter("fault")
+_FINE = partial(eq, "")                 # (a verdict "": True; None or a reason: False)
+
+
+def plan_heads(plans, out):
+    """The four head columns both spills write of each plan (a list, a row of out each):
+    its time_t and int_a2, 0.0 (the spills' type code of a RowPlan) and 1.0 where its fault
+    verdict is "" (made: its checks passed), else 0.0; read by objfields' compiled passes
+    where built, else one np.fromiter each (the same numbers)."""
+    m = len(plans)
+    fig = objfields.floats(plans, ("time_t", "int_a2"))
+    if fig is None:
+        out[:, 0] = np.fromiter(map(_TIME_T, plans), float, m)
+        out[:, 1] = np.fromiter(map(_INT_A2, plans), float, m)
+    else:
+        out[:, 0:2] = fig
+    out[:, 2] = 0.0
+    fine = objfields.codes(plans, "fault", {"": 0}, add=True)     # (a verdict "": code 0)
+    out[:, 3] = np.fromiter(map(_FINE, map(_FAULT, plans)), float, m) if fine is None else fine == 0

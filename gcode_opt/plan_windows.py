@@ -17,9 +17,10 @@ import numpy as np
 WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
-# strokes a plan_inputs call at least (SpilledInputs, plan_inputs_windowed; a window if
-# larger): its fixed costs a call (chains.classify's geometry blocks, a numpy pass a column)
-# paid 35-51 times at 1024, ~35 % of the pass on the plates (benchmarks/inputs56.md)
+# strokes a plan_inputs_windowed call at least (a window if larger): its fixed costs a call
+# (chains.classify's geometry blocks, a numpy pass a column) paid 35-51 times at 1024, ~35 %
+# of the pass on the plates (benchmarks/inputs56.md).  SpilledInputs plans a window's
+# strokes a call instead (its docstring: the analyse heap and the peak)
 PIN_ROWS = 4096
 # the candidate tables' beta and KE set aside in a file through the budget runs where the
 # strokes' store is a file (plan.Candidates.set_aside_weights)

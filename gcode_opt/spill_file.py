@@ -5,8 +5,8 @@ each spill's own."""
 from __future__ import annotations
 
 import os
-from itertools import chain, compress, repeat
 from functools import partial
+from itertools import chain, compress, repeat
 from operator import attrgetter, eq
 
 import numpy as np

@@ -35,15 +35,21 @@ def _list_path(name):
     return cands, dict(failed), rows, memos, n
 
 
-def _one_call(name):
+def _list_tables(path):
+    """The list path's one candidates call on the file at path (prusa-mk3s, its default
+    features): (strokes, rows by kind, failed, Candidates, profile, options)."""
     prof = load_profile("prusa-mk3s")
-    path = str(SAMPLES / name)
     opts = Options(features=feat.default_selection(path)[0])
     strokes, _ = analyse(path, prof, opts)
     pin = sc.plan_inputs(strokes, prof, opts)
     rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
     failed = sc._faults_of(pin.fault)
     cands, _ = sc._candidates(strokes, pin, prof, opts, rows, failed)
+    return strokes, rows, failed, cands, prof, opts
+
+
+def _one_call(name):
+    strokes, rows, failed, cands, prof, _ = _list_tables(str(SAMPLES / name))
     memos = {i: _memo_bits(strokes[i], prof) for i in rows[K_CHAIN].tolist()}
     return cands, failed, rows, memos, len(strokes)
 
@@ -129,16 +135,10 @@ def test_plates_windowed_tables_are_the_list_paths(tmp_path, monkeypatch, plate)
     """The plates at the pipeline's window (the rectilinear plate's windows taken, ~70 arcs,
     curves and chains of 1024 strokes; most of the gyroid plate's loaded): one call's tables."""
     from gcode_opt.plan_windows import WINDOW as window
-    prof = load_profile("prusa-mk3s")
     path = str(CORPUS / plate)
-    opts = Options(features=feat.default_selection(path)[0])
-    strokes, _ = analyse(path, prof, opts)
-    pin = sc.plan_inputs(strokes, prof, opts)
-    rows = sc._rows_by_kind(strokes, sc._plan_kind_codes_of(strokes, pin))
-    failed_ref = sc._faults_of(pin.fault)
-    ref, _ = sc._candidates(strokes, pin, prof, opts, rows, failed_ref)
+    strokes, _, failed_ref, ref, prof, opts = _list_tables(path)
     n = len(strokes)
-    del strokes, pin
+    del strokes
     store = StrokeStore(folder=str(tmp_path))
     analyse(path, prof, opts, store)
     counts = _Counts(monkeypatch)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 import weakref
 from array import array
+from itertools import count, repeat
 from operator import attrgetter, itemgetter
 
 import numpy as np
@@ -507,6 +508,9 @@ def _joined(xs, runs):
 
 def stack_d(gs):
     """stack_du(gs)'s lengths D alone (the same doubles), without the directions."""
+    got = _stacked_core(gs, False)
+    if got is not None:
+        return got[0]
     got = _stacked_runs(gs)
     return got[0] if got is not None else np.array([g.d for g in gs], float)
 
@@ -518,11 +522,34 @@ def stack_du(gs):
     directions made from the stacked lengths and the strokes' vertices in one pass
     (_stack_u).  Geometries of another make, or blocks whose rows do not stack: row by
     row."""
+    got = _stacked_core(gs, True)
+    if got is not None:
+        return got
     got = _stacked_runs(gs)
     if got is not None:
         D, runs, ks = got
         return D, _stack_u(gs, runs, ks, D)
     return np.array([g.d for g in gs], float), np.array([g.u for g in gs], float)
+
+
+def _stacked_core(gs, with_u):
+    """(D, U) of stack_du (U None unless with_u) by the compiled core in one pass over the
+    geometries (_curvecore.c stack_rows: the rows copied, U made as _Blk.u_rows makes it;
+    the chains' finishing calls it ~1.8 k times on the windowed gyroid plate, ~20 rows
+    each, where _stacked_runs' and _stack_u's set-up was ~20 us a call), or None where the
+    core is not built or declines them (then _stacked_runs' path)."""
+    if _STACK_ROWS is None or type(gs) is not list or not gs:
+        return None
+    try:
+        n = gs[0]._b.d.shape[1]
+    except (AttributeError, IndexError, TypeError):
+        return None
+    if type(n) is not int:
+        return None
+    m = len(gs)
+    D = np.empty((m, n))
+    U = np.empty((m, n, 2)) if with_u else None
+    return (D, U) if _STACK_ROWS(gs, n, D, U) else None
 
 
 def _stack_u(gs, runs, ks, D):
@@ -709,6 +736,8 @@ class _Blk:
 
 _XY = attrgetter("xy")
 _U_ROWS = getattr(_CURVE_CORE, "u_rows", None)      # _Blk.u_rows compiled (or None)
+_STACK_ROWS = getattr(_CURVE_CORE, "stack_rows", None)      # stack_du's rows compiled (or None)
+_PUT_GEOMS = getattr(_CURVE_CORE, "put_geoms", None)        # put_rows compiled (or None)
 _BLOCKS = weakref.WeakSet()     # build_geoms' blocks alive (drop_kappa)
 
 
@@ -837,8 +866,22 @@ def row_geom(blk, k, chain_caps=None):
 def _put_rows(blk, sts):
     """CurveGeom's fields of the strokes sts, row k of blk the k-th's (~21 k strokes on the
     gyroid plate)."""
-    for k, st in enumerate(sts):
-        st.curv = row_geom(blk, k)
+    put_rows(blk, sts, None, False)
+
+
+def put_rows(blk, sts, chain=None, only_none=True):
+    """row_geom(blk, k, chain[k]) (chain None: None) put on sts[k] (a list), where it has
+    no geometry if only_none (else every one); how many were put.  One compiled pass where
+    built (_curvecore.c put_geoms: ~63 k geometries on the windowed gyroid plate, given
+    by geom_keep three passes over)."""
+    if _PUT_GEOMS is not None and type(sts) is list and (chain is None or type(chain) is list):
+        return _PUT_GEOMS(blk, sts, chain, CurveGeom, _FROM_BLOCK, only_none)
+    given = 0
+    for k, st, c in zip(count(), sts, repeat(None) if chain is None else chain):
+        if not only_none or st.curv is None:
+            st.curv = row_geom(blk, k, c)
+            given += 1
+    return given
 
 
 def _own_jerk1(st, profile):

@@ -22,12 +22,12 @@ chain caps of another length) is not written: the caller makes it as before
 from __future__ import annotations
 
 import os
-from itertools import compress, count, repeat
+from itertools import compress, repeat
 from operator import attrgetter, is_not
 
 import numpy as np
 
-from .curves import _BLOCKS, _NO_ENDS, _Blk, row_geom
+from .curves import _BLOCKS, _NO_ENDS, _Blk, put_rows
 from .spill_file import SpillFile
 
 # a part's flags: which arrays its record holds
@@ -338,13 +338,8 @@ def _runs_any(mask, at):
 
 def _give_rows(blk, sts, chain):
     """Row k of blk (curves.row_geom, its chain caps the k-th of chain) put on sts[k] where
-    it has no geometry; how many were given."""
-    given = 0
-    for k, st, c in zip(count(), sts, chain):
-        if st.curv is None:
-            st.curv = row_geom(blk, k, c)
-            given += 1
-    return given
+    it has no geometry; how many were given (curves.put_rows: one compiled pass)."""
+    return put_rows(blk, sts, chain)
 
 
 def _keepable(b):

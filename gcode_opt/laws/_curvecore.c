@@ -1763,6 +1763,181 @@ static PyObject *list_take(PyObject *self, PyObject *a)
     return out;
 }
 
+/* ---------------------------------------------------------------- stacked geometry rows */
+/* curves.stack_du / stack_d in one pass: for each geometry g of gs (a list; curves.CurveGeom,
+   row g._k of its block g._b, a curves._Blk), D[i] = the block's d[k] (n doubles, copied)
+   and, where U is not None, U[i] = the block's u[k]: its kept u's row where it keeps u, else
+   made from the stroke's vertices (b._pts[k].xy) and that d row as _Blk.u_rows makes it
+   ((x[j + 1] - x[j]) / d[j] per axis).  1, or 0 (nothing raised; D and U partly written)
+   where a geometry, its block, its row or its arrays are not of that make (a read raising,
+   _k not an int, d not C-contiguous doubles of n columns, a row out of range, u or the
+   vertices not such doubles): the caller then stacks them its own way. */
+typedef struct {
+    PyObject *blk;             /* the block whose buffers are held (strong), or NULL */
+    Py_buffer d, u;            /* its d; its u where kept (u.obj NULL: not) */
+    PyObject *pts;             /* its _pts (strong; a list), or NULL where u is kept */
+    Py_ssize_t rows;           /* its d's rows */
+} StackBlk;
+
+static void stack_blk_clear(StackBlk *s)
+{
+    if (s->d.obj) PyBuffer_Release(&s->d);
+    if (s->u.obj) PyBuffer_Release(&s->u);
+    s->d.obj = s->u.obj = NULL;
+    Py_CLEAR(s->pts);
+    Py_CLEAR(s->blk);
+}
+
+/* s made to hold block b's buffers (rows of n lengths; its u or vertices where want_u);
+   0 where b is not of that make */
+static int stack_blk_set(StackBlk *s, PyObject *b, Py_ssize_t n, int want_u, PyObject *const names[3],
+                         AttrCache c[3])
+{
+    stack_blk_clear(s);
+    s->blk = Py_NewRef(b);
+    PyObject *d = attr_of(b, names[0], &c[0]);
+    if (!d) return 0;
+    int bad = PyObject_GetBuffer(d, &s->d, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT);
+    Py_DECREF(d);           /* (the buffer holds the array while it is read) */
+    if (bad < 0) { s->d.obj = NULL; return 0; }
+    if (s->d.itemsize != 8 || !s->d.format || strcmp(s->d.format, "d") || s->d.ndim != 2 || s->d.shape[1] != n)
+        return 0;
+    s->rows = s->d.shape[0];
+    if (!want_u) return 1;
+    PyObject *u = attr_of(b, names[1], &c[1]);
+    if (!u) return 0;
+    if (u != Py_None) {
+        bad = PyObject_GetBuffer(u, &s->u, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT);
+        Py_DECREF(u);
+        if (bad < 0) { s->u.obj = NULL; return 0; }
+        return s->u.itemsize == 8 && s->u.format && !strcmp(s->u.format, "d") && s->u.ndim == 3
+               && s->u.shape[0] == s->rows && s->u.shape[1] == n && s->u.shape[2] == 2;
+    }
+    Py_DECREF(u);
+    PyObject *pts = attr_of(b, names[2], &c[2]);
+    if (!pts) return 0;
+    s->pts = pts;
+    return PyList_CheckExact(pts) && PyList_GET_SIZE(pts) >= s->rows;
+}
+
+/* row k's directions of the block s (its kept u, or made from its vertices) into o (n x 2) */
+static int stack_u_row(StackBlk *s, Py_ssize_t k, Py_ssize_t n, PyObject *name_xy, double *o)
+{
+    const double *dk = (const double *)s->d.buf + k * n;
+    if (s->u.obj) {
+        memcpy(o, (const double *)s->u.buf + k * n * 2, (size_t)n * 2 * sizeof(double));
+        return 1;
+    }
+    PyObject *xy = PyObject_GetAttr(PyList_GET_ITEM(s->pts, k), name_xy);
+    if (!xy) return 0;
+    Py_buffer v;
+    int bad = PyObject_GetBuffer(xy, &v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT);
+    Py_DECREF(xy);
+    if (bad < 0) return 0;
+    int ok = v.itemsize == 8 && v.format && !strcmp(v.format, "d") && v.len == (n + 1) * 2 * 8;
+    if (ok) {
+        const double *x = v.buf;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            o[2 * j] = (x[2 * j + 2] - x[2 * j]) / dk[j];
+            o[2 * j + 1] = (x[2 * j + 3] - x[2 * j + 1]) / dk[j];
+        }
+    }
+    PyBuffer_Release(&v);
+    return ok;
+}
+
+static PyObject *stack_rows(PyObject *self, PyObject *a)
+{
+    PyObject *gs, *od, *ou;
+    Py_ssize_t n;
+    if (!PyArg_ParseTuple(a, "O!nOO:stack_rows", &PyList_Type, &gs, &n, &od, &ou)) return NULL;
+    static PyObject *names[6] = {NULL};     /* _b, _k; d, _u, _pts; xy */
+    static const char *const strs[6] = {"_b", "_k", "d", "_u", "_pts", "xy"};
+    for (int i = 0; i < 6; i++)
+        if (!names[i] && !(names[i] = PyUnicode_InternFromString(strs[i]))) return NULL;
+    const Py_ssize_t m = PyList_GET_SIZE(gs);
+    const int want_u = ou != Py_None;
+    Bufs b = {.n = 0};
+    double *D = get(&b, od, 8, 1, m * n);
+    double *U = D && want_u ? get(&b, ou, 8, 1, m * n * 2) : NULL;
+    if (!D || (want_u && !U)) { release(&b); return NULL; }
+    AttrCache cg[2] = {{NULL, NULL, -1}, {NULL, NULL, -1}}, cb[3] = {{NULL, NULL, -1}, {NULL, NULL, -1}, {NULL, NULL, -1}};
+    StackBlk s = {.blk = NULL};
+    int ok = 1;
+    for (Py_ssize_t i = 0; ok && i < m && i < PyList_GET_SIZE(gs); i++) {
+        PyObject *g = Py_NewRef(PyList_GET_ITEM(gs, i));
+        PyObject *blk = attr_of(g, names[0], &cg[0]);
+        PyObject *ko = blk ? attr_of(g, names[1], &cg[1]) : NULL;
+        Py_DECREF(g);
+        Py_ssize_t k = -1;
+        if (ko && PyLong_CheckExact(ko)) k = PyLong_AsSsize_t(ko);
+        Py_XDECREF(ko);
+        if (blk && blk != s.blk && !stack_blk_set(&s, blk, n, want_u, names + 2, cb)) k = -1;
+        Py_XDECREF(blk);    /* (s holds its block) */
+        if (k < 0 || k >= s.rows) {
+            ok = 0;
+            break;
+        }
+        memcpy(D + i * n, (const double *)s.d.buf + k * n, (size_t)n * sizeof(double));
+        if (want_u && !stack_u_row(&s, k, n, names[5], U + i * n * 2)) ok = 0;
+    }
+    ok = ok && m == PyList_GET_SIZE(gs);
+    if (PyErr_Occurred()) PyErr_Clear();
+    stack_blk_clear(&s);
+    for (int i = 0; i < 2; i++) attr_cache_clear(&cg[i]);
+    for (int i = 0; i < 3; i++) attr_cache_clear(&cb[i]);
+    release(&b);
+    return PyLong_FromLong(ok);
+}
+
+/* curves.row_geom put on strokes in one pass: for k, st in enumerate(sts) (a list): where
+   st.curv is None (every k where not only_none), st.curv = a new geometry of type tp (tp's
+   own allocation, no __init__: CurveGeom.__new__) with _b = blk, _k = k, chain_caps =
+   chain[k] (chain a list of at least len(sts), or None: None each) and _j1 = j1.  The
+   number of geometries put; raises where a read or a write raises (the strokes before
+   keep theirs, as the Python loop leaves them). */
+static PyObject *put_geoms(PyObject *self, PyObject *a)
+{
+    PyObject *blk, *sts, *chain, *tpo, *j1;
+    int only_none;
+    if (!PyArg_ParseTuple(a, "OO!OO!Op:put_geoms", &blk, &PyList_Type, &sts, &chain, &PyType_Type, &tpo, &j1,
+                          &only_none))
+        return NULL;
+    PyTypeObject *tp = (PyTypeObject *)tpo;
+    if (chain != Py_None && (!PyList_CheckExact(chain) || PyList_GET_SIZE(chain) < PyList_GET_SIZE(sts))) {
+        PyErr_SetString(PyExc_ValueError, "put_geoms: chain a list as long as sts, or None");
+        return NULL;
+    }
+    static PyObject *names[5] = {NULL};     /* curv; _b, _k, chain_caps, _j1 */
+    static const char *const strs[5] = {"curv", "_b", "_k", "chain_caps", "_j1"};
+    for (int i = 0; i < 5; i++)
+        if (!names[i] && !(names[i] = PyUnicode_InternFromString(strs[i]))) return NULL;
+    AttrCache c = {NULL, NULL, -1};
+    Py_ssize_t given = 0;
+    int ok = 1;
+    for (Py_ssize_t k = 0; ok && k < PyList_GET_SIZE(sts); k++) {
+        PyObject *st = Py_NewRef(PyList_GET_ITEM(sts, k));
+        if (only_none) {
+            PyObject *cur = attr_of(st, names[0], &c);
+            if (!cur) { Py_DECREF(st); ok = 0; break; }
+            Py_DECREF(cur);
+            if (cur != Py_None) { Py_DECREF(st); continue; }
+        }
+        PyObject *g = tp->tp_alloc(tp, 0);
+        PyObject *ko = g ? PyLong_FromSsize_t(k) : NULL;
+        PyObject *cc = chain == Py_None ? Py_None : PyList_GET_ITEM(chain, k);
+        ok = ko && PyObject_SetAttr(g, names[1], blk) == 0 && PyObject_SetAttr(g, names[2], ko) == 0
+             && PyObject_SetAttr(g, names[3], cc) == 0 && PyObject_SetAttr(g, names[4], j1) == 0
+             && PyObject_SetAttr(st, names[0], g) == 0;
+        Py_XDECREF(ko);
+        Py_XDECREF(g);
+        Py_DECREF(st);
+        given += ok;
+    }
+    attr_cache_clear(&c);
+    return ok ? PyLong_FromSsize_t(given) : NULL;
+}
+
 static PyMethodDef methods[] = {
     {"pc_solve", pc_solve, METH_VARARGS, "_precond_cheb: the preconditioned iteration of each arc, whole"},
     {"rows_take", rows_take, METH_VARARGS, "rows of a table (or its transpose's columns) into zero-padded blocks"},
@@ -1790,6 +1965,8 @@ static PyMethodDef methods[] = {
     {"obj_codes", obj_codes, METH_VARARGS, "a code (from a dict, or the int itself) of each object's attribute"},
     {"list_put", list_put, METH_VARARGS, "dst[rows[k]] = src[at[k]] (or src[k], or src) of lists, in one pass"},
     {"list_take", list_take, METH_VARARGS, "[src[i] for i in rows] of a list, in one pass"},
+    {"put_geoms", put_geoms, METH_VARARGS, "curves.row_geom of a block's rows put on their strokes, in one pass"},
+    {"stack_rows", stack_rows, METH_VARARGS, "curves.stack_du / stack_d: geometry rows' lengths and directions stacked"},
     {"obj_ids", obj_ids, METH_VARARGS, "the distinct attribute objects (by identity) of a list's objects and each one's place"},
     {NULL, NULL, 0, NULL}};
 

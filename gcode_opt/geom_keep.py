@@ -22,11 +22,13 @@ chain caps of another length) is not written: the caller makes it as before
 from __future__ import annotations
 
 import os
-from itertools import compress, repeat
+from bisect import bisect_left, bisect_right
+from itertools import chain, compress, repeat
 from operator import attrgetter, is_not
 
 import numpy as np
 
+from . import objfields
 from .curves import _BLOCKS, _NO_ENDS, _Blk, put_rows
 from .spill_file import SpillFile
 
@@ -40,7 +42,7 @@ C_ROW, C_CAP, C_END0, C_END1, C_LIM, C_ACCEL, C_KE, C_BITS = range(8)
 N_COLS = 8
 _MAX_END = 1 << 60          # doubles a file may hold (no index type to outgrow)
 _BYTES_OR_NONE = {bytes, type(None)}
-_CURV, _B, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_b"), attrgetter("_k"), attrgetter("chain_caps")
+_CURV, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_k"), attrgetter("chain_caps")
 _PTS = attrgetter("pts")
 
 
@@ -66,76 +68,105 @@ class GeomKeep(SpillFile):
         rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
         if not rows.size:
             return
-        gs = list(map(_CURV, map(sts.__getitem__, rows.tolist())))
+        got = objfields.take(sts, rows) if type(sts) is list else None
+        gs = list(map(_CURV, map(sts.__getitem__, rows.tolist()) if got is None else got))
         try:
-            bs, ks = list(map(_B, gs)), np.fromiter(map(_K, gs), np.int64, len(gs))
+            # the blocks in the order first met, each row's place among them; each row's row in its block
+            bs, which = objfields.by_identity(gs, "_b")
+            ks = objfields.codes(gs, "_k", None)
+            if ks is None:
+                ks = np.fromiter(map(_K, gs), np.int64, len(gs))
         except AttributeError:          # (a geometry of another make, or none: each made again)
             return
         cc = list(map(_CHAIN_CAPS, gs))
-        # the rows of each block (in row order): a stable sort by the blocks' first rows
-        ids = np.fromiter(map(id, bs), np.int64, len(bs))
-        _, first, grp = np.unique(ids, return_index=True, return_inverse=True)
-        order = np.argsort(first[grp], kind="stable")
-        cut = (np.flatnonzero(np.diff(first[grp][order])) + 1).tolist()
-        parts = {}                      # window -> [parts: (head, columns, 2-D arrays, chain caps, κ arrays)]
+        # the rows of each block (in row order), the blocks in the order of their first rows
+        order = np.argsort(which, kind="stable")
+        cut = (np.flatnonzero(np.diff(which[order])) + 1).tolist()
+        runs = [(a, z) for a, z in zip([0] + cut, cut + [len(order)]) if _keepable(bs[int(which[order[a]])])]
+        if not runs:
+            return
+        # the kept blocks' rows, block after block
+        at = np.concatenate([order[a:z] for a, z in runs]) if len(runs) > 1 else order[runs[0][0]:runs[0][1]]
+        blocks = [bs[int(which[order[a]])] for a, _ in runs]
+        lens = [z - a for a, z in runs]
+        kq = ks[at]
+        got = objfields.take(cc, at)
+        cc = list(map(cc.__getitem__, at.tolist())) if got is None else got
+        cols = self._columns(blocks, lens, kq, cc)
+        rs = rows[at] + lo
         W = self.window
-        for a, z in zip([0] + cut, cut + [len(order)]):
-            qs = order[a:z]
-            b = bs[int(qs[0])]
-            got = self._block(b, ks[qs], [cc[q] for q in qs.tolist()]) if _keepable(b) else None
-            if got is None:
-                continue
-            (n, flags), cols, arrs, chain, kap = got
-            rs = rows[qs] + lo
-            js = rs // W
-            cols[C_ROW] = rs - js * W
-            jcut = (np.flatnonzero(np.diff(js)) + 1).tolist()
-            for c, e in zip([0] + jcut, jcut + [len(rs)]):
-                parts.setdefault(int(js[c]), []).append(
-                    ((n, e - c, flags), cols[:, c:e], [x[c:e] for x in arrs], b"".join(filter(None, chain[c:e])),
-                     [x[c:e] for x in kap]))
+        js = rs // W
+        cols[C_ROW] = rs - js * W
+        jcut = (np.flatnonzero(np.diff(js)) + 1).tolist()          # (where a window ends)
+        parts = {}                      # window -> [parts: (head, columns, 2-D arrays, chain caps, κ arrays)]
+        r0 = 0
+        for b, m in zip(blocks, lens):
+            r1 = r0 + m
+            got = self._block(b, kq[r0:r1], cc[r0:r1])
+            if got is not None:
+                (n, flags), arrs, kap = got
+                cuts = jcut[bisect_right(jcut, r0):bisect_left(jcut, r1)]
+                for c, e in zip([r0] + cuts, cuts + [r1]):
+                    parts.setdefault(int(js[c]), []).append(
+                        ((n, e - c, flags), cols[:, c:e], [x[c - r0:e - r0] for x in arrs],
+                         b"".join(filter(None, cc[c:e])), [x[c - r0:e - r0] for x in kap]))
+            r0 = r1
         for j, ps in parts.items():
             self._write(j, ps)
 
-    def _block(self, b, ks, cc):
-        """((n, flags), columns (N_COLS, m; the row column left for the caller), 2-D arrays,
-        chain caps (bytes or None a row), κ arrays) of the block b's rows ks (their
-        geometries' chain caps cc), or None where a chain's caps are not n - 1 doubles."""
-        n, m = b.d.shape[1], len(ks)
-        whole = m == b.d.shape[0] and not (ks - np.arange(m)).any()
-        take = (lambda x: x) if whole else (lambda x: x[ks])
-        _, lims, which, accel = b._lim
-        cols = np.empty((N_COLS, m))
-        cols[C_CAP], cols[C_ACCEL] = take(b.cap), take(accel)
-        cols[C_LIM] = np.array([self._lim_index(x) for x in lims], float)[take(which)]
-        cols[C_END0:C_END1 + 1] = _end_cols(b.cos_end if whole else list(map(b.cos_end.__getitem__, ks.tolist())))
-        bits = np.zeros(m, np.int64)
+    def _columns(self, blocks, lens, ks, cc):
+        """The record's columns (N_COLS, rows; the row column left for the caller) of the
+        blocks' rows ks (lens of them a block, block after block), their chain caps cc
+        (each bytes or None: made so here, in place): each column gathered from the
+        blocks' arrays joined, in a few numpy calls a put, not ~20 a block (~620 blocks
+        on the gyroid plate).  The limits objects of each block indexed in the order met."""
+        R = len(ks)
+        at = np.repeat(np.cumsum([0] + [b.d.shape[0] for b in blocks[:-1]]), lens) + ks     # (in the joined arrays)
+        lim_at, table = [], []
+        for b in blocks:
+            lim_at.append(len(table))
+            table += [self._lim_index(x) for x in b._lim[1]]
+        nan = np.full(max(b.d.shape[0] for b in blocks), np.nan)
+        no = np.zeros(nan.size, bool)
+        cols = np.empty((N_COLS, R))
+        cols[C_CAP] = np.concatenate([b.cap for b in blocks])[at]
+        cols[C_ACCEL] = np.concatenate([b._lim[3] for b in blocks])[at]
+        which = np.concatenate([b._lim[2] for b in blocks])[at] + np.repeat(lim_at, lens)
+        cols[C_LIM] = np.array(table, float)[which]
+        cols[C_END0:C_END1 + 1] = _end_cols(list(map(list(chain.from_iterable(b.cos_end for b in blocks)).__getitem__,
+                                                     at.tolist())))
+        cols[C_KE] = np.concatenate([nan[:b.d.shape[0]] if b._ke is None else b._ke for b in blocks])[at]
+        bits = np.zeros(R, np.int64)
+        for name, r in (("_ke", R_KE_MISS), ("_kv", R_KV_MISS)):
+            miss = [None if getattr(b, name) is None else getattr(b, name + "_miss") for b in blocks]
+            if any(x is not None for x in miss):
+                bits[np.concatenate([no[:b.d.shape[0]] if x is None else x for b, x in zip(blocks, miss)])[at]] |= r
+        if not set(map(type, cc)) <= _BYTES_OR_NONE:         # (chains.vertex_caps' arrays)
+            cc[:] = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
+        got = objfields.codes(cc, "__class__", {type(None): 0}, add=True)
+        bits[np.fromiter(map(is_not, cc, repeat(None)), bool, R) if got is None else got != 0] |= R_CHAIN
+        cols[C_BITS] = bits
+        return cols
+
+    @staticmethod
+    def _block(b, ks, cc):
+        """((n, flags), 2-D arrays, κ arrays) of the block b's rows ks (their chain caps cc,
+        bytes or None), or None where a chain's caps are not n - 1 doubles."""
+        n = b.d.shape[1]
+        if any(map(is_not, cc, repeat(None))) and set(map(len, filter(None, cc))) != {8 * (n - 1)}:
+            return None
         flags = F_CAP_MIN if b.cap_min else 0
-        arrs = [take(b.d)]
+        arrs = [b.d[ks]]
         if b._caps is not None:
             flags |= F_CAPS
-            arrs.append(take(b._caps))
-        has = np.fromiter(map(is_not, cc, repeat(None)), bool, m)
-        if has.any():
-            if not set(map(type, cc)) <= _BYTES_OR_NONE:         # (chains.vertex_caps' arrays)
-                cc = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
-            if set(map(len, filter(None, cc))) != {8 * (n - 1)}:
-                return None
-            bits[has] |= R_CHAIN
-        cols[C_KE] = np.nan
+            arrs.append(b._caps[ks])
         if b._ke is not None:
             flags |= F_KE
-            cols[C_KE] = take(b._ke)
-            if b._ke_miss is not None:
-                bits[take(b._ke_miss)] |= R_KE_MISS
         kap = []
         if b._kv is not None:
             flags |= F_KV
-            kap.append(take(b._kv))
-            if b._kv_miss is not None:
-                bits[take(b._kv_miss)] |= R_KV_MISS
-        cols[C_BITS] = bits
-        return (n, flags), cols, arrs, cc, kap
+            kap.append(b._kv[ks])
+        return (n, flags), arrs, kap
 
     def _lim_index(self, lim):
         k = self._lim_at.get(id(lim))
@@ -221,9 +252,8 @@ class GeomKeep(SpillFile):
             any_ke = np.logical_or.reduceat(ke_miss, r_at).tolist()
             any_kv = np.logical_or.reduceat(kv_miss, r_at).tolist()
         which = cols[C_LIM].astype(np.int32)
-        every = np.ones(R, bool)
-        ends = _ends(cols[C_END0], cols[C_END1], every)
-        chain = self._chain_caps(main[main.size - int(main[2]):], head, bits, every)
+        ends = _ends(cols[C_END0], cols[C_END1], True)
+        chain = self._chain_caps(main[main.size - int(main[2]):], head, bits, True)
         lim = (self.profile, self.lims)
         x = 3 + 3 * len(head) + N_COLS * R
         r0 = y = 0
@@ -305,7 +335,8 @@ class GeomKeep(SpillFile):
     @staticmethod
     def _chain_caps(flat, head, bits, asked):
         """Each asked row's chain caps (the bytes of its n - 1 doubles, as chains'
-        _classify_block keeps them) or None, from the chain caps flat (rows in order)."""
+        _classify_block keeps them) or None, from the chain caps flat (rows in order);
+        asked: a bool a row, or True (every row)."""
         out = [None] * bits.size
         has = (bits & R_CHAIN) != 0
         if has.any():

@@ -13,6 +13,7 @@
 * The command's bytes and summary, list path and windowed, are those of the Python paths.
 """
 import copy
+import os
 import random
 from pathlib import Path
 
@@ -20,8 +21,14 @@ import numpy as np
 import pytest
 
 from gcode_opt import curves
+from gcode_opt import features as feat
+from gcode_opt import geom_keep as gk
+from gcode_opt.geom_keep import GeomKeep
 from gcode_opt.pipeline import Options, analyse
+from gcode_opt.plan_windows import plan_inputs_windowed
 from gcode_opt.profile import load_profile
+from gcode_opt.schedule import C_CHAIN, C_CURVE
+from gcode_opt.stroke_store import StrokeStore
 from gcode_opt.strokes import K_CURVE, Points
 
 from windowed_run import run_command
@@ -176,3 +183,158 @@ def test_command_bytes_are_the_python_paths(tmp_path, monkeypatch, name):
         got = run_command(monkeypatch, S / name, tmp_path / "got.gcode", windowed, 37)
         assert got[0] == ref[0]
         assert got[1] == ref[1]
+
+
+def test_put_geoms_sets_attributes_of_a_type_without_slots():
+    """A geometry type whose fields are not object slots: set as attributes, the same."""
+    if curves._PUT_GEOMS is None:
+        pytest.skip("curve core not built")
+
+    class Plain:
+        pass
+
+    class St:
+        def __init__(self, curv=None):
+            self.curv = curv
+
+    sts = [St(), St(7), St()]
+    blk, j1 = object(), object()
+    assert curves._PUT_GEOMS(blk, sts, [b"a", b"b", None], Plain, j1, True) == 2
+    assert sts[1].curv == 7
+    for k in (0, 2):
+        g = sts[k].curv
+        assert type(g) is Plain and g._b is blk and g._k == k and g._j1 is j1
+        assert g.chain_caps == (b"a" if k == 0 else None)
+
+
+# ---------------------------------------------------------------- GeomKeep.put's columns at once
+class _OldPutKeep(GeomKeep):
+    """GeomKeep with a20d971's put (a block's columns gathered block by block): the
+    reference the columns joined once a put must write bit for bit."""
+
+    def put(self, lo, sts, codes):
+        if self.fh is None:
+            return
+        rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
+        if not rows.size:
+            return
+        gs = [sts[r].curv for r in rows.tolist()]
+        try:
+            bs, ks = [g._b for g in gs], np.fromiter((g._k for g in gs), np.int64, len(gs))
+        except AttributeError:
+            return
+        cc = [g.chain_caps for g in gs]
+        ids = np.fromiter(map(id, bs), np.int64, len(bs))
+        _, first, grp = np.unique(ids, return_index=True, return_inverse=True)
+        order = np.argsort(first[grp], kind="stable")
+        cut = (np.flatnonzero(np.diff(first[grp][order])) + 1).tolist()
+        parts, W = {}, self.window
+        for a, z in zip([0] + cut, cut + [len(order)]):
+            qs = order[a:z]
+            b = bs[int(qs[0])]
+            got = self._old_block(b, ks[qs], [cc[q] for q in qs.tolist()]) if gk._keepable(b) else None
+            if got is None:
+                continue
+            (n, flags), cols, arrs, chain, kap = got
+            rs = rows[qs] + lo
+            js = rs // W
+            cols[gk.C_ROW] = rs - js * W
+            jcut = (np.flatnonzero(np.diff(js)) + 1).tolist()
+            for c, e in zip([0] + jcut, jcut + [len(rs)]):
+                parts.setdefault(int(js[c]), []).append(
+                    ((n, e - c, flags), cols[:, c:e], [x[c:e] for x in arrs], b"".join(filter(None, chain[c:e])),
+                     [x[c:e] for x in kap]))
+        for j, ps in parts.items():
+            self._write(j, ps)
+
+    def _old_block(self, b, ks, cc):
+        n, m = b.d.shape[1], len(ks)
+        whole = m == b.d.shape[0] and not (ks - np.arange(m)).any()
+        take = (lambda x: x) if whole else (lambda x: x[ks])
+        _, lims, which, accel = b._lim
+        cols = np.empty((gk.N_COLS, m))
+        cols[gk.C_CAP], cols[gk.C_ACCEL] = take(b.cap), take(accel)
+        cols[gk.C_LIM] = np.array([self._lim_index(x) for x in lims], float)[take(which)]
+        cols[gk.C_END0:gk.C_END1 + 1] = gk._end_cols(b.cos_end if whole else [b.cos_end[k] for k in ks.tolist()])
+        bits = np.zeros(m, np.int64)
+        flags = gk.F_CAP_MIN if b.cap_min else 0
+        arrs = [take(b.d)]
+        if b._caps is not None:
+            flags |= gk.F_CAPS
+            arrs.append(take(b._caps))
+        has = np.array([c is not None for c in cc], bool)
+        if has.any():
+            if not {type(c) for c in cc} <= {bytes, type(None)}:
+                cc = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
+            if {len(c) for c in cc if c} != {8 * (n - 1)}:
+                return None
+            bits[has] |= gk.R_CHAIN
+        cols[gk.C_KE] = np.nan
+        if b._ke is not None:
+            flags |= gk.F_KE
+            cols[gk.C_KE] = take(b._ke)
+            if b._ke_miss is not None:
+                bits[take(b._ke_miss)] |= gk.R_KE_MISS
+        kap = []
+        if b._kv is not None:
+            flags |= gk.F_KV
+            kap.append(take(b._kv))
+            if b._kv_miss is not None:
+                bits[take(b._kv_miss)] |= gk.R_KV_MISS
+        cols[gk.C_BITS] = bits
+        return (n, flags), cols, arrs, cc, kap
+
+
+def _records(data, recs):
+    """Each record of the keep's file (data) as its main doubles' bits and its κ rows' bits
+    where made (a row whose κ is not made holds what its block's array held: not read)."""
+    x = np.frombuffer(data, np.int64)
+    out = {}
+    for j, rs in recs.items():
+        for at, n_main, n_kap in rs:
+            main = x[at:at + n_main]
+            f = main.view(float)
+            P, R = int(f[0]), int(f[1])
+            head = f[3:3 + 3 * P].astype(np.int64).reshape(P, 3).tolist()
+            bits = f[3 + 3 * P + gk.C_BITS * R:3 + 3 * P + (gk.C_BITS + 1) * R].astype(np.int64)
+            kap, y, r0 = [], at + n_main, 0
+            for n, m, flags in head:
+                if flags & gk.F_KV:
+                    rows = x[y:y + m * (n + 1)].reshape(m, n + 1)
+                    kap += [rows[k].tobytes() for k in range(m) if not bits[r0 + k] & gk.R_KV_MISS]
+                    y += m * (n + 1)
+                r0 += m
+            assert y == at + n_main + n_kap
+            out.setdefault(j, []).append((main.tobytes(), kap))
+    return out
+
+
+def _kept_file(tmp_path, prof_name, keep_type, name, window, pin_rows):
+    """(the keep's records (_records), its records' places, its limits' fields) after
+    plan_inputs_windowed."""
+    tmp_path.mkdir()
+    prof = load_profile(prof_name)
+    path = str(S / name)
+    opts = Options(features=feat.default_selection(path)[0])
+    store = StrokeStore(folder=str(tmp_path))
+    analyse(path, prof, opts, store)
+    keep = keep_type(window, prof, str(tmp_path))
+    plan_inputs_windowed(store, prof, opts, pin_rows, keep)
+    size = os.fstat(keep.fh.fileno()).st_size
+    data = os.pread(keep.fh.fileno(), size, 0)
+    lims = [(type(x).__name__, [(a, repr(getattr(x, a))) for a in dir(x)
+                                if not a.startswith("_") and not callable(getattr(x, a))]) for x in keep.lims]
+    store.close()
+    return _records(data, keep.recs), keep.recs, lims
+
+
+@pytest.mark.parametrize("prof_name", ["prusa-mk3s", "voron24"])     # classic jerk; Klipper's (caps kept)
+@pytest.mark.parametrize("name,window,pin_rows", [("prusa_gyroid_fullspeed.gcode", 37, 100),
+                                                  ("prusa_gyroid.gcode", 64, 1000)])
+def test_put_writes_the_block_by_block_records(tmp_path, prof_name, name, window, pin_rows):
+    ref = _kept_file(tmp_path / "a", prof_name, _OldPutKeep, name, window, pin_rows)
+    got = _kept_file(tmp_path / "b", prof_name, GeomKeep, name, window, pin_rows)
+    assert len(ref[1]) > 3 and any(kap for rs in ref[0].values() for _, kap in rs)
+    assert got[0] == ref[0]
+    assert got[1] == ref[1]
+    assert got[2] == ref[2]

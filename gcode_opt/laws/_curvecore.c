@@ -1894,8 +1894,18 @@ static PyObject *stack_rows(PyObject *self, PyObject *a)
    st.curv is None (every k where not only_none), st.curv = a new geometry of type tp (tp's
    own allocation, no __init__: CurveGeom.__new__) with _b = blk, _k = k, chain_caps =
    chain[k] (chain a list of at least len(sts), or None: None each) and _j1 = j1.  The
-   number of geometries put; raises where a read or a write raises (the strokes before
-   keep theirs, as the Python loop leaves them). */
+   geometry's four fields are stored at their slots' offsets where tp's descriptors of
+   them are plain object slots (else set as attributes), st.curv through the descriptor
+   found once a run of strokes of one type.  The number of geometries put; raises where a
+   read or a write raises (the strokes before keep theirs, as the Python loop leaves them). */
+static Py_ssize_t slot_offset(PyTypeObject *tp, PyObject *name)
+{
+    PyObject *d = _PyType_Lookup(tp, name);
+    if (d == NULL || Py_TYPE(d) != &PyMemberDescr_Type) return -1;
+    PyMemberDef *m = ((PyMemberDescrObject *)d)->d_member;
+    return m->type == T_OBJECT_EX && m->flags == 0 ? m->offset : -1;
+}
+
 static PyObject *put_geoms(PyObject *self, PyObject *a)
 {
     PyObject *blk, *sts, *chain, *tpo, *j1;
@@ -1912,7 +1922,13 @@ static PyObject *put_geoms(PyObject *self, PyObject *a)
     static const char *const strs[5] = {"curv", "_b", "_k", "chain_caps", "_j1"};
     for (int i = 0; i < 5; i++)
         if (!names[i] && !(names[i] = PyUnicode_InternFromString(strs[i]))) return NULL;
+    Py_ssize_t off[4];
+    int direct = tp->tp_setattro == PyObject_GenericSetAttr;
+    for (int i = 0; i < 4; i++)
+        direct = direct && (off[i] = slot_offset(tp, names[i + 1])) >= 0;
     AttrCache c = {NULL, NULL, -1};
+    PyTypeObject *st_tp = NULL;     /* the strokes' type (strong) whose curv descriptor is set_d (borrowed from it) */
+    PyObject *set_d = NULL;
     Py_ssize_t given = 0;
     int ok = 1;
     for (Py_ssize_t k = 0; ok && k < PyList_GET_SIZE(sts); k++) {
@@ -1923,18 +1939,33 @@ static PyObject *put_geoms(PyObject *self, PyObject *a)
             Py_DECREF(cur);
             if (cur != Py_None) { Py_DECREF(st); continue; }
         }
+        if (Py_TYPE(st) != st_tp) {
+            Py_XSETREF(st_tp, (PyTypeObject *)Py_NewRef(Py_TYPE(st)));
+            set_d = st_tp->tp_setattro == PyObject_GenericSetAttr ? _PyType_Lookup(st_tp, names[0]) : NULL;
+            if (set_d != NULL && Py_TYPE(set_d)->tp_descr_set == NULL) set_d = NULL;
+        }
         PyObject *g = tp->tp_alloc(tp, 0);
         PyObject *ko = g ? PyLong_FromSsize_t(k) : NULL;
         PyObject *cc = chain == Py_None ? Py_None : PyList_GET_ITEM(chain, k);
-        ok = ko && PyObject_SetAttr(g, names[1], blk) == 0 && PyObject_SetAttr(g, names[2], ko) == 0
-             && PyObject_SetAttr(g, names[3], cc) == 0 && PyObject_SetAttr(g, names[4], j1) == 0
-             && PyObject_SetAttr(st, names[0], g) == 0;
+        if (!ko) {
+            ok = 0;
+        } else if (direct) {        /* (a new object's slots are NULL: nothing to let go) */
+            PyObject *v[4] = {blk, ko, cc, j1};
+            for (int i = 0; i < 4; i++)
+                *(PyObject **)((char *)g + off[i]) = Py_NewRef(v[i]);
+        } else {
+            ok = PyObject_SetAttr(g, names[1], blk) == 0 && PyObject_SetAttr(g, names[2], ko) == 0
+                 && PyObject_SetAttr(g, names[3], cc) == 0 && PyObject_SetAttr(g, names[4], j1) == 0;
+        }
+        if (ok)
+            ok = (set_d ? Py_TYPE(set_d)->tp_descr_set(set_d, st, g) : PyObject_SetAttr(st, names[0], g)) == 0;
         Py_XDECREF(ko);
         Py_XDECREF(g);
         Py_DECREF(st);
         given += ok;
     }
     attr_cache_clear(&c);
+    Py_XDECREF(st_tp);
     return ok ? PyLong_FromSsize_t(given) : NULL;
 }
 

@@ -29,7 +29,7 @@ from operator import attrgetter, is_not
 import numpy as np
 
 from . import objfields
-from .curves import _BLOCKS, _NO_ENDS, _Blk, put_rows
+from .curves import _BLOCKS, _CURVE_CORE, _NO_ENDS, _Blk, put_rows
 from .spill_file import SpillFile
 
 # a part's flags: which arrays its record holds
@@ -68,8 +68,7 @@ class GeomKeep(SpillFile):
         rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
         if not rows.size:
             return
-        got = objfields.take(sts, rows) if type(sts) is list else None
-        gs = list(map(_CURV, map(sts.__getitem__, rows.tolist()) if got is None else got))
+        gs = list(map(_CURV, _take(sts, rows)))
         try:
             # the blocks in the order first met, each row's place among them; each row's row in its block
             bs, which = objfields.by_identity(gs, "_b")
@@ -253,8 +252,9 @@ class GeomKeep(SpillFile):
             any_kv = np.logical_or.reduceat(kv_miss, r_at).tolist()
         which = cols[C_LIM].astype(np.int32)
         ends = _ends(cols[C_END0], cols[C_END1], True)
-        chain = self._chain_caps(main[main.size - int(main[2]):], head, bits, True)
+        chain = _rows_chain_caps(main[main.size - int(main[2]):], head, bits)
         lim = (self.profile, self.lims)
+        bsts_all = _take(sts, at_r)
         x = 3 + 3 * len(head) + N_COLS * R
         r0 = y = 0
         for p, (n, m, fl) in enumerate(head):
@@ -265,7 +265,7 @@ class GeomKeep(SpillFile):
             caps = main[xa + m * n:xa + m * (2 * n - 1)].reshape(m, n - 1) if fl & F_CAPS else None
             kv = kap[ya:ya + m * (n + 1)].reshape(m, n + 1) if fl & F_KV and kap is not None else None
             ke = cols[C_KE, r0:r1] if fl & F_KE else None
-            bsts = list(map(sts.__getitem__, at_r[r0:r1].tolist()))
+            bsts = bsts_all[r0:r1]
             blk = _Blk(d, None, kv, ke, caps, None, cols[C_CAP, r0:r1], ends[r0:r1], bool(fl & F_CAP_MIN),
                        pts=list(map(_PTS, bsts)), lim=lim + (which[r0:r1], cols[C_ACCEL, r0:r1]))
             # (its own masks: make_kappa clears their rows as it makes them)
@@ -300,7 +300,7 @@ class GeomKeep(SpillFile):
         cap, accel, ke_col = got[C_CAP], got[C_ACCEL], got[C_KE]
         ends = _ends(got[C_END0], got[C_END1], True)
         chain = _rows_chain_caps(main[n_main - int(main[2]):], head, bits_all, rs)
-        bsts_all = list(map(sts.__getitem__, at_r[rs].tolist()))
+        bsts_all = _take(sts, at_r[rs])
         lim = (self.profile, self.lims)
         r0 = y = 0
         for p, (n, m, flags) in enumerate(head):
@@ -332,33 +332,39 @@ class GeomKeep(SpillFile):
             self.given += _give_rows(blk, bsts, chain[a:z])
             r0 = r1
 
-    @staticmethod
-    def _chain_caps(flat, head, bits, asked):
-        """Each asked row's chain caps (the bytes of its n - 1 doubles, as chains'
-        _classify_block keeps them) or None, from the chain caps flat (rows in order);
-        asked: a bool a row, or True (every row)."""
-        out = [None] * bits.size
-        has = (bits & R_CHAIN) != 0
-        if has.any():
-            w = np.repeat([8 * (n - 1) for n, _, _ in head], [m for _, m, _ in head])
-            z = np.cumsum(np.where(has, w, 0))
-            take = has & asked
-            buf = flat.tobytes()
-            for r, a, b in zip(np.flatnonzero(take).tolist(), (z - w)[take].tolist(), z[take].tolist()):
-                out[r] = buf[a:b]
-        return out
 
-
-def _rows_chain_caps(flat, head, bits, rs):
-    """GeomKeep._chain_caps of the rows rs alone (sorted), in their order: each one's chain
-    caps (bytes) or None, one slice of the caps' bytes a row that has them."""
+def _rows_chain_caps(flat, head, bits, rs=None):
+    """Each of the rows rs' (sorted; None: every row) chain caps, in their order: the bytes
+    of its n - 1 doubles (as chains' _classify_block keeps them), or None, from the chain
+    caps flat (rows in order; bits: every row's).  One slice of the caps' bytes a row
+    that has them (_byte_runs)."""
     has = (bits & R_CHAIN) != 0
-    if not has[rs].any():
-        return [None] * rs.size
     w = np.repeat([8 * (n - 1) for n, _, _ in head], [m for _, m, _ in head])
-    z = np.cumsum(np.where(has, w, 0))[rs]
+    z = np.cumsum(np.where(has, w, 0))
+    if rs is not None:
+        has, w, z = has[rs], w[rs], z[rs]
+    if not has.any():
+        return [None] * has.size
+    return _byte_runs(flat, z - w, z, has)
+
+
+def _byte_runs(flat, a, z, has):
+    """[flat's bytes[a[i]:z[i]] if has[i] else None for each i] (a, z int64 arrays, has a
+    bool array): one compiled pass where built (~38 k chains a windowed gyroid run)."""
+    if _BYTE_RUNS is not None:
+        return _BYTE_RUNS(flat, a, z, has, has.size)
     buf = flat.tobytes()
-    return [buf[a:b] if h else None for h, a, b in zip(has[rs].tolist(), (z - w[rs]).tolist(), z.tolist())]
+    return [buf[i:j] if h else None for h, i, j in zip(has.tolist(), a.tolist(), z.tolist())]
+
+
+_BYTE_RUNS = getattr(_CURVE_CORE, "byte_runs", None)
+
+
+def _take(sts, rows):
+    """[sts[i] for i in rows] (rows an int array): objfields' one compiled pass where it
+    takes them (sts a list)."""
+    got = objfields.take(sts, rows) if type(sts) is list else None
+    return list(map(sts.__getitem__, rows.tolist())) if got is None else got
 
 
 def _runs_any(mask, at):

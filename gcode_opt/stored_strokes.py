@@ -30,6 +30,7 @@ from . import objfields
 from .distinct import distinct
 
 _IS_NOT_NONE = partial(is_not, None)
+_CURV = attrgetter("curv")
 
 
 class StoreWindows:
@@ -363,10 +364,10 @@ class _CurveGeometry:
         if self.geoms is not None:
             self.geoms.give(rows, sts, kappa=True)
         c = self.codes[rows]
-        at = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN))
-        at = [k for k in at.tolist() if sts[k].curv is None]
-        if not at:
+        at = np.flatnonzero((c == C_CURVE) | (c == C_CHAIN)).tolist()
+        if None not in map(_CURV, map(sts.__getitem__, at)):      # (every one given: the plates' case)
             return
+        at = [k for k in at if sts[k].curv is None]
         todo = [sts[k] for k in at]
         curve = {id(sts[k]) for k in at if c[k] == C_CURVE}
         curves.build_geoms(todo, self.profile, jerk1=True,

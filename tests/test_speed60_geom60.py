@@ -338,3 +338,35 @@ def test_put_writes_the_block_by_block_records(tmp_path, prof_name, name, window
     assert got[0] == ref[0]
     assert got[1] == ref[1]
     assert got[2] == ref[2]
+
+
+def _old_rows_chain_caps(flat, head, bits, rs):
+    """a20d971's geom_keep._rows_chain_caps (the reference)."""
+    has = (bits & gk.R_CHAIN) != 0
+    if not has[rs].any():
+        return [None] * rs.size
+    w = np.repeat([8 * (n - 1) for n, _, _ in head], [m for _, m, _ in head])
+    z = np.cumsum(np.where(has, w, 0))[rs]
+    buf = flat.tobytes()
+    return [buf[a:b] if h else None for h, a, b in zip(has[rs].tolist(), (z - w[rs]).tolist(), z.tolist())]
+
+
+@pytest.mark.parametrize("core", [True, False])
+def test_chain_caps_given_are_the_slices(monkeypatch, core):
+    if not core:
+        monkeypatch.setattr(gk, "_BYTE_RUNS", None)
+    elif gk._BYTE_RUNS is None:
+        pytest.skip("curve core not built")
+    rng = np.random.default_rng(60)
+    head = [(1, 3, 0), (4, 5, 0), (2, 6, 0), (7, 2, 0)]        # (n, m, flags) a part; n = 1: empty caps
+    R = sum(m for _, m, _ in head)
+    bits = np.where(rng.random(R) < 0.6, gk.R_CHAIN, 0) | gk.R_KE_MISS * (rng.random(R) < 0.3)
+    ns = np.repeat([n for n, _, _ in head], [m for _, m, _ in head])
+    flat = rng.random(int(((ns - 1) * ((bits & gk.R_CHAIN) != 0)).sum()))
+    every = np.arange(R)
+    for rs in (every, every[::2], every[3:9], every[-1:], every[:0]):
+        want = _old_rows_chain_caps(flat, head, bits, rs)
+        assert gk._rows_chain_caps(flat, head, bits, rs) == want
+        assert [type(x) for x in gk._rows_chain_caps(flat, head, bits, rs)] == [type(x) for x in want]
+    assert gk._rows_chain_caps(flat, head, bits) == _old_rows_chain_caps(flat, head, bits, every)
+    assert any(x == b"" for x in gk._rows_chain_caps(flat, head, bits))        # (a chain of one segment)

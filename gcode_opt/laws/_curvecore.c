@@ -1969,6 +1969,38 @@ static PyObject *put_geoms(PyObject *self, PyObject *a)
     return ok ? PyLong_FromSsize_t(given) : NULL;
 }
 
+/* geom_keep's chain caps given back: [buf[a[i]:z[i]] if has[i] else None for i in range(m)]
+   (bytes of buf, any C-contiguous buffer; a, z int64, has one byte a row, m of each), the
+   same bytes as Python's slices of buf's bytes. */
+static PyObject *byte_runs(PyObject *self, PyObject *args)
+{
+    PyObject *ob, *oa, *oz, *oh;
+    Py_ssize_t m;
+    if (!PyArg_ParseTuple(args, "OOOOn:byte_runs", &ob, &oa, &oz, &oh, &m)) return NULL;
+    Py_buffer v;
+    if (PyObject_GetBuffer(ob, &v, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    Bufs b = {.n = 0};
+    const int64_t *a = get(&b, oa, 8, 0, m), *z = a ? get(&b, oz, 8, 0, m) : NULL;
+    const char *has = z ? get(&b, oh, 1, 0, m) : NULL;
+    PyObject *out = has ? PyList_New(m) : NULL;
+    for (Py_ssize_t i = 0; out && i < m; i++) {
+        PyObject *x;
+        if (!has[i]) {
+            x = Py_NewRef(Py_None);
+        } else if (a[i] < 0 || z[i] < a[i] || z[i] > v.len) {
+            PyErr_SetString(PyExc_IndexError, "byte_runs: a run out of the buffer");
+            x = NULL;
+        } else {
+            x = PyBytes_FromStringAndSize((const char *)v.buf + a[i], (Py_ssize_t)(z[i] - a[i]));
+        }
+        if (!x) Py_CLEAR(out);
+        else PyList_SET_ITEM(out, i, x);
+    }
+    release(&b);
+    PyBuffer_Release(&v);
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"pc_solve", pc_solve, METH_VARARGS, "_precond_cheb: the preconditioned iteration of each arc, whole"},
     {"rows_take", rows_take, METH_VARARGS, "rows of a table (or its transpose's columns) into zero-padded blocks"},
@@ -1996,6 +2028,7 @@ static PyMethodDef methods[] = {
     {"obj_codes", obj_codes, METH_VARARGS, "a code (from a dict, or the int itself) of each object's attribute"},
     {"list_put", list_put, METH_VARARGS, "dst[rows[k]] = src[at[k]] (or src[k], or src) of lists, in one pass"},
     {"list_take", list_take, METH_VARARGS, "[src[i] for i in rows] of a list, in one pass"},
+    {"byte_runs", byte_runs, METH_VARARGS, "runs of a buffer's bytes as bytes objects, None where not asked"},
     {"put_geoms", put_geoms, METH_VARARGS, "curves.row_geom of a block's rows put on their strokes, in one pass"},
     {"stack_rows", stack_rows, METH_VARARGS, "curves.stack_du / stack_d: geometry rows' lengths and directions stacked"},
     {"obj_ids", obj_ids, METH_VARARGS, "the distinct attribute objects (by identity) of a list's objects and each one's place"},

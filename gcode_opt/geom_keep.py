@@ -204,9 +204,12 @@ class GeomKeep(SpillFile):
         cut = (np.flatnonzero(np.diff(js)) + 1).tolist()
         for a, z in zip([0] + cut, cut + [len(rows)]):
             j = int(js[a])
-            for rec in self.recs.get(j, ()):
-                pos = np.full(W, -1, np.int64)
-                pos[rows[a:z] - j * W] = np.arange(a, z)
+            recs = self.recs.get(j)
+            if not recs:
+                continue
+            pos = np.full(W, -1, np.int64)          # (each window row's stroke in sts; read only)
+            pos[rows[a:z] - j * W] = np.arange(a, z)
+            for rec in recs:
                 self._give_rec(rec, pos, sts, kappa)
 
     def _pread(self, at, n):

@@ -1828,7 +1828,10 @@ static int stack_u_row(StackBlk *s, Py_ssize_t k, Py_ssize_t n, PyObject *name_x
         memcpy(o, (const double *)s->u.buf + k * n * 2, (size_t)n * 2 * sizeof(double));
         return 1;
     }
-    PyObject *xy = PyObject_GetAttr(PyList_GET_ITEM(s->pts, k), name_xy);
+    if (k >= PyList_GET_SIZE(s->pts)) return 0;
+    PyObject *p = Py_NewRef(PyList_GET_ITEM(s->pts, k));
+    PyObject *xy = PyObject_GetAttr(p, name_xy);
+    Py_DECREF(p);
     if (!xy) return 0;
     Py_buffer v;
     int bad = PyObject_GetBuffer(xy, &v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT);
@@ -1944,9 +1947,15 @@ static PyObject *put_geoms(PyObject *self, PyObject *a)
             set_d = st_tp->tp_setattro == PyObject_GenericSetAttr ? _PyType_Lookup(st_tp, names[0]) : NULL;
             if (set_d != NULL && Py_TYPE(set_d)->tp_descr_set == NULL) set_d = NULL;
         }
+        if (chain != Py_None && k >= PyList_GET_SIZE(chain)) {
+            Py_DECREF(st);
+            PyErr_SetString(PyExc_ValueError, "put_geoms: chain shorter than sts");
+            ok = 0;
+            break;
+        }
         PyObject *g = tp->tp_alloc(tp, 0);
         PyObject *ko = g ? PyLong_FromSsize_t(k) : NULL;
-        PyObject *cc = chain == Py_None ? Py_None : PyList_GET_ITEM(chain, k);
+        PyObject *cc = Py_NewRef(chain == Py_None ? Py_None : PyList_GET_ITEM(chain, k));
         if (!ko) {
             ok = 0;
         } else if (direct) {        /* (a new object's slots are NULL: nothing to let go) */
@@ -1959,6 +1968,7 @@ static PyObject *put_geoms(PyObject *self, PyObject *a)
         }
         if (ok)
             ok = (set_d ? Py_TYPE(set_d)->tp_descr_set(set_d, st, g) : PyObject_SetAttr(st, names[0], g)) == 0;
+        Py_DECREF(cc);
         Py_XDECREF(ko);
         Py_XDECREF(g);
         Py_DECREF(st);

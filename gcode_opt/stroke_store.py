@@ -52,6 +52,8 @@ _HEAD = struct.Struct(f"={len(D_NAMES)}d{len(I_NAMES)}qI{len(O_NAMES)}B")
 _F64, _I64, _U32 = struct.Struct("=d"), struct.Struct("=q"), struct.Struct("=I")
 _ARC = struct.Struct("=7dB")
 _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
+_LINES_AT = 8 * len(D_NAMES)     # a record's first_idx, then last_idx (int64): fixed bytes of its head
+LINES_ROWS = 16384               # lines() reads the lines side this many rows at a time (256 kB)
 
 BATCH = 1024                 # records encoded / read / decoded at a time (~0.5 MB of buffer each way)
 
@@ -362,6 +364,11 @@ class _Memory:
         else:
             self.data[pos:pos + len(data)] = data
 
+    def read_into(self, mv, pos):
+        if pos + len(mv) > len(self.data):
+            raise OSError("StrokeStore: the records end early")
+        mv[:] = memoryview(self.data)[pos:pos + len(mv)]
+
     def close(self):
         self.data = bytearray()
 
@@ -389,6 +396,14 @@ def _read_breaks(offs, lens, slack):
     return np.flatnonzero(~join) + 1
 
 
+def _record_lines(buf, lens):
+    """(first_idx, last_idx) of the records at the start of buf (lens: their lengths), an
+    int64 array (len(lens), 2): the bytes at _LINES_AT of each record's head."""
+    at = np.cumsum(lens) - lens + _LINES_AT
+    raw = np.frombuffer(buf, np.uint8, int(at[-1]) + 16 if len(lens) else 0)
+    return raw[at[:, None] + np.arange(16)].view(np.int64) if len(lens) else np.zeros((0, 2), np.int64)
+
+
 class StrokeStore:
     """Strokes appended in order (a stroke's index: how many were appended before it), read
     back as new Stroke objects (load, take), one numeric field as an array without making
@@ -399,6 +414,10 @@ class StrokeStore:
     def __init__(self, in_memory=False, folder=None, pure=False):
         self._codec = _codec(pure)
         self._io = (_Memory if in_memory else _TempFile)(folder)
+        # each record's (first_idx, last_idx), 16 bytes at 16 x its row, beside the records:
+        # the steps after planning read the lines of every stroke three times (the rewrite's
+        # order, measure's and the summary's columns), each a pass over every record's bytes
+        self._lines_io = (_Memory if in_memory else _TempFile)(folder)
         self.in_memory, self.folder = in_memory, folder      # (other spills go where this one is)
         self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
         self._len = np.zeros(0, np.int64)
@@ -439,14 +458,17 @@ class StrokeStore:
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
         buf = bytearray()
+        spans = np.empty((len(strokes), 2), np.int64)
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
             nb, lens = self._encode(strokes, b0, b1, buf)
+            spans[b0:b1] = _record_lines(buf, lens)
             self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
             end += nb
+        self._lines_io.write(16 * self._n, memoryview(spans.reshape(-1).view(np.uint8)))
         self._n += len(strokes)
         self._end = end
 
@@ -512,6 +534,25 @@ class StrokeStore:
         i0, i1 = max(i0, 0), min(i1, self._n)
         return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
+    def _write_lines(self, rows, spans):
+        """spans (int64 (len(rows), 2)) written as the lines of rows: a write a run of
+        consecutive rows."""
+        brk = np.flatnonzero(rows[1:] != rows[:-1] + 1) + 1
+        for f, e in zip([0] + brk.tolist(), brk.tolist() + [len(rows)]):
+            self._lines_io.write(16 * int(rows[f]), memoryview(spans[f:e].reshape(-1).view(np.uint8)))
+
+    def lines(self):
+        """(first_idx, last_idx) of every record, two int64 arrays, read from the lines side
+        (16 bytes a record, LINES_ROWS at a time), not from the records."""
+        first, last = np.empty(self._n, np.int64), np.empty(self._n, np.int64)
+        part = np.empty((min(self._n, LINES_ROWS), 2), np.int64)
+        for a in range(0, self._n, LINES_ROWS):
+            m = min(LINES_ROWS, self._n - a)
+            got = part[:m]
+            self._lines_io.read_into(memoryview(got.reshape(-1).view(np.uint8)), 16 * a)
+            first[a:a + m], last[a:a + m] = got[:, 0], got[:, 1]
+        return first, last
+
     def column(self, name, with_none=False):
         """Field `name` of every record, without making a stroke: a float64 array (a float
         field: a float's bits; None -- a None-able field's None, an unset slot -- as NaN) or
@@ -519,6 +560,9 @@ class StrokeStore:
         bool array, True where the value was None (a stored NaN is then told apart)."""
         if name not in FLOAT_COLUMNS and name not in INT_COLUMNS:
             raise ValueError(f"StrokeStore.column: {name!r} is not a numeric field")
+        if name in I_NAMES:             # (the lines side: no record read)
+            out = self.lines()[I_NAMES.index(name)]
+            return (out, np.zeros(self._n, bool)) if with_none else out
         out = np.empty(self._n, np.int64 if name in INT_COLUMNS else np.float64)
         none = np.zeros(self._n, np.uint8) if with_none else None
         at = 0
@@ -561,6 +605,7 @@ class StrokeStore:
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
             nb, lens = self._encode(strokes, b0, b1, buf)
+            self._write_lines(r, _record_lines(buf, lens))
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -579,6 +624,7 @@ class StrokeStore:
     def close(self):
         """The records let go (the file removed); the store is empty."""
         self._io.close()
+        self._lines_io.close()
         self._n = self._end = 0
         self._index, self._table = {}, []
 

@@ -52,8 +52,15 @@ _HEAD = struct.Struct(f"={len(D_NAMES)}d{len(I_NAMES)}qI{len(O_NAMES)}B")
 _F64, _I64, _U32 = struct.Struct("=d"), struct.Struct("=q"), struct.Struct("=I")
 _ARC = struct.Struct("=7dB")
 _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
-_LINES_AT = 8 * len(D_NAMES)     # a record's first_idx, then last_idx (int64): fixed bytes of its head
-LINES_ROWS = 16384               # lines() reads the lines side this many rows at a time (256 kB)
+# the side columns: each record's values of these int columns, 8 bytes each, beside the
+# records (StrokeStore's side): the steps after planning read them of every stroke (the
+# lines three times: the rewrite's order, measure's and the summary's columns; corner_cmd0
+# the runs', layer the summary's), each a pass over every record's bytes
+SIDE = ("first_idx", "last_idx", "layer", "corner_cmd0")
+SIDE_ROWS = 8192                 # the side read this many rows at a time (256 kB)
+_K_BOOL, _K_INT = 2, 6           # store_fields' kinds (ints=True) of the values a side column holds
+
+_SIDE_CODES = tuple(FIELD_CODE[nm] for nm in SIDE)
 
 BATCH = 1024                 # records encoded / read / decoded at a time (~0.5 MB of buffer each way)
 
@@ -87,9 +94,12 @@ class _CCodec:
     def column(self, buf, offs, lens, code, out, none):
         self._core.store_column(buf, offs, lens, code, out, none)
 
-    def fields(self, buf, offs, lens, codes, vals, kinds):
-        # (a core built before store_fields: the Python reading)
-        getattr(self._core, "store_fields", _py_fields)(buf, offs, lens, codes, vals, kinds)
+    def fields(self, buf, offs, lens, codes, vals, kinds, ints=False):
+        # (a core built before store_fields, or before its ints: the Python reading)
+        if ints and not getattr(self._core, "STORE_FIELDS_INTS", 0):
+            _py_fields(buf, offs, lens, codes, vals, kinds, ints)
+            return
+        getattr(self._core, "store_fields", _py_fields)(buf, offs, lens, codes, vals, kinds, *((True,) if ints else ()))
 
 
 class _PyCodec:
@@ -281,8 +291,8 @@ class _PyCodec:
                     none[q] = isnone
 
     @staticmethod
-    def fields(buf, offs, lens, codes, vals, kinds):
-        _py_fields(buf, offs, lens, codes, vals, kinds)
+    def fields(buf, offs, lens, codes, vals, kinds, ints=False):
+        _py_fields(buf, offs, lens, codes, vals, kinds, ints)
 
 
 _NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.array([None], float)'s NaN)
@@ -290,11 +300,11 @@ _NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.
 _SLOT_KIND = {T_FLOAT: 0, T_NONE: 1, T_FALSE: 2, T_TRUE: 2, T_UNSET: 4, T_INTERN: 5}
 
 
-def _py_fields(buf, offs, lens, codes, vals, kinds):
+def _py_fields(buf, offs, lens, codes, vals, kinds, ints=False):
     """firmware/_core.c's store_fields in Python: each record's fields codes into the rows of
     vals (float64) and kinds (int8) as stroke_fields reads a stroke's (0 a float, 1 None, 2
     a bool, 3 another object, 4 unset), 5 a shared object (vals: its table index); an int
-    field's int64 bits in vals."""
+    field's int64 bits in vals; ints: an object slot's int is kind 6, its int64 bits in vals."""
     nd, ni = len(D_NAMES), len(I_NAMES)
     nan = _F64.unpack(_NAN_BITS)[0]
     last_slot = max([c - nd - ni for c in codes if c >= nd + ni], default=-1)
@@ -317,7 +327,9 @@ def _py_fields(buf, offs, lens, codes, vals, kinds):
                 else:
                     tag = tags[c - nd - ni]
                     kind = _SLOT_KIND.get(tag, 3)
-                    if kind in (0, 5):
+                    if ints and tag == T_INT:
+                        v, kind = _F64.unpack(_I64.pack(_PyCodec._payload(mv, pos[c - nd - ni], tag)[0]))[0], 6
+                    elif kind in (0, 5):
                         v = float(_PyCodec._payload(mv, pos[c - nd - ni], tag)[0])
                     elif kind == 1:
                         v = nan
@@ -396,14 +408,6 @@ def _read_breaks(offs, lens, slack):
     return np.flatnonzero(~join) + 1
 
 
-def _record_lines(buf, lens):
-    """(first_idx, last_idx) of the records at the start of buf (lens: their lengths), an
-    int64 array (len(lens), 2): the bytes at _LINES_AT of each record's head."""
-    at = np.cumsum(lens) - lens + _LINES_AT
-    raw = np.frombuffer(buf, np.uint8, int(at[-1]) + 16 if len(lens) else 0)
-    return raw[at[:, None] + np.arange(16)].view(np.int64) if len(lens) else np.zeros((0, 2), np.int64)
-
-
 class StrokeStore:
     """Strokes appended in order (a stroke's index: how many were appended before it), read
     back as new Stroke objects (load, take), one numeric field as an array without making
@@ -414,10 +418,11 @@ class StrokeStore:
     def __init__(self, in_memory=False, folder=None, pure=False):
         self._codec = _codec(pure)
         self._io = (_Memory if in_memory else _TempFile)(folder)
-        # each record's (first_idx, last_idx), 16 bytes at 16 x its row, beside the records:
-        # the steps after planning read the lines of every stroke three times (the rewrite's
-        # order, measure's and the summary's columns), each a pass over every record's bytes
-        self._lines_io = (_Memory if in_memory else _TempFile)(folder)
+        # each record's SIDE values, 8 * len(SIDE) bytes at that times its row; a column none
+        # of whose values the side could hold (not an int or a bool: column() then reads the
+        # records) in _side_off
+        self._side_io = (_Memory if in_memory else _TempFile)(folder)
+        self._side_off = set()
         self.in_memory, self.folder = in_memory, folder      # (other spills go where this one is)
         self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
         self._len = np.zeros(0, np.int64)
@@ -458,17 +463,17 @@ class StrokeStore:
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
         buf = bytearray()
-        spans = np.empty((len(strokes), 2), np.int64)
+        side = np.empty((len(strokes), len(SIDE)), np.int64)
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
             nb, lens = self._encode(strokes, b0, b1, buf)
-            spans[b0:b1] = _record_lines(buf, lens)
+            side[b0:b1] = self._side_of(buf, lens)
             self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
             end += nb
-        self._lines_io.write(16 * self._n, memoryview(spans.reshape(-1).view(np.uint8)))
+        self._side_io.write(side.itemsize * side.shape[1] * self._n, memoryview(side.reshape(-1).view(np.uint8)))
         self._n += len(strokes)
         self._end = end
 
@@ -534,24 +539,43 @@ class StrokeStore:
         i0, i1 = max(i0, 0), min(i1, self._n)
         return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
-    def _write_lines(self, rows, spans):
-        """spans (int64 (len(rows), 2)) written as the lines of rows: a write a run of
-        consecutive rows."""
+    def _side_of(self, buf, lens):
+        """The SIDE values (int64, (len(lens), len(SIDE))) of the records at the start of buf
+        (lens: their lengths), read by the codec's fields; a column with a value it cannot
+        hold (not an int or a bool) put in _side_off."""
+        vals, kinds = np.empty((len(lens), len(SIDE))), np.empty((len(lens), len(SIDE)), np.int8)
+        self._codec.fields(buf, np.cumsum(lens) - lens, lens, _SIDE_CODES, vals, kinds, True)
+        out = vals.view(np.int64)
+        for j, name in enumerate(SIDE[2:], 2):
+            k = kinds[:, j]
+            if name not in self._side_off and not ((k == _K_INT) | (k == _K_BOOL)).all():
+                self._side_off.add(name)
+            out[:, j] = np.where(k == _K_BOOL, vals[:, j] != 0.0, out[:, j])
+        return out
+
+    def _write_side(self, rows, side):
+        """side (SIDE values, a row a record) written as rows': a write a run of consecutive
+        rows."""
         brk = np.flatnonzero(rows[1:] != rows[:-1] + 1) + 1
         for f, e in zip([0] + brk.tolist(), brk.tolist() + [len(rows)]):
-            self._lines_io.write(16 * int(rows[f]), memoryview(spans[f:e].reshape(-1).view(np.uint8)))
+            self._side_io.write(8 * len(SIDE) * int(rows[f]), memoryview(side[f:e].reshape(-1).view(np.uint8)))
+
+    def _side_columns(self, names):
+        """The side columns names (int64 arrays) of every record, SIDE_ROWS at a time."""
+        cols = [np.empty(self._n, np.int64) for _ in names]
+        js = [SIDE.index(nm) for nm in names]
+        part = np.empty((min(self._n, SIDE_ROWS), len(SIDE)), np.int64)
+        for a in range(0, self._n, SIDE_ROWS):
+            got = part[:min(SIDE_ROWS, self._n - a)]
+            self._side_io.read_into(memoryview(got.reshape(-1).view(np.uint8)), 8 * len(SIDE) * a)
+            for col, j in zip(cols, js):
+                col[a:a + len(got)] = got[:, j]
+        return cols
 
     def lines(self):
-        """(first_idx, last_idx) of every record, two int64 arrays, read from the lines side
-        (16 bytes a record, LINES_ROWS at a time), not from the records."""
-        first, last = np.empty(self._n, np.int64), np.empty(self._n, np.int64)
-        part = np.empty((min(self._n, LINES_ROWS), 2), np.int64)
-        for a in range(0, self._n, LINES_ROWS):
-            m = min(LINES_ROWS, self._n - a)
-            got = part[:m]
-            self._lines_io.read_into(memoryview(got.reshape(-1).view(np.uint8)), 16 * a)
-            first[a:a + m], last[a:a + m] = got[:, 0], got[:, 1]
-        return first, last
+        """(first_idx, last_idx) of every record, two int64 arrays, read from the side
+        (8 * len(SIDE) bytes a record), not from the records."""
+        return tuple(self._side_columns(("first_idx", "last_idx")))
 
     def column(self, name, with_none=False):
         """Field `name` of every record, without making a stroke: a float64 array (a float
@@ -560,8 +584,8 @@ class StrokeStore:
         bool array, True where the value was None (a stored NaN is then told apart)."""
         if name not in FLOAT_COLUMNS and name not in INT_COLUMNS:
             raise ValueError(f"StrokeStore.column: {name!r} is not a numeric field")
-        if name in I_NAMES:             # (the lines side: no record read)
-            out = self.lines()[I_NAMES.index(name)]
+        if name in SIDE and name not in self._side_off:     # (an int or a bool each: no record read)
+            out = self._side_columns((name,))[0]
             return (out, np.zeros(self._n, bool)) if with_none else out
         out = np.empty(self._n, np.int64 if name in INT_COLUMNS else np.float64)
         none = np.zeros(self._n, np.uint8) if with_none else None
@@ -605,7 +629,7 @@ class StrokeStore:
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
             nb, lens = self._encode(strokes, b0, b1, buf)
-            self._write_lines(r, _record_lines(buf, lens))
+            self._write_side(r, self._side_of(buf, lens))
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -624,7 +648,8 @@ class StrokeStore:
     def close(self):
         """The records let go (the file removed); the store is empty."""
         self._io.close()
-        self._lines_io.close()
+        self._side_io.close()
+        self._side_off = set()
         self._n = self._end = 0
         self._index, self._table = {}, []
 

@@ -8026,20 +8026,23 @@ fail:
     return NULL;
 }
 
-/* store_fields(buf, offs, lens, codes, vals, kinds): the fields `codes` (a tuple of record
+/* store_fields(buf, offs, lens, codes, vals, kinds[, ints]): the fields `codes` (a tuple of record
  * field numbers, as store_column's) of each record, as stroke_fields reads a stroke's:
  * vals (float64, len(offs) x len(codes), C order) and kinds (int8, the same shape) -- 0 a
  * float (a double field's value), 1 None (vals the NaN stroke_fields gives it), 2 a bool
  * (1.0 / 0.0), 3 another object (an int, an array, points, an arc, a memo; vals 0.0),
  * 4 an unset slot (0.0), 5 a shared object (vals its index in the store's table); an int
- * field (first_idx, last_idx): kind 0, vals holding its int64's bits.  No stroke made
- * (segments.line_classes of stored strokes: no window loaded). */
+ * field (first_idx, last_idx): kind 0, vals holding its int64's bits.  ints true: an object
+ * slot holding an int is kind 6, vals its int64's bits (stroke_store's side columns; else
+ * kind 3, as stroke_fields reads it).  No stroke made (segments.line_classes of stored
+ * strokes: no window loaded). */
 static PyObject *mod_store_fields(PyObject *self, PyObject *args)
 {
     (void)self;
     PyObject *buf_o, *offs_o, *lens_o, *codes_o, *vals_o, *kinds_o;
-    if (!PyArg_ParseTuple(args, "OOOO!OO:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
-                          &kinds_o))
+    int ints = 0;
+    if (!PyArg_ParseTuple(args, "OOOO!OO|p:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
+                          &kinds_o, &ints))
         return NULL;
     Py_ssize_t w = PyTuple_GET_SIZE(codes_o);
     int codes[64], last_slot = -1;
@@ -8138,6 +8141,11 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
                     kind = 5;
                     break;
                 }
+                case SR_INT:
+                    if (ints)
+                        memcpy(&v, at[s], 8);     /* (the int64's bits) */
+                    kind = ints ? 6 : 3;
+                    break;
                 default:
                     kind = 3;
                 }
@@ -8336,7 +8344,8 @@ static PyMethodDef mod_methods[] = {
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
     {"store_fields", mod_store_fields, METH_VARARGS,
-     "store_fields(buf, offs, lens, codes, vals, kinds): fields of stroke_store's records as stroke_fields reads them"},
+     "store_fields(buf, offs, lens, codes, vals, kinds[, ints]): fields of stroke_store's records as stroke_fields "
+     "reads them (ints: an int slot's value, kind 6)"},
     {"quiet_new", mod_quiet_new, METH_VARARGS,
      "quiet_new(res, snap_fn, snap_arg): a QuietStops for play_buf's on_quiet (quiet_record bound to it)"},
     {"quiet_record", (PyCFunction)(void (*)(void))mod_quiet_record, METH_FASTCALL,
@@ -8386,7 +8395,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
-        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
+        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0
+        || PyModule_AddIntConstant(m, "STORE_FIELDS_INTS", 1) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -57,7 +57,7 @@ _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
 # lines three times: the rewrite's order, measure's and the summary's columns; corner_cmd0
 # the runs', layer the summary's), each a pass over every record's bytes
 SIDE = ("first_idx", "last_idx", "layer", "corner_cmd0")
-SIDE_ROWS = 8192                 # the side read this many rows at a time (256 kB)
+SIDE_ROWS = 4096                 # the side read this many rows at a time (128 kB)
 _K_BOOL, _K_INT = 2, 6           # store_fields' kinds (ints=True) of the values a side column holds
 
 _SIDE_CODES = tuple(FIELD_CODE[nm] for nm in SIDE)
@@ -518,6 +518,14 @@ class StrokeStore:
             offs, lens = self._off[r], self._len[r]
             if self._io.in_memory:
                 yield self._io.data, offs, lens
+                continue
+            if (offs[1:] == offs[:-1] + lens[:-1]).all():   # (one run: a scan's batch, a window's load)
+                total = int(offs[-1] + lens[-1] - offs[0])
+                if len(buf) < total:
+                    buf = np.empty(total, np.uint8)
+                with memoryview(buf) as mv:
+                    self._io.read_into(mv[:total], int(offs[0]))
+                yield buf, offs - offs[0], lens
                 continue
             brk = _read_breaks(offs, lens, int(lens.sum()))     # (the buffer: twice the records' bytes at most)
             first = np.concatenate(([0], brk))

@@ -7872,9 +7872,19 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 }
 
 /* a slot's payload skipped (r past it); -1 with an error */
-/* a payload's bytes by its tag, where fixed (an array's and Points': its count's) */
-static const Py_ssize_t SR_FIXED_LEN[SR_MEMO + 1] = {
-    [SR_FLOAT] = 8, [SR_INT] = 8, [SR_INTERN] = 4, [SR_ARC] = 8 * SA_NDBL + 1};
+/* a payload's bytes by its tag byte: fixed, SR_LEN_COUNT (an array's and Points': by their
+ * count) or SR_LEN_BAD (no such tag) */
+enum { SR_LEN_COUNT = -1, SR_LEN_BAD = -2 };
+#define SR_BAD4 SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD
+#define SR_BAD16 SR_BAD4, SR_BAD4, SR_BAD4, SR_BAD4
+static const Py_ssize_t SR_PAYLOAD_LEN[256] = {
+    [SR_UNSET] = 0, [SR_NONE] = 0, [SR_FALSE] = 0, [SR_TRUE] = 0, [SR_FLOAT] = 8, [SR_INT] = 8, [SR_INTERN] = 4,
+    [SR_DARRAY] = SR_LEN_COUNT, [SR_POINTS] = SR_LEN_COUNT, [SR_ARC] = 8 * SA_NDBL + 1, [SR_MEMO] = 0,
+    SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD,       /* 11 .. 15 */
+    SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16,
+    SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16};
+#undef SR_BAD16
+#undef SR_BAD4
 
 static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag)
 {
@@ -8107,19 +8117,20 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
         Py_ssize_t o = SR_HEAD, len = lens[q];
         for (int s = 0; s <= last_slot; s++) {
             unsigned char t = tags[s];
+            Py_ssize_t step = SR_PAYLOAD_LEN[t];
             at[s] = p + o;
-            if (t <= SR_INTERN || t == SR_ARC || t == SR_MEMO) {
-                o += SR_FIXED_LEN[t];
-            } else if (t == SR_DARRAY || t == SR_POINTS) {
+            if (step < 0) {
                 uint32_t c;
+                if (step == SR_LEN_BAD) {
+                    PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)t);
+                    goto fail;
+                }
                 if (len - o < 4)
                     goto past_end;
                 memcpy(&c, p + o, 4);
-                o += 4 + 8 * (Py_ssize_t)c;
-            } else {
-                PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)t);
-                goto fail;
+                step = 4 + 8 * (Py_ssize_t)c;
             }
+            o += step;
             if (o > len)
                 goto past_end;
         }

@@ -661,7 +661,7 @@ class StrokeStore:
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
             nb, lens = self._encode(strokes, b0, b1, buf)
-            self._write_side(r, self._side_of(buf, lens))
+            side = self._side_of(buf, lens)
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -675,6 +675,7 @@ class StrokeStore:
                 for f, e in zip(first.tolist(), last.tolist()):
                     p0, p1 = int(bpos[f]), int(bpos[e] + lens[e])
                     self._io.write(int(new_off[f]), mv[p0:p1])
+            self._write_side(r, side)           # (after the records: a failed write leaves the side as they were)
             self._off[r], self._len[r] = new_off, lens
 
     def close(self):

@@ -52,7 +52,18 @@ _HEAD = struct.Struct(f"={len(D_NAMES)}d{len(I_NAMES)}qI{len(O_NAMES)}B")
 _F64, _I64, _U32 = struct.Struct("=d"), struct.Struct("=q"), struct.Struct("=I")
 _ARC = struct.Struct("=7dB")
 _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
+# the side columns: each record's values of these int columns, 8 bytes each, beside the
+# records (StrokeStore's side): the steps after planning read them of every stroke (the
+# lines three times: the rewrite's order, measure's and the summary's columns; corner_cmd0
+# the runs', layer the summary's), each a pass over every record's bytes
+SIDE = ("first_idx", "last_idx", "layer", "corner_cmd0")
+SIDE_ROWS = 4096                 # the side read this many rows at a time (128 kB)
+_K_BOOL, _K_INT = 2, 6           # store_fields' kinds (ints=True) of the values a side column holds
 
+_SIDE_CODES = tuple(FIELD_CODE[nm] for nm in SIDE)
+
+GAP = 16384                  # bytes between two runs of records read by one preadv at most (not kept)
+IOV_RUNS = 500               # runs a preadv reads at most (its buffers: under IOV_MAX, 1024)
 BATCH = 1024                 # records encoded / read / decoded at a time (~0.5 MB of buffer each way)
 
 
@@ -85,9 +96,12 @@ class _CCodec:
     def column(self, buf, offs, lens, code, out, none):
         self._core.store_column(buf, offs, lens, code, out, none)
 
-    def fields(self, buf, offs, lens, codes, vals, kinds):
-        # (a core built before store_fields: the Python reading)
-        getattr(self._core, "store_fields", _py_fields)(buf, offs, lens, codes, vals, kinds)
+    def fields(self, buf, offs, lens, codes, vals, kinds, ints=False):
+        # (a core built before store_fields, or before its ints: the Python reading)
+        if ints and not getattr(self._core, "STORE_FIELDS_INTS", 0):
+            _py_fields(buf, offs, lens, codes, vals, kinds, ints)
+            return
+        getattr(self._core, "store_fields", _py_fields)(buf, offs, lens, codes, vals, kinds, *((True,) if ints else ()))
 
 
 class _PyCodec:
@@ -279,8 +293,8 @@ class _PyCodec:
                     none[q] = isnone
 
     @staticmethod
-    def fields(buf, offs, lens, codes, vals, kinds):
-        _py_fields(buf, offs, lens, codes, vals, kinds)
+    def fields(buf, offs, lens, codes, vals, kinds, ints=False):
+        _py_fields(buf, offs, lens, codes, vals, kinds, ints)
 
 
 _NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.array([None], float)'s NaN)
@@ -288,11 +302,11 @@ _NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.
 _SLOT_KIND = {T_FLOAT: 0, T_NONE: 1, T_FALSE: 2, T_TRUE: 2, T_UNSET: 4, T_INTERN: 5}
 
 
-def _py_fields(buf, offs, lens, codes, vals, kinds):
+def _py_fields(buf, offs, lens, codes, vals, kinds, ints=False):
     """firmware/_core.c's store_fields in Python: each record's fields codes into the rows of
     vals (float64) and kinds (int8) as stroke_fields reads a stroke's (0 a float, 1 None, 2
     a bool, 3 another object, 4 unset), 5 a shared object (vals: its table index); an int
-    field's int64 bits in vals."""
+    field's int64 bits in vals; ints: an object slot's int is kind 6, its int64 bits in vals."""
     nd, ni = len(D_NAMES), len(I_NAMES)
     nan = _F64.unpack(_NAN_BITS)[0]
     last_slot = max([c - nd - ni for c in codes if c >= nd + ni], default=-1)
@@ -315,7 +329,9 @@ def _py_fields(buf, offs, lens, codes, vals, kinds):
                 else:
                     tag = tags[c - nd - ni]
                     kind = _SLOT_KIND.get(tag, 3)
-                    if kind in (0, 5):
+                    if ints and tag == T_INT:
+                        v, kind = _F64.unpack(_I64.pack(_PyCodec._payload(mv, pos[c - nd - ni], tag)[0]))[0], 6
+                    elif kind in (0, 5):
                         v = float(_PyCodec._payload(mv, pos[c - nd - ni], tag)[0])
                     elif kind == 1:
                         v = nan
@@ -345,6 +361,29 @@ class _TempFile:
                 raise OSError("StrokeStore: the temporary file ended early")
             mv, pos = mv[n:], pos + n
 
+    def read_runs(self, mv, run_at, run_n, run_pos):
+        """Each run's run_n bytes at file byte run_at into mv at run_pos (int64 arrays, a
+        run each): runs after a gap of at most GAP bytes read by one preadv, the gap into a
+        scratch buffer (a sparse take's runs, ~1.4-2.5 k reads a plate, were a syscall each)."""
+        gap = run_at[1:] - run_at[:-1] - run_n[:-1]
+        cut = np.flatnonzero((gap <= 0) | (gap > GAP)) + 1
+        at, n, p, g = run_at.tolist(), run_n.tolist(), run_pos.tolist(), gap.tolist()
+        scratch = None
+        for f, e in zip([0] + cut.tolist(), cut.tolist() + [len(at)]):
+            for f1 in range(f, e, IOV_RUNS):
+                e1 = min(f1 + IOV_RUNS, e)
+                if e1 - f1 == 1:
+                    self.read_into(mv[p[f1]:p[f1] + n[f1]], at[f1])
+                    continue
+                if scratch is None:
+                    scratch = memoryview(bytearray(GAP))
+                iov = [mv[p[f1]:p[f1] + n[f1]]]
+                for i in range(f1 + 1, e1):
+                    iov += (scratch[:g[i - 1]], mv[p[i]:p[i] + n[i]])
+                if os.preadv(self._fd, iov, at[f1]) != at[e1 - 1] + n[e1 - 1] - at[f1]:
+                    for i in range(f1, e1):          # (a short read: run by run, as read_into reads)
+                        self.read_into(mv[p[i]:p[i] + n[i]], at[i])
+
     def close(self):
         self._fh.close()
 
@@ -361,6 +400,11 @@ class _Memory:
             self.data += data
         else:
             self.data[pos:pos + len(data)] = data
+
+    def read_into(self, mv, pos):
+        if pos + len(mv) > len(self.data):
+            raise OSError("StrokeStore: the records end early")
+        mv[:] = memoryview(self.data)[pos:pos + len(mv)]
 
     def close(self):
         self.data = bytearray()
@@ -399,6 +443,11 @@ class StrokeStore:
     def __init__(self, in_memory=False, folder=None, pure=False):
         self._codec = _codec(pure)
         self._io = (_Memory if in_memory else _TempFile)(folder)
+        # each record's SIDE values, 8 * len(SIDE) bytes at that times its row; a column none
+        # of whose values the side could hold (not an int or a bool: column() then reads the
+        # records) in _side_off
+        self._side_io = (_Memory if in_memory else _TempFile)(folder)
+        self._side_off = set()
         self.in_memory, self.folder = in_memory, folder      # (other spills go where this one is)
         self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
         self._len = np.zeros(0, np.int64)
@@ -439,14 +488,17 @@ class StrokeStore:
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
         buf = bytearray()
+        side = np.empty((len(strokes), len(SIDE)), np.int64)
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
             nb, lens = self._encode(strokes, b0, b1, buf)
+            side[b0:b1] = self._side_of(buf, lens)
             self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
             end += nb
+        self._side_io.write(side.itemsize * side.shape[1] * self._n, memoryview(side.reshape(-1).view(np.uint8)))
         self._n += len(strokes)
         self._end = end
 
@@ -458,14 +510,22 @@ class StrokeStore:
 
     def _batches(self, rows, size=BATCH):
         """(buffer, offsets in it, lengths) of the records of rows, size at a time: the
-        in-memory bytes themselves, or the file's runs of records read into a buffer (one
-        read a run: _read_breaks)"""
+        in-memory bytes themselves, or the file's runs of records read into a buffer
+        (_read_breaks; runs close together in one read: _TempFile.read_runs)"""
         buf = bytearray()
         for b0 in range(0, len(rows), size):
             r = rows[b0:b0 + size]
             offs, lens = self._off[r], self._len[r]
             if self._io.in_memory:
                 yield self._io.data, offs, lens
+                continue
+            if (offs[1:] == offs[:-1] + lens[:-1]).all():   # (one run: a scan's batch, a window's load)
+                total = int(offs[-1] + lens[-1] - offs[0])
+                if len(buf) < total:
+                    buf = np.empty(total, np.uint8)
+                with memoryview(buf) as mv:
+                    self._io.read_into(mv[:total], int(offs[0]))
+                yield buf, offs - offs[0], lens
                 continue
             brk = _read_breaks(offs, lens, int(lens.sum()))     # (the buffer: twice the records' bytes at most)
             first = np.concatenate(([0], brk))
@@ -477,8 +537,7 @@ class StrokeStore:
             if len(buf) < total:
                 buf = np.empty(total, np.uint8)       # (not zeroed: every byte used is read into it)
             with memoryview(buf) as mv:
-                for a, n, p in zip(run_at.tolist(), run_n.tolist(), run_pos.tolist()):
-                    self._io.read_into(mv[p:p + n], a)
+                self._io.read_runs(mv, run_at, run_n, run_pos)
             rel = offs - np.repeat(run_at - run_pos, last - first + 1)
             yield buf, rel, lens
 
@@ -512,6 +571,44 @@ class StrokeStore:
         i0, i1 = max(i0, 0), min(i1, self._n)
         return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
+    def _side_of(self, buf, lens):
+        """The SIDE values (int64, (len(lens), len(SIDE))) of the records at the start of buf
+        (lens: their lengths), read by the codec's fields; a column with a value it cannot
+        hold (not an int or a bool) put in _side_off."""
+        vals, kinds = np.empty((len(lens), len(SIDE))), np.empty((len(lens), len(SIDE)), np.int8)
+        self._codec.fields(buf, np.cumsum(lens) - lens, lens, _SIDE_CODES, vals, kinds, True)
+        out = vals.view(np.int64)
+        for j, name in enumerate(SIDE[2:], 2):
+            k = kinds[:, j]
+            if name not in self._side_off and not ((k == _K_INT) | (k == _K_BOOL)).all():
+                self._side_off.add(name)
+            out[:, j] = np.where(k == _K_BOOL, vals[:, j] != 0.0, out[:, j])
+        return out
+
+    def _write_side(self, rows, side):
+        """side (SIDE values, a row a record) written as rows': a write a run of consecutive
+        rows."""
+        brk = np.flatnonzero(rows[1:] != rows[:-1] + 1) + 1
+        for f, e in zip([0] + brk.tolist(), brk.tolist() + [len(rows)]):
+            self._side_io.write(8 * len(SIDE) * int(rows[f]), memoryview(side[f:e].reshape(-1).view(np.uint8)))
+
+    def _side_columns(self, names):
+        """The side columns names (int64 arrays) of every record, SIDE_ROWS at a time."""
+        cols = [np.empty(self._n, np.int64) for _ in names]
+        js = [SIDE.index(nm) for nm in names]
+        part = np.empty((min(self._n, SIDE_ROWS), len(SIDE)), np.int64)
+        for a in range(0, self._n, SIDE_ROWS):
+            got = part[:min(SIDE_ROWS, self._n - a)]
+            self._side_io.read_into(memoryview(got.reshape(-1).view(np.uint8)), 8 * len(SIDE) * a)
+            for col, j in zip(cols, js):
+                col[a:a + len(got)] = got[:, j]
+        return cols
+
+    def lines(self):
+        """(first_idx, last_idx) of every record, two int64 arrays, read from the side
+        (8 * len(SIDE) bytes a record), not from the records."""
+        return tuple(self._side_columns(("first_idx", "last_idx")))
+
     def column(self, name, with_none=False):
         """Field `name` of every record, without making a stroke: a float64 array (a float
         field: a float's bits; None -- a None-able field's None, an unset slot -- as NaN) or
@@ -519,6 +616,9 @@ class StrokeStore:
         bool array, True where the value was None (a stored NaN is then told apart)."""
         if name not in FLOAT_COLUMNS and name not in INT_COLUMNS:
             raise ValueError(f"StrokeStore.column: {name!r} is not a numeric field")
+        if name in SIDE and name not in self._side_off:     # (an int or a bool each: no record read)
+            out = self._side_columns((name,))[0]
+            return (out, np.zeros(self._n, bool)) if with_none else out
         out = np.empty(self._n, np.int64 if name in INT_COLUMNS else np.float64)
         none = np.zeros(self._n, np.uint8) if with_none else None
         at = 0
@@ -561,6 +661,7 @@ class StrokeStore:
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
             nb, lens = self._encode(strokes, b0, b1, buf)
+            side = self._side_of(buf, lens)
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -574,11 +675,14 @@ class StrokeStore:
                 for f, e in zip(first.tolist(), last.tolist()):
                     p0, p1 = int(bpos[f]), int(bpos[e] + lens[e])
                     self._io.write(int(new_off[f]), mv[p0:p1])
+            self._write_side(r, side)           # (after the records: a failed write leaves the side as they were)
             self._off[r], self._len[r] = new_off, lens
 
     def close(self):
         """The records let go (the file removed); the store is empty."""
         self._io.close()
+        self._side_io.close()
+        self._side_off = set()
         self._n = self._end = 0
         self._index, self._table = {}, []
 

@@ -7872,6 +7872,20 @@ static PyObject *mod_store_decode(PyObject *self, PyObject *args)
 }
 
 /* a slot's payload skipped (r past it); -1 with an error */
+/* a payload's bytes by its tag byte: fixed, SR_LEN_COUNT (an array's and Points': by their
+ * count) or SR_LEN_BAD (no such tag) */
+enum { SR_LEN_COUNT = -1, SR_LEN_BAD = -2 };
+#define SR_BAD4 SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD
+#define SR_BAD16 SR_BAD4, SR_BAD4, SR_BAD4, SR_BAD4
+static const Py_ssize_t SR_PAYLOAD_LEN[256] = {
+    [SR_UNSET] = 0, [SR_NONE] = 0, [SR_FALSE] = 0, [SR_TRUE] = 0, [SR_FLOAT] = 8, [SR_INT] = 8, [SR_INTERN] = 4,
+    [SR_DARRAY] = SR_LEN_COUNT, [SR_POINTS] = SR_LEN_COUNT, [SR_ARC] = 8 * SA_NDBL + 1, [SR_MEMO] = 0,
+    SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD, SR_LEN_BAD,       /* 11 .. 15 */
+    SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16,
+    SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16, SR_BAD16};
+#undef SR_BAD16
+#undef SR_BAD4
+
 static inline __attribute__((always_inline)) int sr_skip(SrRead *r, unsigned char tag)
 {
     Py_ssize_t n;
@@ -8026,20 +8040,23 @@ fail:
     return NULL;
 }
 
-/* store_fields(buf, offs, lens, codes, vals, kinds): the fields `codes` (a tuple of record
+/* store_fields(buf, offs, lens, codes, vals, kinds[, ints]): the fields `codes` (a tuple of record
  * field numbers, as store_column's) of each record, as stroke_fields reads a stroke's:
  * vals (float64, len(offs) x len(codes), C order) and kinds (int8, the same shape) -- 0 a
  * float (a double field's value), 1 None (vals the NaN stroke_fields gives it), 2 a bool
  * (1.0 / 0.0), 3 another object (an int, an array, points, an arc, a memo; vals 0.0),
  * 4 an unset slot (0.0), 5 a shared object (vals its index in the store's table); an int
- * field (first_idx, last_idx): kind 0, vals holding its int64's bits.  No stroke made
- * (segments.line_classes of stored strokes: no window loaded). */
+ * field (first_idx, last_idx): kind 0, vals holding its int64's bits.  ints true: an object
+ * slot holding an int is kind 6, vals its int64's bits (stroke_store's side columns; else
+ * kind 3, as stroke_fields reads it).  No stroke made (segments.line_classes of stored
+ * strokes: no window loaded). */
 static PyObject *mod_store_fields(PyObject *self, PyObject *args)
 {
     (void)self;
     PyObject *buf_o, *offs_o, *lens_o, *codes_o, *vals_o, *kinds_o;
-    if (!PyArg_ParseTuple(args, "OOOO!OO:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
-                          &kinds_o))
+    int ints = 0;
+    if (!PyArg_ParseTuple(args, "OOOO!OO|p:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
+                          &kinds_o, &ints))
         return NULL;
     Py_ssize_t w = PyTuple_GET_SIZE(codes_o);
     int codes[64], last_slot = -1;
@@ -8091,16 +8108,31 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "store_fields: a record out of the buffer");
             goto fail;
         }
-        SrRead r = {(const char *)bb.buf + offs[q], (const char *)bb.buf + offs[q] + lens[q]};
-        const char *p = r.p, *at[SO_N];
+        const char *p = (const char *)bb.buf + offs[q], *at[SO_N];
         const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
         uint32_t has;
         memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
-        r.p += SR_HEAD;
-        for (int s = 0; s <= last_slot; s++) {       /* each object slot's payload */
-            at[s] = r.p;
-            if (sr_skip(&r, tags[s]) < 0)
-                goto fail;
+        /* each object slot's payload: its place by a table of the fixed lengths (sr_skip's
+         * steps, ~25 instructions a slot, were most of the time of a side's or the summary's read) */
+        Py_ssize_t o = SR_HEAD, len = lens[q];
+        for (int s = 0; s <= last_slot; s++) {
+            unsigned char t = tags[s];
+            Py_ssize_t step = SR_PAYLOAD_LEN[t];
+            at[s] = p + o;
+            if (step < 0) {
+                uint32_t c;
+                if (step == SR_LEN_BAD) {
+                    PyErr_Format(PyExc_ValueError, "StrokeStore: unknown tag %d (corrupt store)", (int)t);
+                    goto fail;
+                }
+                if (len - o < 4)
+                    goto past_end;
+                memcpy(&c, p + o, 4);
+                step = 4 + 8 * (Py_ssize_t)c;
+            }
+            o += step;
+            if (o > len)
+                goto past_end;
         }
         for (Py_ssize_t j = 0; j < w; j++) {
             int c = codes[j];
@@ -8138,6 +8170,11 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
                     kind = 5;
                     break;
                 }
+                case SR_INT:
+                    if (ints)
+                        memcpy(&v, at[s], 8);     /* (the int64's bits) */
+                    kind = ints ? 6 : 3;
+                    break;
                 default:
                     kind = 3;
                 }
@@ -8152,6 +8189,8 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
     PyBuffer_Release(&vb);
     PyBuffer_Release(&kb);
     Py_RETURN_NONE;
+past_end:
+    PyErr_SetString(PyExc_ValueError, "StrokeStore: a record runs past its end (corrupt store)");
 fail:
     PyBuffer_Release(&bb);
     if (got >= 2)
@@ -8336,7 +8375,8 @@ static PyMethodDef mod_methods[] = {
     {"store_column", mod_store_column, METH_VARARGS,
      "store_column(buf, offs, lens, field, out, none): one numeric field of stroke_store's records"},
     {"store_fields", mod_store_fields, METH_VARARGS,
-     "store_fields(buf, offs, lens, codes, vals, kinds): fields of stroke_store's records as stroke_fields reads them"},
+     "store_fields(buf, offs, lens, codes, vals, kinds[, ints]): fields of stroke_store's records as stroke_fields "
+     "reads them (ints: an int slot's value, kind 6)"},
     {"quiet_new", mod_quiet_new, METH_VARARGS,
      "quiet_new(res, snap_fn, snap_arg): a QuietStops for play_buf's on_quiet (quiet_record bound to it)"},
     {"quiet_record", (PyCFunction)(void (*)(void))mod_quiet_record, METH_FASTCALL,
@@ -8386,7 +8426,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
-        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0) {
+        || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0
+        || PyModule_AddIntConstant(m, "STORE_FIELDS_INTS", 1) < 0) {
         Py_DECREF(m);
         return NULL;
     }

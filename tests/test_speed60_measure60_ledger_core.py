@@ -115,7 +115,7 @@ def test_ledger_core_argument_errors():
     sim = fwsim.new_sim(load_profile("prusa-mk3s"), None, None)
     state = st.MachineState(load_profile("prusa-mk3s"), "x.gcode")
     from array import array
-    args = (sim.res, st._modal_of, state, array("q", [3]), [], state.snapshot())
+    args = (sim.res, st._modal_of, state, array("q", [3]), fwsim.Ledger(), state.snapshot())
     with pytest.raises(ValueError, match="eleven doubles"):
         fwsim._core.ledger_new(*args, bytes(80))
     with pytest.raises(TypeError):
@@ -125,4 +125,6 @@ def test_ledger_core_argument_errors():
     with pytest.raises(TypeError):
         fwsim._core.ledger_done(state)
     with pytest.raises(TypeError):
-        fwsim._core.ledger_flush(state, fwsim.Ledger())
+        fwsim._core.ledger_flush(state)
+    with pytest.raises(TypeError, match="not a list"):
+        fwsim._core.ledger_new(*args[:4], type("L", (), {"state": ()})(), *args[5:], bytes(88))

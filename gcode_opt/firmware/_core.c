@@ -8306,22 +8306,25 @@ static PyObject *mod_quiet_take(PyObject *module, PyObject *arg)
  * stop and every watched range's start where it meets them and returns only at a block's end
  * (each stop with a range pending returned to Python: ~1.2 k returns of ~15 k instructions on
  * the rectilinear plate's measure).  The writer's state (the last stop, its entry, the carried
- * peaks, the pending ranges) lives here for the pass; the ledger's entries wait in C buffers
- * until ledger_flush appends them to the Ledger's arrays (each snapshot goes into its state
- * list at once); ledger_done hands the state back to the _LedgerWriter for finish(). */
+ * peaks, the pending ranges) lives here for the pass; the ledger's entries wait in small C
+ * buffers (LED_FLUSH_BYTES: no more memory held than the arrays' own growth) appended to the
+ * Ledger's arrays when one fills and at ledger_flush (each snapshot goes into its state list
+ * at once); ledger_done hands the state back to the _LedgerWriter for finish(). */
 typedef struct {
     char *p;
     Py_ssize_t n, cap;                /* bytes held, room */
 } LedBuf;
 
 enum { LB_LINE, LB_SUMS, LB_PV, LB_PA, LB_LO, LB_HI, LB_N };
+#define LED_FLUSH_BYTES 512
 static const char *const LB_NAMES[LB_N] = {"line", "sums", "peak_v", "peak_a", "lo", "hi"};
 
 typedef struct {
     PyObject_HEAD
     ResObject *res;                   /* the pass's SimResult (new reference) */
     PyObject *snap_fn, *snap_arg;     /* a stop's snapshot: snap_fn(snap_arg) (new references) */
-    PyObject *states;                 /* the Ledger's state list (new reference) */
+    PyObject *led;                    /* the Ledger (new reference) */
+    PyObject *states;                 /* its state list (new reference) */
     Py_buffer w_last;                 /* each watched range's last line (int64) */
     PyObject *last_snap;              /* the last stop's snapshot (new reference) */
     long long last_idx, last_j;       /* its line; its ledger entry, -1: not committed */
@@ -8338,6 +8341,7 @@ static void Ledger_dealloc(LedgerObject *lc)
     Py_XDECREF(lc->res);
     Py_XDECREF(lc->snap_fn);
     Py_XDECREF(lc->snap_arg);
+    Py_XDECREF(lc->led);
     Py_XDECREF(lc->states);
     Py_XDECREF(lc->last_snap);
     if (lc->w_last.obj != NULL)
@@ -8360,7 +8364,7 @@ static PyTypeObject LedgerType = {
 static int ledbuf_put(LedBuf *b, const void *v, Py_ssize_t n)
 {
     if (b->n + n > b->cap) {
-        Py_ssize_t cap = b->cap ? 2 * b->cap : 4096;
+        Py_ssize_t cap = b->cap ? 2 * b->cap : 2 * LED_FLUSH_BYTES;
         while (cap < b->n + n)
             cap *= 2;
         char *p = PyMem_Realloc(b->p, (size_t)cap);
@@ -8385,6 +8389,39 @@ static int ledbuf_repeat(LedBuf *b, long long j, Py_ssize_t k)
     return 0;
 }
 
+/* the entries held appended to the Ledger's arrays (each one's frombytes), in order */
+static int ledger_flush_all(LedgerObject *lc)
+{
+    for (int b = 0; b < LB_N; b++) {
+        LedBuf *lb = &lc->buf[b];
+        if (lb->n == 0)
+            continue;
+        PyObject *arr = PyObject_GetAttrString(lc->led, LB_NAMES[b]);
+        if (arr == NULL)
+            return -1;
+        /* (a view of the buffer, not a bytes copy: no block of its size made and dropped
+         * between the arrays' growths) */
+        PyObject *view = PyMemoryView_FromMemory(lb->p, lb->n, PyBUF_READ);
+        PyObject *r = view != NULL ? PyObject_CallMethod(arr, "frombytes", "O", view) : NULL;
+        Py_XDECREF(view);
+        Py_DECREF(arr);
+        if (r == NULL)
+            return -1;
+        Py_DECREF(r);
+        lb->n = 0;
+    }
+    return 0;
+}
+
+/* ledger_flush_all once a buffer holds LED_FLUSH_BYTES */
+static inline int ledger_flush_full(LedgerObject *lc)
+{
+    for (int b = 0; b < LB_N; b++)
+        if (lc->buf[b].n >= LED_FLUSH_BYTES)
+            return ledger_flush_all(lc);
+    return 0;
+}
+
 /* Ledger._commit(line, snap, row, peak_v, peak_a): the new entry's index, or -1 on error */
 static long long ledger_commit(LedgerObject *lc, long long line, PyObject *snap, const double *row,
                                double peak_v, double peak_a)
@@ -8392,7 +8429,7 @@ static long long ledger_commit(LedgerObject *lc, long long line, PyObject *snap,
     if (ledbuf_put(&lc->buf[LB_LINE], &line, sizeof line) < 0 || PyList_Append(lc->states, snap) < 0
         || ledbuf_put(&lc->buf[LB_SUMS], row, RES_SUMS_N * sizeof(double)) < 0
         || ledbuf_put(&lc->buf[LB_PV], &peak_v, sizeof peak_v) < 0
-        || ledbuf_put(&lc->buf[LB_PA], &peak_a, sizeof peak_a) < 0)
+        || ledbuf_put(&lc->buf[LB_PA], &peak_a, sizeof peak_a) < 0 || ledger_flush_full(lc) < 0)
         return -1;
     return lc->n_commits++;
 }
@@ -8407,7 +8444,7 @@ static int ledger_starts(PyObject *o, Py_ssize_t k, Py_ssize_t wi)
             return -1;
         lc->carry_v = lc->carry_a = 0.0;
     }
-    if (ledbuf_repeat(&lc->buf[LB_LO], lc->last_j, k) < 0)
+    if (ledbuf_repeat(&lc->buf[LB_LO], lc->last_j, k) < 0 || ledger_flush_full(lc) < 0)
         return -1;
     lc->n_pend += k;
     lc->pend_last = wi - 1;
@@ -8444,36 +8481,42 @@ static int ledger_stop(PyObject *o, long long idx)
         if (lc->last_j < 0)
             return -1;
         lc->carry_v = lc->carry_a = 0.0;
-        if (ledbuf_repeat(&lc->buf[LB_HI], lc->last_j, lc->n_pend) < 0)
+        if (ledbuf_repeat(&lc->buf[LB_HI], lc->last_j, lc->n_pend) < 0 || ledger_flush_full(lc) < 0)
             return -1;
         lc->n_pend = 0;
     }
     return 0;
 }
 
-/* ledger_new(res, snap_fn, snap_arg, w_last, states, last_snap, last_sums): a LedgerCore of a
+/* ledger_new(res, snap_fn, snap_arg, w_last, led, last_snap, last_sums): a LedgerCore of a
  * writer just made (_LedgerWriter.__init__: the last stop before the file, line -1, with
- * last_snap and last_sums (its bytes), not committed; nothing carried or pending); states: the
- * Ledger's state list (empty) */
+ * last_snap and last_sums (its bytes), not committed; nothing carried or pending) writing
+ * into the Ledger led (empty; its state a list) */
 static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
 {
-    PyObject *res, *fn, *arg, *w_last, *states, *snap;
+    PyObject *res, *fn, *arg, *w_last, *led, *snap;
     Py_buffer sums;
     (void)module;
-    if (!PyArg_ParseTuple(args, "O!OOOO!Oy*", &ResType, &res, &fn, &arg, &w_last, &PyList_Type, &states, &snap,
-                          &sums))
+    if (!PyArg_ParseTuple(args, "O!OOOOOy*", &ResType, &res, &fn, &arg, &w_last, &led, &snap, &sums))
         return NULL;
     if (sums.len != (Py_ssize_t)(RES_SUMS_N * sizeof(double))) {
         PyBuffer_Release(&sums);
         PyErr_SetString(PyExc_ValueError, "ledger_new: last_sums is not eleven doubles");
         return NULL;
     }
-    if (!(LedgerType.tp_flags & Py_TPFLAGS_READY) && PyType_Ready(&LedgerType) < 0) {
+    PyObject *states = PyObject_GetAttrString(led, "state");
+    if (states == NULL || !PyList_CheckExact(states)) {
+        Py_XDECREF(states);
         PyBuffer_Release(&sums);
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_TypeError, "ledger_new: the Ledger's state is not a list");
         return NULL;
     }
-    LedgerObject *lc = PyObject_New(LedgerObject, &LedgerType);
+    LedgerObject *lc = NULL;
+    if ((LedgerType.tp_flags & Py_TPFLAGS_READY) || PyType_Ready(&LedgerType) == 0)
+        lc = PyObject_New(LedgerObject, &LedgerType);
     if (lc == NULL) {
+        Py_DECREF(states);
         PyBuffer_Release(&sums);
         return NULL;
     }
@@ -8483,7 +8526,8 @@ static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
     lc->res = (ResObject *)Py_NewRef(res);
     lc->snap_fn = Py_NewRef(fn);
     lc->snap_arg = Py_NewRef(arg);
-    lc->states = Py_NewRef(states);
+    lc->led = Py_NewRef(led);
+    lc->states = states;
     lc->last_snap = Py_NewRef(snap);
     lc->last_idx = lc->last_j = -1;
     lc->pend_last = -1;
@@ -8496,31 +8540,16 @@ static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
     return (PyObject *)lc;
 }
 
-/* ledger_flush(lc, led): the entries lc holds appended to the Ledger led's arrays (each one's
- * frombytes), in order; lc then holds none */
-static PyObject *mod_ledger_flush(PyObject *module, PyObject *args)
+/* ledger_flush(lc): the entries lc holds appended to its Ledger's arrays; lc then holds none */
+static PyObject *mod_ledger_flush(PyObject *module, PyObject *o)
 {
-    PyObject *o, *led;
     (void)module;
-    if (!PyArg_ParseTuple(args, "O!O", &LedgerType, &o, &led))
+    if (Py_TYPE(o) != &LedgerType) {
+        PyErr_SetString(PyExc_TypeError, "ledger_flush(LedgerCore)");
         return NULL;
-    LedgerObject *lc = (LedgerObject *)o;
-    for (int b = 0; b < LB_N; b++) {
-        LedBuf *lb = &lc->buf[b];
-        if (lb->n == 0)
-            continue;
-        PyObject *arr = PyObject_GetAttrString(led, LB_NAMES[b]);
-        if (arr == NULL)
-            return NULL;
-        PyObject *bytes = PyBytes_FromStringAndSize(lb->p, lb->n);
-        PyObject *r = bytes != NULL ? PyObject_CallMethod(arr, "frombytes", "O", bytes) : NULL;
-        Py_XDECREF(bytes);
-        Py_DECREF(arr);
-        if (r == NULL)
-            return NULL;
-        Py_DECREF(r);
-        lb->n = 0;
     }
+    if (ledger_flush_all((LedgerObject *)o) < 0)
+        return NULL;
     Py_RETURN_NONE;
 }
 
@@ -8601,9 +8630,9 @@ static PyMethodDef mod_methods[] = {
     {"quiet_take", mod_quiet_take, METH_O,
      "quiet_take(q): None, or (idx, snapshot, sums, peak_v, peak_a) of q's stops since the last take"},
     {"ledger_new", mod_ledger_new, METH_VARARGS,
-     "ledger_new(res, snap_fn, snap_arg, w_last, states, last_snap, last_sums): a LedgerCore for play_buf's on_quiet"},
-    {"ledger_flush", mod_ledger_flush, METH_VARARGS,
-     "ledger_flush(lc, led): lc's ledger entries appended to the Ledger led"},
+     "ledger_new(res, snap_fn, snap_arg, w_last, led, last_snap, last_sums): a LedgerCore for play_buf's on_quiet"},
+    {"ledger_flush", mod_ledger_flush, METH_O,
+     "ledger_flush(lc): lc's ledger entries appended to its Ledger"},
     {"ledger_done", mod_ledger_done, METH_O,
      "ledger_done(lc): (last_idx, last_snap, last_sums, last_j, carry_v, carry_a, n_pending, ok)"},
     {NULL}

@@ -904,14 +904,13 @@ class _LedgerWriter:
                 and getattr(type(res), "take_stop", None) is _core.SimResult.take_stop
                 and type(state).snapshot is st.MachineState.snapshot and not self.pending
                 and self.last_j < 0 and not len(self.led.line) and type(self.last[2]) is bytes):
-            return _core.ledger_new(res, st._modal_of, state, self.w_last, self.led.state, self.last[1],
-                                    self.last[2])
+            return _core.ledger_new(res, st._modal_of, state, self.w_last, self.led, self.last[1], self.last[2])
         return None
 
     def take_core(self, core, wi):
         """The writer's state back from the LedgerCore `core` (its entries appended to the
         ledger), wi: the next watched range."""
-        _core.ledger_flush(core, self.led)
+        _core.ledger_flush(core)
         idx, snap, sums, self.last_j, self.carry_v, self.carry_a, n_pend, ok = _core.ledger_done(core)
         self.last = (idx, snap, sums)
         self.pending = list(range(wi - n_pend, wi))
@@ -1027,7 +1026,6 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
                 pos = 0
                 while pos < n:
                     pos, idx, _, wi = play(buf, pos, idx, cr, step, wi, True, on_barrier, firsts, core)
-                _core.ledger_flush(core, led)      # (a block's entries: the buffers stay small)
             w.take_core(core, wi)
             blocks.n_lines = idx
             w.finish(idx, sim)

@@ -8307,12 +8307,14 @@ static PyObject *mod_quiet_take(PyObject *module, PyObject *arg)
  * (each stop with a range pending returned to Python: ~1.2 k returns of ~15 k instructions on
  * the rectilinear plate's measure).  The writer's state (the last stop, its entry, the carried
  * peaks, the pending ranges) lives here for the pass; the ledger's entries wait in small C
- * buffers (LED_FLUSH_BYTES: no more memory held than the arrays' own growth) appended to the
- * Ledger's arrays when one fills and at ledger_flush (each snapshot goes into its state list
- * at once); ledger_done hands the state back to the _LedgerWriter for finish(). */
+ * buffers appended to the Ledger's arrays as each fills (LED_FLUSH_BYTES: with 4 kB, the
+ * windowed rectilinear plate's peak RSS rose ~0.3 MB, heap layout) and at ledger_flush
+ * (each snapshot goes into its state list at once); ledger_done hands the state back to the
+ * _LedgerWriter for finish(). */
 typedef struct {
     char *p;
     Py_ssize_t n, cap;                /* bytes held, room */
+    PyObject *put;                    /* the Ledger's array's frombytes (new reference) */
 } LedBuf;
 
 enum { LB_LINE, LB_SUMS, LB_PV, LB_PA, LB_LO, LB_HI, LB_N };
@@ -8323,7 +8325,6 @@ typedef struct {
     PyObject_HEAD
     ResObject *res;                   /* the pass's SimResult (new reference) */
     PyObject *snap_fn, *snap_arg;     /* a stop's snapshot: snap_fn(snap_arg) (new references) */
-    PyObject *led;                    /* the Ledger (new reference) */
     PyObject *states;                 /* its state list (new reference) */
     Py_buffer w_last;                 /* each watched range's last line (int64) */
     PyObject *last_snap;              /* the last stop's snapshot (new reference) */
@@ -8341,13 +8342,14 @@ static void Ledger_dealloc(LedgerObject *lc)
     Py_XDECREF(lc->res);
     Py_XDECREF(lc->snap_fn);
     Py_XDECREF(lc->snap_arg);
-    Py_XDECREF(lc->led);
     Py_XDECREF(lc->states);
     Py_XDECREF(lc->last_snap);
     if (lc->w_last.obj != NULL)
         PyBuffer_Release(&lc->w_last);
-    for (int b = 0; b < LB_N; b++)
+    for (int b = 0; b < LB_N; b++) {
         PyMem_Free(lc->buf[b].p);
+        Py_XDECREF(lc->buf[b].put);
+    }
     PyObject_Free(lc);
 }
 
@@ -8389,37 +8391,35 @@ static int ledbuf_repeat(LedBuf *b, long long j, Py_ssize_t k)
     return 0;
 }
 
-/* the entries held appended to the Ledger's arrays (each one's frombytes), in order */
-static int ledger_flush_all(LedgerObject *lc)
+/* the entries lb holds appended to its array (a view of the buffer to frombytes: no bytes
+ * copy made and dropped between the array's growths) */
+static int ledbuf_flush(LedBuf *lb)
 {
-    for (int b = 0; b < LB_N; b++) {
-        LedBuf *lb = &lc->buf[b];
-        if (lb->n == 0)
-            continue;
-        PyObject *arr = PyObject_GetAttrString(lc->led, LB_NAMES[b]);
-        if (arr == NULL)
-            return -1;
-        /* (a view of the buffer, not a bytes copy: no block of its size made and dropped
-         * between the arrays' growths) */
-        PyObject *view = PyMemoryView_FromMemory(lb->p, lb->n, PyBUF_READ);
-        PyObject *r = view != NULL ? PyObject_CallMethod(arr, "frombytes", "O", view) : NULL;
-        Py_XDECREF(view);
-        Py_DECREF(arr);
-        if (r == NULL)
-            return -1;
-        Py_DECREF(r);
-        lb->n = 0;
-    }
+    if (lb->n == 0)
+        return 0;
+    PyObject *view = PyMemoryView_FromMemory(lb->p, lb->n, PyBUF_READ);
+    PyObject *r = view != NULL ? PyObject_CallOneArg(lb->put, view) : NULL;
+    Py_XDECREF(view);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    lb->n = 0;
     return 0;
 }
 
-/* ledger_flush_all once a buffer holds LED_FLUSH_BYTES */
-static inline int ledger_flush_full(LedgerObject *lc)
+/* every buffer's entries appended to its array (each array's stay in order) */
+static int ledger_flush_all(LedgerObject *lc)
 {
     for (int b = 0; b < LB_N; b++)
-        if (lc->buf[b].n >= LED_FLUSH_BYTES)
-            return ledger_flush_all(lc);
+        if (ledbuf_flush(&lc->buf[b]) < 0)
+            return -1;
     return 0;
+}
+
+/* lb flushed once it holds LED_FLUSH_BYTES */
+static inline int ledbuf_full(LedBuf *lb)
+{
+    return lb->n >= LED_FLUSH_BYTES ? ledbuf_flush(lb) : 0;
 }
 
 /* Ledger._commit(line, snap, row, peak_v, peak_a): the new entry's index, or -1 on error */
@@ -8429,7 +8429,8 @@ static long long ledger_commit(LedgerObject *lc, long long line, PyObject *snap,
     if (ledbuf_put(&lc->buf[LB_LINE], &line, sizeof line) < 0 || PyList_Append(lc->states, snap) < 0
         || ledbuf_put(&lc->buf[LB_SUMS], row, RES_SUMS_N * sizeof(double)) < 0
         || ledbuf_put(&lc->buf[LB_PV], &peak_v, sizeof peak_v) < 0
-        || ledbuf_put(&lc->buf[LB_PA], &peak_a, sizeof peak_a) < 0 || ledger_flush_full(lc) < 0)
+        || ledbuf_put(&lc->buf[LB_PA], &peak_a, sizeof peak_a) < 0 || ledbuf_full(&lc->buf[LB_LINE]) < 0
+        || ledbuf_full(&lc->buf[LB_SUMS]) < 0 || ledbuf_full(&lc->buf[LB_PV]) < 0 || ledbuf_full(&lc->buf[LB_PA]) < 0)
         return -1;
     return lc->n_commits++;
 }
@@ -8444,7 +8445,7 @@ static int ledger_starts(PyObject *o, Py_ssize_t k, Py_ssize_t wi)
             return -1;
         lc->carry_v = lc->carry_a = 0.0;
     }
-    if (ledbuf_repeat(&lc->buf[LB_LO], lc->last_j, k) < 0 || ledger_flush_full(lc) < 0)
+    if (ledbuf_repeat(&lc->buf[LB_LO], lc->last_j, k) < 0 || ledbuf_full(&lc->buf[LB_LO]) < 0)
         return -1;
     lc->n_pend += k;
     lc->pend_last = wi - 1;
@@ -8481,7 +8482,7 @@ static int ledger_stop(PyObject *o, long long idx)
         if (lc->last_j < 0)
             return -1;
         lc->carry_v = lc->carry_a = 0.0;
-        if (ledbuf_repeat(&lc->buf[LB_HI], lc->last_j, lc->n_pend) < 0 || ledger_flush_full(lc) < 0)
+        if (ledbuf_repeat(&lc->buf[LB_HI], lc->last_j, lc->n_pend) < 0 || ledbuf_full(&lc->buf[LB_HI]) < 0)
             return -1;
         lc->n_pend = 0;
     }
@@ -8526,7 +8527,6 @@ static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
     lc->res = (ResObject *)Py_NewRef(res);
     lc->snap_fn = Py_NewRef(fn);
     lc->snap_arg = Py_NewRef(arg);
-    lc->led = Py_NewRef(led);
     lc->states = states;
     lc->last_snap = Py_NewRef(snap);
     lc->last_idx = lc->last_j = -1;
@@ -8536,6 +8536,15 @@ static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
         lc->w_last.obj = NULL;
         Py_DECREF(lc);
         return NULL;
+    }
+    for (int b = 0; b < LB_N; b++) {
+        PyObject *arr = PyObject_GetAttrString(led, LB_NAMES[b]);
+        lc->buf[b].put = arr != NULL ? PyObject_GetAttrString(arr, "frombytes") : NULL;
+        Py_XDECREF(arr);
+        if (lc->buf[b].put == NULL) {
+            Py_DECREF(lc);
+            return NULL;
+        }
     }
     return (PyObject *)lc;
 }

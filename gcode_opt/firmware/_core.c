@@ -2895,7 +2895,9 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
  * on_quiet(line) at a stop (the model empty after that line) while no watched range has
  * started in this call, the state written back first, and plays on: the caller's stopped()
  * where nothing is pending (a stop of those returned only to be recorded, ~3.8 k on the
- * rectilinear plate's measure). */
+ * rectilinear plate's measure).  on_quiet a LedgerCore (ledger_new): every stop and every
+ * watched range's start recorded in it, whatever is pending; returns at the buffer's end
+ * only (stopped false). */
 static PyObject *Sim_play_buf(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs < 8 || nargs > 10)

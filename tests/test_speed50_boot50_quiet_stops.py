@@ -36,6 +36,7 @@ def _run(path, profile, watch, quiet, monkeypatch, on_line=None):
     with monkeypatch.context() as m:
         m.setattr(fwsim, "USE_QUIET_STOPS", quiet)
         m.setattr(fwsim, "USE_QUIET_CORE", False)    # (the writer's own stopped, its calls counted)
+        m.setattr(fwsim, "USE_LEDGER_CORE", False)   # (the writer's calls: not the LedgerCore's pass)
         m.setattr(fwsim._LedgerWriter, "stopped", stopped)
         m.setattr(fwsim._LedgerWriter, "ranges_start", ranges_start)
         r, led = fwsim.simulate_ledger(path, profile, watch, on_line=on_line, on_barrier=barriers.append)

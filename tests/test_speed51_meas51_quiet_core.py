@@ -34,6 +34,7 @@ def _run(path, profile, watch, core, monkeypatch):
     barriers = []
     with monkeypatch.context() as m:
         m.setattr(fwsim, "USE_QUIET_CORE", core)
+        m.setattr(fwsim, "USE_LEDGER_CORE", False)   # (the QuietStops path: the LedgerCore's is test_speed60's)
         r, led = fwsim.simulate_ledger(str(path), profile, watch, on_barrier=barriers.append)
     return r, led, barriers
 

@@ -2895,7 +2895,9 @@ static PyObject *Sim_play(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
  * on_quiet(line) at a stop (the model empty after that line) while no watched range has
  * started in this call, the state written back first, and plays on: the caller's stopped()
  * where nothing is pending (a stop of those returned only to be recorded, ~3.8 k on the
- * rectilinear plate's measure). */
+ * rectilinear plate's measure).  on_quiet a LedgerCore (ledger_new): every stop and every
+ * watched range's start recorded in it, whatever is pending; returns at the buffer's end
+ * only (stopped false). */
 static PyObject *Sim_play_buf(SimObject *s, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs < 8 || nargs > 10)
@@ -3026,6 +3028,13 @@ static inline int src_more(const LineSrc *src)
     return src->list != NULL ? src->i < PyList_GET_SIZE(src->list) : src->i < src->len;
 }
 
+/* The measure's whole ledger writer in C (a LedgerCore as play_buf's on_quiet, defined with
+ * QuietStops below): every stop and every watched range's start recorded where play_loop
+ * meets them, no return to Python for them */
+static PyTypeObject LedgerType;
+static int ledger_stop(PyObject *lc, long long idx);
+static int ledger_starts(PyObject *lc, Py_ssize_t k, Py_ssize_t wi);
+
 /* play()'s loop over src's lines: returns 1 if it stopped after a line that left the model
  * empty, 0 before the line `until` or at the end of the lines, -1 on error; src is left at
  * the next line. */
@@ -3038,14 +3047,19 @@ static int quiet_stop(SimObject *s, void **ss, PyObject *step, PyObject *on_quie
     *ss = NULL;
     if (open_ss != NULL && READER->close(open_ss) < 0)
         return -1;
-    PyObject *li = PyLong_FromLongLong(line);
-    if (li == NULL)
-        return -1;
-    PyObject *r = PyObject_CallOneArg(on_quiet, li);
-    Py_DECREF(li);
-    if (r == NULL)
-        return -1;
-    Py_DECREF(r);
+    if (Py_IS_TYPE(on_quiet, &LedgerType)) {
+        if (ledger_stop(on_quiet, line) < 0)
+            return -1;
+    } else {
+        PyObject *li = PyLong_FromLongLong(line);
+        if (li == NULL)
+            return -1;
+        PyObject *r = PyObject_CallOneArg(on_quiet, li);
+        Py_DECREF(li);
+        if (r == NULL)
+            return -1;
+        Py_DECREF(r);
+    }
     *ss = fused_session(s, step, &err);
     return err ? -1 : 0;
 }
@@ -3056,6 +3070,8 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
 {
     Py_ssize_t wi = *wi_io;
     const Py_ssize_t wi0 = wi;         /* a stop is quiet (on_quiet) while wi is still wi0 */
+    /* a LedgerCore takes every stop (quiet or not) and the ranges' starts as they come */
+    const int all_quiet = on_quiet != NULL && Py_IS_TYPE(on_quiet, &LedgerType);
     int stopped = 0, err;
     PyObject *call[3];
     void *ss = fused_session(s, step, &err);
@@ -3067,8 +3083,13 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
         long long idx = src->idx;
         if (idx == until)
             break;
-        while (wi < nf && firsts[wi] == idx)
-            wi++;
+        if (wi < nf && firsts[wi] == idx) {
+            Py_ssize_t w0 = wi;
+            while (wi < nf && firsts[wi] == idx)
+                wi++;
+            if (all_quiet && ledger_starts(on_quiet, wi - w0, wi) < 0)
+                goto fail_ss;
+        }
         PyObject *raw;
         int got = -2;                  /* what the reader's fused line said; -2: not asked */
         FusedMove fm;
@@ -3085,7 +3106,7 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             if (r < 0)
                 goto fail_ss;
             if (r == RUN_STOP) {
-                if (on_quiet != NULL && wi == wi0) {
+                if (on_quiet != NULL && (all_quiet || wi == wi0)) {
                     if (quiet_stop(s, &ss, step, on_quiet, src->idx - 1) < 0)
                         goto fail_ss;
                     runs = ss != NULL;
@@ -3139,7 +3160,7 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
                 if (play_fused(s, idx, &fm) < 0)
                     goto fail_ss;
                 if (stops && fm.kind == 1) {
-                    if (on_quiet != NULL && wi == wi0) {
+                    if (on_quiet != NULL && (all_quiet || wi == wi0)) {
                         if (quiet_stop(s, &ss, step, on_quiet, idx) < 0)
                             goto fail_ss;
                         runs = runs && ss != NULL;
@@ -3206,7 +3227,7 @@ static int play_loop(SimObject *s, LineSrc *src, PyObject *step, long long until
             stopped = stops;
         }
         Py_DECREF(ev);
-        if (stopped && on_quiet != NULL && wi == wi0) {
+        if (stopped && on_quiet != NULL && (all_quiet || wi == wi0)) {
             stopped = 0;
             if (quiet_stop(s, &ss, step, on_quiet, idx) < 0)
                 goto fail_ss;
@@ -8321,6 +8342,282 @@ static PyObject *mod_quiet_take(PyObject *module, PyObject *arg)
     return t;
 }
 
+/* The measure's ledger writer (simulate._LedgerWriter's range_starts, ranges_start and stopped)
+ * in C, for play_buf's whole pass: with a LedgerCore as on_quiet, play_loop records every
+ * stop and every watched range's start where it meets them and returns only at a block's end
+ * (each stop with a range pending returned to Python: ~1.2 k returns of ~15 k instructions on
+ * the rectilinear plate's measure).  The writer's state (the last stop, its entry, the carried
+ * peaks, the pending ranges) lives here for the pass; the ledger's entries wait in small C
+ * buffers appended to the Ledger's arrays as each fills (LED_FLUSH_BYTES: with 4 kB, the
+ * windowed rectilinear plate's peak RSS rose ~0.3 MB, heap layout) and at ledger_flush
+ * (each snapshot goes into its state list at once); ledger_done hands the state back to the
+ * _LedgerWriter for finish(). */
+typedef struct {
+    char *p;
+    Py_ssize_t n, cap;                /* bytes held, room */
+    PyObject *put;                    /* the Ledger's array's frombytes (new reference) */
+} LedBuf;
+
+enum { LB_LINE, LB_SUMS, LB_PV, LB_PA, LB_LO, LB_HI, LB_N };
+#define LED_FLUSH_BYTES 512
+static const char *const LB_NAMES[LB_N] = {"line", "sums", "peak_v", "peak_a", "lo", "hi"};
+
+typedef struct {
+    PyObject_HEAD
+    ResObject *res;                   /* the pass's SimResult (new reference) */
+    PyObject *snap_fn, *snap_arg;     /* a stop's snapshot: snap_fn(snap_arg) (new references) */
+    PyObject *states;                 /* its state list (new reference) */
+    Py_buffer w_last;                 /* each watched range's last line (int64) */
+    PyObject *last_snap;              /* the last stop's snapshot (new reference) */
+    long long last_idx, last_j;       /* its line; its ledger entry, -1: not committed */
+    double last_row[RES_SUMS_N];      /* its sums */
+    double carry_v, carry_a;          /* the peaks since the last committed stop */
+    long long n_commits;              /* the Ledger's entries (len(line)), flushed or not */
+    Py_ssize_t n_pend, pend_last;     /* the ranges started, not yet closed by a stop; the last one */
+    int ok;                           /* 0: a stop fell inside a watched range */
+    LedBuf buf[LB_N];
+} LedgerObject;
+
+static void Ledger_dealloc(LedgerObject *lc)
+{
+    Py_XDECREF(lc->res);
+    Py_XDECREF(lc->snap_fn);
+    Py_XDECREF(lc->snap_arg);
+    Py_XDECREF(lc->states);
+    Py_XDECREF(lc->last_snap);
+    if (lc->w_last.obj != NULL)
+        PyBuffer_Release(&lc->w_last);
+    for (int b = 0; b < LB_N; b++) {
+        PyMem_Free(lc->buf[b].p);
+        Py_XDECREF(lc->buf[b].put);
+    }
+    PyObject_Free(lc);
+}
+
+static PyTypeObject LedgerType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "_gcode_opt_fwcore.LedgerCore",
+    .tp_doc = "The measure's ledger writer for play_buf (ledger_new, ledger_flush, ledger_done).",
+    .tp_basicsize = sizeof(LedgerObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_dealloc = (destructor)Ledger_dealloc,
+};
+
+/* n bytes at v appended to b */
+static int ledbuf_put(LedBuf *b, const void *v, Py_ssize_t n)
+{
+    if (b->n + n > b->cap) {
+        Py_ssize_t cap = b->cap ? 2 * b->cap : 2 * LED_FLUSH_BYTES;
+        while (cap < b->n + n)
+            cap *= 2;
+        char *p = PyMem_Realloc(b->p, (size_t)cap);
+        if (p == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        b->p = p;
+        b->cap = cap;
+    }
+    memcpy(b->p + b->n, v, (size_t)n);
+    b->n += n;
+    return 0;
+}
+
+/* k copies of the entry j appended to b (lo's or hi's: _repeat(j, k)) */
+static int ledbuf_repeat(LedBuf *b, long long j, Py_ssize_t k)
+{
+    for (Py_ssize_t q = 0; q < k; q++)
+        if (ledbuf_put(b, &j, sizeof j) < 0)
+            return -1;
+    return 0;
+}
+
+/* the entries lb holds appended to its array (a view of the buffer to frombytes: no bytes
+ * copy made and dropped between the array's growths) */
+static int ledbuf_flush(LedBuf *lb)
+{
+    if (lb->n == 0)
+        return 0;
+    PyObject *view = PyMemoryView_FromMemory(lb->p, lb->n, PyBUF_READ);
+    PyObject *r = view != NULL ? PyObject_CallOneArg(lb->put, view) : NULL;
+    Py_XDECREF(view);
+    if (r == NULL)
+        return -1;
+    Py_DECREF(r);
+    lb->n = 0;
+    return 0;
+}
+
+/* every buffer's entries appended to its array (each array's stay in order) */
+static int ledger_flush_all(LedgerObject *lc)
+{
+    for (int b = 0; b < LB_N; b++)
+        if (ledbuf_flush(&lc->buf[b]) < 0)
+            return -1;
+    return 0;
+}
+
+/* lb flushed once it holds LED_FLUSH_BYTES */
+static inline int ledbuf_full(LedBuf *lb)
+{
+    return lb->n >= LED_FLUSH_BYTES ? ledbuf_flush(lb) : 0;
+}
+
+/* Ledger._commit(line, snap, row, peak_v, peak_a): the new entry's index, or -1 on error */
+static long long ledger_commit(LedgerObject *lc, long long line, PyObject *snap, const double *row,
+                               double peak_v, double peak_a)
+{
+    if (ledbuf_put(&lc->buf[LB_LINE], &line, sizeof line) < 0 || PyList_Append(lc->states, snap) < 0
+        || ledbuf_put(&lc->buf[LB_SUMS], row, RES_SUMS_N * sizeof(double)) < 0
+        || ledbuf_put(&lc->buf[LB_PV], &peak_v, sizeof peak_v) < 0
+        || ledbuf_put(&lc->buf[LB_PA], &peak_a, sizeof peak_a) < 0 || ledbuf_full(&lc->buf[LB_LINE]) < 0
+        || ledbuf_full(&lc->buf[LB_SUMS]) < 0 || ledbuf_full(&lc->buf[LB_PV]) < 0 || ledbuf_full(&lc->buf[LB_PA]) < 0)
+        return -1;
+    return lc->n_commits++;
+}
+
+/* range_starts k times over (_LedgerWriter.ranges_start(k)); wi: the next range after them */
+static int ledger_starts(PyObject *o, Py_ssize_t k, Py_ssize_t wi)
+{
+    LedgerObject *lc = (LedgerObject *)o;
+    if (lc->last_j < 0) {
+        lc->last_j = ledger_commit(lc, lc->last_idx, lc->last_snap, lc->last_row, lc->carry_v, lc->carry_a);
+        if (lc->last_j < 0)
+            return -1;
+        lc->carry_v = lc->carry_a = 0.0;
+    }
+    if (ledbuf_repeat(&lc->buf[LB_LO], lc->last_j, k) < 0 || ledbuf_full(&lc->buf[LB_LO]) < 0)
+        return -1;
+    lc->n_pend += k;
+    lc->pend_last = wi - 1;
+    return 0;
+}
+
+/* _LedgerWriter.stopped(idx): the model stands empty after line idx */
+static int ledger_stop(PyObject *o, long long idx)
+{
+    LedgerObject *lc = (LedgerObject *)o;
+    PyObject *snap = PyObject_CallOneArg(lc->snap_fn, lc->snap_arg);
+    if (snap == NULL)
+        return -1;
+    ResObject *r = lc->res;
+    double peak_v = r->peak_v, peak_a = r->peak_a;     /* (take_stop's: read, then 0.0) */
+    r->peak_v = r->peak_a = 0.0;
+    res_sums_row(r, lc->last_row);
+    if (peak_v > lc->carry_v)
+        lc->carry_v = peak_v;
+    if (peak_a > lc->carry_a)
+        lc->carry_a = peak_a;
+    Py_XSETREF(lc->last_snap, snap);
+    lc->last_idx = idx;
+    lc->last_j = -1;
+    if (lc->n_pend) {
+        const long long *w_last = (const long long *)lc->w_last.buf;
+        if (lc->pend_last < 0 || lc->pend_last >= lc->w_last.len / (Py_ssize_t)sizeof(long long)) {
+            PyErr_SetString(PyExc_IndexError, "LedgerCore: a pending range past w_last");
+            return -1;
+        }
+        if (w_last[lc->pend_last] >= idx)           /* a stop inside a watched range */
+            lc->ok = 0;
+        lc->last_j = ledger_commit(lc, idx, snap, lc->last_row, lc->carry_v, lc->carry_a);
+        if (lc->last_j < 0)
+            return -1;
+        lc->carry_v = lc->carry_a = 0.0;
+        if (ledbuf_repeat(&lc->buf[LB_HI], lc->last_j, lc->n_pend) < 0 || ledbuf_full(&lc->buf[LB_HI]) < 0)
+            return -1;
+        lc->n_pend = 0;
+    }
+    return 0;
+}
+
+/* ledger_new(res, snap_fn, snap_arg, w_last, led, last_snap, last_sums): a LedgerCore of a
+ * writer just made (_LedgerWriter.__init__: the last stop before the file, line -1, with
+ * last_snap and last_sums (its bytes), not committed; nothing carried or pending) writing
+ * into the Ledger led (empty; its state a list) */
+static PyObject *mod_ledger_new(PyObject *module, PyObject *args)
+{
+    PyObject *res, *fn, *arg, *w_last, *led, *snap;
+    Py_buffer sums;
+    (void)module;
+    if (!PyArg_ParseTuple(args, "O!OOOOOy*", &ResType, &res, &fn, &arg, &w_last, &led, &snap, &sums))
+        return NULL;
+    if (sums.len != (Py_ssize_t)(RES_SUMS_N * sizeof(double))) {
+        PyBuffer_Release(&sums);
+        PyErr_SetString(PyExc_ValueError, "ledger_new: last_sums is not eleven doubles");
+        return NULL;
+    }
+    PyObject *states = PyObject_GetAttrString(led, "state");
+    if (states == NULL || !PyList_CheckExact(states)) {
+        Py_XDECREF(states);
+        PyBuffer_Release(&sums);
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_TypeError, "ledger_new: the Ledger's state is not a list");
+        return NULL;
+    }
+    LedgerObject *lc = NULL;
+    if ((LedgerType.tp_flags & Py_TPFLAGS_READY) || PyType_Ready(&LedgerType) == 0)
+        lc = PyObject_New(LedgerObject, &LedgerType);
+    if (lc == NULL) {
+        Py_DECREF(states);
+        PyBuffer_Release(&sums);
+        return NULL;
+    }
+    memset((char *)lc + offsetof(LedgerObject, res), 0, sizeof(LedgerObject) - offsetof(LedgerObject, res));
+    memcpy(lc->last_row, sums.buf, sizeof lc->last_row);
+    PyBuffer_Release(&sums);
+    lc->res = (ResObject *)Py_NewRef(res);
+    lc->snap_fn = Py_NewRef(fn);
+    lc->snap_arg = Py_NewRef(arg);
+    lc->states = states;
+    lc->last_snap = Py_NewRef(snap);
+    lc->last_idx = lc->last_j = -1;
+    lc->pend_last = -1;
+    lc->ok = 1;
+    if (PyObject_GetBuffer(w_last, &lc->w_last, PyBUF_SIMPLE) < 0) {
+        lc->w_last.obj = NULL;
+        Py_DECREF(lc);
+        return NULL;
+    }
+    for (int b = 0; b < LB_N; b++) {
+        PyObject *arr = PyObject_GetAttrString(led, LB_NAMES[b]);
+        lc->buf[b].put = arr != NULL ? PyObject_GetAttrString(arr, "frombytes") : NULL;
+        Py_XDECREF(arr);
+        if (lc->buf[b].put == NULL) {
+            Py_DECREF(lc);
+            return NULL;
+        }
+    }
+    return (PyObject *)lc;
+}
+
+/* ledger_flush(lc): the entries lc holds appended to its Ledger's arrays; lc then holds none */
+static PyObject *mod_ledger_flush(PyObject *module, PyObject *o)
+{
+    (void)module;
+    if (Py_TYPE(o) != &LedgerType) {
+        PyErr_SetString(PyExc_TypeError, "ledger_flush(LedgerCore)");
+        return NULL;
+    }
+    if (ledger_flush_all((LedgerObject *)o) < 0)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+/* ledger_done(lc): (last_idx, last_snap, last_sums, last_j, carry_v, carry_a, n_pending, ok):
+ * the writer's state for _LedgerWriter.finish (flush first) */
+static PyObject *mod_ledger_done(PyObject *module, PyObject *o)
+{
+    (void)module;
+    if (Py_TYPE(o) != &LedgerType) {
+        PyErr_SetString(PyExc_TypeError, "ledger_done(LedgerCore)");
+        return NULL;
+    }
+    LedgerObject *lc = (LedgerObject *)o;
+    return Py_BuildValue("(LOy#LddnO)", lc->last_idx, lc->last_snap, (const char *)lc->last_row,
+                         (Py_ssize_t)sizeof lc->last_row, lc->last_j, lc->carry_v, lc->carry_a, lc->n_pend,
+                         lc->ok ? Py_True : Py_False);
+}
+
 static PyMethodDef mod_methods[] = {
     {"alloc_choices", mod_alloc_choices, METH_VARARGS,
      "alloc_choices(Tx, Ix, k, rows, lam, margin_r, T_orig, dT, j, margin, tol): plan._allocate's choices() and take() of rows"},
@@ -8383,6 +8680,12 @@ static PyMethodDef mod_methods[] = {
      "quiet_record(q, idx): a quiet stop after line idx kept in q (simulate._LedgerWriter.stopped's work)"},
     {"quiet_take", mod_quiet_take, METH_O,
      "quiet_take(q): None, or (idx, snapshot, sums, peak_v, peak_a) of q's stops since the last take"},
+    {"ledger_new", mod_ledger_new, METH_VARARGS,
+     "ledger_new(res, snap_fn, snap_arg, w_last, led, last_snap, last_sums): a LedgerCore for play_buf's on_quiet"},
+    {"ledger_flush", mod_ledger_flush, METH_O,
+     "ledger_flush(lc): lc's ledger entries appended to its Ledger"},
+    {"ledger_done", mod_ledger_done, METH_O,
+     "ledger_done(lc): (last_idx, last_snap, last_sums, last_j, carry_v, carry_a, n_pending, ok)"},
     {NULL}
 };
 

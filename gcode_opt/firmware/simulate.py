@@ -894,6 +894,31 @@ class _LedgerWriter:
             return MethodType(_core.quiet_record, self.quiet)
         return self.stopped
 
+    def ledger_core(self, state):
+        """A LedgerCore that records every stop and range start of play_buf's pass in C (the
+        same entries as range_starts and stopped, no return to Python for them), where the
+        conditions of on_quiet's QuietStops hold; else None.  The writer's state is the
+        core's until take_core."""
+        res = self.res
+        if (USE_LEDGER_CORE and USE_QUIET_CORE and hasattr(_core, "ledger_new") and isinstance(res, _core.SimResult)
+                and getattr(type(res), "take_stop", None) is _core.SimResult.take_stop
+                and type(state).snapshot is st.MachineState.snapshot and not self.pending
+                and self.last_j < 0 and not len(self.led.line) and type(self.last[2]) is bytes):
+            return _core.ledger_new(res, st._modal_of, state, self.w_last, self.led, self.last[1], self.last[2])
+        return None
+
+    def take_core(self, core, wi):
+        """The writer's state back from the LedgerCore `core` (its entries appended to the
+        ledger), wi: the next watched range."""
+        _core.ledger_flush(core)
+        idx, snap, sums, self.last_j, self.carry_v, self.carry_a, n_pend, ok = _core.ledger_done(core)
+        self.last = (idx, snap, sums)
+        self.pending = list(range(wi - n_pend, wi))
+        self.wi = wi
+        self.next_first = self.w_first[wi] if wi < self.n_w else -2
+        if not ok:
+            self.led.ok = False
+
     def absorb(self):
         """The quiet stops on_quiet's QuietStops kept since the last absorb, folded in as
         stopped would have recorded them (none pending: nothing committed)."""
@@ -973,6 +998,7 @@ def _play_chunks(chunks, state, sim, watch, led, on_barrier=None):
 USE_PLAY_BUF = True       # tests turn it off: Blocks played as read_chunks' lists (the reference)
 USE_QUIET_STOPS = True    # tests turn it off: play_buf returns at every stop (the reference)
 USE_QUIET_CORE = True     # tests turn it off: _LedgerWriter.stopped records the quiet stops (the reference)
+USE_LEDGER_CORE = True    # tests turn it off: the ledger written by _LedgerWriter between play_buf's returns (the reference)
 
 
 def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
@@ -992,6 +1018,18 @@ def _play_blocks(blocks, state, sim, watch, led, on_barrier=None):
     if getattr(_core, "PLAY_FIRSTS", 0) and USE_PLAY_FIRSTS:
         firsts = w.w_first
         wi = 0
+        core = w.ledger_core(state) if USE_QUIET_STOPS else None
+        if core is not None:
+            # every stop and range start recorded in C: play_buf returns at a block's end only
+            for buf, cr in blocks.blocks():
+                n = len(buf)
+                pos = 0
+                while pos < n:
+                    pos, idx, _, wi = play(buf, pos, idx, cr, step, wi, True, on_barrier, firsts, core)
+            w.take_core(core, wi)
+            blocks.n_lines = idx
+            w.finish(idx, sim)
+            return
         # a stop with no watched range pending is recorded by w.stopped called from the loop
         # (no return to here: ~3.8 k of them on the rectilinear plate's measure)
         quiet = w.on_quiet(state) if USE_QUIET_STOPS else None

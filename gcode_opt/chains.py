@@ -3498,39 +3498,61 @@ def _remember_runs(runs, kept, src=None):
     """_remember of the rows of several finishing groups kept in one base (kept; a windowed
     _Finisher's merged base, _Finisher._keep): run (sts, j, c, t, good, T, beta, a)
     (as _remember's arguments) holds kept's rows after those of the runs before it; one
-    memo rows array for them all, each run's rows as _remember lays them out."""
-    blocks, R = [], 0
-    for _, j, c, t, good, T, beta, _ in runs:
-        # the good rows, each chain's newest (last) first: one buffer, a slice per chain; its
-        # (t, T, beta, row) made of those rows only (the same numbers as a table of every row
-        # gathered at them; the row its index, exact as a float)
-        q = good.nonzero()[0]               # (np.flatnonzero's, without its Python wrappers)
-        q = q[np.lexsort((-q, j[q]))]
-        jq, cq = j[q], c[q]
-        rows = np.empty((q.size, 4))      # (np.stack's columns, written in place: its set-up a group)
-        rows[:, 0] = t.take(q)
-        rows[:, 1:3] = _at_both(T, beta, jq, cq)
-        rows[:, 3] = q + R
-        blocks.append((rows, jq))
-        R += j.size
+    memo rows array for them all, each run's rows as _remember lays them out.  The runs'
+    rows are laid out together (a windowed call's ~30 groups, one a segment count: the
+    numpy calls paid once, not a group): each run's good rows, each chain's newest (last)
+    first, in the runs' order -- the same rows a run at a time gave."""
+    if len(runs) == 1:
+        J, C, Tt, G = runs[0][1], runs[0][2], runs[0][3], runs[0][4]
+        run_of = None
+    else:
+        J, C, Tt, G = (np.concatenate([r[x] for r in runs]) for x in (1, 2, 3, 4))
+        run_of = np.repeat(np.arange(len(runs)), [r[1].size for r in runs])
+    # the good rows (their index: the run's row plus the rows of the runs before it) by run,
+    # chain, then newest first; (t, T, beta, row) made of those rows only (the same numbers
+    # as a table of every row gathered at them; the row its index, exact as a float)
+    g = G.nonzero()[0]                  # (np.flatnonzero's, without its Python wrappers)
+    g = g[np.lexsort((-g, J[g]) if run_of is None else (-g, J[g], run_of[g]))]
+    jq, cq = J[g], C[g]
+    rows = np.empty((g.size, 4))        # (np.stack's columns, written in place)
+    rows[:, 0] = Tt.take(g)
+    _put_T_beta(rows, runs, jq, cq, None if run_of is None else run_of[g])
+    rows[:, 3] = g
     figs = array("d")
-    for rows, _ in blocks:
-        figs.frombytes(rows.tobytes())
+    figs.frombytes(rows.tobytes())
     if type(kept) is _KeptLaws and len(kept.base) == 8 and kept.base[3] is None:
-        kept.base = _figs_base(kept.base, figs, R)
+        kept.base = _figs_base(kept.base, figs, J.size)
+    _put_memos(runs, J, run_of, g, figs, kept, src)
+
+
+def _put_T_beta(rows, runs, jq, cq, rq):
+    """rows[:, 1:3] = each good row's (T, beta) at its chain jq and column cq of its run's
+    tables (rq: its run, None: one run), one gather where the runs share their tables (a
+    chunk's groups)."""
+    T, beta = runs[0][5], runs[0][6]
+    if rq is None or all(r[5] is T and r[6] is beta for r in runs):
+        rows[:, 1:3] = _at_both(T, beta, jq, cq)
+        return
+    cut = np.searchsorted(rq, np.arange(len(runs) + 1)).tolist()
+    for r, lo, hi in zip(runs, cut[:-1], cut[1:]):
+        rows[lo:hi, 1:3] = _at_both(r[5], r[6], jq[lo:hi], cq[lo:hi])
+
+
+def _put_memos(runs, J, run_of, g, figs, kept, src):
+    """Each chain of the runs (_remember_runs': J their rows' chains, run_of their runs or
+    None, g the good rows in figs' order) keeps its rows of figs (_remember), in figs'
+    order: a chain's rows are consecutive in its run's j."""
+    first = _run_starts(J)
+    if run_of is not None:
+        first[1:] |= run_of[1:] != run_of[:-1]
+    starts = first.nonzero()[0]
+    chain = np.cumsum(first) - 1            # each row's chain (a run of equal j in a run)
+    cnt = np.bincount(chain[g], None, starts.size).tolist()
+    which = [0] * starts.size if run_of is None else run_of[starts].tolist()
     lo = 0
-    for (sts, j, _, _, _, _, _, a), (_, jq) in zip(runs, blocks):
-        lo = _put_memos(sts, j, jq, figs, lo, kept, src, a)
-
-
-def _put_memos(sts, j, jq, figs, lo, kept, src, a):
-    """Each chain sts[jj] of the rows j whose good rows' chains are jq (_remember_runs' order)
-    keeps its rows of figs, from row lo on (_remember); the row after them."""
-    first = _run_starts(j)
-    cnt = np.bincount(jq, None, j[-1] + 1 if j.size else 0).tolist()
-    for jj in j[first].tolist():
-        k = cnt[jj]
+    for k, jj, w in zip(cnt, J[starts].tolist(), which):
         if k:
+            sts, a = runs[w][0], runs[w][7]
             memo = sts[jj].chain_T
             if memo.figs is None and memo.src is None:
                 # a chain's first rows (the table's usual case): what _own_source and
@@ -3544,7 +3566,6 @@ def _put_memos(sts, j, jq, figs, lo, kept, src, a):
                     _own_source(memo, src, a + jj)
                 memo.put_shared(figs, _row_int(lo), k, kept)
             lo += k
-    return lo
 
 
 class _FigsRows:

@@ -3145,8 +3145,11 @@ class _Finisher:
 
 
 # a merged kept-laws base's spill block at most (_Finisher._keep), about: the replays read a
-# base's block whole for its rows, kept in the spill's cache (LawSpill.CACHE_BYTES)
-KEPT_BLOCK_BYTES = 1 << 17
+# base's block whole for its rows, kept in the spill's cache (LawSpill.CACHE_BYTES, which
+# holds one such block).  Half the cache (round 44) made the gyroid plate's windowed
+# candidates 72 merged bases, their replays 209 base reads; the whole cache 50 and 154:
+# -37 M instructions, no peak rise (benchmarks/chains60.md)
+KEPT_BLOCK_BYTES = 1 << 18
 
 
 def _kept_bytes(r):

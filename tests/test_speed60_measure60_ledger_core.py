@@ -8,30 +8,18 @@ past the file's end, none) and, where the corpus is here, on the rectilinear pla
 core is used (not a fallback); errors propagate."""
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import pytest
 from test_speed50_boot50_quiet_stops import _watch
-from test_speed51_meas51_quiet_core import _fields
+from test_speed51_meas51_quiet_core import FILES as QUIET_FILES, RECT, SAMPLES, _fields, _profile
 
 from gcode_opt import state as st
 from gcode_opt.firmware import simulate as fwsim
 from gcode_opt.profile import load_profile
 
-ROOT = Path(__file__).resolve().parent.parent
-SAMPLES = ROOT / "sample_gcode"
-FILES = ["prusa_gyroid.gcode", "prusa_mk3s_rectilinear.gcode", "prusa_klipper.gcode",
-         "prusa_concentric_arcs.gcode", "edge/firmware_retraction.gcode", "edge/tool_changes.gcode",
-         "edge/klipper_macros.gcode", "edge/crlf_line_endings.gcode", "edge/relative_g91.gcode"]
-RECT = Path(os.path.expanduser("~/.cache/gcode-opt-corpus/plate_rectilinear.gcode"))
+FILES = QUIET_FILES + ["edge/klipper_macros.gcode"]     # (the quiet core's samples and Klipper's macros)
 
 pytestmark = pytest.mark.skipif(fwsim.CORE != "c" or not hasattr(fwsim._core, "ledger_new"),
                                 reason="compiled core")
-
-
-def _profile(name):
-    return load_profile("voron24" if "klipper" in name else "prusa-mk3s")
 
 
 def _run(path, profile, watch, core, monkeypatch):

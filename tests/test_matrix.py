@@ -71,12 +71,13 @@ def _oracle_check(inp, out, prof):
     profile = load_profile(prof)
     if profile.flavour != "klipper":
         return
-    from klipper_oracle import run_oracle
+    from klipper_oracle import full_stops, run_oracle
     before, after = run_oracle(str(inp), profile), run_oracle(str(out), profile)
     # a file Klipper itself stops on (G2 R, G20) must stop it at the same error, not a new one
     assert [e["message"] for e in after["errors"]] == [e["message"] for e in before["errors"]], after["errors"][:3]
-    assert after["n_internal_full_stops"] <= before["n_internal_full_stops"], \
-        (before["n_internal_full_stops"], after["n_internal_full_stops"])
+    # no new full stop (counted at 0.01 mm/s: a reversal's junction speed below that is rounding)
+    stops0, stops1 = full_stops(str(inp), profile), full_stops(str(out), profile)
+    assert stops1 <= stops0, (stops0, stops1)
 
 
 @pytest.mark.parametrize("case", SUBSET, ids=_id)

@@ -68,7 +68,7 @@ class GeomKeep(SpillFile):
         rows = np.flatnonzero((codes == C_CURVE) | (codes == C_CHAIN))
         if not rows.size:
             return
-        gs = list(map(_CURV, _take(sts, rows)))
+        gs = list(map(_CURV, objfields.items(sts, rows)))
         try:
             # the blocks in the order first met, each row's place among them; each row's row in its block
             bs, which = objfields.by_identity(gs, "_b")
@@ -257,7 +257,7 @@ class GeomKeep(SpillFile):
         ends = _ends(cols[C_END0], cols[C_END1], True)
         chain = _rows_chain_caps(main[main.size - int(main[2]):], head, bits)
         lim = (self.profile, self.lims)
-        bsts_all = _take(sts, at_r)
+        bsts_all = objfields.items(sts, at_r)
         x = 3 + 3 * len(head) + N_COLS * R
         r0 = y = 0
         for p, (n, m, fl) in enumerate(head):
@@ -303,7 +303,7 @@ class GeomKeep(SpillFile):
         cap, accel, ke_col = got[C_CAP], got[C_ACCEL], got[C_KE]
         ends = _ends(got[C_END0], got[C_END1], True)
         chain = _rows_chain_caps(main[n_main - int(main[2]):], head, bits_all, rs)
-        bsts_all = _take(sts, at_r[rs])
+        bsts_all = objfields.items(sts, at_r[rs])
         lim = (self.profile, self.lims)
         r0 = y = 0
         for p, (n, m, flags) in enumerate(head):
@@ -361,13 +361,6 @@ def _byte_runs(flat, a, z, has):
 
 
 _BYTE_RUNS = getattr(_CURVE_CORE, "byte_runs", None)
-
-
-def _take(sts, rows):
-    """[sts[i] for i in rows] (rows an int array): objfields' one compiled pass where it
-    takes them (sts a list)."""
-    got = objfields.take(sts, rows) if type(sts) is list else None
-    return list(map(sts.__getitem__, rows.tolist())) if got is None else got
 
 
 def _runs_any(mask, at):

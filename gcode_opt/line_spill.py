@@ -143,7 +143,7 @@ class LineSpill(SpillFile):
         same = ((kv[:, 0] == cls[has]) & (kv[:, 1] == T[has].view(np.int64))
                 & (kv[:, 2] == beta[has].view(np.int64)))
         has[has] = same
-        return rows[has], _items(plans, which[same]), rows[~has]
+        return rows[has], objfields.items(plans, which[same]), rows[~has]
 
     def _read(self, at, lens):
         """The records at at (sorted, distinct; doubles from the file's start, lens long):
@@ -264,7 +264,3 @@ def _put_at(dst, rows, src, at=None):
             dst[i] = src[j]
 
 
-def _items(seq, at):
-    """[seq[i] for i in at] (an int array): in one compiled pass where built (objfields.take)."""
-    got = objfields.take(seq, at.astype(np.intp, copy=False))
-    return got if got is not None else list(map(seq.__getitem__, at.tolist()))

@@ -113,6 +113,14 @@ def fill_at(dst, rows, value):
     return True
 
 
+def items(src, rows):
+    """[src[i] for i in rows] (rows an int array; src a list, or any sequence): take's one
+    compiled pass where it can, else item by item (the same items, the same IndexError)."""
+    rows = np.asarray(rows, np.intp)
+    got = take(src, rows)
+    return got if got is not None else list(map(src.__getitem__, rows.tolist()))
+
+
 def take(src, rows):
     """[src[i] for i in rows] (src a list, rows an intp array) in one compiled pass (the
     same IndexError where a row is out of range), or None where not built or not of

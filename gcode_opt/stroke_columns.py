@@ -108,25 +108,18 @@ class StrokeColumns:
         col = self.floats[name]
         if isinstance(col, np.ndarray):
             return col[rows].tolist()
-        return _take(col, rows)
+        return objfields.items(col, rows)
 
     def float_array(self, name, rows):
         """The float field `name` at rows, a float64 array."""
         col = self.floats[name]
         if isinstance(col, np.ndarray):
             return col[rows]
-        return np.fromiter(_take(col, rows), float, len(rows))
+        return np.fromiter(objfields.items(col, rows), float, len(rows))
 
     def values(self, name, rows):
         """The coded field `name` (feature, kind, layer) at rows, a list of the values."""
-        return _take(list(self.code_of[name]), self.codes[name][rows])
-
-
-def _take(src, rows):
-    """[src[i] for i in rows] (src a list, rows an intp array)."""
-    rows = np.asarray(rows, np.intp)
-    got = objfields.take(src, rows)
-    return got if got is not None else list(map(src.__getitem__, rows.tolist()))
+        return objfields.items(list(self.code_of[name]), self.codes[name][rows])
 
 
 def line_columns(strokes):
@@ -137,14 +130,8 @@ def line_columns(strokes):
         return strokes.first_idx, strokes.last_idx
     got = stored(strokes)
     if got is not None:
-        return _stored_lines(got[0])
+        return got[0].lines()          # (its lines side: 32 bytes a record read, not the records)
     return line_spans(strokes)
-
-
-def _stored_lines(store):
-    """(first_idx, last_idx) of every record of store, int64 arrays: its lines side
-    (StrokeStore.lines: 16 bytes a record read, not the records)."""
-    return store.lines()
 
 
 def first_lines(strokes):

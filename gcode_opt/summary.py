@@ -10,9 +10,10 @@ from itertools import compress
 
 import numpy as np
 
+from . import objfields
 from .distinct import value_codes
 from .outranges import columns as range_columns
-from .stroke_columns import StrokeColumns, _take
+from .stroke_columns import StrokeColumns
 
 
 FAULT_PREFIXES = ("error:", "validator:")    # plan.reason of a stroke isolated after a failure
@@ -400,7 +401,7 @@ class StrokeRows(Sequence):
             fields, at = self._fields(a, b), a
         part = [c[a - at:b - at] for c in fields]
         lines, n_moves, r4, rv0, rv1, rvf = map(_as_list, part[:2] + part[5:])
-        kinds, features, layers = (_take(values, code) for (values, _), code in zip(self.coded, part[2:5]))
+        kinds, features, layers = (objfields.items(values, code) for (values, _), code in zip(self.coded, part[2:5]))
         out_first, t0, t_law, t1, i0, i_law, a21, beta = (_part(c, a, b) for c in self.cols)
         gc_was = gc.isenabled()
         gc.disable()

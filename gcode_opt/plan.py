@@ -880,24 +880,39 @@ def _shared_piece(rows, made, inv):
     return out
 
 
+# the distinct inputs a PiecesMemo holds before it makes their pieces, in one call: a call
+# pays the bisection's set-up (_log_gamma_root's steps, whatever its rows: ~6 M instructions),
+# and the windowed rectilinear plate's 11 line units met 3.4 k new inputs in the first, then
+# 1.3 k, 116, 42, ... (benchmarks/perwin61.md)
+MEMO_MAKE_ROWS = 4096
+
+
 class PiecesMemo:
     """pieces_once across calls (the windows of a file, in order): each distinct set of
-    candidate inputs (_same_inputs' bytes) is made by the first call that meets it, so
+    candidate inputs (_same_inputs' bytes) is made once, whichever call met it first, so
     K windows make no more rows than one call of all their rows (the rectilinear plate's
     48.6 k lines: 6.2 k rows made at once; in 9 windows each made its own, 13.3 k).
     Every entry is its row's own, so a row has the same entries whichever call made its
-    inputs.  piece() gives the SharedPiece of every row added, the distinct inputs in the
-    order first met: the one pieces_once makes of the rows all at once."""
+    inputs: the new inputs wait until make_rows (None: MEMO_MAKE_ROWS) of them have come (or piece() is asked)
+    and are made together, isolate'd: inputs whose make raises fail every row that has
+    them into failed (their "planning" error, as each row's own make would).  piece()
+    gives the SharedPiece of every row added, the distinct inputs in the order first met:
+    the one pieces_once makes of the rows all at once."""
 
-    def __init__(self):
+    def __init__(self, failed=None, make_rows=None):
         self.index = {}         # the inputs' bytes -> their distinct row
         self.rows, self.inv, self.made = [], [], []
+        self.failed = {} if failed is None else failed
+        self.make_rows = MEMO_MAKE_ROWS if make_rows is None else make_rows
+        self.make = self.T_orig = None
+        self.waiting, self.waiting_rows = [], []    # the distinct inputs not made yet (PlanInputs), their rows
+        self.done = 0           # the distinct inputs made (or lost) so far: the first ids
+        self.lost = {}          # {distinct id: why} of the inputs whose make raised
 
     def add(self, make, p: PlanInput, rows, T_orig):
-        """Takes in the rows (p: their PlanInput), making the inputs not met before:
-        make(p, rows, T_orig) as pieces_once's.  False (nothing taken) where their inputs
-        are not plain, or make's pieces are not in order: the caller makes them itself.
-        Nothing is kept where make raises."""
+        """Takes in the rows (p: their PlanInput), the inputs not met before to be made by
+        make(p, rows, T_orig) (pieces_once's: the rows' pieces, in order).  False (nothing
+        taken) where their inputs are not plain: the caller makes them itself."""
         rows = np.asarray(rows)
         if rows.size == 0:
             return True
@@ -916,24 +931,71 @@ class PiecesMemo:
             ids[j] = got if got is not None else new.setdefault(key, known + len(new))
         fresh = np.flatnonzero(ids >= known)
         if fresh.size:
-            made = make(p.take(first[fresh]), rows[first[fresh]], T_orig)
-            if not _made_in_order(made, rows[first[fresh]]):
-                return False
-            self.made += made
+            self.make, self.T_orig = make, T_orig
+            self.waiting.append(p.take(first[fresh]))
+            self.waiting_rows.append(rows[first[fresh]])
         self.index.update(new)
         self.rows.append(rows)
         self.inv.append(ids[inv])
+        if len(self.index) - self.done >= self.make_rows:
+            self._make_waiting()
         return True
+
+    def _make_waiting(self):
+        """The waiting inputs' pieces made in one call (isolate: those whose make raises
+        lost, their first rows failed)."""
+        if not self.waiting:
+            return
+        p, rows = _joined_inputs(self.waiting), np.concatenate(self.waiting_rows)
+        self.waiting, self.waiting_rows = [], []
+        make, T_orig, whys = self.make, self.T_orig, {}
+
+        def made(at):
+            return make(p if at.size == rows.size else p.take(at), rows[at], T_orig)
+        for _, got in isolate(made, np.arange(rows.size), "planning", whys):
+            self.made += got
+        for at, why in whys.items():
+            self.lost[self.done + at] = why
+            self.failed[int(rows[at])] = why
+        self.done += rows.size
 
     def piece(self):
         """[the SharedPiece of every row added] ([] if none).  The memo is spent: what it
         held (its pieces, the inputs' keys: ~2 MB on the rectilinear plate) is let go, not
         held beside the SharedPiece through the tables' merge."""
+        self._make_waiting()
         if not self.rows:
             return []
         rows, inv, made = np.concatenate(self.rows), np.concatenate(self.inv), self.made
-        self.index, self.rows, self.inv, self.made = {}, [], [], []
+        lost = self.lost
+        self.index, self.rows, self.inv, self.made, self.lost = {}, [], [], [], {}
+        if lost:
+            rows, inv = _without_lost(rows, inv, lost, self.done, self.failed)
+            if not rows.size:
+                return []
         return [_shared_piece(rows, made, inv)]
+
+
+def _without_lost(rows, inv, lost, n, failed):
+    """(rows, inv) of a PiecesMemo's rows but those of the lost distinct inputs (of n; {id:
+    why}), failed with their why, the others' ids counted without the lost ones."""
+    gone = np.zeros(n, bool)
+    gone[list(lost)] = True
+    out = gone[inv]
+    for r, i in zip(rows[out].tolist(), inv[out].tolist()):
+        failed.setdefault(r, lost[i])
+    keep = ~out
+    return rows[keep], (np.cumsum(~gone) - 1).astype(inv.dtype)[inv[keep]]
+
+
+def _joined_inputs(parts):
+    """The PlanInputs parts as one (their rows in turn)."""
+    if len(parts) == 1:
+        return parts[0]
+    return PlanInput(*(np.concatenate([getattr(q, f) for q in parts]) for f in _INPUT_FIELDS))
+
+
+_INPUT_FIELDS = ("L", "v0", "v1", "v_cap", "a_cap", "T_orig", "I_orig", "mass_r", "t_seg_min")
 
 
 SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share

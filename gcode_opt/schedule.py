@@ -424,7 +424,7 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
              K_ARC: lambda: _arcs().arc_grid_levels(pin, todo_rows[K_ARC], strokes)}
     ordered = all(r.size < 2 or bool((r[1:] >= r[:-1]).all()) for r in rows.values())
     windows = [partial(_window_rows, rows, lo, hi, ordered) for lo, hi in zip(bounds[:-1], bounds[1:])]
-    memo = PiecesMemo()
+    memo = PiecesMemo(failed)
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
     nw = len(windows)

@@ -224,9 +224,10 @@ def test_shared_piece_as_before(chunk):
 
 
 def test_memo_spent_by_piece():
-    """PiecesMemo.piece gives the old SharedPiece and holds nothing after."""
+    """PiecesMemo.piece gives the old SharedPiece and holds nothing after (each call's new
+    inputs made as they come: make_rows 0, its pieces all in memo.made before piece)."""
     pin, r = _line_pin()
-    memo = plan_mod.PiecesMemo()
+    memo = plan_mod.PiecesMemo(make_rows=0)
     for w in np.array_split(r, 5):
         assert memo.add(plan_mod.candidate_pieces, pin.take(w), w, pin.T_orig)
     want = ref_shared_piece(np.concatenate(memo.rows), list(memo.made), np.concatenate(memo.inv))

@@ -23,7 +23,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .distinct import classes_in_row_order
+from .distinct import _row_hashes, classes_in_row_order
 from .laws.line import InteriorSpeeds, cubic_figures, end_speeds, interior_speed, line_law, peak_root_guess
 
 # candidate durations, as multiples of the stroke's original duration
@@ -900,7 +900,7 @@ class PiecesMemo:
     the one pieces_once makes of the rows all at once."""
 
     def __init__(self, failed=None, make_rows=None):
-        self.index = {}         # the inputs' bytes -> their distinct row
+        self.index = _InputsIndex()     # the distinct inputs met, by their bits
         self.rows, self.inv, self.made = [], [], []
         self.failed = {} if failed is None else failed
         self.make_rows = MEMO_MAKE_ROWS if make_rows is None else make_rows
@@ -920,21 +920,13 @@ class PiecesMemo:
         if same is None:
             return False
         first, inv = same
-        rec = np.stack([c[first].view(np.int64) for c in _same_cols(p)], axis=1)
-        width = rec.shape[1] * 8
-        blob = rec.tobytes()
-        keys = [blob[a:a + width] for a in range(0, len(blob), width)]
-        known, new = len(self.index), {}
-        ids = np.empty(len(keys), np.intp)
-        for j, key in enumerate(keys):         # (the keys are distinct: first's rows)
-            got = self.index.get(key)
-            ids[j] = got if got is not None else new.setdefault(key, known + len(new))
+        known = len(self.index)
+        ids = self.index.ids([c[first].view(np.int64) for c in _same_cols(p)])
         fresh = np.flatnonzero(ids >= known)
         if fresh.size:
             self.make, self.T_orig = make, T_orig
             self.waiting.append(p.take(first[fresh]))
             self.waiting_rows.append(rows[first[fresh]])
-        self.index.update(new)
         self.rows.append(rows)
         self.inv.append(ids[inv])
         if len(self.index) - self.done >= self.make_rows:
@@ -968,12 +960,64 @@ class PiecesMemo:
             return []
         rows, inv, made = np.concatenate(self.rows), np.concatenate(self.inv), self.made
         lost = self.lost
-        self.index, self.rows, self.inv, self.made, self.lost = {}, [], [], [], {}
+        self.index, self.rows, self.inv, self.made, self.lost = _InputsIndex(), [], [], [], {}
         if lost:
             rows, inv = _without_lost(rows, inv, lost, self.done, self.failed)
             if not rows.size:
                 return []
         return [_shared_piece(rows, made, inv)]
+
+
+class _InputsIndex:
+    """PiecesMemo's distinct inputs by their bits (rows of int64 columns): ids() gives a row
+    met before its id, a new one the next.  Looked up by a hash of the rows (distinct.
+    _row_hashes) in a sorted array, each found row compared with the one kept, column by
+    column: no bytes object and dict look-up a row in Python (~600 instructions each, the
+    ~50 k distinct rows of the rectilinear plate's 11 windowed calls)."""
+
+    def __init__(self):
+        self.h = np.zeros(0, np.uint64)        # the rows' hashes, sorted (a hash's rows in the order met)
+        self.at = np.zeros(0, np.intp)         # each one's id
+        self.cols = None                       # the rows kept, by id: a list of int64 columns
+
+    def __len__(self):
+        return self.at.size
+
+    def ids(self, cols):
+        """The id of each row of the int64 columns cols (distinct rows): that of the row of
+        its bits met before, else the next ones in their order (kept from now on)."""
+        h = _row_hashes(cols)
+        n = h.size
+        ids = np.full(n, -1, np.intp)
+        if self.h.size:
+            k = np.minimum(np.searchsorted(self.h, h), self.h.size - 1)
+            q = np.flatnonzero(self.h[k] == h)
+            got = self.at[k[q]]
+            same = np.ones(q.size, bool)
+            for c, kept in zip(cols, self.cols):
+                same &= kept[got] == c[q]
+            ids[q[same]] = got[same]
+            for j, a in zip(q[~same].tolist(), k[q[~same]].tolist()):   # (another row of that hash first)
+                ids[j] = self._twin(cols, j, h[j], a)
+        new = np.flatnonzero(ids < 0)
+        if new.size:
+            ids[new] = len(self) + np.arange(new.size)
+            h_all = np.concatenate([self.h, h[new]])
+            o = np.argsort(h_all, kind="stable")
+            self.h, self.at = h_all[o], np.concatenate([self.at, ids[new]])[o]
+            self.cols = [c[new] if kept is None else np.concatenate([kept, c[new]])
+                         for c, kept in zip(cols, self.cols or [None] * len(cols))]
+        return ids
+
+    def _twin(self, cols, j, h, a):
+        """The id of row j of cols among the rows kept of its hash h (from a, the first of
+        them), or -1."""
+        while a < self.h.size and self.h[a] == h:
+            i = self.at[a]
+            if all(kept[i] == c[j] for c, kept in zip(cols, self.cols)):
+                return i
+            a += 1
+        return -1
 
 
 def _without_lost(rows, inv, lost, n, failed):

@@ -235,7 +235,7 @@ def test_memo_spent_by_piece():
     assert len(got) == 1
     for f in SharedPiece._fields:
         _same_bits(getattr(want, f), getattr(got[0], f), f)
-    assert memo.index == {} and memo.rows == [] and memo.inv == [] and memo.made == []
+    assert len(memo.index) == 0 and memo.rows == [] and memo.inv == [] and memo.made == []
     assert memo.piece() == []
 
 

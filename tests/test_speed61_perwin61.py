@@ -3,6 +3,8 @@
   (or at piece()), not a make a call: the same SharedPiece as pieces_once of all the rows,
   bit for bit, whatever the windows and make_rows; inputs whose make raises fail every row
   that has them (their "planning" error), the piece that of the other rows;
+- its index of the inputs met (plan._InputsIndex: by a hash of their bits, each found row
+  compared) gives the ids a dict of their bytes gives, hashes colliding or not;
 - the command, windowed at several windows (37, 2048) and with the memo making its inputs
   a few at a time, writes the list path's file and summary."""
 import json
@@ -94,6 +96,26 @@ def test_memo_lost_inputs_fail_their_rows():
     assert failed == {int(i): "error: planning (ValueError)" for i in twins}
     keep = r[~np.isin(r, twins)]
     _same_bits(plan_mod.pieces_once(plan_mod.candidate_pieces, pin.take(keep), keep, pin.T_orig), got)
+
+
+@pytest.mark.parametrize("collide", [False, True])
+def test_inputs_index_ids_as_a_dict_of_their_bytes(monkeypatch, collide):
+    """Calls of distinct rows (int64 columns; rows recur across calls, -0.0 and 0.0 as
+    bits apart): each row's id that of a dict of the rows' bytes, new ones numbered in the
+    order met; with every hash equal (collide) too."""
+    if collide:
+        monkeypatch.setattr(plan_mod, "_row_hashes", lambda cols: np.zeros(cols[0].shape[0], np.uint64))
+    rng = np.random.default_rng(61)
+    pool = rng.integers(0, 4, (300, 3))
+    pool[:, 2] = np.array([0.0, -0.0, 1.5, 2.0])[pool[:, 2]].view(np.int64)
+    pool = np.unique(pool, axis=0)
+    index, ref = plan_mod._InputsIndex(), {}
+    for _ in range(5):
+        rows = pool[rng.permutation(len(pool))[:rng.integers(1, len(pool))]]
+        got = index.ids([rows[:, j].copy() for j in range(3)])
+        want = [ref.setdefault(r.tobytes(), len(ref)) for r in rows]
+        assert got.tolist() == want
+        assert len(index) == len(ref)
 
 
 def _run(monkeypatch, tmp_path, name, window=None):

@@ -423,11 +423,11 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     first = {K_CURVE: lambda: curves.curve_grid_levels(pin, todo_rows[K_CURVE], strokes, profile),
              K_ARC: lambda: _arcs().arc_grid_levels(pin, todo_rows[K_ARC], strokes)}
     ordered = all(r.size < 2 or bool((r[1:] >= r[:-1]).all()) for r in rows.values())
-    windows = [partial(_window_rows, rows, lo, hi, ordered) for lo, hi in zip(bounds[:-1], bounds[1:])]
+    window_rows = _WindowRows(rows, bounds, ordered)
     memo = PiecesMemo(failed)
     n0 = circle.NEWTON_ARCS[0]
     pieces = []
-    nw = len(windows)
+    nw = len(bounds) - 1
     # per circle kind: its units of windows (first window, end), the unit the window j
     # closes, the strokes of the open unit; the floors (the largest own levels met so far,
     # a pass), and per unit its pieces, the floors it took and each pass's (own levels,
@@ -454,13 +454,13 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
     again = {k: set(range(nw)) for k in _LEVEL_KINDS}       # the windows whose units are (made) again
     while True:
         for j in sorted(set().union(*again.values())):
-            got = windows[j]()
+            got = window_rows(j, j + 1)
             sts = _window_strokes(strokes, got, bounds[j], bounds[j + 1])
             if not redone:              # (the other kinds once, a unit of windows; the chains a batch of windows)
                 unit = other_units.get(j)
                 if unit is not None:
                     pieces += window_pieces(strokes, pin, profile, got if unit[1] - unit[0] == 1 else
-                                            _window_rows(rows, bounds[unit[0]], bounds[unit[1]], ordered),
+                                            window_rows(*unit),
                                             failed, rules, lines=memo, kinds=others)
                 pieces += waiting.add(got.get(K_CHAIN), j == nw - 1, sts)
             for k in [k for k in _LEVEL_KINDS if j in again[k]]:
@@ -472,7 +472,7 @@ def candidates_in_windows(strokes, pin, profile, opts, rows, failed, bounds, inf
                 held[k].update(zip(r, map(sts.__getitem__, r)))
                 if u is not None:
                     a, e = units[k][u]
-                    make(k, u, _window_rows(rows, bounds[a], bounds[e], ordered)[k], held[k])
+                    make(k, u, window_rows(a, e)[k], held[k])
                     held[k] = {}
         for k in _LEVEL_KINDS:
             levels[k] = _file_levels(owns[k])
@@ -622,13 +622,23 @@ def _window_strokes(strokes, got, lo, hi):
     return dict(zip(rows.tolist(), strokes.take(rows)))
 
 
-def _window_rows(rows, lo, hi, ordered):
-    """{kind: its rows in [lo, hi), in their order} of rows ({kind: rows}), made when the
-    window is (the windows' copies, every row's once, were held through them); ordered:
-    every kind's rows ascending, then views of them."""
-    if ordered:
-        return {k: r[np.searchsorted(r, lo):np.searchsorted(r, hi)] for k, r in rows.items()}
-    return {k: r[(r >= lo) & (r < hi)] for k, r in rows.items()}
+class _WindowRows:
+    """window_rows(a, e): {kind: its rows in the windows a .. e - 1 ([bounds[a], bounds[e])),
+    in their order} of rows ({kind: rows}), made when asked (the windows' copies, every
+    row's once, were held through them); ordered: every kind's rows ascending, then views
+    of them between the places of the bounds, found once for every window (two scalar
+    np.searchsorted a kind a window were ~95 k instructions a window)."""
+    __slots__ = ("rows", "bounds", "cut")
+
+    def __init__(self, rows, bounds, ordered):
+        self.rows, self.bounds = rows, bounds
+        self.cut = [np.searchsorted(r, bounds).tolist() for r in rows.values()] if ordered else None
+
+    def __call__(self, a, e):
+        if self.cut is None:
+            lo, hi = self.bounds[a], self.bounds[e]
+            return {k: r[(r >= lo) & (r < hi)] for k, r in self.rows.items()}
+        return {k: r[c[a]:c[e]] for (k, r), c in zip(self.rows.items(), self.cut)}
 
 
 def _level_units(rows, bounds, least):

@@ -298,7 +298,8 @@ def test_own_levels_functions_hold_little():
 
 # ---------------------------------------------------------------- the windows' rows
 def test_window_rows_as_before():
-    """_window_rows (views, made when asked) against the windows' copies as they were made."""
+    """_WindowRows (views, made when asked) against the windows' copies as they were made:
+    a window, and windows together."""
     rng = np.random.default_rng(3)
     n = 1000
     codes = rng.integers(0, 4, n)
@@ -307,9 +308,11 @@ def test_window_rows_as_before():
     shuffled = {k: rng.permutation(r) for k, r in rows.items()}
     bounds = [0, 1, 17, 500, 501, 999, 1000]
     for rr, ordered in ((rows, True), (shuffled, False)):
-        for lo, hi in zip(bounds[:-1], bounds[1:]):
+        window_rows = sc._WindowRows(rr, np.array(bounds), ordered)
+        for a, e in [(j, j + 1) for j in range(len(bounds) - 1)] + [(0, 3), (2, 6), (0, 6), (3, 3)]:
+            lo, hi = bounds[a], bounds[e]
             want = {k: r[(r >= lo) & (r < hi)] for k, r in rr.items()}       # (872f8f0's)
-            got = sc._window_rows(rr, lo, hi, ordered)
+            got = window_rows(a, e)
             assert list(got) == list(want)
             for k in want:
                 _same_bits(want[k], got[k], k)

@@ -883,8 +883,9 @@ def _shared_piece(rows, made, inv):
 # the distinct inputs a PiecesMemo holds before it makes their pieces, in one call: a call
 # pays the bisection's set-up (_log_gamma_root's steps, whatever its rows: ~6 M instructions),
 # and the windowed rectilinear plate's 11 line units met 3.4 k new inputs in the first, then
-# 1.3 k, 116, 42, ... (benchmarks/perwin61.md)
-MEMO_MAKE_ROWS = 4096
+# 1.3 k, 116, 42, ... (10 calls -> 4).  Not more: the last ones wait to the merge, all the
+# pieces held, and their make's tables are made on top of them (benchmarks/perwin61.md)
+MEMO_MAKE_ROWS = 1024
 
 
 class PiecesMemo:

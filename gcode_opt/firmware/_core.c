@@ -7417,10 +7417,10 @@ typedef struct {
 } SrSeen;
 
 /* slot value v (NULL: unset) of stroke row written: its tag (*tag) and payload */
-static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObject *index, PyObject *table,
-                      Py_ssize_t row, unsigned char *tag, SrSeen *seen)
+static inline __attribute__((always_inline)) int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v,
+                                                            PyObject *index, PyObject *table, Py_ssize_t row,
+                                                            unsigned char *tag, SrSeen *seen)
 {
-    const char *name = SO_NAMES[slot];
     char *p;
     if (v == NULL) {
         *tag = SR_UNSET;
@@ -7432,7 +7432,7 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
     }
     if (slot == SO_CHAIN) {
         if ((PyObject *)Py_TYPE(v) != k->memo_t)
-            return sr_refuse(row, name, v);
+            return sr_refuse(row, SO_NAMES[slot], v);
         *tag = SR_MEMO;
         return 0;
     }
@@ -7454,7 +7454,7 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
         if (x == -1 && PyErr_Occurred())
             return -1;
         if (over)
-            return sr_refuse(row, name, v);
+            return sr_refuse(row, SO_NAMES[slot], v);
         if ((p = sr_room(w, 8)) == NULL)
             return -1;
         memcpy(p, &x, 8);
@@ -7527,7 +7527,7 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
         *tag = SR_ARC;
         return 0;
     }
-    return sr_refuse(row, name, v);
+    return sr_refuse(row, SO_NAMES[slot], v);
 }
 
 /* one stroke's record appended to w (row: its number, for errors) */

@@ -146,3 +146,21 @@ def test_windowed_rewrite_holds_frozen(monkeypatch, tmp_path, sample):
     assert got == ref
     assert seen and sum(n for _, n, _ in seen) > 0
     assert all(has and tracked == 0 for has, _, tracked in seen)
+
+
+def test_encode_refuses_bad_field_buffers():
+    """store_encode's fields buffers of the wrong type, size or codes: ValueError, and
+    neither buffer kept (their reference counts as before)."""
+    if PATHS == [True]:
+        pytest.skip("no compiled core")
+    import sys
+    sts = _strokes(ARCS)[:5]
+    codec = ss._codec(False)
+    for vals, kinds, codes in ((np.empty((5, 2)), np.empty((5, 2), np.int16), (0, 1)),     # (kinds not int8)
+                               (np.empty((5, 2), np.float32), np.empty((5, 2), np.int8), (0, 1)),
+                               (np.empty((4, 2)), np.empty((4, 2), np.int8), (0, 1)),      # (a row short)
+                               (np.empty((5, 2)), np.empty((5, 2), np.int8), (0, 999))):   # (no such field)
+        counts = sys.getrefcount(vals), sys.getrefcount(kinds)
+        with pytest.raises(ValueError):
+            codec.encode(sts, 0, 5, {}, [], bytearray(), np.empty(5, np.int64), (codes, vals, kinds))
+        assert (sys.getrefcount(vals), sys.getrefcount(kinds)) == counts

@@ -7716,6 +7716,8 @@ static PyObject *mod_store_encode(PyObject *self, PyObject *args)
         PyBuffer_Release(&lb);
         if (out_got >= 1)
             PyBuffer_Release(&vb);
+        if (out_got >= 2)
+            PyBuffer_Release(&kb);
         return NULL;
     }
     long long *lens = lb.buf;

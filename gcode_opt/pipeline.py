@@ -1404,6 +1404,7 @@ def _planned(strokes, profile, opts, freeze, window):
     from .plan_windows import planned_strokes
     with _young_frozen(freeze):
         got = planned_strokes(strokes, profile, opts, window)
+    got[1].freeze = freeze        # (the rewrite's strokes frozen as they are made: stored_strokes.HeldRows)
     trim_heap()                   # (the candidates' transients: the runs grow on live memory only)
     return got
 

@@ -20,6 +20,7 @@ and its changes to it are lost.  Consumers read a window's rows while it is held
 schedule.candidates_in_windows with bounds on the window's multiples)."""
 from __future__ import annotations
 
+import gc
 from collections import OrderedDict
 from functools import partial
 from operator import attrgetter, is_not
@@ -85,6 +86,10 @@ class StoredStrokes(StoreWindows):
         self.loads = 0                   # windows loaded (a measure of the access pattern)
         self._lo = self._hi = 0          # the window used last: its rows [_lo, _hi), its strokes
         self._cur = None
+        # freeze: the caller's freeze() (pipeline._strokes_frozen's: every object then alive
+        # out of the collector's view), or None; the steps after planning hold their
+        # strokes frozen (stored_rows: HeldRows)
+        self.freeze = None
 
     def _win(self, j):
         w = self._wins.get(j)
@@ -301,9 +306,10 @@ def stored(strokes):
 
 
 def stored_rows(strokes):
-    """A HeldRows over the StrokeStore that keeps strokes (stored), or None (a list)."""
+    """A HeldRows over the StrokeStore that keeps strokes (stored), or None (a list); a
+    StoredStrokes' freeze goes with it."""
     got = stored(strokes)
-    return None if got is None else HeldRows(*got)
+    return None if got is None else HeldRows(*got, freeze=getattr(strokes, "freeze", None))
 
 
 class HeldRows(StoreWindows):
@@ -311,10 +317,16 @@ class HeldRows(StoreWindows):
     one slot a stroke (slots: None where no stroke is held), which the steps after planning
     index by stroke index as they index the list of strokes (ends(order): where hold is
     due).  Only the rows asked for are made (the rewrite's re-timed rows, not the rest of
-    their window); the last ones held are let go as the next are."""
+    their window); the last ones held are let go as the next are.  freeze: a function
+    that moves every object alive out of the garbage collector's view (the pipeline's,
+    gc.freeze) called once a hold's strokes are made, or None: the list path's strokes are
+    frozen, the held ones were walked by every young collection of the rewrite's plans
+    (rectilinear plate, windowed: ~40 M instructions; its collections found no garbage,
+    and a frozen stroke let go is still freed by its count)."""
 
-    def __init__(self, store, window):
+    def __init__(self, store, window, freeze=None):
         super().__init__(store, window)
+        self.freeze = freeze
         self.slots = [None] * len(store)
         self._held = np.zeros(0, np.intp)
         self.made = 0                 # strokes made (a measure of the access pattern)
@@ -329,11 +341,21 @@ class HeldRows(StoreWindows):
                 slots[r] = None
         rows = distinct(np.asarray(rows, np.int64)).astype(np.intp, copy=False)   # (np.unique would import numpy.ma: distinct.py)
         self._held = rows
-        made = self.store.take(rows) if len(rows) else []
-        self.made += len(made)
-        if not objfields.put_at(slots, rows, made):
-            for r, st in zip(rows.tolist(), made):
-                slots[r] = st
+        # (the collector off until they are frozen: its first collection walked them all)
+        paused = self.freeze is not None and gc.isenabled()
+        if paused:
+            gc.disable()
+        try:
+            made = self.store.take(rows) if len(rows) else []
+            self.made += len(made)
+            if not objfields.put_at(slots, rows, made):
+                for r, st in zip(rows.tolist(), made):
+                    slots[r] = st
+            if made and self.freeze is not None:
+                self.freeze()
+        finally:
+            if paused:
+                gc.enable()
 
 
 def curve_geometry(codes, profile, geoms=None):

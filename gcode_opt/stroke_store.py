@@ -87,8 +87,12 @@ class _CCodec:
     def __init__(self, core, kit):
         self._core, self._kit = core, kit
 
-    def encode(self, strokes, i0, i1, index, table, buf, lens):
-        return self._core.store_encode(strokes, i0, i1, self._kit, index, table, buf, lens)
+    def encode(self, strokes, i0, i1, index, table, buf, lens, fields=None):
+        if fields is not None and getattr(self._core, "STORE_ENCODE_FIELDS", 0):
+            return self._core.store_encode(strokes, i0, i1, self._kit, index, table, buf, lens, *fields)
+        nb = self._core.store_encode(strokes, i0, i1, self._kit, index, table, buf, lens)
+        _fields_after(self, buf, lens[:i1 - i0], fields)     # (a core built before its fields: read after)
+        return nb
 
     def decode(self, buf, offs, lens, table, out, over=None):
         self._core.store_decode(buf, offs, lens, self._kit, table, out, over)
@@ -179,11 +183,12 @@ class _PyCodec:
         tags = [self._obj(row, k, getattr(st, nm, _UNSET), index, table, tail) for k, nm in enumerate(O_NAMES)]
         return _HEAD.pack(*d, *ii, has, *tags) + b"".join(tail)
 
-    def encode(self, strokes, i0, i1, index, table, buf, lens):
+    def encode(self, strokes, i0, i1, index, table, buf, lens, fields=None):
         recs = [self._record(strokes[r], r, index, table) for r in range(i0, i1)]
         lens[:i1 - i0] = [len(x) for x in recs]
         data = b"".join(recs)
         buf[:] = data
+        _fields_after(self, buf, lens[:i1 - i0], fields)
         return len(data)
 
     @staticmethod
@@ -295,6 +300,13 @@ class _PyCodec:
     @staticmethod
     def fields(buf, offs, lens, codes, vals, kinds, ints=False):
         _py_fields(buf, offs, lens, codes, vals, kinds, ints)
+
+
+def _fields_after(codec, buf, lens, fields):
+    """encode's fields (codes, vals, kinds: None, nothing) read of the records just written
+    at the start of buf (lens: their lengths), as fields(..., ints=True) reads them."""
+    if fields is not None:
+        codec.fields(buf, np.cumsum(lens) - lens, lens, *fields, True)
 
 
 _NAN_BITS = struct.pack("=Q", 0x7ff8000000000000)    # (stroke_fields' None: np.array([None], float)'s NaN)
@@ -477,10 +489,15 @@ class StrokeStore:
     # pipeline encodes only until its plan inputs are made and reads no record during the
     # chains' solves, where kept they added ~1.8 MB (gyroid plate) to the peaks
     def _encode(self, strokes, i0, i1, buf):
-        """(records of strokes[i0:i1] at the start of buf, a bytearray; their lengths)"""
-        lens = np.empty(i1 - i0, np.int64)
-        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, buf, lens)
-        return nb, lens
+        """(bytes of the records of strokes[i0:i1] at the start of buf, a bytearray; their
+        lengths; their SIDE fields' vals and kinds, for _side_values) -- the side's fields
+        taken as each record is written (the compiled encode: no second walk of the
+        records' slots)"""
+        n = i1 - i0
+        lens = np.empty(n, np.int64)
+        vals, kinds = np.empty((n, len(SIDE))), np.empty((n, len(SIDE)), np.int8)
+        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, buf, lens, (_SIDE_CODES, vals, kinds))
+        return nb, lens, vals, kinds
 
     def append(self, strokes):
         """Records of strokes (a list) after the ones stored."""
@@ -488,16 +505,16 @@ class StrokeStore:
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
         buf = bytearray()
-        side = np.empty((len(strokes), len(SIDE)), np.int64)
+        vals, kinds = np.empty((len(strokes), len(SIDE))), np.empty((len(strokes), len(SIDE)), np.int8)
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
-            nb, lens = self._encode(strokes, b0, b1, buf)
-            side[b0:b1] = self._side_of(buf, lens)
+            nb, lens, vals[b0:b1], kinds[b0:b1] = self._encode(strokes, b0, b1, buf)
             self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
             end += nb
+        side = self._side_values(vals, kinds)
         self._side_io.write(side.itemsize * side.shape[1] * self._n, memoryview(side.reshape(-1).view(np.uint8)))
         self._n += len(strokes)
         self._end = end
@@ -571,12 +588,10 @@ class StrokeStore:
         i0, i1 = max(i0, 0), min(i1, self._n)
         return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
-    def _side_of(self, buf, lens):
-        """The SIDE values (int64, (len(lens), len(SIDE))) of the records at the start of buf
-        (lens: their lengths), read by the codec's fields; a column with a value it cannot
+    def _side_values(self, vals, kinds):
+        """The SIDE values (int64, (rows, len(SIDE))) of records whose SIDE fields the codec
+        read as vals and kinds (fields(..., ints=True)); a column with a value it cannot
         hold (not an int or a bool) put in _side_off."""
-        vals, kinds = np.empty((len(lens), len(SIDE))), np.empty((len(lens), len(SIDE)), np.int8)
-        self._codec.fields(buf, np.cumsum(lens) - lens, lens, _SIDE_CODES, vals, kinds, True)
         out = vals.view(np.int64)
         for j, name in enumerate(SIDE[2:], 2):
             k = kinds[:, j]
@@ -660,8 +675,8 @@ class StrokeStore:
         for b0 in range(0, len(rows), BATCH):
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
-            nb, lens = self._encode(strokes, b0, b1, buf)
-            side = self._side_of(buf, lens)
+            nb, lens, vals, kinds = self._encode(strokes, b0, b1, buf)
+            side = self._side_values(vals, kinds)
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]

@@ -7332,21 +7332,43 @@ static int store_kit(PyObject *o, StoreKit *k)
     return 0;
 }
 
-/* a growing bytearray (the caller's, kept between calls) */
+/* a growing bytearray (the caller's, kept between calls); cap and base: its size and bytes
+ * as last seen (only sr_grow resizes it) */
 typedef struct {
     PyObject *ba;
-    Py_ssize_t n;
+    Py_ssize_t n, cap;
+    char *base;
 } SrBuf;
 
-static char *sr_room(SrBuf *w, Py_ssize_t need)
+static void sr_buf_init(SrBuf *w, PyObject *ba)
 {
-    Py_ssize_t cap = PyByteArray_GET_SIZE(w->ba);
-    if (w->n + need > cap) {
-        Py_ssize_t to = cap * 2 > w->n + need ? cap * 2 : w->n + need + 65536;
-        if (PyByteArray_Resize(w->ba, to) < 0)
-            return NULL;
-    }
-    char *p = PyByteArray_AS_STRING(w->ba) + w->n;
+    w->ba = ba;
+    w->n = 0;
+    w->cap = PyByteArray_GET_SIZE(ba);
+    w->base = PyByteArray_AS_STRING(ba);
+}
+
+/* sr_room's bytearray grown (doubled, or to what is needed and 64 kB more) */
+static __attribute__((noinline)) char *sr_grow(SrBuf *w, Py_ssize_t need)
+{
+    Py_ssize_t cap = w->cap;
+    Py_ssize_t to = cap * 2 > w->n + need ? cap * 2 : w->n + need + 65536;
+    if (PyByteArray_Resize(w->ba, to) < 0)
+        return NULL;
+    w->cap = PyByteArray_GET_SIZE(w->ba);
+    w->base = PyByteArray_AS_STRING(w->ba);
+    char *p = w->base + w->n;
+    w->n += need;
+    return p;
+}
+
+/* need bytes at the end of w's bytes (inline: a record's ~10 payloads each reserve theirs,
+ * ~0.5 M calls on the rectilinear plate) */
+static inline __attribute__((always_inline)) char *sr_room(SrBuf *w, Py_ssize_t need)
+{
+    if (w->n + need > w->cap)
+        return sr_grow(w, need);
+    char *p = w->base + w->n;
     w->n += need;
     return p;
 }
@@ -7395,10 +7417,10 @@ typedef struct {
 } SrSeen;
 
 /* slot value v (NULL: unset) of stroke row written: its tag (*tag) and payload */
-static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObject *index, PyObject *table,
-                      Py_ssize_t row, unsigned char *tag, SrSeen *seen)
+static inline __attribute__((always_inline)) int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v,
+                                                            PyObject *index, PyObject *table, Py_ssize_t row,
+                                                            unsigned char *tag, SrSeen *seen)
 {
-    const char *name = SO_NAMES[slot];
     char *p;
     if (v == NULL) {
         *tag = SR_UNSET;
@@ -7410,7 +7432,7 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
     }
     if (slot == SO_CHAIN) {
         if ((PyObject *)Py_TYPE(v) != k->memo_t)
-            return sr_refuse(row, name, v);
+            return sr_refuse(row, SO_NAMES[slot], v);
         *tag = SR_MEMO;
         return 0;
     }
@@ -7432,7 +7454,7 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
         if (x == -1 && PyErr_Occurred())
             return -1;
         if (over)
-            return sr_refuse(row, name, v);
+            return sr_refuse(row, SO_NAMES[slot], v);
         if ((p = sr_room(w, 8)) == NULL)
             return -1;
         memcpy(p, &x, 8);
@@ -7505,12 +7527,12 @@ static int sr_put_obj(SrBuf *w, const StoreKit *k, int slot, PyObject *v, PyObje
         *tag = SR_ARC;
         return 0;
     }
-    return sr_refuse(row, name, v);
+    return sr_refuse(row, SO_NAMES[slot], v);
 }
 
 /* one stroke's record appended to w (row: its number, for errors) */
 static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, PyObject *table, Py_ssize_t row,
-                     SrSeen *seen)
+                     SrSeen *seen, Py_ssize_t *off)
 {
     if (Py_TYPE(o) != k->stroke_t) {
         PyErr_Format(PyExc_TypeError, "StrokeStore: stroke %zd is a %.80s, not the store's Stroke", row,
@@ -7540,24 +7562,137 @@ static int sr_encode(SrBuf *w, const StoreKit *k, PyObject *o, PyObject *index, 
     memcpy(p + SD_N * 8, s->i, SI_N * 8);
     memcpy(p + SD_N * 8 + SI_N * 8, &has, 4);
     unsigned char tags[SO_N];
-    for (int j = 0; j < SO_N; j++)
+    for (int j = 0; j < SO_N; j++) {
+        off[j] = w->n - at;                        /* (slot j's payload: where store_fields' walk finds it) */
         if (sr_put_obj(w, k, j, s->o[j], index, table, row, &tags[j], seen) < 0)
             return -1;
-    memcpy(PyByteArray_AS_STRING(w->ba) + at + SR_TAGS, tags, SO_N);   /* (the buffer may have moved) */
+    }
+    memcpy(w->base + at + SR_TAGS, tags, SO_N);      /* (the buffer may have moved) */
     return 0;
 }
 
-/* store_encode(strokes, i0, i1, kit, index, table, buf, lens): the records of strokes[i0:i1]
- * written one after the other at the start of the bytearray buf (grown as needed), their
- * lengths into lens (int64, >= i1 - i0 items); the bytes written.  index {id: table index}
- * and table (a list) intern the shared objects (str, Limits). */
+/* store_fields' and store_encode's field numbers: the tuple codes_o's ints into codes (64 at
+ * most), *w their count, *last_slot the last object slot among them (-1: none); -1 with an error */
+static int sr_codes(PyObject *codes_o, int *codes, Py_ssize_t *w, int *last_slot, const char *what)
+{
+    *w = PyTuple_GET_SIZE(codes_o);
+    *last_slot = -1;
+    if (*w > 64) {
+        PyErr_Format(PyExc_ValueError, "%s: at most 64 fields", what);
+        return -1;
+    }
+    for (Py_ssize_t j = 0; j < *w; j++) {
+        long c = PyLong_AsLong(PyTuple_GET_ITEM(codes_o, j));
+        if (c == -1 && PyErr_Occurred())
+            return -1;
+        if (c < 0 || c >= SD_N + SI_N + SO_N) {
+            PyErr_Format(PyExc_ValueError, "%s: no such field", what);
+            return -1;
+        }
+        codes[j] = (int)c;
+        if (c >= SD_N + SI_N && c - SD_N - SI_N > *last_slot)
+            *last_slot = (int)(c - SD_N - SI_N);
+    }
+    return 0;
+}
+
+/* the fields codes[0..w) of the record at p (its payloads: slot s's at p + off[s], for the
+ * slots codes name) into vals[0..w) and kinds[0..w), as store_fields reads them */
+static inline __attribute__((always_inline)) void sr_fields_row(const char *p, const Py_ssize_t *off,
+                                                                const int *codes, Py_ssize_t w, int ints,
+                                                                double *vals, signed char *kinds)
+{
+    const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
+    uint32_t has;
+    memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
+    const unsigned long long nan_bits = 0x7ff8000000000000ull;      /* stroke_fields' None */
+    double nan_v;
+    memcpy(&nan_v, &nan_bits, sizeof nan_v);
+    for (Py_ssize_t j = 0; j < w; j++) {
+        int c = codes[j];
+        double v = 0.0;
+        signed char kind = 0;
+        if (c < SD_N) {
+            if (c >= SD_NONE0 && !(has & (1u << (c - SD_NONE0)))) {
+                v = nan_v;
+                kind = 1;
+            } else
+                memcpy(&v, p + 8 * c, 8);
+        } else if (c < SD_N + SI_N) {
+            memcpy(&v, p + 8 * c, 8);             /* (the int64's bits) */
+        } else {
+            int s = c - SD_N - SI_N;
+            switch (tags[s]) {
+            case SR_FLOAT:
+                memcpy(&v, p + off[s], 8);
+                break;
+            case SR_NONE:
+                v = nan_v;
+                kind = 1;
+                break;
+            case SR_FALSE: case SR_TRUE:
+                v = tags[s] == SR_TRUE ? 1.0 : 0.0;
+                kind = 2;
+                break;
+            case SR_UNSET:
+                kind = 4;
+                break;
+            case SR_INTERN: {
+                uint32_t k;
+                memcpy(&k, p + off[s], 4);
+                v = (double)k;
+                kind = 5;
+                break;
+            }
+            case SR_INT:
+                if (ints)
+                    memcpy(&v, p + off[s], 8);     /* (the int64's bits) */
+                kind = ints ? 6 : 3;
+                break;
+            default:
+                kind = 3;
+            }
+        }
+        vals[j] = v;
+        kinds[j] = kind;
+    }
+}
+
+/* store_fields' and store_encode's vals (float64) and kinds (int8) buffers of n x w items,
+ * writable; got: how many of the two are held (to release) */
+static int sr_fields_out(PyObject *vals_o, PyObject *kinds_o, Py_ssize_t n, Py_ssize_t w, Py_buffer *vb,
+                         Py_buffer *kb, int *got, const char *what)
+{
+    *got = 0;
+    if (PyObject_GetBuffer(vals_o, vb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    *got = 1;
+    if (PyObject_GetBuffer(kinds_o, kb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    *got = 2;
+    if (vb->itemsize != 8 || vb->format == NULL || strcmp(vb->format, "d") || vb->len < n * w * 8
+        || kb->itemsize != 1 || kb->format == NULL || strcmp(kb->format, "b") || kb->len < n * w) {
+        PyErr_Format(PyExc_ValueError, "%s: float64 and int8 buffers of len(offs) x len(codes)", what);
+        return -1;
+    }
+    return 0;
+}
+
+/* store_encode(strokes, i0, i1, kit, index, table, buf, lens[, codes, vals, kinds]): the records
+ * of strokes[i0:i1] written one after the other at the start of the bytearray buf (grown as
+ * needed), their lengths into lens (int64, >= i1 - i0 items); the bytes written.  index {id:
+ * table index} and table (a list) intern the shared objects (str, Limits).  codes, vals,
+ * kinds: the records' fields codes as store_fields(..., ints=True) reads them of buf after
+ * (vals, kinds: (i1 - i0) x len(codes)), taken as each record is written (no walk of its
+ * slots: stroke_store's side columns of every record appended or rewritten) */
 static PyObject *mod_store_encode(PyObject *self, PyObject *args)
 {
     (void)self;
-    PyObject *list, *kit_o, *index, *table, *ba, *lens_o;
+    PyObject *list, *kit_o, *index, *table, *ba, *lens_o, *codes_o = NULL, *vals_o = NULL, *kinds_o = NULL;
     Py_ssize_t i0, i1;
-    if (!PyArg_ParseTuple(args, "O!nnOO!O!O!O:store_encode", &PyList_Type, &list, &i0, &i1, &kit_o, &PyDict_Type,
-                          &index, &PyList_Type, &table, &PyByteArray_Type, &ba, &lens_o))
+    if (!PyArg_ParseTuple(args, "O!nnOO!O!O!O|O!OO:store_encode", &PyList_Type, &list, &i0, &i1, &kit_o, &PyDict_Type,
+                          &index, &PyList_Type, &table, &PyByteArray_Type, &ba, &lens_o, &PyTuple_Type, &codes_o,
+                          &vals_o, &kinds_o))
         return NULL;
     StoreKit k;
     if (store_kit(kit_o, &k) < 0)
@@ -7566,19 +7701,44 @@ static PyObject *mod_store_encode(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_IndexError, "store_encode: rows out of range");
         return NULL;
     }
-    Py_buffer lb;
+    if (codes_o != NULL && kinds_o == NULL) {
+        PyErr_SetString(PyExc_TypeError, "store_encode: codes, vals and kinds go together");
+        return NULL;
+    }
+    Py_ssize_t nw = 0;
+    int codes[64], last_slot, out_got = 0;
+    if (codes_o != NULL && sr_codes(codes_o, codes, &nw, &last_slot, "store_encode") < 0)
+        return NULL;
+    Py_buffer lb, vb, kb;
     if (stroke_buf(lens_o, &lb, i1 - i0, 1, 1, "store_encode") < 0)
         return NULL;
+    if (codes_o != NULL && sr_fields_out(vals_o, kinds_o, i1 - i0, nw, &vb, &kb, &out_got, "store_encode") < 0) {
+        PyBuffer_Release(&lb);
+        if (out_got >= 1)
+            PyBuffer_Release(&vb);
+        if (out_got >= 2)
+            PyBuffer_Release(&kb);
+        return NULL;
+    }
     long long *lens = lb.buf;
-    SrBuf w = {ba, 0};
+    SrBuf w;
+    sr_buf_init(&w, ba);
     SrSeen seen = {{NULL}, {0}};
+    Py_ssize_t off[SO_N];
     int rc = 0;
     for (Py_ssize_t r = i0; r < i1 && rc == 0; r++) {
         Py_ssize_t at = w.n;
-        rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r, &seen);
+        rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r, &seen, off);
         lens[r - i0] = w.n - at;
+        if (rc == 0 && codes_o != NULL)
+            sr_fields_row(w.base + at, off, codes, nw, 1, (double *)vb.buf + (r - i0) * nw,
+                          (signed char *)kb.buf + (r - i0) * nw);
     }
     PyBuffer_Release(&lb);
+    if (codes_o != NULL) {
+        PyBuffer_Release(&vb);
+        PyBuffer_Release(&kb);
+    }
     return rc < 0 ? NULL : PyLong_FromSsize_t(w.n);
 }
 
@@ -8079,67 +8239,41 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "OOOO!OO|p:store_fields", &buf_o, &offs_o, &lens_o, &PyTuple_Type, &codes_o, &vals_o,
                           &kinds_o, &ints))
         return NULL;
-    Py_ssize_t w = PyTuple_GET_SIZE(codes_o);
-    int codes[64], last_slot = -1;
-    if (w > 64) {
-        PyErr_SetString(PyExc_ValueError, "store_fields: at most 64 fields");
+    Py_ssize_t w;
+    int codes[64], last_slot;
+    if (sr_codes(codes_o, codes, &w, &last_slot, "store_fields") < 0)
         return NULL;
-    }
-    for (Py_ssize_t j = 0; j < w; j++) {
-        long c = PyLong_AsLong(PyTuple_GET_ITEM(codes_o, j));
-        if (c == -1 && PyErr_Occurred())
-            return NULL;
-        if (c < 0 || c >= SD_N + SI_N + SO_N) {
-            PyErr_SetString(PyExc_ValueError, "store_fields: no such field");
-            return NULL;
-        }
-        codes[j] = (int)c;
-        if (c >= SD_N + SI_N && c - SD_N - SI_N > last_slot)
-            last_slot = (int)(c - SD_N - SI_N);
-    }
     Py_buffer bb, ob, lb, vb, kb;
     if (PyObject_GetBuffer(buf_o, &bb, PyBUF_SIMPLE) < 0)
         return NULL;
     Py_ssize_t n = PyObject_Length(offs_o);
-    int got = 1;
+    int got = 1, out_got = 0;
     if (n < 0 || stroke_buf(offs_o, &ob, n, 1, 0, "store_fields") < 0)
         goto fail;
     got = 2;
     if (stroke_buf(lens_o, &lb, n, 1, 0, "store_fields") < 0)
         goto fail;
     got = 3;
-    if (PyObject_GetBuffer(vals_o, &vb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+    if (sr_fields_out(vals_o, kinds_o, n, w, &vb, &kb, &out_got, "store_fields") < 0)
         goto fail;
-    got = 4;
-    if (PyObject_GetBuffer(kinds_o, &kb, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
-        goto fail;
-    got = 5;
-    if (vb.itemsize != 8 || vb.format == NULL || strcmp(vb.format, "d") || vb.len < n * w * 8
-        || kb.itemsize != 1 || kb.format == NULL || strcmp(kb.format, "b") || kb.len < n * w) {
-        PyErr_SetString(PyExc_ValueError, "store_fields: float64 and int8 buffers of len(offs) x len(codes)");
-        goto fail;
-    }
     const long long *offs = ob.buf, *lens = lb.buf;
-    double *vals = vb.buf, nan_v;
+    double *vals = vb.buf;
     signed char *kinds = kb.buf;
-    const unsigned long long nan_bits = 0x7ff8000000000000ull;      /* stroke_fields' None */
-    memcpy(&nan_v, &nan_bits, sizeof nan_v);
     for (Py_ssize_t q = 0; q < n; q++) {
         if (offs[q] < 0 || lens[q] < SR_HEAD || offs[q] + lens[q] > bb.len) {
             PyErr_SetString(PyExc_ValueError, "store_fields: a record out of the buffer");
             goto fail;
         }
-        const char *p = (const char *)bb.buf + offs[q], *at[SO_N];
+        const char *p = (const char *)bb.buf + offs[q];
         const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
-        uint32_t has;
-        memcpy(&has, p + SD_N * 8 + SI_N * 8, 4);
+        Py_ssize_t at[SO_N];
         /* each object slot's payload: its place by a table of the fixed lengths (sr_skip's
          * steps, ~25 instructions a slot, were most of the time of a side's or the summary's read) */
         Py_ssize_t o = SR_HEAD, len = lens[q];
         for (int s = 0; s <= last_slot; s++) {
             unsigned char t = tags[s];
             Py_ssize_t step = SR_PAYLOAD_LEN[t];
-            at[s] = p + o;
+            at[s] = o;
             if (step < 0) {
                 uint32_t c;
                 if (step == SR_LEN_BAD) {
@@ -8155,54 +8289,7 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
             if (o > len)
                 goto past_end;
         }
-        for (Py_ssize_t j = 0; j < w; j++) {
-            int c = codes[j];
-            double v = 0.0;
-            signed char kind = 0;
-            if (c < SD_N) {
-                if (c >= SD_NONE0 && !(has & (1u << (c - SD_NONE0)))) {
-                    v = nan_v;
-                    kind = 1;
-                } else
-                    memcpy(&v, p + 8 * c, 8);
-            } else if (c < SD_N + SI_N) {
-                memcpy(&v, p + 8 * c, 8);             /* (the int64's bits) */
-            } else {
-                int s = c - SD_N - SI_N;
-                switch (tags[s]) {
-                case SR_FLOAT:
-                    memcpy(&v, at[s], 8);
-                    break;
-                case SR_NONE:
-                    v = nan_v;
-                    kind = 1;
-                    break;
-                case SR_FALSE: case SR_TRUE:
-                    v = tags[s] == SR_TRUE ? 1.0 : 0.0;
-                    kind = 2;
-                    break;
-                case SR_UNSET:
-                    kind = 4;
-                    break;
-                case SR_INTERN: {
-                    uint32_t k;
-                    memcpy(&k, at[s], 4);
-                    v = (double)k;
-                    kind = 5;
-                    break;
-                }
-                case SR_INT:
-                    if (ints)
-                        memcpy(&v, at[s], 8);     /* (the int64's bits) */
-                    kind = ints ? 6 : 3;
-                    break;
-                default:
-                    kind = 3;
-                }
-            }
-            vals[q * w + j] = v;
-            kinds[q * w + j] = kind;
-        }
+        sr_fields_row(p, at, codes, w, ints, vals + q * w, kinds + q * w);
     }
     PyBuffer_Release(&bb);
     PyBuffer_Release(&ob);
@@ -8218,9 +8305,9 @@ fail:
         PyBuffer_Release(&ob);
     if (got >= 3)
         PyBuffer_Release(&lb);
-    if (got >= 4)
+    if (out_got >= 1)
         PyBuffer_Release(&vb);
-    if (got >= 5)
+    if (out_got >= 2)
         PyBuffer_Release(&kb);
     return NULL;
 }
@@ -8665,7 +8752,8 @@ static PyMethodDef mod_methods[] = {
     {"ring_exps", mod_ring_exps, METH_VARARGS,
      "ring_exps(tt, s, wd, e1, e2): np.exp(-lam tt) and np.exp(lam tt), lam = -s + i wd"},
     {"store_encode", mod_store_encode, METH_VARARGS,
-     "store_encode(strokes, i0, i1, kit, index, table, buf, lens): stroke_store's records of strokes[i0:i1]"},
+     "store_encode(strokes, i0, i1, kit, index, table, buf, lens[, codes, vals, kinds]): stroke_store's records "
+     "of strokes[i0:i1] (codes: their fields as store_fields(..., ints=True) reads them, into vals and kinds)"},
     {"store_decode", mod_store_decode, METH_VARARGS,
      "store_decode(buf, offs, lens, kit, table, out[, over]): new strokes of stroke_store's records, appended "
      "to out; over: None or {object slot: a list of one value a record}, the value put where not None"},
@@ -8730,7 +8818,8 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0
-        || PyModule_AddIntConstant(m, "STORE_FIELDS_INTS", 1) < 0) {
+        || PyModule_AddIntConstant(m, "STORE_FIELDS_INTS", 1) < 0
+        || PyModule_AddIntConstant(m, "STORE_ENCODE_FIELDS", 1) < 0) {
         Py_DECREF(m);
         return NULL;
     }

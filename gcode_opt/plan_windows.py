@@ -14,7 +14,10 @@ import os
 
 import numpy as np
 
-WINDOW = 1024          # strokes a window (GCODE_OPT_WINDOW): benchmarks/win52/command.md's best end to end
+# strokes a window (GCODE_OPT_WINDOW): 1536 since session 61 (1024 before, benchmarks/win52/command.md):
+# the windows' fixed costs paid a third less often at the same peak RSS on the gyroid plate (its
+# chains' calls and budget runs grow with the window: 2048 +1 MB, 2560 +4.4 MB; benchmarks/window61.md)
+WINDOW = 1536
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
 # strokes a plan_inputs_windowed call at least (a window if larger): its fixed costs a call

@@ -128,7 +128,7 @@ def test_window_size_from_the_environment(monkeypatch):
     monkeypatch.setenv("GCODE_OPT_WINDOWED", "1")
     assert plan_windows.window_size() == 7
     monkeypatch.delenv("GCODE_OPT_WINDOW")
-    assert plan_windows.window_size() == 1024
+    assert plan_windows.window_size() == plan_windows.WINDOW     # (unset: the default)
     monkeypatch.setenv("GCODE_OPT_WINDOW", "0")
     with pytest.raises(ValueError):
         plan_windows.window_size()

@@ -36,7 +36,9 @@ _F64 = np.dtype(float)
 
 
 class PlanInput:
-    """Per-stroke arrays (all shape (n,))."""
+    """Per-stroke arrays (all shape (n,)): FIELDS, in the constructor's order."""
+
+    FIELDS = ("L", "v0", "v1", "v_cap", "a_cap", "T_orig", "I_orig", "mass_r", "t_seg_min")
 
     def __init__(self, L, v0, v1, v_cap, a_cap, T_orig, I_orig, mass_r, t_seg_min):
         self.L, self.v0, self.v1 = map(np.asarray, (L, v0, v1))
@@ -92,8 +94,7 @@ class PlanInput:
     def take(self, rows) -> "PlanInput":
         """The same arrays for the strokes `rows` only (fault isolation retries)."""
         rows = np.asarray(rows, int)
-        return PlanInput(*(a.take(rows, axis=0) for a in (self.L, self.v0, self.v1, self.v_cap, self.a_cap,
-                                                          self.T_orig, self.I_orig, self.mass_r, self.t_seg_min)))
+        return PlanInput(*(getattr(self, f).take(rows, axis=0) for f in self.FIELDS))
 
 
 def _reasons(n, default, *cases):
@@ -1037,10 +1038,7 @@ def _joined_inputs(parts):
     """The PlanInputs parts as one (their rows in turn)."""
     if len(parts) == 1:
         return parts[0]
-    return PlanInput(*(np.concatenate([getattr(q, f) for q in parts]) for f in _INPUT_FIELDS))
-
-
-_INPUT_FIELDS = ("L", "v0", "v1", "v_cap", "a_cap", "T_orig", "I_orig", "mass_r", "t_seg_min")
+    return PlanInput(*(np.concatenate([getattr(q, f) for q in parts]) for f in PlanInput.FIELDS))
 
 
 SAME_MAX_R = 0.8        # _same_inputs: worth it where the distinct strokes are at most this share

@@ -1418,8 +1418,8 @@ def _process_strokes(in_path, out_path, profile, opts, before_replace=None, free
     if prog:
         prog.start("analyse")
     if store is not None:     # (analyse makes the plan inputs of the strokes as it spills them)
-        from .plan_windows import SpilledInputs
-        store = SpilledInputs(store, profile, opts, window)
+        from .plan_windows import SpilledInputs, window_fixed
+        store = SpilledInputs(store, profile, opts, window, adapt=not window_fixed())
     strokes, sim0 = _analysed(in_path, profile, opts, freeze, timing, store)
     if sim0.n_moves == 0:
         if prog:

@@ -18,6 +18,14 @@ import numpy as np
 # the windows' fixed costs paid a third less often at the same peak RSS on the gyroid plate (its
 # chains' calls and budget runs grow with the window: 2048 +1 MB, 2560 +4.4 MB; benchmarks/window61.md)
 WINDOW = 1536
+# where GCODE_OPT_WINDOW is unset, a file of few curves is planned in larger windows
+# (window_for; analyse spills as before): up to MAX_WINDOW strokes, with at most ~HEAVY_ROWS curves and chains, the
+# strokes whose windows grow the peak (their geometry, the chains' candidate calls and
+# re-plans), ~930 a window of 1536 on the gyroid plate.  Rectilinear plate (3.2 k curves of
+# 52 k strokes): windows of 4096, -98 M instructions, peak +0.2 MB (8192: +1.1 MB for -16 M
+# more); the gyroid plate keeps 1536 (benchmarks/lead62.md)
+MAX_WINDOW = 4096
+HEAVY_ROWS = 900
 LEVEL_ROWS = 512       # arcs' / curves' rows a candidates call at least (candidates_in_windows' level_rows)
 LINE_ROWS = 4096       # lines' rows a candidates call at least (its line_rows; plan.py's one-call chunk: 16 k)
 # strokes a plan_inputs_windowed call at least (a window if larger): its fixed costs a call
@@ -39,6 +47,25 @@ def window_size():
     if got < 1:
         raise ValueError("GCODE_OPT_WINDOW must be >= 1")
     return got
+
+
+def window_fixed():
+    """Whether GCODE_OPT_WINDOW sets the window (then every pass takes it as it is; else the
+    window follows the file's curves: window_for)."""
+    return os.environ.get("GCODE_OPT_WINDOW", "") != ""
+
+
+def window_for(window, codes):
+    """The planning window of strokes whose plan_kind codes are codes: as many strokes as hold
+    HEAVY_ROWS curves and chains at the file's share of them, between window and MAX_WINDOW
+    (a file of no curve: MAX_WINDOW)."""
+    from .schedule import C_CHAIN, C_CURVE
+    if window >= MAX_WINDOW:
+        return window
+    heavy = int(np.count_nonzero((codes == C_CURVE) | (codes == C_CHAIN)))
+    if not heavy:
+        return MAX_WINDOW
+    return int(min(MAX_WINDOW, max(window, HEAVY_ROWS * len(codes) // heavy)))
 
 
 def plan_inputs_windowed(store, profile, opts, rows, geoms=None):
@@ -75,10 +102,11 @@ class SpilledInputs:
     (benchmarks/store59.md).  plan_inputs gives the same PlanInput on any cut of the
     strokes (tests/test_speed59_store59_spill.py)."""
 
-    def __init__(self, store, profile, opts, window, rows=None):
+    def __init__(self, store, profile, opts, window, rows=None, adapt=False):
         from .geom_keep import GeomKeep
         self.store, self.profile, self.opts = store, profile, opts
         self.rows = rows or window
+        self.adapt = adapt              # (the planning window follows the file's curves: window_for)
         self.geoms = GeomKeep(window, profile, store.folder)
         self.parts = []
         self.held = []                  # strokes appended, not yet planned nor stored
@@ -126,7 +154,10 @@ def planned_strokes(store, profile, opts, window):
     from .geom_keep import GeomKeep
     from .stored_strokes import StoredStrokes, curve_geometry
     if isinstance(store, SpilledInputs):
+        adapt = store.adapt
         pin, geoms, store = store.plan_input(), store.geoms, store.store
+        if adapt:           # (the geometry kept by analyse's windows: given back by rows, any window)
+            window = window_for(window, pin.plan_kind_codes)
     else:
         # (the curve geometry plan_inputs makes, kept for the later loads of its window: geom_keep)
         geoms = GeomKeep(window, profile, store.folder)

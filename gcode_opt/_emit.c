@@ -830,7 +830,7 @@ static inline int ceil_tenths(double x, int64_t *k)
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
    ending in 0, else _canon(t), written at q (at most m + 1 bytes): the end; *nf: its decimals */
-static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
+static inline __attribute__((always_inline)) char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
 {
     if (m > 0 && t[0] == '.' && t[m - 1] != '0') {
         *nf = (int)(m - 1);
@@ -1880,7 +1880,10 @@ static inline __attribute__((always_inline)) Py_ssize_t num_word(const char *p, 
 {
     /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable) */
     Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v, m) : dec_value_in(p, 0, dec, v, 1, m);
-    if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
+    if (k < 0)
+        return -1;
+    /* (digit_pairs' run ends at a byte that is not a digit: dec_value_pairs' p[k] is none) */
+    if (k < n && ((!pairs && p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.'))
         return -1;
     return k;
 }

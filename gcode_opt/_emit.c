@@ -830,7 +830,7 @@ static inline int ceil_tenths(double x, int64_t *k)
 
 /* emit.emit_stroke's inline E text of a whole move, relative E: "0" + t for ".ddd" not
    ending in 0, else _canon(t), written at q (at most m + 1 bytes): the end; *nf: its decimals */
-static inline char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
+static inline __attribute__((always_inline)) char *canon_at(char *q, const char *t, Py_ssize_t m, int *nf)
 {
     if (m > 0 && t[0] == '.' && t[m - 1] != '0') {
         *nf = (int)(m - 1);
@@ -1307,10 +1307,11 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
    texts have none: plain_line's, or units and tenths).  kn (not
    NULL, nlp "\n", wp fast_check's accel word): the lines checked as they are written, 1
    (decline) where fast_check would not pass them. */
-static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
-                     Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
-                     int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
-                     const Start8 *s8, const ColUnits *cu, const Py_ssize_t *piece_nl, Py_ssize_t *n_lines, Known *kn)
+static inline __attribute__((always_inline)) int
+emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
+               Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
+               int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
+               const Start8 *s8, const ColUnits *cu, const Py_ssize_t *piece_nl, Py_ssize_t *n_lines, Known *kn)
 {
     Py_ssize_t n_moves = ends->n, k_total = s->n - 1;
     const char *hp = pc->hp, *wp = pc->wp, *nlp = pc->nlp, *clp = pc->clp, *bp = pc->bp, *ap = pc->ap;
@@ -1545,6 +1546,33 @@ static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, con
     if (n_lines != NULL)
         *n_lines = lines;
     return 0;
+}
+
+/* emit_cols' body with the decimals of the slicers' usual columns as constants (X and Y 3,
+   E 5: PrusaSlicer's and Cura's text; nearly every stroke): small_units_at's shifts and
+   bounds fold, and dxy, de hold no register in the loop (the same operations on the same
+   numbers as the general body's: the same bytes) */
+static __attribute__((noinline)) int emit_cols_3_5(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt,
+                                                   const Txt *et, const Txt *cm, Py_ssize_t n_cols, const FSeq *s,
+                                                   const FSeq *acc, const FSeq *fd, const FSeq *ends, int e_rel,
+                                                   int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
+                                                   const Start8 *s8, const ColUnits *cu, const Py_ssize_t *piece_nl,
+                                                   Py_ssize_t *n_lines, Known *kn)
+{
+    return emit_cols_body(b, pc, xt, yt, et, cm, n_cols, s, acc, fd, ends, 3, 5, e_rel, extruding, e_start_u, x0t,
+                          y0t, s8, cu, piece_nl, n_lines, kn);
+}
+
+static int emit_cols(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt *et, const Txt *cm,
+                     Py_ssize_t n_cols, const FSeq *s, const FSeq *acc, const FSeq *fd, const FSeq *ends, int dxy,
+                     int de, int e_rel, int extruding, int64_t e_start_u, const Txt *x0t, const Txt *y0t,
+                     const Start8 *s8, const ColUnits *cu, const Py_ssize_t *piece_nl, Py_ssize_t *n_lines, Known *kn)
+{
+    if (dxy == 3 && de == 5)
+        return emit_cols_3_5(b, pc, xt, yt, et, cm, n_cols, s, acc, fd, ends, e_rel, extruding, e_start_u, x0t, y0t,
+                             s8, cu, piece_nl, n_lines, kn);
+    return emit_cols_body(b, pc, xt, yt, et, cm, n_cols, s, acc, fd, ends, dxy, de, e_rel, extruding, e_start_u, x0t,
+                          y0t, s8, cu, piece_nl, n_lines, kn);
 }
 
 /* emit_body(head, x_texts, y_texts, e_texts, comments, s, accels, feeds, ends_d, dxy, de,
@@ -1852,7 +1880,10 @@ static inline __attribute__((always_inline)) Py_ssize_t num_word(const char *p, 
 {
     /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable) */
     Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v, m) : dec_value_in(p, 0, dec, v, 1, m);
-    if (k < 0 || (k < n && ((p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.')))
+    if (k < 0)
+        return -1;
+    /* (digit_pairs' run ends at a byte that is not a digit: dec_value_pairs' p[k] is none) */
+    if (k < n && ((!pairs && p[k] >= '0' && p[k] <= '9') || p[k] == '-' || p[k] == '.'))
         return -1;
     return k;
 }

@@ -736,8 +736,10 @@ static inline __attribute__((always_inline)) void linear_calc(const LinIn *in, c
     int e_rel = in->e_rel_flag || !in->abs_xyz;
     double de = !has_e ? 0.0 : (e_rel ? ev : ev - in->e);
     const double b = MAX_POS_D;
-    if (!(-b <= x && x <= b && -b <= y && y <= b && -b <= z && z <= b)
-        || (has_e && !(-MAX_E_D <= ev && ev <= MAX_E_D)))
+    /* (-b <= x <= b is |x| <= b for every b and x, NaN and -0.0 too: three tests, one
+       branch, where the pairs of compares took six branches a line) */
+    int in_range = (fabs(x) <= b) & (fabs(y) <= b) & (fabs(z) <= b);
+    if (!in_range || (has_e && !(fabs(ev) <= MAX_E_D)))
         return;                            /* _check_target raises */
     o->fallback = 0;
     o->has_x = has_x;

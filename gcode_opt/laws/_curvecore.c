@@ -1062,6 +1062,91 @@ static PyObject *lay_post(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* lay_step(m, wcs, as, phi, h, act, x, xp, gp, g2, u0, u1, sp, lo, hi, n, wc): one step of
+   circle._solve_layers_batch's iteration over its n live arcs (the state arrays, packed), after
+   lay_pre / np.exp / lay_mid / np.arcsinh of the step's m cruise values (wcs (m, n): x, or x and
+   x + h; as (m, 2, n)): lay_post's residuals g (and gh of x + h), then the slope (m = 2: the
+   forward difference (gh - g) / h; m = 1: the secant (g - gp) / (x - xp)), the bracket (lo where
+   g < 0, hi where g > 0), the step x - g / slope (slope > 0, else inf) and bisection where it
+   leaves the bracket or is not finite, and the test |new - x| <= 1e-15 sp: the numpy loop's
+   operations in its order.  An arc whose test holds has its new value put at wc[act[i]] and
+   leaves; the others are packed to the front of every state array in order (xp the old x, gp
+   g, x the new), as the numpy loop's masks take them.  Returns the number left. */
+static PyObject *lay_step(PyObject *self, PyObject *a) {
+    PyObject *ow, *oa, *op, *oh, *oact, *ox, *oxp, *ogp, *og2, *o0, *o1, *osp, *olo, *ohi, *owc;
+    Py_ssize_t m, n, nwc;
+    if (!PyArg_ParseTuple(a, "nOOOOOOOOOOOOOOnOn", &m, &ow, &oa, &op, &oh, &oact, &ox, &oxp, &ogp, &og2,
+                          &o0, &o1, &osp, &olo, &ohi, &n, &owc, &nwc))
+        return NULL;
+    if ((m != 1 && m != 2) || n < 0) {
+        PyErr_SetString(PyExc_ValueError, "lay_step: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *wcs = get(&b, ow, 8, 0, m * n);
+    const double *as = wcs ? get(&b, oa, 8, 0, 2 * m * n) : NULL;
+    double *phi = as ? get(&b, op, 8, 1, n) : NULL;
+    const double *h = (phi && m == 2) ? get(&b, oh, 8, 0, n) : NULL;
+    int64_t *act = (phi && (h || m == 1)) ? get(&b, oact, 8, 1, n) : NULL;
+    double *x = act ? get(&b, ox, 8, 1, n) : NULL;
+    double *xp = x ? get(&b, oxp, 8, 1, n) : NULL;
+    double *gp = xp ? get(&b, ogp, 8, 1, n) : NULL;
+    double *g2 = gp ? get(&b, og2, 8, 1, n) : NULL;
+    double *u0 = g2 ? get(&b, o0, 8, 1, n) : NULL;
+    double *u1 = u0 ? get(&b, o1, 8, 1, n) : NULL;
+    double *sp = u1 ? get(&b, osp, 8, 1, n) : NULL;
+    double *lo = sp ? get(&b, olo, 8, 1, n) : NULL;
+    double *hi = lo ? get(&b, ohi, 8, 1, n) : NULL;
+    double *wc = hi ? get(&b, owc, 8, 1, nwc) : NULL;
+    if (!wc) { release(&b); return NULL; }
+    Py_ssize_t k = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        const double xi = x[i];
+        /* lay_post of row 0 (x), then of row 1 (x + h) */
+        double g = wcs[i] + as[i];
+        g = g + as[n + i];
+        g = g - phi[i];
+        double dg;
+        if (m == 2) {
+            double gh = wcs[n + i] + as[2 * n + i];
+            gh = gh + as[3 * n + i];
+            gh = gh - phi[i];
+            dg = (gh - g) / h[i];
+        } else {
+            dg = (g - gp[i]) / (xi - xp[i]);
+        }
+        const double l = g < 0 ? xi : lo[i];
+        const double u = g > 0 ? xi : hi[i];
+        double nw = xi - g / (dg > 0 ? dg : INFINITY);
+        if (!((nw > l) && (nw < u)) || !isfinite(nw)) nw = 0.5 * (l + u);
+        if (fabs(nw - xi) <= 1e-15 * sp[i]) {
+            const int64_t at = act[i];
+            if (at < 0 || at >= nwc) {
+                PyErr_SetString(PyExc_IndexError, "lay_step: an arc out of wc");
+                release(&b);
+                return NULL;
+            }
+            wc[at] = nw;
+            continue;
+        }
+        /* (k <= i: each state value is read before its place is written) */
+        act[k] = act[i];
+        xp[k] = xi;
+        gp[k] = g;
+        x[k] = nw;
+        phi[k] = phi[i];
+        g2[k] = g2[i];
+        u0[k] = u0[i];
+        u1[k] = u1[i];
+        sp[k] = sp[i];
+        lo[k] = l;
+        hi[k] = u;
+        k++;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(k);
+}
+
 /* interp_rows' knot: the last j with xp[j] <= x, for xp[0] <= x <= xp[n - 1] (n >= 2), by
    the hint h (0 <= h < n): h, h + 1 or h + 2 where x lies there, else a binary search of
    the knots after h + 2 or before h (xp[lo] <= x, and xp[hi] > x or hi = n - 1, as the
@@ -2021,6 +2106,7 @@ static PyMethodDef methods[] = {
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"lay_step", lay_step, METH_VARARGS, "_solve_layers_batch's step: residuals, slope, bracket, step, test, packing"},
     {"kern_pack", kern_pack, METH_VARARGS, "_parts_block's kernel arguments np.exp does not take to +0.0, packed, and each row's run"},
     {"kern_unpack", kern_unpack, METH_VARARGS, "the kernel from np.exp of kern_pack's arguments, +0.0 outside the runs"},
     {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},

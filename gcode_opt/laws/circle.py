@@ -812,6 +812,8 @@ def _solve_layers_batch(phi, gam2, u0, u1):
         span = np.where(bad_lo | bad_hi, 2.0 * span, span)
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
+    if CORE_MOD is not None and wc.dtype == np.float64:
+        return _layers_iterate_c(wc, phi, gam2, u0, u1, span, lo, hi)
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
     # the live arcs' numbers held packed (x: their w_c, lo_a/hi_a: their bracket, xp/gp: the
     # last iterate and its residual), packed again only when arcs leave, and each arc's w_c put
@@ -843,6 +845,52 @@ def _solve_layers_batch(phi, gam2, u0, u1):
                 return wc
     wc[act] = x                     # (the steps ran out: the last ones' w_c)
     return wc
+
+
+def _layers_iterate_c(wc, phi, gam2, u0, u1, span, lo, hi):
+    """_solve_layers_batch's iteration from its start wc (and bracket lo, hi) with the compiled
+    core: each step's residuals by _layers_totals' passes around np.exp and np.arcsinh, then
+    the rest of the step (the residuals' sums, slope, bracket, step, bisection, test) and the
+    packing of the live arcs in one compiled pass (_curvecore.c lay_step: the numpy loop's
+    operations in its order), not ~40 numpy calls a step over the live arcs; the same w_c."""
+    core = CORE_MOD
+    act = np.arange(wc.size, dtype=np.int64)
+    # the live arcs' state, packed (own C-contiguous copies: lay_step packs them in place)
+    x, p_, g2, a0, a1, sp, lo_a, hi_a = (np.array(v[act], dtype=float) for v in (wc, phi, gam2, u0, u1, span, lo, hi))
+    xp, gp = np.empty(act.size), np.empty(act.size)
+    n = act.size
+    for it in range(_LAYERS_ITER if n else 0):
+        if it == 0:                 # (the first step's slope: a forward difference)
+            h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+            xs = np.empty((2, n))
+            xs[0] = x
+            xs[1] = x + h
+        else:
+            h, xs = None, x
+        asn = _layers_args(xs, g2, a0, a1)
+        n = core.lay_step(xs.shape[0] if xs.ndim == 2 else 1, xs, asn, p_, h, act, x, xp, gp, g2, a0, a1, sp,
+                          lo_a, hi_a, n, wc, wc.size)
+        if n == 0:
+            return wc
+        act, x, xp, gp, p_, g2, a0, a1, sp, lo_a, hi_a = (
+            v[:n] for v in (act, x, xp, gp, p_, g2, a0, a1, sp, lo_a, hi_a))
+    wc[act] = x                     # (the steps ran out: the last ones' w_c)
+    return wc
+
+
+def _layers_args(xs, gam2, u0, u1):
+    """np.arcsinh of _layers_totals' arguments (m, 2, n) of the cruise values xs ((m, n) or
+    one (n,)): lay_pre, np.exp, lay_mid, np.arcsinh, as _layers_totals makes them."""
+    core = CORE_MOD
+    wc = xs if xs.ndim == 2 else xs[None, :]
+    m, n = wc.shape
+    e = np.empty((m, n))
+    core.lay_pre(wc, gam2, n, m, e)
+    np.exp(e, out=e)
+    a = np.empty((m, 2, n))
+    core.lay_mid(wc, gam2, u0, u1, e, n, m, a)
+    np.arcsinh(a, out=a)
+    return a
 
 
 # ---------------------------------------------------------------------------------------------

@@ -854,6 +854,57 @@ static PyObject *exp_merge(PyObject *self, PyObject *a) {
    loops over the coefficients (integers times doubles as doubles; chebval at -1 by its
    recurrence); its arrays are (coefficients, rows), so the transposes are laid out as
    numpy's results are. */
+#if CURVE_AVX
+/* cheb_der_int's rows 4 at a time (K <= DER_INT_AVX_COLS): the scalar loop's operations, each
+   on the 4 rows' coefficients at once (IEEE multiply, divide, add, subtract: each element the
+   scalar loop's bits), their results stored as 4 adjacent doubles of der and itg (one row of
+   each (coefficients, rows) array); returns the rows done (a multiple of 4), the rest left to
+   the scalar loop */
+#define DER_INT_AVX_COLS 256
+AVX_FN static Py_ssize_t cheb_der_int_avx(const double *coef, Py_ssize_t nb, Py_ssize_t K, double *der,
+                                          double *itg) {
+    __m256d cr[DER_INT_AVX_COLS], c[DER_INT_AVX_COLS], t[DER_INT_AVX_COLS + 1];
+    const __m256d two = _mm256_set1_pd(2.0), half = _mm256_set1_pd(0.5), zero = _mm256_set1_pd(0.0);
+    Py_ssize_t r = 0;
+    for (; r + 4 <= nb; r += 4) {
+        const double *c0r = coef + r * K, *c1r = c0r + K, *c2r = c1r + K, *c3r = c2r + K;
+        for (Py_ssize_t j = 0; j < K; j++) cr[j] = _mm256_set_pd(c3r[j], c2r[j], c1r[j], c0r[j]);
+        /* chebder: c *= scl, then from the top */
+        Py_ssize_t n = K - 1;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = _mm256_mul_pd(cr[j], two);
+        for (Py_ssize_t j = n; j > 2; j--) {
+            _mm256_storeu_pd(der + (j - 1) * nb + r, _mm256_mul_pd(_mm256_set1_pd((double)(2 * j)), c[j]));
+            c[j - 2] = _mm256_add_pd(c[j - 2], _mm256_div_pd(_mm256_mul_pd(_mm256_set1_pd((double)j), c[j]),
+                                                             _mm256_set1_pd((double)(j - 2))));
+        }
+        if (n > 1) _mm256_storeu_pd(der + 1 * nb + r, _mm256_mul_pd(_mm256_set1_pd(4.0), c[2]));
+        _mm256_storeu_pd(der + r, c[1]);
+        /* chebint: c *= scl, tmp, then tmp[0] += k - chebval(lbnd, tmp) */
+        n = K;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = _mm256_mul_pd(cr[j], half);
+        t[0] = _mm256_mul_pd(c[0], zero);
+        t[1] = c[0];
+        t[2] = _mm256_div_pd(c[1], _mm256_set1_pd(4.0));
+        for (Py_ssize_t j = 2; j < n; j++) {
+            t[j + 1] = _mm256_div_pd(c[j], _mm256_set1_pd((double)(2 * (j + 1))));
+            t[j - 1] = _mm256_sub_pd(t[j - 1], _mm256_div_pd(c[j], _mm256_set1_pd((double)(2 * (j - 1)))));
+        }
+        Py_ssize_t L = n + 1;
+        const __m256d x = _mm256_set1_pd(-1.0), x2 = _mm256_set1_pd(2.0 * -1.0);
+        __m256d c0 = t[L - 2], c1 = t[L - 1];
+        for (Py_ssize_t i = 3; i < L + 1; i++) {
+            __m256d tmp = c0;
+            c0 = _mm256_sub_pd(t[L - i], c1);
+            c1 = _mm256_add_pd(tmp, _mm256_mul_pd(c1, x2));
+        }
+        __m256d v = _mm256_add_pd(c0, _mm256_mul_pd(c1, x));
+        t[0] = _mm256_add_pd(t[0], _mm256_sub_pd(zero, v));
+        for (Py_ssize_t j = 0; j < L; j++) _mm256_storeu_pd(itg + j * nb + r, t[j]);
+    }
+    return r;
+}
+#endif
+
 static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
     PyObject *oc, *od, *oi;
     Py_ssize_t nb, K;
@@ -868,7 +919,11 @@ static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
     double *itg = der ? get(&b, oi, 8, 1, (K + 1) * nb) : NULL;
     if (!itg) { release(&b); return NULL; }
     double c[MAX_COLS], t[MAX_COLS + 1];
-    for (Py_ssize_t r = 0; r < nb; r++) {
+    Py_ssize_t r0 = 0;
+#if CURVE_AVX
+    if (K <= DER_INT_AVX_COLS && use_avx()) r0 = cheb_der_int_avx(coef, nb, K, der, itg);
+#endif
+    for (Py_ssize_t r = r0; r < nb; r++) {
         const double *cr = coef + r * K;
         /* chebder: c *= scl, then from the top */
         Py_ssize_t n = K - 1;

@@ -108,3 +108,178 @@ def test_cheb_der_int_avx_rows_as_the_scalar_rows(K):
                 CORE.simd(1)
             got = circle._cheb_der_int(c)
         assert all(x.tobytes() == y.tobytes() and x.strides == y.strides for x, y in zip(got, want)), (K, nb)
+
+
+# ---------------------------------------------------------------- round 62: the lean probe
+from pathlib import Path  # noqa: E402
+
+from gcode_opt import curves  # noqa: E402
+from gcode_opt.pipeline import Options, process  # noqa: E402
+from gcode_opt.profile import load_profile  # noqa: E402
+
+S = Path(__file__).resolve().parent.parent / "sample_gcode"
+
+
+def test_cheb_der_int_either_alone_as_both():
+    rng = np.random.default_rng(7)
+    for K in (2, 5, 21, 300):
+        c = rng.normal(size=(9, K))
+        der, itg = circle._cheb_der_int(c)
+        d1, none1 = circle._cheb_der_int(c, itg=False)
+        none2, i2 = circle._cheb_der_int(c, der=False)
+        assert none1 is None and none2 is None
+        assert d1.tobytes() == der.tobytes() and i2.tobytes() == itg.tobytes()
+
+
+def test_eval_tau_leaves_out_what_is_not_asked_the_rest_the_same():
+    rng = np.random.default_rng(3)
+    n = 40
+    phi, T = rng.uniform(0.1, 9.0, n), rng.uniform(0.05, 1.0, n)
+    law = circle.solve_circles(phi, T, 10.0 ** rng.uniform(-5, -2, n), phi / T * 0.7, phi / T * 0.9, 2.0)
+    tau = np.broadcast_to(np.linspace(0.0, 1.0, 17)[None, :], (n, 17))
+    full = law.eval_tau(tau, w2=False)
+    for kw in (dict(phi=False), dict(w=False), dict(w=False, w1=False), dict(phi=False, w1=False)):
+        got = law.eval_tau(tau, w2=False, **kw)
+        for g, f, name in zip(got, full, ("phi", "w", "w1", "w2")):
+            if kw.get(name, True) and name != "w2":
+                assert g.tobytes() == f.tobytes(), (kw, name)
+            else:
+                assert g is None, (kw, name)
+    idx = np.array([3, 7, 8, 30])
+    assert law.eval_tau(tau[:4], idx, w2=False, w1=False, w=False)[0].tobytes() == full[0][idx].tobytes()
+
+
+@pytest.fixture(scope="module")
+def probes(tmp_path_factory):
+    """surely_over's calls of the curve planner on the bundled gyroid and concentric files
+    (arguments as given: the laws, R, geometries, limits, knots)."""
+    got = []
+    f = curves.surely_over
+    mp = pytest.MonkeyPatch()
+
+    def rec(law, R, geos, v_lim, a_lim, memo=None, why=None):
+        got.append((law, R.copy(), list(geos), v_lim.copy(), a_lim.copy(), memo))
+        return f(law, R, geos, v_lim, a_lim, memo, why)
+    try:
+        mp.setattr(curves, "surely_over", rec)
+        d = tmp_path_factory.mktemp("probe62")
+        for name in ("prusa_gyroid.gcode", "prusa_concentric.gcode"):
+            process(str(S / name), str(d / name), load_profile("prusa-mk3s"), Options())
+    finally:
+        mp.undo()
+    assert sum(len(a[2]) for a in got) > 500
+    return got
+
+
+def _surely_over_ref(law, R, geos, v_lim, a_lim, memo=None, why=None):
+    """The start commit's (9769440) surely_over, verbatim: φ, κ(s) and |a| of every law."""
+    _PROBE_TAU, _row_scale, _kappa_rows, _rows_of = (curves._PROBE_TAU, curves._row_scale, curves._kappa_rows,
+                                                     curves._rows_of)
+    PROBE_MARGIN_R = curves.PROBE_MARGIN_R
+    over = np.zeros(len(geos), bool)
+    a_only = np.zeros(len(geos), bool)
+    for sl in law.row_chunks():
+        sub = law.rows(sl)
+        phi, w, w1, _ = sub.eval_tau(np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size)),
+                                     w2=False)
+        T, Rr = sub.T_t, R[sl]
+        v = _row_scale(w, Rr, T, 1)
+        at = _row_scale(w1, Rr, T, 2)
+        kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
+        a2 = at * at + kv2 * kv2
+        over_v = np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        over_a = np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        over[sl] = over_v | over_a
+        a_only[sl] = over_a & ~over_v
+    if why is not None:
+        why.append(a_only)
+    return over
+
+
+def _probe_both(law, R, geos, v_lim, a_lim, memo):
+    lean, full = [], []
+    with np.errstate(all="ignore"):
+        got = curves.surely_over(law, R, geos, v_lim, a_lim, memo, lean)
+        want = _surely_over_ref(law, R, geos, v_lim, a_lim, memo, full)
+    return (got, lean[0]), (want, full[0])
+
+
+def test_lean_probe_as_the_full_one_on_the_pipelines_calls(probes):
+    if not isinstance(probes[0][5], curves._Knots):
+        pytest.skip("no compiled knots")
+    lean_rows = 0
+    for law, R, geos, v_lim, a_lim, memo in probes:
+        for scale_v, scale_a in ((1.0, 1.0), (1.0, 0.2), (0.3, 1.0), (1.0, 5.0)):
+            (got, why), (want, why_w) = _probe_both(law, R, geos, v_lim * scale_v, a_lim * scale_a, memo)
+            assert np.array_equal(got, want) and np.array_equal(why, why_w)
+        lean_rows += int(memo.tame.sum())
+    assert lean_rows > 500
+
+
+def test_lean_probe_on_wild_rows(probes):
+    """Rows the shortcut must leave to the full |a|: NaN and huge coefficients, huge κ at a
+    knot, NaN R: the same decisions as the full probe."""
+    law, R, geos, v_lim, a_lim, memo = max(probes, key=lambda a: len(a[2]))
+    if not isinstance(memo, curves._Knots):
+        pytest.skip("no compiled knots")
+    n = len(geos)
+    law = law.take(np.arange(n))                     # (a copy: its arrays written below)
+    law.coef[0, :] = np.nan
+    law.coef[1, 0] = 1e200
+    R = R.copy()
+    R[2] = np.nan
+    ys = memo.ys.copy()
+    ys[memo.off[3]] = 1e300
+    far = [i for i in range(n) if memo.off[i] != memo.off[3]][-1]      # (a row of another geometry)
+    ys[memo.off[far]:memo.off[far] + memo.cnt[far]] = np.nan           # κ NaN: |a|² NaN, not over
+    kn = curves._Knots(memo.xs, ys, memo.off, memo.cnt, memo.ok, memo.tame.copy())
+    kn.tame[memo.off == memo.off[3]] = False         # (as _Knots.of marks such rows)
+    kn.tame[memo.off == memo.off[far]] = False
+    for a_scale in (1.0, 0.1, 1e-6):
+        (got, why), (want, why_w) = _probe_both(law, R, geos, v_lim, a_lim * a_scale, kn)
+        assert np.array_equal(got, want) and np.array_equal(why, why_w)
+
+
+class _G:
+    def __init__(self, s_v, kappa_v):
+        self.s_v, self.kappa_v = np.asarray(s_v, float), np.asarray(kappa_v, float)
+
+
+def test_knots_tame_marks_the_rows_whose_kappa_may_not_be_finite():
+    gs = [_G([0, 1, 2], [0.1, 0.2, 0.3]),               # tame
+          _G([0, 1, 2], [0.1, np.nan, 0.3]),            # NaN κ
+          _G([0, 1, 2], [0.1, 2e30, 0.3]),              # |κ| over TAME_KAPPA
+          _G([0, 1e-300, 2], [0.1, 0.2, 0.3]),          # knots closer than TAME_GAP
+          _G([0, 1, 1], [0.1, 0.2, 0.3]),               # not increasing (not ok either)
+          _G([0], [0.5]),                               # one knot (np.interp's)
+          _G([0, 3], [-1e30, 1e30])]                    # at the bounds: tame
+    kn = curves._Knots.of(gs)
+    assert kn.tame.tolist() == [True, False, False, False, False, False, True]
+    assert kn.ok.tolist() == [True, True, True, True, False, False, True]
+    assert kn.sub(np.array([6, 0, 1])).tame.tolist() == [True, True, False]
+
+
+def test_probe_rows_as_numpy():
+    """_curvecore.c probe_rows: numpy's row maxima (NaN propagating) compared with the caps."""
+    rng = np.random.default_rng(62)
+    nb, m = 300, 17
+    v = rng.normal(size=(nb, m)) * rng.choice([1.0, 1e3, 1e152], (nb, 1))
+    at = rng.normal(size=(nb, m)) * rng.choice([1.0, 1e3, 1e200], (nb, 1))
+    v[5, 3], at[6, 4], v[7, 0], at[8, 16] = np.nan, np.nan, np.inf, -np.inf
+    v[9], at[10] = -0.0, 0.0
+    v_cap, a_cap = rng.uniform(0.5, 2.0, nb), rng.uniform(0.5, 2.0, nb)
+    v_cap[11], a_cap[12] = np.nan, np.inf
+    for flag in (1, 0):                              # (AVX rows, scalar rows)
+        for cols in (m, 3, 6):                       # (a row of 17: 4 x 4 + 1; 3: no AVX; 6: 4 + 2)
+            vv, aa = np.ascontiguousarray(v[:, :cols]), np.ascontiguousarray(at[:, :cols])
+            over_v, by_at, v_ok = np.empty((3, nb), bool)
+            try:
+                CORE.simd(flag)
+                CORE.probe_rows(vv, aa, nb, cols, v_cap, a_cap, over_v, by_at, v_ok)
+            finally:
+                CORE.simd(1)
+            with np.errstate(all="ignore"):
+                assert np.array_equal(over_v, np.max(vv, axis=1) > v_cap)
+                assert np.array_equal(by_at, np.sqrt(np.max(aa * aa, axis=1)) > a_cap)
+                assert np.array_equal(v_ok, (np.abs(vv) <= 1e150).all(axis=1))
+            assert over_v.any() and not over_v.all() and by_at.any() and not by_at.all() and not v_ok.all()

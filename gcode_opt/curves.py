@@ -1805,7 +1805,7 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
                 phi = sub.eval_tau(tau[:rest.size], rest, w2=False, w1=False, w=False)[0]
                 gsl = geos[sl]
                 vr, ar = v[rest], at[rest]
-                kv2 = _kappa_rows([gsl[i] for i in rest.tolist()], _row_scale(phi, Rr[rest]), kn.sub(rest)) * (vr * vr)
+                kv2 = _kappa_rows(objfields.items(gsl, rest), _row_scale(phi, Rr[rest]), kn.sub(rest)) * (vr * vr)
                 over_a[rest] = np.sqrt(np.max(ar * ar + kv2 * kv2, axis=1)) > a_cap[rest]
         else:
             kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
@@ -2121,7 +2121,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             law.grid_levels = levels
             q = idx[fig]
             iv[fig], ia[fig], pv[fig], pa[fig], mv[fig] = true_figures(
-                law, 1.0 / keff[q], [geos[i] for i in q], None, {} if knots is None else knots.sub(q))
+                law, 1.0 / keff[q], objfields.items(geos, q), None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 
@@ -2153,7 +2153,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             if law is None:
                 continue
             why = []
-            fig = np.flatnonzero(~surely_over(law, args[5], [geos[i] for i in q[r]], v_lim[sl][r], a_lim[sl][r],
+            fig = np.flatnonzero(~surely_over(law, args[5], objfields.items(geos, q[r]), v_lim[sl][r], a_lim[sl][r],
                                               {} if knots is None else knots.sub(q[r]), why))
             a_only[q[r]] = why[0]
             if fig.size:
@@ -2176,7 +2176,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             return None, None, None
         rough, lay = got
         why = []
-        surely_over(rough, args[5], [geos[i] for i in q], v_lim * (1.0 - SCREEN_BAND_R),
+        surely_over(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
                     a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q), why)
         a_only[q[why[0]]] = True
         return np.flatnonzero(~why[0]), rough.panel_levels(), lay

@@ -1902,8 +1902,10 @@ class _Knots:
     of the interpolation overflows: surely_over's use)."""
     __slots__ = ("xs", "ys", "off", "cnt", "ok", "tame")
 
-    def __init__(self, xs, ys, off, cnt, ok, tame):
-        self.xs, self.ys, self.off, self.cnt, self.ok, self.tame = xs, ys, off, cnt, ok, tame
+    def __init__(self, xs, ys, off, cnt, ok, tame=None):
+        """tame None: no row (surely_over then makes φ and κ(s) of every row)."""
+        self.xs, self.ys, self.off, self.cnt, self.ok = xs, ys, off, cnt, ok
+        self.tame = np.zeros(np.shape(ok), bool) if tame is None else tame
 
     @classmethod
     def of(cls, gs):

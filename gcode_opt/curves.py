@@ -1664,24 +1664,7 @@ _G_K = attrgetter("_k")
 
 def _by_block(gs):
     """(per distinct block: (block, positions in gs, rows in it)) of geometries that are rows
-    of build_geoms' blocks (a _Blk that keeps no u, cap an array), or None.  The blocks and
-    rows read in compiled passes where the core is built (objfields.ids, codes: positions
-    and rows intp arrays, each block's positions in order), else a geometry at a time."""
-    got = objfields.ids(gs, "_b") if type(gs) is list else None
-    ks = objfields.codes(gs, "_k", None) if got is not None else None
-    if ks is None:
-        return _by_block_py(gs)
-    blks, which = got
-    for b in blks:
-        if type(b) is not _Blk or b._u is not None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
-            return None
-    order = np.argsort(which, kind="stable")           # each block's positions, in order
-    ends = np.cumsum(np.bincount(which, minlength=len(blks))).tolist()
-    return [(b, order[a:z], ks[order[a:z]]) for b, a, z in zip(blks, [0] + ends[:-1], ends)]
-
-
-def _by_block_py(gs):
-    """_by_block a geometry at a time (positions and rows lists)."""
+    of build_geoms' blocks (a _Blk that keeps no u, cap an array), or None."""
     try:
         bs = list(map(_G_B, gs))
         ks = list(map(_G_K, gs))

@@ -1593,21 +1593,22 @@ def adjust_plan_inputs(pin, strokes, rows, profile, cap_peak=True):
     masses and caps of all rows in arrays: the same double operations as the scalar
     expressions (Python's min(a, b) is b where b < a), put with one index each."""
     mx, my = profile.moving_mass_x_kg, profile.moving_mass_y_kg
-    rows = [int(i) for i in rows]
-    sts = [strokes[i] for i in rows]
+    # the rows an index array once (a list of ints was converted by each of the four puts)
+    rows = np.array([int(i) for i in rows] if not isinstance(rows, np.ndarray) else rows, dtype=np.intp)
+    sts = objfields.items(strokes, rows)
     gs = [geom(st, profile) for st in sts]
     by_blk = _by_block(gs)
     ux2 = np.array(_ux2_rows(gs) if by_blk is None else _block_rows(by_blk, _blk_ux2), float)
     uy2 = 1.0 - ux2
     den = mx * ux2 + my * uy2
     if not len(rows) or (den == 0.0).any():     # a zero mass: the scalar loop (it raises)
-        for i, x in zip(rows, ux2.tolist()):
+        for i, x in zip(rows.tolist(), ux2.tolist()):
             y = 1.0 - x
             pin.mass_r[i] = (mx * mx * x + my * my * y) / (mx * x + my * y)
     else:
         pin.mass_r[rows] = (mx * mx * ux2 + my * my * uy2) / den
     pin.a_cap[rows] = _a_caps(sts)
-    if cap_peak and rows:
+    if cap_peak and rows.size:
         vc = pin.v_cap[rows]
         cap = np.array([g.cap for g in gs] if by_blk is None else _block_rows(by_blk, _blk_cap), float)
         pin.v_cap[rows] = np.where(cap < vc, cap, vc)
@@ -1757,25 +1758,69 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
     the same decisions, at ~1/9 of the cost.  88 % of the gyroid plate's curve candidates
     break the acceleration cap; the full figures are made for the others only.
     why (a list, optional): the laws over on |a| but not on speed are appended to it (a
-    bool array; candidates_curve does not retry them at beta/4)."""
+    bool array; candidates_curve does not retry them at beta/4).
+
+    With memo a _Knots (the compiled core's knots), |a| is first bounded by its tangential
+    part: |a|² = at² + (κv²)² is at least at² at every point (a sum of a square that is not
+    NaN rounds to no less than at²), so a law whose max at² is over the cap is over on |a|,
+    and one over on speed needs no |a| (over either way, not a_only): φ and κ(s) are made
+    for the others only (~20 % of the plates' laws; the same decisions, bit for bit, where
+    κv² cannot be NaN: _kv2_not_nan)."""
     over = np.zeros(len(geos), bool)
     a_only = np.zeros(len(geos), bool)
+    lean = isinstance(memo, _Knots) and _PROBE_ROWS is not None
     for sl in law.row_chunks():
         sub = law.rows(sl)
-        phi, w, w1, _ = sub.eval_tau(np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size)),
-                                     w2=False)
+        tau = np.broadcast_to(_PROBE_TAU[None, :], (len(sub), _PROBE_TAU.size))
+        phi, w, w1, _ = sub.eval_tau(tau, w2=False, phi=not lean)
         T, Rr = sub.T_t, R[sl]
         v = _row_scale(w, Rr, T, 1)
         at = _row_scale(w1, Rr, T, 2)
-        kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
-        a2 = at * at + kv2 * kv2
-        over_v = np.max(v, axis=1) > v_lim[sl] * (1.0 + PROBE_MARGIN_R)
-        over_a = np.sqrt(np.max(a2, axis=1)) > a_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        del w, w1               # (let go before φ's rows: held, the rectilinear plate's peak RSS was ~0.4 MB up)
+        v_cap = v_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        a_cap = a_lim[sl] * (1.0 + PROBE_MARGIN_R)
+        if lean:
+            over_v, over_a, v_ok = np.empty((3, len(sub)), bool)
+            _PROBE_ROWS(v, at, len(sub), v.shape[1], v_cap, a_cap, over_v, over_a, v_ok)
+            kn = memo.sub(sl)
+            over_a &= v_ok & _kv2_not_nan(sub, Rr, kn)
+            rest = np.flatnonzero(~(over_a | over_v))
+            if rest.size:
+                phi = sub.eval_tau(tau[:rest.size], rest, w2=False, w1=False, w=False)[0]
+                gsl = geos[sl]
+                vr, ar = v[rest], at[rest]
+                kv2 = _kappa_rows(objfields.items(gsl, rest), _row_scale(phi, Rr[rest]), kn.sub(rest)) * (vr * vr)
+                over_a[rest] = np.sqrt(np.max(ar * ar + kv2 * kv2, axis=1)) > a_cap[rest]
+        else:
+            kv2 = _kappa_rows(geos[sl], _row_scale(phi, Rr), _rows_of(memo, sl)) * (v * v)
+            a2 = at * at + kv2 * kv2
+            over_v = np.max(v, axis=1) > v_cap
+            over_a = np.sqrt(np.max(a2, axis=1)) > a_cap
         over[sl] = over_v | over_a
         a_only[sl] = over_a & ~over_v
     if why is not None:
         why.append(a_only)
     return over
+
+
+_PROBE_ROWS = getattr(_CURVE_CORE, "probe_rows", None) if _CURVE_CORE is not None else None
+
+
+# the bound of a Chebyshev law's coefficients under which its series (and those of its
+# integral, whose value at -1 takes a recurrence growing ~2.4^K, K <= 513 coefficients) are
+# finite: |φ| < 1e60 * 1e200
+_TAME_COEF = 1e60
+
+
+def _kv2_not_nan(sub, R, kn):
+    """Per row of the chunk sub (a CircleBatch): whether κ(s) v² is surely not NaN at the
+    probe's points where v is finite with |v| <= 1e150 (v² finite: surely_over checks it,
+    _curvecore.c probe_rows): a Chebyshev law (not the layer regime) of coefficients all
+    within _TAME_COEF (so φ finite; NaN coefficients fail), R finite (so s = Rφ is not NaN),
+    its knots tame (_Knots.tame: κ(s) finite): a finite κ times a finite v² is a number or
+    ±inf, not NaN."""
+    with np.errstate(invalid="ignore"):
+        return ~sub.regime & (np.max(np.abs(sub.coef), axis=1) <= _TAME_COEF) & np.isfinite(R) & kn.tame
 
 
 _ROW_SCALE = getattr(_CURVE_CORE, "row_scale", None) if _CURVE_CORE is not None else None
@@ -1836,11 +1881,15 @@ class _Knots:
     """_kappa_rows' knots of many rows laid out for the compiled core: the geometries'
     s_v and kappa_v concatenated (xs, ys), and per row its geometry's offset and count
     and whether the core may take it (ok: at least 2 knots, finite, strictly increasing;
-    the other rows go through np.interp)."""
-    __slots__ = ("xs", "ys", "off", "cnt", "ok")
+    the other rows go through np.interp), and whether κ there is finite at any s but NaN
+    (tame: ok, |κ| <= TAME_KAPPA at every knot, knots at least TAME_GAP apart, so no slope
+    of the interpolation overflows: surely_over's use)."""
+    __slots__ = ("xs", "ys", "off", "cnt", "ok", "tame")
 
-    def __init__(self, xs, ys, off, cnt, ok):
+    def __init__(self, xs, ys, off, cnt, ok, tame=None):
+        """tame None: no row (surely_over then makes φ and κ(s) of every row)."""
         self.xs, self.ys, self.off, self.cnt, self.ok = xs, ys, off, cnt, ok
+        self.tame = np.zeros(np.shape(ok), bool) if tame is None else tame
 
     @classmethod
     def of(cls, gs):
@@ -1861,16 +1910,28 @@ class _Knots:
             xs = np.concatenate(sv) if sv else np.empty(0)
             ys = np.ascontiguousarray(np.concatenate(kv) if kv else np.empty(0), dtype=float)
         ok = cnt >= 2
+        tame = ok
         if xs.size:
             bad = ~np.isfinite(xs)
             bad[1:] |= ~(xs[1:] > xs[:-1])
             bad[off] = ~np.isfinite(xs[off])      # a row's first knot: no pair before it
             ok &= ~np.logical_or.reduceat(bad, off)
-        return cls(xs, ys, off, cnt, ok)
+            wild = ~(np.abs(ys) <= TAME_KAPPA)      # (NaN too)
+            wild[1:] |= ~(xs[1:] - xs[:-1] >= TAME_GAP)
+            wild[off] = ~(np.abs(ys[off]) <= TAME_KAPPA)
+            tame = ok & ~np.logical_or.reduceat(wild, off)
+        return cls(xs, ys, off, cnt, ok, tame)
 
     def sub(self, sel):
         """The rows sel (a slice or an integer array)."""
-        return _Knots(self.xs, self.ys, self.off[sel], self.cnt[sel], self.ok[sel])
+        return _Knots(self.xs, self.ys, self.off[sel], self.cnt[sel], self.ok[sel], self.tame[sel])
+
+
+# _Knots.tame's bounds: |κ| at most 1e30 (1/mm) and knots 1e-250 (mm) apart at least, so an
+# interpolation's slope is at most ~2e280 and its value (within its two knots' range, but
+# for rounding) finite wherever s is not NaN
+TAME_KAPPA = 1e30
+TAME_GAP = 1e-250
 
 
 def _knots_by_block(gs):
@@ -2046,7 +2107,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             law.grid_levels = levels
             q = idx[fig]
             iv[fig], ia[fig], pv[fig], pa[fig], mv[fig] = true_figures(
-                law, 1.0 / keff[q], [geos[i] for i in q], None, {} if knots is None else knots.sub(q))
+                law, 1.0 / keff[q], objfields.items(geos, q), None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
         return iv, ia, ok
 
@@ -2078,7 +2139,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             if law is None:
                 continue
             why = []
-            fig = np.flatnonzero(~surely_over(law, args[5], [geos[i] for i in q[r]], v_lim[sl][r], a_lim[sl][r],
+            fig = np.flatnonzero(~surely_over(law, args[5], objfields.items(geos, q[r]), v_lim[sl][r], a_lim[sl][r],
                                               {} if knots is None else knots.sub(q[r]), why))
             a_only[q[r]] = why[0]
             if fig.size:
@@ -2101,7 +2162,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             return None, None, None
         rough, lay = got
         why = []
-        surely_over(rough, args[5], [geos[i] for i in q], v_lim * (1.0 - SCREEN_BAND_R),
+        surely_over(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
                     a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q), why)
         a_only[q[why[0]]] = True
         return np.flatnonzero(~why[0]), rough.panel_levels(), lay

@@ -377,8 +377,9 @@ def test_cheb_der_int_bitwise_on_real_curves_laws():
 
 def test_cheb_der_int_bitwise_on_random_series():
     rng = np.random.default_rng(2)
-    for K in (1, 2, 3, 4, 5, 8, 17, 21, 33, 64, 129, 200):
-        for nb in (1, 7, 64):
+    # (K to 256: the core's 4-row AVX form; 257, 300: its scalar rows; nb 5, 7: both at once)
+    for K in (1, 2, 3, 4, 5, 8, 17, 21, 33, 64, 129, 200, 256, 257, 300):
+        for nb in (1, 5, 7, 64):
             c = rng.normal(size=(nb, K)) * rng.choice([1.0, 1e-3, 1e5, 0.0], (nb, K))
             if nb > 3:
                 c[1, :] = 0.0

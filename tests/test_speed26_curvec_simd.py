@@ -127,11 +127,12 @@ def test_layers_scalar_and_avx_and_numpy(both):
 
 def _curve_run(path, prof, monkeypatch):
     """The curve planner's kernels' inputs on a real file: every _kappa_block (the curvature
-    kernels of _parts_block and of κ made when read), _precond_cheb and _layers_totals call
-    (arguments copied)."""
-    calls = {"pb": [], "pc": [], "lay": []}
+    kernels of _parts_block and of κ made when read), _precond_cheb and _layers_totals call,
+    and _layers_args (the layer iteration's steps with the core: lay_pre, lay_mid) (arguments
+    copied)."""
+    calls = {"pb": [], "pc": [], "lay": [], "lay_args": []}
     for mod, name, key in ((curves, "_kappa_block", "pb"), (circle, "_precond_cheb", "pc"),
-                           (circle, "_layers_totals", "lay")):
+                           (circle, "_layers_totals", "lay"), (circle, "_layers_args", "lay_args")):
         f = getattr(mod, name)
 
         def rec(*args, _f=f, _k=key):
@@ -143,7 +144,7 @@ def _curve_run(path, prof, monkeypatch):
 
 
 def _check_calls(calls, both, limit):
-    assert calls["pb"] and calls["pc"] and calls["lay"]
+    assert calls["pb"] and calls["pc"] and (calls["lay"] or calls["lay_args"])
     for args in calls["pb"][:limit]:
         a, b = both(curves._kappa_block, *args)
         assert all(_bits(x, y) for x, y in zip(a, b))
@@ -153,6 +154,9 @@ def _check_calls(calls, both, limit):
     for args in calls["lay"][:limit]:
         a, b = both(circle._layers_totals, *args)
         assert all(_bits(x, y) for x, y in zip(a, b))
+    for args in calls["lay_args"][:limit]:
+        a, b = both(circle._layers_args, *args)
+        assert _bits(a, b)
 
 
 def test_scalar_and_avx_on_the_pipelines_calls(both, tmp_path, monkeypatch):

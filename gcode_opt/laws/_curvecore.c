@@ -853,7 +853,62 @@ static PyObject *exp_merge(PyObject *self, PyObject *a) {
    of coef (B, K), K >= 2, row by row: the same operations in the same order as numpy's
    loops over the coefficients (integers times doubles as doubles; chebval at -1 by its
    recurrence); its arrays are (coefficients, rows), so the transposes are laid out as
-   numpy's results are. */
+   numpy's results are.  der_t or int_t None: that one not made (each is made apart). */
+#if CURVE_AVX
+/* cheb_der_int's rows 4 at a time (K <= DER_INT_AVX_COLS): the scalar loop's operations, each
+   on the 4 rows' coefficients at once (IEEE multiply, divide, add, subtract: each element the
+   scalar loop's bits), their results stored as 4 adjacent doubles of der and itg (one row of
+   each (coefficients, rows) array; either NULL: not made); returns the rows done (a multiple
+   of 4), the rest left to the scalar loop */
+#define DER_INT_AVX_COLS 256
+AVX_FN static Py_ssize_t cheb_der_int_avx(const double *coef, Py_ssize_t nb, Py_ssize_t K, double *der,
+                                          double *itg) {
+    __m256d cr[DER_INT_AVX_COLS], c[DER_INT_AVX_COLS], t[DER_INT_AVX_COLS + 1];
+    const __m256d two = _mm256_set1_pd(2.0), half = _mm256_set1_pd(0.5), zero = _mm256_set1_pd(0.0);
+    Py_ssize_t r = 0;
+    for (; r + 4 <= nb; r += 4) {
+        const double *c0r = coef + r * K, *c1r = c0r + K, *c2r = c1r + K, *c3r = c2r + K;
+        for (Py_ssize_t j = 0; j < K; j++) cr[j] = _mm256_set_pd(c3r[j], c2r[j], c1r[j], c0r[j]);
+        Py_ssize_t n;
+        if (der) {
+            /* chebder: c *= scl, then from the top */
+            n = K - 1;
+            for (Py_ssize_t j = 0; j < K; j++) c[j] = _mm256_mul_pd(cr[j], two);
+            for (Py_ssize_t j = n; j > 2; j--) {
+                _mm256_storeu_pd(der + (j - 1) * nb + r, _mm256_mul_pd(_mm256_set1_pd((double)(2 * j)), c[j]));
+                c[j - 2] = _mm256_add_pd(c[j - 2], _mm256_div_pd(_mm256_mul_pd(_mm256_set1_pd((double)j), c[j]),
+                                                                 _mm256_set1_pd((double)(j - 2))));
+            }
+            if (n > 1) _mm256_storeu_pd(der + 1 * nb + r, _mm256_mul_pd(_mm256_set1_pd(4.0), c[2]));
+            _mm256_storeu_pd(der + r, c[1]);
+        }
+        if (!itg) continue;
+        /* chebint: c *= scl, tmp, then tmp[0] += k - chebval(lbnd, tmp) */
+        n = K;
+        for (Py_ssize_t j = 0; j < K; j++) c[j] = _mm256_mul_pd(cr[j], half);
+        t[0] = _mm256_mul_pd(c[0], zero);
+        t[1] = c[0];
+        t[2] = _mm256_div_pd(c[1], _mm256_set1_pd(4.0));
+        for (Py_ssize_t j = 2; j < n; j++) {
+            t[j + 1] = _mm256_div_pd(c[j], _mm256_set1_pd((double)(2 * (j + 1))));
+            t[j - 1] = _mm256_sub_pd(t[j - 1], _mm256_div_pd(c[j], _mm256_set1_pd((double)(2 * (j - 1)))));
+        }
+        Py_ssize_t L = n + 1;
+        const __m256d x = _mm256_set1_pd(-1.0), x2 = _mm256_set1_pd(2.0 * -1.0);
+        __m256d c0 = t[L - 2], c1 = t[L - 1];
+        for (Py_ssize_t i = 3; i < L + 1; i++) {
+            __m256d tmp = c0;
+            c0 = _mm256_sub_pd(t[L - i], c1);
+            c1 = _mm256_add_pd(tmp, _mm256_mul_pd(c1, x2));
+        }
+        __m256d v = _mm256_add_pd(c0, _mm256_mul_pd(c1, x));
+        t[0] = _mm256_add_pd(t[0], _mm256_sub_pd(zero, v));
+        for (Py_ssize_t j = 0; j < L; j++) _mm256_storeu_pd(itg + j * nb + r, t[j]);
+    }
+    return r;
+}
+#endif
+
 static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
     PyObject *oc, *od, *oi;
     Py_ssize_t nb, K;
@@ -864,21 +919,29 @@ static PyObject *cheb_der_int(PyObject *self, PyObject *a) {
     }
     Bufs b = {.n = 0};
     const double *coef = get(&b, oc, 8, 0, nb * K);
-    double *der = coef ? get(&b, od, 8, 1, (K - 1) * nb) : NULL;
-    double *itg = der ? get(&b, oi, 8, 1, (K + 1) * nb) : NULL;
-    if (!itg) { release(&b); return NULL; }
+    double *der = (coef && od != Py_None) ? get(&b, od, 8, 1, (K - 1) * nb) : NULL;
+    double *itg = (coef && oi != Py_None) ? get(&b, oi, 8, 1, (K + 1) * nb) : NULL;
+    if (!coef || (od != Py_None && !der) || (oi != Py_None && !itg)) { release(&b); return NULL; }
     double c[MAX_COLS], t[MAX_COLS + 1];
-    for (Py_ssize_t r = 0; r < nb; r++) {
+    Py_ssize_t r0 = 0;
+#if CURVE_AVX
+    if (K <= DER_INT_AVX_COLS && use_avx()) r0 = cheb_der_int_avx(coef, nb, K, der, itg);
+#endif
+    for (Py_ssize_t r = r0; r < nb; r++) {
         const double *cr = coef + r * K;
-        /* chebder: c *= scl, then from the top */
-        Py_ssize_t n = K - 1;
-        for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 2.0;
-        for (Py_ssize_t j = n; j > 2; j--) {
-            der[(j - 1) * nb + r] = (double)(2 * j) * c[j];
-            c[j - 2] += ((double)j * c[j]) / (double)(j - 2);
+        Py_ssize_t n;
+        if (der) {
+            /* chebder: c *= scl, then from the top */
+            n = K - 1;
+            for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 2.0;
+            for (Py_ssize_t j = n; j > 2; j--) {
+                der[(j - 1) * nb + r] = (double)(2 * j) * c[j];
+                c[j - 2] += ((double)j * c[j]) / (double)(j - 2);
+            }
+            if (n > 1) der[1 * nb + r] = 4.0 * c[2];
+            der[r] = c[1];
         }
-        if (n > 1) der[1 * nb + r] = 4.0 * c[2];
-        der[r] = c[1];
+        if (!itg) continue;
         /* chebint: c *= scl, tmp, then tmp[0] += k - chebval(lbnd, tmp) */
         n = K;
         for (Py_ssize_t j = 0; j < K; j++) c[j] = cr[j] * 0.5;
@@ -1058,6 +1121,185 @@ static PyObject *lay_post(PyObject *self, PyObject *a) {
             t = t + as[(2 * r + 1) * n + i];
             out[r * n + i] = t - phi[i];
         }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
+/* lay_step(m, wcs, as, phi, h, act, x, xp, gp, g2, u0, u1, sp, lo, hi, n, wc): one step of
+   circle._solve_layers_batch's iteration over its n live arcs (the state arrays, packed), after
+   lay_pre / np.exp / lay_mid / np.arcsinh of the step's m cruise values (wcs (m, n): x, or x and
+   x + h; as (m, 2, n)): lay_post's residuals g (and gh of x + h), then the slope (m = 2: the
+   forward difference (gh - g) / h; m = 1: the secant (g - gp) / (x - xp)), the bracket (lo where
+   g < 0, hi where g > 0), the step x - g / slope (slope > 0, else inf) and bisection where it
+   leaves the bracket or is not finite, and the test |new - x| <= 1e-15 sp: the numpy loop's
+   operations in its order.  An arc whose test holds has its new value put at wc[act[i]] and
+   leaves; the others are packed to the front of every state array in order (xp the old x, gp
+   g, x the new), as the numpy loop's masks take them.  Returns the number left. */
+static PyObject *lay_step(PyObject *self, PyObject *a) {
+    PyObject *ow, *oa, *op, *oh, *oact, *ox, *oxp, *ogp, *og2, *o0, *o1, *osp, *olo, *ohi, *owc;
+    Py_ssize_t m, n, nwc;
+    if (!PyArg_ParseTuple(a, "nOOOOOOOOOOOOOOnOn", &m, &ow, &oa, &op, &oh, &oact, &ox, &oxp, &ogp, &og2,
+                          &o0, &o1, &osp, &olo, &ohi, &n, &owc, &nwc))
+        return NULL;
+    if ((m != 1 && m != 2) || n < 0) {
+        PyErr_SetString(PyExc_ValueError, "lay_step: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *wcs = get(&b, ow, 8, 0, m * n);
+    const double *as = wcs ? get(&b, oa, 8, 0, 2 * m * n) : NULL;
+    double *phi = as ? get(&b, op, 8, 1, n) : NULL;
+    const double *h = (phi && m == 2) ? get(&b, oh, 8, 0, n) : NULL;
+    int64_t *act = (phi && (h || m == 1)) ? get(&b, oact, 8, 1, n) : NULL;
+    double *x = act ? get(&b, ox, 8, 1, n) : NULL;
+    double *xp = x ? get(&b, oxp, 8, 1, n) : NULL;
+    double *gp = xp ? get(&b, ogp, 8, 1, n) : NULL;
+    double *g2 = gp ? get(&b, og2, 8, 1, n) : NULL;
+    double *u0 = g2 ? get(&b, o0, 8, 1, n) : NULL;
+    double *u1 = u0 ? get(&b, o1, 8, 1, n) : NULL;
+    double *sp = u1 ? get(&b, osp, 8, 1, n) : NULL;
+    double *lo = sp ? get(&b, olo, 8, 1, n) : NULL;
+    double *hi = lo ? get(&b, ohi, 8, 1, n) : NULL;
+    double *wc = hi ? get(&b, owc, 8, 1, nwc) : NULL;
+    if (!wc) { release(&b); return NULL; }
+    Py_ssize_t k = 0;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        const double xi = x[i];
+        /* lay_post of row 0 (x), then of row 1 (x + h) */
+        double g = wcs[i] + as[i];
+        g = g + as[n + i];
+        g = g - phi[i];
+        double dg;
+        if (m == 2) {
+            double gh = wcs[n + i] + as[2 * n + i];
+            gh = gh + as[3 * n + i];
+            gh = gh - phi[i];
+            dg = (gh - g) / h[i];
+        } else {
+            dg = (g - gp[i]) / (xi - xp[i]);
+        }
+        const double l = g < 0 ? xi : lo[i];
+        const double u = g > 0 ? xi : hi[i];
+        double nw = xi - g / (dg > 0 ? dg : INFINITY);
+        if (!((nw > l) && (nw < u)) || !isfinite(nw)) nw = 0.5 * (l + u);
+        if (fabs(nw - xi) <= 1e-15 * sp[i]) {
+            const int64_t at = act[i];
+            if (at < 0 || at >= nwc) {
+                PyErr_SetString(PyExc_IndexError, "lay_step: an arc out of wc");
+                release(&b);
+                return NULL;
+            }
+            wc[at] = nw;
+            continue;
+        }
+        /* (k <= i: each state value is read before its place is written) */
+        act[k] = act[i];
+        xp[k] = xi;
+        gp[k] = g;
+        x[k] = nw;
+        phi[k] = phi[i];
+        g2[k] = g2[i];
+        u0[k] = u0[i];
+        u1[k] = u1[i];
+        sp[k] = sp[i];
+        lo[k] = l;
+        hi[k] = u;
+        k++;
+    }
+    release(&b);
+    return PyLong_FromSsize_t(k);
+}
+
+/* probe_rows(v, at, nb, m, v_thr, a_cap, over_v, by_at, v_ok): per row r of v and at (nb, m),
+   curves.surely_over's decisions before κ: over_v[r] = np.max(v[r]) > v_thr[r], by_at[r] =
+   np.sqrt(np.max(at[r] * at[r])) > a_cap[r] (numpy's maxima: NaN where a NaN is met, and a NaN
+   compares false), v_ok[r] = every |v[r]| <= 1e150 (none NaN); bool (uint8) outputs. */
+#if CURVE_AVX
+/* probe_rows' row r (m >= 4) 4 points at a time: the maxima of v and at * at (exact whatever
+   the order where no NaN is met; a NaN met is flagged, and the decision is then false as
+   numpy's NaN maximum compares), and |v| <= 1e150 at every point */
+AVX_FN static void probe_row_avx(const double *vr, const double *ar, Py_ssize_t m, double vt, double ac,
+                                 uint8_t *over_v, uint8_t *by_at, uint8_t *v_ok) {
+    const __m256d sign = _mm256_set1_pd(-0.0), big = _mm256_set1_pd(1e150);
+    __m256d vmax = _mm256_loadu_pd(vr), a0 = _mm256_loadu_pd(ar);
+    __m256d a2max = _mm256_mul_pd(a0, a0);
+    __m256d nan_v = _mm256_cmp_pd(vmax, vmax, _CMP_UNORD_Q), nan_a = _mm256_cmp_pd(a2max, a2max, _CMP_UNORD_Q);
+    __m256d tame = _mm256_cmp_pd(_mm256_andnot_pd(sign, vmax), big, _CMP_LE_OQ);
+    Py_ssize_t j = 4;
+    for (; j + 4 <= m; j += 4) {
+        const __m256d x = _mm256_loadu_pd(vr + j), y0 = _mm256_loadu_pd(ar + j);
+        const __m256d y = _mm256_mul_pd(y0, y0);
+        nan_v = _mm256_or_pd(nan_v, _mm256_cmp_pd(x, x, _CMP_UNORD_Q));
+        nan_a = _mm256_or_pd(nan_a, _mm256_cmp_pd(y, y, _CMP_UNORD_Q));
+        tame = _mm256_and_pd(tame, _mm256_cmp_pd(_mm256_andnot_pd(sign, x), big, _CMP_LE_OQ));
+        vmax = _mm256_max_pd(vmax, x);
+        a2max = _mm256_max_pd(a2max, y);
+    }
+    double l[4], k[4];
+    _mm256_storeu_pd(l, vmax);
+    _mm256_storeu_pd(k, a2max);
+    double vm = l[0], am = k[0];
+    for (int c = 1; c < 4; c++) {
+        vm = l[c] > vm ? l[c] : vm;
+        am = k[c] > am ? k[c] : am;
+    }
+    int v_nan = _mm256_movemask_pd(nan_v) != 0, a_nan = _mm256_movemask_pd(nan_a) != 0;
+    int ok = _mm256_movemask_pd(tame) == 0xF;
+    for (; j < m; j++) {
+        const double x = vr[j], y = ar[j] * ar[j];
+        v_nan |= isnan(x);
+        a_nan |= isnan(y);
+        ok &= fabs(x) <= 1e150;
+        vm = x > vm ? x : vm;
+        am = y > am ? y : am;
+    }
+    *over_v = !v_nan && vm > vt;
+    *by_at = !a_nan && sqrt(am) > ac;
+    *v_ok = (uint8_t)ok;
+}
+#endif
+
+static PyObject *probe_rows(PyObject *self, PyObject *a) {
+    PyObject *ov, *oa, *ovt, *oac, *oo, *ob, *ok_;
+    Py_ssize_t nb, m;
+    if (!PyArg_ParseTuple(a, "OOnnOOOOO", &ov, &oa, &nb, &m, &ovt, &oac, &oo, &ob, &ok_)) return NULL;
+    if (nb < 0 || m < 1) {
+        PyErr_SetString(PyExc_ValueError, "probe_rows: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *v = get(&b, ov, 8, 0, nb * m);
+    const double *at = v ? get(&b, oa, 8, 0, nb * m) : NULL;
+    const double *vt = at ? get(&b, ovt, 8, 0, nb) : NULL;
+    const double *ac = vt ? get(&b, oac, 8, 0, nb) : NULL;
+    uint8_t *over_v = ac ? get(&b, oo, 1, 1, nb) : NULL;
+    uint8_t *by_at = over_v ? get(&b, ob, 1, 1, nb) : NULL;
+    uint8_t *v_ok = by_at ? get(&b, ok_, 1, 1, nb) : NULL;
+    if (!v_ok) { release(&b); return NULL; }
+    const int avx = use_avx();
+    (void)avx;
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *vr = v + r * m, *ar = at + r * m;
+#if CURVE_AVX
+        if (avx && m >= 4) {
+            probe_row_avx(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
+            continue;
+        }
+#endif
+        double vmax = vr[0], a2max = ar[0] * ar[0];
+        int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
+        for (Py_ssize_t j = 1; j < m; j++) {
+            const double x = vr[j], y = ar[j] * ar[j];
+            v_nan |= isnan(x);
+            a_nan |= isnan(y);
+            tame &= fabs(x) <= 1e150;
+            vmax = x > vmax ? x : vmax;
+            a2max = y > a2max ? y : a2max;
+        }
+        over_v[r] = !v_nan && vmax > vt[r];
+        by_at[r] = !a_nan && sqrt(a2max) > ac[r];
+        v_ok[r] = (uint8_t)tame;
+    }
     release(&b);
     Py_RETURN_NONE;
 }
@@ -2021,11 +2263,13 @@ static PyMethodDef methods[] = {
     {"lay_pre", lay_pre, METH_VARARGS, "_layers_total's argument of np.exp"},
     {"lay_mid", lay_mid, METH_VARARGS, "_layers_total's arguments of np.arcsinh"},
     {"lay_post", lay_post, METH_VARARGS, "_layers_total's sum"},
+    {"lay_step", lay_step, METH_VARARGS, "_solve_layers_batch's step: residuals, slope, bracket, step, test, packing"},
     {"kern_pack", kern_pack, METH_VARARGS, "_parts_block's kernel arguments np.exp does not take to +0.0, packed, and each row's run"},
     {"kern_unpack", kern_unpack, METH_VARARGS, "the kernel from np.exp of kern_pack's arguments, +0.0 outside the runs"},
     {"exp_split", exp_split, METH_VARARGS, "the arguments np.exp does not take to +0.0, packed"},
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
+    {"probe_rows", probe_rows, METH_VARARGS, "curves.surely_over's speed and tangential-|a| decisions of each row"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"graded_grid", graded_grid, METH_VARARGS, "circle._graded_grid's nodes and weights"},

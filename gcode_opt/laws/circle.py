@@ -812,6 +812,8 @@ def _solve_layers_batch(phi, gam2, u0, u1):
         span = np.where(bad_lo | bad_hi, 2.0 * span, span)
     wc = phi.astype(float).copy()
     wc = np.clip(wc, lo, hi)
+    if CORE_MOD is not None and wc.dtype == np.float64:
+        return _layers_iterate_c(wc, phi, gam2, u0, u1, span, lo, hi)
     act = np.arange(wc.size)        # an arc leaves the iteration once its step is below tolerance
     # the live arcs' numbers held packed (x: their w_c, lo_a/hi_a: their bracket, xp/gp: the
     # last iterate and its residual), packed again only when arcs leave, and each arc's w_c put
@@ -845,24 +847,73 @@ def _solve_layers_batch(phi, gam2, u0, u1):
     return wc
 
 
+def _layers_iterate_c(wc, phi, gam2, u0, u1, span, lo, hi):
+    """_solve_layers_batch's iteration from its start wc (and bracket lo, hi) with the compiled
+    core: each step's residuals by _layers_totals' passes around np.exp and np.arcsinh, then
+    the rest of the step (the residuals' sums, slope, bracket, step, bisection, test) and the
+    packing of the live arcs in one compiled pass (_curvecore.c lay_step: the numpy loop's
+    operations in its order), not ~40 numpy calls a step over the live arcs; the same w_c."""
+    core = CORE_MOD
+    act = np.arange(wc.size, dtype=np.int64)
+    # the live arcs' state, packed (own C-contiguous copies: lay_step packs them in place)
+    x, p_, g2, a0, a1, sp, lo_a, hi_a = (np.array(v[act], dtype=float) for v in (wc, phi, gam2, u0, u1, span, lo, hi))
+    xp, gp = np.empty(act.size), np.empty(act.size)
+    n = act.size
+    for it in range(_LAYERS_ITER if n else 0):
+        if it == 0:                 # (the first step's slope: a forward difference)
+            h = 1e-7 * (np.abs(x) + 1e-3 * sp)
+            xs = np.empty((2, n))
+            xs[0] = x
+            xs[1] = x + h
+        else:
+            h, xs = None, x
+        asn = _layers_args(xs, g2, a0, a1)
+        n = core.lay_step(xs.shape[0] if xs.ndim == 2 else 1, xs, asn, p_, h, act, x, xp, gp, g2, a0, a1, sp,
+                          lo_a, hi_a, n, wc, wc.size)
+        if n == 0:
+            return wc
+        act, x, xp, gp, p_, g2, a0, a1, sp, lo_a, hi_a = (
+            v[:n] for v in (act, x, xp, gp, p_, g2, a0, a1, sp, lo_a, hi_a))
+    wc[act] = x                     # (the steps ran out: the last ones' w_c)
+    return wc
+
+
+def _layers_args(xs, gam2, u0, u1):
+    """np.arcsinh of _layers_totals' arguments (m, 2, n) of the cruise values xs ((m, n) or
+    one (n,)): lay_pre, np.exp, lay_mid, np.arcsinh, as _layers_totals makes them."""
+    core = CORE_MOD
+    wc = xs if xs.ndim == 2 else xs[None, :]
+    m, n = wc.shape
+    e = np.empty((m, n))
+    core.lay_pre(wc, gam2, n, m, e)
+    np.exp(e, out=e)
+    a = np.empty((m, 2, n))
+    core.lay_mid(wc, gam2, u0, u1, e, n, m, a)
+    np.arcsinh(a, out=a)
+    return a
+
+
 # ---------------------------------------------------------------------------------------------
 # Public batch object
 # ---------------------------------------------------------------------------------------------
 
-def _cheb_der_int(coef):
+def _cheb_der_int(coef, der=True, itg=True):
     """(chebder(coef, axis=1, scl=2.0), chebint(coef, axis=1, lbnd=-1.0, scl=0.5)) of
     Chebyshev series rows coef (B, K): numpy.polynomial's loops over the coefficients,
     each an operation on a strided column, run in C per row where the core is built (the
     same operations in the same order; results laid out as numpy's, the transposes of
-    (coefficients, rows) arrays: tests/test_speed20_curves_core.py)."""
+    (coefficients, rows) arrays: tests/test_speed20_curves_core.py).  der=False or
+    itg=False: that one not made (None; the other the same numbers, each row's own)."""
     from numpy.polynomial import chebyshev as C
     nb, K = coef.shape
     if CORE_MOD is None or K < 2 or K > 1024:
-        return C.chebder(coef, axis=1, scl=2.0), C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5)
-    der = np.empty((K - 1, nb))
-    itg = np.empty((K + 1, nb))
-    CORE_MOD.cheb_der_int(np.ascontiguousarray(coef, float), nb, K, der, itg)
-    return der.T, itg.T
+        return (C.chebder(coef, axis=1, scl=2.0) if der else None,
+                C.chebint(coef, axis=1, lbnd=-1.0, scl=0.5) if itg else None)
+    d = np.empty((K - 1, nb)) if der else None
+    t = np.empty((K + 1, nb)) if itg else None
+    if der or itg:
+        CORE_MOD.cheb_der_int(np.ascontiguousarray(coef, float), nb, K, d, t)
+    return (d.T if der else None), (t.T if itg else None)
 
 
 _GL_CACHE: dict[int, tuple] = {}
@@ -1015,10 +1066,14 @@ class CircleBatch:
         return [slice(a, a + EVAL_CHUNK) for a in range(0, len(self), EVAL_CHUNK)]
 
     # -- dimensionless evaluation: φ, w = φ', w', w'' at τ (B, M) --------------------------
-    def eval_tau(self, tau: np.ndarray, idx=None, w2=True, w1=True):
+    def eval_tau(self, tau: np.ndarray, idx=None, w2=True, w1=True, phi=True, w=True):
         """(φ, w, w', w'') at τ; w2=False: w'' is not computed (None), w1=False: w' is not
-        (None); the others are the same numbers (the curve planner reads φ, w, w' only: w''
-        cost a cube per point; curve_knots reads φ and w: w' cost a third of its series)."""
+        (None), phi=False: φ is not, w=False: w is not (w2 needs it); the others are the same
+        numbers (the curve planner reads φ, w, w' only: w'' cost a cube per point; curve_knots
+        reads φ and w: w' cost a third of its series; the probes read φ only where w and w'
+        leave |a| undecided)."""
+        w = w or w2
+        made = (phi, w, w1, w2)
         idx = np.arange(len(self)) if idx is None else np.asarray(idx)
         tau = np.broadcast_to(np.asarray(tau, float), (idx.size,) + np.shape(tau)[-1:])
         gam2 = self.gamma[idx] ** 2
@@ -1026,19 +1081,20 @@ class CircleBatch:
         if lay.all() or not lay.any():      # one regime (the usual case): no gather, no scatter
             # (read only: the caller's own array where it is C-contiguous, not a copy)
             tau = np.ascontiguousarray(tau)
-            got = (self._eval_layers if lay.all() else self._eval_cheb)(tau, idx, gam2, w2, w1)
-            return _own_arrays(got, tau, (True, True, w1, w2))
+            got = (self._eval_layers if lay.all() else self._eval_cheb)(tau, idx, gam2, w2, w1, phi, w)
+            return _own_arrays(got, tau, made)
         tau = tau.copy()
-        out = [np.empty_like(tau) if made else None for made in (True, True, w1, w2)]
+        out = [np.empty_like(tau) if m else None for m in made]
         for rows, part in ((lay, self._eval_layers), (~lay, self._eval_cheb)):
             if rows.any():
                 k = np.nonzero(rows)[0]
-                for o, v in zip(out, part(tau[k], idx[k], gam2[k], w2, w1)):
+                for o, v in zip(out, part(tau[k], idx[k], gam2[k], w2, w1, phi, w)):
                     if o is not None:
                         o[k] = v
         return out
 
-    def _eval_layers(self, tau, idx, gam2, w2=True, w1=True):
+    def _eval_layers(self, tau, idx, gam2, w2=True, w1=True, phi_on=True, w_on=True):
+        """(φ, w, w', w'') of layer-regime arcs (all made; those not asked given as None)."""
         wc = self.wc[idx][:, None]
         g2 = gam2[:, None]
         u0, u1 = self.w0[idx] * self.T_t[idx], self.w1[idx] * self.T_t[idx]
@@ -1056,21 +1112,21 @@ class CircleBatch:
 
         def dpp(d):  # d''
             return d * (c + 6.0 * wc * d + 2.0 * d * d)
-        return phi, w, (dp(dl) - dp(dr) if w1 else None), (dpp(dl) + dpp(dr) if w2 else None)
+        return (phi if phi_on else None), (w if w_on else None), (dp(dl) - dp(dr) if w1 else None), \
+            (dpp(dl) + dpp(dr) if w2 else None)
 
-    def _eval_cheb(self, tau, idx, gam2, w2=True, w1=True):
+    def _eval_cheb(self, tau, idx, gam2, w2=True, w1=True, phi_on=True, w_on=True):
+        """(φ, w, w', w'') of Chebyshev-regime arcs, those not asked None (not made: each
+        series is evaluated apart, its own products row by row, so those left out leave the
+        others the same numbers; w'' needs w)."""
         x = 2.0 * tau - 1.0
         coef = self.coef[idx]
         nz = np.nonzero(np.any(coef != 0, axis=0))[0]
         coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
-        wcoef = coef
-        dcoef, pcoef = _cheb_der_int(coef)
-        # each series is evaluated apart (its own products, row by row): leaving w' out
-        # leaves w and φ the same numbers
-        if w1:
-            w, dw, phi = _series_values((wcoef, dcoef, pcoef), x)
-        else:
-            (w, phi), dw = _series_values((wcoef, pcoef), x), None
+        dcoef, pcoef = _cheb_der_int(coef, der=w1, itg=phi_on)
+        asked = [c for c, on in ((coef, w_on), (dcoef, w1), (pcoef, phi_on)) if on]
+        got = iter(_series_values(asked, x) if asked else ())
+        w, dw, phi = (next(got) if on else None for on in (w_on, w1, phi_on))
         w2_v = gam2[:, None] * w + 2.0 * w ** 3 + self.cc[idx][:, None] if w2 else None
         return phi, w, dw, w2_v
 

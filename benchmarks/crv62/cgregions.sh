@@ -1,0 +1,23 @@
+#!/bin/bash
+# build the helper first: gcc -O1 -shared -fPIC -o /tmp/crv62_libcgt.so benchmarks/crv62/cgt.c
+# cgregions.sh TREE FILE TAG  (CRV_FUNCS env) -> per-region self instructions
+D=$(dirname "$(realpath "$0")"); TREE=$(cd "$1" && pwd); F=$(realpath "$2"); TAG=$3
+rm -rf /tmp/cg/$TAG.d; mkdir -p /tmp/cg/$TAG.d
+cd "$TREE" && PYTHONHASHSEED=1 PYTHONPATH=$TREE valgrind --tool=callgrind --dump-instr=no --callgrind-out-file=/tmp/cg/$TAG.d/cg.out \
+    /tmp/venv/bin/python $D/regions.py process "$F" -o /tmp/cg/$TAG.gcode -q --profile prusa-mk3s > /tmp/cg/$TAG.log 2>&1
+/tmp/venv/bin/python - /tmp/cg/$TAG.d <<'PY'
+import sys, glob, re, collections
+c = collections.Counter(); n = collections.Counter()
+for f in glob.glob(sys.argv[1] + '/cg.out*'):
+    lab = tot = None
+    with open(f) as fh:
+        for line in fh:
+            if line.startswith('desc: Trigger:'):
+                m = re.search(r'Client Request: (\S+)', line); lab = m.group(1) if m else line.strip()
+            elif line.startswith('totals:') or line.startswith('summary:'):
+                tot = int(line.split()[1])
+    c[lab] += tot or 0; n[lab] += 1
+T = sum(c.values())
+for k, v in c.most_common(): print(f'{v/1e6:10.1f} M  {100*v/T:5.1f} %  dumps {n[k]:5d}  {k}')
+print(f'{T/1e6:10.1f} M total')
+PY

@@ -55,7 +55,8 @@ _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
 # the side columns: each record's values of these int columns, 8 bytes each, beside the
 # records (StrokeStore's side): the steps after planning read them of every stroke (the
 # lines three times: the rewrite's order, measure's and the summary's columns; corner_cmd0
-# the runs', layer the summary's), each a pass over every record's bytes
+# the runs', layer the summary's), each a pass over every record's bytes.  (layer last: the
+# fields sides' rows below start with SIDE, and the summary's fields follow layer)
 SIDE = ("first_idx", "last_idx", "corner_cmd0", "layer")
 SIDE_ROWS = 4096                 # the side read this many rows at a time (128 kB)
 _K_BOOL, _K_INT = 2, 6           # store_fields' kinds (ints=True) of the values a side column holds
@@ -371,7 +372,9 @@ class _TempFile:
     in_memory = False
 
     def __init__(self, folder=None):
-        self._fh = tempfile.TemporaryFile(dir=folder)
+        # (unbuffered: only its descriptor is read and written, pread / pwrite; a buffered
+        # file held an 8 kB buffer it never used, one a file: records and three sides)
+        self._fh = tempfile.TemporaryFile(dir=folder, buffering=0)
         self._fd = self._fh.fileno()
 
     def write(self, pos, data):

@@ -114,3 +114,12 @@ def test_stored_summary_columns_are_the_strokes(pure):
     for name in sc.CODED:
         assert got.code_of[name] == want.code_of[name]
         assert got.codes[name].tolist() == want.codes[name].tolist()
+
+
+def test_summary_fields_are_a_run_of_the_side():
+    """The summary's fields (stroke_columns._stored_columns' names, in its order) are a run of
+    the side's columns (its reads are views, no column gathered), SIDE its first columns."""
+    names = ("layer",) + sc.FLOATS + sc._SHARED
+    at = ss.FIELDS_SIDE.index("layer")
+    assert ss.FIELDS_SIDE[at:at + len(names)] == names
+    assert ss.FIELDS_SIDE[:len(ss.SIDE)] == ss.SIDE

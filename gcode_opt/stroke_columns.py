@@ -195,40 +195,38 @@ def _coded_into(strokes, name, code_of):
     return np.fromiter(map(code_of.__getitem__, vals), np.intp, len(vals))
 
 
-# StrokeStore.fields' kinds of a value: a float, None, another object (layer: an int, its
-# value read by column), a shared object (feature, kind: a str, its table index)
-_K_FLOAT, _K_NONE, _K_OBJECT, _K_SHARED = 0, 1, 3, 5
+# StrokeStore.fields' kinds (ints) of a value: a float, None, a shared object (feature,
+# kind: a str, its table index), an int in an object slot (layer: its int64 bits)
+_K_FLOAT, _K_NONE, _K_SHARED, _K_INT = 0, 1, 5, 6
 _SHARED = ("feature", "kind")
 
 
 def _stored_columns(store):
     """(FLOATS' columns, {CODED name: (code_of, codes)}) of every record of store as
     _add_loaded makes them of its strokes, read from the records' fields (StrokeStore.fields
-    a batch at a time, the layers by StrokeStore.column) with no stroke made (windowed
-    gyroid plate: ~0.01 s against ~0.027 s); None where a value is not one these hold (a
-    float field not a float, feature or kind neither a shared str nor None, a layer not an
-    int): the caller then makes the strokes."""
+    a batch at a time: the store's fields side, no record read) with no stroke made
+    (windowed gyroid plate: ~0.01 s against ~0.027 s); None where a value is not one these
+    hold (a float field not a float, feature or kind neither a shared str nor None, a
+    layer not an int): the caller then makes the strokes."""
     n = len(store)
-    names = FLOATS + _SHARED + ("layer",)
+    names = ("layer",) + FLOATS + _SHARED      # (the store's fields side's order: its columns as they are)
     nf = len(FLOATS)
     floats = {name: np.empty(n) for name in FLOATS}
     tokens = {name: np.empty(n, np.int64) for name in _SHARED}    # a table index, -1 for None
+    layers = np.empty(n, np.int64)
     at = 0
-    for vals, kinds in store.fields(np.arange(n, dtype=np.int64), names):
+    for vals, kinds in store.fields(np.arange(n, dtype=np.int64), names, ints=True):
         m = len(vals)
-        shared = kinds[:, nf:nf + len(_SHARED)]
-        if ((kinds[:, :nf] != _K_FLOAT).any() or not ((shared == _K_SHARED) | (shared == _K_NONE)).all()
-                or (kinds[:, -1] != _K_OBJECT).any()):
+        shared = kinds[:, 1 + nf:]
+        if ((kinds[:, 1:1 + nf] != _K_FLOAT).any() or not ((shared == _K_SHARED) | (shared == _K_NONE)).all()
+                or (kinds[:, 0] != _K_INT).any()):
             return None
-        for j, name in enumerate(FLOATS):
+        layers[at:at + m] = vals[:, 0].view(np.int64)
+        for j, name in enumerate(FLOATS, 1):
             floats[name][at:at + m] = vals[:, j]
         for j, name in enumerate(_SHARED):
-            tokens[name][at:at + m] = np.where(shared[:, j] == _K_SHARED, vals[:, nf + j], -1.0)
+            tokens[name][at:at + m] = np.where(shared[:, j] == _K_SHARED, vals[:, 1 + nf + j], -1.0)
         at += m
-    try:
-        layers = store.column("layer")
-    except TypeError:           # (a layer not a number: None)
-        return None
     coded = {name: _first_met_codes(tokens.pop(name), _shared_value(store)) for name in _SHARED}
     coded["layer"] = _first_met_codes(layers, int)
     return floats, coded

@@ -55,12 +55,27 @@ _TAGS_AT = 8 * (len(D_NAMES) + len(I_NAMES)) + 4
 # the side columns: each record's values of these int columns, 8 bytes each, beside the
 # records (StrokeStore's side): the steps after planning read them of every stroke (the
 # lines three times: the rewrite's order, measure's and the summary's columns; corner_cmd0
-# the runs', layer the summary's), each a pass over every record's bytes
-SIDE = ("first_idx", "last_idx", "layer", "corner_cmd0")
+# the runs', layer the summary's), each a pass over every record's bytes.  (layer last: the
+# fields sides' rows below start with SIDE, and the summary's fields follow layer)
+SIDE = ("first_idx", "last_idx", "corner_cmd0", "layer")
 SIDE_ROWS = 4096                 # the side read this many rows at a time (128 kB)
 _K_BOOL, _K_INT = 2, 6           # store_fields' kinds (ints=True) of the values a side column holds
 
-_SIDE_CODES = tuple(FIELD_CODE[nm] for nm in SIDE)
+
+# the fields sides: SIDE's fields and the summary's (stroke_columns._stored_columns: layer,
+# FLOATS, feature, kind, in its order, a pass over every record) as store_encode reads
+# them (store_fields' reading, ints), taken as each record is written and kept beside
+# the records: each record's values (8 bytes each) in one file, their kinds (a byte
+# each) in another, the buffers encode fills written as they are.  fields() of names on
+# the sides reads these rows, not the records (the summary's pass: rectilinear plate
+# ~12 MB of records, each one's slots walked again).  Not segments' line classes'
+# twenty fields (their pass, of the lines: their fields taken at every encode cost
+# more than their pass saved, benchmarks/sto62.md)
+FIELDS_SIDE = SIDE + ("length_d", "v0", "v1", "v_feed", "int_v2", "feature", "kind")
+_FSIDE_CODES = tuple(FIELD_CODE[nm] for nm in FIELDS_SIDE)
+_FSIDE_AT = {nm: j for j, nm in enumerate(FIELDS_SIDE)}
+_K_OTHER = 3                     # fields' kind of another object (an int in an object slot, not ints)
+SPARSE = 2                       # fields() reads the sides where a batch's rows span at most this many a row
 
 GAP = 16384                  # bytes between two runs of records read by one preadv at most (not kept)
 IOV_RUNS = 500               # runs a preadv reads at most (its buffers: under IOV_MAX, 1024)
@@ -357,7 +372,9 @@ class _TempFile:
     in_memory = False
 
     def __init__(self, folder=None):
-        self._fh = tempfile.TemporaryFile(dir=folder)
+        # (unbuffered: only its descriptor is read and written, pread / pwrite; a buffered
+        # file held an 8 kB buffer it never used, one a file: records and three sides)
+        self._fh = tempfile.TemporaryFile(dir=folder, buffering=0)
         self._fd = self._fh.fileno()
 
     def write(self, pos, data):
@@ -430,6 +447,14 @@ def _codec(pure):
     return _CCodec(core, kit)
 
 
+def _dense(rows):
+    """Do rows (int64, a fields() batch) ascend, spanning at most SPARSE rows a row
+    (fields() then reads their span of the fields sides, not their records)?"""
+    if len(rows) < 2:
+        return True
+    return int(rows[-1] - rows[0]) < SPARSE * len(rows) and bool((rows[1:] > rows[:-1]).all())
+
+
 def _read_breaks(offs, lens, slack):
     """The records (their places in offs, >= 1) that start a read of their own: a record
     follows the one before it in the same read where it starts at that one's end, or a
@@ -460,6 +485,9 @@ class StrokeStore:
         # records) in _side_off
         self._side_io = (_Memory if in_memory else _TempFile)(folder)
         self._side_off = set()
+        # FIELDS_SIDE's values (float64) and kinds (int8) of each record, a row a record
+        self._fvals_io = (_Memory if in_memory else _TempFile)(folder)
+        self._fkinds_io = (_Memory if in_memory else _TempFile)(folder)
         self.in_memory, self.folder = in_memory, folder      # (other spills go where this one is)
         self._off = np.zeros(0, np.int64)        # record k at byte _off[k], _len[k] bytes long
         self._len = np.zeros(0, np.int64)
@@ -490,14 +518,19 @@ class StrokeStore:
     # chains' solves, where kept they added ~1.8 MB (gyroid plate) to the peaks
     def _encode(self, strokes, i0, i1, buf):
         """(bytes of the records of strokes[i0:i1] at the start of buf, a bytearray; their
-        lengths; their SIDE fields' vals and kinds, for _side_values) -- the side's fields
-        taken as each record is written (the compiled encode: no second walk of the
-        records' slots)"""
+        lengths; their FIELDS_SIDE vals and kinds: the fields sides' rows, SIDE's columns
+        among them) -- the sides' fields taken as each record is written (the compiled
+        encode: no second walk of the records' slots)"""
         n = i1 - i0
         lens = np.empty(n, np.int64)
-        vals, kinds = np.empty((n, len(SIDE))), np.empty((n, len(SIDE)), np.int8)
-        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, buf, lens, (_SIDE_CODES, vals, kinds))
+        vals, kinds = np.empty((n, len(FIELDS_SIDE))), np.empty((n, len(FIELDS_SIDE)), np.int8)
+        nb = self._codec.encode(strokes, i0, i1, self._index, self._table, buf, lens, (_FSIDE_CODES, vals, kinds))
         return nb, lens, vals, kinds
+
+    def _write_fields(self, row, vals, kinds):
+        """The fields sides' rows of records row.. (encode's vals and kinds, as they are)."""
+        self._fvals_io.write(8 * len(FIELDS_SIDE) * row, memoryview(vals.reshape(-1).view(np.uint8)))
+        self._fkinds_io.write(len(FIELDS_SIDE) * row, memoryview(kinds.reshape(-1).view(np.uint8)))
 
     def append(self, strokes):
         """Records of strokes (a list) after the ones stored."""
@@ -505,17 +538,16 @@ class StrokeStore:
         self._room(self._n + len(strokes))
         end = self._end                # (a refused stroke: the store is left as it was)
         buf = bytearray()
-        vals, kinds = np.empty((len(strokes), len(SIDE))), np.empty((len(strokes), len(SIDE)), np.int8)
         for b0 in range(0, len(strokes), BATCH):
             b1 = min(b0 + BATCH, len(strokes))
-            nb, lens, vals[b0:b1], kinds[b0:b1] = self._encode(strokes, b0, b1, buf)
+            nb, lens, fv, fk = self._encode(strokes, b0, b1, buf)
             self._io.write(end, memoryview(buf)[:nb])
             k0 = self._n + b0
+            self._write_fields(k0, fv, fk)
+            self._side_io.write(8 * len(SIDE) * k0, memoryview(self._side_values(fv, fk).reshape(-1).view(np.uint8)))
             self._len[k0:k0 + b1 - b0] = lens
             self._off[k0:k0 + b1 - b0] = end + np.cumsum(lens) - lens
             end += nb
-        side = self._side_values(vals, kinds)
-        self._side_io.write(side.itemsize * side.shape[1] * self._n, memoryview(side.reshape(-1).view(np.uint8)))
         self._n += len(strokes)
         self._end = end
 
@@ -589,23 +621,29 @@ class StrokeStore:
         return self.take(np.arange(i0, max(i0, i1), dtype=np.int64), over)
 
     def _side_values(self, vals, kinds):
-        """The SIDE values (int64, (rows, len(SIDE))) of records whose SIDE fields the codec
-        read as vals and kinds (fields(..., ints=True)); a column with a value it cannot
-        hold (not an int or a bool) put in _side_off."""
-        out = vals.view(np.int64)
-        for j, name in enumerate(SIDE[2:], 2):
-            k = kinds[:, j]
-            if name not in self._side_off and not ((k == _K_INT) | (k == _K_BOOL)).all():
-                self._side_off.add(name)
-            out[:, j] = np.where(k == _K_BOOL, vals[:, j] != 0.0, out[:, j])
+        """The SIDE values (a new int64 array, (rows, len(SIDE))) of records whose fields
+        sides' rows the codec read as vals and kinds (encode's: FIELDS_SIDE, SIDE's first;
+        fields(..., ints=True)'s reading; left as they are); a column with a value it cannot
+        hold (not an int or a bool) put in _side_off.  A column at a time (a copy of the
+        rows' first columns: a loop call a row)."""
+        out = np.empty((len(vals), len(SIDE)), np.int64)
+        for j, name in enumerate(SIDE):
+            got = vals[:, j].view(np.int64)
+            if j >= 2:
+                k = kinds[:, j]
+                if name not in self._side_off and not ((k == _K_INT) | (k == _K_BOOL)).all():
+                    self._side_off.add(name)
+                got = np.where(k == _K_BOOL, vals[:, j] != 0.0, got)
+            out[:, j] = got
         return out
 
-    def _write_side(self, rows, side):
-        """side (SIDE values, a row a record) written as rows': a write a run of consecutive
-        rows."""
+    def _write_side(self, rows, side, fvals, fkinds):
+        """side (SIDE values, a row a record) and the fields sides' rows (encode's fvals,
+        fkinds) written as rows': a write a run of consecutive rows."""
         brk = np.flatnonzero(rows[1:] != rows[:-1] + 1) + 1
         for f, e in zip([0] + brk.tolist(), brk.tolist() + [len(rows)]):
             self._side_io.write(8 * len(SIDE) * int(rows[f]), memoryview(side[f:e].reshape(-1).view(np.uint8)))
+            self._write_fields(int(rows[f]), fvals[f:e], fkinds[f:e])
 
     def _side_columns(self, names):
         """The side columns names (int64 arrays) of every record, SIDE_ROWS at a time."""
@@ -644,20 +682,50 @@ class StrokeStore:
             at += n
         return (out, none.astype(bool)) if with_none else out
 
-    def fields(self, rows, names, size=BATCH):
+    def fields(self, rows, names, size=BATCH, ints=False):
         """The fields `names` of the records of rows (int64), read as strokes.stroke_fields
         reads them of their strokes but no stroke made: (vals, kinds) of each `size` rows
         in turn, float64 and int8 arrays (rows, len(names)) -- kinds 0 a float, 1 None
         (vals the NaN stroke_fields gives it), 2 a bool (1.0 / 0.0), 3 another object
         (0.0), 4 an unset slot (0.0), 5 a shared object (a str, a Limits: vals its index
         for shared()); an int field (first_idx, last_idx): vals' column holds its int64
-        bits (view it as int64)."""
+        bits (view it as int64).  ints: an int in an object slot (layer) is kind 6, vals its
+        int64 bits (not 3, 0.0)."""
         codes = tuple(FIELD_CODE[nm] for nm in names)
         rows = self._rows(rows)
-        for buf, offs, lens in self._batches(rows, size):
-            vals, kinds = np.empty((len(offs), len(codes))), np.empty((len(offs), len(codes)), np.int8)
-            self._codec.fields(buf, offs, lens, codes, vals, kinds)
-            yield vals, kinds
+        at = [_FSIDE_AT.get(nm) for nm in names]
+        for b0 in range(0, len(rows), size):
+            r = rows[b0:b0 + size]
+            if None not in at and _dense(r):           # (the fields sides' rows: no record read)
+                yield self._side_fields(r, at, ints)
+                continue
+            for buf, offs, lens in self._batches(r, size):
+                vals, kinds = np.empty((len(offs), len(codes))), np.empty((len(offs), len(codes)), np.int8)
+                self._codec.fields(buf, offs, lens, codes, vals, kinds, ints)
+                yield vals, kinds
+
+    def _side_fields(self, rows, at, ints):
+        """fields' (vals, kinds) of rows (ascending, _dense), the fields sides' columns at:
+        the rows' span read and the rows picked (columns in the sides' order: views)."""
+        a, z, w = int(rows[0]), int(rows[-1]) + 1, len(FIELDS_SIDE)
+        vals, kinds = np.empty((z - a, w)), np.empty((z - a, w), np.int8)
+        self._fvals_io.read_into(memoryview(vals.reshape(-1).view(np.uint8)), 8 * w * a)
+        self._fkinds_io.read_into(memoryview(kinds.reshape(-1).view(np.uint8)), w * a)
+        if z - a != len(rows):
+            vals, kinds = vals[rows - a], kinds[rows - a]
+        if at == list(range(at[0], at[0] + len(at))):
+            vals, kinds = vals[:, at[0]:at[0] + len(at)], kinds[:, at[0]:at[0] + len(at)]
+        else:
+            vals, kinds = vals[:, at], kinds[:, at]
+        if ints:                # (encode's reading)
+            return vals, kinds
+        # (not ints: an int in an object slot another object, 0.0) -- a column at a time (a
+        # masked copy of the whole strided view: ~40 instructions an item)
+        other = kinds == _K_INT
+        for j in np.flatnonzero(other.any(axis=0)).tolist():
+            o = other[:, j]
+            vals[o, j], kinds[o, j] = 0.0, _K_OTHER
+        return vals, kinds
 
     def shared(self, k):
         """The shared object (interned: fields' kind 5) of index k, the one its strokes hold."""
@@ -675,8 +743,8 @@ class StrokeStore:
         for b0 in range(0, len(rows), BATCH):
             b1 = min(b0 + BATCH, len(rows))
             r = rows[b0:b1]
-            nb, lens, vals, kinds = self._encode(strokes, b0, b1, buf)
-            side = self._side_values(vals, kinds)
+            nb, lens, fvals, fkinds = self._encode(strokes, b0, b1, buf)
+            side = self._side_values(fvals, fkinds)
             moved = lens != self._len[r]
             new_off = self._off[r].copy()
             new_off[moved] = self._end + np.cumsum(lens[moved]) - lens[moved]
@@ -690,13 +758,15 @@ class StrokeStore:
                 for f, e in zip(first.tolist(), last.tolist()):
                     p0, p1 = int(bpos[f]), int(bpos[e] + lens[e])
                     self._io.write(int(new_off[f]), mv[p0:p1])
-            self._write_side(r, side)           # (after the records: a failed write leaves the side as they were)
+            self._write_side(r, side, fvals, fkinds)    # (after the records: a failed write leaves the sides as they were)
             self._off[r], self._len[r] = new_off, lens
 
     def close(self):
         """The records let go (the file removed); the store is empty."""
         self._io.close()
         self._side_io.close()
+        self._fvals_io.close()
+        self._fkinds_io.close()
         self._side_off = set()
         self._n = self._end = 0
         self._index, self._table = {}, []

@@ -7596,10 +7596,38 @@ static int sr_codes(PyObject *codes_o, int *codes, Py_ssize_t *w, int *last_slot
     return 0;
 }
 
-/* the fields codes[0..w) of the record at p (its payloads: slot s's at p + off[s], for the
- * slots codes name) into vals[0..w) and kinds[0..w), as store_fields reads them */
+/* a call's codes sorted by how a record holds them, once a call (sr_fields_row's loops: no
+ * test of a code's range a field a record, ~20 instructions a field before): plain (a double
+ * that is never None, or an int field: its 8 bytes at 8 * code), maybe (a None-able double:
+ * its has bit), slot (an object slot: its tag); each with its column j */
+typedef struct {
+    int n_plain, n_maybe, n_slot;
+    int plain_j[64], plain_c[64], maybe_j[64], maybe_c[64], slot_j[64], slot_s[64];
+} SrPlan;
+
+static void sr_plan(const int *codes, Py_ssize_t w, SrPlan *pl)
+{
+    pl->n_plain = pl->n_maybe = pl->n_slot = 0;
+    for (Py_ssize_t j = 0; j < w; j++) {
+        int c = codes[j];
+        if (c >= SD_N + SI_N) {
+            pl->slot_j[pl->n_slot] = (int)j;
+            pl->slot_s[pl->n_slot++] = c - SD_N - SI_N;
+        } else if (c >= SD_NONE0 && c < SD_N) {
+            pl->maybe_j[pl->n_maybe] = (int)j;
+            pl->maybe_c[pl->n_maybe++] = c;
+        } else {
+            pl->plain_j[pl->n_plain] = (int)j;
+            pl->plain_c[pl->n_plain++] = c;
+        }
+    }
+}
+
+/* the fields of pl (sr_plan's of codes[0..w)) of the record at p (its payloads: slot s's at
+ * p + off[s], for the slots codes name) into vals[0..w) and kinds[0..w), as store_fields
+ * reads them */
 static inline __attribute__((always_inline)) void sr_fields_row(const char *p, const Py_ssize_t *off,
-                                                                const int *codes, Py_ssize_t w, int ints,
+                                                                const SrPlan *pl, int ints,
                                                                 double *vals, signed char *kinds)
 {
     const unsigned char *tags = (const unsigned char *)p + SR_TAGS;
@@ -7608,50 +7636,55 @@ static inline __attribute__((always_inline)) void sr_fields_row(const char *p, c
     const unsigned long long nan_bits = 0x7ff8000000000000ull;      /* stroke_fields' None */
     double nan_v;
     memcpy(&nan_v, &nan_bits, sizeof nan_v);
-    for (Py_ssize_t j = 0; j < w; j++) {
-        int c = codes[j];
-        double v = 0.0;
-        signed char kind = 0;
-        if (c < SD_N) {
-            if (c >= SD_NONE0 && !(has & (1u << (c - SD_NONE0)))) {
-                v = nan_v;
-                kind = 1;
-            } else
-                memcpy(&v, p + 8 * c, 8);
-        } else if (c < SD_N + SI_N) {
-            memcpy(&v, p + 8 * c, 8);             /* (the int64's bits) */
+    for (int i = 0; i < pl->n_plain; i++) {          /* (an int field: its int64's bits) */
+        int j = pl->plain_j[i];
+        memcpy(vals + j, p + 8 * pl->plain_c[i], 8);
+        kinds[j] = 0;
+    }
+    for (int i = 0; i < pl->n_maybe; i++) {
+        int j = pl->maybe_j[i], c = pl->maybe_c[i];
+        if (has & (1u << (c - SD_NONE0))) {
+            memcpy(vals + j, p + 8 * c, 8);
+            kinds[j] = 0;
         } else {
-            int s = c - SD_N - SI_N;
-            switch (tags[s]) {
-            case SR_FLOAT:
-                memcpy(&v, p + off[s], 8);
-                break;
-            case SR_NONE:
-                v = nan_v;
-                kind = 1;
-                break;
-            case SR_FALSE: case SR_TRUE:
-                v = tags[s] == SR_TRUE ? 1.0 : 0.0;
-                kind = 2;
-                break;
-            case SR_UNSET:
-                kind = 4;
-                break;
-            case SR_INTERN: {
-                uint32_t k;
-                memcpy(&k, p + off[s], 4);
-                v = (double)k;
-                kind = 5;
-                break;
-            }
-            case SR_INT:
-                if (ints)
-                    memcpy(&v, p + off[s], 8);     /* (the int64's bits) */
-                kind = ints ? 6 : 3;
-                break;
-            default:
-                kind = 3;
-            }
+            vals[j] = nan_v;
+            kinds[j] = 1;
+        }
+    }
+    for (int i = 0; i < pl->n_slot; i++) {
+        int j = pl->slot_j[i], s = pl->slot_s[i];
+        double v = 0.0;
+        signed char kind;
+        switch (tags[s]) {
+        case SR_FLOAT:
+            memcpy(&v, p + off[s], 8);
+            kind = 0;
+            break;
+        case SR_NONE:
+            v = nan_v;
+            kind = 1;
+            break;
+        case SR_FALSE: case SR_TRUE:
+            v = tags[s] == SR_TRUE ? 1.0 : 0.0;
+            kind = 2;
+            break;
+        case SR_UNSET:
+            kind = 4;
+            break;
+        case SR_INTERN: {
+            uint32_t k;
+            memcpy(&k, p + off[s], 4);
+            v = (double)k;
+            kind = 5;
+            break;
+        }
+        case SR_INT:
+            if (ints)
+                memcpy(&v, p + off[s], 8);     /* (the int64's bits) */
+            kind = ints ? 6 : 3;
+            break;
+        default:
+            kind = 3;
         }
         vals[j] = v;
         kinds[j] = kind;
@@ -7709,6 +7742,8 @@ static PyObject *mod_store_encode(PyObject *self, PyObject *args)
     int codes[64], last_slot, out_got = 0;
     if (codes_o != NULL && sr_codes(codes_o, codes, &nw, &last_slot, "store_encode") < 0)
         return NULL;
+    SrPlan plan;
+    sr_plan(codes, nw, &plan);
     Py_buffer lb, vb, kb;
     if (stroke_buf(lens_o, &lb, i1 - i0, 1, 1, "store_encode") < 0)
         return NULL;
@@ -7731,7 +7766,7 @@ static PyObject *mod_store_encode(PyObject *self, PyObject *args)
         rc = sr_encode(&w, &k, PyList_GET_ITEM(list, r), index, table, r, &seen, off);
         lens[r - i0] = w.n - at;
         if (rc == 0 && codes_o != NULL)
-            sr_fields_row(w.base + at, off, codes, nw, 1, (double *)vb.buf + (r - i0) * nw,
+            sr_fields_row(w.base + at, off, &plan, 1, (double *)vb.buf + (r - i0) * nw,
                           (signed char *)kb.buf + (r - i0) * nw);
     }
     PyBuffer_Release(&lb);
@@ -8243,6 +8278,8 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
     int codes[64], last_slot;
     if (sr_codes(codes_o, codes, &w, &last_slot, "store_fields") < 0)
         return NULL;
+    SrPlan plan;
+    sr_plan(codes, w, &plan);
     Py_buffer bb, ob, lb, vb, kb;
     if (PyObject_GetBuffer(buf_o, &bb, PyBUF_SIMPLE) < 0)
         return NULL;
@@ -8289,7 +8326,7 @@ static PyObject *mod_store_fields(PyObject *self, PyObject *args)
             if (o > len)
                 goto past_end;
         }
-        sr_fields_row(p, at, codes, w, ints, vals + q * w, kinds + q * w);
+        sr_fields_row(p, at, &plan, ints, vals + q * w, kinds + q * w);
     }
     PyBuffer_Release(&bb);
     PyBuffer_Release(&ob);

@@ -327,6 +327,8 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
              && ntot == n_c && nlam == n_c && nconv == n_c && nsc >= 1 && nsc <= SINH_MAX && poff[0] == 0
              && poff[n_c] == P;
     for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    int mono = 1;                                      /* zmax nondecreasing: ex_terms may start mid-way */
+    for (Py_ssize_t i = 1; ok && i < nz; i++) mono &= zmax[i] >= zmax[i - 1];
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "share_time: shapes");
@@ -3291,11 +3293,14 @@ VEC_CLONES static int ex_zmax(int64_t p0, int64_t p1, const double *restrict T, 
 }
 
 /* The series terms of a largest z whose bits are zb (>= +0, not nan: ex_zmax's): _exact_terms'
-   k = i + 1, i the least with z <= zmax[i] (searchsorted left; nz + 1 where none is) */
-static inline int ex_terms(int64_t zb, const double *zmax, Py_ssize_t nz) {
+   k = i + 1, i the least with z <= zmax[i] (searchsorted left; nz + 1 where none is).  The
+   search starts at k0 - 1 (a chain's terms of its last step, or its neighbour's: a step or
+   two from its own), which needs zmax nondecreasing (mono; else k0 = 1: from the start). */
+static inline int ex_terms(int64_t zb, const double *zmax, Py_ssize_t nz, int mono, int k0) {
     double z;
     memcpy(&z, &zb, 8);
-    Py_ssize_t i = 0;
+    Py_ssize_t i = mono && k0 - 1 <= nz ? k0 - 1 : 0;
+    while (i > 0 && zmax[i - 1] >= z) i--;
     while (i < nz && zmax[i] < z) i++;
     return (int)(i + 1);
 }
@@ -3361,6 +3366,8 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
              && nlam == n_c && nconv == n_c && ncoef % EX_NS == 0 && nz == nterms + 1 && nterms >= 2
              && poff[0] == 0 && poff[n_c] == P;
     for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    int mono = 1;                                      /* zmax nondecreasing: ex_terms may start mid-way */
+    for (Py_ssize_t i = 1; ok && i < nz; i++) mono &= zmax[i] >= zmax[i - 1];
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "exact_share: shapes");
@@ -3384,11 +3391,12 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     Py_ssize_t m = 0;
     int bad = 0;
     int64_t zb = 0;                                    /* the bits of the largest z (ex_zmax) */
+    int kn = 1;                                        /* the last chain's terms (ex_terms' start) */
     for (Py_ssize_t c = 0; c < n_c; c++) {             /* each chain not converged: its largest z */
         if (conv[c]) continue;
         int64_t zc = 0;
         bad |= ex_zmax(poff[c], poff[c + 1], T, beta, &zc);
-        kc[c] = ex_terms(zc, zmax, nz);
+        kn = kc[c] = ex_terms(zc, zmax, nz, mono, kn);
         zb = zc > zb ? zc : zb;
         m += poff[c + 1] - poff[c];
     }
@@ -3398,7 +3406,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
         /* the batch's largest z: _exact_terms' decline (above zlim, or more terms than coef has) */
         double zm;
         memcpy(&zm, &zb, 8);
-        if (!(zm <= zlim) || ex_terms(zb, zmax, nz) > nterms) { status = -1; break; }
+        if (!(zm <= zlim) || ex_terms(zb, zmax, nz, 0, 1) > nterms) { status = -1; break; }
         for (Py_ssize_t c = 0; c < n_c;) {             /* runs of chains not converged, of one k */
             if (conv[c]) { c++; continue; }
             int k = kc[c];
@@ -3424,7 +3432,7 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
             }
             int64_t zc = 0;
             bad |= ex_move(p1 - p0, T + p0, d1b + p0, invb + p0, beta + p0, dlam, &zc);
-            kc[c] = ex_terms(zc, zmax, nz);
+            kc[c] = ex_terms(zc, zmax, nz, mono, kc[c]);
             zb = zc > zb ? zc : zb;
             m += p1 - p0;
             lam[c] = l + nan_to_num(dlam);

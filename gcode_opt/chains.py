@@ -2752,12 +2752,13 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=N
                         & (res[c].peak_v <= v_cap * (1 + SPEED_TOL_R)) & (Ts[:, c] >= t_min)
                         for c in range(k)], axis=1)
         laws = _LawCols(res, k, base.voff)
-        for item in _table_rows(sts, base, res, use, Ts, profile, fin.grouped):
+        for item in _table_rows(sts, base, res, use, Ts, profile, fin.grouped, laws):
             J, rj, rc, _, dt = item[:5]
             at = getattr(item, "at", None)
             j = getattr(item, "j", None)
             j = J[rj] if j is None else j
-            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(j, rc, dt.shape[1], at), j=j))
+            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(j, rc, dt.shape[1], at, getattr(item, "spans", None)),
+                          j=j))
         del res, laws, Ts, bs
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
@@ -3268,24 +3269,33 @@ def _block_rows_caps(sts, gs, out, jerk):
 
 class _TableItem(tuple):
     """One group of _table_rows' rows (J, rj, rc, vk, dt, ks, iv), with `at`: the flat index
-    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None, and
-    `j`: J[rj], or None."""
-    at = j = None
+    of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None, `j`:
+    J[rj], or None, and `spans`: its rows' pieces' places (_LawCols.rows'), or None."""
+    at = j = spans = None
 
 
-def _table_rows(sts, base, res, use, T, profile, grouped):
+def _table_rows(sts, base, res, use, T, profile, grouped, laws=None):
     """The candidate table's rows of one chunk: chain j's usable columns c (use (m, k))
     from the flat laws res[c], as (J, rj, rc, vk, dt, ks, iv) per group of chains (_Rows):
     under grouped finishing the chains of one segment count, at most FINISH_ROWS rows a
     group, else one chain a group.  Each row keeps its knot speeds and segment durations
     (_KeptLaws: the accelerations and feeds are made again for the candidate chosen,
-    _replay)."""
+    _replay).  laws: the chunk's _LawCols, whose rows' pieces' places (spans) are then
+    made here for every group at once (item.spans).
+
+    What does not depend on a group's segment count (its rows, their chains, end speeds,
+    durations, ∫ṡ², pieces' places) is gathered once for the groups end to end and sliced
+    a group: a windowed call's chunk holds every segment count, ~40 groups of ~15 chains,
+    each of which paid ~10 numpy calls for it (the same values, gathered at the same places)."""
     nseg = np.diff(base.voff) + 1      # (a chain's interior vertices: one less than its segments)
     has = use.any(axis=1)
+    per = use.sum(axis=1)              # each chain's rows (np.bincount of its rj's: the same int64 counts)
     if grouped:            # chains of one segment count, at most FINISH_ROWS rows a group
-        groups = _count_groups(nseg, has, use.sum(axis=1))
+        groups = _count_groups(nseg, has, per)
     else:
         groups = [np.array([j]) for j in np.flatnonzero(has).tolist()]
+    if not groups:
+        return
     v0, v1 = base.v0, base.v1
     # the columns' laws stacked (k, vertices) and (k, chains): each group's rows are then
     # one gather over (column, vertex), not one per column (~500 groups x 5 columns of
@@ -3294,16 +3304,27 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
     (VV, TT), vmap = _vertex_stack(res, k, ("vert_v", "vert_t"))
     IV = _stack_cols(res, k, "iv")
     voff = base.voff
-    for J in groups:
+    # the groups' rows end to end: chain by chain in the groups' order, columns ascending
+    # (each group's use[J].nonzero() after the groups before it), and their gathers
+    JA = groups[0] if len(groups) == 1 else np.concatenate(groups)
+    rjA, rcA = use[JA].nonzero()
+    jA = JA[rjA]
+    perA = per.take(JA)
+    V0, V1, TL, IVA = v0[jA], v1[jA], _at(T, jA, rcA), _at(IV, rcA, jA)
+    SP = None if laws is None else laws.spans(jA, rcA)
+    ca = np.cumsum([0] + [J.size for J in groups]).tolist()      # each group's first chain in JA
+    ra = np.concatenate([[0], np.cumsum(perA)]).take(ca).tolist()  # and its first row
+    for g, J in enumerate(groups):
+        a, lo, hi = ca[g], ra[g], ra[g + 1]
         n = int(nseg[J[0]])
-        rj, rc = use[J].nonzero()                   # rows: chain by chain, columns ascending
-        j = J[rj]
+        rj = rjA[lo:hi] - a                        # rows: chain by chain, columns ascending
+        rc, j = rcA[lo:hi], jA[lo:hi]
         R = j.size
         vk = np.empty((R, n + 1))
         tk = np.empty((R, n + 1))
-        vk[:, 0], vk[:, -1] = v0[j], v1[j]
+        vk[:, 0], vk[:, -1] = V0[lo:hi], V1[lo:hi]
         tk[:, 0] = 0.0
-        tk[:, -1] = _at(T, j, rc)
+        tk[:, -1] = TL[lo:hi]
         at = None
         if n > 1:
             if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
@@ -3325,8 +3346,10 @@ def _table_rows(sts, base, res, use, T, profile, grouped):
                 cc = rc[:, None]
                 vk[:, 1:-1] = _at(VV, cc, ix)
                 tk[:, 1:-1] = _at(TT, cc, ix)
-        item = _TableItem((J, rj, rc, vk, _row_steps(tk), np.bincount(rj, None, J.size), _at(IV, rc, j)))
+        item = _TableItem((J, rj, rc, vk, _row_steps(tk), perA[a:a + J.size], IVA[lo:hi]))
         item.at, item.j = at, j
+        if SP is not None:
+            item.spans = SP[lo:hi]
         yield item
 
 
@@ -3379,11 +3402,17 @@ class _LawCols:
                 self.PN[c] = sp[2]
                 at += sp[0].size
 
-    def rows(self, j, rc, n, at=None):
+    def spans(self, j, rc):
+        """The rows' (chain j[i], column rc[i]) pieces' places (a, c): row i's pieces'
+        durations PT[a:a + c] (int32: a chunk's pieces are ~10^5)."""
+        return _at_both(self.P0, self.PN, rc, j).astype(np.int32)
+
+    def rows(self, j, rc, n, at=None, spans=None):
         """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
         chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
-        (int32: a chunk's pieces are ~10^5).  at: _table_rows' (flat index of these rows'
-        vertices, the width, vmap and vertex offsets it was made for), or None."""
+        (self.spans: int32).  at: _table_rows' (flat index of these rows' vertices, the
+        width, vmap and vertex offsets it was made for), or None; spans: the rows' spans if
+        made (_table_rows' item.spans), or None (made here)."""
         R = j.size
         if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
                 and self.BB.shape[1] == at[1]):
@@ -3393,7 +3422,7 @@ class _LawCols:
             bnd = _at(self.BB, rc[:, None], ix if self.vmap is None else self.vmap[ix])
         else:
             bnd = np.empty((R, 0), bool)
-        return bnd, self.PT, _at_both(self.P0, self.PN, rc, j).astype(np.int32)
+        return bnd, self.PT, self.spans(j, rc) if spans is None else spans
 
 
 ROW_RANGE_COLS = 8       # _row_ranges, _plus_rows: rows this short go column by column

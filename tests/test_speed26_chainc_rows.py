@@ -68,10 +68,10 @@ def test_table_rows_are_the_column_by_column_gather(path, prof_name, monkeypatch
     strokes, pin, rows, prof, rules = _fresh(path, prof_name)
     assert rows.size > 100
     new = chains._table_rows
-    seen = {"groups": 0, "rows": 0, "cols": set()}
+    seen = {"groups": 0, "rows": 0, "cols": set(), "spans": 0}
 
-    def both(sts, base, res, use, T, profile, grouped):
-        got = list(new(sts, base, res, use, T, profile, grouped))
+    def both(sts, base, res, use, T, profile, grouped, laws=None):
+        got = list(new(sts, base, res, use, T, profile, grouped, laws))
         want = list(_ref_table_rows(sts, base, res, use, T, profile, grouped))
         assert len(got) == len(want)
         for g, w in zip(got, want):
@@ -79,6 +79,10 @@ def test_table_rows_are_the_column_by_column_gather(path, prof_name, monkeypatch
             for a, b in zip(g, w):
                 assert a.shape == b.shape and a.dtype == b.dtype
                 assert _bits(a) == _bits(b) if a.dtype.kind == "f" else np.array_equal(a, b)
+            if laws is not None:         # (s62: the rows' spans made for the groups at once, sliced)
+                want_sp = chains._at_both(laws.P0, laws.PN, g[2], g[0][g[1]]).astype(np.int32)
+                assert g.spans.dtype == want_sp.dtype and np.array_equal(g.spans, want_sp)
+                seen["spans"] += 1
             seen["groups"] += 1
             seen["rows"] += g[1].size
             seen["cols"] |= set(g[2].tolist())
@@ -87,6 +91,7 @@ def test_table_rows_are_the_column_by_column_gather(path, prof_name, monkeypatch
     monkeypatch.setattr(chains, "_table_rows", both)
     chains.candidates_chain(pin, rows, strokes, prof, rules)
     assert seen["groups"] > 5 and seen["rows"] > 2 * rows.size and len(seen["cols"]) > 1
+    assert seen["spans"] == seen["groups"]
 
 
 def test_table_rows_mutant_is_caught():

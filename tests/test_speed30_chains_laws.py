@@ -75,8 +75,8 @@ def _record_table_rows(monkeypatch, seen):
     (T, vk, dt), in order."""
     real = chains._table_rows
 
-    def spy(sts, base, res, use, T, profile, grouped):
-        for item in real(sts, base, res, use, T, profile, grouped):
+    def spy(sts, base, res, use, T, profile, grouped, laws=None):
+        for item in real(sts, base, res, use, T, profile, grouped, laws):
             J, rj, rc, vk, dt = item[:5]
             j = J[rj]
             for q in range(rj.size):

@@ -241,16 +241,18 @@ def test_sites_as_their_fallback(name, prof, corners, monkeypatch):
 @pytest.mark.parametrize("name,prof", [("prusa_gyroid_fullspeed_klipper.gcode", "voron24"),
                                        ("prusa_gyroid.gcode", "prusa-mk3s")])
 def test_law_rows_at_table_index(name, prof, monkeypatch):
-    """_LawCols.rows given _table_rows' flat index answers what its own gather does."""
+    """_LawCols.rows given _table_rows' flat index (and, s62, its rows' spans made for the
+    groups at once) answers what its own gather does."""
     real = chains._LawCols.rows
     used = []
 
-    def rows(self, j, rc, n, at=None):
-        got = real(self, j, rc, n, at)
+    def rows(self, j, rc, n, at=None, spans=None):
+        got = real(self, j, rc, n, at, spans)
         ref = real(self, j, rc, n)
         assert [a.tobytes() for a in got] == [a.tobytes() for a in ref]
         assert [a.dtype for a in got] == [a.dtype for a in ref] and got[0].shape == ref[0].shape
-        used.append(at is not None)
+        assert [a.shape for a in got] == [a.shape for a in ref]
+        used.append(at is not None and spans is not None)
         return got
     monkeypatch.setattr(chains._LawCols, "rows", rows)
     profile = load_profile(prof)

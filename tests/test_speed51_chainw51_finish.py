@@ -180,11 +180,12 @@ def _finish_old(self, rs):
 
 
 
-def _law_rows_old(self, j, rc, n, at=None):
+def _law_rows_old(self, j, rc, n, at=None, spans=None):
     """(bnd (R, n - 1), PT, spans (R, 2)) of the rows (chain j[i], column rc[i]) of
     chains of n segments: row i's pieces' durations PT[a:a + c], (a, c) = spans[i]
     (int32: a chunk's pieces are ~10^5).  at: _table_rows' (flat index of these rows'
-    vertices, the width, vmap and vertex offsets it was made for), or None."""
+    vertices, the width, vmap and vertex offsets it was made for), or None.  (spans:
+    _table_rows' since s62, not read: the replaced code made them here.)"""
     R = j.size
     if (n > 1 and at is not None and at[2] is self.vmap and at[3] is self.voff and self.BB.flags.c_contiguous
             and self.BB.shape[1] == at[1]):

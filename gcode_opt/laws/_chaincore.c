@@ -327,6 +327,8 @@ static PyObject *share_time(PyObject *self, PyObject *a) {
              && ntot == n_c && nlam == n_c && nconv == n_c && nsc >= 1 && nsc <= SINH_MAX && poff[0] == 0
              && poff[n_c] == P;
     for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    int mono = 1;                                      /* zmax nondecreasing: ex_terms may start mid-way */
+    for (Py_ssize_t i = 1; ok && i < nz; i++) mono &= zmax[i] >= zmax[i - 1];
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "share_time: shapes");
@@ -3290,6 +3292,19 @@ VEC_CLONES static int ex_zmax(int64_t p0, int64_t p1, const double *restrict T, 
     return bad;
 }
 
+/* The series terms of a largest z whose bits are zb (>= +0, not nan: ex_zmax's): _exact_terms'
+   k = i + 1, i the least with z <= zmax[i] (searchsorted left; nz + 1 where none is).  The
+   search starts at k0 - 1 (a chain's terms of its last step, or its neighbour's: a step or
+   two from its own), which needs zmax nondecreasing (mono; else k0 = 1: from the start). */
+static inline int ex_terms(int64_t zb, const double *zmax, Py_ssize_t nz, int mono, int k0) {
+    double z;
+    memcpy(&z, &zb, 8);
+    Py_ssize_t i = mono && k0 - 1 <= nz ? k0 - 1 : 0;
+    while (i > 0 && zmax[i - 1] >= z) i--;
+    while (i < nz && zmax[i] < z) i++;
+    return (int)(i + 1);
+}
+
 /* A chain's n pieces after its step (exact_share's): each one's new duration as kkt_new_T
    makes it (elementwise, in its order: SIMD lanes), from its residual r and 1 / J'' inv and
    the chain's dlam; with ex_zmax's largest z and bad test of the new durations. */
@@ -3318,7 +3333,12 @@ VEC_CLONES static int ex_move(Py_ssize_t n, double *restrict T, const double *re
    a step's duration is not finite and > 0 or its largest z = T²/β is not <= zlim or needs
    more terms than coef has (_exact_terms).  Pieces of chain c at poff[c]:poff[c + 1].  The
    pieces of the chains not converged are not gathered: each run of consecutive such chains
-   is a contiguous range of pieces, and their slopes are made there (ex_chunk), in place. */
+   with the same number of terms is a contiguous range of pieces, and their slopes are made
+   there (ex_chunk), in place.  A step's terms: the whole batch's largest z decides whether
+   it declines; each chain's own largest z its terms (ex_terms), so a chain's numbers are
+   its own whatever chains a call holds (the batch's largest z set every chain's terms
+   before: on the gyroid plate's windowed calls, ~500 chains each, 7.9 terms a piece where
+   the chains' own need 6.1). */
 static PyObject *exact_share(PyObject *self, PyObject *a) {
     PyObject *o[13];
     double zlim;
@@ -3346,6 +3366,8 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
              && nlam == n_c && nconv == n_c && ncoef % EX_NS == 0 && nz == nterms + 1 && nterms >= 2
              && poff[0] == 0 && poff[n_c] == P;
     for (Py_ssize_t c = 0; ok && c < n_c; c++) ok = poff[c + 1] >= poff[c];
+    int mono = 1;                                      /* zmax nondecreasing: ex_terms may start mid-way */
+    for (Py_ssize_t i = 1; ok && i < nz; i++) mono &= zmax[i] >= zmax[i - 1];
     if (!ok) {
         release(&b);
         PyErr_SetString(PyExc_ValueError, "exact_share: shapes");
@@ -3355,7 +3377,8 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     /* per piece: J', then r; 1 / J''; and each coefficient a vector wide, aligned (ex_chunk's
        cb: its additions read them as they are, not broadcast a block) */
     double *work = PyMem_Malloc((2 * PP + 4 * (nterms * EX_NS + 1)) * sizeof(double));
-    if (!work) { release(&b); return PyErr_NoMemory(); }
+    int *kc = PyMem_Malloc((n_c ? n_c : 1) * sizeof(int));      /* each chain's terms this step */
+    if (!work || !kc) { PyMem_Free(work); PyMem_Free(kc); release(&b); return PyErr_NoMemory(); }
     double *d1b = work, *invb = work + PP;
     v4d *cb = (v4d *)(((uintptr_t)(invb + PP) + sizeof(v4d) - 1) & ~(uintptr_t)(sizeof(v4d) - 1));
     for (Py_ssize_t j = 0; j < nterms * EX_NS; j++) {
@@ -3368,29 +3391,27 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
     Py_ssize_t m = 0;
     int bad = 0;
     int64_t zb = 0;                                    /* the bits of the largest z (ex_zmax) */
-    for (Py_ssize_t c = 0; c < n_c;) {                 /* runs of chains not converged */
-        if (conv[c]) { c++; continue; }
-        Py_ssize_t c1 = c + 1;
-        while (c1 < n_c && !conv[c1]) c1++;
-        bad |= ex_zmax(poff[c], poff[c1], T, beta, &zb);
-        m += poff[c1] - poff[c];
-        c = c1;
+    int kn = 1;                                        /* the last chain's terms (ex_terms' start) */
+    for (Py_ssize_t c = 0; c < n_c; c++) {             /* each chain not converged: its largest z */
+        if (conv[c]) continue;
+        int64_t zc = 0;
+        bad |= ex_zmax(poff[c], poff[c + 1], T, beta, &zc);
+        kn = kc[c] = ex_terms(zc, zmax, nz, mono, kn);
+        zb = zc > zb ? zc : zb;
+        m += poff[c + 1] - poff[c];
     }
     for (int it = 0; it < max_newton; it++) {
         if (m == 0) break;
         if (bad) { status = -1; break; }
-        /* _exact_terms: the least i with zm <= zmax[i] (searchsorted left), k = i + 1 */
+        /* the batch's largest z: _exact_terms' decline (above zlim, or more terms than coef has) */
         double zm;
         memcpy(&zm, &zb, 8);
-        if (!(zm <= zlim)) { status = -1; break; }
-        Py_ssize_t i = 0;
-        while (i < nz && zmax[i] < zm) i++;
-        if (i + 1 > nterms) { status = -1; break; }
-        int k = (int)(i + 1);
-        for (Py_ssize_t c = 0; c < n_c;) {
+        if (!(zm <= zlim) || ex_terms(zb, zmax, nz, 0, 1) > nterms) { status = -1; break; }
+        for (Py_ssize_t c = 0; c < n_c;) {             /* runs of chains not converged, of one k */
             if (conv[c]) { c++; continue; }
+            int k = kc[c];
             Py_ssize_t c1 = c + 1;
-            while (c1 < n_c && !conv[c1]) c1++;
+            while (c1 < n_c && !conv[c1] && kc[c1] == k) c1++;
             for (int64_t j0 = poff[c]; j0 < poff[c1]; j0 += CHUNK) {
                 Py_ssize_t n = poff[c1] - j0 < CHUNK ? poff[c1] - j0 : CHUNK;
                 ex_chunk(n, k, cb, T + j0, L + j0, beta + j0, vs + j0, vd + j0, d1b + j0, invb + j0);
@@ -3409,11 +3430,15 @@ static PyObject *exact_share(PyObject *self, PyObject *a) {
                 lam[c] = l;
                 continue;
             }
-            bad |= ex_move(p1 - p0, T + p0, d1b + p0, invb + p0, beta + p0, dlam, &zb);
+            int64_t zc = 0;
+            bad |= ex_move(p1 - p0, T + p0, d1b + p0, invb + p0, beta + p0, dlam, &zc);
+            kc[c] = ex_terms(zc, zmax, nz, mono, kc[c]);
+            zb = zc > zb ? zc : zb;
             m += p1 - p0;
             lam[c] = l + nan_to_num(dlam);
         }
     }
+    PyMem_Free(kc);
     PyMem_Free(work);
     release(&b);
     return PyLong_FromLong(status);

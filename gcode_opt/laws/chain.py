@@ -382,9 +382,22 @@ def _exact_terms(zmax):
     return k + 1 if k + 1 <= EXACT_TERMS else 0
 
 
+def _chain_terms(z, owner, n_c):
+    """Each piece's series terms: its chain's own (_exact_terms of the largest z = T²/β of the
+    chain's pieces, owner[i] the chain of piece i), as the chain core's exact_share takes them
+    (ex_terms): a chain's slopes its own whatever chains are solved with it, and the series
+    no longer than the chain needs (the batch's largest z gave every piece its terms before:
+    +30 % Horner steps on the gyroid plate's windowed calls).  z: finite, >= 0, within
+    EXACT_GAMMA_MAX² (the batch's checked first)."""
+    zc = np.zeros(n_c)
+    np.maximum.at(zc, owner, z)
+    return np.searchsorted(_EX_ZMAX, zc, side="left").take(owner) + 1
+
+
 def _exact_slopes(L, T, b, vs, vd, k):
     """J'(T), J''(T) (see above) of pieces L, T, β = b, vs = v0 + v1, vd = v0 - v1, with k
-    terms of the series, and 1/T; the operations of the chain core's ex_chunk, in its order."""
+    terms of the series (an int, or each piece's: an int array), and 1/T; the operations of
+    the chain core's ex_chunk, in its order."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):     # (a piece shrinking to 0:
         return _exact_slopes_(L, T, b, vs, vd, k)                          # the caller declines)
 
@@ -392,11 +405,16 @@ def _exact_slopes(L, T, b, vs, vd, k):
 def _exact_slopes_(L, T, b, vs, vd, k):
     TT = T * T
     z = TT / b
-    s = np.empty((6,) + z.shape)
-    s[...] = _EX_COEF[k - 1].reshape(6, 1)
-    for c in _EX_COEF[k - 2::-1]:
-        np.multiply(s, z, out=s)
-        np.add(s, c.reshape(6, 1), out=s)
+    if np.ndim(k) == 0:
+        s = np.empty((6,) + z.shape)
+        s[...] = _EX_COEF[k - 1].reshape(6, 1)
+        for c in _EX_COEF[k - 2::-1]:
+            np.multiply(s, z, out=s)
+            np.add(s, c.reshape(6, 1), out=s)
+    else:          # each piece's own k: its Horner from its term k - 1 down, the same steps
+        s = _EX_COEF[k - 1].T.copy()
+        for j in range(int(k.max()) - 2, -1, -1):
+            s = np.where(j <= k - 2, s * z + _EX_COEF[j].reshape(6, 1), s)
     g, r, q, gz, rz, qz = s
     rt = 1.0 / T                  # (two divisions an element: the rest are products)
     rt2 = rt * rt
@@ -450,10 +468,10 @@ def _share_time_exact(L, beta, va, vb, owner, T_total, T_init, core=None):
         o, Ti = owner[ix], T[ix]
         if not (np.all(Ti > 0) and np.all(np.isfinite(Ti))):
             return None
-        k = _exact_terms(float(np.max((Ti * Ti) / beta[ix])))
-        if k == 0:
+        z = (Ti * Ti) / beta[ix]
+        if _exact_terms(float(np.max(z))) == 0:        # (the batch's largest z: decline)
             return None
-        d1, d2, rt = _exact_slopes(L[ix], Ti, beta[ix], vs[ix], vd[ix], k)
+        d1, d2, rt = _exact_slopes(L[ix], Ti, beta[ix], vs[ix], vd[ix], _chain_terms(z, o, n_c))
         d2 = np.maximum(d2, (1e-12 * np.abs(d1)) * rt + 1e-300)
         lam = _kkt_step(o, ix, Ti, d1, d2, T, lam, conv, fresh, T_total, n_c, n_p)
     return T, lam, conv

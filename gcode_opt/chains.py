@@ -3014,8 +3014,9 @@ class _Finisher:
             got = None
             if j - i > 1:
                 got = _finish_ragged([self._batch(rs) for rs in groups[i:j]], self.rules, self.profile)
-            for q in range(i, j):
-                fin = self._finish(groups[q]) if got is None else self._finish(groups[q], got[q - i][2:4])
+            fins = (self._finish_many(groups[i:j], got) if got is not None
+                    else [self._finish(groups[q]) for q in range(i, j)])
+            for fin in fins:
                 if self.spill is None:
                     self._keep(fin)
                 elif fin:
@@ -3065,6 +3066,36 @@ class _Finisher:
             r.vk = r.dt = None
             out.append((r, tr, a2r, good))
         return out
+
+    def _finish_many(self, groups, got):
+        """_finish of each batch rs of groups with its numbers got[q] (_finish_ragged's): the
+        table's cells of all of them put at once (one good mask and one put, not ~10 numpy
+        calls a batch: a windowed call's ~40 batches, one a segment count; each cell's values
+        the same), each batch's answer as _finish gives it (its rows' good mask a view of
+        the call's: read by _keep, not kept)."""
+        rs_all = [r for rs in groups for r in rs]
+        t = np.concatenate([g[2] for g in got])
+        a2 = np.concatenate([g[3] for g in got])
+        good = np.isfinite(a2) & np.isfinite(t) & (t > 0)
+        rows = np.concatenate([r.a + r.j for r in rs_all])
+        cols = np.concatenate([r.rc for r in rs_all])
+        iv = np.concatenate([r.iv for r in rs_all])
+        if good.all():               # (the usual case: the rows as they are, not gathered)
+            self.tab.put(rows, cols, t, a2, iv)
+        else:
+            self.tab.put(rows[good], cols[good], t[good], a2[good], iv[good])
+        fins, at = [], 0
+        for rs, g in zip(groups, got):
+            tb, a2b = g[2], g[3]
+            lo, out = 0, []
+            for r in rs:
+                R = r.rj.size
+                out.append((r, tb[lo:lo + R], a2b[lo:lo + R], good[at + lo:at + lo + R]))
+                r.vk = r.dt = None
+                lo += R
+            at += lo
+            fins.append(out)
+        return fins
 
     def _keep(self, done):
         """The chains' memos and kept laws of the finished rows done (_finish's answer): a

@@ -3457,13 +3457,18 @@ class _LawCols:
 
 
 ROW_RANGE_COLS = 8       # _row_ranges, _plus_rows: rows this short go column by column
+# ... where there are at least this many rows: below, a column's numpy call (~4 k instructions
+# of set-up each) costs more than the broadcast's buffered copies save (a windowed call's
+# finishing groups: ~15 chains, ~75 rows, 743 groups on the gyroid plate; s62)
+ROW_RANGE_ROWS = 256
 
 
 def _row_ranges(start, w):
     """start[:, None] + np.arange(w) for int64 start (the same integers): column by column
-    where the rows are short (numpy's broadcast of a short row pays a buffered copy a row:
-    ~24 instructions an element at w = 5, ~10 by columns; _table_rows' rows are ~5-6 long)."""
-    if w > ROW_RANGE_COLS or start.dtype != np.int64:
+    where the rows are short and many (numpy's broadcast of a short row pays a buffered copy
+    a row: ~24 instructions an element at w = 5, ~10 by columns; _table_rows' rows are ~5-6
+    long), else the broadcast (ROW_RANGE_ROWS)."""
+    if w > ROW_RANGE_COLS or start.dtype != np.int64 or start.size < ROW_RANGE_ROWS:
         return start[:, None] + np.arange(w)
     out = np.empty((start.size, w), np.int64)
     for i in range(w):
@@ -3491,8 +3496,8 @@ def _row_steps(tk):
 
 def _plus_rows(x, v):
     """x + v[:, None] for int64 x (R, w) and v (R,) (the same integers), x's memory reused;
-    column by column where the rows are short (as _row_ranges)."""
-    if x.shape[1] > ROW_RANGE_COLS or x.dtype != np.int64 or v.dtype != np.int64:
+    column by column where the rows are short and many (as _row_ranges)."""
+    if x.shape[1] > ROW_RANGE_COLS or x.dtype != np.int64 or v.dtype != np.int64 or v.size < ROW_RANGE_ROWS:
         return x + v[:, None]
     for i in range(x.shape[1]):
         np.add(x[:, i], v, out=x[:, i])

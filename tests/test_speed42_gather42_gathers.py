@@ -124,9 +124,11 @@ def test_spread_fields_are_the_gathers():
 
 
 @pytest.mark.parametrize("w", [0, 1, 2, 5, 8, 9, 13])
-def test_row_ranges_and_plus_rows_as_broadcasts(w):
+@pytest.mark.parametrize("many", [False, True])
+def test_row_ranges_and_plus_rows_as_broadcasts(w, many):
+    # (many: at least ROW_RANGE_ROWS rows, the column-by-column path; s62)
     rng = np.random.default_rng(w)
-    start = rng.integers(-(1 << 40), 1 << 40, int(rng.integers(0, 50)))
+    start = rng.integers(-(1 << 40), 1 << 40, int(rng.integers(0, 50)) + (chains.ROW_RANGE_ROWS if many else 0))
     got = chains._row_ranges(start, w)
     want = start[:, None] + np.arange(w)
     assert got.dtype == want.dtype and got.shape == want.shape

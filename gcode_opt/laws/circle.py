@@ -744,12 +744,7 @@ def _layers_totals(xs, phi, gam2, u0, u1):
     for k, x in enumerate(xs):
         wc[k] = x
     phi, gam2, u0, u1 = (np.ascontiguousarray(v, float) for v in (phi, gam2, u0, u1))
-    e = np.empty((m, n))
-    core.lay_pre(wc, gam2, n, m, e)
-    np.exp(e, out=e)
-    a = np.empty((m, 2, n))
-    core.lay_mid(wc, gam2, u0, u1, e, n, m, a)
-    np.arcsinh(a, out=a)
+    a = _layers_args(wc, gam2, u0, u1)
     out = np.empty((m, n))
     core.lay_post(wc, phi, a, n, m, out)
     return list(out)

@@ -3037,39 +3037,22 @@ class _Finisher:
         dt = rs[0].dt if len(rs) == 1 else np.concatenate([r.dt for r in rs])
         return sts, gs, own, vk, dt
 
-    def _finish(self, rs, got=None):
+    def _finish(self, rs):
         """Put the batch rs's rows in the table: [(r, its predicted times, ∫|a|², which of
-        its rows are good)] for _keep; got: their (t, a2) if made (_finish_all), else
-        finished here."""
+        its rows are good)] for _keep (the puts and the answer: _finish_many's)."""
         profile, rules = self.profile, self.rules
-        if got is not None:
-            t, a2 = got
-        elif self.grouped:
+        if self.grouped:
             sts, gs, own, vk, dt = self._batch(rs)
             _, _, t, a2, _ = _finish_stacked_dt(sts, gs, own, vk, dt, rules, profile)
             del vk, dt
         else:
             r = rs[0]
             _, _, t, a2, _ = _finish_rows_dt(r.sts[int(r.J[0])], r.vk, r.dt, rules, profile)
-        tab = self.tab
-        lo, out = 0, []
-        for r in rs:
-            R = r.rj.size
-            tr, a2r = t[lo:lo + R], a2[lo:lo + R]
-            lo += R
-            j = r.j
-            good = np.isfinite(a2r) & np.isfinite(tr) & (tr > 0)
-            if good.all():               # (the usual case: the rows as they are, not gathered)
-                tab.put(r.a + j, r.rc, tr, a2r, r.iv)
-            else:
-                tab.put(r.a + j[good], r.rc[good], tr[good], a2r[good], r.iv[good])
-            r.vk = r.dt = None
-            out.append((r, tr, a2r, good))
-        return out
+        return self._finish_many([rs], [(None, None, t, a2)])[0]
 
     def _finish_many(self, groups, got):
-        """_finish of each batch rs of groups with its numbers got[q] (_finish_ragged's): the
-        table's cells of all of them put at once (one good mask and one put, not ~10 numpy
+        """_finish of each batch rs of groups with its numbers got[q] (_finish_ragged's: t and
+        ∫|a|² at [2] and [3]): the table's cells of all of them put at once (one good mask and one put, not ~10 numpy
         calls a batch: a windowed call's ~40 batches, one a segment count; each cell's values
         the same), each batch's answer as _finish gives it (its rows' good mask a view of
         the call's: read by _keep, not kept)."""

@@ -18,7 +18,6 @@ from operator import attrgetter
 
 import numpy as np
 
-from .distinct import distinct
 from .segments import RowPlan, SegmentPlan
 from . import objfields
 from .spill_file import SpillFile, block_plans, plan_arrays, plan_heads
@@ -101,32 +100,37 @@ class LineSpill(SpillFile):
         record, their plans (a list: one object a record, shared by its rows); the other
         rows).  The records of the call before are not read again: their plans are taken (a
         line class's rows recur window after window: rectilinear plate, ~23.5 k records a
-        command read without it, ~6.9 k with it)."""
+        command read without it, ~6.9 k with it).  Row by row only 1-D arrays are read
+        (each record's key a column of int64 bits, not a (records, 3) array gathered a row
+        at a time: ~170 instructions a row), and each record's place found through a table
+        by index position (_places), not sorted and searched."""
         cls = np.asarray(cls, np.int64)
         T, beta = np.asarray(T, float), np.asarray(beta, float)
         if self.fh is None or not self.h.size or not rows.size:
             self.last = None
             return rows[:0], [], rows
         h = _key_hash(cls, T, beta)
-        k = np.minimum(np.searchsorted(self.h, h), self.h.size - 1)
+        k = np.searchsorted(self.h, h)
+        np.minimum(k, self.h.size - 1, out=k)
         has = self.h[k] == h
         if not has.any():
             self.last = None
             return rows[:0], [], rows
-        hat = self.at[k[has]]
-        u = distinct(hat)                           # each record once, in the file's order
-        which = np.searchsorted(u, hat)
-        n_u = np.zeros(u.size, np.int64)
-        n_u[which] = self.nseg[k[has]]
-        plans, key = [None] * u.size, np.empty((u.size, 3))
+        kh = k[has]
+        u_k, which = _places(kh, self.h.size, self.at)
+        u = self.at[u_k]                            # each record once, in the file's order
+        n_u = self.nseg[u_k]
+        plans, key = [None] * u.size, [np.empty(u.size, np.int64) for _ in range(3)]
         new = np.ones(u.size, bool)
         if self.last is not None:
             lu, lkey, lplans = self.last
             j = np.minimum(np.searchsorted(lu, u), lu.size - 1)
             old = np.flatnonzero(lu[j] == u)
             new[old] = False
-            key[old] = lkey[j[old]]
-            _put_at(plans, old, lplans, j[old])
+            jo = j[old]
+            for c in range(3):
+                key[c][old] = lkey[c][jo]
+            _put_at(plans, old, lplans, jo)
         self.last = None                            # (its plans not held past this call's)
         need = np.flatnonzero(new)
         if need.size:
@@ -135,13 +139,14 @@ class LineSpill(SpillFile):
             except OSError:         # (the records lost: every row the caller's)
                 self.close()
                 return rows[:0], [], rows
-            key[need] = buf[start[:, None] + np.arange(3)]
+            bits = buf.view(np.int64)
+            for c in range(3):
+                key[c][need] = bits[start + c]
             _put_at(plans, need, _plans(buf, start, _blocks(buf, start, n_u[need])))
         self.last = (u, key, plans)
         # a record is the row's where its key is the row's, bit for bit (not a hash's twin)
-        kv = key.view(np.int64)[which]
-        same = ((kv[:, 0] == cls[has]) & (kv[:, 1] == T[has].view(np.int64))
-                & (kv[:, 2] == beta[has].view(np.int64)))
+        same = ((key[0][which] == cls[has]) & (key[1][which] == T[has].view(np.int64))
+                & (key[2][which] == beta[has].view(np.int64)))
         has[has] = same
         return rows[has], objfields.items(plans, which[same]), rows[~has]
 
@@ -151,6 +156,20 @@ class LineSpill(SpillFile):
         doubles apart read in one pread (with what lies between)."""
         z = at + lens
         return self.read_runs(at, z, np.flatnonzero(at[1:] > z[:-1] + GAP) + 1, "line plans'")
+
+
+def _places(k, n, at):
+    """(the distinct positions of k (ints in 0 .. n - 1) in the order of their at, each
+    k's place in that list): distinct(at[k]) and its searchsorted, by a mark and a place
+    a position in tables of n (the index's records: tens of kB), not a sort and a binary
+    search of every row (the rows of a window are ~4x its records)."""
+    mark = np.zeros(n, bool)
+    mark[k] = True
+    u_k = np.flatnonzero(mark)
+    u_k = u_k[np.argsort(at[u_k], kind="stable")]
+    place = np.empty(n, np.intp)
+    place[u_k] = np.arange(u_k.size)
+    return u_k, place[k]
 
 
 # _key_hash's odd constants (as distinct.py's: multiples of the golden ratio's) and splitmix64's finish
@@ -244,8 +263,19 @@ def _blocks(buf, start, ns):
     out = []
     for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
         g, n = o[a:z], int(no[a])
-        out.append((g, buf[start[g][:, None] + np.arange(record_len(n))], n))
+        out.append((g, _rows_at(buf, start[g], record_len(n)), n))
     return out
+
+
+def _rows_at(buf, start, width):
+    """buf[start[:, None] + np.arange(width)] (buf 1-D, each start + width <= its size):
+    where buf is a contiguous float64 array, the rows start of a view of buf whose row i
+    is buf[i:i + width], taken a row at a time (a copy each), not a double at a time
+    through a 2-D index (~20 instructions a double: ~4 M of the rectilinear plate's
+    windowed rewrite)."""
+    if type(buf) is np.ndarray and buf.dtype == _F64 and buf.ndim == 1 and buf.flags.c_contiguous and buf.size >= width:
+        return np.ndarray((buf.size - width + 1, width), _F64, buf, 0, (_F64.itemsize, _F64.itemsize))[start]
+    return buf[start[:, None] + np.arange(width)]
 
 
 def _plans(buf, start, blocks):

@@ -691,9 +691,7 @@ def _rewrite_bytes(path, out_fh, raw, core, strokes, plan, profile, opts, digest
         while k < n_order:
             if k >= k_end:            # the next window's strokes (the run stops at its end)
                 k_end, w = win_ends[w], w + 1
-                if held is not None:
-                    held.hold(order[k:k_end])
-                segs_for(plan, order[k:k_end], objs)      # (a windowed run's plans let go: made again)
+                _window_ready(held, plan, order[k:k_end], objs)
                 k_order = order if k_end == n_order else order[:k_end]
             if run is not None:
                 try:
@@ -828,9 +826,7 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
         for k, i in enumerate(order):
             if k >= k_end:        # the next window's strokes
                 k_end, w = win_ends[w], w + 1
-                if held is not None:
-                    held.hold(order[k:k_end])
-                segs_for(plan, order[k:k_end], objs)      # (a windowed run's plans let go: made again)
+                _window_ready(held, plan, order[k:k_end], objs)
             s = objs[i]
             n_copy = s.first_idx - pos
             if n_copy < 0:        # overlapping strokes cannot happen: keep the original
@@ -867,6 +863,21 @@ def _rewrite_text(path, out_fh, strokes, plan, profile: Profile, opts: Options, 
         for chunk in iter(lambda: fh.read(1 << 20), ""):   # the rest of the file, in bulk
             write(chunk)
     return out_ranges
+
+
+def _window_ready(held, plan, rows, objs):
+    """The rewrite's next window: its strokes rows held (held: a HeldRows; None: the list,
+    every stroke in objs already) and their segment plans made again where a windowed run
+    let them go (segs_for).  With held, the collector is off meanwhile and what is then
+    alive frozen after (_young_frozen with the pipeline's freeze): the plans read back
+    hold no cycle (the gyroid plate's ~16 k chains' RowPlans), and the young collections
+    walked each of them two or three times."""
+    if held is None:
+        segs_for(plan, rows, objs)
+        return
+    with _young_frozen(held.freeze):
+        held.hold(rows)
+        segs_for(plan, rows, objs)      # (a windowed run's plans let go: made again)
 
 
 class _Reuse:

@@ -14,6 +14,7 @@ import numpy as np
 from . import objfields
 
 _F64 = np.dtype(np.float64)
+_PREADV = getattr(os, "preadv", None)       # (not on every system: there the runs are joined)
 
 
 class SpillFile:
@@ -55,7 +56,12 @@ class SpillFile:
     def read_runs(self, a, z, cut, what):
         """The records at doubles a[i] .. z[i] - 1 (sorted, not overlapping) read one pread a
         run (a run starts at each position of cut, and at 0): (one array of their doubles,
-        each record's first index there).  OSError if the file ends early."""
+        each record's first index there).  OSError if the file ends early.  Each run read
+        straight into its place in the one array (preadv), not read apart and joined: the
+        join copied every double read once more (~11 M instructions of memcpy in the
+        gyroid plate's windowed rewrite, its chains' ~10 MB of records)."""
+        if _PREADV is not None and a.size:
+            return self._read_into(a, z, cut, what)
         chunks, start, base = [], np.empty(a.size, np.int64), 0
         for f, e in zip([0] + cut.tolist(), cut.tolist() + [a.size]):
             lo, hi = int(a[f]), int(z[e - 1])
@@ -65,6 +71,24 @@ class SpillFile:
             start[f:e] = base + a[f:e] - lo
             base += hi - lo
         return (chunks[0] if len(chunks) == 1 else np.concatenate(chunks)), start
+
+    def _read_into(self, a, z, cut, what):
+        """read_runs' answer, each run read by preadv into its slice of one new array."""
+        firsts = [0] + cut.tolist()
+        lasts = cut.tolist() + [a.size]
+        lo = a[firsts]
+        hi = z[np.array(lasts, np.intp) - 1]
+        base = np.cumsum(hi - lo) - (hi - lo)           # each run's first double in the array
+        buf = np.empty(int((hi - lo).sum()), float)
+        mv = memoryview(buf).cast("B")
+        start = np.empty(a.size, np.int64)
+        fd = self.fh.fileno()
+        for f, e, l, h, b in zip(firsts, lasts, lo.tolist(), hi.tolist(), base.tolist()):
+            n = (h - l) * 8
+            if _PREADV(fd, [mv[b * 8:b * 8 + n]], l * 8) != n:
+                raise OSError(f"{what} spill cut short")
+            start[f:e] = b + a[f:e] - l
+        return buf, start
 
     def close(self):
         """The file let go (no record read again)."""

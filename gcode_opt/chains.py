@@ -771,10 +771,17 @@ def _ends_rows(sts, n):
     them made for the plans (the same doubles, ~2.5 MB held through the budget runs on
     the gyroid plate's ~16 k chains); None where one is not (a SegmentPlan of _knots_s
     each, one by one)."""
-    ends = [st.ends_d for st in sts]
-    if not all(type(e) is array and e.typecode == "d" and len(e) == n for e in ends):
+    ends = list(map(_ENDS_D, sts))
+    # (the checks as C-level maps over the list, types first: a generator's test a chain was
+    # ~2 k instructions, ~17 k chains a gyroid plate's replays, either path)
+    if ends and not (set(map(type, ends)) == _ARRAY_ONLY and set(map(_TYPECODE, ends)) == _D_ONLY
+                     and set(map(len, ends)) == {n}):
         return None
     return ends
+
+
+_ENDS_D, _TYPECODE = attrgetter("ends_d"), attrgetter("typecode")
+_ARRAY_ONLY, _D_ONLY = {array}, {"d"}
 
 
 def _settle_ends_plans(plans, ends, V, A, F):
@@ -788,8 +795,12 @@ def _settle_ends_plans(plans, ends, V, A, F):
     S = np.empty(V.shape)
     S[:, 0] = 0.0
     S[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), V.shape[1] - 1)
-    fin = np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
-    fin &= np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+    fig = objfields.floats(plans, ("time_t", "int_a2"))     # (one compiled pass where built)
+    if fig is None:
+        fin = np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+        fin &= np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+    else:
+        fin = np.isfinite(fig).all(axis=1)
     _settle_rows(S, V, A, F, plans if fin.all() else list(compress(plans, fin.tolist())))
 
 
@@ -813,12 +824,14 @@ class _EndsSettle:
     def __init__(self):
         self.todo, self.knots = [], 0
 
-    def add(self, plans, ends, V, A, F):
+    def add(self, plans, ends, V, A, F, rows_made=False):
+        """rows_made: plans are the caller's RowPlan(ends[i], V, A, F, i, ...) as made (not
+        checked a plan: _replay's, a C-level map of them)."""
         nd, m = np.ndarray, len(plans)
         if not (type(V) is nd and type(A) is nd and type(F) is nd and V.ndim == A.ndim == F.ndim == 2
                 and V.dtype == A.dtype == F.dtype == _F8 and V.shape[0] == len(ends) == m
                 and V.shape[1] >= 2 and A.shape == F.shape == (m, V.shape[1] - 1) and V.size < SETTLE_KNOTS
-                and all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans))):
+                and (rows_made or all(type(p) is RowPlan and p._row == i for i, p in enumerate(plans)))):
             _settle_ends_plans(plans, ends, V, A, F)
             return
         self.todo.append((plans, ends, V, A, F))
@@ -844,8 +857,12 @@ class _EndsSettle:
             for c in (3, 4):                # (accelerations, then feeds: > 0)
                 X = np.concatenate([t[c].reshape(-1) for t in todo])
                 bad |= np.logical_or.reduceat(~(np.isfinite(X) & (X > 0.0)), at_e)
-        bad |= ~np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
-        bad |= ~np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+        fig = objfields.floats(plans, ("time_t", "int_a2"))     # (one compiled pass where built)
+        if fig is None:
+            bad |= ~np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+            bad |= ~np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
+        else:
+            bad |= ~np.isfinite(fig).all(axis=1)
         for p in compress(plans, (~bad).tolist()):
             p.fault = ""
 
@@ -920,17 +937,22 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
             batches = _finished_knots(grp, _laws_knots(grp, laws, profile), items, gs, rules, profile)[::-1]
             del laws
         Q, (vk, dt, tp, a2), fin = batches.pop()
-        sts = [items[q][0] for q in Q]
+        sts = list(map(_IT0, map(items.__getitem__, Q)))
         acc, feed, _, _, _ = fin or _finish_stacked_dt(sts, [gs[q] for q in Q], np.arange(len(Q)), vk, dt, rules,
                                                        profile, predict=False)
         ends = _ends_rows(sts, vk.shape[1] - 1)
-        for i, q in zip(_row_ints(len(Q)), Q):      # (rows of the blocks: RowPlan)
-            out[q] = (SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i]) if ends is None
-                      else RowPlan(ends[i], vk, acc, feed, i, tp[i], a2[i]))
-        if ends is not None:
-            settle.add([out[q] for q in Q], ends, vk, acc, feed)
+        if ends is None:
+            for i, q in zip(_row_ints(len(Q)), Q):
+                out[q] = SegmentPlan(sk(sts[i]), vk[i], acc[i], feed[i], tp[i], a2[i])
+        else:
+            # (rows of the blocks: a RowPlan each, made by a C-level map, not a loop body a chain)
+            plans = list(map(RowPlan, ends, repeat(vk), repeat(acc), repeat(feed), _row_ints(len(Q)), tp, a2))
+            for q, plan in zip(Q, plans):
+                out[q] = plan
+            settle.add(plans, ends, vk, acc, feed, rows_made=True)
             if blocks is not None:
                 blocks.append((Q, vk, acc, feed, ends))
+            del plans
         del dt
     settle.flush()
     return out
@@ -1045,22 +1067,46 @@ def _laws_knots(Qs, laws, profile):
     L, v0, v1 = _lengths_ends(sts)
     fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
+    vk, dt, kat, sat = _flat_knots(nv, voff, vv, vt, fl.v0, fl.v1, TL)
+    del vv, vt
+    tp, a2 = tp.tolist(), a2.tolist()
     out = []
     a = 0
     for Q in Qs:
         z = a + len(Q)
         n = int(nv[a]) + 1
-        vk = np.empty((z - a, n + 1))
-        tk = np.empty((z - a, n + 1))
-        vk[:, 0], vk[:, -1] = fl.v0[a:z], fl.v1[a:z]
-        tk[:, 0] = 0.0
-        tk[:, -1] = TL[a:z]
-        if n > 1:
-            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
-            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
-        out.append((vk, _row_steps(tk), tp[a:z].tolist(), a2[a:z].tolist()))
+        out.append((vk[kat[a]:kat[z]].reshape(z - a, n + 1), dt[sat[a]:sat[z]].reshape(z - a, n), tp[a:z], a2[a:z]))
         a = z
     return out
+
+
+def _flat_knots(nv, voff, vv, vt, v0, v1, TL):
+    """The knot speeds and segment durations of m rows laid out as _laws_knots' batches
+    take them, every row's at once, not ~10 numpy calls a batch (a windowed gyroid run
+    replays ~1 k batches of ~15 chains): (vk, dt, kat, sat), flat, row r's knots
+    vk[kat[r]:kat[r + 1]] (v0[r], its vertices' speeds vv[voff[r]:voff[r + 1]], v1[r]) and
+    durations dt[sat[r]:sat[r + 1]], the steps of its knots' times (0.0, vt's, TL[r]): the
+    same subtractions as _row_steps' (np.diff's values).  A batch's rows are consecutive
+    rows of one width: its (m, n + 1) and (m, n) blocks are views of these."""
+    m = nv.size
+    nv = np.asarray(nv, np.int64)
+    rows2 = 2 * np.arange(m + 1, dtype=np.int64)
+    kat = np.asarray(voff, np.int64) + rows2            # each row's first knot (m + 1: the end too)
+    sat = kat - rows2 // 2                              # its first segment
+    first, last = kat[:-1], kat[:-1] + nv + 1
+    inner = np.ones(int(kat[-1]), bool)
+    inner[first] = False
+    inner[last] = False
+    vk = np.empty(inner.size)
+    vk[inner] = vv
+    vk[first], vk[last] = v0, v1
+    tk = np.empty(inner.size)
+    tk[inner] = vt
+    tk[first], tk[last] = 0.0, TL
+    steps = np.empty(inner.size)
+    np.subtract(tk[1:], tk[:-1], out=steps[:-1])
+    inner[first] = True                                 # (the steps from every knot but a row's last)
+    return vk, steps[inner], kat.tolist(), sat.tolist()
 
 
 def _lengths_ends(sts):

@@ -206,15 +206,25 @@ def _row_blocks(plans):
     """plans' RowPlans with no junction command, of a shape of _SHAPES, rows of 2-D float64
     blocks S, V, A, F of n + 1, n + 1, n, n columns (n <= MAX_N), by their blocks:
     ([((S, V, A, F), their places in plans, their rows)], the other places (not None))."""
+    # (a group found by its V's id, its other blocks compared by identity: not four ids and
+    # a tuple a plan; a plan of the same V but other blocks keyed by all four, as before)
     by, rest = {}, []
     for q, p in enumerate(plans):
         if p is None:
             continue
-        if type(p) is RowPlan and type(p._row) is int and p.first_cmds is None and type(p._v) is np.ndarray:
-            key = (id(p._s), id(p._v), id(p._accel), id(p._feed))
-            got = by.get(key)
+        if type(p) is RowPlan and type(p._row) is int and p.first_cmds is None:
+            V = p._v
+            got = by.get(id(V))
             if got is None:
-                got = by[key] = ((p._s, p._v, p._accel, p._feed), [], [])
+                if type(V) is not np.ndarray:
+                    rest.append(q)
+                    continue
+                got = by[id(V)] = ((p._s, V, p._accel, p._feed), [], [])
+            elif not (got[0][0] is p._s and got[0][2] is p._accel and got[0][3] is p._feed):
+                key = (id(p._s), id(V), id(p._accel), id(p._feed))
+                got = by.get(key)
+                if got is None:
+                    got = by[key] = ((p._s, V, p._accel, p._feed), [], [])
             got[1].append(q)
             got[2].append(p._row)
         else:

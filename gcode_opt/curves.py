@@ -613,7 +613,7 @@ class _Blk:
     vertices and κ_eff None (build_geoms' kappa False): made for the rows read, when read
     (make_kappa; _kv_miss, _ke_miss: the rows not made yet, None if none)."""
     __slots__ = ("d", "_u", "_pts", "_kv", "_ke", "_kv_miss", "_ke_miss", "_caps", "_lim", "caps_jerk1", "cap",
-                 "cos_end", "cap_min", "_ux2", "__weakref__")
+                 "cos_end", "cap_min", "_ux2", "_end2", "__weakref__")
 
     def __init__(self, d, u, kappa_v, kappa_eff, caps, caps_jerk1, cap, cos_end, cap_min, pts=None, lim=None):
         self.d, self._kv, self._ke = d, kappa_v, kappa_eff
@@ -622,6 +622,9 @@ class _Blk:
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
         self._ux2 = None            # adjust_plan_inputs' direction weights of every row, once made
+        # cos_end's cosines as (2, m) doubles, NaN where None (build_geoms' blocks, made with
+        # cos_end: geom_keep writes them so), or None; cos_end is not changed after it
+        self._end2 = None
 
     @property
     def u(self):
@@ -922,14 +925,15 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
     same operations.  pts: the strokes' vertices (their pts), if the caller has them.
     want: build_geoms' (κ of a block _parts_lazy left without it made for those rows).
     fields: _fields_at's of sts, if the caller read them (else read here).  pre:
-    _flat_blocks' (caps, caps at the whole jerk, end turns, u and d finite) of every row
-    of the block (caps None: made here), made for many blocks at once (the same numbers)."""
+    _flat_blocks' (caps, caps at the whole jerk, end turns, u and d finite, _blk_ux2's
+    weights) of every row of the block (caps None: made here; the weights None: made when
+    read), made for many blocks at once (the same numbers)."""
     d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
-    caps = caps1 = ends = finite = None
+    caps = caps1 = ends = finite = ux2 = end2 = None
     if pre is not None:
-        caps, caps1, ends, finite = pre
+        caps, caps1, ends, finite, ux2, end2 = pre
     keep = None
     if pts is None:
         pts = list(map(_PTS, sts))
@@ -947,6 +951,8 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
             fields = _fields_at(fields, np.flatnonzero(good))
         if pre is not None:
             finite, ends = finite[good], [e for e, x in zip(ends, g) if x]
+            ux2 = None if ux2 is None else ux2[good]
+            end2 = end2[:, good]
             if caps is not None:
                 caps, caps1 = caps[good], None if caps1 is None else caps1[good]
     if not (finite.all() if finite is not None else np.isfinite(u).all() and np.isfinite(d).all()):
@@ -973,6 +979,8 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
     blk = _Blk(d, None, kappa_v, kappa_eff, caps, caps1, cap, ends, cap_min, pts=pts, lim=lim)
     if miss is not None:
         blk._kv_miss, blk._ke_miss = miss, miss.copy()
+    blk._ux2 = ux2                  # (adjust_plan_inputs' weights, _flat_ux2's: None made when read)
+    blk._end2 = end2                # (cos_end as columns, geom_keep's: None where not made)
     _BLOCKS.add(blk)
     return blk, keep, sts
 
@@ -1104,6 +1112,11 @@ def _ends_rows(sts, us, flat=None):
 def _ends_of(sts, first, last, dirs=None):
     """_ends_rows of strokes whose first and last unit directions are the rows of first
     and last, (m, 2) each; dirs: their _neighbour_dirs, if the caller has them."""
+    return _ends_cols(sts, first, last, dirs)[0]
+
+
+def _ends_cols(sts, first, last, dirs=None):
+    """(_ends_of's list, the same cosines as a (2, m) array, NaN where None: _Blk._end2)."""
     m = len(sts)
     p, q = _neighbour_dirs(sts) if dirs is None else dirs
     c0 = p[0] * first[:, 0] + p[1] * first[:, 1]
@@ -1112,7 +1125,10 @@ def _ends_of(sts, first, last, dirs=None):
     out = [_NO_ENDS] * m
     for k, a, b in zip(np.flatnonzero(m0 | m1).tolist(), m0[m0 | m1].tolist(), m1[m0 | m1].tolist()):
         out[k] = (c0[k] if a else None, c1[k] if b else None)
-    return out
+    cols = np.full((2, m), np.nan)
+    np.copyto(cols[0], c0, where=m0)
+    np.copyto(cols[1], c1, where=m1)
+    return out, cols
 
 
 def _neighbour_dirs(sts):
@@ -1224,9 +1240,10 @@ def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields):
     """build_geoms' blocks: (indices into todo, _parts_block / _parts_lazy's block of those
     strokes (cos_turn None: build_geoms does not read it; with_seg: the lazy block's
     segments for its want), their fields (_fields_at's, or None: fields None), pre (the
-    rows' caps, caps at the whole jerk (j1), end turns and u and d finite: _block_geoms'
-    pre)).  The blocks' vertex differences, lengths, directions, finiteness, end turns
-    and classic jerk's caps (one limits object, compiled) are made for a chunk of blocks
+    rows' caps, caps at the whole jerk (j1), end turns, u and d finite and _blk_ux2's
+    weights: _block_geoms' pre)).  The blocks' vertex differences, lengths, directions,
+    finiteness, end turns, direction weights and classic jerk's caps (one limits object,
+    compiled) are made for a chunk of blocks
     at once (_FLAT_PTS vertices), over their vertices end to end: elementwise, the same
     numbers as block by block, not ~60 numpy calls a block (a window's call of ~20
     blocks, most of a few strokes: benchmarks/geoms55.md).  Each block's lengths, arc
@@ -1268,9 +1285,10 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
         finite = every(finite, 2 * starts) & every(d_fin, starts)
         caps, caps1 = _flat_jerk_caps(u, profile, j1, fields)
         arc = _flat_arcs(d, starts, gap)
+        ux2 = _flat_ux2(d, u, starts, gap) if fields is not None else None
     if fields is not None:
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
-        ends = _ends_of(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)
+        ends, end2 = _ends_cols(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)
     a = 0
     for idx, npt in chunk:
         m, z = idx.size, a + idx.size
@@ -1284,7 +1302,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
             bcaps = None if caps is None else caps[rows].reshape(m, npt)[:, :-2].copy()
             bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
             yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
-                (bcaps, bcaps1, ends[a:z], finite[a:z])
+                (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z], end2[:, a:z])
         a = z
 
 
@@ -1347,6 +1365,27 @@ def _flat_arcs(d, starts, gap):
     rise[starts] = s[starts] > 0.0
     rise[gap] = True
     return s, np.logical_and.reduceat(rise, starts), s[gap - 1] <= KAPPA_TAME_D
+
+
+_ROW_SUMS = getattr(_chain_law.CORE_MOD, "row_sums", None)
+
+
+def _flat_ux2(d, u, starts, gap):
+    """_blk_ux2 of each stroke of _flat_chunk's rows (d, u end to end, a stroke's segments
+    from starts[k] to gap[k] - 1): its d / d.sum() times ux ** 2, summed, as _blk_ux2 makes
+    them on a block's rows (the same elementwise operations; each row's sums numpy's
+    pairwise sum of its run, the chain core's row_sums), for all the chunk's blocks at once
+    (_blk_ux2 made the block's u again and ~10 numpy calls a block, ~620 blocks on the
+    windowed gyroid plate); or None without the core (then _blk_ux2 makes them when read)."""
+    if _ROW_SUMS is None:
+        return None
+    off = np.empty(2 * starts.size + 1, np.int64)       # a run a stroke, and one its gap row
+    off[0:-1:2], off[1:-1:2], off[-1] = starts, gap, d.size
+    tot = np.empty(2 * starts.size)
+    _ROW_SUMS(d, off, tot)
+    w = d / np.repeat(tot, np.diff(off))
+    _ROW_SUMS(w * u[:, 0] ** 2, off, tot)
+    return tot[0::2]
 
 
 def _flat_jerk_caps(u, profile, j1, fields):
@@ -1663,8 +1702,13 @@ _G_K = attrgetter("_k")
 
 
 def _by_block(gs):
-    """(per distinct block: (block, positions in gs, rows in it)) of geometries that are rows
-    of build_geoms' blocks (a _Blk that keeps no u, cap an array), or None."""
+    """(per distinct block, in the order first met: (block, positions in gs, rows in it))
+    of geometries that are rows of build_geoms' blocks (a _Blk that keeps no u, cap an
+    array), or None.  The positions and rows are intp arrays where the compiled reads
+    take the geometries (_by_block_flat), else lists."""
+    got = _by_block_flat(gs)
+    if got is not None:
+        return None if got is False else got
     try:
         bs = list(map(_G_B, gs))
         ks = list(map(_G_K, gs))
@@ -1680,6 +1724,31 @@ def _by_block(gs):
         e[1].append(q)
         e[2].append(k)
     return list(out.values())
+
+
+def _by_block_flat(gs):
+    """_by_block's groups from objfields' compiled reads of the geometries' _b and _k (a
+    Python loop a row was ~1.6 k instructions, ~35 k rows twice on the gyroid plate): a
+    stable sort of the rows by block, each block's positions in gs in order.  False where
+    a block is not build_geoms' (_by_block's None); None where the compiled reads do not
+    take them (a geometry without _b or _k, a _k not an int, no core): _by_block's loop."""
+    try:
+        got = objfields.ids(gs, "_b")
+        ks = objfields.codes(gs, "_k", None) if got is not None else None
+    except AttributeError:
+        return None
+    if ks is None:
+        return None
+    bs, which = got
+    for b in bs:
+        if type(b) is not _Blk or b._u is not None or not isinstance(b.cap, np.ndarray) or b.d.ndim != 2:
+            return False
+    if len(bs) == 1:
+        return [(bs[0], np.arange(len(gs)), ks)]
+    order = np.argsort(which, kind="stable")
+    cut = np.flatnonzero(which[order][1:] != which[order][:-1]) + 1
+    # (ids numbers the blocks in the order first met: the groups come in that order)
+    return [(b, q, ks[q]) for b, q in zip(bs, np.split(order, cut))]
 
 
 def _block_rows(by_blk, per_block):

@@ -1810,12 +1810,17 @@ def _record_blocks(buf, start, ns):
     consecutive records of one segment count: [(their indices, the block (a view of buf:
     not a copy of the records, nor an index array as large), n)]; a block's records are
     written together (_ChainSpill.put: a finishing block's plans one after the other)."""
-    o = np.lexsort((start, ns))
-    lens = _spill_len(ns[o])
-    cut = np.flatnonzero((ns[o][1:] != ns[o][:-1]) | (start[o][1:] != start[o][:-1] + lens[:-1])) + 1
+    # (lexsort's order by (ns, start) as one int64 key: the starts are distinct, below
+    # buf.size; one stable argsort (timsort: the keys come in runs), not lexsort's two)
+    o = np.argsort(ns.astype(np.int64) * (buf.size + 1) + start, kind="stable")
+    no, so = ns[o], start[o]
+    lens = _spill_len(no)
+    cut = np.flatnonzero((no[1:] != no[:-1]) | (so[1:] != so[:-1] + lens[:-1])) + 1
+    firsts = np.r_[0, cut]
     out = []
-    for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
-        n, L, s0 = int(ns[o[a]]), int(lens[a]), int(start[o[a]])
+    # (each block's n, length and start as Python ints at once: not numpy scalars a block)
+    for a, z, n, L, s0 in zip(firsts.tolist(), cut.tolist() + [o.size], no[firsts].tolist(), lens[firsts].tolist(),
+                              so[firsts].tolist()):
         out.append((o[a:z], buf[s0:s0 + (z - a) * L].reshape(z - a, L), n))
     return out
 

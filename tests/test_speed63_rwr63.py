@@ -6,7 +6,6 @@ index gather; schedule._in_codes is np.isin; schedule._ascending and HeldRows' r
 distinct(rows); schedule._are_none is the is-None test; SpillFile.read_runs reads by preadv
 what the join of its preads read; schedule._record_blocks cuts the blocks lexsort's order
 cut; and LineSpill.take answers as before when a hash is shared by two keys."""
-import os
 
 import numpy as np
 import pytest

@@ -150,3 +150,47 @@ def test_line_take_hash_twin(tmp_path, monkeypatch):
     assert got.tolist() == [2] and rest.tolist() == [3, 5]
     assert len(plans) == 1 and plans[0].time_t == 1.5 and np.array_equal(plans[0].s, S[0])
     spill.close()
+
+
+def _record_plans_before(G, n, head, cols, shapes):
+    """spill_file.record_plans as it was (each SegmentPlan's rows indexed and copied)."""
+    from itertools import compress
+    from gcode_opt.segments import RowPlan, SegmentPlan
+    c_t, c_a2, c_kind, c_fine, c_shape = cols
+    S, V = G[:, head:head + n + 1], G[:, head + n + 1:head + 2 * n + 2]
+    A, F = G[:, head + 2 * n + 2:head + 3 * n + 2], G[:, head + 3 * n + 2:]
+    t, a2, kind = G[:, c_t].tolist(), G[:, c_a2].tolist(), G[:, c_kind]
+    shape = G[:, c_shape]
+    sh = [shapes[int(c)] for c in shape.tolist()]
+    plans = [RowPlan(S, V, A, F, i, t[i], a2[i], sh[i]) if kind[i] == 0.0
+             else SegmentPlan(S[i].copy(), V[i].copy(), A[i].copy(), F[i].copy(), t[i], a2[i], sh[i])
+             for i in range(G.shape[0])]
+    for p in compress(plans, G[:, c_fine].tolist()):
+        p.fault = ""
+    return plans
+
+
+@pytest.mark.parametrize("kinds", [[1, 1, 1], [0, 1, 0, 1, 1], [1], [0, 0]])
+def test_record_plans_segment_rows(kinds):
+    """SegmentPlans made of row views of one copy: the same type, numbers, figures, shape and
+    verdict as the copies a row; their arrays apart from G (G written after: unchanged)."""
+    n, head = 3, ls.HEAD
+    m = len(kinds)
+    G = RNG.random((m, ls.record_len(n)))
+    G[:, 5] = kinds                       # (the type: 1.0 a SegmentPlan)
+    G[:, 6] = RNG.integers(0, 2, m)       # (the verdict)
+    G[:, 7] = [0, 1] * (m // 2) + [0] * (m % 2)    # (the shape)
+    cols = (3, 4, 5, 6, 7)
+    got = sf.record_plans(G.copy(), n, head, cols, ls._SHAPES)
+    want = _record_plans_before(G.copy(), n, head, cols, ls._SHAPES)
+    for p, q in zip(got, want):
+        assert type(p) is type(q) and (p.time_t, p.int_a2, p.shape, p.fault) == (q.time_t, q.int_a2, q.shape, q.fault)
+        for f in ("s", "v", "accel", "feed"):
+            x, y = getattr(p, f), getattr(q, f)
+            assert x.dtype == y.dtype and x.flags.c_contiguous and x.tobytes() == y.tobytes()
+    G2 = G.copy()
+    got = sf.record_plans(G2, n, head, cols, ls._SHAPES)
+    G2[:] = -1.0
+    for p, q in zip(got, want):
+        if type(p).__name__ == "SegmentPlan":
+            assert p.s.tobytes() == q.s.tobytes() and p.feed.tobytes() == q.feed.tobytes()

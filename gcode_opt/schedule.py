@@ -1568,6 +1568,23 @@ def _ascending(rows):
     return distinct(rows)
 
 
+def _in_codes(kind, codes):
+    """np.isin(kind, codes) where both are small non-negative ints (the KIND_CODEs): a
+    lookup in a table of one bool a code (np.isin was ~200 k instructions a window of
+    ~3 k rows: its pass a code, in Python); else np.isin itself."""
+    codes = np.asarray(codes)
+    if (kind.dtype.kind in "iu" and codes.dtype.kind in "iu" and kind.size and codes.size
+            and 0 <= int(codes.min()) and int(codes.max()) < _CODES_TOP and 0 <= int(kind.min())
+            and int(kind.max()) < _CODES_TOP):
+        table = np.zeros(_CODES_TOP, bool)
+        table[codes] = True
+        return table[kind]
+    return np.isin(kind, codes)
+
+
+_CODES_TOP = 256        # codes _in_codes looks up in a table (the KIND_CODEs: 0 .. 3)
+
+
 class _PlansAgain:
     """A windowed run's plan.remake: the re-timed lines' and chains' plans it let go
     (_window_figures; codes: the KIND_CODEs it let go), made again for rows as the run made
@@ -1596,7 +1613,7 @@ class _PlansAgain:
         if old is not None:
             _clear_at(segs, old)
         rows = _ascending(np.asarray(rows, np.int64))
-        rows = rows[np.isin(self.kind[rows], self.codes) & plan.retime[rows]]
+        rows = rows[_in_codes(self.kind[rows], self.codes) & plan.retime[rows]]
         if rows.size:
             rows = rows[_are_none(_take(segs, rows))]
         kind = self.kind[rows]
@@ -1825,12 +1842,17 @@ def _record_blocks(buf, start, ns):
     consecutive records of one segment count: [(their indices, the block (a view of buf:
     not a copy of the records, nor an index array as large), n)]; a block's records are
     written together (_ChainSpill.put: a finishing block's plans one after the other)."""
-    o = np.lexsort((start, ns))
-    lens = _spill_len(ns[o])
-    cut = np.flatnonzero((ns[o][1:] != ns[o][:-1]) | (start[o][1:] != start[o][:-1] + lens[:-1])) + 1
+    # (lexsort's order by (ns, start) as one int64 key: the starts are distinct, below
+    # buf.size; one stable argsort (timsort: the keys come in runs), not lexsort's two)
+    o = np.argsort(ns.astype(np.int64) * (buf.size + 1) + start, kind="stable")
+    no, so = ns[o], start[o]
+    lens = _spill_len(no)
+    cut = np.flatnonzero((no[1:] != no[:-1]) | (so[1:] != so[:-1] + lens[:-1])) + 1
+    firsts = np.r_[0, cut]
     out = []
-    for a, z in zip([0] + cut.tolist(), cut.tolist() + [o.size]):
-        n, L, s0 = int(ns[o[a]]), int(lens[a]), int(start[o[a]])
+    # (each block's n, length and start as Python ints at once: not numpy scalars a block)
+    for a, z, n, L, s0 in zip(firsts.tolist(), cut.tolist() + [o.size], no[firsts].tolist(), lens[firsts].tolist(),
+                              so[firsts].tolist()):
         out.append((o[a:z], buf[s0:s0 + (z - a) * L].reshape(z - a, L), n))
     return out
 

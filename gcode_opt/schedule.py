@@ -1914,12 +1914,11 @@ def _blocks_records(T, beta, plans, blocks):
     at, a, e = at.tolist(), 0, 0
     for (V, A, F), q, rr, _ in blocks:
         mb, n = q.size, A.shape[1]
-        L = _spill_len(n)
-        R = buf[at[a]:at[a] + mb * L].reshape(mb, L)
-        R[:, k + 1:k + n + 1] = ends[e:e + mb * n].reshape(mb, n)
-        R[:, k + n + 1:k + 2 * n + 2] = V[rr]
-        R[:, k + 2 * n + 2:k + 3 * n + 2] = A[rr]
-        R[:, k + 3 * n + 2:] = F[rr]
+        L = k + 4 * n + 2                       # (_spill_len(n))
+        # (the knots, speeds, accelerations and feeds put by one concatenate into the records'
+        # rows: one numpy call a block, not four assignments)
+        np.concatenate((ends[e:e + mb * n].reshape(mb, n), V[rr], A[rr], F[rr]), axis=1,
+                       out=buf[at[a]:at[a] + mb * L].reshape(mb, L)[:, k + 1:])
         a, e = a + mb, e + mb * n
     return [buf], [ii], [ns]
 

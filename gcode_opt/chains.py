@@ -964,8 +964,10 @@ def _finished_knots(Qs, knots, items, gs, rules, profile):
     figures are the laws'), or None each (finished batch by batch: _finish_stacked_dt)
     where it declines; the same bits (the row code is chain_finish's).  Not the rows'
     own batches (_gather_rows): those are finished one by one as before."""
-    fins = _finish_ragged([([items[q][0] for q in Q], [gs[q] for q in Q], np.arange(len(Q)), vk, dt)
-                           for Q, (vk, dt, _, _) in zip(Qs, knots)], rules, profile, predict=False)
+    # (each batch's strokes and geometries by C-level maps; its rows 0.. a view of one arange)
+    own = np.arange(max(map(len, Qs), default=0))
+    fins = _finish_ragged([(list(map(_IT0, map(items.__getitem__, Q))), list(map(gs.__getitem__, Q)), own[:len(Q)],
+                            vk, dt) for Q, (vk, dt, _, _) in zip(Qs, knots)], rules, profile, predict=False)
     return list(zip(Qs, knots, fins or [None] * len(Qs)))
 
 
@@ -1135,7 +1137,8 @@ def _inner_s_stacked(gs, Ds):
     if core is None or not Ds or any(D.dtype != np.float64 or D.ndim != 2 or D.shape[1] < 1 for D in Ds):
         return _inner_s(gs)
     d = Ds[0].ravel() if len(Ds) == 1 else np.concatenate([D.ravel() for D in Ds])
-    n = np.concatenate([np.full(D.shape[0], D.shape[1], np.int64) for D in Ds])
+    # (each row's segment count, its stack's width: one repeat, not an np.full a stack)
+    n = np.repeat(np.array([D.shape[1] for D in Ds], np.int64), [D.shape[0] for D in Ds])
     return _inner_s_core(core, d, n)
 
 

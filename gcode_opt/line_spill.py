@@ -75,12 +75,12 @@ class LineSpill(SpillFile):
             parts.append(_block_records(block, rr, [plans[q] for q in ii.tolist()], cls[ii], T[ii], beta[ii]).ravel())
             qs.append(ii)
             lens.append(np.full(ii.size, block[2].shape[1], np.int64))
-        for q in rest:
-            got = _record(plans[q], cls[q], T[q], beta[q])
+        if rest:
+            got = _rest_records(plans, rest, cls, T, beta)
             if got is not None:
-                parts += got
-                qs.append(np.array([q], np.int64))
-                lens.append(np.array([got[1].size - 1], np.int64))     # (the knots: n + 1)
+                parts += got[0]
+                qs.append(got[1])
+                lens.append(got[2])
         if not qs:
             return
         buf = np.concatenate(parts)
@@ -202,10 +202,36 @@ def _record(p, cls, T, beta):
     return [head] + arrs
 
 
+def _rest_records(plans, rest, cls, T, beta):
+    """The records of the plans at the places rest (_record's each, those it holds): ([the
+    parts to join, a record's head then its four arrays], their places (int64), their
+    segment counts (int64)), or None where none is held.  Every head made in one array
+    (plan_heads' compiled reads, the types' and shapes' codes), not an array a plan."""
+    got = [(q, a) for q in rest for a in (plan_arrays(plans[q], _SHAPES, MAX_N),) if a is not None]
+    if not got:
+        return None
+    qs = np.array([q for q, _ in got], np.int64)
+    ps = list(map(plans.__getitem__, qs.tolist()))
+    H = np.empty((qs.size, HEAD))
+    H.view(np.int64)[:, 0] = cls[qs]
+    H[:, 1], H[:, 2] = T[qs], beta[qs]
+    plan_heads(ps, H[:, 3:7])           # (figures, a type code, verdicts: the type's made here)
+    H[:, 5] = [_TYPES.index(type(p)) for p in ps]
+    H[:, 7] = [_SHAPES.index(p.shape) for p in ps]
+    parts = []
+    for h, (_, arrs) in zip(H, got):
+        parts.append(h)
+        parts += arrs
+    return parts, qs, np.array([a[2].size for _, a in got], np.int64)
+
+
 def _row_blocks(plans):
     """plans' RowPlans with no junction command, of a shape of _SHAPES, rows of 2-D float64
     blocks S, V, A, F of n + 1, n + 1, n, n columns (n <= MAX_N), by their blocks:
     ([((S, V, A, F), their places in plans, their rows)], the other places (not None))."""
+    got = _row_blocks_compiled(plans) if len(plans) >= COMPILED_PLANS else None
+    if got is not None:
+        return got
     # (a group found by its V's id, its other blocks compared by identity: not four ids and
     # a tuple a plan; a plan of the same V but other blocks keyed by all four, as before)
     by, rest = {}, []
@@ -240,6 +266,71 @@ def _row_blocks(plans):
         else:
             rest += ii
     return out, rest
+
+
+# plans a put groups by objfields' compiled passes (_row_blocks_compiled) from this many: a
+# few passes a put, where the Python loop was ~3.6 k instructions a plan (rectilinear plate:
+# ~6 k line plans in 25 blocks over its three runs' puts)
+COMPILED_PLANS = 64
+
+
+def _row_blocks_compiled(plans):
+    """_row_blocks' answer (the same blocks, places, rows and other places, in the same
+    order) read by objfields' compiled passes: the plans' classes, their RowPlans' rows,
+    commands, shapes and four blocks' identities, each block's RowPlans then found by
+    their four blocks' places; None where a pass declines (the core not built, a RowPlan's
+    row not an int, a junction command, a V not an array): the caller's loop then."""
+    kinds = objfields.codes(plans, "__class__", {RowPlan: 0, type(None): 1}, add=True)
+    if kinds is None:
+        return None
+    rp = np.flatnonzero(kinds == 0)
+    sub = objfields.take(plans, rp)
+    if sub is None or not sub:
+        return None
+    rows = objfields.codes(sub, "_row", None)
+    cmds = objfields.codes(sub, "first_cmds", {None: 0})
+    shapes = objfields.codes(sub, "shape", dict(_SHAPE_CODES), add=True)
+    if rows is None or cmds is None or shapes is None:
+        return None
+    keys = []
+    heads = []
+    for name in ("_s", "_v", "_accel", "_feed"):
+        got = objfields.ids(sub, name)
+        if got is None:
+            return None
+        heads.append(got[0])
+        keys.append(got[1].astype(np.int64))
+    if not all(type(V) is np.ndarray for V in heads[1]):
+        return None
+    # one int a plan for its four blocks' places (mixed radix of their distinct counts)
+    ws = [len(h) for h in heads]
+    if ws[0] * ws[1] * ws[2] * ws[3] >= 1 << 62:
+        return None
+    key = ((keys[0] * ws[1] + keys[1]) * ws[2] + keys[2]) * ws[3] + keys[3]
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")            # the groups as first met
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    g = rank[inv.reshape(-1)]
+    by = np.argsort(g, kind="stable")                   # the plans group by group, each in order
+    ends = np.cumsum(np.bincount(g, minlength=order.size)).tolist()
+    fine_shape = shapes < len(_SHAPES)
+    out, rest = [], np.flatnonzero(kinds >= 2).tolist()
+    for a, z, f in zip([0] + ends[:-1], ends, first[order].tolist()):
+        mem = by[a:z]
+        block = tuple(h[k[f]] for h, k in zip(heads, keys))
+        S, V, A, F = block
+        n = A.shape[1] if type(A) is np.ndarray and A.ndim == 2 else -1
+        ii = rp[mem].astype(np.int64)
+        if (n >= 0 and n <= MAX_N and all(type(x) is np.ndarray and x.ndim == 2 and x.dtype == _F64 for x in block)
+                and S.shape[1] == V.shape[1] == n + 1 and F.shape[1] == n and fine_shape[mem].all()):
+            out.append((block, ii, rows[mem].astype(np.intp)))
+        else:
+            rest += ii.tolist()
+    return out, rest
+
+
+_SHAPE_CODES = tuple(zip(_SHAPES, range(len(_SHAPES))))
 
 
 def _block_records(block, rows, plans, cls, T, beta):

@@ -99,7 +99,7 @@ def classify(strokes, rows, profile, end_cols=False):
         if not _classify_block(b, bsts, jerk, fresh=True):
             for st in bsts:
                 _classify_one(st, profile, jerk)
-        if b._kv is None or b._kv_miss is not None:      # (a curve's κ not made yet: made now)
+        if (b._kv is None or b._kv_miss is not None) and _kappa_left(b, bsts):     # (a curve's κ not made yet: made now)
             b.make_kappa([k for k, st in enumerate(bsts) if st.chain_T is None])
     every = sum(len(m[1]) for m in made) == len(sts)
     if not every:
@@ -109,6 +109,29 @@ def classify(strokes, rows, profile, end_cols=False):
             curves.drop_blocks_jerk1([m[0] for m in made])
         else:
             curves.drop_jerk1(sts)
+
+
+_CHAIN_T = attrgetter("chain_T")
+
+
+def _kappa_left(b, sts):
+    """Whether b.make_kappa of the rows of sts (the block b's rows in order) that are no
+    chain has a row to make: such a row, and κ not made for the block or for that row.
+    Mostly not: build_geoms made κ for the rows _not_chains foresaw, the rows
+    _classify_block did not make chains, or left it unmade where every row is a chain
+    (make_kappa of no row then made the block's κ arrays, every row not made: the same
+    to every reader as none, which makes the rows it reads; ~560 of the ~620 blocks of
+    the windowed gyroid plate, ~12 numpy calls each, and arrays of nothing held)."""
+    rows = np.fromiter(map(is_, map(_CHAIN_T, sts), repeat(None)), bool, len(sts))
+    if not rows.any():
+        return False
+    if b._kv is None or b._ke is None:
+        return True
+    kv, ke = b._kv_miss, b._ke_miss
+    if kv is None and ke is None:
+        return False
+    miss = kv if ke is None else ke if kv is None else kv | ke
+    return bool(miss[rows].any())
 
 
 def _not_chains(sts, cap):

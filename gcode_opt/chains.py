@@ -208,8 +208,14 @@ def _classify_block(b, sts, jerk, fresh=False):
             # an array (~0.25 kB a chain, half of it the array's object: ~16 k chains held
             # from the plan's inputs to their plans on the gyroid plate)
             g.chain_caps = buf[w * i:w * (i + 1)]
-            g.caps_jerk1 = None
+            if type(g) is _CURVE_GEOM:
+                g._j1 = None             # (the caps_jerk1 setter's store, without its call: ~16 k chains)
+            else:
+                g.caps_jerk1 = None
     return True
+
+
+_CURVE_GEOM = curves.CurveGeom
 
 
 _V_FEED = attrgetter("v_feed")

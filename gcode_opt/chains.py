@@ -88,18 +88,18 @@ def _caps_array(c):
     return np.frombuffer(c, float) if type(c) is bytes else c
 
 
-def classify(strokes, rows, profile):
+def classify(strokes, rows, profile, end_cols=False):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
-    caps a curve's peak) is below the feed become chains."""
+    caps a curve's peak) is below the feed become chains.  end_cols: build_geoms'."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
     # κ made for the rows that will not be chains (a chain never reads it), by the test below
-    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains) or []     # (None: a build_geoms of tests)
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains, end_cols=end_cols) or []     # (None: a build_geoms of tests)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
         if not _classify_block(b, bsts, jerk, fresh=True):
             for st in bsts:
                 _classify_one(st, profile, jerk)
-        if b._kv is None or b._kv_miss is not None:      # (a curve's κ not made yet: made now)
+        if (b._kv is None or b._kv_miss is not None) and _kappa_left(b, bsts):     # (a curve's κ not made yet: made now)
             b.make_kappa([k for k, st in enumerate(bsts) if st.chain_T is None])
     every = sum(len(m[1]) for m in made) == len(sts)
     if not every:
@@ -109,6 +109,29 @@ def classify(strokes, rows, profile):
             curves.drop_blocks_jerk1([m[0] for m in made])
         else:
             curves.drop_jerk1(sts)
+
+
+_CHAIN_T = attrgetter("chain_T")
+
+
+def _kappa_left(b, sts):
+    """Whether b.make_kappa of the rows of sts (the block b's rows in order) that are no
+    chain has a row to make: such a row, and κ not made for the block or for that row.
+    Mostly not: build_geoms made κ for the rows _not_chains foresaw, the rows
+    _classify_block did not make chains, or left it unmade where every row is a chain
+    (make_kappa of no row then made the block's κ arrays, every row not made: the same
+    to every reader as none, which makes the rows it reads; ~560 of the ~620 blocks of
+    the windowed gyroid plate, ~12 numpy calls each, and arrays of nothing held)."""
+    rows = np.fromiter(map(is_, map(_CHAIN_T, sts), repeat(None)), bool, len(sts))
+    if not rows.any():
+        return False
+    if b._kv is None or b._ke is None:
+        return True
+    kv, ke = b._kv_miss, b._ke_miss
+    if kv is None and ke is None:
+        return False
+    miss = kv if ke is None else ke if kv is None else kv | ke
+    return bool(miss[rows].any())
 
 
 def _not_chains(sts, cap):
@@ -185,8 +208,14 @@ def _classify_block(b, sts, jerk, fresh=False):
             # an array (~0.25 kB a chain, half of it the array's object: ~16 k chains held
             # from the plan's inputs to their plans on the gyroid plate)
             g.chain_caps = buf[w * i:w * (i + 1)]
-            g.caps_jerk1 = None
+            if type(g) is _CURVE_GEOM:
+                g._j1 = None             # (the caps_jerk1 setter's store, without its call: ~16 k chains)
+            else:
+                g.caps_jerk1 = None
     return True
+
+
+_CURVE_GEOM = curves.CurveGeom
 
 
 _V_FEED = attrgetter("v_feed")

@@ -622,8 +622,8 @@ class _Blk:
         self._caps, self._lim = caps, lim
         self.caps_jerk1, self.cap, self.cos_end, self.cap_min = caps_jerk1, cap, cos_end, cap_min
         self._ux2 = None            # adjust_plan_inputs' direction weights of every row, once made
-        # cos_end's cosines as (2, m) doubles, NaN where None (build_geoms' blocks, made with
-        # cos_end: geom_keep writes them so), or None; cos_end is not changed after it
+        # cos_end's cosines as (2, m) doubles, NaN where None (build_geoms' end_cols: made with
+        # cos_end, for geom_keep.put, which writes them so), or None; cos_end is not changed after
         self._end2 = None
 
     @property
@@ -809,7 +809,7 @@ def geom(st, profile):
     return st.curv
 
 
-def build_geoms(strokes, profile, jerk1=False, kappa=True):
+def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False):
     """geom() of every stroke in `strokes` (those without one): their segments, curvature
     and vertex caps computed for all strokes of one vertex count at once (_part_blocks,
     _block_geoms: the same elementwise arithmetic as stroke by stroke, so the same bits),
@@ -822,7 +822,8 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     False: κ at the vertices and κ_eff of the blocks' rows are made when read, or by
     make_kappa (_parts_lazy: a chain never reads them); a function want(sts, cap) (a
     block's strokes and their cap): made now for the rows where it is True (a bool
-    array), the others when read."""
+    array), the others when read.  end_cols: the blocks keep their rows' end turns as
+    columns too (_Blk._end2: geom_keep.put's, the windowed pipeline's)."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return []
@@ -831,7 +832,8 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True):
     made = []                           # (block, its strokes, their indices into todo)
     want = None if isinstance(kappa, bool) else kappa
     fields = _stroke_fields_once(todo)
-    for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields):
+    for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields,
+                                                 end_cols):
         ii = idx.tolist()
         got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want, fields=bfields, pre=pre)
         if got is None:
@@ -952,7 +954,7 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
         if pre is not None:
             finite, ends = finite[good], [e for e, x in zip(ends, g) if x]
             ux2 = None if ux2 is None else ux2[good]
-            end2 = end2[:, good]
+            end2 = None if end2 is None else end2[:, good]
             if caps is not None:
                 caps, caps1 = caps[good], None if caps1 is None else caps1[good]
     if not (finite.all() if finite is not None else np.isfinite(u).all() and np.isfinite(d).all()):
@@ -1236,7 +1238,7 @@ def _blocks_of(npts):
 _FLAT_PTS = 1 << 13         # vertices of one flat pass over blocks (build_geoms: ~0.6 MB of arrays)
 
 
-def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields):
+def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields, end_cols=False):
     """build_geoms' blocks: (indices into todo, _parts_block / _parts_lazy's block of those
     strokes (cos_turn None: build_geoms does not read it; with_seg: the lazy block's
     segments for its want), their fields (_fields_at's, or None: fields None), pre (the
@@ -1254,11 +1256,11 @@ def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields):
         chunk.append((idx, npt))
         size += idx.size * npt
         if size >= _FLAT_PTS or k == len(blocks) - 1:
-            yield from _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields)
+            yield from _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols)
             chunk, size = [], 0
 
 
-def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
+def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols=False):
     """_flat_blocks of the blocks chunk [(indices, vertex count)]."""
     idx_all = np.concatenate([idx for idx, _ in chunk])
     n_pt = np.concatenate([np.full(idx.size, npt) for idx, npt in chunk])
@@ -1302,7 +1304,8 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields):
             bcaps = None if caps is None else caps[rows].reshape(m, npt)[:, :-2].copy()
             bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
             yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
-                (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z], end2[:, a:z])
+                (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z],
+                 end2[:, a:z] if end_cols else None)
         a = z
 
 

@@ -78,7 +78,7 @@ def plan_inputs_windowed(store, profile, opts, rows, geoms=None):
     parts = []
     for lo in range(0, len(store) or 1, rows):        # (no stroke: the PlanInput of none, as the list's)
         sts = store.load(lo, lo + rows)
-        parts.append(plan_inputs(sts, profile, opts))
+        parts.append(plan_inputs(sts, profile, opts, end_cols=geoms is not None))
         if geoms is not None:
             geoms.put(lo, sts, parts[-1].plan_kind_codes)
         store.rewrite(np.arange(lo, lo + len(sts), dtype=np.int64), sts)
@@ -125,7 +125,7 @@ class SpilledInputs:
         """The strokes held planned, their geometry kept, their records written."""
         from .schedule import plan_inputs
         sts, self.held = self.held, []
-        pin = plan_inputs(sts, self.profile, self.opts)
+        pin = plan_inputs(sts, self.profile, self.opts, end_cols=True)     # (for geoms.put)
         self.geoms.put(len(self.store), sts, pin.plan_kind_codes)
         self.store.append(sts)
         self.parts.append(pin)

@@ -202,7 +202,9 @@ def _overshoots(strokes, opts):
 _KIND_NAMES = np.array(list(KINDS) + [None], dtype=object)
 
 
-def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
+def plan_inputs(strokes, profile: Profile, opts, end_cols=False) -> PlanInput:
+    """The PlanInput of strokes (chains marked, corners lowered).  end_cols: the curve
+    geometry's blocks keep their end turns as columns for geom_keep.put (curves.build_geoms)."""
     n = len(strokes)
     col = _float_columns(strokes, _PIN_FLOATS)
     with np.errstate(all="ignore"):           # non-finite inputs are caught per stroke below
@@ -229,7 +231,8 @@ def plan_inputs(strokes, profile: Profile, opts) -> PlanInput:
     failed = {}
     # a curve whose vertices cap the speed below its feed is a chain
     codes = _kind_codes(strokes)
-    isolate(lambda r: chains.classify(strokes, r, profile), np.flatnonzero(codes == C_CURVE), "planning", failed)
+    isolate(lambda r: chains.classify(strokes, r, profile, end_cols), np.flatnonzero(codes == C_CURVE), "planning",
+            failed)
     codes = plan_kind_codes(strokes, codes)
     for k, kind in KINDS.items():
         if kind.adjust_inputs is not None:

@@ -377,7 +377,8 @@ class LawSpill:
         out = np.empty(spans.shape, np.int32)
         out[:, 0] = off[:-1]
         out[:, 1] = spans[:, 1]
-        return PT[_ranges(spans[:, 0].astype(np.int64), cnt)], out
+        # (take: numpy's plain gather loop, a third of the fancy index's steps an item; the same doubles)
+        return PT.take(_ranges(spans[:, 0].astype(np.int64), cnt)), out
 
     def block(self, blk, keep=True):
         """The bytes of the block blk ((byte pos, length)) as a uint8 array, read or cached
@@ -2835,11 +2836,14 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=N
             at = getattr(item, "at", None)
             j = getattr(item, "j", None)
             j = J[rj] if j is None else j
-            fin.add(_Rows(a, sts, Ts, bs, *item, *laws.rows(j, rc, dt.shape[1], at, getattr(item, "spans", None)),
-                          j=j))
+            bnd, spans = getattr(item, "bnd", None), getattr(item, "spans", None)
+            kept = (bnd, laws.PT, spans) if bnd is not None and spans is not None else \
+                laws.rows(j, rc, dt.shape[1], at, spans)
+            fin.add(_Rows(a, sts, Ts, bs, *item, *kept, j=j))
         del res, laws, Ts, bs
         if nseg is not None:            # the counts no later chunk has: their last batches
             fin.flush_below(int(nseg[sl.stop - 1]))
+            fin.detach()
     fin.flush()
     return tab.ok, tab.tp, tab.ia, tab.iv
 
@@ -3076,6 +3080,17 @@ class _Finisher:
     def flush_below(self, n):
         """Finish the waiting rows of chains of fewer than n segments."""
         self._finish_all([self.wait.pop(q)[0] for q in [q for q in self.wait if q < n]])
+
+    def detach(self):
+        """The waiting rows' knots and steps made their own arrays: _table_rows' items are
+        views of their chunk's (_knots_flat), which a count's rows waiting for the next
+        chunk would otherwise hold whole through its solve."""
+        for rs, _ in self.wait.values():
+            for r in rs:
+                if r.vk is not None and r.vk.base is not None:
+                    r.vk, r.dt = r.vk.copy(), r.dt.copy()
+                if r.bnd is not None and r.bnd.base is not None:
+                    r.bnd = r.bnd.copy()
 
     def _finish_all(self, groups):
         """_finish of each batch rs of groups, in their order; under grouped finishing the
@@ -3362,8 +3377,9 @@ def _block_rows_caps(sts, gs, out, jerk):
 class _TableItem(tuple):
     """One group of _table_rows' rows (J, rj, rc, vk, dt, ks, iv), with `at`: the flat index
     of its rows' vertices in the stacks (its width, vmap and vertex offsets), or None, `j`:
-    J[rj], or None, and `spans`: its rows' pieces' places (_LawCols.rows'), or None."""
-    at = j = spans = None
+    J[rj], or None, `spans`: its rows' pieces' places (_LawCols.rows'), or None, and `bnd`:
+    its rows' binding masks (_LawCols.rows'), or None (made by _LawCols.rows)."""
+    at = j = spans = bnd = None
 
 
 def _table_rows(sts, base, res, use, T, profile, grouped, laws=None):
@@ -3406,6 +3422,10 @@ def _table_rows(sts, base, res, use, T, profile, grouped, laws=None):
     SP = None if laws is None else laws.spans(jA, rcA)
     ca = np.cumsum([0] + [J.size for J in groups]).tolist()      # each group's first chain in JA
     ra = np.concatenate([[0], np.cumsum(perA)]).take(ca).tolist()  # and its first row
+    if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
+        yield from _table_items(groups, ca, ra, nseg, rjA, rcA, jA, perA, V0, V1, TL, IVA, SP, VV, TT, vmap, voff,
+                                laws)
+        return
     for g, J in enumerate(groups):
         a, lo, hi = ca[g], ra[g], ra[g + 1]
         n = int(nseg[J[0]])
@@ -3443,6 +3463,83 @@ def _table_rows(sts, base, res, use, T, profile, grouped, laws=None):
         if SP is not None:
             item.spans = SP[lo:hi]
         yield item
+
+
+def _table_items(groups, ca, ra, nseg, rjA, rcA, jA, perA, V0, V1, TL, IVA, SP, VV, TT, vmap, voff, laws=None):
+    """_table_rows' items of the groups whose rows (chain jA[i], column rcA[i], in the groups'
+    order; group g's rows ra[g]:ra[g + 1], its chains ca[g]:ca[g + 1] of JA) read the
+    C-contiguous stacks VV, TT of one shape: every row's knot speeds, segment durations and
+    inner vertices' flat places made once for the chunk (_knots_flat), each group's
+    arrays views of them (a windowed call's chunk: ~40 groups of ~15 chains, each of which
+    paid ~20 numpy calls for its own; the same values at the same places).  laws: the
+    chunk's _LawCols; where its binding stack is gathered at the same places, each item's
+    binding masks (item.bnd, _LawCols.rows' bnd) are views of one gather too."""
+    nA = nseg.take(jA)
+    vo = _offsets(nA + 1)
+    BB = None
+    if (laws is not None and laws.vmap is vmap and laws.voff is voff and laws.BB.flags.c_contiguous
+            and laws.BB.shape == VV.shape):
+        BB = laws.BB                # (_LawCols.rows' gather at the same places)
+    VK, DT, IDX, BND = _knots_flat(nA, vo, V0, V1, TL, VV, TT, vmap, voff, jA, rcA, BB)
+    rjA = rjA - np.repeat(np.array(ca[:-1], np.int64), np.diff(ra))     # each row's chain in its group
+    vol, W = vo.tolist(), VV.shape[1]
+    for g, J in enumerate(groups):
+        a, lo, hi = ca[g], ra[g], ra[g + 1]
+        n, R = int(nseg[J[0]]), hi - lo
+        v0, v1 = vol[lo], vol[hi]             # (rows lo..hi-1: n + 1 cells each from vo[lo])
+        vk = VK[v0:v1].reshape(R, n + 1)
+        dt = DT[v0:v1].reshape(R, n + 1)[:, :n]
+        at = (IDX[v0:v1].reshape(R, n + 1)[:, 1:n], W, vmap, voff) if n > 1 else None
+        item = _TableItem((J, rjA[lo:hi], rcA[lo:hi], vk, dt, perA[a:a + J.size], IVA[lo:hi]))
+        item.at, item.j = at, jA[lo:hi]
+        if SP is not None:
+            item.spans = SP[lo:hi]
+        if BND is not None:
+            item.bnd = BND[v0:v1].reshape(R, n + 1)[:, 1:n]
+        yield item
+
+
+def _knots_flat(nA, vo, V0, V1, TL, VV, TT, vmap, voff, jA, rcA, BB=None):
+    """(VK, DT, IDX, BND) of rows of nA[i] segments (chain jA[i], column rcA[i]), n + 1 cells a
+    row end to end (row i's at vo[i]:vo[i + 1]): its knot speeds in VK (V0[i], the stack VV's
+    at its chain's inner vertices in column rcA[i], V1[i]), its segment durations in DT's
+    first n (the differences of its knot times: 0, TT's there, TL[i]; its last cell is not
+    one), its inner vertices' flat places in the stacks in IDX's inner cells (rcA[i] x width
+    + each one's place, through vmap where not None; its end cells' are any valid place),
+    and in BND's the binding stack BB's there (None: BB None).  The numbers _table_rows'
+    groups made each for its rows: the same gathers, the same subtractions of the same
+    doubles.  By the chain core in one pass (knots_flat) when it is there, else numpy: one
+    gather a stack for all the rows, the ends put after it (no scatter of every cell)."""
+    cells, W = int(vo[-1]), VV.shape[1]
+    core = _chain_law.CORE_MOD
+    fn = getattr(core, "knots_flat", None) if core is not None else None
+    ints = (nA, voff, jA, rcA) if vmap is None else (nA, voff, jA, rcA, vmap)
+    if (fn is not None and all(x.dtype == np.int64 for x in ints)
+            and all(x.dtype == np.float64 and x.flags.c_contiguous for x in (V0, V1, TL, VV, TT))
+            and (BB is None or (BB.dtype == bool and BB.flags.c_contiguous))):
+        c = np.ascontiguousarray            # (rcA: a view of nonzero's pairs)
+        VK, DT, IDX = np.empty(cells), np.empty(cells), np.empty(cells, np.int64)
+        BND = None if BB is None else np.empty(cells, bool)
+        fn(c(nA), V0, V1, TL, VV, TT, None if BB is None else BB.view(np.uint8), None if vmap is None else c(vmap),
+           c(voff), c(jA), c(rcA), VK, DT, IDX, None if BND is None else BND.view(np.uint8), W)
+        return VK, DT, IDX, BND
+    first, last = vo[:-1], vo[1:] - 1
+    at = np.arange(cells, dtype=np.int64)
+    if vmap is None:            # cell p of row i: place rcA[i] W + voff[jA[i]] + p - 1
+        IDX = np.repeat(rcA * W + voff.take(jA) - 1 - first, nA + 1) + at
+        IDX[first] = IDX[last] = 0
+    else:
+        v = np.repeat(voff.take(jA) - 1 - first, nA + 1) + at
+        v[first] = v[last] = 0
+        IDX = vmap.take(v) + np.repeat(rcA * W, nA + 1)
+    VK = VV.ravel().take(IDX)
+    VK[first], VK[last] = V0, V1
+    TK = TT.ravel().take(IDX)
+    TK[first], TK[last] = 0.0, TL
+    DT = np.empty(cells)
+    np.subtract(TK[1:], TK[:-1], out=DT[:-1])
+    DT[-1] = 0.0                # (no row's step)
+    return VK, DT, IDX, None if BB is None else BB.ravel().take(IDX)
 
 
 def _count_groups(nseg, has, rows):

@@ -242,26 +242,31 @@ def test_sites_as_their_fallback(name, prof, corners, monkeypatch):
                                        ("prusa_gyroid.gcode", "prusa-mk3s")])
 def test_law_rows_at_table_index(name, prof, monkeypatch):
     """_LawCols.rows given _table_rows' flat index (and, s62, its rows' spans made for the
-    groups at once) answers what its own gather does."""
-    real = chains._LawCols.rows
+    groups at once) answers what its own gather does; so do the binding masks the items
+    carry (s63: one gather of the chunk's, item.bnd, in place of _LawCols.rows')."""
+    real = chains._table_items
     used = []
 
-    def rows(self, j, rc, n, at=None, spans=None):
-        got = real(self, j, rc, n, at, spans)
-        ref = real(self, j, rc, n)
-        assert [a.tobytes() for a in got] == [a.tobytes() for a in ref]
-        assert [a.dtype for a in got] == [a.dtype for a in ref] and got[0].shape == ref[0].shape
-        assert [a.shape for a in got] == [a.shape for a in ref]
-        used.append(at is not None and spans is not None)
-        return got
-    monkeypatch.setattr(chains._LawCols, "rows", rows)
+    def items(*args, **kw):
+        laws = args[17] if len(args) > 17 else kw.get("laws")
+        for item in real(*args, **kw):
+            n = item[4].shape[1]
+            ref = laws.rows(item.j, item[2], n)
+            got = laws.rows(item.j, item[2], n, item.at, item.spans)
+            for g in (got, (item.bnd,) + ref[1:]) if item.bnd is not None else (got,):
+                assert [a.tobytes() for a in g] == [a.tobytes() for a in ref]
+                assert [a.dtype for a in g] == [a.dtype for a in ref]
+                assert [a.shape for a in g] == [a.shape for a in ref]
+            used.append(item.at is not None and item.spans is not None and item.bnd is not None)
+            yield item
+    monkeypatch.setattr(chains, "_table_items", items)
     profile = load_profile(prof)
     opts = pipeline.Options()
     opts.ringing = False
     strokes, sim0 = pipeline.analyse(os.path.join(SAMPLES, name), profile, opts)
     pin = schedule.plan_inputs(strokes, profile, opts)
     schedule.plan_strokes(strokes, pin, profile, opts, opts.max_slowdown_r * sim0.time_t)
-    assert any(used)                        # (the shared index was taken)
+    assert any(used)                        # (the shared index and masks were taken)
 
 
 def test_codes_and_ids_step_aside_where_intp_is_not_a_c_long(monkeypatch):

@@ -1349,6 +1349,87 @@ static PyObject *piece_cumsum(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* knots_flat(nA, V0, V1, TL, VV, TT, BB, vmap, voff, jA, rcA, VK, DT, IDX, BND): chains._knots_flat's
+   rows (chain jA[i], column rcA[i], nA[i] >= 1 segments), nA[i] + 1 cells a row end to end: VK the
+   knot speeds (V0[i], VV[f] at each inner vertex's flat place f, V1[i]), DT the steps of the knot
+   times (0, TT[f]..., TL[i]: each the same subtraction numpy's difference makes; the row's last
+   cell 0, not a step), IDX the flat places f = rcA[i] * W + (vmap ? vmap[v] : v) at the inner
+   cells (v = voff[jA[i]] + p - 1; the end cells 0), BND (None: not made) the binding stack BB
+   (uint8) at them (the ends 0).  VV, TT, BB: (k, W) C-contiguous, W = len(VV) / k given by the
+   places' bound; ValueError on a row whose places fall outside them (nothing is then trusted). */
+static PyObject *knots_flat(PyObject *self, PyObject *a) {
+    PyObject *o[15];
+    Py_ssize_t W;
+    if (!PyArg_ParseTuple(a, "OOOOOOOOOOOOOOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &W))
+        return NULL;
+    Bufs b = {.n = 0};
+    Py_ssize_t R, r1, r2, r3, NV, NT, NB = 0, NM = 0, NO, rj, rc, C, c1, c2, c3 = 0;
+    int64_t *nA = get(&b, o[0], 8, 0, &R);
+    double *V0 = nA ? get(&b, o[1], 8, 0, &r1) : NULL;
+    double *V1 = V0 ? get(&b, o[2], 8, 0, &r2) : NULL;
+    double *TL = V1 ? get(&b, o[3], 8, 0, &r3) : NULL;
+    double *VV = TL ? get(&b, o[4], 8, 0, &NV) : NULL;
+    double *TT = VV ? get(&b, o[5], 8, 0, &NT) : NULL;
+    uint8_t *BB = NULL;
+    if (TT && o[6] != Py_None && !(BB = get(&b, o[6], 1, 0, &NB))) TT = NULL;
+    int64_t *vmap = NULL;
+    if (TT && o[7] != Py_None && !(vmap = get(&b, o[7], 8, 0, &NM))) TT = NULL;
+    int64_t *voff = TT ? get(&b, o[8], 8, 0, &NO) : NULL;
+    int64_t *jA = voff ? get(&b, o[9], 8, 0, &rj) : NULL;
+    int64_t *rcA = jA ? get(&b, o[10], 8, 0, &rc) : NULL;
+    double *VK = rcA ? get(&b, o[11], 8, 1, &C) : NULL;
+    double *DT = VK ? get(&b, o[12], 8, 1, &c1) : NULL;
+    int64_t *IDX = DT ? get(&b, o[13], 8, 1, &c2) : NULL;
+    uint8_t *BND = NULL;
+    if (IDX && BB && !(BND = get(&b, o[14], 1, 1, &c3))) IDX = NULL;
+    if (!IDX) { release(&b); return NULL; }
+    int bad = r1 != R || r2 != R || r3 != R || rj != R || rc != R || NT != NV || (BB && NB != NV) || W < 1
+              || c1 != C || c2 != C || (BB && c3 != C) || NO < 1;
+    int64_t at = 0;
+    for (Py_ssize_t i = 0; i < R && !bad; i++) {
+        int64_t n = nA[i], j = jA[i], base = rcA[i] * (int64_t)W;
+        if (n < 1 || at + n + 1 > C || j < 0 || j + 1 >= NO || rcA[i] < 0 || voff[j + 1] - voff[j] != n - 1) {
+            bad = 1;
+            break;
+        }
+        double prev = 0.0;
+        VK[at] = V0[i];
+        IDX[at] = 0;
+        if (BND) BND[at] = 0;
+        for (int64_t p = 1; p < n; p++) {
+            int64_t v = voff[j] + p - 1, f;
+            if (vmap) {
+                if (v < 0 || v >= NM) { bad = 1; break; }
+                f = vmap[v];
+                if (f < 0 || f >= W) { bad = 1; break; }
+                f += base;
+            } else {
+                f = base + v;
+            }
+            if (f < 0 || f >= NV) { bad = 1; break; }
+            IDX[at + p] = f;
+            VK[at + p] = VV[f];
+            double t = TT[f];
+            DT[at + p - 1] = t - prev;
+            prev = t;
+            if (BND) BND[at + p] = BB[f];
+        }
+        VK[at + n] = V1[i];
+        DT[at + n - 1] = TL[i] - prev;
+        DT[at + n] = 0.0;
+        IDX[at + n] = 0;
+        if (BND) BND[at + n] = 0;
+        at += n + 1;
+    }
+    release(&b);
+    if (bad || at != C) {
+        PyErr_SetString(PyExc_ValueError, "knots_flat: rows or places");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 /* horner_skip_c(tau, g, s1coef, k, sinh_coef, n, sh2, wbar, A, delta, T, s4, s, v, tol_exp) (tests):
    s4 = prims.shc(g / 4) (shc_quarter), then s, v = tod_chunk's s and ṡ of the laws (tau, g,
    n .. T, with the s4 made here) with the S1 series' k terms, CHUNK laws a call, both with a
@@ -3654,6 +3735,7 @@ static PyMethodDef methods[] = {
     {"sort_asks", sort_asks, METH_VARARGS, "plan_chain_segments' sorting of ask_all's answers, one pass"},
     {"drop_items", drop_items, METH_VARARGS, "_replay's drop of the chosen chains' rows, one pass"},
     {"piece_cumsum", piece_cumsum, METH_VARARGS, "running sums of each chain's pieces"},
+    {"knots_flat", knots_flat, METH_VARARGS, "chains._knots_flat's rows: knots, steps, flat places, binding bits"},
     {"tent_rows", tent_rows, METH_VARARGS, "segments.tent_feeds_rows' envelopes (finite positive inputs)"},
     {"share_time", share_time, METH_VARARGS, "_share_time's whole Newton iteration"},
     {"exact_share", exact_share, METH_VARARGS, "_share_time_exact's whole Newton iteration"},

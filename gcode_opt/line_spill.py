@@ -116,7 +116,8 @@ class LineSpill(SpillFile):
         if not has.any():
             self.last = None
             return rows[:0], [], rows
-        kh = k[has]
+        every = bool(has.all())                     # (the windows' case: every row's key recorded)
+        kh = k if every else k[has]
         u_k, which = _places(kh, self.h.size, self.at)
         u = self.at[u_k]                            # each record once, in the file's order
         n_u = self.nseg[u_k]
@@ -145,8 +146,13 @@ class LineSpill(SpillFile):
             _put_at(plans, need, _plans(buf, start, _blocks(buf, start, n_u[need])))
         self.last = (u, key, plans)
         # a record is the row's where its key is the row's, bit for bit (not a hash's twin)
-        same = ((key[0][which] == cls[has]) & (key[1][which] == T[has].view(np.int64))
-                & (key[2][which] == beta[has].view(np.int64)))
+        if every:                                   # (no row left out: no mask taken of each array)
+            same = ((key[0][which] == cls) & (key[1][which] == T.view(np.int64)) & (key[2][which] == beta.view(np.int64)))
+            if same.all():
+                return rows, objfields.items(plans, which), rows[:0]
+        else:
+            same = ((key[0][which] == cls[has]) & (key[1][which] == T[has].view(np.int64))
+                    & (key[2][which] == beta[has].view(np.int64)))
         has[has] = same
         return rows[has], objfields.items(plans, which[same]), rows[~has]
 

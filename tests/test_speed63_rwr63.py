@@ -194,3 +194,20 @@ def test_record_plans_segment_rows(kinds):
     for p, q in zip(got, want):
         if type(p).__name__ == "SegmentPlan":
             assert p.s.tobytes() == q.s.tobytes() and p.feed.tobytes() == q.feed.tobytes()
+
+
+def test_line_take_some_rows_unrecorded(tmp_path):
+    """Rows whose key has no record are the caller's (the masked path), the others get their
+    record's plan; all rows recorded: the rows themselves, none left."""
+    from gcode_opt.segments import RowPlan
+    spill = ls.LineSpill(open(tmp_path / "lines", "w+b", buffering=0))
+    S, V = np.array([[0.0, 1.0, 2.0]]), np.array([[0.0, 3.0, 0.0]])
+    A, F = np.array([[1.0, -1.0]]), np.array([[60.0, 60.0]])
+    spill.put([RowPlan(S, V, A, F, 0, 1.5, 2.0)], np.array([7]), np.array([1.0]), np.array([0.5]))
+    rows = np.array([2, 3, 5], np.int64)
+    got, plans, rest = spill.take(rows, np.array([7, 9, 7]), np.array([1.0, 1.0, 1.0]), np.array([0.5, 0.5, 0.5]))
+    assert got.tolist() == [2, 5] and rest.tolist() == [3] and plans[0] is plans[1]
+    got, plans, rest = spill.take(rows, np.array([7, 7, 7]), np.array([1.0, 1.0, 1.0]), np.array([0.5, 0.5, 0.5]))
+    assert got.tolist() == [2, 3, 5] and rest.size == 0 and len(plans) == 3
+    assert np.array_equal(plans[2].feed, F[0]) and plans[2].time_t == 1.5
+    spill.close()

@@ -914,7 +914,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     by_law = laws_of is not None
     laws_of = laws_of or _laws_of
     grouped = rules.junction in GROUP_JUNCTIONS and profile.junction == rules.junction
-    gs = [curves.geom(st, profile) for st, _, _ in items]
+    gs = _geoms(list(map(_IT0, items)), profile)
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
@@ -986,6 +986,19 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
         del dt
     settle.flush()
     return out
+
+
+def _geoms(sts, profile):
+    """[curves.geom(st, profile) for st in sts]: the strokes' curv read by a C-level map where
+    every one has it (the runs' chains: their geometry given or made first), not a Python
+    call a chain (~17 k a gyroid plate's replays, either path)."""
+    gs = list(map(_CURV, sts))
+    if None in gs:
+        return [curves.geom(st, profile) for st in sts]
+    return gs
+
+
+_CURV = attrgetter("curv")
 
 
 def _finished_knots(Qs, knots, items, gs, rules, profile):
@@ -1184,7 +1197,7 @@ def _laws_of(Qs, items, profile, gs=None):
     rows = np.fromiter(map(_IT2, its), np.int64, len(its))
     del its
     nv, voff, bound, tj, TL, beta, tp, a2, _ = _rows_laws(kept, rows)
-    gso = [curves.geom(st, profile) for st in sts] if gs is None else [gs[q] for q in order]
+    gso = _geoms(sts, profile) if gs is None else list(map(gs.__getitem__, order))
     return sts, nv, voff, bound, tj, TL, beta, tp, a2, _laws_caps(sts, gso, profile), gso
 
 

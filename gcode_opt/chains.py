@@ -93,7 +93,9 @@ def classify(strokes, rows, profile, end_cols=False):
     caps a curve's peak) is below the feed become chains.  end_cols: build_geoms'."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
     # κ made for the rows that will not be chains (a chain never reads it), by the test below
-    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains, end_cols=end_cols) or []     # (None: a build_geoms of tests)
+    # (the weights: plan_inputs' adjust_plan_inputs reads them next)
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains, end_cols=end_cols,
+                              weights=True) or []       # (None: a build_geoms of tests)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
         if not _classify_block(b, bsts, jerk, fresh=True):

@@ -809,7 +809,7 @@ def geom(st, profile):
     return st.curv
 
 
-def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False):
+def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weights=False):
     """geom() of every stroke in `strokes` (those without one): their segments, curvature
     and vertex caps computed for all strokes of one vertex count at once (_part_blocks,
     _block_geoms: the same elementwise arithmetic as stroke by stroke, so the same bits),
@@ -823,7 +823,9 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False):
     make_kappa (_parts_lazy: a chain never reads them); a function want(sts, cap) (a
     block's strokes and their cap): made now for the rows where it is True (a bool
     array), the others when read.  end_cols: the blocks keep their rows' end turns as
-    columns too (_Blk._end2: geom_keep.put's, the windowed pipeline's)."""
+    columns too (_Blk._end2: geom_keep.put's, the windowed pipeline's).  weights: the
+    blocks' adjust_plan_inputs weights made with them (_flat_ux2; plan_inputs' blocks, not
+    those of the later passes, which do not read them)."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return []
@@ -833,7 +835,7 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False):
     want = None if isinstance(kappa, bool) else kappa
     fields = _stroke_fields_once(todo)
     for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields,
-                                                 end_cols):
+                                                 end_cols, weights):
         ii = idx.tolist()
         got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want, fields=bfields, pre=pre)
         if got is None:
@@ -1238,7 +1240,7 @@ def _blocks_of(npts):
 _FLAT_PTS = 1 << 13         # vertices of one flat pass over blocks (build_geoms: ~0.6 MB of arrays)
 
 
-def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields, end_cols=False):
+def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields, end_cols=False, weights=False):
     """build_geoms' blocks: (indices into todo, _parts_block / _parts_lazy's block of those
     strokes (cos_turn None: build_geoms does not read it; with_seg: the lazy block's
     segments for its want), their fields (_fields_at's, or None: fields None), pre (the
@@ -1256,11 +1258,11 @@ def _flat_blocks(todo, pts, kappa, with_seg, profile, j1, fields, end_cols=False
         chunk.append((idx, npt))
         size += idx.size * npt
         if size >= _FLAT_PTS or k == len(blocks) - 1:
-            yield from _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols)
+            yield from _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols, weights)
             chunk, size = [], 0
 
 
-def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols=False):
+def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols=False, weights=False):
     """_flat_blocks of the blocks chunk [(indices, vertex count)]."""
     idx_all = np.concatenate([idx for idx, _ in chunk])
     n_pt = np.concatenate([np.full(idx.size, npt) for idx, npt in chunk])
@@ -1287,7 +1289,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
         finite = every(finite, 2 * starts) & every(d_fin, starts)
         caps, caps1 = _flat_jerk_caps(u, profile, j1, fields)
         arc = _flat_arcs(d, starts, gap)
-        ux2 = _flat_ux2(d, u, starts, gap) if fields is not None else None
+        ux2 = _flat_ux2(d, u, starts, gap) if fields is not None and weights else None
     if fields is not None:
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
         ends, end2 = _ends_cols(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)

@@ -62,7 +62,7 @@ def test_flat_ux2_is_blk_ux2(name):
     if curves._ROW_SUMS is None:
         pytest.skip("chain core not built")
     prof, sts = _strokes(name)
-    curves.build_geoms([st for st in sts if st.kind == K_CURVE], prof, jerk1=True, end_cols=True)
+    curves.build_geoms([st for st in sts if st.kind == K_CURVE], prof, jerk1=True, end_cols=True, weights=True)
     blocks = _blocks(sts)
     assert blocks
     for b in blocks:
@@ -74,11 +74,11 @@ def test_flat_ux2_is_blk_ux2(name):
 
 def test_end_cols_are_cos_end():
     """end_cols: each block's _end2 is its cos_end as doubles (NaN where None); without it
-    none is kept."""
+    (and without weights) neither is made."""
     prof, sts = _strokes()
     cur = [st for st in sts if st.kind == K_CURVE]
     curves.build_geoms(cur, prof)
-    assert all(b._end2 is None for b in _blocks(cur))
+    assert all(b._end2 is None and b._ux2 is None for b in _blocks(cur))
     prof, sts = _strokes()
     cur = [st for st in sts if st.kind == K_CURVE]
     curves.build_geoms(cur, prof, end_cols=True)

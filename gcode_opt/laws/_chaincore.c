@@ -1386,40 +1386,52 @@ static PyObject *knots_flat(PyObject *self, PyObject *a) {
     if (!IDX) { release(&b); return NULL; }
     int bad = r1 != R || r2 != R || r3 != R || rj != R || rc != R || NT != NV || (BB && NB != NV) || W < 1
               || c1 != C || c2 != C || (BB && c3 != C) || NO < 1;
+    for (Py_ssize_t v = 0; v < NM && !bad; v++)         /* (the map's places checked once, not a cell) */
+        bad = vmap[v] < 0 || vmap[v] >= W;
     int64_t at = 0;
     for (Py_ssize_t i = 0; i < R && !bad; i++) {
         int64_t n = nA[i], j = jA[i], base = rcA[i] * (int64_t)W;
-        if (n < 1 || at + n + 1 > C || j < 0 || j + 1 >= NO || rcA[i] < 0 || voff[j + 1] - voff[j] != n - 1) {
+        if (n < 1 || at + n + 1 > C || j < 0 || j + 1 >= NO || rcA[i] < 0 || voff[j] < 0
+                || voff[j + 1] - voff[j] != n - 1
+                || (vmap ? voff[j + 1] > NM || base + W > NV : base + voff[j + 1] > NV)) {
             bad = 1;
             break;
         }
+        /* the row's inner cells at + 1 .. at + n - 1: vertex voff[j] + p - 1 of cell at + p */
         double prev = 0.0;
-        VK[at] = V0[i];
-        IDX[at] = 0;
-        if (BND) BND[at] = 0;
-        for (int64_t p = 1; p < n; p++) {
-            int64_t v = voff[j] + p - 1, f;
-            if (vmap) {
-                if (v < 0 || v >= NM) { bad = 1; break; }
-                f = vmap[v];
-                if (f < 0 || f >= W) { bad = 1; break; }
-                f += base;
-            } else {
-                f = base + v;
+        int64_t *ix = IDX + at;
+        double *vk = VK + at, *dt = DT + at;
+        if (vmap) {
+            const int64_t *vm = vmap + voff[j] - 1;
+            for (int64_t p = 1; p < n; p++) {
+                int64_t f = base + vm[p];
+                ix[p] = f;
+                vk[p] = VV[f];
+                double t = TT[f];
+                dt[p - 1] = t - prev;
+                prev = t;
             }
-            if (f < 0 || f >= NV) { bad = 1; break; }
-            IDX[at + p] = f;
-            VK[at + p] = VV[f];
-            double t = TT[f];
-            DT[at + p - 1] = t - prev;
-            prev = t;
-            if (BND) BND[at + p] = BB[f];
+        } else {
+            int64_t f0 = base + voff[j] - 1;
+            for (int64_t p = 1; p < n; p++) {
+                int64_t f = f0 + p;
+                ix[p] = f;
+                vk[p] = VV[f];
+                double t = TT[f];
+                dt[p - 1] = t - prev;
+                prev = t;
+            }
         }
-        VK[at + n] = V1[i];
-        DT[at + n - 1] = TL[i] - prev;
-        DT[at + n] = 0.0;
-        IDX[at + n] = 0;
-        if (BND) BND[at + n] = 0;
+        if (BND) {
+            uint8_t *bd = BND + at;
+            for (int64_t p = 1; p < n; p++) bd[p] = BB[ix[p]];
+            bd[0] = bd[n] = 0;
+        }
+        vk[0] = V0[i];
+        vk[n] = V1[i];
+        dt[n - 1] = TL[i] - prev;
+        dt[n] = 0.0;
+        ix[0] = ix[n] = 0;
         at += n + 1;
     }
     release(&b);

@@ -1116,11 +1116,12 @@ def _ends_rows(sts, us, flat=None):
 def _ends_of(sts, first, last, dirs=None):
     """_ends_rows of strokes whose first and last unit directions are the rows of first
     and last, (m, 2) each; dirs: their _neighbour_dirs, if the caller has them."""
-    return _ends_cols(sts, first, last, dirs)[0]
+    return _ends_cols(sts, first, last, dirs, False)[0]
 
 
-def _ends_cols(sts, first, last, dirs=None):
-    """(_ends_of's list, the same cosines as a (2, m) array, NaN where None: _Blk._end2)."""
+def _ends_cols(sts, first, last, dirs=None, cols=True):
+    """(_ends_of's list, the same cosines as a (2, m) array, NaN where None: _Blk._end2; None
+    where not cols)."""
     m = len(sts)
     p, q = _neighbour_dirs(sts) if dirs is None else dirs
     c0 = p[0] * first[:, 0] + p[1] * first[:, 1]
@@ -1129,6 +1130,8 @@ def _ends_cols(sts, first, last, dirs=None):
     out = [_NO_ENDS] * m
     for k, a, b in zip(np.flatnonzero(m0 | m1).tolist(), m0[m0 | m1].tolist(), m1[m0 | m1].tolist()):
         out[k] = (c0[k] if a else None, c1[k] if b else None)
+    if not cols:
+        return out, None
     cols = np.full((2, m), np.nan)
     np.copyto(cols[0], c0, where=m0)
     np.copyto(cols[1], c1, where=m1)
@@ -1292,7 +1295,8 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
         ux2 = _flat_ux2(d, u, starts, gap) if fields is not None and weights else None
     if fields is not None:
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
-        ends, end2 = _ends_cols(idx_all, u[starts], u[gap - 1], (p, q))      # (the strokes' count: idx_all's)
+        # (the strokes' count: idx_all's; the columns only where asked: the later passes' none)
+        ends, end2 = _ends_cols(idx_all, u[starts], u[gap - 1], (p, q), end_cols)
     a = 0
     for idx, npt in chunk:
         m, z = idx.size, a + idx.size
@@ -1307,7 +1311,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
             bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
             yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
                 (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z],
-                 end2[:, a:z] if end_cols else None)
+                 None if end2 is None else end2[:, a:z])
         a = z
 
 

@@ -467,7 +467,7 @@ def test_chain_marks_and_planning_figures_as_479aedb(monkeypatch):
         return [st.chain_T is not None for st in todo]
     got = marks()
     # (kappa: build_geoms' later argument, κ left to be made; 479aedb's made it)
-    monkeypatch.setattr(curves, "build_geoms", lambda sts, prof, jerk1=False, kappa=True: Rbuild_geoms(sts, prof, jerk1))
+    monkeypatch.setattr(curves, "build_geoms", lambda sts, prof, jerk1=False, kappa=True, **k: Rbuild_geoms(sts, prof, jerk1))
     monkeypatch.setattr(curves, "geom", lambda st, profile: st.curv)
     monkeypatch.setattr(curves, "drop_jerk1", lambda sts: None)
     want = marks()

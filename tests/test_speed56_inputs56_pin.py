@@ -36,9 +36,9 @@ def test_planned_inputs_in_pin_rows_calls(monkeypatch, window, pin_rows):
     calls, made = [], {"pin": 0, "rest": 0}
     real_pin, real_take = schedule.plan_inputs, StrokeStore.take
 
-    def counted_pin(sts, *a):
+    def counted_pin(sts, *a, **k):
         calls.append(len(sts))
-        return real_pin(sts, *a)
+        return real_pin(sts, *a, **k)
 
     def counted_take(self, rows, over=None):
         got = real_take(self, rows, over)

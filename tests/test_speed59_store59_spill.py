@@ -37,9 +37,9 @@ def _spilled(path, prof, opts, rows=None, window=64):
     sizes = []
     real = schedule.plan_inputs
 
-    def counted(sts, *a):
+    def counted(sts, *a, **k):
         sizes.append(len(sts))
-        return real(sts, *a)
+        return real(sts, *a, **k)
     store = StrokeStore(in_memory=True)
     spill = plan_windows.SpilledInputs(store, prof, opts, window, rows)
     schedule.plan_inputs = counted

@@ -1114,46 +1114,22 @@ def _laws_knots(Qs, laws, profile):
     L, v0, v1 = _lengths_ends(sts)
     fl = _Flat.of_arrays(sv, cv, nv, L, np.zeros(m), np.ones(m), v0, v1).with_T(TL, beta)
     vv, vt = fl.vertices_at(bound, tj) if voff[-1] else (np.empty(0), np.empty(0))
-    vk, dt, kat, sat = _flat_knots(nv, voff, vv, vt, fl.v0, fl.v1, TL)
-    del vv, vt
-    tp, a2 = tp.tolist(), a2.tolist()
     out = []
     a = 0
     for Q in Qs:
         z = a + len(Q)
         n = int(nv[a]) + 1
-        out.append((vk[kat[a]:kat[z]].reshape(z - a, n + 1), dt[sat[a]:sat[z]].reshape(z - a, n), tp[a:z], a2[a:z]))
+        vk = np.empty((z - a, n + 1))
+        tk = np.empty((z - a, n + 1))
+        vk[:, 0], vk[:, -1] = fl.v0[a:z], fl.v1[a:z]
+        tk[:, 0] = 0.0
+        tk[:, -1] = TL[a:z]
+        if n > 1:
+            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(z - a, n - 1)
+            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(z - a, n - 1)
+        out.append((vk, _row_steps(tk), tp[a:z].tolist(), a2[a:z].tolist()))
         a = z
     return out
-
-
-def _flat_knots(nv, voff, vv, vt, v0, v1, TL):
-    """The knot speeds and segment durations of m rows laid out as _laws_knots' batches
-    take them, every row's at once, not ~10 numpy calls a batch (a windowed gyroid run
-    replays ~1 k batches of ~15 chains): (vk, dt, kat, sat), flat, row r's knots
-    vk[kat[r]:kat[r + 1]] (v0[r], its vertices' speeds vv[voff[r]:voff[r + 1]], v1[r]) and
-    durations dt[sat[r]:sat[r + 1]], the steps of its knots' times (0.0, vt's, TL[r]): the
-    same subtractions as _row_steps' (np.diff's values).  A batch's rows are consecutive
-    rows of one width: its (m, n + 1) and (m, n) blocks are views of these."""
-    m = nv.size
-    nv = np.asarray(nv, np.int64)
-    rows2 = 2 * np.arange(m + 1, dtype=np.int64)
-    kat = np.asarray(voff, np.int64) + rows2            # each row's first knot (m + 1: the end too)
-    sat = kat - rows2 // 2                              # its first segment
-    first, last = kat[:-1], kat[:-1] + nv + 1
-    inner = np.ones(int(kat[-1]), bool)
-    inner[first] = False
-    inner[last] = False
-    vk = np.empty(inner.size)
-    vk[inner] = vv
-    vk[first], vk[last] = v0, v1
-    tk = np.empty(inner.size)
-    tk[inner] = vt
-    tk[first], tk[last] = 0.0, TL
-    steps = np.empty(inner.size)
-    np.subtract(tk[1:], tk[:-1], out=steps[:-1])
-    inner[first] = True                                 # (the steps from every knot but a row's last)
-    return vk, steps[inner], kat.tolist(), sat.tolist()
 
 
 def _lengths_ends(sts):

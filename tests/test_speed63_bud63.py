@@ -1,9 +1,6 @@
 """bud63 (benchmarks/bud63.md): the windowed budget runs' pieces made with fewer calls give
 what they gave before, bit for bit.
 
-- chains._flat_knots (chains._laws_knots): every batch's knot speeds and segment durations
-  laid out flat for a group at once = each batch's made apart (its vk, tk blocks, then
-  _row_steps), bit for bit.
 - line_spill._row_blocks_compiled: the same blocks, places, rows and other places, in the
   same order, as the loop (blocks sharing a V, a junction command, a bad shape, SegmentPlans
   and None mixed in); line_spill._rest_records: the same record doubles as _record's.
@@ -12,51 +9,9 @@ what they gave before, bit for bit.
 import numpy as np
 import pytest
 
-from gcode_opt import chains
 from gcode_opt import line_spill as ls
 from gcode_opt import schedule as sc
 from gcode_opt.segments import RowPlan, SegmentPlan
-
-
-def _batches_apart(nv, voff, vv, vt, v0, v1, TL, sizes):
-    """_laws_knots' batches as made before _flat_knots: blocks a batch, then _row_steps."""
-    out, a = [], 0
-    for m in sizes:
-        z = a + m
-        n = int(nv[a]) + 1
-        vk, tk = np.empty((m, n + 1)), np.empty((m, n + 1))
-        vk[:, 0], vk[:, -1] = v0[a:z], v1[a:z]
-        tk[:, 0] = 0.0
-        tk[:, -1] = TL[a:z]
-        if n > 1:
-            vk[:, 1:-1] = vv[voff[a]:voff[z]].reshape(m, n - 1)
-            tk[:, 1:-1] = vt[voff[a]:voff[z]].reshape(m, n - 1)
-        out.append((vk, chains._row_steps(tk)))
-        a = z
-    return out
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_flat_knots_are_the_batches_made_apart(seed):
-    rng = np.random.default_rng(seed)
-    # batches of one width each (widths 1 .. 40 vertices' segments, one segment too)
-    sizes = rng.integers(1, 30, rng.integers(1, 12)).tolist()
-    widths = rng.integers(0, 40, len(sizes)).tolist()
-    nv = np.repeat(np.array(widths, np.int64), sizes)
-    voff = chains._offsets(nv)
-    vv, vt = rng.random(int(voff[-1])) * 50, np.cumsum(rng.random(int(voff[-1])))
-    m = nv.size
-    v0, v1, TL = rng.random(m), rng.random(m), rng.random(m) * 100 + 1e3
-    vk, dt, kat, sat = chains._flat_knots(nv, voff, vv, vt, v0, v1, TL)
-    a = 0
-    for (want_vk, want_dt), mb, w in zip(_batches_apart(nv, voff, vv, vt, v0, v1, TL, sizes), sizes, widths):
-        n = w + 1
-        got_vk = vk[kat[a]:kat[a + mb]].reshape(mb, n + 1)
-        got_dt = dt[sat[a]:sat[a + mb]].reshape(mb, n)
-        assert got_vk.tobytes() == want_vk.tobytes()
-        assert got_dt.tobytes() == want_dt.tobytes()
-        a += mb
-    assert a == m and dt.size == int((nv + 1).sum())
 
 
 def _mixed_plans(seed):

@@ -159,9 +159,14 @@ def test_run_chain_records_are_the_one_by_one_records(compiled, run_chains, monk
 
 
 def _preads(monkeypatch):
+    """The reads the spill makes, counted (one entry a call, its size): os.pread, and
+    preadv where read_runs reads each run into its place in one array (spill_file._PREADV)."""
     calls = []
     pread = os.pread
     monkeypatch.setattr(sf.os, "pread", lambda fd, n, at: calls.append(n) or pread(fd, n, at))
+    if sf._PREADV is not None:
+        preadv = sf._PREADV
+        monkeypatch.setattr(sf, "_PREADV", lambda fd, bufs, at: calls.append(sum(map(len, bufs))) or preadv(fd, bufs, at))
     return calls
 
 

@@ -3471,23 +3471,39 @@ def _table_items(groups, ca, ra, nseg, rjA, rcA, jA, perA, V0, V1, TL, IVA, SP, 
     if (laws is not None and laws.vmap is vmap and laws.voff is voff and laws.BB.flags.c_contiguous
             and laws.BB.shape == VV.shape):
         BB = laws.BB                # (_LawCols.rows' gather at the same places)
-    VK, DT, IDX, BND = _knots_flat(nA, vo, V0, V1, TL, VV, TT, vmap, voff, jA, rcA, BB)
     rjA = rjA - np.repeat(np.array(ca[:-1], np.int64), np.diff(ra))     # each row's chain in its group
     vol, W = vo.tolist(), VV.shape[1]
-    for g, J in enumerate(groups):
-        a, lo, hi = ca[g], ra[g], ra[g + 1]
-        n, R = int(nseg[J[0]]), hi - lo
-        v0, v1 = vol[lo], vol[hi]             # (rows lo..hi-1: n + 1 cells each from vo[lo])
-        vk = VK[v0:v1].reshape(R, n + 1)
-        dt = DT[v0:v1].reshape(R, n + 1)[:, :n]
-        at = (IDX[v0:v1].reshape(R, n + 1)[:, 1:n], W, vmap, voff) if n > 1 else None
-        item = _TableItem((J, rjA[lo:hi], rcA[lo:hi], vk, dt, perA[a:a + J.size], IVA[lo:hi]))
-        item.at, item.j = at, jA[lo:hi]
-        if SP is not None:
-            item.spans = SP[lo:hi]
-        if BND is not None:
-            item.bnd = BND[v0:v1].reshape(R, n + 1)[:, 1:n]
-        yield item
+    g = 0
+    while g < len(groups):
+        # the flat arrays made for a run of consecutive groups of at most KNOTS_FLAT_CELLS
+        # cells (one group at least): a whole chunk's at once (the list path's chunks of
+        # ~2 k chains) raised the gyroid plate's list peak ~5 MB
+        e = g + 1
+        while e < len(groups) and vol[ra[e + 1]] - vol[ra[g]] <= KNOTS_FLAT_CELLS:
+            e += 1
+        r0, r1 = ra[g], ra[e]
+        c0 = vol[r0]
+        VK, DT, IDX, BND = _knots_flat(nA[r0:r1], vo[r0:r1 + 1] - c0, V0[r0:r1], V1[r0:r1], TL[r0:r1], VV, TT, vmap,
+                                       voff, jA[r0:r1], rcA[r0:r1], BB)
+        for g in range(g, e):
+            J = groups[g]
+            a, lo, hi = ca[g], ra[g], ra[g + 1]
+            n, R = int(nseg[J[0]]), hi - lo
+            v0, v1 = vol[lo] - c0, vol[hi] - c0       # (rows lo..hi-1: n + 1 cells each)
+            vk = VK[v0:v1].reshape(R, n + 1)
+            dt = DT[v0:v1].reshape(R, n + 1)[:, :n]
+            at = (IDX[v0:v1].reshape(R, n + 1)[:, 1:n], W, vmap, voff) if n > 1 else None
+            item = _TableItem((J, rjA[lo:hi], rcA[lo:hi], vk, dt, perA[a:a + J.size], IVA[lo:hi]))
+            item.at, item.j = at, jA[lo:hi]
+            if SP is not None:
+                item.spans = SP[lo:hi]
+            if BND is not None:
+                item.bnd = BND[v0:v1].reshape(R, n + 1)[:, 1:n]
+            yield item
+        g = e
+
+
+KNOTS_FLAT_CELLS = 1 << 15     # _table_items' flat knots made at once (~0.8 MB of VK, DT, IDX, BND)
 
 
 def _knots_flat(nA, vo, V0, V1, TL, VV, TT, vmap, voff, jA, rcA, BB=None):

@@ -53,8 +53,13 @@ def _same(a, b):
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
+@pytest.mark.parametrize("cells", [None, 64])
 @pytest.mark.parametrize("name,prof", CASES)
-def test_chunk_items_are_the_groups_own(name, prof, monkeypatch):
+def test_chunk_items_are_the_groups_own(name, prof, cells, monkeypatch):
+    """cells: the flat knots made for runs of groups of at most that many cells (64: most
+    groups a run of their own, some several) instead of KNOTS_FLAT_CELLS."""
+    if cells is not None:
+        monkeypatch.setattr(chains, "KNOTS_FLAT_CELLS", cells)
     real_rows, real_stack = chains._table_rows, chains._vertex_stack
     seen = []
 

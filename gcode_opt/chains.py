@@ -827,12 +827,7 @@ def _settle_ends_plans(plans, ends, V, A, F):
     S = np.empty(V.shape)
     S[:, 0] = 0.0
     S[:, 1:] = np.frombuffer(b"".join(ends), float).reshape(len(ends), V.shape[1] - 1)
-    fig = objfields.floats(plans, ("time_t", "int_a2"))     # (one compiled pass where built)
-    if fig is None:
-        fin = np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
-        fin &= np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
-    else:
-        fin = np.isfinite(fig).all(axis=1)
+    fin = _figures_finite(plans)
     _settle_rows(S, V, A, F, plans if fin.all() else list(compress(plans, fin.tolist())))
 
 
@@ -840,6 +835,16 @@ _TIME_T, _INT_A2 = attrgetter("time_t"), attrgetter("int_a2")
 # knot speeds of the batches _EndsSettle checks together (~0.4 MB of flat copies at most):
 # a windowed run's call plans ~600 chains in ~40 batches of one segment count each
 SETTLE_KNOTS = 1 << 14
+
+
+def _figures_finite(plans):
+    """Which plans' time_t and int_a2 are both finite (a bool array): one compiled pass
+    where built (objfields.floats), else a pass a figure."""
+    fig = objfields.floats(plans, ("time_t", "int_a2"))
+    if fig is None:
+        return (np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
+                & np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans))))
+    return np.isfinite(fig).all(axis=1)
 
 
 class _EndsSettle:
@@ -889,12 +894,7 @@ class _EndsSettle:
             for c in (3, 4):                # (accelerations, then feeds: > 0)
                 X = np.concatenate([t[c].reshape(-1) for t in todo])
                 bad |= np.logical_or.reduceat(~(np.isfinite(X) & (X > 0.0)), at_e)
-        fig = objfields.floats(plans, ("time_t", "int_a2"))     # (one compiled pass where built)
-        if fig is None:
-            bad |= ~np.isfinite(np.fromiter(map(_TIME_T, plans), float, len(plans)))
-            bad |= ~np.isfinite(np.fromiter(map(_INT_A2, plans), float, len(plans)))
-        else:
-            bad |= ~np.isfinite(fig).all(axis=1)
+        bad |= ~_figures_finite(plans)
         for p in compress(plans, (~bad).tolist()):
             p.fault = ""
 
@@ -3074,8 +3074,8 @@ class _Finisher:
 
     def detach(self):
         """The waiting rows' knots and steps made their own arrays: _table_rows' items are
-        views of their chunk's (_knots_flat), which a count's rows waiting for the next
-        chunk would otherwise hold whole through its solve."""
+        views of the flat arrays of their run of groups (_knots_flat), which a count's rows
+        waiting for the next chunk would otherwise hold whole through its solve."""
         for rs, _ in self.wait.values():
             for r in rs:
                 if r.vk is not None and r.vk.base is not None:
@@ -3428,27 +3428,14 @@ def _table_rows(sts, base, res, use, T, profile, grouped, laws=None):
         vk[:, 0], vk[:, -1] = V0[lo:hi], V1[lo:hi]
         tk[:, 0] = 0.0
         tk[:, -1] = TL[lo:hi]
-        at = None
+        at = None            # (no flat places: the stacks are not one C-contiguous shape here)
         if n > 1:
-            if VV.flags.c_contiguous and TT.flags.c_contiguous and TT.shape == VV.shape:
-                # both stacks gathered at one flat index (_at's, made once), handed on
-                # to _LawCols.rows for the binding masks at the same places: row i's
-                # rc[i] * width + its vertices' places (the same integers, summed by rows)
-                W = VV.shape[1]
-                if vmap is None:
-                    flat = _row_ranges(rc * W + voff[j], n - 1)
-                else:
-                    flat = _plus_rows(vmap.take(_row_ranges(voff[j], n - 1)), rc * W)
-                vk[:, 1:-1] = VV.ravel().take(flat)
-                tk[:, 1:-1] = TT.ravel().take(flat)
-                at = (flat, VV.shape[1], vmap, voff)
-            else:
-                ix = _row_ranges(voff[j], n - 1)
-                if vmap is not None:
-                    ix = vmap.take(ix)
-                cc = rc[:, None]
-                vk[:, 1:-1] = _at(VV, cc, ix)
-                tk[:, 1:-1] = _at(TT, cc, ix)
+            ix = _row_ranges(voff[j], n - 1)
+            if vmap is not None:
+                ix = vmap.take(ix)
+            cc = rc[:, None]
+            vk[:, 1:-1] = _at(VV, cc, ix)
+            tk[:, 1:-1] = _at(TT, cc, ix)
         item = _TableItem((J, rj, rc, vk, _row_steps(tk), perA[a:a + J.size], IVA[lo:hi]))
         item.at, item.j = at, j
         if SP is not None:
@@ -3460,8 +3447,8 @@ def _table_items(groups, ca, ra, nseg, rjA, rcA, jA, perA, V0, V1, TL, IVA, SP, 
     """_table_rows' items of the groups whose rows (chain jA[i], column rcA[i], in the groups'
     order; group g's rows ra[g]:ra[g + 1], its chains ca[g]:ca[g + 1] of JA) read the
     C-contiguous stacks VV, TT of one shape: every row's knot speeds, segment durations and
-    inner vertices' flat places made once for the chunk (_knots_flat), each group's
-    arrays views of them (a windowed call's chunk: ~40 groups of ~15 chains, each of which
+    inner vertices' flat places made once for each run of consecutive groups of at most
+    KNOTS_FLAT_CELLS cells (_knots_flat), each group's arrays views of them (a windowed call's chunk: ~40 groups of ~15 chains, each of which
     paid ~20 numpy calls for its own; the same values at the same places).  laws: the
     chunk's _LawCols; where its binding stack is gathered at the same places, each item's
     binding masks (item.bnd, _LawCols.rows' bnd) are views of one gather too."""

@@ -205,7 +205,8 @@ def test_one_block_window_past_the_queue_compaction(tmp_path):
     src.write_text("\n".join(lines) + "\n")
     prof = tmp_path / "b2.toml"
     from gcode_opt import profile as gp
-    toml = (gp._bundled_dir() / "ender3.toml").read_text()
+    with open(os.path.join(gp._bundled_dir(), "ender3.toml"), encoding="utf-8") as fh:
+        toml = fh.read()
     prof.write_text("\n".join("block_buffer = 2" if ln.startswith("block_buffer") else ln
                               for ln in toml.splitlines()) + "\n")
     outs = {}

@@ -1882,6 +1882,67 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
 
 
 _PROBE_ROWS = getattr(_CURVE_CORE, "probe_rows", None) if _CURVE_CORE is not None else None
+_SCREEN_ROWS = getattr(_CURVE_CORE, "screen_rows", None) if _CURVE_CORE is not None else None
+
+
+def screen_a_only(law, R, geos, v_lim, a_lim, memo=None):
+    """The laws surely_over(law, R, geos, v_lim, a_lim, memo, why) puts in why (over on |a|,
+    not on speed) for candidates_curve's screen of rough laws, whose verdicts are a filter
+    only: a law it names is over on |a| alone on its full law too (SCREEN_BAND_R, ~1e5
+    times the rough laws' distance from the full ones), the others are solved in full and
+    decided there.  So the speeds and tangential |a| at the probe's points need not be
+    BLAS's bits, only as accurate: where the core is built, a Chebyshev batch (no layer
+    regime) with knots (memo a _Knots) has them from one compiled pass over its rows
+    (_curvecore.c screen_rows: the series and its derivative summed in the order of the
+    coefficients, ~1e-16 from eval_tau's products, and probe_rows' decisions), not eval_tau's
+    gathers, BLAS calls and scatters by 512-law chunks; κ(s) and φ are made for the rows
+    the tangential part leaves undecided, as surely_over does.  Elsewhere surely_over."""
+    m = _PROBE_TAU.size
+    if _SCREEN_ROWS is None or not isinstance(memo, _Knots) or len(law) == 0 or law.regime.any():
+        why = []
+        surely_over(law, R, geos, v_lim, a_lim, memo, why)
+        return why[0]
+    nb, K = law.coef.shape
+    vand, dvand = _screen_tables(K)
+    v_cap = v_lim * (1.0 + PROBE_MARGIN_R)
+    a_cap = a_lim * (1.0 + PROBE_MARGIN_R)
+    v, at = np.empty((nb, m)), np.empty((nb, m))
+    over_v, over_a, v_ok = np.empty((3, nb), bool)
+    _SCREEN_ROWS(np.ascontiguousarray(law.coef, float), nb, K, vand, dvand, vand.shape[1], m,
+                 np.ascontiguousarray(R, float), np.ascontiguousarray(law.T_t, float),
+                 np.ascontiguousarray(v_cap, float), np.ascontiguousarray(a_cap, float), v, at, over_v, over_a, v_ok)
+    over_a &= v_ok & _kv2_not_nan(law, R, memo)
+    rest = np.flatnonzero(~(over_a | over_v))
+    if rest.size:           # (surely_over's κ(s) part, these rows only)
+        tau = np.broadcast_to(_PROBE_TAU[None, :], (rest.size, m))
+        phi = law.eval_tau(tau, rest, w2=False, w1=False, w=False)[0]
+        vr, ar = v[rest], at[rest]
+        kv2 = _kappa_rows(objfields.items(geos, rest), _row_scale(phi, R[rest]), memo.sub(rest)) * (vr * vr)
+        over_a[rest] = np.sqrt(np.max(ar * ar + kv2 * kv2, axis=1)) > a_cap[rest]
+    return over_a & ~over_v
+
+
+_SCREEN_TABLES: dict = {}  # K -> screen_rows' tables at the probe's points
+
+
+def _screen_tables(K):
+    """(T_k(x_j), d/dτ T_k(2τ_j - 1) = 2 T_k'(x_j)), k < K, at the probe's points x = 2 τ - 1
+    (CircleBatch._eval_cheb's map), each (K, 20): its 17 columns, then zeros to a multiple of
+    4 (screen_rows' AVX steps).  Row k of the second: chebder of the k-th unit series (scale 2)
+    at the points, so that Σ c_k row_k is w'(τ) (~1e-16 from eval_tau's chebder, then sum)."""
+    got = _SCREEN_TABLES.get(K)
+    if got is None:
+        from numpy.polynomial import chebyshev as C
+        x = 2.0 * _PROBE_TAU - 1.0
+        cols = -(-x.size // 4) * 4
+        vand, dvand = np.zeros((K, cols)), np.zeros((K, cols))
+        vand[:, :x.size] = C.chebvander(x, K - 1).T
+        if K > 1:
+            dvand[:, :x.size] = C.chebval(x, C.chebder(np.eye(K), scl=2.0))
+        for t in (vand, dvand):
+            t.flags.writeable = False
+        got = _SCREEN_TABLES[K] = (vand, dvand)
+    return got
 
 
 # the bound of a Chebyshev law's coefficients under which its series (and those of its
@@ -2239,11 +2300,10 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         if got is None:
             return None, None, None
         rough, lay = got
-        why = []
-        surely_over(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
-                    a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q), why)
-        a_only[q[why[0]]] = True
-        return np.flatnonzero(~why[0]), rough.panel_levels(), lay
+        why = screen_a_only(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
+                            a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q))
+        a_only[q[why]] = True
+        return np.flatnonzero(~why), rough.panel_levels(), lay
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go

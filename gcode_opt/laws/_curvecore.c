@@ -1304,6 +1304,134 @@ static PyObject *probe_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* screen_rows(coef, nb, K, vand, dvand, jp, m, R, T, v_thr, a_thr, v, at, over_v, by_at, v_ok):
+   curves.screen_a_only's probe of rough Chebyshev laws, whole in one pass a row.  Row r of coef
+   (nb, K; trailing zeros ignored) holds the coefficients c_k of w(τ).  At the m points x_j
+   whose T_k(x_j) are vand (K, jp) and whose d/dτ T_k(x(τ)) = 2 T_k'(x_j) are dvand (K, jp),
+   jp >= m a multiple of 4 (the columns past m: any finite numbers): w_j = Σ_k c_k T_k(x_j)
+   and w'_j = Σ_k c_k 2 T_k'(x_j), sums in the order of k, then v = (R w) / T and
+   at = (R w') / (T T) into v and at (nb, m), and probe_rows' decisions of them (over_v,
+   by_at, v_ok).  NOT the bits of CircleBatch.eval_tau's BLAS products (~1e-16 of the row's
+   scale from them): only the screen's filter reads these (a candidate it lets through is
+   decided on its full law; one it rejects is far over the cap: curves.SCREEN_BAND_R), so
+   any accurate sums serve.  The AVX form does the scalar loop's operations (its bits). */
+#define SCREEN_COLS 64
+static Py_ssize_t own_len(const double *c, Py_ssize_t K) {
+    Py_ssize_t n = K;
+    while (n > 1 && c[n - 1] == 0.0) n--;
+    return n;
+}
+
+static void screen_decide(const double *vr, const double *ar, Py_ssize_t m, double vt, double ac,
+                          uint8_t *over_v, uint8_t *by_at, uint8_t *v_ok) {
+    double vmax = vr[0], a2max = ar[0] * ar[0];
+    int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
+    for (Py_ssize_t j = 1; j < m; j++) {
+        const double x = vr[j], y = ar[j] * ar[j];
+        v_nan |= isnan(x);
+        a_nan |= isnan(y);
+        tame &= fabs(x) <= 1e150;
+        vmax = x > vmax ? x : vmax;
+        a2max = y > a2max ? y : a2max;
+    }
+    *over_v = !v_nan && vmax > vt;
+    *by_at = !a_nan && sqrt(a2max) > ac;
+    *v_ok = (uint8_t)tame;
+}
+
+#if CURVE_AVX
+/* screen_rows' row with jp == 20 (the probe's 17 points): both sums in 5 + 5 registers of 4,
+   then v and at (the scalar loop's operations, so its bits) */
+#define SCREEN_STEP(q)                                                                        \
+    w##q = _mm256_add_pd(w##q, _mm256_mul_pd(ck, _mm256_loadu_pd(vk + 4 * q)));               \
+    g##q = _mm256_add_pd(g##q, _mm256_mul_pd(ck, _mm256_loadu_pd(dk + 4 * q)))
+#define SCREEN_OUT(q)                                                                         \
+    _mm256_storeu_pd(v + 4 * q, _mm256_div_pd(_mm256_mul_pd(r, w##q), t));                    \
+    _mm256_storeu_pd(a + 4 * q, _mm256_div_pd(_mm256_mul_pd(r, g##q), t2))
+AVX_FN static void screen_row20_avx(const double *cr, Py_ssize_t n, const double *vand, const double *dvand,
+                                    double ri, double ti, Py_ssize_t m, double *vr, double *ar) {
+    __m256d w0, w1, w2, w3, w4, g0, g1, g2, g3, g4;
+    w0 = w1 = w2 = w3 = w4 = g0 = g1 = g2 = g3 = g4 = _mm256_setzero_pd();
+    for (Py_ssize_t k = 0; k < n; k++) {
+        const __m256d ck = _mm256_set1_pd(cr[k]);
+        const double *vk = vand + k * 20, *dk = dvand + k * 20;
+        SCREEN_STEP(0);
+        SCREEN_STEP(1);
+        SCREEN_STEP(2);
+        SCREEN_STEP(3);
+        SCREEN_STEP(4);
+    }
+    const __m256d r = _mm256_set1_pd(ri), t = _mm256_set1_pd(ti), t2 = _mm256_set1_pd(ti * ti);
+    double v[20], a[20];
+    SCREEN_OUT(0);
+    SCREEN_OUT(1);
+    SCREEN_OUT(2);
+    SCREEN_OUT(3);
+    SCREEN_OUT(4);
+    for (Py_ssize_t j = 0; j < m; j++) {
+        vr[j] = v[j];
+        ar[j] = a[j];
+    }
+}
+#endif
+
+static PyObject *screen_rows(PyObject *self, PyObject *a) {
+    PyObject *oc, *ovd, *odv, *orr, *ot, *ovt, *oac, *ov, *oa, *oo, *ob, *ok_;
+    Py_ssize_t nb, K, jp, m;
+    if (!PyArg_ParseTuple(a, "OnnOOnnOOOOOOOOO", &oc, &nb, &K, &ovd, &odv, &jp, &m, &orr, &ot, &ovt, &oac, &ov,
+                          &oa, &oo, &ob, &ok_))
+        return NULL;
+    if (nb < 0 || K < 1 || m < 1 || jp < m || jp % 4 || jp > SCREEN_COLS) {
+        PyErr_SetString(PyExc_ValueError, "screen_rows: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *coef = get(&b, oc, 8, 0, nb * K);
+    const double *vand = coef ? get(&b, ovd, 8, 0, K * jp) : NULL;
+    const double *dvand = vand ? get(&b, odv, 8, 0, K * jp) : NULL;
+    const double *R = dvand ? get(&b, orr, 8, 0, nb) : NULL;
+    const double *T = R ? get(&b, ot, 8, 0, nb) : NULL;
+    const double *vt = T ? get(&b, ovt, 8, 0, nb) : NULL;
+    const double *ac = vt ? get(&b, oac, 8, 0, nb) : NULL;
+    double *v = ac ? get(&b, ov, 8, 1, nb * m) : NULL;
+    double *at = v ? get(&b, oa, 8, 1, nb * m) : NULL;
+    uint8_t *over_v = at ? get(&b, oo, 1, 1, nb) : NULL;
+    uint8_t *by_at = over_v ? get(&b, ob, 1, 1, nb) : NULL;
+    uint8_t *v_ok = by_at ? get(&b, ok_, 1, 1, nb) : NULL;
+    if (!v_ok) { release(&b); return NULL; }
+    const int avx = use_avx();
+    (void)avx;
+    double w[SCREEN_COLS], dw[SCREEN_COLS];
+    for (Py_ssize_t r = 0; r < nb; r++) {
+        const double *cr = coef + r * K;
+        const Py_ssize_t n = own_len(cr, K);
+        double *vr = v + r * m, *ar = at + r * m;
+#if CURVE_AVX
+        if (avx && jp == 20 && m >= 4) {
+            screen_row20_avx(cr, n, vand, dvand, R[r], T[r], m, vr, ar);
+            probe_row_avx(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
+            continue;
+        }
+#endif
+        for (Py_ssize_t j = 0; j < jp; j++) w[j] = dw[j] = 0.0;
+        for (Py_ssize_t k = 0; k < n; k++) {
+            const double ck = cr[k], *vk = vand + k * jp, *dk = dvand + k * jp;
+            for (Py_ssize_t j = 0; j < jp; j++) {
+                w[j] += ck * vk[j];
+                dw[j] += ck * dk[j];
+            }
+        }
+        const double ri = R[r], ti = T[r], t2 = T[r] * T[r];
+        for (Py_ssize_t j = 0; j < m; j++) {
+            vr[j] = (ri * w[j]) / ti;
+            ar[j] = (ri * dw[j]) / t2;
+        }
+        screen_decide(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
+    }
+    release(&b);
+    Py_RETURN_NONE;
+}
+
 /* interp_rows' knot: the last j with xp[j] <= x, for xp[0] <= x <= xp[n - 1] (n >= 2), by
    the hint h (0 <= h < n): h, h + 1 or h + 2 where x lies there, else a binary search of
    the knots after h + 2 or before h (xp[lo] <= x, and xp[hi] > x or hi = n - 1, as the
@@ -2270,6 +2398,7 @@ static PyMethodDef methods[] = {
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"probe_rows", probe_rows, METH_VARARGS, "curves.surely_over's speed and tangential-|a| decisions of each row"},
+    {"screen_rows", screen_rows, METH_VARARGS, "curves._screen_a_only's speed and tangential-|a| probe of rough laws, whole"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"graded_grid", graded_grid, METH_VARARGS, "circle._graded_grid's nodes and weights"},

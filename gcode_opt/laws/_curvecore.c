@@ -1461,7 +1461,8 @@ static inline Py_ssize_t knot_at(const double *xp, Py_ssize_t n, double x, Py_ss
    binary search also finds when the knots are strictly increasing and finite (the caller
    gives only such rows, cnt >= 2; rows of cnt < 2 are skipped and left to the caller).
    That j is one knot whatever finds it: knot_at looks first at the last point's knot and
-   the next two (a row's points mostly go forward along the curve). */
+   the next two (a row's points mostly go forward along the curve); the slope of a knot is
+   made once for a run of points at it (the same operations on the same knots). */
 static PyObject *interp_rows(PyObject *self, PyObject *a) {
     PyObject *os_, *oo, *oc, *ox, *oy, *out_;
     Py_ssize_t nr, m, nk;
@@ -1481,6 +1482,8 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
         const double *x_r = s + r * m;
         double *res = out + r * m;
         Py_ssize_t j = 0;               /* the last point's knot (xp[0] at the row's start) */
+        Py_ssize_t js = -1;             /* the knot whose slope is held (a function of j alone) */
+        double slope = 0.0;
         for (Py_ssize_t i = 0; i < m; i++) {
             const double x = x_r[i];
             if (isnan(x)) { res[i] = x; continue; }
@@ -1488,7 +1491,10 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
             if (x < xp[0]) { res[i] = fp[0]; continue; }
             j = knot_at(xp, n, x, j);
             if (j == n - 1 || xp[j] == x) { res[i] = fp[j]; continue; }
-            const double slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+            if (j != js) {
+                slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+                js = j;
+            }
             double v = slope * (x - xp[j]) + fp[j];
             if (isnan(v)) {
                 v = slope * (x - xp[j + 1]) + fp[j + 1];
@@ -1681,12 +1687,23 @@ static PyObject *div_pairs(PyObject *self, PyObject *a) {
    R[:, None] * x / T[:, None] ** 2 (p = 2) of rows x (nb x M), numpy's operations on the same
    doubles (T ** 2 is np.square, T * T; a multiply then a divide, each correctly rounded, no
    contraction): numpy 2 runs a (B, 1) operand broadcast along (B, M) through its iterator's
-   buffers, a copy of the column into a buffer for every row of every such operation. */
+   buffers, a copy of the column into a buffer for every row of every such operation.
+   p = 3: p = 1's, then np.maximum(., 0.0) (numpy's: a NaN itself, else y > 0.0 ? y : 0.0,
+   so -0.0 gives +0.0: the second operand where they compare equal). */
+static inline double np_max0(double y) { return isnan(y) ? y : (y > 0.0 ? y : 0.0); }
 #if CURVE_AVX
 AVX_FN static void row_scale_avx(const double *x, Py_ssize_t M, double r, double t, int p, double *o) {
     Py_ssize_t j = 0;
     const __m256d vr = _mm256_set1_pd(r), vt = _mm256_set1_pd(t);
-    if (p) {
+    if (p == 3) {
+        const __m256d zero = _mm256_setzero_pd();
+        for (; j + 4 <= M; j += 4) {
+            const __m256d y = _mm256_div_pd(_mm256_mul_pd(vr, _mm256_loadu_pd(x + j)), vt);
+            /* max_pd(y, 0): y where y > 0, else 0 (a NaN y gives 0: put back) */
+            _mm256_storeu_pd(o + j, _mm256_blendv_pd(_mm256_max_pd(y, zero), y, _mm256_cmp_pd(y, y, _CMP_UNORD_Q)));
+        }
+        for (; j < M; j++) o[j] = np_max0((r * x[j]) / t);
+    } else if (p) {
         for (; j + 4 <= M; j += 4)
             _mm256_storeu_pd(o + j, _mm256_div_pd(_mm256_mul_pd(vr, _mm256_loadu_pd(x + j)), vt));
         for (; j < M; j++) o[j] = (r * x[j]) / t;
@@ -1702,7 +1719,7 @@ static PyObject *row_scale(PyObject *self, PyObject *a) {
     Py_ssize_t nb, M;
     int p;
     if (!PyArg_ParseTuple(a, "OOOinnO", &ox, &orr, &ot, &p, &nb, &M, &oo)) return NULL;
-    if (nb < 0 || M < 0 || p < 0 || p > 2) {
+    if (nb < 0 || M < 0 || p < 0 || p > 3) {
         PyErr_SetString(PyExc_ValueError, "row_scale: bad size or power");
         return NULL;
     }
@@ -1722,7 +1739,9 @@ static PyObject *row_scale(PyObject *self, PyObject *a) {
         if (avx) { row_scale_avx(xr, M, ri, ti, p, o); continue; }
 #endif
         (void)avx;
-        if (p)
+        if (p == 3)
+            for (Py_ssize_t j = 0; j < M; j++) o[j] = np_max0((ri * xr[j]) / ti);
+        else if (p)
             for (Py_ssize_t j = 0; j < M; j++) o[j] = (ri * xr[j]) / ti;
         else
             for (Py_ssize_t j = 0; j < M; j++) o[j] = ri * xr[j];

@@ -1898,13 +1898,23 @@ def screen_a_only(law, R, geos, v_lim, a_lim, memo=None):
     regime) with knots (memo a _Knots) has them from one compiled pass over its rows
     (_curvecore.c screen_rows: the series and its derivative summed in the order of the
     coefficients, ~1e-16 from eval_tau's products, and probe_rows' decisions), not eval_tau's
-    gathers, BLAS calls and scatters by 512-law chunks; κ(s) and φ are made for the rows
-    the tangential part leaves undecided, as surely_over does.  Elsewhere surely_over."""
-    m = _PROBE_TAU.size
+    gathers, BLAS calls and scatters; κ(s) and φ are made for the rows the tangential part
+    leaves undecided, as surely_over does.  Elsewhere surely_over.  By chunks of EVAL_CHUNK
+    laws, as surely_over (the (laws, points) arrays of a 4096-law screen at once put the
+    rectilinear plate's windowed peak RSS up ~0.8 MB)."""
     if _SCREEN_ROWS is None or not isinstance(memo, _Knots) or len(law) == 0 or law.regime.any():
         why = []
         surely_over(law, R, geos, v_lim, a_lim, memo, why)
         return why[0]
+    out = np.empty(len(law), bool)
+    for sl in law.row_chunks():
+        out[sl] = _screen_chunk(law.rows(sl), R[sl], geos[sl], v_lim[sl], a_lim[sl], memo.sub(sl))
+    return out
+
+
+def _screen_chunk(law, R, geos, v_lim, a_lim, memo):
+    """screen_a_only of a chunk of Chebyshev laws, memo its knots (a _Knots)."""
+    m = _PROBE_TAU.size
     nb, K = law.coef.shape
     vand, dvand = _screen_tables(K)
     v_cap = v_lim * (1.0 + PROBE_MARGIN_R)

@@ -1899,43 +1899,42 @@ def screen_a_only(law, R, geos, v_lim, a_lim, memo=None):
     (_curvecore.c screen_rows: the series and its derivative summed in the order of the
     coefficients, ~1e-16 from eval_tau's products, and probe_rows' decisions), not eval_tau's
     gathers, BLAS calls and scatters; κ(s) and φ are made for the rows the tangential part
-    leaves undecided, as surely_over does.  Elsewhere surely_over.  By chunks of EVAL_CHUNK
-    laws, as surely_over (the (laws, points) arrays of a 4096-law screen at once put the
-    rectilinear plate's windowed peak RSS up ~0.8 MB)."""
+    leaves undecided, as surely_over does.  Elsewhere surely_over.  The speeds and |a| are
+    made again for the rows left to κ(s) only (~12 %: a 4096-law screen's (laws, points)
+    arrays of every row put the rectilinear plate's windowed peak RSS up ~0.8 MB)."""
     if _SCREEN_ROWS is None or not isinstance(memo, _Knots) or len(law) == 0 or law.regime.any():
         why = []
         surely_over(law, R, geos, v_lim, a_lim, memo, why)
         return why[0]
-    out = np.empty(len(law), bool)
-    for sl in law.row_chunks():
-        out[sl] = _screen_chunk(law.rows(sl), R[sl], geos[sl], v_lim[sl], a_lim[sl], memo.sub(sl))
-    return out
+    return _screen_rows(law, R, geos, v_lim, a_lim, memo)
 
 
-def _screen_chunk(law, R, geos, v_lim, a_lim, memo):
-    """screen_a_only of a chunk of Chebyshev laws, memo its knots (a _Knots)."""
+def _screen_rows(law, R, geos, v_lim, a_lim, memo):
+    """screen_a_only of Chebyshev laws, memo their knots (a _Knots)."""
     m = _PROBE_TAU.size
     nb, K = law.coef.shape
     vand, dvand = _screen_tables(K)
     v_cap = v_lim * (1.0 + PROBE_MARGIN_R)
     a_cap = a_lim * (1.0 + PROBE_MARGIN_R)
-    v, at = np.empty((nb, m)), np.empty((nb, m))
-    over_v, over_a, v_ok = np.empty((3, nb), bool)
-    _SCREEN_ROWS(np.ascontiguousarray(law.coef, float), nb, K, vand, dvand, vand.shape[1], m,
-                 np.ascontiguousarray(R, float), np.ascontiguousarray(law.T_t, float),
-                 np.ascontiguousarray(v_cap, float), np.ascontiguousarray(a_cap, float), v, at, over_v, over_a, v_ok)
-    over_a &= v_ok & _kv2_not_nan(law, R, memo)
-    rest = np.flatnonzero(~(over_a | over_v))
-    if rest.size:           # (surely_over's κ(s) part, these rows only)
+    rest = np.empty(nb, np.int64)
+    over_v, over_a = np.empty((2, nb), bool)
+    args = (np.ascontiguousarray(law.coef, float), nb, K, vand, dvand, vand.shape[1], m, np.ascontiguousarray(R, float),
+            np.ascontiguousarray(law.T_t, float), np.ascontiguousarray(v_cap, float),
+            np.ascontiguousarray(a_cap, float), np.ascontiguousarray(_kv2_not_nan(law, R, memo), bool))
+    n = _SCREEN_ROWS(*args, _NO_ROWS, _NO_ROWS, rest, over_v, over_a, 0, 0)
+    rest = rest[:n]
+    if rest.size:           # (surely_over's κ(s) part, these rows only: their v and at made again)
+        vr, ar = np.empty((n, m)), np.empty((n, m))
+        _SCREEN_ROWS(*args, vr, ar, rest, over_v, over_a, 1, n)
         tau = np.broadcast_to(_PROBE_TAU[None, :], (rest.size, m))
         phi = law.eval_tau(tau, rest, w2=False, w1=False, w=False)[0]
-        vr, ar = v[rest], at[rest]
         kv2 = _kappa_rows(objfields.items(geos, rest), _row_scale(phi, R[rest]), memo.sub(rest)) * (vr * vr)
         over_a[rest] = np.sqrt(np.max(ar * ar + kv2 * kv2, axis=1)) > a_cap[rest]
     return over_a & ~over_v
 
 
 _SCREEN_TABLES: dict = {}  # K -> screen_rows' tables at the probe's points
+_NO_ROWS = np.empty((0, 17))
 
 
 def _screen_tables(K):

@@ -30,14 +30,21 @@ S = Path(__file__).resolve().parent.parent / "sample_gcode"
 M = curves._PROBE_TAU.size
 
 
-def _screen_rows(coef, R, T, v_cap, a_cap):
+def _screen_rows(coef, R, T, v_cap, a_cap, kv2ok=None):
+    """screen_rows' decisions (rest: the rows left, over_v, over_a), then the rows left's
+    speeds and tangential |a| (v, at: its second call, packed)."""
     nb, K = coef.shape
     vand, dvand = curves._screen_tables(K)
-    v, at = np.empty((nb, M)), np.empty((nb, M))
-    over_v, by_at, v_ok = np.empty((3, nb), bool)
-    CORE.screen_rows(np.ascontiguousarray(coef), nb, K, vand, dvand, vand.shape[1], M, R, T, v_cap, a_cap,
-                     v, at, over_v, by_at, v_ok)
-    return v, at, over_v, by_at, v_ok
+    rest = np.full(nb, -1, np.int64)
+    over_v, over_a = np.empty((2, nb), bool)
+    kv2ok = np.ones(nb, bool) if kv2ok is None else kv2ok
+    args = (np.ascontiguousarray(coef), nb, K, vand, dvand, vand.shape[1], M, R, T, v_cap, a_cap, kv2ok)
+    n = CORE.screen_rows(*args, np.empty((0, M)), np.empty((0, M)), rest, over_v, over_a, 0, 0)
+    v, at = np.full((n, M), -1.0), np.full((n, M), -1.0)
+    ov, oa = over_v.copy(), over_a.copy()
+    CORE.screen_rows(*args, v, at, rest[:n], over_v, over_a, 1, n)
+    assert np.array_equal(ov, over_v) and np.array_equal(oa, over_a)       # (the second call decides nothing)
+    return v, at, rest[:n], over_v, over_a
 
 
 def _laws(seed, n):
@@ -60,18 +67,20 @@ def test_screen_rows_avx_as_scalar():
     R, T = np.full(nb, 2.0), law.T_t.copy()
     R[5], T[6] = np.nan, 0.0
     v_cap, a_cap = rng.uniform(10.0, 500.0, nb), rng.uniform(100.0, 1e5, nb)
+    kv2ok = rng.uniform(size=nb) < 0.8
     got = []
     for flag in (1, 0):
         try:
             CORE.simd(flag)
             with np.errstate(all="ignore"):
-                got.append(_screen_rows(coef, R, T, v_cap, a_cap))
+                got.append(_screen_rows(coef, R, T, v_cap, a_cap, kv2ok))
         finally:
             CORE.simd(1)
     for a, b in zip(*got):
         assert a.tobytes() == b.tobytes()
-    v, at, over_v, by_at, v_ok = got[0]
-    assert over_v.any() and not over_v.all() and by_at.any() and not by_at.all() and not v_ok.all()
+    v, at, rest, over_v, over_a = got[0]
+    assert over_v.any() and not over_v.all() and over_a.any() and not over_a.all()
+    assert 10 < rest.size < nb and np.array_equal(rest, np.flatnonzero(~(over_v | over_a)))
 
 
 def test_screen_rows_near_eval_tau_and_probe_rows_decisions():
@@ -81,15 +90,20 @@ def test_screen_rows_near_eval_tau_and_probe_rows_decisions():
     tau = np.broadcast_to(curves._PROBE_TAU[None, :], (nb, M))
     _, w, w1, _ = law.eval_tau(tau, w2=False, phi=False)
     v_ref, at_ref = curves._row_scale(w, R, law.T_t, 1), curves._row_scale(w1, R, law.T_t, 2)
-    v_cap = np.max(v_ref, axis=1) * rng.choice([0.9, 1.1], nb)
-    a_cap = np.sqrt(np.max(at_ref * at_ref, axis=1)) * rng.choice([0.9, 1.1], nb)
-    v, at, over_v, by_at, v_ok = _screen_rows(law.coef, R, law.T_t, v_cap, a_cap)
+    # every row left (no speed cap, κ(s) always asked): every row's numbers, in order
+    v, at, rest, _, _ = _screen_rows(law.coef, R, law.T_t, np.full(nb, np.inf), np.zeros(nb), np.zeros(nb, bool))
+    assert np.array_equal(rest, np.arange(nb))
     assert np.all(np.abs(v - v_ref) <= 1e-14 * np.abs(v_ref).max(axis=1, keepdims=True))
     assert np.all(np.abs(at - at_ref) <= 1e-14 * np.abs(at_ref).max(axis=1, keepdims=True))
+    v_cap = np.max(v_ref, axis=1) * rng.choice([0.9, 1.1], nb)
+    a_cap = np.sqrt(np.max(at_ref * at_ref, axis=1)) * rng.choice([0.9, 1.1], nb)
+    kv2ok = rng.uniform(size=nb) < 0.9
+    _, _, rest, over_v, over_a = _screen_rows(law.coef, R, law.T_t, v_cap, a_cap, kv2ok)
     want = np.empty((3, nb), bool)
     CORE.probe_rows(v, at, nb, M, v_cap, a_cap, want[0], want[1], want[2])
-    assert np.array_equal(over_v, want[0]) and np.array_equal(by_at, want[1]) and np.array_equal(v_ok, want[2])
-    assert over_v.any() and not over_v.all() and by_at.any() and not by_at.all()
+    assert np.array_equal(over_v, want[0]) and np.array_equal(over_a, want[1] & want[2] & kv2ok)
+    assert np.array_equal(rest, np.flatnonzero(~(over_v | over_a)))
+    assert over_v.any() and not over_v.all() and over_a.any() and not over_a.all()
 
 
 @pytest.fixture(scope="module")

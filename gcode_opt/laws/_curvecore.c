@@ -1304,14 +1304,18 @@ static PyObject *probe_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
-/* screen_rows(coef, nb, K, vand, dvand, jp, m, R, T, v_thr, a_thr, v, at, over_v, by_at, v_ok):
+/* screen_rows(coef, nb, K, vand, dvand, jp, m, R, T, v_thr, a_thr, kv2ok, v, at, rest, over_v, over_a,
+   store, nstore) -> the number of rows left (store 0):
    curves.screen_a_only's probe of rough Chebyshev laws, whole in one pass a row.  Row r of coef
    (nb, K; trailing zeros ignored) holds the coefficients c_k of w(τ).  At the m points x_j
    whose T_k(x_j) are vand (K, jp) and whose d/dτ T_k(x(τ)) = 2 T_k'(x_j) are dvand (K, jp),
    jp >= m a multiple of 4 (the columns past m: any finite numbers): w_j = Σ_k c_k T_k(x_j)
    and w'_j = Σ_k c_k 2 T_k'(x_j), sums in the order of k, then v = (R w) / T and
-   at = (R w') / (T T) into v and at (nb, m), and probe_rows' decisions of them (over_v,
-   by_at, v_ok).  NOT the bits of CircleBatch.eval_tau's BLAS products (~1e-16 of the row's
+   at = (R w') / (T T), and probe_rows' decisions of them: over_v, and over_a = by_at and
+   v_ok and kv2ok (curves._kv2_not_nan's rows).  The rows neither decides (left to κ(s))
+   are put in rest, in order (v, at not written).  store 1: no decisions; the rows
+   rest[0 .. nstore) made again, their v and at into rows 0 .. nstore of v and at (nstore, m)
+   (the κ part's numbers, ~12 % of the rows, not (nb, m) arrays of every row's).  NOT the bits of CircleBatch.eval_tau's BLAS products (~1e-16 of the row's
    scale from them): only the screen's filter reads these (a candidate it lets through is
    decided on its full law; one it rejects is far over the cap: curves.SCREEN_BAND_R), so
    any accurate sums serve.  The AVX form does the scalar loop's operations (its bits). */
@@ -1376,12 +1380,13 @@ AVX_FN static void screen_row20_avx(const double *cr, Py_ssize_t n, const double
 #endif
 
 static PyObject *screen_rows(PyObject *self, PyObject *a) {
-    PyObject *oc, *ovd, *odv, *orr, *ot, *ovt, *oac, *ov, *oa, *oo, *ob, *ok_;
-    Py_ssize_t nb, K, jp, m;
-    if (!PyArg_ParseTuple(a, "OnnOOnnOOOOOOOOO", &oc, &nb, &K, &ovd, &odv, &jp, &m, &orr, &ot, &ovt, &oac, &ov,
-                          &oa, &oo, &ob, &ok_))
+    PyObject *oc, *ovd, *odv, *orr, *ot, *ovt, *oac, *okv, *ov, *oa, *ors, *oo, *ob;
+    Py_ssize_t nb, K, jp, m, nstore;
+    int store;
+    if (!PyArg_ParseTuple(a, "OnnOOnnOOOOOOOOOOin", &oc, &nb, &K, &ovd, &odv, &jp, &m, &orr, &ot, &ovt, &oac, &okv,
+                          &ov, &oa, &ors, &oo, &ob, &store, &nstore))
         return NULL;
-    if (nb < 0 || K < 1 || m < 1 || jp < m || jp % 4 || jp > SCREEN_COLS) {
+    if (nb < 0 || K < 1 || m < 1 || jp < m || jp % 4 || jp > SCREEN_COLS || nstore < 0 || (store && nstore > nb)) {
         PyErr_SetString(PyExc_ValueError, "screen_rows: bad size");
         return NULL;
     }
@@ -1393,43 +1398,61 @@ static PyObject *screen_rows(PyObject *self, PyObject *a) {
     const double *T = R ? get(&b, ot, 8, 0, nb) : NULL;
     const double *vt = T ? get(&b, ovt, 8, 0, nb) : NULL;
     const double *ac = vt ? get(&b, oac, 8, 0, nb) : NULL;
-    double *v = ac ? get(&b, ov, 8, 1, nb * m) : NULL;
-    double *at = v ? get(&b, oa, 8, 1, nb * m) : NULL;
-    uint8_t *over_v = at ? get(&b, oo, 1, 1, nb) : NULL;
-    uint8_t *by_at = over_v ? get(&b, ob, 1, 1, nb) : NULL;
-    uint8_t *v_ok = by_at ? get(&b, ok_, 1, 1, nb) : NULL;
-    if (!v_ok) { release(&b); return NULL; }
+    const uint8_t *kv2ok = ac ? get(&b, okv, 1, 0, nb) : NULL;
+    double *v = kv2ok ? get(&b, ov, 8, 1, (store ? nstore : 0) * m) : NULL;
+    double *at = v ? get(&b, oa, 8, 1, (store ? nstore : 0) * m) : NULL;
+    int64_t *rest = at ? get(&b, ors, 8, 1, store ? nstore : nb) : NULL;
+    uint8_t *over_v = rest ? get(&b, oo, 1, 1, nb) : NULL;
+    uint8_t *over_a = over_v ? get(&b, ob, 1, 1, nb) : NULL;
+    if (!over_a) { release(&b); return NULL; }
     const int avx = use_avx();
     (void)avx;
-    double w[SCREEN_COLS], dw[SCREEN_COLS];
-    for (Py_ssize_t r = 0; r < nb; r++) {
+    double w[SCREEN_COLS], dw[SCREEN_COLS], vr[SCREEN_COLS], ar[SCREEN_COLS];
+    Py_ssize_t nr = 0;
+    const Py_ssize_t nq = store ? nstore : nb;
+    for (Py_ssize_t q = 0; q < nq; q++) {
+        const Py_ssize_t r = store ? (Py_ssize_t)rest[q] : q;
+        if (r < 0 || r >= nb) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "screen_rows: row out of range");
+            return NULL;
+        }
         const double *cr = coef + r * K;
         const Py_ssize_t n = own_len(cr, K);
-        double *vr = v + r * m, *ar = at + r * m;
+        uint8_t by_at, v_ok, ov_scratch;
+        uint8_t *ov_r = store ? &ov_scratch : over_v + r;
 #if CURVE_AVX
         if (avx && jp == 20 && m >= 4) {
             screen_row20_avx(cr, n, vand, dvand, R[r], T[r], m, vr, ar);
-            probe_row_avx(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
+            probe_row_avx(vr, ar, m, vt[r], ac[r], ov_r, &by_at, &v_ok);
+        } else
+#endif
+        {
+            for (Py_ssize_t j = 0; j < jp; j++) w[j] = dw[j] = 0.0;
+            for (Py_ssize_t k = 0; k < n; k++) {
+                const double ck = cr[k], *vk = vand + k * jp, *dk = dvand + k * jp;
+                for (Py_ssize_t j = 0; j < jp; j++) {
+                    w[j] += ck * vk[j];
+                    dw[j] += ck * dk[j];
+                }
+            }
+            const double ri = R[r], ti = T[r], t2 = T[r] * T[r];
+            for (Py_ssize_t j = 0; j < m; j++) {
+                vr[j] = (ri * w[j]) / ti;
+                ar[j] = (ri * dw[j]) / t2;
+            }
+            screen_decide(vr, ar, m, vt[r], ac[r], ov_r, &by_at, &v_ok);
+        }
+        if (store) {                            /* the rows asked: their numbers, packed */
+            memcpy(v + q * m, vr, m * sizeof(double));
+            memcpy(at + q * m, ar, m * sizeof(double));
             continue;
         }
-#endif
-        for (Py_ssize_t j = 0; j < jp; j++) w[j] = dw[j] = 0.0;
-        for (Py_ssize_t k = 0; k < n; k++) {
-            const double ck = cr[k], *vk = vand + k * jp, *dk = dvand + k * jp;
-            for (Py_ssize_t j = 0; j < jp; j++) {
-                w[j] += ck * vk[j];
-                dw[j] += ck * dk[j];
-            }
-        }
-        const double ri = R[r], ti = T[r], t2 = T[r] * T[r];
-        for (Py_ssize_t j = 0; j < m; j++) {
-            vr[j] = (ri * w[j]) / ti;
-            ar[j] = (ri * dw[j]) / t2;
-        }
-        screen_decide(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
+        over_a[r] = by_at && v_ok && kv2ok[r];
+        if (!over_a[r] && !over_v[r]) rest[nr++] = r;   /* left to κ(s) */
     }
     release(&b);
-    Py_RETURN_NONE;
+    return PyLong_FromSsize_t(nr);
 }
 
 /* interp_rows' knot: the last j with xp[j] <= x, for xp[0] <= x <= xp[n - 1] (n >= 2), by

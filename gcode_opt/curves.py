@@ -1901,7 +1901,7 @@ def screen_a_only(law, R, geos, v_lim, a_lim, memo=None):
     gathers, BLAS calls and scatters; κ(s) and φ are made for the rows the tangential part
     leaves undecided, as surely_over does.  Elsewhere surely_over.  The speeds and |a| are
     made again for the rows left to κ(s) only (~12 %: a 4096-law screen's (laws, points)
-    arrays of every row put the rectilinear plate's windowed peak RSS up ~0.8 MB)."""
+    arrays of every row put the rectilinear plate's windowed peak RSS up ~0.5 MB)."""
     if _SCREEN_ROWS is None or not isinstance(memo, _Knots) or len(law) == 0 or law.regime.any():
         why = []
         surely_over(law, R, geos, v_lim, a_lim, memo, why)
@@ -1934,7 +1934,7 @@ def _screen_rows(law, R, geos, v_lim, a_lim, memo):
 
 
 _SCREEN_TABLES: dict = {}  # K -> screen_rows' tables at the probe's points
-_NO_ROWS = np.empty((0, 17))
+_NO_ROWS = np.empty((0, _PROBE_TAU.size))     # (screen_rows' v and at where it writes none)
 
 
 def _screen_tables(K):

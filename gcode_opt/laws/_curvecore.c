@@ -10,7 +10,8 @@ products stay numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-p
 arrays), those of the preconditioned iteration are sums in a fixed order (circle._mm_ordered:
 pc_solve does them itself), and np.exp stays numpy's (numpy's is not libm's on every
 machine).  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
-row maxima and minima propagate NaN as numpy's do. */
+row maxima and minima propagate NaN as numpy's do.  One exception: screen_rows' speeds and
+|a| are a filter's numbers (curves.screen_a_only), accurate sums, not eval_tau's bits. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>

@@ -2262,32 +2262,44 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
         nb = max(profile.block_buffer - 3, 1)
         if _window_sums_fn(core, nb) is None:
             return None
-    sts_all, owns, vks, tks, Ds, Us, sizes = [], [], [], [], [], [], []
+    sizes = []
     for sts, gs, own, vk, tk in batches:
-        D, U = curves.stack_du(gs)
         m, R, n = len(sts), vk.shape[0], vk.shape[1] - 1
-        if (n < 1 or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2) or D.dtype != np.float64
-                or U.dtype != np.float64):
+        if n < 1 or tk.shape != (R, n) or len(gs) != m:
             return None
-        owns.append(np.asarray(own, np.int64) + len(sts_all))
-        sts_all += sts
-        vks.append(vk.ravel())
-        tks.append(tk.ravel())
-        Ds.append(D.ravel())
-        Us.append(U.ravel())
         sizes.append((m, R, n))
     ms, Rs, ns = np.array(sizes, np.int64).T
     coff = np.zeros(ms.sum() + 1, np.int64)
     np.cumsum(np.repeat(ns, ms), out=coff[1:])
     cells = int(Rs @ ns)
-    acc, feed = np.empty(cells), np.empty(cells)
     R = int(Rs.sum())
+    # the call's flat inputs made in place, batch after batch (each batch's lengths and
+    # directions stacked into its stretch of D and U, its knots and steps copied into VK
+    # and TK): the values the batches' own arrays ravelled and joined had, one copy each,
+    # not a stack_du, four ravels and four joins (the knot steps a strided view: two
+    # copies) a batch (~1.4 k batches on the windowed gyroid plate)
+    D, U = np.empty(int(coff[-1])), np.empty(2 * int(coff[-1]))
+    VK, TK, OWN = np.empty(cells + R), np.empty(cells), np.empty(R, np.int64)
+    sts_all, c, a, r = [], 0, 0, 0
+    for (sts, gs, own, vk, tk), (m, Rb, n) in zip(batches, sizes):
+        if not _stack_du_into(gs, n, D[c:c + m * n].reshape(m, n), U[2 * c:2 * (c + m * n)].reshape(m, n, 2)):
+            return None
+        VK[a + r:a + r + Rb * (n + 1)].reshape(Rb, n + 1)[...] = vk
+        TK[a:a + Rb * n].reshape(Rb, n)[...] = tk
+        o = OWN[r:r + Rb]
+        o[...] = own
+        o += len(sts_all)
+        sts_all += sts
+        c += m * n
+        a += Rb * n
+        r += Rb
+    acc, feed = np.empty(cells), np.empty(cells)
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
-              coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
+    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, nb, curves.JERK_F_STEP_R, OWN, coff, VK, TK, D, U,
               _cf_rows(sts_all, core, rules.junction == "jd"), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2,
               fits):
         return None
+    del VK, TK, D, U
     # (t, a2 and fits each batch's own arrays, as _finish_stacked_dt gives them: the memos keep
     # t and a2 a batch, and a view would keep the whole call's alive; acc and feed are views)
     out, a, r = [], 0, 0
@@ -2298,6 +2310,23 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
         a += Rb * n
         r += Rb
     return out
+
+
+def _stack_du_into(gs, n, D, U):
+    """curves.stack_du(gs) written into D (m, n) and U (m, n, 2), C-contiguous float64 (a
+    ragged finishing call's stretches of its flat inputs): by the curve core's stack_rows
+    into them where it takes the geometries (the rows stack_du's core path copies and
+    makes), else stack_du's own arrays copied in.  False where those are not (m, n) and
+    (m, n, 2) float64 (_finish_ragged declines)."""
+    fn = getattr(curves, "_STACK_ROWS", None)
+    if fn is not None and type(gs) is list and gs and fn(gs, n, D, U):
+        return True
+    got_d, got_u = curves.stack_du(gs)
+    if (got_d.shape != D.shape or got_u.shape != U.shape or got_d.dtype != np.float64
+            or got_u.dtype != np.float64):
+        return False
+    D[...], U[...] = got_d, got_u
+    return True
 
 
 def _turn_cosines(U, core):

@@ -1287,6 +1287,8 @@ def _join_caps(caps):
 
 def _caps_sizes(caps):
     """The number of caps of each chain's caps as kept (_caps_array's sizes)."""
+    if set(map(type, caps)) == {bytes}:         # (the usual: a C-level map of their lengths)
+        return np.fromiter(map(len, caps), np.int64, len(caps)) >> 3
     return np.array([len(c) >> 3 if type(c) is bytes else c.size for c in caps], int)
 
 
@@ -2812,7 +2814,7 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
     # (each one's segment count as its geometry block's row length: no d view a chain)
-    gs = [curves.geom(strokes[i], profile) for i in rows.tolist()]
+    gs = _geoms(list(map(strokes.__getitem__, rows.tolist())), profile)
     nseg = np.array(curves.seg_counts(gs), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
@@ -2842,7 +2844,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=N
     fin.T_outer = T if type(T) is _OuterT else None
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
-        sts = [strokes[i] for i in rows[sl]]
+        sts = list(map(strokes.__getitem__, rows[sl].tolist()))
         base = _flat_chains(sts, profile, None if gs is None else gs[sl])
         Ts, bs = T[sl], beta[sl]
         res = _solve_cols(base, Ts, bs, order, prev)
@@ -3139,8 +3141,12 @@ class _Finisher:
 
     def _batch(self, rs):
         """The batch rs as _finish_stacked_dt takes it: (sts, gs, own, vk, dt)."""
-        sts = [r.sts[j] for r in rs for j in r.J.tolist()]
-        gs = [curves.geom(st, self.profile) for st in sts]
+        # (the strokes and their geometries by C-level maps, not a Python step a chain: ~28 k
+        # chains' rows finished on the windowed gyroid plate)
+        sts = []
+        for r in rs:
+            sts += map(r.sts.__getitem__, r.J.tolist())
+        gs = _geoms(sts, self.profile)
         if len(rs) == 1:             # (a window's batches: most are one group's rows)
             own = rs[0].rj
         else:
@@ -3296,7 +3302,7 @@ def _flat_chains(sts, profile, gs=None):
     cv = _join_caps(caps)
     m = len(sts)
     L, v0, v1 = _lengths_ends(sts)          # (one compiled pass: the same doubles)
-    return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
+    return _Flat.of_arrays(_inner_s_runs(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
                            L, np.zeros(m), np.ones(m), v0, v1)
 
 
@@ -3317,6 +3323,21 @@ def _inner_s(gs):
         if d.dtype == np.float64 and n.all():
             return _inner_s_core(core, d, n)
     return np.concatenate([g.s_v[1:-1] for g in gs])
+
+
+def _inner_s_runs(gs):
+    """_inner_s(gs) with the lengths of each run of consecutive geometries of one segment
+    count stacked (curves.stack_d: the same doubles) and summed by _inner_s_stacked, not a
+    d view a chain (the candidates' chunks: chains in order of their segment counts, a few
+    dozen runs for ~700 chains).  _inner_s where the core is missing or a run's count is 0."""
+    if not gs or _chain_law.CORE_MOD is None:
+        return _inner_s(gs)
+    n = np.array(curves.seg_counts(gs), np.int64)
+    if not n.all():
+        return _inner_s(gs)
+    ends = np.flatnonzero(n[1:] != n[:-1]).tolist()
+    starts = [0] + [e + 1 for e in ends]
+    return _inner_s_stacked(gs, [curves.stack_d(gs[a:z]) for a, z in zip(starts, starts[1:] + [len(gs)])])
 
 
 def _inner_s_core(core, d, n):
@@ -3346,9 +3367,12 @@ def _kept_caps(sts, gs, profile):
     # read are none of those, and are then looked for among the rest only, not by a row view
     # of its block's caps_jerk1 a chain, ~32 k on the windowed gyroid plate)
     _block_rows_caps(sts, gs, out, jerk)
+    # (the chains still without caps found by C-level maps: none, mostly)
+    miss = list(compress(range(len(out)), map(is_, out, repeat(None))))
+    if not miss:
+        return out
     if jerk:
-        gone = [q for q, (g, c) in enumerate(zip(gs, out)) if c is None and g.chain_caps is None
-                and g.caps_jerk1 is None]
+        gone = [q for q in miss if gs[q].chain_caps is None and gs[q].caps_jerk1 is None]
         if len(gone) > 1:
             got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
                                          [gs[q].d for q in gone], 1.0)
@@ -3356,9 +3380,9 @@ def _kept_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    for q, (g, c) in enumerate(zip(gs, out)):
-        if c is None:
-            c = g.chain_caps
+    for q in miss:
+        if out[q] is None:
+            c = gs[q].chain_caps
             out[q] = vertex_caps(sts[q], profile) if c is None else c
     return out
 

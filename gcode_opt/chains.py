@@ -920,7 +920,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
-        if items and (by_law or all(len(kept.base) == 8 for _, kept, _ in items)):
+        if items and (by_law or _all_laws(items)):
             # the knots of every row's law made again together (not a vertices_at call a chain)
             by_n = {}
             for q, n in enumerate(curves.seg_counts(gs)):
@@ -948,7 +948,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     # (s30: the rows are kept as their laws: the chosen rows' laws are copied out, then the
     # rows dropped, then the knots made again group by group as the plans are made)
     Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
-    if by_law or all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
+    if by_law or _all_laws(items):
         groups = _gather_laws(Qs, items, profile, gs, laws_of)     # (every row by its law)
         batches = []
     else:
@@ -988,6 +988,16 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
         del dt
     settle.flush()
     return out
+
+
+def _all_laws(items):
+    """Is every item's (stroke, _KeptLaws, row) kept base one of laws (8 entries)?  By
+    C-level maps over the items (~16 k chains a gyroid plate's replays), not a generator's
+    step an item; the generator where one has no base (it stops at the first not of 8)."""
+    try:
+        return set(map(len, map(_BASE, map(_IT1, items)))) <= {8}
+    except (AttributeError, TypeError):
+        return all(len(kept.base) == 8 for _, kept, _ in items)
 
 
 def _geoms(sts, profile):
@@ -3823,6 +3833,7 @@ def _put_memos(runs, J, run_of, g, figs, kept, src):
     cnt = np.bincount(chain[g], None, starts.size).tolist()
     which = [0] * starts.size if run_of is None else run_of[starts].tolist()
     lo = 0
+    shared, nshared = _ROW_INTS, len(_ROW_INTS)     # (_row_int inline: two calls a chain fewer)
     for k, jj, w in zip(cnt, J[starts].tolist(), which):
         if k:
             sts, a = runs[w][0], runs[w][7]
@@ -3831,8 +3842,9 @@ def _put_memos(runs, J, run_of, g, figs, kept, src):
                 # a chain's first rows (the table's usual case): what _own_source and
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
-                    memo.src, memo.src_i = src, _row_int(a + jj)
-                memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
+                    i = a + jj
+                    memo.src, memo.src_i = src, shared[i] if i < nshared else i
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, shared[lo] if lo < nshared else lo, k
                 memo.seg_tin = None
             else:
                 if src is not None:

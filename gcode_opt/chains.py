@@ -3371,6 +3371,16 @@ def _chain_caps(sts, gs, profile):
 
 def _kept_caps(sts, gs, profile):
     """_chain_caps as the geometries keep them (arrays, or the bytes of their doubles)."""
+    # (every chain's caps kept already, the windowed candidates' usual case: each one's own,
+    # as _kept_caps_made ends with, by a C-level map)
+    caps = list(map(_CHAIN_CAPS, gs))
+    if all(map(_IS_NOT_NONE, caps)):
+        return caps
+    return _kept_caps_made(sts, gs, profile)
+
+
+def _kept_caps_made(sts, gs, profile):
+    """_kept_caps, the caps not kept made (the blocks' rows, the whole-jerk batch, vertex_caps)."""
     out = [None] * len(sts)
     jerk = profile.junction == "jerk"
     # (the blocks' rows first: the chains whose caps went and whose whole-jerk caps were not

@@ -3689,6 +3689,23 @@ static PyObject *si_get(StrokeObject *s, void *c)
     return PyLong_FromLongLong(s->i[k]);
 }
 
+/* The fields' layout for _gcode_opt_emit (the module's "_STROKE_FIELDS" capsule): its
+ * rewrite reads a stroke's doubles (x0, y0, time_t, _ss_e, length_d) and ints (first_idx,
+ * last_idx) in place, not through sd_get / si_get's new float or int (~5 a stroke).  It
+ * reads a field so only where the type's getter it found is this sd_get / si_get (the
+ * same module: this layout), the field's bit in odd is clear, and (a None-able double)
+ * its bit in has tells None; else through the getter, as before.  version: 1. */
+typedef struct {
+    int version;
+    getter sd_get, si_get;
+    Py_ssize_t off_d, off_i, off_has, off_odd;
+    int sd_n, sd_none0, si_n;
+} StrokeFieldsAPI;
+static PyObject *si_get(StrokeObject *s, void *c);
+static const StrokeFieldsAPI STROKE_FIELDS_API = {
+    1, (getter)sd_get, (getter)si_get, offsetof(StrokeObject, d), offsetof(StrokeObject, i),
+    offsetof(StrokeObject, has), offsetof(StrokeObject, odd), SD_N, SD_NONE0, SI_N};
+
 static int si_set(StrokeObject *s, PyObject *v, void *c)
 {
     int k = (int)(intptr_t)c;
@@ -8827,6 +8844,17 @@ static struct PyModuleDef core_module = {
 #define GCODE_OPT_SOURCE_STAT ""
 #endif
 
+/* STROKE_FIELDS_API's capsule added to m: 0, or -1 (an exception) */
+static int add_stroke_fields(PyObject *m)
+{
+    PyObject *cap = PyCapsule_New((void *)&STROKE_FIELDS_API, "_gcode_opt_fwcore._STROKE_FIELDS", NULL);
+    if (cap == NULL)
+        return -1;
+    int r = PyModule_AddObjectRef(m, "_STROKE_FIELDS", cap);
+    Py_DECREF(cap);
+    return r;
+}
+
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
@@ -8852,6 +8880,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
         || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
+        || add_stroke_fields(m) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0

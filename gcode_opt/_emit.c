@@ -1369,6 +1369,8 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
     return 0;
 }
 
+#define ROOM_KNOTS 256            /* emit_cols_body's knots a room is made for at once */
+
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
@@ -1428,7 +1430,26 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
         nl_nl = c[4];
         nl_acc = c[5] + nl_nl;
     }
+    /* The room of a knot's lines made ROOM_KNOTS knots at a time, not a line at a time: at
+       most an accel line (wn + 24 + nln: tenths_at's text in 24) and a segment line (11 +
+       3 * 48 + 24 + nln: its words, numbers and feed, the move's texts where it takes them
+       as they are -- the longest of the moves' -- and E's); the first call's also the
+       before and after pieces.  (Each line's own sum and test were ~25 instructions a knot.) */
+    Py_ssize_t max_txt = 0, max_e = 0;
+    for (Py_ssize_t j = 0; j < n_moves; j++) {
+        Py_ssize_t t = xt[j].n + yt[j].n + cm[j].n;
+        max_txt = t > max_txt ? t : max_txt;
+        max_e = et[j].n > max_e ? et[j].n : max_e;
+    }
+    const Py_ssize_t knot_room = wn + 24 + nln + 11 + 3 * 48 + 24 + nln + max_txt + (extruding ? max_e + 1 : 0);
+    Py_ssize_t k_room = 1;                     /* the knots before k_room have their room made */
     for (Py_ssize_t k = 1; k <= k_total; k++) {
+        if (k >= k_room) {
+            Py_ssize_t nk = k_total - k + 1 < ROOM_KNOTS ? k_total - k + 1 : ROOM_KNOTS;
+            if (buf_grow(b, nk * knot_room + (k == 1 ? (bp != NULL ? bn : 0) + (ap != NULL ? an : 0) : 0)) < 0)
+                return -1;
+            k_room = k + nk;
+        }
         double sk = s->d[k], a = acc->d[k - 1], f = fd->d[k - 1];
         if (!(sk <= end_d + tol_d))
             return 1;                            /* "a knot skipped an original vertex" */
@@ -1485,9 +1506,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
             have_a = 1;
             last_a = a;
             if (!have_cmd || ka != last_ka) {
-                /* the accel line in room made for it at once (tenths_at: at most 24 bytes) */
-                if (buf_grow(b, wn + 24 + nln) < 0)
-                    return -1;
+                /* the accel line in the knot's room (tenths_at: at most 24 bytes) */
                 char *q = copy_short(b->p + b->n, wp, wn);
                 q = tenths_at(q, ka);
                 if (kn != NULL) {
@@ -1503,7 +1522,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
                 if (!have_cmd && bp != NULL) {           /* first_cmds[0], after the first M204 */
                     if (kn != NULL)
                         skip_close(kn, b->n);
-                    if (put(b, bp, bn) < 0)
+                    if (put(b, bp, bn) < 0)          /* (in the first knots' room: no growth) */
                         return -1;
                     if (kn != NULL)
                         kn->open = b->n;
@@ -1516,11 +1535,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
         int64_t kf;
         if (ceil_tenths(f * 600.0 - 1e-6, &kf) < 0)
             return 1;
-        /* the line, in room made for all of it at once (a number's text: at most 48 bytes) */
-        Py_ssize_t room = 11 + 3 * 48 + 24 + nln + (at_vertex ? xo->n + yo->n + co->n : 0)
-                          + (extruding ? et[move].n + 1 : 0) + (k == 1 && ap != NULL ? an : 0);
-        if (buf_grow(b, room) < 0)
-            return -1;
+        /* the line, in the knot's room (a number's text: at most 48 bytes) */
         char *q = b->p + b->n;
         Py_ssize_t line_at = b->n;
         /* the line's values as fast_check would read them (known: all of them certain) */

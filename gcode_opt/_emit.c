@@ -3766,6 +3766,36 @@ static PyObject *attr_read(PyObject *self, PyObject *args)
     return NULL;
 }
 
+/* field_read(o, name): stroke_double's / stroke_int's in-place read of o's field name
+   (stroke_run's: x0, y0, time_t, _ss_e, length_d; first_idx, last_idx) as
+   (True, its value: a float, None or an int), or (False, None) where it is not read so
+   (tests: against getattr) */
+static PyObject *field_read(PyObject *self, PyObject *args)
+{
+    PyObject *o;
+    const char *nm;
+    if (!PyArg_ParseTuple(args, "Os", &o, &nm) || names_ready() < 0)
+        return NULL;
+    stroke_fields_ready();
+    for (int k = 0; k < N_NAMES; k++)
+        if (strcmp(nm, NAME_TEXT[k]) == 0) {
+            double x;
+            long long i;
+            int none;
+            if (k == A_FIRST || k == A_LAST) {
+                if (stroke_int(o, k, &i))
+                    return Py_BuildValue("(OL)", Py_True, i);
+            } else if (stroke_double(o, k, &x, &none)) {
+                if (none)
+                    return Py_BuildValue("(OO)", Py_True, Py_None);
+                return Py_BuildValue("(Od)", Py_True, x);
+            }
+            return Py_BuildValue("(OO)", Py_False, Py_None);
+        }
+    PyErr_Format(PyExc_ValueError, "field_read: %s is not one of get_attr's names", nm);
+    return NULL;
+}
+
 /* line_read(text): plain_line on an ASCII line without its "\n": None (not plain), or
    (x_text, y_text, e_text or None, comment, dx, dy, de, x, y, e or None) */
 static PyObject *line_read(PyObject *self, PyObject *o)
@@ -4054,6 +4084,7 @@ static PyMethodDef mod_methods[] = {
     {"line_units", line_units, METH_VARARGS, "(block_into's units of a plain line's numbers, units_txt's) (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
+    {"field_read", field_read, METH_VARARGS, "stroke_double's / stroke_int's in-place read of a field (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
     {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},

@@ -307,76 +307,6 @@ static inline __attribute__((always_inline)) Py_ssize_t dec_value_pairs(const ch
     return i;
 }
 
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && defined(__GNUC__)
-#define SWAR_PARSE 1
-/* the number 8 digit values make (bytes 0..9, the first digit in the lowest byte: zeros
-   first for fewer digits), by three multiplications (fast_float's parse_eight_digits) */
-static inline uint64_t swar8_value(uint64_t x)
-{
-    x = x * 10 + (x >> 8);
-    return (((x & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32)))
-            + (((x >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32;
-}
-
-/* the run of digits in the 8 bytes w (the first in the lowest byte): its length (8: all
-   digits) and, in *x, w's bytes xor '0' (a digit's value where it is one).  A byte is a
-   digit where its xor with '0' is 0..9: then neither it nor it + 6 reaches 16 (a carry of
-   it + 6 past its byte, from a byte >= 250, is above the first byte that is not one) */
-static inline int swar_digit_run(uint64_t w, uint64_t *x)
-{
-    uint64_t v = w ^ 0x3030303030303030ULL;
-    uint64_t bad = (v | (v + 0x0606060606060606ULL)) & 0xF0F0F0F0F0F0F0F0ULL;
-    *x = v;
-    return bad ? __builtin_ctzll(bad) >> 3 : 8;
-}
-
-static const uint64_t U10_8[8] = {1ULL, 10ULL, 100ULL, 1000ULL, 10000ULL, 100000ULL, 1000000ULL, 10000000ULL};
-
-/* dec_value_pairs' reading (the same length, decimals, double and integer, or -1) of a
-   number whose whole and fraction have at most 7 digits each (nearly every coordinate and
-   E a slicer writes), 8 bytes a part at once: -2 where a part is longer (the caller reads
-   it digit by digit).  p[0..16] must be readable (in p's page: num_word).  ~40 instructions
-   a number where the pairs took ~75 (the rewrite reads the re-timed strokes' own lines) */
-static inline __attribute__((always_inline)) Py_ssize_t dec_value_swar(const char *p, int *dec, double *v,
-                                                                       uint64_t *mo)
-{
-    int neg = p[0] == '-';
-    const char *q = p + neg;
-    uint64_t w, x, x2 = 0, m, f = 0;
-    memcpy(&w, q, 8);
-    int nd = swar_digit_run(w, &x), nf = 0, dot = 0;
-    if (nd == 8)
-        return -2;
-    if ((char)(w >> (8 * nd)) == '.') {
-        uint64_t w2;
-        memcpy(&w2, q + nd + 1, 8);
-        nf = swar_digit_run(w2, &x2);
-        if (nf == 8)
-            return -2;
-        dot = 1;
-        if (nf)
-            f = swar8_value(x2 << (64 - 8 * nf));
-    }
-    *dec = nf;
-    if (nd + nf == 0)
-        return -1;
-    m = nd ? swar8_value(x << (64 - 8 * nd)) : 0;
-    m = m * U10_8[nf] + f;                        /* (< 10^14: the digits' integer, as the pairs make it) */
-    *mo = m;
-    double d = (double)(int64_t)m;                /* (nd + nf <= 14: to_double's fast path, the same division) */
-    if (nf) d = d / POW10[nf];
-    *v = neg ? -d : d;
-    return neg + nd + dot + nf;
-}
-#else
-#define SWAR_PARSE 0
-static inline Py_ssize_t dec_value_swar(const char *p, int *dec, double *v, uint64_t *mo)
-{
-    (void)p; (void)dec; (void)v; (void)mo;
-    return -2;
-}
-#endif
-
 /* growable byte buffer */
 typedef struct { char *p; Py_ssize_t n, cap; } Buf;
 
@@ -1963,11 +1893,8 @@ static PyObject *skip_lines(PyObject *self, PyObject *const *args, Py_ssize_t na
 static inline __attribute__((always_inline)) Py_ssize_t num_word(const char *p, Py_ssize_t n, int *dec, double *v,
                                                                  uint64_t *m, const int pairs)
 {
-    /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable;
-       8 bytes a part where p[0..16] is in p's page) */
-    Py_ssize_t k = SWAR_PARSE && pairs && ((uintptr_t)p & 4095u) <= 4095u - 16 ? dec_value_swar(p, dec, v, m) : -2;
-    if (k == -2)
-        k = pairs ? dec_value_pairs(p, dec, v, m) : dec_value_in(p, 0, dec, v, 1, m);
+    /* (plain_line's lines: a '\n' at p[n] or before; pairs: the byte after it readable) */
+    Py_ssize_t k = pairs ? dec_value_pairs(p, dec, v, m) : dec_value_in(p, 0, dec, v, 1, m);
     if (k < 0)
         return -1;
     /* (digit_pairs' run ends at a byte that is not a digit: dec_value_pairs' p[k] is none) */

@@ -2079,6 +2079,29 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
     *n_out = n;
+#if SWAR_DIGITS
+    if (n < 100000000 && prec <= 7) {
+        /* the 8 digits of n at once (digits8: the heads' T, a start's x0 where its text is
+           made): the whole's leading zeros cut but its last digit kept, then the prec
+           decimals, each an 8-byte store into buf (~40 instructions, not digits_back's
+           loop, the padding's and two copies) */
+        uint64_t d = digits8((uint32_t)n), t = d + 0x3030303030303030ULL;
+        int lead = __builtin_ctzll(d | 1ULL << 56) >> 3, first = lead < 7 - prec ? lead : 7 - prec;
+        char *q = buf;
+        if (signbit(x)) *q++ = '-';
+        uint64_t w = t >> (8 * first);
+        memcpy(q, &w, 8);
+        q += 8 - prec - first;
+        if (prec) {
+            *q++ = '.';
+            w = t >> (8 * (8 - prec));
+            memcpy(q, &w, 8);
+            q += prec;
+        }
+        *q = 0;
+        return (int)(q - buf);
+    }
+#endif
     char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
@@ -2998,7 +3021,7 @@ static double float_attr(PyObject *o, int name, int *bad)
 static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
                      const char *d, Py_ssize_t a, Py_ssize_t len, Py_ssize_t n, Py_ssize_t *n_lines, Py_ssize_t *z)
 {
-    PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
+    PyObject *obj[24];              /* references held (at most 22): obj[0..no), freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
     FSeq fs[4];
     char *head = NULL, *x0t = NULL, *y0t = NULL, head_room[512];   /* (the head in head_room where it fits) */

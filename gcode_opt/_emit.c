@@ -1299,7 +1299,7 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
     return 0;
 }
 
-#define ROOM_KNOTS 256            /* emit_cols_body's knots a room is made for at once */
+#define ROOM_KNOTS 32             /* emit_cols_body's knots a room is made for at once (more: its reallocs copied more) */
 
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm

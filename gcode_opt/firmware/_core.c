@@ -4250,35 +4250,27 @@ static int proto_read(Proto *p, PyObject *m)
  * size, ~10x fewer instructions than array("d", bytes) and its copy a[:], which gave the
  * same array before) */
 static PyObject *ARRAY_ONE = NULL;     /* array("d", [0.0]) of the kit's array class */
-/* Up to ARRAY_ZEROS_N doubles, the array is a slice of ARRAY_ZEROS (that many zeros): its
- * one copy where the repeat doubled its copies (~140 instructions an array of the plates'
- * sizes).  Its items, where the probe of ARRAY_ZEROS found them at array_item_off (the
- * array object's item pointer, after its PyVarObject head, as arraymodule.c lays it out:
- * the buffer PyObject_GetBuffer gives), are read there, not through a buffer taken and
- * released (~75 instructions); else (another layout) through the buffer. */
-#define ARRAY_ZEROS_N 1024
-static PyObject *ARRAY_ZEROS = NULL;
-static Py_ssize_t array_item_off = 0;  /* 0: not probed, or not found there */
+/* The new array's items read at its item pointer (after its PyVarObject head, as
+ * arraymodule.c lays an array out) where a probe of ARRAY_ONE found its buffer there:
+ * not through a buffer taken and released (~75 instructions an array: the gyroid plate
+ * windowed makes ~165 k).  Else (another layout) through the buffer.  (A slice of an array
+ * of zeros, one copy where the repeat doubles its copies, cost as much again in the
+ * slice's objects.) */
+static Py_ssize_t array_item_off = 0;  /* 0: not found there */
 
-/* ARRAY_ZEROS of ARRAY_ONE's class made and probed: 0, or -1 (an exception) */
-static int array_zeros_ready(void)
+/* array_item_off for ARRAY_ONE's class: 0, or -1 (an exception) */
+static int array_probe(void)
 {
-    PyObject *z = PySequence_Repeat(ARRAY_ONE, ARRAY_ZEROS_N);
-    if (z == NULL)
-        return -1;
     Py_buffer view;
     array_item_off = 0;
-    if (PyObject_GetBuffer(z, &view, PyBUF_WRITABLE) < 0) {
-        Py_DECREF(z);
+    if (PyObject_GetBuffer(ARRAY_ONE, &view, PyBUF_WRITABLE) < 0)
         return -1;
-    }
     Py_ssize_t off = (Py_ssize_t)sizeof(PyVarObject);
-    if (Py_SIZE(z) == ARRAY_ZEROS_N && view.len == ARRAY_ZEROS_N * (Py_ssize_t)sizeof(double)
-        && view.itemsize == (Py_ssize_t)sizeof(double) && (size_t)Py_TYPE(z)->tp_basicsize >= off + sizeof(void *)
-        && *(void **)((char *)z + off) == view.buf)
+    if (Py_SIZE(ARRAY_ONE) == 1 && view.len == (Py_ssize_t)sizeof(double) && view.itemsize == (Py_ssize_t)sizeof(double)
+        && (size_t)Py_TYPE(ARRAY_ONE)->tp_basicsize >= off + sizeof(void *)
+        && *(void **)((char *)ARRAY_ONE + off) == view.buf)
         array_item_off = off;
     PyBuffer_Release(&view);
-    Py_XSETREF(ARRAY_ZEROS, z);
     return 0;
 }
 
@@ -4289,13 +4281,13 @@ static PyObject *array_room(PyObject *array_t, Py_ssize_t n, double **buf)
         if (one == NULL)
             return NULL;
         Py_XSETREF(ARRAY_ONE, one);
-        if (array_zeros_ready() < 0)
+        if (array_probe() < 0)
             return NULL;
     }
-    PyObject *a = n <= ARRAY_ZEROS_N ? PySequence_GetSlice(ARRAY_ZEROS, 0, n) : PySequence_Repeat(ARRAY_ONE, n);
+    PyObject *a = PySequence_Repeat(ARRAY_ONE, n);
     if (a == NULL)
         return NULL;
-    if (array_item_off > 0 && Py_IS_TYPE(a, Py_TYPE(ARRAY_ZEROS)) && Py_SIZE(a) == n) {
+    if (array_item_off > 0 && Py_IS_TYPE(a, Py_TYPE(ARRAY_ONE)) && Py_SIZE(a) == n) {
         *buf = *(double **)((char *)a + array_item_off);     /* (stays put: nothing else holds the array) */
         return a;
     }

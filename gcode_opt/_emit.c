@@ -1299,6 +1299,8 @@ static int start8_units(uint64_t n, int neg, int dec, int64_t *out)
     return 0;
 }
 
+#define ROOM_KNOTS 32             /* emit_cols_body's knots a room is made for at once (more: its reallocs copied more) */
+
 /* emit.emit_stroke's loop: head + segment lines (before/after around the first move when
    bp is not NULL) + closing appended to b.  The moves' texts are the columns xt, yt, et, cm
    (n_cols of them).  0: written; 1: decline (the Python loop would take another path or
@@ -1358,7 +1360,26 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
         nl_nl = c[4];
         nl_acc = c[5] + nl_nl;
     }
+    /* The room of a knot's lines made ROOM_KNOTS knots at a time, not a line at a time: at
+       most an accel line (wn + 24 + nln: tenths_at's text in 24) and a segment line (11 +
+       3 * 48 + 24 + nln: its words, numbers and feed, the move's texts where it takes them
+       as they are -- the longest of the moves' -- and E's); the first call's also the
+       before and after pieces.  (Each line's own sum and test were ~25 instructions a knot.) */
+    Py_ssize_t max_txt = 0, max_e = 0;
+    for (Py_ssize_t j = 0; j < n_moves; j++) {
+        Py_ssize_t t = xt[j].n + yt[j].n + cm[j].n;
+        max_txt = t > max_txt ? t : max_txt;
+        max_e = et[j].n > max_e ? et[j].n : max_e;
+    }
+    const Py_ssize_t knot_room = wn + 24 + nln + 11 + 3 * 48 + 24 + nln + max_txt + (extruding ? max_e + 1 : 0);
+    Py_ssize_t k_room = 1;                     /* the knots before k_room have their room made */
     for (Py_ssize_t k = 1; k <= k_total; k++) {
+        if (k >= k_room) {
+            Py_ssize_t nk = k_total - k + 1 < ROOM_KNOTS ? k_total - k + 1 : ROOM_KNOTS;
+            if (buf_grow(b, nk * knot_room + (k == 1 ? (bp != NULL ? bn : 0) + (ap != NULL ? an : 0) : 0)) < 0)
+                return -1;
+            k_room = k + nk;
+        }
         double sk = s->d[k], a = acc->d[k - 1], f = fd->d[k - 1];
         if (!(sk <= end_d + tol_d))
             return 1;                            /* "a knot skipped an original vertex" */
@@ -1415,9 +1436,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
             have_a = 1;
             last_a = a;
             if (!have_cmd || ka != last_ka) {
-                /* the accel line in room made for it at once (tenths_at: at most 24 bytes) */
-                if (buf_grow(b, wn + 24 + nln) < 0)
-                    return -1;
+                /* the accel line in the knot's room (tenths_at: at most 24 bytes) */
                 char *q = copy_short(b->p + b->n, wp, wn);
                 q = tenths_at(q, ka);
                 if (kn != NULL) {
@@ -1433,7 +1452,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
                 if (!have_cmd && bp != NULL) {           /* first_cmds[0], after the first M204 */
                     if (kn != NULL)
                         skip_close(kn, b->n);
-                    if (put(b, bp, bn) < 0)
+                    if (put(b, bp, bn) < 0)          /* (in the first knots' room: no growth) */
                         return -1;
                     if (kn != NULL)
                         kn->open = b->n;
@@ -1446,11 +1465,7 @@ emit_cols_body(Buf *b, const Pieces *pc, const Txt *xt, const Txt *yt, const Txt
         int64_t kf;
         if (ceil_tenths(f * 600.0 - 1e-6, &kf) < 0)
             return 1;
-        /* the line, in room made for all of it at once (a number's text: at most 48 bytes) */
-        Py_ssize_t room = 11 + 3 * 48 + 24 + nln + (at_vertex ? xo->n + yo->n + co->n : 0)
-                          + (extruding ? et[move].n + 1 : 0) + (k == 1 && ap != NULL ? an : 0);
-        if (buf_grow(b, room) < 0)
-            return -1;
+        /* the line, in the knot's room (a number's text: at most 48 bytes) */
         char *q = b->p + b->n;
         Py_ssize_t line_at = b->n;
         /* the line's values as fast_check would read them (known: all of them certain) */
@@ -2064,6 +2079,29 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     if (!isfinite(x) || prec < 0 || prec > 20 || scaled_int(x, prec, &n, &fl) < 0)
         return -1;
     *n_out = n;
+#if SWAR_DIGITS
+    if (n < 100000000 && prec <= 7) {
+        /* the 8 digits of n at once (digits8: the heads' T, a start's x0 where its text is
+           made): the whole's leading zeros cut but its last digit kept, then the prec
+           decimals, each an 8-byte store into buf (~40 instructions, not digits_back's
+           loop, the padding's and two copies) */
+        uint64_t d = digits8((uint32_t)n), t = d + 0x3030303030303030ULL;
+        int lead = __builtin_ctzll(d | 1ULL << 56) >> 3, first = lead < 7 - prec ? lead : 7 - prec;
+        char *q = buf;
+        if (signbit(x)) *q++ = '-';
+        uint64_t w = t >> (8 * first);
+        memcpy(q, &w, 8);
+        q += 8 - prec - first;
+        if (prec) {
+            *q++ = '.';
+            w = t >> (8 * (8 - prec));
+            memcpy(q, &w, 8);
+            q += prec;
+        }
+        *q = 0;
+        return (int)(q - buf);
+    }
+#endif
     char tmp[48], *end = tmp + sizeof tmp, *first = f_digits(end, n);
     while (end - first < prec + 1) *--first = '0';     /* at least "0" before the point */
     char *q = buf;
@@ -2083,21 +2121,58 @@ static int fmt_f(double x, int prec, char *buf)
     return fmt_f_n(x, prec, buf, &n);
 }
 
+/* fmt_f_n(x, 8)'s integer (*n) without its text: 0 where fmt_f_n(x, 8) makes one, else -1
+   (the same tests).  A start whose both integers are known needs no text (run_block) */
+static int start8_of(double x, uint64_t *n)
+{
+    uint64_t fl;
+    return isfinite(x) && scaled_int(x, 8, n, &fl) == 0 ? 0 : -1;
+}
+
+/* The first k of 0..7 where floor(|x| 10^k) (scaled_int's fl) is 1000 or more, and its n and
+   fl: k; 8 where none is; -1 where scaled_int declines before that k (x finite, not 0).
+   The loop k = 0, 1, ... (up to 8 scaled_int calls: the heads' beta ~1e-3 took 7) started
+   at log10(|x|)'s estimate from the exponent instead, then moved to that same first k:
+   "scaled_int declines or fl >= 1000" holds from some k on (fl grows with k; a decline is
+   fl >= 2^64), so the first k is found from either side with a call or two. */
+static int g4_scale(double x, uint64_t *n, uint64_t *fl)
+{
+    int e2 = ilogb(x);                             /* 2^e2 <= |x| < 2^(e2 + 1) */
+    int k = 3 - (int)floor(e2 * 0.30102999566398120);
+    k = k < 0 ? 0 : k > 7 ? 7 : k;
+    int ok = scaled_int(x, k, n, fl) == 0;
+    if (!ok || *fl >= 1000) {                      /* the first k is this one or before it */
+        while (k > 0) {
+            uint64_t n1, fl1;
+            int ok1 = scaled_int(x, k - 1, &n1, &fl1) == 0;
+            if (ok1 && fl1 < 1000)
+                break;
+            k--;
+            ok = ok1;
+            *n = n1;
+            *fl = fl1;
+        }
+        return ok ? k : -1;
+    }
+    while (k < 7) {                                /* after it */
+        k++;
+        if (scaled_int(x, k, n, fl) < 0)
+            return -1;
+        if (*fl >= 1000)
+            return k;
+    }
+    return 8;
+}
+
 /* format(x, ".4g") into buf (at least 64 bytes) where it is written without an exponent
    (1e-4 <= |x| rounded < 1e4): its length, or -1 (declined: zero, not finite, exponent form) */
 static int fmt_g4(double x, char *buf)
 {
     uint64_t n = 0, fl = 0;
-    int k;
     if (!isfinite(x) || x == 0.0)
         return -1;
-    for (k = 0; k <= 7; k++) {                    /* the k with |x| 10^k in [1000, 10000) */
-        if (scaled_int(x, k, &n, &fl) < 0)
-            return -1;
-        if (fl >= 1000)
-            break;
-    }
-    if (k > 7 || fl >= 10000)
+    int k = g4_scale(x, &n, &fl);                  /* the k with |x| 10^k in [1000, 10000) */
+    if (k < 0 || k > 7 || fl >= 10000)
         return -1;
     int decpt = 4 - k;                             /* x ~ 0.dddd 10^decpt */
     if (n >= 10000) {                              /* 9999.5.. rounded up: "1000", one place on */
@@ -2140,6 +2215,7 @@ static int fmt_f_n(double x, int prec, char *buf, uint64_t *n_out)
     return -1;
 }
 static int fmt_f(double x, int prec, char *buf) { (void)x; (void)prec; (void)buf; return -1; }
+static int start8_of(double x, uint64_t *n) { (void)x; (void)n; return -1; }
 static int fmt_g4(double x, char *buf) { (void)x; (void)buf; return -1; }
 #endif
 
@@ -2747,10 +2823,100 @@ static inline __attribute__((always_inline)) PyObject *get_attr(PyObject *o, int
     }
     return get_attr_ways(o, name);
 }
+
+/* The compiled firmware core's StrokeBase fields read in place (its "_STROKE_FIELDS"
+   capsule: the layout, and the getters that read them as objects): a double or int field
+   of a stroke whose attribute slot holds that module's getter is read from the stroke
+   itself, not as the new float or int the getter makes (~5 a stroke in a run: each a
+   call, an allocation and its release).  The same value: the getter's own tests (the
+   field's bit in odd: an object kept aside, read as an object; has: None) made here. */
+typedef struct {
+    int version;
+    getter sd_get, si_get;
+    Py_ssize_t off_d, off_i, off_has, off_odd;
+    int sd_n, sd_none0, si_n;
+} StrokeFieldsAPI;
+static const StrokeFieldsAPI *STROKE_FIELDS = NULL;
+
+/* STROKE_FIELDS from the firmware core, if it is imported (not imported here) and its
+   capsule is of this version; NULL else, no exception */
+static void stroke_fields_ready(void)
+{
+    if (STROKE_FIELDS != NULL)
+        return;
+    PyObject *name = PyUnicode_FromString("_gcode_opt_fwcore"), *m = NULL, *cap = NULL;
+    if (name != NULL && (m = PyImport_GetModule(name)) != NULL
+        && (cap = PyObject_GetAttrString(m, "_STROKE_FIELDS")) != NULL) {
+        const StrokeFieldsAPI *api = PyCapsule_GetPointer(cap, "_gcode_opt_fwcore._STROKE_FIELDS");
+        if (api != NULL && api->version == 1)
+            STROKE_FIELDS = api;
+    }
+    Py_XDECREF(cap);
+    Py_XDECREF(m);
+    Py_XDECREF(name);
+    PyErr_Clear();
+}
+
+/* the way of name's slots that holds o's type with a valid tag and getter get (NULL: none) */
+static inline const AttrSlot *getter_way(PyObject *o, int name, getter get)
+{
+    PyTypeObject *tp = Py_TYPE(o);
+    for (int k = 0; k < ATTR_WAYS; k++) {
+        const AttrSlot *sl = &ATTR_SLOTS[name][k];
+        if (sl->type == tp)
+            return sl->gs_get == get && tag_valid(tp, sl->tag) ? sl : NULL;
+    }
+    return NULL;
+}
+
+/* o's double field name read in place: 1 (*x its value, 0.0 and *none 1 for None), or 0
+   (not a StrokeBase double read so: get_attr reads it, filling its slot the first time) */
+static inline int stroke_double(PyObject *o, int name, double *x, int *none)
+{
+    const StrokeFieldsAPI *f = STROKE_FIELDS;
+    const AttrSlot *sl = f != NULL ? getter_way(o, name, f->sd_get) : NULL;
+    if (sl == NULL)
+        return 0;
+    int k = (int)(intptr_t)sl->gs_closure;
+    const char *b = (const char *)o;
+    unsigned int odd = *(const unsigned int *)(b + f->off_odd), has = *(const unsigned int *)(b + f->off_has);
+    if (k < 0 || k >= f->sd_n || (odd >> k) & 1)
+        return 0;
+    *none = k >= f->sd_none0 && !((has >> (k - f->sd_none0)) & 1);
+    *x = *none ? 0.0 : ((const double *)(b + f->off_d))[k];
+    return 1;
+}
+
+/* o's int field name read in place: 1 (*x), or 0 (as stroke_double's) */
+static inline int stroke_int(PyObject *o, int name, long long *x)
+{
+    const StrokeFieldsAPI *f = STROKE_FIELDS;
+    const AttrSlot *sl = f != NULL ? getter_way(o, name, f->si_get) : NULL;
+    if (sl == NULL)
+        return 0;
+    int k = (int)(intptr_t)sl->gs_closure;
+    const char *b = (const char *)o;
+    unsigned int odd = *(const unsigned int *)(b + f->off_odd);
+    if (k < 0 || k >= f->si_n || (odd >> (f->sd_n + k)) & 1)
+        return 0;
+    *x = ((const long long *)(b + f->off_i))[k];
+    return 1;
+}
 #else
 static PyObject *get_attr(PyObject *o, int name)
 {
     return PyObject_GetAttr(o, NAMES[name]);
+}
+static void stroke_fields_ready(void) {}
+static inline int stroke_double(PyObject *o, int name, double *x, int *none)
+{
+    (void)o; (void)name; (void)x; (void)none;
+    return 0;
+}
+static inline int stroke_int(PyObject *o, int name, long long *x)
+{
+    (void)o; (void)name; (void)x;
+    return 0;
 }
 #endif
 
@@ -2831,8 +2997,13 @@ typedef struct {
 /* an attribute that must be a float: its value; bad set (no exception) otherwise */
 static double float_attr(PyObject *o, int name, int *bad)
 {
-    PyObject *v = get_attr(o, name);
     double x = 0.0;
+    int none;
+    if (stroke_double(o, name, &x, &none)) {      /* (None is not a float) */
+        *bad |= none;
+        return x;
+    }
+    PyObject *v = get_attr(o, name);
     if (v != NULL && PyFloat_CheckExact(v))
         x = PyFloat_AS_DOUBLE(v);
     else {
@@ -2850,22 +3021,30 @@ static double float_attr(PyObject *o, int name, int *bad)
 static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject *beta_o, PyObject *kind,
                      const char *d, Py_ssize_t a, Py_ssize_t len, Py_ssize_t n, Py_ssize_t *n_lines, Py_ssize_t *z)
 {
-    PyObject *obj[24] = {NULL};     /* references held (at most 22): freed at the end */
+    PyObject *obj[24];              /* references held (at most 22): obj[0..no), freed at the end */
     int no = 0, got = 0, bad = 0, rows_read = 0;
     FSeq fs[4];
     char *head = NULL, *x0t = NULL, *y0t = NULL, head_room[512];   /* (the head in head_room where it fits) */
     for (int k = 0; k < 4; k++)
         memset(&fs[k], 0, sizeof fs[k]);
 #define GET(var, o, name) do { if ((var = obj[no++] = get_attr(o, name)) == NULL) goto decline; } while (0)
-    PyObject *e0_o, *a0_o, *c0_o, *ends, *e_rel_o, *feature, *v_feed, *knots, *acc, *fd, *fc, *t_was_o, *t_o;
-    GET(e0_o, s, A_SS_E);
+    PyObject *e0_o = NULL, *a0_o, *c0_o, *ends, *e_rel_o, *feature, *v_feed, *knots, *acc, *fd, *fc, *t_was_o = NULL,
+             *t_o;
+    /* the start's e and the stroke's time: read in place where they are StrokeBase's doubles
+       (stroke_double: no float made), else as objects */
+    double e0 = 0.0, t_was = 0.0;
+    int e0_none = 0, t_none = 0;
+    int e0_in = stroke_double(s, A_SS_E, &e0, &e0_none), t_in = stroke_double(s, A_TIME, &t_was, &t_none);
+    if (!e0_in)
+        GET(e0_o, s, A_SS_E);
     GET(a0_o, s, A_SS_A);
     GET(c0_o, s, A_SS_C);
     GET(ends, s, A_ENDS);
     GET(e_rel_o, s, A_E_REL);
     GET(feature, s, A_FEATURE);
     GET(v_feed, s, A_V_FEED);
-    GET(t_was_o, s, A_TIME);
+    if (!t_in)
+        GET(t_was_o, s, A_TIME);
     GET(knots, seg, A_S);
     GET(acc, seg, A_ACCEL);
     GET(fd, seg, A_FEED);
@@ -2896,9 +3075,13 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
         }
     }
 #undef GET
-    if (e0_o == Py_None || !PyFloat_CheckExact(e0_o) || !PyFloat_CheckExact(a0_o) || !PyFloat_Check(t_o)
-        || !PyFloat_Check(t_was_o) || !PyFloat_Check(beta_o))
+    if ((e0_in ? e0_none : e0_o == Py_None || !PyFloat_CheckExact(e0_o)) || !PyFloat_CheckExact(a0_o)
+        || !PyFloat_Check(t_o) || (t_in ? t_none : !PyFloat_Check(t_was_o)) || !PyFloat_Check(beta_o))
         goto decline;
+    if (!e0_in)
+        e0 = PyFloat_AS_DOUBLE(e0_o);
+    if (!t_in)
+        t_was = PyFloat_AS_DOUBLE(t_was_o);
     if (ends == Py_None) {        /* one move: ends_d's (length_d,) */
         double len_d = float_attr(s, A_LENGTH, &bad);
         if (bad)
@@ -2928,7 +3111,7 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     ba.stop = len;
     ba.stop_at = z;
     ba.n = n;
-    ba.e0 = PyFloat_AS_DOUBLE(e0_o);
+    ba.e0 = e0;
     ba.e_rel = e_rel;
     ba.extruding = extruding;
     double accel0 = PyFloat_AS_DOUBLE(a0_o);
@@ -2938,24 +3121,31 @@ static int run_block(Buf *out, RunArgs *ra, PyObject *s, PyObject *seg, PyObject
     ba.y0v = float_attr(s, A_Y0, &bad);
     if (bad)
         goto decline;
-    /* the start's texts, f"{x0:.8f}": fmt_f's (and its integers: ba.s8), else
-       PyOS_double_to_string's */
+    /* the start's texts, f"{x0:.8f}", stand in block_into and emit_cols by their integers
+       (ba.s8) where fmt_f makes both: then no text is made (block_into and emit_cols read
+       the texts only without s8.known; ~250 instructions a stroke).  Else the texts:
+       fmt_f's, else PyOS_double_to_string's */
     char x0b[64], y0b[64];
-    int nx0 = fmt_f_n(ba.x0v, 8, x0b, &ba.s8.n[0]), ny0 = fmt_f_n(ba.y0v, 8, y0b, &ba.s8.n[1]);
-    ba.s8.known = nx0 >= 0 && ny0 >= 0;
+    ba.s8.known = start8_of(ba.x0v, &ba.s8.n[0]) == 0 && start8_of(ba.y0v, &ba.s8.n[1]) == 0;
     ba.s8.neg[0] = signbit(ba.x0v) != 0;
     ba.s8.neg[1] = signbit(ba.y0v) != 0;
-    if ((ba.x0.p = nx0 >= 0 ? x0b : (x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL))) == NULL
-        || (ba.y0.p = ny0 >= 0 ? y0b : (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL))) == NULL) {
-        PyErr_Clear();
-        goto decline;
+    if (ba.s8.known) {
+        ba.x0.p = ba.y0.p = "";          /* (not read: s8's integers are their numbers) */
+        ba.x0.n = ba.y0.n = 0;
+    } else {
+        int nx0 = fmt_f_n(ba.x0v, 8, x0b, &ba.s8.n[0]), ny0 = fmt_f_n(ba.y0v, 8, y0b, &ba.s8.n[1]);
+        if ((ba.x0.p = nx0 >= 0 ? x0b : (x0t = PyOS_double_to_string(ba.x0v, 'f', 8, 0, NULL))) == NULL
+            || (ba.y0.p = ny0 >= 0 ? y0b : (y0t = PyOS_double_to_string(ba.y0v, 'f', 8, 0, NULL))) == NULL) {
+            PyErr_Clear();
+            goto decline;
+        }
+        ba.x0.n = nx0 >= 0 ? nx0 : (Py_ssize_t)strlen(ba.x0.p);
+        ba.y0.n = ny0 >= 0 ? ny0 : (Py_ssize_t)strlen(ba.y0.p);
     }
-    ba.x0.n = nx0 >= 0 ? nx0 : (Py_ssize_t)strlen(ba.x0.p);
-    ba.y0.n = ny0 >= 0 ? ny0 : (Py_ssize_t)strlen(ba.y0.p);
     Py_ssize_t kn = 0, sn = 0;
     const char *kp = ascii(kind, &kn), *sp = ascii(ra->svl, &sn);
     if (kp == NULL || sp == NULL || memchr(kp, 0, (size_t)kn) != NULL   /* (snprintf's "%.*s" stopped there) */
-        || (head = head_text_of(kp, kn, (long long)fs[0].n - 1, PyFloat_AS_DOUBLE(t_o), PyFloat_AS_DOUBLE(t_was_o),
+        || (head = head_text_of(kp, kn, (long long)fs[0].n - 1, PyFloat_AS_DOUBLE(t_o), t_was,
                                 PyFloat_AS_DOUBLE(beta_o), sp, sn, n, head_room, sizeof head_room, &ba.pc.hn)) == NULL)
         goto decline;
     ba.pc.hp = head;
@@ -3111,6 +3301,7 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
     }
     if (names_ready() < 0)
         return NULL;
+    stroke_fields_ready();
     PyObject *data = args[0], *order = args[3], *out_ranges = args[6];
     RunArgs ra;
     memset(&ra, 0, sizeof ra);
@@ -3205,12 +3396,19 @@ static PyObject *stroke_run(PyObject *self, PyObject *const *args, Py_ssize_t na
             || !(Py_IS_TYPE(seg, (PyTypeObject *)ra.seg_type)
                  || (ra.row_type != NULL && Py_IS_TYPE(seg, (PyTypeObject *)ra.row_type))))
             goto next;
-        PyObject *fi_o = get_attr(s, A_FIRST), *li_o = get_attr(s, A_LAST);
-        Py_ssize_t first = fi_o && PyLong_CheckExact(fi_o) ? PyLong_AsSsize_t(fi_o) : -1,
-                   last = li_o && PyLong_CheckExact(li_o) ? PyLong_AsSsize_t(li_o) : -1;
-        Py_XDECREF(fi_o);
-        Py_XDECREF(li_o);
-        PyErr_Clear();
+        Py_ssize_t first, last;
+        long long fi, li;
+        if (stroke_int(s, A_FIRST, &fi) && stroke_int(s, A_LAST, &li)) {    /* (in place: no int made) */
+            first = (Py_ssize_t)fi;
+            last = (Py_ssize_t)li;
+        } else {
+            PyObject *fi_o = get_attr(s, A_FIRST), *li_o = get_attr(s, A_LAST);
+            first = fi_o && PyLong_CheckExact(fi_o) ? PyLong_AsSsize_t(fi_o) : -1;
+            last = li_o && PyLong_CheckExact(li_o) ? PyLong_AsSsize_t(li_o) : -1;
+            Py_XDECREF(fi_o);
+            Py_XDECREF(li_o);
+            PyErr_Clear();
+        }
         Py_ssize_t n_copy = first - line, n_take = last - first + 1;
         if (first < 0 || last < 0 || n_copy < 0 || n_take < 1)
             goto next;
@@ -3518,6 +3716,36 @@ static PyObject *attr_read(PyObject *self, PyObject *args)
     return NULL;
 }
 
+/* field_read(o, name): stroke_double's / stroke_int's in-place read of o's field name
+   (stroke_run's: x0, y0, time_t, _ss_e, length_d; first_idx, last_idx) as
+   (True, its value: a float, None or an int), or (False, None) where it is not read so
+   (tests: against getattr) */
+static PyObject *field_read(PyObject *self, PyObject *args)
+{
+    PyObject *o;
+    const char *nm;
+    if (!PyArg_ParseTuple(args, "Os", &o, &nm) || names_ready() < 0)
+        return NULL;
+    stroke_fields_ready();
+    for (int k = 0; k < N_NAMES; k++)
+        if (strcmp(nm, NAME_TEXT[k]) == 0) {
+            double x;
+            long long i;
+            int none;
+            if (k == A_FIRST || k == A_LAST) {
+                if (stroke_int(o, k, &i))
+                    return Py_BuildValue("(OL)", Py_True, i);
+            } else if (stroke_double(o, k, &x, &none)) {
+                if (none)
+                    return Py_BuildValue("(OO)", Py_True, Py_None);
+                return Py_BuildValue("(Od)", Py_True, x);
+            }
+            return Py_BuildValue("(OO)", Py_False, Py_None);
+        }
+    PyErr_Format(PyExc_ValueError, "field_read: %s is not one of get_attr's names", nm);
+    return NULL;
+}
+
 /* line_read(text): plain_line on an ASCII line without its "\n": None (not plain), or
    (x_text, y_text, e_text or None, comment, dx, dy, de, x, y, e or None) */
 static PyObject *line_read(PyObject *self, PyObject *o)
@@ -3806,6 +4034,7 @@ static PyMethodDef mod_methods[] = {
     {"line_units", line_units, METH_VARARGS, "(block_into's units of a plain line's numbers, units_txt's) (tests)"},
     {"dec_read", dec_read, METH_O, "(dec_value's (n, dec, value), plain_decimal + to_double's) (tests)"},
     {"attr_read", attr_read, METH_VARARGS, "get_attr's read of o's attribute name (tests)"},
+    {"field_read", field_read, METH_VARARGS, "stroke_double's / stroke_int's in-place read of a field (tests)"},
     {"line_read", line_read, METH_O, "plain_line's reading of a line without its line end, or None (tests)"},
     {"units_text", units_text, METH_VARARGS, "put_units' text (emit._fmt_units), None for dec > 30 (tests)"},
     {"start8", start8, METH_VARARGS, "a start text's units and decimals from fmt_f's integer and from the text (tests)"},

@@ -920,7 +920,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     sk = lambda st: _knots_s(st.ends_d)       # noqa: E731
     if not grouped:
         rows = [None] * len(items)
-        if items and (by_law or all(len(kept.base) == 8 for _, kept, _ in items)):
+        if items and (by_law or _all_laws(items)):
             # the knots of every row's law made again together (not a vertices_at call a chain)
             by_n = {}
             for q, n in enumerate(curves.seg_counts(gs)):
@@ -948,7 +948,7 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
     # (s30: the rows are kept as their laws: the chosen rows' laws are copied out, then the
     # rows dropped, then the knots made again group by group as the plans are made)
     Qs = [qs[a:a + FINISH_ROWS] for qs in by_n.values() for a in range(0, len(qs), FINISH_ROWS)]
-    if by_law or all(len(items[q][1].base) == 8 for Q in Qs for q in Q):
+    if by_law or _all_laws(items):
         groups = _gather_laws(Qs, items, profile, gs, laws_of)     # (every row by its law)
         batches = []
     else:
@@ -988,6 +988,16 @@ def _replay(items, rules, profile, drop=False, laws_of=None, blocks=None):
         del dt
     settle.flush()
     return out
+
+
+def _all_laws(items):
+    """Is every item's (stroke, _KeptLaws, row) kept base one of laws (8 entries)?  By
+    C-level maps over the items (~16 k chains a gyroid plate's replays), not a generator's
+    step an item; the generator where one has no base (it stops at the first not of 8)."""
+    try:
+        return set(map(len, map(_BASE, map(_IT1, items)))) <= {8}
+    except (AttributeError, TypeError):
+        return all(len(kept.base) == 8 for _, kept, _ in items)
 
 
 def _geoms(sts, profile):
@@ -1287,6 +1297,8 @@ def _join_caps(caps):
 
 def _caps_sizes(caps):
     """The number of caps of each chain's caps as kept (_caps_array's sizes)."""
+    if set(map(type, caps)) == {bytes}:         # (the usual: a C-level map of their lengths)
+        return np.fromiter(map(len, caps), np.int64, len(caps)) >> 3
     return np.array([len(c) >> 3 if type(c) is bytes else c.size for c in caps], int)
 
 
@@ -2262,32 +2274,44 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
         nb = max(profile.block_buffer - 3, 1)
         if _window_sums_fn(core, nb) is None:
             return None
-    sts_all, owns, vks, tks, Ds, Us, sizes = [], [], [], [], [], [], []
+    sizes = []
     for sts, gs, own, vk, tk in batches:
-        D, U = curves.stack_du(gs)
         m, R, n = len(sts), vk.shape[0], vk.shape[1] - 1
-        if (n < 1 or tk.shape != (R, n) or D.shape != (m, n) or U.shape != (m, n, 2) or D.dtype != np.float64
-                or U.dtype != np.float64):
+        if n < 1 or tk.shape != (R, n) or len(gs) != m:
             return None
-        owns.append(np.asarray(own, np.int64) + len(sts_all))
-        sts_all += sts
-        vks.append(vk.ravel())
-        tks.append(tk.ravel())
-        Ds.append(D.ravel())
-        Us.append(U.ravel())
         sizes.append((m, R, n))
     ms, Rs, ns = np.array(sizes, np.int64).T
     coff = np.zeros(ms.sum() + 1, np.int64)
     np.cumsum(np.repeat(ns, ms), out=coff[1:])
     cells = int(Rs @ ns)
-    acc, feed = np.empty(cells), np.empty(cells)
     R = int(Rs.sum())
+    # the call's flat inputs made in place, batch after batch (each batch's lengths and
+    # directions stacked into its stretch of D and U, its knots and steps copied into VK
+    # and TK): the values the batches' own arrays ravelled and joined had, one copy each,
+    # not a stack_du, four ravels and four joins (the knot steps a strided view: two
+    # copies) a batch (~1.4 k batches on the windowed gyroid plate)
+    D, U = np.empty(int(coff[-1])), np.empty(2 * int(coff[-1]))
+    VK, TK, OWN = np.empty(cells + R), np.empty(cells), np.empty(R, np.int64)
+    sts_all, c, a, r = [], 0, 0, 0
+    for (sts, gs, own, vk, tk), (m, Rb, n) in zip(batches, sizes):
+        if not _stack_du_into(gs, n, D[c:c + m * n].reshape(m, n), U[2 * c:2 * (c + m * n)].reshape(m, n, 2)):
+            return None
+        VK[a + r:a + r + Rb * (n + 1)].reshape(Rb, n + 1)[...] = vk
+        TK[a:a + Rb * n].reshape(Rb, n)[...] = tk
+        o = OWN[r:r + Rb]
+        o[...] = own
+        o += len(sts_all)
+        sts_all += sts
+        c += m * n
+        a += Rb * n
+        r += Rb
+    acc, feed = np.empty(cells), np.empty(cells)
     t, a2, fits = np.empty(R), np.empty(R), np.empty(R, bool)
-    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, nb, curves.JERK_F_STEP_R, np.concatenate(owns),
-              coff, np.concatenate(vks), np.concatenate(tks), np.concatenate(Ds), np.concatenate(Us),
+    if not fn(CORE_JUNCTIONS[rules.junction], 1 if predict else 0, nb, curves.JERK_F_STEP_R, OWN, coff, VK, TK, D, U,
               _cf_rows(sts_all, core, rules.junction == "jd"), TRAP_GRID, _cf_consts(profile), acc, feed, t, a2,
               fits):
         return None
+    del VK, TK, D, U
     # (t, a2 and fits each batch's own arrays, as _finish_stacked_dt gives them: the memos keep
     # t and a2 a batch, and a view would keep the whole call's alive; acc and feed are views)
     out, a, r = [], 0, 0
@@ -2298,6 +2322,23 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
         a += Rb * n
         r += Rb
     return out
+
+
+def _stack_du_into(gs, n, D, U):
+    """curves.stack_du(gs) written into D (m, n) and U (m, n, 2), C-contiguous float64 (a
+    ragged finishing call's stretches of its flat inputs): by the curve core's stack_rows
+    into them where it takes the geometries (the rows stack_du's core path copies and
+    makes), else stack_du's own arrays copied in.  False where those are not (m, n) and
+    (m, n, 2) float64 (_finish_ragged declines)."""
+    fn = getattr(curves, "_STACK_ROWS", None)
+    if fn is not None and type(gs) is list and gs and fn(gs, n, D, U):
+        return True
+    got_d, got_u = curves.stack_du(gs)
+    if (got_d.shape != D.shape or got_u.shape != U.shape or got_d.dtype != np.float64
+            or got_u.dtype != np.float64):
+        return False
+    D[...], U[...] = got_d, got_u
+    return True
 
 
 def _turn_cosines(U, core):
@@ -2783,7 +2824,7 @@ def _figures(strokes, rows, pin, T, beta, profile, rules):
     if n == 0:
         return _figures_sorted(strokes, rows, pin, T, beta, profile, rules)
     # (each one's segment count as its geometry block's row length: no d view a chain)
-    gs = [curves.geom(strokes[i], profile) for i in rows.tolist()]
+    gs = _geoms(list(map(strokes.__getitem__, rows.tolist())), profile)
     nseg = np.array(curves.seg_counts(gs), np.int64)
     perm = np.argsort(nseg, kind="stable")
     if np.all(perm[1:] > perm[:-1]):
@@ -2813,7 +2854,7 @@ def _figures_sorted(strokes, rows, pin, T, beta, profile, rules, nseg=None, gs=N
     fin.T_outer = T if type(T) is _OuterT else None
     for sl in _chunks(nseg, n):      # the laws of one chunk of chains at a time
         a = sl.start
-        sts = [strokes[i] for i in rows[sl]]
+        sts = list(map(strokes.__getitem__, rows[sl].tolist()))
         base = _flat_chains(sts, profile, None if gs is None else gs[sl])
         Ts, bs = T[sl], beta[sl]
         res = _solve_cols(base, Ts, bs, order, prev)
@@ -3110,8 +3151,12 @@ class _Finisher:
 
     def _batch(self, rs):
         """The batch rs as _finish_stacked_dt takes it: (sts, gs, own, vk, dt)."""
-        sts = [r.sts[j] for r in rs for j in r.J.tolist()]
-        gs = [curves.geom(st, self.profile) for st in sts]
+        # (the strokes and their geometries by C-level maps, not a Python step a chain: ~28 k
+        # chains' rows finished on the windowed gyroid plate)
+        sts = []
+        for r in rs:
+            sts += map(r.sts.__getitem__, r.J.tolist())
+        gs = _geoms(sts, self.profile)
         if len(rs) == 1:             # (a window's batches: most are one group's rows)
             own = rs[0].rj
         else:
@@ -3267,7 +3312,7 @@ def _flat_chains(sts, profile, gs=None):
     cv = _join_caps(caps)
     m = len(sts)
     L, v0, v1 = _lengths_ends(sts)          # (one compiled pass: the same doubles)
-    return _Flat.of_arrays(_inner_s(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
+    return _Flat.of_arrays(_inner_s_runs(gs), cv if cv.flags.writeable else cv.copy(), _caps_sizes(caps),
                            L, np.zeros(m), np.ones(m), v0, v1)
 
 
@@ -3288,6 +3333,21 @@ def _inner_s(gs):
         if d.dtype == np.float64 and n.all():
             return _inner_s_core(core, d, n)
     return np.concatenate([g.s_v[1:-1] for g in gs])
+
+
+def _inner_s_runs(gs):
+    """_inner_s(gs) with the lengths of each run of consecutive geometries of one segment
+    count stacked (curves.stack_d: the same doubles) and summed by _inner_s_stacked, not a
+    d view a chain (the candidates' chunks: chains in order of their segment counts, a few
+    dozen runs for ~700 chains).  _inner_s where the core is missing or a run's count is 0."""
+    if not gs or _chain_law.CORE_MOD is None:
+        return _inner_s(gs)
+    n = np.array(curves.seg_counts(gs), np.int64)
+    if not n.all():
+        return _inner_s(gs)
+    ends = np.flatnonzero(n[1:] != n[:-1]).tolist()
+    starts = [0] + [e + 1 for e in ends]
+    return _inner_s_stacked(gs, [curves.stack_d(gs[a:z]) for a, z in zip(starts, starts[1:] + [len(gs)])])
 
 
 def _inner_s_core(core, d, n):
@@ -3311,15 +3371,28 @@ def _chain_caps(sts, gs, profile):
 
 def _kept_caps(sts, gs, profile):
     """_chain_caps as the geometries keep them (arrays, or the bytes of their doubles)."""
+    # (every chain's caps kept already, the windowed candidates' usual case: each one's own,
+    # as _kept_caps_made ends with, by a C-level map)
+    caps = list(map(_CHAIN_CAPS, gs))
+    if all(map(_IS_NOT_NONE, caps)):
+        return caps
+    return _kept_caps_made(sts, gs, profile)
+
+
+def _kept_caps_made(sts, gs, profile):
+    """_kept_caps, the caps not kept made (the blocks' rows, the whole-jerk batch, vertex_caps)."""
     out = [None] * len(sts)
     jerk = profile.junction == "jerk"
     # (the blocks' rows first: the chains whose caps went and whose whole-jerk caps were not
     # read are none of those, and are then looked for among the rest only, not by a row view
     # of its block's caps_jerk1 a chain, ~32 k on the windowed gyroid plate)
     _block_rows_caps(sts, gs, out, jerk)
+    # (the chains still without caps found by C-level maps: none, mostly)
+    miss = list(compress(range(len(out)), map(is_, out, repeat(None))))
+    if not miss:
+        return out
     if jerk:
-        gone = [q for q, (g, c) in enumerate(zip(gs, out)) if c is None and g.chain_caps is None
-                and g.caps_jerk1 is None]
+        gone = [q for q in miss if gs[q].chain_caps is None and gs[q].caps_jerk1 is None]
         if len(gone) > 1:
             got = curves._caps_flat_rows([sts[q] for q in gone], profile, [gs[q].u for q in gone],
                                          [gs[q].d for q in gone], 1.0)
@@ -3327,9 +3400,9 @@ def _kept_caps(sts, gs, profile):
                 flat, first = got
                 for q, a in zip(gone, first):
                     out[q] = CHAIN_CAP_MARGIN * flat[a:a + gs[q].d.size - 1]
-    for q, (g, c) in enumerate(zip(gs, out)):
-        if c is None:
-            c = g.chain_caps
+    for q in miss:
+        if out[q] is None:
+            c = gs[q].chain_caps
             out[q] = vertex_caps(sts[q], profile) if c is None else c
     return out
 
@@ -3770,6 +3843,7 @@ def _put_memos(runs, J, run_of, g, figs, kept, src):
     cnt = np.bincount(chain[g], None, starts.size).tolist()
     which = [0] * starts.size if run_of is None else run_of[starts].tolist()
     lo = 0
+    shared, nshared = _ROW_INTS, len(_ROW_INTS)     # (_row_int inline: two calls a chain fewer)
     for k, jj, w in zip(cnt, J[starts].tolist(), which):
         if k:
             sts, a = runs[w][0], runs[w][7]
@@ -3778,8 +3852,9 @@ def _put_memos(runs, J, run_of, g, figs, kept, src):
                 # a chain's first rows (the table's usual case): what _own_source and
                 # put_shared set on a memo without rows nor source, set here
                 if src is not None:
-                    memo.src, memo.src_i = src, _row_int(a + jj)
-                memo.figs, memo.kept, memo.at, memo.n = figs, kept, _row_int(lo), k
+                    i = a + jj
+                    memo.src, memo.src_i = src, shared[i] if i < nshared else i
+                memo.figs, memo.kept, memo.at, memo.n = figs, kept, shared[lo] if lo < nshared else lo, k
                 memo.seg_tin = None
             else:
                 if src is not None:

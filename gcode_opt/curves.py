@@ -1810,7 +1810,10 @@ def true_figures(law, R, geos, idx=None, memo=None):
     evaluation goes by chunks of FIGURE_ROWS laws (law.grid_chunks), so memory stays
     bounded.  idx: only these laws (an integer array), the others' figures NaN; each
     law's figures are its own (its own row of every array, the batch's grid), so the
-    same bits whatever the chunks."""
+    same bits whatever the chunks: the laws go by chunks of one series length mostly
+    (_by_series_length's order, where it is not theirs), whose products pad fewer rows."""
+    if idx is None:
+        idx = _by_series_length(law.coef)
     if idx is None:
         out = np.empty((5, len(geos)))
         for sl, tau, wq in law.grid_chunks(rows=FIGURE_ROWS):
@@ -1882,6 +1885,76 @@ def surely_over(law, R, geos, v_lim, a_lim, memo=None, why=None):
 
 
 _PROBE_ROWS = getattr(_CURVE_CORE, "probe_rows", None) if _CURVE_CORE is not None else None
+_SCREEN_ROWS = getattr(_CURVE_CORE, "screen_rows", None) if _CURVE_CORE is not None else None
+
+
+def screen_a_only(law, R, geos, v_lim, a_lim, memo=None):
+    """The laws surely_over(law, R, geos, v_lim, a_lim, memo, why) puts in why (over on |a|,
+    not on speed) for candidates_curve's screen of rough laws, whose verdicts are a filter
+    only: a law it names is over on |a| alone on its full law too (SCREEN_BAND_R, ~1e5
+    times the rough laws' distance from the full ones), the others are solved in full and
+    decided there.  So the speeds and tangential |a| at the probe's points need not be
+    BLAS's bits, only as accurate: where the core is built, a Chebyshev batch (no layer
+    regime) with knots (memo a _Knots) has them from one compiled pass over its rows
+    (_curvecore.c screen_rows: the series and its derivative summed in the order of the
+    coefficients, ~1e-16 from eval_tau's products, and probe_rows' decisions), not eval_tau's
+    gathers, BLAS calls and scatters; κ(s) and φ are made for the rows the tangential part
+    leaves undecided, as surely_over does.  Elsewhere surely_over.  The speeds and |a| are
+    made again for the rows left to κ(s) only (~12 %: a 4096-law screen's (laws, points)
+    arrays of every row put the rectilinear plate's windowed peak RSS up ~0.5 MB)."""
+    if _SCREEN_ROWS is None or not isinstance(memo, _Knots) or len(law) == 0 or law.regime.any():
+        why = []
+        surely_over(law, R, geos, v_lim, a_lim, memo, why)
+        return why[0]
+    return _screen_rows(law, R, geos, v_lim, a_lim, memo)
+
+
+def _screen_rows(law, R, geos, v_lim, a_lim, memo):
+    """screen_a_only of Chebyshev laws, memo their knots (a _Knots)."""
+    m = _PROBE_TAU.size
+    nb, K = law.coef.shape
+    vand, dvand = _screen_tables(K)
+    v_cap = v_lim * (1.0 + PROBE_MARGIN_R)
+    a_cap = a_lim * (1.0 + PROBE_MARGIN_R)
+    rest = np.empty(nb, np.int64)
+    over_v, over_a = np.empty((2, nb), bool)
+    args = (np.ascontiguousarray(law.coef, float), nb, K, vand, dvand, vand.shape[1], m, np.ascontiguousarray(R, float),
+            np.ascontiguousarray(law.T_t, float), np.ascontiguousarray(v_cap, float),
+            np.ascontiguousarray(a_cap, float), np.ascontiguousarray(_kv2_not_nan(law, R, memo), bool))
+    n = _SCREEN_ROWS(*args, _NO_ROWS, _NO_ROWS, rest, over_v, over_a, 0, 0)
+    rest = rest[:n]
+    if rest.size:           # (surely_over's κ(s) part, these rows only: their v and at made again)
+        vr, ar = np.empty((n, m)), np.empty((n, m))
+        _SCREEN_ROWS(*args, vr, ar, rest, over_v, over_a, 1, n)
+        tau = np.broadcast_to(_PROBE_TAU[None, :], (rest.size, m))
+        phi = law.eval_tau(tau, rest, w2=False, w1=False, w=False)[0]
+        kv2 = _kappa_rows(objfields.items(geos, rest), _row_scale(phi, R[rest]), memo.sub(rest)) * (vr * vr)
+        over_a[rest] = np.sqrt(np.max(ar * ar + kv2 * kv2, axis=1)) > a_cap[rest]
+    return over_a & ~over_v
+
+
+_SCREEN_TABLES: dict = {}  # K -> screen_rows' tables at the probe's points
+_NO_ROWS = np.empty((0, _PROBE_TAU.size))     # (screen_rows' v and at where it writes none)
+
+
+def _screen_tables(K):
+    """(T_k(x_j), d/dτ T_k(2τ_j - 1) = 2 T_k'(x_j)), k < K, at the probe's points x = 2 τ - 1
+    (CircleBatch._eval_cheb's map), each (K, 20): its 17 columns, then zeros to a multiple of
+    4 (screen_rows' AVX steps).  Row k of the second: chebder of the k-th unit series (scale 2)
+    at the points, so that Σ c_k row_k is w'(τ) (~1e-16 from eval_tau's chebder, then sum)."""
+    got = _SCREEN_TABLES.get(K)
+    if got is None:
+        from numpy.polynomial import chebyshev as C
+        x = 2.0 * _PROBE_TAU - 1.0
+        cols = -(-x.size // 4) * 4
+        vand, dvand = np.zeros((K, cols)), np.zeros((K, cols))
+        vand[:, :x.size] = C.chebvander(x, K - 1).T
+        if K > 1:
+            dvand[:, :x.size] = C.chebval(x, C.chebder(np.eye(K), scl=2.0))
+        for t in (vand, dvand):
+            t.flags.writeable = False
+        got = _SCREEN_TABLES[K] = (vand, dvand)
+    return got
 
 
 # the bound of a Chebyshev law's coefficients under which its series (and those of its
@@ -1906,9 +1979,10 @@ _ROW_SCALE = getattr(_CURVE_CORE, "row_scale", None) if _CURVE_CORE is not None 
 
 def _row_scale(x, R, T=None, p=0):
     """R[:, None] * x (p = 0), R[:, None] * x / T[:, None] (p = 1) or R[:, None] * x /
-    T[:, None] ** 2 (p = 2) of rows x (B, M): in one compiled pass where the core is built
-    (_curvecore.c row_scale: the same operations), as numpy 2 copies a (B, 1) operand
-    broadcast along the rows into its buffers, row by row, for every operation."""
+    T[:, None] ** 2 (p = 2) of rows x (B, M), or np.maximum(p = 1's, 0.0) (p = 3): in one
+    compiled pass where the core is built (_curvecore.c row_scale: the same operations), as
+    numpy 2 copies a (B, 1) operand broadcast along the rows into its buffers, row by row,
+    for every operation."""
     if (_ROW_SCALE is not None and type(x) is np.ndarray and x.ndim == 2 and x.dtype == np.float64
             and x.flags.c_contiguous and R.dtype == np.float64 and R.shape == x.shape[:1]
             and (p == 0 or (T.dtype == np.float64 and T.shape == R.shape))):
@@ -1917,6 +1991,8 @@ def _row_scale(x, R, T=None, p=0):
                    x.shape[0], x.shape[1], out)
         return out
     r = R[:, None] * x
+    if p == 3:
+        return np.maximum(r / T[:, None], 0.0)
     return r if p == 0 else r / (T[:, None] if p == 1 else T[:, None] ** 2)
 
 
@@ -2239,11 +2315,10 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         if got is None:
             return None, None, None
         rough, lay = got
-        why = []
-        surely_over(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
-                    a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q), why)
-        a_only[q[why[0]]] = True
-        return np.flatnonzero(~why[0]), rough.panel_levels(), lay
+        why = screen_a_only(rough, args[5], objfields.items(geos, q), v_lim * (1.0 - SCREEN_BAND_R),
+                            a_lim * (1.0 + SCREEN_BAND_R), {} if knots is None else knots.sub(q))
+        a_only[q[why]] = True
+        return np.flatnonzero(~why), rough.panel_levels(), lay
 
     table = candidate_table(pin, rows, CURVE_COLS, solve_figures, GAMMA_MIN)
     # κ(s) is read no more in this run (the segments take κ_eff): the blocks let it go
@@ -2347,21 +2422,70 @@ def _knot_speeds(strokes, T, beta, profile):
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
     law, R = _solve(None, geos, S, T, beta, v0, v1)
+    order = _by_series_length(law.coef)
     # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
     # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws
     for a in range(0, m, KNOT_ROWS):
-        sl = slice(a, a + KNOT_ROWS)
-        sub = law.rows(sl)
+        if order is None:
+            sl = slice(a, a + KNOT_ROWS)
+            sub = law.rows(sl)
+        else:
+            sl = order[a:a + KNOT_ROWS]
+            sub = law.take(sl)
         phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
                                     w2=False, w1=False)
         # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
         # chunk (elementwise, and an exact max: the same numbers as law by law)
         s_run, inc = _running_max_rows(_row_scale(phi, R[sl]))
-        vd = np.maximum(_row_scale(w, R[sl], T[sl], 1), 0.0)
-        _interp_chunk(s, off[a:a + len(sub) + 1], s_run, vd, inc, v)
+        vd = _row_scale(w, R[sl], T[sl], 3)        # np.maximum(R w / T, 0.0)
+        if order is None:
+            _interp_chunk(s, off[a:a + len(sub) + 1], s_run, vd, inc, v)
+        else:
+            _interp_rows_at(s, off[sl], off[sl + 1], s_run, vd, inc, v)
     v[off[:-1]] = v0
     v[off[1:] - 1] = v1
     return s, v, off
+
+
+def _by_series_length(coef):
+    """The laws (rows of coef, their Chebyshev coefficients) in the order of their own
+    number of coefficients (stable), or None where that is their order already or this BLAS
+    does not give a row its own bits (circle.rows_invariant): _knot_speeds' chunks then hold
+    laws of one length mostly.  A chunk's series go through BLAS calls of 32 rows of one
+    length (circle._series_values: a length's rows zero-padded to whole blocks), so a chunk
+    of laws of mixed lengths made ~2x the products of its laws (the gyroid plate's curve
+    plans); each law's values are its own whatever its chunk (rows_invariant), so the same
+    knots' speeds."""
+    if coef.shape[0] < 2 or not _circle.rows_invariant():
+        return None
+    length = _circle._row_lengths(np.ascontiguousarray(coef))
+    if (length[1:] >= length[:-1]).all():
+        return None
+    return np.argsort(length, kind="stable")
+
+
+def _interp_rows_at(s, lo, hi, xp, fp, inc, out):
+    """_interp_chunk of rows whose knots lie anywhere in s: row k's at s[lo[k]:hi[k]] (the
+    same operations, each point at its law's grid), into the same places of out."""
+    cnt = hi - lo
+    n = xp.shape[1]
+    start = np.zeros(cnt.size, np.int64)
+    np.cumsum(cnt[:-1], out=start[1:])
+    pts = np.repeat(lo - start, cnt) + np.arange(int(cnt.sum()), dtype=np.int64)
+    if _INTERP_ROWS is not None and inc.any():
+        grid = np.repeat(np.where(inc, n, 0), cnt)          # 0: left to np.interp below
+        at = np.repeat(np.arange(inc.size, dtype=np.int64) * n, cnt)
+        q = s[pts]
+        res = np.empty(pts.size)
+        _INTERP_ROWS(q, at, grid, np.ascontiguousarray(xp).ravel(), np.ascontiguousarray(fp).ravel(),
+                     pts.size, 1, xp.size, res)
+        out[pts] = res
+        rest = np.flatnonzero(~inc).tolist()
+    else:
+        rest = range(inc.size)
+    for k in rest:
+        a, b = int(lo[k]), int(hi[k])
+        out[a:b] = _interp(s[a:b], xp[k], fp[k], None, None)      # np.interp's core, the same bits
 
 
 _KNOT_TAU = np.linspace(0.0, 1.0, 513)

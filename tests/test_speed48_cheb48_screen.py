@@ -82,10 +82,11 @@ def _probe_values(law, R, geos, memo):
 @pytest.fixture(scope="module")
 def screened_calls():
     """The screen's probes on the bundled gyroid's and concentric file's candidates:
-    (rough law, R, geos, memo) a call."""
+    (rough law, R, geos, memo) a call (the screen's: curves.screen_a_only, round 64, or
+    surely_over on rough laws, where it falls back or before)."""
     calls, made = [], []
     mp = pytest.MonkeyPatch()
-    real, real_rough = curves.surely_over, circle.solve_circles_rough
+    real, real_rough, real_screen = curves.surely_over, circle.solve_circles_rough, curves.screen_a_only
     try:
         def rough(*args):
             got = real_rough(*args)
@@ -96,8 +97,16 @@ def screened_calls():
             if any(law is x for x in made):
                 calls.append((law, R, geos, memo))
             return real(law, R, geos, v_lim, a_lim, memo, why)
+
+        def rec_screen(law, R, geos, v_lim, a_lim, memo=None):
+            with mp.context() as m:         # (its fallback's surely_over not recorded twice)
+                m.setattr(curves, "surely_over", real)
+                if any(law is x for x in made):
+                    calls.append((law, R, geos, memo))
+                return real_screen(law, R, geos, v_lim, a_lim, memo)
         mp.setattr(circle, "solve_circles_rough", rough)
         mp.setattr(curves, "surely_over", rec)
+        mp.setattr(curves, "screen_a_only", rec_screen)
         for name, prof in FILES[:3]:
             strokes, pin, rows, p = _curves_of(name, prof)
             curves.candidates_curve(pin, rows, strokes, p)

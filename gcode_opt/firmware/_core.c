@@ -3689,6 +3689,23 @@ static PyObject *si_get(StrokeObject *s, void *c)
     return PyLong_FromLongLong(s->i[k]);
 }
 
+/* The fields' layout for _gcode_opt_emit (the module's "_STROKE_FIELDS" capsule): its
+ * rewrite reads a stroke's doubles (x0, y0, time_t, _ss_e, length_d) and ints (first_idx,
+ * last_idx) in place, not through sd_get / si_get's new float or int (~5 a stroke).  It
+ * reads a field so only where the type's getter it found is this sd_get / si_get (the
+ * same module: this layout), the field's bit in odd is clear, and (a None-able double)
+ * its bit in has tells None; else through the getter, as before.  version: 1. */
+typedef struct {
+    int version;
+    getter sd_get, si_get;
+    Py_ssize_t off_d, off_i, off_has, off_odd;
+    int sd_n, sd_none0, si_n;
+} StrokeFieldsAPI;
+static PyObject *si_get(StrokeObject *s, void *c);
+static const StrokeFieldsAPI STROKE_FIELDS_API = {
+    1, (getter)sd_get, (getter)si_get, offsetof(StrokeObject, d), offsetof(StrokeObject, i),
+    offsetof(StrokeObject, has), offsetof(StrokeObject, odd), SD_N, SD_NONE0, SI_N};
+
 static int si_set(StrokeObject *s, PyObject *v, void *c)
 {
     int k = (int)(intptr_t)c;
@@ -4233,6 +4250,29 @@ static int proto_read(Proto *p, PyObject *m)
  * size, ~10x fewer instructions than array("d", bytes) and its copy a[:], which gave the
  * same array before) */
 static PyObject *ARRAY_ONE = NULL;     /* array("d", [0.0]) of the kit's array class */
+/* The new array's items read at its item pointer (after its PyVarObject head, as
+ * arraymodule.c lays an array out) where a probe of ARRAY_ONE found its buffer there:
+ * not through a buffer taken and released (~75 instructions an array: the gyroid plate
+ * windowed makes ~165 k).  Else (another layout) through the buffer.  (A slice of an array
+ * of zeros, one copy where the repeat doubles its copies, cost as much again in the
+ * slice's objects.) */
+static Py_ssize_t array_item_off = 0;  /* 0: not found there */
+
+/* array_item_off for ARRAY_ONE's class: 0, or -1 (an exception) */
+static int array_probe(void)
+{
+    Py_buffer view;
+    array_item_off = 0;
+    if (PyObject_GetBuffer(ARRAY_ONE, &view, PyBUF_WRITABLE) < 0)
+        return -1;
+    Py_ssize_t off = (Py_ssize_t)sizeof(PyVarObject);
+    if (Py_SIZE(ARRAY_ONE) == 1 && view.len == (Py_ssize_t)sizeof(double) && view.itemsize == (Py_ssize_t)sizeof(double)
+        && (size_t)Py_TYPE(ARRAY_ONE)->tp_basicsize >= off + sizeof(void *)
+        && *(void **)((char *)ARRAY_ONE + off) == view.buf)
+        array_item_off = off;
+    PyBuffer_Release(&view);
+    return 0;
+}
 
 static PyObject *array_room(PyObject *array_t, Py_ssize_t n, double **buf)
 {
@@ -4241,10 +4281,16 @@ static PyObject *array_room(PyObject *array_t, Py_ssize_t n, double **buf)
         if (one == NULL)
             return NULL;
         Py_XSETREF(ARRAY_ONE, one);
+        if (array_probe() < 0)
+            return NULL;
     }
     PyObject *a = PySequence_Repeat(ARRAY_ONE, n);
     if (a == NULL)
         return NULL;
+    if (array_item_off > 0 && Py_IS_TYPE(a, Py_TYPE(ARRAY_ONE)) && Py_SIZE(a) == n) {
+        *buf = *(double **)((char *)a + array_item_off);     /* (stays put: nothing else holds the array) */
+        return a;
+    }
     Py_buffer view;
     if (PyObject_GetBuffer(a, &view, PyBUF_WRITABLE) < 0) {
         Py_DECREF(a);
@@ -8827,6 +8873,17 @@ static struct PyModuleDef core_module = {
 #define GCODE_OPT_SOURCE_STAT ""
 #endif
 
+/* STROKE_FIELDS_API's capsule added to m: 0, or -1 (an exception) */
+static int add_stroke_fields(PyObject *m)
+{
+    PyObject *cap = PyCapsule_New((void *)&STROKE_FIELDS_API, "_gcode_opt_fwcore._STROKE_FIELDS", NULL);
+    if (cap == NULL)
+        return -1;
+    int r = PyModule_AddObjectRef(m, "_STROKE_FIELDS", cap);
+    Py_DECREF(cap);
+    return r;
+}
+
 PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
 {
     if (PyType_Ready(&BlockType) < 0 || PyType_Ready(&RecType) < 0 || PyType_Ready(&ResType) < 0
@@ -8852,6 +8909,7 @@ PyMODINIT_FUNC PyInit__gcode_opt_fwcore(void)
         || PyModule_AddObject(m, "StrokeSums", (PyObject *)&SumsType) < 0
         || PyModule_AddObject(m, "RecordLog", (PyObject *)&LogType) < 0
         || PyModule_AddObject(m, "StrokeBase", Py_NewRef((PyObject *)&StrokeType)) < 0
+        || add_stroke_fields(m) < 0
         || PyModule_AddStringConstant(m, "SOURCE_SHA256", FWCORE_SOURCE_SHA256) < 0
         || PyModule_AddStringConstant(m, "SOURCE_STAT", GCODE_OPT_SOURCE_STAT) < 0
         || PyModule_AddIntConstant(m, "PLAY_FIRSTS", 1) < 0

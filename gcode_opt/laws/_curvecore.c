@@ -10,7 +10,8 @@ products stay numpy's (BLAS, _rows_matmul's fixed-shape calls on the same zero-p
 arrays), those of the preconditioned iteration are sums in a fixed order (circle._mm_ordered:
 pc_solve does them itself), and np.exp stays numpy's (numpy's is not libm's on every
 machine).  Row sums are numpy's pairwise sum (np.add.reduce of a contiguous row);
-row maxima and minima propagate NaN as numpy's do. */
+row maxima and minima propagate NaN as numpy's do.  One exception: screen_rows' speeds and
+|a| are a filter's numbers (curves.screen_a_only), accurate sums, not eval_tau's bits. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
@@ -1304,6 +1305,157 @@ static PyObject *probe_rows(PyObject *self, PyObject *a) {
     Py_RETURN_NONE;
 }
 
+/* screen_rows(coef, nb, K, vand, dvand, jp, m, R, T, v_thr, a_thr, kv2ok, v, at, rest, over_v, over_a,
+   store, nstore) -> the number of rows left (store 0):
+   curves.screen_a_only's probe of rough Chebyshev laws, whole in one pass a row.  Row r of coef
+   (nb, K; trailing zeros ignored) holds the coefficients c_k of w(τ).  At the m points x_j
+   whose T_k(x_j) are vand (K, jp) and whose d/dτ T_k(x(τ)) = 2 T_k'(x_j) are dvand (K, jp),
+   jp >= m a multiple of 4 (the columns past m: any finite numbers): w_j = Σ_k c_k T_k(x_j)
+   and w'_j = Σ_k c_k 2 T_k'(x_j), sums in the order of k, then v = (R w) / T and
+   at = (R w') / (T T), and probe_rows' decisions of them: over_v, and over_a = by_at and
+   v_ok and kv2ok (curves._kv2_not_nan's rows).  The rows neither decides (left to κ(s))
+   are put in rest, in order (v, at not written).  store 1: no decisions; the rows
+   rest[0 .. nstore) made again, their v and at into rows 0 .. nstore of v and at (nstore, m)
+   (the κ part's numbers, ~12 % of the rows, not (nb, m) arrays of every row's).  NOT the bits of CircleBatch.eval_tau's BLAS products (~1e-16 of the row's
+   scale from them): only the screen's filter reads these (a candidate it lets through is
+   decided on its full law; one it rejects is far over the cap: curves.SCREEN_BAND_R), so
+   any accurate sums serve.  The AVX form does the scalar loop's operations (its bits). */
+#define SCREEN_COLS 64
+static Py_ssize_t own_len(const double *c, Py_ssize_t K) {
+    Py_ssize_t n = K;
+    while (n > 1 && c[n - 1] == 0.0) n--;
+    return n;
+}
+
+static void screen_decide(const double *vr, const double *ar, Py_ssize_t m, double vt, double ac,
+                          uint8_t *over_v, uint8_t *by_at, uint8_t *v_ok) {
+    double vmax = vr[0], a2max = ar[0] * ar[0];
+    int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
+    for (Py_ssize_t j = 1; j < m; j++) {
+        const double x = vr[j], y = ar[j] * ar[j];
+        v_nan |= isnan(x);
+        a_nan |= isnan(y);
+        tame &= fabs(x) <= 1e150;
+        vmax = x > vmax ? x : vmax;
+        a2max = y > a2max ? y : a2max;
+    }
+    *over_v = !v_nan && vmax > vt;
+    *by_at = !a_nan && sqrt(a2max) > ac;
+    *v_ok = (uint8_t)tame;
+}
+
+#if CURVE_AVX
+/* screen_rows' row with jp == 20 (the probe's 17 points): both sums in 5 + 5 registers of 4,
+   then v and at (the scalar loop's operations, so its bits) */
+#define SCREEN_STEP(q)                                                                        \
+    w##q = _mm256_add_pd(w##q, _mm256_mul_pd(ck, _mm256_loadu_pd(vk + 4 * q)));               \
+    g##q = _mm256_add_pd(g##q, _mm256_mul_pd(ck, _mm256_loadu_pd(dk + 4 * q)))
+#define SCREEN_OUT(q)                                                                         \
+    _mm256_storeu_pd(v + 4 * q, _mm256_div_pd(_mm256_mul_pd(r, w##q), t));                    \
+    _mm256_storeu_pd(a + 4 * q, _mm256_div_pd(_mm256_mul_pd(r, g##q), t2))
+AVX_FN static void screen_row20_avx(const double *cr, Py_ssize_t n, const double *vand, const double *dvand,
+                                    double ri, double ti, Py_ssize_t m, double *vr, double *ar) {
+    __m256d w0, w1, w2, w3, w4, g0, g1, g2, g3, g4;
+    w0 = w1 = w2 = w3 = w4 = g0 = g1 = g2 = g3 = g4 = _mm256_setzero_pd();
+    for (Py_ssize_t k = 0; k < n; k++) {
+        const __m256d ck = _mm256_set1_pd(cr[k]);
+        const double *vk = vand + k * 20, *dk = dvand + k * 20;
+        SCREEN_STEP(0);
+        SCREEN_STEP(1);
+        SCREEN_STEP(2);
+        SCREEN_STEP(3);
+        SCREEN_STEP(4);
+    }
+    const __m256d r = _mm256_set1_pd(ri), t = _mm256_set1_pd(ti), t2 = _mm256_set1_pd(ti * ti);
+    double v[20], a[20];
+    SCREEN_OUT(0);
+    SCREEN_OUT(1);
+    SCREEN_OUT(2);
+    SCREEN_OUT(3);
+    SCREEN_OUT(4);
+    for (Py_ssize_t j = 0; j < m; j++) {
+        vr[j] = v[j];
+        ar[j] = a[j];
+    }
+}
+#endif
+
+static PyObject *screen_rows(PyObject *self, PyObject *a) {
+    PyObject *oc, *ovd, *odv, *orr, *ot, *ovt, *oac, *okv, *ov, *oa, *ors, *oo, *ob;
+    Py_ssize_t nb, K, jp, m, nstore;
+    int store;
+    if (!PyArg_ParseTuple(a, "OnnOOnnOOOOOOOOOOin", &oc, &nb, &K, &ovd, &odv, &jp, &m, &orr, &ot, &ovt, &oac, &okv,
+                          &ov, &oa, &ors, &oo, &ob, &store, &nstore))
+        return NULL;
+    if (nb < 0 || K < 1 || m < 1 || jp < m || jp % 4 || jp > SCREEN_COLS || nstore < 0 || (store && nstore > nb)) {
+        PyErr_SetString(PyExc_ValueError, "screen_rows: bad size");
+        return NULL;
+    }
+    Bufs b = {.n = 0};
+    const double *coef = get(&b, oc, 8, 0, nb * K);
+    const double *vand = coef ? get(&b, ovd, 8, 0, K * jp) : NULL;
+    const double *dvand = vand ? get(&b, odv, 8, 0, K * jp) : NULL;
+    const double *R = dvand ? get(&b, orr, 8, 0, nb) : NULL;
+    const double *T = R ? get(&b, ot, 8, 0, nb) : NULL;
+    const double *vt = T ? get(&b, ovt, 8, 0, nb) : NULL;
+    const double *ac = vt ? get(&b, oac, 8, 0, nb) : NULL;
+    const uint8_t *kv2ok = ac ? get(&b, okv, 1, 0, nb) : NULL;
+    double *v = kv2ok ? get(&b, ov, 8, 1, (store ? nstore : 0) * m) : NULL;
+    double *at = v ? get(&b, oa, 8, 1, (store ? nstore : 0) * m) : NULL;
+    int64_t *rest = at ? get(&b, ors, 8, 1, store ? nstore : nb) : NULL;
+    uint8_t *over_v = rest ? get(&b, oo, 1, 1, nb) : NULL;
+    uint8_t *over_a = over_v ? get(&b, ob, 1, 1, nb) : NULL;
+    if (!over_a) { release(&b); return NULL; }
+    const int avx = use_avx();
+    (void)avx;
+    double w[SCREEN_COLS], dw[SCREEN_COLS], vr[SCREEN_COLS], ar[SCREEN_COLS];
+    Py_ssize_t nr = 0;
+    const Py_ssize_t nq = store ? nstore : nb;
+    for (Py_ssize_t q = 0; q < nq; q++) {
+        const Py_ssize_t r = store ? (Py_ssize_t)rest[q] : q;
+        if (r < 0 || r >= nb) {
+            release(&b);
+            PyErr_SetString(PyExc_IndexError, "screen_rows: row out of range");
+            return NULL;
+        }
+        const double *cr = coef + r * K;
+        const Py_ssize_t n = own_len(cr, K);
+        uint8_t by_at, v_ok, ov_scratch;
+        uint8_t *ov_r = store ? &ov_scratch : over_v + r;
+#if CURVE_AVX
+        if (avx && jp == 20 && m >= 4) {
+            screen_row20_avx(cr, n, vand, dvand, R[r], T[r], m, vr, ar);
+            probe_row_avx(vr, ar, m, vt[r], ac[r], ov_r, &by_at, &v_ok);
+        } else
+#endif
+        {
+            for (Py_ssize_t j = 0; j < jp; j++) w[j] = dw[j] = 0.0;
+            for (Py_ssize_t k = 0; k < n; k++) {
+                const double ck = cr[k], *vk = vand + k * jp, *dk = dvand + k * jp;
+                for (Py_ssize_t j = 0; j < jp; j++) {
+                    w[j] += ck * vk[j];
+                    dw[j] += ck * dk[j];
+                }
+            }
+            const double ri = R[r], ti = T[r], t2 = T[r] * T[r];
+            for (Py_ssize_t j = 0; j < m; j++) {
+                vr[j] = (ri * w[j]) / ti;
+                ar[j] = (ri * dw[j]) / t2;
+            }
+            screen_decide(vr, ar, m, vt[r], ac[r], ov_r, &by_at, &v_ok);
+        }
+        if (store) {                            /* the rows asked: their numbers, packed */
+            memcpy(v + q * m, vr, m * sizeof(double));
+            memcpy(at + q * m, ar, m * sizeof(double));
+            continue;
+        }
+        over_a[r] = by_at && v_ok && kv2ok[r];
+        if (!over_a[r] && !over_v[r]) rest[nr++] = r;   /* left to κ(s) */
+    }
+    release(&b);
+    return PyLong_FromSsize_t(nr);
+}
+
 /* interp_rows' knot: the last j with xp[j] <= x, for xp[0] <= x <= xp[n - 1] (n >= 2), by
    the hint h (0 <= h < n): h, h + 1 or h + 2 where x lies there, else a binary search of
    the knots after h + 2 or before h (xp[lo] <= x, and xp[hi] > x or hi = n - 1, as the
@@ -1333,7 +1485,8 @@ static inline Py_ssize_t knot_at(const double *xp, Py_ssize_t n, double x, Py_ss
    binary search also finds when the knots are strictly increasing and finite (the caller
    gives only such rows, cnt >= 2; rows of cnt < 2 are skipped and left to the caller).
    That j is one knot whatever finds it: knot_at looks first at the last point's knot and
-   the next two (a row's points mostly go forward along the curve). */
+   the next two (a row's points mostly go forward along the curve); the slope of a knot is
+   made once for a run of points at it (the same operations on the same knots). */
 static PyObject *interp_rows(PyObject *self, PyObject *a) {
     PyObject *os_, *oo, *oc, *ox, *oy, *out_;
     Py_ssize_t nr, m, nk;
@@ -1353,6 +1506,8 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
         const double *x_r = s + r * m;
         double *res = out + r * m;
         Py_ssize_t j = 0;               /* the last point's knot (xp[0] at the row's start) */
+        Py_ssize_t js = -1;             /* the knot whose slope is held (a function of j alone) */
+        double slope = 0.0;
         for (Py_ssize_t i = 0; i < m; i++) {
             const double x = x_r[i];
             if (isnan(x)) { res[i] = x; continue; }
@@ -1360,7 +1515,10 @@ static PyObject *interp_rows(PyObject *self, PyObject *a) {
             if (x < xp[0]) { res[i] = fp[0]; continue; }
             j = knot_at(xp, n, x, j);
             if (j == n - 1 || xp[j] == x) { res[i] = fp[j]; continue; }
-            const double slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+            if (j != js) {
+                slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
+                js = j;
+            }
             double v = slope * (x - xp[j]) + fp[j];
             if (isnan(v)) {
                 v = slope * (x - xp[j + 1]) + fp[j + 1];
@@ -1553,12 +1711,23 @@ static PyObject *div_pairs(PyObject *self, PyObject *a) {
    R[:, None] * x / T[:, None] ** 2 (p = 2) of rows x (nb x M), numpy's operations on the same
    doubles (T ** 2 is np.square, T * T; a multiply then a divide, each correctly rounded, no
    contraction): numpy 2 runs a (B, 1) operand broadcast along (B, M) through its iterator's
-   buffers, a copy of the column into a buffer for every row of every such operation. */
+   buffers, a copy of the column into a buffer for every row of every such operation.
+   p = 3: p = 1's, then np.maximum(., 0.0) (numpy's: a NaN itself, else y > 0.0 ? y : 0.0,
+   so -0.0 gives +0.0: the second operand where they compare equal). */
+static inline double np_max0(double y) { return isnan(y) ? y : (y > 0.0 ? y : 0.0); }
 #if CURVE_AVX
 AVX_FN static void row_scale_avx(const double *x, Py_ssize_t M, double r, double t, int p, double *o) {
     Py_ssize_t j = 0;
     const __m256d vr = _mm256_set1_pd(r), vt = _mm256_set1_pd(t);
-    if (p) {
+    if (p == 3) {
+        const __m256d zero = _mm256_setzero_pd();
+        for (; j + 4 <= M; j += 4) {
+            const __m256d y = _mm256_div_pd(_mm256_mul_pd(vr, _mm256_loadu_pd(x + j)), vt);
+            /* max_pd(y, 0): y where y > 0, else 0 (a NaN y gives 0: put back) */
+            _mm256_storeu_pd(o + j, _mm256_blendv_pd(_mm256_max_pd(y, zero), y, _mm256_cmp_pd(y, y, _CMP_UNORD_Q)));
+        }
+        for (; j < M; j++) o[j] = np_max0((r * x[j]) / t);
+    } else if (p) {
         for (; j + 4 <= M; j += 4)
             _mm256_storeu_pd(o + j, _mm256_div_pd(_mm256_mul_pd(vr, _mm256_loadu_pd(x + j)), vt));
         for (; j < M; j++) o[j] = (r * x[j]) / t;
@@ -1574,7 +1743,7 @@ static PyObject *row_scale(PyObject *self, PyObject *a) {
     Py_ssize_t nb, M;
     int p;
     if (!PyArg_ParseTuple(a, "OOOinnO", &ox, &orr, &ot, &p, &nb, &M, &oo)) return NULL;
-    if (nb < 0 || M < 0 || p < 0 || p > 2) {
+    if (nb < 0 || M < 0 || p < 0 || p > 3) {
         PyErr_SetString(PyExc_ValueError, "row_scale: bad size or power");
         return NULL;
     }
@@ -1594,7 +1763,9 @@ static PyObject *row_scale(PyObject *self, PyObject *a) {
         if (avx) { row_scale_avx(xr, M, ri, ti, p, o); continue; }
 #endif
         (void)avx;
-        if (p)
+        if (p == 3)
+            for (Py_ssize_t j = 0; j < M; j++) o[j] = np_max0((ri * xr[j]) / ti);
+        else if (p)
             for (Py_ssize_t j = 0; j < M; j++) o[j] = (ri * xr[j]) / ti;
         else
             for (Py_ssize_t j = 0; j < M; j++) o[j] = ri * xr[j];
@@ -2270,6 +2441,7 @@ static PyMethodDef methods[] = {
     {"exp_merge", exp_merge, METH_VARARGS, "np.exp of the packed arguments back in place, +0.0 elsewhere"},
     {"cheb_der_int", cheb_der_int, METH_VARARGS, "chebder and chebint of Chebyshev series rows"},
     {"probe_rows", probe_rows, METH_VARARGS, "curves.surely_over's speed and tangential-|a| decisions of each row"},
+    {"screen_rows", screen_rows, METH_VARARGS, "curves._screen_a_only's speed and tangential-|a| probe of rough laws, whole"},
     {"interp_rows", interp_rows, METH_VARARGS, "np.interp of each row at its own knots (_kappa_rows)"},
     {"row_lengths", row_lengths, METH_VARARGS, "circle._row_lengths: each row's own number of coefficients"},
     {"graded_grid", graded_grid, METH_VARARGS, "circle._graded_grid's nodes and weights"},

@@ -214,10 +214,17 @@ def _one_grid(x):
     """(x == x[:1]).all() of a (B, M) array, B >= 1, as each row == the row before it (==
     is transitive, NaN equal to nothing either way; one row: x[1:] is empty, and a lone
     row goes as one grid both ways): two rows alike, not a row broadcast against all (numpy 2
-    copies a broadcast operand into its buffers row by row)."""
-    if x.shape[0] < 2:
+    copies a broadcast operand into its buffers row by row).  A row broadcast to all
+    (_one_row): one grid, not compared (NaN aside: its rows are the same doubles, which
+    _series_values evaluates as the row's grid all the same)."""
+    if x.shape[0] < 2 or _one_row(x):
         return True
     return bool((x[1:] == x[:-1]).all())
+
+
+def _one_row(x):
+    """Whether x is a (B, M) array of one row broadcast to all (its rows' stride 0)."""
+    return type(x) is np.ndarray and x.ndim == 2 and x.shape[0] > 1 and x.strides[0] == 0
 
 
 def _series_values(coefs, x):
@@ -1005,7 +1012,7 @@ def _own_arrays(got, like, made):
             continue
         if not (type(v) is np.ndarray and v.base is None and v.dtype == like.dtype and v.shape == like.shape
                 and v.flags.c_contiguous and v is not like and not any(v is u for u in seen)):
-            o = np.empty_like(like)
+            o = np.empty(like.shape, like.dtype)      # (C order, like a broadcast row too)
             o[...] = v
             v = o
         seen.append(v)
@@ -1074,8 +1081,10 @@ class CircleBatch:
         gam2 = self.gamma[idx] ** 2
         lay = self.regime[idx]
         if lay.all() or not lay.any():      # one regime (the usual case): no gather, no scatter
-            # (read only: the caller's own array where it is C-contiguous, not a copy)
-            tau = np.ascontiguousarray(tau)
+            # (read only: the caller's own array where it is C-contiguous or one row
+            # broadcast to every arc, not a copy)
+            if not _one_row(tau):
+                tau = np.ascontiguousarray(tau)
             got = (self._eval_layers if lay.all() else self._eval_cheb)(tau, idx, gam2, w2, w1, phi, w)
             return _own_arrays(got, tau, made)
         tau = tau.copy()
@@ -1114,7 +1123,8 @@ class CircleBatch:
         """(φ, w, w', w'') of Chebyshev-regime arcs, those not asked None (not made: each
         series is evaluated apart, its own products row by row, so those left out leave the
         others the same numbers; w'' needs w)."""
-        x = 2.0 * tau - 1.0
+        # (one row broadcast to every arc: its x once, broadcast the same way)
+        x = np.broadcast_to(2.0 * tau[0] - 1.0, tau.shape) if _one_row(tau) else 2.0 * tau - 1.0
         coef = self.coef[idx]
         nz = np.nonzero(np.any(coef != 0, axis=0))[0]
         coef = coef[:, : (nz[-1] + 1 if nz.size else 1)]      # drop padding common to all
@@ -1347,16 +1357,28 @@ def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None):
         # local rate at the ends (steep end layers need more nodes)
         q0 = np.sqrt(np.abs((u0 - wc) ** 2 + 4 * wc * (u0 - wc)) + lam ** 2)
         q1 = np.sqrt(np.abs((u1 - wc) ** 2 + 4 * wc * (u1 - wc)) + lam ** 2)
-        lam_est = np.maximum.reduce([lam, q0, q1])[rest]
-        blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est, rough)
-        coef = np.zeros((nb, max(c.shape[1] for _, c in blocks)))   # zero-padded to the largest N
-        while blocks:               # each block let go once copied
-            ia, c = blocks.pop()
-            coef[rest[ia], : c.shape[1]] = c
-        del ia, c
+        lam_est = np.maximum.reduce([lam, q0, q1])
+        if rest.size == nb:         # (every arc: the arrays themselves, not gathers of all)
+            blocks, cv = _solve_cheb_batch(phi, gam2, u0, u1, lam_est, rough)
+        else:
+            blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est[rest], rough)
+        coef = _coef_table(blocks, rest, nb)
         cc[rest] = cv
     law = CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
     return (law, layers) if rough else law
+
+
+def _coef_table(blocks, rest, nb):
+    """The (nb, K) coefficients of _solve_cheb_batch's blocks ((arcs, coefficients) of the
+    arcs rest), zero-padded to the largest N, each block let go once copied; one block of
+    every arc in order (every arc accepted at its first N, the usual case): its array."""
+    if len(blocks) == 1 and rest.size == nb and blocks[0][0].size == nb and (blocks[0][0] == np.arange(nb)).all():
+        return np.ascontiguousarray(blocks.pop()[1], float)
+    coef = np.zeros((nb, max(c.shape[1] for _, c in blocks)))
+    while blocks:
+        ia, c = blocks.pop()
+        coef[rest[ia], : c.shape[1]] = c
+    return coef
 
 
 def solve_circle(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0) -> CircleLaw:

@@ -840,7 +840,9 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weigh
     for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields,
                                                  end_cols, weights):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want, fields=bfields, pre=pre)
+        # (the block's strokes and their vertices by objfields' compiled take, not a Python step a row)
+        got = _block_geoms(objfields.items(todo, idx), block, profile, j1, pts=objfields.items(pts, idx), want=want,
+                           fields=bfields, pre=pre)
         if got is None:
             continue
         blk, keep, sts = got

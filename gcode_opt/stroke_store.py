@@ -624,18 +624,17 @@ class StrokeStore:
         """The SIDE values (a new int64 array, (rows, len(SIDE))) of records whose fields
         sides' rows the codec read as vals and kinds (encode's: FIELDS_SIDE, SIDE's first;
         fields(..., ints=True)'s reading; left as they are); a column with a value it cannot
-        hold (not an int or a bool) put in _side_off.  The columns at once (a copy of the
-        rows' first columns, the object slots' kinds tested in one pass: ~20 numpy calls on
-        strided columns a batch were ~0.25 M instructions)."""
-        out = np.array(vals[:, :len(SIDE)].view(np.int64))      # (an int's bits, or first_idx / last_idx's)
-        k = kinds[:, 2:len(SIDE)]                   # (the object slots: an int or a bool each, mostly)
-        is_bool = k == _K_BOOL
-        held = (is_bool | (k == _K_INT)).all(axis=0).tolist()
-        for name, ok in zip(SIDE[2:], held):
-            if not ok:
-                self._side_off.add(name)
-        if is_bool.any():
-            out[:, 2:] = np.where(is_bool, vals[:, 2:len(SIDE)] != 0.0, out[:, 2:])
+        hold (not an int or a bool) put in _side_off.  A column at a time (a copy of the
+        rows' first columns: a loop call a row)."""
+        out = np.empty((len(vals), len(SIDE)), np.int64)
+        for j, name in enumerate(SIDE):
+            got = vals[:, j].view(np.int64)
+            if j >= 2:
+                k = kinds[:, j]
+                if name not in self._side_off and not ((k == _K_INT) | (k == _K_BOOL)).all():
+                    self._side_off.add(name)
+                got = np.where(k == _K_BOOL, vals[:, j] != 0.0, got)
+            out[:, j] = got
         return out
 
     def _write_side(self, rows, side, fvals, fkinds):

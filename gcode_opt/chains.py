@@ -98,14 +98,15 @@ def classify(strokes, rows, profile, end_cols=False, memo=None):
     # (the weights: plan_inputs' adjust_plan_inputs reads them next); the geometries put on
     # the strokes here where every stroke is a row of a block (put False): a chain's with
     # its caps, in one pass
-    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains, end_cols=end_cols,
+    want = _NotChains()
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=want, end_cols=end_cols,
                               weights=True, put=False) or []       # (None: a build_geoms of tests)
     every = sum(len(m[1]) for m in made) == len(sts)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
-        # (_classify_block's chains are the rows cap < feed, the rows _not_chains did not
+        # (_classify_block's chains are the rows cap < feed, the rows _NotChains did not
         # want κ made for: every row left a curve has it, none is left to make)
-        if _classify_block(b, bsts, jerk, fresh=True, memo=memo, unput=every):
+        if _classify_block(b, bsts, jerk, fresh=True, memo=memo, unput=every, hit=want.hit(bsts, b.cap)):
             continue
         if every:
             curves.put_rows(b, bsts, None, False)
@@ -129,8 +130,8 @@ def _kappa_left(b, sts):
     """Whether b.make_kappa of the rows of sts (the block b's rows in order) that are no
     chain has a row to make: such a row, and κ not made for the block or for that row
     (classify asks it of the blocks _classify_block does not take: of those it takes, the
-    rows left curves are the rows _not_chains wanted κ made for).
-    Mostly not: build_geoms made κ for the rows _not_chains foresaw, the rows
+    rows left curves are the rows _NotChains wanted κ made for).
+    Mostly not: build_geoms made κ for the rows _NotChains foresaw, the rows
     _classify_block did not make chains, or left it unmade where every row is a chain
     (make_kappa of no row then made the block's κ arrays, every row not made: the same
     to every reader as none, which makes the rows it reads; ~560 of the ~620 blocks of
@@ -147,13 +148,29 @@ def _kappa_left(b, sts):
     return bool(miss[rows].any())
 
 
-def _not_chains(sts, cap):
-    """build_geoms' rows of a block (strokes sts, cap their cap) whose κ is made at once:
-    those _classify_block does not make chains (cap < feed); a row it does not foresee
-    makes its κ when read."""
-    feed = objfields.float_col(sts, "v_feed")
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
-    return ~(cap < feed)
+class _NotChains:
+    """build_geoms' want of classify: the rows of a block (strokes sts, cap their cap) whose
+    κ is made at once, those _classify_block does not make chains (cap < feed); a row it
+    does not foresee makes its κ when read.  The test is kept for _classify_block, which
+    asks it of the same list and cap just after (hit): each feed read once (~620 blocks on
+    the windowed gyroid plate)."""
+    __slots__ = ("_last",)
+
+    def __init__(self):
+        self._last = None
+
+    def __call__(self, sts, cap):
+        feed = objfields.float_col(sts, "v_feed")
+        feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+        hit = cap < feed
+        self._last = (sts, cap, hit)
+        return ~hit
+
+    def hit(self, sts, cap):
+        """cap < feed of the strokes sts as the last call found it, if it was asked of this
+        very list and cap (else None); let go."""
+        last, self._last = self._last, None
+        return last[2] if last is not None and last[0] is sts and last[1] is cap else None
 
 
 def _classify_rest(sts, made, profile, jerk):
@@ -183,7 +200,7 @@ def _classify_one(st, profile, jerk):
                                          # caps at the whole jerk are read no more
 
 
-def _classify_block(b, sts, jerk, fresh=False, memo=None, unput=False):
+def _classify_block(b, sts, jerk, fresh=False, memo=None, unput=False, hit=None):
     """_classify_one of the strokes sts, rows of the geometry block b (curves._Blk), as
     row operations on the block: its cap (CAP_MARGIN x each row's least cap, as
     np.minimum takes it: the test's own number where every cap is > 0, b.cap_min) against
@@ -192,7 +209,8 @@ def _classify_block(b, sts, jerk, fresh=False, memo=None, unput=False):
     chain keeps a copy of its row).  False (nothing done) where the block is not such.
     fresh: sts are the block's rows in order, as build_geoms made them just now; unput:
     and their geometries not put on them yet (build_geoms' put False: put here, the
-    chains' with their caps, curves.put_rows).  memo: classify's."""
+    chains' with their caps, curves.put_rows).  memo: classify's.  hit: cap < feed of the
+    rows (fresh), if the caller has it (_NotChains.hit)."""
     if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
         return False
     if not fresh and jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
@@ -202,9 +220,11 @@ def _classify_block(b, sts, jerk, fresh=False, memo=None, unput=False):
     else:
         ks = np.array([st.curv._k for st in sts], np.int64)
         cap = b.cap[ks]
-    feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
-    hit_a = np.flatnonzero(cap < feed)
+    if hit is None or not fresh:
+        feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
+        feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+        hit = cap < feed
+    hit_a = np.flatnonzero(hit)
     hit = hit_a.tolist()
     caps1 = chain = None
     if hit and jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)

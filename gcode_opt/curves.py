@@ -936,14 +936,15 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
     want: build_geoms' (κ of a block _parts_lazy left without it made for those rows).
     fields: _fields_at's of sts, if the caller read them (else read here).  pre:
     _flat_blocks' (caps, caps at the whole jerk, end turns, u and d finite, _blk_ux2's
-    weights) of every row of the block (caps None: made here; the weights None: made when
-    read), made for many blocks at once (the same numbers)."""
+    weights, each row's least cap) of every row of the block (caps None: made here; the
+    weights None: made when read; the least caps None: taken here), made for many blocks
+    at once (the same numbers)."""
     d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
-    caps = caps1 = ends = finite = ux2 = end2 = None
+    caps = caps1 = ends = finite = ux2 = end2 = mins = None
     if pre is not None:
-        caps, caps1, ends, finite, ux2, end2 = pre
+        caps, caps1, ends, finite, ux2, end2, mins = pre
     keep = None
     if pts is None:
         pts = list(map(_PTS, sts))
@@ -965,6 +966,7 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
             end2 = None if end2 is None else end2[:, good]
             if caps is not None:
                 caps, caps1 = caps[good], None if caps1 is None else caps1[good]
+                mins = None if mins is None else mins[good]
     if not (finite.all() if finite is not None else np.isfinite(u).all() and np.isfinite(d).all()):
         return None
     if fields is None:
@@ -975,9 +977,14 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
         if caps is None:
             return None
         caps1 = _block_caps(lim, u, d, 1.0) if j1 else None
-    cap_min = bool((caps > 0.0).all())
+        mins = None
+    if mins is None:
+        mins = np.minimum.reduce(caps, axis=1)
+    # (every cap > 0 where every row's least one is: a NaN is np.minimum's least; then the
+    # least of each row is the one number in any order)
+    cap_min = bool((mins > 0.0).all())
     if cap_min:
-        cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
+        cap = CAP_MARGIN * mins
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     if ends is None:
@@ -1332,6 +1339,13 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
                                       ok[a:z], kappa, with_seg,
                                       None if arc is None else (arc[0][rows].reshape(m, npt), arc[1][a:z], arc[2][a:z])))
             a = z
+    # each row's least cap, np.minimum over its run of the flat caps (the blocks' rows' own
+    # numbers: _block_geoms' cap where all are > 0), for the chunk at once, not a reduction a block
+    mins = None
+    if fields is not None and caps is not None:
+        cut = np.empty(2 * starts.size, np.intp)
+        cut[0::2], cut[1::2] = starts, starts + n_pt - 2
+        mins = np.minimum.reduceat(caps, cut)[0::2]
     a = 0
     for (idx, npt), block in zip(chunk, blocks):
         m, z = idx.size, a + idx.size
@@ -1343,7 +1357,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
             bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
             yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
                 (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z],
-                 None if end2 is None else end2[:, a:z])
+                 None if end2 is None else end2[:, a:z], None if mins is None else mins[a:z])
         a = z
 
 

@@ -151,26 +151,26 @@ def _kappa_left(b, sts):
 class _NotChains:
     """build_geoms' want of classify: the rows of a block (strokes sts, cap their cap) whose
     κ is made at once, those _classify_block does not make chains (cap < feed); a row it
-    does not foresee makes its κ when read.  The test is kept for _classify_block, which
-    asks it of the same list and cap just after (hit): each feed read once (~620 blocks on
-    the windowed gyroid plate)."""
-    __slots__ = ("_last",)
+    does not foresee makes its κ when read.  The test of each block is kept for
+    _classify_block, which asks it of the same list and cap after build_geoms (hit): each
+    feed read once (~620 blocks on the windowed gyroid plate)."""
+    __slots__ = ("_got",)
 
     def __init__(self):
-        self._last = None
+        self._got = {}          # id(sts) -> (sts, cap, cap < feed): the lists held, their ids unique
 
     def __call__(self, sts, cap):
         feed = objfields.float_col(sts, "v_feed")
         feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
         hit = cap < feed
-        self._last = (sts, cap, hit)
+        self._got[id(sts)] = (sts, cap, hit)
         return ~hit
 
     def hit(self, sts, cap):
-        """cap < feed of the strokes sts as the last call found it, if it was asked of this
-        very list and cap (else None); let go."""
-        last, self._last = self._last, None
-        return last[2] if last is not None and last[0] is sts and last[1] is cap else None
+        """cap < feed of the strokes sts as the call found it, if it was asked of this very
+        list and cap (else None); let go."""
+        got = self._got.pop(id(sts), None)
+        return got[2] if got is not None and got[0] is sts and got[1] is cap else None
 
 
 def _classify_rest(sts, made, profile, jerk):

@@ -2,10 +2,10 @@
 # (the harness is benchmarks/ana64/harness.py; HFUNCS=module:func,module:Class.method wraps those with dumps too;
 #  the helper /tmp/crv62_libcgt.so: gcc -O1 -shared -fPIC -o /tmp/crv62_libcgt.so benchmarks/crv62/cgt.c)
 # hcg.sh TREE FILE TAG: the harness's replay under callgrind, instructions per step
-TREE=$(cd "$1" && pwd); F=$(realpath "$2"); TAG=$3
+D=$(dirname "$(realpath "$0")"); TREE=$(cd "$1" && pwd); F=$(realpath "$2"); TAG=$3
 rm -rf /tmp/cg/$TAG.d; mkdir -p /tmp/cg/$TAG.d
 cd "$TREE" && HFUNCS=$HFUNCS HARNESS_CG=1 PYTHONHASHSEED=1 PYTHONPATH=$TREE valgrind --tool=callgrind --collect-atstart=no --dump-instr=no --callgrind-out-file=/tmp/cg/$TAG.d/cg.out \
-    /tmp/venv/bin/python $(dirname "$(realpath "$0")")/harness.py "$F" > /tmp/cg/$TAG.log 2>&1
+    /tmp/venv/bin/python $D/harness.py "$F" > /tmp/cg/$TAG.log 2>&1
 grep "batches\|digest" /tmp/cg/$TAG.log
 /tmp/venv/bin/python - /tmp/cg/$TAG.d <<'PY'
 import sys, glob, re, collections

@@ -88,22 +88,32 @@ def _caps_array(c):
     return np.frombuffer(c, float) if type(c) is bytes else c
 
 
-def classify(strokes, rows, profile, end_cols=False):
+def classify(strokes, rows, profile, end_cols=False, memo=None):
     """Curve strokes of `rows` with a vertex whose cap (x curves.CAP_MARGIN, as curves.py
-    caps a curve's peak) is below the feed become chains.  end_cols: build_geoms'."""
+    caps a curve's peak) is below the feed become chains.  end_cols: build_geoms'.  memo:
+    the one ChainMemo every chain is marked with (plan_inputs' spilled: the strokes are
+    stored and let go next, their memos stored as a mark alone), None: a new one each."""
     sts = [strokes[i] for i in rows if strokes[i].kind == K_CURVE]
     # κ made for the rows that will not be chains (a chain never reads it), by the test below
-    # (the weights: plan_inputs' adjust_plan_inputs reads them next)
-    made = curves.build_geoms(sts, profile, jerk1=True, kappa=_not_chains, end_cols=end_cols,
-                              weights=True) or []       # (None: a build_geoms of tests)
+    # (the weights: plan_inputs' adjust_plan_inputs reads them next); the geometries put on
+    # the strokes here where every stroke is a row of a block (put False): a chain's with
+    # its caps, in one pass
+    want = _NotChains()
+    made = curves.build_geoms(sts, profile, jerk1=True, kappa=want, end_cols=end_cols,
+                              weights=True, put=False) or []       # (None: a build_geoms of tests)
+    every = sum(len(m[1]) for m in made) == len(sts)
     jerk = profile.junction == "jerk"
     for b, bsts in made:                 # the blocks build_geoms made: their rows in order
-        if not _classify_block(b, bsts, jerk, fresh=True):
-            for st in bsts:
-                _classify_one(st, profile, jerk)
+        # (_classify_block's chains are the rows cap < feed, the rows _NotChains did not
+        # want κ made for: every row left a curve has it, none is left to make)
+        if _classify_block(b, bsts, jerk, fresh=True, memo=memo, unput=every, hit=want.hit(bsts, b.cap)):
+            continue
+        if every:
+            curves.put_rows(b, bsts, None, False)
+        for st in bsts:
+            _classify_one(st, profile, jerk)
         if (b._kv is None or b._kv_miss is not None) and _kappa_left(b, bsts):     # (a curve's κ not made yet: made now)
             b.make_kappa([k for k, st in enumerate(bsts) if st.chain_T is None])
-    every = sum(len(m[1]) for m in made) == len(sts)
     if not every:
         _classify_rest(sts, made, profile, jerk)
     if jerk:
@@ -118,8 +128,10 @@ _CHAIN_T = attrgetter("chain_T")
 
 def _kappa_left(b, sts):
     """Whether b.make_kappa of the rows of sts (the block b's rows in order) that are no
-    chain has a row to make: such a row, and κ not made for the block or for that row.
-    Mostly not: build_geoms made κ for the rows _not_chains foresaw, the rows
+    chain has a row to make: such a row, and κ not made for the block or for that row
+    (classify asks it of the blocks _classify_block does not take: of those it takes, the
+    rows left curves are the rows _NotChains wanted κ made for).
+    Mostly not: build_geoms made κ for the rows _NotChains foresaw, the rows
     _classify_block did not make chains, or left it unmade where every row is a chain
     (make_kappa of no row then made the block's κ arrays, every row not made: the same
     to every reader as none, which makes the rows it reads; ~560 of the ~620 blocks of
@@ -136,13 +148,29 @@ def _kappa_left(b, sts):
     return bool(miss[rows].any())
 
 
-def _not_chains(sts, cap):
-    """build_geoms' rows of a block (strokes sts, cap their cap) whose κ is made at once:
-    those _classify_block does not make chains (cap < feed); a row it does not foresee
-    makes its κ when read."""
-    feed = objfields.float_col(sts, "v_feed")
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
-    return ~(cap < feed)
+class _NotChains:
+    """build_geoms' want of classify: the rows of a block (strokes sts, cap their cap) whose
+    κ is made at once, those _classify_block does not make chains (cap < feed); a row it
+    does not foresee makes its κ when read.  The test of each block is kept for
+    _classify_block, which asks it of the same list and cap after build_geoms (hit): each
+    feed read once (~620 blocks on the windowed gyroid plate)."""
+    __slots__ = ("_got",)
+
+    def __init__(self):
+        self._got = {}          # id(sts) -> (sts, cap, cap < feed): the lists held, their ids unique
+
+    def __call__(self, sts, cap):
+        feed = objfields.float_col(sts, "v_feed")
+        feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+        hit = cap < feed
+        self._got[id(sts)] = (sts, cap, hit)
+        return ~hit
+
+    def hit(self, sts, cap):
+        """cap < feed of the strokes sts as the call found it, if it was asked of this very
+        list and cap (else None); let go."""
+        got = self._got.pop(id(sts), None)
+        return got[2] if got is not None and got[0] is sts and got[1] is cap else None
 
 
 def _classify_rest(sts, made, profile, jerk):
@@ -172,14 +200,17 @@ def _classify_one(st, profile, jerk):
                                          # caps at the whole jerk are read no more
 
 
-def _classify_block(b, sts, jerk, fresh=False):
+def _classify_block(b, sts, jerk, fresh=False, memo=None, unput=False, hit=None):
     """_classify_one of the strokes sts, rows of the geometry block b (curves._Blk), as
     row operations on the block: its cap (CAP_MARGIN x each row's least cap, as
     np.minimum takes it: the test's own number where every cap is > 0, b.cap_min) against
     the feeds, and under classic jerk the chains' caps CHAIN_CAP_MARGIN x caps_jerk1 for
     the chains' rows at once (vertex_caps' product, elementwise: the same bits; each
     chain keeps a copy of its row).  False (nothing done) where the block is not such.
-    fresh: sts are the block's rows in order, as build_geoms made them just now."""
+    fresh: sts are the block's rows in order, as build_geoms made them just now; unput:
+    and their geometries not put on them yet (build_geoms' put False: put here, the
+    chains' with their caps, curves.put_rows).  memo: classify's.  hit: cap < feed of the
+    rows (fresh), if the caller has it (_NotChains.hit)."""
     if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
         return False
     if not fresh and jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
@@ -189,21 +220,29 @@ def _classify_block(b, sts, jerk, fresh=False):
     else:
         ks = np.array([st.curv._k for st in sts], np.int64)
         cap = b.cap[ks]
-    feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
-    feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
-    hit_a = np.flatnonzero(cap < feed)
+    if hit is None or not fresh:
+        feed = objfields.float_col(sts, "v_feed")          # (one compiled pass)
+        feed = curves.floats_of(map(_V_FEED, sts), len(sts)) if feed is None else feed
+        hit = cap < feed
+    hit_a = np.flatnonzero(hit)
     hit = hit_a.tolist()
-    if not hit:
-        return True
-    caps1 = None
-    if jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
+    caps1 = chain = None
+    if hit and jerk and b.caps_jerk1 is not None:         # (np.take's row gather: the same rows)
         caps1 = CHAIN_CAP_MARGIN * b.caps_jerk1.take(hit_a if ks is None else ks[hit_a], axis=0)
         buf, w = caps1.tobytes(), 8 * caps1.shape[1]      # (C order: row i is buf[w i:w (i + 1)])
+        if fresh:
+            chain = _chain_bytes(hit_a, buf, w, len(sts))
+    if unput or chain is not None:      # (fresh: the rows' own geometries, made again with the chains' caps)
+        curves.put_rows(b, sts, chain, False)
+    if chain is not None:               # (their caps at the whole jerk: see _chain_bytes)
+        caps1 = None
     for i, q in enumerate(hit):
         st = sts[q]
-        st.chain_T = ChainMemo()         # the mark of a chain (plan_kind)
+        st.chain_T = ChainMemo() if memo is None else memo         # the mark of a chain (plan_kind)
+        if caps1 is None:
+            continue
         g = st.curv
-        if caps1 is not None and g.chain_caps is None:     # vertex_caps: its caps now, the
+        if g.chain_caps is None:        # vertex_caps: its caps now, the
             # whole jerk's read no more; a copy of its own, not a view: _drop frees each
             # chain's as its plan is made (a view would hold the block's whole array while
             # any chain of it, not re-timed, keeps its caps); the bytes of its doubles, not
@@ -218,6 +257,24 @@ def _classify_block(b, sts, jerk, fresh=False):
 
 
 _CURVE_GEOM = curves.CurveGeom
+_BYTE_RUNS = getattr(curves._CURVE_CORE, "byte_runs", None)
+
+
+def _chain_bytes(hit_a, buf, w, m):
+    """The chain caps of a fresh block's m rows, a list: the bytes of row i of buf (w bytes a
+    row) for the i-th of the rows hit_a, None for the others (the compiled core's byte_runs,
+    one pass: the slices the loop of _classify_block takes a chain, ~16 k on the gyroid
+    plate), or None without the core.  The rows' geometries are then made again with them
+    (curves.put_rows): a chain's keeps _j1 as _FROM_BLOCK, not None, as geom_keep gives a
+    chain's back; classify lets go of the block's caps at the whole jerk next
+    (drop_blocks_jerk1), so its caps_jerk1 is None either way."""
+    if _BYTE_RUNS is None:
+        return None
+    has = np.zeros(m, bool)
+    has[hit_a] = True
+    at = np.zeros(m, np.int64)
+    at[hit_a] = np.arange(0, w * hit_a.size, w, dtype=np.int64)
+    return _BYTE_RUNS(buf, at, at + w, has, m)
 
 
 _V_FEED = attrgetter("v_feed")

@@ -809,7 +809,7 @@ def geom(st, profile):
     return st.curv
 
 
-def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weights=False):
+def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weights=False, put=True):
     """geom() of every stroke in `strokes` (those without one): their segments, curvature
     and vertex caps computed for all strokes of one vertex count at once (_part_blocks,
     _block_geoms: the same elementwise arithmetic as stroke by stroke, so the same bits),
@@ -825,7 +825,10 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weigh
     array), the others when read.  end_cols: the blocks keep their rows' end turns as
     columns too (_Blk._end2: geom_keep.put's, the windowed pipeline's).  weights: the
     blocks' adjust_plan_inputs weights made with them (_flat_ux2; plan_inputs' blocks, not
-    those of the later passes, which do not read them)."""
+    those of the later passes, which do not read them).  put False: where every stroke
+    (of all strokes, none with a geometry before) is a row of a block, the geometries are
+    not put on them: the caller puts them (put_rows; chains.classify, with the chains'
+    caps)."""
     todo = [st for st in strokes if st.curv is None]
     if not todo:
         return []
@@ -837,14 +840,17 @@ def build_geoms(strokes, profile, jerk1=False, kappa=True, end_cols=False, weigh
     for idx, block, bfields, pre in _flat_blocks(todo, pts, kappa is True, want is not None, profile, j1, fields,
                                                  end_cols, weights):
         ii = idx.tolist()
-        got = _block_geoms([todo[i] for i in ii], block, profile, j1, want=want, fields=bfields, pre=pre)
+        # (the block's strokes and their vertices by objfields' compiled take, not a Python step a row)
+        got = _block_geoms(objfields.items(todo, idx), block, profile, j1, pts=objfields.items(pts, idx), want=want,
+                           fields=bfields, pre=pre)
         if got is None:
             continue
         blk, keep, sts = got
         made.append((blk, sts, ii if keep is None else [i for i, g in zip(ii, keep.tolist()) if g]))
     if sum(len(m[1]) for m in made) == len(todo):
-        for blk, sts, _ in made:        # every stroke a row of a block: the order is not seen
-            _put_rows(blk, sts)
+        if put or len(todo) != len(strokes):
+            for blk, sts, _ in made:        # every stroke a row of a block: the order is not seen
+                _put_rows(blk, sts)
         return [m[:2] for m in made]
     rows = [None] * len(todo)          # (block, row) per stroke; None: CurveGeom's own path
     for blk, _, ii in made:
@@ -930,14 +936,15 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
     want: build_geoms' (κ of a block _parts_lazy left without it made for those rows).
     fields: _fields_at's of sts, if the caller read them (else read here).  pre:
     _flat_blocks' (caps, caps at the whole jerk, end turns, u and d finite, _blk_ux2's
-    weights) of every row of the block (caps None: made here; the weights None: made when
-    read), made for many blocks at once (the same numbers)."""
+    weights, each row's least cap) of every row of the block (caps None: made here; the
+    weights None: made when read; the least caps None: taken here), made for many blocks
+    at once (the same numbers)."""
     d, u, _, s_v, kappa_v, kappa_eff, good = block[:7]
     if kappa_eff is not None:                       # (None: made when read, _parts_lazy)
         kappa_eff = np.array(kappa_eff, float)      # the same floats, 8 bytes each
-    caps = caps1 = ends = finite = ux2 = end2 = None
+    caps = caps1 = ends = finite = ux2 = end2 = mins = None
     if pre is not None:
-        caps, caps1, ends, finite, ux2, end2 = pre
+        caps, caps1, ends, finite, ux2, end2, mins = pre
     keep = None
     if pts is None:
         pts = list(map(_PTS, sts))
@@ -959,6 +966,7 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
             end2 = None if end2 is None else end2[:, good]
             if caps is not None:
                 caps, caps1 = caps[good], None if caps1 is None else caps1[good]
+                mins = None if mins is None else mins[good]
     if not (finite.all() if finite is not None else np.isfinite(u).all() and np.isfinite(d).all()):
         return None
     if fields is None:
@@ -969,9 +977,14 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
         if caps is None:
             return None
         caps1 = _block_caps(lim, u, d, 1.0) if j1 else None
-    cap_min = bool((caps > 0.0).all())
+        mins = None
+    if mins is None:
+        mins = np.minimum.reduce(caps, axis=1)
+    # (every cap > 0 where every row's least one is: a NaN is np.minimum's least; then the
+    # least of each row is the one number in any order)
+    cap_min = bool((mins > 0.0).all())
     if cap_min:
-        cap = CAP_MARGIN * np.minimum.reduce(caps, axis=1)
+        cap = CAP_MARGIN * mins
     else:               # a NaN or <= 0: Python's min, as CurveGeom's own path takes it
         cap = np.array([CAP_MARGIN * min(r) if r else math.inf for r in caps.tolist()], float)
     if ends is None:
@@ -991,9 +1004,12 @@ def _block_geoms(sts, block, profile, j1, pts=None, want=None, fields=None, pre=
 
 def _kappa_wanted(seg, d, s_v, keep, want):
     """(kappa_v, kappa_eff, the rows not made (a bool array, None if none)) of a block's
-    rows (_parts_lazy's segments seg and arc lengths s_v, the rows keep of them kept:
-    lengths d) made for the rows want (a bool array): the same rows' _kappa_block (row by
-    row the same bits); (None, None, None) if none is wanted."""
+    rows (_parts_lazy's segments seg and arc lengths s_v, or s_v None and seg _flat_parts'
+    _Rows of them; the rows keep of them kept: lengths d) made for the rows want (a bool
+    array): the same rows' _kappa_block (row by row the same bits); (None, None, None) if
+    none is wanted."""
+    if type(seg) is _Rows:
+        return _kappa_wanted_rows(seg, d, keep, want)
     if keep is not None:
         seg, s_v = seg[keep], s_v[keep]
     if want.all():
@@ -1004,6 +1020,22 @@ def _kappa_wanted(seg, d, s_v, keep, want):
         return None, None, None
     kv, ke = np.empty(s_v.shape), np.empty(d.shape[0])
     kv[rows], ke[rows] = _kappa_block(seg[rows], d[rows], s_v[rows])
+    return kv, ke, ~want
+
+
+def _kappa_wanted_rows(parts, d, keep, want):
+    """_kappa_wanted of a lazy block's _Rows parts: its segments and s_v taken for the
+    rows wanted alone (none: nothing made)."""
+    if want.all():
+        seg, s_v = parts.take(keep, d)
+        kv, ke = _kappa_block(seg, d, s_v)
+        return kv, ke, None
+    rows = np.flatnonzero(want)
+    if not rows.size:
+        return None, None, None
+    seg, s_v = parts.take(rows if keep is None else np.flatnonzero(keep)[rows], d[rows])
+    kv, ke = np.empty((d.shape[0], d.shape[1] + 1)), np.empty(d.shape[0])
+    kv[rows], ke[rows] = _kappa_block(seg, d[rows], s_v)
     return kv, ke, ~want
 
 
@@ -1297,13 +1329,27 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
         lims, which, accel, (p, q) = _fields_at(fields, idx_all)
         # (the strokes' count: idx_all's; the columns only where asked: the later passes' none)
         ends, end2 = _ends_cols(idx_all, u[starts], u[gap - 1], (p, q), end_cols)
+    # each block's parts under the chunk's one errstate (np.errstate's enter and exit: ~2 us a block)
+    ok, a, blocks = pts_ok & d_ok, 0, []
+    with np.errstate(all="ignore"):
+        for idx, npt in chunk:
+            m, z = idx.size, a + idx.size
+            rows = slice(int(starts[a]), int(starts[a]) + m * npt)
+            blocks.append(_flat_parts(seg[rows].reshape(m, npt, 2), d[rows].reshape(m, npt), u[rows].reshape(m, npt, 2),
+                                      ok[a:z], kappa, with_seg,
+                                      None if arc is None else (arc[0][rows].reshape(m, npt), arc[1][a:z], arc[2][a:z])))
+            a = z
+    # each row's least cap, np.minimum over its run of the flat caps (the blocks' rows' own
+    # numbers: _block_geoms' cap where all are > 0), for the chunk at once, not a reduction a block
+    mins = None
+    if fields is not None and caps is not None:
+        cut = np.empty(2 * starts.size, np.intp)
+        cut[0::2], cut[1::2] = starts, starts + n_pt - 2
+        mins = np.minimum.reduceat(caps, cut)[0::2]
     a = 0
-    for idx, npt in chunk:
+    for (idx, npt), block in zip(chunk, blocks):
         m, z = idx.size, a + idx.size
         rows = slice(int(starts[a]), int(starts[a]) + m * npt)
-        block = _flat_parts(seg[rows].reshape(m, npt, 2), d[rows].reshape(m, npt), u[rows].reshape(m, npt, 2),
-                            pts_ok[a:z] & d_ok[a:z], kappa, with_seg,
-                            None if arc is None else (arc[0][rows].reshape(m, npt), arc[1][a:z], arc[2][a:z]))
         if fields is None:
             yield idx, block, None, None
         else:
@@ -1311,7 +1357,7 @@ def _flat_chunk(todo, pts, chunk, kappa, with_seg, profile, j1, fields, end_cols
             bcaps1 = None if caps1 is None else caps1[rows].reshape(m, npt)[:, :-2].copy()
             yield idx, block, (lims, which[a:z], accel[a:z], (p[:, a:z], q[:, a:z])), \
                 (bcaps, bcaps1, ends[a:z], finite[a:z], None if ux2 is None else ux2[a:z],
-                 None if end2 is None else end2[:, a:z])
+                 None if end2 is None else end2[:, a:z], None if mins is None else mins[a:z])
         a = z
 
 
@@ -1319,27 +1365,49 @@ def _flat_parts(seg, d, u, ok, kappa, with_seg, arc=None):
     """_parts_block (kappa) or _parts_lazy of a block of m strokes of npt vertices from
     _flat_chunk's rows of it (seg, u (m, npt, 2), d (m, npt): the last of each row not a
     segment; ok: its vertices finite and segments > 1e-9): the same fields (cos_turn None).
-    arc: _flat_arcs' (arc lengths (m, npt), rising, tame) of these rows, or None (made here)."""
+    arc: _flat_arcs' (arc lengths (m, npt), rising, tame) of these rows, or None (made here).
+    The caller holds np.errstate(all="ignore").  The lazy block's segments for build_geoms'
+    want (with_seg) are _Rows of them: the segments and arc lengths made only for the rows
+    wanted (_kappa_wanted), most blocks' none (their rows all chains)."""
     m, npt = d.shape
     d = d[:, :-1].copy()
     seg, u = seg[:, :-1], u[:, :-1]
-    with np.errstate(all="ignore"):
-        if arc is None:
-            s_v = _arcs_of(d)
-            good = ok & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
-            lazy = not (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any()
-        else:
-            s_v = None
-            good = ok & arc[1]
-            lazy = not (good & ~arc[2]).any()
-        if not kappa and lazy:
-            if with_seg:            # (the want's κ reads s_v)
-                return d, u, None, _arcs_of(d, arc), None, None, good, np.ascontiguousarray(seg)
-            return d, u, None, s_v, None, None, good, None
-        s_v = _arcs_of(d, arc) if s_v is None else s_v
-        kappa_v, kappa_eff = _kappa_block(np.ascontiguousarray(seg), d, s_v)
-        good &= np.isfinite(kappa_v).all(axis=1)
+    if arc is None:
+        s_v = _arcs_of(d)
+        good = ok & (_lag_rows(s_v, 1) > 0.0).all(axis=1)
+        lazy = not (good & ~(s_v[:, -1] <= KAPPA_TAME_D)).any()
+    else:
+        s_v = None
+        good = ok & arc[1]
+        lazy = not (good & ~arc[2]).any()
+    if not kappa and lazy:
+        if with_seg:            # (the want's κ reads the segments and s_v of its rows)
+            return d, u, None, None, None, None, good, _Rows(seg, s_v, None if arc is None else arc[0])
+        return d, u, None, s_v, None, None, good, None
+    s_v = _arcs_of(d, arc) if s_v is None else s_v
+    kappa_v, kappa_eff = _kappa_block(np.ascontiguousarray(seg), d, s_v)
+    good &= np.isfinite(kappa_v).all(axis=1)
     return d, u, None, s_v, kappa_v, kappa_eff.tolist(), good
+
+
+class _Rows:
+    """A lazy block's segments (m, n, 2: a view of _flat_chunk's rows) and arc lengths at
+    the vertices (s_v (m, n + 1), or None: made from arc, _flat_arcs' running sums (m, n + 1)
+    of the rows, by _arcs_of) for _kappa_wanted: those of some rows (take) as
+    _flat_parts made them for every row (the same doubles, C-contiguous)."""
+    __slots__ = ("seg", "s_v", "arc")
+
+    def __init__(self, seg, s_v, arc):
+        self.seg, self.s_v, self.arc = seg, s_v, arc
+
+    def take(self, rows, d):
+        """(segments, s_v) of rows (an int array, or None: every row; d: those rows' lengths)."""
+        if rows is None:
+            seg, s_v, arc = np.ascontiguousarray(self.seg), self.s_v, self.arc
+        else:
+            seg, s_v, arc = self.seg[rows], self.s_v, self.arc
+            s_v, arc = (None if s_v is None else s_v[rows]), (None if arc is None else arc[rows])
+        return seg, (s_v if s_v is not None else _arcs_of(d, None if arc is None else (arc,)))
 
 
 def _arcs_of(d, arc=None):

@@ -474,8 +474,10 @@ class _LogSums:
             feat_at.clear()
             for f in dict.fromkeys(feats):     # new features numbered in the order they came
                 ids.setdefault(f, len(ids))
-            starts.extend(lines)
-            fid.extend(map(ids.__getitem__, feats))
+            # (the int64s joined as bytes, np.fromiter's: array("q").extend parses each int,
+            # ~0.25 k instructions more an entry, ~20 k changes of feature on the rectilinear plate)
+            starts.frombytes(np.fromiter(lines, np.int64, len(lines)).tobytes())
+            fid.frombytes(np.fromiter(map(ids.__getitem__, feats), np.int64, len(feats)).tobytes())
         nf = len(ids)
         if nf > len(self.count):           # more features: the sums so far kept as they are
             grow = max(nf, 2 * len(self.count)) - len(self.count)

@@ -125,7 +125,7 @@ class SpilledInputs:
         """The strokes held planned, their geometry kept, their records written."""
         from .schedule import plan_inputs
         sts, self.held = self.held, []
-        pin = plan_inputs(sts, self.profile, self.opts, end_cols=True)     # (for geoms.put)
+        pin = plan_inputs(sts, self.profile, self.opts, end_cols=True, spilled=True)     # (end_cols: for geoms.put)
         self.geoms.put(len(self.store), sts, pin.plan_kind_codes)
         self.store.append(sts)
         self.parts.append(pin)

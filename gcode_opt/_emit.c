@@ -23,6 +23,7 @@ The validator reads the block's own text, but for the lines emit_cols writes fro
 decimals the reading would give (Known, known_units; set_text_check(True): read too). */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include "_strokefields.h"  /* StrokeFieldsAPI: the firmware core's stroke fields' layout */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
@@ -2830,13 +2831,7 @@ static inline __attribute__((always_inline)) PyObject *get_attr(PyObject *o, int
    itself, not as the new float or int the getter makes (~5 a stroke in a run: each a
    call, an allocation and its release).  The same value: the getter's own tests (the
    field's bit in odd: an object kept aside, read as an object; has: None) made here. */
-typedef struct {
-    int version;
-    getter sd_get, si_get;
-    Py_ssize_t off_d, off_i, off_has, off_odd;
-    int sd_n, sd_none0, si_n;
-} StrokeFieldsAPI;
-static const StrokeFieldsAPI *STROKE_FIELDS = NULL;
+static const StrokeFieldsAPI *STROKE_FIELDS = NULL;      /* (its layout: _strokefields.h) */
 
 /* STROKE_FIELDS from the firmware core, if it is imported (not imported here) and its
    capsule is of this version; NULL else, no exception */

@@ -1,5 +1,6 @@
 """The compiled cores share headers (gcode_opt/_npsum.h: numpy's pairwise sum;
-gcode_opt/_linestr.h: a line's str as read_lines gives it).  A core
+gcode_opt/_linestr.h: a line's str as read_lines gives it; gcode_opt/_strokefields.h: the
+layout of the firmware core's stroke fields that the rewrite core reads).  A core
 built from a source is used only with that same source AND the same headers beside it:
 native.source_digest hashes both, setup.py records the same digest, and a changed header
 makes the build stale (the Python path plays, and says why), as a changed .c does."""
@@ -22,10 +23,11 @@ SOURCES = {                     # module -> the C source it is built from
 }
 HEADER = PKG / "_npsum.h"
 LINESTR = PKG / "_linestr.h"
+FIELDS = PKG / "_strokefields.h"
 
 
 def test_the_three_summing_cores_include_the_shared_header():
-    assert native.local_headers(str(SOURCES["_gcode_opt_fwcore"])) == [str(HEADER), str(LINESTR)]
+    assert native.local_headers(str(SOURCES["_gcode_opt_fwcore"])) == [str(HEADER), str(LINESTR), str(FIELDS)]
     for mod in ("_gcode_opt_chaincore", "_gcode_opt_curvecore"):
         assert native.local_headers(str(SOURCES[mod])) == [str(HEADER)]
     # no core keeps a copy of its own any more
@@ -42,6 +44,15 @@ def test_the_reader_and_the_model_share_line_str():
     assert "static PyObject *line_str" in LINESTR.read_text()
 
 
+def test_the_model_and_the_rewrite_share_the_stroke_fields_layout():
+    # one StrokeFieldsAPI for the capsule's writer (the firmware core) and its reader (the
+    # rewrite core): a copy in each could drift apart, and the reader would misread strokes
+    assert native.local_headers(str(SOURCES["_gcode_opt_emit"])) == [str(FIELDS)]
+    assert "} StrokeFieldsAPI;" in FIELDS.read_text()
+    for src in SOURCES.values():
+        assert "} StrokeFieldsAPI;" not in src.read_text()
+
+
 def test_headers_include_no_local_header():
     # source_digest reads one level of local includes: a header including another would
     # leave that one out of the digest
@@ -50,8 +61,9 @@ def test_headers_include_no_local_header():
             assert native.local_headers(h) == [], h
 
 
-def test_digest_of_a_source_without_headers_is_its_sha256():
-    src = SOURCES["_gcode_opt_emit"]
+def test_digest_of_a_source_without_headers_is_its_sha256(tmp_path):
+    src = tmp_path / "_plain.c"        # (every core includes a shared header now)
+    src.write_bytes(b"#include <Python.h>\nstatic int x;\n")
     assert native.local_headers(str(src)) == []
     assert native.source_digest(str(src)) == hashlib.sha256(src.read_bytes()).hexdigest()
 

@@ -25,6 +25,7 @@
 #include <string.h>
 #include "../_npsum.h"      /* np_pairwise_sum: numpy's pairwise sum */
 #include "../_linestr.h"    /* line_str: a line's str as read_lines gives it */
+#include "../_strokefields.h"  /* StrokeFieldsAPI: the layout _STROKE_FIELDS exports */
 #ifdef __SSE2__
 #include <emmintrin.h>      /* src_next_buf's 16-byte scan */
 #endif
@@ -3695,12 +3696,6 @@ static PyObject *si_get(StrokeObject *s, void *c)
  * reads a field so only where the type's getter it found is this sd_get / si_get (the
  * same module: this layout), the field's bit in odd is clear, and (a None-able double)
  * its bit in has tells None; else through the getter, as before.  version: 1. */
-typedef struct {
-    int version;
-    getter sd_get, si_get;
-    Py_ssize_t off_d, off_i, off_has, off_odd;
-    int sd_n, sd_none0, si_n;
-} StrokeFieldsAPI;
 static PyObject *si_get(StrokeObject *s, void *c);
 static const StrokeFieldsAPI STROKE_FIELDS_API = {
     1, (getter)sd_get, (getter)si_get, offsetof(StrokeObject, d), offsetof(StrokeObject, i),

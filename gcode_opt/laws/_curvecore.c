@@ -1211,6 +1211,26 @@ static PyObject *lay_step(PyObject *self, PyObject *a) {
     return PyLong_FromSsize_t(k);
 }
 
+/* A row's decisions from its m speeds v and tangential accelerations at (probe_rows' and
+   screen_rows' scalar step): over_v, the largest v above vt; by_at, the largest |at| above
+   ac (a NaN decides neither); v_ok, every |v| <= 1e150. */
+static void screen_decide(const double *vr, const double *ar, Py_ssize_t m, double vt, double ac,
+                          uint8_t *over_v, uint8_t *by_at, uint8_t *v_ok) {
+    double vmax = vr[0], a2max = ar[0] * ar[0];
+    int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
+    for (Py_ssize_t j = 1; j < m; j++) {
+        const double x = vr[j], y = ar[j] * ar[j];
+        v_nan |= isnan(x);
+        a_nan |= isnan(y);
+        tame &= fabs(x) <= 1e150;
+        vmax = x > vmax ? x : vmax;
+        a2max = y > a2max ? y : a2max;
+    }
+    *over_v = !v_nan && vmax > vt;
+    *by_at = !a_nan && sqrt(a2max) > ac;
+    *v_ok = (uint8_t)tame;
+}
+
 /* probe_rows(v, at, nb, m, v_thr, a_cap, over_v, by_at, v_ok): per row r of v and at (nb, m),
    curves.surely_over's decisions before κ: over_v[r] = np.max(v[r]) > v_thr[r], by_at[r] =
    np.sqrt(np.max(at[r] * at[r])) > a_cap[r] (numpy's maxima: NaN where a NaN is met, and a NaN
@@ -1287,19 +1307,7 @@ static PyObject *probe_rows(PyObject *self, PyObject *a) {
             continue;
         }
 #endif
-        double vmax = vr[0], a2max = ar[0] * ar[0];
-        int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
-        for (Py_ssize_t j = 1; j < m; j++) {
-            const double x = vr[j], y = ar[j] * ar[j];
-            v_nan |= isnan(x);
-            a_nan |= isnan(y);
-            tame &= fabs(x) <= 1e150;
-            vmax = x > vmax ? x : vmax;
-            a2max = y > a2max ? y : a2max;
-        }
-        over_v[r] = !v_nan && vmax > vt[r];
-        by_at[r] = !a_nan && sqrt(a2max) > ac[r];
-        v_ok[r] = (uint8_t)tame;
+        screen_decide(vr, ar, m, vt[r], ac[r], over_v + r, by_at + r, v_ok + r);
     }
     release(&b);
     Py_RETURN_NONE;
@@ -1327,22 +1335,6 @@ static Py_ssize_t own_len(const double *c, Py_ssize_t K) {
     return n;
 }
 
-static void screen_decide(const double *vr, const double *ar, Py_ssize_t m, double vt, double ac,
-                          uint8_t *over_v, uint8_t *by_at, uint8_t *v_ok) {
-    double vmax = vr[0], a2max = ar[0] * ar[0];
-    int v_nan = isnan(vr[0]), a_nan = isnan(a2max), tame = fabs(vr[0]) <= 1e150;
-    for (Py_ssize_t j = 1; j < m; j++) {
-        const double x = vr[j], y = ar[j] * ar[j];
-        v_nan |= isnan(x);
-        a_nan |= isnan(y);
-        tame &= fabs(x) <= 1e150;
-        vmax = x > vmax ? x : vmax;
-        a2max = y > a2max ? y : a2max;
-    }
-    *over_v = !v_nan && vmax > vt;
-    *by_at = !a_nan && sqrt(a2max) > ac;
-    *v_ok = (uint8_t)tame;
-}
 
 #if CURVE_AVX
 /* screen_rows' row with jp == 20 (the probe's 17 points): both sums in 5 + 5 registers of 4,

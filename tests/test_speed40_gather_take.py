@@ -67,10 +67,14 @@ def _remember_old(sts, j, c, t, good, T, beta, kept, src=None, a=0):
             lo += k
 
 
-def _classify_block_old(b, sts, jerk, fresh=False):
-    """chains._classify_block as it was (7f6c18e)."""
+def _classify_block_old(b, sts, jerk, fresh=False, memo=None, unput=False, hit=None):
+    """chains._classify_block as it was (7f6c18e), called as classify calls it now (ana64):
+    where classify left the block's geometries unput, they are put first, as build_geoms
+    then did (memo and hit: a new ChainMemo a chain and the feeds' own test, as then)."""
     from gcode_opt import curves, objfields
     from gcode_opt.chains import CHAIN_CAP_MARGIN, ChainMemo, _V_FEED
+    if unput:
+        curves.put_rows(b, sts, None, False)
     if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
         return False
     if not fresh and jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):
@@ -114,8 +118,8 @@ def _planned(name, prof, monkeypatch, old):
     block_caps = []
     classify = chains._classify_block
 
-    def rec_caps(b, sts, jerk, fresh=False):
-        got = classify(b, sts, jerk, fresh)
+    def rec_caps(b, sts, jerk, fresh=False, **kw):
+        got = classify(b, sts, jerk, fresh, **kw)
         block_caps.append([None if st.chain_T is None or st.curv.chain_caps is None
                            else chains._caps_array(st.curv.chain_caps).tobytes() for st in sts])
         return got

@@ -37,8 +37,12 @@ def ref_candidates_chain(pin, rows, strokes, profile, rules=None):
     return T, beta, I, KE
 
 
-def ref_classify_block(b, sts, jerk, fresh=False):
-    """_classify_block of f656414: each chain's caps a copy of its row (an array)."""
+def ref_classify_block(b, sts, jerk, fresh=False, memo=None, unput=False, hit=None):
+    """_classify_block of f656414: each chain's caps a copy of its row (an array).  Called as
+    classify calls it now (ana64): geometries classify left unput are put first, as
+    build_geoms then did; memo and hit unused (a new ChainMemo a chain, the feeds' test)."""
+    if unput:
+        curves.put_rows(b, sts, None, False)
     if not (b.cap_min and isinstance(b.cap, np.ndarray) and b.caps.ndim == 2 and b.caps.shape[1] > 0):
         return False
     if not fresh and jerk and any(st.curv._j1 is not curves._FROM_BLOCK for st in sts):

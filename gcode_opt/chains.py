@@ -2351,7 +2351,7 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
     VK, TK, OWN = np.empty(cells + R), np.empty(cells), np.empty(R, np.int64)
     sts_all, c, a, r = [], 0, 0, 0
     for (sts, gs, own, vk, tk), (m, Rb, n) in zip(batches, sizes):
-        if not _stack_du_into(gs, n, D[c:c + m * n].reshape(m, n), U[2 * c:2 * (c + m * n)].reshape(m, n, 2)):
+        if not curves.stack_du_into(gs, n, D[c:c + m * n].reshape(m, n), U[2 * c:2 * (c + m * n)].reshape(m, n, 2)):
             return None
         VK[a + r:a + r + Rb * (n + 1)].reshape(Rb, n + 1)[...] = vk
         TK[a:a + Rb * n].reshape(Rb, n)[...] = tk
@@ -2379,23 +2379,6 @@ def _finish_ragged(batches, rules, profile, core=None, predict=True):
         a += Rb * n
         r += Rb
     return out
-
-
-def _stack_du_into(gs, n, D, U):
-    """curves.stack_du(gs) written into D (m, n) and U (m, n, 2), C-contiguous float64 (a
-    ragged finishing call's stretches of its flat inputs): by the curve core's stack_rows
-    into them where it takes the geometries (the rows stack_du's core path copies and
-    makes), else stack_du's own arrays copied in.  False where those are not (m, n) and
-    (m, n, 2) float64 (_finish_ragged declines)."""
-    fn = getattr(curves, "_STACK_ROWS", None)
-    if fn is not None and type(gs) is list and gs and fn(gs, n, D, U):
-        return True
-    got_d, got_u = curves.stack_du(gs)
-    if (got_d.shape != D.shape or got_u.shape != U.shape or got_d.dtype != np.float64
-            or got_u.dtype != np.float64):
-        return False
-    D[...], U[...] = got_d, got_u
-    return True
 
 
 def _turn_cosines(U, core):

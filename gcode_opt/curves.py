@@ -552,6 +552,22 @@ def _stacked_core(gs, with_u):
     return (D, U) if _STACK_ROWS(gs, n, D, U) else None
 
 
+def stack_du_into(gs, n, D, U):
+    """stack_du(gs) written into D (m, n) and U (m, n, 2), C-contiguous float64 (a ragged
+    finishing call's stretches of its flat inputs, chains._finish_ragged): by the core's
+    stack_rows into them where it takes the geometries (the rows _stacked_core copies and
+    makes), else stack_du's own arrays copied in.  False where those are not (m, n) and
+    (m, n, 2) float64 (the caller declines)."""
+    if _STACK_ROWS is not None and type(gs) is list and gs and _STACK_ROWS(gs, n, D, U):
+        return True
+    got_d, got_u = stack_du(gs)
+    if (got_d.shape != D.shape or got_u.shape != U.shape or got_d.dtype != np.float64
+            or got_u.dtype != np.float64):
+        return False
+    D[...], U[...] = got_d, got_u
+    return True
+
+
 def _stack_u(gs, runs, ks, D):
     """stack_du's directions: the rows of the runs (block, first, end) of gs, whose
     lengths D holds stacked.  Blocks that keep no u (build_geoms'): one pass of the

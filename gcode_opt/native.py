@@ -10,7 +10,12 @@ also records, beside the digest, each covered file's size, mtime, ctime and inod
 hashed them (SOURCE_STAT: stat_record); a load whose files all still have those keys is
 given the recorded digest without hashing (unchanged_since_build).  Any write to a file
 sets its ctime anew (and a copy or checkout is another inode): then it hashes, as
-before.  CPython trusts a .pyc on its source's mtime and size alone."""
+before.  CPython trusts a .pyc on its source's mtime and size alone.
+
+An installed wheel holds no C source (pyproject.toml's exclude-package-data): its cores
+were built with the Python code beside them, and the installed copies of the sources,
+whose stat keys never match the build's, were hashed at every start (~4 ms).  With no
+source beside the module there is nothing to check (load)."""
 from __future__ import annotations
 
 import importlib

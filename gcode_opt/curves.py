@@ -1877,6 +1877,22 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
     return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
 
 
+def _solve_kept(rows_geo, S, T, beta, v0, v1):
+    """_solve's (law, R), the laws candidates_curve kept (_KeptLaws) taken as they are
+    and the others solved: the same laws."""
+    R = 1.0 / np.array([g.kappa_eff for g in rows_geo])
+    kept = _KEPT[1]
+    if kept is None or not kept.at:
+        return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
+    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
+                                       for x in (S / R, T, beta, v0 / R, v1 / R, R))))
+    codes = kept.lookup(args)
+    miss = np.flatnonzero(codes < 0)
+    if miss.size == codes.size:
+        return solve_circles(*args), R
+    return kept.batch(args, codes, miss), R
+
+
 def _rows_of(memo, sel):
     """The memo of _kappa_rows for the rows sel of its rows: a _Knots' rows, a dict as it is."""
     return memo.sub(sel) if isinstance(memo, _Knots) else memo
@@ -2265,6 +2281,135 @@ SOLVE_ROWS = 4096
 SCREEN_BAND_R = 1e-3
 
 
+def _distinct_rows(args):
+    """(first, inv) of the candidates' laws args (solve_circles' six (n,) arguments): the
+    first row of each distinct set of arguments (by their bits), in order, and each row's
+    position in first; None where every row is distinct.  The rectilinear plate's layers
+    repeat their curves: 22 540 curve candidates, 3 066 distinct laws (the gyroid's
+    34 051, 27 291)."""
+    keys = np.ascontiguousarray(np.stack(args, axis=1), float).view(_KeptLaws._KEY).ravel()
+    _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    if first.size == keys.size:
+        return None
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return first[order], rank[inv.ravel()]
+
+
+def _rough_distinct(args):
+    """circle.solve_circles_rough(*args), each distinct law solved once (_distinct_rows)
+    and given to every row that has its arguments: the same (batch, layers), as each law
+    is its own whatever its batch (it gives None where not)."""
+    d = _distinct_rows(args)
+    if d is None:
+        return _circle.solve_circles_rough(*args)
+    first, inv = d
+    got = _circle.solve_circles_rough(*(a[first] for a in args))
+    if got is None:
+        return None
+    rough, lay = got
+    return rough.take(inv), tuple(x[inv] for x in lay)
+
+
+def _solve_distinct(args, lay):
+    """solve_circles(*args, layers=lay, widths=True), each distinct law solved once
+    (_distinct_rows; lay is a function of args, row by row) where each law is its own
+    whatever its batch (circle.rows_invariant): the same (batch, widths)."""
+    d = _distinct_rows(args) if _circle.rows_invariant() else None
+    if d is None:
+        return solve_circles(*args, layers=lay, widths=True)
+    first, inv = d
+    law, n1 = solve_circles(*(a[first] for a in args), layers=tuple(x[first] for x in lay), widths=True)
+    return law.take(inv), n1[inv]
+
+
+class _KeptLaws:
+    """The feasible laws candidates_curve solved in full, kept for the budget's plans of the
+    same strokes (_knot_speeds: every curve law it solved was one of them, at the same T and
+    beta, on both plates: 2 471 of rect's 2 579 full laws, 3 950 of the gyroid's 4 109),
+    so that it does not solve them again.  A law is looked up by its arguments' bits
+    (solve_circles' phi_total, T, beta, w0, w1, R: its whole input), and each law is its
+    own whatever its batch where rows_invariant(): the one kept is the one a solve gives.
+    Laws whose solve went to Newton for any arc of their chunk are not kept (NEWTON_ARCS
+    is read by the budget runs: schedule's plans of a row its own).  Held by blocks of the
+    candidates' batches: ~60 bytes and a law's coefficients a law, ~1.5 MB on the gyroid
+    plate, let go with the candidate tables (schedule.set_aside_for_rewrite)."""
+    _KEY = np.dtype((np.void, 48))
+
+    def __init__(self):
+        self.blocks = []        # (regime, wc, cc, coef, n1) of each add's laws
+        self.at = {}            # a law's arguments (48 bytes) -> block << 32 | row
+
+    @classmethod
+    def _keys(cls, args):
+        """Each law's arguments (6 float64 arrays of n) as 48-byte keys, a list."""
+        return np.ascontiguousarray(np.stack(args, axis=1), float).view(cls._KEY).ravel().tolist()
+
+    def add(self, law, n1, sel):
+        """The laws sel (a bool mask) of law, solved with widths n1 (solve_circles'; -1:
+        not to be kept)."""
+        sel = sel & (n1 >= 0)
+        if not sel.any():
+            return
+        b = len(self.blocks)
+        idx = np.flatnonzero(sel)
+        k = max(1, int(n1[idx].max()))
+        self.blocks.append((law.regime[idx], law.wc[idx], law.cc[idx], np.ascontiguousarray(law.coef[idx, :k]),
+                            n1[idx]))
+        keys = self._keys(tuple(getattr(law, f)[idx] for f in _LAW_ARGS))
+        self.at.update(zip(keys, [b << 32 | r for r in range(idx.size)]))
+
+    def lookup(self, args):
+        """The block << 32 | row of each law of args (6 (n,) arrays), -1 where not kept."""
+        at = self.at
+        return np.array([at.get(k, -1) for k in self._keys(args)], np.int64)
+
+    def batch(self, args, codes, miss):
+        """solve_circles(*args): the laws whose codes are kept taken from their blocks, the
+        others (miss) solved (circle.batch_of_rows: the table a solve of all makes)."""
+        m = codes.size
+        regime, wc, cc = np.empty(m, bool), np.empty(m), np.empty(m)
+        n1 = np.empty(m, np.int64)
+        rows = [None] * m
+        for i, c in enumerate(codes.tolist()):
+            if c >= 0:
+                r, w, q, coef, nn = self.blocks[c >> 32]
+                j = c & 0xFFFFFFFF
+                regime[i], wc[i], cc[i], n1[i], rows[i] = r[j], w[j], q[j], nn[j], coef[j]
+        if miss.size:
+            law, got = solve_circles(*(a[miss] for a in args), widths=True)
+            regime[miss], wc[miss], cc[miss], n1[miss] = law.regime, law.wc, law.cc, got
+            for i, r in zip(miss.tolist(), law.coef):
+                rows[i] = r
+        return _circle.batch_of_rows(*(np.array(a, float) for a in args), regime, wc, cc, rows, n1)
+
+
+_LAW_ARGS = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d")
+_KEPT = [None, None]        # [a weakref to the pin whose candidates were kept, its _KeptLaws]
+
+
+def _kept_for(pin):
+    """The _KeptLaws of pin's candidates (a new one for another pin than the last), or None
+    where a law is not its own whatever its batch (circle.rows_invariant)."""
+    if not _circle.rows_invariant():
+        return None
+    ref = _KEPT[0]
+    if ref is None or ref() is not pin:
+        forget_kept_laws()
+        try:
+            _KEPT[0] = weakref.ref(pin, lambda _: forget_kept_laws())
+        except TypeError:       # (an object without weak references: nothing kept)
+            return None
+        _KEPT[1] = _KeptLaws()
+    return _KEPT[1]
+
+
+def forget_kept_laws():
+    """The kept laws let go (after the budget's runs; a re-plan solves its laws again)."""
+    _KEPT[0] = _KEPT[1] = None
+
+
 def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, drop=True):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt.
@@ -2302,6 +2447,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
     # none accepted): ~0.1 s of the gyroid plate's 0.32 s of curve candidates
     # (tests/test_speed29_curvesolve_retry.py)
     a_only = np.zeros(rows.size * k, bool)
+    kept = _kept_for(pin)
     floor = levels
     npass = [0]             # candidate_table's pass (0: first, 1: the beta/4 retries)
 
@@ -2327,7 +2473,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         """(∫v², ∫|a|², ok) of the candidates idx; idx_out: candidates left out of this
         batch, whose grid levels it takes (the figures of the batch that holds them)."""
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
-        fig, laws, levels = _probe(idx, T, beta, v_lim, a_lim, SOLVE_ROWS if _circle.rows_invariant() else idx.size)
+        fig, laws, widths, levels = _probe(idx, T, beta, v_lim, a_lim,
+                                           SOLVE_ROWS if _circle.rows_invariant() else idx.size)
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
@@ -2347,6 +2494,8 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             iv[fig], ia[fig], pv[fig], pa[fig], mv[fig] = true_figures(
                 law, 1.0 / keff[q], objfields.items(geos, q), None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
+        if kept is not None and fig.size:        # (the feasible ones: those a plan can take)
+            kept.add(law, np.concatenate(widths), ok[fig])
         return iv, ia, ok
 
     def _levels_of(idx, T, beta):
@@ -2355,12 +2504,13 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         return _circle.grid_levels_of(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R)
 
     def _probe(idx, T, beta, v_lim, a_lim, step):
-        """(fig, laws, levels) of the candidates idx solved `step` at a time: the positions
-        in idx of those not surely over a limit (surely_over; a_only set for the others),
-        their circle laws (a CircleBatch a chunk), and the panel levels of the whole batch
+        """(fig, laws, widths, levels) of the candidates idx solved `step` at a time: the
+        positions in idx of those not surely over a limit (surely_over; a_only set for the
+        others), their circle laws (a CircleBatch a chunk) and widths (solve_circles'; -1 in
+        a chunk that went to Newton: not kept), and the panel levels of the whole batch
         (the largest of its chunks').  Each law is its own whatever its chunk (Newton's
         too: circle._newton_cheb), and given the whole batch's levels its figures are too."""
-        figs, laws, levels = [], [], 0
+        figs, laws, widths, levels = [], [], [], 0
         for a in range(0, idx.size, step):
             sl = slice(a, a + step)
             q = idx[sl]
@@ -2372,10 +2522,13 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             else:
                 args = tuple(x[r] for x in args)
                 lay = tuple(x[r] for x in lay)
-            law = solve_circles(*args, layers=lay) if r.size else None
+            n0 = _circle.NEWTON_ARCS[0]
+            law, n1 = _solve_distinct(args, lay) if r.size else (None, None)
             levels = max(levels, law.panel_levels() if lv is None else lv)
             if law is None:
                 continue
+            if _circle.NEWTON_ARCS[0] != n0:
+                n1[:] = -1
             why = []
             fig = np.flatnonzero(~surely_over(law, args[5], objfields.items(geos, q[r]), v_lim[sl][r], a_lim[sl][r],
                                               {} if knots is None else knots.sub(q[r]), why))
@@ -2383,8 +2536,9 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
             if fig.size:
                 figs.append(a + r[fig])
                 laws.append(law.take(fig))     # (the others' laws let go with the chunk)
+                widths.append(n1[fig])
             del law
-        return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, levels
+        return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, widths, levels
 
     def _screen(q, args, v_lim, a_lim):
         """(r, levels, layers) of the candidates q (solve_circles' args): their rough laws probed
@@ -2395,7 +2549,7 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
         regime (solve_circles' layers).  Each candidate's full law, probe and figures are as
         before: its own whatever the others in its batch.  (None, None, None) where no rough
         laws are made."""
-        got = _circle.solve_circles_rough(*args)
+        got = _rough_distinct(args)
         if got is None:
             return None, None, None
         rough, lay = got
@@ -2505,7 +2659,7 @@ def _knot_speeds(strokes, T, beta, profile):
         v0 = np.array([st.v0 for st in strokes])
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
-    law, R = _solve(None, geos, S, T, beta, v0, v1)
+    law, R = _solve_kept(geos, S, T, beta, v0, v1)
     order = _by_series_length(law.coef)
     # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
     # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws

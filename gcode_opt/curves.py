@@ -2660,6 +2660,49 @@ def _knot_speeds(strokes, T, beta, profile):
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
     law, R = _solve_kept(geos, S, T, beta, v0, v1)
+    d = _distinct_rows(tuple(getattr(law, f) for f in _LAW_ARGS)) if _circle.rows_invariant() else None
+    if d is not None:
+        _knot_speeds_distinct(law, d, s, off, v)
+    else:
+        _knot_speeds_rows(law, R, T, m, s, off, v)
+    v[off[:-1]] = v0
+    v[off[1:] - 1] = v1
+    return s, v, off
+
+
+def _knot_speeds_distinct(law, d, s, off, v):
+    """_knot_speeds_rows' speeds of strokes whose laws repeat (_distinct_rows' (first, inv)
+    of law's rows; a plate's layers repeat their curves: rect 2 471 laws, 386 distinct):
+    each distinct law evaluated once (its s and speed on the grid are functions of its
+    arguments, R and T among them), and every stroke of it interpolated at its own knots
+    (the same operations on the same numbers, each point at its law's grid)."""
+    first, inv = d
+    ulaw = law.take(first)
+    R, T = ulaw.R_d, ulaw.T_t
+    order = _by_series_length(ulaw.coef)
+    at = np.full(first.size, -1, np.int64)      # a distinct law's row in the chunk, -1: not in it
+    for a in range(0, first.size, KNOT_ROWS):
+        sl = slice(a, a + KNOT_ROWS) if order is None else order[a:a + KNOT_ROWS]
+        sub = ulaw.rows(sl) if order is None else ulaw.take(sl)
+        s_run, vd, inc = _knot_grid(sub, R[sl], T[sl])
+        at[sl] = np.arange(len(sub))
+        ks = np.flatnonzero(at[inv] >= 0)       # the strokes of the chunk's laws
+        _interp_rows_at(s, off[ks], off[ks + 1], s_run, vd, inc, v, at[inv[ks]])
+        at[sl] = -1
+
+
+def _knot_grid(sub, R, T):
+    """(s_run, vd, inc) of the laws sub (R, T theirs) on _KNOT_TAU: per law R phi's running
+    max (_running_max_rows: inc, the rows strictly increasing) and max(R w / T, 0), in one
+    call each for the chunk (elementwise, and an exact max: the same numbers as law by law)."""
+    phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
+                                w2=False, w1=False)
+    s_run, inc = _running_max_rows(_row_scale(phi, R))
+    return s_run, _row_scale(w, R, T, 3), inc       # (np.maximum(R w / T, 0.0))
+
+
+def _knot_speeds_rows(law, R, T, m, s, off, v):
+    """_knot_speeds' speeds at the knots s of the m laws law (R, T theirs), into v."""
     order = _by_series_length(law.coef)
     # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
     # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws
@@ -2670,19 +2713,11 @@ def _knot_speeds(strokes, T, beta, profile):
         else:
             sl = order[a:a + KNOT_ROWS]
             sub = law.take(sl)
-        phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
-                                    w2=False, w1=False)
-        # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
-        # chunk (elementwise, and an exact max: the same numbers as law by law)
-        s_run, inc = _running_max_rows(_row_scale(phi, R[sl]))
-        vd = _row_scale(w, R[sl], T[sl], 3)        # np.maximum(R w / T, 0.0)
+        s_run, vd, inc = _knot_grid(sub, R[sl], T[sl])
         if order is None:
             _interp_chunk(s, off[a:a + len(sub) + 1], s_run, vd, inc, v)
         else:
             _interp_rows_at(s, off[sl], off[sl + 1], s_run, vd, inc, v)
-    v[off[:-1]] = v0
-    v[off[1:] - 1] = v1
-    return s, v, off
 
 
 def _by_series_length(coef):
@@ -2702,9 +2737,14 @@ def _by_series_length(coef):
     return np.argsort(length, kind="stable")
 
 
-def _interp_rows_at(s, lo, hi, xp, fp, inc, out):
+def _interp_rows_at(s, lo, hi, xp, fp, inc, out, which=None):
     """_interp_chunk of rows whose knots lie anywhere in s: row k's at s[lo[k]:hi[k]] (the
-    same operations, each point at its law's grid), into the same places of out."""
+    same operations, each point at its law's grid), into the same places of out.  which:
+    the row of xp, fp and inc of each k (None: k's own)."""
+    if which is not None:
+        inc = inc[which]
+        if _INTERP_ROWS is None or not inc.all():   # (k's own rows: np.interp's, row by row)
+            xp, fp, which = xp[which], fp[which], None
     cnt = hi - lo
     n = xp.shape[1]
     start = np.zeros(cnt.size, np.int64)
@@ -2712,7 +2752,7 @@ def _interp_rows_at(s, lo, hi, xp, fp, inc, out):
     pts = np.repeat(lo - start, cnt) + np.arange(int(cnt.sum()), dtype=np.int64)
     if _INTERP_ROWS is not None and inc.any():
         grid = np.repeat(np.where(inc, n, 0), cnt)          # 0: left to np.interp below
-        at = np.repeat(np.arange(inc.size, dtype=np.int64) * n, cnt)
+        at = np.repeat((np.arange(inc.size, dtype=np.int64) if which is None else which) * n, cnt)
         q = s[pts]
         res = np.empty(pts.size)
         _INTERP_ROWS(q, at, grid, np.ascontiguousarray(xp).ravel(), np.ascontiguousarray(fp).ravel(),

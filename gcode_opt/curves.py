@@ -39,6 +39,7 @@ from operator import attrgetter, itemgetter
 import numpy as np
 
 from . import objfields
+from .distinct import distinct, unique_first_inverse
 from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 accel_to_pass_junction_rows, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
@@ -2286,15 +2287,28 @@ def _distinct_rows(args):
     first row of each distinct set of arguments (by their bits), in order, and each row's
     position in first; None where every row is distinct.  The rectilinear plate's layers
     repeat their curves: 22 540 curve candidates, 3 066 distinct laws (the gyroid's
-    34 051, 27 291)."""
-    keys = np.ascontiguousarray(np.stack(args, axis=1), float).view(_KeptLaws._KEY).ravel()
-    _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-    if first.size == keys.size:
+    34 051, 27 291).  Rows are told apart by a hash of their bits (one sort of integers,
+    not of 48-byte keys: ~1/20 of the instructions), every row then compared with its
+    group's first bit for bit; a hash shared by different rows (not met) is told apart by
+    the keys themselves."""
+    bits = np.ascontiguousarray(np.stack(args, axis=1), float).view(np.uint64)
+    h = bits[:, 0].copy()
+    for j in range(1, bits.shape[1]):
+        h *= np.uint64(0x9E3779B97F4A7C15)      # (wraps: a mix of the columns' bits)
+        h ^= bits[:, j]
+    first, inv = unique_first_inverse(h)
+    if first.size == h.size:
         return None
+    if not (bits[first[inv]] == bits).all():    # (a hash shared by different rows)
+        keys = bits.view(_KeptLaws._KEY).ravel()
+        _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        if first.size == keys.size:
+            return None
+        inv = inv.ravel()
     order = np.argsort(first, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
-    return first[order], rank[inv.ravel()]
+    return first[order], rank[inv]
 
 
 def _rough_distinct(args):
@@ -2367,22 +2381,30 @@ class _KeptLaws:
 
     def batch(self, args, codes, miss):
         """solve_circles(*args): the laws whose codes are kept taken from their blocks, the
-        others (miss) solved (circle.batch_of_rows: the table a solve of all makes)."""
+        others (miss) solved, in the table a solve of all makes (the widest non-layer
+        law's width, zero-padded; (m, 1) of zeros where all are in the layer regime: rows
+        beyond their own width are zeros in the blocks and the solve's table alike)."""
         m = codes.size
         regime, wc, cc = np.empty(m, bool), np.empty(m), np.empty(m)
         n1 = np.empty(m, np.int64)
-        rows = [None] * m
-        for i, c in enumerate(codes.tolist()):
-            if c >= 0:
-                r, w, q, coef, nn = self.blocks[c >> 32]
-                j = c & 0xFFFFFFFF
-                regime[i], wc[i], cc[i], n1[i], rows[i] = r[j], w[j], q[j], nn[j], coef[j]
+        hit = np.flatnonzero(codes >= 0)
+        blk, row = codes[hit] >> 32, codes[hit] & 0xFFFFFFFF
+        parts = []
+        for b in distinct(blk).tolist():
+            at = blk == b
+            i, j = hit[at], row[at]
+            r, w, q, coef, nn = self.blocks[b]
+            regime[i], wc[i], cc[i], n1[i] = r[j], w[j], q[j], nn[j]
+            parts.append((i, coef, j))
         if miss.size:
             law, got = solve_circles(*(a[miss] for a in args), widths=True)
             regime[miss], wc[miss], cc[miss], n1[miss] = law.regime, law.wc, law.cc, got
-            for i, r in zip(miss.tolist(), law.coef):
-                rows[i] = r
-        return _circle.batch_of_rows(*(np.array(a, float) for a in args), regime, wc, cc, rows, n1)
+            parts.append((miss, law.coef, None))
+        table = np.zeros((m, max(1, int(n1.max(initial=0)))))
+        for i, coef, j in parts:
+            k = min(coef.shape[1], table.shape[1])   # (a miss table's zero columns past the widest)
+            table[i, :k] = (coef if j is None else coef[j])[:, :k]
+        return _circle.CircleBatch(*(np.array(a, float) for a in args), regime, wc, cc, table)
 
 
 _LAW_ARGS = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d")

@@ -1324,23 +1324,9 @@ def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0, layers=None, widths
     of them made it already (solve_circles_rough's, its rows taken): not solved again (each
     arc's numbers are its own whatever its batch, so the same).  widths: (batch, n1), n1
     each arc's own number of coefficients as solved (N + 1 of the rung that accepted it;
-    0 in the layer regime), which sets the width of a batch's table (batch_of_rows)."""
+    0 in the layer regime), which sets the width of a batch's table (_coef_table: the
+    widest non-layer arc's, zero-padded; (B, 1) where every arc is in the layer regime)."""
     return _solve_circles(phi_total, T, beta, w0, w1, R, False, layers, widths)
-
-
-def batch_of_rows(phi_total, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, rows, n1):
-    """The CircleBatch solve_circles gives for arcs (its own arguments phi_total .. R_d, each
-    (B,) float64) whose solution is known: regime, wc, cc (B,) and the coefficients rows[i]
-    (at least n1[i] long, solve_circles' widths) of each arc, from a solve of these arcs in
-    any batch (each arc's numbers are its own where rows_invariant()).  The table as
-    _coef_table makes it: the widest non-layer arc's n1, zero-padded, (B, 1) of zeros
-    where every arc is in the layer regime."""
-    nb = phi_total.size
-    coef = np.zeros((nb, max(1, int(n1.max(initial=0)))))
-    for i, (r, k) in enumerate(zip(rows, n1.tolist())):
-        if k:
-            coef[i, :k] = r[:k]
-    return CircleBatch(phi_total, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
 
 
 def solve_circles_rough(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):

@@ -2432,9 +2432,59 @@ def forget_kept_laws():
     _KEPT[0] = _KEPT[1] = None
 
 
+# the plan inputs a curve's candidates read (candidate_table's and candidates_curve's), a row each
+_CURVE_PIN = ("L", "v0", "v1", "v_cap", "a_cap", "T_orig", "t_seg_min")
+
+
+def _distinct_curve_rows(pin, rows, strokes, profile):
+    """(first, inv) of the curve strokes rows: the first of each set of rows whose
+    candidates read the same numbers (their _CURVE_PIN inputs, and their geometries'
+    lengths d, κ at the vertices, κ_eff and end turns cos_end: all that candidates_curve
+    reads of a row), in order, and each row's position in first; None where every row is
+    distinct or a geometry has no block of 2-D rows.  A plate's layers repeat their
+    curves (rectilinear plate: ~3.2 k curve strokes)."""
+    gs = [geom(strokes[i], profile) for i in rows.tolist()]
+    try:
+        bs, ks = [g._b for g in gs], [g._k for g in gs]
+    except AttributeError:
+        return None
+    by = {}                             # id(block) -> (block, [positions in gs])
+    for q, b in enumerate(bs):
+        by.setdefault(id(b), (b, []))[1].append(q)
+    shape = [None] * len(gs)
+    for b, qs in by.values():
+        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and _kappa_rows_ok(b)):
+            return None
+        sel = [ks[q] for q in qs]
+        x = np.ascontiguousarray(np.concatenate(
+            [np.asarray(b.d, float)[sel], np.asarray(b.kappa_rows(sel), float)], axis=1))
+        for q, key in zip(qs, x.view(np.dtype((np.void, 8 * x.shape[1]))).ravel().tolist()):
+            shape[q] = key
+    num = np.stack([np.asarray(getattr(pin, f)[rows], float) for f in _CURVE_PIN]
+                   + [np.array([g.kappa_eff for g in gs], float)], axis=1)
+    num = np.ascontiguousarray(num).view(np.dtype((np.void, 8 * num.shape[1]))).ravel().tolist()
+    at = {}
+    inv = np.array([at.setdefault((a, b, _ends_key(g.cos_end)), len(at)) for a, b, g in zip(shape, num, gs)],
+                   np.int64)
+    if len(at) == inv.size:
+        return None
+    first = np.full(len(at), inv.size, np.int64)
+    np.minimum.at(first, inv, np.arange(inv.size))
+    return first, inv
+
+
+def _ends_key(cos_end):
+    """A geometry's cos_end (None or a float at each end) by its floats' bits."""
+    return tuple(None if c is None else float(c).hex() for c in cos_end)
+
+
 def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, drop=True):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt.
+    Rows that read the same numbers (_distinct_curve_rows) are made once, where each
+    candidate is its own whatever its batch (circle.rows_invariant): their tables are
+    functions of those numbers and of the batch's grid levels, the largest of its
+    candidates' (the same set of candidates, so the same levels, own_levels too).
 
     The figures of a pass are integrated on the panel levels of all its candidates (the
     largest of theirs: CircleBatch._grid_plan), so a window of the strokes would take
@@ -2447,6 +2497,15 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
     drop: κ(s) let go after (drop_kappa); False: kept for the windows after this one
     (each would make its rows' again: ~0.016 s over 23 windows of the gyroid plate)."""
     rows = np.asarray(rows, int)
+    d = _distinct_curve_rows(pin, rows, strokes, profile) if rows.size > 1 and _circle.rows_invariant() else None
+    if d is None:
+        return _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop)
+    first, inv = d
+    return tuple(x[inv] for x in _candidates_curve(pin, rows[first], strokes, profile, levels, own_levels, drop))
+
+
+def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
+    """candidates_curve of the rows (an int array), each row solved."""
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
     S, v0, v1, vc, ac = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1, pin.v_cap, pin.a_cap))

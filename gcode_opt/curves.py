@@ -1878,20 +1878,17 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
     return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
 
 
-def _solve_kept(rows_geo, S, T, beta, v0, v1):
-    """_solve's (law, R), the laws candidates_curve kept (_KeptLaws) taken as they are
-    and the others solved: the same laws."""
-    R = 1.0 / np.array([g.kappa_eff for g in rows_geo])
+def _solve_kept(args):
+    """solve_circles(*args) (six (m,) float arrays), the laws candidates_curve kept
+    (_KeptLaws) taken as they are and the others solved: the same laws."""
     kept = _KEPT[1]
     if kept is None or not kept.at:
-        return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
-    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
-                                       for x in (S / R, T, beta, v0 / R, v1 / R, R))))
+        return solve_circles(*args)
     codes = kept.lookup(args)
     miss = np.flatnonzero(codes < 0)
     if miss.size == codes.size:
-        return solve_circles(*args), R
-    return kept.batch(args, codes, miss), R
+        return solve_circles(*args)
+    return kept.batch(args, codes, miss)
 
 
 def _rows_of(memo, sel):
@@ -2740,29 +2737,31 @@ def _knot_speeds(strokes, T, beta, profile):
         v0 = np.array([st.v0 for st in strokes])
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
-    law, R = _solve_kept(geos, S, T, beta, v0, v1)
-    d = _distinct_rows(tuple(getattr(law, f) for f in _LAW_ARGS)) if _circle.rows_invariant() else None
+    R = 1.0 / np.array([g.kappa_eff for g in geos])          # _solve's R and arguments
+    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
+                                       for x in (S / R, T, beta, v0 / R, v1 / R, R))))
+    d = _distinct_rows(args) if _circle.rows_invariant() else None
     if d is not None:
-        _knot_speeds_distinct(law, d, s, off, v)
+        # (each distinct law solved and evaluated once: its own whatever its batch)
+        _knot_speeds_distinct(_solve_kept([a[d[0]] for a in args]), d[1], s, off, v)
     else:
-        _knot_speeds_rows(law, R, T, m, s, off, v)
+        _knot_speeds_rows(_solve_kept(args), R, T, m, s, off, v)
     v[off[:-1]] = v0
     v[off[1:] - 1] = v1
     return s, v, off
 
 
-def _knot_speeds_distinct(law, d, s, off, v):
-    """_knot_speeds_rows' speeds of strokes whose laws repeat (_distinct_rows' (first, inv)
-    of law's rows; a plate's layers repeat their curves: rect 2 471 laws, 386 distinct):
-    each distinct law evaluated once (its s and speed on the grid are functions of its
-    arguments, R and T among them), and every stroke of it interpolated at its own knots
-    (the same operations on the same numbers, each point at its law's grid)."""
-    first, inv = d
-    ulaw = law.take(first)
-    R, T = ulaw.R_d, ulaw.T_t
+def _knot_speeds_distinct(ulaw, inv, s, off, v):
+    """_knot_speeds_rows' speeds of strokes whose laws repeat: ulaw the distinct laws
+    (_distinct_rows' first rows; a plate's layers repeat their curves: rect 2 471 laws,
+    386 distinct), inv each stroke's law in it.  Each distinct law evaluated once (its s
+    and speed on the grid are functions of its arguments, R and T among them), and every
+    stroke of it interpolated at its own knots (the same operations on the same numbers,
+    each point at its law's grid)."""
+    R, T, n = ulaw.R_d, ulaw.T_t, len(ulaw)
     order = _by_series_length(ulaw.coef)
-    at = np.full(first.size, -1, np.int64)      # a distinct law's row in the chunk, -1: not in it
-    for a in range(0, first.size, KNOT_ROWS):
+    at = np.full(n, -1, np.int64)               # a distinct law's row in the chunk, -1: not in it
+    for a in range(0, n, KNOT_ROWS):
         sl = slice(a, a + KNOT_ROWS) if order is None else order[a:a + KNOT_ROWS]
         sub = ulaw.rows(sl) if order is None else ulaw.take(sl)
         s_run, vd, inc = _knot_grid(sub, R[sl], T[sl])

@@ -39,7 +39,7 @@ from operator import attrgetter, itemgetter
 import numpy as np
 
 from . import objfields
-from .distinct import distinct, unique_first_inverse
+from .distinct import unique_first_inverse
 from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 accel_to_pass_junction_rows, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
@@ -1878,19 +1878,6 @@ def _solve(strokes, rows_geo, S, T, beta, v0, v1):
     return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
 
 
-def _solve_kept(args):
-    """solve_circles(*args) (six (m,) float arrays), the laws candidates_curve kept
-    (_KeptLaws) taken as they are and the others solved: the same laws."""
-    kept = _KEPT[1]
-    if kept is None or not kept.at:
-        return solve_circles(*args)
-    codes = kept.lookup(args)
-    miss = np.flatnonzero(codes < 0)
-    if miss.size == codes.size:
-        return solve_circles(*args)
-    return kept.batch(args, codes, miss)
-
-
 def _rows_of(memo, sel):
     """The memo of _kappa_rows for the rows sel of its rows: a _Knots' rows, a dict as it is."""
     return memo.sub(sel) if isinstance(memo, _Knots) else memo
@@ -2297,7 +2284,7 @@ def _distinct_rows(args):
     if first.size == h.size:
         return None
     if not (bits[first[inv]] == bits).all():    # (a hash shared by different rows)
-        keys = bits.view(_KeptLaws._KEY).ravel()
+        keys = bits.view(_KEY48).ravel()
         _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
         if first.size == keys.size:
             return None
@@ -2324,109 +2311,17 @@ def _rough_distinct(args):
 
 
 def _solve_distinct(args, lay):
-    """solve_circles(*args, layers=lay, widths=True), each distinct law solved once
-    (_distinct_rows; lay is a function of args, row by row) where each law is its own
-    whatever its batch (circle.rows_invariant): the same (batch, widths)."""
+    """solve_circles(*args, layers=lay), each distinct law solved once (_distinct_rows; lay
+    is a function of args, row by row) where each law is its own whatever its batch
+    (circle.rows_invariant): the same batch."""
     d = _distinct_rows(args) if _circle.rows_invariant() else None
     if d is None:
-        return solve_circles(*args, layers=lay, widths=True)
+        return solve_circles(*args, layers=lay)
     first, inv = d
-    law, n1 = solve_circles(*(a[first] for a in args), layers=tuple(x[first] for x in lay), widths=True)
-    return law.take(inv), n1[inv]
+    return solve_circles(*(a[first] for a in args), layers=tuple(x[first] for x in lay)).take(inv)
 
 
-class _KeptLaws:
-    """The feasible laws candidates_curve solved in full, kept for the budget's plans of the
-    same strokes (_knot_speeds: every curve law it solved was one of them, at the same T and
-    beta, on both plates: 2 471 of rect's 2 579 full laws, 3 950 of the gyroid's 4 109),
-    so that it does not solve them again.  A law is looked up by its arguments' bits
-    (solve_circles' phi_total, T, beta, w0, w1, R: its whole input), and each law is its
-    own whatever its batch where rows_invariant(): the one kept is the one a solve gives.
-    Laws whose solve went to Newton for any arc of their chunk are not kept (NEWTON_ARCS
-    is read by the budget runs: schedule's plans of a row its own).  Held by blocks of the
-    candidates' batches: ~60 bytes and a law's coefficients a law, ~1.5 MB on the gyroid
-    plate, let go with the candidate tables (schedule.set_aside_for_rewrite)."""
-    _KEY = np.dtype((np.void, 48))
-
-    def __init__(self):
-        self.blocks = []        # (regime, wc, cc, coef, n1) of each add's laws
-        self.at = {}            # a law's arguments (48 bytes) -> block << 32 | row
-
-    @classmethod
-    def _keys(cls, args):
-        """Each law's arguments (6 float64 arrays of n) as 48-byte keys, a list."""
-        return np.ascontiguousarray(np.stack(args, axis=1), float).view(cls._KEY).ravel().tolist()
-
-    def add(self, law, n1, sel):
-        """The laws sel (a bool mask) of law, solved with widths n1 (solve_circles'; -1:
-        not to be kept)."""
-        sel = sel & (n1 >= 0)
-        if not sel.any():
-            return
-        b = len(self.blocks)
-        idx = np.flatnonzero(sel)
-        k = max(1, int(n1[idx].max()))
-        self.blocks.append((law.regime[idx], law.wc[idx], law.cc[idx], np.ascontiguousarray(law.coef[idx, :k]),
-                            n1[idx]))
-        keys = self._keys(tuple(getattr(law, f)[idx] for f in _LAW_ARGS))
-        self.at.update(zip(keys, [b << 32 | r for r in range(idx.size)]))
-
-    def lookup(self, args):
-        """The block << 32 | row of each law of args (6 (n,) arrays), -1 where not kept."""
-        at = self.at
-        return np.array([at.get(k, -1) for k in self._keys(args)], np.int64)
-
-    def batch(self, args, codes, miss):
-        """solve_circles(*args): the laws whose codes are kept taken from their blocks, the
-        others (miss) solved, in the table a solve of all makes (the widest non-layer
-        law's width, zero-padded; (m, 1) of zeros where all are in the layer regime: rows
-        beyond their own width are zeros in the blocks and the solve's table alike)."""
-        m = codes.size
-        regime, wc, cc = np.empty(m, bool), np.empty(m), np.empty(m)
-        n1 = np.empty(m, np.int64)
-        hit = np.flatnonzero(codes >= 0)
-        blk, row = codes[hit] >> 32, codes[hit] & 0xFFFFFFFF
-        parts = []
-        for b in distinct(blk).tolist():
-            at = blk == b
-            i, j = hit[at], row[at]
-            r, w, q, coef, nn = self.blocks[b]
-            regime[i], wc[i], cc[i], n1[i] = r[j], w[j], q[j], nn[j]
-            parts.append((i, coef, j))
-        if miss.size:
-            law, got = solve_circles(*(a[miss] for a in args), widths=True)
-            regime[miss], wc[miss], cc[miss], n1[miss] = law.regime, law.wc, law.cc, got
-            parts.append((miss, law.coef, None))
-        table = np.zeros((m, max(1, int(n1.max(initial=0)))))
-        for i, coef, j in parts:
-            k = min(coef.shape[1], table.shape[1])   # (a miss table's zero columns past the widest)
-            table[i, :k] = (coef if j is None else coef[j])[:, :k]
-        return _circle.CircleBatch(*(np.array(a, float) for a in args), regime, wc, cc, table)
-
-
-_LAW_ARGS = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d")
-_KEPT = [None, None]        # [a weakref to the pin whose candidates were kept, its _KeptLaws]
-
-
-def _kept_for(pin):
-    """The _KeptLaws of pin's candidates (a new one for another pin than the last), or None
-    where a law is not its own whatever its batch (circle.rows_invariant)."""
-    if not _circle.rows_invariant():
-        return None
-    ref = _KEPT[0]
-    if ref is None or ref() is not pin:
-        forget_kept_laws()
-        try:
-            _KEPT[0] = weakref.ref(pin, lambda _: forget_kept_laws())
-        except TypeError:       # (an object without weak references: nothing kept)
-            return None
-        _KEPT[1] = _KeptLaws()
-    return _KEPT[1]
-
-
-def forget_kept_laws():
-    """The kept laws let go (after the budget's runs; a re-plan solves its laws again)."""
-    _KEPT[0] = _KEPT[1] = None
+_KEY48 = np.dtype((np.void, 48))     # a law's six arguments' bits as one key (_distinct_rows)
 
 
 # the plan inputs a curve's candidates read (candidate_table's and candidates_curve's), a row each
@@ -2525,7 +2420,6 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
     # none accepted): ~0.1 s of the gyroid plate's 0.32 s of curve candidates
     # (tests/test_speed29_curvesolve_retry.py)
     a_only = np.zeros(rows.size * k, bool)
-    kept = _kept_for(pin)
     floor = levels
     npass = [0]             # candidate_table's pass (0: first, 1: the beta/4 retries)
 
@@ -2551,8 +2445,7 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
         """(∫v², ∫|a|², ok) of the candidates idx; idx_out: candidates left out of this
         batch, whose grid levels it takes (the figures of the batch that holds them)."""
         v_lim, a_lim = vc[idx] * (1 + SPEED_TOL_R), ac[idx] * (1 + SPEED_TOL_R)
-        fig, laws, widths, levels = _probe(idx, T, beta, v_lim, a_lim,
-                                           SOLVE_ROWS if _circle.rows_invariant() else idx.size)
+        fig, laws, levels = _probe(idx, T, beta, v_lim, a_lim, SOLVE_ROWS if _circle.rows_invariant() else idx.size)
         # figures of a rejected candidate are never read (candidate_table): a law surely
         # over a limit is rejected on a probe, NaN figures (NaN compares False)
         iv, ia, pv, pa, mv = np.full((5, idx.size), np.nan)
@@ -2572,8 +2465,6 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
             iv[fig], ia[fig], pv[fig], pa[fig], mv[fig] = true_figures(
                 law, 1.0 / keff[q], objfields.items(geos, q), None, {} if knots is None else knots.sub(q))
         ok = (pv <= v_lim) & (pa <= a_lim) & (mv >= -1e-9 * (1 + vc[idx]))
-        if kept is not None and fig.size:        # (the feasible ones: those a plan can take)
-            kept.add(law, np.concatenate(widths), ok[fig])
         return iv, ia, ok
 
     def _levels_of(idx, T, beta):
@@ -2582,13 +2473,12 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
         return _circle.grid_levels_of(S[idx] / R, T, beta, v0[idx] / R, v1[idx] / R)
 
     def _probe(idx, T, beta, v_lim, a_lim, step):
-        """(fig, laws, widths, levels) of the candidates idx solved `step` at a time: the
-        positions in idx of those not surely over a limit (surely_over; a_only set for the
-        others), their circle laws (a CircleBatch a chunk) and widths (solve_circles'; -1 in
-        a chunk that went to Newton: not kept), and the panel levels of the whole batch
+        """(fig, laws, levels) of the candidates idx solved `step` at a time: the positions
+        in idx of those not surely over a limit (surely_over; a_only set for the others),
+        their circle laws (a CircleBatch a chunk), and the panel levels of the whole batch
         (the largest of its chunks').  Each law is its own whatever its chunk (Newton's
         too: circle._newton_cheb), and given the whole batch's levels its figures are too."""
-        figs, laws, widths, levels = [], [], [], 0
+        figs, laws, levels = [], [], 0
         for a in range(0, idx.size, step):
             sl = slice(a, a + step)
             q = idx[sl]
@@ -2600,13 +2490,10 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
             else:
                 args = tuple(x[r] for x in args)
                 lay = tuple(x[r] for x in lay)
-            n0 = _circle.NEWTON_ARCS[0]
-            law, n1 = _solve_distinct(args, lay) if r.size else (None, None)
+            law = _solve_distinct(args, lay) if r.size else None
             levels = max(levels, law.panel_levels() if lv is None else lv)
             if law is None:
                 continue
-            if _circle.NEWTON_ARCS[0] != n0:
-                n1[:] = -1
             why = []
             fig = np.flatnonzero(~surely_over(law, args[5], objfields.items(geos, q[r]), v_lim[sl][r], a_lim[sl][r],
                                               {} if knots is None else knots.sub(q[r]), why))
@@ -2614,9 +2501,8 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
             if fig.size:
                 figs.append(a + r[fig])
                 laws.append(law.take(fig))     # (the others' laws let go with the chunk)
-                widths.append(n1[fig])
             del law
-        return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, widths, levels
+        return (np.concatenate(figs) if figs else np.zeros(0, int)), laws, levels
 
     def _screen(q, args, v_lim, a_lim):
         """(r, levels, layers) of the candidates q (solve_circles' args): their rough laws probed
@@ -2743,9 +2629,9 @@ def _knot_speeds(strokes, T, beta, profile):
     d = _distinct_rows(args) if _circle.rows_invariant() else None
     if d is not None:
         # (each distinct law solved and evaluated once: its own whatever its batch)
-        _knot_speeds_distinct(_solve_kept([a[d[0]] for a in args]), d[1], s, off, v)
+        _knot_speeds_distinct(solve_circles(*(a[d[0]] for a in args)), d[1], s, off, v)
     else:
-        _knot_speeds_rows(_solve_kept(args), R, T, m, s, off, v)
+        _knot_speeds_rows(solve_circles(*args), R, T, m, s, off, v)
     v[off[:-1]] = v0
     v[off[1:] - 1] = v1
     return s, v, off

@@ -1072,9 +1072,8 @@ def set_aside_for_rewrite(pin, folder, last):
     fresh run gives: SegmentCache) and the candidate tables, written to a temporary file
     in folder until a re-plan reads them back (plan_strokes), or dropped after the last
     pass (last).  Rectilinear plate: the run's peak RSS (its measure's) 91.8 -> 86.5 MB,
-    the plan's again.  The curves' laws kept for the plans (curves._KeptLaws) let go too."""
+    the plan's again."""
     pin.seg_cache = None
-    curves.forget_kept_laws()       # (the curves' laws kept for the plans: a re-plan solves them again)
     cached = getattr(pin, "cached", None)
     if cached is None or type(cached[0]) is not Candidates:
         return

@@ -5,9 +5,8 @@
   is shared); the screen's rough laws and the probe's full laws solved once a group.
 * curves._distinct_curve_rows: candidates_curve makes each set of rows that read the same
   numbers once; the tables are those of every row solved.
-* curves._KeptLaws: the feasible full laws of the candidates, taken by _knot_speeds for the
-  plans as they are (the same CircleBatch as a solve, table width too).
-* curves._knot_speeds_distinct: a law's grid values once, every stroke at its own knots.
+* curves._knot_speeds_distinct: a distinct law solved and its grid values made once, every
+  stroke at its own knots.
 The reference in each case is the same code with the step turned off, compared bit for bit."""
 import numpy as np
 import pytest
@@ -84,45 +83,7 @@ def test_distinct_solves_are_the_solves():
     got, glay = curves._rough_distinct(args)
     _same_law(got, rough)
     assert all(np.asarray(x).tobytes() == np.asarray(y).tobytes() for x, y in zip(glay, lay))
-    law, n1 = circle.solve_circles(*args, layers=lay, widths=True)
-    got, g1 = curves._solve_distinct(args, lay)
-    _same_law(got, law)
-    assert np.array_equal(g1, n1)
-
-
-@need_inv
-def test_widths_are_the_solved_lengths():
-    rng = np.random.default_rng(3)
-    args = _args(rng, 80)
-    args[2][:5] = (args[1][:5] / 300.0) ** 2                 # (steep layers: the layer regime)
-    law, n1 = circle.solve_circles(*args, widths=True)
-    assert law.regime.any() and (n1[law.regime] == 0).all()
-    k = n1[~law.regime]
-    assert (k >= 2).all() and law.coef.shape[1] == k.max()
-    assert all((law.coef[i, n1[i]:] == 0).all() for i in range(len(law)))
-    _same_law(law, circle.solve_circles(*args))
-
-
-@need_inv
-def test_kept_laws_are_the_solved_ones():
-    """_KeptLaws.batch of hits, misses and layer-regime arcs: solve_circles' batch."""
-    rng = np.random.default_rng(5)
-    args = _args(rng, 50)
-    args[2][:4] = (args[1][:4] / 300.0) ** 2
-    law, n1 = circle.solve_circles(*args, widths=True)
-    kept = curves._KeptLaws()
-    sel = np.zeros(50, bool)
-    sel[::2] = True
-    n1b = n1.copy()
-    n1b[10] = -1                                            # (a chunk that went to Newton: not kept)
-    kept.add(law, n1b, sel)
-    assert len(kept.at) == sel.sum() - 1
-    for rows in (np.arange(50), np.arange(0, 50, 2)[::-1], np.array([1, 3, 5]), np.array([0, 1, 2, 3])):
-        a = [x[rows] for x in args]
-        codes = kept.lookup(a)
-        assert ((codes >= 0) == (sel[rows] & (rows != 10))).all()
-        got = kept.batch(a, codes, np.flatnonzero(codes < 0))
-        _same_law(got, circle.solve_circles(*a))
+    _same_law(curves._solve_distinct(args, lay), circle.solve_circles(*args, layers=lay))
 
 
 @pytest.fixture(scope="module")
@@ -138,7 +99,6 @@ def test_knot_speeds_of_repeated_laws(gyroid_laws, monkeypatch):
     n = len(sts)
     pick = np.concatenate([np.arange(n), np.arange(n)[::-1], np.arange(0, n, 3)])
     sts3 = [sts[i] for i in pick]
-    curves.forget_kept_laws()
     got = curves.curve_knots(sts3, T[pick], beta[pick], prof)
     monkeypatch.setattr(curves, "_distinct_rows", lambda args: None)
     want = curves.curve_knots(sts3, T[pick], beta[pick], prof)
@@ -166,31 +126,20 @@ def _lv(own):
 @need_inv
 @pytest.mark.parametrize("name", ["prusa_gyroid.gcode", "prusa_concentric.gcode"])
 def test_distinct_curve_rows_same_tables(name, monkeypatch):
-    """Rows given twice (and the file's own repeats): the tables of every row solved, the
-    plans' knots taken from the kept laws those of laws solved again."""
+    """Rows given twice (and the file's own repeats): the tables of every row solved, its
+    own levels too."""
     strokes, pin, rows, prof = _pin_rows(name, "prusa-mk3s")
     rows2 = np.concatenate([rows, rows[::2]])
     d = curves._distinct_curve_rows(pin, rows2, strokes, prof)
     assert d is not None and d[0].size <= rows.size
     own = []
-    n0 = circle.NEWTON_ARCS[0]
     got = curves.candidates_curve(pin, rows2, strokes, prof, own_levels=own)
-    kept = curves._KEPT[1]
-    # (the concentric sample's one probe chunk goes to Newton for some arcs: none kept)
-    assert kept is not None and (len(kept.at) > 0) == (circle.NEWTON_ARCS[0] == n0)
     with monkeypatch.context() as m:
         m.setattr(curves, "_distinct_curve_rows", lambda *a: None)
         m.setattr(curves, "_distinct_rows", lambda args: None)
-        m.setattr(curves, "_kept_for", lambda pin: None)
         own0 = []
         want = curves.candidates_curve(pin, rows2, strokes, prof, own_levels=own0)
         assert [_lv(x) for x in own] == [_lv(x) for x in own0]
     for a, b in zip(got, want):
         assert a.tobytes() == b.tobytes()
-    ok = np.isfinite(got[2])
-    assert ok.sum() > 20
-    r, c = np.nonzero(ok)
-    sts = [strokes[i] for i in rows2[r]]
-    with_kept = curves.curve_knots(sts, got[0][r, c], got[1][r, c], prof)
-    curves.forget_kept_laws()
-    _same_knots(with_kept, curves.curve_knots(sts, got[0][r, c], got[1][r, c], prof))
+    assert np.isfinite(got[2]).sum() > 20

@@ -1315,18 +1315,15 @@ class CircleLaw:
         return float(self._sub().peak_accel()[0])
 
 
-def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0, layers=None, widths=False) -> CircleBatch:
+def solve_circles(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0, layers=None) -> CircleBatch:
     """Vectorised solve for B arcs.
 
     phi_total: swept angle (rad, any size incl. several turns), T: duration (s),
     beta = α·m (s²), w0/w1: end angular speeds (rad/s), R: radius (mm).  Broadcast to (B,).
     layers: these arcs' layer regime (_layer_regime's tuple of (B,) arrays), where a solve
     of them made it already (solve_circles_rough's, its rows taken): not solved again (each
-    arc's numbers are its own whatever its batch, so the same).  widths: (batch, n1), n1
-    each arc's own number of coefficients as solved (N + 1 of the rung that accepted it;
-    0 in the layer regime), which sets the width of a batch's table (_coef_table: the
-    widest non-layer arc's, zero-padded; (B, 1) where every arc is in the layer regime)."""
-    return _solve_circles(phi_total, T, beta, w0, w1, R, False, layers, widths)
+    arc's numbers are its own whatever its batch, so the same)."""
+    return _solve_circles(phi_total, T, beta, w0, w1, R, False, layers)
 
 
 def solve_circles_rough(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):
@@ -1341,9 +1338,8 @@ def solve_circles_rough(phi_total, T, beta, w0=0.0, w1=0.0, R=1.0):
     return _solve_circles(phi_total, T, beta, w0, w1, R, True)
 
 
-def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None, widths=False):
-    """solve_circles (rough False: the batch, or (batch, n1) with widths) or
-    solve_circles_rough ((batch, layers))."""
+def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None):
+    """solve_circles (rough False: the batch) or solve_circles_rough ((batch, layers))."""
     phi, T_t, beta_s2, w0, w1, R_d = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(v, float)) for v in (phi_total, T, beta, w0, w1, R)))
     phi, T_t, beta_s2, w0, w1, R_d = (a.copy() for a in (phi, T_t, beta_s2, w0, w1, R_d))
@@ -1355,7 +1351,6 @@ def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None, widths=Fal
     wc, regime, gam2, u0, u1, lam = layers
 
     coef = np.zeros((nb, 1))
-    n1 = np.zeros(nb, np.int64) if widths else None
     cc = -gam2 * wc - 2.0 * wc ** 3
     rest = np.nonzero(~regime)[0]
     if rest.size:
@@ -1367,13 +1362,10 @@ def _solve_circles(phi_total, T, beta, w0, w1, R, rough, layers=None, widths=Fal
             blocks, cv = _solve_cheb_batch(phi, gam2, u0, u1, lam_est, rough)
         else:
             blocks, cv = _solve_cheb_batch(phi[rest], gam2[rest], u0[rest], u1[rest], lam_est[rest], rough)
-        if widths:
-            for ia, c in blocks:
-                n1[rest[ia]] = c.shape[1]
         coef = _coef_table(blocks, rest, nb)
         cc[rest] = cv
     law = CircleBatch(phi, T_t, beta_s2, w0, w1, R_d, regime, wc, cc, coef)
-    return (law, layers) if rough else (law, n1) if widths else law
+    return (law, layers) if rough else law
 
 
 def _coef_table(blocks, rest, nb):

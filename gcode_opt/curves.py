@@ -2334,30 +2334,36 @@ def _distinct_curve_rows(pin, rows, strokes, profile):
     lengths d, κ at the vertices, κ_eff and end turns cos_end: all that candidates_curve
     reads of a row), in order, and each row's position in first; None where every row is
     distinct or a geometry has no block of 2-D rows.  A plate's layers repeat their
-    curves (rectilinear plate: ~3.2 k curve strokes)."""
+    curves (rectilinear plate: ~3.2 k curve strokes).  Read a block at a time (κ made
+    where not yet, as candidates_curve's _Knots.of makes it)."""
     gs = [geom(strokes[i], profile) for i in rows.tolist()]
     try:
-        bs, ks = [g._b for g in gs], [g._k for g in gs]
+        bs, ks = list(map(_GEOM_B, gs)), [g._k for g in gs]
     except AttributeError:
         return None
     by = {}                             # id(block) -> (block, [positions in gs])
     for q, b in enumerate(bs):
         by.setdefault(id(b), (b, []))[1].append(q)
-    shape = [None] * len(gs)
+    shape, ends = [None] * len(gs), [None] * len(gs)
     for b, qs in by.values():
         if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and _kappa_rows_ok(b)):
             return None
         sel = [ks[q] for q in qs]
-        x = np.ascontiguousarray(np.concatenate(
-            [np.asarray(b.d, float)[sel], np.asarray(b.kappa_rows(sel), float)], axis=1))
-        for q, key in zip(qs, x.view(np.dtype((np.void, 8 * x.shape[1]))).ravel().tolist()):
+        kv = b.kappa_rows(sel)
+        if b._ke_miss is not None:      # (κ_eff of rows whose κ was made: made with it)
+            b.make_kappa(sel)
+        ke = b._ke
+        ke = np.asarray(ke, float)[sel] if type(ke) is not list else np.array([ke[k] for k in sel], float)
+        x = np.ascontiguousarray(np.concatenate([np.asarray(b.d, float)[sel], kv, ke[:, None]], axis=1))
+        cs = b.cos_end
+        for q, key, k in zip(qs, x.view(np.dtype((np.void, 8 * x.shape[1]))).ravel().tolist(), sel):
             shape[q] = key
-    num = np.stack([np.asarray(getattr(pin, f)[rows], float) for f in _CURVE_PIN]
-                   + [np.array([g.kappa_eff for g in gs], float)], axis=1)
-    num = np.ascontiguousarray(num).view(np.dtype((np.void, 8 * num.shape[1]))).ravel().tolist()
+            e = cs[k]
+            ends[q] = e if e is _NO_ENDS else _ends_key(e)
+    num = np.ascontiguousarray(np.stack([np.asarray(getattr(pin, f)[rows], float) for f in _CURVE_PIN], axis=1))
+    num = num.view(np.dtype((np.void, 8 * num.shape[1]))).ravel().tolist()
     at = {}
-    inv = np.array([at.setdefault((a, b, _ends_key(g.cos_end)), len(at)) for a, b, g in zip(shape, num, gs)],
-                   np.int64)
+    inv = np.array([at.setdefault(key, len(at)) for key in zip(shape, num, ends)], np.int64)
     if len(at) == inv.size:
         return None
     first = np.full(len(at), inv.size, np.int64)

@@ -2267,11 +2267,10 @@ SCREEN_BAND_R = 1e-3
 
 
 def _distinct_rows(args):
-    """(first, inv) of the candidates' laws args (solve_circles' six (n,) arguments): the
-    first row of each distinct set of arguments (by their bits), in order, and each row's
-    position in first; None where every row is distinct.  The rectilinear plate's layers
-    repeat their curves: 22 540 curve candidates, 3 066 distinct laws (the gyroid's
-    34 051, 27 291).  Rows are told apart by a hash of their bits (one sort of integers,
+    """(first, inv) of laws args (solve_circles' six (n,) arguments): the first row of each
+    distinct set of arguments (by their bits), in order, and each row's position in first;
+    None where every row is distinct.  The budget's knot speeds (_knot_speeds) of a plate
+    whose layers repeat their curves: rect 2 471 laws, 386 distinct.  Rows are told apart by a hash of their bits (one sort of integers,
     not of 48-byte keys: ~1/20 of the instructions), every row then compared with its
     group's first bit for bit; a hash shared by different rows (not met) is told apart by
     the keys themselves."""
@@ -2293,32 +2292,6 @@ def _distinct_rows(args):
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
     return first[order], rank[inv]
-
-
-def _rough_distinct(args):
-    """circle.solve_circles_rough(*args), each distinct law solved once (_distinct_rows)
-    and given to every row that has its arguments: the same (batch, layers), as each law
-    is its own whatever its batch (it gives None where not)."""
-    d = _distinct_rows(args)
-    if d is None:
-        return _circle.solve_circles_rough(*args)
-    first, inv = d
-    got = _circle.solve_circles_rough(*(a[first] for a in args))
-    if got is None:
-        return None
-    rough, lay = got
-    return rough.take(inv), tuple(x[inv] for x in lay)
-
-
-def _solve_distinct(args, lay):
-    """solve_circles(*args, layers=lay), each distinct law solved once (_distinct_rows; lay
-    is a function of args, row by row) where each law is its own whatever its batch
-    (circle.rows_invariant): the same batch."""
-    d = _distinct_rows(args) if _circle.rows_invariant() else None
-    if d is None:
-        return solve_circles(*args, layers=lay)
-    first, inv = d
-    return solve_circles(*(a[first] for a in args), layers=tuple(x[first] for x in lay)).take(inv)
 
 
 _KEY48 = np.dtype((np.void, 48))     # a law's six arguments' bits as one key (_distinct_rows)
@@ -2496,7 +2469,7 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
             else:
                 args = tuple(x[r] for x in args)
                 lay = tuple(x[r] for x in lay)
-            law = _solve_distinct(args, lay) if r.size else None
+            law = solve_circles(*args, layers=lay) if r.size else None
             levels = max(levels, law.panel_levels() if lv is None else lv)
             if law is None:
                 continue
@@ -2519,7 +2492,7 @@ def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
         regime (solve_circles' layers).  Each candidate's full law, probe and figures are as
         before: its own whatever the others in its batch.  (None, None, None) where no rough
         laws are made."""
-        got = _rough_distinct(args)
+        got = _circle.solve_circles_rough(*args)
         if got is None:
             return None, None, None
         rough, lay = got

@@ -1,8 +1,7 @@
 """Round 65 (crv): curve work not done twice.
 
-* curves._distinct_rows: the candidates' laws grouped by their arguments' bits (a 64-bit
-  mix, each row then compared with its group's first; the keys' own np.unique where a mix
-  is shared); the screen's rough laws and the probe's full laws solved once a group.
+* curves._distinct_rows: laws grouped by their arguments' bits (a 64-bit mix, each row then
+  compared with its group's first; the keys' own np.unique where a mix is shared).
 * curves._distinct_curve_rows: candidates_curve makes each set of rows that read the same
   numbers once; the tables are those of every row solved.
 * curves._knot_speeds_distinct: a distinct law solved and its grid values made once, every
@@ -21,15 +20,6 @@ from test_speed47_bud47_knots import S, _curve_laws, _same_knots  # noqa: E402
 
 INV = circle.rows_invariant()
 need_inv = pytest.mark.skipif(not INV, reason="this BLAS does not give rows their own bits")
-
-LAW_FIELDS = ("phi_total", "T_t", "beta_s2", "w0", "w1", "R_d", "regime", "wc", "cc", "coef")
-
-
-def _same_law(a, b):
-    for f in LAW_FIELDS:
-        x, y = getattr(a, f), getattr(b, f)
-        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), f
-
 
 def _args(rng, n):
     """solve_circles' arguments of n arcs of curve-like numbers (a few in the layer regime)."""
@@ -71,19 +61,6 @@ def test_distinct_rows_when_a_mix_is_shared(monkeypatch):
     got = curves._distinct_rows(args)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     assert np.array_equal(want[0], np.arange(10)) and np.array_equal(want[1][10:], np.arange(4))
-
-
-@need_inv
-def test_distinct_solves_are_the_solves():
-    rng = np.random.default_rng(11)
-    args = _args(rng, 60)
-    rep = rng.integers(0, 60, 90)
-    args = [np.concatenate([a, a[rep]]) for a in args]
-    rough, lay = circle.solve_circles_rough(*args)
-    got, glay = curves._rough_distinct(args)
-    _same_law(got, rough)
-    assert all(np.asarray(x).tobytes() == np.asarray(y).tobytes() for x, y in zip(glay, lay))
-    _same_law(curves._solve_distinct(args, lay), circle.solve_circles(*args, layers=lay))
 
 
 @pytest.fixture(scope="module")

@@ -39,6 +39,7 @@ from operator import attrgetter, itemgetter
 import numpy as np
 
 from . import objfields
+from .distinct import unique_first_inverse
 from .probe_rng import ProbeRng
 from .firmware.junction import (MINIMUM_PLANNER_SPEED, SQRT2_M1, accel_to_pass_junction,
                                 accel_to_pass_junction_rows, klipper_corner_v2, marlin_jd_v2, marlin_jerk_junction_v)
@@ -2265,9 +2266,96 @@ SOLVE_ROWS = 4096
 SCREEN_BAND_R = 1e-3
 
 
+def _distinct_rows(args):
+    """(first, inv) of laws args (solve_circles' six (n,) arguments): the first row of each
+    distinct set of arguments (by their bits), in order, and each row's position in first;
+    None where every row is distinct.  The budget's knot speeds (_knot_speeds) of a plate
+    whose layers repeat their curves: rect 2 471 laws, 386 distinct.  Rows are told apart by a hash of their bits (one sort of integers,
+    not of 48-byte keys: ~1/20 of the instructions), every row then compared with its
+    group's first bit for bit; a hash shared by different rows (not met) is told apart by
+    the keys themselves."""
+    bits = np.ascontiguousarray(np.stack(args, axis=1), float).view(np.uint64)
+    h = bits[:, 0].copy()
+    for j in range(1, bits.shape[1]):
+        h *= np.uint64(0x9E3779B97F4A7C15)      # (wraps: a mix of the columns' bits)
+        h ^= bits[:, j]
+    first, inv = unique_first_inverse(h)
+    if first.size == h.size:
+        return None
+    if not (bits[first[inv]] == bits).all():    # (a hash shared by different rows)
+        keys = bits.view(_KEY48).ravel()
+        _, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        if first.size == keys.size:
+            return None
+        inv = inv.ravel()
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return first[order], rank[inv]
+
+
+_KEY48 = np.dtype((np.void, 48))     # a law's six arguments' bits as one key (_distinct_rows)
+
+
+# the plan inputs a curve's candidates read (candidate_table's and candidates_curve's), a row each
+_CURVE_PIN = ("L", "v0", "v1", "v_cap", "a_cap", "T_orig", "t_seg_min")
+
+
+def _distinct_curve_rows(pin, rows, strokes, profile):
+    """(first, inv) of the curve strokes rows: the first of each set of rows whose
+    candidates read the same numbers (their _CURVE_PIN inputs, and their geometries'
+    lengths d, κ at the vertices, κ_eff and end turns cos_end: all that candidates_curve
+    reads of a row), in order, and each row's position in first; None where every row is
+    distinct or a geometry has no block of 2-D rows.  A plate's layers repeat their
+    curves (rectilinear plate: ~3.2 k curve strokes).  Read a block at a time (κ made
+    where not yet, as candidates_curve's _Knots.of makes it)."""
+    gs = [geom(strokes[i], profile) for i in rows.tolist()]
+    try:
+        bs, ks = list(map(_GEOM_B, gs)), [g._k for g in gs]
+    except AttributeError:
+        return None
+    by = {}                             # id(block) -> (block, [positions in gs])
+    for q, b in enumerate(bs):
+        by.setdefault(id(b), (b, []))[1].append(q)
+    shape, ends = [None] * len(gs), [None] * len(gs)
+    for b, qs in by.values():
+        if not (isinstance(b.d, np.ndarray) and b.d.ndim == 2 and _kappa_rows_ok(b)):
+            return None
+        sel = [ks[q] for q in qs]
+        kv = b.kappa_rows(sel)
+        if b._ke_miss is not None:      # (κ_eff of rows whose κ was made: made with it)
+            b.make_kappa(sel)
+        ke = b._ke
+        ke = np.asarray(ke, float)[sel] if type(ke) is not list else np.array([ke[k] for k in sel], float)
+        x = np.ascontiguousarray(np.concatenate([np.asarray(b.d, float)[sel], kv, ke[:, None]], axis=1))
+        cs = b.cos_end
+        for q, key, k in zip(qs, x.view(np.dtype((np.void, 8 * x.shape[1]))).ravel().tolist(), sel):
+            shape[q] = key
+            e = cs[k]
+            ends[q] = e if e is _NO_ENDS else _ends_key(e)
+    num = np.ascontiguousarray(np.stack([np.asarray(getattr(pin, f)[rows], float) for f in _CURVE_PIN], axis=1))
+    num = num.view(np.dtype((np.void, 8 * num.shape[1]))).ravel().tolist()
+    at = {}
+    inv = np.array([at.setdefault(key, len(at)) for key in zip(shape, num, ends)], np.int64)
+    if len(at) == inv.size:
+        return None
+    first = np.full(len(at), inv.size, np.int64)
+    np.minimum.at(first, inv, np.arange(inv.size))
+    return first, inv
+
+
+def _ends_key(cos_end):
+    """A geometry's cos_end (None or a float at each end) by its floats' bits."""
+    return tuple(None if c is None else float(c).hex() for c in cos_end)
+
+
 def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, drop=True):
     """(T, beta, I, KE) rows for the curve strokes `rows`, shape (n, len(T_RATIOS)); inf
     where no candidate was computed or it breaks a limit.  I is ∫(s̈² + κ(s)²ṡ⁴)dt.
+    Rows that read the same numbers (_distinct_curve_rows) are made once, where each
+    candidate is its own whatever its batch (circle.rows_invariant): their tables are
+    functions of those numbers and of the batch's grid levels, the largest of its
+    candidates' (the same set of candidates, so the same levels, own_levels too).
 
     The figures of a pass are integrated on the panel levels of all its candidates (the
     largest of theirs: CircleBatch._grid_plan), so a window of the strokes would take
@@ -2280,6 +2368,15 @@ def candidates_curve(pin, rows, strokes, profile, levels=None, own_levels=None, 
     drop: κ(s) let go after (drop_kappa); False: kept for the windows after this one
     (each would make its rows' again: ~0.016 s over 23 windows of the gyroid plate)."""
     rows = np.asarray(rows, int)
+    d = _distinct_curve_rows(pin, rows, strokes, profile) if rows.size > 1 and _circle.rows_invariant() else None
+    if d is None:
+        return _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop)
+    first, inv = d
+    return tuple(x[inv] for x in _candidates_curve(pin, rows[first], strokes, profile, levels, own_levels, drop))
+
+
+def _candidates_curve(pin, rows, strokes, profile, levels, own_levels, drop):
+    """candidates_curve of the rows (an int array), each row solved."""
     k = len(CURVE_COLS)
     geos = [g for i in rows for g in [geom(strokes[i], profile)] * k]
     S, v0, v1, vc, ac = (np.repeat(x[rows], k) for x in (pin.L, pin.v0, pin.v1, pin.v_cap, pin.a_cap))
@@ -2505,7 +2602,52 @@ def _knot_speeds(strokes, T, beta, profile):
         v0 = np.array([st.v0 for st in strokes])
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
-    law, R = _solve(None, geos, S, T, beta, v0, v1)
+    R = 1.0 / np.array([g.kappa_eff for g in geos])          # _solve's R and arguments
+    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
+                                       for x in (S / R, T, beta, v0 / R, v1 / R, R))))
+    d = _distinct_rows(args) if _circle.rows_invariant() else None
+    if d is not None:
+        # (each distinct law solved and evaluated once: its own whatever its batch)
+        _knot_speeds_distinct(solve_circles(*(a[d[0]] for a in args)), d[1], s, off, v)
+    else:
+        _knot_speeds_rows(solve_circles(*args), R, T, m, s, off, v)
+    v[off[:-1]] = v0
+    v[off[1:] - 1] = v1
+    return s, v, off
+
+
+def _knot_speeds_distinct(ulaw, inv, s, off, v):
+    """_knot_speeds_rows' speeds of strokes whose laws repeat: ulaw the distinct laws
+    (_distinct_rows' first rows; a plate's layers repeat their curves: rect 2 471 laws,
+    386 distinct), inv each stroke's law in it.  Each distinct law evaluated once (its s
+    and speed on the grid are functions of its arguments, R and T among them), and every
+    stroke of it interpolated at its own knots (the same operations on the same numbers,
+    each point at its law's grid)."""
+    R, T, n = ulaw.R_d, ulaw.T_t, len(ulaw)
+    order = _by_series_length(ulaw.coef)
+    at = np.full(n, -1, np.int64)               # a distinct law's row in the chunk, -1: not in it
+    for a in range(0, n, KNOT_ROWS):
+        sl = slice(a, a + KNOT_ROWS) if order is None else order[a:a + KNOT_ROWS]
+        sub = ulaw.rows(sl) if order is None else ulaw.take(sl)
+        s_run, vd, inc = _knot_grid(sub, R[sl], T[sl])
+        at[sl] = np.arange(len(sub))
+        ks = np.flatnonzero(at[inv] >= 0)       # the strokes of the chunk's laws
+        _interp_rows_at(s, off[ks], off[ks + 1], s_run, vd, inc, v, at[inv[ks]])
+        at[sl] = -1
+
+
+def _knot_grid(sub, R, T):
+    """(s_run, vd, inc) of the laws sub (R, T theirs) on _KNOT_TAU: per law R phi's running
+    max (_running_max_rows: inc, the rows strictly increasing) and max(R w / T, 0), in one
+    call each for the chunk (elementwise, and an exact max: the same numbers as law by law)."""
+    phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
+                                w2=False, w1=False)
+    s_run, inc = _running_max_rows(_row_scale(phi, R))
+    return s_run, _row_scale(w, R, T, 3), inc       # (np.maximum(R w / T, 0.0))
+
+
+def _knot_speeds_rows(law, R, T, m, s, off, v):
+    """_knot_speeds' speeds at the knots s of the m laws law (R, T theirs), into v."""
     order = _by_series_length(law.coef)
     # evaluated by chunks of KNOT_ROWS laws (each law's figures are its own, whatever its
     # chunk): ~15 arrays of 513 points a law, ~30 MB at once by law.row_chunks' 512 laws
@@ -2516,19 +2658,11 @@ def _knot_speeds(strokes, T, beta, profile):
         else:
             sl = order[a:a + KNOT_ROWS]
             sub = law.take(sl)
-        phi, w, _, _ = sub.eval_tau(np.broadcast_to(_KNOT_TAU[None, :], (len(sub), _KNOT_TAU.size)),
-                                    w2=False, w1=False)
-        # per law R phi, max(R w / T, 0) and the running max of s, in one call each for the
-        # chunk (elementwise, and an exact max: the same numbers as law by law)
-        s_run, inc = _running_max_rows(_row_scale(phi, R[sl]))
-        vd = _row_scale(w, R[sl], T[sl], 3)        # np.maximum(R w / T, 0.0)
+        s_run, vd, inc = _knot_grid(sub, R[sl], T[sl])
         if order is None:
             _interp_chunk(s, off[a:a + len(sub) + 1], s_run, vd, inc, v)
         else:
             _interp_rows_at(s, off[sl], off[sl + 1], s_run, vd, inc, v)
-    v[off[:-1]] = v0
-    v[off[1:] - 1] = v1
-    return s, v, off
 
 
 def _by_series_length(coef):
@@ -2548,9 +2682,14 @@ def _by_series_length(coef):
     return np.argsort(length, kind="stable")
 
 
-def _interp_rows_at(s, lo, hi, xp, fp, inc, out):
+def _interp_rows_at(s, lo, hi, xp, fp, inc, out, which=None):
     """_interp_chunk of rows whose knots lie anywhere in s: row k's at s[lo[k]:hi[k]] (the
-    same operations, each point at its law's grid), into the same places of out."""
+    same operations, each point at its law's grid), into the same places of out.  which:
+    the row of xp, fp and inc of each k (None: k's own)."""
+    if which is not None:
+        inc = inc[which]
+        if _INTERP_ROWS is None or not inc.all():   # (k's own rows: np.interp's, row by row)
+            xp, fp, which = xp[which], fp[which], None
     cnt = hi - lo
     n = xp.shape[1]
     start = np.zeros(cnt.size, np.int64)
@@ -2558,7 +2697,7 @@ def _interp_rows_at(s, lo, hi, xp, fp, inc, out):
     pts = np.repeat(lo - start, cnt) + np.arange(int(cnt.sum()), dtype=np.int64)
     if _INTERP_ROWS is not None and inc.any():
         grid = np.repeat(np.where(inc, n, 0), cnt)          # 0: left to np.interp below
-        at = np.repeat(np.arange(inc.size, dtype=np.int64) * n, cnt)
+        at = np.repeat((np.arange(inc.size, dtype=np.int64) if which is None else which) * n, cnt)
         q = s[pts]
         res = np.empty(pts.size)
         _INTERP_ROWS(q, at, grid, np.ascontiguousarray(xp).ravel(), np.ascontiguousarray(fp).ravel(),

@@ -28,6 +28,13 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 UNIX_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fno-builtin-sin", "-fno-builtin-cos"]
+# built at -O3 (after -O2: the last -O wins): its inlining of the firmware core's stops and the
+# emit core's number texts saved ~20 M instructions a plate's command (callgrind, windowed:
+# rectilinear and gyroid); the reader's parse loops were ~6 M slower so, and stay at -O2.
+# -O3 changes no double's bits: the operations are the same ones, -ffp-contract=off and
+# -fno-fast-math still hold (no contraction, no reassociation), so its vector loops add no
+# reordered sums (benchmarks/fit65.md)
+O3_EXTENSIONS = ("_gcode_opt_fwcore", "_gcode_opt_emit")
 MSVC_FLAGS = ["/O2", "/fp:precise"]
 
 
@@ -36,6 +43,8 @@ class BuildExt(build_ext):
         flags = MSVC_FLAGS if self.compiler.compiler_type == "msvc" else UNIX_FLAGS
         for ext in self.extensions:
             ext.extra_compile_args = list(flags)
+            if ext.name in O3_EXTENSIONS and self.compiler.compiler_type != "msvc":
+                ext.extra_compile_args.append("-O3")
             if ext.name == "_gcode_opt_chaincore" and self.compiler.compiler_type != "msvc":
                 # sqrt without errno (the chain core reads no errno): its vector loops with
                 # a sqrt vectorise; sqrt is correctly rounded either way (the same bits)

@@ -2144,7 +2144,8 @@ static int g4_scale(double x, uint64_t *n, uint64_t *fl)
     int ok = scaled_int(x, k, n, fl) == 0;
     if (!ok || *fl >= 1000) {                      /* the first k is this one or before it */
         while (k > 0) {
-            uint64_t n1, fl1;
+            /* (set: where scaled_int declines they are copied out, unread; -O3 warned) */
+            uint64_t n1 = 0, fl1 = 0;
             int ok1 = scaled_int(x, k - 1, &n1, &fl1) == 0;
             if (ok1 && fl1 < 1000)
                 break;

@@ -893,28 +893,42 @@ class _Distinct:
         h = R.view(np.uint64) * _ROW_MULT[:R.shape[1]]
         for k, c in _MIX:                   # (splitmix64's finish: a sum of products alone
             h ^= h >> k                     # let two sign bits' changes cancel)
-            h *= c
+            if c is not None:
+                h *= c
         h = h.sum(axis=1, dtype=np.uint64)
+        if not (self.n and h.size):
+            return self._put(R, h, np.arange(h.size), np.empty(h.size, np.int64))
+        # rows are gathered by take (a row a memcpy), not by fancy indexing (an item at a
+        # time); a chunk whose rows were all met before (most of a plate's) is compared whole
+        at = np.minimum(np.searchsorted(self.sh, h), self.sh.size - 1)
+        hit = self.sh.take(at) == h
+        q = np.flatnonzero(hit)
+        if q.size == h.size:
+            place = self.sp.take(at)
+            return place if np.array_equal(self.rows.take(place, axis=0), R) else None
         place = np.empty(h.size, np.int64)
-        at = np.minimum(np.searchsorted(self.sh, h), max(self.sh.size - 1, 0))
-        hit = self.sh[at] == h if self.sh.size else np.zeros(h.size, bool)
-        place[hit] = self.sp[at[hit]]
-        if (self.rows[place[hit]] != R[hit]).any() if self.n else False:
+        place[q] = self.sp.take(at.take(q))
+        if not np.array_equal(self.rows.take(place.take(q), axis=0), R.take(q, axis=0)):
             return None
-        miss = np.flatnonzero(~hit)
-        if miss.size:
-            Rm, hm = R[miss], h[miss]
-            f, inv = unique_first_inverse(hm)
-            if (Rm != Rm[f[inv]]).any():
-                return None
-            d = self.n
-            place[miss] = d + inv
-            self._grow(d + f.size, R.shape[1])
-            self.rows[d:d + f.size] = Rm[f]
-            self.n += f.size
-            sh = np.concatenate([self.sh, hm[f]])
-            order = np.argsort(sh, kind="stable")
-            self.sh, self.sp = sh[order], np.concatenate([self.sp, d + np.arange(f.size)])[order]
+        return self._put(R, h, np.flatnonzero(~hit), place)
+
+    def _put(self, R, h, miss, place):
+        """add's rows miss of R (hashes h), none met before: the distinct ones kept, each
+        one's place written in place (None where two different rows share a hash)."""
+        if not miss.size:
+            return place
+        Rm, hm = R.take(miss, axis=0), h.take(miss)
+        f, inv = unique_first_inverse(hm)
+        if not np.array_equal(Rm, Rm.take(f.take(inv), axis=0)):
+            return None
+        d = self.n
+        place[miss] = d + inv
+        self._grow(d + f.size, R.shape[1])
+        self.rows[d:d + f.size] = Rm.take(f, axis=0)
+        self.n += f.size
+        sh = np.concatenate([self.sh, hm.take(f)])
+        order = np.argsort(sh, kind="stable")
+        self.sh, self.sp = sh.take(order), np.concatenate([self.sp, d + np.arange(f.size)]).take(order)
         return place
 
     def _grow(self, n, width):
@@ -934,8 +948,9 @@ class _Distinct:
 # _Distinct's hash: an odd constant an entry (multiples of the golden ratio's, as distinct.py's;
 # not numpy.random's, whose import cost ~30 M instructions a command)
 _ROW_MULT = (np.arange(1, 65, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-_MIX = tuple((np.uint64(k), np.uint64(c)) for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB),
-                                                         (31, 1)))
+# (its last step's product by 1: no pass, None)
+_MIX = tuple((np.uint64(k), None if c == 1 else np.uint64(c))
+             for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB), (31, 1)))
 
 
 def _raw_rows(vals, kinds, lim_k):

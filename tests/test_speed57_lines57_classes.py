@@ -251,3 +251,35 @@ def test_limits_numbered_in_the_order_met(pure):
         got = stored_line_classes(store, every)
     assert got.tolist() == line_classes(sts).tolist()
     assert len(set(got.tolist())) == 3
+
+
+def _partition(places):
+    """Each row's first row of its place (the partition places make, whatever the numbers)."""
+    first = {}
+    return [first.setdefault(p, q) for q, p in enumerate(places)]
+
+
+def test_distinct_rows_by_chunks():
+    """segments._Distinct (fit65: rows gathered by take, a chunk met whole compared whole):
+    the places of rows added a chunk at a time make the partition of equal rows (a dict of
+    the rows' bytes), the kept rows are the rows placed there, and a place is kept across
+    chunks -- a first chunk, one of rows all met before, one mixed, an empty one; rows
+    differing only in signs (a stroke run the other way) apart."""
+    rng = np.random.default_rng(65)
+    base = rng.integers(-2 ** 62, 2 ** 62, (40, 7))
+    base[20:] = base[:20] ^ np.int64(-2 ** 63)          # (the sign bits of every entry flipped)
+    base[30:, :2] = base[10:20, :2] ^ np.int64(-2 ** 63)
+    chunks = [base[rng.integers(0, 25, 300)], base[rng.integers(0, 25, 200)], base[:0],
+              base[rng.integers(0, 40, 500)], base[rng.integers(0, 40, 64)]]
+    d = segments._Distinct()
+    got = []
+    for R in chunks:
+        at = d.add(np.ascontiguousarray(R))
+        assert at is not None and at.shape == (len(R),)
+        got.append(at)
+    rows = np.concatenate(chunks)
+    places = np.concatenate(got)
+    assert np.array_equal(d.rows[:d.n][places], rows)
+    assert d.n == len({r.tobytes() for r in rows})
+    assert _partition(places.tolist()) == _partition([r.tobytes() for r in rows])
+    assert np.array_equal(d.columns(), d.rows[:d.n].T)

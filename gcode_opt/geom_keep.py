@@ -44,6 +44,12 @@ _MAX_END = 1 << 60          # doubles a file may hold (no index type to outgrow)
 _BYTES_OR_NONE = {bytes, type(None)}
 _CURV, _K, _CHAIN_CAPS = attrgetter("curv"), attrgetter("_k"), attrgetter("chain_caps")
 _PTS = attrgetter("pts")
+_PWRITEV = getattr(os, "pwritev", None)     # (not on every system: there a record is joined first)
+_IOV_MAX = 512              # buffers a pwritev writes at most (under IOV_MAX, 1024)
+
+
+def _bytes_of(x):
+    return x if type(x) is bytes else np.ascontiguousarray(x, float).tobytes()
 
 
 class GeomKeep(SpillFile):
@@ -143,9 +149,12 @@ class GeomKeep(SpillFile):
             miss = [None if getattr(b, name) is None else getattr(b, name + "_miss") for b in blocks]
             if any(x is not None for x in miss):
                 bits[np.concatenate([no[:b.d.shape[0]] if x is None else x for b, x in zip(blocks, miss)])[at]] |= r
-        if not set(map(type, cc)) <= _BYTES_OR_NONE:         # (chains.vertex_caps' arrays)
+        # the caps' classes by the compiled codes' table (its keys: the classes met), not a
+        # set made of every row's class besides (~2.6 M instructions, windowed gyroid)
+        classes = {type(None): 0}
+        got = objfields.codes(cc, "__class__", classes, add=True)
+        if not (classes.keys() if got is not None else set(map(type, cc))) <= _BYTES_OR_NONE:   # (vertex_caps' arrays)
             cc[:] = [c if c is None or type(c) is bytes else np.asarray(c, float).tobytes() for c in cc]
-        got = objfields.codes(cc, "__class__", {type(None): 0}, add=True)
         bits[np.fromiter(map(is_not, cc, repeat(None)), bool, R) if got is None else got != 0] |= R_CHAIN
         cols[C_BITS] = bits
         return cols
@@ -178,19 +187,50 @@ class GeomKeep(SpillFile):
     def _write(self, j, parts):
         """Window j's record of parts (_part's): the header (parts, rows, chain caps' doubles,
         each part's n, m, flags), the columns (N_COLS, rows), each part's 2-D arrays, the
-        chains' caps, then κ at the vertices."""
-        chain = b"".join(p[3] for p in parts)
-        head = [len(parts), sum(p[0][1] for p in parts), len(chain) // 8] + [x for p in parts for x in p[0]]
+        chains' caps, then κ at the vertices.  The pieces written as they are, one gathered
+        write (_append_pieces), not joined into one buffer first (a copy of every double
+        of the record, ~200 kB a record on the gyroid plate)."""
+        head = [len(parts), sum(p[0][1] for p in parts), sum(len(p[3]) for p in parts) // 8]
+        head += [x for p in parts for x in p[0]]
         main = [np.asarray(head, float), np.concatenate([p[1] for p in parts], axis=1).ravel()]
-        main += [a.ravel() for p in parts for a in p[2]] + [np.frombuffer(chain, float)]
+        main += [a.ravel() for p in parts for a in p[2]]
         kap = [a.ravel() for p in parts for a in p[4]]
-        buf = np.concatenate(main + kap)
+        n_main = sum(a.size for a in main) + head[2]
         n_kap = sum(a.size for a in kap)
-        at = self.append(buf, _MAX_END)
+        at = self._append_pieces(main + [p[3] for p in parts] + kap, n_main + n_kap)
         if at is None:
             self.recs = {}          # (the file let go: every geometry made again)
             return
-        self.recs.setdefault(j, []).append((at, buf.size - n_kap, n_kap))
+        self.recs.setdefault(j, []).append((at, n_main, n_kap))
+
+    def _append_pieces(self, pieces, n):
+        """The pieces (float64 arrays and bytes of doubles, n doubles in all) written one
+        after the other at the file's end, by gathered writes (os.pwritev; else joined and
+        SpillFile.append): the double they start at, or None as append answers it."""
+        if _PWRITEV is None:
+            return self.append(np.frombuffer(b"".join(map(_bytes_of, pieces)), float), _MAX_END)
+        end = self.end
+        if end + n > _MAX_END:
+            self.close()
+            return None
+        bufs = [x if type(x) is bytes else np.ascontiguousarray(x, float).data.cast("B") for x in pieces]
+        pos, fd = end * 8, self.fh.fileno()
+        try:
+            for a in range(0, len(bufs), _IOV_MAX):
+                part = bufs[a:a + _IOV_MAX]
+                want = sum(map(len, part))
+                got = _PWRITEV(fd, part, pos)
+                if got != want:         # (a short write: the rest of this part as one buffer)
+                    rest = memoryview(b"".join(map(bytes, part)))[got:]
+                    while len(rest):
+                        k = os.pwrite(fd, rest, pos + got)
+                        rest, got = rest[k:], got + k
+                pos += want
+        except OSError:
+            self.close()
+            return None
+        self.end += n
+        return end
 
     # ------------------------------------------------------------------ reading back
     def give(self, rows, sts, kappa=False):

@@ -4119,10 +4119,16 @@ typedef struct {
     unsigned long long dm, im;
 } StrokeVals;
 
+/* every field None, copied into sv_init's StrokeVals as one block (filled at its first
+ * use): a store a field in a loop was ~150 instructions a stroke made (~50 k a plate) */
+static PyObject *SV_NONES[ST_N];
+
 static inline void sv_init(StrokeVals *sv)
 {
-    for (int k = 0; k < ST_N; k++)
-        sv->val[k] = Py_None;
+    if (SV_NONES[ST_N - 1] != Py_None)
+        for (int k = 0; k < ST_N; k++)
+            SV_NONES[k] = Py_None;
+    memcpy(sv->val, SV_NONES, sizeof SV_NONES);
     sv->dm = sv->im = 0;
 }
 

@@ -1438,9 +1438,19 @@ def _knots_again(items, profile, laws=False):
             if same is not None:
                 keep, pos = same
                 sb, Ts, bs = base.take(keep), Ts[keep], bs[keep]
-            # the columns needed, in the order and from the starts _figures solved them
-            # (_solve_cols: each one's neighbour is needed too)
-            res = _solve_cols(sb, Ts, bs, [c for c in src.order if c in need], src.prev, spread=False)
+            m, nv = sb.S.size, sb.sv.size
+            res = {}
+            for c in src.order:
+                if c not in need:
+                    continue
+                fl = sb.with_T(Ts[:, c], bs[:, c])
+                if c in src.prev:
+                    p = src.prev[c]
+                    s0 = res[p]
+                    vt = s0.vert_t * (Ts[:, c] / Ts[:, p])[fl.ch]
+                    res[c] = solve_flat(fl, s0.bound.copy(), vt, np.ones(m, bool), pieces=False)
+                else:
+                    res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
             # each chain's row laid out as _table_rows lays it out, the chains of one segment
             # count and column at once (the same copies and differences, row by row); each
             # one's (vk, dt) the rows of those arrays

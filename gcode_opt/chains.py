@@ -2936,41 +2936,15 @@ def _solve_cols(base, T, beta, order, prev, spread=True):
         return {c: _Spread(r, base, pos, vg) for c, r in got.items()}
     m, nv = base.S.size, base.sv.size
     res = {}
-    two = None
-    for wave in _waves(order, prev):
-        fls = [base.with_T(T[:, c], beta[:, c]) for c in wave]
-        if wave[0] not in prev:
-            res[wave[0]] = solve_flat(fls[0], cold_binding(fls[0]), np.zeros(nv), np.zeros(m, bool), pieces=False)
-            continue
-        # each column warm-started from its neighbour's laws
-        bound = [res[prev[c]].bound.copy() for c in wave]
-        vt = [res[prev[c]].vert_t * (T[:, c] / T[:, prev[c]])[base.ch] for c in wave]
-        if len(wave) == 1:
-            res[wave[0]] = solve_flat(fls[0], bound[0], vt[0], np.ones(m, bool), pieces=False)
-            continue
-        # the two columns as one batch of two copies of the chains: one solve's steps (its
-        # Python and numpy set-up a step) for both, each chain's numbers its own
-        two = base.twice() if two is None else two
-        got = solve_flat(two.with_T(np.concatenate([T[:, c] for c in wave]),
-                                    np.concatenate([beta[:, c] for c in wave])),
-                         np.concatenate(bound), np.concatenate(vt), np.ones(2 * m, bool), pieces=False)
-        del bound, vt
-        for c, r in zip(wave, got.halves(fls)):
-            res[c] = r
+    for c in order:
+        fl = base.with_T(T[:, c], beta[:, c])
+        if c in prev:
+            src = res[prev[c]]
+            vt = src.vert_t * (T[:, c] / T[:, prev[c]])[fl.ch]
+            res[c] = solve_flat(fl, src.bound.copy(), vt, np.ones(m, bool), pieces=False)
+        else:
+            res[c] = solve_flat(fl, cold_binding(fl), np.zeros(nv), np.zeros(m, bool), pieces=False)
     return res
-
-
-def _waves(order, prev):
-    """_solve_cols' columns order (the first cold, each other after its neighbour prev[c])
-    in waves solved together: the first alone, then the columns as far from it on either
-    side (both warm-started from a column of the wave before), two at most a wave."""
-    depth = {}
-    for c in order:
-        depth[c] = depth[prev[c]] + 1 if c in prev else 0
-    waves = {}
-    for c in order:
-        waves.setdefault(depth[c], []).append(c)
-    return [w[i:i + 2] for _, w in sorted(waves.items()) for i in range(0, len(w), 2)]
 
 
 def _bits(a):

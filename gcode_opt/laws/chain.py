@@ -839,16 +839,6 @@ class _Flat:
         return _Flat.of_arrays(sv, cv, nv, self.S[keep], self.T[keep],
                                self.beta[keep], self.v0[keep], self.v1[keep])
 
-    def twice(self):
-        """These chains, then the same chains again (2 m chains: each copy's vertices, caps,
-        lengths and end speeds its own); T and beta are set by with_T."""
-        out = object.__new__(_Flat)
-        out.problems = None if self.problems is None else self.problems + self.problems
-        two = (lambda a: np.concatenate([a, a]))
-        out._setup(two(self.sv), two(self.cv), two(self.nv), two(self.S), two(self.T), two(self.beta),
-                   two(self.v0), two(self.v1))
-        return out
-
     def with_T(self, T, beta):
         """The same chains at durations T and weights beta."""
         out = object.__new__(_Flat)
@@ -1314,29 +1304,6 @@ class FlatLaws:
         lw.iv, lw.ia = float(self.iv[c]), float(self.ia[c])
         lw.peak_v, lw.min_v, lw.peak_a = float(self.peak_v[c]), float(self.min_v[c]), float(self.peak_a[c])
         return lw
-
-
-    def halves(self, fls):
-        """The closed laws (close(pieces=False)) of a solve of two copies of the same chains
-        end to end (a _Flat of 2 m chains: _Flat.twice) cut into each copy's FlatLaws, fls
-        their _Flat each (m chains, its own T and beta): per chain, vertex and piece the
-        numbers of its copy, as views (piece_off made again from its copy's first piece).
-        Each chain's numbers are its own whatever chains are solved with it, so each half
-        is what solve_flat of that copy alone gives."""
-        m, nv = fls[0].S.size, fls[0].sv.size
-        out = []
-        for h, fl in enumerate(fls):
-            x = object.__new__(FlatLaws)
-            x.fl, x.pieces, x._with_sh2 = fl, self.pieces, self._with_sh2
-            cs, vs = slice(h * m, (h + 1) * m), slice(h * nv, (h + 1) * nv)
-            for f in ("conv", "lam", "iv", "peak_v", "min_v", "ia", "peak_a"):
-                a = getattr(self, f)
-                setattr(x, f, None if a is None else a[cs])
-            x.vert_v, x.vert_t, x.bound = self.vert_v[vs], self.vert_t[vs], self.bound[vs]
-            po = self.piece_off[h * m:(h + 1) * m + 1]
-            x.piece_T, x.piece_off = self.piece_T[po[0]:po[-1]], po - po[0]
-            out.append(x)
-        return out
 
 
 _FLAT_TAKE = FlatLaws.take

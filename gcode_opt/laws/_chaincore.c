@@ -39,7 +39,9 @@ static void release(Bufs *b) {
 /* a C-contiguous buffer of items of `size` bytes; NULL (exception set) otherwise */
 static void *get(Bufs *b, PyObject *o, Py_ssize_t size, int writable, Py_ssize_t *len) {
     Py_buffer *v = &b->v[b->n];
-    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    /* (no PyBUF_FORMAT: only the item size is checked; numpy makes its format string, and
+       compares it with its cached one, a buffer, when asked for it) */
+    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(o, v, flags) < 0) return NULL;
     b->n++;
     if (v->itemsize != size) {

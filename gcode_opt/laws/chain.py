@@ -1195,9 +1195,10 @@ class FlatLaws:
         """Keep the laws of the step st's chains `done` (cyc: ended by cycling or out of
         steps: not converged).  verts False: their vertex speeds and times are already in
         vert_v, vert_t (active_step wrote them)."""
-        if not done.any():
+        nd = np.count_nonzero(done)        # (one C call for both tests: not any() and all()'s wrappers)
+        if nd == 0:
             return
-        whole = done.all()
+        whole = nd == done.size
         if whole:                   # (a batch's last step: every array whole, not masked)
             done = slice(None)
         if verts:
@@ -1210,7 +1211,8 @@ class FlatLaws:
         self.lam[c] = st.lam[done]
         # the chains as blocks (each done chain's pieces are consecutive, chains ascending):
         # close orders the blocks, not piece by piece (no per-piece chain array)
-        nk = np.diff(st.koff)                     # knots per chain
+        ko = st.koff
+        nk = ko[1:] - ko[:-1]                     # knots per chain (np.diff's values, without its wrapper)
         npc = nk[done] - 1                        # pieces per chain: its knots - 1
         # what close reads for the figures of the candidate table; with pieces a0, a1 and the knots too
         pcs = (st.L, st.Tj, st.beta, st.va, st.vb) + ((st.a0, st.a1) if self.pieces else ())

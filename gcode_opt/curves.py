@@ -1873,9 +1873,15 @@ def _blk_ux2(b):
 
 
 # ------------------------------------------------------------------ law
-def _solve(strokes, rows_geo, S, T, beta, v0, v1):
+def _solve_args(rows_geo, S, T, beta, v0, v1):
+    """solve_circles' arguments for the curves rows_geo at κ_eff, and R = 1 / κ_eff."""
     R = 1.0 / np.array([g.kappa_eff for g in rows_geo])
-    return solve_circles(S / R, T, beta, v0 / R, v1 / R, R), R
+    return (S / R, T, beta, v0 / R, v1 / R, R), R
+
+
+def _solve(strokes, rows_geo, S, T, beta, v0, v1):
+    args, R = _solve_args(rows_geo, S, T, beta, v0, v1)
+    return solve_circles(*args), R
 
 
 def _rows_of(memo, sel):
@@ -2602,9 +2608,8 @@ def _knot_speeds(strokes, T, beta, profile):
         v0 = np.array([st.v0 for st in strokes])
         v1 = np.array([st.v1 for st in strokes])
     T, beta = np.asarray(T, float), np.asarray(beta, float)
-    R = 1.0 / np.array([g.kappa_eff for g in geos])          # _solve's R and arguments
-    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
-                                       for x in (S / R, T, beta, v0 / R, v1 / R, R))))
+    args, R = _solve_args(geos, S, T, beta, v0, v1)
+    args = tuple(np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float)) for x in args)))
     d = _distinct_rows(args) if _circle.rows_invariant() else None
     if d is not None:
         # (each distinct law solved and evaluated once: its own whatever its batch)

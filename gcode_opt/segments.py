@@ -948,9 +948,9 @@ class _Distinct:
 # _Distinct's hash: an odd constant an entry (multiples of the golden ratio's, as distinct.py's;
 # not numpy.random's, whose import cost ~30 M instructions a command)
 _ROW_MULT = (np.arange(1, 65, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)) | np.uint64(1)
-# (its last step's product by 1: no pass, None)
-_MIX = tuple((np.uint64(k), None if c == 1 else np.uint64(c))
-             for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB), (31, 1)))
+# (its last step has no product: splitmix64's is by 1)
+_MIX = tuple((np.uint64(k), None if c is None else np.uint64(c))
+             for k, c in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB), (31, None)))
 
 
 def _raw_rows(vals, kinds, lim_k):
